@@ -1,0 +1,1 @@
+"""Device models: reader, passive tag, sense-a-tag, HIMR inertial tag, exciter."""

@@ -1,0 +1,19 @@
+"""rfsim — time-domain, sample-level UHF RFID link-level simulator.
+
+Core package: units and constants (:mod:`rfsim.units`), reproducible randomness
+(:mod:`rfsim.rng`), typed configs (:mod:`rfsim.config`), HDF5 datasets
+(:mod:`rfsim.dataset`), the EPC Gen2 PHY/MAC primitives (:mod:`rfsim.gen2`) and the
+command line (:mod:`rfsim.cli`). Propagation lives in the sibling package
+``channels``, device models in ``devices`` and runnable scenarios in ``scenarios``.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version as _dist_version
+
+try:
+    __version__ = _dist_version("rfsim")
+except PackageNotFoundError:  # running from a source tree that is not installed
+    __version__ = "0+unknown"
+
+__all__ = ["__version__"]

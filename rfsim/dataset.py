@@ -1,0 +1,324 @@
+"""HDF5 datasets: columnar tables, gridded data with dimension scales, provenance.
+
+Layout of a file written by :func:`write_dataset` (one HDF5 group per table or grid)::
+
+    /                     attrs: title, scenario, rfsim_version
+    /<table>/row          dimension scale 0..n-1
+    /<table>/<column>     1-D, one per field, attrs units + description
+    /<grid>/<coord>       1-D dimension scales (attrs units + description)
+    /<grid>/<variable>    N-D over named coords (attrs units + description)
+    /provenance           attrs: config_toml, seed, rfsim_version, git_revision,
+                          start_time_utc, end_time_utc, platform, python, numpy, numba
+
+Every group is also a valid netCDF-4 group: ``xarray.open_dataset(path,
+engine="h5netcdf", group="<name>")`` opens it without custom code. Booleans are stored
+as ``uint8`` with the attribute ``rfsim_dtype = "bool"`` (netCDF has no bool type);
+strings as UTF-8 variable-length strings.
+
+Files are written to a hidden temporary name beside the target, flushed, fsync'ed and
+renamed over the final name, so a killed run never leaves a truncated file under the
+final name.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import os
+import platform
+import subprocess
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+import rfsim
+
+_ROW_DIM = "row"
+_BOOL_ATTR = "rfsim_dtype"
+
+
+@dataclasses.dataclass(frozen=True)
+class Column:
+    """One named array with its unit and description.
+
+    ``dims`` names the grid coordinates a gridded variable spans (in axis order);
+    table columns leave it empty.
+    """
+
+    data: np.ndarray
+    units: str
+    description: str
+    dims: tuple[str, ...] = ()
+
+
+def column(data: Any, units: str, description: str, dims: tuple[str, ...] = ()) -> Column:
+    """Build a :class:`Column`, converting ``data`` to an array (strings to ``str``)."""
+    arr = np.asarray(data)
+    if arr.dtype.kind in "OU":
+        arr = arr.astype(str)
+    return Column(arr, units, description, tuple(dims))
+
+
+@dataclasses.dataclass
+class Dataset:
+    """In-memory content of one dataset file: tables, grids and root attributes."""
+
+    title: str = ""
+    scenario: str = ""
+    tables: dict[str, dict[str, Column]] = dataclasses.field(default_factory=dict)
+    grids: dict[str, tuple[dict[str, Column], dict[str, Column]]] = dataclasses.field(
+        default_factory=dict)
+    attrs: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    def add_table(self, name: str, columns: Mapping[str, Column]) -> None:
+        """Add a columnar table: aligned 1-D columns of equal length."""
+        self._check_new(name)
+        lengths = {k: c.data.shape for k, c in columns.items()}
+        if not columns:
+            raise ValueError(f"table {name!r} has no columns")
+        if any(len(s) != 1 for s in lengths.values()):
+            raise ValueError(f"table {name!r}: columns must be 1-D, got shapes {lengths}")
+        if len({s[0] for s in lengths.values()}) != 1:
+            raise ValueError(f"table {name!r}: columns differ in length: {lengths}")
+        if _ROW_DIM in columns:
+            raise ValueError(f"table {name!r}: {_ROW_DIM!r} is reserved for the row index")
+        self.tables[name] = dict(columns)
+
+    def add_grid(self, name: str, coords: Mapping[str, Column],
+                 variables: Mapping[str, Column]) -> None:
+        """Add gridded data: 1-D coordinates and variables over (a subset of) them."""
+        self._check_new(name)
+        for cname, c in coords.items():
+            if c.data.ndim != 1:
+                raise ValueError(f"grid {name!r}: coordinate {cname!r} must be 1-D")
+        for vname, v in variables.items():
+            dims = v.dims or tuple(coords)
+            if any(d not in coords for d in dims):
+                raise ValueError(f"grid {name!r}: variable {vname!r} names unknown dims {dims}")
+            expected = tuple(len(coords[d].data) for d in dims)
+            if v.data.shape != expected:
+                raise ValueError(f"grid {name!r}: variable {vname!r} has shape "
+                                 f"{v.data.shape}, expected {expected} over {dims}")
+        self.grids[name] = (dict(coords), {k: dataclasses.replace(v, dims=v.dims or tuple(coords))
+                                           for k, v in variables.items()})
+
+    def _check_new(self, name: str) -> None:
+        if name in self.tables or name in self.grids or name == "provenance" or not name:
+            raise ValueError(f"dataset group name {name!r} is empty, reserved or already used")
+
+
+# ----------------------------------------------------------------------------- provenance
+
+
+def git_revision() -> str:
+    """The git commit of the rfsim source tree, or ``""`` when not in a checkout."""
+    src = Path(rfsim.__file__).resolve().parent.parent
+    try:
+        out = subprocess.run(["git", "-C", str(src), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    rev = out.stdout.strip()
+    if out.returncode != 0 or len(rev) != 40:
+        return ""
+    dirty = subprocess.run(["git", "-C", str(src), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True, timeout=5, check=False).stdout.strip()
+    return rev + ("-dirty" if dirty else "")
+
+
+def utc_now() -> str:
+    """Current UTC time, ISO 8601 with seconds (for provenance only, never for seeding)."""
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_utc: str,
+                    extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Provenance attributes of a run (the end time is stamped when the file is written)."""
+    import numba
+
+    prov = {
+        "config_toml": config_toml,
+        "seed": int(seed),
+        "scenario": scenario,
+        "rfsim_version": rfsim.__version__,
+        "git_revision": git_revision(),
+        "start_time_utc": start_time_utc,
+        "platform": platform.platform(),
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "h5py": h5py.__version__,
+    }
+    prov.update(extra or {})
+    return prov
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
+    data = col.data
+    attrs: dict[str, Any] = {"units": col.units, "description": col.description}
+    if data.dtype == bool:
+        data = data.astype(np.uint8)
+        attrs[_BOOL_ATTR] = "bool"
+    if data.dtype.kind == "U":
+        ds = group.create_dataset(name, data=data.astype(object),
+                                  dtype=h5py.string_dtype("utf-8"))
+    else:
+        opts = {"compression": "gzip", "compression_opts": 4} if data.size >= 4096 else {}
+        ds = group.create_dataset(name, data=data, **opts)
+    for k, v in attrs.items():
+        ds.attrs[k] = v
+    return ds
+
+
+def _write_table(f: h5py.File, name: str, columns: Mapping[str, Column]) -> None:
+    g = f.create_group(name)
+    n = len(next(iter(columns.values())).data)
+    row = g.create_dataset(_ROW_DIM, data=np.arange(n, dtype=np.int64))
+    row.attrs["units"] = "1"
+    row.attrs["description"] = "row index of the table"
+    row.make_scale(_ROW_DIM)
+    for cname, col in columns.items():
+        ds = _write_array(g, cname, col)
+        ds.dims[0].attach_scale(row)
+
+
+def _write_grid(f: h5py.File, name: str, coords: Mapping[str, Column],
+                variables: Mapping[str, Column]) -> None:
+    g = f.create_group(name)
+    scales = {}
+    for cname, c in coords.items():
+        ds = _write_array(g, cname, c)
+        ds.make_scale(cname)
+        scales[cname] = ds
+    for vname, v in variables.items():
+        ds = _write_array(g, vname, v)
+        for axis, dim in enumerate(v.dims):
+            ds.dims[axis].attach_scale(scales[dim])
+
+
+def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
+    """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
+
+    The provenance gets ``end_time_utc`` stamped now. Returns the final path.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["title"] = dataset.title
+            f.attrs["scenario"] = dataset.scenario
+            f.attrs["rfsim_version"] = rfsim.__version__
+            for k, v in dataset.attrs.items():
+                f.attrs[k] = v
+            for name, cols in dataset.tables.items():
+                _write_table(f, name, cols)
+            for name, (coords, variables) in dataset.grids.items():
+                _write_grid(f, name, coords, variables)
+            prov = f.create_group("provenance")
+            for k, v in {**provenance, "end_time_utc": utc_now()}.items():
+                prov.attrs[k] = v
+            f.flush()
+        _fsync_file(tmp)
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def _read_array(ds: h5py.Dataset) -> np.ndarray:
+    if h5py.check_string_dtype(ds.dtype) is not None:
+        return ds.asstr()[()].astype(str)
+    data = ds[()]
+    if ds.attrs.get(_BOOL_ATTR) == "bool":
+        data = data.astype(bool)
+    return np.asarray(data)
+
+
+def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
+    """Columns of table ``name`` as plain arrays (without the row index)."""
+    with h5py.File(path, "r") as f:
+        g = f[name]
+        return {k: _read_array(ds) for k, ds in g.items() if k != _ROW_DIM}
+
+
+def read_provenance(path: str | Path) -> dict[str, Any]:
+    """The provenance attributes of a dataset file."""
+    with h5py.File(path, "r") as f:
+        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()}
+
+
+def read_dataset(path: str | Path) -> Dataset:
+    """Read a whole file written by :func:`write_dataset` back into a :class:`Dataset`."""
+    out = Dataset()
+    with h5py.File(path, "r") as f:
+        out.title = str(f.attrs.get("title", ""))
+        out.scenario = str(f.attrs.get("scenario", ""))
+        out.attrs = {k: v for k, v in f.attrs.items() if k not in ("title", "scenario", "rfsim_version")}
+        for gname, g in f.items():
+            if gname == "provenance":
+                continue
+
+            def col(ds: h5py.Dataset, dims: tuple[str, ...] = ()) -> Column:
+                return Column(_read_array(ds), str(ds.attrs.get("units", "")),
+                              str(ds.attrs.get("description", "")), dims)
+
+            if _ROW_DIM in g and g[_ROW_DIM].is_scale:
+                out.tables[gname] = {k: col(ds) for k, ds in g.items() if k != _ROW_DIM}
+            else:
+                coords = {k: col(ds) for k, ds in g.items() if ds.is_scale}
+                variables = {}
+                for k, ds in g.items():
+                    if ds.is_scale:
+                        continue
+                    dims = tuple(ds.dims[i][0].name.rsplit("/", 1)[-1] for i in range(ds.ndim))
+                    variables[k] = col(ds, dims)
+                out.grids[gname] = (coords, variables)
+    return out
+
+
+__all__ = [
+    "Column",
+    "column",
+    "Dataset",
+    "make_provenance",
+    "git_revision",
+    "utc_now",
+    "write_dataset",
+    "read_dataset",
+    "read_table",
+    "read_provenance",
+]

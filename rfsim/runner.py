@@ -1,0 +1,38 @@
+"""Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from rfsim.config import to_toml
+from rfsim.dataset import make_provenance, utc_now, write_dataset
+
+
+@dataclasses.dataclass(frozen=True)
+class RunOutput:
+    """What a run wrote: the dataset file, the figures and the wall time [s]."""
+
+    dataset_path: Path
+    figure_paths: tuple[Path, ...]
+    wall_time_s: float
+
+
+def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
+                 output: Path | None = None, make_plots: bool = True) -> RunOutput:
+    """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures."""
+    start_utc, t0 = utc_now(), time.perf_counter()
+    dataset = module.run(config, seed=seed)
+    dataset.scenario = module.NAME
+    path = output if output is not None else out_dir / f"{module.NAME}.h5"
+    provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
+                                 start_time_utc=start_utc)
+    write_dataset(path, dataset, provenance)
+    figures = tuple(module.plot(path, out_dir)) if make_plots else ()
+    return RunOutput(path, figures, time.perf_counter() - t0)
+
+
+__all__ = ["RunOutput", "run_scenario"]

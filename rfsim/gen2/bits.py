@@ -1,0 +1,103 @@
+"""Bit-array helpers shared by the Gen2 modules.
+
+A *bit array* in rfsim is a 1-D ``numpy.uint8`` array of 0/1 values, most significant
+bit first (the order in which Gen2 sends bits over the air).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def as_bits(bits) -> np.ndarray:
+    """Validate and return ``bits`` as a contiguous ``(n,) uint8`` array of 0/1.
+
+    Accepts any 1-D sequence of 0/1 (ints, bools) or a string of ``'0'``/``'1'``
+    characters (spaces and underscores are ignored).
+    """
+    if isinstance(bits, str):
+        return str_to_bits(bits)
+    arr = np.asarray(bits)
+    if arr.ndim != 1:
+        raise ValueError(f"bits must be 1-D, got shape {arr.shape}")
+    if arr.size and not (np.issubdtype(arr.dtype, np.integer) or arr.dtype == bool):
+        raise ValueError(f"bits must be integers 0/1, got dtype {arr.dtype}")
+    if arr.size and (arr.min() < 0 or arr.max() > 1):
+        raise ValueError("bits must contain only 0 and 1")
+    return np.ascontiguousarray(arr, dtype=np.uint8)
+
+
+def int_to_bits(value: int, n_bits: int) -> np.ndarray:
+    """``value`` as ``n_bits`` bits, MSB first; ``(n_bits,) uint8``.
+
+    >>> int_to_bits(5, 4).tolist()
+    [0, 1, 0, 1]
+    """
+    value, n_bits = int(value), int(n_bits)
+    if n_bits < 0 or value < 0 or value >> n_bits:
+        raise ValueError(f"value {value} does not fit in {n_bits} unsigned bits")
+    shifts = np.arange(n_bits - 1, -1, -1, dtype=np.int64)
+    if n_bits <= 63:
+        return ((value >> shifts) & 1).astype(np.uint8)
+    return np.array([(value >> int(s)) & 1 for s in shifts], dtype=np.uint8)
+
+
+def bits_to_int(bits) -> int:
+    """Unsigned integer of an MSB-first bit array (Python ``int``, any length).
+
+    >>> bits_to_int([0, 1, 0, 1])
+    5
+    """
+    arr = as_bits(bits)
+    value = 0
+    for b in arr.tolist():
+        value = (value << 1) | b
+    return value
+
+
+def str_to_bits(text: str) -> np.ndarray:
+    """Bits of a ``'0'``/``'1'`` string (spaces and underscores ignored)."""
+    clean = text.replace(" ", "").replace("_", "")
+    if any(c not in "01" for c in clean):
+        raise ValueError(f"not a bit string: {text!r}")
+    return np.frombuffer(clean.encode("ascii"), dtype=np.uint8) - np.uint8(ord("0"))
+
+
+def bits_to_str(bits) -> str:
+    """``'0'``/``'1'`` string of a bit array."""
+    return "".join("1" if b else "0" for b in as_bits(bits).tolist())
+
+
+def hex_to_bits(text: str) -> np.ndarray:
+    """Bits of a hex string, 4 bits per digit, MSB first (spaces ignored).
+
+    >>> bits_to_str(hex_to_bits("3A"))
+    '00111010'
+    """
+    clean = text.replace(" ", "").replace("_", "")
+    if clean.lower().startswith("0x"):
+        clean = clean[2:]
+    try:
+        value = int(clean, 16) if clean else 0
+    except ValueError:
+        raise ValueError(f"not a hex string: {text!r}") from None
+    return int_to_bits(value, 4 * len(clean))
+
+
+def bits_to_hex(bits) -> str:
+    """Upper-case hex string of a bit array whose length is a multiple of 4."""
+    arr = as_bits(bits)
+    if arr.size % 4:
+        raise ValueError(f"bit count {arr.size} is not a multiple of 4")
+    return f"{bits_to_int(arr):0{arr.size // 4}X}" if arr.size else ""
+
+
+__all__ = [
+    "as_bits",
+    "int_to_bits",
+    "bits_to_int",
+    "str_to_bits",
+    "bits_to_str",
+    "hex_to_bits",
+    "bits_to_hex",
+]

@@ -1,0 +1,501 @@
+"""Gen2 reader commands: typed fields, bit encoding and parsing.
+
+Formats (gen2-and-validation-anchors.md §3.3, §4.4; EPC Gen2 "Commands" section), MSB first:
+
+=============  ==========================================================================  ======
+command        fields                                                                      bits
+=============  ==========================================================================  ======
+QueryRep       ``00`` | Session(2)                                                          4
+ACK            ``01`` | RN16(16)                                                            18
+Query          ``1000`` | DR(1) | M(2) | TRext(1) | Sel(2) | Session(2) | Target(1) |      22
+               Q(4) | CRC-5
+QueryAdjust    ``1001`` | Session(2) | UpDn(3)                                              9
+Select         ``1010`` | Target(3) | Action(3) | MemBank(2) | Pointer(EBV) | Length(8) |   ≥ 45
+               Mask(Length) | Truncate(1) | CRC-16
+NAK            ``11000000``                                                                 8
+Req_RN         ``11000001`` | RN16(16) | CRC-16                                              40
+Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) | CRC-16  ≥ 58
+=============  ==========================================================================  ======
+
+Field conventions (Query): DR "8" → 0, "64/3" → 1; M 1/2/4/8 (FM0, Miller-2/4/8) → 00/01/10/11;
+Sel "all" → 00, "all01" → 01 (the standard's second code for All), "~sl" → 10, "sl" → 11;
+Session 0–3 (S0–S3); Target "A" → 0, "B" → 1; Q 0–15. QueryAdjust UpDn +1 → 110, 0 → 000,
+−1 → 011. Invalid field values raise :class:`rfsim.errors.ConfigError` (a ``ValueError``)
+naming the field, the value and what is allowed.
+
+:func:`parse` identifies a command by its prefix and length and verifies its CRC. It
+**raises** :class:`CommandParseError` on an unknown prefix, a wrong length, an invalid field
+code or a bad CRC — a tag that cannot parse a command ignores it, so there is no partially
+valid result to return.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from fractions import Fraction
+from typing import ClassVar, Union
+
+import numpy as np
+
+from rfsim.errors import ConfigError
+from rfsim.gen2.bits import as_bits, bits_to_int, bits_to_str, int_to_bits, str_to_bits
+from rfsim.gen2.crc import append_crc5, append_crc16, crc5_ok, crc16_ok
+
+DR_VALUES: dict[str, Fraction] = {"8": Fraction(8), "64/3": Fraction(64, 3)}
+"""Divide ratios by their canonical names (BLF = DR / TRcal)."""
+
+M_CODES = {1: 0b00, 2: 0b01, 4: 0b10, 8: 0b11}
+SEL_CODES = {"all": 0b00, "all01": 0b01, "~sl": 0b10, "sl": 0b11}
+TARGET_CODES = {"A": 0, "B": 1}
+UPDN_CODES = {1: 0b110, 0: 0b000, -1: 0b011}
+MEMBANKS = {0: "reserved", 1: "epc", 2: "tid", 3: "user"}
+
+
+class CommandParseError(ValueError):
+    """A bit string is not a valid Gen2 command (unknown prefix, length, field or CRC)."""
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def normalize_dr(value, key: str = "dr") -> str:
+    """Canonical divide-ratio name ``"8"`` or ``"64/3"`` from a name, int 8 or Fraction.
+
+    Floats are refused (64/3 has no exact float); raise ``ConfigError(key, ...)``.
+    """
+    if isinstance(value, str) and value.replace(" ", "") in DR_VALUES:
+        return value.replace(" ", "")
+    if isinstance(value, (int, Fraction)) and not isinstance(value, bool):
+        for name, frac in DR_VALUES.items():
+            if value == frac:
+                return name
+    raise ConfigError(key, value, '"8" or "64/3" (string; or int 8 / Fraction(64, 3))')
+
+
+def _check_int(key: str, value, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= value <= hi:
+        raise ConfigError(key, value, f"an integer in [{lo}, {hi}]")
+    return int(value)
+
+
+def _check_choice(key: str, value, choices) -> None:
+    if isinstance(value, bool) or value not in choices:
+        raise ConfigError(key, value, "one of " + ", ".join(repr(c) for c in choices))
+
+
+def _check_bool(key: str, value) -> bool:
+    if isinstance(value, (bool, np.bool_)) or value in (0, 1):
+        return bool(value)
+    raise ConfigError(key, value, "true/false")
+
+
+def _set(obj, name: str, value) -> None:
+    object.__setattr__(obj, name, value)
+
+
+def ebv_encode(value: int) -> np.ndarray:
+    """Extensible bit vector: 8-bit blocks of (extension bit, 7 value bits), MSB block
+    first; the extension bit is 1 in every block but the last.
+
+    >>> bits_to_str(ebv_encode(128))
+    '1000000100000000'
+    """
+    value = int(value)
+    if value < 0:
+        raise ValueError(f"EBV value must be non-negative, got {value}")
+    groups = []
+    while True:
+        groups.append(value & 0x7F)
+        value >>= 7
+        if not value:
+            break
+    groups.reverse()
+    out = [int_to_bits(((i < len(groups) - 1) << 7) | g, 8) for i, g in enumerate(groups)]
+    return np.concatenate(out)
+
+
+def ebv_decode(bits, start: int = 0) -> tuple[int, int]:
+    """Decode an EBV starting at ``bits[start]``; return ``(value, n_bits_used)``.
+
+    Raises ``ValueError`` when the bits end before a block with extension bit 0.
+    """
+    arr = as_bits(bits)
+    value, pos = 0, int(start)
+    while True:
+        if pos + 8 > arr.size:
+            raise ValueError("EBV runs past the end of the bits")
+        block = bits_to_int(arr[pos : pos + 8])
+        value = (value << 7) | (block & 0x7F)
+        pos += 8
+        if not block & 0x80:
+            return value, pos - int(start)
+
+
+# --------------------------------------------------------------------------- commands
+
+
+@dataclass(frozen=True)
+class Query:
+    """Query: start an inventory round (sent after the full preamble with TRcal)."""
+
+    dr: str = "8"
+    m: int = 1
+    trext: bool = False
+    sel: str = "all"
+    session: int = 0
+    target: str = "A"
+    q: int = 4
+
+    NAME: ClassVar[str] = "Query"
+    PREAMBLE: ClassVar[str] = "query"
+
+    def __post_init__(self):
+        _set(self, "dr", normalize_dr(self.dr, "query.dr"))
+        _check_choice("query.m", self.m, tuple(M_CODES))
+        _set(self, "m", int(self.m))
+        _set(self, "trext", _check_bool("query.trext", self.trext))
+        _check_choice("query.sel", self.sel, tuple(SEL_CODES))
+        _set(self, "session", _check_int("query.session", self.session, 0, 3))
+        _check_choice("query.target", self.target, tuple(TARGET_CODES))
+        _set(self, "q", _check_int("query.q", self.q, 0, 15))
+
+    def _encode(self) -> np.ndarray:
+        head = [
+            str_to_bits("1000"),
+            int_to_bits(self.dr == "64/3", 1),
+            int_to_bits(M_CODES[self.m], 2),
+            int_to_bits(self.trext, 1),
+            int_to_bits(SEL_CODES[self.sel], 2),
+            int_to_bits(self.session, 2),
+            int_to_bits(TARGET_CODES[self.target], 1),
+            int_to_bits(self.q, 4),
+        ]
+        return append_crc5(np.concatenate(head))
+
+
+@dataclass(frozen=True)
+class QueryRep:
+    """QueryRep: decrement slot counters of the tags in the round's session."""
+
+    session: int = 0
+
+    NAME: ClassVar[str] = "QueryRep"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "session", _check_int("queryrep.session", self.session, 0, 3))
+
+    def _encode(self) -> np.ndarray:
+        return np.concatenate([str_to_bits("00"), int_to_bits(self.session, 2)])
+
+
+@dataclass(frozen=True)
+class QueryAdjust:
+    """QueryAdjust: change Q by ``updn`` ∈ {+1, 0, −1} and re-draw slot counters."""
+
+    session: int = 0
+    updn: int = 0
+
+    NAME: ClassVar[str] = "QueryAdjust"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "session", _check_int("queryadjust.session", self.session, 0, 3))
+        _check_choice("queryadjust.updn", self.updn, tuple(UPDN_CODES))
+        _set(self, "updn", int(self.updn))
+
+    def _encode(self) -> np.ndarray:
+        return np.concatenate(
+            [str_to_bits("1001"), int_to_bits(self.session, 2), int_to_bits(UPDN_CODES[self.updn], 3)]
+        )
+
+
+@dataclass(frozen=True)
+class ACK:
+    """ACK: echo the tag's RN16 (no CRC)."""
+
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "ACK"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "rn16", _check_int("ack.rn16", self.rn16, 0, 0xFFFF))
+
+    def _encode(self) -> np.ndarray:
+        return np.concatenate([str_to_bits("01"), int_to_bits(self.rn16, 16)])
+
+
+@dataclass(frozen=True)
+class NAK:
+    """NAK: return tags to Arbitrate."""
+
+    NAME: ClassVar[str] = "NAK"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def _encode(self) -> np.ndarray:
+        return str_to_bits("11000000")
+
+
+@dataclass(frozen=True)
+class ReqRN:
+    """Req_RN: ask an acknowledged tag for a handle (or a new RN16); RN16 + CRC-16."""
+
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Req_RN"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "rn16", _check_int("req_rn.rn16", self.rn16, 0, 0xFFFF))
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000001"), int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class Read:
+    """Read ``word_count`` 16-bit words (0 = to the end of the bank) from ``membank``
+    (0 Reserved, 1 EPC, 2 TID, 3 User) starting at word ``word_ptr``; ``rn16`` = handle."""
+
+    membank: int = 1
+    word_ptr: int = 0
+    word_count: int = 1
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Read"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "membank", _check_int("read.membank", self.membank, 0, 3))
+        _set(self, "word_ptr", _check_int("read.word_ptr", self.word_ptr, 0, 2**32 - 1))
+        _set(self, "word_count", _check_int("read.word_count", self.word_count, 0, 255))
+        _set(self, "rn16", _check_int("read.rn16", self.rn16, 0, 0xFFFF))
+
+    def _encode(self) -> np.ndarray:
+        body = [
+            str_to_bits("11000010"),
+            int_to_bits(self.membank, 2),
+            ebv_encode(self.word_ptr),
+            int_to_bits(self.word_count, 8),
+            int_to_bits(self.rn16, 16),
+        ]
+        return append_crc16(np.concatenate(body))
+
+
+@dataclass(frozen=True)
+class Select:
+    """Select: set SL or inventoried flags of tags whose ``membank`` bits starting at bit
+    ``pointer`` match ``mask`` (a '0'/'1' string; Length = ``len(mask)`` ≤ 255).
+
+    ``target`` 0–3 = inventoried flag of S0–S3, 4 = SL; ``action`` 0–7 (standard's table).
+    """
+
+    target: int = 4
+    action: int = 0
+    membank: int = 1
+    pointer: int = 32
+    mask: str = ""
+    truncate: bool = False
+
+    NAME: ClassVar[str] = "Select"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "target", _check_int("select.target", self.target, 0, 4))
+        _set(self, "action", _check_int("select.action", self.action, 0, 7))
+        _set(self, "membank", _check_int("select.membank", self.membank, 0, 3))
+        _set(self, "pointer", _check_int("select.pointer", self.pointer, 0, 2**32 - 1))
+        mask = self.mask
+        if not isinstance(mask, str) or any(c not in "01" for c in mask) or len(mask) > 255:
+            raise ConfigError("select.mask", mask, "a string of at most 255 '0'/'1' characters")
+        _set(self, "truncate", _check_bool("select.truncate", self.truncate))
+
+    @property
+    def length(self) -> int:
+        """Mask length in bits (the Length field)."""
+        return len(self.mask)
+
+    def _encode(self) -> np.ndarray:
+        body = [
+            str_to_bits("1010"),
+            int_to_bits(self.target, 3),
+            int_to_bits(self.action, 3),
+            int_to_bits(self.membank, 2),
+            ebv_encode(self.pointer),
+            int_to_bits(self.length, 8),
+            str_to_bits(self.mask),
+            int_to_bits(self.truncate, 1),
+        ]
+        return append_crc16(np.concatenate(body))
+
+
+Command = Union[Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select]
+COMMAND_TYPES: tuple[type, ...] = (Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select)
+
+
+def encode(cmd: Command) -> np.ndarray:
+    """Bits of ``cmd`` as sent after the PIE preamble/frame-sync; ``(n,) uint8``, CRC included."""
+    if not isinstance(cmd, COMMAND_TYPES):
+        raise TypeError(f"not a Gen2 command: {cmd!r}")
+    return cmd._encode()
+
+
+def command_name(cmd) -> str:
+    """Standard name of a command (instance or class): "Query", "Req_RN", ..."""
+    cls = cmd if isinstance(cmd, type) else type(cmd)
+    if cls not in COMMAND_TYPES:
+        raise TypeError(f"not a Gen2 command: {cmd!r}")
+    return cls.NAME
+
+
+def command_preamble(cmd) -> str:
+    """PIE lead-in of a command: ``"query"`` (full preamble with TRcal) or ``"frame-sync"``."""
+    cls = cmd if isinstance(cmd, type) else type(cmd)
+    if cls not in COMMAND_TYPES:
+        raise TypeError(f"not a Gen2 command: {cmd!r}")
+    return cls.PREAMBLE
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def _expect_len(name: str, b: np.ndarray, n: int) -> None:
+    if b.size != n:
+        raise CommandParseError(f"{name} must have {n} bits, got {b.size}")
+
+
+def _field(b: np.ndarray, start: int, n: int) -> int:
+    return bits_to_int(b[start : start + n])
+
+
+def _lookup(name: str, codes: dict, code: int):
+    for key, value in codes.items():
+        if value == code:
+            return key
+    raise CommandParseError(f"{name}: invalid code {code:b}")
+
+
+def _ebv(name: str, b: np.ndarray, start: int) -> tuple[int, int]:
+    try:
+        return ebv_decode(b, start)
+    except ValueError:
+        raise CommandParseError(f"{name}: EBV runs past the end ({b.size} bits)") from None
+
+
+def _check_crc16(name: str, b: np.ndarray) -> None:
+    if not crc16_ok(b):
+        raise CommandParseError(f"{name}: CRC-16 check failed")
+
+
+def parse(bits) -> Command:
+    """Parse a reader command from its bits ((n,) uint8 0/1, MSB first, CRC included).
+
+    Raises
+    ------
+    CommandParseError
+        Unknown prefix, wrong length for the prefix, invalid field code (e.g. UpDn 001)
+        or CRC-5/CRC-16 failure.
+    """
+    b = as_bits(bits)
+    if b.size < 2:
+        raise CommandParseError(f"too short for any command: {b.size} bits")
+    if b[0] == 0:
+        if b[1] == 0:
+            _expect_len("QueryRep", b, 4)
+            return QueryRep(session=_field(b, 2, 2))
+        _expect_len("ACK", b, 18)
+        return ACK(rn16=_field(b, 2, 16))
+    p4 = bits_to_str(b[:4])
+    if p4 == "1000":
+        _expect_len("Query", b, 22)
+        if not crc5_ok(b):
+            raise CommandParseError("Query: CRC-5 check failed")
+        return Query(
+            dr="64/3" if b[4] else "8",
+            m=_lookup("Query.M", M_CODES, _field(b, 5, 2)),
+            trext=bool(b[7]),
+            sel=_lookup("Query.Sel", SEL_CODES, _field(b, 8, 2)),
+            session=_field(b, 10, 2),
+            target="B" if b[12] else "A",
+            q=_field(b, 13, 4),
+        )
+    if p4 == "1001":
+        _expect_len("QueryAdjust", b, 9)
+        return QueryAdjust(session=_field(b, 4, 2), updn=_lookup("QueryAdjust.UpDn", UPDN_CODES, _field(b, 6, 3)))
+    if p4 == "1010":
+        return _parse_select(b)
+    p8 = bits_to_str(b[:8])
+    if p8 == "11000000":
+        _expect_len("NAK", b, 8)
+        return NAK()
+    if p8 == "11000001":
+        _expect_len("Req_RN", b, 40)
+        _check_crc16("Req_RN", b)
+        return ReqRN(rn16=_field(b, 8, 16))
+    if p8 == "11000010":
+        return _parse_read(b)
+    raise CommandParseError(f"unknown or unsupported command prefix {p8 or bits_to_str(b)!r}")
+
+
+def _parse_select(b: np.ndarray) -> Select:
+    if b.size < 20:
+        raise CommandParseError(f"Select too short: {b.size} bits")
+    pointer, n_ptr = _ebv("Select.Pointer", b, 12)
+    pos = 12 + n_ptr
+    if b.size < pos + 8:
+        raise CommandParseError(f"Select too short: {b.size} bits")
+    length = _field(b, pos, 8)
+    pos += 8
+    _expect_len("Select", b, pos + length + 1 + 16)
+    _check_crc16("Select", b)
+    return Select(
+        target=_lookup("Select.Target", {t: t for t in range(5)}, _field(b, 4, 3)),
+        action=_field(b, 7, 3),
+        membank=_field(b, 10, 2),
+        pointer=pointer,
+        mask=bits_to_str(b[pos : pos + length]),
+        truncate=bool(b[pos + length]),
+    )
+
+
+def _parse_read(b: np.ndarray) -> Read:
+    word_ptr, n_ptr = _ebv("Read.WordPtr", b, 10)
+    _expect_len("Read", b, 10 + n_ptr + 8 + 16 + 16)
+    _check_crc16("Read", b)
+    pos = 10 + n_ptr
+    return Read(membank=_field(b, 8, 2), word_ptr=word_ptr, word_count=_field(b, pos, 8), rn16=_field(b, pos + 8, 16))
+
+
+def command_fields(cmd: Command) -> dict:
+    """Field values of a command as a plain dict (for records and datasets)."""
+    return {f.name: getattr(cmd, f.name) for f in fields(cmd)}
+
+
+__all__ = [
+    "DR_VALUES",
+    "M_CODES",
+    "SEL_CODES",
+    "TARGET_CODES",
+    "UPDN_CODES",
+    "MEMBANKS",
+    "CommandParseError",
+    "normalize_dr",
+    "ebv_encode",
+    "ebv_decode",
+    "Query",
+    "QueryRep",
+    "QueryAdjust",
+    "ACK",
+    "NAK",
+    "ReqRN",
+    "Read",
+    "Select",
+    "Command",
+    "COMMAND_TYPES",
+    "encode",
+    "parse",
+    "command_name",
+    "command_preamble",
+    "command_fields",
+]

@@ -1,0 +1,109 @@
+"""Typed configs: TOML + --set overrides, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import pytest
+
+from rfsim.config import describe, from_dict, load_config, parse_override, to_toml
+from rfsim.errors import ConfigError, UserError
+from rfsim.config import param
+
+
+@dataclass(frozen=True)
+class ReaderToy:
+    ptx_dbm: float = param(30.0, lo=-10.0, hi=36.0, unit="dBm", doc="conducted power")
+    n_antennas: int = param(1, lo=1, hi=4, doc="antennas used in turn")
+    modulation: Literal["DSB-ASK", "SSB-ASK", "PR-ASK"] = param("PR-ASK", doc="modulation")
+    hop: bool = param(True, doc="frequency hopping")
+
+
+@dataclass(frozen=True)
+class ToyConfig:
+    name: str = param("demo", doc="label")
+    distances_m: tuple[float, ...] = param((1.0, 2.0), lo=0.0, lo_open=True, unit="m", doc="d")
+    reader: ReaderToy = param(ReaderToy(ptx_dbm=20.0), doc="reader")
+
+
+def test_defaults_and_overrides(tmp_path):
+    cfg = load_config(ToyConfig)
+    assert cfg.reader.ptx_dbm == 20.0  # the parent's default instance is kept
+    toml = tmp_path / "c.toml"
+    toml.write_text('name = "x"\n[reader]\nn_antennas = 2\n')
+    cfg = load_config(ToyConfig, toml, ["reader.ptx_dbm=33", "distances_m=[0.5, 3]",
+                                        "reader.modulation=DSB-ASK", "reader.hop=false"])
+    assert cfg.name == "x"
+    assert cfg.reader == ReaderToy(ptx_dbm=33.0, n_antennas=2, modulation="DSB-ASK", hop=False)
+    assert cfg.distances_m == (0.5, 3.0)
+    assert isinstance(cfg.reader.ptx_dbm, float)
+
+
+def test_toml_round_trip(tmp_path):
+    cfg = load_config(ToyConfig, None, ["reader.ptx_dbm=31.5", "name=a \"q\" b"])
+    text = to_toml(cfg)
+    path = tmp_path / "resolved.toml"
+    path.write_text(text)
+    assert load_config(ToyConfig, path) == cfg
+
+
+def test_parse_override_values():
+    assert parse_override("a.b=1e-6") == (["a", "b"], 1e-6)
+    assert parse_override("a=true") == (["a"], True)
+    assert parse_override("a=[1, 2]") == (["a"], [1, 2])
+    assert parse_override("a=PR-ASK") == (["a"], "PR-ASK")
+    assert parse_override("a = 'x y'") == (["a"], "x y")
+
+
+# Each case: overrides, the key the message must name, a fragment of what is allowed.
+BAD_INPUTS = [
+    (["reader.ptx_dbm=50"], "reader.ptx_dbm", "[-10, 36] dBm"),
+    (["reader.ptx_dbm=loud"], "reader.ptx_dbm", "a number"),
+    (["reader.ptx_dbm=nan"], "reader.ptx_dbm", "finite"),
+    (["reader.ptx_dbbm=3"], "reader.ptx_dbbm", "did you mean 'ptx_dbm'"),
+    (["reader.n_antennas=2.5"], "reader.n_antennas", "an integer"),
+    (["reader.n_antennas=0"], "reader.n_antennas", "[1, 4]"),
+    (["reader.modulation=PRASK"], "reader.modulation", "did you mean 'PR-ASK'"),
+    (["reader.hop=1"], "reader.hop", "true or false"),
+    (["distances_m=[1, -2]"], "distances_m[1]", "(0, inf] m"),
+    (["distances_m=3"], "distances_m", "a list of"),
+    (["reader=5"], "reader", "a table"),
+    (["nme=x"], "nme", "did you mean 'name'"),
+    (["name=3"], "name", "a string"),
+    (["reader.ptx_dbm.x=1"], "reader.ptx_dbm", "a number"),
+]
+
+
+@pytest.mark.parametrize("overrides,key,allowed", BAD_INPUTS)
+def test_bad_inputs_name_key_value_and_allowed(overrides, key, allowed):
+    with pytest.raises(ConfigError) as info:
+        load_config(ToyConfig, None, overrides)
+    message = str(info.value)
+    assert "\n" not in message
+    assert f"'{key}'" in message
+    assert allowed in message
+    assert info.value.key == key
+
+
+def test_bad_toml_file_is_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("reader = [\n")
+    with pytest.raises(UserError) as info:
+        load_config(ToyConfig, bad)
+    assert "not valid TOML" in str(info.value) and "\n" not in str(info.value)
+    with pytest.raises(UserError, match="cannot be read"):
+        load_config(ToyConfig, tmp_path / "missing.toml")
+    with pytest.raises(UserError, match="KEY=VALUE"):
+        load_config(ToyConfig, None, ["reader.ptx_dbm"])
+
+
+def test_from_dict_rejects_unknown_nested_key_with_choices():
+    with pytest.raises(ConfigError, match="one of hop, modulation, n_antennas, ptx_dbm"):
+        from_dict(ToyConfig, {"reader": {"zzz": 1}})
+
+
+def test_describe_lists_every_leaf_key():
+    keys = [row[0] for row in describe(ToyConfig)]
+    assert keys == ["name", "distances_m", "reader.ptx_dbm", "reader.n_antennas",
+                    "reader.modulation", "reader.hop"]

@@ -1,0 +1,60 @@
+"""One SeedSequence per run, one spawned child per trial; no global or clock seeding."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from rfsim.rng import trial_rng, trial_seed_sequence
+
+SOURCE_PACKAGES = ("rfsim", "channels", "devices", "scenarios")
+
+
+def test_trial_streams_equal_spawned_children():
+    children = np.random.SeedSequence(1234).spawn(10)
+    for i in (0, 3, 9):
+        ours = trial_rng(1234, i).random(5)
+        ref = np.random.Generator(np.random.PCG64(children[i])).random(5)
+        np.testing.assert_array_equal(ours, ref)
+
+
+def test_streams_depend_only_on_seed_and_index():
+    a = [trial_rng(5, i).integers(0, 2**63) for i in range(50)]
+    b = [trial_rng(5, i).integers(0, 2**63) for i in reversed(range(50))][::-1]
+    assert a == b
+    assert len(set(a)) == 50
+    assert trial_rng(5, 0).random() != trial_rng(6, 0).random()
+    assert trial_seed_sequence(5, 2, 1).spawn_key == (2, 1)
+
+
+@pytest.mark.parametrize("bad", [-1, 1.5, "3", True])
+def test_bad_seeds_are_rejected(bad):
+    with pytest.raises(ValueError):
+        trial_rng(bad, 0)
+
+
+FORBIDDEN = [
+    (r"np\.random\.seed|numpy\.random\.seed", "global numpy seeding"),
+    (r"np\.random\.(rand|randn|randint|random|normal|uniform|choice|shuffle|permutation|"
+     r"exponential|poisson|binomial|standard_normal)\(", "legacy global numpy RNG"),
+    (r"RandomState\(", "legacy RandomState"),
+    (r"default_rng\(\s*\)", "OS-entropy generator"),
+    (r"SeedSequence\(\s*\)", "OS-entropy SeedSequence"),
+    (r"^\s*(import random\b|from random import)", "stdlib random module"),
+    (r"seed\w*\s*=\s*.*\b(time\.time|time\.perf_counter|time_ns|datetime\.now|os\.getpid|os\.urandom)",
+     "clock/pid seeding"),
+]
+
+
+def test_no_global_or_clock_seeding_anywhere(project_root):
+    files = [p for pkg in SOURCE_PACKAGES for p in (project_root / pkg).rglob("*.py")]
+    assert len(files) >= 10, "the source tree was not found"
+    offences = []
+    for path in files:
+        for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for pattern, what in FORBIDDEN:
+                if re.search(pattern, line):
+                    offences.append(f"{path.relative_to(project_root)}:{lineno}: {what}: {line.strip()}")
+    assert not offences, "\n".join(offences)

@@ -1,0 +1,154 @@
+"""numba kernels of the FM0 / Miller line codes (wrapped and documented in
+:mod:`rfsim.gen2.linecode`; NumPy twins there as ``*_reference``).
+
+Levels are ±1 (int8); a *half-bit* is half a data symbol; an *element* is half a
+subcarrier cycle (1/(2·BLF) s): FM0 has one element per half-bit, Miller-M has M.
+Trellis states are ``s = cur_idx + 2·prev`` with ``cur_idx = 0`` for level +1 and 1 for
+−1, and ``prev`` the previous data bit (Miller only; FM0 keeps ``prev = 0``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfsim._jit import njit
+
+#: Added to the fractional element index before flooring, so that a sample that falls
+#: exactly on an element boundary (up to float64 rounding) belongs to the later element.
+INDEX_EPS = 1e-9
+
+
+@njit
+def fm0_levels_kernel(bits, cur, out):
+    """FM0 half-bit levels of ``bits`` starting after level ``cur``; returns the last level.
+
+    Inversion at every bit boundary; data-0 has a mid-bit inversion.
+    """
+    for i in range(bits.size):
+        first = -cur
+        second = first if bits[i] == 1 else -first
+        out[2 * i] = first
+        out[2 * i + 1] = second
+        cur = second
+    return cur
+
+
+@njit
+def miller_levels_kernel(bits, cur, prev, out):
+    """Miller baseband half-bit levels; returns ``(last level, last bit)``.
+
+    data-1 has a mid-bit inversion; the level inverts between two consecutive data-0s.
+    """
+    for i in range(bits.size):
+        b = bits[i]
+        first = -cur if (b == 0 and prev == 0) else cur
+        second = -first if b == 1 else first
+        out[2 * i] = first
+        out[2 * i + 1] = second
+        cur = second
+        prev = b
+    return cur, prev
+
+
+@njit
+def waveform_kernel(elements, t0_samples, elements_per_sample, out):
+    """``out[n] = elements[floor((n − t0)·r + eps)]`` inside the reply, 0 outside."""
+    ne = elements.size
+    for n in range(out.size):
+        u = (n - t0_samples) * elements_per_sample
+        if u < 0.0:
+            out[n] = 0.0
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        out[n] = elements[k] if k < ne else 0.0
+
+
+@njit
+def halfbit_sums_kernel(y, start, elements_per_sample, m, out):
+    """Matched-filter sums per half-bit: ``out[h] += y[n]·(−1)^k`` (Miller) or ``y[n]`` (FM0)
+    for every sample n whose element k = floor((n − start)·r + eps) has ``k // m == h``."""
+    out[:] = 0.0
+    nh = out.size
+    n0 = max(0, int(math.ceil(start)))
+    for n in range(n0, y.size):
+        u = (n - start) * elements_per_sample
+        if u < 0.0:
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        h = k // m
+        if h >= nh:
+            break
+        if m > 1 and (k & 1):
+            out[h] -= y[n]
+        else:
+            out[h] += y[n]
+
+
+@njit
+def bitwise_kernel(a, b, miller, out):
+    """Bit-by-bit coherent decisions from the half-bit sums (a, b) of each bit.
+
+    FM0: 1 if |a + b| > |a − b| (no mid-bit inversion); Miller: 1 if |a − b| > |a + b|.
+    """
+    for i in range(out.size):
+        s = abs(a[i] + b[i])
+        d = abs(a[i] - b[i])
+        one = d > s if miller else s > d
+        out[i] = 1 if one else 0
+
+
+@njit
+def _branch(state, bit, miller):
+    cur = 1 if (state & 1) == 0 else -1
+    prev = state >> 1
+    if miller:
+        first = -cur if (bit == 0 and prev == 0) else cur
+        second = -first if bit == 1 else first
+    else:
+        first = -cur
+        second = first if bit == 1 else -first
+    nxt = (0 if second == 1 else 1) + (2 * bit if miller else 0)
+    return first, second, nxt
+
+
+@njit
+def viterbi_kernel(a, b, miller, state0, last_is_one, out):
+    """Maximum-likelihood sequence detection over the FM0/Miller trellis.
+
+    Branch metric = e1·a + e2·b (correlation of the half-bit sums with the expected
+    levels), maximised; starts from the known state ``state0``; if ``last_is_one`` the
+    final bit (the dummy 1) is forced to 1. Returns the final state.
+    """
+    n = out.size
+    ns = 4
+    metric = np.full(ns, -np.inf)
+    metric[state0] = 0.0
+    back_state = np.zeros((n, ns), dtype=np.int8)
+    back_bit = np.zeros((n, ns), dtype=np.int8)
+    new = np.empty(ns)
+    for i in range(n):
+        new[:] = -np.inf
+        for s in range(ns):
+            if metric[s] == -np.inf:
+                continue
+            for bit in range(2):
+                if last_is_one and i == n - 1 and bit == 0:
+                    continue
+                e1, e2, t = _branch(s, bit, miller)
+                v = metric[s] + e1 * a[i] + e2 * b[i]
+                if v > new[t]:
+                    new[t] = v
+                    back_state[i, t] = s
+                    back_bit[i, t] = bit
+        metric[:] = new
+    best = 0
+    for s in range(1, ns):
+        if metric[s] > metric[best]:
+            best = s
+    final = best
+    for i in range(n - 1, -1, -1):
+        out[i] = back_bit[i, best]
+        best = back_state[i, best]
+    return final

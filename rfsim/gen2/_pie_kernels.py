@@ -1,0 +1,158 @@
+"""numba kernels of the PIE encoder/decoder (wrapped and documented in :mod:`rfsim.gen2.pie`).
+
+Positions are in samples (ticks of the sampling clock) as float64; kernels fill
+preallocated arrays and return counts. Each kernel has a plain-NumPy twin in
+:mod:`rfsim.gen2.pie` (``*_reference``) that the tests compare against.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfsim._jit import njit
+
+FALL = 0
+RISE = 1
+
+
+@njit
+def smooth_step(tau, width):
+    """Raised-cosine step 0 → 1 centred at ``tau = 0`` over ``width`` samples (0: hard step)."""
+    if width <= 0.0:
+        return 1.0 if tau >= 0.0 else 0.0
+    half = 0.5 * width
+    if tau <= -half:
+        return 0.0
+    if tau >= half:
+        return 1.0
+    return 0.5 * (1.0 + math.sin(math.pi * tau / width))
+
+
+@njit
+def envelope_kernel(fall_pos, rise_pos, depth, ramp_width, out):
+    """Subtract ``depth`` × (low-pulse indicator) from ``out`` (pre-filled with 1.0).
+
+    ``fall_pos``/``rise_pos`` are the 50 % points of each low pulse in samples; ramps
+    of different pulses must not overlap (checked by the wrapper).
+    """
+    n = out.size
+    half = 0.5 * ramp_width
+    for k in range(fall_pos.size):
+        f = fall_pos[k]
+        r = rise_pos[k]
+        i0 = max(0, int(math.ceil(f - half)))
+        i1 = min(n, int(math.floor(r + half)) + 1)
+        for i in range(i0, i1):
+            low = smooth_step(i - f, ramp_width) - smooth_step(i - r, ramp_width)
+            out[i] -= depth * low
+
+
+@njit
+def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
+    """Comparator with hysteresis; returns the number of edges written.
+
+    The state goes high when ``x > threshold + hysteresis`` and low when
+    ``x < threshold - hysteresis``; the initial state is that of the first sample
+    outside the band. An edge found at sample ``n`` is placed at the linear-interpolated
+    crossing of ``threshold`` between samples ``n-1`` and ``n`` (clipped to ``[n-1, n]``).
+    """
+    hi = threshold + hysteresis
+    lo = threshold - hysteresis
+    n = x.size
+    state = -1
+    for i in range(n):
+        if x[i] > hi:
+            state = 1
+            break
+        if x[i] < lo:
+            state = 0
+            break
+    ne = 0
+    if state < 0:
+        return ne
+    for i in range(1, n):
+        v = x[i]
+        new = state
+        if state == 0 and v > hi:
+            new = 1
+        elif state == 1 and v < lo:
+            new = 0
+        if new != state:
+            a = x[i - 1]
+            d = v - a
+            frac = 0.5
+            if d != 0.0:
+                frac = (threshold - a) / d
+            if frac < 0.0:
+                frac = 0.0
+            elif frac > 1.0:
+                frac = 1.0
+            edge_pos[ne] = (i - 1) + frac
+            edge_dir[ne] = new
+            ne += 1
+            state = new
+    return ne
+
+
+@njit
+def frames_kernel(
+    pos, direction, min_ratio, max_ratio, max_trcal, f_start, f_end, f_delim, f_tari, f_rtcal,
+    f_trcal, f_off, f_cnt, bits,
+):
+    """Parse alternating edges into PIE frames; returns the number of frames.
+
+    A frame: falling edge (delimiter start), rising edge (delimiter end), data-0
+    (rising→rising = Tari), RTcal (rising→rising), optional TRcal (next interval if
+    > RTcal and ≤ ``max_trcal``·RTcal), then data symbols while the rising→rising
+    interval is ≤ RTcal; bit = interval > RTcal/2. Frames need
+    ``min_ratio ≤ RTcal/Tari ≤ max_ratio`` and at least one bit.
+    """
+    ne = pos.size
+    nf = 0
+    nb = 0
+    i = 0
+    while i < ne:
+        if direction[i] != FALL or i + 5 >= ne:
+            i += 1
+            continue
+        f0 = pos[i]
+        r0 = pos[i + 1]
+        r1 = pos[i + 3]
+        r2 = pos[i + 5]
+        tari = r1 - r0
+        rtcal = r2 - r1
+        if tari <= 0.0 or rtcal < min_ratio * tari or rtcal > max_ratio * tari:
+            i += 1
+            continue
+        j = i + 5
+        trcal = np.nan
+        if j + 2 < ne:
+            span = pos[j + 2] - pos[j]
+            if span > rtcal and span <= max_trcal * rtcal:
+                trcal = span
+                j += 2
+        start_bits = nb
+        pivot = 0.5 * rtcal
+        while j + 2 < ne:
+            span = pos[j + 2] - pos[j]
+            if span > rtcal:
+                break
+            bits[nb] = 1 if span > pivot else 0
+            nb += 1
+            j += 2
+        if nb == start_bits:
+            i += 1
+            continue
+        f_start[nf] = f0
+        f_end[nf] = pos[j]
+        f_delim[nf] = r0 - f0
+        f_tari[nf] = tari
+        f_rtcal[nf] = rtcal
+        f_trcal[nf] = trcal
+        f_off[nf] = start_bits
+        f_cnt[nf] = nb - start_bits
+        nf += 1
+        i = j + 1
+    return nf

@@ -1,0 +1,389 @@
+"""FM0 and Miller-M line codes of the tag→interrogator link: encoders, sampled
+baseband and coherent decoders.
+
+Encoding (gen2-and-validation-anchors.md §3.6, §4.2; pass-paris-simulator.md §2.2
+``tag_encoding``). Levels are ±1; a bit is two half-bits.
+
+* FM0: the level inverts at every bit boundary; data-0 has a mid-bit inversion. Preamble
+  half-bits ``1 1 | −1 1 | −1 −1 | 1 −1 | −1 −1 | 1 1`` (symbols 1 0 1 0 v 1, v = no
+  boundary inversion); TRext = 1 prepends a pilot of 12 data-0 (``1 −1`` × 12).
+* Miller-M: the baseband level inverts mid-bit for data-1 and between two consecutive
+  data-0s, and is multiplied by a square subcarrier with M cycles per bit. The pilot is
+  4·M (TRext 0) or 16·M (TRext 1) subcarrier cycles at level +1, followed by ``010111``;
+  the first preamble 0 continues the pilot level (encoder state: level +1, previous bit 1).
+* Every reply ends with a dummy data-1.
+
+An *element* is half a subcarrier cycle, 1/(2·BLF) s (FM0: one per half-bit, Miller-M:
+M per half-bit); :func:`halfsymbols` returns the element sequence (the PASS golden
+representation). :func:`reply_waveform` samples it at any fs: sample n takes the element
+``floor((n − t0·fs)·2·BLF/fs + 1e−9)`` — no cumulative drift for non-integer samples per
+element.
+
+Decoding of a complex baseband ``r = h·s(t) + c + noise`` (unknown complex gain h and
+offset c): the preamble (incl. pilot) is found by correlation over a search window, h and
+c follow from the correlation peak by least squares, ``y = Re((r − c)/h)`` is summed per
+half-bit (times the subcarrier sign for Miller), then either
+
+* ``method="bitwise"``: each bit alone, compare |a + b| with |a − b| (anchors §4.8:
+  P_b = 2p(1 − p), p = Q(√(Eb/N0))), or
+* ``method="viterbi"``: maximum-likelihood sequence detection over the code trellis
+  (state = last level, plus the previous bit for Miller), starting from the known state
+  after the preamble and ending with the dummy 1 (≈ 3 dB better, anchors §4.8).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import correlate
+
+from rfsim.gen2 import _linecode_kernels as _k
+from rfsim.gen2.bits import as_bits
+
+M_VALUES = (1, 2, 4, 8)
+FM0_PREAMBLE = np.array([1, 1, -1, 1, -1, -1, 1, -1, -1, -1, 1, 1], dtype=np.int8)
+MILLER_PREAMBLE_BITS = np.array([0, 1, 0, 1, 1, 1], dtype=np.uint8)
+METHODS = ("viterbi", "bitwise")
+
+
+def _check_m(m: int) -> int:
+    if m not in M_VALUES:
+        raise ValueError(f"m must be one of {M_VALUES} (1 = FM0), got {m!r}")
+    return int(m)
+
+
+def _state_index(cur: int, prev: int, miller: bool) -> int:
+    return (0 if cur == 1 else 1) + (2 * int(prev) if miller else 0)
+
+
+# ----------------------------------------------------------------------------- encoder
+
+
+def fm0_levels_reference(bits, cur: int) -> tuple[np.ndarray, int]:
+    """Plain-Python twin of the FM0 level kernel: ``(levels (2n,) int8, last level)``."""
+    out = []
+    for b in as_bits(bits):
+        first = -cur
+        second = first if b == 1 else -first
+        out += [first, second]
+        cur = second
+    return np.array(out, dtype=np.int8), cur
+
+
+def miller_levels_reference(bits, cur: int, prev: int) -> tuple[np.ndarray, int, int]:
+    """Plain-Python twin of the Miller level kernel: ``(levels, last level, last bit)``."""
+    out = []
+    for b in as_bits(bits):
+        first = -cur if (b == 0 and prev == 0) else cur
+        second = -first if b == 1 else first
+        out += [first, second]
+        cur, prev = second, int(b)
+    return np.array(out, dtype=np.int8), cur, prev
+
+
+def _levels(bits: np.ndarray, m: int, cur: int, prev: int) -> tuple[np.ndarray, int, int]:
+    out = np.empty(2 * bits.size, dtype=np.int8)
+    if m == 1:
+        cur = _k.fm0_levels_kernel(bits, np.int8(cur), out)
+        return out, int(cur), 0
+    cur, prev = _k.miller_levels_kernel(bits, np.int8(cur), np.uint8(prev), out)
+    return out, int(cur), int(prev)
+
+
+def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
+    """Half-bit levels of pilot + preamble and the encoder state after them.
+
+    Returns ``(levels (2·n_pre,) int8, level, previous bit)``; Miller pilot half-bits are
+    at level +1 (8 or 32 of them: 4·M or 16·M subcarrier cycles of M/2 cycles each).
+    """
+    m = _check_m(m)
+    if m == 1:
+        parts = []
+        if trext:
+            parts.append(_levels(np.zeros(12, dtype=np.uint8), 1, -1, 0)[0])
+        parts.append(FM0_PREAMBLE)
+        return np.concatenate(parts), int(FM0_PREAMBLE[-1]), 0
+    pilot = np.ones(32 if trext else 8, dtype=np.int8)
+    pre, cur, prev = _levels(MILLER_PREAMBLE_BITS, m, 1, 1)
+    return np.concatenate([pilot, pre]), cur, prev
+
+
+def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np.ndarray, int]:
+    """Baseband half-bit levels of a whole reply: ``(levels int8, n_preamble_halfbits)``."""
+    arr = as_bits(bits)
+    if dummy:
+        arr = np.concatenate([arr, np.ones(1, dtype=np.uint8)])
+    pre, cur, prev = preamble_levels(m=m, trext=trext)
+    data, _, _ = _levels(arr, m, cur, prev)
+    return np.concatenate([pre, data]), pre.size
+
+
+def _elements(levels: np.ndarray, m: int) -> np.ndarray:
+    if m == 1:
+        return levels.astype(np.int8)
+    el = np.repeat(levels, m)
+    el[1::2] *= -1
+    return el
+
+
+def halfsymbols(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
+    """Element sequence of a reply: ``(n_el,) int8`` of ±1, one value per half subcarrier
+    cycle 1/(2·BLF) (pilot, preamble, data, dummy-1) — the PASS ``tag_encoding`` format."""
+    m = _check_m(m)
+    levels, _ = halfbit_levels(bits, m=m, trext=trext, dummy=dummy)
+    return _elements(levels, m)
+
+
+def reply_duration_s(n_bits: int, *, m: int, trext: bool, blf_hz: float, dummy: bool = True) -> float:
+    """Duration of a reply of ``n_bits`` data bits [s] (elements / (2·BLF))."""
+    m = _check_m(m)
+    n_pre = preamble_levels(m=m, trext=trext)[0].size
+    return (n_pre + 2 * (n_bits + int(dummy))) * m / (2.0 * blf_hz)
+
+
+def _check_rates(blf_hz: float, fs_hz: float) -> float:
+    if not blf_hz > 0 or not fs_hz > 0:
+        raise ValueError(f"blf_hz and fs_hz must be > 0, got {blf_hz}, {fs_hz}")
+    return 2.0 * float(blf_hz) / float(fs_hz)
+
+
+def reply_waveform(
+    bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float = 0.0,
+    dummy: bool = True, n_samples: int | None = None,
+) -> np.ndarray:
+    """Sampled tag reply (numba kernel).
+
+    Returns ``s : (n_samples,) float64`` with values ±1 during the reply (the two
+    modulation states; the caller maps them to reflection coefficients) and 0 before
+    ``t0_s`` and after the reply (the tag's rest state). Sample n is at ``t = n/fs``;
+    the default length ends with the reply.
+    """
+    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    r = _check_rates(blf_hz, fs_hz)
+    t0 = float(t0_s) * float(fs_hz)
+    if n_samples is None:
+        n_samples = int(math.ceil(t0 + el.size / r))
+    out = np.empty(int(n_samples), dtype=np.float64)
+    _k.waveform_kernel(el, t0, r, out)
+    return out
+
+
+def reply_waveform_reference(
+    bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float = 0.0,
+    dummy: bool = True, n_samples: int | None = None,
+) -> np.ndarray:
+    """Plain-NumPy twin of :func:`reply_waveform`."""
+    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    r = _check_rates(blf_hz, fs_hz)
+    t0 = float(t0_s) * float(fs_hz)
+    if n_samples is None:
+        n_samples = int(math.ceil(t0 + el.size / r))
+    u = (np.arange(int(n_samples)) - t0) * r
+    k = np.floor(u + _k.INDEX_EPS).astype(np.int64)
+    ok = (u >= 0) & (k < el.size)
+    out = np.zeros(int(n_samples))
+    out[ok] = el[k[ok]]
+    return out
+
+
+# ----------------------------------------------------------------------------- decoders
+
+
+@dataclass(frozen=True)
+class ReplyDetection:
+    """Result of :func:`decode_reply`.
+
+    Attributes
+    ----------
+    bits : (n_bits,) uint8, decoded data bits (dummy-1 removed)
+    start_sample : int, sample index where the reply (pilot/preamble) starts
+    gain : complex, estimated channel gain h (same units as the input)
+    dc : complex, estimated offset c
+    corr : float in [0, 1], normalised correlation of the preamble at ``start_sample``
+    """
+
+    bits: np.ndarray
+    start_sample: int
+    gain: complex
+    dc: complex
+    corr: float
+
+
+def halfbit_sums_reference(y, start, elements_per_sample, m, n_halfbits) -> np.ndarray:
+    """Plain-NumPy twin of the half-bit matched-filter kernel."""
+    n = np.arange(max(0, int(math.ceil(start))), y.size)
+    u = (n - start) * elements_per_sample
+    k = np.floor(u + _k.INDEX_EPS).astype(np.int64)
+    h = k // m
+    ok = (u >= 0) & (h < n_halfbits)
+    sign = np.where((m > 1) & (k % 2 == 1), -1.0, 1.0)
+    return np.bincount(h[ok], weights=(y[n] * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+
+
+def bitwise_reference(a, b, miller: bool) -> np.ndarray:
+    """Plain-NumPy twin of the bit-by-bit decision kernel."""
+    s, d = np.abs(a + b), np.abs(a - b)
+    return ((d > s) if miller else (s > d)).astype(np.uint8)
+
+
+def _branch_reference(state: int, bit: int, miller: bool) -> tuple[int, int, int]:
+    cur, prev = (1 if state % 2 == 0 else -1), state // 2
+    if miller:
+        first = -cur if (bit == 0 and prev == 0) else cur
+        second = -first if bit else first
+    else:
+        first = -cur
+        second = first if bit else -first
+    return first, second, _state_index(second, bit, miller)
+
+
+def viterbi_reference(a, b, miller: bool, state0: int, last_is_one: bool) -> np.ndarray:
+    """Plain-Python twin of the Viterbi kernel (same trellis, same tie-breaking)."""
+    n = len(a)
+    metric = [-math.inf] * 4
+    metric[state0] = 0.0
+    back = []
+    for i in range(n):
+        new = [-math.inf] * 4
+        bp = [(0, 0)] * 4
+        for s in range(4):
+            if metric[s] == -math.inf:
+                continue
+            for bit in (0, 1):
+                if last_is_one and i == n - 1 and bit == 0:
+                    continue
+                e1, e2, t = _branch_reference(s, bit, miller)
+                v = metric[s] + e1 * a[i] + e2 * b[i]
+                if v > new[t]:
+                    new[t], bp[t] = v, (s, bit)
+        metric = new
+        back.append(bp)
+    best = max(range(4), key=lambda s: (metric[s], -s))
+    out = np.empty(n, dtype=np.uint8)
+    for i in range(n - 1, -1, -1):
+        best, out[i] = back[i][best][0], back[i][best][1]
+    return out
+
+
+def _kernel_sums(y, start, r, m, nh):
+    out = np.empty(nh)
+    _k.halfbit_sums_kernel(y, float(start), r, m, out)
+    return out
+
+
+def _kernel_bitwise(a, b, miller):
+    out = np.empty(a.size, dtype=np.uint8)
+    _k.bitwise_kernel(a, b, miller, out)
+    return out
+
+
+def _kernel_viterbi(a, b, miller, state0, last_is_one):
+    out = np.empty(a.size, dtype=np.uint8)
+    _k.viterbi_kernel(a, b, miller, state0, last_is_one, out)
+    return out
+
+
+def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
+    m = _check_m(m)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    if r.ndim != 1:
+        raise ValueError(f"r must be 1-D, got shape {r.shape}")
+    ratio = _check_rates(blf_hz, fs_hz)
+    pre, cur, prev = preamble_levels(m=m, trext=trext)
+    nh = pre.size + 2 * (int(n_bits) + 1)
+    n_reply = int(math.ceil(nh * m / ratio))
+    pre_el = _elements(pre, m).astype(np.float64)
+    n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
+    template = np.empty(n_pre)
+    _k.waveform_kernel(pre_el, 0.0, ratio, template)
+    t0 = template - template.mean()
+    e_t = float(t0 @ t0)
+    if start_sample is None:
+        last = r.size - n_reply
+        if search_samples is not None:
+            last = min(last, int(search_samples))
+        if last < 0:
+            raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
+        c = correlate(r[: last + n_pre], t0, mode="valid")
+        start = int(np.argmax(np.abs(c)))
+        peak = c[start]
+    else:
+        start = int(start_sample)
+        peak = complex(r[start: start + n_pre] @ t0)
+    seg = r[start: start + n_pre]
+    h = peak / e_t if gain is None else complex(gain)
+    dc = seg.mean() - h * template.mean() if gain is None else 0.0
+    seg0 = seg - seg.mean()
+    corr = float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
+    if h == 0:
+        raise ValueError("zero channel gain: no reply to decode")
+    y = np.ascontiguousarray(((r[start: start + n_reply + 1] - dc) / h).real)
+    sums = impl[0](y, 0.0, ratio, m, nh)
+    data = sums[pre.size:]
+    a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
+    miller = m > 1
+    if method == "bitwise":
+        bits = impl[1](a[:n_bits], b[:n_bits], miller)
+    else:
+        bits = impl[2](a, b, miller, _state_index(cur, prev, miller), True)[:n_bits]
+    return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
+
+
+_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi)
+_REFERENCES = (halfbit_sums_reference, bitwise_reference, viterbi_reference)
+
+
+def decode_reply(
+    r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
+    search_samples: int | None = None, start_sample: int | None = None, gain: complex | None = None,
+) -> ReplyDetection:
+    """Detect and decode one FM0/Miller reply of ``n_bits`` bits (numba kernels).
+
+    Parameters
+    ----------
+    r : (n,) complex, baseband ``h·s(t) + c + noise`` sampled at ``fs_hz``
+    n_bits : number of data bits (without the dummy 1)
+    m, trext, blf_hz : line code (1 = FM0, 2/4/8 = Miller), pilot, BLF [Hz]
+    method : ``"viterbi"`` (ML sequence) or ``"bitwise"`` (bit-by-bit coherent)
+    search_samples : the reply start is searched among sample lags 0…search_samples
+        (default: every lag that leaves room for the whole reply)
+    start_sample, gain : known start lag / known gain h (then c = 0); skip the search /
+        the estimation
+    """
+    return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, _KERNELS)
+
+
+def decode_reply_reference(r, **kwargs) -> ReplyDetection:
+    """Plain NumPy/Python twin of :func:`decode_reply` (same keyword arguments)."""
+    args = [kwargs.pop(k, d) for k, d in (("n_bits", None), ("m", None), ("trext", None), ("blf_hz", None),
+                                            ("fs_hz", None), ("method", "viterbi"), ("search_samples", None),
+                                            ("start_sample", None), ("gain", None))]
+    if kwargs:
+        raise TypeError(f"unexpected arguments {sorted(kwargs)}")
+    return _decode(r, *args, _REFERENCES)
+
+
+__all__ = [
+    "M_VALUES",
+    "METHODS",
+    "FM0_PREAMBLE",
+    "MILLER_PREAMBLE_BITS",
+    "ReplyDetection",
+    "preamble_levels",
+    "halfbit_levels",
+    "halfsymbols",
+    "reply_duration_s",
+    "reply_waveform",
+    "reply_waveform_reference",
+    "decode_reply",
+    "decode_reply_reference",
+    "fm0_levels_reference",
+    "miller_levels_reference",
+    "halfbit_sums_reference",
+    "bitwise_reference",
+    "viterbi_reference",
+]

@@ -1,0 +1,364 @@
+"""Pulse-interval encoding (PIE): the interrogator→tag envelope and its decoder.
+
+Encoder (gen2-and-validation-anchors.md §4.1; pass-paris-simulator.md §2.1). Every PIE
+symbol is a high interval followed by a low pulse of width PW; data-0 lasts Tari, data-1
+lasts ``data1_tari``·Tari (1.5–2.0 Tari), RTcal = data-0 + data-1, TRcal (1.1–3 RTcal)
+appears only in the Query preamble. A command starts with
+
+* ``preamble="query"``:      delimiter, data-0, RTcal, TRcal;
+* ``preamble="frame-sync"``: delimiter, data-0, RTcal;
+
+where the delimiter is a low interval (12.5 µs ± 5 %). The amplitude envelope is
+
+    e(t) = 1 − depth · Σ_k [g(t − f_k) − g(t − r_k)],    depth = (A − B)/A,
+
+with A = 1 the CW level, B = 1 − depth the modulated level, ``f_k``/``r_k`` the 50 %
+points of the falling/rising edge of low pulse k and g a hard step or a raised-cosine
+step ``(1 + sin(πτ/w))/2`` for |τ| < w/2 whose 10–90 % time is
+``rise_fall_s = (2w/π)·asin(0.8)``. Edge times are exact float64 seconds; sample n is the
+envelope at ``t = n/fs`` — non-integer samples per Tari never accumulate drift.
+
+Decoder (pass-paris-simulator.md §2.2, ``tag_decoding``): threshold midway between the
+two level clusters (iterative isodata split, so unknown scale and DC do not matter),
+comparator with hysteresis, sub-sample edge positions by linear interpolation, then the
+rising-edge intervals give data-0 (Tari), RTcal, optional TRcal and the bits
+(interval > pivot = RTcal/2 → 1). All durations are in ticks of the input's sampling
+clock (the decoder's own clock).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.gen2 import _pie_kernels as _k
+from rfsim.gen2.bits import as_bits
+
+#: Ratio between the full width w of the raised-cosine step and its 10–90 % time.
+_RAMP_WIDTH_PER_10_90 = math.pi / (2.0 * math.asin(0.8))
+
+#: Frame acceptance: RTcal/Tari must lie in this range (spec 2.5–3.0, with margin for
+#: clock error and quantisation), TRcal ≤ this many RTcal (spec 1.1–3.0).
+RTCAL_TARI_RANGE = (1.8, 3.6)
+MAX_TRCAL_RTCAL = 4.0
+
+PREAMBLES = ("query", "frame-sync")
+
+
+@dataclass(frozen=True)
+class PieTimeline:
+    """Edge times of one PIE command.
+
+    Attributes
+    ----------
+    fall_s, rise_s : (k,) float64 [s]
+        50 % times of the falling and rising edge of every low pulse (delimiter first).
+    duration_s : float [s]
+        Total duration incl. CW before and after.
+    """
+
+    fall_s: np.ndarray
+    rise_s: np.ndarray
+    duration_s: float
+
+
+@dataclass(frozen=True)
+class PieFrame:
+    """One decoded PIE command; all durations in ticks of the input sampling clock.
+
+    ``start`` is the falling edge of the delimiter, ``end`` the rising edge closing the
+    last bit; ``trcal`` is NaN for a frame-sync (no TRcal). ``bits`` is ``(n,) uint8``.
+    """
+
+    start: float
+    end: float
+    delimiter: float
+    tari: float
+    rtcal: float
+    trcal: float
+    bits: np.ndarray
+
+    @property
+    def has_trcal(self) -> bool:
+        return not math.isnan(self.trcal)
+
+
+# ----------------------------------------------------------------------------- encoder
+
+
+def pie_timeline(
+    bits,
+    *,
+    tari_s: float,
+    data1_tari: float,
+    trcal_s: float | None,
+    pw_s: float,
+    delimiter_s: float,
+    preamble: str = "query",
+    cw_before_s: float = 0.0,
+    cw_after_s: float = 0.0,
+) -> PieTimeline:
+    """Exact edge times of the PIE command carrying ``bits``.
+
+    Parameters
+    ----------
+    bits : (n,) 0/1, MSB first
+    tari_s : data-0 duration [s]
+    data1_tari : data-1 duration in Tari (1.5–2.0); RTcal = (1 + data1_tari)·Tari
+    trcal_s : TRcal [s]; required for ``preamble="query"``, ignored for frame-sync
+    pw_s : low-pulse width [s], 0 < PW < Tari
+    delimiter_s : delimiter (low) duration [s]
+    preamble : ``"query"`` or ``"frame-sync"``
+    cw_before_s, cw_after_s : unmodulated carrier before the delimiter / after the last
+        rising edge [s]. Use ``cw_after_s > 0`` if the last rising edge must be sampled.
+    """
+    arr = as_bits(bits)
+    if preamble not in PREAMBLES:
+        raise ValueError(f"preamble must be one of {PREAMBLES}, got {preamble!r}")
+    tari_s, pw_s, delimiter_s = float(tari_s), float(pw_s), float(delimiter_s)
+    if not tari_s > 0 or not 0 < pw_s < tari_s or not delimiter_s > 0:
+        raise ValueError("need tari_s > 0, 0 < pw_s < tari_s and delimiter_s > 0")
+    if not 1.0 < float(data1_tari) <= 2.5:
+        raise ValueError(f"data1_tari must be in (1, 2.5], got {data1_tari}")
+    if cw_before_s < 0 or cw_after_s < 0:
+        raise ValueError("cw_before_s and cw_after_s must be >= 0")
+    data1_s = float(data1_tari) * tari_s
+    rtcal_s = tari_s + data1_s
+    symbols = [tari_s, rtcal_s]
+    if preamble == "query":
+        if trcal_s is None or not float(trcal_s) > rtcal_s:
+            raise ValueError(f"a query preamble needs trcal_s > RTcal = {rtcal_s:g} s, got {trcal_s}")
+        symbols.append(float(trcal_s))
+    lengths = np.concatenate([symbols, np.where(arr == 1, data1_s, tari_s)])
+    t0 = float(cw_before_s) + delimiter_s
+    ends = t0 + np.cumsum(lengths)
+    rise = np.concatenate([[t0], ends])
+    fall = np.concatenate([[float(cw_before_s)], ends - pw_s])
+    return PieTimeline(fall_s=fall, rise_s=rise, duration_s=float(rise[-1] + cw_after_s))
+
+
+def _ramp_width_samples(rise_fall_s: float, fs_hz: float, timeline: PieTimeline) -> float:
+    if rise_fall_s < 0:
+        raise ValueError("rise_fall_s must be >= 0")
+    width_s = rise_fall_s * _RAMP_WIDTH_PER_10_90
+    if width_s > 0:
+        lows = timeline.rise_s - timeline.fall_s
+        highs = timeline.fall_s[1:] - timeline.rise_s[:-1]
+        if width_s > lows.min() or (highs.size and width_s > highs.min()):
+            raise ValueError("rise_fall_s too long: ramps of neighbouring edges would overlap")
+    return width_s * fs_hz
+
+
+def _check_fs(fs_hz: float) -> float:
+    fs_hz = float(fs_hz)
+    if not fs_hz > 0:
+        raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
+    return fs_hz
+
+
+def pie_envelope(
+    bits,
+    *,
+    tari_s: float,
+    data1_tari: float,
+    trcal_s: float | None,
+    pw_s: float,
+    delimiter_s: float,
+    depth: float,
+    fs_hz: float,
+    rise_fall_s: float = 0.0,
+    preamble: str = "query",
+    cw_before_s: float = 0.0,
+    cw_after_s: float = 0.0,
+) -> np.ndarray:
+    """Sampled ASK amplitude envelope of a PIE command (numba kernel).
+
+    Returns ``e : (ceil(T·fs),) float64`` in units of the CW amplitude: 1 during CW,
+    ``1 − depth`` during the low pulses (``depth = (A−B)/A``, 0 < depth ≤ 1), sample n at
+    ``t = n/fs``. Timing parameters as in :func:`pie_timeline`; ``rise_fall_s`` is the
+    10–90 % time of the raised-cosine edges (0: hard edges). Source:
+    gen2-and-validation-anchors.md §4.1, pass-paris-simulator.md §2.1.
+    """
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    tl = pie_timeline(
+        bits, tari_s=tari_s, data1_tari=data1_tari, trcal_s=trcal_s, pw_s=pw_s,
+        delimiter_s=delimiter_s, preamble=preamble, cw_before_s=cw_before_s,
+        cw_after_s=cw_after_s,
+    )
+    width = _ramp_width_samples(float(rise_fall_s), fs_hz, tl)
+    out = np.ones(int(math.ceil(tl.duration_s * fs_hz)), dtype=np.float64)
+    _k.envelope_kernel(tl.fall_s * fs_hz, tl.rise_s * fs_hz, float(depth), width, out)
+    return out
+
+
+def pie_envelope_reference(bits, *, depth: float, fs_hz: float, rise_fall_s: float = 0.0, **timing):
+    """Plain-NumPy twin of :func:`pie_envelope` (same arguments), for tests."""
+    fs_hz = _check_fs(fs_hz)
+    tl = pie_timeline(bits, **timing)
+    width = _ramp_width_samples(float(rise_fall_s), fs_hz, tl)
+    n = np.arange(int(math.ceil(tl.duration_s * fs_hz)), dtype=np.float64)
+
+    def step(tau):
+        if width <= 0:
+            return (tau >= 0).astype(np.float64)
+        inner = 0.5 * (1.0 + np.sin(np.pi * np.clip(tau, -width / 2, width / 2) / width))
+        return np.where(tau <= -width / 2, 0.0, np.where(tau >= width / 2, 1.0, inner))
+
+    out = np.ones(n.size)
+    for f, r in zip(tl.fall_s * fs_hz, tl.rise_s * fs_hz):
+        out -= depth * (step(n - f) - step(n - r))
+    return out
+
+
+def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "query", **kwargs):
+    """:func:`pie_envelope` with the PIE timing and depth taken from a ``LinkProfile``
+    (attributes ``tari_s, data1_tari, trcal_s, pw_s, delimiter_s, depth``)."""
+    return pie_envelope(
+        bits, tari_s=profile.tari_s, data1_tari=profile.data1_tari, trcal_s=profile.trcal_s,
+        pw_s=profile.pw_s, delimiter_s=profile.delimiter_s, depth=profile.depth, fs_hz=fs_hz,
+        preamble=preamble, **kwargs,
+    )
+
+
+# ----------------------------------------------------------------------------- decoder
+
+
+def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
+    """Isodata split of a two-level signal: ``(threshold, low_mean, high_mean)``.
+
+    Starts at (min + max)/2 and iterates threshold = (mean below + mean above)/2; the
+    result is independent of the signal's scale and offset and of the duty cycle.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    lo, hi = float(x.min()), float(x.max())
+    thr = 0.5 * (lo + hi)
+    m_lo, m_hi = lo, hi
+    for _ in range(max_iter):
+        below = x < thr
+        if below.all() or not below.any():
+            break
+        m_lo, m_hi = float(x[below].mean()), float(x[~below].mean())
+        new = 0.5 * (m_lo + m_hi)
+        if new == thr:
+            break
+        thr = new
+    return thr, m_lo, m_hi
+
+
+def _prepare(x, threshold, hysteresis):
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    if x.ndim != 1:
+        raise ValueError(f"x must be 1-D, got shape {x.shape}")
+    if x.size < 2 or not np.all(np.isfinite(x)):
+        return x, None, None
+    thr, m_lo, m_hi = two_level_threshold(x)
+    if threshold is not None:
+        thr = float(threshold)
+    return x, thr, float(hysteresis) * (m_hi - m_lo)
+
+
+def _frames(start, end, delim, tari, rtcal, trcal, off, cnt, bits, nf) -> list[PieFrame]:
+    return [
+        PieFrame(
+            start=float(start[i]), end=float(end[i]), delimiter=float(delim[i]),
+            tari=float(tari[i]), rtcal=float(rtcal[i]), trcal=float(trcal[i]),
+            bits=bits[off[i]: off[i] + cnt[i]].copy(),
+        )
+        for i in range(nf)
+    ]
+
+
+def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
+    """Find and decode every PIE command in a real envelope (numba kernels).
+
+    Parameters
+    ----------
+    x : (n,) float, envelope of arbitrary scale and offset sampled by the decoder's clock
+    threshold : comparator threshold; default midway between the two level clusters
+    hysteresis : half-width of the comparator's hysteresis band as a fraction of the
+        difference between the high and low cluster means
+
+    Returns
+    -------
+    list of :class:`PieFrame` in time order (durations in samples of ``x``).
+    """
+    x, thr, hyst = _prepare(x, threshold, hysteresis)
+    if thr is None:
+        return []
+    pos = np.empty(x.size, dtype=np.float64)
+    direction = np.empty(x.size, dtype=np.int8)
+    ne = _k.edges_kernel(x, thr, hyst, pos, direction)
+    pos, direction = pos[:ne], direction[:ne]
+    nmax = ne // 2 + 1
+    f = [np.empty(nmax) for _ in range(6)]
+    off = np.empty(nmax, dtype=np.int64)
+    cnt = np.empty(nmax, dtype=np.int64)
+    bits = np.empty(max(ne, 1), dtype=np.uint8)
+    nf = _k.frames_kernel(pos, direction, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL, *f, off, cnt, bits)
+    return _frames(*f, off, cnt, bits, nf)
+
+
+def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
+    """Plain NumPy/Python twin of :func:`pie_decode` (same algorithm), for tests."""
+    x, thr, hyst = _prepare(x, threshold, hysteresis)
+    if thr is None:
+        return []
+    above, below = x > thr + hyst, x < thr - hyst
+    defined = above | below
+    if not defined.any():
+        return []
+    idx = np.maximum.accumulate(np.where(defined, np.arange(x.size), -1))
+    first = int(np.argmax(defined))
+    state = np.where(idx >= 0, above[np.maximum(idx, 0)], above[first]).astype(np.int8)
+    n = np.flatnonzero(np.diff(state)) + 1
+    d = x[n] - x[n - 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        frac = np.where(d != 0.0, (thr - x[n - 1]) / np.where(d != 0.0, d, 1.0), 0.5)
+    pos = (n - 1) + np.clip(frac, 0.0, 1.0)
+    direction = state[n]
+
+    frames: list[PieFrame] = []
+    lo_ratio, hi_ratio = RTCAL_TARI_RANGE
+    ne, i = pos.size, 0
+    while i < ne:
+        if direction[i] != _k.FALL or i + 5 >= ne:
+            i += 1
+            continue
+        r0, r1, r2 = pos[i + 1], pos[i + 3], pos[i + 5]
+        tari, rtcal = r1 - r0, r2 - r1
+        if not (tari > 0 and lo_ratio * tari <= rtcal <= hi_ratio * tari):
+            i += 1
+            continue
+        j, trcal = i + 5, math.nan
+        if j + 2 < ne and rtcal < pos[j + 2] - pos[j] <= MAX_TRCAL_RTCAL * rtcal:
+            trcal = pos[j + 2] - pos[j]
+            j += 2
+        out = []
+        while j + 2 < ne and pos[j + 2] - pos[j] <= rtcal:
+            out.append(1 if pos[j + 2] - pos[j] > 0.5 * rtcal else 0)
+            j += 2
+        if not out:
+            i += 1
+            continue
+        frames.append(PieFrame(float(pos[i]), float(pos[j]), float(r0 - pos[i]), float(tari),
+                               float(rtcal), float(trcal), np.array(out, dtype=np.uint8)))
+        i = j + 1
+    return frames
+
+
+__all__ = [
+    "PREAMBLES",
+    "PieTimeline",
+    "PieFrame",
+    "pie_timeline",
+    "pie_envelope",
+    "pie_envelope_reference",
+    "pie_envelope_for_profile",
+    "two_level_threshold",
+    "pie_decode",
+    "pie_decode_reference",
+]

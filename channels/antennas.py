@@ -74,19 +74,20 @@ class HalfWaveDipole:
 class Patch:
     """Analytic directional (patch/panel) pattern, boresight along local ``+x``.
 
-    ``G(ψ) = G₀·cos^q(ψ)`` in the front half-space (ψ ≤ 90°, ψ the angle off boresight) and
-    ``G₀/FB`` behind it, with ``G₀ = 10^(gain_dbi/10)`` and ``FB = 10^(front_to_back_db/10)``.
-    The exponent follows from the half-power beamwidth: ``cos^q(bw/2) = 1/2`` ⇒
-    ``q = ln(1/2)/ln(cos(bw/2))``. The radiated fraction is
-    ``η = (1/4π)∮G dΩ = G₀·(1/(q+1) + 1/FB)/2``; a set of parameters with ``η > 1`` (more gain
-    than the beamwidth allows) is rejected. Rotationally symmetric about the boresight (one
-    beamwidth for both planes) — a first-order model of a panel antenna, not a cavity model.
+    ``G(ψ) = G₀·[(1 − b)·max(cosψ, 0)^q + b]`` with ψ the angle off boresight,
+    ``G₀ = 10^(gain_dbi/10)`` the peak and ``b = 10^(−front_to_back_db/10)`` the back-lobe
+    floor (continuous at ψ = 90°; ``G = G₀·b`` over the whole rear half-space). The exponent
+    follows from the half-power full beamwidth ``bw``: ``G(bw/2) = G₀/2`` ⇒
+    ``q = ln((1/2 − b)/(1 − b)) / ln cos(bw/2)``. The radiated fraction is
+    ``η = (1/4π)∮G dΩ = G₀·[(1 − b)/(2(q + 1)) + b]``; parameters with ``η > 1`` (more gain than
+    the beamwidth allows) are rejected. Rotationally symmetric about the boresight (one
+    beamwidth for both planes): a first-order model of a panel antenna, not a cavity model.
 
     Parameters
     ----------
     gain_dbi : peak gain [dBi]
     beamwidth_deg : half-power (−3 dB) full beamwidth, in (0, 180) [deg]
-    front_to_back_db : front-to-back ratio [dB] (default 20)
+    front_to_back_db : front-to-back ratio [dB], > 3.01 (default 20)
     """
 
     gain_dbi: float
@@ -96,34 +97,42 @@ class Patch:
     def __post_init__(self):
         if not 0.0 < float(self.beamwidth_deg) < 180.0:
             raise ConfigError("patch.beamwidth_deg", self.beamwidth_deg, "a number in (0, 180)")
-        if float(self.front_to_back_db) < 0.0:
-            raise ConfigError("patch.front_to_back_db", self.front_to_back_db, "a number ≥ 0")
+        if not float(self.front_to_back_db) > 10 * np.log10(2.0):
+            raise ConfigError("patch.front_to_back_db", self.front_to_back_db, "a ratio > 3.01 dB")
         if self.radiated_fraction > 1.0 + 1e-12:
+            g_max = 1.0 / ((1 - self.back_level) / (2 * (self.exponent + 1)) + self.back_level)
             raise ConfigError(
                 "patch.gain_dbi", self.gain_dbi,
-                f"at most {10*np.log10(2/(1/(self.exponent+1)+1/db_to_lin(self.front_to_back_db))):.2f} dBi "
-                f"for a {self.beamwidth_deg}° beamwidth (radiated power would exceed the input)")
+                f"at most {10 * np.log10(g_max):.2f} dBi for a {self.beamwidth_deg}° beamwidth "
+                "(more would radiate more power than it accepts)")
+
+    @property
+    def back_level(self) -> float:
+        """Back-lobe floor relative to the peak, ``b = 10^(−FB/10)``."""
+        return float(1.0 / db_to_lin(self.front_to_back_db))
 
     @property
     def exponent(self) -> float:
-        """cos-exponent ``q = ln(0.5)/ln(cos(bw/2))``."""
-        return float(np.log(0.5) / np.log(np.cos(np.radians(self.beamwidth_deg) / 2)))
+        """cos-exponent ``q = ln((1/2 − b)/(1 − b)) / ln cos(bw/2)``."""
+        b = self.back_level
+        return float(np.log((0.5 - b) / (1 - b)) / np.log(np.cos(np.radians(self.beamwidth_deg) / 2)))
 
     @property
     def peak_gain_lin(self) -> float:
+        """Peak gain ``G₀`` (linear)."""
         return float(db_to_lin(self.gain_dbi))
 
     @property
     def radiated_fraction(self) -> float:
-        """``(1/4π)∮G dΩ = G₀(1/(q+1) + 1/FB)/2`` (≤ 1: radiation efficiency)."""
-        return self.peak_gain_lin * (1 / (self.exponent + 1) + 1 / float(db_to_lin(self.front_to_back_db))) / 2
+        """``(1/4π)∮G dΩ = G₀·[(1 − b)/(2(q + 1)) + b]`` (≤ 1: radiation efficiency)."""
+        b = self.back_level
+        return self.peak_gain_lin * ((1 - b) / (2 * (self.exponent + 1)) + b)
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
-        cos_psi = np.cos(el) * np.cos(az)
-        front = np.power(np.clip(cos_psi, 0.0, None), self.exponent)
-        back = 1.0 / float(db_to_lin(self.front_to_back_db))
-        return self.peak_gain_lin * np.where(cos_psi > 0.0, front, back)
+        cos_psi = np.clip(np.cos(el) * np.cos(az), 0.0, None)
+        b = self.back_level
+        return self.peak_gain_lin * ((1 - b) * np.power(cos_psi, self.exponent) + b)
 
 
 def _interp_periodic_az(az_grid_rad, values, az_rad):

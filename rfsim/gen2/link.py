@@ -176,7 +176,7 @@ class LinkProfile:
     Parameters
     ----------
     tari_s : data-0 duration Tari [s], 6.25–25 µs
-    data1_tari : data-1 duration in units of Tari, 1.5–2.0
+    data1_tari : data-1 duration in units of Tari, 1.5–2.0 (PASS's ``x`` = data1_tari − 1)
     trcal_s : TRcal [s], 1.1–3.0 RTcal; BLF = DR/TRcal must be 40–640 kHz and TRcal inside
         the FrT table range (DR 8: 17.2–200 µs, DR 64/3: 33.3–225 µs)
     dr : divide ratio name, ``"8"`` or ``"64/3"`` (int 8 / Fraction(64, 3) accepted)

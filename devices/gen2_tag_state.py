@@ -1,0 +1,443 @@
+"""Gen2 tag state machine as pure logic: states, sessions, flags, slot counter, replies.
+
+No waveforms here: a :class:`TagState` consumes parsed reader commands
+(:mod:`rfsim.gen2.commands`) and returns the bits the tag backscatters, or ``None``.
+Rules follow the EPC Gen2 protocol ("Tag states and slot counter", "Sessions and
+inventoried flags", "Selected flag", the Select/Inventory/Access command sections;
+gen2-and-validation-anchors.md §4.4–4.5):
+
+* States: ``ready``, ``arbitrate``, ``reply``, ``acknowledged``, ``open``, ``secured``
+  (Open/Secured only as far as Req_RN and Read need them; Killed is not modelled).
+* Sessions S0–S3 each hold an inventoried flag ``"A"``/``"B"``; SL is a separate flag.
+* Slot counter: Query and QueryAdjust load a value drawn uniformly from [0, 2^Q − 1] with
+  the tag's own ``rng``; QueryRep decrements it; the tag backscatters a new RN16 when it
+  reaches 0. A tag in Reply that receives a QueryRep goes to Arbitrate with its counter
+  at 7FFFh (the standard's wrap-around: no second reply in the round).
+* ACK with the tag's RN16 in Reply/Acknowledged → PC + EPC + CRC-16 and Acknowledged; a
+  wrong RN16 → Arbitrate, no reply. NAK → Arbitrate from Reply, Acknowledged, Open, Secured.
+* End of a successful inventory: a tag in Acknowledged/Open/Secured that receives a
+  QueryRep or QueryAdjust of the round's session inverts that session's inventoried flag
+  (A↔B) and goes to Ready; a Query of the round's session inverts the flag first and is
+  then evaluated like any Query.
+* Select (any powered state) sets the SL or an inventoried flag per the action table and
+  returns the tag to Ready. The mask is compared with the chosen bank from bit ``Pointer``
+  (EPC bank: StoredCRC at 00h, PC at 10h, EPC from 20h). Truncated replies are not
+  modelled: a Select with Truncate = 1 acts like Truncate = 0.
+
+Flag persistence (anchors §4.4, *values recalled from Gen2 v1.2.0, unverified*): S0 is kept
+only while powered; S1 reverts from B to A 0.5–5 s after it was set, powered or not; S2, S3
+and SL survive a power loss shorter than their persistence time (> 2 s). The times used are
+fields of :class:`FlagPersistence`.
+
+Memory model (Gen2 "Tag memory"): EPC bank = StoredCRC (word 0) | PC (word 1) | EPC;
+PC = L·2¹¹ where L = EPC length in 16-bit words (the 5 MSBs of PC, bits 10h–14h), UMI, XI,
+T and the numbering-system bits 0 (so PC = 3000h for a 96-bit EPC). StoredCRC = CRC-16 of
+PC + EPC, which is also the CRC the tag sends after PC + EPC in its ACK reply (§3.2).
+Reserved bank = kill password | access password (32 bits each); TID and User banks are bit
+arrays given by the caller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.errors import ConfigError
+from rfsim.gen2.bits import as_bits, bits_to_int, hex_to_bits, int_to_bits, str_to_bits
+from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
+from rfsim.gen2.crc import append_crc16, crc16_bits
+
+STATES = ("ready", "arbitrate", "reply", "acknowledged", "open", "secured")
+REPLY_KINDS = ("RN16", "EPC", "HANDLE", "READ", "ERROR")
+
+#: Slot counter value after a QueryRep in Reply state (standard: 0000h decrements to 7FFFh).
+SLOT_AFTER_WRAP = 0x7FFF
+#: Gen2 tag error code "memory overrun" (Read beyond the bank).
+ERROR_MEMORY_OVERRUN = 0x03
+#: Example TID of the form E2h | 12-bit mask-designer ID | 12-bit model number (not a real
+#: chip's TID; set ``tid`` for a specific chip).
+DEFAULT_TID_HEX = "E2006003"
+
+_ACCESS_STATES = ("acknowledged", "open", "secured")
+_FLIP = {"A": "B", "B": "A"}
+
+
+@dataclass(frozen=True)
+class Reply:
+    """What a tag backscatters in response to one command.
+
+    Attributes
+    ----------
+    kind : "RN16" | "EPC" | "HANDLE" | "READ" | "ERROR"
+    bits : (n,) uint8
+        Payload bits MSB first, CRC-16 included where Gen2 has one (all kinds but RN16);
+        the line-code preamble and the dummy 1 are not included.
+    """
+
+    kind: str
+    bits: np.ndarray
+
+    def __post_init__(self):
+        if self.kind not in REPLY_KINDS:
+            raise ValueError(f"reply kind must be one of {REPLY_KINDS}, got {self.kind!r}")
+        arr = as_bits(self.bits).copy()
+        arr.flags.writeable = False
+        object.__setattr__(self, "bits", arr)
+
+
+@dataclass(frozen=True)
+class FlagPersistence:
+    """Persistence times of the inventoried and SL flags [s].
+
+    Defaults (anchors §4.4, *unverified*): S1 lies in 0.5–5 s (default 2 s, whether powered
+    or not); S2, S3, SL must exceed 2 s unpowered (default 2 s, the bound itself).
+    """
+
+    s1_s: float = 2.0
+    s2_s: float = 2.0
+    s3_s: float = 2.0
+    sl_s: float = 2.0
+
+    def __post_init__(self):
+        for name in ("s1_s", "s2_s", "s3_s", "sl_s"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+                raise ConfigError(f"tag.persistence.{name}", value, "a non-negative number of seconds")
+
+
+def pc_word(epc_bits) -> int:
+    """Protocol-control word of an EPC: L·2¹¹, L = len(epc)/16 ∈ [0, 31] words.
+
+    UMI, XI, T and the numbering-system bits are 0. ``pc_word(96 zeros) == 0x3000``.
+    """
+    n = as_bits(epc_bits).size
+    if n % 16 or n // 16 > 31:
+        raise ValueError(f"EPC length must be a multiple of 16 bits, at most 496, got {n}")
+    return (n // 16) << 11
+
+
+def _draw16(rng: np.random.Generator) -> int:
+    return int(rng.integers(0, 1 << 16))
+
+
+class TagState:
+    """Explicit Gen2 protocol state of one passive tag.
+
+    Parameters
+    ----------
+    epc : (n,) uint8 bits or hex string
+        EPC, a multiple of 16 bits (≤ 496).
+    tid : bits or hex string, default :data:`DEFAULT_TID_HEX`
+    user : bits or hex string, default empty (no User memory)
+    kill_password, access_password : int
+        32-bit passwords (Reserved bank). Req_RN moves an acknowledged tag to Secured when
+        the access password is 0, else to Open.
+    persistence : FlagPersistence
+    powered : bool
+        Initial power state (at time ``t0_s``).
+    t0_s : float
+        Time of the initial state [s].
+
+    Attributes
+    ----------
+    state : str, one of :data:`STATES`
+    inventoried : dict {0..3: "A" | "B"}
+    sl : bool
+    q, slot, rn16, handle : int or None
+    session : int or None — session of the current inventory round
+    last_query : Query or None — link parameters (DR, M, TRext) of the reply
+    """
+
+    def __init__(self, epc, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
+                 access_password: int = 0, persistence: FlagPersistence = FlagPersistence(),
+                 powered: bool = True, t0_s: float = 0.0):
+        self.epc = _bits_arg(epc)
+        self.pc = pc_word(self.epc)
+        self.tid = _bits_arg(tid)
+        self.user = _bits_arg(user)
+        if self.tid.size % 16 or self.user.size % 16:
+            raise ValueError("TID and User memory must be whole 16-bit words")
+        for name, pwd in (("kill_password", kill_password), ("access_password", access_password)):
+            if not 0 <= int(pwd) < 1 << 32:
+                raise ValueError(f"{name} must be a 32-bit value, got {pwd}")
+        self.kill_password = int(kill_password)
+        self.access_password = int(access_password)
+        self.persistence = persistence
+        self.powered = bool(powered)
+        self.state = "ready"
+        self.inventoried = {s: "A" for s in range(4)}
+        self.sl = False
+        self.q = 0
+        self.slot: int | None = None
+        self.rn16: int | None = None
+        self.handle: int | None = None
+        self.session: int | None = None
+        self.last_query: Query | None = None
+        self.t_s = float(t0_s)
+        self._s1_set_s: float | None = None  # time S1 was last set to B
+        self._off_since_s: float | None = None if self.powered else float(t0_s)
+
+    # ------------------------------------------------------------------ memory
+    @property
+    def stored_crc(self) -> int:
+        """StoredCRC: CRC-16 over PC + EPC (EPC bank word 0)."""
+        return bits_to_int(crc16_bits(self.pc_epc_bits))
+
+    @property
+    def pc_epc_bits(self) -> np.ndarray:
+        """PC + EPC, ``(16 + n,) uint8``."""
+        return np.concatenate([int_to_bits(self.pc, 16), self.epc])
+
+    def bank_bits(self, membank: int) -> np.ndarray:
+        """Bits of a memory bank (0 Reserved, 1 EPC, 2 TID, 3 User), bit address 0 first."""
+        if membank == 0:
+            return np.concatenate([int_to_bits(self.kill_password, 32), int_to_bits(self.access_password, 32)])
+        if membank == 1:
+            return np.concatenate([int_to_bits(self.stored_crc, 16), self.pc_epc_bits])
+        if membank == 2:
+            return self.tid
+        if membank == 3:
+            return self.user
+        raise ValueError(f"memory bank must be 0-3, got {membank}")
+
+    # ------------------------------------------------------------------ time and power
+    def _advance(self, t_s: float) -> None:
+        t_s = float(t_s)
+        if t_s < self.t_s:
+            raise ValueError(f"time went backwards: {t_s} s < {self.t_s} s")
+        self.t_s = t_s
+        if self._s1_set_s is not None and t_s - self._s1_set_s >= self.persistence.s1_s:
+            self.inventoried[1] = "A"
+            self._s1_set_s = None
+
+    def _set_flag(self, session: int, value: str) -> None:
+        self.inventoried[session] = value
+        if session == 1:
+            self._s1_set_s = self.t_s if value == "B" else None
+
+    def on_power(self, powered: bool, t_s: float) -> None:
+        """Power loss or power-up at time ``t_s`` [s].
+
+        Power loss: state → Ready, round state cleared, S0 → A. Power-up after an outage of
+        duration d: S2/S3 → A and SL deasserted when d exceeds their persistence time; S1
+        decays by its own timer regardless of power.
+        """
+        self._advance(t_s)
+        powered = bool(powered)
+        if powered == self.powered:
+            return
+        if not powered:
+            self.powered = False
+            self._off_since_s = self.t_s
+            self._reset_round()
+            self.inventoried[0] = "A"
+            return
+        off_s = self.t_s - (self._off_since_s if self._off_since_s is not None else self.t_s)
+        p = self.persistence
+        for session, keep_s in ((2, p.s2_s), (3, p.s3_s)):
+            if off_s > keep_s:
+                self.inventoried[session] = "A"
+        if off_s > p.sl_s:
+            self.sl = False
+        self.powered = True
+        self._off_since_s = None
+        self._reset_round()
+
+    def _reset_round(self) -> None:
+        self.state = "ready"
+        self.slot = self.rn16 = self.handle = self.session = None
+
+    # ------------------------------------------------------------------ commands
+    def on_command(self, cmd, *, t_s: float, rng: np.random.Generator) -> Reply | None:
+        """Apply one reader command received at time ``t_s`` [s]; return the tag's reply.
+
+        ``rng`` is the tag's own generator (slot counters, RN16s, handles). An unpowered
+        tag ignores every command (returns ``None``).
+        """
+        self._advance(t_s)
+        if not self.powered:
+            return None
+        if isinstance(cmd, Query):
+            return self._query(cmd, rng)
+        if isinstance(cmd, QueryRep):
+            return self._query_rep(cmd, rng)
+        if isinstance(cmd, QueryAdjust):
+            return self._query_adjust(cmd, rng)
+        if isinstance(cmd, ACK):
+            return self._ack(cmd)
+        if isinstance(cmd, NAK):
+            if self.state in ("reply", "acknowledged", "open", "secured"):
+                self.state = "arbitrate"
+            return None
+        if isinstance(cmd, ReqRN):
+            return self._req_rn(cmd, rng)
+        if isinstance(cmd, Read):
+            return self._read(cmd)
+        if isinstance(cmd, Select):
+            self._select(cmd)
+            return None
+        raise TypeError(f"not a Gen2 command: {cmd!r}")
+
+    def _matches_query(self, cmd: Query) -> bool:
+        if cmd.sel == "sl" and not self.sl:
+            return False
+        if cmd.sel == "~sl" and self.sl:
+            return False
+        return self.inventoried[cmd.session] == cmd.target
+
+    def _load_slot(self, rng: np.random.Generator) -> Reply | None:
+        self.slot = int(rng.integers(0, 1 << self.q))
+        return self._reply_if_zero(rng)
+
+    def _reply_if_zero(self, rng: np.random.Generator) -> Reply | None:
+        if self.slot == 0:
+            self.state = "reply"
+            self.rn16 = _draw16(rng)
+            return Reply("RN16", int_to_bits(self.rn16, 16))
+        self.state = "arbitrate"
+        return None
+
+    def _query(self, cmd: Query, rng) -> Reply | None:
+        if self.state in _ACCESS_STATES and cmd.session == self.session:
+            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
+        self.last_query = cmd
+        if not self._matches_query(cmd):
+            self._reset_round()
+            return None
+        self.session, self.q, self.handle = cmd.session, cmd.q, None
+        return self._load_slot(rng)
+
+    def _query_rep(self, cmd: QueryRep, rng) -> Reply | None:
+        if self.session is None or cmd.session != self.session:
+            return None
+        if self.state in _ACCESS_STATES:
+            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
+            self._reset_round()
+            return None
+        if self.state == "reply":
+            self.state, self.slot = "arbitrate", SLOT_AFTER_WRAP
+            return None
+        if self.state == "arbitrate":
+            self.slot = (self.slot - 1) & 0x7FFF
+            return self._reply_if_zero(rng)
+        return None
+
+    def _query_adjust(self, cmd: QueryAdjust, rng) -> Reply | None:
+        if self.session is None or cmd.session != self.session:
+            return None
+        if self.state in _ACCESS_STATES:
+            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
+            self._reset_round()
+            return None
+        if self.state in ("arbitrate", "reply"):
+            self.q = min(15, max(0, self.q + cmd.updn))
+            return self._load_slot(rng)
+        return None
+
+    def _ack(self, cmd: ACK) -> Reply | None:
+        if self.state in ("reply", "acknowledged"):
+            if cmd.rn16 != self.rn16:
+                self.state = "arbitrate"
+                return None
+            self.state = "acknowledged"
+            return Reply("EPC", append_crc16(self.pc_epc_bits))
+        if self.state in ("open", "secured"):
+            if cmd.rn16 != self.handle:
+                self.state = "arbitrate"
+                return None
+            return Reply("EPC", append_crc16(self.pc_epc_bits))
+        return None
+
+    def _req_rn(self, cmd: ReqRN, rng) -> Reply | None:
+        if self.state == "acknowledged":
+            if cmd.rn16 != self.rn16:
+                self.state = "arbitrate"
+                return None
+            self.handle = _draw16(rng)
+            self.state = "secured" if self.access_password == 0 else "open"
+            return Reply("HANDLE", append_crc16(int_to_bits(self.handle, 16)))
+        if self.state in ("open", "secured") and cmd.rn16 == self.handle:
+            return Reply("RN16", append_crc16(int_to_bits(_draw16(rng), 16)))
+        return None
+
+    def _read(self, cmd: Read) -> Reply | None:
+        if self.state not in ("open", "secured") or cmd.rn16 != self.handle:
+            return None
+        bank = self.bank_bits(cmd.membank)
+        start = 16 * cmd.word_ptr
+        stop = bank.size if cmd.word_count == 0 else start + 16 * cmd.word_count
+        handle = int_to_bits(self.handle, 16)
+        if start >= bank.size or stop > bank.size:
+            body = np.concatenate([[1], int_to_bits(ERROR_MEMORY_OVERRUN, 8), handle]).astype(np.uint8)
+            return Reply("ERROR", append_crc16(body))
+        body = np.concatenate([np.zeros(1, np.uint8), bank[start:stop], handle])
+        return Reply("READ", append_crc16(body))
+
+    def select_matches(self, cmd: Select) -> bool:
+        """True when ``cmd.mask`` equals the bank bits at ``cmd.pointer`` (Length 0: all
+        tags match; a mask running past the end of the bank does not match)."""
+        if cmd.length == 0:
+            return True
+        bank = self.bank_bits(cmd.membank)
+        stop = cmd.pointer + cmd.length
+        if stop > bank.size:
+            return False
+        return bool(np.array_equal(bank[cmd.pointer : stop], str_to_bits(cmd.mask)))
+
+    def _select(self, cmd: Select) -> None:
+        """Select action table (Gen2 "Select"): per action, what a matching / non-matching
+        tag does. 'set' = assert SL or inventoried→A; 'clear' = deassert SL or →B;
+        'flip' = negate SL or A↔B; None = do nothing."""
+        if cmd.membank == 0:  # MemBank 00 is RFU for Select in Gen2 v1.2: ignored
+            return
+        match = self.select_matches(cmd)
+        todo = _SELECT_ACTIONS[cmd.action][0 if match else 1]
+        if cmd.target == 4:
+            if todo == "set":
+                self.sl = True
+            elif todo == "clear":
+                self.sl = False
+            elif todo == "flip":
+                self.sl = not self.sl
+        elif cmd.target <= 3:
+            s = cmd.target
+            if todo == "set":
+                self._set_flag(s, "A")
+            elif todo == "clear":
+                self._set_flag(s, "B")
+            elif todo == "flip":
+                self._set_flag(s, _FLIP[self.inventoried[s]])
+        self._reset_round()
+
+
+#: Select action → (matching tag, non-matching tag).
+_SELECT_ACTIONS = {
+    0: ("set", "clear"),
+    1: ("set", None),
+    2: (None, "clear"),
+    3: ("flip", None),
+    4: ("clear", "set"),
+    5: ("clear", None),
+    6: (None, "set"),
+    7: (None, "flip"),
+}
+
+
+def _bits_arg(value) -> np.ndarray:
+    if isinstance(value, str):
+        return hex_to_bits(value) if value else np.zeros(0, np.uint8)
+    return as_bits(value).copy()
+
+
+__all__ = [
+    "STATES",
+    "REPLY_KINDS",
+    "SLOT_AFTER_WRAP",
+    "ERROR_MEMORY_OVERRUN",
+    "DEFAULT_TID_HEX",
+    "Reply",
+    "FlagPersistence",
+    "TagState",
+    "pc_word",
+]

@@ -1,0 +1,278 @@
+"""Link assembly: a scene of surfaces, walls and propagation models → :class:`PathSet` per link.
+
+A link tx → rx is the sum of (DESIGN.md "Channel"; auris-sense-a-tag.md §1.7 Appendix A;
+pass-paris-simulator.md §2.4)
+
+* **LoS**: amplitude ``A = g_ls(d, fc)·√(G_tx·G_rx)·√(PLF)·10^(−L_walls/20)·10^(−S/20)``
+  with ``g_ls`` the large-scale amplitude gain (Friis λ/(4πd) by default, or a
+  :class:`~channels.large_scale.LogDistance`), G the antennas' power gains towards each
+  other, PLF the polarization mismatch, L_walls the WAF wall loss on the straight line and S
+  the shadowing field at the link midpoint (symmetric, so links stay reciprocal); delay d/c.
+* **Image paths** up to ``image_order`` reflections (:func:`channels.surfaces.image_paths`):
+  amplitude ``g_ls(ℓ, fc)·Πr·√(G_tx(first leg)·G_rx(last leg))·√(PLF along the image
+  direction)``; delay ℓ/c. Walls and shadowing are not applied to reflected paths.
+* **Diffuse NLoS taps** (when an :class:`~channels.small_scale.ApdpModel` is set): the APDP
+  splits the LoS large-scale power into LoS K/(K+1) and NLoS 1/(K+1) (PASS: the unit-power
+  profile is scaled by the LoS large-scale gain), so the LoS amplitude becomes A·√(K/(K+1))
+  and tap i gets ``g_ls·walls·shadowing·h_i`` with ``h_i ~ CN(0, P_i)``, delay d/c + τ_i. The
+  antenna patterns and polarization are not applied to the diffuse taps (PASS "room" type:
+  diffuse power arrives from all directions; a lossless antenna's mean gain is 1).
+
+Quasi-static draws: :class:`Channel` holds one draw of the diffuse taps per link (the pair of
+antennas; with ``reciprocal=True`` the pair is unordered, so backward = forward). A call with
+``rng`` draws anew and holds the new draw; a call without ``rng`` reuses the held draw.
+
+Motion: each end may move with a constant velocity (``(3,)`` [m/s], position
+``p0 + v·t``) or along a trajectory (callable ``t → (3,)`` position [m]; velocity by a central
+difference). Every path gets the Doppler shift ``f_D = −(fc/c)·dℓ/dt`` of its length ℓ (image
+sources move with the mirrored velocity; diffuse taps share the LoS Doppler), so that
+:func:`channels.paths.apply_paths` continues the carrier phase −2π·fc·ℓ(t)/c to first order
+inside an exchange (gen2-and-validation-anchors.md §4.7: f_D = 2v/λ for a monostatic tag).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.errors import ConfigError
+from rfsim.units import C_M_S
+
+from .antennas import Antenna
+from .large_scale import friis_amplitude_gain, wall_loss_db
+from .paths import PathSet, concatenate
+from .small_scale import ApdpModel, draw_taps
+from .surfaces import image_paths, reflect_point
+
+__all__ = ["Scene", "Channel", "los_links", "kinematics"]
+
+#: Half-step [s] of the central difference giving a trajectory's velocity.
+_TRAJ_DT_S = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Static description of the propagation environment.
+
+    Parameters
+    ----------
+    surfaces : sequence of :class:`~channels.surfaces.Surface` (specular reflectors)
+    walls : sequence of :class:`~channels.large_scale.Wall` (WAF loss on the LoS)
+    large_scale : object with ``amplitude_gain(distance_m, fc_hz)`` (e.g.
+        :class:`~channels.large_scale.LogDistance`), or None for Friis free space
+    apdp : :class:`~channels.small_scale.ApdpModel` or None (no diffuse taps)
+    shadowing : :class:`~channels.large_scale.ShadowingField` or None
+    image_order : maximum reflection order of the image paths (0: none)
+    reciprocal : the link a → b equals b → a (one held diffuse draw per unordered pair)
+    """
+
+    surfaces: tuple = ()
+    walls: tuple = ()
+    large_scale: object | None = None
+    apdp: ApdpModel | None = None
+    shadowing: object | None = None
+    image_order: int = 1
+    reciprocal: bool = True
+
+    def __post_init__(self):
+        object.__setattr__(self, "surfaces", tuple(self.surfaces))
+        object.__setattr__(self, "walls", tuple(self.walls))
+        if int(self.image_order) != self.image_order or self.image_order < 0:
+            raise ConfigError("channel.image_order", self.image_order, "an integer ≥ 0")
+        if self.large_scale is not None and not callable(getattr(self.large_scale, "amplitude_gain", None)):
+            raise ConfigError("channel.large_scale", self.large_scale, "a model with amplitude_gain(d, fc)")
+
+    def amplitude_gain(self, distance_m, fc_hz):
+        """Large-scale amplitude gain at ``distance_m`` (Friis when ``large_scale`` is None)."""
+        if self.large_scale is None:
+            return friis_amplitude_gain(distance_m, fc_hz)
+        return self.large_scale.amplitude_gain(distance_m, fc_hz)
+
+
+def kinematics(antenna: Antenna, motion, t_s: float):
+    """Position [m] and velocity [m/s] of an antenna at time ``t_s``.
+
+    ``motion`` is None (static at ``antenna.position_m``), a (3,) velocity [m/s] (position
+    ``antenna.position_m + v·t_s``) or a callable trajectory ``t → (3,)`` position [m].
+    """
+    p0 = antenna.position_m
+    if motion is None:
+        return p0.copy(), np.zeros(3)
+    if callable(motion):
+        p = np.asarray(motion(t_s), dtype=float).reshape(3)
+        h = _TRAJ_DT_S
+        v = (np.asarray(motion(t_s + h), float).reshape(3) - np.asarray(motion(t_s - h), float).reshape(3)) / (2 * h)
+        return p, v
+    v = np.asarray(motion, dtype=float).reshape(3)
+    return p0 + v * float(t_s), v
+
+
+def _doppler_hz(fc_hz, unit_dir, v_src, v_dst):
+    """f_D = −(fc/c)·dℓ/dt for a straight path along ``unit_dir`` (src → dst)."""
+    return -float(fc_hz) / C_M_S * float(unit_dir @ (v_dst - v_src))
+
+
+class Channel:
+    """A :class:`Scene` plus the held (quasi-static) diffuse draws of its links."""
+
+    def __init__(self, scene: Scene):
+        self.scene = scene
+        self._held: dict = {}
+
+    def _key(self, tx: Antenna, rx: Antenna):
+        return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
+
+    def forget(self) -> None:
+        """Drop every held diffuse draw (the next links need an ``rng``)."""
+        self._held.clear()
+
+    def link(self, tx: Antenna, rx: Antenna, *, fc_hz: float, rng: np.random.Generator | None = None,
+             t_s: float = 0.0, tx_motion=None, rx_motion=None) -> PathSet:
+        """Paths of the link ``tx → rx`` at time ``t_s`` [s].
+
+        Parameters
+        ----------
+        tx, rx : antennas (their ``position_m`` is the position at t = 0 for a velocity motion)
+        fc_hz : carrier frequency [Hz]
+        rng : draw the diffuse taps anew (and hold them); None reuses the held draw
+        t_s : evaluation time [s]; Doppler phases of the result refer to this time
+        tx_motion, rx_motion : None, (3,) velocity [m/s] or trajectory ``t → position``
+
+        Returns
+        -------
+        :class:`PathSet` — LoS first, then image paths, then diffuse taps.
+        """
+        sc = self.scene
+        key = self._key(tx, rx)  # the antennas as given (before motion) name the link
+        p_tx, v_tx = kinematics(tx, tx_motion, t_s)
+        p_rx, v_rx = kinematics(rx, rx_motion, t_s)
+        if tx_motion is not None:
+            tx = dataclasses.replace(tx, position_m=p_tx)
+        if rx_motion is not None:
+            rx = dataclasses.replace(rx, position_m=p_rx)
+        diff = p_rx - p_tx
+        d = float(np.linalg.norm(diff))
+        if not d > 0:
+            raise ValueError("tx and rx are at the same position")
+        u = diff / d
+        g_ls = float(sc.amplitude_gain(d, fc_hz))
+        env = 1.0
+        if sc.walls:
+            env *= 10.0 ** (-float(wall_loss_db(p_tx, p_rx, list(sc.walls))) / 20.0)
+        if sc.shadowing is not None:
+            env *= float(sc.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)))
+        ant = np.sqrt(float(tx.gain_towards(p_rx)) * float(rx.gain_towards(p_tx)))
+        plf = np.sqrt(float(tx.polarization_mismatch(rx)))
+        a_los = g_ls * env * ant * plf
+        tau_los = d / C_M_S
+        f_los = _doppler_hz(fc_hz, u, v_tx, v_rx)
+
+        parts = []
+        diffuse = None
+        if sc.apdp is not None:
+            held = self._held.get(key) if rng is None else None
+            if held is None:
+                if rng is None:
+                    raise ValueError("no diffuse draw held for this link: pass rng to draw one")
+                k_lin = float(sc.apdp.k_lin_at(d))
+                taps, rel = draw_taps(k_lin, float(sc.apdp.tau_rms_s_at(d)), rng=rng, n_draws=1,
+                                      **sc.apdp.profile_options)
+                held = (abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
+                self._held[key] = held
+            los_amp, h, rel = held
+            a_los = a_los * los_amp
+            diffuse = PathSet(g_ls * env * h, tau_los + rel, np.full(rel.shape, f_los))
+        parts.append(PathSet([a_los], [tau_los], [f_los]))
+
+        if sc.surfaces and sc.image_order > 0:
+            parts.append(self._image_part(tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz))
+        if diffuse is not None:
+            parts.append(diffuse)
+        return concatenate(*parts)
+
+    def _image_part(self, tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
+        sc = self.scene
+        found = image_paths(p_tx, p_rx, sc.surfaces, sc.image_order, polarization=tx.polarization_vector)
+        n = len(found)
+        gains = np.empty(n, dtype=complex)
+        delays = np.empty(n)
+        dops = np.empty(n)
+        for i, ip in enumerate(found):
+            ell = ip.length_m
+            g_ant = float(tx.gain_towards(ip.points_m[0])) * float(rx.gain_towards(ip.points_m[-1]))
+            plf = float(tx.polarization_mismatch(rx, direction=p_rx - ip.virtual_source_m))
+            gains[i] = float(sc.amplitude_gain(ell, fc_hz)) * ip.coefficient * np.sqrt(g_ant * plf)
+            delays[i] = ell / C_M_S
+            v_img = v_tx.copy()
+            for s_idx in ip.surfaces:  # mirror the source velocity in every surface
+                nrm = sc.surfaces[s_idx].normal
+                v_img = v_img - 2.0 * (v_img @ nrm) * nrm
+            dops[i] = _doppler_hz(fc_hz, (p_rx - ip.virtual_source_m) / ell, v_img, v_rx)
+        return PathSet(gains, delays, dops)
+
+    def backscatter_links(self, emitter: Antenna, tag: Antenna, receiver: Antenna | None = None, *,
+                          fc_hz: float, rng: np.random.Generator | None = None, t_s: float = 0.0,
+                          emitter_motion=None, tag_motion=None, receiver_motion=None):
+        """(forward, backward) paths emitter → tag → receiver.
+
+        Monostatic (``receiver`` None or equal to ``emitter``) with ``reciprocal=True``: the
+        backward paths are the forward paths (one held draw). Otherwise the backward link is
+        assembled on its own (its diffuse draw uses the same ``rng`` after the forward one).
+        """
+        fwd = self.link(emitter, tag, fc_hz=fc_hz, rng=rng, t_s=t_s, tx_motion=emitter_motion, rx_motion=tag_motion)
+        if (receiver is None or receiver == emitter) and self.scene.reciprocal:
+            return fwd, fwd
+        rcv = emitter if receiver is None else receiver
+        r_motion = emitter_motion if receiver is None else receiver_motion
+        bwd = self.link(tag, rcv, fc_hz=fc_hz, rng=rng, t_s=t_s, tx_motion=tag_motion, rx_motion=r_motion)
+        return fwd, bwd
+
+
+def los_links(tx_positions_m, rx_positions_m, fc_hz, *, large_scale=None, walls=(), tx_antenna=None,
+              rx_antenna=None, tx_velocity_m_s=None, rx_velocity_m_s=None):
+    """Vectorised LoS responses of many links at once.
+
+    Parameters
+    ----------
+    tx_positions_m, rx_positions_m : (..., 3) float [m], broadcastable
+    fc_hz : carrier frequency [Hz] (scalar or broadcastable)
+    large_scale : model with ``amplitude_gain(d, fc)`` or None (Friis)
+    walls : sequence of :class:`~channels.large_scale.Wall`
+    tx_antenna, rx_antenna : optional :class:`~channels.antennas.Antenna` templates whose
+        orientation, pattern and polarization apply at every position (their own position is
+        ignored); None means isotropic, matched polarization
+    tx_velocity_m_s, rx_velocity_m_s : optional (..., 3) velocities [m/s]
+
+    Returns
+    -------
+    gain : (...) complex128, LoS amplitude gains (carrier phase excluded, as in :class:`PathSet`)
+    delay_s : (...) float64 [s]
+    doppler_hz : (...) float64 [Hz]
+    """
+    tx = np.asarray(tx_positions_m, dtype=float)
+    rx = np.asarray(rx_positions_m, dtype=float)
+    diff = rx - tx
+    d = np.linalg.norm(diff, axis=-1)
+    if large_scale is None:
+        g = friis_amplitude_gain(d, fc_hz)
+    else:
+        g = large_scale.amplitude_gain(d, fc_hz)
+    g = np.asarray(g, dtype=float)
+    if walls:
+        g = g * np.power(10.0, -wall_loss_db(tx, rx, list(walls)) / 20.0)
+    if tx_antenna is not None:
+        g = g * np.sqrt(tx_antenna.gain_in_direction(diff))
+    if rx_antenna is not None:
+        g = g * np.sqrt(rx_antenna.gain_in_direction(-diff))
+    if tx_antenna is not None and rx_antenna is not None:
+        from .antennas import polarization_mismatch_factor
+
+        g = g * np.sqrt(polarization_mismatch_factor(tx_antenna.polarization_vector(diff),
+                                                     rx_antenna.polarization_vector(diff)))
+    u = diff / d[..., None]
+    vt = np.zeros(3) if tx_velocity_m_s is None else np.asarray(tx_velocity_m_s, dtype=float)
+    vr = np.zeros(3) if rx_velocity_m_s is None else np.asarray(rx_velocity_m_s, dtype=float)
+    dop = -np.asarray(fc_hz, dtype=float) / C_M_S * np.sum(u * (vr - vt), axis=-1)
+    return g.astype(np.complex128), d / C_M_S, dop

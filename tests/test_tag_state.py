@@ -1,0 +1,371 @@
+"""Gen2 tag state machine: handshake, slot counters, sessions, Select, power and persistence.
+
+Expected behaviour is taken from the Gen2 rules (gen2-and-validation-anchors.md §4.4–4.5)
+and the golden tag replies of §3.2; the slot statistics are checked against the uniform
+law with a chi-square test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
+from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits
+from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select, encode, parse
+from rfsim.gen2.crc import crc16_ok
+
+# gen2-and-validation-anchors.md §3.2: (PC, EPC, CRC-16) of two real 96-bit tags.
+GOLDEN_REPLIES = [
+    ("3000", "300833B2DDD9014000000027", "6D3E"),
+    ("3000", "E2801160600002 10A39270DA".replace(" ", ""), "9F65"),
+]
+EPC = GOLDEN_REPLIES[0][1]
+
+
+def _rn(reply: Reply) -> int:
+    assert reply is not None and reply.kind == "RN16" and reply.bits.size == 16
+    return bits_to_int(reply.bits)
+
+
+def _acknowledged_tag(rng, epc=EPC, session=0):
+    tag = TagState(epc)
+    r = tag.on_command(Query(q=0, session=session), t_s=0.0, rng=rng)
+    tag.on_command(ACK(rn16=_rn(r)), t_s=1e-3, rng=rng)
+    assert tag.state == "acknowledged"
+    return tag
+
+
+@pytest.mark.parametrize("pc, epc, crc", GOLDEN_REPLIES)
+def test_full_inventory_handshake_golden_epc_reply(pc, epc, crc):
+    rng = np.random.default_rng(1)
+    tag = TagState(epc)
+    assert f"{tag.pc:04X}" == pc
+    r = tag.on_command(Query(q=0, session=0, target="A"), t_s=0.0, rng=rng)
+    assert tag.state == "reply"
+    rn16 = _rn(r)
+    epc_reply = tag.on_command(ACK(rn16=rn16), t_s=1e-3, rng=rng)
+    assert epc_reply.kind == "EPC" and tag.state == "acknowledged"
+    assert bits_to_hex(epc_reply.bits) == pc + epc + crc  # §3.2 golden frame
+    assert crc16_ok(epc_reply.bits)
+    # QueryRep of the same session ends the tag's inventory: A → B, back to Ready.
+    assert tag.on_command(QueryRep(session=0), t_s=2e-3, rng=rng) is None
+    assert tag.inventoried[0] == "B" and tag.state == "ready"
+    # A new round targeting A no longer includes this tag.
+    assert tag.on_command(Query(q=0, session=0, target="A"), t_s=3e-3, rng=rng) is None
+    assert tag.state == "ready"
+    # ... but one targeting B does.
+    assert tag.on_command(Query(q=0, session=0, target="B"), t_s=4e-3, rng=rng).kind == "RN16"
+
+
+def test_pc_word_from_epc_length():
+    assert pc_word(np.zeros(96, np.uint8)) == 0x3000  # L = 6 words in the 5 MSBs
+    assert pc_word(np.zeros(128, np.uint8)) == 0x4000
+    assert pc_word(np.zeros(0, np.uint8)) == 0
+    with pytest.raises(ValueError):
+        pc_word(np.zeros(95, np.uint8))
+
+
+def test_wrong_rn16_ack_gives_no_reply_and_arbitrate():
+    rng = np.random.default_rng(2)
+    tag = TagState(EPC)
+    rn16 = _rn(tag.on_command(Query(q=0), t_s=0.0, rng=rng))
+    assert tag.on_command(ACK(rn16=rn16 ^ 0x0001), t_s=1e-3, rng=rng) is None
+    assert tag.state == "arbitrate"
+    # An ACK in Arbitrate is ignored, even with the old RN16.
+    assert tag.on_command(ACK(rn16=rn16), t_s=2e-3, rng=rng) is None
+
+
+def test_ack_repeated_in_acknowledged_resends_epc_and_wrong_one_arbitrates():
+    rng = np.random.default_rng(3)
+    tag = TagState(EPC)
+    rn16 = _rn(tag.on_command(Query(q=0), t_s=0.0, rng=rng))
+    first = tag.on_command(ACK(rn16=rn16), t_s=1e-3, rng=rng)
+    again = tag.on_command(ACK(rn16=rn16), t_s=2e-3, rng=rng)
+    np.testing.assert_array_equal(first.bits, again.bits)
+    assert tag.on_command(ACK(rn16=rn16 ^ 0x8000), t_s=3e-3, rng=rng) is None
+    assert tag.state == "arbitrate"
+
+
+@pytest.mark.parametrize("start", ["ready", "reply", "acknowledged"])
+def test_nak(start):
+    rng = np.random.default_rng(4)
+    tag = TagState(EPC)
+    if start != "ready":
+        rn16 = _rn(tag.on_command(Query(q=0), t_s=0.0, rng=rng))
+        if start == "acknowledged":
+            tag.on_command(ACK(rn16=rn16), t_s=1e-3, rng=rng)
+    assert tag.state == start
+    assert tag.on_command(NAK(), t_s=2e-3, rng=rng) is None
+    assert tag.state == ("ready" if start == "ready" else "arbitrate")
+    assert tag.inventoried[0] == "A"  # NAK never flips the flag
+
+
+def test_slot_counter_histogram_uniform_q3():
+    # 10^4 tag-rounds (1000 tags × 10 Query rounds), Q = 3 → 8 equiprobable slots.
+    # Chi-square goodness of fit with 7 degrees of freedom; with the fixed seed the test is
+    # deterministic, and it is set to fail only when p < 1e-3 (a uniform law would fail
+    # this with probability 1e-3 over random seeds).
+    n_tags, n_rounds, q = 1000, 10, 3
+    counts = np.zeros(2**q, dtype=np.int64)
+    for k in range(n_tags):
+        rng = np.random.default_rng([7, k])
+        tag = TagState(EPC)
+        for r in range(n_rounds):
+            tag.on_command(Query(q=q), t_s=float(r), rng=rng)
+            assert 0 <= tag.slot < 2**q
+            counts[tag.slot] += 1
+    assert counts.sum() == n_tags * n_rounds
+    chi2 = stats.chisquare(counts)
+    assert chi2.pvalue > 1e-3, (counts, chi2)
+
+
+def test_query_rep_decrements_and_tag_replies_exactly_at_zero():
+    q = 4
+    for k in range(200):
+        rng = np.random.default_rng([11, k])
+        tag = TagState(EPC)
+        r = tag.on_command(Query(q=q), t_s=0.0, rng=rng)
+        slot0 = tag.slot
+        replies = [] if r is None else [0]
+        for i in range(1, 2**q):
+            before = tag.slot
+            r = tag.on_command(QueryRep(), t_s=1e-3 * i, rng=rng)
+            if before is not None and before > 0 and before != 0x7FFF:
+                assert tag.slot == before - 1
+            if r is not None:
+                assert r.kind == "RN16"
+                replies.append(i)
+        assert replies == [slot0]  # one reply in the round, in the tag's own slot
+
+
+def test_unacknowledged_replier_goes_to_arbitrate_on_query_rep():
+    rng = np.random.default_rng(5)
+    tag = TagState(EPC)
+    tag.on_command(Query(q=0), t_s=0.0, rng=rng)
+    assert tag.state == "reply"
+    assert tag.on_command(QueryRep(), t_s=1e-3, rng=rng) is None
+    assert tag.state == "arbitrate" and tag.slot == 0x7FFF
+    assert tag.inventoried[0] == "A"
+
+
+def test_query_adjust_changes_q_and_redraws():
+    rng = np.random.default_rng(6)
+    tag = TagState(EPC)
+    tag.on_command(Query(q=4), t_s=0.0, rng=rng)
+    if tag.state == "reply":
+        tag.on_command(QueryRep(), t_s=0.0, rng=rng)
+    seen = set()
+    t = 0.0
+    for updn, q_expected in [(1, 5), (1, 6), (-1, 5), (0, 5), (-1, 4)]:
+        t += 1e-3
+        r = tag.on_command(QueryAdjust(updn=updn), t_s=t, rng=rng)
+        assert tag.q == q_expected
+        assert 0 <= tag.slot < 2**q_expected
+        assert (r is not None) == (tag.slot == 0) == (tag.state == "reply")
+        seen.add(tag.slot)
+    assert len(seen) > 1  # slots are re-drawn
+    # Q saturates at 0 and 15.
+    tag.on_command(Query(q=15), t_s=1.0, rng=rng)
+    tag.on_command(QueryAdjust(updn=1), t_s=1.0, rng=rng)
+    assert tag.q == 15
+    tag.on_command(Query(q=0), t_s=1.0, rng=rng)
+    tag.on_command(QueryAdjust(updn=-1), t_s=1.0, rng=rng)
+    assert tag.q == 0 and tag.state == "reply"
+
+
+def test_query_adjust_and_query_end_an_acknowledged_tags_inventory():
+    rng = np.random.default_rng(8)
+    tag = _acknowledged_tag(rng, session=2)
+    assert tag.on_command(QueryAdjust(session=2, updn=0), t_s=2e-3, rng=rng) is None
+    assert tag.inventoried[2] == "B" and tag.state == "ready"
+    tag = _acknowledged_tag(rng, session=2)
+    # A Query of the same session flips first, then is evaluated (target A no longer matches).
+    assert tag.on_command(Query(q=0, session=2, target="A"), t_s=2e-3, rng=rng) is None
+    assert tag.inventoried[2] == "B" and tag.state == "ready"
+
+
+def test_sessions_ignore_commands_of_other_sessions():
+    rng = np.random.default_rng(9)
+    tag = _acknowledged_tag(rng, session=1)
+    # QueryRep / QueryAdjust of other sessions: no flip, state kept.
+    for s in (0, 2, 3):
+        assert tag.on_command(QueryRep(session=s), t_s=2e-3, rng=rng) is None
+        assert tag.on_command(QueryAdjust(session=s, updn=1), t_s=2e-3, rng=rng) is None
+    assert tag.state == "acknowledged" and tag.inventoried == {0: "A", 1: "A", 2: "A", 3: "A"}
+    # Arbitrating tag in S1 does not count down on S0 QueryReps.
+    tag = TagState(EPC)
+    tag.on_command(Query(q=8, session=1), t_s=0.0, rng=rng)
+    slot = tag.slot
+    tag.on_command(QueryRep(session=0), t_s=1e-3, rng=rng)
+    assert tag.slot == slot
+    # Session flags are independent: S1 set to B leaves S0 at A.
+    tag = _acknowledged_tag(rng, session=1)
+    tag.on_command(QueryRep(session=1), t_s=2e-3, rng=rng)
+    assert tag.inventoried == {0: "A", 1: "B", 2: "A", 3: "A"}
+    assert tag.on_command(Query(q=0, session=0, target="A"), t_s=3e-3, rng=rng).kind == "RN16"
+
+
+# Select action table (Gen2 "Select"): action → (matching, non-matching) effect on SL.
+SL_TABLE = {
+    0: (True, False), 1: (True, None), 2: (None, False), 3: ("flip", None),
+    4: (False, True), 5: (False, None), 6: (None, True), 7: (None, "flip"),
+}
+
+
+@pytest.mark.parametrize("action", range(8))
+@pytest.mark.parametrize("matching", [True, False])
+@pytest.mark.parametrize("sl0", [True, False])
+def test_select_action_table_on_sl(action, matching, sl0):
+    rng = np.random.default_rng(10)
+    tag = TagState(EPC)
+    tag.sl = sl0
+    epc_bits = hex_to_bits(EPC)
+    mask = "".join(map(str, epc_bits[:12]))
+    if not matching:
+        mask = mask[:-1] + ("0" if mask[-1] == "1" else "1")
+    cmd = parse(encode(Select(target=4, action=action, membank=1, pointer=0x20, mask=mask)))
+    assert tag.select_matches(cmd) is matching
+    tag.on_command(cmd, t_s=0.0, rng=rng)
+    effect = SL_TABLE[action][0 if matching else 1]
+    expected = sl0 if effect is None else (not sl0 if effect == "flip" else effect)
+    assert tag.sl is expected
+    assert tag.state == "ready"
+
+
+def test_select_on_inventoried_flag_and_sl_query():
+    rng = np.random.default_rng(12)
+    epc_a, epc_b = EPC, GOLDEN_REPLIES[1][1]
+    tags = [TagState(epc_a), TagState(epc_b)]
+    # Action 0 on S2: matching → A, non-matching → B. Mask = first 16 EPC bits of tag a (3008h).
+    sel = Select(target=2, action=0, membank=1, pointer=0x20, mask=f"{0x3008:016b}")
+    for tag in tags:
+        tag.on_command(sel, t_s=0.0, rng=rng)
+    assert [t.inventoried[2] for t in tags] == ["A", "B"]
+    # Action 0 on SL with a mask on the PC (bit 10h) matches both; then Sel=SL Query.
+    sel_sl = Select(target=4, action=0, membank=1, pointer=0x10, mask="00110")
+    for tag in tags:
+        tag.on_command(sel_sl, t_s=0.0, rng=rng)
+    assert all(t.sl for t in tags)
+    assert all(t.on_command(Query(q=0, sel="sl"), t_s=1e-3, rng=rng) is not None for t in tags)
+    assert all(t.on_command(Query(q=0, sel="~sl"), t_s=2e-3, rng=rng) is None for t in tags)
+    # Length 0 matches every tag; a mask past the end of the bank matches none.
+    assert tags[0].select_matches(Select(target=4, action=0, membank=1, pointer=0, mask=""))
+    assert not tags[0].select_matches(Select(target=4, action=0, membank=1, pointer=120, mask="0" * 16))
+    # StoredCRC (word 0 of the EPC bank) equals the §3.2 reply CRC.
+    assert f"{tags[0].stored_crc:04X}" == GOLDEN_REPLIES[0][2]
+
+
+def test_req_rn_handle_and_read():
+    rng = np.random.default_rng(13)
+    tag = _acknowledged_tag(rng)
+    assert tag.on_command(ReqRN(rn16=tag.rn16 ^ 1), t_s=2e-3, rng=rng) is None
+    assert tag.state == "arbitrate"
+    tag = _acknowledged_tag(rng)
+    h = tag.on_command(ReqRN(rn16=tag.rn16), t_s=2e-3, rng=rng)
+    assert h.kind == "HANDLE" and h.bits.size == 32 and crc16_ok(h.bits)
+    handle = bits_to_int(h.bits[:16])
+    assert tag.state == "secured" and tag.handle == handle
+    # Read the EPC (words 2..7 of the EPC bank).
+    r = tag.on_command(Read(membank=1, word_ptr=2, word_count=6, rn16=handle), t_s=3e-3, rng=rng)
+    assert r.kind == "READ" and crc16_ok(r.bits) and r.bits[0] == 0
+    assert bits_to_hex(r.bits[1:97]) == EPC
+    assert bits_to_int(r.bits[97:113]) == handle
+    # TID to the end of the bank (WordCount 0).
+    r = tag.on_command(Read(membank=2, word_ptr=0, word_count=0, rn16=handle), t_s=4e-3, rng=rng)
+    assert bits_to_hex(r.bits[1:33]) == "E2006003" and r.bits.size == 1 + 32 + 16 + 16
+    # Past the end: error reply (header 1, error code, handle, CRC-16).
+    r = tag.on_command(Read(membank=2, word_ptr=1, word_count=4, rn16=handle), t_s=5e-3, rng=rng)
+    assert r.kind == "ERROR" and r.bits[0] == 1 and crc16_ok(r.bits) and r.bits.size == 41
+    # Wrong handle: ignored.
+    assert tag.on_command(Read(membank=1, word_ptr=2, word_count=1, rn16=handle ^ 1), t_s=6e-3, rng=rng) is None
+    # Req_RN with the handle: new RN16 + CRC-16; ACK with the handle: EPC again.
+    assert crc16_ok(tag.on_command(ReqRN(rn16=handle), t_s=7e-3, rng=rng).bits)
+    assert tag.on_command(ACK(rn16=handle), t_s=8e-3, rng=rng).kind == "EPC"
+
+
+def test_req_rn_with_access_password_goes_to_open():
+    rng = np.random.default_rng(14)
+    tag = TagState(EPC, access_password=0x12345678)
+    rn16 = _rn(tag.on_command(Query(q=0), t_s=0.0, rng=rng))
+    tag.on_command(ACK(rn16=rn16), t_s=0.0, rng=rng)
+    tag.on_command(ReqRN(rn16=rn16), t_s=0.0, rng=rng)
+    assert tag.state == "open"
+
+
+def test_power_loss_resets_state_and_s0():
+    rng = np.random.default_rng(15)
+    tag = _acknowledged_tag(rng, session=0)
+    tag.on_command(QueryRep(session=0), t_s=2e-3, rng=rng)
+    assert tag.inventoried[0] == "B"
+    tag.on_command(Query(q=4, session=0, target="B"), t_s=3e-3, rng=rng)
+    tag.on_power(False, t_s=4e-3)
+    assert tag.state == "ready" and tag.slot is None and tag.inventoried[0] == "A"
+    assert tag.on_command(Query(q=0), t_s=5e-3, rng=rng) is None  # unpowered: silent
+    tag.on_power(True, t_s=6e-3)
+    assert tag.state == "ready" and tag.inventoried[0] == "A"
+    assert tag.on_command(Query(q=0), t_s=7e-3, rng=rng).kind == "RN16"
+
+
+@pytest.mark.parametrize("off_s, kept", [(1.0, True), (3.0, False)])
+def test_s2_s3_sl_persistence_unpowered(off_s, kept):
+    rng = np.random.default_rng(16)
+    tag = TagState(EPC)  # default persistence 2 s (> 2 s per the anchors, unverified)
+    tag.on_command(Select(target=4, action=0, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)
+    for s in (2, 3):
+        tag.on_command(Select(target=s, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)
+    assert tag.sl and tag.inventoried[2] == tag.inventoried[3] == "B"
+    tag.on_power(False, t_s=1.0)
+    tag.on_power(True, t_s=1.0 + off_s)
+    assert tag.sl is kept
+    assert (tag.inventoried[2] == "B") is kept and (tag.inventoried[3] == "B") is kept
+    # While powered, S2 persists indefinitely.
+    tag.on_command(Select(target=2, action=4, membank=1, pointer=0, mask=""), t_s=10.0, rng=rng)
+    tag.on_command(NAK(), t_s=1000.0, rng=rng)
+    assert tag.inventoried[2] == "B"
+
+
+def test_s1_persistence_regardless_of_power():
+    rng = np.random.default_rng(17)
+    pers = FlagPersistence(s1_s=1.5)
+    # Powered: B reverts to A once 1.5 s have passed.
+    tag = TagState(EPC, persistence=pers)
+    tag.on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)
+    tag.on_command(NAK(), t_s=1.4, rng=rng)
+    assert tag.inventoried[1] == "B"
+    tag.on_command(NAK(), t_s=1.6, rng=rng)
+    assert tag.inventoried[1] == "A"
+    # Unpowered: same timer; a short outage keeps B, S0 is lost.
+    tag = TagState(EPC, persistence=pers)
+    for s in (0, 1):
+        tag.on_command(Select(target=s, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)
+    tag.on_power(False, t_s=0.5)
+    tag.on_power(True, t_s=1.0)
+    assert tag.inventoried == {0: "A", 1: "B", 2: "A", 3: "A"}
+    tag.on_power(False, t_s=1.1)
+    tag.on_power(True, t_s=1.7)
+    assert tag.inventoried[1] == "A"
+
+
+def test_time_must_not_go_backwards_and_bad_persistence():
+    tag = TagState(EPC)
+    tag.on_power(True, t_s=1.0)
+    with pytest.raises(ValueError):
+        tag.on_command(NAK(), t_s=0.5, rng=np.random.default_rng(0))
+    with pytest.raises(ValueError):
+        FlagPersistence(s1_s=-1.0)
+
+
+def test_deterministic_given_rng():
+    def run(seed):
+        rng = np.random.default_rng(seed)
+        tag = TagState(EPC)
+        out = []
+        for i, cmd in enumerate([Query(q=2), QueryRep(), QueryRep(), QueryAdjust(updn=1), QueryRep()]):
+            r = tag.on_command(cmd, t_s=1e-3 * i, rng=rng)
+            out.append(None if r is None else bits_to_hex(r.bits))
+            out.append(tag.slot)
+        return out
+
+    assert run(99) == run(99)

@@ -228,6 +228,9 @@ def wall_loss_db(tx_m, rx_m, walls) -> np.ndarray:
 
 # --------------------------------------------------------------------------- shadowing
 
+#: Points per block in :meth:`ShadowingField.value_db` (bounds the (block, M) work array).
+_BLOCK = 2048
+
 class ShadowingField:
     """Quasi-static, spatially correlated log-normal shadowing ``S(x) ~ N(0, σ²)`` [dB].
 
@@ -236,7 +239,8 @@ class ShadowingField:
     ``ρ(Δ) = exp(−Δ/d_corr)`` for positions ``Δ = |x − y|`` apart (isotropic in 3-D).
 
     Method — random Fourier features with Gaussian weights (Rahimi & Recht 2007):
-    ``S(x) = σ·√(1/M)·Σ_m [a_m·cos(ω_m·x) + b_m·sin(ω_m·x)]`` with ``a_m, b_m ~ N(0, 1)`` and
+    ``S(x) = σ·√(1/M)·Σ_m [a_m·cos(ω_m·x) + b_m·sin(ω_m·x)]`` with ``a_m, b_m ~ N(0, 1)``
+    (evaluated as ``r_m·cos(ω_m·x − θ_m)``, ``r_m e^{jθ_m} = a_m + j·b_m``) and
     ``ω_m`` drawn from the spectral density of the exponential kernel, the multivariate Cauchy
     law ``ω = z/(d_corr·|g|)``, ``z ~ N(0, I₃)``, ``g ~ N(0, 1)`` (Matérn ν = 1/2).
     Exactness: for every realisation, ``S(x)`` at any single point is exactly ``N(0, σ²)``
@@ -275,14 +279,31 @@ class ShadowingField:
         z = rng.standard_normal((m, 3))
         g = np.abs(rng.standard_normal(m))
         self._omega = z / (self.decorrelation_m * g[:, None])           # (M, 3) [rad/m]
-        w = rng.standard_normal((2, m)) * (self.sigma_db / np.sqrt(m))
-        self._wc, self._ws = w[0], w[1]
+        a, b = rng.standard_normal((2, m))
+        # a·cos φ + b·sin φ = r·cos(φ − θ): one cosine per feature instead of two
+        self._amp = np.hypot(a, b) * (self.sigma_db / np.sqrt(m))
+        self._theta = np.arctan2(b, a)
 
     def value_db(self, points_m) -> np.ndarray:
-        """Shadowing [dB] at ``points_m`` (..., 3) (or (..., 2), z = 0) → (...) float64."""
+        """Shadowing [dB] at ``points_m`` (..., 3) (or (..., 2), z = 0) → (...) float64.
+
+        Bit-for-bit reproducible per point: every point's value is computed from its own
+        coordinates in a fixed order (elementwise products, then a row sum), independent of
+        the other points requested with it. Cost ≈ M cosines per point, in blocks of
+        ``_BLOCK`` points to bound memory.
+        """
         x = _as_points(points_m)
-        phase = x @ self._omega.T                                         # (..., M)
-        return np.cos(phase) @ self._wc + np.sin(phase) @ self._ws
+        flat = x.reshape(-1, 3)
+        out = np.empty(flat.shape[0])
+        om = self._omega
+        for i0 in range(0, flat.shape[0], _BLOCK):
+            p = flat[i0:i0 + _BLOCK]
+            phase = (p[:, 0:1] * om[:, 0] + p[:, 1:2] * om[:, 1] + p[:, 2:3] * om[:, 2]
+                     - self._theta)
+            np.cos(phase, out=phase)
+            phase *= self._amp
+            out[i0:i0 + _BLOCK] = phase.sum(axis=1)
+        return out.reshape(x.shape[:-1])
 
     def amplitude_gain(self, points_m) -> np.ndarray:
         """Amplitude factor ``10^(−S/20)`` at ``points_m`` (a positive S is extra loss)."""

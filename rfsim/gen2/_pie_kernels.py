@@ -35,7 +35,7 @@ def envelope_kernel(fall_pos, rise_pos, depth, ramp_width, out):
     """Subtract ``depth`` × (low-pulse indicator) from ``out`` (pre-filled with 1.0).
 
     ``fall_pos``/``rise_pos`` are the 50 % points of each low pulse in samples; ramps
-    of different pulses must not overlap (checked by the wrapper).
+    of overlapping edges add up (the envelope is a sum over pulses).
     """
     n = out.size
     half = 0.5 * ramp_width

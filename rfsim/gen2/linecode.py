@@ -188,6 +188,12 @@ def reply_waveform_reference(
     return out
 
 
+def reply_waveform_for_profile(bits, profile, *, fs_hz: float, t0_s: float = 0.0, **kwargs) -> np.ndarray:
+    """:func:`reply_waveform` with M, TRext and the nominal BLF of a ``LinkProfile``."""
+    return reply_waveform(bits, m=profile.m, trext=profile.trext, blf_hz=profile.blf_hz, fs_hz=fs_hz,
+                          t0_s=t0_s, **kwargs)
+
+
 # ----------------------------------------------------------------------------- decoders
 
 
@@ -379,6 +385,7 @@ __all__ = [
     "reply_duration_s",
     "reply_waveform",
     "reply_waveform_reference",
+    "reply_waveform_for_profile",
     "decode_reply",
     "decode_reply_reference",
     "fm0_levels_reference",

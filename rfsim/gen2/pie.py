@@ -15,7 +15,8 @@ where the delimiter is a low interval (12.5 µs ± 5 %). The amplitude envelope 
 with A = 1 the CW level, B = 1 − depth the modulated level, ``f_k``/``r_k`` the 50 %
 points of the falling/rising edge of low pulse k and g a hard step or a raised-cosine
 step ``(1 + sin(πτ/w))/2`` for |τ| < w/2 whose 10–90 % time is
-``rise_fall_s = (2w/π)·asin(0.8)``. Edge times are exact float64 seconds; sample n is the
+``rise_fall_s = (2w/π)·asin(0.8)``; ramps may overlap (a short pulse with slow edges
+then does not reach the full depth), the sum above stays exact. Edge times are exact float64 seconds; sample n is the
 envelope at ``t = n/fs`` — non-integer samples per Tari never accumulate drift.
 
 Decoder (pass-paris-simulator.md §2.2, ``tag_decoding``): threshold midway between the
@@ -142,13 +143,12 @@ def pie_timeline(
 def _ramp_width_samples(rise_fall_s: float, fs_hz: float, timeline: PieTimeline) -> float:
     if rise_fall_s < 0:
         raise ValueError("rise_fall_s must be >= 0")
-    width_s = rise_fall_s * _RAMP_WIDTH_PER_10_90
-    if width_s > 0:
+    if rise_fall_s > 0:
         lows = timeline.rise_s - timeline.fall_s
         highs = timeline.fall_s[1:] - timeline.rise_s[:-1]
-        if width_s > lows.min() or (highs.size and width_s > highs.min()):
-            raise ValueError("rise_fall_s too long: ramps of neighbouring edges would overlap")
-    return width_s * fs_hz
+        if rise_fall_s > lows.min() or (highs.size and rise_fall_s > highs.min()):
+            raise ValueError("rise_fall_s must not exceed the shortest low or high interval")
+    return rise_fall_s * _RAMP_WIDTH_PER_10_90 * fs_hz
 
 
 def _check_fs(fs_hz: float) -> float:

@@ -27,7 +27,7 @@ import numpy as np
 from rfsim.errors import ConfigError, UserError
 from rfsim.units import db_to_lin
 
-from .geometry import _as_points, local_angles, rotation_matrix
+from .geometry import Pose, _as_points, local_angles, rotation_matrix
 
 #: Peak directivity of the thin half-wave dipole, ``D₀ = 4/Cin(2π) = 1.64092`` (2.15 dBi),
 #: with ``Cin(x) = γ + ln x − Ci(x)`` (Balanis, *Antenna Theory*, §4.6).
@@ -59,6 +59,10 @@ class HalfWaveDipole:
     """
 
     efficiency: float = 1.0
+
+    def __post_init__(self):
+        if not 0.0 < float(self.efficiency) <= 1.0:
+            raise ConfigError("dipole.efficiency", self.efficiency, "a number in (0, 1]")
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
@@ -115,7 +119,8 @@ class Patch:
     def exponent(self) -> float:
         """cos-exponent ``q = ln((1/2 − b)/(1 − b)) / ln cos(bw/2)``."""
         b = self.back_level
-        return float(np.log((0.5 - b) / (1 - b)) / np.log(np.cos(np.radians(self.beamwidth_deg) / 2)))
+        half_bw_rad = np.radians(self.beamwidth_deg) / 2
+        return float(np.log((0.5 - b) / (1 - b)) / np.log(np.cos(half_bw_rad)))
 
     @property
     def peak_gain_lin(self) -> float:
@@ -380,6 +385,11 @@ class Antenna:
         """(3, 3) local → global rotation matrix."""
         return rotation_matrix(*self.orientation)
 
+    @property
+    def pose(self) -> Pose:
+        """Position and orientation as a :class:`channels.geometry.Pose`."""
+        return Pose(self.position_m, *self.orientation)
+
     def gain_towards(self, points_m) -> np.ndarray:
         """Linear power gain towards global ``points_m`` (..., 3) [m] → (...) float64."""
         d = _as_points(points_m) - self.position_m
@@ -425,7 +435,8 @@ class Antenna:
         1/2, circular same hand 1, opposite hand 0 (ideal axial ratio).
         """
         k = (other.position_m - self.position_m) if direction is None else direction
-        return polarization_mismatch_factor(self.polarization_vector(k), other.polarization_vector(k))
+        return polarization_mismatch_factor(self.polarization_vector(k),
+                                            other.polarization_vector(k))
 
 
 __all__ = [

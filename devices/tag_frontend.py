@@ -1,0 +1,411 @@
+"""Passive-tag front-end physics: power-up, reflection-coefficient states, tag clock and BLF.
+
+Three small pieces, each a frozen dataclass with the equations in its docstring:
+
+* :class:`PowerUp` — power delivered to the chip, P_chip = τ·P_av with the power
+  transmission coefficient τ = 4·R_c·R_a / |Z_c + Z_a|² (Nikitin & Rao, IEEE T-MTT 53(9),
+  2005; gen2-and-validation-anchors.md §4.7), compared with the chip's minimum operating
+  power.
+* :class:`ReflectionStates` — the two backscatter states as power-wave (Kurokawa)
+  reflection coefficients Γ = (Z_c − Z_a*) / (Z_c + Z_a), the modulation factor
+  M = |Γ_A − Γ_B|²/4 (Griffin & Durgin, IEEE AP Magazine 51(2), 2009; anchors §4.7) and the
+  differential RCS.
+* :class:`TagClock` — the tag oscillator (nominal 1.92 MHz as in PASS, pass-paris-simulator.md
+  §2.2 ``tag_clock``) with a static frequency error and white tick jitter, and the backscatter
+  link frequency the tag derives from TRcal.
+
+Default chip numbers come from the PASS measurements of an NXP UCODE G2XM-class chip
+(pass-paris-simulator.md §5.2, files ``meas_tag_picmin``, ``meas_tag_zic``,
+``meas_tag_zmod-act``), read at 900 MHz and at the chip's minimum operating power; the
+files themselves are not part of rfsim — :func:`load_pass_tag_characteristics` reads them
+from a folder the user has.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+
+from rfsim.errors import ConfigError, UserError
+from rfsim.gen2.commands import DR_VALUES, normalize_dr
+from rfsim.units import dbm_to_w, w_to_dbm
+
+#: Minimum operating chip power at 900 MHz [W] (PASS ``meas_tag_picmin.mat``: 52.709 µW,
+#: −12.78 dBm; the file spans 48.7 µW at 700 MHz … 69.7 µW at 1.2 GHz). PASS itself adds a
+#: 2.5 dB margin on top (pass-paris-simulator.md §2.2 step 4); rfsim does not.
+PASS_PICMIN_900MHZ_W = 52.709e-6
+#: Unmodulated chip input impedance at 900 MHz and P_chip = 52.7 µW [Ω] (PASS
+#: ``meas_tag_zic.mat``, interpolated linearly in log P_chip).
+PASS_ZIC_900MHZ_OHM = complex(32.0, -198.6)
+#: "Active" modulation impedance at 900 MHz and P_chip = 52.7 µW [Ω] (PASS
+#: ``meas_tag_zmod-act.mat``); the modulating chip state is Z_ic ∥ Z_mod.
+PASS_ZMOD_900MHZ_OHM = complex(122.2, 3.4)
+#: Commonly quoted read sensitivity of UCODE-G2XM-class chips [dBm]; an alternative to the
+#: PASS value for users who want a datasheet-style figure.
+TYPICAL_SENSITIVITY_DBM = -15.0
+#: Nominal tag clock [Hz] (PASS ``tag_clock`` default ``fcenter``).
+PASS_TAG_CLOCK_HZ = 1.92e6
+#: PASS tag clock jitter: σ = 5/3 % of a period (3σ = 5 %).
+PASS_TAG_JITTER_RMS = 0.05 / 3
+
+
+# --------------------------------------------------------------------------- impedances
+
+
+def parallel_ohm(z1_ohm, z2_ohm):
+    """Parallel combination Z1·Z2 / (Z1 + Z2) [Ω] (complex, broadcasting)."""
+    z1, z2 = np.asarray(z1_ohm, dtype=complex), np.asarray(z2_ohm, dtype=complex)
+    return z1 * z2 / (z1 + z2)
+
+
+def power_transmission_coefficient(z_chip_ohm, z_ant_ohm):
+    """τ = 4·R_c·R_a / |Z_c + Z_a|², the share of the antenna's available power that the
+    chip absorbs (Nikitin & Rao 2005; anchors §4.7). τ = 1 for Z_c = Z_a*; τ = 1 − |Γ|² with
+    Γ the power-wave reflection coefficient of :func:`reflection_coefficient`.
+
+    Parameters
+    ----------
+    z_chip_ohm, z_ant_ohm : complex or array, [Ω], Re > 0 for the antenna
+    """
+    zc, za = np.asarray(z_chip_ohm, dtype=complex), np.asarray(z_ant_ohm, dtype=complex)
+    tau = 4.0 * zc.real * za.real / np.abs(zc + za) ** 2
+    return float(tau) if tau.ndim == 0 else tau
+
+
+def reflection_coefficient(z_chip_ohm, z_ant_ohm):
+    """Power-wave (Kurokawa) reflection coefficient Γ = (Z_c − Z_a*) / (Z_c + Z_a).
+
+    Γ = 0 for a conjugate match; |Γ| = 1 for a reactive chip load; Γ = −1 for a short with a
+    real antenna impedance (pass-paris-simulator.md §5.2 "Physics of the reflection table").
+    """
+    zc, za = np.asarray(z_chip_ohm, dtype=complex), np.asarray(z_ant_ohm, dtype=complex)
+    gamma = (zc - np.conj(za)) / (zc + za)
+    return complex(gamma) if gamma.ndim == 0 else gamma
+
+
+def modulation_factor(gamma_a, gamma_b):
+    """M = |Γ_A − Γ_B|² / 4 (Griffin & Durgin 2009; anchors §4.7): the share of the power
+    the tag could scatter that ends up in the modulated (data-bearing) signal for square-wave
+    switching between the two states. M = 1/4 for Γ ∈ {0, −1}; at most 1 (Γ = ±1)."""
+    d = np.asarray(gamma_a, dtype=complex) - np.asarray(gamma_b, dtype=complex)
+    m = np.abs(d) ** 2 / 4.0
+    return float(m) if m.ndim == 0 else m
+
+
+def differential_rcs_m2(gamma_a, gamma_b, *, gain_lin, wavelength_m):
+    """Differential radar cross-section Δσ = λ²·G²·|Γ_A − Γ_B|² / (4π) [m²].
+
+    For a minimum-scattering antenna loaded with Z_c the antenna-mode scattered field is
+    proportional to A = 2R_a/(Z_c + Z_a) = 1 − Γ, so the two states differ by |Γ_A − Γ_B|
+    (Nikitin et al., "Differential RCS of RFID tag", Electron. Lett. 43(8), 2007). The
+    modulated backscatter power of the radar equation uses Δσ/4 = λ²G²M/(4π), which
+    reproduces the Griffin–Durgin link budget of anchors §4.7.
+
+    Parameters
+    ----------
+    gain_lin : tag antenna gain (linear)
+    wavelength_m : carrier wavelength [m]
+    """
+    d = np.asarray(gamma_a, dtype=complex) - np.asarray(gamma_b, dtype=complex)
+    rcs = np.asarray(wavelength_m, float) ** 2 * np.asarray(gain_lin, float) ** 2 * np.abs(d) ** 2 / (4 * np.pi)
+    return float(rcs) if rcs.ndim == 0 else rcs
+
+
+# --------------------------------------------------------------------------- power-up
+
+
+@dataclass(frozen=True)
+class PowerUp:
+    """Power-up of the chip: powered ⇔ P_chip = τ·P_av ≥ ``chip_sensitivity_w``.
+
+    ``P_av`` (the argument called ``p_incident_w``) is the power the tag antenna makes
+    available, P_av = P_T·G_T·G_tag·(λ/4πd)² in free space (anchors §4.7); τ is the power
+    transmission coefficient between antenna and chip (:func:`power_transmission_coefficient`).
+
+    Parameters
+    ----------
+    chip_sensitivity_w : float, default :data:`PASS_PICMIN_900MHZ_W`
+        Minimum power absorbed by the chip for operation [W].
+    z_chip_ohm : complex, default :data:`PASS_ZIC_900MHZ_OHM`
+        Chip input impedance [Ω] (unmodulated state).
+    z_ant_ohm : complex or None
+        Antenna impedance [Ω]; ``None`` = conjugate match to ``z_chip_ohm`` (τ = 1).
+    """
+
+    chip_sensitivity_w: float = PASS_PICMIN_900MHZ_W
+    z_chip_ohm: complex = PASS_ZIC_900MHZ_OHM
+    z_ant_ohm: complex | None = None
+
+    def __post_init__(self):
+        s = self.chip_sensitivity_w
+        if isinstance(s, bool) or not isinstance(s, (int, float)) or not s > 0:
+            raise ConfigError("tag.chip_sensitivity_w", s, "a positive power in W")
+        object.__setattr__(self, "z_chip_ohm", complex(self.z_chip_ohm))
+        za = complex(np.conj(self.z_chip_ohm)) if self.z_ant_ohm is None else complex(self.z_ant_ohm)
+        if not za.real > 0:
+            raise ConfigError("tag.z_ant_ohm", self.z_ant_ohm, "an impedance with a positive real part")
+        object.__setattr__(self, "z_ant_ohm", za)
+
+    @classmethod
+    def from_dbm(cls, sensitivity_dbm: float, **kw) -> PowerUp:
+        """Same with the chip sensitivity in dBm (e.g. :data:`TYPICAL_SENSITIVITY_DBM`)."""
+        return cls(chip_sensitivity_w=float(dbm_to_w(sensitivity_dbm)), **kw)
+
+    @property
+    def tau(self) -> float:
+        """Power transmission coefficient τ between antenna and chip."""
+        return power_transmission_coefficient(self.z_chip_ohm, self.z_ant_ohm)
+
+    @property
+    def sensitivity_dbm(self) -> float:
+        """Chip sensitivity [dBm]."""
+        return float(w_to_dbm(self.chip_sensitivity_w))
+
+    @property
+    def threshold_available_w(self) -> float:
+        """Smallest available antenna power P_av that powers the chip [W] = P_min / τ."""
+        return self.chip_sensitivity_w / self.tau
+
+    def chip_power_w(self, p_incident_w):
+        """Power absorbed by the chip, τ·P_av [W] (scalar or array)."""
+        return self.tau * np.asarray(p_incident_w, dtype=float)
+
+    def is_powered(self, p_incident_w):
+        """True where τ·P_av ≥ chip sensitivity (bool or bool array)."""
+        ok = self.chip_power_w(p_incident_w) >= self.chip_sensitivity_w
+        return bool(ok) if np.ndim(ok) == 0 else ok
+
+
+# --------------------------------------------------------------------------- reflection
+
+
+@dataclass(frozen=True)
+class ReflectionStates:
+    """The tag's two reflection coefficients: Γ_A (absorbing / unmodulated) and Γ_B
+    (modulating). Backscatter state 0 ↦ Γ_A, 1 ↦ Γ_B (:meth:`gamma`).
+
+    A passive load cannot reflect more than it receives: |Γ| ≤ 1 is enforced.
+    """
+
+    gamma_a: complex = 0j
+    gamma_b: complex = -1 + 0j
+
+    def __post_init__(self):
+        for name in ("gamma_a", "gamma_b"):
+            g = complex(getattr(self, name))
+            if not abs(g) <= 1.0 + 1e-12:
+                raise ConfigError(f"tag.{name}", g, "a complex reflection coefficient with |Γ| ≤ 1")
+            object.__setattr__(self, name, g)
+
+    @classmethod
+    def from_impedances(cls, z_chip_a_ohm, z_chip_b_ohm, z_ant_ohm) -> ReflectionStates:
+        """Γ of two chip impedances against one antenna impedance (Kurokawa definition)."""
+        return cls(reflection_coefficient(z_chip_a_ohm, z_ant_ohm), reflection_coefficient(z_chip_b_ohm, z_ant_ohm))
+
+    @classmethod
+    def ask(cls, gamma_a: float = 0.0, gamma_b: float = -1.0) -> ReflectionStates:
+        """Ohmic (ASK) tag: real-valued states, default matched / short (M = 1/4)."""
+        if np.iscomplexobj(gamma_a) or np.iscomplexobj(gamma_b):
+            raise ConfigError("tag.gamma", (gamma_a, gamma_b), "real values for an ASK tag")
+        return cls(complex(gamma_a), complex(gamma_b))
+
+    @classmethod
+    def psk(cls, magnitude: float, phase_rad: float) -> ReflectionStates:
+        """Capacitive (PSK) tag: Γ_A,B = |Γ|·e^(±jφ), equal magnitudes, opposite phases;
+        M = |Γ|²·sin²φ."""
+        return cls(magnitude * np.exp(1j * phase_rad), magnitude * np.exp(-1j * phase_rad))
+
+    @classmethod
+    def pass_default(cls) -> ReflectionStates:
+        """UCODE G2XM-class chip at 900 MHz, 52.7 µW (PASS measurements): Z_A = Z_ic,
+        Z_B = Z_ic ∥ Z_mod, against a conjugate-matched antenna Z_a = Z_ic* (so Γ_A = 0)."""
+        za = np.conj(PASS_ZIC_900MHZ_OHM)
+        return cls.from_impedances(PASS_ZIC_900MHZ_OHM, parallel_ohm(PASS_ZIC_900MHZ_OHM, PASS_ZMOD_900MHZ_OHM), za)
+
+    @property
+    def modulation_factor(self) -> float:
+        """M = |Γ_A − Γ_B|²/4."""
+        return modulation_factor(self.gamma_a, self.gamma_b)
+
+    def differential_rcs_m2(self, *, gain_lin: float, wavelength_m: float) -> float:
+        """Δσ = λ²G²|Γ_A − Γ_B|²/(4π) [m²], see :func:`differential_rcs_m2`."""
+        return differential_rcs_m2(self.gamma_a, self.gamma_b, gain_lin=gain_lin, wavelength_m=wavelength_m)
+
+    def gamma(self, state) -> np.ndarray:
+        """Γ for backscatter states ((n,) 0/1 → (n,) complex128)."""
+        s = np.asarray(state)
+        return np.where(s.astype(bool), self.gamma_b, self.gamma_a).astype(np.complex128)
+
+
+# --------------------------------------------------------------------------- clock
+
+
+@dataclass(frozen=True)
+class TagClock:
+    """Tag oscillator: f = f_nominal·(1 + freq_error_ppm·10⁻⁶), ticks with white jitter.
+
+    Tick k lies at t_k = t0 + k/f + σ·ε_k/f, ε_k ~ N(0, 1) i.i.d., σ = ``jitter_rms``: a
+    non-accumulating jitter around an ideal grid as in PASS ``tag_clock`` (σ = 5/3 % there,
+    pass-paris-simulator.md §2.2), plus the static frequency error PASS lacks. The period
+    (cycle-to-cycle) jitter is then √2·σ/f RMS.
+
+    Parameters
+    ----------
+    f_nominal_hz : float, default 1.92 MHz
+    freq_error_ppm : float
+        Static relative frequency error in ppm (10 % = 100 000 ppm); > −10⁶.
+    jitter_rms : float
+        σ of each tick's deviation from the grid, as a fraction of a period (≥ 0, < 0.5).
+    """
+
+    f_nominal_hz: float = PASS_TAG_CLOCK_HZ
+    freq_error_ppm: float = 0.0
+    jitter_rms: float = 0.0
+
+    def __post_init__(self):
+        if not self.f_nominal_hz > 0:
+            raise ConfigError("tag.clock.f_nominal_hz", self.f_nominal_hz, "a positive frequency in Hz")
+        if not self.freq_error_ppm > -1e6:
+            raise ConfigError("tag.clock.freq_error_ppm", self.freq_error_ppm, "a number > -1e6")
+        if not 0 <= self.jitter_rms < 0.5:
+            raise ConfigError("tag.clock.jitter_rms", self.jitter_rms, "a fraction in [0, 0.5)")
+
+    @property
+    def f_hz(self) -> float:
+        """Actual clock frequency [Hz]."""
+        return self.f_nominal_hz * (1.0 + self.freq_error_ppm * 1e-6)
+
+    @property
+    def period_s(self) -> float:
+        """Actual clock period [s]."""
+        return 1.0 / self.f_hz
+
+    def tick_times_s(self, n_ticks: int, *, rng: np.random.Generator, t0_s: float = 0.0) -> np.ndarray:
+        """Times of the first ``n_ticks`` clock ticks [s], ``(n_ticks,) float64`` (tick 0 at
+        ``t0_s`` plus its jitter)."""
+        n = int(n_ticks)
+        if n < 0:
+            raise ValueError(f"n_ticks must be >= 0, got {n_ticks}")
+        grid = t0_s + np.arange(n, dtype=np.float64) * self.period_s
+        if self.jitter_rms == 0.0:
+            return grid
+        return grid + self.jitter_rms * self.period_s * rng.standard_normal(n)
+
+    def count_ticks(self, duration_s: float) -> int:
+        """Clock periods in an interval, rounded to the nearest integer: round(duration·f)."""
+        return int(round(float(duration_s) * self.f_hz))
+
+    def blf_divider(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> int:
+        """Subcarrier period in clock ticks, N = round(N_TRcal / DR), N ≥ 1.
+
+        N_TRcal is the tag's count of TRcal in its own ticks (``trcal_ticks`` when a PIE
+        decoder measured it, else :meth:`count_ticks`). Rule: the tag divides its clock by an
+        integer, the nearest one to N_TRcal/DR (as PASS: ``round(fclk/LF)`` ticks per
+        period, modulated half floor(N/2), unmodulated half ceil(N/2) ticks).
+        """
+        dr_frac: Fraction = DR_VALUES[normalize_dr(dr, "link.dr")]
+        n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
+        if n_trcal < 1:
+            raise ValueError(f"TRcal count must be >= 1 tick, got {n_trcal}")
+        return max(1, int(round(Fraction(n_trcal) / dr_frac)))
+
+    def blf_hz(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> float:
+        """Backscatter link frequency the tag produces [Hz]: f / N with N from
+        :meth:`blf_divider`. Nominally BLF = DR / TRcal (anchors §4.2); the clock error
+        cancels in N_TRcal up to the integer rounding of N."""
+        return self.f_hz / self.blf_divider(trcal_s, dr, trcal_ticks=trcal_ticks)
+
+
+# --------------------------------------------------------------------------- PASS files
+
+
+@dataclass(frozen=True)
+class PassTagCharacteristics:
+    """Chip and antenna numbers read from the PASS tag characteristic files at one
+    (frequency, chip power) point.
+
+    Attributes
+    ----------
+    fc_hz, p_chip_w : the operating point
+    z_chip_ohm : unmodulated chip impedance Z_ic [Ω]
+    z_mod_ohm : modulation impedance Z_mod [Ω] (modulating state Z_ic ∥ Z_mod)
+    z_ant_ohm : antenna impedance Z_a [Ω]
+    picmin_w : minimum operating chip power at fc [W]
+    """
+
+    fc_hz: float
+    p_chip_w: float
+    z_chip_ohm: complex
+    z_mod_ohm: complex
+    z_ant_ohm: complex
+    picmin_w: float
+
+    def power_up(self) -> PowerUp:
+        return PowerUp(chip_sensitivity_w=self.picmin_w, z_chip_ohm=self.z_chip_ohm, z_ant_ohm=self.z_ant_ohm)
+
+    def reflection_states(self) -> ReflectionStates:
+        return ReflectionStates.from_impedances(self.z_chip_ohm, parallel_ohm(self.z_chip_ohm, self.z_mod_ohm),
+                                                self.z_ant_ohm)
+
+
+def _interp_table(values, pic, fic, p_chip_w, fc_hz):
+    """Bilinear interpolation of a (n_pic, n_f) table: linear in log P_chip, linear in f."""
+    order = np.argsort(fic)
+    fic, values = np.asarray(fic, float)[order], np.asarray(values, float)[:, order]
+    logp = np.log(np.asarray(pic, float))
+    col = np.array([np.interp(np.log(p_chip_w), logp, values[:, j]) for j in range(fic.size)])
+    return float(np.interp(fc_hz, fic, col))
+
+
+def load_pass_tag_characteristics(folder, *, fc_hz: float, p_chip_w: float, zmod: str = "act",
+                                  antenna: str = "v6") -> PassTagCharacteristics:
+    """Read the PASS tag characteristic files (``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
+    ``meas_tag_za-<antenna>``, ``meas_tag_picmin``) from ``folder`` and interpolate them at
+    (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2).
+    The measured range is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
+
+    Raises :class:`rfsim.errors.UserError` when a file is missing.
+    """
+    from scipy.io import loadmat
+
+    folder = Path(folder)
+
+    def load(name):
+        path = folder / f"{name}.mat"
+        if not path.is_file():
+            raise UserError(f"PASS tag characteristic file not found: {path}")
+        return loadmat(path, squeeze_me=True)
+
+    zic, zm = load("meas_tag_zic"), load(f"meas_tag_zmod-{zmod}")
+    za, pm = load(f"meas_tag_za-{antenna}"), load("meas_tag_picmin")
+    z_chip = complex(_interp_table(zic["ric"], zic["pic"], zic["fic"], p_chip_w, fc_hz),
+                     _interp_table(zic["xic"], zic["pic"], zic["fic"], p_chip_w, fc_hz))
+    z_mod = complex(_interp_table(zm["rmod"], zm["pic"], zm["fic"], p_chip_w, fc_hz),
+                    _interp_table(zm["xmod"], zm["pic"], zm["fic"], p_chip_w, fc_hz))
+    fa = np.asarray(za["fa"], float)
+    z_ant = complex(np.interp(fc_hz, fa, za["ra"]), np.interp(fc_hz, fa, za["xa"]))
+    picmin = float(np.interp(fc_hz, np.asarray(pm["f"], float), np.asarray(pm["p"], float)))
+    return PassTagCharacteristics(float(fc_hz), float(p_chip_w), z_chip, z_mod, z_ant, picmin)
+
+
+__all__ = [
+    "PASS_PICMIN_900MHZ_W",
+    "PASS_ZIC_900MHZ_OHM",
+    "PASS_ZMOD_900MHZ_OHM",
+    "TYPICAL_SENSITIVITY_DBM",
+    "PASS_TAG_CLOCK_HZ",
+    "PASS_TAG_JITTER_RMS",
+    "parallel_ohm",
+    "power_transmission_coefficient",
+    "reflection_coefficient",
+    "modulation_factor",
+    "differential_rcs_m2",
+    "PowerUp",
+    "ReflectionStates",
+    "TagClock",
+    "PassTagCharacteristics",
+    "load_pass_tag_characteristics",
+]

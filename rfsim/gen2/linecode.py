@@ -204,14 +204,15 @@ class ReplyDetection:
     Attributes
     ----------
     bits : (n_bits,) uint8, decoded data bits (dummy-1 removed)
-    start_sample : int, sample index where the reply (pilot/preamble) starts
+    start_sample : float, sample position where the reply (pilot/preamble) starts
+        (correlation peak refined to 1/16 sample)
     gain : complex, estimated channel gain h (same units as the input)
     dc : complex, estimated offset c
     corr : float in [0, 1], normalised correlation of the preamble at ``start_sample``
     """
 
     bits: np.ndarray
-    start_sample: int
+    start_sample: float
     gain: complex
     dc: complex
     corr: float
@@ -304,31 +305,59 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
     n_reply = int(math.ceil(nh * m / ratio))
     pre_el = _elements(pre, m).astype(np.float64)
     n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
-    template = np.empty(n_pre)
-    _k.waveform_kernel(pre_el, 0.0, ratio, template)
-    t0 = template - template.mean()
-    e_t = float(t0 @ t0)
+
+    def template(delta):
+        t = np.empty(n_pre)
+        _k.waveform_kernel(pre_el, float(delta), ratio, t)
+        return t, t - t.mean()
+
     if start_sample is None:
         last = r.size - n_reply
         if search_samples is not None:
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        c = correlate(r[: last + n_pre], t0, mode="valid")
-        start = int(np.argmax(np.abs(c)))
-        peak = c[start]
+        c = np.abs(correlate(r[: last + n_pre], template(0.0)[1], mode="valid"))
+        lag = int(np.argmax(c))
+        # The Miller pilot is periodic: lags one element apart correlate almost as well, and
+        # an integer lag is up to 1/2 sample off. Refine the three largest local maxima within
+        # ±(1 element + 1 sample) of the peak to 1/16 sample and keep the best.
+        w = int(math.ceil(1.0 / ratio)) + 1
+        lo, hi = max(0, lag - w), min(c.size, lag + w + 1)
+        win = c[lo:hi]
+        is_max = np.ones(win.size, dtype=bool)
+        is_max[1:] &= win[1:] >= win[:-1]
+        is_max[:-1] &= win[:-1] >= win[1:]
+        cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:3]]
+        best, start = -1.0, float(lag)
+        for cand in cands:
+            seg = r[cand: cand + n_pre]
+            for d in np.linspace(-0.5, 0.5, 17):
+                if cand + d < 0:
+                    continue
+                t0 = template(d)[1]
+                v = abs(complex(seg @ t0)) / math.sqrt(float(t0 @ t0))
+                if v > best:
+                    best, start = v, cand + float(d)
     else:
-        start = int(start_sample)
-        peak = complex(r[start: start + n_pre] @ t0)
-    seg = r[start: start + n_pre]
+        start = float(start_sample)
+        if not 0 <= start <= r.size - n_reply:
+            raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
+    lag = int(math.floor(start))
+    tpl, tpl0 = template(start - lag)
+    seg = r[lag: lag + n_pre]
+    peak = complex(seg @ tpl0)
+    e_t = float(tpl0 @ tpl0)
     h = peak / e_t if gain is None else complex(gain)
-    dc = seg.mean() - h * template.mean() if gain is None else 0.0
+    dc = seg.mean() - h * tpl.mean() if gain is None else 0.0
     seg0 = seg - seg.mean()
     corr = float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
     if h == 0:
         raise ValueError("zero channel gain: no reply to decode")
-    y = np.ascontiguousarray(((r[start: start + n_reply + 1] - dc) / h).real)
-    sums = impl[0](y, 0.0, ratio, m, nh)
+    g = 1.0 / h
+    part = r[lag: lag + n_reply + 2]
+    y = np.ascontiguousarray(part.real * g.real - part.imag * g.imag - (dc * g).real)
+    sums = impl[0](y, start - lag, ratio, m, nh)
     data = sums[pre.size:]
     a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
     miller = m > 1
@@ -345,7 +374,7 @@ _REFERENCES = (halfbit_sums_reference, bitwise_reference, viterbi_reference)
 
 def decode_reply(
     r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
-    search_samples: int | None = None, start_sample: int | None = None, gain: complex | None = None,
+    search_samples: int | None = None, start_sample: float | None = None, gain: complex | None = None,
 ) -> ReplyDetection:
     """Detect and decode one FM0/Miller reply of ``n_bits`` bits (numba kernels).
 
@@ -357,7 +386,7 @@ def decode_reply(
     method : ``"viterbi"`` (ML sequence) or ``"bitwise"`` (bit-by-bit coherent)
     search_samples : the reply start is searched among sample lags 0…search_samples
         (default: every lag that leaves room for the whole reply)
-    start_sample, gain : known start lag / known gain h (then c = 0); skip the search /
+    start_sample, gain : known start [samples] / known gain h (then c = 0); skip the search /
         the estimation
     """
     return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, _KERNELS)

@@ -14,7 +14,10 @@ gen2-and-validation-anchors.md §4.4–4.5):
   reaches 0. A tag in Reply that receives a QueryRep goes to Arbitrate with its counter
   at 7FFFh (the standard's wrap-around: no second reply in the round).
 * ACK with the tag's RN16 in Reply/Acknowledged → PC + EPC + CRC-16 and Acknowledged; a
-  wrong RN16 → Arbitrate, no reply. NAK → Arbitrate from Reply, Acknowledged, Open, Secured.
+  wrong RN16 → Arbitrate, no reply. Req_RN with the RN16 in Acknowledged → handle + CRC-16
+  and Secured (access password 0) or Open; with a wrong RN16 it is ignored (state kept, as
+  recalled from the standard's state-transition tables, unverified). Read with the handle
+  in Open/Secured → header 0 + words + handle + CRC-16. NAK → Arbitrate from Reply, Acknowledged, Open, Secured.
 * End of a successful inventory: a tag in Acknowledged/Open/Secured that receives a
   QueryRep or QueryAdjust of the round's session inverts that session's inventoried flag
   (A↔B) and goes to Ready; a Query of the round's session inverts the flag first and is
@@ -63,7 +66,7 @@ _ACCESS_STATES = ("acknowledged", "open", "secured")
 _FLIP = {"A": "B", "B": "A"}
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Reply:
     """What a tag backscatters in response to one command.
 
@@ -84,6 +87,13 @@ class Reply:
         arr = as_bits(self.bits).copy()
         arr.flags.writeable = False
         object.__setattr__(self, "bits", arr)
+
+    def __eq__(self, other):
+        if not isinstance(other, Reply):
+            return NotImplemented
+        return self.kind == other.kind and np.array_equal(self.bits, other.bits)
+
+    __hash__ = None
 
 
 @dataclass(frozen=True)
@@ -232,6 +242,7 @@ class TagState:
             self._off_since_s = self.t_s
             self._reset_round()
             self.inventoried[0] = "A"
+            self.last_query = None
             return
         off_s = self.t_s - (self._off_since_s if self._off_since_s is not None else self.t_s)
         p = self.persistence
@@ -351,8 +362,7 @@ class TagState:
 
     def _req_rn(self, cmd: ReqRN, rng) -> Reply | None:
         if self.state == "acknowledged":
-            if cmd.rn16 != self.rn16:
-                self.state = "arbitrate"
+            if cmd.rn16 != self.rn16:  # invalid RN16: ignored, tag stays Acknowledged
                 return None
             self.handle = _draw16(rng)
             self.state = "secured" if self.access_password == 0 else "open"

@@ -261,8 +261,7 @@ def test_req_rn_handle_and_read():
     rng = np.random.default_rng(13)
     tag = _acknowledged_tag(rng)
     assert tag.on_command(ReqRN(rn16=tag.rn16 ^ 1), t_s=2e-3, rng=rng) is None
-    assert tag.state == "arbitrate"
-    tag = _acknowledged_tag(rng)
+    assert tag.state == "acknowledged"  # invalid RN16 is ignored
     h = tag.on_command(ReqRN(rn16=tag.rn16), t_s=2e-3, rng=rng)
     assert h.kind == "HANDLE" and h.bits.size == 32 and crc16_ok(h.bits)
     handle = bits_to_int(h.bits[:16])
@@ -369,3 +368,7 @@ def test_deterministic_given_rng():
         return out
 
     assert run(99) == run(99)
+    assert Reply("RN16", [0] * 16) == Reply("RN16", np.zeros(16, np.uint8))
+    assert Reply("RN16", [0] * 16) != Reply("RN16", [1] + [0] * 15)
+    with pytest.raises(ValueError):
+        Reply("CRC", [0])

@@ -10,7 +10,8 @@ from rfsim.gen2.linecode import decode_reply, decode_reply_reference, reply_wave
 from rfsim.rng import trial_rng
 
 
-def _run(n_bits: int, block_bits: int, encode, decode, rng, *, m: int, blf_hz: float, fs_hz: float) -> tuple[float, int]:
+def _run(n_bits: int, block_bits: int, encode, decode, rng, *, m: int, blf_hz: float,
+         fs_hz: float) -> tuple[float, int]:
     errors = 0
     t_start = time.perf_counter()
     done = 0
@@ -37,7 +38,8 @@ def benchmark_linecode(n_bits: int = 10**6, *, n_bits_reference: int = 10**5, m:
     kw = dict(m=m, blf_hz=blf_hz, fs_hz=fs_hz)
     _run(1000, 1000, reply_waveform, decode_reply, trial_rng(seed, 0), **kw)  # warm-up (compilation)
     t_numba, err_numba = _run(n_bits, 100_000, reply_waveform, decode_reply, trial_rng(seed, 1), **kw)
-    t_ref, err_ref = _run(n_bits_reference, 100_000, reply_waveform_reference, decode_reply_reference, trial_rng(seed, 2), **kw)
+    t_ref, err_ref = _run(n_bits_reference, 100_000, reply_waveform_reference, decode_reply_reference,
+                          trial_rng(seed, 2), **kw)
     return {
         "m": m,
         "blf_hz": blf_hz,

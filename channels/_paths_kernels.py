@@ -56,14 +56,22 @@ def fir_rows_kernel(x, taps, starts, lengths, w_rad, phi0_rad, y):
 def narrowband_kernel(x, coef, w_rad, phi0_rad, y):
     """``y[n] += x[n] · Σ_p coef[p]·e^{j(φ0_p + w_p·n)}`` (narrowband: envelope delays dropped)."""
     n_samp = x.shape[0]
-    n_p = coef.shape[0]
+    static = 0j
+    for p in range(coef.shape[0]):
+        if w_rad[p] == 0.0 and phi0_rad[p] == 0.0:
+            static += coef[p]
     for n in range(n_samp):
-        acc = 0j
-        for p in range(n_p):
-            if w_rad[p] != 0.0 or phi0_rad[p] != 0.0:
+        y[n] += static * x[n]
+    for p in range(coef.shape[0]):
+        if w_rad[p] == 0.0 and phi0_rad[p] == 0.0:
+            continue
+        step = complex(math.cos(w_rad[p]), math.sin(w_rad[p]))
+        rot = 1.0 + 0j
+        for n in range(n_samp):
+            if n % _REANCHOR == 0:
                 ph = phi0_rad[p] + w_rad[p] * n
-                acc += coef[p] * complex(math.cos(ph), math.sin(ph))
+                rot = complex(math.cos(ph), math.sin(ph))
             else:
-                acc += coef[p]
-        y[n] += acc * x[n]
+                rot *= step
+            y[n] += coef[p] * rot * x[n]
     return y

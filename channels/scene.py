@@ -195,22 +195,24 @@ class Channel:
     def _image_part(self, tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
         sc = self.scene
         found = image_paths(p_tx, p_rx, sc.surfaces, sc.image_order, polarization=tx.polarization_vector)
-        n = len(found)
-        gains = np.empty(n, dtype=complex)
-        delays = np.empty(n)
-        dops = np.empty(n)
+        if not found:
+            return PathSet(np.zeros(0, complex), np.zeros(0))
+        ell = np.array([ip.length_m for ip in found])
+        first = np.array([ip.points_m[0] for ip in found])
+        last = np.array([ip.points_m[-1] for ip in found])
+        v_src = np.array([ip.virtual_source_m for ip in found])
+        coef = np.array([ip.coefficient for ip in found])
+        g_ant = tx.gain_towards(first) * rx.gain_towards(last)
+        plf = tx.polarization_mismatch(rx, direction=p_rx - v_src)
+        gains = np.asarray(sc.amplitude_gain(ell, fc_hz), float) * coef * np.sqrt(g_ant * plf)
+        dops = np.empty(len(found))
         for i, ip in enumerate(found):
-            ell = ip.length_m
-            g_ant = float(tx.gain_towards(ip.points_m[0])) * float(rx.gain_towards(ip.points_m[-1]))
-            plf = float(tx.polarization_mismatch(rx, direction=p_rx - ip.virtual_source_m))
-            gains[i] = float(sc.amplitude_gain(ell, fc_hz)) * ip.coefficient * np.sqrt(g_ant * plf)
-            delays[i] = ell / C_M_S
             v_img = v_tx.copy()
             for s_idx in ip.surfaces:  # mirror the source velocity in every surface
                 nrm = sc.surfaces[s_idx].normal
                 v_img = v_img - 2.0 * (v_img @ nrm) * nrm
-            dops[i] = _doppler_hz(fc_hz, (p_rx - ip.virtual_source_m) / ell, v_img, v_rx)
-        return PathSet(gains, delays, dops)
+            dops[i] = _doppler_hz(fc_hz, (p_rx - ip.virtual_source_m) / ip.length_m, v_img, v_rx)
+        return PathSet(gains, ell / C_M_S, dops)
 
     def backscatter_links(self, emitter: Antenna, tag: Antenna, receiver: Antenna | None = None, *,
                           fc_hz: float, rng: np.random.Generator | None = None, t_s: float = 0.0,

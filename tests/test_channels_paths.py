@@ -129,3 +129,16 @@ def test_pathset_validation():
     assert p.doppler_hz.tolist() == [0.0]
     with pytest.raises(ValueError):
         p.gain[0] = 2.0  # read-only
+
+
+def test_narrowband_kernel_matches_numpy():
+    rng = np.random.default_rng(8)
+    x = rng.standard_normal(9000) + 1j * rng.standard_normal(9000)
+    paths = PathSet(rng.standard_normal(5) + 1j * rng.standard_normal(5), rng.uniform(0, 1e-7, 5),
+                    [0.0, 0.0, 3.0, -11.0, 250.0])
+    t0 = 0.37
+    y = apply_paths(x, fs_hz=FS, fc_hz=FC, paths=paths, t0_s=t0, method="narrowband")
+    t = t0 + np.arange(x.size) / FS
+    c = paths.gain * np.exp(-2j * np.pi * FC * paths.delay_s)
+    g = np.sum(c[:, None] * np.exp(2j * np.pi * paths.doppler_hz[:, None] * t[None, :]), axis=0)
+    np.testing.assert_allclose(y, g * x, rtol=0, atol=1e-9 * np.max(np.abs(g * x)))

@@ -1,1 +1,26 @@
-"""EPC Gen2 (ISO/IEC 18000-63) physical-layer and framing primitives."""
+"""EPC Gen2 (ISO/IEC 18000-63) physical-layer and framing primitives.
+
+Modules: :mod:`~rfsim.gen2.bits` (bit arrays), :mod:`~rfsim.gen2.crc` (CRC-5/CRC-16),
+:mod:`~rfsim.gen2.commands` (reader command encoders and parsers),
+:mod:`~rfsim.gen2.link` (link profiles, BLF tolerance, T1–T7, durations),
+:mod:`~rfsim.gen2.pie` (PIE envelope encoder and decoder),
+:mod:`~rfsim.gen2.linecode` (FM0/Miller encoders, sampled replies, coherent and Viterbi
+decoders) and :mod:`~rfsim.gen2.capture` (decoding recorded waveforms).
+"""
+
+from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits, int_to_bits
+from rfsim.gen2.commands import (ACK, NAK, CommandParseError, Query, QueryAdjust, QueryRep, Read,
+                                 ReqRN, Select, command_name, command_preamble, encode, parse)
+from rfsim.gen2.crc import (append_crc5, append_crc16, crc5, crc5_ok, crc16, crc16_bytes,
+                            crc16_ok)
+from rfsim.gen2.link import (PROFILES, LinkProfile, TimingRange, backscatter_duration_s,
+                             frt_fraction, pie_duration_s, profile, t1, t2, t3, t4, t5, t6, t7)
+
+__all__ = [
+    "int_to_bits", "bits_to_int", "hex_to_bits", "bits_to_hex",
+    "crc5", "crc16", "crc16_bytes", "crc5_ok", "crc16_ok", "append_crc5", "append_crc16",
+    "Query", "QueryRep", "QueryAdjust", "ACK", "NAK", "ReqRN", "Read", "Select",
+    "CommandParseError", "encode", "parse", "command_name", "command_preamble",
+    "LinkProfile", "PROFILES", "profile", "TimingRange", "frt_fraction", "pie_duration_s",
+    "backscatter_duration_s", "t1", "t2", "t3", "t4", "t5", "t6", "t7",
+]

@@ -1,0 +1,214 @@
+"""Scenario ``gen2-waveforms``: one Gen2 inventory handshake per named link profile.
+
+For each profile the reader sends Query, the tag answers RN16 after T1, the reader ACKs
+after T2 and the tag answers PC+EPC+CRC-16 after T1 — the singulation of
+gen2-and-validation-anchors.md §4.4 with the link timing of §4.3. The dataset holds
+
+* ``profiles``: the link-profile table (Tari, data-1, RTcal, TRcal, PW, delimiter, DR, M,
+  TRext, modulation, depth, BLF, FrT, bit rate);
+* ``timing``: per profile T1 (min/nom/max), T2 (min/max), T4 and the durations of
+  Query, QueryRep, ACK, the RN16 reply and the EPC reply;
+* ``frames``: start/end time and bits (with CRC) of each frame of the exchange;
+* ``exchange_<profile>``: the sampled exchange on a common time axis: the reader's PIE
+  envelope (amplitude relative to the CW, 1 during CW) and the tag's backscatter state
+  (±1 during replies, 0 while absorbing).
+
+No channel, no noise: this is the protocol's own waveform, the reference every
+sample-level device model is built from.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.errors import ConfigError
+from rfsim.gen2.bits import bits_to_str, hex_to_bits, int_to_bits
+from rfsim.gen2.commands import ACK, Query, QueryRep, encode
+from rfsim.gen2.crc import append_crc16
+from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
+from rfsim.gen2.linecode import reply_waveform_for_profile
+from rfsim.gen2.pie import pie_envelope_for_profile
+from rfsim.rng import trial_rng
+
+NAME = "gen2-waveforms"
+DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
+
+#: Reader turnaround used in the exchange: T2 = 10 Tpri, inside the 3–20 Tpri window.
+T2_TPRI = 10.0
+#: CW before the Query [s] (the delimiter's falling edge must be visible to a decoder).
+CW_LEAD_S = 100e-6
+
+
+@dataclass(frozen=True)
+class Config:
+    profiles: tuple[str, ...] = param(tuple(PROFILES), doc="named link profiles to draw")
+    fs_hz: float = param(8e6, lo=2e5, hi=2e8, unit="Hz", doc="sample rate of the waveforms")
+    q: int = param(4, lo=0, hi=15, doc="Q of the Query command")
+    session: int = param(0, lo=0, hi=3, doc="inventory session S0-S3")
+    rn16: int = param(-1, lo=-1, hi=65535, doc="RN16 the tag replies; -1 draws it from the seed")
+    epc_hex: str = param("300833B2DDD9014000000027", doc="EPC of the tag (hex, multiple of 16 bits)")
+    pie_rise_fall_tari: float = param(0.1, lo=0.0, hi=0.33, unit="Tari",
+                                      doc="PIE 10-90 % edge time (Gen2: <= 0.33 Tari)")
+
+    def __post_init__(self):
+        if not self.profiles:
+            raise ConfigError("profiles", list(self.profiles), "at least one of " + ", ".join(PROFILES))
+        for i, name in enumerate(self.profiles):
+            try:
+                link = profile(name)
+            except ConfigError as err:
+                raise ConfigError(f"profiles[{i}]", name, err.allowed) from None
+            if self.fs_hz < 8 * link.blf_hz:
+                raise ConfigError("fs_hz", self.fs_hz,
+                                  f">= 8 x BLF of profile {name!r} = {8 * link.blf_hz:g} Hz")
+        text = self.epc_hex.replace(" ", "")
+        if not text or len(text) % 4 or any(c not in "0123456789abcdefABCDEF" for c in text):
+            raise ConfigError("epc_hex", self.epc_hex, "hex digits, a multiple of 4 (16-bit words)")
+
+
+def pc_word_bits(n_epc_bits: int) -> np.ndarray:
+    """Gen2 StoredPC: EPC length in words in the 5 MSBs, other bits 0 (anchors §4.4)."""
+    return int_to_bits((n_epc_bits // 16) << 11, 16)
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    rng = trial_rng(seed, 0)
+    rn16 = int(rng.integers(0, 2**16)) if config.rn16 < 0 else config.rn16
+    epc = hex_to_bits(config.epc_hex.replace(" ", ""))
+    epc_reply = append_crc16(np.concatenate([pc_word_bits(epc.size), epc]))
+    rn16_bits = int_to_bits(rn16, 16)
+
+    ds = Dataset(title="EPC Gen2 link profiles, timing and exchange waveforms")
+    rows: dict[str, list] = {k: [] for k in ("profile", "frame", "start_s", "end_s", "bits")}
+    prof_rows: dict[str, list] = {}
+    timing_rows: dict[str, list] = {}
+    for name in config.profiles:
+        link = profile(name)
+        query = Query(dr=link.dr, m=link.m, trext=link.trext, session=config.session, q=config.q)
+        ack = ACK(rn16)
+        _append(prof_rows, profile=name, tari_s=link.tari_s, data1_s=link.data1_s,
+                rtcal_s=link.rtcal_s, trcal_s=link.trcal_s, pw_s=link.pw_s,
+                delimiter_s=link.delimiter_s, dr=link.dr, m=link.m, trext=link.trext,
+                modulation=link.modulation, depth=link.depth, blf_hz=link.blf_hz,
+                frt=link.frt, bitrate_bps=link.bitrate_bps)
+        _append(timing_rows, profile=name, t1_min_s=t1(link).min_s, t1_nom_s=t1(link).nom_s,
+                t1_max_s=t1(link).max_s, t2_min_s=t2(link).min_s, t2_max_s=t2(link).max_s,
+                t4_min_s=t4(link).min_s, query_s=link.command_duration_s(query),
+                queryrep_s=link.command_duration_s(QueryRep(config.session)),
+                ack_s=link.command_duration_s(ack), rn16_reply_s=link.reply_duration_s(16),
+                epc_reply_s=link.reply_duration_s(epc_reply.size))
+        time_s, reader, tag, frames = _exchange(link, query, ack, rn16_bits, epc_reply,
+                                                config.fs_hz, config.pie_rise_fall_tari)
+        for frame, (start, end, bits) in frames.items():
+            _append(rows, profile=name, frame=frame, start_s=start, end_s=end, bits=bits_to_str(bits))
+        ds.add_table(f"exchange_{name}", {
+            "time_s": column(time_s, "s", "time since the start of the CW (the Query starts at 100 us)"),
+            "reader_envelope": column(reader, "1", "reader PIE amplitude envelope relative to the CW"),
+            "tag_state": column(tag, "1", "tag backscatter state: +1/-1 during replies, 0 absorbing"),
+        })
+    ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS))
+    ds.add_table("timing", _columns(timing_rows, TIMING_COLUMNS))
+    ds.add_table("frames", _columns(rows, FRAME_COLUMNS))
+    ds.attrs["rn16"] = rn16
+    ds.attrs["t2_reader_tpri"] = T2_TPRI
+    return ds
+
+
+def _exchange(link, query, ack, rn16_bits, epc_reply, fs_hz, rise_fall_tari):
+    """Sample CW → Query → T1 → RN16 → T2 → ACK → T1 → EPC on one time axis at ``fs_hz``."""
+    rf = rise_fall_tari * link.tari_s
+    t_query = CW_LEAD_S + link.command_duration_s(query)
+    t_rn16 = t_query + t1(link).nom_s
+    t_ack = t_rn16 + link.reply_duration_s(16) + T2_TPRI * link.tpri_s
+    t_epc = t_ack + link.command_duration_s(ack) + t1(link).nom_s
+    t_end = t_epc + link.reply_duration_s(epc_reply.size)
+    n = int(np.ceil(t_end * fs_hz)) + 1
+    time_s = np.arange(n) / fs_hz
+    reader = np.ones(n)
+    q_env = pie_envelope_for_profile(encode(query), link, fs_hz=fs_hz, preamble="query", rise_fall_s=rf,
+                                     cw_before_s=CW_LEAD_S)
+    reader[:q_env.size] = q_env
+    a_env = pie_envelope_for_profile(encode(ack), link, fs_hz=fs_hz, preamble="frame-sync", rise_fall_s=rf)
+    i_ack = int(np.ceil(t_ack * fs_hz))
+    reader[i_ack:i_ack + a_env.size] = a_env[: n - i_ack]
+    tag = (reply_waveform_for_profile(rn16_bits, link, fs_hz=fs_hz, t0_s=t_rn16, n_samples=n)
+           + reply_waveform_for_profile(epc_reply, link, fs_hz=fs_hz, t0_s=t_epc, n_samples=n))
+    frames = {
+        "Query": (CW_LEAD_S, t_query, encode(query)),
+        "RN16": (t_rn16, t_rn16 + link.reply_duration_s(16), rn16_bits),
+        "ACK": (i_ack / fs_hz, i_ack / fs_hz + link.command_duration_s(ack), encode(ack)),
+        "EPC": (t_epc, t_end, epc_reply),
+    }
+    return time_s, reader, tag, frames
+
+
+PROFILE_COLUMNS = {
+    "profile": ("", "link profile name"), "tari_s": ("s", "Tari (data-0 length)"),
+    "data1_s": ("s", "data-1 length"), "rtcal_s": ("s", "RTcal = data-0 + data-1"),
+    "trcal_s": ("s", "TRcal"), "pw_s": ("s", "PIE low-pulse width"),
+    "delimiter_s": ("s", "delimiter"), "dr": ("", "divide ratio (8 or 64/3)"),
+    "m": ("1", "subcarrier cycles per bit (1 = FM0)"), "trext": ("1", "pilot tone requested"),
+    "modulation": ("", "reader modulation"), "depth": ("1", "modulation depth (A-B)/A"),
+    "blf_hz": ("Hz", "backscatter link frequency DR/TRcal"),
+    "frt": ("1", "BLF tolerance FrT (nominal temperature)"),
+    "bitrate_bps": ("bit/s", "tag data rate BLF/M"),
+}
+TIMING_COLUMNS = {
+    "profile": ("", "link profile name"), "t1_min_s": ("s", "T1 minimum"),
+    "t1_nom_s": ("s", "T1 nominal"), "t1_max_s": ("s", "T1 maximum"),
+    "t2_min_s": ("s", "T2 minimum (3 Tpri)"), "t2_max_s": ("s", "T2 maximum (20 Tpri)"),
+    "t4_min_s": ("s", "T4 minimum (2 RTcal)"), "query_s": ("s", "Query duration incl. preamble"),
+    "queryrep_s": ("s", "QueryRep duration incl. frame-sync"),
+    "ack_s": ("s", "ACK duration incl. frame-sync"),
+    "rn16_reply_s": ("s", "RN16 reply duration (preamble + 16 bits + dummy 1)"),
+    "epc_reply_s": ("s", "PC+EPC+CRC-16 reply duration"),
+}
+FRAME_COLUMNS = {
+    "profile": ("", "link profile name"), "frame": ("", "Query, RN16, ACK or EPC"),
+    "start_s": ("s", "frame start"), "end_s": ("s", "frame end"),
+    "bits": ("", "frame bits, MSB first, incl. CRC where Gen2 has one"),
+}
+
+
+def _append(rows: dict[str, list], **values) -> None:
+    for k, v in values.items():
+        rows.setdefault(k, []).append(v)
+
+
+def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
+    return {k: column(rows[k], *spec[k]) for k in spec}
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """One panel per profile: reader envelope and tag backscatter state vs time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rfsim.dataset import read_dataset
+
+    ds = read_dataset(dataset_path)
+    names = list(ds.tables["profiles"]["profile"].data)
+    fig, axes = plt.subplots(len(names), 1, figsize=(10, 2.2 * len(names)), squeeze=False)
+    for ax, name in zip(axes[:, 0], names):
+        ex = ds.tables[f"exchange_{name}"]
+        t_ms = ex["time_s"].data * 1e3
+        ax.plot(t_ms, ex["reader_envelope"].data, lw=0.8, label="reader envelope")
+        ax.plot(t_ms, 0.5 * ex["tag_state"].data - 1.0, lw=0.6, label="tag state (offset)")
+        ax.set_title(name, fontsize=9, loc="left")
+        ax.set_yticks([])
+    axes[-1, 0].set_xlabel("time [ms]")
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    fig.suptitle("Gen2 Query → RN16 → ACK → EPC per link profile")
+    fig.tight_layout()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{NAME}.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]

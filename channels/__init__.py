@@ -1,2 +1,36 @@
 """Propagation for rfsim: antennas, large-scale loss, exponential-APDP small scale,
-surfaces (virtual transmitters), walls/shadowing, noise and link assembly."""
+surfaces (virtual transmitters), walls/shadowing, noise and link assembly.
+
+A channel yields, per link, a :class:`PathSet` (complex amplitude gains and delays in
+float64 seconds, plus Doppler shifts); applying it to a waveform is a separate step
+(:func:`apply_paths`) with the exact carrier phase exp(−j2π·fc·τ).
+
+Modules: :mod:`~channels.geometry` (orientations, directions), :mod:`~channels.antennas`
+(patterns, polarization), :mod:`~channels.large_scale` (Friis/log-distance, walls,
+shadowing), :mod:`~channels.small_scale` (exponential APDP taps), :mod:`~channels.surfaces`
+(Fresnel, image method), :mod:`~channels.noise` (AWGN), :mod:`~channels.paths` (path sets
+and their application), :mod:`~channels.scene` (assembly of links in a scene).
+"""
+
+from channels.antennas import Antenna, HalfWaveDipole, Isotropic, Patch, Tabulated
+from channels.geometry import Pose, direction_to, rotation_matrix
+from channels.large_scale import (LogDistance, ShadowingField, Wall, friis_amplitude_gain,
+                                  wall_loss_db)
+from channels.noise import complex_awgn, noise_power_from_density_w, thermal_noise_power_w
+from channels.paths import (PathSet, apply_backscatter, apply_paths, compose_backscatter,
+                            concatenate, narrowband_error_bound)
+from channels.scene import Channel, Scene, kinematics, los_links
+from channels.small_scale import ApdpModel, average_profile, draw_taps, profile_statistics
+from channels.surfaces import Surface, fresnel_reflection, fresnel_transmission, image_paths
+
+__all__ = [
+    "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated",
+    "Pose", "direction_to", "rotation_matrix",
+    "LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
+    "complex_awgn", "noise_power_from_density_w", "thermal_noise_power_w",
+    "PathSet", "apply_paths", "apply_backscatter", "compose_backscatter", "concatenate",
+    "narrowband_error_bound",
+    "Scene", "Channel", "los_links", "kinematics",
+    "ApdpModel", "average_profile", "draw_taps", "profile_statistics",
+    "Surface", "fresnel_reflection", "fresnel_transmission", "image_paths",
+]

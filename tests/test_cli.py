@@ -77,3 +77,15 @@ def test_console_script_end_to_end(tmp_path):
                          group="provenance") as prov:
         assert int(prov.attrs["seed"]) == 3
         assert "profiles = [\"fm0-40k\", \"miller4-320k\"]" in prov.attrs["config_toml"]
+
+
+def test_bench_writes_json_and_rejects_unknown_names(tmp_path, capsys):
+    import json
+
+    assert main(["bench", "nope"]) == 2
+    assert "unknown benchmark 'nope'" in capsys.readouterr().err
+    out = tmp_path / "bench.json"
+    assert main(["bench", "linecode", "--quick", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())["linecode"]
+    assert result["numba_bit_errors"] == 0 and result["numba_bits_per_s"] > 0
+    assert result["peak_rss_mb"] > 0

@@ -1,0 +1,65 @@
+"""``rfsim bench``: time rfsim's own hot paths and print a table (and JSON with --json).
+
+Peak memory is the process's maximum resident set size (``resource.getrusage``), read
+after each benchmark.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import sys
+import time
+from pathlib import Path
+
+from rfsim.errors import UserError
+
+#: name → (module, function, keyword arguments of the quick variant)
+BENCHMARKS = {
+    "linecode": ("rfsim.bench.linecode", "benchmark_linecode", {"n_bits": 10**5, "n_bits_reference": 10**4}),
+    "channels": ("rfsim.bench.channels", "bench_channels", {"n_links": 200, "n_samples": 200_000}),
+}
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="time the hot paths (waveforms, channels) on this machine",
+                       description="Run rfsim's benchmarks on one core and print their measurements.")
+    p.add_argument("names", nargs="*", metavar="NAME",
+                   help=f"benchmarks to run (default: all of {', '.join(BENCHMARKS)})")
+    p.add_argument("--quick", action="store_true", help="smaller problem sizes (seconds, not minutes)")
+    p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write the results as JSON")
+    p.set_defaults(func=run)
+
+
+def _peak_rss_mb() -> float:
+    rss_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss_kb / 1024.0 if sys.platform != "darwin" else rss_kb / 2**20
+
+
+def run(args: argparse.Namespace) -> int:
+    import importlib
+
+    names = args.names or list(BENCHMARKS)
+    unknown = [n for n in names if n not in BENCHMARKS]
+    if unknown:
+        raise UserError(f"unknown benchmark {unknown[0]!r}; available: {', '.join(BENCHMARKS)}")
+    results = {}
+    for name in names:
+        module, func, quick_kwargs = BENCHMARKS[name]
+        fn = getattr(importlib.import_module(module), func)
+        t0 = time.perf_counter()
+        out = fn(**(quick_kwargs if args.quick else {}))
+        out = dict(out)
+        out["wall_time_s"] = time.perf_counter() - t0
+        out["peak_rss_mb"] = _peak_rss_mb()
+        results[name] = out
+        print(f"[{name}]")
+        for key, value in out.items():
+            shown = f"{value:.6g}" if isinstance(value, float) else str(value)
+            print(f"  {key:<40} {shown}")
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=2, default=float) + "\n")
+        print(f"written: {args.json}")
+    return 0

@@ -1,0 +1,350 @@
+"""Passive EPC Gen2 tag as a sample-level device: power-up, envelope detection, PIE
+decoding with the tag's own clock, Gen2 state machine and the backscatter Γ(t).
+
+:class:`PassiveTag` composes the tested pieces of :mod:`devices.tag_frontend` (power-up,
+reflection states, tag clock), :mod:`rfsim.gen2.pie` (PIE decoder),
+:mod:`rfsim.gen2.commands` (parser), :mod:`devices.gen2_tag_state` (protocol logic) and
+:mod:`rfsim.gen2.linecode` (FM0/Miller waveform). One call of :meth:`PassiveTag.listen`
+handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" steps 3–4:
+
+1. **Power-up** (pass-paris-simulator.md §2.2 steps 1–4; anchors §4.7). The incident
+   (available) power is the mean of |x|² over the segment's CW samples, P_inc; the chip
+   absorbs P_chip = τ·P_inc with τ = 1 − |Γ_A|² (the power-wave identity of
+   :func:`devices.tag_frontend.power_transmission_coefficient`; τ = 1 for the default
+   conjugate-matched ASK tag); powered ⇔ P_chip ≥ P_min (chip sensitivity). The CW
+   samples are those whose envelope lies in the top quarter of the swing between the
+   two level clusters of the PIE envelope (isodata split,
+   :func:`rfsim.gen2.pie.two_level_threshold`); a segment without modulation (swing below
+   half the CW level) counts entirely. PASS averages over the whole vector instead, which
+   lets the command's modulation lower the estimate; here a clean segment gives P_inc
+   exactly. The buffer capacitor is assumed to bridge the PIE low pulses.
+2. **Envelope detection**: the ideal envelope detector e = |x|, optionally followed by a
+   first-order RC low-pass e_f[n] = a·e_f[n−1] + (1 − a)·e[n], a = exp(−1/(τ_RC·fs))
+   (``envelope_rc_s``; 0 = off; PASS uses τ = 169 ns at RF, §2.2 ``tag_demodulation``).
+   PIE decoding is relative (threshold between the two level clusters), so the envelope's
+   scale and DC do not matter.
+3. **Tag clock**: :func:`rfsim.gen2.pie.pie_decode` measures Tari, RTcal, TRcal in input
+   samples; the tag counts them in ticks of its own oscillator,
+   N = round(samples · f_clk / fs), f_clk = f_nominal·(1 + error) (a counter: integer
+   ticks). TRcal of the last Query sets the subcarrier divider
+   N_BLF = round(N_TRcal / DR) and BLF = f_clk / N_BLF (:meth:`TagClock.blf_hz`; anchors
+   §4.2: nominal BLF = DR/TRcal, the clock error cancels up to the integer rounding).
+4. **Reply timing** (anchors §4.3): the tag waits T1 = max(RTcal, 10·Tpri) counted in its
+   own ticks, N_T1 = max(N_RTcal, 10·N_BLF), from the command's last rising edge, so the
+   true T1 = N_T1 / f_clk: the RTcal branch is exact up to the half-tick rounding of
+   N_RTcal, the 10·Tpri branch scales with the tag's actual BLF. Clock jitter
+   (``clock_jitter_rms``, a fraction of one period, as in PASS ``tag_clock``) displaces the
+   reply start by σ·ε/f_clk, ε ~ N(0, 1); the reply itself is on an ideal grid of the
+   tag's actual BLF (no per-element jitter).
+5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
+   (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
+   reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
+   s = −1 or s = 0 (absorbing state, in which the tag harvests). Γ_A ≠ 0 (a tag that also
+   scatters in its rest state) gives a static backscatter that the reader removes with
+   the carrier leakage; it stays in Γ and is not special-cased.
+
+Γ states (:class:`devices.tag_frontend.ReflectionStates`): ``"ASK"`` uses the PASS UCODE
+G2XM-class chip at 900 MHz against a conjugate-matched antenna
+(:meth:`ReflectionStates.pass_default`: Γ_A = 0, Γ_B = Γ(Z_ic ∥ Z_mod)); ``"PSK"`` uses
+Γ_A,B = |Γ|·e^(±jφ) (:meth:`ReflectionStates.psk`, ``psk_gamma_magnitude``,
+``psk_phase_deg``; M = |Γ|²·sin²φ, τ = 1 − |Γ|²).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.signal import lfilter
+
+from devices.gen2_tag_state import Reply, TagState
+from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
+                                  TagClock)
+from rfsim import config as _config
+from rfsim.config import field_meta, param
+from rfsim.errors import ConfigError
+from rfsim.gen2.commands import CommandParseError, Query, parse
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.pie import pie_decode, two_level_threshold
+from rfsim.units import dbm_to_w, w_to_dbm
+
+#: Default chip sensitivity [dBm]: the PASS minimum operating chip power at 900 MHz
+#: (:data:`devices.tag_frontend.PASS_PICMIN_900MHZ_W`, −12.78 dBm, no PASS margin).
+DEFAULT_SENSITIVITY_DBM = float(w_to_dbm(PASS_PICMIN_900MHZ_W))
+
+#: A segment counts as modulated when the swing between its two envelope clusters exceeds
+#: this fraction of the high level (Gen2 PIE depth is 80–100 %).
+_MIN_MODULATION = 0.5
+#: CW samples lie within this fraction of the swing below the high cluster.
+_CW_BAND = 0.25
+
+REASONS = ("", "not powered", "decode error", "no reply")
+
+
+@dataclass(frozen=True)
+class TagConfig:
+    """Parameters of one passive tag (validated on construction; errors name ``tag.<key>``).
+
+    The clock-error range keeps the subcarrier divider meaningful; the BLF stays within the
+    Gen2 tolerance FrT over the whole TRcal table for |error| ≤ 10 % at 1.92 MHz (tested
+    in the tag front end); larger errors simulate out-of-spec tags.
+    """
+
+    epc_hex: str = param("300833B2DDD9014000000027", doc="EPC (hex, a multiple of 16 bits)")
+    sensitivity_dbm: float = param(DEFAULT_SENSITIVITY_DBM, lo=-40.0, hi=10.0, unit="dBm",
+                                   doc="minimum chip power for operation (PASS picmin at 900 MHz)")
+    clock_hz: float = param(PASS_TAG_CLOCK_HZ, lo=1e6, hi=100e6, unit="Hz", doc="nominal tag clock")
+    clock_error_percent: float = param(0.0, lo=-20.0, hi=20.0, unit="%",
+                                       doc="static relative frequency error of the tag clock")
+    clock_jitter_rms: float = param(0.0, lo=0.0, hi=0.5, hi_open=True, unit="period",
+                                    doc="RMS tick jitter (fraction of a clock period; PASS: 1/60)")
+    modulation: Literal["ASK", "PSK"] = param("ASK", doc="backscatter states: ASK (ohmic) or PSK (capacitive)")
+    psk_gamma_magnitude: float = param(0.5, lo=0.0, hi=1.0, lo_open=True, doc="PSK: |Γ| of both states")
+    psk_phase_deg: float = param(45.0, lo=0.0, hi=90.0, lo_open=True, unit="deg",
+                                 doc="PSK: Γ_A,B = |Γ|·exp(±jφ)")
+    envelope_rc_s: float = param(0.0, lo=0.0, hi=1e-6, unit="s",
+                                 doc="RC time constant of the envelope detector (0 = ideal |x|)")
+
+    def __post_init__(self):
+        hints = typing.get_type_hints(type(self))
+        for f in dataclasses.fields(self):
+            value = _config._coerce(f"tag.{f.name}", getattr(self, f.name), hints[f.name], field_meta(f))
+            object.__setattr__(self, f.name, value)
+        text = self.epc_hex.replace(" ", "")
+        if not text or len(text) % 4 or len(text) > 124 or any(c not in "0123456789abcdefABCDEF" for c in text):
+            raise ConfigError("tag.epc_hex", self.epc_hex, "hex digits, a multiple of 4 (16-bit words), at most 496 bits")
+
+    @property
+    def clock(self) -> TagClock:
+        """The tag oscillator (:class:`devices.tag_frontend.TagClock`)."""
+        return TagClock(f_nominal_hz=self.clock_hz, freq_error_ppm=self.clock_error_percent * 1e4,
+                        jitter_rms=self.clock_jitter_rms)
+
+    @property
+    def reflection_states(self) -> ReflectionStates:
+        """Γ_A (absorbing) and Γ_B (modulating), see the module docstring."""
+        if self.modulation == "ASK":
+            return ReflectionStates.pass_default()
+        return ReflectionStates.psk(self.psk_gamma_magnitude, math.radians(self.psk_phase_deg))
+
+    @property
+    def tau(self) -> float:
+        """Power transmission coefficient of the absorbing state, τ = 1 − |Γ_A|²."""
+        return 1.0 - abs(self.reflection_states.gamma_a) ** 2
+
+    @property
+    def power_up(self) -> PowerUp:
+        """Chip sensitivity as a :class:`devices.tag_frontend.PowerUp` (compared with τ·P_inc)."""
+        return PowerUp(chip_sensitivity_w=float(dbm_to_w(self.sensitivity_dbm)))
+
+    @property
+    def threshold_incident_dbm(self) -> float:
+        """Smallest incident (available) power that powers the tag [dBm] = sensitivity / τ."""
+        return self.sensitivity_dbm - 10.0 * math.log10(self.tau)
+
+
+@dataclass(frozen=True, eq=False)
+class TagResponse:
+    """What a tag did with one reader segment.
+
+    Attributes
+    ----------
+    powered : bool
+    command : the parsed command object, or None (not powered / nothing decoded)
+    reply : :class:`devices.gen2_tag_state.Reply` or None
+    gamma : (n,) complex128 or None
+        Γ(t) on the time base of the incident segment (sample n at t0_s + n/fs_hz); None
+        when the tag does not reply (it then reflects ``gamma_rest`` throughout).
+    reply_start_s, reply_end_s : absolute times of the reply [s] (None without reply);
+        ``gamma`` holds only the part inside the segment (check ``reply_end_s``).
+    blf_hz : the tag's actual BLF [Hz] (None without reply)
+    reason : "" (replied), "not powered", "decode error" or "no reply"
+    incident_power_dbm : P_inc, mean CW power at the antenna port [dBm] (−inf for silence)
+    command_end_s : absolute time of the command's last rising edge [s] or None
+    m, trext : line code of the reply (None without reply)
+    gamma_rest : Γ_A, the reflection coefficient while not modulating
+    """
+
+    powered: bool
+    command: object | None
+    reply: Reply | None
+    gamma: np.ndarray | None
+    reply_start_s: float | None
+    blf_hz: float | None
+    reason: str
+    incident_power_dbm: float
+    command_end_s: float | None = None
+    reply_end_s: float | None = None
+    m: int | None = None
+    trext: bool | None = None
+    gamma_rest: complex = 0j
+
+    def reflection(self, n_samples: int) -> np.ndarray:
+        """Γ(t) over ``n_samples`` samples: :attr:`gamma`, or Γ_A throughout without reply."""
+        if self.gamma is not None:
+            if self.gamma.size != n_samples:
+                raise ValueError(f"gamma has {self.gamma.size} samples, asked for {n_samples}")
+            return self.gamma
+        return np.full(int(n_samples), self.gamma_rest, dtype=np.complex128)
+
+
+# ----------------------------------------------------------------------------- front end
+
+
+def incident_power_w(x: np.ndarray) -> float:
+    """Mean CW power of a reader segment [W]: mean |x|² over the CW samples.
+
+    CW samples: envelope ≥ high − 0.25·(high − low), with high/low the isodata cluster
+    means of |x|; all samples when the swing is below half the high level (no command).
+
+    Parameters
+    ----------
+    x : (n,) complex, baseband [√W]
+    """
+    env = np.abs(np.asarray(x))
+    if env.size == 0:
+        raise ValueError("empty segment")
+    _, lo, hi = two_level_threshold(env)
+    if hi > 0 and hi - lo >= _MIN_MODULATION * hi:
+        env = env[env >= hi - _CW_BAND * (hi - lo)]
+    return float(np.mean(env * env))
+
+
+def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
+    """Envelope detector output (arbitrary units): |x|, optionally RC low-passed.
+
+    e_f[n] = a·e_f[n−1] + (1 − a)·|x[n]|, a = exp(−1/(rc_s·fs)), started at e_f[−1] = |x[0]|
+    (the detector has settled on the CW before the segment).
+
+    Parameters
+    ----------
+    x : (n,) complex, baseband [√W]
+    fs_hz : sample rate [Hz]
+    rc_s : RC time constant [s]; 0 → the ideal detector |x|
+    """
+    env = np.abs(np.asarray(x)).astype(np.float64)
+    if rc_s <= 0 or env.size == 0:
+        return env
+    a = math.exp(-1.0 / (rc_s * fs_hz))
+    out, _ = lfilter([1.0 - a], [1.0, -a], env, zi=[a * env[0]])
+    return out
+
+
+def _dbm(p_w: float) -> float:
+    return float(w_to_dbm(p_w)) if p_w > 0 else -math.inf
+
+
+# ----------------------------------------------------------------------------- device
+
+
+class PassiveTag:
+    """A passive Gen2 tag: reflector device of the engine.
+
+    Parameters
+    ----------
+    config : TagConfig
+    antenna : channels.Antenna (position, orientation, pattern; used by the engine's channel)
+    rng : numpy.random.Generator — the tag's own stream (slot counters, RN16, handles, jitter)
+    t0_s : time of the initial, unpowered state [s]; segments must not start earlier
+
+    Attributes
+    ----------
+    state : :class:`devices.gen2_tag_state.TagState`
+    clock : :class:`devices.tag_frontend.TagClock`
+    reflection_states : :class:`devices.tag_frontend.ReflectionStates`
+    """
+
+    def __init__(self, config: TagConfig, antenna, *, rng: np.random.Generator, t0_s: float = 0.0):
+        if not isinstance(config, TagConfig):
+            raise TypeError(f"config must be a TagConfig, got {type(config).__name__}")
+        if not isinstance(rng, np.random.Generator):
+            raise TypeError("rng must be a numpy.random.Generator")
+        self.config = config
+        self.antenna = antenna
+        self.rng = rng
+        self.clock = config.clock
+        self.reflection_states = config.reflection_states
+        self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s)
+        self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
+
+    @property
+    def tau(self) -> float:
+        """τ = 1 − |Γ_A|² (see :attr:`TagConfig.tau`)."""
+        return self.config.tau
+
+    def ticks(self, samples: float, fs_hz: float) -> int:
+        """A duration of ``samples`` input samples counted in tag clock ticks,
+        round(samples · f_clk / fs)."""
+        return int(round(samples * self.clock.f_hz / fs_hz))
+
+    def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
+        """Receive one reader segment and return the tag's reaction.
+
+        Parameters
+        ----------
+        incident : (n,) complex, field at the tag antenna port [√W] (command + CW)
+        t0_s : absolute time of sample 0 [s]
+        fs_hz : sample rate [Hz]
+        """
+        x = np.asarray(incident)
+        if x.ndim != 1 or x.size < 2:
+            raise ValueError(f"incident must be a 1-D array of >= 2 samples, got shape {x.shape}")
+        fs_hz, t0_s = float(fs_hz), float(t0_s)
+        if not fs_hz > 0:
+            raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
+        rest = self.reflection_states.gamma_a
+        p_inc = incident_power_w(x)
+        p_dbm = _dbm(p_inc)
+        powered = bool(self.config.power_up.is_powered(self.tau * p_inc))
+        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest)
+        if not powered:
+            if self.state.powered:
+                self.state.on_power(False, t0_s)
+            self._trcal_ticks = None
+            return TagResponse(powered=False, command=None, reply=None, reason="not powered", **base)
+        if not self.state.powered:
+            self.state.on_power(True, t0_s)
+            self._trcal_ticks = None
+
+        frames = pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.config.envelope_rc_s))
+        if not frames:
+            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
+        frame = frames[0]
+        try:
+            cmd = parse(frame.bits)
+        except CommandParseError:
+            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
+        if isinstance(cmd, Query) != frame.has_trcal:
+            # a Query needs the preamble with TRcal; other commands start with a frame-sync
+            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
+        if isinstance(cmd, Query):
+            self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
+        cmd_end_s = t0_s + frame.end / fs_hz
+        reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+        query = self.state.last_query
+        if reply is None or query is None or self._trcal_ticks is None:
+            return TagResponse(powered=True, command=cmd, reply=None, reason="no reply",
+                               command_end_s=cmd_end_s, **base)
+
+        f_clk = self.clock.f_hz
+        n_blf = self.clock.blf_divider(self._trcal_ticks / f_clk, query.dr, trcal_ticks=self._trcal_ticks)
+        blf_hz = f_clk / n_blf
+        n_t1 = max(self.ticks(frame.rtcal, fs_hz), 10 * n_blf)
+        start_s = cmd_end_s + n_t1 / f_clk
+        if self.clock.jitter_rms > 0:
+            start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
+        s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,
+                           t0_s=start_s - t0_s, n_samples=x.size)
+        gamma = np.where(s > 0, self.reflection_states.gamma_b, rest).astype(np.complex128)
+        end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=query.trext, blf_hz=blf_hz)
+        base.update(gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz)
+        return TagResponse(powered=True, command=cmd, reply=reply, reason="", command_end_s=cmd_end_s,
+                           reply_end_s=end_s, m=query.m, trext=query.trext, **base)
+
+
+__all__ = ["TagConfig", "TagResponse", "PassiveTag", "incident_power_w", "envelope",
+           "DEFAULT_SENSITIVITY_DBM", "REASONS"]

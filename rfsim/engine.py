@@ -129,7 +129,10 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             powered.append(i)
         if response.gamma is not None:
             replied.append(i)
-            rx = rx + apply_paths(response.gamma * incident, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s)
+        if response.gamma is not None or response.gamma_rest != 0:
+            # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
+            scattered = response.reflection(incident.size) * incident
+            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s)
     noise_w = reader.noise_power_w()
     if noise_w > 0:
         scale = math.sqrt(noise_w / 2.0)

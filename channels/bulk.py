@@ -1,0 +1,328 @@
+"""Many link draws at once: the physics of :meth:`channels.scene.Channel.link`, vectorised.
+
+:func:`draw_links` returns the paths of n links tx_i → rx_i in one call, as rectangular
+arrays (:class:`BulkPaths`), for Monte Carlo over positions (RSS/phase maps, detection
+probability). Every link gets, as in :mod:`channels.scene` (DESIGN.md "Channel";
+auris-sense-a-tag.md §1.7; pass-paris-simulator.md §2.4):
+
+* **LoS** (column 0): ``A = g_ls(d, fc)·√(G_tx·G_rx)·√PLF·10^(−L_walls/20)·10^(−S/20)``,
+  delay d/c, Doppler ``f_D = −(fc/c)·û·(v_rx − v_tx)``; times √(K/(K+1)) when the scene has
+  an APDP.
+* **Image paths** (columns 1 … S): one column per surface sequence of
+  :func:`channels.surfaces.image_paths` (orders 1 … ``scene.image_order``, by order then
+  surface index, no surface twice in a row). The mirror geometry, the side test, the
+  finite-extent test and the Fresnel coefficients ``w_s·r_TE + (1 − w_s)·r_TM`` are evaluated
+  for all links of one sequence at once; amplitude ``g_ls(ℓ)·Πr·√(G_tx(first leg)·
+  G_rx(last leg)·PLF(image direction))``, delay ℓ/c. A sequence that gives no path for a link
+  leaves its slot padded: gain 0, delay 0, ``valid`` False.
+* **Diffuse taps** (the last T columns, when ``scene.apdp`` is set): ``g_ls·walls·shadowing·h_i``
+  with ``h_i ~ CN(0, P_i)``, delay ``d/c + τ_i``, the LoS Doppler.
+
+Average profile — method and exactness against :func:`channels.small_scale.average_profile`
+(the profile :meth:`Channel.link` draws from). The NLoS tail ``γe^{−γτ}`` is cut, as there,
+into T equal bins over ``[0, t_trunc]`` with ``t_trunc = ln((1 + ε)/ε)/γ``,
+``ε = min(ε_K, (ε_τ/3)^√2)``, renormalised to the NLoS power, one tap per bin at the bin's
+centre of gravity, T = ⌈2·B/f_res⌉ + 1 (capped at ``max_taps − 1``), which is the first
+refinement pass of ``average_profile``. In units of 1/γ that profile does not depend on the
+distance, so it is computed once per call (powers ``w_i``, delays ``x_i``) and scaled per
+link: ``P_i = w_i/(K+1)`` and ``τ_i = x_i/γ'`` with ``γ' = √(p·m₂ − (p·m₁)²)/τrms``,
+``p = 1/(K+1)``, ``m_k = Σ w_i x_i^k``, which makes the discrete profile's RMS delay spread
+equal to τrms(d) (to rounding). Hence: **K exact** (both), **τrms exact** here (``average_profile``
+is within ``eps_trms``, 1 % by default, and refines its bin count until it is), **total power
+exact** (both); the tap delays differ from ``average_profile`` by the factor γ/γ' (≈ 1 %) and,
+where ``average_profile`` stretches ``t_max`` to ``(n−1)/(n·f_res)`` (1/γ < 24 ns with the
+default curves) or adds bins, by its different bin grid. ``fs_hz`` rounding (PASS mode) is not
+offered. Held (quasi-static) draws are the caller's business: one call is one independent draw
+per link.
+
+Cost: a few dozen NumPy passes over (n,) and (n, S) arrays plus n·T complex normals; no loop
+over links (``rfsim.bench.channels.bench_bulk_links`` measures it).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.units import C_M_S
+
+from .antennas import Antenna, polarization_mismatch_factor
+from .large_scale import wall_loss_db
+from .paths import PathSet
+from .small_scale import _binned_tail
+
+__all__ = ["BulkPaths", "draw_links", "diffuse_template", "surface_sequences"]
+
+
+@dataclass(frozen=True, eq=False)
+class BulkPaths:
+    """Paths of n links as rectangular arrays (p = 1 + S + T columns).
+
+    Columns: 0 LoS, 1 … S image-path slots (one per surface sequence, see
+    :func:`surface_sequences`), S+1 … S+T diffuse taps.
+
+    Attributes
+    ----------
+    gain : (n, p) complex128, amplitude gains [linear], carrier phase excluded (as in
+        :class:`~channels.paths.PathSet`); 0 in padded slots
+    delay_s : (n, p) float64, delays [s]; 0 in padded slots
+    doppler_hz : (n, p) float64 Doppler shifts [Hz], or None when both ends are static
+    valid : (n, p) bool, False in the padded image slots
+    n_image_slots : S
+    n_diffuse : T
+    """
+
+    gain: np.ndarray
+    delay_s: np.ndarray
+    doppler_hz: np.ndarray | None
+    valid: np.ndarray
+    n_image_slots: int
+    n_diffuse: int
+
+    @property
+    def n_links(self) -> int:
+        """Number of links n."""
+        return int(self.gain.shape[0])
+
+    @property
+    def n_paths(self) -> int:
+        """Columns per link p (padded)."""
+        return int(self.gain.shape[1])
+
+    def coefficients(self, fc_hz: float) -> np.ndarray:
+        """(n, p) complex128: ``g·e^{−j2π·fc·τ}``, phase reduced modulo one cycle in float64."""
+        return self.gain * np.exp(-2j * np.pi * np.mod(float(fc_hz) * self.delay_s, 1.0))
+
+    def narrowband_gain(self, fc_hz: float) -> np.ndarray:
+        """(n,) complex128: ``Σ_p g·e^{−j2π·fc·τ}`` per link (at t = 0; padding adds 0)."""
+        return self.coefficients(fc_hz).sum(axis=1)
+
+    def pathset(self, i: int) -> PathSet:
+        """Link ``i`` as a :class:`PathSet` without padding (the path order of ``Channel.link``)."""
+        keep = self.valid[i]
+        dop = None if self.doppler_hz is None else self.doppler_hz[i, keep]
+        return PathSet(self.gain[i, keep], self.delay_s[i, keep], dop)
+
+
+def surface_sequences(n_surfaces: int, order: int) -> list[tuple]:
+    """Surface index sequences of orders 1 … ``order`` in the order of ``image_paths``."""
+    out = []
+    for k in range(1, int(order) + 1):
+        for seq in itertools.product(range(int(n_surfaces)), repeat=k):
+            if all(a != b for a, b in zip(seq, seq[1:])):
+                out.append(seq)
+    return out
+
+
+def diffuse_template(apdp) -> tuple[np.ndarray, np.ndarray]:
+    """Unit-γ NLoS profile ``(w, x)`` used by :func:`draw_links` (see the module docstring).
+
+    Returns
+    -------
+    w : (T,) float64, tap powers, Σw = 1
+    x : (T,) float64, tap delays in units of 1/γ (bin centres of gravity on ``[0, ln((1+ε)/ε)]``)
+    """
+    eps = min(apdp.eps_k, (apdp.eps_trms / 3.0) ** math.sqrt(2.0))
+    n = min(int(math.ceil(2.0 * apdp.bandwidth_hz / apdp.fres_hz)) + 1, apdp.max_taps - 1)
+    return _binned_tail(1.0, -math.log(eps / (1.0 + eps)), max(n, 1))
+
+
+def _points(x, name) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.ndim not in (1, 2) or a.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (3,) or (n, 3), got {a.shape}")
+    return a
+
+
+def _s_weight(e, k, nrm):
+    """Vectorised :func:`channels.surfaces._s_weight`: TE power fraction of field e (n, 3) on ray k."""
+    s = np.cross(k, nrm)
+    ns = np.sqrt(np.einsum("ij,ij->i", s, s))
+    e_t = e - np.einsum("ij,ij->i", e, k)[:, None] * k
+    pe = np.einsum("ij,ij->i", e_t.real, e_t.real) + np.einsum("ij,ij->i", e_t.imag, e_t.imag)
+    normal = (ns < 1e-12) | (pe < 1e-24)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        proj = np.einsum("ij,ij->i", s, e_t) / ns
+        w = np.abs(proj) ** 2 / pe
+    return np.where(normal, 1.0, w)
+
+
+def _norm(v):
+    return np.sqrt(np.einsum("...j,...j->...", v, v))
+
+
+def _trace_sequence(p_tx, p_rx, surfaces, seq, pol):
+    """One surface sequence for all links → (valid, coef, image, first point, last point)."""
+    n = p_tx.shape[0]
+    images = [p_tx]
+    for i in seq:
+        s = surfaces[i]
+        v = images[-1]
+        images.append(v - 2.0 * ((v - s.point_m) @ s.normal)[:, None] * s.normal)
+    valid = np.ones(n, dtype=bool)
+    target = p_rx
+    points = []
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for level in range(len(seq), 0, -1):
+            s = surfaces[seq[level - 1]]
+            v = images[level]
+            dv = (v - s.point_m) @ s.normal
+            dt = (target - s.point_m) @ s.normal
+            valid &= dv * dt < 0.0
+            t = np.where(valid, dv / np.where(valid, dv - dt, 1.0), 0.0)
+            p = v + t[:, None] * (target - v)
+            valid &= s.contains(p)
+            points.append(p)
+            target = p
+        points = points[::-1]
+        coef = np.ones(n, dtype=complex)
+        prev = p_tx
+        for idx, p in zip(seq, points):
+            s = surfaces[idx]
+            dvec = p - prev
+            ln = _norm(dvec)
+            k = dvec / np.where(ln > 0, ln, 1.0)[:, None]
+            aoi = np.arccos(np.minimum(np.abs(k @ s.normal), 1.0))
+            e = np.asarray(pol(k), dtype=complex)
+            coef = coef * s.reflection(aoi, _s_weight(e, k, s.normal))
+            prev = p
+    return valid, coef, images[-1], points[0], points[-1]
+
+
+def _mirror_velocity(v, surfaces, seq):
+    for i in seq:
+        nrm = surfaces[i].normal
+        v = v - 2.0 * (v @ nrm)[..., None] * nrm
+    return v
+
+
+def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.random.Generator,
+               tx_antenna: Antenna | None = None, rx_antenna: Antenna | None = None,
+               tx_velocity_m_s=None, rx_velocity_m_s=None) -> BulkPaths:
+    """Draw the paths of n links at once (LoS, image paths, diffuse APDP taps).
+
+    Parameters
+    ----------
+    scene : :class:`~channels.scene.Scene` (surfaces, walls, large scale, APDP, shadowing,
+        image order)
+    tx_positions_m, rx_positions_m : (n, 3) or (3,) float64 [m], broadcast against each other
+    fc_hz : carrier frequency [Hz]
+    rng : numpy Generator (keyword-only); one call draws ``n·T`` complex normals
+    tx_antenna, rx_antenna : :class:`~channels.antennas.Antenna` templates whose orientation,
+        pattern and polarization apply at every position (their position is ignored); None is
+        ``Antenna(...)``'s default (isotropic, linear, vertical)
+    tx_velocity_m_s, rx_velocity_m_s : (n, 3) or (3,) velocities [m/s], or None (static)
+
+    Returns
+    -------
+    :class:`BulkPaths` with p = 1 + S + T columns; ``pathset(i)`` equals
+    ``Channel(scene).link(tx_i, rx_i, ...)`` in its deterministic paths (LoS, images) and in
+    the law of its diffuse taps (module docstring).
+
+    Raises
+    ------
+    ValueError
+        if shapes do not broadcast or a tx coincides with its rx.
+    """
+    tx_in = _points(tx_positions_m, "tx_positions_m")
+    rx_in = _points(rx_positions_m, "rx_positions_m")
+    shape = np.broadcast_shapes(tx_in.shape, rx_in.shape)
+    n = shape[0] if len(shape) == 2 else 1
+    p_tx = np.ascontiguousarray(np.broadcast_to(tx_in, (n, 3)))
+    p_rx = np.ascontiguousarray(np.broadcast_to(rx_in, (n, 3)))
+    tx = Antenna(np.zeros(3)) if tx_antenna is None else tx_antenna
+    rx = Antenna(np.zeros(3)) if rx_antenna is None else rx_antenna
+    moving = tx_velocity_m_s is not None or rx_velocity_m_s is not None
+    v_tx = np.broadcast_to(np.zeros(3) if tx_velocity_m_s is None else _points(tx_velocity_m_s, "tx_velocity_m_s"), (n, 3))
+    v_rx = np.broadcast_to(np.zeros(3) if rx_velocity_m_s is None else _points(rx_velocity_m_s, "rx_velocity_m_s"), (n, 3))
+    fc = float(fc_hz)
+
+    diff = p_rx - p_tx
+    d = _norm(diff)
+    if not np.all(d > 0):
+        raise ValueError("a tx and its rx are at the same position")
+    g_ls = np.asarray(scene.amplitude_gain(d, fc), dtype=float)
+    env = np.ones(n)
+    if scene.walls:
+        env *= np.power(10.0, -wall_loss_db(p_tx, p_rx, list(scene.walls)) / 20.0)
+    if scene.shadowing is not None:
+        env *= np.asarray(scene.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)), dtype=float)
+    ant = np.sqrt(tx.gain_in_direction(diff) * rx.gain_in_direction(-diff))
+    plf = np.sqrt(polarization_mismatch_factor(tx.polarization_vector(diff), rx.polarization_vector(diff)))
+    tau_los = d / C_M_S
+    f_los = -fc / C_M_S * np.einsum("ij,ij->i", diff / d[:, None], v_rx - v_tx) if moving else None
+
+    seqs = surface_sequences(len(scene.surfaces), scene.image_order) if scene.surfaces else []
+    n_img = len(seqs)
+    if scene.apdp is not None:
+        w, x = diffuse_template(scene.apdp)
+    else:
+        w, x = np.zeros(0), np.zeros(0)
+    n_dif = w.size
+    p = 1 + n_img + n_dif
+    gain = np.zeros((n, p), dtype=np.complex128)
+    delay = np.zeros((n, p))
+    dop = np.zeros((n, p)) if moving else None
+    valid = np.ones((n, p), dtype=bool)
+
+    a_los = g_ls * env * ant * plf
+    if n_dif:
+        k_lin = np.asarray(scene.apdp.k_lin_at(d), dtype=float)
+        with np.errstate(invalid="ignore", over="ignore"):
+            p_nlos = np.where(np.isinf(k_lin), 0.0, 1.0 / (k_lin + 1.0))
+            a_los = a_los * np.where(np.isinf(k_lin), 1.0, np.sqrt(k_lin / (k_lin + 1.0)))
+    gain[:, 0] = a_los
+    delay[:, 0] = tau_los
+    if moving:
+        dop[:, 0] = f_los
+
+    if n_img:
+        _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving,
+                       gain[:, 1:1 + n_img], delay[:, 1:1 + n_img],
+                       None if dop is None else dop[:, 1:1 + n_img], valid[:, 1:1 + n_img])
+
+    if n_dif:
+        m1 = float(w @ x)
+        m2 = float(w @ (x * x))
+        tau_rms = np.asarray(scene.apdp.tau_rms_s_at(d), dtype=float)
+        spread = np.sqrt(np.maximum(p_nlos * m2 - (p_nlos * m1) ** 2, 0.0))  # = γ'·τrms
+        inv_gamma = np.where(spread > 0, tau_rms / np.where(spread > 0, spread, 1.0), 0.0)
+        sl = slice(1 + n_img, p)
+        delay[:, sl] = tau_los[:, None] + inv_gamma[:, None] * x
+        z = rng.standard_normal((n, 2 * n_dif)).view(np.complex128)
+        scale = (g_ls * env * np.sqrt(0.5 * p_nlos))[:, None] * np.sqrt(w)
+        np.multiply(z, scale, out=gain[:, sl])
+        if moving:
+            dop[:, sl] = f_los[:, None]
+    return BulkPaths(gain, delay, dop, valid, n_img, n_dif)
+
+
+def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain, delay, dop, valid):
+    """Fill the image-path slots (views into the output arrays) for every surface sequence."""
+    n, n_img = gain.shape
+    surfaces = scene.surfaces
+    ok = np.empty((n, n_img), dtype=bool)
+    coef = np.empty((n, n_img), dtype=complex)
+    v_src = np.empty((n, n_img, 3))
+    first = np.empty((n, n_img, 3))
+    last = np.empty((n, n_img, 3))
+    for j, seq in enumerate(seqs):
+        ok[:, j], coef[:, j], v_src[:, j], first[:, j], last[:, j] = _trace_sequence(
+            p_tx, p_rx, surfaces, seq, tx.polarization_vector)
+    to_rx = p_rx[:, None, :] - v_src
+    ell = np.where(ok, _norm(to_rx), 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):  # only padded slots can be degenerate
+        g_ant = tx.gain_in_direction(first - p_tx[:, None, :]) * rx.gain_in_direction(last - p_rx[:, None, :])
+        plf = polarization_mismatch_factor(tx.polarization_vector(to_rx), rx.polarization_vector(to_rx))
+        g = np.asarray(scene.amplitude_gain(ell, fc), dtype=float) * coef * np.sqrt(g_ant * plf)
+    gain[...] = np.where(ok, g, 0.0)
+    delay[...] = np.where(ok, ell / C_M_S, 0.0)
+    valid[...] = ok
+    if moving:
+        for j, seq in enumerate(seqs):
+            v_img = _mirror_velocity(v_tx, surfaces, seq)
+            f = -fc / C_M_S * np.einsum("ij,ij->i", to_rx[:, j] / ell[:, j, None], v_rx - v_img)
+            dop[:, j] = np.where(ok[:, j], f, 0.0)

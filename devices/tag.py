@@ -8,16 +8,16 @@ reflection states, tag clock), :mod:`rfsim.gen2.pie` (PIE decoder),
 handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" steps 3–4:
 
 1. **Power-up** (pass-paris-simulator.md §2.2 steps 1–4; anchors §4.7). The incident
-   (available) power is the mean of |x|² over the segment's CW samples, P_inc; the chip
-   absorbs P_chip = τ·P_inc with τ = 1 − |Γ_A|² (the power-wave identity of
-   :func:`devices.tag_frontend.power_transmission_coefficient`; τ = 1 for the default
-   conjugate-matched ASK tag); powered ⇔ P_chip ≥ P_min (chip sensitivity). The CW
-   samples are those whose envelope lies in the top quarter of the swing between the
-   two level clusters of the PIE envelope (isodata split,
-   :func:`rfsim.gen2.pie.two_level_threshold`); a segment without modulation (swing below
-   half the CW level) counts entirely. PASS averages over the whole vector instead, which
-   lets the command's modulation lower the estimate; here a clean segment gives P_inc
-   exactly. The buffer capacitor is assumed to bridge the PIE low pulses.
+   (available) power P_inc is the CW power of the segment: the median of |x|² over the
+   samples whose envelope lies above the midpoint between the two level clusters of the
+   PIE envelope (isodata split, :func:`rfsim.gen2.pie.two_level_threshold`); a segment
+   without modulation (swing below half the CW level) counts entirely. The median makes
+   the estimate insensitive to the samples on the PIE edges (a clean segment gives P_inc
+   exactly); PASS averages over the whole vector instead, which lets the command's
+   modulation lower the estimate. The buffer capacitor is assumed to bridge the PIE low
+   pulses. The chip absorbs P_chip = τ·P_inc with τ = 1 − |Γ_A|² (the power-wave
+   identity of :func:`devices.tag_frontend.power_transmission_coefficient`; τ = 1 for
+   the default conjugate-matched ASK tag); powered ⇔ P_chip ≥ P_min (chip sensitivity).
 2. **Envelope detection**: the ideal envelope detector e = |x|, optionally followed by a
    first-order RC low-pass e_f[n] = a·e_f[n−1] + (1 − a)·e[n], a = exp(−1/(τ_RC·fs))
    (``envelope_rc_s``; 0 = off; PASS uses τ = 169 ns at RF, §2.2 ``tag_demodulation``).
@@ -79,8 +79,6 @@ DEFAULT_SENSITIVITY_DBM = float(w_to_dbm(PASS_PICMIN_900MHZ_W))
 #: A segment counts as modulated when the swing between its two envelope clusters exceeds
 #: this fraction of the high level (Gen2 PIE depth is 80–100 %).
 _MIN_MODULATION = 0.5
-#: CW samples lie within this fraction of the swing below the high cluster.
-_CW_BAND = 0.25
 
 REASONS = ("", "not powered", "decode error", "no reply")
 
@@ -196,10 +194,10 @@ class TagResponse:
 
 
 def incident_power_w(x: np.ndarray) -> float:
-    """Mean CW power of a reader segment [W]: mean |x|² over the CW samples.
+    """CW power of a reader segment [W]: median of |x|² over the CW samples.
 
-    CW samples: envelope ≥ high − 0.25·(high − low), with high/low the isodata cluster
-    means of |x|; all samples when the swing is below half the high level (no command).
+    CW samples: envelope above (high + low)/2, with high/low the isodata cluster means of
+    |x|; all samples when the swing is below half the high level (no command).
 
     Parameters
     ----------
@@ -208,10 +206,10 @@ def incident_power_w(x: np.ndarray) -> float:
     env = np.abs(np.asarray(x))
     if env.size == 0:
         raise ValueError("empty segment")
-    _, lo, hi = two_level_threshold(env)
+    thr, lo, hi = two_level_threshold(env)
     if hi > 0 and hi - lo >= _MIN_MODULATION * hi:
-        env = env[env >= hi - _CW_BAND * (hi - lo)]
-    return float(np.mean(env * env))
+        env = env[env >= thr]
+    return float(np.median(env * env))
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:

@@ -359,3 +359,31 @@ def test_clock_jitter_spreads_the_reply_start():
         starts.append(r.reply_start_s)
     std = np.std(starts, ddof=1)
     assert std == pytest.approx(sigma / 1.92e6, rel=0.2)
+
+
+# ----------------------------------------------------------------------------- reader-like variants
+
+
+def test_pr_ask_phase_reversals_and_noise():
+    # PR-ASK: the carrier phase reverses in every low pulse (depth 100 %, |x| is the PIE
+    # envelope); plus complex AWGN at 25 dB CW SNR in the sampled band. The tag must still
+    # decode, and its CW power estimate stays within 0.1 dB (the median of |√P + n|² is
+    # P·(1 + O(1/SNR)) = +0.014 dB at 25 dB).
+    link = PROFILES["miller4-320k"]
+    bits = encode(Query(dr=link.dr, m=link.m, trext=link.trext, q=0))
+    kw = dict(_timing(link), preamble="query", cw_before_s=CW_BEFORE_S, cw_after_s=_cw_after_s(link, 4, 16))
+    env = pie_envelope(bits, depth=1.0, fs_hz=FS_HZ, rise_fall_s=0.1 * link.tari_s, **kw)
+    tl = pie_timeline(bits, **kw)
+    t = np.arange(env.size) / FS_HZ
+    flips = np.searchsorted(0.5 * (tl.fall_s + tl.rise_s), t, side="right")
+    p_w = float(dbm_to_w(-5.0))
+    x = math.sqrt(p_w) * env * np.where(flips % 2 == 0, 1.0, -1.0)
+    assert np.any(x.real < -0.5 * math.sqrt(p_w))  # the phase really reverses
+    rng = np.random.default_rng(42)
+    sigma2 = p_w / 10 ** 2.5
+    x = x + math.sqrt(sigma2 / 2) * (rng.standard_normal(x.size) + 1j * rng.standard_normal(x.size))
+    tag = make_tag(seed=9)
+    r = tag.listen(x, t0_s=0.0, fs_hz=FS_HZ)
+    assert r.reason == "" and r.reply.kind == "RN16"
+    assert abs(r.incident_power_dbm - (-5.0)) < 0.1
+    np.testing.assert_array_equal(decode(r, tag.reflection_states, 16).bits, r.reply.bits)

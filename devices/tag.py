@@ -108,13 +108,16 @@ class TagConfig:
                                  doc="RC time constant of the envelope detector (0 = ideal |x|)")
 
     def __post_init__(self):
+        # The same per-field check as rfsim.config.from_dict, applied to a config built in
+        # code (rfsim.config.validate would rebuild the object and recurse through here).
         hints = typing.get_type_hints(type(self))
         for f in dataclasses.fields(self):
             value = _config._coerce(f"tag.{f.name}", getattr(self, f.name), hints[f.name], field_meta(f))
             object.__setattr__(self, f.name, value)
         text = self.epc_hex.replace(" ", "")
         if not text or len(text) % 4 or len(text) > 124 or any(c not in "0123456789abcdefABCDEF" for c in text):
-            raise ConfigError("tag.epc_hex", self.epc_hex, "hex digits, a multiple of 4 (16-bit words), at most 496 bits")
+            raise ConfigError("tag.epc_hex", self.epc_hex,
+                              "hex digits, a multiple of 4 (16-bit words), at most 496 bits")
 
     @property
     def clock(self) -> TagClock:

@@ -288,8 +288,11 @@ class PassiveTag:
         Parameters
         ----------
         incident : (n,) complex, field at the tag antenna port [√W] (command + CW)
-        t0_s : absolute time of sample 0 [s]
+        t0_s : absolute time of sample 0 [s]; segments must come in time order
         fs_hz : sample rate [Hz]
+
+        A segment carries one command: if the decoder finds several PIE frames, the first
+        is used. Power is judged once per segment (at ``t0_s``).
         """
         x = np.asarray(incident)
         if x.ndim != 1 or x.size < 2:

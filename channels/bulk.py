@@ -49,10 +49,13 @@ import numpy as np
 
 from rfsim.units import C_M_S
 
-from .antennas import Antenna, polarization_mismatch_factor
+from .antennas import Antenna, Isotropic, polarization_mismatch_factor
 from .large_scale import wall_loss_db
 from .paths import PathSet
 from .small_scale import _binned_tail
+
+#: Links per block (bounds the temporaries of the image-path geometry).
+_BLOCK = 8192
 
 __all__ = ["BulkPaths", "draw_links", "diffuse_template", "surface_sequences"]
 
@@ -137,24 +140,69 @@ def _points(x, name) -> np.ndarray:
     return a
 
 
-def _s_weight(e, k, nrm):
-    """Vectorised :func:`channels.surfaces._s_weight`: TE power fraction of field e (n, 3) on ray k."""
+def _cross_const(a, k):
+    """``a × k`` for a constant (3,) vector a and directions k (..., 3)."""
+    kx, ky, kz = k[..., 0], k[..., 1], k[..., 2]
+    return np.stack((a[1] * kz - a[2] * ky, a[2] * kx - a[0] * kz, a[0] * ky - a[1] * kx), axis=-1)
+
+
+def _gain(antenna: Antenna, directions) -> np.ndarray:
+    """Power gain of ``antenna`` in global ``directions`` (..., 3); an isotropic pattern is a constant."""
+    if isinstance(antenna.pattern, Isotropic):
+        return np.full(directions.shape[:-1], float(antenna.pattern.gain_lin))
+    return antenna.gain_in_direction(directions)
+
+
+def _plf(tx: Antenna, rx: Antenna, k) -> np.ndarray:
+    """Polarization mismatch ``|ê_tx·ê_rx*|²`` along directions k (..., 3) (any length).
+
+    Linear–linear in closed form: with ``c = axis × k`` the transverse axis has
+    ``|a_⊥| = |c|/|k|`` and ``a_⊥·b_⊥ = c_a·c_b/|k|²``, so ``PLF = (c_a·c_b)²/(|c_a|²·|c_b|²)``,
+    0 where an axis is parallel to k (``|a_⊥| ≤ 1e-12``, the rule of
+    :meth:`~channels.antennas.Antenna.polarization_vector`). Other pairs use the antennas' own
+    polarization vectors.
+    """
+    if tx.polarization == "linear" and rx.polarization == "linear":
+        ca = _cross_const(tx.polarization_axis, k)
+        cb = _cross_const(rx.polarization_axis, k)
+        na = np.einsum("...j,...j->...", ca, ca)
+        nb = np.einsum("...j,...j->...", cb, cb)
+        tiny = 1e-24 * np.einsum("...j,...j->...", k, k)
+        ok = (na > tiny) & (nb > tiny)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ok, np.einsum("...j,...j->...", ca, cb) ** 2 / (na * nb), 0.0)
+    return polarization_mismatch_factor(tx.polarization_vector(k), rx.polarization_vector(k))
+
+
+def _te_weight(tx: Antenna, k, nrm) -> np.ndarray:
+    """TE power fraction of the tx field on unit rays k (n, 3) hitting a plane of normal ``nrm``.
+
+    As :func:`channels.surfaces._s_weight` with ``e = tx.polarization_vector(k)``: with
+    ``s = k × n`` (1 where ``|s| < 1e-12``: normal incidence), ``w = |ŝ·e_⊥|²/|e_⊥|²``. For a
+    linear antenna ``ŝ ⊥ k`` gives ``ŝ·a_⊥ = ŝ·a``, so ``w = (s·a)²/(|s|²·|a × k|²)`` (1 where
+    ``a ∥ k``: no transverse field).
+    """
     s = np.cross(k, nrm)
-    ns = np.sqrt(np.einsum("ij,ij->i", s, s))
-    e_t = e - np.einsum("ij,ij->i", e, k)[:, None] * k
-    pe = np.einsum("ij,ij->i", e_t.real, e_t.real) + np.einsum("ij,ij->i", e_t.imag, e_t.imag)
-    normal = (ns < 1e-12) | (pe < 1e-24)
+    ns2 = np.einsum("ij,ij->i", s, s)
     with np.errstate(divide="ignore", invalid="ignore"):
-        proj = np.einsum("ij,ij->i", s, e_t) / ns
-        w = np.abs(proj) ** 2 / pe
-    return np.where(normal, 1.0, w)
+        if tx.polarization == "linear":
+            a = tx.polarization_axis
+            c = _cross_const(a, k)
+            na2 = np.einsum("ij,ij->i", c, c)
+            w = (s @ a) ** 2 / (ns2 * na2)
+            return np.where((ns2 < 1e-24) | (na2 <= 1e-24), 1.0, w)
+        e = np.asarray(tx.polarization_vector(k), dtype=complex)
+        e_t = e - np.einsum("ij,ij->i", e, k)[:, None] * k
+        pe = np.einsum("ij,ij->i", e_t.real, e_t.real) + np.einsum("ij,ij->i", e_t.imag, e_t.imag)
+        w = np.abs(np.einsum("ij,ij->i", s, e_t)) ** 2 / (ns2 * pe)
+        return np.where((ns2 < 1e-24) | (pe < 1e-24), 1.0, w)
 
 
 def _norm(v):
     return np.sqrt(np.einsum("...j,...j->...", v, v))
 
 
-def _trace_sequence(p_tx, p_rx, surfaces, seq, pol):
+def _trace_sequence(p_tx, p_rx, surfaces, seq, tx):
     """One surface sequence for all links → (valid, coef, image, first point, last point)."""
     n = p_tx.shape[0]
     images = [p_tx]
@@ -186,8 +234,7 @@ def _trace_sequence(p_tx, p_rx, surfaces, seq, pol):
             ln = _norm(dvec)
             k = dvec / np.where(ln > 0, ln, 1.0)[:, None]
             aoi = np.arccos(np.minimum(np.abs(k @ s.normal), 1.0))
-            e = np.asarray(pol(k), dtype=complex)
-            coef = coef * s.reflection(aoi, _s_weight(e, k, s.normal))
+            coef = coef * s.reflection(aoi, _te_weight(tx, k, s.normal))
             prev = p
     return valid, coef, images[-1], points[0], points[-1]
 
@@ -239,7 +286,28 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
     v_tx = np.broadcast_to(np.zeros(3) if tx_velocity_m_s is None else _points(tx_velocity_m_s, "tx_velocity_m_s"), (n, 3))
     v_rx = np.broadcast_to(np.zeros(3) if rx_velocity_m_s is None else _points(rx_velocity_m_s, "rx_velocity_m_s"), (n, 3))
     fc = float(fc_hz)
+    seqs = surface_sequences(len(scene.surfaces), scene.image_order) if scene.surfaces else []
+    w, x = diffuse_template(scene.apdp) if scene.apdp is not None else (np.zeros(0), np.zeros(0))
+    n_img, n_dif = len(seqs), w.size
+    p = 1 + n_img + n_dif
+    gain = np.empty((n, p), dtype=np.complex128)
+    delay = np.empty((n, p))
+    dop = np.empty((n, p)) if moving else None
+    valid = np.ones((n, p), dtype=bool)
+    # blocks keep the (block, S, 3) temporaries in cache; the normals are drawn block after
+    # block in row order, so the result does not depend on the block size
+    for i0 in range(0, n, _BLOCK):
+        b = slice(i0, min(i0 + _BLOCK, n))
+        _fill_block(scene, seqs, w, x, p_tx[b], p_rx[b], v_tx[b], v_rx[b], tx, rx, fc, rng,
+                    gain[b], delay[b], None if dop is None else dop[b], valid[b])
+    return BulkPaths(gain, delay, dop, valid, n_img, n_dif)
 
+
+def _fill_block(scene, seqs, w, x, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, rng, gain, delay, dop, valid):
+    """All columns of one block of links (views into the output arrays)."""
+    n = p_tx.shape[0]
+    n_img, n_dif = len(seqs), w.size
+    moving = dop is not None
     diff = p_rx - p_tx
     d = _norm(diff)
     if not np.all(d > 0):
@@ -250,25 +318,8 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
         env *= np.power(10.0, -wall_loss_db(p_tx, p_rx, list(scene.walls)) / 20.0)
     if scene.shadowing is not None:
         env *= np.asarray(scene.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)), dtype=float)
-    ant = np.sqrt(tx.gain_in_direction(diff) * rx.gain_in_direction(-diff))
-    plf = np.sqrt(polarization_mismatch_factor(tx.polarization_vector(diff), rx.polarization_vector(diff)))
+    a_los = g_ls * env * np.sqrt(_gain(tx, diff) * _gain(rx, -diff) * _plf(tx, rx, diff))
     tau_los = d / C_M_S
-    f_los = -fc / C_M_S * np.einsum("ij,ij->i", diff / d[:, None], v_rx - v_tx) if moving else None
-
-    seqs = surface_sequences(len(scene.surfaces), scene.image_order) if scene.surfaces else []
-    n_img = len(seqs)
-    if scene.apdp is not None:
-        w, x = diffuse_template(scene.apdp)
-    else:
-        w, x = np.zeros(0), np.zeros(0)
-    n_dif = w.size
-    p = 1 + n_img + n_dif
-    gain = np.zeros((n, p), dtype=np.complex128)
-    delay = np.zeros((n, p))
-    dop = np.zeros((n, p)) if moving else None
-    valid = np.ones((n, p), dtype=bool)
-
-    a_los = g_ls * env * ant * plf
     if n_dif:
         k_lin = np.asarray(scene.apdp.k_lin_at(d), dtype=float)
         with np.errstate(invalid="ignore", over="ignore"):
@@ -277,27 +328,24 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
     gain[:, 0] = a_los
     delay[:, 0] = tau_los
     if moving:
+        f_los = -fc / C_M_S * np.einsum("ij,ij->i", diff / d[:, None], v_rx - v_tx)
         dop[:, 0] = f_los
-
     if n_img:
+        sl = slice(1, 1 + n_img)
         _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving,
-                       gain[:, 1:1 + n_img], delay[:, 1:1 + n_img],
-                       None if dop is None else dop[:, 1:1 + n_img], valid[:, 1:1 + n_img])
-
+                       gain[:, sl], delay[:, sl], None if dop is None else dop[:, sl], valid[:, sl])
     if n_dif:
         m1 = float(w @ x)
         m2 = float(w @ (x * x))
         tau_rms = np.asarray(scene.apdp.tau_rms_s_at(d), dtype=float)
         spread = np.sqrt(np.maximum(p_nlos * m2 - (p_nlos * m1) ** 2, 0.0))  # = γ'·τrms
         inv_gamma = np.where(spread > 0, tau_rms / np.where(spread > 0, spread, 1.0), 0.0)
-        sl = slice(1 + n_img, p)
+        sl = slice(1 + n_img, 1 + n_img + n_dif)
         delay[:, sl] = tau_los[:, None] + inv_gamma[:, None] * x
         z = rng.standard_normal((n, 2 * n_dif)).view(np.complex128)
-        scale = (g_ls * env * np.sqrt(0.5 * p_nlos))[:, None] * np.sqrt(w)
-        np.multiply(z, scale, out=gain[:, sl])
+        np.multiply(z, (g_ls * env * np.sqrt(0.5 * p_nlos))[:, None] * np.sqrt(w), out=gain[:, sl])
         if moving:
             dop[:, sl] = f_los[:, None]
-    return BulkPaths(gain, delay, dop, valid, n_img, n_dif)
 
 
 def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain, delay, dop, valid):
@@ -311,12 +359,12 @@ def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain
     last = np.empty((n, n_img, 3))
     for j, seq in enumerate(seqs):
         ok[:, j], coef[:, j], v_src[:, j], first[:, j], last[:, j] = _trace_sequence(
-            p_tx, p_rx, surfaces, seq, tx.polarization_vector)
+            p_tx, p_rx, surfaces, seq, tx)
     to_rx = p_rx[:, None, :] - v_src
     ell = np.where(ok, _norm(to_rx), 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):  # only padded slots can be degenerate
-        g_ant = tx.gain_in_direction(first - p_tx[:, None, :]) * rx.gain_in_direction(last - p_rx[:, None, :])
-        plf = polarization_mismatch_factor(tx.polarization_vector(to_rx), rx.polarization_vector(to_rx))
+        g_ant = _gain(tx, first - p_tx[:, None, :]) * _gain(rx, last - p_rx[:, None, :])
+        plf = _plf(tx, rx, to_rx)
         g = np.asarray(scene.amplitude_gain(ell, fc), dtype=float) * coef * np.sqrt(g_ant * plf)
     gain[...] = np.where(ok, g, 0.0)
     delay[...] = np.where(ok, ell / C_M_S, 0.0)

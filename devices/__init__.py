@@ -1,16 +1,19 @@
 """Device models: reader, passive tag, sense-a-tag, HIMR inertial tag, exciter.
 
-So far: the passive tag's Gen2 protocol logic (:mod:`devices.gen2_tag_state`) and its
-front-end physics — power-up, reflection-coefficient states, clock
-(:mod:`devices.tag_frontend`).
+Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end physics —
+power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`) — and the
+sample-level device that listens to a reader segment and answers with Γ(t)
+(:mod:`devices.tag`).
 """
 
 from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
+from devices.tag import PassiveTag, TagConfig, TagResponse
 from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
                                   modulation_factor, power_transmission_coefficient,
                                   reflection_coefficient)
 
 __all__ = [
+    "PassiveTag", "TagConfig", "TagResponse",
     "TagState", "Reply", "FlagPersistence", "pc_word",
     "PowerUp", "ReflectionStates", "TagClock", "power_transmission_coefficient",
     "reflection_coefficient", "modulation_factor", "differential_rcs_m2",

@@ -52,9 +52,7 @@ G2XM-class chip at 900 MHz against a conjugate-matched antenna
 
 from __future__ import annotations
 
-import dataclasses
 import math
-import typing
 from dataclasses import dataclass
 from typing import Literal
 
@@ -64,8 +62,7 @@ from scipy.signal import lfilter
 from devices.gen2_tag_state import Reply, TagState
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
                                   TagClock)
-from rfsim import config as _config
-from rfsim.config import field_meta, param
+from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
@@ -108,12 +105,7 @@ class TagConfig:
                                  doc="RC time constant of the envelope detector (0 = ideal |x|)")
 
     def __post_init__(self):
-        # The same per-field check as rfsim.config.from_dict, applied to a config built in
-        # code (rfsim.config.validate would rebuild the object and recurse through here).
-        hints = typing.get_type_hints(type(self))
-        for f in dataclasses.fields(self):
-            value = _config._coerce(f"tag.{f.name}", getattr(self, f.name), hints[f.name], field_meta(f))
-            object.__setattr__(self, f.name, value)
+        check_fields(self, "tag")
         text = self.epc_hex.replace(" ", "")
         if not text or len(text) % 4 or len(text) > 124 or any(c not in "0123456789abcdefABCDEF" for c in text):
             raise ConfigError("tag.epc_hex", self.epc_hex,

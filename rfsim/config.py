@@ -184,6 +184,18 @@ def _known_keys_hint(name: str, fields: Mapping[str, Any]) -> str:
     return hint if hint else f" (one of {', '.join(sorted(fields))})"
 
 
+def check_fields(config: Any, prefix: str = "") -> None:
+    """Validate the fields of a config built in code, from its ``__post_init__``.
+
+    Same per-field checks as :func:`from_dict` (types, ranges, choices), with keys named
+    ``prefix.field``; values are stored in canonical form (e.g. ints as floats).
+    """
+    hints = typing.get_type_hints(type(config))
+    for f in dataclasses.fields(config):
+        key = f"{prefix}.{f.name}" if prefix else f.name
+        object.__setattr__(config, f.name, _coerce(key, getattr(config, f.name), hints[f.name], field_meta(f)))
+
+
 def validate(config: Any) -> Any:
     """Re-check an already built config (e.g. one created in Python code)."""
     return from_dict(type(config), to_dict(config))
@@ -321,6 +333,7 @@ __all__ = [
     "field_meta",
     "from_dict",
     "validate",
+    "check_fields",
     "parse_override",
     "read_toml",
     "load_config",

@@ -57,7 +57,7 @@ from .small_scale import _binned_tail
 #: Links per block (bounds the temporaries of the image-path geometry).
 _BLOCK = 8192
 
-__all__ = ["BulkPaths", "draw_links", "diffuse_template", "surface_sequences"]
+__all__ = ["BulkPaths", "draw_links", "diffuse_profile", "diffuse_template", "surface_sequences"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -131,6 +131,36 @@ def diffuse_template(apdp) -> tuple[np.ndarray, np.ndarray]:
     eps = min(apdp.eps_k, (apdp.eps_trms / 3.0) ** math.sqrt(2.0))
     n = min(int(math.ceil(2.0 * apdp.bandwidth_hz / apdp.fres_hz)) + 1, apdp.max_taps - 1)
     return _binned_tail(1.0, -math.log(eps / (1.0 + eps)), max(n, 1))
+
+
+def diffuse_profile(apdp, distance_m, *, template=None):
+    """Per-link average profile of :func:`draw_links` (unit total power; module docstring).
+
+    ``P_i = w_i/(K+1)`` and ``τ_i = x_i/γ'`` with ``γ' = √(p·m₂ − (p·m₁)²)/τrms``,
+    ``p = 1/(K+1)``, ``m_k = Σ w_i x_i^k``: K(d) and τrms(d) of ``apdp`` are met exactly.
+
+    Parameters
+    ----------
+    apdp : :class:`~channels.small_scale.ApdpModel`
+    distance_m : (n,) float64 [m]
+    template : ``(w, x)`` from :func:`diffuse_template` (computed when None)
+
+    Returns
+    -------
+    p_los : (n,) float64, LoS power K/(K+1)
+    powers : (n, T) float64, NLoS tap powers (Σ = 1/(K+1))
+    delays_s : (n, T) float64, NLoS tap delays [s] relative to the LoS
+    """
+    w, x = diffuse_template(apdp) if template is None else template
+    d = np.asarray(distance_m, dtype=float)
+    k_lin = np.asarray(apdp.k_lin_at(d), dtype=float)
+    inf = np.isinf(k_lin)
+    k_fin = np.where(inf, 0.0, k_lin)
+    p_nlos = np.where(inf, 0.0, 1.0 / (k_fin + 1.0))
+    spread = np.sqrt(np.maximum(p_nlos * float(w @ (x * x)) - (p_nlos * float(w @ x)) ** 2, 0.0))  # γ'·τrms
+    tau_rms = np.asarray(apdp.tau_rms_s_at(d), dtype=float)
+    inv_gamma = np.where(spread > 0, tau_rms / np.where(spread > 0, spread, 1.0), 0.0)
+    return 1.0 - p_nlos, p_nlos[:, None] * w, inv_gamma[:, None] * x
 
 
 def _points(x, name) -> np.ndarray:
@@ -321,10 +351,8 @@ def _fill_block(scene, seqs, w, x, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, rng, gain
     a_los = g_ls * env * np.sqrt(_gain(tx, diff) * _gain(rx, -diff) * _plf(tx, rx, diff))
     tau_los = d / C_M_S
     if n_dif:
-        k_lin = np.asarray(scene.apdp.k_lin_at(d), dtype=float)
-        with np.errstate(invalid="ignore", over="ignore"):
-            p_nlos = np.where(np.isinf(k_lin), 0.0, 1.0 / (k_lin + 1.0))
-            a_los = a_los * np.where(np.isinf(k_lin), 1.0, np.sqrt(k_lin / (k_lin + 1.0)))
+        p_los, p_tap, rel = diffuse_profile(scene.apdp, d, template=(w, x))
+        a_los = a_los * np.sqrt(p_los)
     gain[:, 0] = a_los
     delay[:, 0] = tau_los
     if moving:
@@ -335,15 +363,10 @@ def _fill_block(scene, seqs, w, x, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, rng, gain
         _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving,
                        gain[:, sl], delay[:, sl], None if dop is None else dop[:, sl], valid[:, sl])
     if n_dif:
-        m1 = float(w @ x)
-        m2 = float(w @ (x * x))
-        tau_rms = np.asarray(scene.apdp.tau_rms_s_at(d), dtype=float)
-        spread = np.sqrt(np.maximum(p_nlos * m2 - (p_nlos * m1) ** 2, 0.0))  # = γ'·τrms
-        inv_gamma = np.where(spread > 0, tau_rms / np.where(spread > 0, spread, 1.0), 0.0)
         sl = slice(1 + n_img, 1 + n_img + n_dif)
-        delay[:, sl] = tau_los[:, None] + inv_gamma[:, None] * x
+        np.add(tau_los[:, None], rel, out=delay[:, sl])
         z = rng.standard_normal((n, 2 * n_dif)).view(np.complex128)
-        np.multiply(z, (g_ls * env * np.sqrt(0.5 * p_nlos))[:, None] * np.sqrt(w), out=gain[:, sl])
+        np.multiply(z, (g_ls * env)[:, None] * np.sqrt(0.5 * p_tap), out=gain[:, sl])
         if moving:
             dop[:, sl] = f_los[:, None]
 

@@ -157,7 +157,8 @@ def diffuse_profile(apdp, distance_m, *, template=None):
     inf = np.isinf(k_lin)
     k_fin = np.where(inf, 0.0, k_lin)
     p_nlos = np.where(inf, 0.0, 1.0 / (k_fin + 1.0))
-    spread = np.sqrt(np.maximum(p_nlos * float(w @ (x * x)) - (p_nlos * float(w @ x)) ** 2, 0.0))  # γ'·τrms
+    m1, m2 = float(w @ x), float(w @ (x * x))
+    spread = np.sqrt(np.maximum(p_nlos * m2 - (p_nlos * m1) ** 2, 0.0))  # γ'·τrms
     tau_rms = np.asarray(apdp.tau_rms_s_at(d), dtype=float)
     inv_gamma = np.where(spread > 0, tau_rms / np.where(spread > 0, spread, 1.0), 0.0)
     return 1.0 - p_nlos, p_nlos[:, None] * w, inv_gamma[:, None] * x
@@ -168,6 +169,10 @@ def _points(x, name) -> np.ndarray:
     if a.ndim not in (1, 2) or a.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (3,) or (n, 3), got {a.shape}")
     return a
+
+
+def _velocity(v, name, n) -> np.ndarray:
+    return np.broadcast_to(np.zeros(3) if v is None else _points(v, name), (n, 3))
 
 
 def _cross_const(a, k):
@@ -313,8 +318,8 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
     tx = Antenna(np.zeros(3)) if tx_antenna is None else tx_antenna
     rx = Antenna(np.zeros(3)) if rx_antenna is None else rx_antenna
     moving = tx_velocity_m_s is not None or rx_velocity_m_s is not None
-    v_tx = np.broadcast_to(np.zeros(3) if tx_velocity_m_s is None else _points(tx_velocity_m_s, "tx_velocity_m_s"), (n, 3))
-    v_rx = np.broadcast_to(np.zeros(3) if rx_velocity_m_s is None else _points(rx_velocity_m_s, "rx_velocity_m_s"), (n, 3))
+    v_tx = _velocity(tx_velocity_m_s, "tx_velocity_m_s", n)
+    v_rx = _velocity(rx_velocity_m_s, "rx_velocity_m_s", n)
     fc = float(fc_hz)
     seqs = surface_sequences(len(scene.surfaces), scene.image_order) if scene.surfaces else []
     w, x = diffuse_template(scene.apdp) if scene.apdp is not None else (np.zeros(0), np.zeros(0))

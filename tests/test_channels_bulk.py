@@ -55,6 +55,12 @@ CASES = {
         tx=Antenna([0, 0, 0], pattern=HalfWaveDipole()),
         rx=Antenna([0, 0, 0], orientation=(0.2, 0.5, 0), polarization="circular", handedness="lhcp"),
         walls=(), large_scale=None, shadowing=False),
+    # circular patch transmitter (generic TE weight and polarization factors), linear receiver
+    "order1_circular_tx": dict(
+        order=1, n=60, moving=False,
+        tx=Antenna([0, 0, 0], orientation=(0.7, 0.1, 0), pattern=Patch(7.0, 65.0), polarization="circular"),
+        rx=Antenna([0, 0, 0], pol_tilt_rad=0.9),
+        walls=(), large_scale=None, shadowing=False),
     # default antennas (None ⇔ Antenna(p)), static
     "order1_default_static": dict(order=1, n=200, moving=False, tx=None, rx=None, walls=(),
                                   large_scale=None, shadowing=False),

@@ -1,0 +1,359 @@
+"""Closed forms of phase cancellation at a sense-a-tag (ST) and of its dual-antenna remedies.
+
+The ST hears the reader's CW (amplitude ``A_R``) and a tag's backscatter in two reflection
+states (amplitudes ``A_T1``, ``A_T2`` for ASK; one amplitude ``A_T`` and a phase step ψ for
+PSK) with a relative phase θ; an envelope detector sees ``A_i = |A_R + A_Ti·e^{jθ}|`` and
+the modulation it can detect is ``|A1 − A2|``. All amplitudes are in the same unit (V at
+the ST antenna or detector in the source tables); angles in rad. Every function
+broadcasts over NumPy arrays.
+
+Sources: auris-sense-a-tag.md §1.3 (ASK, Eq. 3.3–3.5, seed L2491-2662), §1.4 (PSK,
+Eq. 3.8–3.11, L2663-2815), §1.5 (simple combination, Eq. 3.15/3.17/3.21/3.22,
+L2854-3121), §1.6 (Algorithm 1, L3182-3196; spatial null model Eq. 3.23, L3205-3289),
+§4.1 R3-5 (phase-cancellation probability, L3472-3502), §5 (ASK-PSK stamp, L5874-6023).
+
+Antenna convention (as in the source): SA1 feeds the receive-only path P1, SA2 the full ST
+path P2 (with the backscatter modulator). A single-antenna ST is the P2 path alone.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.stats import beta as _beta_dist
+
+from rfsim.errors import ConfigError
+from rfsim.units import wavelength_m
+
+#: Phase-cancellation threshold on the envelope-detector output difference [V]
+#: (auris-sense-a-tag.md §3.1, seed L3443-3445, L3500-3502).
+THRESHOLD_V = 5e-3
+
+
+# ----------------------------------------------------------------------------- single antenna
+
+
+def envelope_amplitude(a_r, a_t, theta_rad):
+    """Envelope of CW + one backscatter state, Eq. 3.3 (seed L2532-2560).
+
+    ``A = sqrt(A_R² + 2·A_R·A_T·cos θ + A_T²) = |A_R + A_T·e^{jθ}|``.
+    """
+    a_r, a_t, th = np.asarray(a_r, float), np.asarray(a_t, float), np.asarray(theta_rad, float)
+    return np.sqrt(np.maximum(a_r * a_r + 2.0 * a_r * a_t * np.cos(th) + a_t * a_t, 0.0))
+
+
+def ask_envelope_difference(a_r, a_t1, a_t2, theta_rad):
+    """ASK envelope difference ``|A1 − A2|``, Eq. 3.4 (seed L2562-2595).
+
+    ``|A_T1 − A_T2|·|A_T1 + A_T2 + 2·A_R·cos θ| / (A1 + A2)`` with ``A_i`` from Eq. 3.3
+    (the rationalised form: no cancellation of nearly equal square roots near the null).
+
+    Parameters
+    ----------
+    a_r : CW amplitude at the ST antenna [V]
+    a_t1, a_t2 : backscatter amplitudes of the two reflection states [V]
+    theta_rad : relative phase between the CW and the backscatter [rad]
+    """
+    a_r, a_t1, a_t2 = (np.asarray(v, float) for v in (a_r, a_t1, a_t2))
+    c = np.cos(np.asarray(theta_rad, float))
+    den = envelope_amplitude(a_r, a_t1, theta_rad) + envelope_amplitude(a_r, a_t2, theta_rad)
+    num = np.abs(a_t1 - a_t2) * np.abs(a_t1 + a_t2 + 2.0 * a_r * c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+
+
+def ask_cancel_angle(a_r, a_t1, a_t2):
+    """Cancellation angle ``θ_cancel = arccos(−(A_T1 + A_T2)/(2·A_R))``, Eq. 3.5 (L2597-2608).
+
+    Nulls of Eq. 3.4 lie at ``θ = ±θ_cancel`` (mod 2π). NaN where no null exists
+    (``A_T1 + A_T2 > 2·A_R``).
+    """
+    a_r, a_t1, a_t2 = (np.asarray(v, float) for v in (a_r, a_t1, a_t2))
+    x = -(a_t1 + a_t2) / (2.0 * a_r)
+    with np.errstate(invalid="ignore"):
+        return np.where(np.abs(x) <= 1.0, np.arccos(np.clip(x, -1.0, 1.0)), np.nan)
+
+
+def psk_envelope_difference(a_r, a_t, psi_rad, theta_rad):
+    """PSK envelope difference ``|A1 − A2|``, Eq. 3.9 (seed L2735-2762).
+
+    ``2·A_R·A_T·|cos θ − cos(θ+ψ)| / (A1 + A2)`` with ``A1 = |A_R + A_T e^{jθ}|``,
+    ``A2 = |A_R + A_T e^{j(θ+ψ)}|`` (Eq. 3.8, with the seed's ``A_T2`` misprint read as
+    ``A_T``, reference §0.4).
+    """
+    a_r, a_t = np.asarray(a_r, float), np.asarray(a_t, float)
+    th, psi = np.asarray(theta_rad, float), np.asarray(psi_rad, float)
+    den = envelope_amplitude(a_r, a_t, th) + envelope_amplitude(a_r, a_t, th + psi)
+    num = 2.0 * a_r * a_t * np.abs(np.cos(th) - np.cos(th + psi))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
+
+
+def psk_cancel_angles(psi_rad, k=(0, 1)):
+    """PSK null angles ``θ_cancel = −ψ/2 + k·π``, Eq. 3.10/3.11 (seed L2764-2775).
+
+    Returns the angles for the integers ``k`` (broadcast against ``psi_rad``).
+    """
+    return -0.5 * np.asarray(psi_rad, float)[..., None] + np.pi * np.asarray(k, float)
+
+
+def psk_peak_difference(a_t, psi_rad):
+    """Maximum over θ of Eq. 3.9: ``2·A_T·sin(ψ/2)`` (Fig. 3.5, reference §1.4).
+
+    The envelope difference of two phasors is at most the length of the chord between the
+    backscatter states, ``|A_T − A_T·e^{jψ}|``; the bound is reached where the chord points
+    at the origin, which exists when ``A_R ≥ A_T·cos(ψ/2)``.
+    """
+    return 2.0 * np.asarray(a_t, float) * np.abs(np.sin(0.5 * np.asarray(psi_rad, float)))
+
+
+# ----------------------------------------------------------------------------- dual antenna
+
+
+@dataclass(frozen=True)
+class CombinedSignal:
+    """Simple-combination phasors of Eq. 3.15 (arrays broadcast from the inputs).
+
+    Attributes
+    ----------
+    a_r, alpha_rad : ``Â_R·e^{jα} = A_R + A_R′·e^{jθ1}`` [V], [rad]
+    a_t1, beta1_rad : ``Â_T1·e^{jβ1} = A_T1 + A_T1′·e^{j(θ1+θ′−θ)}``
+    a_t2, beta2_rad : ``Â_T2·e^{jβ2} = A_T2 + A_T2′·e^{j(θ1+θ′−θ)}``
+    theta_rad : θ of SA1 (the combined relative phase is ``β + θ − α``)
+    """
+
+    a_r: np.ndarray
+    alpha_rad: np.ndarray
+    a_t1: np.ndarray
+    beta1_rad: np.ndarray
+    a_t2: np.ndarray
+    beta2_rad: np.ndarray
+    theta_rad: np.ndarray
+
+    @property
+    def beta_rad(self) -> np.ndarray:
+        """β = β1 (= β2 when ``A_T1/A_T1′ = A_T2/A_T2′``, Eq. 3.17)."""
+        return self.beta1_rad
+
+    @property
+    def relative_phase_rad(self) -> np.ndarray:
+        """Relative phase of the combined signal ``β + θ − α`` (Eq. 3.18-3.21)."""
+        return self.beta1_rad + self.theta_rad - self.alpha_rad
+
+
+def combine_dual(a_r, a_t1, a_t2, theta_rad, a_r_p, a_t1_p, a_t2_p, theta_p_rad, theta1_rad):
+    """RF sum of the two ST antennas, Eq. 3.14/3.15 (seed L2901-2943).
+
+    Parameters
+    ----------
+    a_r, a_t1, a_t2, theta_rad : CW amplitude, state amplitudes and relative phase at SA1
+    a_r_p, a_t1_p, a_t2_p, theta_p_rad : the same at SA2 (primed quantities)
+    theta1_rad : CW phase at SA2 relative to SA1
+
+    Returns
+    -------
+    CombinedSignal
+    """
+    th, thp, th1 = (np.asarray(v, float) for v in (theta_rad, theta_p_rad, theta1_rad))
+    r = np.asarray(a_r, float) + np.asarray(a_r_p, float) * np.exp(1j * th1)
+    rot = np.exp(1j * (th1 + thp - th))
+    t1 = np.asarray(a_t1, float) + np.asarray(a_t1_p, float) * rot
+    t2 = np.asarray(a_t2, float) + np.asarray(a_t2_p, float) * rot
+    return CombinedSignal(a_r=np.abs(r), alpha_rad=np.angle(r), a_t1=np.abs(t1), beta1_rad=np.angle(t1),
+                          a_t2=np.abs(t2), beta2_rad=np.angle(t2), theta_rad=np.broadcast_to(th, r.shape))
+
+
+def combined_envelope_difference(comb: CombinedSignal):
+    """``|A1 − A2|`` of the combined signal, Eq. 3.21 (seed L3074-3089).
+
+    Eq. 3.4 with ``A_R → Â_R``, ``A_Ti → Â_Ti`` and ``θ → β + θ − α``; β1 and β2 are kept
+    separate (exact for any amplitudes): ``A_i = |Â_R + Â_Ti·e^{j(βi+θ−α)}|``.
+    """
+    a1 = envelope_amplitude(comb.a_r, comb.a_t1, comb.beta1_rad + comb.theta_rad - comb.alpha_rad)
+    a2 = envelope_amplitude(comb.a_r, comb.a_t2, comb.beta2_rad + comb.theta_rad - comb.alpha_rad)
+    same = np.isclose(comb.beta1_rad, comb.beta2_rad, rtol=0.0, atol=1e-12)
+    eq321 = ask_envelope_difference(comb.a_r, comb.a_t1, comb.a_t2, comb.relative_phase_rad)
+    return np.where(same, eq321, np.abs(a1 - a2))
+
+
+def combined_cancel_angle(comb: CombinedSignal):
+    """Cancellation condition of the combination, Eq. 3.22 (seed L3091-3096).
+
+    Returns ``arccos(−(Â_T1 + Â_T2)/(2·Â_R))``; the combined signal cancels when
+    ``β + θ − α`` equals ± this value.
+    """
+    return ask_cancel_angle(comb.a_r, comb.a_t1, comb.a_t2)
+
+
+# ----------------------------------------------------------------------------- Eq. 3.23 null map
+
+
+@dataclass(frozen=True)
+class NullMapModel:
+    """Spatial model of Eq. 3.23 (seed L3205-3262) with the PASS-measured constants.
+
+    ``A_T1 = A_T1_bsk/r``, ``A_T2 = A_T2_bsk/r``, ``A_R = A_R_trans/R̃`` and
+    ``θ = 2π(R̃ − r)/λ + θ_C``, where R̃ is the reader–ST and r the tag–ST distance [m].
+    Defaults: reader (0, 0), tag (0, 2), 915 MHz (reference §1.6, L3256-3262).
+    """
+
+    a_t1_bsk: float = 0.0526
+    a_t2_bsk: float = 0.0485
+    a_r_trans: float = 2.5612
+    theta_c_rad: float = np.pi / 8
+    reader_xy_m: tuple[float, float] = (0.0, 0.0)
+    tag_xy_m: tuple[float, float] = (0.0, 2.0)
+    fc_hz: float = 915e6
+
+    def __post_init__(self):
+        for key in ("a_t1_bsk", "a_t2_bsk", "a_r_trans", "fc_hz"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v > 0):
+                raise ConfigError(key, v, "> 0")
+
+    @property
+    def wavelength_m(self) -> float:
+        return float(wavelength_m(self.fc_hz))
+
+    def amplitudes(self, x_m, y_m):
+        """``(A_R, A_T1, A_T2, θ)`` at ST positions ``(x_m, y_m)`` (broadcast arrays)."""
+        x, y = np.asarray(x_m, float), np.asarray(y_m, float)
+        rr = np.hypot(x - self.reader_xy_m[0], y - self.reader_xy_m[1])
+        r = np.hypot(x - self.tag_xy_m[0], y - self.tag_xy_m[1])
+        with np.errstate(divide="ignore"):
+            a_r, a_t1, a_t2 = self.a_r_trans / rr, self.a_t1_bsk / r, self.a_t2_bsk / r
+        theta = 2.0 * np.pi * (rr - r) / self.wavelength_m + self.theta_c_rad
+        return a_r, a_t1, a_t2, theta
+
+    def envelope_difference(self, x_m, y_m):
+        """Map of ``|A1 − A2|`` (Eq. 3.4 with Eq. 3.23), Fig. 3.8 [V]."""
+        return ask_envelope_difference(*self.amplitudes(x_m, y_m))
+
+    def axis_point(self, s_m):
+        """Point at distance ``s_m`` from the reader along the reader→tag axis."""
+        p0, p1 = np.asarray(self.reader_xy_m, float), np.asarray(self.tag_xy_m, float)
+        u = (p1 - p0) / np.linalg.norm(p1 - p0)
+        s = np.asarray(s_m, float)[..., None]
+        q = p0 + s * u
+        return q[..., 0], q[..., 1]
+
+    def _null_function(self, s_m):
+        # cos θ + (A_T1 + A_T2)/(2 A_R): zero exactly where A_T1 + A_T2 + 2 A_R cos θ = 0
+        a_r, a_t1, a_t2, th = self.amplitudes(*self.axis_point(s_m))
+        return np.cos(th) + (a_t1 + a_t2) / (2.0 * a_r)
+
+    def axis_nulls_m(self, s_min_m: float, s_max_m: float, *, step_m: float = 1e-3) -> np.ndarray:
+        """Positions of the nulls along the reader→tag axis [m from the reader].
+
+        Roots of ``A_T1 + A_T2 + 2·A_R·cos θ`` (the numerator of Eq. 3.4) between
+        ``s_min_m`` and ``s_max_m``, bracketed on a ``step_m`` grid and refined with Brent's
+        method. Between reader and tag ``R̃ − r`` grows by 2 m per m, so θ turns by π every
+        λ/4 and the nulls (θ = ±θ_cancel) are spaced ≈ λ/4 (reference §1.6, L3271-3280).
+        Beyond the tag ``R̃ − r`` is constant and there are no nulls on the axis.
+        """
+        if not 0 <= s_min_m < s_max_m:
+            raise ValueError(f"need 0 <= s_min_m < s_max_m, got {s_min_m}, {s_max_m}")
+        s = np.arange(s_min_m, s_max_m + 0.5 * step_m, step_m)
+        f = self._null_function(s)
+        idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)
+        f1 = lambda v: float(self._null_function(np.array([v]))[0])  # noqa: E731
+        return np.array([brentq(f1, s[i], s[i + 1], xtol=1e-12) for i in idx])
+
+
+# ----------------------------------------------------------------------------- decisions
+
+
+def select_path(id1, id2):
+    """Receiving-path selection, Algorithm 1 (seed L3182-3196).
+
+    ``return ID2 if ID2 != NULL else ID1`` — ``None`` stands for NULL (nothing decoded).
+    P2 is the full ST path (SA2), P1 the receive-only path (SA1).
+    """
+    return id2 if id2 is not None else id1
+
+
+def select_detected(detected_p1, detected_p2):
+    """Vectorised Algorithm 1 on detection flags: detected if P2 or (else) P1 decodes."""
+    return np.logical_or(np.asarray(detected_p2, bool), np.asarray(detected_p1, bool))
+
+
+def stamp_select(ask_diff_p2_v, ask_diff_p1_v, psk_diff_p2_v=None, *, threshold_v: float = THRESHOLD_V):
+    """ASK-PSK stamp path switching of chapter 5 (seed L5874-6023), on envelope differences.
+
+    The active path is P2; its decoded ASK stamp symbol is ``'-'`` when its ASK envelope
+    difference is below the threshold, and then the ST switches to P1 (L5984-5990,
+    L6019-6023). The PSK stamp symbol (``psk_diff_p2_v`` above threshold) tells a
+    cancellation ('-' in ASK but PSK present) from an absent signal.
+
+    Returns
+    -------
+    detected : bool array, the ASK data frame is detected on the chosen path
+    use_p1 : bool array, the stamp made the ST switch to P1
+    cancel_flagged : bool array or None, ASK '-' while the PSK stamp is present
+
+    With ideal decisions this equals :func:`select_detected` (both pick the path whose ASK
+    difference exceeds the threshold, P2 first); the source reports the two within 0.1 %
+    (R5-1).
+    """
+    a2, a1 = np.asarray(ask_diff_p2_v, float), np.asarray(ask_diff_p1_v, float)
+    use_p1 = ~(a2 > threshold_v)
+    detected = np.where(use_p1, a1 > threshold_v, True)
+    flagged = None
+    if psk_diff_p2_v is not None:
+        flagged = use_p1 & (np.asarray(psk_diff_p2_v, float) > threshold_v)
+    return detected, use_p1, flagged
+
+
+def phase_cancelled(diff_v, diff_sync_v, *, threshold_v: float = THRESHOLD_V):
+    """Per-sample phase-cancellation flag of R3-5 (reference §4.1, seed L3472-3502).
+
+    A sample is cancelled when the envelope difference with the CW synchronised to the
+    backscatter (θ forced to 0, ``diff_sync_v``) exceeds the threshold but the actual
+    difference ``diff_v`` does not. (Operational reading of the source's condition; the
+    denominator of the probability is every sample of the cell.)
+    """
+    return (np.asarray(diff_sync_v, float) > threshold_v) & ~(np.asarray(diff_v, float) > threshold_v)
+
+
+def cancellation_probability(flags, *, axis=None, confidence: float = 0.95):
+    """Probability of phase cancellation with its Clopper–Pearson interval.
+
+    Parameters
+    ----------
+    flags : bool array (e.g. (cells, samples)) from :func:`phase_cancelled`
+    axis : axis holding the samples (None = all)
+    confidence : two-sided level of the exact binomial interval
+
+    Returns
+    -------
+    p, lo, hi, n : arrays (or scalars): k/n and the interval ``Beta(α/2; k, n−k+1)``,
+    ``Beta(1−α/2; k+1, n−k)``.
+    """
+    if not 0 < confidence < 1:
+        raise ConfigError("confidence", confidence, "0 < confidence < 1")
+    f = np.asarray(flags, bool)
+    k = f.sum(axis=axis)
+    n = f.size if axis is None else f.shape[axis]
+    if n == 0:
+        raise ValueError("no samples")
+    a = 1.0 - confidence
+    k = np.asarray(k, float)
+    lo = np.where(k > 0, _beta_dist.ppf(a / 2, np.maximum(k, 1), n - k + 1), 0.0)
+    hi = np.where(k < n, _beta_dist.ppf(1 - a / 2, k + 1, np.maximum(n - k, 1)), 1.0)
+    return k / n, lo, hi, n
+
+
+def sync_envelope_difference(a_t1, a_t2):
+    """Envelope difference with the CW in phase with the backscatter (θ = 0): ``|A_T1 − A_T2|``."""
+    return np.abs(np.asarray(a_t1, float) - np.asarray(a_t2, float))
+
+
+__all__ = [
+    "THRESHOLD_V", "envelope_amplitude", "ask_envelope_difference", "ask_cancel_angle",
+    "psk_envelope_difference", "psk_cancel_angles", "psk_peak_difference", "CombinedSignal",
+    "combine_dual", "combined_envelope_difference", "combined_cancel_angle", "NullMapModel",
+    "select_path", "select_detected", "stamp_select", "phase_cancelled", "cancellation_probability",
+    "sync_envelope_difference",
+]

@@ -1,0 +1,194 @@
+"""Closed forms of ST phase cancellation against the AURIS tables and figures.
+
+Expected numbers are the printed values of auris-sense-a-tag.md §4.1 (Table 3.1, Tables
+3.2/3.3), §1.3/§1.4 (Fig. 3.3/3.5 derived tables), §1.6 (Eq. 3.23 constants, λ/4 null
+spacing) — not outputs of the code under test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from devices import st_analytic as sa
+from rfsim.errors import ConfigError
+
+# Table 3.1 (seed L3372-3380): A_R, A_T1, A_T2, θ, printed |A1−A2|, printed θ_cancel
+TABLE_3_1 = [
+    (0.0802, 0.0576, 0.0560, 2.2710, 0.000133, 2.3578),
+    (0.1087, 0.0585, 0.0568, 0.7570, 0.0015, 2.1298),
+]
+
+
+def _printed_digits(x: float) -> float:
+    """Half a unit of the last printed digit of ``x`` (as a float literal)."""
+    s = repr(x)
+    decimals = len(s.split(".")[1]) if "." in s else 0
+    return 0.5 * 10.0 ** (-decimals)
+
+
+def _direct(a_r, a_t1, a_t2, th):
+    """|A1 − A2| from the phasors (Eq. 3.1/3.3), independent of the rationalised Eq. 3.4."""
+    return np.abs(np.abs(a_r + a_t1 * np.exp(1j * th)) - np.abs(a_r + a_t2 * np.exp(1j * th)))
+
+
+def test_table_3_1_to_printed_digits():
+    assert len(TABLE_3_1) == 2
+    for a_r, a_t1, a_t2, th, d_exp, tc_exp in TABLE_3_1:
+        d = sa.ask_envelope_difference(a_r, a_t1, a_t2, th)
+        tc = sa.ask_cancel_angle(a_r, a_t1, a_t2)
+        assert abs(d - d_exp) <= _printed_digits(d_exp) + 1e-12
+        assert abs(tc - tc_exp) <= _printed_digits(tc_exp) + 1e-12
+
+
+def test_eq_3_4_equals_phasor_difference():
+    rng = np.random.default_rng(1)
+    a_r = rng.uniform(0.05, 2.0, 2000)
+    a_t1, a_t2 = rng.uniform(0.0, 1.0, 2000), rng.uniform(0.0, 1.0, 2000)
+    th = rng.uniform(-np.pi, np.pi, 2000)
+    np.testing.assert_allclose(sa.ask_envelope_difference(a_r, a_t1, a_t2, th), _direct(a_r, a_t1, a_t2, th),
+                               rtol=1e-9, atol=1e-13)
+
+
+@pytest.mark.parametrize("a_t1,a_t2,tc_exp", [(0.4, 0.3, 1.9284), (0.2, 0.1, 1.7214), (0.9, 0.8, 2.5868),
+                                              (0.05, 0.04, 1.6158)])
+def test_fig_3_3_features(a_t1, a_t2, tc_exp):
+    # reference §1.3 derived table (A_R = 1): peak |A_T1 − A_T2| at θ = 0, ±π; nulls at ±θ_cancel
+    th = np.linspace(-np.pi, np.pi, 20001)
+    d = sa.ask_envelope_difference(1.0, a_t1, a_t2, th)
+    assert sa.ask_envelope_difference(1.0, a_t1, a_t2, 0.0) == pytest.approx(abs(a_t1 - a_t2), rel=1e-12)
+    assert sa.ask_envelope_difference(1.0, a_t1, a_t2, np.pi) == pytest.approx(abs(a_t1 - a_t2), rel=1e-12)
+    assert d.max() == pytest.approx(abs(a_t1 - a_t2), rel=1e-9)
+    tc = sa.ask_cancel_angle(1.0, a_t1, a_t2)
+    assert abs(tc - tc_exp) <= 5e-5
+    assert sa.ask_envelope_difference(1.0, a_t1, a_t2, tc) < 1e-12
+    assert sa.ask_envelope_difference(1.0, a_t1, a_t2, -tc) < 1e-12
+    # the two grid minima sit at ±θ_cancel
+    neg, pos = th < 0, th > 0
+    assert abs(th[neg][np.argmin(d[neg])] + tc) < 1e-3 and abs(th[pos][np.argmin(d[pos])] - tc) < 1e-3
+
+
+def test_fig_3_3_cancel_angle_tends_to_half_pi():
+    sums = np.array([1.5, 1.0, 0.5, 0.1, 1e-3])
+    tc = sa.ask_cancel_angle(1.0, sums / 2, sums / 2)
+    assert np.all(np.diff(tc) < 0) and abs(tc[-1] - np.pi / 2) < 1e-3
+    assert np.isnan(sa.ask_cancel_angle(0.1, 0.2, 0.2))  # A_T1 + A_T2 > 2 A_R: no null
+
+
+@pytest.mark.parametrize("psi,peak_exp", [(np.pi, 0.80000), (np.pi / 2, 0.56569), (np.pi / 4, 0.30615),
+                                          (np.pi / 8, 0.15607)])
+def test_fig_3_5_psk_peaks_and_nulls(psi, peak_exp):
+    # reference §1.4 (A_R = 1, A_T = 0.4): peak 2·A_T·sin(ψ/2), nulls at −ψ/2 + kπ
+    th = np.linspace(-np.pi, np.pi, 200001)
+    d = sa.psk_envelope_difference(1.0, 0.4, psi, th)
+    assert abs(d.max() - peak_exp) < 1e-5
+    assert abs(sa.psk_peak_difference(0.4, psi) - peak_exp) < 1e-5
+    direct = np.abs(np.abs(1 + 0.4 * np.exp(1j * th)) - np.abs(1 + 0.4 * np.exp(1j * (th + psi))))
+    np.testing.assert_allclose(d, direct, rtol=1e-9, atol=1e-13)
+    nulls = sa.psk_cancel_angles(psi, k=(0, 1))
+    assert nulls.shape == (2,)
+    for z in nulls:
+        assert sa.psk_envelope_difference(1.0, 0.4, psi, z) < 1e-12
+
+
+def test_tables_3_2_to_3_3():
+    # Table 3.2 inputs (seed L3452-3458) → Table 3.3 (L3462-3466) and the text values
+    c = sa.combine_dual(0.0976, 0.066, 0.064, 3.2536, 0.1247, 0.1233, 0.1196, 1.3365, 0.1916)
+    for got, exp in ((c.a_r, 0.2213), (c.alpha_rad, 0.1075), (c.a_t1, 0.1306), (c.a_t2, 0.1267),
+                     (c.beta_rad, -1.2026)):
+        assert abs(got - exp) <= _printed_digits(exp) + 1e-12
+    assert float(c.theta_rad) == 3.2536
+    # Eq. 3.17: A_T1/A_T1' = A_T2/A_T2' so β1 ≈ β2
+    assert abs(c.beta1_rad - c.beta2_rad) < 5e-4
+    # combined |A1 − A2| ≈ 0.0009 V (printed with one digit), below the 5 mV threshold
+    d_comb = sa.combined_envelope_difference(c)
+    assert round(float(d_comb), 4) == 0.0009
+    # Eq. 3.21 on the printed Table 3.3 values gives the same
+    d_321 = sa.ask_envelope_difference(0.2213, 0.1306, 0.1267, -1.2026 + 3.2536 - 0.1075)
+    assert round(float(d_321), 4) == 0.0009
+    # receiving-path selection: SA1 alone 0.0019 V
+    assert round(float(sa.ask_envelope_difference(0.0976, 0.066, 0.064, 3.2536)), 4) == 0.0019
+
+
+def test_combination_equals_phasor_sum():
+    rng = np.random.default_rng(2)
+    n = 500
+    a_r, a_rp = rng.uniform(0.1, 1, n), rng.uniform(0.1, 1, n)
+    a_t1, k = rng.uniform(0.01, 0.3, n), rng.uniform(0.3, 3, n)
+    a_t2 = a_t1 * rng.uniform(0.5, 0.99, n)
+    th, thp, th1 = (rng.uniform(-np.pi, np.pi, n) for _ in range(3))
+    c = sa.combine_dual(a_r, a_t1, a_t2, th, a_rp, k * a_t1, k * a_t2, thp, th1)
+    # Eq. 3.12/3.13 summed directly (phases referred to the SA1 CW)
+    s1 = a_r + a_t1 * np.exp(1j * th) + a_rp * np.exp(1j * th1) + k * a_t1 * np.exp(1j * (th1 + thp))
+    s2 = a_r + a_t2 * np.exp(1j * th) + a_rp * np.exp(1j * th1) + k * a_t2 * np.exp(1j * (th1 + thp))
+    np.testing.assert_allclose(sa.combined_envelope_difference(c), np.abs(np.abs(s1) - np.abs(s2)),
+                               rtol=1e-9, atol=1e-13)
+    np.testing.assert_allclose(c.beta1_rad, c.beta2_rad, atol=1e-12)  # Eq. 3.17 holds exactly here
+    tc = sa.combined_cancel_angle(c)
+    ok = np.isfinite(tc)
+    assert ok.sum() > 400
+    comb = sa.CombinedSignal(c.a_r, c.alpha_rad, c.a_t1, c.beta1_rad, c.a_t2, c.beta2_rad,
+                             tc - c.beta1_rad + c.alpha_rad)
+    assert np.all(sa.combined_envelope_difference(comb)[ok] < 1e-12)
+
+
+def test_eq_3_23_map_nulls_spaced_quarter_wavelength():
+    m = sa.NullMapModel()
+    assert m.wavelength_m / 4 == pytest.approx(0.082, abs=5e-4)  # seed L3274
+    nulls = m.axis_nulls_m(0.1, 1.5)
+    assert nulls.size >= 16
+    spacing = np.diff(nulls)
+    assert np.all(np.abs(spacing / (m.wavelength_m / 4) - 1) < 0.05)
+    # the map really vanishes there, and is larger in between
+    x, y = m.axis_point(nulls)
+    assert np.all(m.envelope_difference(x, y) < 1e-9)
+    xm, ym = m.axis_point(0.5 * (nulls[:-1] + nulls[1:]))
+    assert np.all(m.envelope_difference(xm, ym) > 1e-4)
+    # beyond the tag θ is constant along the axis: no nulls
+    assert m.axis_nulls_m(2.05, 3.0).size == 0
+
+
+def test_eq_3_23_map_grid_minima():
+    # independent check on the 2-D map: along x = 0 between the nulls found on a fine grid
+    m = sa.NullMapModel()
+    y = np.linspace(0.2, 1.4, 120001)
+    d = m.envelope_difference(np.zeros_like(y), y)
+    is_min = (d[1:-1] < d[:-2]) & (d[1:-1] < d[2:])
+    ymin = y[1:-1][is_min]
+    np.testing.assert_allclose(ymin, m.axis_nulls_m(0.2, 1.4), atol=2e-5)
+    assert np.all(np.abs(np.diff(ymin) / (m.wavelength_m / 4) - 1) < 0.05)
+    with pytest.raises(ConfigError):
+        sa.NullMapModel(a_r_trans=-1.0)
+
+
+def test_path_selection_algorithm_1():
+    assert sa.select_path("A", "B") == "B"
+    assert sa.select_path("A", None) == "A"
+    assert sa.select_path(None, None) is None
+    np.testing.assert_array_equal(sa.select_detected([0, 1, 0, 1], [0, 0, 1, 1]), [False, True, True, True])
+
+
+def test_stamp_select_matches_selection_with_ideal_decisions():
+    rng = np.random.default_rng(3)
+    d1, d2, dp = rng.uniform(0, 0.01, (3, 1000))
+    det, use_p1, flagged = sa.stamp_select(d2, d1, dp, threshold_v=0.005)
+    np.testing.assert_array_equal(det, sa.select_detected(d1 > 0.005, d2 > 0.005))
+    np.testing.assert_array_equal(use_p1, d2 <= 0.005)
+    np.testing.assert_array_equal(flagged, (d2 <= 0.005) & (dp > 0.005))
+
+
+def test_phase_cancellation_probability():
+    # R3-5: cancelled = detectable when synchronised and below threshold actually
+    f = sa.phase_cancelled([0.001, 0.006, 0.001, 0.001], [0.006, 0.006, 0.004, 0.01])
+    np.testing.assert_array_equal(f, [True, False, False, True])
+    np.testing.assert_allclose(sa.sync_envelope_difference(0.066, 0.064), 0.002)
+    flags = np.zeros((2, 300), bool)
+    flags[0, :3] = True
+    p, lo, hi, n = sa.cancellation_probability(flags, axis=1)
+    assert n == 300
+    np.testing.assert_allclose(p, [0.01, 0.0])
+    # Clopper–Pearson 95 % for 3/300: (0.00207, 0.02894); for 0/300 upper = 1 − 0.025^(1/300)
+    assert lo[0] == pytest.approx(0.00207, abs=2e-5) and hi[0] == pytest.approx(0.02894, abs=2e-5)
+    assert lo[1] == 0.0 and hi[1] == pytest.approx(1 - 0.025 ** (1 / 300), rel=1e-9)
+    with pytest.raises(ConfigError):
+        sa.cancellation_probability(flags, confidence=1.5)

@@ -13,6 +13,7 @@ and their application), :mod:`~channels.scene` (assembly of links in a scene).
 """
 
 from channels.antennas import Antenna, HalfWaveDipole, Isotropic, Patch, Tabulated
+from channels.bulk import BulkPaths, draw_links
 from channels.geometry import Pose, direction_to, rotation_matrix
 from channels.large_scale import (LogDistance, ShadowingField, Wall, friis_amplitude_gain,
                                   wall_loss_db)
@@ -30,7 +31,7 @@ __all__ = [
     "complex_awgn", "noise_power_from_density_w", "thermal_noise_power_w",
     "PathSet", "apply_paths", "apply_backscatter", "compose_backscatter", "concatenate",
     "narrowband_error_bound",
-    "Scene", "Channel", "los_links", "kinematics",
+    "Scene", "Channel", "los_links", "kinematics", "draw_links", "BulkPaths",
     "ApdpModel", "average_profile", "draw_taps", "profile_statistics",
     "Surface", "fresnel_reflection", "fresnel_transmission", "image_paths",
 ]

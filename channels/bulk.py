@@ -52,7 +52,7 @@ from rfsim.units import C_M_S
 from .antennas import Antenna, Isotropic, polarization_mismatch_factor
 from .large_scale import wall_loss_db
 from .paths import PathSet
-from .small_scale import _binned_tail
+from .small_scale import binned_tail
 
 #: Links per block (bounds the temporaries of the image-path geometry).
 _BLOCK = 8192
@@ -130,7 +130,7 @@ def diffuse_template(apdp) -> tuple[np.ndarray, np.ndarray]:
     """
     eps = min(apdp.eps_k, (apdp.eps_trms / 3.0) ** math.sqrt(2.0))
     n = min(int(math.ceil(2.0 * apdp.bandwidth_hz / apdp.fres_hz)) + 1, apdp.max_taps - 1)
-    return _binned_tail(1.0, -math.log(eps / (1.0 + eps)), max(n, 1))
+    return binned_tail(1.0, -math.log(eps / (1.0 + eps)), max(n, 1))
 
 
 def diffuse_profile(apdp, distance_m, *, template=None):

@@ -139,7 +139,7 @@ def profile_statistics(powers, delays_s):
     return k, math.sqrt(max(var, 0.0))
 
 
-def _binned_tail(gamma, t_max, n):
+def binned_tail(gamma, t_max, n):
     """Bin powers (unit total) and centre-of-gravity delays of γe^{−γτ} on n bins of [0, t_max]."""
     delta = t_max / n
     a = np.arange(n) * delta
@@ -208,7 +208,7 @@ def average_profile(
 
     best = None
     for _ in range(max(int(max_iter), 1)):
-        pw, tau = _binned_tail(gamma, t_max, n)
+        pw, tau = binned_tail(gamma, t_max, n)
         pw = pw * p_nlos
         if fs_hz is not None:
             idx = np.rint(tau * fs_hz).astype(np.int64)

@@ -1,0 +1,31 @@
+"""Detection-probability models and their fitting.
+
+:mod:`~rfsim.detection.models`: the ST-to-tag logistic models TS and RTS with the published
+coefficients (auris-sense-a-tag.md §2.2) and the reader Beta-binomial DA model with dead zone
+(binary-detection.md §1.6). :mod:`~rfsim.detection.fit`: maximum-likelihood logistic
+regression, cross-entropy, moment and maximum-likelihood fits of the DA model, binned
+empirical probabilities with Wilson intervals.
+"""
+
+from rfsim.detection.fit import (DA_PARAMETER_NAMES, BinnedProbability, LogisticFit,
+                                 ReaderModelFit, binned_probability, cross_entropy,
+                                 cross_entropy_logits, expected_cross_entropy, fit_logistic,
+                                 fit_reader_mle, fit_reader_moments, wilson_interval)
+from rfsim.detection.models import (DA_DEAD_ZONE, DA_MEAN_COEFFICIENTS, DA_QUERIES_PER_ROUND,
+                                    DA_VARIANCE_COEFFICIENTS, PUBLISHED_READER_MODEL,
+                                    RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS,
+                                    TS_TEST_CROSS_ENTROPY, ReaderDetectionModel,
+                                    beta_from_moments, mixture_logpmf, predict_proba,
+                                    rts_design, rts_probability, st_features, ts_design,
+                                    ts_probability)
+
+__all__ = [
+    "RTS_COEFFICIENTS", "TS_COEFFICIENTS", "RTS_TEST_CROSS_ENTROPY", "TS_TEST_CROSS_ENTROPY",
+    "DA_MEAN_COEFFICIENTS", "DA_VARIANCE_COEFFICIENTS", "DA_DEAD_ZONE", "DA_QUERIES_PER_ROUND",
+    "PUBLISHED_READER_MODEL", "ReaderDetectionModel", "beta_from_moments", "mixture_logpmf",
+    "predict_proba", "rts_design", "ts_design", "rts_probability", "ts_probability",
+    "st_features",
+    "LogisticFit", "fit_logistic", "cross_entropy", "cross_entropy_logits",
+    "expected_cross_entropy", "ReaderModelFit", "DA_PARAMETER_NAMES", "fit_reader_moments",
+    "fit_reader_mle", "BinnedProbability", "binned_probability", "wilson_interval",
+]

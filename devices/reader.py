@@ -333,7 +333,7 @@ class Reader:
         independent tests (measured: with the plain union bound the false-alarm rate came
         out 1.0× the target for Miller-4 at 320 kHz and 1.9× for FM0 at 640 kHz, 4 MS/s).
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
-        The default P_FA = 1e−3 gives γ ≈ 0.14 for ``miller4-320k`` at 4 MS/s (n = 500).
+        The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
         """
         n = self.preamble_samples()
         p = self.config.false_alarm_probability / (2.0 * max(int(n_lags), 1))

@@ -1,0 +1,177 @@
+"""``rfsim sweep``: run, dry-run, plan (SLURM) and merge parameter sweeps.
+
+Shape (a verb first, the spec second; the verb ``run`` may be left out)::
+
+    rfsim sweep [run] SPEC.toml [--serial | --workers N | --dask ADDRESS|local[:N]]
+                                [--resume] [--quiet] [--shard I/N] [--dry-run]
+    rfsim sweep dry-run SPEC.toml [--show K]
+    rfsim sweep plan SPEC.toml --slurm --shards N [--out FILE] [--cpus-per-task C] [--time T]
+    rfsim sweep merge SPEC.toml [--quiet]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from rfsim.errors import UserError
+
+_VERBS = ("run", "dry-run", "plan", "merge")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sweep", add_help=False,
+                       help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge",
+                       description="Run 'rfsim sweep --help' for the forms of this command.")
+    p.add_argument("argv", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    p.set_defaults(func=run)
+
+
+def _shard(text: str) -> tuple[int, int]:
+    i, sep, n = text.partition("/")
+    if not sep or not i.isdigit() or not n.isdigit() or int(n) < 1 or int(i) >= int(n):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected I/N with 0 <= I < N, e.g. 3/16")
+    return int(i), int(n)
+
+
+def _positive(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
+    return int(text)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rfsim sweep",
+        description="Parameter sweeps from a TOML spec. 'rfsim sweep SPEC.toml' is 'rfsim sweep run SPEC.toml'.",
+        epilog="Every run (point, repetition) is written to <output>.points/ as it finishes; the "
+               "merged file appears under the output name only when all runs exist.")
+    verbs = parser.add_subparsers(dest="verb", metavar="VERB")
+
+    p = verbs.add_parser("run", help="run the sweep (or one shard) and merge it",
+                         description="Run a sweep on local processes (default), serially or on Dask.")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--serial", action="store_true", help="run in this process, one run after another")
+    how.add_argument("--workers", type=_positive, default=None, metavar="N",
+                     help="local worker processes (default: the available CPUs)")
+    how.add_argument("--dask", default=None, metavar="ADDRESS|local[:N]",
+                     help="Dask: a scheduler address (tcp://host:8786) or a LocalCluster of N workers")
+    p.add_argument("--resume", action="store_true",
+                   help="skip runs whose point files exist and match the spec")
+    p.add_argument("--shard", type=_shard, default=None, metavar="I/N",
+                   help="run only shard I of N (no merge; see 'rfsim sweep merge')")
+    p.add_argument("--dry-run", action="store_true", help="print the expansion, run nothing")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress and no summary")
+    p.set_defaults(handler=_run)
+
+    p = verbs.add_parser("dry-run", help="print the number of points and the first expanded configs")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("--show", type=int, default=3, metavar="K", help="configs to print (default 3)")
+    p.set_defaults(handler=_dry_run)
+
+    p = verbs.add_parser("plan", help="write a SLURM array script running the sweep in shards")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("--slurm", action="store_true", required=True, help="plan a SLURM array job")
+    p.add_argument("--shards", type=_positive, required=True, metavar="N", help="number of array tasks")
+    p.add_argument("--out", type=Path, default=None, metavar="FILE",
+                   help="script file (default: print to stdout)")
+    p.add_argument("--cpus-per-task", type=_positive, default=1, metavar="C",
+                   help="CPUs per array task; each task runs C worker processes (default 1)")
+    p.add_argument("--time", default="", metavar="T", help="SLURM time limit per task, e.g. 01:00:00")
+    p.add_argument("--job-name", default="", help="SLURM job name (default rfsim-sweep-<spec>)")
+    p.set_defaults(handler=_plan)
+
+    p = verbs.add_parser("merge", help="merge the point store of a (sharded) sweep into the output")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(handler=_merge)
+    return parser
+
+
+def run(args: argparse.Namespace) -> int:
+    argv = list(args.argv)
+    if argv and argv[0] not in _VERBS and argv[0] not in ("-h", "--help"):
+        argv.insert(0, "run")
+    parser = build_parser()
+    ns = parser.parse_args(argv)
+    if not getattr(ns, "handler", None):
+        parser.print_help()
+        return 0
+    return int(ns.handler(ns) or 0)
+
+
+def _dry_run(ns: argparse.Namespace) -> int:
+    from rfsim.config import to_toml
+    from rfsim.sweep import load_spec, plan_sweep
+
+    spec = load_spec(ns.spec)
+    plan = plan_sweep(spec)
+    n = len(plan.configs)
+    print(f"# {spec.scenario}: {n} points x {spec.repetitions} repetitions = {len(plan.tasks)} runs "
+          f"-> {spec.output}")
+    if spec.swept_keys:
+        print(f"# swept keys: {', '.join(spec.swept_keys)}")
+    for i in range(min(max(ns.show, 0), n)):
+        values = ", ".join(f"{k} = {v!r}" for k, v in plan.values[i].items())
+        print(f"\n# ---- point {i}: {values or '(base)'}; seed of repetition 0 = {plan.tasks[i * spec.repetitions].seed}")
+        print(to_toml(plan.configs[i]), end="")
+    if n > ns.show:
+        print(f"\n# ... {n - ns.show} more points")
+    return 0
+
+
+def _run(ns: argparse.Namespace) -> int:
+    if ns.dry_run:
+        ns.show = 3
+        return _dry_run(ns)
+    from rfsim.sweep import Progress, load_spec, make_executor, run_sweep
+
+    spec = load_spec(ns.spec)
+    executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
+    try:
+        def progress(total: int, *, done: int) -> Progress:
+            return Progress(total, done=done, stream=sys.stdout, quiet=ns.quiet)
+
+        report = run_sweep(spec, executor, shard=ns.shard, resume=ns.resume, progress=progress)
+    finally:
+        executor.close()
+    if not ns.quiet:
+        what = f"shard {ns.shard[0]}/{ns.shard[1]}: " if ns.shard else ""
+        print(f"sweep: {what}{report.selected} runs, {report.computed} computed, {report.reused} reused, "
+              f"{report.wall_time_s:.1f} s on {executor.name} ({executor.workers} workers)")
+        if report.output is not None:
+            print(f"dataset: {report.output}")
+    return 0
+
+
+def _plan(ns: argparse.Namespace) -> int:
+    from rfsim.sweep import load_spec, sbatch_script
+
+    spec = load_spec(ns.spec)  # a bad spec fails here, not on the cluster
+    from rfsim.sweep import plan_sweep
+
+    plan = plan_sweep(spec)
+    if ns.shards > len(plan.tasks):
+        raise UserError(f"--shards {ns.shards}: more shards than runs ({len(plan.tasks)})")
+    text = sbatch_script(ns.spec, ns.shards, workdir=Path(os.getcwd()), job_name=ns.job_name,
+                         cpus_per_task=ns.cpus_per_task, time_limit=ns.time)
+    if ns.out is None:
+        print(text, end="")
+    else:
+        ns.out.parent.mkdir(parents=True, exist_ok=True)
+        ns.out.write_text(text, encoding="utf-8")
+        print(f"sbatch script: {ns.out} ({ns.shards} array tasks, {len(plan.tasks)} runs); "
+              f"submit with: sbatch {ns.out}")
+    return 0
+
+
+def _merge(ns: argparse.Namespace) -> int:
+    from rfsim.sweep import load_spec, merge_sweep
+
+    path = merge_sweep(load_spec(ns.spec))
+    if not ns.quiet:
+        print(f"dataset: {path}")
+    return 0

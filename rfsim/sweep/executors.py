@@ -1,0 +1,175 @@
+"""Where the runs of a sweep execute: in-process, a local process pool, or Dask.
+
+An executor maps :func:`rfsim.sweep.store.run_point` over a list of
+:class:`~rfsim.sweep.store.PointTask` and yields a
+:class:`~rfsim.sweep.store.PointResult` as each run finishes (in completion order; every
+run writes its own file, so the order never changes the result). SLURM arrays need no
+executor here: each array task runs its shard with one of these (see
+:mod:`rfsim.sweep.slurm`).
+
+* :class:`SerialExecutor` — one run after the other in this process;
+* :class:`PoolExecutor` — ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
+  processes (default: the CPUs this process may run on, ``os.sched_getaffinity``);
+* :class:`DaskExecutor` — ``dask.distributed``: an existing scheduler (``ADDRESS``), a
+  ``LocalCluster`` on loopback (``local[:N]``) or a ``Client`` given in Python. Tasks are
+  submitted with ``retries`` and ``pure=False``; a run lost with a killed worker is
+  rescheduled by the scheduler on another worker.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import os
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+from rfsim.errors import UserError
+from rfsim.sweep.store import PointResult, PointTask, run_point
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (``os.sched_getaffinity`` where it exists)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
+
+
+class SerialExecutor:
+    """Run every task in this process, in order."""
+
+    name = "serial"
+    workers = 1
+
+    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
+        for task in tasks:
+            yield run_point(task)
+
+    def close(self) -> None:
+        pass
+
+
+class PoolExecutor:
+    """A local ``ProcessPoolExecutor`` with ``workers`` processes."""
+
+    name = "pool"
+
+    def __init__(self, workers: int | None = None):
+        self.workers = available_cpus() if workers is None else int(workers)
+        if self.workers < 1:
+            raise UserError(f"--workers {workers}: expected an integer >= 1")
+
+    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
+        if not tasks:
+            return
+        with cf.ProcessPoolExecutor(max_workers=min(self.workers, len(tasks))) as pool:
+            futures = [pool.submit(run_point, t) for t in tasks]
+            try:
+                for fut in cf.as_completed(futures):
+                    yield fut.result()
+            except BaseException:
+                for f in futures:
+                    f.cancel()
+                raise
+
+    def close(self) -> None:
+        pass
+
+
+def _import_distributed():
+    try:
+        import dask.distributed as distributed
+    except ImportError:
+        raise UserError("--dask needs dask.distributed: pip install 'rfsim[dask]'") from None
+    return distributed
+
+
+def parse_dask_target(text: str) -> tuple[str, int | None]:
+    """``"local"`` / ``"local:N"`` → ("local", N or None); anything else is an address."""
+    if text == "local" or text.startswith("local:"):
+        _, _, n = text.partition(":")
+        if not n:
+            return "local", None
+        if not n.isdigit() or int(n) < 1:
+            raise UserError(f"--dask {text!r}: expected local or local:N with N >= 1 workers")
+        return "local", int(n)
+    if not text:
+        raise UserError("--dask: expected a scheduler address (tcp://host:8786) or local[:N]")
+    return text, None
+
+
+class DaskExecutor:
+    """Run the tasks on a Dask cluster.
+
+    Parameters
+    ----------
+    target : scheduler address (``"tcp://host:8786"``), ``"local"`` / ``"local:N"`` (a
+        ``LocalCluster`` of N single-threaded worker processes bound to 127.0.0.1; N
+        defaults to the available CPUs), or an existing ``dask.distributed.Client``.
+    retries : resubmissions of a run whose task raised (worker loss is handled by the
+        scheduler, which reschedules the runs of a dead worker).
+    """
+
+    name = "dask"
+
+    def __init__(self, target: Any = "local", *, retries: int = 3):
+        distributed = _import_distributed()
+        self.retries = retries
+        self._cluster = None
+        self._own_client = False
+        if isinstance(target, distributed.Client):
+            self.client = target
+        else:
+            address, n = parse_dask_target(str(target))
+            if address == "local":
+                n = available_cpus() if n is None else n
+                self._cluster = distributed.LocalCluster(
+                    n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                    dashboard_address=None, silence_logs=40)
+                self.client = distributed.Client(self._cluster)
+            else:
+                try:
+                    self.client = distributed.Client(address, timeout=30)
+                except OSError as err:
+                    raise UserError(f"--dask {address!r}: cannot connect to the scheduler ({err})") from None
+            self._own_client = True
+        self.workers = len(self.client.scheduler_info().get("workers", {}))
+
+    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
+        distributed = _import_distributed()
+        futures = [self.client.submit(run_point, t, pure=False, retries=self.retries,
+                                      key=f"rfsim-sweep-{t.path.stem}-{os.getpid()}-{id(self)}")
+                   for t in tasks]
+        try:
+            for fut in distributed.as_completed(futures):
+                yield fut.result()
+        except BaseException:
+            self.client.cancel(futures)
+            raise
+
+    def close(self) -> None:
+        if self._own_client:
+            self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+
+
+def make_executor(*, serial: bool = False, workers: int | None = None, dask: Any = None):
+    """The executor chosen on the command line (process pool by default)."""
+    if sum(x is not None and x is not False for x in (serial or None, workers, dask)) > 1:
+        raise UserError("choose one of --serial, --workers N, --dask ADDRESS|local[:N]")
+    if serial:
+        return SerialExecutor()
+    if dask is not None:
+        return DaskExecutor(dask)
+    return PoolExecutor(workers)
+
+
+__all__ = [
+    "available_cpus",
+    "SerialExecutor",
+    "PoolExecutor",
+    "DaskExecutor",
+    "parse_dask_target",
+    "make_executor",
+]

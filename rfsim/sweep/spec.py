@@ -1,0 +1,365 @@
+"""Sweep specs: TOML parsing, validation and deterministic expansion into points.
+
+A spec names a scenario, a root seed, a number of repetitions, an output file, base
+config overrides and a list of axes::
+
+    scenario = "gen2-waveforms"
+    seed = 7
+    repetitions = 2
+    output = "results/sweep.h5"
+
+    [base]
+    profiles = ["fm0-40k"]
+
+    [[axes]]                       # grid: one group of len(values) settings
+    kind = "grid"
+    key = "fs_hz"
+    values = [1e6, 2e6]
+
+    [[axes]]                       # zip: the keys move together (one list per key)
+    kind = "zip"
+    keys = ["q", "session"]
+    values = [[1, 2, 3], [0, 1, 2]]
+
+    [[axes]]                       # random: n draws from a named distribution
+    kind = "random"
+    key = "pie_rise_fall_tari"
+    distribution = "uniform"
+    low = 0.05
+    high = 0.3
+    n = 4
+
+Expansion: every grid axis and every zip axis is one *group*; all random axes with the
+same ``n`` form one group (they move together, draw j of each axis in the same point).
+The points are the Cartesian product of the groups, in the order the groups first appear
+in the spec, the last group varying fastest (``itertools.product`` order). Random axis
+number ``a`` (its position in ``[[axes]]``) draws its ``n`` values from
+``rfsim.rng.trial_rng(seed, a)`` — a one-element spawn key, so it never shares a stream
+with a point's run seed (two-element keys ``(point, repetition)``).
+
+Point ``i``, repetition ``k`` runs the scenario with the seed :func:`point_seed`
+``(seed, i, k)``, so the result of a point does not depend on the executor, the number of
+workers or the order in which points finish.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rfsim.config import from_dict, read_toml
+from rfsim.errors import ConfigError, UserError, did_you_mean
+from rfsim.rng import trial_rng, trial_seed_sequence
+
+_TOP_KEYS = ("scenario", "seed", "repetitions", "output", "base", "axes")
+_AXIS_KEYS = {
+    "grid": ("kind", "key", "values"),
+    "zip": ("kind", "keys", "values"),
+    "random": ("kind", "key", "distribution", "n", "low", "high", "mean", "std", "values"),
+}
+#: distribution → the parameters it needs.
+DISTRIBUTIONS = {
+    "uniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "loguniform": ("low", "high"),
+    "choice": ("values",),
+}
+#: Upper bound on the number of runs (points × repetitions) of one sweep.
+MAX_RUNS = 10_000_000
+
+
+@dataclasses.dataclass(frozen=True)
+class Axis:
+    """One ``[[axes]]`` entry after parsing: the keys it sets and one value tuple per step."""
+
+    kind: str
+    keys: tuple[str, ...]
+    values: tuple[tuple[Any, ...], ...]
+    #: random axes of the same ``n`` share a group; grid/zip axes have their own
+    group: str
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepSpec:
+    """A parsed, checked sweep spec (the axes' random values are already drawn)."""
+
+    scenario: str
+    seed: int
+    repetitions: int
+    output: Path
+    base: Mapping[str, Any]
+    axes: tuple[Axis, ...]
+    #: the spec's TOML text (stored in the merged file's provenance)
+    text: str = ""
+    #: where the spec was read from (None when built from a dict)
+    path: Path | None = None
+
+    @property
+    def swept_keys(self) -> tuple[str, ...]:
+        """Dotted config keys set by the axes, in spec order."""
+        return tuple(k for a in self.axes for k in a.keys)
+
+    @property
+    def group_sizes(self) -> tuple[int, ...]:
+        """Length of each group of axes, in expansion order."""
+        sizes: dict[str, int] = {}
+        for a in self.axes:
+            sizes.setdefault(a.group, len(a))
+        return tuple(sizes.values())
+
+    @property
+    def n_points(self) -> int:
+        return math.prod(self.group_sizes)
+
+    @property
+    def n_runs(self) -> int:
+        """Scenario runs of the sweep: points × repetitions."""
+        return self.n_points * self.repetitions
+
+
+# ----------------------------------------------------------------------------- parsing
+
+
+def load_spec(path: str | Path) -> SweepSpec:
+    """Read and check a sweep spec TOML file (one-line :class:`UserError` on mistakes)."""
+    p = Path(path)
+    data = read_toml(p)
+    return parse_spec(data, text=p.read_text(encoding="utf-8"), path=p)
+
+
+def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = None) -> SweepSpec:
+    """Check the spec mapping ``data`` and draw its random axes."""
+    for k, v in data.items():
+        if k not in _TOP_KEYS:
+            raise ConfigError(k, v, "a sweep spec key" + _hint(k, _TOP_KEYS))
+    for k in ("scenario", "seed", "output"):
+        if k not in data:
+            raise UserError(f"sweep spec: the key {k!r} is missing (required: scenario, seed, output)")
+    scenario = data["scenario"]
+    if not isinstance(scenario, str) or not scenario:
+        raise ConfigError("scenario", scenario, "a scenario name (see 'rfsim list')")
+    seed = _int(data, "seed", lo=0)
+    repetitions = _int(data, "repetitions", lo=1, default=1)
+    output = data["output"]
+    if not isinstance(output, str) or not output.endswith((".h5", ".hdf5")):
+        raise ConfigError("output", output, "a file name ending in .h5 or .hdf5")
+    base = data.get("base", {})
+    if not isinstance(base, Mapping):
+        raise ConfigError("base", base, "a table of config values ([base])")
+    raw_axes = data.get("axes", [])
+    if not isinstance(raw_axes, list) or not all(isinstance(a, Mapping) for a in raw_axes):
+        raise ConfigError("axes", raw_axes, "an array of tables ([[axes]])")
+    axes = tuple(_parse_axis(i, a, seed) for i, a in enumerate(raw_axes))
+    seen: dict[str, int] = {}
+    for i, a in enumerate(axes):
+        for k in a.keys:
+            if k in seen:
+                raise ConfigError(f"axes[{i}].key", k, f"a key not already swept by axes[{seen[k]}]")
+            seen[k] = i
+    spec = SweepSpec(scenario, seed, repetitions, Path(output), dict(base), axes, text, path)
+    if spec.n_runs > MAX_RUNS:
+        raise ConfigError("axes", f"{spec.n_points} points x {repetitions} repetitions",
+                          f"at most {MAX_RUNS} runs in one sweep")
+    return spec
+
+
+def _hint(name: str, choices: Sequence[str]) -> str:
+    return did_you_mean(name, choices) or f" (one of {', '.join(choices)})"
+
+
+def _int(data: Mapping[str, Any], key: str, *, lo: int, default: int | None = None,
+         prefix: str = "") -> int:
+    value = data.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise ConfigError(prefix + key, value, f"an integer >= {lo}")
+    return value
+
+
+def _number(axis: Mapping[str, Any], key: str, prefix: str) -> float:
+    if key not in axis:
+        raise ConfigError(prefix + key, None, f"a number (required by distribution "
+                          f"{axis['distribution']!r})")
+    value = axis[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(prefix + key, value, "a finite number")
+    return float(value)
+
+
+def _dotted(key: Any, where: str) -> str:
+    if not isinstance(key, str) or not key or any(not p for p in key.split(".")):
+        raise ConfigError(where, key, "a dotted config key, e.g. \"reader.ptx_dbm\"")
+    return key
+
+
+def _nonempty_list(value: Any, where: str) -> list:
+    if not isinstance(value, list) or not value:
+        raise ConfigError(where, value, "a non-empty list of values")
+    return value
+
+
+def _parse_axis(i: int, axis: Mapping[str, Any], seed: int) -> Axis:
+    prefix = f"axes[{i}]."
+    kind = axis.get("kind")
+    if kind not in _AXIS_KEYS:
+        raise ConfigError(prefix + "kind", kind, "one of 'grid', 'zip', 'random'"
+                          + (did_you_mean(kind, _AXIS_KEYS) if isinstance(kind, str) else ""))
+    for k, v in axis.items():
+        if k not in _AXIS_KEYS[kind]:
+            raise ConfigError(prefix + k, v, f"a key of a {kind} axis" + _hint(k, _AXIS_KEYS[kind]))
+    if kind == "grid":
+        key = _dotted(axis.get("key"), prefix + "key")
+        values = _nonempty_list(axis.get("values"), prefix + "values")
+        return Axis("grid", (key,), tuple((v,) for v in values), group=f"axis{i}")
+    if kind == "zip":
+        keys = axis.get("keys")
+        if not isinstance(keys, list) or len(keys) < 1:
+            raise ConfigError(prefix + "keys", keys, "a non-empty list of dotted config keys")
+        keys = [_dotted(k, prefix + "keys") for k in keys]
+        values = _nonempty_list(axis.get("values"), prefix + "values")
+        if len(values) != len(keys) or not all(isinstance(v, list) and v for v in values):
+            raise ConfigError(prefix + "values", values,
+                              f"one non-empty list of values per key ({len(keys)} lists)")
+        lengths = {len(v) for v in values}
+        if len(lengths) != 1:
+            raise ConfigError(prefix + "values", [len(v) for v in values],
+                              "lists of equal length (zip keys move together)")
+        return Axis("zip", tuple(keys), tuple(zip(*values)), group=f"axis{i}")
+    key = _dotted(axis.get("key"), prefix + "key")
+    dist = axis.get("distribution")
+    if dist not in DISTRIBUTIONS:
+        raise ConfigError(prefix + "distribution", dist, "one of " + ", ".join(map(repr, DISTRIBUTIONS))
+                          + (did_you_mean(dist, DISTRIBUTIONS) if isinstance(dist, str) else ""))
+    for k in axis:
+        if k not in ("kind", "key", "distribution", "n") and k not in DISTRIBUTIONS[dist]:
+            raise ConfigError(prefix + k, axis[k], f"a parameter of {dist!r}: "
+                              + ", ".join(DISTRIBUTIONS[dist]))
+    n = _int(axis, "n", lo=1, prefix=prefix) if "n" in axis else None
+    if n is None:
+        raise ConfigError(prefix + "n", None, "an integer >= 1 (number of draws)")
+    rng = trial_rng(seed, i)
+    if dist == "choice":
+        choices = _nonempty_list(axis.get("values"), prefix + "values")
+        drawn = [copy.deepcopy(choices[j]) for j in rng.integers(0, len(choices), n)]
+    else:
+        p = {k: _number(axis, k, prefix) for k in DISTRIBUTIONS[dist]}
+        if dist == "uniform":
+            if not p["low"] < p["high"]:
+                raise ConfigError(prefix + "high", p["high"], f"a number > low = {p['low']:g}")
+            arr = rng.uniform(p["low"], p["high"], n)
+        elif dist == "normal":
+            if not p["std"] > 0:
+                raise ConfigError(prefix + "std", p["std"], "a number > 0")
+            arr = rng.normal(p["mean"], p["std"], n)
+        else:
+            if not 0 < p["low"] < p["high"]:
+                raise ConfigError(prefix + "low", p["low"], f"0 < low < high = {p['high']:g}")
+            arr = np.exp(rng.uniform(np.log(p["low"]), np.log(p["high"]), n))
+        drawn = [float(v) for v in arr]
+    return Axis("random", (key,), tuple((v,) for v in drawn), group=f"random-n{n}")
+
+
+# ----------------------------------------------------------------------------- expansion
+
+
+def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
+    """Swept key → value of every point, in point order (see the module docstring)."""
+    groups: dict[str, list[Axis]] = {}
+    for a in spec.axes:
+        groups.setdefault(a.group, []).append(a)
+    for name, members in groups.items():
+        if len({len(a) for a in members}) != 1:  # cannot happen: random groups are keyed by n
+            raise ValueError(f"axes of group {name} differ in length")
+    out = []
+    for steps in itertools.product(*(range(len(m[0])) for m in groups.values())):
+        values: dict[str, Any] = {}
+        for members, j in zip(groups.values(), steps):
+            for a in members:
+                values.update(zip(a.keys, a.values[j]))
+        out.append({k: values[k] for k in spec.swept_keys})
+    return out
+
+
+def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
+    parts = key.split(".")
+    node = data
+    for part in parts[:-1]:
+        child = node.get(part)
+        if child is None:
+            child = node[part] = {}
+        elif not isinstance(child, dict):
+            raise ConfigError(".".join(parts[:-1]), child, "a table (it is a plain value)")
+        node = child
+    node[parts[-1]] = copy.deepcopy(value)
+
+
+def point_config_dict(spec: SweepSpec, values: Mapping[str, Any]) -> dict[str, Any]:
+    """The nested config mapping of one point: ``[base]`` with the swept values set."""
+    data = copy.deepcopy(dict(spec.base))
+    for key, value in values.items():
+        _set_dotted(data, key, value)
+    return data
+
+
+def _short(values: Mapping[str, Any]) -> str:
+    text = ", ".join(f"{k}={v!r}" for k, v in values.items())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
+    """Validated config of every point; the first bad point raises a one-line error.
+
+    The message names the point index and its swept values, then the key, the value and
+    what is allowed (the :class:`ConfigError` of :func:`rfsim.config.from_dict`).
+    """
+    configs = []
+    for i, values in enumerate(point_values(spec)):
+        try:
+            configs.append(from_dict(config_cls, point_config_dict(spec, values)))
+        except ConfigError as err:
+            where = f"sweep point {i}" + (f" ({_short(values)})" if values else "")
+            raise UserError(f"{where}: {err}") from None
+    return configs
+
+
+def point_seed(seed: int, point: int, repetition: int) -> int:
+    """Run seed of point ``point``, repetition ``repetition`` of a sweep with root ``seed``.
+
+    The first 64-bit word of ``SeedSequence(seed, spawn_key=(point, repetition))``'s state,
+    shifted to 63 bits (so it fits a signed int64 column): independent of the executor.
+    """
+    word = trial_seed_sequence(seed, point, repetition).generate_state(1, np.uint64)[0]
+    return int(word >> np.uint64(1))
+
+
+def shard_runs(n_runs: int, shard: int, n_shards: int) -> range:
+    """Flat run indices (``point * repetitions + repetition``) of shard ``shard`` of ``n_shards``.
+
+    Strided (``shard, shard + n_shards, ...``) so that shards get similar mixes of points.
+    """
+    if not 0 <= shard < n_shards:
+        raise UserError(f"--shard {shard}/{n_shards}: expected I/N with 0 <= I < N")
+    return range(shard, n_runs, n_shards)
+
+
+__all__ = [
+    "Axis",
+    "SweepSpec",
+    "DISTRIBUTIONS",
+    "load_spec",
+    "parse_spec",
+    "point_values",
+    "point_config_dict",
+    "point_configs",
+    "point_seed",
+    "shard_runs",
+]

@@ -54,7 +54,7 @@ from rfsim.errors import ConfigError
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import LinkProfile, profile, t1
-from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_waveform
+from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_envelope, pie_timeline
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from channels.noise import thermal_noise_power_w
@@ -318,12 +318,14 @@ class Reader:
 
     # ------------------------------------------------------------------ receiver
 
-    def preamble_samples(self) -> int:
-        """Samples fully inside the reply preamble (incl. pilot), as correlated by the detector."""
+    def preamble_samples(self, blf_hz: float | None = None) -> int:
+        """Samples fully inside the reply preamble (incl. pilot), as correlated by the detector
+        (at ``blf_hz``, default the profile's nominal BLF)."""
+        blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
         pre, _, _ = preamble_levels(m=self.link.m, trext=self.link.trext)
-        return int(math.floor(pre.size * self.link.m * self.fs_hz / (2.0 * self.link.blf_hz)))
+        return int(math.floor(pre.size * self.link.m * self.fs_hz / (2.0 * blf)))
 
-    def detection_threshold(self, n_lags: int) -> float:
+    def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
 
         On complex white noise the zero-mean, normalised preamble correlation of
@@ -335,7 +337,7 @@ class Reader:
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
         The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
         """
-        n = self.preamble_samples()
+        n = self.preamble_samples(blf_hz)
         p = self.config.false_alarm_probability / (2.0 * max(int(n_lags), 1))
         return math.sqrt(1.0 - p ** (1.0 / max(n - 2, 1)))
 
@@ -345,7 +347,7 @@ class Reader:
         return r.min_s, r.max_s
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
-                cmd_end_s: float | None = None) -> ReadResult:
+                cmd_end_s: float | None = None, blf_hz: float | None = None) -> ReadResult:
         """Detect, decode and measure one tag reply.
 
         Parameters
@@ -356,36 +358,51 @@ class Reader:
         expect_crc : check the last 16 bits as CRC-16 over the reply
         cmd_end_s : end of the command [s]; the reply start is searched in
             [cmd_end + T1min, cmd_end + T1max] (±1 sample). ``None``: anywhere in ``rx``.
+        blf_hz : the tag's actual BLF [Hz]; default the profile's nominal BLF. The receiver
+            does not estimate the BLF: decoding needs the BLF to about 1/(4·elements of the
+            reply) (≈ 0.02 % for a Miller-4 EPC reply), far finer than the tag tolerance FrT,
+            so a tag with a clock error must be read with its BLF given here.
 
         Processing
         ----------
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their
-           mean is subtracted (conditioning only). The decisions rely on
-           :func:`~rfsim.gen2.linecode.decode_reply`, which is exactly invariant to a constant
-           offset: the preamble search correlates with a zero-mean template and c is
-           estimated jointly with h by least squares over the preamble.
+           mean is subtracted first (conditioning only). Detection is exactly invariant to a
+           constant offset (decode_reply correlates with a zero-mean template).
         2. Detection: maximum normalised preamble correlation over the search window; below
            :meth:`detection_threshold` → "preamble not found".
-        3. Decoding (``config.decoder``) and, for ``expect_crc``, :func:`crc16_ok` → "crc error".
-        4. Measurements with the decoded reply ``s(t)`` (±1, dummy-1 included) as reference:
+        3. Offset and gain: (h, c) by least squares over every sample whose waveform is known
+           without decisions — the CW-only samples before and after the reply (s = 0) and the
+           preamble; this is the DC removal the decisions rely on (decode_reply's own
+           preamble-only estimate of c is noisier; decisions are not used because one FM0/
+           Miller bit error inverts all later remodulated levels).
+        4. Decoding of r − c with h given (``config.decoder``) and, for ``expect_crc``,
+           :func:`crc16_ok` → "crc error" (bits are still returned).
+        5. Measurements with the decoded reply ``s(t)`` (±1, dummy-1 included) as reference:
            the reply is cut into :data:`DOPPLER_BLOCKS` blocks, each gives g_k = Σ(r − c)s/Σs²;
            a weighted least-squares line through the unwrapped arg g_k versus block time gives
            the Doppler f_D = slope/2π and the phase at the reply centre; |h| from the whole
            reply after removing the rotation. RSSI = |h|² in dBm, phase = (−arg h) mod 2π,
            SNR = |h|²/σ² with σ² the mean power of the residual r − c − h(t)s(t) over the reply.
+           All of these use only samples whose two neighbours carry the same reference level
+           (the start is estimated to 1/16 sample; a sample at an element boundary could
+           otherwise be assigned the wrong level and bias |h| low and σ² high).
            Doppler resolution: std(f_D) ≈ √12/(2π·T·√(2·E/N0)) for a reply of duration T and
-           energy-to-noise ratio E/N0 (≈ 0.1 Hz for T = 1.7 ms needs E/N0 ≈ 66 dB); the
-           estimate is unambiguous for |f_D| < K/(2T).
+           energy-to-noise ratio E/N0 (≈ 0.1 Hz for T = 1.7 ms needs E/N0 ≈ 67 dB); the
+           estimate is unambiguous for |f_D| < K/(2T). Decoding itself assumes a constant h
+           over the reply (phase drift |f_D|·T ≲ 1/8 cycle).
         """
         rx = np.ascontiguousarray(rx, dtype=np.complex128)
         if rx.ndim != 1:
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
         n_bits = int(n_bits)
         lk, fs = self.link, self.fs_hz
-        pre_n = self.preamble_samples()
+        blf = lk.blf_hz if blf_hz is None else float(blf_hz)
+        if not blf > 0:
+            raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
+        pre_n = self.preamble_samples(blf)
         # reply length in samples (preamble + n_bits + dummy)
-        n_reply = int(math.ceil(lk.reply_duration_s(n_bits) * fs))
+        n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
         if cmd_end_s is None:
             lo, hi = 0, rx.size - n_reply
         else:
@@ -395,43 +412,46 @@ class Reader:
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
         r = rx - (rx[:lo].mean() if lo >= 8 else 0.0)
-        det = decode_reply(r[lo:], n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_hz, fs_hz=fs,
+        det = decode_reply(r[lo:], n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                            method=self.config.decoder, search_samples=hi - lo)
         start = lo + det.start_sample
         start_s = float(t0_s) + start / fs
-        if det.corr < self.detection_threshold(hi - lo + 1):
+        if det.corr < self.detection_threshold(hi - lo + 1, blf):
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
-        # second pass: c (and h) by least squares over every sample whose waveform is known
-        # without decisions -- the CW-only samples before and after the reply and the
-        # preamble -- then decode again with c removed and h given. (Decisions are not used:
-        # one FM0/Miller bit error inverts the remodulated levels after it.)
-        pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, dummy=False)
-        full = self._reference(det.bits, start, r.size)
+        # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
+        pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, blf, dummy=False)
+        full = self._reference(det.bits, start, r.size, blf)
         known = (pre != 0) | (full == 0)
         h, c = _gain_offset(r[known], pre[known])
-        det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_hz, fs_hz=fs,
+        det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
-        ref = self._reference(bits, start, r.size)
-        meas = self._measure(r - c, ref)
+        ref = self._reference(bits, start, r.size, blf)
+        meas = self._measure(r - c, ref, blf)
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                           start_s=start_s, corr=det.corr, **meas)
 
-    def _reference(self, bits: np.ndarray, start: float, n: int, dummy: bool = True) -> np.ndarray:
+    def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
+                   dummy: bool = True) -> np.ndarray:
         """The ±1 reply waveform of ``bits`` starting at sample ``start`` (0 elsewhere), (n,)."""
         lk = self.link
-        return reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_hz, fs_hz=self.fs_hz,
+        return reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,
                               t0_s=start / self.fs_hz, n_samples=n, dummy=dummy)
 
-    def _measure(self, z: np.ndarray, s: np.ndarray) -> dict:
+    def _measure(self, z: np.ndarray, s: np.ndarray, blf_hz: float) -> dict:
         """RSSI, phase, Doppler and SNR of ``z = h(t)·s(t) + noise`` (offset removed), see
         :meth:`receive`."""
         lk, fs = self.link, self.fs_hz
         idx = np.flatnonzero(s)
         i0, i1 = int(idx[0]), int(idx[-1]) + 1
-        z, ref = z[i0:i1], s[i0:i1]
         t = (np.arange(i0, i1) - 0.5 * (i0 + i1 - 1)) / fs  # time from the reply centre [s]
+        # only samples whose neighbours have the same reference level: the start is known to
+        # 1/16 sample, so a sample next to an element boundary may carry the other level
+        ref = s[i0:i1]
+        steady = np.zeros(ref.size, dtype=bool)
+        steady[1:-1] = (ref[1:-1] == ref[:-2]) & (ref[1:-1] == ref[2:])
+        z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
         edges = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)
         g = np.array([np.dot(z[a:b], ref[a:b]) / np.dot(ref[a:b], ref[a:b])
                       for a, b in zip(edges[:-1], edges[1:])])
@@ -446,7 +466,7 @@ class Reader:
         return dict(rssi_dbm=float(w_to_dbm(p)) if p > 0 else -math.inf,
                     phase_rad=float(wrap_phase_rad(-np.angle(h))),
                     doppler_hz=slope / (2.0 * math.pi),
-                    snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs / lk.bitrate_bps))
+                    snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
 
 
 def _gain_offset(r: np.ndarray, s: np.ndarray) -> tuple[complex, complex]:

@@ -303,6 +303,23 @@ def test_reply_outside_t1_window_is_not_found():
     assert found.success and found.bits.tolist() == bits.tolist()
 
 
+def test_off_nominal_blf_is_read_when_given():
+    """A tag whose clock makes BLF 3 % high (within FrT = 10 % of miller4-320k): read with
+    its BLF; at the nominal BLF the 1.7 ms reply slips by 3 % (52 µs ≫ one 1.6 µs element)."""
+    reader = make_reader(profile="miller4-320k")
+    lk, fs = reader.link, reader.fs_hz
+    blf = 1.03 * lk.blf_hz
+    rng = trial_rng(28)
+    bits = epc_bits(rng)
+    n = int(math.ceil((t1(lk).max_s + lk.reply_duration_s(128) + 20 / lk.blf_hz) * fs))
+    s = reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, t0_s=t1(lk).nom_s, n_samples=n)
+    rx = 0.1 + 1e-4 * s + 1e-6 * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    res = reader.receive(rx, t0_s=T0_S, n_bits=128, expect_crc=True, cmd_end_s=T0_S, blf_hz=blf)
+    assert res.success and res.bits.tolist() == bits.tolist()
+    assert abs(res.snr_db - 10 * math.log10(1e-8 / 2e-12)) < 0.5  # |h|² = 1e−8 W, noise 2e−12 W
+    assert not reader.receive(rx, t0_s=T0_S, n_bits=128, expect_crc=True, cmd_end_s=T0_S).success
+
+
 def test_crc_error_on_corrupted_epc():
     reader = make_reader(profile="miller4-320k")
     rng = trial_rng(26)

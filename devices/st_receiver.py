@@ -1,0 +1,564 @@
+"""Sense-a-tag (ST) receive chain at sample level: envelope detector → band-pass →
+hysteresis comparator → FM0/Miller decoding, single and dual antenna.
+
+Hardware model (auris-sense-a-tag.md §6 "ST hardware", seed L1228-1250): antenna →
+(modulator, matching) → diode envelope detector → analog backscatter path = band-pass
+filter removing the DC of the CW + comparator acting as a one-bit A/D converter → digital
+decoder. Phase cancellation is judged on the envelope-detector output difference between
+the two reflection states with the threshold 5 mV (§3.1, L3443-3445, L3500-3502).
+
+Signal model
+------------
+Input ``x : (n,) complex128`` is the complex baseband at the ST antenna port in √W
+(``|x|²`` = available power [W]; the carrier is implicit), i.e. reader CW + backscatter as
+the engine delivers it. Detector (:class:`EnvelopeDetector`):
+
+* ``law="linear"`` (large-signal diode, the regime of the AURIS closed forms): the RF peak
+  voltage across the reference impedance R is ``V = sqrt(2·R·P) = sqrt(2R)·|x|`` and the
+  detector output is ``v = gain·V``. With ``gain = 1`` the output difference between the
+  two reflection states equals ``|A1 − A2|`` of Eq. 3.3/3.4 for ``A = sqrt(2R)·|a|``.
+* ``law="square"`` (small-signal diode): ``v = responsivity·|x|²`` [V/W·W].
+
+followed by an RC low-pass ``τ·dv/dt = v_d − v`` (discretised exactly for a held input:
+``a = 1 − exp(−1/(fs·τ))``); the default ``τ = 1/(2π·4·BLF)`` passes the subcarrier
+and its third harmonic (4 BLF is also the PASS reader's demodulation cut-off, §6.1).
+
+The band-pass (Butterworth, default order 1 over ``[BLF/8, 4·BLF]``) starts in the steady
+state of its first input sample (no CW switch-on transient). The comparator switches to
++1 above ``+threshold/2`` and to −1 below ``−threshold/2`` (hysteresis width = threshold),
+so a band-passed swing of peak-to-peak ``|A1 − A2|`` toggles it only if it exceeds the
+threshold — the comparator realises the source's 5 mV criterion (approximately: the
+band-pass reshapes the square wave, by a few % near the edges of its band).
+
+Decoding: :func:`rfsim.gen2.linecode.decode_reply` on the ±1 comparator output; detection
+requires the comparator to toggle and, with ``crc=True``, a valid CRC-16 (PC+EPC+CRC),
+otherwise a preamble correlation of at least ``min_corr`` (RN16).
+
+Dual antenna (§1.5, §1.6, §5): simple combination = RF sum of the two antenna ports before
+the detector (:func:`receive_combined`); receiving-path selection = two chains, decode both,
+Algorithm 1 (:func:`receive_selection`); ASK-PSK stamp = one decoding path chosen from the
+stamp decoded on the default path (:func:`receive_stamp`). SA1 feeds the receive-only path
+P1, SA2 the full ST path P2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.signal import butter, lfilter, sosfilt, sosfilt_zi
+
+from devices import _st_receiver_kernels as _k
+from devices.st_analytic import THRESHOLD_V, select_path
+from rfsim.errors import ConfigError
+from rfsim.gen2.crc import crc16_ok
+from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
+
+REFERENCE_IMPEDANCE_OHM = 50.0
+DETECTOR_LAWS = ("linear", "square")
+
+# ----------------------------------------------------------------------------- building blocks
+
+
+def rc_lowpass(u, *, fs_hz: float, tau_s: float, y0: float | None = None) -> tuple[np.ndarray, float]:
+    """First-order RC low-pass (numba kernel).
+
+    ``y[n] = y[n−1] + a·(u[n] − y[n−1])``, ``a = 1 − exp(−1/(fs·τ))`` (exact step response
+    of ``τ·dy/dt = u − y`` for an input held over each sample).
+
+    Parameters
+    ----------
+    u : (n,) float64 input [V]
+    fs_hz, tau_s : sample rate [Hz], time constant [s]
+    y0 : state before the first sample (default ``u[0]``, the steady state)
+
+    Returns
+    -------
+    y : (n,) float64 [V], and the final state (pass it as ``y0`` to continue in chunks)
+    """
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    if u.ndim != 1:
+        raise ValueError(f"u must be 1-D, got shape {u.shape}")
+    a = _rc_coefficient(fs_hz, tau_s)
+    y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
+    out = np.empty_like(u)
+    last = _k.rc_lowpass_kernel(u, a, y0, out)
+    return out, float(last)
+
+
+def rc_lowpass_reference(u, *, fs_hz: float, tau_s: float, y0: float | None = None) -> tuple[np.ndarray, float]:
+    """Plain SciPy twin of :func:`rc_lowpass` (``lfilter``)."""
+    u = np.asarray(u, dtype=np.float64)
+    a = _rc_coefficient(fs_hz, tau_s)
+    y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
+    y, zf = lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
+    return y, float(y[-1]) if y.size else y0
+
+
+def _rc_coefficient(fs_hz: float, tau_s: float) -> float:
+    if not (fs_hz > 0 and tau_s > 0):
+        raise ValueError(f"fs_hz and tau_s must be > 0, got {fs_hz}, {tau_s}")
+    return -math.expm1(-1.0 / (float(fs_hz) * float(tau_s)))
+
+
+def comparator(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, int, int]:
+    """Hysteresis comparator (one-bit A/D) with switching levels ``±threshold_v/2`` (numba).
+
+    Returns ``(out, last_state, n_toggles)``; ``out : (n,) float64`` of ±1.
+    """
+    v = np.ascontiguousarray(v, dtype=np.float64)
+    if not threshold_v >= 0:
+        raise ValueError(f"threshold_v must be >= 0, got {threshold_v}")
+    if state0 not in (-1, 1):
+        raise ValueError(f"state0 must be ±1, got {state0}")
+    out = np.empty_like(v)
+    st, tog = _k.comparator_kernel(v, 0.5 * threshold_v, -0.5 * threshold_v, int(state0), out)
+    return out, int(st), int(tog)
+
+
+def comparator_reference(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, int, int]:
+    """Plain-Python twin of :func:`comparator`."""
+    out = np.empty(len(v))
+    st, tog = int(state0), 0
+    for n, x in enumerate(np.asarray(v, dtype=np.float64)):
+        if st < 0 and x > 0.5 * threshold_v:
+            st, tog = 1, tog + 1
+        elif st > 0 and x < -0.5 * threshold_v:
+            st, tog = -1, tog + 1
+        out[n] = st
+    return out, st, tog
+
+
+def settled_mask(states, settle_samples: int, guard_samples: int = 0) -> np.ndarray:
+    """True where ``states`` has kept its value for at least ``settle_samples`` samples and
+    keeps it for at least ``guard_samples`` more (margin against a misaligned state
+    sequence)."""
+    s = np.asarray(states)
+    n = np.arange(s.size)
+    change = np.ones(s.size, dtype=bool)
+    change[1:] = s[1:] != s[:-1]
+    last_change = np.maximum.accumulate(np.where(change, n, 0))
+    ok = (n - last_change) >= int(settle_samples)
+    if guard_samples > 0:
+        nxt = np.ones(s.size, dtype=bool)  # True where the next sample starts a new run
+        nxt[:-1] = change[1:]
+        next_change = np.minimum.accumulate(np.where(nxt, n, s.size)[::-1])[::-1]
+        ok &= (next_change - n) >= int(guard_samples)
+    return ok
+
+
+def state_levels(envelope_v, states, values, *, settle_samples: int, guard_samples: int = 0) -> np.ndarray:
+    """Mean settled envelope per reflection state [V].
+
+    Parameters
+    ----------
+    envelope_v : (n,) float64 detector output [V]
+    states : (n,) state label of each sample (e.g. ±1 line-code level, or 0/1/2)
+    values : the state labels to report
+    settle_samples : samples skipped after every state change (RC settling)
+    guard_samples : samples skipped before every state change
+
+    Returns
+    -------
+    (len(values),) float64 mean envelope per state (NaN when a state has no settled sample)
+    """
+    env = np.asarray(envelope_v, dtype=np.float64)
+    s = np.asarray(states)
+    if env.shape != s.shape:
+        raise ValueError(f"envelope and states differ in shape: {env.shape} vs {s.shape}")
+    ok = settled_mask(s, settle_samples, guard_samples)
+    out = np.full(len(values), np.nan)
+    for i, val in enumerate(values):
+        sel = ok & (s == val)
+        if sel.any():
+            out[i] = env[sel].mean()
+    return out
+
+
+def state_envelope_difference(envelope_v, states, *, settle_samples: int, guard_samples: int = 0) -> float:
+    """Signed envelope difference ``A(+1) − A(−1)`` between the two line-code states [V].
+
+    The sample-level counterpart of ``A1 − A2`` (Eq. 3.3/3.4): mean of the settled detector
+    output in the +1 state minus that in the −1 state.
+    """
+    hi, lo = state_levels(envelope_v, states, (1, -1), settle_samples=settle_samples,
+                          guard_samples=guard_samples)
+    return float(hi - lo)
+
+
+# ----------------------------------------------------------------------------- detector
+
+
+@dataclass(frozen=True)
+class EnvelopeDetector:
+    """Diode envelope detector with an RC output filter.
+
+    Attributes
+    ----------
+    tau_s : RC time constant [s]
+    law : ``"linear"`` (``v = gain·sqrt(2R)·|x|``) or ``"square"`` (``v = responsivity·|x|²``)
+    gain : linear-law voltage conversion (output V per RF peak V)
+    responsivity_v_per_w : square-law responsivity [V/W]
+    impedance_ohm : reference impedance R of the antenna port [Ω]
+    """
+
+    tau_s: float
+    law: str = "linear"
+    gain: float = 1.0
+    responsivity_v_per_w: float = 1000.0
+    impedance_ohm: float = REFERENCE_IMPEDANCE_OHM
+
+    def __post_init__(self):
+        if self.law not in DETECTOR_LAWS:
+            raise ConfigError("law", self.law, DETECTOR_LAWS)
+        for key in ("tau_s", "gain", "responsivity_v_per_w", "impedance_ohm"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v > 0):
+                raise ConfigError(key, v, "> 0")
+
+    @property
+    def volts_per_sqrt_w(self) -> float:
+        """RF peak voltage per baseband unit: ``sqrt(2R)`` [V/√W]."""
+        return math.sqrt(2.0 * self.impedance_ohm)
+
+    def rf_peak_v(self, x) -> np.ndarray:
+        """RF peak voltage at the port ``sqrt(2R)·|x|`` [V]."""
+        return self.volts_per_sqrt_w * np.abs(np.asarray(x))
+
+    def instantaneous_v(self, x) -> np.ndarray:
+        """Detector output before the RC filter [V]."""
+        x = np.asarray(x)
+        if self.law == "linear":
+            return self.gain * self.rf_peak_v(x)
+        return self.responsivity_v_per_w * (x.real ** 2 + x.imag ** 2)
+
+    def output_v(self, x, *, fs_hz: float, y0: float | None = None) -> np.ndarray:
+        """Filtered detector output ``(n,) float64`` [V] (RC starting in steady state)."""
+        return rc_lowpass(self.instantaneous_v(x), fs_hz=fs_hz, tau_s=self.tau_s, y0=y0)[0]
+
+
+# ----------------------------------------------------------------------------- receiver
+
+
+@dataclass(frozen=True)
+class ChainOutput:
+    """Intermediate signals of one receive path (all ``(n,) float64``).
+
+    envelope_v : detector output after the RC [V]; bandpassed_v : after the band-pass [V];
+    comparator : ±1 one-bit output; toggles : number of comparator transitions.
+    """
+
+    envelope_v: np.ndarray
+    bandpassed_v: np.ndarray
+    comparator: np.ndarray
+    toggles: int
+
+
+@dataclass(frozen=True)
+class Reception:
+    """Result of one receive path.
+
+    Attributes
+    ----------
+    detected : reply detected and decoded (CRC-16 valid when requested)
+    bits : (n_bits,) uint8 decoded bits, or None when nothing was decoded
+    envelope_difference_v : |A(+1) − A(−1)| of the detector output [V] (NaN if unknown)
+    envelope_difference_signed_v : A(+1) − A(−1) [V]
+    toggles : comparator transitions; corr : preamble correlation; start_sample : reply start
+    """
+
+    detected: bool
+    bits: np.ndarray | None
+    envelope_difference_v: float
+    envelope_difference_signed_v: float
+    toggles: int
+    corr: float = 0.0
+    start_sample: float = float("nan")
+    chain: ChainOutput | None = field(default=None, repr=False)
+
+
+@dataclass(frozen=True)
+class STReceiver:
+    """Sense-a-tag receive chain for one link profile.
+
+    Attributes
+    ----------
+    fs_hz : sample rate [Hz]; blf_hz : backscatter link frequency [Hz]
+    m, trext : line code (1 = FM0, 2/4/8 = Miller-M) and pilot flag of the expected replies
+    threshold_v : comparator hysteresis width = detection threshold [V] (default 5 mV)
+    detector : envelope detector (default: linear, τ = 1/(2π·4·BLF), 50 Ω, gain 1)
+    bpf_low_factor, bpf_high_factor, bpf_order : band-pass edges in units of BLF, order
+    method : decoder (``"viterbi"`` or ``"bitwise"``)
+    min_corr : preamble correlation needed when no CRC is checked
+    min_toggles : comparator transitions needed before decoding is attempted
+    settle_tau : RC time constants skipped after a state change when measuring levels
+    """
+
+    fs_hz: float
+    blf_hz: float
+    m: int = 2
+    trext: bool = True
+    threshold_v: float = THRESHOLD_V
+    detector: EnvelopeDetector | None = None
+    bpf_low_factor: float = 0.125
+    bpf_high_factor: float = 4.0
+    bpf_order: int = 1
+    method: str = "viterbi"
+    min_corr: float = 0.8
+    min_toggles: int = 8
+    settle_tau: float = 6.0
+
+    def __post_init__(self):
+        if not (self.fs_hz > 0 and self.blf_hz > 0):
+            raise ConfigError("fs_hz/blf_hz", (self.fs_hz, self.blf_hz), "> 0")
+        if not 0 < self.bpf_low_factor < self.bpf_high_factor:
+            raise ConfigError("bpf_low_factor", self.bpf_low_factor, f"0 < value < bpf_high_factor")
+        if self.bpf_high_factor * self.blf_hz >= 0.5 * self.fs_hz:
+            raise ConfigError("bpf_high_factor", self.bpf_high_factor, f"< fs/2/BLF = {0.5 * self.fs_hz / self.blf_hz:g}")
+        if not self.threshold_v >= 0:
+            raise ConfigError("threshold_v", self.threshold_v, ">= 0")
+        if self.m not in (1, 2, 4, 8):
+            raise ConfigError("m", self.m, (1, 2, 4, 8))
+
+    @property
+    def envelope_detector(self) -> EnvelopeDetector:
+        return self.detector if self.detector is not None else EnvelopeDetector(
+            tau_s=1.0 / (2.0 * math.pi * 4.0 * self.blf_hz))
+
+    @property
+    def sos(self) -> np.ndarray:
+        """Band-pass second-order sections (Butterworth)."""
+        return butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
+                      btype="bandpass", fs=self.fs_hz, output="sos")
+
+    @property
+    def settle_samples(self) -> int:
+        return int(math.ceil(self.settle_tau * self.envelope_detector.tau_s * self.fs_hz))
+
+    @property
+    def guard_samples(self) -> int:
+        """Samples skipped before a state change when measuring levels (alignment margin)."""
+        return 2
+
+    def chain(self, x) -> ChainOutput:
+        """Run detector, band-pass and comparator on ``x : (n,) complex, baseband [√W]``."""
+        x = np.asarray(x)
+        if x.ndim != 1 or x.size < 2:
+            raise ValueError(f"x must be 1-D with >= 2 samples, got shape {x.shape}")
+        env = self.envelope_detector.output_v(x, fs_hz=self.fs_hz)
+        sos = self.sos
+        bp = sosfilt(sos, env, zi=sosfilt_zi(sos) * env[0])[0]
+        cmp_out, _, tog = comparator(bp, threshold_v=self.threshold_v)
+        return ChainOutput(env, bp, cmp_out, tog)
+
+    def receive(self, x, *, n_bits: int, crc: bool = True, states=None, start_sample: int = 0) -> Reception:
+        """Detect and decode one reply of ``n_bits`` bits in ``x`` (baseband at the port, √W).
+
+        Parameters
+        ----------
+        x : (n,) complex128 baseband [√W]
+        n_bits : data bits of the reply (RN16: 16; PC+EPC+CRC-16: 128 for a 96-bit EPC)
+        crc : require a valid CRC-16 over the decoded bits
+        states : optional (n,) true line-code level (±1, 0 outside the reply) for measuring the
+            envelope difference; default: re-encode the decoded bits
+        start_sample : decode only from this sample on (the chain runs over all of ``x``)
+        """
+        return self.decode_chain(self.chain(x), n_bits=n_bits, crc=crc, states=states, start_sample=start_sample)
+
+    def _aligned_levels(self, envelope_v, bits, start: float) -> np.ndarray:
+        """Re-encoded line-code levels of ``bits`` aligned on the detector output.
+
+        The comparator output lags the envelope (RC and band-pass group delay), so the
+        reply start is re-estimated by correlating the re-encoded levels with the
+        mean-free envelope over ±2 elements around the decoded start.
+        """
+        n = envelope_v.size
+        lvl = reply_waveform(bits, m=self.m, trext=self.trext, blf_hz=self.blf_hz, fs_hz=self.fs_hz)
+        w = int(math.ceil(self.fs_hz / self.blf_hz))
+        best, best_lag = -1.0, int(round(start))
+        env0 = envelope_v - envelope_v.mean()
+        for lag in range(int(round(start)) - w, int(round(start)) + w + 1):
+            lo, hi = max(lag, 0), min(lag + lvl.size, n)
+            if hi - lo < lvl.size // 2:
+                continue
+            v = abs(float(env0[lo:hi] @ lvl[lo - lag: hi - lag]))
+            if v > best:
+                best, best_lag = v, lag
+        out = np.zeros(n)
+        lo, hi = max(best_lag, 0), min(best_lag + lvl.size, n)
+        out[lo:hi] = lvl[lo - best_lag: hi - best_lag]
+        return out
+
+    def decode_chain(self, ch: ChainOutput, *, n_bits: int, crc: bool = True, states=None,
+                     start_sample: int = 0) -> Reception:
+        """Decoding and measurement part of :meth:`receive` on a precomputed chain."""
+        s0 = int(start_sample)
+        cmp_part = ch.comparator[s0:]
+        toggles = int(np.count_nonzero(np.diff(cmp_part))) if cmp_part.size > 1 else 0
+        bits, corr, start, detected = None, 0.0, float("nan"), False
+        if toggles >= self.min_toggles:
+            try:
+                det = decode_reply(cmp_part.astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
+                                   blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method)
+            except ValueError:
+                det = None
+            if det is not None:
+                bits, corr, start = det.bits, det.corr, det.start_sample + s0
+                detected = bool(crc16_ok(bits)) if crc else corr >= self.min_corr
+        if states is None and bits is not None:
+            states = self._aligned_levels(ch.envelope_v, bits, start)
+        diff = float("nan")
+        if states is not None:
+            diff = state_envelope_difference(ch.envelope_v, states, settle_samples=self.settle_samples,
+                                             guard_samples=self.guard_samples)
+        return Reception(detected=detected, bits=bits if detected else None, envelope_difference_v=abs(diff),
+                         envelope_difference_signed_v=diff, toggles=toggles, corr=corr, start_sample=start, chain=ch)
+
+
+# ----------------------------------------------------------------------------- dual antenna
+
+
+def receive_combined(rx: STReceiver, x_sa1, x_sa2, **kwargs) -> Reception:
+    """Simple combination (§1.5, Eq. 3.14): one chain on the RF sum ``x_sa1 + x_sa2`` [√W].
+
+    The two ports are summed as complex amplitudes (ideal lossless combiner referred to one
+    port; a real Wilkinson combiner would scale the sum by 1/√2 — not modelled, as in Eq. 3.14).
+    """
+    return rx.receive(np.asarray(x_sa1) + np.asarray(x_sa2), **kwargs)
+
+
+@dataclass(frozen=True)
+class SelectionReception:
+    """Receiving-path selection result: the selected reception, which path (1, 2 or None),
+    and both paths' receptions."""
+
+    selected: Reception
+    path: int | None
+    p1: Reception
+    p2: Reception
+
+    @property
+    def detected(self) -> bool:
+        return self.path is not None
+
+
+def receive_selection(rx: STReceiver, x_sa1, x_sa2, *, rx_p1: STReceiver | None = None, **kwargs) -> SelectionReception:
+    """Receiving-path selection (§1.6, Algorithm 1, seed L3182-3196).
+
+    Path P1 = receive-only chain on SA1 (``rx_p1``, default ``rx``), P2 = the full ST chain on
+    SA2; both decode; ``ID2`` is returned if not NULL, else ``ID1``.
+    """
+    r1 = (rx_p1 or rx).receive(x_sa1, **kwargs)
+    r2 = rx.receive(x_sa2, **kwargs)
+    id1 = r1.bits if r1.detected else None
+    id2 = r2.bits if r2.detected else None
+    chosen = select_path(id1, id2)
+    if chosen is None:
+        return SelectionReception(r2, None, r1, r2)
+    return (SelectionReception(r2, 2, r1, r2) if chosen is id2 else SelectionReception(r1, 1, r1, r2))
+
+
+# ----------------------------------------------------------------------------- ASK-PSK stamp
+
+#: Reflection-state labels of the three-state ASK-PSK modulator (§5, Fig. 5.3/5.4):
+#: 0 = S1 (ASK state 1, PSK reference), 1 = S2 (ASK state 2), 2 = S3 = S1·e^{jψ} (PSK state).
+STAMP_S1, STAMP_S2, STAMP_S3 = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class StampFrame:
+    """Sampled state sequence of a stamped frame and where its parts are [samples].
+
+    states : (n,) int8 reflection-state label per sample (rest state S1 outside the frame);
+    levels : (n,) float64 line-code level of the data reply (±1 inside it, 0 elsewhere);
+    ask_stop / psk_stop : ends of the ASK and PSK stamp segments (the ASK segment starts at
+    ``start``); reply_start : first sample of the Gen2 reply (pilot, preamble, data).
+    """
+
+    states: np.ndarray
+    levels: np.ndarray
+    start: int
+    ask_stop: int
+    psk_stop: int
+    reply_start: int
+
+
+def stamp_frame(bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, n_stamp_cycles: int = 8,
+                t0_s: float = 0.0, tail_s: float = 0.0) -> StampFrame:
+    """Frame of chapter 5: ASK-PSK stamp, then an ASK-modulated reply (seed L5874-6023).
+
+    The stamp (Fig. 5.7; its exact format is not in the text) is modelled as
+    ``n_stamp_cycles`` subcarrier cycles at BLF alternating S1/S2 (ASK part) followed by as
+    many alternating S1/S3 (PSK part), placed immediately before the reply's pilot tone.
+    The reply maps line-code level +1 → S1 and −1 → S2.
+    """
+    if n_stamp_cycles < 1:
+        raise ConfigError("n_stamp_cycles", n_stamp_cycles, ">= 1")
+    el_s = 1.0 / (2.0 * blf_hz)
+    start = int(math.ceil(t0_s * fs_hz))
+    seg = int(round(2 * n_stamp_cycles * el_s * fs_hz))
+    ask_stop, psk_stop = start + seg, start + 2 * seg
+    n_el = halfsymbols(bits, m=m, trext=trext).size
+    n = int(math.ceil(psk_stop + n_el * el_s * fs_hz + tail_s * fs_hz)) + 1
+    states = np.full(n, STAMP_S1, dtype=np.int8)
+    k = np.arange(seg)
+    odd = (np.floor(k / (el_s * fs_hz) + 1e-9).astype(np.int64) % 2) == 1
+    states[start:ask_stop] = np.where(odd, STAMP_S2, STAMP_S1)
+    states[ask_stop:psk_stop] = np.where(odd, STAMP_S3, STAMP_S1)
+    levels = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=psk_stop / fs_hz,
+                            n_samples=n)
+    states[levels < 0] = STAMP_S2
+    return StampFrame(states, levels, start, ask_stop, psk_stop, psk_stop)
+
+
+@dataclass(frozen=True)
+class StampReception:
+    """ASK-PSK stamp result: decoded stamp symbols on P2 ('1' or '-'), whether the ST
+    switched to P1, and the reception of the one path that decoded the data."""
+
+    ask_symbol: str
+    psk_symbol: str
+    use_p1: bool
+    selected: Reception
+
+    @property
+    def detected(self) -> bool:
+        return self.selected.detected
+
+    @property
+    def cancellation_flagged(self) -> bool:
+        """ASK stamp cancelled while the PSK stamp is present (the phase-cancellation signature)."""
+        return self.ask_symbol == "-" and self.psk_symbol == "1"
+
+
+def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STReceiver | None = None,
+                  **kwargs) -> StampReception:
+    """ASK-PSK stamp path switching (§5, seed L5984-5990, L6019-6023).
+
+    The default path P2 (SA2) runs its analog chain; a stamp segment decodes as '1' when
+    the comparator toggles at least ``n_stamp_cycles`` times in it (half the transitions of
+    an undisturbed segment), else '-'. An ASK '-' switches the digital decoding to P1 (SA1);
+    only the chosen path decodes the data (from ``frame.reply_start``).
+    """
+    ch2 = rx.chain(x_sa2)
+    n_cycles = (frame.ask_stop - frame.start) * rx.blf_hz / rx.fs_hz
+    need = max(1, int(round(n_cycles)))
+    sym = ["1" if np.count_nonzero(np.diff(ch2.comparator[a:b])) >= need else "-"
+           for a, b in ((frame.start, frame.ask_stop), (frame.ask_stop, frame.psk_stop))]
+    use_p1 = sym[0] == "-"
+    kwargs.setdefault("start_sample", frame.reply_start)
+    kwargs.setdefault("states", frame.levels)
+    if use_p1:
+        sel = (rx_p1 or rx).receive(x_sa1, **kwargs)
+    else:
+        sel = rx.decode_chain(ch2, **kwargs)
+    return StampReception(sym[0], sym[1], use_p1, sel)
+
+
+__all__ = [
+    "REFERENCE_IMPEDANCE_OHM", "DETECTOR_LAWS", "rc_lowpass", "rc_lowpass_reference", "comparator",
+    "comparator_reference", "settled_mask", "state_levels", "state_envelope_difference", "EnvelopeDetector",
+    "ChainOutput", "Reception", "STReceiver", "receive_combined", "SelectionReception", "receive_selection",
+    "STAMP_S1", "STAMP_S2", "STAMP_S3", "StampFrame", "stamp_frame", "StampReception", "receive_stamp",
+]

@@ -37,26 +37,23 @@ class Progress:
         self._last = -float("inf")
         self._last_done = -1
 
-    @property
-    def rate(self) -> float:
-        """Runs finished per second in this session."""
-        dt = self.clock() - self.t0
+    def rate(self, now: float) -> float:
+        """Runs finished per second in this session, at clock time ``now``."""
+        dt = now - self.t0
         return (self.done - self.resumed) / dt if dt > 0 else 0.0
 
-    def eta_s(self) -> float | None:
-        r = self.rate
-        return (self.total - self.done) / r if r > 0 else None
-
-    def text(self) -> str:
-        eta = self.eta_s()
-        eta_text = "?" if eta is None else _clock_text(eta)
+    def text(self, now: float) -> str:
+        """The progress line at clock time ``now``."""
+        rate = self.rate(now)
+        eta = (self.total - self.done) / rate if rate > 0 else None
         if self.tty:
             filled = int(self.width * self.done / self.total) if self.total else self.width
             bar = "#" * filled + "." * (self.width - filled)
-            return f"[{bar}] {self.done}/{self.total} runs  {self.rate:.2f} runs/s  ETA {eta_text}"
+            eta_text = "?" if eta is None else _clock_text(eta)
+            return f"[{bar}] {self.done}/{self.total} runs  {rate:.2f} runs/s  ETA {eta_text}"
         pct = 100.0 * self.done / self.total if self.total else 100.0
-        eta_s = "?" if eta is None else f"{eta:.0f} s"
-        return f"sweep: {self.done}/{self.total} runs ({pct:.1f} %), {self.rate:.2f} runs/s, ETA {eta_s}"
+        eta_text = "?" if eta is None else f"{eta:.0f} s"
+        return f"sweep: {self.done}/{self.total} runs ({pct:.1f} %), {rate:.2f} runs/s, ETA {eta_text}"
 
     def start(self) -> None:
         self._emit(force=True)
@@ -70,9 +67,9 @@ class Progress:
         if self.quiet:
             return
         if self.tty:
-            self.stream.write("\r" + self.text() + "\n")
+            self.stream.write("\r" + self.text(self.clock()) + "\n")
         elif self._last_done != self.done:
-            self.stream.write(self.text() + "\n")
+            self.stream.write(self.text(self.clock()) + "\n")
         self.stream.flush()
 
     def _emit(self, force: bool = False) -> None:
@@ -82,7 +79,7 @@ class Progress:
         if not force and now - self._last < self.interval_s:
             return
         self._last = now
-        text = self.text()
+        text = self.text(now)
         if self.tty:
             self.stream.write("\r" + text)
         else:

@@ -19,6 +19,10 @@ the engine delivers it. Detector (:class:`EnvelopeDetector`):
   two reflection states equals ``|A1 − A2|`` of Eq. 3.3/3.4 for ``A = sqrt(2R)·|a|``.
 * ``law="square"`` (small-signal diode): ``v = responsivity·|x|²`` [V/W·W].
 
+The source's detector outputs are about 6× the antenna-level differences (0.0017 V →
+0.01 V, L3358-3362; 0.0019 V → 0.012 V, L3436-3441); ``gain`` reproduces such a
+conversion; the default 1 makes the output equal the closed forms.
+
 followed by an RC low-pass ``τ·dv/dt = v_d − v`` (discretised exactly for a held input:
 ``a = 1 − exp(−1/(fs·τ))``); the default ``τ = 1/(2π·4·BLF)`` passes the subcarrier
 and its third harmonic (4 BLF is also the PASS reader's demodulation cut-off, §6.1).
@@ -92,7 +96,7 @@ def rc_lowpass_reference(u, *, fs_hz: float, tau_s: float, y0: float | None = No
     u = np.asarray(u, dtype=np.float64)
     a = _rc_coefficient(fs_hz, tau_s)
     y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
-    y, zf = lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
+    y, _ = lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
     return y, float(y[-1]) if y.size else y0
 
 
@@ -187,6 +191,18 @@ def state_envelope_difference(envelope_v, states, *, settle_samples: int, guard_
     return float(hi - lo)
 
 
+def passband_envelope_v(v_rf, *, fs_hz: float, tau_s: float) -> np.ndarray:
+    """Envelope of a real RF voltage by full-wave rectification and RC smoothing [V].
+
+    Cross-check of the baseband detector (DESIGN "passband mode"): for
+    ``v(t) = A(t)·cos(ωt + φ(t))`` with ``1/f_c ≪ τ``, the mean of ``|v|`` is ``(2/π)·A``,
+    so ``(π/2)·RC{|v|}`` tends to A (ripple at 2·f_c attenuated by ``≈ 1/(4π f_c τ)``).
+    ``v_rf : (n,) float64`` sampled at ``fs_hz ≫ f_c``.
+    """
+    u = 0.5 * np.pi * np.abs(np.asarray(v_rf, dtype=np.float64))
+    return rc_lowpass(u, fs_hz=fs_hz, tau_s=tau_s, y0=0.0)[0]
+
+
 # ----------------------------------------------------------------------------- detector
 
 
@@ -211,7 +227,7 @@ class EnvelopeDetector:
 
     def __post_init__(self):
         if self.law not in DETECTOR_LAWS:
-            raise ConfigError("law", self.law, DETECTOR_LAWS)
+            raise ConfigError("law", self.law, "one of " + ", ".join(DETECTOR_LAWS))
         for key in ("tau_s", "gain", "responsivity_v_per_w", "impedance_ohm"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v > 0):
@@ -313,13 +329,14 @@ class STReceiver:
         if not (self.fs_hz > 0 and self.blf_hz > 0):
             raise ConfigError("fs_hz/blf_hz", (self.fs_hz, self.blf_hz), "> 0")
         if not 0 < self.bpf_low_factor < self.bpf_high_factor:
-            raise ConfigError("bpf_low_factor", self.bpf_low_factor, f"0 < value < bpf_high_factor")
+            raise ConfigError("bpf_low_factor", self.bpf_low_factor, "0 < value < bpf_high_factor")
         if self.bpf_high_factor * self.blf_hz >= 0.5 * self.fs_hz:
-            raise ConfigError("bpf_high_factor", self.bpf_high_factor, f"< fs/2/BLF = {0.5 * self.fs_hz / self.blf_hz:g}")
+            limit = 0.5 * self.fs_hz / self.blf_hz
+            raise ConfigError("bpf_high_factor", self.bpf_high_factor, f"< fs/2/BLF = {limit:g}")
         if not self.threshold_v >= 0:
             raise ConfigError("threshold_v", self.threshold_v, ">= 0")
         if self.m not in (1, 2, 4, 8):
-            raise ConfigError("m", self.m, (1, 2, 4, 8))
+            raise ConfigError("m", self.m, "one of 1 (FM0), 2, 4, 8 (Miller)")
 
     @property
     def envelope_detector(self) -> EnvelopeDetector:
@@ -352,7 +369,8 @@ class STReceiver:
         cmp_out, _, tog = comparator(bp, threshold_v=self.threshold_v)
         return ChainOutput(env, bp, cmp_out, tog)
 
-    def receive(self, x, *, n_bits: int, crc: bool = True, states=None, start_sample: int = 0) -> Reception:
+    def receive(self, x, *, n_bits: int, crc: bool = True, states=None, start_sample: int = 0,
+                search_samples: int | None = None) -> Reception:
         """Detect and decode one reply of ``n_bits`` bits in ``x`` (baseband at the port, √W).
 
         Parameters
@@ -363,8 +381,11 @@ class STReceiver:
         states : optional (n,) true line-code level (±1, 0 outside the reply) for measuring the
             envelope difference; default: re-encode the decoded bits
         start_sample : decode only from this sample on (the chain runs over all of ``x``)
+        search_samples : the reply start is searched within this many samples after
+            ``start_sample`` (default: anywhere; a known window makes decoding faster)
         """
-        return self.decode_chain(self.chain(x), n_bits=n_bits, crc=crc, states=states, start_sample=start_sample)
+        return self.decode_chain(self.chain(x), n_bits=n_bits, crc=crc, states=states, start_sample=start_sample,
+                                 search_samples=search_samples)
 
     def _aligned_levels(self, envelope_v, bits, start: float) -> np.ndarray:
         """Re-encoded line-code levels of ``bits`` aligned on the detector output.
@@ -391,7 +412,7 @@ class STReceiver:
         return out
 
     def decode_chain(self, ch: ChainOutput, *, n_bits: int, crc: bool = True, states=None,
-                     start_sample: int = 0) -> Reception:
+                     start_sample: int = 0, search_samples: int | None = None) -> Reception:
         """Decoding and measurement part of :meth:`receive` on a precomputed chain."""
         s0 = int(start_sample)
         cmp_part = ch.comparator[s0:]
@@ -400,7 +421,8 @@ class STReceiver:
         if toggles >= self.min_toggles:
             try:
                 det = decode_reply(cmp_part.astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
-                                   blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method)
+                                   blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
+                                   search_samples=search_samples)
             except ValueError:
                 det = None
             if det is not None:
@@ -558,7 +580,8 @@ def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STR
 
 __all__ = [
     "REFERENCE_IMPEDANCE_OHM", "DETECTOR_LAWS", "rc_lowpass", "rc_lowpass_reference", "comparator",
-    "comparator_reference", "settled_mask", "state_levels", "state_envelope_difference", "EnvelopeDetector",
-    "ChainOutput", "Reception", "STReceiver", "receive_combined", "SelectionReception", "receive_selection",
-    "STAMP_S1", "STAMP_S2", "STAMP_S3", "StampFrame", "stamp_frame", "StampReception", "receive_stamp",
+    "comparator_reference", "passband_envelope_v", "settled_mask", "state_levels",
+    "state_envelope_difference", "EnvelopeDetector", "ChainOutput", "Reception", "STReceiver",
+    "receive_combined", "SelectionReception", "receive_selection", "STAMP_S1", "STAMP_S2", "STAMP_S3",
+    "StampFrame", "stamp_frame", "StampReception", "receive_stamp",
 ]

@@ -159,6 +159,9 @@ def test_rn16_above_threshold_decodes_below_does_not():
     r = rx.receive(_st_input(0.2, 0.080, 0.060, s), n_bits=16, crc=False)
     assert r.detected and np.array_equal(r.bits, RN16)
     assert r.envelope_difference_v == pytest.approx(0.020, rel=0.01)
+    # a known search window gives the same result
+    r_w = rx.receive(_st_input(0.2, 0.080, 0.060, s), n_bits=16, crc=False, search_samples=int(60e-6 * FS_HZ))
+    assert r_w.detected and np.array_equal(r_w.bits, RN16) and r_w.start_sample == r.start_sample
     # 3 mV (< 5 mV): the comparator never toggles, nothing detected
     r = rx.receive(_st_input(0.2, 0.063, 0.060, s), n_bits=16, crc=False)
     assert not r.detected and r.bits is None and r.toggles == 0
@@ -281,3 +284,30 @@ def test_ask_psk_stamp_switches_path_at_ask_null():
     # no cancellation on P2: the stamp keeps P2
     res2 = sr.receive_stamp(rx, x2, x1, fr, n_bits=bits.size)
     assert res2.ask_symbol == "1" and not res2.use_p1 and res2.detected
+
+
+def test_passband_detector_equals_eq_3_4():
+    """Real RF samples of Eq. 3.2 (C_i = A_R cos ωt + A_Ti cos(ωt+θ)) through a full-wave
+    rectifier + RC: an independent check that the baseband detector |x| is the envelope.
+
+    The carrier is scaled down to f_c ≈ 2.98 MHz (fs/f_c = 20 + √2, incommensurate so the
+    sampled |cos| averages to 2/π); τ = 3 µs ≫ 1/f_c; states alternate every 60 µs.
+    """
+    fs, tau = 64e6, 3e-6
+    fc = fs / (20 + math.sqrt(2))
+    run = int(60e-6 * fs)
+    s = np.tile(np.r_[np.ones(run), -np.ones(run)], 3)
+    t = np.arange(s.size) / fs
+    a_r, a_t1, a_t2 = 0.0802, 0.0576, 0.0560  # Table 3.1, cancellation row
+    thetas = np.linspace(-np.pi, np.pi, 64, endpoint=False) + 0.0123
+    meas = np.empty(thetas.size)
+    for i, th in enumerate(thetas):
+        v = a_r * np.cos(2 * np.pi * fc * t) + np.where(s > 0, a_t1, a_t2) * np.cos(2 * np.pi * fc * t + th)
+        env = sr.passband_envelope_v(v, fs_hz=fs, tau_s=tau)
+        meas[i] = sr.state_envelope_difference(env, s, settle_samples=int(8 * tau * fs))
+    exp = np.abs(np.abs(a_r + a_t1 * np.exp(1j * thetas)) - np.abs(a_r + a_t2 * np.exp(1j * thetas)))
+    # 1 % of the value, or 0.2 % of the peak |A_T1 − A_T2| near the nulls (residual carrier ripple)
+    np.testing.assert_allclose(np.abs(meas), exp, rtol=0.01, atol=2e-3 * abs(a_t1 - a_t2))
+    z = np.sort(_zero_crossings(thetas, meas))
+    tc = math.acos(-(a_t1 + a_t2) / (2 * a_r))
+    np.testing.assert_allclose(z, [-tc, tc], atol=0.02)

@@ -350,10 +350,84 @@ def sync_envelope_difference(a_t1, a_t2):
     return np.abs(np.asarray(a_t1, float) - np.asarray(a_t2, float))
 
 
+@dataclass(frozen=True)
+class TechniqueOutcome:
+    """Envelope differences [V] and phase-cancellation flags of the four ST techniques.
+
+    Attributes (arrays broadcast from the inputs)
+    ----------
+    diff_sa1_v, diff_sa2_v, diff_combined_v : actual ``|A1 − A2|`` at SA1, SA2, of the RF sum
+    sync_sa1_v, sync_sa2_v, sync_combined_v : the same with the CW synchronised (θ = 0)
+    cancelled_single, cancelled_combination, cancelled_selection, cancelled_stamp : R3-5 flags
+    """
+
+    diff_sa1_v: np.ndarray
+    diff_sa2_v: np.ndarray
+    diff_combined_v: np.ndarray
+    sync_sa1_v: np.ndarray
+    sync_sa2_v: np.ndarray
+    sync_combined_v: np.ndarray
+    cancelled_single: np.ndarray
+    cancelled_combination: np.ndarray
+    cancelled_selection: np.ndarray
+    cancelled_stamp: np.ndarray
+
+
+def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, detector_gain: float = 1.0,
+                       threshold_v: float = THRESHOLD_V) -> TechniqueOutcome:
+    """Closed-form outcome of single / combination / selection / stamp from complex phasors.
+
+    Parameters
+    ----------
+    cw_sa1, bs1_sa1, bs2_sa1 : complex phasors [V] at SA1 of the CW and of the backscatter in
+        reflection states 1 and 2 (any common phase reference)
+    cw_sa2, bs1_sa2, bs2_sa2 : the same at SA2 (the single-antenna ST is SA2 = path P2)
+    detector_gain : envelope-detector output per input volt (linear regime)
+    threshold_v : phase-cancellation threshold on the detector output difference [V]
+
+    Notes
+    -----
+    Actual differences: ``|A1 − A2|`` (Eq. 3.3/3.4) per antenna, and of the RF sum
+    (Eq. 3.14/3.21). Synchronised differences (R3-5): ``| |B1| − |B2| |`` per antenna and of
+    the summed backscatter (``|Â_T1 − Â_T2|``). Flags: one detectability condition for every
+    technique — the single-antenna ST (SA2) would detect the tag with the CW synchronised
+    (``sync_sa2_v > threshold``) — and the technique does not detect it: single = SA2,
+    combination = the RF sum, selection = Algorithm 1 over SA1/SA2, stamp =
+    :func:`stamp_select` (identical to selection with ideal decisions). With a common
+    condition the techniques are compared on the same samples (selection ≤ single always).
+    """
+    g = float(detector_gain)
+    c1, b11, b12, c2, b21, b22 = (np.asarray(v, complex) for v in (cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2,
+                                                                  bs2_sa2))
+
+    def diff(c, b1, b2):
+        # Eq. 3.4 with θ = arg(b1/c) (= arg(b2/c) for ASK); general complex states: direct form
+        th = np.angle(b1 * np.conj(c))
+        same_phase = np.isclose(np.angle(b2 * np.conj(b1)), 0.0, atol=1e-12)
+        eq34 = ask_envelope_difference(np.abs(c), np.abs(b1), np.abs(b2), th)
+        return g * np.where(same_phase, eq34, np.abs(np.abs(c + b1) - np.abs(c + b2)))
+
+    d1, d2 = diff(c1, b11, b12), diff(c2, b21, b22)
+    dc = diff(c1 + c2, b11 + b21, b12 + b22)
+    s1, s2 = g * np.abs(np.abs(b11) - np.abs(b12)), g * np.abs(np.abs(b21) - np.abs(b22))
+    sc = g * np.abs(np.abs(b11 + b21) - np.abs(b12 + b22))
+    thr = threshold_v
+    sel_detected = select_detected(d1 > thr, d2 > thr)
+    stamp_detected = stamp_select(d2, d1, threshold_v=thr)[0]
+    detectable = s2 > thr
+    return TechniqueOutcome(
+        diff_sa1_v=d1, diff_sa2_v=d2, diff_combined_v=dc, sync_sa1_v=s1, sync_sa2_v=s2, sync_combined_v=sc,
+        cancelled_single=phase_cancelled(d2, s2, threshold_v=thr),
+        cancelled_combination=detectable & ~(dc > thr),
+        cancelled_selection=detectable & ~sel_detected,
+        cancelled_stamp=detectable & ~stamp_detected,
+    )
+
+
 __all__ = [
     "THRESHOLD_V", "envelope_amplitude", "ask_envelope_difference", "ask_cancel_angle",
     "psk_envelope_difference", "psk_cancel_angles", "psk_peak_difference", "CombinedSignal",
     "combine_dual", "combined_envelope_difference", "combined_cancel_angle", "NullMapModel",
     "select_path", "select_detected", "stamp_select", "phase_cancelled", "cancellation_probability",
-    "sync_envelope_difference",
+    "sync_envelope_difference", "TechniqueOutcome", "technique_outcomes",
 ]

@@ -192,3 +192,37 @@ def test_phase_cancellation_probability():
     assert lo[1] == 0.0 and hi[1] == pytest.approx(1 - 0.025 ** (1 / 300), rel=1e-9)
     with pytest.raises(ConfigError):
         sa.cancellation_probability(flags, confidence=1.5)
+
+
+def test_technique_outcomes_from_phasors():
+    # Table 3.2 as phasors (SA1 CW phase 0, SA2 CW phase θ1): combination 0.0009 V, SA1 alone
+    # 0.0019 V (L3436-3441). The source's detector maps 0.0019 V → 0.012 V (gain ≈ 6.3); a
+    # linear gain that does so maps the combination to ≈ 0.0055 V, just above 5 mV, so the
+    # source's "not detected" for the combination is not reproduced by a linear detector.
+    th, thp, th1 = 3.2536, 1.3365, 0.1916
+    c1, b11, b12 = 0.0976, 0.066 * np.exp(1j * th), 0.064 * np.exp(1j * th)
+    c2 = 0.1247 * np.exp(1j * th1)
+    b21, b22 = 0.1233 * np.exp(1j * (th1 + thp)), 0.1196 * np.exp(1j * (th1 + thp))
+    out = sa.technique_outcomes(c1, b11, b12, c2, b21, b22)
+    assert round(float(out.diff_combined_v), 4) == 0.0009
+    assert round(float(out.diff_sa1_v), 4) == 0.0019
+    assert float(out.diff_sa2_v) == pytest.approx(0.002880, abs=5e-6)  # reference §4.1 R3-4 derived
+    assert float(out.sync_sa1_v) == pytest.approx(0.002, abs=1e-12)
+    g = 0.012 / 0.0019
+    o6 = sa.technique_outcomes(c1, b11, b12, c2, b21, b22, detector_gain=g)
+    assert not bool(o6.cancelled_selection) and not bool(o6.cancelled_single)
+    assert 0.005 < float(o6.diff_combined_v) < 0.006
+    assert float(o6.diff_sa1_v) == pytest.approx(0.012, rel=0.01)
+    # vectorised: single = phase_cancelled on SA2, stamp = selection with ideal decisions
+    rng = np.random.default_rng(4)
+    n = 4000
+    ph = lambda a: a * np.exp(1j * rng.uniform(-np.pi, np.pi, n))  # noqa: E731
+    c1, c2 = ph(rng.uniform(0.05, 0.2, n)), ph(rng.uniform(0.05, 0.2, n))
+    u1, u2 = np.exp(1j * rng.uniform(-np.pi, np.pi, (2, n)))
+    a1, a2 = rng.uniform(0.01, 0.1, n), rng.uniform(0.01, 0.1, n)
+    o = sa.technique_outcomes(c1, a1 * u1, 0.9 * a1 * u1, c2, a2 * u2, 0.9 * a2 * u2)
+    direct2 = np.abs(np.abs(c2 + a2 * u2) - np.abs(c2 + 0.9 * a2 * u2))
+    np.testing.assert_allclose(o.diff_sa2_v, direct2, rtol=1e-9, atol=1e-13)
+    np.testing.assert_array_equal(o.cancelled_single, (0.1 * a2 > 0.005) & (direct2 <= 0.005))
+    np.testing.assert_array_equal(o.cancelled_stamp, o.cancelled_selection)
+    assert o.cancelled_selection.sum() <= o.cancelled_single.sum()

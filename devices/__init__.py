@@ -1,5 +1,9 @@
 """Device models: reader, passive tag, sense-a-tag, HIMR inertial tag, exciter.
 
+Reader (:mod:`devices.reader`): PIE transmitter (DSB/SSB/PR-ASK), frequency plans and
+hopping, antennas in turn, IQ receiver with leakage removal, FM0/Miller decoding and
+per-read RSSI/phase/Doppler/SNR.
+
 Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end physics —
 power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
@@ -7,12 +11,14 @@ sample-level device that listens to a reader segment and answers with Γ(t)
 """
 
 from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
+from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
 from devices.tag import PassiveTag, TagConfig, TagResponse
 from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
                                   modulation_factor, power_transmission_coefficient,
                                   reflection_coefficient)
 
 __all__ = [
+    "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
     "PassiveTag", "TagConfig", "TagResponse",
     "TagState", "Reply", "FlagPersistence", "pc_word",
     "PowerUp", "ReflectionStates", "TagClock", "power_transmission_coefficient",

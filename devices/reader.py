@@ -372,8 +372,10 @@ class Reader:
         2. Detection: maximum normalised preamble correlation over the search window; below
            :meth:`detection_threshold` → "preamble not found".
         3. Offset and gain: (h, c) by least squares over every sample whose waveform is known
-           without decisions — the CW-only samples before and after the reply (s = 0) and the
-           preamble; this is the DC removal the decisions rely on (decode_reply's own
+           without decisions — the preamble, and the samples before and after the reply,
+           where the tag rests in its absorbing state, the reply's −1 level (so the
+           backscatter's DC steps by h at the reply's start and end: ``r = c + h·s``, s = −1
+           outside the reply); this is the DC removal the decisions rely on (decode_reply's own
            preamble-only estimate of c is noisier; decisions are not used because one FM0/
            Miller bit error inverts all later remodulated levels).
         4. Decoding of r − c with h given (``config.decoder``) and, for ``expect_crc``,
@@ -422,7 +424,9 @@ class Reader:
         pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, blf, dummy=False)
         full = self._reference(det.bits, start, r.size, blf)
         known = (pre != 0) | (full == 0)
-        h, c = _gain_offset(r[known], pre[known])
+        # Outside its reply a tag rests in its absorbing state, which is the reply's −1
+        # level: the backscatter DC steps by h at the reply's start and end.
+        h, c = _gain_offset(r[known], np.where(full == 0, -1.0, pre)[known])
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)

@@ -15,6 +15,17 @@ One *exchange* is a reader command followed by the CW during which tags may repl
 5. the reader decodes the reply window (``reader.receive``) and measures RSSI, phase,
    Doppler and SNR.
 
+Propagation (``propagation="auto"``, the default): a link is applied narrowband — the
+exact carrier phase exp(−j2π·fc·τ) and Doppler of every path, the envelope delays dropped —
+when the relative RMS envelope error of doing so (:func:`narrowband_rms_error`: the
+per-path Bernstein bound 2π·B·(τ − τ0), B = 2·BLF the main lobe of the FM0/Miller reply, τ0
+the earliest delay, power-weighted over the paths) is at most :data:`NARROWBAND_TOLERANCE`;
+otherwise every path gets its exact fractional delay. The common delay τ0 (time of flight, 3.3 ns/m) is then dropped from the
+envelope only — it shifts the reply by tens of ns, far below the T1 tolerance, and has no
+effect on RSSI, phase and Doppler, which keep the exact carrier phase of every path. (The fractional-delay interpolator also rings on the hard-switched FM0/Miller
+edges — an artefact of sampling a non-band-limited reply, seen as a false SNR ceiling —
+which the narrowband path avoids.)
+
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
 command, T4 between commands without a reply), so silent air time costs nothing.
 
@@ -42,7 +53,7 @@ class Exchange:
 
     Attributes
     ----------
-    time_s : start of the command [s]
+    time_s : start of the reader's segment [s] (CW lead-in, then the command)
     command : command name (``"Query"``, ``"ACK"``, …)
     antenna : reader antenna index (0-based)
     channel_index : 1-based index into the reader's frequency plan (as LLRP reports it)
@@ -72,6 +83,33 @@ class Exchange:
         return self.failure_reason == ""
 
 
+PROPAGATION_METHODS = ("auto", "exact", "narrowband")
+#: Relative envelope-error bound below which "auto" propagation is narrowband.
+NARROWBAND_TOLERANCE = 0.1
+
+
+def narrowband_rms_error(paths, bandwidth_hz: float) -> float:
+    """Relative RMS envelope error of dropping the envelope delays of ``paths``.
+
+    √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²), τ0 the earliest delay: the Bernstein bound
+    2π·B·τ on each path's envelope change, added in power (the paths' carrier phases are
+    independent — diffuse taps, reflections at different lengths).
+    """
+    p = np.abs(paths.gain) ** 2
+    total = float(np.sum(p))
+    if total == 0.0:
+        return 0.0
+    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.min(paths.delay_s))
+    return float(np.sqrt(np.sum(p * rel**2) / total))
+
+
+def _method(paths, bandwidth_hz: float, propagation: str) -> str:
+    if propagation != "auto":
+        return propagation
+    ok = paths.n_paths == 0 or narrowband_rms_error(paths, bandwidth_hz) <= NARROWBAND_TOLERANCE
+    return "narrowband" if ok else "exact"
+
+
 def _failure(read, replied: Sequence[int], powered: Sequence[int]) -> str:
     if not powered:
         return "not powered"
@@ -87,7 +125,8 @@ def _failure(read, replied: Sequence[int], powered: Sequence[int]) -> str:
 
 def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.random.Generator,
                  reply_bits: int, expect_crc: bool, motions: Sequence | None = None,
-                 round_index: int = 0, draw_channel: bool = True) -> Exchange:
+                 round_index: int = 0, draw_channel: bool = True,
+                 propagation: str = "auto") -> Exchange:
     """Simulate one command + reply window at sample level; return its :class:`Exchange`.
 
     Parameters
@@ -106,14 +145,17 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     round_index : which inventory round (selects the antenna when several are used in turn)
     draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
         draw the channel holds: a quasi-static channel within a round)
+    propagation : "auto", "exact" or "narrowband" (see the module docstring)
     """
+    if propagation not in PROPAGATION_METHODS:
+        raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
     from channels.paths import apply_paths
 
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
     link = reader.link
     window_s = (link.reply_duration_s(reply_bits) + _t1_max_s(link) + 3.0 * link.tpri_s)
-    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, antenna_index=antenna_index)
+    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
     rx = reader.leakage_gain() * tx.samples
     replied, powered, incident_dbm = [], [], []
@@ -122,7 +164,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         fwd, bwd = channel.backscatter_links(antenna, tag.antenna, fc_hz=fc,
                                              rng=rng if draw_channel else None, t_s=t_s,
                                              tag_motion=motion)
-        incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s)
+        incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s,
+                               method=_method(fwd, 2.0 * link.blf_hz, propagation))
         response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
         incident_dbm.append(float(response.incident_power_dbm))
         if response.powered:
@@ -132,15 +175,20 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         if response.gamma is not None or response.gamma_rest != 0:
             # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
             scattered = response.reflection(incident.size) * incident
-            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s)
+            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s,
+                                  method=_method(bwd, 2.0 * link.blf_hz, propagation))
     noise_w = reader.noise_power_w()
     if noise_w > 0:
         scale = math.sqrt(noise_w / 2.0)
         rx = rx + scale * (rng.standard_normal(rx.size) + 1j * rng.standard_normal(rx.size))
     read = None
     if replied:
-        i0 = int(math.ceil((tx.cmd_end_s - t_s) * fs))
-        read = reader.receive(rx[i0:], t0_s=t_s + i0 / fs, n_bits=reply_bits, expect_crc=expect_crc)
+        # The receiver listens from half a Tari after its own command's last edge (the edge
+        # and the channel's delay spread have settled) and searches the reply in the T1
+        # window; it is given no knowledge of the tags (BLF: the profile's nominal value).
+        i0 = int(math.ceil((tx.cmd_end_s + 0.5 * link.tari_s - t_s) * fs))
+        read = reader.receive(rx[i0:], t0_s=t_s + i0 / fs, n_bits=reply_bits,
+                              expect_crc=expect_crc, cmd_end_s=tx.cmd_end_s)
     return Exchange(time_s=t_s, command=type(cmd).__name__, antenna=antenna_index,
                     channel_index=tx.channel_index, fc_hz=fc, replied=tuple(replied),
                     powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
@@ -179,4 +227,5 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     return [first, second]
 
 
-__all__ = ["Exchange", "FAILURE_REASONS", "run_exchange", "singulate"]
+__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "NARROWBAND_TOLERANCE",
+           "narrowband_rms_error", "run_exchange", "singulate"]

@@ -1,0 +1,179 @@
+"""Scenario ``link``: one reader and one tag, the tag distance swept, N rounds per point.
+
+Every round is a sample-level singulation (Query → RN16 → ACK → PC+EPC+CRC-16) through the
+engine (:mod:`rfsim.engine`) over a fresh draw of the default channel: Friis large scale,
+an optional floor reflection (image method, concrete) and the exponential APDP with the PASS
+room curves K(d), τrms(d) (channels.small_scale.ApdpModel defaults). The reader hops
+channels, so rounds also differ by carrier frequency. Per round the dataset records what
+a commercial reader reports for a read (gen2-and-validation-anchors.md §4.9) and why a
+read failed.
+
+Randomness: point i, round r uses ``trial_rng(seed, i, r)`` for the channel draw and the
+receiver noise; the reader (hop sequence) and the tag (RN16, slot) of point i have their own
+streams ``trial_rng(seed, i, n_rounds)`` and ``trial_rng(seed, i, n_rounds + 1)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Isotropic, Patch, Scene, Surface
+from devices.reader import Reader, ReaderConfig
+from devices.tag import PassiveTag, TagConfig
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.engine import singulate
+from rfsim.gen2.commands import Query
+from rfsim.rng import trial_rng
+
+NAME = "link"
+DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler, SNR and read success"
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    distances_m: tuple[float, ...] = param((0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0),
+                                           lo=0.05, hi=100.0, unit="m", doc="reader-tag distances")
+    angle_deg: float = param(0.0, lo=-180.0, hi=180.0, unit="deg",
+                             doc="tag azimuth seen from the reader boresight")
+    height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="height of reader antenna and tag")
+    reader_antenna: Literal["patch", "dipole", "isotropic"] = param("patch", doc="reader antenna")
+    reader_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="patch peak gain")
+    reader_beamwidth_deg: float = param(70.0, lo=20.0, hi=180.0, unit="deg", doc="patch beamwidth")
+    reader_polarization: Literal["linear", "circular"] = param("circular", doc="reader antenna polarization")
+
+
+@dataclass(frozen=True)
+class ChannelConfig:
+    apdp: bool = param(True, doc="exponential APDP diffuse taps (PASS room curves)")
+    floor: bool = param(True, doc="floor reflection (image method)")
+    floor_eps_r: float = param(5.3, lo=1.0, hi=100.0, doc="floor relative permittivity (concrete)")
+
+
+@dataclass(frozen=True)
+class Config:
+    geometry: GeometryConfig = param(GeometryConfig(), doc="placement")
+    channel: ChannelConfig = param(ChannelConfig(), doc="propagation")
+    reader: ReaderConfig = param(ReaderConfig(), doc="reader")
+    tag: TagConfig = param(TagConfig(), doc="tag")
+    rounds_per_point: int = param(20, lo=1, hi=100000, doc="inventory rounds per distance")
+    round_period_s: float = param(20e-3, lo=1e-3, hi=10.0, unit="s",
+                                  doc="time between round starts (silent time is skipped)")
+
+
+def _reader_antenna(g: GeometryConfig) -> Antenna:
+    if g.reader_antenna == "patch":
+        pattern = Patch(g.reader_gain_dbi, g.reader_beamwidth_deg)
+    elif g.reader_antenna == "dipole":
+        pattern = HalfWaveDipole()
+    else:
+        pattern = Isotropic()
+    return Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
+                   polarization=g.reader_polarization)
+
+
+def _tag_antenna(g: GeometryConfig, distance_m: float) -> Antenna:
+    a = np.deg2rad(g.angle_deg)
+    pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)
+    # A dipole tag facing the reader, its axis vertical (local +z), boresight towards the reader.
+    return Antenna(position_m=pos, orientation=(a + np.pi, 0.0, 0.0), pattern=HalfWaveDipole(),
+                   polarization="linear", pol_tilt_rad=0.0)
+
+
+def _scene(c: ChannelConfig) -> Scene:
+    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=c.floor_eps_r),) if c.floor else ()
+    return Scene(surfaces=surfaces, apdp=ApdpModel() if c.apdp else None, image_order=1)
+
+
+FIELDS = {
+    "point": ("1", "index of the distance point"),
+    "round": ("1", "inventory round at this point"),
+    "time_s": ("s", "start of the round's Query"),
+    "distance_m": ("m", "reader-tag distance"),
+    "antenna": ("1", "reader antenna port (1-based, as LLRP)"),
+    "channel_index": ("1", "1-based index into the reader's hop table"),
+    "frequency_hz": ("Hz", "carrier frequency"),
+    "rssi_dbm": ("dBm", "power of the tag's modulated reply at the reader antenna port (EPC reply)"),
+    "phase_rad": ("rad", "reader-reported phase (-arg h) mod 2pi of the EPC reply"),
+    "doppler_hz": ("Hz", "Doppler from the phase slope across the EPC reply"),
+    "snr_db": ("dB", "SNR of the EPC reply as defined by the reader receiver"),
+    "success": ("1", "EPC decoded with CRC ok"),
+    "failure_reason": ("", "why the read failed ('' = success)"),
+    "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port (Query)"),
+}
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    g = config.geometry
+    n_rounds = config.rounds_per_point
+    rows: dict[str, list] = {k: [] for k in FIELDS}
+    reader_antenna = _reader_antenna(g)
+    for i, d in enumerate(g.distances_m):
+        reader = Reader(config.reader, [reader_antenna], rng=trial_rng(seed, i, n_rounds))
+        tag = PassiveTag(config.tag, _tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))
+        channel = Channel(_scene(config.channel))
+        for r in range(n_rounds):
+            t_s = (i * n_rounds + r) * config.round_period_s
+            # Dual-target inventory: a read flips the tag's S0 flag, so rounds alternate
+            # target A and B (as commercial readers do to read a tag again and again).
+            query = Query(dr=reader.link.dr, m=reader.link.m, trext=reader.link.trext, q=0,
+                          target="AB"[r % 2])
+            exchanges = singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, i, r),
+                                  query=query, round_index=r)
+            last = exchanges[-1]
+            read = last.read if last.command == "ACK" else None
+            ok = last.command == "ACK" and last.success
+            _append(rows, point=i, round=r, time_s=t_s, distance_m=d, antenna=last.antenna + 1,
+                    channel_index=last.channel_index, frequency_hz=last.fc_hz,
+                    rssi_dbm=read.rssi_dbm if ok else np.nan,
+                    phase_rad=read.phase_rad if ok else np.nan,
+                    doppler_hz=read.doppler_hz if ok else np.nan,
+                    snr_db=read.snr_db if ok else np.nan, success=ok,
+                    failure_reason=last.failure_reason,
+                    tag_incident_power_dbm=exchanges[0].incident_power_dbm[0])
+    ds = Dataset(title="reader-tag link vs distance: per-read measurements")
+    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS})
+    return ds
+
+
+def _append(rows: dict[str, list], **values) -> None:
+    for k, v in values.items():
+        rows[k].append(v)
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """RSSI (mean ± std of successful reads) and read rate vs distance."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rfsim.dataset import read_table
+
+    t = read_table(dataset_path, "reads")
+    d = np.unique(t["distance_m"])
+    rate = np.array([t["success"][t["distance_m"] == x].mean() for x in d])
+    rssi = [t["rssi_dbm"][(t["distance_m"] == x) & t["success"]] for x in d]
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    mean = np.array([r.mean() if r.size else np.nan for r in rssi])
+    std = np.array([r.std() if r.size else np.nan for r in rssi])
+    a1.errorbar(d, mean, yerr=std, marker="o", capsize=3)
+    a1.set_ylabel("RSSI [dBm]")
+    a1.set_xscale("log")
+    a1.grid(True, which="both", alpha=0.3)
+    a2.plot(d, rate, marker="o")
+    a2.set_ylabel("read rate")
+    a2.set_xlabel("distance [m]")
+    a2.set_ylim(-0.05, 1.05)
+    a2.grid(True, alpha=0.3)
+    fig.suptitle("reader-tag link vs distance")
+    fig.tight_layout()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{NAME}.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]

@@ -11,7 +11,7 @@ executor here: each array task runs its shard with one of these (see
 * :class:`PoolExecutor` — ``concurrent.futures.ProcessPoolExecutor`` with ``workers``
   processes (default: the CPUs this process may run on, ``os.sched_getaffinity``);
 * :class:`DaskExecutor` — ``dask.distributed``: an existing scheduler (``ADDRESS``), a
-  ``LocalCluster`` on loopback (``local[:N]``) or a ``Client`` given in Python. Tasks are
+  ``LocalCluster`` on loopback (``local[:N]``, dashboard on a free loopback port) or a ``Client`` given in Python. Tasks are
   submitted with ``retries`` and ``pure=False``; a run lost with a killed worker is
   rescheduled by the scheduler on another worker.
 """
@@ -19,6 +19,7 @@ executor here: each array task runs its shard with one of these (see
 from __future__ import annotations
 
 import concurrent.futures as cf
+import logging
 import os
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -125,7 +126,7 @@ class DaskExecutor:
                 n = available_cpus() if n is None else n
                 self._cluster = distributed.LocalCluster(
                     n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                    dashboard_address=None, silence_logs=40)
+                    dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
                 self.client = distributed.Client(self._cluster)
             else:
                 try:

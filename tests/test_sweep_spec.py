@@ -148,3 +148,12 @@ def test_dry_run_prints_count_and_configs(tmp_path, monkeypatch, capsys):
     assert "5 points x 2 repetitions = 10 runs" in out
     assert out.count("# ---- point") == 3 and "q = 3" in out and "2 more points" in out
     assert not (tmp_path / "out.h5").exists() and not (tmp_path / "out.h5.points").exists()
+
+
+def test_sweep_help_lists_the_verbs(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["sweep", "--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert all(v in out for v in ("run", "dry-run", "plan", "merge"))
+    assert main(["sweep"]) == 0 and "VERB" in capsys.readouterr().out

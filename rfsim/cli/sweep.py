@@ -1,6 +1,6 @@
 """``rfsim sweep``: run, dry-run, plan (SLURM) and merge parameter sweeps.
 
-Shape (a verb first, the spec second; the verb ``run`` may be left out)::
+Shape (a verb first, the spec second, then options; the verb ``run`` may be left out)::
 
     rfsim sweep [run] SPEC.toml [--serial | --workers N | --dask ADDRESS|local[:N]]
                                 [--resume] [--quiet] [--shard I/N] [--dry-run]
@@ -25,6 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sweep", add_help=False,
                        help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge",
                        description="Run 'rfsim sweep --help' for the forms of this command.")
+    p.add_argument("-h", "--help", action="store_true", dest="sweep_help", help=argparse.SUPPRESS)
     p.add_argument("argv", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
     p.set_defaults(func=run)
 
@@ -92,7 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
-    argv = list(args.argv)
+    argv = ["--help"] if args.sweep_help else list(args.argv)
     if argv and argv[0] not in _VERBS and argv[0] not in ("-h", "--help"):
         argv.insert(0, "run")
     parser = build_parser()

@@ -26,7 +26,7 @@ class _Inner:
 class _Config:
     n: int = param(3, lo=1, hi=10, doc="grid length")
     inner: _Inner = param(_Inner(), doc="nested")
-    clash: bool = param(False, doc="add a column named 'point'")
+    clash: bool = param(False, doc="add a column named 'sweep_point'")
 
 
 def _run(config: _Config, *, seed: int) -> Dataset:
@@ -37,7 +37,7 @@ def _run(config: _Config, *, seed: int) -> Dataset:
                 {"p_w": column(rng.random(config.n) * 10 ** (config.inner.gain_db / 10), "W", "power")})
     cols = {"v": column(rng.random(2), "V", "voltage")}
     if config.clash:
-        cols["point"] = column([1, 2], "1", "clashes with the merge column")
+        cols["sweep_point"] = column([1, 2], "1", "clashes with the merge column")
     ds.add_table("reads", cols)
     ds.attrs["first"] = float(cols["v"].data[0])
     return ds
@@ -63,19 +63,21 @@ def test_grids_of_equal_shape_are_stacked(toy, tmp_path):
     out = run_sweep(s, SerialExecutor()).output
     ds = read_dataset(out)
     coords, variables = ds.grids["field"]
-    assert list(coords["point"].data) == [0, 1, 2] and list(coords["repetition"].data) == [0, 1]
+    assert list(coords["sweep_point"].data) == [0, 1, 2] and list(coords["sweep_repetition"].data) == [0, 1]
     p = variables["p_w"]
-    assert p.data.shape == (3, 2, 3) and p.dims == ("point", "repetition", "x_m")
-    gain = variables["inner.gain_db"]
-    assert list(gain.data) == [0.0, 3.0, 6.0] and gain.units == "dB" and gain.dims == ("point",)
+    assert p.data.shape == (3, 2, 3) and p.dims == ("sweep_point", "sweep_repetition", "x_m")
+    gain = variables["sweep.inner.gain_db"]
+    assert list(gain.data) == [0.0, 3.0, 6.0] and gain.units == "dB" and gain.dims == ("sweep_point",)
     # each stacked slice is exactly the run's own grid (independent re-run of point 2, rep 1)
     from rfsim.sweep import point_seed
     alone = _run(_Config(inner=_Inner(6.0)), seed=point_seed(3, 2, 1))
     assert np.array_equal(p.data[2, 1], alone.grids["field"][1]["p_w"].data)
     reads = ds.tables["reads"]
-    assert list(reads["point"].data) == [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2]
-    assert list(reads["inner.gain_db"].data) == [0.0] * 4 + [3.0] * 4 + [6.0] * 4
-    assert reads["inner.gain_db"].units == "dB" and reads["v"].units == "V"
+    assert list(reads["sweep_point"].data) == [0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2]
+    assert list(reads["sweep_repetition"].data) == [0, 0, 1, 1] * 3
+    assert list(reads["sweep.inner.gain_db"].data) == [0.0] * 4 + [3.0] * 4 + [6.0] * 4
+    assert reads["sweep.inner.gain_db"].units == "dB" and reads["v"].units == "V"
+    assert list(ds.tables["sweep_runs"]["inner.gain_db"].data) == [0.0] * 2 + [3.0] * 2 + [6.0] * 2
     runs = ds.tables["sweep_runs"]
     assert np.array_equal(runs["first"].data, reads["v"].data[::2])
 
@@ -90,6 +92,6 @@ def test_grids_of_different_shape_are_kept_per_run(toy, tmp_path):
 
 def test_a_column_named_like_a_merge_column_is_refused(toy, tmp_path):
     s = spec(tmp_path, {"kind": "grid", "key": "clash", "values": [True]}, reps=1)
-    with pytest.raises(ValueError, match="already has a column 'point'"):
+    with pytest.raises(ValueError, match="already has a column 'sweep_point'"):
         run_sweep(s, SerialExecutor())
     assert not (tmp_path / "toy.h5").exists()

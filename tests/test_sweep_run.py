@@ -92,10 +92,11 @@ def test_merged_layout_seeds_and_provenance(reference):
     # the drawn RN16 depends on the run seed only
     assert len(set(runs["rn16"])) > 1
     frames = read_table(reference, "frames")
-    assert len(frames["frame"]) == 12 * 4 and list(frames["point"][:5]) == [0, 0, 0, 0, 0]
+    assert len(frames["frame"]) == 12 * 4 and list(frames["sweep_point"][:9]) == [0] * 8 + [1]
+    assert list(frames["sweep_repetition"][:5]) == [0, 0, 0, 0, 1]
     with h5py.File(reference, "r") as f:
-        assert f["frames/pie_rise_fall_tari"].attrs["units"] == "Tari"
-        assert f["exchange_fm0-640k/q"].shape == f["exchange_fm0-640k/time_s"].shape
+        assert f["frames/sweep.pie_rise_fall_tari"].attrs["units"] == "Tari"
+        assert f["exchange_fm0-640k/sweep.q"].shape == f["exchange_fm0-640k/time_s"].shape
     prov = read_provenance(reference)
     assert prov["seed"] == 5 and prov["sweep_points"] == 6 and prov["sweep_runs"] == 12
     assert 'scenario = "gen2-waveforms"' in prov["spec_toml"]

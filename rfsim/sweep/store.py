@@ -12,13 +12,16 @@ and resolved config (TOML text) as the point it stands for — a changed spec re
 the points it changed.
 
 Merge (:func:`merge_points`): tables of the same name are concatenated over the runs in
-(point, repetition) order with added columns ``point``, ``repetition`` and one column per
-swept key (named by the dotted key, units from the config field metadata; list values are
-stored as their TOML text). A table ``sweep_runs`` has one row per run: point,
-repetition, run seed, the swept values and the scalar root attributes of the run's
-dataset. A grid present in every run with identical coordinates and variable shapes is
-stacked along two new leading dimensions ``point`` and ``repetition``; otherwise each
-run's copy is stored as its own grid ``<grid>__point-000123-rep-00``.
+(point, repetition) order with added columns ``sweep_point``, ``sweep_repetition`` and one
+column ``sweep.<key>`` per swept key (units from the config field metadata; list values
+are stored as their TOML text). The prefix keeps them apart from the scenario's own
+columns (the ``link`` scenario has a ``point`` column of its own). A table ``sweep_runs``
+has one row per run: ``point``, ``repetition``, ``seed``, the swept values under their
+dotted keys and the scalar root attributes of the run's dataset. A grid present in every
+run with identical coordinates and variable shapes is stacked along two new leading
+dimensions ``sweep_point`` and ``sweep_repetition`` (with the variables
+``sweep.<key>`` over ``sweep_point``); otherwise each run's copy is stored as its own
+grid ``<grid>__point-000123-rep-00``.
 """
 
 from __future__ import annotations
@@ -41,6 +44,8 @@ from rfsim.config import field_meta, to_toml
 from rfsim.dataset import Column, Dataset, column, make_provenance, read_dataset, utc_now, write_dataset
 
 _RUNS_TABLE = "sweep_runs"
+#: names of the columns/dimensions the merge adds to the scenario's own tables and grids
+POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
 
 
 @dataclasses.dataclass(frozen=True)
@@ -195,18 +200,18 @@ def _concat_table(name, datasets, pts, reps, keys, point_values, config_cls) -> 
     for j, t in members:
         if list(t) != cols:
             raise ValueError(f"table {name!r}: run {j} has columns {list(t)}, the first has {cols}")
-    for reserved in ["point", "repetition", *keys]:
+    for reserved in [POINT, REPETITION, *(KEY_PREFIX + k for k in keys)]:
         if reserved in cols:
             raise ValueError(f"table {name!r} already has a column {reserved!r}; cannot merge")
     lengths = [len(next(iter(t.values())).data) for _, t in members]
     idx = np.array([j for j, _ in members], dtype=np.int64)
     out: dict[str, Column] = {
-        "point": column(np.repeat(pts[idx], lengths), "1", "sweep point index"),
-        "repetition": column(np.repeat(reps[idx], lengths), "1", "repetition of the point"),
+        POINT: column(np.repeat(pts[idx], lengths), "1", "sweep point index"),
+        REPETITION: column(np.repeat(reps[idx], lengths), "1", "repetition of the point"),
     }
     for key in keys:
         vals = _value_column(key, [point_values[pts[j]][key] for j in idx], config_cls)
-        out[key] = dataclasses.replace(vals, data=np.repeat(vals.data, lengths))
+        out[KEY_PREFIX + key] = dataclasses.replace(vals, data=np.repeat(vals.data, lengths))
     for c in cols:
         first = members[0][1][c]
         out[c] = Column(np.concatenate([t[c].data for _, t in members]), first.units, first.description)
@@ -231,20 +236,20 @@ def _merge_grid(merged, name, datasets, results, keys, point_values, config_cls,
                 merged.add_grid(f"{name}__point-{p:06d}-rep-{k:02d}", *m)
         return
     c0, v0 = members[0]
-    for reserved in ("point", "repetition", *keys):
+    for reserved in (POINT, REPETITION, *(KEY_PREFIX + k for k in keys)):
         if reserved in c0 or reserved in v0:
             raise ValueError(f"grid {name!r} already has {reserved!r}; cannot merge")
-    coords = {"point": column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
-              "repetition": column(np.arange(n_reps, dtype=np.int64), "1", "repetition of the point"),
+    coords = {POINT: column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
+              REPETITION: column(np.arange(n_reps, dtype=np.int64), "1", "repetition of the point"),
               **c0}
     variables: dict[str, Column] = {}
     for key in keys:
         vals = _value_column(key, [point_values[p][key] for p in range(n_points)], config_cls)
-        variables[key] = dataclasses.replace(vals, dims=("point",))
+        variables[KEY_PREFIX + key] = dataclasses.replace(vals, dims=(POINT,))
     for vname, v in v0.items():
         stacked = np.stack([m[1][vname].data for m in members]).reshape(
             (n_points, n_reps) + v.data.shape)
-        variables[vname] = Column(stacked, v.units, v.description, ("point", "repetition", *v.dims))
+        variables[vname] = Column(stacked, v.units, v.description, (POINT, REPETITION, *v.dims))
     merged.add_grid(name, coords, variables)
 
 

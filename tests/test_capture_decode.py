@@ -1,5 +1,6 @@
 """Capture loading, reader-command decoding of the gr-rfid reader waveform, synthetic
-captures, and the ``rfsim decode`` subcommand."""
+captures, tag-reply decoding in captures made by the simulator's reader/tag/channel
+devices, and the ``rfsim decode`` subcommand."""
 
 from __future__ import annotations
 
@@ -9,11 +10,17 @@ import math
 import numpy as np
 import pytest
 
+from scipy.stats import beta
+
 from rfsim.cli.decode import add_parser, run
-from rfsim.errors import UserError
-from rfsim.gen2.capture import decode_reader_commands, load_capture
+from rfsim.errors import ConfigError, UserError
+from rfsim.gen2.bits import bits_to_int
+from rfsim.gen2.capture import (decode_reader_commands, decode_tag_replies, fit_gain_offset, load_capture,
+                                preamble_threshold)
 from rfsim.gen2.commands import ACK, Query, ReqRN, encode
+from rfsim.gen2.link import t1
 from rfsim.gen2.pie import pie_envelope
+from rfsim.rng import trial_rng
 
 QUERY_Q0 = "1000000000000000010000"  # anchors §3.3: Query DR=8, FM0, TRext 0, All, S0, A, Q=0
 
@@ -116,13 +123,15 @@ def test_load_capture_formats_and_errors(tmp_path):
 
 
 def test_cli_decode_grrfid(reference_data, capsys):
+    """The gr-rfid file holds only the reader's transmit waveform: no tag replies, no error."""
     path = reference_data / "gr-rfid-waveforms" / "reader_tx_query_ack.cf32"
     assert run(argparse.Namespace(capture=str(path), fs_hz=250e3)) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 402
+    assert len(lines) == 403
     assert "Query" in lines[0] and "q=0" in lines[0] and lines[0].endswith("CRC ok")
     assert "ACK" in lines[1] and "rn16=0x" in lines[1]
-    assert lines[-1] == "401 commands; Tari 24.00 µs, RTcal 72.00 µs, TRcal 200.00 µs (medians)"
+    assert lines[-2] == "401 commands; Tari 24.00 µs, RTcal 72.00 µs, TRcal 200.00 µs (medians)"
+    assert lines[-1] == "no tag replies found"
 
 
 def test_cli_decode_parser_and_errors(tmp_path):
@@ -152,4 +161,128 @@ def test_cli_decode_no_commands(tmp_path, capsys):
     path = tmp_path / "cw.npy"
     np.save(path, np.ones(1000, dtype=np.complex64))
     assert run(argparse.Namespace(capture=str(path), fs_hz=1e6)) == 0
-    assert capsys.readouterr().out.strip() == "0 commands; Tari n/a, RTcal n/a, TRcal n/a (medians)"
+    assert capsys.readouterr().out.splitlines() == ["0 commands; Tari n/a, RTcal n/a, TRcal n/a (medians)",
+                                                    "no tag replies found"]
+
+
+# ----------------------------------------------------------------- tag replies
+
+
+def _link_capture(profile: str, clock_error_percent: float, seed: int):
+    """A monostatic capture made by the simulator's own devices: Query → RN16, ACK → PC+EPC.
+
+    Reader (``devices.reader.Reader``, 30 dB TX→RX isolation, 10 dB NF, 4 MS/s), passive tag
+    (``devices.tag.PassiveTag``) at 3 m in free space (``channels.Channel``, LoS only). The
+    reader's RX is built as the engine builds it (rfsim.engine.run_exchange): carrier leakage
+    L·x_tx + the tag's backscatter (Γ(t)·incident through the backward link, exact fractional
+    delays) + complex thermal noise kTB·NF. The two segments are concatenated and scaled by an
+    arbitrary complex factor (unknown capture scale). Returns (capture complex64, fs, RN16 bits
+    and PC+EPC+CRC bits the tag actually sent, the tag's BLF)."""
+    from channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
+    from channels.paths import apply_paths
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import PassiveTag, TagConfig
+
+    reader = Reader(ReaderConfig(link_profile=profile, hopping=False),
+                    [Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Patch(6.0, 70.0),
+                             polarization="linear")], rng=trial_rng(seed, 0))
+    tag = PassiveTag(TagConfig(clock_error_percent=clock_error_percent),
+                     Antenna(position_m=(3.0, 0.0, 1.0), orientation=(np.pi, 0.0, 0.0), pattern=HalfWaveDipole(),
+                             polarization="linear"), rng=trial_rng(seed, 1))
+    channel, rng, lk = Channel(Scene()), trial_rng(seed, 2), reader.link
+
+    def exchange(cmd, t_s, reply_bits):
+        window_s = lk.reply_duration_s(reply_bits) + t1(lk).max_s + 3 * lk.tpri_s
+        tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s)
+        fwd, bwd = channel.backscatter_links(reader.antennas[0], tag.antenna, fc_hz=tx.fc_hz, rng=rng, t_s=t_s)
+        kw = dict(fs_hz=tx.fs_hz, fc_hz=tx.fc_hz, t0_s=t_s, method="exact")
+        incident = apply_paths(tx.samples, paths=fwd, **kw)
+        resp = tag.listen(incident, t0_s=t_s, fs_hz=tx.fs_hz)
+        rx = reader.leakage_gain() * tx.samples + apply_paths(resp.reflection(incident.size) * incident,
+                                                              paths=bwd, **kw)
+        sigma = math.sqrt(reader.noise_power_w() / 2.0)
+        return rx + sigma * (rng.standard_normal(rx.size) + 1j * rng.standard_normal(rx.size)), resp
+
+    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    rx1, r1 = exchange(q, 0.0, 16)
+    assert r1.reply is not None and r1.reply.kind == "RN16"
+    rx2, r2 = exchange(ACK(bits_to_int(r1.reply.bits)), r1.reply_end_s + 10 * lk.tpri_s, 128)
+    assert r2.reply is not None and r2.reply.kind == "EPC"
+    x = (np.concatenate([rx1, rx2]) * (41.0 * np.exp(2.1j))).astype(np.complex64)
+    return x, reader.fs_hz, r1.reply.bits, r2.reply.bits, r1.blf_hz
+
+
+@pytest.mark.parametrize("profile, clock_error", [("miller4-320k", 0.0), ("fm0-640k", 4.0)])
+def test_link_capture_tag_replies(profile, clock_error):
+    """Replies in a simulated monostatic capture (Query → RN16, ACK → PC+EPC+CRC-16), decoded
+    with the BLF from the TRcal measured in the capture and M/TRext from the parsed Query.
+    Truth: the bits the tag device sent and the EPC it was configured with. With a +4 % tag
+    clock error the fm0-640k tag's BLF is f_clk/round(N_TRcal/DR) = 665.6 kHz, 4 % above
+    DR/TRcal (within FrT = 15 %): the BLF search must find it."""
+    x, fs, rn16_bits, epc_bits, tag_blf = _link_capture(profile, clock_error, seed=11)
+    records, _ = decode_reader_commands(x, fs)
+    assert [r.name for r in records] == ["Query", "ACK"]
+    replies = decode_tag_replies(x, fs, records)
+    assert [(r.command_index, r.command, r.kind) for r in replies] == [(0, "Query", "RN16"), (1, "ACK", "EPC")]
+    rn16, epc = replies
+    assert rn16.rn16 == bits_to_int(rn16_bits) and rn16.crc_ok is None
+    assert epc.bits == "".join(map(str, epc_bits)) and epc.crc_ok is True
+    assert epc.pc == 0x3000 and epc.epc_hex == "300833B2DDD9014000000027"
+    # decoding needs the BLF to ~1/(4 elements of the reply); detection is far above threshold
+    n_el = 2 * (6 + 129) if profile.startswith("fm0") else 4 * (10 + 129) * 2
+    assert abs(epc.blf_hz / tag_blf - 1) < 1 / n_el
+    assert rn16.corr > 0.9 and epc.corr > 0.9
+
+
+def test_cli_decode_link_capture(tmp_path, capsys):
+    """``rfsim decode`` on a simulated .cf32 capture prints the RN16 and the EPC with CRC ok,
+    with the line code taken from the Query or given on the command line."""
+    x, fs, rn16_bits, _, _ = _link_capture("miller4-320k", 0.0, seed=5)
+    path = tmp_path / "link.cf32"
+    x.tofile(path)
+    rn16 = f"RN16=0x{bits_to_int(rn16_bits):04X}"
+    for extra in ({}, dict(blf_hz=320e3, m=4, trext=0, dr="64/3"), dict(trcal_s=66.667e-6)):
+        assert run(argparse.Namespace(capture=str(path), fs_hz=fs, **extra)) == 0
+        lines = capsys.readouterr().out.splitlines()
+        assert len(lines) == 6, lines
+        assert "Query" in lines[0] and "tag reply" in lines[1] and rn16 in lines[1]
+        assert "ACK" in lines[2] and "PC=0x3000 EPC=300833B2DDD9014000000027  CRC ok" in lines[3]
+        assert "corr 0." in lines[1] and "corr 0." in lines[3]
+        assert lines[-1] == "2 tag replies: 1 RN16, 1 EPC (1 with CRC ok)"
+
+
+def test_grrfid_capture_has_no_tag_replies(grrfid):
+    """The reader-only gr-rfid waveform has no replies; with complex white noise added (SNR of
+    the CW 37 dB) every one of the 401 windows is a noise-only test at P_FA = 1e−3 per
+    window: expected false alarms 0.4, Poisson P(N > 3) < 1e−3."""
+    records, _ = decode_reader_commands(grrfid, 250e3)
+    assert decode_tag_replies(grrfid, 250e3, records) == []
+    rng = trial_rng(3, 0)
+    noisy = grrfid + 0.02 * (rng.standard_normal(grrfid.size) + 1j * rng.standard_normal(grrfid.size))
+    assert len(decode_tag_replies(noisy, 250e3, records)) <= 3
+
+
+def test_fit_gain_offset_and_threshold():
+    """(h, c) recovered exactly from r = h·s + c; the threshold is the Beta(1, n−2) quantile
+    (corr² of a zero-mean normalised correlation on white noise) at P_FA/(2·tests)."""
+    s = np.where(np.arange(50) % 3 == 0, 1.0, -1.0)
+    h, c = fit_gain_offset((0.3 - 2j) * s + (5 + 1j), s)
+    assert h == pytest.approx(0.3 - 2j, abs=1e-12) and c == pytest.approx(5 + 1j, abs=1e-12)
+    with pytest.raises(ValueError):
+        fit_gain_offset(np.ones(5), -np.ones(5))
+    for n, tests, pfa in [(100, 40, 1e-3), (500, 44, 1e-3), (30, 1, 0.1)]:
+        gamma2 = beta.isf(pfa / (2 * tests), 1, n - 2)
+        assert preamble_threshold(n, tests, pfa) == pytest.approx(math.sqrt(gamma2), rel=1e-9)
+
+
+def test_tag_reply_options_errors(tmp_path):
+    x = np.ones(100, dtype=np.complex64)
+    for kw, key in [(dict(blf_hz=-1.0), "blf"), (dict(trcal_s=0.0), "trcal"), (dict(m=3), "m"),
+                    (dict(dr="16"), "dr"), (dict(blf_tolerance=0.7), "blf_tolerance")]:
+        with pytest.raises(ConfigError, match=f"'{key}'"):
+            decode_tag_replies(x, 1e6, [], **kw)
+    good = tmp_path / "ok.cf32"
+    x.tofile(good)
+    for kw, text in [(dict(blf_hz=0.0), "--blf must be positive"), (dict(trcal_s=-1e-6), "--trcal must be positive")]:
+        with pytest.raises(UserError, match=text):
+            run(argparse.Namespace(capture=str(good), fs_hz=1e6, **kw))

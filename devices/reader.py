@@ -347,7 +347,8 @@ class Reader:
         return r.min_s, r.max_s
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
-                cmd_end_s: float | None = None, blf_hz: float | None = None) -> ReadResult:
+                cmd_end_s: float | None = None, blf_hz: float | None = None,
+                carrier: complex | None = None) -> ReadResult:
         """Detect, decode and measure one tag reply.
 
         Parameters
@@ -362,6 +363,11 @@ class Reader:
             does not estimate the BLF: decoding needs the BLF to about 1/(4·elements of the
             reply) (≈ 0.02 % for a Miller-4 EPC reply), far finer than the tag tolerance FrT,
             so a tag with a clock error must be read with its BLF given here.
+        carrier : the reader's own transmitted baseband during the reply window (the CW after
+            the command, :attr:`TxSegment.samples` ``[-1]``); the phase is referred to it,
+            phase = (−arg(h·|carrier|/carrier)) mod 2π. A PR-ASK command ends with either
+            polarity (the parity of its PIE symbols), which would otherwise add π to the
+            phase of some commands' replies. None: the unmodulated carrier (phase 0).
 
         Processing
         ----------
@@ -423,15 +429,21 @@ class Reader:
         # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
         pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, blf, dummy=False)
         full = self._reference(det.bits, start, r.size, blf)
-        known = (pre != 0) | (full == 0)
         # Outside its reply a tag rests in its absorbing state, which is the reply's −1
         # level: the backscatter DC steps by h at the reply's start and end.
-        h, c = _gain_offset(r[known], np.where(full == 0, -1.0, pre)[known])
+        level = np.where(full == 0, -1.0, np.where(pre != 0, pre, full))
+        # only samples whose two neighbours carry the same level (as in the measurements:
+        # the start is known to a fraction of a sample, a sample at an element boundary
+        # could carry the other level and bias c, which no later step removes)
+        known = ((pre != 0) | (full == 0)) & _steady(level)
+        h, c = _gain_offset(r[known], level[known])
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
         ref = self._reference(bits, start, r.size, blf)
         meas = self._measure(r - c, ref, blf)
+        if carrier is not None and complex(carrier) != 0:
+            meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                           start_s=start_s, corr=det.corr, **meas)
@@ -453,8 +465,7 @@ class Reader:
         # only samples whose neighbours have the same reference level: the start is known to
         # 1/16 sample, so a sample next to an element boundary may carry the other level
         ref = s[i0:i1]
-        steady = np.zeros(ref.size, dtype=bool)
-        steady[1:-1] = (ref[1:-1] == ref[:-2]) & (ref[1:-1] == ref[2:])
+        steady = _steady(ref)
         z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
         edges = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)
         g = np.array([np.dot(z[a:b], ref[a:b]) / np.dot(ref[a:b], ref[a:b])
@@ -471,6 +482,13 @@ class Reader:
                     phase_rad=float(wrap_phase_rad(-np.angle(h))),
                     doppler_hz=slope / (2.0 * math.pi),
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
+
+
+def _steady(level: np.ndarray) -> np.ndarray:
+    """(n,) bool: samples whose two neighbours have the same level (the ends are False)."""
+    out = np.zeros(level.size, dtype=bool)
+    out[1:-1] = (level[1:-1] == level[:-2]) & (level[1:-1] == level[2:])
+    return out
 
 
 def _gain_offset(r: np.ndarray, s: np.ndarray) -> tuple[complex, complex]:

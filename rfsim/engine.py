@@ -27,7 +27,27 @@ edges — an artefact of sampling a non-band-limited reply, seen as a false SNR 
 which the narrowband path avoids.)
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
-command, T4 between commands without a reply), so silent air time costs nothing.
+command, T4 between commands without a reply), so silent air time costs nothing. Each
+:class:`Exchange` records the number of samples it simulated (``n_samples``, the length of
+the reader's segment: one Tari of CW, the command, T1max + reply + 3 Tpri).
+
+Failure reasons (:data:`FAILURE_REASONS`, checked in this order). The engine knows the ground
+truth — who replied, with which bits, when — and uses it to say *why* a read failed; the
+reader itself only sees its samples:
+
+* ``"not powered"`` — no tag had enough incident power;
+* ``"decode error"`` — no tag replied and a powered tag could not decode the command (PIE);
+* ``"no reply"`` — tags were powered but none replied (not addressed: target flag, session,
+  wrong RN16 in an ACK, slot counter ≠ 0);
+* ``""`` — the reader decoded (CRC ok where there is one) exactly the bits one replying tag
+  sent (with several repliers this is *capture*: ``Exchange.decoded_tag`` names the winner);
+* ``"timing violation"`` — every replying tag started its reply outside the Gen2 T1 window
+  [T1min, T1max] after the command's last rising edge (the reader searches only there; its
+  own verdict is then "preamble not found" or a wrong decode);
+* ``"collision"`` — several tags replied and the reader decoded none of them;
+* the reader's own verdict otherwise: ``"preamble not found"``, ``"crc error"``;
+* ``"bit error"`` — the reader accepted the reply (no CRC: an RN16) but its bits differ from
+  what the tag sent (the ACK that follows then gets no reply).
 
 The engine only sees devices and the channel through these methods; it imports the channel
 toolbox (``channels.paths``) lazily, so the core never depends on it at import time.
@@ -43,8 +63,8 @@ from typing import Any
 import numpy as np
 
 #: Failure reasons of a read, in the order the engine checks them.
-FAILURE_REASONS = ("", "not powered", "no reply", "collision", "preamble not found", "crc error",
-                   "timing violation", "decode error")
+FAILURE_REASONS = ("", "not powered", "decode error", "no reply", "timing violation", "collision",
+                   "preamble not found", "crc error", "bit error")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,8 +82,14 @@ class Exchange:
     powered : indices of the tags that were powered
     incident_power_dbm : (n_tags,) incident power at each tag's antenna port [dBm]
     read : the reader's :class:`ReadResult`-like measurement, or None when nobody replied
-    failure_reason : one of :data:`FAILURE_REASONS` (``""`` = decoded)
+    failure_reason : one of :data:`FAILURE_REASONS` (``""`` = decoded; module docstring)
     end_s : end of the reply window [s]
+    decoded_tag : index of the replying tag whose bits the reader decoded exactly (None if
+        none); with several repliers a non-None value means capture
+    reply_start_s : (n_replied,) true reply start of each replying tag [s]
+    timing_ok : (n_replied,) whether each reply started inside the T1 window
+    n_samples : samples simulated for this exchange (the reader's segment)
+    cmd_end_s : end of the command (last rising edge) [s]
     """
 
     time_s: float
@@ -77,10 +103,21 @@ class Exchange:
     read: Any
     failure_reason: str
     end_s: float
+    decoded_tag: int | None = None
+    reply_start_s: tuple[float, ...] = ()
+    timing_ok: tuple[bool, ...] = ()
+    n_samples: int = 0
+    cmd_end_s: float = math.nan
 
     @property
     def success(self) -> bool:
+        """The reader decoded one replying tag's bits exactly (failure_reason ``""``)."""
         return self.failure_reason == ""
+
+    @property
+    def bits(self):
+        """Bits the reader decoded ((n,) uint8), or None."""
+        return None if self.read is None else self.read.bits
 
 
 PROPAGATION_METHODS = ("auto", "exact", "narrowband")
@@ -110,17 +147,22 @@ def _method(paths, bandwidth_hz: float, propagation: str) -> str:
     return "narrowband" if ok else "exact"
 
 
-def _failure(read, replied: Sequence[int], powered: Sequence[int]) -> str:
+def _failure(read, replied: Sequence[int], powered: Sequence[int], tag_reasons: Sequence[str],
+             decoded_tag: int | None, timing_ok: Sequence[bool]) -> str:
+    """Failure reason from the ground truth and the reader's verdict (module docstring)."""
     if not powered:
         return "not powered"
     if not replied:
-        return "no reply"
-    if read is not None and read.success:
+        return "decode error" if "decode error" in tag_reasons else "no reply"
+    if decoded_tag is not None and read.success:
         return ""
-    reason = read.failure_reason if read is not None else "preamble not found"
-    if len(replied) > 1 and reason in ("preamble not found", "crc error"):
+    if not any(timing_ok):
+        return "timing violation"
+    if len(replied) > 1:
         return "collision"
-    return reason
+    if read is None:
+        return "preamble not found"
+    return read.failure_reason if not read.success else "bit error"
 
 
 def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.random.Generator,
@@ -158,7 +200,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
     rx = reader.leakage_gain() * tx.samples
-    replied, powered, incident_dbm = [], [], []
+    replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
     for i, tag in enumerate(tags):
         motion = motions[i] if motions is not None else None
         fwd, bwd = channel.backscatter_links(antenna, tag.antenna, fc_hz=fc,
@@ -168,10 +210,13 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
                                method=_method(fwd, 2.0 * link.blf_hz, propagation))
         response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
         incident_dbm.append(float(response.incident_power_dbm))
+        reasons.append(response.reason)
         if response.powered:
             powered.append(i)
         if response.gamma is not None:
             replied.append(i)
+            sent.append(np.asarray(response.reply.bits))
+            starts.append(float(response.reply_start_s))
         if response.gamma is not None or response.gamma_rest != 0:
             # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
             scattered = response.reflection(incident.size) * incident
@@ -187,19 +232,36 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         # and the channel's delay spread have settled) and searches the reply in the T1
         # window; it is given no knowledge of the tags (BLF: the profile's nominal value).
         i0 = int(math.ceil((tx.cmd_end_s + 0.5 * link.tari_s - t_s) * fs))
+        # Phase reference: the reader's own carrier during the reply window (PR-ASK ends a
+        # command with either polarity, depending on the parity of its PIE symbols).
         read = reader.receive(rx[i0:], t0_s=t_s + i0 / fs, n_bits=reply_bits,
-                              expect_crc=expect_crc, cmd_end_s=tx.cmd_end_s)
+                              expect_crc=expect_crc, cmd_end_s=tx.cmd_end_s,
+                              carrier=tx.samples[-1])
+    decoded_tag = None
+    if read is not None and read.bits is not None:
+        for i, bits in zip(replied, sent):
+            if bits.size == read.bits.size and np.array_equal(bits, read.bits):
+                decoded_tag = i
+                break
+    t1_range = _t1_range(link)
+    timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
     return Exchange(time_s=t_s, command=type(cmd).__name__, antenna=antenna_index,
                     channel_index=tx.channel_index, fc_hz=fc, replied=tuple(replied),
                     powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
-                    failure_reason=_failure(read, replied, powered),
-                    end_s=t_s + tx.samples.size / fs)
+                    failure_reason=_failure(read, replied, powered, reasons, decoded_tag, timing_ok),
+                    end_s=t_s + tx.samples.size / fs, decoded_tag=decoded_tag,
+                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=int(tx.samples.size),
+                    cmd_end_s=float(tx.cmd_end_s))
+
+
+def _t1_range(link):
+    from rfsim.gen2.link import t1
+
+    return t1(link)
 
 
 def _t1_max_s(link) -> float:
-    from rfsim.gen2.link import t1
-
-    return t1(link).max_s
+    return _t1_range(link).max_s
 
 
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,
@@ -207,7 +269,9 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
               epc_bits: int = 128, draw_channel: bool = True) -> list[Exchange]:
     """Query → RN16 → ACK → PC+EPC+CRC: one inventory round of a Q = 0 Query.
 
-    Returns the exchanges (one or two). The ACK is sent only when the RN16 was decoded; it
+    Returns the exchanges (one or two). The ACK is sent whenever the *reader* accepted an
+    RN16 (its preamble was found) — as a real reader does, it cannot know of a collision or a
+    bit error; the ACK then carries the RN16 it decoded, and a wrong one gets no reply. It
     starts T2 (10 Tpri, inside the 3–20 Tpri window) after the RN16 reply ends. The channel
     is drawn (when ``draw_channel``) for the Query and held for the ACK.
     """
@@ -217,7 +281,7 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     first = run_exchange(reader, tags, channel, query, t_s=t_s, rng=rng, reply_bits=16,
                          expect_crc=False, motions=motions, round_index=round_index,
                          draw_channel=draw_channel)
-    if not first.success:
+    if first.read is None or not first.read.success:
         return [first]
     rn16 = bits_to_int(first.read.bits)
     t_ack = first.read.start_s + reader.link.reply_duration_s(16) + 10.0 * reader.link.tpri_s

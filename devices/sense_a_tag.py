@@ -1,0 +1,368 @@
+"""Sense-a-tag (ST): a semi-passive listener with one or two antennas, its own Gen2 identity
+and the locator protocol (auris-sense-a-tag.md §1.1 "ST locator protocol", §1.5, §1.6, §5,
+§6 "ST model"; seed L1228-1267, L3131-3196, L5874-6023).
+
+Antennas. SA2 carries the full ST path P2 (backscatter modulator, envelope detector,
+band-pass, comparator, decoder); a dual-antenna ST adds SA1, the receive-only path P1
+(source convention, :mod:`devices.st_analytic`). Both are vertical half-wave dipoles
+(omnidirectional in azimuth, as the source models them, L2878-2880) at ``center ± s/2·û``
+with ``û = (cos φ, sin φ, 0)``, ``s = spacing_m`` (default λ/4 = 0.082 m at 915 MHz,
+L3420-3422) and ``φ = orientation_deg``. A single-antenna ST is SA2 alone at the centre.
+
+Receive chain: :class:`devices.st_receiver.STReceiver` (linear diode detector at
+:data:`devices.st_receiver.REFERENCE_IMPEDANCE_OHM` = 50 Ω, output ``gain·sqrt(2R)·|x|``
+[V], RC, Butterworth band-pass, hysteresis comparator at ``threshold_v`` = 5 mV). The
+source's detector output is ≈ 6× the antenna-level difference (R3-1/R3-4); ``detector_gain``
+sets that factor (default 1: the output equals the closed forms).
+
+Own identity. The ST answers the reader like a tag through a :class:`devices.tag.PassiveTag`
+on SA2 (PIE decoding with its clock, Gen2 state machine, Γ(t) of its modulator). It is
+semi-passive (battery): ``sensitivity_dbm`` is the command-detection floor of its PIE path,
+not a harvesting threshold.
+
+Locator protocol (format chosen here; the source only says "QT/QS by manipulating Select"
+and "conveys the stored IDs inside its EPC payload"):
+
+* **QS** (enter the responding round) = a Select on the EPC bank (membank 1) at pointer
+  32 (first EPC word) whose 16-bit mask equals the ST's ``st_id``. The ST rebuilds its EPC
+  as the report (below) and passes the Select to its tag state, so a following
+  ``Query(sel="SL")`` inventories the ST like any tag.
+* **QT** (listening round) = any other Select, or a Query while not responding. While
+  listening the ST never replies; after each reader command it decodes the backscatter
+  of other tags (RN16 after Query/QueryRep/QueryAdjust, PC+EPC+CRC-16 after ACK, with the
+  link parameters M, TRext and BLF = DR/TRcal measured from the last Query) with its
+  technique, and records every CRC-valid EPC with the query rounds in which it was heard.
+* **Report** = the ST's EPC in the responding round: word 0 ``st_id``, word 1 the number of
+  tags heard, then one word per tag (at most 29): the tag's CRC-16 over PC+EPC (its
+  StoredCRC, the "hash" of its ID), in order of first detection.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.signal import lfilter, sosfilt, sosfilt_zi
+
+from devices import st_receiver as sr
+from devices.st_analytic import THRESHOLD_V
+from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
+from rfsim.config import check_fields, param
+from rfsim.errors import ConfigError
+from rfsim.gen2.bits import bits_to_int, int_to_bits
+from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
+from rfsim.gen2.pie import pie_decode
+from rfsim.units import dbm_to_w
+
+TECHNIQUES = ("single", "combination", "selection", "stamp")
+#: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
+MAX_REPORTED = 29
+#: Default antenna spacing λ/4 at 915 MHz, as the source quotes it (L3420-3422) [m].
+DEFAULT_SPACING_M = 0.082
+
+
+@dataclass(frozen=True)
+class SenseATagConfig:
+    """Parameters of one sense-a-tag (validated; errors name ``st.<key>``)."""
+
+    st_id: int = param(0x5354, lo=0, hi=0xFFFF, doc="16-bit ST identity (EPC word 0, QS mask)")
+    n_antennas: int = param(2, lo=1, hi=2, doc="1 = SA2 only (full ST path), 2 = SA1 + SA2")
+    spacing_m: float = param(DEFAULT_SPACING_M, lo=0.005, hi=2.0, unit="m", doc="SA1-SA2 spacing")
+    orientation_deg: float = param(0.0, lo=-360.0, hi=360.0, unit="deg",
+                                   doc="azimuth of the SA1→SA2 axis in the horizontal plane")
+    technique: Literal["single", "combination", "selection", "stamp"] = param(
+        "selection", doc="single antenna, simple combination, path selection (Algorithm 1), ASK-PSK stamp")
+    threshold_v: float = param(THRESHOLD_V, lo=0.0, hi=1.0, unit="V", doc="comparator threshold")
+    detector_gain: float = param(1.0, lo=0.0, hi=1000.0, lo_open=True, doc="detector output per RF peak volt")
+    sensitivity_dbm: float = param(-40.0, lo=-40.0, hi=10.0, unit="dBm",
+                                   doc="command-detection floor of the PIE path (semi-passive)")
+    modulation: Literal["ASK", "PSK"] = param("ASK", doc="reflection states of the ST's own modulator")
+
+    def __post_init__(self):
+        check_fields(self, "st")
+        if self.n_antennas == 1 and self.technique != "single":
+            raise ConfigError("st.technique", self.technique, "'single' with one antenna")
+
+    @property
+    def identity_epc_hex(self) -> str:
+        """EPC of the ST before any report: ``st_id`` and a zero count."""
+        return f"{self.st_id:04X}0000"
+
+
+def st_antenna_positions(center_m, *, n_antennas: int = 2, spacing_m: float = DEFAULT_SPACING_M,
+                         orientation_rad=0.0) -> np.ndarray:
+    """Positions of SA1 and SA2 (or SA2 alone) [m].
+
+    Parameters
+    ----------
+    center_m : (..., 3) float64 ST centre(s) [m]
+    orientation_rad : (...) azimuth of the SA1→SA2 axis [rad]
+
+    Returns
+    -------
+    (..., n_antennas, 3) float64: ``center − s/2·û`` (SA1), ``center + s/2·û`` (SA2)
+    """
+    c = np.asarray(center_m, dtype=float)
+    if n_antennas == 1:
+        return c[..., None, :].copy()
+    phi = np.asarray(orientation_rad, dtype=float)
+    u = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)], axis=-1) * (0.5 * spacing_m)
+    return np.stack([c - u, c + u], axis=-2)
+
+
+def st_antenna(position_m):
+    """An ST antenna: vertical half-wave dipole, linear polarization (``channels.Antenna``)."""
+    from channels import Antenna, HalfWaveDipole
+
+    return Antenna(position_m=position_m, orientation=(0.0, 0.0, 0.0), pattern=HalfWaveDipole(),
+                   polarization="linear")
+
+
+# ----------------------------------------------------------------------------- device
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What the ST made of other tags' backscatter in one reader segment.
+
+    command : the decoded reader command (or None); kind : "RN16", "EPC" or "" (nothing
+    expected); detected : a reply was decoded (EPC: CRC valid); bits : decoded bits or None;
+    path : 1/2 for selection and stamp (which path decoded), else None;
+    reception : the underlying st_receiver result
+    """
+
+    command: object | None
+    kind: str
+    detected: bool
+    bits: np.ndarray | None
+    path: int | None
+    reception: object | None
+
+
+class SenseATag:
+    """A sense-a-tag device (module docstring).
+
+    Parameters
+    ----------
+    config : SenseATagConfig
+    center_m : (3,) ST centre [m]
+    rng : numpy Generator — the ST's own stream (its RN16s and slot counter)
+    fs_hz : sample rate of the segments it will hear [Hz]
+    """
+
+    def __init__(self, config: SenseATagConfig, center_m, *, rng: np.random.Generator, fs_hz: float):
+        if not isinstance(config, SenseATagConfig):
+            raise TypeError(f"config must be a SenseATagConfig, got {type(config).__name__}")
+        self.config = config
+        self.rng = rng
+        self.fs_hz = float(fs_hz)
+        pos = st_antenna_positions(center_m, n_antennas=config.n_antennas, spacing_m=config.spacing_m,
+                                   orientation_rad=math.radians(config.orientation_deg))
+        self.antennas = tuple(st_antenna(p) for p in pos)
+        self.mode = "listening"
+        self.heard: dict[int, list[int]] = {}  # CRC-16 hash -> query rounds in which it was heard
+        self.query_round = -1
+        self._query: Query | None = None
+        self._blf_hz: float | None = None
+        self._expect: str = ""
+        self.tag = self._make_tag(config.identity_epc_hex)
+
+    @property
+    def antenna(self):
+        """SA2, the antenna of the full ST path and of the modulator (reflector protocol)."""
+        return self.antennas[-1]
+
+    def _make_tag(self, epc_hex: str) -> PassiveTag:
+        tc = TagConfig(epc_hex=epc_hex, sensitivity_dbm=self.config.sensitivity_dbm,
+                       modulation=self.config.modulation)
+        return PassiveTag(tc, self.antenna, rng=self.rng)
+
+    # -------------------------------------------------------------- protocol
+
+    def report_epc_hex(self) -> str:
+        """The responding-round EPC: st_id, count, CRC-16 hashes (module docstring)."""
+        hashes = list(self.heard)[:MAX_REPORTED]
+        return "".join(f"{w:04X}" for w in [self.config.st_id, len(hashes), *hashes])
+
+    @staticmethod
+    def parse_report(epc_bits) -> tuple[int, list[int]]:
+        """Inverse of :meth:`report_epc_hex` on EPC bits: ``(st_id, hashes)``."""
+        b = np.asarray(epc_bits, dtype=np.uint8)
+        words = [bits_to_int(b[i:i + 16]) for i in range(0, b.size - 15, 16)]
+        n = words[1]
+        return words[0], words[2:2 + n]
+
+    def _is_qs(self, cmd) -> bool:
+        want = "".join(str(v) for v in int_to_bits(self.config.st_id, 16))
+        return isinstance(cmd, Select) and cmd.membank == 1 and cmd.pointer == 32 and cmd.mask == want
+
+    def decode_command(self, x, *, fs_hz: float):
+        """PIE-decode the reader command in ``x`` (SA2 input [√W]) with the tag's PIE path.
+
+        Returns ``(cmd, frame)`` or ``(None, None)`` (below sensitivity, nothing or garbage).
+        """
+        x = np.asarray(x)
+        if incident_power_w(x) < dbm_to_w(self.config.sensitivity_dbm):
+            return None, None
+        frames = pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.tag.config.envelope_rc_s))
+        if not frames:
+            return None, None
+        try:
+            return parse(frames[0].bits), frames[0]
+        except CommandParseError:
+            return None, None
+
+    def listen(self, incident, *, t0_s: float, fs_hz: float) -> TagResponse:
+        """Reflector protocol of the engine: the ST's reaction to a reader segment at SA2.
+
+        Listening: decodes the command (link parameters, what reply to expect from other
+        tags) and does not reply (Γ_A throughout). Responding: acts as its tag. A QS Select
+        switches to responding (with the report as EPC), any other Select to listening.
+        """
+        cmd, frame = self.decode_command(incident, fs_hz=fs_hz)
+        if isinstance(cmd, Select):
+            if self._is_qs(cmd) and self.mode != "responding":
+                self.mode = "responding"
+                self.tag = self._make_tag(self.report_epc_hex())
+            elif not self._is_qs(cmd):
+                self.mode = "listening"
+        self._expect = ""
+        if isinstance(cmd, Query):
+            self._query = cmd
+            self.query_round += 1
+            self._blf_hz = _dr(cmd.dr) * fs_hz / frame.trcal  # BLF = DR/TRcal, TRcal measured
+        if cmd is not None and self._query is not None:
+            if isinstance(cmd, (Query, QueryRep, QueryAdjust)):
+                self._expect = "RN16"
+            elif isinstance(cmd, ACK):
+                self._expect = "EPC"
+        if self.mode == "responding":
+            return self.tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
+        p_dbm = float(10 * np.log10(max(incident_power_w(np.asarray(incident)), 1e-30) / 1e-3))
+        return TagResponse(powered=True, command=cmd, reply=None, gamma=None, reply_start_s=None, blf_hz=None,
+                           reason="no reply", incident_power_dbm=p_dbm,
+                           gamma_rest=self.tag.reflection_states.gamma_a)
+
+    def receiver(self) -> sr.STReceiver:
+        """Receive chain for the link parameters of the last Query."""
+        q = self._query
+        if q is None or self._blf_hz is None:
+            raise ValueError("no Query heard yet: link parameters unknown")
+        return make_receiver(self.config, fs_hz=self.fs_hz, blf_hz=self._blf_hz, m=q.m, trext=q.trext)
+
+    def observe(self, inputs, *, start_sample: int = 0, stamp: sr.StampFrame | None = None) -> Observation:
+        """Decode other tags' backscatter in one segment with the configured technique.
+
+        Parameters
+        ----------
+        inputs : (n_antennas, n) complex128, input at SA1 (, SA2) [√W] (e.g.
+            :attr:`rfsim.bistatic.BistaticExchange.inputs`); call :meth:`listen` on the
+            SA2 input of the same segment first (it sets what to expect)
+        start_sample : decode from this sample on (after the reader's command)
+        stamp : the stamped frame (technique "stamp": the transmitter's ASK-PSK stamp)
+        """
+        x = np.asarray(inputs)
+        if x.shape[0] != len(self.antennas):
+            raise ValueError(f"inputs must have {len(self.antennas)} rows, got {x.shape}")
+        kind = self._expect if self.mode == "listening" else ""
+        if not kind:
+            return Observation(None, "", False, None, None, None)
+        rx = self.receiver()
+        n_bits, crc = (16, False) if kind == "RN16" else (128, True)
+        kw = dict(n_bits=n_bits, crc=crc, start_sample=start_sample)
+        path = None
+        tech = self.config.technique
+        if tech == "single":
+            rec = rx.receive(x[-1], **kw)
+        elif tech == "combination":
+            rec = sr.receive_combined(rx, x[0], x[1], **kw)
+        elif tech == "selection":
+            sel = sr.receive_selection(rx, x[0], x[1], **kw)
+            rec, path = sel.selected, sel.path
+        else:
+            if stamp is None:
+                raise ValueError("technique 'stamp' needs the stamped frame")
+            kw.pop("start_sample")
+            st = sr.receive_stamp(rx, x[0], x[1], stamp, **kw)
+            rec, path = st.selected, (1 if st.use_p1 else 2)
+        if rec.detected and kind == "EPC":
+            h = bits_to_int(rec.bits[-16:])
+            rounds = self.heard.setdefault(h, [])
+            if self.query_round not in rounds:
+                rounds.append(self.query_round)
+        return Observation(None, kind, bool(rec.detected), rec.bits, path, rec)
+
+
+def _dr(dr: str) -> float:
+    return 64.0 / 3.0 if dr == "64/3" else 8.0
+
+
+def make_receiver(config: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: int, trext: bool) -> sr.STReceiver:
+    """The ST receive chain (linear detector with ``config.detector_gain`` at 50 Ω)."""
+    det = sr.EnvelopeDetector(tau_s=1.0 / (2.0 * math.pi * 4.0 * blf_hz), gain=config.detector_gain)
+    return sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext, threshold_v=config.threshold_v,
+                         detector=det)
+
+
+# ----------------------------------------------------------------------------- many positions at once
+
+
+def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:meth:`STReceiver.chain` for many inputs at once (rows), vectorised over rows.
+
+    Parameters
+    ----------
+    rx : receive chain
+    x : (r, n) complex128, baseband inputs [√W]
+
+    Returns
+    -------
+    envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
+    Identical to ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the
+    steady state of the first sample, comparator from −1).
+    """
+    x = np.atleast_2d(np.asarray(x))
+    det = rx.envelope_detector
+    u = det.instantaneous_v(x)
+    a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
+    env = lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
+    sos = rx.sos
+    zi = sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
+    bp = sosfilt(sos, env, axis=1, zi=zi)[0]
+    cmp = np.empty_like(bp)
+    tog = np.empty(x.shape[0], dtype=np.int64)
+    for i in range(x.shape[0]):
+        cmp[i], _, tog[i] = sr.comparator(bp[i], threshold_v=rx.threshold_v)
+    return env, bp, cmp, tog
+
+
+def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
+    """Signed ``A(+1) − A(−1)`` of every row [V] (:func:`devices.st_receiver.state_envelope_difference`
+    vectorised; ``levels`` (n,) the true line-code levels common to all rows)."""
+    ok = sr.settled_mask(levels, rx.settle_samples, rx.guard_samples)
+    hi, lo = ok & (levels == 1), ok & (levels == -1)
+    return envelope_v[:, hi].mean(axis=1) - envelope_v[:, lo].mean(axis=1)
+
+
+def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, start_sample: int,
+                search_samples: int | None) -> np.ndarray:
+    """Decode the reply in the chosen ``rows`` (bool (r,)) → ``(r,) bool``: the decoded bits equal
+    ``expected_bits``. Rows whose comparator does not toggle ``rx.min_toggles`` times are
+    not decoded (False)."""
+    out = np.zeros(env.shape[0], dtype=bool)
+    exp = np.asarray(expected_bits, dtype=np.uint8)
+    for i in np.flatnonzero(rows):
+        if np.count_nonzero(np.diff(cmp[i, start_sample:])) < rx.min_toggles:
+            continue
+        rec = rx.decode_chain(sr.ChainOutput(env[i], bp[i], cmp[i], int(tog[i])), n_bits=exp.size, crc=False,
+                              states=np.zeros(env.shape[1]), start_sample=start_sample,
+                              search_samples=search_samples)
+        out[i] = rec.bits is not None and np.array_equal(rec.bits, exp)
+    return out
+
+
+__all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
+           "st_antenna", "Observation", "SenseATag", "make_receiver", "chain_rows", "level_differences",
+           "decode_rows"]

@@ -1,0 +1,132 @@
+"""Waveforms at listener antennas during one reader exchange (bistatic reception).
+
+A listener (a sense-a-tag antenna, a second reader's receive antenna) hears the reader's
+segment directly and the backscatter of every tag (DESIGN.md "Simulation flow" step 5;
+auris-sense-a-tag.md §6 "Signal flow": the reader→ST downlink and the tag→ST backscatter
+channel, Fig. A.1). For a reader segment ``x_tx(t)`` (``reader.transmit``), the field at
+tag i is ``inc_i = fwd_i{x_tx}`` and the tag re-radiates ``Γ_i(t)·inc_i(t)``
+(``tag.listen``); listener antenna k receives
+
+    ``y_k(t) = D_k{x_tx}(t) + Σ_i B_ik{Γ_i·inc_i}(t) (+ n_k(t))``
+
+with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied by
+:func:`channels.paths.apply_paths` with the engine's narrowband/exact choice
+(:func:`rfsim.engine._method` on the reply bandwidth 2·BLF). Every tag scatters: Γ_A
+outside its reply (``TagResponse.reflection``). All waveforms are complex baseband [√W] on
+the segment's time base.
+
+The reader side (its own decode) is :func:`rfsim.engine.run_exchange`; this module only
+adds the listeners, and returns the tag responses and the per-link components so that a
+caller can measure the quantities of the closed forms (A_R, A_T1, A_T2, θ).
+
+The channel is used through ``channel.link(tx, rx, *, fc_hz, rng, t_s)`` (one draw per link
+when ``rng`` is given, the held draw otherwise).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rfsim.engine import _method
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BistaticExchange:
+    """One reader segment as heard by the tags and by the listener antennas.
+
+    Attributes
+    ----------
+    tx : the reader's ``TxSegment`` (``samples`` (n,) complex128 [√W], ``t0_s``, ``fs_hz``, ``fc_hz``)
+    responses : one ``TagResponse`` per tag (``gamma`` on the segment's time base)
+    incident : (n_tags, n) complex128, field at each tag's antenna port [√W]
+    direct : (n_listeners, n) complex128, reader → listener component [√W]
+    backscatter : (n_tags, n_listeners, n) complex128, tag i → listener k component [√W]
+    noise : (n_listeners, n) complex128 or None, the added noise [√W]
+    direct_links, forward_links, backward_links : the PathSets used
+        (``direct_links[k]``, ``forward_links[i]``, ``backward_links[i][k]``)
+    """
+
+    tx: Any
+    responses: tuple
+    incident: np.ndarray
+    direct: np.ndarray
+    backscatter: np.ndarray
+    noise: np.ndarray | None
+    direct_links: tuple
+    forward_links: tuple
+    backward_links: tuple
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """(n_listeners, n) complex128: total input at each listener antenna [√W]."""
+        y = self.direct + self.backscatter.sum(axis=0)
+        return y if self.noise is None else y + self.noise
+
+
+def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *, t_s: float,
+                    rng: np.random.Generator | None, cw_after_s: float, round_index: int = 0,
+                    propagation: str = "auto", noise_power_w: float = 0.0) -> BistaticExchange:
+    """Simulate one reader segment at the tags and at ``listeners`` (antennas).
+
+    Parameters
+    ----------
+    reader : reader device (``transmit``, ``antennas``, ``antenna_index``, ``link``)
+    tags : tag devices (``listen``, ``antenna``)
+    channel : link model with ``link(tx, rx, *, fc_hz, rng, t_s)`` → PathSet
+    cmd : the Gen2 command the reader sends
+    listeners : receiving antennas (``channels.Antenna``)
+    t_s : start of the segment [s]
+    rng : draws the links (forward, then per listener direct and backward) and the noise;
+        None reuses the channel's held draws (noise then needs ``noise_power_w == 0``)
+    cw_after_s : CW after the command [s] (the reply window)
+    round_index : inventory round (selects the reader antenna)
+    propagation : "auto", "exact" or "narrowband" (as :func:`rfsim.engine.run_exchange`)
+    noise_power_w : complex AWGN power per sample added at every listener [W]
+    """
+    from channels.paths import apply_paths
+
+    antenna = reader.antennas[reader.antenna_index(round_index)]
+    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=cw_after_s, round_index=round_index)
+    fs, fc, x = tx.fs_hz, tx.fc_hz, tx.samples
+    bw = 2.0 * reader.link.blf_hz
+
+    def apply(sig, paths):
+        return apply_paths(sig, fs_hz=fs, fc_hz=fc, paths=paths, t0_s=t_s, method=_method(paths, bw, propagation))
+
+    responses, incident, fwd_links = [], [], []
+    for tag in tags:
+        fwd = channel.link(antenna, tag.antenna, fc_hz=fc, rng=rng, t_s=t_s)
+        inc = apply(x, fwd)
+        responses.append(tag.listen(inc, t0_s=t_s, fs_hz=fs))
+        incident.append(inc)
+        fwd_links.append(fwd)
+    n_l, n_t = len(listeners), len(tags)
+    direct = np.zeros((n_l, x.size), dtype=np.complex128)
+    back = np.zeros((n_t, n_l, x.size), dtype=np.complex128)
+    d_links, b_links = [], [[None] * n_l for _ in range(n_t)]
+    for k, lis in enumerate(listeners):
+        d = channel.link(antenna, lis, fc_hz=fc, rng=rng, t_s=t_s)
+        direct[k] = apply(x, d)
+        d_links.append(d)
+        for i, tag in enumerate(tags):
+            b = channel.link(tag.antenna, lis, fc_hz=fc, rng=rng, t_s=t_s)
+            back[i, k] = apply(responses[i].reflection(x.size) * incident[i], b)
+            b_links[i][k] = b
+    noise = None
+    if noise_power_w > 0:
+        if rng is None:
+            raise ValueError("noise needs an rng")
+        s = math.sqrt(noise_power_w / 2.0)
+        noise = s * (rng.standard_normal((n_l, x.size)) + 1j * rng.standard_normal((n_l, x.size)))
+    inc_arr = np.array(incident) if incident else np.zeros((0, x.size), dtype=np.complex128)
+    return BistaticExchange(tx=tx, responses=tuple(responses), incident=inc_arr, direct=direct,
+                            backscatter=back, noise=noise, direct_links=tuple(d_links),
+                            forward_links=tuple(fwd_links), backward_links=tuple(tuple(r) for r in b_links))
+
+
+__all__ = ["BistaticExchange", "listen_exchange"]

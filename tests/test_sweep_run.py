@@ -212,13 +212,16 @@ def test_progress_bar_on_a_tty_and_quiet():
     assert quiet.getvalue() == ""
 
 
-def test_cli_run_prints_progress_in_batch_logs(tmp_path):
+def test_cli_run_prints_progress_in_batch_logs(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
     spec = write_spec(tmp_path, "s", q=(1,))
-    out = subprocess.run([sys.executable, "-m", "rfsim", "sweep", str(spec), "--serial"],
-                         capture_output=True, text=True, cwd=tmp_path, timeout=300)
-    assert out.returncode == 0, out.stderr
-    assert "sweep: 0/4 runs (0.0 %)" in out.stdout and "sweep: 4/4 runs (100.0 %)" in out.stdout
-    assert f"dataset: {tmp_path / 's.h5'}" in out.stdout
+    assert main(["sweep", str(spec), "--serial"]) == 0  # captured stdout is not a TTY
+    out = capsys.readouterr().out
+    assert "\r" not in out
+    assert "sweep: 0/4 runs (0.0 %)" in out and "sweep: 4/4 runs (100.0 %)" in out
+    assert f"dataset: {tmp_path / 's.h5'}" in out
+    assert main(["sweep", str(spec), "--serial", "--resume", "--quiet"]) == 0
+    assert capsys.readouterr().out == ""
 
 
 def test_sbatch_script(tmp_path, monkeypatch, capsys):

@@ -157,3 +157,15 @@ def test_sweep_help_lists_the_verbs(capsys):
     out = capsys.readouterr().out
     assert all(v in out for v in ("run", "dry-run", "plan", "merge"))
     assert main(["sweep"]) == 0 and "VERB" in capsys.readouterr().out
+
+
+def test_every_dataset_scenario_has_a_valid_example_spec(project_root):
+    from rfsim.registry import scenario_modules
+    from rfsim.sweep import load_spec, plan_sweep
+
+    examples = sorted((project_root / "examples" / "sweeps").glob("*.toml"))
+    scenarios = {load_spec(p).scenario for p in examples}
+    assert set(scenario_modules()) <= scenarios
+    for path in examples:
+        plan = plan_sweep(load_spec(path))  # every point validates
+        assert len(plan.tasks) >= 8 and plan.spec.swept_keys

@@ -21,6 +21,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import logging
 import os
+import uuid
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -138,8 +139,9 @@ class DaskExecutor:
 
     def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
         distributed = _import_distributed()
+        batch = uuid.uuid4().hex  # task keys unique per call: never reuse an older future
         futures = [self.client.submit(run_point, t, pure=False, retries=self.retries,
-                                      key=f"rfsim-sweep-{t.path.stem}-{os.getpid()}-{id(self)}")
+                                      key=f"rfsim-sweep-{batch}-{t.path.stem}")
                    for t in tasks]
         try:
             for fut in distributed.as_completed(futures):

@@ -75,6 +75,8 @@ SSB_HILBERT_HALF_TARI = 4.0
 DOPPLER_BLOCKS = 8
 
 FAILURES = ("", "preamble not found", "crc error")
+#: Number of modulated command segments a Reader keeps for reuse.
+TX_CACHE_SIZE = 16
 
 
 def frequency_plan(region: str) -> np.ndarray:
@@ -218,6 +220,8 @@ class Reader:
                               f"≥ 2·BLF_max = {2 * self.link.blf_hz * (1 + self.link.frt):.4g} Hz")
         #: 0-based hop table (channel k of the plan is visited at dwell period i if hop[i % n] = k)
         self.hop_sequence = rng.permutation(n) if self.config.region == "FCC" else np.arange(n)
+        #: recently transmitted baseband segments (read-only), keyed by bits and CW lengths
+        self._tx_cache: dict = {}
 
     # ------------------------------------------------------------------ plan, antennas
 
@@ -299,6 +303,8 @@ class Reader:
 
         The segment has ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
+        ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept
+        and returned again for a repeated command.
         """
         if not isinstance(cmd, COMMAND_TYPES):
             raise TypeError(f"not a Gen2 command: {cmd!r}")
@@ -307,8 +313,17 @@ class Reader:
         cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        x = self.modulate(encode(cmd), preamble=command_preamble(cmd), cw_after_s=cw_after_s,
-                          cw_before_s=cw_before_s)
+        bits = encode(cmd)
+        key = (bits.tobytes(), command_preamble(cmd), float(cw_after_s), cw_before_s)
+        x = self._tx_cache.get(key)
+        if x is None:
+            # A reader sends the same commands (Query, QueryRep, …) again and again: keep the
+            # last few modulated segments (read-only) instead of modulating them anew.
+            x = self.modulate(bits, preamble=key[1], cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+            x.setflags(write=False)
+            if len(self._tx_cache) >= TX_CACHE_SIZE:
+                self._tx_cache.pop(next(iter(self._tx_cache)))
+            self._tx_cache[key] = x
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
         return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
@@ -440,7 +455,7 @@ class Reader:
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
-        ref = self._reference(bits, start, r.size, blf)
+        ref = full if np.array_equal(bits, det.bits) else self._reference(bits, start, r.size, blf)
         meas = self._measure(r - c, ref, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
@@ -467,12 +482,17 @@ class Reader:
         ref = s[i0:i1]
         steady = _steady(ref)
         z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
-        edges = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)
-        g = np.array([np.dot(z[a:b], ref[a:b]) / np.dot(ref[a:b], ref[a:b])
-                      for a, b in zip(edges[:-1], edges[1:])])
-        tc = np.array([t[a:b].mean() for a, b in zip(edges[:-1], edges[1:])])
-        w = np.abs(g)
-        slope = float(np.polyfit(tc, np.unwrap(np.angle(g)), 1, w=w)[0]) if np.all(w > 0) else 0.0
+        starts = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)[:-1]
+        counts = np.diff(np.append(starts, ref.size)).astype(float)
+        g = np.add.reduceat(z * ref, starts) / np.add.reduceat(ref * ref, starts)
+        tc = np.add.reduceat(t, starts) / counts
+        w2 = np.abs(g) ** 2  # weights |g_k| on the residuals (numpy.polyfit's w), squared
+        if np.all(w2 > 0):
+            y = np.unwrap(np.angle(g))
+            xm, ym = np.dot(w2, tc) / w2.sum(), np.dot(w2, y) / w2.sum()
+            slope = float(np.dot(w2, (tc - xm) * (y - ym)) / np.dot(w2, (tc - xm) ** 2))
+        else:
+            slope = 0.0
         rot = np.exp(-1j * slope * t)
         h = np.dot(z * rot, ref) / np.dot(ref, ref)
         sigma2 = float(np.mean(np.abs(z - h * ref / rot) ** 2))
@@ -493,10 +513,12 @@ def _steady(level: np.ndarray) -> np.ndarray:
 
 def _gain_offset(r: np.ndarray, s: np.ndarray) -> tuple[complex, complex]:
     """Least-squares (h, c) of ``r ≈ h·s + c`` over all samples (s real)."""
-    a = np.array([[float(s @ s), float(s.sum())], [float(s.sum()), float(s.size)]])
-    b = np.array([complex(r @ s), complex(r.sum())])
-    h, c = np.linalg.solve(a, b)
-    return complex(h), complex(c)
+    ss, s1, n = float(s @ s), float(s.sum()), float(s.size)
+    rs, r1 = complex(r @ s), complex(r.sum())
+    det = ss * n - s1 * s1  # normal equations [[ss, s1], [s1, n]]·(h, c) = (rs, r1)
+    if det == 0:
+        raise np.linalg.LinAlgError("singular reference: no level change")
+    return (n * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det
 
 
 __all__ = [

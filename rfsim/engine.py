@@ -168,7 +168,7 @@ def _failure(read, replied: Sequence[int], powered: Sequence[int], tag_reasons: 
 def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.random.Generator,
                  reply_bits: int, expect_crc: bool, motions: Sequence | None = None,
                  round_index: int = 0, draw_channel: bool = True,
-                 propagation: str = "auto") -> Exchange:
+                 propagation: str = "auto", link_cache: dict | None = None) -> Exchange:
     """Simulate one command + reply window at sample level; return its :class:`Exchange`.
 
     Parameters
@@ -188,6 +188,10 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
         draw the channel holds: a quasi-static channel within a round)
     propagation : "auto", "exact" or "narrowband" (see the module docstring)
+    link_cache : optional dict holding the (forward, backward) links of static tags for one
+        channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
+        read only with ``draw_channel=False`` for a tag without motion — the links are then
+        exactly what the channel would return again (held draw, same geometry and carrier).
     """
     if propagation not in PROPAGATION_METHODS:
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
@@ -203,9 +207,17 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
     for i, tag in enumerate(tags):
         motion = motions[i] if motions is not None else None
-        fwd, bwd = channel.backscatter_links(antenna, tag.antenna, fc_hz=fc,
-                                             rng=rng if draw_channel else None, t_s=t_s,
-                                             tag_motion=motion)
+        key = (i, antenna_index, fc)
+        links = None
+        if link_cache is not None and motion is None and not draw_channel:
+            links = link_cache.get(key)
+        if links is None:
+            links = channel.backscatter_links(antenna, tag.antenna, fc_hz=fc,
+                                              rng=rng if draw_channel else None, t_s=t_s,
+                                              tag_motion=motion)
+            if link_cache is not None and motion is None:
+                link_cache[key] = links
+        fwd, bwd = links
         incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s,
                                method=_method(fwd, 2.0 * link.blf_hz, propagation))
         response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
@@ -278,16 +290,17 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     from rfsim.gen2.bits import bits_to_int
     from rfsim.gen2.commands import ACK
 
+    links: dict = {}  # the Query's channel draw, held for the ACK
     first = run_exchange(reader, tags, channel, query, t_s=t_s, rng=rng, reply_bits=16,
                          expect_crc=False, motions=motions, round_index=round_index,
-                         draw_channel=draw_channel)
+                         draw_channel=draw_channel, link_cache=links)
     if first.read is None or not first.read.success:
         return [first]
     rn16 = bits_to_int(first.read.bits)
     t_ack = first.read.start_s + reader.link.reply_duration_s(16) + 10.0 * reader.link.tpri_s
     second = run_exchange(reader, tags, channel, ACK(rn16), t_s=t_ack, rng=rng,
                           reply_bits=epc_bits, expect_crc=True, motions=motions,
-                          round_index=round_index, draw_channel=False)
+                          round_index=round_index, draw_channel=False, link_cache=links)
     return [first, second]
 
 

@@ -65,7 +65,8 @@ class Config:
                                   doc="time between round starts (silent time is skipped)")
 
 
-def _reader_antenna(g: GeometryConfig) -> Antenna:
+def reader_antenna(g: GeometryConfig) -> Antenna:
+    """The reader antenna of the geometry: at (0, 0, height), boresight +x."""
     if g.reader_antenna == "patch":
         pattern = Patch(g.reader_gain_dbi, g.reader_beamwidth_deg)
     elif g.reader_antenna == "dipole":
@@ -76,7 +77,8 @@ def _reader_antenna(g: GeometryConfig) -> Antenna:
                    polarization=g.reader_polarization)
 
 
-def _tag_antenna(g: GeometryConfig, distance_m: float) -> Antenna:
+def tag_antenna(g: GeometryConfig, distance_m: float) -> Antenna:
+    """A vertical half-wave dipole tag at ``distance_m`` and ``g.angle_deg`` facing the reader."""
     a = np.deg2rad(g.angle_deg)
     pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)
     # A dipole tag facing the reader, its axis vertical (local +z), boresight towards the reader.
@@ -84,7 +86,8 @@ def _tag_antenna(g: GeometryConfig, distance_m: float) -> Antenna:
                    polarization="linear", pol_tilt_rad=0.0)
 
 
-def _scene(c: ChannelConfig) -> Scene:
+def scene(c: ChannelConfig) -> Scene:
+    """The default channel: Friis, optional concrete floor (image method), optional APDP."""
     surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=c.floor_eps_r),) if c.floor else ()
     return Scene(surfaces=surfaces, apdp=ApdpModel() if c.apdp else None, image_order=1)
 
@@ -111,11 +114,11 @@ def run(config: Config, *, seed: int) -> Dataset:
     g = config.geometry
     n_rounds = config.rounds_per_point
     rows: dict[str, list] = {k: [] for k in FIELDS}
-    reader_antenna = _reader_antenna(g)
+    antenna = reader_antenna(g)
     for i, d in enumerate(g.distances_m):
-        reader = Reader(config.reader, [reader_antenna], rng=trial_rng(seed, i, n_rounds))
-        tag = PassiveTag(config.tag, _tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))
-        channel = Channel(_scene(config.channel))
+        reader = Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds))
+        tag = PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))
+        channel = Channel(scene(config.channel))
         for r in range(n_rounds):
             t_s = (i * n_rounds + r) * config.round_period_s
             # Dual-target inventory: a read flips the tag's S0 flag, so rounds alternate

@@ -75,7 +75,7 @@ def test_cli_dask_local_cluster(tmp_path, monkeypatch, capsys):
     spec = write_spec(tmp_path, "s", q=(1,))
     assert main(["sweep", str(spec), "--dask", "local:1"]) == 0
     out = capsys.readouterr().out
-    assert "4 runs, 4 computed, 0 reused" in out and "on dask (1 workers)" in out
+    assert "4 runs, 4 computed, 0 reused" in out and "on dask (1 worker)" in out
     assert (tmp_path / "s.h5").exists()
     assert main(["sweep", str(spec), "--dask", "local:0"]) == 2
     assert "local:N with N >= 1" in capsys.readouterr().err

@@ -142,7 +142,8 @@ def _run(ns: argparse.Namespace) -> int:
     if not ns.quiet:
         what = f"shard {ns.shard[0]}/{ns.shard[1]}: " if ns.shard else ""
         print(f"sweep: {what}{report.selected} runs, {report.computed} computed, {report.reused} reused, "
-              f"{report.wall_time_s:.1f} s on {executor.name} ({executor.workers} workers)")
+              f"{report.wall_time_s:.1f} s on {executor.name} ({executor.workers} "
+              f"worker{'s' if executor.workers != 1 else ''})")
         if report.output is not None:
             print(f"dataset: {report.output}")
     return 0

@@ -36,6 +36,7 @@ class Progress:
         self.t0 = clock()
         self._last = -float("inf")
         self._last_done = -1
+        self._width_used = 0
 
     def rate(self, now: float) -> float:
         """Runs finished per second in this session, at clock time ``now``."""
@@ -67,7 +68,7 @@ class Progress:
         if self.quiet:
             return
         if self.tty:
-            self.stream.write("\r" + self.text(self.clock()) + "\n")
+            self.stream.write("\r" + self.text(self.clock()).ljust(self._width_used) + "\n")
         elif self._last_done != self.done:
             self.stream.write(self.text(self.clock()) + "\n")
         self.stream.flush()
@@ -80,8 +81,9 @@ class Progress:
             return
         self._last = now
         text = self.text(now)
-        if self.tty:
-            self.stream.write("\r" + text)
+        if self.tty:  # pad over a longer previous line
+            self.stream.write("\r" + text.ljust(self._width_used))
+            self._width_used = max(self._width_used, len(text))
         else:
             self.stream.write(text + "\n")
         self._last_done = self.done

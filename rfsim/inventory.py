@@ -52,6 +52,7 @@ from typing import Any, Literal
 import numpy as np
 
 from rfsim.config import check_fields, param
+from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Select
 from rfsim.gen2.crc import crc16_ok
@@ -79,6 +80,9 @@ class InventoryConfig:
                                  doc="dual target: A↔B flips after a round without replies (0 = single target)")
     select_before_round: bool = param(False, doc="send a Select that sets every tag's session flag to the "
                                                  "target before each Query (repeatable frames)")
+    select_mask: str = param("", doc="Select mask ('0'/'1' string) on the EPC bank asserting SL on matching tags "
+                                     "at the start (sent when non-empty or sel is not 'all')")
+    select_pointer: int = param(32, lo=0, hi=496, doc="bit address of the Select mask in the EPC bank (EPC at 20h)")
     t2_tpri: float = param(10.0, lo=3.0, hi=20.0, unit="Tpri", doc="T2: reply end → next command")
     t3_s: float = param(0.0, lo=0.0, hi=1e-3, unit="s", doc="T3: extra wait after T1 when nothing was detected")
     epc_reply_bits: int = param(128, lo=32, hi=528, doc="PC + EPC + CRC-16 bits of the ACK reply")
@@ -87,6 +91,8 @@ class InventoryConfig:
 
     def __post_init__(self):
         check_fields(self, "inventory")
+        if any(ch not in "01" for ch in self.select_mask) or len(self.select_mask) > 255:
+            raise ConfigError("inventory.select_mask", self.select_mask, "at most 255 '0'/'1' characters")
 
 
 @dataclass(frozen=True, eq=False)
@@ -261,6 +267,12 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     switches = 0
     t_cmd = float(t0_s) + clock.lead_s  # start of the next command (its delimiter)
     n_slots = 0
+    if config.select_mask or config.sel != "all":
+        # assert SL on matching tags, deassert it on the others (Select action 0)
+        sel = Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
+        ex = air.exchange(sel, t_s=t_cmd - clock.lead_s, reply_bits=16, expect_crc=False, round_index=0,
+                          new_round=True)
+        t_cmd = clock.next_command_s(ex, 16)
     for rnd in range(config.max_rounds):
         if on_round is not None:
             on_round(rnd, t_cmd - clock.lead_s)
@@ -582,10 +594,12 @@ class EngineAir:
     propagation : "auto", "exact" or "narrowband"
     fast : use the silent-tag shortcut (:class:`_FastTag`); False calls every tag's
         ``listen`` on every exchange (identical results, slower)
+    keep_exchanges : append every :class:`AirExchange` to ``self.exchanges``
     """
 
     def __init__(self, reader, tags: Sequence, channel, *, rng: np.random.Generator, motions=None,
-                 propagation: str = "auto", fast: bool = True):
+                 propagation: str = "auto", fast: bool = True, keep_exchanges: bool = False):
+        self.exchanges: list[AirExchange] | None = [] if keep_exchanges else None
         self.reader = reader
         self.tags = list(tags)
         self.link = reader.link
@@ -615,10 +629,13 @@ class EngineAir:
         detected = read is not None and read.bits is not None
         lk = self.link
         cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
-        return AirExchange(ex.command, float(t_s), cmd_end, ex.replied, detected,
-                           read.bits if detected else None, bool(read is not None and read.success),
-                           ex.failure_reason, read.start_s if detected else math.nan, ex.antenna,
-                           ex.channel_index, ex.fc_hz, read, ex.incident_power_dbm)
+        out = AirExchange(ex.command, float(t_s), cmd_end, ex.replied, detected,
+                          read.bits if detected else None, bool(read is not None and read.success),
+                          ex.failure_reason, read.start_s if detected else math.nan, ex.antenna,
+                          ex.channel_index, ex.fc_hz, read, ex.incident_power_dbm)
+        if self.exchanges is not None:
+            self.exchanges.append(out)
+        return out
 
 
 __all__ = ["InventoryConfig", "AirExchange", "InventoryLog", "EngineAir", "ProtocolAir", "run_inventory",

@@ -1,0 +1,319 @@
+"""Scenario ``inventory``: a reader inventories N tags at random positions in a room.
+
+Every inventory runs the Gen2 Q algorithm (:mod:`rfsim.inventory`) at sample level through
+the engine: the reader's PIE commands, every tag's power-up, PIE decoding and state machine,
+the superposition of all RN16/EPC replies at the reader and its receiver. Collisions and
+capture therefore emerge from the waveforms (gen2-and-validation-anchors.md §4.4–4.6).
+
+Geometry: a rectangular room (floor at z = 0); tags uniformly inside it (margin 0.5 m),
+heights uniform in ``tag_height_m``, vertical dipoles with a random azimuth; one to four
+reader patch antennas in the middle of the walls at ``reader_height_m``, facing the room
+centre, used in turn per round. Channel: Friis LoS, optional floor reflection (image method)
+and the exponential APDP (PASS room curves), drawn per round and held within it.
+
+Tables:
+
+* ``slots``: one row per slot (see :data:`rfsim.inventory.SLOT_FIELDS`) with the population
+  and run;
+* ``reads``: one row per EPC read (:data:`rfsim.inventory.READ_FIELDS`), as the ``link``
+  scenario's reads;
+* ``inventories``: one row per inventory (tags read, slots, air time, efficiency);
+* ``capture``: two tags in the same slot at different distances on the boresight of a
+  patch; whether the reader read either EPC (capture), against the ratio of their
+  backscatter powers at the reader. The replies of identical tags (same clock, same T1)
+  are synchronous and share the preamble, so the receiver's gain estimate is h1 + h2 and a
+  bit where the tags differ is decided by the sign of |h1|² − |h2|²: capture needs only a
+  power ratio that the noise cannot mask, and fails when h1 + h2 ≈ 0 (the preamble
+  cancels). The experiment therefore runs at a reduced SNR (``capture.noise_figure_db``).
+
+Randomness: population p, run r: tag positions ``trial_rng(seed, p, r, 0)``, reader hop table
+``trial_rng(seed, p, r, 1)``, channel and receiver noise ``trial_rng(seed, p, r, 2)``, tag k's
+own stream ``trial_rng(seed, p, r, 3, k)``; capture point i, trial j: ``trial_rng(seed,
+10**6 + i, j, ...)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Isotropic, Patch, Scene, Surface
+from devices.reader import Reader, ReaderConfig
+from devices.tag import PassiveTag, TagConfig
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
+from rfsim.rng import trial_rng
+from rfsim.units import C_M_S
+
+NAME = "inventory"
+DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
+
+
+@dataclass(frozen=True)
+class RoomConfig:
+    length_m: float = param(8.0, lo=2.0, hi=100.0, unit="m", doc="room extent along x")
+    width_m: float = param(6.0, lo=2.0, hi=100.0, unit="m", doc="room extent along y")
+    tag_height_m: tuple[float, float] = param((0.5, 1.5), lo=0.05, hi=10.0, unit="m", doc="tag height range")
+    reader_height_m: float = param(1.5, lo=0.1, hi=10.0, unit="m", doc="reader antenna height")
+    n_antennas: int = param(1, lo=1, hi=4, doc="reader antennas (middle of walls x=0, x=L, y=0, y=W)")
+    reader_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="patch peak gain")
+    reader_beamwidth_deg: float = param(70.0, lo=20.0, hi=180.0, unit="deg", doc="patch beamwidth")
+    floor: bool = param(True, doc="floor reflection (image method, concrete eps_r 5.3)")
+    apdp: bool = param(True, doc="exponential APDP diffuse taps (PASS room curves)")
+
+
+@dataclass(frozen=True)
+class CaptureConfig:
+    enabled: bool = param(True, doc="run the two-tag capture experiment")
+    near_m: float = param(3.0, lo=0.2, hi=5.0, unit="m", doc="distance of the near tag")
+    ratios_db: tuple[float, ...] = param((0.0, 0.25, 0.5, 1.0, 2.0, 4.0), lo=0.0, hi=30.0, unit="dB",
+                                         doc="nominal backscatter power ratios (far tag at near·10^(r/40))")
+    trials: int = param(20, lo=1, hi=100000, doc="trials per ratio")
+    noise_figure_db: float = param(40.0, lo=0.0, hi=80.0, unit="dB",
+                                   doc="reader noise figure in this experiment (sets the SNR of the replies)")
+
+
+@dataclass(frozen=True)
+class Config:
+    room: RoomConfig = param(RoomConfig(), doc="room and reader placement")
+    reader: ReaderConfig = param(ReaderConfig(), doc="reader")
+    tag: TagConfig = param(TagConfig(), doc="tag template (EPCs are numbered per tag)")
+    inventory: InventoryConfig = param(InventoryConfig(), doc="inventory control (Q algorithm)")
+    populations: tuple[int, ...] = param((5, 10, 20), lo=1, hi=2000, doc="numbers of tags N")
+    runs: int = param(2, lo=1, hi=10000, doc="independent inventories per population")
+    capture: CaptureConfig = param(CaptureConfig(), doc="capture experiment")
+
+
+# ----------------------------------------------------------------------------- building blocks
+
+
+def tag_epc_hex(template: str, k: int) -> str:
+    """EPC of tag k: the template's length with the index in its last digits (unique EPCs)."""
+    n = len(template.replace(" ", ""))
+    return format(k + 1, f"0{n}X")[-n:]
+
+
+def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...]) -> list:
+    """One PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``."""
+    from dataclasses import replace
+
+    return [PassiveTag(replace(config, epc_hex=tag_epc_hex(config.epc_hex, k)), a,
+                       rng=trial_rng(seed, *key, k)) for k, a in enumerate(antennas)]
+
+
+def tag_antenna(position_m, azimuth_rad: float) -> Antenna:
+    """Vertical half-wave dipole tag at ``position_m`` facing ``azimuth_rad``."""
+    return Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
+                   pattern=HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
+
+
+def reader_antennas(room: RoomConfig) -> list[Antenna]:
+    """Patches in the middle of the walls x=0, x=L, y=0, y=W (in that order), facing inwards."""
+    L, W, h = room.length_m, room.width_m, room.reader_height_m
+    spots = [((0.0, W / 2, h), 0.0), ((L, W / 2, h), math.pi), ((L / 2, 0.0, h), math.pi / 2),
+             ((L / 2, W, h), -math.pi / 2)]
+    return [Antenna(position_m=p, orientation=(yaw, 0.0, 0.0),
+                    pattern=Patch(room.reader_gain_dbi, room.reader_beamwidth_deg), polarization="circular")
+            for p, yaw in spots[: room.n_antennas]]
+
+
+def room_scene(room: RoomConfig) -> Scene:
+    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if room.floor else ()
+    return Scene(surfaces=surfaces, apdp=ApdpModel() if room.apdp else None, image_order=1)
+
+
+def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -> list[Antenna]:
+    """``n`` tags uniformly in the room (0.5 m from the walls), random azimuth."""
+    x = rng.uniform(0.5, room.length_m - 0.5, n)
+    y = rng.uniform(0.5, room.width_m - 0.5, n)
+    z = rng.uniform(*room.tag_height_m, n)
+    yaw = rng.uniform(-math.pi, math.pi, n)
+    return [tag_antenna((x[k], y[k], z[k]), yaw[k]) for k in range(n)]
+
+
+# ----------------------------------------------------------------------------- capture
+
+
+CAPTURE_FIELDS = {
+    "point": ("1", "index of the nominal power ratio"),
+    "trial": ("1", "trial at this ratio"),
+    "nominal_ratio_db": ("dB", "nominal backscatter power ratio near/far, 40·log10(d_far/d_near)"),
+    "ratio_db": ("dB", "ratio from the incident CW powers: 2·(P_inc,near − P_inc,far) (monostatic)"),
+    "far_m": ("m", "distance of the far tag (with a random sub-wavelength offset)"),
+    "n_replies": ("1", "tags that replied with an RN16 in the slot"),
+    "captured": ("1", "an EPC was read although both tags replied"),
+    "captured_tag": ("1", "0 = near tag, 1 = far tag, -1 = none"),
+}
+
+
+def capture_trial(cfg: Config, far_m: float, *, seed: int, key: tuple[int, ...]) -> dict:
+    """One Q = 0 slot with a near and a far tag on the reader's boresight; both reply."""
+    from dataclasses import replace
+
+    cap = cfg.capture
+    h = cfg.room.reader_height_m
+    reader_ant = Antenna(position_m=(0.0, 0.0, h), orientation=(0.0, 0.0, 0.0),
+                         pattern=Patch(cfg.room.reader_gain_dbi, cfg.room.reader_beamwidth_deg),
+                         polarization="circular")
+    ants = [tag_antenna((cap.near_m, 0.0, h), math.pi), tag_antenna((far_m, 0.0, h), math.pi)]
+    tags = make_tags(cfg.tag, ants, seed=seed, key=key + (0,))
+    reader_cfg = replace(cfg.reader, noise_figure_db=cap.noise_figure_db)
+    reader = Reader(reader_cfg, [reader_ant], rng=trial_rng(seed, *key, 1))
+    air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, *key, 2), keep_exchanges=True)
+    inv = InventoryConfig(q_mode="fixed", q_initial=0.0, max_rounds=1, session=cfg.inventory.session)
+    log = run_inventory(air, inv)
+    p_inc = air.exchanges[0].incident_power_dbm  # the Query
+    tag = log.slots["tag"][0]
+    return dict(ratio_db=2.0 * (p_inc[0] - p_inc[1]), far_m=far_m, n_replies=log.slots["n_replies"][0],
+                captured=bool(tag >= 0 and log.slots["n_replies"][0] >= 2), captured_tag=tag)
+
+
+def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
+    """Capture probability data: for each nominal ratio, ``trials`` random-phase trials.
+
+    The far tag sits at d_near·10^(r/40) plus a uniform offset in ±λ/4 (λ at 915 MHz): the
+    round-trip phase difference 4π·Δd/λ then spans a full turn, so the relative phase of
+    the two replies is random, as it is between real tags.
+    """
+    rows: dict[str, list] = {k: [] for k in CAPTURE_FIELDS}
+    lam = C_M_S / 915e6
+    for i, r_db in enumerate(cfg.capture.ratios_db):
+        for j in range(cfg.capture.trials):
+            key = (10**6 + i, j)
+            off = trial_rng(seed, *key, 3).uniform(-lam / 4, lam / 4)
+            far = cfg.capture.near_m * 10.0 ** (r_db / 40.0) + off
+            out = capture_trial(cfg, far, seed=seed, key=key)
+            for k, v in dict(point=i, trial=j, nominal_ratio_db=r_db, **out).items():
+                rows[k].append(v)
+    return rows
+
+
+# ----------------------------------------------------------------------------- run
+
+
+INVENTORY_FIELDS = {
+    "population": ("1", "number of tags N"),
+    "run": ("1", "inventory run"),
+    "tags_read": ("1", "distinct tags read"),
+    "read_rate": ("1", "fraction of the N tags read"),
+    "slots": ("1", "slots of the whole inventory"),
+    "air_time_s": ("s", "air time of the whole inventory"),
+    "slots_to_all": ("1", "slots until every tag read at least once (-1 if not all)"),
+    "air_time_to_all_s": ("s", "air time until every tag read (NaN if not all)"),
+    "efficiency": ("1", "successful slots / slots of the inventory"),
+}
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    slots: dict[str, list] = {k: [] for k in ("population", "run", *SLOT_FIELDS)}
+    reads: dict[str, list] = {k: [] for k in ("population", "run", *READ_FIELDS)}
+    inv: dict[str, list] = {k: [] for k in INVENTORY_FIELDS}
+    room = config.room
+    antennas = reader_antennas(room)
+    for p, n in enumerate(config.populations):
+        for r in range(config.runs):
+            tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, p, r, 0))
+            tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3))
+            reader = Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
+            air = EngineAir(reader, tags, Channel(room_scene(room)), rng=trial_rng(seed, p, r, 2))
+            log = run_inventory(air, config.inventory)
+            for k in SLOT_FIELDS:
+                slots[k].extend(log.slots[k])
+            for k in READ_FIELDS:
+                reads[k].extend(log.reads[k])
+            slots["population"].extend([n] * log.n_slots)
+            slots["run"].extend([r] * log.n_slots)
+            reads["population"].extend([n] * len(log.reads["time_s"]))
+            reads["run"].extend([r] * len(log.reads["time_s"]))
+            done = log.completion(n)
+            n_read = len(log.tags_read())
+            succ = sum(1 for v in log.slots["reader_view"] if v == "success")
+            for k, v in dict(population=n, run=r, tags_read=n_read, read_rate=n_read / n, slots=log.n_slots,
+                             air_time_s=log.air_time_s, slots_to_all=done[0] if done else -1,
+                             air_time_to_all_s=done[1] if done else math.nan,
+                             efficiency=succ / max(log.n_slots, 1)).items():
+                inv[k].append(v)
+    ds = Dataset(title="Q-algorithm inventory of tags in a room: slots, reads, capture")
+    units = {"population": ("1", "number of tags N"), "run": ("1", "inventory run")}
+    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()})
+    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()})
+    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()})
+    if config.capture.enabled:
+        cap = capture_table(config, seed=seed)
+        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()})
+    return ds
+
+
+def capture_probability(ratio_db: np.ndarray, captured: np.ndarray, edges_db: np.ndarray):
+    """Binned capture probability: (bin centres [dB], P(capture), trials per bin)."""
+    idx = np.digitize(ratio_db, edges_db) - 1
+    ok = (idx >= 0) & (idx < edges_db.size - 1)
+    n = np.bincount(idx[ok], minlength=edges_db.size - 1)
+    k = np.bincount(idx[ok], weights=captured[ok].astype(float), minlength=edges_db.size - 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return 0.5 * (edges_db[1:] + edges_db[:-1]), k / n, n
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """Slot types per population, read rate and efficiency vs N, capture probability."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import h5py
+
+    from rfsim.dataset import read_table
+    from rfsim.inventory import SLOT_TYPES
+
+    s = read_table(dataset_path, "slots")
+    inv = read_table(dataset_path, "inventories")
+    with h5py.File(dataset_path, "r") as f:
+        has_capture = "capture" in f
+    pops = np.unique(inv["population"])
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    a = axes[0, 0]
+    bottom = np.zeros(pops.size)
+    types = np.asarray(s["slot_type"]).astype(str)
+    for st in SLOT_TYPES:
+        frac = np.array([np.mean(types[s["population"] == n] == st) for n in pops])
+        a.bar([str(n) for n in pops], frac, bottom=bottom, label=st)
+        bottom += frac
+    a.set_xlabel("tags N")
+    a.set_ylabel("fraction of slots")
+    a.legend(fontsize=8)
+    a.set_title("slot types")
+    a = axes[0, 1]
+    a.plot(pops, [inv["read_rate"][inv["population"] == n].mean() for n in pops], marker="o")
+    a.set_xlabel("tags N")
+    a.set_ylabel("read rate (fraction of tags read)")
+    a.set_ylim(-0.05, 1.05)
+    a.grid(True, alpha=0.3)
+    a = axes[1, 0]
+    a.plot(pops, [inv["efficiency"][inv["population"] == n].mean() for n in pops], marker="o", label="slot efficiency")
+    a.axhline(1 / math.e, color="k", ls=":", label="1/e")
+    a.set_xlabel("tags N")
+    a.set_ylabel("successful slots / slots")
+    a.legend()
+    a.grid(True, alpha=0.3)
+    a = axes[1, 1]
+    if has_capture:
+        c = read_table(dataset_path, "capture")
+        ok = np.isfinite(c["ratio_db"]) & (c["n_replies"] >= 2)
+        edges = np.arange(-1.0, max(2.0, float(np.nanmax(c["ratio_db"][ok])) + 2.0) if ok.any() else 2.0, 1.0)
+        x, pc, n = capture_probability(c["ratio_db"][ok], c["captured"][ok], edges)
+        a.plot(x[n > 0], pc[n > 0], marker="o")
+        a.set_ylim(-0.05, 1.05)
+    a.set_xlabel("backscatter power ratio at the reader [dB]")
+    a.set_ylabel("capture probability")
+    a.grid(True, alpha=0.3)
+    fig.suptitle("inventory (Q algorithm, sample level)")
+    fig.tight_layout()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{NAME}.png"
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return [path]

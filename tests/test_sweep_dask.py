@@ -79,3 +79,15 @@ def test_cli_dask_local_cluster(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "s.h5").exists()
     assert main(["sweep", str(spec), "--dask", "local:0"]) == 2
     assert "local:N with N >= 1" in capsys.readouterr().err
+
+
+def test_dask_scheduler_address(client, tmp_path):
+    """--dask ADDRESS connects a new client to a running scheduler and leaves it running."""
+    executor = DaskExecutor(client.scheduler.address)
+    try:
+        assert executor.workers == 2 and executor.client is not client
+        report = run_sweep(load_spec(write_spec(tmp_path, "s", q=(1,))), executor)
+    finally:
+        executor.close()
+    assert report.computed == 4 and report.output.exists()
+    assert len(client.run(os.getpid)) == 2  # the cluster is still up

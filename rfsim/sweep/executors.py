@@ -131,7 +131,7 @@ class DaskExecutor:
                 self.client = distributed.Client(self._cluster)
             else:
                 try:
-                    self.client = distributed.Client(address, timeout=30)
+                    self.client = distributed.Client(address, timeout="20s")
                 except OSError as err:
                     raise UserError(f"--dask {address!r}: cannot connect to the scheduler ({err})") from None
             self._own_client = True

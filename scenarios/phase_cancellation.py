@@ -261,7 +261,7 @@ def st_outcomes(config: Config, ex: Exchange, sa_pos, a_gain, b_gain) -> dict[st
     detectable = closed.sync_sa2_v > st.threshold_v
     out["detectable"] = detectable
     for t in TECHS:
-        out[f"closed_cancelled_{t}"] = getattr(closed, f"cancelled_{t if t != 'combination' else 'combination'}")
+        out[f"closed_cancelled_{t}"] = getattr(closed, f"cancelled_{t}")
     if ex.rn16 is None:
         for t in TECHS:
             out[f"detected_{t}"] = np.zeros(n, bool)
@@ -274,11 +274,14 @@ def st_outcomes(config: Config, ex: Exchange, sa_pos, a_gain, b_gain) -> dict[st
             inputs["sa1"] = a_gain[:, :1] * ex.x_tx + b_gain[:, :1] * ex.y_ask
             inputs["combined"] = inputs["sa1"] + inputs["sa2"]
         dec = {}
-        all_rows = np.ones(n, bool)
-        for name, x in inputs.items():
-            env, bp, cmp, tog = chain_rows(rx, x)
+        for name in ("sa2", "combined", "sa1"):
+            if name not in inputs:
+                continue
+            env, bp, cmp, tog = chain_rows(rx, inputs[name])
             out[f"diff_{name}_v"] = np.abs(level_differences(env, ex.levels, rx))
-            dec[name] = decode_rows(rx, env, bp, cmp, tog, rows=all_rows, expected_bits=ex.rn16, start_sample=0,
+            # Algorithm 1 returns ID2 whenever P2 decodes: P1's result matters only where P2 failed
+            rows = ~dec["sa2"] if name == "sa1" else np.ones(n, bool)
+            dec[name] = decode_rows(rx, env, bp, cmp, tog, rows=rows, expected_bits=ex.rn16, start_sample=0,
                                     search_samples=ex.search)
         out["detected_single"] = dec["sa2"]
         if two:
@@ -298,8 +301,10 @@ def _stamp(rx, ex: Exchange, a_gain, b_gain):
     f = ex.frame
     x2 = a_gain[:, 1:] * ex.x_tx + b_gain[:, 1:] * ex.y_stamp
     env2, bp2, cmp2, tog2 = chain_rows(rx, x2)
-    need = STAMP_CYCLES
-    ask_ok = np.count_nonzero(np.diff(cmp2[:, f.start:f.ask_stop], axis=1), axis=1) >= need
+    # '1' when the comparator follows every transition of the second (settled) half of the
+    # ASK stamp (the band-pass starts from rest at the stamp's first edge)
+    mid = (f.start + f.ask_stop) // 2
+    ask_ok = np.count_nonzero(np.diff(cmp2[:, mid:f.ask_stop], axis=1), axis=1) >= STAMP_CYCLES - 1
     use_p1 = ~ask_ok
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
     det = decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
@@ -475,7 +480,7 @@ def _analytic_grids(ds: Dataset) -> None:
                 {"diff": column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
                                 "PSK |A1-A2| (Eq. 3.9), A_R = 1, A_T = 0.4")})
     m = sa.NullMapModel()
-    x = np.linspace(-1.0, 1.0, 201)
+    x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
     y = np.linspace(0.05, 3.0, 296)
     ds.add_grid("fig3_8", {"y_m": column(y, "m", "y"), "x_m": column(x, "m", "x")},
                 {"diff_v": column(m.envelope_difference(x[None, :], y[:, None]), "V",

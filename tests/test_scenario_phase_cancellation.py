@@ -1,0 +1,121 @@
+"""Scenario ``phase-cancellation``: the default run (time budget, dataset layout, figures,
+xarray), the radial tracks (λ/4 null spacing on the 0° track, R3-3 / Fig. 3.15), the Monte
+Carlo's internal consistency (sample level vs closed forms, Algorithm 1 never worse than
+SA2 alone) and its independence of the number of worker processes.
+
+References: λ/4 = 0.08197 m at 915 MHz (auris-sense-a-tag.md §0.5, quoted 0.082 m);
+Fig. 3.5 peaks 0.8 / 0.56569 / 0.30615 / 0.15607 and Fig. 3.3 peaks |A_T1 − A_T2| (§1.3,
+§1.4 derived tables).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import h5py
+import numpy as np
+import pytest
+
+from rfsim.dataset import read_dataset, read_table
+from rfsim.runner import run_scenario
+from scenarios import phase_cancellation as pc
+
+LAMBDA_915_M = 299792458.0 / 915e6
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pc")
+    t0 = time.perf_counter()
+    res = run_scenario(pc, pc.Config(), seed=1, out_dir=out)
+    return res, time.perf_counter() - t0
+
+
+def test_default_run_is_fast_and_complete(default_run):
+    res, wall = default_run
+    assert wall < 60.0  # README main job: under a minute on a 2-core machine
+    assert len(res.figure_paths) == 4 and all(p.stat().st_size > 1000 for p in res.figure_paths)
+    s = read_table(res.dataset_path, "samples")
+    n = 13 * 40
+    assert s["cell"].size == n
+    for k in ("repetition", "st_x_m", "st_y_m", "sa1_x_m", "sa2_y_m", "theta_sa1_rad", "theta_sa2_rad",
+              "a_r_sa2_v", "a_t1_sa2_v", "a_t2_sa2_v", "diff_sa1_v", "diff_sa2_v", "diff_combined_v",
+              "detected_single", "detected_selection", "detected_stamp", "cancelled_combination"):
+        assert s[k].shape == (n,), k
+    # disc of radius 0.5 m around the tag, antennas λ/4 apart
+    r = np.hypot(s["st_x_m"] - s["tag_x_m"], s["st_y_m"])
+    assert r.max() <= 0.5
+    np.testing.assert_allclose(np.hypot(s["sa2_x_m"] - s["sa1_x_m"], s["sa2_y_m"] - s["sa1_y_m"]), 0.082)
+    cells = read_table(res.dataset_path, "cells")
+    for t in pc.TECHS:
+        for c in range(13):
+            sel = s["cell"] == c
+            assert cells[f"p_{t}"][c] == pytest.approx(s[f"cancelled_{t}"][sel].mean())
+            assert cells[f"ci_lo_{t}"][c] <= cells[f"p_{t}"][c] <= cells[f"ci_hi_{t}"][c]
+    with h5py.File(res.dataset_path) as f:
+        assert f["samples"]["diff_sa2_v"].attrs["units"] == "V"
+
+
+def test_dataset_opens_in_xarray(default_run):
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    res, _ = default_run
+    with xr.open_dataset(res.dataset_path, engine="h5netcdf", group="cells") as cells:
+        assert cells["p_selection"].size == 13
+    with xr.open_dataset(res.dataset_path, engine="h5netcdf", group="fig3_8") as m:
+        assert m["diff_v"].dims == ("y_m", "x_m")
+
+
+def test_analytic_grids_match_reference_tables(default_run):
+    res, _ = default_run
+    ds = read_dataset(res.dataset_path)
+    coords, var = ds.grids["fig3_5"]
+    peaks = var["diff"].data.max(axis=1)
+    np.testing.assert_allclose(peaks, [0.8, 0.56569, 0.30615, 0.15607], atol=2e-5)  # 721-point θ grid
+    coords, var = ds.grids["fig3_3"]
+    d = var["diff"].data
+    # maxima |A_T1 − A_T2| = 0.1, 0.1, 0.1, 0.01 at θ = 0, ±π (§1.3 derived table)
+    np.testing.assert_allclose(d.max(axis=1), [0.1, 0.1, 0.1, 0.01], rtol=1e-9)
+
+
+def test_sample_level_matches_closed_form_in_the_monte_carlo(default_run):
+    res, _ = default_run
+    s = read_table(res.dataset_path, "samples")
+    for name in ("sa1", "sa2", "combined"):
+        meas, closed = s[f"diff_{name}_v"], s[f"closed_diff_{name}_v"]
+        big = closed > 1e-3
+        assert big.sum() > 300
+        np.testing.assert_allclose(meas[big], closed[big], rtol=0.01)
+    # decoded flags against the closed-form threshold: disagreements only near 5 mV
+    for t in pc.TECHS:
+        diff = s[f"cancelled_{t}"] != s[f"closed_cancelled_{t}"]
+        assert diff.mean() < 0.03, t
+    # Algorithm 1 decodes SA2 first: selection is never cancelled where SA2 alone detects
+    assert not np.any(s["cancelled_selection"] & ~s["cancelled_single"])
+    p = {t: s[f"cancelled_{t}"].mean() for t in pc.TECHS}
+    assert p["selection"] < p["single"] and p["combination"] < p["single"]
+
+
+def test_radial_tracks_null_spacing_lambda_over_4():
+    tr = pc.radial_tracks(pc.Config(), seed=3)
+    assert list(tr["angle_deg"]) == [0.0, 45.0, 90.0, 180.0]
+    d = tr["distance_m"]
+    assert d.size == 49 and d[0] == pytest.approx(0.04) and d[-1] == pytest.approx(1.0)
+    pos, spacing = pc.minima_spacing_m(d, tr["diff_v"][0])
+    assert pos.size >= 8
+    assert abs(spacing - LAMBDA_915_M / 4) <= 0.05 * LAMBDA_915_M / 4
+    big = tr["closed_diff_v"] > 0.2 * tr["closed_diff_v"].max()
+    np.testing.assert_allclose(tr["diff_v"][big], tr["closed_diff_v"][big], rtol=0.01)
+
+
+def test_workers_do_not_change_results():
+    base = pc.Config()
+    cfg = replace(base, geometry=replace(base.geometry, tag_x_m=(1.0, 5.0)),
+                  mc=replace(base.mc, positions_per_cell=12, repetitions=2, workers=1))
+    one = pc.monte_carlo(cfg, seed=7)
+    two = pc.monte_carlo(replace(cfg, mc=replace(cfg.mc, workers=2)), seed=7)
+    assert one.keys() == two.keys()
+    for k in one:
+        np.testing.assert_array_equal(one[k], two[k], err_msg=k)
+    assert one["cell"].size == 2 * 2 * 12

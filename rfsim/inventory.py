@@ -22,9 +22,10 @@ uniformly from [0, 2^Q − 1] and replies with an RN16 when it reaches 0. Per sl
 Timing (anchors §4.3, §4.6): the reader starts its next command T2 (``t2_tpri`` Tpri) after
 the end of a detected reply, and max(T1max + T3, T4) after the end of its command when it
 detected nothing. Each command segment starts with one Tari of CW before the delimiter
-(``Reader.transmit``). So an empty slot lasts lead-in + command + max(T1max + T3, T4), a
-collided slot lead-in + command + T1 + RN16 + T2 (+ the ACK exchange when the reader decoded
-garbage bits from the collision and ACKed them), a successful one adds ACK + T1 + EPC + T2.
+(``Reader.transmit``), which lies inside the preceding gap. A slot lasts from its command's
+start to the next command's start: an empty slot command + max(T1max + T3, T4), a collided
+slot command + T1 + RN16 + T2 (+ the ACK exchange when the reader decoded garbage bits from
+the collision and ACKed them), a successful one adds ACK + T1 + EPC + T2.
 Durations come from the exchanges themselves (command durations of the link profile, reply
 starts as detected by the receiver); silent time is skipped, not sampled.
 
@@ -242,6 +243,11 @@ class _Clock:
         return ex.cmd_end_s + self.idle_s
 
 
+def _round_half_up(x: float) -> int:
+    """Q = round(Qfp) with halves rounded up (Python's round() would round 2.5 to 2)."""
+    return int(math.floor(x + 0.5))
+
+
 def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: float = 0.0,
                   on_round: Callable[[int, float], None] | None = None) -> InventoryLog:
     """Inventory the tags behind ``air`` with the Q algorithm (module docstring).
@@ -283,7 +289,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
                               round_index=rnd, new_round=True)
             t_cmd = clock.next_command_s(ex, 16)
             new_round = False
-        q = int(round(qfp)) if config.q_mode == "dynamic" else int(round(config.q_initial))
+        q = _round_half_up(qfp) if config.q_mode == "dynamic" else _round_half_up(config.q_initial)
         cmd = Query(dr=link.dr, m=link.m, trext=link.trext, sel=config.sel, session=config.session,
                     target=target, q=q)
         frame_left = 1 << q
@@ -314,7 +320,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
             frame_left -= 1
             if n_slots >= config.max_slots:
                 break
-            q_new = int(round(qfp))
+            q_new = _round_half_up(qfp)
             if config.q_mode == "dynamic" and q_new != q:
                 updn = 1 if q_new > q else -1
                 q += updn

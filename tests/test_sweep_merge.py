@@ -95,3 +95,11 @@ def test_a_column_named_like_a_merge_column_is_refused(toy, tmp_path):
     with pytest.raises(ValueError, match="already has a column 'sweep_point'"):
         run_sweep(s, SerialExecutor())
     assert not (tmp_path / "toy.h5").exists()
+
+
+def test_a_swept_sub_table_is_stored_as_text(toy, tmp_path):
+    s = spec(tmp_path, {"kind": "grid", "key": "inner", "values": [{"gain_db": 1.0}, {"gain_db": 2.0}]},
+             reps=1)
+    ds = read_dataset(run_sweep(s, SerialExecutor()).output)
+    assert list(ds.tables["reads"]["sweep.inner"].data) == ["{'gain_db': 1.0}"] * 2 + ["{'gain_db': 2.0}"] * 2
+    assert ds.grids["field"][1]["p_w"].data.shape == (2, 1, 3)

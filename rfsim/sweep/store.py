@@ -147,7 +147,9 @@ def _value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
 
     f = _key_field(config_cls, key)
     meta = field_meta(f) if f is not None else {"unit": "", "doc": ""}
-    if any(isinstance(v, (list, tuple, dict)) or v is None for v in values):
+    if any(isinstance(v, dict) for v in values):  # a whole sub-table swept at once
+        data = [repr(v) for v in values]
+    elif any(isinstance(v, (list, tuple)) or v is None for v in values):
         data = [_toml_value(tuple(v) if isinstance(v, list) else v) for v in values]
     else:
         data = list(values)

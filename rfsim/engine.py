@@ -20,11 +20,12 @@ exact carrier phase exp(−j2π·fc·τ) and Doppler of every path, the envelope
 when the relative RMS envelope error of doing so (:func:`narrowband_rms_error`: the
 per-path Bernstein bound 2π·B·(τ − τ0), B = 2·BLF the main lobe of the FM0/Miller reply, τ0
 the earliest delay, power-weighted over the paths) is at most :data:`NARROWBAND_TOLERANCE`;
-otherwise every path gets its exact fractional delay. The common delay τ0 (time of flight, 3.3 ns/m) is then dropped from the
-envelope only — it shifts the reply by tens of ns, far below the T1 tolerance, and has no
-effect on RSSI, phase and Doppler, which keep the exact carrier phase of every path. (The fractional-delay interpolator also rings on the hard-switched FM0/Miller
-edges — an artefact of sampling a non-band-limited reply, seen as a false SNR ceiling —
-which the narrowband path avoids.)
+otherwise every path gets its exact fractional delay. The common delay τ0 (time of flight,
+3.3 ns/m) is then dropped from the envelope only — it shifts the reply by tens of ns, far
+below the T1 tolerance, and has no effect on RSSI, phase and Doppler, which keep the exact
+carrier phase of every path. (The fractional-delay interpolator also rings on the
+hard-switched FM0/Miller edges — an artefact of sampling a non-band-limited reply, seen as
+a false SNR ceiling — which the narrowband path avoids.)
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
 command, T4 between commands without a reply), so silent air time costs nothing. Each

@@ -263,3 +263,15 @@ def test_time_is_float64_late_exchanges_equal_early_ones():
         out.append((ex.read.phase_rad, ex.read.rssi_dbm))
     assert out[0][0] == pytest.approx(out[1][0], abs=1e-6)
     assert out[0][1] == pytest.approx(out[1][1], abs=1e-6)
+
+
+def test_bench_exchange_reports_its_measurements():
+    from rfsim.bench.exchange import bench_exchange
+    from rfsim.cli.bench import BENCHMARKS
+
+    assert BENCHMARKS["exchange"][:2] == ("rfsim.bench.exchange", "bench_exchange")
+    out = bench_exchange(n_rounds=2)
+    assert out["read_rate"] == 1.0
+    # Query + ACK segments of miller4-320k at 4 MS/s: ≈ 2.96 ms of air per round
+    assert out["air_time_per_round_s"] == pytest.approx(2.96e-3, rel=0.02)
+    assert out["air_time_per_wall_s"] > 0 and out["peak_traced_mb"] > 0

@@ -90,7 +90,7 @@ def friis_read_range_m(fc_hz: float, tag_cfg: TagConfig) -> float:
 
 
 def test_read_range_equals_friis_prediction():
-    # Free space, NF 0 dB: at the range limit (≈ 5.7 m) the reply arrives ≈ 47 dB above the
+    # Free space, NF 0 dB: at the range limit (≈ 6.6 m) the reply arrives ≈ 45 dB above the
     # noise per sample, so reception never limits; the tag's power-up does.
     tag_cfg = TagConfig()
     reader = Reader(ReaderConfig(hopping=False, noise_figure_db=0.0, ptx_dbm=PTX_DBM), [READER_ANTENNA],

@@ -13,9 +13,9 @@ FIELDS = ("time_s", "distance_m", "antenna", "channel_index", "rssi_dbm", "phase
 
 def test_rfsim_run_link_writes_reads_and_figure(tmp_path, capsys):
     xr = pytest.importorskip("xarray")
-    # 1 m and 2 m are well inside the range (≈ 5–6 m for the default 30 dBm, 6 dBi patch,
-    # PASS chip sensitivity; the APDP fades of the default channel are a few dB), 20 m is far
-    # outside (free-space incident power ≈ −22 dBm there, plus the fades).
+    # 1 m and 2 m are well inside the range (≈ 6.6 m in free space for the default 30 dBm,
+    # 6 dBi patch, PASS chip sensitivity; the APDP fades of the default channel are a few
+    # dB), 20 m is far outside (free-space incident power ≈ −22 dBm there, plus the fades).
     distances = (1.0, 2.0, 20.0)
     rc = main(["run", "link", "--seed", "3", "--out-dir", str(tmp_path),
                "--set", f"geometry.distances_m={list(distances)}", "--set", "rounds_per_point=2"])

@@ -26,7 +26,9 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
 
     Returns
     -------
-    dict with ``air_time_per_wall_s`` (real-time factor), ``rounds_per_s``,
+    dict with ``air_time_per_wall_s`` (real-time factor), ``air_time_per_cpu_s`` (the same
+    per second of process CPU time: less sensitive to other load on a shared machine),
+    ``rounds_per_s``,
     ``air_time_per_round_s``, ``samples_per_round``, ``read_rate``, ``peak_traced_mb``.
     """
     # imported here: rfsim does not import devices/channels/scenarios at module level
@@ -57,12 +59,14 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
 
     one_round()  # warm-up: numba compilation / cache load
     samples, ok = 0, 0
+    c0 = time.process_time()
     t0 = time.perf_counter()
     for _ in range(int(n_rounds)):
         ex = one_round()
         samples += sum(e.n_samples for e in ex)
         ok += ex[-1].command == "ACK" and ex[-1].success
     wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     air = samples / reader.fs_hz
 
     tracemalloc.start()
@@ -72,6 +76,7 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     tracemalloc.stop()
     return {
         "air_time_per_wall_s": air / wall,
+        "air_time_per_cpu_s": air / cpu,
         "rounds_per_s": n_rounds / wall,
         "air_time_per_round_s": air / n_rounds,
         "samples_per_round": samples / n_rounds,

@@ -43,7 +43,7 @@ import numpy as np
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Isotropic, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
-from rfsim.config import param
+from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset, column
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
 from rfsim.rng import trial_rng
@@ -65,6 +65,9 @@ class RoomConfig:
     floor: bool = param(True, doc="floor reflection (image method, concrete eps_r 5.3)")
     apdp: bool = param(True, doc="exponential APDP diffuse taps (PASS room curves)")
 
+    def __post_init__(self):
+        check_fields(self, "room")
+
 
 @dataclass(frozen=True)
 class CaptureConfig:
@@ -75,6 +78,9 @@ class CaptureConfig:
     trials: int = param(20, lo=1, hi=100000, doc="trials per ratio")
     noise_figure_db: float = param(40.0, lo=0.0, hi=80.0, unit="dB",
                                    doc="reader noise figure in this experiment (sets the SNR of the replies)")
+
+    def __post_init__(self):
+        check_fields(self, "capture")
 
 
 @dataclass(frozen=True)

@@ -169,7 +169,7 @@ def _check_fsa(n, L, frames, seed):
     air = ProtocolAir(LINK, _states(n, seed=seed))
     q = int(math.log2(L))
     log = run_inventory(air, InventoryConfig(q_mode="fixed", q_initial=float(q), select_before_round=True,
-                                             max_rounds=frames))
+                                             max_rounds=frames, max_slots=frames * L + 1))
     counts = _frame_counts(log, frames)
     assert counts.sum() == frames * L
     mean = np.array(fsa.expected_counts(n, L))

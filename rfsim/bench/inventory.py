@@ -1,0 +1,62 @@
+"""Benchmark of the inventory: a sample-level inventory of N tags to completion, and the
+Q algorithm's slots and air time to read all N tags at protocol level."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from rfsim.inventory import EngineAir, InventoryConfig, ProtocolAir, run_inventory
+from rfsim.rng import trial_rng
+
+
+def _circle(n: int, seed: int) -> EngineAir:
+    """n tags on a 2 m circle around an isotropic reader in free space (equal powers)."""
+    from channels import Antenna, Channel, Isotropic, Scene
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import TagConfig
+    from scenarios.inventory import make_tags, tag_antenna
+
+    ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
+                 polarization="circular")
+    ants = [tag_antenna((2.0 * math.cos(a), 2.0 * math.sin(a), 1.0), a + math.pi)
+            for a in 2 * math.pi * np.arange(n) / n]
+    tags = make_tags(TagConfig(), ants, seed=seed, key=(0,))
+    reader = Reader(ReaderConfig(), [ra], rng=trial_rng(seed, 1))
+    return EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, 2))
+
+
+def bench_inventory(n_tags: int = 100, *, populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50,
+                    seed: int = 0) -> dict:
+    """Wall time of one sample-level Q-algorithm inventory of ``n_tags`` tags to completion
+    (numba warmed up on a 3-tag inventory first), and the mean ± std of slots and air time
+    to read all N tags at protocol level over ``runs`` populations for each N."""
+    from devices.gen2_tag_state import TagState
+    from rfsim.gen2.link import profile
+
+    run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation)
+    air = _circle(n_tags, seed)
+    t0 = time.perf_counter()
+    log = run_inventory(air, InventoryConfig())
+    wall = time.perf_counter() - t0
+    out = {"sample_n_tags": n_tags, "sample_wall_s": wall, "sample_slots": log.n_slots,
+           "sample_air_time_s": log.air_time_s, "sample_tags_read": len(log.tags_read()),
+           "sample_air_time_per_wall_s": log.air_time_s / wall}
+    link = profile("miller4-320k")
+    for n in populations:
+        slots, air_s = [], []
+        for r in range(runs):
+            states = [(TagState(f"{k + 1:024X}"), trial_rng(seed, 10 + n, r, k)) for k in range(n)]
+            done = run_inventory(ProtocolAir(link, states), InventoryConfig()).completion(n)
+            slots.append(done[0])
+            air_s.append(done[1])
+        s, a = np.array(slots, float), np.array(air_s)
+        out.update({f"N{n}_slots_mean": s.mean(), f"N{n}_slots_std": s.std(ddof=1),
+                    f"N{n}_efficiency_mean": float(np.mean(n / s)),
+                    f"N{n}_air_time_mean_s": a.mean(), f"N{n}_air_time_std_s": a.std(ddof=1)})
+    return out
+
+
+__all__ = ["bench_inventory"]

@@ -54,7 +54,7 @@ from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
 from rfsim.gen2.pie import pie_decode
-from rfsim.units import dbm_to_w
+from rfsim.units import dbm_to_w, w_to_dbm
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -240,7 +240,8 @@ class SenseATag:
                 self._expect = "EPC"
         if self.mode == "responding":
             return self.tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        p_dbm = float(10 * np.log10(max(incident_power_w(np.asarray(incident)), 1e-30) / 1e-3))
+        p_w = incident_power_w(np.asarray(incident))
+        p_dbm = float(w_to_dbm(p_w)) if p_w > 0 else -math.inf
         return TagResponse(powered=True, command=cmd, reply=None, gamma=None, reply_start_s=None, blf_hz=None,
                            reason="no reply", incident_power_dbm=p_dbm,
                            gamma_rest=self.tag.reflection_states.gamma_a)

@@ -31,10 +31,17 @@ before the RN16 and the ST decodes on SA2 unless the ASK stamp symbol is '-' (th
 *cancelled* = detectable and not detected. The probability per cell and technique has a
 Clopper–Pearson 95 % interval over all positions × repetitions of the cell.
 
-Deviations from the source (stated in the dataset attributes too): the tag's ASK states are
-the PASS UCODE-class chip against a matched antenna (Γ_A = 0, absorbing), so A_T2 = 0
-at the ST, where the source's measured modulator gives two strong states with
-A_T1/A_T2 ≈ 1.03; the stamp transmitter is the reader-powered tag with a three-state
+Deviations from the source (stated in the dataset attributes too): by default
+(``tag_states.model = "chip"``) the tag's ASK states are the PASS UCODE-class chip against a
+matched antenna (Γ_A = 0, absorbing; the engine's tag re-radiates Γ(t)·incident without a
+structural term), so A_T2 = 0 at the ST and the modulation |A_T1 − A_T2| = A_T1 stays above
+the threshold in every cell: the probability of cancellation then *rises* with distance
+(A_T approaches the threshold, the null region widens). The source's measured modulator has
+two strong states with A_T1/A_T2 ≈ 1.03 (Tables 3.1/3.2), so its modulation falls below the
+threshold a few metres out and the R3-5 probability falls with distance;
+``tag_states.model = "source"`` (Γ_A = −0.70, Γ_B = −0.721, backscatter only; power-up keeps
+the chip model) with ``st.detector_gain = 6`` (the source's detector output, R3-1/R3-4)
+reproduces that regime. The stamp transmitter is the reader-powered tag with a three-state
 modulator (S1 = Γ_B, S2 = Γ_A, S3 = −Γ_B) instead of an exciter-powered ST (Fig. 5.8); one
 reader segment per (cell, repetition) with its own channel draw; no noise at the ST (the
 source's threshold, not its noise, decides).
@@ -51,6 +58,7 @@ import math
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -63,6 +71,7 @@ from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
                                  st_antenna, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
+from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.engine import NARROWBAND_TOLERANCE, _method
@@ -118,6 +127,15 @@ class TrackConfig:
     apdp: bool = param(False, doc="small scale on the tracks (off: deterministic LoS, as the Fig. 3.8 model)")
 
 
+@dataclass(frozen=True)
+class TagStatesConfig:
+    model: Literal["chip", "source"] = param(
+        "chip", doc="tag reflection states: 'chip' = the tag config's (Gamma_A = 0 for ASK); 'source' = two "
+                    "strong ASK states with A_T1/A_T2 = 1.03 as the source's Tables 3.1/3.2")
+    source_gamma_a: float = param(-0.70, lo=-1.0, hi=1.0, doc="'source': Gamma_A (real, ASK)")
+    source_gamma_b: float = param(-0.721, lo=-1.0, hi=1.0, doc="'source': Gamma_B (real, ASK)")
+
+
 def _reader_default() -> ReaderConfig:
     # PASS default link, fixed channel 26 of the FCC plan (915.25 MHz, closest to 915 MHz)
     return ReaderConfig(link_profile="pass-miller2-48k", fs_hz=1e6, hopping=False, fixed_channel=26)
@@ -130,6 +148,7 @@ class Config:
     tracks: TrackConfig = param(TrackConfig(), doc="radial ST tracks (Fig. 3.15)")
     reader: ReaderConfig = param(_reader_default(), doc="reader")
     tag: TagConfig = param(TagConfig(), doc="tag")
+    tag_states: TagStatesConfig = param(TagStatesConfig(), doc="tag reflection states used for backscatter")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sense-a-tag (threshold, detector gain, spacing)")
 
 
@@ -182,6 +201,11 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, g)
     tag = PassiveTag(config.tag, ta, rng=trial_rng(seed, *index, 1))
+    ts = config.tag_states
+    if ts.model == "source":
+        # backscatter states only; power-up keeps the tag config's chip model (the source's
+        # tag replies in every cell)
+        tag.reflection_states = ReflectionStates.ask(ts.source_gamma_a, ts.source_gamma_b)
     lk = reader.link
     stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
     window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
@@ -458,10 +482,11 @@ def run(config: Config, *, seed: int) -> Dataset:
     for i, a in enumerate(tr["angle_deg"]):
         ds.attrs[f"track_{int(round(a))}deg_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
     _analytic_grids(ds)
-    ds.attrs["deviations"] = ("tag ASK states Gamma_A=0 (A_T2=0) vs the source's two strong states; stamp sent "
-                              "by the reader-powered tag with a 3-state modulator; one segment per cell and "
-                              "repetition; no noise at the ST; detector gain "
-                              f"{config.st.detector_gain:g} (source ~6)")
+    states = ("Gamma_A=0 (A_T2=0): modulation above threshold in all cells, P rises with distance"
+              if config.tag_states.model == "chip" else "source-like A_T1/A_T2=1.03 (backscatter only)")
+    ds.attrs["deviations"] = (f"tag states {states}; stamp sent by the reader-powered tag with a 3-state "
+                              "modulator; one reader segment per cell and repetition; no noise at the ST; "
+                              f"detector gain {config.st.detector_gain:g} (source ~6)")
     return ds
 
 

@@ -38,10 +38,10 @@ def bench_inventory(n_tags: int = 100, *, populations: tuple[int, ...] = (10, 50
 
     run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation)
     air = _circle(n_tags, seed)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     log = run_inventory(air, InventoryConfig())
-    wall = time.perf_counter() - t0
-    out = {"sample_n_tags": n_tags, "sample_wall_s": wall, "sample_slots": log.n_slots,
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    out = {"sample_n_tags": n_tags, "sample_wall_s": wall, "sample_cpu_s": cpu, "sample_slots": log.n_slots,
            "sample_air_time_s": log.air_time_s, "sample_tags_read": len(log.tags_read()),
            "sample_air_time_per_wall_s": log.air_time_s / wall}
     link = profile("miller4-320k")

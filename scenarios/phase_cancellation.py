@@ -74,10 +74,12 @@ from devices.tag import PassiveTag, TagConfig
 from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
+from rfsim.errors import ConfigError
 from rfsim.engine import NARROWBAND_TOLERANCE, _method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
+from rfsim.units import wavelength_m
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -150,6 +152,15 @@ class Config:
     tag: TagConfig = param(TagConfig(), doc="tag")
     tag_states: TagStatesConfig = param(TagStatesConfig(), doc="tag reflection states used for backscatter")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sense-a-tag (threshold, detector gain, spacing)")
+
+    def __post_init__(self):
+        n = len(self.geometry.tag_x_m)
+        if n == 0:
+            raise ConfigError("geometry.tag_x_m", self.geometry.tag_x_m, "at least one cell")
+        if self.tracks.cell >= n:
+            raise ConfigError("tracks.cell", self.tracks.cell, f"a cell index 0…{n - 1}")
+        if not self.tracks.d_min_m < self.tracks.d_max_m:
+            raise ConfigError("tracks.d_max_m", self.tracks.d_max_m, f"> tracks.d_min_m = {self.tracks.d_min_m}")
 
 
 # ----------------------------------------------------------------------------- one exchange
@@ -252,13 +263,19 @@ def _scene(apdp: bool) -> Scene:
 # ----------------------------------------------------------------------------- ST positions
 
 
-def st_outcomes(config: Config, ex: Exchange, sa_pos, a_gain, b_gain) -> dict[str, np.ndarray]:
-    """Sample-level ST chains for n positions.
+def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.ndarray]:
+    """Sample-level ST chains for n positions, and the closed forms from the same phasors.
 
     Parameters
     ----------
-    sa_pos : (n, k, 3) antenna positions (k = 2: SA1, SA2; k = 1: SA2)
-    a_gain, b_gain : (n, k) complex narrowband gains reader→SA and tag→SA
+    a_gain, b_gain : (n, k) complex narrowband gains reader→SA and tag→SA (k = 2: SA1, SA2;
+        k = 1: SA2 alone)
+
+    Returns
+    -------
+    dict of (n,) arrays: A_R, A_T1, A_T2, θ per antenna [V, rad] (antenna level, ``sqrt(2R)·|phasor|``
+    at 50 Ω), sample-level detector differences ``diff_*_v``, closed forms ``closed_*``,
+    ``detectable``, ``detected_<technique>``, ``cancelled_<technique>``, ``stamp_use_p1``
     """
     st = config.st
     n, k = a_gain.shape
@@ -274,9 +291,9 @@ def st_outcomes(config: Config, ex: Exchange, sa_pos, a_gain, b_gain) -> dict[st
         out[f"a_t2_{name}_v"] = np.abs(bs2[:, j])
         out[f"theta_{name}_rad"] = np.angle(bs1[:, j] * np.conj(cw[:, j]))
     two = k == 2
-    c1, b11, b12 = (cw[:, 0], bs1[:, 0], bs2[:, 0]) if two else (cw[:, 0], bs1[:, 0], bs2[:, 0])
-    closed = sa.technique_outcomes(c1, b11, b12, cw[:, -1], bs1[:, -1], bs2[:, -1], detector_gain=g,
-                                   threshold_v=st.threshold_v)
+    # column 0 is SA1 for a dual-antenna ST (with one antenna, SA2 stands in for SA1 unused)
+    closed = sa.technique_outcomes(cw[:, 0], bs1[:, 0], bs2[:, 0], cw[:, -1], bs1[:, -1], bs2[:, -1],
+                                   detector_gain=g, threshold_v=st.threshold_v)
     out["sync_sa2_v"] = closed.sync_sa2_v
     out["closed_diff_sa2_v"] = closed.diff_sa2_v
     if two:
@@ -382,7 +399,7 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     centers = tag_pos + np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
     sa_pos = st_antenna_positions(centers, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
     a, b, err = _links(config, ex, sa_pos, tag_pos, trial_rng(seed, cell, rep, 4))
-    out = st_outcomes(config, ex, sa_pos, a, b)
+    out = st_outcomes(config, ex, a, b)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
                st_x_m=centers[:, 0], st_y_m=centers[:, 1], orientation_rad=orient,
                tag_replied=np.full(n, ex.rn16 is not None), narrowband_error=np.full(n, err))
@@ -426,11 +443,11 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     sa_pos = pos.reshape(-1, 1, 3)
     a, b, _ = _links(cfg, ex, sa_pos, tag_pos, trial_rng(seed, 1000, 4))
     single = replace(cfg, st=replace(cfg.st, n_antennas=1, technique="single"))
-    out = st_outcomes(single, ex, sa_pos, a, b)
+    out = st_outcomes(single, ex, a, b)
     shape = (ang.size, d.size)
     return {"angle_deg": np.asarray(tc.angles_deg, float), "distance_m": d,
             "diff_v": out["diff_sa2_v"].reshape(shape), "closed_diff_v": out["closed_diff_sa2_v"].reshape(shape),
-            "theta_rad": out["theta_sa2_rad"].reshape(shape)}
+            "theta_rad": out["theta_sa2_rad"].reshape(shape), "fc_hz": ex.fc_hz}
 
 
 def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
@@ -481,6 +498,11 @@ def run(config: Config, *, seed: int) -> Dataset:
                  "theta_rad": column(tr["theta_rad"], "rad", "relative phase backscatter vs CW at the ST")})
     for i, a in enumerate(tr["angle_deg"]):
         ds.attrs[f"track_{int(round(a))}deg_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        # far-field geometry: θ turns by 2π(1 + cos α)/λ per metre, a null every π
+        lam = float(wavelength_m(tr["fc_hz"]))
+        ds.attrs[f"track_{int(round(a))}deg_geometric_spacing_m"] = (
+            lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
+            else float("inf"))
     _analytic_grids(ds)
     states = ("Gamma_A=0 (A_T2=0): modulation above threshold in all cells, P rises with distance"
               if config.tag_states.model == "chip" else "source-like A_T1/A_T2=1.03 (backscatter only)")

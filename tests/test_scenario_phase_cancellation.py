@@ -111,7 +111,7 @@ def test_radial_tracks_null_spacing_lambda_over_4():
 
 def test_workers_do_not_change_results():
     base = pc.Config()
-    cfg = replace(base, geometry=replace(base.geometry, tag_x_m=(1.0, 5.0)),
+    cfg = replace(base, geometry=replace(base.geometry, tag_x_m=(1.0, 5.0)), tracks=replace(base.tracks, cell=0),
                   mc=replace(base.mc, positions_per_cell=12, repetitions=2, workers=1))
     one = pc.monte_carlo(cfg, seed=7)
     two = pc.monte_carlo(replace(cfg, mc=replace(cfg.mc, workers=2)), seed=7)

@@ -269,7 +269,8 @@ def to_dict(config: Any) -> dict[str, Any]:
     return out
 
 
-def _toml_value(value: Any) -> str:
+def toml_value(value: Any) -> str:
+    """One value as TOML text (``"none"`` for None)."""
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):
@@ -281,7 +282,7 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, str):
         return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
     if isinstance(value, (tuple, list)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
     if value is None:
         return '"none"'
     raise TypeError(f"cannot write {value!r} as TOML")
@@ -297,7 +298,7 @@ def to_toml(config: Any) -> str:
         if table and scalars:
             lines.append(f"[{table}]")
         for k, v in scalars.items():
-            lines.append(f"{k} = {_toml_value(v)}")
+            lines.append(f"{k} = {toml_value(v)}")
         if scalars:
             lines.append("")
         for k, v in tables.items():
@@ -324,7 +325,7 @@ def describe(cls: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
             allowed = _range_text(meta)
         else:
             allowed = _type_name(tp)
-        rows.append((key, _toml_value(f.default), allowed, meta["doc"]))
+        rows.append((key, toml_value(f.default), allowed, meta["doc"]))
     return rows
 
 
@@ -339,5 +340,6 @@ __all__ = [
     "load_config",
     "to_dict",
     "to_toml",
+    "toml_value",
     "describe",
 ]

@@ -22,6 +22,7 @@ BENCHMARKS = {
     "bulk-links": ("rfsim.bench.channels", "bench_bulk_links", {"n_links": 20_000, "repeats": 1}),
     "inventory": ("rfsim.bench.inventory", "bench_inventory", {"n_tags": 20, "populations": (10, 50), "runs": 5}),
     "exchange": ("rfsim.bench.exchange", "bench_exchange", {"n_rounds": 20}),
+    "sweep": ("rfsim.bench.sweep", "bench_sweep", {"n_points": 16, "dask_points": 50}),
 }
 
 

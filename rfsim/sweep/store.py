@@ -143,14 +143,14 @@ def _key_field(config_cls: type, key: str) -> dataclasses.Field | None:
 
 def _value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
     """One column of the swept values of ``key`` (lists/tuples as their TOML text)."""
-    from rfsim.config import _toml_value
+    from rfsim.config import toml_value
 
     f = _key_field(config_cls, key)
     meta = field_meta(f) if f is not None else {"unit": "", "doc": ""}
     if any(isinstance(v, dict) for v in values):  # a whole sub-table swept at once
         data = [repr(v) for v in values]
     elif any(isinstance(v, (list, tuple)) or v is None for v in values):
-        data = [_toml_value(tuple(v) if isinstance(v, list) else v) for v in values]
+        data = [toml_value(tuple(v) if isinstance(v, list) else v) for v in values]
     else:
         data = list(values)
     desc = f"swept config value {key}" + (f": {meta['doc']}" if meta["doc"] else "")

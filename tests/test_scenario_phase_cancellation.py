@@ -119,3 +119,17 @@ def test_workers_do_not_change_results():
     for k in one:
         np.testing.assert_array_equal(one[k], two[k], err_msg=k)
     assert one["cell"].size == 2 * 2 * 12
+
+
+@pytest.mark.slow
+def test_paper_size_monte_carlo_within_budget():
+    """3900 positions × 3 repetitions × all techniques (item 8: ≤ 120 s on 2 cores)."""
+    base = pc.Config()
+    cfg = replace(base, mc=replace(base.mc, full=True))
+    t0 = time.perf_counter()
+    s = pc.monte_carlo(cfg, seed=1)
+    wall = time.perf_counter() - t0
+    assert s["cell"].size == 13 * 300 * 3
+    assert wall <= 120.0
+    p = {t: s[f"cancelled_{t}"].mean() for t in pc.TECHS}
+    assert p["selection"] < p["combination"] < p["single"] and p["stamp"] < p["single"]

@@ -33,6 +33,7 @@ half-bit (times the subcarrier sign for Miller), then either
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -92,22 +93,32 @@ def _levels(bits: np.ndarray, m: int, cur: int, prev: int) -> tuple[np.ndarray, 
     return out, int(cur), int(prev)
 
 
+@functools.lru_cache(maxsize=16)
+def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int, int]:
+    """Cached (read-only) :func:`preamble_levels`; a pure function of (m, trext), at most
+    8 distinct keys."""
+    if m == 1:
+        parts = []
+        if trext:
+            parts.append(_levels(np.zeros(12, dtype=np.uint8), 1, -1, 0)[0])
+        parts.append(FM0_PREAMBLE)
+        levels, cur, prev = np.concatenate(parts), int(FM0_PREAMBLE[-1]), 0
+    else:
+        pilot = np.ones(32 if trext else 8, dtype=np.int8)
+        pre, cur, prev = _levels(MILLER_PREAMBLE_BITS, m, 1, 1)
+        levels = np.concatenate([pilot, pre])
+    levels.setflags(write=False)
+    return levels, cur, prev
+
+
 def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
     """Half-bit levels of pilot + preamble and the encoder state after them.
 
     Returns ``(levels (2·n_pre,) int8, level, previous bit)``; Miller pilot half-bits are
     at level +1 (8 or 32 of them: 4·M or 16·M subcarrier cycles of M/2 cycles each).
     """
-    m = _check_m(m)
-    if m == 1:
-        parts = []
-        if trext:
-            parts.append(_levels(np.zeros(12, dtype=np.uint8), 1, -1, 0)[0])
-        parts.append(FM0_PREAMBLE)
-        return np.concatenate(parts), int(FM0_PREAMBLE[-1]), 0
-    pilot = np.ones(32 if trext else 8, dtype=np.int8)
-    pre, cur, prev = _levels(MILLER_PREAMBLE_BITS, m, 1, 1)
-    return np.concatenate([pilot, pre]), cur, prev
+    levels, cur, prev = _preamble(_check_m(m), bool(trext))
+    return levels.copy(), cur, prev
 
 
 def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np.ndarray, int]:
@@ -115,7 +126,7 @@ def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np
     arr = as_bits(bits)
     if dummy:
         arr = np.concatenate([arr, np.ones(1, dtype=np.uint8)])
-    pre, cur, prev = preamble_levels(m=m, trext=trext)
+    pre, cur, prev = _preamble(_check_m(m), bool(trext))
     data, _, _ = _levels(arr, m, cur, prev)
     return np.concatenate([pre, data]), pre.size
 
@@ -139,7 +150,7 @@ def halfsymbols(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
 def reply_duration_s(n_bits: int, *, m: int, trext: bool, blf_hz: float, dummy: bool = True) -> float:
     """Duration of a reply of ``n_bits`` data bits [s] (elements / (2·BLF))."""
     m = _check_m(m)
-    n_pre = preamble_levels(m=m, trext=trext)[0].size
+    n_pre = _preamble(m, bool(trext))[0].size
     return (n_pre + 2 * (n_bits + int(dummy))) * m / (2.0 * blf_hz)
 
 
@@ -292,24 +303,54 @@ def _kernel_viterbi(a, b, miller, state0, last_is_one):
     return out
 
 
+#: Sub-sample shifts [samples] at which the preamble correlation peak is refined (1/16 sample).
+_REFINE_SHIFTS = np.linspace(-0.5, 0.5, 17)
+
+
+@functools.lru_cache(maxsize=256)
+def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Preamble (incl. pilot) template over the samples fully inside it, starting ``delta``
+    samples late: ``(t, t − mean(t))``, both ``(n_pre,) float64``, read-only.
+
+    A pure function of its hashable arguments, cached because the decoder asks for the same
+    few shifts (multiples of 1/16 sample) of the same profile over and over.
+    """
+    pre_el = _elements(_preamble(m, trext)[0], m).astype(np.float64)
+    n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
+    t = np.empty(n_pre)
+    _k.waveform_kernel(pre_el, float(delta), ratio, t)
+    t0 = t - t.mean()
+    t.setflags(write=False)
+    t0.setflags(write=False)
+    return t, t0
+
+
+@functools.lru_cache(maxsize=32)
+def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[tuple[float, np.ndarray, float], ...]:
+    """``(delta, zero-mean template as complex128, its norm)`` for every shift of
+    :data:`_REFINE_SHIFTS` (cached, read-only; a pure function of its arguments)."""
+    bank = []
+    for d in _REFINE_SHIFTS:
+        t0 = _template(m, trext, ratio, float(d))[1]
+        tc = t0.astype(np.complex128)  # seg @ tc is bit-identical to seg @ t0, and faster
+        tc.setflags(write=False)
+        bank.append((float(d), tc, math.sqrt(float(t0 @ t0))))
+    return tuple(bank)
+
+
 def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
     m = _check_m(m)
+    trext = bool(trext)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     r = np.ascontiguousarray(r, dtype=np.complex128)
     if r.ndim != 1:
         raise ValueError(f"r must be 1-D, got shape {r.shape}")
     ratio = _check_rates(blf_hz, fs_hz)
-    pre, cur, prev = preamble_levels(m=m, trext=trext)
+    pre, cur, prev = _preamble(m, trext)
     nh = pre.size + 2 * (int(n_bits) + 1)
     n_reply = int(math.ceil(nh * m / ratio))
-    pre_el = _elements(pre, m).astype(np.float64)
-    n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
-
-    def template(delta):
-        t = np.empty(n_pre)
-        _k.waveform_kernel(pre_el, float(delta), ratio, t)
-        return t, t - t.mean()
+    n_pre = int(math.floor(pre.size * m / ratio))  # samples fully inside the preamble
 
     if start_sample is None:
         last = r.size - n_reply
@@ -317,7 +358,7 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        c = np.abs(correlate(r[: last + n_pre], template(0.0)[1], mode="valid"))
+        c = np.abs(correlate(r[: last + n_pre], _template(m, trext, ratio, 0.0)[1], mode="valid"))
         lag = int(np.argmax(c))
         # The Miller pilot is periodic: lags one element apart correlate almost as well, and
         # an integer lag is up to 1/2 sample off. Refine the three largest local maxima within
@@ -330,21 +371,21 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
         is_max[:-1] &= win[:-1] >= win[1:]
         cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:3]]
         best, start = -1.0, float(lag)
-        for cand in cands:
+        bank = _refine_bank(m, trext, ratio)
+        for cand in cands.tolist():
             seg = r[cand: cand + n_pre]
-            for d in np.linspace(-0.5, 0.5, 17):
+            for d, tc, norm in bank:
                 if cand + d < 0:
                     continue
-                t0 = template(d)[1]
-                v = abs(complex(seg @ t0)) / math.sqrt(float(t0 @ t0))
+                v = abs(complex(seg @ tc)) / norm
                 if v > best:
-                    best, start = v, cand + float(d)
+                    best, start = v, cand + d
     else:
         start = float(start_sample)
         if not 0 <= start <= r.size - n_reply:
             raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
     lag = int(math.floor(start))
-    tpl, tpl0 = template(start - lag)
+    tpl, tpl0 = _template(m, trext, ratio, start - lag)
     seg = r[lag: lag + n_pre]
     peak = complex(seg @ tpl0)
     e_t = float(tpl0 @ tpl0)

@@ -114,12 +114,26 @@ def _doppler_hz(fc_hz, unit_dir, v_src, v_dst):
     return -float(fc_hz) / C_M_S * float(unit_dir @ (v_dst - v_src))
 
 
+#: Most static links whose deterministic part a :class:`Channel` keeps.
+GEOMETRY_CACHE_SIZE = 256
+
+
 class Channel:
-    """A :class:`Scene` plus the held (quasi-static) diffuse draws of its links."""
+    """A :class:`Scene` plus the held (quasi-static) diffuse draws of its links.
+
+    For links between static antennas (no motion) the channel also keeps the deterministic
+    part of the link — large-scale gain, wall loss, antenna gains, polarization mismatch,
+    delay and the image paths, a pure function of the two antennas (compared by value), the
+    carrier and the immutable scene — keyed by ``(tx, rx, fc_hz)`` and bounded by
+    :data:`GEOMETRY_CACHE_SIZE` (oldest entry dropped first). Only the diffuse taps (and the
+    shadowing field, which can be redrawn) are evaluated anew on every call; the result is
+    bit-identical to assembling the whole link again.
+    """
 
     def __init__(self, scene: Scene):
         self.scene = scene
         self._held: dict = {}
+        self._static: dict = {}
 
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
@@ -146,28 +160,18 @@ class Channel:
         """
         sc = self.scene
         key = self._key(tx, rx)  # the antennas as given (before motion) name the link
-        p_tx, v_tx = kinematics(tx, tx_motion, t_s)
-        p_rx, v_rx = kinematics(rx, rx_motion, t_s)
-        if tx_motion is not None:
-            tx = dataclasses.replace(tx, position_m=p_tx)
-        if rx_motion is not None:
-            rx = dataclasses.replace(rx, position_m=p_rx)
-        diff = p_rx - p_tx
-        d = float(np.linalg.norm(diff))
-        if not d > 0:
-            raise ValueError("tx and rx are at the same position")
-        u = diff / d
-        g_ls = float(sc.amplitude_gain(d, fc_hz))
-        env = 1.0
-        if sc.walls:
-            env *= 10.0 ** (-float(wall_loss_db(p_tx, p_rx, list(sc.walls))) / 20.0)
+        static = tx_motion is None and rx_motion is None
+        geo = self._static.get((tx, rx, fc_hz)) if static else None
+        if geo is None:
+            geo = self._geometry(tx, rx, fc_hz, t_s, tx_motion, rx_motion)
+            if static:
+                if len(self._static) >= GEOMETRY_CACHE_SIZE:
+                    self._static.pop(next(iter(self._static)))
+                self._static[(tx, rx, fc_hz)] = geo
+        d, g_ls, env, ant, plf, tau_los, f_los, p_tx, p_rx, images = geo
         if sc.shadowing is not None:
             env *= float(sc.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)))
-        ant = np.sqrt(float(tx.gain_towards(p_rx)) * float(rx.gain_towards(p_tx)))
-        plf = np.sqrt(float(tx.polarization_mismatch(rx)))
         a_los = g_ls * env * ant * plf
-        tau_los = d / C_M_S
-        f_los = _doppler_hz(fc_hz, u, v_tx, v_rx)
 
         parts = []
         diffuse = None
@@ -186,11 +190,38 @@ class Channel:
             diffuse = PathSet(g_ls * env * h, tau_los + rel, np.full(rel.shape, f_los))
         parts.append(PathSet([a_los], [tau_los], [f_los]))
 
-        if sc.surfaces and sc.image_order > 0:
-            parts.append(self._image_part(tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz))
+        if images is not None:
+            parts.append(images)
         if diffuse is not None:
             parts.append(diffuse)
         return concatenate(*parts)
+
+    def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
+        """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse
+        taps and the shadowing): ``(d, g_ls, wall amplitude, antenna gain, √PLF, τ_LoS,
+        f_D,LoS, p_tx, p_rx, image PathSet or None)``."""
+        sc = self.scene
+        p_tx, v_tx = kinematics(tx, tx_motion, t_s)
+        p_rx, v_rx = kinematics(rx, rx_motion, t_s)
+        if tx_motion is not None:
+            tx = dataclasses.replace(tx, position_m=p_tx)
+        if rx_motion is not None:
+            rx = dataclasses.replace(rx, position_m=p_rx)
+        diff = p_rx - p_tx
+        d = float(np.linalg.norm(diff))
+        if not d > 0:
+            raise ValueError("tx and rx are at the same position")
+        u = diff / d
+        g_ls = float(sc.amplitude_gain(d, fc_hz))
+        env = 1.0
+        if sc.walls:
+            env *= 10.0 ** (-float(wall_loss_db(p_tx, p_rx, list(sc.walls))) / 20.0)
+        ant = np.sqrt(float(tx.gain_towards(p_rx)) * float(rx.gain_towards(p_tx)))
+        plf = np.sqrt(float(tx.polarization_mismatch(rx)))
+        images = None
+        if sc.surfaces and sc.image_order > 0:
+            images = self._image_part(tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz)
+        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images)
 
     def _image_part(self, tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
         sc = self.scene

@@ -4,6 +4,10 @@ Reader (:mod:`devices.reader`): PIE transmitter (DSB/SSB/PR-ASK), frequency plan
 hopping, antennas in turn, IQ receiver with leakage removal, FM0/Miller decoding and
 per-read RSSI/phase/Doppler/SNR.
 
+Sense-a-tag (:mod:`devices.sense_a_tag`): one or two antennas, envelope detector, band-pass
+and comparator (:mod:`devices.st_receiver`), the closed forms of phase cancellation
+(:mod:`devices.st_analytic`), dual-antenna techniques and the locator protocol.
+
 Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end physics —
 power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
@@ -12,12 +16,14 @@ sample-level device that listens to a reader segment and answers with Γ(t)
 
 from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
+from devices.sense_a_tag import Observation, SenseATag, SenseATagConfig
 from devices.tag import PassiveTag, TagConfig, TagResponse
 from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
                                   modulation_factor, power_transmission_coefficient,
                                   reflection_coefficient)
 
 __all__ = [
+    "SenseATag", "SenseATagConfig", "Observation",
     "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
     "PassiveTag", "TagConfig", "TagResponse",
     "TagState", "Reply", "FlagPersistence", "pc_word",

@@ -222,6 +222,12 @@ class Reader:
         self.hop_sequence = rng.permutation(n) if self.config.region == "FCC" else np.arange(n)
         #: recently transmitted baseband segments (read-only), keyed by bits and CW lengths
         self._tx_cache: dict = {}
+        #: recently sent commands → (bits (read-only), preamble, T_cmd [s]); pure functions of
+        #: the (frozen) command and the link, dropped when ``link`` is replaced
+        self._cmd_cache: dict = {}
+        self._cmd_cache_link = self.link
+        #: (config, fs, noise power, leakage gain): derived from the frozen config
+        self._derived: tuple = (None, None, 0.0, 0j)
 
     # ------------------------------------------------------------------ plan, antennas
 
@@ -245,13 +251,47 @@ class Reader:
         """Conducted CW power at the antenna port [W]."""
         return float(dbm_to_w(self.config.ptx_dbm))
 
+    def _fixed(self) -> tuple:
+        """``(config, fs, noise power, leakage gain)``, recomputed only when the (frozen)
+        config or the sample rate is replaced."""
+        d = self._derived
+        if d[0] is not self.config or d[1] != self.fs_hz:
+            noise = float(thermal_noise_power_w(self.fs_hz, self.config.noise_figure_db))
+            leak = complex(10.0 ** (-self.config.isolation_db / 20.0) * np.exp(1j * LEAKAGE_PHASE_RAD))
+            d = self._derived = (self.config, self.fs_hz, noise, leak)
+        return d
+
     def noise_power_w(self) -> float:
         """Receiver noise power per complex sample [W]: k·T0·fs·F (kTB·NF over B = fs)."""
-        return float(thermal_noise_power_w(self.fs_hz, self.config.noise_figure_db))
+        return self._fixed()[2]
 
     def leakage_gain(self) -> complex:
         """TX→RX leakage as a complex amplitude: 10^(−isolation/20)·e^{j·LEAKAGE_PHASE_RAD}."""
-        return complex(10.0 ** (-self.config.isolation_db / 20.0) * np.exp(1j * LEAKAGE_PHASE_RAD))
+        return self._fixed()[3]
+
+    def _command(self, cmd) -> tuple:
+        """``(bits, preamble, T_cmd [s])`` of a command (the last :data:`TX_CACHE_SIZE`
+        commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
+        if self._cmd_cache_link is not self.link:
+            self._cmd_cache.clear()
+            self._cmd_cache_link = self.link
+        try:
+            hit = self._cmd_cache.get(cmd)
+        except TypeError:  # an unhashable command: no caching
+            hit, cmd_key = None, None
+        else:
+            cmd_key = cmd
+        if hit is not None:
+            return hit
+        bits = encode(cmd)
+        bits.setflags(write=False)
+        preamble = command_preamble(cmd)
+        hit = (bits, preamble, self.link.command_duration_s(bits, preamble))
+        if cmd_key is not None:
+            if len(self._cmd_cache) >= TX_CACHE_SIZE:
+                self._cmd_cache.pop(next(iter(self._cmd_cache)))
+            self._cmd_cache[cmd_key] = hit
+        return hit
 
     # ------------------------------------------------------------------ transmitter
 
@@ -313,8 +353,8 @@ class Reader:
         cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        bits = encode(cmd)
-        key = (bits.tobytes(), command_preamble(cmd), float(cw_after_s), cw_before_s)
+        bits, preamble, cmd_duration_s = self._command(cmd)
+        key = (bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
         x = self._tx_cache.get(key)
         if x is None:
             # A reader sends the same commands (Query, QueryRep, …) again and again: keep the
@@ -329,7 +369,7 @@ class Reader:
         return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
                          channel_index=self.channel_index(t0_s),
                          antenna_index=self.antenna_index(round_index),
-                         cmd_start_s=start, cmd_end_s=start + self.link.command_duration_s(cmd))
+                         cmd_start_s=start, cmd_end_s=start + cmd_duration_s)
 
     # ------------------------------------------------------------------ receiver
 

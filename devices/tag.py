@@ -201,7 +201,12 @@ def incident_power_w(x: np.ndarray) -> float:
     env = np.abs(np.asarray(x))
     if env.size == 0:
         raise ValueError("empty segment")
-    thr, lo, hi = two_level_threshold(env)
+    return _cw_power_w(env, two_level_threshold(env))
+
+
+def _cw_power_w(env: np.ndarray, levels: tuple[float, float, float]) -> float:
+    """:func:`incident_power_w` from the envelope |x| and its ``two_level_threshold``."""
+    thr, lo, hi = levels
     if hi > 0 and hi - lo >= _MIN_MODULATION * hi:
         env = env[env >= thr]
     return float(np.median(env * env))
@@ -263,11 +268,21 @@ class PassiveTag:
         self.reflection_states = config.reflection_states
         self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
+        self._derived: tuple = (None, 0.0, None)  # (config, τ, PowerUp) derived from that config
 
     @property
     def tau(self) -> float:
         """τ = 1 − |Γ_A|² (see :attr:`TagConfig.tau`)."""
         return self.config.tau
+
+    def _tau_power_up(self) -> tuple:
+        """``(config.tau, config.power_up)``, recomputed only when ``config`` is replaced (the
+        config is frozen; both are pure functions of it)."""
+        cfg, tau, power_up = self._derived
+        if cfg is not self.config:
+            cfg, tau, power_up = self.config, self.config.tau, self.config.power_up
+            self._derived = (cfg, tau, power_up)
+        return tau, power_up
 
     def ticks(self, samples: float, fs_hz: float) -> int:
         """A duration of ``samples`` input samples counted in tag clock ticks,
@@ -293,9 +308,14 @@ class PassiveTag:
         if not fs_hz > 0:
             raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
         rest = self.reflection_states.gamma_a
-        p_inc = incident_power_w(x)
+        env = np.abs(x)
+        if env.size == 0:
+            raise ValueError("empty segment")
+        levels = two_level_threshold(env)
+        p_inc = _cw_power_w(env, levels)  # = incident_power_w(x)
         p_dbm = _dbm(p_inc)
-        powered = bool(self.config.power_up.is_powered(self.tau * p_inc))
+        tau, power_up = self._tau_power_up()
+        powered = bool(power_up.is_powered(tau * p_inc))
         base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest)
         if not powered:
             if self.state.powered:
@@ -306,7 +326,10 @@ class PassiveTag:
             self.state.on_power(True, t0_s)
             self._trcal_ticks = None
 
-        frames = pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.config.envelope_rc_s))
+        if self.config.envelope_rc_s > 0:
+            frames = pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.config.envelope_rc_s))
+        else:  # the ideal detector's envelope is |x|, already split into its two levels
+            frames = pie_decode(env, levels=levels)
         if not frames:
             return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
         frame = frames[0]

@@ -57,6 +57,7 @@ toolbox (``channels.paths``) lazily, so the core never depends on it at import t
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -201,7 +202,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
     link = reader.link
-    window_s = (link.reply_duration_s(reply_bits) + _t1_max_s(link) + 3.0 * link.tpri_s)
+    window_s = _window_s(link, int(reply_bits))
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
     rx = reader.leakage_gain() * tx.samples
@@ -219,8 +220,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             if link_cache is not None and motion is None:
                 link_cache[key] = links
         fwd, bwd = links
-        incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s,
-                               method=_method(fwd, 2.0 * link.blf_hz, propagation))
+        fwd_method = _method(fwd, 2.0 * link.blf_hz, propagation)
+        incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s, method=fwd_method)
         response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
         incident_dbm.append(float(response.incident_power_dbm))
         reasons.append(response.reason)
@@ -233,8 +234,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         if response.gamma is not None or response.gamma_rest != 0:
             # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
             scattered = response.reflection(incident.size) * incident
-            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s,
-                                  method=_method(bwd, 2.0 * link.blf_hz, propagation))
+            bwd_method = fwd_method if bwd is fwd else _method(bwd, 2.0 * link.blf_hz, propagation)
+            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
     noise_w = reader.noise_power_w()
     if noise_w > 0:
         scale = math.sqrt(noise_w / 2.0)
@@ -267,6 +268,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
                     cmd_end_s=float(tx.cmd_end_s))
 
 
+# Timing of a (frozen, hashable) LinkProfile: pure functions, cached per profile.
+@functools.lru_cache(maxsize=64)
 def _t1_range(link):
     from rfsim.gen2.link import t1
 
@@ -275,6 +278,12 @@ def _t1_range(link):
 
 def _t1_max_s(link) -> float:
     return _t1_range(link).max_s
+
+
+@functools.lru_cache(maxsize=256)
+def _window_s(link, reply_bits: int) -> float:
+    """CW after a command [s]: T1max + reply of ``reply_bits`` bits + 3 Tpri."""
+    return link.reply_duration_s(reply_bits) + _t1_max_s(link) + 3.0 * link.tpri_s
 
 
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,

@@ -156,3 +156,122 @@ def frames_kernel(
         nf += 1
         i = j + 1
     return nf
+
+
+#: Block size of numpy's pairwise summation (``PW_BLOCKSIZE`` in numpy's loops_utils).
+_PW_BLOCKSIZE = 128
+
+
+@njit
+def _block_sum(a, lo, n):
+    """One leaf of numpy's pairwise summation (n ≤ 128): 8 running sums, then the rest."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    stop = n - (n % 8)
+    while i < stop:
+        j = lo + i
+        r0 += a[j]
+        r1 += a[j + 1]
+        r2 += a[j + 2]
+        r3 += a[j + 3]
+        r4 += a[j + 4]
+        r5 += a[j + 5]
+        r6 += a[j + 6]
+        r7 += a[j + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@njit
+def pairwise_sum(a, lo, n):
+    """Σ a[lo : lo + n] in the order of numpy's pairwise summation, so that the result equals
+    ``np.add.reduce(a[lo:lo + n])`` bit for bit for contiguous float64 input.
+
+    numpy sums blocks of at most 128 values with :func:`_block_sum` and otherwise returns
+    ``sum(first h) + sum(rest)``, h = n/2 rounded down to a multiple of 8. The recursion is
+    unrolled here with an explicit stack (numba's cache does not handle recursive kernels).
+    """
+    if n <= _PW_BLOCKSIZE:
+        return _block_sum(a, lo, n)
+    s_lo = np.empty(64, dtype=np.int64)
+    s_n = np.empty(64, dtype=np.int64)
+    s_stage = np.zeros(64, dtype=np.int8)  # 0: new, 1: left half pending, 2: right half pending
+    s_val = np.empty(64)
+    top = 0
+    s_lo[0] = lo
+    s_n[0] = n
+    while True:
+        m = s_n[top]
+        if m > _PW_BLOCKSIZE:
+            h = m // 2
+            h -= h % 8
+            s_stage[top] = 1
+            top += 1
+            s_lo[top] = s_lo[top - 1]
+            s_n[top] = h
+            s_stage[top] = 0
+            continue
+        v = _block_sum(a, s_lo[top], m)
+        while True:  # hand v to the parents
+            top -= 1
+            if top < 0:
+                return v
+            if s_stage[top] == 1:  # v is the left half: store it, then do the right half
+                s_val[top] = v
+                s_stage[top] = 2
+                h = s_n[top] // 2
+                h -= h % 8
+                top += 1
+                s_lo[top] = s_lo[top - 1] + h
+                s_n[top] = s_n[top - 1] - h
+                s_stage[top] = 0
+                break
+            v = s_val[top] + v
+
+
+@njit
+def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
+    """Isodata split of ``x`` (see :func:`rfsim.gen2.pie.two_level_threshold`): start at
+    (lo + hi)/2, iterate threshold = (mean below + mean above)/2. ``buf_lo``/``buf_hi``
+    are scratch arrays of ``x.size``; the means are pairwise sums over the samples in
+    input order, as numpy's ``x[mask].mean()``. Returns ``(threshold, low mean, high mean)``."""
+    n = x.size
+    thr = 0.5 * (lo + hi)
+    m_lo = lo
+    m_hi = hi
+    for _ in range(max_iter):
+        nb = 0
+        na = 0
+        for i in range(n):
+            v = x[i]
+            if v < thr:
+                buf_lo[nb] = v
+                nb += 1
+            else:
+                buf_hi[na] = v
+                na += 1
+        if nb == 0 or nb == n:
+            break
+        m_lo = pairwise_sum(buf_lo, 0, nb) / nb
+        m_hi = pairwise_sum(buf_hi, 0, na) / na
+        new = 0.5 * (m_lo + m_hi)
+        if new == thr:
+            break
+        thr = new
+    return thr, m_lo, m_hi

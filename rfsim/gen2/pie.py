@@ -228,11 +228,21 @@ def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "qu
 
 
 def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
-    """Isodata split of a two-level signal: ``(threshold, low_mean, high_mean)``.
+    """Isodata split of a two-level signal: ``(threshold, low_mean, high_mean)`` (numba kernel).
 
     Starts at (min + max)/2 and iterates threshold = (mean below + mean above)/2; the
     result is independent of the signal's scale and offset and of the duty cycle.
     """
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    lo, hi = float(x.min()), float(x.max())
+    if x.ndim != 1:
+        x = x.ravel()
+    thr, m_lo, m_hi = _k.two_level_kernel(x, lo, hi, int(max_iter), np.empty(x.size), np.empty(x.size))
+    return float(thr), float(m_lo), float(m_hi)
+
+
+def two_level_threshold_reference(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
+    """Plain-NumPy twin of :func:`two_level_threshold`, for tests."""
     x = np.asarray(x, dtype=np.float64)
     lo, hi = float(x.min()), float(x.max())
     thr = 0.5 * (lo + hi)
@@ -249,13 +259,13 @@ def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, fl
     return thr, m_lo, m_hi
 
 
-def _prepare(x, threshold, hysteresis):
+def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
     x = np.ascontiguousarray(x, dtype=np.float64)
     if x.ndim != 1:
         raise ValueError(f"x must be 1-D, got shape {x.shape}")
     if x.size < 2 or not np.all(np.isfinite(x)):
         return x, None, None
-    thr, m_lo, m_hi = two_level_threshold(x)
+    thr, m_lo, m_hi = split(x) if levels is None else (float(v) for v in levels)
     if threshold is not None:
         thr = float(threshold)
     return x, thr, float(hysteresis) * (m_hi - m_lo)
@@ -272,7 +282,8 @@ def _frames(start, end, delim, tari, rtcal, trcal, off, cnt, bits, nf) -> list[P
     ]
 
 
-def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
+def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
+               levels: tuple[float, float, float] | None = None) -> list[PieFrame]:
     """Find and decode every PIE command in a real envelope (numba kernels).
 
     Parameters
@@ -281,12 +292,14 @@ def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1) ->
     threshold : comparator threshold; default midway between the two level clusters
     hysteresis : half-width of the comparator's hysteresis band as a fraction of the
         difference between the high and low cluster means
+    levels : ``two_level_threshold(x)`` if the caller has already computed it (saves the
+        second isodata split); must belong to this ``x``
 
     Returns
     -------
     list of :class:`PieFrame` in time order (durations in samples of ``x``).
     """
-    x, thr, hyst = _prepare(x, threshold, hysteresis)
+    x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
     if thr is None:
         return []
     pos = np.empty(x.size, dtype=np.float64)
@@ -304,7 +317,7 @@ def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1) ->
 
 def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
     """Plain NumPy/Python twin of :func:`pie_decode` (same algorithm), for tests."""
-    x, thr, hyst = _prepare(x, threshold, hysteresis)
+    x, thr, hyst = _prepare(x, threshold, hysteresis, split=two_level_threshold_reference)
     if thr is None:
         return []
     above, below = x > thr + hyst, x < thr - hyst
@@ -359,6 +372,7 @@ __all__ = [
     "pie_envelope_reference",
     "pie_envelope_for_profile",
     "two_level_threshold",
+    "two_level_threshold_reference",
     "pie_decode",
     "pie_decode_reference",
 ]

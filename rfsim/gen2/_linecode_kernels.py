@@ -152,3 +152,49 @@ def viterbi_kernel(a, b, miller, state0, last_is_one, out):
         out[i] = back_bit[i, best]
         best = back_state[i, best]
     return final
+
+
+@njit
+def refine_kernel(r, cands, shifts, templates, norms):
+    """Sub-sample refinement of the preamble correlation peak.
+
+    For every candidate lag ``c`` and shift ``d = shifts[j]`` (skipped where c + d < 0):
+    ``v = |Σ_i r[c + i]·templates[j, i]| / norms[j]`` (templates zero-mean, one row per
+    shift); returns ``(best v, c + d of the best)``, the first one on ties (candidates in
+    the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped.
+    """
+    n_pre = templates.shape[1]
+    best = -1.0
+    start = math.nan
+    for ci in range(cands.size):
+        c = cands[ci]
+        for j in range(shifts.size):
+            d = shifts[j]
+            if c + d < 0.0:
+                continue
+            acc_re = 0.0
+            acc_im = 0.0
+            for i in range(n_pre):
+                t = templates[j, i]
+                z = r[c + i]
+                acc_re += z.real * t
+                acc_im += z.imag * t
+            v = math.hypot(acc_re, acc_im) / norms[j]
+            if v > best:
+                best = v
+                start = c + d
+    return best, start
+
+
+@njit
+def corr_abs_kernel(r, t0, out):
+    """``out[k] = |Σ_i r[k + i]·t0[i]|`` for k < out.size (valid correlation, t0 real)."""
+    n = t0.size
+    for k in range(out.size):
+        acc_re = 0.0
+        acc_im = 0.0
+        for i in range(n):
+            z = r[k + i]
+            acc_re += z.real * t0[i]
+            acc_im += z.imag * t0[i]
+        out[k] = math.hypot(acc_re, acc_im)

@@ -326,16 +326,54 @@ def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple[np.ndarr
 
 
 @functools.lru_cache(maxsize=32)
-def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[tuple[float, np.ndarray, float], ...]:
-    """``(delta, zero-mean template as complex128, its norm)`` for every shift of
-    :data:`_REFINE_SHIFTS` (cached, read-only; a pure function of its arguments)."""
-    bank = []
-    for d in _REFINE_SHIFTS:
-        t0 = _template(m, trext, ratio, float(d))[1]
-        tc = t0.astype(np.complex128)  # seg @ tc is bit-identical to seg @ t0, and faster
-        tc.setflags(write=False)
-        bank.append((float(d), tc, math.sqrt(float(t0 @ t0))))
-    return tuple(bank)
+def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-mean templates ``(n_shifts, n_pre) float64`` at the shifts of
+    :data:`_REFINE_SHIFTS` and their norms ``(n_shifts,)`` (cached, read-only; a pure
+    function of its arguments)."""
+    rows = np.array([_template(m, trext, ratio, float(d))[1] for d in _REFINE_SHIFTS])
+    norms = np.array([math.sqrt(float(t0 @ t0)) for t0 in rows])
+    rows.setflags(write=False)
+    norms.setflags(write=False)
+    return rows, norms
+
+
+def refine_reference(r, cands, shifts, templates, norms) -> tuple[float, float]:
+    """Plain-NumPy twin of the sub-sample peak refinement kernel: ``(best, start)``."""
+    best, start = -1.0, math.nan
+    n_pre = templates.shape[1]
+    for cand in np.asarray(cands).tolist():
+        seg = r[cand: cand + n_pre]
+        for d, t0, norm in zip(np.asarray(shifts).tolist(), templates, norms):
+            if cand + d < 0:
+                continue
+            v = abs(complex(seg @ t0)) / norm
+            if v > best:
+                best, start = v, cand + d
+    return best, start
+
+
+def corr_abs_reference(r, t0) -> np.ndarray:
+    """|valid correlation| of ``r`` with the real template ``t0`` (scipy), ``(r.size − t0.size + 1,)``."""
+    return np.abs(correlate(r, t0, mode="valid"))
+
+
+#: Largest lags × template length correlated directly by the kernel; longer searches use
+#: scipy (FFT where faster).
+_DIRECT_CORR_MAX_MACS = 2_000_000
+
+
+def _kernel_corr_abs(r, t0):
+    n_lags = r.size - t0.size + 1
+    if n_lags < 1 or n_lags * t0.size > _DIRECT_CORR_MAX_MACS:
+        return corr_abs_reference(r, t0)
+    out = np.empty(n_lags)
+    _k.corr_abs_kernel(r, t0, out)
+    return out
+
+
+def _kernel_refine(r, cands, shifts, templates, norms):
+    best, start = _k.refine_kernel(r, np.ascontiguousarray(cands, dtype=np.int64), shifts, templates, norms)
+    return float(best), float(start)
 
 
 def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
@@ -358,7 +396,7 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        c = np.abs(correlate(r[: last + n_pre], _template(m, trext, ratio, 0.0)[1], mode="valid"))
+        c = impl[4](r[: last + n_pre], _template(m, trext, ratio, 0.0)[1])
         lag = int(np.argmax(c))
         # The Miller pilot is periodic: lags one element apart correlate almost as well, and
         # an integer lag is up to 1/2 sample off. Refine the three largest local maxima within
@@ -370,16 +408,9 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
         is_max[1:] &= win[1:] >= win[:-1]
         is_max[:-1] &= win[:-1] >= win[1:]
         cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:3]]
-        best, start = -1.0, float(lag)
-        bank = _refine_bank(m, trext, ratio)
-        for cand in cands.tolist():
-            seg = r[cand: cand + n_pre]
-            for d, tc, norm in bank:
-                if cand + d < 0:
-                    continue
-                v = abs(complex(seg @ tc)) / norm
-                if v > best:
-                    best, start = v, cand + d
+        best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+        if best < 0:
+            start = float(lag)
     else:
         start = float(start_sample)
         if not 0 <= start <= r.size - n_reply:
@@ -409,8 +440,9 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
     return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
 
 
-_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi)
-_REFERENCES = (halfbit_sums_reference, bitwise_reference, viterbi_reference)
+_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs)
+_REFERENCES = (halfbit_sums_reference, bitwise_reference, viterbi_reference, refine_reference,
+               corr_abs_reference)
 
 
 def decode_reply(
@@ -463,4 +495,6 @@ __all__ = [
     "halfbit_sums_reference",
     "bitwise_reference",
     "viterbi_reference",
+    "refine_reference",
+    "corr_abs_reference",
 ]

@@ -1,0 +1,159 @@
+"""Fast paths of the sample-level exchange: numba kernels against their NumPy twins, and the
+keyed caches (channel geometry, command bits, preamble templates) against a fresh computation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from channels.antennas import Antenna, HalfWaveDipole, Patch
+from channels.scene import Channel, Scene
+from channels.small_scale import ApdpModel
+from channels.surfaces import Surface
+from devices.reader import Reader, ReaderConfig
+from rfsim.gen2 import _linecode_kernels as LK
+from rfsim.gen2 import _pie_kernels as PK
+from rfsim.gen2 import linecode as L
+from rfsim.gen2.commands import ACK, Query
+from rfsim.gen2.pie import two_level_threshold, two_level_threshold_reference
+from rfsim.rng import trial_rng
+
+
+# ----------------------------------------------------------------------------- kernels
+
+
+def test_pairwise_sum_equals_numpy_sum():
+    """The kernel sums in numpy's pairwise order: equal to np.add.reduce bit for bit, for
+    every length around the block boundaries (8, 128, 256, …) and some long ones."""
+    rng = trial_rng(50, 0)
+    sizes = list(range(0, 300)) + [511, 512, 513, 1023, 1024, 1025, 4097, 12345]
+    for n in sizes:
+        x = rng.standard_normal(n) * 10.0 ** rng.uniform(-3, 3, n)
+        assert PK.pairwise_sum(x, 0, n) == np.add.reduce(x), n
+    x = rng.standard_normal(1000)
+    assert PK.pairwise_sum(x, 17, 600) == np.add.reduce(x[17:617])
+    assert len(sizes) == 308
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_two_level_threshold_kernel_equals_reference(seed):
+    """Isodata split of noisy two-level envelopes (random depth, duty cycle, length)."""
+    rng = trial_rng(51, seed)
+    n = int(rng.integers(50, 20000))
+    levels = np.where(rng.random(n) < rng.uniform(0.05, 0.95), 1.0, 1.0 - rng.uniform(0.2, 1.0))
+    x = np.abs(levels + 0.05 * rng.standard_normal(n)) * 10.0 ** rng.uniform(-4, 1)
+    assert two_level_threshold(x) == two_level_threshold_reference(x)
+    assert two_level_threshold(x, max_iter=2) == two_level_threshold_reference(x, max_iter=2)
+
+
+def test_two_level_threshold_edge_cases():
+    """Constant input, 2-D input (C order, as numpy's masks), NaN (no iteration)."""
+    for x in (np.full(10, 3.0), np.arange(24.0).reshape(4, 6), np.array([1.0, np.nan, 0.0]),
+              np.array([0.0, 1.0])):
+        a, b = two_level_threshold(x), two_level_threshold_reference(x)
+        np.testing.assert_array_equal(np.array(a), np.array(b))
+    with pytest.raises(ValueError):
+        two_level_threshold(np.zeros(0))
+
+
+def test_corr_abs_kernel_equals_scipy():
+    rng = trial_rng(52, 0)
+    r = rng.standard_normal(700) + 1j * rng.standard_normal(700)
+    t0 = rng.standard_normal(500)
+    out = np.empty(201)
+    LK.corr_abs_kernel(r, t0, out)
+    np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-12)
+
+
+@pytest.mark.parametrize("m", [1, 4])
+def test_refine_kernel_equals_reference(m):
+    """Sub-sample peak refinement on a noisy preamble: same start, same correlation."""
+    rng = trial_rng(53, m)
+    fs, blf = 4e6, 320e3
+    ratio = 2 * blf / fs
+    bits = rng.integers(0, 2, 16).astype(np.uint8)
+    s = L.reply_waveform(bits, m=m, trext=False, blf_hz=blf, fs_hz=fs, t0_s=30.3 / fs, n_samples=3000)
+    r = (0.3 + 0.2j) * s + 0.2 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    rows, norms = L._refine_bank(m, False, ratio)
+    cands = np.array([31, 29, 0, 30])
+    a = L._kernel_refine(r, cands, L._REFINE_SHIFTS, rows, norms)
+    b = L.refine_reference(r, cands, L._REFINE_SHIFTS, rows, norms)
+    assert a[1] == b[1] and a[0] == pytest.approx(b[0], rel=1e-12)
+    assert 29.5 <= a[1] <= 31.0
+    # negative positions are skipped, as in the reference
+    a = L._kernel_refine(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)
+    assert a[1] >= 0 and a[1] == L.refine_reference(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)[1]
+
+
+def test_template_cache_matches_fresh_template():
+    """The cached preamble template equals one built from the element sequence directly."""
+    fs, blf, m = 4e6, 320e3, 4
+    ratio = 2 * blf / fs
+    pre = L.preamble_levels(m=m, trext=False)[0]
+    el = np.repeat(pre, m).astype(np.float64)
+    el[1::2] *= -1
+    n_pre = int(math.floor(el.size / ratio))
+    for delta in (0.0, 0.3125, -0.5):
+        u = (np.arange(n_pre) - delta) * ratio
+        k = np.floor(u + LK.INDEX_EPS).astype(int)
+        t = np.where(u >= 0, el[np.clip(k, 0, el.size - 1)], 0.0)
+        np.testing.assert_array_equal(L._template(m, False, ratio, delta)[0], t)
+    assert not L._template(m, False, ratio, 0.0)[0].flags.writeable
+    # the public function still hands out a fresh, writable array
+    a = L.preamble_levels(m=m, trext=False)[0]
+    a[0] = 9
+    assert L.preamble_levels(m=m, trext=False)[0][0] == 1
+
+
+# ----------------------------------------------------------------------------- caches
+
+
+def _scene():
+    floor = Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.0)
+    return Scene(surfaces=(floor,), apdp=ApdpModel(), image_order=1)
+
+
+def test_channel_geometry_cache_is_bit_identical():
+    """Links from a channel that has kept the static geometry equal those of a fresh channel
+    with the same draws, for several antennas and carriers; a moved antenna is a new link."""
+    reader = Antenna([0.0, 0.0, 1.0], pattern=Patch(6.0, 70.0), polarization="circular")
+    tags = [Antenna([d, 0.5, 1.2], orientation=(np.pi, 0.0, 0.0), pattern=HalfWaveDipole()) for d in (1.0, 3.0)]
+    held = Channel(_scene())
+    n = 0
+    for rep in range(3):
+        for fc in (902.75e6, 915.25e6):
+            for i, tag in enumerate(tags):
+                fresh = Channel(_scene())
+                a = held.link(reader, tag, fc_hz=fc, rng=trial_rng(54, rep, i))
+                b = fresh.link(reader, tag, fc_hz=fc, rng=trial_rng(54, rep, i))
+                for f in ("gain", "delay_s", "doppler_hz"):
+                    np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
+                n += 1
+    assert n == 12 and len(held._static) == 4
+    moved = Antenna([3.5, 0.5, 1.2], orientation=(np.pi, 0.0, 0.0), pattern=HalfWaveDipole())
+    a = held.link(reader, moved, fc_hz=915.25e6, rng=trial_rng(54, 9))
+    b = Channel(_scene()).link(reader, moved, fc_hz=915.25e6, rng=trial_rng(54, 9))
+    np.testing.assert_array_equal(a.gain, b.gain)
+    # a moving tag is never taken from the cache
+    v = np.array([0.0, 1.0, 0.0])
+    a = held.link(reader, tags[1], fc_hz=915.25e6, rng=trial_rng(54, 10), t_s=0.5, rx_motion=v)
+    b = Channel(_scene()).link(reader, tags[1], fc_hz=915.25e6, rng=trial_rng(54, 10), t_s=0.5, rx_motion=v)
+    np.testing.assert_array_equal(a.gain, b.gain)
+    np.testing.assert_array_equal(a.doppler_hz, b.doppler_hz)
+    assert abs(a.doppler_hz[0]) > 0
+
+
+def test_reader_command_cache():
+    """Repeated and distinct commands: bits, command end and samples as without the cache."""
+    rd = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(55, 0))
+    lk = rd.link
+    for cmd in (Query(dr=lk.dr, m=lk.m, q=0), ACK(0x1234), Query(dr=lk.dr, m=lk.m, q=0), ACK(0x4321)):
+        for _ in range(2):
+            seg = rd.transmit(cmd, t0_s=0.01, cw_after_s=1e-4)
+            assert seg.cmd_end_s == 0.01 + lk.tari_s + lk.command_duration_s(cmd)
+            fresh = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(55, 0))
+            np.testing.assert_array_equal(seg.samples, fresh.transmit(cmd, t0_s=0.01, cw_after_s=1e-4).samples)
+    assert len(rd._cmd_cache) == 3
+    assert rd.noise_power_w() == fresh.noise_power_w() and rd.leakage_gain() == fresh.leakage_gain()

@@ -1,0 +1,401 @@
+"""Scenario ``reader-detection``: a replica of the reader detection-probability campaign A
+behind the Beta-binomial DA model (binary-detection.md §1.6, §4 item 1, §5 P0-1/P0-2; seed
+004 L612-L666, L838).
+
+Campaign (§4 item 1, L664-L666): reader at 27 dBm with one 6 dBic circularly polarised
+patch (:class:`channels.Patch`, 70° half-power beamwidth, 20 dB front-to-back — the
+beamwidth is not given by the source), one tag facing the antenna at ``distances_m`` and
+angles ``angles_deg`` off boresight (θ is varied by *rotating the antenna* about its vertical
+axis, as the source did), ``repetitions`` trials of ``queries`` = 50 queries each, in two
+rooms. Defaults of the source's size with ``campaign.full = true``: 18 distances 0.5…9 m in
+0.5 m steps × 13 angles −90…90° in 15° steps (the source gives neither list; §5 P0-1
+suggests the 15° steps) × 10 repetitions × 2 rooms = 4680 trials, 234 000 queries. The
+default run is smaller (``campaign.distances_m``, ``angles_deg``, ``repetitions``).
+
+Rooms (two channel parameter sets; the source gives none, §0.2): both have a concrete floor
+(image method, ε_r = 5.3) 1 m below antenna and tag, and the exponential APDP
+``K(d) = k_a·10^(−k_b·d) + k_c`` [dB], ``τrms(d) = τmax·(1 − 10^(−τb·d))``:
+
+* room 0 ("lab", the PASS room curves): k_a = 60 dB, k_b = 0.02 /m, k_c = −30 dB,
+  τmax = 70 ns, τb = 0.03 /m (K = 27 dB at 1 m, 18 dB at 5 m);
+* room 1 ("cluttered"): k_a = 30 dB, k_b = 0.05 /m, k_c = −20 dB, τmax = 100 ns,
+  τb = 0.05 /m (K = 6.7 dB at 1 m, −3 dB at 5 m: near-Rayleigh diffuse field).
+
+Repetitions differ by the channel state: a fresh diffuse draw, a random hop channel (the
+reader's random FCC hop table) and a placement jitter of the tag, uniform in
+±``jitter_m`` per axis. Within a repetition the channel is held (the source assumes a
+static tag during the N queries, L644): the reader segment, the links and the incident
+field are computed once; the 50 queries are simulated at sample level, each one the tag's
+PIE decoding and a fresh RN16 as Γ(t), the backscatter through the held link, receiver
+noise and the reader's decoder. Per query the outcome is **the reader decoded the tag's
+RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange is not simulated, so
+a "read" here is an RN16 decode). Queries are 4 ms apart (a round of 50 lasts 0.2 s, the
+lower end of the source's 0.2-0.8 s, L580), inside one 0.4 s hop dwell.
+
+Fits (``rfsim.detection.fit``): the source's method (least squares of the mean model
+1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of
+p̂ = n/N, cells pooled over rooms, binomial part removed) and the maximum-likelihood fit of
+the Beta-binomial with dead zone (Eq. 4.11); d50 at 0°/30°/60° beside the published 6.63 /
+3.97 / 1.30 m.
+
+Randomness: repetition r of (room k, distance i, angle j) uses ``trial_rng(seed, k, i, j,
+r, s)``: s = 0 jitter, 1 reader (hop table), 2 tag, 3 channel, 4 receiver noise. Results do
+not depend on ``campaign.workers``.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
+from channels.paths import apply_paths
+from devices.reader import Reader, ReaderConfig
+from devices.tag import PassiveTag, TagConfig
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_moments
+from rfsim.detection.fit import DA_PARAMETER_NAMES
+from rfsim.engine import _method
+from rfsim.errors import ConfigError, UserError
+from rfsim.gen2.commands import Query
+from rfsim.gen2.link import t1
+from rfsim.rng import trial_rng
+
+NAME = "reader-detection"
+DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
+               "50 queries in two rooms; Beta-binomial DA fits and d50 (Ch. 4 model)")
+
+FULL_DISTANCES_M = tuple(0.5 * (i + 1) for i in range(18))
+FULL_ANGLES_DEG = tuple(-90.0 + 15.0 * j for j in range(13))
+FULL_REPETITIONS = 10
+D50_ANGLES_DEG = (0.0, 30.0, 60.0)
+PUBLISHED_D50_M = (6.63, 3.97, 1.30)
+QUERY_PERIOD_S = 4e-3
+
+
+@dataclass(frozen=True)
+class CampaignConfig:
+    full: bool = param(False, doc="the source's size: 18 distances x 13 angles x 10 repetitions (overrides below)")
+    distances_m: tuple[float, ...] = param((1.0, 2.0, 3.0, 4.5, 6.0, 7.5, 9.0), lo=0.2, hi=50.0, unit="m",
+                                           doc="tag distances from the antenna")
+    angles_deg: tuple[float, ...] = param((0.0, 30.0, 60.0, 90.0), lo=-90.0, hi=90.0, unit="deg",
+                                          doc="antenna rotation (tag angle off boresight)")
+    repetitions: int = param(4, lo=2, hi=1000, doc="trials per (room, distance, angle)")
+    queries: int = param(50, lo=1, hi=10000, doc="queries N per trial")
+    jitter_m: float = param(0.05, lo=0.0, hi=1.0, unit="m", doc="tag placement jitter (uniform, per axis)")
+    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
+
+    @property
+    def grid(self) -> tuple[tuple[float, ...], tuple[float, ...], int]:
+        """(distances, angles, repetitions) in effect."""
+        if self.full:
+            return FULL_DISTANCES_M, FULL_ANGLES_DEG, FULL_REPETITIONS
+        return self.distances_m, self.angles_deg, self.repetitions
+
+
+@dataclass(frozen=True)
+class RoomsConfig:
+    k_a_db: tuple[float, float] = param((60.0, 30.0), lo=-100.0, hi=100.0, unit="dB", doc="K(d) curve k_a per room")
+    k_b: tuple[float, float] = param((0.02, 0.05), lo=0.0, hi=10.0, unit="1/m", doc="K(d) curve k_b per room")
+    k_c_db: tuple[float, float] = param((-30.0, -20.0), lo=-100.0, hi=100.0, unit="dB", doc="K(d) curve k_c per room")
+    tau_max_s: tuple[float, float] = param((70e-9, 100e-9), lo=1e-10, hi=1e-6, unit="s", doc="tau_rms(d) limit per room")
+    tau_b: tuple[float, float] = param((0.03, 0.05), lo=1e-4, hi=10.0, unit="1/m", doc="tau_rms(d) curve per room")
+    floor: bool = param(True, doc="concrete floor (image method) in both rooms")
+    height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="antenna and tag height above the floor")
+
+    def __post_init__(self):
+        n = {len(getattr(self, k)) for k in ("k_a_db", "k_b", "k_c_db", "tau_max_s", "tau_b")}
+        if n != {2}:
+            raise ConfigError("rooms", n, "two values per room parameter")
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    reader_gain_dbic: float = param(6.0, lo=0.0, hi=15.0, unit="dBic", doc="patch peak gain")
+    reader_beamwidth_deg: float = param(70.0, lo=20.0, hi=170.0, unit="deg", doc="patch half-power beamwidth")
+
+
+def _reader_default() -> ReaderConfig:
+    return ReaderConfig(link_profile="pass-miller2-48k", fs_hz=1e6, ptx_dbm=27.0, hopping=True)
+
+
+@dataclass(frozen=True)
+class Config:
+    campaign: CampaignConfig = param(CampaignConfig(), doc="campaign size")
+    rooms: RoomsConfig = param(RoomsConfig(), doc="the two rooms' channel parameters")
+    geometry: GeometryConfig = param(GeometryConfig(), doc="reader antenna")
+    reader: ReaderConfig = param(_reader_default(), doc="reader")
+    tag: TagConfig = param(TagConfig(), doc="tag")
+    fits: bool = param(True, doc="fit the DA model (moments and maximum likelihood)")
+
+
+# ----------------------------------------------------------------------------- one trial
+
+
+def scene(rooms: RoomsConfig, room: int) -> Scene:
+    """Room ``room`` (0 or 1): floor and APDP curves (module docstring)."""
+    apdp = ApdpModel(k_a_db=rooms.k_a_db[room], k_b=rooms.k_b[room], k_c_db=rooms.k_c_db[room],
+                     tau_max_s=rooms.tau_max_s[room], tau_b=rooms.tau_b[room])
+    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if rooms.floor else ()
+    return Scene(surfaces=surfaces, apdp=apdp, image_order=1)
+
+
+def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int) -> dict:
+    """One repetition: ``queries`` sample-level Query rounds over one held channel state."""
+    c, h = config.campaign, config.rooms.height_m
+    dists, angles, _ = c.grid
+    d, theta = dists[i_d], angles[i_a]
+    key = (room, i_d, i_a, rep)
+    jitter = trial_rng(seed, *key, 0).uniform(-c.jitter_m, c.jitter_m, 3)
+    ant = Antenna(position_m=(0.0, 0.0, h), orientation=(math.radians(theta), 0.0, 0.0),
+                  pattern=Patch(config.geometry.reader_gain_dbic, config.geometry.reader_beamwidth_deg),
+                  polarization="circular")
+    tag_pos = np.array([d, 0.0, h]) + jitter
+    tag_ant = Antenna(position_m=tag_pos, orientation=(math.atan2(-tag_pos[1], -tag_pos[0]), 0.0, 0.0),
+                      pattern=HalfWaveDipole(), polarization="linear")
+    reader = Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
+    tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, *key, 2))
+    lk = reader.link
+    window = lk.reply_duration_s(16) + t1(lk).max_s + 3.0 * lk.tpri_s
+    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
+    fs, fc = tx.fs_hz, tx.fc_hz
+    fwd, bwd = Channel(scene(config.rooms, room)).backscatter_links(ant, tag_ant, fc_hz=fc,
+                                                                      rng=trial_rng(seed, *key, 3))
+    bw = 2.0 * lk.blf_hz
+    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=_method(fwd, bw, "auto"))
+    base = reader.leakage_gain() * tx.samples
+    sigma = math.sqrt(reader.noise_power_w() / 2.0)
+    nrng = trial_rng(seed, *key, 4)
+    i0 = int(math.ceil((tx.cmd_end_s + 0.5 * lk.tari_s) * fs))
+    n_reads = n_replied = n_powered = 0
+    p_inc = -np.inf
+    for j in range(c.queries):
+        t_j = j * QUERY_PERIOD_S
+        resp = tag.listen(inc, t0_s=t_j, fs_hz=fs)
+        p_inc = float(resp.incident_power_dbm)
+        n_powered += bool(resp.powered)
+        noise = sigma * (nrng.standard_normal(inc.size) + 1j * nrng.standard_normal(inc.size))
+        if resp.gamma is None:
+            continue  # nothing to decode (the engine's reader listens only when a tag replied)
+        n_replied += 1
+        rx = base + noise + apply_paths(resp.gamma * inc, fs_hz=fs, fc_hz=fc, paths=bwd,
+                                        method=_method(bwd, bw, "auto"))
+        read = reader.receive(rx[i0:], t0_s=t_j + i0 / fs, n_bits=16, expect_crc=False,
+                              cmd_end_s=t_j + (tx.cmd_end_s - tx.t0_s), carrier=tx.samples[-1])
+        n_reads += bool(read.bits is not None and read.success
+                        and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
+    return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=n_reads,
+                p_hat=n_reads / c.queries, n_powered=n_powered, n_replied=n_replied, channel_index=tx.channel_index,
+                frequency_hz=fc, tag_incident_power_dbm=p_inc, jitter_x_m=jitter[0], jitter_y_m=jitter[1],
+                jitter_z_m=jitter[2])
+
+
+def _run_task(args) -> list[dict]:
+    config, room, i_d, seed = args
+    _, angles, reps = config.campaign.grid
+    return [run_trial(config, room, i_d, i_a, r, seed) for i_a in range(len(angles)) for r in range(reps)]
+
+
+def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
+    """Every trial, ordered by (room, distance, angle, repetition); tasks per (room, distance)."""
+    dists, _, _ = config.campaign.grid
+    tasks = [(config, k, i, seed) for k in range(2) for i in range(len(dists))]
+    w = config.campaign.workers or (os.cpu_count() or 1)
+    if w <= 1:
+        parts = [_run_task(t) for t in tasks]
+    else:
+        with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
+            parts = list(pool.map(_run_task, tasks))
+    rows = [r for p in parts for r in p]
+    return {k: np.array([r[k] for r in rows]) for k in FIELDS}
+
+
+FIELDS = {
+    "room": ("1", "room (channel parameter set) 0 or 1"),
+    "distance_m": ("m", "nominal antenna-tag distance d"),
+    "theta_deg": ("deg", "antenna rotation: tag angle off boresight"),
+    "repetition": ("1", "repetition (channel state) of the cell"),
+    "n_queries": ("1", "queries N in the trial"),
+    "n_reads": ("1", "queries whose RN16 the reader decoded exactly"),
+    "p_hat": ("1", "n_reads / n_queries"),
+    "n_powered": ("1", "queries in which the tag was powered"),
+    "n_replied": ("1", "queries the tag answered (RN16)"),
+    "channel_index": ("1", "1-based FCC hop channel of the trial"),
+    "frequency_hz": ("Hz", "carrier frequency of the trial"),
+    "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port"),
+    "jitter_x_m": ("m", "tag placement jitter x"),
+    "jitter_y_m": ("m", "tag placement jitter y"),
+    "jitter_z_m": ("m", "tag placement jitter z"),
+}
+
+
+# ----------------------------------------------------------------------------- fits
+
+
+def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """DA fits of the trials: rows ``published``, ``moments`` and ``mle`` (NaN row where a
+    fit fails); columns the 9 parameters (``DA_PARAMETER_NAMES``), their standard errors
+    ``se_<name>``, ``d50_<θ>deg_m`` at 0°/30°/60° and the log-likelihood of Eq. 4.11; key
+    ``errors``: why a fit failed ("" if none). The maximum-likelihood fit fails (information
+    matrix not positive definite) when p̂ is almost always 0 or 1: the variance is then
+    clipped at κ·μ(1 − μ) in most cells and the likelihood is flat along the c's."""
+    d, th, n, nq = trials["distance_m"], trials["theta_deg"], trials["n_reads"], trials["n_queries"]
+    rows = [("published", PUBLISHED_READER_MODEL, None)]
+    errors = []
+    try:
+        mom = fit_reader_moments(d, th, n, nq)
+        rows.append(("moments", mom.model, mom))
+    except (UserError, np.linalg.LinAlgError, ValueError) as exc:
+        mom = None
+        rows.append(("moments", None, None))
+        errors.append(f"moments: {exc}")
+    try:
+        mle = fit_reader_mle(d, th, n, nq, start=mom.model if mom is not None else None)
+        rows.append(("mle", mle.model, mle))
+    except (UserError, np.linalg.LinAlgError, ValueError) as exc:
+        rows.append(("mle", None, None))
+        errors.append(f"mle: {exc}")
+    from rfsim.detection.fit import _log_likelihood  # Eq. 4.11 log-likelihood of a model
+
+    out: dict[str, list] = {"method": []}
+    for name in DA_PARAMETER_NAMES:
+        out[name], out["se_" + name] = [], []
+    for a in D50_ANGLES_DEG:
+        out[f"d50_{int(a)}deg_m"] = []
+    out["log_likelihood"] = []
+    for method, model, fit in rows:
+        out["method"].append(method)
+        if model is None:
+            for k in out:
+                if k != "method":
+                    out[k].append(np.nan)
+            continue
+        est = (fit.estimates if fit is not None else
+               np.array([*model.mean_coefficients, *model.variance_coefficients, model.dead_zone_mean]))
+        se = fit.stderr if fit is not None else np.full(9, np.nan)
+        for i, name in enumerate(DA_PARAMETER_NAMES):
+            out[name].append(float(est[i]))
+            out["se_" + name].append(float(se[i]))
+        for a in D50_ANGLES_DEG:
+            out[f"d50_{int(a)}deg_m"].append(float(model.d50(a)))
+        out["log_likelihood"].append(_log_likelihood(model, np.asarray(d, float), np.asarray(th, float),
+                                                     np.asarray(n), np.asarray(nq), model.dead_zone_mean))
+    out = {k: np.array(v) for k, v in out.items()}
+    out["errors"] = "; ".join(errors)
+    return out
+
+
+def cell_moments(trials: dict[str, np.ndarray], dists, angles) -> dict[str, np.ndarray]:
+    """(room, distance, angle) grids of the mean and variance (ddof 1) of p̂ over repetitions."""
+    shape = (2, len(dists), len(angles))
+    mean, var = np.full(shape, np.nan), np.full(shape, np.nan)
+    for k in range(2):
+        for i, d in enumerate(dists):
+            for j, a in enumerate(angles):
+                sel = (trials["room"] == k) & (trials["distance_m"] == d) & (trials["theta_deg"] == a)
+                if sel.any():
+                    mean[k, i, j] = trials["p_hat"][sel].mean()
+                    var[k, i, j] = trials["p_hat"][sel].var(ddof=1) if sel.sum() > 1 else np.nan
+    return {"p_mean": mean, "p_var": var}
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    dists, angles, reps = config.campaign.grid
+    trials = simulate(config, seed=seed)
+    ds = Dataset(title="reader detection campaign A replica (Ch. 4 DA model)")
+    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()})
+    cm = cell_moments(trials, dists, angles)
+    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room"),
+                          "distance_m": column(np.asarray(dists, float), "m", "nominal distance"),
+                          "theta_deg": column(np.asarray(angles, float), "deg", "angle off boresight")},
+                {"p_mean": column(cm["p_mean"], "1", "mean of p_hat over repetitions"),
+                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) of p_hat over repetitions")})
+    ds.attrs["outcome"] = "reader decoded the tag's RN16 exactly (no ACK/EPC exchange)"
+    ds.attrs["n_trials"] = int(trials["room"].size)
+    ds.attrs["n_queries_total"] = int(trials["n_queries"].sum())
+    if config.fits:
+        f = fit_trials(trials)
+        ds.attrs["fit_errors"] = f.pop("errors")
+        cols = {"method": column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "
+                                                  "moments, the source's method) or mle (Eq. 4.11)")}
+        for k, v in f.items():
+            if k == "method":
+                continue
+            base = k[3:] if k.startswith("se_") else k
+            unit = {"a2": "1/m", "a3": "1/deg", "c2": "1/m", "c3": "1/m^2", "c4": "1/deg", "c5": "1/deg^2"}.get(base, "1")
+            if k.startswith("d50"):
+                unit = "m"
+            text = (f"standard error of {base}" if k.startswith("se_") else
+                    "distance where E[p] = 1/2" if k.startswith("d50") else
+                    "log-likelihood of Eq. 4.11 on the trials" if k == "log_likelihood" else
+                    f"DA model parameter {k} (mean 1/(1+exp(a1+a2 d+a3|theta|)), variance c1+c2 d+c3 d^2+c4|theta|+c5 theta^2, dead-zone mean lambda)")
+            cols[k] = column(v, "nat" if k == "log_likelihood" else unit, text)
+        ds.add_table("fits", cols)
+        for i, m in enumerate(f["method"]):
+            for a in D50_ANGLES_DEG:
+                ds.attrs[f"{m}_d50_{int(a)}deg_m"] = float(f[f"d50_{int(a)}deg_m"][i])
+    return ds
+
+
+# ----------------------------------------------------------------------------- plots
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """p̄(d, θ) heat maps per room and the mean p̂ vs d at 0°/30°/60° with the fitted and
+    published mean models."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from rfsim.dataset import read_dataset, read_table
+    from rfsim.detection import ReaderDetectionModel
+
+    ds = read_dataset(dataset_path)
+    coords, vars_ = ds.grids["cells"]
+    d, a = coords["distance_m"].data, coords["theta_deg"].data
+    out_dir.mkdir(parents=True, exist_ok=True)
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for k, ax in enumerate(axs):
+        im = ax.pcolormesh(a, d, vars_["p_mean"].data[k], shading="nearest", vmin=0, vmax=1, cmap="viridis")
+        ax.set(xlabel="theta [deg]", title=f"room {k}: mean detection probability")
+    axs[0].set_ylabel("distance d [m]")
+    fig.colorbar(im, ax=axs, label="mean p_hat")
+    p1 = out_dir / f"{NAME}-heatmap.png"
+    fig.savefig(p1, dpi=110)
+    plt.close(fig)
+
+    trials = read_table(dataset_path, "trials")
+    fits = read_table(dataset_path, "fits") if "fits" in ds.tables else None
+    fig, ax = plt.subplots(figsize=(7, 4))
+    x = np.linspace(0.0, max(10.0, float(d.max())), 200)
+    for j, ang in enumerate(D50_ANGLES_DEG):
+        col = f"C{j}"
+        sel = np.abs(np.abs(trials["theta_deg"]) - ang) < 1e-9
+        if sel.any():
+            ds_ = np.unique(trials["distance_m"][sel])
+            ax.plot(ds_, [trials["p_hat"][sel & (trials["distance_m"] == v)].mean() for v in ds_], "o", color=col,
+                    label=f"simulated |theta| = {ang:g} deg")
+        if fits is not None:
+            for i, m in enumerate(fits["method"]):
+                if not np.isfinite(fits["a1"][i]) or m == "moments":
+                    continue
+                model = ReaderDetectionModel(mean_coefficients=(fits["a1"][i], fits["a2"][i], fits["a3"][i]))
+                ax.plot(x, model.mean(x, ang), "-" if m == "mle" else ":", color=col,
+                        label=f"{m} mean model, {ang:g} deg")
+    ax.set(xlabel="distance d [m]", ylabel="detection probability", ylim=(-0.02, 1.02),
+           title="reader detection vs distance (dotted: published)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=6, ncol=2)
+    p2 = out_dir / f"{NAME}-mean.png"
+    fig.tight_layout()
+    fig.savefig(p2, dpi=110)
+    plt.close(fig)
+    return [p1, p2]

@@ -41,6 +41,7 @@ Doppler and SNR are measured with the decoded reply as known reference (anchors 
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -398,8 +399,7 @@ class Reader:
 
     def reply_search_window_s(self) -> tuple[float, float]:
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
-        r = t1(self.link)
-        return r.min_s, r.max_s
+        return _t1_window(self.link)
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
                 cmd_end_s: float | None = None, blf_hz: float | None = None,
@@ -522,13 +522,15 @@ class Reader:
         ref = s[i0:i1]
         steady = _steady(ref)
         z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
-        starts = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)[:-1]
-        counts = np.diff(np.append(starts, ref.size)).astype(float)
+        # block k starts at floor(k·n/K) (= np.linspace(0, n, K + 1).astype(int)[k], exactly)
+        edges = [k * ref.size // DOPPLER_BLOCKS for k in range(DOPPLER_BLOCKS + 1)]
+        starts = np.array(edges[:-1])
+        counts = np.array([float(b - a) for a, b in zip(edges[:-1], edges[1:])])
         g = np.add.reduceat(z * ref, starts) / np.add.reduceat(ref * ref, starts)
         tc = np.add.reduceat(t, starts) / counts
         w2 = np.abs(g) ** 2  # weights |g_k| on the residuals (numpy.polyfit's w), squared
         if np.all(w2 > 0):
-            y = np.unwrap(np.angle(g))
+            y = np.array(_unwrap(np.angle(g).tolist()))
             xm, ym = np.dot(w2, tc) / w2.sum(), np.dot(w2, y) / w2.sum()
             slope = float(np.dot(w2, (tc - xm) * (y - ym)) / np.dot(w2, (tc - xm) ** 2))
         else:
@@ -542,6 +544,31 @@ class Reader:
                     phase_rad=float(wrap_phase_rad(-np.angle(h))),
                     doppler_hz=slope / (2.0 * math.pi),
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
+
+
+@functools.lru_cache(maxsize=64)
+def _t1_window(link: LinkProfile) -> tuple[float, float]:
+    """(T1min, T1max) of a (frozen, hashable) link profile [s]; a cached pure function."""
+    r = t1(link)
+    return r.min_s, r.max_s
+
+
+def _unwrap(p: list) -> list:
+    """``numpy.unwrap`` (period 2π, default discont) of a short sequence of floats, element by
+    element (the same operations in the same order, without numpy's per-call overhead)."""
+    period = 2.0 * math.pi
+    half = period / 2.0
+    out = [p[0]]
+    cum = 0.0
+    for i in range(1, len(p)):
+        dd = p[i] - p[i - 1]
+        ddmod = (dd + half) % period - half  # float % is numpy.mod (sign of the divisor)
+        if ddmod == -half and dd > 0:
+            ddmod = half
+        corr = 0.0 if abs(dd) < half else ddmod - dd
+        cum = corr if i == 1 else cum + corr
+        out.append(p[i] + cum)
+    return out
 
 
 def _steady(level: np.ndarray) -> np.ndarray:

@@ -59,6 +59,7 @@ from typing import Literal
 import numpy as np
 from scipy.signal import lfilter
 
+from devices import _tag_kernels as _k
 from devices.gen2_tag_state import Reply, TagState
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
                                   TagClock)
@@ -205,7 +206,16 @@ def incident_power_w(x: np.ndarray) -> float:
 
 
 def _cw_power_w(env: np.ndarray, levels: tuple[float, float, float]) -> float:
-    """:func:`incident_power_w` from the envelope |x| and its ``two_level_threshold``."""
+    """:func:`incident_power_w` from the envelope |x| ((n,) float64) and its
+    ``two_level_threshold`` (numba kernel)."""
+    thr, lo, hi = levels
+    env = np.ascontiguousarray(env, dtype=np.float64)
+    return float(_k.cw_power_kernel(env, float(thr), bool(hi > 0 and hi - lo >= _MIN_MODULATION * hi),
+                                    np.empty(env.size)))
+
+
+def cw_power_reference(env: np.ndarray, levels: tuple[float, float, float]) -> float:
+    """Plain-NumPy twin of the CW-power kernel (median of env² over the CW samples)."""
     thr, lo, hi = levels
     if hi > 0 and hi - lo >= _MIN_MODULATION * hi:
         env = env[env >= thr]

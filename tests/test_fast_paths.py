@@ -157,3 +157,27 @@ def test_reader_command_cache():
             np.testing.assert_array_equal(seg.samples, fresh.transmit(cmd, t0_s=0.01, cw_after_s=1e-4).samples)
     assert len(rd._cmd_cache) == 3
     assert rd.noise_power_w() == fresh.noise_power_w() and rd.leakage_gain() == fresh.leakage_gain()
+
+
+def test_cw_power_kernel_equals_reference():
+    """Median of env² over the CW samples: odd/even counts, ties (rounded envelopes), an
+    unmodulated segment (all samples) and NaN handling as numpy.median."""
+    from devices.tag import _cw_power_w, cw_power_reference
+
+    rng = trial_rng(56, 0)
+    n_cases = 0
+    for k in range(200):
+        n = int(rng.integers(1, 3000))
+        env = np.abs(np.where(rng.random(n) < 0.7, 1.0, rng.uniform(0.0, 0.6)) + 0.05 * rng.standard_normal(n))
+        if k % 4 == 0:
+            env = np.round(env, 2)
+        lv = two_level_threshold(env)
+        assert _cw_power_w(env, lv) == cw_power_reference(env, lv)
+        n_cases += 1
+    flat = np.full(11, 0.5)
+    assert _cw_power_w(flat, two_level_threshold(flat)) == cw_power_reference(flat, two_level_threshold(flat)) == 0.25
+    nan = np.array([1.0, np.nan, 0.2, 1.0])
+    # swing 0.1 < half the high level: every sample counts, the NaN too (numpy: NaN)
+    assert math.isnan(_cw_power_w(nan, (0.5, 0.2, 0.3)))
+    assert math.isnan(cw_power_reference(nan, (0.5, 0.2, 0.3)))
+    assert n_cases == 200

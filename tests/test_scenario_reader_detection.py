@@ -1,0 +1,108 @@
+"""Scenario ``reader-detection`` (campaign A replica): end to end on a tiny config
+(trials table, cell grid, fits table, figures, xarray), determinism (same seed → same
+bits, independent of the number of worker processes), the DA fit plumbing recovers a known
+model on the campaign's own grid, and physical sanity (detection falls with distance and
+with the angle off boresight).
+
+References: binary-detection.md §1.6 (DA model, published coefficients, d50 6.63 / 3.97 /
+1.30 m at 0° / 30° / 60°), §4 item 1 (campaign A: 27 dBm, 6 dBic patch, N = 50).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import h5py
+import numpy as np
+import pytest
+
+from rfsim.dataset import read_dataset, read_table
+from rfsim.detection import ReaderDetectionModel
+from rfsim.runner import run_scenario
+from scenarios import reader_detection as rd
+
+TINY = rd.Config(campaign=rd.CampaignConfig(distances_m=(1.0, 9.0), angles_deg=(0.0, 90.0), repetitions=2,
+                                            queries=5, workers=1))
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    return run_scenario(rd, TINY, seed=2, out_dir=tmp_path_factory.mktemp("rd"))
+
+
+def test_tiny_run_layout(tiny_run):
+    t = read_table(tiny_run.dataset_path, "trials")
+    n = 2 * 2 * 2 * 2  # rooms x distances x angles x repetitions
+    assert set(t) == set(rd.FIELDS) and all(v.shape == (n,) for v in t.values())
+    assert np.all(t["n_queries"] == 5)
+    assert np.all((t["n_reads"] >= 0) & (t["n_reads"] <= t["n_replied"]) & (t["n_replied"] <= t["n_powered"]))
+    np.testing.assert_allclose(t["p_hat"], t["n_reads"] / 5)
+    assert np.all(np.abs(np.column_stack([t["jitter_x_m"], t["jitter_y_m"], t["jitter_z_m"]])) <= 0.05)
+    ds = read_dataset(tiny_run.dataset_path)
+    coords, vars_ = ds.grids["cells"]
+    assert vars_["p_mean"].data.shape == (2, 2, 2)
+    sel = (t["room"] == 1) & (t["distance_m"] == 1.0) & (t["theta_deg"] == 0.0)
+    assert vars_["p_mean"].data[1, 0, 0] == pytest.approx(t["p_hat"][sel].mean())
+    f = read_table(tiny_run.dataset_path, "fits")
+    assert list(f["method"]) == ["published", "moments", "mle"]
+    # published row: the reference's d50 values (binary-detection.md §5 P0-2)
+    np.testing.assert_allclose([f["d50_0deg_m"][0], f["d50_30deg_m"][0], f["d50_60deg_m"][0]],
+                               rd.PUBLISHED_D50_M, atol=0.006)
+    with h5py.File(tiny_run.dataset_path) as h:
+        assert h["trials"]["distance_m"].attrs["units"] == "m"
+        assert h["trials"]["theta_deg"].attrs["units"] == "deg"
+        assert h["fits"]["a2"].attrs["units"] == "1/m"
+    assert len(tiny_run.figure_paths) == 2 and all(p.stat().st_size > 1000 for p in tiny_run.figure_paths)
+
+
+def test_dataset_opens_in_xarray(tiny_run):
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(tiny_run.dataset_path, engine="h5netcdf", group="cells") as x:
+        assert x["p_mean"].dims == ("room", "distance_m", "theta_deg")
+
+
+def test_same_seed_same_bits_any_worker_count():
+    cfg = replace(TINY, campaign=replace(TINY.campaign, distances_m=(2.0, 5.0), angles_deg=(30.0,)))
+    a = rd.simulate(cfg, seed=6)
+    b = rd.simulate(replace(cfg, campaign=replace(cfg.campaign, workers=2)), seed=6)
+    for k in rd.FIELDS:
+        np.testing.assert_array_equal(a[k], b[k], err_msg=k)
+    c = rd.simulate(cfg, seed=7)
+    assert not np.array_equal(a["jitter_x_m"], c["jitter_x_m"])
+
+
+def test_fits_recover_a_known_model_on_the_campaign_grid():
+    # the published DA model drawn on the full grid (18 x 13 cells, 20 trials each = both
+    # rooms): the ML estimates of (a1, a2, a3) lie within 4 reported standard errors
+    # (asymptotic normality: < 2e-4 failure probability for the three), and d50 within 5 %.
+    truth = ReaderDetectionModel()
+    dd, aa = np.meshgrid(rd.FULL_DISTANCES_M, rd.FULL_ANGLES_DEG, indexing="ij")
+    dd, aa = np.repeat(dd.ravel(), 20), np.repeat(aa.ravel(), 20)
+    n = truth.sample_reads(50, dd, aa, rng=np.random.default_rng(7))
+    f = rd.fit_trials(dict(distance_m=dd, theta_deg=aa, n_reads=n, n_queries=np.full(dd.size, 50)))
+    assert f["errors"] == ""
+    i = list(f["method"]).index("mle")
+    for k, v in zip(("a1", "a2", "a3"), truth.mean_coefficients):
+        assert abs(f[k][i] - v) < 4 * f["se_" + k][i], (k, f[k][i], f["se_" + k][i])
+    np.testing.assert_allclose([f["d50_0deg_m"][i], f["d50_30deg_m"][i], f["d50_60deg_m"][i]],
+                               truth.d50(np.array(rd.D50_ANGLES_DEG)), rtol=0.05)
+    # moments fit (the source's method) ignores the dead zone: its mean is (1 - 0.05) mu,
+    # so only the sign structure and a loose d50 are checked
+    j = list(f["method"]).index("moments")
+    assert f["a2"][j] > 0 and f["a3"][j] > 0
+    assert f["d50_0deg_m"][j] == pytest.approx(6.63, rel=0.1)
+
+
+def test_detection_falls_with_distance_and_angle():
+    # 27 dBm, 6 dBic (3 dB polarisation loss): at 1 m on boresight the tag gets ~0 dBm,
+    # at 9 m ~-18 dBm (below the chip's threshold); at 90° the patch is 20 dB down.
+    cfg = replace(TINY, campaign=replace(TINY.campaign, distances_m=(1.0, 3.0, 9.0), angles_deg=(0.0, 90.0)))
+    t = rd.simulate(cfg, seed=3)
+
+    def p(d, a):
+        sel = (t["distance_m"] == d) & (t["theta_deg"] == a)
+        return t["p_hat"][sel].mean()
+
+    assert p(1.0, 0.0) > 0.9
+    assert p(1.0, 0.0) > p(9.0, 0.0) + 0.5
+    assert p(3.0, 0.0) > p(3.0, 90.0) + 0.5

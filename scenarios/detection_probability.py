@@ -457,7 +457,8 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
             (a2, "d_m", (s["D_m"] >= 2.0) & (s["D_m"] <= 4.0), np.arange(0.0, 2.01, 0.2), "d [m]", 3.0)):
         b = binned_probability(s[var][sel], y[sel], edges)
         ok = b.trials > 0
-        ax.errorbar(b.centers[ok], b.p_hat[ok], yerr=np.vstack([b.p_hat[ok] - b.lower[ok], b.upper[ok] - b.p_hat[ok]]),
+        err = np.clip(np.vstack([b.p_hat[ok] - b.lower[ok], b.upper[ok] - b.p_hat[ok]]), 0.0, None)
+        ax.errorbar(b.centers[ok], b.p_hat[ok], yerr=err,
                     fmt="o", capsize=3, label=f"simulated ({int(sel.sum())} samples, Wilson 95 %)")
         x = np.linspace(edges[0], edges[-1], 200)
         if var == "D_m":

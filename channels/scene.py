@@ -42,7 +42,7 @@ from rfsim.units import C_M_S
 
 from .antennas import Antenna
 from .large_scale import friis_amplitude_gain, wall_loss_db
-from .paths import PathSet, concatenate
+from .paths import PathSet
 from .small_scale import ApdpModel, draw_taps
 from .surfaces import image_paths, reflect_point
 
@@ -173,7 +173,11 @@ class Channel:
             env *= float(sc.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)))
         a_los = g_ls * env * ant * plf
 
-        parts = []
+        # One PathSet of LoS, image paths, diffuse taps (as concatenate() of the parts would
+        # give, without validating every part on its own).
+        gains = [np.array([a_los], dtype=np.complex128)]
+        delays = [np.array([tau_los], dtype=np.float64)]
+        dops = [np.array([f_los], dtype=np.float64)]
         diffuse = None
         if sc.apdp is not None:
             held = self._held.get(key) if rng is None else None
@@ -186,15 +190,17 @@ class Channel:
                 held = (abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
                 self._held[key] = held
             los_amp, h, rel = held
-            a_los = a_los * los_amp
-            diffuse = PathSet(g_ls * env * h, tau_los + rel, np.full(rel.shape, f_los))
-        parts.append(PathSet([a_los], [tau_los], [f_los]))
-
+            gains[0] = np.array([a_los * los_amp], dtype=np.complex128)
+            diffuse = (g_ls * env * h, tau_los + rel, np.full(rel.shape, f_los))
         if images is not None:
-            parts.append(images)
+            gains.append(images.gain)
+            delays.append(images.delay_s)
+            dops.append(images.doppler_hz)
         if diffuse is not None:
-            parts.append(diffuse)
-        return concatenate(*parts)
+            gains.append(np.asarray(diffuse[0], dtype=np.complex128))
+            delays.append(np.asarray(diffuse[1], dtype=np.float64))
+            dops.append(diffuse[2])
+        return PathSet(np.concatenate(gains), np.concatenate(delays), np.concatenate(dops))
 
     def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse

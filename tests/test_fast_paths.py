@@ -181,3 +181,20 @@ def test_cw_power_kernel_equals_reference():
     assert math.isnan(_cw_power_w(nan, (0.5, 0.2, 0.3)))
     assert math.isnan(cw_power_reference(nan, (0.5, 0.2, 0.3)))
     assert n_cases == 200
+
+
+def test_halfsymbols_kernel_equals_reference():
+    """Element sequences of random replies, every M, TRext and dummy setting."""
+    rng = trial_rng(57, 0)
+    n = 0
+    for m in (1, 2, 4, 8):
+        for trext in (False, True):
+            for dummy in (False, True):
+                for _ in range(10):
+                    bits = rng.integers(0, 2, int(rng.integers(0, 150))).astype(np.uint8)
+                    a = L.halfsymbols(bits, m=m, trext=trext, dummy=dummy)
+                    b = L.halfsymbols_reference(bits, m=m, trext=trext, dummy=dummy)
+                    assert a.dtype == b.dtype == np.int8
+                    np.testing.assert_array_equal(a, b)
+                    n += 1
+    assert n == 160

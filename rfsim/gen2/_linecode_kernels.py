@@ -198,3 +198,33 @@ def corr_abs_kernel(r, t0, out):
             acc_re += z.real * t0[i]
             acc_im += z.imag * t0[i]
         out[k] = math.hypot(acc_re, acc_im)
+
+
+@njit
+def elements_kernel(bits, dummy, m, pre, cur, prev, out):
+    """Element sequence of a reply into ``out`` ((len(pre) + 2·(n + dummy))·m,): the preamble
+    half-bit levels ``pre``, then the FM0 (m = 1) or Miller half-bit levels of ``bits`` (and a
+    dummy 1) from encoder state (``cur``, ``prev``); each half-bit is m elements, Miller
+    elements alternate the sign (subcarrier: −1 on odd element indices)."""
+    k = 0
+    for i in range(pre.size):
+        for _ in range(m):
+            out[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+            k += 1
+    nb = bits.size + (1 if dummy else 0)
+    for i in range(nb):
+        b = bits[i] if i < bits.size else 1
+        if m == 1:
+            first = -cur
+            second = first if b == 1 else -first
+        else:
+            first = -cur if (b == 0 and prev == 0) else cur
+            second = -first if b == 1 else first
+        for _ in range(m):
+            out[k] = first if (m == 1 or k % 2 == 0) else -first
+            k += 1
+        for _ in range(m):
+            out[k] = second if (m == 1 or k % 2 == 0) else -second
+            k += 1
+        cur = second
+        prev = b

@@ -139,9 +139,26 @@ def _elements(levels: np.ndarray, m: int) -> np.ndarray:
     return el
 
 
+def _element_values(bits, m: int, trext: bool, dummy: bool, dtype) -> np.ndarray:
+    """Element sequence of a reply as ``dtype`` (numba kernel)."""
+    m = _check_m(m)
+    arr = as_bits(bits)
+    pre, cur, prev = _preamble(m, bool(trext))
+    out = np.empty((pre.size + 2 * (arr.size + int(bool(dummy)))) * m, dtype=dtype)
+    _k.elements_kernel(arr, bool(dummy), m, pre, np.int8(cur), np.uint8(prev), out)
+    return out
+
+
 def halfsymbols(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
     """Element sequence of a reply: ``(n_el,) int8`` of ±1, one value per half subcarrier
-    cycle 1/(2·BLF) (pilot, preamble, data, dummy-1) — the PASS ``tag_encoding`` format."""
+    cycle 1/(2·BLF) (pilot, preamble, data, dummy-1) — the PASS ``tag_encoding`` format
+    (numba kernel)."""
+    return _element_values(bits, m, trext, dummy, np.int8)
+
+
+def halfsymbols_reference(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
+    """Plain-NumPy twin of :func:`halfsymbols` (half-bit levels, repeated M times, subcarrier
+    sign on the odd elements)."""
     m = _check_m(m)
     levels, _ = halfbit_levels(bits, m=m, trext=trext, dummy=dummy)
     return _elements(levels, m)
@@ -171,7 +188,7 @@ def reply_waveform(
     ``t0_s`` and after the reply (the tag's rest state). Sample n is at ``t = n/fs``;
     the default length ends with the reply.
     """
-    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    el = _element_values(bits, m, trext, dummy, np.float64)
     r = _check_rates(blf_hz, fs_hz)
     t0 = float(t0_s) * float(fs_hz)
     if n_samples is None:
@@ -186,7 +203,7 @@ def reply_waveform_reference(
     dummy: bool = True, n_samples: int | None = None,
 ) -> np.ndarray:
     """Plain-NumPy twin of :func:`reply_waveform`."""
-    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    el = halfsymbols_reference(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
     r = _check_rates(blf_hz, fs_hz)
     t0 = float(t0_s) * float(fs_hz)
     if n_samples is None:
@@ -484,6 +501,7 @@ __all__ = [
     "preamble_levels",
     "halfbit_levels",
     "halfsymbols",
+    "halfsymbols_reference",
     "reply_duration_s",
     "reply_waveform",
     "reply_waveform_reference",

@@ -56,7 +56,7 @@ from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import LinkProfile, profile, t1
 from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
-from rfsim.gen2.pie import pie_envelope, pie_timeline
+from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from channels.noise import thermal_noise_power_w
 
@@ -310,18 +310,14 @@ class Reader:
         timing = dict(tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
                       delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
                       cw_before_s=float(cw_before_s))
-        e = pie_envelope(bits, depth=lk.depth, fs_hz=self.fs_hz,
-                         rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s, **timing)
+        tl = pie_timeline(bits, **timing)
+        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz,
+                              rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s)
         amp = math.sqrt(self.ptx_w)
         if lk.modulation == "DSB-ASK":
             return (amp * e).astype(np.complex128)
         if lk.modulation == "PR-ASK":
-            tl = pie_timeline(bits, **timing)
-            mid = 0.5 * (tl.fall_s + tl.rise_s)
-            t = np.arange(e.size) / self.fs_hz
-            flips = np.searchsorted(mid, t, side="right")
-            sign = 1.0 - 2.0 * (flips % 2)
-            return (amp * sign * e).astype(np.complex128)
+            return pr_ask_baseband(tl, e, amplitude=amp, fs_hz=self.fs_hz)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
         quad = fftconvolve(e - 1.0, hilbert_fir(half), mode="same")

@@ -238,8 +238,17 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
     noise_w = reader.noise_power_w()
     if noise_w > 0:
+        # complex white noise scale·(a + j·b): a then b drawn from rng, written straight into
+        # the real and imaginary parts (the same values as forming a + 1j·b)
         scale = math.sqrt(noise_w / 2.0)
-        rx = rx + scale * (rng.standard_normal(rx.size) + 1j * rng.standard_normal(rx.size))
+        ab = np.empty((2, rx.size))
+        rng.standard_normal(out=ab[0])
+        rng.standard_normal(out=ab[1])
+        ab *= scale
+        noise = np.empty(rx.size, dtype=np.complex128)
+        noise.real = ab[0]
+        noise.imag = ab[1]
+        rx = rx + noise
     read = None
     if replied:
         # The receiver listens from half a Tari after its own command's last edge (the edge

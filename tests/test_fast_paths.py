@@ -198,3 +198,22 @@ def test_halfsymbols_kernel_equals_reference():
                     np.testing.assert_array_equal(a, b)
                     n += 1
     assert n == 160
+
+
+@pytest.mark.parametrize("preamble", ["query", "frame-sync"])
+def test_pr_ask_kernel_equals_reference(preamble):
+    """PR-ASK baseband of random commands at a non-integer number of samples per Tari."""
+    from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, pr_ask_baseband_reference, timeline_envelope
+
+    rng = trial_rng(58, len(preamble))
+    for _ in range(5):
+        bits = rng.integers(0, 2, int(rng.integers(1, 60))).astype(np.uint8)
+        tl = pie_timeline(bits, tari_s=12.5e-6, data1_tari=2.0, trcal_s=66.7e-6, pw_s=6.25e-6,
+                          delimiter_s=12.5e-6, preamble=preamble, cw_before_s=12.5e-6, cw_after_s=1e-4)
+        fs = 3.3e6
+        e = timeline_envelope(tl, depth=0.9, fs_hz=fs, rise_fall_s=1.25e-6)
+        a = pr_ask_baseband(tl, e, amplitude=0.7, fs_hz=fs)
+        b = pr_ask_baseband_reference(tl, e, amplitude=0.7, fs_hz=fs)
+        assert a.dtype == np.complex128
+        np.testing.assert_array_equal(a, b)
+        assert np.any(a.real < 0) and np.any(a.real > 0)

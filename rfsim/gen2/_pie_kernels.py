@@ -275,3 +275,17 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
             break
         thr = new
     return thr, m_lo, m_hi
+
+
+@njit
+def pr_ask_kernel(mid_s, fs_hz, amp, e, out):
+    """PR-ASK baseband ``out[n] = (amp·s_n)·e[n]`` with ``s_n = ±1``: −1 after an odd number
+    of the sorted sign-change times ``mid_s`` [s] are ≤ t = n/fs (``searchsorted`` right)."""
+    j = 0
+    nm = mid_s.size
+    for n in range(e.size):
+        t = n / fs_hz
+        while j < nm and mid_s[j] <= t:
+            j += 1
+        sign = 1.0 - 2.0 * (j % 2)
+        out[n] = (amp * sign) * e[n]

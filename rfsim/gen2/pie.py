@@ -189,10 +189,44 @@ def pie_envelope(
         delimiter_s=delimiter_s, preamble=preamble, cw_before_s=cw_before_s,
         cw_after_s=cw_after_s,
     )
-    width = _ramp_width_samples(float(rise_fall_s), fs_hz, tl)
-    out = np.ones(int(math.ceil(tl.duration_s * fs_hz)), dtype=np.float64)
-    _k.envelope_kernel(tl.fall_s * fs_hz, tl.rise_s * fs_hz, float(depth), width, out)
+    return timeline_envelope(tl, depth=depth, fs_hz=fs_hz, rise_fall_s=rise_fall_s)
+
+
+def timeline_envelope(timeline: PieTimeline, *, depth: float, fs_hz: float, rise_fall_s: float = 0.0) -> np.ndarray:
+    """:func:`pie_envelope` of an already computed :class:`PieTimeline` (numba kernel)."""
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    width = _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
+    out = np.ones(int(math.ceil(timeline.duration_s * fs_hz)), dtype=np.float64)
+    _k.envelope_kernel(timeline.fall_s * fs_hz, timeline.rise_s * fs_hz, float(depth), width, out)
     return out
+
+
+def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: float, fs_hz: float) -> np.ndarray:
+    """PR-ASK baseband ``x = A·s(t)·e(t)`` (numba kernel), ``(n,) complex128``.
+
+    ``s(t) = ±1`` changes sign at the middle of every low pulse (delimiter included),
+    ``(fall_s + rise_s)/2`` of ``timeline``: every PIE symbol has the opposite polarity of
+    the previous one (gen2-and-validation-anchors.md §4.1). ``envelope`` is e(t) at
+    ``t = n/fs`` (:func:`timeline_envelope`), ``amplitude`` A [√W].
+    """
+    fs_hz = _check_fs(fs_hz)
+    mid = np.ascontiguousarray(0.5 * (timeline.fall_s + timeline.rise_s), dtype=np.float64)
+    e = np.ascontiguousarray(envelope, dtype=np.float64)
+    out = np.empty(e.size, dtype=np.float64)
+    _k.pr_ask_kernel(mid, fs_hz, float(amplitude), e, out)
+    return out.astype(np.complex128)
+
+
+def pr_ask_baseband_reference(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: float,
+                              fs_hz: float) -> np.ndarray:
+    """Plain-NumPy twin of :func:`pr_ask_baseband`."""
+    mid = 0.5 * (timeline.fall_s + timeline.rise_s)
+    t = np.arange(envelope.size) / fs_hz
+    flips = np.searchsorted(mid, t, side="right")
+    sign = 1.0 - 2.0 * (flips % 2)
+    return (amplitude * sign * envelope).astype(np.complex128)
 
 
 def pie_envelope_reference(bits, *, depth: float, fs_hz: float, rise_fall_s: float = 0.0, **timing):
@@ -371,6 +405,9 @@ __all__ = [
     "pie_envelope",
     "pie_envelope_reference",
     "pie_envelope_for_profile",
+    "timeline_envelope",
+    "pr_ask_baseband",
+    "pr_ask_baseband_reference",
     "two_level_threshold",
     "two_level_threshold_reference",
     "pie_decode",

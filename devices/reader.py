@@ -59,6 +59,7 @@ from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s,
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from channels.noise import thermal_noise_power_w
+from devices import _reader_kernels as _rk
 
 #: FCC Part 15.247 plan: 50 channels of 500 kHz, 902.75 … 927.25 MHz (anchors §4.7).
 FCC_CHANNELS_HZ = 902.75e6 + 0.5e6 * np.arange(50)
@@ -508,32 +509,9 @@ class Reader:
 
     def _measure(self, z: np.ndarray, s: np.ndarray, blf_hz: float) -> dict:
         """RSSI, phase, Doppler and SNR of ``z = h(t)·s(t) + noise`` (offset removed), see
-        :meth:`receive`."""
+        :meth:`receive` (numba kernel; :func:`measure_reference` is its NumPy twin)."""
         lk, fs = self.link, self.fs_hz
-        idx = np.flatnonzero(s)
-        i0, i1 = int(idx[0]), int(idx[-1]) + 1
-        t = (np.arange(i0, i1) - 0.5 * (i0 + i1 - 1)) / fs  # time from the reply centre [s]
-        # only samples whose neighbours have the same reference level: the start is known to
-        # 1/16 sample, so a sample next to an element boundary may carry the other level
-        ref = s[i0:i1]
-        steady = _steady(ref)
-        z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
-        # block k starts at floor(k·n/K) (= np.linspace(0, n, K + 1).astype(int)[k], exactly)
-        edges = [k * ref.size // DOPPLER_BLOCKS for k in range(DOPPLER_BLOCKS + 1)]
-        starts = np.array(edges[:-1])
-        counts = np.array([float(b - a) for a, b in zip(edges[:-1], edges[1:])])
-        g = np.add.reduceat(z * ref, starts) / np.add.reduceat(ref * ref, starts)
-        tc = np.add.reduceat(t, starts) / counts
-        w2 = np.abs(g) ** 2  # weights |g_k| on the residuals (numpy.polyfit's w), squared
-        if np.all(w2 > 0):
-            y = np.array(_unwrap(np.angle(g).tolist()))
-            xm, ym = np.dot(w2, tc) / w2.sum(), np.dot(w2, y) / w2.sum()
-            slope = float(np.dot(w2, (tc - xm) * (y - ym)) / np.dot(w2, (tc - xm) ** 2))
-        else:
-            slope = 0.0
-        rot = np.exp(-1j * slope * t)
-        h = np.dot(z * rot, ref) / np.dot(ref, ref)
-        sigma2 = float(np.mean(np.abs(z - h * ref / rot) ** 2))
+        h, slope, sigma2 = _measure(z, s, fs)
         p = abs(h) ** 2
         snr = 10.0 * math.log10(p / sigma2) if sigma2 > 0 and p > 0 else math.inf
         return dict(rssi_dbm=float(w_to_dbm(p)) if p > 0 else -math.inf,
@@ -542,29 +520,52 @@ class Reader:
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
 
 
+def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float, float]:
+    """``(h, slope [rad/s], σ²)`` of ``z = h·e^{j·slope·t}·s(t) + noise`` (numba kernel; the
+    procedure is :meth:`Reader.receive` step 5, :func:`measure_reference` its NumPy twin)."""
+    z = np.ascontiguousarray(z, dtype=np.complex128)
+    s = np.ascontiguousarray(s, dtype=np.float64)
+    n = s.size
+    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS, np.empty(n, np.complex128),
+                                          np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                                          np.empty(DOPPLER_BLOCKS, np.complex128), np.empty(DOPPLER_BLOCKS),
+                                          np.empty(DOPPLER_BLOCKS))
+    return complex(h), float(slope), float(sigma2)
+
+
+def measure_reference(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float, float]:
+    """Plain-NumPy twin of the measurement kernel: ``(h, slope [rad/s], σ²)``."""
+    fs = float(fs_hz)
+    idx = np.flatnonzero(s)
+    i0, i1 = int(idx[0]), int(idx[-1]) + 1
+    t = (np.arange(i0, i1) - 0.5 * (i0 + i1 - 1)) / fs  # time from the reply centre [s]
+    # only samples whose neighbours have the same reference level: the start is known to
+    # 1/16 sample, so a sample next to an element boundary may carry the other level
+    ref = s[i0:i1]
+    steady = _steady(ref)
+    z, ref, t = z[i0:i1][steady], ref[steady], t[steady]
+    starts = np.linspace(0, ref.size, DOPPLER_BLOCKS + 1).astype(int)[:-1]
+    counts = np.diff(np.append(starts, ref.size)).astype(float)
+    g = np.add.reduceat(z * ref, starts) / np.add.reduceat(ref * ref, starts)
+    tc = np.add.reduceat(t, starts) / counts
+    w2 = np.abs(g) ** 2  # weights |g_k| on the residuals (numpy.polyfit's w), squared
+    if np.all(w2 > 0):
+        y = np.unwrap(np.angle(g))
+        xm, ym = np.dot(w2, tc) / w2.sum(), np.dot(w2, y) / w2.sum()
+        slope = float(np.dot(w2, (tc - xm) * (y - ym)) / np.dot(w2, (tc - xm) ** 2))
+    else:
+        slope = 0.0
+    rot = np.exp(-1j * slope * t)
+    h = np.dot(z * rot, ref) / np.dot(ref, ref)
+    sigma2 = float(np.mean(np.abs(z - h * ref / rot) ** 2))
+    return complex(h), slope, sigma2
+
+
 @functools.lru_cache(maxsize=64)
 def _t1_window(link: LinkProfile) -> tuple[float, float]:
     """(T1min, T1max) of a (frozen, hashable) link profile [s]; a cached pure function."""
     r = t1(link)
     return r.min_s, r.max_s
-
-
-def _unwrap(p: list) -> list:
-    """``numpy.unwrap`` (period 2π, default discont) of a short sequence of floats, element by
-    element (the same operations in the same order, without numpy's per-call overhead)."""
-    period = 2.0 * math.pi
-    half = period / 2.0
-    out = [p[0]]
-    cum = 0.0
-    for i in range(1, len(p)):
-        dd = p[i] - p[i - 1]
-        ddmod = (dd + half) % period - half  # float % is numpy.mod (sign of the divisor)
-        if ddmod == -half and dd > 0:
-            ddmod = half
-        corr = 0.0 if abs(dd) < half else ddmod - dd
-        cum = corr if i == 1 else cum + corr
-        out.append(p[i] + cum)
-    return out
 
 
 def _steady(level: np.ndarray) -> np.ndarray:

@@ -1,0 +1,111 @@
+"""numba kernels of the reader's receiver (wrapped and documented in :mod:`devices.reader`;
+the plain-NumPy twin is :func:`devices.reader.measure_reference`)."""
+
+from __future__ import annotations
+
+import math
+
+from rfsim._jit import njit
+
+
+@njit
+def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g, tc, y):
+    """Gain, Doppler slope and residual power of ``z = h(t)·s(t) + noise`` (see
+    :meth:`devices.reader.Reader.receive`, step 5).
+
+    Uses the samples of the reply span (first to last non-zero ``s``) whose two neighbours
+    carry the same level; ``t`` is the time from the span's centre [s]. The span is cut into
+    ``n_blocks`` blocks (block k starts at floor(k·m/K) of the m used samples); per block
+    g_k = Σz·s/Σs², tc_k = mean t; the slope is the weighted (|g_k|²) least-squares line
+    through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
+    ``buf_*`` are scratch arrays of ``s.size`` (``buf_z`` complex), ``g`` (complex), ``tc``
+    and ``y`` of ``n_blocks``.
+    Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
+    """
+    n = s.size
+    i0 = -1
+    i1 = -1
+    for i in range(n):
+        if s[i] != 0.0:
+            if i0 < 0:
+                i0 = i
+            i1 = i + 1
+    if i0 < 0:
+        return complex(math.nan, math.nan), 0.0, math.nan
+    centre = 0.5 * (i0 + i1 - 1)
+    m = 0
+    for i in range(i0 + 1, i1 - 1):
+        a = s[i]
+        if a == s[i - 1] and a == s[i + 1]:
+            buf_z[m] = z[i]
+            buf_ref[m] = a
+            buf_t[m] = (i - centre) / fs_hz
+            m += 1
+    if m == 0:
+        return complex(math.nan, math.nan), 0.0, math.nan
+    # per-block gain and centre time
+    all_positive = True
+    for k in range(n_blocks):
+        lo = k * m // n_blocks
+        hi = (k + 1) * m // n_blocks
+        acc = 0j
+        rr = 0.0
+        ts = 0.0
+        for i in range(lo, hi):
+            acc += buf_z[i] * buf_ref[i]
+            rr += buf_ref[i] * buf_ref[i]
+            ts += buf_t[i]
+        g[k] = acc / rr if rr > 0.0 else complex(math.nan, math.nan)
+        tc[k] = ts / (hi - lo) if hi > lo else math.nan
+        w = g[k].real * g[k].real + g[k].imag * g[k].imag
+        if not w > 0.0:
+            all_positive = False
+    slope = 0.0
+    if all_positive:
+        # weighted least-squares line through the unwrapped arg g_k (numpy.unwrap, period 2π)
+        cum = 0.0
+        prev = 0.0
+        sw = 0.0
+        swx = 0.0
+        swy = 0.0
+        for k in range(n_blocks):
+            p = math.atan2(g[k].imag, g[k].real)
+            if k > 0:
+                dd = p - prev
+                ddmod = (dd + math.pi) % (2.0 * math.pi) - math.pi
+                if ddmod == -math.pi and dd > 0:
+                    ddmod = math.pi
+                if abs(dd) >= math.pi:
+                    cum += ddmod - dd
+            prev = p
+            y[k] = p + cum
+            w = g[k].real * g[k].real + g[k].imag * g[k].imag
+            sw += w
+            swx += w * tc[k]
+            swy += w * y[k]
+        xm = swx / sw
+        ym = swy / sw
+        num = 0.0
+        den = 0.0
+        for k in range(n_blocks):
+            w = g[k].real * g[k].real + g[k].imag * g[k].imag
+            num += w * (tc[k] - xm) * (y[k] - ym)
+            den += w * (tc[k] - xm) * (tc[k] - xm)
+        slope = num / den
+    # gain with the rotation e^{−j·slope·t} removed, then the residual power
+    acc = 0j
+    rr = 0.0
+    for i in range(m):
+        a = slope * buf_t[i]
+        c = math.cos(a)
+        sn = math.sin(a)
+        buf_c[i] = c
+        buf_s[i] = sn
+        acc += buf_z[i] * complex(c * buf_ref[i], -sn * buf_ref[i])
+        rr += buf_ref[i] * buf_ref[i]
+    h = acc / rr
+    res = 0.0
+    for i in range(m):
+        e = buf_z[i] - h * complex(buf_c[i] * buf_ref[i], buf_s[i] * buf_ref[i])
+        res += e.real * e.real + e.imag * e.imag
+    return h, slope, res / m

@@ -168,7 +168,7 @@ class Channel:
                 if len(self._static) >= GEOMETRY_CACHE_SIZE:
                     self._static.pop(next(iter(self._static)))
                 self._static[(tx, rx, fc_hz)] = geo
-        d, g_ls, env, ant, plf, tau_los, f_los, p_tx, p_rx, images = geo
+        d, g_ls, env, ant, plf, tau_los, f_los, p_tx, p_rx, images, apdp_args = geo
         if sc.shadowing is not None:
             env *= float(sc.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)))
         a_los = g_ls * env * ant * plf
@@ -184,9 +184,8 @@ class Channel:
             if held is None:
                 if rng is None:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
-                k_lin = float(sc.apdp.k_lin_at(d))
-                taps, rel = draw_taps(k_lin, float(sc.apdp.tau_rms_s_at(d)), rng=rng, n_draws=1,
-                                      **sc.apdp.profile_options)
+                k_lin, tau_rms_s = apdp_args
+                taps, rel = draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **sc.apdp.profile_options)
                 held = (abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
                 self._held[key] = held
             los_amp, h, rel = held
@@ -205,7 +204,7 @@ class Channel:
     def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse
         taps and the shadowing): ``(d, g_ls, wall amplitude, antenna gain, √PLF, τ_LoS,
-        f_D,LoS, p_tx, p_rx, image PathSet or None)``."""
+        f_D,LoS, p_tx, p_rx, image PathSet or None, (K, τ_rms) of the APDP or None)``."""
         sc = self.scene
         p_tx, v_tx = kinematics(tx, tx_motion, t_s)
         p_rx, v_rx = kinematics(rx, rx_motion, t_s)
@@ -227,7 +226,11 @@ class Channel:
         images = None
         if sc.surfaces and sc.image_order > 0:
             images = self._image_part(tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz)
-        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images)
+        apdp_args = None
+        if sc.apdp is not None:  # K-factor and RMS delay spread of the APDP at this distance
+            apdp_args = (float(sc.apdp.k_lin_at(d)), float(sc.apdp.tau_rms_s_at(d)))
+        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
+                apdp_args)
 
     def _image_part(self, tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
         sc = self.scene

@@ -368,7 +368,7 @@ class PassiveTag:
             start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
         s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,
                            t0_s=start_s - t0_s, n_samples=x.size)
-        gamma = np.where(s > 0, self.reflection_states.gamma_b, rest).astype(np.complex128)
+        gamma = np.where(s > 0, self.reflection_states.gamma_b, rest).astype(np.complex128, copy=False)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=query.trext, blf_hz=blf_hz)
         base.update(gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, reason="", command_end_s=cmd_end_s,

@@ -194,6 +194,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
         read only with ``draw_channel=False`` for a tag without motion — the links are then
         exactly what the channel would return again (held draw, same geometry and carrier).
+        It also keeps the propagation method chosen for each link (a pure function of the
+        PathSet object, the BLF and ``propagation``).
     """
     if propagation not in PROPAGATION_METHODS:
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
@@ -220,7 +222,16 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             if link_cache is not None and motion is None:
                 link_cache[key] = links
         fwd, bwd = links
-        fwd_method = _method(fwd, 2.0 * link.blf_hz, propagation)
+        # the propagation method of a held link is held with it (same PathSet, same answer)
+        method_key = ("method", i, antenna_index, fc, propagation, link.blf_hz)
+        methods = link_cache.get(method_key) if link_cache is not None else None
+        if methods is None or methods[0] is not fwd or methods[2] is not bwd:
+            fwd_method = _method(fwd, 2.0 * link.blf_hz, propagation)
+            bwd_method = fwd_method if bwd is fwd else _method(bwd, 2.0 * link.blf_hz, propagation)
+            methods = (fwd, fwd_method, bwd, bwd_method)
+            if link_cache is not None:
+                link_cache[method_key] = methods
+        fwd_method, bwd_method = methods[1], methods[3]
         incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s, method=fwd_method)
         response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
         incident_dbm.append(float(response.incident_power_dbm))
@@ -234,7 +245,6 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         if response.gamma is not None or response.gamma_rest != 0:
             # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
             scattered = response.reflection(incident.size) * incident
-            bwd_method = fwd_method if bwd is fwd else _method(bwd, 2.0 * link.blf_hz, propagation)
             rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
     noise_w = reader.noise_power_w()
     if noise_w > 0:

@@ -109,3 +109,31 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g
         e = buf_z[i] - h * complex(buf_c[i] * buf_ref[i], buf_s[i] * buf_ref[i])
         res += e.real * e.real + e.imag * e.imag
     return h, slope, res / m
+
+
+@njit
+def _level(pre, full, i):
+    """Reference level of sample i: −1 outside the reply, the preamble level inside it, the
+    decided reply level elsewhere."""
+    if full[i] == 0.0:
+        return -1.0
+    if pre[i] != 0.0:
+        return pre[i]
+    return full[i]
+
+
+@njit
+def known_levels_kernel(r, pre, full, r_out, level_out):
+    """Samples whose level is known without decisions (preamble, or outside the reply) and
+    whose two neighbours carry the same level: copies them and their level into ``r_out`` /
+    ``level_out`` (in order) and returns their number."""
+    n = pre.size
+    m = 0
+    for i in range(1, n - 1):
+        if pre[i] != 0.0 or full[i] == 0.0:
+            li = _level(pre, full, i)
+            if li == _level(pre, full, i - 1) and li == _level(pre, full, i + 1):
+                r_out[m] = r[i]
+                level_out[m] = li
+                m += 1
+    return m

@@ -482,13 +482,11 @@ class Reader:
         pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, blf, dummy=False)
         full = self._reference(det.bits, start, r.size, blf)
         # Outside its reply a tag rests in its absorbing state, which is the reply's −1
-        # level: the backscatter DC steps by h at the reply's start and end.
-        level = np.where(full == 0, -1.0, np.where(pre != 0, pre, full))
-        # only samples whose two neighbours carry the same level (as in the measurements:
-        # the start is known to a fraction of a sample, a sample at an element boundary
-        # could carry the other level and bias c, which no later step removes)
-        known = ((pre != 0) | (full == 0)) & _steady(level)
-        h, c = _gain_offset(r[known], level[known])
+        # level: the backscatter DC steps by h at the reply's start and end. Only samples
+        # whose two neighbours carry the same level (as in the measurements: the start is
+        # known to a fraction of a sample, a sample at an element boundary could carry the
+        # other level and bias c, which no later step removes).
+        h, c = _gain_offset(*_known_levels(r, pre, full))
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
@@ -566,6 +564,25 @@ def _t1_window(link: LinkProfile) -> tuple[float, float]:
     """(T1min, T1max) of a (frozen, hashable) link profile [s]; a cached pure function."""
     r = t1(link)
     return r.min_s, r.max_s
+
+
+def _known_levels(r: np.ndarray, pre: np.ndarray, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(r, level)`` at the samples whose level is known without decisions (numba kernel;
+    :func:`known_levels_reference` is its NumPy twin)."""
+    r_out = np.empty(r.size, dtype=np.complex128)
+    level_out = np.empty(r.size)
+    m = _rk.known_levels_kernel(r, np.ascontiguousarray(pre, dtype=np.float64),
+                                np.ascontiguousarray(full, dtype=np.float64), r_out, level_out)
+    return r_out[:m], level_out[:m]
+
+
+def known_levels_reference(r: np.ndarray, pre: np.ndarray, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Plain-NumPy twin of the known-level selection of :meth:`Reader.receive` step 3: level
+    −1 outside the reply (``full == 0``), the preamble ``pre`` inside it; samples with both
+    neighbours at the same level."""
+    level = np.where(full == 0, -1.0, np.where(pre != 0, pre, full))
+    known = ((pre != 0) | (full == 0)) & _steady(level)
+    return r[known], level[known]
 
 
 def _steady(level: np.ndarray) -> np.ndarray:

@@ -241,3 +241,35 @@ def test_measure_kernel_equals_reference(doppler_hz):
     # and both measure what was put in: Doppler within a few Hz, noise power 2·(3e-6)²
     assert slope / (2 * np.pi) == pytest.approx(doppler_hz, abs=5.0)
     assert sigma2 == pytest.approx(2 * 9e-12, rel=0.1)
+
+
+def test_projected_halfbit_sums_kernel_equals_reference():
+    rng = trial_rng(60, 0)
+    part = rng.standard_normal(3000) + 1j * rng.standard_normal(3000)
+    g = complex(0.3, -1.7)
+    for m, start in ((1, 0.0), (4, 2.3125), (8, 0.9375)):
+        a = L._kernel_sums(part, g, 0.25, start, 0.16, m, 60)
+        b = L.projected_halfbit_sums_reference(part, g, 0.25, start, 0.16, m, 60)
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+
+
+def test_known_levels_kernel_equals_reference():
+    """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
+    on the references of a real reply: the same samples and levels, bit for bit."""
+    from devices.reader import _known_levels, known_levels_reference
+
+    rng = trial_rng(61, 0)
+    fs, blf = 4e6, 320e3
+    n = 0
+    for start in (100.0, 137.3125, 3.5):
+        bits = rng.integers(0, 2, 16).astype(np.uint8)
+        kw = dict(m=4, trext=False, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=2500)
+        pre = L.reply_waveform(np.zeros(0, np.uint8), dummy=False, **kw)
+        full = L.reply_waveform(bits, **kw)
+        r = rng.standard_normal(2500) + 1j * rng.standard_normal(2500)
+        a, b = _known_levels(r, pre, full), known_levels_reference(r, pre, full)
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+        assert a[1].size > 1000 and set(np.unique(a[1])) <= {-1.0, 1.0}
+        n += 1
+    assert n == 3

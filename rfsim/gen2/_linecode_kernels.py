@@ -228,3 +228,26 @@ def elements_kernel(bits, dummy, m, pre, cur, prev, out):
             k += 1
         cur = second
         prev = b
+
+
+@njit
+def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, out):
+    """:func:`halfbit_sums_kernel` of ``y[n] = (Re part[n]·g_re − Im part[n]·g_im) − dc_re``
+    (the projection Re((part − dc)/h) with g = 1/h, dc_re = Re(dc·g)), computed on the fly."""
+    out[:] = 0.0
+    nh = out.size
+    n0 = max(0, int(math.ceil(start)))
+    for n in range(n0, part.size):
+        u = (n - start) * elements_per_sample
+        if u < 0.0:
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        h = k // m
+        if h >= nh:
+            break
+        z = part[n]
+        y = (z.real * g_re - z.imag * g_im) - dc_re
+        if m > 1 and (k & 1):
+            out[h] -= y
+        else:
+            out[h] += y

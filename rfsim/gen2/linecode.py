@@ -302,10 +302,17 @@ def viterbi_reference(a, b, miller: bool, state0: int, last_is_one: bool) -> np.
     return out
 
 
-def _kernel_sums(y, start, r, m, nh):
+def _kernel_sums(part, g, dc_g, start, r, m, nh):
     out = np.empty(nh)
-    _k.halfbit_sums_kernel(y, float(start), r, m, out)
+    _k.projected_halfbit_sums_kernel(part, g.real, g.imag, dc_g, float(start), r, m, out)
     return out
+
+
+def projected_halfbit_sums_reference(part, g, dc_g, start, r, m, nh) -> np.ndarray:
+    """Plain-NumPy twin of the projecting half-bit sums: ``y = Re(part·g) − dc_g`` (as
+    ``Re part·Re g − Im part·Im g − dc_g``), then :func:`halfbit_sums_reference`."""
+    y = np.ascontiguousarray(part.real * g.real - part.imag * g.imag - dc_g)
+    return halfbit_sums_reference(y, start, r, m, nh)
 
 
 def _kernel_bitwise(a, b, miller):
@@ -445,8 +452,7 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
         raise ValueError("zero channel gain: no reply to decode")
     g = 1.0 / h
     part = r[lag: lag + n_reply + 2]
-    y = np.ascontiguousarray(part.real * g.real - part.imag * g.imag - (dc * g).real)
-    sums = impl[0](y, start - lag, ratio, m, nh)
+    sums = impl[0](part, g, (dc * g).real, start - lag, ratio, m, nh)
     data = sums[pre.size:]
     a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
     miller = m > 1
@@ -458,7 +464,7 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
 
 
 _KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs)
-_REFERENCES = (halfbit_sums_reference, bitwise_reference, viterbi_reference, refine_reference,
+_REFERENCES = (projected_halfbit_sums_reference, bitwise_reference, viterbi_reference, refine_reference,
                corr_abs_reference)
 
 
@@ -511,6 +517,7 @@ __all__ = [
     "fm0_levels_reference",
     "miller_levels_reference",
     "halfbit_sums_reference",
+    "projected_halfbit_sums_reference",
     "bitwise_reference",
     "viterbi_reference",
     "refine_reference",

@@ -124,16 +124,18 @@ class Channel:
     For links between static antennas (no motion) the channel also keeps the deterministic
     part of the link — large-scale gain, wall loss, antenna gains, polarization mismatch,
     delay and the image paths, a pure function of the two antennas (compared by value), the
-    carrier and the immutable scene — keyed by ``(tx, rx, fc_hz)`` and bounded by
-    :data:`GEOMETRY_CACHE_SIZE` (oldest entry dropped first). Only the diffuse taps (and the
-    shadowing field, which can be redrawn) are evaluated anew on every call; the result is
-    bit-identical to assembling the whole link again.
+    carrier and the immutable scene — keyed by ``(tx, rx, fc_hz)``, and its carrier-
+    independent part keyed by ``(tx, rx)``, each bounded by :data:`GEOMETRY_CACHE_SIZE`
+    (oldest entry dropped first). Only the diffuse taps (and the shadowing field, which can
+    be redrawn) are evaluated anew on every call; the result is bit-identical to assembling
+    the whole link again.
     """
 
     def __init__(self, scene: Scene):
         self.scene = scene
         self._held: dict = {}
         self._static: dict = {}
+        self._placements: dict = {}
 
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
@@ -204,7 +206,32 @@ class Channel:
     def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse
         taps and the shadowing): ``(d, g_ls, wall amplitude, antenna gain, √PLF, τ_LoS,
-        f_D,LoS, p_tx, p_rx, image PathSet or None, (K, τ_rms) of the APDP or None)``."""
+        f_D,LoS, p_tx, p_rx, image PathSet or None, (K, τ_rms) of the APDP or None)``.
+
+        The carrier enters only through the large-scale gains and the Doppler shifts: for
+        static antennas the rest (:meth:`_placement`) is kept per antenna pair, so that a
+        frequency hop costs little."""
+        sc = self.scene
+        static = tx_motion is None and rx_motion is None
+        place = self._placements.get((tx, rx)) if static else None
+        if place is None:
+            place = self._placement(tx, rx, t_s, tx_motion, rx_motion)
+            if static:
+                if len(self._placements) >= GEOMETRY_CACHE_SIZE:
+                    self._placements.pop(next(iter(self._placements)))
+                self._placements[(tx, rx)] = place
+        d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args = place
+        g_ls = float(sc.amplitude_gain(d, fc_hz))
+        images = None
+        if found is not None:
+            images = self._image_part(found, p_rx, v_tx, v_rx, fc_hz)
+        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
+                apdp_args)
+
+    def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> tuple:
+        """Carrier-independent geometry of the link: ``(d, unit vector, wall amplitude,
+        antenna gain, √PLF, p_tx, p_rx, v_tx, v_rx, image paths or None, APDP (K, τ_rms) or
+        None)``; the image paths as ``(paths, lengths, coefficients, antenna gains, PLF)``."""
         sc = self.scene
         p_tx, v_tx = kinematics(tx, tx_motion, t_s)
         p_rx, v_rx = kinematics(rx, rx_motion, t_s)
@@ -217,26 +244,26 @@ class Channel:
         if not d > 0:
             raise ValueError("tx and rx are at the same position")
         u = diff / d
-        g_ls = float(sc.amplitude_gain(d, fc_hz))
         env = 1.0
         if sc.walls:
             env *= 10.0 ** (-float(wall_loss_db(p_tx, p_rx, list(sc.walls))) / 20.0)
         ant = np.sqrt(float(tx.gain_towards(p_rx)) * float(rx.gain_towards(p_tx)))
         plf = np.sqrt(float(tx.polarization_mismatch(rx)))
-        images = None
+        found = None
         if sc.surfaces and sc.image_order > 0:
-            images = self._image_part(tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz)
+            found = self._image_geometry(tx, rx, p_tx, p_rx)
         apdp_args = None
         if sc.apdp is not None:  # K-factor and RMS delay spread of the APDP at this distance
             apdp_args = (float(sc.apdp.k_lin_at(d)), float(sc.apdp.tau_rms_s_at(d)))
-        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
-                apdp_args)
+        return d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args
 
-    def _image_part(self, tx, rx, p_tx, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
+    def _image_geometry(self, tx, rx, p_tx, p_rx) -> tuple:
+        """Image paths tx → rx and their carrier-independent factors (reflection coefficient,
+        antenna gains, polarization mismatch)."""
         sc = self.scene
         found = image_paths(p_tx, p_rx, sc.surfaces, sc.image_order, polarization=tx.polarization_vector)
         if not found:
-            return PathSet(np.zeros(0, complex), np.zeros(0))
+            return found, None, None, None, None
         ell = np.array([ip.length_m for ip in found])
         first = np.array([ip.points_m[0] for ip in found])
         last = np.array([ip.points_m[-1] for ip in found])
@@ -244,6 +271,13 @@ class Channel:
         coef = np.array([ip.coefficient for ip in found])
         g_ant = tx.gain_towards(first) * rx.gain_towards(last)
         plf = tx.polarization_mismatch(rx, direction=p_rx - v_src)
+        return found, ell, coef, g_ant, plf
+
+    def _image_part(self, image_geometry, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
+        sc = self.scene
+        found, ell, coef, g_ant, plf = image_geometry
+        if not found:
+            return PathSet(np.zeros(0, complex), np.zeros(0))
         gains = np.asarray(sc.amplitude_gain(ell, fc_hz), float) * coef * np.sqrt(g_ant * plf)
         dops = np.empty(len(found))
         for i, ip in enumerate(found):

@@ -131,7 +131,7 @@ def test_channel_geometry_cache_is_bit_identical():
                 for f in ("gain", "delay_s", "doppler_hz"):
                     np.testing.assert_array_equal(getattr(a, f), getattr(b, f))
                 n += 1
-    assert n == 12 and len(held._static) == 4
+    assert n == 12 and len(held._static) == 4 and len(held._placements) == 2
     moved = Antenna([3.5, 0.5, 1.2], orientation=(np.pi, 0.0, 0.0), pattern=HalfWaveDipole())
     a = held.link(reader, moved, fc_hz=915.25e6, rng=trial_rng(54, 9))
     b = Channel(_scene()).link(reader, moved, fc_hz=915.25e6, rng=trial_rng(54, 9))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 from rfsim._jit import njit
+from rfsim.gen2._linecode_kernels import INDEX_EPS
 
 
 @njit
@@ -112,27 +113,34 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g
 
 
 @njit
-def _level(pre, full, i):
-    """Reference level of sample i: −1 outside the reply, the preamble level inside it, the
-    decided reply level elsewhere."""
-    if full[i] == 0.0:
-        return -1.0
-    if pre[i] != 0.0:
-        return pre[i]
-    return full[i]
+def _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
+    """Whether sample i falls on a preamble element (the element index of
+    :func:`rfsim.gen2._linecode_kernels.waveform_kernel`)."""
+    u = (i - t0_samples) * elements_per_sample
+    if u < 0.0:
+        return False
+    return int(math.floor(u + INDEX_EPS)) < n_pre_elements
 
 
 @njit
-def known_levels_kernel(r, pre, full, r_out, level_out):
-    """Samples whose level is known without decisions (preamble, or outside the reply) and
-    whose two neighbours carry the same level: copies them and their level into ``r_out`` /
-    ``level_out`` (in order) and returns their number."""
-    n = pre.size
+def _level(full, i):
+    """Reference level of sample i: −1 outside the reply, the reply level inside it."""
+    return -1.0 if full[i] == 0.0 else full[i]
+
+
+@njit
+def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements, r_out, level_out):
+    """Samples whose level is known without decisions — on the preamble (pilot included) or
+    outside the reply (``full == 0``: the rest state, level −1) — and whose two neighbours
+    carry the same level: copies them and their level into ``r_out`` / ``level_out`` (in
+    order) and returns their number. ``full`` is the sampled reply (±1, 0 outside) starting
+    at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble."""
+    n = full.size
     m = 0
     for i in range(1, n - 1):
-        if pre[i] != 0.0 or full[i] == 0.0:
-            li = _level(pre, full, i)
-            if li == _level(pre, full, i - 1) and li == _level(pre, full, i + 1):
+        if full[i] == 0.0 or _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
+            li = _level(full, i)
+            if li == _level(full, i - 1) and li == _level(full, i + 1):
                 r_out[m] = r[i]
                 level_out[m] = li
                 m += 1

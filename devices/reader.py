@@ -479,14 +479,14 @@ class Reader:
         if det.corr < self.detection_threshold(hi - lo + 1, blf):
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
         # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
-        pre = self._reference(np.zeros(0, dtype=np.uint8), start, r.size, blf, dummy=False)
         full = self._reference(det.bits, start, r.size, blf)
+        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m  # preamble elements
         # Outside its reply a tag rests in its absorbing state, which is the reply's −1
         # level: the backscatter DC steps by h at the reply's start and end. Only samples
         # whose two neighbours carry the same level (as in the measurements: the start is
         # known to a fraction of a sample, a sample at an element boundary could carry the
         # other level and bias c, which no later step removes).
-        h, c = _gain_offset(*_known_levels(r, pre, full))
+        h, c = _gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, pre_n_el))
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
@@ -566,13 +566,17 @@ def _t1_window(link: LinkProfile) -> tuple[float, float]:
     return r.min_s, r.max_s
 
 
-def _known_levels(r: np.ndarray, pre: np.ndarray, full: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _known_levels(r: np.ndarray, full: np.ndarray, t0_samples: float, elements_per_sample: float,
+                  n_pre_elements: int) -> tuple[np.ndarray, np.ndarray]:
     """``(r, level)`` at the samples whose level is known without decisions (numba kernel;
-    :func:`known_levels_reference` is its NumPy twin)."""
+    :func:`known_levels_reference` is its NumPy twin). ``full`` is the sampled reply starting
+    at ``t0_samples`` (``reply_waveform``'s t0_s·fs), its first ``n_pre_elements`` elements
+    the preamble."""
     r_out = np.empty(r.size, dtype=np.complex128)
     level_out = np.empty(r.size)
-    m = _rk.known_levels_kernel(r, np.ascontiguousarray(pre, dtype=np.float64),
-                                np.ascontiguousarray(full, dtype=np.float64), r_out, level_out)
+    m = _rk.known_levels_kernel(np.ascontiguousarray(r, dtype=np.complex128),
+                                np.ascontiguousarray(full, dtype=np.float64), float(t0_samples),
+                                float(elements_per_sample), int(n_pre_elements), r_out, level_out)
     return r_out[:m], level_out[:m]
 
 

@@ -253,21 +253,24 @@ def test_projected_halfbit_sums_kernel_equals_reference():
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
-def test_known_levels_kernel_equals_reference():
+@pytest.mark.parametrize("m, trext", [(1, False), (4, False), (2, True)])
+def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
     from devices.reader import _known_levels, known_levels_reference
 
-    rng = trial_rng(61, 0)
-    fs, blf = 4e6, 320e3
+    rng = trial_rng(61, m)
+    fs, blf = 4e6, 320e3 if m > 1 else 160e3
     n = 0
     for start in (100.0, 137.3125, 3.5):
         bits = rng.integers(0, 2, 16).astype(np.uint8)
-        kw = dict(m=4, trext=False, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=2500)
+        kw = dict(m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=2500)
         pre = L.reply_waveform(np.zeros(0, np.uint8), dummy=False, **kw)
         full = L.reply_waveform(bits, **kw)
         r = rng.standard_normal(2500) + 1j * rng.standard_normal(2500)
-        a, b = _known_levels(r, pre, full), known_levels_reference(r, pre, full)
+        n_pre_el = L.preamble_levels(m=m, trext=trext)[0].size * m
+        a = _known_levels(r, full, start / fs * fs, 2.0 * blf / fs, n_pre_el)
+        b = known_levels_reference(r, pre, full)
         np.testing.assert_array_equal(a[0], b[0])
         np.testing.assert_array_equal(a[1], b[1])
         assert a[1].size > 1000 and set(np.unique(a[1])) <= {-1.0, 1.0}

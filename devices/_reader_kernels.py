@@ -8,9 +8,12 @@ import math
 from rfsim._jit import njit
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 
+#: Samples between exact evaluations of the Doppler rotation phasor in the measurement.
+ROTATION_RESYNC = 64
+
 
 @njit
-def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g, tc, y):
+def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_idx, buf_c, buf_s, g, tc, y):
     """Gain, Doppler slope and residual power of ``z = h(t)·s(t) + noise`` (see
     :meth:`devices.reader.Reader.receive`, step 5).
 
@@ -19,8 +22,8 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g
     ``n_blocks`` blocks (block k starts at floor(k·m/K) of the m used samples); per block
     g_k = Σz·s/Σs², tc_k = mean t; the slope is the weighted (|g_k|²) least-squares line
     through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
-    ``buf_*`` are scratch arrays of ``s.size`` (``buf_z`` complex), ``g`` (complex), ``tc``
-    and ``y`` of ``n_blocks``.
+    ``buf_*`` are scratch arrays of ``s.size`` (``buf_z`` complex, ``buf_idx`` int64),
+    ``g`` (complex), ``tc`` and ``y`` of ``n_blocks``.
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
     """
     n = s.size
@@ -41,6 +44,7 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g
             buf_z[m] = z[i]
             buf_ref[m] = a
             buf_t[m] = (i - centre) / fs_hz
+            buf_idx[m] = i
             m += 1
     if m == 0:
         return complex(math.nan, math.nan), 0.0, math.nan
@@ -93,17 +97,29 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_c, buf_s, g
             num += w * (tc[k] - xm) * (y[k] - ym)
             den += w * (tc[k] - xm) * (tc[k] - xm)
         slope = num / den
-    # gain with the rotation e^{−j·slope·t} removed, then the residual power
+    # gain with the rotation e^{−j·slope·t} removed, then the residual power. The rotation
+    # phasor is advanced sample by sample (t is a multiple of 1/fs from the centre) and
+    # recomputed exactly every ROTATION_RESYNC samples of the span (drift < 1e-13).
+    step_c = math.cos(slope / fs_hz)
+    step_s = math.sin(slope / fs_hz)
     acc = 0j
     rr = 0.0
-    for i in range(m):
-        a = slope * buf_t[i]
-        c = math.cos(a)
-        sn = math.sin(a)
-        buf_c[i] = c
-        buf_s[i] = sn
-        acc += buf_z[i] * complex(c * buf_ref[i], -sn * buf_ref[i])
-        rr += buf_ref[i] * buf_ref[i]
+    j = 0  # index into the used samples
+    pc = 1.0
+    ps = 0.0
+    for i in range(i0, i1):
+        if (i - i0) % ROTATION_RESYNC == 0:
+            a = slope * ((i - centre) / fs_hz)
+            pc = math.cos(a)
+            ps = math.sin(a)
+        else:  # e^{ja}·e^{jδ}, δ = slope/fs
+            pc, ps = pc * step_c - ps * step_s, ps * step_c + pc * step_s
+        if j < m and buf_idx[j] == i:
+            buf_c[j] = pc
+            buf_s[j] = ps
+            acc += buf_z[j] * complex(pc * buf_ref[j], -ps * buf_ref[j])
+            rr += buf_ref[j] * buf_ref[j]
+            j += 1
     h = acc / rr
     res = 0.0
     for i in range(m):

@@ -525,7 +525,7 @@ def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float
     s = np.ascontiguousarray(s, dtype=np.float64)
     n = s.size
     h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS, np.empty(n, np.complex128),
-                                          np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                                          np.empty(n), np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n),
                                           np.empty(DOPPLER_BLOCKS, np.complex128), np.empty(DOPPLER_BLOCKS),
                                           np.empty(DOPPLER_BLOCKS))
     return complex(h), float(slope), float(sigma2)

@@ -276,3 +276,13 @@ def test_known_levels_kernel_equals_reference(m, trext):
         assert a[1].size > 1000 and set(np.unique(a[1])) <= {-1.0, 1.0}
         n += 1
     assert n == 3
+
+
+def test_halfsymbols_rejects_bad_bits_on_the_fast_path():
+    """uint8 arrays skip the generic validation; the kernel still rejects values other than 0/1."""
+    with pytest.raises(ValueError, match="only 0 and 1"):
+        L.halfsymbols(np.array([0, 1, 2], dtype=np.uint8), m=4, trext=False)
+    with pytest.raises(ValueError):
+        L.reply_waveform(np.array([3], dtype=np.uint8), m=1, trext=False, blf_hz=40e3, fs_hz=1e6)
+    np.testing.assert_array_equal(L.halfsymbols([1, 0], m=2, trext=False),
+                                  L.halfsymbols(np.array([1, 0], dtype=np.uint8), m=2, trext=False))

@@ -205,7 +205,11 @@ def elements_kernel(bits, dummy, m, pre, cur, prev, out):
     """Element sequence of a reply into ``out`` ((len(pre) + 2·(n + dummy))·m,): the preamble
     half-bit levels ``pre``, then the FM0 (m = 1) or Miller half-bit levels of ``bits`` (and a
     dummy 1) from encoder state (``cur``, ``prev``); each half-bit is m elements, Miller
-    elements alternate the sign (subcarrier: −1 on odd element indices)."""
+    elements alternate the sign (subcarrier: −1 on odd element indices). Returns False
+    (``out`` untouched) if a bit is neither 0 nor 1."""
+    for i in range(bits.size):
+        if bits[i] > 1:
+            return False
     k = 0
     for i in range(pre.size):
         for _ in range(m):
@@ -228,6 +232,7 @@ def elements_kernel(bits, dummy, m, pre, cur, prev, out):
             k += 1
         cur = second
         prev = b
+    return True
 
 
 @njit

@@ -142,10 +142,14 @@ def _elements(levels: np.ndarray, m: int) -> np.ndarray:
 def _element_values(bits, m: int, trext: bool, dummy: bool, dtype) -> np.ndarray:
     """Element sequence of a reply as ``dtype`` (numba kernel)."""
     m = _check_m(m)
-    arr = as_bits(bits)
+    if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
+        arr = np.ascontiguousarray(bits)  # values checked by the kernel
+    else:
+        arr = as_bits(bits)
     pre, cur, prev = _preamble(m, bool(trext))
     out = np.empty((pre.size + 2 * (arr.size + int(bool(dummy)))) * m, dtype=dtype)
-    _k.elements_kernel(arr, bool(dummy), m, pre, np.int8(cur), np.uint8(prev), out)
+    if not _k.elements_kernel(arr, bool(dummy), m, pre, np.int8(cur), np.uint8(prev), out):
+        raise ValueError("bits must contain only 0 and 1")
     return out
 
 

@@ -207,7 +207,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     window_s = _window_s(link, int(reply_bits))
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
-    rx = reader.leakage_gain() * tx.samples
+    rx = reader.leakage_gain() * tx.samples  # a new array: the sums below go into it in place
     replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
     for i, tag in enumerate(tags):
         motion = motions[i] if motions is not None else None
@@ -245,20 +245,18 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         if response.gamma is not None or response.gamma_rest != 0:
             # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
             scattered = response.reflection(incident.size) * incident
-            rx = rx + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
+            rx += apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
     noise_w = reader.noise_power_w()
     if noise_w > 0:
-        # complex white noise scale·(a + j·b): a then b drawn from rng, written straight into
-        # the real and imaginary parts (the same values as forming a + 1j·b)
+        # complex white noise scale·(a + j·b): a then b drawn from rng and added to the real
+        # and imaginary parts of rx (the same values as adding scale·(a + 1j·b))
         scale = math.sqrt(noise_w / 2.0)
         ab = np.empty((2, rx.size))
         rng.standard_normal(out=ab[0])
         rng.standard_normal(out=ab[1])
         ab *= scale
-        noise = np.empty(rx.size, dtype=np.complex128)
-        noise.real = ab[0]
-        noise.imag = ab[1]
-        rx = rx + noise
+        rx.real += ab[0]
+        rx.imag += ab[1]
     read = None
     if replied:
         # The receiver listens from half a Tari after its own command's last edge (the edge

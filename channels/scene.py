@@ -255,6 +255,8 @@ class Channel:
         apdp_args = None
         if sc.apdp is not None:  # K-factor and RMS delay spread of the APDP at this distance
             apdp_args = (float(sc.apdp.k_lin_at(d)), float(sc.apdp.tau_rms_s_at(d)))
+        for a in (u, p_tx, p_rx, v_tx, v_rx):  # kept in the cache: read-only
+            a.setflags(write=False)
         return d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args
 
     def _image_geometry(self, tx, rx, p_tx, p_rx) -> tuple:

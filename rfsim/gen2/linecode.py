@@ -449,8 +449,9 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
     peak = complex(seg @ tpl0)
     e_t = float(tpl0 @ tpl0)
     h = peak / e_t if gain is None else complex(gain)
-    dc = seg.mean() - h * tpl.mean() if gain is None else 0.0
-    seg0 = seg - seg.mean()
+    seg_mean = seg.mean()
+    dc = seg_mean - h * tpl.mean() if gain is None else 0.0
+    seg0 = seg - seg_mean
     corr = float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
     if h == 0:
         raise ValueError("zero channel gain: no reply to decode")

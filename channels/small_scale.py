@@ -26,6 +26,7 @@ on the same sample are power-summed (PASS-compatible mode; the LoS tap is never 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -186,7 +187,20 @@ def average_profile(
 
     If the τrms tolerance cannot be met within ``max_taps``/``max_iter`` (or with sample
     rounding) the best profile found is returned; check with :func:`profile_statistics`.
+
+    A pure function of its arguments: results are memoised (bounded cache, 4096 entries)
+    and returned as fresh copies.
     """
+    powers, delays = _average_profile(float(k_lin), float(tau_rms_s), float(bandwidth_hz),
+                                      float(fres_hz), None if fs_hz is None else float(fs_hz),
+                                      int(max_taps), int(max_iter), float(eps_k), float(eps_trms))
+    return powers.copy(), delays.copy()
+
+
+@functools.lru_cache(maxsize=4096)
+def _average_profile(k_lin, tau_rms_s, bandwidth_hz, fres_hz, fs_hz, max_taps, max_iter, eps_k,
+                     eps_trms):
+    """Memoised body of :func:`average_profile` (arguments normalised by it)."""
     k = float(k_lin)
     tr = float(tau_rms_s)
     if not k >= 0:

@@ -17,6 +17,10 @@ def as_bits(bits) -> np.ndarray:
     """
     if isinstance(bits, str):
         return str_to_bits(bits)
+    if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
+        if bits.size and bits.max() > 1:  # the common case: only the range to check
+            raise ValueError("bits must contain only 0 and 1")
+        return np.ascontiguousarray(bits)
     arr = np.asarray(bits)
     if arr.ndim != 1:
         raise ValueError(f"bits must be 1-D, got shape {arr.shape}")

@@ -156,7 +156,8 @@ class ReadResult:
     failure_reason : "", "preamble not found" or "crc error"
     rssi_dbm : power of the modulated component at the antenna port, 10·log10(|h|²)+30, with
         h the complex amplitude of the ±1 reply waveform (NaN without a reply)
-    phase_rad : (−arg h) mod 2π, h at the centre of the reply
+    phase_rad : (−arg h) mod 2π, h at the centre of the reply; for a tag re-radiating
+        r = A_s − Γ (devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels
     doppler_hz : (1/2π)·d(arg h)/dt across the reply (positive for an approaching tag)
     snr_db : |h|²/σ², σ² the residual power per sample at ``fs_hz`` (noise bandwidth fs)
     ebn0_db : snr_db + 10·log10(fs/bit rate), independent of fs

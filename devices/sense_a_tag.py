@@ -218,8 +218,9 @@ class SenseATag:
         """Reflector protocol of the engine: the ST's reaction to a reader segment at SA2.
 
         Listening: decodes the command (link parameters, what reply to expect from other
-        tags) and does not reply (Γ_A throughout). Responding: acts as its tag. A QS Select
-        switches to responding (with the report as EPC), any other Select to listening.
+        tags) and does not reply (Γ_A throughout: it re-radiates A_s − Γ_A). Responding: acts
+        as its tag. A QS Select switches to responding (with the report as EPC), any other
+        Select to listening.
         """
         cmd, frame = self.decode_command(incident, fs_hz=fs_hz)
         if isinstance(cmd, Select):
@@ -244,7 +245,8 @@ class SenseATag:
         p_dbm = float(w_to_dbm(p_w)) if p_w > 0 else -math.inf
         return TagResponse(powered=True, command=cmd, reply=None, gamma=None, reply_start_s=None, blf_hz=None,
                            reason="no reply", incident_power_dbm=p_dbm,
-                           gamma_rest=self.tag.reflection_states.gamma_a)
+                           gamma_rest=self.tag.reflection_states.gamma_a,
+                           structural_mode=complex(self.tag.config.structural_mode))
 
     def receiver(self) -> sr.STReceiver:
         """Receive chain for the link parameters of the last Query."""

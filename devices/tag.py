@@ -42,6 +42,24 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    s = −1 or s = 0 (absorbing state, in which the tag harvests). Γ_A ≠ 0 (a tag that also
    scatters in its rest state) gives a static backscatter that the reader removes with
    the carrier leakage; it stays in Γ and is not special-cased.
+6. **Re-radiation** (structural and antenna modes): the field an antenna loaded by the chip
+   scatters is proportional to A_s − Γ(t) (Nikitin, Rao & Lam, "Theory and measurement of
+   backscattering from RFID tags", IEEE AP Magazine 48(6), 2006; R. C. Hansen, "Relationships
+   between antennas as scatterers and as radiators", Proc. IEEE 77(5), 1989), so the tag
+   re-radiates r(t)·x_incident(t) with r(t) = A_s − Γ(t) (:meth:`TagResponse.reradiation`;
+   DESIGN.md "Signal model": Γ(t) "with the antenna scattering terms of the chosen tag
+   model"). A_s is the structural-mode term (``structural_mode``): |A_s| = 1 for a
+   canonical minimum-scattering antenna (a conjugate-matched one scatters as much power as
+   it absorbs, r = 1 at Γ = 0), A_s = 0 leaves the antenna mode −Γ alone. A_s is taken
+   real (a model choice): its phase is the phase of the antenna's own scattering referred
+   to its port (the reference plane of Γ), a property of the antenna that the canonical
+   minimum-scattering antenna (A_s = 1) fixes to 0; a complex A_s would change
+   |A_s − Γ_A| and |A_s − Γ_B|, not their difference.
+   Consequences: the modulated part r_B − r_A = −(Γ_B − Γ_A) keeps |Γ_A − Γ_B| (the
+   differential RCS and M = |Γ_A − Γ_B|²/4, anchors §4.7, are unchanged) with its sign
+   flipped (the reader's phase moves by π against −Γ alone); the two scattered amplitudes
+   |A_s − Γ_A|, |A_s − Γ_B| (what an envelope detector beside the tag sees) and the static
+   backscatter at the reader depend on A_s.
 
 Γ states (:class:`devices.tag_frontend.ReflectionStates`): ``"ASK"`` uses the PASS UCODE
 G2XM-class chip at 900 MHz against a conjugate-matched antenna
@@ -104,6 +122,9 @@ class TagConfig:
                                  doc="PSK: Γ_A,B = |Γ|·exp(±jφ)")
     envelope_rc_s: float = param(0.0, lo=0.0, hi=1e-6, unit="s",
                                  doc="RC time constant of the envelope detector (0 = ideal |x|)")
+    structural_mode: float = param(1.0, lo=0.0, hi=1.0,
+                                   doc="antenna structural-mode scattering A_s (1: minimum-scattering "
+                                       "antenna; 0: antenna mode only)")
 
     def __post_init__(self):
         check_fields(self, "tag")
@@ -161,6 +182,11 @@ class TagResponse:
     command_end_s : absolute time of the command's last rising edge [s] or None
     m, trext : line code of the reply (None without reply)
     gamma_rest : Γ_A, the reflection coefficient while not modulating
+    structural_mode : A_s, the antenna's structural-mode term (module docstring step 6);
+        0 (the default of a bare response) re-radiates −Γ(t)
+
+    ``gamma``, ``gamma_rest`` and :meth:`reflection` are the chip's Γ; the field the tag
+    scatters is :meth:`reradiation` times the incident field.
     """
 
     powered: bool
@@ -176,6 +202,7 @@ class TagResponse:
     m: int | None = None
     trext: bool | None = None
     gamma_rest: complex = 0j
+    structural_mode: complex = 0j
 
     def reflection(self, n_samples: int) -> np.ndarray:
         """Γ(t) over ``n_samples`` samples: :attr:`gamma`, or Γ_A throughout without reply."""
@@ -184,6 +211,23 @@ class TagResponse:
                 raise ValueError(f"gamma has {self.gamma.size} samples, asked for {n_samples}")
             return self.gamma
         return np.full(int(n_samples), self.gamma_rest, dtype=np.complex128)
+
+    def reradiation(self, n_samples: int) -> np.ndarray:
+        """Re-radiation factor r(t) = A_s − Γ(t) over ``n_samples`` samples, (n,) complex128.
+
+        The tag scatters r(t)·x_incident(t) [√W] (module docstring step 6; Nikitin, Rao & Lam
+        2006), Γ(t) = :attr:`gamma`, or Γ_A throughout without reply. A new array.
+        """
+        if self.gamma is not None:
+            if self.gamma.size != n_samples:
+                raise ValueError(f"gamma has {self.gamma.size} samples, asked for {n_samples}")
+            return self.structural_mode - self.gamma
+        return np.full(int(n_samples), self.structural_mode - self.gamma_rest, dtype=np.complex128)
+
+    @property
+    def scatters(self) -> bool:
+        """False only when the re-radiated field is identically zero (no reply and A_s = Γ_A)."""
+        return self.gamma is not None or self.structural_mode != self.gamma_rest
 
 
 # ----------------------------------------------------------------------------- front end
@@ -326,7 +370,8 @@ class PassiveTag:
         p_dbm = _dbm(p_inc)
         tau, power_up = self._tau_power_up()
         powered = bool(power_up.is_powered(tau * p_inc))
-        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest)
+        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest,
+                    structural_mode=complex(self.config.structural_mode))
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)

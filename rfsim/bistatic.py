@@ -4,15 +4,16 @@ A listener (a sense-a-tag antenna, a second reader's receive antenna) hears the 
 segment directly and the backscatter of every tag (DESIGN.md "Simulation flow" step 5;
 auris-sense-a-tag.md §6 "Signal flow": the reader→ST downlink and the tag→ST backscatter
 channel, Fig. A.1). For a reader segment ``x_tx(t)`` (``reader.transmit``), the field at
-tag i is ``inc_i = fwd_i{x_tx}`` and the tag re-radiates ``Γ_i(t)·inc_i(t)``
-(``tag.listen``); listener antenna k receives
+tag i is ``inc_i = fwd_i{x_tx}`` and the tag re-radiates ``r_i(t)·inc_i(t)`` with
+``r_i = A_s − Γ_i(t)`` (``tag.listen`` → ``TagResponse.reradiation``: structural mode A_s and
+the chip's Γ, devices.tag); listener antenna k receives
 
-    ``y_k(t) = D_k{x_tx}(t) + Σ_i B_ik{Γ_i·inc_i}(t) (+ n_k(t))``
+    ``y_k(t) = D_k{x_tx}(t) + Σ_i B_ik{r_i·inc_i}(t) (+ n_k(t))``
 
 with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied by
 :func:`channels.paths.apply_paths` with the engine's narrowband/exact choice
-(:func:`rfsim.engine._method` on the reply bandwidth 2·BLF). Every tag scatters: Γ_A
-outside its reply (``TagResponse.reflection``). All waveforms are complex baseband [√W] on
+(:func:`rfsim.engine._method` on the reply bandwidth 2·BLF). Every tag scatters: A_s − Γ_A
+outside its reply. All waveforms are complex baseband [√W] on
 the segment's time base.
 
 The reader side (its own decode) is :func:`rfsim.engine.run_exchange`; this module only
@@ -115,7 +116,7 @@ def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *
         d_links.append(d)
         for i, tag in enumerate(tags):
             b = channel.link(tag.antenna, lis, fc_hz=fc, rng=rng, t_s=t_s)
-            back[i, k] = apply(responses[i].reflection(x.size) * incident[i], b)
+            back[i, k] = apply(responses[i].reradiation(x.size) * incident[i], b)
             b_links[i][k] = b
     noise = None
     if noise_power_w > 0:

@@ -10,8 +10,10 @@ One *exchange* is a reader command followed by the CW during which tags may repl
 3. each tag listens (``tag.listen``): power-up, envelope/PIE decoding with its own clock,
    Gen2 state machine, and — if it replies — a reflection coefficient Γ(t) on the same
    time base;
-4. each tag re-radiates Γ(t)·incident(t) through its backward link; at the reader the
-   backscatter of all tags superposes with the TX→RX leakage and thermal noise;
+4. each tag re-radiates r(t)·incident(t), r = A_s − Γ(t) (``TagResponse.reradiation``: the
+   antenna's structural mode A_s and the chip's Γ; devices.tag, Nikitin, Rao & Lam 2006),
+   through its backward link; at the reader the backscatter of all tags superposes with
+   the TX→RX leakage and thermal noise;
 5. the reader decodes the reply window (``reader.receive``) and measures RSSI, phase,
    Doppler and SNR.
 
@@ -242,9 +244,10 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             replied.append(i)
             sent.append(np.asarray(response.reply.bits))
             starts.append(float(response.reply_start_s))
-        if response.gamma is not None or response.gamma_rest != 0:
-            # Every tag scatters: its rest state Γ_A throughout, Γ(t) while it replies.
-            scattered = response.reflection(incident.size) * incident
+        if response.scatters:
+            # Every tag scatters: A_s − Γ_A at rest, A_s − Γ(t) while it replies (skipped
+            # only when that is identically zero).
+            scattered = response.reradiation(incident.size) * incident
             rx += apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
     noise_w = reader.noise_power_w()
     if noise_w > 0:

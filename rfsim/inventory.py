@@ -548,6 +548,7 @@ class _FastTag:
         self._tau = tag.tau
         self._rc_s = float(tag.config.envelope_rc_s)
         self._rest = tag.reflection_states.gamma_a
+        self._a_s = complex(tag.config.structural_mode)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float):
         from devices.tag import TagResponse
@@ -565,7 +566,8 @@ class _FastTag:
         if powered != tag.state.powered:
             return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
         p_dbm = 10.0 * math.log10(p_inc) + 30.0 if p_inc > 0 else -math.inf
-        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=self._rest)
+        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm,
+                    gamma_rest=self._rest, structural_mode=self._a_s)
         if not powered:
             return TagResponse(powered=False, command=None, reply=None, reason="not powered", **base)
         cmd, cmd_end_s = self._shared.command(self._rc_s, fs_hz, t0_s)

@@ -31,9 +31,9 @@ channel (FCC plan, the reader's random hop table): the reader sends a Query (Q =
 profile ``pass-miller2-48k`` at 1 MS/s, as the source's PASS runs); the tag receives it
 through its forward link, decodes it and answers its RN16 with Γ(t)
 (:class:`devices.tag.PassiveTag`); the ST antennas receive the reader's segment and the
-tag's re-radiated field (:func:`rfsim.bistatic.listen_exchange`), the ST receive chain
-(linear detector, band-pass, 5 mV comparator, Miller decoder) runs from the end of the
-command and the outcome ``st_detected`` is "the ST decoded the tag's RN16 exactly". The
+tag's re-radiated field (A_s − Γ(t))·incident (:func:`rfsim.bistatic.listen_exchange`),
+the ST receive chain (linear detector, band-pass, 5 mV comparator, Miller decoder) runs from
+the end of the command and the outcome ``st_detected`` is "the ST decoded the tag's RN16 exactly". The
 reader decodes the same reply through the reciprocal backward link with TX leakage and
 receiver noise (``reader_detected``: RN16 bits exact, as :func:`rfsim.engine.run_exchange`
 judges them). No noise at the ST (the source's threshold decides, as in
@@ -213,7 +213,7 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
     # reader: leakage + backscatter through the reciprocal (held) forward link + noise
     fwd = ex.forward_links[0]
-    scattered = resp.reflection(inc.size) * inc
+    scattered = resp.reradiation(inc.size) * inc  # (A_s − Γ(t))·incident
     rx = reader.leakage_gain() * tx.samples + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=0.0,
                                                           method=_method(fwd, 2.0 * lk.blf_hz, "auto"))
     nrng = trial_rng(seed, index, 4)

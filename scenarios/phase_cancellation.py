@@ -11,11 +11,14 @@ with the PASS ST-room curves (``phasecan.m``: small scale on, surfaces off, §1.
 Sample level, per cell and repetition (one reader segment, as the source's runs): the
 reader sends a Query (``pass-miller2-48k``: PR-ASK, Tari 25 µs, Miller-2, TRext, BLF 48 kHz)
 followed by CW; the tag receives it through its drawn forward link, decodes it and answers
-its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`). Per ST position only the links
-differ: with narrowband links (checked with the engine's criterion,
+its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
+(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). Per ST
+position only the links differ: with narrowband links (checked with the engine's criterion,
 :func:`rfsim.engine.narrowband_rms_error` ≤ :data:`rfsim.engine.NARROWBAND_TOLERANCE`) the
-input at antenna k is ``a_k·x_tx(t) + b_k·Γ(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
-reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The ST receive chain
+input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
+reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The two backscatter
+amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
+and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
 (:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,
 Miller decoder) runs on every input, vectorised over positions
 (:func:`devices.sense_a_tag.chain_rows`), from the end of the reader's command on.
@@ -33,16 +36,19 @@ Clopper–Pearson 95 % interval over all positions × repetitions of the cell.
 
 Deviations from the source (stated in the dataset attributes too): by default
 (``tag_states.model = "chip"``) the tag's ASK states are the PASS UCODE-class chip against a
-matched antenna (Γ_A = 0, absorbing; the engine's tag re-radiates Γ(t)·incident without a
-structural term), so A_T2 = 0 at the ST and the modulation |A_T1 − A_T2| = A_T1 stays above
-the threshold in every cell: the probability of cancellation then *rises* with distance
-(A_T approaches the threshold, the null region widens). The source's measured modulator has
-two strong states with A_T1/A_T2 ≈ 1.03 (Tables 3.1/3.2), so its modulation falls below the
-threshold a few metres out and the R3-5 probability falls with distance;
-``tag_states.model = "source"`` (Γ_A = −0.70, Γ_B = −0.721, backscatter only; power-up keeps
-the chip model) with ``st.detector_gain = 6`` (the source's detector output, R3-1/R3-4)
-reproduces that regime. The stamp transmitter is the reader-powered tag with a three-state
-modulator (S1 = Γ_B, S2 = Γ_A, S3 = −Γ_B) instead of an exciter-powered ST (Fig. 5.8); one
+matched minimum-scattering antenna (Γ_A = 0, absorbing; A_s = 1), so the re-radiated states
+are r_A = 1 and r_B = 1 − Γ_B (|r_B| ≈ 0.33): A_T2 > A_T1 with A_T1/A_T2 ≈ 0.33 and a
+modulation |r_A − r_B| = |Γ_B| that stays above the threshold in every cell, so the
+probability of cancellation still *rises* with distance (the difference approaches the
+threshold, the null region widens). The source's measured modulator has two strong states
+with A_T1/A_T2 ≈ 1.03 (Tables 3.1/3.2), so its modulation falls below the threshold a few
+metres out and the R3-5 probability falls with distance; ``tag_states.model = "source"``
+with ``st.detector_gain = 6`` (the source's detector output, R3-1/R3-4) reproduces that
+regime: the source's simulator re-radiates Γ·incident with Γ_A = −0.70, Γ_B = −0.721, so
+these are set as the re-radiated states themselves (A_s = 0 and chip states −Γ_source,
+r = A_s − Γ = Γ_source; backscatter only, power-up keeps the chip model). The stamp
+transmitter is the reader-powered tag with a three-state modulator of re-radiated states
+(S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ} = −r_B) instead of an exciter-powered ST (Fig. 5.8); one
 reader segment per (cell, repetition) with its own channel draw; no noise at the ST (the
 source's threshold, not its noise, decides).
 
@@ -132,10 +138,13 @@ class TrackConfig:
 @dataclass(frozen=True)
 class TagStatesConfig:
     model: Literal["chip", "source"] = param(
-        "chip", doc="tag reflection states: 'chip' = the tag config's (Gamma_A = 0 for ASK); 'source' = two "
-                    "strong ASK states with A_T1/A_T2 = 1.03 as the source's Tables 3.1/3.2")
-    source_gamma_a: float = param(-0.70, lo=-1.0, hi=1.0, doc="'source': Gamma_A (real, ASK)")
-    source_gamma_b: float = param(-0.721, lo=-1.0, hi=1.0, doc="'source': Gamma_B (real, ASK)")
+        "chip", doc="tag reflection states: 'chip' = the tag config's (Gamma_A = 0 for ASK, structural mode "
+                    "A_s); 'source' = two strong re-radiated ASK states with A_T1/A_T2 = 1.03 as the "
+                    "source's Tables 3.1/3.2")
+    source_gamma_a: float = param(-0.70, lo=-1.0, hi=1.0,
+                                  doc="'source': re-radiated state A (the source's Gamma_A, no structural term)")
+    source_gamma_b: float = param(-0.721, lo=-1.0, hi=1.0,
+                                  doc="'source': re-radiated state B (the source's Gamma_B, no structural term)")
 
 
 def _reader_default() -> ReaderConfig:
@@ -181,10 +190,11 @@ def _tag_antenna(x_m: float, g: GeometryConfig) -> Antenna:
 class Exchange:
     """Waveforms common to all ST positions of one (cell, repetition), from the command end on.
 
-    x_tx, y_ask, y_stamp : (n,) complex128 [√W] reader segment, Γ(t)·incident of the RN16
-    reply, Γ_stamp(t)·incident of the stamped frame; levels, stamp_levels : (n,) true line-code
-    levels; frame : StampFrame (indices relative to the window); i_ref : a CW sample inside
-    the reply; gamma_b, gamma_a : tag states; rn16 : (16,) bits; replied : bool
+    x_tx, y_ask, y_stamp : (n,) complex128 [√W] reader segment, r(t)·incident of the RN16
+    reply, r_stamp(t)·incident of the stamped frame (r = A_s − Γ, the re-radiation factor);
+    levels, stamp_levels : (n,) true line-code levels; frame : StampFrame (indices relative
+    to the window); i_ref : a CW sample inside the reply; rerad_b, rerad_a : re-radiated
+    states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits; replied : bool
     """
 
     x_tx: np.ndarray
@@ -195,8 +205,8 @@ class Exchange:
     frame: sr.StampFrame | None
     i_ref: int
     search: int
-    gamma_a: complex
-    gamma_b: complex
+    rerad_a: complex
+    rerad_b: complex
     rn16: np.ndarray | None
     fs_hz: float
     fc_hz: float
@@ -206,17 +216,22 @@ class Exchange:
 
 
 def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple[int, ...]) -> Exchange:
-    """Reader Query segment → tag (forward link, PIE decode, RN16 as Γ(t)) for one cell."""
+    """Reader Query segment → tag (forward link, PIE decode, RN16 as Γ(t), re-radiated as
+    (A_s − Γ(t))·incident) for one cell."""
     g = config.geometry
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, g)
-    tag = PassiveTag(config.tag, ta, rng=trial_rng(seed, *index, 1))
     ts = config.tag_states
     if ts.model == "source":
-        # backscatter states only; power-up keeps the tag config's chip model (the source's
-        # tag replies in every cell)
-        tag.reflection_states = ReflectionStates.ask(ts.source_gamma_a, ts.source_gamma_b)
+        # The source re-radiates Γ·incident (no structural term): its states are the
+        # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
+        # only; power-up keeps the tag config's chip model (the source's tag replies in
+        # every cell).
+        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=trial_rng(seed, *index, 1))
+        tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
+    else:
+        tag = PassiveTag(config.tag, ta, rng=trial_rng(seed, *index, 1))
     lk = reader.link
     stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
     window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
@@ -230,13 +245,14 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
     x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
-    ga, gb = complex(tag.reflection_states.gamma_a), complex(tag.reflection_states.gamma_b)
+    a_s = resp.structural_mode
+    r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
     search = int(math.ceil((t1(lk).max_s + 2 * lk.tpri_s) * fs))
     if resp.gamma is None:
         zero = np.zeros(n)
-        return Exchange(x_tx, ga * inc_w, ga * inc_w, inc_w, zero, None, n // 2, search, ga, gb, None, fs, fc,
+        return Exchange(x_tx, r_a * inc_w, r_a * inc_w, inc_w, zero, None, n // 2, search, r_a, r_b, None, fs, fc,
                         lk.blf_hz, lk.m, lk.trext)
-    gamma = resp.gamma[i0:]
+    rerad = resp.reradiation(inc.size)[i0:]
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
     from rfsim.gen2.linecode import reply_waveform
 
@@ -247,12 +263,13 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     states = np.full(n, sr.STAMP_S1, dtype=np.int8)
     k = min(n, frame.states.size)
     states[:k] = frame.states[:k]
-    g_stamp = np.array([gb, ga, gb * np.exp(1j * STAMP_PSI_RAD)])[states]
+    # re-radiated states of the three-state modulator: S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
+    r_stamp = np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states]
     stamp_levels = np.zeros(n)
     stamp_levels[:k] = frame.levels[:k]
     frame = replace(frame, states=states, levels=stamp_levels)
     i_ref = int(round((t_rel + 0.5 * lk.reply_duration_s(16)) * fs))
-    return Exchange(x_tx, gamma * inc_w, g_stamp * inc_w, inc_w, levels, frame, i_ref, search, ga, gb,
+    return Exchange(x_tx, rerad * inc_w, r_stamp * inc_w, inc_w, levels, frame, i_ref, search, r_a, r_b,
                     np.asarray(resp.reply.bits, np.uint8), fs, fc, resp.blf_hz, resp.m, resp.trext)
 
 
@@ -282,8 +299,9 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
     rx = make_receiver(st, fs_hz=ex.fs_hz, blf_hz=ex.blf_hz, m=ex.m, trext=ex.trext)
     g = st.detector_gain
     cw = V_PER_SQRT_W * a_gain * ex.x_tx[ex.i_ref]
-    bs1 = V_PER_SQRT_W * b_gain * ex.gamma_b * ex.inc[ex.i_ref]
-    bs2 = V_PER_SQRT_W * b_gain * ex.gamma_a * ex.inc[ex.i_ref]
+    # A_T1, A_T2 of Eq. 3.4: the re-radiated states A_s − Γ_B and A_s − Γ_A
+    bs1 = V_PER_SQRT_W * b_gain * ex.rerad_b * ex.inc[ex.i_ref]
+    bs2 = V_PER_SQRT_W * b_gain * ex.rerad_a * ex.inc[ex.i_ref]
     out: dict[str, np.ndarray] = {}
     for j, name in enumerate(("sa1", "sa2")[-k:]):
         out[f"a_r_{name}_v"] = np.abs(cw[:, j])
@@ -504,8 +522,10 @@ def run(config: Config, *, seed: int) -> Dataset:
             lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
             else float("inf"))
     _analytic_grids(ds)
-    states = ("Gamma_A=0 (A_T2=0): modulation above threshold in all cells, P rises with distance"
-              if config.tag_states.model == "chip" else "source-like A_T1/A_T2=1.03 (backscatter only)")
+    states = ("Gamma_A=0 with structural mode A_s (re-radiated states A_s-Gamma_B, A_s-Gamma_A): modulation "
+              "|Gamma_A-Gamma_B| above threshold in all cells, P rises with distance"
+              if config.tag_states.model == "chip"
+              else "source-like re-radiated states, A_T1/A_T2=1.03 (backscatter only, no structural term)")
     ds.attrs["deviations"] = (f"tag states {states}; stamp sent by the reader-powered tag with a 3-state "
                               "modulator; one reader segment per cell and repetition; no noise at the ST; "
                               f"detector gain {config.st.detector_gain:g} (source ~6)")

@@ -26,7 +26,8 @@ reader's random FCC hop table) and a placement jitter of the tag, uniform in
 ±``jitter_m`` per axis. Within a repetition the channel is held (the source assumes a
 static tag during the N queries, L644): the reader segment, the links and the incident
 field are computed once; the 50 queries are simulated at sample level, each one the tag's
-PIE decoding and a fresh RN16 as Γ(t), the backscatter through the held link, receiver
+PIE decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
+(:meth:`devices.tag.TagResponse.reradiation`) through the held link, receiver
 noise and the reader's decoder. Per query the outcome is **the reader decoded the tag's
 RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange is not simulated, so
 a "read" here is an RN16 decode). Queries are 4 ms apart (a round of 50 lasts 0.2 s, the
@@ -197,7 +198,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
         if resp.gamma is None:
             continue  # nothing to decode (the engine's reader listens only when a tag replied)
         n_replied += 1
-        rx = base + noise + apply_paths(resp.gamma * inc, fs_hz=fs, fc_hz=fc, paths=bwd,
+        rx = base + noise + apply_paths(resp.reradiation(inc.size) * inc, fs_hz=fs, fc_hz=fc, paths=bwd,
                                         method=_method(bwd, bw, "auto"))
         read = reader.receive(rx[i0:], t0_s=t_j + i0 / fs, n_bits=16, expect_crc=False,
                               cmd_end_s=t_j + (tx.cmd_end_s - tx.t0_s), carrier=tx.samples[-1])

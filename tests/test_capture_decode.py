@@ -174,7 +174,7 @@ def _link_capture(profile: str, clock_error_percent: float, seed: int):
     Reader (``devices.reader.Reader``, 30 dB TX→RX isolation, 10 dB NF, 4 MS/s), passive tag
     (``devices.tag.PassiveTag``) at 3 m in free space (``channels.Channel``, LoS only). The
     reader's RX is built as the engine builds it (rfsim.engine.run_exchange): carrier leakage
-    L·x_tx + the tag's backscatter (Γ(t)·incident through the backward link, exact fractional
+    L·x_tx + the tag's backscatter ((A_s − Γ(t))·incident through the backward link, exact fractional
     delays) + complex thermal noise kTB·NF. The two segments are concatenated and scaled by an
     arbitrary complex factor (unknown capture scale). Returns (capture complex64, fs, RN16 bits
     and PC+EPC+CRC bits the tag actually sent, the tag's BLF)."""
@@ -198,7 +198,7 @@ def _link_capture(profile: str, clock_error_percent: float, seed: int):
         kw = dict(fs_hz=tx.fs_hz, fc_hz=tx.fc_hz, t0_s=t_s, method="exact")
         incident = apply_paths(tx.samples, paths=fwd, **kw)
         resp = tag.listen(incident, t0_s=t_s, fs_hz=tx.fs_hz)
-        rx = reader.leakage_gain() * tx.samples + apply_paths(resp.reflection(incident.size) * incident,
+        rx = reader.leakage_gain() * tx.samples + apply_paths(resp.reradiation(incident.size) * incident,
                                                               paths=bwd, **kw)
         sigma = math.sqrt(reader.noise_power_w() / 2.0)
         return rx + sigma * (rng.standard_normal(rx.size) + 1j * rng.standard_normal(rx.size)), resp

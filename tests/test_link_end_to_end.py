@@ -3,7 +3,8 @@
 * every named link profile × M ∈ {1, 2, 4, 8} reads the EPC at 3 m over the link scenario's
   default channel (APDP + concrete floor);
 * the read range in free space equals the Friis forward-link prediction within 2 %;
-* in free space the reported phase is 4πd/λ − arg(Γ_B − Γ_A) (mod 2π) within 0.01 rad,
+* in free space the reported phase is 4πd/λ − arg(Γ_A − Γ_B) (mod 2π) within 0.01 rad (the
+  tag re-radiates A_s − Γ),
   the RSSI follows the radar equation (slope −40 dB/decade within 0.2 dB/decade), and a tag
   moving radially at 1 m/s gives the Doppler 2v/λ within 1 %.
 """
@@ -135,19 +136,24 @@ DISTANCES_M = (0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0, 10.0)
 def test_phase_rssi_against_free_space_physics():
     """Reported phase and RSSI vs the monostatic radar equation.
 
-    h = √P_tx·a²·e^{−j4πd/λ}·(Γ_B − Γ_A)/2 with a = (λ/4πd)·√(G_r·G_t·PLF) real and positive
-    (Friis LoS), the ±1 reply s(t) multiplying (Γ_B − Γ_A)/2; the reader refers the phase
+    The tag re-radiates r = A_s − Γ (structural mode A_s, devices.tag; Nikitin, Rao & Lam
+    2006): r_B for s = +1, r_A for s = −1, so r = (r_A + r_B)/2 + s·(r_B − r_A)/2 with
+    r_B − r_A = (A_s − Γ_B) − (A_s − Γ_A) = Γ_A − Γ_B (A_s cancels; the static part is
+    removed with the leakage). h = √P_tx·a²·e^{−j4πd/λ}·(Γ_A − Γ_B)/2 with
+    a = (λ/4πd)·√(G_r·G_t·PLF) real and positive (Friis LoS); the reader refers the phase
     to its own carrier and reports (−arg h) mod 2π, so the fixed device offset is
-    −arg(Γ_B − Γ_A) (the chip's reflection states; the leakage is removed, it adds nothing).
-    RSSI = |h|² = P_tx·a⁴·|Γ_B − Γ_A|²/4. Tolerance: 0.01 rad; at NF 0 dB the worst case
-    (10 m) has SNR ≈ 37 dB per sample over ≈ 5000 samples, phase std ≈ 2e−4 rad.
+    −arg(Γ_A − Γ_B) (π away from the −arg(Γ_B − Γ_A) of a tag re-radiating Γ alone).
+    RSSI = |h|² = P_tx·a⁴·|Γ_A − Γ_B|²/4 (independent of A_s). Tolerance: 0.01 rad; at NF
+    0 dB the worst case (10 m) has SNR ≈ 37 dB per sample over ≈ 5000 samples, phase std
+    ≈ 2e−4 rad.
     """
     phases, rssi, pred_phase, pred_rssi = [], [], [], []
     for k, d in enumerate(DISTANCES_M):
         ex, tag = free_space_epc(d, seed=k)
         fc = ex.fc_hz
         lam = C_M_S / fc
-        dg = tag.reflection_states.gamma_b - tag.reflection_states.gamma_a
+        # modulated re-radiation r_B − r_A = (A_s − Γ_B) − (A_s − Γ_A) = Γ_A − Γ_B
+        dg = tag.reflection_states.gamma_a - tag.reflection_states.gamma_b
         a2 = (lam / (4 * math.pi * d)) ** 2 * 10 ** (PATCH_GAIN_DBI / 10) * DIPOLE_GAIN * PLF_CIRCULAR_LINEAR
         phases.append(ex.read.phase_rad)
         pred_phase.append((4 * math.pi * d / lam - np.angle(dg)) % (2 * math.pi))
@@ -155,7 +161,7 @@ def test_phase_rssi_against_free_space_physics():
         pred_rssi.append(10 * math.log10(10 ** ((PTX_DBM - 30) / 10) * a2**2 * abs(dg) ** 2 / 4) + 30)
     err = np.angle(np.exp(1j * (np.array(phases) - np.array(pred_phase))))
     assert np.max(np.abs(err)) < 0.01, err
-    # the residual device offset is the chip's −arg ΔΓ, a few tenths of a radian away from 0
+    # the residual device offset −arg(Γ_A − Γ_B) is ≈ 2.8 rad for the default chip (far from 0)
     assert np.max(np.abs(np.array(rssi) - np.array(pred_rssi))) < 0.05
     slope = np.polyfit(np.log10(DISTANCES_M), rssi, 1)[0]
     assert abs(slope - (-40.0)) < 0.2, slope

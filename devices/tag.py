@@ -39,9 +39,9 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
    (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
-   s = −1 or s = 0 (absorbing state, in which the tag harvests). Γ_A ≠ 0 (a tag that also
-   scatters in its rest state) gives a static backscatter that the reader removes with
-   the carrier leakage; it stays in Γ and is not special-cased.
+   s = −1 or s = 0 (absorbing state, in which the tag harvests). The rest state scatters
+   a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader removes
+   with the carrier leakage; it is not special-cased.
 6. **Re-radiation** (structural and antenna modes): the field an antenna loaded by the chip
    scatters is proportional to A_s − Γ(t) (Nikitin, Rao & Lam, "Theory and measurement of
    backscattering from RFID tags", IEEE AP Magazine 48(6), 2006; R. C. Hansen, "Relationships
@@ -57,7 +57,8 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    |A_s − Γ_A| and |A_s − Γ_B|, not their difference.
    Consequences: the modulated part r_B − r_A = −(Γ_B − Γ_A) keeps |Γ_A − Γ_B| (the
    differential RCS and M = |Γ_A − Γ_B|²/4, anchors §4.7, are unchanged) with its sign
-   flipped (the reader's phase moves by π against −Γ alone); the two scattered amplitudes
+   flipped (the reader's phase is π away from that of a tag re-radiating +Γ(t)); the two
+   scattered amplitudes
    |A_s − Γ_A|, |A_s − Γ_B| (what an envelope detector beside the tag sees) and the static
    backscatter at the reader depend on A_s.
 

@@ -58,9 +58,8 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    Consequences: the modulated part r_B − r_A = −(Γ_B − Γ_A) keeps |Γ_A − Γ_B| (the
    differential RCS and M = |Γ_A − Γ_B|²/4, anchors §4.7, are unchanged) with its sign
    flipped (the reader's phase is π away from that of a tag re-radiating +Γ(t)); the two
-   scattered amplitudes
-   |A_s − Γ_A|, |A_s − Γ_B| (what an envelope detector beside the tag sees) and the static
-   backscatter at the reader depend on A_s.
+   scattered amplitudes |A_s − Γ_A|, |A_s − Γ_B| (what an envelope detector beside the tag
+   sees) and the static backscatter at the reader depend on A_s.
 
 Γ states (:class:`devices.tag_frontend.ReflectionStates`): ``"ASK"`` uses the PASS UCODE
 G2XM-class chip at 900 MHz against a conjugate-matched antenna

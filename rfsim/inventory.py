@@ -58,6 +58,7 @@ from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Select
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import t1
+from rfsim.records import READ_MEASUREMENT_FIELDS
 
 #: Reader-side slot classes (what the Q algorithm sees).
 READER_VIEWS = ("empty", "success", "collision")
@@ -158,13 +159,7 @@ READ_FIELDS = {
     "slot": ("1", "slot index within the round"),
     "tag": ("1", "index of the tag that answered the ACK (-1 if not unique)"),
     "epc_hex": ("", "EPC decoded (CRC-16 ok)"),
-    "antenna": ("1", "reader antenna port (1-based, as LLRP)"),
-    "channel_index": ("1", "1-based index into the reader's hop table"),
-    "frequency_hz": ("Hz", "carrier frequency"),
-    "rssi_dbm": ("dBm", "power of the tag's modulated EPC reply at the reader antenna port"),
-    "phase_rad": ("rad", "reader-reported phase (-arg h) mod 2pi of the EPC reply"),
-    "doppler_hz": ("Hz", "Doppler from the phase slope across the EPC reply"),
-    "snr_db": ("dB", "SNR of the EPC reply as defined by the reader receiver"),
+    **READ_MEASUREMENT_FIELDS,
     "n_replies": ("1", "tags that replied in the RN16 slot (> 1: capture)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the read tag (ACK)"),
 }

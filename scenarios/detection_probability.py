@@ -90,6 +90,7 @@ from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
+from rfsim.plots import pyplot, save_figure
 
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
@@ -449,15 +450,11 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     (D ∈ [2, 4] m, 0.2 m bins), binned with Wilson 95 % intervals, with the fitted and
     published RTS (at d = 0.6 m / D = 3 m, θ = φ = 0) and TS curves, and the fitted models
     averaged over each bin's samples (comparable with the binned data, which mix angles)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     from rfsim.dataset import read_table
 
     s = read_table(dataset_path, "samples")
-    out_dir.mkdir(parents=True, exist_ok=True)
     try:
         fits = fit_file(dataset_path)
     except UserError:
@@ -504,8 +501,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         ax.set(xlabel=xlab, ylabel="detection probability", ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    path = out_dir / f"{NAME}-fig4_7.png"
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path]
+    return [save_figure(fig, out_dir / f"{NAME}-fig4_7.png", dpi=110)]

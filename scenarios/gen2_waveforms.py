@@ -34,6 +34,7 @@ from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
 from rfsim.gen2.linecode import reply_waveform_for_profile
 from rfsim.gen2.pie import pie_envelope_for_profile
 from rfsim.rng import trial_rng
+from rfsim.plots import pyplot, save_figure
 
 NAME = "gen2-waveforms"
 DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
@@ -186,10 +187,7 @@ def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """One panel per profile: reader envelope and tag backscatter state vs time."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     from rfsim.dataset import read_dataset
 
@@ -206,9 +204,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     axes[-1, 0].set_xlabel("time [ms]")
     axes[0, 0].legend(loc="upper right", fontsize=8)
     fig.suptitle("Gen2 Query → RN16 → ACK → EPC per link profile")
-    fig.tight_layout()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{NAME}.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return [path]
+    return [save_figure(fig, out_dir / f"{NAME}.png")]

@@ -48,6 +48,7 @@ from rfsim.dataset import Dataset, column
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
 from rfsim.rng import trial_rng
 from rfsim.units import C_M_S
+from rfsim.plots import pyplot, save_figure
 
 NAME = "inventory"
 DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
@@ -266,10 +267,7 @@ def capture_probability(ratio_db: np.ndarray, captured: np.ndarray, edges_db: np
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Slot types per population, read rate and efficiency vs N, capture probability."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     import h5py
 
     from rfsim.dataset import read_table
@@ -317,9 +315,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     a.set_ylabel("capture probability")
     a.grid(True, alpha=0.3)
     fig.suptitle("inventory (Q algorithm, sample level)")
-    fig.tight_layout()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{NAME}.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return [path]
+    return [save_figure(fig, out_dir / f"{NAME}.png")]

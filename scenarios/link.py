@@ -26,9 +26,11 @@ from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
+from rfsim.records import READ_MEASUREMENT_FIELDS
 from rfsim.engine import singulate
 from rfsim.gen2.commands import Query
 from rfsim.rng import trial_rng
+from rfsim.plots import pyplot, save_figure
 
 NAME = "link"
 DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler, SNR and read success"
@@ -97,13 +99,7 @@ FIELDS = {
     "round": ("1", "inventory round at this point"),
     "time_s": ("s", "start of the round's Query"),
     "distance_m": ("m", "reader-tag distance"),
-    "antenna": ("1", "reader antenna port (1-based, as LLRP)"),
-    "channel_index": ("1", "1-based index into the reader's hop table"),
-    "frequency_hz": ("Hz", "carrier frequency"),
-    "rssi_dbm": ("dBm", "power of the tag's modulated reply at the reader antenna port (EPC reply)"),
-    "phase_rad": ("rad", "reader-reported phase (-arg h) mod 2pi of the EPC reply"),
-    "doppler_hz": ("Hz", "Doppler from the phase slope across the EPC reply"),
-    "snr_db": ("dB", "SNR of the EPC reply as defined by the reader receiver"),
+    **READ_MEASUREMENT_FIELDS,
     "success": ("1", "EPC decoded with CRC ok"),
     "failure_reason": ("", "why the read failed ('' = success)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port (Query)"),
@@ -150,10 +146,7 @@ def _append(rows: dict[str, list], **values) -> None:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """RSSI (mean ± std of successful reads) and read rate vs distance."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     from rfsim.dataset import read_table
 
@@ -174,9 +167,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     a2.set_ylim(-0.05, 1.05)
     a2.grid(True, alpha=0.3)
     fig.suptitle("reader-tag link vs distance")
-    fig.tight_layout()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{NAME}.png"
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return [path]
+    return [save_figure(fig, out_dir / f"{NAME}.png")]

@@ -86,6 +86,7 @@ from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
+from rfsim.plots import pyplot, save_figure
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -583,15 +584,11 @@ def _describe(key: str) -> str:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and Fig. 3.16 probabilities."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     from rfsim.dataset import read_dataset, read_table
 
     ds = read_dataset(dataset_path)
-    out_dir.mkdir(parents=True, exist_ok=True)
     paths = []
 
     def grid(name):
@@ -612,7 +609,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         a.set_ylabel("|A1 - A2|")
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
-    paths.append(_save(fig, out_dir / f"{NAME}-fig3_3_3_5.png"))
+    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_3_3_5.png"))
 
     c, v = grid("fig3_8")
     fig, ax = plt.subplots(figsize=(5, 6))
@@ -620,7 +617,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     fig.colorbar(im, ax=ax, label="|A1 - A2| [V]")
     ax.plot([0, 0], [0, 2], "r.", ms=8)
     ax.set(xlabel="x [m]", ylabel="y [m]", title="Fig. 3.8: Eq. 3.23 null map", aspect="equal")
-    paths.append(_save(fig, out_dir / f"{NAME}-fig3_8.png"))
+    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_8.png"))
 
     c, v = grid("tracks")
     fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"])), sharex=True)
@@ -632,7 +629,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         a.grid(alpha=0.3)
     np.atleast_1d(axs)[0].legend(fontsize=7)
     np.atleast_1d(axs)[-1].set_xlabel("ST distance from the tag [m]")
-    paths.append(_save(fig, out_dir / f"{NAME}-fig3_15.png"))
+    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_15.png"))
 
     cells = read_table(dataset_path, "cells")
     fig, ax = plt.subplots(figsize=(7, 4))
@@ -645,14 +642,5 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]", title="Fig. 3.16 / 5.8")
     ax.legend()
     ax.grid(alpha=0.3)
-    paths.append(_save(fig, out_dir / f"{NAME}-fig3_16.png"))
+    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_16.png"))
     return paths
-
-
-def _save(fig, path: Path) -> Path:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-    return path

@@ -79,6 +79,7 @@ from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
+from rfsim.plots import pyplot, save_figure
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -363,27 +364,20 @@ def run(config: Config, *, seed: int) -> Dataset:
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """p̄(d, θ) heat maps per room and the mean p̂ vs d at 0°/30°/60° with the fitted and
     published mean models."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from rfsim.dataset import read_dataset, read_table
     from rfsim.detection import ReaderDetectionModel
 
+    plt = pyplot()
     ds = read_dataset(dataset_path)
     coords, vars_ = ds.grids["cells"]
     d, a = coords["distance_m"].data, coords["theta_deg"].data
-    out_dir.mkdir(parents=True, exist_ok=True)
     fig, axs = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for k, ax in enumerate(axs):
         im = ax.pcolormesh(a, d, vars_["p_mean"].data[k], shading="nearest", vmin=0, vmax=1, cmap="viridis")
         ax.set(xlabel="theta [deg]", title=f"room {k}: mean detection probability")
     axs[0].set_ylabel("distance d [m]")
     fig.colorbar(im, ax=axs, label="mean p_hat")
-    p1 = out_dir / f"{NAME}-heatmap.png"
-    fig.savefig(p1, dpi=110)
-    plt.close(fig)
+    p1 = save_figure(fig, out_dir / f"{NAME}-heatmap.png", dpi=110, tight=False)
 
     trials = read_table(dataset_path, "trials")
     fits = read_table(dataset_path, "fits") if "fits" in ds.tables else None
@@ -407,8 +401,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
            title="reader detection vs distance (dotted: published)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=6, ncol=2)
-    p2 = out_dir / f"{NAME}-mean.png"
-    fig.tight_layout()
-    fig.savefig(p2, dpi=110)
-    plt.close(fig)
-    return [p1, p2]
+    return [p1, save_figure(fig, out_dir / f"{NAME}-mean.png", dpi=110)]

@@ -1,0 +1,34 @@
+"""Figure helpers shared by the scenarios: headless matplotlib, one way to save.
+
+matplotlib is imported lazily (only when a figure is drawn) with the non-interactive Agg
+backend, so the core and the tests stay headless.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
+    """Lay out (unless ``tight`` is False, e.g. with a shared colorbar), write ``fig`` to
+    ``path`` (creating its folder) and close it."""
+    if tight:
+        fig.tight_layout()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
+    return path
+
+
+__all__ = ["pyplot", "save_figure"]

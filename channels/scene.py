@@ -44,7 +44,7 @@ from .antennas import Antenna
 from .large_scale import friis_amplitude_gain, wall_loss_db
 from .paths import PathSet
 from .small_scale import ApdpModel, draw_taps
-from .surfaces import image_paths, reflect_point
+from .surfaces import image_paths
 
 __all__ = ["Scene", "Channel", "los_links", "kinematics"]
 

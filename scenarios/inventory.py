@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Isotropic, Patch, Scene, Surface
+from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import check_fields, param

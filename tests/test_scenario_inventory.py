@@ -1,6 +1,5 @@
 """Scenario ``inventory``: end-to-end run, dataset contents, figure, capture curve."""
 
-import math
 
 import h5py
 import numpy as np

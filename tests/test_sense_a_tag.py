@@ -92,7 +92,6 @@ def _theta_sweep(modulation, n_theta=96):
     # θ of the modulating state at phase 0 of the controlled link; the sweep sets θ exactly
     theta0 = np.angle(g_ts * gb * g_rt / g_rs) if gb != 0 else 0.0
     targets = np.linspace(-np.pi, np.pi, n_theta, endpoint=False) + np.pi / n_theta
-    lk = reader.link
     meas, exp_a = np.empty(n_theta), []
     for i, th in enumerate(targets):
         ch = PhaseChannel(base, tag.antenna, [sta], th - theta0)

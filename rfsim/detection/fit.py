@@ -20,8 +20,7 @@ import numpy as np
 from scipy import optimize, stats
 from scipy.special import expit, logit
 
-from rfsim.detection.models import (DA_DEAD_ZONE, ReaderDetectionModel, beta_from_moments,
-                                    mixture_logpmf)
+from rfsim.detection.models import (DA_DEAD_ZONE, ReaderDetectionModel, mixture_logpmf)
 from rfsim.errors import UserError
 
 

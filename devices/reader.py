@@ -52,6 +52,7 @@ from scipy.signal import fftconvolve
 
 from rfsim.config import param, validate
 from rfsim.errors import ConfigError
+from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import LinkProfile, profile, t1
@@ -391,9 +392,8 @@ class Reader:
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
         The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
         """
-        n = self.preamble_samples(blf_hz)
-        p = self.config.false_alarm_probability / (2.0 * max(int(n_lags), 1))
-        return math.sqrt(1.0 - p ** (1.0 / max(n - 2, 1)))
+        return preamble_threshold(self.preamble_samples(blf_hz), n_lags,
+                                  self.config.false_alarm_probability)
 
     def reply_search_window_s(self) -> tuple[float, float]:
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
@@ -487,7 +487,7 @@ class Reader:
         # whose two neighbours carry the same level (as in the measurements: the start is
         # known to a fraction of a sample, a sample at an element boundary could carry the
         # other level and bias c, which no later step removes).
-        h, c = _gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, pre_n_el))
+        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, pre_n_el))
         det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                             method=self.config.decoder, start_sample=det.start_sample, gain=h)
         bits = det2.bits.astype(np.uint8)
@@ -595,16 +595,6 @@ def _steady(level: np.ndarray) -> np.ndarray:
     out = np.zeros(level.size, dtype=bool)
     out[1:-1] = (level[1:-1] == level[:-2]) & (level[1:-1] == level[2:])
     return out
-
-
-def _gain_offset(r: np.ndarray, s: np.ndarray) -> tuple[complex, complex]:
-    """Least-squares (h, c) of ``r ≈ h·s + c`` over all samples (s real)."""
-    ss, s1, n = float(s @ s), float(s.sum()), float(s.size)
-    rs, r1 = complex(r @ s), complex(r.sum())
-    det = ss * n - s1 * s1  # normal equations [[ss, s1], [s1, n]]·(h, c) = (rs, r1)
-    if det == 0:
-        raise np.linalg.LinAlgError("singular reference: no level change")
-    return (n * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det
 
 
 __all__ = [

@@ -258,17 +258,18 @@ def fit_gain_offset(r, s) -> tuple[complex, complex]:
     s : (n,) real, the known reference: the ±1 reply levels, and −1 where the tag rests in
         its absorbing state outside its reply (the DC step of a monostatic capture)
 
-    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr].
+    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr] in closed form.
     """
     r = np.asarray(r, dtype=np.complex128)
     s = np.asarray(s, dtype=np.float64)
     if r.ndim != 1 or r.shape != s.shape:
         raise ValueError(f"r and s must be 1-D of equal length, got {r.shape} and {s.shape}")
-    a = np.array([[float(s @ s), float(s.sum())], [float(s.sum()), float(s.size)]])
-    if abs(np.linalg.det(a)) <= 1e-12 * max(a[0, 0] * a[1, 1], 1e-300):
+    ss, s1, n = float(s @ s), float(s.sum()), float(s.size)
+    rs, r1 = complex(r @ s), complex(r.sum())
+    det = ss * n - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * n, 1e-300):
         raise ValueError("the reference s is constant: gain and offset cannot be separated")
-    h, c = np.linalg.solve(a, np.array([complex(r @ s), complex(r.sum())]))
-    return complex(h), complex(c)
+    return (n * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det
 
 
 def preamble_threshold(n_samples: int, n_tests: int, false_alarm_probability: float = 1e-3) -> float:

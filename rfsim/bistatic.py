@@ -12,7 +12,7 @@ the chip's Γ, devices.tag); listener antenna k receives
 
 with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied by
 :func:`channels.paths.apply_paths` with the engine's narrowband/exact choice
-(:func:`rfsim.engine._method` on the reply bandwidth 2·BLF). Every tag scatters: A_s − Γ_A
+(:func:`rfsim.engine.propagation_method` on the reply bandwidth 2·BLF). Every tag scatters: A_s − Γ_A
 outside its reply. All waveforms are complex baseband [√W] on
 the segment's time base.
 
@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.engine import _method
+from rfsim.engine import propagation_method
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -97,7 +97,7 @@ def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *
     bw = 2.0 * reader.link.blf_hz
 
     def apply(sig, paths):
-        return apply_paths(sig, fs_hz=fs, fc_hz=fc, paths=paths, t0_s=t_s, method=_method(paths, bw, propagation))
+        return apply_paths(sig, fs_hz=fs, fc_hz=fc, paths=paths, t0_s=t_s, method=propagation_method(paths, bw, propagation))
 
     responses, incident, fwd_links = [], [], []
     for tag in tags:

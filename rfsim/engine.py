@@ -144,7 +144,8 @@ def narrowband_rms_error(paths, bandwidth_hz: float) -> float:
     return float(np.sqrt(np.sum(p * rel**2) / total))
 
 
-def _method(paths, bandwidth_hz: float, propagation: str) -> str:
+def propagation_method(paths, bandwidth_hz: float, propagation: str) -> str:
+    """"narrowband" or "exact" for ``paths`` under the ``propagation`` policy (module docstring)."""
     if propagation != "auto":
         return propagation
     ok = paths.n_paths == 0 or narrowband_rms_error(paths, bandwidth_hz) <= NARROWBAND_TOLERANCE
@@ -228,8 +229,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         method_key = ("method", i, antenna_index, fc, propagation, link.blf_hz)
         methods = link_cache.get(method_key) if link_cache is not None else None
         if methods is None or methods[0] is not fwd or methods[2] is not bwd:
-            fwd_method = _method(fwd, 2.0 * link.blf_hz, propagation)
-            bwd_method = fwd_method if bwd is fwd else _method(bwd, 2.0 * link.blf_hz, propagation)
+            fwd_method = propagation_method(fwd, 2.0 * link.blf_hz, propagation)
+            bwd_method = fwd_method if bwd is fwd else propagation_method(bwd, 2.0 * link.blf_hz, propagation)
             methods = (fwd, fwd_method, bwd, bwd_method)
             if link_cache is not None:
                 link_cache[method_key] = methods
@@ -335,4 +336,4 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
 
 
 __all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "NARROWBAND_TOLERANCE",
-           "narrowband_rms_error", "run_exchange", "singulate"]
+           "narrowband_rms_error", "propagation_method", "run_exchange", "singulate"]

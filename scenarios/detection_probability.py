@@ -85,7 +85,7 @@ from rfsim.dataset import Dataset, column
 from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
                              binned_probability, cross_entropy, expected_cross_entropy, fit_logistic,
                              predict_proba, rts_design, st_features, ts_design)
-from rfsim.engine import _method
+from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
@@ -216,7 +216,7 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     fwd = ex.forward_links[0]
     scattered = resp.reradiation(inc.size) * inc  # (A_s − Γ(t))·incident
     rx = reader.leakage_gain() * tx.samples + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=0.0,
-                                                          method=_method(fwd, 2.0 * lk.blf_hz, "auto"))
+                                                          method=propagation_method(fwd, 2.0 * lk.blf_hz, "auto"))
     nrng = trial_rng(seed, index, 4)
     sigma = math.sqrt(reader.noise_power_w() / 2.0)
     rx = rx + sigma * (nrng.standard_normal(rx.size) + 1j * nrng.standard_normal(rx.size))

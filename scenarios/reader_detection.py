@@ -74,7 +74,7 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_moments
 from rfsim.detection.fit import DA_PARAMETER_NAMES
-from rfsim.engine import _method
+from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
@@ -183,7 +183,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     fwd, bwd = Channel(scene(config.rooms, room)).backscatter_links(ant, tag_ant, fc_hz=fc,
                                                                       rng=trial_rng(seed, *key, 3))
     bw = 2.0 * lk.blf_hz
-    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=_method(fwd, bw, "auto"))
+    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, bw, "auto"))
     base = reader.leakage_gain() * tx.samples
     sigma = math.sqrt(reader.noise_power_w() / 2.0)
     nrng = trial_rng(seed, *key, 4)
@@ -200,7 +200,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
             continue  # nothing to decode (the engine's reader listens only when a tag replied)
         n_replied += 1
         rx = base + noise + apply_paths(resp.reradiation(inc.size) * inc, fs_hz=fs, fc_hz=fc, paths=bwd,
-                                        method=_method(bwd, bw, "auto"))
+                                        method=propagation_method(bwd, bw, "auto"))
         read = reader.receive(rx[i0:], t0_s=t_j + i0 / fs, n_bits=16, expect_crc=False,
                               cmd_end_s=t_j + (tx.cmd_end_s - tx.t0_s), carrier=tx.samples[-1])
         n_reads += bool(read.bits is not None and read.success
@@ -276,7 +276,7 @@ def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     except (UserError, np.linalg.LinAlgError, ValueError) as exc:
         rows.append(("mle", None, None))
         errors.append(f"mle: {exc}")
-    from rfsim.detection.fit import _log_likelihood  # Eq. 4.11 log-likelihood of a model
+    from rfsim.detection.fit import log_likelihood_reader  # Eq. 4.11 log-likelihood of a model
 
     out: dict[str, list] = {"method": []}
     for name in DA_PARAMETER_NAMES:
@@ -299,7 +299,7 @@ def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
             out["se_" + name].append(float(se[i]))
         for a in D50_ANGLES_DEG:
             out[f"d50_{int(a)}deg_m"].append(float(model.d50(a)))
-        out["log_likelihood"].append(_log_likelihood(model, np.asarray(d, float), np.asarray(th, float),
+        out["log_likelihood"].append(log_likelihood_reader(model, np.asarray(d, float), np.asarray(th, float),
                                                      np.asarray(n), np.asarray(nq), model.dead_zone_mean))
     out = {k: np.array(v) for k, v in out.items()}
     out["errors"] = "; ".join(errors)

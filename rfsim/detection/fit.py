@@ -229,7 +229,9 @@ def _model_from(params, dead_zone_concentration, variance_cutoff_m, kappa):
                                 variance_cutoff_m=variance_cutoff_m, kappa=kappa)
 
 
-def _log_likelihood(model: ReaderDetectionModel, d, th, n, nq, lam) -> float:
+def log_likelihood_reader(model: ReaderDetectionModel, d, th, n, nq, lam) -> float:
+    """Eq. 4.11 log-likelihood of reads n out of nq queries at (d, θ) under ``model`` with
+    dead-zone mean ``lam``."""
     mu = model.mean(d, th)
     alpha, beta = model.beta_params(d, th)
     return float(np.sum(mixture_logpmf(n, nq, mu, alpha, beta, lam)))
@@ -300,7 +302,7 @@ def fit_reader_moments(distance_m, theta_deg, n_reads, n_queries, *,
                                  dead_zone_beta=float(dead_zone[1]), variance_cutoff_m=None)
     return ReaderModelFit(model=model, estimates=est, stderr=np.sqrt(np.diag(cov)),
                           covariance=cov,
-                          log_likelihood=_log_likelihood(model, d, th, n, nq, lam),
+                          log_likelihood=log_likelihood_reader(model, d, th, n, nq, lam),
                           method="moments", n_trials=d.size)
 
 
@@ -376,7 +378,7 @@ def fit_reader_mle(distance_m, theta_deg, n_reads, n_queries, *, fit_dead_zone: 
     def nll(u_free):
         p = params_of(u_free)
         model = _model_from(p, _DEAD_ZONE_CONCENTRATION, variance_cutoff_m, kappa)
-        value = -_log_likelihood(model, d, th, n, nq, p[8])
+        value = -log_likelihood_reader(model, d, th, n, nq, p[8])
         return value if np.isfinite(value) else 1e300
 
     res = optimize.minimize(nll, u0[free], method="BFGS", jac="3-point",

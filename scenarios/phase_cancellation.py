@@ -81,7 +81,7 @@ from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.engine import NARROWBAND_TOLERANCE, _method
+from rfsim.engine import NARROWBAND_TOLERANCE, propagation_method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
@@ -241,7 +241,7 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     fs, fc = tx.fs_hz, tx.fc_hz
     fwd = draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
                      tx_antenna=ra, rx_antenna=ta).pathset(0)
-    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=_method(fwd, 2 * lk.blf_hz, "auto"))
+    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, 2 * lk.blf_hz, "auto"))
     resp = tag.listen(inc, t0_s=0.0, fs_hz=fs)
     i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
     x_tx, inc_w = tx.samples[i0:], inc[i0:]

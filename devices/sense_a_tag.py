@@ -12,8 +12,10 @@ L3420-3422) and ``φ = orientation_deg``. A single-antenna ST is SA2 alone at th
 Receive chain: :class:`devices.st_receiver.STReceiver` (linear diode detector at
 :data:`devices.st_receiver.REFERENCE_IMPEDANCE_OHM` = 50 Ω, output ``gain·sqrt(2R)·|x|``
 [V], RC, Butterworth band-pass, hysteresis comparator at ``threshold_v`` = 5 mV). The
-source's detector output is ≈ 6× the antenna-level difference (R3-1/R3-4); ``detector_gain``
-sets that factor (default 1: the output equals the closed forms).
+source's detector output is ≈ 6× the antenna-level difference in its own voltage unit
+(R3-1/R3-4; peak sqrt(2P) across 1 Ω, i.e. ≈ 0.85× the 50 Ω difference,
+:func:`devices.st_receiver.to_source_volts`); ``detector_gain`` sets the factor per 50 Ω
+volt (default 1: the output equals the closed forms).
 
 Own identity. The ST answers the reader like a tag through a :class:`devices.tag.PassiveTag`
 on SA2 (PIE decoding with its clock, Gen2 state machine, Γ(t) of its modulator). It is

@@ -23,6 +23,15 @@ The source's detector outputs are about 6× the antenna-level differences (0.001
 0.01 V, L3358-3362; 0.0019 V → 0.012 V, L3436-3441); ``gain`` reproduces such a
 conversion; the default 1 makes the output equal the closed forms.
 
+Source voltage unit. The source's simulator (PASS, auris-sense-a-tag.md §6.1) sets the
+reader's real passband signal to variance P_tx, so its "volts" are the peak ``sqrt(2P)``
+across 1 Ω (:data:`SOURCE_IMPEDANCE_OHM`): a source amplitude is ``sqrt(2P)`` =
+``V / sqrt(R/1 Ω)`` of the 50 Ω peak voltage here (:func:`to_source_volts`). With
+3.28 W EIRP the CW at a dipole 1 m away is 0.0856 V in that unit (0.605 V at 50 Ω), as
+Table 3.1's A_R = 0.0802 V at cell 1 (L3372-3380). The source's ×6 detector conversion
+applies to source volts: per 50 Ω volt it is ``6/sqrt(50)`` = 0.85, within 15 % of the
+default gain 1.
+
 followed by an RC low-pass ``τ·dv/dt = v_d − v`` (discretised exactly for a held input:
 ``a = 1 − exp(−1/(fs·τ))``); the default ``τ = 1/(2π·4·BLF)`` passes the subcarrier
 and its third harmonic (4 BLF is also the PASS reader's demodulation cut-off, §6.1).
@@ -60,9 +69,22 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
 
 REFERENCE_IMPEDANCE_OHM = 50.0
+#: Reference impedance of the source's amplitudes (PASS: peak sqrt(2P) across 1 Ω) [Ω]
+SOURCE_IMPEDANCE_OHM = 1.0
 DETECTOR_LAWS = ("linear", "square")
 
 # ----------------------------------------------------------------------------- building blocks
+
+
+def to_source_volts(v, *, impedance_ohm: float = REFERENCE_IMPEDANCE_OHM):
+    """Peak RF voltage across ``impedance_ohm`` → the source's amplitude unit [V].
+
+    ``sqrt(2P)`` across :data:`SOURCE_IMPEDANCE_OHM` for ``V = sqrt(2·R·P)``:
+    ``v·sqrt(SOURCE_IMPEDANCE_OHM / R)`` (module docstring, "Source voltage unit").
+    """
+    if not impedance_ohm > 0:
+        raise ValueError(f"impedance_ohm must be > 0, got {impedance_ohm}")
+    return np.asarray(v, dtype=float) * math.sqrt(SOURCE_IMPEDANCE_OHM / impedance_ohm)
 
 
 def rc_lowpass(u, *, fs_hz: float, tau_s: float, y0: float | None = None) -> tuple[np.ndarray, float]:
@@ -579,7 +601,7 @@ def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STR
 
 
 __all__ = [
-    "REFERENCE_IMPEDANCE_OHM", "DETECTOR_LAWS", "rc_lowpass", "rc_lowpass_reference", "comparator",
+    "REFERENCE_IMPEDANCE_OHM", "SOURCE_IMPEDANCE_OHM", "to_source_volts", "DETECTOR_LAWS", "rc_lowpass", "rc_lowpass_reference", "comparator",
     "comparator_reference", "passband_envelope_v", "settled_mask", "state_levels",
     "state_envelope_difference", "EnvelopeDetector", "ChainOutput", "Reception", "STReceiver",
     "receive_combined", "SelectionReception", "receive_selection", "STAMP_S1", "STAMP_S2", "STAMP_S3",

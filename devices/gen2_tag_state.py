@@ -319,12 +319,19 @@ class TagState:
         self.session, self.q, self.handle = cmd.session, cmd.q, None
         return self._load_slot(rng)
 
+    def _close_access(self) -> bool:
+        """An acknowledged/open/secured tag ends its round on a QueryRep/QueryAdjust of its
+        session: its inventoried flag flips and it returns to Ready. True if that happened."""
+        if self.state not in _ACCESS_STATES:
+            return False
+        self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
+        self._reset_round()
+        return True
+
     def _query_rep(self, cmd: QueryRep, rng) -> Reply | None:
         if self.session is None or cmd.session != self.session:
             return None
-        if self.state in _ACCESS_STATES:
-            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
-            self._reset_round()
+        if self._close_access():
             return None
         if self.state == "reply":
             self.state, self.slot = "arbitrate", SLOT_AFTER_WRAP
@@ -337,9 +344,7 @@ class TagState:
     def _query_adjust(self, cmd: QueryAdjust, rng) -> Reply | None:
         if self.session is None or cmd.session != self.session:
             return None
-        if self.state in _ACCESS_STATES:
-            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
-            self._reset_round()
+        if self._close_access():
             return None
         if self.state in ("arbitrate", "reply"):
             self.q = min(15, max(0, self.q + cmd.updn))

@@ -153,7 +153,7 @@ def test_decode_noisy_kernel_equals_reference(m):
         assert 0 < np.count_nonzero(a.bits != bits) < 100
     y = rng.standard_normal(1000)
     out = np.empty(37)
-    K.halfbit_sums_kernel(y, 3.3, 0.37, 4, out)
+    K.projected_halfbit_sums_kernel(y.astype(np.complex128), 1.0, 0.0, 0.0, 3.3, 0.37, 4, out)  # g = 1, no DC
     np.testing.assert_allclose(out, halfbit_sums_reference(y, 3.3, 0.37, 4, 37), rtol=1e-12, atol=1e-12)
 
 

@@ -66,27 +66,6 @@ def waveform_kernel(elements, t0_samples, elements_per_sample, out):
 
 
 @njit
-def halfbit_sums_kernel(y, start, elements_per_sample, m, out):
-    """Matched-filter sums per half-bit: ``out[h] += y[n]·(−1)^k`` (Miller) or ``y[n]`` (FM0)
-    for every sample n whose element k = floor((n − start)·r + eps) has ``k // m == h``."""
-    out[:] = 0.0
-    nh = out.size
-    n0 = max(0, int(math.ceil(start)))
-    for n in range(n0, y.size):
-        u = (n - start) * elements_per_sample
-        if u < 0.0:
-            continue
-        k = int(math.floor(u + INDEX_EPS))
-        h = k // m
-        if h >= nh:
-            break
-        if m > 1 and (k & 1):
-            out[h] -= y[n]
-        else:
-            out[h] += y[n]
-
-
-@njit
 def bitwise_kernel(a, b, miller, out):
     """Bit-by-bit coherent decisions from the half-bit sums (a, b) of each bit.
 
@@ -237,8 +216,10 @@ def elements_kernel(bits, dummy, m, pre, cur, prev, out):
 
 @njit
 def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, out):
-    """:func:`halfbit_sums_kernel` of ``y[n] = (Re part[n]·g_re − Im part[n]·g_im) − dc_re``
-    (the projection Re((part − dc)/h) with g = 1/h, dc_re = Re(dc·g)), computed on the fly."""
+    """Matched-filter sums per half-bit of ``y[n] = (Re part[n]·g_re − Im part[n]·g_im) − dc_re``
+    (the projection Re((part − dc)/h) with g = 1/h, dc_re = Re(dc·g), computed on the fly):
+    ``out[h] += y[n]·(−1)^k`` (Miller) or ``y[n]`` (FM0) for every sample n whose element
+    k = floor((n − start)·r + eps) has ``k // m == h``."""
     out[:] = 0.0
     nh = out.size
     n0 = max(0, int(math.ceil(start)))

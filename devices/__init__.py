@@ -9,7 +9,8 @@ and comparator (:mod:`devices.st_receiver`), the closed forms of phase cancellat
 (:mod:`devices.st_analytic`), dual-antenna techniques and the locator protocol.
 
 Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end physics —
-power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`) — and the
+power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`), a chip whose
+impedance follows its absorbed power (:mod:`devices.tag_chip`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
 (:mod:`devices.tag`).
 """
@@ -18,6 +19,7 @@ from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
 from devices.sense_a_tag import Observation, SenseATag, SenseATagConfig
 from devices.tag import PassiveTag, TagConfig, TagResponse
+from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
                                   modulation_factor, power_transmission_coefficient,
                                   reflection_coefficient)
@@ -25,7 +27,7 @@ from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, different
 __all__ = [
     "SenseATag", "SenseATagConfig", "Observation",
     "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
-    "PassiveTag", "TagConfig", "TagResponse",
+    "PassiveTag", "TagConfig", "TagResponse", "PowerDependentChip", "ChipOperatingPoint",
     "TagState", "Reply", "FlagPersistence", "pc_word",
     "PowerUp", "ReflectionStates", "TagClock", "power_transmission_coefficient",
     "reflection_coefficient", "modulation_factor", "differential_rcs_m2",

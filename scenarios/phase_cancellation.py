@@ -39,37 +39,40 @@ Calibration against the source (§6.1, Table 3.1): the reader radiates the sourc
 across 1 Ω (its simulator sets the passband signal's variance to P); in that unit the
 median CW at SA2 in cell 1 is ≈ 0.077 V against Table 3.1's A_R = 0.0802 V (the cells
 table carries the medians, :func:`source_amplitudes`). Our 50 Ω volts are √50 ≈ 7.1×
-larger, and the source's ×6 detector conversion (R3-1, R3-4) is 6/√50 ≈ 0.85 per 50 Ω volt,
-so the default ``st.detector_gain = 1`` already puts the detector output on the source's
-scale (within 15 %): the voltage unit does not explain the different trend.
+larger, which is the source's detector conversion: the linear detector (``st.detector_gain
+= 1``) turns R3-1's 0.0015 V into 0.0106 V ("0.01 V") and R3-4's 0.0019 V into 0.0134 V
+(0.012 V), whereas PASS's AGC demodulator characteristic (``meas_tag_agc``) would give
+0.0084 V and 0.029 V (tests/test_st_receiver.py), so the AGC is not modelled.
 
-Deviations from the source (stated in the dataset attributes too): by default
-(``tag_states.model = "chip"``) the tag's ASK states are the PASS UCODE-class chip against a
-matched minimum-scattering antenna (Γ_A = 0, absorbing; A_s = 1), so the re-radiated states
-are r_A = 1 and r_B = 1 − Γ_B (|r_B| ≈ 0.33): A_T1/A_T2 ≈ 0.33, a modulation
-|r_A − r_B| = |Γ_B| that keeps the synchronised difference above the threshold in nearly
-every cell, so the probability of cancellation *rises* with distance (the difference
-approaches the threshold, the null region widens). The source's measured modulator has
-two strong states with A_T1/A_T2 ≈ 1.03 (Tables 3.1/3.2), and its backscatter at the ST is
-strong: A_T1/A_R = 0.54–0.99 at its four tabulated cell-1 points, where the radar equation
-here gives a median 0.10 (|Γ| = 0.7, ST uniform within 0.5 m). With the source's states
-(``tag_states.model = "source"``: re-radiated states Γ_A = −0.70, Γ_B = −0.721, A_s = 0,
-backscatter only, power-up keeps the chip model) and the source-scaled detector (gain
-0.85) only ≈ 3 % of the cell-1 samples are detectable and every technique stays near
-0.3 %; ``st.detector_gain = 6`` gives the source's falling trend because its extra ×7
-offsets the weaker backscatter, not because it is the source's detector. The source's
-ST demodulator also normalises the envelope with an AGC whose level depends on the
-carrier (a measured table not available here), which this linear detector does not
-model. Selection stays above 1 % in every regime tried (lowest 1.06 %: chip states,
-gain 2): the λ/4 antennas see the null together when their relative phases θ differ by
-Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 (pair perpendicular to e_R − e_r, or the ST behind the tag
-where e_R ≈ e_r; about 60 % of the selection failures have |Δθ| < 1 rad) or by ≈ π (pair
-along the reader–tag axis in front of the tag; with A_T ≪ A_R θ_cancel ≈ π/2, so +θ_cancel
-maps onto −θ_cancel; about a third have |Δθ| > 2 rad). The stamp transmitter is the
-reader-powered tag with a three-state modulator of re-radiated states (S1 = r_B,
-S2 = r_A, S3 = r_B·e^{jψ} = −r_B) instead of an exciter-powered ST (Fig. 5.8); one reader
-segment per (cell, repetition) with its own channel draw; no noise at the ST (the source's
-threshold, not its noise, decides).
+Tag (``tag_states.model``): by default ``"measured"``, the source's own tag physics
+(:mod:`devices.tag_chip`): the UCODE chip's impedance moves with its absorbed power, so the
+reflection states Γ_u, Γ_m follow the cell's available power (|Γ_u| ≈ 0.72, |Γ_m| ≈ 0.84 at
+1 m; 0.53 / 0.78 near 5 m, complex, not pure ASK), the tag re-radiates Γ·incident as PASS
+does, and it runs only where P_chip ≥ picmin + 2.5 dB (≈ 5 m at 3.28 W EIRP). A tag that does
+not run keeps reflecting Γ_u and is not detectable. With these, the synchronised difference
+falls from ≈ 9 mV (median, cell 1) below the 5 mV threshold from ≈ 2.5 m on, so fewer
+samples are detectable and the probability of cancellation falls with distance as R3-5
+states; beyond ≈ 5 m it is zero. ``tag_states.characteristics_dir`` points at the PASS
+characteristic files for the full 601-power tables instead of the three quoted
+impedances. ``"chip"`` is the generic tag (fixed states against a matched
+minimum-scattering antenna, A_s = 1): its deep modulation (|r_A − r_B| = |Γ_B| ≈ 0.67) keeps
+every cell detectable to 7 m and the probability *rises* with distance. ``"source"`` uses
+Table 3.1's ratio A_T1/A_T2 = 1.03 with a fixed |Γ| ≈ 0.7.
+
+Deviations from the source (stated in the dataset attributes too): path selection stays
+above the source's "below 1 %" (full run, seed 1: ≈ 1.9 %). Its failures are samples barely
+above the detectability condition (median synchronised difference 1.2× the threshold), where
+the null region covers most phases, with the λ/4 antennas seeing the null together: their
+relative phases θ differ by Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 (pair perpendicular to e_R − e_r,
+or the ST behind the tag where e_R ≈ e_r; about half the failures have |Δθ| < 0.5 rad) or by
+≈ π (pair along the reader–tag axis; with A_T ≪ A_R θ_cancel ≈ π/2, so +θ_cancel maps onto
+−θ_cancel; about 30 % have |Δθ| > 2.5 rad). The source's tag tables ("c-p2a", six
+modulation states) are not available, only the measurements they were generated from, and
+its tag switched the first 16 subcarrier cycles PSK-like (pass-paris-simulator.md §2.2 step
+10), which is not reproduced. The stamp transmitter is the reader-powered tag with a
+three-state modulator of re-radiated states (S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ} = −r_B)
+instead of an exciter-powered ST (Fig. 5.8); one reader segment per (cell, repetition) with
+its own channel draw; no noise at the ST (the source's threshold, not its noise, decides).
 
 Randomness: (cell c, repetition r) uses ``trial_rng(seed, c, r, k)``: k = 0 reader, 1 tag,
 2 forward link, 3 ST positions, 4 ST links; radial tracks ``trial_rng(seed, 1000, k)``.
@@ -82,6 +85,7 @@ import concurrent.futures as cf
 import math
 import os
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import Literal
 
@@ -96,6 +100,7 @@ from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
                                  st_antenna, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
+from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
@@ -121,7 +126,7 @@ TECHS = ("single", "combination", "selection", "stamp")
 @dataclass(frozen=True)
 class MonteCarloConfig:
     full: bool = param(False, doc="paper size: 300 positions per cell, 3 repetitions (overrides the two below)")
-    positions_per_cell: int = param(40, lo=1, hi=100000, doc="ST positions per cell and repetition")
+    positions_per_cell: int = param(100, lo=1, hi=100000, doc="ST positions per cell and repetition")
     repetitions: int = param(1, lo=1, hi=1000, doc="repetitions (new positions and channel draws)")
     workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
 
@@ -157,14 +162,34 @@ class TrackConfig:
 
 @dataclass(frozen=True)
 class TagStatesConfig:
-    model: Literal["chip", "source"] = param(
-        "chip", doc="tag reflection states: 'chip' = the tag config's (Gamma_A = 0 for ASK, structural mode "
-                    "A_s); 'source' = two strong re-radiated ASK states with A_T1/A_T2 = 1.03 as the "
-                    "source's Tables 3.1/3.2")
+    model: Literal["measured", "chip", "source"] = param(
+        "measured", doc="tag reflection states: 'measured' = the PASS tag (UCODE chip impedance vs absorbed "
+                        "power on PASS's antenna, Gamma*incident, power-up with the PASS margin; "
+                        "devices.tag_chip); 'chip' = the tag config's fixed states with structural mode A_s; "
+                        "'source' = two strong re-radiated ASK states with A_T1/A_T2 = 1.03 (Tables 3.1/3.2)")
+    characteristics_dir: str = param("", doc="'measured': folder with the PASS tag files (meas_tag_zic, "
+                                             "meas_tag_zmod-act, meas_tag_za-v6, meas_tag_picmin); empty = the "
+                                             "three quoted chip impedances")
+    power_margin_db: float = param(2.5, lo=0.0, hi=20.0, unit="dB",
+                                   doc="'measured': power-up margin on the chip's minimum power (PASS: 2.5 dB)")
     source_gamma_a: float = param(-0.70, lo=-1.0, hi=1.0,
                                   doc="'source': re-radiated state A (the source's Gamma_A, no structural term)")
     source_gamma_b: float = param(-0.721, lo=-1.0, hi=1.0,
                                   doc="'source': re-radiated state B (the source's Gamma_B, no structural term)")
+
+    def __post_init__(self):
+        d = self.characteristics_dir
+        if d and not Path(d).is_dir():
+            raise ConfigError("tag_states.characteristics_dir", d, "an existing folder with the PASS tag files, "
+                                                                    "or empty for the quoted impedances")
+
+
+@lru_cache(maxsize=8)
+def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float) -> PowerDependentChip:
+    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points."""
+    if characteristics_dir:
+        return PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
+    return PowerDependentChip.pass_default(margin_db=margin_db)
 
 
 #: The source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) [W]
@@ -220,7 +245,8 @@ class Exchange:
 
     x_tx, y_ask, y_stamp : (n,) complex128 [√W] reader segment, r(t)·incident of the RN16
     reply, r_stamp(t)·incident of the stamped frame (r = A_s − Γ, the re-radiation factor);
-    levels, stamp_levels : (n,) true line-code levels; frame : StampFrame (indices relative
+    levels, stamp_levels : (n,) true line-code levels; p_available_w, p_chip_w : CW power
+    available at the tag antenna and absorbed by the chip [W] (NaN unless 'measured'); frame : StampFrame (indices relative
     to the window); i_ref : a CW sample inside the reply; rerad_b, rerad_a : re-radiated
     states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits; replied : bool
     """
@@ -241,6 +267,8 @@ class Exchange:
     blf_hz: float
     m: int
     trext: bool
+    p_available_w: float
+    p_chip_w: float
 
 
 def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple[int, ...]) -> Exchange:
@@ -251,15 +279,19 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, g)
     ts = config.tag_states
+    tag_rng = trial_rng(seed, *index, 1)
     if ts.model == "source":
         # The source re-radiates Γ·incident (no structural term): its states are the
         # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
         # only; power-up keeps the tag config's chip model (the source's tag replies in
         # every cell).
-        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=trial_rng(seed, *index, 1))
+        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=tag_rng)
         tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
+    elif ts.model == "measured":
+        # PASS tag: Γ·incident (no structural term); the chip-power rule below decides power-up
+        tag = PassiveTag(replace(config.tag, structural_mode=0.0, sensitivity_dbm=-40.0), ta, rng=tag_rng)
     else:
-        tag = PassiveTag(config.tag, ta, rng=trial_rng(seed, *index, 1))
+        tag = PassiveTag(config.tag, ta, rng=tag_rng)
     lk = reader.link
     stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
     window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
@@ -269,17 +301,25 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     fwd = draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
                      tx_antenna=ra, rx_antenna=ta).pathset(0)
     inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, 2 * lk.blf_hz, "auto"))
-    resp = tag.listen(inc, t0_s=0.0, fs_hz=fs)
     i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
+    p_av = float(np.mean(np.abs(inc[i0:]) ** 2))  # available CW power at the tag after the command [W]
+    p_chip, powered = float("nan"), True
+    if ts.model == "measured":
+        op = chip_model(ts.characteristics_dir, round(fc, 3), ts.power_margin_db).operating_point(p_av)
+        tag.reflection_states = ReflectionStates(op.gamma_unmod, op.gamma_mod)
+        p_chip, powered = op.p_chip_w, op.powered
+    resp = tag.listen(inc, t0_s=0.0, fs_hz=fs)
     x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
     a_s = resp.structural_mode
     r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
     search = int(math.ceil((t1(lk).max_s + 2 * lk.tpri_s) * fs))
-    if resp.gamma is None:
+    common = dict(fs_hz=fs, fc_hz=fc, blf_hz=lk.blf_hz, m=lk.m, trext=lk.trext, p_available_w=p_av, p_chip_w=p_chip)
+    if resp.gamma is None or not powered:
+        # no reply: the tag keeps reflecting its unmodulated state (PASS: unmodulated
+        # reflection), both "states" are r_A and nothing is detectable
         zero = np.zeros(n)
-        return Exchange(x_tx, r_a * inc_w, r_a * inc_w, inc_w, zero, None, n // 2, search, r_a, r_b, None, fs, fc,
-                        lk.blf_hz, lk.m, lk.trext)
+        return Exchange(x_tx, r_a * inc_w, r_a * inc_w, inc_w, zero, None, n // 2, search, r_a, r_a, None, **common)
     rerad = resp.reradiation(inc.size)[i0:]
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
     from rfsim.gen2.linecode import reply_waveform
@@ -298,7 +338,7 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     frame = replace(frame, states=states, levels=stamp_levels)
     i_ref = int(round((t_rel + 0.5 * lk.reply_duration_s(16)) * fs))
     return Exchange(x_tx, rerad * inc_w, r_stamp * inc_w, inc_w, levels, frame, i_ref, search, r_a, r_b,
-                    np.asarray(resp.reply.bits, np.uint8), fs, fc, resp.blf_hz, resp.m, resp.trext)
+                    np.asarray(resp.reply.bits, np.uint8), fs, fc, resp.blf_hz, resp.m, resp.trext, p_av, p_chip)
 
 
 def _scene(apdp: bool) -> Scene:
@@ -448,7 +488,8 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     out = st_outcomes(config, ex, a, b)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
                st_x_m=centers[:, 0], st_y_m=centers[:, 1], orientation_rad=orient,
-               tag_replied=np.full(n, ex.rn16 is not None), narrowband_error=np.full(n, err))
+               tag_replied=np.full(n, ex.rn16 is not None), narrowband_error=np.full(n, err),
+               tag_available_power_w=np.full(n, ex.p_available_w), tag_chip_power_w=np.full(n, ex.p_chip_w))
     for j, name in enumerate(("sa1", "sa2")[-sa_pos.shape[1]:]):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
     return out
@@ -565,19 +606,18 @@ def run(config: Config, *, seed: int) -> Dataset:
             lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
             else float("inf"))
     _analytic_grids(ds)
-    states = ("Gamma_A=0 with structural mode A_s (re-radiated states A_s-Gamma_B, A_s-Gamma_A): modulation "
-              "|Gamma_A-Gamma_B| above threshold in nearly all cells, P rises with distance"
-              if config.tag_states.model == "chip"
-              else "source-like re-radiated states, A_T1/A_T2=1.03 (backscatter only, no structural term)")
+    states = {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna (Gamma*incident, "
+                          "power-up at picmin + 2.5 dB)",
+              "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
+              "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[config.tag_states.model]
+    ds.attrs["tag_states"] = states
     ds.attrs["deviations"] = (
-        f"tag states {states}; backscatter at the ST weaker than the source's tabulated points (median "
-        "A_T1/A_R at cell 1 in the cells table vs 0.54-0.99 in Tables 3.1/3.2); linear detector "
-        f"with gain {config.st.detector_gain:g} per 50-ohm volt (the source's x6 per source volt = 0.85 "
-        "per 50-ohm volt; its AGC demodulator is not modelled); source voltage unit = peak sqrt(2P) "
-        "across 1 ohm (cells table *_source_v); selection failures from antenna pairs with equal "
-        "or opposite phase (ST behind the tag, or pair along the reader-tag axis); stamp sent by the "
-        "reader-powered tag with a 3-state modulator; one reader segment per cell and repetition; "
-        "no noise at the ST")
+        "path selection above the source's 1 % (antenna pairs with equal or opposite relative phase near the "
+        "detectability threshold); the source's tag tables (c-p2a, 6 modulation states) and its PSK-like first "
+        "16 subcarrier cycles are not reproduced; linear detector at 50 ohm (matches R3-1/R3-4 conversions; the "
+        "source's AGC demodulator is not modelled); source voltage unit = peak sqrt(2P) across 1 ohm (cells table "
+        "*_source_v); stamp sent by the reader-powered tag with a 3-state modulator; one reader segment per cell "
+        "and repetition; no noise at the ST")
     ds.attrs["reader_eirp_w"] = float(10.0 ** ((config.reader.ptx_dbm + config.geometry.reader_gain_dbi - 30.0)
                                                / 10.0))
     return ds
@@ -605,7 +645,7 @@ def _analytic_grids(ds: Dataset) -> None:
                                   "Eq. 3.4 with Eq. 3.23: reader (0,0), tag (0,2)")})
 
 
-_UNITS = {"_v": "V", "_m": "m", "_rad": "rad"}
+_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W"}
 
 
 def _unit(key: str) -> str:

@@ -1,0 +1,190 @@
+"""A tag chip whose impedance depends on the power it absorbs: the operating point and the
+two reflection states of the PASS tag model (pass-paris-simulator.md §2.2 steps 1–4, §5.2
+"Physics of the reflection table"; auris-sense-a-tag.md §6.1 "Tag").
+
+The UCODE-class chip's input impedance moves with its absorbed power (its rectifier and
+shunt limiter load the antenna harder as the power rises): Z_ic = 11.9 − j205 Ω at 10 µW,
+46.8 − j185 Ω at 100 µW, 69.4 − j93.8 Ω at 1 mW (900 MHz, ``meas_tag_zic``, §5.2). PASS builds
+its tag's reflection table from these measurements:
+
+    Z_in   = Z_ic(P_chip) ∥ Z_at,          Z_at = 1/(jωC_at)   (assembly capacitance 450 fF)
+    Z_in,m = Z_in ∥ Z_mod(P_chip)                               (modulating state)
+    Γ_u, Γ_m = (Z − Z_a*)/(Z + Z_a)  for Z = Z_in, Z_in,m       (Kurokawa, antenna Z_a)
+    P_chip = (1 − |Γ_u(P_chip)|²)·P_av                           (self-consistent)
+    powered ⇔ P_chip ≥ P_min·10^(margin/10)                      (PASS: margin 2.5 dB)
+
+with the antenna impedance of PASS's tag antenna (``meas_tag_za-v6``: 30.3 + j157 Ω at
+915 MHz). The states are complex: near the reader both reflect strongly and differ little,
+far away the unmodulated state absorbs more and the modulation deepens (with the full
+tables A_T1/A_T2 = |Γ_m/Γ_u| falls to the 1.03 of Tables 3.1/3.2 only near P_av = 20 mW).
+PASS re-radiates Γ·incident with no structural term; the chip power splits 98 % / 2 % between the unmodulated and modulating states
+(``pfnc_bias``), here 100 % unmodulated.
+
+Default tables: the three chip impedances quoted above and the modulation impedance at the
+chip's minimum operating power (:data:`devices.tag_frontend.PASS_ZMOD_900MHZ_OHM`), held
+outside the quoted range. :meth:`PowerDependentChip.from_pass_files` reads the full measured
+tables (601 powers × 11 frequencies) from a folder holding the PASS characteristic files.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_ZMOD_900MHZ_OHM, parallel_ohm,
+                                  reflection_coefficient)
+from rfsim.errors import ConfigError, UserError
+
+#: Chip input impedance vs chip power at 900 MHz quoted from ``meas_tag_zic`` [(W, Ω)]
+#: (pass-paris-simulator.md §5.2).
+PASS_ZIC_900MHZ_POINTS = ((10e-6, complex(11.9, -205.0)), (100e-6, complex(46.8, -185.0)),
+                          (1e-3, complex(69.4, -93.8)))
+#: PASS tag antenna impedance at 915 MHz (``meas_tag_za-v6``, §5.2) [Ω]
+PASS_ZA_915MHZ_OHM = complex(30.3, 157.0)
+#: PASS tag assembly capacitance parallel to the chip (``Cat``, §2.2/§3.2) [F]
+PASS_ASSEMBLY_CAPACITANCE_F = 450e-15
+#: PASS power-up margin added to the minimum chip power (§2.2 step 4) [dB]
+PASS_POWER_MARGIN_DB = 2.5
+
+
+@dataclass(frozen=True)
+class ChipOperatingPoint:
+    """The chip at one available power: P_av, P_chip [W], Γ_u (unmodulated), Γ_m
+    (modulating), and whether it runs."""
+
+    p_available_w: float
+    p_chip_w: float
+    gamma_unmod: complex
+    gamma_mod: complex
+    powered: bool
+
+
+@dataclass(frozen=True)
+class PowerDependentChip:
+    """Chip impedance tables vs chip power at one frequency, antenna and assembly.
+
+    Attributes
+    ----------
+    p_chip_w : (n,) increasing chip powers of the tables [W]
+    z_chip_ohm, z_mod_ohm : (n,) complex chip and modulation impedances [Ω] at those powers
+        (interpolated linearly in log P_chip, held outside)
+    z_ant_ohm : antenna impedance [Ω]
+    fc_hz : frequency of the tables [Hz]
+    assembly_capacitance_f : capacitance parallel to the chip [F] (0 = none)
+    picmin_w : minimum operating chip power [W]
+    margin_db : power-up margin on ``picmin_w`` [dB]
+    """
+
+    p_chip_w: tuple
+    z_chip_ohm: tuple
+    z_mod_ohm: tuple
+    z_ant_ohm: complex = PASS_ZA_915MHZ_OHM
+    fc_hz: float = 915e6
+    assembly_capacitance_f: float = PASS_ASSEMBLY_CAPACITANCE_F
+    picmin_w: float = PASS_PICMIN_900MHZ_W
+    margin_db: float = PASS_POWER_MARGIN_DB
+
+    def __post_init__(self):
+        p = np.asarray(self.p_chip_w, float)
+        if p.ndim != 1 or p.size < 1 or np.any(p <= 0) or np.any(np.diff(p) <= 0):
+            raise ConfigError("tag_chip.p_chip_w", self.p_chip_w, "increasing positive powers in W")
+        for name in ("z_chip_ohm", "z_mod_ohm"):
+            if np.asarray(getattr(self, name)).shape != p.shape:
+                raise ConfigError(f"tag_chip.{name}", getattr(self, name), f"{p.size} impedances, one per power")
+        if not complex(self.z_ant_ohm).real > 0:
+            raise ConfigError("tag_chip.z_ant_ohm", self.z_ant_ohm, "an impedance with a positive real part")
+
+    @classmethod
+    def pass_default(cls, *, margin_db: float = PASS_POWER_MARGIN_DB) -> PowerDependentChip:
+        """The quoted 900 MHz points (module docstring), Z_mod constant."""
+        p = tuple(pt[0] for pt in PASS_ZIC_900MHZ_POINTS)
+        return cls(p, tuple(pt[1] for pt in PASS_ZIC_900MHZ_POINTS), (PASS_ZMOD_900MHZ_OHM,) * len(p),
+                   margin_db=margin_db)
+
+    @classmethod
+    def from_pass_files(cls, folder, *, fc_hz: float = 915e6, zmod: str = "act", antenna: str = "v6",
+                        margin_db: float = PASS_POWER_MARGIN_DB) -> PowerDependentChip:
+        """Full measured tables from ``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
+        ``meas_tag_za-<antenna>`` and ``meas_tag_picmin`` in ``folder``, interpolated
+        linearly in frequency at ``fc_hz``. One-line :class:`~rfsim.errors.UserError` when a
+        file is missing."""
+        from scipy.io import loadmat
+
+        folder = Path(folder)
+
+        def load(name):
+            path = folder / f"{name}.mat"
+            if not path.is_file():
+                raise UserError(f"tag characteristic file not found: {path} (needs meas_tag_zic, "
+                                f"meas_tag_zmod-{zmod}, meas_tag_za-{antenna}, meas_tag_picmin)")
+            return loadmat(path, squeeze_me=True)
+
+        zic, zm = load("meas_tag_zic"), load(f"meas_tag_zmod-{zmod}")
+        za, pm = load(f"meas_tag_za-{antenna}"), load("meas_tag_picmin")
+
+        def at_fc(table, f_axis):
+            order = np.argsort(f_axis)
+            f, t = np.asarray(f_axis, float)[order], np.asarray(table, float)[:, order]
+            return np.array([np.interp(fc_hz, f, row) for row in t])
+
+        p = np.asarray(zic["pic"], float)
+        keep = np.concatenate([[True], np.diff(p) > 0])
+        z_chip = at_fc(zic["ric"], zic["fic"]) + 1j * at_fc(zic["xic"], zic["fic"])
+        z_mod = at_fc(zm["rmod"], zm["fic"]) + 1j * at_fc(zm["xmod"], zm["fic"])
+        fa = np.asarray(za["fa"], float)
+        z_ant = complex(np.interp(fc_hz, fa, za["ra"]), np.interp(fc_hz, fa, za["xa"]))
+        picmin = float(np.interp(fc_hz, np.asarray(pm["f"], float), np.asarray(pm["p"], float)))
+        return cls(tuple(p[keep]), tuple(z_chip[keep]), tuple(z_mod[keep]), z_ant, float(fc_hz),
+                   picmin_w=picmin, margin_db=margin_db)
+
+    @property
+    def threshold_w(self) -> float:
+        """Chip power needed to run [W] = P_min·10^(margin/10)."""
+        return self.picmin_w * 10.0 ** (self.margin_db / 10.0)
+
+    def impedances(self, p_chip_w: float) -> tuple[complex, complex]:
+        """(Z_ic, Z_mod) at a chip power [Ω], linear in log P, held outside the table."""
+        lp = np.log(np.asarray(self.p_chip_w, float))
+        x = math.log(min(max(p_chip_w, self.p_chip_w[0]), self.p_chip_w[-1]))
+        zc, zm = np.asarray(self.z_chip_ohm, complex), np.asarray(self.z_mod_ohm, complex)
+        return (complex(np.interp(x, lp, zc.real), np.interp(x, lp, zc.imag)),
+                complex(np.interp(x, lp, zm.real), np.interp(x, lp, zm.imag)))
+
+    def states(self, p_chip_w: float) -> tuple[complex, complex]:
+        """(Γ_u, Γ_m) at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna."""
+        z_ic, z_mod = self.impedances(p_chip_w)
+        z_in = z_ic
+        if self.assembly_capacitance_f > 0:
+            z_in = complex(parallel_ohm(z_ic, 1.0 / (2j * math.pi * self.fc_hz * self.assembly_capacitance_f)))
+        return (reflection_coefficient(z_in, self.z_ant_ohm),
+                reflection_coefficient(complex(parallel_ohm(z_in, z_mod)), self.z_ant_ohm))
+
+    def operating_point(self, p_available_w: float) -> ChipOperatingPoint:
+        """Solve P_chip = (1 − |Γ_u(P_chip)|²)·P_av by bisection in log P_chip (60 halvings:
+        relative error < 1e-15 of the bracket [P_av·1e-9, P_av])."""
+        pav = float(p_available_w)
+        if not pav > 0:
+            u, m = self.states(self.p_chip_w[0])
+            return ChipOperatingPoint(pav, 0.0, u, m, False)
+
+        def excess(log_p):
+            u = self.states(math.exp(log_p))[0]
+            return math.log((1.0 - abs(u) ** 2) * pav) - log_p
+
+        lo, hi = math.log(pav * 1e-9), math.log(pav)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if excess(mid) > 0:
+                lo = mid
+            else:
+                hi = mid
+        p_chip = math.exp(0.5 * (lo + hi))
+        u, m = self.states(p_chip)
+        return ChipOperatingPoint(pav, p_chip, u, m, p_chip >= self.threshold_w)
+
+
+__all__ = ["PASS_ZIC_900MHZ_POINTS", "PASS_ZA_915MHZ_OHM", "PASS_ASSEMBLY_CAPACITANCE_F", "PASS_POWER_MARGIN_DB",
+           "ChipOperatingPoint", "PowerDependentChip"]

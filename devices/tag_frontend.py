@@ -25,11 +25,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 
-from rfsim.errors import ConfigError, UserError
+from rfsim.errors import ConfigError
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.units import dbm_to_w, w_to_dbm
 
@@ -351,44 +350,21 @@ class PassTagCharacteristics:
                                                 self.z_ant_ohm)
 
 
-def _interp_table(values, pic, fic, p_chip_w, fc_hz):
-    """Bilinear interpolation of a (n_pic, n_f) table: linear in log P_chip, linear in f."""
-    order = np.argsort(fic)
-    fic, values = np.asarray(fic, float)[order], np.asarray(values, float)[:, order]
-    logp = np.log(np.asarray(pic, float))
-    col = np.array([np.interp(np.log(p_chip_w), logp, values[:, j]) for j in range(fic.size)])
-    return float(np.interp(fc_hz, fic, col))
-
-
 def load_pass_tag_characteristics(folder, *, fc_hz: float, p_chip_w: float, zmod: str = "act",
                                   antenna: str = "v6") -> PassTagCharacteristics:
     """Read the PASS tag characteristic files (``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
     ``meas_tag_za-<antenna>``, ``meas_tag_picmin``) from ``folder`` and interpolate them at
-    (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2).
-    The measured range is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
+    (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2),
+    through :meth:`devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range
+    is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
 
     Raises :class:`rfsim.errors.UserError` when a file is missing.
     """
-    from scipy.io import loadmat
+    from devices.tag_chip import PowerDependentChip  # builds on this module
 
-    folder = Path(folder)
-
-    def load(name):
-        path = folder / f"{name}.mat"
-        if not path.is_file():
-            raise UserError(f"PASS tag characteristic file not found: {path}")
-        return loadmat(path, squeeze_me=True)
-
-    zic, zm = load("meas_tag_zic"), load(f"meas_tag_zmod-{zmod}")
-    za, pm = load(f"meas_tag_za-{antenna}"), load("meas_tag_picmin")
-    z_chip = complex(_interp_table(zic["ric"], zic["pic"], zic["fic"], p_chip_w, fc_hz),
-                     _interp_table(zic["xic"], zic["pic"], zic["fic"], p_chip_w, fc_hz))
-    z_mod = complex(_interp_table(zm["rmod"], zm["pic"], zm["fic"], p_chip_w, fc_hz),
-                    _interp_table(zm["xmod"], zm["pic"], zm["fic"], p_chip_w, fc_hz))
-    fa = np.asarray(za["fa"], float)
-    z_ant = complex(np.interp(fc_hz, fa, za["ra"]), np.interp(fc_hz, fa, za["xa"]))
-    picmin = float(np.interp(fc_hz, np.asarray(pm["f"], float), np.asarray(pm["p"], float)))
-    return PassTagCharacteristics(float(fc_hz), float(p_chip_w), z_chip, z_mod, z_ant, picmin)
+    chip = PowerDependentChip.from_pass_files(folder, fc_hz=fc_hz, zmod=zmod, antenna=antenna)
+    z_chip, z_mod = chip.impedances(p_chip_w)
+    return PassTagCharacteristics(float(fc_hz), float(p_chip_w), z_chip, z_mod, chip.z_ant_ohm, chip.picmin_w)
 
 
 __all__ = [

@@ -584,6 +584,10 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.add_table("samples", {k: column(v, _unit(k), _describe(k)) for k, v in samples.items()})
     summ = _summary(samples, n_cells)
     summ["tag_x_m"] = np.asarray(config.geometry.tag_x_m, float)
+    summ["tag_replied_fraction"] = np.array([samples["tag_replied"][samples["cell"] == c].mean()
+                                             for c in range(n_cells)])
+    summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
+                                            for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
     ds.add_table("cells", {k: column(v, _unit(k), _describe(k)) for k, v in summ.items()})
     for t in TECHS:
@@ -729,6 +733,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         p = cells[f"p_{t}"]
         err = np.vstack([p - cells[f"ci_lo_{t}"], cells[f"ci_hi_{t}"] - p])
         ax.errorbar(cells["tag_x_m"], 100 * p, yerr=100 * err, marker="o", capsize=3, label=t)
+    silent = cells["tag_replied_fraction"] == 0
+    if silent.any():
+        x0 = cells["tag_x_m"][silent].min()
+        ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]", title="Fig. 3.16 / 5.8")
     ax.legend()
     ax.grid(alpha=0.3)

@@ -126,6 +126,11 @@ def test_measured_tag_powers_up_by_the_pass_rule_and_silent_tags_are_not_detecta
     for t in pc.TECHS:
         assert not s[f"cancelled_{t}"][silent].any(), t
     assert not s["detectable"][silent].any()
+    cells = read_table(res.dataset_path, "cells")
+    for c in range(13):
+        sel = s["cell"] == c
+        assert cells["tag_replied_fraction"][c] == pytest.approx(s["tag_replied"][sel].mean())
+        assert cells["detectable_fraction"][c] == pytest.approx(s["detectable"][sel].mean())
 
 
 def test_radial_tracks_null_spacing_lambda_over_4():

@@ -79,6 +79,7 @@ from scipy.signal import lfilter
 
 from devices import _tag_kernels as _k
 from devices.gen2_tag_state import Reply, TagState
+from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
                                   TagClock)
 from rfsim.config import check_fields, param
@@ -302,15 +303,22 @@ class PassiveTag:
     antenna : channels.Antenna (position, orientation, pattern; used by the engine's channel)
     rng : numpy.random.Generator — the tag's own stream (slot counters, RN16, handles, jitter)
     t0_s : time of the initial, unpowered state [s]; segments must not start earlier
+    chip : :class:`devices.tag_chip.PowerDependentChip` or None
+        A chip whose impedance follows its absorbed power: each segment's CW power sets
+        :attr:`reflection_states` and power-up (its rule, not ``config.sensitivity_dbm``)
+        through :meth:`~devices.tag_chip.PowerDependentChip.operating_point`.
 
     Attributes
     ----------
     state : :class:`devices.gen2_tag_state.TagState`
     clock : :class:`devices.tag_frontend.TagClock`
     reflection_states : :class:`devices.tag_frontend.ReflectionStates`
+    operating_point : :class:`devices.tag_chip.ChipOperatingPoint` of the last segment (with
+        ``chip``; None otherwise)
     """
 
-    def __init__(self, config: TagConfig, antenna, *, rng: np.random.Generator, t0_s: float = 0.0):
+    def __init__(self, config: TagConfig, antenna, *, rng: np.random.Generator, t0_s: float = 0.0,
+                 chip: PowerDependentChip | None = None):
         if not isinstance(config, TagConfig):
             raise TypeError(f"config must be a TagConfig, got {type(config).__name__}")
         if not isinstance(rng, np.random.Generator):
@@ -320,6 +328,8 @@ class PassiveTag:
         self.rng = rng
         self.clock = config.clock
         self.reflection_states = config.reflection_states
+        self.chip = chip
+        self.operating_point: ChipOperatingPoint | None = None
         self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, 0.0, None)  # (config, τ, PowerUp) derived from that config
@@ -361,15 +371,21 @@ class PassiveTag:
         fs_hz, t0_s = float(fs_hz), float(t0_s)
         if not fs_hz > 0:
             raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
-        rest = self.reflection_states.gamma_a
         env = np.abs(x)
         if env.size == 0:
             raise ValueError("empty segment")
         levels = two_level_threshold(env)
         p_inc = _cw_power_w(env, levels)  # = incident_power_w(x)
         p_dbm = _dbm(p_inc)
-        tau, power_up = self._tau_power_up()
-        powered = bool(power_up.is_powered(tau * p_inc))
+        if self.chip is not None:
+            self.operating_point = self.chip.operating_point(p_inc)
+            self.reflection_states = ReflectionStates(self.operating_point.gamma_unmod,
+                                                      self.operating_point.gamma_mod)
+            powered = self.operating_point.powered
+        else:
+            tau, power_up = self._tau_power_up()
+            powered = bool(power_up.is_powered(tau * p_inc))
+        rest = self.reflection_states.gamma_a
         base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest,
                     structural_mode=complex(self.config.structural_mode))
         if not powered:

@@ -278,6 +278,12 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, g)
+    lk = reader.link
+    stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
+    window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
+    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
+    fs, fc = tx.fs_hz, tx.fc_hz
     ts = config.tag_states
     tag_rng = trial_rng(seed, *index, 1)
     if ts.model == "source":
@@ -288,34 +294,25 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
         tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=tag_rng)
         tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
     elif ts.model == "measured":
-        # PASS tag: Γ·incident (no structural term); the chip-power rule below decides power-up
-        tag = PassiveTag(replace(config.tag, structural_mode=0.0, sensitivity_dbm=-40.0), ta, rng=tag_rng)
+        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
+        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=tag_rng,
+                         chip=chip_model(ts.characteristics_dir, round(fc, 3), ts.power_margin_db))
     else:
         tag = PassiveTag(config.tag, ta, rng=tag_rng)
-    lk = reader.link
-    stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
-    window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
-    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
-    fs, fc = tx.fs_hz, tx.fc_hz
     fwd = draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
                      tx_antenna=ra, rx_antenna=ta).pathset(0)
     inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, 2 * lk.blf_hz, "auto"))
-    i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
-    p_av = float(np.mean(np.abs(inc[i0:]) ** 2))  # available CW power at the tag after the command [W]
-    p_chip, powered = float("nan"), True
-    if ts.model == "measured":
-        op = chip_model(ts.characteristics_dir, round(fc, 3), ts.power_margin_db).operating_point(p_av)
-        tag.reflection_states = ReflectionStates(op.gamma_unmod, op.gamma_mod)
-        p_chip, powered = op.p_chip_w, op.powered
     resp = tag.listen(inc, t0_s=0.0, fs_hz=fs)
+    op = tag.operating_point
+    p_av, p_chip = (op.p_available_w, op.p_chip_w) if op is not None else (float("nan"), float("nan"))
+    i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
     x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
     a_s = resp.structural_mode
     r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
     search = int(math.ceil((t1(lk).max_s + 2 * lk.tpri_s) * fs))
     common = dict(fs_hz=fs, fc_hz=fc, blf_hz=lk.blf_hz, m=lk.m, trext=lk.trext, p_available_w=p_av, p_chip_w=p_chip)
-    if resp.gamma is None or not powered:
+    if resp.gamma is None:
         # no reply: the tag keeps reflecting its unmodulated state (PASS: unmodulated
         # reflection), both "states" are r_A and nothing is detectable
         zero = np.zeros(n)

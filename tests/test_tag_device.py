@@ -387,3 +387,24 @@ def test_pr_ask_phase_reversals_and_noise():
     assert r.reason == "" and r.reply.kind == "RN16"
     assert abs(r.incident_power_dbm - (-5.0)) < 0.1
     np.testing.assert_array_equal(decode(r, tag.reflection_states, 16).bits, r.reply.bits)
+
+
+def test_power_dependent_chip_sets_states_and_power_up():
+    # PassiveTag(chip=...): the segment's CW power fixes the operating point, which decides
+    # power-up (P_chip ≥ 52.709 µW + 2.5 dB) and the reflection states of the reply
+    from devices.tag_chip import PowerDependentChip
+
+    link = PROFILES["miller4-320k"]
+    chip = PowerDependentChip.pass_default()
+    for p_dbm, expect in ((-3.0, True), (-12.0, False)):  # 0.50 mW: P_chip ≈ 0.3 mW; 63 µW: ≈ 43 µW
+        tag = PassiveTag(TagConfig(), None, rng=np.random.default_rng(3), chip=chip)
+        x, _ = query_segment(link, p_dbm=p_dbm)
+        r = tag.listen(x, t0_s=0.0, fs_hz=FS_HZ)
+        op = tag.operating_point
+        assert op.p_available_w == pytest.approx(float(dbm_to_w(p_dbm)), rel=1e-9)
+        assert r.powered is expect and op.powered is expect
+        g_u, g_m = chip.states(op.p_chip_w)
+        assert tag.reflection_states.gamma_a == g_u and tag.reflection_states.gamma_b == g_m
+        if expect:
+            assert r.reply.kind == "RN16" and r.gamma_rest == g_u
+            assert np.any(np.isclose(r.gamma, g_m))

@@ -1,4 +1,9 @@
-"""Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures."""
+"""Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures.
+
+Each stage is announced on the active progress reporter (:mod:`rfsim.progress`; nothing
+is printed without one), and the first run after install says that numba compiles its
+kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,7 @@ from typing import Any
 
 from rfsim.config import to_toml
 from rfsim.dataset import make_provenance, utc_now, write_dataset
+from rfsim.progress import current, stage
 
 
 @dataclasses.dataclass(frozen=True)
@@ -25,14 +31,29 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
                  output: Path | None = None, make_plots: bool = True) -> RunOutput:
     """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures."""
     start_utc, t0 = utc_now(), time.perf_counter()
+    _announce_compilation()
+    stage(f"running {module.NAME} (seed {seed})")
     dataset = module.run(config, seed=seed)
     dataset.scenario = module.NAME
     path = output if output is not None else out_dir / f"{module.NAME}.h5"
     provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
                                  start_time_utc=start_utc)
+    stage(f"writing {path}")
     write_dataset(path, dataset, provenance)
-    figures = tuple(module.plot(path, out_dir)) if make_plots else ()
+    figures: tuple[Path, ...] = ()
+    if make_plots:
+        stage("drawing figures")
+        figures = tuple(module.plot(path, out_dir))
     return RunOutput(path, figures, time.perf_counter() - t0)
+
+
+def _announce_compilation() -> None:
+    """Say so up front when no kernel is cached yet (the pool workers compile silently)."""
+    from rfsim._jit import first_compilation
+
+    rep = current()
+    if rep is not None and first_compilation():
+        rep.compile_started()
 
 
 __all__ = ["RunOutput", "run_scenario"]

@@ -34,7 +34,8 @@ from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
 from rfsim.gen2.linecode import reply_waveform_for_profile
 from rfsim.gen2.pie import pie_envelope_for_profile
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "gen2-waveforms"
 DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
@@ -185,23 +186,58 @@ def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
     return {k: column(rows[k], *spec[k]) for k in spec}
 
 
+#: Approximate width [px] of a left panel of the figure (9 in at 120 dpi).
+_PANEL_PX = 1000
+
+
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """One panel per profile: reader envelope and tag backscatter state vs time."""
+    """Per profile: the whole exchange (left) and the start of the RN16 reply (right).
+
+    On the whole exchange a fast tag link (e.g. Miller-4 at 320 kHz: 1.28 M state changes
+    per second) is finer than a pixel, so the right panels zoom on the first 6 bits of the
+    RN16 reply (preamble), where the subcarrier is visible. ``<stem>-exchange.png``.
+    """
     plt = pyplot()
 
     from rfsim.dataset import read_dataset
 
     ds = read_dataset(dataset_path)
     names = list(ds.tables["profiles"]["profile"].data)
-    fig, axes = plt.subplots(len(names), 1, figsize=(10, 2.2 * len(names)), squeeze=False)
-    for ax, name in zip(axes[:, 0], names):
+    prof = {k: c.data for k, c in ds.tables["profiles"].items()}
+    frames = {k: c.data for k, c in ds.tables["frames"].items()}
+    fig, axes = plt.subplots(len(names), 2, figsize=(12, 2.3 * len(names) + 0.6), squeeze=False,
+                             gridspec_kw={"width_ratios": [3, 1]})
+    for (ax, zoom), name in zip(axes, names):
         ex = ds.tables[f"exchange_{name}"]
         t_ms = ex["time_s"].data * 1e3
-        ax.plot(t_ms, ex["reader_envelope"].data, lw=0.8, label="reader envelope")
-        ax.plot(t_ms, 0.5 * ex["tag_state"].data - 1.0, lw=0.6, label="tag state (offset)")
-        ax.set_title(name, fontsize=9, loc="left")
-        ax.set_yticks([])
+        reader, tag = ex["reader_envelope"].data, 0.5 * ex["tag_state"].data - 1.0
+        for a in (ax, zoom):
+            a.plot(t_ms, reader, lw=0.8, label="reader envelope")
+            a.set_yticks([])
+        zoom.plot(t_ms, tag, lw=0.7, color="C1")
+        changes = int(np.count_nonzero(np.diff(ex["tag_state"].data)))
+        if changes > 0.3 * _PANEL_PX:  # finer than a pixel: draw where the tag replies, say so
+            replying = ex["tag_state"].data != 0
+            ax.fill_between(t_ms, -1.5, -0.5, where=replying, color="C1", alpha=0.35, lw=0,
+                            label="tag backscatter state (offset)")
+            ax.text(0.99, 0.02, "tag subcarrier finer than a pixel here: see the zoom", transform=ax.transAxes,
+                    ha="right", va="bottom", fontsize=7, color="0.3")
+        else:
+            ax.plot(t_ms, tag, lw=0.7, color="C1", label="tag backscatter state (offset)")
+        i = int(np.flatnonzero(prof["profile"] == name)[0])
+        m, bitrate = int(prof["m"][i]), float(prof["bitrate_bps"][i])
+        ax.set_title(f"{name}: BLF {prof['blf_hz'][i] / 1e3:g} kHz, "
+                     f"{'FM0' if m == 1 else f'Miller-{m}'}, Tari {prof['tari_s'][i] * 1e6:g} us",
+                     fontsize=9, loc="left")
+        rn16 = np.flatnonzero((frames["profile"] == name) & (frames["frame"] == "RN16"))
+        if rn16.size:
+            t0 = float(frames["start_s"][rn16[0]])
+            zoom.set_xlim(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3)
+            ax.axvspan(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3, color="0.85", zorder=0)
+        zoom.set_title("start of the RN16 reply (6 bits)", fontsize=8)
+        zoom.tick_params(labelsize=7)
     axes[-1, 0].set_xlabel("time [ms]")
+    axes[-1, 1].set_xlabel("time [ms]")
     axes[0, 0].legend(loc="upper right", fontsize=8)
-    fig.suptitle("Gen2 Query → RN16 → ACK → EPC per link profile")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    fig.suptitle(f"{cite('gen2')} Query → RN16 → ACK → PC+EPC+CRC-16 per link profile (no channel, no noise)")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"))]

@@ -46,9 +46,11 @@ from devices.tag import PassiveTag, TagConfig
 from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset, column
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
+from rfsim.progress import track
 from rfsim.rng import trial_rng
 from rfsim.units import C_M_S
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "inventory"
 DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
@@ -188,7 +190,7 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
     """
     rows: dict[str, list] = {k: [] for k in CAPTURE_FIELDS}
     lam = C_M_S / 915e6
-    for i, r_db in enumerate(cfg.capture.ratios_db):
+    for i, r_db in enumerate(track(cfg.capture.ratios_db, desc="capture", unit="ratios")):
         for j in range(cfg.capture.trials):
             key = (10**6 + i, j)
             off = trial_rng(seed, *key, 3).uniform(-lam / 4, lam / 4)
@@ -222,7 +224,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     room = config.room
     antennas = reader_antennas(room)
     for p, n in enumerate(config.populations):
-        for r in range(config.runs):
+        for r in track(range(config.runs), desc=f"inventories of {n} tags", unit="runs"):
             tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, p, r, 0))
             tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3))
             reader = Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
@@ -271,6 +273,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     import h5py
 
     from rfsim.dataset import read_table
+    from rfsim.detection.fit import wilson_interval
     from rfsim.inventory import SLOT_TYPES
 
     s = read_table(dataset_path, "slots")
@@ -288,7 +291,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         bottom += frac
     a.set_xlabel("tags N")
     a.set_ylabel("fraction of slots")
-    a.legend(fontsize=8)
+    a.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     a.set_title("slot types")
     a = axes[0, 1]
     a.plot(pops, [inv["read_rate"][inv["population"] == n].mean() for n in pops], marker="o")
@@ -307,12 +310,23 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     if has_capture:
         c = read_table(dataset_path, "capture")
         ok = np.isfinite(c["ratio_db"]) & (c["n_replies"] >= 2)
-        edges = np.arange(-1.0, max(2.0, float(np.nanmax(c["ratio_db"][ok])) + 2.0) if ok.any() else 2.0, 1.0)
-        x, pc, n = capture_probability(c["ratio_db"][ok], c["captured"][ok], edges)
-        a.plot(x[n > 0], pc[n > 0], marker="o")
-        a.set_ylim(-0.05, 1.05)
-    a.set_xlabel("backscatter power ratio at the reader [dB]")
+        pts = np.unique(c["point"][ok])
+        # one marker per simulated nominal ratio, at the mean of its trials' measured ratios
+        x = np.array([c["ratio_db"][ok & (c["point"] == i)].mean() for i in pts])
+        n = np.array([np.sum(ok & (c["point"] == i)) for i in pts])
+        k = np.array([np.sum(c["captured"][ok & (c["point"] == i)]) for i in pts])
+        lo, hi = wilson_interval(k, n)
+        pc = k / n
+        a.errorbar(x, pc, yerr=np.vstack([pc - lo, hi - pc]), marker="o", capsize=3,
+                   label=f"per simulated ratio, {n.min()}-{n.max()} trials (Wilson 95 %)"
+                   if n.size else "per simulated ratio")
+        a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 1.04, -0.04), "|",
+               color="0.6", ms=6, label="trials (captured = 1)")
+        a.set_ylim(-0.08, 1.08)
+        a.legend(fontsize=8, loc="lower right")
+    a.set_xlabel("backscatter power ratio near/far at the reader [dB]")
     a.set_ylabel("capture probability")
+    a.set_title("two tags in one slot: capture", fontsize=10)
     a.grid(True, alpha=0.3)
-    fig.suptitle("inventory (Q algorithm, sample level)")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    fig.suptitle(f"Inventory with the Q algorithm at sample level ({cite('gen2')}, Annex D)")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "summary"))]

@@ -108,9 +108,11 @@ from rfsim.errors import ConfigError
 from rfsim.engine import NARROWBAND_TOLERANCE, propagation_method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
+from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -502,10 +504,10 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
              for r in range(config.mc.n_repetitions)]
     w = config.mc.workers or (os.cpu_count() or 1)
     if w <= 1 or len(tasks) == 1:
-        parts = [_run_task(t) for t in tasks]
+        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="cells")]
     else:
         with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
-            parts = list(pool.map(_run_task, tasks))
+            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo", unit="cells"))
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
@@ -593,6 +595,7 @@ def run(config: Config, *, seed: int) -> Dataset:
             p, lo, hi, _ = sa.cancellation_probability(samples[key])
             ds.attrs[f"overall_p_{t}"] = float(p)
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
+    stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
     ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle from tag→reader"),
                            "distance_m": column(tr["distance_m"], "m", "ST distance from the tag")},
@@ -640,7 +643,7 @@ def _analytic_grids(ds: Dataset) -> None:
                                 "PSK |A1-A2| (Eq. 3.9), A_R = 1, A_T = 0.4")})
     m = sa.NullMapModel()
     x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
-    y = np.linspace(0.05, 3.0, 296)
+    y = np.linspace(0.0, 3.0, 301)  # y = 0 is safe: no x sample sits on the reader
     ds.add_grid("fig3_8", {"y_m": column(y, "m", "y"), "x_m": column(x, "m", "x")},
                 {"diff_v": column(m.envelope_difference(x[None, :], y[:, None]), "V",
                                   "Eq. 3.4 with Eq. 3.23: reader (0,0), tag (0,2)")})
@@ -674,7 +677,8 @@ def _describe(key: str) -> str:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and Fig. 3.16 probabilities."""
+    """AURIS dissertation Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and
+    Fig. 3.16/5.8 probabilities, named ``<dataset stem>-fig3_*.png``."""
     plt = pyplot()
 
     from rfsim.dataset import read_dataset, read_table
@@ -690,40 +694,50 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     c, v = grid("fig3_3")
     for i in range(v["diff"].shape[0]):
         a1.plot(c["theta_rad"], v["diff"][i], label=f"A_T1={v['a_t1'][i]:g}, A_T2={v['a_t2'][i]:g}")
-    a1.set_title("Fig. 3.3: ASK, A_R = 1")
+    a1.set_title("ASK, A_R = 1 (Eq. 3.4)", fontsize=10)
     c, v = grid("fig3_5")
     for i, p in enumerate(c["psi_rad"]):
         a2.plot(c["theta_rad"], v["diff"][i], label=f"psi = pi/{np.pi / p:.0f}")
-    a2.set_title("Fig. 3.5: PSK, A_R = 1, A_T = 0.4")
+    a2.set_title("PSK, A_R = 1, A_T = 0.4 (Eq. 3.9)", fontsize=10)
     for a in (a1, a2):
-        a.set_xlabel("theta [rad]")
+        a.set_xlabel("relative phase theta [rad]")
         a.set_ylabel("|A1 - A2|")
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_3_3_5.png"))
+    fig.suptitle(f"Envelope difference vs relative phase — {cite('auris', 'Fig. 3.3 and 3.5')}", fontsize=11)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_3_3_5")))
 
     c, v = grid("fig3_8")
-    fig, ax = plt.subplots(figsize=(5, 6))
-    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=0.02)
-    fig.colorbar(im, ax=ax, label="|A1 - A2| [V]")
-    ax.plot([0, 0], [0, 2], "r.", ms=8)
-    ax.set(xlabel="x [m]", ylabel="y [m]", title="Fig. 3.8: Eq. 3.23 null map", aspect="equal")
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_8.png"))
+    fig, ax = plt.subplots(figsize=(5.6, 6.4))
+    vmax = 0.02
+    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=vmax)
+    fig.colorbar(im, ax=ax, extend="max", label=f"|A1 - A2| [V] (white: >= {vmax:g} V, near the tag)")
+    ax.plot([0], [0], "^", color="tab:blue", ms=10, clip_on=False, zorder=5, label="reader (0, 0)")
+    ax.plot([0], [2], "s", color="tab:red", ms=7, zorder=5, label="tag (0, 2)")
+    ax.set_xlim(c["x_m"].min(), c["x_m"].max())
+    ax.set_xticks(np.linspace(-1.0, 1.0, 5))
+    ax.set_ylim(min(0.0, c["y_m"].min()), c["y_m"].max())
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal")
+    ax.set_title(f"Null map of Eq. 3.4 with Eq. 3.23\n{cite('auris', 'Fig. 3.8')}; dark = cancellation",
+                 fontsize=10)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_8")))
 
     c, v = grid("tracks")
-    fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"])), sharex=True)
+    fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"]) + 0.6), sharex=True)
     for i, a in enumerate(np.atleast_1d(axs)):
         a.plot(c["distance_m"], v["diff_v"][i], "o-", ms=3, label="sample level")
-        a.plot(c["distance_m"], v["closed_diff_v"][i], "--", label="Eq. 3.4")
+        a.plot(c["distance_m"], v["closed_diff_v"][i], "--", label="Eq. 3.4 from the measured amplitudes")
         a.set_ylabel("|A1-A2| [V]")
-        a.set_title(f"track {c['angle_deg'][i]:g} deg", fontsize=9)
+        a.set_title(f"track at {c['angle_deg'][i]:g} deg from the tag-reader direction", fontsize=9)
         a.grid(alpha=0.3)
     np.atleast_1d(axs)[0].legend(fontsize=7)
     np.atleast_1d(axs)[-1].set_xlabel("ST distance from the tag [m]")
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_15.png"))
+    fig.suptitle(f"Radial tracks around the tag — {cite('auris', 'Fig. 3.15')}", fontsize=11)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_15")))
 
     cells = read_table(dataset_path, "cells")
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for t in TECHS:
         if f"p_{t}" not in cells:
             continue
@@ -734,8 +748,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     if silent.any():
         x0 = cells["tag_x_m"][silent].min()
         ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
-    ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]", title="Fig. 3.16 / 5.8")
+    ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
+    ax.set_title("Probability of phase cancellation per technique (95 % Clopper-Pearson)\n"
+                 f"{cite('auris', 'Fig. 3.16 and 5.8')}", fontsize=10)
     ax.legend()
     ax.grid(alpha=0.3)
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_16.png"))
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_16")))
     return paths

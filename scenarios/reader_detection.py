@@ -78,8 +78,10 @@ from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
+from rfsim.progress import track
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -223,10 +225,11 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     tasks = [(config, k, i, seed) for k in range(2) for i in range(len(dists))]
     w = config.campaign.workers or (os.cpu_count() or 1)
     if w <= 1:
-        parts = [_run_task(t) for t in tasks]
+        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="distances")]
     else:
         with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
-            parts = list(pool.map(_run_task, tasks))
+            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo",
+                               unit="distances"))
     rows = [r for p in parts for r in p]
     return {k: np.array([r[k] for r in rows]) for k in FIELDS}
 
@@ -361,6 +364,10 @@ def run(config: Config, *, seed: int) -> Dataset:
 # ----------------------------------------------------------------------------- plots
 
 
+#: Names of the two rooms in figure titles (see the module docstring).
+ROOM_NAMES = ("lab", "cluttered")
+
+
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """p̄(d, θ) heat maps per room and the mean p̂ vs d at 0°/30°/60° with the fitted and
     published mean models."""
@@ -371,34 +378,43 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ds = read_dataset(dataset_path)
     coords, vars_ = ds.grids["cells"]
     d, a = coords["distance_m"].data, coords["theta_deg"].data
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    fig, axs = plt.subplots(1, 2, figsize=(8.6, 4.0), sharey=True, layout="constrained")
     for k, ax in enumerate(axs):
         im = ax.pcolormesh(a, d, vars_["p_mean"].data[k], shading="nearest", vmin=0, vmax=1, cmap="viridis")
-        ax.set(xlabel="theta [deg]", title=f"room {k}: mean detection probability")
+        ax.set(xlabel="angle off boresight theta [deg]", title=f"room {k} ({ROOM_NAMES[k]})")
     axs[0].set_ylabel("distance d [m]")
-    fig.colorbar(im, ax=axs, label="mean p_hat")
-    p1 = save_figure(fig, out_dir / f"{NAME}-heatmap.png", dpi=110, tight=False)
+    fig.colorbar(im, ax=axs, label="mean detection probability p_hat", shrink=0.95, pad=0.02)
+    fig.suptitle(f"Reader detection probability per cell — replica of {cite('geng', 'campaign A')}", fontsize=10)
+    p1 = save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"), dpi=110, tight=False)
+
+    from matplotlib.lines import Line2D
 
     trials = read_table(dataset_path, "trials")
     fits = read_table(dataset_path, "fits") if "fits" in ds.tables else None
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(8.5, 4.4))
     x = np.linspace(0.0, max(10.0, float(d.max())), 200)
+    styles = {"mle": "-", "published": ":"}
+    shown = set()
     for j, ang in enumerate(D50_ANGLES_DEG):
         col = f"C{j}"
         sel = np.abs(np.abs(trials["theta_deg"]) - ang) < 1e-9
         if sel.any():
             ds_ = np.unique(trials["distance_m"][sel])
-            ax.plot(ds_, [trials["p_hat"][sel & (trials["distance_m"] == v)].mean() for v in ds_], "o", color=col,
-                    label=f"simulated |theta| = {ang:g} deg")
+            ax.plot(ds_, [trials["p_hat"][sel & (trials["distance_m"] == v)].mean() for v in ds_], "o", color=col)
+            shown.add("simulated")
         if fits is not None:
             for i, m in enumerate(fits["method"]):
                 if not np.isfinite(fits["a1"][i]) or m == "moments":
                     continue
                 model = ReaderDetectionModel(mean_coefficients=(fits["a1"][i], fits["a2"][i], fits["a3"][i]))
-                ax.plot(x, model.mean(x, ang), "-" if m == "mle" else ":", color=col,
-                        label=f"{m} mean model, {ang:g} deg")
-    ax.set(xlabel="distance d [m]", ylabel="detection probability", ylim=(-0.02, 1.02),
-           title="reader detection vs distance (dotted: published)")
+                ax.plot(x, model.mean(x, ang), styles.get(m, "--"), color=col)
+                shown.add(m)
+    handles = [Line2D([], [], color=f"C{j}", lw=3, label=f"|theta| = {ang:g} deg") for j, ang in enumerate(D50_ANGLES_DEG)]
+    handles += [Line2D([], [], color="k", marker="o", ls="", label="simulated mean p_hat")] if "simulated" in shown else []
+    handles += [Line2D([], [], color="k", ls=styles.get(m, "--"), label=f"{m} mean model")
+                for m in sorted(shown - {"simulated"})]
+    ax.legend(handles=handles, fontsize=9, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set(xlabel="distance d [m]", ylabel="detection probability", ylim=(-0.02, 1.02))
+    ax.set_title(f"Reader detection vs distance — {cite('geng')}", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=6, ncol=2)
-    return [p1, save_figure(fig, out_dir / f"{NAME}-mean.png", dpi=110)]
+    return [p1, save_figure(fig, figure_path(dataset_path, out_dir, "mean"), dpi=110)]

@@ -2,18 +2,34 @@
 
 Layout of a file written by :func:`write_dataset` (one HDF5 group per table or grid)::
 
-    /                     attrs: title, scenario, rfsim_version
+    /                     attrs: title, scenario, rfsim_version, the run's scalar results
+    /<table>              attr description (what one row is)
     /<table>/row          dimension scale 0..n-1
-    /<table>/<column>     1-D, one per field, attrs units + description
-    /<grid>/<coord>       1-D dimension scales (attrs units + description)
-    /<grid>/<variable>    N-D over named coords (attrs units + description)
+    /<table>/<column>     1-D, one per field, attrs units, long_name, description
+    /<grid>               attr description
+    /<grid>/<coord>       1-D dimension scales (attrs units, long_name, description)
+    /<grid>/<variable>    N-D over named coords (attrs units, long_name, description)
     /provenance           attrs: config_toml, seed, rfsim_version, git_revision,
                           start_time_utc, end_time_utc, platform, python, numpy, numba
 
 Every group is also a valid netCDF-4 group: ``xarray.open_dataset(path,
-engine="h5netcdf", group="<name>")`` opens it without custom code. Booleans are stored
-as ``uint8`` with the attribute ``rfsim_dtype = "bool"`` (netCDF has no bool type);
-strings as UTF-8 variable-length strings.
+engine="h5netcdf", group="<name>")`` opens it without custom code and shows ``units`` and
+``long_name`` (CF conventions) on every variable. Booleans are stored as ``uint8`` with the
+CF attributes ``flag_values = [0, 1]``, ``flag_meanings = "false true"`` and
+``rfsim_dtype = "bool"`` (netCDF has no bool type; :func:`read_table` gives them back as
+bool); strings as UTF-8 variable-length strings.
+
+Root attributes that are not finite numbers (NaN, ±inf) must say what they mean: a text
+attribute ``<name>_meaning`` beside them (e.g. "inf: no nulls along this track"), else
+:func:`write_dataset` refuses the dataset.
+
+Any table into pandas, in one line (``read_table`` returns plain NumPy columns)::
+
+    frame = pandas.DataFrame(rfsim.dataset.read_table("results/link.h5", "reads"))
+
+and any group, grids included, through xarray::
+
+    frame = xarray.open_dataset(path, engine="h5netcdf", group="tracks").to_dataframe()
 
 Files are written to a hidden temporary name beside the target, flushed, fsync'ed and
 renamed over the final name, so a killed run never leaves a truncated file under the
@@ -39,6 +55,9 @@ import rfsim
 
 _ROW_DIM = "row"
 _BOOL_ATTR = "rfsim_dtype"
+#: Description attribute of every file's provenance group.
+PROVENANCE_DESCRIPTION = ("how this file was made: the resolved config (TOML), the seed, the rfsim version "
+                          "and git revision, start and end time (UTC) and the software platform")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -46,7 +65,8 @@ class Column:
     """One named array with its unit and description.
 
     ``dims`` names the grid coordinates a gridded variable spans (in axis order);
-    table columns leave it empty.
+    table columns leave it empty. The CF ``long_name`` written with it is the description's
+    first clause (up to the first ";" or ":").
     """
 
     data: np.ndarray
@@ -73,9 +93,12 @@ class Dataset:
     grids: dict[str, tuple[dict[str, Column], dict[str, Column]]] = dataclasses.field(
         default_factory=dict)
     attrs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: group name → what the group holds (what one row of a table is)
+    descriptions: dict[str, str] = dataclasses.field(default_factory=dict)
 
-    def add_table(self, name: str, columns: Mapping[str, Column]) -> None:
-        """Add a columnar table: aligned 1-D columns of equal length."""
+    def add_table(self, name: str, columns: Mapping[str, Column], description: str = "") -> None:
+        """Add a columnar table: aligned 1-D columns of equal length; ``description`` says
+        what one row is."""
         self._check_new(name)
         lengths = {k: c.data.shape for k, c in columns.items()}
         if not columns:
@@ -87,9 +110,11 @@ class Dataset:
         if _ROW_DIM in columns:
             raise ValueError(f"table {name!r}: {_ROW_DIM!r} is reserved for the row index")
         self.tables[name] = dict(columns)
+        if description:
+            self.descriptions[name] = description
 
     def add_grid(self, name: str, coords: Mapping[str, Column],
-                 variables: Mapping[str, Column]) -> None:
+                 variables: Mapping[str, Column], description: str = "") -> None:
         """Add gridded data: 1-D coordinates and variables over (a subset of) them."""
         self._check_new(name)
         for cname, c in coords.items():
@@ -105,6 +130,8 @@ class Dataset:
                                  f"{v.data.shape}, expected {expected} over {dims}")
         self.grids[name] = (dict(coords), {k: dataclasses.replace(v, dims=v.dims or tuple(coords))
                                            for k, v in variables.items()})
+        if description:
+            self.descriptions[name] = description
 
     def _check_new(self, name: str) -> None:
         if name in self.tables or name in self.grids or name == "provenance" or not name:
@@ -160,12 +187,22 @@ def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_ut
 # ----------------------------------------------------------------------------- writing
 
 
+def long_name(description: str) -> str:
+    """CF ``long_name`` of a column: the first clause of its description."""
+    for sep in (";", ": "):
+        description = description.split(sep, 1)[0]
+    return description.strip()
+
+
 def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
     data = col.data
-    attrs: dict[str, Any] = {"units": col.units, "description": col.description}
+    attrs: dict[str, Any] = {"units": col.units, "long_name": long_name(col.description) or name,
+                             "description": col.description}
     if data.dtype == bool:
         data = data.astype(np.uint8)
         attrs[_BOOL_ATTR] = "bool"
+        attrs["flag_values"] = np.array([0, 1], dtype=np.uint8)
+        attrs["flag_meanings"] = "false true"
     if data.dtype.kind == "U":
         ds = group.create_dataset(name, data=data.astype(object),
                                   dtype=h5py.string_dtype("utf-8"))
@@ -182,7 +219,8 @@ def _write_table(f: h5py.File, name: str, columns: Mapping[str, Column]) -> None
     n = len(next(iter(columns.values())).data)
     row = g.create_dataset(_ROW_DIM, data=np.arange(n, dtype=np.int64))
     row.attrs["units"] = "1"
-    row.attrs["description"] = "row index of the table"
+    row.attrs["long_name"] = "row index"
+    row.attrs["description"] = "row index of the table, 0-based"
     row.make_scale(_ROW_DIM)
     for cname, col in columns.items():
         ds = _write_array(g, cname, col)
@@ -203,11 +241,22 @@ def _write_grid(f: h5py.File, name: str, coords: Mapping[str, Column],
             ds.dims[axis].attach_scale(scales[dim])
 
 
+def check_attributes(attrs: Mapping[str, Any]) -> None:
+    """ValueError naming the first non-finite numeric attribute without a ``<name>_meaning``."""
+    for k, v in attrs.items():
+        arr = np.asarray(v)
+        if arr.dtype.kind in "fc" and not np.all(np.isfinite(arr)) and not str(attrs.get(f"{k}_meaning", "")):
+            raise ValueError(f"dataset attribute {k!r} = {v!r} is not finite; add a text attribute "
+                             f"'{k}_meaning' that says what the value means")
+
+
 def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
     """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
 
-    The provenance gets ``end_time_utc`` stamped now. Returns the final path.
+    The provenance gets ``end_time_utc`` stamped now. Returns the final path. Non-finite
+    root attributes need a ``<name>_meaning`` (:func:`check_attributes`).
     """
+    check_attributes(dataset.attrs)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
@@ -222,7 +271,11 @@ def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, A
                 _write_table(f, name, cols)
             for name, (coords, variables) in dataset.grids.items():
                 _write_grid(f, name, coords, variables)
+            for name, text in dataset.descriptions.items():
+                if name in f:
+                    f[name].attrs["description"] = text
             prov = f.create_group("provenance")
+            prov.attrs["description"] = PROVENANCE_DESCRIPTION
             for k, v in {**provenance, "end_time_utc": utc_now()}.items():
                 prov.attrs[k] = v
             f.flush()
@@ -269,7 +322,10 @@ def _read_array(ds: h5py.Dataset) -> np.ndarray:
 
 
 def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
-    """Columns of table ``name`` as plain arrays (without the row index)."""
+    """Columns of table ``name`` as plain arrays (without the row index); booleans as bool.
+
+    ``pandas.DataFrame(read_table(path, name))`` is the table as a data frame.
+    """
     with h5py.File(path, "r") as f:
         g = f[name]
         return {k: _read_array(ds) for k, ds in g.items() if k != _ROW_DIM}
@@ -278,7 +334,8 @@ def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
 def read_provenance(path: str | Path) -> dict[str, Any]:
     """The provenance attributes of a dataset file."""
     with h5py.File(path, "r") as f:
-        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()}
+        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()
+            if k != "description"}
 
 
 def read_dataset(path: str | Path) -> Dataset:
@@ -291,6 +348,8 @@ def read_dataset(path: str | Path) -> Dataset:
         for gname, g in f.items():
             if gname == "provenance":
                 continue
+            if g.attrs.get("description"):
+                out.descriptions[gname] = str(g.attrs["description"])
 
             def col(ds: h5py.Dataset, dims: tuple[str, ...] = ()) -> Column:
                 return Column(_read_array(ds), str(ds.attrs.get("units", "")),
@@ -318,6 +377,9 @@ __all__ = [
     "git_revision",
     "utc_now",
     "write_dataset",
+    "check_attributes",
+    "long_name",
+    "PROVENANCE_DESCRIPTION",
     "read_dataset",
     "read_table",
     "read_provenance",

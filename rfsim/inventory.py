@@ -155,7 +155,7 @@ SLOT_FIELDS = {
 
 READ_FIELDS = {
     "time_s": ("s", "start of the ACK segment of the read"),
-    "round": ("1", "inventory round"),
+    "round": ("1", "inventory round (one Query and its QueryReps) of the read, 0-based"),
     "slot": ("1", "slot index within the round"),
     "tag": ("1", "index of the tag that answered the ACK (-1 if not unique)"),
     "epc_hex": ("", "EPC decoded (CRC-16 ok)"),

@@ -291,8 +291,8 @@ FIELDS = {
     "sample": ("1", "sample index (trial index of the sample's random streams)"),
     "is_test": ("1", "True: test set (index >= samples.n_train); False: training set"),
     "tag_x_m": ("m", "tag x (reader-antenna frame, boresight +x)"),
-    "tag_y_m": ("m", "tag y"),
-    "tag_z_m": ("m", "tag z"),
+    "tag_y_m": ("m", "tag y (reader-antenna frame), uniform in the geometry's tag_y_m range"),
+    "tag_z_m": ("m", "tag z (reader-antenna frame), uniform in the geometry's tag_z_m range"),
     "st_x_m": ("m", "ST centre x"),
     "st_y_m": ("m", "ST centre y"),
     "st_z_m": ("m", "ST centre z"),
@@ -302,7 +302,7 @@ FIELDS = {
     "theta_rad": ("rad", "theta: azimuth, angle between the antenna X-Z plane and antenna->tag"),
     "phi_rad": ("rad", "phi: elevation, angle between the antenna X-Y plane and antenna->tag"),
     "channel_index": ("1", "1-based FCC hop channel of the round"),
-    "frequency_hz": ("Hz", "carrier frequency"),
+    "frequency_hz": ("Hz", "carrier frequency of the round (random FCC hop channel)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port"),
     "tag_powered": ("1", "tag powered up"),
     "tag_replied": ("1", "tag decoded the Query and replied its RN16"),
@@ -389,7 +389,11 @@ def _fits_table(fits: dict[str, np.ndarray]) -> dict:
     desc = {"model": "RTS (Eq. 4.6) or TS (Eq. 4.7)", "source": "'fit' (ML on the training set) or 'published' (R4-1)",
             "train_cross_entropy": "Eq. 4.8 on the training set", "test_cross_entropy": "Eq. 4.8 on the test set",
             "published_test_cross_entropy": "the source's test cross-entropy (RTS 0.1278, TS 0.1502)",
-            "expected_test_cross_entropy": "mean binary entropy of the model's test predictions"}
+            "expected_test_cross_entropy": "mean binary entropy of the model's test predictions",
+            "n_train": "training samples (index < samples.n_train) the fit used",
+            "n_test": "test samples (index >= samples.n_train) the cross-entropy is taken over",
+            "n_train_detected": "training samples in which the ST detected the tag (y = 1)",
+            "n_test_detected": "test samples in which the ST detected the tag (y = 1)"}
     out = {}
     for k, v in fits.items():
         base = k[3:] if k.startswith("se_") else k
@@ -422,7 +426,9 @@ def fit_file(path) -> dict[str, np.ndarray]:
 def run(config: Config, *, seed: int) -> Dataset:
     samples = simulate(config, seed=seed)
     ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (R4-1)")
-    ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()},
+                 description="one row per sample: one Query round with a fresh geometry and channel; features "
+                             "D, d, theta, phi and whether the ST (and the reader) decoded the tag's RN16")
     ds.attrs["st_sampling"] = (f"ST centre uniform in the {config.geometry.st_radius_m:g} m ball's "
                                + ("volume (r = R u^(1/3))" if config.geometry.st_sampling == "volume"
                                   else "radius (r = R u)") + ", isotropic direction")
@@ -438,7 +444,9 @@ def run(config: Config, *, seed: int) -> Dataset:
         except UserError as exc:
             ds.attrs["fits_skipped"] = str(exc)
         else:
-            ds.add_table("fits", _fits_table(fits))
+            ds.add_table("fits", _fits_table(fits), description="one row per (model, source): coefficients of "
+                         "the RTS and TS logistic models fitted here and published (AURIS dissertation R4-1), "
+                         "standard errors and cross-entropies")
             for i in range(fits["model"].size):
                 if fits["source"][i] == "fit":
                     ds.attrs[f"{fits['model'][i]}_test_cross_entropy"] = float(fits["test_cross_entropy"][i])

@@ -112,10 +112,14 @@ def run(config: Config, *, seed: int) -> Dataset:
             "time_s": column(time_s, "s", "time since the start of the CW (the Query starts at 100 us)"),
             "reader_envelope": column(reader, "1", "reader PIE amplitude envelope relative to the CW"),
             "tag_state": column(tag, "1", "tag backscatter state: +1/-1 during replies, 0 absorbing"),
-        })
-    ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS))
-    ds.add_table("timing", _columns(timing_rows, TIMING_COLUMNS))
-    ds.add_table("frames", _columns(rows, FRAME_COLUMNS))
+        }, description=f"the sampled exchange of profile {name}: reader PIE envelope and tag backscatter state "
+                       f"on one time axis at fs_hz")
+    ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS),
+                 description="one row per named link profile: the reader's PIE parameters and the tag link")
+    ds.add_table("timing", _columns(timing_rows, TIMING_COLUMNS),
+                 description="one row per profile: Gen2 link timing T1, T2, T4 and command/reply durations")
+    ds.add_table("frames", _columns(rows, FRAME_COLUMNS),
+                 description="one row per frame of each profile's exchange: start, end and bits")
     ds.attrs["rn16"] = rn16
     ds.attrs["t2_reader_tpri"] = T2_TPRI
     return ds
@@ -151,18 +155,22 @@ def _exchange(link, query, ack, rn16_bits, epc_reply, fs_hz, rise_fall_tari):
 
 PROFILE_COLUMNS = {
     "profile": ("", "link profile name"), "tari_s": ("s", "Tari (data-0 length)"),
-    "data1_s": ("s", "data-1 length"), "rtcal_s": ("s", "RTcal = data-0 + data-1"),
-    "trcal_s": ("s", "TRcal"), "pw_s": ("s", "PIE low-pulse width"),
-    "delimiter_s": ("s", "delimiter"), "dr": ("", "divide ratio (8 or 64/3)"),
+    "data1_s": ("s", "length of a PIE data-1 symbol (1.5-2 Tari)"), "rtcal_s": ("s", "RTcal = data-0 + data-1"),
+    "trcal_s": ("s", "TRcal, the tag-to-reader calibration symbol of the Query preamble (BLF = DR/TRcal)"),
+    "pw_s": ("s", "PIE low-pulse width"),
+    "delimiter_s": ("s", "length of the delimiter that starts every reader command (12.5 us nominal)"),
+    "dr": ("", "divide ratio (8 or 64/3)"),
     "m": ("1", "subcarrier cycles per bit (1 = FM0)"), "trext": ("1", "pilot tone requested"),
-    "modulation": ("", "reader modulation"), "depth": ("1", "modulation depth (A-B)/A"),
+    "modulation": ("", "reader modulation: DSB-ASK, SSB-ASK or PR-ASK"), "depth": ("1", "modulation depth (A-B)/A"),
     "blf_hz": ("Hz", "backscatter link frequency DR/TRcal"),
     "frt": ("1", "BLF tolerance FrT (nominal temperature)"),
     "bitrate_bps": ("bit/s", "tag data rate BLF/M"),
 }
 TIMING_COLUMNS = {
-    "profile": ("", "link profile name"), "t1_min_s": ("s", "T1 minimum"),
-    "t1_nom_s": ("s", "T1 nominal"), "t1_max_s": ("s", "T1 maximum"),
+    "profile": ("", "link profile name"),
+    "t1_min_s": ("s", "T1 minimum: earliest tag reply after the reader command's last rising edge"),
+    "t1_nom_s": ("s", "T1 nominal, max(RTcal, 10 Tpri) (the tag replies this long after the command)"),
+    "t1_max_s": ("s", "T1 maximum: latest tag reply after the reader command's last rising edge"),
     "t2_min_s": ("s", "T2 minimum (3 Tpri)"), "t2_max_s": ("s", "T2 maximum (20 Tpri)"),
     "t4_min_s": ("s", "T4 minimum (2 RTcal)"), "query_s": ("s", "Query duration incl. preamble"),
     "queryrep_s": ("s", "QueryRep duration incl. frame-sync"),
@@ -172,7 +180,8 @@ TIMING_COLUMNS = {
 }
 FRAME_COLUMNS = {
     "profile": ("", "link profile name"), "frame": ("", "Query, RN16, ACK or EPC"),
-    "start_s": ("s", "frame start"), "end_s": ("s", "frame end"),
+    "start_s": ("s", "start time of the frame on the exchange's time axis"),
+    "end_s": ("s", "end time of the frame on the exchange's time axis"),
     "bits": ("", "frame bits, MSB first, incl. CRC where Gen2 has one"),
 }
 

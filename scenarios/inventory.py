@@ -206,7 +206,7 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
 
 INVENTORY_FIELDS = {
     "population": ("1", "number of tags N"),
-    "run": ("1", "inventory run"),
+    "run": ("1", "index of the inventory run for this population (new tag positions and draws)"),
     "tags_read": ("1", "distinct tags read"),
     "read_rate": ("1", "fraction of the N tags read"),
     "slots": ("1", "slots of the whole inventory"),
@@ -247,13 +247,19 @@ def run(config: Config, *, seed: int) -> Dataset:
                              efficiency=succ / max(log.n_slots, 1)).items():
                 inv[k].append(v)
     ds = Dataset(title="Q-algorithm inventory of tags in a room: slots, reads, capture")
-    units = {"population": ("1", "number of tags N"), "run": ("1", "inventory run")}
-    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()})
-    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()})
-    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()})
+    units = {"population": ("1", "number of tags N"), "run": INVENTORY_FIELDS["run"]}
+    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()},
+                 description="one row per slot of every inventory: what the reader saw and what happened "
+                             "(ground truth), the Q algorithm's state")
+    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()},
+                 description="one row per EPC read (CRC ok): the reader's per-read report")
+    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()},
+                 description="one row per inventory (population, run): tags read, slots, air time, efficiency")
     if config.capture.enabled:
         cap = capture_table(config, seed=seed)
-        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()})
+        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
+                     description="one row per capture trial: two tags in one Q = 0 slot at a set backscatter power "
+                                 "ratio; whether the reader still read an EPC")
     return ds
 
 

@@ -100,7 +100,7 @@ FIELDS = {
     "point": ("1", "index of the distance point"),
     "round": ("1", "inventory round at this point"),
     "time_s": ("s", "start of the round's Query"),
-    "distance_m": ("m", "reader-tag distance"),
+    "distance_m": ("m", "reader antenna to tag distance of the point (geometry.distances_m)"),
     **READ_MEASUREMENT_FIELDS,
     "success": ("1", "EPC decoded with CRC ok"),
     "failure_reason": ("", "why the read failed ('' = success)"),
@@ -137,7 +137,9 @@ def run(config: Config, *, seed: int) -> Dataset:
                     failure_reason=last.failure_reason,
                     tag_incident_power_dbm=exchanges[0].incident_power_dbm[0])
     ds = Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS})
+    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS},
+                 description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
+                             "per-read report, or why the read failed")
     return ds
 
 

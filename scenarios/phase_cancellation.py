@@ -109,6 +109,7 @@ from rfsim.engine import NARROWBAND_TOLERANCE, propagation_method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.progress import stage, track
+from scenarios import _phase_cancellation_columns as columns
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
 from rfsim.plots import figure_path, pyplot, save_figure
@@ -580,7 +581,9 @@ def run(config: Config, *, seed: int) -> Dataset:
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
     ds = Dataset(title="sense-a-tag phase cancellation (Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
-    ds.add_table("samples", {k: column(v, _unit(k), _describe(k)) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
+                 description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
+                             "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     summ = _summary(samples, n_cells)
     summ["tag_x_m"] = np.asarray(config.geometry.tag_x_m, float)
     summ["tag_replied_fraction"] = np.array([samples["tag_replied"][samples["cell"] == c].mean()
@@ -588,7 +591,9 @@ def run(config: Config, *, seed: int) -> Dataset:
     summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
                                             for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
-    ds.add_table("cells", {k: column(v, _unit(k), _describe(k)) for k, v in summ.items()})
+    ds.add_table("cells", {k: column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
+                 description="one row per cell (tag position): probability of phase cancellation per technique "
+                             "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
     for t in TECHS:
         key = f"cancelled_{t}"
         if key in samples:
@@ -597,18 +602,32 @@ def run(config: Config, *, seed: int) -> Dataset:
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
     stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
-    ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle from tag→reader"),
-                           "distance_m": column(tr["distance_m"], "m", "ST distance from the tag")},
-                {"diff_v": column(tr["diff_v"], "V", "sample-level |A1-A2| at the detector output"),
-                 "closed_diff_v": column(tr["closed_diff_v"], "V", "Eq. 3.4 from the measured A_R, A_T1, A_T2, theta"),
-                 "theta_rad": column(tr["theta_rad"], "rad", "relative phase backscatter vs CW at the ST")})
+    ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle, measured from the "
+                                                                      "tag->reader direction"),
+                           "distance_m": column(tr["distance_m"], "m", "distance of the single-antenna ST from "
+                                                                       "the tag along the track")},
+                {"diff_v": column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
+                                                     "detector output along the track (Fig. 3.15)"),
+                 "closed_diff_v": column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
+                                                                   "measured A_R, A_T1, A_T2, theta at the same points"),
+                 "theta_rad": column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
+                                                             "at the ST, (-pi, pi]")},
+                description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
+                            "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
     for i, a in enumerate(tr["angle_deg"]):
-        ds.attrs[f"track_{int(round(a))}deg_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        name = f"track_{int(round(a))}deg"
+        ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        if not np.isfinite(ds.attrs[f"{name}_minima_spacing_m"]):
+            ds.attrs[f"{name}_minima_spacing_m_meaning"] = "NaN: fewer than two minima of diff_v along this track"
         # far-field geometry: θ turns by 2π(1 + cos α)/λ per metre, a null every π
         lam = float(wavelength_m(tr["fc_hz"]))
-        ds.attrs[f"track_{int(round(a))}deg_geometric_spacing_m"] = (
+        ds.attrs[f"{name}_geometric_spacing_m"] = (
             lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
             else float("inf"))
+        if not np.isfinite(ds.attrs[f"{name}_geometric_spacing_m"]):
+            ds.attrs[f"{name}_geometric_spacing_m_meaning"] = (
+                "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
+                "distance, 1 + cos(angle) = 0, so there are no nulls")
     _analytic_grids(ds)
     states = {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna (Gamma*incident, "
                           "power-up at picmin + 2.5 dB)",
@@ -630,47 +649,31 @@ def run(config: Config, *, seed: int) -> Dataset:
 def _analytic_grids(ds: Dataset) -> None:
     th = np.linspace(-np.pi, np.pi, 721)
     pairs = np.array([[0.4, 0.3], [0.2, 0.1], [0.9, 0.8], [0.05, 0.04]])
-    ds.add_grid("fig3_3", {"case": column(np.arange(len(pairs)), "1", "(A_T1, A_T2) case, A_R = 1"),
-                           "theta_rad": column(th, "rad", "relative phase")},
+    ds.add_grid("fig3_3", {"case": column(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
+                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
                 {"diff": column(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
-                                "ASK |A1-A2| (Eq. 3.4), A_R = 1"),
-                 "a_t1": column(pairs[:, 0], "1", "A_T1", dims=("case",)),
-                 "a_t2": column(pairs[:, 1], "1", "A_T2", dims=("case",))})
+                                "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
+                 "a_t1": column(pairs[:, 0], "1", "A_T1 of the case, backscatter amplitude in the modulating "
+                                                  "state relative to A_R", dims=("case",)),
+                 "a_t2": column(pairs[:, 1], "1", "A_T2 of the case, backscatter amplitude in the absorbing "
+                                                  "state relative to A_R", dims=("case",))},
+                description="closed form of AURIS dissertation Fig. 3.3: ASK envelope difference vs relative phase")
     psi = np.array([np.pi, np.pi / 2, np.pi / 4, np.pi / 8])
-    ds.add_grid("fig3_5", {"psi_rad": column(psi, "rad", "PSK state separation"),
-                           "theta_rad": column(th, "rad", "relative phase")},
+    ds.add_grid("fig3_5", {"psi_rad": column(psi, "rad", "phase separation psi of the two PSK states"),
+                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
                 {"diff": column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
-                                "PSK |A1-A2| (Eq. 3.9), A_R = 1, A_T = 0.4")})
+                                "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
+                description="closed form of AURIS dissertation Fig. 3.5: PSK envelope difference vs relative phase")
     m = sa.NullMapModel()
     x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
     y = np.linspace(0.0, 3.0, 301)  # y = 0 is safe: no x sample sits on the reader
-    ds.add_grid("fig3_8", {"y_m": column(y, "m", "y"), "x_m": column(x, "m", "x")},
+    ds.add_grid("fig3_8", {"y_m": column(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
+                           "x_m": column(x, "m", "x of the ST position (reader and tag at x = 0)")},
                 {"diff_v": column(m.envelope_difference(x[None, :], y[:, None]), "V",
-                                  "Eq. 3.4 with Eq. 3.23: reader (0,0), tag (0,2)")})
-
-
-_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W"}
-
-
-def _unit(key: str) -> str:
-    for suf, u in _UNITS.items():
-        if key.endswith(suf):
-            return u
-    return "1"
-
-
-def _describe(key: str) -> str:
-    words = {"sa1": "SA1 (receive-only path P1)", "sa2": "SA2 (full ST path P2)", "combined": "SA1+SA2 RF sum"}
-    text = key
-    for w, d in words.items():
-        text = text.replace(w, d)
-    if key.startswith("diff_"):
-        return f"sample-level envelope-detector difference |A(+1)-A(-1)|: {text}"
-    if key.startswith("closed_"):
-        return f"closed form (Eq. 3.4/3.21, R3-5) from the measured phasors: {text}"
-    if key.startswith("p_") or key.startswith("ci_"):
-        return f"probability of phase cancellation (R3-5) / Clopper-Pearson 95% bound: {text}"
-    return text.replace("_", " ")
+                                  "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
+                                  "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
+                description="null map of AURIS dissertation Fig. 3.8: closed-form envelope difference over ST "
+                            "positions in the plane")
 
 
 # ----------------------------------------------------------------------------- plots

@@ -327,13 +327,17 @@ def run(config: Config, *, seed: int) -> Dataset:
     dists, angles, reps = config.campaign.grid
     trials = simulate(config, seed=seed)
     ds = Dataset(title="reader detection campaign A replica (Ch. 4 DA model)")
-    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()})
+    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()},
+                 description="one row per trial: a (room, distance, angle, repetition) cell queried N times with "
+                             "the channel held; reads counted (Geng dissertation campaign A)")
     cm = cell_moments(trials, dists, angles)
-    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room"),
-                          "distance_m": column(np.asarray(dists, float), "m", "nominal distance"),
-                          "theta_deg": column(np.asarray(angles, float), "deg", "angle off boresight")},
-                {"p_mean": column(cm["p_mean"], "1", "mean of p_hat over repetitions"),
-                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) of p_hat over repetitions")})
+    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room (channel parameter set): 0 lab, 1 cluttered"),
+                          "distance_m": column(np.asarray(dists, float), "m", "nominal antenna-tag distance d"),
+                          "theta_deg": column(np.asarray(angles, float), "deg",
+                                              "tag angle off the antenna boresight (antenna rotated)")},
+                {"p_mean": column(cm["p_mean"], "1", "mean over the cell's repetitions of p_hat = n_reads / n_queries"),
+                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) over the cell's repetitions of p_hat")},
+                description="per-cell moments of the detection probability over repetitions, per room")
     ds.attrs["outcome"] = "reader decoded the tag's RN16 exactly (no ACK/EPC exchange)"
     ds.attrs["n_trials"] = int(trials["room"].size)
     ds.attrs["n_queries_total"] = int(trials["n_queries"].sum())
@@ -354,10 +358,14 @@ def run(config: Config, *, seed: int) -> Dataset:
                     "log-likelihood of Eq. 4.11 on the trials" if k == "log_likelihood" else
                     f"DA model parameter {k} (mean 1/(1+exp(a1+a2 d+a3|theta|)), variance c1+c2 d+c3 d^2+c4|theta|+c5 theta^2, dead-zone mean lambda)")
             cols[k] = column(v, "nat" if k == "log_likelihood" else unit, text)
-        ds.add_table("fits", cols)
+        ds.add_table("fits", cols, description="one row per method (published, moments, mle): parameters of the "
+                                               "DA model with standard errors, log-likelihood and d50")
         for i, m in enumerate(f["method"]):
             for a in D50_ANGLES_DEG:
-                ds.attrs[f"{m}_d50_{int(a)}deg_m"] = float(f[f"d50_{int(a)}deg_m"][i])
+                key = f"{m}_d50_{int(a)}deg_m"
+                ds.attrs[key] = float(f[f"d50_{int(a)}deg_m"][i])
+                if not np.isfinite(ds.attrs[key]):
+                    ds.attrs[f"{key}_meaning"] = f"NaN: the {m} fit failed or has no d50 (see fit_errors)"
     return ds
 
 

@@ -96,7 +96,7 @@ from rfsim.references import cite
 
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
-               "rounds, ML fits of the TS and RTS models (Eqs. 4.6-4.8, R4-1)")
+               "rounds, ML fits of the TS and RTS models (AURIS dissertation Eqs. 4.6-4.8)")
 
 PANEL_GAIN_DBIC = 9.0
 PANEL_BEAMWIDTH_DEG = 70.0
@@ -425,7 +425,7 @@ def fit_file(path) -> dict[str, np.ndarray]:
 
 def run(config: Config, *, seed: int) -> Dataset:
     samples = simulate(config, seed=seed)
-    ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (R4-1)")
+    ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (AURIS dissertation Eqs. 4.6-4.8)")
     ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()},
                  description="one row per sample: one Query round with a fresh geometry and channel; features "
                              "D, d, theta, phi and whether the ST (and the reader) decoded the tag's RN16")

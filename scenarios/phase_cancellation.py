@@ -117,7 +117,7 @@ from rfsim.references import cite
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
-               "path selection and ASK-PSK stamp (Fig. 3.16/5.8), radial tracks (Fig. 3.15), closed forms")
+               "path selection and ASK-PSK stamp, radial tracks, closed forms (AURIS dissertation Fig. 3.3-3.16, 5.8)")
 
 R_OHM = sr.REFERENCE_IMPEDANCE_OHM
 V_PER_SQRT_W = math.sqrt(2.0 * R_OHM)
@@ -580,7 +580,7 @@ def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
 def run(config: Config, *, seed: int) -> Dataset:
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
-    ds = Dataset(title="sense-a-tag phase cancellation (Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
+    ds = Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
     ds.add_table("samples", {k: column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
                  description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")

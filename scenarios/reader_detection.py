@@ -85,7 +85,7 @@ from rfsim.references import cite
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
-               "50 queries in two rooms; Beta-binomial DA fits and d50 (Ch. 4 model)")
+               "50 queries in two rooms; Beta-binomial DA fits and d50 (Geng dissertation Ch. 4)")
 
 FULL_DISTANCES_M = tuple(0.5 * (i + 1) for i in range(18))
 FULL_ANGLES_DEG = tuple(-90.0 + 15.0 * j for j in range(13))
@@ -326,7 +326,7 @@ def cell_moments(trials: dict[str, np.ndarray], dists, angles) -> dict[str, np.n
 def run(config: Config, *, seed: int) -> Dataset:
     dists, angles, reps = config.campaign.grid
     trials = simulate(config, seed=seed)
-    ds = Dataset(title="reader detection campaign A replica (Ch. 4 DA model)")
+    ds = Dataset(title="reader detection campaign A replica (Geng dissertation Ch. 4 DA model)")
     ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()},
                  description="one row per trial: a (room, distance, angle, repetition) cell queried N times with "
                              "the channel held; reads counted (Geng dissertation campaign A)")

@@ -9,6 +9,8 @@ their NaN/inf means, and every table goes into pandas in one line.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import re
 
 import h5py
@@ -34,17 +36,38 @@ TINY = {
 
 
 @pytest.fixture(scope="module")
-def datasets(tmp_path_factory):
+def runs(tmp_path_factory):
+    """Each scenario run once, tiny, by the CLI: (dataset path, what it printed on stderr)."""
     out = tmp_path_factory.mktemp("self-description")
-    paths = {}
+    done = {}
     for name, sets in TINY.items():
         path = out / f"tiny-{name}.h5"
-        argv = ["run", name, "-q", "--no-plot", "-o", str(path)]
+        argv = ["run", name, "--no-plot", "-o", str(path)]
         for s in sets:
             argv += ["--set", s]
-        assert main(argv) == 0, name
-        paths[name] = path
-    return paths
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            assert main(argv) == 0, name
+        done[name] = (path, err.getvalue())
+    return done
+
+
+@pytest.fixture(scope="module")
+def datasets(runs):
+    return {name: path for name, (path, _) in runs.items()}
+
+
+@pytest.mark.parametrize("scenario", sorted(TINY))
+def test_every_run_reports_its_stages_and_monte_carlo_progress(runs, scenario):
+    """Progress in a batch log (stderr is not a TTY here): stage lines and, for every loop of
+    trials, tqdm lines ``desc: n/N unit (p %)`` from the first to the last — no ``\r``."""
+    _, err = runs[scenario]
+    assert "\r" not in err
+    assert f"rfsim: running {scenario} (seed 1)" in err and "rfsim: writing " in err
+    if scenario != "gen2-waveforms":  # the only scenario without a loop of trials
+        first = re.search(r"^[\w ]+: 0/(\d+) \w+ \(0\.0 %\)", err, re.M)
+        assert first, err
+        assert re.search(rf"^[\w ]+: {first.group(1)}/{first.group(1)} \w+ \(100\.0 %\), .* ETA", err, re.M), err
 
 
 def _words(text: str) -> set[str]:

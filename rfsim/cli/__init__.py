@@ -16,7 +16,8 @@ import rfsim
 from rfsim.errors import UserError
 
 #: Subcommand modules in help order.
-_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.decode", "rfsim.cli.bench", "rfsim.cli.sweep")
+_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
+                "rfsim.cli.sweep")
 
 
 def build_parser() -> argparse.ArgumentParser:

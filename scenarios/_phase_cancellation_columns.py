@@ -63,43 +63,45 @@ def units(key: str) -> str:
     return "1"
 
 
+#: (name prefix, description template) of the per-antenna columns; {ant} names the antenna.
+ANTENNA_COLUMNS = (
+    ("a_r_", "A_R, amplitude of the reader's CW at {ant}: " + _VOLTS),
+    ("a_t1_", "A_T1, backscatter amplitude at {ant} in the tag's modulating state (re-radiated A_s - Gamma_B "
+              "times the incident field): " + _VOLTS),
+    ("a_t2_", "A_T2, backscatter amplitude at {ant} in the tag's absorbing state (re-radiated A_s - Gamma_A "
+              "times the incident field): " + _VOLTS),
+    ("theta_", "theta, phase of the backscatter (state 1) relative to the reader's CW at {ant}, (-pi, pi]"),
+    ("diff_", "sample-level envelope difference |A(+1) - A(-1)| at the detector output of {ant}: mean detector "
+              "level in the tag's two states over the RN16 reply (0 when the tag did not reply)"),
+    ("closed_diff_", "closed-form envelope difference |A1 - A2| (Eq. 3.4, Eq. 3.21 for the sum) at {ant} from "
+                     "the measured A_R, A_T1, A_T2, theta and detector_gain"),
+)
+#: (name prefix, description template) of the per-technique columns; {tech} names the technique.
+TECHNIQUE_COLUMNS = (
+    ("detected_", "the ST decoded the tag's RN16 exactly with {tech} (sample-level receive chain)"),
+    ("closed_cancelled_", "phase cancellation predicted by the closed forms (Eq. 3.4/3.21, R3-5) for {tech}: "
+                          "detectable, but the technique's envelope difference is below the threshold"),
+    ("cancelled_", "phase cancellation with {tech}: detectable and not detected (sample level)"),
+    ("p_", "probability of phase cancellation with {tech} in the cell: cancelled samples / n_samples (R3-5)"),
+    ("ci_lo_", "lower bound of the Clopper-Pearson 95 % interval of p_{key} (n_samples trials)"),
+    ("ci_hi_", "upper bound of the Clopper-Pearson 95 % interval of p_{key} (n_samples trials)"),
+)
+
+
 def describe(key: str) -> str:
     """Description of column ``key`` of the samples or cells table (ValueError if unknown)."""
     if key in FIXED:
         return FIXED[key][1]
-    parts = key.split("_")
     ant = next((a for a in ANTENNAS if f"_{a}_" in f"_{key}_"), None)
     tech = next((t for t in TECHNIQUES if key.endswith(f"_{t}")), None)
-    if key.startswith("a_r_") and ant:
-        return f"A_R, amplitude of the reader's CW at {ANTENNAS[ant]}: {_VOLTS}"
-    if key.startswith("a_t1_") and ant:
-        return (f"A_T1, backscatter amplitude at {ANTENNAS[ant]} in the tag's modulating state "
-                f"(re-radiated A_s - Gamma_B times the incident field): {_VOLTS}")
-    if key.startswith("a_t2_") and ant:
-        return (f"A_T2, backscatter amplitude at {ANTENNAS[ant]} in the tag's absorbing state "
-                f"(re-radiated A_s - Gamma_A times the incident field): {_VOLTS}")
-    if key.startswith("theta_") and ant:
-        return f"theta, phase of the backscatter (state 1) relative to the reader's CW at {ANTENNAS[ant]}, (-pi, pi]"
-    if key.startswith("diff_") and ant:
-        return (f"sample-level envelope difference |A(+1) - A(-1)| at the detector output of {ANTENNAS[ant]}: "
-                f"mean detector level in the tag's two states over the RN16 reply (0 when the tag did not reply)")
-    if key.startswith("closed_diff_") and ant:
-        return (f"closed-form envelope difference |A1 - A2| (Eq. 3.4, Eq. 3.21 for the sum) at {ANTENNAS[ant]} "
-                f"from the measured A_R, A_T1, A_T2, theta and detector_gain")
-    if tech and key.startswith("detected_"):
-        return f"the ST decoded the tag's RN16 exactly with {TECHNIQUES[tech]} (sample-level receive chain)"
-    if tech and key.startswith("closed_cancelled_"):
-        return (f"phase cancellation predicted by the closed forms (Eq. 3.4/3.21, R3-5) for {TECHNIQUES[tech]}: "
-                f"detectable, but the technique's envelope difference is below the threshold")
-    if tech and key.startswith("cancelled_"):
-        return f"phase cancellation with {TECHNIQUES[tech]}: detectable and not detected (sample level)"
-    if tech and parts[0] == "p":
-        return (f"probability of phase cancellation with {TECHNIQUES[tech]} in the cell: cancelled samples / "
-                f"n_samples (R3-5)")
-    if tech and key.startswith("ci_lo_"):
-        return f"lower bound of the Clopper-Pearson 95 % interval of p_{tech} (n_samples trials)"
-    if tech and key.startswith("ci_hi_"):
-        return f"upper bound of the Clopper-Pearson 95 % interval of p_{tech} (n_samples trials)"
+    if ant:
+        for prefix, template in ANTENNA_COLUMNS:
+            if key.startswith(prefix):
+                return template.format(ant=ANTENNAS[ant])
+    if tech:
+        for prefix, template in TECHNIQUE_COLUMNS:
+            if key.startswith(prefix):
+                return template.format(tech=TECHNIQUES[tech], key=tech)
     if key.startswith("median_") and key.endswith("_sa2_source_v"):
         name = {"a_r": "A_R", "a_t1": "A_T1", "a_t2": "A_T2"}[key[len("median_"):-len("_sa2_source_v")]]
         return (f"median over the cell's samples of {name} at SA2 in the source's voltage unit (peak sqrt(2P) "
@@ -109,4 +111,4 @@ def describe(key: str) -> str:
     raise ValueError(f"phase-cancellation column {key!r} has no description")
 
 
-__all__ = ["ANTENNAS", "TECHNIQUES", "FIXED", "units", "describe"]
+__all__ = ["ANTENNAS", "TECHNIQUES", "FIXED", "ANTENNA_COLUMNS", "TECHNIQUE_COLUMNS", "units", "describe"]

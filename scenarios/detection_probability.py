@@ -89,7 +89,7 @@ from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
-from rfsim.progress import track
+from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
@@ -439,6 +439,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.attrs["p_reader_detected"] = float(samples["reader_detected"].mean())
     ds.attrs["p_tag_replied"] = float(samples["tag_replied"].mean())
     if config.fits:
+        stage("fitting the RTS and TS models")
         try:
             fits = fit_models(samples)
         except UserError as exc:

@@ -78,7 +78,7 @@ from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
-from rfsim.progress import track
+from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
@@ -342,6 +342,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.attrs["n_trials"] = int(trials["room"].size)
     ds.attrs["n_queries_total"] = int(trials["n_queries"].sum())
     if config.fits:
+        stage("fitting the DA model (moments and maximum likelihood)")
         f = fit_trials(trials)
         ds.attrs["fit_errors"] = f.pop("errors")
         cols = {"method": column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "

@@ -28,7 +28,7 @@ def test_batch_log_lines_start_end_and_no_carriage_returns():
     assert lines[1].startswith("monte carlo: 0/7 cells (0.0 %), ")
     # a 1 h interval: only the first line and the final one (with the rate, elapsed and ETA)
     assert len(lines) == 3 and lines[2].startswith("monte carlo: 7/7 cells (100.0 %), ")
-    assert " cells/s, elapsed 00:00, ETA 00:00" in lines[2]
+    assert "cells/s, elapsed 00:00, ETA 00:00" in lines[2]
 
 
 def test_terminal_bar_redraws_in_place_with_eta():

@@ -191,7 +191,7 @@ def test_progress_lines_when_not_a_tty():
     assert "\r" not in text and "\x1b" not in text
     assert lines[0].startswith("sweep: 2/10 runs (20.0 %)")
     assert lines[-1].startswith("sweep: 10/10 runs (100.0 %)")
-    assert " runs/s" in lines[-1] and "ETA 00:00" in lines[-1]
+    assert "runs/s, elapsed " in lines[-1] and "ETA 00:00" in lines[-1]
     # interval 0: the start and one line per finished run (the close may repeat the last)
     assert [int(line.split()[1].split("/")[0]) for line in lines][:9] == list(range(2, 11))
     slow = io.StringIO()  # a 1 h interval: the first line and the last only

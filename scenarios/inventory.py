@@ -273,6 +273,13 @@ def capture_probability(ratio_db: np.ndarray, captured: np.ndarray, edges_db: np
         return 0.5 * (edges_db[1:] + edges_db[:-1]), k / n, n
 
 
+def _count_text(n: np.ndarray) -> str:
+    """"20" or "18-20": the trial counts of the plotted points."""
+    if not n.size:
+        return "0"
+    return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
+
+
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Slot types per population, read rate and efficiency vs N, capture probability."""
     plt = pyplot()
@@ -324,8 +331,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         lo, hi = wilson_interval(k, n)
         pc = k / n
         a.errorbar(x, pc, yerr=np.vstack([pc - lo, hi - pc]), marker="o", capsize=3,
-                   label=f"per simulated ratio, {n.min()}-{n.max()} trials (Wilson 95 %)"
-                   if n.size else "per simulated ratio")
+                   label=f"per simulated ratio, {_count_text(n)} trials each (Wilson 95 %)")
         a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 1.04, -0.04), "|",
                color="0.6", ms=6, label="trials (captured = 1)")
         a.set_ylim(-0.08, 1.08)

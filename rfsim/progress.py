@@ -124,7 +124,8 @@ class Reporter:
 
         if self.tty:
             return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=self.stream,
-                        mininterval=0.2, dynamic_ncols=True, leave=True, bar_format=TTY_FORMAT)
+                        mininterval=0.2, leave=True, bar_format=TTY_FORMAT,
+                        nrows=100)  # a terminal that reports 0 rows would otherwise hide the bar
         return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=_LineWriter(self.stream),
                     mininterval=self.log_interval_s, maxinterval=float("inf"), ascii=True,
                     leave=True, bar_format=LOG_FORMAT)

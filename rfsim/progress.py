@@ -3,7 +3,7 @@
 A :class:`Reporter` decides where and how progress appears:
 
 * on a terminal, ``tqdm`` bars redrawn in place (``\\r``) with count, rate and ETA, and a
-  line per stage (``rfsim: simulating 13 cells x 1 repetition``);
+  line per stage (``rfsim: running phase-cancellation (seed 1)``);
 * in batch logs (the stream is not a TTY: SLURM logs, pipes, files) the same bar as plain
   lines, ``monte carlo: 40/120 cells (33.3 %), 2.10cells/s, elapsed 00:19, ETA 00:38``
   (tqdm's rate: ``17.2s/cells`` when a step takes longer than a second), at

@@ -147,3 +147,19 @@ def test_any_table_into_pandas_in_one_line(datasets):
     grid = xr.open_dataset(datasets["phase-cancellation"], engine="h5netcdf", group="tracks").to_dataframe()
     assert {"diff_v", "closed_diff_v", "theta_rad"} <= set(grid.columns)
     assert grid.index.names == ["angle_deg", "distance_m"]
+
+
+#: Figures each scenario draws (suffixes after the dataset's stem).
+FIGURES = {
+    "gen2-waveforms": ["exchange"], "link": ["rssi-read-rate"], "inventory": ["summary"],
+    "reader-detection": ["heatmap", "mean"], "detection-probability": ["fig4_7"],
+    "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],
+}
+
+
+@pytest.mark.parametrize("scenario", sorted(TINY))
+def test_rfsim_plot_draws_every_figure_from_the_file_alone(datasets, scenario, tmp_path):
+    assert main(["plot", str(datasets[scenario]), "--out-dir", str(tmp_path), "-q"]) == 0
+    drawn = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert drawn == sorted(f"tiny-{scenario}-{what}.png" for what in FIGURES[scenario])
+    assert all((tmp_path / name).stat().st_size > 5000 for name in drawn)

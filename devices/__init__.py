@@ -13,13 +13,8 @@ power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`), a 
 impedance follows its absorbed power (:mod:`devices.tag_chip`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
 (:mod:`devices.tag`).
-
-HIMR inertial tag (:mod:`devices.himr_tag`): battery-assisted, free-running BOC packets of
-IMU words (:mod:`devices.imu`, MPU-9250 class) through open/short RF states.
 """
 
-from devices.himr_tag import HimrPlan, HimrTag, HimrTagConfig
-from devices.imu import ImuConfig
 from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
 from devices.sense_a_tag import Observation, SenseATag, SenseATagConfig
@@ -31,7 +26,6 @@ from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, different
 
 __all__ = [
     "SenseATag", "SenseATagConfig", "Observation",
-    "HimrTag", "HimrTagConfig", "HimrPlan", "ImuConfig",
     "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
     "PassiveTag", "TagConfig", "TagResponse", "PowerDependentChip", "ChipOperatingPoint",
     "TagState", "Reply", "FlagPersistence", "pc_word",

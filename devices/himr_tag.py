@@ -22,6 +22,11 @@ As a reflector of the air step: :meth:`HimrTag.plan` draws the schedule and the 
 once per run (from the run's generator), then :meth:`HimrTag.reflection` returns Γ(t) on
 any time base ``t = t0_s + n/fs_hz``, n < n_samples (only the packets overlapping it are
 sampled), and :meth:`HimrTag.reradiation` the factor r(t) that multiplies the incident field.
+:meth:`HimrTag.reflect` offers the same through the reflector protocol of the air step
+(``reflect(incident)`` with an incident segment carrying ``t0_s``, ``fs_hz``,
+``n_samples``; the incident field itself is ignored: the tag is battery-assisted) and
+:meth:`HimrTag.position_m` the antenna position along the trajectory (a motion callable
+``t → (3,)`` for moving links).
 """
 
 from __future__ import annotations
@@ -109,6 +114,25 @@ class HimrPlan:
     truth: Kinematics
 
 
+@dataclass(frozen=True, eq=False)
+class HimrReflection:
+    """What the tag scatters on one time base: r(t) = A_s − Γ(t) (air-step reflection)."""
+
+    samples: np.ndarray  #: (n,) complex128
+    scatters: bool = True
+
+    @property
+    def constant_reradiation(self) -> complex | None:
+        """r as one number when no packet overlaps the time base, else None."""
+        s = self.samples
+        return complex(s[0]) if s.size and np.all(s == s[0]) else None
+
+    def reradiation(self, n_samples: int) -> np.ndarray:
+        if n_samples != self.samples.size:
+            raise ValueError(f"reflection has {self.samples.size} samples, asked for {n_samples}")
+        return self.samples
+
+
 class HimrTag:
     """A HIMR tag on a trajectory (module docstring).
 
@@ -117,13 +141,20 @@ class HimrTag:
     config : :class:`HimrTagConfig`
     trajectory : callable ``t_s → Kinematics`` (:mod:`rfsim.trajectories`)
     imu : :class:`devices.imu.ImuConfig`
+    antenna : the tag's antenna object for a channel (optional; its position is the
+        trajectory's, see :meth:`position_m`)
     """
 
-    def __init__(self, config: HimrTagConfig, trajectory, imu: ImuConfig | None = None):
+    def __init__(self, config: HimrTagConfig, trajectory, imu: ImuConfig | None = None, *, antenna=None):
         self.config = config
         self.trajectory = trajectory
         self.imu = ImuConfig() if imu is None else imu
+        self.antenna = antenna
         self._plan: HimrPlan | None = None
+
+    def position_m(self, t_s: float) -> np.ndarray:
+        """Antenna position on the trajectory at time ``t_s``: (3,) [m]."""
+        return self.trajectory(np.array([float(t_s)])).position_m[0]
 
     def schedule(self, t_end_s: float, *, rng: np.random.Generator) -> np.ndarray:
         """Packet start times in [start_s, t_end_s): (P,) float64 [s]."""
@@ -171,5 +202,9 @@ class HimrTag:
         """r(t) = A_s − Γ(t) on the same time base (the factor on the incident field)."""
         return self.config.structural_mode - self.reflection(t0_s, fs_hz, n_samples)
 
+    def reflect(self, incident) -> HimrReflection:
+        """Air-step reflector protocol: r(t) on the incident segment's time base."""
+        return HimrReflection(self.reradiation(incident.t0_s, incident.fs_hz, incident.n_samples))
 
-__all__ = ["HimrTagConfig", "HimrTag", "HimrPlan", "GAMMA_OPEN", "GAMMA_SHORT"]
+
+__all__ = ["HimrTagConfig", "HimrTag", "HimrPlan", "HimrReflection", "GAMMA_OPEN", "GAMMA_SHORT"]

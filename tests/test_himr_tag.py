@@ -212,3 +212,19 @@ def test_bad_tag_configs():
     tag.plan(0.05, rng=trial_rng(0, 0))
     with pytest.raises(ConfigError, match="BOC bandwidth"):
         tag.reflection(0.0, 4e6, 100)
+
+
+def test_reflector_protocol_of_the_air_step():
+    """``reflect(segment)`` gives r = A_s − Γ on the segment's time base; constant (the rest
+    state) between packets; the antenna follows the trajectory."""
+    from types import SimpleNamespace
+    tag = HimrTag(HimrTagConfig(structural_mode=0.5), RotatingBoom())
+    plan = tag.plan(0.05, rng=trial_rng(4, 0))
+    fs = 8e6
+    seg = SimpleNamespace(t0_s=plan.start_s[2] - 1e-4, fs_hz=fs, n_samples=8000)
+    refl = tag.reflect(seg)
+    np.testing.assert_array_equal(refl.reradiation(8000), 0.5 - tag.reflection(seg.t0_s, fs, 8000))
+    assert refl.constant_reradiation is None and refl.scatters
+    quiet = tag.reflect(SimpleNamespace(t0_s=plan.start_s[2] + 1e-3, fs_hz=fs, n_samples=800))
+    assert quiet.constant_reradiation == 0.5 - 1.0
+    np.testing.assert_allclose(tag.position_m(0.0), [2.0, 1.8048, 0.0])

@@ -78,25 +78,29 @@ def h_2d(x, pylons_m=PYLONS_M, accel: Accel = "literal") -> np.ndarray:
 
 
 def jacobian_2d(x, pylons_m=PYLONS_M, accel: Accel = "literal") -> np.ndarray:
-    """C(x) = ∂h/∂x: (2P + 4, 9) for one state x (9,) (App. B, module docstring)."""
+    """C(x) = ∂h/∂x: (..., 2P + 4, 9) for states x (..., 9) (App. B, module docstring)."""
     x = np.asarray(x, dtype=float)
     p = _pylons(pylons_m)
-    X, Xd, Xdd, Y, Yd, Ydd, psi, _, _ = x
-    C = np.zeros((2 * p.shape[0] + 4, 9))
-    for u, (xu, yu) in enumerate(p):
-        dx, dy = X - xu, Y - yu
-        r = np.hypot(dx, dy)
-        C[2 * u, [0, 3]] = dx / r, dy / r
-        C[2 * u + 1, [0, 1, 3, 4]] = (dy * (dy * Xd - dx * Yd) / r ** 3, dx / r,
-                                      dx * (dx * Yd - dy * Xd) / r ** 3, dy / r)
-    k = 2 * p.shape[0]
+    X, Xd, Xdd, Y, Yd, Ydd, psi = (x[..., i, None] for i in range(7))
+    n_p = p.shape[0]
+    C = np.zeros(x.shape[:-1] + (2 * n_p + 4, 9))
+    dx, dy = X - p[:, 0], Y - p[:, 1]
+    r = np.hypot(dx, dy)
+    rows, rates = np.arange(0, 2 * n_p, 2), np.arange(1, 2 * n_p, 2)
+    C[..., rows, 0], C[..., rows, 3] = dx / r, dy / r
+    C[..., rates, 0] = dy * (dy * Xd - dx * Yd) / r ** 3
+    C[..., rates, 1] = dx / r
+    C[..., rates, 3] = dx * (dx * Yd - dy * Xd) / r ** 3
+    C[..., rates, 4] = dy / r
+    k = 2 * n_p
     if accel == "prerotated":
-        C[k, 2] = C[k + 1, 5] = -1.0
+        C[..., k, 2] = C[..., k + 1, 5] = -1.0
     else:
-        c, s = np.cos(psi), np.sin(psi)
-        C[k, [2, 5, 6]] = c, s, -Xdd * s + Ydd * c
-        C[k + 1, [2, 5, 6]] = -s, c, -Xdd * c - Ydd * s
-    C[k + 2, 6] = C[k + 3, 7] = 1.0
+        c, s = np.cos(psi[..., 0]), np.sin(psi[..., 0])
+        xdd, ydd = Xdd[..., 0], Ydd[..., 0]
+        C[..., k, 2], C[..., k, 5], C[..., k, 6] = c, s, -xdd * s + ydd * c
+        C[..., k + 1, 2], C[..., k + 1, 5], C[..., k + 1, 6] = -s, c, -xdd * c - ydd * s
+    C[..., k + 2, 6] = C[..., k + 3, 7] = 1.0
     return C
 
 

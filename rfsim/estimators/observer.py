@@ -198,7 +198,7 @@ def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYL
 def eig_along(states, L, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
     """eig(A − L·C(x)) for each state of a trajectory: states (n, 9) → (n, 9) complex."""
     st = np.atleast_2d(np.asarray(states, float))
-    return np.array([np.linalg.eigvals(A9 - L @ jacobian_2d(s, pylons_m, accel)) for s in st])
+    return np.linalg.eigvals(A9 - L @ jacobian_2d(st, pylons_m, accel))
 
 
 def unstable_intervals(t_s, max_real) -> list[tuple[float, float]]:
@@ -220,12 +220,8 @@ def unstable_intervals(t_s, max_real) -> list[tuple[float, float]]:
 
 def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
     """rank of O = [C; CA; CA²] (A³ = 0) for each state: (n,) int."""
-    st = np.atleast_2d(np.asarray(states, float))
-    ranks = []
-    for s in st:
-        C = jacobian_2d(s, pylons_m, accel)
-        ranks.append(np.linalg.matrix_rank(np.vstack([C, C @ A9, C @ A9 @ A9])))
-    return np.array(ranks, dtype=int)
+    C = jacobian_2d(np.atleast_2d(np.asarray(states, float)), pylons_m, accel)
+    return np.linalg.matrix_rank(np.concatenate([C, C @ A9, C @ A9 @ A9], axis=-2)).astype(int)
 
 
 __all__ = ["Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",

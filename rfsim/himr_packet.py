@@ -3,8 +3,10 @@
 Formats (himr-tag.md §2.1–2.2; wave2-specs.md §H):
 
 * ``9axis-2d`` (seed 000 Table 5, L715–L720): 3 B header, 2 B tag ID, 6 B accelerometer,
-  6 B gyroscope, 6 B compass, 1 B CRC = 240 bit; BOC with 8 chips/bit at 4 Mcps
-  (500 kb/s, 0.48 ms air time); 141 packets/s.
+  6 B gyroscope, 6 B compass, 1 B CRC = 24 B = 192 bit ("a three-bytes header, a unique
+  two-bytes tag identification code, 18-bytes inertial data, and a single-byte CRC", L715);
+  BOC with 8 chips/bit at 4 Mcps (500 kb/s, 0.384 ms air time); 141 packets/s. (The
+  reference pages' "30 bytes = 240 bit, 0.48 ms" does not follow from these byte counts.)
 * ``6axis-1d`` (seed 000 Table 2, L411–L422): 3 B preamble, 2 B tag ID, 6 B accelerometer,
   1 B CRC = 96 bit; 64 chips/bit at 5 Mcps (78,125 b/s, 1.2288 ms air time); about
   300 packets/s.

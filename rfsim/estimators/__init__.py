@@ -8,5 +8,54 @@ They are references for validating datasets, not a tracking library.
 The public names are listed one per line so that independent additions merge.
 """
 
+from rfsim.estimators.kalman import kf_predict
+from rfsim.estimators.kalman import kf_update
+from rfsim.estimators.kalman import ekf_update
+from rfsim.estimators.kalman import FilterResult
+from rfsim.estimators.kalman import kalman_filter
+from rfsim.estimators.kalman import rts_smoother
+from rfsim.estimators.particle import effective_sample_size
+from rfsim.estimators.particle import systematic_indices
+from rfsim.estimators.particle import systematic_resample
+from rfsim.estimators.particle import multinomial_resample
+from rfsim.estimators.particle import ParticleFilterResult
+from rfsim.estimators.particle import sir_filter
+from rfsim.estimators.grid_bayes import gaussian_log_likelihood
+from rfsim.estimators.grid_bayes import gaussian_transition
+from rfsim.estimators.grid_bayes import grid_bayes_filter
+from rfsim.estimators.grid_bayes import grid_estimates
+from rfsim.estimators.nearest import landmarc
+from rfsim.estimators.nearest import weighted_centroid
+from rfsim.estimators.calibration import ALPHA_GRID_DBM
+from rfsim.estimators.calibration import EXPONENT_GRID
+from rfsim.estimators.calibration import Calibration
+from rfsim.estimators.calibration import calibrate_log_distance
+from rfsim.estimators.calibration import fit_log_distance
+from rfsim.estimators.bounds import log_distance_crlb
+
 __all__ = [
+    "kf_predict",
+    "kf_update",
+    "ekf_update",
+    "FilterResult",
+    "kalman_filter",
+    "rts_smoother",
+    "effective_sample_size",
+    "systematic_indices",
+    "systematic_resample",
+    "multinomial_resample",
+    "ParticleFilterResult",
+    "sir_filter",
+    "gaussian_log_likelihood",
+    "gaussian_transition",
+    "grid_bayes_filter",
+    "grid_estimates",
+    "landmarc",
+    "weighted_centroid",
+    "ALPHA_GRID_DBM",
+    "EXPONENT_GRID",
+    "Calibration",
+    "calibrate_log_distance",
+    "fit_log_distance",
+    "log_distance_crlb",
 ]

@@ -145,9 +145,10 @@ def quasi_static_shadowing_db(points_m, sigma_db, *, rng: np.random.Generator,
             field = ShadowingField(float(s), decorrelation_m, rng=rng, n_features=n_features)
             out[:, j] = field.value_db(x)
         return out
-    unique, inverse = np.unique(x, axis=0, return_inverse=True)
-    draws = rng.standard_normal((unique.shape[0], sig.size)) * sig
-    return draws[inverse.reshape(-1)]
+    first: dict[tuple, int] = {}
+    inverse = np.array([first.setdefault(p, len(first)) for p in map(tuple, x.tolist())], dtype=np.intp)
+    draws = rng.standard_normal((len(first), sig.size)) * sig
+    return draws[inverse]
 
 
 def people_term_db(n_beacons: int, n_readers: int, sigma_db: float, *, rng: np.random.Generator,

@@ -81,7 +81,8 @@ class Config:
                                          doc="simulation presets: RSSI noise σ0 values (σ = σ0 in the filters)")
     motions: tuple[Literal["fixed", "mobile"], ...] = param(("fixed", "mobile"), doc="target motions simulated")
     estimators: tuple[Literal["nn", "grid", "pf"], ...] = param(("nn", "grid", "pf"), doc="estimator families")
-    trials: int = param(1000, lo=1, hi=1_000_000, doc="runs per case (home: environments)")
+    trials: int | None = param(None, lo=1, hi=1_000_000,
+                               doc="runs per case (none = preset: 1000 sim; home 4 repetitions of the 25 points / of 25 walks, each in its own environment)")
     nn_k: int = param(4, lo=1, hi=100000, doc="LANDMARC k (home preset: all 36 cells when larger than 36 is not allowed)")
     step_std_m: float = param(0.5, lo=0.0, hi=100.0, lo_open=True, unit="m", doc="D = D0: motion std per beacon")
     recursions: int = param(0, lo=0, hi=1000, doc="rt (0 = the thesis's value for each σ0 and filter)")
@@ -198,7 +199,7 @@ def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: in
     n_ref, n_read = ref.shape[0], channel.n_readers
     tracks, shadow_t, shadow_r, people_t, people_r, pattern = [], [], [], [], [], []
     xmin, ymin, xmax, ymax = plan.bounds
-    for b in range(config.trials):
+    for b in range(n_tracks(config, plan, motion)):
         rng = trial_rng(seed, case, 0, b)
         if _home(config):
             track = _home_track(plan, motion, b, n_steps)
@@ -236,6 +237,14 @@ FINGERPRINTS_PER_CELL = 40
 def _fingerprint_points(plan: FloorPlan, rng) -> np.ndarray:
     jitter = rng.uniform(-0.1, 0.1, size=(plan.cells_xy.shape[0], FINGERPRINTS_PER_CELL, 2))
     return (plan.cells_xy[:, None, :] + jitter).reshape(-1, 2)
+
+
+def n_tracks(config: Config, plan: FloorPlan, motion: str) -> int:
+    """Tracks of a case: ``trials`` (simulation) or ``trials`` × 25 (home: the 25 fixed points, or
+    25 walks alternating between the two room paths)."""
+    if not _home(config):
+        return config.trials if config.trials is not None else 1000
+    return (config.trials if config.trials is not None else 4) * plan.fixed_points_xy.shape[0]
 
 
 def _home_track(plan: FloorPlan, motion: str, trial: int, n_steps: int) -> np.ndarray:

@@ -5,7 +5,8 @@ equation and source in the docstring, cross-checked in the tests against
 well-kept libraries (filterpy for the Kalman family) or brute-force references.
 They are references for validating datasets, not a tracking library.
 
-The public names are listed one per line so that independent additions merge.
+The public names are imported one per line (so that independent additions merge); ``__all__``
+is every imported public name.
 """
 
 from rfsim.estimators.kalman import kf_predict
@@ -33,29 +34,7 @@ from rfsim.estimators.calibration import calibrate_log_distance
 from rfsim.estimators.calibration import fit_log_distance
 from rfsim.estimators.bounds import log_distance_crlb
 
-__all__ = [
-    "kf_predict",
-    "kf_update",
-    "ekf_update",
-    "FilterResult",
-    "kalman_filter",
-    "rts_smoother",
-    "effective_sample_size",
-    "systematic_indices",
-    "systematic_resample",
-    "multinomial_resample",
-    "ParticleFilterResult",
-    "sir_filter",
-    "gaussian_log_likelihood",
-    "gaussian_transition",
-    "grid_bayes_filter",
-    "grid_estimates",
-    "landmarc",
-    "weighted_centroid",
-    "ALPHA_GRID_DBM",
-    "EXPONENT_GRID",
-    "Calibration",
-    "calibrate_log_distance",
-    "fit_log_distance",
-    "log_distance_crlb",
-]
+import types as _types
+
+__all__ = sorted(name for name, value in dict(globals()).items()
+                 if not name.startswith("_") and not isinstance(value, _types.ModuleType))

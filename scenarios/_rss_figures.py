@@ -22,7 +22,7 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     plt = pyplot()
     a = _attrs(path)
     est = read_table(path, "estimates")
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = plt.subplots(figsize=(8, 6))
     x0, y0, x1, y1 = a["bounds_m"]
     ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
     for w in np.atleast_2d(a["walls_xy"]):
@@ -45,7 +45,7 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
         first = m & (est["estimator"] == names[0])
         ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5,
                 label="true track" if tr == 0 else None)
-        for i, name in enumerate(names[:4]):
+        for i, name in enumerate(names[::max(1, len(names) // 4)][:4]):
             mm = m & (est["estimator"] == name) & np.isfinite(est["x_est_m"])
             ax.plot(est["x_est_m"][mm], est["y_est_m"][mm], "--.", color=colors[(i + 1) % len(colors)],
                     lw=1, label=name if tr == 0 else None)
@@ -55,7 +55,7 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     ax.set_title(f"{a['preset']}: readers, walls, true and estimated tracks")
     handles, labels = ax.get_legend_handles_labels()
     uniq = dict(zip(labels, handles))
-    ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper right")
+    ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return save_figure(fig, out)
 
 

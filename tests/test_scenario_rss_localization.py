@@ -52,6 +52,19 @@ def test_nn_table_7_3_within_10_percent_and_monotone():
     np.testing.assert_allclose(sm["published_rmse_m"], list(published.values()))
 
 
+@pytest.mark.parametrize("preset, readers, k, published", [
+    ("sim-5x8", 4, 4, 1.74),       # Table 7.2
+    ("sim-10x16", 3, 68, 3.73),    # Table 7.6
+    ("sim-10x16", 4, 68, 3.39),
+])
+def test_nn_reader_count_and_large_room(preset, readers, k, published):
+    """NN at σ0 = 5.2 dB with 4 readers and in the 10 × 16 m room: ±10 % + 3 SE of 600 trials."""
+    ds = _run(preset=preset, n_readers=readers, nn_k=k, estimators=["nn"], motions=["fixed"],
+              sigma0_db=[5.2], trials=600)
+    rmse, se = _rmse_and_se(_table(ds, "estimates"), "nn", "fixed")
+    assert abs(rmse - published) <= 0.10 * published + 3 * se
+
+
 def test_grid_bayes_fixed_and_mobile_at_5_2_db():
     """Grid Bayes (D = 0.5 m, rt = 10, MMSE): fixed 1.83 m ±10 % (Table 7.11), mobile 1.22 m
     ±15 % (Table 7.10), fixed > mobile, MMSE < MAP (Table 7.7); 600 trials."""

@@ -22,6 +22,9 @@ from rfsim.estimators import (calibrate_log_distance, gaussian_log_likelihood, g
 DEFAULT_FILTER_SIGMA_DB = 5.2
 #: Lower bound on the pooled online σ (eq. 6.7 with 4 tags can come out near 0).
 MIN_ONLINE_SIGMA_DB = 1.0
+#: Beacon carrier and transmit power of the active tag (L957).
+FC_HZ = 868e6
+TX_POWER_DBM = 5.0
 #: RSSI-smoothing threshold on a reference tag's LANDMARC weight (§1.9, L1107).
 SMOOTHING_WEIGHT = 0.4
 
@@ -83,7 +86,7 @@ def _augment(z, alpha, exponent, sigma):
     return np.concatenate([z, a, n, s], axis=-1)
 
 
-def estimate_simulation(config, plan, channel, data, sigma0, motion, rt, *, rng) -> dict:
+def estimate_simulation(config, plan, channel, data, sigma0, motion, rt, k, *, rng) -> dict:
     """kNN, grid Bayes (MMSE/MAP) and SIR (MMSE/MAP) on a simulation case → name → (B, T, 2)."""
     z = data.reported_dbm
     n_steps = z.shape[1]
@@ -93,7 +96,7 @@ def estimate_simulation(config, plan, channel, data, sigma0, motion, rt, *, rng)
     floor = config.report.floor_dbm if config.report is not None else -90.0
     out = {}
     if "nn" in config.estimators:
-        out["nn"] = landmarc(_fill_floor(z, floor), mu, cells, config.nn_k)
+        out["nn"] = landmarc(_fill_floor(z, floor), mu, cells, k)
     if "grid" in config.estimators:
         n_rt = rt["grid"]
         ll = gaussian_log_likelihood(z[:, :n_rt, None, :], mu, sigma)
@@ -127,7 +130,7 @@ def smooth_rssi(z, ref_z, ref_expected):
     return z - corr
 
 
-def estimate_home(config, plan, channel, data, offline, motion, *, rng, tables, case) -> dict:
+def estimate_home(config, plan, channel, data, offline, motion, k, *, rng, tables, case) -> dict:
     """The home-replica estimators of Tables 7.41/7.42 → name → (B, T, 2)."""
     z = data.reported_dbm
     b, t, j = z.shape
@@ -147,7 +150,6 @@ def estimate_home(config, plan, channel, data, offline, motion, *, rng, tables, 
     ref_exp = channel.mean_rss_dbm(ref3, cal.alpha_dbm[:, :, None, :], cal.exponent[:, :, None, :])
     z_s = smooth_rssi(z, data.ref_reported_dbm, np.swapaxes(ref_exp, -1, -2))
     zf = _fill_floor(z, floor)
-    k = min(config.nn_k, plan.cells_xy.shape[0])
     out = {"nn-offline": landmarc(zf, mu_off, plan.cells_xy, k),
            "nn-online": landmarc(zf, mu_on, plan.cells_xy, k)}
     if data.pattern_map_dbm is not None:
@@ -197,7 +199,8 @@ class Tables:
         for k, v in cols.items():
             self.rows[table][k].append(np.broadcast_to(np.asarray(v), (n,)) if np.ndim(v) == 0 else np.ravel(v))
 
-    def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, n_readers):
+    def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m,
+                 reference_xy):
         b, t, j = data.reported_dbm.shape
         n_ref = data.ref_reported_dbm.shape[-1]
         tr, st = np.meshgrid(np.arange(b), np.arange(t), indexing="ij")
@@ -207,12 +210,17 @@ class Tables:
             shape = rss.shape
             idx = np.indices(shape)
             tag = idx[3]
+            xy = np.concatenate([data.truth_xy[:, :, None, :],
+                                 np.broadcast_to(reference_xy, (b, t) + reference_xy.shape)], axis=2)
+            pos = np.broadcast_to(xy[:, :, None], shape + (2,))                           # (B,T,J,1+I,2)
             self._extend("beacons", t_s=(idx[1] * 1.0).ravel(), case=np.full(rss.size, case),
                          trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(),
                          antenna=np.ones(rss.size, int), tag=tag.ravel(),
                          epc=np.array([f"3000{0:016X}{k + 1:04X}" for k in range(shape[3])])[tag.ravel()],
                          rssi_dbm=rss.ravel(), rssi_reported_dbm=rep.ravel(),
-                         detected=~np.isnan(rep.ravel()),
+                         detected=~np.isnan(rep.ravel()), frequency_hz=np.full(rss.size, FC_HZ),
+                         tx_power_dbm=np.full(rss.size, TX_POWER_DBM), x_m=pos[..., 0].ravel(),
+                         y_m=pos[..., 1].ravel(), z_m=np.full(rss.size, tag_z_m),
                          sigma0_db=np.full(rss.size, sigma0), motion=np.full(rss.size, motion))
         wide = {f"rssi_r{r + 1}_dbm": data.reported_dbm[..., r].ravel() for r in range(j)}
         self._extend("rssi_wide", case=np.full(b * t, case), trial=tr.ravel(), step=st.ravel(),
@@ -268,6 +276,8 @@ _UNITS = {
     "detected": ("1", "beacon heard (above the reader floor)"),
     "sigma0_db": ("dB", "RSSI noise σ0 of the case (NaN = per-reader Table 6.1 σ)"),
     "motion": ("", "fixed or mobile target"), "x_m": ("m", "true x"), "y_m": ("m", "true y"),
+    "z_m": ("m", "true tag height"), "frequency_hz": ("Hz", "beacon carrier"),
+    "tx_power_dbm": ("dBm", "tag transmit power"),
     "estimator": ("", "estimator name"), "x_est_m": ("m", "estimated x"), "y_est_m": ("m", "estimated y"),
     "x_true_m": ("m", "true x"), "y_true_m": ("m", "true y"), "error_m": ("m", "Euclidean error"),
     "scored": ("1", "counted in the summary (fixed: last recursion; mobile/home: every step)"),

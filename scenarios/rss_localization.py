@@ -15,14 +15,20 @@ Experiments per σ0 (simulation presets; §2.4, L1133–L1155, L1319–L1327): a
 (uniform in the room, shadowing frozen over the rt recursions, scored after the last) and a
 **mobile** target (Gaussian random walk D0 = 0.5 m per beacon, steps leaving the room redrawn,
 fresh shadowing at every new position, scored at every step). Estimators: LANDMARC kNN on the
-model map (k = 4), grid Bayes over the k_CELL cells (D = 0.5 m, MMSE and MAP), SIR particle
-filter (N = 250, Gaussian proposal D = 0.5 m reflected at the walls, systematic resampling every
-step, MMSE and MAP); rt per σ from the thesis's tables. The home replica adds the offline fit,
-online calibration of α_j, n_j and σ from the reference tags (eq. 6.5–6.7), RSSI smoothing
-(§1.9) and the improved SIR (√w selection, resampling when N_eff < 0.5 N).
+model map (k = 4; 68 in the 10 × 16 m room), grid Bayes over the k_CELL cells (D = 0.5 m, MMSE
+and MAP), SIR particle filter (N = 250, Gaussian proposal D = 0.5 m reflected at the walls,
+systematic resampling every step, MMSE and MAP); rt per σ from the thesis's tables. The home
+replica adds the offline fit, online calibration of α_j, n_j and σ from the reference tags (eq. 6.5–6.7), RSSI smoothing
+(§1.9), the fingerprint (pattern) map of 40 reads per cell and the improved SIR (√w selection,
+resampling when N_eff < 0.5 N, the known 0.5 m/step velocity for the mobile target); kNN
+uses k = 36 there (L1814).
 
 Noise model: independent per reader (see channels.rss): it reproduces Table 7.3, a term shared
-by all readers does not (wave2-specs.md §R).
+by all readers does not (wave2-specs.md §R). Simulation presets: all of σ0² quasi-static and
+independent per position (the thesis's "noise drawn once per run"), no quantization. Home: 75 %
+of σ_j² quasi-static with Gudmundson correlation (d_corr = 3 m, so that a target near a
+reference tag shares its error, §1.9), 25 % a people term redrawn per beacon, 1 dB RSSI steps
+(L1787); these shares are this replica's choice, the thesis does not split its σ.
 
 Randomness: case c (σ0 index × motion), trial b draws its environment and track from
 ``trial_rng(seed, c, 0, b)``; the estimators of case c (particle propagation, resampling) use
@@ -55,25 +61,30 @@ DESCRIPTION = ("active-RFID RSSI localization (Özkaya): log-distance RSS datase
                "SIR PF, reference-tag calibration")
 
 BEACON_PERIOD_S = 1.0
-TARGET_EPC = "300000000000000000000001"
 
 
 @dataclass(frozen=True)
 class ShadowingConfig:
-    decorrelation_m: float | None = param(None, lo=0.0, hi=100.0, unit="m",
-                                          doc="Gudmundson decorrelation distance (0 = independent per position; none = preset: 0 sim, 3 home)")
-    static_fraction: float | None = param(None, lo=0.0, hi=1.0,
-                                          doc="share of σ² that is quasi-static; the rest is the people term (none = preset: 1 sim, 0.75 home)")
-    people_correlation: float = param(0.0, lo=0.0, hi=0.999, doc="AR(1) coefficient of the people term between beacons")
+    decorrelation_m: float | None = param(
+        None, lo=0.0, hi=100.0, unit="m",
+        doc="Gudmundson decorrelation distance (0 = independent per position; none = preset: 0 sim, 3 home)")
+    static_fraction: float | None = param(
+        None, lo=0.0, hi=1.0,
+        doc="share of σ² that is quasi-static, the rest is the people term (none = preset: 1 sim, 0.75 home)")
+    people_correlation: float = param(0.0, lo=0.0, hi=0.999,
+                                      doc="AR(1) coefficient of the people term between beacons")
 
 
 @dataclass(frozen=True)
 class Config:
     preset: Literal["sim-5x8", "sim-10x16", "home-2room"] = param("sim-5x8", doc="floor plan and experiment")
-    rss_model: Literal["log-distance"] = param("log-distance", doc="statistical RSS model (the waveform mode is not available yet)")
+    rss_model: Literal["log-distance"] = param(
+        "log-distance", doc="statistical RSS model (the waveform mode is not available yet)")
     n_readers: Literal[3, 4] = param(3, doc="corner readers of the simulation rooms")
-    readers_xy: tuple[tuple[float, float], ...] | None = param(None, unit="m", doc="reader positions overriding the preset")
-    walls_xy: tuple[tuple[float, float, float, float], ...] | None = param(None, unit="m", doc="walls (x0, y0, x1, y1) overriding the preset")
+    readers_xy: tuple[tuple[float, float], ...] | None = param(
+        None, unit="m", doc="reader positions overriding the preset")
+    walls_xy: tuple[tuple[float, float, float, float], ...] | None = param(
+        None, unit="m", doc="walls (x0, y0, x1, y1) overriding the preset")
     alpha_dbm: float = param(-52.0, lo=-120.0, hi=0.0, unit="dBm", doc="simulation presets: RSS at 1 m")
     exponent: float = param(2.3, lo=0.5, hi=8.0, lo_open=True, doc="simulation presets: path-loss exponent n")
     waf_db: float = param(2.0, lo=0.0, hi=40.0, unit="dB", doc="wall attenuation factor per crossing")
@@ -81,21 +92,25 @@ class Config:
                                          doc="simulation presets: RSSI noise σ0 values (σ = σ0 in the filters)")
     motions: tuple[Literal["fixed", "mobile"], ...] = param(("fixed", "mobile"), doc="target motions simulated")
     estimators: tuple[Literal["nn", "grid", "pf"], ...] = param(("nn", "grid", "pf"), doc="estimator families")
-    trials: int | None = param(None, lo=1, hi=1_000_000,
-                               doc="runs per case (none = preset: 1000 sim; home 4 repetitions of the 25 points / of 25 walks, each in its own environment)")
-    nn_k: int = param(4, lo=1, hi=100000, doc="LANDMARC k (home preset: all 36 cells when larger than 36 is not allowed)")
+    trials: int | None = param(
+        None, lo=1, hi=1_000_000,
+        doc="runs per case (none = preset: 1000 sim; home: 4 × the 25 points / 25 walks, own environments)")
+    nn_k: int | None = param(
+        None, lo=1, hi=100000,
+        doc="LANDMARC k ≤ the number of cells (none = the thesis's: 4 sim-5x8, 68 sim-10x16, 36 home)")
     step_std_m: float = param(0.5, lo=0.0, hi=100.0, lo_open=True, unit="m", doc="D = D0: motion std per beacon")
     recursions: int = param(0, lo=0, hi=1000, doc="rt (0 = the thesis's value for each σ0 and filter)")
     particles: int = param(250, lo=1, hi=1_000_000, doc="SIR particles N")
     home_steps: int = param(30, lo=1, hi=1000, doc="home: estimates per fixed point (30 in the thesis)")
     shadowing: ShadowingConfig = param(ShadowingConfig(), doc="shadowing and people term")
-    report: RssReport | None = param(None, doc="reader RSSI report (none = preset: no quantization sim, 1 dB home)")
+    report: RssReport | None = param(
+        None, doc="reader RSSI report (none = preset: no quantization sim, 1 dB home)")
     write_beacons: bool = param(True, doc="write the long per-beacon table")
 
     def __post_init__(self):
         check_fields(self)
         plan = floor_plan(self)
-        if self.nn_k > plan.cells_xy.shape[0]:
+        if self.nn_k is not None and self.nn_k > plan.cells_xy.shape[0]:
             raise ConfigError("nn_k", self.nn_k, f"an integer in [1, {plan.cells_xy.shape[0]}] "
                               f"(the number of reference signatures of {self.preset})")
 
@@ -140,6 +155,15 @@ def rss_channel(plan: FloorPlan, waf_db: float, sigma_db=None) -> RssChannel:
 
 def _xyz(xy: np.ndarray, z: float) -> np.ndarray:
     return np.concatenate([xy, np.full(xy.shape[:-1] + (1,), z)], axis=-1)
+
+
+#: The thesis's k_NN per preset (Tables 7.3, 7.6; L1814).
+DEFAULT_NN_K = {"sim-5x8": 4, "sim-10x16": 68, "home-2room": 36}
+
+
+def nn_k(config: Config) -> int:
+    """LANDMARC k of the run."""
+    return config.nn_k if config.nn_k is not None else DEFAULT_NN_K[config.preset]
 
 
 def _home(config: Config) -> bool:
@@ -320,17 +344,19 @@ def run(config: Config, *, seed: int) -> Dataset:
         data = simulate_case(config, plan, channel, case, motion, n_steps, seed)
         rng = trial_rng(seed, case, 1)
         if home:
-            results = est.estimate_home(config, plan, channel, data, offline, motion, rng=rng,
+            results = est.estimate_home(config, plan, channel, data, offline, motion, nn_k(config), rng=rng,
                                         tables=tables, case=case)
             scored = {name: np.ones(n_steps, bool) for name in results}
         else:
-            results = est.estimate_simulation(config, plan, channel, data, sigma0, motion, rt, rng=rng)
+            results = est.estimate_simulation(config, plan, channel, data, sigma0, motion, rt, nn_k(config),
+                                              rng=rng)
             scored = {name: _scored(motion, rt[name.split("-")[0]], n_steps) for name in results}
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
         crlb = log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
                                  np.maximum(channel.sigma_db, 1e-3))
         tables.add_case(case, sigma0, motion, data, results, scored, crlb,
-                        beacons=config.write_beacons, n_readers=channel.n_readers)
+                        beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
+                        reference_xy=plan.reference_xy)
         for name in results:
             pub = (PUBLISHED_HOME.get((name, motion)),) if home else published(
                 plan.name, len(plan.readers_xy), name, motion, sigma0)

@@ -7,7 +7,8 @@ import pytest
 
 filterpy_kalman = pytest.importorskip("filterpy.kalman")
 
-from rfsim.estimators import ekf_update, kalman_filter, kf_predict, kf_update, rts_smoother
+from rfsim.estimators import (ekf_update, extended_kalman_filter, kalman_filter, kf_predict, kf_update,
+                              rts_smoother)
 
 
 def _cv_model(dt=0.1, q=0.5, r=0.2):
@@ -121,15 +122,40 @@ def test_ekf_matches_filterpy_extended_kalman_filter():
     ekf = filterpy_kalman.ExtendedKalmanFilter(dim_x=4, dim_z=4)
     ekf.x, ekf.P, ekf.F, ekf.Q, ekf.R = x0[:, None].copy(), P0.copy(), F, Q, R
     x, P = x0.copy(), P0.copy()
+    zs, ref_x = [], []
     for _ in range(40):
         x_true = F @ x_true
         z = h(x_true) + 0.05 * rng.standard_normal(4)
+        zs.append(z)
         ekf.predict()
         ekf.update(z[:, None], lambda s: jac(s[:, 0]), lambda s: h(s[:, 0])[:, None])
         x, P = kf_predict(x, P, F, Q)
         x, P = ekf_update(x, P, z, h, jac, R)
         np.testing.assert_allclose(x, ekf.x[:, 0], rtol=0, atol=1e-9)
         np.testing.assert_allclose(P, ekf.P, rtol=0, atol=1e-9)
+        ref_x.append(ekf.x[:, 0].copy())
+    # the sequence form, batched over two copies of the trial
+    res = extended_kalman_filter(np.stack([zs, zs]), x0, P0, F, Q, lambda s, k: h(s),
+                                 lambda s, k: jac(s), R, predict_first=True)
+    np.testing.assert_allclose(res.x[1], np.array(ref_x), rtol=0, atol=1e-9)
+
+
+def test_iterated_linearisation_at_the_truth_is_the_linear_kf_of_the_linearised_model():
+    """With x_lin given, the EKF is the KF of z − h(x̄) + H x̄ = H x: check against kalman_filter."""
+    rng = np.random.default_rng(16)
+    F, Q, _, _ = _cv_model(dt=0.1, q=0.2)
+    anchors = np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0]])
+    h, jac = _range_h(anchors)
+    R = 0.05 ** 2 * np.eye(3)
+    x_lin = np.cumsum(rng.normal(0, 0.05, size=(20, 4)), axis=0) + [1.0, 0.0, 1.0, 0.0]
+    zs = h(x_lin) + 0.05 * rng.standard_normal((20, 3))
+    x0, P0 = np.array([1.0, 0.0, 1.0, 0.0]), np.eye(4)
+    got = extended_kalman_filter(zs, x0, P0, F, Q, lambda s, k: h(s), lambda s, k: jac(s), R, x_lin=x_lin)
+    Hs = jac(x_lin)
+    z_lin = zs - h(x_lin) + np.einsum("tmn,tn->tm", Hs, x_lin)
+    ref = kalman_filter(z_lin, x0, P0, F, Q, Hs, R)
+    np.testing.assert_allclose(got.x, ref.x, atol=1e-10)
+    np.testing.assert_allclose(got.P, ref.P, atol=1e-10)
 
 
 def test_ekf_with_linear_h_equals_kf_at_any_linearisation_point():

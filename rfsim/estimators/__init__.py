@@ -14,6 +14,7 @@ from rfsim.estimators.kalman import kf_update
 from rfsim.estimators.kalman import ekf_update
 from rfsim.estimators.kalman import FilterResult
 from rfsim.estimators.kalman import kalman_filter
+from rfsim.estimators.kalman import extended_kalman_filter
 from rfsim.estimators.kalman import rts_smoother
 from rfsim.estimators.particle import effective_sample_size
 from rfsim.estimators.particle import systematic_indices

@@ -199,6 +199,41 @@ def kalman_filter(zs, x0, P0, F, Q, H, R, *, predict_first: bool = False) -> Fil
     return FilterResult(xs, Ps, xps, Pps)
 
 
+def extended_kalman_filter(zs, x0, P0, F, Q, h: Callable, jacobian: Callable, R, *,
+                           x_lin=None, residual: Callable | None = None,
+                           predict_first: bool = False) -> FilterResult:
+    """EKF over ``zs (..., T, m)`` with a linear transition and a nonlinear measurement.
+
+    As :func:`kalman_filter`, with :func:`ekf_update` at each step; ``h(x, k)`` and
+    ``jacobian(x, k)`` get the step index (a sequential per-antenna model changes with k).
+    ``x_lin (..., T, n)``, e.g. the smoothed means of a previous pass, linearises step k at
+    ``x_lin[..., k, :]`` instead of the prediction: filter + :func:`rts_smoother` repeated this way
+    is the iterated extended RTS smoother (Särkkä 2013 §9; phase-tracking.md, seeds/001 L205).
+    NaN measurements are skipped.
+    """
+    zs = np.asarray(zs, float)
+    n_steps = zs.shape[-2]
+    Fk, Qk, Rk = _per_step(F, n_steps, 2), _per_step(Q, n_steps, 2), _per_step(R, n_steps, 2)
+    x = np.asarray(x0, float)
+    P = np.asarray(P0, float)
+    batch = np.broadcast_shapes(zs.shape[:-2], x.shape[:-1], P.shape[:-2])
+    n = x.shape[-1]
+    x = np.broadcast_to(x, batch + (n,))
+    P = np.broadcast_to(P, batch + (n, n))
+    xs = np.empty(batch + (n_steps, n))
+    Ps = np.empty(batch + (n_steps, n, n))
+    xps, Pps = np.empty_like(xs), np.empty_like(Ps)
+    for k in range(n_steps):
+        if k > 0 or predict_first:
+            x, P = kf_predict(x, P, Fk(k), Qk(k))
+        xps[..., k, :], Pps[..., k, :, :] = x, P
+        xl = None if x_lin is None else np.asarray(x_lin, float)[..., k, :]
+        x, P = ekf_update(x, P, zs[..., k, :], lambda s, k=k: h(s, k), lambda s, k=k: jacobian(s, k),
+                          Rk(k), x_lin=xl, residual=residual)
+        xs[..., k, :], Ps[..., k, :, :] = x, P
+    return FilterResult(xs, Ps, xps, Pps)
+
+
 def rts_smoother(xs, Ps, F, Q) -> tuple[np.ndarray, np.ndarray]:
     """Rauch–Tung–Striebel smoother of filtered moments (Särkkä 2013 eq. 8.6).
 
@@ -234,5 +269,6 @@ __all__ = [
     "ekf_update",
     "FilterResult",
     "kalman_filter",
+    "extended_kalman_filter",
     "rts_smoother",
 ]

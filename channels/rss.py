@@ -118,7 +118,8 @@ class RssChannel:
 
 
 def quasi_static_shadowing_db(points_m, sigma_db, *, rng: np.random.Generator,
-                              decorrelation_m: float = 0.0, n_features: int = 256) -> np.ndarray:
+                              decorrelation_m: float = 0.0, shared: bool = False,
+                              n_features: int = 256) -> np.ndarray:
     """One realisation of the quasi-static shadowing ``X_j(x)`` [dB] at ``points_m``.
 
     All points of one environment (a trial: target track, reference tags, fingerprint
@@ -131,24 +132,27 @@ def quasi_static_shadowing_db(points_m, sigma_db, *, rng: np.random.Generator,
     sigma_db : (J,) per-reader σ_j [dB]
     rng : generator (keyword-only)
     decorrelation_m : 0 → independent per distinct position; > 0 → Gudmundson field per reader
+    shared : one standard term for all readers, scaled by σ_j (the thesis's "noise on the
+        transmit power of the target", L1309, read literally) instead of independent readers
     n_features : random features of the correlated field (channels.large_scale.ShadowingField)
 
     Returns
     -------
-    (K, J) float64 [dB], readers independent
+    (K, J) float64 [dB]
     """
     x = _as_points(points_m).reshape(-1, 3)
     sig = np.asarray(sigma_db, float)
+    n_terms = 1 if shared else sig.size
     if decorrelation_m > 0:
-        out = np.empty((x.shape[0], sig.size))
-        for j, s in enumerate(sig):
-            field = ShadowingField(float(s), decorrelation_m, rng=rng, n_features=n_features)
-            out[:, j] = field.value_db(x)
-        return out
+        unit = np.empty((x.shape[0], n_terms))
+        for j in range(n_terms):
+            field = ShadowingField(1.0, decorrelation_m, rng=rng, n_features=n_features)
+            unit[:, j] = field.value_db(x)
+        return unit * sig
     first: dict[tuple, int] = {}
     inverse = np.array([first.setdefault(p, len(first)) for p in map(tuple, x.tolist())], dtype=np.intp)
-    draws = rng.standard_normal((len(first), sig.size)) * sig
-    return draws[inverse]
+    draws = rng.standard_normal((len(first), n_terms))
+    return draws[inverse] * sig
 
 
 def people_term_db(n_beacons: int, n_readers: int, sigma_db: float, *, rng: np.random.Generator,

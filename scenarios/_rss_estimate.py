@@ -213,7 +213,8 @@ class Tables:
             xy = np.concatenate([data.truth_xy[:, :, None, :],
                                  np.broadcast_to(reference_xy, (b, t) + reference_xy.shape)], axis=2)
             pos = np.broadcast_to(xy[:, :, None], shape + (2,))                           # (B,T,J,1+I,2)
-            self._extend("beacons", t_s=(idx[1] * 1.0).ravel(), case=np.full(rss.size, case),
+            self._extend("beacons", t_s=(idx[1] * 1.0).ravel(),
+                         t_us=(idx[1] * 1_000_000).astype(np.int64).ravel(), case=np.full(rss.size, case),
                          trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(),
                          antenna=np.ones(rss.size, int), tag=tag.ravel(),
                          epc=np.array([f"3000{0:016X}{k + 1:04X}" for k in range(shape[3])])[tag.ravel()],
@@ -267,7 +268,8 @@ class Tables:
 
 
 _UNITS = {
-    "t_s": ("s", "beacon time (1 beacon per second)"), "case": ("1", "index of the (σ0, motion) case"),
+    "t_s": ("s", "beacon time (1 beacon per second)"),
+    "t_us": ("us", "beacon time stamp in whole microseconds, as readers report it"), "case": ("1", "index of the (σ0, motion) case"),
     "trial": ("1", "run (simulation) or track (home) index"), "step": ("1", "beacon epoch / recursion"),
     "reader": ("1", "reader (1-based)"), "antenna": ("1", "reader antenna port (1-based)"),
     "tag": ("1", "0 = target, 1.. = reference tags"), "epc": ("", "tag EPC as a hex string"),

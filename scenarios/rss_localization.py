@@ -73,6 +73,8 @@ class ShadowingConfig:
         doc="share of σ² that is quasi-static, the rest is the people term (none = preset: 1 sim, 0.75 home)")
     people_correlation: float = param(0.0, lo=0.0, hi=0.999,
                                       doc="AR(1) coefficient of the people term between beacons")
+    readers: Literal["independent", "shared"] = param(
+        "independent", doc="quasi-static term independent per reader, or one term shared by all readers")
 
 
 @dataclass(frozen=True)
@@ -233,7 +235,8 @@ def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: in
                      else random_walk(start, n_steps, config.step_std_m, plan.bounds, rng=rng))
         fp = _fingerprint_points(plan, rng) if _home(config) else np.zeros((0, 2))
         pts = _xyz(np.concatenate([track, ref, fp]), plan.tag_height_m)
-        x = quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec)
+        x = quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec,
+                                      shared=config.shadowing.readers == "shared")
         sp = np.sqrt(1.0 - frac) * sig
         kw = dict(rng=rng, correlation=config.shadowing.people_correlation)
         tracks.append(track)

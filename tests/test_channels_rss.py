@@ -55,6 +55,15 @@ def test_independent_shadowing_is_quasi_static_and_has_sigma():
     assert abs(np.corrcoef(u.T)[0, 1]) < 5 / np.sqrt(k)
 
 
+@pytest.mark.parametrize("dcorr", [0.0, 2.0])
+def test_shared_shadowing_is_one_term_scaled_per_reader(dcorr):
+    rng = trial_rng(6, 0)
+    pts = rng.uniform(0, 5, size=(50, 3))
+    x = quasi_static_shadowing_db(pts, np.array([2.0, 6.0]), rng=rng, decorrelation_m=dcorr, shared=True)
+    np.testing.assert_allclose(x[:, 1], 3.0 * x[:, 0], rtol=1e-12)
+    assert np.std(x[:, 0]) > 0
+
+
 def test_correlated_shadowing_follows_gudmundson():
     """Over R = 1500 environments, values 2 m apart with d_corr = 2 m correlate as e^-1 (± 5 SE,
     SE = (1 − ρ²)/√R); readers stay independent."""

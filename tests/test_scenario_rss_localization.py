@@ -52,6 +52,16 @@ def test_nn_table_7_3_within_10_percent_and_monotone():
     np.testing.assert_allclose(sm["published_rmse_m"], list(published.values()))
 
 
+def test_shared_noise_term_does_not_reproduce_table_7_3():
+    """Why the noise is independent per reader: one term shared by all readers (the literal
+    "noise on the target's transmit power") gives ≈ 1.6 m at σ0 = 5.2 dB, 20 % below the
+    published 1.95 m — outside the ±10 % that the independent model meets (1000 trials)."""
+    ds = _run(estimators=["nn"], motions=["fixed"], sigma0_db=[5.2], trials=1000,
+              shadowing={"readers": "shared"})
+    rmse, se = _rmse_and_se(_table(ds, "estimates"), "nn", "fixed")
+    assert rmse + 3 * se < 0.9 * 1.95
+
+
 @pytest.mark.parametrize("preset, readers, k, published", [
     ("sim-5x8", 4, 4, 1.74),       # Table 7.2
     ("sim-10x16", 3, 68, 3.73),    # Table 7.6

@@ -269,7 +269,8 @@ class Tables:
 
 _UNITS = {
     "t_s": ("s", "beacon time (1 beacon per second)"),
-    "t_us": ("us", "beacon time stamp in whole microseconds, as readers report it"), "case": ("1", "index of the (σ0, motion) case"),
+    "t_us": ("us", "beacon time stamp in whole microseconds, as readers report it"),
+    "case": ("1", "index of the (σ0, motion) case"),
     "trial": ("1", "run (simulation) or track (home) index"), "step": ("1", "beacon epoch / recursion"),
     "reader": ("1", "reader (1-based)"), "antenna": ("1", "reader antenna port (1-based)"),
     "tag": ("1", "0 = target, 1.. = reference tags"), "epc": ("", "tag EPC as a hex string"),

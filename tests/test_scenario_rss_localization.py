@@ -145,6 +145,10 @@ def test_figures_are_written(tmp_path):
     names = sorted(p.name for p in out.glob("*.png"))
     assert names == ["rss-localization-cdf.png", "rss-localization-floorplan.png",
                      "rss-localization-rmse.png"]
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(out / "rss-localization.h5", engine="h5netcdf", group="beacons") as b:
+        assert b["epc"].values[0] == "300000000000000000000001"
+        assert b["t_us"].values.max() == 19_000_000     # rt = 20 recursions at 1 beacon/s
 
 
 @pytest.mark.parametrize("setting, fragment", [

@@ -75,29 +75,23 @@ def test_nn_reader_count_and_large_room(preset, readers, k, published):
     assert abs(rmse - published) <= 0.10 * published + 3 * se
 
 
-def test_grid_bayes_fixed_and_mobile_at_5_2_db():
-    """Grid Bayes (D = 0.5 m, rt = 10, MMSE): fixed 1.83 m ±10 % (Table 7.11), mobile 1.22 m
-    ±15 % (Table 7.10), fixed > mobile, MMSE < MAP (Table 7.7); 600 trials."""
-    ds = _run(estimators=["grid"], sigma0_db=[5.2], trials=600)
+@pytest.mark.parametrize("family, trials, fixed_pub, fixed_tol, mobile_pub, mobile_tol", [
+    ("grid", 600, 1.83, 0.10, 1.22, 0.15),   # Tables 7.11, 7.10 (D = 0.5 m, rt = 10)
+    ("pf", 400, 2.00, 0.15, 1.14, 0.15),     # Tables 7.15, 7.16 (N = 250)
+])
+def test_bayesian_filters_fixed_and_mobile_at_5_2_db(family, trials, fixed_pub, fixed_tol, mobile_pub,
+                                                      mobile_tol):
+    """Grid Bayes and SIR at σ = σ0 = 5.2 dB, MMSE: fixed and mobile RMSE within the spec's
+    tolerance + 3 SE of the trials; fixed > mobile; MMSE < MAP (Tables 7.7 and 7.14: 1.22 vs
+    1.40, 1.14 vs 2.06)."""
+    ds = _run(estimators=[family], sigma0_db=[5.2], trials=trials)
     est = _table(ds, "estimates")
-    fixed, se_f = _rmse_and_se(est, "grid-mmse", "fixed")
-    mobile, se_m = _rmse_and_se(est, "grid-mmse", "mobile")
-    assert abs(fixed - 1.83) <= 0.10 * 1.83 + 3 * se_f
-    assert abs(mobile - 1.22) <= 0.15 * 1.22 + 3 * se_m
+    fixed, se_f = _rmse_and_se(est, f"{family}-mmse", "fixed")
+    mobile, se_m = _rmse_and_se(est, f"{family}-mmse", "mobile")
+    assert abs(fixed - fixed_pub) <= fixed_tol * fixed_pub + 3 * se_f
+    assert abs(mobile - mobile_pub) <= mobile_tol * mobile_pub + 3 * se_m
     assert fixed > mobile
-    assert _rmse_and_se(est, "grid-map", "mobile")[0] > mobile
-
-
-def test_sir_mobile_and_fixed_with_mmse_below_map():
-    """SIR N = 250 at σ = σ0 = 5.2 dB (Tables 7.14–7.16): mobile 1.14, fixed 2.00 m (±15 % + 3 SE
-    of 400 trials), MMSE < MAP (1.14 vs 2.06)."""
-    ds = _run(estimators=["pf"], sigma0_db=[5.2], trials=400)
-    est = _table(ds, "estimates")
-    mobile, se_m = _rmse_and_se(est, "pf-mmse", "mobile")
-    fixed, se_f = _rmse_and_se(est, "pf-mmse", "fixed")
-    assert abs(mobile - 1.14) <= 0.15 * 1.14 + 3 * se_m
-    assert abs(fixed - 2.00) <= 0.15 * 2.00 + 3 * se_f
-    assert _rmse_and_se(est, "pf-map", "mobile")[0] > mobile + 3 * se_m
+    assert _rmse_and_se(est, f"{family}-map", "mobile")[0] > mobile + se_m
 
 
 def test_offline_fit_recovers_table_6_1_and_waf():
@@ -148,7 +142,7 @@ def test_figures_are_written(tmp_path):
     xr = pytest.importorskip("xarray")
     with xr.open_dataset(out / "rss-localization.h5", engine="h5netcdf", group="beacons") as b:
         assert b["epc"].values[0] == "300000000000000000000001"
-        assert b["t_us"].values.max() == 19_000_000     # rt = 20 recursions at 1 beacon/s
+        assert b["t_us"].values.max() == 9_000_000      # rt = 10 recursions at 5.2 dB, 1 beacon/s
 
 
 @pytest.mark.parametrize("setting, fragment", [

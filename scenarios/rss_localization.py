@@ -121,7 +121,11 @@ class Config:
 
 
 def floor_plan(config: Config) -> FloorPlan:
-    """The preset's plan with the reader/wall overrides, validated (one-line errors)."""
+    """The preset's plan with the reader/wall overrides, validated (one-line errors).
+
+    Overridden readers keep the preset's per-reader (α, n, σ) when their number is unchanged;
+    otherwise every reader takes the first reader's parameters.
+    """
     if config.preset == "home-2room":
         plan = home_plan()
     else:

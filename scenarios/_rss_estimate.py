@@ -264,37 +264,59 @@ class Tables:
                          alpha_dbm=r["alpha_dbm"], exponent=r["exponent"], sigma_db=r["sigma_db"],
                          waf_db=r["waf_db"])
         for name, cols in self.rows.items():
-            ds.add_table(name, {k: column(np.concatenate(v), *_UNITS.get(k, ("", k))) for k, v in cols.items()})
+            ds.add_table(name, {k: column(np.concatenate(v), *_UNITS.get(k, ("", k))) for k, v in cols.items()},
+                         description=_GROUPS[name])
 
+
+#: Description of each table the scenario writes.
+_GROUPS = {
+    "beacons": "one row per beacon and reader: the long per-read log (time stamp in µs, EPC as hex, "
+               "true and reported RSSI, whether the reader heard it, the tag's true position)",
+    "rssi_wide": "one row per beacon epoch: the reported RSSI of every reader side by side (NaN = not heard), "
+                 "the input of the estimators",
+    "calibration": "log-distance parameters: the offline least-squares fit of the measurement campaign and "
+                   "the online reference-tag calibration (α, n, σ per reader)",
+    "estimates": "one row per estimator, trial and step: estimated and true position and the error",
+    "summary": "one row per case (σ0, motion) and estimator: error statistics, the corrected CRLB and the "
+               "thesis's published values beside them",
+}
 
 _UNITS = {
     "t_s": ("s", "beacon time (1 beacon per second)"),
     "t_us": ("us", "beacon time stamp in whole microseconds, as readers report it"),
     "case": ("1", "index of the (σ0, motion) case"),
     "trial": ("1", "run (simulation) or track (home) index"), "step": ("1", "beacon epoch / recursion"),
-    "reader": ("1", "reader (1-based)"), "antenna": ("1", "reader antenna port (1-based)"),
+    "reader": ("1", "index of the reader that heard the beacon, 1-based in the floor plan's reader order"), "antenna": ("1", "reader antenna port (1-based)"),
     "tag": ("1", "0 = target, 1.. = reference tags"), "epc": ("", "tag EPC as a hex string"),
     "rssi_dbm": ("dBm", "true received power (model)"),
     "rssi_reported_dbm": ("dBm", "RSSI the reader reports (quantized; NaN below the floor)"),
     "detected": ("1", "beacon heard (above the reader floor)"),
     "sigma0_db": ("dB", "RSSI noise σ0 of the case (NaN = per-reader Table 6.1 σ)"),
-    "motion": ("", "fixed or mobile target"), "x_m": ("m", "true x"), "y_m": ("m", "true y"),
-    "z_m": ("m", "true tag height"), "frequency_hz": ("Hz", "beacon carrier"),
+    "motion": ("", "fixed or mobile target"), "x_m": ("m", "true x coordinate of the tag in the floor plan when it sent the beacon"),
+    "y_m": ("m", "true y coordinate of the tag in the floor plan when it sent the beacon"),
+    "z_m": ("m", "true tag height"), "frequency_hz": ("Hz", "carrier frequency of the active beacon (868 MHz band)"),
     "tx_power_dbm": ("dBm", "tag transmit power"),
-    "estimator": ("", "estimator name"), "x_est_m": ("m", "estimated x"), "y_est_m": ("m", "estimated y"),
-    "x_true_m": ("m", "true x"), "y_true_m": ("m", "true y"), "error_m": ("m", "Euclidean error"),
+    "estimator": ("", "which estimator produced the row: nn (kNN/LANDMARC), grid (grid Bayes) or pf (SIR particle filter), with its variant"), "x_est_m": ("m", "x coordinate the estimator returned for this step"),
+    "y_est_m": ("m", "y coordinate the estimator returned for this step"),
+    "x_true_m": ("m", "true x coordinate of the tag at this step"),
+    "y_true_m": ("m", "true y coordinate of the tag at this step"),
+    "error_m": ("m", "localization error: Euclidean distance between the estimated and the true position"),
     "scored": ("1", "counted in the summary (fixed: last recursion; mobile/home: every step)"),
     "kind": ("", "offline fit or online (reference-tag) calibration"),
     "alpha_dbm": ("dBm", "α: RSS at 1 m"), "exponent": ("1", "path-loss exponent n"),
     "sigma_db": ("dB", "σ (offline: per reader; online: pooled eq. 6.7)"),
     "waf_db": ("dB", "wall attenuation factor (offline fit)"),
     "n_scored": ("1", "number of errors in the statistics"), "rmse_m": ("m", "root mean square error"),
-    "mean_m": ("m", "mean error"), "median_m": ("m", "median error"), "p90_m": ("m", "90th percentile"),
+    "mean_m": ("m", "mean of the scored localization errors"),
+    "median_m": ("m", "median of the scored localization errors"),
+    "p90_m": ("m", "90th percentile of the scored localization errors"),
     "std_m": ("m", "standard deviation of the error"),
     "crlb_m": ("m", "corrected CRLB, RMS over the scored true positions"),
     "published_rmse_m": ("m", "thesis RMSE of the case (NaN = none)"),
-    "published_mean_m": ("m", "thesis mean"), "published_median_m": ("m", "thesis median"),
-    "published_p90_m": ("m", "thesis 90th percentile"), "published_std_m": ("m", "thesis std"),
+    "published_mean_m": ("m", "mean error the thesis reports for this case (NaN = none)"),
+    "published_median_m": ("m", "median error the thesis reports for this case (NaN = none)"),
+    "published_p90_m": ("m", "90th-percentile error the thesis reports for this case (NaN = none)"),
+    "published_std_m": ("m", "standard deviation of the error the thesis reports for this case (NaN = none)"),
     "relative_difference": ("1", "(rmse − published)/published"),
 }
 for _r in range(1, 9):

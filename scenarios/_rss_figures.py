@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 
 from rfsim.dataset import read_table
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
 
 
 def _attrs(path: Path) -> dict:
@@ -110,8 +110,8 @@ def plot_rmse_vs_sigma(path: Path, out: Path) -> Path:
     return save_figure(fig, out)
 
 
-def plot_all(path: Path, out_dir: Path, name: str) -> list[Path]:
-    out_dir = Path(out_dir)
-    return [plot_floor_plan(path, out_dir / f"{name}-floorplan.png"),
-            plot_error_cdf(path, out_dir / f"{name}-cdf.png"),
-            plot_rmse_vs_sigma(path, out_dir / f"{name}-rmse.png")]
+def plot_all(path: Path, out_dir: Path) -> list[Path]:
+    """The three figures, named after the dataset's stem (``x.h5`` → ``x-floorplan.png`` …)."""
+    return [plot_floor_plan(path, figure_path(path, out_dir, "floorplan")),
+            plot_error_cdf(path, figure_path(path, out_dir, "cdf")),
+            plot_rmse_vs_sigma(path, figure_path(path, out_dir, "rmse"))]

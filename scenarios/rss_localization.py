@@ -50,6 +50,7 @@ from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset
 from rfsim.errors import ConfigError
 from rfsim.estimators import fit_log_distance, log_distance_crlb
+from rfsim.progress import track
 from rfsim.rng import trial_rng
 from scenarios import _rss_estimate as est
 from scenarios._rss_figures import plot_all
@@ -339,7 +340,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     tables = est.Tables()
     nominal = rss_channel(plan, config.waf_db)
     offline = offline_campaign(nominal, config.waf_db, rng=trial_rng(seed, 10 ** 6)) if home else []
-    for case, (sigma0, motion) in enumerate(_cases(config)):
+    for case, (sigma0, motion) in enumerate(track(_cases(config), desc="cases", unit="cases")):
         channel = nominal if home else rss_channel(plan, config.waf_db, sigma_db=sigma0)
         if home:
             n_steps = config.home_steps if motion == "fixed" else plan.mobile_paths_xy[0].shape[0]
@@ -380,4 +381,4 @@ def run(config: Config, *, seed: int) -> Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Floor plan with tracks, error CDF per estimator, RMSE vs σ0 beside the thesis."""
-    return plot_all(dataset_path, out_dir, NAME)
+    return plot_all(dataset_path, out_dir)

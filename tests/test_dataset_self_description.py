@@ -32,6 +32,7 @@ TINY = {
     "detection-probability": ["samples.count=40", "samples.n_train=30"],
     "phase-cancellation": ["geometry.tag_x_m=[1.0, 6.0]", "mc.positions_per_cell=6", "mc.workers=1",
                            "tracks.cell=0"],
+    "rss-localization": ["sigma0_db=[5.2]", "trials=20", "particles=50"],
 }
 
 
@@ -154,6 +155,7 @@ FIGURES = {
     "gen2-waveforms": ["exchange"], "link": ["rssi-read-rate"], "inventory": ["summary"],
     "reader-detection": ["heatmap", "mean"], "detection-probability": ["fig4_7"],
     "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],
+    "rss-localization": ["cdf", "floorplan", "rmse"],
 }
 
 

@@ -91,7 +91,7 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
+from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
 from channels.bulk import draw_links
 from channels.antennas import vertical_dipole as st_antenna
 from devices import st_analytic as sa
@@ -279,18 +279,6 @@ class Exchange:
     p_chip_w: float
 
 
-class _Links:
-    """The links of one (cell, repetition), by antenna pair: the drawn reader→tag PathSet and
-    the batched reader→ST and tag→ST links (:class:`channels.bulk.BatchLink`)."""
-
-    def __init__(self, pairs):
-        self._pairs = {(id(tx), id(rx)): (tx, rx, p) for tx, rx, p in pairs}
-
-    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
-        hit = self._pairs.get((id(tx), id(rx)))
-        return None if hit is None else hit[2]
-
-
 @dataclass(frozen=True, eq=False)
 class _STAntennas:
     """The ST antennas of all N positions, (N, k, 3) [m]: one batched receiver of the air step."""
@@ -355,7 +343,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
                      tx_antenna=ra, rx_antenna=ta).pathset(0)
     sta = _STAntennas(np.asarray(sa_pos))
     a_link, b_link = _st_links(config, fc, sta.positions_m, ta, link_rng)
-    links = _Links([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
+    links = HeldLinks([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
     emitter, port = FixedEmitter(ra, tx, device=reader), AntennaPort(sta)  # no noise at the ST (module docstring)
     step = dict(t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz)
     air = propagate([emitter], [tag], [port], links, **step)

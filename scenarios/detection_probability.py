@@ -30,14 +30,14 @@ One sample = one sample-level Query round with a fresh channel draw and a random
 channel (FCC plan, the reader's random hop table): the reader sends a Query (Q = 0, link
 profile ``pass-miller2-48k`` at 1 MS/s, as the source's PASS runs); the tag receives it
 through its forward link, decodes it and answers its RN16 with Γ(t)
-(:class:`devices.tag.PassiveTag`); the ST antennas receive the reader's segment and the
-tag's re-radiated field (A_s − Γ(t))·incident (one step of the air interface,
-:func:`rfsim.air.propagate`),
-the ST receive chain (linear detector, band-pass, 5 mV comparator, Miller decoder) runs from
-the end of the command and the outcome ``st_detected`` is "the ST decoded the tag's RN16 exactly". The
-reader decodes the same reply through the reciprocal backward link with TX leakage and
-receiver noise (``reader_detected``: RN16 bits exact, as :func:`rfsim.engine.run_exchange`
-judges them). No noise at the ST (the source's threshold decides, as in
+(:class:`devices.tag.PassiveTag`). One step of the air interface (:func:`rfsim.air.propagate`)
+carries the round: the ST antennas receive the reader's segment and the tag's re-radiated
+field (A_s − Γ(t))·incident, the ST receive chain (linear detector, band-pass, 5 mV
+comparator, Miller decoder) runs from the end of the command and the outcome ``st_detected``
+is "the ST decoded the tag's RN16 exactly". In the same step the reader's port
+(:class:`rfsim.engine.ReaderPort`) hears the reply through the reciprocal backward link with
+TX leakage and receiver noise (``reader_detected``: RN16 bits exact, as
+:func:`rfsim.engine.run_exchange` judges them). No noise at the ST (the source's threshold decides, as in
 ``phase-cancellation``).
 
 Features (:func:`rfsim.detection.st_features`): D = |tag − antenna|, d = |ST − tag|,

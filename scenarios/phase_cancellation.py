@@ -12,11 +12,14 @@ Sample level, per cell and repetition (one reader segment, as the source's runs)
 reader sends a Query (``pass-miller2-48k``: PR-ASK, Tari 25 µs, Miller-2, TRext, BLF 48 kHz)
 followed by CW; the tag receives it through its drawn forward link, decodes it and answers
 its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
-(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). Per ST
-position only the links differ: with narrowband links (checked with the engine's criterion,
-:func:`channels.paths.narrowband_rms_error` ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`) the
+(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). All of
+it is one step of the air interface (:func:`rfsim.air.propagate`) whose receiver is every ST
+antenna of the cell at once (a batch of N positions × k antennas): per ST position only the
+links differ, and with narrowband links (the one rule of :func:`channels.paths.propagation_method`
+applied to every link, :class:`channels.bulk.BatchLink`; a wideband link is an error) the
 input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
-reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The two backscatter
+reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The stamped frame is a
+second step on the same links with the stamp modulator as the reflector. The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
 (:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,

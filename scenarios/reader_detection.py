@@ -24,14 +24,16 @@ Rooms (two channel parameter sets; the source gives none, §0.2): both have a co
 Repetitions differ by the channel state: a fresh diffuse draw, a random hop channel (the
 reader's random FCC hop table) and a placement jitter of the tag, uniform in
 ±``jitter_m`` per axis. Within a repetition the channel is held (the source assumes a
-static tag during the N queries, L644): the reader segment, the links and the incident
-field are computed once; the 50 queries are simulated at sample level, each one the tag's
-PIE decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
-(:meth:`devices.tag.TagResponse.reradiation`) through the held link, receiver
-noise and the reader's decoder. Per query the outcome is **the reader decoded the tag's
-RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange is not simulated, so
-a "read" here is an RN16 decode). Queries are 4 ms apart (a round of 50 lasts 0.2 s, the
-lower end of the source's 0.2-0.8 s, L580), inside one 0.4 s hop dwell.
+static tag during the N queries, L644): the reader segment and the links are computed once;
+the 50 queries are simulated at sample level, each one step of the air interface
+(:func:`rfsim.air.propagate` on the held links, :class:`channels.HeldLinks`): the tag's PIE
+decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
+(:meth:`devices.tag.TagResponse.reradiation`) through the held link, and the reader's port
+(leakage, receiver noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome
+is **the reader decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the
+ACK/EPC exchange is not simulated, so a "read" here is an RN16 decode). Queries are 4 ms
+apart (a round of 50 lasts 0.2 s, the lower end of the source's 0.2-0.8 s, L580), inside one
+0.4 s hop dwell.
 
 Fits (``rfsim.detection.fit``): the source's method (least squares of the mean model
 1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of

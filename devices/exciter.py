@@ -29,13 +29,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.air import Segment
+from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.units import dbm_to_w
 
-#: Carrier range the models support [Hz]: Friis/APDP channels and the PIE/backscatter
-#: models are used from 100 MHz (below UHF RFID) to 10 GHz (the 5.8 GHz HIMR band).
-CARRIER_RANGE_HZ = (1e8, 1e10)
+#: Carrier range the models support [Hz] (rfsim.carriers).
+CARRIER_RANGE_HZ = SUPPORTED_CARRIER_RANGE_HZ
 #: The AURIS ST-to-ST exciter (ch. 5, Fig. 5.8): 3.28 W EIRP = 35.16 dBm.
 AURIS_EIRP_DBM = 10.0 * math.log10(3.28e3)
 

@@ -77,8 +77,8 @@ from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
 from channels.antennas import vertical_dipole
 from devices import st_analytic as sa
 from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna_positions)
+from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
+                                 make_receiver, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from rfsim.air import AntennaPort, FixedEmitter, LinkTable, propagate
 from rfsim.config import param
@@ -239,7 +239,7 @@ def _st_decode(config: Config, inputs, tx, resp, bits) -> dict:
     inputs : (k, n) complex128 [√W] ST antenna inputs on the reader segment's time base."""
     st = config.st
     fs = tx.fs_hz
-    i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     y = inputs[:, i0:]
     two = st.n_antennas == 2
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}

@@ -100,8 +100,8 @@ from channels.antennas import vertical_dipole as st_antenna
 from devices import st_analytic as sa
 from devices import st_receiver as sr
 from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna_positions)
+from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
+                                 make_receiver, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
@@ -353,7 +353,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     inc, resp = air.incident[0].samples, air.reflections[0]
     op = tag.operating_point
     p_av, p_chip = (op.p_available_w, op.p_chip_w) if op is not None else (float("nan"), float("nan"))
-    i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     x_tx, inc_w, inputs = tx.samples[i0:], inc[i0:], air.inputs[0].samples[..., i0:]
     n = x_tx.size
     a_s = resp.structural_mode

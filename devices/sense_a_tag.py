@@ -333,16 +333,14 @@ class SenseATag:
         return Observation(None, kind, bool(rec.detected), rec.bits, path, rec)
 
 
+def listen_start_sample(cmd_end_s: float, t0_s: float, fs_hz: float) -> int:
+    """First sample the ST's chains decode from: the sample after the reader command's last
+    rising edge ``cmd_end_s`` [s], in a segment starting at ``t0_s`` [s] sampled at ``fs_hz``."""
+    return int(math.ceil((cmd_end_s - t0_s) * fs_hz)) + 1
+
+
 def _dr(dr: str) -> float:
     return 64.0 / 3.0 if dr == "64/3" else 8.0
-
-
-def listen_start_sample(cmd_end_s: float, *, t0_s: float, fs_hz: float) -> int:
-    """First sample an ST receive chain reads after a reader command: one past the first sample
-    at or after the command's last rising edge ``cmd_end_s`` [s], ``ceil((cmd_end − t0)·fs) + 1``,
-    on a segment starting at ``t0_s`` [s] sampled at ``fs_hz`` [Hz] (the chain then starts from
-    rest on the CW before the reply, clear of the edge)."""
-    return int(math.ceil((float(cmd_end_s) - float(t0_s)) * float(fs_hz))) + 1
 
 
 def make_receiver(config: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: int, trext: bool) -> sr.STReceiver:
@@ -410,5 +408,5 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "chain_rows", "level_differences",
-           "decode_rows", "listen_start_sample"]
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
+           "decode_rows"]

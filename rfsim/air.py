@@ -76,7 +76,8 @@ import numpy as np
 from rfsim.errors import ConfigError
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
-           "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift", "PROPAGATION_METHODS"]
+           "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
+           "PROPAGATION_METHODS"]
 
 #: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
 PROPAGATION_METHODS = ("auto", "exact", "narrowband")
@@ -222,7 +223,8 @@ class Links(Protocol):
 
     The returned object (``channels.PathSet``) offers ``method(bandwidth_hz, propagation)``
     ("narrowband"/"exact"), ``apply(x, *, fs_hz, fc_hz, t0_s, method)``, ``static`` (no Doppler)
-    and ``constant_gain(fc_hz)``."""
+    and ``constant_gain(fc_hz)`` (optionally ``narrowband_constant(fc_hz, bandwidth_hz,
+    propagation)``: the constant of a narrowband static link or None, remembered)."""
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float): ...
 
@@ -379,8 +381,12 @@ class AirResult:
 
 
 def _constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):
-    """The complex constant of a narrowband static link at ``fc_hz``, or None (remembered in
-    ``memo`` per link object and carrier for the step: a monostatic round trip asks twice)."""
+    """The complex constant of a narrowband static link at ``fc_hz``, or None (the link's
+    ``narrowband_constant`` when it has one, else from ``static``/``method``/``constant_gain``,
+    remembered in ``memo`` for the step)."""
+    f = getattr(paths, "narrowband_constant", None)
+    if f is not None:
+        return f(fc_hz, bandwidth_hz, propagation)
     key = (id(paths), fc_hz)
     hit = memo.get(key, memo)
     if hit is memo:
@@ -557,7 +563,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                     fc_j = seg.fc_hz
                     pj = links.paths(refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s)
                     if pj is None:
-                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s, what=f"reflector[{j}] → receiver[{k}]")
+                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s,
+                              what=f"reflector[{j}] → receiver[{k}]")
                     if keep_components:
                         used[("reflector", j, "receiver", k)] = pj
             part = None
@@ -578,7 +585,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                             continue
                     inc_e = y if y is not None else g * seg.samples
                     scattered = (rc * inc_e) if rc is not None else r_t * inc_e
-                    gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
+                    gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
+                                      memo=memo)
                     v = shift(yb if yb is not None else gb * scattered, off)
                     parts.append(v)
                     if keep_components:

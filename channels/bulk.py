@@ -144,6 +144,7 @@ class BatchLink:
             raise ValueError(f"batch shape {shape} does not hold {paths.n_links} links")
         self.paths, self.shape = paths, shape
         self._max_error: dict[float, float] = {}
+        self._gain: dict[float, np.ndarray] = {}
 
     def narrowband_error(self, bandwidth_hz: float) -> float:
         """Largest :meth:`BulkPaths.narrowband_rms_error` over the links (0 without links)."""
@@ -167,8 +168,14 @@ class BatchLink:
         return "narrowband" if self.narrowband_error(bandwidth_hz) <= NARROWBAND_TOLERANCE else "exact"
 
     def constant_gain(self, fc_hz: float) -> np.ndarray:
-        """(*shape, 1) complex128 narrowband gains at ``fc_hz``."""
-        return self.paths.narrowband_gain(fc_hz).reshape(self.shape + (1,))
+        """(*shape, 1) complex128 narrowband gains at ``fc_hz`` (computed once per carrier; read-only)."""
+        f = float(fc_hz)
+        g = self._gain.get(f)
+        if g is None:
+            g = self.paths.narrowband_gain(f).reshape(self.shape + (1,))
+            g.setflags(write=False)
+            self._gain[f] = g
+        return g
 
     def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact"):
         raise ValueError(f"a batch of bulk links is applied narrowband only (asked for {method!r}): "

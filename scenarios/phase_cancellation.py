@@ -96,6 +96,7 @@ import numpy as np
 
 from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
 from channels.bulk import draw_links
+from channels.paths import NARROWBAND_TOLERANCE, narrowband_rms_error
 from channels.antennas import vertical_dipole as st_antenna
 from devices import st_analytic as sa
 from devices import st_receiver as sr
@@ -109,7 +110,7 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import Query
-from rfsim.air import AntennaPort, FixedEmitter, propagate
+from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
 from rfsim.gen2.link import reply_window_s, t1
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
@@ -290,10 +291,11 @@ class _STAntennas:
 
 
 @dataclass(frozen=True, eq=False)
-class _StampModulator:
-    """The stamp transmitter: the reader-powered tag re-radiating its stamped frame through the
-    three-state modulator (S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}); ``r`` is that re-radiation
-    factor over the segment (S1 outside the frame). Reflector and reflection of the air step."""
+class _Replay:
+    """A reflector whose re-radiation factor r(t) is already decided (reflector and reflection
+    of the air step): the tag's reply replayed on the ST window, or the stamp transmitter —
+    the same tag re-radiating its stamped frame through the three-state modulator (S1 = r_B,
+    S2 = r_A, S3 = r_B·e^{jψ}; S1 outside the frame)."""
 
     antenna: object
     r: np.ndarray
@@ -347,14 +349,15 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     sta = _STAntennas(np.asarray(sa_pos))
     a_link, b_link = _st_links(config, fc, sta.positions_m, ta, link_rng)
     links = HeldLinks([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
-    emitter, port = FixedEmitter(ra, tx, device=reader), AntennaPort(sta)  # no noise at the ST (module docstring)
-    step = dict(t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz)
-    air = propagate([emitter], [tag], [port], links, **step)
+    bw = 2.0 * lk.blf_hz
+    # 1. the tag decides on the whole segment
+    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [], links, t0_s=tx.t0_s, fs_hz=fs,
+                    n_samples=tx.samples.size, bandwidth_hz=bw)
     inc, resp = air.incident[0].samples, air.reflections[0]
     op = tag.operating_point
     p_av, p_chip = (op.p_available_w, op.p_chip_w) if op is not None else (float("nan"), float("nan"))
     i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-    x_tx, inc_w, inputs = tx.samples[i0:], inc[i0:], air.inputs[0].samples[..., i0:]
+    x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
     a_s = resp.structural_mode
     r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
@@ -367,9 +370,23 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
                   p_chip_w=p_chip)
     if resp.gamma is None:
         # no reply: the tag keeps reflecting its unmodulated state (PASS: unmodulated
-        # reflection), both "states" are r_A and nothing is detectable
-        return Exchange(x_tx, inc_w, inputs, None, levels=np.zeros(n), frame=None, i_ref=n // 2, search=search,
+        # reflection), both "states" are r_A and nothing is detectable (no ST step needed)
+        return Exchange(x_tx, inc_w, None, None, levels=np.zeros(n), frame=None, i_ref=n // 2, search=search,
                         rerad_a=r_a, rerad_b=r_a, rn16=None, **common)
+    if fwd.method(bw) != "narrowband" or not fwd.static:
+        raise ValueError(f"the reader-tag link is not narrowband (error {narrowband_rms_error(fwd, bw):.3g} > "
+                         f"{NARROWBAND_TOLERANCE}): phase-cancellation needs narrowband links")
+
+    # 2. the ST antennas hear the reply: one step on the ST window [i0, end) with the tag's
+    #    decided re-radiation replayed (narrowband links: the same samples as the whole segment's)
+    win = Segment(tx.t0_s + i0 / fs, fs, fc, x_tx)
+    port = AntennaPort(sta)  # no noise at the ST (module docstring)
+
+    def hear(r_window):
+        return propagate([FixedEmitter(ra, win, device=reader)], [_Replay(ta, r_window)], [port], links,
+                         t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw).inputs[0].samples
+
+    inputs = hear(resp.reradiation(inc.size)[i0:])
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
     from rfsim.gen2.linecode import reply_waveform
 
@@ -385,11 +402,9 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     frame = replace(frame, states=states, levels=stamp_levels)
     stamp_inputs = None
     if shape[1] == 2:
-        # re-radiated states of the three-state modulator: S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
-        r_stamp = np.full(tx.samples.size, r_b, dtype=np.complex128)
-        r_stamp[i0:] = np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states]
-        stamped = propagate([emitter], [_StampModulator(ta, r_stamp)], [port], links, **step)
-        stamp_inputs = stamped.inputs[0].samples[..., i0:]
+        # 3. the stamped frame on the same links: the three-state modulator's re-radiated states
+        #    S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
+        stamp_inputs = hear(np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states])
     i_ref = int(round((t_rel + 0.5 * lk.reply_duration_s(16)) * fs))
     common.update(m=resp.m, trext=resp.trext)
     return Exchange(x_tx, inc_w, inputs, stamp_inputs, levels=levels, frame=frame, i_ref=i_ref, search=search,

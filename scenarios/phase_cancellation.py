@@ -12,14 +12,16 @@ Sample level, per cell and repetition (one reader segment, as the source's runs)
 reader sends a Query (``pass-miller2-48k``: PR-ASK, Tari 25 µs, Miller-2, TRext, BLF 48 kHz)
 followed by CW; the tag receives it through its drawn forward link, decodes it and answers
 its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
-(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). All of
-it is one step of the air interface (:func:`rfsim.air.propagate`) whose receiver is every ST
-antenna of the cell at once (a batch of N positions × k antennas): per ST position only the
-links differ, and with narrowband links (the one rule of :func:`channels.paths.propagation_method`
-applied to every link, :class:`channels.bulk.BatchLink`; a wideband link is an error) the
-input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
-reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The stamped frame is a
-second step on the same links with the stamp modulator as the reflector. The two backscatter
+(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`), in one
+step of the air interface (:func:`rfsim.air.propagate`) over the whole segment. Every ST
+antenna of the cell hears it at once (a batch of N positions × k antennas) in a second step
+over the ST window (from the end of the command on) with the tag's decided r(t) replayed:
+per ST position only the links differ, and with narrowband links (the one rule of
+:func:`channels.paths.propagation_method` applied to every link, :class:`channels.bulk.BatchLink`;
+a wideband link is an error, and the window step gives the same samples as the whole
+segment's) the input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``,
+``b_k`` the drawn reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The
+stamped frame is a third step on the same links with the stamp modulator's r(t). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
 (:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,
@@ -249,7 +251,7 @@ class Exchange:
 
     x_tx, inc : (n,) complex128 [√W] reader segment and the field incident on the tag;
     inputs : (N, k, n) complex128 [√W] input of every ST antenna (k = 2: SA1, SA2; k = 1: SA2)
-    during the RN16 reply; stamp_inputs : the same with the tag sending the stamped frame
+    during the RN16 reply (None when the tag did not reply); stamp_inputs : the same with the tag sending the stamped frame
     (None unless k = 2 and the tag replied); a_gain, b_gain : (N, k) complex narrowband gains
     reader→SA and tag→SA; narrowband_error : largest relative envelope error of the ST links
     (:meth:`channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF); levels : (n,) true line-code
@@ -328,10 +330,10 @@ def _make_tag(config: Config, antenna, fc_hz: float, rng) -> PassiveTag:
 
 def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, index: tuple[int, ...],
                       link_rng: np.random.Generator) -> Exchange:
-    """One air step for a cell: reader Query segment → tag (forward link, PIE decode, RN16 as
-    Γ(t), re-radiated as (A_s − Γ(t))·incident) → the ST antennas at ``sa_pos`` ((N, k, 3) [m],
-    their links drawn from ``link_rng``); with two antennas and a reply, a second step with the
-    stamped frame on the same links."""
+    """The air steps of a cell: reader Query segment → tag (forward link, PIE decode, RN16 as
+    Γ(t), re-radiated as (A_s − Γ(t))·incident); if it replied, the ST antennas at ``sa_pos``
+    ((N, k, 3) [m], their links drawn from ``link_rng``) hear it on the ST window, and with two
+    antennas the stamped frame too (module docstring)."""
     g = config.geometry
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))

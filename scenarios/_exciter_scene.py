@@ -1,0 +1,150 @@
+"""Pieces shared by the exciter scenarios ``st-to-st`` and ``exciter-link``: the frame a
+backscattering device sends on its own schedule, uniform placement in a disc, the receive
+chain decisions on many inputs at once, and running tasks on worker processes.
+
+The frame (auris-sense-a-tag.md §5, seed L6011-6023; wave2-specs.md §X): CW rest state,
+``stamp_cycles`` subcarrier cycles at BLF alternating S1/S2 (ASK stamp), as many alternating
+S1/S3 (PSK stamp), then a Gen2 reply of the payload bits (TRext pilot, preamble, data,
+dummy 1) in FM0/Miller-M with line-code level +1 → S1 and −1 → S2
+(:func:`devices.st_receiver.stamp_frame`). The three-state modulator (L5914-5923) has the
+reflection coefficients S1 = Γ_B (modulating), S2 = Γ_A (absorbing), S3 = Γ_B·e^{jψ} (the PSK
+state, ψ = 180° ideally, L6017-6019); the device re-radiates r(t) = A_s − Γ(t).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from devices import st_receiver as sr
+from devices.sense_a_tag import chain_rows, decode_rows, level_differences
+from rfsim.config import param
+from rfsim.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class FrameConfig:
+    """The frame a device backscatters on its own schedule (module docstring)."""
+
+    fs_hz: float = param(1e6, lo=2e5, hi=2e7, unit="Hz", doc="sample rate of the simulated segment")
+    blf_hz: float = param(48e3, lo=5e3, hi=640e3, unit="Hz",
+                          doc="subcarrier / link frequency of the device (PASS Miller-2 profile: 48 kHz)")
+    m: Literal[1, 2, 4, 8] = param(2, doc="line code: 1 = FM0, 2/4/8 = Miller-M (source: Miller-2)")
+    trext: bool = param(True, doc="pilot tone before the preamble")
+    lead_cycles: int = param(8, lo=2, hi=1000, doc="CW (rest state) before the frame, in subcarrier cycles")
+    tail_cycles: int = param(4, lo=1, hi=1000, doc="CW after the frame, in subcarrier cycles")
+
+    def check(self, prefix: str = "frame") -> None:
+        """The receive chain's band-pass (up to 4·BLF) must fit below fs/2."""
+        if not 8.0 * self.blf_hz <= self.fs_hz:
+            raise ConfigError(f"{prefix}.blf_hz", self.blf_hz,
+                              f"<= {prefix}.fs_hz/8 = {self.fs_hz / 8:g} Hz (receiver band-pass up to 4 x BLF)")
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """A sampled frame: the modulator state per sample and where its parts are.
+
+    Attributes
+    ----------
+    stamp : :class:`devices.st_receiver.StampFrame` — ``states`` (n,) int8 labels S1/S2/S3,
+        ``levels`` (n,) ±1 inside the reply, indices of the stamp and reply parts
+    bits : (k,) uint8 payload bits
+    n_samples : segment length
+    """
+
+    stamp: sr.StampFrame
+    bits: np.ndarray
+    n_samples: int
+
+    def gamma(self, gamma_s1: complex, gamma_s2: complex, psi_rad: float) -> np.ndarray:
+        """Γ(t) of the three-state modulator, (n,) complex128: S1, S2, S3 = S1·e^{jψ}."""
+        table = np.array([gamma_s1, gamma_s2, gamma_s1 * np.exp(1j * psi_rad)], dtype=np.complex128)
+        return table[self.stamp.states]
+
+
+def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
+    """The stamped frame of ``bits`` on the sample grid of ``frame`` (module docstring)."""
+    cycle_s = 1.0 / frame.blf_hz
+    st = sr.stamp_frame(np.asarray(bits, np.uint8), m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz,
+                        fs_hz=frame.fs_hz, n_stamp_cycles=stamp_cycles, t0_s=frame.lead_cycles * cycle_s,
+                        tail_s=frame.tail_cycles * cycle_s)
+    return Frame(st, np.asarray(bits, np.uint8), int(st.states.size))
+
+
+def uniform_disc(rng: np.random.Generator, n: int, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """n points uniform in a disc of radius ``radius_m`` around the origin: (dx, dy) [m].
+
+    r = R·√u, φ ~ U(−π, π) (area-uniform).
+    """
+    r = radius_m * np.sqrt(rng.random(n))
+    phi = rng.uniform(-np.pi, np.pi, n)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+@dataclass(frozen=True, eq=False)
+class RowsChain:
+    """The receive chain run on many inputs: detector output, band-pass, comparator (r, n)."""
+
+    envelope_v: np.ndarray
+    bandpassed_v: np.ndarray
+    comparator: np.ndarray
+    toggles: np.ndarray
+
+    @classmethod
+    def run(cls, rx: sr.STReceiver, x) -> "RowsChain":
+        return cls(*chain_rows(rx, x))
+
+    def decoded(self, rx: sr.STReceiver, frame: Frame, rows=None) -> np.ndarray:
+        """(r,) bool: the payload decoded exactly (from the reply start on) in ``rows``."""
+        rows = np.ones(self.envelope_v.shape[0], bool) if rows is None else rows
+        st = frame.stamp
+        return decode_rows(rx, self.envelope_v, self.bandpassed_v, self.comparator, self.toggles, rows=rows,
+                           expected_bits=frame.bits, start_sample=st.reply_start,
+                           search_samples=int(2 * rx.fs_hz / rx.blf_hz))
+
+    def level_difference_v(self, rx: sr.STReceiver, frame: Frame) -> np.ndarray:
+        """(r,) |A(+1) − A(−1)| of the settled detector output over the reply [V]."""
+        return np.abs(level_differences(self.envelope_v, frame.stamp.levels, rx))
+
+    def stamp_symbols(self, rx: sr.STReceiver, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        """Decoded ASK and PSK stamp symbols, (r,) bool each (True = '1', False = '-').
+
+        A stamp part decodes as '1' when the comparator toggles at least once per subcarrier
+        cycle of it (half the transitions of an undisturbed part), the rule of
+        :func:`devices.st_receiver.receive_stamp`.
+        """
+        st = frame.stamp
+        need = max(1, int(round((st.ask_stop - st.start) * rx.blf_hz / rx.fs_hz)))
+        d = np.diff(self.comparator, axis=1) != 0
+        ask = d[:, st.start:st.ask_stop - 1].sum(axis=1) >= need
+        psk = d[:, st.ask_stop:st.psk_stop - 1].sum(axis=1) >= need
+        return ask, psk
+
+
+def run_tasks(fn: Callable, tasks: Sequence, workers: int) -> list:
+    """``[fn(t) for t in tasks]`` on ``workers`` processes (0 = all cores, 1 = in process),
+    results in task order (so they do not depend on the number of workers)."""
+    w = workers or (os.cpu_count() or 1)
+    if w <= 1 or len(tasks) <= 1:
+        return [fn(t) for t in tasks]
+    with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
+        return list(pool.map(fn, tasks))
+
+
+def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
+    """Concatenate per-task column dicts (same keys) into one."""
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def eirp_dbm(eirp_w: float) -> float:
+    return 10.0 * math.log10(eirp_w) + 30.0
+
+
+__all__ = ["FrameConfig", "Frame", "build_frame", "uniform_disc", "RowsChain", "run_tasks", "concat"]

@@ -58,8 +58,8 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import LinkProfile, profile, t1
 from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
+from rfsim.noise import thermal_noise_power_w
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
-from channels.noise import thermal_noise_power_w
 from devices import _reader_kernels as _rk
 
 #: FCC Part 15.247 plan: 50 channels of 500 kHz, 902.75 … 927.25 MHz (anchors §4.7).

@@ -226,6 +226,11 @@ class TagResponse:
         return np.full(int(n_samples), self.structural_mode - self.gamma_rest, dtype=np.complex128)
 
     @property
+    def constant_reradiation(self) -> complex | None:
+        """r = A_s − Γ_A when the tag does not reply (constant over the segment), else None."""
+        return None if self.gamma is not None else self.structural_mode - self.gamma_rest
+
+    @property
     def scatters(self) -> bool:
         """False only when the re-radiated field is identically zero (no reply and A_s = Γ_A)."""
         return self.gamma is not None or self.structural_mode != self.gamma_rest
@@ -352,6 +357,11 @@ class PassiveTag:
         """A duration of ``samples`` input samples counted in tag clock ticks,
         round(samples · f_clk / fs)."""
         return int(round(samples * self.clock.f_hz / fs_hz))
+
+    def reflect(self, incident) -> TagResponse:
+        """Reflector protocol of the air interface (:mod:`rfsim.air`): :meth:`listen` to the
+        incident :class:`rfsim.air.Segment` (its samples, start time and sample rate)."""
+        return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.

@@ -73,11 +73,12 @@ from typing import Literal
 import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
-from channels.paths import apply_paths
+from channels.antennas import vertical_dipole as st_antenna
+from channels.paths import apply_paths, propagation_method
 from devices import st_analytic as sa
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna, st_antenna_positions)
+                                 st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from rfsim.bistatic import listen_exchange
 from rfsim.config import param
@@ -85,7 +86,6 @@ from rfsim.dataset import Dataset, column
 from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
                              binned_probability, cross_entropy, expected_cross_entropy, fit_logistic,
                              predict_proba, rts_design, st_features, ts_design)
-from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1

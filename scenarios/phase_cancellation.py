@@ -14,7 +14,7 @@ followed by CW; the tag receives it through its drawn forward link, decodes it a
 its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
 (structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). Per ST
 position only the links differ: with narrowband links (checked with the engine's criterion,
-:func:`rfsim.engine.narrowband_rms_error` ≤ :data:`rfsim.engine.NARROWBAND_TOLERANCE`) the
+:func:`channels.paths.narrowband_rms_error` ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`) the
 input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
 reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
@@ -93,19 +93,19 @@ import numpy as np
 
 from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
 from channels.bulk import draw_links
-from channels.paths import apply_paths
+from channels.antennas import vertical_dipole as st_antenna
+from channels.paths import NARROWBAND_TOLERANCE, apply_paths, propagation_method
 from devices import st_analytic as sa
 from devices import st_receiver as sr
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna, st_antenna_positions)
+                                 st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.engine import NARROWBAND_TOLERANCE, propagation_method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
@@ -460,7 +460,7 @@ def _links(config: Config, ex: Exchange, sa_pos, tag_pos, rng):
 
 
 def _max_narrowband_error(bp, bandwidth_hz: float) -> float:
-    """:func:`rfsim.engine.narrowband_rms_error` for every link of a BulkPaths (max)."""
+    """:func:`channels.paths.narrowband_rms_error` for every link of a BulkPaths (max)."""
     p = np.abs(bp.gain) ** 2
     tau = np.where(bp.valid, bp.delay_s, np.inf)
     rel = 2 * np.pi * bandwidth_hz * np.where(bp.valid, bp.delay_s - tau.min(axis=1, keepdims=True), 0.0)

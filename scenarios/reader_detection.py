@@ -67,14 +67,13 @@ from pathlib import Path
 import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
-from channels.paths import apply_paths
+from channels.paths import apply_paths, propagation_method
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_moments
 from rfsim.detection.fit import DA_PARAMETER_NAMES
-from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1

@@ -23,9 +23,11 @@ from typing import Literal
 import numpy as np
 
 from devices import st_receiver as sr
-from devices.sense_a_tag import chain_rows, decode_rows, level_differences
+from channels.paths import NARROWBAND_TOLERANCE
+from devices.sense_a_tag import chain_rows, level_differences
 from rfsim.config import param
 from rfsim.errors import ConfigError
+from rfsim.gen2.linecode import decode_reply, reply_duration_s, reply_waveform
 
 
 @dataclass(frozen=True)
@@ -70,12 +72,24 @@ class Frame:
 
 
 def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
-    """The stamped frame of ``bits`` on the sample grid of ``frame`` (module docstring)."""
+    """The frame of ``bits`` on the sample grid of ``frame`` (module docstring), with an ASK-PSK
+    stamp of ``stamp_cycles`` cycles per part, or none (``stamp_cycles = 0``: the reply alone,
+    all stamp indices at the reply start)."""
     cycle_s = 1.0 / frame.blf_hz
-    st = sr.stamp_frame(np.asarray(bits, np.uint8), m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz,
-                        fs_hz=frame.fs_hz, n_stamp_cycles=stamp_cycles, t0_s=frame.lead_cycles * cycle_s,
-                        tail_s=frame.tail_cycles * cycle_s)
-    return Frame(st, np.asarray(bits, np.uint8), int(st.states.size))
+    b = np.asarray(bits, np.uint8)
+    t0_s, tail_s = frame.lead_cycles * cycle_s, frame.tail_cycles * cycle_s
+    if stamp_cycles > 0:
+        st = sr.stamp_frame(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
+                            n_stamp_cycles=stamp_cycles, t0_s=t0_s, tail_s=tail_s)
+    else:
+        n = int(math.ceil((t0_s + tail_s + reply_duration_s(b.size, m=frame.m, trext=frame.trext,
+                                                                blf_hz=frame.blf_hz)) * frame.fs_hz)) + 1
+        levels = reply_waveform(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
+                                t0_s=t0_s, n_samples=n)
+        states = np.where(levels < 0, sr.STAMP_S2, sr.STAMP_S1).astype(np.int8)
+        start = int(math.ceil(t0_s * frame.fs_hz))
+        st = sr.StampFrame(states, levels, start, start, start, start)
+    return Frame(st, b, int(st.states.size))
 
 
 def uniform_disc(rng: np.random.Generator, n: int, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -102,12 +116,26 @@ class RowsChain:
         return cls(*chain_rows(rx, x))
 
     def decoded(self, rx: sr.STReceiver, frame: Frame, rows=None) -> np.ndarray:
-        """(r,) bool: the payload decoded exactly (from the reply start on) in ``rows``."""
-        rows = np.ones(self.envelope_v.shape[0], bool) if rows is None else rows
-        st = frame.stamp
-        return decode_rows(rx, self.envelope_v, self.bandpassed_v, self.comparator, self.toggles, rows=rows,
-                           expected_bits=frame.bits, start_sample=st.reply_start,
-                           search_samples=int(2 * rx.fs_hz / rx.blf_hz))
+        """(r,) bool: the payload decoded exactly from the reply start on, in ``rows`` (default all).
+
+        The decision of :func:`devices.sense_a_tag.decode_rows` (comparator toggles at least
+        ``rx.min_toggles`` times, preamble correlation ≥ ``rx.min_corr``, bits equal), without
+        its envelope-level measurement (:meth:`level_difference_v` does that for all rows at once).
+        """
+        rows = np.ones(self.comparator.shape[0], bool) if rows is None else np.asarray(rows, bool)
+        start = frame.stamp.reply_start
+        search = int(2 * rx.fs_hz / rx.blf_hz)
+        toggles = np.count_nonzero(np.diff(self.comparator[:, start:], axis=1), axis=1)
+        out = np.zeros(rows.size, dtype=bool)
+        for i in np.flatnonzero(rows & (toggles >= rx.min_toggles)):
+            try:
+                det = decode_reply(self.comparator[i, start:].astype(np.complex128), n_bits=frame.bits.size,
+                                   m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
+                                   search_samples=search)
+            except ValueError:
+                continue
+            out[i] = det.corr >= rx.min_corr and np.array_equal(det.bits, frame.bits)
+        return out
 
     def level_difference_v(self, rx: sr.STReceiver, frame: Frame) -> np.ndarray:
         """(r,) |A(+1) − A(−1)| of the settled detector output over the reply [V]."""
@@ -128,6 +156,78 @@ class RowsChain:
         return ask, psk
 
 
+# ----------------------------------------------------------------------------- batched links
+
+
+class BatchAntenna:
+    """The same antenna at n positions: one receiver of :func:`rfsim.air.propagate` whose
+    input has a leading batch dimension of n (one row per position).
+
+    ``template`` gives pattern, orientation and polarization (``channels.Antenna``);
+    ``positions_m`` (n, 3) [m]. ``position_m`` is None: the step's distance check does not
+    apply; :func:`channels.bulk.draw_links` rejects a receiver at its transmitter instead.
+    """
+
+    position_m = None
+
+    def __init__(self, template, positions_m):
+        self.template = template
+        self.positions_m = np.atleast_2d(np.asarray(positions_m, dtype=float))
+
+
+class BatchLink:
+    """n links drawn at once (:class:`channels.bulk.BulkPaths`) as one narrowband, static link of
+    the air step: its constant gain is the (n, 1) column of per-row gains Σ_p g_p·e^{−j2π·fc·τ_p}.
+
+    Every row is judged by the one narrowband rule of :func:`channels.paths.propagation_method`
+    (relative RMS envelope error ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`); a batch with a
+    row that needs exact delays is refused (the static ST links of these scenes are
+    narrowband with errors of ≈ 0.001–0.01 at B = 2·BLF = 96 kHz).
+    """
+
+    static = True
+
+    def __init__(self, bulk):
+        self.bulk = bulk
+        self._method: dict = {}
+
+    def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
+        key = (float(bandwidth_hz), propagation)
+        if key not in self._method:
+            b = self.bulk
+            # channels.paths.narrowband_rms_error of every row at once (padded slots have g = 0)
+            tau0 = np.where(b.valid, b.delay_s, np.inf).min(axis=1, keepdims=True)
+            p = np.abs(b.gain) ** 2
+            rel2 = np.where(b.valid, (2.0 * np.pi * bandwidth_hz * (b.delay_s - tau0)) ** 2, 0.0)
+            err = np.sqrt((p * rel2).sum(axis=1) / np.maximum(p.sum(axis=1), 1e-300))
+            if propagation == "exact" or np.any(err > NARROWBAND_TOLERANCE):
+                raise ValueError(f"batched links need narrowband propagation at B = {bandwidth_hz:g} Hz "
+                                 f"(largest envelope error {err.max():.3g} > {NARROWBAND_TOLERANCE})")
+            self._method[key] = "narrowband"
+        return self._method[key]
+
+    def constant_gain(self, fc_hz: float) -> np.ndarray:
+        return self.bulk.narrowband_gain(fc_hz)[:, None]
+
+    def apply(self, x, *, fs_hz, fc_hz, t0_s=0.0, method="narrowband"):
+        return self.constant_gain(fc_hz) * x
+
+
+class DrawnLinks:
+    """The ``Links`` of :mod:`rfsim.air` for links drawn beforehand: ``paths(tx, rx)`` looks the
+    antenna pair up (either direction: the channel is reciprocal)."""
+
+    def __init__(self):
+        self._table: dict = {}
+
+    def add(self, tx, rx, paths) -> None:
+        self._table[(id(tx), id(rx))] = (tx, rx, paths)
+
+    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        hit = self._table.get((id(tx), id(rx))) or self._table.get((id(rx), id(tx)))
+        return None if hit is None else hit[2]
+
+
 def run_tasks(fn: Callable, tasks: Sequence, workers: int) -> list:
     """``[fn(t) for t in tasks]`` on ``workers`` processes (0 = all cores, 1 = in process),
     results in task order (so they do not depend on the number of workers)."""
@@ -143,8 +243,5 @@ def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-def eirp_dbm(eirp_w: float) -> float:
-    return 10.0 * math.log10(eirp_w) + 30.0
-
-
-__all__ = ["FrameConfig", "Frame", "build_frame", "uniform_disc", "RowsChain", "run_tasks", "concat"]
+__all__ = ["FrameConfig", "Frame", "build_frame", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
+           "DrawnLinks", "run_tasks", "concat"]

@@ -23,6 +23,7 @@ from typing import Literal
 import numpy as np
 
 from devices import st_receiver as sr
+from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
 from channels.paths import NARROWBAND_TOLERANCE
 from devices.sense_a_tag import chain_rows, level_differences
 from rfsim.config import param
@@ -90,6 +91,19 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
         start = int(math.ceil(t0_s * frame.fs_hz))
         st = sr.StampFrame(states, levels, start, start, start, start)
     return Frame(st, b, int(st.states.size))
+
+
+def exciter_antenna(kind: str, gain_dbi: float, height_m: float):
+    """The exciter's antenna at (0, 0, height): a patch (``gain_dbi``, 70° beamwidth) with
+    boresight +x, or a vertical half-wave dipole (``channels.Antenna``)."""
+    pattern = Patch(gain_dbi, 70.0) if kind == "patch" else HalfWaveDipole()
+    return Antenna(position_m=(0.0, 0.0, height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
+                   polarization="linear")
+
+
+def room(apdp: bool) -> Scene:
+    """Friis, plus the exponential APDP with the PASS ST-room curves when ``apdp``."""
+    return Scene(apdp=ApdpModel() if apdp else None)
 
 
 def uniform_disc(rng: np.random.Generator, n: int, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -243,5 +257,5 @@ def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-__all__ = ["FrameConfig", "Frame", "build_frame", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
+__all__ = ["FrameConfig", "Frame", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
            "DrawnLinks", "run_tasks", "concat"]

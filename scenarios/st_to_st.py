@@ -52,7 +52,7 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene, vertical_dipole
+from channels import vertical_dipole
 from channels.bulk import draw_links
 from channels.noise import thermal_noise_power_w
 from devices import st_analytic as sa
@@ -65,7 +65,7 @@ from rfsim.errors import ConfigError
 from rfsim.plots import pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, RowsChain, build_frame,
-                                      concat, run_tasks, uniform_disc)
+                                      concat, exciter_antenna, room, run_tasks, uniform_disc)
 
 NAME = "st-to-st"
 DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for single antenna, combination, "
@@ -144,17 +144,6 @@ class Config:
 # ----------------------------------------------------------------------------- one (cell, repetition)
 
 
-def exciter_antenna(g: GeometryConfig) -> Antenna:
-    """The exciter's antenna at (0, 0, height): patch with boresight +x, or a vertical dipole."""
-    pattern = Patch(g.exciter_gain_dbi, 70.0) if g.exciter_antenna == "patch" else HalfWaveDipole()
-    return Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
-                   polarization="linear")
-
-
-def scene(g) -> Scene:
-    return Scene(apdp=ApdpModel() if g.apdp else None)
-
-
 def payload(config: Config) -> np.ndarray:
     return np.zeros(config.stamp.zero_bits, dtype=np.uint8)
 
@@ -167,7 +156,7 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     frame = build_frame(payload(config), fr, stamp_cycles=config.stamp.stamp_cycles)
     t_start = frame.stamp.start / fr.fs_hz
     # devices
-    ex_ant = exciter_antenna(g)
+    ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
     exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, cell, rep, 3))
     tx_pos = np.array([g.st_x_m[cell], 0.0, g.height_m])
     tx_ant = vertical_dipole(tx_pos)
@@ -184,7 +173,7 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     sa = [BatchAntenna(template, sa_pos[:, j]) for j in range(2)]
     # links, drawn in bulk: exciter → tx ST, then per antenna exciter → SA and tx ST → SA
     lrng = trial_rng(seed, cell, rep, 1)
-    sc, fc = scene(g), config.exciter.fc_hz
+    sc, fc = room(g.apdp), config.exciter.fc_hz
     links = DrawnLinks()
     links.add(ex_ant, tx_ant, draw_links(sc, ex_ant.position_m, tx_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
                                          rx_antenna=tx_ant).pathset(0))

@@ -123,7 +123,10 @@ class PathSet:
     @property
     def static(self) -> bool:
         """No path has a Doppler shift (the narrowband link is then one constant)."""
-        return not np.any(self.doppler_hz)
+        st = self.__dict__.get("_static")
+        if st is None:
+            st = self.__dict__["_static"] = not bool(self.doppler_hz.any())
+        return st
 
     def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
         """"narrowband" or "exact" for this link under ``propagation`` (:func:`propagation_method`),

@@ -130,7 +130,12 @@ class Segment:
     @classmethod
     def scaled(cls, base: "Segment", gain: complex, fc_hz: float | None = None) -> "Segment":
         """``gain · base`` on the time base of ``base`` (samples formed lazily)."""
-        return cls(base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else fc_hz, base=base, gain=gain)
+        if base.base is not None:
+            return cls(base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else fc_hz, base=base, gain=gain)
+        out = cls.__new__(cls)  # the hot path of the air step: no re-validation of a valid base
+        out.t0_s, out.fs_hz, out.fc_hz = base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else float(fc_hz)
+        out.base, out.gain, out._samples, out.memo, out.n_samples = base, complex(gain), None, {}, base.n_samples
+        return out
 
     @property
     def samples(self) -> np.ndarray:
@@ -319,23 +324,19 @@ def as_reflector(device):
     return device if hasattr(device, "reflect") else _Listening(device)
 
 
-def _position(antenna):
-    p = getattr(antenna, "position_m", None)
-    return None if p is None else np.asarray(p, dtype=float)
-
-
 def _check_positions(named: list[tuple[str, Any]]) -> None:
     """Distinct antennas at distance 0 have no far-field link: a one-line error."""
-    seen: list[tuple[str, Any, np.ndarray]] = []
+    seen: dict = {}
     for name, ant in named:
-        p = _position(ant)
+        p = getattr(ant, "position_m", None)
         if p is None:
             continue
-        for other_name, other, q in seen:
-            if other is not ant and p.shape == q.shape and not np.any(p != q):
-                raise ConfigError(f"{name}.position_m", tuple(float(v) for v in p),
-                                  f"a position away from {other_name}'s antenna (distance 0 m has no link)")
-        seen.append((name, ant, p))
+        key = p.tobytes() if isinstance(p, np.ndarray) and p.dtype == np.float64 else np.asarray(p, float).tobytes()
+        other = seen.get(key)
+        if other is not None and other[1] is not ant:
+            raise ConfigError(f"{name}.position_m", tuple(np.frombuffer(key).tolist()),
+                              f"a position away from {other[0]}'s antenna (distance 0 m has no link)")
+        seen.setdefault(key, (name, ant))
 
 
 # ----------------------------------------------------------------------------- result
@@ -358,7 +359,7 @@ class AirResult:
     direct, backscatter, noise : with ``keep_components``: per receiver the emitters'
         contribution (n,), per reflector and receiver the backscatter (n,), per receiver
         the noise (n,) or None; all [√W]
-    links : ``{(kind, i, kind, k): paths}`` of every link used
+    links : with ``keep_components``: ``{(kind, i, kind, k): paths}`` of every link used
     """
 
     segments: list
@@ -377,29 +378,33 @@ class AirResult:
 # ----------------------------------------------------------------------------- the step
 
 
-class _Prop:
-    """A link applied to one emitter segment: a constant gain (narrowband, static) or samples."""
-
-    __slots__ = ("gain", "samples")
-
-    def __init__(self, gain, samples):
-        self.gain, self.samples = gain, samples
+def _constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):
+    """The complex constant of a narrowband static link at ``fc_hz``, or None (remembered in
+    ``memo`` per link object and carrier for the step: a monostatic round trip asks twice)."""
+    key = (id(paths), fc_hz)
+    hit = memo.get(key, memo)
+    if hit is memo:
+        hit = None
+        if paths.static and paths.method(bandwidth_hz, propagation) == "narrowband":
+            hit = paths.constant_gain(fc_hz)
+        memo[key] = hit
+    return hit
 
 
 def _through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwidth_hz: float,
-             propagation: str) -> _Prop:
-    """``paths`` applied to ``x`` (default the segment's samples), a constant where possible."""
+             propagation: str, memo: dict) -> tuple:
+    """``paths`` applied to ``x`` (default the segment's samples): ``(gain, None)`` for a
+    narrowband static link (one constant), else ``(None, samples)``."""
+    g = _constant(paths, fc_hz, bandwidth_hz, propagation, memo)
+    if g is not None:
+        return g, None
     method = paths.method(bandwidth_hz, propagation)
-    if method == "narrowband" and paths.static:
-        return _Prop(paths.constant_gain(fc_hz), None)
     src = seg.samples if x is None else x
     if src.ndim == 1:
-        y = paths.apply(src, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method)
-    else:
-        flat = src.reshape(-1, src.shape[-1])
-        y = np.stack([paths.apply(r, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method)
-                      for r in flat]).reshape(src.shape)
-    return _Prop(None, y)
+        return None, paths.apply(src, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method)
+    flat = src.reshape(-1, src.shape[-1])
+    y = np.stack([paths.apply(r, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method) for r in flat])
+    return None, y.reshape(src.shape)
 
 
 def _link(links, tx, rx, *, fc_hz, t_s, what: str):
@@ -445,10 +450,11 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     if n_samples < 1:
         raise ConfigError("air.n_samples", n_samples, "at least 1 sample")
     bw = 0.5 * fs_hz if bandwidth_hz is None else float(bandwidth_hz)
+    emitter_antennas = {id(e.antenna) for e in emitters}
     _check_positions([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
                      + [(f"reflector[{j}]", r.antenna) for j, r in enumerate(reflectors)]
                      + [(f"receiver[{k}]", r.antenna) for k, r in enumerate(receivers)
-                        if not any(r.antenna is e.antenna for e in emitters)])
+                        if id(r.antenna) not in emitter_antennas])
     segs = []
     for i, e in enumerate(emitters):
         s = e.emit(t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples)
@@ -462,31 +468,36 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     half = 0.5 * fs_hz
     dropped: list = []
     used: dict = {}
+    memo: dict = {}  # narrowband constants of the links used in this step
 
     def shift(y, offset):
         return y if offset == 0.0 else carrier_shift(y, offset, t0_s=t0_s, fs_hz=fs_hz)
 
-    # 1. incident field at every reflector, kept per emitter (for the backscatter), and what
-    #    the reflector does with it
+    # 1. incident field at every reflector, kept per emitter in the emitter's own baseband
+    #    (for the backscatter), and what the reflector does with it
     incident, reflections, per_emitter = [], [], []
     for j, refl in enumerate(reflectors):
-        comps = []  # (emitter index, segment, _Prop in the emitter's own baseband)
-        total = None
+        ant = refl.antenna
+        comps = []  # (emitter index, segment, constant gain or None, samples or None)
+        total = None  # a Segment (scaled copy) or an array
         for i, seg in live:
-            off = seg.fc_hz - fc_ref_hz
-            p = _link(links, emitters[i].antenna, refl.antenna, fc_hz=seg.fc_hz, t_s=t0_s,
-                      what=f"emitter[{i}] → reflector[{j}]")
-            used[("emitter", i, "reflector", j)] = p
-            pr = _through(p, seg, None, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation)
-            comps.append((i, seg, pr))
-            if abs(off) >= half:
+            fc_e = seg.fc_hz
+            p = links.paths(emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s)
+            if p is None:
+                _link(links, emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s, what=f"emitter[{i}] → reflector[{j}]")
+            if keep_components:
+                used[("emitter", i, "reflector", j)] = p
+            g, y = _through(p, seg, None, fc_hz=fc_e, bandwidth_hz=bw, propagation=propagation, memo=memo)
+            comps.append((i, seg, g, y))
+            off = fc_e - fc_ref_hz
+            if off != 0.0 and abs(off) >= half:
                 dropped.append((i, "reflector", j, off))
                 continue
-            if total is None and off == 0.0 and pr.gain is not None:
-                total = Segment.scaled(seg, pr.gain, fc_ref_hz)
+            if total is None and off == 0.0 and g is not None:
+                total = Segment.scaled(seg, g, fc_ref_hz)
                 continue
-            y = shift(pr.samples if pr.samples is not None else pr.gain * seg.samples, off)
-            total = y if total is None else (total.samples if isinstance(total, Segment) else total) + y
+            v = shift(y if y is not None else g * seg.samples, off)
+            total = v if total is None else (total.samples if isinstance(total, Segment) else total) + v
         if total is None:
             inc = Segment(t0_s, fs_hz, fc_ref_hz, np.zeros(n_samples, dtype=np.complex128))
         elif isinstance(total, Segment):
@@ -497,36 +508,38 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         per_emitter.append(comps)
         reflections.append(refl.reflect(inc))
 
-    # 2. every receiver: direct paths, backscatter, noise
+    # 2. every receiver: direct paths (or coupling), backscatter, noise
     inputs, outputs = [], []
     direct_l = [] if keep_components else None
     back_l = [[None] * len(receivers) for _ in reflectors] if keep_components else None
     noise_l = [] if keep_components else None
     for k, rcv in enumerate(receivers):
         fc_k = rcv.fc_hz if getattr(rcv, "fc_hz", None) is not None else fc_ref_hz
+        r_ant = rcv.antenna
         coupling = getattr(rcv, "coupling", None)
         const: dict = {}  # emitter index -> complex factor of x_e (narrowband, static contributions)
         parts: list = []  # full-length contributions, added after the constants in this order
         for i, seg in live:
             off = seg.fc_hz - fc_k
-            c = coupling(emitters[i]) if coupling is not None else None
-            if abs(off) >= half:
+            if off != 0.0 and abs(off) >= half:
                 dropped.append((i, "receiver", k, off))
                 continue
+            c = coupling(emitters[i]) if coupling is not None else None
             if c is not None:
                 if off == 0.0:
                     const[i] = const.get(i, 0j) + c
                 else:
                     parts.append(shift(c * seg.samples, off))
                 continue
-            p = _link(links, emitters[i].antenna, rcv.antenna, fc_hz=seg.fc_hz, t_s=t0_s,
+            p = _link(links, emitters[i].antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s,
                       what=f"emitter[{i}] → receiver[{k}]")
-            used[("emitter", i, "receiver", k)] = p
-            pr = _through(p, seg, None, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation)
-            if pr.gain is not None and off == 0.0:
-                const[i] = const.get(i, 0j) + pr.gain
+            if keep_components:
+                used[("emitter", i, "receiver", k)] = p
+            g, y = _through(p, seg, None, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
+            if g is not None and off == 0.0:
+                const[i] = const.get(i, 0j) + g
             else:
-                parts.append(shift(pr.samples if pr.samples is not None else pr.gain * seg.samples, off))
+                parts.append(shift(y if y is not None else g * seg.samples, off))
         if keep_components:
             d = np.zeros(n_samples, dtype=np.complex128)
             for i, g in const.items():
@@ -536,31 +549,37 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
             direct_l.append(d)
         for j, refl in enumerate(reflectors):
             r = reflections[j]
+            comps = per_emitter[j]
             # the links are asked for whatever the reflector does (the draws do not depend on it)
-            back_links = {}
-            for i, seg, pr in per_emitter[j]:
-                if seg.fc_hz not in back_links:
-                    back_links[seg.fc_hz] = _link(links, refl.antenna, rcv.antenna, fc_hz=seg.fc_hz, t_s=t0_s,
-                                                  what=f"reflector[{j}] → receiver[{k}]")
-                    used[("reflector", j, "receiver", k)] = back_links[seg.fc_hz]
+            pj = fc_j = None
+            for i, seg, g, y in comps:
+                if seg.fc_hz != fc_j:
+                    fc_j = seg.fc_hz
+                    pj = links.paths(refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s)
+                    if pj is None:
+                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s, what=f"reflector[{j}] → receiver[{k}]")
+                    if keep_components:
+                        used[("reflector", j, "receiver", k)] = pj
             part = None
             if r is not None and r.scatters:
                 rc = r.constant_reradiation
                 r_t = None if rc is not None else r.reradiation(n_samples)
-                for i, seg, pr in per_emitter[j]:
+                multi = len(comps) > 1
+                for i, seg, g, y in comps:
                     off = seg.fc_hz - fc_k
-                    if abs(off) >= half:
+                    if off != 0.0 and abs(off) >= half:
                         continue
-                    pj = back_links[seg.fc_hz]
-                    if rc is not None and pr.gain is not None and off == 0.0 and not keep_components:
-                        if pj.static and pj.method(bw, propagation) == "narrowband":
-                            # a reflector that does not modulate: one constant, no pass
-                            const[i] = const.get(i, 0j) + pj.constant_gain(seg.fc_hz) * (rc * pr.gain)
+                    if multi:
+                        pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                    if rc is not None and g is not None and off == 0.0 and not keep_components:
+                        b = _constant(pj, seg.fc_hz, bw, propagation, memo)
+                        if b is not None:  # a reflector that does not modulate: one constant, no pass
+                            const[i] = const.get(i, 0j) + b * (rc * g)
                             continue
-                    inc_e = pr.samples if pr.samples is not None else pr.gain * seg.samples
+                    inc_e = y if y is not None else g * seg.samples
                     scattered = (rc * inc_e) if rc is not None else r_t * inc_e
-                    back = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation)
-                    v = shift(back.samples if back.samples is not None else back.gain * scattered, off)
+                    gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
+                    v = shift(yb if yb is not None else gb * scattered, off)
                     parts.append(v)
                     if keep_components:
                         part = v if part is None else part + v
@@ -592,8 +611,6 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
             ab *= scale
             if keep_components:
                 n_k = ab[0] + 1j * ab[1]
-            if y.dtype != np.complex128 or not y.flags.writeable:
-                y = y.astype(np.complex128)
             y.real += ab[0]
             y.imag += ab[1]
         if keep_components:

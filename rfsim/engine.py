@@ -275,10 +275,11 @@ class _EngineLinks:
             if i is None:
                 return None
             motion = self.motions[i] if self.motions is not None else None
-            key = (i, id(self.antenna), fc_hz)
             links = None
-            if self.cache is not None and motion is None and not self.draw:
-                links = self.cache.get(key)
+            if self.cache is not None:
+                key = (i, id(self.antenna), fc_hz)
+                if motion is None and not self.draw:
+                    links = self.cache.get(key)
             if links is None:
                 links = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s,
                                                        tag_motion=motion)

@@ -14,6 +14,7 @@ state, ψ = 180° ideally, L6017-6019); the device re-radiates r(t) = A_s − Γ
 from __future__ import annotations
 
 import concurrent.futures as cf
+import dataclasses
 import math
 import os
 from collections.abc import Callable, Sequence
@@ -66,10 +67,47 @@ class Frame:
     bits: np.ndarray
     n_samples: int
 
+    @property
+    def end(self) -> int:
+        """First sample after the reply (the frame is ``[stamp.start, end)``)."""
+        return int(np.flatnonzero(self.stamp.levels != 0)[-1]) + 1
+
     def gamma(self, gamma_s1: complex, gamma_s2: complex, psi_rad: float) -> np.ndarray:
-        """Γ(t) of the three-state modulator, (n,) complex128: S1, S2, S3 = S1·e^{jψ}."""
+        """Γ(t) of the three-state modulator, (n,) complex128: S1, S2, S3 = S1·e^{jψ} inside
+        the frame, the rest state S2 (= Γ_A, absorbing) before and after it."""
         table = np.array([gamma_s1, gamma_s2, gamma_s1 * np.exp(1j * psi_rad)], dtype=np.complex128)
-        return table[self.stamp.states]
+        states = self.stamp.states.copy()
+        states[:self.stamp.start] = sr.STAMP_S2
+        states[self.end:] = sr.STAMP_S2
+        return table[states]
+
+
+class OwnSchedule:
+    """A device that backscatters ``frame`` on its own schedule (a reflector of :mod:`rfsim.air`).
+
+    The device's own front end decides first (``device.reflect``: the incident power, a
+    harvesting tag's power-up and its chip's reflection states; a semi-passive sense-a-tag is
+    always powered); a powered device then modulates the frame with its reflection states
+    (``reflection_states`` of a :class:`devices.tag.PassiveTag`, of ``device.tag`` for a
+    :class:`devices.sense_a_tag.SenseATag`) as S1 = Γ_B, S2 = Γ_A, S3 = Γ_B·e^{jψ} (module
+    docstring). An unpowered device keeps its front end's answer (rest state, no reply).
+    """
+
+    def __init__(self, device, frame: Frame, *, psi_rad: float = math.pi):
+        self.device, self.frame, self.psi_rad = device, frame, float(psi_rad)
+        self.antenna = device.antenna
+
+    def reflect(self, incident):
+        resp = self.device.reflect(incident)
+        if not resp.powered:
+            return resp
+        states = getattr(self.device, "tag", self.device).reflection_states
+        if incident.n_samples != self.frame.n_samples:
+            raise ValueError(f"the frame has {self.frame.n_samples} samples, the segment {incident.n_samples}")
+        fs = incident.fs_hz
+        return dataclasses.replace(resp, gamma=self.frame.gamma(states.gamma_b, states.gamma_a, self.psi_rad),
+                                   reason="", reply_start_s=incident.t0_s + self.frame.stamp.reply_start / fs,
+                                   reply_end_s=incident.t0_s + self.frame.end / fs, gamma_rest=states.gamma_a)
 
 
 def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
@@ -257,5 +295,5 @@ def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-__all__ = ["FrameConfig", "Frame", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
+__all__ = ["FrameConfig", "Frame", "OwnSchedule", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
            "DrawnLinks", "run_tasks", "concat"]

@@ -69,8 +69,8 @@ from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
 from rfsim.plots import pyplot, save_figure
 from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, RowsChain, build_frame,
-                                      concat, exciter_antenna, room, run_tasks)
+from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, OwnSchedule, RowsChain,
+                                      build_frame, concat, exciter_antenna, room, run_tasks)
 
 NAME = "exciter-link"
 DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
@@ -184,8 +184,8 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
         phi = trial_rng(seed, row, k, 0).uniform(-np.pi, np.pi, n)
         lis_pos = tag_pos + np.stack([d_tt * np.cos(phi), d_tt * np.sin(phi), np.zeros(n)], axis=1)
         lis = BatchAntenna(template, lis_pos)
-        tag = make_tag(config, tag_ant, trial_rng(seed, row, k, 3))
-        tag.send_frame(frame.bits, start_s=frame.stamp.start / fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
+        device = make_tag(config, tag_ant, trial_rng(seed, row, k, 3))
+        tag = OwnSchedule(device, frame)
         lrng = trial_rng(seed, row, k, 1)
         links = DrawnLinks()
         links.add(ex_ant, tag_ant, draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
@@ -198,12 +198,12 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
                         fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
                         bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
         resp = air.reflections[0]
-        op = tag.operating_point
+        op = device.operating_point
         cw = V_PER_SQRT_W * np.broadcast_to(air.direct[0][..., i1], (n,))
         b1 = V_PER_SQRT_W * np.broadcast_to(air.backscatter[0][0][..., i1], (n,))
         b2 = V_PER_SQRT_W * np.broadcast_to(air.backscatter[0][0][..., i2], (n,))
         g_det = config.listener.detector_gain
-        replied = resp is not None and resp.reason == ""
+        replied = resp.reason == ""
         parts.append(dict(
             exciter_distance_m=np.full(n, d_e), tag_distance_m=d_tt, draw=np.full(n, k), listener_azimuth_rad=phi,
             tag_incident_power_w=np.full(n, float(np.mean(np.abs(air.incident[0].samples) ** 2))),

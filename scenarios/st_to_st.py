@@ -64,8 +64,8 @@ from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.plots import pyplot, save_figure
 from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, RowsChain, build_frame,
-                                      concat, exciter_antenna, room, run_tasks, uniform_disc)
+from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, OwnSchedule, RowsChain,
+                                      build_frame, concat, exciter_antenna, room, run_tasks, uniform_disc)
 
 NAME = "st-to-st"
 DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for single antenna, combination, "
@@ -154,15 +154,13 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     g, fr, mc = config.geometry, config.frame, config.mc
     n = mc.n_positions
     frame = build_frame(payload(config), fr, stamp_cycles=config.stamp.stamp_cycles)
-    t_start = frame.stamp.start / fr.fs_hz
     # devices
     ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
     exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, cell, rep, 3))
     tx_pos = np.array([g.st_x_m[cell], 0.0, g.height_m])
     tx_ant = vertical_dipole(tx_pos)
-    tx = SenseATag(config.tx_st, [tx_ant], rng=trial_rng(seed, cell, rep, 4), fs_hz=fr.fs_hz)
-    tx.send_frame(frame.bits, start_s=t_start, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext,
-                  stamp_cycles=config.stamp.stamp_cycles, stamp_psi_rad=math.radians(config.stamp.psi_deg))
+    st_tx = SenseATag(config.tx_st, [tx_ant], rng=trial_rng(seed, cell, rep, 4), fs_hz=fr.fs_hz)
+    tx = OwnSchedule(st_tx, frame, psi_rad=math.radians(config.stamp.psi_deg))
     # receiving STs: centres in the disc, random orientation of the λ/4 pair
     prng = trial_rng(seed, cell, rep, 0)
     dx, dy = uniform_disc(prng, n, g.disc_radius_m)

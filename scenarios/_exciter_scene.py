@@ -193,15 +193,15 @@ class RowsChain:
         """(r,) |A(+1) − A(−1)| of the settled detector output over the reply [V]."""
         return np.abs(level_differences(self.envelope_v, frame.stamp.levels, rx))
 
-    def stamp_symbols(self, rx: sr.STReceiver, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+    def stamp_symbols(self, rx: sr.STReceiver, frame: Frame, min_transitions: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Decoded ASK and PSK stamp symbols, (r,) bool each (True = '1', False = '-').
 
-        A stamp part decodes as '1' when the comparator toggles at least once per subcarrier
-        cycle of it (half the transitions of an undisturbed part), the rule of
-        :func:`devices.st_receiver.receive_stamp`.
+        A stamp part decodes as '1' when the comparator makes at least ``min_transitions``
+        transitions in it; 0 means one per subcarrier cycle of the part (half the transitions of
+        an undisturbed part), the rule of :func:`devices.st_receiver.receive_stamp`.
         """
         st = frame.stamp
-        need = max(1, int(round((st.ask_stop - st.start) * rx.blf_hz / rx.fs_hz)))
+        need = min_transitions or max(1, int(round((st.ask_stop - st.start) * rx.blf_hz / rx.fs_hz)))
         d = np.diff(self.comparator, axis=1) != 0
         ask = d[:, st.start:st.ask_stop - 1].sum(axis=1) >= need
         psk = d[:, st.ask_stop:st.psk_stop - 1].sum(axis=1) >= need

@@ -138,7 +138,29 @@ def test_dual_antenna_below_single_and_disagreements_sit_at_the_threshold(small_
     np.testing.assert_array_equal(smp["cancelled_single"][far], smp["closed_cancelled_single"][far])
 
 
+def test_stricter_stamp_rule_trades_kept_for_left_samples():
+    base = s.Config()
+    cfg = replace(base, geometry=replace(base.geometry, st_x_m=(7.0,)),
+                  mc=replace(base.mc, positions_per_cell=150, workers=1))
+    res = {}
+    for need in (0, 16):
+        o = s.simulate_cell(replace(cfg, stamp=replace(cfg.stamp, ask_min_transitions=need)), 0, 0, seed=3)
+        det, ask, p1, p2 = o["detectable"], o["stamp_ask_sa2"], o["decoded_p1"], o["decoded_p2"]
+        res[need] = dict(ones=int(ask.sum()), kept=int(np.sum(det & ask & ~p2 & p1)),
+                         left=int(np.sum(det & ~ask & p2 & ~p1)))
+        # the techniques other than the stamp do not depend on the stamp rule
+        if need == 0:
+            single = o["cancelled_single"].copy()
+        else:
+            np.testing.assert_array_equal(o["cancelled_single"], single)
+    # every transition required: fewer stamps read '1', the stamp keeps P2 less and leaves it more
+    assert res[16]["ones"] < res[0]["ones"]
+    assert res[16]["kept"] <= res[0]["kept"] and res[16]["left"] >= res[0]["left"]
+    assert res[16]["left"] > 0
+
+
 BAD = [
+    (["--set", "stamp.ask_min_transitions=17"], "stamp.ask_min_transitions"),
     (["--set", "geometry.st_x_m=[]"], "geometry.st_x_m"),
     (["--set", "st.n_antennas=1", "--set", "st.technique=single"], "st.n_antennas"),
     (["--set", "frame.blf_hz=200e3"], "frame.blf_hz"),

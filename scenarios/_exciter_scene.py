@@ -25,6 +25,7 @@ import numpy as np
 
 from devices import st_receiver as sr
 from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
+from channels.noise import thermal_noise_power_w
 from channels.paths import NARROWBAND_TOLERANCE
 from devices.sense_a_tag import chain_rows, level_differences
 from rfsim.config import param
@@ -49,6 +50,19 @@ class FrameConfig:
         if not 8.0 * self.blf_hz <= self.fs_hz:
             raise ConfigError(f"{prefix}.blf_hz", self.blf_hz,
                               f"<= {prefix}.fs_hz/8 = {self.fs_hz / 8:g} Hz (receiver band-pass up to 4 x BLF)")
+
+
+@dataclass(frozen=True)
+class NoiseConfig:
+    """Receiver noise at the listening antennas: kT·fs·F per complex sample
+    (:func:`channels.noise.thermal_noise_power_w` over the simulated bandwidth fs)."""
+
+    enabled: bool = param(True, doc="receiver noise at the listening antennas")
+    nf_db: float = param(10.0, lo=0.0, hi=60.0, unit="dB", doc="noise figure; N = kT·fs·F per complex sample")
+
+    def power_w(self, fs_hz: float) -> float:
+        """Noise power per complex sample [W] (0 when disabled)."""
+        return float(thermal_noise_power_w(fs_hz, self.nf_db)) if self.enabled else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -280,6 +294,14 @@ class DrawnLinks:
         return None if hit is None else hit[2]
 
 
+_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W", "_hz": "Hz"}
+
+
+def unit_of(key: str) -> str:
+    """Unit of a dataset column from its name's suffix ("1" when it has none)."""
+    return next((u for suf, u in _UNITS.items() if key.endswith(suf)), "1")
+
+
 def run_tasks(fn: Callable, tasks: Sequence, workers: int) -> list:
     """``[fn(t) for t in tasks]`` on ``workers`` processes (0 = all cores, 1 = in process),
     results in task order (so they do not depend on the number of workers)."""
@@ -295,5 +317,5 @@ def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-__all__ = ["FrameConfig", "Frame", "OwnSchedule", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
-           "DrawnLinks", "run_tasks", "concat"]
+__all__ = ["FrameConfig", "NoiseConfig", "Frame", "OwnSchedule", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
+           "DrawnLinks", "run_tasks", "concat", "unit_of"]

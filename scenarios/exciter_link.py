@@ -62,7 +62,6 @@ import numpy as np
 
 from channels import vertical_dipole
 from channels.bulk import draw_links
-from channels.noise import thermal_noise_power_w
 from devices import st_analytic as sa
 from devices.exciter import Exciter, ExciterConfig
 from devices.sense_a_tag import SenseATagConfig, make_receiver
@@ -77,8 +76,8 @@ from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
 from rfsim.plots import pyplot, save_figure
 from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, OwnSchedule, RowsChain,
-                                      build_frame, concat, exciter_antenna, room, run_tasks)
+from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+                                      RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, unit_of)
 
 NAME = "exciter-link"
 DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
@@ -120,12 +119,6 @@ class TagModelConfig:
     power_margin_db: float = param(PASS_POWER_MARGIN_DB, lo=0.0, hi=20.0, unit="dB",
                                    doc="'measured': power-up margin on the chip's minimum power (PASS: 2.5 dB)")
     word: int = param(0x0A5C, lo=0, hi=0xFFFF, doc="16-bit word the tag broadcasts (followed by its CRC-16)")
-
-
-@dataclass(frozen=True)
-class NoiseConfig:
-    enabled: bool = param(True, doc="receiver noise at the listener")
-    nf_db: float = param(10.0, lo=0.0, hi=60.0, unit="dB", doc="noise figure; N = kT·fs·F per complex sample")
 
 
 def _listener_default() -> SenseATagConfig:
@@ -185,7 +178,7 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
     tag_ant = vertical_dipole(tag_pos)
     template = vertical_dipole(np.zeros(3))
     sc, fc = room(g.apdp), config.exciter.fc_hz
-    noise_w = float(thermal_noise_power_w(fr.fs_hz, config.noise.nf_db)) if config.noise.enabled else 0.0
+    noise_w = config.noise.power_w(fr.fs_hz)
     i1, i2 = int(np.flatnonzero(frame.stamp.levels > 0)[-1]), int(np.flatnonzero(frame.stamp.levels < 0)[-1])
     parts, inputs = [], []
     for k in range(sw.n_draws):
@@ -330,12 +323,12 @@ def run(config: Config, *, seed: int) -> Dataset:
     d_e = np.asarray(config.sweep.exciter_distance_m, float)
     d_tt = np.asarray(config.sweep.tag_distance_m, float)
     ds = Dataset(title="exciter-powered tag-to-tag link: decode probability vs d_e, d_tt and Eq. (6.5) fits")
-    ds.add_table("samples", {k: column(v, _unit(k), _describe(k)) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()})
     grid = point_grid(samples, d_e, d_tt)
     dims = ("exciter_distance_m", "tag_distance_m")
     ds.add_grid("points", {"exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e"),
                            "tag_distance_m": column(d_tt, "m", "tag -> listener distance d_tt")},
-                {k: column(v, _unit(k), _describe(k), dims=dims) for k, v in grid.items()})
+                {k: column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()})
     f = fits(grid, d_e, d_tt)
     rows = f["rows"]
     d50 = np.array([r.d50_m for r in rows])
@@ -365,16 +358,8 @@ def run(config: Config, *, seed: int) -> Dataset:
         ds.attrs["d50_min_m"], ds.attrs["d50_max_m"] = float(np.min(d50[in_range])), float(np.max(d50[in_range]))
     ds.attrs["tag_runs_up_to_m"] = float(d_e[f["runs"]].max()) if f["runs"].any() else float("nan")
     ds.attrs["exciter_eirp_w"] = float(10.0 ** ((config.exciter.eirp_dbm - 30.0) / 10.0))
-    ds.attrs["noise_power_w"] = (float(thermal_noise_power_w(config.frame.fs_hz, config.noise.nf_db))
-                                 if config.noise.enabled else 0.0)
+    ds.attrs["noise_power_w"] = config.noise.power_w(config.frame.fs_hz)
     return ds
-
-
-_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W"}
-
-
-def _unit(key: str) -> str:
-    return next((u for suf, u in _UNITS.items() if key.endswith(suf)), "1")
 
 
 _TEXT = {

@@ -62,7 +62,6 @@ import numpy as np
 
 from channels import vertical_dipole
 from channels.bulk import draw_links
-from channels.noise import thermal_noise_power_w
 from devices import st_analytic as sa
 from devices.exciter import Exciter, ExciterConfig
 from devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver, st_antenna_positions
@@ -72,8 +71,10 @@ from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.plots import pyplot, save_figure
 from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, OwnSchedule, RowsChain,
-                                      build_frame, concat, exciter_antenna, room, run_tasks, uniform_disc)
+from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+                                      RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, uniform_disc,
+                                      unit_of)
+from scenarios.phase_cancellation import MonteCarloConfig
 
 NAME = "st-to-st"
 DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for single antenna, combination, "
@@ -81,22 +82,6 @@ DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for
 
 TECHS = ("single", "combination", "selection", "stamp")
 V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (devices.st_receiver)
-
-
-@dataclass(frozen=True)
-class MonteCarloConfig:
-    full: bool = param(False, doc="paper size: 300 positions per cell, 3 repetitions (overrides the two below)")
-    positions_per_cell: int = param(60, lo=1, hi=100000, doc="receiving-ST positions per cell and repetition")
-    repetitions: int = param(1, lo=1, hi=1000, doc="repetitions (new positions and channel draws)")
-    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
-
-    @property
-    def n_positions(self) -> int:
-        return 300 if self.full else self.positions_per_cell
-
-    @property
-    def n_repetitions(self) -> int:
-        return 3 if self.full else self.repetitions
 
 
 @dataclass(frozen=True)
@@ -125,13 +110,6 @@ class StampConfig:
                               f"0 … 2 x stamp.stamp_cycles = {2 * self.stamp_cycles} (the transitions of the stamp)")
 
 
-@dataclass(frozen=True)
-class NoiseConfig:
-    enabled: bool = param(False, doc="receiver noise at the ST antennas (off: the 5 mV threshold decides, "
-                                     "as the source)")
-    nf_db: float = param(10.0, lo=0.0, hi=60.0, unit="dB", doc="noise figure; N = kT·fs·F per complex sample")
-
-
 def _tx_default() -> SenseATagConfig:
     return SenseATagConfig(st_id=0x5458, n_antennas=1, technique="single")
 
@@ -145,7 +123,8 @@ class Config:
     stamp: StampConfig = param(StampConfig(), doc="ASK-PSK stamp and payload")
     tx_st: SenseATagConfig = param(_tx_default(), doc="transmitting ST (its modulator)")
     st: SenseATagConfig = param(SenseATagConfig(), doc="receiving ST (threshold, detector gain, spacing)")
-    noise: NoiseConfig = param(NoiseConfig(), doc="receiver noise")
+    noise: NoiseConfig = param(NoiseConfig(enabled=False), doc="receiver noise (off: the 5 mV threshold decides, "
+                                                                 "as in the source)")
 
     def __post_init__(self):
         if len(self.geometry.st_x_m) == 0:
@@ -196,7 +175,7 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
                                                   tx_antenna=ex_ant, rx_antenna=template)))
         links.add(tx_ant, a, BatchLink(draw_links(sc, tx_pos, a.positions_m, fc_hz=fc, rng=lrng,
                                                   tx_antenna=tx_ant, rx_antenna=template)))
-    noise_w = float(thermal_noise_power_w(fr.fs_hz, config.noise.nf_db)) if config.noise.enabled else 0.0
+    noise_w = config.noise.power_w(fr.fs_hz)
     air = propagate([exciter], [tx], [AntennaPort(a, noise_power_w=noise_w) for a in sa], links, t0_s=0.0,
                     fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, cell, rep, 2),
                     bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
@@ -304,9 +283,9 @@ def stamp_vs_selection(samples) -> dict[str, float | int]:
 def run(config: Config, *, seed: int) -> Dataset:
     samples = monte_carlo(config, seed=seed)
     ds = Dataset(title="exciter-powered ST-to-ST phase cancellation (AURIS Fig. 5.8)")
-    ds.add_table("samples", {k: column(v, _unit(k), _describe(k)) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()})
     cells = cell_table(samples, config.geometry.st_x_m)
-    ds.add_table("cells", {k: column(v, _unit(k), _describe(k)) for k, v in cells.items()})
+    ds.add_table("cells", {k: column(v, unit_of(k), _describe(k)) for k, v in cells.items()})
     for t in TECHS:
         p, lo, hi, _ = sa.cancellation_probability(samples[f"cancelled_{t}"])
         ds.attrs[f"overall_p_{t}"] = float(p)
@@ -314,8 +293,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.attrs.update(stamp_vs_selection(samples))
     ds.attrs["exciter_eirp_w"] = float(10.0 ** ((config.exciter.eirp_dbm - 30.0) / 10.0))
     ds.attrs["exciter_fc_hz"] = float(config.exciter.fc_hz)
-    ds.attrs["noise_power_w"] = (float(thermal_noise_power_w(config.frame.fs_hz, config.noise.nf_db))
-                                 if config.noise.enabled else 0.0)
+    ds.attrs["noise_power_w"] = config.noise.power_w(config.frame.fs_hz)
     ds.attrs["deviations"] = (
         "frame keeps the Gen2 TRext pilot and preamble after the stamp (synchronisation of the 10 zeros); "
         "stamp before the pilot, 8 + 8 subcarrier cycles (Fig. 5.7 format not in the text); transmitting ST "
@@ -323,13 +301,6 @@ def run(config: Config, *, seed: int) -> Dataset:
         "structural mode; exciter antenna a 6 dBi patch (not given by the source); one air step per cell and "
         "repetition with its own channel draw")
     return ds
-
-
-_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W"}
-
-
-def _unit(key: str) -> str:
-    return next((u for suf, u in _UNITS.items() if key.endswith(suf)), "1")
 
 
 def _describe(key: str) -> str:

@@ -23,19 +23,20 @@ on.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from rfsim.air import Segment
+from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.units import dbm_to_w
 
-#: Carrier range the models support [Hz]: Friis/APDP channels and the PIE/backscatter
-#: models are used from 100 MHz (below UHF RFID) to 10 GHz (the 5.8 GHz HIMR band).
-CARRIER_RANGE_HZ = (1e8, 1e10)
+#: Carrier range the models support [Hz] (rfsim.carriers).
+CARRIER_RANGE_HZ = SUPPORTED_CARRIER_RANGE_HZ
 #: The AURIS ST-to-ST exciter (ch. 5, Fig. 5.8): 3.28 W EIRP = 35.16 dBm.
 AURIS_EIRP_DBM = 10.0 * math.log10(3.28e3)
 
@@ -61,16 +62,26 @@ class ExciterConfig:
 
 
 def peak_gain_lin(antenna, *, step_deg: float = 1.0) -> float:
-    """Peak power gain of ``antenna`` over a direction grid (``antenna.gain_in_direction``).
+    """Peak power gain of ``antenna``'s pattern over a direction grid in its own frame.
 
-    The grid holds every azimuth and elevation in ``step_deg`` steps (boresight and the
-    axes included), so a pattern whose peak lies on an axis (patch, dipole) is exact.
+    The grid holds every azimuth and elevation in ``step_deg`` steps (boresight and the axes
+    included), so a pattern whose peak lies on an axis (patch, dipole) is exact; the local
+    frame makes it independent of the antenna's orientation. Remembered per hashable pattern
+    (:func:`functools.lru_cache`).
     """
+    pattern = antenna.pattern
+    try:
+        return _peak_gain(pattern, float(step_deg))
+    except TypeError:  # an unhashable pattern (e.g. a measured table): no memo
+        return _peak_gain.__wrapped__(pattern, float(step_deg))
+
+
+@functools.lru_cache(maxsize=64)
+def _peak_gain(pattern, step_deg: float) -> float:
     az = np.radians(np.arange(-180.0, 180.0, step_deg))
     el = np.radians(np.arange(-90.0, 90.0 + 0.5 * step_deg, step_deg))
     a, e = np.meshgrid(az, el)
-    d = np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], axis=-1).reshape(-1, 3)
-    return float(np.max(antenna.gain_in_direction(d)))
+    return float(np.max(pattern.gain(a.ravel(), e.ravel())))
 
 
 class Exciter:
@@ -80,7 +91,7 @@ class Exciter:
     ----------
     config : ExciterConfig
     antenna : the antenna it radiates from (``channels.Antenna``: position, orientation,
-        pattern; its ``gain_in_direction`` gives the peak gain for the EIRP)
+        pattern; its pattern's peak gain converts the EIRP to the conducted power)
     rng : generator of the phase noise (keyword-only; needed when ``linewidth_hz > 0``)
     """
 
@@ -91,7 +102,7 @@ class Exciter:
             raise ConfigError("exciter.linewidth_hz", config.linewidth_hz, "0 without an rng for the phase noise")
         self.config, self.antenna, self.rng = config, antenna, rng
         self.fc_hz = float(config.fc_hz)
-        g = peak_gain_lin(antenna) if hasattr(antenna, "gain_in_direction") else 1.0
+        g = peak_gain_lin(antenna) if hasattr(antenna, "pattern") else 1.0
         #: conducted CW power at the antenna port [W]
         self.power_w = float(dbm_to_w(config.eirp_dbm)) / g
         self._phase = (None, 0.0)  # (time just after the last emitted sample [s], phase [rad])

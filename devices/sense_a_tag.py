@@ -333,6 +333,12 @@ class SenseATag:
         return Observation(None, kind, bool(rec.detected), rec.bits, path, rec)
 
 
+def listen_start_sample(cmd_end_s: float, t0_s: float, fs_hz: float) -> int:
+    """First sample the ST's chains decode from: the sample after the reader command's last
+    rising edge ``cmd_end_s`` [s], in a segment starting at ``t0_s`` [s] sampled at ``fs_hz``."""
+    return int(math.ceil((cmd_end_s - t0_s) * fs_hz)) + 1
+
+
 def _dr(dr: str) -> float:
     return 64.0 / 3.0 if dr == "64/3" else 8.0
 
@@ -402,5 +408,5 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "chain_rows", "level_differences",
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
            "decode_rows"]

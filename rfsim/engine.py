@@ -181,13 +181,12 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
     emitter = FixedEmitter(antenna, tx, device=reader)
-    port = _ReaderPort(reader, antenna)
+    port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
     reflectors = [as_reflector(t) for t in tags]
     links = _EngineLinks(channel, antenna, tags, motions, rng if draw_channel else None, t_s,
                          link_cache if (link_cache is not None) else None, draw_channel)
     air = propagate([emitter], reflectors, [port], links, t0_s=t_s, fs_hz=fs, n_samples=tx.samples.size,
                     rng=rng, bandwidth_hz=2.0 * link.blf_hz, propagation=propagation, decide=False)
-    rx = air.inputs[0].samples
     replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
     for i, response in enumerate(air.reflections):
         incident_dbm.append(float(response.incident_power_dbm))
@@ -198,16 +197,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             replied.append(i)
             sent.append(np.asarray(response.reply.bits))
             starts.append(float(response.reply_start_s))
-    read = None
-    if replied:
-        # The receiver listens from reader_listen_start_s and searches the reply in the T1
-        # window; it is given no knowledge of the tags (BLF: the profile's nominal value).
-        i0 = int(math.ceil((reader_listen_start_s(link, tx.cmd_end_s) - t_s) * fs))
-        # Phase reference: the reader's own carrier during the reply window (PR-ASK ends a
-        # command with either polarity, depending on the parity of its PIE symbols).
-        read = reader.receive(rx[i0:], t0_s=t_s + i0 / fs, n_bits=reply_bits,
-                              expect_crc=expect_crc, cmd_end_s=tx.cmd_end_s,
-                              carrier=tx.samples[-1])
+    read = port.receive(air.inputs[0]) if replied else None
     decoded_tag = None
     if read is not None and read.bits is not None:
         for i, bits in zip(replied, sent):
@@ -239,14 +229,31 @@ def _window_s(link, reply_bits: int) -> float:
     return reply_window_s(link, reply_bits)
 
 
-class _ReaderPort:
-    """The reader's IQ input as a receiver of the air step: its noise, and its own TX→RX
-    leakage as the coupling from its own transmitter (instead of a channel link)."""
+class ReaderPort:
+    """The reader's IQ input as a receiver of the air step (:class:`rfsim.air.Receiver`).
+
+    Its noise is ``reader.noise_power_w()``; its own TX→RX leakage ``reader.leakage_gain()`` is
+    the coupling from its own transmitter (a :class:`rfsim.air.FixedEmitter` with ``device=reader``
+    on ``antenna``), instead of a channel link. :meth:`receive` is the reader's read of one
+    reply: it listens from :func:`rfsim.gen2.link.reader_listen_start_s` after the command of
+    ``tx`` (the edge and the channel's delay spread have settled), searches the reply in the T1
+    window with no knowledge of the tags (BLF: the profile's nominal value) and takes its
+    phase reference from its own carrier during the reply window (``tx.samples[-1]``: PR-ASK
+    ends a command with either polarity, depending on the parity of its PIE symbols).
+
+    Parameters
+    ----------
+    reader : reader device (``receive``, ``leakage_gain``, ``noise_power_w``, ``link``)
+    antenna : the reader antenna of the exchange
+    tx : the reader's segment (``t0_s``, ``fs_hz``, ``samples``, ``cmd_end_s`` [s])
+    reply_bits : bits of the expected reply; expect_crc : whether it carries a CRC-16
+    """
 
     fc_hz = None
 
-    def __init__(self, reader, antenna):
-        self.reader, self.antenna = reader, antenna
+    def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool):
+        self.reader, self.antenna, self.tx = reader, antenna, tx
+        self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
         self.noise_power_w = reader.noise_power_w()
 
     def coupling(self, emitter):
@@ -255,7 +262,12 @@ class _ReaderPort:
         return None
 
     def receive(self, input):
-        return input
+        """The reader's :class:`ReadResult`-like measurement of the reply in ``input`` (a
+        :class:`rfsim.air.Segment` on the time base of ``tx``)."""
+        tx, fs = self.tx, input.fs_hz
+        i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
+        return self.reader.receive(input.samples[i0:], t0_s=input.t0_s + i0 / fs, n_bits=self.reply_bits,
+                                   expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
 
 
 class _EngineLinks:
@@ -320,4 +332,4 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     return [first, second]
 
 
-__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "run_exchange", "singulate"]
+__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "ReaderPort", "run_exchange", "singulate"]

@@ -118,7 +118,7 @@ class PathSet:
         """Σ|g|², the incoherent path power gain."""
         return float(np.sum(np.abs(self.gain) ** 2))
 
-    # The air interface (rfsim.air) uses a link through these four members only.
+    # The air interface (rfsim.air) uses a link through these members only.
 
     @property
     def static(self) -> bool:
@@ -149,6 +149,18 @@ class PathSet:
                 a += c
             memo[float(fc_hz)] = a
         return a
+
+    def narrowband_constant(self, fc_hz: float, bandwidth_hz: float, propagation: str = "auto") -> complex | None:
+        """:meth:`constant_gain` when the link is static and :meth:`method` says "narrowband"
+        (it then multiplies its input by that one constant), else None; remembered."""
+        memo = self.__dict__.setdefault("_nb_constant", {})
+        key = (fc_hz, bandwidth_hz, propagation)
+        hit = memo.get(key, memo)
+        if hit is memo:
+            hit = self.constant_gain(fc_hz) if (self.static and self.method(bandwidth_hz, propagation)
+                                                 == "narrowband") else None
+            memo[key] = hit
+        return hit
 
     def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact") -> np.ndarray:
         """:func:`apply_paths` of this link to ``x`` ((n,) complex128 [√W])."""

@@ -412,7 +412,7 @@ class PassiveTag:
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
-        self._derived: tuple = (None, 0.0, None)  # (config, τ, PowerUp) derived from that config
+        self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
     @property
     def tau(self) -> float:
@@ -420,14 +420,16 @@ class PassiveTag:
         return self.config.tau
 
     def _tau_power_up(self) -> tuple:
-        """``(config.tau, τ of config.power_up, its chip sensitivity [W])``, recomputed only
-        when ``config`` is replaced (the config is frozen; all are pure functions of it)."""
-        cfg, tau, power_up = self._derived
-        if cfg is not self.config:
-            cfg, tau, power_up = self.config, self.config.tau, self.config.power_up
-            power_up = (float(power_up.tau), float(power_up.chip_sensitivity_w))
-            self._derived = (cfg, tau, power_up)
-        return tau, power_up[0], power_up[1]
+        """``(config.tau, τ of config.power_up, its chip sensitivity [W], A_s as complex)``,
+        recomputed only when ``config`` is replaced (the config is frozen; all are pure
+        functions of it)."""
+        d = self._derived
+        if d[0] is not self.config:
+            cfg = self.config
+            pu = cfg.power_up
+            d = self._derived = (cfg, (cfg.tau, float(pu.tau), float(pu.chip_sensitivity_w),
+                                       complex(cfg.structural_mode)))
+        return d[1]
 
     def ticks(self, samples: float, fs_hz: float) -> int:
         """A duration of ``samples`` input samples counted in tag clock ticks,
@@ -508,10 +510,10 @@ class PassiveTag:
                                                       self.operating_point.gamma_mod)
             powered = self.operating_point.powered
         else:
-            tau, tau_pu, sens_w = self._tau_power_up()
+            tau, tau_pu, sens_w, a_s = self._tau_power_up()
             powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
         rest = self.reflection_states.gamma_a
-        a_s = complex(self.config.structural_mode)
+        a_s = self._tau_power_up()[3] if self.chip is not None else a_s
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)

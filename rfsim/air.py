@@ -222,7 +222,8 @@ class Links(Protocol):
 
     The returned object (``channels.PathSet``) offers ``method(bandwidth_hz, propagation)``
     ("narrowband"/"exact"), ``apply(x, *, fs_hz, fc_hz, t0_s, method)``, ``static`` (no Doppler)
-    and ``constant_gain(fc_hz)``."""
+    and ``constant_gain(fc_hz)`` (optionally ``narrowband_constant(fc_hz, bandwidth_hz,
+    propagation)``: the constant of a narrowband static link or None, remembered)."""
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float): ...
 
@@ -379,8 +380,12 @@ class AirResult:
 
 
 def _constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):
-    """The complex constant of a narrowband static link at ``fc_hz``, or None (remembered in
-    ``memo`` per link object and carrier for the step: a monostatic round trip asks twice)."""
+    """The complex constant of a narrowband static link at ``fc_hz``, or None (the link's
+    ``narrowband_constant`` when it has one, else from ``static``/``method``/``constant_gain``,
+    remembered in ``memo`` for the step)."""
+    f = getattr(paths, "narrowband_constant", None)
+    if f is not None:
+        return f(fc_hz, bandwidth_hz, propagation)
     key = (id(paths), fc_hz)
     hit = memo.get(key, memo)
     if hit is memo:

@@ -495,6 +495,7 @@ class EngineAir:
         self.motions = motions
         self.propagation = propagation
         self._channel = _RoundChannel(channel)
+        self._round_links: dict = {}  # run_exchange's link_cache: the round's (forward, backward) links
         for t in self.tags:
             if hasattr(t, "shared_front_end"):
                 t.shared_front_end = bool(fast)
@@ -511,13 +512,14 @@ class EngineAir:
 
         if new_round:
             self._channel.clear()
+            self._round_links.clear()
         ex = run_exchange(self.reader, self.tags, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
-                          round_index=round_index, draw_channel=new_round, propagation=self.propagation)
+                          round_index=round_index, draw_channel=new_round, propagation=self.propagation,
+                          link_cache=self._round_links)
         read = ex.read
         detected = read is not None and read.bits is not None
-        lk = self.link
-        cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
+        cmd_end = ex.cmd_end_s  # t_s + Tari (CW lead-in) + T_cmd, from the reader's segment
         out = AirExchange(ex.command, float(t_s), cmd_end, ex.replied, detected,
                           read.bits if detected else None, bool(read is not None and read.success),
                           ex.failure_reason, read.start_s if detected else math.nan, ex.antenna,

@@ -1,6 +1,9 @@
 """Pieces shared by the exciter scenarios ``st-to-st`` and ``exciter-link``: the frame a
-backscattering device sends on its own schedule, uniform placement in a disc, the receive
-chain decisions on many inputs at once, and running tasks on worker processes.
+backscattering device sends on its own schedule (:class:`OwnSchedule`), the exciter antenna and
+the room, uniform placement in a disc, many receiving antennas as one batched receiver of the
+air step (:class:`BatchAntenna`, :class:`BatchLink`, :class:`DrawnLinks`), the receive-chain
+decisions on many inputs at once (:class:`RowsChain`), receiver noise, and running tasks on
+worker processes.
 
 The frame (auris-sense-a-tag.md §5, seed L6011-6023; wave2-specs.md §X): CW rest state,
 ``stamp_cycles`` subcarrier cycles at BLF alternating S1/S2 (ASK stamp), as many alternating
@@ -23,10 +26,10 @@ from typing import Literal
 
 import numpy as np
 
-from devices import st_receiver as sr
 from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
 from channels.noise import thermal_noise_power_w
 from channels.paths import NARROWBAND_TOLERANCE
+from devices import st_receiver as sr
 from devices.sense_a_tag import chain_rows, level_differences
 from rfsim.config import param
 from rfsim.errors import ConfigError
@@ -47,9 +50,9 @@ class FrameConfig:
 
     def check(self, prefix: str = "frame") -> None:
         """The receive chain's band-pass (up to 4·BLF) must fit below fs/2."""
-        if not 8.0 * self.blf_hz <= self.fs_hz:
+        if not 8.0 * self.blf_hz < self.fs_hz:
             raise ConfigError(f"{prefix}.blf_hz", self.blf_hz,
-                              f"<= {prefix}.fs_hz/8 = {self.fs_hz / 8:g} Hz (receiver band-pass up to 4 x BLF)")
+                              f"< {prefix}.fs_hz/8 = {self.fs_hz / 8:g} Hz (receiver band-pass up to 4 x BLF < fs/2)")
 
 
 @dataclass(frozen=True)

@@ -313,20 +313,21 @@ def run(config: Config, *, seed: int) -> Dataset:
     return ds
 
 
+_ANTENNAS = {"sa1": "SA1 (receive-only path P1)", "sa2": "SA2 (full ST path P2)", "combined": "SA1+SA2 RF sum"}
+_KINDS = (("diff_", "sample-level envelope-detector difference |A(+1)-A(-1)| over the data"),
+          ("closed_", "closed form (Eq. 3.4/3.21, R3-5) from the step's phasors"),
+          ("p_", "probability of phase cancellation (R3-5)"), ("ci_", "Clopper-Pearson 95% bound"),
+          ("detected_", "the chain decoded the 10 zeros exactly"),
+          ("cancelled_", "detectable and not detected (R3-5)"),
+          ("stamp_", "ASK-PSK stamp symbol decoded on P2 (True = '1', False = '-')"))
+
+
 def _describe(key: str) -> str:
-    words = {"sa1": "SA1 (receive-only path P1)", "sa2": "SA2 (full ST path P2)", "combined": "SA1+SA2 RF sum"}
     text = key
-    for w, d in words.items():
-        text = text.replace(w, d)
-    if key.startswith("diff_"):
-        return f"sample-level envelope-detector difference |A(+1)-A(-1)| over the data: {text}"
-    if key.startswith("closed_"):
-        return f"closed form (Eq. 3.4/3.21, R3-5) from the step's phasors: {text}"
-    if key.startswith(("p_", "ci_")):
-        return f"probability of phase cancellation (R3-5) / Clopper-Pearson 95% bound: {text}"
-    if key.startswith("stamp_"):
-        return f"ASK-PSK stamp symbol decoded on P2 (True = '1', False = '-'): {text}"
-    return text.replace("_", " ")
+    for short, long in _ANTENNAS.items():
+        text = text.replace(short, long)
+    kind = next((k for prefix, k in _KINDS if key.startswith(prefix)), None)
+    return f"{kind}: {text}" if kind else text.replace("_", " ")
 
 
 # ----------------------------------------------------------------------------- plot

@@ -50,8 +50,8 @@ class ExciterConfig:
                             doc="EIRP in the antenna's main lobe")
     linewidth_hz: float = param(0.0, lo=0.0, hi=1e6, unit="Hz",
                                 doc="phase-noise Lorentzian linewidth (0 = a clean carrier)")
-    schedule_s: tuple[float, ...] = param((), unit="s", doc="on/off switching times t0 < t1 < … (on in [t0, t1), …; "
-                                                "empty = always on)")
+    schedule_s: tuple[float, ...] = param((), unit="s", doc="on/off switching times t0 < t1 < … "
+                                                            "(on in [t0, t1), …; empty = always on)")
 
     def __post_init__(self):
         check_fields(self, "exciter")

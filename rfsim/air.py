@@ -76,7 +76,8 @@ import numpy as np
 from rfsim.errors import ConfigError
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
-           "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift", "PROPAGATION_METHODS"]
+           "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
+           "PROPAGATION_METHODS"]
 
 #: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
 PROPAGATION_METHODS = ("auto", "exact", "narrowband")
@@ -562,7 +563,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                     fc_j = seg.fc_hz
                     pj = links.paths(refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s)
                     if pj is None:
-                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s, what=f"reflector[{j}] → receiver[{k}]")
+                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s,
+                              what=f"reflector[{j}] → receiver[{k}]")
                     if keep_components:
                         used[("reflector", j, "receiver", k)] = pj
             part = None
@@ -583,7 +585,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                             continue
                     inc_e = y if y is not None else g * seg.samples
                     scattered = (rc * inc_e) if rc is not None else r_t * inc_e
-                    gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
+                    gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
+                                      memo=memo)
                     v = shift(yb if yb is not None else gb * scattered, off)
                     parts.append(v)
                     if keep_components:

@@ -111,6 +111,11 @@ class ReaderConfig:
     false_alarm_probability: float = param(1e-3, lo=0.0, hi=1.0, lo_open=True, hi_open=True,
                                            doc="preamble detection false-alarm probability per reply window")
 
+    def __post_init__(self):
+        # The carrier plan is checked when the config is made, so a bad carrier stops a run
+        # before anything is simulated (one-line ConfigError on reader.region / reader.channels_hz).
+        frequency_plan(self.region, self.channels_hz)
+
 
 @dataclass(frozen=True)
 class TxSegment:

@@ -75,7 +75,7 @@ from rfsim.detection import fit_logistic, ts_design
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, unit_of)
@@ -414,7 +414,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="exciter -> tag distance d_e [m]", ylabel="tag -> listener distance d_tt [m]",
            ylim=(d_tt.min(), d_tt.max()), title="exciter-powered tag-to-tag link")
     ax.legend(fontsize=8, loc="upper right")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"))]
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "simulate_row", "point_grid", "fit_eq65", "fits",

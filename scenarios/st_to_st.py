@@ -79,7 +79,7 @@ from rfsim.air import AntennaPort, propagate
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, uniform_disc,
@@ -350,7 +350,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
            title="Fig. 5.8: exciter-powered ST-to-ST link")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "pcancel"))]
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "TECHS", "simulate_cell", "st_outcomes", "cell_table"]

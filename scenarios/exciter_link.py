@@ -324,12 +324,14 @@ def run(config: Config, *, seed: int) -> Dataset:
     d_e = np.asarray(config.sweep.exciter_distance_m, float)
     d_tt = np.asarray(config.sweep.tag_distance_m, float)
     ds = Dataset(title="exciter-powered tag-to-tag link: decode probability vs d_e, d_tt and Eq. (6.5) fits")
-    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
+                 description=_GROUPS["samples"])
     grid = point_grid(samples, d_e, d_tt)
     dims = ("exciter_distance_m", "tag_distance_m")
     ds.add_grid("points", {"exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e"),
                            "tag_distance_m": column(d_tt, "m", "tag -> listener distance d_tt")},
-                {k: column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()})
+                {k: column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()},
+                description=_GROUPS["points"])
     f = fits(grid, d_e, d_tt)
     rows = f["rows"]
     d50 = np.array([r.d50_m for r in rows])
@@ -344,7 +346,8 @@ def run(config: Config, *, seed: int) -> Dataset:
         "d50_stderr_m": column(np.array([r.d50_stderr_m for r in rows]), "m", "delta-method standard error of d50"),
         "fit_status": column(np.array([r.status for r in rows]), "1", "ok, or why the fit has no finite maximum"),
         "d50_in_range": column(in_range, "1", "fit ok and d50 inside the swept d_tt (p crosses 0.5 in the sweep)"),
-        "tag_runs": column(f["runs"], "1", "the tag ran in at least half of the draws (row used by the pooled fits)")})
+        "tag_runs": column(f["runs"], "1", "the tag ran in at least half of the draws (row used by the pooled fits)")},
+        description=_GROUPS["eq65_rows"])
     for name, fit in (("pooled", f["pooled"]), ("extended", f["extended"])):
         ds.attrs[f"eq65_{name}_status"] = fit.status
         for c, (a, se) in enumerate(zip(fit.coefficients, fit.stderr)):
@@ -360,6 +363,9 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.attrs["tag_runs_up_to_m"] = float(d_e[f["runs"]].max()) if f["runs"].any() else float("nan")
     ds.attrs["exciter_eirp_w"] = float(10.0 ** ((config.exciter.eirp_dbm - 30.0) / 10.0))
     ds.attrs["noise_power_w"] = config.noise.power_w(config.frame.fs_hz)
+    for key in [k for k, v in ds.attrs.items() if isinstance(v, float) and not np.isfinite(v)]:
+        ds.attrs[f"{key}_meaning"] = ("NaN: not estimable from this run (the fit has no finite maximum — see "
+                                      "its _status — or no swept row where the tag runs)")
     return ds
 
 
@@ -378,6 +384,23 @@ _TEXT = {
     "p_decoded": "decode probability k/m",
     "ci_lo": "Clopper-Pearson 95% lower bound of p_decoded",
     "ci_hi": "Clopper-Pearson 95% upper bound of p_decoded",
+    "decoded_count": "number of draws at the point in which the listener decoded the frame exactly (k)",
+    "draws": "number of channel draws simulated at the point (m)",
+    "tag_replied_fraction": "fraction of the point's draws in which the tag was powered and sent its frame",
+    "draw": "index of the channel draw at its (d_e, d_tt) point",
+    "exciter_distance_m": "distance d_e from the exciter to the tag",
+    "tag_distance_m": "distance d_tt from the tag to the listener",
+    "listener_azimuth_rad": "azimuth of the listener around the tag, uniform in [0, 2 pi)",
+}
+
+#: Description of each table and grid.
+_GROUPS = {
+    "samples": "one row per channel draw at every (d_e, d_tt) point: incident power, amplitudes and envelope "
+               "differences at the listener, decoded or not",
+    "points": "the (d_e, d_tt) grid: decode counts and probability with Clopper-Pearson intervals, medians of "
+              "the incident power and the envelope differences",
+    "eq65_rows": "the Eq. (6.5) logistic fit p = 1/(1 + exp(-(a1 + a2 d_tt))) per exciter distance d_e, with "
+                 "standard errors and d50",
 }
 
 

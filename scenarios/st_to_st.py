@@ -293,9 +293,11 @@ def stamp_vs_selection(samples) -> dict[str, float | int]:
 def run(config: Config, *, seed: int) -> Dataset:
     samples = monte_carlo(config, seed=seed)
     ds = Dataset(title="exciter-powered ST-to-ST phase cancellation (AURIS Fig. 5.8)")
-    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()})
+    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
+                 description=_GROUPS["samples"])
     cells = cell_table(samples, config.geometry.st_x_m)
-    ds.add_table("cells", {k: column(v, unit_of(k), _describe(k)) for k, v in cells.items()})
+    ds.add_table("cells", {k: column(v, unit_of(k), _describe(k)) for k, v in cells.items()},
+                 description=_GROUPS["cells"])
     for t in TECHS:
         p, lo, hi, _ = sa.cancellation_probability(samples[f"cancelled_{t}"])
         ds.attrs[f"overall_p_{t}"] = float(p)
@@ -322,7 +324,35 @@ _KINDS = (("diff_", "sample-level envelope-detector difference |A(+1)-A(-1)| ove
           ("stamp_", "ASK-PSK stamp symbol decoded on P2 (True = '1', False = '-')"))
 
 
+#: Columns whose meaning is not spelled out by the generic rules below.
+_TEXT = {
+    "cell": "index of the cell: position of the transmitting ST along x (geometry.st_x_m)",
+    "repetition": "repetition of the cell (independent channel draw and receiving-ST positions)",
+    "tx_x_m": "x of the transmitting ST (the exciter is at the origin)",
+    "st_x_m": "x of the receiving ST's centre (uniform in a disc around the transmitting ST)",
+    "st_y_m": "y of the receiving ST's centre (uniform in a disc around the transmitting ST)",
+    "orientation_rad": "azimuth of the receiving ST's antenna pair (SA1 -> SA2), uniform in [0, 2 pi)",
+    "tx_incident_power_w": "exciter CW power incident at the transmitting ST's antenna port",
+    "median_tx_incident_power_w": "median over the cell of the exciter CW power incident at the transmitting ST",
+    "detectable": "the synchronised envelope difference exceeds the comparator threshold on at least one path",
+    "decoded_p1": "the receive-only path P1 (SA1) decoded the 10 zeros exactly",
+    "decoded_p2": "the full ST path P2 (SA2) decoded the 10 zeros exactly",
+    "detectable_fraction": "fraction of the cell's samples that are detectable",
+    "n_samples": "number of receiving-ST samples in the cell",
+}
+
+#: Description of each table.
+_GROUPS = {
+    "samples": "one row per receiving-ST position: geometry, the step's phasors, sample-level and closed-form "
+               "envelope differences, detection and cancellation per technique",
+    "cells": "one row per transmitting-ST position: P(phase cancellation) per technique with Clopper-Pearson "
+             "95 % intervals, detectable fraction, median incident power",
+}
+
+
 def _describe(key: str) -> str:
+    if key in _TEXT:
+        return _TEXT[key]
     text = key
     for short, long in _ANTENNAS.items():
         text = text.replace(short, long)

@@ -33,6 +33,9 @@ TINY = {
     "phase-cancellation": ["geometry.tag_x_m=[1.0, 6.0]", "mc.positions_per_cell=6", "mc.workers=1",
                            "tracks.cell=0"],
     "rss-localization": ["sigma0_db=[5.2]", "trials=20", "particles=50"],
+    "st-to-st": ["geometry.st_x_m=[1.0, 4.0]", "mc.positions_per_cell=6", "mc.workers=1"],
+    "exciter-link": ["sweep.exciter_distance_m=[1.0, 3.0]", "sweep.tag_distance_m=[0.2, 1.0]",
+                     "sweep.draws_per_point=3", "sweep.workers=1"],
 }
 
 
@@ -156,6 +159,7 @@ FIGURES = {
     "reader-detection": ["heatmap", "mean"], "detection-probability": ["fig4_7"],
     "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],
     "rss-localization": ["cdf", "floorplan", "rmse"],
+    "st-to-st": ["pcancel"], "exciter-link": ["heatmap"],
 }
 
 

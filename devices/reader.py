@@ -114,6 +114,12 @@ class ReaderConfig:
     false_alarm_probability: float = param(1e-3, lo=0.0, hi=1.0, lo_open=True, hi_open=True,
                                            doc="preamble detection false-alarm probability per reply window")
 
+    def __post_init__(self):
+        try:  # checked when the config is loaded, so the message names this key
+            profile(self.link_profile)
+        except ConfigError as err:
+            raise ConfigError("link_profile", err.value, err.allowed) from None
+
 
 @dataclass(frozen=True)
 class TxSegment:

@@ -106,6 +106,8 @@ def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
         if not isinstance(value, (list, tuple)):
             raise ConfigError(key, value, f"a list of {_type_name(args[0])}")
         if len(args) == 2 and args[1] is Ellipsis:
+            if not value:
+                raise ConfigError(key, value, f"a non-empty list of {_type_name(args[0])}")
             items = [_coerce(f"{key}[{i}]", v, args[0], meta) for i, v in enumerate(value)]
         else:
             if len(value) != len(args):
@@ -241,6 +243,9 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise UserError(f"config file {str(p)!r}: cannot be read ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise UserError(f"config file {str(p)!r}: not UTF-8 text, so not TOML (byte {err.start} "
+                        f"is {err.object[err.start:err.start + 1]!r})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

@@ -58,7 +58,6 @@ not depend on ``campaign.workers``.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import math
 import os
 from dataclasses import dataclass
@@ -80,6 +79,7 @@ from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
 from rfsim.rng import trial_rng
 from rfsim.plots import pyplot, save_figure
+from rfsim.procs import worker_pool
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -225,7 +225,7 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     if w <= 1:
         parts = [_run_task(t) for t in tasks]
     else:
-        with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
+        with worker_pool(min(w, len(tasks))) as pool:
             parts = list(pool.map(_run_task, tasks))
     rows = [r for p in parts for r in p]
     return {k: np.array([r[k] for r in rows]) for k in FIELDS}

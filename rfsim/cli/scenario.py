@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from rfsim.config import describe, load_config, to_toml
-from rfsim.errors import UserError
+from rfsim.errors import SEED_RANGE_TEXT, UserError, check_seed
 from rfsim.registry import get_scenario, scenario_modules
 
 
@@ -25,7 +25,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", help="scenario name (see 'rfsim list')")
     _add_config_args(p)
     p.add_argument("--seed", type=_seed, default=1,
-                   help="root seed of the run's SeedSequence (non-negative integer, default 1)")
+                   help="root seed of the run's SeedSequence (integer in [0, 2**64), default 1)")
     p.add_argument("--out-dir", type=Path, default=Path("results"),
                    help="folder for the dataset and figures (default: results)")
     p.add_argument("-o", "--output", type=Path, default=None,
@@ -37,12 +37,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _seed(text: str) -> int:
     try:
-        value = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer")
-    return value
+        return check_seed(int(text, 0))
+    except (ValueError, UserError):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected {SEED_RANGE_TEXT}") from None
 
 
 def _add_config_args(p: argparse.ArgumentParser) -> None:

@@ -44,7 +44,9 @@ def _positive(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from rfsim.cli import Parser
+
+    parser = Parser(
         prog="rfsim sweep",
         description="Parameter sweeps from a TOML spec. 'rfsim sweep SPEC.toml' is 'rfsim sweep run SPEC.toml'.",
         epilog="Every run (point, repetition) is written to <output>.points/ as it finishes; the "

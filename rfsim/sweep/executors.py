@@ -21,6 +21,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import logging
 import os
+import re
 import uuid
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -86,6 +87,10 @@ def _import_distributed():
     return distributed
 
 
+#: A Dask scheduler address: [scheme://]host:port, or scheme://host (default port).
+_ADDRESS = re.compile(r"(?:(?:tcp|tls|ucx|ws|wss|inproc)://[^\s/:]+(?::\d{1,5})?|[^\s/:]+:\d{1,5})")
+
+
 def parse_dask_target(text: str) -> tuple[str, int | None]:
     """``"local"`` / ``"local:N"`` → ("local", N or None); anything else is an address."""
     if text == "local" or text.startswith("local:"):
@@ -95,8 +100,9 @@ def parse_dask_target(text: str) -> tuple[str, int | None]:
         if not n.isdigit() or int(n) < 1:
             raise UserError(f"--dask {text!r}: expected local or local:N with N >= 1 workers")
         return "local", int(n)
-    if not text:
-        raise UserError("--dask: expected a scheduler address (tcp://host:8786) or local[:N]")
+    if not _ADDRESS.fullmatch(text):
+        raise UserError(f"--dask {text!r}: expected a scheduler address (tcp://host:8786, "
+                        "host:8786) or local[:N]")
     return text, None
 
 
@@ -132,8 +138,9 @@ class DaskExecutor:
             else:
                 try:
                     self.client = distributed.Client(address, timeout="20s")
-                except OSError as err:
-                    raise UserError(f"--dask {address!r}: cannot connect to the scheduler ({err})") from None
+                except (OSError, ValueError) as err:  # refused/timed out, or a malformed address
+                    raise UserError(f"--dask {address!r}: cannot connect to the scheduler "
+                                    f"({str(err).splitlines()[0] if str(err) else type(err).__name__})") from None
             self._own_client = True
         self.workers = len(self.client.scheduler_info().get("workers", {}))
 

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from rfsim.config import from_dict, read_toml
-from rfsim.errors import ConfigError, UserError, did_you_mean
+from rfsim.errors import SEED_LIMIT, SEED_RANGE_TEXT, ConfigError, UserError, did_you_mean
 from rfsim.rng import trial_rng, trial_seed_sequence
 
 _TOP_KEYS = ("scenario", "seed", "repetitions", "output", "base", "axes")
@@ -148,7 +148,9 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
     scenario = data["scenario"]
     if not isinstance(scenario, str) or not scenario:
         raise ConfigError("scenario", scenario, "a scenario name (see 'rfsim list')")
-    seed = _int(data, "seed", lo=0)
+    seed = data["seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < SEED_LIMIT:
+        raise ConfigError("seed", seed, SEED_RANGE_TEXT)
     repetitions = _int(data, "repetitions", lo=1, default=1)
     output = data["output"]
     if not isinstance(output, str) or not output.endswith((".h5", ".hdf5")):

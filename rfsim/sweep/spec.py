@@ -46,9 +46,8 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -71,8 +70,9 @@ DISTRIBUTIONS = {
     "loguniform": ("low", "high"),
     "choice": ("values",),
 }
-#: Upper bound on the number of runs (points × repetitions) of one sweep.
-MAX_RUNS = 10_000_000
+#: Upper bound on the number of runs (points × repetitions) of one sweep (points are
+#: expanded lazily, so this bounds the point store, not the memory of a dry-run).
+MAX_RUNS = 10**9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,7 +81,8 @@ class Axis:
 
     kind: str
     keys: tuple[str, ...]
-    values: tuple[tuple[Any, ...], ...]
+    #: one tuple of values (one per key) per step; random axes hold their draws lazily
+    values: Sequence[tuple[Any, ...]]
     #: random axes of the same ``n`` share a group; grid/zip axes have their own
     group: str
 
@@ -248,10 +249,12 @@ def _parse_axis(i: int, axis: Mapping[str, Any], seed: int) -> Axis:
     n = _int(axis, "n", lo=1, prefix=prefix) if "n" in axis else None
     if n is None:
         raise ConfigError(prefix + "n", None, "an integer >= 1 (number of draws)")
+    if n > MAX_RUNS:
+        raise ConfigError(prefix + "n", n, f"an integer in [1, {MAX_RUNS}]")
     rng = trial_rng(seed, i)
     if dist == "choice":
         choices = _nonempty_list(axis.get("values"), prefix + "values")
-        drawn = [copy.deepcopy(choices[j]) for j in rng.integers(0, len(choices), n)]
+        drawn = _Draws(rng.integers(0, len(choices), n), tuple(choices))
     else:
         p = {k: _number(axis, k, prefix) for k in DISTRIBUTIONS[dist]}
         if dist == "uniform":
@@ -266,29 +269,106 @@ def _parse_axis(i: int, axis: Mapping[str, Any], seed: int) -> Axis:
             if not 0 < p["low"] < p["high"]:
                 raise ConfigError(prefix + "low", p["low"], f"0 < low < high = {p['high']:g}")
             arr = np.exp(rng.uniform(np.log(p["low"]), np.log(p["high"]), n))
-        drawn = [float(v) for v in arr]
-    return Axis("random", (key,), tuple((v,) for v in drawn), group=f"random-n{n}")
+        drawn = _Draws(arr)
+    return Axis("random", (key,), drawn, group=f"random-n{n}")
+
+
+class _Draws(Sequence):
+    """The ``n`` draws of a random axis as one-value steps, kept as one NumPy array."""
+
+    def __init__(self, drawn: np.ndarray, choices: tuple[Any, ...] | None = None):
+        self._drawn, self._choices = drawn, choices
+
+    def __len__(self) -> int:
+        return len(self._drawn)
+
+    def __getitem__(self, j):
+        if isinstance(j, slice):
+            return [self[k] for k in range(*j.indices(len(self)))]
+        v = self._drawn[j]
+        return (copy.deepcopy(self._choices[int(v)]),) if self._choices is not None else (float(v),)
+
+    def __eq__(self, other) -> bool:
+        return list(self) == list(other)
+
+    def support(self) -> list[Any]:
+        """The values a draw can take: the choices, or the drawn numbers themselves."""
+        return list(self._choices) if self._choices is not None else [float(v) for v in self._drawn[:1]]
+
+
+def axis_support(axis: Axis, j: int = 0) -> list[Any]:
+    """Values that key ``j`` of ``axis`` can take (every grid/zip value; a random axis's
+    choices, or one of its draws — they are all floats)."""
+    if isinstance(axis.values, _Draws):
+        return axis.values.support()
+    return [step[j] for step in axis.values]
 
 
 # ----------------------------------------------------------------------------- expansion
 
 
-def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
-    """Swept key → value of every point, in point order (see the module docstring)."""
+def _groups(spec: SweepSpec) -> list[list[Axis]]:
     groups: dict[str, list[Axis]] = {}
     for a in spec.axes:
         groups.setdefault(a.group, []).append(a)
-    for name, members in groups.items():
-        if len({len(a) for a in members}) != 1:  # cannot happen: random groups are keyed by n
-            raise ValueError(f"axes of group {name} differ in length")
-    out = []
-    for steps in itertools.product(*(range(len(m[0])) for m in groups.values())):
-        values: dict[str, Any] = {}
-        for members, j in zip(groups.values(), steps):
-            for a in members:
-                values.update(zip(a.keys, a.values[j]))
-        out.append({k: values[k] for k in spec.swept_keys})
-    return out
+    return list(groups.values())
+
+
+def point_value(spec: SweepSpec, index: int) -> dict[str, Any]:
+    """Swept key → value of point ``index`` alone (no expansion of the other points).
+
+    The index is read as a mixed-radix number over the group sizes, the last group
+    varying fastest — the ``itertools.product`` order of :func:`point_values`.
+    """
+    if not 0 <= index < spec.n_points:
+        raise IndexError(f"point {index} of a sweep of {spec.n_points} points")
+    values: dict[str, Any] = {}
+    rest = index
+    steps = []
+    for members in reversed(_groups(spec)):
+        rest, j = divmod(rest, len(members[0]))
+        steps.append((members, j))
+    for members, j in reversed(steps):
+        for a in members:
+            values.update(zip(a.keys, a.values[j]))
+    return {k: values[k] for k in spec.swept_keys}
+
+
+def iter_point_values(spec: SweepSpec, start: int = 0, stop: int | None = None) -> Iterator[dict[str, Any]]:
+    """Swept values of points ``start`` … ``stop - 1``, one at a time (lazy)."""
+    stop = spec.n_points if stop is None else min(stop, spec.n_points)
+    for i in range(start, stop):
+        yield point_value(spec, i)
+
+
+def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
+    """Swept key → value of every point, in point order (see the module docstring).
+
+    Holds every point in memory; large sweeps use :func:`point_value` /
+    :func:`iter_point_values`.
+    """
+    return list(iter_point_values(spec))
+
+
+def sample_points(spec: SweepSpec, first: int = 3) -> list[int]:
+    """Point indices that together use every value of every axis at least once.
+
+    The first ``first`` points, then for each group and each of its steps the point with
+    that step and every other group at step 0 — ``sum(group sizes)`` points, however
+    large their product. :func:`rfsim.sweep.runner.plan_sweep` checks these when asked
+    for a quick check (dry-run, SLURM plan) instead of every point.
+    """
+    sizes = spec.group_sizes
+    picked = dict.fromkeys(range(min(first, spec.n_points)))
+    stride = 1
+    strides = []
+    for size in reversed(sizes):
+        strides.append(stride)
+        stride *= size
+    for size, st in zip(sizes, reversed(strides)):
+        for j in range(size):
+            picked.setdefault(j * st)
+    return list(picked)
 
 
 def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
@@ -317,20 +397,23 @@ def _short(values: Mapping[str, Any]) -> str:
     return text if len(text) <= 120 else text[:117] + "..."
 
 
-def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
-    """Validated config of every point; the first bad point raises a one-line error.
+def point_config(spec: SweepSpec, config_cls: type, index: int, values: Mapping[str, Any] | None = None) -> Any:
+    """Validated config of point ``index``; a bad point raises a one-line error.
 
     The message names the point index and its swept values, then the key, the value and
     what is allowed (the :class:`ConfigError` of :func:`rfsim.config.from_dict`).
     """
-    configs = []
-    for i, values in enumerate(point_values(spec)):
-        try:
-            configs.append(from_dict(config_cls, point_config_dict(spec, values)))
-        except ConfigError as err:
-            where = f"sweep point {i}" + (f" ({_short(values)})" if values else "")
-            raise UserError(f"{where}: {err}") from None
-    return configs
+    values = point_value(spec, index) if values is None else values
+    try:
+        return from_dict(config_cls, point_config_dict(spec, values))
+    except ConfigError as err:
+        where = f"sweep point {index}" + (f" ({_short(values)})" if values else "")
+        raise UserError(f"{where}: {err}") from None
+
+
+def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
+    """Validated config of every point (in memory); the first bad point raises."""
+    return [point_config(spec, config_cls, i) for i in range(spec.n_points)]
 
 
 def point_seed(seed: int, point: int, repetition: int) -> int:
@@ -359,7 +442,12 @@ __all__ = [
     "DISTRIBUTIONS",
     "load_spec",
     "parse_spec",
+    "point_value",
+    "axis_support",
+    "iter_point_values",
     "point_values",
+    "sample_points",
+    "point_config",
     "point_config_dict",
     "point_configs",
     "point_seed",

@@ -1,0 +1,326 @@
+"""Streaming merge of a sweep's point store into one HDF5 dataset.
+
+Layout of the merged file (runs in (point, repetition) order):
+
+* ``sweep_runs`` — one row per run: ``point``, ``repetition``, ``seed``, the swept values
+  under their dotted keys (units from the config field metadata; list, table and
+  ``none`` values as their TOML/Python text — stored once per run, here only) and the
+  scalar root attributes every run has.
+* every table of the runs, concatenated, with the added columns ``sweep_point``,
+  ``sweep_repetition`` and ``sweep.<key>`` for each swept key whose values are numbers or
+  booleans (text and list values are only in ``sweep_runs``; join on ``sweep_point`` /
+  ``sweep_repetition``). The prefix keeps them apart from the scenario's own columns.
+* a grid that every run has with identical coordinates and variable shapes is stacked
+  along two new leading dimensions ``sweep_point`` and ``sweep_repetition`` (with the
+  variables ``sweep.<key>`` over ``sweep_point``); otherwise each run's copy is stored as
+  its own grid ``<grid>__point-000123-rep-00``.
+
+Columns of 4096 values or more are chunked and gzip-compressed. The merge makes two
+passes over the store: the first reads only the records' headers (names, dtypes,
+lengths, coordinate checksums), the second one record at a time, writing its rows and
+grid slices straight into the output (tables through a bounded row buffer), so its
+memory is one run's data plus the buffer and the per-run scalars of ``sweep_runs`` — not
+the whole sweep. The output is written under a temporary name and renamed at the end.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from rfsim.config import field_meta, toml_value
+from rfsim.dataset import (Column, atomic_h5file, column, create_array, create_row_scale, stored_values,
+                           write_provenance, write_root_attrs, Dataset)
+from rfsim.sweep.store import RecordReader, RecordRef, decode_array, decode_dataset
+
+RUNS_TABLE = "sweep_runs"
+#: names of the columns/dimensions the merge adds to the scenario's own tables and grids
+POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
+#: rows of one table buffered before they are written (bounds the merge's memory)
+BUFFER_ROWS = 1 << 16
+
+
+def _key_field(config_cls: type, key: str) -> dataclasses.Field | None:
+    cls = config_cls
+    parts = key.split(".")
+    for j, part in enumerate(parts):
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        if part not in fields:
+            return None
+        if j == len(parts) - 1:
+            return fields[part]
+        cls = typing.get_type_hints(cls)[part]
+        if not dataclasses.is_dataclass(cls):
+            return None
+    return None
+
+
+def _is_scalar_number(v: Any) -> bool:
+    return isinstance(v, (bool, int, float, np.integer, np.floating, np.bool_))
+
+
+def _as_stored(v: Any) -> Any:
+    if isinstance(v, dict):  # a whole sub-table swept at once
+        return repr(v)
+    if isinstance(v, (list, tuple)) or v is None:
+        return toml_value(tuple(v) if isinstance(v, list) else v)
+    return v
+
+
+def value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
+    """One column of the swept values of ``key`` (lists/tuples/None as TOML text, tables as text)."""
+    f = _key_field(config_cls, key)
+    meta = field_meta(f) if f is not None else {"unit": "", "doc": ""}
+    if all(_is_scalar_number(v) or isinstance(v, str) for v in values):
+        data = list(values)
+    else:
+        data = [str(_as_stored(v)) for v in values]
+    desc = f"swept config value {key}" + (f": {meta['doc']}" if meta["doc"] else "")
+    return column(data, meta["unit"], desc)
+
+
+# ----------------------------------------------------------------------------- pass 1
+
+
+@dataclasses.dataclass
+class _TableSchema:
+    columns: list[tuple[str, str, str, np.dtype]]  # name, units, description, dtype
+    lengths: np.ndarray  # rows per run, -1 where the run has no such table
+
+
+@dataclasses.dataclass
+class _GridSchema:
+    coords: list[tuple[str, str]]  # name, sha1
+    variables: list[tuple[str, tuple[int, ...], tuple[str, ...], str]]  # name, shape, dims, dtype
+    present: int = 0
+    stackable: bool = True
+
+
+def _promote(a: np.dtype, b: np.dtype) -> np.dtype:
+    if a == b:
+        return a
+    if a.kind == "U" and b.kind == "U":
+        return a if a.itemsize >= b.itemsize else b
+    return np.result_type(a, b)
+
+
+def _scan(refs: Sequence[RecordRef], reader: RecordReader):
+    tables: dict[str, _TableSchema] = {}
+    grids: dict[str, _GridSchema] = {}
+    attr_counts: dict[str, int] = {}
+    attr_order: list[str] = []
+    for j, ref in enumerate(refs):
+        desc = reader.header(ref)["dataset"]
+        for a in desc["attrs"]:
+            if not a["array"]["shape"]:
+                if a["name"] not in attr_counts:
+                    attr_order.append(a["name"])
+                attr_counts[a["name"]] = attr_counts.get(a["name"], 0) + 1
+        for t in desc["tables"]:
+            cols = [(c["name"], c["units"], c["description"], np.dtype(c["array"]["dtype"]))
+                    for c in t["columns"]]
+            schema = tables.get(t["name"])
+            if schema is None:
+                schema = tables[t["name"]] = _TableSchema(cols, np.full(len(refs), -1, np.int64))
+            else:
+                if [c[0] for c in cols] != [c[0] for c in schema.columns]:
+                    raise ValueError(f"table {t['name']!r}: run {j} has columns {[c[0] for c in cols]}, "
+                                     f"the first has {[c[0] for c in schema.columns]}")
+                schema.columns = [(c0[0], c0[1], c0[2], _promote(c0[3], c[3]))
+                                  for c0, c in zip(schema.columns, cols)]
+            schema.lengths[j] = desc_len(t)
+        for g in desc["grids"]:
+            coords = [(c["name"], c["array"]["sha1"]) for c in g["coords"]]
+            variables = [(v["name"], tuple(v["array"]["shape"]), tuple(v["dims"]), v["array"]["dtype"])
+                         for v in g["variables"]]
+            schema = grids.setdefault(g["name"], _GridSchema(coords, variables))
+            schema.present += 1
+            if schema.coords != coords or [v[:3] for v in schema.variables] != [v[:3] for v in variables]:
+                schema.stackable = False
+            elif schema.variables != variables:  # same shapes, other dtypes: promote
+                schema.variables = [(v0[0], v0[1], v0[2], _promote(np.dtype(v0[3]), np.dtype(v[3])).str)
+                                    for v0, v in zip(schema.variables, variables)]
+    for schema in grids.values():
+        schema.stackable = schema.stackable and schema.present == len(refs)
+    attrs = [a for a in attr_order if attr_counts[a] == len(refs)]
+    return tables, grids, attrs
+
+
+def desc_len(table: Mapping[str, Any]) -> int:
+    """Rows of a table described in a record header."""
+    return int(table["columns"][0]["array"]["shape"][0])
+
+
+# ----------------------------------------------------------------------------- pass 2
+
+
+class _TableWriter:
+    """Writes one merged table part by part through a bounded buffer."""
+
+    def __init__(self, group: h5py.Group, columns: Mapping[str, Column], n_rows: int):
+        self.datasets = {}
+        row = create_row_scale(group, n_rows)
+        for name, like in columns.items():
+            ds = create_array(group, name, like, (n_rows,))
+            ds.dims[0].attach_scale(row)
+            self.datasets[name] = ds
+        self.pos, self.rows, self.parts = 0, 0, {name: [] for name in columns}
+
+    def add(self, part: Mapping[str, np.ndarray]) -> None:
+        n = len(next(iter(part.values())))
+        for name, data in part.items():
+            self.parts[name].append(data)
+        self.rows += n
+        if self.rows >= BUFFER_ROWS:
+            self.flush()
+
+    def flush(self) -> None:
+        if not self.rows:
+            return
+        for name, parts in self.parts.items():
+            data = np.concatenate(parts) if len(parts) > 1 else parts[0]
+            self.datasets[name][self.pos:self.pos + self.rows] = stored_values(data)
+            parts.clear()
+        self.pos += self.rows
+        self.rows = 0
+
+
+def _check_reserved(kind: str, name: str, names: Sequence[str], keys: Sequence[str]) -> None:
+    for reserved in [POINT, REPETITION, *(KEY_PREFIX + k for k in keys)]:
+        if reserved in names:
+            raise ValueError(f"{kind} {name!r} already has a column {reserved!r}; cannot merge")
+
+
+def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[int, int, int]],
+                point_value, n_points: int, n_repetitions: int, keys: Sequence[str], config_cls: type,
+                provenance: Mapping[str, Any], numeric_keys: Mapping[str, np.dtype]) -> Path:
+    """Merge the records ``refs`` of the runs ``runs`` = [(point, repetition, seed)] into ``output``.
+
+    ``point_value(i)`` gives the swept values of point ``i``; the runs are in
+    (point, repetition) order, ``n_points × n_repetitions`` of them. ``numeric_keys`` maps
+    the swept keys whose every value is a number or boolean to their column dtype (these
+    are repeated on every row of the tables as ``sweep.<key>``).
+    """
+    with RecordReader() as reader:
+        tables, grids, attr_names = _scan(refs, reader)
+        pts = np.array([r[0] for r in runs], dtype=np.int64)
+        reps = np.array([r[1] for r in runs], dtype=np.int64)
+        scenario = ""
+        with atomic_h5file(output) as f:
+            title = ""
+            writers: dict[str, _TableWriter] = {}
+            for name, schema in tables.items():
+                names = [c[0] for c in schema.columns]
+                _check_reserved("table", name, names, keys)
+                like = {POINT: column(np.zeros(0, np.int64), "1", "sweep point index"),
+                        REPETITION: column(np.zeros(0, np.int64), "1", "repetition of the point")}
+                for key, dtype in numeric_keys.items():
+                    v = value_column(key, [point_value(0)[key]], config_cls)
+                    like[KEY_PREFIX + key] = dataclasses.replace(v, data=v.data.astype(dtype))
+                for cname, units, desc, dtype in schema.columns:
+                    like[cname] = Column(np.zeros(0, dtype), units, desc)
+                n_rows = int(schema.lengths[schema.lengths > 0].sum())
+                writers[name] = _TableWriter(f.create_group(name), like, n_rows)
+            stacked = {name: None for name, g in grids.items() if g.stackable}
+            attr_values: dict[str, list] = {a: [] for a in attr_names}
+            for j, ref in enumerate(refs):
+                header, payload = reader.read(ref)
+                desc = header["dataset"]
+                if j == 0:
+                    title = desc["title"] + " (sweep)"
+                    scenario = desc["scenario"]
+                attrs = {a["name"]: a for a in desc["attrs"]}
+                for a in attr_names:
+                    attr_values[a].append(decode_array(payload, attrs[a]["array"])[()])
+                run = decode_dataset(desc, payload)
+                p, k = int(pts[j]), int(reps[j])
+                values = point_value(p)
+                for name, cols in run.tables.items():
+                    n = len(next(iter(cols.values())).data)
+                    part = {POINT: np.full(n, p, np.int64), REPETITION: np.full(n, k, np.int64)}
+                    for key, dtype in numeric_keys.items():
+                        part[KEY_PREFIX + key] = np.full(n, values[key], dtype=dtype)
+                    part.update({c: col.data for c, col in cols.items()})
+                    writers[name].add(part)
+                for name, (coords, variables) in run.grids.items():
+                    if name in stacked:
+                        if stacked[name] is None:
+                            stacked[name] = _create_stacked(f, name, coords, variables, grids[name], n_points,
+                                                            n_repetitions, keys, point_value, config_cls)
+                        for vname, v in variables.items():
+                            stacked[name][vname][p, k] = stored_values(v.data)
+                    else:
+                        _write_grid_copy(f, f"{name}__point-{p:06d}-rep-{k:02d}", coords, variables)
+                del run, header, payload
+            for w in writers.values():
+                w.flush()
+            runs_cols: dict[str, Column] = {
+                "point": column(pts, "1", "sweep point index"),
+                "repetition": column(reps, "1", "repetition of the point"),
+                "seed": column(np.array([r[2] for r in runs], dtype=np.int64), "1",
+                               "seed the scenario ran with (SeedSequence(seed, spawn_key=(point, repetition)))"),
+            }
+            for key in keys:
+                runs_cols[key] = value_column(key, [point_value(int(p))[key] for p in pts], config_cls)
+            for name in attr_names:
+                if name not in runs_cols:
+                    runs_cols[name] = column(attr_values[name], "", f"root attribute {name!r} of the run")
+            w = _TableWriter(f.create_group(RUNS_TABLE), runs_cols, len(runs))
+            w.add({c: col.data for c, col in runs_cols.items()})
+            w.flush()
+            write_root_attrs(f, Dataset(title=title or "sweep", scenario=scenario))
+            write_provenance(f, provenance)
+    return output
+
+
+def _create_stacked(f, name, coords, variables, schema: _GridSchema, n_points, n_reps, keys, point_value,
+                    config_cls) -> dict[str, h5py.Dataset]:
+    _check_reserved("grid", name, [*coords, *variables], keys)
+    g = f.create_group(name)
+    all_coords = {POINT: column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
+                  REPETITION: column(np.arange(n_reps, dtype=np.int64), "1", "repetition of the point"),
+                  **coords}
+    scales = {}
+    for cname, c in all_coords.items():
+        ds = create_array(g, cname, c, c.data.shape)
+        ds[...] = stored_values(c.data)
+        ds.make_scale(cname)
+        scales[cname] = ds
+    for key in keys:
+        vals = value_column(key, [point_value(i)[key] for i in range(n_points)], config_cls)
+        ds = create_array(g, KEY_PREFIX + key, vals, vals.data.shape)
+        ds[...] = stored_values(vals.data)
+        ds.dims[0].attach_scale(scales[POINT])
+    out = {}
+    dtypes = {v[0]: np.dtype(v[3]) for v in schema.variables}
+    for vname, v in variables.items():
+        like = Column(np.zeros(0, dtypes[vname]), v.units, v.description)
+        ds = create_array(g, vname, like, (n_points, n_reps) + v.data.shape)
+        for axis, dim in enumerate((POINT, REPETITION, *v.dims)):
+            ds.dims[axis].attach_scale(scales[dim])
+        out[vname] = ds
+    return out
+
+
+def _write_grid_copy(f, name, coords, variables) -> None:
+    g = f.create_group(name)
+    scales = {}
+    for cname, c in coords.items():
+        ds = create_array(g, cname, c, c.data.shape)
+        ds[...] = stored_values(c.data)
+        ds.make_scale(cname)
+        scales[cname] = ds
+    for vname, v in variables.items():
+        ds = create_array(g, vname, v, v.data.shape)
+        ds[...] = stored_values(v.data)
+        for axis, dim in enumerate(v.dims):
+            ds.dims[axis].attach_scale(scales[dim])
+
+
+__all__ = ["RUNS_TABLE", "POINT", "REPETITION", "KEY_PREFIX", "value_column", "merge_store"]

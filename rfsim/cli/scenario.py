@@ -76,8 +76,6 @@ def _run(args: argparse.Namespace) -> int:
     from rfsim.runner import run_scenario
 
     module, config = _resolve(args)
-    if args.output is not None and args.output.suffix not in (".h5", ".hdf5"):
-        raise UserError(f"--output {str(args.output)!r}: the dataset file must end in .h5 or .hdf5")
     out = run_scenario(module, config, seed=args.seed, out_dir=args.out_dir, output=args.output,
                        make_plots=not args.no_plot)
     if not args.quiet:

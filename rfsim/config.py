@@ -81,7 +81,8 @@ def _check_range(key: str, value: float, meta: Mapping[str, Any], kind: str) -> 
     bad = (lo is not None and (value < lo or (meta["lo_open"] and value == lo))) or (
         hi is not None and (value > hi or (meta["hi_open"] and value == hi)))
     if bad:
-        raise ConfigError(key, value, f"a {kind} in {_range_text(meta)}")
+        article = "an" if kind[0] in "aeiou" else "a"
+        raise ConfigError(key, value, f"{article} {kind} in {_range_text(meta)}")
 
 
 def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:

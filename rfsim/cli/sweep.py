@@ -154,9 +154,11 @@ def _run(ns: argparse.Namespace) -> int:
         ns.show = 3
         return _dry_run(ns)
     from rfsim.sweep import Progress, load_spec, make_executor, run_sweep
+    from rfsim.sweep.runner import check_sweep_outputs
 
     spec = load_spec(ns.spec)
     _check_size(ns, spec)
+    check_sweep_outputs(spec)  # before a Dask cluster is started or anything runs
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
     try:
         def progress(total: int, *, done: int) -> Progress:

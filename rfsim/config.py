@@ -19,6 +19,7 @@ TOML text (stored in every dataset's provenance).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import tomllib
 import types
@@ -146,6 +147,41 @@ def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
     raise TypeError(f"unsupported config field type for {key}: {tp!r}")
 
 
+@functools.lru_cache(maxsize=None)
+def type_hints(cls: type) -> dict[str, Any]:
+    """``typing.get_type_hints(cls)``, computed once per class (it dominates config loading)."""
+    return typing.get_type_hints(cls)
+
+
+def field_at(cls: type, key: str) -> tuple[dataclasses.Field, Any] | None:
+    """(field, type) of the dotted ``key`` in the config class ``cls``; None if there is none."""
+    parts = key.split(".")
+    for j, part in enumerate(parts):
+        if not dataclasses.is_dataclass(cls):
+            return None
+        fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+        if part not in fields:
+            return None
+        hint = type_hints(cls)[part]
+        if j == len(parts) - 1:
+            return fields[part], hint
+        cls = hint
+    return None
+
+
+def check_value(cls: type, key: str, value: Any) -> Any:
+    """Check one value of the dotted ``key`` against its field's type, range or choices.
+
+    The per-field checks of :func:`from_dict` without the cross-field checks of the
+    configs' ``__post_init__``; unknown keys raise :class:`ConfigError`.
+    """
+    found = field_at(cls, key)
+    if found is None:
+        raise ConfigError(key, value, "a known config key (see 'rfsim config SCENARIO --keys')")
+    f, hint = found
+    return _coerce(key, value, hint, field_meta(f))
+
+
 def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
@@ -156,7 +192,7 @@ def from_dict(cls: type, data: Mapping[str, Any], *, prefix: str = "") -> Any:
     Missing keys take the defaults; unknown keys, wrong types and out-of-range values
     raise :class:`ConfigError` naming the dotted key.
     """
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     kwargs: dict[str, Any] = {}
     for name, value in data.items():
@@ -193,7 +229,7 @@ def check_fields(config: Any, prefix: str = "") -> None:
     Same per-field checks as :func:`from_dict` (types, ranges, choices), with keys named
     ``prefix.field``; values are stored in canonical form (e.g. ints as floats).
     """
-    hints = typing.get_type_hints(type(config))
+    hints = type_hints(type(config))
     for f in dataclasses.fields(config):
         key = f"{prefix}.{f.name}" if prefix else f.name
         object.__setattr__(config, f.name, _coerce(key, getattr(config, f.name), hints[f.name], field_meta(f)))
@@ -317,7 +353,7 @@ def to_toml(config: Any) -> str:
 def describe(cls: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
     """(key, default, allowed, description) rows for help output."""
     rows = []
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     for f in dataclasses.fields(cls):
         key = f"{prefix}.{f.name}" if prefix else f.name
         tp = hints[f.name]
@@ -341,6 +377,9 @@ __all__ = [
     "from_dict",
     "validate",
     "check_fields",
+    "check_value",
+    "field_at",
+    "type_hints",
     "parse_override",
     "read_toml",
     "load_config",

@@ -15,11 +15,11 @@ from rfsim.sweep.progress import Progress
 from rfsim.sweep.runner import SweepPlan, SweepReport, merge_sweep, missing_runs, plan_sweep, run_sweep
 from rfsim.sweep.slurm import sbatch_script
 from rfsim.sweep.spec import (SweepSpec, iter_point_values, load_spec, parse_spec, point_config, point_config_dict,
-                              point_configs, point_seed, point_value, point_values, sample_points, shard_runs)
+                              point_configs, point_seed, point_value, point_values, shard_runs)
 from rfsim.sweep.store import StoreIndex, points_dir
 
 __all__ = [
-    "SweepSpec", "load_spec", "parse_spec", "point_value", "iter_point_values", "point_values", "sample_points",
+    "SweepSpec", "load_spec", "parse_spec", "point_value", "iter_point_values", "point_values",
     "point_config", "point_config_dict", "point_configs", "point_seed", "shard_runs",
     "SweepPlan", "SweepReport", "plan_sweep", "run_sweep", "merge_sweep", "missing_runs",
     "SerialExecutor", "PoolExecutor", "DaskExecutor", "available_cpus", "make_executor",

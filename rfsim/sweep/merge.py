@@ -26,7 +26,6 @@ the whole sweep. The output is written under a temporary name and renamed at the
 from __future__ import annotations
 
 import dataclasses
-import typing
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from rfsim.config import field_meta, toml_value
+from rfsim.config import field_at, field_meta, toml_value
 from rfsim.dataset import (Column, atomic_h5file, column, create_array, create_row_scale, stored_values,
                            write_provenance, write_root_attrs, Dataset)
 from rfsim.sweep.store import RecordReader, RecordRef, decode_array, decode_dataset
@@ -44,21 +43,6 @@ RUNS_TABLE = "sweep_runs"
 POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
 #: rows of one table buffered before they are written (bounds the merge's memory)
 BUFFER_ROWS = 1 << 16
-
-
-def _key_field(config_cls: type, key: str) -> dataclasses.Field | None:
-    cls = config_cls
-    parts = key.split(".")
-    for j, part in enumerate(parts):
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        if part not in fields:
-            return None
-        if j == len(parts) - 1:
-            return fields[part]
-        cls = typing.get_type_hints(cls)[part]
-        if not dataclasses.is_dataclass(cls):
-            return None
-    return None
 
 
 def _is_scalar_number(v: Any) -> bool:
@@ -75,8 +59,8 @@ def _as_stored(v: Any) -> Any:
 
 def value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
     """One column of the swept values of ``key`` (lists/tuples/None as TOML text, tables as text)."""
-    f = _key_field(config_cls, key)
-    meta = field_meta(f) if f is not None else {"unit": "", "doc": ""}
+    found = field_at(config_cls, key)
+    meta = field_meta(found[0]) if found is not None else {"unit": "", "doc": ""}
     if all(_is_scalar_number(v) or isinstance(v, str) for v in values):
         data = list(values)
     else:

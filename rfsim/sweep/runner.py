@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -33,7 +33,7 @@ from rfsim.sweep.executors import SerialExecutor
 from rfsim.sweep.lock import OutputLock
 from rfsim.sweep.merge import merge_store
 from rfsim.sweep.progress import Progress
-from rfsim.sweep.spec import (SweepSpec, axis_support, point_config, point_seed, point_value, sample_points,
+from rfsim.sweep.spec import (SweepSpec, axis_support, check_axis_values, point_config, point_seed, point_value,
                               shard_runs)
 from rfsim.sweep.store import PointResult, PointTask, StoreIndex, close_writers, config_digest, points_dir
 
@@ -141,14 +141,20 @@ class SweepPlan:
 
 def plan_sweep(spec: SweepSpec, *, check: str = "all", module: ModuleType | None = None) -> SweepPlan:
     """The plan of ``spec``; ``check="all"`` validates every point's config (one at a time),
-    ``"sample"`` only :func:`~rfsim.sweep.spec.sample_points` (every axis value once),
+    ``"sample"`` the first three points in full and every axis value against its key's
+    type and range (:func:`~rfsim.sweep.spec.check_axis_values`; dry-run, SLURM plan),
     ``"none"`` nothing. ``module`` overrides the scenario looked up by name."""
     module = module or get_scenario(spec.scenario)
     plan = SweepPlan(spec, module)
-    points: Iterable[int] = {"all": range(spec.n_points), "sample": sample_points(spec),
-                             "none": ()}[check]
-    for i in points:
-        point_config(spec, module.Config, i)
+    if check == "sample":
+        for i in range(min(3, spec.n_points)):
+            point_config(spec, module.Config, i)
+        check_axis_values(spec, module.Config)
+    elif check == "all":
+        for i in range(spec.n_points):
+            point_config(spec, module.Config, i)
+    elif check != "none":
+        raise ValueError(f"check={check!r}: expected 'all', 'sample' or 'none'")
     return plan
 
 

@@ -43,6 +43,8 @@ RUNS_TABLE = "sweep_runs"
 POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
 #: rows of one table buffered before they are written (bounds the merge's memory)
 BUFFER_ROWS = 1 << 16
+#: bytes of a stacked grid buffered before they are written
+BUFFER_BYTES = 8 << 20
 
 
 def _is_scalar_number(v: Any) -> bool:
@@ -159,7 +161,7 @@ class _TableWriter:
     def add(self, part: Mapping[str, np.ndarray]) -> None:
         n = len(next(iter(part.values())))
         for name, data in part.items():
-            self.parts[name].append(data)
+            self.parts[name].append(np.array(data))  # a copy: a view would keep the whole record alive
         self.rows += n
         if self.rows >= BUFFER_ROWS:
             self.flush()
@@ -237,12 +239,11 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
                         if stacked[name] is None:
                             stacked[name] = _create_stacked(f, name, coords, variables, grids[name], n_points,
                                                             n_repetitions, keys, point_value, config_cls)
-                        for vname, v in variables.items():
-                            stacked[name][vname][p, k] = stored_values(v.data)
+                        stacked[name].add(p, k, {vname: v.data for vname, v in variables.items()})
                     else:
                         _write_grid_copy(f, f"{name}__point-{p:06d}-rep-{k:02d}", coords, variables)
                 del run, header, payload
-            for w in writers.values():
+            for w in [*writers.values(), *(g for g in stacked.values() if g is not None)]:
                 w.flush()
             runs_cols: dict[str, Column] = {
                 "point": column(pts, "1", "sweep point index"),
@@ -264,23 +265,16 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
 
 
 def _create_stacked(f, name, coords, variables, schema: _GridSchema, n_points, n_reps, keys, point_value,
-                    config_cls) -> dict[str, h5py.Dataset]:
+                    config_cls) -> _GridWriter:
     _check_reserved("grid", name, [*coords, *variables], keys)
     g = f.create_group(name)
     all_coords = {POINT: column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
                   REPETITION: column(np.arange(n_reps, dtype=np.int64), "1", "repetition of the point"),
                   **coords}
-    scales = {}
-    for cname, c in all_coords.items():
-        ds = create_array(g, cname, c, c.data.shape)
-        ds[...] = stored_values(c.data)
-        ds.make_scale(cname)
-        scales[cname] = ds
+    scales = _write_scales(g, all_coords)
     for key in keys:
         vals = value_column(key, [point_value(i)[key] for i in range(n_points)], config_cls)
-        ds = create_array(g, KEY_PREFIX + key, vals, vals.data.shape)
-        ds[...] = stored_values(vals.data)
-        ds.dims[0].attach_scale(scales[POINT])
+        _write_full(g, KEY_PREFIX + key, vals).dims[0].attach_scale(scales[POINT])
     out = {}
     dtypes = {v[0]: np.dtype(v[3]) for v in schema.variables}
     for vname, v in variables.items():
@@ -289,20 +283,58 @@ def _create_stacked(f, name, coords, variables, schema: _GridSchema, n_points, n
         for axis, dim in enumerate((POINT, REPETITION, *v.dims)):
             ds.dims[axis].attach_scale(scales[dim])
         out[vname] = ds
-    return out
+    return _GridWriter(out, n_reps)
+
+
+class _GridWriter:
+    """Writes a stacked grid in blocks of whole points (bounded buffer, few HDF5 calls)."""
+
+    def __init__(self, datasets: Mapping[str, h5py.Dataset], n_reps: int):
+        self.datasets, self.n_reps = dict(datasets), n_reps
+        run_bytes = sum(int(np.prod(ds.shape[2:])) * ds.dtype.itemsize for ds in self.datasets.values())
+        per_point = (run_bytes + 128 * len(self.datasets)) * n_reps  # data + array object overhead
+        self.block_points = max(1, BUFFER_BYTES // per_point)
+        self.first, self.parts = None, {name: [] for name in self.datasets}
+
+    def add(self, point: int, repetition: int, data: Mapping[str, np.ndarray]) -> None:
+        if self.first is None:
+            self.first = point
+        for name, arr in data.items():
+            self.parts[name].append(np.array(arr))  # a copy: a view would keep the whole record alive
+        if repetition == self.n_reps - 1 and point + 1 - self.first >= self.block_points:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.first is None:
+            return
+        for name, parts in self.parts.items():
+            block = np.stack(parts)
+            n = len(parts) // self.n_reps
+            self.datasets[name][self.first:self.first + n] = stored_values(
+                block.reshape((n, self.n_reps) + block.shape[1:]))
+            parts.clear()
+        self.first = None
+
+
+def _write_full(g: h5py.Group, name: str, col: Column) -> h5py.Dataset:
+    ds = create_array(g, name, col, col.data.shape)
+    ds[...] = stored_values(col.data)
+    return ds
+
+
+def _write_scales(g: h5py.Group, coords: Mapping[str, Column]) -> dict[str, h5py.Dataset]:
+    scales = {}
+    for cname, c in coords.items():
+        scales[cname] = _write_full(g, cname, c)
+        scales[cname].make_scale(cname)
+    return scales
 
 
 def _write_grid_copy(f, name, coords, variables) -> None:
     g = f.create_group(name)
-    scales = {}
-    for cname, c in coords.items():
-        ds = create_array(g, cname, c, c.data.shape)
-        ds[...] = stored_values(c.data)
-        ds.make_scale(cname)
-        scales[cname] = ds
+    scales = _write_scales(g, coords)
     for vname, v in variables.items():
-        ds = create_array(g, vname, v, v.data.shape)
-        ds[...] = stored_values(v.data)
+        ds = _write_full(g, vname, v)
         for axis, dim in enumerate(v.dims):
             ds.dims[axis].attach_scale(scales[dim])
 

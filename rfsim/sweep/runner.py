@@ -246,13 +246,14 @@ def _merge(plan: SweepPlan, start_time_utc: str | None) -> Path:
     index = StoreIndex(points_dir(spec.output))
     refs, runs, missing, first = [], [], 0, None
     for j in range(spec.n_runs):
-        ref = _found(plan, index, j)
         i, k = divmod(j, spec.repetitions)
+        seed = point_seed(spec.seed, i, k)
+        ref = index.find(i, k, seed, plan.digest(i))
         if ref is None:
             missing += 1
             first = first or (i, k)
         refs.append(ref)
-        runs.append((i, k, point_seed(spec.seed, i, k)))
+        runs.append((i, k, seed))
     del index
     if missing:
         raise UserError(f"sweep merge: {missing} of {spec.n_runs} runs are missing or stale in "

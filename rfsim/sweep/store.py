@@ -35,6 +35,7 @@ import functools
 import hashlib
 import importlib
 import json
+import math
 import os
 import re
 import resource
@@ -145,7 +146,7 @@ def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
 def decode_array(payload: bytes | memoryview, meta: Mapping[str, Any]) -> np.ndarray:
     """One array of a record's payload (read-only view)."""
     dtype = np.dtype(meta["dtype"])
-    count = int(np.prod(meta["shape"], dtype=np.int64))
+    count = math.prod(meta["shape"])
     return np.frombuffer(payload, dtype=dtype, count=count, offset=meta["offset"]).reshape(meta["shape"])
 
 

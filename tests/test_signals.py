@@ -3,7 +3,6 @@ partial files, --resume recovers) and pool workers never outlive their leader (S
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
 import sys

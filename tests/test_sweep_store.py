@@ -132,3 +132,21 @@ def test_a_1000_run_toy_sweep_writes_few_files_and_resumes_exactly(tmp_path):
     alone = toy.run(toy.Config(gain_db=float(np.linspace(-10, 10, 100)[73]), rows=8), seed=point_seed(4, 73, 7))
     assert np.array_equal(merged.grids["spectrum"][1]["p_w"].data[73, 7], alone.grids["spectrum"][1]["p_w"].data)
     assert os.path.getsize(again.output) <= 1.5 * sum(p.stat().st_size for p in store.iterdir())
+
+
+@pytest.mark.parametrize("where,message", [("header", "header unreadable"), ("payload", "fails its CRC")])
+def test_a_corrupt_indexed_record_stops_the_merge_with_one_line(where, message, tmp_path):
+    from rfsim.errors import UserError
+    from rfsim.sweep import merge_sweep
+
+    spec = toy_spec(tmp_path, n_points=3, reps=1)
+    run_sweep(spec, SerialExecutor(), merge=False, module=toy)
+    [(log, entries)] = list(read_index(points_dir(spec.output)))
+    start, length = int(entries["offset"][1]), int(entries["length"][1])
+    data = bytearray(log.read_bytes())
+    data[start + 30 if where == "header" else start + length - 20] ^= 0xFF  # one damaged byte in record 1
+    log.write_bytes(bytes(data))
+    with pytest.raises(UserError, match=message + r".* move that segment") as info:
+        merge_sweep(spec, module=toy)
+    assert "\n" not in str(info.value)
+    assert not spec.output.exists()

@@ -53,6 +53,7 @@ import numpy as np
 import rfsim
 from rfsim.config import to_toml
 from rfsim.dataset import Column, Dataset, git_revision, utc_now
+from rfsim.errors import UserError
 
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
@@ -170,19 +171,23 @@ def encode_record(header: Mapping[str, Any], buffers: Iterable[bytes]) -> bytes:
     return _PREFIX.pack(MAGIC, VERSION, len(head), len(payload)) + head + payload + _CRC.pack(crc)
 
 
+class CorruptRecordError(UserError, ValueError):
+    """A point record is torn or fails its CRC (a damaged file; rerun with ``--resume``)."""
+
+
 def decode_record(raw: bytes) -> tuple[dict[str, Any], memoryview]:
-    """(header, payload) of a whole record; ``ValueError`` if it is torn or corrupt."""
+    """(header, payload) of a whole record; :class:`CorruptRecordError` if torn or corrupt."""
     if len(raw) < _PREFIX.size + _CRC.size:
-        raise ValueError("record too short")
+        raise CorruptRecordError("point record too short")
     magic, version, n_head, n_payload = _PREFIX.unpack_from(raw)
     if magic != MAGIC or version != VERSION or len(raw) != _PREFIX.size + n_head + n_payload + _CRC.size:
-        raise ValueError("not a complete point record")
+        raise CorruptRecordError("not a complete point record")
     view = memoryview(raw)
     head = view[_PREFIX.size:_PREFIX.size + n_head]
     payload = view[_PREFIX.size + n_head:_PREFIX.size + n_head + n_payload]
     (crc,) = _CRC.unpack_from(raw, len(raw) - _CRC.size)
     if zlib.crc32(payload, zlib.crc32(head)) != crc:
-        raise ValueError("point record fails its CRC")
+        raise CorruptRecordError("point record fails its CRC")
     return json.loads(bytes(head)), payload
 
 
@@ -393,16 +398,27 @@ class RecordReader:
         return self._file
 
     def read(self, ref: RecordRef) -> tuple[dict[str, Any], memoryview]:
-        """Header and payload of a record, its CRC checked (``ValueError`` if corrupt)."""
-        return decode_record(self._seek(ref).read(ref.length))
+        """Header and payload of a record, its CRC checked (one-line error if corrupt)."""
+        try:
+            return decode_record(self._seek(ref).read(ref.length))
+        except CorruptRecordError as err:
+            raise self._damaged(ref, str(err)) from None
 
     def header(self, ref: RecordRef) -> dict[str, Any]:
-        """The JSON header of a record alone (the payload is not read)."""
+        """The JSON header of a record alone (the payload is not read, nor its CRC checked)."""
         f = self._seek(ref)
-        magic, version, n_head, _ = _PREFIX.unpack(f.read(_PREFIX.size))
-        if magic != MAGIC or version != VERSION:
-            raise ValueError(f"{ref.log}: no point record at byte {ref.offset}")
-        return json.loads(f.read(n_head))
+        try:
+            magic, version, n_head, _ = _PREFIX.unpack(f.read(_PREFIX.size))
+            if magic != MAGIC or version != VERSION:
+                raise ValueError("no point record")
+            return json.loads(f.read(n_head))
+        except (ValueError, struct.error) as err:  # a damaged header: bad JSON or UTF-8
+            raise self._damaged(ref, f"point record header unreadable ({type(err).__name__})") from None
+
+    @staticmethod
+    def _damaged(ref: RecordRef, what: str) -> CorruptRecordError:
+        return CorruptRecordError(f"{what} in {str(ref.log)!r} at byte {ref.offset}: the file is damaged; "
+                                  "move that segment (.log and .idx) away and rerun with --resume")
 
     def close(self) -> None:
         if self._file is not None:
@@ -422,6 +438,7 @@ __all__ = [
     "RecordRef",
     "StoreIndex",
     "RecordReader",
+    "CorruptRecordError",
     "SegmentWriter",
     "INDEX_DTYPE",
     "SYNC_INTERVAL_S",

@@ -29,6 +29,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Iterator
 
 from rfsim.errors import Terminated
@@ -110,17 +111,38 @@ def _raise_terminated(signum, frame) -> None:
     raise Terminated()
 
 
+def _redeliver_later() -> None:
+    time.sleep(0.05)
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
 @contextlib.contextmanager
 def terminate_as_interrupt() -> Iterator[None]:
-    """Within the block, SIGTERM raises :class:`~rfsim.errors.Terminated` (main thread only)."""
+    """Within the block, SIGTERM raises :class:`~rfsim.errors.Terminated` (main thread only).
+
+    A Python exception raised while the interpreter runs a callback whose errors it
+    ignores (e.g. an at-fork handler while a worker process is being started) would be
+    lost; such a swallowed :class:`Terminated` reaches ``sys.unraisablehook``, which here
+    delivers SIGTERM again a moment later instead of printing it.
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_hook = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, Terminated):
+            threading.Thread(target=_redeliver_later, daemon=True).start()
+        else:
+            previous_hook(unraisable)
+
+    sys.unraisablehook = hook
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
 
 
 __all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt"]

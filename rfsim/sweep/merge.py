@@ -183,10 +183,10 @@ def _check_reserved(kind: str, name: str, names: Sequence[str], keys: Sequence[s
             raise ValueError(f"{kind} {name!r} already has a column {reserved!r}; cannot merge")
 
 
-def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[int, int, int]],
+def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray, np.ndarray, np.ndarray],
                 point_value, n_points: int, n_repetitions: int, keys: Sequence[str], config_cls: type,
                 provenance: Mapping[str, Any], numeric_keys: Mapping[str, np.dtype]) -> Path:
-    """Merge the records ``refs`` of the runs ``runs`` = [(point, repetition, seed)] into ``output``.
+    """Merge the records ``refs`` of the runs ``runs`` = (points, repetitions, seeds) into ``output``.
 
     ``point_value(i)`` gives the swept values of point ``i``; the runs are in
     (point, repetition) order, ``n_points × n_repetitions`` of them. ``numeric_keys`` maps
@@ -195,8 +195,7 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
     """
     with RecordReader() as reader:
         tables, grids, attr_names = _scan(refs, reader)
-        pts = np.array([r[0] for r in runs], dtype=np.int64)
-        reps = np.array([r[1] for r in runs], dtype=np.int64)
+        pts, reps, seeds = (np.asarray(a, dtype=np.int64) for a in runs)
         scenario = ""
         with atomic_h5file(output) as f:
             title = ""
@@ -214,7 +213,7 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
                 n_rows = int(schema.lengths[schema.lengths > 0].sum())
                 writers[name] = _TableWriter(f.create_group(name), like, n_rows)
             stacked = {name: None for name, g in grids.items() if g.stackable}
-            attr_values: dict[str, list] = {a: [] for a in attr_names}
+            attr_values: dict[str, list | np.ndarray] = {}
             for j, ref in enumerate(refs):
                 header, payload = reader.read(ref)
                 desc = header["dataset"]
@@ -222,8 +221,16 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
                     title = desc["title"] + " (sweep)"
                     scenario = desc["scenario"]
                 attrs = {a["name"]: a for a in desc["attrs"]}
-                for a in attr_names:
-                    attr_values[a].append(decode_array(payload, attrs[a]["array"])[()])
+                for a in attr_names:  # per-run scalars: one NumPy array per attribute
+                    value = decode_array(payload, attrs[a]["array"])[()]
+                    if a not in attr_values:
+                        kind = np.asarray(value).dtype
+                        attr_values[a] = np.zeros(len(refs), kind) if kind.kind in "biuf" else [None] * len(refs)
+                    store = attr_values[a]
+                    if isinstance(store, np.ndarray) and not np.can_cast(np.asarray(value).dtype, store.dtype):
+                        kind = np.result_type(store.dtype, np.asarray(value).dtype)  # as np.asarray would
+                        store = attr_values[a] = store.astype(kind) if kind.kind in "biuf" else list(store)
+                    store[j] = value
                 run = decode_dataset(desc, payload)
                 p, k = int(pts[j]), int(reps[j])
                 values = point_value(p)
@@ -248,7 +255,7 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
             runs_cols: dict[str, Column] = {
                 "point": column(pts, "1", "sweep point index"),
                 "repetition": column(reps, "1", "repetition of the point"),
-                "seed": column(np.array([r[2] for r in runs], dtype=np.int64), "1",
+                "seed": column(seeds, "1",
                                "seed the scenario ran with (SeedSequence(seed, spawn_key=(point, repetition)))"),
             }
             for key in keys:
@@ -256,7 +263,7 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: Sequence[tuple[in
             for name in attr_names:
                 if name not in runs_cols:
                     runs_cols[name] = column(attr_values[name], "", f"root attribute {name!r} of the run")
-            w = _TableWriter(f.create_group(RUNS_TABLE), runs_cols, len(runs))
+            w = _TableWriter(f.create_group(RUNS_TABLE), runs_cols, len(pts))
             w.add({c: col.data for c, col in runs_cols.items()})
             w.flush()
             write_root_attrs(f, Dataset(title=title or "sweep", scenario=scenario))

@@ -35,7 +35,8 @@ from rfsim.sweep.merge import merge_store
 from rfsim.sweep.progress import Progress
 from rfsim.sweep.spec import (SweepSpec, axis_support, check_axis_values, point_config, point_seed, point_value,
                               shard_runs)
-from rfsim.sweep.store import PointResult, PointTask, StoreIndex, close_writers, config_digest, points_dir
+from rfsim.sweep.store import (PointResult, PointTask, RecordRef, StoreIndex, close_writers, config_digest,
+                               points_dir)
 
 #: Provenance keeps the (points, repetitions) seed array as an attribute up to this many
 #: runs (HDF5 attributes are limited to 64 kB); ``sweep_runs/seed`` always has every seed.
@@ -244,29 +245,36 @@ def merge_sweep(spec: SweepSpec, *, plan: SweepPlan | None = None, start_time_ut
 def _merge(plan: SweepPlan, start_time_utc: str | None) -> Path:
     spec = plan.spec
     index = StoreIndex(points_dir(spec.output))
-    refs, runs, missing, first = [], [], 0, None
-    for j in range(spec.n_runs):
+    n = spec.n_runs
+    where = np.zeros((n, 3), np.int64)  # segment, offset, length of each run's record
+    seeds = np.zeros(n, np.int64)
+    missing, first = 0, None
+    for j in range(n):
         i, k = divmod(j, spec.repetitions)
-        seed = point_seed(spec.seed, i, k)
-        ref = index.find(i, k, seed, plan.digest(i))
-        if ref is None:
+        seeds[j] = point_seed(spec.seed, i, k)
+        hit = index.locate(i, k, int(seeds[j]), plan.digest(i))
+        if hit is None:
             missing += 1
             first = first or (i, k)
-        refs.append(ref)
-        runs.append((i, k, seed))
-    del index
+        else:
+            where[j] = hit
     if missing:
-        raise UserError(f"sweep merge: {missing} of {spec.n_runs} runs are missing or stale in "
+        raise UserError(f"sweep merge: {missing} of {n} runs are missing or stale in "
                         f"{str(points_dir(spec.output))!r} (first: point {first[0]} repetition {first[1]}); "
                         "run them with 'rfsim sweep run SPEC --resume'")
+    logs = index.logs
+    del index
+    refs = _Lazy(n, lambda j: RecordRef(logs[where[j, 0]], int(where[j, 1]), int(where[j, 2])))
+    runs = np.arange(n, dtype=np.int64)
     extra = {"spec_toml": spec.text, "sweep_points": spec.n_points, "sweep_repetitions": spec.repetitions,
-             "sweep_runs": spec.n_runs, "sweep_keys": ", ".join(spec.swept_keys),
+             "sweep_runs": n, "sweep_keys": ", ".join(spec.swept_keys),
              "config_toml_is": "the resolved config of point 0"}
-    if spec.n_runs <= SEED_ATTR_MAX_RUNS:
+    if n <= SEED_ATTR_MAX_RUNS:
         extra["point_seeds"] = plan.seeds()
     prov = make_provenance(config_toml=to_toml(plan.config(0)), seed=spec.seed, scenario=plan.module.NAME,
                            start_time_utc=start_time_utc or utc_now(), extra=extra)
-    return merge_store(spec.output, refs, runs, lambda i: point_value(spec, i), spec.n_points, spec.repetitions,
+    return merge_store(spec.output, refs, (runs // spec.repetitions, runs % spec.repetitions, seeds),
+                       lambda i: point_value(spec, i), spec.n_points, spec.repetitions,
                        spec.swept_keys, plan.module.Config, prov, plan.numeric_keys())
 
 

@@ -365,22 +365,52 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
 
 
 class StoreIndex:
-    """Lookup of finished runs: (point, repetition, seed, config digest) → :class:`RecordRef`."""
+    """Lookup of finished runs: (point, repetition, seed, config digest) → :class:`RecordRef`.
+
+    All index entries of the store in NumPy arrays sorted by (point, repetition, segment
+    age, offset) — about 60 bytes per record, no Python object per run.
+    """
 
     def __init__(self, store: Path):
         self.store = store
-        self._refs: dict[tuple[int, int, int, bytes], RecordRef] = {}
-        self.n_segments = 0
-        for log, entries in read_index(store):
-            self.n_segments += 1
-            for p, k, s, off, length, digest in entries.tolist():
-                self._refs[(p, k, s, digest)] = RecordRef(log, off, length)  # newest segment wins
+        self.logs: list[Path] = []
+        parts, segs = [], []
+        for seg_id, (log, entries) in enumerate(read_index(store)):
+            self.logs.append(log)
+            parts.append(entries)
+            segs.append(np.full(len(entries), seg_id, np.int32))
+        e = np.concatenate(parts) if parts else np.zeros(0, INDEX_DTYPE)
+        seg = np.concatenate(segs) if segs else np.zeros(0, np.int32)
+        order = np.lexsort((e["offset"], seg, e["repetition"], e["point"]))
+        self._e, self._seg = e[order], seg[order]
+        self._base = int(self._e["repetition"].max()) + 1 if len(e) else 1
+        self._keys = self._e["point"] * self._base + self._e["repetition"]
+
+    @property
+    def n_segments(self) -> int:
+        return len(self.logs)
 
     def __len__(self) -> int:
-        return len(self._refs)
+        """Distinct runs (point, repetition, seed, config) in the store."""
+        e = self._e
+        return len(set(zip(e["point"].tolist(), e["repetition"].tolist(), e["seed"].tolist(),
+                           e["digest"].tolist())))
+
+    def locate(self, point: int, repetition: int, seed: int, digest: bytes) -> tuple[int, int, int] | None:
+        """(segment number, offset, length) of the newest matching record, or None."""
+        if repetition >= self._base:
+            return None
+        key = point * self._base + repetition
+        lo, hi = np.searchsorted(self._keys, key, "left"), np.searchsorted(self._keys, key, "right")
+        for j in range(hi - 1, lo - 1, -1):  # newest segment first
+            row = self._e[j]
+            if int(row["seed"]) == seed and bytes(row["digest"]) == digest:
+                return int(self._seg[j]), int(row["offset"]), int(row["length"])
+        return None
 
     def find(self, point: int, repetition: int, seed: int, digest: bytes) -> RecordRef | None:
-        return self._refs.get((point, repetition, seed, digest))
+        hit = self.locate(point, repetition, seed, digest)
+        return None if hit is None else RecordRef(self.logs[hit[0]], hit[1], hit[2])
 
 
 class RecordReader:

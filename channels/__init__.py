@@ -12,25 +12,27 @@ shadowing), :mod:`~channels.small_scale` (exponential APDP taps), :mod:`~channel
 and their application), :mod:`~channels.scene` (assembly of links in a scene).
 """
 
-from channels.antennas import Antenna, HalfWaveDipole, Isotropic, Patch, Tabulated
+from channels.antennas import Antenna, HalfWaveDipole, Isotropic, Patch, Tabulated, vertical_dipole
 from channels.bulk import BulkPaths, draw_links
 from channels.geometry import Pose, direction_to, rotation_matrix
 from channels.large_scale import (LogDistance, ShadowingField, Wall, friis_amplitude_gain,
                                   wall_loss_db)
 from channels.noise import complex_awgn, noise_power_from_density_w, thermal_noise_power_w
 from channels.paths import (PathSet, apply_backscatter, apply_paths, compose_backscatter,
-                            concatenate, narrowband_error_bound)
+                            concatenate, narrowband_error_bound, narrowband_rms_error,
+                            propagation_method, NARROWBAND_TOLERANCE, PROPAGATION_METHODS)
 from channels.scene import Channel, Scene, kinematics, los_links
 from channels.small_scale import ApdpModel, average_profile, draw_taps, profile_statistics
 from channels.surfaces import Surface, fresnel_reflection, fresnel_transmission, image_paths
 
 __all__ = [
-    "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated",
+    "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated", "vertical_dipole",
     "Pose", "direction_to", "rotation_matrix",
     "LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
     "complex_awgn", "noise_power_from_density_w", "thermal_noise_power_w",
     "PathSet", "apply_paths", "apply_backscatter", "compose_backscatter", "concatenate",
-    "narrowband_error_bound",
+    "narrowband_error_bound", "narrowband_rms_error", "propagation_method", "NARROWBAND_TOLERANCE",
+    "PROPAGATION_METHODS",
     "Scene", "Channel", "los_links", "kinematics", "draw_links", "BulkPaths",
     "ApdpModel", "average_profile", "draw_taps", "profile_statistics",
     "Surface", "fresnel_reflection", "fresnel_transmission", "image_paths",

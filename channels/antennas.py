@@ -439,6 +439,13 @@ class Antenna:
                                             other.polarization_vector(k))
 
 
+def vertical_dipole(position_m) -> Antenna:
+    """A vertical half-wave dipole with linear polarization at ``position_m`` [m] (the
+    sense-a-tag's antennas, auris-sense-a-tag.md L2878-2880: omnidirectional in azimuth)."""
+    return Antenna(position_m=position_m, orientation=(0.0, 0.0, 0.0), pattern=HalfWaveDipole(),
+                   polarization="linear")
+
+
 __all__ = [
     "HALF_WAVE_DIPOLE_PEAK",
     "Isotropic",
@@ -447,4 +454,5 @@ __all__ = [
     "Tabulated",
     "Antenna",
     "polarization_mismatch_factor",
+    "vertical_dipole",
 ]

@@ -3,7 +3,9 @@
 Waveforms are complex baseband in √W (|x|² is power in W, DESIGN.md "Signal model"); the noise
 power of a complex baseband signal sampled at ``fs`` with a noise-equivalent bandwidth ``B`` is
 ``N = N0·B`` with the one-sided density ``N0`` [W/Hz] (``B = fs`` for white noise at the full
-sample rate). Source: DESIGN.md "Channel" (AWGN from a noise density or kTB·NF);
+sample rate). The thermal power kTB·F lives in the core (:func:`rfsim.noise.thermal_noise_power_w`:
+devices such as the reader compute their receiver noise with it) and is exported here with the
+other noise models. Source: DESIGN.md "Channel" (AWGN from a noise density or kTB·NF);
 pass-paris-simulator.md §2.4 ``channel_noise`` for the PASS legacy formula.
 """
 
@@ -12,27 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from rfsim.errors import ConfigError
-from rfsim.units import K_BOLTZMANN_J_K, T0_K, db_to_lin, dbm_to_w
-
-
-def thermal_noise_power_w(bandwidth_hz, nf_db=0.0, temperature_k=T0_K) -> np.ndarray:
-    """Thermal noise power ``N = k·T·B·F`` [W] referred to the input.
-
-    ``F = 10^(NF/10)`` is the noise factor; at ``T0 = 290 K`` this is −174 dBm/Hz + NF
-    (e.g. −114 dBm in 1 MHz with NF = 0 dB).
-
-    Parameters
-    ----------
-    bandwidth_hz : array_like, noise-equivalent bandwidth B ≥ 0 [Hz]
-    nf_db : array_like, noise figure [dB] (≥ 0)
-    temperature_k : array_like, noise temperature [K] (default 290 K)
-    """
-    b = np.asarray(bandwidth_hz, dtype=float)
-    if np.any(b < 0):
-        raise ConfigError("noise.bandwidth_hz", bandwidth_hz, "a bandwidth ≥ 0 Hz")
-    if np.any(np.asarray(nf_db, dtype=float) < 0):
-        raise ConfigError("noise.nf_db", nf_db, "a noise figure ≥ 0 dB")
-    return K_BOLTZMANN_J_K * np.asarray(temperature_k, dtype=float) * b * db_to_lin(nf_db)
+from rfsim.noise import thermal_noise_power_w
+from rfsim.units import dbm_to_w
 
 
 def noise_power_from_density_w(density_dbm_hz, bandwidth_hz) -> np.ndarray:

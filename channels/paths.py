@@ -40,11 +40,19 @@ __all__ = [
     "apply_paths_reference",
     "apply_backscatter",
     "narrowband_error_bound",
+    "narrowband_rms_error",
+    "propagation_method",
+    "NARROWBAND_TOLERANCE",
+    "PROPAGATION_METHODS",
 ]
 
 #: Kaiser window shape of the fractional-delay interpolator.
 _KAISER_BETA = 8.0
 _METHODS = ("exact", "narrowband")
+#: Propagation policies: "auto" chooses per link (:func:`propagation_method`).
+PROPAGATION_METHODS = ("auto", "exact", "narrowband")
+#: Relative RMS envelope error below which "auto" propagation is narrowband.
+NARROWBAND_TOLERANCE = 0.1
 
 
 def _ro(a):
@@ -109,6 +117,54 @@ class PathSet:
     def power(self) -> float:
         """Σ|g|², the incoherent path power gain."""
         return float(np.sum(np.abs(self.gain) ** 2))
+
+    # The air interface (rfsim.air) uses a link through these members only.
+
+    @property
+    def static(self) -> bool:
+        """No path has a Doppler shift (the narrowband link is then one constant)."""
+        st = self.__dict__.get("_static")
+        if st is None:
+            st = self.__dict__["_static"] = not bool(self.doppler_hz.any())
+        return st
+
+    def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
+        """"narrowband" or "exact" for this link under ``propagation`` (:func:`propagation_method`),
+        remembered per (bandwidth, policy): the PathSet is immutable."""
+        memo = self.__dict__.setdefault("_methods", {})
+        key = (float(bandwidth_hz), propagation)
+        m = memo.get(key)
+        if m is None:
+            m = memo[key] = propagation_method(self, bandwidth_hz, propagation)
+        return m
+
+    def constant_gain(self, fc_hz: float) -> complex:
+        """Σ_p g_p·e^{−j2π·fc·τ_p} summed in path order — bit for bit the factor by which
+        :func:`apply_paths` (``method="narrowband"``) multiplies a static link's input."""
+        memo = self.__dict__.setdefault("_constant", {})
+        a = memo.get(float(fc_hz))
+        if a is None:
+            a = 0j
+            for c in self.coefficients(fc_hz).tolist():
+                a += c
+            memo[float(fc_hz)] = a
+        return a
+
+    def narrowband_constant(self, fc_hz: float, bandwidth_hz: float, propagation: str = "auto") -> complex | None:
+        """:meth:`constant_gain` when the link is static and :meth:`method` says "narrowband"
+        (it then multiplies its input by that one constant), else None; remembered."""
+        memo = self.__dict__.setdefault("_nb_constant", {})
+        key = (fc_hz, bandwidth_hz, propagation)
+        hit = memo.get(key, memo)
+        if hit is memo:
+            hit = self.constant_gain(fc_hz) if (self.static and self.method(bandwidth_hz, propagation)
+                                                 == "narrowband") else None
+            memo[key] = hit
+        return hit
+
+    def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact") -> np.ndarray:
+        """:func:`apply_paths` of this link to ``x`` ((n,) complex128 [√W])."""
+        return apply_paths(x, fs_hz=fs_hz, fc_hz=fc_hz, paths=self, t0_s=t0_s, method=method)
 
 
 def concatenate(*sets: PathSet) -> PathSet:
@@ -294,3 +350,39 @@ def narrowband_error_bound(paths: PathSet, bandwidth_hz: float) -> float:
     ``bandwidth_hz`` is the one-sided bandwidth B of x (its spectrum within |f| ≤ B).
     """
     return float(np.sum(np.abs(paths.gain) * 2.0 * np.pi * bandwidth_hz * np.abs(paths.delay_s)))
+
+
+def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
+    """Relative RMS envelope error of dropping the envelope delays of ``paths``.
+
+    √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²), τ0 the earliest delay: the Bernstein bound
+    2π·B·τ on each path's envelope change, added in power (the paths' carrier phases are
+    independent — diffuse taps, reflections at different lengths). The common delay τ0 (time
+    of flight, 3.3 ns/m) is dropped from the envelope only: it shifts a reply by tens of ns,
+    far below the Gen2 T1 tolerance, and leaves RSSI, phase and Doppler (exact carrier phase
+    of every path) unchanged.
+    """
+    p = np.abs(paths.gain) ** 2
+    total = float(np.sum(p))
+    if total == 0.0:
+        return 0.0
+    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.min(paths.delay_s))
+    return float(np.sqrt(np.sum(p * rel**2) / total))
+
+
+def propagation_method(paths: PathSet, bandwidth_hz: float, propagation: str = "auto") -> str:
+    """The one narrowband/fractional-delay decision: "narrowband" or "exact" for ``paths``.
+
+    ``propagation="auto"``: narrowband (exact carrier phase and Doppler of every path, envelope
+    delays dropped) when :func:`narrowband_rms_error` on the one-sided bandwidth
+    ``bandwidth_hz`` (a Gen2 reply: B = 2·BLF, the main lobe of FM0/Miller) is at most
+    :data:`NARROWBAND_TOLERANCE`, else every path with its exact fractional delay (which also
+    avoids the interpolator's ringing on hard-switched FM0/Miller edges being taken for a
+    delay effect). ``"exact"`` and ``"narrowband"`` force the method.
+    """
+    if propagation not in PROPAGATION_METHODS:
+        raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
+    if propagation != "auto":
+        return propagation
+    ok = paths.n_paths == 0 or narrowband_rms_error(paths, bandwidth_hz) <= NARROWBAND_TOLERANCE
+    return "narrowband" if ok else "exact"

@@ -23,8 +23,10 @@ A segment holds ``cw_before_s`` of CW (default one Tari), the command and ``cw_a
 CW: ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples, ``T_cmd =
 LinkProfile.command_duration_s(cmd)``.
 
-Frequency plan (anchors §4.7 "Regulatory", §4.9): FCC 50 channels ``902.75 + 0.5·k`` MHz,
-ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz. FCC hopping visits the channels
+Frequency plan (anchors §4.7 "Regulatory", §4.9; :mod:`rfsim.carriers`): FCC 50 channels
+``902.75 + 0.5·k`` MHz, ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz, or any
+explicit list (``region = "custom"``, ``channels_hz``: one 890 MHz carrier, 5.79/5.80/5.81 GHz;
+each inside the supported carrier range); a custom plan hops cyclically like ETSI. FCC hopping visits the channels
 in a random permutation drawn once from the reader's rng (a randomized hop table, as real
 readers do), ETSI cycles through its four channels in order; each channel is held for
 ``dwell_s`` (FCC ≤ 0.4 s). Channel indices are 1-based into :func:`frequency_plan`, as
@@ -50,6 +52,8 @@ from typing import Literal
 import numpy as np
 from scipy.signal import fftconvolve
 
+from rfsim.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
+from rfsim.carriers import frequency_plan as _plan
 from rfsim.config import param, validate
 from rfsim.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
@@ -58,14 +62,10 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import LinkProfile, profile, t1
 from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
+from rfsim.noise import thermal_noise_power_w
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
-from channels.noise import thermal_noise_power_w
 from devices import _reader_kernels as _rk
 
-#: FCC Part 15.247 plan: 50 channels of 500 kHz, 902.75 … 927.25 MHz (anchors §4.7).
-FCC_CHANNELS_HZ = 902.75e6 + 0.5e6 * np.arange(50)
-#: ETSI EN 302 208 (4-channel plan): 865.7, 866.3, 866.9, 867.5 MHz (anchors §4.7).
-ETSI_CHANNELS_HZ = np.array([865.7e6, 866.3e6, 866.9e6, 867.5e6])
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
 #: Phase of the TX→RX leakage path [rad]. An arbitrary fixed constant (a circulator's
@@ -82,17 +82,12 @@ FAILURES = ("", "preamble not found", "crc error")
 TX_CACHE_SIZE = 16
 
 
-def frequency_plan(region: str) -> np.ndarray:
-    """Channel centre frequencies [Hz] of a regulatory region, ``(n,) float64``.
-
-    ``"FCC"``: 50 channels 902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9,
-    867.5 MHz (gen2-and-validation-anchors.md §4.7).
-    """
-    if region == "FCC":
-        return FCC_CHANNELS_HZ.copy()
-    if region == "ETSI":
-        return ETSI_CHANNELS_HZ.copy()
-    raise ConfigError("reader.region", region, "'FCC' or 'ETSI'")
+def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
+    """Channel centre frequencies [Hz] of a plan, ``(n,) float64``: ``"FCC"``: 50 channels
+    902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9, 867.5 MHz
+    (gen2-and-validation-anchors.md §4.7); ``"custom"``: the explicit list ``channels_hz``
+    (:func:`rfsim.carriers.frequency_plan`, validated against the supported carrier range)."""
+    return _plan(region, channels_hz, key="reader")
 
 
 @dataclass(frozen=True)
@@ -101,11 +96,13 @@ class ReaderConfig:
 
     link_profile: str = param("miller4-320k", doc="link profile name (rfsim.gen2.link.PROFILES)")
     ptx_dbm: float = param(30.0, lo=-20.0, hi=36.0, unit="dBm", doc="conducted TX power at the antenna port")
-    region: Literal["FCC", "ETSI"] = param("FCC", doc="frequency plan")
+    region: Literal["FCC", "ETSI", "custom"] = param("FCC", doc="frequency plan ('custom': channels_hz)")
+    channels_hz: tuple[float, ...] = param((), unit="Hz", doc="explicit carrier list of region 'custom' "
+                                                              "(e.g. [890e6] or [5.79e9, 5.80e9, 5.81e9])")
     hopping: bool = param(True, doc="frequency hopping (FCC random hop table, ETSI cyclic)")
     dwell_s: float = param(0.4, lo=0.0, hi=4.0, lo_open=True, unit="s",
                            doc="time on one channel (FCC: at most 0.4 s)")
-    fixed_channel: int = param(1, lo=1, hi=50, doc="1-based channel index used without hopping")
+    fixed_channel: int = param(1, lo=1, hi=1000, doc="1-based channel index used without hopping")
     isolation_db: float = param(30.0, lo=0.0, hi=120.0, unit="dB", doc="TX→RX leakage attenuation")
     noise_figure_db: float = param(10.0, lo=0.0, hi=40.0, unit="dB", doc="receiver noise figure")
     fs_hz: float = param(4e6, lo=2e5, hi=2e8, unit="Hz", doc="baseband sample rate of TX and RX")
@@ -218,7 +215,7 @@ class Reader:
         if not self.antennas:
             raise ValueError("a reader needs at least one antenna")
         self.fs_hz = float(self.config.fs_hz)
-        self.plan_hz = frequency_plan(self.config.region)
+        self.plan_hz = frequency_plan(self.config.region, self.config.channels_hz)
         n = self.plan_hz.size
         if self.config.region == "FCC" and self.config.dwell_s > FCC_MAX_DWELL_S:
             raise ConfigError("reader.dwell_s", self.config.dwell_s, f"(0, {FCC_MAX_DWELL_S}] s for FCC")
@@ -251,6 +248,11 @@ class Reader:
     def fc_hz(self, t_s: float) -> float:
         """Carrier frequency [Hz] at time ``t_s`` [s]."""
         return float(self.plan_hz[self.channel_index(t_s) - 1])
+
+    def channel_of(self, fc_hz: float) -> int:
+        """1-based channel index of the carrier ``fc_hz`` [Hz] in the reader's plan (a one-line
+        ``ConfigError`` on ``reader.channels_hz`` when the plan has no such carrier)."""
+        return _channel_index(self.plan_hz, fc_hz, key="reader.channels_hz")
 
     def antenna_index(self, round_index: int) -> int:
         """0-based antenna used in inventory round ``round_index`` (round robin)."""

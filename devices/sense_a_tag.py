@@ -4,10 +4,17 @@ and the locator protocol (auris-sense-a-tag.md §1.1 "ST locator protocol", §1.
 
 Antennas. SA2 carries the full ST path P2 (backscatter modulator, envelope detector,
 band-pass, comparator, decoder); a dual-antenna ST adds SA1, the receive-only path P1
-(source convention, :mod:`devices.st_analytic`). Both are vertical half-wave dipoles
-(omnidirectional in azimuth, as the source models them, L2878-2880) at ``center ± s/2·û``
-with ``û = (cos φ, sin φ, 0)``, ``s = spacing_m`` (default λ/4 = 0.082 m at 915 MHz,
-L3420-3422) and ``φ = orientation_deg``. A single-antenna ST is SA2 alone at the centre.
+(source convention, :mod:`devices.st_analytic`). The ST is handed its antennas (SA1, SA2) or
+(SA2,): the source models vertical half-wave dipoles (omnidirectional in azimuth, L2878-2880,
+:func:`channels.antennas.vertical_dipole`) at the positions of :func:`st_antenna_positions`,
+``center ± s/2·û`` with ``û = (cos φ, sin φ, 0)``, ``s = spacing_m`` (default λ/4 = 0.082 m at
+915 MHz, L3420-3422) and ``φ = orientation_deg``; a single-antenna ST is SA2 alone at the
+centre.
+
+Own schedule. Besides answering a reader, an ST can backscatter a frame on its own schedule
+(:meth:`SenseATag.send_frame`: FM0/Miller bits from a start time, on whatever carrier is
+incident — an exciter's CW for ST-to-ST links, auris-sense-a-tag.md ch. 5): during the frame
+it re-radiates A_s − Γ(t) with Γ(t) its modulator's two states.
 
 Receive chain: :class:`devices.st_receiver.STReceiver` (linear diode detector at
 :data:`devices.st_receiver.REFERENCE_IMPEDANCE_OHM` = 50 Ω, output ``gain·sqrt(2R)·|x|``
@@ -50,11 +57,13 @@ from scipy.signal import lfilter, sosfilt, sosfilt_zi
 
 from devices import st_receiver as sr
 from devices.st_analytic import THRESHOLD_V
+from devices.gen2_tag_state import Reply
 from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
 from rfsim.units import dbm_to_w, w_to_dbm
 
@@ -114,14 +123,6 @@ def st_antenna_positions(center_m, *, n_antennas: int = 2, spacing_m: float = DE
     return np.stack([c - u, c + u], axis=-2)
 
 
-def st_antenna(position_m):
-    """An ST antenna: vertical half-wave dipole, linear polarization (``channels.Antenna``)."""
-    from channels import Antenna, HalfWaveDipole
-
-    return Antenna(position_m=position_m, orientation=(0.0, 0.0, 0.0), pattern=HalfWaveDipole(),
-                   polarization="linear")
-
-
 # ----------------------------------------------------------------------------- device
 
 
@@ -149,20 +150,21 @@ class SenseATag:
     Parameters
     ----------
     config : SenseATagConfig
-    center_m : (3,) ST centre [m]
+    antennas : (SA1, SA2) or (SA2,) antennas (``channels.Antenna``), ``config.n_antennas`` of them
     rng : numpy Generator — the ST's own stream (its RN16s and slot counter)
     fs_hz : sample rate of the segments it will hear [Hz]
     """
 
-    def __init__(self, config: SenseATagConfig, center_m, *, rng: np.random.Generator, fs_hz: float):
+    def __init__(self, config: SenseATagConfig, antennas, *, rng: np.random.Generator, fs_hz: float):
         if not isinstance(config, SenseATagConfig):
             raise TypeError(f"config must be a SenseATagConfig, got {type(config).__name__}")
         self.config = config
         self.rng = rng
         self.fs_hz = float(fs_hz)
-        pos = st_antenna_positions(center_m, n_antennas=config.n_antennas, spacing_m=config.spacing_m,
-                                   orientation_rad=math.radians(config.orientation_deg))
-        self.antennas = tuple(st_antenna(p) for p in pos)
+        self.antennas = tuple(antennas)
+        if len(self.antennas) != config.n_antennas:
+            raise ConfigError("st.antennas", len(self.antennas), f"{config.n_antennas} antenna(s) (st.n_antennas)")
+        self._frames: list[tuple] = []  # scheduled own frames (bits, start_s, blf_hz, m, trext)
         self.mode = "listening"
         self.heard: dict[int, list[int]] = {}  # CRC-16 hash -> query rounds in which it was heard
         self.query_round = -1
@@ -215,6 +217,37 @@ class SenseATag:
             return parse(frames[0].bits), frames[0]
         except CommandParseError:
             return None, None
+
+    def send_frame(self, bits, *, start_s: float, blf_hz: float, m: int = 1, trext: bool = False) -> float:
+        """Schedule a frame of its own: ``bits`` line-coded (FM0 for m = 1, Miller-m) at
+        ``blf_hz`` from ``start_s`` [s]. Returns the frame's end [s]."""
+        b = np.asarray(bits, dtype=np.uint8)
+        if m not in (1, 2, 4, 8):
+            raise ConfigError("st.frame.m", m, "1 (FM0), 2, 4 or 8")
+        if not blf_hz > 0:
+            raise ConfigError("st.frame.blf_hz", blf_hz, "a link frequency > 0 Hz")
+        self._frames.append((b, float(start_s), float(blf_hz), int(m), bool(trext)))
+        return float(start_s) + reply_duration_s(b.size, m=m, trext=trext, blf_hz=blf_hz)
+
+    def reflect(self, incident) -> TagResponse:
+        """Reflector protocol of the air interface (:mod:`rfsim.air`): a scheduled frame
+        overlapping the segment is backscattered (Γ(t) of the ST's modulator), otherwise
+        :meth:`listen`."""
+        t0, fs, n = incident.t0_s, incident.fs_hz, incident.n_samples
+        t_end = t0 + n / fs
+        for bits, start, blf, m, trext in self._frames:
+            end = start + reply_duration_s(bits.size, m=m, trext=trext, blf_hz=blf)
+            if start < t_end and end > t0:
+                states = self.tag.reflection_states
+                lev = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start - t0, n_samples=n)
+                gamma = np.where(lev > 0, states.gamma_b, states.gamma_a).astype(np.complex128)
+                p_w = incident_power_w(np.asarray(incident.samples))
+                return TagResponse(powered=True, command=None, reply=Reply("RN16" if bits.size == 16 else "EPC", bits),
+                                   gamma=gamma, reply_start_s=start, blf_hz=blf, reason="",
+                                   incident_power_dbm=float(w_to_dbm(p_w)) if p_w > 0 else -math.inf,
+                                   reply_end_s=end, m=m, trext=trext, gamma_rest=states.gamma_a,
+                                   structural_mode=complex(self.tag.config.structural_mode))
+        return self.listen(incident.samples, t0_s=t0, fs_hz=fs)
 
     def listen(self, incident, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Reflector protocol of the engine: the ST's reaction to a reader segment at SA2.
@@ -300,6 +333,12 @@ class SenseATag:
         return Observation(None, kind, bool(rec.detected), rec.bits, path, rec)
 
 
+def listen_start_sample(cmd_end_s: float, t0_s: float, fs_hz: float) -> int:
+    """First sample the ST's chains decode from: the sample after the reader command's last
+    rising edge ``cmd_end_s`` [s], in a segment starting at ``t0_s`` [s] sampled at ``fs_hz``."""
+    return int(math.ceil((cmd_end_s - t0_s) * fs_hz)) + 1
+
+
 def _dr(dr: str) -> float:
     return 64.0 / 3.0 if dr == "64/3" else 8.0
 
@@ -369,5 +408,5 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "st_antenna", "Observation", "SenseATag", "make_receiver", "chain_rows", "level_differences",
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
            "decode_rows"]

@@ -163,9 +163,11 @@ class TagConfig:
         return self.sensitivity_dbm - 10.0 * math.log10(self.tau)
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class TagResponse:
-    """What a tag did with one reader segment.
+    """What a tag did with one reader segment (a record: treat it as read-only; it is not
+    frozen because a population of tags makes one per tag and segment, and a frozen
+    dataclass costs six times as much to build).
 
     Attributes
     ----------
@@ -224,6 +226,11 @@ class TagResponse:
                 raise ValueError(f"gamma has {self.gamma.size} samples, asked for {n_samples}")
             return self.structural_mode - self.gamma
         return np.full(int(n_samples), self.structural_mode - self.gamma_rest, dtype=np.complex128)
+
+    @property
+    def constant_reradiation(self) -> complex | None:
+        """r = A_s − Γ_A when the tag does not reply (constant over the segment), else None."""
+        return None if self.gamma is not None else self.structural_mode - self.gamma_rest
 
     @property
     def scatters(self) -> bool:
@@ -287,8 +294,78 @@ def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     return out
 
 
+def _command_of(frames) -> tuple:
+    """(command, frame) of the first PIE frame, or (None, None) when it is not a valid command
+    (nothing decoded, a parse error, or a Query without TRcal / another command with it)."""
+    if not frames:
+        return None, None
+    frame = frames[0]
+    try:
+        cmd = parse(frame.bits)
+    except CommandParseError:
+        return None, None
+    if isinstance(cmd, Query) != frame.has_trcal:
+        # a Query needs the preamble with TRcal; other commands start with a frame-sync
+        return None, None
+    return cmd, frame
+
+
+#: Half-width of the run of equal CW samples the median must lie in for the shared front end.
+_PLATEAU_MARGIN = 8
+
+
+class SharedFrontEnd:
+    """The front end's work on one emitted segment x, shared by every tag that sees g·x.
+
+    ``plateau`` is the index of the sample the CW median lands on when that median lies
+    inside a run of at least 2·:data:`_PLATEAU_MARGIN` + 1 equal CW samples that are ±one
+    complex value (a reader's CW: DSB or PR-ASK), so that for any gain g the median of |g·x|²
+    over the CW samples is |g·x_m|² exactly; None otherwise (the tags then listen on their
+    own samples).
+    """
+
+    def __init__(self, x: np.ndarray, *, fs_hz: float):
+        self.x, self.fs_hz = x, float(fs_hz)
+        self.env = np.abs(x)
+        self.levels = two_level_threshold(self.env)
+        thr, lo, hi = self.levels
+        sel = np.flatnonzero(self.env >= thr) if (hi > 0 and hi - lo >= _MIN_MODULATION * hi) \
+            else np.arange(self.env.size)
+        self.plateau = None
+        if sel.size > 2 * _PLATEAU_MARGIN:
+            e2 = self.env[sel] ** 2
+            order = np.argsort(e2, kind="stable")
+            mid = (sel.size - 1) // 2
+            lo_i, hi_i = mid - _PLATEAU_MARGIN, mid + 1 + _PLATEAU_MARGIN
+            if lo_i >= 0 and hi_i <= sel.size:
+                idx = sel[order[lo_i:hi_i]]
+                xm = x[idx[_PLATEAU_MARGIN]]
+                if np.all((x[idx] == xm) | (x[idx] == -xm)):
+                    self.plateau = int(idx[_PLATEAU_MARGIN])
+                    self._xm = x[self.plateau:self.plateau + 1]
+                    self.cw_sample = complex(self._xm[0])
+        self._commands: dict = {}
+
+    def power_w(self, gain: complex) -> float:
+        """CW power [W] of the scaled copy gain·x (as :func:`incident_power_w` of it)."""
+        v = float(np.abs(gain * self._xm)[0])  # as numpy's |x| of the copy computes it
+        return v * v
+
+    def command(self, rc_s: float) -> tuple:
+        """(command, frame) as a tag with RC time constant ``rc_s`` decodes every copy of x."""
+        hit = self._commands.get(rc_s)
+        if hit is None:
+            if rc_s > 0:
+                frames = pie_decode(envelope(self.x, fs_hz=self.fs_hz, rc_s=rc_s))
+            else:
+                frames = pie_decode(self.env, levels=self.levels)
+            hit = self._commands[rc_s] = _command_of(frames)
+        return hit
+
+
 def _dbm(p_w: float) -> float:
-    return float(w_to_dbm(p_w)) if p_w > 0 else -math.inf
+    """10·log10(P) + 30 [dBm] (−inf for 0 W), as :func:`rfsim.units.w_to_dbm` for a scalar."""
+    return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
 # ----------------------------------------------------------------------------- device
@@ -331,8 +408,11 @@ class PassiveTag:
         self.chip = chip
         self.operating_point: ChipOperatingPoint | None = None
         self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s)
+        #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
+        self.shared_front_end = True
+        self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
-        self._derived: tuple = (None, 0.0, None)  # (config, τ, PowerUp) derived from that config
+        self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
     @property
     def tau(self) -> float:
@@ -340,18 +420,54 @@ class PassiveTag:
         return self.config.tau
 
     def _tau_power_up(self) -> tuple:
-        """``(config.tau, config.power_up)``, recomputed only when ``config`` is replaced (the
-        config is frozen; both are pure functions of it)."""
-        cfg, tau, power_up = self._derived
-        if cfg is not self.config:
-            cfg, tau, power_up = self.config, self.config.tau, self.config.power_up
-            self._derived = (cfg, tau, power_up)
-        return tau, power_up
+        """``(config.tau, τ of config.power_up, its chip sensitivity [W], A_s as complex)``,
+        recomputed only when ``config`` is replaced (the config is frozen; all are pure
+        functions of it)."""
+        d = self._derived
+        if d[0] is not self.config:
+            cfg = self.config
+            pu = cfg.power_up
+            d = self._derived = (cfg, (cfg.tau, float(pu.tau), float(pu.chip_sensitivity_w),
+                                       complex(cfg.structural_mode)))
+        return d[1]
 
     def ticks(self, samples: float, fs_hz: float) -> int:
         """A duration of ``samples`` input samples counted in tag clock ticks,
         round(samples · f_clk / fs)."""
         return int(round(samples * self.clock.f_hz / fs_hz))
+
+    def reflect(self, incident) -> TagResponse:
+        """Reflector protocol of the air interface (:mod:`rfsim.air`): the tag's reaction to
+        the incident :class:`rfsim.air.Segment`.
+
+        When the segment is a scaled copy g·x of an emitted segment x (a narrowband, static
+        link) and :attr:`shared_front_end` is set, the front end's work on x — envelope,
+        level split, PIE decoding, the CW samples' median — is done once per emitted segment
+        for every tag that sees a copy of it (:class:`SharedFrontEnd`, kept in the segment's
+        ``memo``): the envelope detector, the decoder's relative thresholds and the median
+        are scale-equivariant, and the CW power is |g·x_m|² with x_m the median CW sample,
+        computed as :meth:`listen` computes it. The state machine, power-up (config or chip)
+        and the reply are the same code as :meth:`listen` (:meth:`_respond`). Otherwise, or
+        when the median is not on a flat CW plateau, :meth:`listen` runs on the samples.
+        """
+        base = incident.base
+        if self.shared_front_end and base is not None and base.samples.ndim == 1:
+            fe = base.memo.get(SharedFrontEnd)
+            if fe is None:
+                fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
+            if fe.plateau is not None:
+                # |g·x_m|² depends only on the gain and the CW sample: a held link and a
+                # reader at constant power give the same value exchange after exchange
+                key = (incident.gain, fe.cw_sample)
+                p_inc = self._p_memo.get(key)
+                if p_inc is None:
+                    if len(self._p_memo) > 64:
+                        self._p_memo.clear()
+                    p_inc = self._p_memo[key] = fe.power_w(incident.gain)
+                rc = self.config.envelope_rc_s
+                return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
+                                     fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+        return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.
@@ -372,10 +488,21 @@ class PassiveTag:
         if not fs_hz > 0:
             raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
         env = np.abs(x)
-        if env.size == 0:
-            raise ValueError("empty segment")
         levels = two_level_threshold(env)
         p_inc = _cw_power_w(env, levels)  # = incident_power_w(x)
+
+        def decode():
+            if self.config.envelope_rc_s > 0:
+                return _command_of(pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.config.envelope_rc_s)))
+            # the ideal detector's envelope is |x|, already split into its two levels
+            return _command_of(pie_decode(env, levels=levels))
+
+        return self._respond(p_inc, decode, t0_s=t0_s, fs_hz=fs_hz, n_samples=x.size)
+
+    def _respond(self, p_inc: float, decode, *, t0_s: float, fs_hz: float, n_samples: int) -> TagResponse:
+        """Everything after the front end: power-up (config or chip) from the incident power
+        ``p_inc`` [W], the command from ``decode()`` → (command, PIE frame) or (None, None),
+        the state machine and the reply's Γ(t) over ``n_samples`` samples."""
         p_dbm = _dbm(p_inc)
         if self.chip is not None:
             self.operating_point = self.chip.operating_point(p_inc)
@@ -383,42 +510,32 @@ class PassiveTag:
                                                       self.operating_point.gamma_mod)
             powered = self.operating_point.powered
         else:
-            tau, power_up = self._tau_power_up()
-            powered = bool(power_up.is_powered(tau * p_inc))
+            tau, tau_pu, sens_w, a_s = self._tau_power_up()
+            powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
         rest = self.reflection_states.gamma_a
-        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm, gamma_rest=rest,
-                    structural_mode=complex(self.config.structural_mode))
+        a_s = self._tau_power_up()[3] if self.chip is not None else a_s
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)
             self._trcal_ticks = None
-            return TagResponse(powered=False, command=None, reply=None, reason="not powered", **base)
+            return TagResponse(False, None, None, None, None, None, "not powered", p_dbm, None, None, None, None,
+                               rest, a_s)
         if not self.state.powered:
             self.state.on_power(True, t0_s)
             self._trcal_ticks = None
 
-        if self.config.envelope_rc_s > 0:
-            frames = pie_decode(envelope(x, fs_hz=fs_hz, rc_s=self.config.envelope_rc_s))
-        else:  # the ideal detector's envelope is |x|, already split into its two levels
-            frames = pie_decode(env, levels=levels)
-        if not frames:
-            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
-        frame = frames[0]
-        try:
-            cmd = parse(frame.bits)
-        except CommandParseError:
-            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
-        if isinstance(cmd, Query) != frame.has_trcal:
-            # a Query needs the preamble with TRcal; other commands start with a frame-sync
-            return TagResponse(powered=True, command=None, reply=None, reason="decode error", **base)
+        cmd, frame = decode()
+        if cmd is None:
+            return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
+                               rest, a_s)
         if isinstance(cmd, Query):
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
         reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
         query = self.state.last_query
         if reply is None or query is None or self._trcal_ticks is None:
-            return TagResponse(powered=True, command=cmd, reply=None, reason="no reply",
-                               command_end_s=cmd_end_s, **base)
+            return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
+                               rest, a_s)
 
         f_clk = self.clock.f_hz
         n_blf = self.clock.blf_divider(self._trcal_ticks / f_clk, query.dr, trcal_ticks=self._trcal_ticks)
@@ -428,13 +545,13 @@ class PassiveTag:
         if self.clock.jitter_rms > 0:
             start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
         s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,
-                           t0_s=start_s - t0_s, n_samples=x.size)
+                           t0_s=start_s - t0_s, n_samples=n_samples)
         gamma = np.where(s > 0, self.reflection_states.gamma_b, rest).astype(np.complex128, copy=False)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=query.trext, blf_hz=blf_hz)
-        base.update(gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz)
-        return TagResponse(powered=True, command=cmd, reply=reply, reason="", command_end_s=cmd_end_s,
-                           reply_end_s=end_s, m=query.m, trext=query.trext, **base)
+        return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
+                           reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,
+                           m=query.m, trext=query.trext, gamma_rest=rest, structural_mode=a_s)
 
 
-__all__ = ["TagConfig", "TagResponse", "PassiveTag", "incident_power_w", "envelope",
+__all__ = ["TagConfig", "TagResponse", "PassiveTag", "SharedFrontEnd", "incident_power_w", "envelope",
            "DEFAULT_SENSITIVITY_DBM", "REASONS"]

@@ -17,7 +17,7 @@ Three small pieces, each a frozen dataclass with the equations in its docstring:
 Default chip numbers come from the PASS measurements of an NXP UCODE G2XM-class chip
 (pass-paris-simulator.md §5.2, files ``meas_tag_picmin``, ``meas_tag_zic``,
 ``meas_tag_zmod-act``), read at 900 MHz and at the chip's minimum operating power; the
-files themselves are not part of rfsim — :func:`load_pass_tag_characteristics` reads them
+files themselves are not part of rfsim — :func:`devices.tag_chip.load_pass_tag_characteristics` reads them
 from a folder the user has.
 """
 
@@ -321,52 +321,6 @@ class TagClock:
 # --------------------------------------------------------------------------- PASS files
 
 
-@dataclass(frozen=True)
-class PassTagCharacteristics:
-    """Chip and antenna numbers read from the PASS tag characteristic files at one
-    (frequency, chip power) point.
-
-    Attributes
-    ----------
-    fc_hz, p_chip_w : the operating point
-    z_chip_ohm : unmodulated chip impedance Z_ic [Ω]
-    z_mod_ohm : modulation impedance Z_mod [Ω] (modulating state Z_ic ∥ Z_mod)
-    z_ant_ohm : antenna impedance Z_a [Ω]
-    picmin_w : minimum operating chip power at fc [W]
-    """
-
-    fc_hz: float
-    p_chip_w: float
-    z_chip_ohm: complex
-    z_mod_ohm: complex
-    z_ant_ohm: complex
-    picmin_w: float
-
-    def power_up(self) -> PowerUp:
-        return PowerUp(chip_sensitivity_w=self.picmin_w, z_chip_ohm=self.z_chip_ohm, z_ant_ohm=self.z_ant_ohm)
-
-    def reflection_states(self) -> ReflectionStates:
-        return ReflectionStates.from_impedances(self.z_chip_ohm, parallel_ohm(self.z_chip_ohm, self.z_mod_ohm),
-                                                self.z_ant_ohm)
-
-
-def load_pass_tag_characteristics(folder, *, fc_hz: float, p_chip_w: float, zmod: str = "act",
-                                  antenna: str = "v6") -> PassTagCharacteristics:
-    """Read the PASS tag characteristic files (``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
-    ``meas_tag_za-<antenna>``, ``meas_tag_picmin``) from ``folder`` and interpolate them at
-    (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2),
-    through :meth:`devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range
-    is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
-
-    Raises :class:`rfsim.errors.UserError` when a file is missing.
-    """
-    from devices.tag_chip import PowerDependentChip  # builds on this module
-
-    chip = PowerDependentChip.from_pass_files(folder, fc_hz=fc_hz, zmod=zmod, antenna=antenna)
-    z_chip, z_mod = chip.impedances(p_chip_w)
-    return PassTagCharacteristics(float(fc_hz), float(p_chip_w), z_chip, z_mod, chip.z_ant_ohm, chip.picmin_w)
-
-
 __all__ = [
     "PASS_PICMIN_900MHZ_W",
     "PASS_ZIC_900MHZ_OHM",
@@ -382,6 +336,4 @@ __all__ = [
     "PowerUp",
     "ReflectionStates",
     "TagClock",
-    "PassTagCharacteristics",
-    "load_pass_tag_characteristics",
 ]

@@ -5,6 +5,10 @@ Core package: units and constants (:mod:`rfsim.units`), reproducible randomness
 (:mod:`rfsim.dataset`), the EPC Gen2 PHY/MAC primitives (:mod:`rfsim.gen2`) and the
 command line (:mod:`rfsim.cli`). Propagation lives in the sibling package
 ``channels``, device models in ``devices`` and runnable scenarios in ``scenarios``.
+
+Scripts build a scene from ``devices`` and ``channels`` and run it with
+:class:`rfsim.Simulation` (:mod:`rfsim.simulation`; imported on first use, so
+``import rfsim`` stays light).
 """
 
 from __future__ import annotations
@@ -16,4 +20,13 @@ try:
 except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0+unknown"
 
-__all__ = ["__version__"]
+
+def __getattr__(name: str):
+    if name == "Simulation":
+        from rfsim.simulation import Simulation
+
+        return Simulation
+    raise AttributeError(f"module 'rfsim' has no attribute {name!r}")
+
+
+__all__ = ["__version__", "Simulation"]

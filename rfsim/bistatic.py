@@ -10,18 +10,19 @@ the chip's Γ, devices.tag); listener antenna k receives
 
     ``y_k(t) = D_k{x_tx}(t) + Σ_i B_ik{r_i·inc_i}(t) (+ n_k(t))``
 
-with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied by
-:func:`channels.paths.apply_paths` with the engine's narrowband/exact choice
-(:func:`rfsim.engine.propagation_method` on the reply bandwidth 2·BLF). Every tag scatters: A_s − Γ_A
-outside its reply. All waveforms are complex baseband [√W] on
-the segment's time base.
+with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied with
+the link's own narrowband/exact choice (``PathSet.method`` on the reply bandwidth 2·BLF,
+:func:`channels.paths.propagation_method`). Every tag scatters: A_s − Γ_A outside its reply.
+All waveforms are complex baseband [√W] on the segment's time base. The step is one call
+of the air interface (:func:`rfsim.air.propagate`) with the listeners as receivers and the
+components kept.
 
 The reader side (its own decode) is :func:`rfsim.engine.run_exchange`; this module only
 adds the listeners, and returns the tag responses and the per-link components so that a
 caller can measure the quantities of the closed forms (A_R, A_T1, A_T2, θ).
 
 The channel is used through ``channel.link(tx, rx, *, fc_hz, rng, t_s)`` (one draw per link
-when ``rng`` is given, the held draw otherwise).
+when ``rng`` is given, the held draw otherwise; :class:`rfsim.air.LinkTable`).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.engine import propagation_method
+from rfsim.air import AntennaPort, FixedEmitter, LinkTable, as_reflector, propagate
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -89,45 +90,33 @@ def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *
     propagation : "auto", "exact" or "narrowband" (as :func:`rfsim.engine.run_exchange`)
     noise_power_w : complex AWGN power per sample added at every listener [W]
     """
-    from channels.paths import apply_paths
-
     antenna = reader.antennas[reader.antenna_index(round_index)]
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=cw_after_s, round_index=round_index)
-    fs, fc, x = tx.fs_hz, tx.fc_hz, tx.samples
-    bw = 2.0 * reader.link.blf_hz
-
-    def apply(sig, paths):
-        return apply_paths(sig, fs_hz=fs, fc_hz=fc, paths=paths, t0_s=t_s, method=propagation_method(paths, bw, propagation))
-
-    responses, incident, fwd_links = [], [], []
-    for tag in tags:
-        fwd = channel.link(antenna, tag.antenna, fc_hz=fc, rng=rng, t_s=t_s)
-        inc = apply(x, fwd)
-        responses.append(tag.listen(inc, t0_s=t_s, fs_hz=fs))
-        incident.append(inc)
-        fwd_links.append(fwd)
+    fs, x = tx.fs_hz, tx.samples
+    if noise_power_w > 0 and rng is None:
+        raise ValueError("noise needs an rng")
+    ports = [AntennaPort(lis, noise_power_w) for lis in listeners]
+    reflectors = [as_reflector(t) for t in tags]
+    links = LinkTable(channel, rng=rng, reciprocal=False)
+    air = propagate([FixedEmitter(antenna, tx, device=reader)], reflectors, ports, links, t0_s=t_s, fs_hz=fs,
+                    n_samples=x.size, rng=rng, bandwidth_hz=2.0 * reader.link.blf_hz, propagation=propagation,
+                    decide=False, keep_components=True)
     n_l, n_t = len(listeners), len(tags)
-    direct = np.zeros((n_l, x.size), dtype=np.complex128)
+    direct = np.array(air.direct) if n_l else np.zeros((0, x.size), dtype=np.complex128)
     back = np.zeros((n_t, n_l, x.size), dtype=np.complex128)
-    d_links, b_links = [], [[None] * n_l for _ in range(n_t)]
-    for k, lis in enumerate(listeners):
-        d = channel.link(antenna, lis, fc_hz=fc, rng=rng, t_s=t_s)
-        direct[k] = apply(x, d)
-        d_links.append(d)
-        for i, tag in enumerate(tags):
-            b = channel.link(tag.antenna, lis, fc_hz=fc, rng=rng, t_s=t_s)
-            back[i, k] = apply(responses[i].reradiation(x.size) * incident[i], b)
-            b_links[i][k] = b
-    noise = None
-    if noise_power_w > 0:
-        if rng is None:
-            raise ValueError("noise needs an rng")
-        s = math.sqrt(noise_power_w / 2.0)
-        noise = s * (rng.standard_normal((n_l, x.size)) + 1j * rng.standard_normal((n_l, x.size)))
+    for i in range(n_t):
+        for k in range(n_l):
+            back[i, k] = air.backscatter[i][k]
+    noise = np.array(air.noise) if (noise_power_w > 0 and n_l) else None
+    incident = [seg.samples for seg in air.incident]
     inc_arr = np.array(incident) if incident else np.zeros((0, x.size), dtype=np.complex128)
-    return BistaticExchange(tx=tx, responses=tuple(responses), incident=inc_arr, direct=direct,
-                            backscatter=back, noise=noise, direct_links=tuple(d_links),
-                            forward_links=tuple(fwd_links), backward_links=tuple(tuple(r) for r in b_links))
+    lk = air.links
+    return BistaticExchange(tx=tx, responses=tuple(air.reflections), incident=inc_arr, direct=direct,
+                            backscatter=back, noise=noise,
+                            direct_links=tuple(lk[("emitter", 0, "receiver", k)] for k in range(n_l)),
+                            forward_links=tuple(lk[("emitter", 0, "reflector", i)] for i in range(n_t)),
+                            backward_links=tuple(tuple(lk.get(("reflector", i, "receiver", k)) for k in range(n_l))
+                                                 for i in range(n_t)))
 
 
 __all__ = ["BistaticExchange", "listen_exchange"]

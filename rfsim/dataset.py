@@ -2,18 +2,34 @@
 
 Layout of a file written by :func:`write_dataset` (one HDF5 group per table or grid)::
 
-    /                     attrs: title, scenario, rfsim_version
+    /                     attrs: title, scenario, rfsim_version, the run's scalar results
+    /<table>              attr description (what one row is)
     /<table>/row          dimension scale 0..n-1
-    /<table>/<column>     1-D, one per field, attrs units + description
-    /<grid>/<coord>       1-D dimension scales (attrs units + description)
-    /<grid>/<variable>    N-D over named coords (attrs units + description)
+    /<table>/<column>     1-D, one per field, attrs units, long_name, description
+    /<grid>               attr description
+    /<grid>/<coord>       1-D dimension scales (attrs units, long_name, description)
+    /<grid>/<variable>    N-D over named coords (attrs units, long_name, description)
     /provenance           attrs: config_toml, seed, rfsim_version, git_revision,
                           start_time_utc, end_time_utc, platform, python, numpy, numba
 
 Every group is also a valid netCDF-4 group: ``xarray.open_dataset(path,
-engine="h5netcdf", group="<name>")`` opens it without custom code. Booleans are stored
-as ``uint8`` with the attribute ``rfsim_dtype = "bool"`` (netCDF has no bool type);
-strings as UTF-8 variable-length strings.
+engine="h5netcdf", group="<name>")`` opens it without custom code and shows ``units`` and
+``long_name`` (CF conventions) on every variable. Booleans are stored as ``uint8`` with the
+CF attributes ``flag_values = [0, 1]``, ``flag_meanings = "false true"`` and
+``rfsim_dtype = "bool"`` (netCDF has no bool type; :func:`read_table` gives them back as
+bool); strings as UTF-8 variable-length strings.
+
+Root attributes that are not finite numbers (NaN, ±inf) must say what they mean: a text
+attribute ``<name>_meaning`` beside them (e.g. "inf: no nulls along this track"), else
+:func:`write_dataset` refuses the dataset.
+
+Any table into pandas, in one line (``read_table`` returns plain NumPy columns)::
+
+    frame = pandas.DataFrame(rfsim.dataset.read_table("results/link.h5", "reads"))
+
+and any group, grids included, through xarray::
+
+    frame = xarray.open_dataset(path, engine="h5netcdf", group="tracks").to_dataframe()
 
 Files are written to a hidden temporary name beside the target, flushed, fsync'ed and
 renamed over the final name, so a killed run never leaves a truncated file under the
@@ -40,6 +56,9 @@ import rfsim
 
 _ROW_DIM = "row"
 _BOOL_ATTR = "rfsim_dtype"
+#: Description attribute of every file's provenance group.
+PROVENANCE_DESCRIPTION = ("how this file was made: the resolved config (TOML), the seed, the rfsim version "
+                          "and git revision, start and end time (UTC) and the software platform")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,7 +66,8 @@ class Column:
     """One named array with its unit and description.
 
     ``dims`` names the grid coordinates a gridded variable spans (in axis order);
-    table columns leave it empty.
+    table columns leave it empty. The CF ``long_name`` written with it is the description's
+    first clause (up to the first ";" or ":").
     """
 
     data: np.ndarray
@@ -74,9 +94,12 @@ class Dataset:
     grids: dict[str, tuple[dict[str, Column], dict[str, Column]]] = dataclasses.field(
         default_factory=dict)
     attrs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: group name → what the group holds (what one row of a table is)
+    descriptions: dict[str, str] = dataclasses.field(default_factory=dict)
 
-    def add_table(self, name: str, columns: Mapping[str, Column]) -> None:
-        """Add a columnar table: aligned 1-D columns of equal length."""
+    def add_table(self, name: str, columns: Mapping[str, Column], description: str = "") -> None:
+        """Add a columnar table: aligned 1-D columns of equal length; ``description`` says
+        what one row is."""
         self._check_new(name)
         lengths = {k: c.data.shape for k, c in columns.items()}
         if not columns:
@@ -88,9 +111,11 @@ class Dataset:
         if _ROW_DIM in columns:
             raise ValueError(f"table {name!r}: {_ROW_DIM!r} is reserved for the row index")
         self.tables[name] = dict(columns)
+        if description:
+            self.descriptions[name] = description
 
     def add_grid(self, name: str, coords: Mapping[str, Column],
-                 variables: Mapping[str, Column]) -> None:
+                 variables: Mapping[str, Column], description: str = "") -> None:
         """Add gridded data: 1-D coordinates and variables over (a subset of) them."""
         self._check_new(name)
         for cname, c in coords.items():
@@ -106,6 +131,8 @@ class Dataset:
                                  f"{v.data.shape}, expected {expected} over {dims}")
         self.grids[name] = (dict(coords), {k: dataclasses.replace(v, dims=v.dims or tuple(coords))
                                            for k, v in variables.items()})
+        if description:
+            self.descriptions[name] = description
 
     def _check_new(self, name: str) -> None:
         if name in self.tables or name in self.grids or name == "provenance" or not name:
@@ -161,10 +188,20 @@ def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_ut
 # ----------------------------------------------------------------------------- writing
 
 
-def _array_attrs(col: Column) -> dict[str, Any]:
-    attrs: dict[str, Any] = {"units": col.units, "description": col.description}
+def long_name(description: str) -> str:
+    """CF ``long_name`` of a column: the first clause of its description."""
+    for sep in (";", ": "):
+        description = description.split(sep, 1)[0]
+    return description.strip()
+
+
+def _array_attrs(col: Column, name: str) -> dict[str, Any]:
+    attrs: dict[str, Any] = {"units": col.units, "long_name": long_name(col.description) or name,
+                             "description": col.description}
     if col.data.dtype == bool:
         attrs[_BOOL_ATTR] = "bool"
+        attrs["flag_values"] = np.array([0, 1], dtype=np.uint8)
+        attrs["flag_meanings"] = "false true"
     return attrs
 
 
@@ -190,7 +227,7 @@ def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
     else:
         opts = {"compression": "gzip", "compression_opts": 4} if data.size >= 4096 else {}
         ds = group.create_dataset(name, data=data, **opts)
-    for k, v in _array_attrs(col).items():
+    for k, v in _array_attrs(col, name).items():
         ds.attrs[k] = v
     return ds
 
@@ -207,15 +244,16 @@ def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, .
     if size >= 4096 and like.data.dtype.kind != "U":
         opts = {"compression": "gzip", "compression_opts": 4, "shuffle": True, "chunks": True}
     ds = group.create_dataset(name, shape=shape, dtype=_h5_dtype(like.data), **opts)
-    for k, v in _array_attrs(like).items():
+    for k, v in _array_attrs(like, name).items():
         ds.attrs[k] = v
     return ds
 
 
 def create_row_scale(group: h5py.Group, n_rows: int) -> h5py.Dataset:
     """The ``row`` dimension scale (0 … n_rows − 1) of a table group."""
-    like = Column(np.zeros(0, np.int64), "1", "row index of the table")
+    like = Column(np.zeros(0, np.int64), "1", "row index of the table, 0-based")
     row = create_array(group, _ROW_DIM, like, (n_rows,))
+    row.attrs["long_name"] = "row index"
     step = 1 << 20
     for start in range(0, n_rows, step):
         row[start:min(start + step, n_rows)] = np.arange(start, min(start + step, n_rows), dtype=np.int64)
@@ -243,6 +281,15 @@ def _write_grid(f: h5py.File, name: str, coords: Mapping[str, Column],
         ds = _write_array(g, vname, v)
         for axis, dim in enumerate(v.dims):
             ds.dims[axis].attach_scale(scales[dim])
+
+
+def check_attributes(attrs: Mapping[str, Any]) -> None:
+    """ValueError naming the first non-finite numeric attribute without a ``<name>_meaning``."""
+    for k, v in attrs.items():
+        arr = np.asarray(v)
+        if arr.dtype.kind in "fc" and not np.all(np.isfinite(arr)) and not str(attrs.get(f"{k}_meaning", "")):
+            raise ValueError(f"dataset attribute {k!r} = {v!r} is not finite; add a text attribute "
+                             f"'{k}_meaning' that says what the value means")
 
 
 @contextlib.contextmanager
@@ -280,6 +327,7 @@ def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
 def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
     """The ``/provenance`` group, with ``end_time_utc`` stamped now."""
     prov = f.create_group("provenance")
+    prov.attrs["description"] = PROVENANCE_DESCRIPTION
     for k, v in {**provenance, "end_time_utc": utc_now()}.items():
         prov.attrs[k] = v
 
@@ -287,8 +335,10 @@ def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
 def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
     """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
 
-    The provenance gets ``end_time_utc`` stamped now. Returns the final path.
+    The provenance gets ``end_time_utc`` stamped now. Returns the final path. Non-finite
+    root attributes need a ``<name>_meaning`` (:func:`check_attributes`).
     """
+    check_attributes(dataset.attrs)
     path = Path(path)
     with atomic_h5file(path) as f:
         write_root_attrs(f, dataset)
@@ -296,8 +346,16 @@ def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, A
             _write_table(f, name, cols)
         for name, (coords, variables) in dataset.grids.items():
             _write_grid(f, name, coords, variables)
+        write_group_descriptions(f, dataset.descriptions)
         write_provenance(f, provenance)
     return path
+
+
+def write_group_descriptions(f: h5py.File, descriptions: Mapping[str, str]) -> None:
+    """The ``description`` attribute of each named group that is in the file."""
+    for name, text in descriptions.items():
+        if name in f:
+            f[name].attrs["description"] = text
 
 
 def _fsync_file(path: Path) -> None:
@@ -334,7 +392,10 @@ def _read_array(ds: h5py.Dataset) -> np.ndarray:
 
 
 def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
-    """Columns of table ``name`` as plain arrays (without the row index)."""
+    """Columns of table ``name`` as plain arrays (without the row index); booleans as bool.
+
+    ``pandas.DataFrame(read_table(path, name))`` is the table as a data frame.
+    """
     with h5py.File(path, "r") as f:
         g = f[name]
         return {k: _read_array(ds) for k, ds in g.items() if k != _ROW_DIM}
@@ -343,7 +404,8 @@ def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
 def read_provenance(path: str | Path) -> dict[str, Any]:
     """The provenance attributes of a dataset file."""
     with h5py.File(path, "r") as f:
-        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()}
+        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()
+            if k != "description"}
 
 
 def read_dataset(path: str | Path) -> Dataset:
@@ -356,6 +418,8 @@ def read_dataset(path: str | Path) -> Dataset:
         for gname, g in f.items():
             if gname == "provenance":
                 continue
+            if g.attrs.get("description"):
+                out.descriptions[gname] = str(g.attrs["description"])
 
             def col(ds: h5py.Dataset, dims: tuple[str, ...] = ()) -> Column:
                 return Column(_read_array(ds), str(ds.attrs.get("units", "")),
@@ -389,6 +453,10 @@ __all__ = [
     "stored_values",
     "write_root_attrs",
     "write_provenance",
+    "write_group_descriptions",
+    "check_attributes",
+    "long_name",
+    "PROVENANCE_DESCRIPTION",
     "read_dataset",
     "read_table",
     "read_provenance",

@@ -3,31 +3,28 @@
 One *exchange* is a reader command followed by the CW during which tags may reply
 (DESIGN.md "Simulation flow"):
 
+Every exchange is one step of the air interface (:func:`rfsim.air.propagate`); this module is
+the Gen2 wrapper around it:
+
 1. the reader emits a segment: the PIE command and CW up to the end of the reply window
-   (``reader.transmit``), in √W at its antenna port;
+   (``reader.transmit``, window :func:`rfsim.gen2.link.reply_window_s`), in √W at its antenna port;
 2. for every tag the channel gives the forward and backward links (PathSets); the incident
-   field is the segment through the forward link (``apply_paths``, exact carrier phase);
+   field is the segment through the forward link (exact carrier phase);
 3. each tag listens (``tag.listen``): power-up, envelope/PIE decoding with its own clock,
    Gen2 state machine, and — if it replies — a reflection coefficient Γ(t) on the same
    time base;
 4. each tag re-radiates r(t)·incident(t), r = A_s − Γ(t) (``TagResponse.reradiation``: the
    antenna's structural mode A_s and the chip's Γ; devices.tag, Nikitin, Rao & Lam 2006),
    through its backward link; at the reader the backscatter of all tags superposes with
-   the TX→RX leakage and thermal noise;
-5. the reader decodes the reply window (``reader.receive``) and measures RSSI, phase,
-   Doppler and SNR.
+   the TX→RX leakage (the reader port's ``coupling``) and thermal noise;
+5. the reader decodes the reply window from :func:`rfsim.gen2.link.reader_listen_start_s`
+   (``reader.receive``) and measures RSSI, phase, Doppler and SNR.
 
-Propagation (``propagation="auto"``, the default): a link is applied narrowband — the
-exact carrier phase exp(−j2π·fc·τ) and Doppler of every path, the envelope delays dropped —
-when the relative RMS envelope error of doing so (:func:`narrowband_rms_error`: the
-per-path Bernstein bound 2π·B·(τ − τ0), B = 2·BLF the main lobe of the FM0/Miller reply, τ0
-the earliest delay, power-weighted over the paths) is at most :data:`NARROWBAND_TOLERANCE`;
-otherwise every path gets its exact fractional delay. The common delay τ0 (time of flight,
-3.3 ns/m) is then dropped from the envelope only — it shifts the reply by tens of ns, far
-below the T1 tolerance, and has no effect on RSSI, phase and Doppler, which keep the exact
-carrier phase of every path. (The fractional-delay interpolator also rings on the
-hard-switched FM0/Miller edges — an artefact of sampling a non-band-limited reply, seen as
-a false SNR ceiling — which the narrowband path avoids.)
+Propagation (``propagation="auto"``, the default): each link decides between narrowband and
+exact fractional delays on the reply bandwidth B = 2·BLF (the main lobe of the FM0/Miller
+reply) — the one rule :func:`channels.paths.propagation_method`. On narrowband, static links
+a tag that does not reply adds one constant to the reader's input (the air step's
+a·x + Σ b_i·r_i·x rule), not a full-length pass.
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
 command, T4 between commands without a reply), so silent air time costs nothing. Each
@@ -52,8 +49,8 @@ reader itself only sees its samples:
 * ``"bit error"`` — the reader accepted the reply (no CRC: an RN16) but its bits differ from
   what the tag sent (the ACK that follows then gets no reply).
 
-The engine only sees devices and the channel through these methods; it imports the channel
-toolbox (``channels.paths``) lazily, so the core never depends on it at import time.
+The engine only sees devices and the channel through these methods (and the PathSet members
+of the air interface's link protocol); it imports neither ``channels`` nor ``devices``.
 """
 
 from __future__ import annotations
@@ -65,6 +62,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+
+from rfsim.air import PROPAGATION_METHODS, FixedEmitter, as_reflector, propagate
+from rfsim.gen2.link import reader_listen_start_s, reply_window_s
 
 #: Failure reasons of a read, in the order the engine checks them.
 FAILURE_REASONS = ("", "not powered", "decode error", "no reply", "timing violation", "collision",
@@ -124,34 +124,6 @@ class Exchange:
         return None if self.read is None else self.read.bits
 
 
-PROPAGATION_METHODS = ("auto", "exact", "narrowband")
-#: Relative envelope-error bound below which "auto" propagation is narrowband.
-NARROWBAND_TOLERANCE = 0.1
-
-
-def narrowband_rms_error(paths, bandwidth_hz: float) -> float:
-    """Relative RMS envelope error of dropping the envelope delays of ``paths``.
-
-    √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²), τ0 the earliest delay: the Bernstein bound
-    2π·B·τ on each path's envelope change, added in power (the paths' carrier phases are
-    independent — diffuse taps, reflections at different lengths).
-    """
-    p = np.abs(paths.gain) ** 2
-    total = float(np.sum(p))
-    if total == 0.0:
-        return 0.0
-    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.min(paths.delay_s))
-    return float(np.sqrt(np.sum(p * rel**2) / total))
-
-
-def propagation_method(paths, bandwidth_hz: float, propagation: str) -> str:
-    """"narrowband" or "exact" for ``paths`` under the ``propagation`` policy (module docstring)."""
-    if propagation != "auto":
-        return propagation
-    ok = paths.n_paths == 0 or narrowband_rms_error(paths, bandwidth_hz) <= NARROWBAND_TOLERANCE
-    return "narrowband" if ok else "exact"
-
-
 def _failure(read, replied: Sequence[int], powered: Sequence[int], tag_reasons: Sequence[str],
              decoded_tag: int | None, timing_ok: Sequence[bool]) -> str:
     """Failure reason from the ground truth and the reader's verdict (module docstring)."""
@@ -180,7 +152,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     ----------
     reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
         ``antennas``, ``antenna_index``, ``link``)
-    tags : tag devices (``listen``, ``antenna``)
+    tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
+        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records
     channel : link model with ``backscatter_links(emitter, tag, *, fc_hz, rng, t_s,
         tag_motion)`` → (forward, backward) PathSets
     cmd : the Gen2 command object to send
@@ -197,46 +170,25 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
         read only with ``draw_channel=False`` for a tag without motion — the links are then
         exactly what the channel would return again (held draw, same geometry and carrier).
-        It also keeps the propagation method chosen for each link (a pure function of the
-        PathSet object, the BLF and ``propagation``).
+        (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
     """
     if propagation not in PROPAGATION_METHODS:
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
-    from channels.paths import apply_paths
-
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
     link = reader.link
     window_s = _window_s(link, int(reply_bits))
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
-    rx = reader.leakage_gain() * tx.samples  # a new array: the sums below go into it in place
+    emitter = FixedEmitter(antenna, tx, device=reader)
+    port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
+    reflectors = [as_reflector(t) for t in tags]
+    links = _EngineLinks(channel, antenna, tags, motions, rng if draw_channel else None, t_s,
+                         link_cache if (link_cache is not None) else None, draw_channel)
+    air = propagate([emitter], reflectors, [port], links, t0_s=t_s, fs_hz=fs, n_samples=tx.samples.size,
+                    rng=rng, bandwidth_hz=2.0 * link.blf_hz, propagation=propagation, decide=False)
     replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
-    for i, tag in enumerate(tags):
-        motion = motions[i] if motions is not None else None
-        key = (i, antenna_index, fc)
-        links = None
-        if link_cache is not None and motion is None and not draw_channel:
-            links = link_cache.get(key)
-        if links is None:
-            links = channel.backscatter_links(antenna, tag.antenna, fc_hz=fc,
-                                              rng=rng if draw_channel else None, t_s=t_s,
-                                              tag_motion=motion)
-            if link_cache is not None and motion is None:
-                link_cache[key] = links
-        fwd, bwd = links
-        # the propagation method of a held link is held with it (same PathSet, same answer)
-        method_key = ("method", i, antenna_index, fc, propagation, link.blf_hz)
-        methods = link_cache.get(method_key) if link_cache is not None else None
-        if methods is None or methods[0] is not fwd or methods[2] is not bwd:
-            fwd_method = propagation_method(fwd, 2.0 * link.blf_hz, propagation)
-            bwd_method = fwd_method if bwd is fwd else propagation_method(bwd, 2.0 * link.blf_hz, propagation)
-            methods = (fwd, fwd_method, bwd, bwd_method)
-            if link_cache is not None:
-                link_cache[method_key] = methods
-        fwd_method, bwd_method = methods[1], methods[3]
-        incident = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=t_s, method=fwd_method)
-        response = tag.listen(incident, t0_s=t_s, fs_hz=fs)
+    for i, response in enumerate(air.reflections):
         incident_dbm.append(float(response.incident_power_dbm))
         reasons.append(response.reason)
         if response.powered:
@@ -245,33 +197,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             replied.append(i)
             sent.append(np.asarray(response.reply.bits))
             starts.append(float(response.reply_start_s))
-        if response.scatters:
-            # Every tag scatters: A_s − Γ_A at rest, A_s − Γ(t) while it replies (skipped
-            # only when that is identically zero).
-            scattered = response.reradiation(incident.size) * incident
-            rx += apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=bwd, t0_s=t_s, method=bwd_method)
-    noise_w = reader.noise_power_w()
-    if noise_w > 0:
-        # complex white noise scale·(a + j·b): a then b drawn from rng and added to the real
-        # and imaginary parts of rx (the same values as adding scale·(a + 1j·b))
-        scale = math.sqrt(noise_w / 2.0)
-        ab = np.empty((2, rx.size))
-        rng.standard_normal(out=ab[0])
-        rng.standard_normal(out=ab[1])
-        ab *= scale
-        rx.real += ab[0]
-        rx.imag += ab[1]
-    read = None
-    if replied:
-        # The receiver listens from half a Tari after its own command's last edge (the edge
-        # and the channel's delay spread have settled) and searches the reply in the T1
-        # window; it is given no knowledge of the tags (BLF: the profile's nominal value).
-        i0 = int(math.ceil((tx.cmd_end_s + 0.5 * link.tari_s - t_s) * fs))
-        # Phase reference: the reader's own carrier during the reply window (PR-ASK ends a
-        # command with either polarity, depending on the parity of its PIE symbols).
-        read = reader.receive(rx[i0:], t0_s=t_s + i0 / fs, n_bits=reply_bits,
-                              expect_crc=expect_crc, cmd_end_s=tx.cmd_end_s,
-                              carrier=tx.samples[-1])
+    read = port.receive(air.inputs[0]) if replied else None
     decoded_tag = None
     if read is not None and read.bits is not None:
         for i, bits in zip(replied, sent):
@@ -297,14 +223,85 @@ def _t1_range(link):
     return t1(link)
 
 
-def _t1_max_s(link) -> float:
-    return _t1_range(link).max_s
-
-
 @functools.lru_cache(maxsize=256)
 def _window_s(link, reply_bits: int) -> float:
-    """CW after a command [s]: T1max + reply of ``reply_bits`` bits + 3 Tpri."""
-    return link.reply_duration_s(reply_bits) + _t1_max_s(link) + 3.0 * link.tpri_s
+    """CW after a command [s]: :func:`rfsim.gen2.link.reply_window_s`."""
+    return reply_window_s(link, reply_bits)
+
+
+class ReaderPort:
+    """The reader's IQ input as a receiver of the air step (:class:`rfsim.air.Receiver`).
+
+    Its noise is ``reader.noise_power_w()``; its own TX→RX leakage ``reader.leakage_gain()`` is
+    the coupling from its own transmitter (a :class:`rfsim.air.FixedEmitter` with ``device=reader``
+    on ``antenna``), instead of a channel link. :meth:`receive` is the reader's read of one
+    reply: it listens from :func:`rfsim.gen2.link.reader_listen_start_s` after the command of
+    ``tx`` (the edge and the channel's delay spread have settled), searches the reply in the T1
+    window with no knowledge of the tags (BLF: the profile's nominal value) and takes its
+    phase reference from its own carrier during the reply window (``tx.samples[-1]``: PR-ASK
+    ends a command with either polarity, depending on the parity of its PIE symbols).
+
+    Parameters
+    ----------
+    reader : reader device (``receive``, ``leakage_gain``, ``noise_power_w``, ``link``)
+    antenna : the reader antenna of the exchange
+    tx : the reader's segment (``t0_s``, ``fs_hz``, ``samples``, ``cmd_end_s`` [s])
+    reply_bits : bits of the expected reply; expect_crc : whether it carries a CRC-16
+    """
+
+    fc_hz = None
+
+    def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool):
+        self.reader, self.antenna, self.tx = reader, antenna, tx
+        self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
+        self.noise_power_w = reader.noise_power_w()
+
+    def coupling(self, emitter):
+        if getattr(emitter, "device", None) is self.reader and emitter.antenna is self.antenna:
+            return self.reader.leakage_gain()
+        return None
+
+    def receive(self, input):
+        """The reader's :class:`ReadResult`-like measurement of the reply in ``input`` (a
+        :class:`rfsim.air.Segment` on the time base of ``tx``)."""
+        tx, fs = self.tx, input.fs_hz
+        i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
+        return self.reader.receive(input.samples[i0:], t0_s=input.t0_s + i0 / fs, n_bits=self.reply_bits,
+                                   expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
+
+
+class _EngineLinks:
+    """The engine's links for the air step: forward and backward link of each tag from
+    ``channel.backscatter_links`` (monostatic), held in ``link_cache`` as described in
+    :func:`run_exchange`."""
+
+    def __init__(self, channel, antenna, tags, motions, rng, t_s, cache, draw):
+        self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s
+        self.cache, self.draw, self.motions = cache, draw, motions
+        self.index = {id(t.antenna): i for i, t in enumerate(tags)}
+        self.backward: dict = {}
+
+    def paths(self, tx, rx, *, fc_hz, t_s):
+        if tx is self.antenna:
+            i = self.index.get(id(rx))
+            if i is None:
+                return None
+            motion = self.motions[i] if self.motions is not None else None
+            links = None
+            if self.cache is not None:
+                key = (i, id(self.antenna), fc_hz)
+                if motion is None and not self.draw:
+                    links = self.cache.get(key)
+            if links is None:
+                links = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s,
+                                                       tag_motion=motion)
+                if self.cache is not None and motion is None:
+                    self.cache[key] = links
+            self.backward[id(rx)] = links[1]
+            return links[0]
+        if rx is self.antenna:
+            return self.backward.get(id(tx))
+        return None
 
 
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,
@@ -335,5 +332,4 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     return [first, second]
 
 
-__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "NARROWBAND_TOLERANCE",
-           "narrowband_rms_error", "propagation_method", "run_exchange", "singulate"]
+__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "ReaderPort", "run_exchange", "singulate"]

@@ -155,7 +155,7 @@ SLOT_FIELDS = {
 
 READ_FIELDS = {
     "time_s": ("s", "start of the ACK segment of the read"),
-    "round": ("1", "inventory round"),
+    "round": ("1", "inventory round (one Query and its QueryReps) of the read, 0-based"),
     "slot": ("1", "slot index within the round"),
     "tag": ("1", "index of the tag that answered the ACK (-1 if not unique)"),
     "epc_hex": ("", "EPC decoded (CRC-16 ok)"),
@@ -466,123 +466,6 @@ class _RoundChannel:
         return out
 
 
-class _SegmentReference:
-    """Decoding of the current reader segment, shared by all tags whose incident field is a
-    scaled copy of it.
-
-    A narrowband link multiplies the segment by a complex constant; the tag's envelope
-    detector (|x|, optionally a linear RC filter), its PIE decoder (thresholds between the
-    envelope's own level clusters) and the CW-power estimate (median of |x|² over CW samples)
-    are all scale-equivariant, so every such tag decodes the same frames and sees
-    P_inc = s²·P_unit, s = |x[-1]| (the segment ends in CW).
-    """
-
-    def __init__(self):
-        self.key = None
-        self.unit = None
-        self.p_unit = math.nan
-        self.decoded: dict = {}
-
-    def match(self, x: np.ndarray, t0_s: float, fs_hz: float) -> float | None:
-        """s = |x[-1]| when ``x`` is a scaled copy of the segment's reference, else None."""
-        from devices.tag import incident_power_w
-
-        env = np.abs(x)
-        s = float(env[-1])
-        if not s > 0:
-            return None
-        u = env / s
-        key = (float(t0_s), float(fs_hz), x.size)
-        if key != self.key:
-            self.key, self.unit, self.decoded = key, u, {}
-            self.p_unit = incident_power_w(x) / (s * s)
-            return s
-        return s if float(np.max(np.abs(u - self.unit))) <= 1e-9 else None
-
-    def command(self, rc_s: float, fs_hz: float, t0_s: float):
-        """(command or None, command end [s]) as a tag with RC time constant ``rc_s`` decodes it."""
-        if rc_s not in self.decoded:
-            from devices.tag import envelope
-            from rfsim.gen2.commands import CommandParseError, parse
-            from rfsim.gen2.pie import pie_decode
-
-            frames = pie_decode(envelope(self.unit, fs_hz=fs_hz, rc_s=rc_s))
-            cmd, end = None, math.nan
-            if frames:
-                try:
-                    c = parse(frames[0].bits)
-                except CommandParseError:
-                    c = None
-                if c is not None and isinstance(c, Query) == frames[0].has_trcal:
-                    cmd, end = c, t0_s + frames[0].end / fs_hz
-            self.decoded[rc_s] = (cmd, end)
-        return self.decoded[rc_s]
-
-
-class _FastTag:
-    """Stands in for a :class:`devices.tag.PassiveTag` inside ``run_exchange``.
-
-    Calls the tag's own ``listen`` whenever the tag may do anything a state-machine step cannot
-    reproduce exactly: a Query (it also measures TRcal), a change of power state, an incident
-    field that is not a scaled copy of the segment (wideband multipath, several Doppler
-    shifts) or a command the tag would answer. Otherwise — a powered tag that stays silent —
-    it applies the command decoded from the shared segment reference to the tag's state
-    machine with the tag's generator (identical to what ``listen`` does) and returns the silent
-    response. A step that produces a reply is undone (the state's attributes — its only
-    mutable container is the ``inventoried`` dict — and the generator state are restored) and
-    the tag's ``listen`` runs instead.
-    """
-
-    def __init__(self, tag, shared: _SegmentReference):
-        self.tag = tag
-        self.antenna = tag.antenna
-        self._shared = shared
-        power_up = tag.config.power_up
-        self._sens_w = float(power_up.chip_sensitivity_w)
-        self._pu_tau = float(power_up.tau)  # PowerUp.is_powered: τ_pu·(τ·P_inc) ≥ sensitivity
-        self._tau = tag.tau
-        self._rc_s = float(tag.config.envelope_rc_s)
-        self._rest = tag.reflection_states.gamma_a
-        self._a_s = complex(tag.config.structural_mode)
-
-    def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float):
-        from devices.tag import TagResponse
-
-        tag = self.tag
-        x = np.asarray(incident)
-        s = self._shared.match(x, t0_s, fs_hz)
-        if s is None:
-            return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        p_inc = s * s * self._shared.p_unit
-        p_chip = self._pu_tau * (self._tau * p_inc)
-        if abs(p_chip / self._sens_w - 1.0) < 1e-9:  # at the threshold: let the tag decide
-            return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        powered = p_chip >= self._sens_w
-        if powered != tag.state.powered:
-            return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        p_dbm = 10.0 * math.log10(p_inc) + 30.0 if p_inc > 0 else -math.inf
-        base = dict(gamma=None, reply_start_s=None, blf_hz=None, incident_power_dbm=p_dbm,
-                    gamma_rest=self._rest, structural_mode=self._a_s)
-        if not powered:
-            return TagResponse(powered=False, command=None, reply=None, reason="not powered", **base)
-        cmd, cmd_end_s = self._shared.command(self._rc_s, fs_hz, t0_s)
-        if cmd is None or isinstance(cmd, Query):
-            return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        # Step the state machine; if the tag turns out to reply, undo the step (state
-        # attributes and generator state) and let the tag's own listen produce the reply.
-        state = tag.state
-        saved = dict(state.__dict__)
-        saved["inventoried"] = dict(state.inventoried)
-        rng_state = tag.rng.bit_generator.state
-        if state.on_command(cmd, t_s=cmd_end_s, rng=tag.rng) is not None:
-            state.__dict__.clear()
-            state.__dict__.update(saved)
-            tag.rng.bit_generator.state = rng_state
-            return tag.listen(incident, t0_s=t0_s, fs_hz=fs_hz)
-        return TagResponse(powered=True, command=cmd, reply=None, reason="no reply", command_end_s=cmd_end_s,
-                           **base)
-
-
 class EngineAir:
     """Sample-level air interface through :func:`rfsim.engine.run_exchange`.
 
@@ -595,8 +478,10 @@ class EngineAir:
     rng : generator for the channel draws and the receiver noise
     motions : optional per-tag motions (see ``run_exchange``)
     propagation : "auto", "exact" or "narrowband"
-    fast : use the silent-tag shortcut (:class:`_FastTag`); False calls every tag's
-        ``listen`` on every exchange (identical results, slower)
+    fast : let tags that see scaled copies of one reader segment share its front-end work
+        (``PassiveTag.shared_front_end``, devices.tag); False makes every tag listen to its
+        own samples on every exchange (identical records, slower). Sets the attribute on
+        every tag that has it.
     keep_exchanges : append every :class:`AirExchange` to ``self.exchanges``
     """
 
@@ -610,8 +495,10 @@ class EngineAir:
         self.motions = motions
         self.propagation = propagation
         self._channel = _RoundChannel(channel)
-        shared = _SegmentReference()
-        self._devices = [_FastTag(t, shared) for t in self.tags] if fast else self.tags
+        self._round_links: dict = {}  # run_exchange's link_cache: the round's (forward, backward) links
+        for t in self.tags:
+            if hasattr(t, "shared_front_end"):
+                t.shared_front_end = bool(fast)
 
     def cw_off(self, t_s: float) -> None:
         """The reader interrupts its CW at ``t_s`` [s]: every tag loses power (Gen2: back to
@@ -625,13 +512,14 @@ class EngineAir:
 
         if new_round:
             self._channel.clear()
-        ex = run_exchange(self.reader, self._devices, self._channel, cmd, t_s=t_s, rng=self.rng,
+            self._round_links.clear()
+        ex = run_exchange(self.reader, self.tags, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
-                          round_index=round_index, draw_channel=new_round, propagation=self.propagation)
+                          round_index=round_index, draw_channel=new_round, propagation=self.propagation,
+                          link_cache=self._round_links)
         read = ex.read
         detected = read is not None and read.bits is not None
-        lk = self.link
-        cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
+        cmd_end = ex.cmd_end_s  # t_s + Tari (CW lead-in) + T_cmd, from the reader's segment
         out = AirExchange(ex.command, float(t_s), cmd_end, ex.replied, detected,
                           read.bits if detected else None, bool(read is not None and read.success),
                           ex.failure_reason, read.start_s if detected else math.nan, ex.antenna,

@@ -19,6 +19,15 @@ def pyplot():
     return plt
 
 
+def figure_path(dataset_path: str | Path, out_dir: str | Path, what: str) -> Path:
+    """Where figure ``what`` of a dataset goes: ``<out_dir>/<dataset stem>-<what>.png``.
+
+    Figures are named after the dataset, so ``rfsim run … -o x.h5`` writes ``x-*.png`` and
+    never overwrites the figures of another run in the same folder.
+    """
+    return Path(out_dir) / f"{Path(dataset_path).stem}-{what}.png"
+
+
 def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     """Lay out (unless ``tight`` is False, e.g. with a shared colorbar), write ``fig`` to
     ``path`` (creating its folder) and close it."""
@@ -31,4 +40,4 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     return path
 
 
-__all__ = ["pyplot", "save_figure"]
+__all__ = ["pyplot", "save_figure", "figure_path"]

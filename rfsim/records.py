@@ -12,11 +12,12 @@ from __future__ import annotations
 READ_MEASUREMENT_FIELDS: dict[str, tuple[str, str]] = {
     "antenna": ("1", "reader antenna port (1-based, as LLRP)"),
     "channel_index": ("1", "1-based index into the reader's hop table"),
-    "frequency_hz": ("Hz", "carrier frequency"),
-    "rssi_dbm": ("dBm", "power of the tag's modulated EPC reply at the reader antenna port"),
-    "phase_rad": ("rad", "reader-reported phase (-arg h) mod 2pi of the EPC reply"),
-    "doppler_hz": ("Hz", "Doppler from the phase slope across the EPC reply"),
-    "snr_db": ("dB", "SNR of the EPC reply as defined by the reader receiver"),
+    "frequency_hz": ("Hz", "carrier frequency of the read (the hop channel's centre)"),
+    "rssi_dbm": ("dBm", "RSSI: power of the tag's modulated EPC reply at the reader antenna port "
+                        "(NaN where the read failed)"),
+    "phase_rad": ("rad", "reader-reported phase (-arg h) mod 2pi of the EPC reply (NaN where the read failed)"),
+    "doppler_hz": ("Hz", "Doppler from the phase slope across the EPC reply (NaN where the read failed)"),
+    "snr_db": ("dB", "SNR of the EPC reply as defined by the reader receiver (NaN where the read failed)"),
 }
 
 __all__ = ["READ_MEASUREMENT_FIELDS"]

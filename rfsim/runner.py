@@ -1,4 +1,11 @@
-"""Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures."""
+"""Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures.
+
+The dataset path and the figure folder are checked before the simulation starts
+(:mod:`rfsim.outputs`).
+Each stage is announced on the active progress reporter (:mod:`rfsim.progress`; nothing
+is printed without one), and the first run after install says that numba compiles its
+kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).
+"""
 
 from __future__ import annotations
 
@@ -12,6 +19,7 @@ from rfsim.config import to_toml
 from rfsim.dataset import make_provenance, utc_now, write_dataset
 from rfsim.errors import UserError, check_seed
 from rfsim.outputs import check_output_file, check_output_folder
+from rfsim.progress import current, stage
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,17 +45,32 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     if make_plots or output is None:
         check_output_folder(out_dir, "--out-dir")
     check_output_file(path, "--output" if output is not None else "dataset", suffixes=(".h5", ".hdf5"))
+    _announce_compilation()
+    stage(f"running {module.NAME} (seed {seed})")
     dataset = module.run(config, seed=seed)
     dataset.scenario = module.NAME
     provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
                                  start_time_utc=start_utc)
+    stage(f"writing {path}")
     write_dataset(path, dataset, provenance)
-    try:
-        figures = tuple(module.plot(path, out_dir)) if make_plots else ()
-    except OSError as err:  # e.g. a folder where a figure file should go; the dataset is safe
-        raise UserError(f"dataset {str(path)!r} written, but a figure could not be saved in "
-                        f"{str(out_dir)!r}: {err.strerror or err}; redraw after fixing it") from None
+    figures: tuple[Path, ...] = ()
+    if make_plots:
+        stage("drawing figures")
+        try:
+            figures = tuple(module.plot(path, out_dir))
+        except OSError as err:  # e.g. a folder where a figure file should go; the dataset is safe
+            raise UserError(f"dataset {str(path)!r} written, but a figure could not be saved in "
+                            f"{str(out_dir)!r}: {err.strerror or err}; redraw after fixing it") from None
     return RunOutput(path, figures, time.perf_counter() - t0)
+
+
+def _announce_compilation() -> None:
+    """Say so up front when no kernel is cached yet (the pool workers compile silently)."""
+    from rfsim._jit import first_compilation
+
+    rep = current()
+    if rep is not None and first_compilation():
+        rep.compile_started()
 
 
 __all__ = ["RunOutput", "run_scenario"]

@@ -52,8 +52,8 @@ its tags were evidently powered throughout the cuboid). The ST's reach is set by
 threshold with ``st.detector_gain`` = 1 and no noise; the fitted d coefficient (≈ 6-7 /m) is
 steeper than the published 2.5 /m (a hard threshold on a deterministic backscatter level,
 softened only by the APDP draw, the hop channel and phase cancellation). Curves at
-θ = φ = 0 therefore lie far above angle-averaged binned data; the plot also shows the
-fitted models averaged over each bin's samples.
+θ = φ = 0 therefore lie far above angle-averaged binned data, so the plot draws them at the
+samples' median angles and also shows the fitted models averaged over each bin's samples.
 
 Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples.seed``
 (or the run seed when it is −1): k = 0 geometry, 1 reader (hop table), 2 tag, 3 channel
@@ -73,11 +73,12 @@ from typing import Literal
 import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
-from channels.paths import apply_paths
+from channels.antennas import vertical_dipole as st_antenna
+from channels.paths import apply_paths, propagation_method
 from devices import st_analytic as sa
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna, st_antenna_positions)
+                                 st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from rfsim.bistatic import listen_exchange
 from rfsim.config import param
@@ -85,16 +86,17 @@ from rfsim.dataset import Dataset, column
 from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
                              binned_probability, cross_entropy, expected_cross_entropy, fit_logistic,
                              predict_proba, rts_design, st_features, ts_design)
-from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
+from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
-               "rounds, ML fits of the TS and RTS models (Eqs. 4.6-4.8, R4-1)")
+               "rounds, ML fits of the TS and RTS models (AURIS dissertation Eqs. 4.6-4.8)")
 
 PANEL_GAIN_DBIC = 9.0
 PANEL_BEAMWIDTH_DEG = 70.0
@@ -289,8 +291,8 @@ FIELDS = {
     "sample": ("1", "sample index (trial index of the sample's random streams)"),
     "is_test": ("1", "True: test set (index >= samples.n_train); False: training set"),
     "tag_x_m": ("m", "tag x (reader-antenna frame, boresight +x)"),
-    "tag_y_m": ("m", "tag y"),
-    "tag_z_m": ("m", "tag z"),
+    "tag_y_m": ("m", "tag y (reader-antenna frame), uniform in the geometry's tag_y_m range"),
+    "tag_z_m": ("m", "tag z (reader-antenna frame), uniform in the geometry's tag_z_m range"),
     "st_x_m": ("m", "ST centre x"),
     "st_y_m": ("m", "ST centre y"),
     "st_z_m": ("m", "ST centre z"),
@@ -300,7 +302,7 @@ FIELDS = {
     "theta_rad": ("rad", "theta: azimuth, angle between the antenna X-Z plane and antenna->tag"),
     "phi_rad": ("rad", "phi: elevation, angle between the antenna X-Y plane and antenna->tag"),
     "channel_index": ("1", "1-based FCC hop channel of the round"),
-    "frequency_hz": ("Hz", "carrier frequency"),
+    "frequency_hz": ("Hz", "carrier frequency of the round (random FCC hop channel)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port"),
     "tag_powered": ("1", "tag powered up"),
     "tag_replied": ("1", "tag decoded the Query and replied its RN16"),
@@ -316,7 +318,8 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`)."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
-    rows = [simulate_sample(config, i, base) for i in range(s.first, s.first + s.count)]
+    rows = [simulate_sample(config, i, base)
+            for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples")]
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}
     out["is_test"] = out["sample"] >= s.n_train
     return {k: out[k] for k in FIELDS}
@@ -386,7 +389,11 @@ def _fits_table(fits: dict[str, np.ndarray]) -> dict:
     desc = {"model": "RTS (Eq. 4.6) or TS (Eq. 4.7)", "source": "'fit' (ML on the training set) or 'published' (R4-1)",
             "train_cross_entropy": "Eq. 4.8 on the training set", "test_cross_entropy": "Eq. 4.8 on the test set",
             "published_test_cross_entropy": "the source's test cross-entropy (RTS 0.1278, TS 0.1502)",
-            "expected_test_cross_entropy": "mean binary entropy of the model's test predictions"}
+            "expected_test_cross_entropy": "mean binary entropy of the model's test predictions",
+            "n_train": "training samples (index < samples.n_train) the fit used",
+            "n_test": "test samples (index >= samples.n_train) the cross-entropy is taken over",
+            "n_train_detected": "training samples in which the ST detected the tag (y = 1)",
+            "n_test_detected": "test samples in which the ST detected the tag (y = 1)"}
     out = {}
     for k, v in fits.items():
         base = k[3:] if k.startswith("se_") else k
@@ -418,8 +425,10 @@ def fit_file(path) -> dict[str, np.ndarray]:
 
 def run(config: Config, *, seed: int) -> Dataset:
     samples = simulate(config, seed=seed)
-    ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (R4-1)")
-    ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()})
+    ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (AURIS dissertation Eqs. 4.6-4.8)")
+    ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()},
+                 description="one row per sample: one Query round with a fresh geometry and channel; features "
+                             "D, d, theta, phi and whether the ST (and the reader) decoded the tag's RN16")
     ds.attrs["st_sampling"] = (f"ST centre uniform in the {config.geometry.st_radius_m:g} m ball's "
                                + ("volume (r = R u^(1/3))" if config.geometry.st_sampling == "volume"
                                   else "radius (r = R u)") + ", isotropic direction")
@@ -430,12 +439,15 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.attrs["p_reader_detected"] = float(samples["reader_detected"].mean())
     ds.attrs["p_tag_replied"] = float(samples["tag_replied"].mean())
     if config.fits:
+        stage("fitting the RTS and TS models")
         try:
             fits = fit_models(samples)
         except UserError as exc:
             ds.attrs["fits_skipped"] = str(exc)
         else:
-            ds.add_table("fits", _fits_table(fits))
+            ds.add_table("fits", _fits_table(fits), description="one row per (model, source): coefficients of "
+                         "the RTS and TS logistic models fitted here and published (AURIS dissertation R4-1), "
+                         "standard errors and cross-entropies")
             for i in range(fits["model"].size):
                 if fits["source"][i] == "fit":
                     ds.attrs[f"{fits['model'][i]}_test_cross_entropy"] = float(fits["test_cross_entropy"][i])
@@ -446,10 +458,18 @@ def run(config: Config, *, seed: int) -> Dataset:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Fig. 4.7 analogues: P(ST detects) vs D (d ∈ [0.4, 1] m, 0.3 m bins) and vs d
-    (D ∈ [2, 4] m, 0.2 m bins), binned with Wilson 95 % intervals, with the fitted and
-    published RTS (at d = 0.6 m / D = 3 m, θ = φ = 0) and TS curves, and the fitted models
-    averaged over each bin's samples (comparable with the binned data, which mix angles)."""
+    """AURIS dissertation Fig. 4.7 analogues, ``<stem>-fig4_7.png``: P(ST detects) vs D
+    (d ∈ [0.4, 1] m, 0.3 m bins) and vs d (D ∈ [2, 4] m, 0.2 m bins), binned with Wilson 95 %
+    intervals, with the fitted and published RTS and TS curves and the fitted models averaged
+    over each bin's samples.
+
+    The RTS curves are drawn at the other distance fixed (d = 0.6 m / D = 3 m) and at the
+    *median* |θ| and |φ| of the selected samples. At θ = φ = 0 (as first drawn) the fitted
+    RTS curve lay far above the data: the fit gives |θ| and |φ| large coefficients (≈ 5-7 per
+    rad, the tag is often unpowered off the panel's and the dipole's main lobes) while the
+    binned samples have median angles ≈ 0.4 rad; θ = φ = 0 is the best direction, not a
+    typical one (seed 1, 4000 samples: near θ = φ = 0 the detected fraction is ≈ 0.6 at
+    D < 3 m against ≈ 0.35 over all angles)."""
     plt = pyplot()
 
     from rfsim.dataset import read_table
@@ -460,7 +480,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     except UserError:
         fits = None
     y = s["st_detected"].astype(float)
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.6))
     for ax, var, sel, edges, xlab, fixed in (
             (a1, "D_m", (s["d_m"] >= 0.4) & (s["d_m"] <= 1.0), np.arange(1.0, 10.01, 0.3), "D [m]", 0.6),
             (a2, "d_m", (s["D_m"] >= 2.0) & (s["D_m"] <= 4.0), np.arange(0.0, 2.01, 0.2), "d [m]", 3.0)):
@@ -470,12 +490,15 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         ax.errorbar(b.centers[ok], b.p_hat[ok], yerr=err,
                     fmt="o", capsize=3, label=f"simulated ({int(sel.sum())} samples, Wilson 95 %)")
         x = np.linspace(edges[0], edges[-1], 200)
+        th = float(np.median(np.abs(s["theta_rad"][sel]))) if sel.any() else 0.0
+        ph = float(np.median(np.abs(s["phi_rad"][sel]))) if sel.any() else 0.0
+        at = f"|theta| = {th:.2f}, |phi| = {ph:.2f} rad (medians)"
         if var == "D_m":
-            x_rts, x_ts = rts_design(x, fixed, 0.0, 0.0), ts_design(np.full_like(x, fixed))
-            ax.set_title("P(ST detects) vs D, d in [0.4, 1] m (curves at d = 0.6 m)")
+            x_rts, x_ts = rts_design(x, fixed, th, ph), ts_design(np.full_like(x, fixed))
+            ax.set_title(f"vs D, d in [0.4, 1] m; curves at d = 0.6 m,\n{at}", fontsize=9)
         else:
-            x_rts, x_ts = rts_design(fixed, x, 0.0, 0.0), ts_design(x)
-            ax.set_title("P(ST detects) vs d, D in [2, 4] m (curves at D = 3 m)")
+            x_rts, x_ts = rts_design(fixed, x, th, ph), ts_design(x)
+            ax.set_title(f"vs d, D in [2, 4] m; curves at D = 3 m,\n{at}", fontsize=9)
         if fits is not None:
             for i in range(fits["model"].size):
                 coef = np.array([fits[f"a{j}"][i] for j in range(5)])
@@ -501,4 +524,6 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         ax.set(xlabel=xlab, ylabel="detection probability", ylim=(-0.02, 1.02))
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    return [save_figure(fig, out_dir / f"{NAME}-fig4_7.png", dpi=110)]
+    fig.suptitle(f"P(ST detects the tag's RN16) — {cite('auris', 'Fig. 4.7')} (RTS/TS models, Eqs. 4.6-4.7)",
+                 fontsize=11)
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "fig4_7"), dpi=110)]

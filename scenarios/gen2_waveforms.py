@@ -34,7 +34,8 @@ from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
 from rfsim.gen2.linecode import reply_waveform_for_profile
 from rfsim.gen2.pie import pie_envelope_for_profile
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "gen2-waveforms"
 DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
@@ -111,10 +112,14 @@ def run(config: Config, *, seed: int) -> Dataset:
             "time_s": column(time_s, "s", "time since the start of the CW (the Query starts at 100 us)"),
             "reader_envelope": column(reader, "1", "reader PIE amplitude envelope relative to the CW"),
             "tag_state": column(tag, "1", "tag backscatter state: +1/-1 during replies, 0 absorbing"),
-        })
-    ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS))
-    ds.add_table("timing", _columns(timing_rows, TIMING_COLUMNS))
-    ds.add_table("frames", _columns(rows, FRAME_COLUMNS))
+        }, description=f"the sampled exchange of profile {name}: reader PIE envelope and tag backscatter state "
+                       f"on one time axis at fs_hz")
+    ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS),
+                 description="one row per named link profile: the reader's PIE parameters and the tag link")
+    ds.add_table("timing", _columns(timing_rows, TIMING_COLUMNS),
+                 description="one row per profile: Gen2 link timing T1, T2, T4 and command/reply durations")
+    ds.add_table("frames", _columns(rows, FRAME_COLUMNS),
+                 description="one row per frame of each profile's exchange: start, end and bits")
     ds.attrs["rn16"] = rn16
     ds.attrs["t2_reader_tpri"] = T2_TPRI
     return ds
@@ -150,18 +155,22 @@ def _exchange(link, query, ack, rn16_bits, epc_reply, fs_hz, rise_fall_tari):
 
 PROFILE_COLUMNS = {
     "profile": ("", "link profile name"), "tari_s": ("s", "Tari (data-0 length)"),
-    "data1_s": ("s", "data-1 length"), "rtcal_s": ("s", "RTcal = data-0 + data-1"),
-    "trcal_s": ("s", "TRcal"), "pw_s": ("s", "PIE low-pulse width"),
-    "delimiter_s": ("s", "delimiter"), "dr": ("", "divide ratio (8 or 64/3)"),
+    "data1_s": ("s", "length of a PIE data-1 symbol (1.5-2 Tari)"), "rtcal_s": ("s", "RTcal = data-0 + data-1"),
+    "trcal_s": ("s", "TRcal, the tag-to-reader calibration symbol of the Query preamble (BLF = DR/TRcal)"),
+    "pw_s": ("s", "PIE low-pulse width"),
+    "delimiter_s": ("s", "length of the delimiter that starts every reader command (12.5 us nominal)"),
+    "dr": ("", "divide ratio (8 or 64/3)"),
     "m": ("1", "subcarrier cycles per bit (1 = FM0)"), "trext": ("1", "pilot tone requested"),
-    "modulation": ("", "reader modulation"), "depth": ("1", "modulation depth (A-B)/A"),
+    "modulation": ("", "reader modulation: DSB-ASK, SSB-ASK or PR-ASK"), "depth": ("1", "modulation depth (A-B)/A"),
     "blf_hz": ("Hz", "backscatter link frequency DR/TRcal"),
     "frt": ("1", "BLF tolerance FrT (nominal temperature)"),
     "bitrate_bps": ("bit/s", "tag data rate BLF/M"),
 }
 TIMING_COLUMNS = {
-    "profile": ("", "link profile name"), "t1_min_s": ("s", "T1 minimum"),
-    "t1_nom_s": ("s", "T1 nominal"), "t1_max_s": ("s", "T1 maximum"),
+    "profile": ("", "link profile name"),
+    "t1_min_s": ("s", "T1 minimum: earliest tag reply after the reader command's last rising edge"),
+    "t1_nom_s": ("s", "T1 nominal, max(RTcal, 10 Tpri) (the tag replies this long after the command)"),
+    "t1_max_s": ("s", "T1 maximum: latest tag reply after the reader command's last rising edge"),
     "t2_min_s": ("s", "T2 minimum (3 Tpri)"), "t2_max_s": ("s", "T2 maximum (20 Tpri)"),
     "t4_min_s": ("s", "T4 minimum (2 RTcal)"), "query_s": ("s", "Query duration incl. preamble"),
     "queryrep_s": ("s", "QueryRep duration incl. frame-sync"),
@@ -171,7 +180,8 @@ TIMING_COLUMNS = {
 }
 FRAME_COLUMNS = {
     "profile": ("", "link profile name"), "frame": ("", "Query, RN16, ACK or EPC"),
-    "start_s": ("s", "frame start"), "end_s": ("s", "frame end"),
+    "start_s": ("s", "start time of the frame on the exchange's time axis"),
+    "end_s": ("s", "end time of the frame on the exchange's time axis"),
     "bits": ("", "frame bits, MSB first, incl. CRC where Gen2 has one"),
 }
 
@@ -185,23 +195,58 @@ def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
     return {k: column(rows[k], *spec[k]) for k in spec}
 
 
+#: Approximate width [px] of a left panel of the figure (9 in at 120 dpi).
+_PANEL_PX = 1000
+
+
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """One panel per profile: reader envelope and tag backscatter state vs time."""
+    """Per profile: the whole exchange (left) and the start of the RN16 reply (right).
+
+    On the whole exchange a fast tag link (e.g. Miller-4 at 320 kHz: 1.28 M state changes
+    per second) is finer than a pixel, so the right panels zoom on the first 6 bits of the
+    RN16 reply (preamble), where the subcarrier is visible. ``<stem>-exchange.png``.
+    """
     plt = pyplot()
 
     from rfsim.dataset import read_dataset
 
     ds = read_dataset(dataset_path)
     names = list(ds.tables["profiles"]["profile"].data)
-    fig, axes = plt.subplots(len(names), 1, figsize=(10, 2.2 * len(names)), squeeze=False)
-    for ax, name in zip(axes[:, 0], names):
+    prof = {k: c.data for k, c in ds.tables["profiles"].items()}
+    frames = {k: c.data for k, c in ds.tables["frames"].items()}
+    fig, axes = plt.subplots(len(names), 2, figsize=(12, 2.3 * len(names) + 0.6), squeeze=False,
+                             gridspec_kw={"width_ratios": [3, 1]})
+    for (ax, zoom), name in zip(axes, names):
         ex = ds.tables[f"exchange_{name}"]
         t_ms = ex["time_s"].data * 1e3
-        ax.plot(t_ms, ex["reader_envelope"].data, lw=0.8, label="reader envelope")
-        ax.plot(t_ms, 0.5 * ex["tag_state"].data - 1.0, lw=0.6, label="tag state (offset)")
-        ax.set_title(name, fontsize=9, loc="left")
-        ax.set_yticks([])
+        reader, tag = ex["reader_envelope"].data, 0.5 * ex["tag_state"].data - 1.0
+        for a in (ax, zoom):
+            a.plot(t_ms, reader, lw=0.8, label="reader envelope")
+            a.set_yticks([])
+        zoom.plot(t_ms, tag, lw=0.7, color="C1")
+        changes = int(np.count_nonzero(np.diff(ex["tag_state"].data)))
+        if changes > 0.3 * _PANEL_PX:  # finer than a pixel: draw where the tag replies, say so
+            replying = ex["tag_state"].data != 0
+            ax.fill_between(t_ms, -1.5, -0.5, where=replying, color="C1", alpha=0.35, lw=0,
+                            label="tag backscatter state (offset)")
+            ax.text(0.99, 0.02, "tag subcarrier finer than a pixel here: see the zoom", transform=ax.transAxes,
+                    ha="right", va="bottom", fontsize=7, color="0.3")
+        else:
+            ax.plot(t_ms, tag, lw=0.7, color="C1", label="tag backscatter state (offset)")
+        i = int(np.flatnonzero(prof["profile"] == name)[0])
+        m, bitrate = int(prof["m"][i]), float(prof["bitrate_bps"][i])
+        ax.set_title(f"{name}: BLF {prof['blf_hz'][i] / 1e3:g} kHz, "
+                     f"{'FM0' if m == 1 else f'Miller-{m}'}, Tari {prof['tari_s'][i] * 1e6:g} us",
+                     fontsize=9, loc="left")
+        rn16 = np.flatnonzero((frames["profile"] == name) & (frames["frame"] == "RN16"))
+        if rn16.size:
+            t0 = float(frames["start_s"][rn16[0]])
+            zoom.set_xlim(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3)
+            ax.axvspan(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3, color="0.85", zorder=0)
+        zoom.set_title("start of the RN16 reply (6 bits)", fontsize=8)
+        zoom.tick_params(labelsize=7)
     axes[-1, 0].set_xlabel("time [ms]")
+    axes[-1, 1].set_xlabel("time [ms]")
     axes[0, 0].legend(loc="upper right", fontsize=8)
-    fig.suptitle("Gen2 Query → RN16 → ACK → EPC per link profile")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    fig.suptitle(f"{cite('gen2')} Query → RN16 → ACK → PC+EPC+CRC-16 per link profile (no channel, no noise)")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"))]

@@ -46,9 +46,11 @@ from devices.tag import PassiveTag, TagConfig
 from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset, column
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
+from rfsim.progress import track
 from rfsim.rng import trial_rng
 from rfsim.units import C_M_S
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "inventory"
 DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
@@ -188,7 +190,7 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
     """
     rows: dict[str, list] = {k: [] for k in CAPTURE_FIELDS}
     lam = C_M_S / 915e6
-    for i, r_db in enumerate(cfg.capture.ratios_db):
+    for i, r_db in enumerate(track(cfg.capture.ratios_db, desc="capture", unit="ratios")):
         for j in range(cfg.capture.trials):
             key = (10**6 + i, j)
             off = trial_rng(seed, *key, 3).uniform(-lam / 4, lam / 4)
@@ -204,7 +206,7 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
 
 INVENTORY_FIELDS = {
     "population": ("1", "number of tags N"),
-    "run": ("1", "inventory run"),
+    "run": ("1", "index of the inventory run for this population (new tag positions and draws)"),
     "tags_read": ("1", "distinct tags read"),
     "read_rate": ("1", "fraction of the N tags read"),
     "slots": ("1", "slots of the whole inventory"),
@@ -222,7 +224,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     room = config.room
     antennas = reader_antennas(room)
     for p, n in enumerate(config.populations):
-        for r in range(config.runs):
+        for r in track(range(config.runs), desc=f"inventories of {n} tags", unit="runs"):
             tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, p, r, 0))
             tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3))
             reader = Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
@@ -245,13 +247,19 @@ def run(config: Config, *, seed: int) -> Dataset:
                              efficiency=succ / max(log.n_slots, 1)).items():
                 inv[k].append(v)
     ds = Dataset(title="Q-algorithm inventory of tags in a room: slots, reads, capture")
-    units = {"population": ("1", "number of tags N"), "run": ("1", "inventory run")}
-    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()})
-    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()})
-    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()})
+    units = {"population": ("1", "number of tags N"), "run": INVENTORY_FIELDS["run"]}
+    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()},
+                 description="one row per slot of every inventory: what the reader saw and what happened "
+                             "(ground truth), the Q algorithm's state")
+    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()},
+                 description="one row per EPC read (CRC ok): the reader's per-read report")
+    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()},
+                 description="one row per inventory (population, run): tags read, slots, air time, efficiency")
     if config.capture.enabled:
         cap = capture_table(config, seed=seed)
-        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()})
+        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
+                     description="one row per capture trial: two tags in one Q = 0 slot at a set backscatter power "
+                                 "ratio; whether the reader still read an EPC")
     return ds
 
 
@@ -265,12 +273,20 @@ def capture_probability(ratio_db: np.ndarray, captured: np.ndarray, edges_db: np
         return 0.5 * (edges_db[1:] + edges_db[:-1]), k / n, n
 
 
+def _count_text(n: np.ndarray) -> str:
+    """"20" or "18-20": the trial counts of the plotted points."""
+    if not n.size:
+        return "0"
+    return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
+
+
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Slot types per population, read rate and efficiency vs N, capture probability."""
     plt = pyplot()
     import h5py
 
     from rfsim.dataset import read_table
+    from rfsim.detection.fit import wilson_interval
     from rfsim.inventory import SLOT_TYPES
 
     s = read_table(dataset_path, "slots")
@@ -288,7 +304,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         bottom += frac
     a.set_xlabel("tags N")
     a.set_ylabel("fraction of slots")
-    a.legend(fontsize=8)
+    a.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     a.set_title("slot types")
     a = axes[0, 1]
     a.plot(pops, [inv["read_rate"][inv["population"] == n].mean() for n in pops], marker="o")
@@ -307,12 +323,22 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     if has_capture:
         c = read_table(dataset_path, "capture")
         ok = np.isfinite(c["ratio_db"]) & (c["n_replies"] >= 2)
-        edges = np.arange(-1.0, max(2.0, float(np.nanmax(c["ratio_db"][ok])) + 2.0) if ok.any() else 2.0, 1.0)
-        x, pc, n = capture_probability(c["ratio_db"][ok], c["captured"][ok], edges)
-        a.plot(x[n > 0], pc[n > 0], marker="o")
-        a.set_ylim(-0.05, 1.05)
-    a.set_xlabel("backscatter power ratio at the reader [dB]")
+        pts = np.unique(c["point"][ok])
+        # one marker per simulated nominal ratio, at the mean of its trials' measured ratios
+        x = np.array([c["ratio_db"][ok & (c["point"] == i)].mean() for i in pts])
+        n = np.array([np.sum(ok & (c["point"] == i)) for i in pts])
+        k = np.array([np.sum(c["captured"][ok & (c["point"] == i)]) for i in pts])
+        lo, hi = wilson_interval(k, n)
+        pc = k / n
+        a.errorbar(x, pc, yerr=np.vstack([pc - lo, hi - pc]), marker="o", capsize=3,
+                   label=f"per simulated ratio, {_count_text(n)} trials each (Wilson 95 %)")
+        a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 1.04, -0.04), "|",
+               color="0.6", ms=6, label="trials (captured = 1)")
+        a.set_ylim(-0.08, 1.08)
+        a.legend(fontsize=8, loc="lower right")
+    a.set_xlabel("backscatter power ratio near/far at the reader [dB]")
     a.set_ylabel("capture probability")
+    a.set_title("two tags in one slot: capture", fontsize=10)
     a.grid(True, alpha=0.3)
-    fig.suptitle("inventory (Q algorithm, sample level)")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    fig.suptitle(f"Inventory with the Q algorithm at sample level ({cite('gen2')}, Annex D)")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "summary"))]

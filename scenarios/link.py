@@ -29,8 +29,10 @@ from rfsim.dataset import Dataset, column
 from rfsim.records import READ_MEASUREMENT_FIELDS
 from rfsim.engine import singulate
 from rfsim.gen2.commands import Query
+from rfsim.progress import track
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 NAME = "link"
 DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler, SNR and read success"
@@ -98,7 +100,7 @@ FIELDS = {
     "point": ("1", "index of the distance point"),
     "round": ("1", "inventory round at this point"),
     "time_s": ("s", "start of the round's Query"),
-    "distance_m": ("m", "reader-tag distance"),
+    "distance_m": ("m", "reader antenna to tag distance of the point (geometry.distances_m)"),
     **READ_MEASUREMENT_FIELDS,
     "success": ("1", "EPC decoded with CRC ok"),
     "failure_reason": ("", "why the read failed ('' = success)"),
@@ -111,7 +113,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     n_rounds = config.rounds_per_point
     rows: dict[str, list] = {k: [] for k in FIELDS}
     antenna = reader_antenna(g)
-    for i, d in enumerate(g.distances_m):
+    for i, d in enumerate(track(g.distances_m, desc="distances", unit="points")):
         reader = Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds))
         tag = PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))
         channel = Channel(scene(config.channel))
@@ -135,7 +137,9 @@ def run(config: Config, *, seed: int) -> Dataset:
                     failure_reason=last.failure_reason,
                     tag_incident_power_dbm=exchanges[0].incident_power_dbm[0])
     ds = Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS})
+    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS},
+                 description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
+                             "per-read report, or why the read failed")
     return ds
 
 
@@ -145,26 +149,55 @@ def _append(rows: dict[str, list], **values) -> None:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """RSSI (mean ± std of successful reads) and read rate vs distance."""
+    """RSSI (mean ± std of successful reads) and read rate vs distance, ``<stem>-rssi-read-rate.png``.
+
+    The distance axis is logarithmic (free-space RSSI is a straight line, −40 dB/decade
+    monostatic) with plain metre ticks at the simulated distances. Where no read succeeded
+    there is no RSSI; the gap is labelled with the failure reason of most rounds there and
+    the mean CW power at the tag.
+    """
     plt = pyplot()
+    from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 
     from rfsim.dataset import read_table
 
     t = read_table(dataset_path, "reads")
     d = np.unique(t["distance_m"])
-    rate = np.array([t["success"][t["distance_m"] == x].mean() for x in d])
-    rssi = [t["rssi_dbm"][(t["distance_m"] == x) & t["success"]] for x in d]
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    at = [t["distance_m"] == x for x in d]
+    rate = np.array([t["success"][s].mean() for s in at])
+    rssi = [t["rssi_dbm"][s & t["success"]] for s in at]
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 6.2), sharex=True)
     mean = np.array([r.mean() if r.size else np.nan for r in rssi])
     std = np.array([r.std() if r.size else np.nan for r in rssi])
-    a1.errorbar(d, mean, yerr=std, marker="o", capsize=3)
+    a1.errorbar(d, mean, yerr=std, marker="o", capsize=3, label="successful reads: mean ± std")
+    missing = np.flatnonzero(~np.isfinite(mean))
+    if missing.size:  # say why there is no RSSI there instead of leaving a silent gap
+        why = []
+        for k in missing:
+            reasons, counts = np.unique(t["failure_reason"][at[k]], return_counts=True)
+            p_inc = float(np.mean(t["tag_incident_power_dbm"][at[k]]))
+            why.append(f"{d[k]:g} m: {reasons[np.argmax(counts)] or 'other'}, CW at the tag {p_inc:.1f} dBm")
+            a1.axvspan(d[k] / 1.04, d[k] * 1.04, color="0.88", zorder=0)
+        a1.text(0.02, 0.04, "no successful read, so no RSSI, at\n" + "\n".join(why), transform=a1.transAxes,
+                fontsize=7.5, va="bottom", ha="left", bbox=dict(boxstyle="round", fc="white", ec="0.7"))
+    for k, r in enumerate(rssi):
+        if 0 < r.size < np.sum(at[k]):
+            a1.annotate(f"{r.size}/{np.sum(at[k])} read", (d[k], mean[k]), textcoords="offset points",
+                        xytext=(0, 8), ha="center", fontsize=7)
     a1.set_ylabel("RSSI [dBm]")
-    a1.set_xscale("log")
-    a1.grid(True, which="both", alpha=0.3)
+    a1.legend(fontsize=8, loc="upper right")
+    a1.margins(y=0.15)
     a2.plot(d, rate, marker="o")
-    a2.set_ylabel("read rate")
-    a2.set_xlabel("distance [m]")
+    a2.set_ylabel("read rate (EPC with CRC ok)")
+    a2.set_xlabel("reader-tag distance [m]")
     a2.set_ylim(-0.05, 1.05)
-    a2.grid(True, alpha=0.3)
-    fig.suptitle("reader-tag link vs distance")
-    return [save_figure(fig, out_dir / f"{NAME}.png")]
+    for a in (a1, a2):
+        a.set_xscale("log")
+        a.xaxis.set_major_locator(FixedLocator(d))
+        a.xaxis.set_major_formatter(lambda x, pos: f"{x:g}")
+        a.xaxis.set_minor_locator(NullLocator())
+        a.xaxis.set_minor_formatter(NullFormatter())
+        a.grid(True, alpha=0.3)
+    n = int(np.sum(at[0]))
+    fig.suptitle(f"Reader-tag link vs distance ({n} rounds per distance, log distance axis)")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "rssi-read-rate"))]

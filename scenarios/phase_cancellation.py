@@ -14,7 +14,7 @@ followed by CW; the tag receives it through its drawn forward link, decodes it a
 its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
 (structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). Per ST
 position only the links differ: with narrowband links (checked with the engine's criterion,
-:func:`rfsim.engine.narrowband_rms_error` ≤ :data:`rfsim.engine.NARROWBAND_TOLERANCE`) the
+:func:`channels.paths.narrowband_rms_error` ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`) the
 input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
 reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
@@ -92,29 +92,32 @@ import numpy as np
 
 from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
 from channels.bulk import draw_links
-from channels.paths import apply_paths
+from channels.antennas import vertical_dipole as st_antenna
+from channels.paths import NARROWBAND_TOLERANCE, apply_paths, propagation_method
 from devices import st_analytic as sa
 from devices import st_receiver as sr
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna, st_antenna_positions)
+                                 st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.engine import NARROWBAND_TOLERANCE, propagation_method
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
+from rfsim.progress import stage, track
+from scenarios import _phase_cancellation_columns as columns
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 from rfsim.procs import worker_pool
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
-               "path selection and ASK-PSK stamp (Fig. 3.16/5.8), radial tracks (Fig. 3.15), closed forms")
+               "path selection and ASK-PSK stamp, radial tracks, closed forms (AURIS dissertation Fig. 3.3-3.16, 5.8)")
 
 R_OHM = sr.REFERENCE_IMPEDANCE_OHM
 V_PER_SQRT_W = math.sqrt(2.0 * R_OHM)
@@ -460,7 +463,7 @@ def _links(config: Config, ex: Exchange, sa_pos, tag_pos, rng):
 
 
 def _max_narrowband_error(bp, bandwidth_hz: float) -> float:
-    """:func:`rfsim.engine.narrowband_rms_error` for every link of a BulkPaths (max)."""
+    """:func:`channels.paths.narrowband_rms_error` for every link of a BulkPaths (max)."""
     p = np.abs(bp.gain) ** 2
     tau = np.where(bp.valid, bp.delay_s, np.inf)
     rel = 2 * np.pi * bandwidth_hz * np.where(bp.valid, bp.delay_s - tau.min(axis=1, keepdims=True), 0.0)
@@ -502,10 +505,10 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
              for r in range(config.mc.n_repetitions)]
     w = config.mc.workers or (os.cpu_count() or 1)
     if w <= 1 or len(tasks) == 1:
-        parts = [_run_task(t) for t in tasks]
+        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="cells")]
     else:
         with worker_pool(min(w, len(tasks))) as pool:
-            parts = list(pool.map(_run_task, tasks))
+            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo", unit="cells"))
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
@@ -577,8 +580,10 @@ def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
 def run(config: Config, *, seed: int) -> Dataset:
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
-    ds = Dataset(title="sense-a-tag phase cancellation (Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
-    ds.add_table("samples", {k: column(v, _unit(k), _describe(k)) for k, v in samples.items()})
+    ds = Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
+    ds.add_table("samples", {k: column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
+                 description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
+                             "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     summ = _summary(samples, n_cells)
     summ["tag_x_m"] = np.asarray(config.geometry.tag_x_m, float)
     summ["tag_replied_fraction"] = np.array([samples["tag_replied"][samples["cell"] == c].mean()
@@ -586,26 +591,43 @@ def run(config: Config, *, seed: int) -> Dataset:
     summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
                                             for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
-    ds.add_table("cells", {k: column(v, _unit(k), _describe(k)) for k, v in summ.items()})
+    ds.add_table("cells", {k: column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
+                 description="one row per cell (tag position): probability of phase cancellation per technique "
+                             "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
     for t in TECHS:
         key = f"cancelled_{t}"
         if key in samples:
             p, lo, hi, _ = sa.cancellation_probability(samples[key])
             ds.attrs[f"overall_p_{t}"] = float(p)
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
+    stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
-    ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle from tag→reader"),
-                           "distance_m": column(tr["distance_m"], "m", "ST distance from the tag")},
-                {"diff_v": column(tr["diff_v"], "V", "sample-level |A1-A2| at the detector output"),
-                 "closed_diff_v": column(tr["closed_diff_v"], "V", "Eq. 3.4 from the measured A_R, A_T1, A_T2, theta"),
-                 "theta_rad": column(tr["theta_rad"], "rad", "relative phase backscatter vs CW at the ST")})
+    ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle, measured from the "
+                                                                      "tag->reader direction"),
+                           "distance_m": column(tr["distance_m"], "m", "distance of the single-antenna ST from "
+                                                                       "the tag along the track")},
+                {"diff_v": column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
+                                                     "detector output along the track (Fig. 3.15)"),
+                 "closed_diff_v": column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
+                                                                   "measured A_R, A_T1, A_T2, theta at the same points"),
+                 "theta_rad": column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
+                                                             "at the ST, (-pi, pi]")},
+                description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
+                            "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
     for i, a in enumerate(tr["angle_deg"]):
-        ds.attrs[f"track_{int(round(a))}deg_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        name = f"track_{int(round(a))}deg"
+        ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        if not np.isfinite(ds.attrs[f"{name}_minima_spacing_m"]):
+            ds.attrs[f"{name}_minima_spacing_m_meaning"] = "NaN: fewer than two minima of diff_v along this track"
         # far-field geometry: θ turns by 2π(1 + cos α)/λ per metre, a null every π
         lam = float(wavelength_m(tr["fc_hz"]))
-        ds.attrs[f"track_{int(round(a))}deg_geometric_spacing_m"] = (
+        ds.attrs[f"{name}_geometric_spacing_m"] = (
             lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
             else float("inf"))
+        if not np.isfinite(ds.attrs[f"{name}_geometric_spacing_m"]):
+            ds.attrs[f"{name}_geometric_spacing_m_meaning"] = (
+                "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
+                "distance, 1 + cos(angle) = 0, so there are no nulls")
     _analytic_grids(ds)
     states = {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna (Gamma*incident, "
                           "power-up at picmin + 2.5 dB)",
@@ -627,54 +649,39 @@ def run(config: Config, *, seed: int) -> Dataset:
 def _analytic_grids(ds: Dataset) -> None:
     th = np.linspace(-np.pi, np.pi, 721)
     pairs = np.array([[0.4, 0.3], [0.2, 0.1], [0.9, 0.8], [0.05, 0.04]])
-    ds.add_grid("fig3_3", {"case": column(np.arange(len(pairs)), "1", "(A_T1, A_T2) case, A_R = 1"),
-                           "theta_rad": column(th, "rad", "relative phase")},
+    ds.add_grid("fig3_3", {"case": column(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
+                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
                 {"diff": column(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
-                                "ASK |A1-A2| (Eq. 3.4), A_R = 1"),
-                 "a_t1": column(pairs[:, 0], "1", "A_T1", dims=("case",)),
-                 "a_t2": column(pairs[:, 1], "1", "A_T2", dims=("case",))})
+                                "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
+                 "a_t1": column(pairs[:, 0], "1", "A_T1 of the case, backscatter amplitude in the modulating "
+                                                  "state relative to A_R", dims=("case",)),
+                 "a_t2": column(pairs[:, 1], "1", "A_T2 of the case, backscatter amplitude in the absorbing "
+                                                  "state relative to A_R", dims=("case",))},
+                description="closed form of AURIS dissertation Fig. 3.3: ASK envelope difference vs relative phase")
     psi = np.array([np.pi, np.pi / 2, np.pi / 4, np.pi / 8])
-    ds.add_grid("fig3_5", {"psi_rad": column(psi, "rad", "PSK state separation"),
-                           "theta_rad": column(th, "rad", "relative phase")},
+    ds.add_grid("fig3_5", {"psi_rad": column(psi, "rad", "phase separation psi of the two PSK states"),
+                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
                 {"diff": column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
-                                "PSK |A1-A2| (Eq. 3.9), A_R = 1, A_T = 0.4")})
+                                "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
+                description="closed form of AURIS dissertation Fig. 3.5: PSK envelope difference vs relative phase")
     m = sa.NullMapModel()
     x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
-    y = np.linspace(0.05, 3.0, 296)
-    ds.add_grid("fig3_8", {"y_m": column(y, "m", "y"), "x_m": column(x, "m", "x")},
+    y = np.linspace(0.0, 3.0, 301)  # y = 0 is safe: no x sample sits on the reader
+    ds.add_grid("fig3_8", {"y_m": column(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
+                           "x_m": column(x, "m", "x of the ST position (reader and tag at x = 0)")},
                 {"diff_v": column(m.envelope_difference(x[None, :], y[:, None]), "V",
-                                  "Eq. 3.4 with Eq. 3.23: reader (0,0), tag (0,2)")})
-
-
-_UNITS = {"_v": "V", "_m": "m", "_rad": "rad", "_w": "W"}
-
-
-def _unit(key: str) -> str:
-    for suf, u in _UNITS.items():
-        if key.endswith(suf):
-            return u
-    return "1"
-
-
-def _describe(key: str) -> str:
-    words = {"sa1": "SA1 (receive-only path P1)", "sa2": "SA2 (full ST path P2)", "combined": "SA1+SA2 RF sum"}
-    text = key
-    for w, d in words.items():
-        text = text.replace(w, d)
-    if key.startswith("diff_"):
-        return f"sample-level envelope-detector difference |A(+1)-A(-1)|: {text}"
-    if key.startswith("closed_"):
-        return f"closed form (Eq. 3.4/3.21, R3-5) from the measured phasors: {text}"
-    if key.startswith("p_") or key.startswith("ci_"):
-        return f"probability of phase cancellation (R3-5) / Clopper-Pearson 95% bound: {text}"
-    return text.replace("_", " ")
+                                  "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
+                                  "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
+                description="null map of AURIS dissertation Fig. 3.8: closed-form envelope difference over ST "
+                            "positions in the plane")
 
 
 # ----------------------------------------------------------------------------- plots
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and Fig. 3.16 probabilities."""
+    """AURIS dissertation Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and
+    Fig. 3.16/5.8 probabilities, named ``<dataset stem>-fig3_*.png``."""
     plt = pyplot()
 
     from rfsim.dataset import read_dataset, read_table
@@ -690,40 +697,50 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     c, v = grid("fig3_3")
     for i in range(v["diff"].shape[0]):
         a1.plot(c["theta_rad"], v["diff"][i], label=f"A_T1={v['a_t1'][i]:g}, A_T2={v['a_t2'][i]:g}")
-    a1.set_title("Fig. 3.3: ASK, A_R = 1")
+    a1.set_title("ASK, A_R = 1 (Eq. 3.4)", fontsize=10)
     c, v = grid("fig3_5")
     for i, p in enumerate(c["psi_rad"]):
         a2.plot(c["theta_rad"], v["diff"][i], label=f"psi = pi/{np.pi / p:.0f}")
-    a2.set_title("Fig. 3.5: PSK, A_R = 1, A_T = 0.4")
+    a2.set_title("PSK, A_R = 1, A_T = 0.4 (Eq. 3.9)", fontsize=10)
     for a in (a1, a2):
-        a.set_xlabel("theta [rad]")
+        a.set_xlabel("relative phase theta [rad]")
         a.set_ylabel("|A1 - A2|")
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_3_3_5.png"))
+    fig.suptitle(f"Envelope difference vs relative phase — {cite('auris', 'Fig. 3.3 and 3.5')}", fontsize=11)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_3_3_5")))
 
     c, v = grid("fig3_8")
-    fig, ax = plt.subplots(figsize=(5, 6))
-    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=0.02)
-    fig.colorbar(im, ax=ax, label="|A1 - A2| [V]")
-    ax.plot([0, 0], [0, 2], "r.", ms=8)
-    ax.set(xlabel="x [m]", ylabel="y [m]", title="Fig. 3.8: Eq. 3.23 null map", aspect="equal")
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_8.png"))
+    fig, ax = plt.subplots(figsize=(5.6, 6.4))
+    vmax = 0.02
+    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=vmax)
+    fig.colorbar(im, ax=ax, extend="max", label=f"|A1 - A2| [V] (white: >= {vmax:g} V, near the tag)")
+    ax.plot([0], [0], "^", color="tab:blue", ms=10, clip_on=False, zorder=5, label="reader (0, 0)")
+    ax.plot([0], [2], "s", color="tab:red", ms=7, zorder=5, label="tag (0, 2)")
+    ax.set_xlim(c["x_m"].min(), c["x_m"].max())
+    ax.set_xticks(np.linspace(-1.0, 1.0, 5))
+    ax.set_ylim(min(0.0, c["y_m"].min()), c["y_m"].max())
+    ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal")
+    ax.set_title(f"Null map of Eq. 3.4 with Eq. 3.23\n{cite('auris', 'Fig. 3.8')}; dark = cancellation",
+                 fontsize=10)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_8")))
 
     c, v = grid("tracks")
-    fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"])), sharex=True)
+    fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"]) + 0.6), sharex=True)
     for i, a in enumerate(np.atleast_1d(axs)):
         a.plot(c["distance_m"], v["diff_v"][i], "o-", ms=3, label="sample level")
-        a.plot(c["distance_m"], v["closed_diff_v"][i], "--", label="Eq. 3.4")
+        a.plot(c["distance_m"], v["closed_diff_v"][i], "--", label="Eq. 3.4 from the measured amplitudes")
         a.set_ylabel("|A1-A2| [V]")
-        a.set_title(f"track {c['angle_deg'][i]:g} deg", fontsize=9)
+        a.set_title(f"track at {c['angle_deg'][i]:g} deg from the tag-reader direction", fontsize=9)
         a.grid(alpha=0.3)
     np.atleast_1d(axs)[0].legend(fontsize=7)
     np.atleast_1d(axs)[-1].set_xlabel("ST distance from the tag [m]")
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_15.png"))
+    fig.suptitle(f"Radial tracks around the tag — {cite('auris', 'Fig. 3.15')}", fontsize=11)
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_15")))
 
     cells = read_table(dataset_path, "cells")
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(7.5, 4.2))
     for t in TECHS:
         if f"p_{t}" not in cells:
             continue
@@ -734,8 +751,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     if silent.any():
         x0 = cells["tag_x_m"][silent].min()
         ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
-    ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]", title="Fig. 3.16 / 5.8")
+    ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
+    ax.set_title("Probability of phase cancellation per technique (95 % Clopper-Pearson)\n"
+                 f"{cite('auris', 'Fig. 3.16 and 5.8')}", fontsize=10)
     ax.legend()
     ax.grid(alpha=0.3)
-    paths.append(save_figure(fig, out_dir / f"{NAME}-fig3_16.png"))
+    paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_16")))
     return paths

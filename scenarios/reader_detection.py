@@ -66,24 +66,25 @@ from pathlib import Path
 import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
-from channels.paths import apply_paths
+from channels.paths import apply_paths, propagation_method
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_moments
 from rfsim.detection.fit import DA_PARAMETER_NAMES
-from rfsim.engine import propagation_method
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
+from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
-from rfsim.plots import pyplot, save_figure
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 from rfsim.procs import worker_pool
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
-               "50 queries in two rooms; Beta-binomial DA fits and d50 (Ch. 4 model)")
+               "50 queries in two rooms; Beta-binomial DA fits and d50 (Geng dissertation Ch. 4)")
 
 FULL_DISTANCES_M = tuple(0.5 * (i + 1) for i in range(18))
 FULL_ANGLES_DEG = tuple(-90.0 + 15.0 * j for j in range(13))
@@ -223,10 +224,11 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     tasks = [(config, k, i, seed) for k in range(2) for i in range(len(dists))]
     w = config.campaign.workers or (os.cpu_count() or 1)
     if w <= 1:
-        parts = [_run_task(t) for t in tasks]
+        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="distances")]
     else:
         with worker_pool(min(w, len(tasks))) as pool:
-            parts = list(pool.map(_run_task, tasks))
+            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo",
+                               unit="distances"))
     rows = [r for p in parts for r in p]
     return {k: np.array([r[k] for r in rows]) for k in FIELDS}
 
@@ -323,18 +325,23 @@ def cell_moments(trials: dict[str, np.ndarray], dists, angles) -> dict[str, np.n
 def run(config: Config, *, seed: int) -> Dataset:
     dists, angles, reps = config.campaign.grid
     trials = simulate(config, seed=seed)
-    ds = Dataset(title="reader detection campaign A replica (Ch. 4 DA model)")
-    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()})
+    ds = Dataset(title="reader detection campaign A replica (Geng dissertation Ch. 4 DA model)")
+    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()},
+                 description="one row per trial: a (room, distance, angle, repetition) cell queried N times with "
+                             "the channel held; reads counted (Geng dissertation campaign A)")
     cm = cell_moments(trials, dists, angles)
-    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room"),
-                          "distance_m": column(np.asarray(dists, float), "m", "nominal distance"),
-                          "theta_deg": column(np.asarray(angles, float), "deg", "angle off boresight")},
-                {"p_mean": column(cm["p_mean"], "1", "mean of p_hat over repetitions"),
-                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) of p_hat over repetitions")})
+    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room (channel parameter set): 0 lab, 1 cluttered"),
+                          "distance_m": column(np.asarray(dists, float), "m", "nominal antenna-tag distance d"),
+                          "theta_deg": column(np.asarray(angles, float), "deg",
+                                              "tag angle off the antenna boresight (antenna rotated)")},
+                {"p_mean": column(cm["p_mean"], "1", "mean over the cell's repetitions of p_hat = n_reads / n_queries"),
+                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) over the cell's repetitions of p_hat")},
+                description="per-cell moments of the detection probability over repetitions, per room")
     ds.attrs["outcome"] = "reader decoded the tag's RN16 exactly (no ACK/EPC exchange)"
     ds.attrs["n_trials"] = int(trials["room"].size)
     ds.attrs["n_queries_total"] = int(trials["n_queries"].sum())
     if config.fits:
+        stage("fitting the DA model (moments and maximum likelihood)")
         f = fit_trials(trials)
         ds.attrs["fit_errors"] = f.pop("errors")
         cols = {"method": column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "
@@ -351,14 +358,22 @@ def run(config: Config, *, seed: int) -> Dataset:
                     "log-likelihood of Eq. 4.11 on the trials" if k == "log_likelihood" else
                     f"DA model parameter {k} (mean 1/(1+exp(a1+a2 d+a3|theta|)), variance c1+c2 d+c3 d^2+c4|theta|+c5 theta^2, dead-zone mean lambda)")
             cols[k] = column(v, "nat" if k == "log_likelihood" else unit, text)
-        ds.add_table("fits", cols)
+        ds.add_table("fits", cols, description="one row per method (published, moments, mle): parameters of the "
+                                               "DA model with standard errors, log-likelihood and d50")
         for i, m in enumerate(f["method"]):
             for a in D50_ANGLES_DEG:
-                ds.attrs[f"{m}_d50_{int(a)}deg_m"] = float(f[f"d50_{int(a)}deg_m"][i])
+                key = f"{m}_d50_{int(a)}deg_m"
+                ds.attrs[key] = float(f[f"d50_{int(a)}deg_m"][i])
+                if not np.isfinite(ds.attrs[key]):
+                    ds.attrs[f"{key}_meaning"] = f"NaN: the {m} fit failed or has no d50 (see fit_errors)"
     return ds
 
 
 # ----------------------------------------------------------------------------- plots
+
+
+#: Names of the two rooms in figure titles (see the module docstring).
+ROOM_NAMES = ("lab", "cluttered")
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
@@ -371,34 +386,43 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ds = read_dataset(dataset_path)
     coords, vars_ = ds.grids["cells"]
     d, a = coords["distance_m"].data, coords["theta_deg"].data
-    fig, axs = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    fig, axs = plt.subplots(1, 2, figsize=(8.6, 4.0), sharey=True, layout="constrained")
     for k, ax in enumerate(axs):
         im = ax.pcolormesh(a, d, vars_["p_mean"].data[k], shading="nearest", vmin=0, vmax=1, cmap="viridis")
-        ax.set(xlabel="theta [deg]", title=f"room {k}: mean detection probability")
+        ax.set(xlabel="angle off boresight theta [deg]", title=f"room {k} ({ROOM_NAMES[k]})")
     axs[0].set_ylabel("distance d [m]")
-    fig.colorbar(im, ax=axs, label="mean p_hat")
-    p1 = save_figure(fig, out_dir / f"{NAME}-heatmap.png", dpi=110, tight=False)
+    fig.colorbar(im, ax=axs, label="mean detection probability p_hat", shrink=0.95, pad=0.02)
+    fig.suptitle(f"Reader detection probability per cell — replica of {cite('geng', 'campaign A')}", fontsize=10)
+    p1 = save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"), dpi=110, tight=False)
+
+    from matplotlib.lines import Line2D
 
     trials = read_table(dataset_path, "trials")
     fits = read_table(dataset_path, "fits") if "fits" in ds.tables else None
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = plt.subplots(figsize=(8.5, 4.4))
     x = np.linspace(0.0, max(10.0, float(d.max())), 200)
+    styles = {"mle": "-", "published": ":"}
+    shown = set()
     for j, ang in enumerate(D50_ANGLES_DEG):
         col = f"C{j}"
         sel = np.abs(np.abs(trials["theta_deg"]) - ang) < 1e-9
         if sel.any():
             ds_ = np.unique(trials["distance_m"][sel])
-            ax.plot(ds_, [trials["p_hat"][sel & (trials["distance_m"] == v)].mean() for v in ds_], "o", color=col,
-                    label=f"simulated |theta| = {ang:g} deg")
+            ax.plot(ds_, [trials["p_hat"][sel & (trials["distance_m"] == v)].mean() for v in ds_], "o", color=col)
+            shown.add("simulated")
         if fits is not None:
             for i, m in enumerate(fits["method"]):
                 if not np.isfinite(fits["a1"][i]) or m == "moments":
                     continue
                 model = ReaderDetectionModel(mean_coefficients=(fits["a1"][i], fits["a2"][i], fits["a3"][i]))
-                ax.plot(x, model.mean(x, ang), "-" if m == "mle" else ":", color=col,
-                        label=f"{m} mean model, {ang:g} deg")
-    ax.set(xlabel="distance d [m]", ylabel="detection probability", ylim=(-0.02, 1.02),
-           title="reader detection vs distance (dotted: published)")
+                ax.plot(x, model.mean(x, ang), styles.get(m, "--"), color=col)
+                shown.add(m)
+    handles = [Line2D([], [], color=f"C{j}", lw=3, label=f"|theta| = {ang:g} deg") for j, ang in enumerate(D50_ANGLES_DEG)]
+    handles += [Line2D([], [], color="k", marker="o", ls="", label="simulated mean p_hat")] if "simulated" in shown else []
+    handles += [Line2D([], [], color="k", ls=styles.get(m, "--"), label=f"{m} mean model")
+                for m in sorted(shown - {"simulated"})]
+    ax.legend(handles=handles, fontsize=9, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.set(xlabel="distance d [m]", ylabel="detection probability", ylim=(-0.02, 1.02))
+    ax.set_title(f"Reader detection vs distance — {cite('geng')}", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=6, ncol=2)
-    return [p1, save_figure(fig, out_dir / f"{NAME}-mean.png", dpi=110)]
+    return [p1, save_figure(fig, figure_path(dataset_path, out_dir, "mean"), dpi=110)]

@@ -68,7 +68,7 @@ def test_console_script_end_to_end(tmp_path):
                         cwd=tmp_path, capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
     assert (tmp_path / "out" / "gen2-waveforms.h5").stat().st_size > 0
-    assert (tmp_path / "out" / "gen2-waveforms.png").stat().st_size > 0
+    assert (tmp_path / "out" / "gen2-waveforms-exchange.png").stat().st_size > 0
     xr = pytest.importorskip("xarray")
     with xr.open_dataset(tmp_path / "out" / "gen2-waveforms.h5", engine="h5netcdf",
                          group="profiles") as prof:

@@ -126,3 +126,16 @@ def test_killed_writer_leaves_no_file_under_the_final_name(tmp_path):
     assert proc.returncode == -signal.SIGKILL
     assert read_provenance(target)["seed"] == 3  # the old, complete file is untouched
     assert [p.name for p in tmp_path.iterdir() if not p.name.startswith(".")] == ["run.h5"]
+
+
+def test_non_finite_root_attributes_need_a_stated_meaning(tmp_path):
+    ds = Dataset(title="t")
+    ds.add_table("t", {"x": column(np.arange(3), "1", "an index of the row")}, description="a small table")
+    ds.attrs["spacing_m"] = float("inf")
+    with pytest.raises(ValueError, match="spacing_m"):
+        write_dataset(tmp_path / "a.h5", ds, {"seed": 1})
+    assert not (tmp_path / "a.h5").exists()
+    ds.attrs["spacing_m_meaning"] = "inf: no nulls along this track"
+    write_dataset(tmp_path / "a.h5", ds, {"seed": 1})
+    back = read_dataset(tmp_path / "a.h5")
+    assert back.attrs["spacing_m"] == float("inf") and back.descriptions == {"t": "a small table"}

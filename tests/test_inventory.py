@@ -386,3 +386,36 @@ def test_hundred_tags_sample_level_under_10_s():
     cpu = time.process_time() - c0
     assert len(log.tags_read()) == 100
     assert cpu <= 10.0, cpu
+
+
+def test_chip_tags_fast_path_equals_full_listen():
+    # Tags with the power-dependent chip (devices.tag_chip) at different distances, so that
+    # their incident powers, reflection states and power-up differ (some never power up).
+    # The shared front end (PassiveTag.reflect on scaled copies) and every tag listening to
+    # its own samples must give the same records, bit for bit, and the same tag states.
+    from channels import Antenna, Channel, Isotropic, Scene
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import PassiveTag, TagConfig
+    from devices.tag_chip import PowerDependentChip
+    from scenarios.inventory import tag_antenna
+
+    chip = PowerDependentChip.pass_default()
+    radii = [1.0, 1.6, 2.2, 2.9, 3.6, 6.0, 9.0]
+    logs, states, powered = [], [], []
+    for fast in (True, False):
+        ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
+        tags = [PassiveTag(TagConfig(epc_hex=f"{k + 1:024X}"),
+                           tag_antenna((r * math.cos(1.3 * k), r * math.sin(1.3 * k), 1.0), 1.3 * k + math.pi),
+                           rng=trial_rng(41, 3, k), chip=chip) for k, r in enumerate(radii)]
+        reader = Reader(ReaderConfig(), [ra], rng=trial_rng(41, 1))
+        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(41, 2), fast=fast, keep_exchanges=True)
+        logs.append(run_inventory(air, InventoryConfig(q_initial=2.0)))
+        states.append([(t.state.state, dict(t.state.inventoried), t.state.slot, t.rng.bit_generator.state["state"],
+                        t.reflection_states) for t in tags])
+        powered.append([ex.incident_power_dbm for ex in air.exchanges])
+    assert logs[0].slots == logs[1].slots
+    assert logs[0].reads == logs[1].reads
+    assert states[0] == states[1]
+    assert powered[0] == powered[1]
+    n_read = len(logs[0].tags_read())
+    assert 2 <= n_read < len(radii)  # the far tags never power up: the chip decides

@@ -22,7 +22,7 @@ def test_rfsim_run_link_writes_reads_and_figure(tmp_path, capsys):
     assert rc == 0
     assert "dataset:" in capsys.readouterr().out
     path = tmp_path / "link.h5"
-    assert path.exists() and (tmp_path / "link.png").exists()
+    assert path.exists() and (tmp_path / "link-rssi-read-rate.png").exists()
     with xr.open_dataset(path, engine="h5netcdf", group="reads") as reads:
         for field in FIELDS:
             assert field in reads, field

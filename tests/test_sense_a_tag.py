@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, HalfWaveDipole, Isotropic, Scene
+from channels import Antenna, Channel, HalfWaveDipole, Isotropic, Scene, vertical_dipole
 from channels.paths import apply_paths
 from devices import st_analytic as sa
 from devices import st_receiver as sr
@@ -215,7 +215,9 @@ def test_config_and_antenna_geometry():
 
 def _st(technique="selection", seed=3, center=(2.25, 0.2, 1.0)):
     cfg = SenseATagConfig(technique=technique, n_antennas=1 if technique == "single" else 2)
-    return SenseATag(cfg, np.array(center), rng=trial_rng(seed, 9), fs_hz=READER_CFG.fs_hz)
+    pos = st_antenna_positions(np.array(center), n_antennas=cfg.n_antennas, spacing_m=cfg.spacing_m,
+                               orientation_rad=math.radians(cfg.orientation_deg))
+    return SenseATag(cfg, [vertical_dipole(p) for p in pos], rng=trial_rng(seed, 9), fs_hz=READER_CFG.fs_hz)
 
 
 def _st_exchange(reader, tag, st, channel, cmd, t_s, n_bits):

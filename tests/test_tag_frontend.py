@@ -19,12 +19,12 @@ from devices.tag_frontend import (
     ReflectionStates,
     TagClock,
     differential_rcs_m2,
-    load_pass_tag_characteristics,
     modulation_factor,
     parallel_ohm,
     power_transmission_coefficient,
     reflection_coefficient,
 )
+from devices.tag_chip import load_pass_tag_characteristics
 from rfsim.errors import ConfigError, UserError
 from rfsim.units import dbm_to_w, wavelength_m
 

@@ -4,6 +4,7 @@ Q algorithm's slots and air time to read all N tags at protocol level."""
 from __future__ import annotations
 
 import math
+import os
 import time
 
 import numpy as np
@@ -28,22 +29,31 @@ def _circle(n: int, seed: int) -> EngineAir:
     return EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, 2))
 
 
-def bench_inventory(n_tags: int = 100, *, populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50,
-                    seed: int = 0) -> dict:
-    """Wall time of one sample-level Q-algorithm inventory of ``n_tags`` tags to completion
-    (numba warmed up on a 3-tag inventory first), and the mean ± std of slots and air time
-    to read all N tags at protocol level over ``runs`` populations for each N."""
+def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200),
+                    populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50, seed: int = 0) -> dict:
+    """Wall and CPU time of one sample-level Q-algorithm inventory to completion for ``n_tags``
+    tags and for each of ``sample_populations`` (``sample_N<n>_wall_s``, ``…_cpu_s``,
+    ``…_slots``: how the cost grows with N; numba warmed up on a 3-tag inventory first), the
+    1-minute load average before the timed runs, and the mean ± std of slots and air time to
+    read all N tags at protocol level over ``runs`` populations for each of ``populations``."""
     from devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 
     run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation)
-    air = _circle(n_tags, seed)
-    t0, c0 = time.perf_counter(), time.process_time()
-    log = run_inventory(air, InventoryConfig())
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    out = {"sample_n_tags": n_tags, "sample_wall_s": wall, "sample_cpu_s": cpu, "sample_slots": log.n_slots,
-           "sample_air_time_s": log.air_time_s, "sample_tags_read": len(log.tags_read()),
-           "sample_air_time_per_wall_s": log.air_time_s / wall}
+    out = {"load_average_1min": os.getloadavg()[0]}
+    for n in dict.fromkeys((int(n_tags), *(int(k) for k in sample_populations))):
+        air = _circle(n, seed)
+        t0, c0 = time.perf_counter(), time.process_time()
+        log = run_inventory(air, InventoryConfig())
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        if n == n_tags:
+            out.update({"sample_n_tags": n_tags, "sample_wall_s": wall, "sample_cpu_s": cpu,
+                        "sample_slots": log.n_slots, "sample_air_time_s": log.air_time_s,
+                        "sample_tags_read": len(log.tags_read()),
+                        "sample_air_time_per_wall_s": log.air_time_s / wall})
+        if n in sample_populations:
+            out.update({f"sample_N{n}_wall_s": wall, f"sample_N{n}_cpu_s": cpu, f"sample_N{n}_slots": log.n_slots,
+                        f"sample_N{n}_tags_read": len(log.tags_read())})
     link = profile("miller4-320k")
     for n in populations:
         slots, air_s = [], []

@@ -18,7 +18,8 @@ from rfsim.errors import Terminated, UserError
 from rfsim.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
-_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.decode", "rfsim.cli.bench", "rfsim.cli.sweep")
+_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
+                "rfsim.cli.sweep")
 
 
 class Parser(argparse.ArgumentParser):

@@ -20,7 +20,8 @@ BENCHMARKS = {
     "linecode": ("rfsim.bench.linecode", "benchmark_linecode", {"n_bits": 10**5, "n_bits_reference": 10**4}),
     "channels": ("rfsim.bench.channels", "bench_channels", {"n_links": 200, "n_samples": 200_000}),
     "bulk-links": ("rfsim.bench.channels", "bench_bulk_links", {"n_links": 20_000, "repeats": 1}),
-    "inventory": ("rfsim.bench.inventory", "bench_inventory", {"n_tags": 20, "populations": (10, 50), "runs": 5}),
+    "inventory": ("rfsim.bench.inventory", "bench_inventory", {"n_tags": 20, "sample_populations": (10, 20),
+                                                                "populations": (10, 50), "runs": 5}),
     "exchange": ("rfsim.bench.exchange", "bench_exchange", {"n_rounds": 20}),
     "sweep": ("rfsim.bench.sweep", "bench_sweep", {"n_points": 16, "dask_points": 50}),
 }

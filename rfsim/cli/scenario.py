@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.config import describe, load_config, to_toml
 from rfsim.errors import SEED_RANGE_TEXT, UserError, check_seed
 from rfsim.registry import get_scenario, scenario_modules
@@ -31,7 +32,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="dataset file name (default: <out-dir>/<scenario>.h5)")
     p.add_argument("--no-plot", action="store_true", help="write the dataset only")
-    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    add_verbosity_args(p)
     p.set_defaults(func=_run)
 
 
@@ -73,11 +74,14 @@ def _config(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from rfsim.progress import reporting
     from rfsim.runner import run_scenario
 
     module, config = _resolve(args)
-    out = run_scenario(module, config, seed=args.seed, out_dir=args.out_dir, output=args.output,
-                       make_plots=not args.no_plot)
+    with reporting(reporter(args)) as rep:
+        rep.detail("resolved config:\n" + to_toml(config).rstrip())
+        out = run_scenario(module, config, seed=args.seed, out_dir=args.out_dir, output=args.output,
+                           make_plots=not args.no_plot)
     if not args.quiet:
         print(f"dataset: {out.dataset_path}")
         for fig in out.figure_paths:

@@ -327,6 +327,25 @@ class LinkProfile:
 # ------------------------------------------------------------------ timing of a profile
 
 
+#: CW the reader keeps after a reply window's nominal end: 3 Tpri (a late or slow tag's last
+#: symbols and the receiver's filters still fit).
+REPLY_WINDOW_TAIL_TPRI = 3.0
+#: The reader's receiver listens from half a Tari after its own command's last rising edge
+#: (the edge and the channel's delay spread have settled) and searches the reply in T1.
+READER_LISTEN_DELAY_TARI = 0.5
+
+
+def reply_window_s(link: LinkProfile, reply_bits: int) -> float:
+    """CW after a command for a reply of ``reply_bits`` payload bits [s]:
+    T1max + reply duration (nominal BLF) + :data:`REPLY_WINDOW_TAIL_TPRI` Tpri."""
+    return link.reply_duration_s(int(reply_bits)) + t1(link).max_s + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
+
+
+def reader_listen_start_s(link: LinkProfile, cmd_end_s: float) -> float:
+    """When the reader's receiver starts listening after a command ending at ``cmd_end_s`` [s]."""
+    return float(cmd_end_s) + READER_LISTEN_DELAY_TARI * link.tari_s
+
+
 def t1(link: LinkProfile) -> TimingRange:
     """T1 of ``link`` with its nominal-temperature FrT (see :func:`t1_range`)."""
     return t1_range(rtcal_s=link.rtcal_s, blf_hz=link.blf_hz, frt=link.frt)
@@ -401,6 +420,10 @@ __all__ = [
     "reply_preamble_bits",
     "backscatter_duration_s",
     "t1_range",
+    "reply_window_s",
+    "reader_listen_start_s",
+    "REPLY_WINDOW_TAIL_TPRI",
+    "READER_LISTEN_DELAY_TARI",
     "t2_range",
     "t1",
     "t2",

@@ -34,11 +34,13 @@ import h5py
 import numpy as np
 
 from rfsim.config import field_at, field_meta, toml_value
-from rfsim.dataset import (Column, atomic_h5file, column, create_array, create_row_scale, stored_values,
-                           write_provenance, write_root_attrs, Dataset)
+from rfsim.dataset import (Column, Dataset, atomic_h5file, column, create_array, create_row_scale, stored_values,
+                           write_group_descriptions, write_provenance, write_root_attrs)
 from rfsim.sweep.store import RecordReader, RecordRef, decode_array, decode_dataset
 
 RUNS_TABLE = "sweep_runs"
+RUNS_DESCRIPTION = ("one row per run of the sweep (point, repetition): its seed, its swept config values "
+                    "and the scalar results (root attributes) of its dataset")
 #: names of the columns/dimensions the merge adds to the scenario's own tables and grids
 POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
 #: rows of one table buffered before they are written (bounds the merge's memory)
@@ -101,8 +103,11 @@ def _scan(refs: Sequence[RecordRef], reader: RecordReader):
     grids: dict[str, _GridSchema] = {}
     attr_counts: dict[str, int] = {}
     attr_order: list[str] = []
+    descriptions: dict[str, str] = {}
     for j, ref in enumerate(refs):
         desc = reader.header(ref)["dataset"]
+        for name, text in desc.get("descriptions", {}).items():
+            descriptions.setdefault(name, text)
         for a in desc["attrs"]:
             if not a["array"]["shape"]:
                 if a["name"] not in attr_counts:
@@ -135,7 +140,7 @@ def _scan(refs: Sequence[RecordRef], reader: RecordReader):
     for schema in grids.values():
         schema.stackable = schema.stackable and schema.present == len(refs)
     attrs = [a for a in attr_order if attr_counts[a] == len(refs)]
-    return tables, grids, attrs
+    return tables, grids, attrs, descriptions
 
 
 def desc_len(table: Mapping[str, Any]) -> int:
@@ -194,7 +199,7 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
     are repeated on every row of the tables as ``sweep.<key>``).
     """
     with RecordReader() as reader:
-        tables, grids, attr_names = _scan(refs, reader)
+        tables, grids, attr_names, descriptions = _scan(refs, reader)
         pts, reps, seeds = (np.asarray(a, dtype=np.int64) for a in runs)
         scenario = ""
         with atomic_h5file(output) as f:
@@ -266,6 +271,9 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
             w = _TableWriter(f.create_group(RUNS_TABLE), runs_cols, len(pts))
             w.add({c: col.data for c, col in runs_cols.items()})
             w.flush()
+            copies = {f"{g}__point-{int(p):06d}-rep-{int(k):02d}": descriptions[g] for g in grids
+                      if g not in stacked and g in descriptions for p, k in zip(pts, reps)}
+            write_group_descriptions(f, {**descriptions, **copies, RUNS_TABLE: RUNS_DESCRIPTION})
             write_root_attrs(f, Dataset(title=title or "sweep", scenario=scenario))
             write_provenance(f, provenance)
     return output

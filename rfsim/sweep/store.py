@@ -133,7 +133,7 @@ def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
                 "array": add(c.data)}
 
     desc = {
-        "title": ds.title, "scenario": ds.scenario,
+        "title": ds.title, "scenario": ds.scenario, "descriptions": dict(ds.descriptions),
         "attrs": [{"name": k, "array": add(v)} for k, v in ds.attrs.items()],
         "tables": [{"name": t, "columns": [col(c, v) for c, v in cols.items()]}
                    for t, cols in ds.tables.items()],
@@ -156,7 +156,7 @@ def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Data
     def col(c: Mapping[str, Any]) -> Column:
         return Column(decode_array(payload, c["array"]), c["units"], c["description"], tuple(c["dims"]))
 
-    ds = Dataset(title=desc["title"], scenario=desc["scenario"])
+    ds = Dataset(title=desc["title"], scenario=desc["scenario"], descriptions=dict(desc.get("descriptions", {})))
     ds.attrs = {a["name"]: decode_array(payload, a["array"])[()] for a in desc["attrs"]}
     ds.tables = {t["name"]: {c["name"]: col(c) for c in t["columns"]} for t in desc["tables"]}
     ds.grids = {g["name"]: ({c["name"]: col(c) for c in g["coords"]},

@@ -1,0 +1,145 @@
+"""RF exciter: a CW source with no intelligence (an emitter of the air interface).
+
+An exciter powers passive tags and sense-a-tags for tag-to-tag and ST-to-ST links
+(binary-detection.md "exciter"; auris-sense-a-tag.md ch. 5, Fig. 5.8: 3.28 W EIRP at
+915 MHz). It sends no commands: a Gen2 tag powered only by an exciter never replies.
+
+Signal (complex baseband at its own carrier f_c, √W at the antenna port)::
+
+    x(t) = √P · u(t) · e^{jφ(t)},   P = EIRP / G_peak
+
+with G_peak the peak power gain of the antenna it is handed (the channel applies the
+antenna's pattern towards each receiver, so the EIRP is P·G_peak in the main lobe), u(t) ∈
+{0, 1} the on/off schedule and φ(t) the oscillator phase noise: a Wiener process with
+Lorentzian linewidth Δν (full width at half maximum), φ[n] = φ[n−1] + w[n],
+w ~ N(0, 2π·Δν/fs) (the increments of a free-running oscillator with white frequency noise;
+Δν = 0: no phase noise). The phase is carried from one segment to the next; over a gap
+of Δt between segments it advances by N(0, 2π·Δν·Δt).
+
+Schedule: ``schedule_s`` lists switching times t_0 < t_1 < …; the exciter is on in
+[t_0, t_1), [t_2, t_3), … (and from the last time on when the count is odd); empty = always
+on.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.air import Segment
+from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
+from rfsim.config import check_fields, param
+from rfsim.errors import ConfigError
+from rfsim.units import dbm_to_w
+
+#: Carrier range the models support [Hz] (rfsim.carriers).
+CARRIER_RANGE_HZ = SUPPORTED_CARRIER_RANGE_HZ
+#: The AURIS ST-to-ST exciter (ch. 5, Fig. 5.8): 3.28 W EIRP = 35.16 dBm.
+AURIS_EIRP_DBM = 10.0 * math.log10(3.28e3)
+
+
+@dataclass(frozen=True)
+class ExciterConfig:
+    """Exciter settings (validated; errors name ``exciter.<key>``)."""
+
+    fc_hz: float = param(915e6, lo=CARRIER_RANGE_HZ[0], hi=CARRIER_RANGE_HZ[1], unit="Hz", doc="CW carrier")
+    eirp_dbm: float = param(AURIS_EIRP_DBM, lo=-30.0, hi=50.0, unit="dBm",
+                            doc="EIRP in the antenna's main lobe")
+    linewidth_hz: float = param(0.0, lo=0.0, hi=1e6, unit="Hz",
+                                doc="phase-noise Lorentzian linewidth (0 = a clean carrier)")
+    schedule_s: tuple[float, ...] = param((), unit="s", doc="on/off switching times t0 < t1 < … "
+                                                            "(on in [t0, t1), …; empty = always on)")
+
+    def __post_init__(self):
+        check_fields(self, "exciter")
+        t = tuple(float(v) for v in self.schedule_s)
+        if any(not math.isfinite(v) for v in t) or any(b <= a for a, b in zip(t, t[1:])):
+            raise ConfigError("exciter.schedule_s", self.schedule_s, "finite, strictly increasing times [s]")
+        object.__setattr__(self, "schedule_s", t)
+
+
+def peak_gain_lin(antenna, *, step_deg: float = 1.0) -> float:
+    """Peak power gain of ``antenna``'s pattern over a direction grid in its own frame.
+
+    The grid holds every azimuth and elevation in ``step_deg`` steps (boresight and the axes
+    included), so a pattern whose peak lies on an axis (patch, dipole) is exact; the local
+    frame makes it independent of the antenna's orientation. Remembered per hashable pattern
+    (:func:`functools.lru_cache`).
+    """
+    pattern = antenna.pattern
+    try:
+        return _peak_gain(pattern, float(step_deg))
+    except TypeError:  # an unhashable pattern (e.g. a measured table): no memo
+        return _peak_gain.__wrapped__(pattern, float(step_deg))
+
+
+@functools.lru_cache(maxsize=64)
+def _peak_gain(pattern, step_deg: float) -> float:
+    az = np.radians(np.arange(-180.0, 180.0, step_deg))
+    el = np.radians(np.arange(-90.0, 90.0 + 0.5 * step_deg, step_deg))
+    a, e = np.meshgrid(az, el)
+    return float(np.max(pattern.gain(a.ravel(), e.ravel())))
+
+
+class Exciter:
+    """A CW exciter (module docstring).
+
+    Parameters
+    ----------
+    config : ExciterConfig
+    antenna : the antenna it radiates from (``channels.Antenna``: position, orientation,
+        pattern; its pattern's peak gain converts the EIRP to the conducted power)
+    rng : generator of the phase noise (keyword-only; needed when ``linewidth_hz > 0``)
+    """
+
+    def __init__(self, config: ExciterConfig, antenna, *, rng: np.random.Generator | None = None):
+        if not isinstance(config, ExciterConfig):
+            raise TypeError(f"config must be an ExciterConfig, got {type(config).__name__}")
+        if config.linewidth_hz > 0 and rng is None:
+            raise ConfigError("exciter.linewidth_hz", config.linewidth_hz, "0 without an rng for the phase noise")
+        self.config, self.antenna, self.rng = config, antenna, rng
+        self.fc_hz = float(config.fc_hz)
+        g = peak_gain_lin(antenna) if hasattr(antenna, "pattern") else 1.0
+        #: conducted CW power at the antenna port [W]
+        self.power_w = float(dbm_to_w(config.eirp_dbm)) / g
+        self._phase = (None, 0.0)  # (time just after the last emitted sample [s], phase [rad])
+
+    def is_on(self, t_s) -> np.ndarray:
+        """u(t): the schedule at times ``t_s`` [s] (bool array)."""
+        t = np.asarray(t_s, dtype=float)
+        sw = self.config.schedule_s
+        if not sw:
+            return np.ones(t.shape, dtype=bool)
+        return np.searchsorted(np.asarray(sw), t, side="right") % 2 == 1
+
+    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment | None:
+        """The exciter's segment on the given time base (None when it is off throughout)."""
+        n = int(n_samples)
+        t = float(t0_s) + np.arange(n) / float(fs_hz)
+        on = self.is_on(t)
+        if not on.any():
+            return None
+        x = np.full(n, math.sqrt(self.power_w), dtype=np.complex128)
+        if self.config.linewidth_hz > 0:
+            x *= np.exp(1j * self._phase_noise(float(t0_s), float(fs_hz), n))
+        if not on.all():
+            x[~on] = 0.0
+        return Segment(t0_s, fs_hz, self.fc_hz, x)
+
+    def _phase_noise(self, t0_s: float, fs_hz: float, n: int) -> np.ndarray:
+        var = 2.0 * math.pi * self.config.linewidth_hz / fs_hz
+        t_end, phi = self._phase
+        if t_end is not None and t0_s > t_end:  # the phase walks on through the gap
+            phi += math.sqrt(2.0 * math.pi * self.config.linewidth_hz * (t0_s - t_end)) * float(
+                self.rng.standard_normal())
+        steps = math.sqrt(var) * self.rng.standard_normal(n)
+        steps[0] = 0.0
+        ph = phi + np.cumsum(steps)
+        self._phase = (t0_s + n / fs_hz, float(ph[-1]))
+        return ph
+
+
+__all__ = ["ExciterConfig", "Exciter", "peak_gain_lin", "CARRIER_RANGE_HZ", "AURIS_EIRP_DBM"]

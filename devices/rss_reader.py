@@ -1,0 +1,39 @@
+"""What an active-RFID reader reports of a beacon's received power.
+
+Özkaya's readers (rssi-localization.md §2.1, §7 P0.3; seeds/002 L957, L1785–L1787) output a
+digital RSSI with **1 dB** resolution and hear nothing below their **−90 dBm** sensitivity;
+Impinj-class readers report dBm×100 (0.01 dB steps, wave2-specs.md "What a per-read dataset
+should look like"). The reported value is::
+
+    RSSI_rep = step·round(P_rx/step)    if P_rx ≥ floor,   else no read (NaN)
+
+with ``step = 0`` meaning no quantization. The sample-level active beacon (MSK burst through
+the air interface, listen-before-talk, collisions) is not modelled here: this is the reader's
+measurement stage of the statistical log-distance mode.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.config import param
+
+
+@dataclass(frozen=True)
+class RssReport:
+    """Reader measurement stage: RSSI quantization step and sensitivity floor."""
+
+    step_db: float = param(1.0, lo=0.0, hi=10.0, unit="dB",
+                           doc="RSSI resolution (1 = the thesis's readers, 0.01 = Impinj, 0 = none)")
+    floor_dbm: float = param(-90.0, lo=-150.0, hi=0.0, unit="dBm", doc="reader sensitivity: no read below")
+
+    def report(self, rss_dbm) -> np.ndarray:
+        """Reported RSSI [dBm] of true received powers ``rss_dbm`` (any shape); NaN = not heard."""
+        p = np.asarray(rss_dbm, float)
+        q = p if self.step_db == 0 else self.step_db * np.round(p / self.step_db)
+        return np.where(p >= self.floor_dbm, q, np.nan)
+
+
+__all__ = ["RssReport"]

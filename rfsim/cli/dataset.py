@@ -1,0 +1,168 @@
+"""``rfsim plot DATASET`` and ``rfsim info DATASET``: work with a dataset file alone.
+
+``plot`` re-draws a run's figures from its HDF5 file (the scenario is the file's
+``scenario`` attribute; nothing is simulated), named after the file's stem, beside it or
+in ``--out-dir``. ``info`` lists what the file holds — groups with their description,
+columns with dtype, units and description, the root attributes and a provenance summary;
+``-v`` adds the resolved config and every provenance attribute.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import os
+import sys
+import textwrap
+from pathlib import Path
+
+from rfsim.cli.verbosity import add_verbosity_args, reporter
+from rfsim.errors import UserError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("plot", help="re-draw a run's figures from its dataset file",
+                       description="Re-draw the figures of a run from its HDF5 dataset alone "
+                                   "(figures <stem>-*.png beside the dataset or in --out-dir).")
+    p.add_argument("dataset", type=Path, help="dataset file written by 'rfsim run'")
+    p.add_argument("--out-dir", type=Path, default=None,
+                   help="folder for the figures (default: the dataset's folder)")
+    add_verbosity_args(p)
+    p.set_defaults(func=_plot)
+
+    p = sub.add_parser("info", help="list a dataset's groups, columns (units, descriptions) and provenance",
+                       description="Describe an HDF5 dataset: groups, columns with units and "
+                                   "descriptions, root attributes, provenance summary.")
+    p.add_argument("dataset", type=Path, help="dataset file (HDF5)")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="full descriptions and attributes, every provenance attribute and the resolved config")
+    p.set_defaults(func=_info)
+
+
+def _open(path: Path):
+    """The dataset opened read-only; a missing or non-HDF5 file is a one-line user error."""
+    import h5py
+
+    if not path.exists():
+        raise UserError(f"dataset {str(path)!r}: no such file")
+    if path.is_dir():
+        raise UserError(f"dataset {str(path)!r} is a directory, not an HDF5 file")
+    try:
+        return h5py.File(path, "r")
+    except OSError:
+        raise UserError(f"dataset {str(path)!r} is not an HDF5 file") from None
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from rfsim.progress import reporting
+    from rfsim.registry import get_scenario
+
+    with _open(args.dataset) as f:
+        scenario = _text(f.attrs.get("scenario", ""))
+        is_sweep = "provenance" in f and "spec_toml" in f["provenance"].attrs
+    if not scenario:
+        raise UserError(f"dataset {str(args.dataset)!r} has no 'scenario' attribute: not written by 'rfsim run'")
+    if is_sweep:
+        raise UserError(f"dataset {str(args.dataset)!r} is a merged sweep; plot one of its runs "
+                        f"(the point files in {args.dataset}.points/)")
+    module = get_scenario(scenario)
+    out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
+    with reporting(reporter(args)) as rep:
+        rep.stage(f"drawing the {scenario} figures of {args.dataset}")
+        try:
+            figures = module.plot(args.dataset, out_dir)
+        except (KeyError, ValueError) as exc:
+            raise UserError(f"dataset {str(args.dataset)!r} lacks what the {scenario} figures need "
+                            f"({type(exc).__name__}: {exc})") from None
+    if not args.quiet:
+        for fig in figures:
+            print(f"figure:  {fig}")
+    return 0
+
+
+def _duration(start: str, end: str) -> str:
+    try:
+        seconds = (_dt.datetime.fromisoformat(end) - _dt.datetime.fromisoformat(start)).total_seconds()
+    except ValueError:
+        return ""
+    return f" ({seconds:.0f} s)"
+
+
+def _value(v, width: int = 60) -> str:
+    text = _text(v) if not hasattr(v, "tolist") else str(v.tolist())
+    text = " ".join(text.split())
+    return text if len(text) <= width else text[: width - 1] + "…"
+
+
+def _info(args: argparse.Namespace) -> int:
+    import h5py
+
+    with _open(args.dataset) as f:
+        lines = [f"{args.dataset}: {_text(f.attrs.get('scenario', '?'))} — {_text(f.attrs.get('title', ''))}"]
+        prov = {k: f["provenance"].attrs[k] for k in f["provenance"].attrs} if "provenance" in f else {}
+        if prov:
+            start, end = _text(prov.get("start_time_utc", "")), _text(prov.get("end_time_utc", ""))
+            git = _text(prov.get("git_revision", "")) or "not a git checkout"
+            lines.append(f"provenance: seed {prov.get('seed', '?')}, rfsim {_text(prov.get('rfsim_version', '?'))} "
+                         f"(git {git[:12]}{'-dirty' if git.endswith('-dirty') else ''}), "
+                         f"{start} -> {end}{_duration(start, end)}")
+            lines.append(f"            python {_text(prov.get('python', '?'))}, numpy {_text(prov.get('numpy', '?'))}, "
+                         f"numba {_text(prov.get('numba', '?'))}, {_text(prov.get('platform', '?'))}")
+        for gname, g in f.items():
+            if gname == "provenance" or not isinstance(g, h5py.Group):
+                continue
+            desc = _text(g.attrs.get("description", ""))
+            if "row" in g and g["row"].is_scale:
+                kind = f"table, {g['row'].shape[0]} rows"
+            else:
+                coords = [k for k, ds in g.items() if ds.is_scale]
+                kind = "grid " + " x ".join(f"{c}[{g[c].shape[0]}]" for c in coords)
+            lines.append("")
+            lines.append(f"[{gname}] ({kind})" + (f": {desc}" if desc else ""))
+            names = [k for k in g if k != "row"]
+            width = max((len(k) for k in names), default=0)
+            for k in names:
+                ds = g[k]
+                dtype = "bool" if ds.attrs.get("rfsim_dtype") == "bool" else (
+                    "str" if h5py.check_string_dtype(ds.dtype) else str(ds.dtype))
+                dims = "" if ds.ndim <= 1 else "(" + ", ".join(
+                    ds.dims[i][0].name.rsplit("/", 1)[-1] if len(ds.dims[i]) else "?" for i in range(ds.ndim)) + ") "
+                units = _text(ds.attrs.get("units", "")) or "-"
+                text = dims + _text(ds.attrs.get("description", ""))
+                if not args.verbose:
+                    text = _value(text, 90)
+                lines.append(f"  {k:<{width}}  {dtype:<7} {units:<8} {text}")
+        attrs = {k: v for k, v in f.attrs.items() if k not in ("title", "scenario", "rfsim_version")}
+        if attrs:
+            lines.append("")
+            lines.append("attributes:")
+            for k, v in attrs.items():
+                lines.append(f"  {k} = {_value(v, 10**6 if args.verbose else 70)}")
+        if args.verbose and prov:
+            lines.append("")
+            lines.append("provenance attributes:")
+            for k, v in prov.items():
+                if k != "config_toml":
+                    lines.append(f"  {k} = {_text(v)}")
+            lines.append("")
+            lines.append("resolved config (provenance/config_toml):")
+            lines.append(textwrap.indent(_text(prov.get("config_toml", "")).rstrip(), "  "))
+    _print_lines(lines)
+    return 0
+
+
+def _print_lines(lines: list[str]) -> None:
+    """Print ``lines``; a reader that closed the pipe (``| head``) ends the output quietly."""
+    try:
+        print("\n".join(lines))
+        sys.stdout.flush()
+    except BrokenPipeError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # the interpreter's final flush must not fail again
+
+
+__all__ = ["add_parser"]

@@ -1,0 +1,228 @@
+"""HIMR fixed-gain observers (1-D and 2-D) and an EKF variant, with CARE gains and
+eigenvalue diagnostics (himr-tag.md §1.6–1.10, §6; seed 000 L500–L596, L842–L970,
+L1104–L1174; wave2-specs.md §H "Observers").
+
+Gain (eqs. 14–16 / 45–47, L551–L583, L953–L970): with W = Wᵀ > 0, V = Vᵀ > 0, Y solves the
+continuous-time algebraic Riccati equation AY + YAᵀ − YCᵀV⁻¹CY + W = 0 and L = YCᵀV⁻¹.
+It is solved by :func:`scipy.linalg.solve_continuous_are` on the dual problem
+(Aᵀ, Cᵀ, W, V) — the filter CARE is the control CARE of the transposed system.
+Tunings: 1-D W = 5·10⁴·diag(3, 1, 1), V = I₃ (L571); 2-D V = I (L1153) with
+W = 965·I₉ ("D.1", L1964–L1972) or diag(579, 137, 149, 479, 127, 119, 191, 67, 67) ("D.2",
+L1987–L1995), gains at the Table 8 point. The seed prints Lᵀ (erratum 4).
+
+Observer (eqs. 10, 20, 29, 53; forward Euler, L587–L596, L1110–L1117): at the epochs t_k of
+the measurement stream (packet times, so T = t_{k+1} − t_k ≈ 1/141 s)
+
+    x̂_{k+1} = x̂_k + T_k·(A x̂_k + g_k·L·(y_k − h(x̂_k)))
+
+with g_k = 1, or 0 where the gain is switched off (outage Case 3, eq. 52). A NaN in y_k
+(a lost packet, an output not available) contributes no innovation for that output. The
+estimate reported at t_k is x̂_k (it has used y_0 … y_{k−1}).
+
+Variants of the 2-D observer: ``literal`` (h with the trigonometric acceleration rows,
+the seed's estimator), ``prerotated`` (accelerations rotated into the fixed frame first,
+:func:`~rfsim.estimators.himr_model.prerotate_accelerations`; the gain is unchanged), and
+``ekf``: a discrete extended Kalman filter on the literal model, F = I + A·T, Q = W·T,
+H = C(x̂⁻) re-linearised at every step, R = ``ekf_r`` (default: the diagonal of the
+measurement variances of himr-tag.md §6.3,
+:class:`~rfsim.estimators.himr_surrogate.SurrogateNoise`), reported estimate = the
+posterior at t_k, P₀ = ``p0`` (default 10⁻²·I). The seed's V = I read as a continuous
+noise density gives R = V/T (σ ≈ 12 in every output at 141 packets/s); with it the EKF's
+heading lags the 18 rad/s² boom start by radians and the position error reaches ≈ 1.6 m
+on the noise-free stream, so the EKF takes the physical noise levels instead.
+
+Diagnostics (eqs. 33–35, L869–L889; Fig. 82, L2009–L2015): the frozen-time error matrix
+A − L·C(x(t)) along a trajectory; its eigenvalue with the largest real part shows when the
+fixed gain is locally unstable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from scipy.linalg import solve_continuous_are
+
+from rfsim.estimators.himr_model import (A3, A9, C1, PYLONS_M, TABLE8_STATE, h_2d, jacobian_2d,
+                                         prerotate_accelerations)
+from rfsim.estimators.himr_surrogate import SurrogateNoise
+
+Variant = Literal["literal", "prerotated", "ekf"]
+VARIANTS = ("literal", "prerotated", "ekf")
+
+#: Tunings of the seed (module docstring).
+W_1D = 5e4 * np.diag([3.0, 1.0, 1.0])
+W_D1 = 965.0 * np.eye(9)
+W_D2 = np.diag([579.0, 137.0, 149.0, 479.0, 127.0, 119.0, 191.0, 67.0, 67.0])
+
+
+@dataclass(frozen=True, eq=False)
+class Gain:
+    """A CARE gain: ``L`` (n, p), Riccati solution ``Y`` (n, n) and eig(A − L·C) (n,)."""
+
+    L: np.ndarray
+    Y: np.ndarray
+    eigenvalues: np.ndarray
+
+
+def care_gain(A, C, W, V) -> Gain:
+    """L = Y·Cᵀ·V⁻¹ with Y from the filter CARE (module docstring); eigenvalues sorted by
+    real part."""
+    A, C, W, V = (np.asarray(m, dtype=float) for m in (A, C, W, V))
+    Y = solve_continuous_are(A.T, C.T, W, V)
+    L = Y @ C.T @ np.linalg.inv(V)
+    ev = np.linalg.eigvals(A - L @ C)
+    return Gain(L=L, Y=Y, eigenvalues=ev[np.lexsort((ev.imag, ev.real))])
+
+
+def gain_1d(W=W_1D, V=None) -> Gain:
+    """The 1-D HIMR gain (eq. 17–18): A₃, C = I₃, W = 5·10⁴·diag(3, 1, 1), V = I₃."""
+    return care_gain(A3, C1, W, np.eye(3) if V is None else V)
+
+
+def gain_2d(W=W_D2, V=None, *, point=TABLE8_STATE, pylons_m=PYLONS_M, accel="literal") -> Gain:
+    """The 2-D HIMR gain at a linearisation point (Table 8 by default), V = I by default."""
+    C = jacobian_2d(point, pylons_m, "prerotated" if accel == "prerotated" else "literal")
+    return care_gain(A9, C, W, np.eye(C.shape[0]) if V is None else V)
+
+
+# ----------------------------------------------------------------------------- observers
+
+
+def _check_stream(t_s, y, n_out: int):
+    t = np.asarray(t_s, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0):
+        raise ValueError("t_s must be increasing epochs (at least two)")
+    if y.shape != (t.size, n_out):
+        raise ValueError(f"y must be ({t.size}, {n_out}), got {y.shape}")
+    return t, y
+
+
+def luenberger(t_s, y, *, A, L, h, x0, gain_on=None) -> np.ndarray:
+    """Forward-Euler fixed-gain observer (module docstring) with output map ``h``.
+
+    Parameters
+    ----------
+    t_s : (n,) epochs [s];  y : (n, p) measurements (NaN = missing)
+    A : (m, m);  L : (m, p);  h : callable x (m,) → (p,);  x0 : (m,) initial estimate
+    gain_on : (n,) bool or None (all on)
+
+    Returns
+    -------
+    (n, m) estimates x̂_k at the epochs
+    """
+    A, L = np.asarray(A, float), np.asarray(L, float)
+    t, y = _check_stream(t_s, y, L.shape[1])
+    on = np.ones(t.size, bool) if gain_on is None else np.asarray(gain_on, bool)
+    T = np.append(np.diff(t), t[-1] - t[-2])
+    out = np.empty((t.size, A.shape[0]))
+    x = np.array(x0, dtype=float)
+    for k in range(t.size):
+        out[k] = x
+        dx = A @ x
+        if on[k]:
+            innov = y[k] - h(x)
+            dx += L @ np.where(np.isnan(innov), 0.0, innov)
+        x = x + T[k] * dx
+    return out
+
+
+def observe_1d(t_s, y, *, x0, gain: Gain | None = None, gain_on=None) -> np.ndarray:
+    """1-D HIMR observer (eq. 20): y (n, 3) = [RSS range, radial velocity, acceleration]."""
+    g = gain_1d() if gain is None else gain
+    return luenberger(t_s, y, A=A3, L=g.L, h=lambda x: C1 @ x, x0=x0, gain_on=gain_on)
+
+
+def _ekf(t, y, pylons, W, R, x0, p0):
+    T = np.append(np.diff(t), t[-1] - t[-2])
+    x = np.array(x0, dtype=float)
+    P = np.asarray(p0, float).copy()
+    out = np.empty((t.size, 9))
+    eye = np.eye(9)
+    for k in range(t.size):
+        ok = ~np.isnan(y[k])
+        if ok.any():
+            H = jacobian_2d(x, pylons)[ok]
+            S = H @ P @ H.T + R[np.ix_(ok, ok)]
+            K = np.linalg.solve(S, H @ P).T
+            x = x + K @ (y[k, ok] - h_2d(x, pylons)[ok])
+            P = (eye - K @ H) @ P
+        out[k] = x
+        F = eye + A9 * T[k]
+        x = F @ x
+        P = F @ P @ F.T + W * T[k]
+    return out
+
+
+def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYLONS_M, W=W_D2,
+               V=None, gain: Gain | None = None, gain_on=None, p0=None, ekf_r=None) -> np.ndarray:
+    """2-D HIMR observer on a measurement stream (module docstring).
+
+    Parameters
+    ----------
+    t_s : (n,) epochs [s]
+    y : (n, 2P + 4) measured outputs in observer order with the literal acceleration
+        convention (a₁ = a·y^B, a₂ = −a·x^B); ``prerotated`` rotates them itself
+    x0 : (9,) initial estimate (default: IC #1 of Table 9, (2, 1.8048) m, ψ = π, at rest)
+    pylons_m : (P, 2) pylons whose outputs are in ``y`` (Case 7: the first two)
+    W, V : tuning (V default I); ``gain``: a precomputed :class:`Gain` (else from W, V at
+        Table 8); ``gain_on``: Case-3 switch; ``p0``, ``ekf_r``: EKF initial covariance
+        (9, 9) and measurement covariance (2P + 4, 2P + 4)
+
+    Returns
+    -------
+    (n, 9) state estimates [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈]
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    pyl = np.asarray(pylons_m, float)
+    n_out = 2 * pyl.shape[0] + 4
+    x0 = np.array([2.0, 0, 0, 1.8048, 0, 0, np.pi, 0, 0]) if x0 is None else np.asarray(x0, float)
+    V = np.eye(n_out) if V is None else np.asarray(V, float)
+    t, y = _check_stream(t_s, y, n_out)
+    if variant == "ekf":
+        R = np.diag(SurrogateNoise().sigmas(pyl.shape[0]) ** 2) if ekf_r is None else np.asarray(ekf_r, float)
+        return _ekf(t, y, pyl, np.asarray(W, float), R, x0, 1e-2 * np.eye(9) if p0 is None else p0)
+    accel = "prerotated" if variant == "prerotated" else "literal"
+    g = gain_2d(W, V, pylons_m=pyl, accel=accel) if gain is None else gain
+    if accel == "prerotated":
+        y = prerotate_accelerations(y, pyl.shape[0])
+    return luenberger(t, y, A=A9, L=g.L, h=lambda x: h_2d(x, pyl, accel), x0=x0, gain_on=gain_on)
+
+
+# ----------------------------------------------------------------------------- diagnostics
+
+
+def eig_along(states, L, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
+    """eig(A − L·C(x)) for each state of a trajectory: states (n, 9) → (n, 9) complex."""
+    st = np.atleast_2d(np.asarray(states, float))
+    return np.linalg.eigvals(A9 - L @ jacobian_2d(st, pylons_m, accel))
+
+
+def unstable_intervals(t_s, max_real) -> list[tuple[float, float]]:
+    """Intervals [t_first, t_last] of consecutive epochs where ``max_real`` > 0."""
+    t = np.asarray(t_s, float)
+    pos = np.asarray(max_real) > 0
+    out, i = [], 0
+    while i < t.size:
+        if pos[i]:
+            j = i
+            while j + 1 < t.size and pos[j + 1]:
+                j += 1
+            out.append((float(t[i]), float(t[j])))
+            i = j + 1
+        else:
+            i += 1
+    return out
+
+
+def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
+    """rank of O = [C; CA; CA²] (A³ = 0) for each state: (n,) int."""
+    C = jacobian_2d(np.atleast_2d(np.asarray(states, float)), pylons_m, accel)
+    return np.linalg.matrix_rank(np.concatenate([C, C @ A9, C @ A9 @ A9], axis=-2)).astype(int)
+
+
+__all__ = ["Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",
+           "luenberger", "observe_1d", "observe_2d", "eig_along", "unstable_intervals", "ranks_along"]

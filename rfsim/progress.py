@@ -1,0 +1,215 @@
+"""Progress of long work: stage lines, tqdm bars with ETA, the first-run compile notice.
+
+A :class:`Reporter` decides where and how progress appears:
+
+* on a terminal, ``tqdm`` bars redrawn in place (``\\r``) with count, rate and ETA, and a
+  line per stage (``rfsim: running phase-cancellation (seed 1)``);
+* in batch logs (the stream is not a TTY: SLURM logs, pipes, files) the same bar as plain
+  lines, ``monte carlo: 40/120 cells (33.3 %), 2.10cells/s, elapsed 00:19, ETA 00:38``
+  (tqdm's rate: ``17.2s/cells`` when a step takes longer than a second), at
+  most one every ``log_interval_s`` plus the first and the last, never a ``\\r``;
+* nothing at all when ``quiet``.
+
+Code that loops does not need to know which: it wraps its loop in :func:`track` and names
+its stages with :func:`stage`; both do nothing unless a reporter is active
+(:func:`reporting`, entered by the command line around a run). The first time numba
+compiles a kernel while a reporter is active (a cache miss: the first run after install or
+after a kernel changed) one line says so, because that can take tens of seconds.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import sys
+import threading
+from collections.abc import Iterable, Iterator
+from typing import Any, TextIO, TypeVar
+
+T = TypeVar("T")
+
+#: Text of the one line printed when numba starts compiling (cache miss).
+COMPILE_NOTICE = ("compiling numba kernels (first run after install or after a kernel changed; "
+                  "cached on disk for later runs, this can take up to a minute)")
+
+#: tqdm layout of a bar in batch logs (no bar glyphs, one complete line per update).
+LOG_FORMAT = "{desc}: {n_fmt}/{total_fmt} {unit} ({percentage:.1f} %), {rate_fmt}, elapsed {elapsed}, ETA {remaining}"
+#: tqdm layout of a bar on a terminal.
+TTY_FORMAT = "{desc}: {percentage:3.0f}%|{bar}| {n_fmt}/{total_fmt} {unit} [{elapsed}<{remaining}, {rate_fmt}]"
+
+_CURRENT: contextvars.ContextVar[Reporter | None] = contextvars.ContextVar("rfsim_reporter", default=None)
+
+
+class _LineWriter:
+    """File wrapper for tqdm in batch logs: every status tqdm writes becomes one plain line.
+
+    tqdm redraws with ``"\\r" + status``; here the carriage returns and padding are dropped
+    and a newline is added, so a log shows one readable line per update.
+    """
+
+    def __init__(self, stream: TextIO):
+        self.stream = stream
+        self._last = ""
+
+    def write(self, text: str) -> None:
+        line = text.replace("\r", "").strip()
+        if line and line != self._last:  # tqdm's close repeats the last status
+            self.stream.write(line + "\n")
+            self._last = line
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
+class _NullBar:
+    """Stand-in for a bar when nothing is shown."""
+
+    n = 0
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+
+    def close(self) -> None:
+        pass
+
+
+class Reporter:
+    """Where progress goes: ``stream`` (default stderr), TTY or log style, or nothing.
+
+    Parameters
+    ----------
+    stream : text stream for stages and bars (default ``sys.stderr``)
+    quiet : print nothing
+    verbose : also print :meth:`detail` lines
+    tty : force terminal (True) or log (False) style; default ``stream.isatty()``
+    log_interval_s : minimum time [s] between two plain lines of a bar in log style
+    """
+
+    def __init__(self, stream: TextIO | None = None, *, quiet: bool = False, verbose: bool = False,
+                 tty: bool | None = None, log_interval_s: float = 10.0):
+        self.stream = sys.stderr if stream is None else stream
+        self.quiet, self.verbose = quiet, verbose
+        if tty is None:
+            isatty = getattr(self.stream, "isatty", None)
+            tty = bool(isatty()) if isatty else False
+        self.tty = tty
+        self.log_interval_s = log_interval_s
+        self.compile_noticed = False
+        self._lock = threading.Lock()
+
+    def line(self, text: str) -> None:
+        """Print one line (above any bar being drawn)."""
+        if self.quiet:
+            return
+        from tqdm import tqdm
+
+        with self._lock:
+            tqdm.write(text, file=self.stream)
+            self.stream.flush()
+
+    def stage(self, text: str) -> None:
+        """Announce a stage of the work: ``rfsim: <text>``."""
+        self.line(f"rfsim: {text}")
+
+    def detail(self, text: str) -> None:
+        """A line shown only with ``verbose``."""
+        if self.verbose:
+            self.line(f"rfsim: {text}")
+
+    def bar(self, total: int | None, *, desc: str, unit: str, initial: int = 0):
+        """A tqdm bar of ``total`` steps (``unit`` names them), or a silent stand-in."""
+        if self.quiet:
+            return _NullBar()
+        from tqdm import tqdm
+
+        if self.tty:
+            return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=self.stream,
+                        mininterval=0.2, leave=True, bar_format=TTY_FORMAT,
+                        nrows=100)  # a terminal that reports 0 rows would otherwise hide the bar
+        return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=_LineWriter(self.stream),
+                    mininterval=self.log_interval_s, maxinterval=float("inf"), ascii=True,
+                    leave=True, bar_format=LOG_FORMAT)
+
+    def compile_started(self) -> None:
+        """Called on a numba compilation; prints :data:`COMPILE_NOTICE` the first time."""
+        if not self.compile_noticed:
+            self.compile_noticed = True
+            self.stage(COMPILE_NOTICE)
+
+
+def current() -> Reporter | None:
+    """The active reporter, or None."""
+    return _CURRENT.get()
+
+
+def stage(text: str) -> None:
+    """Announce a stage on the active reporter (nothing if none is active)."""
+    rep = _CURRENT.get()
+    if rep is not None:
+        rep.stage(text)
+
+
+def track(iterable: Iterable[T], *, total: int | None = None, desc: str, unit: str = "trials") -> Iterator[T]:
+    """Iterate over ``iterable``, advancing a bar of ``total`` (default ``len(iterable)``) steps.
+
+    Without an active reporter this is the plain iteration. Progress is counted when an item
+    is yielded, so a pool's ordered ``map`` shows the finished tasks.
+    """
+    rep = _CURRENT.get()
+    if rep is None:
+        yield from iterable
+        return
+    if total is None:
+        try:
+            total = len(iterable)  # type: ignore[arg-type]
+        except TypeError:
+            total = None
+    bar = rep.bar(total, desc=desc, unit=unit)
+    try:
+        for item in iterable:
+            yield item
+            bar.update(1)
+    finally:
+        bar.close()
+
+
+_LISTENER: list = []
+
+
+def _install_compile_listener() -> None:
+    """Register (once) a numba ``numba:compile`` listener that tells the active reporter.
+
+    numba fires this event only for a real compilation, after a cache lookup failed
+    (``numba.core.dispatcher.Dispatcher.compile``), so a cached kernel prints nothing.
+    """
+    if _LISTENER:
+        return
+    from numba.core import event
+
+    class CompileListener(event.Listener):
+        def on_start(self, ev: Any) -> None:
+            rep = _CURRENT.get()
+            if rep is not None:
+                rep.compile_started()
+
+        def on_end(self, ev: Any) -> None:
+            pass
+
+    listener = CompileListener()
+    event.register("numba:compile", listener)
+    _LISTENER.append(listener)
+
+
+@contextlib.contextmanager
+def reporting(reporter: Reporter) -> Iterator[Reporter]:
+    """Make ``reporter`` the active one inside the ``with`` block (and watch numba compiles)."""
+    _install_compile_listener()
+    token = _CURRENT.set(reporter)
+    try:
+        yield reporter
+    finally:
+        _CURRENT.reset(token)
+
+
+__all__ = ["Reporter", "reporting", "current", "stage", "track", "COMPILE_NOTICE", "LOG_FORMAT",
+           "TTY_FORMAT"]

@@ -1,0 +1,117 @@
+"""Figures of the ``rss-localization`` scenario: floor plan with readers, walls, reference tags
+and true/estimated tracks; error CDF per estimator; RMSE vs σ0 beside the thesis's values."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from rfsim.dataset import read_table
+from rfsim.plots import figure_path, pyplot, save_figure
+
+
+def _attrs(path: Path) -> dict:
+    with h5py.File(path, "r") as f:
+        return {k: f.attrs[k] for k in f.attrs}
+
+
+def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
+    """Readers, walls, cells, reference tags and the first tracks of the first mobile case."""
+    plt = pyplot()
+    a = _attrs(path)
+    est = read_table(path, "estimates")
+    fig, ax = plt.subplots(figsize=(8, 6))
+    x0, y0, x1, y1 = a["bounds_m"]
+    ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
+    for w in np.atleast_2d(a["walls_xy"]):
+        if w.size:
+            ax.plot(w[[0, 2]], w[[1, 3]], color="brown", lw=4, label="wall")
+    cells = np.atleast_2d(a["cells_xy"])
+    ax.plot(cells[:, 0], cells[:, 1], ".", color="0.6", label="grid cells")
+    r = np.atleast_2d(a["readers_xy"])
+    ax.plot(r[:, 0], r[:, 1], "s", ms=10, color="tab:red", label="readers")
+    ref = np.atleast_2d(a["reference_xy"])
+    if ref.size:
+        ax.plot(ref[:, 0], ref[:, 1], "^", ms=9, color="tab:purple", label="reference tags")
+    mobile = est["motion"] == "mobile"
+    sel = mobile if mobile.any() else np.ones_like(mobile)
+    case = est["case"][sel][0]
+    names = list(dict.fromkeys(est["estimator"][sel & (est["case"] == case)]))
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for tr in range(n_tracks):
+        m = (est["case"] == case) & (est["trial"] == tr)
+        first = m & (est["estimator"] == names[0])
+        ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5,
+                label="true track" if tr == 0 else None)
+        for i, name in enumerate(names[::max(1, len(names) // 4)][:4]):
+            mm = m & (est["estimator"] == name) & np.isfinite(est["x_est_m"])
+            ax.plot(est["x_est_m"][mm], est["y_est_m"][mm], "--.", color=colors[(i + 1) % len(colors)],
+                    lw=1, label=name if tr == 0 else None)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"{a['preset']}: readers, walls, true and estimated tracks")
+    handles, labels = ax.get_legend_handles_labels()
+    uniq = dict(zip(labels, handles))
+    ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    return save_figure(fig, out)
+
+
+def plot_error_cdf(path: Path, out: Path) -> Path:
+    """Empirical CDF of the scored errors per estimator and motion (σ0 closest to 5.2 dB)."""
+    plt = pyplot()
+    est = read_table(path, "estimates")
+    s = est["sigma0_db"]
+    target = s[np.isfinite(s)][np.argmin(np.abs(s[np.isfinite(s)] - 5.2))] if np.isfinite(s).any() else np.nan
+    motions = list(dict.fromkeys(est["motion"]))
+    fig, axes = plt.subplots(1, len(motions), figsize=(5 * len(motions), 4), squeeze=False)
+    for ax, motion in zip(axes[0], motions):
+        m = (est["motion"] == motion) & est["scored"] & ((s == target) | ~np.isfinite(s))
+        for name in dict.fromkeys(est["estimator"][m]):
+            e = np.sort(est["error_m"][m & (est["estimator"] == name)])
+            ax.plot(e, np.arange(1, e.size + 1) / e.size, label=name)
+        ax.set_xlabel("localization error [m]")
+        ax.set_ylabel("CDF")
+        ax.set_title(f"{motion} target" + (f", σ0 = {target:g} dB" if np.isfinite(target) else ""))
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    return save_figure(fig, out)
+
+
+def plot_rmse_vs_sigma(path: Path, out: Path) -> Path:
+    """RMSE vs σ0 per estimator and motion (lines) beside the thesis's values (crosses), with the
+    corrected CRLB; for the home replica, a bar chart of RMSE beside the published RMSE."""
+    plt = pyplot()
+    sm = read_table(path, "summary")
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    if np.isfinite(sm["sigma0_db"]).any():
+        colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+        keys = list(dict.fromkeys(zip(sm["estimator"], sm["motion"])))
+        for i, (name, motion) in enumerate(keys):
+            m = (sm["estimator"] == name) & (sm["motion"] == motion)
+            c = colors[i % len(colors)]
+            ax.plot(sm["sigma0_db"][m], sm["rmse_m"][m], "-o", color=c, label=f"{name} ({motion})")
+            ax.plot(sm["sigma0_db"][m], sm["published_rmse_m"][m], "x", ms=9, mew=2, color=c)
+        ax.set_xlabel("σ0 [dB]")
+        ax.set_ylabel("RMSE [m]")
+        ax.set_title("RMSE vs σ0: simulated (lines) and thesis (crosses)")
+    else:
+        labels = [f"{n}\n({m})" for n, m in zip(sm["estimator"], sm["motion"])]
+        x = np.arange(len(labels))
+        ax.bar(x - 0.2, sm["rmse_m"], 0.4, label="simulated")
+        ax.bar(x + 0.2, sm["published_rmse_m"], 0.4, label="thesis")
+        ax.set_xticks(x, labels, rotation=60, fontsize=6)
+        ax.set_ylabel("RMSE [m]")
+        ax.set_title("home replica: RMSE beside the thesis")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7)
+    return save_figure(fig, out)
+
+
+def plot_all(path: Path, out_dir: Path) -> list[Path]:
+    """The three figures, named after the dataset's stem (``x.h5`` → ``x-floorplan.png`` …)."""
+    return [plot_floor_plan(path, figure_path(path, out_dir, "floorplan")),
+            plot_error_cdf(path, figure_path(path, out_dir, "cdf")),
+            plot_rmse_vs_sigma(path, figure_path(path, out_dir, "rmse"))]

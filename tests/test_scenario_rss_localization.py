@@ -1,0 +1,204 @@
+"""Scenario rss-localization: the thesis's tables reproduced within the spec's tolerances
+(wave2-specs.md §R) plus a Monte-Carlo margin from the trial count, dataset layout, seeds and
+one-line errors for bad input."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from rfsim.cli import main
+from rfsim.config import from_dict
+from scenarios import rss_localization as rl
+
+
+def _run(seed=7, **overrides):
+    return rl.run(from_dict(rl.Config, overrides), seed=seed)
+
+
+def _table(ds, name):
+    return {k: c.data for k, c in ds.tables[name].items()}
+
+
+def _rmse_and_se(est, name, motion, sigma0=None):
+    """RMSE of the scored errors and its standard error, clustered by trial (steps of one
+    track are correlated): SE(RMSE) = SE(mean e²)/(2·RMSE), SE(mean e²) from per-trial means."""
+    m = (est["estimator"] == name) & (est["motion"] == motion) & est["scored"]
+    if sigma0 is not None:
+        m &= np.isclose(est["sigma0_db"], sigma0)
+    e2 = est["error_m"][m] ** 2
+    trials = est["trial"][m]
+    per = np.bincount(trials, weights=e2) / np.maximum(np.bincount(trials), 1)
+    per = per[np.bincount(trials) > 0]
+    rmse = np.sqrt(e2.mean())
+    return rmse, per.std(ddof=1) / np.sqrt(per.size) / (2 * rmse)
+
+
+def test_nn_table_7_3_within_10_percent_and_monotone():
+    """NN k = 4, 3 readers, σ0 = 3/5.2/7/9 dB (Table 7.3, L1214–L1218): 1.38/1.95/2.29/2.57 m,
+    ±10 % (spec) + 3 SE of 1500 trials."""
+    ds = _run(estimators=["nn"], motions=["fixed"], trials=1500)
+    est = _table(ds, "estimates")
+    published = {3.0: 1.38, 5.2: 1.95, 7.0: 2.29, 9.0: 2.57}
+    got = []
+    for s, p in published.items():
+        rmse, se = _rmse_and_se(est, "nn", "fixed", s)
+        got.append(rmse)
+        assert abs(rmse - p) <= 0.10 * p + 3 * se, (s, rmse, p)
+    assert np.all(np.diff(got) > 0)
+    sm = _table(ds, "summary")
+    np.testing.assert_allclose(sm["published_rmse_m"], list(published.values()))
+
+
+def test_shared_noise_term_does_not_reproduce_table_7_3():
+    """Why the noise is independent per reader: one term shared by all readers (the literal
+    "noise on the target's transmit power") gives ≈ 1.6 m at σ0 = 5.2 dB, 20 % below the
+    published 1.95 m — outside the ±10 % that the independent model meets (1000 trials)."""
+    ds = _run(estimators=["nn"], motions=["fixed"], sigma0_db=[5.2], trials=1000,
+              shadowing={"readers": "shared"})
+    rmse, se = _rmse_and_se(_table(ds, "estimates"), "nn", "fixed")
+    assert rmse + 3 * se < 0.9 * 1.95
+
+
+@pytest.mark.parametrize("preset, readers, k, published", [
+    ("sim-5x8", 4, 4, 1.74),       # Table 7.2
+    ("sim-10x16", 3, 68, 3.73),    # Table 7.6
+    ("sim-10x16", 4, 68, 3.39),
+])
+def test_nn_reader_count_and_large_room(preset, readers, k, published):
+    """NN at σ0 = 5.2 dB with 4 readers and in the 10 × 16 m room: ±10 % + 3 SE of 600 trials."""
+    ds = _run(preset=preset, n_readers=readers, nn_k=k, estimators=["nn"], motions=["fixed"],
+              sigma0_db=[5.2], trials=600)
+    rmse, se = _rmse_and_se(_table(ds, "estimates"), "nn", "fixed")
+    assert abs(rmse - published) <= 0.10 * published + 3 * se
+
+
+@pytest.mark.parametrize("family, trials, fixed_pub, fixed_tol, mobile_pub, mobile_tol", [
+    ("grid", 600, 1.83, 0.10, 1.22, 0.15),   # Tables 7.11, 7.10 (D = 0.5 m, rt = 10)
+    ("pf", 400, 2.00, 0.15, 1.14, 0.15),     # Tables 7.15, 7.16 (N = 250)
+])
+def test_bayesian_filters_fixed_and_mobile_at_5_2_db(family, trials, fixed_pub, fixed_tol, mobile_pub,
+                                                      mobile_tol):
+    """Grid Bayes and SIR at σ = σ0 = 5.2 dB, MMSE: fixed and mobile RMSE within the spec's
+    tolerance + 3 SE of the trials; fixed > mobile; MMSE < MAP (Tables 7.7 and 7.14: 1.22 vs
+    1.40, 1.14 vs 2.06)."""
+    ds = _run(estimators=[family], sigma0_db=[5.2], trials=trials)
+    est = _table(ds, "estimates")
+    fixed, se_f = _rmse_and_se(est, f"{family}-mmse", "fixed")
+    mobile, se_m = _rmse_and_se(est, f"{family}-mmse", "mobile")
+    assert abs(fixed - fixed_pub) <= fixed_tol * fixed_pub + 3 * se_f
+    assert abs(mobile - mobile_pub) <= mobile_tol * mobile_pub + 3 * se_m
+    assert fixed > mobile
+    assert _rmse_and_se(est, f"{family}-map", "mobile")[0] > mobile + se_m
+
+
+def test_offline_fit_recovers_table_6_1_and_waf():
+    """Offline campaign (400 reads per distance at 1–3 m, Sec. 6.1): α ±1 dB, n ±0.1, σ and
+    WAF = 2 dB within 4 standard errors of 2000 / 2 × 400 reads."""
+    ds = _run(preset="home-2room", trials=1, motions=["mobile"], particles=50)
+    cal = _table(ds, "calibration")
+    off = cal["kind"] == "offline"
+    table_6_1 = np.array([(-42.0, 2.3, 5.3), (-52.0, 2.3, 5.2), (-45.0, 2.5, 5.0)])
+    assert off.sum() == 3
+    np.testing.assert_allclose(cal["alpha_dbm"][off], table_6_1[:, 0], atol=1.0)
+    np.testing.assert_allclose(cal["exponent"][off], table_6_1[:, 1], atol=0.1)
+    sig = table_6_1[:, 2]
+    assert np.all(np.abs(cal["sigma_db"][off] - sig) < 4 * sig / np.sqrt(2 * 2000))
+    assert np.all(np.abs(cal["waf_db"][off] - 2.0) < 4 * sig * np.sqrt(2 / 400))
+    online = cal["kind"] == "online"
+    assert online.any() and np.all((cal["alpha_dbm"][online] >= -55) & (cal["alpha_dbm"][online] <= -40))
+
+
+def test_dataset_layout_and_reproducibility():
+    ds = _run(estimators=["nn", "grid"], sigma0_db=[5.2], trials=6)
+    for name in ("beacons", "rssi_wide", "estimates", "summary"):
+        assert name in ds.tables
+    b = _table(ds, "beacons")
+    assert b["epc"][0] == "300000000000000000000001" and len(b["epc"][0]) == 24
+    assert set(np.unique(b["reader"])) == {1, 2, 3}
+    w = _table(ds, "rssi_wide")
+    assert {"rssi_r1_dbm", "rssi_r2_dbm", "rssi_r3_dbm", "x_m", "y_m"} <= set(w)
+    again = _table(_run(estimators=["nn", "grid"], sigma0_db=[5.2], trials=6), "estimates")
+    np.testing.assert_array_equal(_table(ds, "estimates")["x_est_m"], again["x_est_m"])
+    other = _table(_run(seed=8, estimators=["nn", "grid"], sigma0_db=[5.2], trials=6), "estimates")
+    assert not np.array_equal(other["x_est_m"], again["x_est_m"])
+    # trial streams are keyed by index: the first 3 trials do not depend on how many run
+    few = _table(_run(estimators=["nn"], sigma0_db=[5.2], trials=3), "rssi_wide")
+    sel_few = (few["case"] == 0) & (few["step"] == 0)
+    sel = (w["case"] == 0) & (w["trial"] < 3) & (w["step"] == 0)
+    assert sel_few.sum() == sel.sum() == 3
+    np.testing.assert_array_equal(few["rssi_r1_dbm"][sel_few], w["rssi_r1_dbm"][sel])
+
+
+def test_figures_are_written(tmp_path):
+    out = tmp_path / "out"
+    assert main(["run", "rss-localization", "--out-dir", str(out), "--set", "trials=5",
+                 "--set", "sigma0_db=[3.0, 5.2]"]) == 0
+    names = sorted(p.name for p in out.glob("*.png"))
+    assert names == ["rss-localization-cdf.png", "rss-localization-floorplan.png",
+                     "rss-localization-rmse.png"]
+    xr = pytest.importorskip("xarray")
+    with xr.open_dataset(out / "rss-localization.h5", engine="h5netcdf", group="beacons") as b:
+        assert b["epc"].values[0] == "300000000000000000000001"
+        assert b["t_us"].values.max() == 9_000_000      # rt = 10 recursions at 5.2 dB, 1 beacon/s
+
+
+@pytest.mark.parametrize("setting, fragment", [
+    ("readers_xy=[[6.0, 1.0], [0.0, 0.0]]", "readers_xy[0]"),
+    ("walls_xy=[[1.0, 1.0, 1.0, 1.0]]", "walls_xy[0]"),
+    ("sigma0_db=[-1.0]", "sigma0_db[0]"),
+    ("nn_k=29", "nn_k"),
+    ("readers_xy=[]", "readers_xy"),
+    ("rss_model=waveform", "rss_model"),
+])
+def test_bad_input_is_one_line_exit_2(setting, fragment, capsys, tmp_path):
+    assert main(["run", "rss-localization", "--out-dir", str(tmp_path), "--set", setting]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("rfsim: error: ") and fragment in err
+    assert not list(tmp_path.glob("*.h5"))
+
+
+@pytest.mark.slow
+def test_table_7_3_reproduction_4000_trials_within_30_s():
+    """4 σ0 × 4000 trials, NN + grid Bayes (fixed target) in ≤ 30 s wall; NN within ±10 %."""
+    t0 = time.perf_counter()
+    ds = _run(estimators=["nn", "grid"], motions=["fixed"], trials=4000)
+    wall = time.perf_counter() - t0
+    est = _table(ds, "estimates")
+    for s, p in {3.0: 1.38, 5.2: 1.95, 7.0: 2.29, 9.0: 2.57}.items():
+        rmse, se = _rmse_and_se(est, "nn", "fixed", s)
+        assert abs(rmse - p) <= 0.10 * p + 3 * se
+    for s, p in {3.0: 1.36, 5.2: 1.83, 7.0: 2.07, 9.0: 2.34}.items():
+        rmse, se = _rmse_and_se(est, "grid-mmse", "fixed", s)
+        assert abs(rmse - p) <= 0.10 * p + 3 * se
+    assert wall <= 30.0, wall
+
+
+@pytest.mark.slow
+def test_grid_and_sir_sigma_sweeps():
+    """Grid fixed/mobile (Tables 7.11/7.10) and SIR fixed/mobile (7.15/7.16) over σ0 = 3…9 dB
+    within ±15 % + 3 SE of 1000 trials (fixed grid ±10 %)."""
+    ds = _run(estimators=["grid", "pf"], trials=1000)
+    est = _table(ds, "estimates")
+    tables = {("grid-mmse", "fixed"): ({3.0: 1.36, 5.2: 1.83, 7.0: 2.07, 9.0: 2.34}, 0.10),
+              ("grid-mmse", "mobile"): ({3.0: 0.97, 5.2: 1.22, 7.0: 1.34, 9.0: 1.51}, 0.15),
+              ("pf-mmse", "fixed"): ({3.0: 1.48, 5.2: 2.00, 7.0: 2.38, 9.0: 2.55}, 0.15),
+              ("pf-mmse", "mobile"): ({3.0: 0.97, 5.2: 1.14, 7.0: 1.38, 9.0: 1.45}, 0.15)}
+    for (name, motion), (values, tol) in tables.items():
+        for s, p in values.items():
+            rmse, se = _rmse_and_se(est, name, motion, s)
+            assert abs(rmse - p) <= tol * p + 3 * se, (name, motion, s, rmse, p)
+
+
+@pytest.mark.slow
+def test_home_replica_mobile_ordering():
+    """Home replica, mobile target (Table 7.42): grid + smoothing < grid + auto σ < grid <
+    online NN < offline NN, and improved SIR < grid (800 scored estimates each)."""
+    ds = _run(preset="home-2room", motions=["mobile"], trials=4)
+    est = _table(ds, "estimates")
+    r = {n: _rmse_and_se(est, n, "mobile")[0] for n in np.unique(est["estimator"])}
+    chain = ["grid-smoothing", "grid-auto-sigma", "grid", "nn-online", "nn-offline"]
+    assert all(r[a] < r[b] for a, b in zip(chain, chain[1:])), r
+    assert r["pf-improved"] < r["grid"]

@@ -57,9 +57,14 @@ def param(
 
 
 def field_meta(f: dataclasses.Field) -> dict[str, Any]:
-    """The :func:`param` metadata of a field (empty defaults if declared plainly)."""
-    return f.metadata.get(_META_KEY, {"lo": None, "hi": None, "lo_open": False,
+    """The :func:`param` metadata of a field (empty defaults if declared plainly).
+
+    ``nonempty`` is true for a list field whose default is not empty: such a list may not
+    be set to ``[]`` (a list that may be empty has the default ``()``).
+    """
+    meta = f.metadata.get(_META_KEY, {"lo": None, "hi": None, "lo_open": False,
                                       "hi_open": False, "unit": "", "doc": ""})
+    return {**meta, "nonempty": isinstance(f.default, tuple) and len(f.default) > 0}
 
 
 # ----------------------------------------------------------------------------- checking
@@ -108,7 +113,7 @@ def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
         if not isinstance(value, (list, tuple)):
             raise ConfigError(key, value, f"a list of {_type_name(args[0])}")
         if len(args) == 2 and args[1] is Ellipsis:
-            if not value:
+            if not value and meta.get("nonempty"):
                 raise ConfigError(key, value, f"a non-empty list of {_type_name(args[0])}")
             items = [_coerce(f"{key}[{i}]", v, args[0], meta) for i, v in enumerate(value)]
         else:

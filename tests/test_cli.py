@@ -223,7 +223,7 @@ def test_a_figure_that_cannot_be_saved_keeps_the_dataset(tmp_path, monkeypatch, 
     def plot(path, out_dir):
         raise IsADirectoryError(21, "Is a directory")
     monkeypatch.setattr(gw, "plot", plot)
-    assert main(["run", "gen2-waveforms", "--set", "profiles=['fm0-640k']", "--out-dir", str(tmp_path)]) == 2
+    assert main(["run", "gen2-waveforms", "--set", "profiles=['fm0-640k']", "--out-dir", str(tmp_path), "-q"]) == 2
     assert_one_line_error(capsys.readouterr().err, "written, but a figure could not be saved")
     assert (tmp_path / "gen2-waveforms.h5").stat().st_size > 0
 

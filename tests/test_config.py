@@ -137,3 +137,11 @@ def test_check_value_checks_one_dotted_key():
         check_value(ToyConfig, "reader.ptx_dbm", 99)
     with pytest.raises(ConfigError, match="'reader.nope'"):
         check_value(ToyConfig, "reader.nope", 1)
+
+
+def test_a_list_that_is_empty_by_default_may_stay_empty():
+    @dataclass(frozen=True)
+    class Optional:
+        extra_m: tuple[float, ...] = param((), unit="m", doc="optional positions")
+
+    assert load_config(Optional, None, ["extra_m=[]"]).extra_m == ()

@@ -21,7 +21,7 @@ from channels.noise import complex_awgn, noise_power_from_density_w, thermal_noi
 from channels.paths import (PathSet, apply_backscatter, apply_paths, compose_backscatter,
                             concatenate, narrowband_error_bound, narrowband_rms_error,
                             propagation_method, NARROWBAND_TOLERANCE, PROPAGATION_METHODS)
-from channels.scene import Channel, Scene, kinematics, los_links
+from channels.scene import Channel, HeldLinks, Scene, kinematics, los_links
 from channels.small_scale import ApdpModel, average_profile, draw_taps, profile_statistics
 from channels.surfaces import Surface, fresnel_reflection, fresnel_transmission, image_paths
 
@@ -33,7 +33,7 @@ __all__ = [
     "PathSet", "apply_paths", "apply_backscatter", "compose_backscatter", "concatenate",
     "narrowband_error_bound", "narrowband_rms_error", "propagation_method", "NARROWBAND_TOLERANCE",
     "PROPAGATION_METHODS",
-    "Scene", "Channel", "los_links", "kinematics", "draw_links", "BulkPaths",
+    "Scene", "Channel", "HeldLinks", "los_links", "kinematics", "draw_links", "BulkPaths",
     "ApdpModel", "average_profile", "draw_taps", "profile_statistics",
     "Surface", "fresnel_reflection", "fresnel_transmission", "image_paths",
 ]

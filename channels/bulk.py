@@ -51,13 +51,13 @@ from rfsim.units import C_M_S
 
 from .antennas import Antenna, Isotropic, polarization_mismatch_factor
 from .large_scale import wall_loss_db
-from .paths import PathSet
+from .paths import NARROWBAND_TOLERANCE, PROPAGATION_METHODS, PathSet
 from .small_scale import binned_tail
 
 #: Links per block (bounds the temporaries of the image-path geometry).
 _BLOCK = 8192
 
-__all__ = ["BulkPaths", "draw_links", "diffuse_profile", "diffuse_template", "surface_sequences"]
+__all__ = ["BulkPaths", "BatchLink", "draw_links", "diffuse_profile", "diffuse_template", "surface_sequences"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +108,79 @@ class BulkPaths:
         keep = self.valid[i]
         dop = None if self.doppler_hz is None else self.doppler_hz[i, keep]
         return PathSet(self.gain[i, keep], self.delay_s[i, keep], dop)
+
+    def narrowband_rms_error(self, bandwidth_hz: float) -> np.ndarray:
+        """(n,) float64: :func:`channels.paths.narrowband_rms_error` of every link, at once.
+
+        √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²) per link, τ0 its earliest valid delay, padded
+        slots excluded (gain 0); 0 for a link without power.
+        """
+        p = np.abs(self.gain) ** 2
+        tau0 = np.where(self.valid, self.delay_s, np.inf).min(axis=1, keepdims=True)
+        rel = 2.0 * np.pi * float(bandwidth_hz) * np.where(self.valid, self.delay_s - tau0, 0.0)
+        total = p.sum(axis=1)
+        return np.sqrt((p * rel**2).sum(axis=1) / np.where(total > 0, total, 1.0))
+
+    def batch_link(self, shape: tuple[int, ...]) -> "BatchLink":
+        """The n links as one link of the air interface (:mod:`rfsim.air`) over a batch of
+        ``shape`` (n = prod(shape)): row-major, link i is batch element ``unravel(i, shape)``."""
+        return BatchLink(self, tuple(int(s) for s in shape))
+
+
+class BatchLink:
+    """n narrowband static links as one link of a batched air step (:func:`rfsim.air.propagate`).
+
+    The step multiplies a segment (…, n_samples) by :meth:`constant_gain`, a (*shape, 1) array
+    of the links' narrowband gains Σ_p g·e^{−j2π·fc·τ} (:meth:`BulkPaths.narrowband_gain`),
+    which gives the (*shape, n_samples) batch of every link's output at once. The
+    narrowband decision is the one rule of :func:`channels.paths.propagation_method` applied to
+    every link: "narrowband" iff the largest :meth:`BulkPaths.narrowband_rms_error` is at most
+    :data:`channels.paths.NARROWBAND_TOLERANCE` (:meth:`narrowband_error`). Only the
+    narrowband method is offered (:meth:`apply` raises otherwise).
+    """
+
+    def __init__(self, paths: BulkPaths, shape: tuple[int, ...]):
+        if int(np.prod(shape)) != paths.n_links:
+            raise ValueError(f"batch shape {shape} does not hold {paths.n_links} links")
+        self.paths, self.shape = paths, shape
+        self._max_error: dict[float, float] = {}
+        self._gain: dict[float, np.ndarray] = {}
+
+    def narrowband_error(self, bandwidth_hz: float) -> float:
+        """Largest :meth:`BulkPaths.narrowband_rms_error` over the links (0 without links)."""
+        b = float(bandwidth_hz)
+        if b not in self._max_error:
+            err = self.paths.narrowband_rms_error(b)
+            self._max_error[b] = float(err.max()) if err.size else 0.0
+        return self._max_error[b]
+
+    @property
+    def static(self) -> bool:
+        """No path has a Doppler shift."""
+        return self.paths.doppler_hz is None or not np.any(self.paths.doppler_hz)
+
+    def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
+        """"narrowband" or "exact" for all links together (class docstring)."""
+        if propagation not in PROPAGATION_METHODS:
+            raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
+        if propagation != "auto":
+            return propagation
+        return "narrowband" if self.narrowband_error(bandwidth_hz) <= NARROWBAND_TOLERANCE else "exact"
+
+    def constant_gain(self, fc_hz: float) -> np.ndarray:
+        """(*shape, 1) complex128 narrowband gains at ``fc_hz`` (computed once per carrier; read-only)."""
+        f = float(fc_hz)
+        g = self._gain.get(f)
+        if g is None:
+            g = self.paths.narrowband_gain(f).reshape(self.shape + (1,))
+            g.setflags(write=False)
+            self._gain[f] = g
+        return g
+
+    def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact"):
+        raise ValueError(f"a batch of bulk links is applied narrowband only (asked for {method!r}): "
+                         f"the largest narrowband error is {max(self._max_error.values(), default=float('nan')):.3g} "
+                         f"> {NARROWBAND_TOLERANCE}")
 
 
 def surface_sequences(n_surfaces: int, order: int) -> list[tuple]:

@@ -46,7 +46,7 @@ from .paths import PathSet
 from .small_scale import ApdpModel, draw_taps
 from .surfaces import image_paths
 
-__all__ = ["Scene", "Channel", "los_links", "kinematics"]
+__all__ = ["Scene", "Channel", "HeldLinks", "los_links", "kinematics"]
 
 #: Half-step [s] of the central difference giving a trajectory's velocity.
 _TRAJ_DT_S = 1e-6
@@ -306,6 +306,29 @@ class Channel:
         r_motion = emitter_motion if receiver is None else receiver_motion
         bwd = self.link(tag, rcv, fc_hz=fc_hz, rng=rng, t_s=t_s, tx_motion=tag_motion, rx_motion=r_motion)
         return fwd, bwd
+
+
+class HeldLinks:
+    """Links already drawn, by antenna pair: the channel side (``Links``) of an air step
+    (:func:`rfsim.air.propagate`) over a held channel state.
+
+    Parameters
+    ----------
+    pairs : iterable of ``(tx_antenna, rx_antenna, paths)``; ``paths`` is a
+        :class:`~channels.paths.PathSet` or a batched link (:class:`channels.bulk.BatchLink`)
+
+    :meth:`paths` returns the link of a pair (matched by antenna identity, whatever the carrier
+    and time: the draw is held), or None for a pair it does not hold.
+    """
+
+    def __init__(self, pairs=()):
+        self._pairs: dict = {}
+        for tx, rx, p in pairs:
+            self._pairs[(id(tx), id(rx))] = (tx, rx, p)  # the antennas are kept alive with their ids
+
+    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        hit = self._pairs.get((id(tx), id(rx)))
+        return None if hit is None else hit[2]
 
 
 def los_links(tx_positions_m, rx_positions_m, fc_hz, *, large_scale=None, walls=(), tx_antenna=None,

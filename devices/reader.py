@@ -116,6 +116,9 @@ class ReaderConfig:
             profile(self.link_profile)
         except ConfigError as err:
             raise ConfigError("link_profile", err.value, err.allowed) from None
+        # The carrier plan is checked when the config is made, so a bad carrier stops a run
+        # before anything is simulated (one-line ConfigError on reader.region / reader.channels_hz).
+        frequency_plan(self.region, self.channels_hz)
 
 
 @dataclass(frozen=True)

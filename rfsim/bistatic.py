@@ -28,7 +28,6 @@ when ``rng`` is given, the held draw otherwise; :class:`rfsim.air.LinkTable`).
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Sequence
 from typing import Any
 

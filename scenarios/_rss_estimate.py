@@ -202,7 +202,6 @@ class Tables:
     def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m,
                  reference_xy):
         b, t, j = data.reported_dbm.shape
-        n_ref = data.ref_reported_dbm.shape[-1]
         tr, st = np.meshgrid(np.arange(b), np.arange(t), indexing="ij")
         if beacons:
             rss = np.concatenate([data.rss_dbm[..., None], data.ref_rss_dbm], axis=-1)        # (B,T,J,1+I)

@@ -30,13 +30,14 @@ One sample = one sample-level Query round with a fresh channel draw and a random
 channel (FCC plan, the reader's random hop table): the reader sends a Query (Q = 0, link
 profile ``pass-miller2-48k`` at 1 MS/s, as the source's PASS runs); the tag receives it
 through its forward link, decodes it and answers its RN16 with Γ(t)
-(:class:`devices.tag.PassiveTag`); the ST antennas receive the reader's segment and the
-tag's re-radiated field (A_s − Γ(t))·incident (:func:`rfsim.bistatic.listen_exchange`),
-the ST receive chain (linear detector, band-pass, 5 mV comparator, Miller decoder) runs from
-the end of the command and the outcome ``st_detected`` is "the ST decoded the tag's RN16 exactly". The
-reader decodes the same reply through the reciprocal backward link with TX leakage and
-receiver noise (``reader_detected``: RN16 bits exact, as :func:`rfsim.engine.run_exchange`
-judges them). No noise at the ST (the source's threshold decides, as in
+(:class:`devices.tag.PassiveTag`). One step of the air interface (:func:`rfsim.air.propagate`)
+carries the round: the ST antennas receive the reader's segment and the tag's re-radiated
+field (A_s − Γ(t))·incident, the ST receive chain (linear detector, band-pass, 5 mV
+comparator, Miller decoder) runs from the end of the command and the outcome ``st_detected``
+is "the ST decoded the tag's RN16 exactly". In the same step the reader's port
+(:class:`rfsim.engine.ReaderPort`) hears the reply through the reciprocal backward link with
+TX leakage and receiver noise (``reader_detected``: RN16 bits exact, as
+:func:`rfsim.engine.run_exchange` judges them). No noise at the ST (the source's threshold decides, as in
 ``phase-cancellation``).
 
 Features (:func:`rfsim.detection.st_features`): D = |tag − antenna|, d = |ST − tag|,
@@ -73,14 +74,13 @@ from typing import Literal
 import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
-from channels.antennas import vertical_dipole as st_antenna
-from channels.paths import apply_paths, propagation_method
+from channels.antennas import vertical_dipole
 from devices import st_analytic as sa
 from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna_positions)
+from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
+                                 make_receiver, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
-from rfsim.bistatic import listen_exchange
+from rfsim.air import AntennaPort, FixedEmitter, LinkTable, propagate
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
@@ -88,7 +88,8 @@ from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFI
                              predict_proba, rts_design, st_features, ts_design)
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
-from rfsim.gen2.link import t1
+from rfsim.engine import ReaderPort
+from rfsim.gen2.link import reply_window_s, t1
 from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
@@ -196,39 +197,36 @@ def draw_geometry(g: GeometryConfig, *, rng: np.random.Generator):
 
 
 def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
-    """One Query round for sample ``index`` (module docstring): geometry, outcomes, features."""
+    """One Query round for sample ``index`` (module docstring): geometry, outcomes, features.
+
+    One air step (:func:`rfsim.air.propagate`): the reader's segment, the tag, and as receivers
+    the reader's own port (TX→RX leakage, backscatter through the reciprocal forward link,
+    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise)."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
     ra = reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
     tag = PassiveTag(config.tag, tag_antenna(tag_pos), rng=trial_rng(seed, index, 2))
     sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
-    listeners = [st_antenna(p) for p in sa_pos]
     lk = reader.link
-    window = lk.reply_duration_s(16) + t1(lk).max_s + 3.0 * lk.tpri_s
-    channel = Channel(scene(g))
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    ex = listen_exchange(reader, [tag], channel, q, listeners, t_s=0.0, rng=trial_rng(seed, index, 3),
-                         cw_after_s=window)
-    tx, resp, inc = ex.tx, ex.responses[0], ex.incident[0]
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
     fs, fc = tx.fs_hz, tx.fc_hz
+    port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
+    listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
+    # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
+    links = LinkTable(Channel(scene(g)), rng=trial_rng(seed, index, 3), reciprocal=True)
+    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [port, *listeners], links, t0_s=0.0, fs_hz=fs,
+                    n_samples=tx.samples.size, rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz,
+                    decide=False)
+    resp = air.reflections[0]
     replied = resp.gamma is not None
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
-    # reader: leakage + backscatter through the reciprocal (held) forward link + noise
-    fwd = ex.forward_links[0]
-    scattered = resp.reradiation(inc.size) * inc  # (A_s − Γ(t))·incident
-    rx = reader.leakage_gain() * tx.samples + apply_paths(scattered, fs_hz=fs, fc_hz=fc, paths=fwd, t0_s=0.0,
-                                                          method=propagation_method(fwd, 2.0 * lk.blf_hz, "auto"))
-    nrng = trial_rng(seed, index, 4)
-    sigma = math.sqrt(reader.noise_power_w() / 2.0)
-    rx = rx + sigma * (nrng.standard_normal(rx.size) + 1j * nrng.standard_normal(rx.size))
     reader_ok = False
-    if replied:
-        i0 = int(math.ceil((tx.cmd_end_s + 0.5 * lk.tari_s) * fs))
-        read = reader.receive(rx[i0:], t0_s=i0 / fs, n_bits=16, expect_crc=False, cmd_end_s=tx.cmd_end_s,
-                              carrier=tx.samples[-1])
+    if replied:  # the reader decodes only when a tag replied, as run_exchange
+        read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-    det = _st_decode(config, ex, bits, fs)
+    det = _st_decode(config, np.array([seg.samples for seg in air.inputs[1:]]), tx, resp, bits)
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
     return dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                 st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
@@ -237,17 +235,18 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
                 tag_replied=replied, reader_detected=bool(reader_ok), **det)
 
 
-def _st_decode(config: Config, ex, bits, fs: float) -> dict:
-    """ST chains on SA2 (and SA1, SA1+SA2) from the end of the command; technique outcome."""
+def _st_decode(config: Config, inputs, tx, resp, bits) -> dict:
+    """ST chains on SA2 (and SA1, SA1+SA2) from the end of the command; technique outcome.
+
+    inputs : (k, n) complex128 [√W] ST antenna inputs on the reader segment's time base."""
     st = config.st
-    y = ex.inputs
-    i0 = int(math.ceil(ex.tx.cmd_end_s * fs)) + 1
-    y = y[:, i0:]
+    fs = tx.fs_hz
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+    y = inputs[:, i0:]
     two = st.n_antennas == 2
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
     if bits is None:
         return out
-    resp = ex.responses[0]
     rx = make_receiver(st, fs_hz=fs, blf_hz=resp.blf_hz, m=resp.m, trext=resp.trext)
     search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
     rows = {"sa2": y[-1:]}

@@ -32,7 +32,6 @@ from rfsim.gen2.commands import Query
 from rfsim.progress import track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
 
 NAME = "link"
 DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler, SNR and read success"

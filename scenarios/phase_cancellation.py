@@ -12,11 +12,16 @@ Sample level, per cell and repetition (one reader segment, as the source's runs)
 reader sends a Query (``pass-miller2-48k``: PR-ASK, Tari 25 µs, Miller-2, TRext, BLF 48 kHz)
 followed by CW; the tag receives it through its drawn forward link, decodes it and answers
 its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
-(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`). Per ST
-position only the links differ: with narrowband links (checked with the engine's criterion,
-:func:`channels.paths.narrowband_rms_error` ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`) the
-input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``, ``b_k`` the drawn
-reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The two backscatter
+(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`), in one
+step of the air interface (:func:`rfsim.air.propagate`) over the whole segment. Every ST
+antenna of the cell hears it at once (a batch of N positions × k antennas) in a second step
+over the ST window (from the end of the command on) with the tag's decided r(t) replayed:
+per ST position only the links differ, and with narrowband links (the one rule of
+:func:`channels.paths.propagation_method` applied to every link, :class:`channels.bulk.BatchLink`;
+a wideband link is an error, and the window step gives the same samples as the whole
+segment's) the input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``,
+``b_k`` the drawn reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The
+stamped frame is a third step on the same links with the stamp modulator's r(t). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
 (:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,
@@ -90,15 +95,15 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
+from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
 from channels.bulk import draw_links
+from channels.paths import NARROWBAND_TOLERANCE, narrowband_rms_error
 from channels.antennas import vertical_dipole as st_antenna
-from channels.paths import NARROWBAND_TOLERANCE, apply_paths, propagation_method
 from devices import st_analytic as sa
 from devices import st_receiver as sr
 from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, make_receiver,
-                                 st_antenna_positions)
+from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
+                                 make_receiver, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
@@ -106,7 +111,8 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import Query
-from rfsim.gen2.link import t1
+from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
+from rfsim.gen2.link import reply_window_s, t1
 from rfsim.progress import stage, track
 from scenarios import _phase_cancellation_columns as columns
 from rfsim.rng import trial_rng
@@ -244,20 +250,28 @@ def _tag_antenna(x_m: float, g: GeometryConfig) -> Antenna:
 
 @dataclass(frozen=True, eq=False)
 class Exchange:
-    """Waveforms common to all ST positions of one (cell, repetition), from the command end on.
+    """One (cell, repetition) through the air step, from the command end on (the ST window).
 
-    x_tx, y_ask, y_stamp : (n,) complex128 [√W] reader segment, r(t)·incident of the RN16
-    reply, r_stamp(t)·incident of the stamped frame (r = A_s − Γ, the re-radiation factor);
-    levels, stamp_levels : (n,) true line-code levels; p_available_w, p_chip_w : CW power
-    available at the tag antenna and absorbed by the chip [W] (NaN unless 'measured'); frame : StampFrame (indices relative
-    to the window); i_ref : a CW sample inside the reply; rerad_b, rerad_a : re-radiated
-    states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits; replied : bool
+    x_tx, inc : (n,) complex128 [√W] reader segment and the field incident on the tag;
+    inputs : (N, k, n) complex128 [√W] input of every ST antenna (k = 2: SA1, SA2; k = 1: SA2)
+    during the RN16 reply (None when the tag did not reply); stamp_inputs : the same with the tag sending the stamped frame
+    (None unless k = 2 and the tag replied); a_gain, b_gain : (N, k) complex narrowband gains
+    reader→SA and tag→SA; narrowband_error : largest relative envelope error of the ST links
+    (:meth:`channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF); levels : (n,) true line-code
+    levels; frame : StampFrame (indices relative to the window) or None; i_ref : a CW sample
+    inside the reply; search : decoder search window [samples]; rerad_b, rerad_a : re-radiated
+    states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits or None;
+    p_available_w, p_chip_w : CW power available at the tag antenna and absorbed by the chip [W]
+    (NaN unless 'measured')
     """
 
     x_tx: np.ndarray
-    y_ask: np.ndarray
-    y_stamp: np.ndarray
     inc: np.ndarray
+    inputs: np.ndarray
+    stamp_inputs: np.ndarray | None
+    a_gain: np.ndarray
+    b_gain: np.ndarray
+    narrowband_error: float
     levels: np.ndarray
     frame: sr.StampFrame | None
     i_ref: int
@@ -274,53 +288,110 @@ class Exchange:
     p_chip_w: float
 
 
-def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple[int, ...]) -> Exchange:
-    """Reader Query segment → tag (forward link, PIE decode, RN16 as Γ(t), re-radiated as
-    (A_s − Γ(t))·incident) for one cell."""
+@dataclass(frozen=True, eq=False)
+class _STAntennas:
+    """The ST antennas of all N positions, (N, k, 3) [m]: one batched receiver of the air step."""
+
+    positions_m: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class _Replay:
+    """A reflector whose re-radiation factor r(t) is already decided (reflector and reflection
+    of the air step): the tag's reply replayed on the ST window, or the stamp transmitter —
+    the same tag re-radiating its stamped frame through the three-state modulator (S1 = r_B,
+    S2 = r_A, S3 = r_B·e^{jψ}; S1 outside the frame)."""
+
+    antenna: object
+    r: np.ndarray
+    scatters = True
+    constant_reradiation = None
+
+    def reflect(self, incident):
+        return self
+
+    def reradiation(self, n_samples: int) -> np.ndarray:
+        return self.r
+
+
+def _make_tag(config: Config, antenna, fc_hz: float, rng) -> PassiveTag:
+    ts = config.tag_states
+    if ts.model == "source":
+        # The source re-radiates Γ·incident (no structural term): its states are the
+        # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
+        # only; power-up keeps the tag config's chip model (the source's tag replies in
+        # every cell).
+        tag = PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng)
+        tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
+        return tag
+    if ts.model == "measured":
+        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
+        return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
+                          chip=chip_model(ts.characteristics_dir, round(fc_hz, 3), ts.power_margin_db))
+    return PassiveTag(config.tag, antenna, rng=rng)
+
+
+def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, index: tuple[int, ...],
+                      link_rng: np.random.Generator) -> Exchange:
+    """The air steps of a cell: reader Query segment → tag (forward link, PIE decode, RN16 as
+    Γ(t), re-radiated as (A_s − Γ(t))·incident); if it replied, the ST antennas at ``sa_pos``
+    ((N, k, 3) [m], their links drawn from ``link_rng``) hear it on the ST window, and with two
+    antennas the stamped frame too (module docstring)."""
     g = config.geometry
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, g)
     lk = reader.link
     stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
-    window = t1(lk).max_s + stamp_s + lk.reply_duration_s(16) + 4.0 * lk.tpri_s
+    # the RN16 reply window with room for the stamp before the reply and one Tpri more
+    window = reply_window_s(lk, 16) + stamp_s + lk.tpri_s
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
     fs, fc = tx.fs_hz, tx.fc_hz
-    ts = config.tag_states
-    tag_rng = trial_rng(seed, *index, 1)
-    if ts.model == "source":
-        # The source re-radiates Γ·incident (no structural term): its states are the
-        # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
-        # only; power-up keeps the tag config's chip model (the source's tag replies in
-        # every cell).
-        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=tag_rng)
-        tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
-    elif ts.model == "measured":
-        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        tag = PassiveTag(replace(config.tag, structural_mode=0.0), ta, rng=tag_rng,
-                         chip=chip_model(ts.characteristics_dir, round(fc, 3), ts.power_margin_db))
-    else:
-        tag = PassiveTag(config.tag, ta, rng=tag_rng)
+    tag = _make_tag(config, ta, fc, trial_rng(seed, *index, 1))
     fwd = draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
                      tx_antenna=ra, rx_antenna=ta).pathset(0)
-    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, 2 * lk.blf_hz, "auto"))
-    resp = tag.listen(inc, t0_s=0.0, fs_hz=fs)
+    sta = _STAntennas(np.asarray(sa_pos))
+    a_link, b_link = _st_links(config, fc, sta.positions_m, ta, link_rng)
+    links = HeldLinks([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
+    bw = 2.0 * lk.blf_hz
+    # 1. the tag decides on the whole segment
+    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [], links, t0_s=tx.t0_s, fs_hz=fs,
+                    n_samples=tx.samples.size, bandwidth_hz=bw)
+    inc, resp = air.incident[0].samples, air.reflections[0]
     op = tag.operating_point
     p_av, p_chip = (op.p_available_w, op.p_chip_w) if op is not None else (float("nan"), float("nan"))
-    i0 = int(math.ceil(tx.cmd_end_s * fs)) + 1
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
     a_s = resp.structural_mode
     r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
     search = int(math.ceil((t1(lk).max_s + 2 * lk.tpri_s) * fs))
-    common = dict(fs_hz=fs, fc_hz=fc, blf_hz=lk.blf_hz, m=lk.m, trext=lk.trext, p_available_w=p_av, p_chip_w=p_chip)
+    blf = resp.blf_hz if resp.gamma is not None else lk.blf_hz
+    err = max(a_link.narrowband_error(2.0 * blf), b_link.narrowband_error(2.0 * blf))
+    shape = sta.positions_m.shape[:2]
+    common = dict(a_gain=a_link.constant_gain(fc).reshape(shape), b_gain=b_link.constant_gain(fc).reshape(shape),
+                  narrowband_error=err, fs_hz=fs, fc_hz=fc, blf_hz=blf, m=lk.m, trext=lk.trext, p_available_w=p_av,
+                  p_chip_w=p_chip)
     if resp.gamma is None:
         # no reply: the tag keeps reflecting its unmodulated state (PASS: unmodulated
-        # reflection), both "states" are r_A and nothing is detectable
-        zero = np.zeros(n)
-        return Exchange(x_tx, r_a * inc_w, r_a * inc_w, inc_w, zero, None, n // 2, search, r_a, r_a, None, **common)
-    rerad = resp.reradiation(inc.size)[i0:]
+        # reflection), both "states" are r_A and nothing is detectable (no ST step needed)
+        return Exchange(x_tx, inc_w, None, None, levels=np.zeros(n), frame=None, i_ref=n // 2, search=search,
+                        rerad_a=r_a, rerad_b=r_a, rn16=None, **common)
+    if fwd.method(bw) != "narrowband" or not fwd.static:
+        raise ValueError(f"the reader-tag link is not narrowband (error {narrowband_rms_error(fwd, bw):.3g} > "
+                         f"{NARROWBAND_TOLERANCE}): phase-cancellation needs narrowband links")
+
+    # 2. the ST antennas hear the reply: one step on the ST window [i0, end) with the tag's
+    #    decided re-radiation replayed (narrowband links: the same samples as the whole segment's)
+    win = Segment(tx.t0_s + i0 / fs, fs, fc, x_tx)
+    port = AntennaPort(sta)  # no noise at the ST (module docstring)
+
+    def hear(r_window):
+        return propagate([FixedEmitter(ra, win, device=reader)], [_Replay(ta, r_window)], [port], links,
+                         t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw).inputs[0].samples
+
+    inputs = hear(resp.reradiation(inc.size)[i0:])
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
     from rfsim.gen2.linecode import reply_waveform
 
@@ -331,14 +402,18 @@ def simulate_exchange(config: Config, tag_x_m: float, *, seed: int, index: tuple
     states = np.full(n, sr.STAMP_S1, dtype=np.int8)
     k = min(n, frame.states.size)
     states[:k] = frame.states[:k]
-    # re-radiated states of the three-state modulator: S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
-    r_stamp = np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states]
     stamp_levels = np.zeros(n)
     stamp_levels[:k] = frame.levels[:k]
     frame = replace(frame, states=states, levels=stamp_levels)
+    stamp_inputs = None
+    if shape[1] == 2:
+        # 3. the stamped frame on the same links: the three-state modulator's re-radiated states
+        #    S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
+        stamp_inputs = hear(np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states])
     i_ref = int(round((t_rel + 0.5 * lk.reply_duration_s(16)) * fs))
-    return Exchange(x_tx, rerad * inc_w, r_stamp * inc_w, inc_w, levels, frame, i_ref, search, r_a, r_b,
-                    np.asarray(resp.reply.bits, np.uint8), fs, fc, resp.blf_hz, resp.m, resp.trext, p_av, p_chip)
+    common.update(m=resp.m, trext=resp.trext)
+    return Exchange(x_tx, inc_w, inputs, stamp_inputs, levels=levels, frame=frame, i_ref=i_ref, search=search,
+                    rerad_a=r_a, rerad_b=r_b, rn16=np.asarray(resp.reply.bits, np.uint8), **common)
 
 
 def _scene(apdp: bool) -> Scene:
@@ -396,9 +471,9 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
             out[f"diff_{name}_v"] = np.zeros(n)
         out["stamp_use_p1"] = np.zeros(n, bool)
     else:
-        inputs = {"sa2": a_gain[:, -1:] * ex.x_tx + b_gain[:, -1:] * ex.y_ask}
+        inputs = {"sa2": ex.inputs[:, -1]}
         if two:
-            inputs["sa1"] = a_gain[:, :1] * ex.x_tx + b_gain[:, :1] * ex.y_ask
+            inputs["sa1"] = ex.inputs[:, 0]
             inputs["combined"] = inputs["sa1"] + inputs["sa2"]
         dec = {}
         for name in ("sa2", "combined", "sa1"):
@@ -414,7 +489,7 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
         if two:
             out["detected_combination"] = dec["combined"]
             out["detected_selection"] = sa.select_detected(dec["sa1"], dec["sa2"])
-            use_p1, det_stamp = _stamp(rx, ex, a_gain, b_gain)
+            use_p1, det_stamp = _stamp(rx, ex)
             out["detected_stamp"] = det_stamp
             out["stamp_use_p1"] = use_p1
     for t in TECHS:
@@ -423,11 +498,10 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
     return out
 
 
-def _stamp(rx, ex: Exchange, a_gain, b_gain):
+def _stamp(rx, ex: Exchange):
     """ASK-PSK stamp technique (§5): stamp symbols on SA2, decode on the chosen path."""
     f = ex.frame
-    x2 = a_gain[:, 1:] * ex.x_tx + b_gain[:, 1:] * ex.y_stamp
-    env2, bp2, cmp2, tog2 = chain_rows(rx, x2)
+    env2, bp2, cmp2, tog2 = chain_rows(rx, ex.stamp_inputs[:, 1])
     # '1' when the comparator follows every transition of the second (settled) half of the
     # ASK stamp (the band-pass starts from rest at the stamp's first edge)
     mid = (f.start + f.ask_stop) // 2
@@ -437,45 +511,28 @@ def _stamp(rx, ex: Exchange, a_gain, b_gain):
     det = decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
     if use_p1.any():
         idx = np.flatnonzero(use_p1)
-        x1 = a_gain[idx, :1] * ex.x_tx + b_gain[idx, :1] * ex.y_stamp
-        env1, bp1, cmp1, tog1 = chain_rows(rx, x1)
+        env1, bp1, cmp1, tog1 = chain_rows(rx, ex.stamp_inputs[idx, 0])
         det[idx] = decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
     return use_p1, det
 
 
-def _links(config: Config, ex: Exchange, sa_pos, tag_pos, rng):
-    """Narrowband gains reader→SA and tag→SA for (n, k, 3) antenna positions."""
+def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):
+    """Batched narrowband links reader→SA and tag→SA for (N, k, 3) antenna positions
+    (:meth:`channels.bulk.BulkPaths.batch_link`), drawn in that order from ``rng``."""
     g = config.geometry
     ra = _reader_antenna(g)
-    ta = _tag_antenna(float(tag_pos[0]), g)
     sta = st_antenna(np.zeros(3))
     n, k, _ = sa_pos.shape
     flat = sa_pos.reshape(-1, 3)
     scene = _scene(g.apdp)
-    out, err = [], 0.0
-    for src, ant in ((ra.position_m, ra), (ta.position_m, ta)):
-        bp = draw_links(scene, src, flat, fc_hz=ex.fc_hz, rng=rng, tx_antenna=ant, rx_antenna=sta)
-        out.append(bp.narrowband_gain(ex.fc_hz).reshape(n, k))
-        err = max(err, _max_narrowband_error(bp, 2.0 * ex.blf_hz))
-    if err > NARROWBAND_TOLERANCE:
-        raise ValueError(f"narrowband ST links exceed the engine tolerance ({err:.3g} > {NARROWBAND_TOLERANCE})")
-    return out[0], out[1], err
-
-
-def _max_narrowband_error(bp, bandwidth_hz: float) -> float:
-    """:func:`channels.paths.narrowband_rms_error` for every link of a BulkPaths (max)."""
-    p = np.abs(bp.gain) ** 2
-    tau = np.where(bp.valid, bp.delay_s, np.inf)
-    rel = 2 * np.pi * bandwidth_hz * np.where(bp.valid, bp.delay_s - tau.min(axis=1, keepdims=True), 0.0)
-    tot = p.sum(axis=1)
-    return float(np.max(np.sqrt((p * rel ** 2).sum(axis=1) / np.where(tot > 0, tot, 1.0))))
+    return tuple(draw_links(scene, src.position_m, flat, fc_hz=fc_hz, rng=rng, tx_antenna=src,
+                            rx_antenna=sta).batch_link((n, k)) for src in (ra, tag_antenna))
 
 
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
     """All ST positions of one (cell, repetition)."""
     g, st, mc = config.geometry, config.st, config.mc
     x_tag = g.tag_x_m[cell]
-    ex = simulate_exchange(config, x_tag, seed=seed, index=(cell, rep))
     n = mc.n_positions
     rng = trial_rng(seed, cell, rep, 3)
     r = g.disc_radius_m * np.sqrt(rng.random(n))
@@ -484,11 +541,11 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     tag_pos = np.array([x_tag, 0.0, g.height_m])
     centers = tag_pos + np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
     sa_pos = st_antenna_positions(centers, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
-    a, b, err = _links(config, ex, sa_pos, tag_pos, trial_rng(seed, cell, rep, 4))
-    out = st_outcomes(config, ex, a, b)
+    ex = simulate_exchange(config, x_tag, sa_pos, seed=seed, index=(cell, rep), link_rng=trial_rng(seed, cell, rep, 4))
+    out = st_outcomes(config, ex, ex.a_gain, ex.b_gain)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
                st_x_m=centers[:, 0], st_y_m=centers[:, 1], orientation_rad=orient,
-               tag_replied=np.full(n, ex.rn16 is not None), narrowband_error=np.full(n, err),
+               tag_replied=np.full(n, ex.rn16 is not None), narrowband_error=np.full(n, ex.narrowband_error),
                tag_available_power_w=np.full(n, ex.p_available_w), tag_chip_power_w=np.full(n, ex.p_chip_w))
     for j, name in enumerate(("sa1", "sa2")[-sa_pos.shape[1]:]):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
@@ -520,7 +577,6 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     tc, g = config.tracks, config.geometry
     cfg = replace(config, geometry=replace(g, apdp=tc.apdp))
     x_tag = g.tag_x_m[tc.cell]
-    ex = simulate_exchange(cfg, x_tag, seed=seed, index=(1000,))
     d = np.arange(tc.d_min_m, tc.d_max_m + 0.5 * tc.step_m, tc.step_m)
     tag_pos = np.array([x_tag, 0.0, g.height_m])
     ang = np.deg2rad(np.asarray(tc.angles_deg))
@@ -528,9 +584,9 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     pos = tag_pos + np.stack([np.cos(base + ang)[:, None] * d, np.sin(base + ang)[:, None] * d,
                               np.zeros((ang.size, d.size))], axis=-1)
     sa_pos = pos.reshape(-1, 1, 3)
-    a, b, _ = _links(cfg, ex, sa_pos, tag_pos, trial_rng(seed, 1000, 4))
+    ex = simulate_exchange(cfg, x_tag, sa_pos, seed=seed, index=(1000,), link_rng=trial_rng(seed, 1000, 4))
     single = replace(cfg, st=replace(cfg.st, n_antennas=1, technique="single"))
-    out = st_outcomes(single, ex, a, b)
+    out = st_outcomes(single, ex, ex.a_gain, ex.b_gain)
     shape = (ang.size, d.size)
     return {"angle_deg": np.asarray(tc.angles_deg, float), "distance_m": d,
             "diff_v": out["diff_sa2_v"].reshape(shape), "closed_diff_v": out["closed_diff_sa2_v"].reshape(shape),

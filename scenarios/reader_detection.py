@@ -24,14 +24,16 @@ Rooms (two channel parameter sets; the source gives none, §0.2): both have a co
 Repetitions differ by the channel state: a fresh diffuse draw, a random hop channel (the
 reader's random FCC hop table) and a placement jitter of the tag, uniform in
 ±``jitter_m`` per axis. Within a repetition the channel is held (the source assumes a
-static tag during the N queries, L644): the reader segment, the links and the incident
-field are computed once; the 50 queries are simulated at sample level, each one the tag's
-PIE decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
-(:meth:`devices.tag.TagResponse.reradiation`) through the held link, receiver
-noise and the reader's decoder. Per query the outcome is **the reader decoded the tag's
-RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange is not simulated, so
-a "read" here is an RN16 decode). Queries are 4 ms apart (a round of 50 lasts 0.2 s, the
-lower end of the source's 0.2-0.8 s, L580), inside one 0.4 s hop dwell.
+static tag during the N queries, L644): the reader segment and the links are computed once;
+the 50 queries are simulated at sample level, each one step of the air interface
+(:func:`rfsim.air.propagate` on the held links, :class:`channels.HeldLinks`): the tag's PIE
+decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
+(:meth:`devices.tag.TagResponse.reradiation`) through the held link, and the reader's port
+(leakage, receiver noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome
+is **the reader decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the
+ACK/EPC exchange is not simulated, so a "read" here is an RN16 decode). Queries are 4 ms
+apart (a round of 50 lasts 0.2 s, the lower end of the source's 0.2-0.8 s, L580), inside one
+0.4 s hop dwell.
 
 Fits (``rfsim.detection.fit``): the source's method (least squares of the mean model
 1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of
@@ -60,13 +62,12 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
-from channels.paths import apply_paths, propagation_method
+from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, HeldLinks, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
@@ -75,7 +76,9 @@ from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_m
 from rfsim.detection.fit import DA_PARAMETER_NAMES
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
-from rfsim.gen2.link import t1
+from rfsim.air import FixedEmitter, propagate
+from rfsim.engine import ReaderPort
+from rfsim.gen2.link import reply_window_s
 from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
@@ -177,33 +180,30 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     reader = Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
     tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, *key, 2))
     lk = reader.link
-    window = lk.reply_duration_s(16) + t1(lk).max_s + 3.0 * lk.tpri_s
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
     fs, fc = tx.fs_hz, tx.fc_hz
     fwd, bwd = Channel(scene(config.rooms, room)).backscatter_links(ant, tag_ant, fc_hz=fc,
                                                                       rng=trial_rng(seed, *key, 3))
-    bw = 2.0 * lk.blf_hz
-    inc = apply_paths(tx.samples, fs_hz=fs, fc_hz=fc, paths=fwd, method=propagation_method(fwd, bw, "auto"))
-    base = reader.leakage_gain() * tx.samples
-    sigma = math.sqrt(reader.noise_power_w() / 2.0)
+    links = HeldLinks([(ant, tag_ant, fwd), (tag_ant, ant, bwd)])  # held for the N queries
     nrng = trial_rng(seed, *key, 4)
-    i0 = int(math.ceil((tx.cmd_end_s + 0.5 * lk.tari_s) * fs))
     n_reads = n_replied = n_powered = 0
     p_inc = -np.inf
     for j in range(c.queries):
+        # query j: the same segment j·QUERY_PERIOD_S later, one air step (reader port: leakage,
+        # backscatter, receiver noise drawn from nrng every query)
         t_j = j * QUERY_PERIOD_S
-        resp = tag.listen(inc, t0_s=t_j, fs_hz=fs)
+        seg = replace(tx, t0_s=t_j, cmd_start_s=t_j + tx.cmd_start_s, cmd_end_s=t_j + tx.cmd_end_s)
+        port = ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
+        air = propagate([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j, fs_hz=fs,
+                        n_samples=tx.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+        resp = air.reflections[0]
         p_inc = float(resp.incident_power_dbm)
         n_powered += bool(resp.powered)
-        noise = sigma * (nrng.standard_normal(inc.size) + 1j * nrng.standard_normal(inc.size))
         if resp.gamma is None:
             continue  # nothing to decode (the engine's reader listens only when a tag replied)
         n_replied += 1
-        rx = base + noise + apply_paths(resp.reradiation(inc.size) * inc, fs_hz=fs, fc_hz=fc, paths=bwd,
-                                        method=propagation_method(bwd, bw, "auto"))
-        read = reader.receive(rx[i0:], t0_s=t_j + i0 / fs, n_bits=16, expect_crc=False,
-                              cmd_end_s=t_j + (tx.cmd_end_s - tx.t0_s), carrier=tx.samples[-1])
+        read = port.receive(air.inputs[0])
         n_reads += bool(read.bits is not None and read.success
                         and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
     return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=n_reads,

@@ -255,3 +255,50 @@ def test_bench_bulk_links_runs():
     assert out["bulk_links_per_s"] > 0
     assert out["paths_per_link"] == 1 + 6 + 21
     assert 0 < out["image_slot_fill"] <= 1
+
+
+def test_narrowband_rms_error_per_link_two_path_closed_form_and_pathset():
+    """Two paths g1 at τ0 and g2 at τ0 + Δ: error = 2π·B·Δ·|g2| / √(|g1|² + |g2|²) (independent
+    derivation); with surfaces and APDP every link equals the PathSet rule of channels.paths."""
+    from channels.bulk import BulkPaths
+    from channels.paths import narrowband_rms_error
+
+    g = np.array([[1.0, 0.5j], [0.3, 0.0]], dtype=np.complex128)
+    tau = np.array([[10e-9, 60e-9], [20e-9, 0.0]])
+    valid = np.array([[True, True], [True, False]])  # link 1: one path + a padded slot
+    bp = BulkPaths(g, tau, None, valid, 1, 0)
+    b = 96e3
+    want0 = 2 * np.pi * b * 50e-9 * 0.5 / np.sqrt(1.0 + 0.25)
+    np.testing.assert_allclose(bp.narrowband_rms_error(b), [want0, 0.0], rtol=1e-12, atol=0)
+    rng = np.random.default_rng(3)
+    scene = Scene(surfaces=_room(), apdp=ApdpModel())
+    rx = rng.uniform(LO, HI, size=(40, 3))
+    bulk = draw_links(scene, [1.0, 1.0, 1.5], rx, fc_hz=FC, rng=rng)
+    got = bulk.narrowband_rms_error(2e6)
+    ref = [narrowband_rms_error(bulk.pathset(i), 2e6) for i in range(40)]
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0)
+    assert got.max() > 0.1 > got.min()  # both sides of the tolerance occur at this bandwidth
+
+
+def test_batch_link_gains_shape_and_narrowband_decision():
+    rng = np.random.default_rng(5)
+    scene = Scene(apdp=ApdpModel())
+    rx = rng.uniform(LO, HI, size=(6, 3))
+    bulk = draw_links(scene, [0.5, 0.5, 1.0], rx, fc_hz=FC, rng=rng)
+    link = bulk.batch_link((3, 2))
+    gain = link.constant_gain(FC)
+    assert gain.shape == (3, 2, 1)
+    # row-major: batch element (i, j) is link 2·i + j, Σ_p g·e^{-j2π fc τ} of its paths
+    for i in range(6):
+        ps = bulk.pathset(i)
+        want = np.sum(ps.gain * np.exp(-2j * np.pi * FC * ps.delay_s))
+        assert abs(gain[i // 2, i % 2, 0] - want) <= 1e-12 * abs(want)
+    assert link.static
+    err = link.narrowband_error(96e3)
+    assert link.method(96e3) == ("narrowband" if err <= 0.1 else "exact")
+    assert link.method(1e9) == "exact"  # far above the tolerance: fractional delays needed
+    assert link.method(1e9, "narrowband") == "narrowband"
+    with pytest.raises(ValueError, match="narrowband only"):
+        link.apply(np.ones(4, complex), fs_hz=1e6, fc_hz=FC, method="exact")
+    with pytest.raises(ValueError, match="does not hold"):
+        bulk.batch_link((4, 2))

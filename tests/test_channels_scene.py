@@ -166,3 +166,19 @@ def test_held_draw_follows_moving_link():
     np.testing.assert_allclose(np.abs(p1.gain[1:]) / np.abs(p0.gain[1:]), abs(p1.gain[0] / p0.gain[0]), rtol=1e-12)
     y = apply_paths(np.ones(100, complex), fs_hz=1e6, fc_hz=FC, paths=p1, method="narrowband")
     assert np.all(np.isfinite(y))
+
+
+def test_held_links_return_the_held_draw_per_pair_only():
+    """HeldLinks: the PathSet given for (tx, rx), by antenna identity; None for any other pair
+    (including the reverse pair and an equal antenna at the same place)."""
+    from channels.scene import HeldLinks
+    from channels.paths import PathSet
+
+    a, b = Antenna([0.0, 0.0, 1.0]), Antenna([2.0, 0.0, 1.0])
+    twin = Antenna([2.0, 0.0, 1.0])
+    fwd = PathSet([0.1 + 0.2j], [6.7e-9])
+    links = HeldLinks([(a, b, fwd)])
+    assert links.paths(a, b, fc_hz=915e6, t_s=0.0) is fwd
+    assert links.paths(a, b, fc_hz=866e6, t_s=3.0) is fwd  # held: whatever the carrier and time
+    assert links.paths(b, a, fc_hz=915e6, t_s=0.0) is None
+    assert links.paths(a, twin, fc_hz=915e6, t_s=0.0) is None

@@ -284,3 +284,13 @@ def test_selection_rescues_a_single_antenna_null():
         results[tech] = obs
     assert not results["single"].detected
     assert results["selection"].detected and results["selection"].path == 1
+
+
+def test_listen_start_sample_is_one_past_the_first_sample_at_or_after_the_edge():
+    from devices.sense_a_tag import listen_start_sample
+
+    # edge exactly on sample 1000 (t = 1 ms at 1 MS/s): chains start at sample 1001
+    assert listen_start_sample(1e-3, t0_s=0.0, fs_hz=1e6) == 1001
+    # edge half-way between samples 1002 and 1003 of a segment starting at 4 ms: first sample
+    # at or after it is 1003, the chain starts at 1004
+    assert listen_start_sample(4e-3 + 1002.5e-6, t0_s=4e-3, fs_hz=1e6) == 1004

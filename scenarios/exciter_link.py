@@ -1,0 +1,421 @@
+"""Scenario ``exciter-link``: the tag-to-tag link an RF exciter enables, swept over the
+exciter→tag distance d_e and the tag→listener distance d_tt, with the logistic detection model
+of the reader-free network fitted (binary-detection.md §1.11 Eq. (6.5), seed 004 L1049-1127;
+wave2-specs.md §X "Geng ch. 6"; auris-sense-a-tag.md ch. 5 for the exciter).
+
+Scene: an exciter at the origin (:class:`devices.exciter.Exciter`, CW only, 3.28 W EIRP at
+915 MHz by default, patch with boresight +x); a passive tag at (d_e, 0) that harvests the
+exciter's CW and backscatters a frame on its own schedule — a 16-bit word (its "location",
+L1089) with its CRC-16, Miller-2 with pilot, no command involved (Geng's reference tags,
+L1051, L1068); a listener with the sense-a-tag receive chain (single antenna: linear detector,
+band-pass, 5 mV comparator, Miller decoder, :mod:`devices.st_receiver`) at distance d_tt from
+the tag, azimuth uniform, all at ``height_m``; receiver noise kT·fs·F at the listener. Channel:
+Friis + the exponential APDP with the PASS ST-room curves.
+
+Physics per draw (sample level, one :func:`rfsim.air.propagate` step per (d_e, draw) with the
+listeners of every d_tt as one batched receiver): the tag's incident power P_inc = the CW power
+of its incident segment through the drawn exciter→tag link; with the default ``measured`` tag
+(the PASS UCODE-class chip of :mod:`devices.tag_chip`, re-radiating Γ·incident) it runs iff its
+absorbed power reaches picmin + 2.5 dB, and its two reflection states follow P_chip; the
+listener gets the exciter's direct CW plus the tag's (A_s − Γ(t))·incident through its links
+and its noise; ``decoded`` = the chain decodes the 32 bits exactly. The envelope difference
+``diff_v`` is measured on the detector output (settled states), ``closed_diff_v`` is Eq. 3.3
+from the step's phasors, ``sync_v`` the same with the CW synchronised (its upper bound).
+The backscatter at the listener scales as 1/(d_e·d_tt) (Eq. 4.2: power ∝ 1/(D²·d²)) for fixed
+reflection states; the measured chip's states are not fixed — its modulation deepens as its
+power falls (|Γ_m − Γ_u| = 0.26 at 1 mW available, ≈ 0.6 at its power-up limit of 0.13 mW,
+:mod:`devices.tag_chip`), which offsets most of the 1/d_e: the full run (seed 1) finds the 50 %
+range d50 ≈ 0.4 m for every d_e from 1.5 to 5 m (1.2 m at 0.5 m) and nothing beyond the tag's
+power-up limit (it runs in most draws up to 5 m, in a few at 5.5 m). d_tt below ≈ λ/2 = 0.16 m
+is at the edge of the far-field link model.
+
+Fits (:func:`rfsim.detection.fit_logistic`, maximum likelihood on k decodes of m draws per
+point, standard errors from the inverse Fisher information):
+
+* Eq. (6.5) per d_e row: p(d_tt) = 1/(1 + exp(a1 + a2·d_tt)), with the 50 % range
+  d50 = −a1/a2 and its delta-method standard error; rows where the data are separated (all or
+  nothing decoded) have no finite maximum and get NaN (``fit_status``); ``d50_in_range`` marks
+  the rows whose p crosses 0.5 inside the swept d_tt.
+* Eq. (6.5) pooled over the points of the rows where the tag runs (it ran in at least half the
+  draws; Geng's reference tags are placed where the exciter powers them) — the seed's form, one
+  (a1, a2) for the whole network.
+* Eq. (6.5) with a d_e term over the same rows, p = 1/(1 + exp(a1 + a2·d_tt + a3·d_e)): its
+  50 % contour d_tt = −(a1 + a3·d_e)/a2 is the dashed line in the figure.
+
+wave2-specs.md §X asks to calibrate p = 0.5 at r for the median d_exciter and report the
+spread: root attributes ``d50_at_median_exciter_distance_m`` and ``d50_min_m``/``d50_max_m``
+over the rows with d50 in range.
+
+Randomness: (d_e row i, draw k) uses ``trial_rng(seed, i, k, j)``: j = 0 listener azimuths,
+1 links (exciter→tag, then exciter→listeners, tag→listeners), 2 receiver noise, 3 the tag's
+own stream, 4 exciter phase noise. Draws at the same (i, k) share the exciter→tag draw across
+the d_tt values (one step); the points' draws are independent across k.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from channels import vertical_dipole
+from channels.bulk import draw_links
+from devices import st_analytic as sa
+from devices.exciter import Exciter, ExciterConfig
+from devices.sense_a_tag import SenseATagConfig, make_receiver
+from devices.tag import PassiveTag, TagConfig
+from devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
+from rfsim.air import AntennaPort, propagate
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.detection import fit_logistic, ts_design
+from rfsim.errors import ConfigError, UserError
+from rfsim.gen2.bits import int_to_bits
+from rfsim.gen2.crc import append_crc16
+from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.rng import trial_rng
+from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+                                      RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, unit_of)
+
+NAME = "exciter-link"
+DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
+               "envelope difference, decode probability, Eq. (6.5) logistic fit")
+
+V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (devices.st_receiver)
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    full: bool = param(False, doc="full size: 100 draws per point (overrides draws_per_point)")
+    exciter_distance_m: tuple[float, ...] = param(tuple(0.5 * i for i in range(1, 17)), lo=0.1, hi=100.0,
+                                                  unit="m", doc="exciter→tag distances d_e")
+    tag_distance_m: tuple[float, ...] = param((0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0), lo=0.02,
+                                              hi=50.0, unit="m", doc="tag→listener distances d_tt")
+    draws_per_point: int = param(20, lo=1, hi=100000, doc="channel draws (and listener azimuths) per point")
+    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
+
+    @property
+    def n_draws(self) -> int:
+        return 100 if self.full else self.draws_per_point
+
+
+@dataclass(frozen=True)
+class GeometryConfig:
+    height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="height of exciter, tag and listener")
+    exciter_antenna: Literal["patch", "dipole"] = param("patch", doc="patch (boresight +x, towards the tag) "
+                                                                   "or vertical dipole")
+    exciter_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="patch peak gain")
+    apdp: bool = param(True, doc="exponential APDP small scale (PASS ST-room curves)")
+
+
+@dataclass(frozen=True)
+class TagModelConfig:
+    model: Literal["measured", "chip"] = param(
+        "measured", doc="'measured' = the PASS UCODE chip (impedance vs absorbed power, Gamma*incident, power-up "
+                        "at picmin + margin; devices.tag_chip); 'chip' = the tag config's fixed states and "
+                        "sensitivity with its structural mode")
+    power_margin_db: float = param(PASS_POWER_MARGIN_DB, lo=0.0, hi=20.0, unit="dB",
+                                   doc="'measured': power-up margin on the chip's minimum power (PASS: 2.5 dB)")
+    word: int = param(0x0A5C, lo=0, hi=0xFFFF, doc="16-bit word the tag broadcasts (followed by its CRC-16)")
+
+
+def _listener_default() -> SenseATagConfig:
+    return SenseATagConfig(n_antennas=1, technique="single")
+
+
+@dataclass(frozen=True)
+class Config:
+    sweep: SweepConfig = param(SweepConfig(), doc="distances and draws")
+    geometry: GeometryConfig = param(GeometryConfig(), doc="placement and channel")
+    exciter: ExciterConfig = param(ExciterConfig(), doc="RF exciter (CW)")
+    frame: FrameConfig = param(FrameConfig(), doc="the tag's frame (sample rate, BLF, line code)")
+    tag: TagConfig = param(TagConfig(), doc="the broadcasting tag")
+    tag_model: TagModelConfig = param(TagModelConfig(), doc="tag physics and payload")
+    listener: SenseATagConfig = param(_listener_default(), doc="listener receive chain (threshold, detector gain)")
+    noise: NoiseConfig = param(NoiseConfig(), doc="receiver noise")
+
+    def __post_init__(self):
+        sw = self.sweep
+        for key in ("exciter_distance_m", "tag_distance_m"):
+            v = getattr(sw, key)
+            if len(v) < 2 or any(b <= a for a, b in zip(v, v[1:])):
+                raise ConfigError(f"sweep.{key}", v, "at least 2 strictly increasing distances")
+        if self.listener.n_antennas != 1:
+            raise ConfigError("listener.n_antennas", self.listener.n_antennas, "1 (single-antenna listener)")
+        self.frame.check("frame")
+
+
+# ----------------------------------------------------------------------------- one (d_e, draw)
+
+
+def payload(config: Config) -> np.ndarray:
+    """The broadcast bits: the 16-bit word and its CRC-16 (32 bits)."""
+    return append_crc16(int_to_bits(config.tag_model.word, 16))
+
+
+def make_tag(config: Config, antenna, rng) -> PassiveTag:
+    tm = config.tag_model
+    if tm.model == "measured":
+        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
+        return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
+                          chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
+    return PassiveTag(config.tag, antenna, rng=rng)
+
+
+def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
+    """Every draw of the d_e value ``row``, each one air step with all d_tt listeners."""
+    g, fr, sw = config.geometry, config.frame, config.sweep
+    d_e = sw.exciter_distance_m[row]
+    d_tt = np.asarray(sw.tag_distance_m, float)
+    n = d_tt.size
+    frame = build_frame(payload(config), fr, stamp_cycles=0)
+    rx = make_receiver(config.listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
+    ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
+    exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, row, 0, 4))
+    tag_pos = np.array([d_e, 0.0, g.height_m])
+    tag_ant = vertical_dipole(tag_pos)
+    template = vertical_dipole(np.zeros(3))
+    sc, fc = room(g.apdp), config.exciter.fc_hz
+    noise_w = config.noise.power_w(fr.fs_hz)
+    i1, i2 = int(np.flatnonzero(frame.stamp.levels > 0)[-1]), int(np.flatnonzero(frame.stamp.levels < 0)[-1])
+    parts, inputs = [], []
+    for k in range(sw.n_draws):
+        phi = trial_rng(seed, row, k, 0).uniform(-np.pi, np.pi, n)
+        lis_pos = tag_pos + np.stack([d_tt * np.cos(phi), d_tt * np.sin(phi), np.zeros(n)], axis=1)
+        lis = BatchAntenna(template, lis_pos)
+        device = make_tag(config, tag_ant, trial_rng(seed, row, k, 3))
+        tag = OwnSchedule(device, frame)
+        lrng = trial_rng(seed, row, k, 1)
+        links = DrawnLinks()
+        links.add(ex_ant, tag_ant, draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
+                                              rx_antenna=tag_ant).pathset(0))
+        links.add(ex_ant, lis, BatchLink(draw_links(sc, ex_ant.position_m, lis_pos, fc_hz=fc, rng=lrng,
+                                                    tx_antenna=ex_ant, rx_antenna=template)))
+        links.add(tag_ant, lis, BatchLink(draw_links(sc, tag_pos, lis_pos, fc_hz=fc, rng=lrng, tx_antenna=tag_ant,
+                                                     rx_antenna=template)))
+        air = propagate([exciter], [tag], [AntennaPort(lis, noise_power_w=noise_w)], links, t0_s=0.0,
+                        fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
+                        bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
+        resp = air.reflections[0]
+        op = device.operating_point
+        cw = V_PER_SQRT_W * np.broadcast_to(air.direct[0][..., i1], (n,))
+        b1 = V_PER_SQRT_W * np.broadcast_to(air.backscatter[0][0][..., i1], (n,))
+        b2 = V_PER_SQRT_W * np.broadcast_to(air.backscatter[0][0][..., i2], (n,))
+        g_det = config.listener.detector_gain
+        replied = resp.reason == ""
+        parts.append(dict(
+            exciter_distance_m=np.full(n, d_e), tag_distance_m=d_tt, draw=np.full(n, k), listener_azimuth_rad=phi,
+            tag_incident_power_w=np.full(n, float(np.mean(np.abs(air.incident[0].samples) ** 2))),
+            tag_chip_power_w=np.full(n, op.p_chip_w if op is not None else np.nan),
+            tag_replied=np.full(n, replied),
+            a_r_v=np.abs(cw), a_t1_v=np.abs(b1), a_t2_v=np.abs(b2), theta_rad=np.angle(b1 * np.conj(cw)),
+            sync_v=g_det * np.abs(np.abs(b1) - np.abs(b2)),
+            closed_diff_v=g_det * np.abs(np.abs(cw + b1) - np.abs(cw + b2))))
+        inputs.append(np.broadcast_to(air.inputs[0].samples, (n, frame.n_samples)))
+    out = concat(parts)
+    # the receive chain on every draw of the row at once; a silent tag sends nothing to decode
+    chain = RowsChain.run(rx, np.concatenate(inputs))
+    replied = out["tag_replied"]
+    out["diff_v"] = np.where(replied, chain.level_difference_v(rx, frame), 0.0)
+    out["decoded"] = chain.decoded(rx, frame, rows=replied)
+    return out
+
+
+def _task(args):
+    return simulate_row(*args)
+
+
+def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
+    """Every d_e row on ``config.sweep.workers`` processes, concatenated in row order."""
+    tasks = [(config, i, seed) for i in range(len(config.sweep.exciter_distance_m))]
+    return concat(run_tasks(_task, tasks, config.sweep.workers))
+
+
+# ----------------------------------------------------------------------------- statistics and fits
+
+
+def point_grid(samples, d_e, d_tt) -> dict[str, np.ndarray]:
+    """(n_de, n_dtt) per point: decodes k, draws m, p = k/m with its Clopper–Pearson 95 %
+    interval (:func:`devices.st_analytic.cancellation_probability`, a binomial proportion),
+    medians of the incident power and the envelope differences, the tag's reply fraction."""
+    i = np.searchsorted(d_e, samples["exciter_distance_m"])
+    j = np.searchsorted(d_tt, samples["tag_distance_m"])
+    shape = (len(d_e), len(d_tt))
+    keys = {"p_decoded": None, "ci_lo": None, "ci_hi": None, "draws": None, "decoded_count": None,
+            "median_tag_incident_power_w": "tag_incident_power_w", "median_diff_v": "diff_v",
+            "median_sync_v": "sync_v", "tag_replied_fraction": "tag_replied"}
+    out = {k: np.empty(shape) for k in keys}
+    for a in range(shape[0]):
+        for b in range(shape[1]):
+            sel = (i == a) & (j == b)
+            dec = samples["decoded"][sel]
+            out["p_decoded"][a, b], out["ci_lo"][a, b], out["ci_hi"][a, b], out["draws"][a, b] = (
+                sa.cancellation_probability(dec))
+            out["decoded_count"][a, b] = dec.sum()
+            for k, src in keys.items():
+                if src is not None:
+                    v = samples[src][sel]
+                    out[k][a, b] = v.mean() if src == "tag_replied" else np.median(v)
+    out["draws"] = out["draws"].astype(int)
+    out["decoded_count"] = out["decoded_count"].astype(int)
+    return out
+
+
+@dataclass(frozen=True)
+class Eq65Fit:
+    """Eq. (6.5) fitted on one set of points: p = 1/(1 + exp(x·a)).
+
+    coefficients, stderr : (k,) a and its standard errors (NaN when the fit has no finite
+    maximum); status : "ok" or why not; d50_m, d50_stderr_m : −a1/a2 and its delta-method
+    standard error (2-coefficient model only)."""
+
+    coefficients: np.ndarray
+    stderr: np.ndarray
+    status: str
+    d50_m: float = float("nan")
+    d50_stderr_m: float = float("nan")
+
+
+def fit_eq65(design, decoded_count, draws) -> Eq65Fit:
+    """Maximum-likelihood fit of p = 1/(1 + exp(x·a)) (Eq. 6.5, binary-detection.md §1.11) on
+    k decodes out of m draws per row of ``design`` (:func:`rfsim.detection.fit_logistic`).
+
+    With the design [1, d]: d50 = −a1/a2 (p = 0.5) and
+    Var(d50) = (Var a1 + d50²·Var a2 + 2·d50·Cov(a1, a2)) / a2² (delta method)."""
+    x = np.asarray(design, float)
+    k, m = np.asarray(decoded_count, float), np.asarray(draws, float)
+    nan = np.full(x.shape[1], np.nan)
+    if k.sum() == 0 or k.sum() == m.sum():
+        return Eq65Fit(nan, nan, "nothing decoded" if k.sum() == 0 else "everything decoded")
+    try:
+        f = fit_logistic(x, k, m)
+    except UserError as err:
+        return Eq65Fit(nan, nan, str(err))
+    if x.shape[1] != 2:
+        return Eq65Fit(f.coefficients, f.stderr, "ok")
+    a1, a2 = f.coefficients
+    d50 = -a1 / a2
+    c = f.covariance
+    var = (c[0, 0] + d50 * d50 * c[1, 1] + 2.0 * d50 * c[0, 1]) / (a2 * a2)
+    return Eq65Fit(f.coefficients, f.stderr, "ok", float(d50), float(math.sqrt(max(var, 0.0))))
+
+
+def fits(grid, d_e, d_tt) -> dict:
+    """Per-row Eq. (6.5) fits, and over the rows where the tag runs (it ran in at least half
+    of the draws) the pooled fit and the fit with a d_e term (module docstring)."""
+    k, m = grid["decoded_count"], grid["draws"]
+    rows = [fit_eq65(ts_design(d_tt), k[a], m[a]) for a in range(len(d_e))]
+    runs = grid["tag_replied_fraction"].mean(axis=1) >= 0.5
+    dd_e, dd_tt = np.meshgrid(d_e[runs], d_tt, indexing="ij")
+    kk, mm = k[runs].ravel(), m[runs].ravel()
+    pooled = fit_eq65(ts_design(dd_tt.ravel()), kk, mm)
+    extended = fit_eq65(np.column_stack([np.ones(dd_e.size), dd_tt.ravel(), dd_e.ravel()]), kk, mm)
+    return {"rows": rows, "pooled": pooled, "extended": extended, "runs": runs}
+
+
+# ----------------------------------------------------------------------------- run
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    samples = monte_carlo(config, seed=seed)
+    d_e = np.asarray(config.sweep.exciter_distance_m, float)
+    d_tt = np.asarray(config.sweep.tag_distance_m, float)
+    ds = Dataset(title="exciter-powered tag-to-tag link: decode probability vs d_e, d_tt and Eq. (6.5) fits")
+    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()})
+    grid = point_grid(samples, d_e, d_tt)
+    dims = ("exciter_distance_m", "tag_distance_m")
+    ds.add_grid("points", {"exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e"),
+                           "tag_distance_m": column(d_tt, "m", "tag -> listener distance d_tt")},
+                {k: column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()})
+    f = fits(grid, d_e, d_tt)
+    rows = f["rows"]
+    d50 = np.array([r.d50_m for r in rows])
+    in_range = np.array([r.status == "ok" for r in rows]) & (d50 >= d_tt[0]) & (d50 <= d_tt[-1])
+    ds.add_table("eq65_rows", {
+        "exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e of the row"),
+        "a1": column(np.array([r.coefficients[0] for r in rows]), "1", "Eq. (6.5) a1 (NaN: no finite fit)"),
+        "a2": column(np.array([r.coefficients[1] for r in rows]), "1/m", "Eq. (6.5) a2 on d_tt"),
+        "a1_stderr": column(np.array([r.stderr[0] for r in rows]), "1", "standard error of a1"),
+        "a2_stderr": column(np.array([r.stderr[1] for r in rows]), "1/m", "standard error of a2"),
+        "d50_m": column(np.array([r.d50_m for r in rows]), "m", "d_tt where the fitted p = 0.5 (-a1/a2)"),
+        "d50_stderr_m": column(np.array([r.d50_stderr_m for r in rows]), "m", "delta-method standard error of d50"),
+        "fit_status": column(np.array([r.status for r in rows]), "1", "ok, or why the fit has no finite maximum"),
+        "d50_in_range": column(in_range, "1", "fit ok and d50 inside the swept d_tt (p crosses 0.5 in the sweep)"),
+        "tag_runs": column(f["runs"], "1", "the tag ran in at least half of the draws (row used by the pooled fits)")})
+    for name, fit in (("pooled", f["pooled"]), ("extended", f["extended"])):
+        ds.attrs[f"eq65_{name}_status"] = fit.status
+        for c, (a, se) in enumerate(zip(fit.coefficients, fit.stderr)):
+            ds.attrs[f"eq65_{name}_a{c + 1}"] = float(a)
+            ds.attrs[f"eq65_{name}_a{c + 1}_stderr"] = float(se)
+    ds.attrs["eq65_pooled_d50_m"] = f["pooled"].d50_m
+    ds.attrs["eq65_fit_rows_max_exciter_distance_m"] = float(d_e[f["runs"]].max()) if f["runs"].any() else float("nan")
+    if in_range.any():
+        med = float(np.median(d_e[in_range]))
+        ds.attrs["median_exciter_distance_m"] = med
+        ds.attrs["d50_at_median_exciter_distance_m"] = float(np.interp(med, d_e[in_range], d50[in_range]))
+        ds.attrs["d50_min_m"], ds.attrs["d50_max_m"] = float(np.min(d50[in_range])), float(np.max(d50[in_range]))
+    ds.attrs["tag_runs_up_to_m"] = float(d_e[f["runs"]].max()) if f["runs"].any() else float("nan")
+    ds.attrs["exciter_eirp_w"] = float(10.0 ** ((config.exciter.eirp_dbm - 30.0) / 10.0))
+    ds.attrs["noise_power_w"] = config.noise.power_w(config.frame.fs_hz)
+    return ds
+
+
+_TEXT = {
+    "tag_incident_power_w": "CW power incident at the tag antenna port",
+    "tag_chip_power_w": "power absorbed by the tag chip ('measured' model; NaN otherwise)",
+    "tag_replied": "the tag was powered and sent its frame",
+    "a_r_v": "exciter CW amplitude at the listener (50 ohm peak)",
+    "a_t1_v": "tag backscatter amplitude at the listener, state +1 (50 ohm peak)",
+    "a_t2_v": "tag backscatter amplitude at the listener, state -1 (50 ohm peak)",
+    "theta_rad": "phase of the backscatter (state +1) relative to the CW at the listener",
+    "sync_v": "detector difference with the CW synchronised to the backscatter, g*||B1|-|B2||",
+    "closed_diff_v": "closed-form detector difference g*||C+B1|-|C+B2|| (Eq. 3.3) from the step's phasors",
+    "diff_v": "sample-level envelope-detector difference |A(+1)-A(-1)| over the reply",
+    "decoded": "the listener decoded the 32 bits exactly",
+    "p_decoded": "decode probability k/m",
+    "ci_lo": "Clopper-Pearson 95% lower bound of p_decoded",
+    "ci_hi": "Clopper-Pearson 95% upper bound of p_decoded",
+}
+
+
+def _describe(key: str) -> str:
+    base = key[7:] if key.startswith("median_") else key
+    text = _TEXT.get(base, base.replace("_", " "))
+    return f"median over draws: {text}" if key.startswith("median_") else text
+
+
+# ----------------------------------------------------------------------------- plot
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """p(d_e, d_tt) heat map with the fitted 50 % contours (per row and with the d_e term)."""
+    from rfsim.dataset import read_dataset, read_table
+
+    plt = pyplot()
+    ds = read_dataset(dataset_path)
+    coords, vars_ = ds.grids["points"]
+    d_e, d_tt = coords["exciter_distance_m"].data, coords["tag_distance_m"].data
+    p = vars_["p_decoded"].data
+    rows = read_table(dataset_path, "eq65_rows")
+    fig, ax = plt.subplots(figsize=(7.5, 4.5))
+    im = ax.pcolormesh(d_e, d_tt, p.T, shading="nearest", cmap="viridis", vmin=0.0, vmax=1.0)
+    fig.colorbar(im, ax=ax, label="P(decoded)")
+    ok = rows["d50_in_range"]
+    ax.errorbar(rows["exciter_distance_m"][ok], rows["d50_m"][ok], yerr=rows["d50_stderr_m"][ok], fmt="wo-",
+                ms=4, capsize=2, label="Eq. (6.5) per d_e: p = 0.5")
+    a = ds.attrs
+    if a.get("eq65_extended_status") == "ok":
+        x = d_e[rows["tag_runs"]]
+        line = -(a["eq65_extended_a1"] + a["eq65_extended_a3"] * x) / a["eq65_extended_a2"]
+        ax.plot(x, line, "r--", label="Eq. (6.5) + a3*d_e: p = 0.5 (where the tag runs)")
+    ax.set(xlabel="exciter -> tag distance d_e [m]", ylabel="tag -> listener distance d_tt [m]",
+           ylim=(d_tt.min(), d_tt.max()), title="exciter-powered tag-to-tag link")
+    ax.legend(fontsize=8, loc="upper right")
+    return [save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"))]
+
+
+__all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "simulate_row", "point_grid", "fit_eq65", "fits",
+           "Eq65Fit", "payload"]

@@ -60,12 +60,17 @@ def start(args: list[str], cwd: Path) -> subprocess.Popen:
 SWEEP = dict(q=tuple(range(8)), profiles=("fm0-40k",), fs_hz=1e6)  # 32 runs
 
 
-def test_sigterm_mid_sweep_exits_143_with_one_line_and_resume_recovers(tmp_path):
+def start_sweep(tmp_path: Path, min_done: int):
+    """A 32-run sweep on 2 workers, once ``min_done`` runs are in its store: (spec, store, proc, workers)."""
     spec_path = write_spec(tmp_path, "big", **SWEEP)
     store = points_dir(load_spec(spec_path).output)
     proc = start(["sweep", "run", str(spec_path), "--workers", "2"], tmp_path)
-    assert wait_for(lambda: len(StoreIndex(store)) >= 4 or proc.poll() is not None, 120)
-    workers = children(proc.pid)
+    assert wait_for(lambda: len(StoreIndex(store)) >= min_done or proc.poll() is not None, 120)
+    return spec_path, store, proc, children(proc.pid)
+
+
+def test_sigterm_mid_sweep_exits_143_with_one_line_and_resume_recovers(tmp_path):
+    spec_path, store, proc, workers = start_sweep(tmp_path, 4)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 143, err
@@ -86,11 +91,7 @@ def test_sigterm_mid_sweep_exits_143_with_one_line_and_resume_recovers(tmp_path)
 
 
 def test_sigkill_of_the_leader_ends_its_pool_workers_within_5_s(tmp_path):
-    spec_path = write_spec(tmp_path, "big", **SWEEP)
-    store = points_dir(load_spec(spec_path).output)
-    proc = start(["sweep", "run", str(spec_path), "--workers", "2"], tmp_path)
-    assert wait_for(lambda: len(StoreIndex(store)) >= 2 or proc.poll() is not None, 120)
-    workers = children(proc.pid)
+    spec_path, store, proc, workers = start_sweep(tmp_path, 2)
     assert len(workers) >= 2, workers
     proc.kill()
     proc.communicate(timeout=30)

@@ -112,6 +112,10 @@ class ReaderConfig:
                                            doc="preamble detection false-alarm probability per reply window")
 
     def __post_init__(self):
+        try:  # checked when the config is loaded, so the message names this key
+            profile(self.link_profile)
+        except ConfigError as err:
+            raise ConfigError("link_profile", err.value, err.allowed) from None
         # The carrier plan is checked when the config is made, so a bad carrier stops a run
         # before anything is simulated (one-line ConfigError on reader.region / reader.channels_hz).
         frequency_plan(self.region, self.channels_hz)

@@ -19,6 +19,7 @@ TOML text (stored in every dataset's provenance).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import tomllib
 import types
@@ -56,9 +57,14 @@ def param(
 
 
 def field_meta(f: dataclasses.Field) -> dict[str, Any]:
-    """The :func:`param` metadata of a field (empty defaults if declared plainly)."""
-    return f.metadata.get(_META_KEY, {"lo": None, "hi": None, "lo_open": False,
+    """The :func:`param` metadata of a field (empty defaults if declared plainly).
+
+    ``nonempty`` is true for a list field whose default is not empty: such a list may not
+    be set to ``[]`` (a list that may be empty has the default ``()``).
+    """
+    meta = f.metadata.get(_META_KEY, {"lo": None, "hi": None, "lo_open": False,
                                       "hi_open": False, "unit": "", "doc": ""})
+    return {**meta, "nonempty": isinstance(f.default, tuple) and len(f.default) > 0}
 
 
 # ----------------------------------------------------------------------------- checking
@@ -81,7 +87,8 @@ def _check_range(key: str, value: float, meta: Mapping[str, Any], kind: str) -> 
     bad = (lo is not None and (value < lo or (meta["lo_open"] and value == lo))) or (
         hi is not None and (value > hi or (meta["hi_open"] and value == hi)))
     if bad:
-        raise ConfigError(key, value, f"a {kind} in {_range_text(meta)}")
+        article = "an" if kind[0] in "aeiou" else "a"
+        raise ConfigError(key, value, f"{article} {kind} in {_range_text(meta)}")
 
 
 def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
@@ -106,6 +113,8 @@ def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
         if not isinstance(value, (list, tuple)):
             raise ConfigError(key, value, f"a list of {_type_name(args[0])}")
         if len(args) == 2 and args[1] is Ellipsis:
+            if not value and meta.get("nonempty"):
+                raise ConfigError(key, value, f"a non-empty list of {_type_name(args[0])}")
             items = [_coerce(f"{key}[{i}]", v, args[0], meta) for i, v in enumerate(value)]
         else:
             if len(value) != len(args):
@@ -143,6 +152,41 @@ def _coerce(key: str, value: Any, tp: Any, meta: Mapping[str, Any]) -> Any:
     raise TypeError(f"unsupported config field type for {key}: {tp!r}")
 
 
+@functools.lru_cache(maxsize=None)
+def type_hints(cls: type) -> dict[str, Any]:
+    """``typing.get_type_hints(cls)``, computed once per class (it dominates config loading)."""
+    return typing.get_type_hints(cls)
+
+
+def field_at(cls: type, key: str) -> tuple[dataclasses.Field, Any] | None:
+    """(field, type) of the dotted ``key`` in the config class ``cls``; None if there is none."""
+    parts = key.split(".")
+    for j, part in enumerate(parts):
+        if not dataclasses.is_dataclass(cls):
+            return None
+        fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+        if part not in fields:
+            return None
+        hint = type_hints(cls)[part]
+        if j == len(parts) - 1:
+            return fields[part], hint
+        cls = hint
+    return None
+
+
+def check_value(cls: type, key: str, value: Any) -> Any:
+    """Check one value of the dotted ``key`` against its field's type, range or choices.
+
+    The per-field checks of :func:`from_dict` without the cross-field checks of the
+    configs' ``__post_init__``; unknown keys raise :class:`ConfigError`.
+    """
+    found = field_at(cls, key)
+    if found is None:
+        raise ConfigError(key, value, "a known config key (see 'rfsim config SCENARIO --keys')")
+    f, hint = found
+    return _coerce(key, value, hint, field_meta(f))
+
+
 def _type_name(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
@@ -153,7 +197,7 @@ def from_dict(cls: type, data: Mapping[str, Any], *, prefix: str = "") -> Any:
     Missing keys take the defaults; unknown keys, wrong types and out-of-range values
     raise :class:`ConfigError` naming the dotted key.
     """
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
     kwargs: dict[str, Any] = {}
     for name, value in data.items():
@@ -190,7 +234,7 @@ def check_fields(config: Any, prefix: str = "") -> None:
     Same per-field checks as :func:`from_dict` (types, ranges, choices), with keys named
     ``prefix.field``; values are stored in canonical form (e.g. ints as floats).
     """
-    hints = typing.get_type_hints(type(config))
+    hints = type_hints(type(config))
     for f in dataclasses.fields(config):
         key = f"{prefix}.{f.name}" if prefix else f.name
         object.__setattr__(config, f.name, _coerce(key, getattr(config, f.name), hints[f.name], field_meta(f)))
@@ -241,6 +285,9 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         text = p.read_text(encoding="utf-8")
     except OSError as err:
         raise UserError(f"config file {str(p)!r}: cannot be read ({err.strerror})") from None
+    except UnicodeDecodeError as err:
+        raise UserError(f"config file {str(p)!r}: not UTF-8 text, so not TOML (byte {err.start} "
+                        f"is {err.object[err.start:err.start + 1]!r})") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -311,7 +358,7 @@ def to_toml(config: Any) -> str:
 def describe(cls: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
     """(key, default, allowed, description) rows for help output."""
     rows = []
-    hints = typing.get_type_hints(cls)
+    hints = type_hints(cls)
     for f in dataclasses.fields(cls):
         key = f"{prefix}.{f.name}" if prefix else f.name
         tp = hints[f.name]
@@ -335,6 +382,9 @@ __all__ = [
     "from_dict",
     "validate",
     "check_fields",
+    "check_value",
+    "field_at",
+    "type_hints",
     "parse_override",
     "read_toml",
     "load_config",

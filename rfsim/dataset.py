@@ -38,13 +38,14 @@ final name.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import datetime as _dt
 import os
 import platform
 import subprocess
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -194,34 +195,75 @@ def long_name(description: str) -> str:
     return description.strip()
 
 
-def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
-    data = col.data
+def _array_attrs(col: Column, name: str) -> dict[str, Any]:
     attrs: dict[str, Any] = {"units": col.units, "long_name": long_name(col.description) or name,
                              "description": col.description}
-    if data.dtype == bool:
-        data = data.astype(np.uint8)
+    if col.data.dtype == bool:
         attrs[_BOOL_ATTR] = "bool"
         attrs["flag_values"] = np.array([0, 1], dtype=np.uint8)
         attrs["flag_meanings"] = "false true"
+    return attrs
+
+
+def stored_values(data: np.ndarray) -> np.ndarray:
+    """``data`` as it is written to HDF5 (booleans as uint8, text as UTF-8 objects)."""
+    if data.dtype == bool:
+        return data.astype(np.uint8)
     if data.dtype.kind == "U":
-        ds = group.create_dataset(name, data=data.astype(object),
-                                  dtype=h5py.string_dtype("utf-8"))
+        return data.astype(object)
+    return data
+
+
+def _h5_dtype(data: np.ndarray) -> Any:
+    if data.dtype.kind == "U":
+        return h5py.string_dtype("utf-8")
+    return stored_values(data[:0]).dtype
+
+
+def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
+    data = stored_values(col.data)
+    if col.data.dtype.kind == "U":
+        ds = group.create_dataset(name, data=data, dtype=_h5_dtype(col.data))
     else:
         opts = {"compression": "gzip", "compression_opts": 4} if data.size >= 4096 else {}
         ds = group.create_dataset(name, data=data, **opts)
-    for k, v in attrs.items():
+    for k, v in _array_attrs(col, name).items():
         ds.attrs[k] = v
     return ds
 
 
+def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, ...]) -> h5py.Dataset:
+    """An empty dataset of ``shape``, typed and described like ``like`` (filled in parts later).
+
+    Same dtype conventions and attributes as :func:`write_dataset`; chunked with gzip
+    (and byte shuffle) when it holds at least 4096 values, so large merged columns are
+    compressed. Write parts with ``ds[i:j] = stored_values(data)``.
+    """
+    size = int(np.prod(shape, dtype=np.int64))
+    opts: dict[str, Any] = {}
+    if size >= 4096 and like.data.dtype.kind != "U":
+        opts = {"compression": "gzip", "compression_opts": 4, "shuffle": True, "chunks": True}
+    ds = group.create_dataset(name, shape=shape, dtype=_h5_dtype(like.data), **opts)
+    for k, v in _array_attrs(like, name).items():
+        ds.attrs[k] = v
+    return ds
+
+
+def create_row_scale(group: h5py.Group, n_rows: int) -> h5py.Dataset:
+    """The ``row`` dimension scale (0 … n_rows − 1) of a table group."""
+    like = Column(np.zeros(0, np.int64), "1", "row index of the table, 0-based")
+    row = create_array(group, _ROW_DIM, like, (n_rows,))
+    row.attrs["long_name"] = "row index"
+    step = 1 << 20
+    for start in range(0, n_rows, step):
+        row[start:min(start + step, n_rows)] = np.arange(start, min(start + step, n_rows), dtype=np.int64)
+    row.make_scale(_ROW_DIM)
+    return row
+
+
 def _write_table(f: h5py.File, name: str, columns: Mapping[str, Column]) -> None:
     g = f.create_group(name)
-    n = len(next(iter(columns.values())).data)
-    row = g.create_dataset(_ROW_DIM, data=np.arange(n, dtype=np.int64))
-    row.attrs["units"] = "1"
-    row.attrs["long_name"] = "row index"
-    row.attrs["description"] = "row index of the table, 0-based"
-    row.make_scale(_ROW_DIM)
+    row = create_row_scale(g, len(next(iter(columns.values())).data))
     for cname, col in columns.items():
         ds = _write_array(g, cname, col)
         ds.dims[0].attach_scale(row)
@@ -250,6 +292,46 @@ def check_attributes(attrs: Mapping[str, Any]) -> None:
                              f"'{k}_meaning' that says what the value means")
 
 
+@contextlib.contextmanager
+def atomic_h5file(path: str | Path) -> Iterator[h5py.File]:
+    """An HDF5 file open for writing under a hidden temporary name beside ``path``.
+
+    On leaving the block the file is closed, fsync'ed and renamed over ``path`` (with the
+    folder fsync'ed); on an exception (including Ctrl-C and SIGTERM) the temporary file is
+    removed, so ``path`` is either the old file or the complete new one.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        with h5py.File(tmp, "w") as f:
+            yield f
+            f.flush()
+        _fsync_file(tmp)
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
+    """The root attributes of a dataset file: title, scenario, version and ``dataset.attrs``."""
+    f.attrs["title"] = dataset.title
+    f.attrs["scenario"] = dataset.scenario
+    f.attrs["rfsim_version"] = rfsim.__version__
+    for k, v in dataset.attrs.items():
+        f.attrs[k] = v
+
+
+def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
+    """The ``/provenance`` group, with ``end_time_utc`` stamped now."""
+    prov = f.create_group("provenance")
+    prov.attrs["description"] = PROVENANCE_DESCRIPTION
+    for k, v in {**provenance, "end_time_utc": utc_now()}.items():
+        prov.attrs[k] = v
+
+
 def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
     """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
 
@@ -258,34 +340,22 @@ def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, A
     """
     check_attributes(dataset.attrs)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
-    try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["title"] = dataset.title
-            f.attrs["scenario"] = dataset.scenario
-            f.attrs["rfsim_version"] = rfsim.__version__
-            for k, v in dataset.attrs.items():
-                f.attrs[k] = v
-            for name, cols in dataset.tables.items():
-                _write_table(f, name, cols)
-            for name, (coords, variables) in dataset.grids.items():
-                _write_grid(f, name, coords, variables)
-            for name, text in dataset.descriptions.items():
-                if name in f:
-                    f[name].attrs["description"] = text
-            prov = f.create_group("provenance")
-            prov.attrs["description"] = PROVENANCE_DESCRIPTION
-            for k, v in {**provenance, "end_time_utc": utc_now()}.items():
-                prov.attrs[k] = v
-            f.flush()
-        _fsync_file(tmp)
-        os.replace(tmp, path)
-        _fsync_dir(path.parent)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_h5file(path) as f:
+        write_root_attrs(f, dataset)
+        for name, cols in dataset.tables.items():
+            _write_table(f, name, cols)
+        for name, (coords, variables) in dataset.grids.items():
+            _write_grid(f, name, coords, variables)
+        write_group_descriptions(f, dataset.descriptions)
+        write_provenance(f, provenance)
     return path
+
+
+def write_group_descriptions(f: h5py.File, descriptions: Mapping[str, str]) -> None:
+    """The ``description`` attribute of each named group that is in the file."""
+    for name, text in descriptions.items():
+        if name in f:
+            f[name].attrs["description"] = text
 
 
 def _fsync_file(path: Path) -> None:
@@ -377,6 +447,13 @@ __all__ = [
     "git_revision",
     "utc_now",
     "write_dataset",
+    "atomic_h5file",
+    "create_array",
+    "create_row_scale",
+    "stored_values",
+    "write_root_attrs",
+    "write_provenance",
+    "write_group_descriptions",
     "check_attributes",
     "long_name",
     "PROVENANCE_DESCRIPTION",

@@ -30,7 +30,20 @@ def scenario_modules() -> dict[str, ModuleType]:
 
 
 def get_scenario(name: str) -> ModuleType:
-    """The scenario module called ``name``; unknown names are a one-line user error."""
+    """The scenario module called ``name``; unknown names are a one-line user error.
+
+    Tries the module named after the scenario first (``gen2-waveforms`` →
+    ``scenarios.gen2_waveforms``), so one scenario's imports are paid, not all of them.
+    """
+    if name and name.replace("-", "_").isidentifier():
+        try:
+            module = importlib.import_module(f"scenarios.{name.replace('-', '_')}")
+        except ModuleNotFoundError as err:
+            if err.name != f"scenarios.{name.replace('-', '_')}":
+                raise
+        else:
+            if getattr(module, "NAME", None) == name and all(hasattr(module, a) for a in _REQUIRED):
+                return module
     modules = scenario_modules()
     if name not in modules:
         raise UserError(f"unknown scenario {name!r}{did_you_mean(name, modules)}; "

@@ -1,5 +1,7 @@
 """Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures.
 
+The dataset path and the figure folder are checked before the simulation starts
+(:mod:`rfsim.outputs`).
 Each stage is announced on the active progress reporter (:mod:`rfsim.progress`; nothing
 is printed without one), and the first run after install says that numba compiles its
 kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).
@@ -15,6 +17,8 @@ from typing import Any
 
 from rfsim.config import to_toml
 from rfsim.dataset import make_provenance, utc_now, write_dataset
+from rfsim.errors import UserError, check_seed
+from rfsim.outputs import check_output_file, check_output_folder
 from rfsim.progress import current, stage
 
 
@@ -29,13 +33,22 @@ class RunOutput:
 
 def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
                  output: Path | None = None, make_plots: bool = True) -> RunOutput:
-    """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures."""
+    """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures.
+
+    The dataset path and the figure folder are checked (and missing folders created)
+    before the simulation starts; a path that cannot be written is a one-line
+    :class:`~rfsim.errors.UserError` then, not a lost result afterwards.
+    """
     start_utc, t0 = utc_now(), time.perf_counter()
+    check_seed(seed)
+    path = output if output is not None else out_dir / f"{module.NAME}.h5"
+    if make_plots or output is None:
+        check_output_folder(out_dir, "--out-dir")
+    check_output_file(path, "--output" if output is not None else "dataset", suffixes=(".h5", ".hdf5"))
     _announce_compilation()
     stage(f"running {module.NAME} (seed {seed})")
     dataset = module.run(config, seed=seed)
     dataset.scenario = module.NAME
-    path = output if output is not None else out_dir / f"{module.NAME}.h5"
     provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
                                  start_time_utc=start_utc)
     stage(f"writing {path}")
@@ -43,7 +56,11 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     figures: tuple[Path, ...] = ()
     if make_plots:
         stage("drawing figures")
-        figures = tuple(module.plot(path, out_dir))
+        try:
+            figures = tuple(module.plot(path, out_dir))
+        except OSError as err:  # e.g. a folder where a figure file should go; the dataset is safe
+            raise UserError(f"dataset {str(path)!r} written, but a figure could not be saved in "
+                            f"{str(out_dir)!r}: {err.strerror or err}; redraw after fixing it") from None
     return RunOutput(path, figures, time.perf_counter() - t0)
 
 

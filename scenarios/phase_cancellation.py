@@ -86,7 +86,6 @@ Results do not depend on the number of worker processes.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import math
 import os
 from dataclasses import dataclass, replace
@@ -120,6 +119,7 @@ from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+from rfsim.procs import worker_pool
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -564,7 +564,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     if w <= 1 or len(tasks) == 1:
         parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="cells")]
     else:
-        with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
+        with worker_pool(min(w, len(tasks))) as pool:
             parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo", unit="cells"))
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 

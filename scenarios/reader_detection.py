@@ -60,7 +60,6 @@ not depend on ``campaign.workers``.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import math
 import os
 from dataclasses import dataclass, replace
@@ -84,6 +83,7 @@ from rfsim.progress import stage, track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+from rfsim.procs import worker_pool
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -226,7 +226,7 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     if w <= 1:
         parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="distances")]
     else:
-        with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
+        with worker_pool(min(w, len(tasks))) as pool:
             parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo",
                                unit="distances"))
     rows = [r for p in parts for r in p]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
@@ -89,3 +90,158 @@ def test_bench_writes_json_and_rejects_unknown_names(tmp_path, capsys):
     result = json.loads(out.read_text())["linecode"]
     assert result["numba_bit_errors"] == 0 and result["numba_bits_per_s"] > 0
     assert result["peak_rss_mb"] > 0
+
+
+# ----------------------------------------------------------------------------- bad input, part 2
+
+
+def exit_code(argv) -> int:
+    """Exit status of ``rfsim argv`` run in this process (argparse exits via SystemExit)."""
+    try:
+        return main(argv)
+    except SystemExit as info:
+        return info.code
+
+
+def assert_one_line_error(err: str, fragment: str) -> None:
+    assert err.count("\n") == 1 and err.startswith("rfsim"), err
+    assert "error: " in err and "Traceback" not in err, err
+    assert fragment in err, err
+
+
+MORE_BAD_RUNS = [
+    (["--seed", str(2**64)], "expected an integer in [0, 2**64)"),
+    (["--seed", "-1"], "expected an integer in [0, 2**64)"),
+    (["--seed", "1.5"], "expected an integer in [0, 2**64)"),
+    (["--seed", "banana"], "expected an integer in [0, 2**64)"),
+    (["--set", "fs_hz=nan"], "a finite number"),
+    (["--set", "q=1e400"], "config key 'q': got inf"),
+    (["--set", "q=99999999999999999999999"], "an integer in [0, 15]"),
+    (["--set", "q.x=1"], "config key 'q'"),
+    (["--set", "profiles={a=1}"], "a list of str"),
+    (["--set", "profiles=[]"], "a non-empty list"),
+    (["--set", "=1"], "the key must be dotted names"),
+    (["--bogus"], "unrecognized arguments: --bogus"),
+]
+
+
+@pytest.mark.parametrize("extra,fragment", MORE_BAD_RUNS)
+def test_more_user_mistakes_exit_2_with_one_line(extra, fragment, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert exit_code(["run", "gen2-waveforms", *extra]) == 2
+    assert_one_line_error(capsys.readouterr().err, fragment)
+    assert not list(tmp_path.glob("**/*.h5"))
+
+
+@pytest.mark.parametrize("scenario,override,fragment", [
+    ("link", "geometry.distances_m=[]", "config key 'geometry.distances_m': got []; allowed: a non-empty list"),
+    ("link", "reader.link_profile=miller4-32k", "config key 'reader.link_profile': got 'miller4-32k'"),
+    ("detection-probability", "reader.link_profile=bogus", "config key 'reader.link_profile'"),
+    ("reader-detection", "campaign.distances_m=[]", "config key 'campaign.distances_m'"),
+])
+def test_empty_lists_and_bad_profiles_are_refused_at_load(scenario, override, fragment, capsys, tmp_path,
+                                                           monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert exit_code(["config", scenario, "--set", override]) == 2
+    assert_one_line_error(capsys.readouterr().err, fragment)
+
+
+def test_binary_and_folder_config_files(tmp_path, capsys):
+    binary = tmp_path / "b.toml"
+    binary.write_bytes(bytes(range(256)) * 4)
+    assert exit_code(["run", "gen2-waveforms", "-c", str(binary)]) == 2
+    assert_one_line_error(capsys.readouterr().err, "not UTF-8 text")
+    assert exit_code(["config", "link", "-c", str(tmp_path)]) == 2
+    assert_one_line_error(capsys.readouterr().err, "cannot be read")
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """Make the scenario's simulation fail loudly: output checks must come before it."""
+    import scenarios.gen2_waveforms as gw
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("the simulation started before the outputs were checked")
+    monkeypatch.setattr(gw, "run", refuse)
+
+
+OUTPUT_MISTAKES = [
+    (["--out-dir", "afile"], "'afile' is a file, not a folder"),
+    (["--out-dir", "afile/sub"], "'afile' is a file, not a folder"),
+    (["-o", "adir.h5"], "is a folder; expected a file name"),
+    (["-o", "afile/x.h5"], "'afile' is a file, not a folder"),
+    (["-o", "adir"], "must end in .h5 or .hdf5"),
+    (["--out-dir", "res"], "'res/gen2-waveforms.h5': is a folder"),
+    (["-o", "afile/x.h5", "--no-plot"], "'afile' is a file, not a folder"),
+    (["--out-dir", "ok", "-o", "afile/deeper/x.h5"], "'afile' is a file, not a folder"),
+]
+
+
+@pytest.mark.parametrize("extra,fragment", OUTPUT_MISTAKES)
+def test_output_paths_are_checked_before_the_simulation(extra, fragment, tmp_path, monkeypatch, capsys,
+                                                         no_simulation):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("x")
+    (tmp_path / "adir.h5").mkdir()
+    (tmp_path / "res" / "gen2-waveforms.h5").mkdir(parents=True)
+    assert exit_code(["run", "gen2-waveforms", *extra]) == 2
+    assert_one_line_error(capsys.readouterr().err, fragment)
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux /proc")
+@pytest.mark.parametrize("extra", [["--out-dir", "/proc/rfsim-out"], ["-o", "/proc/rfsim-out/x.h5"],
+                                   ["-o", "/proc/x.h5", "--no-plot"]])
+def test_outputs_on_a_virtual_file_system_are_refused(extra, tmp_path, monkeypatch, capsys, no_simulation):
+    monkeypatch.chdir(tmp_path)
+    assert exit_code(["run", "gen2-waveforms", *extra]) == 2
+    assert_one_line_error(capsys.readouterr().err, "/proc")
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write into read-only folders")
+def test_unwritable_folder_is_refused(tmp_path, monkeypatch, capsys, no_simulation):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    ro.chmod(0o500)
+    try:
+        assert exit_code(["run", "gen2-waveforms", "-o", str(ro / "x.h5"), "--no-plot"]) == 2
+        assert_one_line_error(capsys.readouterr().err, "cannot write into the folder")
+    finally:
+        ro.chmod(0o700)
+
+
+def test_missing_output_folders_are_created(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "gen2-waveforms", "--set", "profiles=['fm0-640k']", "-o", "a/b/c/x.h5", "--no-plot",
+                 "-q"]) == 0
+    assert (tmp_path / "a" / "b" / "c" / "x.h5").stat().st_size > 0
+    assert not list(tmp_path.glob("**/.rfsim-write-probe-*"))
+
+
+def test_a_figure_that_cannot_be_saved_keeps_the_dataset(tmp_path, monkeypatch, capsys):
+    import scenarios.gen2_waveforms as gw
+
+    def plot(path, out_dir):
+        raise IsADirectoryError(21, "Is a directory")
+    monkeypatch.setattr(gw, "plot", plot)
+    assert main(["run", "gen2-waveforms", "--set", "profiles=['fm0-640k']", "--out-dir", str(tmp_path), "-q"]) == 2
+    assert_one_line_error(capsys.readouterr().err, "written, but a figure could not be saved")
+    assert (tmp_path / "gen2-waveforms.h5").stat().st_size > 0
+
+
+def test_bench_json_path_is_checked_first(tmp_path, capsys):
+    (tmp_path / "f").write_text("x")
+    assert main(["bench", "linecode", "--quick", "--json", str(tmp_path / "f" / "b.json")]) == 2
+    assert_one_line_error(capsys.readouterr().err, "is a file, not a folder")
+    assert "[linecode]" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [["config", "link", "--keys"], ["list"], ["config", "inventory"]])
+def test_output_piped_into_head_is_a_quiet_exit_0(argv, tmp_path):
+    """The reader of the pipe is gone before rfsim writes (like `| head` that has its lines)."""
+    proc = subprocess.Popen([sys.executable, "-m", "rfsim", *argv], cwd=tmp_path, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()
+    with proc.stderr:
+        err = proc.stderr.read().decode()
+    proc.wait(timeout=60)
+    assert proc.returncode == 0 and err == ""

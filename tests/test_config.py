@@ -107,3 +107,41 @@ def test_describe_lists_every_leaf_key():
     keys = [row[0] for row in describe(ToyConfig)]
     assert keys == ["name", "distances_m", "reader.ptx_dbm", "reader.n_antennas",
                     "reader.modulation", "reader.hop"]
+
+
+def test_empty_list_for_a_variable_length_tuple_is_refused():
+    with pytest.raises(ConfigError, match=r"config key 'distances_m': got \[\]; allowed: a non-empty list of float"):
+        load_config(ToyConfig, None, ["distances_m=[]"])
+
+
+def test_config_error_survives_pickling_into_another_process():
+    import pickle
+
+    err = pickle.loads(pickle.dumps(ConfigError("reader.link_profile", "x", "one of a, b")))
+    assert isinstance(err, ConfigError) and str(err) == "config key 'reader.link_profile': got 'x'; allowed: one of a, b"
+
+
+def test_binary_toml_file_is_a_one_line_user_error(tmp_path):
+    path = tmp_path / "c.toml"
+    path.write_bytes(b"\xff\xfe\x00name = 1")
+    with pytest.raises(UserError, match="not UTF-8 text") as info:
+        load_config(ToyConfig, path)
+    assert "\n" not in str(info.value)
+
+
+def test_check_value_checks_one_dotted_key():
+    from rfsim.config import check_value
+
+    assert check_value(ToyConfig, "reader.ptx_dbm", 12) == 12.0
+    with pytest.raises(ConfigError, match="config key 'reader.ptx_dbm': got 99"):
+        check_value(ToyConfig, "reader.ptx_dbm", 99)
+    with pytest.raises(ConfigError, match="'reader.nope'"):
+        check_value(ToyConfig, "reader.nope", 1)
+
+
+def test_a_list_that_is_empty_by_default_may_stay_empty():
+    @dataclass(frozen=True)
+    class Optional:
+        extra_m: tuple[float, ...] = param((), unit="m", doc="optional positions")
+
+    assert load_config(Optional, None, ["extra_m=[]"]).extra_m == ()

@@ -18,7 +18,7 @@ import pytest
 from rfsim.cli import main
 from rfsim.dataset import read_provenance, read_table
 from rfsim.errors import UserError
-from rfsim.sweep import (PoolExecutor, Progress, SerialExecutor, load_spec, merge_sweep, point_seed,
+from rfsim.sweep import (PoolExecutor, Progress, SerialExecutor, StoreIndex, load_spec, merge_sweep, point_seed,
                          points_dir, run_sweep)
 
 SPEC = """\
@@ -118,7 +118,10 @@ def test_shards_then_merge_are_bit_identical(reference, tmp_path, monkeypatch, c
     assert main(["sweep", "merge", str(spec)]) == 2  # shard 1 is missing
     assert "6 of 12 runs are missing" in capsys.readouterr().err
     assert main(["sweep", "run", str(spec), "--shard", "1/2", "--workers", "2", "-q"]) == 0
-    assert len(list(points_dir(tmp_path / "s.h5").glob("point-*.h5"))) == 12
+    store = points_dir(tmp_path / "s.h5")
+    assert len(StoreIndex(store)) == 12
+    # one segment per writing process (shard 0: this process; shard 1: two pool workers)
+    assert len(list(store.glob("seg-*.log"))) == 3 and len(list(store.glob("seg-*.idx"))) == 3
     assert main(["sweep", "merge", str(spec), "-q"]) == 0
     assert_identical(reference, tmp_path / "s.h5")
 
@@ -136,19 +139,18 @@ def test_resume_skips_valid_points_and_recomputes_changed_ones(tmp_path):
 
 def test_no_partial_file_under_the_final_name(tmp_path, monkeypatch):
     spec = load_spec(write_spec(tmp_path, "s"))
+    with pytest.raises(UserError, match="12 of 12 runs are missing"):
+        merge_sweep(spec)  # nothing to merge yet: a user error before any write
+    run_sweep(spec, SerialExecutor(), merge=False)
 
     def boom(*args, **kwargs):
         raise RuntimeError("disk full")
-    monkeypatch.setattr("rfsim.sweep.store.write_dataset", boom)
-    with pytest.raises(UserError, match="12 of 12 runs are missing"):
-        merge_sweep(spec)  # nothing to merge yet: a user error before any write
-    monkeypatch.undo()
-    run_sweep(spec, SerialExecutor(), merge=False)
-    monkeypatch.setattr("rfsim.sweep.store.write_dataset", boom)
+    monkeypatch.setattr("rfsim.sweep.merge.write_provenance", boom)  # the last step of the merge
     with pytest.raises(RuntimeError, match="disk full"):
         merge_sweep(spec)
     assert not spec.output.exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert not (tmp_path / "s.h5.lock").exists()  # the lock went with the failed merge
 
 
 def test_sigkill_mid_sweep_then_resume_recomputes_only_missing(tmp_path):
@@ -159,20 +161,22 @@ def test_sigkill_mid_sweep_then_resume_recomputes_only_missing(tmp_path):
     cmd = [sys.executable, "-m", "rfsim", "sweep", "run", str(spec_path), "--serial"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     deadline = time.monotonic() + 120
-    while len(list(store.glob("point-*.h5"))) < 6 and time.monotonic() < deadline and proc.poll() is None:
+    while len(StoreIndex(store)) < 6 and time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.005)
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     assert proc.returncode == -signal.SIGKILL
-    finished = {p.name: p.stat().st_mtime_ns for p in store.glob("point-*.h5")}
-    assert 6 <= len(finished) < 32, len(finished)
+    finished = len(StoreIndex(store))
+    segments = {p.name: (p.stat().st_mtime_ns, p.stat().st_size) for p in store.glob("seg-*")}
+    assert 6 <= finished < 32, finished
     assert not spec.output.exists()  # never a file under the final name before the merge
     out = subprocess.run(cmd + ["--resume"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
     assert out.returncode == 0, out.stderr
-    assert f"32 runs, {32 - len(finished)} computed, {len(finished)} reused" in out.stdout
-    for name, mtime in finished.items():  # the finished points were not rewritten
-        assert (store / name).stat().st_mtime_ns == mtime
-    assert not list(store.glob(".*.partial"))  # the killed writer's temporary is gone
+    assert f"32 runs, {32 - finished} computed, {finished} reused" in out.stdout
+    for name, stat in segments.items():  # the killed run's segment was not rewritten
+        assert ((store / name).stat().st_mtime_ns, (store / name).stat().st_size) == stat
+    assert len(list(store.glob("seg-*.log"))) == 2  # the killed process's and the resume's
+    assert not list(tmp_path.glob("**/.*.partial"))
     (tmp_path / "ref").mkdir()
     uninterrupted = run_sweep(load_spec(write_spec(tmp_path / "ref", "big", q=tuple(range(8)),
                                                    profiles=("fm0-40k",), fs_hz=1e6)), SerialExecutor())

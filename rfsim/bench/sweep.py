@@ -1,11 +1,11 @@
 """Benchmark of the sweep executors: process-pool scaling, Dask per-task overhead, memory.
 
 * **Scaling**: a sweep of ``n_points`` points of the ``gen2-waveforms`` scenario (all four
-  link profiles at ``fs_hz``, ~0.2–0.3 s per point including its HDF5 file at 40 MS/s) on
+  link profiles at ``fs_hz``, ~0.2–0.3 s per point including its record in the point store at 40 MS/s) on
   a process pool of 1 and of 2 workers; speed-up = t(1) / t(2). Only the execution phase
   is timed (every point computed and written to the point store); the merge is not.
 * **Dask overhead**: ``dask_points`` tiny points (one FM0 profile at 5.12 MS/s, ~20 ms
-  each, mostly the fsync'ed HDF5 write) on a ``LocalCluster`` of ``dask_workers`` single-threaded worker processes; the
+  each) on a ``LocalCluster`` of ``dask_workers`` single-threaded worker processes; the
   per-task overhead is ``wall · workers / n − mean in-task time`` (time a worker slot
   spends per task beyond running it), next to the same points run serially.
 * **Memory**: the peak resident set (``ru_maxrss``) of each worker process, as reported
@@ -65,10 +65,10 @@ def bench_sweep(n_points: int = 64, *, fs_hz: float = 40e6, dask_points: int = 2
             out[f"pool{workers}_wall_s"] = wall
             out[f"pool{workers}_point_mean_s"] = float(np.mean([r.wall_time_s for r in results]))
             out[f"pool{workers}_worker_peak_rss_mb"] = max(_per_worker_rss(results).values())
-            files = list((root / f"pool{workers}" / "s.h5.points").glob("*.h5"))
-            out["point_file_mb"] = float(np.mean([p.stat().st_size for p in files])) / 1e6
+            files = list((root / f"pool{workers}" / "s.h5.points").glob("seg-*"))
+            out["store_mb_per_run"] = sum(p.stat().st_size for p in files) / 1e6 / n_points
             for p in files:
-                p.unlink()  # ~12 MB per point at 40 MS/s
+                p.unlink()  # ~12 MB per run at 40 MS/s
         out["pool_speedup_2_vs_1"] = out["pool1_wall_s"] / out["pool2_wall_s"]
         wall, results = _timed(_spec(root / "serial-tiny" / "s.h5", dask_points, tiny), SerialExecutor())
         out["tiny_points"] = dask_points

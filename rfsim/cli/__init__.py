@@ -9,19 +9,28 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 
 import rfsim
-from rfsim.errors import UserError
+from rfsim.errors import Terminated, UserError
+from rfsim.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
 _SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
                 "rfsim.cli.sweep")
 
 
+class Parser(argparse.ArgumentParser):
+    """``argparse`` parser whose usage errors are one line (exit 2), like every user error."""
+
+    def error(self, message: str):  # noqa: D102 - argparse hook
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="rfsim",
         description="Time-domain, sample-level UHF RFID (EPC Gen2) link-level simulator.",
         epilog="Run 'rfsim COMMAND --help' for the options of a command.",
@@ -41,13 +50,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 0
     try:
-        return int(args.func(args) or 0)
+        with terminate_as_interrupt():
+            return int(args.func(args) or 0)
     except UserError as err:
         print(f"rfsim: error: {err}", file=sys.stderr)
         return err.exit_code
-    except KeyboardInterrupt:
-        print("rfsim: interrupted", file=sys.stderr)
+    except Terminated as err:
+        print(f"rfsim: terminated (SIGTERM){getattr(err, 'hint', '')}", file=sys.stderr)
+        return err.exit_code
+    except KeyboardInterrupt as err:
+        print(f"rfsim: interrupted{getattr(err, 'hint', '')}", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # e.g. '| head': the reader has enough; no traceback, exit 0
+        _discard_stdout()
+        return 0
+
+
+def _discard_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -49,6 +49,10 @@ def run(args: argparse.Namespace) -> int:
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise UserError(f"unknown benchmark {unknown[0]!r}; available: {', '.join(BENCHMARKS)}")
+    if args.json is not None:
+        from rfsim.outputs import check_output_file
+
+        check_output_file(args.json, "--json")
     results = {}
     for name in names:
         module, func, quick_kwargs = BENCHMARKS[name]
@@ -64,7 +68,6 @@ def run(args: argparse.Namespace) -> int:
             shown = f"{value:.6g}" if isinstance(value, float) else str(value)
             print(f"  {key:<40} {shown}")
     if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps(results, indent=2, default=float) + "\n")
         print(f"written: {args.json}")
     return 0

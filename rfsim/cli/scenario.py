@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.config import describe, load_config, to_toml
-from rfsim.errors import UserError
+from rfsim.errors import SEED_RANGE_TEXT, UserError, check_seed
 from rfsim.registry import get_scenario, scenario_modules
 
 
@@ -26,7 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("scenario", help="scenario name (see 'rfsim list')")
     _add_config_args(p)
     p.add_argument("--seed", type=_seed, default=1,
-                   help="root seed of the run's SeedSequence (non-negative integer, default 1)")
+                   help="root seed of the run's SeedSequence (integer in [0, 2**64), default 1)")
     p.add_argument("--out-dir", type=Path, default=Path("results"),
                    help="folder for the dataset and figures (default: results)")
     p.add_argument("-o", "--output", type=Path, default=None,
@@ -38,12 +38,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def _seed(text: str) -> int:
     try:
-        value = int(text, 0)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a non-negative integer")
-    return value
+        return check_seed(int(text, 0))
+    except (ValueError, UserError):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected {SEED_RANGE_TEXT}") from None
 
 
 def _add_config_args(p: argparse.ArgumentParser) -> None:
@@ -81,8 +78,6 @@ def _run(args: argparse.Namespace) -> int:
     from rfsim.runner import run_scenario
 
     module, config = _resolve(args)
-    if args.output is not None and args.output.suffix not in (".h5", ".hdf5"):
-        raise UserError(f"--output {str(args.output)!r}: the dataset file must end in .h5 or .hdf5")
     with reporting(reporter(args)) as rep:
         rep.detail("resolved config:\n" + to_toml(config).rstrip())
         out = run_scenario(module, config, seed=args.seed, out_dir=args.out_dir, output=args.output,

@@ -3,7 +3,7 @@
 Shape (a verb first, the spec second, then options; the verb ``run`` may be left out)::
 
     rfsim sweep [run] SPEC.toml [--serial | --workers N | --dask ADDRESS|local[:N]]
-                                [--resume] [--quiet] [--shard I/N] [--dry-run]
+                                [--resume] [--quiet] [--shard I/N] [--dry-run] [--max-runs N] [--yes]
     rfsim sweep dry-run SPEC.toml [--show K]
     rfsim sweep plan SPEC.toml --slurm --shards N [--out FILE] [--cpus-per-task C] [--time T]
     rfsim sweep merge SPEC.toml [--quiet]
@@ -37,6 +37,16 @@ def _shard(text: str) -> tuple[int, int]:
     return int(i), int(n)
 
 
+#: Runs a sweep may start without --yes.
+DEFAULT_MAX_RUNS = 100_000
+
+
+def _count(text: str) -> int:
+    if not text.isdigit():
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
+    return int(text)
+
+
 def _positive(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
@@ -44,11 +54,13 @@ def _positive(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from rfsim.cli import Parser
+
+    parser = Parser(
         prog="rfsim sweep",
         description="Parameter sweeps from a TOML spec. 'rfsim sweep SPEC.toml' is 'rfsim sweep run SPEC.toml'.",
-        epilog="Every run (point, repetition) is written to <output>.points/ as it finishes; the "
-               "merged file appears under the output name only when all runs exist.")
+        epilog="Every run (point, repetition) is appended to the point store <output>.points/ as it "
+               "finishes; the merged file appears under the output name only when all runs exist.")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB")
 
     p = verbs.add_parser("run", help="run the sweep (or one shard) and merge it",
@@ -61,16 +73,19 @@ def build_parser() -> argparse.ArgumentParser:
     how.add_argument("--dask", default=None, metavar="ADDRESS|local[:N]",
                      help="Dask: a scheduler address (tcp://host:8786) or a LocalCluster of N workers")
     p.add_argument("--resume", action="store_true",
-                   help="skip runs whose point files exist and match the spec")
+                   help="skip runs already in the point store for this spec")
     p.add_argument("--shard", type=_shard, default=None, metavar="I/N",
                    help="run only shard I of N (no merge; see 'rfsim sweep merge')")
     p.add_argument("--dry-run", action="store_true", help="print the expansion, run nothing")
+    p.add_argument("--max-runs", type=_positive, default=DEFAULT_MAX_RUNS, metavar="N",
+                   help=f"refuse to start more than N runs without --yes (default {DEFAULT_MAX_RUNS})")
+    p.add_argument("-y", "--yes", action="store_true", help="run even more than --max-runs runs")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress and no summary")
     p.set_defaults(handler=_run)
 
     p = verbs.add_parser("dry-run", help="print the number of points and the first expanded configs")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
-    p.add_argument("--show", type=int, default=3, metavar="K", help="configs to print (default 3)")
+    p.add_argument("--show", type=_count, default=3, metavar="K", help="configs to print (default 3)")
     p.set_defaults(handler=_dry_run)
 
     p = verbs.add_parser("plan", help="write a SLURM array script running the sweep in shards")
@@ -106,22 +121,32 @@ def run(args: argparse.Namespace) -> int:
 
 def _dry_run(ns: argparse.Namespace) -> int:
     from rfsim.config import to_toml
-    from rfsim.sweep import load_spec, plan_sweep
+    from rfsim.sweep import load_spec, plan_sweep, point_seed
 
     spec = load_spec(ns.spec)
-    plan = plan_sweep(spec)
-    n = len(plan.configs)
-    print(f"# {spec.scenario}: {n} points x {spec.repetitions} repetitions = {len(plan.tasks)} runs "
+    plan = plan_sweep(spec, check="sample")  # the shown points and every axis value once
+    n = spec.n_points
+    print(f"# {spec.scenario}: {n} points x {spec.repetitions} repetitions = {spec.n_runs} runs "
           f"-> {spec.output}")
     if spec.swept_keys:
         print(f"# swept keys: {', '.join(spec.swept_keys)}")
-    for i in range(min(max(ns.show, 0), n)):
+    shown = min(ns.show, n)
+    for i in range(shown):
         values = ", ".join(f"{k} = {v!r}" for k, v in plan.values[i].items())
-        print(f"\n# ---- point {i}: {values or '(base)'}; seed of repetition 0 = {plan.tasks[i * spec.repetitions].seed}")
+        print(f"\n# ---- point {i}: {values or '(base)'}; seed of repetition 0 = {point_seed(spec.seed, i, 0)}")
         print(to_toml(plan.configs[i]), end="")
-    if n > ns.show:
-        print(f"\n# ... {n - ns.show} more points")
+    if n > shown:
+        print(f"\n# ... {n - shown} more points")
     return 0
+
+
+def _check_size(ns: argparse.Namespace, spec) -> None:
+    from rfsim.sweep import shard_runs
+
+    n = spec.n_runs if ns.shard is None else len(shard_runs(spec.n_runs, *ns.shard))
+    if n > ns.max_runs and not ns.yes:
+        raise UserError(f"sweep {str(ns.spec)!r}: {n} runs to do, more than --max-runs {ns.max_runs}; "
+                        "add --yes to run them (or raise --max-runs)")
 
 
 def _run(ns: argparse.Namespace) -> int:
@@ -129,14 +154,20 @@ def _run(ns: argparse.Namespace) -> int:
         ns.show = 3
         return _dry_run(ns)
     from rfsim.sweep import Progress, load_spec, make_executor, run_sweep
+    from rfsim.sweep.runner import check_sweep_outputs
 
     spec = load_spec(ns.spec)
+    _check_size(ns, spec)
+    check_sweep_outputs(spec)  # before a Dask cluster is started or anything runs
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
     try:
         def progress(total: int, *, done: int) -> Progress:
             return Progress(total, done=done, stream=sys.stdout, quiet=ns.quiet)
 
         report = run_sweep(spec, executor, shard=ns.shard, resume=ns.resume, progress=progress)
+    except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the finished runs are in the point store
+        err.hint = f"; finished runs are kept, continue with: rfsim sweep run {ns.spec} --resume"
+        raise
     finally:
         executor.close()
     if not ns.quiet:
@@ -150,22 +181,25 @@ def _run(ns: argparse.Namespace) -> int:
 
 
 def _plan(ns: argparse.Namespace) -> int:
-    from rfsim.sweep import load_spec, sbatch_script
+    from rfsim.outputs import check_output_file
+    from rfsim.sweep import load_spec, plan_sweep, sbatch_script
+    from rfsim.sweep.slurm import check_time_limit
 
+    if ns.time:
+        check_time_limit(ns.time)
+    if ns.out is not None:
+        check_output_file(ns.out, "--out")
     spec = load_spec(ns.spec)  # a bad spec fails here, not on the cluster
-    from rfsim.sweep import plan_sweep
-
-    plan = plan_sweep(spec)
-    if ns.shards > len(plan.tasks):
-        raise UserError(f"--shards {ns.shards}: more shards than runs ({len(plan.tasks)})")
+    plan_sweep(spec, check="sample")
+    if ns.shards > spec.n_runs:
+        raise UserError(f"--shards {ns.shards}: more shards than runs ({spec.n_runs})")
     text = sbatch_script(ns.spec, ns.shards, workdir=Path(os.getcwd()), job_name=ns.job_name,
                          cpus_per_task=ns.cpus_per_task, time_limit=ns.time)
     if ns.out is None:
         print(text, end="")
     else:
-        ns.out.parent.mkdir(parents=True, exist_ok=True)
         ns.out.write_text(text, encoding="utf-8")
-        print(f"sbatch script: {ns.out} ({ns.shards} array tasks, {len(plan.tasks)} runs); "
+        print(f"sbatch script: {ns.out} ({ns.shards} array tasks, {spec.n_runs} runs); "
               f"submit with: sbatch {ns.out}")
     return 0
 

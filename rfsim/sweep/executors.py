@@ -1,9 +1,10 @@
 """Where the runs of a sweep execute: in-process, a local process pool, or Dask.
 
-An executor maps :func:`rfsim.sweep.store.run_point` over a list of
-:class:`~rfsim.sweep.store.PointTask` and yields a
-:class:`~rfsim.sweep.store.PointResult` as each run finishes (in completion order; every
-run writes its own file, so the order never changes the result). SLURM arrays need no
+An executor maps :func:`rfsim.sweep.store.run_point` over an iterable of
+:class:`~rfsim.sweep.store.PointTask` (``map(tasks, n_tasks)``, consumed lazily) and
+yields a :class:`~rfsim.sweep.store.PointResult` as each run finishes (in completion
+order; every run is its own record in the point store, so the order never changes the
+result). SLURM arrays need no
 executor here: each array task runs its shard with one of these (see
 :mod:`rfsim.sweep.slurm`).
 
@@ -19,14 +20,17 @@ executor here: each array task runs its shard with one of these (see
 from __future__ import annotations
 
 import concurrent.futures as cf
+import itertools
 import logging
 import os
+import re
 import uuid
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator
 from typing import Any
 
 from rfsim.errors import UserError
-from rfsim.sweep.store import PointResult, PointTask, run_point
+from rfsim.procs import worker_pool
+from rfsim.sweep.store import PointResult, PointTask, run_point, run_points
 
 
 def available_cpus() -> int:
@@ -37,13 +41,35 @@ def available_cpus() -> int:
         return os.cpu_count() or 1
 
 
+def batch_size(n_tasks: int | None, workers: int) -> int:
+    """Runs per submitted task: 1 for small sweeps, up to :data:`MAX_BATCH` for huge ones.
+
+    About 8 batches per worker, so the per-task overhead of the pool or the scheduler is
+    paid once per batch while the load stays balanced.
+    """
+    if not n_tasks:
+        return 1
+    return max(1, min(MAX_BATCH, n_tasks // (8 * max(workers, 1))))
+
+
+#: Largest number of runs sent to a worker in one task.
+MAX_BATCH = 256
+
+
+def batches(tasks: Iterable[PointTask], size: int) -> Iterator[list[PointTask]]:
+    """``tasks`` in lists of ``size`` (the last one shorter), consumed lazily."""
+    it = iter(tasks)
+    while chunk := list(itertools.islice(it, size)):
+        yield chunk
+
+
 class SerialExecutor:
     """Run every task in this process, in order."""
 
     name = "serial"
     workers = 1
 
-    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
+    def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
         for task in tasks:
             yield run_point(task)
 
@@ -52,7 +78,12 @@ class SerialExecutor:
 
 
 class PoolExecutor:
-    """A local ``ProcessPoolExecutor`` with ``workers`` processes."""
+    """A local process pool of ``workers`` processes (:func:`rfsim.procs.worker_pool`).
+
+    Tasks are sent in batches (:func:`batch_size`) with at most ``4 × workers`` batches in
+    flight, so a sweep of millions of runs is never held in memory as futures. The workers
+    die with the leader, even when it is killed with SIGKILL.
+    """
 
     name = "pool"
 
@@ -61,18 +92,23 @@ class PoolExecutor:
         if self.workers < 1:
             raise UserError(f"--workers {workers}: expected an integer >= 1")
 
-    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
-        if not tasks:
+    def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
+        if n_tasks is None:
+            tasks = list(tasks)
+            n_tasks = len(tasks)
+        if not n_tasks:
             return
-        with cf.ProcessPoolExecutor(max_workers=min(self.workers, len(tasks))) as pool:
-            futures = [pool.submit(run_point, t) for t in tasks]
-            try:
-                for fut in cf.as_completed(futures):
-                    yield fut.result()
-            except BaseException:
-                for f in futures:
-                    f.cancel()
-                raise
+        n_workers = min(self.workers, n_tasks)
+        chunks = batches(tasks, batch_size(n_tasks, n_workers))
+        with worker_pool(n_workers) as pool:
+            pending = {pool.submit(run_points, c) for c in itertools.islice(chunks, 4 * n_workers)}
+            while pending:
+                done, pending = cf.wait(pending, return_when=cf.FIRST_COMPLETED)
+                for fut in done:
+                    results = fut.result()
+                    for c in itertools.islice(chunks, 1):
+                        pending.add(pool.submit(run_points, c))
+                    yield from results
 
     def close(self) -> None:
         pass
@@ -86,6 +122,10 @@ def _import_distributed():
     return distributed
 
 
+#: A Dask scheduler address: [scheme://]host:port, or scheme://host (default port).
+_ADDRESS = re.compile(r"(?:(?:tcp|tls|ucx|ws|wss|inproc)://[^\s/:]+(?::\d{1,5})?|[^\s/:]+:\d{1,5})")
+
+
 def parse_dask_target(text: str) -> tuple[str, int | None]:
     """``"local"`` / ``"local:N"`` → ("local", N or None); anything else is an address."""
     if text == "local" or text.startswith("local:"):
@@ -95,8 +135,9 @@ def parse_dask_target(text: str) -> tuple[str, int | None]:
         if not n.isdigit() or int(n) < 1:
             raise UserError(f"--dask {text!r}: expected local or local:N with N >= 1 workers")
         return "local", int(n)
-    if not text:
-        raise UserError("--dask: expected a scheduler address (tcp://host:8786) or local[:N]")
+    if not _ADDRESS.fullmatch(text):
+        raise UserError(f"--dask {text!r}: expected a scheduler address (tcp://host:8786, "
+                        "host:8786) or local[:N]")
     return text, None
 
 
@@ -132,22 +173,39 @@ class DaskExecutor:
             else:
                 try:
                     self.client = distributed.Client(address, timeout="20s")
-                except OSError as err:
-                    raise UserError(f"--dask {address!r}: cannot connect to the scheduler ({err})") from None
+                except (OSError, ValueError) as err:  # refused/timed out, or a malformed address
+                    raise UserError(f"--dask {address!r}: cannot connect to the scheduler "
+                                    f"({str(err).splitlines()[0] if str(err) else type(err).__name__})") from None
             self._own_client = True
         self.workers = len(self.client.scheduler_info().get("workers", {}))
 
-    def map(self, tasks: Sequence[PointTask]) -> Iterator[PointResult]:
+    def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
         distributed = _import_distributed()
+        if n_tasks is None:
+            tasks = list(tasks)
+            n_tasks = len(tasks)
         batch = uuid.uuid4().hex  # task keys unique per call: never reuse an older future
-        futures = [self.client.submit(run_point, t, pure=False, retries=self.retries,
-                                      key=f"rfsim-sweep-{batch}-{t.path.stem}")
-                   for t in tasks]
+        chunks = batches(tasks, batch_size(n_tasks, self.workers))
+        counter = itertools.count()
+
+        live: set = set()
+
+        def submit(chunk):
+            fut = self.client.submit(run_points, chunk, pure=False, retries=self.retries,
+                                     key=f"rfsim-sweep-{batch}-{next(counter)}")
+            live.add(fut)
+            return fut
+
+        queue = distributed.as_completed([submit(c) for c in itertools.islice(chunks, 4 * max(self.workers, 1))])
         try:
-            for fut in distributed.as_completed(futures):
-                yield fut.result()
+            for fut in queue:
+                results = fut.result()
+                live.discard(fut)
+                for c in itertools.islice(chunks, 1):
+                    queue.add(submit(c))
+                yield from results
         except BaseException:
-            self.client.cancel(futures)
+            self.client.cancel(list(live))
             raise
 
     def close(self) -> None:
@@ -175,4 +233,6 @@ __all__ = [
     "DaskExecutor",
     "parse_dask_target",
     "make_executor",
+    "batch_size",
+    "batches",
 ]

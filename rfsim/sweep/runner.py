@@ -1,18 +1,23 @@
-"""Run a sweep: expand and validate every point, execute the missing runs, merge.
+"""Run a sweep: check the points and the outputs, execute the missing runs, merge.
 
-:func:`run_sweep` validates the configs of all points before anything runs, builds one
-:class:`~rfsim.sweep.store.PointTask` per (point, repetition), keeps those of the shard
-(``shard=(I, N)``), skips the runs whose point files are valid when ``resume`` is set,
-executes the rest on the executor while updating the progress, and — for a whole sweep —
-merges the point store into the output file (atomically, only once every run exists).
+:func:`run_sweep` validates the config of every point before anything runs (streaming,
+one point at a time), checks that the merged file and the point store can be written,
+locks the output (:mod:`rfsim.sweep.lock`), keeps the runs of the shard (``shard=(I, N)``),
+skips the runs already in the point store when ``resume`` is set, executes the rest on
+the executor while updating the progress, and — for a whole sweep — merges the point
+store into the output file (atomically, only once every run exists).
 :func:`merge_sweep` is the merge alone (after SLURM array tasks).
+
+Nothing here holds all points in memory: a :class:`SweepPlan` computes a point's values,
+config, seed and task on demand, so ``plan.tasks`` of a 10⁷-run spec costs nothing until
+it is iterated.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -22,12 +27,39 @@ import numpy as np
 from rfsim.config import to_toml
 from rfsim.dataset import make_provenance, utc_now
 from rfsim.errors import UserError
+from rfsim.outputs import check_output_file, check_output_folder
 from rfsim.registry import get_scenario
 from rfsim.sweep.executors import SerialExecutor
+from rfsim.sweep.lock import OutputLock
+from rfsim.sweep.merge import merge_store
 from rfsim.sweep.progress import Progress
-from rfsim.sweep.spec import SweepSpec, point_configs, point_seed, point_values, shard_runs
-from rfsim.sweep.store import (PointResult, PointTask, is_valid_point, merge_points, point_path,
-                               points_dir, remove_partials, write_merged)
+from rfsim.sweep.spec import (SweepSpec, axis_support, check_axis_values, point_config, point_seed, point_value,
+                              shard_runs)
+from rfsim.sweep.store import (PointResult, PointTask, RecordRef, StoreIndex, close_writers, config_digest,
+                               points_dir)
+
+#: Provenance keeps the (points, repetitions) seed array as an attribute up to this many
+#: runs (HDF5 attributes are limited to 64 kB); ``sweep_runs/seed`` always has every seed.
+SEED_ATTR_MAX_RUNS = 4096
+
+
+class _Lazy(Sequence):
+    """A read-only sequence of ``n`` items computed by ``item(i)`` on access."""
+
+    def __init__(self, n: int, item: Callable[[int], Any]):
+        self._n, self._item = n, item
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self._item(j) for j in range(*i.indices(self._n))]
+        if i < 0:
+            i += self._n
+        if not 0 <= i < self._n:
+            raise IndexError(i)
+        return self._item(i)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,99 +75,208 @@ class SweepReport:
     results: tuple[PointResult, ...]
 
 
-@dataclasses.dataclass(frozen=True)
+@dataclasses.dataclass(frozen=True, eq=False)
 class SweepPlan:
-    """The validated expansion of a spec: module, per-point values/configs, all tasks."""
+    """The expansion of a spec, computed on demand: per-point values, configs, seeds, tasks."""
 
     spec: SweepSpec
     module: ModuleType
-    values: list[dict[str, Any]]
-    configs: list[Any]
-    tasks: list[PointTask]
+    _cache: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    @property
+    def n_points(self) -> int:
+        return self.spec.n_points
+
+    @property
+    def values(self) -> Sequence[dict[str, Any]]:
+        return _Lazy(self.n_points, lambda i: point_value(self.spec, i))
+
+    @property
+    def configs(self) -> Sequence[Any]:
+        return _Lazy(self.n_points, self.config)
+
+    @property
+    def tasks(self) -> Sequence[PointTask]:
+        return _Lazy(self.spec.n_runs, self.task)
+
+    def config(self, i: int) -> Any:
+        """Validated config of point ``i`` (the last point's is cached)."""
+        hit = self._cache.get("config")
+        if hit is not None and hit[0] == i:
+            return hit[1]
+        cfg = point_config(self.spec, self.module.Config, i)
+        self._cache["config"] = (i, cfg)
+        return cfg
+
+    def digest(self, i: int) -> bytes:
+        hit = self._cache.get("digest")
+        if hit is not None and hit[0] == i:
+            return hit[1]
+        d = config_digest(self.config(i))
+        self._cache["digest"] = (i, d)
+        return d
+
+    def task(self, run: int) -> PointTask:
+        """Task of flat run index ``run = point * repetitions + repetition``."""
+        i, k = divmod(run, self.spec.repetitions)
+        return PointTask(self.module.__name__, self.config(i), i, k, point_seed(self.spec.seed, i, k),
+                         points_dir(self.spec.output))
 
     def seeds(self) -> np.ndarray:
         """(n_points, repetitions) int64 run seeds."""
-        return np.array([t.seed for t in self.tasks], dtype=np.int64).reshape(
-            len(self.configs), self.spec.repetitions)
+        return np.array([point_seed(self.spec.seed, i, k) for i in range(self.n_points)
+                         for k in range(self.spec.repetitions)], dtype=np.int64).reshape(
+            self.n_points, self.spec.repetitions)
+
+    def numeric_keys(self) -> dict[str, np.dtype]:
+        """Swept keys whose every value is a number (or every value a boolean) → column dtype."""
+        out: dict[str, np.dtype] = {}
+        for axis in self.spec.axes:
+            for j, key in enumerate(axis.keys):
+                vals = axis_support(axis, j)
+                if all(isinstance(v, bool) for v in vals) or all(
+                        isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+                    out[key] = np.asarray(vals).dtype
+        return out
 
 
-def plan_sweep(spec: SweepSpec) -> SweepPlan:
-    """Expand ``spec`` and validate every point's config (nothing runs)."""
-    module = get_scenario(spec.scenario)
-    configs = point_configs(spec, module.Config)
-    values = point_values(spec)
-    tasks = [PointTask(module.__name__, cfg, i, k, point_seed(spec.seed, i, k),
-                       point_path(spec.output, i, k))
-             for i, cfg in enumerate(configs) for k in range(spec.repetitions)]
-    return SweepPlan(spec, module, values, configs, tasks)
+def plan_sweep(spec: SweepSpec, *, check: str = "all", module: ModuleType | None = None) -> SweepPlan:
+    """The plan of ``spec``; ``check="all"`` validates every point's config (one at a time),
+    ``"sample"`` the first three points in full and every axis value against its key's
+    type and range (:func:`~rfsim.sweep.spec.check_axis_values`; dry-run, SLURM plan),
+    ``"none"`` nothing. ``module`` overrides the scenario looked up by name."""
+    module = module or get_scenario(spec.scenario)
+    plan = SweepPlan(spec, module)
+    if check == "sample":
+        for i in range(min(3, spec.n_points)):
+            point_config(spec, module.Config, i)
+        check_axis_values(spec, module.Config)
+    elif check == "all":
+        for i in range(spec.n_points):
+            point_config(spec, module.Config, i)
+    elif check != "none":
+        raise ValueError(f"check={check!r}: expected 'all', 'sample' or 'none'")
+    return plan
 
 
 def _quiet(total: int, *, done: int) -> Progress:
     return Progress(total, done=done, quiet=True)
 
 
+def check_sweep_outputs(spec: SweepSpec) -> None:
+    """The merged file and the point store can be written (before anything runs)."""
+    check_output_file(spec.output, "sweep output", suffixes=(".h5", ".hdf5"))
+    check_output_folder(points_dir(spec.output), "sweep point store")
+
+
+def _found(plan: SweepPlan, index: StoreIndex, run: int):
+    i, k = divmod(run, plan.spec.repetitions)
+    return index.find(i, k, point_seed(plan.spec.seed, i, k), plan.digest(i))
+
+
 def run_sweep(spec: SweepSpec, executor: Any = None, *, shard: tuple[int, int] | None = None,
               resume: bool = False, merge: bool = True,
               progress: Callable[..., Progress] | None = None,
-              on_result: Callable[[PointResult], None] | None = None) -> SweepReport:
+              on_result: Callable[[PointResult], None] | None = None,
+              module: ModuleType | None = None) -> SweepReport:
     """Run the sweep ``spec`` (or shard ``(I, N)`` of it) on ``executor`` (serial if None).
 
     ``progress(total, done=...)`` builds the :class:`Progress` display (none if None).
+    ``module`` runs this scenario module instead of the one named in the spec.
     Returns a :class:`SweepReport`; ``output`` is the merged file, or None for a shard or
     when ``merge`` is False.
     """
     t0 = time.perf_counter()
     start_utc = utc_now()
-    plan = plan_sweep(spec)
+    plan = plan_sweep(spec, module=module)
+    check_sweep_outputs(spec)
     executor = SerialExecutor() if executor is None else executor
-    selected = plan.tasks if shard is None else [plan.tasks[j] for j in shard_runs(len(plan.tasks), *shard)]
-    todo = [t for t in selected if not is_valid_point(t, plan.module.NAME)] if resume else selected
-    points_dir(spec.output).mkdir(parents=True, exist_ok=True)
-    progress_bar = (progress or _quiet)(len(selected), done=len(selected) - len(todo))
-    progress_bar.start()
-    results = []
-    try:
-        for result in executor.map(todo):
-            results.append(result)
-            progress_bar.update()
-            if on_result is not None:
-                on_result(result)
-    finally:
-        progress_bar.close()
-    output = None
-    if shard is None and merge:
-        output = merge_sweep(spec, plan=plan, start_time_utc=start_utc)
-    return SweepReport(len(plan.tasks), len(selected), len(results), len(selected) - len(todo),
+    with OutputLock(spec.output, shard=shard):
+        runs: Sequence[int] = range(spec.n_runs) if shard is None else shard_runs(spec.n_runs, *shard)
+        if resume:
+            index = StoreIndex(points_dir(spec.output))
+            todo = [j for j in runs if _found(plan, index, j) is None]
+            del index
+        else:
+            todo = runs
+        progress_bar = (progress or _quiet)(len(runs), done=len(runs) - len(todo))
+        progress_bar.start()
+        results = []
+        try:
+            for result in _map(executor, (plan.task(j) for j in todo), len(todo)):
+                results.append(result)
+                progress_bar.update()
+                if on_result is not None:
+                    on_result(result)
+        finally:
+            progress_bar.close()
+            close_writers()
+        output = None
+        if shard is None and merge:
+            output = _merge(plan, start_utc)
+    return SweepReport(spec.n_runs, len(runs), len(results), len(runs) - len(todo),
                        output, time.perf_counter() - t0, tuple(results))
 
 
+def _map(executor: Any, tasks: Iterator[PointTask], n: int) -> Iterator[PointResult]:
+    try:
+        return executor.map(tasks, n_tasks=n)
+    except TypeError:  # an executor written for the plain map(tasks) protocol
+        return executor.map(list(tasks))
+
+
 def missing_runs(plan: SweepPlan) -> list[PointTask]:
-    """Runs whose point file is absent, incomplete or from another spec."""
-    return [t for t in plan.tasks if not is_valid_point(t, plan.module.NAME)]
+    """Runs that are not (or not for this spec) in the point store."""
+    index = StoreIndex(points_dir(plan.spec.output))
+    return [plan.task(j) for j in range(plan.spec.n_runs) if _found(plan, index, j) is None]
 
 
-def merge_sweep(spec: SweepSpec, *, plan: SweepPlan | None = None,
-                start_time_utc: str | None = None) -> Path:
+def merge_sweep(spec: SweepSpec, *, plan: SweepPlan | None = None, start_time_utc: str | None = None,
+                module: ModuleType | None = None) -> Path:
     """Merge the complete point store of ``spec`` into ``spec.output`` (atomic write)."""
-    plan = plan or plan_sweep(spec)
-    missing = missing_runs(plan)
+    if plan is None:
+        plan = plan_sweep(spec, check="none", module=module)
+        check_sweep_outputs(spec)
+        with OutputLock(spec.output):
+            return _merge(plan, start_time_utc)
+    return _merge(plan, start_time_utc)
+
+
+def _merge(plan: SweepPlan, start_time_utc: str | None) -> Path:
+    spec = plan.spec
+    index = StoreIndex(points_dir(spec.output))
+    n = spec.n_runs
+    where = np.zeros((n, 3), np.int64)  # segment, offset, length of each run's record
+    seeds = np.zeros(n, np.int64)
+    missing, first = 0, None
+    for j in range(n):
+        i, k = divmod(j, spec.repetitions)
+        seeds[j] = point_seed(spec.seed, i, k)
+        hit = index.locate(i, k, int(seeds[j]), plan.digest(i))
+        if hit is None:
+            missing += 1
+            first = first or (i, k)
+        else:
+            where[j] = hit
     if missing:
-        t = missing[0]
-        raise UserError(f"sweep merge: {len(missing)} of {len(plan.tasks)} runs are missing or stale "
-                        f"in {str(points_dir(spec.output))!r} (first: point {t.point} repetition "
-                        f"{t.repetition}); run them with 'rfsim sweep run SPEC --resume'")
-    merged = merge_points([(t.point, t.repetition, t.seed, t.path) for t in plan.tasks],
-                          plan.values, plan.module.Config, spec.repetitions)
-    prov = make_provenance(
-        config_toml=to_toml(plan.configs[0]), seed=spec.seed, scenario=plan.module.NAME,
-        start_time_utc=start_time_utc or utc_now(),
-        extra={"spec_toml": spec.text, "sweep_points": len(plan.configs),
-               "sweep_repetitions": spec.repetitions, "sweep_runs": len(plan.tasks),
-               "sweep_keys": ", ".join(spec.swept_keys), "point_seeds": plan.seeds(),
-               "config_toml_is": "the resolved config of point 0"})
-    path = write_merged(spec.output, merged, prov)
-    remove_partials(spec.output)
-    return path
+        raise UserError(f"sweep merge: {missing} of {n} runs are missing or stale in "
+                        f"{str(points_dir(spec.output))!r} (first: point {first[0]} repetition {first[1]}); "
+                        "run them with 'rfsim sweep run SPEC --resume'")
+    logs = index.logs
+    del index
+    refs = _Lazy(n, lambda j: RecordRef(logs[where[j, 0]], int(where[j, 1]), int(where[j, 2])))
+    runs = np.arange(n, dtype=np.int64)
+    extra = {"spec_toml": spec.text, "sweep_points": spec.n_points, "sweep_repetitions": spec.repetitions,
+             "sweep_runs": n, "sweep_keys": ", ".join(spec.swept_keys),
+             "config_toml_is": "the resolved config of point 0"}
+    if n <= SEED_ATTR_MAX_RUNS:
+        extra["point_seeds"] = plan.seeds()
+    prov = make_provenance(config_toml=to_toml(plan.config(0)), seed=spec.seed, scenario=plan.module.NAME,
+                           start_time_utc=start_time_utc or utc_now(), extra=extra)
+    return merge_store(spec.output, refs, (runs // spec.repetitions, runs % spec.repetitions, seeds),
+                       lambda i: point_value(spec, i), spec.n_points, spec.repetitions,
+                       spec.swept_keys, plan.module.Config, prov, plan.numeric_keys())
 
 
-__all__ = ["SweepReport", "SweepPlan", "plan_sweep", "run_sweep", "missing_runs", "merge_sweep"]
+__all__ = ["SweepReport", "SweepPlan", "plan_sweep", "run_sweep", "missing_runs", "merge_sweep",
+           "check_sweep_outputs", "SEED_ATTR_MAX_RUNS"]

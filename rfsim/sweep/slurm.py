@@ -13,6 +13,7 @@ writes the merged file, e.g. as a dependent job::
 
 from __future__ import annotations
 
+import re
 import shlex
 import sys
 from pathlib import Path
@@ -25,6 +26,20 @@ def default_command() -> str:
     return f"{shlex.quote(sys.executable)} -m rfsim"
 
 
+#: SLURM --time formats: M, M:S, H:M:S, D-H, D-H:M, D-H:M:S (sbatch(1)), or UNLIMITED.
+_TIME = re.compile(r"\d+(?::\d{1,2}){0,2}|\d+-\d{1,2}(?::\d{1,2}){0,2}|UNLIMITED|INFINITE", re.IGNORECASE)
+#: A job name that is one word in the script (no spaces, quotes or line breaks).
+_JOB_NAME = re.compile(r"[A-Za-z0-9_.+-]{1,128}")
+
+
+def check_time_limit(text: str) -> str:
+    """``text`` if it is a SLURM time limit, else a one-line :class:`UserError`."""
+    if not _TIME.fullmatch(text):
+        raise UserError(f"--time {text!r}: expected a SLURM time limit: minutes, MM:SS, HH:MM:SS, "
+                        "D-HH, D-HH:MM or D-HH:MM:SS (e.g. 01:30:00)")
+    return text
+
+
 def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str = "",
                   cpus_per_task: int = 1, time_limit: str = "", command: str | None = None) -> str:
     """Text of an ``sbatch`` array script running ``shards`` shards of the spec."""
@@ -32,9 +47,13 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         raise UserError(f"--shards {shards}: expected an integer >= 1")
     if cpus_per_task < 1:
         raise UserError(f"--cpus-per-task {cpus_per_task}: expected an integer >= 1")
+    if time_limit:
+        check_time_limit(time_limit)
+    if job_name and not _JOB_NAME.fullmatch(job_name):
+        raise UserError(f"--job-name {job_name!r}: expected 1-128 letters, digits or _ . + -")
     spec = shlex.quote(str(spec_path.resolve()))
     cmd = command or default_command()
-    name = job_name or f"rfsim-sweep-{spec_path.stem}"
+    name = job_name or "rfsim-sweep-" + (re.sub(r"[^A-Za-z0-9_.+-]", "_", spec_path.stem) or "spec")
     lines = [
         "#!/bin/bash",
         f"#SBATCH --job-name={name}",
@@ -62,4 +81,4 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
     return "\n".join(lines)
 
 
-__all__ = ["sbatch_script", "default_command"]
+__all__ = ["sbatch_script", "default_command", "check_time_limit"]

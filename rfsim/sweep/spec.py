@@ -46,16 +46,15 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rfsim.config import from_dict, read_toml
-from rfsim.errors import ConfigError, UserError, did_you_mean
+from rfsim.config import check_value, from_dict, read_toml
+from rfsim.errors import SEED_LIMIT, SEED_RANGE_TEXT, ConfigError, UserError, did_you_mean
 from rfsim.rng import trial_rng, trial_seed_sequence
 
 _TOP_KEYS = ("scenario", "seed", "repetitions", "output", "base", "axes")
@@ -71,8 +70,9 @@ DISTRIBUTIONS = {
     "loguniform": ("low", "high"),
     "choice": ("values",),
 }
-#: Upper bound on the number of runs (points × repetitions) of one sweep.
-MAX_RUNS = 10_000_000
+#: Upper bound on the number of runs (points × repetitions) of one sweep (points are
+#: expanded lazily, so this bounds the point store, not the memory of a dry-run).
+MAX_RUNS = 10**9
 
 
 @dataclasses.dataclass(frozen=True)
@@ -81,7 +81,8 @@ class Axis:
 
     kind: str
     keys: tuple[str, ...]
-    values: tuple[tuple[Any, ...], ...]
+    #: one tuple of values (one per key) per step; random axes hold their draws lazily
+    values: Sequence[tuple[Any, ...]]
     #: random axes of the same ``n`` share a group; grid/zip axes have their own
     group: str
 
@@ -148,7 +149,9 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
     scenario = data["scenario"]
     if not isinstance(scenario, str) or not scenario:
         raise ConfigError("scenario", scenario, "a scenario name (see 'rfsim list')")
-    seed = _int(data, "seed", lo=0)
+    seed = data["seed"]
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < SEED_LIMIT:
+        raise ConfigError("seed", seed, SEED_RANGE_TEXT)
     repetitions = _int(data, "repetitions", lo=1, default=1)
     output = data["output"]
     if not isinstance(output, str) or not output.endswith((".h5", ".hdf5")):
@@ -246,10 +249,12 @@ def _parse_axis(i: int, axis: Mapping[str, Any], seed: int) -> Axis:
     n = _int(axis, "n", lo=1, prefix=prefix) if "n" in axis else None
     if n is None:
         raise ConfigError(prefix + "n", None, "an integer >= 1 (number of draws)")
+    if n > MAX_RUNS:
+        raise ConfigError(prefix + "n", n, f"an integer in [1, {MAX_RUNS}]")
     rng = trial_rng(seed, i)
     if dist == "choice":
         choices = _nonempty_list(axis.get("values"), prefix + "values")
-        drawn = [copy.deepcopy(choices[j]) for j in rng.integers(0, len(choices), n)]
+        drawn = _Draws(rng.integers(0, len(choices), n), tuple(choices))
     else:
         p = {k: _number(axis, k, prefix) for k in DISTRIBUTIONS[dist]}
         if dist == "uniform":
@@ -264,29 +269,103 @@ def _parse_axis(i: int, axis: Mapping[str, Any], seed: int) -> Axis:
             if not 0 < p["low"] < p["high"]:
                 raise ConfigError(prefix + "low", p["low"], f"0 < low < high = {p['high']:g}")
             arr = np.exp(rng.uniform(np.log(p["low"]), np.log(p["high"]), n))
-        drawn = [float(v) for v in arr]
-    return Axis("random", (key,), tuple((v,) for v in drawn), group=f"random-n{n}")
+        drawn = _Draws(arr)
+    return Axis("random", (key,), drawn, group=f"random-n{n}")
+
+
+class _Draws(Sequence):
+    """The ``n`` draws of a random axis as one-value steps, kept as one NumPy array."""
+
+    def __init__(self, drawn: np.ndarray, choices: tuple[Any, ...] | None = None):
+        self._drawn, self._choices = drawn, choices
+
+    def __len__(self) -> int:
+        return len(self._drawn)
+
+    def __getitem__(self, j):
+        if isinstance(j, slice):
+            return [self[k] for k in range(*j.indices(len(self)))]
+        v = self._drawn[j]
+        return (copy.deepcopy(self._choices[int(v)]),) if self._choices is not None else (float(v),)
+
+    def __eq__(self, other) -> bool:
+        return list(self) == list(other)
+
+    def support(self) -> list[Any]:
+        """Values to check: the choices, or the smallest and largest draw (ranges are intervals)."""
+        if self._choices is not None:
+            return list(self._choices)
+        return [float(self._drawn.min()), float(self._drawn.max())]
+
+
+def axis_support(axis: Axis, j: int = 0) -> list[Any]:
+    """Values of key ``j`` of ``axis`` to check (every grid/zip value; a random axis's
+    choices, or its smallest and largest draw — they are all floats)."""
+    if isinstance(axis.values, _Draws):
+        return axis.values.support()
+    return [step[j] for step in axis.values]
 
 
 # ----------------------------------------------------------------------------- expansion
 
 
-def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
-    """Swept key → value of every point, in point order (see the module docstring)."""
+def _groups(spec: SweepSpec) -> list[list[Axis]]:
     groups: dict[str, list[Axis]] = {}
     for a in spec.axes:
         groups.setdefault(a.group, []).append(a)
-    for name, members in groups.items():
-        if len({len(a) for a in members}) != 1:  # cannot happen: random groups are keyed by n
-            raise ValueError(f"axes of group {name} differ in length")
-    out = []
-    for steps in itertools.product(*(range(len(m[0])) for m in groups.values())):
-        values: dict[str, Any] = {}
-        for members, j in zip(groups.values(), steps):
-            for a in members:
-                values.update(zip(a.keys, a.values[j]))
-        out.append({k: values[k] for k in spec.swept_keys})
-    return out
+    return list(groups.values())
+
+
+def point_value(spec: SweepSpec, index: int) -> dict[str, Any]:
+    """Swept key → value of point ``index`` alone (no expansion of the other points).
+
+    The index is read as a mixed-radix number over the group sizes, the last group
+    varying fastest — the ``itertools.product`` order of :func:`point_values`.
+    """
+    if not 0 <= index < spec.n_points:
+        raise IndexError(f"point {index} of a sweep of {spec.n_points} points")
+    values: dict[str, Any] = {}
+    rest = index
+    steps = []
+    for members in reversed(_groups(spec)):
+        rest, j = divmod(rest, len(members[0]))
+        steps.append((members, j))
+    for members, j in reversed(steps):
+        for a in members:
+            values.update(zip(a.keys, a.values[j]))
+    return {k: values[k] for k in spec.swept_keys}
+
+
+def iter_point_values(spec: SweepSpec, start: int = 0, stop: int | None = None) -> Iterator[dict[str, Any]]:
+    """Swept values of points ``start`` … ``stop - 1``, one at a time (lazy)."""
+    stop = spec.n_points if stop is None else min(stop, spec.n_points)
+    for i in range(start, stop):
+        yield point_value(spec, i)
+
+
+def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
+    """Swept key → value of every point, in point order (see the module docstring).
+
+    Holds every point in memory; large sweeps use :func:`point_value` /
+    :func:`iter_point_values`.
+    """
+    return list(iter_point_values(spec))
+
+
+def check_axis_values(spec: SweepSpec, config_cls: type) -> None:
+    """Check every value of every axis against its key's type, range or choices.
+
+    Costs one field check per axis value (not per point), so a 10⁷-point spec is checked
+    in milliseconds; the cross-field checks of whole configs are left to the points that
+    are validated in full. A bad value raises a one-line error naming the axis and value.
+    """
+    for a_index, axis in enumerate(spec.axes):
+        for j, key in enumerate(axis.keys):
+            for step, value in enumerate(axis_support(axis, j)):
+                try:
+                    check_value(config_cls, key, value)
+                except ConfigError as err:
+                    raise UserError(f"sweep axes[{a_index}] value {step}: {err}") from None
 
 
 def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
@@ -315,20 +394,23 @@ def _short(values: Mapping[str, Any]) -> str:
     return text if len(text) <= 120 else text[:117] + "..."
 
 
-def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
-    """Validated config of every point; the first bad point raises a one-line error.
+def point_config(spec: SweepSpec, config_cls: type, index: int, values: Mapping[str, Any] | None = None) -> Any:
+    """Validated config of point ``index``; a bad point raises a one-line error.
 
     The message names the point index and its swept values, then the key, the value and
     what is allowed (the :class:`ConfigError` of :func:`rfsim.config.from_dict`).
     """
-    configs = []
-    for i, values in enumerate(point_values(spec)):
-        try:
-            configs.append(from_dict(config_cls, point_config_dict(spec, values)))
-        except ConfigError as err:
-            where = f"sweep point {i}" + (f" ({_short(values)})" if values else "")
-            raise UserError(f"{where}: {err}") from None
-    return configs
+    values = point_value(spec, index) if values is None else values
+    try:
+        return from_dict(config_cls, point_config_dict(spec, values))
+    except ConfigError as err:
+        where = f"sweep point {index}" + (f" ({_short(values)})" if values else "")
+        raise UserError(f"{where}: {err}") from None
+
+
+def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
+    """Validated config of every point (in memory); the first bad point raises."""
+    return [point_config(spec, config_cls, i) for i in range(spec.n_points)]
 
 
 def point_seed(seed: int, point: int, repetition: int) -> int:
@@ -357,7 +439,12 @@ __all__ = [
     "DISTRIBUTIONS",
     "load_spec",
     "parse_spec",
+    "point_value",
+    "axis_support",
+    "iter_point_values",
     "point_values",
+    "check_axis_values",
+    "point_config",
     "point_config_dict",
     "point_configs",
     "point_seed",

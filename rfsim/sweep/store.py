@@ -1,51 +1,68 @@
-"""Per-point persistence, resume checks and the merge of a sweep's point files.
+"""The point store of a sweep: crash-safe append-only segments with an index of finished runs.
 
-Every finished run (point ``i``, repetition ``k``) is written, as soon as it finishes,
-to the *point store* beside the output::
+Every finished run (point ``i``, repetition ``k``) is appended, as soon as it finishes, to
+the segment of the process that ran it, in the point store beside the output::
 
-    <output>.points/point-000123-rep-00.h5
+    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.log    records, append-only
+    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.idx    one 56-byte entry per record
 
-with :func:`rfsim.dataset.write_dataset` (temporary name, fsync, rename), so a killed
-sweep never loses a finished point and never leaves a truncated point file. A point file
-is *valid* for resuming when it opens and its provenance holds the same scenario, seed
-and resolved config (TOML text) as the point it stands for — a changed spec recomputes
-the points it changed.
+so a sweep creates one pair of files per worker process (or per shard task), not one file
+per run. A record is ``"RFSP" | version u8 | header length u32 | payload length u64 |
+header (JSON) | payload (raw arrays) | CRC-32 u32`` of header and payload, written with one
+``write`` on a file opened for appending; its index entry (point, repetition, seed,
+offset, length, first 16 bytes of the SHA-256 of the run's resolved config TOML) is
+appended after it. Files are fsync'ed at most :data:`SYNC_INTERVAL_S` apart and when the
+writer closes.
 
-Merge (:func:`merge_points`): tables of the same name are concatenated over the runs in
-(point, repetition) order with added columns ``sweep_point``, ``sweep_repetition`` and one
-column ``sweep.<key>`` per swept key (units from the config field metadata; list values
-are stored as their TOML text). The prefix keeps them apart from the scenario's own
-columns (the ``link`` scenario has a ``point`` column of its own). A table ``sweep_runs``
-has one row per run: ``point``, ``repetition``, ``seed``, the swept values under their
-dotted keys and the scalar root attributes of the run's dataset. A grid present in every
-run with identical coordinates and variable shapes is stacked along two new leading
-dimensions ``sweep_point`` and ``sweep_repetition`` (with the variables
-``sweep.<key>`` over ``sweep_point``); otherwise each run's copy is stored as its own
-grid ``<grid>__point-000123-rep-00``.
+Crash safety: a killed writer (even SIGKILL) leaves at worst a truncated last record, or a
+record without its index entry. Readers keep only index entries whose record lies wholly
+inside the log, and scan the log past the last indexed record for complete records whose
+CRC holds (so a record written just before the kill is not lost). Nothing is ever
+rewritten in place, and no file is left under a temporary name.
+
+A record stands for a run of the current spec when its point, repetition, seed and config
+digest all match — a changed spec recomputes exactly the points it changed, as with
+``--resume``. When a run has several matching records (a sweep run again without
+``--resume``), the one in the most recently created segment is used; they hold the same
+bits anyway, since a run's result depends only on its seed and config.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import datetime as _dt
+import functools
+import hashlib
 import importlib
+import json
+import math
 import os
+import re
 import resource
+import secrets
+import struct
 import sys
 import time
-import typing
-from collections.abc import Mapping, Sequence
+import zlib
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
-from rfsim.config import field_meta, to_toml
-from rfsim.dataset import Column, Dataset, column, make_provenance, read_dataset, utc_now, write_dataset
+import rfsim
+from rfsim.config import to_toml
+from rfsim.dataset import Column, Dataset, git_revision, utc_now
+from rfsim.errors import UserError
 
-_RUNS_TABLE = "sweep_runs"
-#: names of the columns/dimensions the merge adds to the scenario's own tables and grids
-POINT, REPETITION, KEY_PREFIX = "sweep_point", "sweep_repetition", "sweep."
+MAGIC, VERSION = b"RFSP", 1
+_PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
+_CRC = struct.Struct("<I")
+#: One index entry per record (56 bytes, little-endian).
+INDEX_DTYPE = np.dtype([("point", "<i8"), ("repetition", "<i8"), ("seed", "<i8"), ("offset", "<i8"),
+                        ("length", "<i8"), ("digest", "V16")])
+#: Longest time between two fsyncs of a segment that is being written [s].
+SYNC_INTERVAL_S = 1.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -57,12 +74,12 @@ class PointTask:
     point: int
     repetition: int
     seed: int
-    path: Path
+    store: Path
 
 
 @dataclasses.dataclass(frozen=True)
 class PointResult:
-    """What a worker reports back: where the file is, how long it took, who ran it."""
+    """What a worker reports back: which segment holds the run, how long it took, who ran it."""
 
     point: int
     repetition: int
@@ -78,8 +95,9 @@ def points_dir(output: Path) -> Path:
     return output.with_name(output.name + ".points")
 
 
-def point_path(output: Path, point: int, repetition: int) -> Path:
-    return points_dir(output) / f"point-{point:06d}-rep-{repetition:02d}.h5"
+def config_digest(config: Any) -> bytes:
+    """First 16 bytes of the SHA-256 of the resolved config's TOML text."""
+    return hashlib.sha256(to_toml(config).encode("utf-8")).digest()[:16]
 
 
 def _peak_rss_mb() -> float:
@@ -87,187 +105,384 @@ def _peak_rss_mb() -> float:
     return rss / 1024.0 if sys.platform != "darwin" else rss / 2**20
 
 
+# ----------------------------------------------------------------------------- encoding
+
+
+def _array_meta(arr: np.ndarray, offset: int) -> dict[str, Any]:
+    if arr.dtype.kind == "O":
+        raise TypeError("object arrays cannot be stored; use numbers, booleans or str")
+    return {"dtype": arr.dtype.str, "shape": list(arr.shape), "offset": offset, "nbytes": arr.nbytes,
+            "sha1": hashlib.sha1(arr.tobytes()).hexdigest()}
+
+
+def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
+    """JSON-able description of ``ds`` and the raw bytes of its arrays, in order."""
+    buffers: list[bytes] = []
+    offset = 0
+
+    def add(data: Any) -> dict[str, Any]:
+        nonlocal offset
+        arr = np.asarray(data)
+        meta = _array_meta(arr, offset)
+        buffers.append(arr.tobytes())
+        offset += arr.nbytes
+        return meta
+
+    def col(name: str, c: Column) -> dict[str, Any]:
+        return {"name": name, "units": c.units, "description": c.description, "dims": list(c.dims),
+                "array": add(c.data)}
+
+    desc = {
+        "title": ds.title, "scenario": ds.scenario, "descriptions": dict(ds.descriptions),
+        "attrs": [{"name": k, "array": add(v)} for k, v in ds.attrs.items()],
+        "tables": [{"name": t, "columns": [col(c, v) for c, v in cols.items()]}
+                   for t, cols in ds.tables.items()],
+        "grids": [{"name": g, "coords": [col(c, v) for c, v in coords.items()],
+                   "variables": [col(c, v) for c, v in variables.items()]}
+                  for g, (coords, variables) in ds.grids.items()],
+    }
+    return desc, buffers
+
+
+def decode_array(payload: bytes | memoryview, meta: Mapping[str, Any]) -> np.ndarray:
+    """One array of a record's payload (read-only view)."""
+    dtype = np.dtype(meta["dtype"])
+    count = math.prod(meta["shape"])
+    return np.frombuffer(payload, dtype=dtype, count=count, offset=meta["offset"]).reshape(meta["shape"])
+
+
+def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Dataset:
+    """The :class:`Dataset` of a record (inverse of :func:`encode_dataset`)."""
+    def col(c: Mapping[str, Any]) -> Column:
+        return Column(decode_array(payload, c["array"]), c["units"], c["description"], tuple(c["dims"]))
+
+    ds = Dataset(title=desc["title"], scenario=desc["scenario"], descriptions=dict(desc.get("descriptions", {})))
+    ds.attrs = {a["name"]: decode_array(payload, a["array"])[()] for a in desc["attrs"]}
+    ds.tables = {t["name"]: {c["name"]: col(c) for c in t["columns"]} for t in desc["tables"]}
+    ds.grids = {g["name"]: ({c["name"]: col(c) for c in g["coords"]},
+                            {v["name"]: col(v) for v in g["variables"]}) for g in desc["grids"]}
+    return ds
+
+
+def encode_record(header: Mapping[str, Any], buffers: Iterable[bytes]) -> bytes:
+    head = json.dumps(header, separators=(",", ":")).encode("utf-8")
+    payload = b"".join(buffers)
+    crc = zlib.crc32(payload, zlib.crc32(head))
+    return _PREFIX.pack(MAGIC, VERSION, len(head), len(payload)) + head + payload + _CRC.pack(crc)
+
+
+class CorruptRecordError(UserError, ValueError):
+    """A point record is torn or fails its CRC (a damaged file; rerun with ``--resume``)."""
+
+
+def decode_record(raw: bytes) -> tuple[dict[str, Any], memoryview]:
+    """(header, payload) of a whole record; :class:`CorruptRecordError` if torn or corrupt."""
+    if len(raw) < _PREFIX.size + _CRC.size:
+        raise CorruptRecordError("point record too short")
+    magic, version, n_head, n_payload = _PREFIX.unpack_from(raw)
+    if magic != MAGIC or version != VERSION or len(raw) != _PREFIX.size + n_head + n_payload + _CRC.size:
+        raise CorruptRecordError("not a complete point record")
+    view = memoryview(raw)
+    head = view[_PREFIX.size:_PREFIX.size + n_head]
+    payload = view[_PREFIX.size + n_head:_PREFIX.size + n_head + n_payload]
+    (crc,) = _CRC.unpack_from(raw, len(raw) - _CRC.size)
+    if zlib.crc32(payload, zlib.crc32(head)) != crc:
+        raise CorruptRecordError("point record fails its CRC")
+    return json.loads(bytes(head)), payload
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        n = os.write(fd, view)
+        view = view[n:]
+
+
+class SegmentWriter:
+    """The append-only segment (log + index) of one process in one point store."""
+
+    def __init__(self, store: Path):
+        store.mkdir(parents=True, exist_ok=True)
+        stamp = _dt.datetime.now(_dt.timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
+        host = re.sub(r"[^A-Za-z0-9.-]", "_", os.uname().nodename)[:40] or "host"
+        stem = f"seg-{stamp}-{host}-{os.getpid()}-{secrets.token_hex(3)}"
+        self.log_path, self.index_path = store / f"{stem}.log", store / f"{stem}.idx"
+        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND
+        self._log = os.open(self.log_path, flags, 0o644)
+        self._index = os.open(self.index_path, flags, 0o644)
+        self.pid, self.offset, self.records = os.getpid(), 0, 0
+        self._synced = time.monotonic()
+
+    def append(self, point: int, repetition: int, seed: int, digest: bytes, header: Mapping[str, Any],
+               buffers: Iterable[bytes]) -> int:
+        """Append one record and its index entry; returns the record's offset in the log."""
+        record = encode_record(header, buffers)
+        _write_all(self._log, record)
+        entry = np.array([(point, repetition, seed, self.offset, len(record), digest)], INDEX_DTYPE)
+        _write_all(self._index, entry.tobytes())
+        offset = self.offset
+        self.offset += len(record)
+        self.records += 1
+        if time.monotonic() - self._synced >= SYNC_INTERVAL_S:
+            self.sync()
+        return offset
+
+    def sync(self) -> None:
+        os.fsync(self._log)
+        os.fsync(self._index)
+        self._synced = time.monotonic()
+
+    def close(self) -> None:
+        if self._log < 0:
+            return
+        try:
+            self.sync()
+        finally:
+            os.close(self._log)
+            os.close(self._index)
+            self._log = self._index = -1
+
+
+_WRITERS: dict[tuple[int, str], SegmentWriter] = {}
+
+
+def writer_for(store: Path) -> SegmentWriter:
+    """This process's writer of ``store`` (created on first use; a forked child gets its own)."""
+    key = (os.getpid(), str(store))
+    writer = _WRITERS.get(key)
+    if writer is None:
+        if not _WRITERS:
+            _register_exit_hook()
+        writer = _WRITERS[key] = SegmentWriter(store)
+    return writer
+
+
+def close_writers() -> None:
+    """Close (fsync) every segment this process is writing."""
+    pid = os.getpid()
+    for key in [k for k in _WRITERS if k[0] == pid]:
+        _WRITERS.pop(key).close()
+
+
+def _register_exit_hook() -> None:
+    import atexit
+    from multiprocessing import util
+
+    atexit.register(close_writers)
+    util.Finalize(None, close_writers, exitpriority=10)  # pool workers leave through os._exit
+
+
+@functools.lru_cache(maxsize=1)
+def _static_provenance() -> dict[str, str]:
+    return {"rfsim_version": rfsim.__version__, "git_revision": git_revision()}
+
+
 def run_point(task: PointTask) -> PointResult:
-    """Run one point in this process and write its file atomically (the worker function)."""
+    """Run one point in this process and append it to this process's segment."""
     module = importlib.import_module(task.scenario_module)
     start_utc, t0 = utc_now(), time.perf_counter()
     dataset = module.run(task.config, seed=task.seed)
     dataset.scenario = module.NAME
-    prov = make_provenance(config_toml=to_toml(task.config), seed=task.seed, scenario=module.NAME,
-                           start_time_utc=start_utc,
-                           extra={"sweep_point": task.point, "sweep_repetition": task.repetition})
-    write_dataset(task.path, dataset, prov)
-    return PointResult(task.point, task.repetition, task.path, time.perf_counter() - t0,
-                       os.getpid(), os.uname().nodename, _peak_rss_mb())
+    desc, buffers = encode_dataset(dataset)
+    wall = time.perf_counter() - t0
+    digest = config_digest(task.config)
+    header = {"point": task.point, "repetition": task.repetition, "seed": task.seed, "scenario": module.NAME,
+              "config_sha256_16": digest.hex(), "start_time_utc": start_utc,
+              "end_time_utc": utc_now(), "wall_time_s": wall, "pid": os.getpid(),
+              "host": os.uname().nodename, **_static_provenance(), "dataset": desc}
+    writer = writer_for(task.store)
+    writer.append(task.point, task.repetition, task.seed, digest, header, buffers)
+    return PointResult(task.point, task.repetition, writer.log_path, wall, os.getpid(), os.uname().nodename,
+                       _peak_rss_mb())
 
 
-def is_valid_point(task: PointTask, scenario: str) -> bool:
-    """True if ``task.path`` is a complete point file of exactly this point's run."""
-    try:
-        with h5py.File(task.path, "r") as f:
-            prov = f["provenance"].attrs
-            return (int(prov["seed"]) == task.seed and str(prov["scenario"]) == scenario
-                    and int(prov["sweep_point"]) == task.point
-                    and int(prov["sweep_repetition"]) == task.repetition
-                    and str(prov["config_toml"]) == to_toml(task.config))
-    except (OSError, KeyError, ValueError):
-        return False
+def run_points(tasks: list[PointTask]) -> list[PointResult]:
+    """Run a batch of points one after another (one task of a pool or Dask worker)."""
+    return [run_point(t) for t in tasks]
 
 
-def remove_partials(output: Path) -> int:
-    """Delete temporary files left in the point store by killed writers; returns how many."""
-    n = 0
-    for p in points_dir(output).glob(".point-*.partial"):
-        p.unlink(missing_ok=True)
-        n += 1
-    return n
+# ----------------------------------------------------------------------------- reading
 
 
-# ----------------------------------------------------------------------------- merge
+@dataclasses.dataclass(frozen=True)
+class RecordRef:
+    """Where one finished run is: segment log, offset and length of its record."""
+
+    log: Path
+    offset: int
+    length: int
 
 
-def _key_field(config_cls: type, key: str) -> dataclasses.Field | None:
-    cls = config_cls
-    parts = key.split(".")
-    for j, part in enumerate(parts):
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        if part not in fields:
-            return None
-        if j == len(parts) - 1:
-            return fields[part]
-        cls = typing.get_type_hints(cls)[part]
-        if not dataclasses.is_dataclass(cls):
-            return None
-    return None
-
-
-def _value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
-    """One column of the swept values of ``key`` (lists/tuples as their TOML text)."""
-    from rfsim.config import toml_value
-
-    f = _key_field(config_cls, key)
-    meta = field_meta(f) if f is not None else {"unit": "", "doc": ""}
-    if any(isinstance(v, dict) for v in values):  # a whole sub-table swept at once
-        data = [repr(v) for v in values]
-    elif any(isinstance(v, (list, tuple)) or v is None for v in values):
-        data = [toml_value(tuple(v) if isinstance(v, list) else v) for v in values]
-    else:
-        data = list(values)
-    desc = f"swept config value {key}" + (f": {meta['doc']}" if meta["doc"] else "")
-    return column(data, meta["unit"], desc)
-
-
-def merge_points(results: Sequence[tuple[int, int, int, Path]], point_values: Sequence[Mapping[str, Any]],
-                 config_cls: type, n_repetitions: int) -> Dataset:
-    """Merge the point files ``results`` = [(point, repetition, run seed, path)] in that order."""
-    keys = list(point_values[0]) if point_values else []
-    datasets = [read_dataset(p) for (_, _, _, p) in results]
-    merged = Dataset(title=(datasets[0].title + " (sweep)") if datasets else "sweep",
-                     scenario=datasets[0].scenario if datasets else "")
-    pts = np.array([r[0] for r in results], dtype=np.int64)
-    reps = np.array([r[1] for r in results], dtype=np.int64)
-
-    runs: dict[str, Column] = {
-        "point": column(pts, "1", "sweep point index"),
-        "repetition": column(reps, "1", "repetition of the point"),
-        "seed": column(np.array([r[2] for r in results], dtype=np.int64), "1",
-                       "seed the scenario ran with (SeedSequence(seed, spawn_key=(point, repetition)))"),
-    }
-    for key in keys:
-        runs[key] = _value_column(key, [point_values[p][key] for p in pts], config_cls)
-    attr_names = [k for k, v in (datasets[0].attrs.items() if datasets else ())
-                  if np.ndim(v) == 0 and all(k in d.attrs for d in datasets)]
-    for name in attr_names:
-        if name not in runs:
-            runs[name] = column([d.attrs[name] for d in datasets], "", f"root attribute {name!r} of the run")
-    merged.add_table(_RUNS_TABLE, runs)
-
-    table_names: list[str] = []
-    for d in datasets:
-        table_names += [t for t in d.tables if t not in table_names]
-    for name in table_names:
-        merged.add_table(name, _concat_table(name, datasets, pts, reps, keys, point_values, config_cls))
-
-    grid_names: list[str] = []
-    for d in datasets:
-        grid_names += [g for g in d.grids if g not in grid_names]
-    for name in grid_names:
-        _merge_grid(merged, name, datasets, results, keys, point_values, config_cls, n_repetitions)
-    return merged
-
-
-def _concat_table(name, datasets, pts, reps, keys, point_values, config_cls) -> dict[str, Column]:
-    members = [(j, d.tables[name]) for j, d in enumerate(datasets) if name in d.tables]
-    cols = list(members[0][1])
-    for j, t in members:
-        if list(t) != cols:
-            raise ValueError(f"table {name!r}: run {j} has columns {list(t)}, the first has {cols}")
-    for reserved in [POINT, REPETITION, *(KEY_PREFIX + k for k in keys)]:
-        if reserved in cols:
-            raise ValueError(f"table {name!r} already has a column {reserved!r}; cannot merge")
-    lengths = [len(next(iter(t.values())).data) for _, t in members]
-    idx = np.array([j for j, _ in members], dtype=np.int64)
-    out: dict[str, Column] = {
-        POINT: column(np.repeat(pts[idx], lengths), "1", "sweep point index"),
-        REPETITION: column(np.repeat(reps[idx], lengths), "1", "repetition of the point"),
-    }
-    for key in keys:
-        vals = _value_column(key, [point_values[pts[j]][key] for j in idx], config_cls)
-        out[KEY_PREFIX + key] = dataclasses.replace(vals, data=np.repeat(vals.data, lengths))
-    for c in cols:
-        first = members[0][1][c]
-        out[c] = Column(np.concatenate([t[c].data for _, t in members]), first.units, first.description)
-    return out
-
-
-def _merge_grid(merged, name, datasets, results, keys, point_values, config_cls, n_reps) -> None:
-    members = [d.grids.get(name) for d in datasets]
-    n_points = len(datasets) // n_reps if n_reps else 0
-    stackable = all(m is not None for m in members) and len(datasets) == n_points * n_reps
-    if stackable:
-        c0, v0 = members[0]
-        for c, v in members[1:]:
-            if (list(c) != list(c0) or list(v) != list(v0)
-                    or any(not np.array_equal(c[k].data, c0[k].data) for k in c0)
-                    or any(v[k].data.shape != v0[k].data.shape or v[k].dims != v0[k].dims for k in v0)):
-                stackable = False
+def _scan_log(log: Path, start: int, size: int) -> list[tuple]:
+    """Index entries of the complete, CRC-valid records of ``log`` from byte ``start``."""
+    found = []
+    with open(log, "rb") as f:
+        pos = start
+        while pos + _PREFIX.size <= size:
+            f.seek(pos)
+            prefix = f.read(_PREFIX.size)
+            magic, version, n_head, n_payload = _PREFIX.unpack(prefix)
+            length = _PREFIX.size + n_head + n_payload + _CRC.size
+            if magic != MAGIC or version != VERSION or pos + length > size:
                 break
-    if not stackable:
-        for (p, k, _, _), m in zip(results, members):
-            if m is not None:
-                merged.add_grid(f"{name}__point-{p:06d}-rep-{k:02d}", *m)
-        return
-    c0, v0 = members[0]
-    for reserved in (POINT, REPETITION, *(KEY_PREFIX + k for k in keys)):
-        if reserved in c0 or reserved in v0:
-            raise ValueError(f"grid {name!r} already has {reserved!r}; cannot merge")
-    coords = {POINT: column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
-              REPETITION: column(np.arange(n_reps, dtype=np.int64), "1", "repetition of the point"),
-              **c0}
-    variables: dict[str, Column] = {}
-    for key in keys:
-        vals = _value_column(key, [point_values[p][key] for p in range(n_points)], config_cls)
-        variables[KEY_PREFIX + key] = dataclasses.replace(vals, dims=(POINT,))
-    for vname, v in v0.items():
-        stacked = np.stack([m[1][vname].data for m in members]).reshape(
-            (n_points, n_reps) + v.data.shape)
-        variables[vname] = Column(stacked, v.units, v.description, (POINT, REPETITION, *v.dims))
-    merged.add_grid(name, coords, variables)
+            f.seek(pos)
+            try:
+                header, _ = decode_record(f.read(length))
+            except ValueError:
+                break
+            digest = bytes.fromhex(header["config_sha256_16"])
+            found.append((header["point"], header["repetition"], header["seed"], pos, length, digest))
+            pos += length
+    return found
 
 
-def write_merged(output: Path, merged: Dataset, provenance: Mapping[str, Any]) -> Path:
-    """Write the merged dataset atomically under its final name."""
-    return write_dataset(output, merged, provenance)
+def segments(store: Path) -> list[Path]:
+    """The segment logs of ``store``, oldest first (their names start with the UTC time)."""
+    return sorted(store.glob("seg-*.log")) if store.is_dir() else []
+
+
+def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
+    """(log, index entries of its complete records) of every segment, oldest first."""
+    for log in segments(store):
+        index = log.with_suffix(".idx")
+        try:
+            size = log.stat().st_size
+            raw = index.read_bytes() if index.exists() else b""
+        except OSError:
+            continue
+        n = len(raw) // INDEX_DTYPE.itemsize
+        entries = np.frombuffer(raw[:n * INDEX_DTYPE.itemsize], INDEX_DTYPE)
+        entries = entries[entries["offset"] + entries["length"] <= size]
+        end = int((entries["offset"] + entries["length"]).max()) if len(entries) else 0
+        if end < size:  # records written after the last index entry (killed in between)
+            extra = _scan_log(log, end, size)
+            if extra:
+                entries = np.concatenate([entries, np.array(extra, INDEX_DTYPE)])
+        yield log, entries
+
+
+class StoreIndex:
+    """Lookup of finished runs: (point, repetition, seed, config digest) → :class:`RecordRef`.
+
+    All index entries of the store in NumPy arrays sorted by (point, repetition, segment
+    age, offset) — about 60 bytes per record, no Python object per run.
+    """
+
+    def __init__(self, store: Path):
+        self.store = store
+        self.logs: list[Path] = []
+        parts, segs = [], []
+        for seg_id, (log, entries) in enumerate(read_index(store)):
+            self.logs.append(log)
+            parts.append(entries)
+            segs.append(np.full(len(entries), seg_id, np.int32))
+        e = np.concatenate(parts) if parts else np.zeros(0, INDEX_DTYPE)
+        seg = np.concatenate(segs) if segs else np.zeros(0, np.int32)
+        order = np.lexsort((e["offset"], seg, e["repetition"], e["point"]))
+        self._e, self._seg = e[order], seg[order]
+        self._base = int(self._e["repetition"].max()) + 1 if len(e) else 1
+        self._keys = self._e["point"] * self._base + self._e["repetition"]
+
+    @property
+    def n_segments(self) -> int:
+        return len(self.logs)
+
+    def __len__(self) -> int:
+        """Distinct runs (point, repetition, seed, config) in the store."""
+        e = self._e
+        return len(set(zip(e["point"].tolist(), e["repetition"].tolist(), e["seed"].tolist(),
+                           e["digest"].tolist())))
+
+    def locate(self, point: int, repetition: int, seed: int, digest: bytes) -> tuple[int, int, int] | None:
+        """(segment number, offset, length) of the newest matching record, or None."""
+        if repetition >= self._base:
+            return None
+        key = point * self._base + repetition
+        lo, hi = np.searchsorted(self._keys, key, "left"), np.searchsorted(self._keys, key, "right")
+        for j in range(hi - 1, lo - 1, -1):  # newest segment first
+            row = self._e[j]
+            if int(row["seed"]) == seed and bytes(row["digest"]) == digest:
+                return int(self._seg[j]), int(row["offset"]), int(row["length"])
+        return None
+
+    def find(self, point: int, repetition: int, seed: int, digest: bytes) -> RecordRef | None:
+        hit = self.locate(point, repetition, seed, digest)
+        return None if hit is None else RecordRef(self.logs[hit[0]], hit[1], hit[2])
+
+
+class RecordReader:
+    """Reads records by reference, keeping at most one segment file open."""
+
+    def __init__(self):
+        self._path: Path | None = None
+        self._file = None
+
+    def _seek(self, ref: RecordRef):
+        if ref.log != self._path:
+            self.close()
+            self._file, self._path = open(ref.log, "rb"), ref.log
+        self._file.seek(ref.offset)
+        return self._file
+
+    def read(self, ref: RecordRef) -> tuple[dict[str, Any], memoryview]:
+        """Header and payload of a record, its CRC checked (one-line error if corrupt)."""
+        try:
+            return decode_record(self._seek(ref).read(ref.length))
+        except CorruptRecordError as err:
+            raise self._damaged(ref, str(err)) from None
+
+    def header(self, ref: RecordRef) -> dict[str, Any]:
+        """The JSON header of a record alone (the payload is not read, nor its CRC checked)."""
+        f = self._seek(ref)
+        try:
+            magic, version, n_head, _ = _PREFIX.unpack(f.read(_PREFIX.size))
+            if magic != MAGIC or version != VERSION:
+                raise ValueError("no point record")
+            return json.loads(f.read(n_head))
+        except (ValueError, struct.error) as err:  # a damaged header: bad JSON or UTF-8
+            raise self._damaged(ref, f"point record header unreadable ({type(err).__name__})") from None
+
+    @staticmethod
+    def _damaged(ref: RecordRef, what: str) -> CorruptRecordError:
+        return CorruptRecordError(f"{what} in {str(ref.log)!r} at byte {ref.offset}: the file is damaged; "
+                                  "move that segment (.log and .idx) away and rerun with --resume")
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+        self._file, self._path = None, None
+
+    def __enter__(self) -> RecordReader:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 __all__ = [
     "PointTask",
     "PointResult",
+    "RecordRef",
+    "StoreIndex",
+    "RecordReader",
+    "CorruptRecordError",
+    "SegmentWriter",
+    "INDEX_DTYPE",
+    "SYNC_INTERVAL_S",
     "points_dir",
-    "point_path",
+    "config_digest",
+    "encode_dataset",
+    "decode_dataset",
+    "decode_array",
+    "encode_record",
+    "decode_record",
     "run_point",
-    "is_valid_point",
-    "remove_partials",
-    "merge_points",
-    "write_merged",
+    "run_points",
+    "writer_for",
+    "close_writers",
+    "segments",
+    "read_index",
 ]

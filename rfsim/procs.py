@@ -1,0 +1,148 @@
+"""Worker processes that never outlive their leader, and SIGTERM handled like Ctrl-C.
+
+Every process pool of rfsim (sweep executors, scenarios' Monte-Carlo pools) is made with
+:func:`worker_pool`. Its workers
+
+* ask the kernel to kill them when the leader dies (Linux ``prctl(PR_SET_PDEATHSIG,
+  SIGKILL)``), and, on every POSIX system, watch their parent process id from a daemon
+  thread every :data:`WATCH_INTERVAL_S` and exit when they have been re-parented (the
+  leader was killed, even with SIGKILL, which no handler can see);
+* ignore SIGINT: Ctrl-C reaches the whole process group, and the leader alone decides
+  (it stops the pool, see below), so workers print no tracebacks of their own.
+
+Leaving the ``with worker_pool(...)`` block by an exception (Ctrl-C, SIGTERM, an error)
+cancels the queued tasks and terminates the running workers at once instead of waiting
+for their tasks to finish.
+
+:func:`terminate_as_interrupt` turns SIGTERM (what ``kill``, ``timeout`` and SLURM's
+``scancel`` send) into :class:`rfsim.errors.Terminated`, a ``KeyboardInterrupt``, so that
+every cleanup path written for Ctrl-C (atomic writes removing their temporary file, pools
+stopping their workers) runs for SIGTERM too.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import ctypes
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Iterator
+
+from rfsim.errors import Terminated
+
+#: How often a worker checks that its leader is still alive [s].
+WATCH_INTERVAL_S = 0.5
+_PR_SET_PDEATHSIG = 1
+
+
+def _set_parent_death_signal() -> None:
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - exotic libc
+        pass
+
+
+def _watch_parent(parent_pid: int) -> None:
+    event = threading.Event()
+    while not event.wait(WATCH_INTERVAL_S):
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+
+def worker_init(leader_pid: int) -> None:
+    """Initializer of every worker process (see the module docstring).
+
+    ``leader_pid`` is the process that made the pool; a worker whose parent is already
+    gone (re-parented to init, pid 1) when it starts exits at once.
+    """
+    _set_parent_death_signal()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()  # the leader itself (fork) or its fork server
+    if parent == 1 or (parent != leader_pid and not _alive(leader_pid)):
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
+                     name="rfsim-leader-watch").start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - exists, owned by someone else
+        return True
+    return True
+
+
+def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """Cancel the queued tasks of ``pool`` and kill its running workers now."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(5.0)
+
+
+@contextlib.contextmanager
+def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions."""
+    pool = cf.ProcessPoolExecutor(max_workers=max_workers, initializer=worker_init,
+                                  initargs=(os.getpid(),))
+    try:
+        yield pool
+    except BaseException:
+        terminate_workers(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
+def _redeliver_later() -> None:
+    time.sleep(0.05)
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM raises :class:`~rfsim.errors.Terminated` (main thread only).
+
+    A Python exception raised while the interpreter runs a callback whose errors it
+    ignores (e.g. an at-fork handler while a worker process is being started) would be
+    lost; such a swallowed :class:`Terminated` reaches ``sys.unraisablehook``, which here
+    delivers SIGTERM again a moment later instead of printing it.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_hook = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, Terminated):
+            threading.Thread(target=_redeliver_later, daemon=True).start()
+        else:
+            previous_hook(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
+
+
+__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt"]

@@ -48,7 +48,9 @@ from rfsim.gen2.commands import (DR_VALUES, CommandParseError, command_fields, c
 from rfsim.gen2.crc import crc5_ok, crc16_ok
 from rfsim.gen2.link import frt_fraction, t1_range
 from rfsim.gen2.linecode import METHODS, decode_reply, halfsymbols, preamble_levels, reply_waveform
-from rfsim.gen2.pie import pie_decode, two_level_threshold
+from rfsim.gen2 import _capture_kernels as _ck
+from rfsim.gen2.link import DATA1_TARI_RANGE, DELIMITER_RANGE_S, TARI_RANGE_S, TRCAL_RTCAL_RANGE
+from rfsim.gen2.pie import PieEdges, pie_decode_arrays
 
 #: File name endings read as raw interleaved complex64 (GNU Radio file sink).
 RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")
@@ -90,7 +92,18 @@ def load_capture(path) -> np.ndarray:
         x = np.fromfile(p, dtype=np.complex64)
     if x.size == 0:
         raise UserError(f"capture '{p}' is empty")
+    check_finite(x, f"capture '{p}'")
     return x
+
+
+def check_finite(samples, what: str = "capture") -> None:
+    """Raise :class:`rfsim.errors.UserError` (one line) when ``samples`` hold NaN or ±Inf."""
+    x = np.asarray(samples)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise UserError(f"{what} holds {int(bad.sum())} non-finite samples (NaN or Inf), the first at "
+                        f"sample {k}; a capture must be finite numbers")
 
 
 @dataclass(frozen=True)
@@ -118,13 +131,15 @@ class ReaderCommandRecord:
 
 @dataclass(frozen=True)
 class ReaderTiming:
-    """Median PIE timings over the commands of a capture [s] (NaN when none)."""
+    """Median PIE timings over the commands of a capture [s] (NaN when none), and warnings."""
 
     n_commands: int
     tari_s: float
     rtcal_s: float
     trcal_s: float
     delimiter_s: float
+    #: one-line warnings where a timing lies outside the Gen2 limits (:func:`timing_warnings`)
+    warnings: tuple[str, ...] = ()
 
 
 def _name_from_prefix(bits: str) -> str:
@@ -155,40 +170,184 @@ def parse_record(bits: np.ndarray, **timing) -> ReaderCommandRecord:
     return ReaderCommandRecord(bits=text, name=name, fields=command_fields(cmd), crc_ok=_crc_ok(name, bits), **timing)
 
 
+#: Bins of the level histogram of :func:`envelope_levels`.
+LEVEL_BINS = 16384
+
+
+def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
+    """Envelope and its two level clusters: ``(env (n,) float64, threshold, low, high)``.
+
+    ``env = |x|`` for complex samples, ``x`` for a real envelope. The levels are the isodata
+    split of :func:`rfsim.gen2.pie.two_level_threshold` (threshold = midpoint of the means
+    below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
+    envelope instead of the samples themselves (one pass over the capture; the threshold
+    is exact to one bin, 1/16384 of the envelope's range). Raises
+    :class:`rfsim.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
+    """
+    x = np.ascontiguousarray(samples)
+    if x.ndim != 1:
+        raise ValueError(f"samples must be 1-D, got shape {x.shape}")
+    if not (np.issubdtype(x.dtype, np.number) and x.dtype != bool):
+        raise ValueError(f"samples must be numeric, got {x.dtype}")
+    if x.dtype not in (np.complex64, np.complex128, np.float32, np.float64):
+        x = x.astype(np.complex128 if np.iscomplexobj(x) else np.float64)
+    if x.size == 0:
+        return np.zeros(0), 0.0, 0.0, 0.0
+    if np.iscomplexobj(x):
+        env = np.empty(x.size, dtype=np.float64)
+        lo, hi, n_bad, first_bad = _ck.magnitude_kernel(x, env)
+    else:
+        env = x.astype(np.float64)
+        lo, hi, n_bad, first_bad = _ck.range_kernel(env)
+    if n_bad:
+        raise UserError(f"capture holds {n_bad} non-finite samples (NaN or Inf), the first at sample "
+                        f"{first_bad}; a capture must be finite numbers")
+    hist = np.empty(LEVEL_BINS, dtype=np.int64)
+    _ck.histogram_kernel(env, lo, hi, hist)
+    centres = lo + (np.arange(LEVEL_BINS) + 0.5) * ((hi - lo) / LEVEL_BINS)
+    thr, m_lo, m_hi = 0.5 * (lo + hi), lo, hi
+    csum, wsum = np.cumsum(hist), np.cumsum(hist * centres)
+    for _ in range(100):
+        k = int(np.searchsorted(centres, thr))  # bins below the threshold: 0 … k−1
+        if k == 0 or k == LEVEL_BINS or csum[k - 1] == 0 or csum[k - 1] == csum[-1]:
+            break
+        m_lo = wsum[k - 1] / csum[k - 1]
+        m_hi = (wsum[-1] - wsum[k - 1]) / (csum[-1] - csum[k - 1])
+        new = 0.5 * (m_lo + m_hi)
+        if new == thr:
+            break
+        thr = new
+    return env, float(thr), float(m_lo), float(m_hi)
+
+
 def normalized_envelope(samples) -> np.ndarray:
-    """Envelope scaled so that the low level cluster is 0 and the high one 1.
+    """Envelope scaled so that the low level cluster is 0 and the high one 1
+    (:func:`envelope_levels`).
 
     ``samples``: complex baseband (→ |x|) or a real envelope of any scale and offset.
     """
-    x = np.asarray(samples)
-    env = np.abs(x).astype(np.float64) if np.iscomplexobj(x) else x.astype(np.float64)
-    _, lo, hi = two_level_threshold(env)
-    return (env - lo) / (hi - lo) if hi > lo else env - lo
+    env, _, lo, hi = envelope_levels(samples)
+    _ck.normalize_kernel(env, lo, 1.0 / (hi - lo) if hi > lo else 1.0)
+    return env
 
 
-def decode_reader_commands(samples, fs_hz: float) -> tuple[list[ReaderCommandRecord], ReaderTiming]:
+#: PIE plausibility gate (:func:`plausible_frames`): the Gen2 ratios (gen2-and-validation-
+#: anchors.md §4.1; rfsim.gen2.link) widened by 10 % for reader clock error and edge
+#: quantisation: RTcal/Tari 2.5–3.0, TRcal/RTcal 1.1–3.0, delimiter/Tari 12.5 µs ± 5 % over
+#: Tari 6.25–25 µs = 0.475–2.1, PW/Tari 0.265–0.525. The delimiter and PW limits are
+#: widened further (delimiter 0.5×/1.25×, PW 0.15–0.75): band-limited edges move the 50 %
+#: points, and the gr-rfid reader's Query delimiter measures 9.6 µs (2.4 samples at 250 kS/s).
+GATE_RTCAL_TARI = (0.9 * (1 + DATA1_TARI_RANGE[0]), 1.1 * (1 + DATA1_TARI_RANGE[1]))
+GATE_TRCAL_RTCAL = (0.9 * TRCAL_RTCAL_RANGE[0], 1.1 * TRCAL_RTCAL_RANGE[1])
+GATE_DELIMITER_TARI = (0.5 * DELIMITER_RANGE_S[0] / TARI_RANGE_S[1], 1.25 * DELIMITER_RANGE_S[1] / TARI_RANGE_S[0])
+GATE_PW_TARI = (0.15, 0.75)
+#: Symbol and pulse-width tolerance: GATE_TOL_TARI·Tari + GATE_TOL_SAMPLES (edges are
+#: interpolated to a fraction of a sample at good SNR; one sample covers slow edges).
+GATE_TOL_TARI = 0.1
+GATE_TOL_SAMPLES = 1.0
+#: Minimum contrast (high − low level)/σ of a frame's mid-pulse and mid-interval samples.
+#: An envelope of complex Gaussian noise gives ≈ 1–3 on the frames its threshold crossings
+#: form; a command at 10 dB envelope SNR gives ≈ 9 (σ ≈ 0.3 of the low-high step).
+GATE_MIN_CONTRAST = 6.0
+#: Fewest data bits of a command (QueryRep: 4).
+GATE_MIN_BITS = 4
+
+
+def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """PIE plausibility gate: ``(keep (nf,) bool, contrast (nf,))`` for the frames of ``edges``
+    (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the normalised envelope ``env``).
+
+    A frame is a command only if its timing is that of a PIE reader (every data symbol
+    Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
+    its levels are two well separated clusters (contrast ≥ :data:`GATE_MIN_CONTRAST`);
+    thresholds crossed by noise alone form frames that fail both (numba kernel
+    ``frame_gate_kernel``; :func:`plausible_frames_reference` is its NumPy twin).
+    """
+    first, last = _frame_edges(edges)
+    n = first.size
+    keep = np.zeros(n, dtype=np.uint8)
+    contrast = np.zeros(n)
+    _ck.frame_gate_kernel(edges.pos, np.ascontiguousarray(env, dtype=np.float64), first, last, edges.tari,
+                          edges.rtcal, edges.trcal, np.array(GATE_RTCAL_TARI), np.array(GATE_TRCAL_RTCAL),
+                          np.array(GATE_DELIMITER_TARI), np.array(GATE_PW_TARI), GATE_TOL_TARI, GATE_TOL_SAMPLES,
+                          GATE_MIN_CONTRAST, GATE_MIN_BITS, contrast, keep)
+    return keep.astype(bool), contrast
+
+
+def _frame_edges(edges: PieEdges) -> tuple[np.ndarray, np.ndarray]:
+    """Edge indices of each frame's first (delimiter fall) and last (closing rise) edge."""
+    return (np.searchsorted(edges.pos, edges.start).astype(np.int64),
+            np.searchsorted(edges.pos, edges.end).astype(np.int64))
+
+
+def plausible_frames_reference(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Plain-NumPy twin of :func:`plausible_frames`."""
+    first, last = _frame_edges(edges)
+    pos, env = edges.pos, np.asarray(env, dtype=np.float64)
+    keep = np.zeros(first.size, dtype=bool)
+    contrast = np.zeros(first.size)
+    for i, (e0, e1) in enumerate(zip(first.tolist(), last.tolist())):
+        t, rt, tr = edges.tari[i], edges.rtcal[i], edges.trcal[i]
+        tol = GATE_TOL_TARI * t + GATE_TOL_SAMPLES
+        fall, rise = pos[e0:e1 + 1:2], pos[e0 + 1:e1 + 1:2]
+        n_pre = 3 if math.isnan(tr) else 4
+        spans = np.diff(rise)[n_pre - 1:]
+        widths = (rise - fall)[1:]
+        checks = [
+            rise.size - n_pre >= GATE_MIN_BITS,
+            GATE_RTCAL_TARI[0] <= rt / t <= GATE_RTCAL_TARI[1],
+            math.isnan(tr) or GATE_TRCAL_RTCAL[0] <= tr / rt <= GATE_TRCAL_RTCAL[1],
+            GATE_DELIMITER_TARI[0] <= (rise[0] - fall[0]) / t <= GATE_DELIMITER_TARI[1],
+            bool(np.all((np.abs(spans - t) <= tol) | (np.abs(spans - (rt - t)) <= tol))),
+            GATE_PW_TARI[0] <= widths[0] / t <= GATE_PW_TARI[1],
+            bool(np.all(np.abs(widths - widths[0]) <= tol)),
+        ]
+        if not all(checks):
+            continue
+        lo_idx = np.round(0.5 * (fall + rise)).astype(np.int64)
+        hi_idx = np.round(0.5 * (rise[:-1] + fall[1:])).astype(np.int64)
+        lo = env[lo_idx[(lo_idx >= 0) & (lo_idx < env.size)]]
+        hi = env[hi_idx[(hi_idx >= 0) & (hi_idx < env.size)]]
+        if lo.size < 2 or hi.size < 2:
+            continue
+        var = 0.5 * (max(float(np.mean(lo * lo)) - float(lo.mean()) ** 2, 0.0)
+                     + max(float(np.mean(hi * hi)) - float(hi.mean()) ** 2, 0.0))
+        contrast[i] = (hi.mean() - lo.mean()) / math.sqrt(var) if var > 0 else math.inf
+        keep[i] = contrast[i] >= GATE_MIN_CONTRAST
+    return keep, contrast
+
+
+def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
+                           ) -> tuple[list[ReaderCommandRecord], ReaderTiming]:
     """Find, decode and parse every reader PIE command in a capture.
 
     Parameters
     ----------
-    samples : (n,) complex baseband or real envelope, arbitrary scale (and offset, if real)
+    samples : (n,) complex baseband or real envelope, arbitrary scale (and offset, if real);
+        must be finite (NaN/Inf raise :class:`rfsim.errors.UserError`)
     fs_hz : sample rate [Hz]
+    gate : apply the PIE plausibility gate (:func:`plausible_frames`)
 
     Returns
     -------
     records : list of :class:`ReaderCommandRecord` in time order
-    timing : :class:`ReaderTiming`, medians over the commands
+    timing : :class:`ReaderTiming`, medians over the commands, with warnings where the
+        measured timings lie outside the Gen2 limits (:func:`timing_warnings`)
     """
     fs_hz = float(fs_hz)
-    if not fs_hz > 0:
+    if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
-    frames = pie_decode(normalized_envelope(samples))
+    env, thr, lo, hi = envelope_levels(samples)
+    scale = 1.0 / (hi - lo) if hi > lo else 1.0
+    _ck.normalize_kernel(env, lo, scale)
+    edges = pie_decode_arrays(env, levels=((thr - lo) * scale, 0.0, (hi - lo) * scale))
+    keep = plausible_frames(edges, env)[0] if gate else None
     records = [
         parse_record(
             f.bits, start_s=f.start / fs_hz, end_s=f.end / fs_hz, delimiter_s=f.delimiter / fs_hz,
             tari_s=f.tari / fs_hz, rtcal_s=f.rtcal / fs_hz, trcal_s=f.trcal / fs_hz,
         )
-        for f in frames
+        for f in edges.frames(keep)
     ]
 
     def med(values):
@@ -202,7 +361,39 @@ def decode_reader_commands(samples, fs_hz: float) -> tuple[list[ReaderCommandRec
         trcal_s=med(r.trcal_s for r in records),
         delimiter_s=med(r.delimiter_s for r in records),
     )
-    return records, timing
+    return records, dataclasses.replace(timing, warnings=timing_warnings(timing, fs_hz))
+
+
+def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
+    """One-line warnings for measured PIE timings outside the Gen2 limits (anchors §4.1):
+    Tari 6.25–25 µs, delimiter 12.5 µs ± 5 %, RTcal 2.5–3.0 Tari, TRcal 1.1–3.0 RTcal.
+
+    A wrong ``fs_hz`` scales every duration; the delimiter, the one absolute duration of
+    PIE, then gives the sample rate the capture was probably taken at,
+    fs ≈ fs_hz·delimiter_measured/12.5 µs, which the Tari warning states.
+    """
+    out = []
+    t, d = timing.tari_s, timing.delimiter_s
+    if not math.isnan(t) and not (0.99 * TARI_RANGE_S[0] <= t <= 1.01 * TARI_RANGE_S[1]):
+        hint = ""
+        if not math.isnan(d) and d > 0:
+            hint = (f"; the delimiter ({d * fs_hz:.3g} samples) suggests a sample rate of "
+                    f"{fs_hz * d / 12.5e-6:.4g} Hz (is --fs {fs_hz:.4g} right?)")
+        out.append(f"measured Tari {t * 1e6:.4g} µs is outside the Gen2 range "
+                   f"{TARI_RANGE_S[0] * 1e6:.4g}–{TARI_RANGE_S[1] * 1e6:.4g} µs{hint}")
+    if not math.isnan(d) and not (0.99 * DELIMITER_RANGE_S[0] <= d <= 1.01 * DELIMITER_RANGE_S[1]):
+        out.append(f"measured delimiter {d * 1e6:.4g} µs is outside the Gen2 range "
+                   f"{DELIMITER_RANGE_S[0] * 1e6:.4g}–{DELIMITER_RANGE_S[1] * 1e6:.4g} µs")
+    lo, hi = 1 + DATA1_TARI_RANGE[0], 1 + DATA1_TARI_RANGE[1]
+    if not math.isnan(t) and not math.isnan(timing.rtcal_s) and not (
+            0.99 * lo <= timing.rtcal_s / t <= 1.01 * hi):
+        out.append(f"measured RTcal {timing.rtcal_s * 1e6:.4g} µs = {timing.rtcal_s / t:.3g} Tari is outside "
+                   f"the Gen2 range {lo:g}–{hi:g} Tari")
+    if not math.isnan(timing.trcal_s) and not math.isnan(timing.rtcal_s) and not (
+            0.99 * TRCAL_RTCAL_RANGE[0] <= timing.trcal_s / timing.rtcal_s <= 1.01 * TRCAL_RTCAL_RANGE[1]):
+        out.append(f"measured TRcal {timing.trcal_s * 1e6:.4g} µs = {timing.trcal_s / timing.rtcal_s:.3g} RTcal "
+                   f"is outside the Gen2 range {TRCAL_RTCAL_RANGE[0]:g}–{TRCAL_RTCAL_RANGE[1]:g} RTcal")
+    return tuple(out)
 
 
 # ----------------------------------------------------------------- tag replies

@@ -15,7 +15,8 @@ from scipy.stats import beta
 from rfsim.cli.decode import add_parser, run
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.bits import bits_to_int
-from rfsim.gen2.capture import (decode_reader_commands, decode_tag_replies, fit_gain_offset, load_capture,
+from rfsim.gen2.replies import decode_tag_replies
+from rfsim.gen2.capture import (decode_reader_commands, fit_gain_offset, load_capture,
                                 preamble_threshold)
 from rfsim.gen2.commands import ACK, Query, ReqRN, encode
 from rfsim.gen2.link import t1

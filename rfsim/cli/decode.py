@@ -6,7 +6,8 @@ import argparse
 import math
 
 from rfsim.errors import UserError
-from rfsim.gen2.capture import SUFFIXES, decode_reader_commands, decode_tag_replies, load_capture
+from rfsim.gen2.capture import SUFFIXES, decode_reader_commands, load_capture
+from rfsim.gen2.replies import decode_tag_replies
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

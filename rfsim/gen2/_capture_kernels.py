@@ -154,3 +154,43 @@ def normalize_kernel(v, lo, scale):
     """In place: ``v[n] = (v[n] − lo)·scale``."""
     for n in range(v.size):
         v[n] = (v[n] - lo) * scale
+
+
+@njit
+def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count):
+    """Timing-block correlations of the tracking loop (see :mod:`rfsim.gen2.replies`, step 4).
+
+    For every sample n ≥ n0 with t = n − start and nominal element u(t) = u1·t + u2·t² inside
+    the reply (0 ≤ u < el.size): block b = floor(u/(el.size/n_blocks)) (clipped); for every
+    shift d: ``corr[i, b] += y[n]·Σ_e el[floor(u(t − d + e))]`` over the sub-sample points e
+    of ``sub`` (0 outside the reply), d = base[b] + shifts[i]; ``centre_sum[b] += t``,
+    ``count[b] += 1``.
+    """
+    n_el = el.size
+    per_block = n_el / n_blocks
+    corr[:, :] = 0.0
+    centre_sum[:] = 0.0
+    count[:] = 0
+    for n in range(n0, y.size):
+        t = n - start
+        u0 = u1 * t + u2 * t * t
+        if u0 < 0.0:
+            continue
+        if u0 >= n_el:
+            break
+        b = int(math.floor(u0 / per_block))
+        if b >= n_blocks:
+            b = n_blocks - 1
+        centre_sum[b] += t
+        count[b] += 1
+        yn = y[n]
+        for i in range(shifts.size):
+            acc = 0.0
+            for j in range(sub.size):
+                tt = t - base[b] - shifts[i] + sub[j]
+                u = u1 * tt + u2 * tt * tt
+                if u >= 0.0:
+                    k = int(math.floor(u))
+                    if k < n_el:
+                        acc += el[k]
+            corr[i, b] += yn * acc

@@ -24,21 +24,28 @@ same form with real h (|h| ≪ |c|). Steps per window:
    grid spans DR/TRcal·(1 ± FrT); without it, M ∈ {1, 2, 4, 8}, TRext ∈ {0, 1} and BLF
    over the Gen2 range 40–640 kHz widened by the largest FrT (22 %) are searched blind.
 3. **BLF from the reply itself**: every BLF on a grid of relative step 1/(4·elements of
-   the first 16 bits) across ±1 coarse step is decoded; the one whose remodulated reply
+   the first 16 bits) across ±2 coarse steps is decoded; the one whose remodulated reply
    (rest level −1 around it) leaves the least residual power under
    :func:`rfsim.gen2.capture.fit_gain_offset` wins. That gives the reply's length (EPC:
    the PC's L field); the search is repeated over the whole reply, step 1/(4·its
-   elements) across ±1 coarse step again (decoding needs the BLF to ≈ 1/(4·elements),
+   elements) across ±2 coarse steps again (decoding needs the BLF to ≈ 1/(4·elements),
    0.02 % for a 128-bit Miller-4 reply). A reply the next command cuts is decoded to its
    last whole bit (**truncated**: reported with the bits that fit, never as a complete
    frame).
 4. **Timing tracking** (tag clock drift): with the decoded bits as reference the reply is
-   cut into blocks of ≥ 24 elements; in each block the timing offset δ_b that maximises
-   the correlation with the remodulated reply is found on a 1/16-element grid and refined
-   by the peak of the triangular correlation; a weighted least-squares quadratic δ(t)
-   (start, BLF, linear BLF drift) updates the element clock u(t) = u₀ + u₁·t + u₂·t²; the
-   window is resampled on the tag's clock (linear interpolation) and decoded again
-   (twice). BLF = u₁·fs_w/2 at the reply start, drift = 2·u₂/u₁ per sample.
+   cut into blocks of ≈ 24 elements (at least 6 blocks); in each block the timing offset
+   δ_b that maximises the correlation with the remodulated reply (averaged over each
+   sample interval at 4 points, so that the correlation varies smoothly with δ even where
+   a sample is taken at one point of a sharp edge) is found on a 1/16-element grid within
+   ±1/2 element of a prediction and refined by the peak of the triangular correlation. A
+   weighted least-squares quadratic δ(t) (start, BLF, linear BLF drift; a line for replies
+   of fewer than 8 blocks) is fitted over growing spans from the reply start (¼, ½, all,
+   all), each span's offsets searched around the previous fit's extrapolation — a
+   tracking loop that follows a timing error growing past half an element towards the
+   end. The element clock u(t) = u₁·t + u₂·t² is updated, the window resampled on the tag's
+   clock (linear interpolation) and decoded again (twice). Reported: the mean BLF
+   (u₁ + u₂·T)·fs_w/2 over the reply's T samples and the drift, the relative BLF change
+   across it, 2·u₂·T/u₁.
 5. **Validation**: (h, c) by least squares over the decision-free samples (preamble and
    rest level), then over the whole remodulated reply; the reply is kept only if its
    energy per half-bit over the residual noise, E_h/N₀ = |h|²·(samples per half-bit)/σ²,
@@ -56,13 +63,15 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import correlate
 
 from rfsim.errors import ConfigError
+from rfsim.gen2 import _capture_kernels as _ck
 from rfsim.gen2.bits import bits_to_int, bits_to_str
 from rfsim.gen2.capture import ReaderCommandRecord, fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, frt_fraction, t1_range
+from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
 from rfsim.gen2.linecode import METHODS, decode_reply, halfsymbols, preamble_levels, reply_waveform
 
 #: Reply kind elicited by each command (anchors §4.4).
@@ -78,11 +87,21 @@ SAMPLES_PER_ELEMENT = 6
 MIN_SAMPLES_PER_ELEMENT = 2.0
 #: Smallest energy per half-bit over the noise of a reported reply (step 5).
 MIN_HALFBIT_SNR_DB = 6.0
+#: Half-width of the fine BLF searches in coarse steps (a short FM0 preamble, 12 elements,
+#: can correlate best one coarse step off).
+FINE_SPAN_STEPS = 2
 #: Most BLFs on each side of the coarse estimate in the fine search of a whole reply.
 MAX_FINE_STEPS = 64
 #: Elements per timing block of the tracking loop (step 4) and its iterations.
 TRACK_BLOCK_ELEMENTS = 24
-TRACK_ITERATIONS = 2
+#: Growing spans of the reply (fractions from its start) the tracking loop fits in turn.
+TRACK_SPANS = (0.25, 0.5, 1.0, 1.0)
+#: Fewest timing blocks for a drift (quadratic) fit; shorter replies get start and BLF only.
+MIN_DRIFT_BLOCKS = 8
+#: Points per sample interval at which the tracking reference is averaged.
+SUBSAMPLES = 4
+#: Fewest timing blocks (short replies get shorter blocks).
+MIN_TRACK_BLOCKS = 6
 #: A window whose variance is below this fraction of its power holds no modulation at all.
 _MIN_RELATIVE_VARIANCE = 1e-12
 
@@ -99,10 +118,11 @@ class TagReplyRecord:
         (header + words + handle + CRC-16)
     start_s : start of the reply (pilot or preamble) [s]
     bits : decoded data bits as a 0/1 string (dummy 1 removed)
-    blf_hz : BLF measured on the reply (at its start) [Hz]
+    blf_hz : BLF measured on the reply (its mean over the reply) [Hz]
     blf_drift : relative BLF change from the reply's start to its end (tracked)
     m, trext : line code of the reply (1 = FM0, 2/4/8 = Miller), pilot
-    corr : normalised preamble correlation (0…1) at the detected start
+    corr : normalised preamble correlation (0…1) at the decoded start and BLF (on the
+        tag's clock)
     truncated : the next command (or the capture's end) cut the reply at ``end_s``;
         ``bits`` holds the whole bits before the cut
     end_s : end of the reply, or where it was cut [s]
@@ -184,23 +204,46 @@ def _fit_full(r: np.ndarray, s: np.ndarray, n_end: int, steady_only: bool = Fals
     return h, c, float(np.mean(np.abs(e) ** 2)) if e.size else math.nan
 
 
-def _fine(r, lo, hi, n_bits, m, trext, blfs, fs, method):
-    """Decode at every BLF of ``blfs`` with the start searched in [lo, hi]; keep the one whose
-    remodulated reply leaves the least residual power. Returns (blf, det, start) or None."""
+def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
+    """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` (a BLF
+    error moves the best-correlating start so that the preamble's centre stays put); keep
+    the one whose remodulated reply leaves the least residual power. Returns
+    (blf, det, start) or None."""
     best = None
+    half = 0.5 * _n_pre_elements(m, trext)
     for blf in blfs:
-        n_rep = int(math.ceil(_n_elements(n_bits, m, trext) * fs / (2.0 * blf))) + 2
-        last = min(hi, r.size - n_rep)
-        if last < lo:
+        rho = 2.0 * blf / fs
+        start = centre - half / rho
+        n_rep = int(math.ceil(_n_elements(n_bits, m, trext) / rho)) + 2
+        if start < 0 or start > r.size - n_rep:
             continue
-        det = decode_reply(r[lo:], n_bits=n_bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
-                           search_samples=last - lo)
-        start = lo + det.start_sample
+        det = decode_reply(r, n_bits=n_bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
+                           start_sample=start)
         s = reply_waveform(det.bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size)
         _, _, resid = _fit_full(r, s, min(r.size, int(start) + n_rep))
         if best is None or resid < best[0]:
             best = (resid, float(blf), det, start)
     return None if best is None else best[1:]
+
+
+def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
+    """Zero-mean normalised correlation of ``r`` with the zero-mean real template at every
+    valid lag: |Σ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), ``(r.size − L + 1,)`` in [0, 1]
+    (the statistic of :func:`rfsim.gen2.linecode.decode_reply` and of the detection
+    threshold; sliding sums by cumulative sums)."""
+    n = template0.size
+    c = np.abs(correlate(r, template0, mode="valid"))
+    p = np.concatenate([[0.0], np.cumsum(np.abs(r) ** 2)])
+    q = np.concatenate([[0.0], np.cumsum(r)])
+    energy = (p[n:] - p[:-n]) - np.abs(q[n:] - q[:-n]) ** 2 / n
+    return c / (math.sqrt(float(template0 @ template0)) * np.sqrt(np.maximum(energy, 1e-300)))
+
+
+def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray:
+    """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling)."""
+    n = int(math.floor(_n_pre_elements(m, trext) * fs / (2.0 * blf)))
+    t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs, dummy=False, n_samples=n)
+    return t - t.mean()
 
 
 def _bits_that_fit(n_avail: float, m: int, trext: bool, rho: float) -> int:
@@ -223,24 +266,46 @@ def _resample(r: np.ndarray, positions: np.ndarray) -> np.ndarray:
     return np.interp(positions, x, r.real) + 1j * np.interp(positions, x, r.imag)
 
 
-def _block_offsets(y, start, u1, u2, el, n_blocks):
-    """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight)."""
+def block_correlations_reference(y, start, u1, u2, el, n_blocks, base, shifts, sub):
+    """Plain-NumPy twin of the block-correlation kernel: ``(corr (n_shifts, n_blocks),
+    centre offsets (n_blocks,) [samples])``."""
     n_el = el.size
     t = np.arange(int(math.ceil(start)), y.size) - start
     u0 = u1 * t + u2 * t * t
     inside = (u0 >= 0) & (u0 < n_el)
     t, yy = t[inside], y[int(math.ceil(start)):][inside]
-    block = np.minimum((np.floor(u0[inside]) // (n_el / n_blocks)).astype(np.int64), n_blocks - 1)
-    step = 1.0 / (16.0 * u1)  # 1/16 element in samples
-    shifts = step * np.arange(-8, 9)
+    block = np.minimum(np.floor(u0[inside] / (n_el / n_blocks)).astype(np.int64), n_blocks - 1)
     corr = np.empty((shifts.size, n_blocks))
     for i, d in enumerate(shifts):
-        u = u1 * (t - d) + u2 * (t - d) ** 2
-        k = np.floor(u + 1e-9).astype(np.int64)
-        ok = (u >= 0) & (k < n_el)
-        s = np.where(ok, el[np.clip(k, 0, n_el - 1)], 0.0)
+        s = np.zeros(t.size)
+        for e in sub:  # the reference averaged over the sample interval: a smooth function of d
+            tt = t - base[block] - d + e
+            u = u1 * tt + u2 * tt * tt
+            k = np.floor(u).astype(np.int64)
+            s += np.where((u >= 0) & (k < n_el), el[np.clip(k, 0, n_el - 1)], 0.0)
         corr[i] = np.bincount(block, weights=yy * s, minlength=n_blocks)
     centres = np.bincount(block, weights=t, minlength=n_blocks) / np.maximum(np.bincount(block, minlength=n_blocks), 1)
+    return corr, centres
+
+
+def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub):
+    corr = np.empty((shifts.size, n_blocks))
+    centre_sum = np.empty(n_blocks)
+    count = np.empty(n_blocks, dtype=np.int64)
+    _ck.block_correlation_kernel(np.ascontiguousarray(y, dtype=np.float64), int(math.ceil(start)), float(start),
+                                 float(u1), float(u2), el, int(n_blocks), np.ascontiguousarray(base, dtype=np.float64),
+                                 shifts, sub, corr, centre_sum, count)
+    return corr, centre_sum / np.maximum(count, 1)
+
+
+def _block_offsets(y, start, u1, u2, el, n_blocks, base):
+    """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight), δ_b
+    searched within ±1/2 element of ``base[b]``; blocks whose peak lies at the edge of that
+    range are left out."""
+    step = 1.0 / (16.0 * u1)  # 1/16 element in samples
+    shifts = step * np.arange(-8, 9)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    corr, centres = _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub)
     out = []
     for b in range(n_blocks):
         c = corr[:, b]
@@ -251,25 +316,35 @@ def _block_offsets(y, start, u1, u2, el, n_blocks):
         left, mid, right = c[j - 1], c[j], c[j + 1]
         slope = max(mid - left, mid - right)
         frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
-        out.append((centres[b], shifts[j] + frac * step, mid))
+        out.append((centres[b], base[b] + shifts[j] + frac * step, mid))
     return np.array(out).reshape(-1, 3)
 
 
 def _track(r, start, u1, u2, h, c, bits, m, trext, dummy):
     """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
-    reply, refined from per-block timing offsets (step 4)."""
+    reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
+    spans from the reply start (the first quarter, half, all), each span's offsets searched
+    around the extrapolation of the previous span's fit, so a BLF error or drift whose
+    timing error grows past half an element towards the reply's end is still followed."""
     el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
-    n_blocks = max(1, el.size // TRACK_BLOCK_ELEMENTS)
+    n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
     y = ((r - c) / h).real
-    for _ in range(TRACK_ITERATIONS):
-        blocks = _block_offsets(y, start, u1, u2, el, n_blocks)
+    centres = (np.arange(n_blocks) + 0.5) / n_blocks * el.size / u1  # nominal block centres [samples]
+    coef = np.zeros(3)  # δ(t) = coef[0]·t² + coef[1]·t + coef[2]
+    for frac in TRACK_SPANS:
+        base = np.polyval(coef, centres)
+        blocks = _block_offsets(y, start, u1, u2, el, n_blocks, base)
+        blocks = blocks[blocks[:, 0] <= frac * el.size / u1]
         if blocks.shape[0] < 3:
-            break
+            continue
         tb, db, w = blocks.T
-        a2, a1, a0 = np.polyfit(tb, db, 2, w=np.sqrt(np.maximum(w, 0.0)))
-        # u_new(t) = u(t − δ(t)) ≈ u(t) − u1·δ(t), re-expressed from the new start
-        start, u1, u2 = start + a0, u1 * (1.0 - a1), u2 - u1 * a2
-    return start, u1, u2
+        if blocks.shape[0] >= MIN_DRIFT_BLOCKS:
+            coef = np.polyfit(tb, db, 2, w=np.sqrt(np.maximum(w, 0.0)))
+        else:  # too short to tell a drift from noise: start and BLF only
+            coef = np.concatenate([[0.0], np.polyfit(tb, db, 1, w=np.sqrt(np.maximum(w, 0.0)))])
+    a2, a1, a0 = coef
+    # u_new(t) = u(t − δ(t)) ≈ u(t) − u1·δ(t), re-expressed from the new start
+    return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
 
 
 def _reply_end(start: float, n_bits: int, m: int, trext: bool, rho: float, dummy: bool) -> int:
@@ -278,9 +353,11 @@ def _reply_end(start: float, n_bits: int, m: int, trext: bool, rho: float, dummy
     return int(math.ceil(start + n_el / rho))
 
 
-def _search(r, fs, hyps, lo_of, hi_of, pfa):
-    """Step 2: ``(corr, blf, hypothesis, start, coarse step)`` of the best preamble over
-    all hypotheses if it passes the threshold, else None."""
+def _search(r, fs, hyps, lo_of, hi_of):
+    """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
+    hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
+    over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
+    a parabola through the peak) and the number of lags tested."""
     best, n_tests = None, 0
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
@@ -288,52 +365,44 @@ def _search(r, fs, hyps, lo_of, hi_of, pfa):
             if 2.0 * blf * MIN_SAMPLES_PER_ELEMENT > fs:
                 continue
             lo, hi = lo_of(blf), hi_of(blf)
+            t0 = _preamble_template(hyp.m, hyp.trext, blf, fs)
             n_rep = int(math.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
             last = min(hi, r.size - n_rep)
-            if last < lo:
+            if last < lo or t0.size < 3:
                 continue
             n_tests += last - lo + 1
-            det = decode_reply(r[lo:], n_bits=0, m=hyp.m, trext=hyp.trext, blf_hz=blf, fs_hz=fs,
-                               method="bitwise", search_samples=last - lo)
-            n_pre = int(_n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blf))
-            if best is None or det.corr > best[0]:
-                best = (det.corr, float(blf), hyp, lo + det.start_sample, step_c, n_pre)
-    if best is None or not best[0] >= preamble_threshold(best[5], n_tests, pfa):
-        return None
-    return best[:5]
+            c = preamble_correlation(r[lo: last + t0.size], t0)
+            k = int(np.argmax(c))
+            if best is None or c[k] > best[0]:
+                frac = 0.0
+                if 0 < k < c.size - 1:
+                    den = c[k - 1] - 2.0 * c[k] + c[k + 1]
+                    frac = 0.5 * (c[k - 1] - c[k + 1]) / den if den < 0 else 0.0
+                best = (float(c[k]), float(blf), hyp, lo + k + frac, step_c, t0.size)
+    return best, n_tests
 
 
-def _decode_window(r, fs, hyps, lo_of, hi_of, n_bits_of, method, pfa):
-    """Steps 2–5 on the working-rate window ``r`` (module docstring). ``lo_of(blf)`` and
-    ``hi_of(blf)`` give the lag range of the T1 window, ``n_bits_of(bits)`` the length of
-    the complete reply from its first decoded bits (−1: not known yet). Returns a dict or
-    None."""
-    found = _search(r, fs, hyps, lo_of, hi_of, pfa)
-    if found is None:
-        return None
-    corr, blf_c, hyp, start_c, step_c = found
-    m, trext = hyp.m, hyp.trext
-    rho_c = 2.0 * blf_c / fs
-    w = int(math.ceil(1.0 / rho_c)) + 2
-    lo, hi = max(0, int(start_c) - w), int(start_c) + w
-    # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
-    n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
-    step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
-    k = int(math.ceil(step_c / step_16))
-    fine = _fine(r, lo, hi, n_first, m, trext, blf_c * (1.0 + step_16 * np.arange(-k, k + 1)), fs, method)
-    if fine is None:
-        return None
-    blf, det, start = fine
-    n_full = n_bits_of(det.bits)
-    n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)
-    truncated = n_full < 0 or n_fit < n_full
-    n_bits = max(0, n_fit - 1) if truncated else n_full  # when cut, the last whole bit stands in for the dummy
+def _bands(hyps) -> list[list[LinkHypothesis]]:
+    """Hypotheses split into BLF octaves (each gets its own working rate)."""
+    out = []
+    for h in hyps:
+        edges = np.geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
+        for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+            while len(out) <= k:
+                out.append([])
+            out[k].append(LinkHypothesis(h.m, h.trext, float(a), float(b)))
+    return out
+
+
+def _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bits, truncated, m, trext, method):
+    """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits. Returns (bits,
+    start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
     if n_bits > n_first:
         # the first 16 bits may be too regular to pin the BLF (a PC of mostly 0s is a square
         # wave at any BLF): the whole reply is searched across the coarse step again
-        step = max(1.0 / (4.0 * _n_elements(n_bits, m, trext)), step_c / MAX_FINE_STEPS)
-        k = int(math.ceil(step_c / step))
-        again = _fine(r, lo, hi, n_bits, m, trext, blf_c * (1.0 + step * np.arange(-k, k + 1)), fs, method)
+        step = max(1.0 / (4.0 * _n_elements(n_bits, m, trext)), FINE_SPAN_STEPS * step_c / MAX_FINE_STEPS)
+        k = int(math.ceil(FINE_SPAN_STEPS * step_c / step))
+        again = _fine(r, centre, n_bits, m, trext, blf_c * (1.0 + step * np.arange(-k, k + 1)), fs, method)
         if again is not None:
             blf, det, start = again
     bits = det.bits[:n_bits].astype(np.uint8)
@@ -359,17 +428,76 @@ def _decode_window(r, fs, hyps, lo_of, hi_of, n_bits_of, method, pfa):
         det = decode_reply(rw - c, n_bits=bits.size, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
                            start_sample=float(n_rest), gain=h)
         bits = det.bits.astype(np.uint8)
+    return bits, start, u1, u2, rw, n_rest, blf
+
+
+def _decode_window(r, fs, found, n_bits_of, method):
+    """Steps 3–5 on the working-rate window ``r`` (module docstring) after the detection
+    ``found`` of :func:`_search`; ``n_bits_of(bits)`` gives the length of the complete reply
+    from its first decoded bits (−1: not known yet). Returns a dict or None."""
+    corr, blf_c, hyp, start_c, step_c, _ = found
+    m, trext = hyp.m, hyp.trext
+    rho_c = 2.0 * blf_c / fs
+    centre = start_c + 0.5 * _n_pre_elements(m, trext) / rho_c
+    # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
+    n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
+    step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
+    k = int(math.ceil(FINE_SPAN_STEPS * step_c / step_16))
+    fine = _fine(r, centre, n_first, m, trext, blf_c * (1.0 + step_16 * np.arange(-k, k + 1)), fs, method)
+    if fine is None:
+        return None
+    blf, det, start = fine
+    n_full = n_bits_of(det.bits)
+    for _ in range(3):  # the reply's length follows from its first bits (EPC: the PC's L field)
+        n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)
+        truncated = n_full < 0 or n_fit < n_full
+        n_bits = max(0, n_fit - 1) if truncated else n_full  # when cut, the last whole bit stands in for the dummy
+        out = _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bits, truncated, m, trext,
+                             method)
+        if out is None:
+            return None
+        n_again = n_bits_of(out[0])
+        if truncated or n_again == n_full or n_again < 0:
+            break
+        n_full = n_again  # a PC decoded better on the whole reply announces another length
+    bits, start, u1, u2, rw, n_rest, blf = out
+    rho = 2.0 * blf / fs
+    dummy = not truncated
     # step 5: measurements on the resampled reply, E_h/N0 gate
     s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=n_rest / fs, n_samples=rw.size,
                        dummy=dummy)
     h, c, sigma2 = _fit_full(rw, s, min(rw.size, _reply_end(n_rest, bits.size, m, trext, rho, dummy)), True)
     eh_n0 = abs(h) ** 2 * (m / rho) / sigma2 if sigma2 > 0 else math.inf
+    t0 = _preamble_template(m, trext, blf, fs)  # the correlation at the decoded start and BLF
+    corr = float(preamble_correlation(rw[n_rest: n_rest + t0.size], t0)[0])
     if not eh_n0 >= 10.0 ** (MIN_HALFBIT_SNR_DB / 10.0):
         return None
     n_span = _reply_end(0.0, bits.size, m, trext, rho, dummy) / u1 * rho
-    return dict(bits=bits, start=start, blf=u1 * fs / 2.0, drift=2.0 * u2 * n_span / u1, m=m, trext=trext,
+    return dict(bits=bits, start=start, blf=(u1 + u2 * n_span) * fs / 2.0, drift=2.0 * u2 * n_span / u1, m=m, trext=trext,
                 corr=float(corr), truncated=truncated, n_full=n_full, h=complex(h), sigma2=sigma2,
                 end=start + n_span)
+
+
+@dataclass(frozen=True)
+class _Lags:
+    """T1 window of a BLF as lags into a window decimated by ``d`` (sample j at input sample
+    i0 + j·d + (d − 1)/2)."""
+
+    fs: float
+    d: int
+    i0: int
+    cmd_end_s: float
+    rtcal_s: float
+    frt: float
+
+    def _lag(self, t_s: float) -> float:
+        return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
+
+    def lo(self, blf: float) -> int:
+        return max(0, int(math.floor(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).min_s))) - 1)
+
+    def hi(self, blf: float) -> int:
+        return int(math.ceil(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).max_s))) + 1
 
 
 def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
@@ -445,28 +573,26 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     power = float(np.mean(np.abs(r) ** 2))
     if power == 0.0 or float(np.var(r)) <= _MIN_RELATIVE_VARIANCE * power:
         return None
-    blf_max = max(h.blf_hi_hz for h in hyps)
-    d = max(1, int(fs / (2.0 * blf_max * SAMPLES_PER_ELEMENT)))
     t1_earliest = min(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_hi_hz, frt=frt).min_s for h in hyps)
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].mean()
-    rd = boxcar_decimate(r, d)
-    fs_d = fs / d
-    centre = 0.5 * (d - 1)
-
-    def lag(t_s: float) -> float:
-        return ((cmd_end_s + t_s) * fs - i0 - centre) / d
-
-    def lo_of(blf: float) -> int:
-        return max(0, int(math.floor(lag(t1_range(rtcal_s=rtcal_s, blf_hz=blf, frt=frt).min_s))) - 1)
-
-    def hi_of(blf: float) -> int:
-        return int(math.ceil(lag(t1_range(rtcal_s=rtcal_s, blf_hz=blf, frt=frt).max_s))) + 1
-
-    res = _decode_window(rd, fs_d, hyps, lo_of, hi_of, n_bits_of, method, false_alarm_probability)
+    best, n_tests = None, 0
+    for band in _bands(hyps):
+        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        rd = boxcar_decimate(r, d)
+        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        n_tests += nt
+        if cand is not None and (best is None or cand[0] > best[0][0]):
+            best = (cand, rd, d)
+    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+        return None
+    found, rd, d = best
+    res = _decode_window(rd, fs / d, found, n_bits_of, method)
     if res is None:
         return None
+    centre = 0.5 * (d - 1)
     bits = res["bits"]
     to_s = lambda j: (i0 + j * d + centre) / fs  # noqa: E731  (working-rate sample → time)
     h = res["h"]
@@ -494,8 +620,12 @@ def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, 
     trcal = (query.trcal_s if query is not None else math.nan) if trcal_s is None else trcal_s
     frt = FRT_UNKNOWN
     if dr is not None and not math.isnan(trcal):
+        lo_s, hi_s = TRCAL_TABLE_RANGE_S[dr]
+        # a TRcal measured within 5 % outside the table (edge quantisation, reader clock)
+        # takes the nearest row
+        t = min(max(trcal, lo_s), hi_s) if 0.95 * lo_s <= trcal <= 1.05 * hi_s else trcal
         try:
-            frt = frt_fraction(dr, trcal)
+            frt = frt_fraction(dr, t)
         except ConfigError:
             pass
     if blf_hz is not None:
@@ -584,6 +714,8 @@ __all__ = [
     "TagReplyRecord",
     "LinkHypothesis",
     "boxcar_decimate",
+    "preamble_correlation",
+    "block_correlations_reference",
     "decode_tag_reply",
     "decode_tag_replies",
 ]

@@ -30,7 +30,8 @@ from rfsim.gen2.bits import bits_to_str
 from rfsim.gen2.commands import CommandParseError, command_fields, command_name, parse
 from rfsim.gen2.crc import crc5_ok, crc16_ok
 from rfsim.gen2 import _capture_kernels as _ck
-from rfsim.gen2.link import DATA1_TARI_RANGE, DELIMITER_RANGE_S, TARI_RANGE_S, TRCAL_RTCAL_RANGE
+from rfsim.gen2.link import (DATA1_TARI_RANGE, DELIMITER_NOMINAL_S, DELIMITER_RANGE_S, TARI_RANGE_S,
+                             TRCAL_RTCAL_RANGE)
 from rfsim.gen2.pie import PieEdges, pie_decode_arrays
 
 #: File name endings read as raw interleaved complex64 (GNU Radio file sink).
@@ -347,24 +348,25 @@ def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
 
 def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
     """One-line warnings for measured PIE timings outside the Gen2 limits (anchors §4.1):
-    Tari 6.25–25 µs, delimiter 12.5 µs ± 5 %, RTcal 2.5–3.0 Tari, TRcal 1.1–3.0 RTcal.
+    Tari 6.25–25 µs, RTcal 2.5–3.0 Tari, TRcal 1.1–3.0 RTcal (1 % slack for measurement).
 
-    A wrong ``fs_hz`` scales every duration; the delimiter, the one absolute duration of
-    PIE, then gives the sample rate the capture was probably taken at,
-    fs ≈ fs_hz·delimiter_measured/12.5 µs, which the Tari warning states.
+    A wrong ``fs_hz`` scales every duration: the Tari warning states the sample rates that
+    would put the measured Tari (in samples) inside 6.25–25 µs, and, where the delimiter
+    spans ≥ 10 samples (so that its edges do not dominate), the sample rate at which it is
+    the nominal 12.5 µs. (The delimiter itself is not checked: at a few samples per Tari
+    its measured length is off by up to a sample, e.g. 9.6 µs for the gr-rfid Query at
+    250 kS/s.)
     """
     out = []
     t, d = timing.tari_s, timing.delimiter_s
     if not math.isnan(t) and not (0.99 * TARI_RANGE_S[0] <= t <= 1.01 * TARI_RANGE_S[1]):
-        hint = ""
-        if not math.isnan(d) and d > 0:
-            hint = (f"; the delimiter ({d * fs_hz:.3g} samples) suggests a sample rate of "
-                    f"{fs_hz * d / 12.5e-6:.4g} Hz (is --fs {fs_hz:.4g} right?)")
+        n_tari = t * fs_hz
+        hint = (f"; a sample rate of {n_tari / TARI_RANGE_S[1]:.4g}–{n_tari / TARI_RANGE_S[0]:.4g} Hz would put it "
+                f"inside (is --fs {fs_hz:.4g} right?)")
+        if not math.isnan(d) and d * fs_hz >= 10:
+            hint += f"; the delimiter is 12.5 µs at {d * fs_hz / DELIMITER_NOMINAL_S:.4g} Hz"
         out.append(f"measured Tari {t * 1e6:.4g} µs is outside the Gen2 range "
                    f"{TARI_RANGE_S[0] * 1e6:.4g}–{TARI_RANGE_S[1] * 1e6:.4g} µs{hint}")
-    if not math.isnan(d) and not (0.99 * DELIMITER_RANGE_S[0] <= d <= 1.01 * DELIMITER_RANGE_S[1]):
-        out.append(f"measured delimiter {d * 1e6:.4g} µs is outside the Gen2 range "
-                   f"{DELIMITER_RANGE_S[0] * 1e6:.4g}–{DELIMITER_RANGE_S[1] * 1e6:.4g} µs")
     lo, hi = 1 + DATA1_TARI_RANGE[0], 1 + DATA1_TARI_RANGE[1]
     if not math.isnan(t) and not math.isnan(timing.rtcal_s) and not (
             0.99 * lo <= timing.rtcal_s / t <= 1.01 * hi):

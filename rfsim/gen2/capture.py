@@ -237,7 +237,8 @@ GATE_MIN_BITS = 4
 
 def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """PIE plausibility gate: ``(keep (nf,) bool, contrast (nf,))`` for the frames of ``edges``
-    (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the normalised envelope ``env``).
+    (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the envelope ``env``, any scale and
+    offset).
 
     A frame is a command only if its timing is that of a PIE reader (every data symbol
     Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
@@ -320,9 +321,9 @@ def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
     if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
     env, thr, lo, hi = envelope_levels(samples)
-    scale = 1.0 / (hi - lo) if hi > lo else 1.0
-    _ck.normalize_kernel(env, lo, scale)
-    edges = pie_decode_arrays(env, levels=((thr - lo) * scale, 0.0, (hi - lo) * scale))
+    # the comparator, the frame parser and the gate are invariant to the envelope's scale
+    # and offset: the raw envelope is used with its levels (no normalisation pass)
+    edges = pie_decode_arrays(env, levels=(thr, lo, hi))
     keep = plausible_frames(edges, env)[0] if gate else None
     records = [
         parse_record(

@@ -523,6 +523,18 @@ def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
     return out
 
 
+def _max_bits(kind: str, rec: ReaderCommandRecord) -> int:
+    """Most data bits a reply of ``kind`` can have: RN16 16, handle 32, EPC 32 + 16·31 (the
+    PC's 5-bit L field), read 1 + 16·WordCount + 32 (WordCount 0: 255 words)."""
+    if kind == "RN16":
+        return 16
+    if kind == "handle":
+        return 32
+    if kind == "read":
+        return 1 + 16 * (int(rec.fields.get("word_count", 0)) or 255) + 32
+    return 32 + 16 * 31
+
+
 def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
@@ -537,7 +549,8 @@ def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
 
 
 def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: float, cmd_end_s: float,
-                     rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, cut_s: float | None = None,
+                     rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, max_bits: int,
+                     cut_s: float | None = None,
                      method: str = "viterbi", false_alarm_probability: float = 1e-3) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
@@ -551,7 +564,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         tolerance FrT that set the T1 window
     hypotheses : sequence of :class:`LinkHypothesis` searched
     kind : reply kind (:data:`REPLY_KIND` values); ``n_bits_of(bits)`` the complete reply's
-        data bits from its first decoded bits (−1 unknown)
+        data bits from its first decoded bits (−1 unknown), ``max_bits`` the most it can have
+        (the window is cut after the longest reply)
     cut_s : where the window is cut (the next command's start) [s]; default ``window_end_s``
     method : "viterbi" or "bitwise"
     false_alarm_probability : per window, sets the detection threshold
@@ -566,7 +580,11 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     fs = float(fs_hz)
     x = np.asarray(samples)
     i0 = max(0, int(math.ceil(listen_s * fs)))
-    i1 = min(x.size, int(math.floor(window_end_s * fs)))
+    # no longer than the longest reply any hypothesis allows (rest level around it included)
+    longest_s = max(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_lo_hz, frt=frt).max_s
+                    + _n_elements(max_bits, h.m, h.trext) / (2.0 * h.blf_lo_hz) for h in hyps)
+    end_s = min(window_end_s, cmd_end_s + longest_s + 16.0 / fs + 2e-6)
+    i1 = min(x.size, int(math.floor(end_s * fs)))
     if i1 - i0 < 16:
         return None
     r = x[i0:i1].astype(np.complex128)
@@ -602,7 +620,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     return TagReplyRecord(
         command_index=-1, command="", kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
         blf_hz=float(res["blf"]), m=int(res["m"]), trext=bool(res["trext"]), corr=res["corr"], truncated=truncated,
-        end_s=float((window_end_s if cut_s is None else cut_s) if truncated else to_s(res["end"])),
+        end_s=float(((window_end_s if cut_s is None else cut_s) if end_s >= window_end_s else end_s) if truncated
+                    else to_s(res["end"])),
         n_bits_expected=int(res["n_full"]), blf_drift=float(res["drift"]),
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
         phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, **_reply_fields(kind, bits, truncated))
@@ -697,7 +716,8 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
         found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
                                  window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
                                  cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt, hypotheses=hyps, kind=kind,
-                                 n_bits_of=_n_bits_rule(kind, rec), cut_s=cut_s, method=method,
+                                 n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec), cut_s=cut_s,
+                                 method=method,
                                  false_alarm_probability=false_alarm_probability)
         if found is not None:
             out.append(dataclasses.replace(found, command_index=k, command=rec.name))

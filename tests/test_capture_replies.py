@@ -246,3 +246,24 @@ def test_pure_noise_and_reader_only():
     records, _ = decode_reader_commands(x, 1e6)
     assert len(records) == 40
     assert decode_tag_replies(x, 1e6, records) == []
+
+
+@pytest.mark.parametrize("fs_error", [-0.03, 0.03])
+def test_sample_rate_mismatch_scale_and_dc(fs_error):
+    """The capture decoded with a sample rate 3 % off, an arbitrary complex scale and a DC
+    offset of 10 % of the carrier (a receiver's LO leakage; the envelope |L·e + d| stays
+    two-level): commands and replies the same (the tag's BLF follows the TRcal it
+    measured, so in the capture's time base both scale alike: BLF reported ×(1 + error))."""
+    rn = _rn16(30)
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    link = dict(m=4, trext=False)
+    items = [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=256e3 * 1.005, **link), 0.6e-3),
+             (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=256e3 * 1.005, **link), 2.5e-3)]
+    x, truth = synth_capture(items, fs_hz=4e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
+    x = ((x + 0.085 * np.exp(1j)) * (3e-3 * np.exp(2.5j))).astype(np.complex64)
+    fs_claimed = 4e6 * (1 + fs_error)
+    records, replies = _timed_decode(x, fs_claimed)
+    assert [r.name for r in records] == ["Query", "ACK"]
+    assert [r.kind for r in replies] == ["RN16", "EPC"]
+    assert replies[0].bits == "".join(map(str, rn)) and replies[1].crc_ok is True
+    assert replies[1].blf_hz == pytest.approx(256e3 * 1.005 * (1 + fs_error), rel=1e-3)

@@ -23,12 +23,14 @@ same form with real h (|h| ≪ |c|). Steps per window:
    hypotheses tested. With the line code known (a Query in the capture, or given) the BLF
    grid spans DR/TRcal·(1 ± FrT); without it, M ∈ {1, 2, 4, 8}, TRext ∈ {0, 1} and BLF
    over the Gen2 range 40–640 kHz widened by the largest FrT (22 %) are searched blind.
-3. **BLF from the reply itself**: every BLF on a grid of relative step 1/(4·elements of
-   the first 16 bits) across ±2 coarse steps is decoded; the one whose remodulated reply
+3. **BLF from the reply itself**: BLFs across ±2 coarse steps are decoded over the first
+   16 bits, coarse to fine (17 BLFs, then the span narrowed to one step around the best)
+   down to a step of 1/(4·their elements); the one whose remodulated reply
    (rest level −1 around it) leaves the least residual power under
    :func:`rfsim.gen2.capture.fit_gain_offset` wins. That gives the reply's length (EPC:
-   the PC's L field); the search is repeated over the whole reply, step 1/(4·its
-   elements) across ±2 coarse steps again (decoding needs the BLF to ≈ 1/(4·elements),
+   the PC's L field); the search is repeated over the whole reply across ±2 coarse steps
+   again, coarse to fine (9 BLFs, then a 4× narrower span around the best) down to a step
+   of 1/(4·its elements) (decoding needs the BLF to ≈ 1/(4·elements),
    0.02 % for a 128-bit Miller-4 reply). A reply the next command cuts is decoded to its
    last whole bit (**truncated**: reported with the bits that fit, never as a complete
    frame).
@@ -90,8 +92,6 @@ MIN_HALFBIT_SNR_DB = 6.0
 #: Half-width of the fine BLF searches in coarse steps (a short FM0 preamble, 12 elements,
 #: can correlate best one coarse step off).
 FINE_SPAN_STEPS = 2
-#: Most BLFs on each side of the coarse estimate in the fine search of a whole reply.
-MAX_FINE_STEPS = 64
 #: Elements per timing block of the tracking loop (step 4) and its iterations.
 TRACK_BLOCK_ELEMENTS = 24
 #: Growing spans of the reply (fractions from its start) the tracking loop fits in turn.
@@ -224,6 +224,23 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
         if best is None or resid < best[0]:
             best = (resid, float(blf), det, start)
     return None if best is None else best[1:]
+
+
+def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method):
+    """:func:`_fine` coarse to fine: ``2·per_side + 1`` BLFs across blf0·(1 ± span), then the
+    same around the best with the span narrowed to one step, until the step is ≤ ``target``
+    (relative). Returns (blf, det, start) or None."""
+    best, centre_blf = None, blf0
+    while True:
+        step = max(span / per_side, target)
+        k = int(math.ceil(span / step))
+        found = _fine(r, centre, n_bits, m, trext, centre_blf * (1.0 + step * np.arange(-k, k + 1)), fs, method)
+        if found is None:
+            return best
+        best = found
+        if step <= target:
+            return best
+        span, centre_blf = step, found[0]
 
 
 def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
@@ -400,9 +417,8 @@ def _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bit
     if n_bits > n_first:
         # the first 16 bits may be too regular to pin the BLF (a PC of mostly 0s is a square
         # wave at any BLF): the whole reply is searched across the coarse step again
-        step = max(1.0 / (4.0 * _n_elements(n_bits, m, trext)), FINE_SPAN_STEPS * step_c / MAX_FINE_STEPS)
-        k = int(math.ceil(FINE_SPAN_STEPS * step_c / step))
-        again = _fine(r, centre, n_bits, m, trext, blf_c * (1.0 + step * np.arange(-k, k + 1)), fs, method)
+        again = _fine_search(r, centre, n_bits, m, trext, blf_c, FINE_SPAN_STEPS * step_c,
+                             1.0 / (4.0 * _n_elements(n_bits, m, trext)), 4, fs, method)
         if again is not None:
             blf, det, start = again
     bits = det.bits[:n_bits].astype(np.uint8)
@@ -442,8 +458,7 @@ def _decode_window(r, fs, found, n_bits_of, method):
     # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
     step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
-    k = int(math.ceil(FINE_SPAN_STEPS * step_c / step_16))
-    fine = _fine(r, centre, n_first, m, trext, blf_c * (1.0 + step_16 * np.arange(-k, k + 1)), fs, method)
+    fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method)
     if fine is None:
         return None
     blf, det, start = fine

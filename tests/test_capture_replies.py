@@ -267,3 +267,25 @@ def test_sample_rate_mismatch_scale_and_dc(fs_error):
     assert [r.kind for r in replies] == ["RN16", "EPC"]
     assert replies[0].bits == "".join(map(str, rn)) and replies[1].crc_ok is True
     assert replies[1].blf_hz == pytest.approx(256e3 * 1.005 * (1 + fs_error), rel=1e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_pairs", [5, 50])
+def test_ten_second_capture_at_2msps(n_pairs):
+    """Speed figure: a 10 s capture at 2 MS/s (CW with ``n_pairs`` Query → RN16 and ACK →
+    EPC exchanges, Miller-4 at 258.6 kHz) decoded completely; the time and the real-time
+    factor are printed (run with -s; the target is ≥ 20× real time)."""
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    link = dict(m=4, trext=False)
+    gap = 10.0 / n_pairs - 3.5e-3
+    items = []
+    for k in range(n_pairs):
+        rn = _rn16(k)
+        items += [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=256e3 * 1.01, **link), 0.6e-3),
+                  (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=256e3 * 1.01, **link), gap)]
+    x, _ = synth_capture(items, fs_hz=2e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
+    x = x.astype(np.complex64)
+    decode_reader_commands(x[:100_000], 2e6)  # compile outside the timing
+    records, replies = _timed_decode(x, 2e6)
+    assert len(records) == 2 * n_pairs
+    assert sum(r.crc_ok is True for r in replies) == n_pairs and len(replies) == 2 * n_pairs

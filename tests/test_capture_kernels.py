@@ -9,7 +9,8 @@ import pytest
 from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames, plausible_frames_reference
 from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2.pie import pie_decode_arrays, two_level_threshold_reference
-from rfsim.gen2.replies import _block_correlations, block_correlations_reference, preamble_correlation
+from rfsim.gen2.replies import preamble_correlation
+from rfsim.gen2.reply_tracking import _block_correlations, block_correlations_reference
 from rfsim.rng import trial_rng
 
 

@@ -289,3 +289,18 @@ def test_ten_second_capture_at_2msps(n_pairs):
     records, replies = _timed_decode(x, 2e6)
     assert len(records) == 2 * n_pairs
     assert sum(r.crc_ok is True for r in replies) == n_pairs and len(replies) == 2 * n_pairs
+
+
+def test_blind_search_stops_after_misses():
+    """Without a Query and with no link given, windows are searched blind until
+    ``max_blind_misses`` of them held no reply; later windows are then not searched (the
+    reply after the 3rd ACK is found with the default, not with max_blind_misses=2)."""
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    items = [(ACK(rn16=0x1111), None, 1.0e-3), (ACK(rn16=0x2222), None, 1.0e-3),
+             (ACK(rn16=0x3333), Reply(epc, 1, False, 160e3), 1.2e-3)]
+    x, truth = synth_capture(items, fs_hz=2e6, trcal_s=None, tari_s=12.5e-6)
+    records, _ = decode_reader_commands(x, 2e6)
+    assert [r.name for r in records] == ["ACK"] * 3
+    found = decode_tag_replies(x, 2e6, records)
+    assert [(r.command_index, r.crc_ok) for r in found] == [(2, True)]
+    assert decode_tag_replies(x, 2e6, records, max_blind_misses=2) == []

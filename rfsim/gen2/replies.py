@@ -576,7 +576,8 @@ def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, 
 def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord], *,
                        blf_hz: float | None = None, trcal_s: float | None = None, dr=None,
                        m: int | None = None, trext: bool | None = None, blf_tolerance: float | None = None,
-                       method: str = "viterbi", false_alarm_probability: float = 1e-3) -> list[TagReplyRecord]:
+                       method: str = "viterbi", false_alarm_probability: float = 1e-3,
+                       max_blind_misses: int = 4) -> list[TagReplyRecord]:
     """Find and decode the tag reply after every command of ``records`` that elicits one
     (:data:`REPLY_KIND`; ``records`` from :func:`rfsim.gen2.capture.decode_reader_commands`).
 
@@ -592,6 +593,9 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     blf_tolerance : relative BLF search range; default FrT when the BLF comes from TRcal,
         2 % when ``blf_hz`` is given
     method, false_alarm_probability : see :func:`decode_tag_reply`
+    max_blind_misses : a blind search (no Query, no link given) costs about a second per
+        window; after this many blind windows without a reply the remaining windows that would
+        need one are not searched (give the link, or a capture with a Query, to search them)
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
@@ -612,7 +616,7 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     if blf_tolerance is not None and not 0.0 <= blf_tolerance < 0.5:
         raise ConfigError("blf_tolerance", blf_tolerance, "a fraction in [0, 0.5)")
     out: list[TagReplyRecord] = []
-    query, learned = None, None
+    query, learned, blind_misses = None, None, 0
     n = np.asarray(samples).size
     for k, rec in enumerate(records):
         if rec.name == "Query" and rec.fields:
@@ -622,6 +626,9 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
             continue
         hyps, frt = _hypotheses(query, learned, blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext,
                                 blf_tolerance=blf_tolerance)
+        blind = len(hyps) > 1 and hyps[0].blf_lo_hz == BLIND_BLF_RANGE_HZ[0]
+        if blind and blind_misses >= max_blind_misses:
+            continue
         tari = rec.tari_s if not math.isnan(rec.tari_s) else 0.0
         cut_s = records[k + 1].start_s if k + 1 < len(records) else n / fs
         found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
@@ -634,6 +641,8 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
             out.append(dataclasses.replace(found, command_index=k, command=rec.name))
             if query is None and blf_hz is None:
                 learned = (found.m, found.trext, found.blf_hz)
+        elif blind:
+            blind_misses += 1
     return out
 
 

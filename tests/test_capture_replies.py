@@ -92,6 +92,15 @@ def _rn16(seed: int) -> np.ndarray:
     return trial_rng(seed, 7).integers(0, 2, 16).astype(np.uint8)
 
 
+def query_ack_items(rn: np.ndarray, blf_hz: float, gap_after_ack_s: float = 2.5e-3):
+    """Query → RN16 ``rn`` and ACK → PC + EPC + CRC-16, Miller-4 without pilot at ``blf_hz``
+    (DR 64/3, TRcal 64/3/256 kHz: nominal BLF 256 kHz); items for :func:`synth_capture`."""
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    link = dict(m=4, trext=False)
+    return [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=blf_hz, **link), 0.6e-3),
+            (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=blf_hz, **link), gap_after_ack_s)]
+
+
 def _check_decoded(replies, truth, fs_hz, *, blf_rel=1e-3):
     assert len(replies) == len(truth)
     for rep, (reply, t_start, _) in zip(replies, truth):
@@ -255,11 +264,7 @@ def test_sample_rate_mismatch_scale_and_dc(fs_error):
     two-level): commands and replies the same (the tag's BLF follows the TRcal it
     measured, so in the capture's time base both scale alike: BLF reported ×(1 + error))."""
     rn = _rn16(30)
-    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
-    link = dict(m=4, trext=False)
-    items = [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=256e3 * 1.005, **link), 0.6e-3),
-             (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=256e3 * 1.005, **link), 2.5e-3)]
-    x, truth = synth_capture(items, fs_hz=4e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
+    x, truth = synth_capture(query_ack_items(rn, 256e3 * 1.005), fs_hz=4e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
     x = ((x + 0.085 * np.exp(1j)) * (3e-3 * np.exp(2.5j))).astype(np.complex64)
     fs_claimed = 4e6 * (1 + fs_error)
     records, replies = _timed_decode(x, fs_claimed)
@@ -275,14 +280,8 @@ def test_ten_second_capture_at_2msps(n_pairs):
     """Speed figure: a 10 s capture at 2 MS/s (CW with ``n_pairs`` Query → RN16 and ACK →
     EPC exchanges, Miller-4 at 258.6 kHz) decoded completely; the time and the real-time
     factor are printed (run with -s; the target is ≥ 20× real time)."""
-    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
-    link = dict(m=4, trext=False)
     gap = 10.0 / n_pairs - 3.5e-3
-    items = []
-    for k in range(n_pairs):
-        rn = _rn16(k)
-        items += [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=256e3 * 1.01, **link), 0.6e-3),
-                  (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=256e3 * 1.01, **link), gap)]
+    items = [item for k in range(n_pairs) for item in query_ack_items(_rn16(k), 256e3 * 1.01, gap)]
     x, _ = synth_capture(items, fs_hz=2e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
     x = x.astype(np.complex64)
     decode_reader_commands(x[:100_000], 2e6)  # compile outside the timing

@@ -17,22 +17,16 @@ import pytest
 from rfsim.cli import main
 from rfsim.dataset import read_table
 from rfsim.gen2.bits import bits_to_int
-from rfsim.gen2.commands import ACK, Query
 from rfsim.records import READ_MEASUREMENT_FIELDS
 
-from test_capture_replies import PC_BITS, EPC_BITS, Reply, synth_capture, _rn16
-from rfsim.gen2.crc import append_crc16
+from test_capture_replies import _rn16, query_ack_items, synth_capture
 
 
 @pytest.fixture(scope="module")
 def link_capture(tmp_path_factory):
     """Query → RN16 (Miller-4, 256 kHz · 1.01), ACK → PC + EPC + CRC-16 at 4 MS/s, as .cf32."""
     rn = _rn16(2)
-    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
-    link = dict(m=4, trext=False)
-    items = [(Query(dr="64/3", q=0, **link), Reply(rn, blf_hz=256e3 * 1.01, **link), 0.6e-3),
-             (ACK(rn16=bits_to_int(rn)), Reply(epc, blf_hz=256e3 * 1.01, **link), 2.5e-3)]
-    x, truth = synth_capture(items, fs_hz=4e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
+    x, truth = synth_capture(query_ack_items(rn, 256e3 * 1.01), fs_hz=4e6, trcal_s=64 / 3 / 256e3, tari_s=12.5e-6)
     path = tmp_path_factory.mktemp("cap") / "link.cf32"
     x.astype(np.complex64).tofile(path)
     return path, rn, truth

@@ -1,12 +1,23 @@
-"""``rfsim decode CAPTURE --fs HZ``: list the reader commands and tag replies in a baseband capture."""
+"""``rfsim decode CAPTURE --fs HZ``: list the reader commands and tag replies in a baseband
+capture as text, JSON or CSV, and optionally write them as an HDF5 dataset."""
 
 from __future__ import annotations
 
 import argparse
+import csv
+import json
 import math
+import os
+import sys
+import tempfile
+from pathlib import Path
 
+from rfsim.capture_records import COMMAND_FIELDS, READ_FIELDS, capture_dataset, command_row, reply_row
 from rfsim.errors import UserError
-from rfsim.gen2.capture import SUFFIXES, decode_reader_commands, decode_tag_replies, load_capture
+from rfsim.gen2.capture import SUFFIXES, decode_reader_commands, load_capture
+from rfsim.gen2.replies import decode_tag_replies
+
+FORMATS = ("text", "json", "csv")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -14,13 +25,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "decode",
         help="decode the reader (PIE) commands and tag replies in a baseband capture",
         description=(
-            "Find every reader command in a complex baseband capture (raw interleaved complex64 "
-            "as written by a GNU Radio file sink, or .npy), parse it and check its CRC; print one "
-            "line per command (start time, name, fields, CRC) and the median Tari, RTcal and TRcal. "
-            "After every Query/QueryRep/QueryAdjust and ACK the tag reply is searched in the T1 "
-            "window (FM0/Miller with M and TRext of the last Query, BLF = DR/TRcal measured in the "
-            "capture unless given) and printed with its RN16, or PC + EPC and CRC-16 status, the "
-            "BLF it was decoded with and its preamble correlation."
+            "Find every reader command in a baseband capture (raw interleaved complex64 as written "
+            "by a GNU Radio file sink, or .npy, complex IQ or a real |IQ| envelope), parse it and "
+            "check its CRC. After every command that elicits a reply (Query family: RN16, ACK: "
+            "PC+EPC+CRC-16, Req_RN: handle, Read: data+handle) the tag reply is searched in the T1 "
+            "window: line code from the last Query, BLF = DR/TRcal measured in the capture (or given), "
+            "searched blind over the Gen2 ranges when there is no Query; BLF and timing are measured "
+            "on the reply itself. Replies cut by the next command are reported as truncated. Prints one "
+            "line per command and reply and a summary (--format text), or the same fields as JSON or "
+            "CSV; --output writes the commands and replies tables as HDF5 (the per-read layout of the "
+            "simulated readers)."
         ),
     )
     p.add_argument("capture", help=f"capture file ({', '.join(SUFFIXES)})")
@@ -35,6 +49,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="tag encoding: 1 = FM0, 2/4/8 = Miller-M (default: from the Query)")
     p.add_argument("--trext", type=int, default=None, choices=(0, 1),
                    help="pilot tone (TRext) of the replies (default: from the Query)")
+    p.add_argument("--format", dest="output_format", default="text", choices=FORMATS,
+                   help="stdout format: text lines with a summary (default), one JSON document, or CSV rows")
+    p.add_argument("-o", "--output", default=None, metavar="X.h5",
+                   help="also write the commands and tag replies as an HDF5 dataset")
     p.set_defaults(func=run)
 
 
@@ -50,11 +68,29 @@ def _us(value_s: float) -> str:
 
 def _reply_line(rep) -> str:
     if rep.kind == "RN16":
-        what = f"RN16=0x{rep.rn16:04X}"
+        what = f"RN16=0x{rep.rn16:04X}" if rep.rn16 is not None else "RN16=?"
+    elif rep.kind == "EPC":
+        what = f"PC=0x{(rep.pc or 0):04X} EPC={rep.epc_hex or '-'}"
+    elif rep.kind == "handle":
+        what = f"handle=0x{(rep.rn16 or 0):04X}"
     else:
-        what = f"PC=0x{rep.pc:04X} EPC={rep.epc_hex or '-'}  {'CRC ok' if rep.crc_ok else 'CRC bad'}"
-    return (f"{rep.start_s:12.6f} s    tag reply  {what}  BLF {rep.blf_hz / 1e3:.2f} kHz  "
-            f"corr {rep.corr:.3f}")
+        what = f"data={rep.data_hex or '-'} handle=0x{(rep.rn16 or 0):04X}"
+    if rep.truncated:
+        state = f"TRUNCATED at {rep.end_s:.6f} s ({len(rep.bits)} of {rep.n_bits_expected} bits)"
+    else:
+        state = {True: "CRC ok", False: "CRC bad", None: "no CRC"}[rep.crc_ok]
+    return (f"{rep.start_s:12.6f} s    tag reply  {rep.kind} {what}  {state}  BLF {rep.blf_hz / 1e3:.2f} kHz  "
+            f"{'FM0' if rep.m == 1 else f'Miller-{rep.m}'}{' TRext' if rep.trext else ''}  corr {rep.corr:.3f}  "
+            f"SNR {rep.snr_db:.1f} dB")
+
+
+def _summary(timing, replies) -> str:
+    n_rn16 = sum(rep.kind == "RN16" for rep in replies)
+    n_ok = sum(bool(rep.crc_ok) for rep in replies)
+    n_cut = sum(rep.truncated for rep in replies)
+    return (f"{timing.n_commands} commands (Tari {_us(timing.tari_s)}, RTcal {_us(timing.rtcal_s)}, "
+            f"TRcal {_us(timing.trcal_s)}, medians); {len(replies)} tag replies ({n_rn16} RN16, "
+            f"{len(replies) - n_rn16} with CRC-16, {n_ok} CRC ok, {n_cut} truncated)")
 
 
 def _positive(value, flag: str):
@@ -63,40 +99,97 @@ def _positive(value, flag: str):
     return value
 
 
+def _check_output(path: str | None) -> Path | None:
+    """The dataset path, checked before any decoding: not a directory, its folder created
+    if missing and writable (a probe file is created and removed there)."""
+    if path is None:
+        return None
+    p = Path(path)
+    if p.is_dir():
+        raise UserError(f"--output '{p}' is a directory; give a file name such as {p / 'capture.h5'}")
+    parent = p.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".rfsim-probe-"):
+            pass
+    except (FileExistsError, NotADirectoryError):
+        raise UserError(f"--output '{p}': '{parent}' is not a folder") from None
+    except OSError as err:
+        raise UserError(f"--output '{p}': cannot write in '{parent}' ({err.strerror or err})") from None
+    return p
+
+
+def _json_value(v):
+    return None if isinstance(v, float) and not math.isfinite(v) else v
+
+
+def _write(args, records, replies, timing) -> None:
+    fmt = getattr(args, "output_format", "text")
+    out = sys.stdout
+    if fmt == "json":
+        doc = {"commands": [{k: _json_value(v) for k, v in command_row(r).items()} for r in records],
+               "replies": [{k: _json_value(v) for k, v in reply_row(r).items()} for r in replies],
+               "summary": _summary(timing, replies), "warnings": list(timing.warnings)}
+        json.dump(doc, out, ensure_ascii=False)
+        out.write("\n")
+        return
+    if fmt == "csv":
+        names = ["record"] + list(dict.fromkeys([*READ_FIELDS, *COMMAND_FIELDS]))
+        w = csv.DictWriter(out, fieldnames=names, restval="", lineterminator="\n")
+        w.writeheader()
+        by_command = {}
+        for rep in replies:
+            by_command.setdefault(rep.command_index, []).append(rep)
+        for k, rec in enumerate(records):
+            w.writerow({"record": "command", **command_row(rec)})
+            for rep in by_command.get(k, ()):
+                w.writerow({"record": "reply", **reply_row(rep)})
+        print(_summary(timing, replies), file=sys.stderr)
+        return
+    by_command = {rep.command_index: rep for rep in replies}
+    for k, rec in enumerate(records):
+        fields = " ".join(f"{key}={_format_value(key, v)}" for key, v in rec.fields.items())
+        crc = {True: "CRC ok", False: "CRC bad", None: "no CRC"}[rec.crc_ok]
+        detail = fields if not rec.error else f"bits={rec.bits} ({rec.error})"
+        print(f"{rec.start_s:12.6f} s  {rec.name:<11} {detail}  {crc}", file=out)
+        if k in by_command:
+            print(_reply_line(by_command[k]), file=out)
+    print(_summary(timing, replies), file=out)
+
+
 def run(args: argparse.Namespace) -> int:
-    """Print the decoded commands and tag replies of ``args.capture`` sampled at ``args.fs_hz``;
-    exit code 0."""
+    """Decode ``args.capture`` sampled at ``args.fs_hz``, print it in ``args.output_format`` and
+    write ``args.output``; exit code 0 (also when stdout is closed early, e.g. ``| head``)."""
     fs_hz = float(args.fs_hz)
     if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise UserError(f"--fs must be a positive sample rate in Hz, got {args.fs_hz!r}")
     blf_hz = _positive(getattr(args, "blf_hz", None), "--blf")
     trcal_s = _positive(getattr(args, "trcal_s", None), "--trcal")
     trext = getattr(args, "trext", None)
+    output = _check_output(getattr(args, "output", None))
     samples = load_capture(args.capture)
     records, timing = decode_reader_commands(samples, fs_hz)
+    for warning in timing.warnings:
+        print(f"rfsim: warning: {warning}", file=sys.stderr)
     replies = decode_tag_replies(samples, fs_hz, records, blf_hz=blf_hz, trcal_s=trcal_s,
                                  dr=getattr(args, "dr", None), m=getattr(args, "m", None),
                                  trext=None if trext is None else bool(trext))
-    by_command = {rep.command_index: rep for rep in replies}
-    for k, rec in enumerate(records):
-        fields = " ".join(f"{key}={_format_value(key, v)}" for key, v in rec.fields.items())
-        crc = {True: "CRC ok", False: "CRC bad", None: "no CRC"}[rec.crc_ok]
-        detail = fields if not rec.error else f"bits={rec.bits} ({rec.error})"
-        print(f"{rec.start_s:12.6f} s  {rec.name:<11} {detail}  {crc}")
-        if k in by_command:
-            print(_reply_line(by_command[k]))
-    print(
-        f"{timing.n_commands} commands; Tari {_us(timing.tari_s)}, RTcal {_us(timing.rtcal_s)}, "
-        f"TRcal {_us(timing.trcal_s)} (medians)"
-    )
-    if replies:
-        n_rn16 = sum(rep.kind == "RN16" for rep in replies)
-        n_epc = len(replies) - n_rn16
-        n_ok = sum(bool(rep.crc_ok) for rep in replies)
-        print(f"{len(replies)} tag replies: {n_rn16} RN16, {n_epc} EPC ({n_ok} with CRC ok)")
-    else:
-        print("no tag replies found")
+    if output is not None:
+        from rfsim.dataset import make_provenance, utc_now, write_dataset
+        prov = make_provenance(config_toml="", seed=0, scenario="decode", start_time_utc=utc_now(),
+                               extra={"capture": str(args.capture), "fs_hz": fs_hz})
+        write_dataset(output, capture_dataset(records, replies, capture=str(args.capture), fs_hz=fs_hz,
+                                              timing=timing), prov)
+    try:
+        _write(args, records, replies, timing)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # the reader of our stdout has gone (``| head``): not an error; keep Python's exit
+        # flush from raising again
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
     return 0
 
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "FORMATS"]

@@ -5,7 +5,8 @@ Modules: :mod:`~rfsim.gen2.bits` (bit arrays), :mod:`~rfsim.gen2.crc` (CRC-5/CRC
 :mod:`~rfsim.gen2.link` (link profiles, BLF tolerance, T1–T7, durations),
 :mod:`~rfsim.gen2.pie` (PIE envelope encoder and decoder),
 :mod:`~rfsim.gen2.linecode` (FM0/Miller encoders, sampled replies, coherent and Viterbi
-decoders) and :mod:`~rfsim.gen2.capture` (decoding recorded waveforms).
+decoders), :mod:`~rfsim.gen2.capture` (reader commands in recorded waveforms) and
+:mod:`~rfsim.gen2.replies` (tag replies in recorded waveforms).
 """
 
 from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits, int_to_bits

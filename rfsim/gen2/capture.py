@@ -1,35 +1,19 @@
-"""Recorded baseband captures: loading and decoding the reader commands they contain.
+"""Recorded baseband captures: loading them and decoding the reader commands they contain.
 
 A capture is a complex baseband recording (GNU Radio file sink: raw interleaved
-complex64, or a NumPy ``.npy`` array) of unknown amplitude scale. Reader commands are
-found in its envelope |x| (or in a real envelope given directly, which may also carry an
-unknown offset), normalised to 0…1 by the two level clusters, and decoded with the PIE
-decoder of :mod:`rfsim.gen2.pie`; the bits are parsed with :mod:`rfsim.gen2.commands`.
-Timings are the medians over all commands (anchors §3.7: gr-rfid reader waveform).
+complex64, or a NumPy ``.npy`` array) of unknown amplitude scale, or a real envelope
+(|IQ|) that may also carry an unknown offset; it must be finite (NaN/Inf are refused with
+a one-line :class:`rfsim.errors.UserError`). Reader commands are found in its envelope,
+normalised to 0…1 by the two level clusters (:func:`envelope_levels`), decoded with the PIE
+decoder of :mod:`rfsim.gen2.pie` and kept only when they pass the PIE plausibility gate
+(:func:`plausible_frames`: every symbol Tari or RTcal − Tari, equal pulse widths, Gen2
+ratios, level contrast), so threshold crossings of noise are not commands; the bits are
+parsed with :mod:`rfsim.gen2.commands`. Timings are the medians over all commands (anchors
+§3.7: gr-rfid reader waveform); :func:`timing_warnings` says when they lie outside the Gen2
+limits (a wrong sample rate). Tag replies: :mod:`rfsim.gen2.replies`.
 
-Tag replies (:func:`decode_tag_replies`): after every Query, QueryRep or QueryAdjust (RN16)
-and every ACK (PC + EPC + CRC-16) the reply is searched in the T1 window after the command's
-last rising edge (gen2-and-validation-anchors.md §4.3: T1 = max(RTcal, 10·Tpri)·(1 ± FrT)
-± 2 µs) with the line code of the last Query (M, TRext) and BLF = DR/TRcal (§4.2) from the
-TRcal measured in the capture — or a BLF given by the caller. In a monostatic capture the
-reply rides on the reader's CW leakage, a constant complex offset c over the reply window;
-outside its reply the tag rests in its absorbing state, the reply's −1 level, so the received
-baseband is ``r = c + h·s(t)`` with s = ±1 the line code during the reply and s = −1 around
-it (the backscatter's DC steps by h at the reply). Steps per window:
-
-1. conditioning: subtract the mean of the samples before the earliest reply start;
-2. coarse BLF and start: maximum zero-mean normalised preamble correlation
-   (:func:`rfsim.gen2.linecode.decode_reply`) over the T1 lags and a BLF grid of relative
-   step 1/(2·preamble elements) across ±``blf_tolerance`` (default the FrT of the
-   table, since a tag's BLF may deviate from DR/TRcal by up to FrT); detected when the
-   correlation exceeds :func:`preamble_threshold` for that many tests;
-3. fine BLF: decoding needs the BLF to ≈ 1/(4·elements of the reply) (0.02 % for a 128-bit
-   Miller-4 reply, finer than a TRcal measured to a fraction of a sample); every BLF on a
-   grid of step 1/(4·reply elements) across ±1 coarser step is decoded and the one whose
-   remodulated reply leaves the least residual power under :func:`fit_gain_offset` wins;
-4. (h, c) by :func:`fit_gain_offset` over the decision-free samples (preamble, and the rest
-   state around the reply) and decoding of ``r − c`` with h given (Viterbi by default).
-   After an ACK the PC's L field (5 MSBs: EPC words) sets the reply length.
+:func:`fit_gain_offset` and :func:`preamble_threshold` are shared by the capture decoder
+and the simulated reader's receiver (devices.reader).
 """
 
 from __future__ import annotations
@@ -41,14 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.errors import ConfigError, UserError
-from rfsim.gen2.bits import bits_to_int, bits_to_str
-from rfsim.gen2.commands import (DR_VALUES, CommandParseError, command_fields, command_name, normalize_dr,
-                                 parse)
+from rfsim.errors import UserError
+from rfsim.gen2.bits import bits_to_str
+from rfsim.gen2.commands import CommandParseError, command_fields, command_name, parse
 from rfsim.gen2.crc import crc5_ok, crc16_ok
-from rfsim.gen2.link import frt_fraction, t1_range
-from rfsim.gen2.linecode import METHODS, decode_reply, halfsymbols, preamble_levels, reply_waveform
-from rfsim.gen2.pie import pie_decode, two_level_threshold
+from rfsim.gen2 import _capture_kernels as _ck
+from rfsim.gen2.link import (DATA1_TARI_RANGE, DELIMITER_NOMINAL_S, DELIMITER_RANGE_S, TARI_RANGE_S,
+                             TRCAL_RTCAL_RANGE)
+from rfsim.gen2.pie import PieEdges, pie_decode_arrays
 
 #: File name endings read as raw interleaved complex64 (GNU Radio file sink).
 RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")
@@ -90,7 +74,18 @@ def load_capture(path) -> np.ndarray:
         x = np.fromfile(p, dtype=np.complex64)
     if x.size == 0:
         raise UserError(f"capture '{p}' is empty")
+    check_finite(x, f"capture '{p}'")
     return x
+
+
+def check_finite(samples, what: str = "capture") -> None:
+    """Raise :class:`rfsim.errors.UserError` (one line) when ``samples`` hold NaN or ±Inf."""
+    x = np.asarray(samples)
+    bad = ~np.isfinite(x)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise UserError(f"{what} holds {int(bad.sum())} non-finite samples (NaN or Inf), the first at "
+                        f"sample {k}; a capture must be finite numbers")
 
 
 @dataclass(frozen=True)
@@ -118,13 +113,15 @@ class ReaderCommandRecord:
 
 @dataclass(frozen=True)
 class ReaderTiming:
-    """Median PIE timings over the commands of a capture [s] (NaN when none)."""
+    """Median PIE timings over the commands of a capture [s] (NaN when none), and warnings."""
 
     n_commands: int
     tari_s: float
     rtcal_s: float
     trcal_s: float
     delimiter_s: float
+    #: one-line warnings where a timing lies outside the Gen2 limits (:func:`timing_warnings`)
+    warnings: tuple[str, ...] = ()
 
 
 def _name_from_prefix(bits: str) -> str:
@@ -155,40 +152,185 @@ def parse_record(bits: np.ndarray, **timing) -> ReaderCommandRecord:
     return ReaderCommandRecord(bits=text, name=name, fields=command_fields(cmd), crc_ok=_crc_ok(name, bits), **timing)
 
 
+#: Bins of the level histogram of :func:`envelope_levels`.
+LEVEL_BINS = 16384
+
+
+def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
+    """Envelope and its two level clusters: ``(env (n,) float64, threshold, low, high)``.
+
+    ``env = |x|`` for complex samples, ``x`` for a real envelope. The levels are the isodata
+    split of :func:`rfsim.gen2.pie.two_level_threshold` (threshold = midpoint of the means
+    below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
+    envelope instead of the samples themselves (one pass over the capture; the threshold
+    is exact to one bin, 1/16384 of the envelope's range). Raises
+    :class:`rfsim.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
+    """
+    x = np.ascontiguousarray(samples)
+    if x.ndim != 1:
+        raise ValueError(f"samples must be 1-D, got shape {x.shape}")
+    if not (np.issubdtype(x.dtype, np.number) and x.dtype != bool):
+        raise ValueError(f"samples must be numeric, got {x.dtype}")
+    if x.dtype not in (np.complex64, np.complex128, np.float32, np.float64):
+        x = x.astype(np.complex128 if np.iscomplexobj(x) else np.float64)
+    if x.size == 0:
+        return np.zeros(0), 0.0, 0.0, 0.0
+    if np.iscomplexobj(x):
+        env = np.empty(x.size, dtype=np.float64)
+        lo, hi, n_bad, first_bad = _ck.magnitude_kernel(x, env)
+    else:
+        env = x.astype(np.float64)
+        lo, hi, n_bad, first_bad = _ck.range_kernel(env)
+    if n_bad:
+        raise UserError(f"capture holds {n_bad} non-finite samples (NaN or Inf), the first at sample "
+                        f"{first_bad}; a capture must be finite numbers")
+    hist = np.empty(LEVEL_BINS, dtype=np.int64)
+    _ck.histogram_kernel(env, lo, hi, hist)
+    centres = lo + (np.arange(LEVEL_BINS) + 0.5) * ((hi - lo) / LEVEL_BINS)
+    thr, m_lo, m_hi = 0.5 * (lo + hi), lo, hi
+    csum, wsum = np.cumsum(hist), np.cumsum(hist * centres)
+    for _ in range(100):
+        k = int(np.searchsorted(centres, thr))  # bins below the threshold: 0 … k−1
+        if k == 0 or k == LEVEL_BINS or csum[k - 1] == 0 or csum[k - 1] == csum[-1]:
+            break
+        m_lo = wsum[k - 1] / csum[k - 1]
+        m_hi = (wsum[-1] - wsum[k - 1]) / (csum[-1] - csum[k - 1])
+        new = 0.5 * (m_lo + m_hi)
+        if new == thr:
+            break
+        thr = new
+    return env, float(thr), float(m_lo), float(m_hi)
+
+
 def normalized_envelope(samples) -> np.ndarray:
-    """Envelope scaled so that the low level cluster is 0 and the high one 1.
+    """Envelope scaled so that the low level cluster is 0 and the high one 1
+    (:func:`envelope_levels`).
 
     ``samples``: complex baseband (→ |x|) or a real envelope of any scale and offset.
     """
-    x = np.asarray(samples)
-    env = np.abs(x).astype(np.float64) if np.iscomplexobj(x) else x.astype(np.float64)
-    _, lo, hi = two_level_threshold(env)
-    return (env - lo) / (hi - lo) if hi > lo else env - lo
+    env, _, lo, hi = envelope_levels(samples)
+    _ck.normalize_kernel(env, lo, 1.0 / (hi - lo) if hi > lo else 1.0)
+    return env
 
 
-def decode_reader_commands(samples, fs_hz: float) -> tuple[list[ReaderCommandRecord], ReaderTiming]:
+#: PIE plausibility gate (:func:`plausible_frames`): the Gen2 ratios (gen2-and-validation-
+#: anchors.md §4.1; rfsim.gen2.link) widened by 10 % for reader clock error and edge
+#: quantisation: RTcal/Tari 2.5–3.0, TRcal/RTcal 1.1–3.0, delimiter/Tari 12.5 µs ± 5 % over
+#: Tari 6.25–25 µs = 0.475–2.1, PW/Tari 0.265–0.525. The delimiter and PW limits are
+#: widened further (delimiter 0.5×/1.25×, PW 0.15–0.75): band-limited edges move the 50 %
+#: points, and the gr-rfid reader's Query delimiter measures 9.6 µs (2.4 samples at 250 kS/s).
+GATE_RTCAL_TARI = (0.9 * (1 + DATA1_TARI_RANGE[0]), 1.1 * (1 + DATA1_TARI_RANGE[1]))
+GATE_TRCAL_RTCAL = (0.9 * TRCAL_RTCAL_RANGE[0], 1.1 * TRCAL_RTCAL_RANGE[1])
+GATE_DELIMITER_TARI = (0.5 * DELIMITER_RANGE_S[0] / TARI_RANGE_S[1], 1.25 * DELIMITER_RANGE_S[1] / TARI_RANGE_S[0])
+GATE_PW_TARI = (0.15, 0.75)
+#: Symbol and pulse-width tolerance: GATE_TOL_TARI·Tari + GATE_TOL_SAMPLES (edges are
+#: interpolated to a fraction of a sample at good SNR; one sample covers slow edges).
+GATE_TOL_TARI = 0.1
+GATE_TOL_SAMPLES = 1.0
+#: Minimum contrast (high − low level)/σ of a frame's mid-pulse and mid-interval samples.
+#: An envelope of complex Gaussian noise gives ≈ 1–3 on the frames its threshold crossings
+#: form; a command at 10 dB envelope SNR gives ≈ 9 (σ ≈ 0.3 of the low-high step).
+GATE_MIN_CONTRAST = 6.0
+#: Fewest data bits of a command (QueryRep: 4).
+GATE_MIN_BITS = 4
+
+
+def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """PIE plausibility gate: ``(keep (nf,) bool, contrast (nf,))`` for the frames of ``edges``
+    (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the envelope ``env``, any scale and
+    offset).
+
+    A frame is a command only if its timing is that of a PIE reader (every data symbol
+    Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
+    its levels are two well separated clusters (contrast ≥ :data:`GATE_MIN_CONTRAST`);
+    thresholds crossed by noise alone form frames that fail both (numba kernel
+    ``frame_gate_kernel``; :func:`plausible_frames_reference` is its NumPy twin).
+    """
+    first, last = _frame_edges(edges)
+    n = first.size
+    keep = np.zeros(n, dtype=np.uint8)
+    contrast = np.zeros(n)
+    _ck.frame_gate_kernel(edges.pos, np.ascontiguousarray(env, dtype=np.float64), first, last, edges.tari,
+                          edges.rtcal, edges.trcal, np.array(GATE_RTCAL_TARI), np.array(GATE_TRCAL_RTCAL),
+                          np.array(GATE_DELIMITER_TARI), np.array(GATE_PW_TARI), GATE_TOL_TARI, GATE_TOL_SAMPLES,
+                          GATE_MIN_CONTRAST, GATE_MIN_BITS, contrast, keep)
+    return keep.astype(bool), contrast
+
+
+def _frame_edges(edges: PieEdges) -> tuple[np.ndarray, np.ndarray]:
+    """Edge indices of each frame's first (delimiter fall) and last (closing rise) edge."""
+    return (np.searchsorted(edges.pos, edges.start).astype(np.int64),
+            np.searchsorted(edges.pos, edges.end).astype(np.int64))
+
+
+def plausible_frames_reference(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Plain-NumPy twin of :func:`plausible_frames`."""
+    first, last = _frame_edges(edges)
+    pos, env = edges.pos, np.asarray(env, dtype=np.float64)
+    keep = np.zeros(first.size, dtype=bool)
+    contrast = np.zeros(first.size)
+    for i, (e0, e1) in enumerate(zip(first.tolist(), last.tolist())):
+        t, rt, tr = edges.tari[i], edges.rtcal[i], edges.trcal[i]
+        tol = GATE_TOL_TARI * t + GATE_TOL_SAMPLES
+        fall, rise = pos[e0:e1 + 1:2], pos[e0 + 1:e1 + 1:2]
+        n_pre = 3 if math.isnan(tr) else 4
+        spans = np.diff(rise)[n_pre - 1:]
+        widths = (rise - fall)[1:]
+        checks = [
+            rise.size - n_pre >= GATE_MIN_BITS,
+            GATE_RTCAL_TARI[0] <= rt / t <= GATE_RTCAL_TARI[1],
+            math.isnan(tr) or GATE_TRCAL_RTCAL[0] <= tr / rt <= GATE_TRCAL_RTCAL[1],
+            GATE_DELIMITER_TARI[0] <= (rise[0] - fall[0]) / t <= GATE_DELIMITER_TARI[1],
+            bool(np.all((np.abs(spans - t) <= tol) | (np.abs(spans - (rt - t)) <= tol))),
+            GATE_PW_TARI[0] <= widths[0] / t <= GATE_PW_TARI[1],
+            bool(np.all(np.abs(widths - widths[0]) <= tol)),
+        ]
+        if not all(checks):
+            continue
+        lo_idx = np.round(0.5 * (fall + rise)).astype(np.int64)
+        hi_idx = np.round(0.5 * (rise[:-1] + fall[1:])).astype(np.int64)
+        lo = env[lo_idx[(lo_idx >= 0) & (lo_idx < env.size)]]
+        hi = env[hi_idx[(hi_idx >= 0) & (hi_idx < env.size)]]
+        if lo.size < 2 or hi.size < 2:
+            continue
+        var = 0.5 * (max(float(np.mean(lo * lo)) - float(lo.mean()) ** 2, 0.0)
+                     + max(float(np.mean(hi * hi)) - float(hi.mean()) ** 2, 0.0))
+        contrast[i] = (hi.mean() - lo.mean()) / math.sqrt(var) if var > 0 else math.inf
+        keep[i] = contrast[i] >= GATE_MIN_CONTRAST
+    return keep, contrast
+
+
+def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
+                           ) -> tuple[list[ReaderCommandRecord], ReaderTiming]:
     """Find, decode and parse every reader PIE command in a capture.
 
     Parameters
     ----------
-    samples : (n,) complex baseband or real envelope, arbitrary scale (and offset, if real)
+    samples : (n,) complex baseband or real envelope, arbitrary scale (and offset, if real);
+        must be finite (NaN/Inf raise :class:`rfsim.errors.UserError`)
     fs_hz : sample rate [Hz]
+    gate : apply the PIE plausibility gate (:func:`plausible_frames`)
 
     Returns
     -------
     records : list of :class:`ReaderCommandRecord` in time order
-    timing : :class:`ReaderTiming`, medians over the commands
+    timing : :class:`ReaderTiming`, medians over the commands, with warnings where the
+        measured timings lie outside the Gen2 limits (:func:`timing_warnings`)
     """
     fs_hz = float(fs_hz)
-    if not fs_hz > 0:
+    if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
-    frames = pie_decode(normalized_envelope(samples))
+    env, thr, lo, hi = envelope_levels(samples)
+    # the comparator, the frame parser and the gate are invariant to the envelope's scale
+    # and offset: the raw envelope is used with its levels (no normalisation pass)
+    edges = pie_decode_arrays(env, levels=(thr, lo, hi))
+    keep = plausible_frames(edges, env)[0] if gate else None
     records = [
         parse_record(
             f.bits, start_s=f.start / fs_hz, end_s=f.end / fs_hz, delimiter_s=f.delimiter / fs_hz,
             tari_s=f.tari / fs_hz, rtcal_s=f.rtcal / fs_hz, trcal_s=f.trcal / fs_hz,
         )
-        for f in frames
+        for f in edges.frames(keep)
     ]
 
     def med(values):
@@ -202,51 +344,43 @@ def decode_reader_commands(samples, fs_hz: float) -> tuple[list[ReaderCommandRec
         trcal_s=med(r.trcal_s for r in records),
         delimiter_s=med(r.delimiter_s for r in records),
     )
-    return records, timing
+    return records, dataclasses.replace(timing, warnings=timing_warnings(timing, fs_hz))
 
 
-# ----------------------------------------------------------------- tag replies
+def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
+    """One-line warnings for measured PIE timings outside the Gen2 limits (anchors §4.1):
+    Tari 6.25–25 µs, RTcal 2.5–3.0 Tari, TRcal 1.1–3.0 RTcal (1 % slack for measurement).
 
-#: Commands a tag answers with an RN16, and with PC + EPC + CRC-16.
-RN16_AFTER = ("Query", "QueryRep", "QueryAdjust")
-EPC_AFTER = ("ACK",)
-#: FrT assumed when the divide ratio or TRcal is unknown (the largest value of the table).
-FRT_UNKNOWN = 0.22
-#: A window whose variance is below this fraction of its power holds no modulation at all
-#: (an exactly constant CW, as in a recorded transmit waveform).
-_MIN_RELATIVE_VARIANCE = 1e-12
-
-
-@dataclass(frozen=True)
-class TagReplyRecord:
-    """One tag reply found in a capture.
-
-    Attributes
-    ----------
-    command_index : index of the preceding reader command in the command records
-    command : its name ("Query", "QueryRep", "QueryAdjust", "ACK")
-    kind : "RN16" or "EPC" (PC + EPC + CRC-16)
-    start_s : start of the reply (pilot or preamble) [s]
-    bits : decoded data bits as a 0/1 string (dummy 1 removed)
-    blf_hz : BLF the reply was decoded with, refined on the reply itself [Hz]
-    corr : normalised preamble correlation (0…1) at the detected start
-    crc_ok : CRC-16 over PC + EPC + CRC (EPC replies); None for an RN16
-    rn16 : the RN16 (RN16 replies), else None
-    pc : the PC word (EPC replies), else None
-    epc_hex : the EPC as upper-case hex (EPC replies), else None
+    A wrong ``fs_hz`` scales every duration: the Tari warning states the sample rates that
+    would put the measured Tari (in samples) inside 6.25–25 µs, and, where the delimiter
+    spans ≥ 10 samples (so that its edges do not dominate), the sample rate at which it is
+    the nominal 12.5 µs. (The delimiter itself is not checked: at a few samples per Tari
+    its measured length is off by up to a sample, e.g. 9.6 µs for the gr-rfid Query at
+    250 kS/s.)
     """
+    out = []
+    t, d = timing.tari_s, timing.delimiter_s
+    if not math.isnan(t) and not (0.99 * TARI_RANGE_S[0] <= t <= 1.01 * TARI_RANGE_S[1]):
+        n_tari = t * fs_hz
+        hint = (f"; a sample rate of {n_tari / TARI_RANGE_S[1]:.4g}–{n_tari / TARI_RANGE_S[0]:.4g} Hz would put it "
+                f"inside (is --fs {fs_hz:.4g} right?)")
+        if not math.isnan(d) and d * fs_hz >= 10:
+            hint += f"; the delimiter is 12.5 µs at {d * fs_hz / DELIMITER_NOMINAL_S:.4g} Hz"
+        out.append(f"measured Tari {t * 1e6:.4g} µs is outside the Gen2 range "
+                   f"{TARI_RANGE_S[0] * 1e6:.4g}–{TARI_RANGE_S[1] * 1e6:.4g} µs{hint}")
+    lo, hi = 1 + DATA1_TARI_RANGE[0], 1 + DATA1_TARI_RANGE[1]
+    if not math.isnan(t) and not math.isnan(timing.rtcal_s) and not (
+            0.99 * lo <= timing.rtcal_s / t <= 1.01 * hi):
+        out.append(f"measured RTcal {timing.rtcal_s * 1e6:.4g} µs = {timing.rtcal_s / t:.3g} Tari is outside "
+                   f"the Gen2 range {lo:g}–{hi:g} Tari")
+    if not math.isnan(timing.trcal_s) and not math.isnan(timing.rtcal_s) and not (
+            0.99 * TRCAL_RTCAL_RANGE[0] <= timing.trcal_s / timing.rtcal_s <= 1.01 * TRCAL_RTCAL_RANGE[1]):
+        out.append(f"measured TRcal {timing.trcal_s * 1e6:.4g} µs = {timing.trcal_s / timing.rtcal_s:.3g} RTcal "
+                   f"is outside the Gen2 range {TRCAL_RTCAL_RANGE[0]:g}–{TRCAL_RTCAL_RANGE[1]:g} RTcal")
+    return tuple(out)
 
-    command_index: int
-    command: str
-    kind: str
-    start_s: float
-    bits: str
-    blf_hz: float
-    corr: float
-    crc_ok: bool | None = None
-    rn16: int | None = None
-    pc: int | None = None
-    epc_hex: str | None = None
+
+# ------------------------------------------------- shared with the reader's receiver
 
 
 def fit_gain_offset(r, s) -> tuple[complex, complex]:
@@ -287,236 +421,20 @@ def preamble_threshold(n_samples: int, n_tests: int, false_alarm_probability: fl
     return math.sqrt(1.0 - p ** (1.0 / max(int(n_samples) - 2, 1)))
 
 
-def _n_elements(n_bits: int, m: int, trext: bool) -> int:
-    return halfsymbols(np.zeros(int(n_bits), dtype=np.uint8), m=m, trext=trext).size
-
-
-def _n_reply(n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float) -> int:
-    return int(math.ceil(_n_elements(n_bits, m, trext) * fs_hz / (2.0 * blf_hz))) + 2
-
-
-def _grid(center: float, half_range: float, step: float) -> np.ndarray:
-    k = int(math.ceil(half_range / step - 1e-9)) if half_range > 0 else 0
-    return center * (1.0 + step * np.arange(-k, k + 1))
-
-
-def _fine(r, lo, hi, n_bits, m, trext, blfs, fs_hz, method, to_reply_end):
-    """Decode at every BLF of ``blfs``; keep the one whose remodulated reply (rest level −1
-    around it) leaves the least residual power. Returns (blf, det, start) or None."""
-    best = None
-    for blf in blfs:
-        last = min(hi, r.size - _n_reply(n_bits, m, trext, blf, fs_hz))
-        if last < lo:
-            continue
-        det = decode_reply(r[lo:], n_bits=n_bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs_hz,
-                           method=method, search_samples=last - lo)
-        start = lo + det.start_sample
-        s = reply_waveform(det.bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs_hz, t0_s=start / fs_hz,
-                           n_samples=r.size)
-        n_fit = min(r.size, _n_reply(n_bits, m, trext, blf, fs_hz) + int(start)) if to_reply_end else r.size
-        ref = np.where(s == 0, -1.0, s)[:n_fit]
-        h, c = fit_gain_offset(r[:n_fit], ref)
-        resid = float(np.mean(np.abs(r[:n_fit] - c - h * ref) ** 2))
-        if best is None or resid < best[0]:
-            best = (resid, float(blf), det, start)
-    return None if best is None else best[1:]
-
-
-def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: float,
-                     t1_window_s: tuple[float, float], kind: str, m: int, trext: bool, blf_hz: float,
-                     blf_tolerance: float = 0.0, method: str = "viterbi",
-                     false_alarm_probability: float = 1e-3) -> TagReplyRecord | None:
-    """Search, decode and check one tag reply in a capture (module docstring, steps 1–4).
-
-    Parameters
-    ----------
-    samples : (n,) complex baseband capture, arbitrary scale, sample k at k/fs [s]
-    fs_hz : sample rate [Hz]
-    listen_s, window_end_s : the part of the capture used [s] (after the command's last edge
-        has settled, up to before the next command)
-    t1_window_s : (earliest, latest) reply start [s]
-    kind : "RN16" (16 bits) or "EPC" (PC + EPC + CRC-16, length from the PC)
-    m, trext : line code of the reply (1 = FM0, 2/4/8 = Miller), pilot
-    blf_hz : expected BLF [Hz]; searched across ±``blf_tolerance`` (relative) and refined
-    method : "viterbi" or "bitwise"
-    false_alarm_probability : per window, sets :func:`preamble_threshold`
-
-    Returns the :class:`TagReplyRecord` (``command_index`` −1, ``command`` "") or None when
-    no reply is found.
-    """
-    if kind not in ("RN16", "EPC"):
-        raise ValueError(f"kind must be 'RN16' or 'EPC', got {kind!r}")
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    fs = float(fs_hz)
-    x = np.asarray(samples)
-    i0 = max(0, int(math.ceil(listen_s * fs)))
-    i1 = min(x.size, int(math.floor(window_end_s * fs)))
-    if i1 - i0 < 16:
-        return None
-    r = x[i0:i1].astype(np.complex128)
-    lo = max(0, int(math.floor(t1_window_s[0] * fs)) - i0 - 1)
-    hi = int(math.ceil(t1_window_s[1] * fs)) - i0 + 1
-    power = float(np.mean(np.abs(r) ** 2))
-    if power == 0.0 or float(np.var(r)) <= _MIN_RELATIVE_VARIANCE * power:
-        return None
-    if lo >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
-        r = r - r[:lo].mean()
-    n_min = 16 if kind == "RN16" else 32
-    # step 2: coarse BLF and start from the preamble correlation
-    n_pre_el = preamble_levels(m=m, trext=trext)[0].size * m
-    step_c = 1.0 / (2.0 * n_pre_el)
-    coarse = _grid(blf_hz, blf_tolerance, step_c)
-    best, n_tests = None, 0
-    for blf in coarse:
-        last = min(hi, r.size - _n_reply(n_min, m, trext, blf, fs))
-        if last < lo:
-            continue
-        n_tests += last - lo + 1
-        det = decode_reply(r[lo:], n_bits=0, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method="bitwise",
-                           search_samples=last - lo)
-        if best is None or det.corr > best[0]:
-            best = (det.corr, float(blf))
-    if best is None:
-        return None
-    corr, blf_c = best
-    if not corr >= preamble_threshold(int(n_pre_el * fs / (2.0 * blf_c)), n_tests, false_alarm_probability):
-        return None
-    # step 3: fine BLF over the 16 first bits (the RN16, or the PC), then the whole EPC reply
-    step_16 = 1.0 / (4.0 * _n_elements(16, m, trext))
-    found = _fine(r, lo, hi, 16, m, trext, _grid(blf_c, step_c, step_16), fs, method, kind == "EPC")
-    if found is None:
-        return None
-    n_bits = 16
-    if kind == "EPC":
-        pc = bits_to_int(found[1].bits[:16])
-        n_bits = 32 + 16 * (pc >> 11)
-        step = 1.0 / (4.0 * _n_elements(n_bits, m, trext))
-        full = _fine(r, lo, hi, n_bits, m, trext, _grid(found[0], step_16, step), fs, method, False)
-        if full is None:  # the reply the PC announces does not fit before the next command
-            n_bits, full = 16, found
-        found = full
-    blf, det, start = found
-    # step 4: (h, c) over the decision-free samples, then decode r − c with h given
-    pre = reply_waveform(np.zeros(0, dtype=np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs,
-                         t0_s=start / fs, n_samples=r.size, dummy=False)
-    s = reply_waveform(det.bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size)
-    known = (pre != 0) | (s == 0)
-    h, c = fit_gain_offset(r[known], np.where(s == 0, -1.0, pre)[known])
-    det = decode_reply(r[lo:] - c, n_bits=n_bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
-                       start_sample=det.start_sample, gain=h)
-    bits = det.bits.astype(np.uint8)
-    common = dict(command_index=-1, command="", kind=kind, start_s=float((i0 + start) / fs),
-                  bits=bits_to_str(bits), blf_hz=blf, corr=float(corr))
-    if kind == "RN16":
-        return TagReplyRecord(rn16=bits_to_int(bits), **common)
-    pc = bits_to_int(bits[:16])
-    epc = bits[16:-16] if bits.size >= 32 else np.zeros(0, dtype=np.uint8)
-    epc_hex = "".join(f"{bits_to_int(epc[i:i + 4]):X}" for i in range(0, epc.size, 4))
-    ok = bool(crc16_ok(bits)) if bits.size >= 32 else False
-    return TagReplyRecord(crc_ok=ok, pc=pc, epc_hex=epc_hex, **common)
-
-
-def _link_for(query: ReaderCommandRecord | None, *, blf_hz, trcal_s, dr, m, trext):
-    """(m, trext, blf, frt, blf_given) for replies after ``query`` with the caller's overrides."""
-    f = query.fields if query is not None else {}
-    m = f.get("m") if m is None else m
-    trext = f.get("trext") if trext is None else trext
-    dr = f.get("dr") if dr is None else dr
-    trcal = (query.trcal_s if query is not None else math.nan) if trcal_s is None else trcal_s
-    if m is None or trext is None:
-        return None
-    frt = FRT_UNKNOWN
-    if dr is not None and not math.isnan(trcal):
-        try:
-            frt = frt_fraction(dr, trcal)
-        except ConfigError:
-            pass
-    if blf_hz is not None:
-        return int(m), bool(trext), float(blf_hz), frt, True
-    if dr is None or math.isnan(trcal):
-        return None
-    return int(m), bool(trext), float(DR_VALUES[dr]) / trcal, frt, False
-
-
-def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord], *,
-                       blf_hz: float | None = None, trcal_s: float | None = None, dr=None,
-                       m: int | None = None, trext: bool | None = None, blf_tolerance: float | None = None,
-                       method: str = "viterbi", false_alarm_probability: float = 1e-3) -> list[TagReplyRecord]:
-    """Find and decode the tag reply after every Query/QueryRep/QueryAdjust (RN16) and ACK
-    (PC + EPC + CRC-16) of ``records`` (from :func:`decode_reader_commands`).
-
-    Parameters
-    ----------
-    samples : (n,) complex baseband capture, arbitrary scale
-    fs_hz : sample rate [Hz]
-    records : the reader commands found in ``samples``
-    blf_hz : the tags' BLF [Hz]; default DR/TRcal of the last Query (TRcal measured)
-    trcal_s, dr, m, trext : override the last Query's measured TRcal [s] and parsed DR
-        ("8" or "64/3"), M (1, 2, 4, 8) and TRext
-    blf_tolerance : relative BLF search range; default FrT when the BLF comes from TRcal,
-        0 (fine refinement only) when ``blf_hz`` is given
-    method, false_alarm_probability : see :func:`decode_tag_reply`
-
-    The reply after command k is searched from half a Tari after its last rising edge up to
-    half a Tari before command k + 1 (or the capture's end), its start within the T1 window
-    ``max(RTcal, 10/BLF)·(1 ± FrT) ± 2 µs`` of the BLF range searched (RTcal measured on the
-    command). Returns the replies found, in time order.
-    """
-    fs = float(fs_hz)
-    if not fs > 0:
-        raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
-    if blf_hz is not None and not (math.isfinite(blf_hz) and blf_hz > 0):
-        raise ConfigError("blf", blf_hz, "a positive frequency in Hz")
-    if trcal_s is not None and not (math.isfinite(trcal_s) and trcal_s > 0):
-        raise ConfigError("trcal", trcal_s, "a positive duration in s")
-    if dr is not None:
-        dr = normalize_dr(dr, "dr")
-    if m is not None and m not in (1, 2, 4, 8):
-        raise ConfigError("m", m, "1 (FM0), 2, 4 or 8 (Miller)")
-    if blf_tolerance is not None and not 0.0 <= blf_tolerance < 0.5:
-        raise ConfigError("blf_tolerance", blf_tolerance, "a fraction in [0, 0.5)")
-    out: list[TagReplyRecord] = []
-    query = None
-    n = np.asarray(samples).size
-    for k, rec in enumerate(records):
-        if rec.name == "Query" and rec.fields:
-            query = rec
-        kind = "RN16" if rec.name in RN16_AFTER else "EPC" if rec.name in EPC_AFTER else None
-        if kind is None or not rec.fields or math.isnan(rec.end_s):
-            continue
-        link = _link_for(query, blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext)
-        if link is None:
-            continue
-        lm, ltrext, blf, frt, given = link
-        tol = (0.0 if given else frt) if blf_tolerance is None else blf_tolerance
-        tari = rec.tari_s if not math.isnan(rec.tari_s) else 0.0
-        win = [t1_range(rtcal_s=rec.rtcal_s, blf_hz=b, frt=frt) for b in (blf * (1 - tol), blf * (1 + tol))]
-        t1_window = (rec.end_s + min(w.min_s for w in win), rec.end_s + max(w.max_s for w in win))
-        end_s = records[k + 1].start_s - 0.5 * tari if k + 1 < len(records) else n / fs
-        found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari, window_end_s=end_s,
-                                 t1_window_s=t1_window, kind=kind, m=lm, trext=ltrext, blf_hz=blf,
-                                 blf_tolerance=tol, method=method,
-                                 false_alarm_probability=false_alarm_probability)
-        if found is not None:
-            out.append(dataclasses.replace(found, command_index=k, command=rec.name))
-    return out
-
 __all__ = [
     "RAW_SUFFIXES",
     "SUFFIXES",
     "ReaderCommandRecord",
     "ReaderTiming",
     "load_capture",
+    "check_finite",
+    "envelope_levels",
     "normalized_envelope",
+    "plausible_frames",
+    "plausible_frames_reference",
     "parse_record",
     "decode_reader_commands",
-    "RN16_AFTER",
-    "EPC_AFTER",
-    "FRT_UNKNOWN",
-    "TagReplyRecord",
+    "timing_warnings",
     "fit_gain_offset",
     "preamble_threshold",
-    "decode_tag_reply",
-    "decode_tag_replies",
 ]

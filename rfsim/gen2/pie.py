@@ -305,15 +305,58 @@ def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
     return x, thr, float(hysteresis) * (m_hi - m_lo)
 
 
-def _frames(start, end, delim, tari, rtcal, trcal, off, cnt, bits, nf) -> list[PieFrame]:
-    return [
-        PieFrame(
-            start=float(start[i]), end=float(end[i]), delimiter=float(delim[i]),
-            tari=float(tari[i]), rtcal=float(rtcal[i]), trcal=float(trcal[i]),
-            bits=bits[off[i]: off[i] + cnt[i]].copy(),
-        )
-        for i in range(nf)
-    ]
+@dataclass(frozen=True)
+class PieEdges:
+    """Comparator output and frame boundaries of :func:`pie_decode_arrays` (samples of x).
+
+    ``pos``/``direction``: (ne,) edge positions and directions (0 fall, 1 rise);
+    ``start``/``end``/``delimiter``/``tari``/``rtcal``/``trcal``: (nf,) per frame;
+    ``bits[offset[i]: offset[i] + count[i]]`` the bits of frame i.
+    """
+
+    pos: np.ndarray
+    direction: np.ndarray
+    start: np.ndarray
+    end: np.ndarray
+    delimiter: np.ndarray
+    tari: np.ndarray
+    rtcal: np.ndarray
+    trcal: np.ndarray
+    offset: np.ndarray
+    count: np.ndarray
+    bits: np.ndarray
+
+    def frames(self, keep=None) -> list[PieFrame]:
+        """The frames as :class:`PieFrame` objects (only those where ``keep`` is True)."""
+        idx = range(self.start.size) if keep is None else np.flatnonzero(keep).tolist()
+        return [
+            PieFrame(start=float(self.start[i]), end=float(self.end[i]), delimiter=float(self.delimiter[i]),
+                     tari=float(self.tari[i]), rtcal=float(self.rtcal[i]), trcal=float(self.trcal[i]),
+                     bits=self.bits[self.offset[i]: self.offset[i] + self.count[i]].copy())
+            for i in idx
+        ]
+
+
+def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 0.1,
+                      levels: tuple[float, float, float] | None = None) -> PieEdges:
+    """:func:`pie_decode` returning the edges and per-frame arrays (:class:`PieEdges`)
+    instead of frame objects (same arguments, numba kernels)."""
+    x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
+    if thr is None:
+        z = np.zeros(0)
+        return PieEdges(z, np.zeros(0, np.int8), z, z, z, z, z, z, np.zeros(0, np.int64),
+                        np.zeros(0, np.int64), np.zeros(0, np.uint8))
+    pos = np.empty(x.size, dtype=np.float64)
+    direction = np.empty(x.size, dtype=np.int8)
+    ne = _k.edges_kernel(x, thr, hyst, pos, direction)
+    pos, direction = pos[:ne], direction[:ne]
+    nmax = ne // 2 + 1
+    f = [np.empty(nmax) for _ in range(6)]
+    off = np.empty(nmax, dtype=np.int64)
+    cnt = np.empty(nmax, dtype=np.int64)
+    bits = np.empty(max(ne, 1), dtype=np.uint8)
+    nf = _k.frames_kernel(pos, direction, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL, *f, off, cnt, bits)
+    return PieEdges(pos, direction, *(a[:nf] for a in f), off[:nf], cnt[:nf], bits)
 
 
 def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
@@ -333,20 +376,7 @@ def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
     -------
     list of :class:`PieFrame` in time order (durations in samples of ``x``).
     """
-    x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
-    if thr is None:
-        return []
-    pos = np.empty(x.size, dtype=np.float64)
-    direction = np.empty(x.size, dtype=np.int8)
-    ne = _k.edges_kernel(x, thr, hyst, pos, direction)
-    pos, direction = pos[:ne], direction[:ne]
-    nmax = ne // 2 + 1
-    f = [np.empty(nmax) for _ in range(6)]
-    off = np.empty(nmax, dtype=np.int64)
-    cnt = np.empty(nmax, dtype=np.int64)
-    bits = np.empty(max(ne, 1), dtype=np.uint8)
-    nf = _k.frames_kernel(pos, direction, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL, *f, off, cnt, bits)
-    return _frames(*f, off, cnt, bits, nf)
+    return pie_decode_arrays(x, threshold=threshold, hysteresis=hysteresis, levels=levels).frames()
 
 
 def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
@@ -410,6 +440,8 @@ __all__ = [
     "pr_ask_baseband_reference",
     "two_level_threshold",
     "two_level_threshold_reference",
+    "PieEdges",
+    "pie_decode_arrays",
     "pie_decode",
     "pie_decode_reference",
 ]

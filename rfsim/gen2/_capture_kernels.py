@@ -1,0 +1,196 @@
+"""numba kernels of the capture decoders (wrapped and documented in :mod:`rfsim.gen2.capture`
+and :mod:`rfsim.gen2.replies`; the plain-NumPy twins are the ``*_reference`` functions there).
+"""
+
+from __future__ import annotations
+
+import math
+
+from rfsim._jit import njit
+
+
+@njit
+def _within(span, nominal, tol):
+    return abs(span - nominal) <= tol
+
+
+@njit
+def frame_gate_kernel(pos, x, first, last, tari, rtcal, trcal, rtcal_tari, trcal_rtcal, delim_tari, pw_tari,
+                      tol_tari, tol_samples, min_contrast, min_bits, contrast_out, keep):
+    """PIE plausibility gate of every frame (see :func:`rfsim.gen2.capture.plausible_frames`).
+
+    Frame i spans the edges ``first[i] … last[i]`` of ``pos`` (a falling edge, then
+    alternating rising/falling edges, ending on a rising edge). A frame is kept when
+
+    * its bit count (symbols after the preamble) is ≥ ``min_bits``;
+    * RTcal/Tari ∈ ``rtcal_tari``, TRcal/RTcal ∈ ``trcal_rtcal`` (frames with a TRcal),
+      delimiter/Tari ∈ ``delim_tari``;
+    * every data symbol (rising → rising) lies within tol = ``tol_tari``·Tari +
+      ``tol_samples`` of data-0 = Tari or data-1 = RTcal − Tari;
+    * every low pulse after the delimiter (falling → rising) lies within tol of their
+      median-free reference, the first pulse's width, and that width/Tari ∈ ``pw_tari``;
+    * the contrast (mean of the high-interval mid samples − mean of the low-pulse mid
+      samples)/(pooled standard deviation) ≥ ``min_contrast``.
+
+    Writes ``contrast_out[i]`` and ``keep[i]`` (1/0).
+    """
+    for i in range(first.size):
+        keep[i] = 0
+        contrast_out[i] = 0.0
+        e0 = first[i]
+        e1 = last[i]
+        t = tari[i]
+        rt = rtcal[i]
+        tol = tol_tari * t + tol_samples
+        n_pre = 3 if math.isnan(trcal[i]) else 4  # delimiter, data-0, RTcal (, TRcal)
+        n_sym = (e1 - e0 - 1) // 2  # low pulses after the delimiter
+        if n_sym - (n_pre - 1) < min_bits:
+            continue
+        ratio = rt / t
+        if ratio < rtcal_tari[0] or ratio > rtcal_tari[1]:
+            continue
+        if n_pre == 4:
+            q = trcal[i] / rt
+            if q < trcal_rtcal[0] or q > trcal_rtcal[1]:
+                continue
+        d = (pos[e0 + 1] - pos[e0]) / t
+        if d < delim_tari[0] or d > delim_tari[1]:
+            continue
+        ok = True
+        d1 = rt - t
+        for k in range(n_pre, n_sym + 1):  # data symbols: rise[k-1] → rise[k]
+            span = pos[e0 + 2 * k + 1] - pos[e0 + 2 * k - 1]
+            if not (_within(span, t, tol) or _within(span, d1, tol)):
+                ok = False
+                break
+        if not ok:
+            continue
+        pw0 = pos[e0 + 3] - pos[e0 + 2]
+        if pw0 / t < pw_tari[0] or pw0 / t > pw_tari[1]:
+            continue
+        for k in range(2, n_sym + 1):
+            if not _within(pos[e0 + 2 * k + 1] - pos[e0 + 2 * k], pw0, tol):
+                ok = False
+                break
+        if not ok:
+            continue
+        # contrast: one sample at the middle of every low pulse and every high interval
+        s_lo = 0.0
+        q_lo = 0.0
+        s_hi = 0.0
+        q_hi = 0.0
+        n_lo = 0
+        n_hi = 0
+        for k in range(0, n_sym + 1):
+            j = int(round(0.5 * (pos[e0 + 2 * k] + pos[e0 + 2 * k + 1])))
+            if 0 <= j < x.size:
+                s_lo += x[j]
+                q_lo += x[j] * x[j]
+                n_lo += 1
+            if k < n_sym:
+                j = int(round(0.5 * (pos[e0 + 2 * k + 1] + pos[e0 + 2 * k + 2])))
+                if 0 <= j < x.size:
+                    s_hi += x[j]
+                    q_hi += x[j] * x[j]
+                    n_hi += 1
+        if n_lo < 2 or n_hi < 2:
+            continue
+        m_lo = s_lo / n_lo
+        m_hi = s_hi / n_hi
+        var = 0.5 * (max(q_lo / n_lo - m_lo * m_lo, 0.0) + max(q_hi / n_hi - m_hi * m_hi, 0.0))
+        c = (m_hi - m_lo) / math.sqrt(var) if var > 0.0 else math.inf
+        contrast_out[i] = c
+        if c >= min_contrast:
+            keep[i] = 1
+
+
+@njit
+def magnitude_kernel(x, out):
+    """``out[n] = |x[n]|`` of complex samples; returns :func:`range_kernel` of ``out``."""
+    for n in range(x.size):
+        out[n] = abs(x[n])
+    return range_kernel(out)
+
+
+@njit
+def range_kernel(v):
+    """``(min, max, number of non-finite values, index of the first one or −1)``, min and max
+    over the finite values."""
+    lo = math.inf
+    hi = -math.inf
+    n_bad = 0
+    first_bad = -1
+    for n in range(v.size):
+        a = v[n]
+        if not math.isfinite(a):
+            if n_bad == 0:
+                first_bad = n
+            n_bad += 1
+        else:
+            if a < lo:
+                lo = a
+            if a > hi:
+                hi = a
+    return lo, hi, n_bad, first_bad
+
+
+@njit
+def histogram_kernel(v, lo, hi, hist):
+    """Counts of ``v`` in ``hist.size`` equal bins over [lo, hi] (the last bin closed)."""
+    hist[:] = 0
+    nb = hist.size
+    scale = nb / (hi - lo) if hi > lo else 0.0
+    for n in range(v.size):
+        k = int((v[n] - lo) * scale)
+        if k >= nb:
+            k = nb - 1
+        elif k < 0:
+            k = 0
+        hist[k] += 1
+
+
+@njit
+def normalize_kernel(v, lo, scale):
+    """In place: ``v[n] = (v[n] − lo)·scale``."""
+    for n in range(v.size):
+        v[n] = (v[n] - lo) * scale
+
+
+@njit
+def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count):
+    """Timing-block correlations of the tracking loop (see :mod:`rfsim.gen2.replies`, step 4).
+
+    For every sample n ≥ n0 with t = n − start and nominal element u(t) = u1·t + u2·t² inside
+    the reply (0 ≤ u < el.size): block b = floor(u/(el.size/n_blocks)) (clipped); for every
+    shift d: ``corr[i, b] += y[n]·Σ_e el[floor(u(t − d + e))]`` over the sub-sample points e
+    of ``sub`` (0 outside the reply), d = base[b] + shifts[i]; ``centre_sum[b] += t``,
+    ``count[b] += 1``.
+    """
+    n_el = el.size
+    per_block = n_el / n_blocks
+    corr[:, :] = 0.0
+    centre_sum[:] = 0.0
+    count[:] = 0
+    for n in range(n0, y.size):
+        t = n - start
+        u0 = u1 * t + u2 * t * t
+        if u0 < 0.0:
+            continue
+        if u0 >= n_el:
+            break
+        b = int(math.floor(u0 / per_block))
+        if b >= n_blocks:
+            b = n_blocks - 1
+        centre_sum[b] += t
+        count[b] += 1
+        yn = y[n]
+        for i in range(shifts.size):
+            acc = 0.0
+            for j in range(sub.size):
+                tt = t - base[b] - shifts[i] + sub[j]
+                u = u1 * tt + u2 * tt * tt
+                if u >= 0.0:
+                    k = int(math.floor(u))
+                    if k < n_el:
+                        acc += el[k]
+            corr[i, b] += yn * acc

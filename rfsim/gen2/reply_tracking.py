@@ -1,0 +1,134 @@
+"""Timing tracking of a tag reply in a capture (step 4 of :mod:`rfsim.gen2.replies`).
+
+The tag's element clock (half subcarrier cycles) is modelled as u(t) = u₁·t + u₂·t² from
+the reply's start (t in samples): a BLF u₁·fs/2 that drifts linearly (a tag's oscillator
+warming or its supply sagging through a reply). With the decoded bits as reference the
+reply is cut into blocks; each block's timing offset δ_b maximises the correlation of the
+received ``y = Re((r − c)/h)`` with the remodulated reply (averaged over each sample
+interval at :data:`SUBSAMPLES` points, so the correlation is a smooth function of δ even
+where a sample is taken at one point of a sharp edge), searched on a 1/16-element grid
+within ±1/2 element of a prediction and refined by the peak of the triangle through the
+three best points. A weighted least-squares quadratic δ(t) is fitted over growing spans
+(:data:`TRACK_SPANS`), each searched around the previous fit's extrapolation: a tracking
+loop that follows a timing error growing past half an element towards the end. Then
+u_new(t) = u(t − δ(t)) ≈ u(t) − u₁·δ(t). The window is resampled on the tag's clock
+(:func:`warp_positions`, :func:`resample`: linear interpolation) for decoding with a
+constant BLF.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfsim.gen2 import _capture_kernels as _ck
+from rfsim.gen2.linecode import halfsymbols
+
+#: Elements per timing block of the tracking loop.
+TRACK_BLOCK_ELEMENTS = 24
+#: Growing spans of the reply (fractions from its start) the tracking loop fits in turn.
+TRACK_SPANS = (0.25, 0.5, 1.0, 1.0)
+#: Fewest timing blocks for a drift (quadratic) fit; shorter replies get start and BLF only.
+MIN_DRIFT_BLOCKS = 8
+#: Points per sample interval at which the tracking reference is averaged.
+SUBSAMPLES = 4
+#: Fewest timing blocks (short replies get shorter blocks).
+MIN_TRACK_BLOCKS = 6
+
+
+def warp_positions(n_prime: np.ndarray, u1: float, u2: float, rho: float) -> np.ndarray:
+    """Sample offsets t from the reply start where the element clock u(t) = u1·t + u2·t²
+    reaches ρ·n′ (stable root of the quadratic)."""
+    target = rho * n_prime
+    disc = np.maximum(u1 * u1 + 4.0 * u2 * target, 1e-300)
+    return 2.0 * target / (u1 + np.sqrt(disc))
+
+
+def resample(r: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    x = np.arange(r.size, dtype=np.float64)
+    return np.interp(positions, x, r.real) + 1j * np.interp(positions, x, r.imag)
+
+
+def block_correlations_reference(y, start, u1, u2, el, n_blocks, base, shifts, sub):
+    """Plain-NumPy twin of the block-correlation kernel: ``(corr (n_shifts, n_blocks),
+    centre offsets (n_blocks,) [samples])``."""
+    n_el = el.size
+    t = np.arange(int(math.ceil(start)), y.size) - start
+    u0 = u1 * t + u2 * t * t
+    inside = (u0 >= 0) & (u0 < n_el)
+    t, yy = t[inside], y[int(math.ceil(start)):][inside]
+    block = np.minimum(np.floor(u0[inside] / (n_el / n_blocks)).astype(np.int64), n_blocks - 1)
+    corr = np.empty((shifts.size, n_blocks))
+    for i, d in enumerate(shifts):
+        s = np.zeros(t.size)
+        for e in sub:  # the reference averaged over the sample interval: a smooth function of d
+            tt = t - base[block] - d + e
+            u = u1 * tt + u2 * tt * tt
+            k = np.floor(u).astype(np.int64)
+            s += np.where((u >= 0) & (k < n_el), el[np.clip(k, 0, n_el - 1)], 0.0)
+        corr[i] = np.bincount(block, weights=yy * s, minlength=n_blocks)
+    centres = np.bincount(block, weights=t, minlength=n_blocks) / np.maximum(np.bincount(block, minlength=n_blocks), 1)
+    return corr, centres
+
+
+def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub):
+    corr = np.empty((shifts.size, n_blocks))
+    centre_sum = np.empty(n_blocks)
+    count = np.empty(n_blocks, dtype=np.int64)
+    _ck.block_correlation_kernel(np.ascontiguousarray(y, dtype=np.float64), int(math.ceil(start)), float(start),
+                                 float(u1), float(u2), el, int(n_blocks), np.ascontiguousarray(base, dtype=np.float64),
+                                 shifts, sub, corr, centre_sum, count)
+    return corr, centre_sum / np.maximum(count, 1)
+
+
+def _block_offsets(y, start, u1, u2, el, n_blocks, base):
+    """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight), δ_b
+    searched within ±1/2 element of ``base[b]``; blocks whose peak lies at the edge of that
+    range are left out."""
+    step = 1.0 / (16.0 * u1)  # 1/16 element in samples
+    shifts = step * np.arange(-8, 9)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    corr, centres = _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub)
+    out = []
+    for b in range(n_blocks):
+        c = corr[:, b]
+        j = int(np.argmax(c))
+        if c[j] <= 0 or j in (0, shifts.size - 1):
+            continue
+        # peak of a triangle through the three points around the maximum
+        left, mid, right = c[j - 1], c[j], c[j + 1]
+        slope = max(mid - left, mid - right)
+        frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
+        out.append((centres[b], base[b] + shifts[j] + frac * step, mid))
+    return np.array(out).reshape(-1, 3)
+
+
+def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
+    """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
+    reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
+    spans from the reply start (the first quarter, half, all), each span's offsets searched
+    around the extrapolation of the previous span's fit, so a BLF error or drift whose
+    timing error grows past half an element towards the reply's end is still followed."""
+    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
+    y = ((r - c) / h).real
+    centres = (np.arange(n_blocks) + 0.5) / n_blocks * el.size / u1  # nominal block centres [samples]
+    coef = np.zeros(3)  # δ(t) = coef[0]·t² + coef[1]·t + coef[2]
+    for frac in TRACK_SPANS:
+        base = np.polyval(coef, centres)
+        blocks = _block_offsets(y, start, u1, u2, el, n_blocks, base)
+        blocks = blocks[blocks[:, 0] <= frac * el.size / u1]
+        if blocks.shape[0] < 3:
+            continue
+        tb, db, w = blocks.T
+        if blocks.shape[0] >= MIN_DRIFT_BLOCKS:
+            coef = np.polyfit(tb, db, 2, w=np.sqrt(np.maximum(w, 0.0)))
+        else:  # too short to tell a drift from noise: start and BLF only
+            coef = np.concatenate([[0.0], np.polyfit(tb, db, 1, w=np.sqrt(np.maximum(w, 0.0)))])
+    a2, a1, a0 = coef
+    # u_new(t) = u(t − δ(t)) ≈ u(t) − u1·δ(t), re-expressed from the new start
+    return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
+
+
+__all__ = ["warp_positions", "resample", "block_correlations_reference", "track", "TRACK_SPANS", "SUBSAMPLES"]

@@ -107,6 +107,20 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     pool.shutdown(wait=True)
 
 
+def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
+    """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process),
+    results in task order so they do not depend on the number of workers; progress is shown
+    with :func:`rfsim.progress.track` (``desc``, ``unit``) and the pool is a :func:`worker_pool`."""
+    from rfsim.progress import track  # progress pulls in tqdm: only when a loop runs
+
+    tasks = list(tasks)
+    w = workers or (os.cpu_count() or 1)
+    if w <= 1 or len(tasks) <= 1:
+        return [fn(t) for t in track(tasks, desc=desc, unit=unit)]
+    with worker_pool(min(w, len(tasks))) as pool:
+        return list(track(pool.map(fn, tasks), total=len(tasks), desc=desc, unit=unit))
+
+
 def _raise_terminated(signum, frame) -> None:
     raise Terminated()
 

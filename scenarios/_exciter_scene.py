@@ -16,11 +16,9 @@ state, ψ = 180° ideally, L6017-6019); the device re-radiates r(t) = A_s − Γ
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import dataclasses
 import math
-import os
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -305,20 +303,10 @@ def unit_of(key: str) -> str:
     return next((u for suf, u in _UNITS.items() if key.endswith(suf)), "1")
 
 
-def run_tasks(fn: Callable, tasks: Sequence, workers: int) -> list:
-    """``[fn(t) for t in tasks]`` on ``workers`` processes (0 = all cores, 1 = in process),
-    results in task order (so they do not depend on the number of workers)."""
-    w = workers or (os.cpu_count() or 1)
-    if w <= 1 or len(tasks) <= 1:
-        return [fn(t) for t in tasks]
-    with cf.ProcessPoolExecutor(max_workers=min(w, len(tasks))) as pool:
-        return list(pool.map(fn, tasks))
-
-
 def concat(parts: Sequence[dict]) -> dict[str, np.ndarray]:
     """Concatenate per-task column dicts (same keys) into one."""
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 __all__ = ["FrameConfig", "NoiseConfig", "Frame", "OwnSchedule", "build_frame", "exciter_antenna", "room", "uniform_disc", "RowsChain", "BatchAntenna", "BatchLink",
-           "DrawnLinks", "run_tasks", "concat", "unit_of"]
+           "DrawnLinks", "concat", "unit_of"]

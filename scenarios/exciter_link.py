@@ -75,10 +75,11 @@ from rfsim.detection import fit_logistic, ts_design
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
+from rfsim.procs import map_in_order
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, unit_of)
+                                      RowsChain, build_frame, concat, exciter_antenna, room, unit_of)
 
 NAME = "exciter-link"
 DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
@@ -231,7 +232,7 @@ def _task(args):
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every d_e row on ``config.sweep.workers`` processes, concatenated in row order."""
     tasks = [(config, i, seed) for i in range(len(config.sweep.exciter_distance_m))]
-    return concat(run_tasks(_task, tasks, config.sweep.workers))
+    return concat(map_in_order(_task, tasks, config.sweep.workers, desc="monte carlo", unit="rows"))
 
 
 # ----------------------------------------------------------------------------- statistics and fits

@@ -87,7 +87,6 @@ Results do not depend on the number of worker processes.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
@@ -113,13 +112,13 @@ from rfsim.errors import ConfigError
 from rfsim.gen2.commands import Query
 from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
 from rfsim.gen2.link import reply_window_s, t1
-from rfsim.progress import stage, track
+from rfsim.progress import stage
 from scenarios import _phase_cancellation_columns as columns
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
-from rfsim.procs import worker_pool
+from rfsim.procs import map_in_order
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -560,12 +559,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every (cell, repetition), on ``config.mc.workers`` processes; concatenated in task order."""
     tasks = [(config, c, r, seed) for c in range(len(config.geometry.tag_x_m))
              for r in range(config.mc.n_repetitions)]
-    w = config.mc.workers or (os.cpu_count() or 1)
-    if w <= 1 or len(tasks) == 1:
-        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="cells")]
-    else:
-        with worker_pool(min(w, len(tasks))) as pool:
-            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo", unit="cells"))
+    parts = map_in_order(_run_task, tasks, config.mc.workers, desc="monte carlo", unit="cells")
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 

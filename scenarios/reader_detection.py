@@ -61,7 +61,6 @@ not depend on ``campaign.workers``.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -79,11 +78,11 @@ from rfsim.gen2.commands import Query
 from rfsim.air import FixedEmitter, propagate
 from rfsim.engine import ReaderPort
 from rfsim.gen2.link import reply_window_s
-from rfsim.progress import stage, track
+from rfsim.progress import stage
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
-from rfsim.procs import worker_pool
+from rfsim.procs import map_in_order
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -222,13 +221,7 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every trial, ordered by (room, distance, angle, repetition); tasks per (room, distance)."""
     dists, _, _ = config.campaign.grid
     tasks = [(config, k, i, seed) for k in range(2) for i in range(len(dists))]
-    w = config.campaign.workers or (os.cpu_count() or 1)
-    if w <= 1:
-        parts = [_run_task(t) for t in track(tasks, desc="monte carlo", unit="distances")]
-    else:
-        with worker_pool(min(w, len(tasks))) as pool:
-            parts = list(track(pool.map(_run_task, tasks), total=len(tasks), desc="monte carlo",
-                               unit="distances"))
+    parts = map_in_order(_run_task, tasks, config.campaign.workers, desc="monte carlo", unit="distances")
     rows = [r for p in parts for r in p]
     return {k: np.array([r[k] for r in rows]) for k in FIELDS}
 

@@ -79,10 +79,11 @@ from rfsim.air import AntennaPort, propagate
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
+from rfsim.procs import map_in_order
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, concat, exciter_antenna, room, run_tasks, uniform_disc,
+                                      RowsChain, build_frame, concat, exciter_antenna, room, uniform_disc,
                                       unit_of)
 from scenarios.phase_cancellation import MonteCarloConfig
 
@@ -257,7 +258,7 @@ def _task(args):
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every (cell, repetition) on ``config.mc.workers`` processes, concatenated in task order."""
     tasks = [(config, c, r, seed) for c in range(len(config.geometry.st_x_m)) for r in range(config.mc.n_repetitions)]
-    return concat(run_tasks(_task, tasks, config.mc.workers))
+    return concat(map_in_order(_task, tasks, config.mc.workers, desc="monte carlo", unit="cells"))
 
 
 # ----------------------------------------------------------------------------- run

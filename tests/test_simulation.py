@@ -92,3 +92,19 @@ def test_same_seed_same_bits_other_seed_other_noise():
 def test_bad_round_period_is_refused():
     with pytest.raises(ValueError, match="round_period_s"):
         Simulation(None, [], None, round_period_s=0.0)
+
+
+def test_the_readme_exciter_example_runs_and_the_listener_decodes_the_frame(project_root):
+    """The README's exciter + sense-a-tag block: the passive tag (no reader, so no command)
+    stays silent, the listening sense-a-tag decodes exactly the 16 bits the sender was given."""
+    text = (project_root / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- exciter-example:begin -->\s*```python\n(.*?)```\s*<!-- exciter-example:end -->",
+                      text, re.S)
+    assert block, "README has no exciter-example block"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(block.group(1), "README.md", "exec"), {"__name__": "readme"})
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "passive tag replied: False"
+    decoded, sent = re.fullmatch(r"listener decoded: ([01]{16}) sent: ([01]{16})", lines[1]).groups()
+    assert sent == "1011001011100010" and decoded == sent

@@ -411,6 +411,7 @@ class PassiveTag:
         #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
+        self._chip_memo: dict = {}  # P_inc [W] -> (chip, operating point, its reflection states)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
@@ -505,9 +506,15 @@ class PassiveTag:
         the state machine and the reply's Γ(t) over ``n_samples`` samples."""
         p_dbm = _dbm(p_inc)
         if self.chip is not None:
-            self.operating_point = self.chip.operating_point(p_inc)
-            self.reflection_states = ReflectionStates(self.operating_point.gamma_unmod,
-                                                      self.operating_point.gamma_mod)
+            # the operating point is a pure function of the (frozen) chip and P_inc: a held
+            # link gives the same P_inc exchange after exchange
+            hit = self._chip_memo.get(p_inc)
+            if hit is None or hit[0] is not self.chip:
+                if len(self._chip_memo) > 64:
+                    self._chip_memo.clear()
+                op = self.chip.operating_point(p_inc)
+                hit = self._chip_memo[p_inc] = (self.chip, op, ReflectionStates(op.gamma_unmod, op.gamma_mod))
+            self.operating_point, self.reflection_states = hit[1], hit[2]
             powered = self.operating_point.powered
         else:
             tau, tau_pu, sens_w, a_s = self._tau_power_up()
@@ -531,7 +538,9 @@ class PassiveTag:
         if isinstance(cmd, Query):
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
-        reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+        # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
+        silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
+        reply = None if silent else self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
         query = self.state.last_query
         if reply is None or query is None or self._trcal_ticks is None:
             return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,

@@ -412,6 +412,7 @@ class PassiveTag:
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
         self._chip_memo: dict = {}  # P_inc [W] -> (chip, operating point, its reflection states)
+        self._quiet: dict = {}  # P_inc [W] -> its power decision and responses (:meth:`_quiet_response`)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
@@ -466,9 +467,40 @@ class PassiveTag:
                         self._p_memo.clear()
                     p_inc = self._p_memo[key] = fe.power_w(incident.gain)
                 rc = self.config.envelope_rc_s
+                quiet = self._quiet.get(p_inc)
+                if quiet is not None and quiet[0] is self.config and quiet[1] is self.chip:
+                    # the power decision of this P_inc is known (:meth:`_respond` made it): the
+                    # tag stays unpowered, or stays powered and takes a silent step
+                    out = self._quiet_response(quiet, fe.command(rc), incident)
+                    if out is not None:
+                        return out
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples)
         return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
+
+    def _quiet_response(self, quiet: tuple, decoded: tuple, incident) -> TagResponse | None:
+        """:meth:`_respond`'s result for a tag that stays unpowered, or that stays powered
+        and takes a silent step of its state machine (``TagState.on_command_if_silent``),
+        from the remembered power decision ``quiet`` of this P_inc; None (nothing done) in
+        every other case."""
+        _, _, powered, p_dbm, rest, a_s, op, states, unpowered = quiet
+        if powered != self.state.powered:
+            return None
+        if not powered:
+            if op is not None:
+                self.operating_point, self.reflection_states = op, states
+            self._trcal_ticks = None
+            return unpowered
+        cmd, frame = decoded
+        if cmd is None or isinstance(cmd, Query):
+            return None
+        cmd_end_s = incident.t0_s + frame.end / incident.fs_hz
+        if not self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
+            return None
+        if op is not None:
+            self.operating_point, self.reflection_states = op, states
+        return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
+                           rest, a_s)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.
@@ -521,6 +553,14 @@ class PassiveTag:
             powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
         rest = self.reflection_states.gamma_a
         a_s = self._tau_power_up()[3] if self.chip is not None else a_s
+        if self.shared_front_end and p_inc not in self._quiet:  # the power decision of this P_inc
+            if len(self._quiet) > 64:
+                self._quiet.clear()
+            op = self.operating_point if self.chip is not None else None
+            self._quiet[p_inc] = (self.config, self.chip, powered, p_dbm, rest, a_s, op,
+                                  self.reflection_states if op is not None else None,
+                                  TagResponse(False, None, None, None, None, None, "not powered", p_dbm, None,
+                                              None, None, None, rest, a_s))
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)

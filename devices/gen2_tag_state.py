@@ -290,6 +290,38 @@ class TagState:
             return None
         raise TypeError(f"not a Gen2 command: {cmd!r}")
 
+    def on_command_if_silent(self, cmd, *, t_s: float) -> bool:
+        """Apply ``cmd`` at ``t_s`` [s] when the rules above make it a silent step that needs no
+        random draw; return True if applied (the tag is then exactly as :meth:`on_command`
+        would leave it, and it does not reply), False if nothing was done (call
+        :meth:`on_command`).
+
+        The silent steps of a powered tag: a QueryRep of another session than the tag's round
+        (or with no round); a QueryRep in Arbitrate whose decremented counter is not 0 (the
+        counter decrements, nothing else changes); an ACK or NAK in Ready or Arbitrate. These
+        are the same branches as in :meth:`on_command` (``_query_rep``, ``_ack``, NAK), taken
+        without the dispatch — in an inventory almost every tag takes one of them on almost
+        every command.
+        """
+        if not self.powered:
+            return False
+        kind = type(cmd)
+        if kind is QueryRep:
+            if self.session is None or cmd.session != self.session:
+                self._advance(t_s)
+                return True
+            if self.state == "arbitrate":
+                nxt = (self.slot - 1) & 0x7FFF
+                if nxt != 0:
+                    self._advance(t_s)
+                    self.slot = nxt
+                    return True
+            return False
+        if (kind is ACK or kind is NAK) and self.state in ("ready", "arbitrate"):
+            self._advance(t_s)
+            return True
+        return False
+
     def _matches_query(self, cmd: Query) -> bool:
         if cmd.sel == "sl" and not self.sl:
             return False

@@ -411,6 +411,8 @@ class PassiveTag:
         #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
+        self._chip_memo: dict = {}  # P_inc [W] -> (chip, operating point, its reflection states)
+        self._quiet: dict = {}  # P_inc [W] -> its power decision and responses (:meth:`_quiet_response`)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
@@ -465,9 +467,40 @@ class PassiveTag:
                         self._p_memo.clear()
                     p_inc = self._p_memo[key] = fe.power_w(incident.gain)
                 rc = self.config.envelope_rc_s
+                quiet = self._quiet.get(p_inc)
+                if quiet is not None and quiet[0] is self.config and quiet[1] is self.chip:
+                    # the power decision of this P_inc is known (:meth:`_respond` made it): the
+                    # tag stays unpowered, or stays powered and takes a silent step
+                    out = self._quiet_response(quiet, fe.command(rc), incident)
+                    if out is not None:
+                        return out
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples)
         return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
+
+    def _quiet_response(self, quiet: tuple, decoded: tuple, incident) -> TagResponse | None:
+        """:meth:`_respond`'s result for a tag that stays unpowered, or that stays powered
+        and takes a silent step of its state machine (``TagState.on_command_if_silent``),
+        from the remembered power decision ``quiet`` of this P_inc; None (nothing done) in
+        every other case."""
+        _, _, powered, p_dbm, rest, a_s, op, states, unpowered = quiet
+        if powered != self.state.powered:
+            return None
+        if not powered:
+            if op is not None:
+                self.operating_point, self.reflection_states = op, states
+            self._trcal_ticks = None
+            return unpowered
+        cmd, frame = decoded
+        if cmd is None or isinstance(cmd, Query):
+            return None
+        cmd_end_s = incident.t0_s + frame.end / incident.fs_hz
+        if not self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
+            return None
+        if op is not None:
+            self.operating_point, self.reflection_states = op, states
+        return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
+                           rest, a_s)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.
@@ -505,15 +538,29 @@ class PassiveTag:
         the state machine and the reply's Γ(t) over ``n_samples`` samples."""
         p_dbm = _dbm(p_inc)
         if self.chip is not None:
-            self.operating_point = self.chip.operating_point(p_inc)
-            self.reflection_states = ReflectionStates(self.operating_point.gamma_unmod,
-                                                      self.operating_point.gamma_mod)
+            # the operating point is a pure function of the (frozen) chip and P_inc: a held
+            # link gives the same P_inc exchange after exchange
+            hit = self._chip_memo.get(p_inc)
+            if hit is None or hit[0] is not self.chip:
+                if len(self._chip_memo) > 64:
+                    self._chip_memo.clear()
+                op = self.chip.operating_point(p_inc)
+                hit = self._chip_memo[p_inc] = (self.chip, op, ReflectionStates(op.gamma_unmod, op.gamma_mod))
+            self.operating_point, self.reflection_states = hit[1], hit[2]
             powered = self.operating_point.powered
         else:
             tau, tau_pu, sens_w, a_s = self._tau_power_up()
             powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
         rest = self.reflection_states.gamma_a
         a_s = self._tau_power_up()[3] if self.chip is not None else a_s
+        if self.shared_front_end and p_inc not in self._quiet:  # the power decision of this P_inc
+            if len(self._quiet) > 64:
+                self._quiet.clear()
+            op = self.operating_point if self.chip is not None else None
+            self._quiet[p_inc] = (self.config, self.chip, powered, p_dbm, rest, a_s, op,
+                                  self.reflection_states if op is not None else None,
+                                  TagResponse(False, None, None, None, None, None, "not powered", p_dbm, None,
+                                              None, None, None, rest, a_s))
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)
@@ -531,7 +578,9 @@ class PassiveTag:
         if isinstance(cmd, Query):
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
-        reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+        # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
+        silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
+        reply = None if silent else self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
         query = self.state.last_query
         if reply is None or query is None or self._trcal_ticks is None:
             return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,

@@ -482,7 +482,32 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     # 1. incident field at every reflector, kept per emitter in the emitter's own baseband
     #    (for the backscatter), and what the reflector does with it
     incident, reflections, per_emitter = [], [], []
-    for j, refl in enumerate(reflectors):
+    # one emitter on the reference carrier (a reader's exchange): the loop below without the
+    # carrier bookkeeping — the same links asked in the same order, the same arithmetic
+    single = live[0] if (len(live) == 1 and live[0][1].fc_hz == fc_ref_hz) else None
+    gains = None
+    if single is not None:
+        i0, seg0 = single
+        e_ant, fc0 = emitters[i0].antenna, seg0.fc_hz
+        held = getattr(links, "held_constants", None)
+        if held is not None and not keep_components and reflectors:
+            gains = held(e_ant, [r.antenna for r in reflectors], fc_hz=fc0, bandwidth_hz=bw,
+                         propagation=propagation, inbound=False)
+        for j, refl in enumerate(reflectors):
+            if gains is not None:  # every link held, narrowband and static: its constant, remembered
+                g, y = gains[j], None
+            else:
+                p = links.paths(e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s)
+                if p is None:
+                    _link(links, e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s, what=f"emitter[{i0}] → reflector[{j}]")
+                if keep_components:
+                    used[("emitter", i0, "reflector", j)] = p
+                g, y = _through(p, seg0, None, fc_hz=fc0, bandwidth_hz=bw, propagation=propagation, memo=memo)
+            per_emitter.append(((i0, seg0, g, y),))
+            inc = Segment.scaled(seg0, g, fc_ref_hz) if g is not None else Segment(t0_s, fs_hz, fc_ref_hz, y)
+            incident.append(inc)
+            reflections.append(refl.reflect(inc))
+    for j, refl in enumerate(reflectors if single is None else ()):
         ant = refl.antenna
         comps = []  # (emitter index, segment, constant gain or None, samples or None)
         total = None  # a Segment (scaled copy) or an array
@@ -553,9 +578,42 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
             for v in parts:
                 d = d + v
             direct_l.append(d)
+        backs = None  # the held constants of the reflector → receiver links (as ``gains`` above)
+        if single is not None and gains is not None:
+            backs = held(r_ant, [r.antenna for r in reflectors], fc_hz=fc0, bandwidth_hz=bw,
+                         propagation=propagation, inbound=True)
         for j, refl in enumerate(reflectors):
             r = reflections[j]
             comps = per_emitter[j]
+            if single is not None and not keep_components:
+                # one emitter on the reference carrier: the general branch below, shortened
+                i, seg, g, y = comps[0]
+                if backs is not None:
+                    pj = None
+                else:
+                    pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                    if pj is None:
+                        _link(links, refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s,
+                              what=f"reflector[{j}] → receiver[{k}]")
+                if r is None or not r.scatters:
+                    continue
+                off = seg.fc_hz - fc_k
+                if off != 0.0 and abs(off) >= half:
+                    continue
+                rc = r.constant_reradiation
+                if rc is not None and g is not None and off == 0.0:
+                    b = backs[j] if backs is not None else _constant(pj, seg.fc_hz, bw, propagation, memo)
+                    if b is not None:  # a reflector that does not modulate: one constant, no pass
+                        const[i] = const.get(i, 0j) + b * (rc * g)
+                        continue
+                if pj is None:
+                    pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                inc_e = y if y is not None else g * seg.samples
+                scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
+                gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
+                                  memo=memo)
+                parts.append(shift(yb if yb is not None else gb * scattered, off))
+                continue
             # the links are asked for whatever the reflector does (the draws do not depend on it)
             pj = fc_j = None
             for i, seg, g, y in comps:

@@ -280,6 +280,9 @@ class _EngineLinks:
         self.cache, self.draw, self.motions = cache, draw, motions
         self.index = {id(t.antenna): i for i, t in enumerate(tags)}
         self.backward: dict = {}
+        if draw and cache:  # a new draw: the held constants of the previous one are void
+            for key in [k for k in cache if k[0] == "held"]:
+                del cache[key]
 
     def paths(self, tx, rx, *, fc_hz, t_s):
         if tx is self.antenna:
@@ -300,8 +303,37 @@ class _EngineLinks:
             self.backward[id(rx)] = links[1]
             return links[0]
         if rx is self.antenna:
-            return self.backward.get(id(tx))
+            hit = self.backward.get(id(tx))
+            if hit is None and self.cache is not None and not self.draw:  # after held_constants
+                i = self.index.get(id(tx))
+                links = self.cache.get((i, id(self.antenna), fc_hz)) if i is not None else None
+                hit = links[1] if links is not None else None
+            return hit
         return None
+
+    def held_constants(self, antenna, others, *, fc_hz, bandwidth_hz, propagation, inbound):
+        """The narrowband constants of the held links between the reader ``antenna`` and the
+        tag antennas ``others`` (forward, or backward with ``inbound``), in that order; None
+        unless every one of them is held in the link cache (no new draw, no motion) and is
+        narrowband and static. Remembered in the cache for the round's draw."""
+        if self.draw or self.cache is None or self.motions is not None or antenna is not self.antenna:
+            return None
+        key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
+        hit = self.cache.get(key)
+        if hit is not None and hit[0] == [id(a) for a in others]:
+            return hit[1]
+        side = 1 if inbound else 0
+        out = []
+        for ant in others:
+            i = self.index.get(id(ant))
+            links = self.cache.get((i, id(antenna), fc_hz)) if i is not None else None
+            f = getattr(links[side], "narrowband_constant", None) if links is not None else None
+            c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
+            if c is None:
+                return None
+            out.append(c)
+        self.cache[key] = ([id(a) for a in others], out)
+        return out
 
 
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,

@@ -419,3 +419,61 @@ def test_chip_tags_fast_path_equals_full_listen():
     assert powered[0] == powered[1]
     n_read = len(logs[0].tags_read())
     assert 2 <= n_read < len(radii)  # the far tags never power up: the chip decides
+
+
+def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
+    # A mixed population — power-dependent chip tags (some too far to power up), ASK and PSK
+    # tags with the config's Γ — inventoried in session 0 with dual target (QueryAdjust from
+    # the Q algorithm, target flips) and then in session 2 with a Select mask that leaves half
+    # of the tags outside the round (QueryReps of a round they are not in). The fast
+    # population path (shared front end, held link constants, the state machine's silent
+    # steps) and every tag listening to its own samples must give the same records, bit for
+    # bit, and the same tag states; the silent steps must actually have been taken.
+    from channels import Antenna, Channel, Isotropic, Scene
+    from devices.gen2_tag_state import TagState as _State
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import PassiveTag, TagConfig
+    from devices.tag_chip import PowerDependentChip
+    from scenarios.inventory import tag_antenna
+
+    silent_steps = []
+    original = _State.on_command_if_silent
+
+    def counted(self, cmd, *, t_s):
+        done = original(self, cmd, t_s=t_s)
+        silent_steps.append(done)
+        return done
+
+    monkeypatch.setattr(_State, "on_command_if_silent", counted)
+    chip = PowerDependentChip.pass_default()
+    radii = [1.0, 1.4, 1.9, 2.3, 2.8, 3.2, 3.7, 6.0, 9.0, 1.2, 1.7, 2.1, 2.6]
+    results = []
+    for fast in (True, False):
+        silent_steps.clear()
+        ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
+        tags = []
+        for k, r in enumerate(radii):
+            cfg = TagConfig(epc_hex=f"{k + 1:024X}", modulation="PSK" if k % 3 == 2 else "ASK")
+            ant = tag_antenna((r * math.cos(0.9 * k), r * math.sin(0.9 * k), 1.0), 0.9 * k + math.pi)
+            tags.append(PassiveTag(cfg, ant, rng=trial_rng(43, 3, k), chip=chip if k < 9 else None))
+        reader = Reader(ReaderConfig(), [ra], rng=trial_rng(43, 1))
+        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(43, 2), fast=fast, keep_exchanges=True)
+        first = run_inventory(air, InventoryConfig(q_initial=3.0, target_switches=1))
+        # EPCs ending in an odd digit match the mask (the last EPC bit is 1)
+        second = run_inventory(air, InventoryConfig(q_initial=2.0, session=2, sel="sl", select_mask="1",
+                                                    select_pointer=0x20 + 95), t0_s=first.t_end_s + 1e-3)
+        results.append(dict(
+            logs=[(log.slots, log.reads) for log in (first, second)],
+            states=[(t.state.state, dict(t.state.inventoried), t.state.sl, t.state.slot,
+                     t.rng.bit_generator.state["state"], t.reflection_states) for t in tags],
+            powers=[ex.incident_power_dbm for ex in air.exchanges],
+            taken=sum(silent_steps)))
+    fast_run, full_run = results
+    assert fast_run["logs"] == full_run["logs"]
+    assert fast_run["states"] == full_run["states"]
+    assert fast_run["powers"] == full_run["powers"]
+    commands = set(first.slots["command"]) | set(second.slots["command"])
+    assert {"Query", "QueryRep", "QueryAdjust"} <= commands
+    assert 2 <= len(first.tags_read()) < len(radii)  # the chip decides: the far tags stay dark
+    assert second.tags_read() and all((k + 1) % 2 == 1 for k in second.tags_read())
+    assert fast_run["taken"] > 100, fast_run["taken"]

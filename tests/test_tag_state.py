@@ -372,3 +372,46 @@ def test_deterministic_given_rng():
     assert Reply("RN16", [0] * 16) != Reply("RN16", [1] + [0] * 15)
     with pytest.raises(ValueError):
         Reply("CRC", [0])
+
+
+def test_silent_steps_equal_on_command():
+    # Random command sequences (fixed seed) on pairs of tags with equal streams: one tag gets
+    # every command through on_command, the other tries on_command_if_silent first. Replies,
+    # every attribute of the state and the generators must stay equal, and the silent steps
+    # must be taken on a good part of the commands (QueryRep counting down, ACK/NAK not for it).
+    rng = np.random.default_rng(7)
+    taken = total = 0
+    for trial in range(20):
+        full = TagState("300833B2DDD9014000000027")
+        fast = TagState("300833B2DDD9014000000027")
+        r_full, r_fast = np.random.default_rng(trial), np.random.default_rng(trial)
+        t = 0.0
+        for _ in range(200):
+            t += 1e-3 * rng.random()
+            k = rng.integers(6)
+            s = int(rng.integers(3))
+            if k == 0:
+                cmd = Query(session=s, target="AB"[int(rng.integers(2))], q=int(rng.integers(4)))
+            elif k == 1:
+                cmd = QueryAdjust(session=s, updn=int(rng.choice([-1, 0, 1])))
+            elif k in (2, 3):
+                cmd = QueryRep(session=s)
+            elif k == 4:
+                cmd = ACK(full.rn16 if (full.rn16 is not None and rng.random() < 0.7) else int(rng.integers(1 << 16)))
+            else:
+                cmd = NAK()
+            if rng.random() < 0.02:
+                full.on_power(False, t)
+                fast.on_power(False, t)
+                full.on_power(True, t)
+                fast.on_power(True, t)
+            a = full.on_command(cmd, t_s=t, rng=r_full)
+            done = fast.on_command_if_silent(cmd, t_s=t)
+            b = None if done else fast.on_command(cmd, t_s=t, rng=r_fast)
+            taken += done
+            total += 1
+            assert (a is None and b is None) or a == b
+            assert {k: v for k, v in vars(full).items() if not isinstance(v, np.ndarray)} == \
+                {k: v for k, v in vars(fast).items() if not isinstance(v, np.ndarray)}
+            assert r_full.bit_generator.state == r_fast.bit_generator.state
+    assert 0.2 * total <= taken < total, (taken, total)

@@ -76,6 +76,7 @@ from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
 from rfsim.procs import map_in_order
+from rfsim.references import cite
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
@@ -436,7 +437,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         line = -(a["eq65_extended_a1"] + a["eq65_extended_a3"] * x) / a["eq65_extended_a2"]
         ax.plot(x, line, "r--", label="Eq. (6.5) + a3*d_e: p = 0.5 (where the tag runs)")
     ax.set(xlabel="exciter -> tag distance d_e [m]", ylabel="tag -> listener distance d_tt [m]",
-           ylim=(d_tt.min(), d_tt.max()), title="exciter-powered tag-to-tag link")
+           ylim=(d_tt.min(), d_tt.max()), title=f"Exciter-powered tag-to-tag link, Eq. (6.5) fit — {cite('geng', 'Ch. 6')}")
     ax.legend(fontsize=8, loc="upper right")
     return [save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"))]
 

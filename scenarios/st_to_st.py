@@ -80,6 +80,7 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.procs import map_in_order
+from rfsim.references import cite
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
@@ -378,7 +379,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         ax.errorbar(cells["tx_x_m"], 100 * p, yerr=100 * err, marker="o", capsize=3,
                     label=f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)")
     ax.set(xlabel="transmitting ST x [m] (exciter at the origin)", ylabel="P(phase cancellation) [%]",
-           title="Fig. 5.8: exciter-powered ST-to-ST link")
+           title=f"Exciter-powered ST-to-ST link — {cite('auris', 'Fig. 5.8')}")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return [save_figure(fig, figure_path(dataset_path, out_dir, "pcancel"))]

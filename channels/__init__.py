@@ -17,6 +17,7 @@ from channels.bulk import BulkPaths, draw_links
 from channels.geometry import Pose, direction_to, rotation_matrix
 from channels.large_scale import (LogDistance, ShadowingField, Wall, friis_amplitude_gain,
                                   wall_loss_db)
+from channels.large_scale import LinkLargeScale
 from channels.noise import complex_awgn, noise_power_from_density_w, thermal_noise_power_w
 from channels.paths import (PathSet, apply_backscatter, apply_paths, compose_backscatter,
                             concatenate, narrowband_error_bound, narrowband_rms_error,
@@ -29,6 +30,7 @@ __all__ = [
     "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated", "vertical_dipole",
     "Pose", "direction_to", "rotation_matrix",
     "LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
+    "LinkLargeScale",
     "complex_awgn", "noise_power_from_density_w", "thermal_noise_power_w",
     "PathSet", "apply_paths", "apply_backscatter", "compose_backscatter", "concatenate",
     "narrowband_error_bound", "narrowband_rms_error", "propagation_method", "NARROWBAND_TOLERANCE",

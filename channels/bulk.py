@@ -375,7 +375,9 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
     -------
     :class:`BulkPaths` with p = 1 + S + T columns; ``pathset(i)`` equals
     ``Channel(scene).link(tx_i, rx_i, ...)`` in its deterministic paths (LoS, images) and in
-    the law of its diffuse taps (module docstring).
+    the law of its diffuse taps (module docstring). A per-link large-scale model
+    (``channels.large_scale.LinkLargeScale``) contributes its default model: the links are
+    named by positions here, not by antennas.
 
     Raises
     ------

@@ -90,6 +90,65 @@ class LogDistance:
         return np.power(10.0, -self.path_loss_db(distance_m, fc_hz) / 20.0)
 
 
+class LinkLargeScale:
+    """Per-link large-scale models: one model per antenna pair, per antenna, or a default.
+
+    ``Scene.large_scale`` used to be one model for every link. Özkaya's readers each have
+    their own α_j and n_j (Table 6.1, rssi-localization.md §1.8, seeds/002 L984, L1002–L1007:
+    ``Pr_j = α_j − 10·n_j·log10 d − nW·WAF``), which a :class:`LogDistance` per reader
+    expresses with ``pl_d0_db = P_t + G_t + G_r − α_j`` at d0 = 1 m. The model of a link
+    a ↔ b is looked up, in this order:
+
+    1. ``by_pair``: the unordered pair {a, b} (e.g. one tag–reader link with its own
+       quasi-static shadowing folded into ``pl_d0_db``);
+    2. ``by_antenna``: the model of a or of b (a reader's model for all its links); a link
+       between two antennas that both have a model and no pair entry is ambiguous and raises;
+    3. ``default`` (None = Friis free space).
+
+    The lookup is symmetric, so links stay reciprocal. Antennas compare by value
+    (``channels.Antenna``). Callers that know only distances (``los_links``, the bulk links of
+    ``channels.bulk``) get the default model through :meth:`amplitude_gain`.
+
+    Parameters
+    ----------
+    default : model with ``amplitude_gain(distance_m, fc_hz)`` or None (Friis)
+    by_antenna : iterable of ``(antenna, model)``
+    by_pair : iterable of ``(antenna_a, antenna_b, model)``
+    """
+
+    def __init__(self, default=None, *, by_antenna=(), by_pair=()):
+        by_antenna, by_pair = list(by_antenna), list(by_pair)
+        for m in [default] + [m for _, m in by_antenna] + [m for _, _, m in by_pair]:
+            if m is not None and not callable(getattr(m, "amplitude_gain", None)):
+                raise ConfigError("channel.large_scale", m, "a model with amplitude_gain(d, fc)")
+        self.default = default
+        self._antennas = {a: m for a, m in by_antenna}
+        self._pairs = {frozenset((a, b)): m for a, b, m in by_pair}
+
+    def model(self, tx, rx):
+        """The model of the link ``tx ↔ rx`` (None = Friis), by the rules of the class."""
+        m = self._pairs.get(frozenset((tx, rx)))
+        if m is not None:
+            return m
+        mt, mr = self._antennas.get(tx), self._antennas.get(rx)
+        if mt is not None and mr is not None and mt is not mr and tx != rx:
+            raise ConfigError("channel.large_scale", (tuple(tx.position_m), tuple(rx.position_m)),
+                              "a by_pair model for a link between two antennas with their own models")
+        m = mt if mt is not None else mr
+        return self.default if m is None else m
+
+    def link_amplitude_gain(self, tx, rx, distance_m, fc_hz) -> np.ndarray:
+        """Amplitude gain of the link ``tx ↔ rx`` at ``distance_m`` (its model, or Friis)."""
+        m = self.model(tx, rx)
+        return friis_amplitude_gain(distance_m, fc_hz) if m is None else m.amplitude_gain(distance_m, fc_hz)
+
+    def amplitude_gain(self, distance_m, fc_hz) -> np.ndarray:
+        """The default model's gain (Friis when None), for callers without antennas."""
+        if self.default is None:
+            return friis_amplitude_gain(distance_m, fc_hz)
+        return self.default.amplitude_gain(distance_m, fc_hz)
+
+
 def pass_log_distance_gain(distance_m, fc_hz, exponent, c_m_s=C_M_S) -> np.ndarray:
     """PASS ``channel_large`` legacy gain (pass-paris-simulator.md §2.4), for golden tests.
 
@@ -313,6 +372,7 @@ class ShadowingField:
 __all__ = [
     "friis_amplitude_gain",
     "LogDistance",
+    "LinkLargeScale",
     "pass_log_distance_gain",
     "Wall",
     "wall_crossings",

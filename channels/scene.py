@@ -61,7 +61,9 @@ class Scene:
     surfaces : sequence of :class:`~channels.surfaces.Surface` (specular reflectors)
     walls : sequence of :class:`~channels.large_scale.Wall` (WAF loss on the LoS)
     large_scale : object with ``amplitude_gain(distance_m, fc_hz)`` (e.g.
-        :class:`~channels.large_scale.LogDistance`), or None for Friis free space
+        :class:`~channels.large_scale.LogDistance`), one for every link; or a
+        :class:`~channels.large_scale.LinkLargeScale` (a model per antenna pair or per
+        antenna, e.g. per reader); or None for Friis free space
     apdp : :class:`~channels.small_scale.ApdpModel` or None (no diffuse taps)
     shadowing : :class:`~channels.large_scale.ShadowingField` or None
     image_order : maximum reflection order of the image paths (0: none)
@@ -89,6 +91,15 @@ class Scene:
         if self.large_scale is None:
             return friis_amplitude_gain(distance_m, fc_hz)
         return self.large_scale.amplitude_gain(distance_m, fc_hz)
+
+    def link_amplitude_gain(self, tx, rx, distance_m, fc_hz):
+        """Large-scale amplitude gain of the link ``tx → rx`` at ``distance_m``: the link's
+        own model when ``large_scale`` is per link (``link_amplitude_gain``), else
+        :meth:`amplitude_gain`."""
+        per_link = getattr(self.large_scale, "link_amplitude_gain", None)
+        if per_link is None:
+            return self.amplitude_gain(distance_m, fc_hz)
+        return per_link(tx, rx, distance_m, fc_hz)
 
 
 def kinematics(antenna: Antenna, motion, t_s: float):
@@ -221,10 +232,10 @@ class Channel:
                     self._placements.pop(next(iter(self._placements)))
                 self._placements[(tx, rx)] = place
         d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args = place
-        g_ls = float(sc.amplitude_gain(d, fc_hz))
+        g_ls = float(sc.link_amplitude_gain(tx, rx, d, fc_hz))
         images = None
         if found is not None:
-            images = self._image_part(found, p_rx, v_tx, v_rx, fc_hz)
+            images = self._image_part(found, p_rx, v_tx, v_rx, fc_hz, tx, rx)
         return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
                 apdp_args)
 
@@ -275,12 +286,12 @@ class Channel:
         plf = tx.polarization_mismatch(rx, direction=p_rx - v_src)
         return found, ell, coef, g_ant, plf
 
-    def _image_part(self, image_geometry, p_rx, v_tx, v_rx, fc_hz) -> PathSet:
+    def _image_part(self, image_geometry, p_rx, v_tx, v_rx, fc_hz, tx, rx) -> PathSet:
         sc = self.scene
         found, ell, coef, g_ant, plf = image_geometry
         if not found:
             return PathSet(np.zeros(0, complex), np.zeros(0))
-        gains = np.asarray(sc.amplitude_gain(ell, fc_hz), float) * coef * np.sqrt(g_ant * plf)
+        gains = np.asarray(sc.link_amplitude_gain(tx, rx, ell, fc_hz), float) * coef * np.sqrt(g_ant * plf)
         dops = np.empty(len(found))
         for i, ip in enumerate(found):
             v_img = v_tx.copy()

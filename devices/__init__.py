@@ -13,8 +13,14 @@ power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`), a 
 impedance follows its absorbed power (:mod:`devices.tag_chip`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
 (:mod:`devices.tag`).
+
+Active RFID (Özkaya's 868 MHz beacons): the beacon tag (:mod:`devices.active_tag`), its frame
+and MSK modulation (:mod:`devices.msk_beacon`), the sample-level reader with its RSSI
+(:mod:`devices.active_reader`) and the RSSI report stage (:mod:`devices.rss_reader`).
 """
 
+from devices.active_reader import ActiveReader, ActiveReaderConfig, BeaconRead
+from devices.active_tag import ActiveTag, ActiveTagConfig
 from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
 from devices.sense_a_tag import Observation, SenseATag, SenseATagConfig
@@ -25,6 +31,7 @@ from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, different
                                   reflection_coefficient)
 
 __all__ = [
+    "ActiveTag", "ActiveTagConfig", "ActiveReader", "ActiveReaderConfig", "BeaconRead",
     "SenseATag", "SenseATagConfig", "Observation",
     "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
     "PassiveTag", "TagConfig", "TagResponse", "PowerDependentChip", "ChipOperatingPoint",

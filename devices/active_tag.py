@@ -80,7 +80,8 @@ class ActiveTag:
         #: decided bursts: (start time [s], sequence number, oscillator phase [rad])
         self.bursts: list[tuple[float, int, float]] = []
         self._chips: dict[int, np.ndarray] = {}
-        self._seq = 0
+        #: sequence number of the next beacon (modulo 256; a scenario may set it)
+        self.seq = 0
 
     @property
     def burst_s(self) -> float:
@@ -103,8 +104,8 @@ class ActiveTag:
 
     def next_seq(self) -> int:
         """The sequence number of the next beacon (advances the counter)."""
-        s = self._seq
-        self._seq = (s + 1) % 256
+        s = self.seq % 256
+        self.seq = (s + 1) % 256
         return s
 
     def send(self, t_s: float, seq: int) -> None:

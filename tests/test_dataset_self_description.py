@@ -32,7 +32,7 @@ TINY = {
     "detection-probability": ["samples.count=40", "samples.n_train=30"],
     "phase-cancellation": ["geometry.tag_x_m=[1.0, 6.0]", "mc.positions_per_cell=6", "mc.workers=1",
                            "tracks.cell=0"],
-    "rss-localization": ["sigma0_db=[5.2]", "trials=20", "particles=50"],
+    "rss-localization": ["sigma0_db=[5.2]", "trials=20", "particles=50", "rss_model=waveform"],
     "st-to-st": ["geometry.st_x_m=[1.0, 4.0]", "mc.positions_per_cell=6", "mc.workers=1"],
     "exciter-link": ["sweep.exciter_distance_m=[1.0, 3.0]", "sweep.tag_distance_m=[0.2, 1.0]",
                      "sweep.draws_per_point=3", "sweep.workers=1"],

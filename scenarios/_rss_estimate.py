@@ -212,8 +212,12 @@ class Tables:
             xy = np.concatenate([data.truth_xy[:, :, None, :],
                                  np.broadcast_to(reference_xy, (b, t) + reference_xy.shape)], axis=2)
             pos = np.broadcast_to(xy[:, :, None], shape + (2,))                           # (B,T,J,1+I,2)
-            self._extend("beacons", t_s=(idx[1] * 1.0).ravel(),
-                         t_us=(idx[1] * 1_000_000).astype(np.int64).ravel(), case=np.full(rss.size, case),
+            t_s = idx[1] * 1.0
+            if data.beacon_t_s is not None:   # waveform mode: when each beacon was sent
+                sent = np.broadcast_to(data.beacon_t_s[:, :, None, :], shape)
+                t_s = np.where(np.isfinite(sent), sent, t_s)
+            self._extend("beacons", t_s=t_s.ravel(),
+                         t_us=np.round(t_s * 1_000_000).astype(np.int64).ravel(), case=np.full(rss.size, case),
                          trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(),
                          antenna=np.ones(rss.size, int), tag=tag.ravel(),
                          epc=np.array([f"3000{0:016X}{k + 1:04X}" for k in range(shape[3])])[tag.ravel()],
@@ -288,7 +292,8 @@ _GROUPS = {
 }
 
 _UNITS = {
-    "t_s": ("s", "beacon time (1 beacon per second)"),
+    "t_s": ("s", "epoch time (1 beacon per second); in the beacons table of the waveform mode the time "
+                 "the tag sent the beacon (the epoch for one dropped by listen-before-talk)"),
     "t_us": ("us", "beacon time stamp in whole microseconds, as readers report it"),
     "case": ("1", "index of the (σ0, motion) case"),
     "trial": ("1", "run (simulation) or track (home) index"), "step": ("1", "beacon epoch / recursion"),

@@ -83,7 +83,8 @@ class WaveformStats:
 
 def sample_level_reports(config, plan, channel, data, case: int, seed: int, report: RssReport):
     """Reported RSSI of the target (B, T, J) and of the reference tags (B, T, J, I) from beacons
-    sent at sample level (module docstring), and the case's :class:`WaveformStats`."""
+    sent at sample level (module docstring), the beacons' start times [s] (B, T, 1 + I; NaN when
+    listen-before-talk dropped one) and the case's :class:`WaveformStats`."""
     wf = config.waveform
     b_n, t_n, j_n = data.rss_dbm.shape
     ref = plan.reference_xy
@@ -96,6 +97,7 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
     ref_pts = np.column_stack([ref, np.full(i_n, z)]) if i_n else np.zeros((0, 3))
     out = np.full((b_n, t_n, j_n), np.nan)
     out_ref = np.full((b_n, t_n, j_n, i_n), np.nan)
+    starts = np.full((b_n, t_n, 1 + i_n), np.nan)
     stats = WaveformStats()
     for b in range(b_n):
         rng = trial_rng(seed, case, 2, b)
@@ -123,6 +125,8 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
             common = LinkTable(Channel(Scene(walls=walls, image_order=0)))
             run = run_beacons(tags, readers, _TagLinks(by_tag, common), t0_s=float(t), t1_s=float(t + 1),
                               fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
+            for burst in run.bursts:
+                starts[b, t, burst.tag] = burst.t_s
             stats.due += len(run.bursts)
             stats.dropped += sum(r.lbt_dropped for r in run.bursts)
             stats.collided += sum(r.collided for r in run.bursts)
@@ -137,7 +141,7 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
                         out[b, t, j] = rd.rssi_reported_dbm
                     else:
                         out_ref[b, t, j, rd.tag_id - 2] = rd.rssi_reported_dbm
-    return out, out_ref, stats
+    return out, out_ref, starts, stats
 
 
 class _TagLinks:

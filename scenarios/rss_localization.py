@@ -217,7 +217,8 @@ def random_walk(start_xy, n_steps: int, step_std_m: float, bounds, *, rng) -> np
 @dataclass
 class CaseData:
     """Simulated beacons of one case: truth (B, T, 2), true/reported RSS (B, T, J) of the
-    target and (B, T, J, I) of the reference tags, the pattern map (B, M, J)."""
+    target and (B, T, J, I) of the reference tags, the pattern map (B, M, J), and in the
+    waveform mode the beacons' start times."""
 
     truth_xy: np.ndarray
     rss_dbm: np.ndarray
@@ -225,6 +226,8 @@ class CaseData:
     ref_rss_dbm: np.ndarray
     ref_reported_dbm: np.ndarray
     pattern_map_dbm: np.ndarray | None
+    #: waveform mode: start time [s] of every tag's beacon (B, T, 1 + I) (NaN: dropped by LBT)
+    beacon_t_s: np.ndarray | None = None
 
 
 def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: int, motion: str,
@@ -358,7 +361,7 @@ def run(config: Config, *, seed: int) -> Dataset:
             rt["nn"] = n_steps
         data = simulate_case(config, plan, channel, case, motion, n_steps, seed)
         if config.rss_model == "waveform":
-            data.reported_dbm, data.ref_reported_dbm, st = sample_level_reports(
+            data.reported_dbm, data.ref_reported_dbm, data.beacon_t_s, st = sample_level_reports(
                 config, plan, channel, data, case, seed, _report(config))
             tables.add_waveform(case, sigma0, motion, st)
         rng = trial_rng(seed, case, 1)

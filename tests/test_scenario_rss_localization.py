@@ -131,6 +131,9 @@ def test_waveform_home_replica_with_reference_tags_walls_and_1_db_steps():
     off = rep[heard] - np.round(b["rssi_dbm"][heard])
     assert np.all(np.isin(off, [-1.0, 0.0, 1.0])) and np.mean(off != 0) <= 0.10
     assert np.all(np.abs(rep[heard] - b["rssi_dbm"][heard]) <= 0.5 + 0.06)
+    # time stamps: when each tag sent its beacon, inside its 1 s epoch, µs resolution
+    assert np.all((b["t_s"] > b["step"]) & (b["t_s"] < b["step"] + 1))
+    assert np.unique(b["t_s"]).size == 25 * 5 and np.all(np.abs(b["t_us"] - 1e6 * b["t_s"]) <= 0.5)
     counts = _table(ds, "waveform")
     assert counts["beacons_due"][0] == 25 * 5
     assert counts["reported"][0] == heard.sum()

@@ -123,6 +123,7 @@ class AirRun:
     n_steps: int                 #: air steps run
     dropped: int                 #: carrier contributions the steps dropped (outside ±fs/2)
     wall_s: float                #: wall time of the steps and the DSP [s]
+    cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
 
 
 class StepLinks:
@@ -198,7 +199,7 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
     decoded = [[] for _ in pylons]
     index = [[] for _ in pylons]
     dropped, steps = 0, 0
-    tick = time.perf_counter()
+    tick, cpu = time.perf_counter(), time.process_time()
     motion = _Memo(tag.position_m)
     groups = [[u] for u in range(len(pylons))] if radio.cross_carrier == "ignore" else [list(range(len(pylons)))]
     for k in track(range(plan.start_s.size), desc=desc, unit="packets"):
@@ -217,7 +218,7 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
                 if d is not None:
                     decoded[u].append(d)
                     index[u].append(k)
-    wall = time.perf_counter() - tick
+    wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
     mids = plan.start_s + 0.5 * air_s
     pos = tag.trajectory(mids).position_m
     out, true_r, k_us = [], [], []
@@ -236,7 +237,8 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
         true_r.append(r_true)
         index[u] = idx
     return AirRun(pylons=pylons, measurements=out, packet_index=index, true_range_m=true_r, k_u=np.array(k_us),
-                  ptx_w=ptx, noise_power_w=noise_w, samples_per_step=n, n_steps=steps, dropped=dropped, wall_s=wall)
+                  ptx_w=ptx, noise_power_w=noise_w, samples_per_step=n, n_steps=steps, dropped=dropped, wall_s=wall,
+                  cpu_s=cpu)
 
 
 __all__ = ["RadioConfig", "AirRun", "StepLinks", "simulate", "check_sample_rate", "check_pylons_off_the_track",

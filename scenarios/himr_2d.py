@@ -19,9 +19,14 @@ Measurement stream (one epoch per scheduled packet, outputs in observer order
 x^B reading, θ_z = the compass heading, ω_z = the gyroscope z rate, from the first pylon that
 decoded the packet (the inertial words need one reader, L783; a lost packet loses RF and IMU
 together). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
-141 packets/s; the boom reaches 2.78 m/s): ``dealias = "innovation"`` (default) wraps the
-observer's radial-velocity innovations into ±λ/(4Δt) — the aliasing "calibrated out using the
-other sensors" (L779); ``"none"`` feeds the wrapped values as they are.
+141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``dealias = "gated"``
+(default) wraps the observer's radial-velocity innovations into ±λ/(4Δt) — the aliasing
+"calibrated out using the other sensors" (L779) — while every RSS-range innovation is below
+``gate_m`` (5 cm), and uses the measured value otherwise; ``"innovation"`` always wraps (after
+an outage it can lock onto a wrong alias: a velocity error of a multiple of λ/(2Δt) along every
+pylon gives zero wrapped innovation, held by a constant range innovation — measured: Cases 2, 4,
+5 end 14 cm off); ``"none"`` feeds the wrapped values; ``"oracle"`` picks the alias nearest the
+true velocity (ground truth: the bound of a perfect dealiasing).
 
 Observers (:mod:`rfsim.estimators.observer`): the CARE gain at the Table 8 point
 (``tuning`` D.2 = diag(579, 137, 149, 479, 127, 119, 191, 67, 67) or D.1 = 965·I₉, V = I₁₀),
@@ -34,10 +39,18 @@ packet (Δt doubled, limit 0.911 m/s).
 What the literal observer gives (the source reports a ≈ 10 cm initial x error, Case 1,
 L1176–L1224): its frozen error dynamics A − L·C(x(t)) are unstable while the heading is more
 than 90° from the linearisation value π (cos ψ in the acceleration rows flips sign, 0.42–0.78 s
-of the programmed stroke; ``diagnostics``), so its transient reaches ≈ 1–1.6 m before it
-converges when the heading returns near π (himr-tag.md §6.3 [derived]: ≈ 1.5–1.6 m in x,
-≈ 1.1 m in y noise-free). The dataset reports the measured value in ``max_error_m_literal``; the
-``prerotated`` variant is the one that reaches the source's magnitudes.
+of the programmed stroke, 0.57–0.93 s of the actual one; ``diagnostics``). Run with the aliases
+picked from ground truth (``dealias = "oracle"``, always added for the literal variant) its
+transient reaches 1.53 m in x and 1.04 m in y (seed 1) and converges once the heading is back
+near π (final 4.6 mm) — himr-tag.md §6.3 [derived]: ≈ 1.5–1.6 m, ≈ 1.1 m. With the measured,
+aliased velocities the metre-size transient leaves the region where a wrapped velocity can be
+resolved and it diverges (``max_error_m_literal`` ≈ 1.4 km). The ``prerotated`` variant gives
+the source's magnitudes: max 1.8 cm, final 1.1 mm (seed 1); the ``ekf`` 0.85 cm, 1.0 mm.
+
+Measured with the defaults, seed 1 (max y error while moving, prerotated): Case 2 55 cm, Case 3
+20 cm, Case 4 11 cm, Case 5 58 cm (source: 50, 30, 5 cm, "similar to Case 2"), every case back
+within 2 mm at the end; from IC #2 the error stays above 5 mm until 1.16 s (Case 1), 1.35 s
+(Case 6), 1.29 s (Case 7) (source: 0.8, 1.2, 1.1 s).
 
 Randomness: ``trial_rng(seed, 0)`` the tag's schedule and IMU noise, ``trial_rng(seed, 1, k, u)``
 the receiver noise of packet k at pylon u (``joint``: u = 0 for the step of all pylons).
@@ -414,6 +427,7 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
     a["air_steps"] = air.n_steps
     a["samples_per_step"] = air.samples_per_step
     a["sample_level_s"] = air.wall_s
+    a["sample_level_cpu_s"] = air.cpu_s
     a["time_per_packet_s"] = air.wall_s / max(plan.start_s.size, 1)
     a["observers_s"] = observer_s
     a["ptx_w"] = air.ptx_w

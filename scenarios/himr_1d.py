@@ -50,6 +50,7 @@ from devices.imu import ImuConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
+from rfsim.estimators.himr_model import A3
 from rfsim.estimators.observer import gain_1d, observe_1d
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.progress import stage
@@ -215,7 +216,6 @@ def run(config: Config, *, seed: int) -> Dataset:
                                     dims=("mode",))},
                 description="the 1-D observer gain L[state, output] and the eigenvalues of its error matrix")
     T = np.append(np.diff(t), np.diff(t)[-1:])
-    from rfsim.estimators.himr_model import A3
     rho = np.array([np.abs(np.linalg.eigvals(np.eye(3) + Tk * (A3 - g.L))).max() for Tk in T])
     ds.add_table("diagnostics", {
         "t_s": column(t, "s", "epoch: scheduled start of the packet"),

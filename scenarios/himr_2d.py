@@ -497,7 +497,6 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
            title=f"Frozen-time eigenvalues along the trajectory — {cite('himr', 'Fig. 82')}")
     ax.legend(fontsize=8)
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "eigenvalues")))
-    _ = ds
     return out
 
 

@@ -149,7 +149,6 @@ BAD = [
     ("himr-2d", "trajectory.radius_m=3.0", "trajectory"),
     ("himr-2d", "radio.fs_hz=4e6", "radio.fs_hz"),
     ("himr-2d", "scene.pylons_m=[[2.0, 1.8048], [2.0, 3.05], [2.7, -0.03]]", "scene.pylons_m[0]"),
-    ("himr-2d", "radio.cross_carrier=joint", "radio.fs_hz"),
     ("himr-2d", "observer.cases=[2, 8]", "observer.cases"),
     ("himr-1d", "tag.packet_format=9axis-2d", "tag.packet_format"),
     ("himr-1d", "scene.pylon_m=[1.3, 0.0, 0.0]", "scene.pylon_m[0]"),

@@ -26,7 +26,8 @@ def packets_table(run, plan) -> dict:
         v_true = np.full(idx.size, np.nan)
         v_true[1:] = np.diff(r_true) / np.diff(plan.start_s[idx])
         part = {
-            "t_s": m.start_s, "packet": idx, "pylon": np.full(idx.size, u + 1), "carrier_hz": np.full(idx.size, p.fc_hz),
+            "t_s": m.start_s, "packet": idx, "pylon": np.full(idx.size, u + 1),
+            "carrier_hz": np.full(idx.size, p.fc_hz),
             "crc_ok": m.crc_ok, "h_re": m.gain.real, "h_im": m.gain.imag, "rss_dbm": m.rss_dbm, "snr_db": m.snr_db,
             "phase_rad": m.phase_rad, "dphase_rad": m.dphase_rad, "range_rss_m": m.range_m,
             "radial_velocity_mps": m.radial_velocity_mps, "aliasing_limit_mps": m.aliasing_limit_mps,
@@ -96,13 +97,15 @@ _IMU_UNITS = {"accel": ("m/s^2", "accelerometer specific force along body axis")
 def imu_columns(table: dict) -> dict:
     cols = {"t_s": column(table["t_s"], "s", "scheduled start of the packet that carried the IMU sample"),
             "packet": column(table["packet"], "1", "index of the packet in the tag's schedule"),
-            "decoded_by": column(table["decoded_by"], "1", "pylon whose copy passed the CRC first (0: none, sample lost)"),
+            "decoded_by": column(table["decoded_by"], "1",
+                                 "pylon whose copy passed the CRC first (0: none, sample lost)"),
             "valid": column(table["valid"], "1", "some pylon decoded the packet with a good CRC (else NaN readings)")}
     for k, v in table.items():
         if k in cols:
             continue
         if k == "heading_rad":
-            cols[k] = column(v, "rad", "heading of the body y axis from the compass x, y words, unwrapped, start pose pi")
+            cols[k] = column(v, "rad",
+                             "heading of the body y axis from the compass x, y words, unwrapped, start pose pi")
             continue
         sensor, axis = k.split("_")[0], k.split("_")[1]
         unit, text = _IMU_UNITS[sensor]

@@ -192,7 +192,8 @@ def run(config: Config, *, seed: int) -> Dataset:
         "t_s": column(rows["t_s"], "s", "epoch of the estimate"),
         "z_hat_m": column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
         "z_dot_hat_mps": column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
-        "z_ddot_hat_mps2": column(rows["z_ddot_hat_mps2"], "m/s^2", "estimated acceleration along the travel (third state)"),
+        "z_ddot_hat_mps2": column(rows["z_ddot_hat_mps2"], "m/s^2",
+                                  "estimated acceleration along the travel (third state)"),
         "error_m": column(rows["error_m"], "m", "estimated minus true distance")},
         description="one row per (estimator, epoch): the estimate and its error")
     ds.add_table("summary", {

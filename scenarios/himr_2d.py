@@ -330,8 +330,9 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
     ds.add_table("packets", {k: column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()},
                  description="one row per packet decoded at one pylon: CRC, complex gain, RSS, phase, radial "
                              "velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", imu_columns(imu), description="one row per scheduled packet: the IMU words it carried "
-                                                      "(raw int16 and SI) as decoded by the first pylon with a good CRC")
+    ds.add_table("imu", imu_columns(imu),
+                 description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
+                             "by the first pylon with a good CRC")
     names = output_names(3)
     y = stream["y"]
     mcols = {"t_s": column(stream["t_s"], "s", "epoch: scheduled start of the packet (observer time step)"),
@@ -373,7 +374,8 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
     ds.add_table("estimates", ecols, description="one row per (variant, case, epoch): the observer's estimate "
                                                  "and its error")
     scols = {}
-    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"), "case": ("1", "analysis case 1-7"),
+    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"),
+             "case": ("1", "analysis case 1-7"),
              "dealias": ("1", "radial-velocity aliasing treatment of the run (oracle: ground truth picks the alias)"),
              "case_name": ("1", "what the case does to the recorded stream"),
              "max_error_m": ("m", "largest Euclidean position error while the boom moves"),

@@ -251,4 +251,5 @@ def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
 
 
 __all__ = ["Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",
-           "luenberger", "wrap_innovation", "observe_1d", "observe_2d", "eig_along", "unstable_intervals", "ranks_along"]
+           "luenberger", "wrap_innovation", "observe_1d", "observe_2d", "eig_along", "unstable_intervals",
+           "ranks_along"]

@@ -5,6 +5,11 @@ Model (himr-tag.md §0.1, §2.1–2.2; wave2-specs.md §H; seed 000 L411–L422,
 
 * **Battery-assisted, not Gen2** (L411, L713): the tag neither powers up from nor listens
   to the reader's field; it backscatters on its own schedule whatever the incident field.
+* **Packet size**: ``9axis-2d`` is 192 bit (24 B: 3 header + 2 ID + 6 accel + 6 gyro + 6 compass
+  + 1 CRC, the byte counts of seed 000 Table 5 / L715), air time 0.384 ms at 8 chips/bit and
+  4 Mcps; the issue's and reference pages' "240 bit, 0.48 ms" (30 B) does not follow from those
+  byte counts, so the bytes of the source are kept (:mod:`rfsim.himr_packet`; the HIMR datasets
+  say so in ``packet_bits_note``). ``6axis-1d`` is 96 bit (12 B, Table 2), 1.2288 ms.
 * **Schedule**: packet k starts at t_k = t_{k−1} + T + σ_j·ε_k, ε_k ~ N(0, 1), t_0 =
   ``start_s``, T = 1/packet rate (141 packets/s for ``9axis-2d``, L715; ≈ 300 for
   ``6axis-1d``, L411). The jitter models the variable MCU/sensor access time that sets the

@@ -39,6 +39,7 @@ residual gives the noise variance per complex sample σ² and SNR = |h|²/σ².
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -309,6 +310,17 @@ def boc_decode_reference(r, *, code: BocCode, fs_hz: float, n_bits: int, start_s
     return _decide(boc_bit_sums_reference(r, start_sample, code, fs_hz=fs_hz, n_bits=n_bits), pre)
 
 
+@functools.lru_cache(maxsize=32)
+def _preamble_template(code: BocCode, preamble: bytes, fs_hz: float) -> np.ndarray:
+    """The sampled preamble (start at sample 0), real ±1, read-only (remembered per code,
+    preamble and rate)."""
+    pre = np.frombuffer(preamble, dtype=np.uint8)
+    n_pre = int(math.ceil(code.duration_s(pre.size) * fs_hz))
+    tmpl = boc_train([0.0], pre, code, t0_s=0.0, fs_hz=fs_hz, n_samples=n_pre).real
+    tmpl.setflags(write=False)
+    return tmpl
+
+
 def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int, int]) -> tuple[int, float]:
     """Integer start sample of a packet in ``r`` by preamble correlation.
 
@@ -318,8 +330,8 @@ def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int
     """
     fs = code.check_fs(fs_hz)
     pre = as_bits(preamble_bits)
-    n_pre = int(math.ceil(code.duration_s(pre.size) * fs))
-    tmpl = boc_train([0.0], pre, code, t0_s=0.0, fs_hz=fs, n_samples=n_pre).real
+    tmpl = _preamble_template(code, pre.tobytes(), fs)
+    n_pre = tmpl.size
     lo, hi = max(0, int(search[0])), min(int(search[1]), np.size(r) - n_pre + 1)
     if hi <= lo:
         raise ValueError("search window does not hold a whole preamble")

@@ -43,6 +43,15 @@ def rss_constant(*, fc_hz, ptx_w, g_tx=1.0, g_rx=1.0, g_tag=1.0, polarization=1.
                                      polarization=polarization, modulation=modulation))
 
 
+def ptx_for_snr_w(snr_db: float, distance_m: float, *, noise_power_w: float, fc_hz, g_tx=1.0, g_rx=1.0,
+                  g_tag=1.0, polarization=1.0, modulation=1.0) -> float:
+    """Transmit power P_T [W] that gives the backscatter power P(d) = SNR·N at ``distance_m``
+    (eq. 3 solved for P_T; wave2-specs.md §H: calibrate P_T to SNR 31.6 dB at 1 m, L646)."""
+    p1 = float(backscatter_power_w(distance_m, fc_hz=fc_hz, ptx_w=1.0, g_tx=g_tx, g_rx=g_rx, g_tag=g_tag,
+                                   polarization=polarization, modulation=modulation))
+    return 10.0 ** (float(snr_db) / 10.0) * float(noise_power_w) / p1
+
+
 def calibrate_rss_constant(power, distance_m) -> float:
     """K_u = P₀·d₀⁴ from a reading at a known range (the start pose)."""
     return float(np.asarray(power, float) * np.asarray(distance_m, float) ** 4)
@@ -69,5 +78,5 @@ def aliasing_limit_mps(*, fc_hz, packet_rate_hz):
     return wavelength_m(fc_hz) * np.asarray(packet_rate_hz, float) / 4.0
 
 
-__all__ = ["lambda_over_4pi_m", "backscatter_power_w", "rss_constant", "calibrate_rss_constant",
+__all__ = ["lambda_over_4pi_m", "backscatter_power_w", "rss_constant", "ptx_for_snr_w", "calibrate_rss_constant",
            "rss_range_m", "wrap_pi", "radial_velocity_mps", "aliasing_limit_mps"]

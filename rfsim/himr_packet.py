@@ -29,6 +29,7 @@ z, then compass x, y, z).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Literal
 
@@ -119,6 +120,7 @@ def packet_format(name: str, key: str = "tag.packet_format") -> PacketFormat:
 # ----------------------------------------------------------------------------- CRC-8
 
 
+@functools.lru_cache(maxsize=16)
 def _crc8_table(poly: int) -> np.ndarray:
     reg = np.arange(256, dtype=np.int64)
     for _ in range(8):

@@ -100,7 +100,14 @@ def _check_stream(t_s, y, n_out: int):
     return t, y
 
 
-def luenberger(t_s, y, *, A, L, h, x0, gain_on=None) -> np.ndarray:
+def wrap_innovation(innov, period):
+    """``innov`` wrapped into ±period/2 where ``period`` > 0 (NaN or 0: unchanged)."""
+    p = np.nan_to_num(np.asarray(period, float))
+    safe = np.where(p > 0, p, 1.0)
+    return np.where(p > 0, innov - safe * np.round(innov / safe), innov)
+
+
+def luenberger(t_s, y, *, A, L, h, x0, gain_on=None, wrap_period=None, innovation=None) -> np.ndarray:
     """Forward-Euler fixed-gain observer (module docstring) with output map ``h``.
 
     Parameters
@@ -108,6 +115,11 @@ def luenberger(t_s, y, *, A, L, h, x0, gain_on=None) -> np.ndarray:
     t_s : (n,) epochs [s];  y : (n, p) measurements (NaN = missing)
     A : (m, m);  L : (m, p);  h : callable x (m,) → (p,);  x0 : (m,) initial estimate
     gain_on : (n,) bool or None (all on)
+    wrap_period : (p,) or (n, p) or None: an output measured modulo its period (a
+        phase-derived radial velocity, period λ/(2·Δt)) gets its innovation wrapped into
+        ±period/2 — the aliasing is resolved by the estimate the other sensors support
+    innovation : optional callable ``(k, innov) → innov`` applied after the wrapping (e.g.
+        to drop outputs at an epoch: NaN contributes no innovation)
 
     Returns
     -------
@@ -119,35 +131,44 @@ def luenberger(t_s, y, *, A, L, h, x0, gain_on=None) -> np.ndarray:
     T = np.append(np.diff(t), t[-1] - t[-2])
     out = np.empty((t.size, A.shape[0]))
     x = np.array(x0, dtype=float)
+    wp = None if wrap_period is None else np.broadcast_to(np.asarray(wrap_period, float), y.shape)
     for k in range(t.size):
         out[k] = x
         dx = A @ x
         if on[k]:
             innov = y[k] - h(x)
+            if wp is not None:
+                innov = wrap_innovation(innov, wp[k])
+            if innovation is not None:
+                innov = innovation(k, innov)
             dx += L @ np.where(np.isnan(innov), 0.0, innov)
         x = x + T[k] * dx
     return out
 
 
-def observe_1d(t_s, y, *, x0, gain: Gain | None = None, gain_on=None) -> np.ndarray:
+def observe_1d(t_s, y, *, x0, gain: Gain | None = None, gain_on=None, wrap_period=None) -> np.ndarray:
     """1-D HIMR observer (eq. 20): y (n, 3) = [RSS range, radial velocity, acceleration]."""
     g = gain_1d() if gain is None else gain
-    return luenberger(t_s, y, A=A3, L=g.L, h=lambda x: C1 @ x, x0=x0, gain_on=gain_on)
+    return luenberger(t_s, y, A=A3, L=g.L, h=lambda x: C1 @ x, x0=x0, gain_on=gain_on, wrap_period=wrap_period)
 
 
-def _ekf(t, y, pylons, W, R, x0, p0):
+def _ekf(t, y, pylons, W, R, x0, p0, wrap_period=None):
     T = np.append(np.diff(t), t[-1] - t[-2])
     x = np.array(x0, dtype=float)
     P = np.asarray(p0, float).copy()
     out = np.empty((t.size, 9))
     eye = np.eye(9)
+    wp = None if wrap_period is None else np.broadcast_to(np.asarray(wrap_period, float), y.shape)
     for k in range(t.size):
         ok = ~np.isnan(y[k])
         if ok.any():
             H = jacobian_2d(x, pylons)[ok]
             S = H @ P @ H.T + R[np.ix_(ok, ok)]
             K = np.linalg.solve(S, H @ P).T
-            x = x + K @ (y[k, ok] - h_2d(x, pylons)[ok])
+            innov = y[k] - h_2d(x, pylons)
+            if wp is not None:
+                innov = wrap_innovation(innov, wp[k])
+            x = x + K @ innov[ok]
             P = (eye - K @ H) @ P
         out[k] = x
         F = eye + A9 * T[k]
@@ -157,7 +178,8 @@ def _ekf(t, y, pylons, W, R, x0, p0):
 
 
 def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYLONS_M, W=W_D2,
-               V=None, gain: Gain | None = None, gain_on=None, p0=None, ekf_r=None) -> np.ndarray:
+               V=None, gain: Gain | None = None, gain_on=None, p0=None, ekf_r=None,
+               wrap_period=None, innovation=None) -> np.ndarray:
     """2-D HIMR observer on a measurement stream (module docstring).
 
     Parameters
@@ -170,6 +192,9 @@ def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYL
     W, V : tuning (V default I); ``gain``: a precomputed :class:`Gain` (else from W, V at
         Table 8); ``gain_on``: Case-3 switch; ``p0``, ``ekf_r``: EKF initial covariance
         (9, 9) and measurement covariance (2P + 4, 2P + 4)
+    wrap_period : per-output (or per-epoch and output) period of outputs measured modulo
+        it (:func:`luenberger`; the EKF wraps its innovation the same way); ``innovation``:
+        a hook on the fixed-gain observers' innovations (:func:`luenberger`)
 
     Returns
     -------
@@ -184,12 +209,13 @@ def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYL
     t, y = _check_stream(t_s, y, n_out)
     if variant == "ekf":
         R = np.diag(SurrogateNoise().sigmas(pyl.shape[0]) ** 2) if ekf_r is None else np.asarray(ekf_r, float)
-        return _ekf(t, y, pyl, np.asarray(W, float), R, x0, 1e-2 * np.eye(9) if p0 is None else p0)
+        return _ekf(t, y, pyl, np.asarray(W, float), R, x0, 1e-2 * np.eye(9) if p0 is None else p0, wrap_period)
     accel = "prerotated" if variant == "prerotated" else "literal"
     g = gain_2d(W, V, pylons_m=pyl, accel=accel) if gain is None else gain
     if accel == "prerotated":
         y = prerotate_accelerations(y, pyl.shape[0])
-    return luenberger(t, y, A=A9, L=g.L, h=lambda x: h_2d(x, pyl, accel), x0=x0, gain_on=gain_on)
+    return luenberger(t, y, A=A9, L=g.L, h=lambda x: h_2d(x, pyl, accel), x0=x0, gain_on=gain_on,
+                      wrap_period=wrap_period, innovation=innovation)
 
 
 # ----------------------------------------------------------------------------- diagnostics
@@ -225,4 +251,5 @@ def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
 
 
 __all__ = ["Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",
-           "luenberger", "observe_1d", "observe_2d", "eig_along", "unstable_intervals", "ranks_along"]
+           "luenberger", "wrap_innovation", "observe_1d", "observe_2d", "eig_along", "unstable_intervals",
+           "ranks_along"]

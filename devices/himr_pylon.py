@@ -1,0 +1,119 @@
+"""HIMR receiver "pylon": a coherent homodyne SDR transceiver on its own carrier — an
+emitter of CW and an I/Q receiver in one device of the air step (:mod:`rfsim.air`).
+
+Model (himr-tag.md §2.3; wave2-specs.md §H "Pylons"; seed 000 L447, L997, L1024–L1030):
+
+* **Emitter**: a CW of power P_T [W] on the pylon's carrier f_c (5.79, 5.80 or 5.81 GHz in
+  the 2-D experiment, L997; which pylon has which carrier is not stated: the default is pylon
+  u on 5.79 + 0.01·(u − 1) GHz). Complex baseband √P_T·e^{jφ_0} on every sample, φ_0 the
+  oscillator phase (``lo_phase_rad``, 0 by default; the same oscillator drives the receiver,
+  so it cancels in the round trip of the pylon's own carrier, L432).
+* **Receiver**: the same oscillator down-converts (coherent homodyne I/Q, L1024) and the
+  USRP samples at the step's rate; its input is the superposition the air step forms plus
+  complex white noise of power N = k·T₀·F·fs per sample (the whole simulated band is the
+  noise bandwidth; noise figure ``noise_figure_db``). The seed gives no Tx power, gains or
+  sample rate (H§0.2): the scenarios calibrate P_T to an SNR at a reference distance
+  (:func:`rfsim.himr_link.ptx_for_snr_w`).
+* **Co-located TX/RX** (monostatic, "co-located bi-static", L447): one antenna position for
+  both; the direct TX → RX path of its own CW is the leakage ``coupling_db`` (amplitude
+  10^(coupling_db/20)·e^{j·coupling_phase}); another pylon's CW reaches it through the
+  channel (a tone at the carrier offset, dropped outside ±fs/2 by the air step).
+* **Shared clock** (10 MHz + 1 PPS, L1024–L1030): every pylon samples on the step's common
+  time base; the packets' time stamps of different pylons agree.
+
+* **Channel filter** (optional, ``rx_cutoff_hz``): a linear-phase FIR low-pass (Kaiser window,
+  80 dB stop band from 1.6·cutoff, :func:`scipy.signal.firwin`, zero delay) before the DSP. It
+  removes the other pylons' direct CW (tones at the 10–20 MHz carrier offsets, ≈ 50 dB above the
+  backscatter at 2 m) in a run with every carrier in band, and keeps the tag's subcarrier
+  (±f_sc with its bit sidebands) — and whatever the other carriers put there.
+
+``receive`` returns the (filtered) input :class:`rfsim.air.Segment`; the per-packet DSP
+(:mod:`rfsim.himr_dsp`) runs on it.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import firwin, kaiserord
+
+from rfsim.air import Segment
+from rfsim.carriers import check_carriers
+from rfsim.config import check_fields, param
+from rfsim.noise import thermal_noise_power_w
+
+#: Carriers of the 2-D experiment (L997) [Hz].
+HIMR_CARRIERS_HZ = (5.79e9, 5.80e9, 5.81e9)
+
+
+@dataclass(frozen=True)
+class PylonConfig:
+    """Radio of one pylon (errors name ``pylon.<key>``)."""
+
+    fc_hz: float = param(5.8e9, lo=1e8, hi=1e10, unit="Hz", doc="carrier (its own oscillator)")
+    ptx_w: float = param(0.1, lo=0.0, lo_open=True, hi=100.0, unit="W", doc="CW power at the antenna port")
+    noise_figure_db: float = param(6.0, lo=0.0, hi=40.0, unit="dB", doc="receiver noise figure")
+    coupling_db: float = param(-40.0, lo=-200.0, hi=0.0, unit="dB", doc="TX -> RX leakage of its own CW")
+    coupling_phase_rad: float = param(0.3, unit="rad", doc="phase of the leakage")
+    lo_phase_rad: float = param(0.0, unit="rad", doc="oscillator phase of the CW")
+
+    def __post_init__(self):
+        check_fields(self, "pylon")
+        check_carriers("pylon.fc_hz", [self.fc_hz])
+
+
+class Pylon:
+    """Emitter and receiver of one pylon (module docstring).
+
+    Parameters
+    ----------
+    config : :class:`PylonConfig`
+    antenna : its antenna (a ``channels.Antenna``; TX and RX co-located)
+    name : label used in error messages and tables
+    """
+
+    def __init__(self, config: PylonConfig, antenna, *, name: str = "pylon", rx_cutoff_hz: float | None = None):
+        self.config, self.antenna, self.name = config, antenna, name
+        self.fc_hz = float(config.fc_hz)
+        self.rx_cutoff_hz = rx_cutoff_hz
+        self.noise_power_w = 0.0
+
+    def set_sample_rate(self, fs_hz: float) -> None:
+        """Noise power of the receiver at sample rate ``fs_hz``: N = k·T₀·F·fs [W per sample]."""
+        self.noise_power_w = float(thermal_noise_power_w(fs_hz, self.config.noise_figure_db))
+
+    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment:
+        """CW √P_T·e^{jφ_0} on the step's time base, on the pylon's carrier."""
+        c = self.config
+        level = math.sqrt(c.ptx_w) * complex(math.cos(c.lo_phase_rad), math.sin(c.lo_phase_rad))
+        return Segment(t0_s, fs_hz, self.fc_hz, np.full(int(n_samples), level, dtype=np.complex128))
+
+    def coupling(self, emitter) -> complex | None:
+        """Leakage of its own CW into its receiver; None (the channel) for other emitters."""
+        if emitter is not self:
+            return None
+        c = self.config
+        a = 10.0 ** (c.coupling_db / 20.0)
+        return complex(a * math.cos(c.coupling_phase_rad), a * math.sin(c.coupling_phase_rad))
+
+    def receive(self, input: Segment) -> Segment:
+        if self.rx_cutoff_hz is None:
+            return input
+        taps = lowpass_taps(self.rx_cutoff_hz, input.fs_hz)
+        y = np.convolve(input.samples, taps, mode="same")
+        return Segment(input.t0_s, input.fs_hz, input.fc_hz, y)
+
+
+@functools.lru_cache(maxsize=8)
+def lowpass_taps(cutoff_hz: float, fs_hz: float) -> np.ndarray:
+    """Odd-length Kaiser FIR low-pass: pass band to ``cutoff_hz``, 80 dB from 1.6·cutoff."""
+    width = 0.6 * cutoff_hz / (0.5 * fs_hz)
+    n, beta = kaiserord(80.0, width)
+    n += 1 - n % 2
+    return firwin(n, 1.3 * cutoff_hz, window=("kaiser", beta), fs=fs_hz)
+
+
+__all__ = ["PylonConfig", "Pylon", "HIMR_CARRIERS_HZ"]

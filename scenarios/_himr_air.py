@@ -1,0 +1,241 @@
+"""Sample-level HIMR packets through the air: a free-running HIMR tag on a trajectory, N
+pylons (:mod:`devices.himr_pylon`), one :func:`rfsim.air.propagate` step per packet and
+pylon (``cross_carrier = "ignore"``) or per packet with every pylon (``"joint"``), and the
+per-packet DSP of :mod:`rfsim.himr_dsp` on each pylon's input. Shared by the scenarios
+``himr-1d`` and ``himr-2d``.
+
+Physics per step (wave2-specs.md §H "Pylons", "Per-packet DSP"; himr-tag.md §1.1–1.3):
+
+* time base: the packet's air time plus ``margin_s`` on both sides, at ``fs_hz`` (which must
+  reach the BOC bandwidth 2·(f_sc + R_b) and at least 8·f_sc, wave2-specs.md §H);
+* links: free space (Friis, no image paths) between antennas with isotropic patterns of the
+  configured gains and vertical polarization (PLF 1); the tag antenna moves along the
+  trajectory (``channels.Channel`` with a motion callable: the geometry at the step's start,
+  the Doppler shift over the step); monostatic round trip (a reciprocal link, one path both
+  ways);
+* the tag re-radiates r(t) = A_s − Γ(t) (:class:`devices.himr_tag.HimrTag`); each pylon's
+  input is its CW leakage, the backscatter and its thermal noise;
+* ``"ignore"``: each pylon with only its own carrier — the others are 10–20 MHz away, outside
+  ±fs/2 for fs < 20 MS/s, where the air step drops them; ``"joint"``: all pylons in one step,
+  every carrier inside ±fs/2 enters every receiver (fs ≥ 50 MS/s: 20 MHz offsets inside), so
+  the tag's square-wave harmonics mix the other carriers onto a pylon's subcarrier
+  (wave2-specs.md §H: the 9th/11th harmonics of an ideal 2 MHz subcarrier, −19.1/−20.8 dB, put
+  the 5.81 GHz carrier on the 5.79 GHz pylon's ±2 MHz);
+* ``"joint"`` filters every pylon's input (channel filter, ``rx_cutoff_hz``, default f_sc + 2·R_b,
+  :class:`devices.himr_pylon.Pylon`): the other pylons' direct CW would otherwise dominate;
+* the receiver's packet detector is given the scheduled start to within ±``search_s``
+  (preamble correlation finds it; acquisition from scratch is not modelled).
+
+Transmit power: every pylon gets the P_T that gives the per-sample SNR |h|²/N =
+``snr_db`` at ``snr_distance_m`` (seed 000 L646: 31.6 dB at 1 m, 1-D experiment), with
+N = k·T₀·F·fs (:func:`rfsim.himr_link.ptx_for_snr_w`). RSS range constant K_u of eq. 22:
+``"link-budget"`` — P_T·G_T·G_R·G_t²·λ⁴/(4π)⁴ of the configured radio; ``"start-pose"`` —
+|h₀|²·d₀⁴ from the first decoded packet at the known start distance d₀.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from channels import Antenna, Channel, Isotropic, PathSet, Scene
+from devices.himr_pylon import Pylon, PylonConfig
+from devices.himr_tag import HimrTag
+from rfsim.air import LinkTable, propagate
+from rfsim.config import param
+from rfsim.errors import ConfigError
+from rfsim.himr_dsp import PacketMeasurements, decode_packet, packet_table
+from rfsim.himr_link import calibrate_rss_constant, ptx_for_snr_w, rss_constant
+from rfsim.noise import thermal_noise_power_w
+from rfsim.progress import track
+from rfsim.rng import trial_rng
+
+
+@dataclass(frozen=True)
+class RadioConfig:
+    """Sampling, power calibration and DSP of the pylons (module docstring)."""
+
+    fs_hz: float = param(16e6, lo=1e5, hi=2e8, unit="Hz", doc="complex sample rate of every pylon (shared clock)")
+    cross_carrier: Literal["ignore", "joint"] = param(
+        "ignore", doc="'ignore': one air step per packet and pylon, other carriers left out; 'joint': one step "
+                      "per packet with every pylon (needs fs > 2x the largest carrier offset to show it)")
+    snr_db: float = param(31.6, lo=-20.0, hi=120.0, unit="dB", doc="per-sample SNR at snr_distance_m (L646)")
+    snr_distance_m: float = param(1.0, lo=0.05, hi=100.0, unit="m", doc="distance of the SNR calibration")
+    pylon_gain_dbi: float = param(9.5, lo=-10.0, hi=30.0, unit="dBi", doc="pylon TX and RX antenna gain (L632)")
+    tag_gain_dbi: float = param(2.0, lo=-10.0, hi=20.0, unit="dBi", doc="tag antenna gain (monopole, L1001)")
+    noise_figure_db: float = param(6.0, lo=0.0, hi=40.0, unit="dB", doc="receiver noise figure")
+    receiver_noise: bool = param(True, doc="add the receivers' thermal noise (false: noise-free inputs; P_T is "
+                                           "still calibrated to snr_db)")
+    coupling_db: float = param(-40.0, lo=-200.0, hi=0.0, unit="dB", doc="TX -> RX leakage of a pylon's own CW")
+    rss_calibration: Literal["start-pose", "link-budget"] = param(
+        "start-pose", doc="K_u of eq. 22: from the first packet at the known start distance or from the link budget")
+    margin_s: float = param(4e-6, lo=0.0, hi=1e-3, unit="s", doc="time base beyond the packet on each side")
+    search_s: float = param(2e-6, lo=0.0, hi=1e-4, unit="s", doc="half-width of the packet start search")
+    rx_cutoff_hz: float | None = param(None, lo=1e4, hi=1e8, unit="Hz",
+                                       doc="pylon channel filter cut-off (None: none; 'joint' default: f_sc + 2 R_b)")
+
+
+def check_sample_rate(radio: RadioConfig, tag: HimrTag, pylon_fc_hz) -> None:
+    """fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b). (A
+    ``joint`` run below twice the carrier spread is allowed: the air step drops the carriers
+    outside ±fs/2 and the run counts them, ``AirRun.dropped``.)"""
+    code = tag.config.code
+    code.check_fs(radio.fs_hz, key="radio.fs_hz")
+    need = 8.0 * code.subcarrier_hz_value
+    if radio.fs_hz < need * (1 - 1e-12):
+        raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
+
+
+def check_pylons_off_the_track(positions_m, tag: HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,
+                               key: str = "pylons.positions_m") -> None:
+    """A pylon on (or within ``min_distance_m`` of) the tag's track has no far-field link."""
+    t = np.arange(0.0, t_end_s + 5e-4, 1e-3)
+    p = tag.trajectory(t).position_m
+    for u, q in enumerate(np.asarray(positions_m, float)):
+        d = np.linalg.norm(p - q, axis=1)
+        i = int(np.argmin(d))
+        if d[i] < min_distance_m:
+            raise ConfigError(f"{key}[{u}]", tuple(q.tolist()),
+                              f"a position ≥ {min_distance_m} m from the tag (it passes {d[i]:.3f} m away at "
+                              f"t = {t[i]:.3f} s)")
+
+
+@dataclass(frozen=True, eq=False)
+class AirRun:
+    """What the pylons measured: per pylon its packet table, plus the run's bookkeeping."""
+
+    pylons: list                 #: the :class:`devices.himr_pylon.Pylon` objects
+    measurements: list           #: per pylon :class:`rfsim.himr_dsp.PacketMeasurements`
+    packet_index: list           #: per pylon (P_u,) index of each row's packet in the tag's plan
+    true_range_m: list           #: per pylon (P_u,) true distance at the packet's middle [m]
+    k_u: np.ndarray              #: (N,) K_u used [W·m⁴]
+    ptx_w: float                 #: transmit power of every pylon [W]
+    noise_power_w: float         #: receiver noise per sample [W]
+    samples_per_step: int        #: samples of one step's time base
+    n_steps: int                 #: air steps run
+    dropped: int                 #: carrier contributions the steps dropped (outside ±fs/2)
+    wall_s: float                #: wall time of the steps and the DSP [s]
+    cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
+
+
+class StepLinks:
+    """The links of one step (a :class:`rfsim.air.LinkTable` over the channel, the tag
+    moving) with their Doppler phases referred to the step's start ``t_s``: the air step
+    applies a path set at the absolute time of its samples, and a moving link evaluated at
+    t_s must advance its phase by 2π·f_D·(t − t_s) over the step, not 2π·f_D·t
+    (``PathSet.apply``: t0 relative to the evaluation time). Each path's gain is multiplied
+    by e^{−j2π·f_D·t_s}; a pair and its reverse stay one object (reciprocal round trip)."""
+
+    def __init__(self, channel, motions: dict):
+        self.table = LinkTable(channel, motions=motions)
+        self._done: dict = {}
+
+    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        p = self.table.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
+        if p is None or p.static:
+            return p
+        hit = self._done.get(id(p))
+        if hit is None:
+            turn = np.exp(-2j * np.pi * np.mod(p.doppler_hz * t_s, 1.0))
+            hit = (p, PathSet(p.gain * turn, p.delay_s, p.doppler_hz))
+            self._done[id(p)] = hit
+        return hit[1]
+
+
+class _Memo:
+    """A motion callable remembering its last positions (the pylons of one packet ask the
+    same times)."""
+
+    def __init__(self, fn):
+        self.fn, self.seen = fn, {}
+
+    def __call__(self, t_s: float):
+        hit = self.seen.get(t_s)
+        if hit is None:
+            if len(self.seen) > 64:
+                self.seen.clear()
+            hit = self.seen[t_s] = self.fn(t_s)
+        return hit
+
+
+def pylon_antennas(positions_m, height_m: float, gain_dbi: float) -> list:
+    return [Antenna(position_m=(float(x), float(y), height_m), pattern=Isotropic(10 ** (gain_dbi / 10)))
+            for x, y in np.asarray(positions_m, float)[:, :2]]
+
+
+def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed: int, t_end_s: float,
+             height_m: float = 0.0, desc: str = "packets") -> AirRun:
+    """Plan the tag's packets up to ``t_end_s``, run them through the air and the DSP."""
+    plan = tag.plan(t_end_s, rng=trial_rng(seed, 0))
+    fs, code, fmt = radio.fs_hz, tag.config.code, tag.config.format
+    g_p, g_t = 10 ** (radio.pylon_gain_dbi / 10), 10 ** (radio.tag_gain_dbi / 10)
+    noise_w = float(thermal_noise_power_w(fs, radio.noise_figure_db))
+    ptx = ptx_for_snr_w(radio.snr_db, radio.snr_distance_m, noise_power_w=noise_w, fc_hz=float(np.mean(carriers_hz)),
+                        g_tx=g_p, g_rx=g_p, g_tag=g_t)
+    ants = pylon_antennas(positions_m, height_m, radio.pylon_gain_dbi)
+    pylons = []
+    cutoff = radio.rx_cutoff_hz
+    if cutoff is None and radio.cross_carrier == "joint":
+        cutoff = code.subcarrier_hz_value + 2 * code.bit_rate_bps
+    for u, (ant, fc) in enumerate(zip(ants, carriers_hz)):
+        p = Pylon(PylonConfig(fc_hz=float(fc), ptx_w=ptx, noise_figure_db=radio.noise_figure_db,
+                              coupling_db=radio.coupling_db), ant, name=f"pylon {u + 1}", rx_cutoff_hz=cutoff)
+        if radio.receiver_noise:
+            p.set_sample_rate(fs)
+        pylons.append(p)
+    p0 = tag.position_m(0.0)
+    tag.antenna = Antenna(position_m=p0, pattern=Isotropic(g_t))
+    channel = Channel(Scene(image_order=0))
+    air_s = tag.config.air_time_s
+    n = int(math.ceil((air_s + 2 * radio.margin_s) * fs))
+    decoded = [[] for _ in pylons]
+    index = [[] for _ in pylons]
+    dropped, steps = 0, 0
+    tick, cpu = time.perf_counter(), time.process_time()
+    motion = _Memo(tag.position_m)
+    groups = [[u] for u in range(len(pylons))] if radio.cross_carrier == "ignore" else [list(range(len(pylons)))]
+    for k in track(range(plan.start_s.size), desc=desc, unit="packets"):
+        t_k = float(plan.start_s[k])
+        t0 = t_k - radio.margin_s
+        for grp in groups:
+            devs = [pylons[u] for u in grp]
+            links = StepLinks(channel, {id(tag.antenna): motion})
+            res = propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
+                            rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
+            steps += 1
+            dropped += len(res.dropped)
+            for u, seg in zip(grp, res.outputs):
+                d = decode_packet(seg.samples, t0_s=t0, fs_hz=fs, fmt=fmt, framing=tag.config.framing, code=code,
+                                  expected_start_s=t_k, search_s=radio.search_s)
+                if d is not None:
+                    decoded[u].append(d)
+                    index[u].append(k)
+    wall, cpu = time.perf_counter() - tick, time.process_time() - cpu
+    mids = plan.start_s + 0.5 * air_s
+    pos = tag.trajectory(mids).position_m
+    out, true_r, k_us = [], [], []
+    for u, p in enumerate(pylons):
+        idx = np.asarray(index[u], dtype=np.int64)
+        r_true = np.linalg.norm(pos[idx] - p.antenna.position_m, axis=1)
+        v_true = np.full(idx.size, np.nan)
+        v_true[1:] = np.diff(r_true) / np.diff(plan.start_s[idx])
+        if radio.rss_calibration == "link-budget":
+            k_u = rss_constant(fc_hz=p.fc_hz, ptx_w=ptx, g_tx=g_p, g_rx=g_p, g_tag=g_t)
+        else:
+            k_u = calibrate_rss_constant(abs(decoded[u][0].gain) ** 2, r_true[0]) if idx.size else float("nan")
+        k_us.append(k_u)
+        out.append(packet_table(decoded[u], fc_hz=p.fc_hz, fmt=fmt, framing=tag.config.framing, k_u=k_u,
+                                true_radial_velocity_mps=v_true))
+        true_r.append(r_true)
+        index[u] = idx
+    return AirRun(pylons=pylons, measurements=out, packet_index=index, true_range_m=true_r, k_u=np.array(k_us),
+                  ptx_w=ptx, noise_power_w=noise_w, samples_per_step=n, n_steps=steps, dropped=dropped, wall_s=wall,
+                  cpu_s=cpu)
+
+
+__all__ = ["RadioConfig", "AirRun", "StepLinks", "simulate", "check_sample_rate", "check_pylons_off_the_track",
+           "pylon_antennas", "PacketMeasurements"]

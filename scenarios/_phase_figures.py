@@ -17,6 +17,7 @@ import numpy as np
 
 from rfsim.dataset import read_table
 from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.references import cite
 
 PHASE_WINDOW_S = 3.0
 
@@ -52,7 +53,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
                  f"(limit {limit:.3g} m/s radial)", fontsize=9)
     for a in (a1, a2):
         a.grid(True, alpha=0.3)
-    fig.suptitle("Phase and pseudo-range per antenna (Särkkä et al. 2012, Fig. 4)")
+    fig.suptitle(f"Phase and pseudo-range per antenna ({cite('sarkka', 'Fig. 4')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "phase")))
 
     fig, ax = plt.subplots(figsize=(7, 7))
@@ -72,7 +73,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     rm = {(e, int(k)): r for e, k, r in zip(summ["estimator"].astype(str), summ["pass"], summ["rmse_m"])}
     ax.set_title(f"EKF pass 1 {100 * rm[('EKF', 1)]:.1f} cm, RTS pass {n_pass} {100 * rm[('RTS', n_pass)]:.1f} cm, "
                  f"RSSI {100 * rm[('RSSI eq. 13', 0)]:.0f} cm RMSE (vs intended path)", fontsize=9)
-    fig.suptitle("True and estimated tracks (Särkkä et al. 2012, Figs. 6-8)")
+    fig.suptitle(f"True and estimated tracks ({cite('sarkka', 'Figs. 6-8')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "track")))
 
     fig, ax = plt.subplots(figsize=(7.5, 5))
@@ -91,6 +92,6 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set_ylabel("fraction of reads")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.suptitle("CDF of the localization error per estimator")
+    fig.suptitle(f"CDF of the localization error per estimator ({cite('sarkka', 'experiment 1 setup')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "cdf")))
     return out

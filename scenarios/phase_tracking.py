@@ -272,7 +272,7 @@ READ_FIELDS = {
     "tx_power_dbm": ("dBm", "conducted reader transmit power at the antenna port"),
     "x_m": ("m", "true tag x during the round (intended path + jitter), held from the round start"),
     "y_m": ("m", "true tag y during the round (intended path + jitter), held from the round start"),
-    "z_m": ("m", "tag height"),
+    "z_m": ("m", "height of the tag above the floor (geometry.height_m, constant)"),
     "intended_x_m": ("m", "intended (marked) path x at the round start, what the paper's RMSE refers to"),
     "intended_y_m": ("m", "intended (marked) path y at the round start"),
     "trial": ("1", "trial index of the run (one trajectory: 0)"),

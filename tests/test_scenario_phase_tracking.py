@@ -142,3 +142,13 @@ def test_without_jitter_the_smoother_is_below_one_centimetre(tmp_path):
     with h5py.File(path, "r") as f:
         assert float(f.attrs["rts_rmse_m"]) < 0.01
         assert 0.15 < float(f.attrs["max_radial_speed_mps"]) <= 0.2 + 1e-6
+
+
+def test_config_keys_show_the_scenarios_own_reader_defaults(capsys):
+    """``rfsim config phase-tracking --keys`` lists the defaults this scenario gives its reader
+    (fm0-640k at 890 MHz, per-port offsets), not the ReaderConfig class defaults."""
+    assert main(["config", "phase-tracking", "--keys"]) == 0
+    out = capsys.readouterr().out
+    assert 'reader.link_profile = "fm0-640k"' in out
+    assert "reader.channels_hz = [890000000.0]" in out
+    assert "reader.report.port_phase_offsets_rad = [0.61, 2.23, -1.37, 3.9]" in out

@@ -39,6 +39,11 @@ constant complex offset during the reply window, is removed; the reply is detect
 preamble correlation inside the T1 window and decoded by
 :func:`rfsim.gen2.linecode.decode_reply`; EPC replies are checked with CRC-16; RSSI, phase,
 Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
+
+Report (``ReaderConfig.report``, :class:`rfsim.records.ReportConfig`): what the reader hands
+over of a read — RSSI rounded to its step, a sensitivity floor, the phase with the port's
+phase offset as a 12-bit code, µs time stamps — is applied to the read log by
+:func:`rfsim.records.report_columns`; the measurements of :class:`ReadResult` stay unquantized.
 """
 
 from __future__ import annotations
@@ -63,6 +68,7 @@ from rfsim.gen2.link import LinkProfile, profile, t1
 from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
+from rfsim.records import ReportConfig
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from devices import _reader_kernels as _rk
 
@@ -110,6 +116,8 @@ class ReaderConfig:
     pie_rise_fall_tari: float = param(0.1, lo=0.0, hi=0.33, unit="Tari", doc="10-90 % PIE edge time")
     false_alarm_probability: float = param(1e-3, lo=0.0, hi=1.0, lo_open=True, hi_open=True,
                                            doc="preamble detection false-alarm probability per reply window")
+    report: ReportConfig = param(ReportConfig(), doc="what the reader reports of a read: RSSI step, sensitivity "
+                                                     "floor, phase code, per-port phase offsets (rfsim.records)")
 
     def __post_init__(self):
         try:  # checked when the config is loaded, so the message names this key
@@ -217,6 +225,11 @@ class Reader:
         self.antennas = tuple(antennas)
         if not self.antennas:
             raise ValueError("a reader needs at least one antenna")
+        offsets = self.config.report.port_phase_offsets_rad
+        if offsets and len(offsets) != len(self.antennas):
+            raise ConfigError("reader.report.port_phase_offsets_rad", list(offsets),
+                              f"one offset per antenna port ({len(self.antennas)} port"
+                              f"{'s' if len(self.antennas) > 1 else ''}) or []")
         self.fs_hz = float(self.config.fs_hz)
         self.plan_hz = frequency_plan(self.config.region, self.config.channels_hz)
         n = self.plan_hz.size

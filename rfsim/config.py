@@ -355,15 +355,18 @@ def to_toml(config: Any) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
-def describe(cls: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
-    """(key, default, allowed, description) rows for help output."""
+def describe(cls: type, prefix: str = "", defaults: Any = None) -> list[tuple[str, str, str, str]]:
+    """(key, default, allowed, description) rows for help output. ``defaults`` is the instance
+    whose values are the defaults (a nested config's default in its parent, which may differ
+    from the nested class's own defaults); None: the class defaults."""
     rows = []
     hints = type_hints(cls)
     for f in dataclasses.fields(cls):
         key = f"{prefix}.{f.name}" if prefix else f.name
         tp = hints[f.name]
+        value = f.default if defaults is None else getattr(defaults, f.name)
         if dataclasses.is_dataclass(tp):
-            rows.extend(describe(tp, key))
+            rows.extend(describe(tp, key, value if dataclasses.is_dataclass(value) else None))
             continue
         meta = field_meta(f)
         if typing.get_origin(tp) is Literal:
@@ -372,7 +375,7 @@ def describe(cls: type, prefix: str = "") -> list[tuple[str, str, str, str]]:
             allowed = _range_text(meta)
         else:
             allowed = _type_name(tp)
-        rows.append((key, toml_value(f.default), allowed, meta["doc"]))
+        rows.append((key, toml_value(value), allowed, meta["doc"]))
     return rows
 
 

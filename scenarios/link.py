@@ -6,7 +6,9 @@ an optional floor reflection (image method, concrete) and the exponential APDP w
 room curves K(d), τrms(d) (channels.small_scale.ApdpModel defaults). The reader hops
 channels, so rounds also differ by carrier frequency. Per round the dataset records what
 a commercial reader reports for a read (gen2-and-validation-anchors.md §4.9) and why a
-read failed.
+read failed, and the reader's report of it (``reader.report``, :mod:`rfsim.records`: EPC as
+hex, µs time stamp, RSSI in its steps above the sensitivity floor, the 12-bit phase code with
+the port's phase offset), one row per read sorted by time.
 
 Randomness: point i, round r uses ``trial_rng(seed, i, r)`` for the channel draw and the
 receiver noise; the reader (hop sequence) and the tag (RN16, slot) of point i have their own
@@ -26,7 +28,7 @@ from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
-from rfsim.records import READ_MEASUREMENT_FIELDS
+from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
 from rfsim.engine import singulate
 from rfsim.gen2.commands import Query
 from rfsim.progress import track
@@ -105,12 +107,15 @@ FIELDS = {
     "failure_reason": ("", "why the read failed ('' = success)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port (Query)"),
 }
+#: Columns of the reads table: the round's context and measurements, then the reader's report.
+READ_FIELDS = {**FIELDS, **READ_REPORT_FIELDS}
 
 
 def run(config: Config, *, seed: int) -> Dataset:
     g = config.geometry
     n_rounds = config.rounds_per_point
     rows: dict[str, list] = {k: [] for k in FIELDS}
+    rows["epc"] = []
     antenna = reader_antenna(g)
     for i, d in enumerate(track(g.distances_m, desc="distances", unit="points")):
         reader = Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds))
@@ -132,13 +137,17 @@ def run(config: Config, *, seed: int) -> Dataset:
                     rssi_dbm=read.rssi_dbm if ok else np.nan,
                     phase_rad=read.phase_rad if ok else np.nan,
                     doppler_hz=read.doppler_hz if ok else np.nan,
-                    snr_db=read.snr_db if ok else np.nan, success=ok,
+                    snr_db=read.snr_db if ok else np.nan, success=ok, epc=epc_hex(read.bits) if ok else "",
                     failure_reason=last.failure_reason,
                     tag_incident_power_dbm=exchanges[0].incident_power_dbm[0])
+    cols = {k: np.asarray(v) for k, v in rows.items()}
+    cols.update(report_columns(config.reader.report, t_s=cols["time_s"], antenna=cols["antenna"],
+                               rssi_dbm=cols["rssi_dbm"], phase_rad=cols["phase_rad"], success=cols["success"]))
+    cols = long_table(cols)
     ds = Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {k: column(np.asarray(rows[k]), *FIELDS[k]) for k in FIELDS},
+    ds.add_table("reads", {k: column(cols[k], *READ_FIELDS[k]) for k in READ_FIELDS},
                  description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
-                             "per-read report, or why the read failed")
+                             "per-read report (long format, sorted by time stamp), or why the read failed")
     return ds
 
 

@@ -38,6 +38,7 @@ TINY = {
                      "sweep.draws_per_point=3", "sweep.workers=1"],
     "himr-2d": ["scene.duration_s=0.4", "observer.outage_s=[0.1, 0.2]"],
     "himr-1d": ["scene.duration_s=0.2"],
+    "phase-tracking": ["trajectory.duration_s=0.5", "schedule.workers=1"],
 }
 
 
@@ -164,6 +165,7 @@ FIGURES = {
     "st-to-st": ["pcancel"], "exciter-link": ["heatmap"],
     "himr-2d": ["eigenvalues", "errors", "rss-phase", "trajectory"],
     "himr-1d": ["eigenvalues", "errors", "rss-phase", "trajectory"],
+    "phase-tracking": ["cdf", "phase", "track"],
 }
 
 

@@ -42,6 +42,16 @@ from rfsim.estimators.bounds import log_distance_crlb
 from rfsim.estimators.observer import care_gain
 from rfsim.estimators.observer import observe_1d
 from rfsim.estimators.observer import observe_2d
+from rfsim.estimators.phase_tracking import unwrap_pseudoranges
+from rfsim.estimators.phase_tracking import unwrap_limit_mps
+from rfsim.estimators.phase_tracking import rssi_fix
+from rfsim.estimators.phase_tracking import continuous_model
+from rfsim.estimators.phase_tracking import discrete_model
+from rfsim.estimators.phase_tracking import initial_state
+from rfsim.estimators.phase_tracking import PassResult
+from rfsim.estimators.phase_tracking import ekf_reads
+from rfsim.estimators.phase_tracking import rts_reads
+from rfsim.estimators.phase_tracking import track_phase
 
 import types as _types
 

@@ -184,6 +184,18 @@ class TagConfig:
         """Chip sensitivity as a :class:`devices.tag_frontend.PowerUp` (compared with τ·P_inc)."""
         return PowerUp(chip_sensitivity_w=float(dbm_to_w(self.sensitivity_dbm)))
 
+    def reply_timing(self, link) -> tuple[float, float]:
+        """``(BLF [Hz], T1 [s])`` of this tag's reply to a Query of ``link``
+        (:class:`rfsim.gen2.link.LinkProfile`) whose RTcal and TRcal it counts exactly
+        (PIE edges on ideal times): the rules of :meth:`PassiveTag.listen` steps 3–4,
+        BLF = f_clk/N_BLF·(1 + ε), T1 = max(N_RTcal, 10·N_BLF)/f_clk + ``t1_offset_s``."""
+        clock = self.clock
+        f_clk = clock.f_hz
+        n_trcal = clock.count_ticks(link.trcal_s)
+        n_blf = clock.blf_divider(link.trcal_s, link.dr, trcal_ticks=n_trcal)
+        blf_hz = f_clk / n_blf * (1.0 + 0.01 * self.blf_error_percent)
+        return blf_hz, max(clock.count_ticks(link.rtcal_s), 10 * n_blf) / f_clk + self.t1_offset_s
+
     @property
     def threshold_incident_dbm(self) -> float:
         """Smallest incident (available) power that powers the tag [dBm] = sensitivity / τ."""

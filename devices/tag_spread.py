@@ -82,6 +82,29 @@ class TagSpreadConfig:
             if abs(e) <= lim:
                 return e
 
+    def blf_errors(self, frt: float, n: int, *, rng: np.random.Generator) -> np.ndarray:
+        """``n`` BLF errors at once, ``(n,) float64``, from the distribution of :meth:`blf_error`
+        (vectorised: rejected normal draws are replaced in further passes)."""
+        lim = self.blf_spread_frt * frt
+        if lim == 0.0 or not self.enabled:
+            return np.zeros(int(n))
+        if self.blf_distribution == "uniform":
+            return rng.uniform(-lim, lim, int(n))
+        e = rng.normal(0.0, frt / 3.0, int(n))
+        bad = np.abs(e) > lim
+        while bad.any():
+            e[bad] = rng.normal(0.0, frt / 3.0, int(bad.sum()))
+            bad = np.abs(e) > lim
+        return e
+
+    def t1_values_s(self, link, n: int, *, tick_s: float, rng: np.random.Generator) -> np.ndarray:
+        """``n`` T1 values [s] at once: uniform over [T1min + tick, T1max − tick] of ``link``
+        (the nominal T1 when disabled or without ``t1_spread``)."""
+        tr = t1(link)
+        if not (self.enabled and self.t1_spread):
+            return np.full(int(n), tr.nom_s)
+        return rng.uniform(tr.min_s + tick_s, tr.max_s - tick_s, int(n))
+
     def draw(self, tag_config, link, *, rng: np.random.Generator, states=None) -> tuple:
         """``(TagConfig with the tag's own spread, record)`` for one tag on ``link``.
 

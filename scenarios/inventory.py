@@ -43,8 +43,11 @@ import numpy as np
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
 from devices.tag import PassiveTag, TagConfig
+from devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig, orientation_offsets_rad
+from scenarios import _capture_sweep as sweep
 from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset, column
+from rfsim.gen2.link import t1
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
 from rfsim.progress import track
 from rfsim.rng import trial_rng
@@ -95,6 +98,9 @@ class Config:
     populations: tuple[int, ...] = param((5, 10, 20), lo=1, hi=2000, doc="numbers of tags N")
     runs: int = param(2, lo=1, hi=10000, doc="independent inventories per population")
     capture: CaptureConfig = param(CaptureConfig(), doc="capture experiment")
+    spread: TagSpreadConfig = param(TagSpreadConfig(), doc="tag-to-tag spread of the populations (off: identical tags)")
+    capture_sweep: sweep.CaptureSweepConfig = param(sweep.CaptureSweepConfig(),
+                                                    doc="batched two-tag capture sweep and RN16 acceptance")
 
 
 # ----------------------------------------------------------------------------- building blocks
@@ -106,12 +112,27 @@ def tag_epc_hex(template: str, k: int) -> str:
     return format(k + 1, f"0{n}X")[-n:]
 
 
-def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...]) -> list:
-    """One PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``."""
+def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...], spread: TagSpreadConfig | None = None,
+              link=None, records: list | None = None) -> list:
+    """One PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``.
+
+    With an enabled ``spread`` tag k draws its own BLF error, T1, chip states and antenna
+    yaw/roll offsets on ``link`` from its spread sub-stream ``trial_rng(seed, *key, k, 0)``
+    (:class:`devices.tag_spread.TagSpreadConfig`); each draw is appended to ``records``.
+    """
     from dataclasses import replace
 
-    return [PassiveTag(replace(config, epc_hex=tag_epc_hex(config.epc_hex, k)), a,
-                       rng=trial_rng(seed, *key, k)) for k, a in enumerate(antennas)]
+    tags = []
+    for k, a in enumerate(antennas):
+        cfg = replace(config, epc_hex=tag_epc_hex(config.epc_hex, k))
+        if spread is not None and spread.enabled:
+            cfg, rec = spread.draw(cfg, link, rng=trial_rng(seed, *key, k, 0))
+            off = orientation_offsets_rad(rec)
+            a = replace(a, orientation=tuple(o + d for o, d in zip(a.orientation, off)))
+            if records is not None:
+                records.append(rec)
+        tags.append(PassiveTag(cfg, a, rng=trial_rng(seed, *key, k)))
+    return tags
 
 
 def tag_antenna(position_m, azimuth_rad: float) -> Antenna:
@@ -217,17 +238,46 @@ INVENTORY_FIELDS = {
 }
 
 
+TAG_FIELDS = {
+    "population": ("1", "number of tags N"),
+    "run": ("1", "inventory run"),
+    "tag": ("1", "tag index (the EPC's number - 1)"),
+    "x_m": ("m", "tag antenna position x"),
+    "y_m": ("m", "tag antenna position y"),
+    "z_m": ("m", "tag antenna position z"),
+    "yaw_rad": ("rad", "tag antenna yaw (orientation offset included)"),
+    "roll_rad": ("rad", "tag antenna roll (orientation offset included)"),
+    **SPREAD_FIELDS,
+}
+
+
+def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: float) -> None:
+    """Append one row per tag (geometry and its spread record; zeros and the nominal T1
+    ``t1_nom_s`` without spread)."""
+    zero = dict.fromkeys(SPREAD_FIELDS, 0.0)
+    for k, t in enumerate(tags):
+        rec = recs[k] if recs else dict(zero, t1_s=t1_nom_s)
+        pos, ori = t.antenna.position_m, t.antenna.orientation
+        for key, v in dict(population=n, run=r, tag=k, x_m=float(pos[0]), y_m=float(pos[1]), z_m=float(pos[2]),
+                           yaw_rad=ori[0], roll_rad=ori[2], **rec).items():
+            rows[key].append(v)
+
+
 def run(config: Config, *, seed: int) -> Dataset:
     slots: dict[str, list] = {k: [] for k in ("population", "run", *SLOT_FIELDS)}
     reads: dict[str, list] = {k: [] for k in ("population", "run", *READ_FIELDS)}
     inv: dict[str, list] = {k: [] for k in INVENTORY_FIELDS}
+    tag_rows: dict[str, list] = {k: [] for k in TAG_FIELDS}
     room = config.room
     antennas = reader_antennas(room)
     for p, n in enumerate(config.populations):
         for r in track(range(config.runs), desc=f"inventories of {n} tags", unit="runs"):
             tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, p, r, 0))
-            tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3))
             reader = Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
+            recs: list = []
+            tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3), spread=config.spread,
+                             link=reader.link, records=recs)
+            _tag_rows(tag_rows, n, r, tags, recs, t1(reader.link).nom_s)
             air = EngineAir(reader, tags, Channel(room_scene(room)), rng=trial_rng(seed, p, r, 2))
             log = run_inventory(air, config.inventory)
             for k in SLOT_FIELDS:
@@ -255,6 +305,21 @@ def run(config: Config, *, seed: int) -> Dataset:
                  description="one row per EPC read (CRC ok): the reader's per-read report")
     ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()},
                  description="one row per inventory (population, run): tags read, slots, air time, efficiency")
+    ds.add_table("tags", {k: column(np.asarray(v), *TAG_FIELDS[k]) for k, v in tag_rows.items()},
+                 description="one row per tag of every inventory: position, antenna orientation and the tag's "
+                             "own spread (BLF error, T1, chip states; zeros / nominal T1 without spread)")
+    if config.capture_sweep.enabled:
+        cs = config.capture_sweep
+        rows, trials, accept = sweep.tables(cs, sweep.run_sweep(cs, seed=seed))
+        ds.add_table("capture_sweep", {k: column(np.asarray(v), *sweep.POINT_FIELDS[k]) for k, v in rows.items()},
+                     description="one row per point (profile, spread, power ratio) of the batched two-tag capture "
+                                 "sweep: P(capture) with its Clopper-Pearson interval, false ACKs")
+        ds.add_table("capture_trials", {k: column(np.asarray(v), *sweep.TRIAL_FIELDS[k]) for k, v in trials.items()},
+                     description="one row per collision of the capture sweep: what the reader decoded, its "
+                                 "acceptance statistic, the two tags' BLF errors and T1")
+        ds.add_table("acceptance", {k: column(np.asarray(v), *sweep.ACCEPT_FIELDS[k]) for k, v in accept.items()},
+                     description="RN16 acceptance threshold against false-ACK and missed-capture rates over the "
+                                 "collisions of the capture sweep (ratios pooled), per profile and spread")
     if config.capture.enabled:
         cap = capture_table(config, seed=seed)
         ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
@@ -293,8 +358,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     inv = read_table(dataset_path, "inventories")
     with h5py.File(dataset_path, "r") as f:
         has_capture = "capture" in f
+        has_sweep = "capture_sweep" in f
     pops = np.unique(inv["population"])
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    fig, axes = plt.subplots(2, 3, figsize=(16, 8))
+    _plot_sweep(axes[0, 2], axes[1, 2], dataset_path if has_sweep else None)
     a = axes[0, 0]
     bottom = np.zeros(pops.size)
     types = np.asarray(s["slot_type"]).astype(str)
@@ -338,7 +405,52 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         a.legend(fontsize=8, loc="lower right")
     a.set_xlabel("backscatter power ratio near/far at the reader [dB]")
     a.set_ylabel("capture probability")
-    a.set_title("two tags in one slot: capture", fontsize=10)
+    a.set_title("two tags in one slot, engine (lock-step tags): capture", fontsize=10)
     a.grid(True, alpha=0.3)
     fig.suptitle(f"Inventory with the Q algorithm at sample level ({cite('gen2')}, Annex D)")
+    fig.tight_layout()
     return [save_figure(fig, figure_path(dataset_path, out_dir, "summary"))]
+
+
+def _plot_sweep(a, b, path) -> None:
+    """P(capture) vs power ratio (Clopper-Pearson 95 %) and the acceptance trade-off."""
+    from rfsim.dataset import read_table
+
+    if path is None:
+        for ax in (a, b):
+            ax.text(0.5, 0.5, "capture sweep not run", ha="center", va="center", transform=ax.transAxes)
+        return
+    c = read_table(path, "capture_sweep")
+    acc = read_table(path, "acceptance")
+    prof = np.asarray(c["profile"]).astype(str)
+    code = np.asarray(c["line_code"]).astype(str)
+    for name in dict.fromkeys(prof):
+        for sp in (0, 1):
+            m = (prof == name) & (c["spread"] == sp)
+            if not m.any():
+                continue
+            x, p = c["ratio_db"][m], c["p_capture"][m]
+            a.errorbar(x, p, yerr=np.vstack([p - c["ci_lo"][m], c["ci_hi"][m] - p]), marker="o" if sp else "s",
+                       ms=3, capsize=2, ls="-" if sp else "--",
+                       label=f"{code[m][0]} ({name}), {'own BLF/T1' if sp else 'lock-step'}")
+    n = int(c["trials"].min()) if len(c["trials"]) else 0
+    gamma = float(c["threshold_db"][0]) if len(c["threshold_db"]) else math.nan
+    a.set_xlabel("modulated power ratio of the two replies at the reader [dB] (as simulated)")
+    a.set_ylabel("P(capture): RN16 accepted and one tag's")
+    a.set_title(f"capture sweep, {n} collisions per point, acceptance at {gamma:.1f} dB", fontsize=10)
+    a.set_ylim(-0.03, 1.03)
+    a.grid(True, alpha=0.3)
+    a.legend(fontsize=7, loc="lower right")
+    aprof = np.asarray(acc["profile"]).astype(str)
+    for name in dict.fromkeys(aprof):
+        for sp in (0, 1):
+            m = (aprof == name) & (acc["spread"] == sp)
+            if m.any():
+                b.plot(acc["false_ack_rate"][m], acc["missed_capture_rate"][m], marker=".", ls="-" if sp else "--",
+                       label=f"{name}, {'own BLF/T1' if sp else 'lock-step'}")
+    b.set_xscale("symlog", linthresh=1e-3)
+    b.set_xlabel("false-ACK rate per collided slot (threshold swept)")
+    b.set_ylabel("missed-capture rate")
+    b.set_title("RN16 acceptance: threshold on Eb/(N0+I), 0-20 dB", fontsize=10)
+    b.grid(True, alpha=0.3)
+    b.legend(fontsize=7)

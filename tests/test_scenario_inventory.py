@@ -11,7 +11,8 @@ from scenarios import inventory as scen
 
 def _small(**kw):
     base = dict(populations=(3, 6), runs=1,
-                capture=scen.CaptureConfig(trials=3, ratios_db=(0.0, 4.0)))
+                capture=scen.CaptureConfig(trials=3, ratios_db=(0.0, 4.0)),
+                capture_sweep=scen.sweep.CaptureSweepConfig(trials=10, ratios_db=(0.0, 6.0)))
     base.update(kw)
     return scen.Config(**base)
 

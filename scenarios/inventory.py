@@ -25,11 +25,28 @@ Tables:
   bit where the tags differ is decided by the sign of |h1|² − |h2|²: capture needs only a
   power ratio that the noise cannot mask, and fails when h1 + h2 ≈ 0 (the preamble
   cancels). The experiment therefore runs at a reduced SNR (``capture.noise_figure_db``).
+* ``tags``: one row per tag of every inventory: position, orientation and the tag's own
+  spread (``spread``, :mod:`devices.tag_spread`: BLF error within FrT, T1 within
+  [T1min, T1max], chip states, antenna yaw/roll; off by default, then zeros and the nominal
+  T1). Tags with spread need ``reader.blf_search = "preamble"``.
+* ``capture_sweep``, ``capture_trials``, ``acceptance`` (``capture_sweep``,
+  :mod:`scenarios._capture_sweep`): P(capture) against the modulated power ratio of two
+  colliding RN16 replies, 0–15 dB, FM0 (``fm0-40k``) and Miller-4 (``miller4-320k``), with
+  and without the tags' spread, ``capture_sweep.trials`` collisions per point with the
+  Clopper–Pearson 95 % interval; the reader's BLF search and RN16 acceptance
+  (:func:`devices.reader.search_decode`, :func:`devices.reader.rn16_threshold_db`) on a
+  stacked array of RN16 windows; the false-ACK and missed-capture rates against the
+  acceptance threshold on the same collisions.
+* ``capture_inventories`` (``capture_inventory.enabled``, off by default): a population with
+  spread in a 4 m × 3 m room (every tag powered) inventoried at sample level with capture,
+  at sample level with capture switched off (:class:`NoCaptureAir`) and at protocol level:
+  slots and air time to read every tag, efficiency, captures, false ACKs.
 
 Randomness: population p, run r: tag positions ``trial_rng(seed, p, r, 0)``, reader hop table
 ``trial_rng(seed, p, r, 1)``, channel and receiver noise ``trial_rng(seed, p, r, 2)``, tag k's
 own stream ``trial_rng(seed, p, r, 3, k)``; capture point i, trial j: ``trial_rng(seed,
-10**6 + i, j, ...)``.
+10**6 + i, j, ...)``; tag k's spread ``trial_rng(seed, p, r, 3, k, 0)``; capture-sweep point p
+``trial_rng(seed, 2·10**6 + p)``; capture inventories ``trial_rng(seed, 3·10**6 + p, r, ...)``.
 """
 
 from __future__ import annotations
@@ -47,6 +64,7 @@ from devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig, orientation_offse
 from scenarios import _capture_sweep as sweep
 from rfsim.config import check_fields, param
 from rfsim.dataset import Dataset, column
+from rfsim.errors import ConfigError
 from rfsim.gen2.link import t1
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
 from rfsim.progress import track
@@ -90,6 +108,19 @@ class CaptureConfig:
 
 
 @dataclass(frozen=True)
+class CaptureInventoryConfig:
+    enabled: bool = param(False, doc="inventories with capture on/off at sample level beside the protocol level")
+    populations: tuple[int, ...] = param((10, 50, 100, 200), lo=1, hi=2000, doc="numbers of tags N")
+    runs: int = param(1, lo=1, hi=1000, doc="inventories per population and mode")
+    room: RoomConfig = param(RoomConfig(length_m=4.0, width_m=3.0),
+                             doc="room of these inventories (4 m × 3 m: every tag powered, so 'slots to read all' "
+                                 "exists)")
+
+    def __post_init__(self):
+        check_fields(self, "capture_inventory")
+
+
+@dataclass(frozen=True)
 class Config:
     room: RoomConfig = param(RoomConfig(), doc="room and reader placement")
     reader: ReaderConfig = param(ReaderConfig(), doc="reader")
@@ -101,6 +132,8 @@ class Config:
     spread: TagSpreadConfig = param(TagSpreadConfig(), doc="tag-to-tag spread of the populations (off: identical tags)")
     capture_sweep: sweep.CaptureSweepConfig = param(sweep.CaptureSweepConfig(),
                                                     doc="batched two-tag capture sweep and RN16 acceptance")
+    capture_inventory: CaptureInventoryConfig = param(CaptureInventoryConfig(),
+                                                      doc="inventories with capture on and off (tags with spread)")
 
 
 # ----------------------------------------------------------------------------- building blocks
@@ -225,6 +258,78 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
 # ----------------------------------------------------------------------------- run
 
 
+class NoCaptureAir:
+    """A sample-level air interface whose reader never decodes a slot in which two or more
+    tags replied (ground truth): capture switched off, the protocol level's collision rule
+    (:class:`rfsim.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
+    detected, not decoded, so the reader does not ACK and counts a collision."""
+
+    def __init__(self, air):
+        self.air, self.link = air, air.link
+
+    def exchange(self, cmd, **kw):
+        from dataclasses import replace
+
+        ex = self.air.exchange(cmd, **kw)
+        if len(ex.replied) >= 2 and ex.detected:
+            return replace(ex, success=False, bits=None, failure_reason="collision")
+        return ex
+
+
+CAPTURE_INVENTORY_FIELDS = {
+    "population": ("1", "number of tags N"),
+    "run": ("1", "inventory run"),
+    "mode": ("", "capture (sample level, tags with spread, RN16 acceptance), no-capture (the same, a slot with "
+                 ">= 2 replies never decoded) or protocol (state machines only, no capture)"),
+    "tags_read": ("1", "distinct tags read"),
+    "slots": ("1", "slots of the whole inventory"),
+    "slots_to_all": ("1", "slots until every tag was read (-1 if not all)"),
+    "air_time_to_all_s": ("s", "air time until every tag was read (NaN if not all)"),
+    "air_time_s": ("s", "air time of the whole inventory"),
+    "efficiency": ("1", "successful slots (reads, captures included) / slots"),
+    "captures": ("1", "slots read although >= 2 tags replied"),
+    "false_acks": ("1", "ACKs no tag answered (the RN16 accepted was no tag's)"),
+}
+
+
+def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
+    """For each N and run: the same population (positions, spread, tag streams) inventoried
+    three ways (:data:`CAPTURE_INVENTORY_FIELDS` ``mode``). Streams: population p, run r:
+    ``trial_rng(seed, 3_000_000 + p, r, ...)`` as the main inventories."""
+    from dataclasses import replace
+
+    from rfsim.inventory import ProtocolAir
+
+    ci, cs = config.capture_inventory, config.capture_sweep
+    rows: dict[str, list] = {k: [] for k in CAPTURE_INVENTORY_FIELDS}
+    reader_cfg = replace(config.reader, blf_search="preamble", rn16_false_accept=cs.rn16_false_accept)
+    room = ci.room
+    antennas = reader_antennas(room)
+    plan = [(p, n, r, mode) for p, n in enumerate(ci.populations) for r in range(ci.runs)
+            for mode in ("capture", "no-capture", "protocol")]
+    for p, n, r, mode in track(plan, desc="inventories with capture on/off", unit="inventories"):
+        key = (3_000_000 + p, r)
+        reader = Reader(reader_cfg, antennas, rng=trial_rng(seed, *key, 1))
+        tags = make_tags(config.tag, random_tag_antennas(room, n, rng=trial_rng(seed, *key, 0)), seed=seed,
+                         key=key + (3,), spread=cs.spread, link=reader.link)
+        if mode == "protocol":
+            air = ProtocolAir(reader.link, tags)
+        else:
+            air = EngineAir(reader, tags, Channel(room_scene(room)), rng=trial_rng(seed, *key, 2),
+                            keep_exchanges=True)
+        log = run_inventory(NoCaptureAir(air) if mode == "no-capture" else air, config.inventory)
+        done = log.completion(n)
+        types = log.slots["slot_type"]
+        acks = [e for e in (getattr(air, "exchanges", None) or []) if e.command == "ACK"]
+        for k, v in dict(population=n, run=r, mode=mode, tags_read=len(log.tags_read()), slots=log.n_slots,
+                         slots_to_all=done[0] if done else -1, air_time_to_all_s=done[1] if done else math.nan,
+                         air_time_s=log.air_time_s,
+                         efficiency=sum(t in ("success", "capture") for t in types) / max(log.n_slots, 1),
+                         captures=types.count("capture"), false_acks=sum(1 for e in acks if not e.replied)).items():
+            rows[k].append(v)
+    return rows
+
+
 INVENTORY_FIELDS = {
     "population": ("1", "number of tags N"),
     "run": ("1", "index of the inventory run for this population (new tag positions and draws)"),
@@ -264,6 +369,9 @@ def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: floa
 
 
 def run(config: Config, *, seed: int) -> Dataset:
+    if config.spread.enabled and config.reader.blf_search != "preamble":
+        raise ConfigError("spread.enabled", True, "with reader.blf_search = 'preamble' (tags with their own BLF "
+                                                  "need a reader that estimates it)")
     slots: dict[str, list] = {k: [] for k in ("population", "run", *SLOT_FIELDS)}
     reads: dict[str, list] = {k: [] for k in ("population", "run", *READ_FIELDS)}
     inv: dict[str, list] = {k: [] for k in INVENTORY_FIELDS}
@@ -320,6 +428,12 @@ def run(config: Config, *, seed: int) -> Dataset:
         ds.add_table("acceptance", {k: column(np.asarray(v), *sweep.ACCEPT_FIELDS[k]) for k, v in accept.items()},
                      description="RN16 acceptance threshold against false-ACK and missed-capture rates over the "
                                  "collisions of the capture sweep (ratios pooled), per profile and spread")
+    if config.capture_inventory.enabled:
+        ci = capture_inventories(config, seed=seed)
+        ds.add_table("capture_inventories", {k: column(np.asarray(v), *CAPTURE_INVENTORY_FIELDS[k])
+                                             for k, v in ci.items()},
+                     description="one row per inventory of a population with spread, with capture on and off at "
+                                 "sample level and at protocol level: slots and air time to read every tag")
     if config.capture.enabled:
         cap = capture_table(config, seed=seed)
         ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
@@ -435,9 +549,9 @@ def _plot_sweep(a, b, path) -> None:
                        label=f"{code[m][0]} ({name}), {'own BLF/T1' if sp else 'lock-step'}")
     n = int(c["trials"].min()) if len(c["trials"]) else 0
     gamma = float(c["threshold_db"][0]) if len(c["threshold_db"]) else math.nan
-    a.set_xlabel("modulated power ratio of the two replies at the reader [dB] (as simulated)")
+    a.set_xlabel("power ratio of the two replies at the reader [dB]")
     a.set_ylabel("P(capture): RN16 accepted and one tag's")
-    a.set_title(f"capture sweep, {n} collisions per point, acceptance at {gamma:.1f} dB", fontsize=10)
+    a.set_title(f"capture sweep: {n} collisions/point, RN16 accepted at {gamma:.1f} dB", fontsize=10)
     a.set_ylim(-0.03, 1.03)
     a.grid(True, alpha=0.3)
     a.legend(fontsize=7, loc="lower right")

@@ -65,13 +65,13 @@ def test_default_spread_config_changes_nothing():
 
 @pytest.mark.parametrize("name", ["miller4-320k", "fm0-40k", "fm0-640k"])
 def test_spread_draws_inside_the_gen2_limits(name):
-    """2000 tags: |BLF error| ≤ FrT, T1 inside [T1min, T1max], |Γ_B| ≤ 1; the normal's σ is
+    """800 tags: |BLF error| ≤ FrT, T1 inside [T1min, T1max], |Γ_B| ≤ 1; the normal's σ is
     FrT/3 (the truncation at 3σ removes 0.27 %, σ² of the truncated normal is 0.9733·σ²);
     T1 uniform: its mean is the window centre within 4 standard errors."""
     link = PROFILES[name]
     sp = TagSpreadConfig(enabled=True)
     tr = t1(link)
-    recs = [sp.draw(TagConfig(), link, rng=trial_rng(11, k, 0))[1] for k in range(2000)]
+    recs = [sp.draw(TagConfig(), link, rng=trial_rng(11, k, 0))[1] for k in range(800)]
     e = np.array([r["blf_error_percent"] for r in recs]) / 100
     t1s = np.array([r["t1_s"] for r in recs])
     assert np.all(np.abs(e) <= link.frt)

@@ -286,6 +286,9 @@ CAPTURE_INVENTORY_FIELDS = {
     "slots_to_all": ("1", "slots until every tag was read (-1 if not all)"),
     "air_time_to_all_s": ("s", "air time until every tag was read (NaN if not all)"),
     "air_time_s": ("s", "air time of the whole inventory"),
+    "slots_to_read": ("1", "slots until the last tag this inventory read was read (tags the room leaves "
+                           "unpowered are never read at sample level)"),
+    "air_time_to_read_s": ("s", "air time until the last tag this inventory read was read"),
     "efficiency": ("1", "successful slots (reads, captures included) / slots"),
     "captures": ("1", "slots read although >= 2 tags replied"),
     "false_acks": ("1", "ACKs no tag answered (the RN16 accepted was no tag's)"),
@@ -319,11 +322,14 @@ def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
                             keep_exchanges=True)
         log = run_inventory(NoCaptureAir(air) if mode == "no-capture" else air, config.inventory)
         done = log.completion(n)
+        n_read = len(log.tags_read())
+        last = log.completion(n_read) if n_read else None
         types = log.slots["slot_type"]
         acks = [e for e in (getattr(air, "exchanges", None) or []) if e.command == "ACK"]
-        for k, v in dict(population=n, run=r, mode=mode, tags_read=len(log.tags_read()), slots=log.n_slots,
+        for k, v in dict(population=n, run=r, mode=mode, tags_read=n_read, slots=log.n_slots,
                          slots_to_all=done[0] if done else -1, air_time_to_all_s=done[1] if done else math.nan,
-                         air_time_s=log.air_time_s,
+                         air_time_s=log.air_time_s, slots_to_read=last[0] if last else 0,
+                         air_time_to_read_s=last[1] if last else 0.0,
                          efficiency=sum(t in ("success", "capture") for t in types) / max(log.n_slots, 1),
                          captures=types.count("capture"), false_acks=sum(1 for e in acks if not e.replied)).items():
             rows[k].append(v)

@@ -101,3 +101,17 @@ def test_tags_table_records_each_tags_spread(tmp_path):
     assert np.all((tags["t1_s"] > t1(lk).min_s) & (tags["t1_s"] < t1(lk).max_s))
     # the searching reader reads them (each read tag is one of the population)
     assert len(reads["tag"]) > 0 and np.all(reads["tag"] >= 0)
+
+
+def test_capture_inventories_on_off_and_protocol():
+    """The same 8 tags with spread, three ways: only the sample level with capture counts
+    captures; with capture off no slot with two replies is ever read (its efficiency cannot
+    exceed the one-reply slots); the protocol level reads every tag."""
+    cfg = _small(capture_inventory=scen.CaptureInventoryConfig(enabled=True, populations=(8,)))
+    rows = scen.capture_inventories(cfg, seed=2)
+    assert rows["mode"] == ["capture", "no-capture", "protocol"]
+    cap, off, proto = ({k: v[i] for k, v in rows.items()} for i in range(3))
+    assert off["captures"] == 0 and proto["captures"] == 0 and proto["false_acks"] == 0
+    assert proto["tags_read"] == 8 and proto["slots_to_all"] > 0
+    assert cap["tags_read"] >= off["tags_read"] - 1
+    assert 0 < cap["slots_to_read"] <= cap["slots"] and cap["air_time_to_read_s"] <= cap["air_time_s"]

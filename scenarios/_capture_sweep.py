@@ -189,7 +189,7 @@ POINT_FIELDS = {
     "line_code": ("", "FM0 or Miller-M"),
     "spread": ("1", "tags with their own BLF error and T1 (1) or identical in lock-step (0)"),
     "ratio_db": ("dB", "modulated power ratio of the two replies at the reader, as simulated"),
-    "trials": ("1", "collisions simulated"),
+    "trials": ("1", "number of collided slots simulated at this point"),
     "p_capture": ("1", "P(capture): RN16 accepted and exactly one tag's (the reader ACKs a tag that sent it)"),
     "ci_lo": ("1", "Clopper-Pearson 95 % lower bound of p_capture"),
     "ci_hi": ("1", "Clopper-Pearson 95 % upper bound of p_capture"),
@@ -203,7 +203,7 @@ POINT_FIELDS = {
 TRIAL_FIELDS = {
     "point": ("1", "row of the capture_sweep table"),
     "decoded": ("1", "0: the stronger tag's RN16 decoded, 1: the weaker's, -1: neither"),
-    "detected": ("1", "preamble detected"),
+    "detected": ("1", "the reader's preamble correlation passed its false-alarm threshold"),
     "ebn0_db": ("dB", "acceptance statistic: Eb/(N0+I) of the decoded RN16 in the decision domain"),
     "blf_error_1": ("1", "BLF error of the stronger tag (fraction)"),
     "blf_error_2": ("1", "BLF error of the weaker tag (fraction)"),
@@ -212,7 +212,7 @@ TRIAL_FIELDS = {
 }
 
 ACCEPT_FIELDS = {
-    "profile": ("", "link profile"),
+    "profile": ("", "link profile name (rfsim.gen2.link.PROFILES) of the pooled collisions"),
     "spread": ("1", "tags with spread (1) or in lock-step (0)"),
     "threshold_db": ("dB", "acceptance threshold on Eb/(N0+I)"),
     "false_ack_rate": ("1", "accepted with bits no tag sent, per collided slot (all ratios pooled)"),

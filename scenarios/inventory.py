@@ -278,7 +278,7 @@ class NoCaptureAir:
 
 CAPTURE_INVENTORY_FIELDS = {
     "population": ("1", "number of tags N"),
-    "run": ("1", "inventory run"),
+    "run": ("1", "index of the inventory run for this population and mode"),
     "mode": ("", "capture (sample level, tags with spread, RN16 acceptance), no-capture (the same, a slot with "
                  ">= 2 replies never decoded) or protocol (state machines only, no capture)"),
     "tags_read": ("1", "distinct tags read"),
@@ -351,7 +351,7 @@ INVENTORY_FIELDS = {
 
 TAG_FIELDS = {
     "population": ("1", "number of tags N"),
-    "run": ("1", "inventory run"),
+    "run": ("1", "index of the inventory run for this population"),
     "tag": ("1", "tag index (the EPC's number - 1)"),
     "x_m": ("m", "tag antenna position x"),
     "y_m": ("m", "tag antenna position y"),

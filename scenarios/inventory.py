@@ -40,7 +40,11 @@ Tables:
 * ``capture_inventories`` (``capture_inventory.enabled``, off by default): a population with
   spread in a 4 m × 3 m room (every tag powered) inventoried at sample level with capture,
   at sample level with capture switched off (:class:`NoCaptureAir`) and at protocol level:
-  slots and air time to read every tag, efficiency, captures, false ACKs.
+  slots and air time to read every tag, efficiency, captures, false ACKs. Measured (seed 1,
+  3 runs each, N = 10/50/100/200): slots until the last tag read 19/69/145/287 with capture,
+  23/131/287/583 without, 23/144/295/590 at protocol level; air time 29/138/280/559 ms with
+  capture against 31/161/333/670 ms without; slot efficiency 0.42–0.68 with capture against
+  0.34–0.36 (1–4 of 200 tags stay unpowered at sample level in that room and are never read).
 
 Randomness: population p, run r: tag positions ``trial_rng(seed, p, r, 0)``, reader hop table
 ``trial_rng(seed, p, r, 1)``, channel and receiver noise ``trial_rng(seed, p, r, 2)``, tag k's

@@ -64,12 +64,13 @@ from rfsim.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.link import LinkProfile, profile, t1
+from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
 from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
 from rfsim.records import ReportConfig
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
+from devices import _blf_search_kernels as _bk
 from devices import _reader_kernels as _rk
 
 #: FCC maximum dwell time per channel [s].
@@ -83,7 +84,7 @@ SSB_HILBERT_HALF_TARI = 4.0
 #: Number of blocks of the reply used for the Doppler fit.
 DOPPLER_BLOCKS = 8
 
-FAILURES = ("", "preamble not found", "crc error")
+FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 #: Number of modulated command segments a Reader keeps for reuse.
 TX_CACHE_SIZE = 16
 
@@ -118,6 +119,11 @@ class ReaderConfig:
                                            doc="preamble detection false-alarm probability per reply window")
     report: ReportConfig = param(ReportConfig(), doc="what the reader reports of a read: RSSI step, sensitivity "
                                                      "floor, phase code, per-port phase offsets (rfsim.records)")
+    blf_search: Literal["off", "preamble"] = param(
+        "off", doc="'preamble': estimate each reply's BLF within FrT (tags with their own BLF); 'off': nominal BLF")
+    rn16_false_accept: float = param(0.0, lo=0.0, hi=0.5, hi_open=True,
+                                     doc="RN16 acceptance: stated probability that an accepted RN16 is wrong, sets "
+                                         "the Eb/N0 threshold (0: no gate, every detected RN16 is ACKed)")
 
     def __post_init__(self):
         try:  # checked when the config is loaded, so the message names this key
@@ -127,6 +133,9 @@ class ReaderConfig:
         # The carrier plan is checked when the config is made, so a bad carrier stops a run
         # before anything is simulated (one-line ConfigError on reader.region / reader.channels_hz).
         frequency_plan(self.region, self.channels_hz)
+        if self.rn16_false_accept > 0 and self.blf_search != "preamble":
+            raise ConfigError("reader.rn16_false_accept", self.rn16_false_accept,
+                              "0 unless reader.blf_search = 'preamble' (its decoder computes the statistic)")
 
 
 @dataclass(frozen=True)
@@ -178,6 +187,9 @@ class ReadResult:
     ebn0_db : snr_db + 10·log10(fs/bit rate), independent of fs
     start_s : absolute time of the detected reply start [s]
     corr : normalised preamble correlation (0…1) at the detected start
+    blf_hz : the BLF the reply was decoded at [Hz] (NaN: the nominal BLF, ``blf_search`` off)
+    decision_ebn0_db : the acceptance statistic, Eb/(N0 + I) of the decoded reply against its
+        residual (:func:`search_decode`; NaN with ``blf_search`` off)
     """
 
     success: bool
@@ -190,6 +202,8 @@ class ReadResult:
     ebn0_db: float = math.nan
     start_s: float = math.nan
     corr: float = math.nan
+    blf_hz: float = math.nan
+    decision_ebn0_db: float = math.nan
 
 
 def hilbert_fir(half_length: int) -> np.ndarray:
@@ -251,6 +265,9 @@ class Reader:
         self._cmd_cache_link = self.link
         #: (config, fs, noise power, leakage gain): derived from the frozen config
         self._derived: tuple = (None, None, 0.0, 0j)
+        #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),
+        #: used for the EPC reply that follows; cleared by the next reply decoded
+        self._rn16_blf_hz: float | None = None
 
     # ------------------------------------------------------------------ plan, antennas
 
@@ -419,6 +436,16 @@ class Reader:
         return preamble_threshold(self.preamble_samples(blf_hz), n_lags,
                                   self.config.false_alarm_probability)
 
+    def listen_window_s(self, reply_bits: int) -> float:
+        """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
+        :func:`rfsim.gen2.link.reply_window_s` (T1max + reply + 3 Tpri at the nominal BLF);
+        with ``blf_search`` the reply at the slowest BLF of the tolerance, BLF·(1 − FrT)."""
+        if self.config.blf_search == "off":
+            return reply_window_s(self.link, int(reply_bits))
+        lk = self.link
+        return (t1(lk).max_s + lk.reply_duration_s(int(reply_bits)) / (1.0 - lk.frt)
+                + REPLY_WINDOW_TAIL_TPRI * lk.tpri_s)
+
     def reply_search_window_s(self) -> tuple[float, float]:
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
         return _t1_window(self.link)
@@ -436,10 +463,13 @@ class Reader:
         expect_crc : check the last 16 bits as CRC-16 over the reply
         cmd_end_s : end of the command [s]; the reply start is searched in
             [cmd_end + T1min, cmd_end + T1max] (±1 sample). ``None``: anywhere in ``rx``.
-        blf_hz : the tag's actual BLF [Hz]; default the profile's nominal BLF. The receiver
-            does not estimate the BLF: decoding needs the BLF to about 1/(4·elements of the
-            reply) (≈ 0.02 % for a Miller-4 EPC reply), far finer than the tag tolerance FrT,
-            so a tag with a clock error must be read with its BLF given here.
+        blf_hz : the tag's actual BLF [Hz]; default the profile's nominal BLF. With
+            ``blf_search = "off"`` the receiver does not estimate the BLF: decoding needs the
+            BLF to about 1/(4·elements of the reply) (≈ 0.02 % for a Miller-4 EPC reply), far
+            finer than the tag tolerance FrT, so a tag with a BLF error must be read with its
+            BLF given here. With ``blf_search = "preamble"`` and no ``blf_hz`` the receiver
+            estimates it within the FrT of the link (:meth:`_receive_searched`,
+            :func:`search_decode`), as a real reader must for tags with their own BLF.
         carrier : the reader's own transmitted baseband during the reply window (the CW after
             the command, :attr:`TxSegment.samples` ``[-1]``); the phase is referred to it,
             phase = (−arg(h·|carrier|/carrier)) mod 2π. A PR-ASK command ends with either
@@ -494,6 +524,13 @@ class Reader:
             t1min, t1max = self.reply_search_window_s()
             lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
             hi = min(rx.size - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
+        if self.config.blf_search == "preamble" and blf_hz is None:
+            n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
+            hi = min(hi, rx.size - n_slow)
+            if hi < lo or pre_n < 3:
+                return ReadResult(False, None, "preamble not found")
+            return self._receive_searched(rx - (rx[:lo].mean() if lo >= 8 else 0.0), lo, hi, float(t0_s), n_bits,
+                                          expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
         r = rx - (rx[:lo].mean() if lo >= 8 else 0.0)
@@ -523,6 +560,59 @@ class Reader:
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                           start_s=start_s, corr=det.corr, **meas)
 
+    def _receive_searched(self, r: np.ndarray, lo: int, hi: int, t0_s: float, n_bits: int, expect_crc: bool,
+                          carrier) -> ReadResult:
+        """:meth:`receive` with ``blf_search = "preamble"``: BLF, start and bits from
+        :func:`search_decode` (detection: its coarse correlation against
+        :meth:`detection_threshold` over every BLF hypothesis and lag), then (h, c) from the
+        known levels and the measurements as in steps 3 and 5 at the decoded BLF; an RN16 is
+        accepted only when its decision-domain Eb/(N0 + I) reaches
+        :func:`rn16_threshold_db` of ``rn16_false_accept`` (else "rn16 rejected", bits kept).
+        The BLF of an accepted RN16 is remembered: the reply with a CRC that follows (the EPC
+        of the ACKed tag) is searched at that BLF, within 1/(RN16 elements), over all its bits
+        (the PC of an EPC reply is mostly 0s, a square wave at any BLF over its first bits)."""
+        lk, fs = self.link, self.fs_hz
+        hint, self._rn16_blf_hz = self._rn16_blf_hz, None
+        if expect_crc and hint is not None:  # the reply of the tag whose RN16 was ACKed: its BLF is known
+            grid = np.array([hint])
+            n_el16 = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m + 2 * lk.m * 17
+            out = search_decode(r, m=lk.m, trext=lk.trext, n_bits=n_bits, blfs_hz=grid, fs_hz=fs, lo=lo, hi=hi,
+                                known_within=1.0 / n_el16)
+        else:
+            grid = self._blf_grid()
+            out = search_decode(r, m=lk.m, trext=lk.trext, n_bits=n_bits, blfs_hz=grid, fs_hz=fs, lo=lo, hi=hi)
+        start, blf, corr = float(out.start[0]), float(out.blf_hz[0]), float(out.corr[0])
+        start_s = t0_s + start / fs
+        if corr < preamble_threshold(self.preamble_samples(), (hi - lo + 1) * grid.size,
+                                     self.config.false_alarm_probability):
+            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
+        bits = out.bits[0].astype(np.uint8)
+        full = self._reference(bits, start, r.size, blf)
+        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m
+        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, pre_n_el))
+        meas = self._measure(r - c, full, blf)
+        if carrier is not None and complex(carrier) != 0:
+            meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+        stat = float(out.decision_ebn0_db[0])
+        if expect_crc:
+            ok = crc16_ok(bits)
+            reason = "" if ok else "crc error"
+        else:
+            p = self.config.rn16_false_accept
+            ok = p == 0 or stat >= rn16_threshold_db(p)
+            reason = "" if ok else "rn16 rejected"
+            if ok:  # an ACK follows: the reply it elicits comes from the tag measured here
+                self._rn16_blf_hz = blf
+        return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
+                          decision_ebn0_db=stat, **meas)
+
+    def _blf_grid(self) -> np.ndarray:
+        """:func:`blf_grid_hz` of the current link (kept while the link is the same object)."""
+        hit = getattr(self, "_grid", None)
+        if hit is None or hit[0] is not self.link:
+            hit = self._grid = (self.link, blf_grid_hz(self.link))
+        return hit[1]
+
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
                    dummy: bool = True) -> np.ndarray:
         """The ±1 reply waveform of ``bits`` starting at sample ``start`` (0 elsewhere), (n,)."""
@@ -541,6 +631,263 @@ class Reader:
                     phase_rad=float(wrap_phase_rad(-np.angle(h))),
                     doppler_hz=slope / (2.0 * math.pi),
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
+
+
+# ----------------------------------------------------------------------------- BLF search
+
+
+#: Fine BLF search: half-width in coarse steps and BLFs per side of each pass; bits of its
+#: first phase (a longer reply is searched again over all its bits).
+FINE_SPAN_STEPS = 2
+FINE_PER_SIDE = 4
+FINE_FIRST_BITS = 16
+
+
+@dataclass(frozen=True)
+class SearchDecode:
+    """Result of :func:`search_decode` for B windows (all arrays of length B).
+
+    bits : (B, n_bits) uint8; blf_hz : BLF decoded at [Hz]; start : reply start [samples into
+    the window]; corr : the coarse normalised preamble correlation; gain : h (complex);
+    sigma2 : residual power per sample over the reply's steady samples; ebn0_db :
+    10·log10(|h|²·(2M/ρ)/σ²), ρ = 2·BLF/fs (samples per bit 2M/ρ); sigma2_bit : σ_eff², the
+    disturbance that reaches the decisions: per data half-bit j the matched-filter output
+    of the projection y = Re((r − c)·h*)/|h| on the decided levels minus |h|·N_j (N_j steady
+    samples), σ_eff² = 2·Σδ_j²/ΣN_j (σ² for white noise; a second tag's in-band reply is not
+    reduced by the matched filter's gain); decision_ebn0_db : the acceptance statistic,
+    Eb/(N0 + I) in the decision domain = 10·log10(|h|²·(2M/ρ)/σ_eff²).
+    """
+
+    bits: np.ndarray
+    blf_hz: np.ndarray
+    start: np.ndarray
+    corr: np.ndarray
+    gain: np.ndarray
+    sigma2: np.ndarray
+    ebn0_db: np.ndarray
+    sigma2_bit: np.ndarray
+    decision_ebn0_db: np.ndarray
+
+
+def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | None = None) -> np.ndarray:
+    """Coarse BLF hypotheses [Hz]: a geometric grid over BLF·(1 ± FrT) of ``link`` (or
+    [lo, hi]) with relative step 1/(2·preamble elements), the correlation peak's half-width
+    (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
+    lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
+    n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
+    step = 1.0 / (2.0 * n_pre_el)
+    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
+    return np.geomspace(lo, hi, max(n, 2))
+
+
+def _search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
+    """Preamble elements and levels, coarse templates and fine-search parameters."""
+    pre_levels, cur, prev = preamble_levels(m=m, trext=trext)
+    pre_el = np.repeat(pre_levels, m).astype(np.float64)
+    if m > 1:
+        pre_el[1::2] *= -1.0
+    ratios = 2.0 * np.asarray(blfs_hz, dtype=np.float64) / fs_hz
+    lens = np.floor(pre_el.size / ratios).astype(np.int64)
+    tpl0 = np.zeros((ratios.size, int(lens.max())))
+    for k, (ratio, n) in enumerate(zip(ratios, lens)):
+        t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz, fs_hz=fs_hz,
+                           dummy=False, n_samples=int(n))
+        tpl0[k, :n] = t - t.mean()
+    step_c = 1.0 / (2.0 * pre_el.size)
+    n_el = pre_el.size + 2 * m * (int(n_bits) + 1)
+    n_el1 = pre_el.size + 2 * m * (min(int(n_bits), FINE_FIRST_BITS) + 1)
+    return (pre_levels.astype(np.int8), int(cur), int(prev), pre_el, ratios, tpl0, lens,
+            FINE_SPAN_STEPS * step_c, 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
+
+
+def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int, hi: int,
+                  threads: int = 1, known_within: float | None = None) -> SearchDecode:
+    """Estimate the BLF of, and decode, one reply in each window of ``rs`` (numba kernel).
+
+    Parameters
+    ----------
+    rs : (B, n) complex, windows ``h·s(t) + c + noise`` [√W] (any constant offset c)
+    m, trext, n_bits : line code and data bits of the reply (without the dummy 1)
+    blfs_hz : coarse BLF hypotheses (:func:`blf_grid_hz`)
+    fs_hz : sample rate [Hz]; lo, hi : the reply start lags searched [samples]
+    threads : the windows are split into this many blocks decoded on as many threads (the
+        kernel releases the GIL and draws nothing at random: the result does not depend on it)
+    known_within : the BLF is known to this relative precision (``blfs_hz`` = the one known
+        BLF, e.g. measured on the RN16 of the tag an ACK addresses): the fine search starts
+        across ± that
+
+    Method (the reader with ``blf_search = "preamble"``; the capture decoder
+    :mod:`rfsim.gen2.replies` steps 2–3 do the same on recordings):
+
+    1. Coarse: the largest zero-mean normalised preamble correlation
+       |Σ r[l+i]·t_k[i]| / (‖t_k‖·‖r[l:l+L] − mean‖) over the BLF grid b_k and the lags l,
+       refined between lags by a parabola.
+    2. Fine: with the preamble's centre held, decode (preamble gain and offset, half-bit
+       matched filter, Viterbi) at 2·FINE_PER_SIDE + 1 BLFs across ±FINE_SPAN_STEPS coarse
+       steps; the one whose remodulated reply (rest level −1 around it) leaves the least
+       least-squares residual over the whole window wins; the span narrows to one step until the step is
+       ≤ 1/(4·reply elements) (decoding needs the BLF to about that) — first over the first
+       FINE_FIRST_BITS bits, then, for a longer reply, over twice as many bits at a time (all
+       at last) across ±4 final steps of the previous phase (a long reply misaligned by a
+       coarse step has a residual with many local minima).
+    3. Statistic: h and the residual σ² (noise plus whatever the fit does not explain, e.g. a
+       second tag) over the reply's steady samples; Eb/(N0 + I) = |h|²·(2M/ρ)/σ².
+    """
+    r = np.ascontiguousarray(rs, dtype=np.complex128)
+    if r.ndim == 1:
+        r = r[None, :]
+    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span, target1, target = _search_setup(m, trext, n_bits,
+                                                                                             blfs_hz, fs_hz)
+    first_bits = FINE_FIRST_BITS
+    if known_within is not None:
+        span = float(known_within)
+    b = r.shape[0]
+    bits = np.zeros((b, int(n_bits)), np.uint8)
+    ratio, start, corr, sigma2, sigma2_bit = (np.empty(b) for _ in range(5))
+    gain = np.empty(b, np.complex128)
+
+    def block(i0: int, i1: int) -> None:
+        _bk.search_decode_kernel(r[i0:i1], ratios, tpl0, lens, int(lo), int(hi), pre_el, pre_levels, np.int8(cur),
+                                 np.uint8(prev), int(m), int(n_bits), first_bits, span, FINE_PER_SIDE,
+                                 target1, target, bits[i0:i1],
+                                 ratio[i0:i1], start[i0:i1], corr[i0:i1], gain[i0:i1], sigma2[i0:i1],
+                                 sigma2_bit[i0:i1])
+
+    edges = np.linspace(0, b, max(1, min(int(threads), b)) + 1).astype(int)
+    if edges.size <= 2:
+        block(0, b)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(edges.size - 1) as pool:
+            list(pool.map(block, edges[:-1], edges[1:]))
+    return _search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz)
+
+
+def _search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz) -> SearchDecode:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e_bit = np.abs(gain) ** 2 * (2.0 * m / ratio)
+        ebn0 = 10.0 * np.log10(e_bit / sigma2)
+        ebn0_min = 10.0 * np.log10(e_bit / sigma2_bit)
+    return SearchDecode(bits, 0.5 * ratio * fs_hz, start, corr, gain, sigma2, ebn0, sigma2_bit, ebn0_min)
+
+
+def search_decode_reference(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int,
+                            hi: int) -> SearchDecode:
+    """Plain NumPy/Python twin of :func:`search_decode` (same steps, one window at a time;
+    decoding by :func:`rfsim.gen2.linecode.decode_reply_reference`)."""
+    from rfsim.gen2.linecode import decode_reply_reference
+
+    r_all = np.atleast_2d(np.asarray(rs, dtype=np.complex128))
+    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span0, target1, target = _search_setup(m, trext, n_bits,
+                                                                                              blfs_hz, fs_hz)
+    n1 = min(n_bits, FINE_FIRST_BITS)
+    out = [[] for _ in range(7)]
+    for r in r_all:
+        n = r.size
+        best = (-1.0, 0, lo)
+        for k, (L, t0) in enumerate(zip(lens, tpl0)):
+            t0 = t0[:L]
+            for lag in range(lo, min(hi, n - L) + 1):
+                seg = r[lag:lag + L]
+                c = abs(seg @ t0) / (np.linalg.norm(t0) * math.sqrt(max(np.sum(np.abs(seg - seg.mean()) ** 2), 1e-300)))
+                if c > best[0]:
+                    best = (c, k, lag)
+        c_best, k, lag = best
+        L, t0 = lens[k], tpl0[k, :lens[k]]
+
+        def cval(l):
+            seg = r[l:l + L]
+            return abs(seg @ t0) / (np.linalg.norm(t0) * math.sqrt(max(np.sum(np.abs(seg - seg.mean()) ** 2), 1e-300)))
+
+        frac = 0.0
+        if lo < lag < min(hi, n - L):
+            cv = [cval(lag - 1), cval(lag), cval(lag + 1)]
+            den = cv[0] - 2 * cv[1] + cv[2]
+            frac = 0.5 * (cv[0] - cv[2]) / den if den < 0 else 0.0
+        centre = lag + frac + 0.5 * pre_el.size / ratios[k]
+        span, c_ratio = span0, ratios[k]
+        fit = (math.inf, ratios[k], lag + frac, 0j, np.zeros(n_bits, np.uint8), None, 0)
+        nh = pre_levels.size + 2 * (n_bits + 1)
+
+        def residual(ratio, start, nb=n_bits):
+            det = decode_reply_reference(r, n_bits=nb, m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz,
+                                         fs_hz=fs_hz, start_sample=start)
+            s = reply_waveform(det.bits, m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz, fs_hz=fs_hz,
+                               t0_s=start / fs_hz, n_samples=n)
+            end = min(n, int(math.ceil(start + ((pre_levels.size + 2 * (nb + 1)) * m) / ratio)) + 1)
+            ref = np.where(s == 0, -1.0, s)  # rest level around the reply: the whole window is explained
+            h2, c2 = fit_gain_offset(r, ref)
+            return float(np.sum(np.abs(r - c2 - h2 * ref) ** 2)), det, ref, h2, c2, end
+
+        shifts = []
+        for d in (-1, 0, 1):
+            start = centre + d / c_ratio - 0.5 * pre_el.size / c_ratio
+            if 0 <= start <= n - (int(math.ceil(nh * m / c_ratio)) + 2):
+                shifts.append((residual(c_ratio, start, n1)[0], d))
+        if shifts:
+            centre += min(shifts, key=lambda v: (v[0], v[1] + 2))[1] / c_ratio
+        nb, tgt = n1, target1
+        while True:
+            fit = (math.inf,) + fit[1:]
+            while True:
+                step = max(span / FINE_PER_SIDE, tgt)
+                kk = int(math.ceil(span / step))
+                found = False
+                for j in range(-kk, kk + 1):
+                    ratio = c_ratio * (1.0 + step * j)
+                    start = centre - 0.5 * pre_el.size / ratio
+                    if start < 0 or start > n - (int(math.ceil(nh * m / ratio)) + 2):
+                        continue
+                    res, det, ref, h2, c2, end = residual(ratio, start, nb)
+                    if res < fit[0]:
+                        fit = (res, ratio, start, h2, det.bits.astype(np.uint8), (ref, c2), end)
+                        found = True
+                if not found or step <= tgt:
+                    break
+                span, c_ratio = step, fit[1]
+            if nb == n_bits:
+                break
+            nb = min(n_bits, 2 * nb)
+            span, tgt, c_ratio = 4.0 * tgt, 1.0 / (4.0 * (pre_el.size + 2 * m * (nb + 1))), fit[1]
+        _, ratio, start, h2, bits, (ref, c2), end = fit
+        idx = np.arange(max(1, int(math.ceil(start))), end - 1)
+        steady = (ref[idx] == ref[idx - 1]) & (ref[idx] == ref[idx + 1])
+        idx = idx[steady]
+        z = r[idx] - c2
+        e2 = np.abs(z - h2 * ref[idx]) ** 2
+        half = np.floor((idx - start) * ratio + 1e-9).astype(np.int64) // m
+        y = (z * np.conj(h2)).real / abs(h2)
+        data = (half >= pre_levels.size) & (half < pre_levels.size + 2 * n_bits)
+        d = np.bincount(half[data], weights=(y * ref[idx])[data], minlength=nh)
+        cnt = np.bincount(half[data], minlength=nh).astype(float)
+        d2 = float(np.sum((d - abs(h2) * cnt) ** 2))
+        for lst, v in zip(out, (bits, ratio, start, c_best, h2, float(e2.mean()) if e2.size else math.nan,
+                                2.0 * d2 / cnt.sum() if cnt.sum() > 0 else math.inf)):
+            lst.append(v)
+    return _search_result(np.array(out[0], np.uint8).reshape(len(r_all), n_bits), np.array(out[1]), np.array(out[2]),
+                          np.array(out[3]), np.array(out[4], np.complex128), np.array(out[5]), np.array(out[6]), m,
+                          fs_hz)
+
+
+def rn16_threshold_db(false_accept: float, *, n_bits: int = 16) -> float:
+    """Eb/(N0 + I) threshold [dB] of the RN16 acceptance for a stated false-accept probability p.
+
+    With Gaussian noise plus interference of density N0 + I, coherent antipodal decisions give
+    a bit error probability Q(√(2·Eb/(N0 + I))) (FM0 and Miller-M decoded by the matched
+    filter, anchors §4.8), and an n-bit word is wrong with probability
+    1 − (1 − P_b)^n ≈ n·P_b. Accepting only when the measured Eb/(N0 + I) ≥ γ with
+    n·Q(√(2γ)) = p bounds the probability that an accepted word is wrong by p (within this
+    model): γ = (Q⁻¹(p/n))²/2. p = 1e−2 → 7.2 dB for 16 bits. An approximation: the
+    interference of a second tag is not Gaussian, so the measured false-ACK rate against γ
+    is what sets the default (``inventory`` scenario, ``acceptance`` table).
+    """
+    from scipy.special import ndtri
+
+    if not 0.0 < false_accept < 0.5:
+        raise ValueError(f"false_accept must be in (0, 0.5), got {false_accept}")
+    q = -float(ndtri(false_accept / n_bits))  # Q⁻¹(p/n)
+    return 10.0 * math.log10(0.5 * q * q)
 
 
 def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float, float]:
@@ -632,4 +979,9 @@ __all__ = [
     "ETSI_CHANNELS_HZ",
     "LEAKAGE_PHASE_RAD",
     "FAILURES",
+    "SearchDecode",
+    "search_decode",
+    "search_decode_reference",
+    "blf_grid_hz",
+    "rn16_threshold_db",
 ]

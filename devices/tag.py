@@ -28,14 +28,20 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    N = round(samples · f_clk / fs), f_clk = f_nominal·(1 + error) (a counter: integer
    ticks). TRcal of the last Query sets the subcarrier divider
    N_BLF = round(N_TRcal / DR) and BLF = f_clk / N_BLF (:meth:`TagClock.blf_hz`; anchors
-   §4.2: nominal BLF = DR/TRcal, the clock error cancels up to the integer rounding).
+   §4.2: nominal BLF = DR/TRcal, the clock error cancels up to the integer rounding). A
+   tag's own BLF error ε (``blf_error_percent``; the oscillator drifting between TRcal and
+   the reply, Gen2 allows |ε| ≤ FrT) scales it: BLF = f_clk/N_BLF·(1 + ε)
+   (:mod:`devices.tag_spread` draws ε per tag).
 4. **Reply timing** (anchors §4.3): the tag waits T1 = max(RTcal, 10·Tpri) counted in its
    own ticks, N_T1 = max(N_RTcal, 10·N_BLF), from the command's last rising edge, so the
    true T1 = N_T1 / f_clk: the RTcal branch is exact up to the half-tick rounding of
    N_RTcal, the 10·Tpri branch scales with the tag's actual BLF. Clock jitter
    (``clock_jitter_rms``, a fraction of one period, as in PASS ``tag_clock``) displaces the
    reply start by σ·ε/f_clk, ε ~ N(0, 1); the reply itself is on an ideal grid of the
-   tag's actual BLF (no per-element jitter).
+   tag's actual BLF (no per-element jitter). A tag's own T1 adds ``t1_offset_s`` to the
+   counted T1 (:mod:`devices.tag_spread` draws it so that T1 is uniform in [T1min, T1max]).
+   Reply start and BLF are floats: the waveform is sampled at fractional-sample timing
+   (:func:`rfsim.gen2.linecode.reply_waveform`), never rounded to samples.
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
    (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
@@ -82,6 +88,7 @@ from devices.gen2_tag_state import Reply, TagState
 from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
                                   TagClock)
+from devices.tag_spread import spread_gamma_b
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import CommandParseError, Query, parse
@@ -126,6 +133,14 @@ class TagConfig:
     structural_mode: float = param(1.0, lo=0.0, hi=1.0,
                                    doc="antenna structural-mode scattering A_s (1: minimum-scattering "
                                        "antenna; 0: antenna mode only)")
+    blf_error_percent: float = param(0.0, lo=-30.0, hi=30.0, unit="%",
+                                     doc="the tag's own BLF error: BLF = f_clk/N_BLF·(1 + error) (Gen2: within FrT)")
+    t1_offset_s: float = param(0.0, lo=-100e-6, hi=100e-6, unit="s",
+                               doc="added to the T1 the tag counts (its own T1 within [T1min, T1max])")
+    chip_gain_db: float = param(0.0, lo=-10.0, hi=10.0, unit="dB",
+                                doc="chip spread: gain of Γ_B − Γ_A (devices.tag_spread)")
+    chip_phase_deg: float = param(0.0, lo=-180.0, hi=180.0, unit="deg",
+                                  doc="chip spread: phase of Γ_B − Γ_A (devices.tag_spread)")
 
     def __post_init__(self):
         check_fields(self, "tag")
@@ -133,6 +148,13 @@ class TagConfig:
         if not text or len(text) % 4 or len(text) > 124 or any(c not in "0123456789abcdefABCDEF" for c in text):
             raise ConfigError("tag.epc_hex", self.epc_hex,
                               "hex digits, a multiple of 4 (16-bit words), at most 496 bits")
+        if self.chip_gain_db or self.chip_phase_deg:
+            st = self._base_states()
+            g = spread_gamma_b(st.gamma_a, st.gamma_b, self.chip_gain_db, self.chip_phase_deg)
+            if abs(g) > 1.0:
+                raise ConfigError("tag.chip_gain_db", self.chip_gain_db,
+                                  f"a gain keeping |Γ_B| ≤ 1 (|Γ_B| = {abs(g):.3f} with chip_phase_deg "
+                                  f"{self.chip_phase_deg:g})")
 
     @property
     def clock(self) -> TagClock:
@@ -142,7 +164,12 @@ class TagConfig:
 
     @property
     def reflection_states(self) -> ReflectionStates:
-        """Γ_A (absorbing) and Γ_B (modulating), see the module docstring."""
+        """Γ_A (absorbing) and Γ_B (modulating), see the module docstring; with a chip
+        spread (``chip_gain_db``, ``chip_phase_deg``) Γ_B moves about Γ_A
+        (:func:`devices.tag_spread.spread_gamma_b`)."""
+        return _chip_spread(self._base_states(), self.chip_gain_db, self.chip_phase_deg)
+
+    def _base_states(self) -> ReflectionStates:
         if self.modulation == "ASK":
             return ReflectionStates.pass_default()
         return ReflectionStates.psk(self.psk_gamma_magnitude, math.radians(self.psk_phase_deg))
@@ -157,10 +184,32 @@ class TagConfig:
         """Chip sensitivity as a :class:`devices.tag_frontend.PowerUp` (compared with τ·P_inc)."""
         return PowerUp(chip_sensitivity_w=float(dbm_to_w(self.sensitivity_dbm)))
 
+    def reply_timing(self, link) -> tuple[float, float]:
+        """``(BLF [Hz], T1 [s])`` of this tag's reply to a Query of ``link``
+        (:class:`rfsim.gen2.link.LinkProfile`) whose RTcal and TRcal it counts exactly
+        (PIE edges on ideal times): the rules of :meth:`PassiveTag.listen` steps 3–4,
+        BLF = f_clk/N_BLF·(1 + ε), T1 = max(N_RTcal, 10·N_BLF)/f_clk + ``t1_offset_s``."""
+        clock = self.clock
+        f_clk = clock.f_hz
+        n_trcal = clock.count_ticks(link.trcal_s)
+        n_blf = clock.blf_divider(link.trcal_s, link.dr, trcal_ticks=n_trcal)
+        blf_hz = f_clk / n_blf * (1.0 + 0.01 * self.blf_error_percent)
+        return blf_hz, max(clock.count_ticks(link.rtcal_s), 10 * n_blf) / f_clk + self.t1_offset_s
+
     @property
     def threshold_incident_dbm(self) -> float:
         """Smallest incident (available) power that powers the tag [dBm] = sensitivity / τ."""
         return self.sensitivity_dbm - 10.0 * math.log10(self.tau)
+
+
+def _chip_spread(states: ReflectionStates, gain_db: float, phase_deg: float) -> ReflectionStates:
+    """``states`` with Γ_B moved by the chip spread (unchanged, the same object, without one)."""
+    if not (gain_db or phase_deg):
+        return states
+    gb = spread_gamma_b(states.gamma_a, states.gamma_b, gain_db, phase_deg)
+    if abs(gb) > 1.0:  # a power-dependent chip's state near |Γ| = 1: stays passive
+        gb /= abs(gb)
+    return ReflectionStates(states.gamma_a, gb)
 
 
 @dataclass(eq=False)
@@ -545,7 +594,9 @@ class PassiveTag:
                 if len(self._chip_memo) > 64:
                     self._chip_memo.clear()
                 op = self.chip.operating_point(p_inc)
-                hit = self._chip_memo[p_inc] = (self.chip, op, ReflectionStates(op.gamma_unmod, op.gamma_mod))
+                hit = self._chip_memo[p_inc] = (self.chip, op, _chip_spread(
+                    ReflectionStates(op.gamma_unmod, op.gamma_mod), self.config.chip_gain_db,
+                    self.config.chip_phase_deg))
             self.operating_point, self.reflection_states = hit[1], hit[2]
             powered = self.operating_point.powered
         else:
@@ -589,8 +640,10 @@ class PassiveTag:
         f_clk = self.clock.f_hz
         n_blf = self.clock.blf_divider(self._trcal_ticks / f_clk, query.dr, trcal_ticks=self._trcal_ticks)
         blf_hz = f_clk / n_blf
+        if self.config.blf_error_percent:  # the tag's own BLF error (devices.tag_spread)
+            blf_hz *= 1.0 + 0.01 * self.config.blf_error_percent
         n_t1 = max(self.ticks(frame.rtcal, fs_hz), 10 * n_blf)
-        start_s = cmd_end_s + n_t1 / f_clk
+        start_s = cmd_end_s + n_t1 / f_clk + self.config.t1_offset_s
         if self.clock.jitter_rms > 0:
             start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
         s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,

@@ -177,7 +177,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
     link = reader.link
-    window_s = _window_s(link, int(reply_bits))
+    listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
+    window_s = listen(int(reply_bits)) if listen is not None else _window_s(link, int(reply_bits))
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
     fs, fc = tx.fs_hz, tx.fc_hz
     emitter = FixedEmitter(antenna, tx, device=reader)

@@ -234,7 +234,11 @@ class _Clock:
 
     def next_command_s(self, ex: AirExchange, reply_bits: int) -> float:
         if ex.detected and math.isfinite(ex.reply_start_s):
-            return ex.reply_start_s + self.link.reply_duration_s(reply_bits) + self.t2_s
+            duration = self.link.reply_duration_s(reply_bits)
+            blf = getattr(ex.read, "blf_hz", math.nan)  # the BLF the reader measured, if it did
+            if blf > 0:
+                duration *= self.link.blf_hz / blf
+            return ex.reply_start_s + duration + self.t2_s
         return ex.cmd_end_s + self.idle_s
 
 

@@ -26,7 +26,9 @@ from rfsim.dataset import read_table
 TINY = {
     "gen2-waveforms": ["profiles=['fm0-40k', 'miller4-320k']", "fs_hz=3e6"],
     "link": ["geometry.distances_m=[1.0, 9.0]", "rounds_per_point=2"],
-    "inventory": ["populations=[3]", "runs=1", "capture.trials=2", "capture.ratios_db=[0.0, 4.0]"],
+    "inventory": ["populations=[3]", "runs=1", "capture.trials=2", "capture.ratios_db=[0.0, 4.0]",
+                  "capture_sweep.trials=20", "capture_sweep.ratios_db=[0.0, 6.0]", "spread.enabled=true",
+                  "reader.blf_search=preamble", "reader.rn16_false_accept=0.01"],
     "reader-detection": ["campaign.distances_m=[1.0, 9.0]", "campaign.angles_deg=[0.0, 90.0]",
                          "campaign.repetitions=2", "campaign.queries=5", "campaign.workers=1"],
     "detection-probability": ["samples.count=40", "samples.n_train=30"],

@@ -11,7 +11,8 @@ from scenarios import inventory as scen
 
 def _small(**kw):
     base = dict(populations=(3, 6), runs=1,
-                capture=scen.CaptureConfig(trials=3, ratios_db=(0.0, 4.0)))
+                capture=scen.CaptureConfig(trials=3, ratios_db=(0.0, 4.0)),
+                capture_sweep=scen.sweep.CaptureSweepConfig(trials=10, ratios_db=(0.0, 6.0)))
     base.update(kw)
     return scen.Config(**base)
 
@@ -69,3 +70,48 @@ def test_capture_probability_binning():
     x, p, n = scen.capture_probability(np.array([0.1, 0.2, 1.5, 1.6, 1.7]), np.array([0, 1, 1, 1, 0]),
                                        np.array([0.0, 1.0, 2.0]))
     assert np.allclose(x, [0.5, 1.5]) and np.allclose(p, [0.5, 2 / 3]) and list(n) == [2, 3]
+
+
+def test_spread_needs_the_searching_reader():
+    from rfsim.errors import ConfigError
+    from devices.tag_spread import TagSpreadConfig
+
+    with pytest.raises(ConfigError, match="spread.enabled"):
+        scen.run(_small(spread=TagSpreadConfig(enabled=True)), seed=1)
+
+
+def test_tags_table_records_each_tags_spread(tmp_path):
+    from dataclasses import replace
+
+    from devices.tag_spread import TagSpreadConfig
+
+    cfg = _small(spread=TagSpreadConfig(enabled=True), reader=replace(scen.ReaderConfig(), blf_search="preamble",
+                                                                      rn16_false_accept=0.01),
+                 capture_sweep=scen.sweep.CaptureSweepConfig(enabled=False), capture=scen.CaptureConfig(enabled=False))
+    path = write_dataset(tmp_path / "inv.h5", scen.run(cfg, seed=4), {"seed": 4})
+    tags = read_table(path, "tags")
+    reads = read_table(path, "reads")
+    assert len(tags["tag"]) == 3 + 6
+    # every tag its own BLF error (within FrT = 10 % of miller4-320k) and T1 in the T1 window
+    from rfsim.gen2.link import PROFILES, t1
+
+    lk = PROFILES["miller4-320k"]
+    assert len(set(np.round(tags["blf_error_percent"], 9))) == 9
+    assert np.all(np.abs(tags["blf_error_percent"]) <= 100 * lk.frt)
+    assert np.all((tags["t1_s"] > t1(lk).min_s) & (tags["t1_s"] < t1(lk).max_s))
+    # the searching reader reads them (each read tag is one of the population)
+    assert len(reads["tag"]) > 0 and np.all(reads["tag"] >= 0)
+
+
+def test_capture_inventories_on_off_and_protocol():
+    """The same 8 tags with spread, three ways: only the sample level with capture counts
+    captures; with capture off no slot with two replies is ever read (its efficiency cannot
+    exceed the one-reply slots); the protocol level reads every tag."""
+    cfg = _small(capture_inventory=scen.CaptureInventoryConfig(enabled=True, populations=(8,)))
+    rows = scen.capture_inventories(cfg, seed=2)
+    assert rows["mode"] == ["capture", "no-capture", "protocol"]
+    cap, off, proto = ({k: v[i] for k, v in rows.items()} for i in range(3))
+    assert off["captures"] == 0 and proto["captures"] == 0 and proto["false_acks"] == 0
+    assert proto["tags_read"] == 8 and proto["slots_to_all"] > 0
+    assert cap["tags_read"] >= off["tags_read"] - 1
+    assert 0 < cap["slots_to_read"] <= cap["slots"] and cap["air_time_to_read_s"] <= cap["air_time_s"]

@@ -1,0 +1,269 @@
+"""numba kernel of the reader's BLF-searching reply decoder, over a stack of windows
+(wrapped and documented in :func:`devices.reader.search_decode`; its plain-NumPy twin is
+:func:`devices.reader.search_decode_reference`)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfsim._jit import njit
+from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
+                                          waveform_kernel)
+
+
+@njit
+def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_bits, miller, state0,
+               tpl, sums, bits, elems, ref):
+    """Decode ``r`` at one (elements per sample, start): preamble gain h, offset, half-bit
+    sums, Viterbi; remodulate (``ref``: the reply ±1, −1 around it, over the whole window);
+    return (residual energy of the least-squares fit r ≈ h2·ref + c2 over the whole window,
+    the reply's end, h2, c2): every hypothesis explains the same samples."""
+    lag = int(math.floor(start))
+    waveform_kernel(pre_el, start - lag, blf_ratio, tpl[:n_pre])
+    mean_t = 0.0
+    for i in range(n_pre):
+        mean_t += tpl[i]
+    mean_t /= n_pre
+    acc = 0j
+    e_t = 0.0
+    seg_mean = 0j
+    for i in range(n_pre):
+        t0 = tpl[i] - mean_t
+        acc += r[lag + i] * t0
+        e_t += t0 * t0
+        seg_mean += r[lag + i]
+    seg_mean /= n_pre
+    h = acc / e_t
+    if h == 0:
+        return math.inf, 0, 0j, 0j
+    dc = seg_mean - h * mean_t
+    g = 1.0 / h
+    dcg = dc * g
+    projected_halfbit_sums_kernel(r[lag:], g.real, g.imag, dcg.real, start - lag, blf_ratio, m, sums)
+    npre = pre_levels.size
+    nb = n_bits + 1
+    a = np.empty(nb)
+    b = np.empty(nb)
+    for i in range(nb):
+        a[i] = sums[npre + 2 * i]
+        b[i] = sums[npre + 2 * i + 1]
+    full = np.empty(nb, dtype=np.uint8)
+    viterbi_kernel(a, b, miller, state0, True, full)
+    for i in range(n_bits):
+        bits[i] = full[i]
+    elements_kernel(bits, True, m, pre_levels, cur, prev, elems)
+    n_el = elems.size
+    end = min(r.size, int(math.ceil(start + n_el / blf_ratio)) + 1)
+    waveform_kernel(elems.astype(np.float64), start, blf_ratio, ref)
+    sx = 0j
+    sxr = 0j
+    sr = 0.0
+    srr = 0.0
+    nw = r.size  # every hypothesis explains the whole window (rest level −1 around the reply)
+    for n in range(nw):
+        v = ref[n] if ref[n] != 0.0 else -1.0
+        ref[n] = v
+        sx += r[n]
+        sxr += r[n] * v
+        sr += v
+        srr += v * v
+    den = nw * srr - sr * sr
+    h2 = (nw * sxr - sr * sx) / den if den > 0 else 0j
+    c2 = (sx - h2 * sr) / nw
+    res = 0.0
+    for n in range(nw):
+        e = r[n] - c2 - h2 * ref[n]
+        res += e.real * e.real + e.imag * e.imag
+    return res, end, h2, c2
+
+
+@njit
+def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
+    """Zero-mean normalised correlation of r[lag:lag+L] with template k (prefix sums p_e, p_s)."""
+    acc_re = 0.0
+    acc_im = 0.0
+    for i in range(L):
+        z = r[lag + i]
+        t = tpl0[k, i]
+        acc_re += z.real * t
+        acc_im += z.imag * t
+    s = p_s[lag + L] - p_s[lag]
+    en = (p_e[lag + L] - p_e[lag]) - (s.real * s.real + s.imag * s.imag) / L
+    return math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(en, 1e-300)))
+
+
+@njit
+def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, cur, prev, m,
+                         n_bits, n_first_bits, fine_span, fine_per_side, target_first, fine_target, out_bits,
+                         out_ratio, out_start, out_corr, out_h, out_sigma2, out_sigma2_bit):
+    """BLF search and decoding of every window ``rs[b]`` (see :func:`devices.reader.search_decode`).
+
+    Coarse: the largest zero-mean normalised preamble correlation over the BLF grid
+    (``coarse_ratios`` = 2·BLF/fs, templates ``coarse_tpl0[k, :coarse_len[k]]``) and the lags
+    ``lo…hi`` (parabolic refinement between lags). Fine: decodes across the coarse BLF·(1 ±
+    ``fine_span``) (``2·fine_per_side + 1`` BLFs, the preamble centre held), the least
+    residual wins, the span narrowed to one step until the step ≤ ``target_first``, over
+    the first ``n_first_bits`` bits; a longer reply is then searched again over twice as many
+    bits at a time (all of them at last) across ±4 final steps of the previous phase, each
+    phase down to 1/(4·its elements) (``fine_target`` for all bits). Outputs:
+    bits, elements per sample, start [samples], coarse correlation, gain h, the residual
+    power σ² over the reply's steady samples (both neighbours at the same level) and the
+    decision-domain disturbance σ_eff² of the data half-bits (see the comment in the code).
+    """
+    n_tr = rs.shape[0]
+    nwin = rs.shape[1]
+    n_pre_el = pre_el.size
+    miller = m > 1
+    state0 = (0 if cur == 1 else 1) + (2 * prev if miller else 0)
+    nh = pre_levels.size + 2 * (n_bits + 1)
+    best_bits = np.empty(n_bits, dtype=np.uint8)
+    n_first = min(n_bits, n_first_bits)
+    nh1 = pre_levels.size + 2 * (n_first + 1)
+    sums1 = np.empty(nh1)
+    bits1 = np.empty(n_first, dtype=np.uint8)
+    elems1 = np.empty(nh1 * m, dtype=np.int8)
+    ref = np.empty(nwin)
+    best_ref = np.empty(nwin)
+    tpl = np.empty(nwin)
+    n_k = coarse_ratios.size
+    p_e = np.empty(nwin + 1)  # prefix sums of |r|² and r: sliding energy of every lag
+    p_s = np.empty(nwin + 1, dtype=np.complex128)
+    norms = np.empty(n_k)
+    for k in range(n_k):
+        acc_n = 0.0
+        for i in range(coarse_len[k]):
+            acc_n += coarse_tpl0[k, i] * coarse_tpl0[k, i]
+        norms[k] = math.sqrt(acc_n)
+    cv = np.empty(3)
+    for t in range(n_tr):
+        r = rs[t]
+        p_e[0] = 0.0
+        p_s[0] = 0j
+        for i in range(nwin):
+            z = r[i]
+            p_e[i + 1] = p_e[i] + z.real * z.real + z.imag * z.imag
+            p_s[i + 1] = p_s[i] + z
+        # --- coarse: BLF grid × T1 lags
+        cbest = -1.0
+        kbest = 0
+        lbest = lo
+        for k in range(n_k):
+            L = coarse_len[k]
+            for lag in range(lo, min(hi, nwin - L) + 1):
+                c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, p_s)
+                if c > cbest:
+                    cbest, kbest, lbest = c, k, lag
+        # parabola through the best lag's neighbours (same BLF)
+        frac = 0.0
+        L = coarse_len[kbest]
+        if lbest > lo and lbest < min(hi, nwin - L):
+            for j in range(3):
+                cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
+            den = cv[0] - 2.0 * cv[1] + cv[2]
+            if den < 0:
+                frac = 0.5 * (cv[0] - cv[2]) / den
+        ratio_c = coarse_ratios[kbest]
+        centre = lbest + frac + 0.5 * n_pre_el / ratio_c
+        out_corr[t] = cbest
+        # the Miller pilot is periodic: a lag one element off correlates almost as well; keep
+        # the centre (one element either way) whose decoded reply leaves the least residual
+        best_res = math.inf
+        best_d = 0
+        for d in range(-1, 2):
+            start = centre + d / ratio_c - 0.5 * n_pre_el / ratio_c
+            n_rep = int(math.ceil(nh * m / ratio_c)) + 2
+            if start < 0 or start > nwin - n_rep:
+                continue
+            n_pre = int(math.floor(n_pre_el / ratio_c))
+            res, end, h2, c2 = _decode_at(r, ratio_c, start, pre_el, n_pre, pre_levels, cur, prev, m, n_first,
+                                          miller, state0, tpl, sums1, bits1, elems1, ref)
+            if res < best_res:
+                best_res, best_d = res, d
+        centre += best_d / ratio_c
+        best_bits[:] = 0
+        # --- fine: decode across the span, least residual wins; first over the first
+        # ``n_first`` bits, then over twice as many bits (all of them at last) across ±4 final
+        # steps of the previous phase: a long reply misaligned by one coarse step has a
+        # residual with many local minima
+        span = fine_span
+        centre_ratio = ratio_c
+        best_ratio = ratio_c
+        best_start = lbest + frac
+        best_h = 0j
+        best_end = 0
+        best_c = 0j
+        nbx = n_first
+        tgt = target_first
+        while True:
+            best_res = math.inf
+            bx = np.empty(nbx, dtype=np.uint8)
+            nhx = pre_levels.size + 2 * (nbx + 1)
+            ex = np.empty(nhx * m, dtype=np.int8)
+            sx = np.empty(nhx)
+            while True:
+                step = max(span / fine_per_side, tgt)
+                kk = int(math.ceil(span / step))
+                found = False
+                for j in range(-kk, kk + 1):
+                    ratio = centre_ratio * (1.0 + step * j)
+                    start = centre - 0.5 * n_pre_el / ratio
+                    n_rep = int(math.ceil(nh * m / ratio)) + 2
+                    if start < 0 or start > nwin - n_rep:
+                        continue
+                    n_pre = int(math.floor(n_pre_el / ratio))
+                    res, end, h2, c2 = _decode_at(r, ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, nbx,
+                                                  miller, state0, tpl, sx, bx, ex, ref)
+                    if res < best_res:
+                        best_res, best_ratio, best_start, best_h, best_end, best_c = res, ratio, start, h2, end, c2
+                        if nbx == n_bits:
+                            best_bits[:] = bx
+                            best_ref[:] = ref
+                        found = True
+                if not found or step <= tgt:
+                    break
+                span = step
+                centre_ratio = best_ratio
+            if nbx == n_bits:
+                break
+            nbx = min(n_bits, 2 * nbx)
+            span = 4.0 * tgt
+            tgt = 1.0 / (4.0 * (n_pre_el + 2 * m * (nbx + 1)))
+            centre_ratio = best_ratio
+        out_bits[t, :] = best_bits
+        out_ratio[t] = best_ratio
+        out_start[t] = best_start
+        out_h[t] = best_h
+        # residual power over the steady samples of the reply (both neighbours at the same
+        # level); and the disturbance that reaches the decisions: per half-bit j,
+        # δ_j = Σ y_n·ref_n − |h|·N_j over its steady samples, y_n = Re((r_n − c)·h*)/|h|,
+        # σ_eff² = 2·Σ δ_j² / Σ N_j (= σ² for white noise; in-band interference is not
+        # reduced by the matched filter's gain)
+        i0 = max(1, int(math.ceil(best_start)))
+        acc_e = 0.0
+        cnt = 0
+        habs = abs(best_h)
+        dsum = np.zeros(nh)
+        dcnt = np.zeros(nh)
+        for n in range(i0, best_end - 1):
+            v = best_ref[n]
+            if v == best_ref[n - 1] and v == best_ref[n + 1]:
+                z = r[n] - best_c
+                e = z - best_h * v
+                acc_e += e.real * e.real + e.imag * e.imag
+                cnt += 1
+                kel = int(math.floor((n - best_start) * best_ratio + 1e-9))
+                j = kel // m
+                if 0 <= j < nh and habs > 0:
+                    yv = (z.real * best_h.real + z.imag * best_h.imag) / habs
+                    dsum[j] += yv * v
+                    dcnt[j] += 1.0
+        out_sigma2[t] = acc_e / cnt if cnt > 0 else math.nan
+        d2 = 0.0
+        nn = 0.0
+        for j in range(pre_levels.size, pre_levels.size + 2 * n_bits):  # the data half-bits
+            dj = dsum[j] - habs * dcnt[j]
+            d2 += dj * dj
+            nn += dcnt[j]
+        out_sigma2_bit[t] = 2.0 * d2 / nn if nn > 0 else math.inf

@@ -122,6 +122,7 @@ from typing import Literal
 import numpy as np
 
 from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
+from channels.antennas import Tabulated
 from channels.bulk import draw_links
 from channels.paths import NARROWBAND_TOLERANCE, narrowband_rms_error
 from channels.antennas import vertical_dipole as st_antenna
@@ -281,12 +282,58 @@ class TagStatesConfig:
                                                                     "or empty for the quoted impedances")
 
 
+@dataclass(frozen=True)
+class PassReplicationConfig:
+    enabled: bool = param(False, doc="replicate PASS's tag: its 'l2-dipole' antenna file (peak amplitude 2.0 = "
+                                     "6.02 dBi, a full-wave pattern) instead of the physical half-wave dipole "
+                                     "(2.15 dBi), the full measured chip tables and the assembly resistance R_at")
+    characteristics_dir: str = param("", doc="folder with the PASS characteristic files "
+                                             "(channelchar_directivity_l2-dipole.mat, meas_tag_*.mat)")
+    assembly_resistance_ohm: float = param(0.0, lo=0.0, hi=1e9, unit="ohm",
+                                           doc="R_at parallel to the chip; 0 = PASS's 'Q-matched' optimum read as "
+                                               "Q(R_at || C_at) = Q of the chip at its minimum power (2.4 kOhm with the full tables)")
+
+    def __post_init__(self):
+        if self.enabled:
+            d = Path(self.characteristics_dir) if self.characteristics_dir else None
+            if d is None or not (d / PASS_TAG_ANTENNA_FILE).is_file():
+                raise ConfigError("pass_replication.characteristics_dir", self.characteristics_dir,
+                                  f"a folder holding {PASS_TAG_ANTENNA_FILE} and the meas_tag_* files when "
+                                  "pass_replication.enabled")
+
+
+#: PASS's tag antenna pattern file (amplitude, peak 2.0: 6.02 dBi)
+PASS_TAG_ANTENNA_FILE = "channelchar_directivity_l2-dipole.mat"
+
+
+def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
+    """PASS's "Rat Q-matched at 915 MHz" (pass-paris-simulator.md §5.2; ``tagchar_modulator_adsm``:
+    R_at shifts in % "from optimum"), read as the R_at whose parallel Q with C_at equals the
+    chip's parallel Q at its minimum power: ``R_at = (|Im Y_ic|/Re Y_ic)/(ω·C_at)``. Checked on
+    PASS's synthetic characteristic (``tagchar_modulator_synth01``: 463 Ω from its tables vs its
+    stored 437 Ω, 6 %). For the UCODE tables at 915 MHz 2.41 kΩ."""
+    y = 1.0 / chip.impedances(chip.picmin_w)[0]
+    return (abs(y.imag) / y.real) / (2.0 * math.pi * chip.fc_hz * chip.assembly_capacitance_f)
+
+
 @lru_cache(maxsize=8)
-def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float) -> PowerDependentChip:
-    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points."""
+def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
+               assembly_resistance_ohm: float = math.inf) -> PowerDependentChip:
+    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points; with
+    ``assembly_resistance_ohm`` = 0 the Q-matched R_at (:func:`q_matched_assembly_resistance_ohm`)."""
     if characteristics_dir:
-        return PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
-    return PowerDependentChip.pass_default(margin_db=margin_db)
+        chip = PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
+    else:
+        chip = PowerDependentChip.pass_default(margin_db=margin_db)
+    if assembly_resistance_ohm == 0.0:
+        assembly_resistance_ohm = q_matched_assembly_resistance_ohm(chip)
+    return replace(chip, assembly_resistance_ohm=float(assembly_resistance_ohm))
+
+
+@lru_cache(maxsize=4)
+def pass_tag_pattern(characteristics_dir: str) -> Tabulated:
+    """PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0)."""
+    return Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
 
 
 #: The source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) [W]
@@ -312,6 +359,8 @@ class Config:
     tag_states: TagStatesConfig = param(TagStatesConfig(), doc="tag reflection states used for backscatter")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sense-a-tag (threshold, detector gain, spacing)")
     detector: DetectorConfig = param(DetectorConfig(), doc="ST envelope detector law and noise")
+    pass_replication: PassReplicationConfig = param(PassReplicationConfig(),
+                                                    doc="replicate PASS's tag antenna file and assembly")
 
     def __post_init__(self):
         n = len(self.geometry.tag_x_m)
@@ -319,6 +368,8 @@ class Config:
             raise ConfigError("geometry.tag_x_m", self.geometry.tag_x_m, "at least one cell")
         if self.tracks.cell >= n:
             raise ConfigError("tracks.cell", self.tracks.cell, f"a cell index 0…{n - 1}")
+        if self.pass_replication.enabled and self.tag_states.model != "measured":
+            raise ConfigError("tag_states.model", self.tag_states.model, "'measured' with pass_replication.enabled")
         if not self.tracks.d_min_m < self.tracks.d_max_m:
             raise ConfigError("tracks.d_max_m", self.tracks.d_max_m, f"> tracks.d_min_m = {self.tracks.d_min_m}")
 
@@ -331,10 +382,13 @@ def _reader_antenna(g: GeometryConfig) -> Antenna:
                    pattern=Patch(g.reader_gain_dbi, 70.0), polarization="linear")
 
 
-def _tag_antenna(x_m: float, g: GeometryConfig) -> Antenna:
-    # dipole facing the reader, axis vertical (as in the link scenario)
-    return Antenna(position_m=(x_m, 0.0, g.height_m), orientation=(math.pi, 0.0, 0.0), pattern=HalfWaveDipole(),
-                   polarization="linear")
+def _tag_antenna(x_m: float, config: "Config") -> Antenna:
+    # dipole facing the reader, axis vertical (as in the link scenario); PASS's file with
+    # pass_replication (both patterns along the local z axis, omnidirectional in azimuth)
+    pr = config.pass_replication
+    pattern = pass_tag_pattern(pr.characteristics_dir) if pr.enabled else HalfWaveDipole()
+    return Antenna(position_m=(x_m, 0.0, config.geometry.height_m), orientation=(math.pi, 0.0, 0.0),
+                   pattern=pattern, polarization="linear")
 
 
 @dataclass(frozen=True, eq=False)
@@ -416,8 +470,15 @@ def _make_tag(config: Config, antenna, fc_hz: float, rng) -> PassiveTag:
     if ts.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
         return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                          chip=chip_model(ts.characteristics_dir, round(fc_hz, 3), ts.power_margin_db))
+                          chip=_chip(config, fc_hz))
     return PassiveTag(config.tag, antenna, rng=rng)
+
+
+def _chip(config: "Config", fc_hz: float) -> PowerDependentChip:
+    ts, pr = config.tag_states, config.pass_replication
+    if pr.enabled:
+        return chip_model(pr.characteristics_dir, round(fc_hz, 3), ts.power_margin_db, pr.assembly_resistance_ohm)
+    return chip_model(ts.characteristics_dir, round(fc_hz, 3), ts.power_margin_db)
 
 
 def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, index: tuple[int, ...],
@@ -429,7 +490,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     g = config.geometry
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
-    ta = _tag_antenna(tag_x_m, g)
+    ta = _tag_antenna(tag_x_m, config)
     lk = reader.link
     stamp_s = (2.0 * STAMP_CYCLES + STAMP_SETTLE_CYCLES + 2.0) / lk.blf_hz
     # the RN16 reply window with room for the stamp before the reply and one Tpri more
@@ -818,6 +879,11 @@ def run(config: Config, *, seed: int) -> Dataset:
               "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
               "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[config.tag_states.model]
     ds.attrs["tag_states"] = states
+    pr = config.pass_replication
+    ds.attrs["tag_antenna"] = ("PASS channelchar_directivity_l2-dipole (peak amplitude 2.0, 6.02 dBi: a full-wave "
+                               "pattern)" if pr.enabled else "physical half-wave dipole (2.15 dBi)")
+    if pr.enabled:
+        ds.attrs["tag_assembly_resistance_ohm"] = float(_chip(config, tr["fc_hz"]).assembly_resistance_ohm)
     ds.attrs["deviations"] = (
         "detectability = envelope difference with the CW synchronised, max over the CW phase (|b1 - b2| for a "
         "dominant CW): every replying sample is detectable, so path selection is above the source's 1 % and "

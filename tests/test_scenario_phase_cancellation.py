@@ -270,3 +270,35 @@ def test_paper_size_monte_carlo_within_budget():
     p_single = np.array([s["cancelled_single"][(cell == c) & far].mean() for c in powered])
     near, far_half = p_single[:4].mean(), p_single[4:8].mean()
     assert far_half > near + 0.035  # 900 samples per cell: standard error of a 4-cell mean ≤ 0.8 %
+
+
+def _tiny(**kw):
+    base = pc.Config()
+    return replace(base, geometry=replace(base.geometry, tag_x_m=(1.0,), apdp=False),
+                   tracks=replace(base.tracks, cell=0), mc=replace(base.mc, positions_per_cell=6, workers=1), **kw)
+
+
+def test_pass_replication_uses_the_6_dbi_file_and_the_assembly_resistance(reference_data):
+    # PASS's 'l2-dipole' file has a peak amplitude of 2.0 = 6.02 dBi (reference-data README):
+    # with it the tag's available power is 4/1.6409 = 2.44× the physical half-wave dipole's
+    # (LoS, same geometry); the assembly resistance R_at takes its share of the absorbed power
+    folder = reference_data / "pass-characteristics"
+    pr = pc.PassReplicationConfig(enabled=True, characteristics_dir=str(folder))
+    phys = pc.run_cell(_tiny(), 0, 0, 3)
+    rep = pc.run_cell(_tiny(pass_replication=pr), 0, 0, 3)
+    ratio = rep["tag_available_power_w"][0] / phys["tag_available_power_w"][0]
+    assert ratio == pytest.approx(4.0 / 1.6409, rel=0.01)
+    assert rep["tag_chip_power_w"][0] < rep["tag_available_power_w"][0]
+    chip = pc.chip_model(str(folder), 915.25e6, 2.5, 0.0)
+    # R_at ∥ C_at with the chip's parallel Q at its minimum power (written out here)
+    y = 1.0 / chip.impedances(chip.picmin_w)[0]
+    r_at = (abs(y.imag) / y.real) / (2 * np.pi * chip.fc_hz * 450e-15)
+    assert chip.assembly_resistance_ohm == pytest.approx(r_at, rel=1e-12)
+    assert 1e3 < r_at < 5e3
+
+
+def test_pass_replication_needs_the_characteristics_folder():
+    from rfsim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="pass_replication.characteristics_dir"):
+        pc.PassReplicationConfig(enabled=True, characteristics_dir="")

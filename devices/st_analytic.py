@@ -505,10 +505,42 @@ def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, de
     )
 
 
+# ----------------------------------------------------------------------------- antenna pair coupling
+
+#: Self impedance of a thin half-wave dipole [Ω] (Balanis, *Antenna Theory*, §4.6 / §8.6)
+DIPOLE_Z11_OHM = complex(73.1, 42.5)
+#: Mutual impedance of two parallel side-by-side half-wave dipoles λ/4 apart [Ω] (induced-EMF
+#: method, Balanis §8.6 Fig. 8.20; the issue's 40.8 − j28.3 Ω)
+DIPOLE_Z12_QUARTER_WAVE_OHM = complex(40.8, -28.3)
+
+
+def coupling_matrix(z11_ohm: complex = DIPOLE_Z11_OHM, z12_ohm: complex = DIPOLE_Z12_QUARTER_WAVE_OHM,
+                    z_load_ohm: complex | None = None) -> np.ndarray:
+    """2×2 matrix taking the uncoupled port voltages of an antenna pair to the coupled ones.
+
+    Two identical antennas with self impedance Z11, mutual impedance Z12, each terminated in
+    ``Z_L`` (default the conjugate match of one antenna alone, ``Z11*``): their open-circuit
+    voltages V_oc (what each would deliver alone, the engine's port signals) drive
+    ``V_oc = (Z + Z_L·I)·I_port`` with ``Z = [[Z11, Z12], [Z12, Z11]]``, and the loads see
+    ``V_L = Z_L·I_port``. Normalised so that Z12 = 0 gives the identity (the port signals
+    already carry the single antenna's matched level):
+    ``M = (Z11 + Z_L)·(Z + Z_L·I)⁻¹ = [[1, −c], [−c, 1]]/(1 − c²)``, ``c = Z12/(Z11 + Z_L)``
+    (λ/4 dipoles, conjugate match: c = 0.28 − j0.19). Coupling mixes the CW and the
+    backscatter alike, so it changes the relative phase θ between the two ports and with it
+    which antenna is in a null. Neighbouring scatterers other than the pair (the ST body) are
+    not modelled.
+    """
+    z11, z12 = complex(z11_ohm), complex(z12_ohm)
+    zl = z11.conjugate() if z_load_ohm is None else complex(z_load_ohm)
+    c = z12 / (z11 + zl)
+    return np.array([[1.0, -c], [-c, 1.0]], dtype=complex) / (1.0 - c * c)
+
+
 __all__ = [
     "THRESHOLD_V", "envelope_amplitude", "ask_envelope_difference", "ask_cancel_angle",
     "psk_envelope_difference", "psk_cancel_angles", "psk_peak_difference", "CombinedSignal",
     "combine_dual", "combined_envelope_difference", "combined_cancel_angle", "NullMapModel",
     "select_path", "select_detected", "stamp_select", "phase_cancelled", "cancellation_probability",
-    "sync_envelope_difference", "synchronised_difference", "TechniqueOutcome", "technique_outcomes",
+    "sync_envelope_difference", "synchronised_difference", "DIPOLE_Z11_OHM", "DIPOLE_Z12_QUARTER_WAVE_OHM",
+    "coupling_matrix", "TechniqueOutcome", "technique_outcomes",
 ]

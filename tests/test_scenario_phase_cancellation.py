@@ -261,15 +261,16 @@ def test_paper_size_monte_carlo_within_budget():
     closed = np.where(db > 5e-3, (2 / np.pi) * np.arcsin(np.minimum(5e-3 / np.where(db > 0, db, 1.0), 1.0)), 0.0)
     assert abs(closed.mean() - p["single"]) < 3 * np.sqrt(p["single"] * (1 - p["single"]) / n)
     # per-cell trend among cells whose tag runs in every repetition: with the synchronised
-    # criterion every replying sample is detectable and |Δb| falls with distance, so the
-    # probability rises (source: falls, because its labels count fewer far samples as
-    # detectable); silent cells (tag not powered, ≥ 5.5 m) are zero and left out
+    # criterion every replying sample is detectable and |Δb| falls toward the threshold with
+    # distance, so the probability does not fall as the source's does (its labels count
+    # fewer far samples as detectable): it rises from 1 m to a plateau over 1.5–5 m; silent
+    # cells (tag not powered, ≥ 5.5 m) are zero and left out
     cell = s["cell"]
     powered = [c for c in range(13) if s["tag_replied"][cell == c].all()]
     assert len(powered) >= 8
     p_single = np.array([s["cancelled_single"][(cell == c) & far].mean() for c in powered])
-    near, far_half = p_single[:4].mean(), p_single[4:8].mean()
-    assert far_half > near + 0.035  # 900 samples per cell: standard error of a 4-cell mean ≤ 0.8 %
+    # 900 samples per cell: standard error ≤ 1.6 % for one cell, ≤ 0.8 % for a 4-cell mean
+    assert p_single[4:8].mean() > p_single[0] + 0.05
 
 
 def _tiny(**kw):

@@ -271,3 +271,20 @@ def test_synchronised_difference_against_brute_force_over_the_cw_phase():
     # collinear ASK states: |A_T1 − A_T2| (Table 3.2's SA1: 0.066, 0.064 → 0.002)
     ask = sa.synchronised_difference(0.0976, 0.066 * np.exp(3.2536j), 0.064 * np.exp(3.2536j))
     assert float(ask) == pytest.approx(0.002, abs=1e-12)
+
+
+def test_coupling_matrix_solves_the_two_port_circuit():
+    # λ/4 pair of half-wave dipoles: Z11 = 73.1 + j42.5 Ω, Z12 = 40.8 − j28.3 Ω (induced EMF,
+    # Balanis §8.6). Circuit written out here: V_oc = (Z + Z_L·I)·I, V_L = Z_L·I, normalised
+    # by the uncoupled V_L = Z_L/(Z11 + Z_L)·V_oc.
+    z11, z12 = complex(73.1, 42.5), complex(40.8, -28.3)
+    zl = z11.conjugate()
+    m = sa.coupling_matrix()
+    rng = np.random.default_rng(2)
+    v_oc = rng.normal(size=(2, 50)) + 1j * rng.normal(size=(2, 50))
+    z = np.array([[z11 + zl, z12], [z12, z11 + zl]])
+    v_l = zl * np.linalg.solve(z, v_oc)
+    np.testing.assert_allclose(m @ v_oc, v_l / (zl / (z11 + zl)), rtol=1e-12)
+    np.testing.assert_allclose(sa.coupling_matrix(z12_ohm=0.0), np.eye(2), atol=1e-15)
+    c = z12 / (z11 + zl)
+    assert abs(c) == pytest.approx(0.34, abs=0.01)

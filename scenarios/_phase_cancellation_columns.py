@@ -82,7 +82,7 @@ ANTENNA_COLUMNS = (
     ("diff_", "sample-level envelope difference |A(+1) - A(-1)| at the detector output of {ant}: mean detector "
               "level in the tag's two states over the RN16 reply (0 when the tag did not reply)"),
     ("closed_diff_", "closed-form envelope difference |A1 - A2| (Eq. 3.4, Eq. 3.21 for the sum) at {ant} from "
-                     "the measured A_R, A_T1, A_T2, theta and detector_gain"),
+                     "the measured phasors through the detector law (detector.law; |f(|c + b1|) - f(|c + b2|)|)"),
 )
 #: (name prefix, description template) of the per-technique columns; {tech} names the technique.
 TECHNIQUE_COLUMNS = (

@@ -24,7 +24,7 @@ segment's) the input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with
 stamped frame is a third step on the same links with the stamp modulator's r(t). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
-(:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,
+(:mod:`devices.st_receiver`: diode detector at 50 Ω, RC, band-pass, 5 mV comparator,
 Miller decoder) runs on every input, vectorised over positions
 (:func:`devices.sense_a_tag.chain_rows`), from the end of the reader's command on.
 
@@ -878,7 +878,8 @@ def run(config: Config, *, seed: int) -> Dataset:
                 {"diff_v": column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
                                                      "detector output along the track (Fig. 3.15)"),
                  "closed_diff_v": column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
-                                                                   "measured A_R, A_T1, A_T2, theta at the same points"),
+                                                                   "measured phasors through the detector law at the "
+                                                                   "same points"),
                  "theta_rad": column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
                                                              "at the ST, (-pi, pi]")},
                 description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
@@ -1027,8 +1028,9 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         x0 = cells["tag_x_m"][silent].min()
         ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
-    ax.set_title("Probability of phase cancellation per technique (95 % Clopper-Pearson)\n"
-                 f"{cite('auris', 'Fig. 3.16 and 5.8')}", fontsize=10)
+    ax.set_title("Probability of phase cancellation per technique, this model (95 % Clopper-Pearson)\n"
+                 f"to compare with {cite('auris', 'Fig. 3.16 and 5.8')} (path selection there: below 1 %)",
+                 fontsize=9)
     ax.legend()
     ax.grid(alpha=0.3)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_16")))

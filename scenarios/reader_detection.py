@@ -35,7 +35,7 @@ decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
 (:meth:`devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
 noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome is **the reader
 decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange and
-session flags are not simulated, so a "read" here is an RN16 decode). The tag's chip
+the inventoried flags (S0–S3) are not simulated, so a "read" here is an RN16 decode). The tag's chip
 sensitivity follows its class (``tag_class``, :data:`TAG_CLASS_SENSITIVITY_DBM`): the
 campaign's Smartrac Spine tags by default (−16.0 dBm, calibrated by Friis to the published
 boresight d50), or PASS's UCODE G2XM (−12.8 dBm).

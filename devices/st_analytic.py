@@ -514,6 +514,22 @@ DIPOLE_Z11_OHM = complex(73.1, 42.5)
 DIPOLE_Z12_QUARTER_WAVE_OHM = complex(40.8, -28.3)
 
 
+def mutual_impedance_half_wave_ohm(spacing_m, fc_hz: float = 915e6):
+    """Mutual impedance of two parallel side-by-side half-wave dipoles [Ω] (induced-EMF method,
+    Balanis *Antenna Theory* Eq. 8.71): with k = 2π/λ, l = λ/2, u0 = k·d,
+    u1,2 = k·(sqrt(d² + l²) ± l), η/(4π) = 30 Ω:
+    ``R12 = 30·[2·Ci(u0) − Ci(u1) − Ci(u2)]``, ``X12 = −30·[2·Si(u0) − Si(u1) − Si(u2)]``.
+    λ/4 at 915 MHz: 40.4 − j28.4 Ω (the tabulated 40.8 − j28.3 Ω)."""
+    from scipy.special import sici
+
+    lam = float(wavelength_m(fc_hz))
+    k, l = 2.0 * np.pi / lam, 0.5 * lam
+    d = np.asarray(spacing_m, float)
+    h = np.sqrt(d * d + l * l)
+    (s0, c0), (s1, c1), (s2, c2) = sici(k * d), sici(k * (h + l)), sici(k * (h - l))
+    return 30.0 * (2.0 * c0 - c1 - c2) - 30.0j * (2.0 * s0 - s1 - s2)
+
+
 def coupling_matrix(z11_ohm: complex = DIPOLE_Z11_OHM, z12_ohm: complex = DIPOLE_Z12_QUARTER_WAVE_OHM,
                     z_load_ohm: complex | None = None) -> np.ndarray:
     """2×2 matrix taking the uncoupled port voltages of an antenna pair to the coupled ones.
@@ -542,5 +558,5 @@ __all__ = [
     "combine_dual", "combined_envelope_difference", "combined_cancel_angle", "NullMapModel",
     "select_path", "select_detected", "stamp_select", "phase_cancelled", "cancellation_probability",
     "sync_envelope_difference", "synchronised_difference", "DIPOLE_Z11_OHM", "DIPOLE_Z12_QUARTER_WAVE_OHM",
-    "coupling_matrix", "TechniqueOutcome", "technique_outcomes",
+    "mutual_impedance_half_wave_ohm", "coupling_matrix", "TechniqueOutcome", "technique_outcomes",
 ]

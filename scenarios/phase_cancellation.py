@@ -51,8 +51,8 @@ the band-pass carries into the reply — fixed by the settling cycles
 (:data:`STAMP_SETTLE_CYCLES`) — and (ii) commits to P2 from four subcarrier cycles, which pass
 a comparator at a swing a few % below what Miller data need, where Algorithm 1 falls back to P1
 after P2's decode fails; a 3 % decision margin (:data:`STAMP_DECISION_MARGIN`) removes most
-of that. Full run, seed 1: 0.93 points apart before, 0.49 after (with pair coupling; 86
-stamp-only against 30 selection-only failures of 11 464; 0.78 with ``pass_replication``); what is left are samples whose SA2
+of that. Full run, seed 1: 0.93 points apart before, 0.44 after (with pair coupling; 81
+stamp-only against 31 selection-only failures of 11 464; 0.78 with ``pass_replication``); what is left are samples whose SA2
 swing is within ±3.5 % of the threshold.
 
 Detector and noise (``detector``): the ST's diode, ``v = n·V_T·ln I0(G_v·V/(n·V_T))``
@@ -108,7 +108,8 @@ transmitter is the reader-powered tag with a three-state modulator of re-radiate
 (S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ} = −r_B) instead of an exciter-powered ST (Fig. 5.8);
 one reader segment per (cell, repetition) with its own channel draw; the near field is
 excluded, not modelled. The λ/4 pair's mutual coupling (``geometry.pair_coupling``, default
-on: Z11 = 73.1 + j42.5 Ω, Z12 = 40.8 − j28.3 Ω, conjugate-matched loads,
+on: Z11 = 73.1 + j42.5 Ω, Z12 from the induced-EMF formula at ``st.spacing_m`` (40.4 − j28.4 Ω
+at λ/4), conjugate-matched loads,
 :func:`devices.st_analytic.coupling_matrix`) mixes the two ports' signals, CW and backscatter
 alike; it raises path selection from 12.7 % to 13.3 % (full run; 7.5 % → 11.3 % with
 ``pass_replication``) by correlating the ports.
@@ -200,9 +201,9 @@ class GeometryConfig:
     height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="height of reader, tag and ST")
     reader_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="reader patch gain")
     apdp: bool = param(True, doc="exponential APDP small scale (PASS ST-room curves)")
-    pair_coupling: bool = param(True, doc="mutual coupling of the ST's lambda/4 dipole pair (Z11 = 73.1 + j42.5, "
-                                          "Z12 = 40.8 - j28.3 ohm, conjugate-matched loads; "
-                                          "devices.st_analytic.coupling_matrix)")
+    pair_coupling: bool = param(True, doc="mutual coupling of the ST's dipole pair (Z11 = 73.1 + j42.5 ohm, Z12 "
+                                          "of side-by-side half-wave dipoles at st.spacing_m: 40.4 - j28.4 ohm at "
+                                          "lambda/4; conjugate-matched loads; devices.st_analytic.coupling_matrix)")
 
 
 @dataclass(frozen=True)
@@ -378,10 +379,6 @@ class Config:
             raise ConfigError("geometry.tag_x_m", self.geometry.tag_x_m, "at least one cell")
         if self.tracks.cell >= n:
             raise ConfigError("tracks.cell", self.tracks.cell, f"a cell index 0…{n - 1}")
-        if (self.geometry.pair_coupling and self.st.n_antennas == 2
-                and abs(self.st.spacing_m / 0.08197 - 1.0) > 0.03):
-            raise ConfigError("geometry.pair_coupling", True, f"false unless st.spacing_m is lambda/4 = 0.082 m "
-                                                              f"(the tabulated Z12), got {self.st.spacing_m}")
         if self.pass_replication.enabled and self.tag_states.model != "measured":
             raise ConfigError("tag_states.model", self.tag_states.model, "'measured' with pass_replication.enabled")
         if not self.tracks.d_min_m < self.tracks.d_max_m:
@@ -535,7 +532,8 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     err = max(a_link.narrowband_error(2.0 * blf), b_link.narrowband_error(2.0 * blf))
     shape = sta.positions_m.shape[:2]
     coupled = g.pair_coupling and shape[1] == 2
-    mix = sa.coupling_matrix() if coupled else None
+    mix = sa.coupling_matrix(z12_ohm=complex(sa.mutual_impedance_half_wave_ohm(config.st.spacing_m, fc))) \
+        if coupled else None
 
     def couple(x):
         # port signals of the λ/4 pair after mutual coupling: (N, 2, ...) → M·(SA1, SA2)

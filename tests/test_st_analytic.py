@@ -289,3 +289,12 @@ def test_coupling_matrix_solves_the_two_port_circuit():
     np.testing.assert_allclose(sa.coupling_matrix(z12_ohm=0.0), np.eye(2), atol=1e-15)
     c = z12 / (z11 + zl)
     assert abs(c) == pytest.approx(0.34, abs=0.01)
+
+
+def test_mutual_impedance_of_the_quarter_wave_pair_matches_the_tabulated_value():
+    # induced-EMF Z12 of side-by-side λ/2 dipoles: 40.8 − j28.3 Ω at λ/4 (Balanis Fig. 8.20, as
+    # quoted in the issue; read off a plot, so ±1 Ω); → 0 far apart, → R11 = 73.1 Ω when touching
+    z = complex(sa.mutual_impedance_half_wave_ohm(0.25 * 299792458.0 / 915e6, 915e6))
+    assert abs(z - complex(40.8, -28.3)) < 1.0
+    assert abs(complex(sa.mutual_impedance_half_wave_ohm(1e-6, 915e6)).real - 73.1) < 0.2
+    assert abs(complex(sa.mutual_impedance_half_wave_ohm(20.0, 915e6))) < 2.0

@@ -52,7 +52,7 @@ the band-pass carries into the reply — fixed by the settling cycles
 a comparator at a swing a few % below what Miller data need, where Algorithm 1 falls back to P1
 after P2's decode fails; a 3 % decision margin (:data:`STAMP_DECISION_MARGIN`) removes most
 of that. Full run, seed 1: 0.93 points apart before, 0.44 after (with pair coupling; 81
-stamp-only against 31 selection-only failures of 11 464; 0.78 with ``pass_replication``); what is left are samples whose SA2
+stamp-only against 31 selection-only failures of 11 464; 0.72 with ``pass_replication``); what is left are samples whose SA2
 swing is within ±3.5 % of the threshold.
 
 Detector and noise (``detector``): the ST's diode, ``v = n·V_T·ln I0(G_v·V/(n·V_T))``

@@ -18,6 +18,7 @@ path P2 (with the backscatter modulator). A single-antenna ST is the P2 path alo
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -346,8 +347,73 @@ def cancellation_probability(flags, *, axis=None, confidence: float = 0.95):
 
 
 def sync_envelope_difference(a_t1, a_t2):
-    """Envelope difference with the CW in phase with the backscatter (θ = 0): ``|A_T1 − A_T2|``."""
+    """Envelope difference with the CW in phase with collinear ASK states (θ = 0):
+    ``|A_T1 − A_T2|`` (for complex states use :func:`synchronised_difference`)."""
     return np.abs(np.asarray(a_t1, float) - np.asarray(a_t2, float))
+
+
+def synchronised_difference(cw, bs1, bs2, *, n_grid: int = 64, n_refine: int = 40):
+    """Detectability: envelope difference with the CW synchronised to the backscatter [V].
+
+    ``D_sync = max over φ of ||c·e^{jφ} + b1| − |c·e^{jφ} + b2||`` for the CW phasor ``c``
+    and the backscatter phasors ``b1``, ``b2`` of the two reflection states at one antenna
+    (the source's condition for a detectable sample, R3-5: "the envelope detector output of
+    the superimposed signal of tag's backscattering signal and synchronized Reader's CW",
+    seed L3490-3502; reference §4.1). The CW's phase is free, its amplitude is not.
+
+    Closed form. By the triangle inequality ``D_sync ≤ |b1 − b2|``, with equality where the
+    point ``p = −c·e^{jφ}`` lies on the line ``b1 + s·(b2 − b1)`` outside the open segment
+    (0 < s < 1): then ``b1 − p`` and ``b2 − p`` are parallel and their lengths differ by
+    ``|b1 − b2|``. The line meets the circle ``|p| = |c|`` where
+    ``|d|²s² + 2·Re(b1*·d)·s + |b1|² − |c|² = 0`` (``d = b2 − b1``); whenever a real root
+    lies outside (0, 1) — always when ``|c| ≥ max(|b1|, |b2|)``, the CW-dominant regime of
+    the ST — ``D_sync = |b1 − b2|`` exactly (≈ |b1 − b2| for weak backscatter as the issue
+    states; ``|A_T1 − A_T2|`` for collinear ASK states). Otherwise (backscatter stronger
+    than the CW, e.g. an ST antenna millimetres from the tag) the maximum is found
+    numerically: an ``n_grid``-point grid over φ, then ``n_refine`` golden-section steps in
+    the bracket around the best grid point.
+
+    Parameters
+    ----------
+    cw, bs1, bs2 : complex phasors (broadcast) [V]
+
+    Returns
+    -------
+    float64 array, ``D_sync`` [V]
+    """
+    c, b1, b2 = np.broadcast_arrays(*(np.asarray(v, complex) for v in (cw, bs1, bs2)))
+    d = b2 - b1
+    dd = np.abs(d) ** 2
+    rc = np.abs(c)
+    half_b = (np.conj(b1) * d).real
+    disc = half_b ** 2 - dd * (np.abs(b1) ** 2 - rc ** 2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        s_lo, s_hi = (-half_b - sq) / dd, (-half_b + sq) / dd
+    exact = (dd == 0) | ((disc >= 0) & ((s_lo <= 0) | (s_hi >= 1)))
+    out = np.where(exact, np.sqrt(dd), 0.0)
+    if np.all(exact):
+        return out
+    idx = np.flatnonzero(~exact.ravel())
+    cc, x1, x2 = c.ravel()[idx, None], b1.ravel()[idx, None], b2.ravel()[idx, None]
+
+    def f(phi):
+        p = cc * np.exp(1j * phi)
+        return np.abs(np.abs(p + x1) - np.abs(p + x2))
+
+    step = 2.0 * np.pi / n_grid
+    grid = np.arange(n_grid) * step
+    best = np.argmax(f(grid[None, :]), axis=1)
+    a, b = (grid[best] - step)[:, None], (grid[best] + step)[:, None]
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    for _ in range(n_refine):
+        m1, m2 = b - g * (b - a), a + g * (b - a)
+        left = f(m1) > f(m2)
+        b = np.where(left, m2, b)
+        a = np.where(left, a, m1)
+    flat = out.ravel().copy()
+    flat[idx] = np.maximum(f(0.5 * (a + b))[:, 0], f(grid[best][:, None])[:, 0])
+    return flat.reshape(out.shape)
 
 
 @dataclass(frozen=True)
@@ -374,7 +440,7 @@ class TechniqueOutcome:
 
 
 def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, detector_gain: float = 1.0,
-                       threshold_v: float = THRESHOLD_V) -> TechniqueOutcome:
+                       threshold_v: float = THRESHOLD_V, transfer=None) -> TechniqueOutcome:
     """Closed-form outcome of single / combination / selection / stamp from complex phasors.
 
     Parameters
@@ -384,12 +450,19 @@ def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, de
     cw_sa2, bs1_sa2, bs2_sa2 : the same at SA2 (the single-antenna ST is SA2 = path P2)
     detector_gain : envelope-detector output per input volt (linear regime)
     threshold_v : phase-cancellation threshold on the detector output difference [V]
+    transfer : optional detector law ``v_out = transfer(V_peak)`` [V → V] (e.g. the diode's
+        ``n·V_T·ln I0(G_v·V/(n·V_T))``, :meth:`devices.st_receiver.EnvelopeDetector.transfer_v`);
+        replaces ``detector_gain``. Actual differences ``|f(|c + b1|) − f(|c + b2|)|``;
+        synchronised ``|f(|c| + D/2) − f(|c| − D/2)|`` with ``D`` = :func:`synchronised_difference`
+        (the secant of the law across the swing around the CW level; exact for a linear law)
 
     Notes
     -----
     Actual differences: ``|A1 − A2|`` (Eq. 3.3/3.4) per antenna, and of the RF sum
-    (Eq. 3.14/3.21). Synchronised differences (R3-5): ``| |B1| − |B2| |`` per antenna and of
-    the summed backscatter (``|Â_T1 − Â_T2|``). Flags: one detectability condition for every
+    (Eq. 3.14/3.21). Synchronised differences (R3-5): :func:`synchronised_difference`
+    ``max_φ ||c·e^{jφ} + b1| − |c·e^{jφ} + b2||`` per antenna and of the RF sum (= |b1 − b2|
+    when the CW dominates; for collinear ASK states ``|A_T1 − A_T2|``, the no-CW limit
+    ``||b1| − |b2||`` only then). Flags: one detectability condition for every
     technique — the single-antenna ST (SA2) would detect the tag with the CW synchronised
     (``sync_sa2_v > threshold``) — and the technique does not detect it: single = SA2,
     combination = the RF sum, selection = Algorithm 1 over SA1/SA2, stamp =
@@ -401,16 +474,24 @@ def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, de
                                                                   bs2_sa2))
 
     def diff(c, b1, b2):
+        if transfer is not None:  # the detector law on the two envelopes
+            return np.abs(transfer(np.abs(c + b1)) - transfer(np.abs(c + b2)))
         # Eq. 3.4 with θ = arg(b1/c) (= arg(b2/c) for ASK); general complex states: direct form
         th = np.angle(b1 * np.conj(c))
         same_phase = np.isclose(np.angle(b2 * np.conj(b1)), 0.0, atol=1e-12)
         eq34 = ask_envelope_difference(np.abs(c), np.abs(b1), np.abs(b2), th)
         return g * np.where(same_phase, eq34, np.abs(np.abs(c + b1) - np.abs(c + b2)))
 
+    def sync(c, b1, b2):
+        d = synchronised_difference(c, b1, b2)
+        if transfer is None:
+            return g * d
+        a = np.abs(c)
+        return np.abs(transfer(a + 0.5 * d) - transfer(np.maximum(a - 0.5 * d, 0.0)))
+
     d1, d2 = diff(c1, b11, b12), diff(c2, b21, b22)
     dc = diff(c1 + c2, b11 + b21, b12 + b22)
-    s1, s2 = g * np.abs(np.abs(b11) - np.abs(b12)), g * np.abs(np.abs(b21) - np.abs(b22))
-    sc = g * np.abs(np.abs(b11 + b21) - np.abs(b12 + b22))
+    s1, s2, sc = sync(c1, b11, b12), sync(c2, b21, b22), sync(c1 + c2, b11 + b21, b12 + b22)
     thr = threshold_v
     sel_detected = select_detected(d1 > thr, d2 > thr)
     stamp_detected = stamp_select(d2, d1, threshold_v=thr)[0]
@@ -424,10 +505,58 @@ def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, de
     )
 
 
+# ----------------------------------------------------------------------------- antenna pair coupling
+
+#: Self impedance of a thin half-wave dipole [Ω] (Balanis, *Antenna Theory*, §4.6 / §8.6)
+DIPOLE_Z11_OHM = complex(73.1, 42.5)
+#: Mutual impedance of two parallel side-by-side half-wave dipoles λ/4 apart [Ω] (induced-EMF
+#: method, Balanis §8.6 Fig. 8.20; the issue's 40.8 − j28.3 Ω)
+DIPOLE_Z12_QUARTER_WAVE_OHM = complex(40.8, -28.3)
+
+
+def mutual_impedance_half_wave_ohm(spacing_m, fc_hz: float = 915e6):
+    """Mutual impedance of two parallel side-by-side half-wave dipoles [Ω] (induced-EMF method,
+    Balanis *Antenna Theory* Eq. 8.71): with k = 2π/λ, l = λ/2, u0 = k·d,
+    u1,2 = k·(sqrt(d² + l²) ± l), η/(4π) = 30 Ω:
+    ``R12 = 30·[2·Ci(u0) − Ci(u1) − Ci(u2)]``, ``X12 = −30·[2·Si(u0) − Si(u1) − Si(u2)]``.
+    λ/4 at 915 MHz: 40.4 − j28.4 Ω (the tabulated 40.8 − j28.3 Ω)."""
+    from scipy.special import sici
+
+    lam = float(wavelength_m(fc_hz))
+    k, l = 2.0 * np.pi / lam, 0.5 * lam
+    d = np.asarray(spacing_m, float)
+    h = np.sqrt(d * d + l * l)
+    (s0, c0), (s1, c1), (s2, c2) = sici(k * d), sici(k * (h + l)), sici(k * (h - l))
+    return 30.0 * (2.0 * c0 - c1 - c2) - 30.0j * (2.0 * s0 - s1 - s2)
+
+
+def coupling_matrix(z11_ohm: complex = DIPOLE_Z11_OHM, z12_ohm: complex = DIPOLE_Z12_QUARTER_WAVE_OHM,
+                    z_load_ohm: complex | None = None) -> np.ndarray:
+    """2×2 matrix taking the uncoupled port voltages of an antenna pair to the coupled ones.
+
+    Two identical antennas with self impedance Z11, mutual impedance Z12, each terminated in
+    ``Z_L`` (default the conjugate match of one antenna alone, ``Z11*``): their open-circuit
+    voltages V_oc (what each would deliver alone, the engine's port signals) drive
+    ``V_oc = (Z + Z_L·I)·I_port`` with ``Z = [[Z11, Z12], [Z12, Z11]]``, and the loads see
+    ``V_L = Z_L·I_port``. Normalised so that Z12 = 0 gives the identity (the port signals
+    already carry the single antenna's matched level):
+    ``M = (Z11 + Z_L)·(Z + Z_L·I)⁻¹ = [[1, −c], [−c, 1]]/(1 − c²)``, ``c = Z12/(Z11 + Z_L)``
+    (λ/4 dipoles, conjugate match: c = 0.28 − j0.19). Coupling mixes the CW and the
+    backscatter alike, so it changes the relative phase θ between the two ports and with it
+    which antenna is in a null. Neighbouring scatterers other than the pair (the ST body) are
+    not modelled.
+    """
+    z11, z12 = complex(z11_ohm), complex(z12_ohm)
+    zl = z11.conjugate() if z_load_ohm is None else complex(z_load_ohm)
+    c = z12 / (z11 + zl)
+    return np.array([[1.0, -c], [-c, 1.0]], dtype=complex) / (1.0 - c * c)
+
+
 __all__ = [
     "THRESHOLD_V", "envelope_amplitude", "ask_envelope_difference", "ask_cancel_angle",
     "psk_envelope_difference", "psk_cancel_angles", "psk_peak_difference", "CombinedSignal",
     "combine_dual", "combined_envelope_difference", "combined_cancel_angle", "NullMapModel",
     "select_path", "select_detected", "stamp_select", "phase_cancelled", "cancellation_probability",
-    "sync_envelope_difference", "TechniqueOutcome", "technique_outcomes",
+    "sync_envelope_difference", "synchronised_difference", "DIPOLE_Z11_OHM", "DIPOLE_Z12_QUARTER_WAVE_OHM",
+    "mutual_impedance_half_wave_ohm", "coupling_matrix", "TechniqueOutcome", "technique_outcomes",
 ]

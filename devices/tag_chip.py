@@ -74,6 +74,9 @@ class PowerDependentChip:
     z_ant_ohm : antenna impedance [Ω]
     fc_hz : frequency of the tables [Hz]
     assembly_capacitance_f : capacitance parallel to the chip [F] (0 = none)
+    assembly_resistance_ohm : resistance R_at parallel to the chip [Ω] (inf = none); PASS's
+        assembly Z_at = R_at ∥ C_at (pass-paris-simulator.md §5.2) absorbs the share
+        ``Re(Y_at)/Re(Y_ic + Y_at)`` of the absorbed power, so ``P_chip`` is the rest
     picmin_w : minimum operating chip power [W]
     margin_db : power-up margin on ``picmin_w`` [dB]
     """
@@ -86,6 +89,7 @@ class PowerDependentChip:
     assembly_capacitance_f: float = PASS_ASSEMBLY_CAPACITANCE_F
     picmin_w: float = PASS_PICMIN_900MHZ_W
     margin_db: float = PASS_POWER_MARGIN_DB
+    assembly_resistance_ohm: float = math.inf
 
     def __post_init__(self):
         p = np.asarray(self.p_chip_w, float)
@@ -156,11 +160,19 @@ class PowerDependentChip:
     def states(self, p_chip_w: float) -> tuple[complex, complex]:
         """(Γ_u, Γ_m) at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna."""
         z_ic, z_mod = self.impedances(p_chip_w)
-        z_in = z_ic
-        if self.assembly_capacitance_f > 0:
-            z_in = complex(parallel_ohm(z_ic, 1.0 / (2j * math.pi * self.fc_hz * self.assembly_capacitance_f)))
+        z_in = complex(1.0 / (1.0 / z_ic + self._assembly_admittance()))
         return (reflection_coefficient(z_in, self.z_ant_ohm),
                 reflection_coefficient(complex(parallel_ohm(z_in, z_mod)), self.z_ant_ohm))
+
+    def _assembly_admittance(self) -> complex:
+        """Y_at = 1/R_at + jωC_at [S]."""
+        return (1.0 / self.assembly_resistance_ohm if math.isfinite(self.assembly_resistance_ohm) else 0.0) + \
+            2j * math.pi * self.fc_hz * self.assembly_capacitance_f
+
+    def chip_share(self, p_chip_w: float) -> float:
+        """Share of the absorbed power that reaches the chip, ``Re(Y_ic)/Re(Y_ic + Y_at)``."""
+        y_ic = 1.0 / self.impedances(p_chip_w)[0]
+        return y_ic.real / (y_ic.real + self._assembly_admittance().real)
 
     def operating_point(self, p_available_w: float) -> ChipOperatingPoint:
         """Solve P_chip = (1 − |Γ_u(P_chip)|²)·P_av by bisection in log P_chip (60 halvings:
@@ -172,7 +184,7 @@ class PowerDependentChip:
 
         def excess(log_p):
             u = self.states(math.exp(log_p))[0]
-            return math.log((1.0 - abs(u) ** 2) * pav) - log_p
+            return math.log((1.0 - abs(u) ** 2) * pav * self.chip_share(math.exp(log_p))) - log_p
 
         lo, hi = math.log(pav * 1e-9), math.log(pav)
         for _ in range(60):

@@ -39,12 +39,20 @@ FIXED: dict[str, tuple[str, str]] = {
     "tag_available_power_w": ("W", "CW power available at the tag antenna port during the Query"),
     "tag_chip_power_w": ("W", "power absorbed by the tag chip (available power x power transmission "
                               "coefficient of the chip's unmodulated state)"),
-    "sync_sa2_v": ("V", "envelope difference at SA2 with the CW synchronised to the backscatter, "
-                        "detector_gain*|A_T1 - A_T2|: the detectability condition (R3-5)"),
+    "sync_sa2_v": ("V", "detector-output envelope difference at SA2 with the CW synchronised to the "
+                        "backscatter: max over the CW phase phi of ||c e^{j phi} + b1| - |c e^{j phi} + b2|| "
+                        "(= |b1 - b2| when the CW dominates) through the detector law: the detectability "
+                        "condition (R3-5, devices.st_analytic.synchronised_difference)"),
+    "rerad_b_abs": ("1", "|r_B| = |A_s - Gamma_B|, magnitude of the tag's re-radiated modulating state"),
+    "rerad_a_abs": ("1", "|r_A| = |A_s - Gamma_A|, magnitude of the tag's re-radiated absorbing state"),
+    "near_field": ("1", "an ST antenna lies within lambda/(2 pi) = 5.2 cm of the tag (reactive near "
+                        "field, where the far-field links do not hold): excluded from the probabilities"),
+    "n_near_field": ("1", "ST samples of the cell with an antenna within lambda/(2 pi) of the tag (excluded)"),
     "detectable": ("1", "sync_sa2_v above the comparator threshold st.threshold_v: a single-antenna ST "
                         "would see the tag without phase cancellation"),
     "stamp_use_p1": ("1", "the ASK stamp symbol was '-' on SA2, so the stamp technique decoded on SA1"),
-    "n_samples": ("1", "ST samples of the cell over all repetitions (the trials of each probability)"),
+    "n_samples": ("1", "ST samples of the cell over all repetitions outside the near field (the trials "
+                       "of each probability)"),
     "tag_replied_fraction": ("1", "fraction of the cell's repetitions in which the tag replied its RN16 "
                                   "(0: the tag does not run at this distance)"),
     "detectable_fraction": ("1", "fraction of the cell's ST samples that are detectable"),
@@ -74,7 +82,7 @@ ANTENNA_COLUMNS = (
     ("diff_", "sample-level envelope difference |A(+1) - A(-1)| at the detector output of {ant}: mean detector "
               "level in the tag's two states over the RN16 reply (0 when the tag did not reply)"),
     ("closed_diff_", "closed-form envelope difference |A1 - A2| (Eq. 3.4, Eq. 3.21 for the sum) at {ant} from "
-                     "the measured A_R, A_T1, A_T2, theta and detector_gain"),
+                     "the measured phasors through the detector law (detector.law; |f(|c + b1|) - f(|c + b2|)|)"),
 )
 #: (name prefix, description template) of the per-technique columns; {tech} names the technique.
 TECHNIQUE_COLUMNS = (

@@ -24,30 +24,58 @@ segment's) the input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with
 stamped frame is a third step on the same links with the stamp modulator's r(t). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
-(:mod:`devices.st_receiver`: linear detector at 50 Ω, RC, band-pass, 5 mV comparator,
+(:mod:`devices.st_receiver`: diode detector at 50 Ω, RC, band-pass, 5 mV comparator,
 Miller decoder) runs on every input, vectorised over positions
 (:func:`devices.sense_a_tag.chain_rows`), from the end of the reader's command on.
 
 Techniques and flags (R3-5, :func:`devices.st_analytic.technique_outcomes` for the
-definition): a sample is *detectable* when the single-antenna ST (SA2) would see an
-envelope difference above the threshold with the CW synchronised to the backscatter
-(``detector_gain·|A_T1 − A_T2|`` at SA2, from the measured amplitudes); a technique
-*detects* when its chain decodes the tag's RN16 exactly: single = SA2, combination = chain
-on SA1 + SA2, selection = Algorithm 1 over SA2 then SA1, stamp = the transmitter sends an
-ASK-PSK stamp (8 + 8 subcarrier cycles, PSK 180°, :func:`devices.st_receiver.stamp_frame`)
-before the RN16 and the ST decodes on SA2 unless the ASK stamp symbol is '-' (then on SA1);
-*cancelled* = detectable and not detected. The probability per cell and technique has a
-Clopper–Pearson 95 % interval over all positions × repetitions of the cell.
+definition): a sample is *detectable* when the single-antenna ST (SA2) would see a
+detector-output difference above the threshold with the CW synchronised to the
+backscatter: ``D_sync = max over φ of ||c·e^{jφ} + b1| − |c·e^{jφ} + b2||``
+(:func:`devices.st_analytic.synchronised_difference`; = |b1 − b2| whenever the CW dominates,
+the source's "synchronized Reader's CW" condition, seed L3490-3502) through the detector law;
+the measured chip states are not collinear (arg(Γm/Γu) from −10° at 1 m to −55° at 5.5 m), so
+the no-CW limit ``||b1| − |b2||`` used before labelled half of the replying samples
+undetectable. A technique *detects* when its chain decodes the tag's RN16 exactly: single =
+SA2, combination = chain on SA1 + SA2, selection = Algorithm 1 over SA2 then SA1, stamp = the
+transmitter sends an ASK-PSK stamp (8 + 8 subcarrier cycles, PSK 180°, then 8 ASK settling
+cycles, :func:`devices.st_receiver.stamp_frame`) before the RN16 and the ST decodes on SA2
+unless the ASK stamp symbol is '-' (then on SA1); *cancelled* = detectable and not detected.
+Samples with an ST antenna within λ/2π (5.2 cm) of the tag (reactive near field, ≈ 1 %) are
+excluded from the probabilities and counted (``near_field``, ``n_near_field``). The
+probability per cell and technique has a Clopper–Pearson 95 % interval.
+
+Stamp vs selection. Identical in closed form; at sample level the stamp lost (i) the first
+pilot cycles after its PSK part, whose envelope swing (up to 2|b|, 5–10× the ASK swing)
+the band-pass carries into the reply — fixed by the settling cycles
+(:data:`STAMP_SETTLE_CYCLES`) — and (ii) commits to P2 from four subcarrier cycles, which pass
+a comparator at a swing a few % below what Miller data need, where Algorithm 1 falls back to P1
+after P2's decode fails; a 3 % decision margin (:data:`STAMP_DECISION_MARGIN`) removes most
+of that. Full run, seed 1: 0.93 points apart before, 0.44 after (with pair coupling; 81
+stamp-only against 31 selection-only failures of 11 464; 0.72 with ``pass_replication``); what is left are samples whose SA2
+swing is within ±3.5 % of the threshold.
+
+Detector and noise (``detector``): the ST's diode, ``v = n·V_T·ln I0(G_v·V/(n·V_T))``
+(:class:`devices.st_receiver.EnvelopeDetector`, n = 1.05, 290 K) with the matching gain
+G_v = 0.96 that meets the source's two quoted conversions within 1 % (R3-1: Table 3.1's
+0.0015 V → "0.01 V"; R3-4: 0.0019 V → 0.012 V, in source volts, i.e. √50× smaller than the
+50 Ω peak volts here); the threshold is 5 mV at the detector output. ``linear`` is the old
+unit-gain detector (+6 %, +12 % on the two conversions), ``agc`` PASS's demodulator
+characteristic (``meas_tag_agc``; 0.0084 V and 0.029 V). Noise: k·T0·fs·F per sample at every
+ST antenna (F = 15 dB, an assumption: the source has no ST noise) — microvolts at the detector
+output against the 5 mV threshold, so the threshold, not the noise, decides. The closed form
+for uniform θ, ``P_single ≈ E[(2/π)·arcsin(t/|Δb|)·1{|Δb| > t}]`` with |Δb| the synchronised
+output difference, matches the chain (full run: 25.1 % vs 25.0 %, tests).
 
 Calibration against the source (§6.1, Table 3.1): the reader radiates the source's EIRP
 3.28 W (:data:`SOURCE_PTX_DBM` + 6 dBi). The source's amplitudes are peak ``sqrt(2P)``
 across 1 Ω (its simulator sets the passband signal's variance to P); in that unit the
 median CW at SA2 in cell 1 is ≈ 0.077 V against Table 3.1's A_R = 0.0802 V (the cells
-table carries the medians, :func:`source_amplitudes`). Our 50 Ω volts are √50 ≈ 7.1×
-larger, which is the source's detector conversion: the linear detector (``st.detector_gain
-= 1``) turns R3-1's 0.0015 V into 0.0106 V ("0.01 V") and R3-4's 0.0019 V into 0.0134 V
-(0.012 V), whereas PASS's AGC demodulator characteristic (``meas_tag_agc``) would give
-0.0084 V and 0.029 V (tests/test_st_receiver.py), so the AGC is not modelled.
+table carries the medians, :func:`source_amplitudes`). The backscatter follows the radar
+equation A_T1/A_R = |r_B|·G_tag·λ/(4π·r)·R̃/D (tests): with the physical λ/2 dipole (1.64)
+the median A_T1 in cell 1 is 0.0081 V, 7× below Table 3.1's 0.0576 V (median
+A_T1/A_R ≈ 0.1 against the tabulated 0.54–0.99); PASS's 6.02 dBi file (``pass_replication``)
+gives 0.020 V, 2.9× below.
 
 Tag (``tag_states.model``): by default ``"measured"``, the source's own tag physics
 (:mod:`devices.tag_chip`): the UCODE chip's impedance moves with its absorbed power, so the
@@ -64,23 +92,30 @@ minimum-scattering antenna, A_s = 1): its deep modulation (|r_A − r_B| = |Γ_B
 every cell detectable to 7 m and the probability *rises* with distance. ``"source"`` uses
 Table 3.1's ratio A_T1/A_T2 = 1.03 with a fixed |Γ| ≈ 0.7.
 
-Deviations from the source (stated in the dataset attributes too): path selection stays
-above the source's "below 1 %" (full run, seed 1: ≈ 1.9 %). Its failures are samples barely
-above the detectability condition (median synchronised difference 1.2× the threshold), where
-the null region covers most phases, with the λ/4 antennas seeing the null together: their
-relative phases θ differ by Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 (pair perpendicular to e_R − e_r,
-or the ST behind the tag where e_R ≈ e_r; about half the failures have |Δθ| < 0.5 rad) or by
-≈ π (pair along the reader–tag axis; with A_T ≪ A_R θ_cancel ≈ π/2, so +θ_cancel maps onto
-−θ_cancel; about 30 % have |Δθ| > 2.5 rad). The source's tag tables ("c-p2a", six
-modulation states) are not available, only the measurements they were generated from, and
-its tag switched the first 16 subcarrier cycles PSK-like (pass-paris-simulator.md §2.2 step
-10), which is not reproduced. The stamp transmitter is the reader-powered tag with a
-three-state modulator of re-radiated states (S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ} = −r_B)
-instead of an exciter-powered ST (Fig. 5.8); one reader segment per (cell, repetition) with
-its own channel draw; no noise at the ST (the source's threshold, not its noise, decides).
+Deviations from the source (stated in the dataset attributes too): with the synchronised
+criterion every replying sample is detectable, so P(cancel) is far above the source's
+"below 1 %" for path selection (full run, seed 1: 13.3 % [12.7, 13.9]; 11.3 % [10.7, 11.9]
+with ``pass_replication``) and does not fall with distance over the cells where the tag runs
+(|Δb| falls toward the threshold; single antenna 27 % at 1 m, 32–39 % over 1.5–5 m); beyond
+≈ 5 m the tag does not power up and the cells are zero. Path selection's failures are samples
+near the threshold where the λ/4 antennas see the null together: their relative phases θ
+differ by Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 (pair perpendicular to e_R − e_r, or the ST behind
+the tag) or by ≈ π (pair along the reader–tag axis; θ_cancel ≈ π/2, so +θ_cancel maps onto
+−θ_cancel). The source's tag tables ("c-p2a", six modulation states) are not available, only
+the measurements they were generated from, and its tag switched the first 16 subcarrier
+cycles PSK-like (pass-paris-simulator.md §2.2 step 10), which is not reproduced. The stamp
+transmitter is the reader-powered tag with a three-state modulator of re-radiated states
+(S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ} = −r_B) instead of an exciter-powered ST (Fig. 5.8);
+one reader segment per (cell, repetition) with its own channel draw; the near field is
+excluded, not modelled. The λ/4 pair's mutual coupling (``geometry.pair_coupling``, default
+on: Z11 = 73.1 + j42.5 Ω, Z12 from the induced-EMF formula at ``st.spacing_m`` (40.4 − j28.4 Ω
+at λ/4), conjugate-matched loads,
+:func:`devices.st_analytic.coupling_matrix`) mixes the two ports' signals, CW and backscatter
+alike; it raises path selection from 12.7 % to 13.3 % (full run; 7.5 % → 11.3 % with
+``pass_replication``) by correlating the ports.
 
 Randomness: (cell c, repetition r) uses ``trial_rng(seed, c, r, k)``: k = 0 reader, 1 tag,
-2 forward link, 3 ST positions, 4 ST links; radial tracks ``trial_rng(seed, 1000, k)``.
+2 forward link, 3 ST positions, 4 ST links, 5 ST noise; radial tracks ``trial_rng(seed, 1000, k)``.
 Results do not depend on the number of worker processes.
 """
 
@@ -95,6 +130,7 @@ from typing import Literal
 import numpy as np
 
 from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
+from channels.antennas import Tabulated
 from channels.bulk import draw_links
 from channels.paths import NARROWBAND_TOLERANCE, narrowband_rms_error
 from channels.antennas import vertical_dipole as st_antenna
@@ -102,7 +138,7 @@ from devices import st_analytic as sa
 from devices import st_receiver as sr
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
-                                 make_receiver, st_antenna_positions)
+                                 st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
 from devices.tag_chip import PowerDependentChip
 from devices.tag_frontend import ReflectionStates
@@ -110,6 +146,7 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import Query
+from rfsim.noise import thermal_noise_power_w
 from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
 from rfsim.gen2.link import reply_window_s, t1
 from rfsim.progress import stage
@@ -127,6 +164,15 @@ DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single an
 R_OHM = sr.REFERENCE_IMPEDANCE_OHM
 V_PER_SQRT_W = math.sqrt(2.0 * R_OHM)
 STAMP_CYCLES = 8
+#: ASK pilot cycles between the PSK stamp and the reply: the band-pass settles after the
+#: PSK swing (:func:`devices.st_receiver.stamp_frame`)
+STAMP_SETTLE_CYCLES = 8
+#: Relative margin of the ASK-stamp decision over the data threshold. Four regular
+#: subcarrier cycles toggle the comparator at a swing a few % below the one Miller data
+#: need (the band-pass overshoot depends on the run lengths), so without a margin the stamp
+#: commits to P2 where P2's reply then fails and Algorithm 1 would have fallen back to P1
+#: (full run, seed 1: 110 of the 118 stamp-only failures had P2 within ±3.5 % of 5 mV).
+STAMP_DECISION_MARGIN = 0.03
 STAMP_PSI_RAD = math.pi
 TECHS = ("single", "combination", "selection", "stamp")
 
@@ -155,6 +201,9 @@ class GeometryConfig:
     height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="height of reader, tag and ST")
     reader_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="reader patch gain")
     apdp: bool = param(True, doc="exponential APDP small scale (PASS ST-room curves)")
+    pair_coupling: bool = param(True, doc="mutual coupling of the ST's dipole pair (Z11 = 73.1 + j42.5 ohm, Z12 "
+                                          "of side-by-side half-wave dipoles at st.spacing_m: 40.4 - j28.4 ohm at "
+                                          "lambda/4; conjugate-matched loads; devices.st_analytic.coupling_matrix)")
 
 
 @dataclass(frozen=True)
@@ -166,6 +215,58 @@ class TrackConfig:
     d_max_m: float = param(1.0, lo=0.01, hi=5.0, unit="m", doc="last ST distance from the tag")
     step_m: float = param(0.02, lo=0.001, hi=1.0, unit="m", doc="step along the track")
     apdp: bool = param(False, doc="small scale on the tracks (off: deterministic LoS, as the Fig. 3.8 model)")
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    law: Literal["diode", "linear", "agc"] = param(
+        "diode", doc="ST envelope detector: 'diode' = n*V_T*ln I0(G_v*V/(n*V_T)) (devices.st_receiver); "
+                     "'linear' = st.detector_gain*V (the closed forms' unit-gain detector); 'agc' = PASS's "
+                     "demodulator characteristic meas_tag_agc (needs agc_dir)")
+    matching_gain: float = param(sr.DEFAULT_MATCHING_GAIN, lo=0.01, hi=100.0,
+                                 doc="'diode': matching-network voltage gain G_v (default fits R3-1/R3-4)")
+    ideality: float = param(sr.DEFAULT_IDEALITY, lo=1.0, hi=3.0, doc="'diode': ideality factor n")
+    temperature_k: float = param(sr.DEFAULT_TEMPERATURE_K, lo=1.0, hi=500.0, unit="K", doc="'diode': T")
+    noise_figure_db: float = param(15.0, lo=0.0, hi=60.0, unit="dB",
+                                   doc="ST front-end noise figure referred to the antenna port: thermal noise "
+                                       "k*T0*fs*F per sample at each ST antenna (diode detector with the CW as "
+                                       "its local oscillator: conversion loss and video noise; assumption, the "
+                                       "source has no ST noise)")
+    noise: bool = param(True, doc="add the ST thermal/detector noise")
+    agc_dir: str = param("", doc="'agc': folder with meas_tag_agc.mat (PASS characteristics)")
+
+    def __post_init__(self):
+        if self.law == "agc" and not (self.agc_dir and (Path(self.agc_dir) / "meas_tag_agc.mat").is_file()):
+            raise ConfigError("detector.agc_dir", self.agc_dir, "a folder holding meas_tag_agc.mat when "
+                                                                "detector.law = 'agc'")
+
+
+#: PASS ST chip impedance (``sensatag_modulation.m``: Zic = 70.085 − j111.36 Ω, §6.3): the
+#: AGC's chip voltage is sqrt(2P·R_p), R_p the parallel resistance of Z_ic
+PASS_ST_ZIC_OHM = complex(70.085, -111.36)
+
+
+def make_detector(dc: DetectorConfig, st: SenseATagConfig, blf_hz: float) -> sr.EnvelopeDetector:
+    """The ST's envelope detector from the scenario's detector settings (RC τ = 1/(2π·4·BLF))."""
+    tau = 1.0 / (2.0 * math.pi * 4.0 * blf_hz)
+    if dc.law == "linear":
+        return sr.EnvelopeDetector(tau_s=tau, gain=st.detector_gain)
+    if dc.law == "agc":
+        from scipy.io import loadmat
+
+        agc = loadmat(str(Path(dc.agc_dir) / "meas_tag_agc.mat"), squeeze_me=True)
+        venv = np.asarray(agc["venv"], float)[:, list(np.atleast_1d(agc["vdda"])).index(2.0)]
+        r_p = 1.0 / (1.0 / PASS_ST_ZIC_OHM).real
+        return sr.EnvelopeDetector(tau_s=tau, law="agc", agc_vrf_v=tuple(np.asarray(agc["vrf"], float)),
+                                   agc_venv_v=tuple(venv), agc_scale=math.sqrt(r_p / R_OHM))
+    return sr.EnvelopeDetector(tau_s=tau, law="diode", matching_gain=dc.matching_gain, ideality=dc.ideality,
+                               temperature_k=dc.temperature_k)
+
+
+def make_st_receiver(config: "Config", *, fs_hz: float, blf_hz: float, m: int, trext: bool) -> sr.STReceiver:
+    """The ST receive chain of the scenario: its detector, band-pass, 5 mV comparator, decoder."""
+    return sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext, threshold_v=config.st.threshold_v,
+                         detector=make_detector(config.detector, config.st, blf_hz))
 
 
 @dataclass(frozen=True)
@@ -192,12 +293,58 @@ class TagStatesConfig:
                                                                     "or empty for the quoted impedances")
 
 
+@dataclass(frozen=True)
+class PassReplicationConfig:
+    enabled: bool = param(False, doc="replicate PASS's tag: its 'l2-dipole' antenna file (peak amplitude 2.0 = "
+                                     "6.02 dBi, a full-wave pattern) instead of the physical half-wave dipole "
+                                     "(2.15 dBi), the full measured chip tables and the assembly resistance R_at")
+    characteristics_dir: str = param("", doc="folder with the PASS characteristic files "
+                                             "(channelchar_directivity_l2-dipole.mat, meas_tag_*.mat)")
+    assembly_resistance_ohm: float = param(0.0, lo=0.0, hi=1e9, unit="ohm",
+                                           doc="R_at parallel to the chip; 0 = PASS's 'Q-matched' optimum read as "
+                                               "Q(R_at || C_at) = Q of the chip at its minimum power (2.4 kOhm with the full tables)")
+
+    def __post_init__(self):
+        if self.enabled:
+            d = Path(self.characteristics_dir) if self.characteristics_dir else None
+            if d is None or not (d / PASS_TAG_ANTENNA_FILE).is_file():
+                raise ConfigError("pass_replication.characteristics_dir", self.characteristics_dir,
+                                  f"a folder holding {PASS_TAG_ANTENNA_FILE} and the meas_tag_* files when "
+                                  "pass_replication.enabled")
+
+
+#: PASS's tag antenna pattern file (amplitude, peak 2.0: 6.02 dBi)
+PASS_TAG_ANTENNA_FILE = "channelchar_directivity_l2-dipole.mat"
+
+
+def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
+    """PASS's "Rat Q-matched at 915 MHz" (pass-paris-simulator.md §5.2; ``tagchar_modulator_adsm``:
+    R_at shifts in % "from optimum"), read as the R_at whose parallel Q with C_at equals the
+    chip's parallel Q at its minimum power: ``R_at = (|Im Y_ic|/Re Y_ic)/(ω·C_at)``. Checked on
+    PASS's synthetic characteristic (``tagchar_modulator_synth01``: 463 Ω from its tables vs its
+    stored 437 Ω, 6 %). For the UCODE tables at 915 MHz 2.41 kΩ."""
+    y = 1.0 / chip.impedances(chip.picmin_w)[0]
+    return (abs(y.imag) / y.real) / (2.0 * math.pi * chip.fc_hz * chip.assembly_capacitance_f)
+
+
 @lru_cache(maxsize=8)
-def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float) -> PowerDependentChip:
-    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points."""
+def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
+               assembly_resistance_ohm: float = math.inf) -> PowerDependentChip:
+    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points; with
+    ``assembly_resistance_ohm`` = 0 the Q-matched R_at (:func:`q_matched_assembly_resistance_ohm`)."""
     if characteristics_dir:
-        return PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
-    return PowerDependentChip.pass_default(margin_db=margin_db)
+        chip = PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
+    else:
+        chip = PowerDependentChip.pass_default(margin_db=margin_db)
+    if assembly_resistance_ohm == 0.0:
+        assembly_resistance_ohm = q_matched_assembly_resistance_ohm(chip)
+    return replace(chip, assembly_resistance_ohm=float(assembly_resistance_ohm))
+
+
+@lru_cache(maxsize=4)
+def pass_tag_pattern(characteristics_dir: str) -> Tabulated:
+    """PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0)."""
+    return Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
 
 
 #: The source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) [W]
@@ -222,6 +369,9 @@ class Config:
     tag: TagConfig = param(TagConfig(), doc="tag")
     tag_states: TagStatesConfig = param(TagStatesConfig(), doc="tag reflection states used for backscatter")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sense-a-tag (threshold, detector gain, spacing)")
+    detector: DetectorConfig = param(DetectorConfig(), doc="ST envelope detector law and noise")
+    pass_replication: PassReplicationConfig = param(PassReplicationConfig(),
+                                                    doc="replicate PASS's tag antenna file and assembly")
 
     def __post_init__(self):
         n = len(self.geometry.tag_x_m)
@@ -229,6 +379,8 @@ class Config:
             raise ConfigError("geometry.tag_x_m", self.geometry.tag_x_m, "at least one cell")
         if self.tracks.cell >= n:
             raise ConfigError("tracks.cell", self.tracks.cell, f"a cell index 0…{n - 1}")
+        if self.pass_replication.enabled and self.tag_states.model != "measured":
+            raise ConfigError("tag_states.model", self.tag_states.model, "'measured' with pass_replication.enabled")
         if not self.tracks.d_min_m < self.tracks.d_max_m:
             raise ConfigError("tracks.d_max_m", self.tracks.d_max_m, f"> tracks.d_min_m = {self.tracks.d_min_m}")
 
@@ -241,10 +393,13 @@ def _reader_antenna(g: GeometryConfig) -> Antenna:
                    pattern=Patch(g.reader_gain_dbi, 70.0), polarization="linear")
 
 
-def _tag_antenna(x_m: float, g: GeometryConfig) -> Antenna:
-    # dipole facing the reader, axis vertical (as in the link scenario)
-    return Antenna(position_m=(x_m, 0.0, g.height_m), orientation=(math.pi, 0.0, 0.0), pattern=HalfWaveDipole(),
-                   polarization="linear")
+def _tag_antenna(x_m: float, config: "Config") -> Antenna:
+    # dipole facing the reader, axis vertical (as in the link scenario); PASS's file with
+    # pass_replication (both patterns along the local z axis, omnidirectional in azimuth)
+    pr = config.pass_replication
+    pattern = pass_tag_pattern(pr.characteristics_dir) if pr.enabled else HalfWaveDipole()
+    return Antenna(position_m=(x_m, 0.0, config.geometry.height_m), orientation=(math.pi, 0.0, 0.0),
+                   pattern=pattern, polarization="linear")
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,8 +481,15 @@ def _make_tag(config: Config, antenna, fc_hz: float, rng) -> PassiveTag:
     if ts.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
         return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                          chip=chip_model(ts.characteristics_dir, round(fc_hz, 3), ts.power_margin_db))
+                          chip=_chip(config, fc_hz))
     return PassiveTag(config.tag, antenna, rng=rng)
+
+
+def _chip(config: "Config", fc_hz: float) -> PowerDependentChip:
+    ts, pr = config.tag_states, config.pass_replication
+    if pr.enabled:
+        return chip_model(pr.characteristics_dir, round(fc_hz, 3), ts.power_margin_db, pr.assembly_resistance_ohm)
+    return chip_model(ts.characteristics_dir, round(fc_hz, 3), ts.power_margin_db)
 
 
 def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, index: tuple[int, ...],
@@ -339,9 +501,9 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     g = config.geometry
     ra = _reader_antenna(g)
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
-    ta = _tag_antenna(tag_x_m, g)
+    ta = _tag_antenna(tag_x_m, config)
     lk = reader.link
-    stamp_s = 4.0 * STAMP_CYCLES / lk.blf_hz
+    stamp_s = (2.0 * STAMP_CYCLES + STAMP_SETTLE_CYCLES + 2.0) / lk.blf_hz
     # the RN16 reply window with room for the stamp before the reply and one Tpri more
     window = reply_window_s(lk, 16) + stamp_s + lk.tpri_s
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
@@ -369,7 +531,16 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     blf = resp.blf_hz if resp.gamma is not None else lk.blf_hz
     err = max(a_link.narrowband_error(2.0 * blf), b_link.narrowband_error(2.0 * blf))
     shape = sta.positions_m.shape[:2]
-    common = dict(a_gain=a_link.constant_gain(fc).reshape(shape), b_gain=b_link.constant_gain(fc).reshape(shape),
+    coupled = g.pair_coupling and shape[1] == 2
+    mix = sa.coupling_matrix(z12_ohm=complex(sa.mutual_impedance_half_wave_ohm(config.st.spacing_m, fc))) \
+        if coupled else None
+
+    def couple(x):
+        # port signals of the λ/4 pair after mutual coupling: (N, 2, ...) → M·(SA1, SA2)
+        return np.einsum("ij,nj...->ni...", mix, x) if coupled else x
+
+    common = dict(a_gain=couple(a_link.constant_gain(fc).reshape(shape)),
+                  b_gain=couple(b_link.constant_gain(fc).reshape(shape)),
                   narrowband_error=err, fs_hz=fs, fc_hz=fc, blf_hz=blf, m=lk.m, trext=lk.trext, p_available_w=p_av,
                   p_chip_w=p_chip)
     if resp.gamma is None:
@@ -384,20 +555,23 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     # 2. the ST antennas hear the reply: one step on the ST window [i0, end) with the tag's
     #    decided re-radiation replayed (narrowband links: the same samples as the whole segment's)
     win = Segment(tx.t0_s + i0 / fs, fs, fc, x_tx)
-    port = AntennaPort(sta)  # no noise at the ST (module docstring)
+    dc = config.detector
+    noise_w = float(thermal_noise_power_w(fs, dc.noise_figure_db)) if dc.noise else 0.0
+    port = AntennaPort(sta, noise_power_w=noise_w)  # k·T0·fs·F per sample at every ST antenna
+    noise_rng = trial_rng(seed, *index, 5)
 
     def hear(r_window):
         return propagate([FixedEmitter(ra, win, device=reader)], [_Replay(ta, r_window)], [port], links,
-                         t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw).inputs[0].samples
+                         t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw, rng=noise_rng).inputs[0].samples
 
-    inputs = hear(resp.reradiation(inc.size)[i0:])
+    inputs = couple(hear(resp.reradiation(inc.size)[i0:]))
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
     from rfsim.gen2.linecode import reply_waveform
 
     levels = reply_waveform(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
                             t0_s=t_rel, n_samples=n)
     frame = sr.stamp_frame(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
-                           n_stamp_cycles=STAMP_CYCLES, t0_s=t_rel)
+                           n_stamp_cycles=STAMP_CYCLES, t0_s=t_rel, n_settle_cycles=STAMP_SETTLE_CYCLES)
     states = np.full(n, sr.STAMP_S1, dtype=np.int8)
     k = min(n, frame.states.size)
     states[:k] = frame.states[:k]
@@ -408,7 +582,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     if shape[1] == 2:
         # 3. the stamped frame on the same links: the three-state modulator's re-radiated states
         #    S1 = r_B, S2 = r_A, S3 = r_B·e^{jψ}
-        stamp_inputs = hear(np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states])
+        stamp_inputs = couple(hear(np.array([r_b, r_a, r_b * np.exp(1j * STAMP_PSI_RAD)])[states]))
     i_ref = int(round((t_rel + 0.5 * lk.reply_duration_s(16)) * fs))
     common.update(m=resp.m, trext=resp.trext)
     return Exchange(x_tx, inc_w, inputs, stamp_inputs, levels=levels, frame=frame, i_ref=i_ref, search=search,
@@ -438,7 +612,8 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
     """
     st = config.st
     n, k = a_gain.shape
-    rx = make_receiver(st, fs_hz=ex.fs_hz, blf_hz=ex.blf_hz, m=ex.m, trext=ex.trext)
+    rx = make_st_receiver(config, fs_hz=ex.fs_hz, blf_hz=ex.blf_hz, m=ex.m, trext=ex.trext)
+    det = rx.envelope_detector
     g = st.detector_gain
     cw = V_PER_SQRT_W * a_gain * ex.x_tx[ex.i_ref]
     # A_T1, A_T2 of Eq. 3.4: the re-radiated states A_s − Γ_B and A_s − Γ_A
@@ -452,8 +627,14 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
         out[f"theta_{name}_rad"] = np.angle(bs1[:, j] * np.conj(cw[:, j]))
     two = k == 2
     # column 0 is SA1 for a dual-antenna ST (with one antenna, SA2 stands in for SA1 unused)
+    if det.law == "agc":
+        # the AGC scales each input by venv(peak)/peak: its gain at SA2's envelope peak
+        gain_rows = det.agc_gain(np.maximum(np.abs(cw[:, -1] + bs1[:, -1]), np.abs(cw[:, -1] + bs2[:, -1])))
+        transfer = lambda v: gain_rows * v  # noqa: E731
+    else:
+        transfer = None if det.law == "linear" else det.transfer_v
     closed = sa.technique_outcomes(cw[:, 0], bs1[:, 0], bs2[:, 0], cw[:, -1], bs1[:, -1], bs2[:, -1],
-                                   detector_gain=g, threshold_v=st.threshold_v)
+                                   detector_gain=g, threshold_v=st.threshold_v, transfer=transfer)
     out["sync_sa2_v"] = closed.sync_sa2_v
     out["closed_diff_sa2_v"] = closed.diff_sa2_v
     if two:
@@ -501,10 +682,13 @@ def _stamp(rx, ex: Exchange):
     """ASK-PSK stamp technique (§5): stamp symbols on SA2, decode on the chosen path."""
     f = ex.frame
     env2, bp2, cmp2, tog2 = chain_rows(rx, ex.stamp_inputs[:, 1])
-    # '1' when the comparator follows every transition of the second (settled) half of the
-    # ASK stamp (the band-pass starts from rest at the stamp's first edge)
+    # '1' when a comparator at (1 + STAMP_DECISION_MARGIN)·threshold follows every transition
+    # of the second (settled) half of the ASK stamp (the band-pass starts from rest at the
+    # stamp's first edge); the margin: see STAMP_DECISION_MARGIN
     mid = (f.start + f.ask_stop) // 2
-    ask_ok = np.count_nonzero(np.diff(cmp2[:, mid:f.ask_stop], axis=1), axis=1) >= STAMP_CYCLES - 1
+    thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
+    ask_ok = np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=thr)[0][mid - f.start:]))
+                       for row in bp2[:, f.start:f.ask_stop]]) >= STAMP_CYCLES - 1
     use_p1 = ~ask_ok
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
     det = decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
@@ -548,6 +732,9 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
                tag_available_power_w=np.full(n, ex.p_available_w), tag_chip_power_w=np.full(n, ex.p_chip_w))
     for j, name in enumerate(("sa1", "sa2")[-sa_pos.shape[1]:]):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
+    out["rerad_a_abs"], out["rerad_b_abs"] = np.full(n, abs(ex.rerad_a)), np.full(n, abs(ex.rerad_b))
+    r_tag = np.linalg.norm(sa_pos - tag_pos, axis=-1)
+    out["near_field"] = np.any(r_tag < wavelength_m(ex.fc_hz) / (2.0 * math.pi), axis=1)
     return out
 
 
@@ -587,6 +774,29 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
             "theta_rad": out["theta_sa2_rad"].reshape(shape), "fc_hz": ex.fc_hz}
 
 
+def geometric_null_spacing_m(angle_deg: float, d_min_m: float, d_max_m: float, tag_x_m: float,
+                             fc_hz: float) -> float:
+    """Mean spacing of the nulls along a radial track from its geometry alone [m].
+
+    θ = 2π(R̃ − r)/λ + const (Eq. 3.23) with R̃ the reader–ST and r the tag–ST distance; for
+    weak backscatter θ_cancel ≈ π/2, so a null every π of θ, i.e. every λ/2 of ``R̃ − r``:
+    ``(d_max − d_min)·(λ/2)/|Δ(R̃ − r)|`` over the track (reader at the origin, tag at
+    ``(tag_x_m, 0)``, track at ``angle_deg`` from the tag→reader direction). Near the tag this
+    is λ/(2(1 + cos α)) (0°: λ/4, 90°: λ/2); further out R̃ turns (90°: 0.217 m over
+    0.04–1 m for the tag at 2 m, not the 0.164 m of the tangent). ``inf`` where ``R̃ − r``
+    does not change (180°: the ST behind the tag on the reader–tag line).
+    """
+    lam = float(wavelength_m(fc_hz))
+    u = np.array([math.cos(math.pi + math.radians(angle_deg)), math.sin(math.pi + math.radians(angle_deg))])
+
+    def path_difference(d):
+        p = np.array([tag_x_m, 0.0]) + d * u
+        return float(np.hypot(*p)) - d
+
+    dp = abs(path_difference(d_max_m) - path_difference(d_min_m))
+    return (d_max_m - d_min_m) * 0.5 * lam / dp if dp > 1e-9 else float("inf")
+
+
 def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
     """Local minima of |A1 − A2| along a track and their average spacing [m] (NaN if < 2)."""
     y = np.asarray(diff_v)
@@ -599,14 +809,19 @@ def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
 
 
 def _summary(samples, n_cells: int) -> dict[str, np.ndarray]:
+    """Per cell and technique P(cancel) with its Clopper–Pearson interval over the samples
+    outside the near field (``near_field`` excluded and counted in ``n_near_field``)."""
     out = {"cell": np.arange(n_cells)}
+    far = ~samples["near_field"]
+    out["n_near_field"] = np.array([np.count_nonzero(samples["near_field"][samples["cell"] == c])
+                                    for c in range(n_cells)])
     for t in TECHS:
         key = f"cancelled_{t}"
         if key not in samples:
             continue
         p, lo, hi, nn = np.empty(n_cells), np.empty(n_cells), np.empty(n_cells), np.empty(n_cells, int)
         for c in range(n_cells):
-            sel = samples["cell"] == c
+            sel = (samples["cell"] == c) & far
             p[c], lo[c], hi[c], nn[c] = sa.cancellation_probability(samples[key][sel])
         out[f"p_{t}"], out[f"ci_lo_{t}"], out[f"ci_hi_{t}"] = p, lo, hi
         out["n_samples"] = nn
@@ -644,10 +859,12 @@ def run(config: Config, *, seed: int) -> Dataset:
     ds.add_table("cells", {k: column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
                  description="one row per cell (tag position): probability of phase cancellation per technique "
                              "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
+    far = ~samples["near_field"]
+    ds.attrs["n_near_field"] = int(np.count_nonzero(samples["near_field"]))
     for t in TECHS:
         key = f"cancelled_{t}"
         if key in samples:
-            p, lo, hi, _ = sa.cancellation_probability(samples[key])
+            p, lo, hi, _ = sa.cancellation_probability(samples[key][far])
             ds.attrs[f"overall_p_{t}"] = float(p)
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
     stage("radial tracks (Fig. 3.15)")
@@ -659,7 +876,8 @@ def run(config: Config, *, seed: int) -> Dataset:
                 {"diff_v": column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
                                                      "detector output along the track (Fig. 3.15)"),
                  "closed_diff_v": column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
-                                                                   "measured A_R, A_T1, A_T2, theta at the same points"),
+                                                                   "measured phasors through the detector law at the "
+                                                                   "same points"),
                  "theta_rad": column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
                                                              "at the ST, (-pi, pi]")},
                 description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
@@ -669,11 +887,9 @@ def run(config: Config, *, seed: int) -> Dataset:
         ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
         if not np.isfinite(ds.attrs[f"{name}_minima_spacing_m"]):
             ds.attrs[f"{name}_minima_spacing_m_meaning"] = "NaN: fewer than two minima of diff_v along this track"
-        # far-field geometry: θ turns by 2π(1 + cos α)/λ per metre, a null every π
-        lam = float(wavelength_m(tr["fc_hz"]))
-        ds.attrs[f"{name}_geometric_spacing_m"] = (
-            lam / (2.0 * (1.0 + math.cos(math.radians(a)))) if abs(1.0 + math.cos(math.radians(a))) > 1e-9
-            else float("inf"))
+        d = tr["distance_m"]
+        ds.attrs[f"{name}_geometric_spacing_m"] = geometric_null_spacing_m(
+            a, float(d[0]), float(d[-1]), config.geometry.tag_x_m[config.tracks.cell], tr["fc_hz"])
         if not np.isfinite(ds.attrs[f"{name}_geometric_spacing_m"]):
             ds.attrs[f"{name}_geometric_spacing_m_meaning"] = (
                 "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
@@ -684,13 +900,21 @@ def run(config: Config, *, seed: int) -> Dataset:
               "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
               "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[config.tag_states.model]
     ds.attrs["tag_states"] = states
+    pr = config.pass_replication
+    ds.attrs["tag_antenna"] = ("PASS channelchar_directivity_l2-dipole (peak amplitude 2.0, 6.02 dBi: a full-wave "
+                               "pattern)" if pr.enabled else "physical half-wave dipole (2.15 dBi)")
+    if pr.enabled:
+        ds.attrs["tag_assembly_resistance_ohm"] = float(_chip(config, tr["fc_hz"]).assembly_resistance_ohm)
     ds.attrs["deviations"] = (
-        "path selection above the source's 1 % (antenna pairs with equal or opposite relative phase near the "
-        "detectability threshold); the source's tag tables (c-p2a, 6 modulation states) and its PSK-like first "
-        "16 subcarrier cycles are not reproduced; linear detector at 50 ohm (matches R3-1/R3-4 conversions; the "
-        "source's AGC demodulator is not modelled); source voltage unit = peak sqrt(2P) across 1 ohm (cells table "
-        "*_source_v); stamp sent by the reader-powered tag with a 3-state modulator; one reader segment per cell "
-        "and repetition; no noise at the ST")
+        "detectability = envelope difference with the CW synchronised, max over the CW phase (|b1 - b2| for a "
+        "dominant CW): every replying sample is detectable, so path selection is above the source's 1 % and "
+        "P(cancel) rises with distance where the tag runs (source: falls); tag silent beyond ~5 m; backscatter "
+        "A_T 6-14x below Table 3.1 with the physical dipole; the source's tag tables (c-p2a, 6 modulation "
+        "states) and its PSK-like first 16 subcarrier cycles are not reproduced; diode detector with G_v fitted "
+        "to R3-1/R3-4; source voltage unit = peak sqrt(2P) across 1 ohm (cells table *_source_v); stamp sent by "
+        "the reader-powered tag with a 3-state modulator; one reader segment per cell and repetition; ST noise "
+        "kT0*fs*F with an assumed F; near field (antenna within lambda/2pi of the tag) excluded and counted; "
+        "mutual coupling of the lambda/4 pair from the induced-EMF impedances (no ST body)")
     ds.attrs["reader_eirp_w"] = float(10.0 ** ((config.reader.ptx_dbm + config.geometry.reader_gain_dbi - 30.0)
                                                / 10.0))
     return ds
@@ -802,8 +1026,9 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         x0 = cells["tag_x_m"][silent].min()
         ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
-    ax.set_title("Probability of phase cancellation per technique (95 % Clopper-Pearson)\n"
-                 f"{cite('auris', 'Fig. 3.16 and 5.8')}", fontsize=10)
+    ax.set_title("Probability of phase cancellation per technique, this model (95 % Clopper-Pearson)\n"
+                 f"to compare with {cite('auris', 'Fig. 3.16 and 5.8')} (path selection there: below 1 %)",
+                 fontsize=9)
     ax.legend()
     ax.grid(alpha=0.3)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_16")))

@@ -21,19 +21,24 @@ Rooms (two channel parameter sets; the source gives none, §0.2): both have a co
 * room 1 ("cluttered"): k_a = 30 dB, k_b = 0.05 /m, k_c = −20 dB, τmax = 100 ns,
   τb = 0.05 /m (K = 6.7 dB at 1 m, −3 dB at 5 m: near-Rayleigh diffuse field).
 
-Repetitions differ by the channel state: a fresh diffuse draw, a random hop channel (the
-reader's random FCC hop table) and a placement jitter of the tag, uniform in
-±``jitter_m`` per axis. Within a repetition the channel is held (the source assumes a
-static tag during the N queries, L644): the reader segment and the links are computed once;
-the 50 queries are simulated at sample level, each one step of the air interface
-(:func:`rfsim.air.propagate` on the held links, :class:`channels.HeldLinks`): the tag's PIE
+Repetitions differ by the channel state: a fresh diffuse draw, a random hop table and a
+placement jitter of the tag, uniform in ±``jitter_m`` per axis. Within a repetition reads vary
+as in a real campaign: the N queries are spread evenly over U(``round_s``) = U(0.2, 0.8) s
+(the source's round, L580) from a random instant of the 0.4 s hop dwell, so a trial visits
+2–3 hop channels (one link draw per channel: the hop spacing exceeds the coherence bandwidth
+≈ 1/(2π·τrms) ≈ 2 MHz of room 1), and every query multiplies the held links (both ways) by a
+Rician gain ``h_q`` of the moving people (:func:`rician_gains`: K = ``fading_k_db`` = 6 dB,
+correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values assumed, the source gives
+none). Each query is simulated at sample level, one step of the air interface
+(:func:`rfsim.air.propagate` on the links, :class:`channels.HeldLinks`): the tag's PIE
 decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
-(:meth:`devices.tag.TagResponse.reradiation`) through the held link, and the reader's port
-(leakage, receiver noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome
-is **the reader decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the
-ACK/EPC exchange is not simulated, so a "read" here is an RN16 decode). Queries are 4 ms
-apart (a round of 50 lasts 0.2 s, the lower end of the source's 0.2-0.8 s, L580), inside one
-0.4 s hop dwell.
+(:meth:`devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
+noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome is **the reader
+decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange and
+the inventoried flags (S0–S3) are not simulated, so a "read" here is an RN16 decode). The tag's chip
+sensitivity follows its class (``tag_class``, :data:`TAG_CLASS_SENSITIVITY_DBM`): the
+campaign's Smartrac Spine tags by default (−16.0 dBm, calibrated by Friis to the published
+boresight d50), or PASS's UCODE G2XM (−12.8 dBm).
 
 Fits (``rfsim.detection.fit``): the source's method (least squares of the mean model
 1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of
@@ -41,20 +46,19 @@ p̂ = n/N, cells pooled over rooms, binomial part removed) and the maximum-likel
 the Beta-binomial with dead zone (Eq. 4.11); d50 at 0°/30°/60° beside the published 6.63 /
 3.97 / 1.30 m.
 
-Outcome of the replica (full size, seed 4) and why it differs from the source: every
-trial reads either all 50 queries or none (p̂ ∈ {0, 1}): the link is forward-limited (the tag
-powers up or not, deterministically for a held channel) and the reader's SNR is ample
-wherever the tag is powered, so the binomial part vanishes and the whole spread comes from
-the channel states (room 1's near-Rayleigh diffuse field and the floor two-ray pattern
-over hop channels; room 0 is almost deterministic). The between-repetition variance at
-1-5 m (≈ 0.06) is of the published size, but the mean falls more steeply (fitted a2 ≈ 2 /m
-vs 0.49 /m: a sharp chip threshold instead of the source's gradual loss of reads), and the
-Beta-binomial maximum-likelihood fit is singular on 0/1 data (``fit_errors`` attribute);
-the moment fit (the source's method) is reported. The source's tags (Smartrac Spine) were
-read to d50 = 6.63 m on boresight; the default chip here gets ≈ 4.8 m.
+Outcome (default run, seed 1: 7 distances × 4 angles × 4 repetitions × 2 rooms = 224 trials
+of 50 queries): 29 % of the trials read some but not all queries (before the per-query
+fading and hops: none — every trial read all 50 or none and the Beta-binomial
+maximum-likelihood fit was singular). The ML fit is regular: a1 = −3.68, a2 = 0.714 /m,
+a3 = 0.0314 /deg (published −3.27, 0.4931, 0.0438) and d50 = 5.15 / 3.83 / 2.51 m at
+0/30/60° against 6.63 / 3.97 / 1.30 m; the source's moment fit gives 5.24 / 3.63 / 2.03 m.
+The mean still falls faster with distance than published (a chip threshold crossed by
+fading, not the source's gradual loss of reads) and less with angle (the 70° patch
+beamwidth is assumed). The full campaign (4680 trials) was not rerun with this model.
 
 Randomness: repetition r of (room k, distance i, angle j) uses ``trial_rng(seed, k, i, j,
-r, s)``: s = 0 jitter, 1 reader (hop table), 2 tag, 3 channel, 4 receiver noise. Results do
+r, s)``: s = 0 jitter, 1 reader (hop table), 2 tag, 3 channel (one draw per hop channel),
+4 receiver noise, 5 round timing and per-query gains. Results do
 not depend on ``campaign.workers``.
 """
 
@@ -65,6 +69,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
+from scipy.special import j0
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, HeldLinks, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
@@ -96,6 +101,34 @@ PUBLISHED_D50_M = (6.63, 3.97, 1.30)
 QUERY_PERIOD_S = 4e-3
 
 
+#: Chip sensitivity per tag class [dBm]. The source names the campaign's tags (Smartrac UHF
+#: Spine, L664-L666) but not their chip; -16.0 dBm is set so that free-space Friis at boresight
+#: (27 dBm, 6 dBic patch, 3 dB circular-to-linear loss, 2.15 dBi tag, 915 MHz) reaches it at the
+#: published d50 = 6.63 m: 27 + 6 − 3 + 2.15 − 48.1 = −15.95 dBm (a calibration, stated as
+#: such; Spine-class inlays carried chips of −15 to −17.4 dBm). 'pass-ucode' is the PASS UCODE
+#: G2XM minimum chip power at 900 MHz (−12.78 dBm).
+TAG_CLASS_SENSITIVITY_DBM = {"smartrac-spine": -16.0, "pass-ucode": -12.78}
+
+
+def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Generator) -> np.ndarray:
+    """Per-query complex gains ``h_q = sqrt(K/(K+1))·e^{jφ} + sqrt(1/(K+1))·g_q`` with E|h|² = 1.
+
+    ``g_q`` is circular complex Gaussian, unit power, with the Jakes (Clarke) correlation
+    ``E[g_q g_p*] = J0(2π·f_D·(t_q − t_p))`` of scatterers moving at up to f_D·λ (people:
+    1 m/s at 915 MHz is 3 Hz), drawn exactly by a Cholesky factor of that Toeplitz matrix;
+    φ uniform. Draw order: φ, then 2·n normals (real, imaginary)."""
+    t = np.asarray(times_s, float)
+    k = 10.0 ** (k_db / 10.0)
+    phi = rng.uniform(-np.pi, np.pi)
+    w = rng.standard_normal((2, t.size))
+    if doppler_hz <= 0:
+        return np.full(t.size, np.exp(1j * phi), dtype=complex)
+    r = j0(2.0 * np.pi * doppler_hz * np.abs(t[:, None] - t[None, :]))
+    lower = np.linalg.cholesky(r + 1e-9 * np.eye(t.size))
+    g = lower @ ((w[0] + 1j * w[1]) / math.sqrt(2.0))
+    return math.sqrt(k / (k + 1.0)) * np.exp(1j * phi) + math.sqrt(1.0 / (k + 1.0)) * g
+
+
 @dataclass(frozen=True)
 class CampaignConfig:
     full: bool = param(False, doc="the source's size: 18 distances x 13 angles x 10 repetitions (overrides below)")
@@ -107,6 +140,23 @@ class CampaignConfig:
     queries: int = param(50, lo=1, hi=10000, doc="queries N per trial")
     jitter_m: float = param(0.05, lo=0.0, hi=1.0, unit="m", doc="tag placement jitter (uniform, per axis)")
     workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
+    round_s: tuple[float, float] = param((0.2, 0.8), lo=1e-3, hi=60.0, unit="s",
+                                         doc="a trial's N queries span U(lo, hi) s (the source's rounds, L580); "
+                                             "hops of the reader's table fall inside")
+    doppler_hz: float = param(2.0, lo=0.0, hi=100.0, unit="Hz",
+                              doc="maximum Doppler of the moving scatterers (people): per-query Rician gain "
+                                  "h_q with correlation J0(2*pi*f_D*dt) between queries; 0 = held channel")
+    fading_k_db: float = param(6.0, lo=-30.0, hi=60.0, unit="dB",
+                               doc="Rician K of the time-variant part: |E h|^2 / var h")
+    tag_class: str = param("smartrac-spine", doc="tag chip class: 'smartrac-spine' (the campaign's tags, "
+                                                 "sensitivity -16.0 dBm, see TAG_CLASS_SENSITIVITY_DBM) or "
+                                                 "'pass-ucode' (the PASS UCODE G2XM, -12.8 dBm)")
+
+    def __post_init__(self):
+        if self.tag_class not in TAG_CLASS_SENSITIVITY_DBM:
+            raise ConfigError("campaign.tag_class", self.tag_class, "one of " + ", ".join(TAG_CLASS_SENSITIVITY_DBM))
+        if not self.round_s[0] <= self.round_s[1]:
+            raise ConfigError("campaign.round_s", self.round_s, "(lo, hi) with lo <= hi")
 
     @property
     def grid(self) -> tuple[tuple[float, ...], tuple[float, ...], int]:
@@ -177,27 +227,40 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     tag_ant = Antenna(position_m=tag_pos, orientation=(math.atan2(-tag_pos[1], -tag_pos[0]), 0.0, 0.0),
                       pattern=HalfWaveDipole(), polarization="linear")
     reader = Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
-    tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, *key, 2))
+    tag_cfg = replace(config.tag, sensitivity_dbm=TAG_CLASS_SENSITIVITY_DBM[c.tag_class])
+    tag = PassiveTag(tag_cfg, tag_ant, rng=trial_rng(seed, *key, 2))
     lk = reader.link
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
-    fs, fc = tx.fs_hz, tx.fc_hz
-    fwd, bwd = Channel(scene(config.rooms, room)).backscatter_links(ant, tag_ant, fc_hz=fc,
-                                                                      rng=trial_rng(seed, *key, 3))
-    links = HeldLinks([(ant, tag_ant, fwd), (tag_ant, ant, bwd)])  # held for the N queries
+    # the round: N queries evenly over U(round_s) s from a random instant of the hop dwell
+    trng = trial_rng(seed, *key, 5)
+    t_round = trng.uniform(*c.round_s)
+    t_start = trng.uniform(0.0, config.reader.dwell_s)
+    times = t_start + t_round * np.arange(c.queries) / c.queries
+    h = rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
+    crng = trial_rng(seed, *key, 3)
+    chan = Channel(scene(config.rooms, room))
+    drawn: dict = {}  # one link draw per hop channel of the round (held within the dwell)
     nrng = trial_rng(seed, *key, 4)
     n_reads = n_replied = n_powered = 0
     p_inc = -np.inf
-    for j in range(c.queries):
-        # query j: the same segment j·QUERY_PERIOD_S later, one air step (reader port: leakage,
-        # backscatter, receiver noise drawn from nrng every query)
-        t_j = j * QUERY_PERIOD_S
-        seg = replace(tx, t0_s=t_j, cmd_start_s=t_j + tx.cmd_start_s, cmd_end_s=t_j + tx.cmd_end_s)
+    channels = set()
+    for j, t_j in enumerate(times):
+        # query j at t_j: the reader's segment on the channel of t_j; the held links of that
+        # channel times the moving-scatterer gain h_q, both ways (reciprocal); one air step
+        # (reader port: leakage, backscatter, receiver noise from nrng every query)
+        seg = reader.transmit(q, t0_s=float(t_j), cw_after_s=reply_window_s(lk, 16))
+        fs, fc = seg.fs_hz, seg.fc_hz
+        channels.add(seg.channel_index)
+        if fc not in drawn:
+            drawn[fc] = chan.backscatter_links(ant, tag_ant, fc_hz=fc, rng=crng)
+        fwd, bwd = drawn[fc]
+        links = HeldLinks([(ant, tag_ant, replace(fwd, gain=fwd.gain * h[j])),
+                           (tag_ant, ant, replace(bwd, gain=bwd.gain * h[j]))])
         port = ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
-        air = propagate([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j, fs_hz=fs,
-                        n_samples=tx.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+        air = propagate([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=float(t_j), fs_hz=fs,
+                        n_samples=seg.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
         resp = air.reflections[0]
-        p_inc = float(resp.incident_power_dbm)
+        p_inc = max(p_inc, float(resp.incident_power_dbm))
         n_powered += bool(resp.powered)
         if resp.gamma is None:
             continue  # nothing to decode (the engine's reader listens only when a tag replied)
@@ -205,8 +268,10 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
         read = port.receive(air.inputs[0])
         n_reads += bool(read.bits is not None and read.success
                         and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
+    tx = seg
     return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=n_reads,
                 p_hat=n_reads / c.queries, n_powered=n_powered, n_replied=n_replied, channel_index=tx.channel_index,
+                n_channels=len(channels), round_s=t_round,
                 frequency_hz=fc, tag_incident_power_dbm=p_inc, jitter_x_m=jitter[0], jitter_y_m=jitter[1],
                 jitter_z_m=jitter[2])
 
@@ -236,9 +301,11 @@ FIELDS = {
     "p_hat": ("1", "n_reads / n_queries"),
     "n_powered": ("1", "queries in which the tag was powered"),
     "n_replied": ("1", "queries the tag answered (RN16)"),
-    "channel_index": ("1", "1-based FCC hop channel of the trial"),
+    "channel_index": ("1", "1-based FCC hop channel of the trial's last query"),
+    "n_channels": ("1", "hop channels visited during the trial's N queries"),
+    "round_s": ("s", "duration over which the trial's N queries are spread"),
     "frequency_hz": ("Hz", "carrier frequency of the trial"),
-    "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port"),
+    "tag_incident_power_dbm": ("dBm", "largest CW power incident at the tag antenna port over the queries"),
     "jitter_x_m": ("m", "tag placement jitter x"),
     "jitter_y_m": ("m", "tag placement jitter y"),
     "jitter_z_m": ("m", "tag placement jitter z"),

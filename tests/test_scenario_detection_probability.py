@@ -142,3 +142,28 @@ def test_st_detection_falls_with_distance():
     near, far = s["d_m"] < 0.3, s["d_m"] > 1.2
     assert near.sum() >= 10 and far.sum() >= 50
     assert s["st_detected"][near].mean() > s["st_detected"][far].mean() + 0.3
+
+
+def test_elliptical_panel_mismatch_against_a_rolled_dipole():
+    # Ellipse of axial ratio AR (field ratio r = 1/AR) against a linear antenna at angle τ from
+    # the major axis: PLF = (cos²τ + r²·sin²τ)/(1 + r²) (derived here); AR = 0 dB → 1/2 (the
+    # constant 3 dB of an ideal circular panel). Boresight: AR = 1 dB; at the beam edge 3 dB.
+    import math
+
+    from scenarios import detection_probability as dp
+
+    g = dp.GeometryConfig()
+    panel = dp.reader_antenna(g)
+    for ar_db, x in ((1.0, 5.0), (3.0, None)):
+        if x is None:  # 35° off boresight in azimuth (half of the 70° beamwidth)
+            pos = 5.0 * np.array([math.cos(math.radians(35.0)), math.sin(math.radians(35.0)), 0.0])
+        else:
+            pos = np.array([x, 0.0, 0.0])
+        r = 10 ** (-ar_db / 20)
+        for roll_deg in (0.0, 30.0, 90.0):
+            tag = dp.tag_antenna(pos, math.radians(roll_deg))
+            tau = math.radians(roll_deg)
+            expected = (math.cos(tau) ** 2 + r * r * math.sin(tau) ** 2) / (1 + r * r)
+            assert float(panel.polarization_mismatch(tag)) == pytest.approx(expected, rel=1e-9), (ar_db, roll_deg)
+    ideal = dp.reader_antenna(dp.GeometryConfig(axial_ratio_db=(0.0, 0.0)))
+    assert float(ideal.polarization_mismatch(dp.tag_antenna(np.array([3.0, 1.0, 0.5]), 0.7))) == pytest.approx(0.5)

@@ -11,7 +11,8 @@ from rfsim.gen2.linecode import halfsymbols, reply_waveform
 from rfsim.gen2.pie import pie_decode_arrays, two_level_threshold_reference
 from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search, _search_reference,
                                 preamble_correlation)
-from rfsim.gen2.reply_tracking import _block_correlations, block_correlations_reference, weighted_polyfit
+from rfsim.gen2.reply_tracking import (_block_correlations, block_correlations_reference, track, track_reference,
+                                       weighted_polyfit)
 from rfsim.rng import trial_rng
 
 
@@ -141,3 +142,24 @@ def test_complex_edges_equal_envelope_edges(reference_data):
     assert all(np.array_equal(fa.bits, fb.bits) for fa, fb in zip(a.frames(), b.frames()))
     assert plausible_frames(b, x)[0].sum() == 401
     np.testing.assert_allclose(plausible_frames(a, env)[1], plausible_frames(b, x)[1], rtol=1e-12)
+
+
+@pytest.mark.parametrize("blf_error, drift_u2", [(0.0, 0.0), (2e-3, 0.0), (-1e-3, 4e-9)])
+def test_track_kernel_matches_twin(blf_error, drift_u2):
+    """The one-call tracking kernel refines the element clock as the NumPy twin (block
+    correlations, triangle peaks, weighted fits span by span) on a Miller-2 reply whose
+    clock differs from the starting guess by a BLF error and a drift."""
+    fs, blf, m, trext = 1e6, 40e3, 2, True
+    rng = trial_rng(7, 0)
+    bits = rng.integers(0, 2, 128).astype(np.uint8)
+    el = halfsymbols(bits, m=m, trext=trext).astype(np.float64)
+    rho = 2 * blf / fs
+    t = np.arange(int(el.size / rho) + 400) - 150.3
+    u = rho * (1 + blf_error) * t + drift_u2 * t * t
+    k = np.floor(u).astype(np.int64)
+    s = np.where((u >= 0) & (k < el.size), el[np.clip(k, 0, el.size - 1)], -1.0)
+    r = 0.1 + 0.2j + (0.3 - 0.1j) * s + 0.02 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    args = (r, 150.3, rho, 0.0, 0.3 - 0.1j, 0.1 + 0.2j, bits, m, trext, True)
+    got, want = track(*args), track_reference(*args)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+    assert got[1] == pytest.approx(rho * (1 + blf_error), rel=2e-4)

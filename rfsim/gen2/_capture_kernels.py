@@ -242,3 +242,137 @@ def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, s
                         a = e
                     k += 1
             corr[i, b] = acc
+
+
+@njit
+def _solve_small(a, b):
+    """Solve the small dense system a·x = b in place (Gaussian elimination, partial pivoting)."""
+    n = b.size
+    for col in range(n):
+        piv = col
+        for row in range(col + 1, n):
+            if abs(a[row, col]) > abs(a[piv, col]):
+                piv = row
+        if piv != col:
+            for k in range(n):
+                a[col, k], a[piv, k] = a[piv, k], a[col, k]
+            b[col], b[piv] = b[piv], b[col]
+        for row in range(col + 1, n):
+            f = a[row, col] / a[col, col]
+            for k in range(col, n):
+                a[row, k] -= f * a[col, k]
+            b[row] -= f * b[col]
+    for row in range(n - 1, -1, -1):
+        acc = b[row]
+        for k in range(row + 1, n):
+            acc -= a[row, k] * b[k]
+        b[row] = acc / a[row, row]
+    return b
+
+
+@njit
+def weighted_polyfit_kernel(t, d, w, n, deg, out):
+    """Coefficients (highest power first) of the degree-``deg`` polynomial minimising
+    Σ w_i·(p(t_i) − d_i)² over the first ``n`` points, into ``out[:deg + 1]``; the normal
+    equations in x = (t − t̄)/max|t − t̄| (see
+    :func:`rfsim.gen2.reply_tracking.weighted_polyfit`, its NumPy twin)."""
+    tm = 0.0
+    for i in range(n):
+        tm += t[i]
+    tm /= n
+    ts = 0.0
+    for i in range(n):
+        ts = max(ts, abs(t[i] - tm))
+    if ts == 0.0:
+        ts = 1.0
+    k1 = deg + 1
+    a = np.zeros((k1, k1))
+    b = np.zeros(k1)
+    for i in range(n):
+        x = (t[i] - tm) / ts
+        for p in range(k1):
+            xp = x ** p
+            b[p] += w[i] * xp * d[i]
+            for q in range(k1):
+                a[p, q] += w[i] * xp * x ** q
+    c = _solve_small(a, b)
+    res = np.zeros(k1)
+    for k in range(k1):
+        for i in range(k + 1):
+            comb = 1.0
+            for q in range(i):
+                comb = comb * (k - q) / (q + 1)
+            res[i] += c[k] * comb * (-tm) ** (k - i) / ts ** k
+    for i in range(k1):
+        out[i] = res[k1 - 1 - i]
+
+
+@njit
+def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
+    """The tracking loop of :func:`rfsim.gen2.reply_tracking.track` in one call (its twin:
+    ``track_reference`` there): for each span fraction of ``spans`` the block offsets are
+    searched around the previous fit's δ(t) (:func:`block_correlation_kernel`, 17 shifts of
+    1/16 element, triangle peak), the blocks whose centre lies inside the span kept, and
+    δ(t) fitted (quadratic with ≥ ``min_drift_blocks`` blocks, else a line; spans with
+    fewer than 3 blocks are skipped). Returns the refined ``(start, u1, u2)``."""
+    n_el = el.size
+    per_block = n_el / n_blocks
+    centres = np.empty(n_blocks)
+    block_starts = np.empty(n_blocks)
+    for b in range(n_blocks):
+        centres[b] = (b + 0.5) / n_blocks * n_el / u1
+        x = b * per_block
+        block_starts[b] = 2.0 * x / (u1 + math.sqrt(max(u1 * u1 + 4.0 * u2 * x, 1e-300)))
+    step = 1.0 / (16.0 * u1)
+    n_sh = 17
+    shifts = np.empty(n_sh)
+    for i in range(n_sh):
+        shifts[i] = step * (i - 8)
+    corr = np.empty((n_sh, n_blocks))
+    centre_sum = np.empty(n_blocks)
+    count = np.empty(n_blocks, dtype=np.int64)
+    base = np.empty(n_blocks)
+    tb = np.empty(n_blocks)
+    db = np.empty(n_blocks)
+    wb = np.empty(n_blocks)
+    coef = np.zeros(3)
+    fit = np.zeros(3)
+    n0 = int(math.ceil(start))
+    for s in range(spans.size):
+        limit = spans[s] * n_el / u1
+        n_used = 1
+        for b in range(n_blocks):
+            base[b] = (coef[0] * centres[b] + coef[1]) * centres[b] + coef[2]
+            if block_starts[b] <= limit:
+                n_used += 1
+        block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count,
+                                 n_used)
+        nb = 0
+        for b in range(min(n_blocks, n_used)):
+            j = 0
+            for i in range(1, n_sh):
+                if corr[i, b] > corr[j, b]:
+                    j = i
+            mid = corr[j, b]
+            if mid <= 0 or j == 0 or j == n_sh - 1:
+                continue
+            centre = centre_sum[b] / max(count[b], 1)
+            if centre > limit:
+                continue
+            left = corr[j - 1, b]
+            right = corr[j + 1, b]
+            slope = max(mid - left, mid - right)
+            frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
+            tb[nb] = centre
+            db[nb] = base[b] + shifts[j] + frac * step
+            wb[nb] = mid
+            nb += 1
+        if nb < 3:
+            continue
+        if nb >= min_drift_blocks:
+            weighted_polyfit_kernel(tb, db, wb, nb, 2, fit)
+            coef[0], coef[1], coef[2] = fit[0], fit[1], fit[2]
+        else:
+            weighted_polyfit_kernel(tb, db, wb, nb, 1, fit)
+            coef[0], coef[1], coef[2] = 0.0, fit[0], fit[1]
+    return start + coef[2], u1 * (1.0 - coef[1]), u2 - u1 * coef[0]

@@ -25,12 +25,16 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
     """Largest zero-mean normalised preamble correlation over BLFs and lags.
 
     For BLF ``blfs[j]`` (skipped when 2·BLF·``min_samples_per_element`` > fs) the template
-    is ``pre_el`` (pilot + preamble elements) sampled at ρ = 2·BLF/fs from lag 0 over its
-    floor(n_pre·fs/(2·BLF)) samples, minus its mean; the lags ``lo[j] … min(hi[j],
-    r.size − n_rep[j])`` are tested with c = |Σ r[k+i]·t0[i]| / (‖t0‖·‖r_k − mean r_k‖).
-    ``out_corr[j]`` receives the best c of BLF j (−1 if skipped). Returns ``(best c, its
-    BLF index, lag refined by the parabola through the peak, lags tested, template
-    length)``; the first maximum wins ties (BLFs, then lags, in order).
+    t is ``pre_el`` (pilot + preamble elements) sampled at ρ = 2·BLF/fs from lag 0 over its
+    n = floor(n_pre·fs/(2·BLF)) samples, t0 = t − mean(t); the lags k = ``lo[j] …
+    min(hi[j], r.size − n_rep[j])`` are tested with c = |Σ r[k+i]·t0[i]| / (‖t0‖·‖r_k −
+    mean r_k‖). The template is constant over each element, so with the cumulative sums
+    C of r and P of |r|² every lag costs one term per run of equal template samples
+    (Σ t[i]·r[k+i] = Σ_runs t_run·(C[k + end] − C[k + begin])) instead of one per sample:
+    O(lags · preamble elements), independent of the sample rate. ``out_corr[j]`` receives
+    the best c of BLF j (−1 if skipped). Returns ``(best c, its BLF index, lag refined by
+    the parabola through the peak, lags tested, template length)``; the first maximum wins
+    ties (BLFs, then lags, in order).
     """
     best = -1.0
     best_j = -1
@@ -38,7 +42,18 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
     best_n = 0
     n_tests = 0
     n_el = pre_el.size
+    n_r = r.size
+    c_re = np.zeros(n_r + 1)
+    c_im = np.zeros(n_r + 1)
+    p = np.zeros(n_r + 1)
+    for i in range(n_r):
+        z = r[i]
+        c_re[i + 1] = c_re[i] + z.real
+        c_im[i + 1] = c_im[i] + z.imag
+        p[i + 1] = p[i] + (z.real * z.real + z.imag * z.imag)
     t = np.empty(0)
+    run_begin = np.empty(0, dtype=np.int64)
+    run_value = np.empty(0)
     for j in range(blfs.size):
         out_corr[j] = -1.0
         blf = blfs[j]
@@ -51,6 +66,8 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
             continue
         if t.size < n:
             t = np.empty(n)
+            run_begin = np.empty(n + 1, dtype=np.int64)
+            run_value = np.empty(n)
         tt = t[:n]
         waveform_kernel(pre_el, 0.0, rho, tt)
         mean = 0.0
@@ -58,9 +75,14 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
             mean += tt[i]
         mean /= n
         e_t = 0.0
+        n_runs = 0
         for i in range(n):
-            tt[i] -= mean
-            e_t += tt[i] * tt[i]
+            e_t += (tt[i] - mean) * (tt[i] - mean)
+            if i == 0 or tt[i] != tt[i - 1]:
+                run_begin[n_runs] = i
+                run_value[n_runs] = tt[i]
+                n_runs += 1
+        run_begin[n_runs] = n
         norm_t = math.sqrt(e_t)
         n_tests += last - lo[j] + 1
         c_prev = -1.0
@@ -69,19 +91,18 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
         cl = -1.0
         cr = -1.0
         for k in range(lo[j], last + 1):
-            acc_re = 0.0
-            acc_im = 0.0
-            s_re = 0.0
-            s_im = 0.0
-            p = 0.0
-            for i in range(n):
-                z = r[k + i]
-                acc_re += z.real * tt[i]
-                acc_im += z.imag * tt[i]
-                s_re += z.real
-                s_im += z.imag
-                p += z.real * z.real + z.imag * z.imag
-            energy = p - (s_re * s_re + s_im * s_im) / n
+            a_re = 0.0
+            a_im = 0.0
+            for q in range(n_runs):
+                b0 = k + run_begin[q]
+                b1 = k + run_begin[q + 1]
+                a_re += run_value[q] * (c_re[b1] - c_re[b0])
+                a_im += run_value[q] * (c_im[b1] - c_im[b0])
+            s_re = c_re[k + n] - c_re[k]
+            s_im = c_im[k + n] - c_im[k]
+            acc_re = a_re - mean * s_re
+            acc_im = a_im - mean * s_im
+            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
             c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
             if k == kbest + 1 and kbest >= 0:
                 cr = c  # right neighbour of the running best

@@ -45,7 +45,8 @@ same form with real h (|h| ≪ |c|). Steps per window:
    all), each span's offsets searched around the previous fit's extrapolation — a
    tracking loop that follows a timing error growing past half an element towards the
    end. The element clock u(t) = u₁·t + u₂·t² is updated, the window resampled on the tag's
-   clock (linear interpolation) and decoded again (twice). Reported: the mean BLF
+   clock (linear interpolation) and decoded again (twice, unless the first pass moved the
+   clock by ≤ :data:`TRACK_CONVERGED_ELEMENTS` of an element and left the bits unchanged). Reported: the mean BLF
    (u₁ + u₂·T)·fs_w/2 over the reply's T samples and the drift, the relative BLF change
    across it, 2·u₂·T/u₁.
 5. **Validation**: (h, c) by least squares over the decision-free samples (preamble and
@@ -94,6 +95,9 @@ MIN_HALFBIT_SNR_DB = 6.0
 #: Half-width of the fine BLF searches in coarse steps (a short FM0 preamble, 12 elements,
 #: can correlate best one coarse step off).
 FINE_SPAN_STEPS = 2
+#: The tracking loop runs a second time unless its first pass moved the element clock by
+#: at most this many elements anywhere in the reply and left the decoded bits unchanged.
+TRACK_CONVERGED_ELEMENTS = 0.05
 #: A window whose variance is below this fraction of its power holds no modulation at all.
 _MIN_RELATIVE_VARIANCE = 1e-12
 
@@ -361,13 +365,17 @@ def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bi
     # step 4: timing tracking, resampling on the tag's clock, decoding again
     n_rest = int(min(start, 256))
     u1, u2 = rho, 0.0
-    for _ in range(2):
+    n_span = _reply_end(0.0, bits.size, m, trext, rho, dummy)  # reply length [samples]
+    for it in range(2):
         s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size,
                            dummy=dummy)
         h, c, _ = _fit_full(r, s, min(r.size, _reply_end(start, bits.size, m, trext, rho, dummy)))
         if h == 0:
             return None
+        prev = (start, u1, u2)
         start, u1, u2 = track(r, start, u1, u2, h, c, bits, m, trext, dummy)
+        # the clock moved by at most this many elements anywhere in the reply
+        moved = (abs(start - prev[0]) * u1 + abs(u1 - prev[1]) * n_span + abs(u2 - prev[2]) * n_span ** 2)
         n_prime = np.arange(-n_rest, _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.float64)
         rw = resample(r, start + warp_positions(n_prime, u1, u2, rho))
         pre = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs,
@@ -377,7 +385,11 @@ def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bi
         h, c = fit_gain_offset(rw[known], np.where(pre[known] == 0, -1.0, pre[known]))
         det = decode_reply(rw - c, n_bits=bits.size, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
                            start_sample=float(n_rest), gain=h)
-        bits = det.bits.astype(np.uint8)
+        new_bits = det.bits.astype(np.uint8)
+        converged = moved <= TRACK_CONVERGED_ELEMENTS and np.array_equal(new_bits, bits)
+        bits = new_bits
+        if converged:  # a second pass would move the clock by less still: same bits
+            break
     return bits, start, u1, u2, rw, n_rest, blf
 
 

@@ -125,6 +125,18 @@ def weighted_polyfit(t, d, w, deg):
 
 
 def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
+    """Element clock ``(start, u1, u2)`` of the reply refined by the tracking loop (one numba
+    kernel, ``track_kernel``; :func:`track_reference` is its NumPy twin, documented there)."""
+    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
+    y = np.ascontiguousarray(((r - c) / h).real)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    s0, v1, v2 = _ck.track_kernel(y, float(start), float(u1), float(u2), el, int(n_blocks),
+                                  np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS)
+    return float(s0), float(v1), float(v2)
+
+
+def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
     reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
     spans from the reply start (the first quarter, half, all), each span's offsets searched
@@ -157,4 +169,4 @@ def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
     return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
 
 
-__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "TRACK_SPANS", "SUBSAMPLES"]
+__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "track_reference", "TRACK_SPANS", "SUBSAMPLES"]

@@ -13,15 +13,23 @@ Scripts build a scene from ``devices`` and ``channels`` and run it with
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _dist_version
 
-try:
-    __version__ = _dist_version("rfsim")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0+unknown"
+
+def _version() -> str:
+    # importlib.metadata costs ≈ 0.1 s of start-up: read on first use of rfsim.__version__
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rfsim")
+    except PackageNotFoundError:  # running from a source tree that is not installed
+        return "0+unknown"
 
 
 def __getattr__(name: str):
+    if name == "__version__":
+        value = _version()
+        globals()["__version__"] = value
+        return value
     if name == "Simulation":
         from rfsim.simulation import Simulation
 

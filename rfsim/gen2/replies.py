@@ -66,7 +66,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, bits_to_str
@@ -256,6 +255,8 @@ def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
     valid lag: |Σ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), ``(r.size − L + 1,)`` in [0, 1]
     (the statistic of :func:`rfsim.gen2.linecode.decode_reply` and of the detection
     threshold; sliding sums by cumulative sums)."""
+    from scipy.signal import correlate  # imported when first used: scipy.signal costs ≈ 1 s to import
+
     n = template0.size
     c = np.abs(correlate(r, template0, mode="valid"))
     p = np.concatenate([[0.0], np.cumsum(np.abs(r) ** 2)])

@@ -3,7 +3,7 @@
 
 The captures are synthetic monostatic recordings made from rfsim's own reader and tag
 waveforms, x = L·e(t) + h·e(t)·s(t) + noise: e the reader's PIE envelope (depth 0.9, Tari
-12.5 µs, data-1 2 Tari, PW Tari/2, :func:`rfsim.gen2.pie.pie_envelope`), s(t) the tag's ±1
+12.5 µs, data-1 2 Tari, PW Tari/2, hard edges: :func:`rfsim.gen2.pie.pie_envelope`), s(t) the tag's ±1
 FM0/Miller element sequence during a reply (:func:`rfsim.gen2.linecode.halfsymbols`) and −1
 (absorbing state) elsewhere, L = 0.8 + 0.3j the carrier leakage, h = 0.02 − 0.03j the tag's
 gain, complex white noise of 1e−3 rms (E_h/N₀ ≈ 40 dB). A capture is built segment by
@@ -23,7 +23,8 @@ from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK, Query, ReqRN, command_preamble, encode
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.linecode import halfsymbols
-from rfsim.gen2.pie import pie_envelope, pie_timeline
+from rfsim.gen2 import _pie_kernels as _pk
+from rfsim.gen2.pie import pie_timeline
 from rfsim.rng import trial_rng
 
 #: PC (EPC length 6 words) and the 96-bit EPC of the benchmark tag.
@@ -48,11 +49,18 @@ class SynthReply:
 
 
 def _pie(cmd, *, tari_s, trcal_s, fs_hz, gap_s):
+    """``(envelope of the command up to its last rising edge, samples the command and the
+    CW after it span, last rising edge [s])``: the envelope of
+    :func:`rfsim.gen2.pie.pie_envelope` with ``cw_after_s = gap_s`` without the CW samples
+    (all 1) after the command, which are not stored."""
     kw = dict(tari_s=tari_s, data1_tari=2.0, pw_s=0.5 * tari_s, delimiter_s=12.5e-6, preamble=command_preamble(cmd))
     bits = encode(cmd)
     trcal = trcal_s if kw["preamble"] == "query" else None
-    env = pie_envelope(bits, trcal_s=trcal, depth=0.9, fs_hz=fs_hz, cw_after_s=gap_s, **kw)
-    return env, float(pie_timeline(bits, trcal_s=trcal, **kw).rise_s[-1])
+    tl = pie_timeline(bits, trcal_s=trcal, cw_after_s=gap_s, **kw)
+    n_total = int(math.ceil(tl.duration_s * fs_hz))
+    env = np.ones(min(n_total, int(math.ceil(tl.rise_s[-1] * fs_hz)) + 2))
+    _pk.envelope_kernel(tl.fall_s * fs_hz, tl.rise_s * fs_hz, 0.9, 0.0, env)
+    return env, n_total, float(tl.rise_s[-1])
 
 
 def synthetic_capture(items, *, fs_hz: float, trcal_s: float | None, tari_s: float = 12.5e-6,
@@ -69,12 +77,12 @@ def synthetic_capture(items, *, fs_hz: float, trcal_s: float | None, tari_s: flo
     lead = int(round(lead_s * fs_hz))
     cmds, replies, n0 = [], [], lead
     for cmd, reply, gap_s in items:
-        env, end_s = _pie(cmd, tari_s=tari_s, trcal_s=trcal_s, fs_hz=fs_hz, gap_s=gap_s)
+        env, n_span, end_s = _pie(cmd, tari_s=tari_s, trcal_s=trcal_s, fs_hz=fs_hz, gap_s=gap_s)
         cmds.append((n0, env))
         if reply is not None:
             t1 = max(3.0 * tari_s, 10.0 / reply.blf_hz) if reply.t1_s is None else reply.t1_s
             replies.append((reply, n0 / fs_hz + end_s + t1))
-        n0 += env.size
+        n0 += n_span
     n = n0 + lead
     x = np.empty(n, dtype=np.complex64)
     rest = leak - h  # e = 1, s = −1: the carrier with the tag absorbing

@@ -126,6 +126,22 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
 
 
 @njit
+def _first_sample(k, t0, rho, lo, hi):
+    """Smallest n in [lo, hi] with floor((n − t0)·ρ + eps) ≥ k (hi if none): where element k
+    starts on the sample grid, by exactly the rule of ``waveform_kernel``."""
+    n = int(math.ceil(t0 + (k - INDEX_EPS) / rho))
+    if n < lo:
+        n = lo
+    if n > hi:
+        n = hi
+    while n > lo and math.floor((n - 1 - t0) * rho + INDEX_EPS) >= k:
+        n -= 1
+    while n < hi and math.floor((n - t0) * rho + INDEX_EPS) < k:
+        n += 1
+    return n
+
+
+@njit
 def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
     """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` and keep
     the one whose remodulated reply leaves the least residual power.
@@ -139,6 +155,12 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     least squares over r[:min(r.size, ⌊start⌋ + n_rep)]; the residual is the mean
     |r − c − h·ref|². Writes the best BLF's bits into ``bits_out`` (n_bits,) and returns
     ``(best index (−1 if every BLF was skipped), residual, start)``; the first wins ties.
+
+    The half-bit sums and the fit are linear in r over runs of samples that share an
+    element, so both are evaluated element by element from cumulative sums of r and |r|²
+    (each element's sample range found by the sampling rule of ``waveform_kernel``):
+    O(elements) per BLF instead of O(samples); the residual in closed form,
+    Σ|r − c − h·ref|² = Σ|r|² + n|c|² + |h|²·Σref² − 2Re(c̄·Σr) − 2Re(h̄·Σr·ref) + 2Re(c̄h)·Σref.
     """
     miller = m > 1
     n_pre_el = pre.size * m
@@ -156,6 +178,15 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     b = np.empty(n_data // 2)
     dec = np.empty(n_data // 2, dtype=np.uint8)
     el = np.empty(n_el)
+    nr = r.size
+    c_re = np.zeros(nr + 1)
+    c_im = np.zeros(nr + 1)
+    p2 = np.zeros(nr + 1)
+    for n in range(nr):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
     best_j = -1
     best_resid = math.inf
     best_start = math.nan
@@ -180,23 +211,41 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
         p_re = 0.0
         p_im = 0.0
         e_t = 0.0
-        s_re = 0.0
-        s_im = 0.0
         for i in range(n_pre):
             t0 = tpl[i] - t_mean
             z = r[lag + i]
             p_re += z.real * t0
             p_im += z.imag * t0
             e_t += t0 * t0
-            s_re += z.real
-            s_im += z.imag
+        s_re = c_re[lag + n_pre] - c_re[lag]
+        s_im = c_im[lag + n_pre] - c_im[lag]
         h = complex(p_re, p_im) / e_t
         if h == 0:
             continue
         dc = complex(s_re / n_pre, s_im / n_pre) - h * t_mean
         g = 1.0 / h
-        end = min(r.size, lag + n_reply + 2)
-        projected_halfbit_sums_kernel(r[lag:end], g.real, g.imag, (dc * g).real, start - lag, ratio, m, sums)
+        g_re = g.real
+        g_im = g.imag
+        dc_re = (dc * g).real
+        # half-bit sums of y = Re(z·g) − dc_re over the part r[lag : lag + n_reply + 2]
+        end = min(nr, lag + n_reply + 2) - lag
+        off = start - lag
+        lo = max(0, int(math.ceil(off)))
+        sums[:] = 0.0
+        n_a = _first_sample(0, off, ratio, lo, end)
+        for k in range(nh * m):
+            n_b = _first_sample(k + 1, off, ratio, n_a, end)
+            if n_b > n_a:
+                cnt = n_b - n_a
+                y = ((c_re[lag + n_b] - c_re[lag + n_a]) * g_re - (c_im[lag + n_b] - c_im[lag + n_a]) * g_im
+                     - dc_re * cnt)
+                if m > 1 and (k & 1):
+                    sums[k // m] -= y
+                else:
+                    sums[k // m] += y
+            n_a = n_b
+            if n_a >= end:
+                break
         for i in range(n_data // 2):
             a[i] = sums[pre.size + 2 * i]
             b[i] = sums[pre.size + 2 * i + 1]
@@ -208,45 +257,34 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
         elements_kernel(dec[:n_bits], True, m, pre, cur, prev, el)
         t0s = (start / fs) * fs
         n_end = min(r.size, int(start) + n_rep)
-        ss = 0.0
-        s1 = 0.0
-        rs_re = 0.0
-        rs_im = 0.0
-        r1_re = 0.0
-        r1_im = 0.0
-        for n in range(n_end):
-            u = (n - t0s) * rho
-            ref = -1.0
-            if u >= 0.0:
-                k = int(math.floor(u + INDEX_EPS))
-                if k < n_el:
-                    ref = el[k]
-            z = r[n]
-            ss += ref * ref
-            s1 += ref
-            rs_re += z.real * ref
-            rs_im += z.imag * ref
-            r1_re += z.real
-            r1_im += z.imag
+        # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
+        rs_re = -c_re[n_end]
+        rs_im = -c_im[n_end]
+        s1 = -float(n_end)
+        lo = max(0, int(math.ceil(t0s)))
+        n_a = _first_sample(0, t0s, rho, lo, n_end)
+        for k in range(n_el):
+            n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
+            if n_b > n_a and el[k] > 0:
+                rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
+                rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
+                s1 += 2.0 * (n_b - n_a)
+            n_a = n_b
+            if n_a >= n_end:
+                break
         nn = float(n_end)
+        ss = nn  # every reference value is ±1
         det = ss * nn - s1 * s1
         if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
             continue
         rs = complex(rs_re, rs_im)
-        r1 = complex(r1_re, r1_im)
+        r1 = complex(c_re[n_end], c_im[n_end])
         hh = (nn * rs - s1 * r1) / det
         cc = (ss * r1 - s1 * rs) / det
-        acc = 0.0
-        for n in range(n_end):
-            u = (n - t0s) * rho
-            ref = -1.0
-            if u >= 0.0:
-                k = int(math.floor(u + INDEX_EPS))
-                if k < n_el:
-                    ref = el[k]
-            e = r[n] - cc - hh * ref
-            acc += e.real * e.real + e.imag * e.imag
-        resid = acc / nn
+        acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
+               - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
+               + 2.0 * (cc.conjugate() * hh).real * s1)
+        resid = max(acc, 0.0) / nn
         if best_j < 0 or resid < best_resid:
             best_j = j
             best_resid = resid

@@ -83,7 +83,8 @@ def _reply_window(seed, *, m, trext, n_bits, blf_hz, fs_hz, start_s=60e-6, noise
     bits = rng.integers(0, 2, n_bits).astype(np.uint8)
     s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s)
     s = np.concatenate([np.where(s == 0, -1.0, s), -np.ones(200)])
-    r = 0.3 - 0.2j + (0.02 + 0.05j) * s + noise * 0.05 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    w = rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size)
+    r = 0.3 - 0.2j + (0.02 + 0.05j) * s + noise * 0.05 * w
     return r, bits
 
 

@@ -43,7 +43,8 @@ def bench_preamble(*, rates_hz=(1e6, 2e6, 4e6, 8e6, 16e6, 32e6, 64e6), blf_hz: f
     for fs in rates_hz:
         lags = int(window_s * fs)
         s = reply_waveform(bits, m=m, trext=True, blf_hz=blf_hz, fs_hz=fs, t0_s=0.5 * window_s)
-        r = 0.3 + 0.02 * np.where(s == 0, -1.0, s) + 0.01 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+        noise = rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size)
+        r = 0.3 + 0.02 * np.where(s == 0, -1.0, s) + 0.01 * noise
         r = np.concatenate([r, np.full(lags, 0.28 + 0j)])
         t0 = _template(m, True, 2.0 * blf_hz / fs, 0.0)[1]
         seg = np.ascontiguousarray(r[: lags + t0.size])

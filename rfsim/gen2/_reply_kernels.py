@@ -16,8 +16,7 @@ import math
 import numpy as np
 
 from rfsim._jit import njit
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel,
-                                          projected_halfbit_sums_kernel, viterbi_kernel, waveform_kernel)
+from rfsim.gen2._linecode_kernels import INDEX_EPS, bitwise_kernel, elements_kernel, viterbi_kernel, waveform_kernel
 
 
 @njit
@@ -160,7 +159,8 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     element, so both are evaluated element by element from cumulative sums of r and |r|²
     (each element's sample range found by the sampling rule of ``waveform_kernel``):
     O(elements) per BLF instead of O(samples); the residual in closed form,
-    Σ|r − c − h·ref|² = Σ|r|² + n|c|² + |h|²·Σref² − 2Re(c̄·Σr) − 2Re(h̄·Σr·ref) + 2Re(c̄h)·Σref.
+    Σ|r − c − h·ref|² = Σ|r|² + n|c|² + |h|²·Σref² − 2Re(c̄·Σr) − 2Re(h̄·Σr·ref)
+    + 2Re(c̄h)·Σref.
     """
     miller = m > 1
     n_pre_el = pre.size * m

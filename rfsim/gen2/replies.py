@@ -310,10 +310,7 @@ def _search(r, fs, hyps, lo_of, hi_of):
 
 
 def _search_reference(r, fs, hyps, lo_of, hi_of):
-    """Plain-NumPy twin of :func:`_search`. Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
-    hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
-    over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
-    a parabola through the peak) and the number of lags tested."""
+    """Plain-NumPy twin of :func:`_search` (scipy correlation per BLF)."""
     best, n_tests = None, 0
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))

@@ -169,4 +169,5 @@ def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
 
 
-__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "track_reference", "TRACK_SPANS", "SUBSAMPLES"]
+__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "track_reference",
+           "TRACK_SPANS", "SUBSAMPLES"]

@@ -145,6 +145,31 @@ def range_kernel(v):
 
 
 @njit
+def power_range_kernel(x):
+    """:func:`range_kernel` of the magnitude of complex samples from their power
+    re² + im² (no square root per sample): ``(√min, √max, non-finite count, first index)``.
+    The square root is monotonic, so the extremes are those of the magnitude."""
+    lo = math.inf
+    hi = -math.inf
+    n_bad = 0
+    first_bad = -1
+    for n in range(x.size):
+        re = np.float64(x[n].real)
+        im = np.float64(x[n].imag)
+        p = re * re + im * im
+        if not math.isfinite(p):
+            if n_bad == 0:
+                first_bad = n
+            n_bad += 1
+        else:
+            if p < lo:
+                lo = p
+            if p > hi:
+                hi = p
+    return math.sqrt(lo) if n_bad < x.size else lo, math.sqrt(hi) if n_bad < x.size else hi, n_bad, first_bad
+
+
+@njit
 def histogram_kernel(v, lo, hi, hist):
     """Counts of the envelope of ``v`` (real, or complex: :func:`env_value`) in ``hist.size``
     equal bins over [lo, hi] (the last bin closed)."""
@@ -185,9 +210,16 @@ def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, s
     el[k]·(Y[end] − Y[begin]) — the same sum in about 1/(samples per element) of the
     operations.
     """
-    n_el = el.size
+    first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, el.size, n_blocks, centre_sum, count)
+    block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr)
+
+
+@njit
+def block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count):
+    """The part of :func:`block_correlation_kernel` that does not depend on the shifts: each
+    block's first and last sample, ``centre_sum``/``count``, the cumulative sum of y and the
+    element starts w(k). Returns ``(first, last, cum, w)``."""
     per_block = n_el / n_blocks
-    corr[:, :] = 0.0
     centre_sum[:] = 0.0
     count[:] = 0
     first = np.full(n_blocks, -1, dtype=np.int64)
@@ -214,6 +246,17 @@ def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, s
     w = np.empty(n_el + 1)
     for k in range(n_el + 1):
         w[k] = 2.0 * k / (u1 + math.sqrt(max(u1 * u1 + 4.0 * u2 * k, 1e-300)))
+    return first, last, cum, w
+
+
+@njit
+def block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr):
+    """The shift-dependent part of :func:`block_correlation_kernel` on a
+    :func:`block_layout_kernel` layout: ``corr[i, b]`` for the blocks b < ``n_blocks_used``
+    (0 for the others)."""
+    n_el = el.size
+    n_blocks = first.size
+    corr[:, :] = 0.0
     for b in range(min(n_blocks, n_blocks_used)):
         lo = first[b]
         hi = last[b] + 1  # samples lo … hi − 1
@@ -338,6 +381,7 @@ def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
     coef = np.zeros(3)
     fit = np.zeros(3)
     n0 = int(math.ceil(start))
+    first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count)
     for s in range(spans.size):
         limit = spans[s] * n_el / u1
         n_used = 1
@@ -345,8 +389,7 @@ def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
             base[b] = (coef[0] * centres[b] + coef[1]) * centres[b] + coef[2]
             if block_starts[b] <= limit:
                 n_used += 1
-        block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count,
-                                 n_used)
+        block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_used, corr)
         nb = 0
         for b in range(min(n_blocks, n_used)):
             j = 0

@@ -171,7 +171,8 @@ def _split_levels(v) -> tuple[float, float, float]:
     """``(threshold, low, high)`` of the envelope of ``v`` (real, or complex: its magnitude
     read on the fly): the isodata split on the :data:`LEVEL_BINS`-bin histogram (module
     docstring of :func:`envelope_levels`); raises :class:`rfsim.errors.UserError` on NaN/Inf."""
-    lo, hi, n_bad, first_bad = _ck.range_kernel(v)
+    cplx = v.dtype in (np.complex64, np.complex128)
+    lo, hi, n_bad, first_bad = (_ck.power_range_kernel if cplx else _ck.range_kernel)(v)
     if n_bad:
         raise UserError(f"capture holds {n_bad} non-finite samples (NaN or Inf), the first at sample "
                         f"{first_bad}; a capture must be finite numbers")

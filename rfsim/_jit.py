@@ -9,14 +9,53 @@ Every kernel declared here is remembered in :data:`KERNELS`, so a run can tell b
 starts that numba will have to compile: :func:`uncached_kernels` lists the kernels without an
 on-disk cache index; when none has one, this is the first run after install
 (:func:`first_compilation`). Kernels a run never calls are never cached, so a partial list
-alone says nothing.
+alone says nothing. Where the cache lives: :func:`cache_dir` (beside the sources, or a
+per-user folder when the installed package cannot be written).
 """
 
 from __future__ import annotations
 
 import os
+import tempfile
+from pathlib import Path
 
-import numba
+#: Folder of the rfsim package (numba caches beside the sources, in ``__pycache__``).
+PACKAGE_DIR = Path(__file__).resolve().parent
+
+
+def _writable(folder: Path) -> bool:
+    """True when a file can be created in ``folder`` (or in the folder that would hold it)."""
+    probe_dir = folder if folder.is_dir() else folder.parent
+    try:
+        with tempfile.NamedTemporaryFile(dir=probe_dir, prefix=".rfsim-probe-"):
+            return True
+    except OSError:
+        return False
+
+
+def cache_dir(environ=os.environ, package_dir: Path = PACKAGE_DIR, writable=_writable) -> str | None:
+    """The numba cache folder rfsim chooses, or None for numba's own choice (``__pycache__``
+    beside each kernel's source).
+
+    ``NUMBA_CACHE_DIR`` set by the user wins (None: numba reads it itself). Otherwise, when
+    the package folder's ``__pycache__`` cannot be written (a non-editable install into a
+    system or read-only site-packages), the kernels are cached in
+    ``$XDG_CACHE_HOME/rfsim/numba`` (default ``~/.cache/rfsim/numba``), so the compiled
+    kernels survive the process there instead of being compiled again on every run.
+    """
+    if environ.get("NUMBA_CACHE_DIR"):
+        return None
+    if writable(package_dir / "__pycache__"):
+        return None
+    base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return os.path.join(base, "rfsim", "numba")
+
+
+_CACHE_DIR = cache_dir()
+if _CACHE_DIR is not None:  # must be set before numba is imported (it reads it once)
+    os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
+
+import numba  # noqa: E402  (after choosing the cache folder)
 
 _NJIT = numba.njit(cache=True, nogil=True)
 
@@ -51,4 +90,4 @@ def first_compilation() -> bool:
     return bool(KERNELS) and len(uncached_kernels()) == len(KERNELS)
 
 
-__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation"]
+__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR"]

@@ -108,7 +108,8 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
 
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
-    """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process),
+    """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
+    with a pool the first task runs in this process before the pool starts, see the code),
     results in task order so they do not depend on the number of workers; progress is shown
     with :func:`rfsim.progress.track` (``desc``, ``unit``) and the pool is a :func:`worker_pool`."""
     from rfsim.progress import track  # progress pulls in tqdm: only when a loop runs
@@ -117,8 +118,16 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     w = workers or (os.cpu_count() or 1)
     if w <= 1 or len(tasks) <= 1:
         return [fn(t) for t in track(tasks, desc=desc, unit=unit)]
-    with worker_pool(min(w, len(tasks))) as pool:
-        return list(track(pool.map(fn, tasks), total=len(tasks), desc=desc, unit=unit))
+
+    def results():
+        # The first task runs here, in the leader: the numba kernels it needs are compiled
+        # (or loaded from the on-disk cache) once, before the pool exists, and the workers
+        # forked afterwards inherit them instead of each compiling the same kernels again.
+        yield fn(tasks[0])
+        with worker_pool(min(w, len(tasks) - 1)) as pool:
+            yield from pool.map(fn, tasks[1:])
+
+    return list(track(results(), total=len(tasks), desc=desc, unit=unit))
 
 
 def _raise_terminated(signum, frame) -> None:

@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 
 from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames, plausible_frames_reference
-from rfsim.gen2.linecode import halfsymbols
+from rfsim.gen2.linecode import halfsymbols, reply_waveform
 from rfsim.gen2.pie import pie_decode_arrays, two_level_threshold_reference
-from rfsim.gen2.replies import preamble_correlation
-from rfsim.gen2.reply_tracking import _block_correlations, block_correlations_reference
+from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search, _search_reference,
+                                preamble_correlation)
+from rfsim.gen2.reply_tracking import (_block_correlations, block_correlations_reference, track, track_reference,
+                                       weighted_polyfit)
 from rfsim.rng import trial_rng
 
 
@@ -73,3 +75,92 @@ def test_preamble_correlation_definition():
         want.append(abs(np.sum(seg * t0)) / (np.linalg.norm(t0) * np.linalg.norm(seg - seg.mean())))
     np.testing.assert_allclose(got, want, rtol=1e-9)
     assert got.max() <= 1.0 + 1e-12
+
+
+def _reply_window(seed, *, m, trext, n_bits, blf_hz, fs_hz, start_s=60e-6, noise=0.05):
+    """c + h·s(t) + noise with s the reply (±1) of random bits from ``start_s`` and −1 around it."""
+    rng = trial_rng(seed, 2)
+    bits = rng.integers(0, 2, n_bits).astype(np.uint8)
+    s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s)
+    s = np.concatenate([np.where(s == 0, -1.0, s), -np.ones(200)])
+    w = rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size)
+    r = 0.3 - 0.2j + (0.02 + 0.05j) * s + noise * 0.05 * w
+    return r, bits
+
+
+@pytest.mark.parametrize("m, trext, method", [(1, False, "viterbi"), (4, False, "bitwise"), (2, True, "viterbi")])
+def test_fine_kernel_matches_twin(m, trext, method):
+    """The fused decode-and-fit kernel picks the same BLF, start and bits as the NumPy twin
+    (decode_reply + reply_waveform + least squares per BLF), and the bits are those encoded."""
+    fs, blf = 2e6, 160e3 * 1.004
+    r, bits = _reply_window(m, m=m, trext=trext, n_bits=16, blf_hz=blf, fs_hz=fs)
+    centre = 60e-6 * fs + 0.5 * _n_pre_elements(m, trext) * fs / (2.0 * blf)
+    blfs = 160e3 * (1.0 + 0.002 * np.arange(-8, 9))
+    got = _fine(r, centre, 16, m, trext, blfs, fs, method)
+    want = _fine_reference(r, centre, 16, m, trext, blfs, fs, method)
+    assert got[0] == want[0] and got[2] == pytest.approx(want[2], abs=1e-9)
+    assert np.array_equal(got[1], want[1]) and np.array_equal(got[1], bits)
+    assert _fine(r, -1e6, 16, m, trext, blfs, fs, method) is None  # every start outside the window
+
+
+@pytest.mark.parametrize("m, trext", [(1, False), (4, True)])
+def test_preamble_search_kernel_matches_twin(m, trext):
+    """Best correlation, BLF, refined lag and the number of lags tested as the NumPy twin
+    (scipy correlation per BLF)."""
+    fs = 2e6
+    r, _ = _reply_window(10 + m, m=m, trext=trext, n_bits=16, blf_hz=200e3, fs_hz=fs, noise=1.0)
+    hyps = [LinkHypothesis(m, trext, 150e3, 260e3), LinkHypothesis(m, not trext, 150e3, 260e3)]
+    lo_of, hi_of = (lambda blf: 20), (lambda blf: 200)
+    got, n = _search(r, fs, hyps, lo_of, hi_of)
+    want, n_r = _search_reference(r, fs, hyps, lo_of, hi_of)
+    assert n == n_r and got[1:3] == want[1:3] and got[4:] == want[4:]
+    assert got[0] == pytest.approx(want[0], rel=1e-9) and got[3] == pytest.approx(want[3], abs=1e-6)
+    # the encoded start (120 samples) to half an element (5 samples per element; coarse BLF grid)
+    assert got[2] == hyps[0] and abs(got[3] - 60e-6 * fs) <= 2.5
+
+
+def test_weighted_polyfit_matches_numpy():
+    """weighted_polyfit(t, d, w) equals numpy.polyfit(t, d, w=√w) (weights on the unsquared
+    residuals) on sample offsets of a few thousand samples."""
+    rng = trial_rng(6, 0)
+    t = np.sort(rng.uniform(0, 5000, 40))
+    d = 0.3 + 1e-3 * t - 2e-8 * t * t + 0.01 * rng.standard_normal(40)
+    w = rng.uniform(0.1, 2.0, 40)
+    for deg in (1, 2):
+        np.testing.assert_allclose(weighted_polyfit(t, d, w, deg), np.polyfit(t, d, deg, w=np.sqrt(w)),
+                                   rtol=1e-7, atol=1e-14)
+
+
+def test_complex_edges_equal_envelope_edges(reference_data):
+    """The comparator and the gate reading a complex capture's magnitude on the fly give the
+    edges, frames and contrasts of the explicit |x| envelope (gr-rfid waveform)."""
+    x = load_capture(reference_data / "gr-rfid-waveforms" / "reader_tx_query_ack.cf32")
+    env, thr, lo, hi = envelope_levels(x)
+    a = pie_decode_arrays(env, levels=(thr, lo, hi))
+    b = pie_decode_arrays(x, levels=(thr, lo, hi))
+    np.testing.assert_allclose(a.pos, b.pos, rtol=0, atol=1e-9)
+    assert a.start.size == b.start.size
+    assert all(np.array_equal(fa.bits, fb.bits) for fa, fb in zip(a.frames(), b.frames()))
+    assert plausible_frames(b, x)[0].sum() == 401
+    np.testing.assert_allclose(plausible_frames(a, env)[1], plausible_frames(b, x)[1], rtol=1e-12)
+
+
+@pytest.mark.parametrize("blf_error, drift_u2", [(0.0, 0.0), (2e-3, 0.0), (-1e-3, 4e-9)])
+def test_track_kernel_matches_twin(blf_error, drift_u2):
+    """The one-call tracking kernel refines the element clock as the NumPy twin (block
+    correlations, triangle peaks, weighted fits span by span) on a Miller-2 reply whose
+    clock differs from the starting guess by a BLF error and a drift."""
+    fs, blf, m, trext = 1e6, 40e3, 2, True
+    rng = trial_rng(7, 0)
+    bits = rng.integers(0, 2, 128).astype(np.uint8)
+    el = halfsymbols(bits, m=m, trext=trext).astype(np.float64)
+    rho = 2 * blf / fs
+    t = np.arange(int(el.size / rho) + 400) - 150.3
+    u = rho * (1 + blf_error) * t + drift_u2 * t * t
+    k = np.floor(u).astype(np.int64)
+    s = np.where((u >= 0) & (k < el.size), el[np.clip(k, 0, el.size - 1)], -1.0)
+    r = 0.1 + 0.2j + (0.3 - 0.1j) * s + 0.02 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    args = (r, 150.3, rho, 0.0, 0.3 - 0.1j, 0.1 + 0.2j, bits, m, trext, True)
+    got, want = track(*args), track_reference(*args)
+    np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
+    assert got[1] == pytest.approx(rho * (1 + blf_error), rel=2e-4)

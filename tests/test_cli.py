@@ -87,7 +87,9 @@ def test_bench_writes_json_and_rejects_unknown_names(tmp_path, capsys):
     assert "unknown benchmark 'nope'" in capsys.readouterr().err
     out = tmp_path / "bench.json"
     assert main(["bench", "linecode", "--quick", "--json", str(out)]) == 0
-    result = json.loads(out.read_text())["linecode"]
+    doc = json.loads(out.read_text())
+    result = doc["linecode"]
+    assert doc["machine"]["logical_cores"] >= 1 and len(doc["machine"]["load_average_at_start"]) == 3
     assert result["numba_bit_errors"] == 0 and result["numba_bits_per_s"] > 0
     assert result["peak_rss_mb"] > 0
 

@@ -286,3 +286,18 @@ def test_halfsymbols_rejects_bad_bits_on_the_fast_path():
         L.reply_waveform(np.array([3], dtype=np.uint8), m=1, trext=False, blf_hz=40e3, fs_hz=1e6)
     np.testing.assert_array_equal(L.halfsymbols([1, 0], m=2, trext=False),
                                   L.halfsymbols(np.array([1, 0], dtype=np.uint8), m=2, trext=False))
+
+
+@pytest.mark.parametrize("samples_per_element, offset", [(3.7, 0.0), (25.0, 5.0 - 2.0j)])
+def test_corr_abs_runs_kernel_equals_scipy(samples_per_element, offset):
+    """The run-by-run correlation (cumulative sums) equals scipy's on a sampled Miller-4
+    preamble template, zero-mean or not, with a large constant offset in r."""
+    rng = trial_rng(53, 0)
+    el = L.halfsymbols(np.zeros(0, np.uint8), m=4, trext=True, dummy=False).astype(np.float64)
+    t = np.empty(int(el.size * samples_per_element))
+    LK.waveform_kernel(el, 0.3, 1.0 / samples_per_element, t)
+    r = offset + rng.standard_normal(t.size + 300) + 1j * rng.standard_normal(t.size + 300)
+    for t0 in (t, t - t.mean()):
+        out = np.empty(301)
+        LK.corr_abs_runs_kernel(r, t0, out)
+        np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-9, atol=1e-9 * t.size)

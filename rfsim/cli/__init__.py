@@ -29,13 +29,21 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+class _Version(argparse.Action):
+    """``--version``: the installed version, read only when asked (start-up stays fast)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"rfsim {rfsim.__version__}")
+        parser.exit(0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(
         prog="rfsim",
         description="Time-domain, sample-level UHF RFID (EPC Gen2) link-level simulator.",
         epilog="Run 'rfsim COMMAND --help' for the options of a command.",
     )
-    parser.add_argument("--version", action="version", version=f"rfsim {rfsim.__version__}")
+    parser.add_argument("--version", action=_Version, nargs=0, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in _SUBCOMMANDS:
         importlib.import_module(name).add_parser(sub)

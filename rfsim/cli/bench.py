@@ -1,13 +1,16 @@
 """``rfsim bench``: time rfsim's own hot paths and print a table (and JSON with --json).
 
-Peak memory is the process's maximum resident set size (``resource.getrusage``), read
-after each benchmark.
+``rfsim bench all --json FILE`` runs every benchmark and writes every figure, with the
+machine facts (:func:`machine_facts`), into one file. Peak memory is the process's maximum
+resident set size (``resource.getrusage``), read after each benchmark (a running maximum:
+each benchmark's figure includes those run before it).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import resource
 import sys
 import time
@@ -24,14 +27,52 @@ BENCHMARKS = {
                                                                 "populations": (10, 50), "runs": 5}),
     "exchange": ("rfsim.bench.exchange", "bench_exchange", {"n_rounds": 20}),
     "sweep": ("rfsim.bench.sweep", "bench_sweep", {"n_points": 16, "dask_points": 50}),
+    "preamble": ("rfsim.bench.preamble", "bench_preamble", {"repeats": 2}),
+    "decode": ("rfsim.bench.decode", "bench_decode", {"duration_s": 2.0, "reply_counts": (10, 100)}),
 }
+
+
+def machine_facts() -> dict:
+    """Where the figures were measured: CPU model, logical cores, load average at the start
+    (1, 5, 15 min), platform and the versions of Python, NumPy, numba, SciPy, h5py and
+    rfsim with its git revision, and the start time (UTC)."""
+    import platform
+
+    import numba
+    import numpy as np
+    import scipy
+
+    import rfsim
+    from rfsim.dataset import git_revision, utc_now
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
+    except OSError:
+        pass
+    try:
+        load = list(os.getloadavg())
+    except OSError:
+        load = []
+    return {"cpu": cpu, "logical_cores": os.cpu_count(), "load_average_at_start": load,
+            "platform": platform.platform(), "python": platform.python_version(), "numpy": np.__version__,
+            "numba": numba.__version__, "scipy": scipy.__version__, "h5py": _h5py_version(),
+            "rfsim": rfsim.__version__, "git_revision": git_revision(), "start_time_utc": utc_now()}
+
+
+def _h5py_version() -> str:
+    import h5py
+
+    return h5py.__version__
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="time the hot paths (waveforms, channels) on this machine",
                        description="Run rfsim's benchmarks on one core and print their measurements.")
     p.add_argument("names", nargs="*", metavar="NAME",
-                   help=f"benchmarks to run (default: all of {', '.join(BENCHMARKS)})")
+                   help=f"benchmarks to run, or 'all' (default: all of {', '.join(BENCHMARKS)}); with --json "
+                        "the file also holds the machine facts (CPU, cores, load average at the start, versions)")
     p.add_argument("--quick", action="store_true", help="smaller problem sizes (seconds, not minutes)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write the results as JSON")
     p.set_defaults(func=run)
@@ -45,7 +86,7 @@ def _peak_rss_mb() -> float:
 def run(args: argparse.Namespace) -> int:
     import importlib
 
-    names = args.names or list(BENCHMARKS)
+    names = list(BENCHMARKS) if not args.names or args.names == ["all"] else args.names
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise UserError(f"unknown benchmark {unknown[0]!r}; available: {', '.join(BENCHMARKS)}")
@@ -53,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         from rfsim.outputs import check_output_file
 
         check_output_file(args.json, "--json")
+    machine = machine_facts()
     results = {}
     for name in names:
         module, func, quick_kwargs = BENCHMARKS[name]
@@ -68,6 +110,7 @@ def run(args: argparse.Namespace) -> int:
             shown = f"{value:.6g}" if isinstance(value, float) else str(value)
             print(f"  {key:<40} {shown}")
     if args.json is not None:
-        args.json.write_text(json.dumps(results, indent=2, default=float) + "\n")
+        doc = {"machine": machine, **results}
+        args.json.write_text(json.dumps(doc, indent=2, default=float) + "\n")
         print(f"written: {args.json}")
     return 0

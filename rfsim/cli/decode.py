@@ -12,12 +12,12 @@ import sys
 import tempfile
 from pathlib import Path
 
-from rfsim.capture_records import COMMAND_FIELDS, READ_FIELDS, capture_dataset, command_row, reply_row
 from rfsim.errors import UserError
-from rfsim.gen2.capture import SUFFIXES, decode_reader_commands, load_capture
-from rfsim.gen2.replies import decode_tag_replies
 
 FORMATS = ("text", "json", "csv")
+#: Capture file endings (rfsim.gen2.capture.SUFFIXES, spelled out here so that building the
+#: parser does not import the decoders: ``rfsim --help`` stays fast; a test checks they agree).
+SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat", ".npy")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -124,6 +124,8 @@ def _json_value(v):
 
 
 def _write(args, records, replies, timing) -> None:
+    from rfsim.capture_records import COMMAND_FIELDS, READ_FIELDS, command_row, reply_row
+
     fmt = getattr(args, "output_format", "text")
     out = sys.stdout
     if fmt == "json":
@@ -160,6 +162,10 @@ def _write(args, records, replies, timing) -> None:
 def run(args: argparse.Namespace) -> int:
     """Decode ``args.capture`` sampled at ``args.fs_hz``, print it in ``args.output_format`` and
     write ``args.output``; exit code 0 (also when stdout is closed early, e.g. ``| head``)."""
+    from rfsim.capture_records import capture_dataset
+    from rfsim.gen2.capture import decode_reader_commands, load_capture
+    from rfsim.gen2.replies import decode_tag_replies
+
     fs_hz = float(args.fs_hz)
     if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise UserError(f"--fs must be a positive sample rate in Hz, got {args.fs_hz!r}")

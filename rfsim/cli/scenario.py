@@ -8,7 +8,7 @@ from pathlib import Path
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.config import describe, load_config, to_toml
 from rfsim.errors import SEED_RANGE_TEXT, UserError, check_seed
-from rfsim.registry import get_scenario, scenario_modules
+from rfsim.registry import get_scenario, scenario_descriptions
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -56,10 +56,10 @@ def _resolve(args: argparse.Namespace):
 
 
 def _list(args: argparse.Namespace) -> int:
-    modules = scenario_modules()
-    width = max((len(n) for n in modules), default=0)
-    for name, module in modules.items():
-        print(f"{name:<{width}}  {module.DESCRIPTION}")
+    descriptions = scenario_descriptions()  # read from the sources: no scenario physics imported
+    width = max((len(n) for n in descriptions), default=0)
+    for name, description in descriptions.items():
+        print(f"{name:<{width}}  {description}")
     return 0
 
 

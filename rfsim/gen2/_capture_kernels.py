@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from rfsim._jit import njit
+from rfsim.gen2._pie_kernels import env_value
 
 
 @njit
@@ -32,6 +35,7 @@ def frame_gate_kernel(pos, x, first, last, tari, rtcal, trcal, rtcal_tari, trcal
     * the contrast (mean of the high-interval mid samples − mean of the low-pulse mid
       samples)/(pooled standard deviation) ≥ ``min_contrast``.
 
+    ``x`` is the envelope, or complex samples whose magnitude it is (:func:`env_value`).
     Writes ``contrast_out[i]`` and ``keep[i]`` (1/0).
     """
     for i in range(first.size):
@@ -84,14 +88,16 @@ def frame_gate_kernel(pos, x, first, last, tari, rtcal, trcal, rtcal_tari, trcal
         for k in range(0, n_sym + 1):
             j = int(round(0.5 * (pos[e0 + 2 * k] + pos[e0 + 2 * k + 1])))
             if 0 <= j < x.size:
-                s_lo += x[j]
-                q_lo += x[j] * x[j]
+                v = env_value(x, j)
+                s_lo += v
+                q_lo += v * v
                 n_lo += 1
             if k < n_sym:
                 j = int(round(0.5 * (pos[e0 + 2 * k + 1] + pos[e0 + 2 * k + 2])))
                 if 0 <= j < x.size:
-                    s_hi += x[j]
-                    q_hi += x[j] * x[j]
+                    v = env_value(x, j)
+                    s_hi += v
+                    q_hi += v * v
                     n_hi += 1
         if n_lo < 2 or n_hi < 2:
             continue
@@ -106,22 +112,26 @@ def frame_gate_kernel(pos, x, first, last, tari, rtcal, trcal, rtcal_tari, trcal
 
 @njit
 def magnitude_kernel(x, out):
-    """``out[n] = |x[n]|`` of complex samples; returns :func:`range_kernel` of ``out``."""
+    """``out[n] = |x[n]| = √(Re² + Im²)`` of complex samples (in float64: no overflow for
+    complex64 input, and several times faster than ``hypot``); returns
+    :func:`range_kernel` of ``out``."""
     for n in range(x.size):
-        out[n] = abs(x[n])
+        re = np.float64(x[n].real)
+        im = np.float64(x[n].imag)
+        out[n] = math.sqrt(re * re + im * im)
     return range_kernel(out)
 
 
 @njit
 def range_kernel(v):
     """``(min, max, number of non-finite values, index of the first one or −1)``, min and max
-    over the finite values."""
+    over the finite values of the envelope of ``v`` (real, or complex: :func:`env_value`)."""
     lo = math.inf
     hi = -math.inf
     n_bad = 0
     first_bad = -1
     for n in range(v.size):
-        a = v[n]
+        a = env_value(v, n)
         if not math.isfinite(a):
             if n_bad == 0:
                 first_bad = n
@@ -135,13 +145,39 @@ def range_kernel(v):
 
 
 @njit
+def power_range_kernel(x):
+    """:func:`range_kernel` of the magnitude of complex samples from their power
+    re² + im² (no square root per sample): ``(√min, √max, non-finite count, first index)``.
+    The square root is monotonic, so the extremes are those of the magnitude."""
+    lo = math.inf
+    hi = -math.inf
+    n_bad = 0
+    first_bad = -1
+    for n in range(x.size):
+        re = np.float64(x[n].real)
+        im = np.float64(x[n].imag)
+        p = re * re + im * im
+        if not math.isfinite(p):
+            if n_bad == 0:
+                first_bad = n
+            n_bad += 1
+        else:
+            if p < lo:
+                lo = p
+            if p > hi:
+                hi = p
+    return math.sqrt(lo) if n_bad < x.size else lo, math.sqrt(hi) if n_bad < x.size else hi, n_bad, first_bad
+
+
+@njit
 def histogram_kernel(v, lo, hi, hist):
-    """Counts of ``v`` in ``hist.size`` equal bins over [lo, hi] (the last bin closed)."""
+    """Counts of the envelope of ``v`` (real, or complex: :func:`env_value`) in ``hist.size``
+    equal bins over [lo, hi] (the last bin closed)."""
     hist[:] = 0
     nb = hist.size
     scale = nb / (hi - lo) if hi > lo else 0.0
     for n in range(v.size):
-        k = int((v[n] - lo) * scale)
+        k = int((env_value(v, n) - lo) * scale)
         if k >= nb:
             k = nb - 1
         elif k < 0:
@@ -157,20 +193,37 @@ def normalize_kernel(v, lo, scale):
 
 
 @njit
-def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count):
+def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, sub, corr, centre_sum, count,
+                             n_blocks_used):
     """Timing-block correlations of the tracking loop (see :mod:`rfsim.gen2.replies`, step 4).
 
     For every sample n ≥ n0 with t = n − start and nominal element u(t) = u1·t + u2·t² inside
     the reply (0 ≤ u < el.size): block b = floor(u/(el.size/n_blocks)) (clipped); for every
     shift d: ``corr[i, b] += y[n]·Σ_e el[floor(u(t − d + e))]`` over the sub-sample points e
     of ``sub`` (0 outside the reply), d = base[b] + shifts[i]; ``centre_sum[b] += t``,
-    ``count[b] += 1``.
+    ``count[b] += 1``. Only blocks b < ``n_blocks_used`` are correlated (the others are 0).
+
+    Evaluated element by element rather than sample by sample: a shifted reference is
+    constant over the samples of one element k, from the first n with t − d + e ≥ w(k) to
+    before the first with t − d + e ≥ w(k + 1), w(k) = 2k/(u1 + √(u1² + 4·u2·k)) the
+    stable root of u(w) = k; with the cumulative sum Y of y each element adds
+    el[k]·(Y[end] − Y[begin]) — the same sum in about 1/(samples per element) of the
+    operations.
     """
-    n_el = el.size
+    first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, el.size, n_blocks, centre_sum, count)
+    block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr)
+
+
+@njit
+def block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count):
+    """The part of :func:`block_correlation_kernel` that does not depend on the shifts: each
+    block's first and last sample, ``centre_sum``/``count``, the cumulative sum of y and the
+    element starts w(k). Returns ``(first, last, cum, w)``."""
     per_block = n_el / n_blocks
-    corr[:, :] = 0.0
     centre_sum[:] = 0.0
     count[:] = 0
+    first = np.full(n_blocks, -1, dtype=np.int64)
+    last = np.full(n_blocks, -2, dtype=np.int64)
     for n in range(n0, y.size):
         t = n - start
         u0 = u1 * t + u2 * t * t
@@ -183,14 +236,186 @@ def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, s
             b = n_blocks - 1
         centre_sum[b] += t
         count[b] += 1
-        yn = y[n]
+        if first[b] < 0:
+            first[b] = n
+        last[b] = n
+    cum = np.empty(y.size + 1)
+    cum[0] = 0.0
+    for n in range(y.size):
+        cum[n + 1] = cum[n] + y[n]
+    w = np.empty(n_el + 1)
+    for k in range(n_el + 1):
+        w[k] = 2.0 * k / (u1 + math.sqrt(max(u1 * u1 + 4.0 * u2 * k, 1e-300)))
+    return first, last, cum, w
+
+
+@njit
+def block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr):
+    """The shift-dependent part of :func:`block_correlation_kernel` on a
+    :func:`block_layout_kernel` layout: ``corr[i, b]`` for the blocks b < ``n_blocks_used``
+    (0 for the others)."""
+    n_el = el.size
+    n_blocks = first.size
+    corr[:, :] = 0.0
+    for b in range(min(n_blocks, n_blocks_used)):
+        lo = first[b]
+        hi = last[b] + 1  # samples lo … hi − 1
+        if lo < 0:
+            continue
         for i in range(shifts.size):
             acc = 0.0
             for j in range(sub.size):
-                tt = t - base[b] - shifts[i] + sub[j]
-                u = u1 * tt + u2 * tt * tt
-                if u >= 0.0:
-                    k = int(math.floor(u))
-                    if k < n_el:
-                        acc += el[k]
-            corr[i, b] += yn * acc
+                off = start + base[b] + shifts[i] - sub[j]  # element k starts at n = off + w(k)
+                tt = lo - off
+                if tt < 0.0:
+                    k = 0
+                else:
+                    k = int(math.floor(u1 * tt + u2 * tt * tt))
+                    if k > n_el:
+                        k = n_el
+                    while k > 0 and lo < math.ceil(off + w[k]):
+                        k -= 1
+                    while k < n_el and lo >= math.ceil(off + w[k + 1]):
+                        k += 1
+                a = max(lo, int(math.ceil(off + w[k])))
+                while k < n_el and a < hi:
+                    e = min(hi, int(math.ceil(off + w[k + 1])))
+                    if e > a:
+                        acc += el[k] * (cum[e] - cum[a])
+                        a = e
+                    k += 1
+            corr[i, b] = acc
+
+
+@njit
+def _solve_small(a, b):
+    """Solve the small dense system a·x = b in place (Gaussian elimination, partial pivoting)."""
+    n = b.size
+    for col in range(n):
+        piv = col
+        for row in range(col + 1, n):
+            if abs(a[row, col]) > abs(a[piv, col]):
+                piv = row
+        if piv != col:
+            for k in range(n):
+                a[col, k], a[piv, k] = a[piv, k], a[col, k]
+            b[col], b[piv] = b[piv], b[col]
+        for row in range(col + 1, n):
+            f = a[row, col] / a[col, col]
+            for k in range(col, n):
+                a[row, k] -= f * a[col, k]
+            b[row] -= f * b[col]
+    for row in range(n - 1, -1, -1):
+        acc = b[row]
+        for k in range(row + 1, n):
+            acc -= a[row, k] * b[k]
+        b[row] = acc / a[row, row]
+    return b
+
+
+@njit
+def weighted_polyfit_kernel(t, d, w, n, deg, out):
+    """Coefficients (highest power first) of the degree-``deg`` polynomial minimising
+    Σ w_i·(p(t_i) − d_i)² over the first ``n`` points, into ``out[:deg + 1]``; the normal
+    equations in x = (t − t̄)/max|t − t̄| (see
+    :func:`rfsim.gen2.reply_tracking.weighted_polyfit`, its NumPy twin)."""
+    tm = 0.0
+    for i in range(n):
+        tm += t[i]
+    tm /= n
+    ts = 0.0
+    for i in range(n):
+        ts = max(ts, abs(t[i] - tm))
+    if ts == 0.0:
+        ts = 1.0
+    k1 = deg + 1
+    a = np.zeros((k1, k1))
+    b = np.zeros(k1)
+    for i in range(n):
+        x = (t[i] - tm) / ts
+        for p in range(k1):
+            xp = x ** p
+            b[p] += w[i] * xp * d[i]
+            for q in range(k1):
+                a[p, q] += w[i] * xp * x ** q
+    c = _solve_small(a, b)
+    res = np.zeros(k1)
+    for k in range(k1):
+        for i in range(k + 1):
+            comb = 1.0
+            for q in range(i):
+                comb = comb * (k - q) / (q + 1)
+            res[i] += c[k] * comb * (-tm) ** (k - i) / ts ** k
+    for i in range(k1):
+        out[i] = res[k1 - 1 - i]
+
+
+@njit
+def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
+    """The tracking loop of :func:`rfsim.gen2.reply_tracking.track` in one call (its twin:
+    ``track_reference`` there): for each span fraction of ``spans`` the block offsets are
+    searched around the previous fit's δ(t) (:func:`block_correlation_kernel`, 17 shifts of
+    1/16 element, triangle peak), the blocks whose centre lies inside the span kept, and
+    δ(t) fitted (quadratic with ≥ ``min_drift_blocks`` blocks, else a line; spans with
+    fewer than 3 blocks are skipped). Returns the refined ``(start, u1, u2)``."""
+    n_el = el.size
+    per_block = n_el / n_blocks
+    centres = np.empty(n_blocks)
+    block_starts = np.empty(n_blocks)
+    for b in range(n_blocks):
+        centres[b] = (b + 0.5) / n_blocks * n_el / u1
+        x = b * per_block
+        block_starts[b] = 2.0 * x / (u1 + math.sqrt(max(u1 * u1 + 4.0 * u2 * x, 1e-300)))
+    step = 1.0 / (16.0 * u1)
+    n_sh = 17
+    shifts = np.empty(n_sh)
+    for i in range(n_sh):
+        shifts[i] = step * (i - 8)
+    corr = np.empty((n_sh, n_blocks))
+    centre_sum = np.empty(n_blocks)
+    count = np.empty(n_blocks, dtype=np.int64)
+    base = np.empty(n_blocks)
+    tb = np.empty(n_blocks)
+    db = np.empty(n_blocks)
+    wb = np.empty(n_blocks)
+    coef = np.zeros(3)
+    fit = np.zeros(3)
+    n0 = int(math.ceil(start))
+    first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count)
+    for s in range(spans.size):
+        limit = spans[s] * n_el / u1
+        n_used = 1
+        for b in range(n_blocks):
+            base[b] = (coef[0] * centres[b] + coef[1]) * centres[b] + coef[2]
+            if block_starts[b] <= limit:
+                n_used += 1
+        block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_used, corr)
+        nb = 0
+        for b in range(min(n_blocks, n_used)):
+            j = 0
+            for i in range(1, n_sh):
+                if corr[i, b] > corr[j, b]:
+                    j = i
+            mid = corr[j, b]
+            if mid <= 0 or j == 0 or j == n_sh - 1:
+                continue
+            centre = centre_sum[b] / max(count[b], 1)
+            if centre > limit:
+                continue
+            left = corr[j - 1, b]
+            right = corr[j + 1, b]
+            slope = max(mid - left, mid - right)
+            frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
+            tb[nb] = centre
+            db[nb] = base[b] + shifts[j] + frac * step
+            wb[nb] = mid
+            nb += 1
+        if nb < 3:
+            continue
+        if nb >= min_drift_blocks:
+            weighted_polyfit_kernel(tb, db, wb, nb, 2, fit)
+            coef[0], coef[1], coef[2] = fit[0], fit[1], fit[2]
+        else:
+            weighted_polyfit_kernel(tb, db, wb, nb, 1, fit)
+            coef[0], coef[1], coef[2] = 0.0, fit[0], fit[1]
+    return start + coef[2], u1 * (1.0 - coef[1]), u2 - u1 * coef[0]

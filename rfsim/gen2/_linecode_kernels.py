@@ -237,3 +237,53 @@ def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_s
             out[h] -= y
         else:
             out[h] += y
+
+
+@njit
+def corr_abs_runs_kernel(r, t0, out):
+    """``out[k] = |Σ_i r[k + i]·t0[i]|`` for k < out.size (the valid correlation of
+    :func:`corr_abs_kernel`) for a template made of runs of equal values — a sampled
+    element sequence, constant over each element: with the cumulative sum C of
+    r − mean(r) each lag costs one term per run, Σ_runs t_run·(C[k + end] − C[k + begin])
+    (for a zero-mean ``t0`` the mean removed from r does not change the sum). Cost
+    O(lags · runs) instead of O(lags · samples): at a fixed BLF the number of runs does not
+    grow with the sample rate, so a search over a window of fixed duration is O(fs)."""
+    n = t0.size
+    n_r = out.size + n - 1
+    begin = np.empty(n + 1, dtype=np.int64)
+    value = np.empty(n)
+    n_runs = 0
+    for i in range(n):
+        if i == 0 or t0[i] != t0[i - 1]:
+            begin[n_runs] = i
+            value[n_runs] = t0[i]
+            n_runs += 1
+    begin[n_runs] = n
+    m_re = 0.0
+    m_im = 0.0
+    for i in range(n_r):
+        m_re += r[i].real
+        m_im += r[i].imag
+    m_re /= max(n_r, 1)
+    m_im /= max(n_r, 1)
+    c_re = np.empty(n_r + 1)
+    c_im = np.empty(n_r + 1)
+    c_re[0] = 0.0
+    c_im[0] = 0.0
+    for i in range(n_r):
+        c_re[i + 1] = c_re[i] + (r[i].real - m_re)
+        c_im[i + 1] = c_im[i] + (r[i].imag - m_im)
+    mean_t = 0.0
+    for i in range(n):
+        mean_t += t0[i]
+    mean_t /= n
+    for k in range(out.size):
+        a_re = 0.0
+        a_im = 0.0
+        for q in range(n_runs):
+            b0 = k + begin[q]
+            b1 = k + begin[q + 1]
+            a_re += value[q] * (c_re[b1] - c_re[b0])
+            a_im += value[q] * (c_im[b1] - c_im[b0])
+        # a template with a non-zero mean: add back mean(r)·Σ t0
+        out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)

@@ -10,11 +10,31 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from rfsim._jit import njit
 
 FALL = 0
 RISE = 1
+
+
+def env_value(x, i):
+    """Envelope sample i of ``x``: ``x[i]`` of a real envelope, ``|x[i]| = √(Re² + Im²)``
+    (float64) of complex samples, so kernels read a complex capture's envelope without a
+    full-length envelope array (numba overload; this Python body serves the twins)."""
+    return abs(x[i]) if np.iscomplexobj(x) else x[i]
+
+
+@overload(env_value)
+def _env_value_overload(x, i):
+    if isinstance(x.dtype, types.Complex):
+        def magnitude(x, i):
+            re = np.float64(x[i].real)
+            im = np.float64(x[i].imag)
+            return math.sqrt(re * re + im * im)
+        return magnitude
+    return lambda x, i: x[i]
 
 
 @njit
@@ -57,30 +77,32 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     ``x < threshold - hysteresis``; the initial state is that of the first sample
     outside the band. An edge found at sample ``n`` is placed at the linear-interpolated
     crossing of ``threshold`` between samples ``n-1`` and ``n`` (clipped to ``[n-1, n]``).
+    ``x`` is a real envelope or complex samples (their magnitude, :func:`env_value`).
     """
     hi = threshold + hysteresis
     lo = threshold - hysteresis
     n = x.size
     state = -1
     for i in range(n):
-        if x[i] > hi:
+        if env_value(x, i) > hi:
             state = 1
             break
-        if x[i] < lo:
+        if env_value(x, i) < lo:
             state = 0
             break
     ne = 0
     if state < 0:
         return ne
+    prev = env_value(x, 0)
     for i in range(1, n):
-        v = x[i]
+        v = env_value(x, i)
         new = state
         if state == 0 and v > hi:
             new = 1
         elif state == 1 and v < lo:
             new = 0
         if new != state:
-            a = x[i - 1]
+            a = prev
             d = v - a
             frac = 0.5
             if d != 0.0:
@@ -93,6 +115,7 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
             edge_dir[ne] = new
             ne += 1
             state = new
+        prev = v
     return ne
 
 

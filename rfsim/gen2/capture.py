@@ -156,16 +156,7 @@ def parse_record(bits: np.ndarray, **timing) -> ReaderCommandRecord:
 LEVEL_BINS = 16384
 
 
-def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
-    """Envelope and its two level clusters: ``(env (n,) float64, threshold, low, high)``.
-
-    ``env = |x|`` for complex samples, ``x`` for a real envelope. The levels are the isodata
-    split of :func:`rfsim.gen2.pie.two_level_threshold` (threshold = midpoint of the means
-    below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
-    envelope instead of the samples themselves (one pass over the capture; the threshold
-    is exact to one bin, 1/16384 of the envelope's range). Raises
-    :class:`rfsim.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
-    """
+def _check_samples(samples) -> np.ndarray:
     x = np.ascontiguousarray(samples)
     if x.ndim != 1:
         raise ValueError(f"samples must be 1-D, got shape {x.shape}")
@@ -173,19 +164,20 @@ def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
         raise ValueError(f"samples must be numeric, got {x.dtype}")
     if x.dtype not in (np.complex64, np.complex128, np.float32, np.float64):
         x = x.astype(np.complex128 if np.iscomplexobj(x) else np.float64)
-    if x.size == 0:
-        return np.zeros(0), 0.0, 0.0, 0.0
-    if np.iscomplexobj(x):
-        env = np.empty(x.size, dtype=np.float64)
-        lo, hi, n_bad, first_bad = _ck.magnitude_kernel(x, env)
-    else:
-        env = x.astype(np.float64)
-        lo, hi, n_bad, first_bad = _ck.range_kernel(env)
+    return x
+
+
+def _split_levels(v) -> tuple[float, float, float]:
+    """``(threshold, low, high)`` of the envelope of ``v`` (real, or complex: its magnitude
+    read on the fly): the isodata split on the :data:`LEVEL_BINS`-bin histogram (module
+    docstring of :func:`envelope_levels`); raises :class:`rfsim.errors.UserError` on NaN/Inf."""
+    cplx = v.dtype in (np.complex64, np.complex128)
+    lo, hi, n_bad, first_bad = (_ck.power_range_kernel if cplx else _ck.range_kernel)(v)
     if n_bad:
         raise UserError(f"capture holds {n_bad} non-finite samples (NaN or Inf), the first at sample "
                         f"{first_bad}; a capture must be finite numbers")
     hist = np.empty(LEVEL_BINS, dtype=np.int64)
-    _ck.histogram_kernel(env, lo, hi, hist)
+    _ck.histogram_kernel(v, lo, hi, hist)
     centres = lo + (np.arange(LEVEL_BINS) + 0.5) * ((hi - lo) / LEVEL_BINS)
     thr, m_lo, m_hi = 0.5 * (lo + hi), lo, hi
     csum, wsum = np.cumsum(hist), np.cumsum(hist * centres)
@@ -199,7 +191,29 @@ def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
         if new == thr:
             break
         thr = new
-    return env, float(thr), float(m_lo), float(m_hi)
+    return float(thr), float(m_lo), float(m_hi)
+
+
+def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
+    """Envelope and its two level clusters: ``(env (n,) float64, threshold, low, high)``.
+
+    ``env = |x|`` for complex samples, ``x`` for a real envelope. The levels are the isodata
+    split of :func:`rfsim.gen2.pie.two_level_threshold` (threshold = midpoint of the means
+    below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
+    envelope instead of the samples themselves (one pass over the capture; the threshold
+    is exact to one bin, 1/16384 of the envelope's range). Raises
+    :class:`rfsim.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
+    """
+    x = _check_samples(samples)
+    if x.size == 0:
+        return np.zeros(0), 0.0, 0.0, 0.0
+    if np.iscomplexobj(x):
+        env = np.empty(x.size, dtype=np.float64)
+        _ck.magnitude_kernel(x, env)
+    else:
+        env = x.astype(np.float64)
+    thr, m_lo, m_hi = _split_levels(env)
+    return env, thr, m_lo, m_hi
 
 
 def normalized_envelope(samples) -> np.ndarray:
@@ -238,7 +252,7 @@ GATE_MIN_BITS = 4
 def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """PIE plausibility gate: ``(keep (nf,) bool, contrast (nf,))`` for the frames of ``edges``
     (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the envelope ``env``, any scale and
-    offset).
+    offset, or of complex samples, whose magnitude is then read).
 
     A frame is a command only if its timing is that of a PIE reader (every data symbol
     Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
@@ -250,7 +264,10 @@ def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.n
     n = first.size
     keep = np.zeros(n, dtype=np.uint8)
     contrast = np.zeros(n)
-    _ck.frame_gate_kernel(edges.pos, np.ascontiguousarray(env, dtype=np.float64), first, last, edges.tari,
+    env = np.asarray(env)
+    env = np.ascontiguousarray(env) if env.dtype in (np.complex64, np.complex128) else np.ascontiguousarray(
+        env, dtype=np.float64)
+    _ck.frame_gate_kernel(edges.pos, env, first, last, edges.tari,
                           edges.rtcal, edges.trcal, np.array(GATE_RTCAL_TARI), np.array(GATE_TRCAL_RTCAL),
                           np.array(GATE_DELIMITER_TARI), np.array(GATE_PW_TARI), GATE_TOL_TARI, GATE_TOL_SAMPLES,
                           GATE_MIN_CONTRAST, GATE_MIN_BITS, contrast, keep)
@@ -320,10 +337,14 @@ def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
     fs_hz = float(fs_hz)
     if not (math.isfinite(fs_hz) and fs_hz > 0):
         raise ValueError(f"fs_hz must be > 0, got {fs_hz}")
-    env, thr, lo, hi = envelope_levels(samples)
+    x = _check_samples(samples)
     # the comparator, the frame parser and the gate are invariant to the envelope's scale
-    # and offset: the raw envelope is used with its levels (no normalisation pass)
-    edges = pie_decode_arrays(env, levels=(thr, lo, hi))
+    # and offset: the raw envelope is used with its levels (no normalisation pass); of
+    # complex samples the kernels read the magnitude on the fly (no envelope array: a
+    # 10 s capture at 2 MS/s would need 160 MB more)
+    env = x if np.iscomplexobj(x) else x.astype(np.float64)
+    levels = _split_levels(env) if x.size else (0.0, 0.0, 0.0)
+    edges = pie_decode_arrays(env, levels=levels)
     keep = plausible_frames(edges, env)[0] if gate else None
     records = [
         parse_record(

@@ -38,7 +38,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
 from rfsim.gen2 import _linecode_kernels as _k
 from rfsim.gen2.bits import as_bits
@@ -382,20 +381,30 @@ def refine_reference(r, cands, shifts, templates, norms) -> tuple[float, float]:
 
 def corr_abs_reference(r, t0) -> np.ndarray:
     """|valid correlation| of ``r`` with the real template ``t0`` (scipy), ``(r.size − t0.size + 1,)``."""
+    from scipy.signal import correlate  # the twin only: scipy.signal costs ≈ 1 s to import
+
     return np.abs(correlate(r, t0, mode="valid"))
 
 
-#: Largest lags × template length correlated directly by the kernel; longer searches use
-#: scipy (FFT where faster).
-_DIRECT_CORR_MAX_MACS = 2_000_000
+#: Fewest runs per sample of the template below which the search correlates over runs of
+#: equal template samples (cumulative sums) rather than sample by sample.
+_RUNS_PER_SAMPLE_MAX = 0.5
 
 
 def _kernel_corr_abs(r, t0):
+    """|valid correlation| of the preamble search (numba kernels): over runs of equal
+    template samples when the template has few runs per sample (any sample rate of a few
+    samples per element and more: O(lags · elements), so the search over a T1 window grows
+    as fs, not as fs²), else sample by sample."""
     n_lags = r.size - t0.size + 1
-    if n_lags < 1 or n_lags * t0.size > _DIRECT_CORR_MAX_MACS:
+    if n_lags < 1:
         return corr_abs_reference(r, t0)
     out = np.empty(n_lags)
-    _k.corr_abs_kernel(r, t0, out)
+    n_runs = 1 + int(np.count_nonzero(t0[1:] != t0[:-1]))
+    if n_runs <= _RUNS_PER_SAMPLE_MAX * t0.size:
+        _k.corr_abs_runs_kernel(r, t0, out)
+    else:
+        _k.corr_abs_kernel(r, t0, out)
     return out
 
 

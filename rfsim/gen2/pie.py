@@ -294,11 +294,21 @@ def two_level_threshold_reference(x: np.ndarray, *, max_iter: int = 50) -> tuple
 
 
 def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    if x.ndim != 1:
-        raise ValueError(f"x must be 1-D, got shape {x.shape}")
-    if x.size < 2 or not np.all(np.isfinite(x)):
-        return x, None, None
+    x = np.asarray(x)
+    if x.dtype in (np.complex64, np.complex128) and levels is not None:
+        # complex samples: the kernels read their magnitude on the fly; the caller's levels
+        # come from a pass that has already refused non-finite samples
+        x = np.ascontiguousarray(x)
+        if x.ndim != 1:
+            raise ValueError(f"x must be 1-D, got shape {x.shape}")
+        if x.size < 2:
+            return x, None, None
+    else:
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.ndim != 1:
+            raise ValueError(f"x must be 1-D, got shape {x.shape}")
+        if x.size < 2 or not np.all(np.isfinite(x)):
+            return x, None, None
     thr, m_lo, m_hi = split(x) if levels is None else (float(v) for v in levels)
     if threshold is not None:
         thr = float(threshold)
@@ -340,7 +350,9 @@ class PieEdges:
 def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 0.1,
                       levels: tuple[float, float, float] | None = None) -> PieEdges:
     """:func:`pie_decode` returning the edges and per-frame arrays (:class:`PieEdges`)
-    instead of frame objects (same arguments, numba kernels)."""
+    instead of frame objects (same arguments, numba kernels). With ``levels`` given, ``x``
+    may also be complex samples (complex64/128): the comparator then reads their magnitude
+    sample by sample, without a full-length envelope array."""
     x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
     if thr is None:
         z = np.zeros(0)

@@ -45,7 +45,8 @@ same form with real h (|h| ≪ |c|). Steps per window:
    all), each span's offsets searched around the previous fit's extrapolation — a
    tracking loop that follows a timing error growing past half an element towards the
    end. The element clock u(t) = u₁·t + u₂·t² is updated, the window resampled on the tag's
-   clock (linear interpolation) and decoded again (twice). Reported: the mean BLF
+   clock (linear interpolation) and decoded again (twice, unless the first pass moved the
+   clock by ≤ :data:`TRACK_CONVERGED_ELEMENTS` of an element and left the bits unchanged). Reported: the mean BLF
    (u₁ + u₂·T)·fs_w/2 over the reply's T samples and the drift, the relative BLF change
    across it, 2·u₂·T/u₁.
 5. **Validation**: (h, c) by least squares over the decision-free samples (preamble and
@@ -65,7 +66,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, bits_to_str
@@ -73,7 +73,9 @@ from rfsim.gen2.capture import ReaderCommandRecord, fit_gain_offset, preamble_th
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
-from rfsim.gen2.linecode import METHODS, decode_reply, preamble_levels, reply_waveform
+from rfsim.gen2 import _reply_kernels as _rk
+from rfsim.gen2.linecode import (METHODS, _preamble, _state_index, decode_reply, halfsymbols, preamble_levels,
+                                 reply_waveform)
 from rfsim.gen2.reply_tracking import resample, track, warp_positions
 
 #: Reply kind elicited by each command (anchors §4.4).
@@ -92,6 +94,9 @@ MIN_HALFBIT_SNR_DB = 6.0
 #: Half-width of the fine BLF searches in coarse steps (a short FM0 preamble, 12 elements,
 #: can correlate best one coarse step off).
 FINE_SPAN_STEPS = 2
+#: The tracking loop runs a second time unless its first pass moved the element clock by
+#: at most this many elements anywhere in the reply and left the decoded bits unchanged.
+TRACK_CONVERGED_ELEMENTS = 0.05
 #: A window whose variance is below this fraction of its power holds no modulation at all.
 _MIN_RELATIVE_VARIANCE = 1e-12
 
@@ -198,7 +203,19 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` (a BLF
     error moves the best-correlating start so that the preamble's centre stays put); keep
     the one whose remodulated reply leaves the least residual power. Returns
-    (blf, det, start) or None."""
+    (blf, bits (n_bits,) uint8, start) or None (numba kernel ``fine_kernel``;
+    :func:`_fine_reference` is its NumPy twin)."""
+    pre, cur, prev = _preamble(m, trext)
+    bits = np.empty(int(n_bits), dtype=np.uint8)
+    blfs = np.ascontiguousarray(blfs, dtype=np.float64)
+    j, _, start = _rk.fine_kernel(np.ascontiguousarray(r, dtype=np.complex128), float(centre), int(n_bits), int(m),
+                                  pre, np.int8(cur), np.uint8(prev), _state_index(cur, prev, m > 1), blfs, float(fs),
+                                  method == "viterbi", bits)
+    return None if j < 0 else (float(blfs[j]), bits, float(start))
+
+
+def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
+    """Plain-NumPy twin of :func:`_fine` (decode_reply, reply_waveform and the fit per BLF)."""
     best = None
     half = 0.5 * _n_pre_elements(m, trext)
     for blf in blfs:
@@ -212,14 +229,14 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
         s = reply_waveform(det.bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size)
         _, _, resid = _fit_full(r, s, min(r.size, int(start) + n_rep))
         if best is None or resid < best[0]:
-            best = (resid, float(blf), det, start)
+            best = (resid, float(blf), det.bits.astype(np.uint8), start)
     return None if best is None else best[1:]
 
 
 def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method):
     """:func:`_fine` coarse to fine: ``2·per_side + 1`` BLFs across blf0·(1 ± span), then the
     same around the best with the span narrowed to one step, until the step is ≤ ``target``
-    (relative). Returns (blf, det, start) or None."""
+    (relative). Returns (blf, bits, start) or None."""
     best, centre_blf = None, blf0
     while True:
         step = max(span / per_side, target)
@@ -238,6 +255,8 @@ def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
     valid lag: |Σ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), ``(r.size − L + 1,)`` in [0, 1]
     (the statistic of :func:`rfsim.gen2.linecode.decode_reply` and of the detection
     threshold; sliding sums by cumulative sums)."""
+    from scipy.signal import correlate  # imported when first used: scipy.signal costs ≈ 1 s to import
+
     n = template0.size
     c = np.abs(correlate(r, template0, mode="valid"))
     p = np.concatenate([[0.0], np.cumsum(np.abs(r) ** 2)])
@@ -270,7 +289,28 @@ def _search(r, fs, hyps, lo_of, hi_of):
     """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
     hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
     over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
-    a parabola through the peak) and the number of lags tested."""
+    a parabola through the peak) and the number of lags tested (numba kernel
+    ``preamble_search_kernel``, one call per hypothesis; :func:`_search_reference` is its
+    NumPy twin)."""
+    best, n_tests = None, 0
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    for hyp in hyps:
+        step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+        lo = np.array([lo_of(b) for b in blfs.tolist()], dtype=np.int64)
+        hi = np.array([hi_of(b) for b in blfs.tolist()], dtype=np.int64)
+        n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+        pre_el = halfsymbols(np.zeros(0, np.uint8), m=hyp.m, trext=hyp.trext, dummy=False).astype(np.float64)
+        c, j, pos, nt, n_t = _rk.preamble_search_kernel(r, pre_el, blfs, float(fs), lo, hi, n_rep,
+                                                        MIN_SAMPLES_PER_ELEMENT, np.empty(blfs.size))
+        n_tests += nt
+        if j >= 0 and (best is None or c > best[0]):
+            best = (float(c), float(blfs[j]), hyp, float(pos), step_c, int(n_t))
+    return best, n_tests
+
+
+def _search_reference(r, fs, hyps, lo_of, hi_of):
+    """Plain-NumPy twin of :func:`_search` (scipy correlation per BLF)."""
     best, n_tests = None, 0
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
@@ -307,7 +347,7 @@ def _bands(hyps) -> list[list[LinkHypothesis]]:
     return out
 
 
-def _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bits, truncated, m, trext, method):
+def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bits, truncated, m, trext, method):
     """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits. Returns (bits,
     start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
     if n_bits > n_first:
@@ -316,20 +356,24 @@ def _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bit
         again = _fine_search(r, centre, n_bits, m, trext, blf_c, FINE_SPAN_STEPS * step_c,
                              1.0 / (4.0 * _n_elements(n_bits, m, trext)), 4, fs, method)
         if again is not None:
-            blf, det, start = again
-    bits = det.bits[:n_bits].astype(np.uint8)
+            blf, bits, start = again
+    bits = bits[:n_bits].astype(np.uint8)
     rho = 2.0 * blf / fs
     dummy = not truncated
     # step 4: timing tracking, resampling on the tag's clock, decoding again
     n_rest = int(min(start, 256))
     u1, u2 = rho, 0.0
-    for _ in range(2):
+    n_span = _reply_end(0.0, bits.size, m, trext, rho, dummy)  # reply length [samples]
+    for it in range(2):
         s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size,
                            dummy=dummy)
         h, c, _ = _fit_full(r, s, min(r.size, _reply_end(start, bits.size, m, trext, rho, dummy)))
         if h == 0:
             return None
+        prev = (start, u1, u2)
         start, u1, u2 = track(r, start, u1, u2, h, c, bits, m, trext, dummy)
+        # the clock moved by at most this many elements anywhere in the reply
+        moved = (abs(start - prev[0]) * u1 + abs(u1 - prev[1]) * n_span + abs(u2 - prev[2]) * n_span ** 2)
         n_prime = np.arange(-n_rest, _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.float64)
         rw = resample(r, start + warp_positions(n_prime, u1, u2, rho))
         pre = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs,
@@ -339,7 +383,11 @@ def _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bit
         h, c = fit_gain_offset(rw[known], np.where(pre[known] == 0, -1.0, pre[known]))
         det = decode_reply(rw - c, n_bits=bits.size, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
                            start_sample=float(n_rest), gain=h)
-        bits = det.bits.astype(np.uint8)
+        new_bits = det.bits.astype(np.uint8)
+        converged = moved <= TRACK_CONVERGED_ELEMENTS and np.array_equal(new_bits, bits)
+        bits = new_bits
+        if converged:  # a second pass would move the clock by less still: same bits
+            break
     return bits, start, u1, u2, rw, n_rest, blf
 
 
@@ -357,13 +405,13 @@ def _decode_window(r, fs, found, n_bits_of, method):
     fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method)
     if fine is None:
         return None
-    blf, det, start = fine
-    n_full = n_bits_of(det.bits)
+    blf, bits0, start = fine
+    n_full = n_bits_of(bits0)
     for _ in range(3):  # the reply's length follows from its first bits (EPC: the PC's L field)
         n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)
         truncated = n_full < 0 or n_fit < n_full
         n_bits = max(0, n_fit - 1) if truncated else n_full  # when cut, the last whole bit stands in for the dummy
-        out = _decode_length(r, fs, centre, blf, det, start, blf_c, step_c, n_first, n_bits, truncated, m, trext,
+        out = _decode_length(r, fs, centre, blf, bits0, start, blf_c, step_c, n_first, n_bits, truncated, m, trext,
                              method)
         if out is None:
             return None

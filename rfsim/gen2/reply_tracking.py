@@ -72,39 +72,71 @@ def block_correlations_reference(y, start, u1, u2, el, n_blocks, base, shifts, s
     return corr, centres
 
 
-def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub):
+def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub, n_blocks_used=None):
     corr = np.empty((shifts.size, n_blocks))
     centre_sum = np.empty(n_blocks)
     count = np.empty(n_blocks, dtype=np.int64)
     _ck.block_correlation_kernel(np.ascontiguousarray(y, dtype=np.float64), int(math.ceil(start)), float(start),
                                  float(u1), float(u2), el, int(n_blocks), np.ascontiguousarray(base, dtype=np.float64),
-                                 shifts, sub, corr, centre_sum, count)
+                                 shifts, sub, corr, centre_sum, count,
+                                 int(n_blocks if n_blocks_used is None else n_blocks_used))
     return corr, centre_sum / np.maximum(count, 1)
 
 
-def _block_offsets(y, start, u1, u2, el, n_blocks, base):
+def _block_offsets(y, start, u1, u2, el, n_blocks, base, n_blocks_used=None):
     """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight), δ_b
     searched within ±1/2 element of ``base[b]``; blocks whose peak lies at the edge of that
-    range are left out."""
+    range are left out (only the first ``n_blocks_used`` blocks are searched)."""
     step = 1.0 / (16.0 * u1)  # 1/16 element in samples
     shifts = step * np.arange(-8, 9)
     sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
-    corr, centres = _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub)
-    out = []
-    for b in range(n_blocks):
-        c = corr[:, b]
-        j = int(np.argmax(c))
-        if c[j] <= 0 or j in (0, shifts.size - 1):
-            continue
-        # peak of a triangle through the three points around the maximum
-        left, mid, right = c[j - 1], c[j], c[j + 1]
-        slope = max(mid - left, mid - right)
-        frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
-        out.append((centres[b], base[b] + shifts[j] + frac * step, mid))
-    return np.array(out).reshape(-1, 3)
+    corr, centres = _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub, n_blocks_used)
+    n_used = n_blocks if n_blocks_used is None else min(n_blocks, int(n_blocks_used))
+    corr, centres, base = corr[:, :n_used], centres[:n_used], np.asarray(base)[:n_used]
+    cols = np.arange(n_used)
+    j = np.argmax(corr, axis=0)
+    mid = corr[j, cols]
+    keep = (mid > 0) & (j > 0) & (j < shifts.size - 1)
+    j, cols, mid = j[keep], cols[keep], mid[keep]
+    # peak of a triangle through the three points around the maximum
+    left, right = corr[j - 1, cols], corr[j + 1, cols]
+    slope = np.maximum(mid - left, mid - right)
+    frac = np.where(slope > 0, 0.5 * (right - left) / np.where(slope > 0, slope, 1.0), 0.0)
+    return np.column_stack([centres[cols], base[cols] + shifts[j] + frac * step, mid])
+
+
+def weighted_polyfit(t, d, w, deg):
+    """Coefficients (highest power first, as :func:`numpy.polyfit`) of the polynomial of
+    degree ``deg`` minimising Σ w_i·(p(t_i) − d_i)² (w ≥ 0): the normal equations in the
+    centred, scaled variable x = (t − t̄)/s (well conditioned), then re-expanded in t."""
+    t, d, w = (np.asarray(v, dtype=np.float64) for v in (t, d, w))
+    tm = float(t.mean())
+    ts = float(np.max(np.abs(t - tm))) or 1.0
+    x = (t - tm) / ts
+    v = np.vander(x, deg + 1, increasing=True)  # columns 1, x, x², …
+    a = (v * w[:, None]).T @ v
+    c = np.linalg.solve(a, (v * w[:, None]).T @ d)  # p(t) = Σ c_k·((t − tm)/ts)^k
+    # re-expand: Σ_k c_k·Σ_i C(k, i)·t^i·(−tm)^(k−i)/ts^k
+    out = np.zeros(deg + 1)
+    for k in range(deg + 1):
+        for i in range(k + 1):
+            out[i] += c[k] * math.comb(k, i) * (-tm) ** (k - i) / ts ** k
+    return out[::-1]
 
 
 def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
+    """Element clock ``(start, u1, u2)`` of the reply refined by the tracking loop (one numba
+    kernel, ``track_kernel``; :func:`track_reference` is its NumPy twin, documented there)."""
+    el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
+    n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
+    y = np.ascontiguousarray(((r - c) / h).real)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    s0, v1, v2 = _ck.track_kernel(y, float(start), float(u1), float(u2), el, int(n_blocks),
+                                  np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS)
+    return float(s0), float(v1), float(v2)
+
+
+def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
     reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
     spans from the reply start (the first quarter, half, all), each span's offsets searched
@@ -114,21 +146,28 @@ def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
     n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
     y = ((r - c) / h).real
     centres = (np.arange(n_blocks) + 0.5) / n_blocks * el.size / u1  # nominal block centres [samples]
+    # start of each block on the element clock: a block that starts after a span's end
+    # cannot have its centre inside it and is not searched
+    block_starts = warp_positions(np.arange(n_blocks) * (el.size / n_blocks), u1, u2, 1.0)
     coef = np.zeros(3)  # δ(t) = coef[0]·t² + coef[1]·t + coef[2]
     for frac in TRACK_SPANS:
+        limit = frac * el.size / u1
         base = np.polyval(coef, centres)
-        blocks = _block_offsets(y, start, u1, u2, el, n_blocks, base)
-        blocks = blocks[blocks[:, 0] <= frac * el.size / u1]
+        blocks = _block_offsets(y, start, u1, u2, el, n_blocks, base,
+                                int(np.count_nonzero(block_starts <= limit)) + 1)
+        blocks = blocks[blocks[:, 0] <= limit]
         if blocks.shape[0] < 3:
             continue
         tb, db, w = blocks.T
+        w = np.maximum(w, 0.0)
         if blocks.shape[0] >= MIN_DRIFT_BLOCKS:
-            coef = np.polyfit(tb, db, 2, w=np.sqrt(np.maximum(w, 0.0)))
+            coef = weighted_polyfit(tb, db, w, 2)
         else:  # too short to tell a drift from noise: start and BLF only
-            coef = np.concatenate([[0.0], np.polyfit(tb, db, 1, w=np.sqrt(np.maximum(w, 0.0)))])
+            coef = np.concatenate([[0.0], weighted_polyfit(tb, db, w, 1)])
     a2, a1, a0 = coef
     # u_new(t) = u(t − δ(t)) ≈ u(t) − u1·δ(t), re-expressed from the new start
     return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
 
 
-__all__ = ["warp_positions", "resample", "block_correlations_reference", "track", "TRACK_SPANS", "SUBSAMPLES"]
+__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "track_reference",
+           "TRACK_SPANS", "SUBSAMPLES"]

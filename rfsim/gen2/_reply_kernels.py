@@ -1,0 +1,294 @@
+"""numba kernels of the capture reply decoder (wrapped and documented in
+:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_search_reference`` and
+``_fine_reference`` there).
+
+Both kernels fuse, per BLF hypothesis, what the twins do with several NumPy calls: the
+preamble template (the element sequence of :mod:`rfsim.gen2.linecode` sampled with
+``waveform_kernel``), the zero-mean normalised correlation, the coherent decoding of
+:func:`rfsim.gen2.linecode.decode_reply` at a known start (half-bit sums, Viterbi or
+bit-by-bit decisions) and the least-squares residual of the remodulated reply.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rfsim._jit import njit
+from rfsim.gen2._linecode_kernels import INDEX_EPS, bitwise_kernel, elements_kernel, viterbi_kernel, waveform_kernel
+
+
+@njit
+def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_element, out_corr):
+    """Largest zero-mean normalised preamble correlation over BLFs and lags.
+
+    For BLF ``blfs[j]`` (skipped when 2·BLF·``min_samples_per_element`` > fs) the template
+    t is ``pre_el`` (pilot + preamble elements) sampled at ρ = 2·BLF/fs from lag 0 over its
+    n = floor(n_pre·fs/(2·BLF)) samples, t0 = t − mean(t); the lags k = ``lo[j] …
+    min(hi[j], r.size − n_rep[j])`` are tested with c = |Σ r[k+i]·t0[i]| / (‖t0‖·‖r_k −
+    mean r_k‖). The template is constant over each element, so with the cumulative sums
+    C of r and P of |r|² every lag costs one term per run of equal template samples
+    (Σ t[i]·r[k+i] = Σ_runs t_run·(C[k + end] − C[k + begin])) instead of one per sample:
+    O(lags · preamble elements), independent of the sample rate. ``out_corr[j]`` receives
+    the best c of BLF j (−1 if skipped). Returns ``(best c, its BLF index, lag refined by
+    the parabola through the peak, lags tested, template length)``; the first maximum wins
+    ties (BLFs, then lags, in order).
+    """
+    best = -1.0
+    best_j = -1
+    best_pos = 0.0
+    best_n = 0
+    n_tests = 0
+    n_el = pre_el.size
+    n_r = r.size
+    c_re = np.zeros(n_r + 1)
+    c_im = np.zeros(n_r + 1)
+    p = np.zeros(n_r + 1)
+    for i in range(n_r):
+        z = r[i]
+        c_re[i + 1] = c_re[i] + z.real
+        c_im[i + 1] = c_im[i] + z.imag
+        p[i + 1] = p[i] + (z.real * z.real + z.imag * z.imag)
+    t = np.empty(0)
+    run_begin = np.empty(0, dtype=np.int64)
+    run_value = np.empty(0)
+    for j in range(blfs.size):
+        out_corr[j] = -1.0
+        blf = blfs[j]
+        if 2.0 * blf * min_samples_per_element > fs:
+            continue
+        rho = 2.0 * blf / fs
+        n = int(math.floor(n_el * fs / (2.0 * blf)))
+        last = min(hi[j], r.size - n_rep[j])
+        if last < lo[j] or n < 3:
+            continue
+        if t.size < n:
+            t = np.empty(n)
+            run_begin = np.empty(n + 1, dtype=np.int64)
+            run_value = np.empty(n)
+        tt = t[:n]
+        waveform_kernel(pre_el, 0.0, rho, tt)
+        mean = 0.0
+        for i in range(n):
+            mean += tt[i]
+        mean /= n
+        e_t = 0.0
+        n_runs = 0
+        for i in range(n):
+            e_t += (tt[i] - mean) * (tt[i] - mean)
+            if i == 0 or tt[i] != tt[i - 1]:
+                run_begin[n_runs] = i
+                run_value[n_runs] = tt[i]
+                n_runs += 1
+        run_begin[n_runs] = n
+        norm_t = math.sqrt(e_t)
+        n_tests += last - lo[j] + 1
+        c_prev = -1.0
+        kbest = -1
+        cbest = -1.0
+        cl = -1.0
+        cr = -1.0
+        for k in range(lo[j], last + 1):
+            a_re = 0.0
+            a_im = 0.0
+            for q in range(n_runs):
+                b0 = k + run_begin[q]
+                b1 = k + run_begin[q + 1]
+                a_re += run_value[q] * (c_re[b1] - c_re[b0])
+                a_im += run_value[q] * (c_im[b1] - c_im[b0])
+            s_re = c_re[k + n] - c_re[k]
+            s_im = c_im[k + n] - c_im[k]
+            acc_re = a_re - mean * s_re
+            acc_im = a_im - mean * s_im
+            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
+            c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
+            if k == kbest + 1 and kbest >= 0:
+                cr = c  # right neighbour of the running best
+            if c > cbest:
+                cbest = c
+                kbest = k
+                cl = c_prev
+                cr = -1.0
+            c_prev = c
+        out_corr[j] = cbest
+        if cbest > best:
+            frac = 0.0
+            if kbest > lo[j] and kbest < last:
+                den = cl - 2.0 * cbest + cr
+                frac = 0.5 * (cl - cr) / den if den < 0 else 0.0
+            best = cbest
+            best_j = j
+            best_pos = kbest + frac
+            best_n = n
+    return best, best_j, best_pos, n_tests, best_n
+
+
+@njit
+def _first_sample(k, t0, rho, lo, hi):
+    """Smallest n in [lo, hi] with floor((n − t0)·ρ + eps) ≥ k (hi if none): where element k
+    starts on the sample grid, by exactly the rule of ``waveform_kernel``."""
+    n = int(math.ceil(t0 + (k - INDEX_EPS) / rho))
+    if n < lo:
+        n = lo
+    if n > hi:
+        n = hi
+    while n > lo and math.floor((n - 1 - t0) * rho + INDEX_EPS) >= k:
+        n -= 1
+    while n < hi and math.floor((n - t0) * rho + INDEX_EPS) < k:
+        n += 1
+    return n
+
+
+@njit
+def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
+    """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` and keep
+    the one whose remodulated reply leaves the least residual power.
+
+    Per BLF (ρ = 2·BLF/fs): start = centre − n_pre_el/(2ρ); skipped when start < 0 or
+    start > r.size − n_rep, n_rep = ceil(n_el/ρ) + 2. Decoding at ``start``: the template
+    of the pilot + preamble elements sampled from the fractional offset start − ⌊start⌋,
+    h = ⟨seg, t0⟩/‖t0‖², c = mean(seg) − h·mean(t); half-bit sums of Re((r − c)/h); Viterbi
+    from ``state0`` ending on the dummy 1 (``viterbi``) or bit-by-bit decisions. The reply
+    of the decoded bits (dummy 1, rest level −1 around it) is fitted as r ≈ h·ref + c by
+    least squares over r[:min(r.size, ⌊start⌋ + n_rep)]; the residual is the mean
+    |r − c − h·ref|². Writes the best BLF's bits into ``bits_out`` (n_bits,) and returns
+    ``(best index (−1 if every BLF was skipped), residual, start)``; the first wins ties.
+
+    The half-bit sums and the fit are linear in r over runs of samples that share an
+    element, so both are evaluated element by element from cumulative sums of r and |r|²
+    (each element's sample range found by the sampling rule of ``waveform_kernel``):
+    O(elements) per BLF instead of O(samples); the residual in closed form,
+    Σ|r − c − h·ref|² = Σ|r|² + n|c|² + |h|²·Σref² − 2Re(c̄·Σr) − 2Re(h̄·Σr·ref)
+    + 2Re(c̄h)·Σref.
+    """
+    miller = m > 1
+    n_pre_el = pre.size * m
+    nh = pre.size + 2 * (n_bits + 1)
+    n_el = n_pre_el + 2 * m * (n_bits + 1)
+    pre_el = np.empty(n_pre_el)
+    for i in range(pre.size):
+        for q in range(m):
+            k = i * m + q
+            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    half = 0.5 * n_pre_el
+    sums = np.empty(nh)
+    n_data = nh - pre.size
+    a = np.empty(n_data // 2)
+    b = np.empty(n_data // 2)
+    dec = np.empty(n_data // 2, dtype=np.uint8)
+    el = np.empty(n_el)
+    nr = r.size
+    c_re = np.zeros(nr + 1)
+    c_im = np.zeros(nr + 1)
+    p2 = np.zeros(nr + 1)
+    for n in range(nr):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    best_j = -1
+    best_resid = math.inf
+    best_start = math.nan
+    for j in range(blfs.size):
+        blf = blfs[j]
+        rho = 2.0 * blf / fs
+        start = centre - half / rho
+        n_rep = int(math.ceil(n_el / rho)) + 2
+        if start < 0 or start > r.size - n_rep:
+            continue
+        # --- decode at start (rfsim.gen2.linecode._decode with start_sample and no gain)
+        ratio = 2.0 * float(blf) / float(fs)
+        n_reply = int(math.ceil(nh * m / ratio))
+        n_pre = int(math.floor(pre.size * m / ratio))
+        lag = int(math.floor(start))
+        tpl = np.empty(n_pre)
+        waveform_kernel(pre_el, start - lag, ratio, tpl)
+        t_mean = 0.0
+        for i in range(n_pre):
+            t_mean += tpl[i]
+        t_mean /= n_pre
+        p_re = 0.0
+        p_im = 0.0
+        e_t = 0.0
+        for i in range(n_pre):
+            t0 = tpl[i] - t_mean
+            z = r[lag + i]
+            p_re += z.real * t0
+            p_im += z.imag * t0
+            e_t += t0 * t0
+        s_re = c_re[lag + n_pre] - c_re[lag]
+        s_im = c_im[lag + n_pre] - c_im[lag]
+        h = complex(p_re, p_im) / e_t
+        if h == 0:
+            continue
+        dc = complex(s_re / n_pre, s_im / n_pre) - h * t_mean
+        g = 1.0 / h
+        g_re = g.real
+        g_im = g.imag
+        dc_re = (dc * g).real
+        # half-bit sums of y = Re(z·g) − dc_re over the part r[lag : lag + n_reply + 2]
+        end = min(nr, lag + n_reply + 2) - lag
+        off = start - lag
+        lo = max(0, int(math.ceil(off)))
+        sums[:] = 0.0
+        n_a = _first_sample(0, off, ratio, lo, end)
+        for k in range(nh * m):
+            n_b = _first_sample(k + 1, off, ratio, n_a, end)
+            if n_b > n_a:
+                cnt = n_b - n_a
+                y = ((c_re[lag + n_b] - c_re[lag + n_a]) * g_re - (c_im[lag + n_b] - c_im[lag + n_a]) * g_im
+                     - dc_re * cnt)
+                if m > 1 and (k & 1):
+                    sums[k // m] -= y
+                else:
+                    sums[k // m] += y
+            n_a = n_b
+            if n_a >= end:
+                break
+        for i in range(n_data // 2):
+            a[i] = sums[pre.size + 2 * i]
+            b[i] = sums[pre.size + 2 * i + 1]
+        if viterbi:
+            viterbi_kernel(a, b, miller, state0, True, dec)
+        else:
+            bitwise_kernel(a, b, miller, dec)
+        # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
+        elements_kernel(dec[:n_bits], True, m, pre, cur, prev, el)
+        t0s = (start / fs) * fs
+        n_end = min(r.size, int(start) + n_rep)
+        # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
+        rs_re = -c_re[n_end]
+        rs_im = -c_im[n_end]
+        s1 = -float(n_end)
+        lo = max(0, int(math.ceil(t0s)))
+        n_a = _first_sample(0, t0s, rho, lo, n_end)
+        for k in range(n_el):
+            n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
+            if n_b > n_a and el[k] > 0:
+                rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
+                rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
+                s1 += 2.0 * (n_b - n_a)
+            n_a = n_b
+            if n_a >= n_end:
+                break
+        nn = float(n_end)
+        ss = nn  # every reference value is ±1
+        det = ss * nn - s1 * s1
+        if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+            continue
+        rs = complex(rs_re, rs_im)
+        r1 = complex(c_re[n_end], c_im[n_end])
+        hh = (nn * rs - s1 * r1) / det
+        cc = (ss * r1 - s1 * rs) / det
+        acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
+               - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
+               + 2.0 * (cc.conjugate() * hh).real * s1)
+        resid = max(acc, 0.0) / nn
+        if best_j < 0 or resid < best_resid:
+            best_j = j
+            best_resid = resid
+            best_start = start
+            for i in range(n_bits):
+                bits_out[i] = dec[i]
+    return best_j, best_resid, best_start

@@ -1,0 +1,105 @@
+"""Start-up of the ``rfsim`` command: ``--help`` and ``list`` import no scenario physics, no
+numba and no scipy.signal (issue 16 item 4); the scenario metadata read from the sources
+equals the modules' own."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rfsim.cli.decode import SUFFIXES as CLI_SUFFIXES
+from rfsim.gen2.capture import SUFFIXES
+from rfsim.registry import scenario_descriptions, scenario_modules
+
+ROOT = Path(__file__).resolve().parents[1]
+HEAVY = ("numba", "scipy.signal", "scipy.stats", "h5py", "devices", "channels", "matplotlib")
+
+
+def _imported_after(argv: list[str]) -> list[str]:
+    code = ("import sys, io, contextlib\nfrom rfsim.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            "    try:\n        main(%r)\n    except SystemExit:\n        pass\n"
+            "import json; print(json.dumps(sorted(sys.modules)))" % (argv,))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["list"]])
+def test_help_and_list_import_no_physics(argv):
+    mods = _imported_after(argv)
+    heavy = [m for m in mods if m.split(".")[0] in ("numba", "h5py", "devices", "channels", "matplotlib")
+             or m.startswith(("scipy.signal", "scipy.stats", "scenarios."))]
+    assert heavy == []
+
+
+def test_scenario_metadata_from_sources_equals_modules():
+    descriptions = scenario_descriptions()
+    assert len(descriptions) >= 9
+    assert descriptions == {name: module.DESCRIPTION for name, module in scenario_modules().items()}
+
+
+def test_decode_cli_lists_the_capture_endings_of_the_loader():
+    assert CLI_SUFFIXES == SUFFIXES
+
+
+def test_numba_cache_folder_choice(tmp_path):
+    """The user's NUMBA_CACHE_DIR wins; a writable package folder keeps numba's in-tree
+    cache; a package folder that cannot be written (non-editable install) gets
+    $XDG_CACHE_HOME/rfsim/numba, or ~/.cache/rfsim/numba."""
+    from rfsim._jit import cache_dir
+
+    pkg = tmp_path / "site-packages" / "rfsim"
+    assert cache_dir({"NUMBA_CACHE_DIR": "/x"}, pkg, writable=lambda p: False) is None
+    assert cache_dir({}, pkg, writable=lambda p: True) is None
+    assert cache_dir({"XDG_CACHE_HOME": str(tmp_path / "c")}, pkg, writable=lambda p: False) == str(
+        tmp_path / "c" / "rfsim" / "numba")
+    assert cache_dir({}, pkg, writable=lambda p: False).endswith(os.path.join(".cache", "rfsim", "numba"))
+
+
+def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_path):
+    """With the cache in a folder of its own (what a non-editable install gets), the first
+    process compiles and writes the kernel there, the second finds it cached
+    (uncached_kernels() is empty before any call) — the mechanism the first-run notice and
+    the worker processes rely on. (As root, a read-only package folder cannot be simulated
+    here; the folder choice itself is tested above.)"""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "kmod.py").write_text("from rfsim._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
+    code = ("import kmod\nfrom rfsim import _jit\nprint(len(_jit.uncached_kernels()))\n"
+            "assert kmod.twice(21) == 42\nprint(len(_jit.uncached_kernels()))")
+    env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{ROOT}", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+            .stdout.split() for _ in range(2)]
+    assert runs == [["1", "0"], ["0", "0"]]
+    assert any((tmp_path / "cache").rglob("*.nbi"))
+
+
+def _pid_and_compiled(_task) -> tuple[int, int]:
+    from rfsim.gen2._linecode_kernels import bitwise_kernel
+
+    n = len(bitwise_kernel.signatures)  # compiled before this task called it?
+    import numpy as np
+
+    out = np.empty(2, dtype=np.uint8)
+    bitwise_kernel(np.ones(2), np.zeros(2), False, out)
+    return os.getpid(), n
+
+
+def test_first_task_runs_in_the_leader_and_workers_inherit_its_kernels():
+    """map_in_order with a pool runs the first task in this process (compiling what it
+    needs once) and the rest in forked workers that find the kernel compiled already."""
+    from rfsim.procs import map_in_order
+
+    out = map_in_order(_pid_and_compiled, range(4), 2, desc="t", unit="tasks")
+    assert out[0][0] == os.getpid()
+    assert all(pid != os.getpid() for pid, _ in out[1:])
+    import multiprocessing
+
+    if multiprocessing.get_start_method() == "fork":  # spawned workers load from the cache instead
+        assert all(n >= 1 for _, n in out[1:])

@@ -369,6 +369,12 @@ def _dbm(p_w: float) -> float:
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
+#: :class:`SharedFrontEnd` of read-only segments by the identity of their samples
+#: (``PassiveTag.front_end_of``): its work is a pure function of the samples.
+_FRONT_ENDS: dict = {}
+_FRONT_END_CACHE_SIZE = 32
+
+
 # ----------------------------------------------------------------------------- device
 
 
@@ -472,10 +478,24 @@ class PassiveTag:
 
     @staticmethod
     def front_end_of(base) -> SharedFrontEnd:
-        """The :class:`SharedFrontEnd` of an emitted segment ``base`` (kept in its ``memo``)."""
+        """The :class:`SharedFrontEnd` of an emitted segment ``base`` (kept in its ``memo``;
+        for read-only samples that own their memory — a reader's cached command segments,
+        sent again and again — also kept by the samples' identity, :data:`_FRONT_ENDS`)."""
         fe = base.memo.get(SharedFrontEnd)
         if fe is None:
-            fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
+            x = base.samples
+            frozen = not x.flags.writeable and x.flags.owndata
+            key = (id(x), base.fs_hz)
+            hit = _FRONT_ENDS.get(key) if frozen else None
+            if hit is not None and hit[0] is x:
+                fe = hit[1]
+            else:
+                fe = SharedFrontEnd(x, fs_hz=base.fs_hz)
+                if frozen:
+                    if len(_FRONT_ENDS) >= _FRONT_END_CACHE_SIZE:
+                        _FRONT_ENDS.pop(next(iter(_FRONT_ENDS)))
+                    _FRONT_ENDS[key] = (x, fe)  # x kept alive: its id stays its own
+            base.memo[SharedFrontEnd] = fe
         return fe
 
     @classmethod

@@ -838,12 +838,11 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         if noise_w > 0:
             if rng is None:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-            # complex white noise √(N/2)·(a + j·b): a then b drawn from rng
-            scale = math.sqrt(noise_w / 2.0)
+            # complex white noise √(N/2)·(a + j·b): a then b drawn from rng (one call: the
+            # same numbers in the same order as two)
             ab = np.empty((2,) + y.shape)
-            rng.standard_normal(out=ab[0])
-            rng.standard_normal(out=ab[1])
-            ab *= scale
+            rng.standard_normal(out=ab)
+            ab *= math.sqrt(noise_w / 2.0)
             if keep_components:
                 n_k = ab[0] + 1j * ab[1]
             y.real += ab[0]

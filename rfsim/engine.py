@@ -24,7 +24,8 @@ Propagation (``propagation="auto"``, the default): each link decides between nar
 exact fractional delays on the reply bandwidth B = 2·BLF (the main lobe of the FM0/Miller
 reply) — the one rule :func:`channels.paths.propagation_method`. On narrowband, static links
 a tag that does not reply adds one constant to the reader's input (the air step's
-a·x + Σ b_i·r_i·x rule), not a full-length pass.
+a·x + Σ b_i·r_i·x rule), not a full-length pass; a tag population (a reflector group)
+decides its quiet tags at once and adds them as one constant (rfsim.air "Groups").
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
 command, T4 between commands without a reply), so silent air time costs nothing. Each
@@ -154,7 +155,9 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
         ``antennas``, ``antenna_index``, ``link``)
     tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
-        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records
+        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
+        or reflector groups of them (:class:`rfsim.air.ReflectorGroup`: a tag population, whose
+        members count as tags in the order given)
     channel : link model with ``backscatter_links(emitter, tag, *, fc_hz, rng, t_s,
         tag_motion)`` → (forward, backward) PathSets
     cmd : the Gen2 command object to send

@@ -29,8 +29,10 @@ bit-identical to every tag reflecting on its own (tested).
 
 The arrays are read back from the tags after every exchange in which all tags reflect on
 their own (:meth:`TagPopulation.reflect_each`: the first exchange of a round) and after each
-tag's own reflection; between exchanges change the tags' states only through the air (or
-call :meth:`TagPopulation.refresh` afterwards).
+tag's own reflection; the power decisions are kept while the gains and the reader's CW
+level stay the same (a round). Between exchanges change the tags (states, configs, chips)
+only through the air, or call :meth:`TagPopulation.refresh` afterwards (EngineAir.cw_off
+does).
 """
 
 from __future__ import annotations
@@ -80,15 +82,17 @@ class TagPopulation:
         return ants
 
     def refresh(self) -> None:
-        """Read every member's state into the arrays again (after changing tags from outside)."""
+        """Read every member's state into the arrays again and forget the round's remembered
+        power decisions (after changing tags — states, configs, chips — from outside)."""
         self.arrays.read(range(len(self.members)))
-        if self._round is not None:
-            self._round.needs[:] = True
+        self._round = None
 
     def reflect_each(self, incident) -> list:
         """Every member reflects its own incident segment (``incident[j]``), in order."""
         out = [m.reflect(inc) for m, inc in zip(self.members, incident)]
-        self.refresh()
+        self.arrays.read(range(len(self.members)))
+        if self._round is not None:
+            self._round.needs[:] = True
         return out
 
     def reflect_scaled(self, base: Segment, gains, fc_hz: float) -> PopulationReflection | None:

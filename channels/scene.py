@@ -125,8 +125,10 @@ def _doppler_hz(fc_hz, unit_dir, v_src, v_dst):
     return -float(fc_hz) / C_M_S * float(unit_dir @ (v_dst - v_src))
 
 
-#: Most static links whose deterministic part a :class:`Channel` keeps.
-GEOMETRY_CACHE_SIZE = 256
+#: Most static links whose deterministic part a :class:`Channel` keeps (more than the
+#: tags of a large inventory: a round draws every tag's link again, and a smaller cache
+#: would recompute every geometry each round; a few kB per link).
+GEOMETRY_CACHE_SIZE = 4096
 
 
 class Channel:

@@ -12,7 +12,8 @@ Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end phys
 power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`), a chip whose
 impedance follows its absorbed power (:mod:`devices.tag_chip`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
-(:mod:`devices.tag`).
+(:mod:`devices.tag`); many tags join the air step as one population
+(:mod:`devices.tag_population`).
 
 Active RFID (Özkaya's 868 MHz beacons): the beacon tag (:mod:`devices.active_tag`), its frame
 and MSK modulation (:mod:`devices.msk_beacon`), the sample-level reader with its RSSI
@@ -29,12 +30,13 @@ from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
                                   modulation_factor, power_transmission_coefficient,
                                   reflection_coefficient)
+from devices.tag_population import TagPopulation
 
 __all__ = [
     "ActiveTag", "ActiveTagConfig", "ActiveReader", "ActiveReaderConfig", "BeaconRead",
     "SenseATag", "SenseATagConfig", "Observation",
     "Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan",
-    "PassiveTag", "TagConfig", "TagResponse", "PowerDependentChip", "ChipOperatingPoint",
+    "PassiveTag", "TagConfig", "TagResponse", "TagPopulation", "PowerDependentChip", "ChipOperatingPoint",
     "TagState", "Reply", "FlagPersistence", "pc_word",
     "PowerUp", "ReflectionStates", "TagClock", "power_transmission_coefficient",
     "reflection_coefficient", "modulation_factor", "differential_rcs_m2",

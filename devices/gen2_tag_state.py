@@ -322,6 +322,13 @@ class TagState:
             return True
         return False
 
+    def row(self) -> tuple:
+        """The state as :class:`StateArrays` keeps it: ``(powered, state code, session or −1,
+        slot or −1, t_s, time S1 was set to B or NaN, S1 persistence [s])``."""
+        return (self.powered, STATE_CODES[self.state], -1 if self.session is None else self.session,
+                -1 if self.slot is None else self.slot, self.t_s,
+                float("nan") if self._s1_set_s is None else self._s1_set_s, self.persistence.s1_s)
+
     def _matches_query(self, cmd: Query) -> bool:
         if cmd.sel == "sl" and not self.sl:
             return False
@@ -458,6 +465,85 @@ class TagState:
         self._reset_round()
 
 
+class StateArrays:
+    """The Gen2 state of many tags in arrays, for the silent steps of a population.
+
+    Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
+    :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
+    (NaN: S1 not set to B) and ``s1_keep_s``. :meth:`silent_steps` is
+    :meth:`TagState.on_command_if_silent`'s decision for every row at once (the same rules);
+    :meth:`take_silent_steps` applies the steps so decided to the rows and to the
+    :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
+    """
+
+    def __init__(self, states):
+        self.states = list(states)
+        n = len(self.states)
+        self.powered = np.zeros(n, bool)
+        self.code = np.zeros(n, np.int8)
+        self.session = np.full(n, -1, np.int64)
+        self.slot = np.full(n, -1, np.int64)
+        self.t_s = np.zeros(n)
+        self.s1_set_s = np.full(n, np.nan)
+        self.s1_keep_s = np.zeros(n)
+        self.read(range(n))
+
+    def read(self, index) -> None:
+        """Copy the rows ``index`` (a sequence of ints) from their :class:`TagState` objects."""
+        index = list(index)
+        if not index:
+            return
+        states = self.states
+        cols = list(zip(*[states[i].row() for i in index]))
+        for name, col in zip(("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s"), cols):
+            getattr(self, name)[index] = col
+
+    def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
+        silent step for ``cmd`` received at ``t_s`` [s], and which of those decrement their
+        slot counter (a QueryRep in Arbitrate of the round's session). The rules of
+        :meth:`TagState.on_command_if_silent`; a tag whose clock is past ``t_s`` is left to
+        ``on_command`` (it raises)."""
+        ok = candidates & self.powered & (self.t_s <= t_s)
+        kind = type(cmd)
+        if kind is QueryRep:
+            other = (self.session < 0) | (self.session != cmd.session)
+            dec = ~other & (self.code == _ARBITRATE) & (self.slot >= 0) & (((self.slot - 1) & 0x7FFF) != 0)
+            return ok & (other | dec), ok & dec
+        if kind is ACK or kind is NAK:
+            return ok & ((self.code == _READY) | (self.code == _ARBITRATE)), np.zeros_like(ok)
+        return np.zeros_like(ok), np.zeros_like(ok)
+
+    def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
+        """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock
+        advances to ``t_s`` and a decrementing tag's slot counter goes to (slot − 1) mod 2^15.
+        A tag whose S1 flag is due to revert takes the step through
+        :meth:`TagState.on_command_if_silent` itself (and its row is read back)."""
+        t_s = float(t_s)
+        due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
+        if due.any():
+            idx = np.flatnonzero(due)
+            for i in idx.tolist():
+                if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
+                    raise RuntimeError("a silent step was refused")  # the rules above disagree
+            self.read(idx.tolist())
+            silent = silent & ~due
+            decrement = decrement & ~due
+        if decrement.any():
+            self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
+            states, slots = self.states, self.slot
+            for i in np.flatnonzero(decrement).tolist():
+                states[i].slot = int(slots[i])
+        self.t_s[silent] = t_s
+        states = self.states
+        for i in np.flatnonzero(silent).tolist():
+            states[i].t_s = t_s
+
+
+STATE_CODES = {s: k for k, s in enumerate(STATES)}
+_READY, _ARBITRATE = STATE_CODES["ready"], STATE_CODES["arbitrate"]
+
+
 #: Select action → (matching tag, non-matching tag).
 _SELECT_ACTIONS = {
     0: ("set", "clear"),
@@ -486,5 +572,7 @@ __all__ = [
     "Reply",
     "FlagPersistence",
     "TagState",
+    "StateArrays",
+    "STATE_CODES",
     "pc_word",
 ]

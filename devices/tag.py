@@ -89,6 +89,7 @@ from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
                                   TagClock)
 from devices.tag_spread import spread_gamma_b
+from devices.tag_population import TagPopulation
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import CommandParseError, Query, parse
@@ -417,6 +418,12 @@ def _dbm(p_w: float) -> float:
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
+#: :class:`SharedFrontEnd` of read-only segments by the identity of their samples
+#: (``PassiveTag.front_end_of``): its work is a pure function of the samples.
+_FRONT_ENDS: dict = {}
+_FRONT_END_CACHE_SIZE = 32
+
+
 # ----------------------------------------------------------------------------- device
 
 
@@ -503,21 +510,12 @@ class PassiveTag:
         """
         base = incident.base
         if self.shared_front_end and base is not None and base.samples.ndim == 1:
-            fe = base.memo.get(SharedFrontEnd)
-            if fe is None:
-                fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
+            fe = self.front_end_of(base)
             if fe.plateau is not None:
-                # |g·x_m|² depends only on the gain and the CW sample: a held link and a
-                # reader at constant power give the same value exchange after exchange
-                key = (incident.gain, fe.cw_sample)
-                p_inc = self._p_memo.get(key)
-                if p_inc is None:
-                    if len(self._p_memo) > 64:
-                        self._p_memo.clear()
-                    p_inc = self._p_memo[key] = fe.power_w(incident.gain)
+                p_inc = self._incident_power_w(fe, incident.gain)
                 rc = self.config.envelope_rc_s
-                quiet = self._quiet.get(p_inc)
-                if quiet is not None and quiet[0] is self.config and quiet[1] is self.chip:
+                quiet = self._quiet_at(p_inc)
+                if quiet is not None:
                     # the power decision of this P_inc is known (:meth:`_respond` made it): the
                     # tag stays unpowered, or stays powered and takes a silent step
                     out = self._quiet_response(quiet, fe.command(rc), incident)
@@ -527,29 +525,108 @@ class PassiveTag:
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples)
         return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
 
+    @staticmethod
+    def front_end_of(base) -> SharedFrontEnd:
+        """The :class:`SharedFrontEnd` of an emitted segment ``base`` (kept in its ``memo``;
+        for read-only samples that own their memory — a reader's cached command segments,
+        sent again and again — also kept by the samples' identity, :data:`_FRONT_ENDS`)."""
+        fe = base.memo.get(SharedFrontEnd)
+        if fe is None:
+            x = base.samples
+            frozen = not x.flags.writeable and x.flags.owndata
+            key = (id(x), base.fs_hz)
+            hit = _FRONT_ENDS.get(key) if frozen else None
+            if hit is not None and hit[0] is x:
+                fe = hit[1]
+            else:
+                fe = SharedFrontEnd(x, fs_hz=base.fs_hz)
+                if frozen:
+                    if len(_FRONT_ENDS) >= _FRONT_END_CACHE_SIZE:
+                        _FRONT_ENDS.pop(next(iter(_FRONT_ENDS)))
+                    _FRONT_ENDS[key] = (x, fe)  # x kept alive: its id stays its own
+            base.memo[SharedFrontEnd] = fe
+        return fe
+
+    @classmethod
+    def population(cls, tags) -> TagPopulation:
+        """``tags`` as one reflector group of the air step (:class:`devices.tag_population.TagPopulation`)."""
+        return TagPopulation(tags)
+
+    def _incident_power_w(self, fe: SharedFrontEnd, gain: complex) -> float:
+        """P_inc [W] of the scaled copy gain·x of ``fe``'s segment, |g·x_m|² (remembered:
+        it depends only on the gain and the CW sample, so a held link and a reader at
+        constant power give the same value exchange after exchange)."""
+        key = (gain, fe.cw_sample)
+        p_inc = self._p_memo.get(key)
+        if p_inc is None:
+            if len(self._p_memo) > 64:
+                self._p_memo.clear()
+            p_inc = self._p_memo[key] = fe.power_w(gain)
+        return p_inc
+
+    def _quiet_at(self, p_inc: float) -> tuple | None:
+        """The remembered power decision of ``p_inc`` (made by :meth:`_respond` with the
+        current config and chip), or None."""
+        quiet = self._quiet.get(p_inc)
+        if quiet is not None and quiet[0] is self.config and quiet[1] is self.chip:
+            return quiet
+        return None
+
+    def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> tuple | None:
+        """For a population (devices.tag_population): the remembered power decision of the
+        scaled copy gain·x of ``fe``'s segment, or None when it is not known yet or the tag
+        does not share front ends. A tuple ``(config, chip, powered, P_inc [dBm], Γ_A, A_s,
+        chip operating point or None, its reflection states, the unpowered response)``."""
+        if not self.shared_front_end or fe.plateau is None:
+            return None
+        return self._quiet_at(self._incident_power_w(fe, gain))
+
+    def take_quiet_step(self, quiet: tuple) -> None:
+        """What :meth:`_quiet_response` does to the tag besides its state machine's silent
+        step: the operating point of ``quiet`` and, unpowered, no TRcal."""
+        op = quiet[6]
+        if op is not None:
+            self.operating_point, self.reflection_states = op, quiet[7]
+        if not quiet[2]:
+            self._trcal_ticks = None
+
+    def respond_decoded(self, quiet: tuple, decoded: tuple, incident) -> TagResponse:
+        """:meth:`reflect` of a powered tag whose power decision for this incident segment is
+        the remembered ``quiet`` (powered): its operating point, then :meth:`_respond` from
+        the decoded ``(command, frame)`` of the segment on (state machine, reply) — what
+        :meth:`_respond` computes, without deciding the power again."""
+        self.take_quiet_step(quiet)
+        return self._decoded(decoded[0], decoded[1], quiet[3], quiet[4], quiet[5], t0_s=incident.t0_s,
+                             fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+
+    @staticmethod
+    def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
+        """The response :meth:`_quiet_response` gives for ``quiet``: the unpowered one, or a
+        powered tag's silent step of ``cmd`` ending at ``cmd_end_s`` [s]."""
+        if not quiet[2]:
+            return quiet[8]
+        return TagResponse(True, cmd, None, None, None, None, "no reply", quiet[3], cmd_end_s, None, None, None,
+                           quiet[4], quiet[5])
+
     def _quiet_response(self, quiet: tuple, decoded: tuple, incident) -> TagResponse | None:
         """:meth:`_respond`'s result for a tag that stays unpowered, or that stays powered
         and takes a silent step of its state machine (``TagState.on_command_if_silent``),
         from the remembered power decision ``quiet`` of this P_inc; None (nothing done) in
         every other case."""
-        _, _, powered, p_dbm, rest, a_s, op, states, unpowered = quiet
+        powered = quiet[2]
         if powered != self.state.powered:
             return None
         if not powered:
-            if op is not None:
-                self.operating_point, self.reflection_states = op, states
-            self._trcal_ticks = None
-            return unpowered
+            self.take_quiet_step(quiet)
+            return quiet[8]
         cmd, frame = decoded
         if cmd is None or isinstance(cmd, Query):
             return None
         cmd_end_s = incident.t0_s + frame.end / incident.fs_hz
         if not self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
             return None
-        if op is not None:
-            self.operating_point, self.reflection_states = op, states
-        return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
-                           rest, a_s)
+        self.take_quiet_step(quiet)
+        return self.silent_response(quiet, cmd, cmd_end_s)
 
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.
@@ -623,6 +700,12 @@ class PassiveTag:
             self._trcal_ticks = None
 
         cmd, frame = decode()
+        return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples)
+
+    def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
+                 n_samples: int) -> TagResponse:
+        """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
+        state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``)."""
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)

@@ -55,6 +55,13 @@ with the other noise models; real part then imaginary part drawn from the step's
   formed only when asked), so a receiver's input becomes a·x(t) + Σ_i b_i·r_i(t)·x_i(t): a
   reflector that does not modulate (constant r) adds one complex constant to the factor of
   x, not a full-length pass; only modulating reflectors cost a pass each.
+* **Groups.** A :class:`ReflectorGroup` (a tag population) joins as one entry for its
+  members. When every member sees a scaled copy g_j·x of the one emitter's segment and
+  every backward link has a held constant b_j, the group decides for all members at once
+  (``reflect_scaled``): the quiet members add Σ_j b_j·(r_j·g_j) to the factor of x — the
+  same products, added one after the other in member order, as member-by-member — and
+  only the members that react go through their own ``reflect``. Otherwise the members
+  reflect one by one (``reflect_each``).
 * **Batch.** Segment samples may carry leading batch dimensions, ``(..., n)``: B
   independent trials on the same links (e.g. noise draws) run in one step. Reflectors then
   see batched incident segments and return factors broadcastable to them.
@@ -67,6 +74,7 @@ device list (``air.emitters``), a segment off the step's time base, two antennas
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
@@ -76,6 +84,7 @@ import numpy as np
 from rfsim.errors import ConfigError
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
+           "ReflectorGroup", "GroupReflection", "members_of",
            "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
            "PROPAGATION_METHODS"]
 
@@ -229,6 +238,45 @@ class Links(Protocol):
     def paths(self, tx, rx, *, fc_hz: float, t_s: float): ...
 
 
+@runtime_checkable
+class ReflectorGroup(Protocol):
+    """Many reflectors joined as one entry of the step (a tag population): its ``members``
+    (reflectors, in order; every per-reflector list of the step holds them in their place),
+    ``antennas`` (theirs, as a tuple) and two ways to reflect:
+
+    * ``reflect_each(incident)`` — a list of segments, one per member → the members'
+      reflections, in order (what each member's ``reflect`` returns);
+    * ``reflect_scaled(base, gains, fc_hz)`` — member j sees ``gains[j]·base`` (one emitter,
+      every link narrowband and static): a :class:`GroupReflection`, or None when the group
+      cannot answer so (the step then calls ``reflect_each``).
+    """
+
+    members: Sequence
+    antennas: tuple
+
+    def reflect_each(self, incident: Sequence[Segment]) -> list: ...
+
+    def reflect_scaled(self, base: Segment, gains: Sequence[complex], fc_hz: float) -> Any: ...
+
+
+class GroupReflection(Protocol):
+    """What a group returns from ``reflect_scaled``: ``reactions`` ({member index: its own
+    :class:`Reflection`}, in member order: members that reflected on their own), the
+    others quiet (constant re-radiation r_j), ``terms(backs)`` → ``(terms, use)``: (n,)
+    complex b_j·(r_j·g_j) for the backward constants ``backs`` (formed as the step forms
+    them for one reflector) and the (n,) bool mask of the quiet members that scatter;
+    ``powered`` and ``incident_power_dbm`` per member; ``len`` and ``[j]`` (member j's
+    reflection)."""
+
+    reactions: dict
+
+    def terms(self, backs: Sequence[complex]) -> tuple: ...
+
+    def __len__(self) -> int: ...
+
+    def __getitem__(self, j: int) -> Any: ...
+
+
 # ----------------------------------------------------------------------------- helpers
 
 
@@ -322,23 +370,51 @@ class _Listening:
 
 
 def as_reflector(device):
-    """``device`` itself when it has ``reflect``, else a wrapper calling its ``listen``."""
-    return device if hasattr(device, "reflect") else _Listening(device)
+    """``device`` itself when it has ``reflect`` (or is a :class:`ReflectorGroup`), else a
+    wrapper calling its ``listen``."""
+    return device if (hasattr(device, "reflect") or hasattr(device, "reflect_scaled")) else _Listening(device)
 
 
-def _check_positions(named: list[tuple[str, Any]]) -> None:
-    """Distinct antennas at distance 0 have no far-field link: a one-line error."""
+_antenna_of = operator.attrgetter("antenna")
+
+
+def _check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence) -> None:
+    """Distinct antennas at distance 0 have no far-field link: a one-line error.
+
+    ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
+    of antennas whose positions are read-only arrays (``channels.Antenna``) is checked once
+    and remembered by identity."""
+    emitter_ids = {id(e.antenna) for e in emitters}
+    listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
+    key = (tuple(id(e.antenna) for e in emitters), tuple(map(id, reflector_antennas)),
+           tuple(id(a) for _, a in listening))
+    if key in _POSITIONS_CHECKED:
+        return
+    named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
+             + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]
+             + [(f"receiver[{k}]", a) for k, a in listening])
     seen: dict = {}
+    frozen = True
     for name, ant in named:
         p = getattr(ant, "position_m", None)
         if p is None:
             continue
-        key = p.tobytes() if isinstance(p, np.ndarray) and p.dtype == np.float64 else np.asarray(p, float).tobytes()
-        other = seen.get(key)
+        if not (isinstance(p, np.ndarray) and not p.flags.writeable):
+            frozen = False
+        key_p = p.tobytes() if isinstance(p, np.ndarray) and p.dtype == np.float64 else np.asarray(p, float).tobytes()
+        other = seen.get(key_p)
         if other is not None and other[1] is not ant:
-            raise ConfigError(f"{name}.position_m", tuple(np.frombuffer(key).tolist()),
+            raise ConfigError(f"{name}.position_m", tuple(np.frombuffer(key_p).tolist()),
                               f"a position away from {other[0]}'s antenna (distance 0 m has no link)")
-        seen.setdefault(key, (name, ant))
+        seen.setdefault(key_p, (name, ant))
+    if frozen:
+        if len(_POSITIONS_CHECKED) >= 64:
+            _POSITIONS_CHECKED.pop(next(iter(_POSITIONS_CHECKED)))
+        _POSITIONS_CHECKED[key] = [a for _, a in named]  # kept alive: their ids stay theirs
+
+
+#: antenna-identity keys of position sets already checked (:func:`_check_positions`)
+_POSITIONS_CHECKED: dict = {}
 
 
 # ----------------------------------------------------------------------------- result
@@ -362,6 +438,8 @@ class AirResult:
         contribution (n,), per reflector and receiver the backscatter (n,), per receiver
         the noise (n,) or None; all [√W]
     links : with ``keep_components``: ``{(kind, i, kind, k): paths}`` of every link used
+    groups : ``[(start, GroupReflection)]`` of the groups that took the shortcut (their
+        members' entries in ``incident`` and ``reflections`` are formed when read)
     """
 
     segments: list
@@ -375,6 +453,65 @@ class AirResult:
     backscatter: list | None = None
     noise: list | None = None
     links: dict = field(default_factory=dict)
+    groups: list = field(default_factory=list)
+
+
+# ----------------------------------------------------------------------------- groups
+
+
+def members_of(reflectors: Sequence) -> list:
+    """The reflectors of a step with every :class:`ReflectorGroup` replaced by its members
+    (the indices every per-reflector list of the step uses)."""
+    return _entries(reflectors)[0]
+
+
+def _entries(reflectors: Sequence) -> tuple[list, list]:
+    """(members, entries): the flat member list and per given reflector ``(start, stop,
+    group or None)``."""
+    if len(reflectors) == 1 and hasattr(reflectors[0], "reflect_scaled"):
+        grp = reflectors[0]
+        return grp.members, [(0, len(grp.members), grp)]
+    members, entries = [], []
+    for r in reflectors:
+        if hasattr(r, "reflect_scaled"):
+            entries.append((len(members), len(members) + len(r.members), r))
+            members.extend(r.members)
+        else:
+            entries.append((len(members), len(members) + 1, None))
+            members.append(r)
+    return members, entries
+
+
+_UNSET = object()
+
+
+class _PerMember(Sequence):
+    """A per-member list of the step whose entries for the members of a group that took
+    the shortcut (:meth:`ReflectorGroup.reflect_scaled`) are formed when first read."""
+
+    def __init__(self, items: list, fill):
+        self._items, self._fill = items, fill
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, j):
+        if isinstance(j, slice):
+            return [self[k] for k in range(*j.indices(len(self._items)))]
+        j = range(len(self._items))[j]
+        v = self._items[j]
+        if v is _UNSET:
+            v = self._items[j] = self._fill(j)
+        return v
+
+
+def _accumulate(start: complex, values: np.ndarray) -> complex:
+    """``start + values[0] + values[1] + …`` added left to right (``numpy.add.accumulate`` is
+    sequential: the same sums, in the same order, as a Python loop)."""
+    acc = np.empty(values.size + 1, dtype=np.complex128)
+    acc[0] = start
+    acc[1:] = values
+    return complex(np.add.accumulate(acc)[-1])
 
 
 # ----------------------------------------------------------------------------- the step
@@ -456,11 +593,11 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     if n_samples < 1:
         raise ConfigError("air.n_samples", n_samples, "at least 1 sample")
     bw = 0.5 * fs_hz if bandwidth_hz is None else float(bandwidth_hz)
-    emitter_antennas = {id(e.antenna) for e in emitters}
-    _check_positions([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
-                     + [(f"reflector[{j}]", r.antenna) for j, r in enumerate(reflectors)]
-                     + [(f"receiver[{k}]", r.antenna) for k, r in enumerate(receivers)
-                        if id(r.antenna) not in emitter_antennas])
+    members, entries = _entries(reflectors)
+    n_mem = len(members)
+    member_antennas = (entries[0][2].antennas if len(entries) == 1 and entries[0][2] is not None
+                       else tuple(map(_antenna_of, members)))
+    _check_positions(emitters, member_antennas, receivers)
     segs = []
     for i, e in enumerate(emitters):
         s = e.emit(t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples)
@@ -481,7 +618,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
 
     # 1. incident field at every reflector, kept per emitter in the emitter's own baseband
     #    (for the backscatter), and what the reflector does with it
-    incident, reflections, per_emitter = [], [], []
+    incident, reflections, per_emitter = [_UNSET] * n_mem, [_UNSET] * n_mem, [None] * n_mem
+    shortcut: dict = {}  # start of a group -> its GroupReflection (the group took the shortcut)
     # one emitter on the reference carrier (a reader's exchange): the loop below without the
     # carrier bookkeeping — the same links asked in the same order, the same arithmetic
     single = live[0] if (len(live) == 1 and live[0][1].fc_hz == fc_ref_hz) else None
@@ -490,59 +628,83 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         i0, seg0 = single
         e_ant, fc0 = emitters[i0].antenna, seg0.fc_hz
         held = getattr(links, "held_constants", None)
-        if held is not None and not keep_components and reflectors:
-            gains = held(e_ant, [r.antenna for r in reflectors], fc_hz=fc0, bandwidth_hz=bw,
-                         propagation=propagation, inbound=False)
-        for j, refl in enumerate(reflectors):
-            if gains is not None:  # every link held, narrowband and static: its constant, remembered
-                g, y = gains[j], None
+        if held is not None and not keep_components and members:
+            gains = held(e_ant, member_antennas, fc_hz=fc0, bandwidth_hz=bw, propagation=propagation,
+                         inbound=False)
+    for start, stop, grp in entries:
+        if grp is not None and gains is not None:
+            g_part = gains if (start == 0 and stop == n_mem) else gains[start:stop]
+            gr = grp.reflect_scaled(seg0, g_part, fc_ref_hz)
+            if gr is not None:  # every member sees gains[j]·x: the group answers at once
+                shortcut[start] = gr
+                continue
+        for j in range(start, stop):
+            refl = members[j]
+            if single is not None:
+                if gains is not None:  # every link held, narrowband and static: its constant, remembered
+                    g, y = gains[j], None
+                else:
+                    p = links.paths(e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s)
+                    if p is None:
+                        _link(links, e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s, what=f"emitter[{i0}] → reflector[{j}]")
+                    if keep_components:
+                        used[("emitter", i0, "reflector", j)] = p
+                    g, y = _through(p, seg0, None, fc_hz=fc0, bandwidth_hz=bw, propagation=propagation, memo=memo)
+                per_emitter[j] = ((i0, seg0, g, y),)
+                inc = Segment.scaled(seg0, g, fc_ref_hz) if g is not None else Segment(t0_s, fs_hz, fc_ref_hz, y)
             else:
-                p = links.paths(e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s)
-                if p is None:
-                    _link(links, e_ant, refl.antenna, fc_hz=fc0, t_s=t0_s, what=f"emitter[{i0}] → reflector[{j}]")
-                if keep_components:
-                    used[("emitter", i0, "reflector", j)] = p
-                g, y = _through(p, seg0, None, fc_hz=fc0, bandwidth_hz=bw, propagation=propagation, memo=memo)
-            per_emitter.append(((i0, seg0, g, y),))
-            inc = Segment.scaled(seg0, g, fc_ref_hz) if g is not None else Segment(t0_s, fs_hz, fc_ref_hz, y)
-            incident.append(inc)
-            reflections.append(refl.reflect(inc))
-    for j, refl in enumerate(reflectors if single is None else ()):
-        ant = refl.antenna
-        comps = []  # (emitter index, segment, constant gain or None, samples or None)
-        total = None  # a Segment (scaled copy) or an array
-        for i, seg in live:
-            fc_e = seg.fc_hz
-            p = links.paths(emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s)
-            if p is None:
-                _link(links, emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s, what=f"emitter[{i}] → reflector[{j}]")
-            if keep_components:
-                used[("emitter", i, "reflector", j)] = p
-            g, y = _through(p, seg, None, fc_hz=fc_e, bandwidth_hz=bw, propagation=propagation, memo=memo)
-            comps.append((i, seg, g, y))
-            off = fc_e - fc_ref_hz
-            if off != 0.0 and abs(off) >= half:
-                dropped.append((i, "reflector", j, off))
-                continue
-            if total is None and off == 0.0 and g is not None:
-                total = Segment.scaled(seg, g, fc_ref_hz)
-                continue
-            v = shift(y if y is not None else g * seg.samples, off)
-            total = v if total is None else (total.samples if isinstance(total, Segment) else total) + v
-        if total is None:
-            inc = Segment(t0_s, fs_hz, fc_ref_hz, np.zeros(n_samples, dtype=np.complex128))
-        elif isinstance(total, Segment):
-            inc = total
-        else:
-            inc = Segment(t0_s, fs_hz, fc_ref_hz, total)
-        incident.append(inc)
-        per_emitter.append(comps)
-        reflections.append(refl.reflect(inc))
+                ant = refl.antenna
+                comps = []  # (emitter index, segment, constant gain or None, samples or None)
+                total = None  # a Segment (scaled copy) or an array
+                for i, seg in live:
+                    fc_e = seg.fc_hz
+                    p = links.paths(emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s)
+                    if p is None:
+                        _link(links, emitters[i].antenna, ant, fc_hz=fc_e, t_s=t0_s,
+                              what=f"emitter[{i}] → reflector[{j}]")
+                    if keep_components:
+                        used[("emitter", i, "reflector", j)] = p
+                    g, y = _through(p, seg, None, fc_hz=fc_e, bandwidth_hz=bw, propagation=propagation, memo=memo)
+                    comps.append((i, seg, g, y))
+                    off = fc_e - fc_ref_hz
+                    if off != 0.0 and abs(off) >= half:
+                        dropped.append((i, "reflector", j, off))
+                        continue
+                    if total is None and off == 0.0 and g is not None:
+                        total = Segment.scaled(seg, g, fc_ref_hz)
+                        continue
+                    v = shift(y if y is not None else g * seg.samples, off)
+                    total = v if total is None else (total.samples if isinstance(total, Segment) else total) + v
+                if total is None:
+                    inc = Segment(t0_s, fs_hz, fc_ref_hz, np.zeros(n_samples, dtype=np.complex128))
+                elif isinstance(total, Segment):
+                    inc = total
+                else:
+                    inc = Segment(t0_s, fs_hz, fc_ref_hz, total)
+                per_emitter[j] = comps
+            incident[j] = inc
+            if grp is None:
+                reflections[j] = refl.reflect(inc)
+        if grp is not None:
+            reflections[start:stop] = grp.reflect_each(incident[start:stop])
+
+    def shortcut_of(j):
+        for start, gr in shortcut.items():
+            if start <= j < start + len(gr):
+                return gr[j - start]
+        raise IndexError(j)
+
+    def comps_of(j):
+        comps = per_emitter[j]
+        return comps if comps is not None else ((i0, seg0, gains[j], None),)
+
+    incident = _PerMember(incident, lambda j: Segment.scaled(seg0, gains[j], fc_ref_hz))
+    reflections = _PerMember(reflections, shortcut_of)
 
     # 2. every receiver: direct paths (or coupling), backscatter, noise
     inputs, outputs = [], []
     direct_l = [] if keep_components else None
-    back_l = [[None] * len(receivers) for _ in reflectors] if keep_components else None
+    back_l = [[None] * len(receivers) for _ in members] if keep_components else None
     noise_l = [] if keep_components else None
     for k, rcv in enumerate(receivers):
         fc_k = rcv.fc_hz if getattr(rcv, "fc_hz", None) is not None else fc_ref_hz
@@ -580,77 +742,84 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
             direct_l.append(d)
         backs = None  # the held constants of the reflector → receiver links (as ``gains`` above)
         if single is not None and gains is not None:
-            backs = held(r_ant, [r.antenna for r in reflectors], fc_hz=fc0, bandwidth_hz=bw,
-                         propagation=propagation, inbound=True)
-        for j, refl in enumerate(reflectors):
-            r = reflections[j]
-            comps = per_emitter[j]
-            if single is not None and not keep_components:
-                # one emitter on the reference carrier: the general branch below, shortened
-                i, seg, g, y = comps[0]
-                if backs is not None:
-                    pj = None
-                else:
-                    pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
-                    if pj is None:
-                        _link(links, refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s,
-                              what=f"reflector[{j}] → receiver[{k}]")
-                if r is None or not r.scatters:
-                    continue
-                off = seg.fc_hz - fc_k
-                if off != 0.0 and abs(off) >= half:
-                    continue
-                rc = r.constant_reradiation
-                if rc is not None and g is not None and off == 0.0:
-                    b = backs[j] if backs is not None else _constant(pj, seg.fc_hz, bw, propagation, memo)
-                    if b is not None:  # a reflector that does not modulate: one constant, no pass
-                        const[i] = const.get(i, 0j) + b * (rc * g)
-                        continue
-                if pj is None:
-                    pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
-                inc_e = y if y is not None else g * seg.samples
-                scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
-                gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
-                                  memo=memo)
-                parts.append(shift(yb if yb is not None else gb * scattered, off))
+            backs = held(r_ant, member_antennas, fc_hz=fc0, bandwidth_hz=bw, propagation=propagation, inbound=True)
+        for start, stop, grp in entries:
+            gr = shortcut.get(start) if grp is not None else None
+            if gr is not None and backs is not None and seg0.fc_hz == fc_k:
+                _group_backscatter(gr, start, stop == n_mem and start == 0, gains, backs, members, r_ant, seg0,
+                                   links, const, parts, i0=i0, t0_s=t0_s, n_samples=n_samples, bw=bw,
+                                   propagation=propagation, memo=memo)
                 continue
-            # the links are asked for whatever the reflector does (the draws do not depend on it)
-            pj = fc_j = None
-            for i, seg, g, y in comps:
-                if seg.fc_hz != fc_j:
-                    fc_j = seg.fc_hz
-                    pj = links.paths(refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s)
-                    if pj is None:
-                        _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s,
-                              what=f"reflector[{j}] → receiver[{k}]")
-                    if keep_components:
-                        used[("reflector", j, "receiver", k)] = pj
-            part = None
-            if r is not None and r.scatters:
-                rc = r.constant_reradiation
-                r_t = None if rc is not None else r.reradiation(n_samples)
-                multi = len(comps) > 1
-                for i, seg, g, y in comps:
+            for j in range(start, stop):
+                refl = members[j]
+                r = reflections[j]
+                comps = comps_of(j)
+                if single is not None and not keep_components:
+                    # one emitter on the reference carrier: the general branch below, shortened
+                    i, seg, g, y = comps[0]
+                    if backs is not None:
+                        pj = None
+                    else:
+                        pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                        if pj is None:
+                            _link(links, refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s,
+                                  what=f"reflector[{j}] → receiver[{k}]")
+                    if r is None or not r.scatters:
+                        continue
                     off = seg.fc_hz - fc_k
                     if off != 0.0 and abs(off) >= half:
                         continue
-                    if multi:
-                        pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
-                    if rc is not None and g is not None and off == 0.0 and not keep_components:
-                        b = _constant(pj, seg.fc_hz, bw, propagation, memo)
+                    rc = r.constant_reradiation
+                    if rc is not None and g is not None and off == 0.0:
+                        b = backs[j] if backs is not None else _constant(pj, seg.fc_hz, bw, propagation, memo)
                         if b is not None:  # a reflector that does not modulate: one constant, no pass
                             const[i] = const.get(i, 0j) + b * (rc * g)
                             continue
+                    if pj is None:
+                        pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
                     inc_e = y if y is not None else g * seg.samples
-                    scattered = (rc * inc_e) if rc is not None else r_t * inc_e
+                    scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
                     gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
                                       memo=memo)
-                    v = shift(yb if yb is not None else gb * scattered, off)
-                    parts.append(v)
-                    if keep_components:
-                        part = v if part is None else part + v
-            if keep_components:
-                back_l[j][k] = np.zeros(n_samples, dtype=np.complex128) if part is None else part
+                    parts.append(shift(yb if yb is not None else gb * scattered, off))
+                    continue
+                # the links are asked for whatever the reflector does (the draws do not depend on it)
+                pj = fc_j = None
+                for i, seg, g, y in comps:
+                    if seg.fc_hz != fc_j:
+                        fc_j = seg.fc_hz
+                        pj = links.paths(refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s)
+                        if pj is None:
+                            _link(links, refl.antenna, r_ant, fc_hz=fc_j, t_s=t0_s,
+                                  what=f"reflector[{j}] → receiver[{k}]")
+                        if keep_components:
+                            used[("reflector", j, "receiver", k)] = pj
+                part = None
+                if r is not None and r.scatters:
+                    rc = r.constant_reradiation
+                    r_t = None if rc is not None else r.reradiation(n_samples)
+                    multi = len(comps) > 1
+                    for i, seg, g, y in comps:
+                        off = seg.fc_hz - fc_k
+                        if off != 0.0 and abs(off) >= half:
+                            continue
+                        if multi:
+                            pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                        if rc is not None and g is not None and off == 0.0 and not keep_components:
+                            b = _constant(pj, seg.fc_hz, bw, propagation, memo)
+                            if b is not None:  # a reflector that does not modulate: one constant, no pass
+                                const[i] = const.get(i, 0j) + b * (rc * g)
+                                continue
+                        inc_e = y if y is not None else g * seg.samples
+                        scattered = (rc * inc_e) if rc is not None else r_t * inc_e
+                        gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw,
+                                          propagation=propagation, memo=memo)
+                        v = shift(yb if yb is not None else gb * scattered, off)
+                        parts.append(v)
+                        if keep_components:
+                            part = v if part is None else part + v
+                if keep_components:
+                    back_l[j][k] = np.zeros(n_samples, dtype=np.complex128) if part is None else part
         y = None
         for i, g in const.items():
             v = g * segs[i].samples
@@ -669,12 +838,11 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         if noise_w > 0:
             if rng is None:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-            # complex white noise √(N/2)·(a + j·b): a then b drawn from rng
-            scale = math.sqrt(noise_w / 2.0)
+            # complex white noise √(N/2)·(a + j·b): a then b drawn from rng (one call: the
+            # same numbers in the same order as two)
             ab = np.empty((2,) + y.shape)
-            rng.standard_normal(out=ab[0])
-            rng.standard_normal(out=ab[1])
-            ab *= scale
+            rng.standard_normal(out=ab)
+            ab *= math.sqrt(noise_w / 2.0)
             if keep_components:
                 n_k = ab[0] + 1j * ab[1]
             y.real += ab[0]
@@ -686,4 +854,35 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         outputs.append(rcv.receive(seg_k) if decide else None)
     return AirResult(segments=segs, incident=incident, reflections=reflections, inputs=inputs, outputs=outputs,
                      dropped=dropped, fc_ref_hz=float(fc_ref_hz), direct=direct_l, backscatter=back_l,
-                     noise=noise_l, links=used)
+                     noise=noise_l, links=used, groups=sorted(shortcut.items()))
+
+
+def _group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant, seg, links, const: dict,
+                       parts: list, *, i0: int, t0_s: float, n_samples: int, bw: float, propagation: str,
+                       memo: dict) -> None:
+    """A group that took the shortcut, at a receiver on the emitter's carrier with held
+    backward constants ``backs``: its quiet members' held constants b_j·(r_j·g_j) and its
+    reacting members' contributions, in member order (the per-member branch of
+    :func:`propagate`, members added to the factor of x one after the other)."""
+    terms, use = gr.terms(backs if whole else backs[start:start + len(gr)])
+    vals = None
+    for jl, r in gr.reactions.items():
+        j = start + jl
+        if r is None or not r.scatters:
+            continue
+        rc = r.constant_reradiation
+        g = gains[j]
+        if rc is not None and backs[j] is not None:  # a reflector that does not modulate: one constant
+            if vals is None:
+                vals, use = terms.copy(), use.copy()
+            vals[jl] = backs[j] * (rc * g)
+            use[jl] = True
+            continue
+        pj = links.paths(members[j].antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+        inc_e = g * seg.samples
+        scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
+        gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
+        parts.append(yb if yb is not None else gb * scattered)
+    vals = terms if vals is None else vals
+    if use.any():
+        const[i0] = _accumulate(const.get(i0, 0j), vals[use])

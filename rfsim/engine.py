@@ -24,7 +24,8 @@ Propagation (``propagation="auto"``, the default): each link decides between nar
 exact fractional delays on the reply bandwidth B = 2·BLF (the main lobe of the FM0/Miller
 reply) — the one rule :func:`channels.paths.propagation_method`. On narrowband, static links
 a tag that does not reply adds one constant to the reader's input (the air step's
-a·x + Σ b_i·r_i·x rule), not a full-length pass.
+a·x + Σ b_i·r_i·x rule), not a full-length pass; a tag population (a reflector group)
+decides its quiet tags at once and adds them as one constant (rfsim.air "Groups").
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
 command, T4 between commands without a reply), so silent air time costs nothing. Each
@@ -63,7 +64,7 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.air import PROPAGATION_METHODS, FixedEmitter, as_reflector, propagate
+from rfsim.air import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of, propagate
 from rfsim.gen2.link import reader_listen_start_s, reply_window_s
 
 #: Failure reasons of a read, in the order the engine checks them.
@@ -124,13 +125,14 @@ class Exchange:
         return None if self.read is None else self.read.bits
 
 
-def _failure(read, replied: Sequence[int], powered: Sequence[int], tag_reasons: Sequence[str],
+def _failure(read, replied: Sequence[int], powered: Sequence[int], decode_error: bool,
              decoded_tag: int | None, timing_ok: Sequence[bool]) -> str:
-    """Failure reason from the ground truth and the reader's verdict (module docstring)."""
+    """Failure reason from the ground truth and the reader's verdict (module docstring);
+    ``decode_error``: a powered tag could not decode the command."""
     if not powered:
         return "not powered"
     if not replied:
-        return "decode error" if "decode error" in tag_reasons else "no reply"
+        return "decode error" if decode_error else "no reply"
     if decoded_tag is not None and read.success:
         return ""
     if not any(timing_ok):
@@ -153,7 +155,9 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
         ``antennas``, ``antenna_index``, ``link``)
     tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
-        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records
+        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
+        or reflector groups of them (:class:`rfsim.air.ReflectorGroup`: a tag population, whose
+        members count as tags in the order given)
     channel : link model with ``backscatter_links(emitter, tag, *, fc_hz, rng, t_s,
         tag_motion)`` → (forward, backward) PathSets
     cmd : the Gen2 command object to send
@@ -184,20 +188,38 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     emitter = FixedEmitter(antenna, tx, device=reader)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
     reflectors = [as_reflector(t) for t in tags]
-    links = _EngineLinks(channel, antenna, tags, motions, rng if draw_channel else None, t_s,
+    members = members_of(reflectors)
+    links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
                          link_cache if (link_cache is not None) else None, draw_channel)
     air = propagate([emitter], reflectors, [port], links, t0_s=t_s, fs_hz=fs, n_samples=tx.samples.size,
                     rng=rng, bandwidth_hz=2.0 * link.blf_hz, propagation=propagation, decide=False)
-    replied, powered, incident_dbm, reasons, sent, starts = [], [], [], [], [], []
-    for i, response in enumerate(air.reflections):
+    replied, powered, incident_dbm, sent, starts = [], [], [], [], []
+    decode_error = False
+    shortcut = dict(air.groups)
+    j, n_members = 0, len(members)
+    while j < n_members:
+        group = shortcut.get(j)
+        if group is not None:  # a tag population that answered at once: its arrays, its reacting tags
+            incident_dbm.extend(group.incident_power_dbm.tolist())
+            powered.extend((np.flatnonzero(group.powered) + j).tolist())
+            for jl, response in group.reactions.items():
+                decode_error |= response.reason == "decode error"
+                if response.gamma is not None:
+                    replied.append(j + jl)
+                    sent.append(np.asarray(response.reply.bits))
+                    starts.append(float(response.reply_start_s))
+            j += len(group)
+            continue
+        response = air.reflections[j]
         incident_dbm.append(float(response.incident_power_dbm))
-        reasons.append(response.reason)
+        decode_error |= response.reason == "decode error"
         if response.powered:
-            powered.append(i)
+            powered.append(j)
         if response.gamma is not None:
-            replied.append(i)
+            replied.append(j)
             sent.append(np.asarray(response.reply.bits))
             starts.append(float(response.reply_start_s))
+        j += 1
     read = port.receive(air.inputs[0]) if replied else None
     decoded_tag = None
     if read is not None and read.bits is not None:
@@ -210,7 +232,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     return Exchange(time_s=t_s, command=type(cmd).__name__, antenna=antenna_index,
                     channel_index=tx.channel_index, fc_hz=fc, replied=tuple(replied),
                     powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
-                    failure_reason=_failure(read, replied, powered, reasons, decoded_tag, timing_ok),
+                    failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
                     end_s=t_s + tx.samples.size / fs, decoded_tag=decoded_tag,
                     reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=int(tx.samples.size),
                     cmd_end_s=float(tx.cmd_end_s))
@@ -276,10 +298,19 @@ class _EngineLinks:
     ``channel.backscatter_links`` (monostatic), held in ``link_cache`` as described in
     :func:`run_exchange`."""
 
-    def __init__(self, channel, antenna, tags, motions, rng, t_s, cache, draw):
+    def __init__(self, channel, antenna, reflectors, members, motions, rng, t_s, cache, draw):
         self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s
         self.cache, self.draw, self.motions = cache, draw, motions
-        self.index = {id(t.antenna): i for i, t in enumerate(tags)}
+        if len(reflectors) == 1 and hasattr(reflectors[0], "antennas"):  # a tag population: index kept
+            ants = reflectors[0].antennas
+            hit = cache.get(("index",)) if cache is not None else None
+            if hit is None or hit[0] is not ants:
+                hit = (ants, {id(a): i for i, a in enumerate(ants)})
+                if cache is not None:
+                    cache[("index",)] = hit
+            self.index = hit[1]
+        else:
+            self.index = {id(t.antenna): i for i, t in enumerate(members)}
         self.backward: dict = {}
         if draw and cache:  # a new draw: the held constants of the previous one are void
             for key in [k for k in cache if k[0] == "held"]:
@@ -321,7 +352,7 @@ class _EngineLinks:
             return None
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
         hit = self.cache.get(key)
-        if hit is not None and hit[0] == [id(a) for a in others]:
+        if hit is not None and (hit[2] is others or hit[0] == [id(a) for a in others]):
             return hit[1]
         side = 1 if inbound else 0
         out = []
@@ -333,7 +364,7 @@ class _EngineLinks:
             if c is None:
                 return None
             out.append(c)
-        self.cache[key] = ([id(a) for a in others], out)
+        self.cache[key] = ([id(a) for a in others], out, others)
         return out
 
 

@@ -483,9 +483,11 @@ class EngineAir:
     motions : optional per-tag motions (see ``run_exchange``)
     propagation : "auto", "exact" or "narrowband"
     fast : let tags that see scaled copies of one reader segment share its front-end work
-        (``PassiveTag.shared_front_end``, devices.tag); False makes every tag listen to its
-        own samples on every exchange (identical records, slower). Sets the attribute on
-        every tag that has it.
+        (``PassiveTag.shared_front_end``, devices.tag) and join the air step as one
+        population (the tags' ``population``, devices.tag_population: the quiet tags of an
+        exchange decided at once, their re-radiation one held constant); False makes every
+        tag listen to its own samples on every exchange (identical records, slower). Sets
+        the attribute on every tag that has it.
     keep_exchanges : append every :class:`AirExchange` to ``self.exchanges``
     """
 
@@ -503,12 +505,17 @@ class EngineAir:
         for t in self.tags:
             if hasattr(t, "shared_front_end"):
                 t.shared_front_end = bool(fast)
+        make = getattr(type(self.tags[0]), "population", None) if (fast and self.tags) else None
+        same = make is not None and all(getattr(type(t), "population", None) == make for t in self.tags)
+        self._reflectors = [make(self.tags)] if same else self.tags
 
     def cw_off(self, t_s: float) -> None:
         """The reader interrupts its CW at ``t_s`` [s]: every tag loses power (Gen2: back to
         Ready, S0 flag to A; S1–S3 and SL kept within their persistence times)."""
         for tag in self.tags:
             tag.state.on_power(False, t_s)
+        if self._reflectors is not self.tags:
+            self._reflectors[0].refresh()
 
     def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
                  new_round: bool = False) -> AirExchange:
@@ -517,7 +524,7 @@ class EngineAir:
         if new_round:
             self._channel.clear()
             self._round_links.clear()
-        ex = run_exchange(self.reader, self.tags, self._channel, cmd, t_s=t_s, rng=self.rng,
+        ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
                           round_index=round_index, draw_channel=new_round, propagation=self.propagation,
                           link_cache=self._round_links)

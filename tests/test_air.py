@@ -200,3 +200,70 @@ def test_bad_input_is_a_one_line_user_error(case, key):
     assert err.value.key == key
     assert isinstance(err.value, UserError) and err.value.exit_code == 2
     assert "\n" not in str(err.value)
+
+
+class HeldTable(LinkTable):
+    """A LinkTable that also offers the held narrowband constants of its links (as the
+    engine's round links do), so that a reflector group can take its shortcut."""
+
+    def held_constants(self, antenna, others, *, fc_hz, bandwidth_hz, propagation, inbound):
+        out = []
+        for a in others:
+            p = self.paths(a, antenna, fc_hz=fc_hz, t_s=0.0) if inbound else self.paths(antenna, a, fc_hz=fc_hz,
+                                                                                         t_s=0.0)
+            c = p.narrowband_constant(fc_hz, bandwidth_hz, propagation)
+            if c is None:
+                return None
+            out.append(c)
+        return out
+
+
+class OwnPort(AntennaPort):
+    """A receiver on the emitter's antenna with a fixed TX→RX leakage (a reader's port)."""
+
+    def coupling(self, emitter):
+        return (0.01 - 0.002j) if emitter.antenna is self.antenna else None
+
+
+@pytest.mark.parametrize("links_kind", ["table", "held"])
+def test_tag_population_equals_its_tags_one_by_one(links_kind):
+    # A Query, then QueryReps and an ACK for nobody, from a reader to 9 passive tags (ASK and
+    # PSK, some too far to power up), received with noise: the tags as one population
+    # (devices.tag_population) and the same tags one by one give the same receiver input, bit
+    # for bit, the same reflections and tag states. With held constants the population
+    # answers its quiet tags at once (AirResult.groups); without, every tag reflects.
+    from devices.reader import Reader, ReaderConfig
+    from rfsim.gen2.commands import ACK, Query, QueryRep
+
+    radii = [1.0, 1.3, 1.7, 2.2, 2.8, 3.5, 9.0, 12.0, 1.5]
+    runs = []
+    for grouped in (False, True):
+        ra = iso([0.0, 0.0, 1.0])
+        reader = Reader(ReaderConfig(), [ra], rng=trial_rng(91, 0))
+        tags = [PassiveTag(TagConfig(epc_hex=f"{k + 1:024X}", modulation="PSK" if k % 4 == 3 else "ASK"),
+                           iso([r * math.cos(k), r * math.sin(k), 1.0]), rng=trial_rng(91, 1, k))
+                for k, r in enumerate(radii)]
+        refl = [PassiveTag.population(tags)] if grouped else tags
+        table = (HeldTable if links_kind == "held" else LinkTable)(Channel(Scene()), rng=trial_rng(91, 2))
+        port = OwnPort(ra, noise_power_w=1e-13)
+        noise = trial_rng(91, 3)
+        lk = reader.link
+        out, t = [], 0.0
+        for cmd in [Query(dr=lk.dr, m=lk.m, q=2)] + [QueryRep()] * 3 + [ACK(0x1234), QueryRep()]:
+            tx = reader.transmit(cmd, t0_s=t, cw_after_s=4e-4)
+            air = propagate([FixedEmitter(ra, tx)], refl, [port], table, t0_s=t, fs_hz=tx.fs_hz,
+                            n_samples=tx.samples.size, rng=noise, bandwidth_hz=2 * lk.blf_hz)
+            out.append((air.inputs[0].samples.copy(), [(r.powered, r.reason, r.incident_power_dbm, r.gamma_rest,
+                                                        None if r.gamma is None else r.gamma.tobytes())
+                                                       for r in air.reflections],
+                        [inc.samples.tobytes() for inc in air.incident], len(air.groups)))
+            t += tx.samples.size / tx.fs_hz + 1e-4
+        runs.append((out, [(tg.state.state, tg.state.slot, tg.state.t_s, dict(tg.state.inventoried)) for tg in tags]))
+    (plain, plain_states), (grouped, grouped_states) = runs
+    for a, b in zip(plain, grouped):
+        np.testing.assert_array_equal(a[0], b[0])
+        assert a[1:3] == b[1:3]
+    assert plain_states == grouped_states
+    shortcuts = sum(b[3] for b in grouped)
+    assert shortcuts == (6 if links_kind == "held" else 0), shortcuts  # the Query too
+    assert sum(a[1][j][0] for a in plain for j in range(len(radii))) >= 6 * 5  # powered tags present

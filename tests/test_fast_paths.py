@@ -301,3 +301,46 @@ def test_corr_abs_runs_kernel_equals_scipy(samples_per_element, offset):
         out = np.empty(301)
         LK.corr_abs_runs_kernel(r, t0, out)
         np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-9, atol=1e-9 * t.size)
+def test_air_accumulate_is_the_sequential_sum():
+    """The air step's held constant of a tag population (rfsim.air._accumulate) equals the
+    left-to-right Python sum of the same complex terms, bit for bit, over magnitudes spread
+    across 16 decades (where the summation order changes the rounding)."""
+    from rfsim.air import _accumulate
+
+    rng = trial_rng(62, 0)
+    n = 0
+    for _ in range(100):
+        k = int(rng.integers(0, 600))
+        v = (rng.standard_normal(k) + 1j * rng.standard_normal(k)) * 10.0 ** rng.uniform(-8, 8, k)
+        start = complex(rng.standard_normal(), rng.standard_normal())
+        want = start
+        for x in v.tolist():
+            want = want + x
+        got = _accumulate(start, v)
+        assert got == want and type(got) is complex
+        n += 1
+    assert n == 100
+
+
+def test_front_end_cache_of_read_only_segments():
+    """A reader's cached (read-only) command segment sent twice: the second segment gets the
+    kept SharedFrontEnd, whose level split, plateau, CW sample and decoded command equal a
+    fresh one's; a writable copy of the samples is never taken from the cache."""
+    from devices.tag import PassiveTag, SharedFrontEnd
+    from rfsim.air import Segment
+    from rfsim.gen2.commands import QueryRep
+
+    rd = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(63, 0))
+    tx = [rd.transmit(QueryRep(session=s), t0_s=0.01 * k, cw_after_s=2e-4) for k, s in enumerate((1, 1, 2))]
+    assert tx[0].samples is tx[1].samples and not tx[0].samples.flags.writeable
+    fes = [PassiveTag.front_end_of(Segment(t.t0_s, t.fs_hz, t.fc_hz, t.samples)) for t in tx]
+    assert fes[0] is fes[1] and fes[2] is not fes[0]
+    for t, fe in zip(tx, fes):
+        fresh = SharedFrontEnd(t.samples.copy(), fs_hz=t.fs_hz)
+        assert (fe.levels, fe.plateau, fe.cw_sample) == (fresh.levels, fresh.plateau, fresh.cw_sample)
+        assert fe.command(0.0)[0] == fresh.command(0.0)[0] and fe.command(0.0)[1].end == fresh.command(0.0)[1].end
+    assert fes[2].command(0.0)[0] == QueryRep(session=2)
+    writable = tx[0].samples.copy()
+    a = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
+    b = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
+    assert a is not b and a is not fes[0]

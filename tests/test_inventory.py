@@ -426,30 +426,39 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
     # tags with the config's Γ — inventoried in session 0 with dual target (QueryAdjust from
     # the Q algorithm, target flips) and then in session 2 with a Select mask that leaves half
     # of the tags outside the round (QueryReps of a round they are not in). The fast
-    # population path (shared front end, held link constants, the state machine's silent
-    # steps) and every tag listening to its own samples must give the same records, bit for
-    # bit, and the same tag states; the silent steps must actually have been taken.
+    # population path (shared front end, held link constants, the population's vectorised
+    # silent steps, devices.tag_population) and every tag listening to its own samples must
+    # give the same records, bit for bit, and the same tag states; the silent steps must
+    # actually have been taken, most of them by the population at once.
     from channels import Antenna, Channel, Isotropic, Scene
+    from devices.gen2_tag_state import StateArrays
     from devices.gen2_tag_state import TagState as _State
     from devices.reader import Reader, ReaderConfig
     from devices.tag import PassiveTag, TagConfig
     from devices.tag_chip import PowerDependentChip
     from scenarios.inventory import tag_antenna
 
-    silent_steps = []
+    silent_steps, population_steps = [], []
     original = _State.on_command_if_silent
+    original_arrays = StateArrays.take_silent_steps
 
     def counted(self, cmd, *, t_s):
         done = original(self, cmd, t_s=t_s)
         silent_steps.append(done)
         return done
 
+    def counted_arrays(self, cmd, silent, decrement, t_s):
+        population_steps.append(int(silent.sum()))
+        return original_arrays(self, cmd, silent, decrement, t_s)
+
     monkeypatch.setattr(_State, "on_command_if_silent", counted)
+    monkeypatch.setattr(StateArrays, "take_silent_steps", counted_arrays)
     chip = PowerDependentChip.pass_default()
     radii = [1.0, 1.4, 1.9, 2.3, 2.8, 3.2, 3.7, 6.0, 9.0, 1.2, 1.7, 2.1, 2.6]
     results = []
     for fast in (True, False):
         silent_steps.clear()
+        population_steps.clear()
         ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
         tags = []
         for k, r in enumerate(radii):
@@ -467,7 +476,7 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
             states=[(t.state.state, dict(t.state.inventoried), t.state.sl, t.state.slot,
                      t.rng.bit_generator.state["state"], t.reflection_states) for t in tags],
             powers=[ex.incident_power_dbm for ex in air.exchanges],
-            taken=sum(silent_steps)))
+            taken=sum(silent_steps) + sum(population_steps), by_population=sum(population_steps)))
     fast_run, full_run = results
     assert fast_run["logs"] == full_run["logs"]
     assert fast_run["states"] == full_run["states"]
@@ -477,3 +486,52 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
     assert 2 <= len(first.tags_read()) < len(radii)  # the chip decides: the far tags stay dark
     assert second.tags_read() and all((k + 1) % 2 == 1 for k in second.tags_read())
     assert fast_run["taken"] > 100, fast_run["taken"]
+    assert fast_run["by_population"] > 0.8 * fast_run["taken"], fast_run
+    assert full_run["by_population"] == 0 and full_run["taken"] == fast_run["taken"], (full_run, fast_run)
+
+
+def test_population_with_individual_tags_equals_full_listen():
+    # Tags that differ in what the population must leave to them: an RC envelope detector
+    # (another decoding of the command), clock errors and jitter (their own BLF and T1),
+    # one tag that does not share front ends (it listens to its own samples every time),
+    # and a session-1 inventory whose S1 flags revert during the run (short persistence:
+    # the population's silent steps then go through TagState.on_command_if_silent). The
+    # population path must give the records, exchanges and tag states (clocks included) of
+    # every tag on its own.
+    from channels import Antenna, Channel, Isotropic, Scene
+    from devices.gen2_tag_state import FlagPersistence
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import PassiveTag, TagConfig
+    from scenarios.inventory import tag_antenna
+
+    radii = [1.0, 1.5, 2.0, 2.5, 3.0, 1.2, 1.8, 2.2]
+    runs = []
+    for fast in (True, False):
+        ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
+        tags = []
+        for k, r in enumerate(radii):
+            cfg = TagConfig(epc_hex=f"{k + 1:024X}", envelope_rc_s=2e-7 if k % 3 == 1 else 0.0,
+                            clock_error_percent=(-0.1, 0.0, 0.05, 0.1)[k % 4], clock_jitter_rms=0.01 if k % 2 else 0.0)
+            ant = tag_antenna((r * math.cos(0.8 * k), r * math.sin(0.8 * k), 1.0), 0.8 * k + math.pi)
+            tags.append(PassiveTag(cfg, ant, rng=trial_rng(44, 3, k)))
+            tags[-1].state.persistence = FlagPersistence(s1_s=4e-3)
+        reader = Reader(ReaderConfig(), [ra], rng=trial_rng(44, 1))
+        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(44, 2), fast=fast, keep_exchanges=True)
+        if fast:
+            tags[5].shared_front_end = False  # after EngineAir, which sets the flag on every tag
+            assert air._reflectors[0].members == tags  # the population path is in use
+        # S1 reverts 4 ms after a read: tags come back, the inventory runs all its rounds
+        logs = [run_inventory(air, InventoryConfig(q_initial=2.0, session=1, max_rounds=5))]
+        runs.append(dict(logs=[(log.slots, log.reads) for log in logs],
+                         states=[(t.state.state, dict(t.state.inventoried), t.state.slot, t.state.t_s,
+                                  t.rng.bit_generator.state["state"]) for t in tags],
+                         exchanges=[(ex.command, ex.replied, ex.incident_power_dbm, ex.failure_reason, ex.reply_start_s)
+                                    for ex in air.exchanges]))
+    assert runs[0] == runs[1]
+    assert runs[0] == runs[1]
+    slots, reads = runs[0]["logs"][0]
+    # every tag replied; the tags on the nominal clock were read, and read again after S1
+    # reverted (a reader without timing recovery loses long replies of the others)
+    assert set().union(*(set(e[1]) for e in runs[0]["exchanges"])) == set(range(len(radii)))
+    assert {1, 5} <= set(reads["tag"]) and len(set(zip(reads["tag"], reads["round"]))) > len(set(reads["tag"]))
+    assert len(runs[0]["exchanges"]) > 100

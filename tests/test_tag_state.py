@@ -415,3 +415,69 @@ def test_silent_steps_equal_on_command():
                 {k: v for k, v in vars(fast).items() if not isinstance(v, np.ndarray)}
             assert r_full.bit_generator.state == r_fast.bit_generator.state
     assert 0.2 * total <= taken < total, (taken, total)
+
+
+def test_state_arrays_silent_steps_equal_on_command():
+    # StateArrays (the population's arrays): random command sequences (fixed seed) sent to
+    # 12 tags in two copies with equal streams. One copy gets every command through
+    # on_command; the other lets StateArrays decide the silent steps for all tags at once,
+    # takes them (take_silent_steps) and sends the command through on_command only to the
+    # rest, reading their rows back. Replies, every attribute of every state, the generators
+    # and the arrays (equal to the states' rows) must stay equal; most commands must be
+    # silent steps for most tags, and at least one of them must find S1 due to revert (persistence
+    # 3 ms, sessions 0–2).
+    from devices.gen2_tag_state import FlagPersistence, StateArrays
+
+    rng = np.random.default_rng(8)
+    n = 12
+    keep = FlagPersistence(s1_s=3e-3)
+    full = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
+    fast = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
+    g_full = [np.random.default_rng(k) for k in range(n)]
+    g_fast = [np.random.default_rng(k) for k in range(n)]
+    arrays = StateArrays(fast)
+    silent_total = due_total = total = 0
+    t = 0.0
+    for step in range(600):
+        t += 2e-4 * rng.random()
+        k, s = int(rng.integers(7)), int(rng.integers(3))
+        if k == 0:
+            cmd = Query(session=s, target="AB"[int(rng.integers(2))], q=int(rng.integers(4)))
+        elif k == 1:
+            cmd = QueryAdjust(session=s, updn=int(rng.choice([-1, 0, 1])))
+        elif k in (2, 3, 4):
+            cmd = QueryRep(session=s)
+        elif k == 5:
+            rn = [st.rn16 for st in full if st.rn16 is not None]
+            cmd = ACK(rn[0] if rn and rng.random() < 0.7 else int(rng.integers(1 << 16)))
+        else:
+            cmd = NAK()
+        if rng.random() < 0.02:  # a tag loses and regains power (outside the arrays: read back)
+            i = int(rng.integers(n))
+            for st in (full[i], fast[i]):
+                st.on_power(False, t)
+                st.on_power(True, t)
+            arrays.read([i])
+        expected = [st.on_command(cmd, t_s=t, rng=g) for st, g in zip(full, g_full)]
+        due = (t - arrays.s1_set_s >= arrays.s1_keep_s)
+        silent, dec = arrays.silent_steps(cmd, np.ones(n, bool), t)
+        due_total += int((silent & due).sum())
+        arrays.take_silent_steps(cmd, silent, dec, t)
+        got = [None] * n
+        rest = [i for i in range(n) if not silent[i]]
+        for i in rest:
+            got[i] = fast[i].on_command(cmd, t_s=t, rng=g_fast[i])
+        arrays.read(rest)
+        silent_total += int(silent.sum())
+        total += n
+        for a, b in zip(expected, got):
+            assert (a is None and b is None) or a == b
+        for a, b in zip(full, fast):
+            assert {k: v for k, v in vars(a).items() if not isinstance(v, np.ndarray)} == \
+                {k: v for k, v in vars(b).items() if not isinstance(v, np.ndarray)}, step
+        assert [g.bit_generator.state for g in g_full] == [g.bit_generator.state for g in g_fast]
+        rows = StateArrays(fast)
+        for name in ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s"):
+            np.testing.assert_array_equal(getattr(arrays, name), getattr(rows, name))
+    assert 0.5 * total <= silent_total < total, (silent_total, total)
+    assert due_total >= 1, due_total

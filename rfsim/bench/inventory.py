@@ -29,20 +29,41 @@ def _circle(n: int, seed: int) -> EngineAir:
     return EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, 2))
 
 
-def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200),
+class _Counted:
+    """An air interface that counts the exchanges (reader commands) run through it."""
+
+    def __init__(self, air):
+        self.air, self.link, self.n_commands = air, air.link, 0
+
+    def exchange(self, cmd, **kw):
+        self.n_commands += 1
+        return self.air.exchange(cmd, **kw)
+
+
+def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200, 500),
                     populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50, seed: int = 0) -> dict:
     """Wall and CPU time of one sample-level Q-algorithm inventory to completion for ``n_tags``
-    tags and for each of ``sample_populations`` (``sample_N<n>_wall_s``, ``…_cpu_s``,
-    ``…_slots``: how the cost grows with N; numba warmed up on a 3-tag inventory first), the
-    1-minute load average before the timed runs, and the mean ± std of slots and air time to
-    read all N tags at protocol level over ``runs`` populations for each of ``populations``."""
+    tags and for each of ``sample_populations``, and the Q algorithm's slots and air time at
+    protocol level.
+
+    Per population N (``sample_N<n>_…``): wall and CPU time [s], slots, reader commands, air
+    time [s], ``…_air_per_wall`` (> 1: faster than the air), CPU time per command [ms] and per
+    tag and command [µs]. How the cost grows with N: ``sample_cpu_exponent`` is the slope of
+    log(CPU time) against log(N) (1 = linear), and the fit CPU/command = a + b·N gives
+    ``sample_cpu_per_command_ms`` (a, the per-command cost) and ``sample_cpu_per_tag_command_us``
+    (b, what each further tag adds to a command). numba's kernels are loaded on a 3- and a
+    20-tag inventory first; the 1-minute load average is recorded before and after. At
+    protocol level: mean ± std of slots and air time to read all N tags over ``runs``
+    populations for each of ``populations``."""
     from devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 
-    run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation)
+    run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation / cache load)
+    run_inventory(_circle(20, seed + 2), InventoryConfig())
     out = {"load_average_1min": os.getloadavg()[0]}
+    fit = []
     for n in dict.fromkeys((int(n_tags), *(int(k) for k in sample_populations))):
-        air = _circle(n, seed)
+        air = _Counted(_circle(n, seed))
         t0, c0 = time.perf_counter(), time.process_time()
         log = run_inventory(air, InventoryConfig())
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
@@ -52,8 +73,20 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
                         "sample_tags_read": len(log.tags_read()),
                         "sample_air_time_per_wall_s": log.air_time_s / wall})
         if n in sample_populations:
+            k = air.n_commands
             out.update({f"sample_N{n}_wall_s": wall, f"sample_N{n}_cpu_s": cpu, f"sample_N{n}_slots": log.n_slots,
-                        f"sample_N{n}_tags_read": len(log.tags_read())})
+                        f"sample_N{n}_commands": k, f"sample_N{n}_tags_read": len(log.tags_read()),
+                        f"sample_N{n}_air_time_s": log.air_time_s, f"sample_N{n}_air_per_wall": log.air_time_s / wall,
+                        f"sample_N{n}_cpu_per_command_ms": 1e3 * cpu / k,
+                        f"sample_N{n}_cpu_per_tag_command_us": 1e6 * cpu / (k * n)})
+            fit.append((n, cpu, k))
+    if len(fit) >= 2:
+        n_arr, cpu_arr, k_arr = (np.array(v, float) for v in zip(*fit))
+        out["sample_cpu_exponent"] = float(np.polyfit(np.log(n_arr), np.log(cpu_arr), 1)[0])
+        b, a = np.polyfit(n_arr, cpu_arr / k_arr, 1)
+        out["sample_cpu_per_command_ms"] = 1e3 * float(a)
+        out["sample_cpu_per_tag_command_us"] = 1e6 * float(b)
+    out["load_average_1min_after"] = os.getloadavg()[0]
     link = profile("miller4-320k")
     for n in populations:
         slots, air_s = [], []

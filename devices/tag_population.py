@@ -1,0 +1,250 @@
+"""A population of passive tags as one reflector group of the air step (rfsim.air).
+
+In an inventory almost every tag does nothing on almost every command: it stays unpowered,
+or it takes a silent step of its state machine (a QueryRep counting down its slot counter,
+an ACK or NAK not for it; :meth:`devices.gen2_tag_state.TagState.on_command_if_silent`).
+:class:`TagPopulation` keeps the Gen2 state of all its tags in arrays
+(:class:`devices.gen2_tag_state.StateArrays`) and, on an exchange where every tag sees a
+scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, static links),
+
+1. decides for all tags at once which of them stay quiet — the remembered power decision of
+   each tag's P_inc = |g_j·x_m|² (``PassiveTag.quiet_point``, made by the tag's own full path
+   earlier) agrees with its powered state, and an unpowered tag stays unpowered or a powered
+   one takes a silent step of the decoded command (``StateArrays.silent_steps``, the rules of
+   ``on_command_if_silent``);
+2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
+   ``PassiveTag.take_quiet_step``): each tag is left exactly as its own ``reflect`` would
+   have left it;
+3. asks only the other tags — those that reply, power up or down, load a slot counter,
+   change state — through their own full path (``PassiveTag.reflect``): a tag with its own
+   reply parameters (clock, T1, line code) answers with them.
+
+The quiet tags re-radiate r_j = A_s − Γ_A, a constant (devices.tag, step 6), so at a
+receiver with backward constants b_j their sum is one constant,
+c = Σ_j b_j·(r_j·g_j) over the quiet, scattering tags (:meth:`PopulationReflection.terms`),
+added to the factor of x(t) in tag order: the air step accumulates it sequentially
+(``numpy.add.accumulate``) over the products formed in Python complex arithmetic once per
+round, the same operations in the same order as the per-tag step, so the records are
+bit-identical to every tag reflecting on its own (tested).
+
+The arrays are read back from the tags after every exchange in which all tags reflect on
+their own (:meth:`TagPopulation.reflect_each`: the first exchange of a round) and after each
+tag's own reflection; the power decisions are kept while the gains and the reader's CW
+level stay the same (a round). Between exchanges change the tags (states, configs, chips)
+only through the air, or call :meth:`TagPopulation.refresh` afterwards (EngineAir.cw_off
+does).
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+
+import numpy as np
+
+from devices.gen2_tag_state import StateArrays
+from rfsim.air import Segment
+from rfsim.gen2.commands import Query
+
+_antenna = operator.attrgetter("antenna")
+
+
+class TagPopulation:
+    """Passive tags (``devices.tag.PassiveTag`` or alike) as one reflector group of
+    :func:`rfsim.air.propagate` (:class:`rfsim.air.ReflectorGroup`).
+
+    Parameters
+    ----------
+    tags : sequence of tags with ``state`` (TagState), ``reflect``, ``antenna``,
+        ``quiet_point``, ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
+        ``config.envelope_rc_s``
+    """
+
+    def __init__(self, tags):
+        self.members = list(tags)
+        for t in self.members:
+            if not callable(getattr(t, "quiet_point", None)):
+                raise TypeError(f"a population member must be a PassiveTag-like tag, got {type(t).__name__}")
+        self.arrays = StateArrays([t.state for t in self.members])
+        self._antennas: tuple | None = None
+        self._round: _Round | None = None
+
+    def __len__(self) -> int:
+        return len(self.members)
+
+    @property
+    def antennas(self) -> tuple:
+        """The members' antennas (the same tuple object while none of them changes)."""
+        ants = self._antennas
+        if ants is None or len(ants) != len(self.members) or not all(
+                map(operator.is_, map(_antenna, self.members), ants)):
+            ants = self._antennas = tuple(map(_antenna, self.members))
+        return ants
+
+    def refresh(self) -> None:
+        """Read every member's state into the arrays again and forget the round's remembered
+        power decisions (after changing tags — states, configs, chips — from outside)."""
+        self.arrays.read(range(len(self.members)))
+        self._round = None
+
+    def reflect_each(self, incident) -> list:
+        """Every member reflects its own incident segment (``incident[j]``), in order."""
+        out = [m.reflect(inc) for m, inc in zip(self.members, incident)]
+        self.arrays.read(range(len(self.members)))
+        if self._round is not None:
+            self._round.needs[:] = True
+        return out
+
+    def reflect_scaled(self, base: Segment, gains, fc_hz: float) -> PopulationReflection | None:
+        """Member j sees ``gains[j]·base`` (module docstring): a :class:`PopulationReflection`,
+        or None when the shortcut does not apply (the caller then uses :meth:`reflect_each`)."""
+        if not self.members or base.base is not None or base.samples.ndim != 1:
+            return None
+        fe = self.members[0].front_end_of(base)
+        if fe.plateau is None:
+            return None
+        rnd = self._sync(gains, fe)
+        arrays = self.arrays
+        on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
+        quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
+        steps, decoded_of = [], {}
+        if on.any():
+            for rc, group in rnd.rc_groups:
+                sel = on & group
+                if not sel.any():
+                    continue
+                decoded = fe.command(rc)
+                for j in np.flatnonzero(sel).tolist():
+                    decoded_of[j] = decoded
+                cmd, frame = decoded
+                if cmd is None or isinstance(cmd, Query):
+                    continue
+                t_end_s = base.t0_s + frame.end / base.fs_hz
+                silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
+                if silent.any():
+                    steps.append((cmd, silent, dec, t_end_s))
+                    quiet = quiet | silent
+        for cmd, silent, dec, t_end_s in steps:
+            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
+        need = quiet & rnd.needs
+        if need.any():
+            members, points = self.members, rnd.points
+            for j in np.flatnonzero(need).tolist():
+                members[j].take_quiet_step(points[j])
+            rnd.needs[need] = False
+        reactions = {}
+        react = np.flatnonzero(~quiet).tolist()
+        for j in react:
+            m = self.members[j]
+            decoded = decoded_of.get(j)
+            if decoded is not None:  # its power decision is known: the tag's own path from the command on
+                reactions[j] = m.respond_decoded(rnd.points[j], decoded, base)
+            else:
+                reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
+                if not rnd.known[j]:
+                    rnd.learn(j, m.quiet_point(fe, gains[j]))
+        if react:
+            arrays.read(react)
+            rnd.needs[react] = True
+        return PopulationReflection(self, rnd, quiet, reactions, steps)
+
+    def _sync(self, gains, fe) -> _Round:
+        """The round's quiet points for these gains and the segment's CW sample (kept while
+        both stay the same; the sign of the CW sample does not matter: |g·(−x_m)|² = |g·x_m|²
+        exactly, negation being exact in IEEE arithmetic)."""
+        cw = fe.cw_sample
+        if cw.real < 0 or (cw.real == 0 and cw.imag < 0):
+            cw = -cw
+        rnd = self._round
+        if rnd is not None and rnd.cw == cw and (rnd.gains is gains or rnd.gains == list(gains)):
+            return rnd
+        self._round = rnd = _Round(self.members, gains, cw, fe)
+        return rnd
+
+
+class _Round:
+    """The quiet points of every member for one set of gains (a round's held links)."""
+
+    def __init__(self, members, gains, cw, fe):
+        self.members, self.cw = members, cw
+        self.gains = gains if isinstance(gains, list) else list(gains)
+        self.points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
+        n = len(members)
+        self.known = np.zeros(n, bool)
+        self.powered = np.zeros(n, bool)
+        self.scatter = np.zeros(n, bool)
+        self.dbm = np.full(n, math.nan)
+        for j, q in enumerate(self.points):
+            self._set(j, q)
+        self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
+        rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)
+        self.rc_groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
+        self._terms: dict = {}
+
+    def _set(self, j: int, q) -> None:
+        if q is not None:
+            self.known[j], self.powered[j], self.dbm[j], self.scatter[j] = True, q[2], q[3], q[5] != q[4]
+
+    def learn(self, j: int, q) -> None:
+        """Member ``j``'s quiet point became known (its own reflection made it)."""
+        if q is not None:
+            self.points[j] = q
+            self._set(j, q)
+            self._terms.clear()
+
+    def terms(self, backs) -> np.ndarray:
+        """(n,) complex: b_j·((A_s − Γ_A)·g_j) per member in Python complex arithmetic, as
+        the air step forms it for one tag (0 where the quiet point is unknown)."""
+        hit = self._terms.get(id(backs))
+        if hit is not None and (hit[0] is backs or hit[0] == list(backs)):
+            return hit[1]
+        out = np.array([b * ((q[5] - q[4]) * g) if q is not None else 0j
+                        for b, g, q in zip(backs, self.gains, self.points)], dtype=np.complex128)
+        self._terms[id(backs)] = (backs, out)
+        return out
+
+
+class PopulationReflection:
+    """What a :class:`TagPopulation` did with one exchange (:class:`rfsim.air.GroupReflection`).
+
+    Attributes
+    ----------
+    quiet : (n,) bool — members answered by the population (constant re-radiation)
+    reactions : {member index: its own reflection} for the others, in member order
+    powered : (n,) bool; incident_power_dbm : (n,) float [dBm] — per member
+    """
+
+    def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list):
+        self._population, self._round, self._steps = population, rnd, steps
+        self.quiet, self.reactions = quiet, reactions
+        self.powered = rnd.powered & quiet
+        self.incident_power_dbm = rnd.dbm.copy()
+        for j, r in reactions.items():
+            self.powered[j] = bool(r.powered)
+            self.incident_power_dbm[j] = r.incident_power_dbm
+
+    def terms(self, backs) -> tuple[np.ndarray, np.ndarray]:
+        """(terms, use): the quiet members' b_j·(r_j·g_j) (module docstring) for the backward
+        constants ``backs`` and the mask of the quiet members that scatter."""
+        return self._round.terms(backs), self.quiet & self._round.scatter
+
+    def __len__(self) -> int:
+        return len(self.quiet)
+
+    def __getitem__(self, j: int):
+        r = self.reactions.get(j)
+        if r is not None or not self.quiet[j]:
+            return r
+        point = self._round.points[j]
+        if not point[2]:
+            return point[8]
+        for cmd, silent, _, t_end_s in self._steps:
+            if silent[j]:
+                return self._population.members[j].silent_response(point, cmd, t_end_s)
+        raise IndexError(j)
+
+    def __iter__(self):
+        return (self[j] for j in range(len(self)))
+
+
+__all__ = ["TagPopulation", "PopulationReflection"]

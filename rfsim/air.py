@@ -233,7 +233,11 @@ class Links(Protocol):
     The returned object (``channels.PathSet``) offers ``method(bandwidth_hz, propagation)``
     ("narrowband"/"exact"), ``apply(x, *, fs_hz, fc_hz, t0_s, method)``, ``static`` (no Doppler)
     and ``constant_gain(fc_hz)`` (optionally ``narrowband_constant(fc_hz, bandwidth_hz,
-    propagation)``: the constant of a narrowband static link or None, remembered)."""
+    propagation)``: the constant of a narrowband static link or None, remembered).
+
+    The step asks every link at its own start, ``t_s = t0_s``; the Doppler phases of the
+    returned paths refer to that time (``channels.Channel.link``: paths evaluated at t_s), so
+    a moving link advances by 2π·f_D·(t − t0_s) over the step."""
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float): ...
 
@@ -543,10 +547,13 @@ def _through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwid
         return g, None
     method = paths.method(bandwidth_hz, propagation)
     src = seg.samples if x is None else x
+    # The step asks its links at its own start (``Links.paths(..., t_s=t0_s)``), and a link's
+    # Doppler phases refer to the time it was evaluated at, so every segment of the step (all
+    # on the step's time base) starts at t = 0 of its links.
     if src.ndim == 1:
-        return None, paths.apply(src, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method)
+        return None, paths.apply(src, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=0.0, method=method)
     flat = src.reshape(-1, src.shape[-1])
-    y = np.stack([paths.apply(r, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=seg.t0_s, method=method) for r in flat])
+    y = np.stack([paths.apply(r, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=0.0, method=method) for r in flat])
     return None, y.reshape(src.shape)
 
 

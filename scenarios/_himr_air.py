@@ -42,7 +42,7 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, Channel, Isotropic, PathSet, Scene
+from channels import Antenna, Channel, Isotropic, Scene
 from devices.himr_pylon import Pylon, PylonConfig
 from devices.himr_tag import HimrTag
 from rfsim.air import LinkTable, propagate
@@ -122,30 +122,6 @@ class AirRun:
     cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
 
 
-class StepLinks:
-    """The links of one step (a :class:`rfsim.air.LinkTable` over the channel, the tag
-    moving) with their Doppler phases referred to the step's start ``t_s``: the air step
-    applies a path set at the absolute time of its samples, and a moving link evaluated at
-    t_s must advance its phase by 2π·f_D·(t − t_s) over the step, not 2π·f_D·t
-    (``PathSet.apply``: t0 relative to the evaluation time). Each path's gain is multiplied
-    by e^{−j2π·f_D·t_s}; a pair and its reverse stay one object (reciprocal round trip)."""
-
-    def __init__(self, channel, motions: dict):
-        self.table = LinkTable(channel, motions=motions)
-        self._done: dict = {}
-
-    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
-        p = self.table.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
-        if p is None or p.static:
-            return p
-        hit = self._done.get(id(p))
-        if hit is None:
-            turn = np.exp(-2j * np.pi * np.mod(p.doppler_hz * t_s, 1.0))
-            hit = (p, PathSet(p.gain * turn, p.delay_s, p.doppler_hz))
-            self._done[id(p)] = hit
-        return hit[1]
-
-
 class _Memo:
     """A motion callable remembering its last positions (the pylons of one packet ask the
     same times)."""
@@ -203,7 +179,7 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
         t0 = t_k - radio.margin_s
         for grp in groups:
             devs = [pylons[u] for u in grp]
-            links = StepLinks(channel, {id(tag.antenna): motion})
+            links = LinkTable(channel, motions={id(tag.antenna): motion})
             res = propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
                             rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1
@@ -237,5 +213,5 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
                   cpu_s=cpu)
 
 
-__all__ = ["RadioConfig", "AirRun", "StepLinks", "simulate", "check_sample_rate", "check_pylons_off_the_track",
+__all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track",
            "pylon_antennas", "PacketMeasurements"]

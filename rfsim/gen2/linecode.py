@@ -435,16 +435,18 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
         c = impl[4](r[: last + n_pre], _template(m, trext, ratio, 0.0)[1])
         lag = int(np.argmax(c))
-        # The Miller pilot is periodic: lags one element apart correlate almost as well, and
-        # an integer lag is up to 1/2 sample off. Refine the three largest local maxima within
-        # ±(1 element + 1 sample) of the peak to 1/16 sample and keep the best.
-        w = int(math.ceil(1.0 / ratio)) + 1
+        # The Miller pilot is periodic: lags whole elements apart correlate almost as well, and
+        # an integer lag is up to 1/2 sample off, which at ≈ 3 samples per element can put the
+        # integer peak a few elements from the true start. Refine the five largest local maxima
+        # within ±(1 half-symbol of m elements + 1 sample) of the peak to 1/16 sample and keep
+        # the best.
+        w = int(math.ceil(m / ratio)) + 1
         lo, hi = max(0, lag - w), min(c.size, lag + w + 1)
         win = c[lo:hi]
         is_max = np.ones(win.size, dtype=bool)
         is_max[1:] &= win[1:] >= win[:-1]
         is_max[:-1] &= win[:-1] >= win[1:]
-        cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:3]]
+        cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:5]]
         best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
         if best < 0:
             start = float(lag)

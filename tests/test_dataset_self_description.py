@@ -36,6 +36,7 @@ TINY = {
     "st-to-st": ["geometry.st_x_m=[1.0, 4.0]", "mc.positions_per_cell=6", "mc.workers=1"],
     "exciter-link": ["sweep.exciter_distance_m=[1.0, 3.0]", "sweep.tag_distance_m=[0.2, 1.0]",
                      "sweep.draws_per_point=3", "sweep.workers=1"],
+    "tag-to-tag-tracking": ["trajectories=3", "filter_runs=2", "workers=1", "ranges_m=[2.0]"],
 }
 
 
@@ -160,6 +161,7 @@ FIGURES = {
     "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],
     "rss-localization": ["cdf", "floorplan", "rmse"],
     "st-to-st": ["pcancel"], "exciter-link": ["heatmap"],
+    "tag-to-tag-tracking": ["cdf", "error-time", "table6_2", "tracks"],
 }
 
 

@@ -42,6 +42,13 @@ from rfsim.estimators.bounds import log_distance_crlb
 from rfsim.estimators.observer import care_gain
 from rfsim.estimators.observer import observe_1d
 from rfsim.estimators.observer import observe_2d
+from rfsim.estimators.proximity import cv_transition
+from rfsim.estimators.proximity import cv_process_noise
+from rfsim.estimators.proximity import association
+from rfsim.estimators.proximity import proximity_kalman
+from rfsim.estimators.proximity import logistic_log_likelihood
+from rfsim.estimators.proximity import bernoulli_pf
+from rfsim.estimators.proximity import rbpf
 
 import types as _types
 

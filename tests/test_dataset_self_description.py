@@ -37,6 +37,8 @@ TINY = {
     "exciter-link": ["sweep.exciter_distance_m=[1.0, 3.0]", "sweep.tag_distance_m=[0.2, 1.0]",
                      "sweep.draws_per_point=3", "sweep.workers=1"],
     "tag-to-tag-tracking": ["trajectories=3", "filter_runs=2", "workers=1", "ranges_m=[2.0]"],
+    "st-localization": ["realizations=2", "speeds_mps=[0.5, 2.0]", "trajectory_2_speeds_mps=[0.5]",
+                        "path_duration_s=6", "walk_duration_s=6", "workers=1"],
 }
 
 
@@ -162,6 +164,7 @@ FIGURES = {
     "rss-localization": ["cdf", "floorplan", "rmse"],
     "st-to-st": ["pcancel"], "exciter-link": ["heatmap"],
     "tag-to-tag-tracking": ["cdf", "error-time", "table6_2", "tracks"],
+    "st-localization": ["cdf", "error-time", "rmse", "room", "speed"],
 }
 
 

@@ -49,6 +49,11 @@ from rfsim.estimators.proximity import proximity_kalman
 from rfsim.estimators.proximity import logistic_log_likelihood
 from rfsim.estimators.proximity import bernoulli_pf
 from rfsim.estimators.proximity import rbpf
+from rfsim.estimators.landmark_pf import binomial_log_likelihood
+from rfsim.estimators.landmark_pf import wcl_track
+from rfsim.estimators.landmark_pf import pf_bin
+from rfsim.estimators.landmark_pf import pf_aa
+from rfsim.estimators.landmark_pf import bias_compensate
 
 import types as _types
 

@@ -43,7 +43,8 @@ def plot_tracks(path: Path, out: Path) -> Path:
     for label in dict.fromkeys(est["tracker"]):
         m = (est["trajectory"] == 0) & (est["range_m"] == r) & (est["tracker"] == label)
         if m.any():
-            ax.plot(est["x_est_m"][m], est["y_est_m"][m], ".-", lw=0.8, ms=3, label=label)
+            ax.plot(est["x_est_m"][m], est["y_est_m"][m], "o" if label == "nn" else ".-", lw=0.8,
+                    ms=6 if label == "nn" else 3, mfc="none" if label == "nn" else None, label=label)
     ax.set(xlabel="x [m]", ylabel="y [m]", title=f"Aisle, trajectory 0, r = {r:g} m — after {cite('geng', 'Fig. 6.3')}")
     ax.set_aspect("equal")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
@@ -86,7 +87,9 @@ def plot_cdf(path: Path, out: Path) -> Path:
 def plot_table(path: Path, out: Path) -> Path:
     plt = pyplot()
     s = read_table(path, "summary")
-    labels = [k[:-7] for k in s if k.endswith("_rmse_m") and not k.endswith("_published_rmse_m")]
+    names = [k[:-7] for k in s if k.endswith("_rmse_m") and not k.endswith("_published_rmse_m")]
+    order = {"nn": 0, "kf": 1, "pf": 2, "rb": 3}
+    labels = sorted(names, key=lambda n: (order.get(n[:2], 4), int("".join(c for c in n if c.isdigit()) or 0)))
     fig, ax = plt.subplots(figsize=(8, 4.5))
     n_r = s["range_m"].size
     width = 0.8 / n_r
@@ -94,11 +97,11 @@ def plot_table(path: Path, out: Path) -> Path:
     for i, r in enumerate(s["range_m"]):
         got = [s[f"{lab}_rmse_m"][i] for lab in labels]
         pub = [s[f"{lab}_published_rmse_m"][i] for lab in labels]
-        bars = ax.bar(x + (i - (n_r - 1) / 2) * width, got, width * 0.9, label=f"r = {r:g} m (this run)")
-        ax.plot(x + (i - (n_r - 1) / 2) * width, pub, "_", ms=14, mew=3, color=bars[0].get_facecolor(),
-                markeredgecolor="k" if i == 0 else None, label="published" if i == 0 else None)
+        ax.bar(x + (i - (n_r - 1) / 2) * width, got, width * 0.9, label=f"r = {r:g} m (this run)")
+        ax.plot(x + (i - (n_r - 1) / 2) * width, pub, "_", ms=16, mew=3, color="k",
+                label="published (Table 6.2)" if i == 0 else None)
     ax.set_xticks(x, labels)
-    ax.set(ylabel="average RMSE [m]", title=f"Average RMSE per tracker beside {cite('geng', 'Table 6.2')} (black bars)")
+    ax.set(ylabel="average RMSE [m]", title=f"Average RMSE per tracker and sensing range r\nbeside {cite('geng', 'Table 6.2')} (black marks)")
     ax.legend(fontsize=8)
     return save_figure(fig, out)
 

@@ -35,8 +35,8 @@ PF-BIN u ~ N(0, diag(0.01, 0.01)). Error: ‖x̃_t − x_t‖ at the period end;
 time average of RMSE_t = sqrt(mean over realizations of the squared error).
 
 Measured (seed 1; 64 s CPU for the default run): crossover 1.29 m/s (published ≈ 1.2); random walk
-1500 s PF-AA vs WCL −45.3 % (−36.6 %); sqlam, 20 tracks × 500 s, SQLAM vs WCL within ±10 pp of
-−41.9 % (slow test); lab, 10,000 s, SQLAM 0.316 m (published 0.2560 m, +23 %; WCL 0.412 m), 91 s CPU;
+1500 s PF-AA vs WCL −45.3 % (−36.6 %); sqlam, 20 tracks × 500 s, SQLAM vs WCL −35.7 % (−41.9 %;
+SQLAM 0.310 m, WCL 0.482 m); lab, 10,000 s, SQLAM 0.316 m (published 0.2560 m, +23 %; WCL 0.412 m), 91 s CPU;
 trajectory 2 at 0.5 m/s (100 realizations) PF-BIN 0.196 m, PF-AA 0.217 m
 (published 0.1681 / 0.1717 m): both ≈ 0.03-0.045 m above. Two causes: the detections of a period
 are spread over it, so the estimates lag the period end by T_s/2 on average (0.075 m at

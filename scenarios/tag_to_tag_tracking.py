@@ -21,7 +21,8 @@ the default exciter and listener) stretched so that p(r) = 0.5: a1 = −2.523, a
 ``range_model = "logistic"`` the mobile tag decodes by that same curve. 100 trajectories × 50
 filter runs (L1214-L1219); KF and NN are deterministic given the observations (one run).
 
-Measured (default config, seed 1) against Table 6.2: NN, PF M = 10/20/30 and RBPF within ±20 %,
+Measured (default config, seed 1; 65 s CPU) against Table 6.2: NN +5…+9 %, PF M = 10 +13…+17 %,
+M = 20 −6…−8 %, M = 30 −14…−20 % (RBPF within 2 % of PF30),
 PF error falling with M and rising with r, RBPF ≈ PF30. Not reproduced: the KF. Here it
 reaches ≈ 0.3 m at every r (published 0.56/0.82/1.08 m): its measurement "noise" — the offset of
 the decoded tag from the mobile tag — is nearly zero-mean along a symmetric aisle and, with the

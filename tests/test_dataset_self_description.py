@@ -41,6 +41,9 @@ TINY = {
     "himr-2d": ["scene.duration_s=0.4", "observer.outage_s=[0.1, 0.2]"],
     "himr-1d": ["scene.duration_s=0.2"],
     "phase-tracking": ["trajectory.duration_s=0.5", "schedule.workers=1"],
+    "tag-to-tag-tracking": ["trajectories=3", "filter_runs=2", "workers=1", "ranges_m=[2.0]"],
+    "st-localization": ["realizations=2", "speeds_mps=[0.5, 2.0]", "trajectory_2_speeds_mps=[0.5]",
+                        "path_duration_s=6", "walk_duration_s=6", "workers=1"],
 }
 
 
@@ -168,6 +171,8 @@ FIGURES = {
     "himr-2d": ["eigenvalues", "errors", "rss-phase", "trajectory"],
     "himr-1d": ["eigenvalues", "errors", "rss-phase", "trajectory"],
     "phase-tracking": ["cdf", "phase", "track"],
+    "tag-to-tag-tracking": ["cdf", "error-time", "table6_2", "tracks"],
+    "st-localization": ["cdf", "error-time", "rmse", "room", "speed"],
 }
 
 

@@ -52,6 +52,18 @@ from rfsim.estimators.phase_tracking import PassResult
 from rfsim.estimators.phase_tracking import ekf_reads
 from rfsim.estimators.phase_tracking import rts_reads
 from rfsim.estimators.phase_tracking import track_phase
+from rfsim.estimators.proximity import cv_transition
+from rfsim.estimators.proximity import cv_process_noise
+from rfsim.estimators.proximity import association
+from rfsim.estimators.proximity import proximity_kalman
+from rfsim.estimators.proximity import logistic_log_likelihood
+from rfsim.estimators.proximity import bernoulli_pf
+from rfsim.estimators.proximity import rbpf
+from rfsim.estimators.landmark_pf import binomial_log_likelihood
+from rfsim.estimators.landmark_pf import wcl_track
+from rfsim.estimators.landmark_pf import pf_bin
+from rfsim.estimators.landmark_pf import pf_aa
+from rfsim.estimators.landmark_pf import bias_compensate
 
 import types as _types
 

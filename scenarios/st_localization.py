@@ -1,0 +1,467 @@
+"""Scenario ``st-localization``: tracking a sense-a-tag (ST) from the landmark tags it detects
+(AURIS ch. 4: PF-BIN, PF-AA, SQLAM's tracking module, weighted centroid; auris-sense-a-tag.md
+§3.3, §4.2, §7; seeds/003 L4493-L4650, L5375-L5415, L5600-L5690; wave2-specs.md §R).
+
+Scene (presets, :mod:`scenarios._st_paths`): a reader's panel antenna(s) 2 m above the floor
+facing down, an nx × ny grid of landmark tags on the floor, the ST moving on the floor. In each
+query period of T_s = 0.3 s the reader runs N = 10 rounds; in round j the ST decodes landmark k
+with the RTS probability (Eq. 4.6, :func:`rfsim.detection.rts_probability`'s coefficients)
+
+    p = 1/(1 + exp(a0 + a1·D_k + a2·d + a3·|θ_k| + a4·|φ_k|))
+
+with D_k, θ_k, φ_k the active antenna → landmark geometry (antenna frame: boresight down;
+θ = arcsin(Δy/D), φ = arcsin(Δx/D)) and d the ST → landmark distance at the round's time
+τ_j = (t + (j + ½)/N)·T_s. ``mode = "surrogate"`` draws those detections as Bernoulli trials, so
+a still ST sees n ~ Binomial(N, p_RTS) — what the source did (its PASS had no Q algorithm,
+L469-L473); a moving ST sees the Poisson-binomial of its positions, which is the "false
+synchronous detection" that PF-AA's bias compensation corrects. With several antennas (``lab``)
+the one nearest to the previous period's WCL estimate is active (the source: "nearest to the
+current ST estimate", L5633-L5641; the WCL keeps one data set for all trackers).
+
+Experiments (preset defaults; ``realizations`` and durations reduced unless ``full``):
+
+* ``speed-sweep`` (Fig. 4.11, L4587-L4605): trajectory 1 at 0.1-3 m/s, PF-AA with compensation
+  never (v_threshold = ∞) and always (0); the crossover speed where "always" becomes better
+  (published ≈ 1.2 m/s).
+* ``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636): PF-BIN (known initial state) vs PF-AA
+  (v_threshold 1.2 m/s) vs WCL at 0.5 and 2.5 m/s (published 0.1681 / 0.1717 m at 0.5 m/s).
+* ``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664): pfaa: PF-AA vs
+  WCL over 1500 s (−36.6 %); sqlam: SQLAM's tracking PF (PF-AA without compensation, Algorithm 3)
+  vs WCL over 500 s (−41.9 %); lab: SQLAM over 10,000 s (0.2560 m).
+
+Filter parameters (L4503-L4616, L5393-L5409): M = 200, q_t std 0.3 m (the source's N(0, 0.3)
+does not say std or variance, A§0.4: std taken), b0 = 0.8, b1 = 0.2, initial spread 0.3 m;
+PF-BIN u ~ N(0, diag(0.01, 0.01)). Error: ‖x̃_t − x_t‖ at the period end; a case's RMSE is the
+time average of RMSE_t = sqrt(mean over realizations of the squared error).
+
+Measured (seed 1; 64 s CPU for the default run): crossover 1.29 m/s (published ≈ 1.2); random walk
+1500 s PF-AA vs WCL −45.3 % (−36.6 %); sqlam, 20 tracks × 500 s, SQLAM vs WCL −35.7 % (−41.9 %;
+SQLAM 0.310 m, WCL 0.482 m); lab, 10,000 s, SQLAM 0.316 m (published 0.2560 m, +23 %; WCL 0.412 m), 91 s CPU;
+trajectory 2 at 0.5 m/s (100 realizations) PF-BIN 0.196 m, PF-AA 0.217 m
+(published 0.1681 / 0.1717 m): both ≈ 0.03-0.045 m above. Two causes: the detections of a period
+are spread over it, so the estimates lag the period end by T_s/2 on average (0.075 m at
+0.5 m/s, the false synchronous detection PF-AA compensates only above 1.2 m/s), and the 45 binomial
+counts per period of this replica's grid (landmarks at cell centres, ST and tags on the floor;
+the source's heights and grid offsets are not given) carry ≈ 0.2 m of position information.
+The ``sample-level`` mode (real Gen2 rounds at sample level) and SQLAM's mapping and
+landmark-replacement modules are not implemented.
+
+Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the random walk,
+``trial_rng(seed, c, b, 1)`` the detections; the trackers of case c and realization chunk g use
+``trial_rng(seed, c, 1000 + g, f)`` for tracker f.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from rfsim.config import param
+from rfsim.dataset import Dataset, column
+from rfsim.detection import RTS_COEFFICIENTS
+from rfsim.errors import ConfigError
+from rfsim.estimators.landmark_pf import bias_compensate, pf_aa, pf_bin, wcl_track
+from rfsim.procs import map_in_order
+from rfsim.rng import trial_rng
+from scenarios import _st_paths as paths
+from scenarios._exciter_scene import concat
+from scenarios._st_figures import plot_all
+
+NAME = "st-localization"
+DESCRIPTION = ("sense-a-tag tracking from landmark detections (AURIS ch. 4): RTS surrogate, PF-BIN, PF-AA with "
+               "bias compensation, SQLAM tracking, WCL")
+
+#: Published values (seeds/003): RMSE [m] or change vs WCL [%].
+PUBLISHED = {
+    ("trajectory-2", "pfbin", 0.5): 0.1681,   # L4624
+    ("trajectory-2", "pfaa", 0.5): 0.1717,    # L4624
+    "crossover_mps": 1.2,                     # L4605
+    "pfaa_vs_wcl_percent": -36.6,             # L4650, random walk 1500 s
+    "sqlam_vs_wcl_percent": -41.9,            # L5415, 500 s
+    "lab_rmse_m": 0.2560,                     # L5664, 10,000 s
+}
+
+_EXPERIMENTS = {"pfaa": ("speed-sweep", "trajectory-2", "random-walk"), "sqlam": ("random-walk",),
+                "lab": ("random-walk",)}
+_WALK_S = {"pfaa": 1500.0, "sqlam": 500.0, "lab": 10000.0}
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    particles: int = param(200, lo=1, hi=1_000_000, doc="particles M of PF-AA, SQLAM and PF-BIN (L4505)")
+    q_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA / SQLAM AR noise std per period (L4503)")
+    init_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA initial spread around the first WCL")
+    b0: float = param(0.8, lo=0.0, hi=1.0, doc="velocity AR weight of the current WCL velocity (L5403)")
+    b1: float = param(0.2, lo=0.0, hi=1.0, doc="velocity AR weight of the previous velocity (L5403)")
+    v_threshold_mps: float = param(1.2, lo=0.0, hi=1000.0, unit="m/s", doc="bias compensation above (L4605)")
+    pfbin_accel_var: float = param(0.01, lo=0.0, hi=100.0, unit="m2/s2",
+                                   doc="PF-BIN velocity noise variance per period (L4614)")
+
+
+@dataclass(frozen=True)
+class Config:
+    preset: Literal["pfaa", "sqlam", "lab"] = param("pfaa", doc="room, landmark grid and antennas")
+    mode: Literal["surrogate"] = param("surrogate", doc="'surrogate' = Bernoulli RTS detections per round")
+    experiments: tuple[Literal["speed-sweep", "trajectory-2", "random-walk"], ...] | None = param(
+        None, doc="experiments (none = preset: pfaa all three; sqlam and lab random-walk)")
+    full: bool = param(False, doc="the source's realization counts and durations")
+    realizations: int = param(10, lo=1, hi=100000, doc="realizations per case unless full")
+    landmark_grid: tuple[int, int] | None = param(None, lo=0, hi=1000, doc="nx, ny landmarks (none = preset)")
+    period_s: float = param(0.3, lo=1e-3, hi=100.0, unit="s", doc="query period T_s (L4597)")
+    rounds: int = param(10, lo=1, hi=1000, doc="query rounds N per period (L4507)")
+    speeds_mps: tuple[float, ...] = param((0.1, 0.3, 0.5, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0), lo=0.01, hi=20.0,
+                                          unit="m/s", doc="speed-sweep speeds on trajectory 1 (L4587)")
+    trajectory_2_speeds_mps: tuple[float, ...] = param((0.5, 2.5), lo=0.01, hi=20.0, unit="m/s",
+                                                       doc="trajectory-2 speeds (L4616-L4630)")
+    path_duration_s: float = param(60.0, lo=0.5, hi=1e5, unit="s", doc="duration on trajectories 1 and 2")
+    walk_duration_s: float | None = param(None, lo=0.5, hi=1e6, unit="s",
+                                          doc="random-walk duration (none = preset: 1500 pfaa, 500 sqlam, 10000 lab)")
+    walk_speed_mps: tuple[float, float] = param((0.1, 3.0), lo=0.0, hi=20.0, unit="m/s",
+                                                doc="random-walk speed range U[lo, hi] (L4638)")
+    trajectory_1_xy_m: tuple[tuple[float, float], ...] = param(paths.TRAJECTORY_1_XY, unit="m",
+                                                               doc="trajectory 1 waypoints (closed polyline)")
+    filters: FilterConfig = param(FilterConfig(), doc="particle-filter parameters")
+    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
+
+    def __post_init__(self):
+        if self.n_landmarks == 0:
+            raise ConfigError("landmark_grid", list(self.landmark_grid), "nx, ny >= 1 (at least one landmark)")
+        x0, y0, x1, y1 = self.room.bounds_m
+        pts = np.asarray(self.trajectory_1_xy_m, float).reshape(-1, 2)
+        if pts.shape[0] < 2:
+            raise ConfigError("trajectory_1_xy_m", [list(p) for p in pts], "at least 2 waypoints (x, y) in m")
+        out = ~((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0) & (pts[:, 1] <= y1))
+        if out.any():
+            raise ConfigError("trajectory_1_xy_m", list(pts[np.argmax(out)]),
+                              f"waypoints inside the {self.preset} room x in [{x0:g}, {x1:g}], y in [{y0:g}, {y1:g}] m "
+                              "(the trajectory leaves the room)")
+        if self.walk_speed_mps[1] < self.walk_speed_mps[0] or self.walk_speed_mps[1] <= 0:
+            raise ConfigError("walk_speed_mps", list(self.walk_speed_mps), "[lo, hi] with 0 <= lo <= hi, hi > 0")
+
+    @property
+    def room(self) -> paths.Room:
+        r = paths.PRESETS[self.preset]
+        return r if self.landmark_grid is None else paths.Room(r.size_m, tuple(self.landmark_grid), r.antennas_xyz_m)
+
+    @property
+    def n_landmarks(self) -> int:
+        g = self.room.grid
+        return int(g[0] * g[1])
+
+    @property
+    def experiment_list(self) -> tuple[str, ...]:
+        return self.experiments if self.experiments is not None else _EXPERIMENTS[self.preset]
+
+    @property
+    def walk_s(self) -> float:
+        return self.walk_duration_s if self.walk_duration_s is not None else _WALK_S[self.preset]
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case: experiment, path, speed, realizations, duration, trackers (label, kind, v_threshold)."""
+
+    index: int
+    experiment: str
+    trajectory: str
+    speed_mps: float
+    realizations: int
+    duration_s: float
+    trackers: tuple[tuple[str, str, float], ...]
+
+
+def cases(config: Config) -> list[Case]:
+    """Every case of the configured experiments (module docstring), in order."""
+    out: list[Case] = []
+    full, R, vt = config.full, config.realizations, config.filters.v_threshold_mps
+    for exp in config.experiment_list:
+        if exp == "speed-sweep":
+            for v in config.speeds_mps:
+                out.append(Case(len(out), exp, "1", v, 100 if full else R, config.path_duration_s,
+                                (("pfaa-never", "pfaa", np.inf), ("pfaa-always", "pfaa", 0.0))))
+        elif exp == "trajectory-2":
+            for v in config.trajectory_2_speeds_mps:
+                n = (500 if v >= 2.5 else 100) if full else R
+                out.append(Case(len(out), exp, "2", v, n, config.path_duration_s,
+                                (("pfbin", "pfbin", 0.0), ("pfaa", "pfaa", vt), ("wcl", "wcl", 0.0))))
+        else:
+            main = ("pfaa", "pfaa", vt) if config.preset == "pfaa" else ("sqlam", "pfaa", np.inf)
+            n = (100 if config.preset == "sqlam" else 1) if full else (R if config.preset == "sqlam" else 1)
+            out.append(Case(len(out), exp, "random-walk", np.nan, n, config.walk_s, (main, ("wcl", "wcl", 0.0))))
+    return out
+
+
+# ----------------------------------------------------------------------------- detections
+
+
+def antenna_geometry(room: paths.Room, landmarks: np.ndarray) -> np.ndarray:
+    """base (A, L) = a0 + a1·D + a3·|θ| + a4·|φ| of every antenna → landmark pair (Eq. 4.6)."""
+    a = RTS_COEFFICIENTS
+    ant = np.asarray(room.antennas_xyz_m, float)
+    v = np.concatenate([landmarks, np.zeros((landmarks.shape[0], 1))], axis=1)[None] - ant[:, None, :]
+    D = np.linalg.norm(v, axis=-1)
+    theta, phi = np.arcsin(v[..., 1] / D), np.arcsin(v[..., 0] / D)
+    return a[0] + a[1] * D + a[3] * np.abs(theta) + a[4] * np.abs(phi)
+
+
+def rts_p(base, d_m) -> np.ndarray:
+    """Eq. 4.6 from the fixed part ``base`` and the ST → landmark distance d."""
+    return 1.0 / (1.0 + np.exp(base + RTS_COEFFICIENTS[2] * d_m))
+
+
+def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
+    """True ST positions at times ``t_s`` (…, 2) for realization b of the case."""
+    if case.trajectory == "1":
+        pts = np.asarray(config.trajectory_1_xy_m, float)
+        if not np.array_equal(pts[0], pts[-1]):
+            pts = np.vstack([pts, pts[:1]])
+        return paths.along_path(pts, case.speed_mps, t_s)
+    if case.trajectory == "2":
+        return paths.along_path(paths.trajectory_2_xy(), case.speed_mps, t_s)
+    flat = np.asarray(t_s, float).ravel()
+    order = np.argsort(flat, kind="stable")
+    out = np.empty((flat.size, 2))
+    out[order] = paths.random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
+                                   flat[order])
+    return out.reshape(np.shape(t_s) + (2,))
+
+
+def detect(config: Config, base, landmarks, pos_rounds, rng) -> dict[str, np.ndarray]:
+    """Detections of one realization: counts (T, L), mean detection time (T,), active antenna (T,).
+
+    pos_rounds : (T, N, 2) ST positions at the round times.
+    """
+    T, N, _ = pos_rounds.shape
+    Ts = config.period_s
+    tau = (np.arange(T)[:, None] + (np.arange(N)[None, :] + 0.5) / N) * Ts
+    ant = np.asarray(config.room.antennas_xyz_m, float)[:, :2]
+    active = np.zeros(T, dtype=np.int64)
+    counts = np.zeros((T, landmarks.shape[0]), dtype=np.int64)
+    tsum = np.zeros(T)
+    if ant.shape[0] == 1:
+        for a in range(0, T, 2000):
+            d = np.linalg.norm(pos_rounds[a:a + 2000, :, None, :] - landmarks, axis=-1)
+            det = rng.random(d.shape) < rts_p(base[0], d)
+            counts[a:a + 2000] = det.sum(axis=1)
+            tsum[a:a + 2000] = np.einsum("tnl,tn->t", det, tau[a:a + 2000])
+    else:
+        est = np.zeros(2)
+        u = rng.random((T, N, landmarks.shape[0]))
+        for t in range(T):
+            active[t] = int(np.argmin(np.linalg.norm(ant - est, axis=1)))
+            d = np.linalg.norm(pos_rounds[t, :, None, :] - landmarks, axis=-1)
+            det = u[t] < rts_p(base[active[t]], d)
+            counts[t] = det.sum(axis=0)
+            tsum[t] = det.sum(axis=1) @ tau[t]
+            if counts[t].sum() > 0:
+                est = counts[t] @ landmarks / counts[t].sum()
+    total = counts.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_t = np.where(total > 0, tsum / total, np.nan)
+    return {"counts": counts, "mean_detection_s": mean_t, "active": active}
+
+
+# ----------------------------------------------------------------------------- one chunk
+
+
+def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: int) -> dict[str, dict]:
+    """Detections and every tracker of realizations ``bs`` of ``case``: per-table columns."""
+    room, f = config.room, config.filters
+    landmarks = room.landmarks_xy()
+    base = antenna_geometry(room, landmarks)
+    Ts, N = config.period_s, config.rounds
+    T = int(round(case.duration_s / Ts))
+    t_end = (np.arange(T) + 1) * Ts
+    tau = (np.arange(T)[:, None] + (np.arange(N)[None, :] + 0.5) / N) * Ts
+    truth, dets, start = [], [], []
+    for b in bs:
+        pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], tau.ravel(), t_end]))
+        start.append(np.r_[pos[0], (pos[1] - pos[0]) / 1e-3])
+        truth.append(pos[2 + tau.size:])
+        dets.append(detect(config, base, landmarks, pos[2:2 + tau.size].reshape(T, N, 2),
+                           trial_rng(seed, case.index, b, 1)))
+    truth = np.stack(truth)
+    counts = np.stack([d["counts"] for d in dets])
+    mean_t = np.stack([d["mean_detection_s"] for d in dets])
+    active = np.stack([d["active"] for d in dets])
+    B = len(bs)
+
+    def probability(p, t):
+        d = np.linalg.norm(p[:, :, None, :] - landmarks, axis=-1)
+        return rts_p(base[active[:, t]][:, None, :], d)
+
+    estimates = {}
+    for k, (label, kind, vt) in enumerate(case.trackers):
+        rng = trial_rng(seed, case.index, 1000 + group, k)
+        if kind == "wcl":
+            est = wcl_track(counts, landmarks, np.mean(landmarks, axis=0))
+        elif kind == "pfbin":
+            est = pf_bin(counts, np.stack(start), n_particles=f.particles, period_s=Ts, accel_var=f.pfbin_accel_var,
+                         n_rounds=N, probability=probability, rng=rng)
+        else:
+            x, v = pf_aa(counts, landmarks, n_particles=f.particles, period_s=Ts, q_std_m=f.q_std_m,
+                         init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
+            est = bias_compensate(x, v, period_end_s=t_end, mean_detection_s=mean_t, b0=f.b0, b1=f.b1,
+                                  v_threshold_mps=vt) if np.isfinite(vt) else x
+        estimates[label] = est
+    rows = B * T
+    rep = lambda a: np.repeat(np.asarray(a), T)  # noqa: E731
+    periods = {"case": np.full(rows, case.index), "realization": rep(bs), "period": np.tile(np.arange(T), B),
+               "t_end_s": np.tile(t_end, B), "x_true_m": truth[..., 0].ravel(), "y_true_m": truth[..., 1].ravel(),
+               "detected_landmarks": (counts > 0).sum(axis=2).ravel(), "detections": counts.sum(axis=2).ravel(),
+               "mean_detection_s": mean_t.ravel(), "active_antenna": active.ravel()}
+    nz = np.nonzero(counts)
+    detections = {"case": np.full(nz[0].size, case.index), "realization": np.asarray(bs)[nz[0]], "period": nz[1],
+                  "landmark": nz[2], "count": counts[nz]}
+    est_rows = []
+    for label, est in estimates.items():
+        err = np.linalg.norm(est - truth, axis=-1)
+        est_rows.append({"case": np.full(rows, case.index), "realization": rep(bs), "period": np.tile(np.arange(T), B),
+                         "tracker": np.full(rows, label), "x_est_m": est[..., 0].ravel(),
+                         "y_est_m": est[..., 1].ravel(), "error_m": err.ravel()})
+    return {"periods": periods, "detections": detections, "estimates": concat(est_rows)}
+
+
+def _task(args):
+    return simulate_chunk(*args)
+
+
+def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]]:
+    """Every case in chunks of ≤ 10 realizations on ``config.workers`` processes, in order."""
+    tasks = []
+    for c in cases(config):
+        for g, a in enumerate(range(0, c.realizations, 10)):
+            tasks.append((config, c, g, list(range(a, min(a + 10, c.realizations))), seed))
+    parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
+    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
+
+
+# ----------------------------------------------------------------------------- summary and run
+
+
+def case_rmse(est, case: int, tracker: str, n_periods: int) -> float:
+    """Time average of RMSE_t = sqrt(mean over realizations of err_t²)."""
+    sel = (est["case"] == case) & (est["tracker"] == tracker)
+    e2 = np.zeros(n_periods)
+    cnt = np.zeros(n_periods)
+    np.add.at(e2, est["period"][sel], est["error_m"][sel] ** 2)
+    np.add.at(cnt, est["period"][sel], 1)
+    return float(np.mean(np.sqrt(e2 / cnt)))
+
+
+def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
+    """One row per (case, tracker): RMSE, the published value, the change vs WCL; and the headline
+    numbers (crossover speed, PF-AA / SQLAM vs WCL, lab RMSE) as attributes."""
+    est = tables["estimates"]
+    rows: dict[str, list] = {k: [] for k in ("case", "experiment", "trajectory", "speed_mps", "realizations",
+                                             "duration_s", "tracker", "rmse_m", "published_rmse_m",
+                                             "vs_wcl_percent", "published_vs_wcl_percent")}
+    attrs: dict = {}
+    sweep: dict[str, list] = {}
+    for c in cases(config):
+        T = int(round(c.duration_s / config.period_s))
+        vals = {label: case_rmse(est, c.index, label, T) for label, _, _ in c.trackers}
+        for label, value in vals.items():
+            pub = PUBLISHED.get((c.experiment, label, c.speed_mps), np.nan)
+            rel = 100.0 * (value / vals["wcl"] - 1.0) if "wcl" in vals and label != "wcl" else np.nan
+            pub_rel = np.nan
+            if c.experiment == "random-walk" and label != "wcl":
+                pub_rel = PUBLISHED["pfaa_vs_wcl_percent"] if config.preset == "pfaa" else (
+                    PUBLISHED["sqlam_vs_wcl_percent"] if config.preset == "sqlam" else np.nan)
+                attrs[f"{label}_vs_wcl_percent"] = rel
+                attrs[f"{label}_random_walk_rmse_m"] = value
+            for k, v in zip(rows, (c.index, c.experiment, c.trajectory, c.speed_mps, c.realizations, c.duration_s,
+                                   label, value, pub, rel, pub_rel)):
+                rows[k].append(v)
+            if c.experiment == "speed-sweep":
+                sweep.setdefault(label, []).append(value)
+    if sweep:
+        diff = np.asarray(sweep["pfaa-always"]) - np.asarray(sweep["pfaa-never"])
+        v = np.asarray(config.speeds_mps, float)
+        cross = np.flatnonzero((diff[:-1] > 0) & (diff[1:] <= 0))
+        attrs["crossover_mps"] = float(v[cross[0]] - diff[cross[0]] * (v[cross[0] + 1] - v[cross[0]]) /
+                                       (diff[cross[0] + 1] - diff[cross[0]])) if cross.size else np.nan
+        attrs["published_crossover_mps"] = PUBLISHED["crossover_mps"]
+    if config.preset == "lab":
+        attrs["published_lab_rmse_m"] = PUBLISHED["lab_rmse_m"]
+    return {k: np.asarray(v) for k, v in rows.items()}, attrs
+
+
+def run(config: Config, *, seed: int) -> Dataset:
+    tables = monte_carlo(config, seed=seed)
+    summary, attrs = summarize(config, tables)
+    tables["summary"] = summary
+    cs = cases(config)
+    tables["truth"] = {k: tables["periods"][k] for k in ("case", "realization", "period", "t_end_s", "x_true_m",
+                                                         "y_true_m")}
+    tables["cases"] = {"case": np.array([c.index for c in cs]), "experiment": np.array([c.experiment for c in cs]),
+                       "trajectory": np.array([c.trajectory for c in cs]),
+                       "speed_mps": np.array([c.speed_mps for c in cs]),
+                       "realizations": np.array([c.realizations for c in cs]),
+                       "duration_s": np.array([c.duration_s for c in cs])}
+    ds = Dataset(title=f"sense-a-tag localization from landmark detections (AURIS ch. 4), preset {config.preset}")
+    for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
+        ds.add_table(name, {k: column(v, _unit(k), _describe(k)) for k, v in tables[name].items()},
+                     description=_GROUPS[name])
+    room = config.room
+    ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
+                     "landmarks_xy_m": room.landmarks_xy(), "antennas_xyz_m": np.asarray(room.antennas_xyz_m),
+                     "trajectory_1_xy_m": np.asarray(config.trajectory_1_xy_m, float),
+                     "trajectory_2_xy_m": paths.trajectory_2_xy(200), "detection_period_s": config.period_s})
+    ds.attrs.update(attrs)
+    for key in [k for k, v in ds.attrs.items() if isinstance(v, float) and not np.isfinite(v)]:
+        ds.attrs[f"{key}_meaning"] = "NaN: the curves do not cross inside the swept speeds (or no WCL reference)"
+    return ds
+
+
+def _unit(key: str) -> str:
+    if key.endswith("_percent"):
+        return "%"
+    return next((u for suf, u in (("_mps", "m/s"), ("_m", "m"), ("_s", "s")) if key.endswith(suf)), "1")
+
+
+_TEXT = {
+    "case": "index of the case (experiment, trajectory, speed) in the cases table",
+    "realization": "realization (independent detections, and walk) of the case",
+    "period": "query period index t (the period ends at (t + 1) T_s)", "landmark": "landmark index (grid order)",
+    "count": "detections n_{t,k} of the landmark among the N rounds of the period (zeros not stored)",
+    "t_end_s": "end of the period (the estimate's time)", "x_true_m": "true x of the ST at the period end",
+    "y_true_m": "true y of the ST at the period end", "detected_landmarks": "landmarks detected at least once",
+    "detections": "detections summed over landmarks and rounds",
+    "mean_detection_s": "mean detection time t-hat of the period (Eq. 4.23; NaN: nothing detected)",
+    "active_antenna": "reader antenna active in the period (nearest to the previous WCL estimate)",
+    "tracker": "tracker: wcl, pfbin, pfaa (v_threshold), pfaa-never / pfaa-always, sqlam",
+    "x_est_m": "estimated x (compensated where the tracker compensates)",
+    "y_est_m": "estimated y of the tracker at the period end (compensated where the tracker compensates)",
+    "error_m": "distance from the estimate to the true position", "experiment": "speed-sweep, trajectory-2 or random-walk",
+    "trajectory": "trajectory: 1, 2 (Fig. 4.10 replicas) or random-walk",
+    "speed_mps": "constant speed on trajectories 1 and 2 (NaN for the random walk)",
+    "realizations": "realizations of the case", "duration_s": "tracking duration of the case",
+    "rmse_m": "time average of the RMSE over realizations", "published_rmse_m": "the source's RMSE (NaN: none)",
+    "vs_wcl_percent": "RMSE change against WCL on the same detections",
+    "published_vs_wcl_percent": "the source's change against WCL (L4650, L5415; NaN: none)",
+}
+
+_GROUPS = {
+    "detections": "one row per (case, realization, period, landmark) with at least one detection",
+    "periods": "one row per (case, realization, query period): truth, detection totals, active antenna",
+    "truth": "true ST position at the end of every query period of every realization",
+    "estimates": "one row per (case, realization, period, tracker): estimate and error",
+    "summary": "one row per (case, tracker): RMSE beside the published value and the change vs WCL",
+    "cases": "one row per case: experiment, trajectory, speed, realizations, duration",
+}
+
+
+def _describe(key: str) -> str:
+    return _TEXT.get(key, key.replace("_", " "))
+
+
+def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
+    """Room with landmarks and tracks, error vs time, error CDF, speed sweep, RMSE vs published."""
+    return plot_all(Path(dataset_path), Path(out_dir))
+
+
+__all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "cases", "simulate_chunk", "summarize", "PUBLISHED"]

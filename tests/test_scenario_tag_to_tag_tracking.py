@@ -1,0 +1,173 @@
+"""Scenario tag-to-tag-tracking (Geng ch. 6): Aloha schedule, reception rules, motion limits,
+bad input, and (slow) Table 6.2 of seeds/004 L1242-L1249 with its orderings (L1221, L1228)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from rfsim.cli import main
+from rfsim.rng import trial_rng
+from scenarios import _t2t_network as net
+from scenarios import _t2t_physical as ph
+from scenarios import tag_to_tag_tracking as t2t
+
+PUBLISHED = {  # Table 6.2, seeds/004 L1247-L1249 (copied from the source, not from the module)
+    1.5: (1.0720, 0.5611, 0.6466, 0.5484, 0.5183),
+    2.0: (1.3391, 0.8203, 0.7351, 0.5886, 0.5340),
+    2.5: (1.5643, 1.0782, 0.8046, 0.6513, 0.5812),
+}
+
+
+def test_every_tag_broadcasts_once_per_period_and_collisions_follow_aloha():
+    """L tags, S slots: P(collision) = 1 − (1 − 1/S)^(L−1); 2000 periods × 10 tags = 20000
+    broadcasts, binomial std ≈ 0.0026 — tolerance 4 σ."""
+    b = net.aloha_schedule(trial_rng(3, 0), n_tags=10, duration_s=1000.0, period_s=0.5, n_slots=20)
+    counts = np.bincount(b["period"] * 10 + b["tag"])
+    assert counts.size == 20000 and np.all(counts == 1)
+    assert np.all(np.diff(b["t_s"]) >= 0)
+    expected = 1.0 - (1.0 - 1.0 / 20) ** 9
+    assert abs(np.mean(b["n_in_slot"] > 1) - expected) < 4 * np.sqrt(expected * (1 - expected) / 20000)
+
+
+def test_motion_stays_between_the_shelves_and_starts_at_the_portal():
+    t, s = net.simulate_motion(trial_rng(1, 0), duration_s=60.0, dt_s=0.05, start_xy_m=(0.0, 0.0),
+                               speed_range_mps=(0.1, 1.0), accel_var=0.5, y_limit_m=0.9)
+    assert t.size == 1201 and s[0, 0] == 0 and 0.1 <= s[0, 1] <= 1.0
+    assert np.max(np.abs(s[:, 2])) <= 0.9 and np.max(np.abs(s[:, 2])) > 0.5  # it did reach a shelf
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    config = t2t.Config(trajectories=4, filter_runs=3, workers=1)
+    return config, t2t.monte_carlo(config, seed=2)
+
+
+def test_disc_decodes_exactly_the_uncollided_broadcasts_within_r(tiny):
+    config, tables = tiny
+    rec, b = tables["receptions"], tables["broadcasts"]
+    n_b = b["t_s"].size
+    for i, r in enumerate(config.ranges_m):
+        sel = rec["range_m"] == r
+        assert sel.sum() == n_b
+        assert np.array_equal(rec["decoded"][sel], (rec["distance_m"][sel] <= r) & ~b["collided"])
+        assert (tables["observations"]["range_m"] == r).sum() == rec["decoded"][sel].sum()
+    # at most L/T_s = 20 decodes per second (L1203)
+    per_s = np.bincount(np.floor(tables["observations"]["t_s"]).astype(int) +
+                        100 * tables["observations"]["trajectory"] + 10000 * np.searchsorted(
+                            config.ranges_m, tables["observations"]["range_m"]))
+    assert per_s.max() <= 20
+
+
+def test_runs_are_identical_on_one_and_two_workers(tiny):
+    config, tables = tiny
+    again = t2t.monte_carlo(t2t.Config(trajectories=4, filter_runs=3, workers=2), seed=2)
+    for name in ("observations", "runs"):
+        for k, v in tables[name].items():
+            assert np.array_equal(v, again[name][k]), (name, k)
+
+
+@pytest.mark.slow
+def test_physical_threshold_calibration_holds_on_fresh_positions():
+    """The calibrated threshold decodes about half of 200 new listener positions at r around the
+    reference tag (binomial std 0.035 — tolerance 4 σ), nearly all at r/3 and none at 3r."""
+    cfg = t2t.Config()
+    pc, tags, ex = cfg.physical, cfg.layout.tags_xy_m, cfg.layout.exciter_xyz_m
+    r = 2.0
+    th, lo, hi = ph.calibrate_threshold(pc, ex, tags, r, trial_rng(8, 0))
+    assert lo <= 0.5 <= hi
+    d_e = np.hypot(np.hypot(np.array(tags)[:, 0] - ex[0], np.array(tags)[:, 1] - ex[1]), ex[2] - pc.height_m)
+    ref = int(np.argsort(d_e)[(len(tags) - 1) // 2])
+    phi = trial_rng(8, 1).uniform(-np.pi, np.pi, 200)
+    fractions = []
+    for d in (r, r / 3, 3 * r):
+        lis = np.array(tags[ref]) + d * np.column_stack([np.cos(phi), np.sin(phi)])
+        x, frames = ph.listener_inputs(pc, ex, tags, (ref,), lis, trial_rng(8, 2))
+        fractions.append(np.mean(ph.decode_rows(pc, x, frames, (ref,), th) == ref))
+    assert abs(fractions[0] - 0.5) <= 4 * 0.035
+    assert fractions[1] > 0.7 and fractions[2] == 0.0
+
+
+def test_physical_collision_captures_only_a_dominant_frame():
+    """Two tags in one slot. A listener 0.2 m from tag 0 and 3.8 m from tag 2 decodes tag 0 in
+    some of 40 draws (capture; the single-antenna comparator chain still loses most of them to
+    the weak frame's added transitions) and never tag 2."""
+    cfg = t2t.Config()
+    pc, tags, ex = cfg.physical, cfg.layout.tags_xy_m, cfg.layout.exciter_xyz_m
+    pc = dataclasses.replace(pc, calibration_positions=24)
+    th, _, _ = ph.calibrate_threshold(pc, ex, tags, 2.0, trial_rng(9, 0))
+    near = np.array(tags[0]) + np.column_stack([np.full(40, 0.2), np.zeros(40)])
+    x, frames = ph.listener_inputs(pc, ex, tags, (0, 2), near, trial_rng(9, 1))
+    got = ph.decode_rows(pc, x, frames, (0, 2), th)
+    assert np.mean(got == 0) >= 0.1 and not np.any(got == 2)
+
+
+BAD = [
+    (["--set", "layout.tags_xy_m=[]"], "layout.tags_xy_m"),
+    (["--set", "trackers.particles=[0, 10]"], "trackers.particles"),
+    (["--set", "trackers.rbpf_particles=[0]"], "trackers.rbpf_particles"),
+    (["--set", "protocol.n_slots=0"], "protocol.n_slots"),
+    (["--set", "ranges_m=[0.0, 2.0]"], "ranges_m"),
+    (["--set", "ranges_m=[-1.5]"], "ranges_m"),
+    (["--set", "motion.start_xy_m=[0.0, 1.5]"], "motion.start_xy_m"),
+    (["--set", "range_model=circle"], "range_model"),
+]
+
+
+@pytest.mark.parametrize("extra,key", BAD)
+def test_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "tag-to-tag-tracking", *extra]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("rfsim: error: ") and key in err
+    assert not list(tmp_path.glob("**/*.h5"))
+
+
+# ----------------------------------------------------------------------------- Table 6.2 (slow)
+
+
+@pytest.fixture(scope="module")
+def full():
+    config = t2t.Config(workers=2)  # 100 trajectories × 50 filter runs (L1214-L1219)
+    tables = t2t.monte_carlo(config, seed=1)
+    return t2t.summarize(config, tables)
+
+
+def _row(s, r):
+    return int(np.flatnonzero(s["range_m"] == r)[0])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("r", [1.5, 2.0, 2.5])
+def test_table_6_2_nn_and_pf_within_25_percent(full, r):
+    i = _row(full, r)
+    for label, pub in zip(("nn", "pf10", "pf20", "pf30"), np.take(PUBLISHED[r], [0, 2, 3, 4])):
+        assert abs(full[f"{label}_rmse_m"][i] / pub - 1.0) <= 0.25, (label, full[f"{label}_rmse_m"][i], pub)
+
+
+@pytest.mark.slow
+def test_pf_error_falls_with_m_and_rbpf_equals_pf30(full):
+    for r in (1.5, 2.0, 2.5):
+        i = _row(full, r)
+        assert full["pf10_rmse_m"][i] > full["pf20_rmse_m"][i] > full["pf30_rmse_m"][i]
+        assert abs(full["rbpf30_rmse_m"][i] / full["pf30_rmse_m"][i] - 1.0) <= 0.10  # L1221
+
+
+@pytest.mark.slow
+def test_pf30_error_rises_from_r_1_5_to_larger_r(full):
+    """L1228: r = 1.5 m tracks better than 2 and 2.5 m (Table 6.2's PF30: 0.518 < 0.534, 0.581)."""
+    assert full["pf30_rmse_m"][_row(full, 1.5)] < min(full["pf30_rmse_m"][_row(full, 2.0)],
+                                                      full["pf30_rmse_m"][_row(full, 2.5)])
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="not reproduced: the KF here averages the near-zero-mean offsets of the "
+                                       "decoded tags and reaches ≈ 0.3 m at every r (published 0.56-1.08 m, "
+                                       "growing with r); see the scenario docstring")
+def test_table_6_2_kf_within_25_percent_and_nn_minus_kf_about_half_a_metre(full):
+    for r in (1.5, 2.0, 2.5):
+        i = _row(full, r)
+        assert abs(full["kf_rmse_m"][i] / PUBLISHED[r][1] - 1.0) <= 0.25
+        assert abs(full["nn_rmse_m"][i] - full["kf_rmse_m"][i] - 0.505) <= 0.15

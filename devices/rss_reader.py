@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.config import param
+from rfsim.records import quantize_rssi_dbm
 
 
 @dataclass(frozen=True)
@@ -33,8 +34,7 @@ class RssReport:
     def report(self, rss_dbm) -> np.ndarray:
         """Reported RSSI [dBm] of true received powers ``rss_dbm`` (any shape); NaN = not heard."""
         p = np.asarray(rss_dbm, float)
-        q = p if self.step_db == 0 else self.step_db * np.round(p / self.step_db)
-        return np.where(p >= self.floor_dbm, q, np.nan)
+        return np.where(p >= self.floor_dbm, quantize_rssi_dbm(p, self.step_db), np.nan)
 
 
 __all__ = ["RssReport"]

@@ -21,14 +21,33 @@ the default exciter and listener) stretched so that p(r) = 0.5: a1 = −2.523, a
 ``range_model = "logistic"`` the mobile tag decodes by that same curve. 100 trajectories × 50
 filter runs (L1214-L1219); KF and NN are deterministic given the observations (one run).
 
-Measured (default config, seed 1; 65 s CPU) against Table 6.2: NN +5…+9 %, PF M = 10 +13…+17 %,
-M = 20 −6…−8 %, M = 30 −14…−20 % (RBPF within 2 % of PF30),
-PF error falling with M and rising with r, RBPF ≈ PF30. Not reproduced: the KF. Here it
-reaches ≈ 0.3 m at every r (published 0.56/0.82/1.08 m): its measurement "noise" — the offset of
-the decoded tag from the mobile tag — is nearly zero-mean along a symmetric aisle and, with the
-motion model's small Q and the known prior, averages out over 3-7 decodes per second. The
-published KF error grows ∝ r (≈ 0.4 r), as a KF does whose errors do not average out (a biased
-layout, a larger Q or a weaker prior than the seed states); the seed does not say which.
+Measured (default config, seed 1, 100 × 50; 34 s CPU in one process) against Table 6.2: NN 1.167/1.411/1.637 m
+(+9/+5/+5 %), PF M = 10 +13…+17 %, M = 20 −6…−8 %, M = 30 −14…−20 %, RBPF within 2 % of PF30;
+PF error falling with M and rising with r, RBPF ≈ PF30. Not reproduced: the KF, 0.294/0.289/
+0.320 m (published 0.561/0.820/1.078 m), so NN − KF = 0.87/1.12/1.32 m (published ≈ 0.5 m) and
+the KF, not PF30, is the best tracker here.
+
+The KF is the one the text fixes (:func:`rfsim.estimators.proximity.proximity_kalman`): the
+measurement is the single decoded tag's location y = l_i (L1089, L1109), one at a time (L1061),
+G = diag(r²/2, r²/2) (L1119), an update only when a decode arrives (L1095), the motion model
+(6.1) over the real gap Δt = t2 − t1 (L1080) with Q = diag(0.01, 0.01) (L1203), and the same
+prior knowledge as the PF/RBPF (Table 6.1, L1208; the text gives the KF none). Its error stays
+flat in r because the decoded-tag offsets are nearly zero-mean along the two-sided aisle and
+independent between decodes, and the decode rate grows with r (3.4/5.4/7.0 per s), which
+offsets the larger spread of the offsets. Readings the text leaves open, each tried alone (40
+trajectories, seed 1; KF at r = 1.5/2/2.5 m): a KF prior at the first decode with zero velocity
+(σ_v 0.3-3 m/s) 0.47-0.52/0.45-0.50/0.54-0.61; its Q × 0 … × 10⁴ 0.30-0.81 m, flat or falling
+in r; R = r/2 … r²/2000 0.33-0.72 m, flat; the truth stepped at T_s = 0.5 s as in ch. 4 (L836)
+0.40/0.40/0.48; v0 read as the vector (0.1, 1) m/s, 1 m/s along the aisle, 0.31/0.33/0.42;
+10 or 20 Aloha slots instead of 50 0.48/0.42/0.43 and 0.38/0.35/0.37 m. None grows like Table
+6.2's KF (× 1.9 from r = 1.5 to 2.5 m).
+Only changes against the text do: a fixed Δt per decode (1 s: 0.56/0.66/0.76 m; L1080 says
+t2 − t1), or a truth 10 × rougher than the filters' Q (q = 0.1 m²/s⁴ on 0.5 s steps: KF
+0.55/0.67/0.81 m, NN 1.07/1.40/1.66 m) — which lifts PF30 to 0.78/0.92/1.04 m, so PF30 < KF
+fails. Table 6.2's KF (≈ NN − 0.5 m, worse than PF20 at r ≥ 2 m) thus looks like a KF
+handicapped relative to the PF in a way the text does not state, e.g. a motion model or prior
+it does not share with the PF [inference]; with the stated model and prior the linear KF is
+the better tracker.
 
 Error metric: per run, RMSE = sqrt(mean over the run's observation instants of ‖x̂ − x‖²);
 "average RMSE" of Table 6.2 = the mean of the RMSEs over trajectories and runs (trajectories

@@ -162,12 +162,38 @@ def test_pf30_error_rises_from_r_1_5_to_larger_r(full):
                                                       full["pf30_rmse_m"][_row(full, 2.5)])
 
 
+# The KF rows of Table 6.2 are not reproduced (scenario docstring: the KF the text fixes —
+# y = l_i, G = diag(r²/2, r²/2), updates at decodes only, Δt = t2 − t1, Q = diag(0.01, 0.01),
+# the PF's prior — gives 0.294/0.289/0.320 m at r = 1.5/2/2.5 m, flat in r; none of the open
+# readings tried makes it grow like the published 0.561/0.820/1.078 m). The Monte-Carlo standard
+# error of the KF mean over the 100 trajectories is 0.008-0.010 m (per-trajectory sd 0.08-0.10 m),
+# (PF30: 0.007-0.008 m): each of the three tests below misses its bound by 10 or more standard
+# errors at its closest r, so they are strict xfails that turn into failures if the KF reproduces.
+_KF_NOT_REPRODUCED = ("not reproduced: the KF fixed by the text reaches 0.29-0.32 m at every r (published "
+                      "0.56/0.82/1.08 m, growing with r); see the scenario docstring")
+
+
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="not reproduced: the KF here averages the near-zero-mean offsets of the "
-                                       "decoded tags and reaches ≈ 0.3 m at every r (published 0.56-1.08 m, "
-                                       "growing with r); see the scenario docstring")
-def test_table_6_2_kf_within_25_percent_and_nn_minus_kf_about_half_a_metre(full):
+@pytest.mark.xfail(strict=True, reason=_KF_NOT_REPRODUCED)
+def test_table_6_2_kf_within_25_percent(full):
     for r in (1.5, 2.0, 2.5):
         i = _row(full, r)
-        assert abs(full["kf_rmse_m"][i] / PUBLISHED[r][1] - 1.0) <= 0.25
-        assert abs(full["nn_rmse_m"][i] - full["kf_rmse_m"][i] - 0.505) <= 0.15
+        assert abs(full["kf_rmse_m"][i] / PUBLISHED[r][1] - 1.0) <= 0.25, (r, full["kf_rmse_m"][i])
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=_KF_NOT_REPRODUCED + " (NN − KF = 0.87/1.12/1.32 m)")
+def test_nn_minus_kf_about_half_a_metre(full):
+    """L1228: "an average improvement of 0.5 m" (Table 6.2: 0.511/0.519/0.486 m), ±0.15 m (wave2-specs §X)."""
+    for r in (1.5, 2.0, 2.5):
+        i = _row(full, r)
+        assert abs(full["nn_rmse_m"][i] - full["kf_rmse_m"][i] - 0.505) <= 0.15, r
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason=_KF_NOT_REPRODUCED + " (PF30 0.41-0.50 m > KF)")
+def test_pf30_beats_kf(full):
+    """Table 6.2: PF M = 30 0.518/0.534/0.581 m < KF 0.561/0.820/1.078 m at every r."""
+    for r in (1.5, 2.0, 2.5):
+        i = _row(full, r)
+        assert full["pf30_rmse_m"][i] < full["kf_rmse_m"][i], r

@@ -14,7 +14,13 @@ Each observation is the location ``y_k = l_i`` of the reference tag whose broadc
 * **KF** (6.3)-(6.4), L1105-L1119: y = H x + v, H = I_J ⊗ [1 0], v ~ N(0, G),
   G = diag(r²/2, r²/2) with r the sensing range; the Kalman recursion of
   :func:`rfsim.estimators.kalman.kalman_filter` with the time-varying F = A(Δt_k),
-  Q_k = B(Δt_k) Q B(Δt_k)ᵀ.
+  Q_k = B(Δt_k) Q B(Δt_k)ᵀ. What the text fixes and this filter does: the measurement is the
+  location of the one reference tag just decoded, y_{t2} = l_i ("the location of a reference
+  tag whose backscattering is picked up", L1089, L1109) — no average over several tags, one
+  observation at a time (L1061); the filter runs only when a decode arrives ("estimates x_t as
+  soon as it receives a backscattered signal", L1095), predicting over the real gap
+  Δt = t2 − t1 (L1080) with the motion model's Q (L1203). The text gives no KF prior: the
+  caller passes the same "prior knowledge of the states" as the RBPF's (Table 6.1, L1208).
 * **Bernoulli PF** (6.5), L1123-L1127: the SIR filter of :func:`rfsim.estimators.particle.sir_filter`
   with the prior (6.1) as proposal and the likelihood of one decode,
   p(d) = 1/(1 + exp(a1 + a2·d)), d = ‖particle position − l_i‖.

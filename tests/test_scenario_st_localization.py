@@ -173,3 +173,78 @@ def test_sqlam_beats_wcl_by_about_42_percent_over_500_s():
     """L5415: −41.9 % over 500 s, 100 random tracks in the 5 × 4 m room (here 20; ±10 pp)."""
     _, a = _summary(preset="sqlam", realizations=20)
     assert abs(a["sqlam_vs_wcl_percent"] - (-41.9)) <= 10.0
+
+
+# ----------------------------------------------------------------------------- sample level
+
+
+def _listen(grid, centre, rounds, seed=1):
+    from devices.sense_a_tag import SenseATagConfig
+    from scenarios._st_sample_level import SampleLevelConfig, listen_track
+
+    room = paths.Room((4.0, 3.2), grid, ((0.0, 0.0, 2.0),))
+    sl = SampleLevelConfig(duration_s=1e-3, max_periods=1)
+    return room, sl, listen_track(room, lambda t: np.asarray(centre, float), rounds=rounds, sl=sl,
+                                  st_config=SenseATagConfig(), seed=seed, key=(0,))
+
+
+def test_sample_level_st_beside_a_landmark_hears_it_every_round_and_not_the_far_one():
+    # landmarks at (-1, 0) and (1, 0); the ST 0.1 m above the first (5 cm off): every QT round
+    # reads both landmarks, the ST decodes the near EPC each time and never the one 2 m away
+    # (its backscatter at the ST stays below the 5 mV comparator)
+    _, _, res = _listen((2, 1), (-1.0, 0.05, 0.1), rounds=3)
+    assert res.reads_per_period.tolist() == [6]
+    assert res.counts.tolist() == [[3, 0]]
+    assert np.all((res.times_s > 0) & (res.times_s < res.t_end_s[0]))
+
+
+def test_sample_level_period_is_bounded_by_the_gen2_air_time_of_its_slots():
+    from rfsim.gen2.commands import ACK, QueryRep
+    from rfsim.gen2.link import profile, t1
+
+    room, sl, res = _listen((3, 2), (0.0, 0.0, 0.1), rounds=2)
+    lk = profile(sl.link_profile)
+    slots, reads = int(res.slots_per_period[0]), int(res.reads_per_period[0])
+    assert reads == 2 * 6  # every landmark read in each of the two QT rounds
+    # every slot opens with at least a QueryRep; every read adds RN16, ACK and PC+EPC+CRC-16
+    rep, ack = lk.command_duration_s(QueryRep(session=0)), lk.command_duration_s(ACK(0))
+    lo = slots * rep + reads * (lk.reply_duration_s(16) + ack + lk.reply_duration_s(128))
+    # and at most, per slot besides those: a Query (22 bits of ≤ 2 Tari, preamble, a QueryRep's
+    # frame-sync) and a NAK, two T1max, two T2 (10 Tpri each), two Tari of CW lead, two RTcal
+    per_slot = (2 * lk.command_duration_s(QueryRep(session=0)) + 22 * lk.tari_s * 2 + 2 * t1(lk).max_s
+                + 20 * lk.tpri_s + 2 * lk.tari_s + 2 * lk.rtcal_s)
+    hi = lo + slots * per_slot
+    assert lo < res.t_end_s[0] < hi
+
+
+SAMPLE_BAD = [
+    (["--set", "mode=sample-level", "--set", "preset=lab"], "mode"),
+    (["--set", "mode=sample-level", "--set", "st.technique=stamp"], "st.technique"),
+    (["--set", "mode=sample-level", "--set", "sample_level.duration_s=0"], "sample_level.duration_s"),
+    (["--set", "mode=sample-level", "--set", "sample_level.st_step_m=0"], "sample_level.st_step_m"),
+    (["--set", "mode=sample-level", "--set", "sample_level.realizations=0"], "sample_level.realizations"),
+    (["--set", "mode=sample_level"], "mode"),
+]
+
+
+@pytest.mark.parametrize("extra,key", SAMPLE_BAD)
+def test_sample_level_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch):
+    test_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch)
+
+
+def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
+    from scenarios._st_sample_level import SampleLevelConfig
+
+    cfg = st.Config(mode="sample-level", landmark_grid=(3, 2), rounds=2, trajectory_2_speeds_mps=(0.5,),
+                    sample_level=SampleLevelConfig(duration_s=0.4), workers=1)
+    tables = st.monte_carlo(cfg, seed=1)
+    per = tables["periods"]
+    # periods of two QT rounds over 6 landmarks, back to back from t = 0 until 0.4 s is passed
+    assert np.all(per["reads"] == 12) and per["t_end_s"][-2] < 0.4 <= per["t_end_s"][-1]
+    np.testing.assert_allclose(np.cumsum(per["period_duration_s"]), per["t_end_s"], rtol=1e-12)
+    est = tables["estimates"]
+    assert sorted(set(est["tracker"])) == ["pfaa", "pfbin", "wcl"]
+    assert est["error_m"].size == 3 * per["t_end_s"].size and np.all(np.isfinite(est["error_m"]))
+    # the truth is the trajectory-2 position at each measured period end
+    want = paths.along_path(paths.trajectory_2_xy(), 0.5, per["t_end_s"])
+    np.testing.assert_allclose(np.column_stack([per["x_true_m"], per["y_true_m"]]), want, atol=1e-12)

@@ -41,7 +41,7 @@ ST moves between exchanges).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -56,7 +56,7 @@ from rfsim.engine import ReaderPort
 from rfsim.errors import ConfigError
 from rfsim.gen2.commands import ACK, Query
 from rfsim.gen2.link import reply_window_s
-from rfsim.inventory import AirExchange, EngineAir, InventoryConfig, run_inventory
+from rfsim.inventory import AirExchange, EngineAir, InventoryConfig, epc_hex_of, run_inventory
 from rfsim.rng import trial_rng
 from scenarios.detection_probability import PANEL_FRONT_TO_BACK_DB, EllipticalPanel
 
@@ -160,7 +160,7 @@ class ListeningAir(EngineAir):
             if isinstance(cmd, ACK) and len(replied) == 1:
                 i0 = listen_start_sample(tx.cmd_end_s, t0_s=t_s, fs_hz=tx.fs_hz)
                 obs = self.st.observe(st_inputs, start_sample=i0)
-                k = self.epcs.get(_hex(obs.bits[16:-16])) if (obs.detected and obs.bits is not None) else None
+                k = self.epcs.get(epc_hex_of(obs.bits)) if (obs.detected and obs.bits is not None) else None
                 if k is not None:
                     self.detections.append((float(responses[replied[0]].reply_start_s), int(k)))
         return AirExchange(type(cmd).__name__, float(t_s), float(tx.cmd_end_s), replied, detected,
@@ -168,11 +168,6 @@ class ListeningAir(EngineAir):
                            "" if replied else "no reply", read.start_s if detected else math.nan,
                            reader.antenna_index(round_index), tx.channel_index, tx.fc_hz, read,
                            tuple(float(r.incident_power_dbm) for r in responses))
-
-
-def _hex(bits) -> str:
-    b = np.asarray(bits, dtype=np.uint8)
-    return format(int("".join(map(str, b.tolist())) or "0", 2), f"0{(b.size + 3) // 4}X")
 
 
 class _Links:
@@ -227,8 +222,6 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     lm = room.landmarks_xy()
     rc = ReaderConfig(link_profile=sl.link_profile, fs_hz=sl.fs_hz, ptx_dbm=sl.ptx_dbm, hopping=True)
     reader = Reader(rc, [panel(p, sl) for p in room.antennas_xyz_m], rng=trial_rng(seed, *key, 0))
-    from dataclasses import replace
-
     tags = [PassiveTag(replace(tag_config, epc_hex=landmark_epc_hex(i)), flat_dipole((x, y, 0.0)),
                        rng=trial_rng(seed, *key, 100 + i)) for i, (x, y) in enumerate(lm)]
     epcs = {landmark_epc_hex(i): i for i in range(len(tags))}

@@ -138,7 +138,9 @@ class ListeningAir(EngineAir):
                  new_round: bool = False) -> AirExchange:
         reader, link = self.reader, self.link
         antenna = reader.antennas[reader.antenna_index(round_index)]
-        tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=reply_window_s(link, reply_bits), round_index=round_index)
+        listen = getattr(reader, "listen_window_s", None)  # as run_exchange: a BLF-searching reader listens longer
+        window_s = listen(int(reply_bits)) if listen is not None else reply_window_s(link, reply_bits)
+        tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
         port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
         listens = isinstance(cmd, (ACK, Query))  # the ST needs the Query's link parameters and the ACK's reply
         st_ants, moved = self._st_antennas(t_s) if listens else ([], False)

@@ -250,3 +250,45 @@ def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
     # the truth is the trajectory-2 position at each measured period end
     want = paths.along_path(paths.trajectory_2_xy(), 0.5, per["t_end_s"])
     np.testing.assert_allclose(np.column_stack([per["x_true_m"], per["y_true_m"]]), want, atol=1e-12)
+
+
+def test_sample_level_reader_side_equals_the_engine_inventory():
+    """The ST only listens: an inventory through ListeningAir gives the same slots and reads, to
+    the bit, as rfsim.inventory.EngineAir (run_exchange) on the same devices and streams."""
+    from dataclasses import replace
+
+    from channels import ApdpModel, Channel, Scene
+    from devices.reader import Reader, ReaderConfig
+    from devices.sense_a_tag import SenseATag, SenseATagConfig, st_antenna_positions
+    from devices.tag import PassiveTag, TagConfig
+    from rfsim.inventory import EngineAir, InventoryConfig, run_inventory
+    from scenarios import _st_sample_level as sl
+
+    room = paths.Room((4.0, 3.2), (3, 2), ((0.0, 0.0, 2.0),))
+    c = sl.SampleLevelConfig()
+
+    def build():
+        rc = ReaderConfig(link_profile=c.link_profile, fs_hz=c.fs_hz, ptx_dbm=c.ptx_dbm, hopping=True)
+        reader = Reader(rc, [sl.panel((0.0, 0.0, 2.0), c)], rng=trial_rng(5, 0))
+        tags = [PassiveTag(replace(TagConfig(), epc_hex=sl.landmark_epc_hex(i)), sl.flat_dipole((x, y, 0.0)),
+                           rng=trial_rng(5, 100 + i)) for i, (x, y) in enumerate(room.landmarks_xy())]
+        return reader, tags, Channel(Scene(apdp=ApdpModel()))
+
+    log_engine = run_inventory(EngineAir(*build(), rng=trial_rng(5, 1)), InventoryConfig())
+    stc = SenseATagConfig()
+    centre = np.array([0.05, -0.8, 0.1])  # beside landmark 2 at (0, -0.8); the others ≥ 1.3 m away
+    st_dev = SenseATag(stc, [sl.flat_dipole(p) for p in st_antenna_positions(centre, spacing_m=stc.spacing_m)],
+                       rng=trial_rng(5, 3), fs_hz=c.fs_hz)
+    air = sl.ListeningAir(*build(), st_dev, lambda t: centre, st_config=stc, rng=trial_rng(5, 1),
+                          st_rng=trial_rng(5, 2), epcs={sl.landmark_epc_hex(i): i for i in range(6)})
+    log_st = run_inventory(air, InventoryConfig())
+    assert len(log_engine.reads["tag"]) == 6
+    for table in ("slots", "reads"):
+        a, b = getattr(log_engine, table), getattr(log_st, table)
+        for k in a:
+            x, y = np.asarray(a[k]), np.asarray(b[k])
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), (table, k)
+    # and the ST heard the one read of its neighbour, during that read's EPC slot
+    assert [k for _, k in air.detections] == [2]
+    i = log_st.reads["tag"].index(2)
+    assert log_st.reads["time_s"][i] < air.detections[0][0] < log_st.reads["time_s"][i] + 0.02

@@ -31,11 +31,19 @@ receivers the reader's port (:class:`rfsim.engine.ReaderPort`: leakage, backscat
 the ST's antennas (no noise; the ST's 5 mV comparator decides, as in ``detection-probability``).
 The ST decodes the reader's command on SA2 (:meth:`SenseATag.listen`: link parameters, what
 reply to expect) and, after an ACK, the EPC reply on SA1/SA2 (:meth:`SenseATag.observe`); a
-CRC-valid EPC equal to landmark k's is a detection of k at the reply's start. The ST's
-position is its trajectory's at the exchange start (it moves ≤ 1 cm within one exchange at
-3 m/s). Links: reader ↔ landmark drawn at the first exchange of every inventory round and held
-for the round (quasi-static); reader → ST and landmark → ST drawn anew at every exchange (the
-ST moves between exchanges).
+CRC-valid EPC equal to landmark k's is a detection of k at the reply's start. It listens only
+in the exchanges that matter to it (Query: link parameters; ACK: the EPC reply); in the others
+it is no receiver of the step. The ST is not a reflector of the step (its own scatter at the
+reader and the landmarks is neglected), so the reader's records are those of
+:class:`rfsim.inventory.EngineAir` on the same streams, to the bit (test). The ST's position is
+its trajectory's at the exchange start, snapped to ``st_step_m`` (1 cm; it moves ≤ 1 cm within
+one exchange at 3 m/s). Links: reader ↔ landmark drawn at the first exchange of every inventory
+round and held for the round (quasi-static, as ``EngineAir``); reader → ST and landmark → ST
+drawn at every new ST position and held while it stays (a simplification: their diffuse part
+decorrelates over 1 cm instead of ≈ λ/2).
+
+Cost (CPU, seed 1, pfaa, N = 10): ≈ 1 s per period for a still ST, ≈ 20 s per 4.7 s period at
+0.5 m/s (the ST's 92 links at every new position dominate; ``st_step_m`` trades it).
 """
 
 from __future__ import annotations

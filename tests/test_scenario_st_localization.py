@@ -292,3 +292,23 @@ def test_sample_level_reader_side_equals_the_engine_inventory():
     assert [k for _, k in air.detections] == [2]
     i = log_st.reads["tag"].index(2)
     assert log_st.reads["time_s"][i] < air.detections[0][0] < log_st.reads["time_s"][i] + 0.02
+
+
+@pytest.mark.slow
+def test_sample_level_ten_rounds_over_45_landmarks_take_far_longer_than_0_3_s():
+    """wave2-specs.md §R: 10 QT rounds over the 45 landmarks take ≥ ≈ 1.1 s, not the source's
+    0.3 s; here bounded below by the replies' and commands' air time alone (link profile
+    formulas), with every landmark read in every round."""
+    from rfsim.gen2.commands import ACK, QueryRep
+    from rfsim.gen2.link import profile
+
+    room, sl, res = _listen((9, 5), (0.2, 0.1, 0.1), rounds=10)
+    lk = profile(sl.link_profile)
+    slots, reads = int(res.slots_per_period[0]), int(res.reads_per_period[0])
+    assert reads == 450
+    lo = (slots * lk.command_duration_s(QueryRep(session=0))
+          + reads * (lk.reply_duration_s(16) + lk.command_duration_s(ACK(0)) + lk.reply_duration_s(128)))
+    assert 1.1 < lo < res.t_end_s[0]
+    # the ST hears its nearest landmarks and not those across the room
+    d = np.linalg.norm(room.landmarks_xy() - [0.2, 0.1], axis=1)
+    assert res.counts[0][d < 0.5].sum() > 0 and res.counts[0][d > 1.5].sum() == 0

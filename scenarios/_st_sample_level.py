@@ -42,7 +42,7 @@ round and held for the round (quasi-static, as ``EngineAir``); reader → ST and
 drawn at every new ST position and held while it stays (a simplification: their diffuse part
 decorrelates over 1 cm instead of ≈ λ/2).
 
-Cost (CPU, seed 1, pfaa, N = 10): ≈ 1 s per period for a still ST, ≈ 20 s per 4.7 s period at
+Cost (CPU, seed 1, pfaa, N = 10): ≈ 6 s per period for a still ST, ≈ 20 s per 4.7 s period at
 0.5 m/s (the ST's 92 links at every new position dominate; ``st_step_m`` trades it).
 """
 
@@ -237,7 +237,8 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     epcs = {landmark_epc_hex(i): i for i in range(len(tags))}
     channel = Channel(Scene(apdp=ApdpModel() if sl.apdp else None))
     st_ants = st_antenna_positions(np.asarray(st_center(0.0), float), n_antennas=st_config.n_antennas,
-                                   spacing_m=st_config.spacing_m, orientation_rad=math.radians(st_config.orientation_deg))
+                                   spacing_m=st_config.spacing_m,
+                                   orientation_rad=math.radians(st_config.orientation_deg))
     st = SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3), fs_hz=sl.fs_hz)
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)

@@ -183,7 +183,9 @@ class Config:
     def experiment_list(self) -> tuple[str, ...]:
         if self.experiments is not None:
             return self.experiments
-        return ("trajectory-2",) if (self.mode == "sample-level" and self.preset == "pfaa") else _EXPERIMENTS[self.preset]
+        if self.mode == "sample-level" and self.preset == "pfaa":
+            return ("trajectory-2",)
+        return _EXPERIMENTS[self.preset]
 
     @property
     def walk_s(self) -> float:
@@ -329,7 +331,8 @@ def _sample_level_track(config: Config, case: Case, b: int, seed: int) -> dict:
             "slots": res.slots_per_period, "reads": res.reads_per_period}
 
 
-def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, landmarks, seed: int) -> dict[str, np.ndarray]:
+def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, landmarks,
+              seed: int) -> dict[str, np.ndarray]:
     """Every tracker of the case on realizations with a common number of periods: (B, T, 2) each.
     The filters' period Δt is the mean period of the tracks (T_s in the surrogate mode)."""
     f, N = config.filters, config.rounds
@@ -522,7 +525,8 @@ _TEXT = {
     "t_end_s": "end of the period (the estimate's time)",
     "period_duration_s": "duration of the query period (T_s in the surrogate mode; sample level: N QT rounds)",
     "slots": "Gen2 slots of the period's N QT rounds (sample level; 0 in the surrogate mode)",
-    "reads": "landmark EPCs the reader read in the period (sample level; 0 in the surrogate mode)", "x_true_m": "true x of the ST at the period end",
+    "reads": "landmark EPCs the reader read in the period (sample level; 0 in the surrogate mode)",
+    "x_true_m": "true x of the ST at the period end",
     "y_true_m": "true y of the ST at the period end", "detected_landmarks": "landmarks detected at least once",
     "detections": "detections summed over landmarks and rounds",
     "mean_detection_s": "mean detection time t-hat of the period (Eq. 4.23; NaN: nothing detected)",

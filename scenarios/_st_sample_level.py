@@ -76,6 +76,10 @@ FACING_DOWN = (0.0, -math.pi / 2, 0.0)
 
 @dataclass(frozen=True)
 class SampleLevelConfig:
+    """Reader, channel, ST placement and track length of the sample-level mode (validated; errors
+    name ``sample_level.<key>``). ``Config.full`` does not apply: the cases have
+    ``realizations`` tracks of ``duration_s``."""
+
     link_profile: str = param("pass-miller2-48k", doc="reader link profile (PASS: Miller-2, BLF 48 kHz)")
     fs_hz: float = param(1e6, lo=2e5, hi=2e8, unit="Hz", doc="sample rate of the exchanges")
     ptx_dbm: float = param(30.0, lo=-20.0, hi=36.0, unit="dBm", doc="reader conducted power (L3815)")

@@ -132,28 +132,38 @@ def _summary(**kw):
 
 @pytest.fixture(scope="module")
 def half_metre():
-    """Trajectory 2 at 0.5 m/s, 100 realizations (L4616-L4624)."""
-    s, _ = _summary(experiments=("trajectory-2",), trajectory_2_speeds_mps=(0.5,), realizations=100)
-    return dict(zip(s["tracker"], s["rmse_m"]))
+    """Trajectory 2 at 0.5 m/s, 100 realizations (L4616-L4624): the source's average RMSE per
+    tracker, and the standard error of it from the spread of the realizations' own averages."""
+    config = st.Config(experiments=("trajectory-2",), trajectory_2_speeds_mps=(0.5,), realizations=100)
+    tables = st.monte_carlo(config, seed=1)
+    s, _ = st.summarize(config, tables)
+    est = tables["estimates"]
+    se = {}
+    for label in ("pfbin", "pfaa", "wcl"):
+        sel = est["tracker"] == label
+        per = np.bincount(est["realization"][sel], est["error_m"][sel]) / np.bincount(est["realization"][sel])
+        se[label] = float(np.std(per, ddof=1) / math.sqrt(per.size))
+    return dict(zip(s["tracker"], s["mean_error_m"])), se
 
 
 @pytest.mark.slow
 def test_pfbin_and_pfaa_at_half_a_metre_per_second_beat_wcl(half_metre):
     """Figs. 4.12-4.13: both particle filters well below the weighted centroid at 0.5 m/s."""
-    assert max(half_metre["pfbin"], half_metre["pfaa"]) < 0.85 * half_metre["wcl"]
+    m, _ = half_metre
+    assert max(m["pfbin"], m["pfaa"]) < 0.85 * m["wcl"]
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured (seed 1, 100 realizations) PF-BIN 0.196 m (inside), PF-AA "
-                                       "0.217 m (0.045 m above), |Δ| 0.021 m: PF-AA's excess is its AR noise "
-                                       "(q std 0.3 m) on 45 binomial counts per period; PF-BIN's is the T_s/2 "
-                                       "lag of the detections (0.156 m against the mid-period truth); the "
-                                       "variance reading of q and an edge-to-edge grid are worse; see the "
-                                       "scenario docstring")
 def test_pfbin_and_pfaa_at_half_a_metre_per_second_within_3_cm(half_metre):
-    """L4624: PF-BIN 0.1681, PF-AA 0.1717 m (±0.03 m), |Δ| ≤ 0.02 m (wave2-specs.md §R)."""
-    assert abs(half_metre["pfbin"] - 0.1681) <= 0.03 and abs(half_metre["pfaa"] - 0.1717) <= 0.03
-    assert abs(half_metre["pfbin"] - half_metre["pfaa"]) <= 0.02
+    """L4624: PF-BIN 0.1681, PF-AA 0.1717 m (±0.03 m), |Δ| ≤ 0.02 m (wave2-specs.md §R), in the
+    source's measure (the l2 error averaged over realizations and time, L4507-L4513). The
+    standard error of the 100-realization means (their spread over realizations, measured
+    0.0014 / 0.0008 m) is far inside the spec's ±0.03 m: the check is not decided by the
+    Monte-Carlo noise. Measured (seed 1) PF-BIN 0.179 m, PF-AA 0.188 m."""
+    m, se = half_metre
+    assert 4.0 * max(se["pfbin"], se["pfaa"]) < 0.03
+    assert abs(m["pfbin"] - 0.1681) <= 0.03 and abs(m["pfaa"] - 0.1717) <= 0.03
+    assert abs(m["pfbin"] - m["pfaa"]) <= 0.02
 
 
 @pytest.mark.slow

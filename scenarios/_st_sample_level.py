@@ -92,7 +92,7 @@ class SampleLevelConfig:
     st_step_m: float = param(0.01, lo=1e-4, hi=0.5, unit="m",
                              doc="the ST's position is updated (and its links drawn anew) in steps of this size")
     st_height_m: float = param(0.1, lo=0.01, hi=3.0, unit="m", doc="height of the ST's antennas above the floor")
-    duration_s: float = param(30.0, lo=0.1, hi=1e5, unit="s",
+    duration_s: float = param(15.0, lo=0.1, hi=1e5, unit="s",
                               doc="tracked time on each trajectory (periods until this time is passed)")
     realizations: int = param(1, lo=1, hi=10000, doc="tracks per case (each its own landmarks, reader, ST streams)")
     max_periods: int = param(1000, lo=1, hi=10**6, doc="stop after this many query periods")

@@ -93,11 +93,11 @@ def plot_speed(path, out, summary) -> Path:
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     for label in ("pfaa-never", "pfaa-always"):
         m = (summary["experiment"] == "speed-sweep") & (summary["tracker"] == label)
-        ax.plot(summary["speed_mps"][m], summary["rmse_m"][m], "o-", label=label)
+        ax.plot(summary["speed_mps"][m], summary["mean_error_m"][m], "o-", label=label)
     ax.axvline(a["published_crossover_mps"], color="k", ls="--", label="published crossover 1.2 m/s")
     if np.isfinite(a.get("crossover_mps", np.nan)):
         ax.axvline(a["crossover_mps"], color="tab:red", ls=":", label=f"this run {a['crossover_mps']:.2f} m/s")
-    ax.set(xlabel="speed [m/s]", ylabel="time-averaged RMSE [m]",
+    ax.set(xlabel="speed [m/s]", ylabel="average RMSE (mean l2 error) [m]",
            title=f"Bias compensation never / always — {cite('auris', 'Fig. 4.11')}")
     ax.legend(fontsize=8)
     return save_figure(fig, out)
@@ -112,10 +112,10 @@ def plot_summary(path, out, summary) -> Path:
               zip(summary["experiment"][keep], summary["speed_mps"][keep], summary["tracker"][keep])]
     x = np.arange(len(labels))
     fig, ax = plt.subplots(figsize=(max(6, 0.7 * len(labels)), 4.5))
-    ax.bar(x, summary["rmse_m"][keep], 0.6, label="this run")
+    ax.bar(x, summary["mean_error_m"][keep], 0.6, label="this run")
     ax.plot(x, summary["published_rmse_m"][keep], "k_", ms=20, mew=3, label="published")
     ax.set_xticks(x, labels, rotation=40, ha="right", fontsize=7)
-    ax.set(ylabel="RMSE [m]", title=f"RMSE per case and tracker beside {cite('auris', 'ch. 4')}")
+    ax.set(ylabel="average RMSE (mean l2 error) [m]", title=f"RMSE per case and tracker beside {cite('auris', 'ch. 4')}")
     ax.legend(fontsize=8)
     return save_figure(fig, out)
 

@@ -132,26 +132,38 @@ def _summary(**kw):
 
 @pytest.fixture(scope="module")
 def half_metre():
-    """Trajectory 2 at 0.5 m/s, 100 realizations (L4616-L4624)."""
-    s, _ = _summary(experiments=("trajectory-2",), trajectory_2_speeds_mps=(0.5,), realizations=100)
-    return dict(zip(s["tracker"], s["rmse_m"]))
+    """Trajectory 2 at 0.5 m/s, 100 realizations (L4616-L4624): the source's average RMSE per
+    tracker, and the standard error of it from the spread of the realizations' own averages."""
+    config = st.Config(experiments=("trajectory-2",), trajectory_2_speeds_mps=(0.5,), realizations=100)
+    tables = st.monte_carlo(config, seed=1)
+    s, _ = st.summarize(config, tables)
+    est = tables["estimates"]
+    se = {}
+    for label in ("pfbin", "pfaa", "wcl"):
+        sel = est["tracker"] == label
+        per = np.bincount(est["realization"][sel], est["error_m"][sel]) / np.bincount(est["realization"][sel])
+        se[label] = float(np.std(per, ddof=1) / math.sqrt(per.size))
+    return dict(zip(s["tracker"], s["mean_error_m"])), se
 
 
 @pytest.mark.slow
 def test_pfbin_and_pfaa_at_half_a_metre_per_second_beat_wcl(half_metre):
     """Figs. 4.12-4.13: both particle filters well below the weighted centroid at 0.5 m/s."""
-    assert max(half_metre["pfbin"], half_metre["pfaa"]) < 0.85 * half_metre["wcl"]
+    m, _ = half_metre
+    assert max(m["pfbin"], m["pfaa"]) < 0.85 * m["wcl"]
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="measured (seed 1, 100 realizations) PF-BIN 0.196 m, PF-AA 0.217 m, "
-                                       "|Δ| 0.021 m: the detections lag the period end by T_s/2 (0.075 m at "
-                                       "0.5 m/s) and 45 binomial counts per period hold about 0.2 m of "
-                                       "information in this replica; see the scenario docstring")
 def test_pfbin_and_pfaa_at_half_a_metre_per_second_within_3_cm(half_metre):
-    """L4624: PF-BIN 0.1681, PF-AA 0.1717 m (±0.03 m), |Δ| ≤ 0.02 m (wave2-specs.md §R)."""
-    assert abs(half_metre["pfbin"] - 0.1681) <= 0.03 and abs(half_metre["pfaa"] - 0.1717) <= 0.03
-    assert abs(half_metre["pfbin"] - half_metre["pfaa"]) <= 0.02
+    """L4624: PF-BIN 0.1681, PF-AA 0.1717 m (±0.03 m), |Δ| ≤ 0.02 m (wave2-specs.md §R), in the
+    source's measure (the l2 error averaged over realizations and time, L4507-L4513). The
+    standard error of the 100-realization means (their spread over realizations, measured
+    0.0014 / 0.0008 m) is far inside the spec's ±0.03 m: the check is not decided by the
+    Monte-Carlo noise. Measured (seed 1) PF-BIN 0.179 m, PF-AA 0.188 m."""
+    m, se = half_metre
+    assert 4.0 * max(se["pfbin"], se["pfaa"]) < 0.03
+    assert abs(m["pfbin"] - 0.1681) <= 0.03 and abs(m["pfaa"] - 0.1717) <= 0.03
+    assert abs(m["pfbin"] - m["pfaa"]) <= 0.02
 
 
 @pytest.mark.slow
@@ -173,3 +185,140 @@ def test_sqlam_beats_wcl_by_about_42_percent_over_500_s():
     """L5415: −41.9 % over 500 s, 100 random tracks in the 5 × 4 m room (here 20; ±10 pp)."""
     _, a = _summary(preset="sqlam", realizations=20)
     assert abs(a["sqlam_vs_wcl_percent"] - (-41.9)) <= 10.0
+
+
+# ----------------------------------------------------------------------------- sample level
+
+
+def _listen(grid, centre, rounds, seed=1):
+    from devices.sense_a_tag import SenseATagConfig
+    from scenarios._st_sample_level import SampleLevelConfig, listen_track
+
+    room = paths.Room((4.0, 3.2), grid, ((0.0, 0.0, 2.0),))
+    sl = SampleLevelConfig(duration_s=1e-3, max_periods=1)
+    return room, sl, listen_track(room, lambda t: np.asarray(centre, float), rounds=rounds, sl=sl,
+                                  st_config=SenseATagConfig(), seed=seed, key=(0,))
+
+
+def test_sample_level_st_beside_a_landmark_hears_it_every_round_and_not_the_far_one():
+    # landmarks at (-1, 0) and (1, 0); the ST 0.1 m above the first (5 cm off): every QT round
+    # reads both landmarks, the ST decodes the near EPC each time and never the one 2 m away
+    # (its backscatter at the ST stays below the 5 mV comparator)
+    _, _, res = _listen((2, 1), (-1.0, 0.05, 0.1), rounds=3)
+    assert res.reads_per_period.tolist() == [6]
+    assert res.counts.tolist() == [[3, 0]]
+    assert np.all((res.times_s > 0) & (res.times_s < res.t_end_s[0]))
+
+
+def test_sample_level_period_is_bounded_by_the_gen2_air_time_of_its_slots():
+    from rfsim.gen2.commands import ACK, QueryRep
+    from rfsim.gen2.link import profile, t1
+
+    room, sl, res = _listen((3, 2), (0.0, 0.0, 0.1), rounds=2)
+    lk = profile(sl.link_profile)
+    slots, reads = int(res.slots_per_period[0]), int(res.reads_per_period[0])
+    assert reads == 2 * 6  # every landmark read in each of the two QT rounds
+    # every slot opens with at least a QueryRep; every read adds RN16, ACK and PC+EPC+CRC-16
+    rep, ack = lk.command_duration_s(QueryRep(session=0)), lk.command_duration_s(ACK(0))
+    lo = slots * rep + reads * (lk.reply_duration_s(16) + ack + lk.reply_duration_s(128))
+    # and at most, per slot besides those: a Query (22 bits of ≤ 2 Tari, preamble, a QueryRep's
+    # frame-sync) and a NAK, two T1max, two T2 (10 Tpri each), two Tari of CW lead, two RTcal
+    per_slot = (2 * lk.command_duration_s(QueryRep(session=0)) + 22 * lk.tari_s * 2 + 2 * t1(lk).max_s
+                + 20 * lk.tpri_s + 2 * lk.tari_s + 2 * lk.rtcal_s)
+    hi = lo + slots * per_slot
+    assert lo < res.t_end_s[0] < hi
+
+
+SAMPLE_BAD = [
+    (["--set", "mode=sample-level", "--set", "preset=lab"], "mode"),
+    (["--set", "mode=sample-level", "--set", "st.technique=stamp"], "st.technique"),
+    (["--set", "mode=sample-level", "--set", "sample_level.duration_s=0"], "sample_level.duration_s"),
+    (["--set", "mode=sample-level", "--set", "sample_level.st_step_m=0"], "sample_level.st_step_m"),
+    (["--set", "mode=sample-level", "--set", "sample_level.realizations=0"], "sample_level.realizations"),
+    (["--set", "mode=sample_level"], "mode"),
+]
+
+
+@pytest.mark.parametrize("extra,key", SAMPLE_BAD)
+def test_sample_level_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch):
+    test_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch)
+
+
+def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
+    from scenarios._st_sample_level import SampleLevelConfig
+
+    cfg = st.Config(mode="sample-level", landmark_grid=(3, 2), rounds=2, trajectory_2_speeds_mps=(0.5,),
+                    sample_level=SampleLevelConfig(duration_s=0.4), workers=1)
+    tables = st.monte_carlo(cfg, seed=1)
+    per = tables["periods"]
+    # periods of two QT rounds over 6 landmarks, back to back from t = 0 until 0.4 s is passed
+    assert np.all(per["reads"] == 12) and per["t_end_s"][-2] < 0.4 <= per["t_end_s"][-1]
+    np.testing.assert_allclose(np.cumsum(per["period_duration_s"]), per["t_end_s"], rtol=1e-12)
+    est = tables["estimates"]
+    assert sorted(set(est["tracker"])) == ["pfaa", "pfbin", "wcl"]
+    assert est["error_m"].size == 3 * per["t_end_s"].size and np.all(np.isfinite(est["error_m"]))
+    # the truth is the trajectory-2 position at each measured period end
+    want = paths.along_path(paths.trajectory_2_xy(), 0.5, per["t_end_s"])
+    np.testing.assert_allclose(np.column_stack([per["x_true_m"], per["y_true_m"]]), want, atol=1e-12)
+
+
+def test_sample_level_reader_side_equals_the_engine_inventory():
+    """The ST only listens: an inventory through ListeningAir gives the same slots and reads, to
+    the bit, as rfsim.inventory.EngineAir (run_exchange) on the same devices and streams."""
+    from dataclasses import replace
+
+    from channels import ApdpModel, Channel, Scene
+    from devices.reader import Reader, ReaderConfig
+    from devices.sense_a_tag import SenseATag, SenseATagConfig, st_antenna_positions
+    from devices.tag import PassiveTag, TagConfig
+    from rfsim.inventory import EngineAir, InventoryConfig, run_inventory
+    from scenarios import _st_sample_level as sl
+
+    room = paths.Room((4.0, 3.2), (3, 2), ((0.0, 0.0, 2.0),))
+    c = sl.SampleLevelConfig()
+
+    def build():
+        rc = ReaderConfig(link_profile=c.link_profile, fs_hz=c.fs_hz, ptx_dbm=c.ptx_dbm, hopping=True)
+        reader = Reader(rc, [sl.panel((0.0, 0.0, 2.0), c)], rng=trial_rng(5, 0))
+        tags = [PassiveTag(replace(TagConfig(), epc_hex=sl.landmark_epc_hex(i)), sl.flat_dipole((x, y, 0.0)),
+                           rng=trial_rng(5, 100 + i)) for i, (x, y) in enumerate(room.landmarks_xy())]
+        return reader, tags, Channel(Scene(apdp=ApdpModel()))
+
+    log_engine = run_inventory(EngineAir(*build(), rng=trial_rng(5, 1)), InventoryConfig())
+    stc = SenseATagConfig()
+    centre = np.array([0.05, -0.8, 0.1])  # beside landmark 2 at (0, -0.8); the others ≥ 1.3 m away
+    st_dev = SenseATag(stc, [sl.flat_dipole(p) for p in st_antenna_positions(centre, spacing_m=stc.spacing_m)],
+                       rng=trial_rng(5, 3), fs_hz=c.fs_hz)
+    air = sl.ListeningAir(*build(), st_dev, lambda t: centre, st_config=stc, rng=trial_rng(5, 1),
+                          st_rng=trial_rng(5, 2), epcs={sl.landmark_epc_hex(i): i for i in range(6)})
+    log_st = run_inventory(air, InventoryConfig())
+    assert len(log_engine.reads["tag"]) == 6
+    for table in ("slots", "reads"):
+        a, b = getattr(log_engine, table), getattr(log_st, table)
+        for k in a:
+            x, y = np.asarray(a[k]), np.asarray(b[k])
+            assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), (table, k)
+    # and the ST heard the one read of its neighbour, during that read's EPC slot
+    assert [k for _, k in air.detections] == [2]
+    i = log_st.reads["tag"].index(2)
+    assert log_st.reads["time_s"][i] < air.detections[0][0] < log_st.reads["time_s"][i] + 0.02
+
+
+@pytest.mark.slow
+def test_sample_level_ten_rounds_over_45_landmarks_take_far_longer_than_0_3_s():
+    """wave2-specs.md §R: 10 QT rounds over the 45 landmarks take ≥ ≈ 1.1 s, not the source's
+    0.3 s; here bounded below by the replies' and commands' air time alone (link profile
+    formulas), with every landmark read in every round."""
+    from rfsim.gen2.commands import ACK, QueryRep
+    from rfsim.gen2.link import profile
+
+    room, sl, res = _listen((9, 5), (0.2, 0.1, 0.1), rounds=10)
+    lk = profile(sl.link_profile)
+    slots, reads = int(res.slots_per_period[0]), int(res.reads_per_period[0])
+    assert reads == 450
+    lo = (slots * lk.command_duration_s(QueryRep(session=0))
+          + reads * (lk.reply_duration_s(16) + lk.command_duration_s(ACK(0)) + lk.reply_duration_s(128)))
+    assert 1.1 < lo < res.t_end_s[0]
+    # the ST hears its nearest landmarks and not those across the room
+    d = np.linalg.norm(room.landmarks_xy() - [0.2, 0.1], axis=1)
+    assert res.counts[0][d < 0.5].sum() > 0 and res.counts[0][d > 1.5].sum() == 0

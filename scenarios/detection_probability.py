@@ -67,7 +67,11 @@ cancellation). The published TS and RTS imply different base rates: TS never exc
 p = 0.29 (a0 > 0) while RTS reaches 0.72 at D = 1 m, d = 0, so the two cannot both describe
 the same data's detection rate near the tag. Curves at θ = φ = 0 lie far above
 angle-averaged binned data, so the plot draws them at the samples' median angles and also
-shows the fitted models averaged over each bin's samples.
+shows the fitted models averaged over each bin's samples. Every run writes the comparison
+(coefficients with standard errors beside the published, cross-entropies, the order of the
+coefficients by size) to the attribute ``fits_vs_published`` and the cause to
+``fits_difference_cause``; the slow test
+``test_default_run_fits_pin_the_documented_difference_from_the_published_models`` pins it.
 
 Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples.seed``
 (or the run seed when it is −1): k = 0 geometry, 1 reader (hop table), 2 tag, 3 channel
@@ -507,7 +511,43 @@ def run(config: Config, *, seed: int) -> Dataset:
             for i in range(fits["model"].size):
                 if fits["source"][i] == "fit":
                     ds.attrs[f"{fits['model'][i]}_test_cross_entropy"] = float(fits["test_cross_entropy"][i])
+            ds.attrs["fits_vs_published"] = fits_comparison(fits)
+            ds.attrs["fits_difference_cause"] = FITS_DIFFERENCE_CAUSE
     return ds
+
+
+#: Why the fits differ from the published ones (module docstring, "Differences from the source";
+#: test_default_run_fits_pin_the_documented_difference_from_the_published_models)
+FITS_DIFFERENCE_CAUSE = (
+    "the tag replies in under half of the samples (UCODE-class chip at -12.8 dBm on a half-wave dipole, the panel's "
+    "and the dipole's pattern, the rolled tag's polarisation mismatch), so where the ST decodes is set by the "
+    "tag's power-up, which depends on the angles: the angle coefficients a3, a4 come out > 10x the published ones "
+    "(the source: 'orientation matters little', its tags powered throughout the cuboid); on the samples where the "
+    "tag replied they fall below half (seed 1: a3 4.10 -> 1.59, a4 5.76 -> 1.83 /rad), still above the published; and the ST's 5 mV threshold on a nearly deterministic backscatter "
+    "level makes the d coefficient steeper than published")
+
+
+def fits_comparison(fits: dict[str, np.ndarray]) -> str:
+    """One line per model: fitted vs published coefficients (± standard error), test
+    cross-entropies (fit, published coefficients on this test set, published value) and the
+    order of the non-constant coefficients by size."""
+    lines = []
+    for model in MODELS:
+        rows = {fits["source"][i]: i for i in range(fits["model"].size) if fits["model"][i] == model}
+        f, p = rows["fit"], rows["published"]
+        n = 5 if model == "RTS" else 2
+        names = RTS_NAMES if model == "RTS" else TS_NAMES
+        coef = ", ".join(f"{names[j]} {fits[f'a{j}'][f]:.4g} +- {fits[f'se_a{j}'][f]:.2g} (published "
+                         f"{fits[f'a{j}'][p]:.4g})" for j in range(n))
+
+        def order(i):
+            return " > ".join(names[j] for j in sorted(range(1, n), key=lambda j: -abs(fits[f"a{j}"][i])))
+
+        lines.append(f"{model}: {coef}; test cross-entropy {fits['test_cross_entropy'][f]:.4f} (published "
+                     f"coefficients on this test set {fits['test_cross_entropy'][p]:.4f}, published value "
+                     f"{fits['published_test_cross_entropy'][f]:.4f}); order by size: fit {order(f)}, published "
+                     f"{order(p)}")
+    return "; ".join(lines)
 
 
 # ----------------------------------------------------------------------------- plots

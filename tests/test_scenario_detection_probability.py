@@ -167,3 +167,50 @@ def test_elliptical_panel_mismatch_against_a_rolled_dipole():
             assert float(panel.polarization_mismatch(tag)) == pytest.approx(expected, rel=1e-9), (ar_db, roll_deg)
     ideal = dp.reader_antenna(dp.GeometryConfig(axial_ratio_db=(0.0, 0.0)))
     assert float(ideal.polarization_mismatch(dp.tag_antenna(np.array([3.0, 1.0, 0.5]), 0.7))) == pytest.approx(0.5)
+
+
+@pytest.mark.slow
+def test_default_run_fits_pin_the_documented_difference_from_the_published_models():
+    """Default run (4000 samples, seed 1: train 3000, test 1000; ≈ 60 s CPU). Fits pinned at
+    the measured values within 4 standard errors (ML: inverse Fisher information;
+    cross-entropy: the standard error of a mean of 1000 per-sample log-losses), and the
+    documented difference from the published RTS/TS (auris-sense-a-tag.md R4-1: RTS
+    (−1.462, 0.4941, 2.506, 0.0126, 0.0523), test cross-entropy 0.1278; TS (0.8970, 2.4443),
+    0.1502): the published RTS has a2 ≫ a1 ≫ a3, a4 ("orientation matters little"), the fit
+    here has the angle terms more than 10× the published ones, because the tag replies in
+    under half of the samples and its power-up depends on the angles (panel and dipole
+    patterns, polarisation): on the samples where it replied the angle terms fall below half
+    (seed 1: a3 4.10 → 1.59, a4 5.76 → 1.83 /rad; still above the published). The
+    cross-entropies are pinned against ours (0.1356 / 0.1812; the published coefficients score
+    0.1637 / 0.1809 on this test set, the published values are 0.1278 / 0.1502)."""
+    from rfsim.detection import cross_entropy, fit_logistic, predict_proba, rts_design
+
+    s = dp.simulate(dp.Config(), seed=1)
+    f = dp.fit_models(s)
+    i = {(m, src): k for k, (m, src) in enumerate(zip(f["model"], f["source"]))}
+    rts, ts = i["RTS", "fit"], i["TS", "fit"]
+    for row, expected in ((rts, (-8.20, 0.773, 7.39, 4.10, 5.76)), (ts, (0.019, 5.37))):
+        for j, v in enumerate(expected):
+            assert abs(f[f"a{j}"][row] - v) < 4 * f[f"se_a{j}"][row], (row, j, f[f"a{j}"][row], f[f"se_a{j}"][row])
+    # angle terms > 10x the published ones, by more than 4 standard errors
+    for j in (3, 4):
+        pub = f[f"a{j}"][i["RTS", "published"]]
+        assert f[f"a{j}"][rts] > 10 * pub and f[f"a{j}"][rts] - 10 * pub > 4 * f[f"se_a{j}"][rts]
+    # test cross-entropies: per-sample log-loss standard error over the 1000 test samples
+    y = s["st_detected"].astype(float)
+    test = s["is_test"]
+    x = rts_design(s["D_m"], s["d_m"], s["theta_rad"], s["phi_rad"])
+    coef = np.array([f[f"a{j}"][rts] for j in range(5)])
+    p = np.clip(predict_proba(x[test], coef), 1e-12, 1 - 1e-12)
+    loss = -(y[test] * np.log(p) + (1 - y[test]) * np.log(1 - p))
+    se_ce = loss.std(ddof=1) / np.sqrt(test.sum())
+    assert f["test_cross_entropy"][rts] == pytest.approx(loss.mean(), rel=1e-9)
+    assert abs(f["test_cross_entropy"][rts] - 0.136) < 4 * se_ce
+    assert abs(f["test_cross_entropy"][ts] - 0.181) < 4 * se_ce * 1.5
+    # the cause: under half of the samples replied; fitted on those, the angle terms shrink
+    replied = s["tag_replied"]
+    assert abs(replied.mean() - 0.44) < 4 * np.sqrt(0.25 / replied.size)
+    sub = replied & ~test
+    refit = fit_logistic(x[sub], y[sub]).coefficients
+    assert refit[3] < coef[3] / 2 and refit[4] < coef[4] / 2, refit
+    assert cross_entropy(y[test], predict_proba(x[test], coef)) == pytest.approx(f["test_cross_entropy"][rts])

@@ -303,3 +303,88 @@ def test_pass_replication_needs_the_characteristics_folder():
 
     with pytest.raises(ConfigError, match="pass_replication.characteristics_dir"):
         pc.PassReplicationConfig(enabled=True, characteristics_dir="")
+
+
+def test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag(reference_data):
+    """Cause of A_T at the ST being 7× (physical dipoles) / 2.9× (PASS's file at the tag only)
+    below Table 3.1's 0.0576 V: derived here by hand from the source's numbers, then checked
+    against the model (cell 1, tag 1 m from the reader, 100 ST positions, LoS only, the pair's
+    mutual coupling off: with it, the default, A_R and A_T at SA2 are a further ≈ 0.85×).
+    Measured (seed 5): A_T1·r = 0.00309 / 0.00770 / 0.01202 V·m with physical dipoles / PASS's
+    file at the tag / at tag and ST, gaps 6.77 / 2.71 / 1.74 (predicted 6.77 / 2.71 / 1.74).
+
+    Source's convention: A_R_trans = sqrt(2·EIRP) = sqrt(2·3.28 W) = 2.5612 (Eq. 3.23 constant,
+    L3256-3262: peak sqrt(2P) across 1 Ω). PASS's tag at R = 2 m with its 'l2-dipole' file
+    (amplitude 2.0, pass-paris-simulator.md §5.1): P_av = 3.28·4·(λ/4πR)² = 2.23 mW (the log:
+    2.28 mW), so A_T1_bsk = 0.0526 V = |ρ_m|·sqrt(2·P_av) gives |ρ_m| = 0.787. PASS's sensatag
+    uses the same file (§3.2), so at the ST, r from the tag at D = 1 m:
+    A_T1·r = |ρ_m|·sqrt(2·EIRP)·(2.0·λ/4π)·(2.0·2.0·λ/4π) = 0.0110 V·m. Table 3.2's point
+    (A_T1/A_T1' = 0.5353 = r2/r1 at λ/4 spacing: r2 ≤ 0.0944 m) needs A_T1'·r2 ≤ 0.1233·0.0944
+    = 0.0116 V·m — consistent (r2 = 0.089 m, r1 = 0.166 m); with physical λ/2 dipoles (amplitude
+    sqrt(1.641) = 1.281 at all three places) A_T·r is (2/1.281)³ = 3.81× smaller and the point would
+    lie at r2 = 0.023 m, inside the near field. Table 3.1's A_T1 = 0.0576 V is at r = 0.19 m from
+    the tag in PASS's convention, while the model's median over the 0.5 m disc is at r ≈ 0.35 m.
+    Hence gap = 0.0576/median A_T1 ≈ 3.81·(|ρ_m|/|r_B|)·(median r/0.19 m) — 7× with physical
+    dipoles; PASS's file at the tag only removes 2.44× of it, at the ST as well 3.81×."""
+    lam = LAMBDA_915_M
+    k = lam / (4 * np.pi)
+    eirp = 3.28
+    assert math.sqrt(2 * eirp) == pytest.approx(2.5612, abs=1e-4)
+    p_av_2m = eirp * 4.0 * (k / 2.0) ** 2
+    assert p_av_2m == pytest.approx(2.28e-3, rel=0.03)
+    rho_m = 0.0526 / math.sqrt(2 * p_av_2m)
+    k_pass = rho_m * math.sqrt(2 * eirp) * (2.0 * k) * (2.0 * 2.0 * k)  # A_T1·r at D = 1 m [V·m]
+    assert k_pass == pytest.approx(0.0110, abs=0.0002)
+    r2_max = (lam / 4) / (1 / 0.5353 - 1)
+    assert k_pass <= 0.1233 * r2_max
+    g_dip = math.sqrt(1.6409)
+    files_factor = (2.0 / g_dip) ** 3
+    assert k_pass / files_factor / 0.1233 < lam / (2 * np.pi)
+    r_point = k_pass / 0.0576
+
+    folder = str(reference_data / "pass-characteristics")
+    from devices.st_receiver import to_source_volts
+
+    base = replace(_tiny(), mc=replace(_tiny().mc, positions_per_cell=100),
+                   geometry=replace(_tiny().geometry, pair_coupling=False))
+    runs = {"physical": base,
+            "tag file": replace(base, pass_replication=pc.PassReplicationConfig(enabled=True,
+                                                                                characteristics_dir=folder)),
+            "tag and ST files": replace(base, pass_replication=pc.PassReplicationConfig(
+                enabled=True, characteristics_dir=folder, st_antenna_file=True))}
+    expected_factor = {"physical": files_factor, "tag file": files_factor / (4.0 / 1.6409),
+                       "tag and ST files": 1.0}
+    for name, cfg in runs.items():
+        s = pc.run_cell(cfg, 0, 0, 5)
+        far = ~s["near_field"]
+        a_t1 = to_source_volts(s["a_t1_sa2_v"][far])
+        r = np.hypot(s["sa2_x_m"] - s["tag_x_m"], s["sa2_y_m"])[far]
+        r_b = s["rerad_b_abs"][0]
+        # the model's A_T1·r against PASS's, corrected for the antenna files and the tag state
+        k_model = np.median(a_t1 * r)
+        assert k_model * expected_factor[name] * rho_m / r_b == pytest.approx(k_pass, rel=0.05), name
+        # and the gap of the medians = files x state x (median r / the point's r)
+        gap = 0.0576 / np.median(a_t1)
+        assert gap == pytest.approx(expected_factor[name] * (rho_m / r_b) * np.median(r) / r_point, rel=0.05), name
+
+
+@pytest.mark.slow
+def test_below_one_percent_needs_passs_backscatter_level_at_the_st():
+    """The source's "below 1 %" for path selection (R3-5) is reached when the backscatter at the
+    ST stands to the 5 mV threshold as in PASS's antenna convention: (2/1.281)³ = 3.81× our A_T
+    (derived in test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag).
+    Paper-size Monte Carlo (11 464 samples outside the near field, seed 1) with the threshold
+    at 5 mV/3.81 and everything else ours: path selection 0.96 %, single antenna 7.34 %
+    (measured); pinned within 4 binomial standard errors (0.36 and 1.0 points), and below the
+    source's 1 % bound within 2 standard errors."""
+    base = pc.Config()
+    cfg = replace(base, mc=replace(base.mc, full=True), st=replace(base.st, threshold_v=base.st.threshold_v / 3.81))
+    s = pc.monte_carlo(cfg, seed=1)
+    far = ~s["near_field"]
+    n = int(far.sum())
+    for tech, expected in (("selection", 0.0096), ("single", 0.0734)):
+        p = s[f"cancelled_{tech}"][far].mean()
+        se = math.sqrt(expected * (1 - expected) / n)
+        assert abs(p - expected) < 4 * se, (tech, p)
+    p_sel = s["cancelled_selection"][far].mean()
+    assert p_sel < 0.01 + 2 * math.sqrt(0.01 * 0.99 / n)

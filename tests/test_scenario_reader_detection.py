@@ -10,6 +10,7 @@ References: binary-detection.md §1.6 (DA model, published coefficients, d50 6.6
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import h5py
@@ -146,3 +147,71 @@ def test_default_campaign_gives_a_regular_ml_fit():
     d50 = [f[f"d50_{a}deg_m"][i] for a in (0, 30, 60)]
     assert 4.0 < d50[0] < 6.63 and 2.5 < d50[1] < 5.0 and d50[2] > 1.30
     assert d50[0] > d50[1] > d50[2]
+
+
+def _d50_crossing_m(distance_m, p_hat) -> float:
+    """Distance where the cell means of p̂ first fall below 1/2 (linear interpolation)."""
+    ds = np.unique(distance_m)
+    pm = np.array([p_hat[distance_m == v].mean() for v in ds])
+    i = np.flatnonzero((pm[:-1] >= 0.5) & (pm[1:] < 0.5))[0]
+    return float(ds[i] + (pm[i] - 0.5) / (pm[i] - pm[i + 1]) * (ds[i + 1] - ds[i]))
+
+
+@pytest.mark.slow
+def test_full_campaign_fits_pin_the_documented_difference_from_the_published_model():
+    """The source's campaign size (4680 trials × 50 queries, seed 1; ≈ 150 s CPU, 6 min wall
+    at load 5). The source's method (moments: least squares on the 234 cell means) gives
+    a1 = −6.525, a2 = 1.183 /m, a3 = 0.0642 /deg (standard errors 0.29, 0.051, 0.0030 from the
+    residuals over the cells, i.e. from the trial count) and d50 = 5.52 / 3.89 / 2.26 m at
+    0/30/60°, against the published −3.27, 0.4931, 0.0438 and 6.63 / 3.97 / 1.30 m
+    (binary-detection.md §1.6). Pinned: the estimates within 4 standard errors of those
+    values (< 1e-4 two-sided per parameter if only sampling moved them), and the published
+    coefficients more than 4 standard errors away (the documented difference: our mean
+    falls faster with distance — a chip threshold crossed by fading — and the 60° d50 is
+    set by the assumed 70° patch beamwidth, see the next test). The ML fit (Eq. 4.11) has
+    its maximum on the edge of the feasible region (σ² → 0+ in the far corner, λ̄ → 0):
+    standard errors from the mean block only, flagged."""
+    trials = rd.simulate(rd.Config(campaign=rd.CampaignConfig(full=True)), seed=1)
+    assert trials["room"].size == 4680
+    f = rd.fit_trials(trials)
+    j = list(f["method"]).index("moments")
+    published = dict(zip(("a1", "a2", "a3"), ReaderDetectionModel().mean_coefficients))
+    for k, v in (("a1", -6.525), ("a2", 1.1826), ("a3", 0.06415)):
+        se = f["se_" + k][j]
+        assert abs(f[k][j] - v) < 4 * se, (k, f[k][j], se)
+        assert abs(f[k][j] - published[k]) > 4 * se, (k, f[k][j], se)
+    # d50 = −(a1 + a3·θ)/a2; delta-method standard errors 0.076 / 0.045 / 0.044 m
+    np.testing.assert_allclose([f[f"d50_{a}deg_m"][j] for a in (0, 30, 60)], [5.517, 3.890, 2.263], atol=4 * 0.076)
+    assert f["d50_60deg_m"][j] - rd.PUBLISHED_D50_M[2] > 10 * 0.044
+    i = list(f["method"]).index("mle")
+    assert f["stderr_basis"][i] == "mean block"
+    assert np.isfinite([f["se_a1"][i], f["se_a2"][i], f["se_a3"][i]]).all() and np.isnan(f["se_c1"][i])
+
+
+@pytest.mark.slow
+def test_d50_at_60_degrees_follows_the_assumed_patch_beamwidth():
+    """Cause of the 60° d50 (2.26 m here vs the published 1.30 m): the angle dependence is the
+    reader patch's pattern (the antenna is rotated, the tag faces it), G(ψ)/G0 = (1 − b)cos^q ψ
+    + b, b = 0.01 (20 dB front-to-back), q = ln((1/2 − b)/(1 − b))/ln cos(BW/2). Derived here:
+    70° beamwidth (the assumed default): q = 3.53, G(60°)/G0 = −10.2 dB, so free-space Friis
+    from the calibrated boresight d50 = 6.63 m gives 6.63·10^(−10.2/20) = 2.05 m; the published
+    1.30 m = 6.63·10^(−14.1/20) needs −14.1 dB at 60°, i.e. BW = 58.6° (q = 5.14). Campaign at
+    θ = 60° only (8 distances 0.5…4 m × 10 repetitions × 2 rooms × 50 queries, seed 1): the
+    crossing of the cell means lies within 0.3 m of each prediction (3σ: a cell mean of 20
+    nearly all-or-nothing trials has σ ≈ 0.11, the mean falls ≈ 1.1 per m near d50, so
+    σ(d50) ≈ 0.1 m). The chip class moves every d50 by the Friis factor: PASS's UCODE
+    (−12.78 dBm) instead of the Smartrac calibration (−16.0 dBm) gives 10^(−3.22/20) = 0.69×,
+    2.05 → 1.42 m at 60°. Measured: 2.15, 1.22 and 1.21 m."""
+    b = 0.01
+    dists = tuple(0.5 * (i + 1) for i in range(8))
+    for bw_deg, tag_class, expected_m in ((70.0, "smartrac-spine", 2.05), (58.6, "smartrac-spine", 1.30),
+                                          (70.0, "pass-ucode", 1.42)):
+        q = math.log((0.5 - b) / (1 - b)) / math.log(math.cos(math.radians(bw_deg / 2)))
+        g60 = (1 - b) * math.cos(math.radians(60.0)) ** q + b
+        chip_db = 0.0 if tag_class == "smartrac-spine" else -16.0 - (-12.78)
+        assert 6.63 * math.sqrt(g60) * 10 ** (chip_db / 20) == pytest.approx(expected_m, abs=0.01)
+        cfg = rd.Config(campaign=rd.CampaignConfig(distances_m=dists, angles_deg=(60.0,), repetitions=10,
+                                                   tag_class=tag_class),
+                        geometry=rd.GeometryConfig(reader_beamwidth_deg=bw_deg), fits=False)
+        t = rd.simulate(cfg, seed=1)
+        assert _d50_crossing_m(t["distance_m"], t["p_hat"]) == pytest.approx(expected_m, abs=0.3), (bw_deg, tag_class)

@@ -191,6 +191,12 @@ class ReaderModelFit:
     log_likelihood : float, Σ log P(n_i | d_i, θ_i) of Eq. (4.11) at the estimate [nat]
     method : "moments" or "mle"
     n_trials : int, number of (d, θ, n, N) repetitions used
+    stderr_basis : "full" (inverse of the whole information matrix), "mean block" (the
+        maximum lies on the edge of the feasible region — σ² pushed to 0+ in a cell, where the
+        Beta-binomial turns binomial and the likelihood falls by tens of nats within a step
+        of the finite differences, or λ̄ → 0 — so the whole matrix is not positive definite: the standard errors of a1, a2, a3 are those of the mean block of the
+        observed information, conditional on the variance and dead-zone estimates; the others
+        are NaN) or "least squares" (moments)
     """
 
     model: ReaderDetectionModel
@@ -201,6 +207,7 @@ class ReaderModelFit:
     method: str
     n_trials: int
     parameter_names: tuple = DA_PARAMETER_NAMES
+    stderr_basis: str = "full"
 
     def as_dict(self) -> dict:
         """{name: (estimate, stderr)}."""
@@ -303,7 +310,7 @@ def fit_reader_moments(distance_m, theta_deg, n_reads, n_queries, *,
     return ReaderModelFit(model=model, estimates=est, stderr=np.sqrt(np.diag(cov)),
                           covariance=cov,
                           log_likelihood=log_likelihood_reader(model, d, th, n, nq, lam),
-                          method="moments", n_trials=d.size)
+                          method="moments", n_trials=d.size, stderr_basis="least squares")
 
 
 def _numerical_hessian(f, x, h):
@@ -333,7 +340,9 @@ def fit_reader_mle(distance_m, theta_deg, n_reads, n_queries, *, fit_dead_zone: 
     values). The variance is clipped as in :class:`ReaderDetectionModel` (0 below, κ·μ(1−μ)
     above), so parameters are only informed by cells in the feasible region. BFGS on
     rescaled parameters, started from ``start`` or from :func:`fit_reader_moments`. Standard
-    errors: sqrt(diag(H⁻¹)), H the central-difference Hessian of −ℓ (observed information).
+    errors: sqrt(diag(H⁻¹)), H the central-difference Hessian of −ℓ (observed information);
+    of the mean block of H only when the maximum lies on the feasible region's edge
+    (:attr:`ReaderModelFit.stderr_basis`).
 
     Parameters
     ----------
@@ -387,12 +396,22 @@ def fit_reader_mle(distance_m, theta_deg, n_reads, n_queries, *, fit_dead_zone: 
         raise UserError(f"Beta-binomial fit failed: {res.message}")
     u_hat = res.x
     hess = _numerical_hessian(nll, u_hat, np.full(u_hat.size, 1e-3))
+    basis = "full"
     try:
         cov_u = np.linalg.inv(hess)
+        regular = bool(np.all(np.linalg.eigvalsh(hess) > 0))
     except np.linalg.LinAlgError:
-        raise UserError("Beta-binomial fit: singular information matrix") from None
-    if np.any(np.diag(cov_u) <= 0):
-        raise UserError("Beta-binomial fit: information matrix not positive definite")
+        regular = False
+    if not regular:
+        # maximum on the edge of the feasible region (docstring of ReaderModelFit): the
+        # mean coefficients' standard errors from their block of the observed information
+        block = hess[:3, :3]
+        if not np.all(np.linalg.eigvalsh(block) > 0):
+            raise UserError("Beta-binomial fit: information matrix not positive definite "
+                            "(also its mean block)")
+        cov_u = np.full_like(hess, np.nan)
+        cov_u[:3, :3] = np.linalg.inv(block)
+        basis = "mean block"
     p_hat = params_of(u_hat)
     # Jacobian of p with respect to the free u: scale, or λ̄(1 − λ̄) for logit λ̄
     jac = (_DA_SCALE.copy())
@@ -403,7 +422,7 @@ def fit_reader_mle(distance_m, theta_deg, n_reads, n_queries, *, fit_dead_zone: 
     model = _model_from(p_hat, _DEAD_ZONE_CONCENTRATION, variance_cutoff_m, kappa)
     return ReaderModelFit(model=model, estimates=p_hat, stderr=np.sqrt(np.diag(cov)),
                           covariance=cov, log_likelihood=-float(res.fun), method="mle",
-                          n_trials=d.size)
+                          n_trials=d.size, stderr_basis=basis)
 
 
 # --- binned empirical probabilities ----------------------------------------------------------

@@ -258,6 +258,13 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     One air step (:func:`rfsim.air.propagate`): the reader's segment, the tag, and as receivers
     the reader's own port (TX→RX leakage, backscatter through the reciprocal forward link,
     receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise)."""
+    return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
+
+
+def _air_sample(config: Config, index: int, seed: int) -> tuple:
+    """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
+    ``(record without the ST outcomes, ST inputs (k, n) from the listening start, tx, tag
+    response, RN16 bits or None)``."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
     ra = reader_antenna(g)
@@ -283,49 +290,79 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     if replied:  # the reader decodes only when a tag replied, as run_exchange
         read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-    det = _st_decode(config, np.array([seg.samples for seg in air.inputs[1:]]), tx, resp, bits)
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+    inputs = np.array([seg.samples for seg in air.inputs[1:]])[:, i0:]
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
-    return dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
-                st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
-                theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
-                tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
-                tag_replied=replied, reader_detected=bool(reader_ok), **det)
+    record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
+                  st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
+                  theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
+                  tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
+                  tag_replied=replied, reader_detected=bool(reader_ok))
+    return record, inputs, tx, resp, bits
 
 
-def _st_decode(config: Config, inputs, tx, resp, bits) -> dict:
-    """ST chains on SA2 (and SA1, SA1+SA2) from the end of the command; technique outcome.
+def _st_outcomes(config: Config, samples: list) -> list[dict]:
+    """The ST chains on SA2 (and SA1, SA1+SA2) of many samples from :func:`_air_sample`, from
+    the end of the command, and each sample's technique outcome; the records completed.
 
-    inputs : (k, n) complex128 [√W] ST antenna inputs on the reader segment's time base."""
+    The chains of every sample whose tag replied run as the rows of one
+    :func:`devices.sense_a_tag.chain_rows` call per receive chain (row by row the same
+    filters from the same start states as one sample alone), then each sample is decoded."""
+    st = config.st
+    two = st.n_antennas == 2
+    names = ["sa2"] + (["sa1"] + (["combined"] if st.technique == "combination" else []) if two else [])
+    groups: dict = {}  # (BLF, M, TRext, fs, samples) -> indices of the samples whose tag replied
+    for k, (_, y, tx, resp, bits) in enumerate(samples):
+        if bits is not None:
+            groups.setdefault((resp.blf_hz, resp.m, resp.trext, tx.fs_hz, y.shape[1]), []).append(k)
+    chains: dict = {}
+    for (blf, m, trext, fs, _), ks in groups.items():
+        rx = make_receiver(st, fs_hz=fs, blf_hz=blf, m=m, trext=trext)
+        rows = []
+        for k in ks:
+            y = samples[k][1]
+            rows.append(y[-1:])
+            if two:
+                rows.append(y[:1])
+                if st.technique == "combination":
+                    rows.append(y[:1] + y[-1:])
+        env, bp, cmp, tog = chain_rows(rx, np.concatenate(rows))
+        for j, k in enumerate(ks):
+            sl = slice(j * len(names), (j + 1) * len(names))
+            chains[k] = (rx, env[sl], bp[sl], cmp[sl], tog[sl])
+    out = []
+    for k, (record, y, tx, resp, bits) in enumerate(samples):
+        det = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
+        if bits is not None:
+            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits)
+        out.append({**record, **det})
+    return out
+
+
+def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits) -> dict:
+    """Decoding of one sample's ST chain outputs (rows ``names``, ``n`` samples from the
+    listening start) and the technique outcome."""
     st = config.st
     fs = tx.fs_hz
+    rx, env, bp, cmp, tog = chain
     i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-    y = inputs[:, i0:]
-    two = st.n_antennas == 2
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
-    if bits is None:
-        return out
-    rx = make_receiver(st, fs_hz=fs, blf_hz=resp.blf_hz, m=resp.m, trext=resp.trext)
     search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
-    rows = {"sa2": y[-1:]}
-    if two:
-        rows["sa1"] = y[:1]
-        if st.technique == "combination":
-            rows["combined"] = y[:1] + y[-1:]
-    dec = {}
     from rfsim.gen2.linecode import reply_waveform
 
     t_rel = resp.reply_start_s - i0 / fs
     levels = reply_waveform(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
-                            t0_s=t_rel, n_samples=y.shape[1])
-    for name, x in rows.items():
-        env, bp, cmp, tog = chain_rows(rx, x)
+                            t0_s=t_rel, n_samples=n)
+    dec = {}
+    for j, name in enumerate(names):
+        r = slice(j, j + 1)
         if name == "sa2":
-            out["st_diff_sa2_v"] = float(np.abs(level_differences(env, levels, rx))[0])
-        dec[name] = bool(decode_rows(rx, env, bp, cmp, tog, rows=np.ones(1, bool), expected_bits=bits,
+            out["st_diff_sa2_v"] = float(np.abs(level_differences(env[r], levels, rx))[0])
+        dec[name] = bool(decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
                                      start_sample=0, search_samples=search)[0])
     out["st_detected_sa2"] = dec["sa2"]
     out["st_detected_sa1"] = dec.get("sa1", False)
-    if st.technique == "single" or not two:
+    if st.technique == "single" or st.n_antennas != 2:
         out["st_detected"] = dec["sa2"]
     elif st.technique == "combination":
         out["st_detected"] = dec["combined"]
@@ -370,12 +407,21 @@ FIELDS = {
 }
 
 
+#: Samples whose ST chains run as one batch of rows (:func:`_st_outcomes`).
+ST_BLOCK = 256
+
+
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`)."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
-    rows = [simulate_sample(config, i, base)
-            for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples")]
+    rows, pending = [], []
+    for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples"):
+        pending.append(_air_sample(config, i, base))
+        if len(pending) == ST_BLOCK:  # the ST chains of a block of samples at once
+            rows.extend(_st_outcomes(config, pending))
+            pending = []
+    rows.extend(_st_outcomes(config, pending))
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}
     out["is_test"] = out["sample"] >= s.n_train
     return {k: out[k] for k in FIELDS}

@@ -219,6 +219,24 @@ def hilbert_fir(half_length: int) -> np.ndarray:
     return h * np.blackman(k.size + 2)[1:-1]
 
 
+#: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
+_VALIDATED: dict = {}
+_VALIDATED_SIZE = 16
+
+
+def _validated(config: ReaderConfig) -> ReaderConfig:
+    """:func:`rfsim.config.validate` of a (frozen) config, remembered for the last few config
+    objects: a Monte Carlo builds one reader per sample from the same config."""
+    hit = _VALIDATED.get(id(config))
+    if hit is not None and hit[0] is config:
+        return hit[1]
+    out = validate(config)
+    if len(_VALIDATED) >= _VALIDATED_SIZE:
+        _VALIDATED.pop(next(iter(_VALIDATED)))
+    _VALIDATED[id(config)] = (config, out)  # config kept alive: its id stays its own
+    return out
+
+
 class Reader:
     """A Gen2 reader with one or more antennas (used in turn), see the module docstring.
 
@@ -232,7 +250,7 @@ class Reader:
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
                  link: LinkProfile | None = None):
-        self.config = validate(config)
+        self.config = _validated(config)
         self.link = profile(self.config.link_profile) if link is None else link
         if not isinstance(self.link, LinkProfile):
             raise ValueError(f"link must be a LinkProfile, got {link!r}")

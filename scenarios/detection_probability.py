@@ -79,6 +79,7 @@ gives the same rows as any split of that range into blocks (the sweep
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -195,15 +196,19 @@ class EllipticalPanel(Antenna):
     axial_ratio_db: tuple = (1.0, 3.0)
     half_beamwidth_rad: float = math.radians(35.0)
 
+    @functools.cached_property
+    def _boresight_and_up(self) -> tuple[np.ndarray, np.ndarray]:
+        """The panel's boresight axis and its vertical in the global frame (rotation of local x, z)."""
+        return self.rotation @ np.array([1.0, 0.0, 0.0]), self.rotation @ np.array([0.0, 0.0, 1.0])
+
     def polarization_vector(self, k) -> np.ndarray:
         k = np.asarray(k, float)
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
-        axis = self.rotation @ np.array([1.0, 0.0, 0.0])
+        axis, up = self._boresight_and_up
         psi = np.arccos(np.clip(np.abs(k @ axis), 0.0, 1.0))
         ar0, ar1 = self.axial_ratio_db
         ar_db = ar0 + (ar1 - ar0) * (psi / self.half_beamwidth_rad) ** 2
         r = 10.0 ** (-ar_db / 20.0)[..., None]
-        up = self.rotation @ np.array([0.0, 0.0, 1.0])
         u = up - np.sum(up * k, axis=-1, keepdims=True) * k
         n = np.linalg.norm(u, axis=-1, keepdims=True)
         u = np.where(n > 1e-9, u / np.where(n > 1e-9, n, 1.0), np.array([0.0, 1.0, 0.0]))
@@ -261,13 +266,14 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
 
 
-def _air_sample(config: Config, index: int, seed: int) -> tuple:
+def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None) -> tuple:
     """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
     ``(record without the ST outcomes, ST inputs (k, n) from the listening start, tx, tag
-    response, RN16 bits or None)``."""
+    response, RN16 bits or None)``. ``ra``: the reader antenna (default
+    :func:`reader_antenna` of the geometry; the same for every sample)."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
-    ra = reader_antenna(g)
+    ra = reader_antenna(g) if ra is None else ra
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
     roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
     tag = PassiveTag(config.tag, tag_antenna(tag_pos, roll), rng=trial_rng(seed, index, 2))
@@ -416,8 +422,9 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     s = config.samples
     base = seed if s.seed < 0 else s.seed
     rows, pending = [], []
+    ra = reader_antenna(config.geometry)
     for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples"):
-        pending.append(_air_sample(config, i, base))
+        pending.append(_air_sample(config, i, base, ra))
         if len(pending) == ST_BLOCK:  # the ST chains of a block of samples at once
             rows.extend(_st_outcomes(config, pending))
             pending = []

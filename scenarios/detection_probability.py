@@ -212,7 +212,10 @@ class EllipticalPanel(Antenna):
         u = up - np.sum(up * k, axis=-1, keepdims=True) * k
         n = np.linalg.norm(u, axis=-1, keepdims=True)
         u = np.where(n > 1e-9, u / np.where(n > 1e-9, n, 1.0), np.array([0.0, 1.0, 0.0]))
-        v = np.cross(k, u)
+        # v = k × u, written out (np.cross's own elementwise products and differences, without
+        # its axis handling, which costs more than the products for one direction)
+        v = np.stack([k[..., 1] * u[..., 2] - k[..., 2] * u[..., 1], k[..., 2] * u[..., 0] - k[..., 0] * u[..., 2],
+                      k[..., 0] * u[..., 1] - k[..., 1] * u[..., 0]], axis=-1)
         h = 1.0 if self.handedness == "rhcp" else -1.0
         return (u - 1j * h * r * v) / np.sqrt(1.0 + r * r)
 

@@ -458,11 +458,7 @@ class Reader:
         """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
         :func:`rfsim.gen2.link.reply_window_s` (T1max + reply + 3 Tpri at the nominal BLF);
         with ``blf_search`` the reply at the slowest BLF of the tolerance, BLF·(1 − FrT)."""
-        if self.config.blf_search == "off":
-            return reply_window_s(self.link, int(reply_bits))
-        lk = self.link
-        return (t1(lk).max_s + lk.reply_duration_s(int(reply_bits)) / (1.0 - lk.frt)
-                + REPLY_WINDOW_TAIL_TPRI * lk.tpri_s)
+        return _listen_window_s(self.link, int(reply_bits), self.config.blf_search != "off")
 
     def reply_search_window_s(self) -> tuple[float, float]:
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
@@ -947,6 +943,14 @@ def measure_reference(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[compl
     h = np.dot(z * rot, ref) / np.dot(ref, ref)
     sigma2 = float(np.mean(np.abs(z - h * ref / rot) ** 2))
     return complex(h), slope, sigma2
+
+
+@functools.lru_cache(maxsize=256)
+def _listen_window_s(link: LinkProfile, reply_bits: int, blf_search: bool) -> float:
+    """:meth:`Reader.listen_window_s` of a (frozen) link profile: a pure function, cached."""
+    if not blf_search:
+        return reply_window_s(link, reply_bits)
+    return t1(link).max_s + link.reply_duration_s(reply_bits) / (1.0 - link.frt) + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
 
 
 @functools.lru_cache(maxsize=64)

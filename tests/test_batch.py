@@ -137,3 +137,15 @@ def test_mismatched_lengths_are_one_line_errors():
     with pytest.raises(ValueError, match="tags: 2 tag lists for 1 trials"):
         run_exchanges(reader, tags, channel, query_of(reader), t_s=0.0, rngs=[trial_rng(1, 0)], reply_bits=16,
                       expect_crc=False)
+
+
+def test_bench_exchange_batch_reports_its_measurements():
+    from rfsim.bench.exchange import bench_exchange_batch
+    from rfsim.cli.bench import BENCHMARKS
+
+    assert BENCHMARKS["exchange-batch"][:2] == ("rfsim.bench.exchange", "bench_exchange_batch")
+    out = bench_exchange_batch(batch=3, n_batches=2)
+    # at 3 m the canonical link reads every round (tests/test_engine.py bench test); the two
+    # batches target A then B, so every tag answers both
+    assert out["batch"] == 3 and out["read_rate"] == 1.0
+    assert out["air_time_per_cpu_s"] > 0 and out["cpu_s_per_trial"] > 0

@@ -26,6 +26,12 @@ Reproducibility follows the rule of :mod:`rfsim.rng`: trial b's stream is its ow
 generator (e.g. ``trial_rng(seed, point, b)``), so a trial's result does not depend on the
 batch it ran in, nor on B.
 
+Held links. With ``draw_channel=False`` a trial's links come from its own ``link_caches[b]``
+(the draw of its Query, for the ACK); a link missing there is the channel's held draw, and a
+channel holds one draw per antenna pair, the last trial's: trials whose tags share antenna
+objects need their link caches filled (as :func:`singulate_batch` fills them) or a channel
+each.
+
 A reader keeps no state between the trials of a batch when its ``blf_search`` is "off"
 (the default); with a BLF search the RN16's BLF is kept for the EPC reply that follows, so
 :func:`singulate_batch` then needs one reader per trial.

@@ -11,10 +11,10 @@ sample-level exchange of :func:`rfsim.engine.run_exchange`:
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
    (as the single run draws them, in the same order) and the tags' reactions — the air step
    :func:`rfsim.air.propagate` without receiver noise;
-2. the receiver noise of all trials at once: one ``(B, 2, n)`` array, row b filled from
-   ``rngs[b]`` with the numbers the single run draws there (real part then imaginary part,
-   after the trial's link draws), scaled by √(N/2) in one pass and added to the ``(B, n)``
-   reader inputs in one pass;
+2. the receiver noise of the trials at once (in blocks of :data:`BLOCK` trials, which
+   bounds the memory): one ``(B, 2, n)`` array, row b filled from ``rngs[b]`` with the
+   numbers the single run draws there (real part then imaginary part, after the trial's link
+   draws), scaled by √(N/2) in one pass and added to the ``(B, n)`` reader inputs in one pass;
 3. the reader's reads of the trials with a reply (:meth:`devices.reader.Reader.receive`);
 4. the records (:class:`rfsim.engine.Exchange`), as the single run forms them.
 
@@ -83,43 +83,52 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     rounds = _per_trial(round_index, n, "round_index")
     caches = _per_trial(None, n, "link_caches") if link_caches is None else _per_trial(list(link_caches), n,
                                                                                        "link_caches")
-    # 1. per trial: the segment (once per distinct reader, command, time and round), links, reactions
-    segments: dict = {}
-    preps, airs = [], []
-    for b in range(n):
-        key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
-        tx = segments.get(key)
-        if tx is None:
-            tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
-                                           round_index=rounds[b])
-        prep = _prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
-                        reply_bits=reply_bits, expect_crc=expect_crc, motions=motions, round_index=rounds[b],
-                        draw_channel=draw_channel, propagation=propagation, link_cache=caches[b], tx=tx)
-        noise_w = prep.port.noise_power_w
-        prep.port.noise_power_w = 0.0  # the noise of every trial is added below, in one pass
-        airs.append(_air_step(prep, rng=None))
-        prep.port.noise_power_w = noise_w
-        preps.append(prep)
-    # 2. the receiver noise of all trials (rows of equal length together)
-    inputs = [air.inputs[0] for air in airs]
-    by_length: dict = {}
-    for b, seg in enumerate(inputs):
-        by_length.setdefault(seg.n_samples, []).append(b)
-    for n_samples, rows in by_length.items():
-        y = np.empty((len(rows), n_samples), dtype=np.complex128)
-        for k, b in enumerate(rows):
-            y[k] = inputs[b].samples
-        _add_noise(y, [rngs[b] for b in rows], [preps[b].port.noise_power_w for b in rows])
-        for k, b in enumerate(rows):
-            seg = inputs[b]
-            inputs[b] = Segment(seg.t0_s, seg.fs_hz, seg.fc_hz, y[k])
-    # 3.–4. the reads of the trials with a reply, the records
-    out = []
-    for b in range(n):
-        truth = _truth(airs[b], preps[b].members)
-        read = preps[b].port.receive(inputs[b]) if truth[0] else None
-        out.append(_record(preps[b], truth, read))
+    segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
+    out: list = []
+    for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
+        # 1. per trial: the segment, the links, the reactions (the air step without noise)
+        preps, truths, inputs = [], [], []
+        for b in range(k0, min(n, k0 + BLOCK)):
+            key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
+            tx = segments.get(key)
+            if tx is None:
+                if len(segments) >= BLOCK:
+                    segments.clear()
+                tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
+                                               round_index=rounds[b])
+            prep = _prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
+                            reply_bits=reply_bits, expect_crc=expect_crc, motions=motions, round_index=rounds[b],
+                            draw_channel=draw_channel, propagation=propagation, link_cache=caches[b], tx=tx)
+            noise_w = prep.port.noise_power_w
+            prep.port.noise_power_w = 0.0  # the noise of the block is added below, in one pass
+            air = _air_step(prep, rng=None)
+            prep.port.noise_power_w = noise_w
+            preps.append(prep)
+            truths.append(_truth(air, prep.members))
+            inputs.append(air.inputs[0])
+        # 2. the receiver noise of the block's trials of one segment length in one pass
+        noisy = [None] * len(preps)
+        by_length: dict = {}
+        for k, seg in enumerate(inputs):
+            by_length.setdefault(seg.n_samples, []).append(k)
+        for n_samples, rows in by_length.items():
+            y = np.empty((len(rows), n_samples), dtype=np.complex128)
+            for i, k in enumerate(rows):
+                y[i] = inputs[k].samples
+            _add_noise(y, [rngs[k0 + k] for k in rows], [preps[k].port.noise_power_w for k in rows])
+            for i, k in enumerate(rows):
+                seg = inputs[k]
+                noisy[k] = Segment(seg.t0_s, seg.fs_hz, seg.fc_hz, y[i])
+        # 3.–4. the reads of the trials with a reply, the records
+        for k, prep in enumerate(preps):
+            read = prep.port.receive(noisy[k]) if truths[k][0] else None
+            out.append(_record(prep, truths[k], read))
     return out
+
+
+#: Trials run together: their air steps, then their noise in one array, then their reads
+#: (bounds the memory of a large batch: a few segments per trial of the block).
+BLOCK = 64
 
 
 def _add_noise(y: np.ndarray, rngs: Sequence[np.random.Generator], noise_w: Sequence[float]) -> None:

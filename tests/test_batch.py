@@ -82,8 +82,9 @@ def test_run_exchanges_equals_separate_run_exchange_calls():
         assert tb[0].state.rn16 == ts[0].state.rn16
 
 
-@pytest.mark.parametrize("link_profile", ["miller4-320k", "fm0-640k"])
-def test_singulate_batch_equals_separate_singulations(link_profile):
+@pytest.mark.parametrize("link_profile, block", [("miller4-320k", 64), ("fm0-640k", 64), ("miller4-320k", 3)])
+def test_singulate_batch_equals_separate_singulations(link_profile, block, monkeypatch):
+    monkeypatch.setattr("rfsim.batch.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
     reader, tags, channel = devices(DISTANCES, link_profile=link_profile)
     rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
     batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)

@@ -265,15 +265,18 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
 
     One air step (:func:`rfsim.air.propagate`): the reader's segment, the tag, and as receivers
     the reader's own port (TX→RX leakage, backscatter through the reciprocal forward link,
-    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise)."""
+    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise). The ST
+    antennas are received in a second call over the same links and the tag's reaction
+    replayed, only when the tag replied (the same inputs as receivers of the one step: each
+    receiver's input is formed on its own, their links are drawn after the reader's)."""
     return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
 
 
 def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None) -> tuple:
     """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
-    ``(record without the ST outcomes, ST inputs (k, n) from the listening start, tx, tag
-    response, RN16 bits or None)``. ``ra``: the reader antenna (default
-    :func:`reader_antenna` of the geometry; the same for every sample)."""
+    ``(record without the ST outcomes, ST inputs (k, n) from the listening start or None
+    when the tag did not reply, tx, tag response, RN16 bits or None)``. ``ra``: the reader
+    antenna (default :func:`reader_antenna` of the geometry; the same for every sample)."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
     ra = reader_antenna(g) if ra is None else ra
@@ -286,21 +289,27 @@ def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
     fs, fc = tx.fs_hz, tx.fc_hz
     port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
-    listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
     links = LinkTable(Channel(scene(g)), rng=trial_rng(seed, index, 3), reciprocal=True)
-    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [port, *listeners], links, t0_s=0.0, fs_hz=fs,
-                    n_samples=tx.samples.size, rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz,
-                    decide=False)
+    emitter = FixedEmitter(ra, tx, device=reader)
+    air = propagate([emitter], [tag], [port], links, t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size,
+                    rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
     resp = air.reflections[0]
     replied = resp.gamma is not None
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
     reader_ok = False
+    inputs = None
     if replied:  # the reader decodes only when a tag replied, as run_exchange
         read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-    inputs = np.array([seg.samples for seg in air.inputs[1:]])[:, i0:]
+        # The ST antennas as the receivers of the same step, after the reader's port (the
+        # links drawn after the reader's, from the same stream; the tag's reaction replayed):
+        # a silent tag leaves nothing for an ST to decode, so their links are not drawn then.
+        listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
+        st_air = propagate([emitter], [_Replayed(tag.antenna, resp)], listeners, links, t0_s=0.0, fs_hz=fs,
+                           n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+        i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+        inputs = np.array([seg.samples for seg in st_air.inputs])[:, i0:]
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
@@ -308,6 +317,17 @@ def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None
                   tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
                   tag_replied=replied, reader_detected=bool(reader_ok))
     return record, inputs, tx, resp, bits
+
+
+class _Replayed:
+    """A reflector that gives again the reaction a tag had in a step (its re-radiation on
+    the step's time base), without a second pass through the tag's state machine."""
+
+    def __init__(self, antenna, reflection):
+        self.antenna, self._reflection = antenna, reflection
+
+    def reflect(self, incident):
+        return self._reflection
 
 
 def _st_outcomes(config: Config, samples: list) -> list[dict]:

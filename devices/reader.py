@@ -86,7 +86,7 @@ DOPPLER_BLOCKS = 8
 
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 #: Number of modulated command segments a Reader keeps for reuse.
-TX_CACHE_SIZE = 16
+TX_CACHE_SIZE = 64
 
 
 def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
@@ -219,6 +219,10 @@ def hilbert_fir(half_length: int) -> np.ndarray:
     return h * np.blackman(k.size + 2)[1:-1]
 
 
+#: recently transmitted baseband segments (read-only) of every reader: ``(id(config), id(link),
+#: fs, bits, preamble, CW lengths) → (config, link, samples)`` (:meth:`Reader.transmit`)
+_TX_SEGMENTS: dict = {}
+
 #: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
 _VALIDATED: dict = {}
 _VALIDATED_SIZE = 16
@@ -275,8 +279,6 @@ class Reader:
                               f"≥ 2·BLF_max = {2 * self.link.blf_hz * (1 + self.link.frt):.4g} Hz")
         #: 0-based hop table (channel k of the plan is visited at dwell period i if hop[i % n] = k)
         self.hop_sequence = rng.permutation(n) if self.config.region == "FCC" else np.arange(n)
-        #: recently transmitted baseband segments (read-only), keyed by bits and CW lengths
-        self._tx_cache: dict = {}
         #: recently sent commands → (bits (read-only), preamble, T_cmd [s]); pure functions of
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
@@ -413,16 +415,19 @@ class Reader:
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
         bits, preamble, cmd_duration_s = self._command(cmd)
-        key = (bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
-        x = self._tx_cache.get(key)
-        if x is None:
-            # A reader sends the same commands (Query, QueryRep, …) again and again: keep the
-            # last few modulated segments (read-only) instead of modulating them anew.
-            x = self.modulate(bits, preamble=key[1], cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+        # A reader sends the same commands (Query, QueryRep, …) again and again, and a Monte
+        # Carlo builds many readers of one config: keep the last modulated segments (read-only),
+        # shared by the readers of the same (frozen) config, link profile and sample rate.
+        key = (id(self.config), id(self.link), self.fs_hz, bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
+        hit = _TX_SEGMENTS.get(key)
+        if hit is not None and hit[0] is self.config and hit[1] is self.link:
+            x = hit[2]
+        else:
+            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
             x.setflags(write=False)
-            if len(self._tx_cache) >= TX_CACHE_SIZE:
-                self._tx_cache.pop(next(iter(self._tx_cache)))
-            self._tx_cache[key] = x
+            if len(_TX_SEGMENTS) >= TX_CACHE_SIZE:
+                _TX_SEGMENTS.pop(next(iter(_TX_SEGMENTS)))
+            _TX_SEGMENTS[key] = (self.config, self.link, x)  # config and link kept alive: their ids stay theirs
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
         return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),

@@ -86,7 +86,7 @@ DOPPLER_BLOCKS = 8
 
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 #: Number of modulated command segments a Reader keeps for reuse.
-TX_CACHE_SIZE = 16
+TX_CACHE_SIZE = 64
 
 
 def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
@@ -219,6 +219,28 @@ def hilbert_fir(half_length: int) -> np.ndarray:
     return h * np.blackman(k.size + 2)[1:-1]
 
 
+#: recently transmitted baseband segments (read-only) of every reader: ``(id(config), id(link),
+#: fs, bits, preamble, CW lengths) → (config, link, samples)`` (:meth:`Reader.transmit`)
+_TX_SEGMENTS: dict = {}
+
+#: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
+_VALIDATED: dict = {}
+_VALIDATED_SIZE = 16
+
+
+def _validated(config: ReaderConfig) -> ReaderConfig:
+    """:func:`rfsim.config.validate` of a (frozen) config, remembered for the last few config
+    objects: a Monte Carlo builds one reader per sample from the same config."""
+    hit = _VALIDATED.get(id(config))
+    if hit is not None and hit[0] is config:
+        return hit[1]
+    out = validate(config)
+    if len(_VALIDATED) >= _VALIDATED_SIZE:
+        _VALIDATED.pop(next(iter(_VALIDATED)))
+    _VALIDATED[id(config)] = (config, out)  # config kept alive: its id stays its own
+    return out
+
+
 class Reader:
     """A Gen2 reader with one or more antennas (used in turn), see the module docstring.
 
@@ -232,7 +254,7 @@ class Reader:
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
                  link: LinkProfile | None = None):
-        self.config = validate(config)
+        self.config = _validated(config)
         self.link = profile(self.config.link_profile) if link is None else link
         if not isinstance(self.link, LinkProfile):
             raise ValueError(f"link must be a LinkProfile, got {link!r}")
@@ -257,8 +279,6 @@ class Reader:
                               f"≥ 2·BLF_max = {2 * self.link.blf_hz * (1 + self.link.frt):.4g} Hz")
         #: 0-based hop table (channel k of the plan is visited at dwell period i if hop[i % n] = k)
         self.hop_sequence = rng.permutation(n) if self.config.region == "FCC" else np.arange(n)
-        #: recently transmitted baseband segments (read-only), keyed by bits and CW lengths
-        self._tx_cache: dict = {}
         #: recently sent commands → (bits (read-only), preamble, T_cmd [s]); pure functions of
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
@@ -395,16 +415,19 @@ class Reader:
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
         bits, preamble, cmd_duration_s = self._command(cmd)
-        key = (bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
-        x = self._tx_cache.get(key)
-        if x is None:
-            # A reader sends the same commands (Query, QueryRep, …) again and again: keep the
-            # last few modulated segments (read-only) instead of modulating them anew.
-            x = self.modulate(bits, preamble=key[1], cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+        # A reader sends the same commands (Query, QueryRep, …) again and again, and a Monte
+        # Carlo builds many readers of one config: keep the last modulated segments (read-only),
+        # shared by the readers of the same (frozen) config, link profile and sample rate.
+        key = (id(self.config), id(self.link), self.fs_hz, bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
+        hit = _TX_SEGMENTS.get(key)
+        if hit is not None and hit[0] is self.config and hit[1] is self.link:
+            x = hit[2]
+        else:
+            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
             x.setflags(write=False)
-            if len(self._tx_cache) >= TX_CACHE_SIZE:
-                self._tx_cache.pop(next(iter(self._tx_cache)))
-            self._tx_cache[key] = x
+            if len(_TX_SEGMENTS) >= TX_CACHE_SIZE:
+                _TX_SEGMENTS.pop(next(iter(_TX_SEGMENTS)))
+            _TX_SEGMENTS[key] = (self.config, self.link, x)  # config and link kept alive: their ids stay theirs
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
         return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
@@ -440,11 +463,7 @@ class Reader:
         """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
         :func:`rfsim.gen2.link.reply_window_s` (T1max + reply + 3 Tpri at the nominal BLF);
         with ``blf_search`` the reply at the slowest BLF of the tolerance, BLF·(1 − FrT)."""
-        if self.config.blf_search == "off":
-            return reply_window_s(self.link, int(reply_bits))
-        lk = self.link
-        return (t1(lk).max_s + lk.reply_duration_s(int(reply_bits)) / (1.0 - lk.frt)
-                + REPLY_WINDOW_TAIL_TPRI * lk.tpri_s)
+        return _listen_window_s(self.link, int(reply_bits), self.config.blf_search != "off")
 
     def reply_search_window_s(self) -> tuple[float, float]:
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
@@ -929,6 +948,14 @@ def measure_reference(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[compl
     h = np.dot(z * rot, ref) / np.dot(ref, ref)
     sigma2 = float(np.mean(np.abs(z - h * ref / rot) ** 2))
     return complex(h), slope, sigma2
+
+
+@functools.lru_cache(maxsize=256)
+def _listen_window_s(link: LinkProfile, reply_bits: int, blf_search: bool) -> float:
+    """:meth:`Reader.listen_window_s` of a (frozen) link profile: a pure function, cached."""
+    if not blf_search:
+        return reply_window_s(link, reply_bits)
+    return t1(link).max_s + link.reply_duration_s(reply_bits) / (1.0 - link.frt) + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
 
 
 @functools.lru_cache(maxsize=64)

@@ -176,23 +176,72 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         exactly what the channel would return again (held draw, same geometry and carrier).
         (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
     """
+    prep = _prepare(reader, tags, channel, cmd, t_s=t_s, rng=rng, reply_bits=reply_bits, expect_crc=expect_crc,
+                    motions=motions, round_index=round_index, draw_channel=draw_channel,
+                    propagation=propagation, link_cache=link_cache)
+    air = _air_step(prep, rng=rng)
+    truth = _truth(air, prep.members)
+    read = prep.port.receive(air.inputs[0]) if truth[0] else None
+    return _record(prep, truth, read)
+
+
+@dataclasses.dataclass
+class _Prepared:
+    """One exchange set up for the air step: the reader's segment, its port, the reflectors
+    and their links (:func:`_prepare`)."""
+
+    t_s: float
+    cmd: Any
+    antenna_index: int
+    tx: Any
+    emitter: FixedEmitter
+    port: "ReaderPort"
+    reflectors: list
+    members: list
+    links: "_EngineLinks"
+    propagation: str
+    bandwidth_hz: float
+
+
+def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, motions, round_index, draw_channel,
+             propagation, link_cache, tx=None) -> _Prepared:
+    """Steps 1–2 of the module docstring up to the air step: the reader's segment (``tx`` when
+    already made for this command, time and round), its port and the tags' links."""
     if propagation not in PROPAGATION_METHODS:
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
-    link = reader.link
-    listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
-    window_s = listen(int(reply_bits)) if listen is not None else _window_s(link, int(reply_bits))
-    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
-    fs, fc = tx.fs_hz, tx.fc_hz
+    if tx is None:
+        tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index)
     emitter = FixedEmitter(antenna, tx, device=reader)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
     reflectors = [as_reflector(t) for t in tags]
     members = members_of(reflectors)
     links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
                          link_cache if (link_cache is not None) else None, draw_channel)
-    air = propagate([emitter], reflectors, [port], links, t0_s=t_s, fs_hz=fs, n_samples=tx.samples.size,
-                    rng=rng, bandwidth_hz=2.0 * link.blf_hz, propagation=propagation, decide=False)
+    return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
+                     reflectors=reflectors, members=members, links=links, propagation=propagation,
+                     bandwidth_hz=2.0 * reader.link.blf_hz)
+
+
+def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
+    """The reader's segment: ``cmd`` at ``t_s`` and CW to the end of the reply window."""
+    listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
+    window_s = listen(int(reply_bits)) if listen is not None else _window_s(reader.link, int(reply_bits))
+    return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
+
+
+def _air_step(prep: _Prepared, *, rng):
+    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``)."""
+    tx = prep.tx
+    return propagate([prep.emitter], prep.reflectors, [prep.port], prep.links, t0_s=prep.t_s, fs_hz=tx.fs_hz,
+                     n_samples=tx.samples.size, rng=rng, bandwidth_hz=prep.bandwidth_hz,
+                     propagation=prep.propagation, decide=False)
+
+
+def _truth(air, members) -> tuple:
+    """Ground truth of the step: ``(replied, powered, incident_dbm, sent bits, reply starts,
+    decode_error)`` over the members (tag populations that answered at once included)."""
     replied, powered, incident_dbm, sent, starts = [], [], [], [], []
     decode_error = False
     shortcut = dict(air.groups)
@@ -220,21 +269,28 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
             sent.append(np.asarray(response.reply.bits))
             starts.append(float(response.reply_start_s))
         j += 1
-    read = port.receive(air.inputs[0]) if replied else None
+    return replied, powered, incident_dbm, sent, starts, decode_error
+
+
+def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
+    """The :class:`Exchange` of a prepared exchange from its ground truth and the reader's read."""
+    replied, powered, incident_dbm, sent, starts, decode_error = truth
+    tx = prep.tx
     decoded_tag = None
     if read is not None and read.bits is not None:
         for i, bits in zip(replied, sent):
             if bits.size == read.bits.size and np.array_equal(bits, read.bits):
                 decoded_tag = i
                 break
-    t1_range = _t1_range(link)
+    t1_range = _t1_range(prep.port.reader.link)
     timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
-    return Exchange(time_s=t_s, command=type(cmd).__name__, antenna=antenna_index,
-                    channel_index=tx.channel_index, fc_hz=fc, replied=tuple(replied),
+    n = int(tx.samples.size)
+    return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=prep.antenna_index,
+                    channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
                     powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
                     failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
-                    end_s=t_s + tx.samples.size / fs, decoded_tag=decoded_tag,
-                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=int(tx.samples.size),
+                    end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
+                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
                     cmd_end_s=float(tx.cmd_end_s))
 
 

@@ -83,6 +83,7 @@ gives the same rows as any split of that range into blocks (the sweep
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -199,19 +200,26 @@ class EllipticalPanel(Antenna):
     axial_ratio_db: tuple = (1.0, 3.0)
     half_beamwidth_rad: float = math.radians(35.0)
 
+    @functools.cached_property
+    def _boresight_and_up(self) -> tuple[np.ndarray, np.ndarray]:
+        """The panel's boresight axis and its vertical in the global frame (rotation of local x, z)."""
+        return self.rotation @ np.array([1.0, 0.0, 0.0]), self.rotation @ np.array([0.0, 0.0, 1.0])
+
     def polarization_vector(self, k) -> np.ndarray:
         k = np.asarray(k, float)
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
-        axis = self.rotation @ np.array([1.0, 0.0, 0.0])
+        axis, up = self._boresight_and_up
         psi = np.arccos(np.clip(np.abs(k @ axis), 0.0, 1.0))
         ar0, ar1 = self.axial_ratio_db
         ar_db = ar0 + (ar1 - ar0) * (psi / self.half_beamwidth_rad) ** 2
         r = 10.0 ** (-ar_db / 20.0)[..., None]
-        up = self.rotation @ np.array([0.0, 0.0, 1.0])
         u = up - np.sum(up * k, axis=-1, keepdims=True) * k
         n = np.linalg.norm(u, axis=-1, keepdims=True)
         u = np.where(n > 1e-9, u / np.where(n > 1e-9, n, 1.0), np.array([0.0, 1.0, 0.0]))
-        v = np.cross(k, u)
+        # v = k × u, written out (np.cross's own elementwise products and differences, without
+        # its axis handling, which costs more than the products for one direction)
+        v = np.stack([k[..., 1] * u[..., 2] - k[..., 2] * u[..., 1], k[..., 2] * u[..., 0] - k[..., 0] * u[..., 2],
+                      k[..., 0] * u[..., 1] - k[..., 1] * u[..., 0]], axis=-1)
         h = 1.0 if self.handedness == "rhcp" else -1.0
         return (u - 1j * h * r * v) / np.sqrt(1.0 + r * r)
 
@@ -261,10 +269,21 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
 
     One air step (:func:`rfsim.air.propagate`): the reader's segment, the tag, and as receivers
     the reader's own port (TX→RX leakage, backscatter through the reciprocal forward link,
-    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise)."""
+    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise). The ST
+    antennas are received in a second call over the same links and the tag's reaction
+    replayed, only when the tag replied (the same inputs as receivers of the one step: each
+    receiver's input is formed on its own, their links are drawn after the reader's)."""
+    return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
+
+
+def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None) -> tuple:
+    """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
+    ``(record without the ST outcomes, ST inputs (k, n) from the listening start or None
+    when the tag did not reply, tx, tag response, RN16 bits or None)``. ``ra``: the reader
+    antenna (default :func:`reader_antenna` of the geometry; the same for every sample)."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
-    ra = reader_antenna(g)
+    ra = reader_antenna(g) if ra is None else ra
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
     roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
     tag = PassiveTag(config.tag, tag_antenna(tag_pos, roll), rng=trial_rng(seed, index, 2))
@@ -274,62 +293,109 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
     fs, fc = tx.fs_hz, tx.fc_hz
     port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
-    listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
     links = LinkTable(Channel(scene(g)), rng=trial_rng(seed, index, 3), reciprocal=True)
-    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [port, *listeners], links, t0_s=0.0, fs_hz=fs,
-                    n_samples=tx.samples.size, rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz,
-                    decide=False)
+    emitter = FixedEmitter(ra, tx, device=reader)
+    air = propagate([emitter], [tag], [port], links, t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size,
+                    rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
     resp = air.reflections[0]
     replied = resp.gamma is not None
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
     reader_ok = False
+    inputs = None
     if replied:  # the reader decodes only when a tag replied, as run_exchange
         read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-    det = _st_decode(config, np.array([seg.samples for seg in air.inputs[1:]]), tx, resp, bits)
+        # The ST antennas as the receivers of the same step, after the reader's port (the
+        # links drawn after the reader's, from the same stream; the tag's reaction replayed):
+        # a silent tag leaves nothing for an ST to decode, so their links are not drawn then.
+        listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
+        st_air = propagate([emitter], [_Replayed(tag.antenna, resp)], listeners, links, t0_s=0.0, fs_hz=fs,
+                           n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+        i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+        inputs = np.array([seg.samples for seg in st_air.inputs])[:, i0:]
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
-    return dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
-                st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
-                theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
-                tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
-                tag_replied=replied, reader_detected=bool(reader_ok), **det)
+    record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
+                  st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
+                  theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
+                  tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
+                  tag_replied=replied, reader_detected=bool(reader_ok))
+    return record, inputs, tx, resp, bits
 
 
-def _st_decode(config: Config, inputs, tx, resp, bits) -> dict:
-    """ST chains on SA2 (and SA1, SA1+SA2) from the end of the command; technique outcome.
+class _Replayed:
+    """A reflector that gives again the reaction a tag had in a step (its re-radiation on
+    the step's time base), without a second pass through the tag's state machine."""
 
-    inputs : (k, n) complex128 [√W] ST antenna inputs on the reader segment's time base."""
+    def __init__(self, antenna, reflection):
+        self.antenna, self._reflection = antenna, reflection
+
+    def reflect(self, incident):
+        return self._reflection
+
+
+def _st_outcomes(config: Config, samples: list) -> list[dict]:
+    """The ST chains on SA2 (and SA1, SA1+SA2) of many samples from :func:`_air_sample`, from
+    the end of the command, and each sample's technique outcome; the records completed.
+
+    The chains of every sample whose tag replied run as the rows of one
+    :func:`devices.sense_a_tag.chain_rows` call per receive chain (row by row the same
+    filters from the same start states as one sample alone), then each sample is decoded."""
+    st = config.st
+    two = st.n_antennas == 2
+    names = ["sa2"] + (["sa1"] + (["combined"] if st.technique == "combination" else []) if two else [])
+    groups: dict = {}  # (BLF, M, TRext, fs, samples) -> indices of the samples whose tag replied
+    for k, (_, y, tx, resp, bits) in enumerate(samples):
+        if bits is not None:
+            groups.setdefault((resp.blf_hz, resp.m, resp.trext, tx.fs_hz, y.shape[1]), []).append(k)
+    chains: dict = {}
+    for (blf, m, trext, fs, _), ks in groups.items():
+        rx = make_receiver(st, fs_hz=fs, blf_hz=blf, m=m, trext=trext)
+        rows = []
+        for k in ks:
+            y = samples[k][1]
+            rows.append(y[-1:])
+            if two:
+                rows.append(y[:1])
+                if st.technique == "combination":
+                    rows.append(y[:1] + y[-1:])
+        env, bp, cmp, tog = chain_rows(rx, np.concatenate(rows))
+        for j, k in enumerate(ks):
+            sl = slice(j * len(names), (j + 1) * len(names))
+            chains[k] = (rx, env[sl], bp[sl], cmp[sl], tog[sl])
+    out = []
+    for k, (record, y, tx, resp, bits) in enumerate(samples):
+        det = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
+        if bits is not None:
+            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits)
+        out.append({**record, **det})
+    return out
+
+
+def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits) -> dict:
+    """Decoding of one sample's ST chain outputs (rows ``names``, ``n`` samples from the
+    listening start) and the technique outcome."""
     st = config.st
     fs = tx.fs_hz
+    rx, env, bp, cmp, tog = chain
     i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-    y = inputs[:, i0:]
-    two = st.n_antennas == 2
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
-    if bits is None:
-        return out
-    rx = make_receiver(st, fs_hz=fs, blf_hz=resp.blf_hz, m=resp.m, trext=resp.trext)
     search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
-    rows = {"sa2": y[-1:]}
-    if two:
-        rows["sa1"] = y[:1]
-        if st.technique == "combination":
-            rows["combined"] = y[:1] + y[-1:]
-    dec = {}
     from rfsim.gen2.linecode import reply_waveform
 
     t_rel = resp.reply_start_s - i0 / fs
     levels = reply_waveform(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
-                            t0_s=t_rel, n_samples=y.shape[1])
-    for name, x in rows.items():
-        env, bp, cmp, tog = chain_rows(rx, x)
+                            t0_s=t_rel, n_samples=n)
+    dec = {}
+    for j, name in enumerate(names):
+        r = slice(j, j + 1)
         if name == "sa2":
-            out["st_diff_sa2_v"] = float(np.abs(level_differences(env, levels, rx))[0])
-        dec[name] = bool(decode_rows(rx, env, bp, cmp, tog, rows=np.ones(1, bool), expected_bits=bits,
+            out["st_diff_sa2_v"] = float(np.abs(level_differences(env[r], levels, rx))[0])
+        dec[name] = bool(decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
                                      start_sample=0, search_samples=search)[0])
     out["st_detected_sa2"] = dec["sa2"]
     out["st_detected_sa1"] = dec.get("sa1", False)
-    if st.technique == "single" or not two:
+    if st.technique == "single" or st.n_antennas != 2:
         out["st_detected"] = dec["sa2"]
     elif st.technique == "combination":
         out["st_detected"] = dec["combined"]
@@ -374,12 +440,22 @@ FIELDS = {
 }
 
 
+#: Samples whose ST chains run as one batch of rows (:func:`_st_outcomes`).
+ST_BLOCK = 256
+
+
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`)."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
-    rows = [simulate_sample(config, i, base)
-            for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples")]
+    rows, pending = [], []
+    ra = reader_antenna(config.geometry)
+    for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples"):
+        pending.append(_air_sample(config, i, base, ra))
+        if len(pending) == ST_BLOCK:  # the ST chains of a block of samples at once
+            rows.extend(_st_outcomes(config, pending))
+            pending = []
+    rows.extend(_st_outcomes(config, pending))
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}
     out["is_test"] = out["sample"] >= s.n_train
     return {k: out[k] for k in FIELDS}

@@ -1,7 +1,7 @@
 """Scenario ``link``: one reader and one tag, the tag distance swept, N rounds per point.
 
 Every round is a sample-level singulation (Query → RN16 → ACK → PC+EPC+CRC-16) through the
-engine (:mod:`rfsim.engine`) over a fresh draw of the default channel: Friis large scale,
+engine (:mod:`rfsim.engine`; round r of every distance point in one batch, :mod:`rfsim.batch`) over a fresh draw of the default channel: Friis large scale,
 an optional floor reflection (image method, concrete) and the exponential APDP with the PASS
 room curves K(d), τrms(d) (channels.small_scale.ApdpModel defaults). The reader hops
 channels, so rounds also differ by carrier frequency. Per round the dataset records what
@@ -29,7 +29,7 @@ from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
-from rfsim.engine import singulate
+from rfsim.batch import singulate_batch
 from rfsim.gen2.commands import Query
 from rfsim.progress import track
 from rfsim.rng import trial_rng
@@ -117,22 +117,26 @@ def run(config: Config, *, seed: int) -> Dataset:
     rows: dict[str, list] = {k: [] for k in FIELDS}
     rows["epc"] = []
     antenna = reader_antenna(g)
-    for i, d in enumerate(track(g.distances_m, desc="distances", unit="points")):
-        reader = Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds))
-        tag = PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))
-        channel = Channel(scene(config.channel))
-        for r in range(n_rounds):
-            t_s = (i * n_rounds + r) * config.round_period_s
-            # Dual-target inventory: a read flips the tag's S0 flag, so rounds alternate
-            # target A and B (as commercial readers do to read a tag again and again).
-            query = Query(dr=reader.link.dr, m=reader.link.m, trext=reader.link.trext, q=0,
-                          target="AB"[r % 2])
-            exchanges = singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, i, r),
-                                  query=query, round_index=r)
+    n_points = len(g.distances_m)
+    readers = [Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds)) for i in range(n_points)]
+    tags = [[PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))]
+            for i, d in enumerate(g.distances_m)]
+    channels = [Channel(scene(config.channel)) for _ in range(n_points)]
+    lk = readers[0].link
+    # Round r of every point in one batch (the points are independent trials; the rounds of a
+    # point follow one another: its tag's S0 flag carries over).
+    for r in track(range(n_rounds), desc="rounds", unit="rounds"):
+        times = [(i * n_rounds + r) * config.round_period_s for i in range(n_points)]
+        # Dual-target inventory: a read flips the tag's S0 flag, so rounds alternate
+        # target A and B (as commercial readers do to read a tag again and again).
+        query = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2])
+        rngs = [trial_rng(seed, i, r) for i in range(n_points)]
+        batch = singulate_batch(readers, tags, channels, t_s=times, rngs=rngs, query=query, round_index=r)
+        for i, (d, exchanges) in enumerate(zip(g.distances_m, batch)):
             last = exchanges[-1]
             read = last.read if last.command == "ACK" else None
             ok = last.command == "ACK" and last.success
-            _append(rows, point=i, round=r, time_s=t_s, distance_m=d, antenna=last.antenna + 1,
+            _append(rows, point=i, round=r, time_s=times[i], distance_m=d, antenna=last.antenna + 1,
                     channel_index=last.channel_index, frequency_hz=last.fc_hz,
                     rssi_dbm=read.rssi_dbm if ok else np.nan,
                     phase_rad=read.phase_rad if ok else np.nan,

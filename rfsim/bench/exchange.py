@@ -31,27 +31,16 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     ``rounds_per_s``,
     ``air_time_per_round_s``, ``samples_per_round``, ``read_rate``, ``peak_traced_mb``.
     """
-    # imported here: rfsim does not import devices/channels/scenarios at module level
-    from channels import Channel
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
     from rfsim.engine import singulate
-    from rfsim.gen2.commands import Query
     from rfsim.rng import trial_rng
-    from scenarios import link as link_scenario
 
-    cfg = link_scenario.Config()
-    reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
-                    rng=trial_rng(seed, 0))
-    tag = PassiveTag(TagConfig(), link_scenario.tag_antenna(cfg.geometry, distance_m), rng=trial_rng(seed, 1))
-    channel = Channel(link_scenario.scene(cfg.channel))
-    lk = reader.link
+    reader, make_tag, channel, query = _canonical(distance_m, seed)
+    tag = make_tag(None)
     state = {"t": 0.0, "r": 0}
 
     def one_round():
         r = state["r"]
-        q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2])
-        ex = singulate(reader, [tag], channel, t_s=state["t"], rng=trial_rng(seed, 2, r), query=q,
+        ex = singulate(reader, [tag], channel, t_s=state["t"], rng=trial_rng(seed, 2, r), query=query(r),
                        round_index=r)
         state["t"] += 20e-3
         state["r"] += 1
@@ -85,4 +74,70 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     }
 
 
-__all__ = ["bench_exchange"]
+def _canonical(distance_m: float, seed: int):
+    """The canonical exchange's reader, a maker of its tag (``trial_rng(seed, 1)``, trial b of a
+    batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the round's Query (target A/B alternating)."""
+    # imported here: rfsim does not import devices/channels/scenarios at module level
+    from channels import Channel
+    from devices.reader import Reader, ReaderConfig
+    from devices.tag import PassiveTag, TagConfig
+    from rfsim.gen2.commands import Query
+    from rfsim.rng import trial_rng
+    from scenarios import link as link_scenario
+
+    cfg = link_scenario.Config()
+    reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
+                    rng=trial_rng(seed, 0))
+    antenna = link_scenario.tag_antenna(cfg.geometry, distance_m)
+    channel = Channel(link_scenario.scene(cfg.channel))
+    lk = reader.link
+
+    def make_tag(b: int | None):
+        return PassiveTag(TagConfig(), antenna, rng=trial_rng(seed, 1) if b is None else trial_rng(seed, 1, b))
+
+    def query(r: int):
+        return Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2])
+
+    return reader, make_tag, channel, query
+
+
+def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0) -> dict:
+    """Aggregate air time per second of the canonical exchange run as batches of ``batch``
+    independent singulations (:func:`rfsim.batch.singulate_batch`: B tags at the same place,
+    trial b of batch k drawing its channel and noise from ``trial_rng(seed, 2, k, b)``), on
+    one core. Air time as in :func:`bench_exchange` (the samples of every trial's Query and
+    ACK segments / fs); one warm-up batch of 4 other tags first.
+
+    Returns
+    -------
+    dict with ``batch``, ``air_time_per_wall_s``, ``air_time_per_cpu_s``, ``trials_per_s``,
+    ``cpu_s_per_trial``, ``read_rate``.
+    """
+    from rfsim.batch import singulate_batch
+    from rfsim.rng import trial_rng
+
+    reader, make_tag, channel, query = _canonical(distance_m, seed)
+    tags = [[make_tag(b)] for b in range(int(batch) + 4)]
+
+    def one_batch(k: int, trials: list):
+        return singulate_batch(reader, trials, channel, t_s=k * 20e-3,
+                               rngs=[trial_rng(seed, 2, k, b) for b in range(len(trials))], query=query(k),
+                               round_index=k)
+
+    one_batch(0, tags[int(batch):])  # warm-up (tags of its own): numba compilation / cache load
+    samples, ok = 0, 0
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    for k in range(int(n_batches)):  # a read flips a tag's S0 flag: batches alternate target A and B
+        for ex in one_batch(k, tags[:int(batch)]):
+            samples += sum(e.n_samples for e in ex)
+            ok += ex[-1].command == "ACK" and ex[-1].success
+    wall = time.perf_counter() - t0
+    cpu = time.process_time() - c0
+    air = samples / reader.fs_hz
+    n = int(batch) * int(n_batches)
+    return {"batch": int(batch), "air_time_per_wall_s": air / wall, "air_time_per_cpu_s": air / cpu,
+            "trials_per_s": n / wall, "cpu_s_per_trial": cpu / n, "read_rate": ok / n}
+
+
+__all__ = ["bench_exchange", "bench_exchange_batch"]

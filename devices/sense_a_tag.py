@@ -53,7 +53,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.signal import lfilter, sosfilt, sosfilt_zi
 
 from devices import st_receiver as sr
 from devices.st_analytic import THRESHOLD_V
@@ -66,6 +65,9 @@ from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, Quer
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
 from rfsim.units import dbm_to_w, w_to_dbm
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -371,10 +373,10 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     det = rx.envelope_detector
     u = det.instantaneous_v(x)
     a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
-    env = lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
+    env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
     sos = rx.sos
-    zi = sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
-    bp = sosfilt(sos, env, axis=1, zi=zi)[0]
+    zi = _signal.sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
+    bp = _signal.sosfilt(sos, env, axis=1, zi=zi)[0]
     cmp = np.empty_like(bp)
     tog = np.empty(x.shape[0], dtype=np.int64)
     for i in range(x.shape[0]):

@@ -84,14 +84,16 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import butter, lfilter, sosfilt, sosfilt_zi
-from scipy.special import i0e, i1e
 
-from devices import _st_receiver_kernels as _k
 from devices.st_analytic import THRESHOLD_V, select_path
 from rfsim.errors import ConfigError
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+_special = lazy_import("scipy.special")
+_k = lazy_import("devices._st_receiver_kernels")
 
 REFERENCE_IMPEDANCE_OHM = 50.0
 #: Reference impedance of the source's amplitudes (PASS: peak sqrt(2P) across 1 Ω) [Ω]
@@ -152,7 +154,7 @@ def rc_lowpass_reference(u, *, fs_hz: float, tau_s: float, y0: float | None = No
     u = np.asarray(u, dtype=np.float64)
     a = _rc_coefficient(fs_hz, tau_s)
     y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
-    y, _ = lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
+    y, _ = _signal.lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
     return y, float(y[-1]) if y.size else y0
 
 
@@ -317,7 +319,7 @@ class EnvelopeDetector:
         if self.law == "diode":
             nvt = self.thermal_voltage_v
             x = self.matching_gain * v / nvt
-            return nvt * (np.log(i0e(x)) + x)  # ln I0(x) = ln(i0e(x)) + x, no overflow
+            return nvt * (np.log(_special.i0e(x)) + x)  # ln I0(x) = ln(i0e(x)) + x, no overflow
         return self.agc_gain(v) * v
 
     def agc_gain(self, v_peak_max):
@@ -330,7 +332,7 @@ class EnvelopeDetector:
         v = np.asarray(v_peak, float)
         if self.law == "diode":
             x = self.matching_gain * v / self.thermal_voltage_v
-            return self.matching_gain * i1e(x) / i0e(x)
+            return self.matching_gain * _special.i1e(x) / _special.i0e(x)
         if self.law == "square":
             return self.responsivity_v_per_w * v / self.impedance_ohm
         if self.law == "agc":
@@ -455,7 +457,7 @@ class STReceiver:
     @property
     def sos(self) -> np.ndarray:
         """Band-pass second-order sections (Butterworth)."""
-        return butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
+        return _signal.butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
                       btype="bandpass", fs=self.fs_hz, output="sos")
 
     @property
@@ -474,7 +476,7 @@ class STReceiver:
             raise ValueError(f"x must be 1-D with >= 2 samples, got shape {x.shape}")
         env = self.envelope_detector.output_v(x, fs_hz=self.fs_hz)
         sos = self.sos
-        bp = sosfilt(sos, env, zi=sosfilt_zi(sos) * env[0])[0]
+        bp = _signal.sosfilt(sos, env, zi=_signal.sosfilt_zi(sos) * env[0])[0]
         cmp_out, _, tog = comparator(bp, threshold_v=self.threshold_v)
         return ChainOutput(env, bp, cmp_out, tog)
 

@@ -67,7 +67,9 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
 def _announce_compilation() -> None:
     """Say so up front when no kernel is cached yet (the pool workers compile silently)."""
     from rfsim._jit import first_compilation
+    from rfsim.lazy import load_declared
 
+    load_declared()  # the kernel modules declare their kernels when loaded
     rep = current()
     if rep is not None and first_compilation():
         rep.compile_started()

@@ -1,6 +1,8 @@
 """Start-up of the ``rfsim`` command: ``--help`` and ``list`` import no scenario physics, no
-numba and no scipy.signal (issue 16 item 4); the scenario metadata read from the sources
-equals the modules' own."""
+numba and no scipy.signal (issue 16 item 4); ``config NAME`` imports the modules that declare
+the config dataclasses but runs no kernel module, numba, scipy.signal/stats/optimize or h5py
+(they are declared with :func:`rfsim.lazy.lazy_import`); the scenario metadata read from the
+sources equals the modules' own."""
 
 from __future__ import annotations
 
@@ -24,7 +26,9 @@ def _imported_after(argv: list[str]) -> list[str]:
     code = ("import sys, io, contextlib\nfrom rfsim.cli import main\n"
             "with contextlib.redirect_stdout(io.StringIO()):\n"
             "    try:\n        main(%r)\n    except SystemExit:\n        pass\n"
-            "import json; print(json.dumps(sorted(sys.modules)))" % (argv,))
+            "import importlib.util, json\n"
+            "print(json.dumps(sorted(m for m, v in sys.modules.items()\n"
+            "                        if not isinstance(v, importlib.util._LazyModule))))" % (argv,))
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -35,6 +39,18 @@ def test_help_and_list_import_no_physics(argv):
     mods = _imported_after(argv)
     heavy = [m for m in mods if m.split(".")[0] in ("numba", "h5py", "devices", "channels", "matplotlib")
              or m.startswith(("scipy.signal", "scipy.stats", "scenarios."))]
+    assert heavy == []
+
+
+@pytest.mark.parametrize("name", sorted(scenario_descriptions()))
+def test_config_runs_no_kernel_module_nor_heavy_library(name):
+    """``rfsim config NAME`` loads no numba (so no kernel module ran: each imports numba),
+    no scipy.signal / scipy.stats / scipy.optimize, no h5py and no matplotlib; a lazily
+    declared module that was never used does not count as imported."""
+    mods = _imported_after(["config", name])
+    assert f"scenarios.{name.replace('-', '_')}" in mods  # the command did resolve the scenario
+    heavy = [m for m in mods if m.split(".")[0] in ("numba", "llvmlite", "h5py", "matplotlib")
+             or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize")) or m.endswith("_kernels")]
     assert heavy == []
 
 

@@ -395,17 +395,18 @@ def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
 def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, start_sample: int,
                 search_samples: int | None) -> np.ndarray:
     """Decode the reply in the chosen ``rows`` (bool (r,)) → ``(r,) bool``: the decoded bits equal
-    ``expected_bits``. Rows whose comparator does not toggle ``rx.min_toggles`` times are
-    not decoded (False)."""
+    ``expected_bits`` (the outcome of :meth:`STReceiver.decode_chain` without a CRC: a preamble
+    correlation of at least ``rx.min_corr``). Rows whose comparator does not toggle
+    ``rx.min_toggles`` times after ``start_sample`` are not decoded (False); the toggles of
+    all rows are counted at once, and only the comparator is decoded (the envelope
+    measurements of ``decode_chain`` are not needed for the outcome)."""
     out = np.zeros(env.shape[0], dtype=bool)
     exp = np.asarray(expected_bits, dtype=np.uint8)
-    for i in np.flatnonzero(rows):
-        if np.count_nonzero(np.diff(cmp[i, start_sample:])) < rx.min_toggles:
-            continue
-        rec = rx.decode_chain(sr.ChainOutput(env[i], bp[i], cmp[i], int(tog[i])), n_bits=exp.size, crc=False,
-                              states=np.zeros(env.shape[1]), start_sample=start_sample,
-                              search_samples=search_samples)
-        out[i] = rec.bits is not None and np.array_equal(rec.bits, exp)
+    part = cmp[:, start_sample:]
+    toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
+    for i in np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles)):
+        det = rx.decode_comparator(part[i], n_bits=exp.size, search_samples=search_samples)
+        out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
     return out
 
 

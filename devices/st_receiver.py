@@ -317,9 +317,16 @@ class EnvelopeDetector:
         if self.law == "square":
             return self.responsivity_v_per_w * v * v / (2.0 * self.impedance_ohm)
         if self.law == "diode":
+            # nvt·(ln I0(x) + ...) with ln I0(x) = ln(i0e(x)) + x (no overflow), x = g·V/(n·V_T);
+            # evaluated in place (the same operations in the same order as the formula)
             nvt = self.thermal_voltage_v
-            x = self.matching_gain * v / nvt
-            return nvt * (np.log(_special.i0e(x)) + x)  # ln I0(x) = ln(i0e(x)) + x, no overflow
+            x = self.matching_gain * v
+            x /= nvt
+            y = np.asarray(_special.i0e(x))
+            np.log(y, out=y)
+            y += x
+            y *= nvt
+            return y if y.ndim else y[()]
         return self.agc_gain(v) * v
 
     def agc_gain(self, v_peak_max):
@@ -522,6 +529,16 @@ class STReceiver:
         out[lo:hi] = lvl[lo - best_lag: hi - best_lag]
         return out
 
+    def decode_comparator(self, cmp, *, n_bits: int, search_samples: int | None = None):
+        """Line-code decoding of a comparator output ``cmp`` ((n,) ±1) from its first sample:
+        :func:`rfsim.gen2.linecode.decode_reply` on it, or None where no reply start fits."""
+        try:
+            return decode_reply(np.asarray(cmp).astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
+                                blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
+                                search_samples=search_samples)
+        except ValueError:
+            return None
+
     def decode_chain(self, ch: ChainOutput, *, n_bits: int, crc: bool = True, states=None,
                      start_sample: int = 0, search_samples: int | None = None) -> Reception:
         """Decoding and measurement part of :meth:`receive` on a precomputed chain."""
@@ -530,12 +547,7 @@ class STReceiver:
         toggles = int(np.count_nonzero(np.diff(cmp_part))) if cmp_part.size > 1 else 0
         bits, corr, start, detected = None, 0.0, float("nan"), False
         if toggles >= self.min_toggles:
-            try:
-                det = decode_reply(cmp_part.astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
-                                   blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
-                                   search_samples=search_samples)
-            except ValueError:
-                det = None
+            det = self.decode_comparator(cmp_part, n_bits=n_bits, search_samples=search_samples)
             if det is not None:
                 bits, corr, start = det.bits, det.corr, det.start_sample + s0
                 detected = bool(crc16_ok(bits)) if crc else corr >= self.min_corr

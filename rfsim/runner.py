@@ -53,6 +53,7 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
                                  start_time_utc=start_utc)
     stage(f"writing {path}")
     write_dataset(path, dataset, provenance)
+    del dataset  # the figures read the file: the arrays need not stay in memory beside them
     figures: tuple[Path, ...] = ()
     if make_plots:
         stage("drawing figures")

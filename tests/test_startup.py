@@ -119,3 +119,14 @@ def test_first_task_runs_in_the_leader_and_workers_inherit_its_kernels():
 
     if multiprocessing.get_start_method() == "fork":  # spawned workers load from the cache instead
         assert all(n >= 1 for _, n in out[1:])
+
+
+def test_bench_runs_a_command_as_a_child_and_reads_its_usage():
+    """rfsim.bench.startup times a whole command in its own process: a user error's exit
+    status comes back (2), and a command that ran reports CPU time and a peak of at least
+    the interpreter's own size (≥ 5 MB)."""
+    from rfsim.bench.startup import run_measured
+
+    assert run_measured(["config", "no-such-scenario"])["exit_status"] == 2
+    r = run_measured(["--help"])
+    assert r["exit_status"] == 0 and r["cpu_s"] > 0 and r["peak_rss_mb"] >= 5 and r["wall_s"] > 0

@@ -4,53 +4,49 @@ numba (through the kernel modules) and scipy's signal, stats and optimize sub-pa
 cost about a second of start-up together, while a scenario's config only needs the
 dataclasses of the modules that declare them. A module that calls a kernel or a scipy
 routine inside its functions declares the module with :func:`lazy_import` instead of an
-``import`` statement; the module object is created at once, its code runs when one of
-its attributes is first read (:class:`importlib.util.LazyLoader`).
+``import`` statement: it gets a stand-in at once; the first attribute read through the
+stand-in imports the real module (an ordinary import, so concurrent first uses from
+several threads wait for one import) and copies its namespace into the stand-in.
 """
 
 from __future__ import annotations
 
 import importlib
-import importlib.util
-import sys
 import threading
-from types import ModuleType
+import types
 
 _LOCK = threading.Lock()
 #: Names of the modules declared with :func:`lazy_import`, in declaration order.
 DECLARED: list[str] = []
 
 
-def lazy_import(name: str) -> ModuleType:
-    """The module ``name`` (absolute dotted name), executed on first attribute access.
+class _Deferred(types.ModuleType):
+    """Stand-in of a module not imported yet; attributes not found on it come from the
+    real module, imported on the first such read."""
 
-    An already imported module is returned as it is. The parent packages are imported
-    now (they are light: rfsim's packages import their sub-modules on demand, scipy's
-    ``__init__`` does not import its sub-packages).
-    """
+    def __getattr__(self, attr: str):
+        if attr.startswith("__") and attr.endswith("__"):
+            raise AttributeError(attr)
+        module = importlib.import_module(self.__name__)  # thread-safe: the import lock
+        with _LOCK:
+            for key, value in vars(module).items():
+                self.__dict__.setdefault(key, value)
+        return getattr(module, attr)
+
+
+def lazy_import(name: str) -> types.ModuleType:
+    """A stand-in of the module ``name`` (absolute dotted name) that imports it on the first
+    attribute read (see the module docstring); nothing is imported now."""
     with _LOCK:
-        module = sys.modules.get(name)
-        if module is not None:
-            return module
-        spec = importlib.util.find_spec(name)
-        if spec is None or spec.loader is None:
-            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
-        spec.loader = importlib.util.LazyLoader(spec.loader)
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
         DECLARED.append(name)
-        parent, _, child = name.rpartition(".")
-        if parent:
-            setattr(sys.modules[parent], child, module)
-        return module
+    return _Deferred(name)
 
 
 def load_declared() -> None:
-    """Run the code of every module declared so far (e.g. so that every kernel a run may
-    call is declared before the run asks numba which kernels are cached)."""
+    """Import every module declared so far (e.g. so that every kernel a run may call is
+    declared before the run asks numba which kernels are cached)."""
     for name in list(DECLARED):
-        getattr(sys.modules[name], "__name__", None)
+        importlib.import_module(name)
 
 
 __all__ = ["lazy_import", "load_declared", "DECLARED"]

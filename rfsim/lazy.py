@@ -25,8 +25,6 @@ class _Deferred(types.ModuleType):
     real module, imported on the first such read."""
 
     def __getattr__(self, attr: str):
-        if attr.startswith("__") and attr.endswith("__"):
-            raise AttributeError(attr)
         module = importlib.import_module(self.__name__)  # thread-safe: the import lock
         with _LOCK:
             for key, value in vars(module).items():

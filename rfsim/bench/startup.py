@@ -2,36 +2,47 @@
 ``rfsim --help``, ``rfsim list`` and ``rfsim config NAME``, and the peak memory and CPU time
 of every scenario's default run.
 
-Each command is timed as its own process: wall time from start to exit, CPU time (user +
-system) and peak resident set size from ``os.wait4`` — the figures ``/usr/bin/time -v``
-reports; the CPU time and the peak include the command's pool workers (waited for by the
-command), the peak being that of the largest single process.
+Each command is timed as its own process, started by a small intermediate interpreter: wall
+time from start to exit, CPU time (user + system) and peak resident set size from
+``os.wait4`` — the figures ``/usr/bin/time -v`` reports; the CPU time and the peak include the
+command's pool workers (waited for by the command), the peak being that of the largest single
+process.
 """
 
 from __future__ import annotations
 
-import os
+import json
 import subprocess
 import sys
 import tempfile
-import time
 
 
-def _command(argv: list[str]) -> list[str]:
-    return [sys.executable, "-m", "rfsim", *argv]
+#: Run in a small interpreter of its own: start ``rfsim argv`` (output discarded), wait for
+#: it with ``os.wait4`` and print its figures as JSON. A child keeps the peak RSS of the
+#: process it was forked from (Linux carries the high-water mark over fork and exec), so
+#: the command must be started from a small process, not from the benchmark (which has
+#: NumPy, numba and the earlier benchmarks' arrays in memory), as ``/usr/bin/time`` does.
+_MEASURE = """
+import json, os, subprocess, sys, time
+t0 = time.perf_counter()
+p = subprocess.Popen([sys.executable, "-m", "rfsim", *json.loads(sys.argv[1])],
+                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+_, status, u = os.wait4(p.pid, 0)
+wall = time.perf_counter() - t0
+p.returncode = os.waitstatus_to_exitcode(status)
+print(json.dumps({"wall_s": wall, "cpu_s": u.ru_utime + u.ru_stime, "peak_rss_mb": u.ru_maxrss / 1024.0,
+                  "exit_status": p.returncode}))
+"""
 
 
 def run_measured(argv: list[str], *, cwd: str | None = None) -> dict:
     """Run ``rfsim argv`` as a child process (output discarded) → ``wall_s``, ``cpu_s``
-    (user + system of the child and its waited-for descendants), ``peak_rss_mb`` (the
-    largest process), ``exit_status``."""
-    t0 = time.perf_counter()
-    proc = subprocess.Popen(_command(argv), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=cwd)
-    _, status, usage = os.wait4(proc.pid, 0)
-    wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)  # reaped above; keep Popen from waiting again
-    return {"wall_s": wall, "cpu_s": usage.ru_utime + usage.ru_stime, "peak_rss_mb": usage.ru_maxrss / 1024.0,
-            "exit_status": proc.returncode}
+    (user + system of the command and its waited-for descendants), ``peak_rss_mb`` (the
+    largest process), ``exit_status``; measured by a small intermediate process
+    (:data:`_MEASURE`)."""
+    out = subprocess.run([sys.executable, "-c", _MEASURE, json.dumps(list(argv))], capture_output=True, text=True,
+                         cwd=cwd, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def _scenario_names() -> list[str]:

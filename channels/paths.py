@@ -29,7 +29,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from channels._paths_kernels import fir_rows_kernel, narrowband_kernel
+from rfsim.lazy import lazy_import
+
+_pk = lazy_import("channels._paths_kernels")
+
 
 __all__ = [
     "PathSet",
@@ -292,12 +295,12 @@ def apply_paths(x, *, fs_hz: float, fc_hz: float, paths: PathSet, t0_s: float = 
         return y
     if method == "narrowband":
         w, phi0 = _doppler_phase(paths.doppler_hz, fs_hz, t0_s)
-        return narrowband_kernel(x, paths.coefficients(fc_hz), w, phi0, y)
+        return _pk.narrowband_kernel(x, paths.coefficients(fc_hz), w, phi0, y)
     if method != "exact":
         raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
     taps, starts, lengths, dops = _fir_rows(paths, fs_hz, fc_hz, half_width)
     w, phi0 = _doppler_phase(dops, fs_hz, t0_s)
-    return fir_rows_kernel(x, taps, starts, lengths, w, phi0, y)
+    return _pk.fir_rows_kernel(x, taps, starts, lengths, w, phi0, y)
 
 
 def apply_paths_reference(x, *, fs_hz: float, fc_hz: float, paths: PathSet, t0_s: float = 0.0,

@@ -28,7 +28,6 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import constants as _sc
 
 from rfsim.errors import ConfigError
 
@@ -48,7 +47,9 @@ _POLS = ("TE", "TM")
 
 def relative_permittivity(eps_rel: float, sigma_s_m: float, fc_hz: float) -> complex:
     """Complex relative permittivity ε_r = ε' − j·σ/(2π·f·ε0) (e^{+jωt} convention)."""
-    return complex(eps_rel, -sigma_s_m / (2.0 * np.pi * fc_hz * _sc.epsilon_0))
+    from scipy.constants import epsilon_0  # CODATA value of the installed scipy
+
+    return complex(eps_rel, -sigma_s_m / (2.0 * np.pi * fc_hz * epsilon_0))
 
 
 def _check_pol(polarization: str) -> str:

@@ -32,7 +32,6 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import firwin
 
 from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.config import check_fields, param
@@ -43,6 +42,9 @@ from rfsim.units import w_to_dbm
 from .msk_beacon import (FRAME_CHIPS, HEADER_CHIPS, discriminate, header_chips, manchester_decode,
                          msk_phase, parse_payload)
 from .rss_reader import RssReport
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
 
 #: Taps of the channel filter (odd: a centred, zero-delay linear-phase FIR).
 FILTER_TAPS = 63
@@ -100,7 +102,7 @@ class BeaconRead:
 
 @functools.lru_cache(maxsize=8)
 def _filter_taps(fs_hz: float, bandwidth_hz: float) -> np.ndarray:
-    return firwin(FILTER_TAPS, 0.5 * bandwidth_hz, fs=fs_hz)
+    return _signal.firwin(FILTER_TAPS, 0.5 * bandwidth_hz, fs=fs_hz)
 
 
 @functools.lru_cache(maxsize=8)

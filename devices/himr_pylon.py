@@ -38,12 +38,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import firwin, kaiserord
 
 from rfsim.air import Segment
 from rfsim.carriers import check_carriers
 from rfsim.config import check_fields, param
 from rfsim.noise import thermal_noise_power_w
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
 
 #: Carriers of the 2-D experiment (L997) [Hz].
 HIMR_CARRIERS_HZ = (5.79e9, 5.80e9, 5.81e9)
@@ -111,9 +113,9 @@ class Pylon:
 def lowpass_taps(cutoff_hz: float, fs_hz: float) -> np.ndarray:
     """Odd-length Kaiser FIR low-pass: pass band to ``cutoff_hz``, 80 dB from 1.6·cutoff."""
     width = 0.6 * cutoff_hz / (0.5 * fs_hz)
-    n, beta = kaiserord(80.0, width)
+    n, beta = _signal.kaiserord(80.0, width)
     n += 1 - n % 2
-    return firwin(n, 1.3 * cutoff_hz, window=("kaiser", beta), fs=fs_hz)
+    return _signal.firwin(n, 1.3 * cutoff_hz, window=("kaiser", beta), fs=fs_hz)
 
 
 __all__ = ["PylonConfig", "Pylon", "HIMR_CARRIERS_HZ"]

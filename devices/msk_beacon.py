@@ -44,8 +44,10 @@ import numpy as np
 
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.crc import append_crc16, crc16_ok
+from rfsim.lazy import lazy_import
 
-from ._msk_kernels import discriminator_kernel, msk_phase_kernel
+_mk = lazy_import("devices._msk_kernels")
+
 
 PREAMBLE_BITS = 32
 SYNC_WORD = 0xD391
@@ -112,7 +114,7 @@ def msk_phase(chips, sps: float, offset_chips: float, n_samples: int) -> tuple[n
     c = np.ascontiguousarray(chips, dtype=np.float64)
     phase = np.empty(int(n_samples))
     on = np.empty(int(n_samples), dtype=np.uint8)
-    msk_phase_kernel(c, float(sps), float(offset_chips), phase, on)
+    _mk.msk_phase_kernel(c, float(sps), float(offset_chips), phase, on)
     return phase, on.astype(bool)
 
 
@@ -133,7 +135,7 @@ def discriminate(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
     (``y[−1] = y_prev``)."""
     x = np.ascontiguousarray(y, dtype=np.complex128)
     out = np.empty(x.size)
-    discriminator_kernel(x, complex(y_prev), out)
+    _mk.discriminator_kernel(x, complex(y_prev), out)
     return out
 
 

@@ -55,7 +55,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.signal import fftconvolve
 
 from rfsim.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.carriers import frequency_plan as _plan
@@ -70,8 +69,11 @@ from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
 from rfsim.records import ReportConfig
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
-from devices import _blf_search_kernels as _bk
-from devices import _reader_kernels as _rk
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+_bk = lazy_import("devices._blf_search_kernels")
+_rk = lazy_import("devices._reader_kernels")
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -384,7 +386,7 @@ class Reader:
             return pr_ask_baseband(tl, e, amplitude=amp, fs_hz=self.fs_hz)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
-        quad = fftconvolve(e - 1.0, hilbert_fir(half), mode="same")
+        quad = _signal.fftconvolve(e - 1.0, hilbert_fir(half), mode="same")
         return amp * (e + 1j * quad)
 
     def transmit(self, cmd, *, t0_s: float, cw_after_s: float, cw_before_s: float | None = None,

@@ -53,7 +53,6 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.signal import lfilter, sosfilt, sosfilt_zi
 
 from devices import st_receiver as sr
 from devices.st_analytic import THRESHOLD_V
@@ -66,6 +65,9 @@ from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, Quer
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
 from rfsim.units import dbm_to_w, w_to_dbm
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -371,10 +373,10 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     det = rx.envelope_detector
     u = det.instantaneous_v(x)
     a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
-    env = lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
+    env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
     sos = rx.sos
-    zi = sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
-    bp = sosfilt(sos, env, axis=1, zi=zi)[0]
+    zi = _signal.sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
+    bp = _signal.sosfilt(sos, env, axis=1, zi=zi)[0]
     cmp = np.empty_like(bp)
     tog = np.empty(x.shape[0], dtype=np.int64)
     for i in range(x.shape[0]):
@@ -393,17 +395,18 @@ def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
 def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, start_sample: int,
                 search_samples: int | None) -> np.ndarray:
     """Decode the reply in the chosen ``rows`` (bool (r,)) → ``(r,) bool``: the decoded bits equal
-    ``expected_bits``. Rows whose comparator does not toggle ``rx.min_toggles`` times are
-    not decoded (False)."""
+    ``expected_bits`` (the outcome of :meth:`STReceiver.decode_chain` without a CRC: a preamble
+    correlation of at least ``rx.min_corr``). Rows whose comparator does not toggle
+    ``rx.min_toggles`` times after ``start_sample`` are not decoded (False); the toggles of
+    all rows are counted at once, and only the comparator is decoded (the envelope
+    measurements of ``decode_chain`` are not needed for the outcome)."""
     out = np.zeros(env.shape[0], dtype=bool)
     exp = np.asarray(expected_bits, dtype=np.uint8)
-    for i in np.flatnonzero(rows):
-        if np.count_nonzero(np.diff(cmp[i, start_sample:])) < rx.min_toggles:
-            continue
-        rec = rx.decode_chain(sr.ChainOutput(env[i], bp[i], cmp[i], int(tog[i])), n_bits=exp.size, crc=False,
-                              states=np.zeros(env.shape[1]), start_sample=start_sample,
-                              search_samples=search_samples)
-        out[i] = rec.bits is not None and np.array_equal(rec.bits, exp)
+    part = cmp[:, start_sample:]
+    toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
+    for i in np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles)):
+        det = rx.decode_comparator(part[i], n_bits=exp.size, search_samples=search_samples)
+        out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
     return out
 
 

@@ -22,11 +22,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.stats import beta as _beta_dist
+
 
 from rfsim.errors import ConfigError
 from rfsim.units import wavelength_m
+from rfsim.lazy import lazy_import
+
+_optimize = lazy_import("scipy.optimize")
+_stats = lazy_import("scipy.stats")
 
 #: Phase-cancellation threshold on the envelope-detector output difference [V]
 #: (auris-sense-a-tag.md §3.1, seed L3443-3445, L3500-3502).
@@ -260,7 +263,7 @@ class NullMapModel:
         f = self._null_function(s)
         idx = np.flatnonzero(np.sign(f[:-1]) * np.sign(f[1:]) < 0)
         f1 = lambda v: float(self._null_function(np.array([v]))[0])  # noqa: E731
-        return np.array([brentq(f1, s[i], s[i + 1], xtol=1e-12) for i in idx])
+        return np.array([_optimize.brentq(f1, s[i], s[i + 1], xtol=1e-12) for i in idx])
 
 
 # ----------------------------------------------------------------------------- decisions
@@ -341,8 +344,8 @@ def cancellation_probability(flags, *, axis=None, confidence: float = 0.95):
         raise ValueError("no samples")
     a = 1.0 - confidence
     k = np.asarray(k, float)
-    lo = np.where(k > 0, _beta_dist.ppf(a / 2, np.maximum(k, 1), n - k + 1), 0.0)
-    hi = np.where(k < n, _beta_dist.ppf(1 - a / 2, k + 1, np.maximum(n - k, 1)), 1.0)
+    lo = np.where(k > 0, _stats.beta.ppf(a / 2, np.maximum(k, 1), n - k + 1), 0.0)
+    hi = np.where(k < n, _stats.beta.ppf(1 - a / 2, k + 1, np.maximum(n - k, 1)), 1.0)
     return k / n, lo, hi, n
 
 

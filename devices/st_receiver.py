@@ -84,14 +84,16 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import butter, lfilter, sosfilt, sosfilt_zi
-from scipy.special import i0e, i1e
 
-from devices import _st_receiver_kernels as _k
 from devices.st_analytic import THRESHOLD_V, select_path
 from rfsim.errors import ConfigError
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+_special = lazy_import("scipy.special")
+_k = lazy_import("devices._st_receiver_kernels")
 
 REFERENCE_IMPEDANCE_OHM = 50.0
 #: Reference impedance of the source's amplitudes (PASS: peak sqrt(2P) across 1 Ω) [Ω]
@@ -152,7 +154,7 @@ def rc_lowpass_reference(u, *, fs_hz: float, tau_s: float, y0: float | None = No
     u = np.asarray(u, dtype=np.float64)
     a = _rc_coefficient(fs_hz, tau_s)
     y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
-    y, _ = lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
+    y, _ = _signal.lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
     return y, float(y[-1]) if y.size else y0
 
 
@@ -315,9 +317,16 @@ class EnvelopeDetector:
         if self.law == "square":
             return self.responsivity_v_per_w * v * v / (2.0 * self.impedance_ohm)
         if self.law == "diode":
+            # nvt·(ln I0(x) + ...) with ln I0(x) = ln(i0e(x)) + x (no overflow), x = g·V/(n·V_T);
+            # evaluated in place (the same operations in the same order as the formula)
             nvt = self.thermal_voltage_v
-            x = self.matching_gain * v / nvt
-            return nvt * (np.log(i0e(x)) + x)  # ln I0(x) = ln(i0e(x)) + x, no overflow
+            x = self.matching_gain * v
+            x /= nvt
+            y = np.asarray(_special.i0e(x))
+            np.log(y, out=y)
+            y += x
+            y *= nvt
+            return y if y.ndim else y[()]
         return self.agc_gain(v) * v
 
     def agc_gain(self, v_peak_max):
@@ -330,7 +339,7 @@ class EnvelopeDetector:
         v = np.asarray(v_peak, float)
         if self.law == "diode":
             x = self.matching_gain * v / self.thermal_voltage_v
-            return self.matching_gain * i1e(x) / i0e(x)
+            return self.matching_gain * _special.i1e(x) / _special.i0e(x)
         if self.law == "square":
             return self.responsivity_v_per_w * v / self.impedance_ohm
         if self.law == "agc":
@@ -455,7 +464,7 @@ class STReceiver:
     @property
     def sos(self) -> np.ndarray:
         """Band-pass second-order sections (Butterworth)."""
-        return butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
+        return _signal.butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
                       btype="bandpass", fs=self.fs_hz, output="sos")
 
     @property
@@ -474,7 +483,7 @@ class STReceiver:
             raise ValueError(f"x must be 1-D with >= 2 samples, got shape {x.shape}")
         env = self.envelope_detector.output_v(x, fs_hz=self.fs_hz)
         sos = self.sos
-        bp = sosfilt(sos, env, zi=sosfilt_zi(sos) * env[0])[0]
+        bp = _signal.sosfilt(sos, env, zi=_signal.sosfilt_zi(sos) * env[0])[0]
         cmp_out, _, tog = comparator(bp, threshold_v=self.threshold_v)
         return ChainOutput(env, bp, cmp_out, tog)
 
@@ -520,6 +529,16 @@ class STReceiver:
         out[lo:hi] = lvl[lo - best_lag: hi - best_lag]
         return out
 
+    def decode_comparator(self, cmp, *, n_bits: int, search_samples: int | None = None):
+        """Line-code decoding of a comparator output ``cmp`` ((n,) ±1) from its first sample:
+        :func:`rfsim.gen2.linecode.decode_reply` on it, or None where no reply start fits."""
+        try:
+            return decode_reply(np.asarray(cmp).astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
+                                blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
+                                search_samples=search_samples)
+        except ValueError:
+            return None
+
     def decode_chain(self, ch: ChainOutput, *, n_bits: int, crc: bool = True, states=None,
                      start_sample: int = 0, search_samples: int | None = None) -> Reception:
         """Decoding and measurement part of :meth:`receive` on a precomputed chain."""
@@ -528,12 +547,7 @@ class STReceiver:
         toggles = int(np.count_nonzero(np.diff(cmp_part))) if cmp_part.size > 1 else 0
         bits, corr, start, detected = None, 0.0, float("nan"), False
         if toggles >= self.min_toggles:
-            try:
-                det = decode_reply(cmp_part.astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
-                                   blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
-                                   search_samples=search_samples)
-            except ValueError:
-                det = None
+            det = self.decode_comparator(cmp_part, n_bits=n_bits, search_samples=search_samples)
             if det is not None:
                 bits, corr, start = det.bits, det.corr, det.start_sample + s0
                 detected = bool(crc16_ok(bits)) if crc else corr >= self.min_corr

@@ -81,9 +81,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.signal import lfilter
 
-from devices import _tag_kernels as _k
 from devices.gen2_tag_state import Reply, TagState
 from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates,
@@ -96,6 +94,10 @@ from rfsim.gen2.commands import CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode, two_level_threshold
 from rfsim.units import dbm_to_w, w_to_dbm
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+_k = lazy_import("devices._tag_kernels")
 
 #: Default chip sensitivity [dBm]: the PASS minimum operating chip power at 900 MHz
 #: (:data:`devices.tag_frontend.PASS_PICMIN_900MHZ_W`, −12.78 dBm, no PASS margin).
@@ -340,7 +342,7 @@ def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     if rc_s <= 0 or env.size == 0:
         return env
     a = math.exp(-1.0 / (rc_s * fs_hz))
-    out, _ = lfilter([1.0 - a], [1.0, -a], env, zi=[a * env[0]])
+    out, _ = _signal.lfilter([1.0 - a], [1.0, -a], env, zi=[a * env[0]])
     return out
 
 

@@ -44,11 +44,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
-from rfsim import _boc_kernels as _k
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import as_bits
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+_k = lazy_import("rfsim._boc_kernels")
 
 
 @dataclass(frozen=True)
@@ -337,7 +339,7 @@ def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int
         raise ValueError("search window does not hold a whole preamble")
     x = np.asarray(r, dtype=np.complex128)[lo:hi + n_pre - 1]
     x = x - x.mean()
-    corr = np.abs(correlate(x, tmpl, mode="valid"))
+    corr = np.abs(_signal.correlate(x, tmpl, mode="valid"))
     energy = np.sqrt(np.convolve(np.abs(x) ** 2, np.ones(n_pre), mode="valid") * (tmpl @ tmpl))
     rho = corr / np.maximum(energy, 1e-300)
     j = int(np.argmax(rho))

@@ -49,10 +49,12 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 import rfsim
+from rfsim.lazy import lazy_import
+
+h5py = lazy_import("h5py")
 
 _ROW_DIM = "row"
 _BOOL_ATTR = "rfsim_dtype"

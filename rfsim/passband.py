@@ -26,7 +26,9 @@ bandwidth < fc), i.e. √2·|x|.
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import fftconvolve, firwin, hilbert
+from rfsim.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
 
 #: Smallest ratio fs/fc accepted (DESIGN.md: passband mode at fs ≥ 2.5·fc).
 MIN_OVERSAMPLING = 2.5
@@ -98,14 +100,14 @@ def iq_demodulate(x_rf, *, fs_hz: float, fc_hz: float, decimation: int, t0_s: fl
     n = np.arange(x_rf.size)
     phase = carrier_phase_rad(fc_hz, float(t0_s) + n / fs_hz)
     mixed = np.sqrt(2.0) * x_rf * np.exp(-1j * phase)
-    taps = firwin(int(numtaps), cut, fs=fs_hz)
-    return fftconvolve(mixed, taps, mode="same")[:: int(decimation)]
+    taps = _signal.firwin(int(numtaps), cut, fs=fs_hz)
+    return _signal.fftconvolve(mixed, taps, mode="same")[:: int(decimation)]
 
 
 def analytic_envelope(x_rf) -> np.ndarray:
     """Peak envelope of an RF signal divided by √2: |x_rf + j·H{x_rf}|/√2 = |x| [√W]
     (``scipy.signal.hilbert``, i.e. FFT-based: the record's ends carry edge effects)."""
-    return np.abs(hilbert(np.asarray(x_rf, dtype=np.float64))) / np.sqrt(2.0)
+    return np.abs(_signal.hilbert(np.asarray(x_rf, dtype=np.float64))) / np.sqrt(2.0)
 
 
 def relative_rms_error(a, b, mask=None) -> float:

@@ -8,12 +8,12 @@ power referred to 1 mW, dBi for antenna gain over isotropic.
 from __future__ import annotations
 
 import numpy as np
-from scipy import constants as _sc
 
-#: Speed of light in vacuum [m/s] (exact, CODATA).
-C_M_S: float = _sc.c
-#: Boltzmann constant [J/K].
-K_BOLTZMANN_J_K: float = _sc.k
+#: Speed of light in vacuum [m/s] (exact: it defines the metre, SI 2019; equals
+#: ``scipy.constants.c``, which is not imported here because it costs start-up time).
+C_M_S: float = 299_792_458.0
+#: Boltzmann constant [J/K] (exact: it defines the kelvin, SI 2019; equals ``scipy.constants.k``).
+K_BOLTZMANN_J_K: float = 1.380649e-23
 #: Reference noise temperature [K] for kTB noise.
 T0_K: float = 290.0
 

@@ -160,7 +160,15 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
     amp = np.array([1.0, 10.0 ** (-ratio_db / 20.0)])
     h = amp * np.exp(1j * phases)
     sigma2 = (link.m * fs / link.blf_hz) / 10.0 ** (cfg.strong_ebn0_db / 10.0)  # |h1|²·(samples/bit)/σ² = Eb/N0
-    y = math.sqrt(sigma2 / 2.0) * (rng.standard_normal((nt, n)) + 1j * rng.standard_normal((nt, n)))
+    # √(σ²/2)·(a + j·b), a then b drawn from rng, built in place (no full-size temporaries)
+    y = np.empty((nt, n), dtype=np.complex128)
+    draw = np.empty((nt, n))
+    rng.standard_normal(out=draw)
+    y.real = draw
+    rng.standard_normal(out=draw)
+    y.imag = draw
+    del draw
+    y *= math.sqrt(sigma2 / 2.0)
     for j in range(nt):
         for k in range(2):
             s = reply_waveform(bits[j, k], m=link.m, trext=link.trext, blf_hz=blf0 * (1.0 + eps[j, k]), fs_hz=fs,

@@ -6,12 +6,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from rfsim.dataset import read_table
+from rfsim.lazy import lazy_import
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+
+h5py = lazy_import("h5py")
 
 
 def _attrs(path: Path) -> dict:

@@ -102,7 +102,6 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-from scipy.special import j0
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, HeldLinks, Patch, Scene, Surface
 from devices.reader import Reader, ReaderConfig
@@ -121,6 +120,9 @@ from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
 from rfsim.procs import map_in_order
+from rfsim.lazy import lazy_import
+
+_special = lazy_import("scipy.special")
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -156,7 +158,7 @@ def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Gene
     w = rng.standard_normal((2, t.size))
     if doppler_hz <= 0:
         return np.full(t.size, np.exp(1j * phi), dtype=complex)
-    r = j0(2.0 * np.pi * doppler_hz * np.abs(t[:, None] - t[None, :]))
+    r = _special.j0(2.0 * np.pi * doppler_hz * np.abs(t[:, None] - t[None, :]))
     lower = np.linalg.cholesky(r + 1e-9 * np.eye(t.size))
     g = lower @ ((w[0] + 1j * w[1]) / math.sqrt(2.0))
     return math.sqrt(k / (k + 1.0)) * np.exp(1j * phi) + math.sqrt(1.0 / (k + 1.0)) * g

@@ -1,6 +1,8 @@
 """Start-up of the ``rfsim`` command: ``--help`` and ``list`` import no scenario physics, no
-numba and no scipy.signal (issue 16 item 4); the scenario metadata read from the sources
-equals the modules' own."""
+numba and no scipy.signal (issue 16 item 4); ``config NAME`` imports the modules that declare
+the config dataclasses but runs no kernel module, numba, scipy.signal/stats/optimize or h5py
+(they are declared with :func:`rfsim.lazy.lazy_import`); the scenario metadata read from the
+sources equals the modules' own."""
 
 from __future__ import annotations
 
@@ -36,6 +38,36 @@ def test_help_and_list_import_no_physics(argv):
     heavy = [m for m in mods if m.split(".")[0] in ("numba", "h5py", "devices", "channels", "matplotlib")
              or m.startswith(("scipy.signal", "scipy.stats", "scenarios."))]
     assert heavy == []
+
+
+@pytest.mark.parametrize("name", sorted(scenario_descriptions()))
+def test_config_runs_no_kernel_module_nor_heavy_library(name):
+    """``rfsim config NAME`` loads no numba (so no kernel module ran: each imports numba),
+    no scipy.signal / scipy.stats / scipy.optimize, no h5py and no matplotlib."""
+    mods = _imported_after(["config", name])
+    assert f"scenarios.{name.replace('-', '_')}" in mods  # the command did resolve the scenario
+    heavy = [m for m in mods if m.split(".")[0] in ("numba", "llvmlite", "h5py", "matplotlib")
+             or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize")) or m.endswith("_kernels")]
+    assert heavy == []
+
+
+def test_a_lazily_declared_module_is_whole_for_threads_that_first_use_it_together(tmp_path):
+    """Four threads read an attribute of a lazily declared module at the same time while
+    its import is still running (it sleeps before defining the attribute): each gets the
+    attribute (the import runs once; the others wait for it) — a module whose import had
+    merely started would lack it."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "slowmod.py").write_text("import time\nCOUNT = [0]\ntime.sleep(0.3)\nVALUE = 42\nCOUNT[0] += 1\n")
+    code = ("import threading\nfrom rfsim.lazy import lazy_import\nm = lazy_import('slowmod')\n"
+            "out = []\nb = threading.Barrier(4)\n"
+            "def use():\n    b.wait()\n    out.append(m.VALUE)\n"
+            "ts = [threading.Thread(target=use) for _ in range(4)]\n"
+            "[t.start() for t in ts]\n[t.join() for t in ts]\nprint(out, m.COUNT[0])")
+    env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{ROOT}")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split("]")[0] == "[42, 42, 42, 42" and run.stdout.split()[-1] == "1"
 
 
 def test_scenario_metadata_from_sources_equals_modules():
@@ -103,3 +135,20 @@ def test_first_task_runs_in_the_leader_and_workers_inherit_its_kernels():
 
     if multiprocessing.get_start_method() == "fork":  # spawned workers load from the cache instead
         assert all(n >= 1 for _, n in out[1:])
+
+
+def test_bench_runs_a_command_as_a_child_and_reads_its_usage():
+    """rfsim.bench.startup times a whole command in its own process: a user error's exit
+    status comes back (2), and a command that ran reports CPU time and its own peak — at
+    least the interpreter's size (≥ 5 MB), and not the benchmark's: with 150 MB held here,
+    ``rfsim --help`` (≈ 18 MB) must stay below 100 MB (a child forked from this process
+    directly would report this process's high-water mark)."""
+    import numpy as np
+
+    from rfsim.bench.startup import run_measured
+
+    held = np.ones(150 * 2**20 // 8)  # 150 MB, written
+    assert run_measured(["config", "no-such-scenario"])["exit_status"] == 2
+    r = run_measured(["--help"])
+    assert r["exit_status"] == 0 and r["cpu_s"] > 0 and r["wall_s"] > 0 and 5 <= r["peak_rss_mb"] < 100
+    assert held.sum() == held.size

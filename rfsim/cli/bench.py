@@ -3,7 +3,9 @@
 ``rfsim bench all --json FILE`` runs every benchmark and writes every figure, with the
 machine facts (:func:`machine_facts`), into one file. Peak memory is the process's maximum
 resident set size (``resource.getrusage``), read after each benchmark (a running maximum:
-each benchmark's figure includes those run before it).
+each benchmark's figure includes those run before it); ``startup`` and ``scenarios`` run whole
+``rfsim`` commands as child processes and report each command's own wall time, CPU time and
+peak (:mod:`rfsim.bench.startup`).
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ BENCHMARKS = {
     "sweep": ("rfsim.bench.sweep", "bench_sweep", {"n_points": 16, "dask_points": 50}),
     "preamble": ("rfsim.bench.preamble", "bench_preamble", {"repeats": 2}),
     "decode": ("rfsim.bench.decode", "bench_decode", {"duration_s": 2.0, "reply_counts": (10, 100)}),
+    "startup": ("rfsim.bench.startup", "bench_startup", {"repeats": 1}),
+    "scenarios": ("rfsim.bench.startup", "bench_scenario_memory", {"names": ("gen2-waveforms", "link")}),
 }
 
 

@@ -17,11 +17,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, stats
-from scipy.special import expit, logit
 
 from rfsim.detection.models import (DA_DEAD_ZONE, ReaderDetectionModel, mixture_logpmf)
 from rfsim.errors import UserError
+from rfsim.lazy import lazy_import
+
+optimize = lazy_import("scipy.optimize")
+stats = lazy_import("scipy.stats")
+_special = lazy_import("scipy.special")
 
 
 # --- logistic regression ---------------------------------------------------------------------
@@ -48,7 +51,7 @@ class LogisticFit:
 
     def predict_proba(self, features) -> np.ndarray:
         """p for a design matrix, (n,) float64."""
-        return expit(-(np.asarray(features, float) @ self.coefficients))
+        return _special.expit(-(np.asarray(features, float) @ self.coefficients))
 
     def cross_entropy(self, features, y) -> float:
         """Eq. (4.8) of the fitted model on (features, y) [nat per sample]."""
@@ -96,7 +99,7 @@ def expected_cross_entropy(p):
     p = np.asarray(p, float)
     m = p.size
     h = -(stats.bernoulli.logpmf(1, p) * p + np.log1p(-p) * (1.0 - p))
-    var = np.sum(p * (1.0 - p) * logit(p) ** 2) / m ** 2
+    var = np.sum(p * (1.0 - p) * _special.logit(p) ** 2) / m ** 2
     return float(np.mean(h)), float(np.sqrt(var))
 
 
@@ -137,7 +140,7 @@ def fit_logistic(features, successes, trials=1, *, max_iter: int = 100,
     a = np.zeros(x.shape[1])
     ll = loglik(a)
     for it in range(1, max_iter + 1):
-        p = expit(-(x @ a))
+        p = _special.expit(-(x @ a))
         grad = x.T @ (m * p - k)          # ∂ℓ/∂a, since ∂ℓ/∂z = m p − k
         info = (x * (m * p * (1.0 - p))[:, None]).T @ x      # −∂²ℓ/∂a²
         try:
@@ -160,7 +163,7 @@ def fit_logistic(features, successes, trials=1, *, max_iter: int = 100,
     else:
         raise UserError(f"logistic fit did not converge in {max_iter} iterations "
                         "(separated data?)")
-    p = expit(-(x @ a))
+    p = _special.expit(-(x @ a))
     info = (x * (m * p * (1.0 - p))[:, None]).T @ x
     try:
         cov = np.linalg.inv(info)
@@ -287,9 +290,9 @@ def fit_reader_moments(distance_m, theta_deg, n_reads, n_queries, *,
 
     x_mean = np.column_stack([np.ones_like(cd), cd, cth])
     start = fit_logistic(x_mean, np.bincount(inverse, n), np.bincount(inverse, nq)).coefficients
-    res = optimize.least_squares(lambda a: expit(-(x_mean @ a)) - mean_c, start,
-                                 jac=lambda a: -(expit(-(x_mean @ a)) *
-                                                 expit(x_mean @ a))[:, None] * x_mean)
+    res = optimize.least_squares(lambda a: _special.expit(-(x_mean @ a)) - mean_c, start,
+                                 jac=lambda a: -(_special.expit(-(x_mean @ a)) *
+                                                 _special.expit(x_mean @ a))[:, None] * x_mean)
     dof_mean = max(cells.shape[0] - 3, 1)
     cov_a = 2.0 * res.cost / dof_mean * np.linalg.inv(res.jac.T @ res.jac)
 
@@ -375,13 +378,13 @@ def fit_reader_mle(distance_m, theta_deg, n_reads, n_queries, *, fit_dead_zone: 
     free[8] = fit_dead_zone
     # optimise u = (a, c)/scale and logit(λ̄)
     u0 = x0 / _DA_SCALE
-    u0[8] = logit(np.clip(x0[8], 1e-6, 1.0 - 1e-6))
+    u0[8] = _special.logit(np.clip(x0[8], 1e-6, 1.0 - 1e-6))
 
     def params_of(u_free):
         u = u0.copy()
         u[free] = u_free
         p = u * _DA_SCALE
-        p[8] = expit(u[8])
+        p[8] = _special.expit(u[8])
         return p
 
     def nll(u_free):

@@ -35,10 +35,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
-from scipy.special import betaln, expit, gammaln
 
 from rfsim.errors import ConfigError
+from rfsim.lazy import lazy_import
+
+stats = lazy_import("scipy.stats")
+_special = lazy_import("scipy.special")
 
 # --- ST-to-tag logistic models (seed 003 L3854-3873) -----------------------------------------
 RTS_COEFFICIENTS = np.array([-1.462, 0.4941, 2.506, 0.0126, 0.0523])
@@ -78,7 +80,7 @@ def predict_proba(features: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
     a = np.asarray(coefficients, dtype=np.float64)
     if x.ndim != 2 or a.ndim != 1 or x.shape[1] != a.size:
         raise ValueError(f"features {x.shape} and coefficients {a.shape} do not match")
-    return expit(-(x @ a))
+    return _special.expit(-(x @ a))
 
 
 def rts_design(distance_reader_tag_m, distance_tag_st_m, theta_rad, phi_rad) -> np.ndarray:
@@ -214,7 +216,7 @@ class ReaderDetectionModel:
         """E[p](d, θ) = 1 / (1 + exp(a1 + a2·d + a3·|θ|)) (4.4), without the dead zone."""
         a1, a2, a3 = self.mean_coefficients
         d, th = np.broadcast_arrays(np.asarray(distance_m, float), np.asarray(theta_deg, float))
-        return expit(-(a1 + a2 * d + a3 * np.abs(th)))
+        return _special.expit(-(a1 + a2 * d + a3 * np.abs(th)))
 
     def raw_variance(self, distance_m, theta_deg) -> np.ndarray:
         """σ²(d, θ) = c1 + c2·d + c3·d² + c4·|θ| + c5·θ² (4.6), unclipped."""
@@ -329,12 +331,12 @@ def mixture_logpmf(n_reads, n_queries, mean, alpha, beta, dead_zone_mean) -> np.
     shape = n.shape
     n, nq, mu, a, b = (np.ravel(v) for v in (n.astype(np.float64), nq.astype(np.float64),
                                              mu, a, b))
-    log_comb = gammaln(nq + 1.0) - gammaln(n + 1.0) - gammaln(nq - n + 1.0)
+    log_comb = _special.gammaln(nq + 1.0) - _special.gammaln(n + 1.0) - _special.gammaln(nq - n + 1.0)
     near_binomial = ~np.isfinite(a) | ~(a + b <= 1e10)
     bb = ~near_binomial
     log_core = np.empty(n.shape, dtype=np.float64)
-    log_core[bb] = (log_comb[bb] + betaln(n[bb] + a[bb], nq[bb] - n[bb] + b[bb])
-                    - betaln(a[bb], b[bb]))
+    log_core[bb] = (log_comb[bb] + _special.betaln(n[bb] + a[bb], nq[bb] - n[bb] + b[bb])
+                    - _special.betaln(a[bb], b[bb]))
     nb = near_binomial
     log_core[nb] = stats.binom.logpmf(n[nb], nq[nb], mu[nb]) if np.any(nb) else 0.0
     lam = float(dead_zone_mean)

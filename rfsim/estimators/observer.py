@@ -42,11 +42,13 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from scipy.linalg import solve_continuous_are
 
 from rfsim.estimators.himr_model import (A3, A9, C1, PYLONS_M, TABLE8_STATE, h_2d, jacobian_2d,
                                          prerotate_accelerations)
 from rfsim.estimators.himr_surrogate import SurrogateNoise
+from rfsim.lazy import lazy_import
+
+_linalg = lazy_import("scipy.linalg")
 
 Variant = Literal["literal", "prerotated", "ekf"]
 VARIANTS = ("literal", "prerotated", "ekf")
@@ -70,7 +72,7 @@ def care_gain(A, C, W, V) -> Gain:
     """L = Y·Cᵀ·V⁻¹ with Y from the filter CARE (module docstring); eigenvalues sorted by
     real part."""
     A, C, W, V = (np.asarray(m, dtype=float) for m in (A, C, W, V))
-    Y = solve_continuous_are(A.T, C.T, W, V)
+    Y = _linalg.solve_continuous_are(A.T, C.T, W, V)
     L = Y @ C.T @ np.linalg.inv(V)
     ev = np.linalg.eigvals(A - L @ C)
     return Gain(L=L, Y=Y, eigenvalues=ev[np.lexsort((ev.imag, ev.real))])

@@ -45,8 +45,10 @@ import math
 from typing import NamedTuple
 
 import numpy as np
+from rfsim.lazy import lazy_import
 
-from rfsim.estimators import _phase_kernels as _pk
+_pk = lazy_import("rfsim.estimators._phase_kernels")
+
 
 #: log-amplitude per dBm: ln|Y| = LN_AMPLITUDE_PER_DB·(RSSI_dBm − 30)
 LN_AMPLITUDE_PER_DB = math.log(10.0) / 20.0

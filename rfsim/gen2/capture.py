@@ -29,10 +29,12 @@ from rfsim.errors import UserError
 from rfsim.gen2.bits import bits_to_str
 from rfsim.gen2.commands import CommandParseError, command_fields, command_name, parse
 from rfsim.gen2.crc import crc5_ok, crc16_ok
-from rfsim.gen2 import _capture_kernels as _ck
 from rfsim.gen2.link import (DATA1_TARI_RANGE, DELIMITER_NOMINAL_S, DELIMITER_RANGE_S, TARI_RANGE_S,
                              TRCAL_RTCAL_RANGE)
 from rfsim.gen2.pie import PieEdges, pie_decode_arrays
+from rfsim.lazy import lazy_import
+
+_ck = lazy_import("rfsim.gen2._capture_kernels")
 
 #: File name endings read as raw interleaved complex64 (GNU Radio file sink).
 RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")

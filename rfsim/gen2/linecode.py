@@ -39,8 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.gen2 import _linecode_kernels as _k
 from rfsim.gen2.bits import as_bits
+from rfsim.lazy import lazy_import
+
+_k = lazy_import("rfsim.gen2._linecode_kernels")
 
 M_VALUES = (1, 2, 4, 8)
 FM0_PREAMBLE = np.array([1, 1, -1, 1, -1, -1, 1, -1, -1, -1, 1, 1], dtype=np.int8)

@@ -34,8 +34,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.gen2 import _pie_kernels as _k
 from rfsim.gen2.bits import as_bits
+from rfsim.lazy import lazy_import
+
+_k = lazy_import("rfsim.gen2._pie_kernels")
 
 #: Ratio between the full width w of the raised-cosine step and its 10–90 % time.
 _RAMP_WIDTH_PER_10_90 = math.pi / (2.0 * math.asin(0.8))

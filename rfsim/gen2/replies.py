@@ -73,10 +73,12 @@ from rfsim.gen2.capture import ReaderCommandRecord, fit_gain_offset, preamble_th
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
-from rfsim.gen2 import _reply_kernels as _rk
 from rfsim.gen2.linecode import (METHODS, _preamble, _state_index, decode_reply, halfsymbols, preamble_levels,
                                  reply_waveform)
 from rfsim.gen2.reply_tracking import resample, track, warp_positions
+from rfsim.lazy import lazy_import
+
+_rk = lazy_import("rfsim.gen2._reply_kernels")
 
 #: Reply kind elicited by each command (anchors §4.4).
 REPLY_KIND = {"Query": "RN16", "QueryRep": "RN16", "QueryAdjust": "RN16", "ACK": "EPC", "Req_RN": "handle",

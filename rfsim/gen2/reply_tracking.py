@@ -22,8 +22,10 @@ import math
 
 import numpy as np
 
-from rfsim.gen2 import _capture_kernels as _ck
 from rfsim.gen2.linecode import halfsymbols
+from rfsim.lazy import lazy_import
+
+_ck = lazy_import("rfsim.gen2._capture_kernels")
 
 #: Elements per timing block of the tracking loop.
 TRACK_BLOCK_ELEMENTS = 24

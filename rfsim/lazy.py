@@ -1,0 +1,50 @@
+"""Modules loaded on first use, so that start-up (``rfsim config NAME``) stays light.
+
+numba (through the kernel modules) and scipy's signal, stats and optimize sub-packages
+cost about a second of start-up together, while a scenario's config only needs the
+dataclasses of the modules that declare them. A module that calls a kernel or a scipy
+routine inside its functions declares the module with :func:`lazy_import` instead of an
+``import`` statement: it gets a stand-in at once; the first attribute read through the
+stand-in imports the real module (an ordinary import, so concurrent first uses from
+several threads wait for one import) and copies its namespace into the stand-in.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+import types
+
+_LOCK = threading.Lock()
+#: Names of the modules declared with :func:`lazy_import`, in declaration order.
+DECLARED: list[str] = []
+
+
+class _Deferred(types.ModuleType):
+    """Stand-in of a module not imported yet; attributes not found on it come from the
+    real module, imported on the first such read."""
+
+    def __getattr__(self, attr: str):
+        module = importlib.import_module(self.__name__)  # thread-safe: the import lock
+        with _LOCK:
+            for key, value in vars(module).items():
+                self.__dict__.setdefault(key, value)
+        return getattr(module, attr)
+
+
+def lazy_import(name: str) -> types.ModuleType:
+    """A stand-in of the module ``name`` (absolute dotted name) that imports it on the first
+    attribute read (see the module docstring); nothing is imported now."""
+    with _LOCK:
+        DECLARED.append(name)
+    return _Deferred(name)
+
+
+def load_declared() -> None:
+    """Import every module declared so far (e.g. so that every kernel a run may call is
+    declared before the run asks numba which kernels are cached)."""
+    for name in list(DECLARED):
+        importlib.import_module(name)
+
+
+__all__ = ["lazy_import", "load_declared", "DECLARED"]

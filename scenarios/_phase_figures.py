@@ -56,7 +56,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     fig.suptitle(f"Phase and pseudo-range per antenna ({cite('sarkka', 'Fig. 4')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "phase")))
 
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7.8))
     ax.plot(anchors[:, 0], anchors[:, 1], "k^", ms=10, label="reader antennas")
     ax.plot(est["intended_x_m"], est["intended_y_m"], "k-", lw=2.5, alpha=0.25, label="intended path")
     ax.plot(est["x_m"], est["y_m"], "k-", lw=0.6, label="true path (jitter)")
@@ -69,7 +69,11 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="center")
+    leg = ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3)  # below the room
+    for h in leg.legend_handles:  # the RSSI dots, visible in the legend
+        if h.get_markersize() < 3:
+            h.set_markersize(4)
+            h.set_alpha(1.0)
     rm = {(e, int(k)): r for e, k, r in zip(summ["estimator"].astype(str), summ["pass"], summ["rmse_m"])}
     ax.set_title(f"EKF pass 1 {100 * rm[('EKF', 1)]:.1f} cm, RTS pass {n_pass} {100 * rm[('RTS', n_pass)]:.1f} cm, "
                  f"RSSI {100 * rm[('RSSI eq. 13', 0)]:.0f} cm RMSE (vs intended path)", fontsize=9)

@@ -331,3 +331,40 @@ def test_home_replica_mobile_ordering():
     f = {n: _rmse_and_se(est, n, "fixed")[0] for n in np.unique(est["estimator"])}
     assert f["nn-pattern"] < min(f["nn-online"], f["nn-offline"]), f
     assert f["pf-improved"] < f["grid"], f
+
+
+def _nearest_centre_mse_m2(length_m: float) -> float:
+    """E[u²] along one axis: u the offset of a uniform point in [0, L] from the nearest of the
+    cell centres 1, 2, …, L − 1 m (1 m spacing). The two edge cells span [c − 1, c + 0.5]
+    (E[u²] = (1³ + 0.5³)/(3·1.5) = 0.25), the L − 3 m between them are cells of width 1
+    (E[u²] = 1/12)."""
+    edge = (1.0 ** 3 + 0.5 ** 3) / (3.0 * 1.5)
+    return (2 * 1.5 * edge + (length_m - 3.0) / 12.0) / length_m
+
+
+def test_grid_fixed_at_1_db_exceeds_the_thesis_through_the_border_strip():
+    """Grid Bayes, fixed target, σ = σ0 = 1 dB (Table 7.11: 0.65 m; spec ±10 %): this model
+    gives ≈ 0.73 m (+13 %). The cause is the 28-cell grid, not the filter: targets are uniform
+    in the 5 × 8 m room (L1135) but the cell centres span only [1, 4] × [1, 7] m, and the MMSE, a
+    convex combination of centres, cannot enter the 1 m strip along the walls (30 % of the room).
+    The floor of any estimate on the centres, the RMS distance to the nearest one, is
+    √(E[u_x²] + E[u_y²]) = 0.574 m in closed form. For the targets inside the centres' hull
+    widened by half a cell ([0.5, 4.5] × [0.5, 7.5] m) the same run is within ±10 % + 3 SE of
+    0.65 m; over the whole room it is above +5 % + 3 SE (1500 trials)."""
+    floor = float(np.sqrt(_nearest_centre_mse_m2(5.0) + _nearest_centre_mse_m2(8.0)))
+    assert abs(floor - 0.5737) < 1e-3
+    ds = _run(estimators=["grid"], motions=["fixed"], sigma0_db=[1.0], trials=1500, write_beacons=False)
+    est = _table(ds, "estimates")
+    m = (est["estimator"] == "grid-mmse") & est["scored"]
+    e, xy = est["error_m"][m], np.column_stack([est["x_true_m"][m], est["y_true_m"][m]])
+    inner = np.all((xy >= 0.5) & (xy <= [4.5, 7.5]), axis=1)
+
+    def rmse_se(err):
+        r = float(np.sqrt(np.mean(err ** 2)))
+        return r, float(np.std(err ** 2, ddof=1) / np.sqrt(err.size) / (2 * r))
+
+    r_all, se_all = rmse_se(e)
+    r_in, se_in = rmse_se(e[inner])
+    assert r_all > 1.05 * 0.65 + 3 * se_all, r_all          # measured 0.73 m
+    assert abs(r_in - 0.65) <= 0.10 * 0.65 + 3 * se_in, r_in  # measured 0.63 m
+    assert r_all > floor and abs(inner.mean() - 28 / 40) < 0.05

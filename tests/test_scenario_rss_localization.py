@@ -320,8 +320,9 @@ def test_home_replica_mobile_ordering():
     (Table 7.41, 3000 scored): the pattern (fingerprint) NN beats both parameter NNs and
     improved SIR beats grid Bayes. Not reproduced, and not asserted: the thesis's best mobile
     result (improved SIR + online σ + smoothing, 1.25 m; here ≈ 1.30 m, behind grid +
-    smoothing ≈ 1.23 m) and its fixed-target grid Bayes (2.04 m; here ≈ 1.39 m, better than
-    the NNs: 25 % of σ² is a people term that the 30 recursions average out)."""
+    smoothing ≈ 1.23 m) and its fixed-target grid Bayes above both NNs (2.04 vs 1.68/1.63 m;
+    here 1.57 vs 1.57/1.43 m over 24 × 25 points, seed 1: 25 % of σ² is a people term that
+    the 30 recursions average out; see test_home_fixed_grid_behind_the_nns_when_all_shadowing_persists)."""
     ds = _run(preset="home-2room", trials=4, write_beacons=False)
     est = _table(ds, "estimates")
     r = {n: _rmse_and_se(est, n, "mobile")[0] for n in np.unique(est["estimator"])}
@@ -368,3 +369,22 @@ def test_grid_fixed_at_1_db_exceeds_the_thesis_through_the_border_strip():
     assert r_all > 1.05 * 0.65 + 3 * se_all, r_all          # measured 0.73 m
     assert abs(r_in - 0.65) <= 0.10 * 0.65 + 3 * se_in, r_in  # measured 0.63 m
     assert r_all > floor and abs(inner.mean() - 28 / 40) < 0.05
+
+
+@pytest.mark.slow
+def test_home_fixed_grid_behind_the_nns_when_all_shadowing_persists():
+    """Table 7.41's fixed-target ordering, grid Bayes (2.04 m) behind the offline and online NN
+    (1.68/1.63 m), follows from the share of σ² that persists at a fixed point: the filter takes
+    the 30 beacons as independent σ = 5.2 dB readings, so a persistent error pulls its posterior
+    onto a wrong cell, while LANDMARC over all 36 cells stays near the centroid. With the
+    replica's default (75 % quasi-static) grid ties the offline NN (1.57 vs 1.57 m); with all of
+    σ² quasi-static (the thesis's real home: antenna patterns and multipath fixed per point) it
+    is behind both (measured 1.73 vs 1.59/1.34 m, 12 × 25 points). The mobile chain of
+    Table 7.42 then loses grid < online NN (1.66 vs 1.53 m), which is why the default keeps a
+    people term."""
+    ds = _run(preset="home-2room", trials=12, motions=["fixed"], write_beacons=False,
+              estimators=["nn", "grid"], shadowing={"static_fraction": 1.0})
+    est = _table(ds, "estimates")
+    grid, se = _rmse_and_se(est, "grid", "fixed")
+    for nn in ("nn-offline", "nn-online"):
+        assert grid > _rmse_and_se(est, nn, "fixed")[0] + se, (nn, grid)

@@ -53,6 +53,7 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
                                  start_time_utc=start_utc)
     stage(f"writing {path}")
     write_dataset(path, dataset, provenance)
+    del dataset  # the figures are drawn from the file: the tables need not stay in memory meanwhile
     figures: tuple[Path, ...] = ()
     if make_plots:
         stage("drawing figures")

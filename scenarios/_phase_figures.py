@@ -24,11 +24,11 @@ PHASE_WINDOW_S = 3.0
 
 def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     plt = pyplot()
-    reads = read_table(dataset_path, "reads")
-    pr = read_table(dataset_path, "pseudoranges")
-    est = read_table(dataset_path, "estimates")
     summ = read_table(dataset_path, "summary")
-    with h5py.File(dataset_path, "r") as f:
+    with h5py.File(dataset_path, "r") as f:  # the numeric columns drawn, not the whole tables
+        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna", "phase_reported_rad")}
+        pr = {k: f["pseudoranges"][k][()] for k in ("t_s", "antenna", "pseudorange_m", "true_range_m")}
+        est = {k: f["estimates"][k][()] for k in f["estimates"] if k != "row"}
         anchors = np.asarray(f.attrs["antennas_xyz_m"])[:, :2]
         jumps = int(f.attrs["unwrap_jumps"])
         limit = float(f.attrs["unwrap_limit_mps"])

@@ -26,11 +26,11 @@ PHASE_WINDOW_S = 3.0
 
 def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     plt = pyplot()
-    reads = read_table(dataset_path, "reads")
-    pr = read_table(dataset_path, "pseudoranges")
-    est = read_table(dataset_path, "estimates")
     summ = read_table(dataset_path, "summary")
-    with h5py.File(dataset_path, "r") as f:
+    with h5py.File(dataset_path, "r") as f:  # the numeric columns drawn, not the whole tables
+        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna", "phase_reported_rad")}
+        pr = {k: f["pseudoranges"][k][()] for k in ("t_s", "antenna", "pseudorange_m", "true_range_m")}
+        est = {k: f["estimates"][k][()] for k in f["estimates"] if k != "row"}
         anchors = np.asarray(f.attrs["antennas_xyz_m"])[:, :2]
         jumps = int(f.attrs["unwrap_jumps"])
         limit = float(f.attrs["unwrap_limit_mps"])
@@ -58,7 +58,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     fig.suptitle(f"Phase and pseudo-range per antenna ({cite('sarkka', 'Fig. 4')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "phase")))
 
-    fig, ax = plt.subplots(figsize=(7, 7))
+    fig, ax = plt.subplots(figsize=(7, 7.8))
     ax.plot(anchors[:, 0], anchors[:, 1], "k^", ms=10, label="reader antennas")
     ax.plot(est["intended_x_m"], est["intended_y_m"], "k-", lw=2.5, alpha=0.25, label="intended path")
     ax.plot(est["x_m"], est["y_m"], "k-", lw=0.6, label="true path (jitter)")
@@ -71,7 +71,11 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8, loc="center")
+    leg = ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3)  # below the room
+    for h in leg.legend_handles:  # the RSSI dots, visible in the legend
+        if h.get_markersize() < 3:
+            h.set_markersize(4)
+            h.set_alpha(1.0)
     rm = {(e, int(k)): r for e, k, r in zip(summ["estimator"].astype(str), summ["pass"], summ["rmse_m"])}
     ax.set_title(f"EKF pass 1 {100 * rm[('EKF', 1)]:.1f} cm, RTS pass {n_pass} {100 * rm[('RTS', n_pass)]:.1f} cm, "
                  f"RSSI {100 * rm[('RSSI eq. 13', 0)]:.0f} cm RMSE (vs intended path)", fontsize=9)
@@ -93,7 +97,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set_xlabel("position error vs intended path [m] (dotted: published RMSE)")
     ax.set_ylabel("fraction of reads")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left")  # a fixed place: "best" tests every one of the 7 × 24,000 vertices
     fig.suptitle(f"CDF of the localization error per estimator ({cite('sarkka', 'experiment 1 setup')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "cdf")))
     return out

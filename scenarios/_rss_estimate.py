@@ -186,6 +186,24 @@ def error_statistics(err: np.ndarray) -> dict[str, float]:
                 median_m=float(np.median(e)), p90_m=float(np.percentile(e, 90)), std_m=float(e.std()))
 
 
+class _EpcOfTag:
+    """The EPC column of the beacons table held as tag indices (expanded when written): tag k
+    has the EPC ``3000 0…0 (k+1)`` as 24 hex digits."""
+
+    def __init__(self, tag: np.ndarray):
+        self.tag = np.asarray(tag)
+        self.size = self.tag.size
+
+    def strings(self) -> np.ndarray:
+        names = np.array([f"3000{0:016X}{k + 1:04X}" for k in range(int(self.tag.max(initial=-1)) + 1)])
+        return names[self.tag] if self.size else np.zeros(0, dtype="<U24")
+
+
+def _concat(parts) -> np.ndarray:
+    """One column from its per-case parts (arrays, broadcast scalars or :class:`_EpcOfTag`)."""
+    return np.concatenate([p.strings() if isinstance(p, _EpcOfTag) else p for p in parts])
+
+
 class Tables:
     """Accumulates the rows of the scenario's tables across cases."""
 
@@ -195,9 +213,14 @@ class Tables:
         self._crlb = {}
 
     def _extend(self, table, **cols):
-        n = max(np.size(v) for v in cols.values())
+        """Append rows; a scalar value is kept as a read-only broadcast view (no memory until
+        :meth:`write` concatenates the column)."""
+        n = max(v.size if isinstance(v, _EpcOfTag) else np.size(v) for v in cols.values())
         for k, v in cols.items():
-            self.rows[table][k].append(np.broadcast_to(np.asarray(v), (n,)) if np.ndim(v) == 0 else np.ravel(v))
+            if isinstance(v, _EpcOfTag):
+                self.rows[table][k].append(v)
+            else:
+                self.rows[table][k].append(np.broadcast_to(np.asarray(v), (n,)) if np.ndim(v) == 0 else np.ravel(v))
 
     def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m,
                  reference_xy):
@@ -217,15 +240,15 @@ class Tables:
                 sent = np.broadcast_to(data.beacon_t_s[:, :, None, :], shape)
                 t_s = np.where(np.isfinite(sent), sent, t_s)
             self._extend("beacons", t_s=t_s.ravel(),
-                         t_us=np.round(t_s * 1_000_000).astype(np.int64).ravel(), case=np.full(rss.size, case),
+                         t_us=np.round(t_s * 1_000_000).astype(np.int64).ravel(), case=case,
                          trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(),
-                         antenna=np.ones(rss.size, int), tag=tag.ravel(),
-                         epc=np.array([f"3000{0:016X}{k + 1:04X}" for k in range(shape[3])])[tag.ravel()],
+                         antenna=1, tag=tag.ravel(),
+                         epc=_EpcOfTag(tag.ravel()),
                          rssi_dbm=rss.ravel(), rssi_reported_dbm=rep.ravel(),
-                         detected=~np.isnan(rep.ravel()), frequency_hz=np.full(rss.size, FC_HZ),
-                         tx_power_dbm=np.full(rss.size, TX_POWER_DBM), x_m=pos[..., 0].ravel(),
-                         y_m=pos[..., 1].ravel(), z_m=np.full(rss.size, tag_z_m),
-                         sigma0_db=np.full(rss.size, sigma0), motion=np.full(rss.size, motion))
+                         detected=~np.isnan(rep.ravel()), frequency_hz=FC_HZ,
+                         tx_power_dbm=TX_POWER_DBM, x_m=pos[..., 0].ravel(),
+                         y_m=pos[..., 1].ravel(), z_m=float(tag_z_m),
+                         sigma0_db=float(sigma0), motion=motion)
         wide = {f"rssi_r{r + 1}_dbm": data.reported_dbm[..., r].ravel() for r in range(j)}
         self._extend("rssi_wide", case=np.full(b * t, case), trial=tr.ravel(), step=st.ravel(),
                      t_s=st.ravel() * 1.0, x_m=data.truth_xy[..., 0].ravel(),
@@ -233,8 +256,8 @@ class Tables:
         for name, est in results.items():
             err = np.linalg.norm(est - data.truth_xy, axis=-1)
             mask = np.broadcast_to(scored[name], (b, t))
-            self._extend("estimates", case=np.full(b * t, case), estimator=np.full(b * t, name),
-                         sigma0_db=np.full(b * t, sigma0), motion=np.full(b * t, motion),
+            self._extend("estimates", case=np.full(b * t, case), estimator=name,
+                         sigma0_db=float(sigma0), motion=motion,
                          trial=tr.ravel(), step=st.ravel(), x_est_m=est[..., 0].ravel(),
                          y_est_m=est[..., 1].ravel(), x_true_m=data.truth_xy[..., 0].ravel(),
                          y_true_m=data.truth_xy[..., 1].ravel(), error_m=err.ravel(), scored=mask.ravel())
@@ -271,9 +294,14 @@ class Tables:
             self._extend("calibration", kind="offline", case=-1, trial=-1, step=-1, reader=r["reader"],
                          alpha_dbm=r["alpha_dbm"], exponent=r["exponent"], sigma_db=r["sigma_db"],
                          waf_db=r["waf_db"])
-        for name, cols in self.rows.items():
-            ds.add_table(name, {k: column(np.concatenate(v), *_UNITS.get(k, ("", k))) for k, v in cols.items()},
-                         description=_GROUPS[name])
+        for name in list(self.rows):
+            cols = self.rows.pop(name)
+            out = {}
+            for k in list(cols):  # one column at a time, its parts freed as it is joined
+                parts = cols.pop(k)
+                out[k] = column(_concat(parts), *_UNITS.get(k, ("", k)))
+                del parts
+            ds.add_table(name, out, description=_GROUPS[name])
 
 
 #: Description of each table the scenario writes.

@@ -19,11 +19,41 @@ def _attrs(path: Path) -> dict:
         return {k: f.attrs[k] for k in f.attrs}
 
 
+def _case_columns(path: Path, case: int, names) -> dict[str, np.ndarray]:
+    """Columns ``names`` of the estimates rows of one case (the rows of a case are contiguous:
+    the scenario writes case after case), read without loading the whole table."""
+    with h5py.File(path, "r") as f:
+        g = f["estimates"]
+        rows = np.flatnonzero(g["case"][()] == case)
+        if rows.size == 0:
+            return {k: np.zeros(0) for k in names}
+        sl = slice(int(rows[0]), int(rows[-1]) + 1)
+        out = {}
+        for k in names:
+            ds = g[k]
+            if h5py.check_string_dtype(ds.dtype) is not None:
+                out[k] = ds.asstr()[sl].astype(str)
+            else:
+                v = ds[sl]
+                out[k] = v.astype(bool) if ds.attrs.get("rfsim_dtype") == "bool" else v
+        return out
+
+
+def _cases(path: Path) -> dict[str, np.ndarray]:
+    """Case index, motion and σ0 of every case (from the small summary table)."""
+    sm = read_table(path, "summary")
+    keep = np.unique(sm["case"], return_index=True)[1]
+    return {k: sm[k][keep] for k in ("case", "motion", "sigma0_db")}
+
+
 def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     """Readers, walls, cells, reference tags and the first tracks of the first mobile case."""
     plt = pyplot()
     a = _attrs(path)
-    est = read_table(path, "estimates")
+    cases = _cases(path)
+    mobile = cases["motion"] == "mobile"
+    case = int(cases["case"][np.flatnonzero(mobile)[0] if mobile.any() else 0])
+    est = _case_columns(path, case, ("estimator", "trial", "x_true_m", "y_true_m", "x_est_m", "y_est_m"))
     fig, ax = plt.subplots(figsize=(8, 6))
     x0, y0, x1, y1 = a["bounds_m"]
     ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
@@ -37,13 +67,10 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     ref = np.atleast_2d(a["reference_xy"])
     if ref.size:
         ax.plot(ref[:, 0], ref[:, 1], "^", ms=9, color="tab:purple", label="reference tags")
-    mobile = est["motion"] == "mobile"
-    sel = mobile if mobile.any() else np.ones_like(mobile)
-    case = est["case"][sel][0]
-    names = list(dict.fromkeys(est["estimator"][sel & (est["case"] == case)]))
+    names = list(dict.fromkeys(est["estimator"]))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for tr in range(n_tracks):
-        m = (est["case"] == case) & (est["trial"] == tr)
+        m = est["trial"] == tr
         first = m & (est["estimator"] == names[0])
         ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5,
                 label="true track" if tr == 0 else None)
@@ -64,16 +91,18 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
 def plot_error_cdf(path: Path, out: Path) -> Path:
     """Empirical CDF of the scored errors per estimator and motion (σ0 closest to 5.2 dB)."""
     plt = pyplot()
-    est = read_table(path, "estimates")
-    s = est["sigma0_db"]
+    cases = _cases(path)
+    s = cases["sigma0_db"]
     target = s[np.isfinite(s)][np.argmin(np.abs(s[np.isfinite(s)] - 5.2))] if np.isfinite(s).any() else np.nan
-    motions = list(dict.fromkeys(est["motion"]))
+    motions = list(dict.fromkeys(cases["motion"]))
     fig, axes = plt.subplots(1, len(motions), figsize=(5 * len(motions), 4), squeeze=False)
     for ax, motion in zip(axes[0], motions):
-        m = (est["motion"] == motion) & est["scored"] & ((s == target) | ~np.isfinite(s))
-        for name in dict.fromkeys(est["estimator"][m]):
-            e = np.sort(est["error_m"][m & (est["estimator"] == name)])
-            ax.plot(e, np.arange(1, e.size + 1) / e.size, label=name)
+        for case in cases["case"][(cases["motion"] == motion) & ((s == target) | ~np.isfinite(s))]:
+            est = _case_columns(path, int(case), ("estimator", "error_m", "scored"))
+            m = est["scored"]
+            for name in dict.fromkeys(est["estimator"][m]):
+                e = np.sort(est["error_m"][m & (est["estimator"] == name)])
+                ax.plot(e, np.arange(1, e.size + 1) / e.size, label=name)
         ax.set_xlabel("localization error [m]")
         ax.set_ylabel("CDF")
         ax.set_title(f"{motion} target" + (f", σ0 = {target:g} dB" if np.isfinite(target) else ""))

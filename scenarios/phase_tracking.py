@@ -15,9 +15,12 @@ fits the slot; miller4-320k takes ≈ 2.98 ms and reaches only ≈ 84 reads/s pe
 alternate target A/B after each successful read (the tag's S0 flag flips). The tag is held
 at its position of the round start for the round (quasi-static: it moves ≤ 0.2 m/s·0.71 ms =
 0.14 mm, a phase change ≤ 5 mrad), so the channel's narrowband held-link path applies; silent
-time between rounds is not simulated. The run is cut into chunks of ``schedule.chunk_s``
-simulated in parallel (each with its own reader and tag, reproducible whatever the number of
-workers: the chunks are part of the config).
+time between rounds is not simulated. The links of a chunk's rounds are drawn at once
+(:class:`RoundLinks`, ``channels.bulk.draw_links``). The run is cut into chunks of
+``schedule.chunk_s`` simulated in parallel (each with its own reader and tag, reproducible
+whatever the number of workers: the chunks are part of the config); round 0 alone runs first
+in the leading process (the slot check, and the kernels the workers inherit), then every chunk
+in the pool.
 
 The reader reports (``reader.report``, rfsim.records): RSSI in 1 dB steps, the 12-bit phase
 code with the port's offset, µs time stamps. Estimators (rfsim.estimators.phase_tracking):
@@ -41,7 +44,8 @@ from typing import Literal
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
-from channels import Antenna, Channel, HalfWaveDipole, Isotropic, Patch, Scene
+from channels import Antenna, HalfWaveDipole, Isotropic, Patch, Scene
+from channels.bulk import draw_links
 from devices.reader import Reader, ReaderConfig, frequency_plan
 from devices.tag import PassiveTag, TagConfig
 from rfsim.config import param
@@ -219,6 +223,43 @@ def check_geometry(config: Config) -> None:
 # ----------------------------------------------------------------------------- reads
 
 
+class RoundLinks:
+    """The channel of a chunk (the engine's ``backscatter_links``): the anechoic link of every
+    round's antenna to the tag at its held position, drawn for all rounds at once by
+    :func:`channels.bulk.draw_links` (the physics of :meth:`channels.scene.Channel.link`,
+    vectorised: LoS amplitude g_ls(d, fc)·√(G_tx·G_rx)·√PLF, delay d/c; no image or diffuse
+    path, so no random draw). Monostatic and reciprocal: the backward link is the forward one.
+    :meth:`hold` selects the round; a link asked of another antenna pair is an error."""
+
+    def __init__(self, scene: Scene, antennas, tag_antenna: Antenna, antenna_of_round: np.ndarray,
+                 tag_xyz_m: np.ndarray, *, fc_hz: float):
+        self.fc_hz = float(fc_hz)
+        self.antennas, self.antenna_of_round = antennas, antenna_of_round
+        self._paths = np.empty(antenna_of_round.size, dtype=object)
+        for i, ant in enumerate(antennas):
+            rows = np.flatnonzero(antenna_of_round == i)
+            if rows.size == 0:
+                continue
+            bulk = draw_links(scene, ant.position_m, tag_xyz_m[rows], fc_hz=self.fc_hz, rng=np.random.default_rng(0),
+                              tx_antenna=ant, rx_antenna=tag_antenna)
+            for k, j in enumerate(rows):
+                self._paths[j] = bulk.pathset(k)
+        self._held = None
+
+    def hold(self, j: int, tag: Antenna) -> None:
+        """Round ``j`` (0-based within the chunk), its tag antenna ``tag``."""
+        self._held = (j, tag)
+
+    def backscatter_links(self, emitter: Antenna, tag: Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
+                          tag_motion=None):
+        j, held_tag = self._held
+        if tag is not held_tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
+                or tag_motion is not None:
+            raise ValueError("RoundLinks holds one static link per round: its antenna, tag and carrier")
+        p = self._paths[j]
+        return p, p
+
+
 def _simulate_chunk(task) -> dict[str, np.ndarray]:
     """Rounds [r_lo, r_hi) of the run: one singulation per round (module docstring)."""
     config, seed, c, r_lo, r_hi = task
@@ -231,7 +272,11 @@ def _simulate_chunk(task) -> dict[str, np.ndarray]:
     t_round = np.arange(r_lo, r_hi) * sch.read_period_s
     truth, intended = motion.true(t_round), motion.intended(t_round)
     tag = PassiveTag(config.tag, tag_antenna, rng=trial_rng(seed, 1 + c, 1), t0_s=float(t_round[0]))
-    channel = Channel(Scene(image_order=0))
+    rounds = np.arange(r_lo, r_hi)
+    antenna_of_round = np.array([reader.antenna_index(r) for r in rounds])
+    tag_xyz = np.column_stack([truth, np.full(rounds.size, g.height_m)])
+    channel = RoundLinks(Scene(image_order=0), antennas, tag_antenna, antenna_of_round, tag_xyz,
+                         fc_hz=carrier_hz(config.reader))
     link = reader.link
     rows: dict[str, list] = {k: [] for k in ("time_s", "antenna", "channel_index", "frequency_hz", "rssi_dbm",
                                              "phase_rad", "doppler_hz", "snr_db", "success", "failure_reason",
@@ -240,6 +285,7 @@ def _simulate_chunk(task) -> dict[str, np.ndarray]:
     for j, r in enumerate(range(r_lo, r_hi)):
         t_s = float(t_round[j])
         tag.antenna = dataclasses.replace(tag_antenna, position_m=(truth[j, 0], truth[j, 1], g.height_m))
+        channel.hold(j, tag.antenna)
         query = Query(dr=link.dr, m=link.m, trext=link.trext, q=0, target="AB"[target])
         ex = singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, 1 + c, 2, r), query=query, round_index=r)
         last = ex[-1]
@@ -277,6 +323,14 @@ READ_FIELDS = {
     "intended_y_m": ("m", "intended (marked) path y at the round start"),
     "trial": ("1", "trial index of the run (one trajectory: 0)"),
 }
+
+
+def _read_task(task) -> dict[str, np.ndarray]:
+    """:func:`_simulate_chunk` of ``task[:5]``; with ``task[5]`` (the probe) the slot is checked."""
+    out = _simulate_chunk(task[:5])
+    if task[5]:
+        _check_slot(task[0], float(np.max(out["round_end_s"] - out["round_start_s"])))
+    return out
 
 
 def _check_slot(config: Config, singulation_s: float) -> None:
@@ -340,10 +394,12 @@ def run(config: Config, *, seed: int) -> Dataset:
               f"λ/(4Δt) = {limit:.3g} m/s for reads {dt_antenna * 1e3:.3g} ms apart per antenna: "
               "pseudo-ranges will jump by λ/2 (flagged in the dataset)")
 
-    probe = _simulate_chunk((config, seed, 0, 0, 1))  # round 0 alone: does a singulation fit the slot?
-    _check_slot(config, float(probe["round_end_s"][0] - probe["round_start_s"][0]))
     stage(f"reading: {n_rounds} singulations at sample level, {len(tasks)} chunks")
-    parts = map_in_order(_simulate_chunk, tasks, sch.workers, desc="chunks", unit="chunks")
+    # The probe (round 0 alone) is the first task: map_in_order runs it in this process before
+    # the pool starts, so a singulation too long for the slot stops the run at once, and the
+    # kernels it compiles are inherited by the workers; every chunk then runs in the pool.
+    parts = map_in_order(_read_task, [(config, seed, 0, 0, 1, True)] + [t + (False,) for t in tasks], sch.workers,
+                         desc="chunks", unit="chunks")[1:]
     cols = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
     busy = cols.pop("round_end_s") - cols["round_start_s"]
     _check_slot(config, float(busy.max()))
@@ -375,7 +431,7 @@ def run(config: Config, *, seed: int) -> Dataset:
         jump[idx[1:]] = np.abs(np.diff(offset[idx])) > lam / 4
     x0, P0 = initial_state(p0, s, pos_std_m=est.pos_std_m, bias_std_m=est.bias_std_m, vel_std_mps=est.vel_std_mps)
     passes = track_phase(t, ant0, z, anchors, x0, P0, q_v=est.q_v, q_b=est.q_b, sigma_m=est.sigma_m,
-                         passes=est.passes)
+                         passes=est.passes, keep_covariances=False)
     rssi_track, _ = rssi_fix(_latest_rssi(ant0, rssi, s), anchors)
     rssi_track[~np.all(np.isfinite(_latest_rssi(ant0, rssi, s)), axis=1)] = np.nan
 

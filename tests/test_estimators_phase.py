@@ -186,3 +186,14 @@ def test_second_pass_starts_from_the_smoothed_state_and_tracks_better():
     assert rmse(passes[1].x_filt) < 0.5 * rmse(passes[0].x_filt)
     assert rmse(passes[0].x_smooth) < 0.2 * rmse(passes[0].x_filt)
     assert rmse(passes[1].x_smooth) < 0.005
+
+
+def test_passes_without_covariances_have_the_same_means():
+    t, ant, z = _reads(800, seed=7)
+    x0, P0 = initial_state([1.9, 1.9], 4)
+    full = track_phase(t, ant, z, ANCHORS, x0, P0, passes=2)
+    lean = track_phase(t, ant, z, ANCHORS, x0, P0, passes=2, keep_covariances=False)
+    for a, b in zip(full, lean):
+        np.testing.assert_array_equal(b.x_filt, a.x_filt)
+        np.testing.assert_array_equal(b.x_smooth, a.x_smooth)
+        assert b.P_filt is None and b.P_smooth is None and b.P_pred is None and b.x_pred is None

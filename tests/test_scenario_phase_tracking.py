@@ -152,3 +152,33 @@ def test_config_keys_show_the_scenarios_own_reader_defaults(capsys):
     assert 'reader.link_profile = "fm0-640k"' in out
     assert "reader.channels_hz = [890000000.0]" in out
     assert "reader.report.port_phase_offsets_rad = [0.61, 2.23, -1.37, 3.9]" in out
+
+
+def test_round_links_are_the_channel_links_of_each_round():
+    """The chunk's links drawn at once (channels.bulk) equal Channel.link of every round's
+    antenna and tag position (free space, one LoS path), and refuse any other pair."""
+    import dataclasses
+    import math
+
+    from channels import Antenna, Channel, HalfWaveDipole, Scene
+    from scenarios.phase_tracking import GeometryConfig, RoundLinks, reader_antennas
+
+    g = GeometryConfig()
+    antennas = reader_antennas(g)
+    tag = Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, math.radians(g.tag_tilt_deg), 0.0),
+                  pattern=HalfWaveDipole(), polarization="linear")
+    xyz = np.column_stack([np.random.default_rng(3).uniform(0.5, 2.5, (9, 2)), np.full(9, g.height_m)])
+    which = np.arange(9) % 4
+    links = RoundLinks(Scene(image_order=0), antennas, tag, which, xyz, fc_hz=890e6)
+    ref = Channel(Scene(image_order=0))
+    for j in range(9):
+        t_j = dataclasses.replace(tag, position_m=tuple(xyz[j]))
+        links.hold(j, t_j)
+        fwd, bwd = links.backscatter_links(antennas[which[j]], t_j, fc_hz=890e6)
+        want, _ = ref.backscatter_links(antennas[which[j]], t_j, fc_hz=890e6)
+        assert bwd is fwd and fwd.n_paths == want.n_paths == 1
+        np.testing.assert_allclose(fwd.gain, want.gain, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(fwd.delay_s, want.delay_s, rtol=1e-12, atol=0)
+        assert not fwd.doppler_hz.any()
+        with pytest.raises(ValueError, match="one static link per round"):
+            links.backscatter_links(antennas[(which[j] + 1) % 4], t_j, fc_hz=890e6)

@@ -320,8 +320,9 @@ def test_home_replica_mobile_ordering():
     (Table 7.41, 3000 scored): the pattern (fingerprint) NN beats both parameter NNs and
     improved SIR beats grid Bayes. Not reproduced, and not asserted: the thesis's best mobile
     result (improved SIR + online σ + smoothing, 1.25 m; here ≈ 1.30 m, behind grid +
-    smoothing ≈ 1.23 m) and its fixed-target grid Bayes (2.04 m; here ≈ 1.39 m, better than
-    the NNs: 25 % of σ² is a people term that the 30 recursions average out)."""
+    smoothing ≈ 1.23 m) and its fixed-target grid Bayes above both NNs (2.04 vs 1.68/1.63 m;
+    here 1.57 vs 1.57/1.43 m over 24 × 25 points, seed 1: 25 % of σ² is a people term that
+    the 30 recursions average out; see test_home_fixed_grid_behind_the_nns_when_all_shadowing_persists)."""
     ds = _run(preset="home-2room", trials=4, write_beacons=False)
     est = _table(ds, "estimates")
     r = {n: _rmse_and_se(est, n, "mobile")[0] for n in np.unique(est["estimator"])}
@@ -331,3 +332,59 @@ def test_home_replica_mobile_ordering():
     f = {n: _rmse_and_se(est, n, "fixed")[0] for n in np.unique(est["estimator"])}
     assert f["nn-pattern"] < min(f["nn-online"], f["nn-offline"]), f
     assert f["pf-improved"] < f["grid"], f
+
+
+def _nearest_centre_mse_m2(length_m: float) -> float:
+    """E[u²] along one axis: u the offset of a uniform point in [0, L] from the nearest of the
+    cell centres 1, 2, …, L − 1 m (1 m spacing). The two edge cells span [c − 1, c + 0.5]
+    (E[u²] = (1³ + 0.5³)/(3·1.5) = 0.25), the L − 3 m between them are cells of width 1
+    (E[u²] = 1/12)."""
+    edge = (1.0 ** 3 + 0.5 ** 3) / (3.0 * 1.5)
+    return (2 * 1.5 * edge + (length_m - 3.0) / 12.0) / length_m
+
+
+def test_grid_fixed_at_1_db_exceeds_the_thesis_through_the_border_strip():
+    """Grid Bayes, fixed target, σ = σ0 = 1 dB (Table 7.11: 0.65 m; spec ±10 %): this model
+    gives ≈ 0.73 m (+13 %). The cause is the 28-cell grid, not the filter: targets are uniform
+    in the 5 × 8 m room (L1135) but the cell centres span only [1, 4] × [1, 7] m, and the MMSE, a
+    convex combination of centres, cannot enter the 1 m strip along the walls (30 % of the room).
+    The floor of any estimate on the centres, the RMS distance to the nearest one, is
+    √(E[u_x²] + E[u_y²]) = 0.574 m in closed form. For the targets inside the centres' hull
+    widened by half a cell ([0.5, 4.5] × [0.5, 7.5] m) the same run is within ±10 % + 3 SE of
+    0.65 m; over the whole room it is above +5 % + 3 SE (1500 trials)."""
+    floor = float(np.sqrt(_nearest_centre_mse_m2(5.0) + _nearest_centre_mse_m2(8.0)))
+    assert abs(floor - 0.5737) < 1e-3
+    ds = _run(estimators=["grid"], motions=["fixed"], sigma0_db=[1.0], trials=1500, write_beacons=False)
+    est = _table(ds, "estimates")
+    m = (est["estimator"] == "grid-mmse") & est["scored"]
+    e, xy = est["error_m"][m], np.column_stack([est["x_true_m"][m], est["y_true_m"][m]])
+    inner = np.all((xy >= 0.5) & (xy <= [4.5, 7.5]), axis=1)
+
+    def rmse_se(err):
+        r = float(np.sqrt(np.mean(err ** 2)))
+        return r, float(np.std(err ** 2, ddof=1) / np.sqrt(err.size) / (2 * r))
+
+    r_all, se_all = rmse_se(e)
+    r_in, se_in = rmse_se(e[inner])
+    assert r_all > 1.05 * 0.65 + 3 * se_all, r_all          # measured 0.73 m
+    assert abs(r_in - 0.65) <= 0.10 * 0.65 + 3 * se_in, r_in  # measured 0.63 m
+    assert r_all > floor and abs(inner.mean() - 28 / 40) < 0.05
+
+
+@pytest.mark.slow
+def test_home_fixed_grid_behind_the_nns_when_all_shadowing_persists():
+    """Table 7.41's fixed-target ordering, grid Bayes (2.04 m) behind the offline and online NN
+    (1.68/1.63 m), follows from the share of σ² that persists at a fixed point: the filter takes
+    the 30 beacons as independent σ = 5.2 dB readings, so a persistent error pulls its posterior
+    onto a wrong cell, while LANDMARC over all 36 cells stays near the centroid. With the
+    replica's default (75 % quasi-static) grid ties the offline NN (1.57 vs 1.57 m); with all of
+    σ² quasi-static (the thesis's real home: antenna patterns and multipath fixed per point) it
+    is behind both (measured 1.73 vs 1.59/1.34 m, 12 × 25 points). The mobile chain of
+    Table 7.42 then loses grid < online NN (1.66 vs 1.53 m), which is why the default keeps a
+    people term."""
+    ds = _run(preset="home-2room", trials=12, motions=["fixed"], write_beacons=False,
+              estimators=["nn", "grid"], shadowing={"static_fraction": 1.0})
+    est = _table(ds, "estimates")
+    grid, se = _rmse_and_se(est, "grid", "fixed")
+    for nn in ("nn-offline", "nn-online"):
+        assert grid > _rmse_and_se(est, nn, "fixed")[0] + se, (nn, grid)

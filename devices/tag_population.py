@@ -57,7 +57,8 @@ class TagPopulation:
     ----------
     tags : sequence of tags with ``state`` (TagState), ``reflect``, ``antenna``,
         ``quiet_point``, ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
-        ``config.envelope_rc_s``
+        ``config.envelope_rc_s`` (and ``rng``, ``respond_reply`` for the QueryAdjust
+        shortcut, module docstring)
     """
 
     def __init__(self, tags):
@@ -107,7 +108,7 @@ class TagPopulation:
         arrays = self.arrays
         on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
         quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
-        steps, decoded_of = [], {}
+        steps, redraws, decoded_of = [], [], {}
         if on.any():
             for rc, group in rnd.rc_groups:
                 sel = on & group
@@ -124,8 +125,22 @@ class TagPopulation:
                 if silent.any():
                     steps.append((cmd, silent, dec, t_end_s))
                     quiet = quiet | silent
+                if rnd.own_rngs:
+                    redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s)
+                    if redraw.any():
+                        redraws.append((decoded, redraw, t_end_s))
         for cmd, silent, dec, t_end_s in steps:
             arrays.take_silent_steps(cmd, silent, dec, t_end_s)
+        replies = {}
+        for decoded, redraw, t_end_s in redraws:
+            # QueryAdjust: the round's tags load new counters; those that do not reply are quiet
+            index = np.flatnonzero(redraw).tolist()
+            members = self.members
+            for j, reply in arrays.take_redraw_steps(decoded[0], index, [members[j].rng for j in index], t_end_s):
+                replies[j] = (decoded, reply)
+                redraw[j] = False
+            quiet = quiet | redraw
+            steps.append((decoded[0], redraw, None, t_end_s))
         need = quiet & rnd.needs
         if need.any():
             members, points = self.members, rnd.points
@@ -137,7 +152,10 @@ class TagPopulation:
         for j in react:
             m = self.members[j]
             decoded = decoded_of.get(j)
-            if decoded is not None:  # its power decision is known: the tag's own path from the command on
+            replied = replies.get(j)
+            if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
+                reactions[j] = m.respond_reply(rnd.points[j], replied[0], base, replied[1])
+            elif decoded is not None:  # its power decision is known: the tag's own path from the command on
                 reactions[j] = m.respond_decoded(rnd.points[j], decoded, base)
             else:
                 reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
@@ -177,6 +195,11 @@ class _Round:
         for j, q in enumerate(self.points):
             self._set(j, q)
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
+        #: every member draws from its own generator, so the order in which members draw does
+        #: not matter (else a QueryAdjust goes through each member's own path, in member order)
+        rngs = [getattr(m, "rng", None) for m in members]
+        self.own_rngs = None not in rngs and len(set(map(id, rngs))) == n and all(
+            callable(getattr(m, "respond_reply", None)) for m in members)
         rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)
         self.rc_groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
         self._terms: dict = {}

@@ -488,3 +488,25 @@ def test_state_arrays_silent_steps_equal_on_command():
     assert 0.5 * total <= silent_total < total, (silent_total, total)
     assert due_total >= 1, due_total
     assert redraw_total >= 50, redraw_total  # QueryAdjusts found tags of their round
+
+
+def test_slot_draw_equals_generator_integers():
+    # slot_draw reads the 32-bit word numpy's integers(0, 2**q) would use: on two generators
+    # with one seed, q = 0…15 interleaved with 16-bit and normal draws, the numbers and the
+    # generator states must stay equal (q = 0 draws nothing), for PCG64 and Philox.
+    from devices.gen2_tag_state import slot_draw
+
+    for make in (np.random.PCG64, np.random.Philox):
+        a, b = np.random.Generator(make(3)), np.random.Generator(make(3))
+        picks = np.random.default_rng(4)
+        for k in range(3000):
+            q = int(picks.integers(16))
+            assert slot_draw(b, q) == int(a.integers(0, 1 << q)), (make, k, q)
+            if k % 5 == 0:
+                assert int(a.integers(0, 1 << 16)) == int(b.integers(0, 1 << 16))
+            if k % 11 == 0:
+                assert a.standard_normal() == b.standard_normal()
+        # the same state afterwards: the same 64-bit and 32-bit words (buffered half word included)
+        for size in (5, 8):
+            assert a.integers(0, 1 << 62, size=size).tolist() == b.integers(0, 1 << 62, size=size).tolist()
+            assert a.integers(0, 1 << 16, size=size).tolist() == b.integers(0, 1 << 16, size=size).tolist()

@@ -43,6 +43,7 @@ arrays given by the caller.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import compress
 
 import numpy as np
 
@@ -602,13 +603,12 @@ class StateArrays:
             decrement = decrement & ~due
         if decrement.any():
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
-            states, slots = self.states, self.slot
-            for i in np.flatnonzero(decrement).tolist():
-                states[i].slot = int(slots[i])
+            idx = np.flatnonzero(decrement)
+            for st, slot in zip(compress(self.states, decrement.tolist()), self.slot[idx].tolist()):
+                st.slot = slot
         self.t_s[silent] = t_s
-        states = self.states
-        for i in np.flatnonzero(silent).tolist():
-            states[i].t_s = t_s
+        for st in compress(self.states, silent.tolist()):
+            st.t_s = t_s
 
 
 STATE_CODES = {s: k for k, s in enumerate(STATES)}

@@ -15,9 +15,14 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
 2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
    ``PassiveTag.take_quiet_step``): each tag is left exactly as its own ``reflect`` would
    have left it;
-3. asks only the other tags — those that reply, power up or down, load a slot counter,
-   change state — through their own full path (``PassiveTag.reflect``): a tag with its own
-   reply parameters (clock, T1, line code) answers with them.
+3. on a QueryAdjust (members with generators of their own), loads the new slot counters of
+   every tag of the round at once (``StateArrays.redraw_steps`` / ``take_redraw_steps``:
+   Q ± 1, each counter drawn from its tag's own generator exactly as ``TagState.on_command``
+   draws it); the tags whose counter is not 0 are quiet, those that reply form their reply
+   (``PassiveTag.respond_reply``);
+4. asks only the other tags — those that reply, power up or down, load a slot counter on a
+   Query, change state — through their own full path (``PassiveTag.reflect``): a tag with
+   its own reply parameters (clock, T1, line code) answers with them.
 
 The quiet tags re-radiate r_j = A_s − Γ_A, a constant (devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,
@@ -108,15 +113,14 @@ class TagPopulation:
         arrays = self.arrays
         on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
         quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
-        steps, redraws, decoded_of = [], [], {}
+        steps, redraws, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
         if on.any():
             for rc, group in rnd.rc_groups:
                 sel = on & group
                 if not sel.any():
                     continue
                 decoded = fe.command(rc)
-                for j in np.flatnonzero(sel).tolist():
-                    decoded_of[j] = decoded
+                decoded_by.append((sel, decoded))
                 cmd, frame = decoded
                 if cmd is None or isinstance(cmd, Query):
                     continue
@@ -151,7 +155,7 @@ class TagPopulation:
         react = np.flatnonzero(~quiet).tolist()
         for j in react:
             m = self.members[j]
-            decoded = decoded_of.get(j)
+            decoded = next((d for sel, d in decoded_by if sel[j]), None)
             replied = replies.get(j)
             if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
                 reactions[j] = m.respond_reply(rnd.points[j], replied[0], base, replied[1])

@@ -55,7 +55,7 @@ import numpy as np
 
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
-from rfsim.gen2.bits import bits_to_int
+from rfsim.gen2.bits import as_bits, bits_to_int
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Select
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import t1
@@ -217,8 +217,12 @@ def epc_hex_of(bits: np.ndarray) -> str:
     b = np.asarray(bits, dtype=np.uint8)
     if b.size < 48:
         return ""
-    epc = b[16:-16]
-    return "".join(f"{bits_to_int(epc[i:i + 4]):X}" for i in range(0, epc.size - epc.size % 4, 4))
+    epc = as_bits(b[16:-16])
+    nibbles = epc[:epc.size - epc.size % 4].reshape(-1, 4) @ _NIBBLE_WEIGHTS  # MSB first
+    return "".join(map("0123456789ABCDEF".__getitem__, nibbles.tolist()))
+
+
+_NIBBLE_WEIGHTS = np.array([8, 4, 2, 1], dtype=np.int64)
 
 
 # ============================================================================ controller

@@ -472,6 +472,20 @@ class PassiveTag:
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
+    #: Number of times any tag's :attr:`antenna` has been set (a population's antenna tuple,
+    #: devices.tag_population, stays valid while this count stays the same).
+    antenna_changes = 0
+
+    @property
+    def antenna(self):
+        """The tag's antenna (channels.Antenna); setting it moves the tag."""
+        return self._antenna
+
+    @antenna.setter
+    def antenna(self, value) -> None:
+        self._antenna = value
+        PassiveTag.antenna_changes += 1
+
     @property
     def tau(self) -> float:
         """τ = 1 − |Γ_A|² (see :attr:`TagConfig.tau`)."""

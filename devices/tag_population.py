@@ -54,6 +54,17 @@ from rfsim.gen2.commands import Query
 _antenna = operator.attrgetter("antenna")
 
 
+def _counting_class(members):
+    """The members' one class when it counts the settings of its ``antenna`` property
+    (``antenna_changes``, devices.tag.PassiveTag), else None."""
+    cls = type(members[0]) if members else None
+    if cls is None or not all(type(m) is cls for m in members):
+        return None
+    if not isinstance(getattr(cls, "antenna", None), property) or not hasattr(cls, "antenna_changes"):
+        return None
+    return cls
+
+
 class TagPopulation:
     """Passive tags (``devices.tag.PassiveTag`` or alike) as one reflector group of
     :func:`rfsim.air.propagate` (:class:`rfsim.air.ReflectorGroup`).
@@ -73,6 +84,8 @@ class TagPopulation:
                 raise TypeError(f"a population member must be a PassiveTag-like tag, got {type(t).__name__}")
         self.arrays = StateArrays([t.state for t in self.members])
         self._antennas: tuple | None = None
+        self._counting = _counting_class(self.members)
+        self._antenna_count = None  # the class's antenna_changes when _antennas was checked
         self._round: _Round | None = None
 
     def __len__(self) -> int:
@@ -80,11 +93,17 @@ class TagPopulation:
 
     @property
     def antennas(self) -> tuple:
-        """The members' antennas (the same tuple object while none of them changes)."""
+        """The members' antennas (the same tuple object while none of them changes). Members
+        whose ``antenna`` is the counted property of :class:`devices.tag.PassiveTag` are not
+        compared one by one while no tag's antenna has been set since they last were."""
         ants = self._antennas
+        count = self._counting.antenna_changes if self._counting is not None else None
+        if ants is not None and count is not None and count == self._antenna_count and len(ants) == len(self.members):
+            return ants
         if ants is None or len(ants) != len(self.members) or not all(
                 map(operator.is_, map(_antenna, self.members), ants)):
             ants = self._antennas = tuple(map(_antenna, self.members))
+        self._antenna_count = count
         return ants
 
     def refresh(self) -> None:
@@ -92,6 +111,7 @@ class TagPopulation:
         power decisions (after changing tags — states, configs, chips — from outside)."""
         self.arrays.read(range(len(self.members)))
         self._round = None
+        self._counting, self._antenna_count = _counting_class(self.members), None
 
     def reflect_each(self, incident) -> list:
         """Every member reflects its own incident segment (``incident[j]``), in order."""

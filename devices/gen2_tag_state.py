@@ -140,8 +140,9 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     − Q)``, and Q = 0 draws nothing. The word is read here through the bit generator's
     ctypes interface — the same word, the same generator state afterwards (tested against
     ``integers``), without the method's argument handling (a fifth of its cost; an inventory
-    draws a counter per tag on every QueryAdjust). A generator without that interface is
-    asked through ``integers``.
+    draws a counter per tag on every QueryAdjust), and without the generator's lock (a tag's
+    generator is its own, used by one thread). A generator without that interface is asked
+    through ``integers``.
     """
     if q <= 0:
         return 0

@@ -153,6 +153,14 @@ class Channel:
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
 
+    @property
+    def has_random_part(self) -> bool:
+        """Whether a link can differ from one draw to the next: diffuse taps (``apdp``) or a
+        shadowing field (which can be redrawn). Without them a static link is a pure function
+        of the two antennas, the carrier and the immutable scene, and a call with ``rng``
+        draws nothing from it."""
+        return self.scene.apdp is not None or self.scene.shadowing is not None
+
     def forget(self) -> None:
         """Drop every held diffuse draw (the next links need an ``rng``)."""
         self._held.clear()

@@ -43,6 +43,7 @@ arrays given by the caller.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import compress
 
 import numpy as np
 
@@ -129,6 +130,26 @@ def pc_word(epc_bits) -> int:
 
 def _draw16(rng: np.random.Generator) -> int:
     return int(rng.integers(0, 1 << 16))
+
+
+def slot_draw(rng: np.random.Generator, q: int) -> int:
+    """A slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
+
+    For a power-of-two range numpy's bounded draw (Lemire's multiply-shift) never rejects:
+    it returns the top Q bits of one 32-bit word of the bit generator, ``next_uint32 >> (32
+    − Q)``, and Q = 0 draws nothing. The word is read here through the bit generator's
+    ctypes interface — the same word, the same generator state afterwards (tested against
+    ``integers``), without the method's argument handling (a fifth of its cost; an inventory
+    draws a counter per tag on every QueryAdjust), and without the generator's lock (a tag's
+    generator is its own, used by one thread). A generator without that interface is asked
+    through ``integers``.
+    """
+    if q <= 0:
+        return 0
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    if ct is None:
+        return int(rng.integers(0, 1 << q))
+    return ct.next_uint32(ct.state) >> (32 - q)
 
 
 class TagState:
@@ -296,16 +317,21 @@ class TagState:
         would leave it, and it does not reply), False if nothing was done (call
         :meth:`on_command`).
 
-        The silent steps of a powered tag: a QueryRep of another session than the tag's round
-        (or with no round); a QueryRep in Arbitrate whose decremented counter is not 0 (the
-        counter decrements, nothing else changes); an ACK or NAK in Ready or Arbitrate. These
-        are the same branches as in :meth:`on_command` (``_query_rep``, ``_ack``, NAK), taken
-        without the dispatch — in an inventory almost every tag takes one of them on almost
-        every command.
+        The silent steps of a powered tag: a QueryRep or QueryAdjust of another session than
+        the tag's round (or with no round); a QueryRep in Arbitrate whose decremented counter
+        is not 0 (the counter decrements, nothing else changes); an ACK or NAK in Ready or
+        Arbitrate. These are the same branches as in :meth:`on_command` (``_query_rep``,
+        ``_query_adjust``, ``_ack``, NAK), taken without the dispatch — in an inventory almost
+        every tag takes one of them on almost every command.
         """
         if not self.powered:
             return False
         kind = type(cmd)
+        if kind is QueryAdjust:
+            if self.session is None or cmd.session != self.session:
+                self._advance(t_s)
+                return True
+            return False
         if kind is QueryRep:
             if self.session is None or cmd.session != self.session:
                 self._advance(t_s)
@@ -324,10 +350,10 @@ class TagState:
 
     def row(self) -> tuple:
         """The state as :class:`StateArrays` keeps it: ``(powered, state code, session or −1,
-        slot or −1, t_s, time S1 was set to B or NaN, S1 persistence [s])``."""
+        slot or −1, t_s, time S1 was set to B or NaN, S1 persistence [s], Q)``."""
         return (self.powered, STATE_CODES[self.state], -1 if self.session is None else self.session,
                 -1 if self.slot is None else self.slot, self.t_s,
-                float("nan") if self._s1_set_s is None else self._s1_set_s, self.persistence.s1_s)
+                float("nan") if self._s1_set_s is None else self._s1_set_s, self.persistence.s1_s, self.q)
 
     def _matches_query(self, cmd: Query) -> bool:
         if cmd.sel == "sl" and not self.sl:
@@ -337,7 +363,7 @@ class TagState:
         return self.inventoried[cmd.session] == cmd.target
 
     def _load_slot(self, rng: np.random.Generator) -> Reply | None:
-        self.slot = int(rng.integers(0, 1 << self.q))
+        self.slot = slot_draw(rng, self.q)
         return self._reply_if_zero(rng)
 
     def _reply_if_zero(self, rng: np.random.Generator) -> Reply | None:
@@ -470,10 +496,14 @@ class StateArrays:
 
     Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
     :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
-    (NaN: S1 not set to B) and ``s1_keep_s``. :meth:`silent_steps` is
+    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
     :meth:`TagState.on_command_if_silent`'s decision for every row at once (the same rules);
     :meth:`take_silent_steps` applies the steps so decided to the rows and to the
     :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
+    :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
+    of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
+    (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
+    tag's own generator).
     """
 
     def __init__(self, states):
@@ -486,6 +516,7 @@ class StateArrays:
         self.t_s = np.zeros(n)
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
+        self.q = np.zeros(n, np.int64)
         self.read(range(n))
 
     def read(self, index) -> None:
@@ -495,7 +526,7 @@ class StateArrays:
             return
         states = self.states
         cols = list(zip(*[states[i].row() for i in index]))
-        for name, col in zip(("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s"), cols):
+        for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -510,9 +541,51 @@ class StateArrays:
             other = (self.session < 0) | (self.session != cmd.session)
             dec = ~other & (self.code == _ARBITRATE) & (self.slot >= 0) & (((self.slot - 1) & 0x7FFF) != 0)
             return ok & (other | dec), ok & dec
+        if kind is QueryAdjust:
+            return ok & ((self.session < 0) | (self.session != cmd.session)), np.zeros_like(ok)
         if kind is ACK or kind is NAK:
             return ok & ((self.code == _READY) | (self.code == _ARBITRATE)), np.zeros_like(ok)
         return np.zeros_like(ok), np.zeros_like(ok)
+
+    def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
+        """Which of the ``candidates`` (bool mask) load a new slot counter on ``cmd``, a
+        QueryAdjust received at ``t_s`` [s]: powered tags in Arbitrate or Reply of the
+        command's session (``TagState._query_adjust``) whose clock is not past ``t_s`` and
+        whose S1 flag is not due to revert (those are left to ``on_command``). All False for
+        other commands."""
+        if type(cmd) is not QueryAdjust:
+            return np.zeros(len(self.states), bool)
+        t_s = float(t_s)
+        ok = candidates & self.powered & (self.t_s <= t_s) & ~(t_s - self.s1_set_s >= self.s1_keep_s)
+        in_round = (self.session == cmd.session) & ((self.code == _ARBITRATE) | (self.code == _REPLY))
+        return ok & in_round
+
+    def take_redraw_steps(self, cmd, index: list, rngs: list, t_s: float) -> list:
+        """Apply the QueryAdjust ``cmd`` at ``t_s`` [s] to the rows ``index`` (from
+        :meth:`redraw_steps`), tag ``index[k]`` drawing from its own generator ``rngs[k]``:
+        its clock advances to ``t_s``, Q ← min(15, max(0, Q + UpDn)), and it loads its slot
+        counter and replies when it is 0 (``TagState._load_slot``: the same draws in the same
+        order as ``on_command``). Returns ``[(row, Reply)]`` of the tags that reply."""
+        if not index:
+            return []
+        t_s = float(t_s)
+        idx = np.asarray(index, dtype=np.int64)
+        q_new = np.clip(self.q[idx] + int(cmd.updn), 0, 15)
+        states = self.states
+        replies, slots = [], []
+        for i, q, rng in zip(index, q_new.tolist(), rngs):
+            st = states[i]
+            st.t_s, st.q = t_s, q
+            reply = st._load_slot(rng)
+            slots.append(st.slot)
+            if reply is not None:
+                replies.append((i, reply))
+        self.t_s[idx] = t_s
+        self.q[idx] = q_new
+        slot = np.array(slots, dtype=np.int64)
+        self.slot[idx] = slot
+        self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
+        return replies
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
         """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock
@@ -531,17 +604,18 @@ class StateArrays:
             decrement = decrement & ~due
         if decrement.any():
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
-            states, slots = self.states, self.slot
-            for i in np.flatnonzero(decrement).tolist():
-                states[i].slot = int(slots[i])
+            idx = np.flatnonzero(decrement)
+            for st, slot in zip(compress(self.states, decrement.tolist()), self.slot[idx].tolist()):
+                st.slot = slot
         self.t_s[silent] = t_s
-        states = self.states
-        for i in np.flatnonzero(silent).tolist():
-            states[i].t_s = t_s
+        for st in compress(self.states, silent.tolist()):
+            st.t_s = t_s
 
 
 STATE_CODES = {s: k for k, s in enumerate(STATES)}
-_READY, _ARBITRATE = STATE_CODES["ready"], STATE_CODES["arbitrate"]
+_READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
+#: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
+_COLUMNS = ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q")
 
 
 #: Select action → (matching tag, non-matching tag).
@@ -574,5 +648,6 @@ __all__ = [
     "TagState",
     "StateArrays",
     "STATE_CODES",
+    "slot_draw",
     "pc_word",
 ]

@@ -474,6 +474,20 @@ class PassiveTag:
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
+    #: Number of times any tag's :attr:`antenna` has been set (a population's antenna tuple,
+    #: devices.tag_population, stays valid while this count stays the same).
+    antenna_changes = 0
+
+    @property
+    def antenna(self):
+        """The tag's antenna (channels.Antenna); setting it moves the tag."""
+        return self._antenna
+
+    @antenna.setter
+    def antenna(self, value) -> None:
+        self._antenna = value
+        PassiveTag.antenna_changes += 1
+
     @property
     def tau(self) -> float:
         """τ = 1 − |Γ_A|² (see :attr:`TagConfig.tau`)."""
@@ -717,6 +731,23 @@ class PassiveTag:
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
         silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
         reply = None if silent else self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+        return self._replied(cmd, frame, reply, cmd_end_s, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz,
+                             n_samples=n_samples)
+
+    def respond_reply(self, quiet: tuple, decoded: tuple, incident, reply) -> TagResponse:
+        """:meth:`respond_decoded` of a tag whose state machine has already taken the decoded
+        ``(command, frame)`` and given ``reply`` (a population's QueryAdjust, the counters
+        loaded at once: ``StateArrays.take_redraw_steps``): its operating point, then the
+        reply's Γ(t) as :meth:`_decoded` forms it."""
+        self.take_quiet_step(quiet)
+        cmd, frame = decoded
+        return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet[3], quiet[4],
+                             quiet[5], t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+
+    def _replied(self, cmd, frame, reply, cmd_end_s: float, p_dbm: float, rest: complex, a_s: complex, *,
+                 t0_s: float, fs_hz: float, n_samples: int) -> TagResponse:
+        """The response of a powered tag whose state machine answered ``cmd`` (ending at
+        ``cmd_end_s`` [s]) with ``reply`` (or None): the reply's timing and Γ(t)."""
         query = self.state.last_query
         if reply is None or query is None or self._trcal_ticks is None:
             return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,

@@ -15,9 +15,14 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
 2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
    ``PassiveTag.take_quiet_step``): each tag is left exactly as its own ``reflect`` would
    have left it;
-3. asks only the other tags — those that reply, power up or down, load a slot counter,
-   change state — through their own full path (``PassiveTag.reflect``): a tag with its own
-   reply parameters (clock, T1, line code) answers with them.
+3. on a QueryAdjust (members with generators of their own), loads the new slot counters of
+   every tag of the round at once (``StateArrays.redraw_steps`` / ``take_redraw_steps``:
+   Q ± 1, each counter drawn from its tag's own generator exactly as ``TagState.on_command``
+   draws it); the tags whose counter is not 0 are quiet, those that reply form their reply
+   (``PassiveTag.respond_reply``);
+4. asks only the other tags — those that reply, power up or down, load a slot counter on a
+   Query, change state — through their own full path (``PassiveTag.reflect``): a tag with
+   its own reply parameters (clock, T1, line code) answers with them.
 
 The quiet tags re-radiate r_j = A_s − Γ_A, a constant (devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,
@@ -49,6 +54,17 @@ from rfsim.gen2.commands import Query
 _antenna = operator.attrgetter("antenna")
 
 
+def _counting_class(members):
+    """The members' one class when it counts the settings of its ``antenna`` property
+    (``antenna_changes``, devices.tag.PassiveTag), else None."""
+    cls = type(members[0]) if members else None
+    if cls is None or not all(type(m) is cls for m in members):
+        return None
+    if not isinstance(getattr(cls, "antenna", None), property) or not hasattr(cls, "antenna_changes"):
+        return None
+    return cls
+
+
 class TagPopulation:
     """Passive tags (``devices.tag.PassiveTag`` or alike) as one reflector group of
     :func:`rfsim.air.propagate` (:class:`rfsim.air.ReflectorGroup`).
@@ -57,7 +73,8 @@ class TagPopulation:
     ----------
     tags : sequence of tags with ``state`` (TagState), ``reflect``, ``antenna``,
         ``quiet_point``, ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
-        ``config.envelope_rc_s``
+        ``config.envelope_rc_s`` (and ``rng``, ``respond_reply`` for the QueryAdjust
+        shortcut, module docstring)
     """
 
     def __init__(self, tags):
@@ -67,6 +84,8 @@ class TagPopulation:
                 raise TypeError(f"a population member must be a PassiveTag-like tag, got {type(t).__name__}")
         self.arrays = StateArrays([t.state for t in self.members])
         self._antennas: tuple | None = None
+        self._counting = _counting_class(self.members)
+        self._antenna_count = None  # the class's antenna_changes when _antennas was checked
         self._round: _Round | None = None
 
     def __len__(self) -> int:
@@ -74,11 +93,17 @@ class TagPopulation:
 
     @property
     def antennas(self) -> tuple:
-        """The members' antennas (the same tuple object while none of them changes)."""
+        """The members' antennas (the same tuple object while none of them changes). Members
+        whose ``antenna`` is the counted property of :class:`devices.tag.PassiveTag` are not
+        compared one by one while no tag's antenna has been set since they last were."""
         ants = self._antennas
+        count = self._counting.antenna_changes if self._counting is not None else None
+        if ants is not None and count is not None and count == self._antenna_count and len(ants) == len(self.members):
+            return ants
         if ants is None or len(ants) != len(self.members) or not all(
                 map(operator.is_, map(_antenna, self.members), ants)):
             ants = self._antennas = tuple(map(_antenna, self.members))
+        self._antenna_count = count
         return ants
 
     def refresh(self) -> None:
@@ -86,6 +111,7 @@ class TagPopulation:
         power decisions (after changing tags — states, configs, chips — from outside)."""
         self.arrays.read(range(len(self.members)))
         self._round = None
+        self._counting, self._antenna_count = _counting_class(self.members), None
 
     def reflect_each(self, incident) -> list:
         """Every member reflects its own incident segment (``incident[j]``), in order."""
@@ -107,15 +133,14 @@ class TagPopulation:
         arrays = self.arrays
         on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
         quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
-        steps, decoded_of = [], {}
+        steps, redraws, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
         if on.any():
             for rc, group in rnd.rc_groups:
                 sel = on & group
                 if not sel.any():
                     continue
                 decoded = fe.command(rc)
-                for j in np.flatnonzero(sel).tolist():
-                    decoded_of[j] = decoded
+                decoded_by.append((sel, decoded))
                 cmd, frame = decoded
                 if cmd is None or isinstance(cmd, Query):
                     continue
@@ -124,8 +149,22 @@ class TagPopulation:
                 if silent.any():
                     steps.append((cmd, silent, dec, t_end_s))
                     quiet = quiet | silent
+                if rnd.own_rngs:
+                    redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s)
+                    if redraw.any():
+                        redraws.append((decoded, redraw, t_end_s))
         for cmd, silent, dec, t_end_s in steps:
             arrays.take_silent_steps(cmd, silent, dec, t_end_s)
+        replies = {}
+        for decoded, redraw, t_end_s in redraws:
+            # QueryAdjust: the round's tags load new counters; those that do not reply are quiet
+            index = np.flatnonzero(redraw).tolist()
+            members = self.members
+            for j, reply in arrays.take_redraw_steps(decoded[0], index, [members[j].rng for j in index], t_end_s):
+                replies[j] = (decoded, reply)
+                redraw[j] = False
+            quiet = quiet | redraw
+            steps.append((decoded[0], redraw, None, t_end_s))
         need = quiet & rnd.needs
         if need.any():
             members, points = self.members, rnd.points
@@ -136,8 +175,11 @@ class TagPopulation:
         react = np.flatnonzero(~quiet).tolist()
         for j in react:
             m = self.members[j]
-            decoded = decoded_of.get(j)
-            if decoded is not None:  # its power decision is known: the tag's own path from the command on
+            decoded = next((d for sel, d in decoded_by if sel[j]), None)
+            replied = replies.get(j)
+            if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
+                reactions[j] = m.respond_reply(rnd.points[j], replied[0], base, replied[1])
+            elif decoded is not None:  # its power decision is known: the tag's own path from the command on
                 reactions[j] = m.respond_decoded(rnd.points[j], decoded, base)
             else:
                 reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
@@ -177,6 +219,11 @@ class _Round:
         for j, q in enumerate(self.points):
             self._set(j, q)
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
+        #: every member draws from its own generator, so the order in which members draw does
+        #: not matter (else a QueryAdjust goes through each member's own path, in member order)
+        rngs = [getattr(m, "rng", None) for m in members]
+        self.own_rngs = None not in rngs and len(set(map(id, rngs))) == n and all(
+            callable(getattr(m, "respond_reply", None)) for m in members)
         rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)
         self.rc_groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
         self._terms: dict = {}

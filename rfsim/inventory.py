@@ -46,6 +46,7 @@ Air interfaces (anything with ``link`` and ``exchange(...) -> AirExchange``):
 from __future__ import annotations
 
 import math
+import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
@@ -54,7 +55,7 @@ import numpy as np
 
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
-from rfsim.gen2.bits import bits_to_int
+from rfsim.gen2.bits import as_bits, bits_to_int
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Select
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import t1
@@ -216,8 +217,12 @@ def epc_hex_of(bits: np.ndarray) -> str:
     b = np.asarray(bits, dtype=np.uint8)
     if b.size < 48:
         return ""
-    epc = b[16:-16]
-    return "".join(f"{bits_to_int(epc[i:i + 4]):X}" for i in range(0, epc.size - epc.size % 4, 4))
+    epc = as_bits(b[16:-16])
+    nibbles = epc[:epc.size - epc.size % 4].reshape(-1, 4) @ _NIBBLE_WEIGHTS  # MSB first
+    return "".join(map("0123456789ABCDEF".__getitem__, nibbles.tolist()))
+
+
+_NIBBLE_WEIGHTS = np.array([8, 4, 2, 1], dtype=np.int64)
 
 
 # ============================================================================ controller
@@ -478,7 +483,11 @@ class EngineAir:
     reader : devices.reader.Reader
     tags : sequence of devices.tag.PassiveTag (each with its own generator)
     channel : channel with ``backscatter_links`` (e.g. ``channels.Channel``); its random part
-        is drawn at the first exchange of every round and held for the round
+        is drawn at the first exchange of every round and held for the round. A channel
+        without one (``has_random_part`` False: no diffuse taps, no shadowing field) gives
+        static tags the same links in every round, so its links are evaluated once and held
+        across rounds while no tag's antenna changes (and without ``motions``); the records
+        are those of a draw per round, bit for bit (the draw takes nothing from ``rng``)
     rng : generator for the channel draws and the receiver noise
     motions : optional per-tag motions (see ``run_exchange``)
     propagation : "auto", "exact" or "narrowband"
@@ -502,6 +511,7 @@ class EngineAir:
         self.propagation = propagation
         self._channel = _RoundChannel(channel)
         self._round_links: dict = {}  # run_exchange's link_cache: the round's (forward, backward) links
+        self._held_antennas: tuple | None = None  # the tag antennas of links held across rounds
         for t in self.tags:
             if hasattr(t, "shared_front_end"):
                 t.shared_front_end = bool(fast)
@@ -521,12 +531,13 @@ class EngineAir:
                  new_round: bool = False) -> AirExchange:
         from rfsim.engine import run_exchange
 
-        if new_round:
+        draw = new_round and not self._links_still_held()
+        if draw:
             self._channel.clear()
             self._round_links.clear()
         ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
-                          round_index=round_index, draw_channel=new_round, propagation=self.propagation,
+                          round_index=round_index, draw_channel=draw, propagation=self.propagation,
                           link_cache=self._round_links)
         read = ex.read
         detected = read is not None and read.bits is not None
@@ -538,6 +549,18 @@ class EngineAir:
         if self.exchanges is not None:
             self.exchanges.append(out)
         return out
+
+    def _links_still_held(self) -> bool:
+        """At a new round: whether the held links are still the channel's (a channel without
+        random part, no motions, the same tag antennas as when they were evaluated); else
+        they are to be drawn again (and the antennas are remembered for the next round)."""
+        ants = tuple(t.antenna for t in self.tags)
+        held = self._held_antennas
+        same = held is not None and len(held) == len(ants) and all(map(operator.is_, held, ants))
+        keep = (same and self.motions is None and self._round_links
+                and getattr(self._channel.channel, "has_random_part", True) is False)
+        self._held_antennas = ants
+        return bool(keep)
 
 
 __all__ = ["InventoryConfig", "AirExchange", "InventoryLog", "EngineAir", "ProtocolAir", "run_inventory",

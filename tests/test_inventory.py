@@ -535,3 +535,51 @@ def test_population_with_individual_tags_equals_full_listen():
     assert set().union(*(set(e[1]) for e in runs[0]["exchanges"])) == set(range(len(radii)))
     assert {1, 5} <= set(reads["tag"]) and len(set(zip(reads["tag"], reads["round"]))) > len(set(reads["tag"]))
     assert len(runs[0]["exchanges"]) > 100
+
+
+class _CountedChannel:
+    """A channel's links through a counter; ``random`` declares (or not) a random part."""
+
+    def __init__(self, channel, *, random: bool):
+        self.channel, self.has_random_part, self.calls = channel, random, 0
+
+    def backscatter_links(self, *args, **kwargs):
+        self.calls += 1
+        return self.channel.backscatter_links(*args, **kwargs)
+
+
+def test_links_held_across_rounds_equal_a_draw_per_round():
+    # A free-space channel has no random part (Channel.has_random_part False): EngineAir
+    # holds its links across rounds instead of drawing them at every Query. The same channel
+    # declared random (a draw per round) must give the same records, exchanges and tag
+    # states, bit for bit, with the links evaluated more often; a tag moved between rounds
+    # (a new antenna) must be seen at its new place (its incident power changes).
+    from channels import Channel, Scene
+    from scenarios.inventory import tag_antenna
+
+    assert Channel(Scene()).has_random_part is False
+    runs = []
+    for random, move in ((False, True), (True, True), (False, False)):
+        air, tags = _circle_population(12, seed=45, keep=True)
+        counted = _CountedChannel(Channel(Scene()), random=random)
+        air._channel.channel = counted
+
+        def on_round(rnd, t_s, tags=tags, move=move):
+            if move and rnd == 2:
+                tags[4].antenna = tag_antenna((3.5, 0.5, 1.0), math.pi)
+
+        log = run_inventory(air, InventoryConfig(q_initial=3.0, target_switches=2), on_round=on_round)
+        runs.append(dict(log=(log.slots, log.reads), calls=counted.calls,
+                         states=[(t.state.state, dict(t.state.inventoried), t.state.slot, t.state.t_s,
+                                  t.rng.bit_generator.state["state"]) for t in tags],
+                         exchanges=[(ex.command, ex.replied, ex.incident_power_dbm, ex.failure_reason,
+                                     ex.reply_start_s, ex.bits is None or ex.bits.tolist())
+                                    for ex in air.exchanges]))
+        assert max(log.slots["round"]) >= 3  # rounds before and after the move
+    held, drawn, unmoved = runs
+    assert held["log"] == drawn["log"] and held["states"] == drawn["states"]
+    assert held["exchanges"] == drawn["exchanges"]
+    assert held["calls"] < drawn["calls"] / 2, (held["calls"], drawn["calls"])
+    p_moved = [ex[2][4] for ex in held["exchanges"]]
+    p_unmoved = [ex[2][4] for ex in unmoved["exchanges"]]
+    assert p_moved[0] == p_unmoved[0] and p_moved[-1] < p_unmoved[-1] - 3.0  # 2 m → 3.5 m: −4.9 dB

@@ -422,8 +422,9 @@ def test_state_arrays_silent_steps_equal_on_command():
     # 12 tags in two copies with equal streams. One copy gets every command through
     # on_command; the other lets StateArrays decide the silent steps for all tags at once,
     # takes them (take_silent_steps) and sends the command through on_command only to the
-    # rest, reading their rows back. Replies, every attribute of every state, the generators
-    # and the arrays (equal to the states' rows) must stay equal; most commands must be
+    # rest, reading their rows back; a QueryAdjust's slot counters are loaded by
+    # take_redraw_steps for the tags redraw_steps picks. Replies, every attribute of every
+    # state, the generators and the arrays (equal to the states' rows) must stay equal; most commands must be
     # silent steps for most tags, and at least one of them must find S1 due to revert (persistence
     # 3 ms, sessions 0–2).
     from devices.gen2_tag_state import FlagPersistence, StateArrays
@@ -436,7 +437,7 @@ def test_state_arrays_silent_steps_equal_on_command():
     g_full = [np.random.default_rng(k) for k in range(n)]
     g_fast = [np.random.default_rng(k) for k in range(n)]
     arrays = StateArrays(fast)
-    silent_total = due_total = total = 0
+    silent_total = due_total = redraw_total = total = 0
     t = 0.0
     for step in range(600):
         t += 2e-4 * rng.random()
@@ -464,7 +465,12 @@ def test_state_arrays_silent_steps_equal_on_command():
         due_total += int((silent & due).sum())
         arrays.take_silent_steps(cmd, silent, dec, t)
         got = [None] * n
-        rest = [i for i in range(n) if not silent[i]]
+        redraw = arrays.redraw_steps(cmd, ~silent, t)  # QueryAdjust: the round's counters at once
+        index = np.flatnonzero(redraw).tolist()
+        for i, reply in arrays.take_redraw_steps(cmd, index, [g_fast[i] for i in index], t):
+            got[i] = reply
+        redraw_total += len(index)
+        rest = [i for i in range(n) if not (silent[i] or redraw[i])]
         for i in rest:
             got[i] = fast[i].on_command(cmd, t_s=t, rng=g_fast[i])
         arrays.read(rest)
@@ -477,7 +483,30 @@ def test_state_arrays_silent_steps_equal_on_command():
                 {k: v for k, v in vars(b).items() if not isinstance(v, np.ndarray)}, step
         assert [g.bit_generator.state for g in g_full] == [g.bit_generator.state for g in g_fast]
         rows = StateArrays(fast)
-        for name in ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s"):
+        for name in ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q"):
             np.testing.assert_array_equal(getattr(arrays, name), getattr(rows, name))
     assert 0.5 * total <= silent_total < total, (silent_total, total)
     assert due_total >= 1, due_total
+    assert redraw_total >= 50, redraw_total  # QueryAdjusts found tags of their round
+
+
+def test_slot_draw_equals_generator_integers():
+    # slot_draw reads the 32-bit word numpy's integers(0, 2**q) would use: on two generators
+    # with one seed, q = 0…15 interleaved with 16-bit and normal draws, the numbers and the
+    # generator states must stay equal (q = 0 draws nothing), for PCG64 and Philox.
+    from devices.gen2_tag_state import slot_draw
+
+    for make in (np.random.PCG64, np.random.Philox):
+        a, b = np.random.Generator(make(3)), np.random.Generator(make(3))
+        picks = np.random.default_rng(4)
+        for k in range(3000):
+            q = int(picks.integers(16))
+            assert slot_draw(b, q) == int(a.integers(0, 1 << q)), (make, k, q)
+            if k % 5 == 0:
+                assert int(a.integers(0, 1 << 16)) == int(b.integers(0, 1 << 16))
+            if k % 11 == 0:
+                assert a.standard_normal() == b.standard_normal()
+        # the same state afterwards: the same 64-bit and 32-bit words (buffered half word included)
+        for size in (5, 8):
+            assert a.integers(0, 1 << 62, size=size).tolist() == b.integers(0, 1 << 62, size=size).tolist()
+            assert a.integers(0, 1 << 16, size=size).tolist() == b.integers(0, 1 << 16, size=size).tolist()

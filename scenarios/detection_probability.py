@@ -108,7 +108,8 @@ from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
 from rfsim.engine import ReaderPort
 from rfsim.gen2.link import reply_window_s, t1
-from rfsim.progress import stage, track
+from rfsim.procs import map_in_order
+from rfsim.progress import stage
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
@@ -131,6 +132,8 @@ class SampleConfig:
     count: int = param(4000, lo=1, hi=10**7, doc="samples in this run (first … first+count-1)")
     n_train: int = param(3000, lo=0, hi=10**7, doc="samples with index < n_train are training, the rest test")
     seed: int = param(-1, lo=-1, hi=2**62, doc="seed of the sample streams; -1 = the run seed (set it in sweeps)")
+    workers: int = param(2, lo=0, hi=256, doc="worker processes for the blocks of samples (0 = all cores, 1 = in "
+                                              "process); the rows do not depend on it")
 
 
 @dataclass(frozen=True)
@@ -445,20 +448,28 @@ ST_BLOCK = 256
 
 
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`)."""
+    """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`).
+
+    The samples run in blocks of :data:`ST_BLOCK` (``first``, ``first + ST_BLOCK``, …) on
+    ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the first block in this
+    process), concatenated in order: every sample draws only from its own streams and a block
+    is the batch of its ST chains, so the rows do not depend on the number of workers."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
-    rows, pending = [], []
-    ra = reader_antenna(config.geometry)
-    for i in track(range(s.first, s.first + s.count), desc="monte carlo", unit="samples"):
-        pending.append(_air_sample(config, i, base, ra))
-        if len(pending) == ST_BLOCK:  # the ST chains of a block of samples at once
-            rows.extend(_st_outcomes(config, pending))
-            pending = []
-    rows.extend(_st_outcomes(config, pending))
+    end = s.first + s.count
+    tasks = [(config, base, lo, min(lo + ST_BLOCK, end)) for lo in range(s.first, end, ST_BLOCK)]
+    parts = map_in_order(_block_task, tasks, s.workers, desc="monte carlo", unit="blocks")
+    rows = [r for p in parts for r in p]
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}
     out["is_test"] = out["sample"] >= s.n_train
     return {k: out[k] for k in FIELDS}
+
+
+def _block_task(args) -> list[dict]:
+    """The records of samples ``lo … hi − 1`` (one batch of ST chains, :func:`_st_outcomes`)."""
+    config, base, lo, hi = args
+    ra = reader_antenna(config.geometry)
+    return _st_outcomes(config, [_air_sample(config, i, base, ra) for i in range(lo, hi)])
 
 
 def fit_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

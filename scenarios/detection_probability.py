@@ -78,7 +78,8 @@ Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples
 (all links), 4 reader noise, 5 tag roll. A run over ``samples.first``…``first + count − 1`` therefore
 gives the same rows as any split of that range into blocks (the sweep
 ``examples/sweeps/detection-probability.toml`` runs blocks in parallel; the merged
-``samples`` table is the full table and :func:`fit_file` fits it).
+``samples`` table is the full table and :func:`fit_file` fits it). A run itself simulates its samples in
+blocks of 256 on ``samples.workers`` processes (default 2), with the same rows for any number.
 """
 
 from __future__ import annotations

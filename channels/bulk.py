@@ -50,6 +50,7 @@ import numpy as np
 from rfsim.units import C_M_S
 
 from .antennas import Antenna, Isotropic, polarization_mismatch_factor
+from .geometry import local_angles
 from .large_scale import wall_loss_db
 from .paths import NARROWBAND_TOLERANCE, PROPAGATION_METHODS, PathSet
 from .small_scale import binned_tail
@@ -57,7 +58,8 @@ from .small_scale import binned_tail
 #: Links per block (bounds the temporaries of the image-path geometry).
 _BLOCK = 8192
 
-__all__ = ["BulkPaths", "BatchLink", "draw_links", "diffuse_profile", "diffuse_template", "surface_sequences"]
+__all__ = ["BulkPaths", "BatchLink", "draw_links", "diffuse_profile", "diffuse_template", "surface_sequences",
+           "static_placements"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -477,3 +479,72 @@ def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain
             v_img = _mirror_velocity(v_tx, surfaces, seq)
             f = -fc / C_M_S * np.einsum("ij,ij->i", to_rx[:, j] / ell[:, j, None], v_rx - v_img)
             dop[:, j] = np.where(ok[:, j], f, 0.0)
+
+
+def static_placements(scene, tx: Antenna, rx_antennas) -> list[tuple]:
+    """The carrier-independent geometry of the static links ``tx → rx_i`` of many receivers at
+    once, each in the form of ``Channel._placement`` (for :meth:`channels.scene.Channel.hold_placement`).
+
+    The same operations as :meth:`channels.scene.Channel._placement` on (n, 3) arrays instead of
+    one (3,) vector at a time: ``d = √(Σ diff²)``, ``u = diff/d``, antenna gain
+    ``√(G_tx(diff)·G_rx(−diff))``, ``√PLF`` from the two polarization vectors along ``diff``,
+    the APDP's K(d) and τrms(d). Element by element these are the scalar path's IEEE
+    operations; the tests compare the tuples bit for bit with ``Channel._placement``.
+
+    Parameters
+    ----------
+    scene : :class:`~channels.scene.Scene` without surfaces (or ``image_order`` 0) and walls
+    tx : the common transmitting :class:`~channels.antennas.Antenna`
+    rx_antennas : sequence of n linearly polarized antennas sharing one pattern (the
+        receivers; their rotations and polarization axes are their own)
+
+    Returns
+    -------
+    list of n tuples ``(d, u, 1.0, ant, √PLF, p_tx, p_rx, v_tx, v_rx, None, (K, τrms) or None)``
+
+    Raises
+    ------
+    ValueError
+        for a scene with reflecting surfaces or walls, receivers of mixed patterns or not
+        linearly polarized, or a receiver at the transmitter's position.
+    """
+    rx_antennas = list(rx_antennas)
+    if (scene.surfaces and scene.image_order > 0) or scene.walls:
+        raise ValueError("static_placements covers scenes without reflecting surfaces and walls")
+    if not rx_antennas:
+        return []
+    pattern = rx_antennas[0].pattern
+    if any(a.pattern != pattern or a.polarization != "linear" for a in rx_antennas):
+        raise ValueError("static_placements needs linearly polarized receivers sharing one pattern")
+    p_tx = np.array(tx.position_m, dtype=float)
+    p_rx = np.array([a.position_m for a in rx_antennas], dtype=float)
+    diff = p_rx - p_tx
+    d = np.sqrt((diff * diff).sum(axis=1))
+    if not np.all(d > 0):
+        raise ValueError("tx and rx are at the same position")
+    u = diff / d[:, None]
+    rot = np.array([a.rotation for a in rx_antennas])
+    az, el = local_angles(-diff, rot)
+    g_rx = np.asarray(pattern.gain(az, el), dtype=float)
+    ant = np.sqrt(np.asarray(tx.gain_in_direction(diff), dtype=float) * g_rx)
+    # the receivers' polarization vectors along diff (Antenna.polarization_vector, linear)
+    k = diff / np.linalg.norm(diff, axis=-1, keepdims=True)
+    axes = np.array([a.polarization_axis for a in rx_antennas])
+    e = axes - np.sum(axes * k, axis=-1, keepdims=True) * k
+    ne = np.linalg.norm(e, axis=-1, keepdims=True)
+    e_rx = np.where(ne > 1e-12, e / np.where(ne > 1e-12, ne, 1.0), 0.0).astype(complex)
+    plf = np.sqrt(polarization_mismatch_factor(tx.polarization_vector(diff), e_rx))
+    apdp = None
+    if scene.apdp is not None:
+        apdp = (np.asarray(scene.apdp.k_lin_at(d), dtype=float), np.asarray(scene.apdp.tau_rms_s_at(d), dtype=float))
+    zero = np.zeros(3)
+    zero.setflags(write=False)
+    p_tx.setflags(write=False)
+    out = []
+    for i in range(len(rx_antennas)):
+        ui, pi = u[i].copy(), p_rx[i].copy()
+        ui.setflags(write=False)
+        pi.setflags(write=False)
+        out.append((float(d[i]), ui, 1.0, ant[i], plf[i], p_tx, pi, zero, zero, None,
+                    None if apdp is None else (float(apdp[0][i]), float(apdp[1][i]))))
+    return out

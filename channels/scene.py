@@ -249,6 +249,14 @@ class Channel:
         return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
                 apdp_args)
 
+    def hold_placement(self, tx: Antenna, rx: Antenna, placement: tuple) -> None:
+        """Keep ``placement`` as the carrier-independent geometry of the static link ``tx → rx``
+        (the tuple :meth:`_placement` returns; :func:`channels.bulk.static_placements` makes
+        them for many links at once, bit-identical), so that :meth:`link` does not evaluate it."""
+        if len(self._placements) >= GEOMETRY_CACHE_SIZE:
+            self._placements.pop(next(iter(self._placements)))
+        self._placements[(tx, rx)] = placement
+
     def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> tuple:
         """Carrier-independent geometry of the link: ``(d, unit vector, wall amplitude,
         antenna gain, √PLF, p_tx, p_rx, v_tx, v_rx, image paths or None, APDP (K, τ_rms) or

@@ -94,6 +94,7 @@ import numpy as np
 
 from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
 from channels.antennas import vertical_dipole
+from channels.bulk import static_placements
 from devices import st_analytic as sa
 from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
@@ -280,17 +281,28 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
 
 
-def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None) -> tuple:
+def sample_placement(g: GeometryConfig, index: int, seed: int) -> tuple:
+    """Tag position, ST centre, ST azimuth and the rolled tag antenna of sample ``index``
+    (streams 0 and 5 of the sample)."""
+    tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
+    roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
+    return tag_pos, st_pos, orient, tag_antenna(tag_pos, roll)
+
+
+def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None, placed: tuple | None = None,
+                reader_tag: tuple | None = None) -> tuple:
     """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
     ``(record without the ST outcomes, ST inputs (k, n) from the listening start or None
     when the tag did not reply, tx, tag response, RN16 bits or None)``. ``ra``: the reader
-    antenna (default :func:`reader_antenna` of the geometry; the same for every sample)."""
+    antenna (default :func:`reader_antenna` of the geometry; the same for every sample);
+    ``placed``: :func:`sample_placement` of the sample (drawn when None); ``reader_tag``: the
+    carrier-independent geometry of the reader → tag link (:func:`channels.bulk.static_placements`,
+    evaluated by the channel when None)."""
     g, st = config.geometry, config.st
-    tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
+    tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
-    roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
-    tag = PassiveTag(config.tag, tag_antenna(tag_pos, roll), rng=trial_rng(seed, index, 2))
+    tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
     sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
     lk = reader.link
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
@@ -298,7 +310,10 @@ def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None
     fs, fc = tx.fs_hz, tx.fc_hz
     port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
-    links = LinkTable(Channel(scene(g)), rng=trial_rng(seed, index, 3), reciprocal=True)
+    channel = Channel(scene(g))
+    if reader_tag is not None:
+        channel.hold_placement(ra, tag.antenna, reader_tag)
+    links = LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
     emitter = FixedEmitter(ra, tx, device=reader)
     air = propagate([emitter], [tag], [port], links, t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size,
                     rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
@@ -469,8 +484,13 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 def _block_task(args) -> list[dict]:
     """The records of samples ``lo … hi − 1`` (one batch of ST chains, :func:`_st_outcomes`)."""
     config, base, lo, hi = args
-    ra = reader_antenna(config.geometry)
-    return _st_outcomes(config, [_air_sample(config, i, base, ra) for i in range(lo, hi)])
+    g = config.geometry
+    ra = reader_antenna(g)
+    placed = [sample_placement(g, i, base) for i in range(lo, hi)]
+    # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
+    reader_tag = static_placements(scene(g), ra, [p[3] for p in placed])
+    return _st_outcomes(config, [_air_sample(config, i, base, ra, placed[i - lo], reader_tag[i - lo])
+                                 for i in range(lo, hi)])
 
 
 def fit_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -13,7 +13,7 @@ import pytest
 from scipy import stats
 
 from channels.antennas import Antenna, HalfWaveDipole, Patch
-from channels.bulk import diffuse_profile, draw_links
+from channels.bulk import diffuse_profile, draw_links, static_placements
 from channels.large_scale import LogDistance, ShadowingField, Wall
 from channels.scene import Channel, Scene
 from channels.small_scale import ApdpModel, average_profile, profile_statistics
@@ -302,3 +302,33 @@ def test_batch_link_gains_shape_and_narrowband_decision():
         link.apply(np.ones(4, complex), fs_hz=1e6, fc_hz=FC, method="exact")
     with pytest.raises(ValueError, match="does not hold"):
         bulk.batch_link((4, 2))
+
+
+@pytest.mark.parametrize("polarization", ["circular", "linear"])
+def test_static_placements_equal_the_channels_own_bit_for_bit(polarization):
+    """static_placements against Channel._placement, element by element with ==, over 300
+    random receivers (position, orientation, polarization tilt) around a patch panel; then a
+    link whose placement is held equals the link the channel evaluates itself."""
+    rng = np.random.default_rng(12)
+    tx = Antenna(position_m=(0.2, -0.1, 0.3), orientation=(0.3, -0.1, 0.2), pattern=Patch(9.0, 70.0, 20.0),
+                 polarization=polarization)
+    rxs = [Antenna(position_m=rng.uniform(-5, 5, 3), orientation=tuple(rng.uniform(-np.pi, np.pi, 3)),
+                   pattern=HalfWaveDipole(), polarization="linear", pol_tilt_rad=float(rng.uniform(0, 1)))
+           for _ in range(300)]
+    sc = Scene(apdp=ApdpModel())
+    bulk = static_placements(sc, tx, rxs)
+    for rx, got in zip(rxs, bulk):
+        want = Channel(sc)._placement(tx, rx, 0.0, None, None)
+        assert len(got) == len(want)
+        for a, b in zip(got, want):
+            if isinstance(b, np.ndarray):
+                assert np.array_equal(a, b) and a.dtype == b.dtype and not a.flags.writeable
+            else:
+                assert a == b and type(a) is type(b)
+    held = Channel(sc)
+    held.hold_placement(tx, rxs[0], bulk[0])
+    p_held = held.link(tx, rxs[0], fc_hz=915e6, rng=np.random.default_rng(3))
+    p_own = Channel(sc).link(tx, rxs[0], fc_hz=915e6, rng=np.random.default_rng(3))
+    assert np.array_equal(p_held.gain, p_own.gain) and np.array_equal(p_held.delay_s, p_own.delay_s)
+    with pytest.raises(ValueError, match="surfaces and walls"):
+        static_placements(Scene(walls=(Wall.segment_2d([4, 0], [4, 4], 6.0),)), tx, rxs)

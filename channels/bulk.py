@@ -481,7 +481,24 @@ def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain
             dop[:, j] = np.where(ok[:, j], f, 0.0)
 
 
-def static_placements(scene, tx: Antenna, rx_antennas) -> list[tuple]:
+def _linear_polarization(antennas, k) -> np.ndarray:
+    """(n, 3) complex: :meth:`~channels.antennas.Antenna.polarization_vector` of linearly
+    polarized ``antennas[i]`` along ``k[i]`` (the same operations on (n, 3) arrays)."""
+    k = k / np.linalg.norm(k, axis=-1, keepdims=True)
+    axes = np.array([a.polarization_axis for a in antennas])
+    e = axes - np.sum(axes * k, axis=-1, keepdims=True) * k
+    ne = np.linalg.norm(e, axis=-1, keepdims=True)
+    return np.where(ne > 1e-12, e / np.where(ne > 1e-12, ne, 1.0), 0.0).astype(complex)
+
+
+def _shared_linear_pattern(antennas, name):
+    pattern = antennas[0].pattern
+    if any(a.pattern != pattern or a.polarization != "linear" for a in antennas):
+        raise ValueError(f"static_placements needs linearly polarized {name} sharing one pattern")
+    return pattern
+
+
+def static_placements(scene, tx, rx_antennas) -> list[tuple]:
     """The carrier-independent geometry of the static links ``tx → rx_i`` of many receivers at
     once, each in the form of ``Channel._placement`` (for :meth:`channels.scene.Channel.hold_placement`).
 
@@ -494,7 +511,8 @@ def static_placements(scene, tx: Antenna, rx_antennas) -> list[tuple]:
     Parameters
     ----------
     scene : :class:`~channels.scene.Scene` without surfaces (or ``image_order`` 0) and walls
-    tx : the common transmitting :class:`~channels.antennas.Antenna`
+    tx : the common transmitting :class:`~channels.antennas.Antenna`, or a sequence of n
+        linearly polarized antennas sharing one pattern (one transmitter per link)
     rx_antennas : sequence of n linearly polarized antennas sharing one pattern (the
         receivers; their rotations and polarization axes are their own)
 
@@ -505,46 +523,48 @@ def static_placements(scene, tx: Antenna, rx_antennas) -> list[tuple]:
     Raises
     ------
     ValueError
-        for a scene with reflecting surfaces or walls, receivers of mixed patterns or not
-        linearly polarized, or a receiver at the transmitter's position.
+        for a scene with reflecting surfaces or walls, antennas of mixed patterns or not
+        linearly polarized, or a receiver at its transmitter's position.
     """
     rx_antennas = list(rx_antennas)
     if (scene.surfaces and scene.image_order > 0) or scene.walls:
         raise ValueError("static_placements covers scenes without reflecting surfaces and walls")
     if not rx_antennas:
         return []
-    pattern = rx_antennas[0].pattern
-    if any(a.pattern != pattern or a.polarization != "linear" for a in rx_antennas):
-        raise ValueError("static_placements needs linearly polarized receivers sharing one pattern")
-    p_tx = np.array(tx.position_m, dtype=float)
+    pattern = _shared_linear_pattern(rx_antennas, "receivers")
+    one_tx = isinstance(tx, Antenna)
+    txs = [tx] * len(rx_antennas) if one_tx else list(tx)
+    if len(txs) != len(rx_antennas):
+        raise ValueError(f"{len(txs)} transmitters for {len(rx_antennas)} receivers")
+    p_tx = np.array([a.position_m for a in txs], dtype=float)
     p_rx = np.array([a.position_m for a in rx_antennas], dtype=float)
     diff = p_rx - p_tx
     d = np.sqrt((diff * diff).sum(axis=1))
     if not np.all(d > 0):
         raise ValueError("tx and rx are at the same position")
     u = diff / d[:, None]
-    rot = np.array([a.rotation for a in rx_antennas])
-    az, el = local_angles(-diff, rot)
+    az, el = local_angles(-diff, np.array([a.rotation for a in rx_antennas]))
     g_rx = np.asarray(pattern.gain(az, el), dtype=float)
-    ant = np.sqrt(np.asarray(tx.gain_in_direction(diff), dtype=float) * g_rx)
-    # the receivers' polarization vectors along diff (Antenna.polarization_vector, linear)
-    k = diff / np.linalg.norm(diff, axis=-1, keepdims=True)
-    axes = np.array([a.polarization_axis for a in rx_antennas])
-    e = axes - np.sum(axes * k, axis=-1, keepdims=True) * k
-    ne = np.linalg.norm(e, axis=-1, keepdims=True)
-    e_rx = np.where(ne > 1e-12, e / np.where(ne > 1e-12, ne, 1.0), 0.0).astype(complex)
-    plf = np.sqrt(polarization_mismatch_factor(tx.polarization_vector(diff), e_rx))
+    if one_tx:
+        g_tx = np.asarray(tx.gain_in_direction(diff), dtype=float)
+        e_tx = tx.polarization_vector(diff)
+    else:
+        tx_pattern = _shared_linear_pattern(txs, "transmitters")
+        az, el = local_angles(diff, np.array([a.rotation for a in txs]))
+        g_tx = np.asarray(tx_pattern.gain(az, el), dtype=float)
+        e_tx = _linear_polarization(txs, diff)
+    ant = np.sqrt(g_tx * g_rx)
+    plf = np.sqrt(polarization_mismatch_factor(e_tx, _linear_polarization(rx_antennas, diff)))
     apdp = None
     if scene.apdp is not None:
         apdp = (np.asarray(scene.apdp.k_lin_at(d), dtype=float), np.asarray(scene.apdp.tau_rms_s_at(d), dtype=float))
     zero = np.zeros(3)
     zero.setflags(write=False)
-    p_tx.setflags(write=False)
     out = []
     for i in range(len(rx_antennas)):
-        ui, pi = u[i].copy(), p_rx[i].copy()
-        ui.setflags(write=False)
-        pi.setflags(write=False)
-        out.append((float(d[i]), ui, 1.0, ant[i], plf[i], p_tx, pi, zero, zero, None,
+        ui, pt, pr = u[i].copy(), p_tx[i].copy(), p_rx[i].copy()
+        for a in (ui, pt, pr):
+            a.setflags(write=False)
+        out.append((float(d[i]), ui, 1.0, ant[i], plf[i], pt, pr, zero, zero, None,
                     None if apdp is None else (float(apdp[0][i]), float(apdp[1][i]))))
     return out

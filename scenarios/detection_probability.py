@@ -289,21 +289,27 @@ def sample_placement(g: GeometryConfig, index: int, seed: int) -> tuple:
     return tag_pos, st_pos, orient, tag_antenna(tag_pos, roll)
 
 
-def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None, placed: tuple | None = None,
-                reader_tag: tuple | None = None) -> tuple:
+def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None) -> tuple:
     """The air step and the reader's read of sample ``index`` (:func:`simulate_sample`):
     ``(record without the ST outcomes, ST inputs (k, n) from the listening start or None
     when the tag did not reply, tx, tag response, RN16 bits or None)``. ``ra``: the reader
-    antenna (default :func:`reader_antenna` of the geometry; the same for every sample);
-    ``placed``: :func:`sample_placement` of the sample (drawn when None); ``reader_tag``: the
-    carrier-independent geometry of the reader → tag link (:func:`channels.bulk.static_placements`,
-    evaluated by the channel when None)."""
+    antenna (default :func:`reader_antenna` of the geometry; the same for every sample)."""
+    record, st_step, tx, resp, bits = _reader_round(config, index, seed, ra)
+    return record, None if st_step is None else _st_inputs(st_step), tx, resp, bits
+
+
+def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = None, placed: tuple | None = None,
+                  reader_tag: tuple | None = None) -> tuple:
+    """The first part of :func:`_air_sample`: the step with the reader's port and its read,
+    ``(record, ST step or None when the tag did not reply, tx, tag response, RN16 bits or None)``;
+    the ST step is the argument of :func:`_st_inputs`. ``placed``: :func:`sample_placement` of
+    the sample (drawn when None); ``reader_tag``: the carrier-independent geometry of the
+    reader → tag link (:func:`channels.bulk.static_placements`; evaluated by the channel when None)."""
     g, st = config.geometry, config.st
     tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
     tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
-    sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
     lk = reader.link
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
@@ -321,25 +327,33 @@ def _air_sample(config: Config, index: int, seed: int, ra: Antenna | None = None
     replied = resp.gamma is not None
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
     reader_ok = False
-    inputs = None
+    st_step = None
     if replied:  # the reader decodes only when a tag replied, as run_exchange
         read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-        # The ST antennas as the receivers of the same step, after the reader's port (the
-        # links drawn after the reader's, from the same stream; the tag's reaction replayed):
-        # a silent tag leaves nothing for an ST to decode, so their links are not drawn then.
-        listeners = [AntennaPort(vertical_dipole(p)) for p in sa_pos]
-        st_air = propagate([emitter], [_Replayed(tag.antenna, resp)], listeners, links, t0_s=0.0, fs_hz=fs,
-                           n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
-        i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-        inputs = np.array([seg.samples for seg in st_air.inputs])[:, i0:]
+        sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
+                                      orientation_rad=orient)
+        st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, lk)
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
                   theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
                   tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
                   tag_replied=replied, reader_detected=bool(reader_ok))
-    return record, inputs, tx, resp, bits
+    return record, st_step, tx, resp, bits
+
+
+def _st_inputs(st_step: tuple) -> np.ndarray:
+    """The ST antennas' inputs (k, n) from the listening start: the ST antennas as the
+    receivers of the same step, after the reader's port (the links drawn after the reader's,
+    from the same stream; the tag's reaction replayed). Only when the tag replied: a silent
+    tag leaves nothing for an ST to decode, so their links are not drawn then."""
+    emitter, tag_ant, resp, links, sa, tx, lk = st_step
+    fs = tx.fs_hz
+    st_air = propagate([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in sa], links, t0_s=0.0,
+                       fs_hz=fs, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+    return np.array([seg.samples for seg in st_air.inputs])[:, i0:]
 
 
 class _Replayed:
@@ -488,9 +502,22 @@ def _block_task(args) -> list[dict]:
     ra = reader_antenna(g)
     placed = [sample_placement(g, i, base) for i in range(lo, hi)]
     # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
-    reader_tag = static_placements(scene(g), ra, [p[3] for p in placed])
-    return _st_outcomes(config, [_air_sample(config, i, base, ra, placed[i - lo], reader_tag[i - lo])
-                                 for i in range(lo, hi)])
+    sc = scene(g)
+    reader_tag = static_placements(sc, ra, [p[3] for p in placed])
+    rounds = [_reader_round(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
+    # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k
+    steps = [r[1] for r in rounds if r[1] is not None]
+    sa = [a for step in steps for a in step[4]]
+    from_reader = static_placements(sc, ra, sa)
+    from_tag = static_placements(sc, [step[1] for step in steps for _ in step[4]], sa)
+    j = 0
+    for emitter, tag_ant, _, links, antennas, _, _ in steps:
+        for a in antennas:
+            links.channel.hold_placement(emitter.antenna, a, from_reader[j])
+            links.channel.hold_placement(tag_ant, a, from_tag[j])
+            j += 1
+    return _st_outcomes(config, [(rec, None if step is None else _st_inputs(step), tx, resp, bits)
+                                 for rec, step, tx, resp, bits in rounds])
 
 
 def fit_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

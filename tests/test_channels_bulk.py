@@ -325,6 +325,14 @@ def test_static_placements_equal_the_channels_own_bit_for_bit(polarization):
                 assert np.array_equal(a, b) and a.dtype == b.dtype and not a.flags.writeable
             else:
                 assert a == b and type(a) is type(b)
+    # one transmitter per link (rolled dipoles) to the same receivers
+    txs = [Antenna(position_m=rng.uniform(-5, 5, 3), orientation=tuple(rng.uniform(-np.pi, np.pi, 3)),
+                   pattern=HalfWaveDipole(), polarization="linear", pol_tilt_rad=float(rng.uniform(0, 1)))
+           for _ in rxs]
+    for t, rx, got in zip(txs, rxs, static_placements(sc, txs, rxs)):
+        want = Channel(sc)._placement(t, rx, 0.0, None, None)
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b) if isinstance(b, np.ndarray) else (a == b and type(a) is type(b))
     held = Channel(sc)
     held.hold_placement(tx, rxs[0], bulk[0])
     p_held = held.link(tx, rxs[0], fc_hz=915e6, rng=np.random.default_rng(3))

@@ -23,6 +23,7 @@ from a folder the user has.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from fractions import Fraction
 
@@ -309,13 +310,21 @@ class TagClock:
         n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
         if n_trcal < 1:
             raise ValueError(f"TRcal count must be >= 1 tick, got {n_trcal}")
-        return max(1, int(round(Fraction(n_trcal) / dr_frac)))
+        return _divider(n_trcal, dr_frac)
 
     def blf_hz(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> float:
         """Backscatter link frequency the tag produces [Hz]: f / N with N from
         :meth:`blf_divider`. Nominally BLF = DR / TRcal (anchors §4.2); the clock error
         cancels in N_TRcal up to the integer rounding of N."""
         return self.f_hz / self.blf_divider(trcal_s, dr, trcal_ticks=trcal_ticks)
+
+
+@functools.lru_cache(maxsize=256)
+def _divider(n_trcal: int, dr_frac: Fraction) -> int:
+    """N = max(1, round(N_TRcal / DR)) in exact rational arithmetic (:meth:`TagClock.blf_divider`;
+    a pure function of its two arguments, remembered: a tag decodes the same TRcal count
+    round after round)."""
+    return max(1, int(round(Fraction(n_trcal) / dr_frac)))
 
 
 # --------------------------------------------------------------------------- PASS files

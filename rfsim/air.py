@@ -73,7 +73,6 @@ device list (``air.emitters``), a segment off the step's time base, two antennas
 
 from __future__ import annotations
 
-import math
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -82,6 +81,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from rfsim.errors import ConfigError
+from rfsim.noise import add_awgn
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
@@ -845,15 +845,10 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         if noise_w > 0:
             if rng is None:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-            # complex white noise √(N/2)·(a + j·b): a then b drawn from rng (one call: the
-            # same numbers in the same order as two)
-            ab = np.empty((2,) + y.shape)
-            rng.standard_normal(out=ab)
-            ab *= math.sqrt(noise_w / 2.0)
+            # complex white noise √(N/2)·(a + j·b): every a then every b drawn from rng
+            ab = add_awgn(y, noise_w, rng)
             if keep_components:
                 n_k = ab[0] + 1j * ab[1]
-            y.real += ab[0]
-            y.imag += ab[1]
         if keep_components:
             noise_l.append(n_k)
         seg_k = Segment(t0_s, fs_hz, fc_k, y)

@@ -8,10 +8,15 @@ interface (:mod:`rfsim.air`) draws the complex AWGN of that power at every recei
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rfsim.errors import ConfigError
+from rfsim.lazy import lazy_import
 from rfsim.units import K_BOLTZMANN_J_K, T0_K, db_to_lin
+
+_k = lazy_import("rfsim._noise_kernels")
 
 
 def thermal_noise_power_w(bandwidth_hz, nf_db=0.0, temperature_k=T0_K) -> np.ndarray:
@@ -35,3 +40,31 @@ def thermal_noise_power_w(bandwidth_hz, nf_db=0.0, temperature_k=T0_K) -> np.nda
 
 
 __all__ = ["thermal_noise_power_w"]
+
+
+def add_awgn_reference(y: np.ndarray, noise_w: float, rng: np.random.Generator) -> np.ndarray:
+    """Add complex white Gaussian noise of power ``noise_w`` [W per complex sample] to ``y``
+    in place: n = √(N/2)·(a + j·b), every real part a (in ``y``'s order) drawn from ``rng``
+    before every imaginary part b. Returns the scaled draws ``(2,) + y.shape`` (a, b) [√W].
+    Plain NumPy; :func:`add_awgn` gives the same bits faster."""
+    ab = np.empty((2,) + y.shape)
+    rng.standard_normal(out=ab)
+    ab *= math.sqrt(noise_w / 2.0)
+    y.real += ab[0]
+    y.imag += ab[1]
+    return ab
+
+
+def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator) -> np.ndarray:
+    """:func:`add_awgn_reference` through a numba kernel (:mod:`rfsim._noise_kernels`) when
+    ``y`` is a C-contiguous complex128 array and ``rng`` a PCG64 generator; the same draws,
+    the same sums, the same generator state afterwards."""
+    if not (isinstance(y, np.ndarray) and y.dtype == np.complex128 and y.flags.c_contiguous
+            and type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64):
+        return add_awgn_reference(y, noise_w, rng)
+    ab = np.empty((2,) + y.shape)
+    _k.add_awgn_kernel(rng, y.reshape(-1), ab.reshape(2, -1), math.sqrt(noise_w / 2.0))
+    return ab
+
+
+__all__ += ["add_awgn", "add_awgn_reference"]

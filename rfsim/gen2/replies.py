@@ -62,6 +62,7 @@ same form with real h (|h| ≪ |c|). Steps per window:
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -170,7 +171,20 @@ def _n_elements(n_bits: int, m: int, trext: bool) -> int:
     return _n_pre_elements(m, trext) + 2 * m * (int(n_bits) + 1)
 
 
+@functools.lru_cache(maxsize=256)
+def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
+    grid = _geometric_grid_uncached(lo, hi, step)
+    grid.flags.writeable = False
+    return grid
+
+
 def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
+    """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only, cached: the
+    same hypotheses are searched after every command)."""
+    return _geometric_grid_cached(float(lo), float(hi), float(step))
+
+
+def _geometric_grid_uncached(lo: float, hi: float, step: float) -> np.ndarray:
     if hi <= lo:
         return np.array([0.5 * (lo + hi)])
     n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
@@ -265,6 +279,14 @@ def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
     return c / (math.sqrt(float(template0 @ template0)) * np.sqrt(np.maximum(energy, 1e-300)))
 
 
+def _correlation_at(seg: np.ndarray, template0: np.ndarray) -> float:
+    """:func:`preamble_correlation` at the one lag where ``seg`` (as long as the template)
+    starts: |Σ seg·t0| / (‖t0‖·‖seg − mean(seg)‖)."""
+    n = template0.size
+    energy = float(np.sum(seg.real * seg.real + seg.imag * seg.imag)) - abs(complex(seg.sum())) ** 2 / n
+    return abs(complex(seg @ template0)) / (math.sqrt(float(template0 @ template0)) * math.sqrt(max(energy, 1e-300)))
+
+
 def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray:
     """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling)."""
     n = int(math.floor(_n_pre_elements(m, trext) * fs / (2.0 * blf)))
@@ -285,6 +307,19 @@ def _reply_end(start: float, n_bits: int, m: int, trext: bool, rho: float, dummy
     return int(math.ceil(start + n_el / rho))
 
 
+@functools.lru_cache(maxsize=32)
+def _preamble_elements(m: int, trext: bool) -> np.ndarray:
+    """Pilot + preamble elements (±1) of a line code (read-only, cached)."""
+    el = halfsymbols(np.zeros(0, np.uint8), m=m, trext=trext, dummy=False).astype(np.float64)
+    el.flags.writeable = False
+    return el
+
+
+def _per_blf(f, blfs: np.ndarray) -> np.ndarray:
+    """``f`` (a lag bound of a BLF, given one BLF or an array of them) at every BLF of ``blfs``."""
+    return np.broadcast_to(np.asarray(f(blfs)), blfs.shape).astype(np.int64)
+
+
 def _search(r, fs, hyps, lo_of, hi_of):
     """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
     hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
@@ -297,10 +332,9 @@ def _search(r, fs, hyps, lo_of, hi_of):
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
         blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
-        lo = np.array([lo_of(b) for b in blfs.tolist()], dtype=np.int64)
-        hi = np.array([hi_of(b) for b in blfs.tolist()], dtype=np.int64)
+        lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
         n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
-        pre_el = halfsymbols(np.zeros(0, np.uint8), m=hyp.m, trext=hyp.trext, dummy=False).astype(np.float64)
+        pre_el = _preamble_elements(hyp.m, hyp.trext)
         c, j, pos, nt, n_t = _rk.preamble_search_kernel(r, pre_el, blfs, float(fs), lo, hi, n_rep,
                                                         MIN_SAMPLES_PER_ELEMENT, np.empty(blfs.size))
         n_tests += nt
@@ -317,7 +351,7 @@ def _search_reference(r, fs, hyps, lo_of, hi_of):
         for blf in _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c):
             if 2.0 * blf * MIN_SAMPLES_PER_ELEMENT > fs:
                 continue
-            lo, hi = lo_of(blf), hi_of(blf)
+            lo, hi = int(lo_of(blf)), int(hi_of(blf))
             t0 = _preamble_template(hyp.m, hyp.trext, blf, fs)
             n_rep = int(math.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
             last = min(hi, r.size - n_rep)
@@ -336,7 +370,12 @@ def _search_reference(r, fs, hyps, lo_of, hi_of):
 
 
 def _bands(hyps) -> list[list[LinkHypothesis]]:
-    """Hypotheses split into BLF octaves (each gets its own working rate)."""
+    """Hypotheses split into BLF octaves (each gets its own working rate; cached)."""
+    return _bands_cached(tuple(hyps))
+
+
+@functools.lru_cache(maxsize=64)
+def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
     out = []
     for h in hyps:
         edges = np.geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
@@ -347,14 +386,19 @@ def _bands(hyps) -> list[list[LinkHypothesis]]:
     return out
 
 
-def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bits, truncated, m, trext, method):
-    """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits. Returns (bits,
+def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method):
+    """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits; ``blf`` the BLF
+    found on the first ``n_first`` bits to a step ``step_first`` (relative). Returns (bits,
     start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
     if n_bits > n_first:
-        # the first 16 bits may be too regular to pin the BLF (a PC of mostly 0s is a square
-        # wave at any BLF): the whole reply is searched across the coarse step again
-        again = _fine_search(r, centre, n_bits, m, trext, blf_c, FINE_SPAN_STEPS * step_c,
-                             1.0 / (4.0 * _n_elements(n_bits, m, trext)), 4, fs, method)
+        # the whole reply is searched across ±FINE_SPAN_STEPS steps of the first bits' search
+        # around its BLF, on a grid no coarser than 1/(2·elements): the residual of the whole
+        # reply has a minimum about 1/elements wide in BLF, which a coarser grid can step over
+        # (and then settle on a wrong BLF whose decoded bits fit the noise a little better)
+        n_el = _n_elements(n_bits, m, trext)
+        span = FINE_SPAN_STEPS * step_first
+        again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
+                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method)
         if again is not None:
             blf, bits, start = again
     bits = bits[:n_bits].astype(np.uint8)
@@ -411,8 +455,7 @@ def _decode_window(r, fs, found, n_bits_of, method):
         n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)
         truncated = n_full < 0 or n_fit < n_full
         n_bits = max(0, n_fit - 1) if truncated else n_full  # when cut, the last whole bit stands in for the dummy
-        out = _decode_length(r, fs, centre, blf, bits0, start, blf_c, step_c, n_first, n_bits, truncated, m, trext,
-                             method)
+        out = _decode_length(r, fs, centre, blf, bits0, start, step_16, n_first, n_bits, truncated, m, trext, method)
         if out is None:
             return None
         n_again = n_bits_of(out[0])
@@ -428,7 +471,7 @@ def _decode_window(r, fs, found, n_bits_of, method):
     h, c, sigma2 = _fit_full(rw, s, min(rw.size, _reply_end(n_rest, bits.size, m, trext, rho, dummy)), True)
     eh_n0 = abs(h) ** 2 * (m / rho) / sigma2 if sigma2 > 0 else math.inf
     t0 = _preamble_template(m, trext, blf, fs)  # the correlation at the decoded start and BLF
-    corr = float(preamble_correlation(rw[n_rest: n_rest + t0.size], t0)[0])
+    corr = _correlation_at(rw[n_rest: n_rest + t0.size], t0)
     if not eh_n0 >= 10.0 ** (MIN_HALFBIT_SNR_DB / 10.0):
         return None
     n_span = _reply_end(0.0, bits.size, m, trext, rho, dummy) / u1 * rho
@@ -449,14 +492,22 @@ class _Lags:
     rtcal_s: float
     frt: float
 
-    def _lag(self, t_s: float) -> float:
+    def _lag(self, t_s):
         return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
 
-    def lo(self, blf: float) -> int:
-        return max(0, int(math.floor(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).min_s))) - 1)
+    def _nominal(self, blf):
+        # T1 nominal max(RTcal, 10/BLF) of rfsim.gen2.link.t1_range, for one BLF or an array
+        return np.maximum(self.rtcal_s, 10.0 / np.asarray(blf, dtype=np.float64))
 
-    def hi(self, blf: float) -> int:
-        return int(math.ceil(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).max_s))) + 1
+    def lo(self, blf):
+        """First lag of the T1 window (t1_range min, one sample early) of a BLF or array of BLFs."""
+        t_s = self._nominal(blf) * (1 - self.frt) - 2e-6
+        return np.maximum(0, np.floor(self._lag(t_s)).astype(np.int64) - 1)
+
+    def hi(self, blf):
+        """Last lag of the T1 window (t1_range max, one sample late)."""
+        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6
+        return np.ceil(self._lag(t_s)).astype(np.int64) + 1
 
 
 def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
@@ -471,7 +522,8 @@ def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
         if bits.size >= 16:
             out["pc"] = bits_to_int(bits[:16])
         epc = bits[16:-16] if not truncated else bits[16:16 + 16 * ((bits.size - 16) // 16)]
-        out["epc_hex"] = "".join(f"{bits_to_int(epc[i:i + 4]):X}" for i in range(0, epc.size - epc.size % 4, 4))
+        n_hex = epc.size // 4
+        out["epc_hex"] = f"{bits_to_int(epc[:4 * n_hex]):0{n_hex}X}" if n_hex else ""
     elif kind == "handle":
         if bits.size >= 16:
             out["rn16"] = bits_to_int(bits[:16])
@@ -547,8 +599,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     if i1 - i0 < 16:
         return None
     r = x[i0:i1].astype(np.complex128)
-    power = float(np.mean(np.abs(r) ** 2))
-    if power == 0.0 or float(np.var(r)) <= _MIN_RELATIVE_VARIANCE * power:
+    power = float(np.mean(r.real * r.real + r.imag * r.imag))
+    if power == 0.0 or power - abs(complex(r.mean())) ** 2 <= _MIN_RELATIVE_VARIANCE * power:
         return None
     t1_earliest = min(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_hi_hz, frt=frt).min_s for h in hyps)
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1

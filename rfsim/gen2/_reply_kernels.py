@@ -16,7 +16,9 @@ import math
 import numpy as np
 
 from rfsim._jit import njit
-from rfsim.gen2._linecode_kernels import INDEX_EPS, bitwise_kernel, elements_kernel, viterbi_kernel, waveform_kernel
+from rfsim.gen2._capture_kernels import track_kernel
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
+                                        viterbi_kernel, waveform_kernel)
 
 
 @njit
@@ -292,3 +294,149 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
             for i in range(n_bits):
                 bits_out[i] = dec[i]
     return best_j, best_resid, best_start
+
+
+@njit
+def _ls_gain_offset(ss, s1, nn, rs, r1):
+    """Least-squares ``(h, c, ok)`` of r ≈ h·ref + c from Σref², Σref, n, Σr·ref, Σr (the
+    closed form of :func:`rfsim.gen2.capture.fit_gain_offset`; ok False when ref is constant)."""
+    det = ss * nn - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+        return 0j, 0j, False
+    return (nn * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
+
+
+@njit
+def _interp_unit(r, x):
+    """``numpy.interp(x, arange(r.size), r)`` of complex ``r`` (real and imaginary parts)."""
+    n = r.size
+    if x <= 0.0:
+        return r[0]
+    if x >= n - 1:
+        return r[n - 1]
+    j = int(math.floor(x))
+    f = x - j
+    a = r[j]
+    b = r[j + 1]
+    return complex((b.real - a.real) * f + a.real, (b.imag - a.imag) * f + a.imag)
+
+
+@njit
+def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dummy, viterbi, block_elements,
+                        min_blocks, spans, sub, min_drift_blocks, converged_elements, n_rest, rw):
+    """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin: the loop of
+    ``_decode_length_reference`` there): up to two passes of
+
+    1. (h, c) of r ≈ h·ref + c by least squares over the reply up to its end, ref the
+       remodulated reply of ``bits`` (±1, sampled by the rule of ``waveform_kernel`` from
+       ``start``) and −1 around it;
+    2. the tracking loop ``track_kernel`` on y = Re((r − c)/h) (blocks of
+       ``block_elements`` elements, at least ``min_blocks``);
+    3. the window resampled on the tag's clock u(t) = u₁·t + u₂·t² (linear interpolation,
+       ``numpy.interp`` clamping at the ends) at n′ = −n_rest … into ``rw``;
+    4. (h, c) again over the decision-free samples of ``rw`` (rest level before the reply,
+       pilot + preamble), the bits decoded from ``n_rest`` with that gain (half-bit sums,
+       Viterbi ending on the dummy 1, or bit-by-bit decisions);
+
+    the second pass is skipped when the first moved the clock by at most
+    ``converged_elements`` anywhere in the reply and left the bits unchanged. ``bits``
+    (in/out) holds the decoded bits. Returns ``(ok, start, u1, u2)``; ok False when a fit
+    has no gain (h = 0) or a constant reference.
+    """
+    nb = bits.size
+    miller = m > 1
+    n_pre_h = pre.size
+    nh = n_pre_h + 2 * (nb + 1)
+    n_el_full = nh * m
+    n_el = n_el_full - (0 if dummy else 2 * m)
+    el = np.empty(n_el)
+    el_full = np.empty(n_el_full)
+    pre_el = np.empty(n_pre_h * m)
+    for i in range(n_pre_h):
+        for q in range(m):
+            k = i * m + q
+            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    nr = r.size
+    n_w = rw.size
+    ref = np.empty(nr)
+    pre_s = np.empty(n_w)
+    y = np.empty(nr)
+    sums = np.empty(nh)
+    n_data = nb + 1
+    a = np.empty(n_data)
+    b = np.empty(n_data)
+    dec = np.empty(n_data, dtype=np.uint8)
+    n_blocks = max(min_blocks, n_el // block_elements)
+    u1 = rho
+    u2 = 0.0
+    n_span = int(math.ceil(0.0 + n_el / rho))
+    for it in range(2):
+        # 1. fit over the reply and the rest level before it
+        elements_kernel(bits, dummy, m, pre, cur, prev, el_full)
+        for i in range(n_el):
+            el[i] = el_full[i]
+        waveform_kernel(el, (start / fs) * fs, rho, ref)
+        n_end = min(nr, int(math.ceil(start + n_el / rho)))
+        ss = 0.0
+        s1 = 0.0
+        rs = 0j
+        r1 = 0j
+        for n in range(n_end):
+            v = ref[n] if ref[n] != 0.0 else -1.0
+            ss += v * v
+            s1 += v
+            rs += r[n] * v
+            r1 += r[n]
+        h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+        if not ok or h == 0:
+            return False, start, u1, u2
+        # 2. tracking loop
+        p_start, p_u1, p_u2 = start, u1, u2
+        for n in range(nr):
+            y[n] = ((r[n] - c) / h).real
+        start, u1, u2 = track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks)
+        moved = abs(start - p_start) * u1 + abs(u1 - p_u1) * n_span + abs(u2 - p_u2) * n_span ** 2
+        # 3. resampling on the tag's clock
+        for i in range(n_w):
+            target = rho * float(i - n_rest)
+            disc = max(u1 * u1 + 4.0 * u2 * target, 1e-300)
+            rw[i] = _interp_unit(r, start + 2.0 * target / (u1 + math.sqrt(disc)))
+        # 4. fit on the decision-free samples, decoding with that gain
+        waveform_kernel(pre_el, (n_rest / fs) * fs, rho, pre_s)
+        ss = 0.0
+        s1 = 0.0
+        rs = 0j
+        r1 = 0j
+        cnt = 0
+        for n in range(n_w):
+            if pre_s[n] != 0.0 or n < n_rest:
+                v = pre_s[n] if pre_s[n] != 0.0 else -1.0
+                ss += v * v
+                s1 += v
+                rs += rw[n] * v
+                r1 += rw[n]
+                cnt += 1
+        h, c, ok = _ls_gain_offset(ss, s1, float(cnt), rs, r1)
+        if not ok or h == 0:
+            return False, start, u1, u2
+        g = 1.0 / h
+        n_reply = int(math.ceil(nh * m / rho))
+        part = np.empty(min(n_w, n_rest + n_reply + 2) - n_rest, dtype=np.complex128)
+        for i in range(part.size):
+            part[i] = rw[n_rest + i] - c
+        projected_halfbit_sums_kernel(part, g.real, g.imag, (0.0 * g).real, 0.0, rho, m, sums)
+        for i in range(n_data):
+            a[i] = sums[n_pre_h + 2 * i]
+            b[i] = sums[n_pre_h + 2 * i + 1]
+        if viterbi:
+            viterbi_kernel(a, b, miller, state0, True, dec)
+        else:
+            bitwise_kernel(a[:nb], b[:nb], miller, dec[:nb])
+        same = True
+        for i in range(nb):
+            if dec[i] != bits[i]:
+                same = False
+            bits[i] = dec[i]
+        if moved <= converged_elements and same:
+            break
+    return True, start, u1, u2

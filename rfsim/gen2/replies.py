@@ -77,7 +77,8 @@ from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fra
 from rfsim.gen2 import _reply_kernels as _rk
 from rfsim.gen2.linecode import (METHODS, _preamble, _state_index, decode_reply, halfsymbols, preamble_levels,
                                  reply_waveform)
-from rfsim.gen2.reply_tracking import resample, track, warp_positions
+from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSAMPLES, TRACK_BLOCK_ELEMENTS, TRACK_SPANS,
+                                      resample, track_reference, warp_positions)
 
 #: Reply kind elicited by each command (anchors §4.4).
 REPLY_KIND = {"Query": "RN16", "QueryRep": "RN16", "QueryAdjust": "RN16", "ACK": "EPC", "Req_RN": "handle",
@@ -401,7 +402,33 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
                              max(2, int(math.ceil(span * 2.0 * n_el))), fs, method)
         if again is not None:
             blf, bits, start = again
-    bits = bits[:n_bits].astype(np.uint8)
+    out = _track_decode(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
+    return None if out is None else out + (blf,)
+
+
+def _track_decode(r, fs, blf, bits, start, truncated, m, trext, method):
+    """Step 4 (timing tracking, resampling on the tag's clock, decoding again) of a reply
+    decoded as ``bits`` from ``start`` at ``blf``: ``(bits, start, u1, u2, resampled window,
+    its rest samples before the reply)`` or None (numba kernel ``track_decode_kernel``;
+    :func:`_track_decode_reference` is its NumPy twin)."""
+    bits = np.array(bits, dtype=np.uint8)
+    rho = 2.0 * blf / fs
+    n_rest = int(min(start, 256))
+    pre, cur, prev = _preamble(m, trext)
+    rw = np.empty(n_rest + _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.complex128)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    ok, start, u1, u2 = _rk.track_decode_kernel(
+        np.ascontiguousarray(r, dtype=np.complex128), float(start), rho, float(fs), bits, int(m), pre, np.int8(cur),
+        np.uint8(prev), _state_index(cur, prev, m > 1), not truncated, method == "viterbi", TRACK_BLOCK_ELEMENTS,
+        MIN_TRACK_BLOCKS, np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS,
+        n_rest, rw)
+    return (bits, float(start), float(u1), float(u2), rw, n_rest) if ok else None
+
+
+def _track_decode_reference(r, fs, blf, bits, start, truncated, m, trext, method):
+    """Plain-NumPy twin of :func:`_track_decode` (:func:`rfsim.gen2.reply_tracking.track`,
+    :func:`rfsim.gen2.linecode.decode_reply` and the least-squares fits)."""
+    bits = np.asarray(bits, dtype=np.uint8)
     rho = 2.0 * blf / fs
     dummy = not truncated
     # step 4: timing tracking, resampling on the tag's clock, decoding again
@@ -415,7 +442,7 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         if h == 0:
             return None
         prev = (start, u1, u2)
-        start, u1, u2 = track(r, start, u1, u2, h, c, bits, m, trext, dummy)
+        start, u1, u2 = track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy)
         # the clock moved by at most this many elements anywhere in the reply
         moved = (abs(start - prev[0]) * u1 + abs(u1 - prev[1]) * n_span + abs(u2 - prev[2]) * n_span ** 2)
         n_prime = np.arange(-n_rest, _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.float64)
@@ -432,7 +459,7 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         bits = new_bits
         if converged:  # a second pass would move the clock by less still: same bits
             break
-    return bits, start, u1, u2, rw, n_rest, blf
+    return bits, start, u1, u2, rw, n_rest
 
 
 def _decode_window(r, fs, found, n_bits_of, method):

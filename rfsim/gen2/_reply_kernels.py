@@ -375,8 +375,8 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
         elements_kernel(bits, dummy, m, pre, cur, prev, el_full)
         for i in range(n_el):
             el[i] = el_full[i]
-        waveform_kernel(el, (start / fs) * fs, rho, ref)
         n_end = min(nr, int(math.ceil(start + n_el / rho)))
+        waveform_kernel(el, (start / fs) * fs, rho, ref[:n_end])
         ss = 0.0
         s1 = 0.0
         rs = 0j
@@ -392,9 +392,14 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
             return False, start, u1, u2
         # 2. tracking loop
         p_start, p_u1, p_u2 = start, u1, u2
-        for n in range(nr):
+        # the tracking loop reads no sample after the reply's end on the current clock
+        n_y = max(0, int(math.ceil(start)))
+        while n_y < nr and u1 * (n_y - start) + u2 * (n_y - start) ** 2 < n_el:
+            n_y += 1
+        n_y = min(nr, n_y + 1)
+        for n in range(n_y):
             y[n] = ((r[n] - c) / h).real
-        start, u1, u2 = track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks)
+        start, u1, u2 = track_kernel(y[:n_y], start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks)
         moved = abs(start - p_start) * u1 + abs(u1 - p_u1) * n_span + abs(u2 - p_u2) * n_span ** 2
         # 3. resampling on the tag's clock
         for i in range(n_w):

@@ -223,7 +223,11 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     pre, cur, prev = _preamble(m, trext)
     bits = np.empty(int(n_bits), dtype=np.uint8)
     blfs = np.ascontiguousarray(blfs, dtype=np.float64)
-    j, _, start = _rk.fine_kernel(np.ascontiguousarray(r, dtype=np.complex128), float(centre), int(n_bits), int(m),
+    # the kernel reads no sample after the last start + reply of a BLF: the rest is not passed
+    rho = 2.0 * blfs / fs
+    n_rep = np.ceil(_n_elements(n_bits, m, trext) / rho) + 2
+    cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * _n_pre_elements(m, trext) / rho + n_rep)))) + 1)
+    j, _, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
                                   pre, np.int8(cur), np.uint8(prev), _state_index(cur, prev, m > 1), blfs, float(fs),
                                   method == "viterbi", bits)
     return None if j < 0 else (float(blfs[j]), bits, float(start))
@@ -336,7 +340,9 @@ def _search(r, fs, hyps, lo_of, hi_of):
         lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
         n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
         pre_el = _preamble_elements(hyp.m, hyp.trext)
-        c, j, pos, nt, n_t = _rk.preamble_search_kernel(r, pre_el, blfs, float(fs), lo, hi, n_rep,
+        # no lag after hi leaves room for the preamble: the samples after it are not passed
+        cut = max(0, min(r.size, int(np.max(hi + n_rep)) + 1))
+        c, j, pos, nt, n_t = _rk.preamble_search_kernel(r[:cut], pre_el, blfs, float(fs), lo, hi, n_rep,
                                                         MIN_SAMPLES_PER_ELEMENT, np.empty(blfs.size))
         n_tests += nt
         if j >= 0 and (best is None or c > best[0]):

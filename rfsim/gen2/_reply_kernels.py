@@ -445,3 +445,194 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
         if moved <= converged_elements and same:
             break
     return True, start, u1, u2
+
+
+#: Length rules of ``decode_window_kernel`` (``rfsim.gen2.replies._NBitsRule``): a fixed
+#: number of data bits, unknown (−1), or PC + EPC + CRC-16 from the PC's L field.
+RULE_FIXED = 0
+RULE_EPC = 1
+
+
+@njit
+def _n_bits_of(rule, fixed, bits, n):
+    """Data bits of the complete reply from its first ``n`` decoded ``bits`` (−1 unknown)."""
+    if rule == RULE_FIXED:
+        return fixed
+    if n < 16:
+        return -1
+    pc = 0
+    for i in range(16):
+        pc = (pc << 1) | int(bits[i])
+    return 32 + 16 * (pc >> 11)
+
+
+@njit
+def _bits_that_fit(n_avail, n_pre_el, m, rho):
+    """Data bits (dummy excluded) of a reply whose preamble starts ``n_avail`` samples before
+    the window's end (``rfsim.gen2.replies._bits_that_fit``)."""
+    elements = n_avail * rho - 2 * rho
+    return int(math.floor((elements - n_pre_el) / (2 * m))) - 1
+
+
+@njit
+def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
+    """``rfsim.gen2.replies._fine_search``: ``fine_kernel`` coarse to fine, each call passed
+    only the samples up to its last BLF's reply end. Returns ``(found, blf, start)``."""
+    n_pre_el = pre.size * m
+    n_el = n_pre_el + 2 * m * (n_bits + 1)
+    found = False
+    best_blf = math.nan
+    best_start = math.nan
+    centre_blf = blf0
+    tmp = np.empty(n_bits, dtype=np.uint8)
+    while True:
+        step = max(span / per_side, target)
+        k = int(math.ceil(span / step))
+        blfs = np.empty(2 * k + 1)
+        cut = 0.0
+        for i in range(2 * k + 1):
+            blfs[i] = centre_blf * (1.0 + step * (i - k))
+            rho = 2.0 * blfs[i] / fs
+            cut = max(cut, centre - 0.5 * n_pre_el / rho + (math.ceil(n_el / rho) + 2))
+        n_cut = max(0, min(r.size, int(math.ceil(cut)) + 1))
+        j, _, start = fine_kernel(r[:n_cut], centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, tmp)
+        if j < 0:
+            return found, best_blf, best_start
+        found = True
+        best_blf = blfs[j]
+        best_start = start
+        for i in range(n_bits):
+            bits_out[i] = tmp[i]
+        if step <= target:
+            return found, best_blf, best_start
+        span = step
+        centre_blf = blfs[j]
+
+
+@njit
+def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state0, viterbi, rule, fixed,
+                         fine_span_steps, block_elements, min_blocks, spans, sub, min_drift_blocks,
+                         converged_elements, bits_out):
+    """Steps 3–5 of :mod:`rfsim.gen2.replies` on a working-rate window after a detection at
+    BLF ``blf_c``, start ``start_c`` (coarse step ``step_c``) in one call (its NumPy twin:
+    ``rfsim.gen2.replies._decode_window_reference``): the fine BLF search over the first 16
+    bits, the reply's length from them (``rule``/``fixed``: :data:`RULE_FIXED` bits, or the
+    PC's L field), the whole reply's BLF search around the first bits' BLF, step 4
+    (``track_decode_kernel``), repeated while the whole reply's PC announces another length
+    (at most 3 times); then on the resampled reply the least-squares fit over the steady
+    samples (both neighbours at the same level) and the preamble correlation at the decoded
+    start. Writes the bits into ``bits_out``; returns ``(ok, n_bits, start, u1, u2, blf,
+    truncated, n_full, n_rest, h, sigma2, corr, n_samples of the reply span)``.
+    """
+    n_pre_el = pre.size * m
+    rho_c = 2.0 * blf_c / fs
+    centre = start_c + 0.5 * n_pre_el / rho_c
+    n_first = max(0, min(16, _bits_that_fit(r.size - start_c, n_pre_el, m, rho_c)))
+    step_16 = 1.0 / (4.0 * (n_pre_el + 2 * m * (n_first + 1)))
+    bits0 = np.empty(n_first, dtype=np.uint8)
+    fail = (False, 0, 0.0, 0.0, 0.0, 0.0, False, 0, 0, 0j, 0.0, 0.0, 0.0)
+    ok, blf1, start1 = _fine_search(r, centre, n_first, m, pre, cur, prev, state0, blf_c, fine_span_steps * step_c,
+                                    step_16, 8, fs, viterbi, bits0)
+    if not ok:
+        return fail
+    n_full = _n_bits_of(rule, fixed, bits0, n_first)
+    truncated = False
+    n_bits = 0
+    blf = blf1
+    start = start1
+    u1 = 0.0
+    u2 = 0.0
+    n_rest = 0
+    rw = np.empty(0, dtype=np.complex128)
+    bits = np.empty(0, dtype=np.uint8)
+    for _ in range(3):
+        n_fit = _bits_that_fit(r.size - start1, n_pre_el, m, 2.0 * blf1 / fs)
+        truncated = n_full < 0 or n_fit < n_full
+        n_bits = max(0, n_fit - 1) if truncated else n_full
+        bits = np.empty(n_bits, dtype=np.uint8)
+        blf = blf1
+        start = start1
+        for i in range(min(n_bits, n_first)):
+            bits[i] = bits0[i]
+        if n_bits > n_first:
+            n_el = n_pre_el + 2 * m * (n_bits + 1)
+            span = fine_span_steps * step_16
+            found, b2, s2 = _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf1, span,
+                                         1.0 / (4.0 * n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
+                                         bits)
+            if found:
+                blf = b2
+                start = s2
+            else:  # as the twin: the first bits only
+                bits = bits0.copy()
+                n_bits = n_first
+        rho = 2.0 * blf / fs
+        n_rest = int(min(start, 256))
+        n_el_full = n_pre_el + 2 * m * (n_bits + 1)
+        rw = np.empty(n_rest + int(math.ceil(0.0 + n_el_full / rho)) + 4, dtype=np.complex128)
+        ok, start, u1, u2 = track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, not truncated,
+                                                viterbi, block_elements, min_blocks, spans, sub, min_drift_blocks,
+                                                converged_elements, n_rest, rw)
+        if not ok:
+            return fail
+        n_again = _n_bits_of(rule, fixed, bits, n_bits)
+        if truncated or n_again == n_full or n_again < 0:
+            break
+        n_full = n_again
+    # step 5: fit over the steady samples of the resampled reply, preamble correlation
+    rho = 2.0 * blf / fs
+    dummy = not truncated
+    n_el = n_pre_el + 2 * m * (n_bits + 1) - (0 if dummy else 2 * m)
+    el = np.empty(n_pre_el + 2 * m * (n_bits + 1))
+    elements_kernel(bits, dummy, m, pre, cur, prev, el)
+    n_end = min(rw.size, int(math.ceil(n_rest + n_el / rho)))
+    ref = np.empty(n_end)
+    waveform_kernel(el[:n_el], (n_rest / fs) * fs, rho, ref)
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        if ref[n] == 0.0:
+            ref[n] = -1.0
+        v = ref[n]
+        ss += v * v
+        s1 += v
+        rs += rw[n] * v
+        r1 += rw[n]
+    h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+    if not ok:
+        return fail
+    acc = 0.0
+    cnt = 0
+    for n in range(1, n_end - 1):
+        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
+            e = rw[n] - c - h * ref[n]
+            acc += e.real * e.real + e.imag * e.imag
+            cnt += 1
+    sigma2 = acc / cnt if cnt > 0 else math.nan
+    n_t = int(math.floor(n_pre_el * fs / (2.0 * blf)))
+    tpl = np.empty(n_t)
+    pre_el = el[:n_pre_el]
+    waveform_kernel(pre_el, 0.0, rho, tpl)
+    t_mean = 0.0
+    for i in range(n_t):
+        t_mean += tpl[i]
+    t_mean /= n_t
+    p = 0j
+    e_t = 0.0
+    sz = 0j
+    e_z = 0.0
+    for i in range(n_t):
+        t0 = tpl[i] - t_mean
+        z = rw[n_rest + i]
+        p += z * t0
+        e_t += t0 * t0
+        sz += z
+        e_z += z.real * z.real + z.imag * z.imag
+    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
+    corr = abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+    for i in range(n_bits):
+        bits_out[i] = bits[i]
+    n_span = int(math.ceil(0.0 + n_el / rho)) / u1 * rho
+    return (True, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span)

@@ -252,7 +252,7 @@ def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
     return None if best is None else best[1:]
 
 
-def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method):
+def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method, fine=None):
     """:func:`_fine` coarse to fine: ``2·per_side + 1`` BLFs across blf0·(1 ± span), then the
     same around the best with the span narrowed to one step, until the step is ≤ ``target``
     (relative). Returns (blf, bits, start) or None."""
@@ -260,7 +260,8 @@ def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, 
     while True:
         step = max(span / per_side, target)
         k = int(math.ceil(span / step))
-        found = _fine(r, centre, n_bits, m, trext, centre_blf * (1.0 + step * np.arange(-k, k + 1)), fs, method)
+        found = (fine or _fine)(r, centre, n_bits, m, trext, centre_blf * (1.0 + step * np.arange(-k, k + 1)), fs,
+                                method)
         if found is None:
             return best
         best = found
@@ -394,6 +395,13 @@ def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
 
 
 def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method):
+    """The plain-NumPy steps 3 (whole reply) and 4 of :func:`_decode_window_reference`."""
+    return _decode_length_impl(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext,
+                               method, _fine_reference, _track_decode_reference)
+
+
+def _decode_length_impl(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method,
+                        fine, track_decode):
     """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits; ``blf`` the BLF
     found on the first ``n_first`` bits to a step ``step_first`` (relative). Returns (bits,
     start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
@@ -405,10 +413,10 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         n_el = _n_elements(n_bits, m, trext)
         span = FINE_SPAN_STEPS * step_first
         again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
-                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method)
+                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, fine)
         if again is not None:
             blf, bits, start = again
-    out = _track_decode(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
+    out = track_decode(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
     return None if out is None else out + (blf,)
 
 
@@ -471,7 +479,36 @@ def _track_decode_reference(r, fs, blf, bits, start, truncated, m, trext, method
 def _decode_window(r, fs, found, n_bits_of, method):
     """Steps 3–5 on the working-rate window ``r`` (module docstring) after the detection
     ``found`` of :func:`_search`; ``n_bits_of(bits)`` gives the length of the complete reply
-    from its first decoded bits (−1: not known yet). Returns a dict or None."""
+    from its first decoded bits (−1: not known yet). Returns a dict or None (numba kernel
+    ``decode_window_kernel`` for the rules of :func:`_n_bits_rule`;
+    :func:`_decode_window_reference` is its NumPy twin, and decodes with any other rule)."""
+    if not isinstance(n_bits_of, _NBitsRule):
+        return _decode_window_reference(r, fs, found, n_bits_of, method)
+    _, blf_c, hyp, start_c, step_c, _ = found
+    m, trext = hyp.m, hyp.trext
+    pre, cur, prev = _preamble(m, trext)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    bits = np.empty(max(16, _bits_that_fit(r.size, m, trext, 2.0 * blf_c / fs) + 1), dtype=np.uint8)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    (ok, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span) = _rk.decode_window_kernel(
+        r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, np.int8(cur), np.uint8(prev),
+        _state_index(cur, prev, m > 1), method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
+        TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS,
+        TRACK_CONVERGED_ELEMENTS, bits)
+    if not ok:
+        return None
+    rho = 2.0 * blf / fs
+    eh_n0 = abs(h) ** 2 * (m / rho) / sigma2 if sigma2 > 0 else math.inf
+    if not eh_n0 >= 10.0 ** (MIN_HALFBIT_SNR_DB / 10.0):
+        return None
+    return dict(bits=bits[:n_bits].copy(), start=start, blf=(u1 + u2 * n_span) * fs / 2.0, drift=2.0 * u2 * n_span / u1,
+                m=m, trext=trext, corr=float(corr), truncated=bool(truncated), n_full=int(n_full), h=complex(h),
+                sigma2=float(sigma2), end=start + n_span)
+
+
+def _decode_window_reference(r, fs, found, n_bits_of, method):
+    """Plain-NumPy twin of :func:`_decode_window` (:func:`_fine_reference`,
+    :func:`_track_decode_reference` and the fits written out)."""
     corr, blf_c, hyp, start_c, step_c, _ = found
     m, trext = hyp.m, hyp.trext
     rho_c = 2.0 * blf_c / fs
@@ -479,7 +516,8 @@ def _decode_window(r, fs, found, n_bits_of, method):
     # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
     step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
-    fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method)
+    fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method,
+                        _fine_reference)
     if fine is None:
         return None
     blf, bits0, start = fine
@@ -579,17 +617,31 @@ def _max_bits(kind: str, rec: ReaderCommandRecord) -> int:
     return 32 + 16 * 31
 
 
-def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
+@dataclass(frozen=True)
+class _NBitsRule:
+    """``n_bits_of(bits)``: the complete reply's data bits (−1 unknown) from its first decoded
+    bits, ``fixed`` (rule ``RULE_FIXED``) or PC + EPC + CRC-16 (``RULE_EPC``: the EPC length
+    in words in the PC's 5 MSBs, anchors §4.4)."""
+
+    rule: int
+    fixed: int = -1
+
+    def __call__(self, bits) -> int:
+        if self.rule == _rk.RULE_FIXED:
+            return self.fixed
+        return 32 + 16 * (bits_to_int(bits[:16]) >> 11) if bits.size >= 16 else -1
+
+
+def _n_bits_rule(kind: str, rec: ReaderCommandRecord) -> _NBitsRule:
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
-        return lambda bits: 16
+        return _NBitsRule(_rk.RULE_FIXED, 16)
     if kind == "handle":
-        return lambda bits: 32
+        return _NBitsRule(_rk.RULE_FIXED, 32)
     if kind == "read":
         wc = int(rec.fields.get("word_count", 0))
-        return (lambda bits: 1 + 16 * wc + 32) if wc > 0 else (lambda bits: -1)
-    # EPC: PC + EPC + CRC-16, the EPC length in words in the PC's 5 MSBs (anchors §4.4)
-    return lambda bits: 32 + 16 * (bits_to_int(bits[:16]) >> 11) if bits.size >= 16 else -1
+        return _NBitsRule(_rk.RULE_FIXED, 1 + 16 * wc + 32 if wc > 0 else -1)
+    return _NBitsRule(_rk.RULE_EPC)
 
 
 def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: float, cmd_end_s: float,

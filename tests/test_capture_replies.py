@@ -312,6 +312,21 @@ def test_blind_search_stops_after_misses():
     assert decode_tag_replies(x, 2e6, records, max_blind_misses=2) == []
 
 
+def test_no_query_link_change_is_followed():
+    """Without a Query the link a reply told is tried first on the next windows; a tag with
+    another link (FM0 at 160 kHz, then Miller-4 at 250 kHz, then FM0 again) is found by the
+    blind search when the learned link finds nothing: every EPC decoded, with its own link."""
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    links = [(1, 160e3), (1, 160e3), (4, 250e3), (4, 250e3), (1, 160e3)]
+    items = [(ACK(rn16=0x1111 * (i + 1)), Reply(epc, mm, False, blf), 4.0e-3) for i, (mm, blf) in enumerate(links)]
+    x, _ = synth_capture(items, fs_hz=2e6, trcal_s=None, tari_s=12.5e-6)
+    records, _ = decode_reader_commands(x, 2e6)
+    found = decode_tag_replies(x, 2e6, records)
+    assert [(r.command_index, r.crc_ok, r.m) for r in found] == [(i, True, mm) for i, (mm, _) in enumerate(links)]
+    for r, (_, blf) in zip(found, links):
+        assert r.blf_hz == pytest.approx(blf, rel=1e-3)
+
+
 def test_bench_capture_generator_matches_test_generator():
     """The segment-by-segment capture generator of ``rfsim bench decode`` builds the same
     noiseless waveform as :func:`synth_capture` (one full-length expression), including a

@@ -795,7 +795,9 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     method, false_alarm_probability : see :func:`decode_tag_reply`
     max_blind_misses : a blind search (no Query, no link given) costs about a second per
         window; after this many blind windows without a reply the remaining windows that would
-        need one are not searched (give the link, or a capture with a Query, to search them)
+        need one are not searched (give the link, or a capture with a Query, to search them).
+        Once a reply has told the link (M, TRext, BLF), later windows are searched with it
+        first (BLF ± 10 %), and blind only when that finds no reply (a tag with another link)
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
@@ -824,25 +826,32 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
         kind = REPLY_KIND.get(rec.name)
         if kind is None or not rec.fields or math.isnan(rec.end_s):
             continue
-        hyps, frt = _hypotheses(query, learned, blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext,
-                                blf_tolerance=blf_tolerance)
+        link = dict(blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext, blf_tolerance=blf_tolerance)
+        hyps, frt = _hypotheses(query, None, **link)
         blind = len(hyps) > 1 and hyps[0].blf_lo_hz == BLIND_BLF_RANGE_HZ[0]
-        if blind and blind_misses >= max_blind_misses:
-            continue
+        # an earlier reply told the link: it is tried first, the blind search only when it
+        # finds no reply (a tag with another link)
+        tries = ([_hypotheses(query, learned, **link)] if blind and learned is not None else []) + [(hyps, frt)]
         tari = rec.tari_s if not math.isnan(rec.tari_s) else 0.0
         cut_s = records[k + 1].start_s if k + 1 < len(records) else n / fs
-        found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
-                                 window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
-                                 cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt, hypotheses=hyps, kind=kind,
-                                 n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec), cut_s=cut_s,
-                                 method=method,
-                                 false_alarm_probability=false_alarm_probability)
+        found = None
+        for hyps_k, frt_k in tries:
+            searching_blind = blind and hyps_k is hyps
+            if searching_blind and blind_misses >= max_blind_misses:
+                break
+            found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
+                                     window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
+                                     cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt_k, hypotheses=hyps_k,
+                                     kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
+                                     cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability)
+            if found is not None:
+                break
+            if searching_blind:
+                blind_misses += 1
         if found is not None:
             out.append(dataclasses.replace(found, command_index=k, command=rec.name))
             if query is None and blf_hz is None:
                 learned = (found.m, found.trext, found.blf_hz)
-        elif blind:
-            blind_misses += 1
     return out
 
 

@@ -1,12 +1,15 @@
 """numba kernels of the capture reply decoder (wrapped and documented in
-:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_search_reference`` and
-``_fine_reference`` there).
+:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_search_reference``,
+``_fine_reference``, ``_track_decode_reference`` and ``_decode_window_reference`` there).
 
-Both kernels fuse, per BLF hypothesis, what the twins do with several NumPy calls: the
-preamble template (the element sequence of :mod:`rfsim.gen2.linecode` sampled with
-``waveform_kernel``), the zero-mean normalised correlation, the coherent decoding of
-:func:`rfsim.gen2.linecode.decode_reply` at a known start (half-bit sums, Viterbi or
-bit-by-bit decisions) and the least-squares residual of the remodulated reply.
+``preamble_search_kernel`` and ``fine_kernel`` fuse, per BLF hypothesis, what the twins do
+with several NumPy calls: the preamble template (the element sequence of
+:mod:`rfsim.gen2.linecode` sampled with ``waveform_kernel``), the zero-mean normalised
+correlation, the coherent decoding of :func:`rfsim.gen2.linecode.decode_reply` at a known
+start (half-bit sums, Viterbi or bit-by-bit decisions) and the least-squares residual of
+the remodulated reply. ``track_decode_kernel`` is step 4 (fit, tracking loop, resampling
+on the tag's clock, decoding again) and ``decode_window_kernel`` steps 3–5 of a window in
+one call each, so that a reply costs one kernel call after its detection.
 """
 
 from __future__ import annotations

@@ -410,16 +410,10 @@ def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
 
 
 def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method):
-    """The plain-NumPy steps 3 (whole reply) and 4 of :func:`_decode_window_reference`."""
-    return _decode_length_impl(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext,
-                               method, _fine_reference, _track_decode_reference)
-
-
-def _decode_length_impl(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method,
-                        fine, track_decode):
     """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits; ``blf`` the BLF
     found on the first ``n_first`` bits to a step ``step_first`` (relative). Returns (bits,
-    start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
+    start, u1, u2, resampled window, its rest samples before the reply, BLF) or None; the
+    plain-NumPy steps of :func:`_decode_window_reference`."""
     if n_bits > n_first:
         # the whole reply is searched across ±FINE_SPAN_STEPS steps of the first bits' search
         # around its BLF, on a grid no coarser than 1/(2·elements): the residual of the whole
@@ -428,10 +422,10 @@ def _decode_length_impl(r, fs, centre, blf, bits, start, step_first, n_first, n_
         n_el = _n_elements(n_bits, m, trext)
         span = FINE_SPAN_STEPS * step_first
         again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
-                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, fine)
+                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, _fine_reference)
         if again is not None:
             blf, bits, start = again
-    out = track_decode(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
+    out = _track_decode_reference(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
     return None if out is None else out + (blf,)
 
 

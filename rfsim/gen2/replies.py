@@ -62,7 +62,6 @@ same form with real h (|h| ≪ |c|). Steps per window:
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -103,6 +102,11 @@ FINE_SPAN_STEPS = 2
 #: then made on a reference at most that far off; on the benchmark captures the largest
 #: BLF error of the 500 Miller-4 replies goes from 1.24e-4 to 1.31e-4 against 0.05).
 TRACK_CONVERGED_ELEMENTS = 0.125
+#: Sub-sample points of the tracking reference and the tracking spans, as kernel arguments.
+_SUB = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+_SPANS = np.array(TRACK_SPANS, dtype=np.float64)
+_SUB.flags.writeable = False
+_SPANS.flags.writeable = False
 #: A window whose variance is below this fraction of its power holds no modulation at all.
 _MIN_RELATIVE_VARIANCE = 1e-12
 
@@ -168,6 +172,7 @@ class LinkHypothesis:
     blf_hi_hz: float
 
 
+@functools.lru_cache(maxsize=32)
 def _n_pre_elements(m: int, trext: bool) -> int:
     return preamble_levels(m=m, trext=trext)[0].size * m
 
@@ -498,12 +503,10 @@ def _decode_window(r, fs, found, n_bits_of, method):
     pre, cur, prev = _preamble(m, trext)
     r = np.ascontiguousarray(r, dtype=np.complex128)
     bits = np.empty(max(16, _bits_that_fit(r.size, m, trext, 2.0 * blf_c / fs) + 1), dtype=np.uint8)
-    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
     (ok, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span) = _rk.decode_window_kernel(
         r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, np.int8(cur), np.uint8(prev),
         _state_index(cur, prev, m > 1), method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
-        TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS,
-        TRACK_CONVERGED_ELEMENTS, bits)
+        TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, _SPANS, _SUB, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS, bits)
     if not ok:
         return None
     rho = 2.0 * blf / fs
@@ -656,7 +659,8 @@ def _n_bits_rule(kind: str, rec: ReaderCommandRecord) -> _NBitsRule:
 def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: float, cmd_end_s: float,
                      rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, max_bits: int,
                      cut_s: float | None = None,
-                     method: str = "viterbi", false_alarm_probability: float = 1e-3) -> TagReplyRecord | None:
+                     method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
+                     command: str = "") -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -675,7 +679,9 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     method : "viterbi" or "bitwise"
     false_alarm_probability : per window, sets the detection threshold
 
-    Returns the :class:`TagReplyRecord` (``command_index`` −1, ``command`` "") or None.
+    command_index, command : written into the record (the preceding command)
+
+    Returns the :class:`TagReplyRecord` or None.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -694,12 +700,12 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         return None
     r = x[i0:i1].astype(np.complex128)
     power = float(np.mean(r.real * r.real + r.imag * r.imag))
-    if power == 0.0 or power - abs(complex(r.mean())) ** 2 <= _MIN_RELATIVE_VARIANCE * power:
+    if power == 0.0 or power - abs(complex(r.sum()) / r.size) ** 2 <= _MIN_RELATIVE_VARIANCE * power:
         return None
     t1_earliest = min(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_hi_hz, frt=frt).min_s for h in hyps)
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
-        r = r - r[:lo_full].mean()
+        r = r - r[:lo_full].sum() / lo_full
     best, n_tests = None, 0
     for band in _bands(hyps):
         d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
@@ -723,7 +729,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     snr = 10.0 * math.log10(p / (res["sigma2"] * d)) if res["sigma2"] > 0 else math.inf
     truncated = bool(res["truncated"])
     return TagReplyRecord(
-        command_index=-1, command="", kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
+        command_index=int(command_index), command=str(command), kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
         blf_hz=float(res["blf"]), m=int(res["m"]), trext=bool(res["trext"]), corr=res["corr"], truncated=truncated,
         end_s=float(((window_end_s if cut_s is None else cut_s) if end_s >= window_end_s else end_s) if truncated
                     else to_s(res["end"])),
@@ -837,13 +843,14 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                                      window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
                                      cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt_k, hypotheses=hyps_k,
                                      kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
-                                     cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability)
+                                     cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
+                                     command_index=k, command=rec.name)
             if found is not None:
                 break
             if searching_blind:
                 blind_misses += 1
         if found is not None:
-            out.append(dataclasses.replace(found, command_index=k, command=rec.name))
+            out.append(found)
             if query is None and blf_hz is None:
                 learned = (found.m, found.trext, found.blf_hz)
     return out

@@ -478,6 +478,46 @@ def _bits_that_fit(n_avail, n_pre_el, m, rho):
 
 
 @njit
+def _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
+    """``fine_kernel`` passed only the samples up to its last BLF's reply end (the same result)."""
+    n_pre_el = pre.size * m
+    n_el = n_pre_el + 2 * m * (n_bits + 1)
+    cut = 0.0
+    for i in range(blfs.size):
+        rho = 2.0 * blfs[i] / fs
+        cut = max(cut, centre - 0.5 * n_pre_el / rho + (math.ceil(n_el / rho) + 2))
+    n_cut = max(0, min(r.size, int(math.ceil(cut)) + 1))
+    return fine_kernel(r[:n_cut], centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out)
+
+
+@njit
+def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi, shifts, bits, start):
+    """The preamble correlates almost as well a whole element or two off its start (a Miller
+    pilot is a plain subcarrier; one element inverts it, which |correlation| does not see):
+    the decoding at ``blf`` with the preamble centre moved by each of ``shifts`` elements is
+    kept when its remodulated reply leaves less residual power than at ``centre``. Returns
+    ``(centre, start)`` and leaves the chosen bits in ``bits``."""
+    one = np.empty(1)
+    one[0] = blf
+    tmp = np.empty(n_bits, dtype=np.uint8)
+    j, best, _ = _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, one, fs, viterbi, tmp)
+    if j < 0:
+        return centre, start
+    rho = 2.0 * blf / fs
+    best_centre = centre
+    for q in range(shifts.size):
+        c = centre + shifts[q] / rho
+        j, res, st = _fine_cut(r, c, n_bits, m, pre, cur, prev, state0, one, fs, viterbi, tmp)
+        if j >= 0 and res < best:
+            best = res
+            best_centre = c
+            start = st
+            for i in range(n_bits):
+                bits[i] = tmp[i]
+    return best_centre, start
+
+
+@njit
 def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
     """``rfsim.gen2.replies._fine_search``: ``fine_kernel`` coarse to fine, each call passed
     only the samples up to its last BLF's reply end. Returns ``(found, blf, start)``."""
@@ -492,13 +532,9 @@ def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, targe
         step = max(span / per_side, target)
         k = int(math.ceil(span / step))
         blfs = np.empty(2 * k + 1)
-        cut = 0.0
         for i in range(2 * k + 1):
             blfs[i] = centre_blf * (1.0 + step * (i - k))
-            rho = 2.0 * blfs[i] / fs
-            cut = max(cut, centre - 0.5 * n_pre_el / rho + (math.ceil(n_el / rho) + 2))
-        n_cut = max(0, min(r.size, int(math.ceil(cut)) + 1))
-        j, _, start = fine_kernel(r[:n_cut], centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, tmp)
+        j, _, start = _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, tmp)
         if j < 0:
             return found, best_blf, best_start
         found = True
@@ -514,7 +550,7 @@ def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, targe
 
 @njit
 def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state0, viterbi, rule, fixed,
-                         fine_span_steps, block_elements, min_blocks, spans, sub, min_drift_blocks,
+                         fine_span_steps, start_shifts, block_elements, min_blocks, spans, sub, min_drift_blocks,
                          converged_elements, bits_out):
     """Steps 3–5 of :mod:`rfsim.gen2.replies` on a working-rate window after a detection at
     BLF ``blf_c``, start ``start_c`` (coarse step ``step_c``) in one call (its NumPy twin:
@@ -538,6 +574,8 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
                                     step_16, 8, fs, viterbi, bits0)
     if not ok:
         return fail
+    centre, start1 = _check_start(r, centre, n_first, m, pre, cur, prev, state0, blf1, fs, viterbi, start_shifts,
+                                  bits0, start1)
     n_full = _n_bits_of(rule, fixed, bits0, n_first)
     truncated = False
     n_bits = 0

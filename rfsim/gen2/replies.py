@@ -102,6 +102,14 @@ FINE_SPAN_STEPS = 2
 #: then made on a reference at most that far off; on the benchmark captures the largest
 #: BLF error of the 500 Miller-4 replies goes from 1.24e-4 to 1.31e-4 against 0.05).
 TRACK_CONVERGED_ELEMENTS = 0.125
+#: Whole-element shifts of the preamble centre at which the start found by the fine search
+#: over the first bits is checked (step 3): the preamble correlates almost as well an element
+#: or two off (a Miller pilot is a plain subcarrier, and |correlation| does not see the sign
+#: one element turns), which left Miller RN16s decoded a whole element late (bits right, the
+#: reply's fit and SNR wrong).
+START_CHECK_SHIFTS = (-2, -1, 1, 2)
+_START_SHIFTS = np.array(START_CHECK_SHIFTS, dtype=np.float64)
+_START_SHIFTS.flags.writeable = False
 #: Sub-sample points of the tracking reference and the tracking spans, as kernel arguments.
 _SUB = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
 _SPANS = np.array(TRACK_SPANS, dtype=np.float64)
@@ -244,10 +252,10 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     rho = 2.0 * blfs / fs
     n_rep = np.ceil(_n_elements(n_bits, m, trext) / rho) + 2
     cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * _n_pre_elements(m, trext) / rho + n_rep)))) + 1)
-    j, _, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
+    j, resid, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
                                   pre, np.int8(cur), np.uint8(prev), _state_index(cur, prev, m > 1), blfs, float(fs),
                                   method == "viterbi", bits)
-    return None if j < 0 else (float(blfs[j]), bits, float(start))
+    return None if j < 0 else (float(blfs[j]), bits, float(start), float(resid))
 
 
 def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
@@ -266,7 +274,7 @@ def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
         _, _, resid = _fit_full(r, s, min(r.size, int(start) + n_rep))
         if best is None or resid < best[0]:
             best = (resid, float(blf), det.bits.astype(np.uint8), start)
-    return None if best is None else best[1:]
+    return None if best is None else best[1:] + best[:1]
 
 
 def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method, fine=None):
@@ -429,7 +437,7 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
                              max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, _fine_reference)
         if again is not None:
-            blf, bits, start = again
+            blf, bits, start = again[:3]
     out = _track_decode_reference(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
     return None if out is None else out + (blf,)
 
@@ -506,6 +514,7 @@ def _decode_window(r, fs, found, n_bits_of, method):
     (ok, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span) = _rk.decode_window_kernel(
         r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, np.int8(cur), np.uint8(prev),
         _state_index(cur, prev, m > 1), method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
+        _START_SHIFTS,
         TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, _SPANS, _SUB, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS, bits)
     if not ok:
         return None
@@ -532,7 +541,12 @@ def _decode_window_reference(r, fs, found, n_bits_of, method):
                         _fine_reference)
     if fine is None:
         return None
-    blf, bits0, start = fine
+    blf, bits0, start, resid = fine
+    for shift in START_CHECK_SHIFTS:  # whole-element shifts of the start (decode_window_kernel)
+        c = centre + shift / (2.0 * blf / fs)
+        alt = _fine_reference(r, c, n_first, m, trext, np.array([blf]), fs, method)
+        if alt is not None and alt[3] < resid:
+            centre, (_, bits0, start, resid) = c, alt
     n_full = n_bits_of(bits0)
     for _ in range(3):  # the reply's length follows from its first bits (EPC: the PC's L field)
         n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)

@@ -23,6 +23,9 @@ same form with real h (|h| ≪ |c|). Steps per window:
    hypotheses tested. With the line code known (a Query in the capture, or given) the BLF
    grid spans DR/TRcal·(1 ± FrT); without it, M ∈ {1, 2, 4, 8}, TRext ∈ {0, 1} and BLF
    over the Gen2 range 40–640 kHz widened by the largest FrT (22 %) are searched blind.
+   After a reply, the next window is searched first within ±2 coarse steps of its BLF, and
+   over the whole range when that finds nothing or its best lies at the narrow range's edge
+   (another tag), the threshold counting both searches (:func:`_detect`).
 3. **BLF from the reply itself**: BLFs across ±2 coarse steps are decoded over the first
    16 bits, coarse to fine (17 BLFs, then the span narrowed to one step around the best)
    down to a step of 1/(4·their elements); the one whose remodulated reply
@@ -674,7 +677,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
                      rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, max_bits: int,
                      cut_s: float | None = None,
                      method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
-                     command: str = "") -> TagReplyRecord | None:
+                     command: str = "", blf_hint_hz: float | None = None) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -694,6 +697,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     false_alarm_probability : per window, sets the detection threshold
 
     command_index, command : written into the record (the preceding command)
+    blf_hint_hz : BLF of an earlier reply in the capture: a single hypothesis is searched
+        first within ±2 coarse steps of it (:func:`_detect`)
 
     Returns the :class:`TagReplyRecord` or None.
     """
@@ -720,16 +725,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].sum() / lo_full
-    best, n_tests = None, 0
-    for band in _bands(hyps):
-        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
-        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
-        rd = boxcar_decimate(r, d) if d > 1 else r
-        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
-        n_tests += nt
-        if cand is not None and (best is None or cand[0] > best[0][0]):
-            best = (cand, rd, d)
-    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+    best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability)
+    if best is None:
         return None
     found, rd, d = best
     res = _decode_window(rd, fs / d, found, n_bits_of, method)
@@ -750,6 +747,76 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         n_bits_expected=int(res["n_full"]), blf_drift=float(res["drift"]),
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
         phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, **_reply_fields(kind, bits, truncated))
+
+
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
+    """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
+    n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None."""
+    best, n_tests = None, 0
+    for band in _bands(hyps):
+        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        rd = boxcar_decimate(r, d) if d > 1 else r
+        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        n_tests += nt
+        if cand is not None and (best is None or cand[0] > best[0][0]):
+            best = (cand, rd, d)
+    return best, n_tests
+
+
+def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
+    """Lags :func:`_search` tests for ``hyp`` on a working-rate window of ``r_size`` samples
+    (the kernel's skip rules), without searching."""
+    step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+    lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
+    n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+    n = np.floor(_n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
+    last = np.minimum(hi, r_size - n_rep)
+    ok = (2.0 * blfs * MIN_SAMPLES_PER_ELEMENT <= fs) & (last >= lo) & (n >= 3)
+    return int(np.sum((last - lo + 1)[ok]))
+
+
+def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability):
+    """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
+
+    With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
+    ±2 coarse steps of the hint are searched first, at the working rate of the full search;
+    their best is kept if it does not lie at an inner edge of the narrow range (a tag with
+    another BLF) and clears the threshold of the narrow and the full search's tests together
+    (the full search's lags counted, not searched), otherwise the full range is searched,
+    with the same threshold: the union bound of the detection rule then covers both
+    searches, so the false-alarm probability per window stays as stated."""
+    if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
+        hyp = hyps[0]
+        span = 2.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        lo_n, hi_n = max(hyp.blf_lo_hz, blf_hint_hz * (1 - span)), min(hyp.blf_hi_hz, blf_hint_hz * (1 + span))
+        n_full, n_narrow, narrow = 0, 0, None
+        for band in _bands(hyps):
+            b = band[0]
+            d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
+            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+            n_full += _n_lags(r.size // d, fs / d, b, lags.lo, lags.hi)
+            a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
+            if a < z:
+                rd = boxcar_decimate(r, d) if d > 1 else r
+                cand, nt = _search(rd, fs / d, [LinkHypothesis(hyp.m, hyp.trext, a, z)], lags.lo, lags.hi)
+                n_narrow += nt
+                if cand is not None and (narrow is None or cand[0] > narrow[0][0]):
+                    narrow = (cand, rd, d)
+        if narrow is not None:
+            blf = narrow[0][1]
+            inner_edge = (blf <= lo_n and lo_n > hyp.blf_lo_hz) or (blf >= hi_n and hi_n < hyp.blf_hi_hz)
+            if not inner_edge and narrow[0][0] >= preamble_threshold(narrow[0][5], n_full + n_narrow,
+                                                                     false_alarm_probability):
+                return narrow
+    else:
+        n_narrow = 0
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt)
+    n_tests += n_narrow
+    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+        return None
+    return best
 
 
 def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance):
@@ -858,7 +925,8 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                                      cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt_k, hypotheses=hyps_k,
                                      kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
                                      cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
-                                     command_index=k, command=rec.name)
+                                     command_index=k, command=rec.name,
+                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None)
             if found is not None:
                 break
             if searching_blind:

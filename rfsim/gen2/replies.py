@@ -45,8 +45,8 @@ same form with real h (|h| ≪ |c|). Steps per window:
    a sample is taken at one point of a sharp edge) is found on a 1/16-element grid within
    ±1/2 element of a prediction and refined by the peak of the triangular correlation. A
    weighted least-squares quadratic δ(t) (start, BLF, linear BLF drift; a line for replies
-   of fewer than 8 blocks) is fitted over growing spans from the reply start (¼, ½, all,
-   all), each span's offsets searched around the previous fit's extrapolation — a
+   of fewer than 8 blocks) is fitted over growing spans from the reply start (¼, ½, all),
+   each span's offsets searched around the previous fit's extrapolation — a
    tracking loop that follows a timing error growing past half an element towards the
    end. The element clock u(t) = u₁·t + u₂·t² is updated, the window resampled on the tag's
    clock (linear interpolation) and decoded again (twice, unless the first pass moved the

@@ -28,7 +28,7 @@ from rfsim.gen2.linecode import halfsymbols
 #: Elements per timing block of the tracking loop.
 TRACK_BLOCK_ELEMENTS = 24
 #: Growing spans of the reply (fractions from its start) the tracking loop fits in turn.
-TRACK_SPANS = (0.25, 0.5, 1.0, 1.0)
+TRACK_SPANS = (0.25, 0.5, 1.0)
 #: Fewest timing blocks for a drift (quadratic) fit; shorter replies get start and BLF only.
 MIN_DRIFT_BLOCKS = 8
 #: Points per sample interval at which the tracking reference is averaged.

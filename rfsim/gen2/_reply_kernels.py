@@ -334,7 +334,8 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
        remodulated reply of ``bits`` (±1, sampled by the rule of ``waveform_kernel`` from
        ``start``) and −1 around it;
     2. the tracking loop ``track_kernel`` on y = Re((r − c)/h) (blocks of
-       ``block_elements`` elements, at least ``min_blocks``);
+       ``block_elements`` elements, at least ``min_blocks``, each correlated about once
+       across the growing spans);
     3. the window resampled on the tag's clock u(t) = u₁·t + u₂·t² (linear interpolation,
        ``numpy.interp`` clamping at the ends) at n′ = −n_rest … into ``rw``;
     4. (h, c) again over the decision-free samples of ``rw`` (rest level before the reply,

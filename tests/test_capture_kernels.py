@@ -10,7 +10,8 @@ from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames, 
 from rfsim.gen2.linecode import halfsymbols, reply_waveform
 from rfsim.gen2.pie import pie_decode_arrays, two_level_threshold_reference
 from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search, _search_reference,
-                                preamble_correlation)
+                                _decode_window, _decode_window_reference, _n_bits_rule, _track_decode,
+                                _track_decode_reference, preamble_correlation)
 from rfsim.gen2.reply_tracking import (_block_correlations, block_correlations_reference, track, track_reference,
                                        weighted_polyfit)
 from rfsim.rng import trial_rng
@@ -164,3 +165,66 @@ def test_track_kernel_matches_twin(blf_error, drift_u2):
     got, want = track(*args), track_reference(*args)
     np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12)
     assert got[1] == pytest.approx(rho * (1 + blf_error), rel=2e-4)
+
+
+@pytest.mark.parametrize("m, trext, method, blf_error, drift_u2, truncated", [
+    (1, False, "viterbi", 1e-3, 0.0, False), (4, False, "bitwise", -5e-4, 2e-9, False),
+    (2, True, "viterbi", 0.0, -3e-9, True)])
+def test_track_decode_kernel_matches_twin(m, trext, method, blf_error, drift_u2, truncated):
+    """The one-call step 4 (fit, tracking loop, resampling on the tag's clock, decoding
+    again; up to two passes) gives the twin's clock, resampled window and bits, and the bits
+    are those encoded, on a 96-bit reply whose clock differs from the starting guess by a BLF
+    error and a drift (a truncated reply is decoded without its dummy 1)."""
+    fs, blf = 2e6, 200e3
+    rng = trial_rng(8, m)
+    bits = rng.integers(0, 2, 96).astype(np.uint8)
+    el = halfsymbols(bits, m=m, trext=trext, dummy=not truncated).astype(np.float64)
+    rho = 2 * blf / fs
+    t = np.arange(int(el.size / rho) + 300) - 120.4
+    u = rho * (1 + blf_error) * t + drift_u2 * t * t
+    k = np.floor(u).astype(np.int64)
+    s = np.where((u >= 0) & (k < el.size), el[np.clip(k, 0, el.size - 1)], -1.0)
+    r = 0.4 - 0.1j + (0.05 + 0.08j) * s + 0.01 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    args = (r, fs, blf, bits, 120.4, truncated, m, trext, method)
+    got, want = _track_decode(*args), _track_decode_reference(*args)
+    assert np.array_equal(got[0], want[0]) and np.array_equal(got[0], bits)
+    np.testing.assert_allclose(got[1:4], want[1:4], rtol=1e-9, atol=1e-13)
+    assert got[5] == want[5] == 120
+    np.testing.assert_allclose(got[4], want[4], rtol=1e-9, atol=1e-12)
+    # the tracked element clock follows the true one to within 0.15 element over the reply
+    tt = np.linspace(0.0, el.size / rho, 9)
+    clock = got[2] * (tt + 120.4 - got[1]) + got[3] * (tt + 120.4 - got[1]) ** 2
+    np.testing.assert_allclose(clock, rho * (1 + blf_error) * tt + drift_u2 * tt * tt, atol=0.15)
+
+
+@pytest.mark.parametrize("m, trext, kind, cut_samples, method", [
+    (4, False, "EPC", None, "viterbi"), (1, False, "RN16", None, "bitwise"), (1, True, "EPC", 800, "viterbi"),
+    (2, False, "handle", None, "viterbi")])
+def test_decode_window_kernel_matches_twin(m, trext, kind, cut_samples, method):
+    """Steps 3–5 in one kernel (fine BLF over the first bits, length from the PC, whole-reply
+    BLF, tracking, measurements) give the twin's bits, BLF, start, gain, noise and
+    correlation; the bits are those encoded (a window cut short: the whole bits before the
+    cut, reported truncated)."""
+    from rfsim.gen2.capture import ReaderCommandRecord
+    fs, blf = 2e6, 256e3 * 1.004
+    rng = trial_rng(9, m)
+    n_bits = {"EPC": 128, "RN16": 16, "handle": 32}[kind]
+    bits = rng.integers(0, 2, n_bits).astype(np.uint8)
+    if kind == "EPC":
+        bits[:16] = [int(c) for c in f"{0x3000:016b}"]  # PC: 6 EPC words
+    s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=60e-6)
+    s = np.concatenate([np.where(s == 0, -1.0, s), -np.ones(300)])[:cut_samples]
+    r = 0.3 - 0.2j + (0.02 + 0.05j) * s + 2e-3 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    found, _ = _search(r, fs, [LinkHypothesis(m, trext, 0.85 * 256e3, 1.15 * 256e3)], lambda b: 80, lambda b: 160)
+    rule = _n_bits_rule(kind, ReaderCommandRecord(start_s=0.0, name="ACK", bits=""))
+    got = _decode_window(r, fs, found, rule, method)
+    want = _decode_window_reference(r, fs, found, rule, method)
+    assert got is not None and want is not None
+    assert np.array_equal(got["bits"], want["bits"])
+    assert got["truncated"] == want["truncated"] == (cut_samples is not None) and got["n_full"] == want["n_full"]
+    n_good = got["bits"].size
+    assert np.array_equal(got["bits"], bits[:n_good]) and (n_good == n_bits or 0 < n_good < n_bits)
+    for key in ("start", "blf", "drift", "end", "sigma2", "corr"):
+        assert got[key] == pytest.approx(want[key], rel=1e-9, abs=1e-12), key
+    assert abs(got["h"] - want["h"]) <= 1e-9 * abs(want["h"])
+    assert got["blf"] == pytest.approx(blf, rel=2e-3)

@@ -211,7 +211,7 @@ def block_correlation_kernel(y, n0, start, u1, u2, el, n_blocks, base, shifts, s
     operations.
     """
     first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, el.size, n_blocks, centre_sum, count)
-    block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr)
+    block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, 0, n_blocks_used, corr)
 
 
 @njit
@@ -250,14 +250,15 @@ def block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count)
 
 
 @njit
-def block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_blocks_used, corr):
+def block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, first_block,
+                                    n_blocks_used, corr):
     """The shift-dependent part of :func:`block_correlation_kernel` on a
-    :func:`block_layout_kernel` layout: ``corr[i, b]`` for the blocks b < ``n_blocks_used``
-    (0 for the others)."""
+    :func:`block_layout_kernel` layout: ``corr[i, b]`` for the blocks ``first_block`` ≤ b <
+    ``n_blocks_used`` (0 for the others)."""
     n_el = el.size
     n_blocks = first.size
     corr[:, :] = 0.0
-    for b in range(min(n_blocks, n_blocks_used)):
+    for b in range(max(0, first_block), min(n_blocks, n_blocks_used)):
         lo = first[b]
         hi = last[b] + 1  # samples lo … hi − 1
         if lo < 0:
@@ -355,8 +356,9 @@ def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
     """The tracking loop of :func:`rfsim.gen2.reply_tracking.track` in one call (its twin:
     ``track_reference`` there): for each span fraction of ``spans`` the block offsets are
     searched around the previous fit's δ(t) (:func:`block_correlation_kernel`, 17 shifts of
-    1/16 element, triangle peak), the blocks whose centre lies inside the span kept, and
-    δ(t) fitted (quadratic with ≥ ``min_drift_blocks`` blocks, else a line; spans with
+    1/16 element, triangle peak; the leading blocks whose centres lay inside an earlier span
+    keep the offsets measured then, so each block is correlated about once), the blocks
+    whose centre lies inside the span kept, and δ(t) fitted (quadratic with ≥ ``min_drift_blocks`` blocks, else a line; spans with
     fewer than 3 blocks are skipped). Returns the refined ``(start, u1, u2)``."""
     n_el = el.size
     per_block = n_el / n_blocks
@@ -382,6 +384,11 @@ def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
     fit = np.zeros(3)
     n0 = int(math.ceil(start))
     first, last, cum, w = block_layout_kernel(y, n0, start, u1, u2, n_el, n_blocks, centre_sum, count)
+    # per block: offset δ_b, weight, whether its peak lay inside the searched range
+    d_block = np.zeros(n_blocks)
+    w_block = np.zeros(n_blocks)
+    ok_block = np.zeros(n_blocks, dtype=np.bool_)
+    done = 0  # blocks b < done were measured inside an earlier span: kept
     for s in range(spans.size):
         limit = spans[s] * n_el / u1
         n_used = 1
@@ -389,26 +396,37 @@ def track_kernel(y, start, u1, u2, el, n_blocks, spans, sub, min_drift_blocks):
             base[b] = (coef[0] * centres[b] + coef[1]) * centres[b] + coef[2]
             if block_starts[b] <= limit:
                 n_used += 1
-        block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, n_used, corr)
-        nb = 0
-        for b in range(min(n_blocks, n_used)):
+        n_used = min(n_blocks, n_used)
+        block_shift_correlations_kernel(start, u1, u2, el, base, shifts, sub, first, last, cum, w, done, n_used,
+                                        corr)
+        for b in range(done, n_used):
             j = 0
             for i in range(1, n_sh):
                 if corr[i, b] > corr[j, b]:
                     j = i
             mid = corr[j, b]
-            if mid <= 0 or j == 0 or j == n_sh - 1:
-                continue
+            ok_block[b] = not (mid <= 0 or j == 0 or j == n_sh - 1)
+            if ok_block[b]:
+                left = corr[j - 1, b]
+                right = corr[j + 1, b]
+                slope = max(mid - left, mid - right)
+                frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
+                d_block[b] = base[b] + shifts[j] + frac * step
+                w_block[b] = mid
+        nb = 0
+        inside = True
+        for b in range(n_used):
             centre = centre_sum[b] / max(count[b], 1)
             if centre > limit:
+                inside = False
                 continue
-            left = corr[j - 1, b]
-            right = corr[j + 1, b]
-            slope = max(mid - left, mid - right)
-            frac = 0.5 * (right - left) / slope if slope > 0 else 0.0
+            if inside:
+                done = b + 1
+            if not ok_block[b]:
+                continue
             tb[nb] = centre
-            db[nb] = base[b] + shifts[j] + frac * step
-            wb[nb] = mid
+            db[nb] = d_block[b]
+            wb[nb] = w_block[b]
             nb += 1
         if nb < 3:
             continue

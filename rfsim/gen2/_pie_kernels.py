@@ -37,6 +37,40 @@ def _env_value_overload(x, i):
     return lambda x, i: x[i]
 
 
+def env_order(x, i):
+    """A monotonic function of :func:`env_value` for comparisons without a square root per
+    sample: ``x[i]`` of a real envelope, the power Re² + Im² of complex samples (numba
+    overload; compare it with :func:`env_level` of the level)."""
+    return abs(x[i]) ** 2 if np.iscomplexobj(x) else x[i]
+
+
+def env_level(x, level):
+    """``level`` on the scale of :func:`env_order`: level of a real envelope; level² of
+    complex samples (a magnitude ≥ 0: −1 for a negative level, below every power), so
+    env_value(x, i) > level ⇔ env_order(x, i) > env_level(x, level), and so for <."""
+    if not np.iscomplexobj(x):
+        return level
+    return level * level if level >= 0 else -1.0
+
+
+@overload(env_order)
+def _env_order_overload(x, i):
+    if isinstance(x.dtype, types.Complex):
+        def power(x, i):
+            re = np.float64(x[i].real)
+            im = np.float64(x[i].imag)
+            return re * re + im * im
+        return power
+    return lambda x, i: x[i]
+
+
+@overload(env_level)
+def _env_level_overload(x, level):
+    if isinstance(x.dtype, types.Complex):
+        return lambda x, level: level * level if level >= 0 else -1.0
+    return lambda x, level: level
+
+
 @njit
 def smooth_step(tau, width):
     """Raised-cosine step 0 → 1 centred at ``tau = 0`` over ``width`` samples (0: hard step)."""
@@ -81,18 +115,44 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     """
     hi = threshold + hysteresis
     lo = threshold - hysteresis
+    # compared on the scale of env_order (the power of complex samples: no square root per
+    # sample); the magnitudes are read only at an edge, for its interpolation
+    hi_o = env_level(x, hi)
+    lo_o = env_level(x, lo)
     n = x.size
     state = -1
     for i in range(n):
-        if env_value(x, i) > hi:
+        if env_order(x, i) > hi_o:
             state = 1
             break
-        if env_value(x, i) < lo:
+        if env_order(x, i) < lo_o:
             state = 0
             break
     ne = 0
     if state < 0:
         return ne
+    for i in range(1, n):
+        v = env_order(x, i)
+        new = state
+        if state == 0 and v > hi_o:
+            new = 1
+        elif state == 1 and v < lo_o:
+            new = 0
+        if new != state:
+            a = env_value(x, i - 1)
+            d = env_value(x, i) - a
+            frac = 0.5
+            if d != 0.0:
+                frac = (threshold - a) / d
+            if frac < 0.0:
+                frac = 0.0
+            elif frac > 1.0:
+                frac = 1.0
+            edge_pos[ne] = (i - 1) + frac
+            edge_dir[ne] = new
+            ne += 1
+            state = new
+    return ne
     prev = env_value(x, 0)
     for i in range(1, n):
         v = env_value(x, i)

@@ -69,7 +69,7 @@ def str_to_bits(text: str) -> np.ndarray:
 
 def bits_to_str(bits) -> str:
     """``'0'``/``'1'`` string of a bit array."""
-    return "".join("1" if b else "0" for b in as_bits(bits).tolist())
+    return (as_bits(bits) + np.uint8(ord("0"))).tobytes().decode("ascii")
 
 
 def hex_to_bits(text: str) -> np.ndarray:

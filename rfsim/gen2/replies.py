@@ -23,15 +23,19 @@ same form with real h (|h| ≪ |c|). Steps per window:
    hypotheses tested. With the line code known (a Query in the capture, or given) the BLF
    grid spans DR/TRcal·(1 ± FrT); without it, M ∈ {1, 2, 4, 8}, TRext ∈ {0, 1} and BLF
    over the Gen2 range 40–640 kHz widened by the largest FrT (22 %) are searched blind.
+   After a reply, the next window is searched first within ±2 coarse steps of its BLF, and
+   over the whole range when that finds nothing or its best lies at the narrow range's edge
+   (another tag), the threshold counting both searches (:func:`_detect`).
 3. **BLF from the reply itself**: BLFs across ±2 coarse steps are decoded over the first
    16 bits, coarse to fine (17 BLFs, then the span narrowed to one step around the best)
    down to a step of 1/(4·their elements); the one whose remodulated reply
    (rest level −1 around it) leaves the least residual power under
    :func:`rfsim.gen2.capture.fit_gain_offset` wins. That gives the reply's length (EPC:
-   the PC's L field); the search is repeated over the whole reply across ±2 coarse steps
-   again, coarse to fine (9 BLFs, then a 4× narrower span around the best) down to a step
-   of 1/(4·its elements) (decoding needs the BLF to ≈ 1/(4·elements),
-   0.02 % for a 128-bit Miller-4 reply). A reply the next command cuts is decoded to its
+   the PC's L field); the search is repeated over the whole reply across ±2 steps of the
+   first bits' search around their BLF, first on a grid of 1/(2·its elements) (the whole
+   reply's residual has a minimum ≈ 1/elements wide in BLF: a coarser grid can step over
+   it and settle on a wrong BLF), then narrowed down to a step of 1/(4·its elements)
+   (decoding needs the BLF to ≈ 1/(4·elements), 0.02 % for a 128-bit Miller-4 reply). A reply the next command cuts is decoded to its
    last whole bit (**truncated**: reported with the bits that fit, never as a complete
    frame).
 4. **Timing tracking** (tag clock drift, :mod:`rfsim.gen2.reply_tracking`): with the decoded bits as reference the reply is
@@ -41,8 +45,8 @@ same form with real h (|h| ≪ |c|). Steps per window:
    a sample is taken at one point of a sharp edge) is found on a 1/16-element grid within
    ±1/2 element of a prediction and refined by the peak of the triangular correlation. A
    weighted least-squares quadratic δ(t) (start, BLF, linear BLF drift; a line for replies
-   of fewer than 8 blocks) is fitted over growing spans from the reply start (¼, ½, all,
-   all), each span's offsets searched around the previous fit's extrapolation — a
+   of fewer than 8 blocks) is fitted over growing spans from the reply start (¼, ½, all),
+   each span's offsets searched around the previous fit's extrapolation — a
    tracking loop that follows a timing error growing past half an element towards the
    end. The element clock u(t) = u₁·t + u₂·t² is updated, the window resampled on the tag's
    clock (linear interpolation) and decoded again (twice, unless the first pass moved the
@@ -61,7 +65,7 @@ same form with real h (|h| ≪ |c|). Steps per window:
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -75,7 +79,8 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
 from rfsim.gen2.linecode import (METHODS, _preamble, _state_index, decode_reply, halfsymbols, preamble_levels,
                                  reply_waveform)
-from rfsim.gen2.reply_tracking import resample, track, warp_positions
+from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSAMPLES, TRACK_BLOCK_ELEMENTS, TRACK_SPANS,
+                                      resample, track_reference, warp_positions)
 from rfsim.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
@@ -97,8 +102,24 @@ MIN_HALFBIT_SNR_DB = 6.0
 #: can correlate best one coarse step off).
 FINE_SPAN_STEPS = 2
 #: The tracking loop runs a second time unless its first pass moved the element clock by
-#: at most this many elements anywhere in the reply and left the decoded bits unchanged.
-TRACK_CONVERGED_ELEMENTS = 0.05
+#: at most this many elements anywhere in the reply and left the decoded bits unchanged
+#: (1/8 element, half the 1/4-element timing the decoding needs: the first pass's fit was
+#: then made on a reference at most that far off; on the benchmark captures the largest
+#: BLF error of the 500 Miller-4 replies goes from 1.24e-4 to 1.31e-4 against 0.05).
+TRACK_CONVERGED_ELEMENTS = 0.125
+#: Whole-element shifts of the preamble centre at which the start found by the fine search
+#: over the first bits is checked (step 3): the preamble correlates almost as well an element
+#: or two off (a Miller pilot is a plain subcarrier, and |correlation| does not see the sign
+#: one element turns), which left Miller RN16s decoded a whole element late (bits right, the
+#: reply's fit and SNR wrong).
+START_CHECK_SHIFTS = (-2, -1, 1, 2)
+_START_SHIFTS = np.array(START_CHECK_SHIFTS, dtype=np.float64)
+_START_SHIFTS.flags.writeable = False
+#: Sub-sample points of the tracking reference and the tracking spans, as kernel arguments.
+_SUB = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+_SPANS = np.array(TRACK_SPANS, dtype=np.float64)
+_SUB.flags.writeable = False
+_SPANS.flags.writeable = False
 #: A window whose variance is below this fraction of its power holds no modulation at all.
 _MIN_RELATIVE_VARIANCE = 1e-12
 
@@ -164,6 +185,7 @@ class LinkHypothesis:
     blf_hi_hz: float
 
 
+@functools.lru_cache(maxsize=32)
 def _n_pre_elements(m: int, trext: bool) -> int:
     return preamble_levels(m=m, trext=trext)[0].size * m
 
@@ -172,11 +194,32 @@ def _n_elements(n_bits: int, m: int, trext: bool) -> int:
     return _n_pre_elements(m, trext) + 2 * m * (int(n_bits) + 1)
 
 
+@functools.lru_cache(maxsize=256)
+def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
+    grid = _geometric_grid_uncached(lo, hi, step)
+    grid.flags.writeable = False
+    return grid
+
+
 def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
+    """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only, cached: the
+    same hypotheses are searched after every command)."""
+    return _geometric_grid_cached(float(lo), float(hi), float(step))
+
+
+def _geometric_grid_uncached(lo: float, hi: float, step: float) -> np.ndarray:
     if hi <= lo:
         return np.array([0.5 * (lo + hi)])
     n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return np.geomspace(lo, hi, max(n, 2))
+    return _geomspace(lo, hi, max(n, 2))
+
+
+def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
+    """``n`` ≥ 2 values from ``lo`` to ``hi`` (both exact) in equal ratios, lo·(hi/lo)^(k/(n−1))
+    (:func:`numpy.geomspace` without its overhead: this runs after every command)."""
+    out = lo * np.exp(np.arange(n) * (math.log(hi / lo) / (n - 1)))
+    out[0], out[-1] = lo, hi
+    return out
 
 
 def boxcar_decimate(r: np.ndarray, d: int) -> np.ndarray:
@@ -210,10 +253,14 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     pre, cur, prev = _preamble(m, trext)
     bits = np.empty(int(n_bits), dtype=np.uint8)
     blfs = np.ascontiguousarray(blfs, dtype=np.float64)
-    j, _, start = _rk.fine_kernel(np.ascontiguousarray(r, dtype=np.complex128), float(centre), int(n_bits), int(m),
+    # the kernel reads no sample after the last start + reply of a BLF: the rest is not passed
+    rho = 2.0 * blfs / fs
+    n_rep = np.ceil(_n_elements(n_bits, m, trext) / rho) + 2
+    cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * _n_pre_elements(m, trext) / rho + n_rep)))) + 1)
+    j, resid, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
                                   pre, np.int8(cur), np.uint8(prev), _state_index(cur, prev, m > 1), blfs, float(fs),
                                   method == "viterbi", bits)
-    return None if j < 0 else (float(blfs[j]), bits, float(start))
+    return None if j < 0 else (float(blfs[j]), bits, float(start), float(resid))
 
 
 def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
@@ -232,10 +279,10 @@ def _fine_reference(r, centre, n_bits, m, trext, blfs, fs, method):
         _, _, resid = _fit_full(r, s, min(r.size, int(start) + n_rep))
         if best is None or resid < best[0]:
             best = (resid, float(blf), det.bits.astype(np.uint8), start)
-    return None if best is None else best[1:]
+    return None if best is None else best[1:] + best[:1]
 
 
-def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method):
+def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, method, fine=None):
     """:func:`_fine` coarse to fine: ``2·per_side + 1`` BLFs across blf0·(1 ± span), then the
     same around the best with the span narrowed to one step, until the step is ≤ ``target``
     (relative). Returns (blf, bits, start) or None."""
@@ -243,7 +290,8 @@ def _fine_search(r, centre, n_bits, m, trext, blf0, span, target, per_side, fs, 
     while True:
         step = max(span / per_side, target)
         k = int(math.ceil(span / step))
-        found = _fine(r, centre, n_bits, m, trext, centre_blf * (1.0 + step * np.arange(-k, k + 1)), fs, method)
+        found = (fine or _fine)(r, centre, n_bits, m, trext, centre_blf * (1.0 + step * np.arange(-k, k + 1)), fs,
+                                method)
         if found is None:
             return best
         best = found
@@ -267,6 +315,14 @@ def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
     return c / (math.sqrt(float(template0 @ template0)) * np.sqrt(np.maximum(energy, 1e-300)))
 
 
+def _correlation_at(seg: np.ndarray, template0: np.ndarray) -> float:
+    """:func:`preamble_correlation` at the one lag where ``seg`` (as long as the template)
+    starts: |Σ seg·t0| / (‖t0‖·‖seg − mean(seg)‖)."""
+    n = template0.size
+    energy = float(np.sum(seg.real * seg.real + seg.imag * seg.imag)) - abs(complex(seg.sum())) ** 2 / n
+    return abs(complex(seg @ template0)) / (math.sqrt(float(template0 @ template0)) * math.sqrt(max(energy, 1e-300)))
+
+
 def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray:
     """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling)."""
     n = int(math.floor(_n_pre_elements(m, trext) * fs / (2.0 * blf)))
@@ -287,6 +343,22 @@ def _reply_end(start: float, n_bits: int, m: int, trext: bool, rho: float, dummy
     return int(math.ceil(start + n_el / rho))
 
 
+@functools.lru_cache(maxsize=32)
+def _preamble_elements(m: int, trext: bool) -> np.ndarray:
+    """Pilot + preamble elements (±1) of a line code (read-only, cached)."""
+    el = halfsymbols(np.zeros(0, np.uint8), m=m, trext=trext, dummy=False).astype(np.float64)
+    el.flags.writeable = False
+    return el
+
+
+def _per_blf(f, blfs: np.ndarray) -> np.ndarray:
+    """``f`` (a lag bound of a BLF, given one BLF or an array of them) at every BLF of ``blfs``."""
+    v = f(blfs)
+    if isinstance(v, np.ndarray) and v.shape == blfs.shape:
+        return v.astype(np.int64, copy=False)
+    return np.broadcast_to(np.asarray(v), blfs.shape).astype(np.int64)
+
+
 def _search(r, fs, hyps, lo_of, hi_of):
     """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
     hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
@@ -299,11 +371,12 @@ def _search(r, fs, hyps, lo_of, hi_of):
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
         blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
-        lo = np.array([lo_of(b) for b in blfs.tolist()], dtype=np.int64)
-        hi = np.array([hi_of(b) for b in blfs.tolist()], dtype=np.int64)
+        lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
         n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
-        pre_el = halfsymbols(np.zeros(0, np.uint8), m=hyp.m, trext=hyp.trext, dummy=False).astype(np.float64)
-        c, j, pos, nt, n_t = _rk.preamble_search_kernel(r, pre_el, blfs, float(fs), lo, hi, n_rep,
+        pre_el = _preamble_elements(hyp.m, hyp.trext)
+        # no lag after hi leaves room for the preamble: the samples after it are not passed
+        cut = max(0, min(r.size, int(np.max(hi + n_rep)) + 1))
+        c, j, pos, nt, n_t = _rk.preamble_search_kernel(r[:cut], pre_el, blfs, float(fs), lo, hi, n_rep,
                                                         MIN_SAMPLES_PER_ELEMENT, np.empty(blfs.size))
         n_tests += nt
         if j >= 0 and (best is None or c > best[0]):
@@ -319,7 +392,7 @@ def _search_reference(r, fs, hyps, lo_of, hi_of):
         for blf in _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c):
             if 2.0 * blf * MIN_SAMPLES_PER_ELEMENT > fs:
                 continue
-            lo, hi = lo_of(blf), hi_of(blf)
+            lo, hi = int(lo_of(blf)), int(hi_of(blf))
             t0 = _preamble_template(hyp.m, hyp.trext, blf, fs)
             n_rep = int(math.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
             last = min(hi, r.size - n_rep)
@@ -338,10 +411,15 @@ def _search_reference(r, fs, hyps, lo_of, hi_of):
 
 
 def _bands(hyps) -> list[list[LinkHypothesis]]:
-    """Hypotheses split into BLF octaves (each gets its own working rate)."""
+    """Hypotheses split into BLF octaves (each gets its own working rate; cached)."""
+    return _bands_cached(tuple(hyps))
+
+
+@functools.lru_cache(maxsize=64)
+def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
     out = []
     for h in hyps:
-        edges = np.geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
+        edges = _geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
         for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
             while len(out) <= k:
                 out.append([])
@@ -349,17 +427,49 @@ def _bands(hyps) -> list[list[LinkHypothesis]]:
     return out
 
 
-def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bits, truncated, m, trext, method):
-    """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits. Returns (bits,
-    start, u1, u2, resampled window, its rest samples before the reply, BLF) or None."""
+def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits, truncated, m, trext, method):
+    """Step 3 (whole reply) and step 4 for a reply of ``n_bits`` data bits; ``blf`` the BLF
+    found on the first ``n_first`` bits to a step ``step_first`` (relative). Returns (bits,
+    start, u1, u2, resampled window, its rest samples before the reply, BLF) or None; the
+    plain-NumPy steps of :func:`_decode_window_reference`."""
     if n_bits > n_first:
-        # the first 16 bits may be too regular to pin the BLF (a PC of mostly 0s is a square
-        # wave at any BLF): the whole reply is searched across the coarse step again
-        again = _fine_search(r, centre, n_bits, m, trext, blf_c, FINE_SPAN_STEPS * step_c,
-                             1.0 / (4.0 * _n_elements(n_bits, m, trext)), 4, fs, method)
+        # the whole reply is searched across ±FINE_SPAN_STEPS steps of the first bits' search
+        # around its BLF, on a grid no coarser than 1/(2·elements): the residual of the whole
+        # reply has a minimum about 1/elements wide in BLF, which a coarser grid can step over
+        # (and then settle on a wrong BLF whose decoded bits fit the noise a little better)
+        n_el = _n_elements(n_bits, m, trext)
+        span = FINE_SPAN_STEPS * step_first
+        again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
+                             max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, _fine_reference)
         if again is not None:
-            blf, bits, start = again
-    bits = bits[:n_bits].astype(np.uint8)
+            blf, bits, start = again[:3]
+    out = _track_decode_reference(r, fs, blf, bits[:n_bits].astype(np.uint8), start, truncated, m, trext, method)
+    return None if out is None else out + (blf,)
+
+
+def _track_decode(r, fs, blf, bits, start, truncated, m, trext, method):
+    """Step 4 (timing tracking, resampling on the tag's clock, decoding again) of a reply
+    decoded as ``bits`` from ``start`` at ``blf``: ``(bits, start, u1, u2, resampled window,
+    its rest samples before the reply)`` or None (numba kernel ``track_decode_kernel``;
+    :func:`_track_decode_reference` is its NumPy twin)."""
+    bits = np.array(bits, dtype=np.uint8)
+    rho = 2.0 * blf / fs
+    n_rest = int(min(start, 256))
+    pre, cur, prev = _preamble(m, trext)
+    rw = np.empty(n_rest + _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.complex128)
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    ok, start, u1, u2 = _rk.track_decode_kernel(
+        np.ascontiguousarray(r, dtype=np.complex128), float(start), rho, float(fs), bits, int(m), pre, np.int8(cur),
+        np.uint8(prev), _state_index(cur, prev, m > 1), not truncated, method == "viterbi", TRACK_BLOCK_ELEMENTS,
+        MIN_TRACK_BLOCKS, np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS,
+        n_rest, rw)
+    return (bits, float(start), float(u1), float(u2), rw, n_rest) if ok else None
+
+
+def _track_decode_reference(r, fs, blf, bits, start, truncated, m, trext, method):
+    """Plain-NumPy twin of :func:`_track_decode` (:func:`rfsim.gen2.reply_tracking.track`,
+    :func:`rfsim.gen2.linecode.decode_reply` and the least-squares fits)."""
+    bits = np.asarray(bits, dtype=np.uint8)
     rho = 2.0 * blf / fs
     dummy = not truncated
     # step 4: timing tracking, resampling on the tag's clock, decoding again
@@ -373,7 +483,7 @@ def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bi
         if h == 0:
             return None
         prev = (start, u1, u2)
-        start, u1, u2 = track(r, start, u1, u2, h, c, bits, m, trext, dummy)
+        start, u1, u2 = track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy)
         # the clock moved by at most this many elements anywhere in the reply
         moved = (abs(start - prev[0]) * u1 + abs(u1 - prev[1]) * n_span + abs(u2 - prev[2]) * n_span ** 2)
         n_prime = np.arange(-n_rest, _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.float64)
@@ -390,13 +500,41 @@ def _decode_length(r, fs, centre, blf, bits, start, blf_c, step_c, n_first, n_bi
         bits = new_bits
         if converged:  # a second pass would move the clock by less still: same bits
             break
-    return bits, start, u1, u2, rw, n_rest, blf
+    return bits, start, u1, u2, rw, n_rest
 
 
 def _decode_window(r, fs, found, n_bits_of, method):
     """Steps 3–5 on the working-rate window ``r`` (module docstring) after the detection
     ``found`` of :func:`_search`; ``n_bits_of(bits)`` gives the length of the complete reply
-    from its first decoded bits (−1: not known yet). Returns a dict or None."""
+    from its first decoded bits (−1: not known yet). Returns a dict or None (numba kernel
+    ``decode_window_kernel`` for the rules of :func:`_n_bits_rule`;
+    :func:`_decode_window_reference` is its NumPy twin, and decodes with any other rule)."""
+    if not isinstance(n_bits_of, _NBitsRule):
+        return _decode_window_reference(r, fs, found, n_bits_of, method)
+    _, blf_c, hyp, start_c, step_c, _ = found
+    m, trext = hyp.m, hyp.trext
+    pre, cur, prev = _preamble(m, trext)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    bits = np.empty(max(16, _bits_that_fit(r.size, m, trext, 2.0 * blf_c / fs) + 1), dtype=np.uint8)
+    (ok, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span) = _rk.decode_window_kernel(
+        r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, np.int8(cur), np.uint8(prev),
+        _state_index(cur, prev, m > 1), method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
+        _START_SHIFTS,
+        TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, _SPANS, _SUB, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS, bits)
+    if not ok:
+        return None
+    rho = 2.0 * blf / fs
+    eh_n0 = abs(h) ** 2 * (m / rho) / sigma2 if sigma2 > 0 else math.inf
+    if not eh_n0 >= 10.0 ** (MIN_HALFBIT_SNR_DB / 10.0):
+        return None
+    return dict(bits=bits[:n_bits].copy(), start=start, blf=(u1 + u2 * n_span) * fs / 2.0, drift=2.0 * u2 * n_span / u1,
+                m=m, trext=trext, corr=float(corr), truncated=bool(truncated), n_full=int(n_full), h=complex(h),
+                sigma2=float(sigma2), end=start + n_span)
+
+
+def _decode_window_reference(r, fs, found, n_bits_of, method):
+    """Plain-NumPy twin of :func:`_decode_window` (:func:`_fine_reference`,
+    :func:`_track_decode_reference` and the fits written out)."""
     corr, blf_c, hyp, start_c, step_c, _ = found
     m, trext = hyp.m, hyp.trext
     rho_c = 2.0 * blf_c / fs
@@ -404,17 +542,22 @@ def _decode_window(r, fs, found, n_bits_of, method):
     # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
     step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
-    fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method)
+    fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method,
+                        _fine_reference)
     if fine is None:
         return None
-    blf, bits0, start = fine
+    blf, bits0, start, resid = fine
+    for shift in START_CHECK_SHIFTS:  # whole-element shifts of the start (decode_window_kernel)
+        c = centre + shift / (2.0 * blf / fs)
+        alt = _fine_reference(r, c, n_first, m, trext, np.array([blf]), fs, method)
+        if alt is not None and alt[3] < resid:
+            centre, (_, bits0, start, resid) = c, alt
     n_full = n_bits_of(bits0)
     for _ in range(3):  # the reply's length follows from its first bits (EPC: the PC's L field)
         n_fit = _bits_that_fit(r.size - start, m, trext, 2.0 * blf / fs)
         truncated = n_full < 0 or n_fit < n_full
         n_bits = max(0, n_fit - 1) if truncated else n_full  # when cut, the last whole bit stands in for the dummy
-        out = _decode_length(r, fs, centre, blf, bits0, start, blf_c, step_c, n_first, n_bits, truncated, m, trext,
-                             method)
+        out = _decode_length(r, fs, centre, blf, bits0, start, step_16, n_first, n_bits, truncated, m, trext, method)
         if out is None:
             return None
         n_again = n_bits_of(out[0])
@@ -430,7 +573,7 @@ def _decode_window(r, fs, found, n_bits_of, method):
     h, c, sigma2 = _fit_full(rw, s, min(rw.size, _reply_end(n_rest, bits.size, m, trext, rho, dummy)), True)
     eh_n0 = abs(h) ** 2 * (m / rho) / sigma2 if sigma2 > 0 else math.inf
     t0 = _preamble_template(m, trext, blf, fs)  # the correlation at the decoded start and BLF
-    corr = float(preamble_correlation(rw[n_rest: n_rest + t0.size], t0)[0])
+    corr = _correlation_at(rw[n_rest: n_rest + t0.size], t0)
     if not eh_n0 >= 10.0 ** (MIN_HALFBIT_SNR_DB / 10.0):
         return None
     n_span = _reply_end(0.0, bits.size, m, trext, rho, dummy) / u1 * rho
@@ -451,14 +594,22 @@ class _Lags:
     rtcal_s: float
     frt: float
 
-    def _lag(self, t_s: float) -> float:
+    def _lag(self, t_s):
         return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
 
-    def lo(self, blf: float) -> int:
-        return max(0, int(math.floor(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).min_s))) - 1)
+    def _nominal(self, blf):
+        # T1 nominal max(RTcal, 10/BLF) of rfsim.gen2.link.t1_range, for one BLF or an array
+        return np.maximum(self.rtcal_s, 10.0 / np.asarray(blf, dtype=np.float64))
 
-    def hi(self, blf: float) -> int:
-        return int(math.ceil(self._lag(t1_range(rtcal_s=self.rtcal_s, blf_hz=blf, frt=self.frt).max_s))) + 1
+    def lo(self, blf):
+        """First lag of the T1 window (t1_range min, one sample early) of a BLF or array of BLFs."""
+        t_s = self._nominal(blf) * (1 - self.frt) - 2e-6
+        return np.maximum(0, np.floor(self._lag(t_s)).astype(np.int64) - 1)
+
+    def hi(self, blf):
+        """Last lag of the T1 window (t1_range max, one sample late)."""
+        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6
+        return np.ceil(self._lag(t_s)).astype(np.int64) + 1
 
 
 def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
@@ -473,7 +624,8 @@ def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
         if bits.size >= 16:
             out["pc"] = bits_to_int(bits[:16])
         epc = bits[16:-16] if not truncated else bits[16:16 + 16 * ((bits.size - 16) // 16)]
-        out["epc_hex"] = "".join(f"{bits_to_int(epc[i:i + 4]):X}" for i in range(0, epc.size - epc.size % 4, 4))
+        n_hex = epc.size // 4
+        out["epc_hex"] = f"{bits_to_int(epc[:4 * n_hex]):0{n_hex}X}" if n_hex else ""
     elif kind == "handle":
         if bits.size >= 16:
             out["rn16"] = bits_to_int(bits[:16])
@@ -496,23 +648,38 @@ def _max_bits(kind: str, rec: ReaderCommandRecord) -> int:
     return 32 + 16 * 31
 
 
-def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
+@dataclass(frozen=True)
+class _NBitsRule:
+    """``n_bits_of(bits)``: the complete reply's data bits (−1 unknown) from its first decoded
+    bits, ``fixed`` (rule ``RULE_FIXED``) or PC + EPC + CRC-16 (``RULE_EPC``: the EPC length
+    in words in the PC's 5 MSBs, anchors §4.4)."""
+
+    rule: int
+    fixed: int = -1
+
+    def __call__(self, bits) -> int:
+        if self.rule == _rk.RULE_FIXED:
+            return self.fixed
+        return 32 + 16 * (bits_to_int(bits[:16]) >> 11) if bits.size >= 16 else -1
+
+
+def _n_bits_rule(kind: str, rec: ReaderCommandRecord) -> _NBitsRule:
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
-        return lambda bits: 16
+        return _NBitsRule(_rk.RULE_FIXED, 16)
     if kind == "handle":
-        return lambda bits: 32
+        return _NBitsRule(_rk.RULE_FIXED, 32)
     if kind == "read":
         wc = int(rec.fields.get("word_count", 0))
-        return (lambda bits: 1 + 16 * wc + 32) if wc > 0 else (lambda bits: -1)
-    # EPC: PC + EPC + CRC-16, the EPC length in words in the PC's 5 MSBs (anchors §4.4)
-    return lambda bits: 32 + 16 * (bits_to_int(bits[:16]) >> 11) if bits.size >= 16 else -1
+        return _NBitsRule(_rk.RULE_FIXED, 1 + 16 * wc + 32 if wc > 0 else -1)
+    return _NBitsRule(_rk.RULE_EPC)
 
 
 def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: float, cmd_end_s: float,
                      rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, max_bits: int,
                      cut_s: float | None = None,
-                     method: str = "viterbi", false_alarm_probability: float = 1e-3) -> TagReplyRecord | None:
+                     method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
+                     command: str = "", blf_hint_hz: float | None = None) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -531,7 +698,11 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     method : "viterbi" or "bitwise"
     false_alarm_probability : per window, sets the detection threshold
 
-    Returns the :class:`TagReplyRecord` (``command_index`` −1, ``command`` "") or None.
+    command_index, command : written into the record (the preceding command)
+    blf_hint_hz : BLF of an earlier reply in the capture: a single hypothesis is searched
+        first within ±2 coarse steps of it (:func:`_detect`)
+
+    Returns the :class:`TagReplyRecord` or None.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -549,23 +720,15 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     if i1 - i0 < 16:
         return None
     r = x[i0:i1].astype(np.complex128)
-    power = float(np.mean(np.abs(r) ** 2))
-    if power == 0.0 or float(np.var(r)) <= _MIN_RELATIVE_VARIANCE * power:
+    power = float(np.mean(r.real * r.real + r.imag * r.imag))
+    if power == 0.0 or power - abs(complex(r.sum()) / r.size) ** 2 <= _MIN_RELATIVE_VARIANCE * power:
         return None
     t1_earliest = min(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_hi_hz, frt=frt).min_s for h in hyps)
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
-        r = r - r[:lo_full].mean()
-    best, n_tests = None, 0
-    for band in _bands(hyps):
-        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
-        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
-        rd = boxcar_decimate(r, d)
-        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
-        n_tests += nt
-        if cand is not None and (best is None or cand[0] > best[0][0]):
-            best = (cand, rd, d)
-    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+        r = r - r[:lo_full].sum() / lo_full
+    best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability)
+    if best is None:
         return None
     found, rd, d = best
     res = _decode_window(rd, fs / d, found, n_bits_of, method)
@@ -579,13 +742,83 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     snr = 10.0 * math.log10(p / (res["sigma2"] * d)) if res["sigma2"] > 0 else math.inf
     truncated = bool(res["truncated"])
     return TagReplyRecord(
-        command_index=-1, command="", kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
+        command_index=int(command_index), command=str(command), kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
         blf_hz=float(res["blf"]), m=int(res["m"]), trext=bool(res["trext"]), corr=res["corr"], truncated=truncated,
         end_s=float(((window_end_s if cut_s is None else cut_s) if end_s >= window_end_s else end_s) if truncated
                     else to_s(res["end"])),
         n_bits_expected=int(res["n_full"]), blf_drift=float(res["drift"]),
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
         phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, **_reply_fields(kind, bits, truncated))
+
+
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
+    """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
+    n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None."""
+    best, n_tests = None, 0
+    for band in _bands(hyps):
+        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        rd = boxcar_decimate(r, d) if d > 1 else r
+        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        n_tests += nt
+        if cand is not None and (best is None or cand[0] > best[0][0]):
+            best = (cand, rd, d)
+    return best, n_tests
+
+
+def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
+    """Lags :func:`_search` tests for ``hyp`` on a working-rate window of ``r_size`` samples
+    (the kernel's skip rules), without searching."""
+    step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+    lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
+    n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+    n = np.floor(_n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
+    last = np.minimum(hi, r_size - n_rep)
+    ok = (2.0 * blfs * MIN_SAMPLES_PER_ELEMENT <= fs) & (last >= lo) & (n >= 3)
+    return int(np.sum((last - lo + 1)[ok]))
+
+
+def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability):
+    """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
+
+    With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
+    ±2 coarse steps of the hint are searched first, at the working rate of the full search;
+    their best is kept if it does not lie at an inner edge of the narrow range (a tag with
+    another BLF) and clears the threshold of the narrow and the full search's tests together
+    (the full search's lags counted, not searched), otherwise the full range is searched,
+    with the same threshold: the union bound of the detection rule then covers both
+    searches, so the false-alarm probability per window stays as stated."""
+    if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
+        hyp = hyps[0]
+        span = 2.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        lo_n, hi_n = max(hyp.blf_lo_hz, blf_hint_hz * (1 - span)), min(hyp.blf_hi_hz, blf_hint_hz * (1 + span))
+        n_full, n_narrow, narrow = 0, 0, None
+        for band in _bands(hyps):
+            b = band[0]
+            d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
+            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+            n_full += _n_lags(r.size // d, fs / d, b, lags.lo, lags.hi)
+            a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
+            if a < z:
+                rd = boxcar_decimate(r, d) if d > 1 else r
+                cand, nt = _search(rd, fs / d, [LinkHypothesis(hyp.m, hyp.trext, a, z)], lags.lo, lags.hi)
+                n_narrow += nt
+                if cand is not None and (narrow is None or cand[0] > narrow[0][0]):
+                    narrow = (cand, rd, d)
+        if narrow is not None:
+            blf = narrow[0][1]
+            inner_edge = (blf <= lo_n and lo_n > hyp.blf_lo_hz) or (blf >= hi_n and hi_n < hyp.blf_hi_hz)
+            if not inner_edge and narrow[0][0] >= preamble_threshold(narrow[0][5], n_full + n_narrow,
+                                                                     false_alarm_probability):
+                return narrow
+    else:
+        n_narrow = 0
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt)
+    n_tests += n_narrow
+    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+        return None
+    return best
 
 
 def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance):
@@ -645,7 +878,9 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     method, false_alarm_probability : see :func:`decode_tag_reply`
     max_blind_misses : a blind search (no Query, no link given) costs about a second per
         window; after this many blind windows without a reply the remaining windows that would
-        need one are not searched (give the link, or a capture with a Query, to search them)
+        need one are not searched (give the link, or a capture with a Query, to search them).
+        Once a reply has told the link (M, TRext, BLF), later windows are searched with it
+        first (BLF ± 10 %), and blind only when that finds no reply (a tag with another link)
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
@@ -674,25 +909,34 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
         kind = REPLY_KIND.get(rec.name)
         if kind is None or not rec.fields or math.isnan(rec.end_s):
             continue
-        hyps, frt = _hypotheses(query, learned, blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext,
-                                blf_tolerance=blf_tolerance)
+        link = dict(blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext, blf_tolerance=blf_tolerance)
+        hyps, frt = _hypotheses(query, None, **link)
         blind = len(hyps) > 1 and hyps[0].blf_lo_hz == BLIND_BLF_RANGE_HZ[0]
-        if blind and blind_misses >= max_blind_misses:
-            continue
+        # an earlier reply told the link: it is tried first, the blind search only when it
+        # finds no reply (a tag with another link)
+        tries = ([_hypotheses(query, learned, **link)] if blind and learned is not None else []) + [(hyps, frt)]
         tari = rec.tari_s if not math.isnan(rec.tari_s) else 0.0
         cut_s = records[k + 1].start_s if k + 1 < len(records) else n / fs
-        found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
-                                 window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
-                                 cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt, hypotheses=hyps, kind=kind,
-                                 n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec), cut_s=cut_s,
-                                 method=method,
-                                 false_alarm_probability=false_alarm_probability)
+        found = None
+        for hyps_k, frt_k in tries:
+            searching_blind = blind and hyps_k is hyps
+            if searching_blind and blind_misses >= max_blind_misses:
+                break
+            found = decode_tag_reply(samples, fs, listen_s=rec.end_s + 0.5 * tari,
+                                     window_end_s=cut_s - (0.5 * tari if k + 1 < len(records) else 0.0),
+                                     cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt_k, hypotheses=hyps_k,
+                                     kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
+                                     cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
+                                     command_index=k, command=rec.name,
+                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None)
+            if found is not None:
+                break
+            if searching_blind:
+                blind_misses += 1
         if found is not None:
-            out.append(dataclasses.replace(found, command_index=k, command=rec.name))
+            out.append(found)
             if query is None and blf_hz is None:
                 learned = (found.m, found.trext, found.blf_hz)
-        elif blind:
-            blind_misses += 1
     return out
 
 

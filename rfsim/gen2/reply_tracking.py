@@ -30,7 +30,7 @@ _ck = lazy_import("rfsim.gen2._capture_kernels")
 #: Elements per timing block of the tracking loop.
 TRACK_BLOCK_ELEMENTS = 24
 #: Growing spans of the reply (fractions from its start) the tracking loop fits in turn.
-TRACK_SPANS = (0.25, 0.5, 1.0, 1.0)
+TRACK_SPANS = (0.25, 0.5, 1.0)
 #: Fewest timing blocks for a drift (quadratic) fit; shorter replies get start and BLF only.
 MIN_DRIFT_BLOCKS = 8
 #: Points per sample interval at which the tracking reference is averaged.
@@ -86,7 +86,8 @@ def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub, n_blo
 
 
 def _block_offsets(y, start, u1, u2, el, n_blocks, base, n_blocks_used=None):
-    """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight), δ_b
+    """Per block: (centre offset t_b [samples], timing offset δ_b [samples], weight, block
+    index), δ_b
     searched within ±1/2 element of ``base[b]``; blocks whose peak lies at the edge of that
     range are left out (only the first ``n_blocks_used`` blocks are searched)."""
     step = 1.0 / (16.0 * u1)  # 1/16 element in samples
@@ -104,7 +105,7 @@ def _block_offsets(y, start, u1, u2, el, n_blocks, base, n_blocks_used=None):
     left, right = corr[j - 1, cols], corr[j + 1, cols]
     slope = np.maximum(mid - left, mid - right)
     frac = np.where(slope > 0, 0.5 * (right - left) / np.where(slope > 0, slope, 1.0), 0.0)
-    return np.column_stack([centres[cols], base[cols] + shifts[j] + frac * step, mid])
+    return np.column_stack([centres[cols], base[cols] + shifts[j] + frac * step, mid, cols])
 
 
 def weighted_polyfit(t, d, w, deg):
@@ -141,8 +142,9 @@ def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
 def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
     reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
-    spans from the reply start (the first quarter, half, all), each span's offsets searched
-    around the extrapolation of the previous span's fit, so a BLF error or drift whose
+    spans from the reply start (the first quarter, half, all), each span's new offsets
+    searched around the extrapolation of the previous span's fit (the leading blocks whose
+    centres lay inside an earlier span keep the offsets measured then), so a BLF error or drift whose
     timing error grows past half an element towards the reply's end is still followed."""
     el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
     n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
@@ -152,15 +154,23 @@ def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     # cannot have its centre inside it and is not searched
     block_starts = warp_positions(np.arange(n_blocks) * (el.size / n_blocks), u1, u2, 1.0)
     coef = np.zeros(3)  # δ(t) = coef[0]·t² + coef[1]·t + coef[2]
+    kept = np.zeros((0, 4))  # rows of _block_offsets of the blocks measured inside an earlier span
+    done = 0  # they are the blocks b < done: the leading blocks with centres inside it
+    sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
+    _, block_centres = _block_correlations(y, start, u1, u2, el, n_blocks, np.zeros(n_blocks), np.zeros(1), sub, 0)
     for frac in TRACK_SPANS:
         limit = frac * el.size / u1
         base = np.polyval(coef, centres)
-        blocks = _block_offsets(y, start, u1, u2, el, n_blocks, base,
-                                int(np.count_nonzero(block_starts <= limit)) + 1)
+        n_used = min(n_blocks, int(np.count_nonzero(block_starts <= limit)) + 1)
+        new = _block_offsets(y, start, u1, u2, el, n_blocks, base, n_used)
+        blocks = np.vstack([kept, new[new[:, 3] >= done]])
         blocks = blocks[blocks[:, 0] <= limit]
+        outside = np.flatnonzero(block_centres[:n_used] > limit)
+        done = max(done, int(outside[0]) if outside.size else n_used)
+        kept = blocks[blocks[:, 3] < done]
         if blocks.shape[0] < 3:
             continue
-        tb, db, w = blocks.T
+        tb, db, w, _ = blocks.T
         w = np.maximum(w, 0.0)
         if blocks.shape[0] >= MIN_DRIFT_BLOCKS:
             coef = weighted_polyfit(tb, db, w, 2)

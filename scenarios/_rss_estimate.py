@@ -214,7 +214,9 @@ def _concat(parts) -> np.ndarray:
 def _shared_text(part: np.ndarray) -> np.ndarray:
     """A text part as an object array with one ``str`` object per distinct value."""
     if part.size and part.strides == (0,):   # a broadcast scalar (the usual case)
-        return np.full(part.size, str(part[0]), dtype=object)
+        shared = np.empty(part.size, dtype=object)
+        shared.fill(str(part[0]))   # one object in every row (np.full would copy it per row)
+        return shared
     values, index = np.unique(part, return_inverse=True)
     return np.array([str(v) for v in values], dtype=object)[index.reshape(-1)]
 

@@ -207,6 +207,13 @@ def _array_attrs(col: Column, name: str) -> dict[str, Any]:
     return attrs
 
 
+def is_text(data: np.ndarray) -> bool:
+    """Whether ``data`` is a text column: fixed-width ``str`` (``U``) or an object array of
+    ``str`` (which a column of few distinct values can use to hold one shared object per
+    value instead of a copy per row)."""
+    return data.dtype.kind in "OU"
+
+
 def stored_values(data: np.ndarray) -> np.ndarray:
     """``data`` as it is written to HDF5 (booleans as uint8, text as UTF-8 objects)."""
     if data.dtype == bool:
@@ -217,16 +224,25 @@ def stored_values(data: np.ndarray) -> np.ndarray:
 
 
 def _h5_dtype(data: np.ndarray) -> Any:
-    if data.dtype.kind == "U":
+    if is_text(data):
         return h5py.string_dtype("utf-8")
     return stored_values(data[:0]).dtype
 
 
+#: Rows of a text column converted to Python strings at a time when it is written (the
+#: conversion costs ~100 bytes a row; written whole, a long column's copy would be the peak).
+TEXT_SLICE_ROWS = 1 << 16
+
+
 def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
-    data = stored_values(col.data)
-    if col.data.dtype.kind == "U":
-        ds = group.create_dataset(name, data=data, dtype=_h5_dtype(col.data))
+    if is_text(col.data):
+        ds = group.create_dataset(name, shape=col.data.shape, dtype=_h5_dtype(col.data))
+        if col.data.ndim != 1:   # text over a grid: rare and small, written whole
+            ds[...] = stored_values(col.data)
+        for start in range(0, len(col.data) if col.data.ndim == 1 else 0, TEXT_SLICE_ROWS):
+            ds[start:start + TEXT_SLICE_ROWS] = stored_values(col.data[start:start + TEXT_SLICE_ROWS])
     else:
+        data = stored_values(col.data)
         opts = {"compression": "gzip", "compression_opts": 4} if data.size >= 4096 else {}
         ds = group.create_dataset(name, data=data, **opts)
     for k, v in _array_attrs(col, name).items():
@@ -243,7 +259,7 @@ def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, .
     """
     size = int(np.prod(shape, dtype=np.int64))
     opts: dict[str, Any] = {}
-    if size >= 4096 and like.data.dtype.kind != "U":
+    if size >= 4096 and not is_text(like.data):
         opts = {"compression": "gzip", "compression_opts": 4, "shuffle": True, "chunks": True}
     ds = group.create_dataset(name, shape=shape, dtype=_h5_dtype(like.data), **opts)
     for k, v in _array_attrs(like, name).items():
@@ -453,6 +469,8 @@ __all__ = [
     "create_array",
     "create_row_scale",
     "stored_values",
+    "is_text",
+    "TEXT_SLICE_ROWS",
     "write_root_attrs",
     "write_provenance",
     "write_group_descriptions",

@@ -84,10 +84,16 @@ def _release_free_memory() -> None:
 
 def _announce_compilation() -> None:
     """Say so up front when no kernel is cached yet (the pool workers compile silently)."""
-    from rfsim._jit import first_compilation
-    from rfsim.lazy import load_declared
+    import importlib
 
-    load_declared()  # the kernel modules declare their kernels when loaded
+    from rfsim._jit import first_compilation
+    from rfsim.lazy import DECLARED
+
+    # the kernel modules declare their kernels when loaded; the libraries declared lazily
+    # beside them (scipy.signal, h5py, ...: ~70 MB resident) load only if the run uses them
+    for name in dict.fromkeys(DECLARED):
+        if name.rsplit(".", 1)[-1].endswith("_kernels"):
+            importlib.import_module(name)
     rep = current()
     if rep is not None and first_compilation():
         rep.compile_started()

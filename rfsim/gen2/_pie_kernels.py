@@ -153,30 +153,6 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
             ne += 1
             state = new
     return ne
-    prev = env_value(x, 0)
-    for i in range(1, n):
-        v = env_value(x, i)
-        new = state
-        if state == 0 and v > hi:
-            new = 1
-        elif state == 1 and v < lo:
-            new = 0
-        if new != state:
-            a = prev
-            d = v - a
-            frac = 0.5
-            if d != 0.0:
-                frac = (threshold - a) / d
-            if frac < 0.0:
-                frac = 0.0
-            elif frac > 1.0:
-                frac = 1.0
-            edge_pos[ne] = (i - 1) + frac
-            edge_dir[ne] = new
-            ne += 1
-            state = new
-        prev = v
-    return ne
 
 
 @njit

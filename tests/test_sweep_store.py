@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import rfsim.bench.sweep_scale as toy
-from rfsim.dataset import Dataset, column, read_dataset
+from rfsim.dataset import Column, Dataset, column, read_dataset
 from rfsim.sweep import PoolExecutor, SerialExecutor, StoreIndex, parse_spec, points_dir, run_sweep
 from rfsim.sweep.store import INDEX_DTYPE, RecordReader, SegmentWriter, decode_dataset, encode_dataset, read_index
 from test_sweep_run import assert_identical
@@ -43,6 +43,23 @@ def test_encode_decode_round_trip_is_exact():
     assert back.grids["g"][1]["p"].dims == ("f",)
     assert back.attrs == {"a": 1.5, "b": 7, "c": "text", "d": np.float32(2.5)}
     assert type(back.attrs["d"]) is np.float32
+
+
+def test_a_text_column_of_shared_str_objects_is_stored_as_fixed_width_text():
+    """rss-localization holds its text columns as object arrays of str (one shared object per
+    value); the store keeps them as U text, equal element by element; other objects are refused."""
+    labels = np.empty(5, dtype=object)
+    labels[:3] = "nn"
+    labels[3:] = "grid-map"
+    ds = Dataset(title="t", scenario="s")
+    ds.add_table("t", {"estimator": Column(labels, "", "label")})
+    desc, buffers = encode_dataset(ds)
+    got = decode_dataset(desc, b"".join(buffers)).tables["t"]["estimator"].data
+    assert got.dtype.kind == "U" and got.tolist() == ["nn", "nn", "nn", "grid-map", "grid-map"]
+    bad = Dataset(title="t", scenario="s")
+    bad.add_table("t", {"x": Column(np.array([1, "a"], dtype=object), "", "mixed")})
+    with pytest.raises(TypeError, match="'x'"):
+        encode_dataset(bad)
 
 
 def test_a_torn_last_record_is_ignored(tmp_path):

@@ -115,6 +115,16 @@ def _array_meta(arr: np.ndarray, offset: int) -> dict[str, Any]:
             "sha1": hashlib.sha1(arr.tobytes()).hexdigest()}
 
 
+def _fixed_width_text(name: str, data: np.ndarray) -> np.ndarray:
+    """A text column held as an object array of ``str`` (one shared object per distinct value,
+    :func:`rfsim.dataset.is_text`) as fixed-width ``U``: the store keeps raw array bytes only."""
+    if data.dtype.kind != "O":
+        return data
+    if not all(isinstance(v, str) for v in set(data.ravel().tolist())):
+        raise TypeError(f"column {name!r}: object arrays cannot be stored unless every element is a str")
+    return data.astype(str)
+
+
 def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
     """JSON-able description of ``ds`` and the raw bytes of its arrays, in order."""
     buffers: list[bytes] = []
@@ -130,7 +140,7 @@ def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
 
     def col(name: str, c: Column) -> dict[str, Any]:
         return {"name": name, "units": c.units, "description": c.description, "dims": list(c.dims),
-                "array": add(c.data)}
+                "array": add(_fixed_width_text(name, c.data))}
 
     desc = {
         "title": ds.title, "scenario": ds.scenario, "descriptions": dict(ds.descriptions),

@@ -42,7 +42,6 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d
 
 from channels import Antenna, HalfWaveDipole, Isotropic, Patch, Scene
 from channels.bulk import draw_links
@@ -52,6 +51,7 @@ from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.engine import singulate
 from rfsim.errors import ConfigError
+from rfsim.lazy import lazy_import
 from rfsim.estimators.phase_tracking import (continuous_model, discrete_model, initial_state, rssi_fix,
                                              track_phase, unwrap_limit_mps, unwrap_pseudoranges)
 from rfsim.gen2.commands import Query
@@ -60,6 +60,8 @@ from rfsim.progress import stage
 from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, epc_hex, long_table, report_columns
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
+
+_ndimage = lazy_import("scipy.ndimage")
 
 NAME = "phase-tracking"
 DESCRIPTION = ("Särkkä's 890 MHz phase tracking: 4 corner antennas read a moving tag at sample level; "
@@ -172,7 +174,7 @@ class TagMotion:
     def __init__(self, tr: TrajectoryConfig, *, rng: np.random.Generator):
         self.tr = tr
         self.t_grid = np.arange(0.0, tr.duration_s + 2.0, self.GRID_S)
-        jit = gaussian_filter1d(rng.standard_normal((self.t_grid.size, 2)), tr.jitter_time_s / self.GRID_S,
+        jit = _ndimage.gaussian_filter1d(rng.standard_normal((self.t_grid.size, 2)), tr.jitter_time_s / self.GRID_S,
                                 axis=0, mode="wrap")
         rms = math.sqrt(np.mean(np.sum(jit ** 2, axis=1)))
         self.jitter = jit * (tr.jitter_rms_m / rms) if tr.jitter_rms_m > 0 else np.zeros_like(jit)

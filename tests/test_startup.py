@@ -43,11 +43,12 @@ def test_help_and_list_import_no_physics(argv):
 @pytest.mark.parametrize("name", sorted(scenario_descriptions()))
 def test_config_runs_no_kernel_module_nor_heavy_library(name):
     """``rfsim config NAME`` loads no numba (so no kernel module ran: each imports numba),
-    no scipy.signal / scipy.stats / scipy.optimize, no h5py and no matplotlib."""
+    no scipy.signal / scipy.stats / scipy.optimize / scipy.ndimage, no h5py and no matplotlib."""
     mods = _imported_after(["config", name])
     assert f"scenarios.{name.replace('-', '_')}" in mods  # the command did resolve the scenario
     heavy = [m for m in mods if m.split(".")[0] in ("numba", "llvmlite", "h5py", "matplotlib")
-             or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize")) or m.endswith("_kernels")]
+             or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize", "scipy.ndimage"))
+             or m.endswith("_kernels")]
     assert heavy == []
 
 

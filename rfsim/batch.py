@@ -11,10 +11,9 @@ sample-level exchange of :func:`rfsim.engine.run_exchange`:
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
    (as the single run draws them, in the same order) and the tags' reactions — the air step
    :func:`rfsim.air.propagate` without receiver noise;
-2. the receiver noise of the trials at once (in blocks of :data:`BLOCK` trials, which
-   bounds the memory): one ``(B, 2, n)`` array, row b filled from ``rngs[b]`` with the
-   numbers the single run draws there (real part then imaginary part, after the trial's link
-   draws), scaled by √(N/2) in one pass and added to the ``(B, n)`` reader inputs in one pass;
+2. the receiver noise of each trial of the block (blocks of :data:`BLOCK` trials bound the
+   memory), drawn from ``rngs[b]`` by :func:`rfsim.noise.add_awgn` with the numbers the single
+   run draws there (real part then imaginary part, after the trial's link draws);
 3. the reader's reads of the trials with a reply (:meth:`devices.reader.Reader.receive`);
 4. the records (:class:`rfsim.engine.Exchange`), as the single run forms them.
 
@@ -39,13 +38,13 @@ A reader keeps no state between the trials of a batch when its ``blf_search`` is
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from rfsim.air import Segment
 from rfsim.engine import Exchange, _prepare, _air_step, _record, _transmit, _truth
+from rfsim.noise import add_awgn
 
 
 def _per_trial(value, n: int, name: str) -> list:
@@ -100,25 +99,21 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                             reply_bits=reply_bits, expect_crc=expect_crc, motions=motions, round_index=rounds[b],
                             draw_channel=draw_channel, propagation=propagation, link_cache=caches[b], tx=tx)
             noise_w = prep.port.noise_power_w
-            prep.port.noise_power_w = 0.0  # the noise of the block is added below, in one pass
+            prep.port.noise_power_w = 0.0  # the noise is added below, after the block's air steps
             air = _air_step(prep, rng=None)
             prep.port.noise_power_w = noise_w
             preps.append(prep)
             truths.append(_truth(air, prep.members))
             inputs.append(air.inputs[0])
-        # 2. the receiver noise of the block's trials of one segment length in one pass
-        noisy = [None] * len(preps)
-        by_length: dict = {}
-        for k, seg in enumerate(inputs):
-            by_length.setdefault(seg.n_samples, []).append(k)
-        for n_samples, rows in by_length.items():
-            y = np.empty((len(rows), n_samples), dtype=np.complex128)
-            for i, k in enumerate(rows):
-                y[i] = inputs[k].samples
-            _add_noise(y, [rngs[k0 + k] for k in rows], [preps[k].port.noise_power_w for k in rows])
-            for i, k in enumerate(rows):
-                seg = inputs[k]
-                noisy[k] = Segment(seg.t0_s, seg.fs_hz, seg.fc_hz, y[i])
+        # 2. the receiver noise of each trial, from its own generator
+        noisy = []
+        for k, (prep, seg) in enumerate(zip(preps, inputs)):
+            y = np.array(seg.samples, dtype=np.complex128)
+            if prep.port.noise_power_w > 0:
+                if rngs[k0 + k] is None:
+                    raise ValueError("a generator per trial is needed when the receiver has noise")
+                add_awgn(y, prep.port.noise_power_w, rngs[k0 + k])
+            noisy.append(Segment(seg.t0_s, seg.fs_hz, seg.fc_hz, y))
         # 3.–4. the reads of the trials with a reply, the records
         for k, prep in enumerate(preps):
             read = prep.port.receive(noisy[k]) if truths[k][0] else None
@@ -126,36 +121,9 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     return out
 
 
-#: Trials run together: their air steps, then their noise in one array, then their reads
+#: Trials run together: their air steps, then their noise, then their reads
 #: (bounds the memory of a large batch: a few segments per trial of the block).
 BLOCK = 64
-
-
-def _add_noise(y: np.ndarray, rngs: Sequence[np.random.Generator], noise_w: Sequence[float]) -> None:
-    """Complex white noise √(N_b/2)·(a + j·b) added to row b of ``y`` (B, n) in place: a then
-    b (n each) drawn from ``rngs[b]``, as :func:`rfsim.air.propagate` draws a receiver's noise."""
-    ab = np.empty((y.shape[0], 2, y.shape[1]))
-    noisy = []
-    for k, (rng, p) in enumerate(zip(rngs, noise_w)):
-        if p > 0:
-            if rng is None:
-                raise ValueError("a generator per trial is needed when the receiver has noise")
-            rng.standard_normal(out=ab[k])
-            noisy.append(k)
-    if not noisy:
-        return
-    scale = np.array([math.sqrt(p / 2.0) if p > 0 else 0.0 for p in noise_w])
-    if np.all(scale == scale[0]):
-        ab *= scale[0]
-    else:
-        ab *= scale[:, None, None]
-    if len(noisy) < y.shape[0]:
-        for k in noisy:
-            y[k].real += ab[k, 0]
-            y[k].imag += ab[k, 1]
-        return
-    y.real += ab[:, 0]
-    y.imag += ab[:, 1]
 
 
 def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Sequence[np.random.Generator],

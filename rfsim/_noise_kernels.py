@@ -5,6 +5,12 @@ bit generator (PCG64 here), so the kernel draws the same numbers, in the same or
 ``rng.standard_normal(out=ab)`` and advances the same generator state — about 3× faster, as
 it avoids NumPy's per-draw call through the bit generator's interface. The plain-NumPy
 reference is :func:`rfsim.noise.add_awgn_reference`; the tests compare the two bit for bit.
+
+:func:`add_awgn_compiled` calls the kernel's compiled entry point for the one argument kind
+the wrapper passes (a Generator, a writeable aligned C-contiguous complex128 (n,) array, a
+fresh float64 (2, n) array, a float): the dispatcher would otherwise type the Generator
+argument anew on every call (``numba.typeof`` of a Generator costs more than drawing a few
+thousand numbers).
 """
 
 from __future__ import annotations
@@ -29,3 +35,22 @@ def add_awgn_kernel(rng, y, ab, scale):
         ab[1, i] = b
         v = y[i]
         y[i] = complex(v.real + a, v.imag + b)
+
+
+_ENTRY: list = []  # the compiled entry point of add_awgn_kernel for the wrapper's argument kind
+
+
+def add_awgn_compiled(rng, y, ab, scale: float) -> None:
+    """:func:`add_awgn_kernel` for the argument kind of :func:`rfsim.noise.add_awgn` (module
+    docstring; the caller guarantees it): the first call goes through the dispatcher
+    (compilation or cache load) and keeps the compiled entry point, later calls use it."""
+    if _ENTRY:
+        _ENTRY[0](rng, y, ab, scale)
+        return
+    add_awgn_kernel(rng, y, ab, scale)
+    from numba import typeof
+
+    sig = tuple(typeof(a) for a in (rng, y, ab, scale))
+    cres = add_awgn_kernel.overloads.get(sig)
+    if cres is not None:
+        _ENTRY.append(cres.entry_point)

@@ -57,13 +57,14 @@ def add_awgn_reference(y: np.ndarray, noise_w: float, rng: np.random.Generator) 
 
 def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator) -> np.ndarray:
     """:func:`add_awgn_reference` through a numba kernel (:mod:`rfsim._noise_kernels`) when
-    ``y`` is a C-contiguous complex128 array and ``rng`` a PCG64 generator; the same draws,
-    the same sums, the same generator state afterwards."""
+    ``y`` is a writeable, aligned, C-contiguous complex128 array and ``rng`` a PCG64 generator;
+    the same draws, the same sums, the same generator state afterwards."""
     if not (isinstance(y, np.ndarray) and y.dtype == np.complex128 and y.flags.c_contiguous
+            and y.flags.writeable and y.flags.aligned
             and type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64):
         return add_awgn_reference(y, noise_w, rng)
     ab = np.empty((2,) + y.shape)
-    _k.add_awgn_kernel(rng, y.reshape(-1), ab.reshape(2, -1), math.sqrt(noise_w / 2.0))
+    _k.add_awgn_compiled(rng, y.reshape(-1), ab.reshape(2, -1), math.sqrt(noise_w / 2.0))
     return ab
 
 

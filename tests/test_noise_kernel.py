@@ -39,3 +39,25 @@ def test_fallback_for_non_contiguous_input():
     add_awgn_reference(y_ref, 1e-12, np.random.default_rng(2))
     add_awgn(y_k, 1e-12, np.random.default_rng(2))
     assert np.array_equal(y_k, y_ref)
+
+
+def test_compiled_entry_point_equals_reference_call_after_call():
+    # from the second call on the kernel's compiled entry point is called directly (no
+    # dispatch): still the reference's draws, for new generators and lengths each time
+    from rfsim import _noise_kernels
+
+    for k, n in enumerate((5, 5, 12, 1, 300)):
+        y0 = np.full(n, 0.25 - 0.5j)
+        y_ref, y_k = y0.copy(), y0.copy()
+        g_ref, g_k = np.random.default_rng(100 + k), np.random.default_rng(100 + k)
+        assert np.array_equal(add_awgn(y_k, 1e-9, g_k), add_awgn_reference(y_ref, 1e-9, g_ref))
+        assert np.array_equal(y_k.view(np.float64), y_ref.view(np.float64))
+        assert g_k.bit_generator.state == g_ref.bit_generator.state
+    assert _noise_kernels._ENTRY  # the entry point was found and kept
+
+
+def test_read_only_input_takes_the_reference_path():
+    y = np.zeros(4, dtype=np.complex128)
+    y.setflags(write=False)
+    with pytest.raises(ValueError):  # NumPy refuses to add into a read-only array
+        add_awgn(y, 1e-12, np.random.default_rng(0))

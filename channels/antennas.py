@@ -371,14 +371,26 @@ class Antenna:
         object.__setattr__(self, "pol_tilt_rad", float(self.pol_tilt_rad))
 
     def _key(self):
-        return (tuple(self.position_m), self.orientation, self.pattern, self.polarization,
-                self.pol_tilt_rad if self.polarization == "linear" else self.handedness)
+        # the instance is immutable: its key (and its hash) are formed once; the hash is not
+        # pickled with it (str hashes differ from one process to the next)
+        d = self.__dict__
+        k = d.get("_key_memo")
+        if k is None:
+            k = d["_key_memo"] = (tuple(self.position_m), self.orientation, self.pattern, self.polarization,
+                                  self.pol_tilt_rad if self.polarization == "linear" else self.handedness)
+        return k
 
     def __eq__(self, other):
-        return isinstance(other, Antenna) and self._key() == other._key()
+        return self is other or (isinstance(other, Antenna) and self._key() == other._key())
 
     def __hash__(self):
-        return hash(self._key())
+        h = self.__dict__.get("_hash_memo")
+        if h is None:
+            h = self.__dict__["_hash_memo"] = hash(self._key())
+        return h
+
+    def __getstate__(self):
+        return {k: v for k, v in self.__dict__.items() if k != "_hash_memo"}
 
     @cached_property
     def rotation(self) -> np.ndarray:

@@ -94,6 +94,17 @@ class PathSet:
         object.__setattr__(self, "delay_s", _ro(d))
         object.__setattr__(self, "doppler_hz", _ro(f))
 
+    @classmethod
+    def _own(cls, gain: np.ndarray, delay_s: np.ndarray, doppler_hz: np.ndarray) -> "PathSet":
+        """A PathSet holding the given arrays themselves (made read-only), without the
+        constructor's copies and checks: for arrays its caller has just made, (n,) complex128,
+        float64 and float64, C-contiguous, finite (a channel's assembly of a link)."""
+        out = object.__new__(cls)
+        for name, a in (("gain", gain), ("delay_s", delay_s), ("doppler_hz", doppler_hz)):
+            a.setflags(write=False)
+            object.__setattr__(out, name, a)
+        return out
+
     @property
     def n_paths(self) -> int:
         """Number of paths."""

@@ -197,11 +197,8 @@ class Channel:
         a_los = g_ls * env * ant * plf
 
         # One PathSet of LoS, image paths, diffuse taps (as concatenate() of the parts would
-        # give, without validating every part on its own).
-        gains = [np.array([a_los], dtype=np.complex128)]
-        delays = [np.array([tau_los], dtype=np.float64)]
-        dops = [np.array([f_los], dtype=np.float64)]
-        diffuse = None
+        # give, the parts written into its arrays: finite by construction, not checked again).
+        h = rel = None
         if sc.apdp is not None:
             held = self._held.get(key) if rng is None else None
             if held is None:
@@ -212,17 +209,18 @@ class Channel:
                 held = (abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
                 self._held[key] = held
             los_amp, h, rel = held
-            gains[0] = np.array([a_los * los_amp], dtype=np.complex128)
-            diffuse = (g_ls * env * h, tau_los + rel, np.full(rel.shape, f_los))
-        if images is not None:
-            gains.append(images.gain)
-            delays.append(images.delay_s)
-            dops.append(images.doppler_hz)
-        if diffuse is not None:
-            gains.append(np.asarray(diffuse[0], dtype=np.complex128))
-            delays.append(np.asarray(diffuse[1], dtype=np.float64))
-            dops.append(diffuse[2])
-        return PathSet(np.concatenate(gains), np.concatenate(delays), np.concatenate(dops))
+            a_los = a_los * los_amp
+        n_img = 0 if images is None else images.gain.size
+        n = 1 + n_img + (0 if h is None else h.size)
+        gains, delays, dops = np.empty(n, np.complex128), np.empty(n), np.empty(n)
+        gains[0], delays[0], dops[0] = a_los, tau_los, f_los
+        if n_img:
+            gains[1:1 + n_img], delays[1:1 + n_img], dops[1:1 + n_img] = images.gain, images.delay_s, images.doppler_hz
+        if h is not None:
+            gains[1 + n_img:] = g_ls * env * h
+            delays[1 + n_img:] = tau_los + rel
+            dops[1 + n_img:] = f_los
+        return PathSet._own(gains, delays, dops)
 
     def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse

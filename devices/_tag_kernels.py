@@ -30,3 +30,57 @@ def cw_power_kernel(env, threshold, select, buf):
     if n == 0:
         return math.nan
     return np.median(buf[:n])
+
+
+@njit
+def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
+    """Index of the CW sample the median of ``env²`` lands on (over the samples with ``env ≥
+    threshold``, all if not ``select``; ties in sample order, as a stable sort) when the
+    2·``margin`` + 1 samples around it in that order are all ±x at that index; −1 when they
+    are not (or too few samples are selected), −2 when a NaN is among them (the caller then
+    asks :func:`devices.tag.plateau_reference`). ``buf``/``idx``: scratch of ``env.size``
+    (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1.
+
+    The median value v is found by selection (``np.partition``); with c_< samples below it,
+    stable order puts the samples equal to v at positions c_< …, in sample order: position p
+    is the (p − c_<)-th of them."""
+    m = 0
+    for i in range(env.size):
+        v = env[i]
+        if (not select) or v >= threshold:
+            buf[m] = v * v
+            idx[m] = i
+            m += 1
+    if m <= 2 * margin:
+        return -1
+    for k in range(m):
+        if math.isnan(buf[k]):
+            return -2
+    mid = (m - 1) // 2
+    med = np.partition(buf[:m], mid)[mid]
+    n_less = 0
+    for k in range(m):
+        if buf[k] < med:
+            n_less += 1
+    start = mid - margin - n_less  # rank, among the samples equal to med, of the window's first
+    if start < 0:
+        return -1
+    width = 2 * margin + 1
+    r = 0
+    w = 0
+    for k in range(m):
+        if buf[k] == med:
+            if r >= start:
+                win[w] = idx[k]
+                w += 1
+                if w == width:
+                    break
+            r += 1
+    if w < width:
+        return -1
+    xm = x[win[margin]]
+    for q in range(width):
+        v = x[win[q]]
+        if not (v == xm or v == -xm):
+            return -1
+    return win[margin]

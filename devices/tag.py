@@ -380,22 +380,10 @@ class SharedFrontEnd:
         self.x, self.fs_hz = x, float(fs_hz)
         self.env = np.abs(x)
         self.levels = two_level_threshold(self.env)
-        thr, lo, hi = self.levels
-        sel = np.flatnonzero(self.env >= thr) if (hi > 0 and hi - lo >= _MIN_MODULATION * hi) \
-            else np.arange(self.env.size)
-        self.plateau = None
-        if sel.size > 2 * _PLATEAU_MARGIN:
-            e2 = self.env[sel] ** 2
-            order = np.argsort(e2, kind="stable")
-            mid = (sel.size - 1) // 2
-            lo_i, hi_i = mid - _PLATEAU_MARGIN, mid + 1 + _PLATEAU_MARGIN
-            if lo_i >= 0 and hi_i <= sel.size:
-                idx = sel[order[lo_i:hi_i]]
-                xm = x[idx[_PLATEAU_MARGIN]]
-                if np.all((x[idx] == xm) | (x[idx] == -xm)):
-                    self.plateau = int(idx[_PLATEAU_MARGIN])
-                    self._xm = x[self.plateau:self.plateau + 1]
-                    self.cw_sample = complex(self._xm[0])
+        self.plateau = _plateau(x, self.env, self.levels)
+        if self.plateau is not None:
+            self._xm = x[self.plateau:self.plateau + 1]
+            self.cw_sample = complex(self._xm[0])
         self._commands: dict = {}
 
     def power_w(self, gain: complex) -> float:
@@ -415,13 +403,49 @@ class SharedFrontEnd:
         return hit
 
 
+def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
+    """:attr:`SharedFrontEnd.plateau` of the samples ``x`` ((n,) complex128), their envelope
+    ``env`` = |x| and its ``two_level_threshold`` (numba kernel; :func:`plateau_reference` is its
+    plain-NumPy twin, and answers where a NaN is among the CW samples)."""
+    thr, lo, hi = levels
+    x = np.ascontiguousarray(x, dtype=np.complex128)
+    env = np.ascontiguousarray(env, dtype=np.float64)
+    n = env.size
+    p = int(_k.plateau_kernel(x, env, float(thr), bool(hi > 0 and hi - lo >= _MIN_MODULATION * hi),
+                              _PLATEAU_MARGIN, np.empty(n), np.empty(n, np.int64),
+                              np.empty(2 * _PLATEAU_MARGIN + 1, np.int64)))
+    if p == -2:
+        return plateau_reference(x, env, levels)
+    return None if p < 0 else p
+
+
+def plateau_reference(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
+    """Plain-NumPy twin of the plateau kernel: a stable sort of env² over the CW samples (as
+    :func:`_cw_power_w` selects them), its 2·:data:`_PLATEAU_MARGIN` + 1 middle positions, and
+    whether their samples are ± the sample at the median position (its index, else None)."""
+    thr, lo, hi = levels
+    sel = np.flatnonzero(env >= thr) if (hi > 0 and hi - lo >= _MIN_MODULATION * hi) else np.arange(env.size)
+    if sel.size <= 2 * _PLATEAU_MARGIN:
+        return None
+    e2 = env[sel] ** 2
+    order = np.argsort(e2, kind="stable")
+    mid = (sel.size - 1) // 2
+    idx = sel[order[mid - _PLATEAU_MARGIN:mid + 1 + _PLATEAU_MARGIN]]
+    xm = x[idx[_PLATEAU_MARGIN]]
+    if np.all((x[idx] == xm) | (x[idx] == -xm)):
+        return int(idx[_PLATEAU_MARGIN])
+    return None
+
+
 def _dbm(p_w: float) -> float:
     """10·log10(P) + 30 [dBm] (−inf for 0 W), as :func:`rfsim.units.w_to_dbm` for a scalar."""
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
 #: :class:`SharedFrontEnd` of read-only segments by the identity of their samples
-#: (``PassiveTag.front_end_of``): its work is a pure function of the samples.
+#: (``PassiveTag.front_end_of``): its work is a pure function of the samples. The least
+#: recently used entry is dropped first (a reader's few Query segments stay while every ACK,
+#: with its own RN16, passes through).
 _FRONT_ENDS: dict = {}
 _FRONT_END_CACHE_SIZE = 32
 
@@ -554,6 +578,7 @@ class PassiveTag:
             hit = _FRONT_ENDS.get(key) if frozen else None
             if hit is not None and hit[0] is x:
                 fe = hit[1]
+                _FRONT_ENDS[key] = _FRONT_ENDS.pop(key)  # the most recently used last: dropped last
             else:
                 fe = SharedFrontEnd(x, fs_hz=base.fs_hz)
                 if frozen:

@@ -1,0 +1,78 @@
+"""The shared front end's CW plateau (devices.tag: which sample the CW median lands on, and
+whether the samples around it are ±one value) — the numba kernel against its NumPy twin."""
+
+import numpy as np
+import pytest
+
+from devices.tag import _MIN_MODULATION, _plateau, plateau_reference
+from rfsim.gen2.pie import two_level_threshold
+
+
+def _both(x):
+    env = np.abs(x)
+    levels = two_level_threshold(env)
+    return _plateau(x, env, levels), plateau_reference(x, env, levels)
+
+
+def _pie_like(rng, n, cw, *, flip=True, edge_noise=True):
+    """A CW of ±cw with low pulses (a PR-ASK-like segment) and optional odd edge samples."""
+    x = np.full(n, cw, dtype=np.complex128)
+    if flip:
+        x[rng.integers(0, n // 2):] *= -1
+    for start in rng.integers(0, n - 20, 6):
+        x[start:start + 10] *= 0.1
+        if edge_noise:
+            x[start - 1] *= 0.6 + 0.3j
+    return x
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_kernel_equals_reference_on_pie_like_segments(seed):
+    rng = np.random.default_rng(seed)
+    x = _pie_like(rng, int(rng.integers(40, 3000)), complex(*rng.normal(size=2)), flip=bool(seed % 2))
+    got, want = _both(x)
+    assert got == want
+    assert got is not None  # a clean CW: the median is on the plateau
+    assert x[got] == x[want]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_kernel_equals_reference_without_a_plateau(seed):
+    # Rayleigh-like magnitudes (no two equal) or a CW of a few distinct values around the median
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(17, 500))
+    if seed % 3 == 0:
+        x = rng.normal(size=n) + 1j * rng.normal(size=n)
+    elif seed % 3 == 1:
+        x = rng.choice(np.array([1.0, -1.0, 1.0j, 0.9]), size=n).astype(np.complex128)
+    else:  # equal magnitudes, but not ± one value (a phase rotation)
+        x = np.exp(1j * rng.uniform(0, 2 * np.pi, n))
+    got, want = _both(x)
+    assert got == want
+    if seed % 3 == 2:
+        assert got is None  # equal magnitudes are not enough
+
+
+def test_ties_at_the_window_edge():
+    # the median value's run is exactly 2·margin + 1 long, or one sample short, at various offsets
+    for run in (16, 17, 18):
+        for offset in range(-3, 4):
+            n = 101
+            x = np.linspace(1.0, 2.0, n).astype(np.complex128)  # distinct magnitudes
+            mid = (n - 1) // 2 + offset
+            x[mid - run // 2: mid - run // 2 + run] = 1.5
+            x[mid - run // 2: mid - run // 2 + run: 3] *= -1
+            got, want = _both(x)
+            assert got == want
+            if offset == 0:  # the run centred on the median: a plateau exactly when it spans the window
+                assert (got is not None) == (run >= 17)
+
+
+def test_too_few_samples_and_nan():
+    assert _both(np.ones(16, complex)) == (None, None)
+    assert _both(np.ones(17, complex)) == (8, 8)
+    x = np.ones(40, complex)
+    x[3] = np.nan  # unmodulated (the NaN makes the level split NaN): every sample counts
+    got, want = _both(x)
+    assert got == want
+    assert _MIN_MODULATION > 0

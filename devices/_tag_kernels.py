@@ -41,7 +41,8 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     asks :func:`devices.tag.plateau_reference`). ``buf``/``idx``: scratch of ``env.size``
     (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1.
 
-    The median value v is found by selection (``np.partition``); with c_< samples below it,
+    The median value v is found by counting (a candidate sample's value) or selection
+    (``np.partition``); with c_< samples below it,
     stable order puts the samples equal to v at positions c_< …, in sample order: position p
     is the (p − c_<)-th of them."""
     m = 0
@@ -57,11 +58,28 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
         if math.isnan(buf[k]):
             return -2
     mid = (m - 1) // 2
-    med = np.partition(buf[:m], mid)[mid]
+    # the median is usually the CW value of the first, middle or last selected sample: a
+    # candidate c is the median exactly when #(< c) ≤ mid < #(≤ c); otherwise select it
+    med = math.nan
     n_less = 0
-    for k in range(m):
-        if buf[k] < med:
-            n_less += 1
+    for c in (buf[0], buf[m - 1], buf[m // 2]):
+        n_less = 0
+        n_eq = 0
+        for k in range(m):
+            v = buf[k]
+            if v < c:
+                n_less += 1
+            elif v == c:
+                n_eq += 1
+        if n_less <= mid < n_less + n_eq:
+            med = c
+            break
+    if math.isnan(med):
+        med = np.partition(buf[:m], mid)[mid]
+        n_less = 0
+        for k in range(m):
+            if buf[k] < med:
+                n_less += 1
     start = mid - margin - n_less  # rank, among the samples equal to med, of the window's first
     if start < 0:
         return -1

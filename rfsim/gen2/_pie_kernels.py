@@ -312,9 +312,22 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
     input order, as numpy's ``x[mask].mean()``. Returns ``(threshold, low mean, high mean)``."""
     n = x.size
     thr = 0.5 * (lo + hi)
+    prev = thr
     m_lo = lo
     m_hi = hi
-    for _ in range(max_iter):
+    for it in range(max_iter):
+        if it > 0:
+            # the split changes only if a sample lies between the previous threshold and this
+            # one; if none does, the means would come out the same, and so would the threshold
+            # (the loop's own stop, new == thr, without the sums)
+            a, b = (prev, thr) if prev < thr else (thr, prev)
+            moved = False
+            for i in range(n):
+                if a <= x[i] < b:
+                    moved = True
+                    break
+            if not moved:
+                break
         nb = 0
         na = 0
         for i in range(n):
@@ -332,7 +345,7 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
         new = 0.5 * (m_lo + m_hi)
         if new == thr:
             break
-        thr = new
+        prev, thr = thr, new
     return thr, m_lo, m_hi
 
 

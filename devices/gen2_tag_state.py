@@ -422,13 +422,22 @@ class TagState:
                 self.state = "arbitrate"
                 return None
             self.state = "acknowledged"
-            return Reply("EPC", append_crc16(self.pc_epc_bits))
+            return self._epc_reply()
         if self.state in ("open", "secured"):
             if cmd.rn16 != self.handle:
                 self.state = "arbitrate"
                 return None
-            return Reply("EPC", append_crc16(self.pc_epc_bits))
+            return self._epc_reply()
         return None
+
+    def _epc_reply(self) -> Reply:
+        """The ACK reply PC + EPC + CRC-16 (an immutable record: made once for this EPC and
+        PC and given again while they stay the same)."""
+        key = (self.epc.tobytes(), self.pc)
+        memo = self.__dict__.get("_epc_reply_memo")
+        if memo is None or memo[0] != key:
+            memo = self.__dict__["_epc_reply_memo"] = (key, Reply("EPC", append_crc16(self.pc_epc_bits)))
+        return memo[1]
 
     def _req_rn(self, cmd: ReqRN, rng) -> Reply | None:
         if self.state == "acknowledged":

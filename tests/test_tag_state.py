@@ -510,3 +510,21 @@ def test_slot_draw_equals_generator_integers():
         for size in (5, 8):
             assert a.integers(0, 1 << 62, size=size).tolist() == b.integers(0, 1 << 62, size=size).tolist()
             assert a.integers(0, 1 << 16, size=size).tolist() == b.integers(0, 1 << 16, size=size).tolist()
+
+
+@pytest.mark.parametrize("pc, epc, crc", GOLDEN_REPLIES[:2])
+def test_epc_reply_kept_follows_the_epc(pc, epc, crc):
+    # the ACK reply is made once per EPC: a second round gives the golden frame again, and an
+    # EPC changed in place (or replaced) gives that EPC's own frame
+    rng = np.random.default_rng(4)
+    tag = _acknowledged_tag(rng, epc=epc)
+    tag.on_command(QueryRep(session=0), t_s=2e-3, rng=rng)  # A → B
+    r = tag.on_command(Query(q=0, session=0, target="B"), t_s=3e-3, rng=rng)
+    again = tag.on_command(ACK(rn16=_rn(r)), t_s=4e-3, rng=rng)
+    assert bits_to_hex(again.bits) == pc + epc + crc
+    tag.epc[:16] ^= 1  # first EPC word inverted
+    tag.on_command(QueryRep(session=0), t_s=5e-3, rng=rng)  # B → A
+    r = tag.on_command(Query(q=0, session=0, target="A"), t_s=6e-3, rng=rng)
+    changed = tag.on_command(ACK(rn16=_rn(r)), t_s=7e-3, rng=rng)
+    assert bits_to_hex(changed.bits[16:32]) == f"{int(epc[:4], 16) ^ 0xFFFF:04X}"
+    assert crc16_ok(changed.bits) and bits_to_hex(changed.bits[:-16]) != bits_to_hex(again.bits[:-16])

@@ -25,6 +25,7 @@ Bernstein's inequality |x(t − τ) − x(t)| ≤ 2πB·|τ|·max|x|, so its err
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,7 +140,7 @@ class PathSet:
         """No path has a Doppler shift (the narrowband link is then one constant)."""
         st = self.__dict__.get("_static")
         if st is None:
-            st = self.__dict__["_static"] = not bool(self.doppler_hz.any())
+            st = self.__dict__["_static"] = np.count_nonzero(self.doppler_hz) == 0
         return st
 
     def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
@@ -376,12 +377,13 @@ def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
     far below the Gen2 T1 tolerance, and leaves RSSI, phase and Doppler (exact carrier phase
     of every path) unchanged.
     """
+    # ufunc reductions (the sums and the minimum of np.sum / np.min, without their wrappers)
     p = np.abs(paths.gain) ** 2
-    total = float(np.sum(p))
+    total = float(np.add.reduce(p))
     if total == 0.0:
         return 0.0
-    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.min(paths.delay_s))
-    return float(np.sqrt(np.sum(p * rel**2) / total))
+    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.minimum.reduce(paths.delay_s))
+    return math.sqrt(float(np.add.reduce(p * rel**2)) / total)
 
 
 def propagation_method(paths: PathSet, bandwidth_hz: float, propagation: str = "auto") -> str:

@@ -96,6 +96,15 @@ class Reply:
 
     __hash__ = None
 
+    @classmethod
+    def _own(cls, kind: str, bits: np.ndarray) -> "Reply":
+        """A Reply holding ``bits`` itself: a read-only (n,) uint8 0/1 array its caller has just
+        made (not validated and copied again)."""
+        out = object.__new__(cls)
+        object.__setattr__(out, "kind", kind)
+        object.__setattr__(out, "bits", bits)
+        return out
+
 
 @dataclass(frozen=True)
 class FlagPersistence:
@@ -129,7 +138,19 @@ def pc_word(epc_bits) -> int:
 
 
 def _draw16(rng: np.random.Generator) -> int:
-    return int(rng.integers(0, 1 << 16))
+    """A 16-bit random number, ``rng.integers(0, 2**16)`` (:func:`slot_draw` with Q = 16)."""
+    return slot_draw(rng, 16)
+
+
+#: The 8 bits of every byte value, MSB first ((256, 8) uint8).
+_BYTE_BITS = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1)
+
+
+def _bits16(value: int) -> np.ndarray:
+    """``int_to_bits(value, 16)`` for 0 ≤ value < 2¹⁶ (by byte lookup), read-only."""
+    bits = _BYTE_BITS[[value >> 8, value & 0xFF]].reshape(16)
+    bits.setflags(write=False)
+    return bits
 
 
 def slot_draw(rng: np.random.Generator, q: int) -> int:
@@ -370,7 +391,7 @@ class TagState:
         if self.slot == 0:
             self.state = "reply"
             self.rn16 = _draw16(rng)
-            return Reply("RN16", int_to_bits(self.rn16, 16))
+            return Reply._own("RN16", _bits16(self.rn16))
         self.state = "arbitrate"
         return None
 

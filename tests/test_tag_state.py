@@ -492,15 +492,16 @@ def test_state_arrays_silent_steps_equal_on_command():
 
 def test_slot_draw_equals_generator_integers():
     # slot_draw reads the 32-bit word numpy's integers(0, 2**q) would use: on two generators
-    # with one seed, q = 0…15 interleaved with 16-bit and normal draws, the numbers and the
-    # generator states must stay equal (q = 0 draws nothing), for PCG64 and Philox.
+    # with one seed, q = 0…16 interleaved with 16-bit and normal draws, the numbers and the
+    # generator states must stay equal (q = 0 draws nothing), for PCG64 and Philox (q = 16 is
+    # the tag's RN16 and handle draw).
     from devices.gen2_tag_state import slot_draw
 
     for make in (np.random.PCG64, np.random.Philox):
         a, b = np.random.Generator(make(3)), np.random.Generator(make(3))
         picks = np.random.default_rng(4)
         for k in range(3000):
-            q = int(picks.integers(16))
+            q = int(picks.integers(17))
             assert slot_draw(b, q) == int(a.integers(0, 1 << q)), (make, k, q)
             if k % 5 == 0:
                 assert int(a.integers(0, 1 << 16)) == int(b.integers(0, 1 << 16))
@@ -528,3 +529,13 @@ def test_epc_reply_kept_follows_the_epc(pc, epc, crc):
     changed = tag.on_command(ACK(rn16=_rn(r)), t_s=7e-3, rng=rng)
     assert bits_to_hex(changed.bits[16:32]) == f"{int(epc[:4], 16) ^ 0xFFFF:04X}"
     assert crc16_ok(changed.bits) and bits_to_hex(changed.bits[:-16]) != bits_to_hex(again.bits[:-16])
+
+
+def test_rn16_bits_by_byte_lookup_equal_int_to_bits():
+    from devices.gen2_tag_state import _bits16
+    from rfsim.gen2.bits import int_to_bits
+
+    for v in (0, 1, 0x00FF, 0x0100, 0x8000, 0xA5C3, 0xFFFF):
+        b = _bits16(v)
+        assert b.dtype == np.uint8 and not b.flags.writeable
+        assert np.array_equal(b, int_to_bits(v, 16))

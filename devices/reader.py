@@ -64,7 +64,7 @@ from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
-from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
 from rfsim.records import ReportConfig
@@ -443,8 +443,7 @@ class Reader:
         """Samples fully inside the reply preamble (incl. pilot), as correlated by the detector
         (at ``blf_hz``, default the profile's nominal BLF)."""
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        pre, _, _ = preamble_levels(m=self.link.m, trext=self.link.trext)
-        return int(math.floor(pre.size * self.link.m * self.fs_hz / (2.0 * blf)))
+        return int(math.floor(self._preamble_elements() * self.fs_hz / (2.0 * blf)))
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -563,18 +562,19 @@ class Reader:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
         # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
         full = self._reference(det.bits, start, r.size, blf)
-        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m  # preamble elements
         # Outside its reply a tag rests in its absorbing state, which is the reply's −1
         # level: the backscatter DC steps by h at the reply's start and end. Only samples
         # whose two neighbours carry the same level (as in the measurements: the start is
         # known to a fraction of a sample, a sample at an element boundary could carry the
         # other level and bias c, which no later step removes).
-        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, pre_n_el))
-        det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
-                            method=self.config.decoder, start_sample=det.start_sample, gain=h)
-        bits = det2.bits.astype(np.uint8)
+        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, self._preamble_elements()))
+        # the reply's samples only (r − c elsewhere is not used): from the sample before its start
+        i0 = lo + int(math.floor(det.start_sample))
+        span = r[i0: i0 + n_reply + 4] - c
+        bits = decode_bits(span, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
+                           method=self.config.decoder, start_sample=det.start_sample - (i0 - lo), gain=h).astype(np.uint8)
         ref = full if np.array_equal(bits, det.bits) else self._reference(bits, start, r.size, blf)
-        meas = self._measure(r - c, ref, blf)
+        meas = self._measure(span, ref[i0: i0 + span.size], blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
@@ -609,8 +609,7 @@ class Reader:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
         bits = out.bits[0].astype(np.uint8)
         full = self._reference(bits, start, r.size, blf)
-        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m
-        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, pre_n_el))
+        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, self._preamble_elements()))
         meas = self._measure(r - c, full, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
@@ -626,6 +625,15 @@ class Reader:
                 self._rn16_blf_hz = blf
         return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
                           decision_ebn0_db=stat, **meas)
+
+    def _preamble_elements(self) -> int:
+        """Elements of the reply preamble (pilot included) of the current link (kept while the
+        link is the same object)."""
+        hit = getattr(self, "_pre_el", None)
+        if hit is None or hit[0] is not self.link:
+            lk = self.link
+            hit = self._pre_el = (lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
+        return hit[1]
 
     def _blf_grid(self) -> np.ndarray:
         """:func:`blf_grid_hz` of the current link (kept while the link is the same object)."""
@@ -916,11 +924,7 @@ def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float
     procedure is :meth:`Reader.receive` step 5, :func:`measure_reference` its NumPy twin)."""
     z = np.ascontiguousarray(z, dtype=np.complex128)
     s = np.ascontiguousarray(s, dtype=np.float64)
-    n = s.size
-    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS, np.empty(n, np.complex128),
-                                          np.empty(n), np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n),
-                                          np.empty(DOPPLER_BLOCKS, np.complex128), np.empty(DOPPLER_BLOCKS),
-                                          np.empty(DOPPLER_BLOCKS))
+    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS)
     return complex(h), float(slope), float(sigma2)
 
 

@@ -27,29 +27,27 @@ def measure_kernel(z, s, fs_hz, n_blocks):
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
     """
     n = s.size
-    i0 = -1
-    i1 = -1
-    for i in range(n):
-        if s[i] != 0.0:
-            if i0 < 0:
-                i0 = i
-            i1 = i + 1
-    if i0 < 0:
+    i0 = 0  # first and last non-zero s, scanned from either end
+    while i0 < n and s[i0] == 0.0:
+        i0 += 1
+    if i0 == n:
         return complex(math.nan, math.nan), 0.0, math.nan
+    i1 = n
+    while s[i1 - 1] == 0.0:
+        i1 -= 1
     centre = 0.5 * (i0 + i1 - 1)
     buf_z = np.empty(i1 - i0, np.complex128)
     buf_ref = np.empty(i1 - i0)
     buf_t = np.empty(i1 - i0)
     buf_idx = np.empty(i1 - i0, np.int64)
     m = 0
-    for i in range(i0 + 1, i1 - 1):
+    for i in range(i0 + 1, i1 - 1):  # written at m every time, kept when steady (no branch)
         a = s[i]
-        if a == s[i - 1] and a == s[i + 1]:
-            buf_z[m] = z[i]
-            buf_ref[m] = a
-            buf_t[m] = (i - centre) / fs_hz
-            buf_idx[m] = i - i0
-            m += 1
+        buf_z[m] = z[i]
+        buf_ref[m] = a
+        buf_t[m] = (i - centre) / fs_hz
+        buf_idx[m] = i - i0
+        m += (a == s[i - 1]) & (a == s[i + 1])
     if m == 0:
         return complex(math.nan, math.nan), 0.0, math.nan
     g = np.empty(n_blocks, np.complex128)

@@ -48,6 +48,7 @@ phase offset as a 12-bit code, µs time stamps — is applied to the read log by
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -377,13 +378,23 @@ class Reader:
                       delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
                       cw_before_s=float(cw_before_s))
         tl = pie_timeline(bits, **timing)
-        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz,
-                              rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s)
+        rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = math.sqrt(self.ptx_w)
-        if lk.modulation == "DSB-ASK":
-            return (amp * e).astype(np.complex128)
-        if lk.modulation == "PR-ASK":
-            return pr_ask_baseband(tl, e, amplitude=amp, fs_hz=self.fs_hz)
+        if lk.modulation in ("DSB-ASK", "PR-ASK"):
+            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
+            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
+            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
+            head = dataclasses.replace(tl, duration_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
+            e = timeline_envelope(head, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
+            x = np.empty(int(math.ceil(tl.duration_s * self.fs_hz)), dtype=np.complex128)
+            if lk.modulation == "DSB-ASK":
+                x[:e.size] = amp * e
+                x[e.size:] = amp
+            else:
+                x[:e.size] = pr_ask_baseband(head, e, amplitude=amp, fs_hz=self.fs_hz)
+                x[e.size:] = amp * (1.0 - 2.0 * (tl.rise_s.size % 2))
+            return x
+        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
         quad = _signal.fftconvolve(e - 1.0, hilbert_fir(half), mode="same")

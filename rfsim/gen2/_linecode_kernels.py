@@ -371,3 +371,19 @@ def corr_abs_runs_kernel(r, t0, out):
             a_im += value[q] * (c_im[b1] - c_im[b0])
         # a template with a non-zero mean: add back mean(r)·Σ t0
         out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
+
+
+@njit
+def sums_viterbi_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, n_pre, state0, sums, out):
+    """:func:`projected_halfbit_sums_kernel` into ``sums`` ((n_pre + 2·n,) half-bits: preamble,
+    then n bits), then :func:`viterbi_kernel` over the n data bits (a = first, b = second
+    half-bit sums; the last bit forced to 1) into ``out`` ((n,) uint8). One call for the
+    decisions of a reply whose start, gain and offset are known."""
+    projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, sums)
+    n = out.size
+    a = np.empty(n)
+    b = np.empty(n)
+    for i in range(n):
+        a[i] = sums[n_pre + 2 * i]
+        b[i] = sums[n_pre + 2 * i + 1]
+    viterbi_kernel(a, b, m > 1, state0, True, out)

@@ -498,10 +498,15 @@ def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, cur, prev, imp
         raise ValueError("zero channel gain: no reply to decode")
     g = 1.0 / h
     part = r[lag: lag + int(math.ceil(nh * m / ratio)) + 2]
+    miller = m > 1
+    if method != "bitwise" and impl is _KERNELS:  # sums and Viterbi in one kernel call
+        sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
+        _k.sums_viterbi_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
+                               _state_index(cur, prev, miller), sums, out)
+        return out[:n_bits]
     sums = impl[0](part, g, (dc * g).real, frac, ratio, m, nh)
     data = sums[nh - 2 * (n_bits + 1):]
     a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
-    miller = m > 1
     if method == "bitwise":
         return impl[1](a[:n_bits], b[:n_bits], miller)
     return impl[2](a, b, miller, _state_index(cur, prev, miller), True)[:n_bits]

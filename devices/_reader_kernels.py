@@ -193,12 +193,19 @@ def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements
     order) and returns their number. ``full`` is the sampled reply (±1, 0 outside) starting
     at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble."""
     n = full.size
+    last = n - 1  # the reply's last sample (its samples are ±1, never 0: one run of non-zero)
+    while last > 0 and full[last] == 0.0:
+        last -= 1
     m = 0
-    for i in range(1, n - 1):
+    i = 1
+    while i < n - 1:
         if full[i] == 0.0 or _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
             li = _level(full, i)
             if li == _level(full, i - 1) and li == _level(full, i + 1):
                 r_out[m] = r[i]
                 level_out[m] = li
                 m += 1
+            i += 1
+        else:  # past the preamble, inside the reply: no known level up to its last sample
+            i = max(i + 1, last + 1)
     return m

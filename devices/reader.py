@@ -468,8 +468,17 @@ class Reader:
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
         The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
         """
-        return preamble_threshold(self.preamble_samples(blf_hz), n_lags,
-                                  self.config.false_alarm_probability)
+        memo = getattr(self, "_thresholds", None)  # kept while config, link and fs are the same
+        if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
+            memo = self._thresholds = (self.config, self.link, self.fs_hz, {})
+        key = (int(n_lags), blf_hz)
+        hit = memo[3].get(key)
+        if hit is None:
+            if len(memo[3]) >= TX_CACHE_SIZE:
+                memo[3].clear()
+            hit = memo[3][key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
+                                                    self.config.false_alarm_probability)
+        return hit
 
     def listen_window_s(self, reply_bits: int) -> float:
         """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
@@ -584,7 +593,7 @@ class Reader:
         span = r[i0: i0 + n_reply + 4] - c
         bits = decode_bits(span, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
                            method=self.config.decoder, start_sample=det.start_sample - (i0 - lo), gain=h).astype(np.uint8)
-        ref = full if np.array_equal(bits, det.bits) else self._reference(bits, start, r.size, blf)
+        ref = full if bits.tobytes() == det.bits.tobytes() else self._reference(bits, start, r.size, blf)
         meas = self._measure(span, ref[i0: i0 + span.size], blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))

@@ -387,3 +387,17 @@ def sums_viterbi_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, 
         a[i] = sums[n_pre + 2 * i]
         b[i] = sums[n_pre + 2 * i + 1]
     viterbi_kernel(a, b, m > 1, state0, True, out)
+
+
+@njit
+def corr_abs_auto_kernel(r, t0, max_runs_per_sample, out):
+    """:func:`corr_abs_runs_kernel` when ``t0`` has at most ``max_runs_per_sample`` runs of
+    equal values per sample, else :func:`corr_abs_kernel` (the same valid correlation)."""
+    n_runs = 1
+    for i in range(1, t0.size):
+        if t0[i] != t0[i - 1]:
+            n_runs += 1
+    if n_runs <= max_runs_per_sample * t0.size:
+        corr_abs_runs_kernel(r, t0, out)
+    else:
+        corr_abs_kernel(r, t0, out)

@@ -404,11 +404,7 @@ def _kernel_corr_abs(r, t0):
     if n_lags < 1:
         return corr_abs_reference(r, t0)
     out = np.empty(n_lags)
-    n_runs = 1 + int(np.count_nonzero(t0[1:] != t0[:-1]))
-    if n_runs <= _RUNS_PER_SAMPLE_MAX * t0.size:
-        _k.corr_abs_runs_kernel(r, t0, out)
-    else:
-        _k.corr_abs_kernel(r, t0, out)
+    _k.corr_abs_auto_kernel(r, t0, _RUNS_PER_SAMPLE_MAX, out)
     return out
 
 

@@ -401,3 +401,17 @@ def corr_abs_auto_kernel(r, t0, max_runs_per_sample, out):
         corr_abs_runs_kernel(r, t0, out)
     else:
         corr_abs_kernel(r, t0, out)
+
+
+@njit
+def preamble_search_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max, shifts, templates, norms):
+    """The preamble search of one call: |valid correlation| of ``r[:n_search]`` with the
+    zero-mean template ``t0`` (:func:`corr_abs_auto_kernel`), its peak and candidates
+    (:func:`peak_candidates_kernel`) and their sub-sample refinement over ``r``
+    (:func:`refine_kernel`). Returns ``(integer peak lag, best refined value, refined start)``."""
+    c = np.empty(n_search - t0.size + 1)
+    corr_abs_auto_kernel(r[:n_search], t0, max_runs_per_sample, c)
+    cands = np.empty(n_max, dtype=np.int64)
+    lag, n = peak_candidates_kernel(c, half_width, n_max, cands)
+    best, start = refine_kernel(r, cands[:n], shifts, templates, norms)
+    return lag, best, start

@@ -457,14 +457,19 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        c = impl[4](r[: last + n_pre], _template(m, trext, ratio, 0.0)[1])
         # The Miller pilot is periodic: lags whole elements apart correlate almost as well, and
         # an integer lag is up to 1/2 sample off, which at ≈ 3 samples per element can put the
         # integer peak a few elements from the true start. Refine the five largest local maxima
         # within ±(1 half-symbol of m elements + 1 sample) of the peak to 1/16 sample and keep
         # the best.
-        lag, cands = impl[5](c, int(math.ceil(m / ratio)) + 1)
-        best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+        t0, w = _template(m, trext, ratio, 0.0)[1], int(math.ceil(m / ratio)) + 1
+        if impl is _KERNELS:  # the three steps in one kernel call
+            lag, best, start = _k.preamble_search_kernel(r, last + n_pre, t0, _RUNS_PER_SAMPLE_MAX, w, 5,
+                                                         _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+            lag, best, start = int(lag), float(best), float(start)
+        else:
+            lag, cands = impl[5](impl[4](r[: last + n_pre], t0), w)
+            best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
         if best < 0:
             start = float(lag)
     else:

@@ -208,7 +208,7 @@ def peak_candidates_kernel(c, half_width, n_max, out):
     """Integer peak and its candidates for the sub-sample refinement: ``lag = argmax c``
     (the first maximum), then the local maxima (≥ both neighbours inside the window) of
     ``c[lo:hi]``, ``lo = max(0, lag − w)``, ``hi = min(c.size, lag + w + 1)``, the ``n_max``
-    largest in descending order (equal values: the later lag first) into ``out``. Returns
+    largest in descending order (equal values: the earlier lag first) into ``out``. Returns
     ``(lag, number of candidates)``."""
     lag = 0
     for i in range(1, c.size):
@@ -223,9 +223,9 @@ def peak_candidates_kernel(c, half_width, n_max, out):
             continue
         if i < hi - 1 and v < c[i + 1]:
             continue
-        # insert i among the n kept, descending by value, a later lag before an equal one
+        # insert i among the n kept, descending by value, after the earlier lags of equal value
         pos = n
-        while pos > 0 and v >= c[out[pos - 1]]:
+        while pos > 0 and v > c[out[pos - 1]]:
             pos -= 1
         if pos >= n_max:
             continue

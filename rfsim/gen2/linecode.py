@@ -410,14 +410,14 @@ def _kernel_corr_abs(r, t0):
 
 def peak_candidates_reference(c, half_width: int, n_max: int = 5) -> tuple[int, np.ndarray]:
     """Plain-NumPy twin of the candidate kernel: ``(argmax c, the n_max largest local maxima
-    of c within ±half_width of it, descending)``."""
+    of c within ±half_width of it, descending; equal values in lag order)``."""
     lag = int(np.argmax(c))
     lo, hi = max(0, lag - half_width), min(c.size, lag + half_width + 1)
     win = c[lo:hi]
     is_max = np.ones(win.size, dtype=bool)
     is_max[1:] &= win[1:] >= win[:-1]
     is_max[:-1] &= win[:-1] >= win[1:]
-    return lag, lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:n_max]]
+    return lag, lo + np.flatnonzero(is_max)[np.argsort(-win[is_max], kind="stable")[:n_max]]
 
 
 def _kernel_candidates(c, half_width: int, n_max: int = 5) -> tuple[int, np.ndarray]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from rfsim._jit import njit
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 
@@ -13,7 +15,7 @@ ROTATION_RESYNC = 64
 
 
 @njit
-def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_idx, buf_c, buf_s, g, tc, y):
+def measure_kernel(z, s, fs_hz, n_blocks):
     """Gain, Doppler slope and residual power of ``z = h(t)·s(t) + noise`` (see
     :meth:`devices.reader.Reader.receive`, step 5).
 
@@ -22,32 +24,35 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_idx, buf_c,
     ``n_blocks`` blocks (block k starts at floor(k·m/K) of the m used samples); per block
     g_k = Σz·s/Σs², tc_k = mean t; the slope is the weighted (|g_k|²) least-squares line
     through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
-    ``buf_*`` are scratch arrays of ``s.size`` (``buf_z`` complex, ``buf_idx`` int64),
-    ``g`` (complex), ``tc`` and ``y`` of ``n_blocks``.
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
     """
     n = s.size
-    i0 = -1
-    i1 = -1
-    for i in range(n):
-        if s[i] != 0.0:
-            if i0 < 0:
-                i0 = i
-            i1 = i + 1
-    if i0 < 0:
+    i0 = 0  # first and last non-zero s, scanned from either end
+    while i0 < n and s[i0] == 0.0:
+        i0 += 1
+    if i0 == n:
         return complex(math.nan, math.nan), 0.0, math.nan
+    i1 = n
+    while s[i1 - 1] == 0.0:
+        i1 -= 1
     centre = 0.5 * (i0 + i1 - 1)
+    buf_z = np.empty(i1 - i0, np.complex128)
+    buf_ref = np.empty(i1 - i0)
+    buf_t = np.empty(i1 - i0)
+    buf_idx = np.empty(i1 - i0, np.int64)
     m = 0
-    for i in range(i0 + 1, i1 - 1):
+    for i in range(i0 + 1, i1 - 1):  # written at m every time, kept when steady (no branch)
         a = s[i]
-        if a == s[i - 1] and a == s[i + 1]:
-            buf_z[m] = z[i]
-            buf_ref[m] = a
-            buf_t[m] = (i - centre) / fs_hz
-            buf_idx[m] = i
-            m += 1
+        buf_z[m] = z[i]
+        buf_ref[m] = a
+        buf_t[m] = (i - centre) / fs_hz
+        buf_idx[m] = i - i0
+        m += (a == s[i - 1]) & (a == s[i + 1])
     if m == 0:
         return complex(math.nan, math.nan), 0.0, math.nan
+    g = np.empty(n_blocks, np.complex128)
+    tc = np.empty(n_blocks)
+    y = np.empty(n_blocks)
     # per-block gain and centre time
     all_positive = True
     for k in range(n_blocks):
@@ -97,35 +102,71 @@ def measure_kernel(z, s, fs_hz, n_blocks, buf_z, buf_ref, buf_t, buf_idx, buf_c,
             num += w * (tc[k] - xm) * (y[k] - ym)
             den += w * (tc[k] - xm) * (tc[k] - xm)
         slope = num / den
-    # gain with the rotation e^{−j·slope·t} removed, then the residual power. The rotation
-    # phasor is advanced sample by sample (t is a multiple of 1/fs from the centre) and
-    # recomputed exactly every ROTATION_RESYNC samples of the span (drift < 1e-13).
-    step_c = math.cos(slope / fs_hz)
-    step_s = math.sin(slope / fs_hz)
+    # gain with the rotation e^{−j·slope·t} removed, then the residual power
+    pc, ps = _rotation(slope, fs_hz, i0, i1, centre)
     acc = 0j
     rr = 0.0
-    j = 0  # index into the used samples
-    pc = 1.0
-    ps = 0.0
-    for i in range(i0, i1):
-        if (i - i0) % ROTATION_RESYNC == 0:
-            a = slope * ((i - centre) / fs_hz)
-            pc = math.cos(a)
-            ps = math.sin(a)
-        else:  # e^{ja}·e^{jδ}, δ = slope/fs
-            pc, ps = pc * step_c - ps * step_s, ps * step_c + pc * step_s
-        if j < m and buf_idx[j] == i:
-            buf_c[j] = pc
-            buf_s[j] = ps
-            acc += buf_z[j] * complex(pc * buf_ref[j], -ps * buf_ref[j])
-            rr += buf_ref[j] * buf_ref[j]
-            j += 1
+    for j in range(m):
+        q = buf_idx[j]
+        acc += buf_z[j] * complex(pc[q] * buf_ref[j], -ps[q] * buf_ref[j])
+        rr += buf_ref[j] * buf_ref[j]
     h = acc / rr
     res = 0.0
-    for i in range(m):
-        e = buf_z[i] - h * complex(buf_c[i] * buf_ref[i], buf_s[i] * buf_ref[i])
+    for j in range(m):
+        q = buf_idx[j]
+        e = buf_z[j] - h * complex(pc[q] * buf_ref[j], ps[q] * buf_ref[j])
         res += e.real * e.real + e.imag * e.imag
     return h, slope, res / m
+
+
+@njit
+def _rotation(slope, fs_hz, i0, i1, centre):
+    """``(cos a_i, sin a_i)``, a_i = slope·(i − centre)/fs for i in [i0, i1): evaluated exactly
+    every ROTATION_RESYNC samples from i0 and advanced between by the phasor recurrence
+    e^{j(a + δ)} = e^{ja}·e^{jδ}, δ = slope/fs (drift < 1e-13). The stretches between two
+    exact evaluations are independent: four are advanced side by side."""
+    n = i1 - i0
+    pc = np.empty(n)
+    ps = np.empty(n)
+    step_c = math.cos(slope / fs_hz)
+    step_s = math.sin(slope / fs_hz)
+    R = ROTATION_RESYNC
+    b = 0
+    while b + 4 * R <= n:
+        a = slope * ((i0 + b - centre) / fs_hz)
+        c0, s0 = math.cos(a), math.sin(a)
+        a = slope * ((i0 + b + R - centre) / fs_hz)
+        c1, s1 = math.cos(a), math.sin(a)
+        a = slope * ((i0 + b + 2 * R - centre) / fs_hz)
+        c2, s2 = math.cos(a), math.sin(a)
+        a = slope * ((i0 + b + 3 * R - centre) / fs_hz)
+        c3, s3 = math.cos(a), math.sin(a)
+        for q in range(R):
+            if q > 0:
+                c0, s0 = c0 * step_c - s0 * step_s, s0 * step_c + c0 * step_s
+                c1, s1 = c1 * step_c - s1 * step_s, s1 * step_c + c1 * step_s
+                c2, s2 = c2 * step_c - s2 * step_s, s2 * step_c + c2 * step_s
+                c3, s3 = c3 * step_c - s3 * step_s, s3 * step_c + c3 * step_s
+            pc[b + q] = c0
+            ps[b + q] = s0
+            pc[b + R + q] = c1
+            ps[b + R + q] = s1
+            pc[b + 2 * R + q] = c2
+            ps[b + 2 * R + q] = s2
+            pc[b + 3 * R + q] = c3
+            ps[b + 3 * R + q] = s3
+        b += 4 * R
+    c0 = 1.0
+    s0 = 0.0
+    for q in range(b, n):
+        if q % R == 0:
+            a = slope * ((i0 + q - centre) / fs_hz)
+            c0, s0 = math.cos(a), math.sin(a)
+        else:
+            c0, s0 = c0 * step_c - s0 * step_s, s0 * step_c + c0 * step_s
+        pc[q] = c0
+        ps[q] = s0
+    return pc, ps
 
 
 @njit
@@ -152,12 +193,19 @@ def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements
     order) and returns their number. ``full`` is the sampled reply (±1, 0 outside) starting
     at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble."""
     n = full.size
+    last = n - 1  # the reply's last sample (its samples are ±1, never 0: one run of non-zero)
+    while last > 0 and full[last] == 0.0:
+        last -= 1
     m = 0
-    for i in range(1, n - 1):
+    i = 1
+    while i < n - 1:
         if full[i] == 0.0 or _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
             li = _level(full, i)
             if li == _level(full, i - 1) and li == _level(full, i + 1):
                 r_out[m] = r[i]
                 level_out[m] = li
                 m += 1
+            i += 1
+        else:  # past the preamble, inside the reply: no known level up to its last sample
+            i = max(i + 1, last + 1)
     return m

@@ -48,6 +48,7 @@ phase offset as a 12-bit code, µs time stamps — is applied to the read log by
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -64,7 +65,7 @@ from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
-from rfsim.gen2.linecode import decode_reply, preamble_levels, reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
 from rfsim.records import ReportConfig
@@ -377,13 +378,23 @@ class Reader:
                       delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
                       cw_before_s=float(cw_before_s))
         tl = pie_timeline(bits, **timing)
-        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz,
-                              rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s)
+        rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = math.sqrt(self.ptx_w)
-        if lk.modulation == "DSB-ASK":
-            return (amp * e).astype(np.complex128)
-        if lk.modulation == "PR-ASK":
-            return pr_ask_baseband(tl, e, amplitude=amp, fs_hz=self.fs_hz)
+        if lk.modulation in ("DSB-ASK", "PR-ASK"):
+            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
+            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
+            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
+            head = dataclasses.replace(tl, duration_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
+            e = timeline_envelope(head, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
+            x = np.empty(int(math.ceil(tl.duration_s * self.fs_hz)), dtype=np.complex128)
+            if lk.modulation == "DSB-ASK":
+                x[:e.size] = amp * e
+                x[e.size:] = amp
+            else:
+                x[:e.size] = pr_ask_baseband(head, e, amplitude=amp, fs_hz=self.fs_hz)
+                x[e.size:] = amp * (1.0 - 2.0 * (tl.rise_s.size % 2))
+            return x
+        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
         quad = _signal.fftconvolve(e - 1.0, hilbert_fir(half), mode="same")
@@ -443,8 +454,7 @@ class Reader:
         """Samples fully inside the reply preamble (incl. pilot), as correlated by the detector
         (at ``blf_hz``, default the profile's nominal BLF)."""
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        pre, _, _ = preamble_levels(m=self.link.m, trext=self.link.trext)
-        return int(math.floor(pre.size * self.link.m * self.fs_hz / (2.0 * blf)))
+        return int(math.floor(self._preamble_elements() * self.fs_hz / (2.0 * blf)))
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -458,8 +468,17 @@ class Reader:
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
         The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
         """
-        return preamble_threshold(self.preamble_samples(blf_hz), n_lags,
-                                  self.config.false_alarm_probability)
+        memo = getattr(self, "_thresholds", None)  # kept while config, link and fs are the same
+        if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
+            memo = self._thresholds = (self.config, self.link, self.fs_hz, {})
+        key = (int(n_lags), blf_hz)
+        hit = memo[3].get(key)
+        if hit is None:
+            if len(memo[3]) >= TX_CACHE_SIZE:
+                memo[3].clear()
+            hit = memo[3][key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
+                                                    self.config.false_alarm_probability)
+        return hit
 
     def listen_window_s(self, reply_bits: int) -> float:
         """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
@@ -563,18 +582,19 @@ class Reader:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
         # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
         full = self._reference(det.bits, start, r.size, blf)
-        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m  # preamble elements
         # Outside its reply a tag rests in its absorbing state, which is the reply's −1
         # level: the backscatter DC steps by h at the reply's start and end. Only samples
         # whose two neighbours carry the same level (as in the measurements: the start is
         # known to a fraction of a sample, a sample at an element boundary could carry the
         # other level and bias c, which no later step removes).
-        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, pre_n_el))
-        det2 = decode_reply(r[lo:] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
-                            method=self.config.decoder, start_sample=det.start_sample, gain=h)
-        bits = det2.bits.astype(np.uint8)
-        ref = full if np.array_equal(bits, det.bits) else self._reference(bits, start, r.size, blf)
-        meas = self._measure(r - c, ref, blf)
+        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, self._preamble_elements()))
+        # the reply's samples only (r − c elsewhere is not used): from the sample before its start
+        i0 = lo + int(math.floor(det.start_sample))
+        span = r[i0: i0 + n_reply + 4] - c
+        bits = decode_bits(span, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
+                           method=self.config.decoder, start_sample=det.start_sample - (i0 - lo), gain=h).astype(np.uint8)
+        ref = full if bits.tobytes() == det.bits.tobytes() else self._reference(bits, start, r.size, blf)
+        meas = self._measure(span, ref[i0: i0 + span.size], blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
@@ -609,8 +629,7 @@ class Reader:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
         bits = out.bits[0].astype(np.uint8)
         full = self._reference(bits, start, r.size, blf)
-        pre_n_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m
-        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, pre_n_el))
+        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, self._preamble_elements()))
         meas = self._measure(r - c, full, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
@@ -626,6 +645,15 @@ class Reader:
                 self._rn16_blf_hz = blf
         return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
                           decision_ebn0_db=stat, **meas)
+
+    def _preamble_elements(self) -> int:
+        """Elements of the reply preamble (pilot included) of the current link (kept while the
+        link is the same object)."""
+        hit = getattr(self, "_pre_el", None)
+        if hit is None or hit[0] is not self.link:
+            lk = self.link
+            hit = self._pre_el = (lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
+        return hit[1]
 
     def _blf_grid(self) -> np.ndarray:
         """:func:`blf_grid_hz` of the current link (kept while the link is the same object)."""
@@ -916,11 +944,7 @@ def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float
     procedure is :meth:`Reader.receive` step 5, :func:`measure_reference` its NumPy twin)."""
     z = np.ascontiguousarray(z, dtype=np.complex128)
     s = np.ascontiguousarray(s, dtype=np.float64)
-    n = s.size
-    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS, np.empty(n, np.complex128),
-                                          np.empty(n), np.empty(n), np.empty(n, np.int64), np.empty(n), np.empty(n),
-                                          np.empty(DOPPLER_BLOCKS, np.complex128), np.empty(DOPPLER_BLOCKS),
-                                          np.empty(DOPPLER_BLOCKS))
+    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS)
     return complex(h), float(slope), float(sigma2)
 
 

@@ -16,11 +16,15 @@ from collections.abc import Sequence
 import numpy as np
 
 
-def run_seed_sequence(seed: int) -> np.random.SeedSequence:
-    """The root ``SeedSequence`` of a run with integer ``seed`` (≥ 0)."""
+def _checked_seed(seed: int) -> int:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    return np.random.SeedSequence(int(seed))
+    return int(seed)
+
+
+def run_seed_sequence(seed: int) -> np.random.SeedSequence:
+    """The root ``SeedSequence`` of a run with integer ``seed`` (≥ 0)."""
+    return np.random.SeedSequence(_checked_seed(seed))
 
 
 def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
@@ -29,11 +33,11 @@ def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
     ``trial_seed_sequence(s, i)`` equals ``SeedSequence(s).spawn(i + 1)[i]``;
     nested paths (``(point, repetition)``) key sub-streams of a trial.
     """
-    root = run_seed_sequence(seed)
+    entropy = _checked_seed(seed)  # the root's entropy; its spawn key is ()
     key = tuple(int(i) for i in index)
     if any(i < 0 for i in key):
         raise ValueError(f"trial index must be non-negative, got {index!r}")
-    return np.random.SeedSequence(root.entropy, spawn_key=root.spawn_key + key)
+    return np.random.SeedSequence(entropy, spawn_key=key)
 
 
 def trial_rng(seed: int, *index: int) -> np.random.Generator:

@@ -344,3 +344,97 @@ def test_front_end_cache_of_read_only_segments():
     a = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
     b = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
     assert a is not b and a is not fes[0]
+
+
+# ----------------------------------------------------------------------------- reader receive / transmit
+
+
+def test_peak_candidates_kernel_equals_reference():
+    """Integer peak and the five largest local maxima around it (plateaus and equal values
+    included): the kernel returns the same lags in the same order as the NumPy twin."""
+    rng = trial_rng(62, 0)
+    for k in range(40):
+        n = int(rng.integers(3, 90))
+        c = rng.random(n)
+        if k % 3 == 0:  # ties and plateaus: values on a coarse grid
+            c = np.round(c * 4) / 4
+        w = int(rng.integers(1, 8))
+        lag, cands = L._kernel_candidates(c, w)
+        lag_r, cands_r = L.peak_candidates_reference(c, w)
+        assert lag == lag_r
+        np.testing.assert_array_equal(cands, cands_r)
+        assert 1 <= cands.size <= 5 and c[cands[0]] == c[cands].max()
+
+
+@pytest.mark.parametrize("m, trext", [(1, False), (4, False), (2, True), (8, True)])
+def test_preamble_search_kernel_equals_reference(m, trext):
+    """Noisy replies with an unknown start, gain and offset: the one-call search (correlation,
+    candidates, sub-sample refinement) and the fused sums + Viterbi give the NumPy twin's start
+    and bits exactly; the known-start decode gives decode_reply's bits."""
+    rng = trial_rng(63, m)
+    fs, blf = 4e6, 320e3 if m > 1 else 160e3
+    for k in range(3):
+        bits = rng.integers(0, 2, 64).astype(np.uint8)
+        start = 40.0 + 17.3 * k
+        n = int(start + L.reply_duration_s(64, m=m, trext=trext, blf_hz=blf) * fs) + 200
+        s = L.reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=n)
+        h = 2e-3 * np.exp(1j * (0.4 + k))
+        r = h * np.where(s == 0, -1.0, s) + (0.3 - 0.2j) * 1e-3
+        r = r + 2e-4 * (rng.standard_normal(r.size) + 1j * rng.standard_normal(r.size))
+        kw = dict(n_bits=64, m=m, trext=trext, blf_hz=blf, fs_hz=fs, search_samples=120)
+        a, b = L.decode_reply(r, **kw), L.decode_reply_reference(r, **kw)
+        assert a.start_sample == b.start_sample and abs(a.start_sample - start) < 1.5 * fs / (2 * blf)  # ≤ 1 element
+        np.testing.assert_array_equal(a.bits, b.bits)
+        assert a.corr == b.corr and a.gain == b.gain
+        lag = int(math.floor(a.start_sample)) - 3  # on a slice, as the reader decodes r − c
+        known = dict(n_bits=64, m=m, trext=trext, blf_hz=blf, fs_hz=fs, gain=a.gain * 1.01)
+        full = L.decode_reply(r, start_sample=a.start_sample, **known).bits
+        np.testing.assert_array_equal(L.decode_bits(r[lag:], start_sample=a.start_sample - lag, **known), full)
+        np.testing.assert_array_equal(L.decode_reply_reference(r, start_sample=a.start_sample, **known).bits, full)
+
+
+def test_measurement_on_the_reply_span_equals_the_window():
+    """The reader measures on the reply's samples only: the same (h, slope, σ²) bit for bit as
+    over the whole window (times from the span's centre do not depend on the slice)."""
+    from devices.reader import _measure
+
+    rng = trial_rng(64, 0)
+    fs = 4e6
+    bits = rng.integers(0, 2, 128).astype(np.uint8)
+    s = L.reply_waveform(bits, m=4, trext=False, blf_hz=320e3, fs_hz=fs, t0_s=311.4375 / fs, n_samples=8000)
+    t = np.arange(s.size) / fs
+    z = 1e-4 * np.exp(1j * (0.7 + 2 * np.pi * 55.0 * t)) * s
+    z = z + 3e-6 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+    whole = _measure(z, s, fs)
+    assert _measure(z[311:7300], s[311:7300], fs) == whole
+    assert _measure(z[100:], s[100:], fs) == whole
+    assert whole[1] / (2 * np.pi) == pytest.approx(55.0, abs=5.0)
+
+
+@pytest.mark.parametrize("modulation", ["PR-ASK", "DSB-ASK"])
+def test_modulate_equals_the_envelope_of_the_whole_segment(modulation):
+    """The reader modulates up to 2 Tari after the last rising edge and fills the CW after it:
+    the same samples, bit for bit, as the envelope and PR-ASK sign of the whole segment."""
+    import dataclasses
+
+    from rfsim.gen2.link import PROFILES
+    from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
+
+    rng = trial_rng(65, len(modulation))
+    for profile, fs, rise_fall in (("miller4-320k", 4e6, 0.1), ("fm0-40k", 1.3e6, 0.33), ("miller4-320k", 3.3e6, 0.0)):
+        lk = dataclasses.replace(PROFILES[profile], modulation=modulation)
+        rd = Reader(ReaderConfig(link_profile=profile, fs_hz=fs, pie_rise_fall_tari=rise_fall),
+                    [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(65, 1), link=lk)
+        for cw_after in (0.0, 0.3 * lk.tari_s, 5e-4):
+            bits = rng.integers(0, 2, int(rng.integers(1, 40))).astype(np.uint8)
+            for preamble in ("query", "frame-sync"):
+                x = rd.modulate(bits, preamble=preamble, cw_after_s=cw_after, cw_before_s=lk.tari_s)
+                tl = pie_timeline(bits, tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s,
+                                  pw_s=lk.pw_s, delimiter_s=lk.delimiter_s, preamble=preamble,
+                                  cw_after_s=cw_after, cw_before_s=lk.tari_s)
+                e = timeline_envelope(tl, depth=lk.depth, fs_hz=fs, rise_fall_s=rise_fall * lk.tari_s)
+                amp = math.sqrt(rd.ptx_w)
+                ref = (pr_ask_baseband(tl, e, amplitude=amp, fs_hz=fs) if modulation == "PR-ASK"
+                       else (amp * e).astype(np.complex128))
+                assert x.dtype == np.complex128 and x.shape == ref.shape
+                np.testing.assert_array_equal(x, ref)

@@ -141,16 +141,49 @@ def refine_kernel(r, cands, shifts, templates, norms):
     ``v = |Σ_i r[c + i]·templates[j, i]| / norms[j]`` (templates zero-mean, one row per
     shift); returns ``(best v, c + d of the best)``, the first one on ties (candidates in
     the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped.
+
+    Each sum runs over i in order (the same rounding as one sum at a time); four shifts are
+    summed side by side, so that the additions of different sums overlap.
     """
     n_pre = templates.shape[1]
+    ns = shifts.size
     best = -1.0
     start = math.nan
+    vals = np.empty(ns)
     for ci in range(cands.size):
         c = cands[ci]
-        for j in range(shifts.size):
-            d = shifts[j]
-            if c + d < 0.0:
-                continue
+        j0 = 0
+        while j0 + 4 <= ns:
+            a0r = 0.0
+            a0i = 0.0
+            a1r = 0.0
+            a1i = 0.0
+            a2r = 0.0
+            a2i = 0.0
+            a3r = 0.0
+            a3i = 0.0
+            for i in range(n_pre):
+                z = r[c + i]
+                zr = z.real
+                zi = z.imag
+                t = templates[j0, i]
+                a0r += zr * t
+                a0i += zi * t
+                t = templates[j0 + 1, i]
+                a1r += zr * t
+                a1i += zi * t
+                t = templates[j0 + 2, i]
+                a2r += zr * t
+                a2i += zi * t
+                t = templates[j0 + 3, i]
+                a3r += zr * t
+                a3i += zi * t
+            vals[j0] = math.hypot(a0r, a0i) / norms[j0]
+            vals[j0 + 1] = math.hypot(a1r, a1i) / norms[j0 + 1]
+            vals[j0 + 2] = math.hypot(a2r, a2i) / norms[j0 + 2]
+            vals[j0 + 3] = math.hypot(a3r, a3i) / norms[j0 + 3]
+            j0 += 4
+        for j in range(j0, ns):
             acc_re = 0.0
             acc_im = 0.0
             for i in range(n_pre):
@@ -158,11 +191,51 @@ def refine_kernel(r, cands, shifts, templates, norms):
                 z = r[c + i]
                 acc_re += z.real * t
                 acc_im += z.imag * t
-            v = math.hypot(acc_re, acc_im) / norms[j]
+            vals[j] = math.hypot(acc_re, acc_im) / norms[j]
+        for j in range(ns):
+            d = shifts[j]
+            if c + d < 0.0:
+                continue
+            v = vals[j]
             if v > best:
                 best = v
                 start = c + d
     return best, start
+
+
+@njit
+def peak_candidates_kernel(c, half_width, n_max, out):
+    """Integer peak and its candidates for the sub-sample refinement: ``lag = argmax c``
+    (the first maximum), then the local maxima (≥ both neighbours inside the window) of
+    ``c[lo:hi]``, ``lo = max(0, lag − w)``, ``hi = min(c.size, lag + w + 1)``, the ``n_max``
+    largest in descending order (equal values: the earlier lag first) into ``out``. Returns
+    ``(lag, number of candidates)``."""
+    lag = 0
+    for i in range(1, c.size):
+        if c[i] > c[lag]:
+            lag = i
+    lo = max(0, lag - half_width)
+    hi = min(c.size, lag + half_width + 1)
+    n = 0
+    for i in range(lo, hi):
+        v = c[i]
+        if i > lo and v < c[i - 1]:
+            continue
+        if i < hi - 1 and v < c[i + 1]:
+            continue
+        # insert i among the n kept, descending by value, after the earlier lags of equal value
+        pos = n
+        while pos > 0 and v > c[out[pos - 1]]:
+            pos -= 1
+        if pos >= n_max:
+            continue
+        last = min(n, n_max - 1)
+        for q in range(last, pos, -1):
+            out[q] = out[q - 1]
+        out[pos] = i
+        if n < n_max:
+            n += 1
+    return lag, n
 
 
 @njit
@@ -219,24 +292,35 @@ def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_s
     """Matched-filter sums per half-bit of ``y[n] = (Re part[n]·g_re − Im part[n]·g_im) − dc_re``
     (the projection Re((part − dc)/h) with g = 1/h, dc_re = Re(dc·g), computed on the fly):
     ``out[h] += y[n]·(−1)^k`` (Miller) or ``y[n]`` (FM0) for every sample n whose element
-    k = floor((n − start)·r + eps) has ``k // m == h``."""
+    k = floor((n − start)·r + eps) has ``k // m == h``. The element index grows with n, so
+    the sum of one half-bit is kept in a register (added in the same order) and ``h`` is
+    advanced by comparison rather than division."""
     out[:] = 0.0
     nh = out.size
     n0 = max(0, int(math.ceil(start)))
+    h = 0
+    nxt = m  # first element of half-bit h + 1
+    acc = 0.0
     for n in range(n0, part.size):
         u = (n - start) * elements_per_sample
         if u < 0.0:
             continue
         k = int(math.floor(u + INDEX_EPS))
-        h = k // m
-        if h >= nh:
-            break
+        if k >= nxt:
+            out[h] = acc
+            acc = 0.0
+            h = k // m
+            nxt = (h + 1) * m
+            if h >= nh:
+                return
         z = part[n]
         y = (z.real * g_re - z.imag * g_im) - dc_re
         if m > 1 and (k & 1):
-            out[h] -= y
+            acc -= y
         else:
-            out[h] += y
+            acc += y
+    if h < nh:
+        out[h] = acc
 
 
 @njit
@@ -287,3 +371,47 @@ def corr_abs_runs_kernel(r, t0, out):
             a_im += value[q] * (c_im[b1] - c_im[b0])
         # a template with a non-zero mean: add back mean(r)·Σ t0
         out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
+
+
+@njit
+def sums_viterbi_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, n_pre, state0, sums, out):
+    """:func:`projected_halfbit_sums_kernel` into ``sums`` ((n_pre + 2·n,) half-bits: preamble,
+    then n bits), then :func:`viterbi_kernel` over the n data bits (a = first, b = second
+    half-bit sums; the last bit forced to 1) into ``out`` ((n,) uint8). One call for the
+    decisions of a reply whose start, gain and offset are known."""
+    projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, sums)
+    n = out.size
+    a = np.empty(n)
+    b = np.empty(n)
+    for i in range(n):
+        a[i] = sums[n_pre + 2 * i]
+        b[i] = sums[n_pre + 2 * i + 1]
+    viterbi_kernel(a, b, m > 1, state0, True, out)
+
+
+@njit
+def corr_abs_auto_kernel(r, t0, max_runs_per_sample, out):
+    """:func:`corr_abs_runs_kernel` when ``t0`` has at most ``max_runs_per_sample`` runs of
+    equal values per sample, else :func:`corr_abs_kernel` (the same valid correlation)."""
+    n_runs = 1
+    for i in range(1, t0.size):
+        if t0[i] != t0[i - 1]:
+            n_runs += 1
+    if n_runs <= max_runs_per_sample * t0.size:
+        corr_abs_runs_kernel(r, t0, out)
+    else:
+        corr_abs_kernel(r, t0, out)
+
+
+@njit
+def preamble_search_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max, shifts, templates, norms):
+    """The preamble search of one call: |valid correlation| of ``r[:n_search]`` with the
+    zero-mean template ``t0`` (:func:`corr_abs_auto_kernel`), its peak and candidates
+    (:func:`peak_candidates_kernel`) and their sub-sample refinement over ``r``
+    (:func:`refine_kernel`). Returns ``(integer peak lag, best refined value, refined start)``."""
+    c = np.empty(n_search - t0.size + 1)
+    corr_abs_auto_kernel(r[:n_search], t0, max_runs_per_sample, c)
+    cands = np.empty(n_max, dtype=np.int64)
+    lag, n = peak_candidates_kernel(c, half_width, n_max, cands)
+    best, start = refine_kernel(r, cands[:n], shifts, templates, norms)
+    return lag, best, start

@@ -223,7 +223,8 @@ class ACK:
         _set(self, "rn16", _check_int("ack.rn16", self.rn16, 0, 0xFFFF))
 
     def _encode(self) -> np.ndarray:
-        return np.concatenate([str_to_bits("01"), int_to_bits(self.rn16, 16)])
+        # code 01 then the RN16, MSB first: the low 18 bits of 0b01 << 16 | RN16 as 3 bytes
+        return np.unpackbits(np.frombuffer(((1 << 16) | self.rn16).to_bytes(3, "big"), dtype=np.uint8))[6:]
 
 
 @dataclass(frozen=True)

@@ -337,9 +337,10 @@ _REFINE_SHIFTS = np.linspace(-0.5, 0.5, 17)
 
 
 @functools.lru_cache(maxsize=256)
-def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple[np.ndarray, np.ndarray]:
+def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple:
     """Preamble (incl. pilot) template over the samples fully inside it, starting ``delta``
-    samples late: ``(t, t − mean(t))``, both ``(n_pre,) float64``, read-only.
+    samples late: ``(t, t − mean(t), mean(t), Σ(t − mean(t))²)``, the arrays ``(n_pre,)
+    float64`` and read-only.
 
     A pure function of its hashable arguments, cached because the decoder asks for the same
     few shifts (multiples of 1/16 sample) of the same profile over and over.
@@ -348,10 +349,11 @@ def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple[np.ndarr
     n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
     t = np.empty(n_pre)
     _k.waveform_kernel(pre_el, float(delta), ratio, t)
-    t0 = t - t.mean()
+    mean = t.mean()
+    t0 = t - mean
     t.setflags(write=False)
     t0.setflags(write=False)
-    return t, t0
+    return t, t0, mean, float(t0 @ t0)
 
 
 @functools.lru_cache(maxsize=32)
@@ -360,7 +362,7 @@ def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndar
     :data:`_REFINE_SHIFTS` and their norms ``(n_shifts,)`` (cached, read-only; a pure
     function of its arguments)."""
     rows = np.array([_template(m, trext, ratio, float(d))[1] for d in _REFINE_SHIFTS])
-    norms = np.array([math.sqrt(float(t0 @ t0)) for t0 in rows])
+    norms = np.array([math.sqrt(_template(m, trext, ratio, float(d))[3]) for d in _REFINE_SHIFTS])
     rows.setflags(write=False)
     norms.setflags(write=False)
     return rows, norms
@@ -402,12 +404,32 @@ def _kernel_corr_abs(r, t0):
     if n_lags < 1:
         return corr_abs_reference(r, t0)
     out = np.empty(n_lags)
-    n_runs = 1 + int(np.count_nonzero(t0[1:] != t0[:-1]))
-    if n_runs <= _RUNS_PER_SAMPLE_MAX * t0.size:
-        _k.corr_abs_runs_kernel(r, t0, out)
-    else:
-        _k.corr_abs_kernel(r, t0, out)
+    _k.corr_abs_auto_kernel(r, t0, _RUNS_PER_SAMPLE_MAX, out)
     return out
+
+
+def peak_candidates_reference(c, half_width: int, n_max: int = 5) -> tuple[int, np.ndarray]:
+    """Plain-NumPy twin of the candidate kernel: ``(argmax c, the n_max largest local maxima
+    of c within ±half_width of it, descending; equal values in lag order)``."""
+    lag = int(np.argmax(c))
+    lo, hi = max(0, lag - half_width), min(c.size, lag + half_width + 1)
+    win = c[lo:hi]
+    is_max = np.ones(win.size, dtype=bool)
+    is_max[1:] &= win[1:] >= win[:-1]
+    is_max[:-1] &= win[:-1] >= win[1:]
+    return lag, lo + np.flatnonzero(is_max)[np.argsort(-win[is_max], kind="stable")[:n_max]]
+
+
+def _kernel_candidates(c, half_width: int, n_max: int = 5) -> tuple[int, np.ndarray]:
+    out = np.empty(n_max, dtype=np.int64)
+    lag, n = _k.peak_candidates_kernel(c, half_width, n_max, out)
+    return int(lag), out[:n]
+
+
+def _correlation(peak: complex, seg0: np.ndarray, e_t: float) -> float:
+    """Normalised correlation |peak| / √(e_t · Σ|seg0|²) of a segment (``seg0``: its mean
+    removed; ``peak = Σ seg·t0``) with a zero-mean template of energy ``e_t``."""
+    return float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
 
 
 def _kernel_refine(r, cands, shifts, templates, norms):
@@ -435,21 +457,19 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        c = impl[4](r[: last + n_pre], _template(m, trext, ratio, 0.0)[1])
-        lag = int(np.argmax(c))
         # The Miller pilot is periodic: lags whole elements apart correlate almost as well, and
         # an integer lag is up to 1/2 sample off, which at ≈ 3 samples per element can put the
         # integer peak a few elements from the true start. Refine the five largest local maxima
         # within ±(1 half-symbol of m elements + 1 sample) of the peak to 1/16 sample and keep
         # the best.
-        w = int(math.ceil(m / ratio)) + 1
-        lo, hi = max(0, lag - w), min(c.size, lag + w + 1)
-        win = c[lo:hi]
-        is_max = np.ones(win.size, dtype=bool)
-        is_max[1:] &= win[1:] >= win[:-1]
-        is_max[:-1] &= win[:-1] >= win[1:]
-        cands = lo + np.flatnonzero(is_max)[np.argsort(win[is_max])[::-1][:5]]
-        best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+        t0, w = _template(m, trext, ratio, 0.0)[1], int(math.ceil(m / ratio)) + 1
+        if impl is _KERNELS:  # the three steps in one kernel call
+            lag, best, start = _k.preamble_search_kernel(r, last + n_pre, t0, _RUNS_PER_SAMPLE_MAX, w, 5,
+                                                         _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+            lag, best, start = int(lag), float(best), float(start)
+        else:
+            lag, cands = impl[5](impl[4](r[: last + n_pre], t0), w)
+            best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
         if best < 0:
             start = float(lag)
     else:
@@ -457,33 +477,65 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
         if not 0 <= start <= r.size - n_reply:
             raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
     lag = int(math.floor(start))
-    tpl, tpl0 = _template(m, trext, ratio, start - lag)
+    tpl, tpl0, tpl_mean, e_t = _template(m, trext, ratio, start - lag)
     seg = r[lag: lag + n_pre]
-    peak = complex(seg @ tpl0)
-    e_t = float(tpl0 @ tpl0)
-    h = peak / e_t if gain is None else complex(gain)
-    seg_mean = seg.mean()
-    dc = seg_mean - h * tpl.mean() if gain is None else 0.0
-    seg0 = seg - seg_mean
-    corr = float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
-    if h == 0:
-        raise ValueError("zero channel gain: no reply to decode")
-    g = 1.0 / h
-    part = r[lag: lag + n_reply + 2]
-    sums = impl[0](part, g, (dc * g).real, start - lag, ratio, m, nh)
-    data = sums[pre.size:]
-    a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
-    miller = m > 1
-    if method == "bitwise":
-        bits = impl[1](a[:n_bits], b[:n_bits], miller)
+    if gain is None:
+        peak = complex(seg @ tpl0)
+        h = peak / e_t
+        seg_mean = seg.mean()
+        dc = seg_mean - h * tpl_mean
+        corr = _correlation(peak, seg - seg_mean, e_t)
     else:
-        bits = impl[2](a, b, miller, _state_index(cur, prev, miller), True)[:n_bits]
+        h, dc = complex(gain), 0.0
+        corr = _correlation(complex(seg @ tpl0), seg - seg.mean(), e_t)
+    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, int(n_bits), method, nh, cur, prev, impl)
     return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
 
 
-_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs)
+def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, cur, prev, impl) -> np.ndarray:
+    """Bits of the reply starting ``frac`` samples after ``r[lag]``: half-bit sums of
+    Re((r − dc)/h), then bit-by-bit or Viterbi decisions (:func:`decode_reply` steps 3–4)."""
+    if h == 0:
+        raise ValueError("zero channel gain: no reply to decode")
+    g = 1.0 / h
+    part = r[lag: lag + int(math.ceil(nh * m / ratio)) + 2]
+    miller = m > 1
+    if method != "bitwise" and impl is _KERNELS:  # sums and Viterbi in one kernel call
+        sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
+        _k.sums_viterbi_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
+                               _state_index(cur, prev, miller), sums, out)
+        return out[:n_bits]
+    sums = impl[0](part, g, (dc * g).real, frac, ratio, m, nh)
+    data = sums[nh - 2 * (n_bits + 1):]
+    a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
+    if method == "bitwise":
+        return impl[1](a[:n_bits], b[:n_bits], miller)
+    return impl[2](a, b, miller, _state_index(cur, prev, miller), True)[:n_bits]
+
+
+def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, start_sample: float,
+                gain: complex, method: str = "viterbi") -> np.ndarray:
+    """``decode_reply(r, ..., start_sample=, gain=).bits`` without the correlation it also
+    reports (numba kernels): the decisions of a reply whose start and gain are known,
+    ``(n_bits,) uint8``."""
+    m = _check_m(m)
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    ratio = _check_rates(blf_hz, fs_hz)
+    pre, cur, prev = _preamble(m, bool(trext))
+    nh = pre.size + 2 * (int(n_bits) + 1)
+    start = float(start_sample)
+    if r.ndim != 1 or not 0 <= start <= r.size - int(math.ceil(nh * m / ratio)):
+        raise ValueError(f"start_sample {start_sample} leaves no room for the reply in r of shape {r.shape}")
+    lag = int(math.floor(start))
+    return _decisions(r, lag, start - lag, complex(gain), 0.0, ratio, m, int(n_bits), method, nh, cur, prev,
+                      _KERNELS)
+
+
+_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs, _kernel_candidates)
 _REFERENCES = (projected_halfbit_sums_reference, bitwise_reference, viterbi_reference, refine_reference,
-               corr_abs_reference)
+               corr_abs_reference, peak_candidates_reference)
 
 
 def decode_reply(
@@ -532,6 +584,7 @@ __all__ = [
     "reply_waveform_for_profile",
     "decode_reply",
     "decode_reply_reference",
+    "decode_bits",
     "fm0_levels_reference",
     "miller_levels_reference",
     "halfbit_sums_reference",
@@ -539,5 +592,6 @@ __all__ = [
     "bitwise_reference",
     "viterbi_reference",
     "refine_reference",
+    "peak_candidates_reference",
     "corr_abs_reference",
 ]

@@ -373,8 +373,8 @@ def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
     """:func:`_st_inputs` of many samples as one batch of air steps (:func:`rfsim.batch.propagate_batch`;
     the ST antennas have no noise)."""
     steps = []
-    for emitter, tag_ant, resp, links, sa, tx, lk in st_steps:
-        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in sa], links, t0_s=0.0,
+    for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
+        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in st_ants], links, t0_s=0.0,
                              fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz,
                              decide=False))
     out = []

@@ -18,9 +18,7 @@ import numpy as np
 
 def run_seed_sequence(seed: int) -> np.random.SeedSequence:
     """The root ``SeedSequence`` of a run with integer ``seed`` (≥ 0)."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    return np.random.SeedSequence(int(seed))
+    return np.random.SeedSequence(run_seed_sequence_entropy(seed))
 
 
 def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
@@ -29,11 +27,19 @@ def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
     ``trial_seed_sequence(s, i)`` equals ``SeedSequence(s).spawn(i + 1)[i]``;
     nested paths (``(point, repetition)``) key sub-streams of a trial.
     """
-    root = run_seed_sequence(seed)
     key = tuple(int(i) for i in index)
     if any(i < 0 for i in key):
         raise ValueError(f"trial index must be non-negative, got {index!r}")
-    return np.random.SeedSequence(root.entropy, spawn_key=root.spawn_key + key)
+    # the root's entropy is the seed itself and its spawn key empty (run_seed_sequence), so
+    # the child is made at once, without making the root first
+    return np.random.SeedSequence(int(run_seed_sequence_entropy(seed)), spawn_key=key)
+
+
+def run_seed_sequence_entropy(seed: int) -> int:
+    """The entropy of :func:`run_seed_sequence` (``seed``, checked) without making the sequence."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    return int(seed)
 
 
 def trial_rng(seed: int, *index: int) -> np.random.Generator:

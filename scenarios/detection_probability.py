@@ -79,7 +79,7 @@ Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples
 gives the same rows as any split of that range into blocks (the sweep
 ``examples/sweeps/detection-probability.toml`` runs blocks in parallel; the merged
 ``samples`` table is the full table and :func:`fit_file` fits it). A run itself simulates its samples in
-blocks of 256 on ``samples.workers`` processes (default 2), with the same rows for any number.
+blocks (32, then 256 each) on ``samples.workers`` processes (default 2), with the same rows for any number.
 """
 
 from __future__ import annotations
@@ -374,8 +374,8 @@ def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
     the ST antennas have no noise)."""
     steps = []
     for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
-        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in st_ants], links, t0_s=0.0,
-                             fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz,
+        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in st_ants], links,
+                             t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz,
                              decide=False))
     out = []
     for st_step, st_air in zip(st_steps, propagate_batch(steps)):
@@ -504,19 +504,24 @@ FIELDS = {
 
 #: Samples whose ST chains run as one batch of rows (:func:`_st_outcomes`).
 ST_BLOCK = 256
+#: Samples of the first block (run in this process before the pool starts).
+WARM_BLOCK = 32
 
 
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`).
 
-    The samples run in blocks of :data:`ST_BLOCK` (``first``, ``first + ST_BLOCK``, …) on
-    ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the first block in this
-    process), concatenated in order: every sample draws only from its own streams and a block
+    The samples run in blocks (the first of :data:`WARM_BLOCK` samples, then of
+    :data:`ST_BLOCK`) on ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the
+    first block in this process), concatenated in order: every sample draws only from its own streams and a block
     is the batch of its ST chains, so the rows do not depend on the number of workers."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
     end = s.first + s.count
-    tasks = [(config, base, lo, min(lo + ST_BLOCK, end)) for lo in range(s.first, end, ST_BLOCK)]
+    # a small first block runs in this process before the pool (imports, kernels loaded; the
+    # workers forked afterwards inherit them), so that little of the run is spent on one core
+    cuts = [s.first, *range(min(s.first + WARM_BLOCK, end), end, ST_BLOCK), end]
+    tasks = [(config, base, lo, hi) for lo, hi in zip(cuts[:-1], cuts[1:]) if hi > lo]
     parts = map_in_order(_block_task, tasks, s.workers, desc="monte carlo", unit="blocks")
     rows = [r for p in parts for r in p]
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}

@@ -24,7 +24,7 @@ from .geometry import _as_points
 
 def _positive_distance(distance_m) -> np.ndarray:
     d = np.asarray(distance_m, dtype=float)
-    if np.any(~(d > 0)):
+    if not (d > 0).all():
         raise ValueError("distances must be positive and finite")
     return d
 

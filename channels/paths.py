@@ -86,10 +86,11 @@ class PathSet:
         g = np.atleast_1d(np.asarray(self.gain, dtype=np.complex128)).copy()
         d = np.atleast_1d(np.asarray(self.delay_s, dtype=np.float64)).copy()
         f = np.zeros(d.shape) if self.doppler_hz is None else np.asarray(self.doppler_hz, dtype=np.float64)
-        f = np.broadcast_to(np.atleast_1d(f), d.shape).copy()
+        # a (n,) Doppler array is copied as it is; anything else is broadcast to the delays' shape
+        f = f.copy() if f.shape == d.shape else np.broadcast_to(np.atleast_1d(f), d.shape).copy()
         if g.ndim != 1 or g.shape != d.shape:
             raise ValueError(f"gain {g.shape} and delay_s {d.shape} must be 1-D of equal length")
-        if not np.all(np.isfinite(d)) or not np.all(np.isfinite(g)) or not np.all(np.isfinite(f)):
+        if not (np.isfinite(d).all() and np.isfinite(g).all() and np.isfinite(f).all()):
             raise ValueError("PathSet values must be finite")
         object.__setattr__(self, "gain", _ro(g))
         object.__setattr__(self, "delay_s", _ro(d))

@@ -5,7 +5,8 @@ curve) runs many *independent trials* of the same kind of exchange: the same dev
 command, a different channel draw, receiver noise and tag RN16 in every trial. Link-level
 simulators batch such trials along a leading array dimension so that the per-call cost is
 paid once per batch (Sionna's convention); here :func:`run_exchanges` does the same for the
-sample-level exchange of :func:`rfsim.engine.run_exchange`:
+sample-level exchange of :func:`rfsim.engine.run_exchange`, on the batched air step
+:func:`propagate_batch` (B prepared steps of :func:`rfsim.air.propagate`, :class:`AirStep`):
 
 1. per trial b the reader's segment (made once when every trial sends the same command at
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
@@ -25,6 +26,20 @@ Reproducibility follows the rule of :mod:`rfsim.rng`: trial b's stream is its ow
 generator (e.g. ``trial_rng(seed, point, b)``), so a trial's result does not depend on the
 batch it ran in, nor on B.
 
+The air step of a batch (:func:`propagate_batch`) runs the air of every step first (emit,
+links, reflections, superposition: ``propagate`` with its receivers' noise off), then each
+step's receiver noise, receiver by receiver, from the step's own generator (the numbers
+``propagate`` draws there: :func:`rfsim.noise.add_awgn` on the same sums), then the
+receivers' decisions. It equals the steps run one after another by ``propagate`` whenever
+that leaves the draws of every generator in their order: the air of a step draws nothing
+from a generator that an earlier step drew noise from, nor from its own noise generator
+after a receiver with noise. That holds when the links draw from generators of their own
+(:class:`rfsim.air.LinkTable` with another ``rng``, held links), and for the engine's
+exchange, whose one generator per trial draws the links before the noise of its one
+receiver (the reader's port); a link table drawing from a noise generator otherwise is a
+one-line error. Steps may share a noise generator (the queries of one trial): their noise
+is drawn in step order, as the sequence of separate steps draws it.
+
 Held links. With ``draw_channel=False`` a trial's links come from its own ``link_caches[b]``
 (the draw of its Query, for the ACK); a link missing there is the channel's held draw, and a
 channel holds one draw per antenna pair, the last trial's: trials whose tags share antenna
@@ -39,11 +54,14 @@ A reader keeps no state between the trials of a batch when its ``blf_search`` is
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from rfsim.air import Segment
-from rfsim.engine import Exchange, _prepare, _air_step, _record, _transmit, _truth
+from rfsim.air import AirResult, propagate
+from rfsim.engine import Exchange, _air_arguments, _prepare, _record, _transmit, _truth
+from rfsim.errors import ConfigError
 from rfsim.noise import add_awgn
 
 
@@ -54,6 +72,86 @@ def _per_trial(value, n: int, name: str) -> list:
             raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
         return list(value)
     return [value] * n
+
+
+@dataclass
+class AirStep:
+    """One air step prepared for :func:`propagate_batch`: the arguments of
+    :func:`rfsim.air.propagate` (the same names and meanings)."""
+
+    emitters: Sequence
+    reflectors: Sequence
+    receivers: Sequence
+    links: Any
+    t0_s: float
+    fs_hz: float
+    n_samples: int
+    rng: np.random.Generator | None = None
+    fc_ref_hz: float | None = None
+    bandwidth_hz: float | None = None
+    propagation: str = "auto"
+    decide: bool = True
+    keep_components: bool = False
+
+
+class _Quiet:
+    """A receiver as the noiseless air step sees it: its antenna, carrier and coupling,
+    noise power 0 (the noise is added by :func:`propagate_batch` afterwards)."""
+
+    noise_power_w = 0.0
+
+    def __init__(self, receiver):
+        self.antenna, self.fc_hz = receiver.antenna, getattr(receiver, "fc_hz", None)
+        coupling = getattr(receiver, "coupling", None)
+        if coupling is not None:
+            self.coupling = coupling
+
+
+def propagate_batch(steps: Sequence[AirStep]) -> list[AirResult]:
+    """B air steps as one batch (module docstring): the air of every step, then every
+    step's receiver noise (receivers in order, from the step's ``rng``), then the
+    decisions of the steps with ``decide``. Returns per step its :class:`rfsim.air.AirResult`,
+    bit-identical to ``propagate`` of that step run after the steps before it
+    (tests/test_batch.py)."""
+    steps = list(steps)
+    _check_noise_order(steps)
+    airs = [propagate(s.emitters, s.reflectors, [_Quiet(r) for r in s.receivers], s.links, t0_s=s.t0_s,
+                      fs_hz=s.fs_hz, n_samples=s.n_samples, rng=None, fc_ref_hz=s.fc_ref_hz,
+                      bandwidth_hz=s.bandwidth_hz, propagation=s.propagation, decide=False,
+                      keep_components=s.keep_components) for s in steps]
+    for s, air in zip(steps, airs):
+        for k, rcv in enumerate(s.receivers):
+            noise_w = float(rcv.noise_power_w)
+            if noise_w > 0:
+                if s.rng is None:
+                    raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
+                ab = add_awgn(air.inputs[k].samples, noise_w, s.rng)  # the step's own sum, in place
+                if s.keep_components:
+                    air.noise[k] = ab[0] + 1j * ab[1]
+    for s, air in zip(steps, airs):
+        if s.decide:
+            air.outputs = [rcv.receive(seg) for rcv, seg in zip(s.receivers, air.inputs)]
+    return airs
+
+
+def _check_noise_order(steps: Sequence[AirStep]) -> None:
+    """A one-line error where a step's link table draws from a noise generator in a way the
+    batch would reorder (module docstring)."""
+    noisy_rngs = {}  # id(generator) -> index of the first step that draws noise from it
+    for b, s in enumerate(steps):
+        noisy = [k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0]
+        if noisy and s.rng is not None:
+            noisy_rngs.setdefault(id(s.rng), b)
+    for b, s in enumerate(steps):
+        link_rng = getattr(s.links, "rng", None)
+        if link_rng is None or id(link_rng) not in noisy_rngs:
+            continue
+        noisy = [k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0]
+        own_last = s.rng is link_rng and noisy == [len(s.receivers) - 1] and noisy_rngs[id(link_rng)] == b
+        shared = sum(1 for t in steps if t.rng is link_rng) > 1
+        if not own_last or shared:
+            raise ValueError(f"steps[{b}].links: draws from a generator that receiver noise is drawn from; the batch "
+                             "draws the noise after the links (give the links a generator of their own)")
 
 
 def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: Sequence[np.random.Generator],
@@ -85,8 +183,8 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
     out: list = []
     for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
-        # 1. per trial: the segment, the links, the reactions (the air step without noise)
-        preps, truths, inputs = [], [], []
+        # 1. per trial: the segment, the port, the links (the air step prepared)
+        preps = []
         for b in range(k0, min(n, k0 + BLOCK)):
             key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
             tx = segments.get(key)
@@ -95,29 +193,17 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                     segments.clear()
                 tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
                                                round_index=rounds[b])
-            prep = _prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
-                            reply_bits=reply_bits, expect_crc=expect_crc, motions=motions, round_index=rounds[b],
-                            draw_channel=draw_channel, propagation=propagation, link_cache=caches[b], tx=tx)
-            noise_w = prep.port.noise_power_w
-            prep.port.noise_power_w = 0.0  # the noise is added below, after the block's air steps
-            air = _air_step(prep, rng=None)
-            prep.port.noise_power_w = noise_w
-            preps.append(prep)
-            truths.append(_truth(air, prep.members))
-            inputs.append(air.inputs[0])
-        # 2. the receiver noise of each trial, from its own generator
-        noisy = []
-        for k, (prep, seg) in enumerate(zip(preps, inputs)):
-            y = np.array(seg.samples, dtype=np.complex128)
-            if prep.port.noise_power_w > 0:
-                if rngs[k0 + k] is None:
-                    raise ValueError("a generator per trial is needed when the receiver has noise")
-                add_awgn(y, prep.port.noise_power_w, rngs[k0 + k])
-            noisy.append(Segment(seg.t0_s, seg.fs_hz, seg.fc_hz, y))
+            preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
+                                  reply_bits=reply_bits, expect_crc=expect_crc, motions=motions,
+                                  round_index=rounds[b], draw_channel=draw_channel, propagation=propagation,
+                                  link_cache=caches[b], tx=tx))
+        # 2. the air steps of the block, then their noise (each trial's own generator)
+        airs = propagate_batch([AirStep(**_air_arguments(prep), rng=rngs[k0 + k]) for k, prep in enumerate(preps)])
         # 3.–4. the reads of the trials with a reply, the records
-        for k, prep in enumerate(preps):
-            read = prep.port.receive(noisy[k]) if truths[k][0] else None
-            out.append(_record(prep, truths[k], read))
+        for prep, air in zip(preps, airs):
+            truth = _truth(air, prep.members)
+            read = prep.port.receive(air.inputs[0]) if truth[0] else None
+            out.append(_record(prep, truth, read))
     return out
 
 
@@ -167,4 +253,4 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     return out
 
 
-__all__ = ["run_exchanges", "singulate_batch"]
+__all__ = ["AirStep", "propagate_batch", "run_exchanges", "singulate_batch"]

@@ -233,10 +233,16 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
 
 def _air_step(prep: _Prepared, *, rng):
     """The air step of one prepared exchange (the reader port's noise drawn from ``rng``)."""
+    return propagate(**_air_arguments(prep), rng=rng)
+
+
+def _air_arguments(prep: _Prepared) -> dict:
+    """The arguments of :func:`rfsim.air.propagate` for a prepared exchange, but its ``rng``
+    (``rfsim.batch`` builds its batched steps from them too)."""
     tx = prep.tx
-    return propagate([prep.emitter], prep.reflectors, [prep.port], prep.links, t0_s=prep.t_s, fs_hz=tx.fs_hz,
-                     n_samples=tx.samples.size, rng=rng, bandwidth_hz=prep.bandwidth_hz,
-                     propagation=prep.propagation, decide=False)
+    return dict(emitters=[prep.emitter], reflectors=prep.reflectors, receivers=[prep.port], links=prep.links,
+                t0_s=prep.t_s, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=prep.bandwidth_hz,
+                propagation=prep.propagation, decide=False)
 
 
 def _truth(air, members) -> tuple:

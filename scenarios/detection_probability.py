@@ -79,7 +79,7 @@ Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples
 gives the same rows as any split of that range into blocks (the sweep
 ``examples/sweeps/detection-probability.toml`` runs blocks in parallel; the merged
 ``samples`` table is the full table and :func:`fit_file` fits it). A run itself simulates its samples in
-blocks of 256 on ``samples.workers`` processes (default 2), with the same rows for any number.
+blocks (32, then 256 each) on ``samples.workers`` processes (default 2), with the same rows for any number.
 """
 
 from __future__ import annotations
@@ -100,7 +100,8 @@ from devices.reader import Reader, ReaderConfig
 from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
                                  make_receiver, st_antenna_positions)
 from devices.tag import PassiveTag, TagConfig
-from rfsim.air import AntennaPort, FixedEmitter, LinkTable, propagate
+from rfsim.air import AntennaPort, FixedEmitter, LinkTable
+from rfsim.batch import AirStep, propagate_batch
 from rfsim.config import param
 from rfsim.dataset import Dataset, column
 from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
@@ -305,7 +306,16 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
     the ST step is the argument of :func:`_st_inputs`. ``placed``: :func:`sample_placement` of
     the sample (drawn when None); ``reader_tag``: the carrier-independent geometry of the
     reader → tag link (:func:`channels.bulk.static_placements`; evaluated by the channel when None)."""
-    g, st = config.geometry, config.st
+    prepared = _reader_step(config, index, seed, ra, placed, reader_tag)
+    return _reader_outcome(config, prepared, propagate_batch([prepared[0]])[0])
+
+
+def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
+                 reader_tag: tuple | None) -> tuple:
+    """The air step of sample ``index`` prepared (:class:`rfsim.batch.AirStep`: the reader's
+    segment, the tag, the reader's port; links drawn from stream 3, the port's noise from
+    stream 4) and what :func:`_reader_outcome` needs of it."""
+    g = config.geometry
     tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
     reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
@@ -313,7 +323,6 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
     lk = reader.link
     q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
-    fs, fc = tx.fs_hz, tx.fc_hz
     port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
     channel = Channel(scene(g))
@@ -321,8 +330,17 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
         channel.hold_placement(ra, tag.antenna, reader_tag)
     links = LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
     emitter = FixedEmitter(ra, tx, device=reader)
-    air = propagate([emitter], [tag], [port], links, t0_s=0.0, fs_hz=fs, n_samples=tx.samples.size,
-                    rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+    step = AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
+                   rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+    return step, index, tag_pos, st_pos, orient, tx
+
+
+def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
+    """The reader's read of a step of :func:`_reader_step` (only when the tag replied, as
+    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step."""
+    step, index, tag_pos, st_pos, orient, tx = prepared
+    st = config.st
+    emitter, tag, port, links = step.emitters[0], step.reflectors[0], step.receivers[0], step.links
     resp = air.reflections[0]
     replied = resp.gamma is not None
     bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
@@ -333,11 +351,11 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
         sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
                                       orientation_rad=orient)
-        st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, lk)
+        st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, port.reader.link)
     big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
-                  theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=fc,
+                  theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=tx.fc_hz,
                   tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
                   tag_replied=replied, reader_detected=bool(reader_ok))
     return record, st_step, tx, resp, bits
@@ -348,12 +366,23 @@ def _st_inputs(st_step: tuple) -> np.ndarray:
     receivers of the same step, after the reader's port (the links drawn after the reader's,
     from the same stream; the tag's reaction replayed). Only when the tag replied: a silent
     tag leaves nothing for an ST to decode, so their links are not drawn then."""
-    emitter, tag_ant, resp, links, sa, tx, lk = st_step
-    fs = tx.fs_hz
-    st_air = propagate([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in sa], links, t0_s=0.0,
-                       fs_hz=fs, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
-    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
-    return np.array([seg.samples for seg in st_air.inputs])[:, i0:]
+    return _st_inputs_batch([st_step])[0]
+
+
+def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
+    """:func:`_st_inputs` of many samples as one batch of air steps (:func:`rfsim.batch.propagate_batch`;
+    the ST antennas have no noise)."""
+    steps = []
+    for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
+        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in st_ants], links,
+                             t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz,
+                             decide=False))
+    out = []
+    for st_step, st_air in zip(st_steps, propagate_batch(steps)):
+        tx = st_step[5]
+        i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
+        out.append(np.array([seg.samples for seg in st_air.inputs])[:, i0:])
+    return out
 
 
 class _Replayed:
@@ -475,19 +504,24 @@ FIELDS = {
 
 #: Samples whose ST chains run as one batch of rows (:func:`_st_outcomes`).
 ST_BLOCK = 256
+#: Samples of the first block (run in this process before the pool starts).
+WARM_BLOCK = 32
 
 
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`).
 
-    The samples run in blocks of :data:`ST_BLOCK` (``first``, ``first + ST_BLOCK``, …) on
-    ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the first block in this
-    process), concatenated in order: every sample draws only from its own streams and a block
+    The samples run in blocks (the first of :data:`WARM_BLOCK` samples, then of
+    :data:`ST_BLOCK`) on ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the
+    first block in this process), concatenated in order: every sample draws only from its own streams and a block
     is the batch of its ST chains, so the rows do not depend on the number of workers."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed
     end = s.first + s.count
-    tasks = [(config, base, lo, min(lo + ST_BLOCK, end)) for lo in range(s.first, end, ST_BLOCK)]
+    # a small first block runs in this process before the pool (imports, kernels loaded; the
+    # workers forked afterwards inherit them), so that little of the run is spent on one core
+    cuts = [s.first, *range(min(s.first + WARM_BLOCK, end), end, ST_BLOCK), end]
+    tasks = [(config, base, lo, hi) for lo, hi in zip(cuts[:-1], cuts[1:]) if hi > lo]
     parts = map_in_order(_block_task, tasks, s.workers, desc="monte carlo", unit="blocks")
     rows = [r for p in parts for r in p]
     out = {k: np.array([r[k] for r in rows]) for k in FIELDS if k != "is_test"}
@@ -504,7 +538,10 @@ def _block_task(args) -> list[dict]:
     # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
     sc = scene(g)
     reader_tag = static_placements(sc, ra, [p[3] for p in placed])
-    rounds = [_reader_round(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
+    # the air steps of the block's samples as one batch, then each sample's read
+    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
+    airs = propagate_batch([p[0] for p in prepared])
+    rounds = [_reader_outcome(config, p, air) for p, air in zip(prepared, airs)]
     # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k
     steps = [r[1] for r in rounds if r[1] is not None]
     sa = [a for step in steps for a in step[4]]
@@ -516,7 +553,8 @@ def _block_task(args) -> list[dict]:
             links.channel.hold_placement(emitter.antenna, a, from_reader[j])
             links.channel.hold_placement(tag_ant, a, from_tag[j])
             j += 1
-    return _st_outcomes(config, [(rec, None if step is None else _st_inputs(step), tx, resp, bits)
+    inputs = iter(_st_inputs_batch(steps))
+    return _st_outcomes(config, [(rec, None if step is None else next(inputs), tx, resp, bits)
                                  for rec, step, tx, resp, bits in rounds])
 
 

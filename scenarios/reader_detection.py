@@ -30,7 +30,8 @@ as in a real campaign: the N queries are spread evenly over U(``round_s``) = U(0
 Rician gain ``h_q`` of the moving people (:func:`rician_gains`: K = ``fading_k_db`` = 6 dB,
 correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values assumed, the source gives
 none). Each query is simulated at sample level, one step of the air interface
-(:func:`rfsim.air.propagate` on the links, :class:`channels.HeldLinks`): the tag's PIE
+(:func:`rfsim.air.propagate` on the links, :class:`channels.HeldLinks`; the N queries of a
+trial as one batch, :func:`rfsim.batch.propagate_batch`): the tag's PIE
 decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
 (:meth:`devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
 noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome is **the reader
@@ -112,7 +113,8 @@ from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_m
 from rfsim.detection.fit import DA_PARAMETER_NAMES
 from rfsim.errors import ConfigError, UserError
 from rfsim.gen2.commands import Query
-from rfsim.air import FixedEmitter, propagate
+from rfsim.air import FixedEmitter
+from rfsim.batch import AirStep, propagate_batch
 from rfsim.engine import ReaderPort
 from rfsim.gen2.link import reply_window_s
 from rfsim.progress import stage
@@ -134,6 +136,8 @@ FULL_REPETITIONS = 10
 D50_ANGLES_DEG = (0.0, 30.0, 60.0)
 PUBLISHED_D50_M = (6.63, 3.97, 1.30)
 QUERY_PERIOD_S = 4e-3
+#: Queries of a trial run as one batch of air steps (bounds the memory of long trials).
+QUERY_BLOCK = 64
 
 
 #: Chip sensitivity per tag class [dBm]. The source names the campaign's tags (Smartrac UHF
@@ -276,34 +280,43 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     chan = Channel(scene(config.rooms, room))
     drawn: dict = {}  # one link draw per hop channel of the round (held within the dwell)
     nrng = trial_rng(seed, *key, 4)
-    n_reads = n_replied = n_powered = 0
-    p_inc = -np.inf
     channels = set()
-    for j, t_j in enumerate(times):
+
+    def query_step(j: int) -> tuple:
         # query j at t_j: the reader's segment on the channel of t_j; the held links of that
         # channel times the moving-scatterer gain h_q, both ways (reciprocal); one air step
         # (reader port: leakage, backscatter, receiver noise from nrng every query)
-        seg = reader.transmit(q, t0_s=float(t_j), cw_after_s=reply_window_s(lk, 16))
-        fs, fc = seg.fs_hz, seg.fc_hz
+        t_j = float(times[j])
+        seg = reader.transmit(q, t0_s=t_j, cw_after_s=reply_window_s(lk, 16))
         channels.add(seg.channel_index)
-        if fc not in drawn:
-            drawn[fc] = chan.backscatter_links(ant, tag_ant, fc_hz=fc, rng=crng)
-        fwd, bwd = drawn[fc]
+        if seg.fc_hz not in drawn:
+            drawn[seg.fc_hz] = chan.backscatter_links(ant, tag_ant, fc_hz=seg.fc_hz, rng=crng)
+        fwd, bwd = drawn[seg.fc_hz]
         links = HeldLinks([(ant, tag_ant, replace(fwd, gain=fwd.gain * h[j])),
                            (tag_ant, ant, replace(bwd, gain=bwd.gain * h[j]))])
         port = ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
-        air = propagate([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=float(t_j), fs_hz=fs,
-                        n_samples=seg.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz, decide=False)
-        resp = air.reflections[0]
-        p_inc = max(p_inc, float(resp.incident_power_dbm))
-        n_powered += bool(resp.powered)
-        if resp.gamma is None:
-            continue  # nothing to decode (the engine's reader listens only when a tag replied)
-        n_replied += 1
-        read = port.receive(air.inputs[0])
-        n_reads += bool(read.bits is not None and read.success
-                        and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
-    tx = seg
+        return seg, AirStep([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j,
+                            fs_hz=seg.fs_hz, n_samples=seg.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz,
+                            decide=False)
+
+    # the queries in batches of QUERY_BLOCK: their air steps in query order (the tag's state
+    # carried from one to the next), then their noise from nrng in query order, then the reads
+    n_reads = n_replied = n_powered = 0
+    p_inc = -np.inf
+    for j0 in range(0, c.queries, QUERY_BLOCK):
+        txs, steps = zip(*[query_step(j) for j in range(j0, min(c.queries, j0 + QUERY_BLOCK))])
+        for step, air in zip(steps, propagate_batch(steps)):
+            resp = air.reflections[0]
+            p_inc = max(p_inc, float(resp.incident_power_dbm))
+            n_powered += bool(resp.powered)
+            if resp.gamma is None:
+                continue  # nothing to decode (the engine's reader listens only when a tag replied)
+            n_replied += 1
+            read = step.receivers[0].receive(air.inputs[0])
+            n_reads += bool(read.bits is not None and read.success
+                            and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
+    tx = txs[-1]  # the last query's segment
+    fc = tx.fc_hz
     return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=n_reads,
                 p_hat=n_reads / c.queries, n_powered=n_powered, n_replied=n_replied, channel_index=tx.channel_index,
                 n_channels=len(channels), round_s=t_round,

@@ -150,3 +150,120 @@ def test_bench_exchange_batch_reports_its_measurements():
     # batches target A then B, so every tag answers both
     assert out["batch"] == 3 and out["read_rate"] == 1.0
     assert out["air_time_per_cpu_s"] > 0 and out["cpu_s_per_trial"] > 0
+
+
+# ----------------------------------------------------------------------------- propagate_batch
+
+
+def air_scene(b, *, noise_w, shared_rng=None, link_rng_is_noise=False, keep=False, decide=True):
+    """Step b of a batch, built afresh: a reader's Query segment, one tag, as receivers the
+    reader's port and two listening antennas (each with noise ``noise_w``), links drawn from
+    the step's own link stream (or, ``link_rng_is_noise``, from its noise generator)."""
+    from channels.antennas import vertical_dipole
+    from rfsim.air import AntennaPort, FixedEmitter, LinkTable
+    from rfsim.batch import AirStep
+    from rfsim.engine import ReaderPort
+
+    cfg = link_scenario.Config()
+    ra = link_scenario.reader_antenna(cfg.geometry)
+    reader = Reader(ReaderConfig(), [ra], rng=trial_rng(SEED, 7, b))
+    tag = PassiveTag(TagConfig(), link_scenario.tag_antenna(cfg.geometry, DISTANCES[b]), rng=trial_rng(SEED, 8, b))
+    lk = reader.link
+    tx = reader.transmit(query_of(reader), t0_s=0.0, cw_after_s=0.9e-3)
+    noise = shared_rng if shared_rng is not None else trial_rng(SEED, 9, b)
+    links = LinkTable(Channel(link_scenario.scene(cfg.channel)),
+                      rng=noise if link_rng_is_noise else trial_rng(SEED, 10, b))
+    port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
+    listeners = [AntennaPort(vertical_dipole((0.5 + 0.3 * k, 0.4, 1.0)), noise_power_w=noise_w) for k in range(2)]
+    receivers = [listeners[0], port, listeners[1]] if not link_rng_is_noise else [listeners[0], port]
+    if link_rng_is_noise:  # only the last receiver has noise: its links come before its noise
+        listeners[0].noise_power_w = 0.0
+    return AirStep([FixedEmitter(ra, tx, device=reader)], [tag], receivers, links, t0_s=0.0, fs_hz=tx.fs_hz,
+                   n_samples=tx.samples.size, rng=noise, bandwidth_hz=2.0 * lk.blf_hz, decide=decide,
+                   keep_components=keep)
+
+
+def separate(step):
+    from rfsim.air import propagate
+
+    return propagate(step.emitters, step.reflectors, step.receivers, step.links, t0_s=step.t0_s, fs_hz=step.fs_hz,
+                     n_samples=step.n_samples, rng=step.rng, bandwidth_hz=step.bandwidth_hz,
+                     propagation=step.propagation, decide=step.decide, keep_components=step.keep_components)
+
+
+def assert_same_air(a, b):
+    assert len(a.inputs) == len(b.inputs)
+    for sa, sb in zip(a.inputs, b.inputs):
+        assert (sa.t0_s, sa.fs_hz, sa.fc_hz) == (sb.t0_s, sb.fs_hz, sb.fc_hz)
+        assert np.array_equal(sa.samples, sb.samples)
+    for ra, rb in zip(a.reflections, b.reflections):
+        assert ra.incident_power_dbm == rb.incident_power_dbm and ra.powered == rb.powered
+        assert (ra.gamma is None) == (rb.gamma is None)
+    for oa, ob in zip(a.outputs, b.outputs):
+        if oa is None or ob is None:
+            assert oa is ob
+        elif hasattr(oa, "samples"):
+            assert np.array_equal(oa.samples, ob.samples)
+        else:
+            assert_same_read(oa, ob)
+    assert a.dropped == b.dropped and a.fc_ref_hz == b.fc_ref_hz
+    for name in ("direct", "noise"):
+        xa, xb = getattr(a, name), getattr(b, name)
+        assert (xa is None) == (xb is None)
+        for va, vb in zip(xa or (), xb or ()):
+            assert (va is None and vb is None) or np.array_equal(va, vb), name
+
+
+def assert_same_read(ra, rb):
+    fa, fb = dataclasses.asdict(ra), dataclasses.asdict(rb)
+    assert fa.keys() == fb.keys()
+    for k in fa:
+        if isinstance(fa[k], np.ndarray) or isinstance(fb[k], np.ndarray):
+            assert np.array_equal(fa[k], fb[k]), k
+        elif isinstance(fa[k], float) and math.isnan(fa[k]):
+            assert math.isnan(fb[k]), k
+        else:
+            assert fa[k] == fb[k], k
+
+
+@pytest.mark.parametrize("keep", [False, True])
+def test_propagate_batch_equals_separate_steps_with_noise_at_several_receivers(keep):
+    from rfsim.batch import propagate_batch
+
+    n, noise_w = 5, 1e-9
+    batch = propagate_batch([air_scene(b, noise_w=noise_w, keep=keep) for b in range(n)])
+    single = [separate(air_scene(b, noise_w=noise_w, keep=keep)) for b in range(n)]
+    quiet = separate(air_scene(0, noise_w=0.0))
+    assert not np.array_equal(quiet.inputs[0].samples, single[0].inputs[0].samples)  # the listeners' noise is on
+    assert any(air.reflections[0].gamma is not None for air in single)  # some tags replied
+    for a, b in zip(batch, single):
+        assert_same_air(a, b)
+        assert a.outputs[1] is not None  # decide: the reader port's read, formed after the noise
+
+
+def test_propagate_batch_steps_sharing_one_noise_generator_equal_the_sequence():
+    """Steps drawing noise from one generator (a trial's queries): drawn in step order."""
+    from rfsim.batch import propagate_batch
+
+    shared = trial_rng(SEED, 12)
+    batch = propagate_batch([air_scene(b, noise_w=1e-9, shared_rng=shared) for b in range(4)])
+    shared2 = trial_rng(SEED, 12)
+    single = [separate(air_scene(b, noise_w=1e-9, shared_rng=shared2)) for b in range(4)]
+    for a, b in zip(batch, single):
+        assert_same_air(a, b)
+    assert shared.standard_normal() == shared2.standard_normal()
+
+
+def test_propagate_batch_links_and_noise_from_one_generator():
+    """The engine's case (the links' draws come before the one noisy receiver's noise) is
+    exact; where the batch would move a noise draw before a link draw it refuses."""
+    from rfsim.batch import propagate_batch
+
+    batch = propagate_batch([air_scene(b, noise_w=1e-9, link_rng_is_noise=True) for b in range(3)])
+    single = [separate(air_scene(b, noise_w=1e-9, link_rng_is_noise=True)) for b in range(3)]
+    for a, b in zip(batch, single):
+        assert_same_air(a, b)
+    bad = air_scene(0, noise_w=1e-9)
+    bad.links.rng = bad.rng  # the second listener's links would be drawn after the first one's noise
+    with pytest.raises(ValueError, match=r"steps\[0\]\.links: draws from a generator that receiver noise"):
+        propagate_batch([bad])

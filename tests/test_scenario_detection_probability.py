@@ -85,6 +85,7 @@ def test_rows_do_not_depend_on_workers_or_block_size(monkeypatch):
     cfg = replace(TINY, samples=dp.SampleConfig(count=12, seed=9, workers=1))
     one = dp.simulate(cfg, seed=1)
     monkeypatch.setattr(dp, "ST_BLOCK", 4)
+    monkeypatch.setattr(dp, "WARM_BLOCK", 3)
     pooled = dp.simulate(replace(cfg, samples=replace(cfg.samples, workers=2)), seed=1)
     assert one["tag_replied"].any()  # the ST chains ran for some samples
     for k in dp.FIELDS:

@@ -40,10 +40,12 @@ def int_to_bits(value: int, n_bits: int) -> np.ndarray:
     value, n_bits = int(value), int(n_bits)
     if n_bits < 0 or value < 0 or value >> n_bits:
         raise ValueError(f"value {value} does not fit in {n_bits} unsigned bits")
-    shifts = np.arange(n_bits - 1, -1, -1, dtype=np.int64)
     if n_bits <= 63:
+        shifts = np.arange(n_bits - 1, -1, -1, dtype=np.int64)
         return ((value >> shifts) & 1).astype(np.uint8)
-    return np.array([(value >> int(s)) & 1 for s in shifts], dtype=np.uint8)
+    # longer words (an EPC): the bytes of the value, big-endian, unpacked MSB first
+    n_bytes = (n_bits + 7) // 8
+    return np.unpackbits(np.frombuffer(value.to_bytes(n_bytes, "big"), dtype=np.uint8))[8 * n_bytes - n_bits:]
 
 
 def bits_to_int(bits) -> int:

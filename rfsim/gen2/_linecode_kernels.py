@@ -140,25 +140,31 @@ def refine_kernel(r, cands, shifts, templates, norms):
     For every candidate lag ``c`` and shift ``d = shifts[j]`` (skipped where c + d < 0):
     ``v = |Σ_i r[c + i]·templates[j, i]| / norms[j]`` (templates zero-mean, one row per
     shift); returns ``(best v, c + d of the best)``, the first one on ties (candidates in
-    the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped.
+    the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped. The sums of
+    all shifts run side by side over i (each still in the order i = 0, 1, …), so the
+    additions of different shifts overlap instead of waiting on one another.
     """
-    n_pre = templates.shape[1]
+    n_shifts, n_pre = templates.shape
+    by_sample = np.ascontiguousarray(templates.T)  # (n_pre, n_shifts)
+    acc_re = np.empty(n_shifts)
+    acc_im = np.empty(n_shifts)
     best = -1.0
     start = math.nan
     for ci in range(cands.size):
         c = cands[ci]
-        for j in range(shifts.size):
+        acc_re[:] = 0.0
+        acc_im[:] = 0.0
+        for i in range(n_pre):
+            z = r[c + i]
+            for j in range(n_shifts):
+                t = by_sample[i, j]
+                acc_re[j] += z.real * t
+                acc_im[j] += z.imag * t
+        for j in range(n_shifts):
             d = shifts[j]
             if c + d < 0.0:
                 continue
-            acc_re = 0.0
-            acc_im = 0.0
-            for i in range(n_pre):
-                t = templates[j, i]
-                z = r[c + i]
-                acc_re += z.real * t
-                acc_im += z.imag * t
-            v = math.hypot(acc_re, acc_im) / norms[j]
+            v = math.hypot(acc_re[j], acc_im[j]) / norms[j]
             if v > best:
                 best = v
                 start = c + d

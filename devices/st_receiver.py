@@ -164,6 +164,16 @@ def _rc_coefficient(fs_hz: float, tau_s: float) -> float:
     return -math.expm1(-1.0 / (float(fs_hz) * float(tau_s)))
 
 
+def i0e(x) -> np.ndarray:
+    """Exponentially scaled modified Bessel function ``exp(−|x|)·I0(x)`` (numba, the Cephes
+    series of scipy.special.i0e evaluated in the same order: equal results; scipy's is the
+    twin), an array of the shape of ``x``."""
+    x = np.asarray(x, dtype=np.float64)
+    out = np.empty(x.shape)
+    _k.i0e_kernel(np.ascontiguousarray(x).reshape(-1), out.reshape(-1))
+    return out
+
+
 def comparator(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, int, int]:
     """Hysteresis comparator (one-bit A/D) with switching levels ``±threshold_v/2`` (numba).
 
@@ -322,7 +332,7 @@ class EnvelopeDetector:
             nvt = self.thermal_voltage_v
             x = self.matching_gain * v
             x /= nvt
-            y = np.asarray(_special.i0e(x))
+            y = i0e(x)
             np.log(y, out=y)
             y += x
             y *= nvt
@@ -722,7 +732,7 @@ def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STR
 
 __all__ = [
     "REFERENCE_IMPEDANCE_OHM", "SOURCE_IMPEDANCE_OHM", "to_source_volts", "DETECTOR_LAWS", "K_OVER_Q_V_PER_K",
-    "DEFAULT_MATCHING_GAIN", "DEFAULT_IDEALITY", "DEFAULT_TEMPERATURE_K", "rc_lowpass", "rc_lowpass_reference", "comparator",
+    "DEFAULT_MATCHING_GAIN", "DEFAULT_IDEALITY", "DEFAULT_TEMPERATURE_K", "rc_lowpass", "rc_lowpass_reference", "i0e", "comparator",
     "comparator_reference", "passband_envelope_v", "settled_mask", "state_levels",
     "state_envelope_difference", "EnvelopeDetector", "ChainOutput", "Reception", "STReceiver",
     "receive_combined", "SelectionReception", "receive_selection", "STAMP_S1", "STAMP_S2", "STAMP_S3",

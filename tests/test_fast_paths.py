@@ -87,6 +87,32 @@ def test_refine_kernel_equals_reference(m):
     assert a[1] >= 0 and a[1] == L.refine_reference(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)[1]
 
 
+def test_refine_kernel_sums_in_sample_order_exactly():
+    """The kernel's sums are those of a sample-by-sample loop, bit for bit (the shifts are
+    summed side by side, each in the order i = 0, 1, ...), on a complex input and on a
+    comparator's +-1 input with ties."""
+    rng = trial_rng(54, 0)
+    fs, blf, m = 1e6, 48e3, 2
+    rows, norms = L._refine_bank(m, True, 2 * blf / fs)
+    n_pre = rows.shape[1]
+    for r in (rng.standard_normal(n_pre + 60) + 1j * rng.standard_normal(n_pre + 60),
+              np.sign(rng.standard_normal(n_pre + 60)).astype(np.complex128)):
+        cands = np.array([40, 3, 0, 57, 12])
+        best, start = -1.0, math.nan
+        for c in cands.tolist():
+            for d, t, norm in zip(L._REFINE_SHIFTS.tolist(), rows, norms):
+                if c + d < 0:
+                    continue
+                acc_re = acc_im = 0.0
+                for i in range(n_pre):
+                    acc_re += r[c + i].real * t[i]
+                    acc_im += r[c + i].imag * t[i]
+                v = math.hypot(acc_re, acc_im) / norm
+                if v > best:
+                    best, start = v, c + d
+        assert L._kernel_refine(r, cands, L._REFINE_SHIFTS, rows, norms) == (best, start)
+
+
 def test_template_cache_matches_fresh_template():
     """The cached preamble template equals one built from the element sequence directly."""
     fs, blf, m = 4e6, 320e3, 4

@@ -140,63 +140,31 @@ def refine_kernel(r, cands, shifts, templates, norms):
     For every candidate lag ``c`` and shift ``d = shifts[j]`` (skipped where c + d < 0):
     ``v = |Σ_i r[c + i]·templates[j, i]| / norms[j]`` (templates zero-mean, one row per
     shift); returns ``(best v, c + d of the best)``, the first one on ties (candidates in
-    the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped.
-
-    Each sum runs over i in order (the same rounding as one sum at a time); four shifts are
-    summed side by side, so that the additions of different sums overlap.
+    the given order, shifts ascending). ``(−1, nan)`` if every pair is skipped. The sums of
+    all shifts run side by side over i (each still in the order i = 0, 1, …), so the
+    additions of different shifts overlap instead of waiting on one another.
     """
-    n_pre = templates.shape[1]
-    ns = shifts.size
+    n_shifts, n_pre = templates.shape
+    by_sample = np.ascontiguousarray(templates.T)  # (n_pre, n_shifts)
+    acc_re = np.empty(n_shifts)
+    acc_im = np.empty(n_shifts)
     best = -1.0
     start = math.nan
-    vals = np.empty(ns)
     for ci in range(cands.size):
         c = cands[ci]
-        j0 = 0
-        while j0 + 4 <= ns:
-            a0r = 0.0
-            a0i = 0.0
-            a1r = 0.0
-            a1i = 0.0
-            a2r = 0.0
-            a2i = 0.0
-            a3r = 0.0
-            a3i = 0.0
-            for i in range(n_pre):
-                z = r[c + i]
-                zr = z.real
-                zi = z.imag
-                t = templates[j0, i]
-                a0r += zr * t
-                a0i += zi * t
-                t = templates[j0 + 1, i]
-                a1r += zr * t
-                a1i += zi * t
-                t = templates[j0 + 2, i]
-                a2r += zr * t
-                a2i += zi * t
-                t = templates[j0 + 3, i]
-                a3r += zr * t
-                a3i += zi * t
-            vals[j0] = math.hypot(a0r, a0i) / norms[j0]
-            vals[j0 + 1] = math.hypot(a1r, a1i) / norms[j0 + 1]
-            vals[j0 + 2] = math.hypot(a2r, a2i) / norms[j0 + 2]
-            vals[j0 + 3] = math.hypot(a3r, a3i) / norms[j0 + 3]
-            j0 += 4
-        for j in range(j0, ns):
-            acc_re = 0.0
-            acc_im = 0.0
-            for i in range(n_pre):
-                t = templates[j, i]
-                z = r[c + i]
-                acc_re += z.real * t
-                acc_im += z.imag * t
-            vals[j] = math.hypot(acc_re, acc_im) / norms[j]
-        for j in range(ns):
+        acc_re[:] = 0.0
+        acc_im[:] = 0.0
+        for i in range(n_pre):
+            z = r[c + i]
+            for j in range(n_shifts):
+                t = by_sample[i, j]
+                acc_re[j] += z.real * t
+                acc_im[j] += z.imag * t
+        for j in range(n_shifts):
             d = shifts[j]
             if c + d < 0.0:
                 continue
-            v = vals[j]
+            v = math.hypot(acc_re[j], acc_im[j]) / norms[j]
             if v > best:
                 best = v
                 start = c + d

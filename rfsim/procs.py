@@ -109,9 +109,9 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
-    with a pool the first task runs in this process before the pool starts, see the code),
-    results in task order so they do not depend on the number of workers; progress is shown
-    with :func:`rfsim.progress.track` (``desc``, ``unit``) and the pool is a :func:`worker_pool`."""
+    with a pool the first task runs alone first, see :func:`_pilot`), results in task order so
+    they do not depend on the number of workers; progress is shown with
+    :func:`rfsim.progress.track` (``desc``, ``unit``) and the pools are :func:`worker_pool`\ s."""
     from rfsim.progress import track  # progress pulls in tqdm: only when a loop runs
 
     tasks = list(tasks)
@@ -120,14 +120,39 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
         return [fn(t) for t in track(tasks, desc=desc, unit=unit)]
 
     def results():
-        # The first task runs here, in the leader: the numba kernels it needs are compiled
-        # (or loaded from the on-disk cache) once, before the pool exists, and the workers
-        # forked afterwards inherit them instead of each compiling the same kernels again.
-        yield fn(tasks[0])
+        # The first task runs alone in a pilot process, which compiles the numba kernels it
+        # needs (or loads them from the on-disk cache) and writes them to that cache; this
+        # process then loads the same kernels from the cache, once, before the pool exists,
+        # and the workers forked afterwards inherit them instead of each compiling or loading
+        # them again. The compiler's memory and the first task's arrays stay in the pilot.
+        first, kernels = _pilot(fn, tasks[0])
+        load_kernels(kernels)
+        yield first
         with worker_pool(min(w, len(tasks) - 1)) as pool:
             yield from pool.map(fn, tasks[1:])
 
     return list(track(results(), total=len(tasks), desc=desc, unit=unit))
+
+
+def _run_and_list_kernels(fn, task):
+    from rfsim._jit import compiled_signatures
+
+    return fn(task), compiled_signatures()
+
+
+def _pilot(fn, task):
+    """``fn(task)`` in a one-off worker process, with the numba kernels (and signatures) it
+    holds afterwards (:func:`rfsim._jit.compiled_signatures`)."""
+    with worker_pool(1) as pool:
+        return pool.submit(_run_and_list_kernels, fn, task).result()
+
+
+def load_kernels(kernels) -> None:
+    """Load into this process the kernels listed by :func:`rfsim._jit.compiled_signatures`
+    in another one (from the on-disk cache; compiled here where it has no entry)."""
+    from rfsim._jit import load_signatures
+
+    load_signatures(kernels)
 
 
 def _raise_terminated(signum, frame) -> None:
@@ -168,4 +193,5 @@ def terminate_as_interrupt() -> Iterator[None]:
         sys.unraisablehook = previous_hook
 
 
-__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt"]
+__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
+           "map_in_order", "load_kernels"]

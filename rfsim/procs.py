@@ -111,7 +111,7 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
     with a pool the first task runs alone first, see :func:`_pilot`), results in task order so
     they do not depend on the number of workers; progress is shown with
-    :func:`rfsim.progress.track` (``desc``, ``unit``) and the pools are :func:`worker_pool`\ s."""
+    :func:`rfsim.progress.track` (``desc``, ``unit``) and every pool is a :func:`worker_pool`."""
     from rfsim.progress import track  # progress pulls in tqdm: only when a loop runs
 
     tasks = list(tasks)

@@ -155,6 +155,81 @@ def load_kernels(kernels) -> None:
     load_signatures(kernels)
 
 
+def _has_file_descriptors() -> bool:
+    """True when this process's stdout and stderr are real files (a forked child's output
+    then goes where this process's goes)."""
+    try:
+        sys.stdout.fileno()
+        sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    return True
+
+
+def run_in_child(fn) -> None:
+    """``fn()`` in a forked child process, which exits afterwards; its exception, if any, is
+    raised here (with the child's traceback as a note where it is not a
+    :class:`~rfsim.errors.UserError` nor an interrupt).
+
+    All the memory the child allocated (numba's compiler, imported libraries, the arrays of
+    a run) is returned to the system when it exits, not merely freed inside this process.
+    Ctrl-C reaches both processes (one process group): the child cleans up and reports the
+    interrupt. SIGTERM reaching only this process (:func:`terminate_as_interrupt`) is passed
+    on to the child, which then cleans up the same way; a child whose leader dies is killed.
+    Without ``fork``, or when stdout/stderr are not real files (e.g. captured in memory),
+    ``fn()`` runs in this process.
+    """
+    import pickle
+    import traceback
+
+    from rfsim.errors import UserError
+
+    if not hasattr(os, "fork") or not _has_file_descriptors():
+        fn()
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into the caller's code
+        try:
+            os.close(read_fd)
+            _set_parent_death_signal()
+            err = None
+            try:
+                fn()
+            except BaseException as e:  # reported to the leader, which raises it
+                err = e
+                if not isinstance(e, (UserError, KeyboardInterrupt)):
+                    e.add_note("in the child process:\n" + "".join(traceback.format_exception(e)).rstrip())
+            try:
+                data = pickle.dumps(err)
+            except Exception:
+                data = pickle.dumps(RuntimeError(f"{type(err).__name__}: {err}"))
+            with os.fdopen(write_fd, "wb") as f:
+                f.write(data)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(0)
+    os.close(write_fd)
+    try:
+        with os.fdopen(read_fd, "rb") as f:
+            data = f.read()
+    except BaseException as interrupt:  # Ctrl-C or SIGTERM here: wait for the child to clean up
+        if isinstance(interrupt, Terminated):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGTERM)
+        os.waitpid(pid, 0)
+        raise
+    _, status = os.waitpid(pid, 0)
+    if not data:
+        raise RuntimeError(f"the run's child process ended without a result (wait status {status})")
+    err = pickle.loads(data)
+    if err is not None:
+        raise err
+
+
 def _raise_terminated(signum, frame) -> None:
     raise Terminated()
 
@@ -194,4 +269,4 @@ def terminate_as_interrupt() -> Iterator[None]:
 
 
 __all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
-           "map_in_order", "load_kernels"]
+           "map_in_order", "load_kernels", "run_in_child"]

@@ -90,4 +90,26 @@ def first_compilation() -> bool:
     return bool(KERNELS) and len(uncached_kernels()) == len(KERNELS)
 
 
-__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR"]
+def compiled_signatures() -> list[tuple[str, str, tuple]]:
+    """``(module, qualified name, signature)`` of every overload the declared kernels hold in
+    this process (compiled or loaded from the cache), for :func:`load_signatures` elsewhere."""
+    return [(d.py_func.__module__, d.py_func.__qualname__, sig) for d in KERNELS for sig in d.signatures]
+
+
+def load_signatures(kernels) -> None:
+    """Give this process the overloads listed by :func:`compiled_signatures` (in another process):
+    each kernel's module is imported and each signature it lacks is loaded from the on-disk
+    cache (numba compiles it only where the cache has no entry)."""
+    import importlib
+
+    for module, _, _ in kernels:
+        importlib.import_module(module)
+    declared = {(d.py_func.__module__, d.py_func.__qualname__): d for d in KERNELS}
+    for module, name, sig in kernels:
+        d = declared[(module, name)]
+        if sig not in d.signatures:
+            d.compile(sig)
+
+
+__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR",
+           "compiled_signatures", "load_signatures"]

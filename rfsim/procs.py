@@ -109,9 +109,9 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
-    with a pool the first task runs in this process before the pool starts, see the code),
-    results in task order so they do not depend on the number of workers; progress is shown
-    with :func:`rfsim.progress.track` (``desc``, ``unit``) and the pool is a :func:`worker_pool`."""
+    with a pool the first task runs alone first, see :func:`_pilot`), results in task order so
+    they do not depend on the number of workers; progress is shown with
+    :func:`rfsim.progress.track` (``desc``, ``unit``) and every pool is a :func:`worker_pool`."""
     from rfsim.progress import track  # progress pulls in tqdm: only when a loop runs
 
     tasks = list(tasks)
@@ -120,14 +120,114 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
         return [fn(t) for t in track(tasks, desc=desc, unit=unit)]
 
     def results():
-        # The first task runs here, in the leader: the numba kernels it needs are compiled
-        # (or loaded from the on-disk cache) once, before the pool exists, and the workers
-        # forked afterwards inherit them instead of each compiling the same kernels again.
-        yield fn(tasks[0])
+        # The first task runs alone in a pilot process, which compiles the numba kernels it
+        # needs (or loads them from the on-disk cache) and writes them to that cache; this
+        # process then loads the same kernels from the cache, once, before the pool exists,
+        # and the workers forked afterwards inherit them instead of each compiling or loading
+        # them again. The compiler's memory and the first task's arrays stay in the pilot.
+        first, kernels = _pilot(fn, tasks[0])
+        load_kernels(kernels)
+        yield first
         with worker_pool(min(w, len(tasks) - 1)) as pool:
             yield from pool.map(fn, tasks[1:])
 
     return list(track(results(), total=len(tasks), desc=desc, unit=unit))
+
+
+def _run_and_list_kernels(fn, task):
+    from rfsim._jit import compiled_signatures
+
+    return fn(task), compiled_signatures()
+
+
+def _pilot(fn, task):
+    """``fn(task)`` in a one-off worker process, with the numba kernels (and signatures) it
+    holds afterwards (:func:`rfsim._jit.compiled_signatures`)."""
+    with worker_pool(1) as pool:
+        return pool.submit(_run_and_list_kernels, fn, task).result()
+
+
+def load_kernels(kernels) -> None:
+    """Load into this process the kernels listed by :func:`rfsim._jit.compiled_signatures`
+    in another one (from the on-disk cache; compiled here where it has no entry)."""
+    from rfsim._jit import load_signatures
+
+    load_signatures(kernels)
+
+
+def _has_file_descriptors() -> bool:
+    """True when this process's stdout and stderr are real files (a forked child's output
+    then goes where this process's goes)."""
+    try:
+        sys.stdout.fileno()
+        sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    return True
+
+
+def run_in_child(fn) -> None:
+    """``fn()`` in a forked child process, which exits afterwards; its exception, if any, is
+    raised here (with the child's traceback as a note where it is not a
+    :class:`~rfsim.errors.UserError` nor an interrupt).
+
+    All the memory the child allocated (numba's compiler, imported libraries, the arrays of
+    a run) is returned to the system when it exits, not merely freed inside this process.
+    Ctrl-C reaches both processes (one process group): the child cleans up and reports the
+    interrupt. SIGTERM reaching only this process (:func:`terminate_as_interrupt`) is passed
+    on to the child, which then cleans up the same way; a child whose leader dies is killed.
+    Without ``fork``, or when stdout/stderr are not real files (e.g. captured in memory),
+    ``fn()`` runs in this process.
+    """
+    import pickle
+    import traceback
+
+    from rfsim.errors import UserError
+
+    if not hasattr(os, "fork") or not _has_file_descriptors():
+        fn()
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into the caller's code
+        try:
+            os.close(read_fd)
+            _set_parent_death_signal()
+            err = None
+            try:
+                fn()
+            except BaseException as e:  # reported to the leader, which raises it
+                err = e
+                if not isinstance(e, (UserError, KeyboardInterrupt)):
+                    e.add_note("in the child process:\n" + "".join(traceback.format_exception(e)).rstrip())
+            try:
+                data = pickle.dumps(err)
+            except Exception:
+                data = pickle.dumps(RuntimeError(f"{type(err).__name__}: {err}"))
+            with os.fdopen(write_fd, "wb") as f:
+                f.write(data)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(0)
+    os.close(write_fd)
+    try:
+        with os.fdopen(read_fd, "rb") as f:
+            data = f.read()
+    except BaseException as interrupt:  # Ctrl-C or SIGTERM here: wait for the child to clean up
+        if isinstance(interrupt, Terminated):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGTERM)
+        os.waitpid(pid, 0)
+        raise
+    _, status = os.waitpid(pid, 0)
+    if not data:
+        raise RuntimeError(f"the run's child process ended without a result (wait status {status})")
+    err = pickle.loads(data)
+    if err is not None:
+        raise err
 
 
 def _raise_terminated(signum, frame) -> None:
@@ -168,4 +268,5 @@ def terminate_as_interrupt() -> Iterator[None]:
         sys.unraisablehook = previous_hook
 
 
-__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt"]
+__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
+           "map_in_order", "load_kernels", "run_in_child"]

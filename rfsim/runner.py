@@ -1,7 +1,9 @@
 """Run one scenario: config → ``run()`` → atomic HDF5 dataset with provenance → figures.
 
 The dataset path and the figure folder are checked before the simulation starts
-(:mod:`rfsim.outputs`).
+(:mod:`rfsim.outputs`). The simulation and the dataset file are made in a child process
+(:func:`rfsim.procs.run_in_child`), which returns the run's memory (kernels, libraries,
+arrays) to the system when it exits; the figures are then drawn here from the file.
 Each stage is announced on the active progress reporter (:mod:`rfsim.progress`; nothing
 is printed without one), and the first run after install says that numba compiles its
 kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).
@@ -19,6 +21,7 @@ from rfsim.config import to_toml
 from rfsim.dataset import make_provenance, utc_now, write_dataset
 from rfsim.errors import UserError, check_seed
 from rfsim.outputs import check_output_file, check_output_folder
+from rfsim.procs import run_in_child
 from rfsim.progress import current, stage
 
 
@@ -45,15 +48,20 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     if make_plots or output is None:
         check_output_folder(out_dir, "--out-dir")
     check_output_file(path, "--output" if output is not None else "dataset", suffixes=(".h5", ".hdf5"))
-    _announce_compilation()
-    stage(f"running {module.NAME} (seed {seed})")
-    dataset = module.run(config, seed=seed)
-    dataset.scenario = module.NAME
-    provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
-                                 start_time_utc=start_utc)
-    stage(f"writing {path}")
-    write_dataset(path, dataset, provenance)
-    del dataset  # the figures read the file: the arrays need not stay in memory beside them
+
+    def simulate_and_write() -> None:
+        _announce_compilation()
+        stage(f"running {module.NAME} (seed {seed})")
+        dataset = module.run(config, seed=seed)
+        dataset.scenario = module.NAME
+        provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
+                                     start_time_utc=start_utc)
+        stage(f"writing {path}")
+        write_dataset(path, dataset, provenance)
+
+    # The figures read the file: the run's kernels, libraries and arrays need not stay in
+    # memory beside them; a child process returns all of them to the system when it exits.
+    run_in_child(simulate_and_write)
     figures: tuple[Path, ...] = ()
     if make_plots:
         _release_free_memory()

@@ -513,7 +513,7 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 
     The samples run in blocks (the first of :data:`WARM_BLOCK` samples, then of
     :data:`ST_BLOCK`) on ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the
-    first block in this process), concatenated in order: every sample draws only from its own streams and a block
+    first block alone first), concatenated in order: every sample draws only from its own streams and a block
     is the batch of its ST chains, so the rows do not depend on the number of workers."""
     s = config.samples
     base = seed if s.seed < 0 else s.seed

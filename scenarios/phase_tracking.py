@@ -397,9 +397,9 @@ def run(config: Config, *, seed: int) -> Dataset:
               "pseudo-ranges will jump by λ/2 (flagged in the dataset)")
 
     stage(f"reading: {n_rounds} singulations at sample level, {len(tasks)} chunks")
-    # The probe (round 0 alone) is the first task: map_in_order runs it in this process before
-    # the pool starts, so a singulation too long for the slot stops the run at once, and the
-    # kernels it compiles are inherited by the workers; every chunk then runs in the pool.
+    # The probe (round 0 alone) is the first task: map_in_order runs it alone before the pool
+    # starts, so a singulation too long for the slot stops the run at once, and the kernels it
+    # compiles are loaded here once and inherited by the workers; every chunk then runs in the pool.
     parts = map_in_order(_read_task, [(config, seed, 0, 0, 1, True)] + [t + (False,) for t in tasks], sch.workers,
                          desc="chunks", unit="chunks")[1:]
     cols = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

@@ -191,10 +191,14 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     air = propagate([exciter], [tx], [AntennaPort(a, noise_power_w=noise_w) for a in sa], links, t0_s=0.0,
                     fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, cell, rep, 2),
                     bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
-    out = st_outcomes(config, frame, air)
+    incident_w = float(np.mean(np.abs(air.incident[0].samples) ** 2))
+    phasors = [_phasors(frame, air, k) for k in range(2)]
+    inputs = [a.samples for a in air.inputs]
+    air = None  # its direct and backscatter parts, (n, samples) each, are not needed past the phasors
+    out = st_outcomes(config, frame, phasors, inputs)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tx_x_m=np.full(n, tx_pos[0]),
                st_x_m=centres[:, 0], st_y_m=centres[:, 1], orientation_rad=orient,
-               tx_incident_power_w=np.full(n, float(np.mean(np.abs(air.incident[0].samples) ** 2))))
+               tx_incident_power_w=np.full(n, incident_w))
     for j, name in enumerate(("sa1", "sa2")):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
     return out
@@ -211,8 +215,9 @@ def _phasors(frame, air, k: int):
     return (V_PER_SQRT_W * direct[:, i1], V_PER_SQRT_W * back[:, i1], V_PER_SQRT_W * back[:, i2])
 
 
-def st_outcomes(config: Config, frame, air) -> dict[str, np.ndarray]:
-    """Sample-level techniques on the step's inputs and the closed forms from its phasors.
+def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
+    """Sample-level techniques on the step's inputs ((n, samples) per receiver) and the closed
+    forms from its phasors (:func:`_phasors` per receiver).
 
     Returns a dict of (n,) arrays: per antenna A_R, A_T1, A_T2, θ [V, rad]; ``sync_sa2_v``;
     closed-form and sample-level envelope differences; ``detectable``; per technique
@@ -220,7 +225,6 @@ def st_outcomes(config: Config, frame, air) -> dict[str, np.ndarray]:
     """
     st, fr = config.st, config.frame
     rx = make_receiver(st, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
-    ph = [_phasors(frame, air, k) for k in range(2)]
     out: dict[str, np.ndarray] = {}
     for (cw, b1, b2), name in zip(ph, ("sa1", "sa2")):
         out[f"a_r_{name}_v"], out[f"a_t1_{name}_v"], out[f"a_t2_{name}_v"] = np.abs(cw), np.abs(b1), np.abs(b2)
@@ -231,16 +235,21 @@ def st_outcomes(config: Config, frame, air) -> dict[str, np.ndarray]:
         out[f"closed_diff_{key}_v"] = getattr(closed, f"diff_{key}_v")
     detectable = closed.sync_sa2_v > st.threshold_v
     out["detectable"] = detectable
-    x1, x2 = air.inputs[0].samples, air.inputs[1].samples
-    chains = {"sa2": RowsChain.run(rx, x2), "sa1": RowsChain.run(rx, x1), "combined": RowsChain.run(rx, x1 + x2)}
-    for key, ch in chains.items():
-        out[f"diff_{key}_v"] = ch.level_difference_v(rx, frame)
-    p2 = chains["sa2"].decoded(rx, frame)
-    ask, psk = chains["sa2"].stamp_symbols(rx, frame, config.stamp.ask_min_transitions)
+    x1, x2 = inputs
+    # one chain at a time: each is four (n, samples) arrays, the largest of the step's memory
+    ch = RowsChain.run(rx, x2)
+    diff_sa2, p2 = ch.level_difference_v(rx, frame), ch.decoded(rx, frame)
+    ask, psk = ch.stamp_symbols(rx, frame, config.stamp.ask_min_transitions)
+    ch = None
+    ch = RowsChain.run(rx, x1)
     # P1 decides only where P2 failed (Algorithm 1) or the stamp switched to it
-    p1 = chains["sa1"].decoded(rx, frame, rows=~p2 | ~ask)
+    diff_sa1, p1 = ch.level_difference_v(rx, frame), ch.decoded(rx, frame, rows=~p2 | ~ask)
+    ch = None
+    ch = RowsChain.run(rx, x1 + x2)
+    out["diff_sa2_v"], out["diff_sa1_v"], out["diff_combined_v"] = diff_sa2, diff_sa1, ch.level_difference_v(rx, frame)
     out["detected_single"] = p2
-    out["detected_combination"] = chains["combined"].decoded(rx, frame)
+    out["detected_combination"] = ch.decoded(rx, frame)
+    ch = None
     out["detected_selection"] = sa.select_detected(p1, p2)
     out["detected_stamp"] = np.where(ask, p2, p1)
     out["stamp_ask_sa2"], out["stamp_psk_sa2"] = ask, psk

@@ -28,6 +28,17 @@ def children(pid: int) -> set[int]:
     return out
 
 
+def descendants(pid: int) -> set[int]:
+    """Every process below ``pid``: its children, theirs, and so on (Linux /proc)."""
+    out: set[int] = set()
+    todo = [pid]
+    while todo:
+        new = children(todo.pop()) - out
+        out |= new
+        todo.extend(new)
+    return out
+
+
 def alive(pid: int) -> bool:
     """True while ``pid`` runs (a zombie waiting to be reaped counts as gone)."""
     try:
@@ -105,11 +116,12 @@ def test_sigkill_of_the_leader_ends_its_pool_workers_within_5_s(tmp_path):
 
 
 def test_sigkill_of_a_scenario_run_ends_its_monte_carlo_workers(tmp_path):
-    """A scenario's own process pool (reader-detection's campaign) dies with `rfsim run`."""
+    """A scenario's own process pool (reader-detection's campaign) dies with `rfsim run`: the
+    run's child process and the pool's two workers below it."""
     proc = start(["run", "reader-detection", "--no-plot", "--set", "campaign.workers=2"], tmp_path)
-    assert wait_for(lambda: len(children(proc.pid)) >= 2 or proc.poll() is not None, 120)
-    workers = children(proc.pid)
-    assert len(workers) >= 2 and proc.poll() is None
+    assert wait_for(lambda: len(descendants(proc.pid)) >= 3 or proc.poll() is not None, 120)
+    workers = descendants(proc.pid)
+    assert len(workers) >= 3 and proc.poll() is None
     proc.kill()
     proc.communicate(timeout=30)
     assert wait_for(lambda: not any(alive(p) for p in workers), 5.0)
@@ -117,8 +129,8 @@ def test_sigkill_of_a_scenario_run_ends_its_monte_carlo_workers(tmp_path):
 
 def test_sigterm_of_a_scenario_run_leaves_no_file(tmp_path):
     proc = start(["run", "reader-detection", "--set", "campaign.workers=2", "--out-dir", "out"], tmp_path)
-    assert wait_for(lambda: len(children(proc.pid)) >= 2 or proc.poll() is not None, 120)
-    workers = children(proc.pid)
+    assert wait_for(lambda: len(descendants(proc.pid)) >= 3 or proc.poll() is not None, 120)
+    workers = descendants(proc.pid)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=30)
     assert proc.returncode == 143 and last_line(err) == "rfsim: terminated (SIGTERM)", err

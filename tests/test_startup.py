@@ -113,29 +113,51 @@ def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_pa
     assert any((tmp_path / "cache").rglob("*.nbi"))
 
 
-def _pid_and_compiled(_task) -> tuple[int, int]:
-    from rfsim.gen2._linecode_kernels import bitwise_kernel
+_PILOT_TASK = """
+import os
+from rfsim._jit import njit
 
-    n = len(bitwise_kernel.signatures)  # compiled before this task called it?
-    import numpy as np
 
-    out = np.empty(2, dtype=np.uint8)
-    bitwise_kernel(np.ones(2), np.zeros(2), False, out)
+@njit
+def twice(x):
+    return 2 * x
+
+
+def task(i):
+    n = len(twice.signatures)  # overloads this process held before the task called it
+    assert twice(i) == 2 * i
     return os.getpid(), n
+"""
+
+_PILOT_RUN = """
+import json, os
+import kpilot
+from rfsim.procs import map_in_order
+
+out = map_in_order(kpilot.task, range(4), 2, desc="t", unit="tasks")
+print(json.dumps(dict(leader=os.getpid(), out=out, leader_signatures=len(kpilot.twice.signatures),
+                      hits=sum(kpilot.twice._cache_hits.values()), misses=sum(kpilot.twice._cache_misses.values()))))
+"""
 
 
-def test_first_task_runs_in_the_leader_and_workers_inherit_its_kernels():
-    """map_in_order with a pool runs the first task in this process (compiling what it
-    needs once) and the rest in forked workers that find the kernel compiled already."""
-    from rfsim.procs import map_in_order
-
-    out = map_in_order(_pid_and_compiled, range(4), 2, desc="t", unit="tasks")
-    assert out[0][0] == os.getpid()
-    assert all(pid != os.getpid() for pid, _ in out[1:])
+def test_first_task_runs_in_a_pilot_and_the_leader_loads_its_kernels_before_the_pool(tmp_path):
+    """With an empty cache, map_in_order runs the first task alone in a pilot process, which
+    compiles the kernel; the leader then loads it from the cache (a cache hit, no compilation
+    in the leader) before the pool starts, so the forked workers hold it when their tasks
+    begin."""
     import multiprocessing
 
-    if multiprocessing.get_start_method() == "fork":  # spawned workers load from the cache instead
-        assert all(n >= 1 for _, n in out[1:])
+    if multiprocessing.get_start_method() != "fork":
+        pytest.skip("workers inherit the leader's kernels only when forked")
+    (tmp_path / "kpilot.py").write_text(_PILOT_TASK)
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{ROOT}", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    run = subprocess.run([sys.executable, "-c", _PILOT_RUN], capture_output=True, text=True, env=env, check=True)
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    (pilot, pilot_held), *rest = got["out"]
+    assert pilot != got["leader"] and pilot_held == 0
+    assert all(pid not in (got["leader"], pilot) for pid, _ in rest)
+    assert all(held >= 1 for _, held in rest)
+    assert got["leader_signatures"] == 1 and got["hits"] == 1 and got["misses"] == 0
 
 
 def test_bench_runs_a_command_as_a_child_and_reads_its_usage():

@@ -1,0 +1,75 @@
+"""rfsim.procs.run_in_child: a scenario's simulation runs in a forked child that returns its
+memory to the system when it exits; its errors are raised in the leader."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+
+_CHILD = """
+import json, os, sys
+from rfsim.errors import UserError
+from rfsim.procs import run_in_child
+
+state = {"set_by_child": False}
+out = {"leader": os.getpid()}
+
+def work():
+    state["set_by_child"] = True
+    with open(sys.argv[1], "w") as f:
+        f.write(str(os.getpid()))
+
+run_in_child(work)
+out["child"] = int(open(sys.argv[1]).read())
+out["set_here"] = state["set_by_child"]
+
+def refuse():
+    raise UserError("bad key 'x'")
+
+try:
+    run_in_child(refuse)
+except UserError as err:
+    out["user_error"] = [type(err).__name__, str(err), getattr(err, "__notes__", [])]
+
+def crash():
+    raise ValueError("boom")
+
+try:
+    run_in_child(crash)
+except ValueError as err:
+    out["value_error"] = [str(err), "".join(getattr(err, "__notes__", []))]
+print(json.dumps(out))
+"""
+
+
+def test_the_child_runs_elsewhere_and_its_errors_are_raised_here(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = subprocess.run([sys.executable, "-c", _CHILD, str(tmp_path / "pid")], capture_output=True, text=True,
+                         env=env, check=True)
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    assert out["child"] != out["leader"] and out["set_here"] is False
+    assert out["user_error"] == ["UserError", "bad key 'x'", []]
+    message, note = out["value_error"]
+    assert message == "boom" and note.startswith("in the child process") and "crash" in note
+
+
+def test_rfsim_run_simulates_in_a_child_and_draws_the_figures_here(tmp_path):
+    """The leader of `rfsim run` never imports the kernel modules: the run and the dataset
+    happen in the child, the figures (read from the file) here."""
+    code = ("import json, sys\nfrom rfsim.cli import main\n"
+            f"rc = main(['run', 'gen2-waveforms', '-q', '--out-dir', {str(tmp_path)!r}, "
+            "'--set', \"profiles=['fm0-640k']\"])\n"
+            "print(json.dumps([rc, sorted(m for m in sys.modules if m.endswith('_kernels'))]))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    rc, kernel_modules = json.loads(run.stdout.strip().splitlines()[-1])
+    assert rc == 0 and kernel_modules == []
+    assert (tmp_path / "gen2-waveforms.h5").is_file() and list(tmp_path.glob("gen2-waveforms-*.png"))

@@ -183,6 +183,7 @@ from rfsim.noise import thermal_noise_power_w
 from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
 from rfsim.gen2.link import reply_window_s, t1
 from rfsim.progress import stage
+from scenarios._monte_carlo import MonteCarloConfig
 from scenarios import _phase_cancellation_columns as columns
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
@@ -208,22 +209,6 @@ STAMP_SETTLE_CYCLES = 8
 STAMP_DECISION_MARGIN = 0.03
 STAMP_PSI_RAD = math.pi
 TECHS = ("single", "combination", "selection", "stamp")
-
-
-@dataclass(frozen=True)
-class MonteCarloConfig:
-    full: bool = param(False, doc="paper size: 300 positions per cell, 3 repetitions (overrides the two below)")
-    positions_per_cell: int = param(100, lo=1, hi=100000, doc="ST positions per cell and repetition")
-    repetitions: int = param(1, lo=1, hi=1000, doc="repetitions (new positions and channel draws)")
-    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
-
-    @property
-    def n_positions(self) -> int:
-        return 300 if self.full else self.positions_per_cell
-
-    @property
-    def n_repetitions(self) -> int:
-        return 3 if self.full else self.repetitions
 
 
 @dataclass(frozen=True)

@@ -202,8 +202,8 @@ class HimrTag:
         lo = np.searchsorted(plan.start_s, t0_s - cfg.air_time_s, side="left")
         hi = np.searchsorted(plan.start_s, t1, side="right")
         return _boc.boc_train(plan.start_s[lo:hi], plan.bits[lo:hi], cfg.code, t0_s=t0_s, fs_hz=fs_hz,
-                         n_samples=n_samples, level_plus=GAMMA_OPEN, level_minus=GAMMA_SHORT,
-                         rest=cfg.gamma_rest)
+                              n_samples=n_samples, level_plus=GAMMA_OPEN, level_minus=GAMMA_SHORT,
+                              rest=cfg.gamma_rest)
 
     def reradiation(self, t0_s: float, fs_hz: float, n_samples: int) -> np.ndarray:
         """r(t) = A_s − Γ(t) on the same time base (the factor on the incident field)."""

@@ -297,7 +297,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
             new_round = False
         q = _round_half_up(qfp) if config.q_mode == "dynamic" else _round_half_up(config.q_initial)
         cmd = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, sel=config.sel, session=config.session,
-                    target=target, q=q)
+                              target=target, q=q)
         frame_left = 1 << q
         detected_any = False
         slot = 0

@@ -174,11 +174,11 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
     for j in range(nt):
         for k in range(2):
             s = _linecode.reply_waveform(bits[j, k], m=link.m, trext=link.trext, blf_hz=blf0 * (1.0 + eps[j, k]), fs_hz=fs,
-                               t0_s=t1_s[j, k] - t0, n_samples=n)
+                                         t0_s=t1_s[j, k] - t0, n_samples=n)
             s[s == 0] = -1.0
             y[j] += h[j, k] * s
     out = _reader.search_decode(y, m=link.m, trext=link.trext, n_bits=RN16_BITS, blfs_hz=_reader.blf_grid_hz(link), fs_hz=fs,
-                        lo=lo, hi=hi, threads=cfg.threads)
+                                lo=lo, hi=hi, threads=cfg.threads)
     n_pre = int(math.floor(_linecode.preamble_levels(m=link.m, trext=link.trext)[0].size * link.m * fs / (2.0 * link.blf_hz)))
     n_tests = (hi - lo + 1) * _reader.blf_grid_hz(link).size
     detected = out.corr >= _capture.preamble_threshold(n_pre, n_tests, cfg.false_alarm_probability)

@@ -143,7 +143,7 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
         n = int(math.ceil((t0_s + tail_s + _linecode.reply_duration_s(b.size, m=frame.m, trext=frame.trext,
                                                                 blf_hz=frame.blf_hz)) * frame.fs_hz)) + 1
         levels = _linecode.reply_waveform(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
-                                t0_s=t0_s, n_samples=n)
+                                          t0_s=t0_s, n_samples=n)
         states = np.where(levels < 0, sr.STAMP_S2, sr.STAMP_S1).astype(np.int8)
         start = int(math.ceil(t0_s * frame.fs_hz))
         st = sr.StampFrame(states, levels, start, start, start, start)
@@ -155,7 +155,7 @@ def exciter_antenna(kind: str, gain_dbi: float, height_m: float):
     boresight +x, or a vertical half-wave dipole (``channels.Antenna``)."""
     pattern = _antennas.Patch(gain_dbi, 70.0) if kind == "patch" else _antennas.HalfWaveDipole()
     return _antennas.Antenna(position_m=(0.0, 0.0, height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
-                   polarization="linear")
+                             polarization="linear")
 
 
 def room(apdp: bool) -> _scene.Scene:
@@ -201,8 +201,8 @@ class RowsChain:
         for i in np.flatnonzero(rows & (toggles >= rx.min_toggles)):
             try:
                 det = _linecode.decode_reply(self.comparator[i, start:].astype(np.complex128), n_bits=frame.bits.size,
-                                   m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
-                                   search_samples=search)
+                                             m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
+                                             search_samples=search)
             except ValueError:
                 continue
             out[i] = det.corr >= rx.min_corr and np.array_equal(det.bits, frame.bits)

@@ -154,7 +154,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
     g_p, g_t = 10 ** (radio.pylon_gain_dbi / 10), 10 ** (radio.tag_gain_dbi / 10)
     noise_w = float(_noise.thermal_noise_power_w(fs, radio.noise_figure_db))
     ptx = _himr_link.ptx_for_snr_w(radio.snr_db, radio.snr_distance_m, noise_power_w=noise_w, fc_hz=float(np.mean(carriers_hz)),
-                        g_tx=g_p, g_rx=g_p, g_tag=g_t)
+                                   g_tx=g_p, g_rx=g_p, g_tag=g_t)
     ants = pylon_antennas(positions_m, height_m, radio.pylon_gain_dbi)
     pylons = []
     cutoff = radio.rx_cutoff_hz
@@ -162,7 +162,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
         cutoff = code.subcarrier_hz_value + 2 * code.bit_rate_bps
     for u, (ant, fc) in enumerate(zip(ants, carriers_hz)):
         p = _himr_pylon.Pylon(_himr_pylon.PylonConfig(fc_hz=float(fc), ptx_w=ptx, noise_figure_db=radio.noise_figure_db,
-                              coupling_db=radio.coupling_db), ant, name=f"pylon {u + 1}", rx_cutoff_hz=cutoff)
+                                                      coupling_db=radio.coupling_db), ant, name=f"pylon {u + 1}", rx_cutoff_hz=cutoff)
         if radio.receiver_noise:
             p.set_sample_rate(fs)
         pylons.append(p)
@@ -184,7 +184,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
             devs = [pylons[u] for u in grp]
             links = _air.LinkTable(channel, motions={id(tag.antenna): motion})
             res = _air.propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
-                            rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
+                                 rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1
             dropped += len(res.dropped)
             for u, seg in zip(grp, res.outputs):

@@ -124,13 +124,13 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
                 tag.seq = t % 256           # beacon t carries sequence number t
                 models = [(readers[j].antenna,
                            _large_scale.LogDistance(r.exponent, r.d0_m,
-                                       pl_d0_db=TX_POWER_DBM - r.alpha_dbm - (total[k, j] - mean[k, j])))
+                                                    pl_d0_db=TX_POWER_DBM - r.alpha_dbm - (total[k, j] - mean[k, j])))
                           for j, r in enumerate(channel.readers)]
                 scene = _scene.Scene(walls=walls, large_scale=_large_scale.LinkLargeScale(by_antenna=models), apdp=apdp, image_order=0)
                 by_tag[id(tag.antenna)] = (tag.antenna, _air.LinkTable(_scene.Channel(scene), rng=rng if apdp else None))
             common = _air.LinkTable(_scene.Channel(_scene.Scene(walls=walls, image_order=0)))
             run = _beacons.run_beacons(tags, readers, _TagLinks(by_tag, common), t0_s=float(t), t1_s=float(t + 1),
-                              fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
+                                       fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
             for burst in run.bursts:
                 starts[b, t, burst.tag] = burst.t_s
             stats.due += len(run.bursts)

@@ -107,14 +107,14 @@ class SampleLevelConfig:
 def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
     """The reader's panel at ``position_m`` facing the floor (detection-probability's model)."""
     return _detection_probability.EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
-                           pattern=_antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, _detection_probability.PANEL_FRONT_TO_BACK_DB),
-                           polarization="circular", half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
+                                                  pattern=_antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, _detection_probability.PANEL_FRONT_TO_BACK_DB),
+                                                  polarization="circular", half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
 
 
 def flat_dipole(position_m) -> _antennas.Antenna:
     """A half-wave dipole lying along x at ``position_m``."""
     return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X, pattern=_antennas.HalfWaveDipole(),
-                   polarization="linear")
+                             polarization="linear")
 
 
 def landmark_epc_hex(k: int) -> str:
@@ -147,7 +147,7 @@ class ListeningAir(EngineAir):
         if key == self._st_key:
             return self._st_ants, False
         pos = _sense_a_tag.st_antenna_positions(centre, n_antennas=c.n_antennas, spacing_m=c.spacing_m,
-                                   orientation_rad=math.radians(c.orientation_deg))
+                                                orientation_rad=math.radians(c.orientation_deg))
         self._st_key, self._st_ants = key, [flat_dipole(p) for p in pos]
         self.st_channel.forget()
         return self._st_ants, True
@@ -167,8 +167,8 @@ class ListeningAir(EngineAir):
         links = _Links(self._channel, self.st_channel, antenna, st_ants, self.rng if new_round else None,
                        self.st_rng if moved else None, self._round_links, new_round)
         air = _air.propagate([_air.FixedEmitter(antenna, tx, device=reader)], self._reflectors,
-                        [port, *[_air.AntennaPort(a) for a in st_ants]], links, t0_s=t_s, fs_hz=tx.fs_hz,
-                        n_samples=tx.samples.size, rng=self.rng, bandwidth_hz=2.0 * link.blf_hz, decide=False)
+                             [port, *[_air.AntennaPort(a) for a in st_ants]], links, t0_s=t_s, fs_hz=tx.fs_hz,
+                             n_samples=tx.samples.size, rng=self.rng, bandwidth_hz=2.0 * link.blf_hz, decide=False)
         n = len(self.tags)
         responses = [air.reflections[j] for j in range(n)]
         replied = tuple(j for j, r in enumerate(responses) if r.gamma is not None)
@@ -243,12 +243,12 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     rc = ReaderConfig(link_profile=sl.link_profile, fs_hz=sl.fs_hz, ptx_dbm=sl.ptx_dbm, hopping=True)
     reader = _reader.Reader(rc, [panel(p, sl) for p in room.antennas_xyz_m], rng=trial_rng(seed, *key, 0))
     tags = [_tag.PassiveTag(replace(tag_config, epc_hex=landmark_epc_hex(i)), flat_dipole((x, y, 0.0)),
-                       rng=trial_rng(seed, *key, 100 + i)) for i, (x, y) in enumerate(lm)]
+                            rng=trial_rng(seed, *key, 100 + i)) for i, (x, y) in enumerate(lm)]
     epcs = {landmark_epc_hex(i): i for i in range(len(tags))}
     channel = _scene.Channel(_scene.Scene(apdp=_small_scale.ApdpModel() if sl.apdp else None))
     st_ants = _sense_a_tag.st_antenna_positions(np.asarray(st_center(0.0), float), n_antennas=st_config.n_antennas,
-                                   spacing_m=st_config.spacing_m,
-                                   orientation_rad=math.radians(st_config.orientation_deg))
+                                                spacing_m=st_config.spacing_m,
+                                                orientation_rad=math.radians(st_config.orientation_deg))
     st = _sense_a_tag.SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3), fs_hz=sl.fs_hz)
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)

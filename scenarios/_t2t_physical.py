@@ -108,15 +108,15 @@ def _inputs(config, exciter_xyz, tags_xy, senders, frames, lis_pos, rng) -> np.n
         pos = np.array([tags_xy[i][0], tags_xy[i][1], h])
         ant = _antennas.vertical_dipole(pos)
         tag = _tag.PassiveTag(dataclasses.replace(TagConfig(), structural_mode=0.0), ant, rng=rng,
-                         chip=_tag_chip.PowerDependentChip.pass_default())
+                              chip=_tag_chip.PowerDependentChip.pass_default())
         reflectors.append(OwnSchedule(tag, frame))
         links.add(ex_ant, ant, _bulk.draw_links(sc, ex_ant.position_m, pos, fc_hz=fc, rng=rng, tx_antenna=ex_ant,
-                                          rx_antenna=ant).pathset(0))
+                                                rx_antenna=ant).pathset(0))
         links.add(ant, lis, listener_link(pos, ant))
     try:
         air = _air.propagate([exciter], reflectors, [_air.AntennaPort(lis, noise_power_w=config.noise.power_w(fr.fs_hz))], links,
-                        t0_s=0.0, fs_hz=fr.fs_hz, n_samples=n_samples, rng=rng, bandwidth_hz=2.0 * fr.blf_hz,
-                        decide=False)
+                             t0_s=0.0, fs_hz=fr.fs_hz, n_samples=n_samples, rng=rng, bandwidth_hz=2.0 * fr.blf_hz,
+                             decide=False)
     except ValueError as err:
         if single or "narrowband" not in str(err):
             raise
@@ -139,7 +139,7 @@ def decode_rows(config: PhysicalConfig, x, frames, senders, threshold_v: float) 
     for row in np.flatnonzero(toggles >= rx.min_toggles):
         try:
             det = _linecode.decode_reply(chain.comparator[row, start:].astype(np.complex128), n_bits=32, m=rx.m, trext=rx.trext,
-                               blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method, search_samples=search)
+                                         blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method, search_samples=search)
         except ValueError:
             continue
         if det.corr < rx.min_corr:

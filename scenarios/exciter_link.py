@@ -167,7 +167,7 @@ def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
     if tm.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
         return _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                          chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
+                               chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
     return _tag.PassiveTag(config.tag, antenna, rng=rng)
 
 
@@ -197,14 +197,14 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
         lrng = trial_rng(seed, row, k, 1)
         links = DrawnLinks()
         links.add(ex_ant, tag_ant, _bulk.draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
-                                              rx_antenna=tag_ant).pathset(0))
+                                                    rx_antenna=tag_ant).pathset(0))
         links.add(ex_ant, lis, BatchLink(_bulk.draw_links(sc, ex_ant.position_m, lis_pos, fc_hz=fc, rng=lrng,
-                                                    tx_antenna=ex_ant, rx_antenna=template)))
+                                                          tx_antenna=ex_ant, rx_antenna=template)))
         links.add(tag_ant, lis, BatchLink(_bulk.draw_links(sc, tag_pos, lis_pos, fc_hz=fc, rng=lrng, tx_antenna=tag_ant,
-                                                     rx_antenna=template)))
+                                                           rx_antenna=template)))
         air = _air.propagate([exciter], [tag], [_air.AntennaPort(lis, noise_power_w=noise_w)], links, t0_s=0.0,
-                        fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
-                        bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
+                             fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
+                             bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
         resp = air.reflections[0]
         op = device.operating_point
         cw = V_PER_SQRT_W * np.broadcast_to(air.direct[0][..., i1], (n,))

@@ -139,7 +139,7 @@ def _exchange(link, query, ack, rn16_bits, epc_reply, fs_hz, rise_fall_tari):
     time_s = np.arange(n) / fs_hz
     reader = np.ones(n)
     q_env = _pie.pie_envelope_for_profile(_commands.encode(query), link, fs_hz=fs_hz, preamble="query", rise_fall_s=rf,
-                                     cw_before_s=CW_LEAD_S)
+                                          cw_before_s=CW_LEAD_S)
     reader[:q_env.size] = q_env
     a_env = _pie.pie_envelope_for_profile(_commands.encode(ack), link, fs_hz=fs_hz, preamble="frame-sync", rise_fall_s=rf)
     i_ack = int(np.ceil(t_ack * fs_hz))

@@ -195,7 +195,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         "z_hat_m": _dataset.column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
         "z_dot_hat_mps": _dataset.column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
         "z_ddot_hat_mps2": _dataset.column(rows["z_ddot_hat_mps2"], "m/s^2",
-                                  "estimated acceleration along the travel (third state)"),
+                                           "estimated acceleration along the travel (third state)"),
         "error_m": _dataset.column(rows["error_m"], "m", "estimated minus true distance")},
         description="one row per (estimator, epoch): the estimate and its error")
     ds.add_table("summary", {
@@ -213,10 +213,10 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                           "output": _dataset.column(np.array(outs), "1", "measured output (column of L)"),
                           "mode": _dataset.column(np.arange(1, 4), "1", "index of the eigenvalue of A - L C, by real part")},
                 {"L": _dataset.column(g.L, "1", "CARE gain L = Y C' inv(V), W = 5e4 diag(3, 1, 1), V = I3 (eq. 17-18)",
-                             dims=("state", "output")),
+                                      dims=("state", "output")),
                  "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C), eq. 19", dims=("mode",)),
                  "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C), eq. 19",
-                                    dims=("mode",))},
+                                             dims=("mode",))},
                 description="the 1-D observer gain L[state, output] and the eigenvalues of its error matrix")
     T = np.append(np.diff(t), np.diff(t)[-1:])
     rho = np.array([np.abs(np.linalg.eigvals(np.eye(3) + Tk * (_himr_model.A3 - g.L))).max() for Tk in T])
@@ -224,7 +224,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         "t_s": _dataset.column(t, "s", "epoch: scheduled start of the packet"),
         "step_s": _dataset.column(T, "s", "Euler step T of the epoch (packet interval)"),
         "max_real_eig": _dataset.column(np.full(n, g.eigenvalues.real.max()), "1/s",
-                               "largest real part of eig(A - L C) (constant: the 1-D model is linear)"),
+                                        "largest real part of eig(A - L C) (constant: the 1-D model is linear)"),
         "euler_spectral_radius": _dataset.column(rho, "1", "spectral radius of I + T (A - L C): the Euler step is stable "
                                                   "below 1")},
         description="one row per epoch: eigenvalues of the error dynamics and the stability of its Euler step")

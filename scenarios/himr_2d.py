@@ -396,11 +396,11 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
                           "mode": _dataset.column(np.arange(1, 10), "1", "index of the eigenvalue of A - L C, by real part")},
                 {"L": _dataset.column(g.L, "1", f"CARE gain L = Y C' inv(V) at the Table 8 point, tuning "
                                        f"{config.observer.tuning}, V = I (the source prints L')",
-                             dims=("state", "output")),
+                                      dims=("state", "output")),
                  "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C) at the Table 8 point",
-                                    dims=("mode",)),
+                                             dims=("mode",)),
                  "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C) at the Table 8 point",
-                                    dims=("mode",))},
+                                             dims=("mode",))},
                 description="the observer gain L[state, output] at the linearisation point and the eigenvalues of "
                             "its error matrix")
     ds.add_table("diagnostics", {

@@ -182,7 +182,7 @@ def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...], s
 def tag_antenna(position_m, azimuth_rad: float) -> _antennas.Antenna:
     """Vertical half-wave dipole tag at ``position_m`` facing ``azimuth_rad``."""
     return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
-                   pattern=_antennas.HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
+                             pattern=_antennas.HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
 
 
 def reader_antennas(room: RoomConfig) -> list[_antennas.Antenna]:
@@ -191,7 +191,7 @@ def reader_antennas(room: RoomConfig) -> list[_antennas.Antenna]:
     spots = [((0.0, W / 2, h), 0.0), ((L, W / 2, h), math.pi), ((L / 2, 0.0, h), math.pi / 2),
              ((L / 2, W, h), -math.pi / 2)]
     return [_antennas.Antenna(position_m=p, orientation=(yaw, 0.0, 0.0),
-                    pattern=_antennas.Patch(room.reader_gain_dbi, room.reader_beamwidth_deg), polarization="circular")
+                              pattern=_antennas.Patch(room.reader_gain_dbi, room.reader_beamwidth_deg), polarization="circular")
             for p, yaw in spots[: room.n_antennas]]
 
 
@@ -231,8 +231,8 @@ def capture_trial(cfg: Config, far_m: float, *, seed: int, key: tuple[int, ...])
     cap = cfg.capture
     h = cfg.room.reader_height_m
     reader_ant = _antennas.Antenna(position_m=(0.0, 0.0, h), orientation=(0.0, 0.0, 0.0),
-                         pattern=_antennas.Patch(cfg.room.reader_gain_dbi, cfg.room.reader_beamwidth_deg),
-                         polarization="circular")
+                                   pattern=_antennas.Patch(cfg.room.reader_gain_dbi, cfg.room.reader_beamwidth_deg),
+                                   polarization="circular")
     ants = [tag_antenna((cap.near_m, 0.0, h), math.pi), tag_antenna((far_m, 0.0, h), math.pi)]
     tags = make_tags(cfg.tag, ants, seed=seed, key=key + (0,))
     reader_cfg = replace(cfg.reader, noise_figure_db=cap.noise_figure_db)

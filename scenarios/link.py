@@ -86,7 +86,7 @@ def reader_antenna(g: GeometryConfig) -> _antennas.Antenna:
     else:
         pattern = _antennas.Isotropic()
     return _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
-                   polarization=g.reader_polarization)
+                             polarization=g.reader_polarization)
 
 
 def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
@@ -95,7 +95,7 @@ def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
     pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)
     # A dipole tag facing the reader, its axis vertical (local +z), boresight towards the reader.
     return _antennas.Antenna(position_m=pos, orientation=(a + np.pi, 0.0, 0.0), pattern=_antennas.HalfWaveDipole(),
-                   polarization="linear", pol_tilt_rad=0.0)
+                             polarization="linear", pol_tilt_rad=0.0)
 
 
 def scene(c: ChannelConfig) -> _scene.Scene:

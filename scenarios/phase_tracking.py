@@ -151,7 +151,7 @@ def reader_antennas(g: GeometryConfig) -> list[_antennas.Antenna]:
         pattern = _antennas.Patch(g.antenna_gain_dbi, g.antenna_beamwidth_deg) if g.antenna_pattern == "patch" else _antennas.Isotropic()
         yaw = math.atan2(cy - y, cx - x) if (cx, cy) != (x, y) else 0.0
         out.append(_antennas.Antenna(position_m=(x, y, g.height_m), orientation=(yaw, 0.0, 0.0), pattern=pattern,
-                           polarization=g.antenna_polarization))
+                                     polarization=g.antenna_polarization))
     return out
 
 
@@ -245,7 +245,7 @@ class RoundLinks:
             if rows.size == 0:
                 continue
             bulk = _bulk.draw_links(scene, ant.position_m, tag_xyz_m[rows], fc_hz=self.fc_hz, rng=np.random.default_rng(0),
-                              tx_antenna=ant, rx_antenna=tag_antenna)
+                                    tx_antenna=ant, rx_antenna=tag_antenna)
             for k, j in enumerate(rows):
                 self._paths[j] = bulk.pathset(k)
         self._held = None
@@ -272,7 +272,7 @@ def _simulate_chunk(task) -> dict[str, np.ndarray]:
     antennas = reader_antennas(g)
     reader = _reader.Reader(config.reader, antennas, rng=trial_rng(seed, 1 + c, 0))
     tag_antenna = _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, math.radians(g.tag_tilt_deg), 0.0),
-                          pattern=_antennas.HalfWaveDipole(), polarization="linear")
+                                    pattern=_antennas.HalfWaveDipole(), polarization="linear")
     t_round = np.arange(r_lo, r_hi) * sch.read_period_s
     truth, intended = motion.true(t_round), motion.intended(t_round)
     tag = _tag.PassiveTag(config.tag, tag_antenna, rng=trial_rng(seed, 1 + c, 1), t0_s=float(t_round[0]))
@@ -435,7 +435,7 @@ def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
         jump[idx[1:]] = np.abs(np.diff(offset[idx])) > lam / 4
     x0, P0 = _phase_tracking.initial_state(p0, s, pos_std_m=est.pos_std_m, bias_std_m=est.bias_std_m, vel_std_mps=est.vel_std_mps)
     passes = _phase_tracking.track_phase(t, ant0, z, anchors, x0, P0, q_v=est.q_v, q_b=est.q_b, sigma_m=est.sigma_m,
-                         passes=est.passes, keep_covariances=False)
+                                         passes=est.passes, keep_covariances=False)
     rssi_track, _ = _phase_tracking.rssi_fix(_latest_rssi(ant0, rssi, s), anchors)
     rssi_track[~np.all(np.isfinite(_latest_rssi(ant0, rssi, s)), axis=1)] = np.nan
 

@@ -64,7 +64,8 @@ from rfsim.lazy import lazy_import
 _large_scale = lazy_import("channels.large_scale")
 _rss = lazy_import("channels.rss")
 _dataset = lazy_import("rfsim.dataset")
-_estimators = lazy_import("rfsim.estimators")
+_calibration = lazy_import("rfsim.estimators.calibration")
+_bounds = lazy_import("rfsim.estimators.bounds")
 est = lazy_import("scenarios._rss_estimate")
 _rss_figures = lazy_import("scenarios._rss_figures")
 _rss_plans = lazy_import("scenarios._rss_plans")
@@ -161,8 +162,8 @@ def floor_plan(config: Config) -> _rss_plans.FloorPlan:
     if len(readers) != len(params):
         params = (params[0],) * len(readers)
     return _rss_plans.FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
-                     plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
-                     plan.reader_height_m, plan.tag_height_m)
+                                plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
+                                plan.reader_height_m, plan.tag_height_m)
 
 
 def rss_channel(plan: _rss_plans.FloorPlan, waf_db: float, sigma_db=None) -> _rss.RssChannel:
@@ -257,7 +258,7 @@ def simulate_case(config: Config, plan: _rss_plans.FloorPlan, channel: _rss.RssC
         fp = _fingerprint_points(plan, rng) if _home(config) else np.zeros((0, 2))
         pts = _xyz(np.concatenate([track, ref, fp]), plan.tag_height_m)
         x = _rss.quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec,
-                                      shared=config.shadowing.readers == "shared")
+                                           shared=config.shadowing.readers == "shared")
         sp = np.sqrt(1.0 - frac) * sig
         kw = dict(rng=rng, correlation=config.shadowing.people_correlation)
         tracks.append(track)
@@ -315,7 +316,7 @@ def offline_campaign(channel: _rss.RssChannel, waf_db: float, *, rng) -> list[di
     for j, r in enumerate(channel.readers):
         mean = r.alpha_dbm - 10.0 * r.exponent * np.log10(d)
         rss = mean + rng.normal(0.0, r.sigma_db, size=d.size)
-        fit = _estimators.fit_log_distance(rss, d)
+        fit = _calibration.fit_log_distance(rss, d)
         wall = r.alpha_dbm - 10.0 * r.exponent * np.log10(3.0) - waf_db + rng.normal(0.0, r.sigma_db, 400)
         waf = float(np.mean(rss[d == 3.0]) - np.mean(wall))
         rows.append(dict(reader=j + 1, alpha_dbm=float(fit.alpha_dbm), exponent=float(fit.exponent),
@@ -380,8 +381,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                                               rng=rng)
             scored = {name: _scored(motion, rt[name.split("-")[0]], n_steps) for name in results}
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
-        crlb = _estimators.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
-                                 np.maximum(channel.sigma_db, 1e-3))
+        crlb = _bounds.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
+                                         np.maximum(channel.sigma_db, 1e-3))
         tables.add_case(case, sigma0, motion, data, results, scored, crlb,
                         beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
                         reference_xy=plan.reference_xy)

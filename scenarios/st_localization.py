@@ -360,14 +360,14 @@ def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, 
             est = _landmark_pf.wcl_track(counts, landmarks, np.mean(landmarks, axis=0))
         elif kind == "pfbin":
             est = _landmark_pf.pf_bin(counts, np.stack([d["start"] for d in tracks]), n_particles=f.particles, period_s=Ts,
-                         accel_var=f.pfbin_accel_var, n_rounds=N, probability=probability, rng=rng)
+                                      accel_var=f.pfbin_accel_var, n_rounds=N, probability=probability, rng=rng)
         else:
             x, v = _landmark_pf.pf_aa(counts, landmarks, n_particles=f.particles, period_s=Ts, q_std_m=f.q_std_m,
-                         init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
+                                      init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
             if np.isfinite(vt):
                 est = np.concatenate([_landmark_pf.bias_compensate(x[i:i + 1], v[i:i + 1], period_end_s=t_end[i],
-                                                      mean_detection_s=mean_t[i:i + 1], b0=f.b0, b1=f.b1,
-                                                      v_threshold_mps=vt) for i in range(len(tracks))])
+                                                                   mean_detection_s=mean_t[i:i + 1], b0=f.b0, b1=f.b1,
+                                                                   v_threshold_mps=vt) for i in range(len(tracks))])
             else:
                 est = x
         estimates[label] = est

@@ -184,16 +184,16 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     sc, fc = room(g.apdp), config.exciter.fc_hz
     links = DrawnLinks()
     links.add(ex_ant, tx_ant, _bulk.draw_links(sc, ex_ant.position_m, tx_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
-                                         rx_antenna=tx_ant).pathset(0))
+                                               rx_antenna=tx_ant).pathset(0))
     for a in sa:
         links.add(ex_ant, a, BatchLink(_bulk.draw_links(sc, ex_ant.position_m, a.positions_m, fc_hz=fc, rng=lrng,
-                                                  tx_antenna=ex_ant, rx_antenna=template)))
+                                                        tx_antenna=ex_ant, rx_antenna=template)))
         links.add(tx_ant, a, BatchLink(_bulk.draw_links(sc, tx_pos, a.positions_m, fc_hz=fc, rng=lrng,
-                                                  tx_antenna=tx_ant, rx_antenna=template)))
+                                                        tx_antenna=tx_ant, rx_antenna=template)))
     noise_w = config.noise.power_w(fr.fs_hz)
     air = _air.propagate([exciter], [tx], [_air.AntennaPort(a, noise_power_w=noise_w) for a in sa], links, t0_s=0.0,
-                    fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, cell, rep, 2),
-                    bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
+                         fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, cell, rep, 2),
+                         bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
     out = st_outcomes(config, frame, air)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tx_x_m=np.full(n, tx_pos[0]),
                st_x_m=centres[:, 0], st_y_m=centres[:, 1], orientation_rad=orient,

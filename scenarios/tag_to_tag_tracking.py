@@ -236,16 +236,16 @@ def track(config: Config, range_m: float, times_s, observed_xy, truth_xy, x0, *,
             est = _proximity.association(observed_xy)[None]
         elif kind == "kf":
             est = _proximity.proximity_kalman(times_s, observed_xy, x0, P0, t0_s=0.0, accel_var=config.motion.accel_var,
-                                   range_m=range_m).x[None][..., 0::2]
+                                              range_m=range_m).x[None][..., 0::2]
         else:
             a1, a2 = filter_coefficients(config, range_m)
             init = _prior(config, x0, rng, config.filter_runs, m, kind)
             if kind == "pf":
                 res = _proximity.bernoulli_pf(times_s, observed_xy, init, t0_s=0.0, accel_var=config.motion.accel_var,
-                                   a1=a1, a2=a2, rng=rng)
+                                              a1=a1, a2=a2, rng=rng)
             else:
                 res = _proximity.rbpf(times_s, observed_xy, init, t.prior_velocity_std_mps ** 2, t0_s=0.0,
-                           accel_var=config.motion.accel_var, a1=a1, a2=a2, rng=rng)
+                                      accel_var=config.motion.accel_var, a1=a1, a2=a2, rng=rng)
             est = res.mmse[..., 0::2]
         err = np.linalg.norm(est - truth_xy[None], axis=-1)
         out.append({"label": label, "kind": kind, "m": m, "estimates": est, "error_m": err,

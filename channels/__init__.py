@@ -12,19 +12,25 @@ shadowing), :mod:`~channels.small_scale` (exponential APDP taps), :mod:`~channel
 and their application), :mod:`~channels.scene` (assembly of links in a scene).
 """
 
-from channels.antennas import Antenna, HalfWaveDipole, Isotropic, Patch, Tabulated, vertical_dipole
-from channels.bulk import BulkPaths, draw_links
-from channels.geometry import Pose, direction_to, rotation_matrix
-from channels.large_scale import (LogDistance, ShadowingField, Wall, friis_amplitude_gain,
-                                  wall_loss_db)
-from channels.large_scale import LinkLargeScale
-from channels.noise import complex_awgn, noise_power_from_density_w, thermal_noise_power_w
-from channels.paths import (PathSet, apply_backscatter, apply_paths, compose_backscatter,
-                            concatenate, narrowband_error_bound, narrowband_rms_error,
-                            propagation_method, NARROWBAND_TOLERANCE, PROPAGATION_METHODS)
-from channels.scene import Channel, HeldLinks, Scene, kinematics, los_links
-from channels.small_scale import ApdpModel, average_profile, draw_taps, profile_statistics
-from channels.surfaces import Surface, fresnel_reflection, fresnel_transmission, image_paths
+from rfsim.lazy import lazy_exports
+
+#: Module of the package → the public names it provides, each imported on first use (so
+#: that importing one module, e.g. for a config dataclass, does not import the others).
+_SOURCES = {
+    "antennas": ("Antenna", "HalfWaveDipole", "Isotropic", "Patch", "Tabulated", "vertical_dipole"),
+    "bulk": ("BulkPaths", "draw_links"),
+    "geometry": ("Pose", "direction_to", "rotation_matrix"),
+    "large_scale": ("LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
+                    "LinkLargeScale"),
+    "noise": ("complex_awgn", "noise_power_from_density_w", "thermal_noise_power_w"),
+    "paths": ("PathSet", "apply_backscatter", "apply_paths", "compose_backscatter", "concatenate",
+              "narrowband_error_bound", "narrowband_rms_error", "propagation_method",
+              "NARROWBAND_TOLERANCE", "PROPAGATION_METHODS"),
+    "scene": ("Channel", "HeldLinks", "Scene", "kinematics", "los_links"),
+    "small_scale": ("ApdpModel", "average_profile", "draw_taps", "profile_statistics"),
+    "surfaces": ("Surface", "fresnel_reflection", "fresnel_transmission", "image_paths"),
+}
+__getattr__, __dir__ = lazy_exports(globals(), _SOURCES)
 
 __all__ = [
     "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated", "vertical_dipole",

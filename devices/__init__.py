@@ -20,17 +20,23 @@ and MSK modulation (:mod:`devices.msk_beacon`), the sample-level reader with its
 (:mod:`devices.active_reader`) and the RSSI report stage (:mod:`devices.rss_reader`).
 """
 
-from devices.active_reader import ActiveReader, ActiveReaderConfig, BeaconRead
-from devices.active_tag import ActiveTag, ActiveTagConfig
-from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
-from devices.reader import Reader, ReaderConfig, ReadResult, TxSegment, frequency_plan
-from devices.sense_a_tag import Observation, SenseATag, SenseATagConfig
-from devices.tag import PassiveTag, TagConfig, TagResponse
-from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
-from devices.tag_frontend import (PowerUp, ReflectionStates, TagClock, differential_rcs_m2,
-                                  modulation_factor, power_transmission_coefficient,
-                                  reflection_coefficient)
-from devices.tag_population import TagPopulation
+from rfsim.lazy import lazy_exports
+
+#: Module of the package → the public names it provides, each imported on first use (so
+#: that importing one module, e.g. for a config dataclass, does not import the others).
+_SOURCES = {
+    "active_reader": ("ActiveReader", "ActiveReaderConfig", "BeaconRead"),
+    "active_tag": ("ActiveTag", "ActiveTagConfig"),
+    "gen2_tag_state": ("FlagPersistence", "Reply", "TagState", "pc_word"),
+    "reader": ("Reader", "ReaderConfig", "ReadResult", "TxSegment", "frequency_plan"),
+    "sense_a_tag": ("Observation", "SenseATag", "SenseATagConfig"),
+    "tag": ("PassiveTag", "TagConfig", "TagResponse"),
+    "tag_chip": ("ChipOperatingPoint", "PowerDependentChip"),
+    "tag_frontend": ("PowerUp", "ReflectionStates", "TagClock", "differential_rcs_m2", "modulation_factor",
+                     "power_transmission_coefficient", "reflection_coefficient"),
+    "tag_population": ("TagPopulation",),
+}
+__getattr__, __dir__ = lazy_exports(globals(), _SOURCES)
 
 __all__ = [
     "ActiveTag", "ActiveTagConfig", "ActiveReader", "ActiveReaderConfig", "BeaconRead",

@@ -29,11 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.air import Segment
 from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.units import dbm_to_w
+from rfsim.lazy import lazy_import
+
+_air = lazy_import("rfsim.air")
 
 #: Carrier range the models support [Hz] (rfsim.carriers).
 CARRIER_RANGE_HZ = SUPPORTED_CARRIER_RANGE_HZ
@@ -115,7 +117,7 @@ class Exciter:
             return np.ones(t.shape, dtype=bool)
         return np.searchsorted(np.asarray(sw), t, side="right") % 2 == 1
 
-    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment | None:
+    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> _air.Segment | None:
         """The exciter's segment on the given time base (None when it is off throughout)."""
         n = int(n_samples)
         t = float(t0_s) + np.arange(n) / float(fs_hz)
@@ -127,7 +129,7 @@ class Exciter:
             x *= np.exp(1j * self._phase_noise(float(t0_s), float(fs_hz), n))
         if not on.all():
             x[~on] = 0.0
-        return Segment(t0_s, fs_hz, self.fc_hz, x)
+        return _air.Segment(t0_s, fs_hz, self.fc_hz, x)
 
     def _phase_noise(self, t0_s: float, fs_hz: float, n: int) -> np.ndarray:
         var = 2.0 * math.pi * self.config.linewidth_hz / fs_hz

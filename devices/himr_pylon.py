@@ -39,13 +39,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.air import Segment
-from rfsim.carriers import check_carriers
 from rfsim.config import check_fields, param
-from rfsim.noise import thermal_noise_power_w
 from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
+_air = lazy_import("rfsim.air")
+_carriers = lazy_import("rfsim.carriers")
+_noise = lazy_import("rfsim.noise")
 
 #: Carriers of the 2-D experiment (L997) [Hz].
 HIMR_CARRIERS_HZ = (5.79e9, 5.80e9, 5.81e9)
@@ -64,7 +64,7 @@ class PylonConfig:
 
     def __post_init__(self):
         check_fields(self, "pylon")
-        check_carriers("pylon.fc_hz", [self.fc_hz])
+        _carriers.check_carriers("pylon.fc_hz", [self.fc_hz])
 
 
 class Pylon:
@@ -85,13 +85,13 @@ class Pylon:
 
     def set_sample_rate(self, fs_hz: float) -> None:
         """Noise power of the receiver at sample rate ``fs_hz``: N = k·T₀·F·fs [W per sample]."""
-        self.noise_power_w = float(thermal_noise_power_w(fs_hz, self.config.noise_figure_db))
+        self.noise_power_w = float(_noise.thermal_noise_power_w(fs_hz, self.config.noise_figure_db))
 
-    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment:
+    def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> _air.Segment:
         """CW √P_T·e^{jφ_0} on the step's time base, on the pylon's carrier."""
         c = self.config
         level = math.sqrt(c.ptx_w) * complex(math.cos(c.lo_phase_rad), math.sin(c.lo_phase_rad))
-        return Segment(t0_s, fs_hz, self.fc_hz, np.full(int(n_samples), level, dtype=np.complex128))
+        return _air.Segment(t0_s, fs_hz, self.fc_hz, np.full(int(n_samples), level, dtype=np.complex128))
 
     def coupling(self, emitter) -> complex | None:
         """Leakage of its own CW into its receiver; None (the channel) for other emitters."""
@@ -101,12 +101,12 @@ class Pylon:
         a = 10.0 ** (c.coupling_db / 20.0)
         return complex(a * math.cos(c.coupling_phase_rad), a * math.sin(c.coupling_phase_rad))
 
-    def receive(self, input: Segment) -> Segment:
+    def receive(self, input: _air.Segment) -> _air.Segment:
         if self.rx_cutoff_hz is None:
             return input
         taps = lowpass_taps(self.rx_cutoff_hz, input.fs_hz)
         y = np.convolve(input.samples, taps, mode="same")
-        return Segment(input.t0_s, input.fs_hz, input.fc_hz, y)
+        return _air.Segment(input.t0_s, input.fs_hz, input.fc_hz, y)
 
 
 @functools.lru_cache(maxsize=8)

@@ -42,12 +42,14 @@ from typing import Literal
 
 import numpy as np
 
-from devices.imu import ImuConfig, imu_words
-from rfsim.boc import BocCode, boc_train
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
 from rfsim.himr_packet import Framing, PacketFormat, build_packets, packet_format
 from rfsim.trajectories import Kinematics
+from rfsim.lazy import lazy_import
+
+_imu = lazy_import("devices.imu")
+_boc = lazy_import("rfsim.boc")
 
 GAMMA_OPEN = 1.0 + 0j
 GAMMA_SHORT = -1.0 + 0j
@@ -84,7 +86,7 @@ class HimrTagConfig:
         return packet_format(self.packet_format)
 
     @property
-    def code(self) -> BocCode:
+    def code(self) -> _boc.BocCode:
         return self.format.code(chip_rate_hz=self.chip_rate_hz, subcarrier_hz=self.subcarrier_hz, key="tag")
 
     @property
@@ -150,10 +152,10 @@ class HimrTag:
         trajectory's, see :meth:`position_m`)
     """
 
-    def __init__(self, config: HimrTagConfig, trajectory, imu: ImuConfig | None = None, *, antenna=None):
+    def __init__(self, config: HimrTagConfig, trajectory, imu: _imu.ImuConfig | None = None, *, antenna=None):
         self.config = config
         self.trajectory = trajectory
-        self.imu = ImuConfig() if imu is None else imu
+        self.imu = _imu.ImuConfig() if imu is None else imu
         self.antenna = antenna
         self._plan: HimrPlan | None = None
 
@@ -178,7 +180,7 @@ class HimrTag:
         cfg, fmt = self.config, self.config.format
         starts = self.schedule(t_end_s, rng=rng)
         truth = self.trajectory(starts)
-        words = imu_words(truth, self.imu, rng=rng)[:, : fmt.n_words]
+        words = _imu.imu_words(truth, self.imu, rng=rng)[:, : fmt.n_words]
         bits = build_packets(fmt, cfg.framing, cfg.tag_id, words)
         self._plan = HimrPlan(start_s=starts, words=words, bits=bits, truth=truth)
         return self._plan
@@ -199,9 +201,9 @@ class HimrTag:
         t1 = t0_s + n_samples / fs_hz
         lo = np.searchsorted(plan.start_s, t0_s - cfg.air_time_s, side="left")
         hi = np.searchsorted(plan.start_s, t1, side="right")
-        return boc_train(plan.start_s[lo:hi], plan.bits[lo:hi], cfg.code, t0_s=t0_s, fs_hz=fs_hz,
-                         n_samples=n_samples, level_plus=GAMMA_OPEN, level_minus=GAMMA_SHORT,
-                         rest=cfg.gamma_rest)
+        return _boc.boc_train(plan.start_s[lo:hi], plan.bits[lo:hi], cfg.code, t0_s=t0_s, fs_hz=fs_hz,
+                              n_samples=n_samples, level_plus=GAMMA_OPEN, level_minus=GAMMA_SHORT,
+                              rest=cfg.gamma_rest)
 
     def reradiation(self, t0_s: float, fs_hz: float, n_samples: int) -> np.ndarray:
         """r(t) = A_s − Γ(t) on the same time base (the factor on the incident field)."""

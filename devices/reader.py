@@ -53,13 +53,11 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from rfsim.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
-from rfsim.carriers import frequency_plan as _plan
-from rfsim.config import param, validate
+from rfsim.config import validate
 from rfsim.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
@@ -68,8 +66,8 @@ from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_
 from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.noise import thermal_noise_power_w
-from rfsim.records import ReportConfig
 from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
+from devices.reader_config import ReaderConfig, frequency_plan
 from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -90,55 +88,6 @@ DOPPLER_BLOCKS = 8
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 #: Number of modulated command segments a Reader keeps for reuse.
 TX_CACHE_SIZE = 64
-
-
-def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
-    """Channel centre frequencies [Hz] of a plan, ``(n,) float64``: ``"FCC"``: 50 channels
-    902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9, 867.5 MHz
-    (gen2-and-validation-anchors.md §4.7); ``"custom"``: the explicit list ``channels_hz``
-    (:func:`rfsim.carriers.frequency_plan`, validated against the supported carrier range)."""
-    return _plan(region, channels_hz, key="reader")
-
-
-@dataclass(frozen=True)
-class ReaderConfig:
-    """Reader settings (validated by :class:`Reader`, see :func:`rfsim.config.validate`)."""
-
-    link_profile: str = param("miller4-320k", doc="link profile name (rfsim.gen2.link.PROFILES)")
-    ptx_dbm: float = param(30.0, lo=-20.0, hi=36.0, unit="dBm", doc="conducted TX power at the antenna port")
-    region: Literal["FCC", "ETSI", "custom"] = param("FCC", doc="frequency plan ('custom': channels_hz)")
-    channels_hz: tuple[float, ...] = param((), unit="Hz", doc="explicit carrier list of region 'custom' "
-                                                              "(e.g. [890e6] or [5.79e9, 5.80e9, 5.81e9])")
-    hopping: bool = param(True, doc="frequency hopping (FCC random hop table, ETSI cyclic)")
-    dwell_s: float = param(0.4, lo=0.0, hi=4.0, lo_open=True, unit="s",
-                           doc="time on one channel (FCC: at most 0.4 s)")
-    fixed_channel: int = param(1, lo=1, hi=1000, doc="1-based channel index used without hopping")
-    isolation_db: float = param(30.0, lo=0.0, hi=120.0, unit="dB", doc="TX→RX leakage attenuation")
-    noise_figure_db: float = param(10.0, lo=0.0, hi=40.0, unit="dB", doc="receiver noise figure")
-    fs_hz: float = param(4e6, lo=2e5, hi=2e8, unit="Hz", doc="baseband sample rate of TX and RX")
-    decoder: Literal["viterbi", "bitwise"] = param("viterbi", doc="reply decoder")
-    pie_rise_fall_tari: float = param(0.1, lo=0.0, hi=0.33, unit="Tari", doc="10-90 % PIE edge time")
-    false_alarm_probability: float = param(1e-3, lo=0.0, hi=1.0, lo_open=True, hi_open=True,
-                                           doc="preamble detection false-alarm probability per reply window")
-    report: ReportConfig = param(ReportConfig(), doc="what the reader reports of a read: RSSI step, sensitivity "
-                                                     "floor, phase code, per-port phase offsets (rfsim.records)")
-    blf_search: Literal["off", "preamble"] = param(
-        "off", doc="'preamble': estimate each reply's BLF within FrT (tags with their own BLF); 'off': nominal BLF")
-    rn16_false_accept: float = param(0.0, lo=0.0, hi=0.5, hi_open=True,
-                                     doc="RN16 acceptance: stated probability that an accepted RN16 is wrong, sets "
-                                         "the Eb/N0 threshold (0: no gate, every detected RN16 is ACKed)")
-
-    def __post_init__(self):
-        try:  # checked when the config is loaded, so the message names this key
-            profile(self.link_profile)
-        except ConfigError as err:
-            raise ConfigError("link_profile", err.value, err.allowed) from None
-        # The carrier plan is checked when the config is made, so a bad carrier stops a run
-        # before anything is simulated (one-line ConfigError on reader.region / reader.channels_hz).
-        frequency_plan(self.region, self.channels_hz)
-        if self.rn16_false_accept > 0 and self.blf_search != "preamble":
-            raise ConfigError("reader.rn16_false_accept", self.rn16_false_accept,
-                              "0 unless reader.blf_search = 'preamble' (its decoder computes the statistic)")
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,10 @@ from fractions import Fraction
 import numpy as np
 
 from rfsim.errors import ConfigError
-from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.units import dbm_to_w, w_to_dbm
+from rfsim.lazy import lazy_import
+
+_commands = lazy_import("rfsim.gen2.commands")
 
 #: Minimum operating chip power at 900 MHz [W] (PASS ``meas_tag_picmin.mat``: 52.709 µW,
 #: −12.78 dBm; the file spans 48.7 µW at 700 MHz … 69.7 µW at 1.2 GHz). PASS itself adds a
@@ -306,7 +308,7 @@ class TagClock:
         integer, the nearest one to N_TRcal/DR (as PASS: ``round(fclk/LF)`` ticks per
         period, modulated half floor(N/2), unmodulated half ceil(N/2) ticks).
         """
-        dr_frac: Fraction = DR_VALUES[normalize_dr(dr, "link.dr")]
+        dr_frac: Fraction = _commands.DR_VALUES[_commands.normalize_dr(dr, "link.dr")]
         n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
         if n_trcal < 1:
             raise ValueError(f"TRcal count must be >= 1 tick, got {n_trcal}")

@@ -55,11 +55,13 @@ import numpy as np
 
 from rfsim.config import check_fields, param
 from rfsim.errors import ConfigError
-from rfsim.gen2.bits import as_bits, bits_to_int
-from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Select
-from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.link import t1
 from rfsim.records import READ_MEASUREMENT_FIELDS
+from rfsim.lazy import lazy_import
+
+_bits = lazy_import("rfsim.gen2.bits")
+_commands = lazy_import("rfsim.gen2.commands")
+_crc = lazy_import("rfsim.gen2.crc")
+_link = lazy_import("rfsim.gen2.link")
 
 #: Reader-side slot classes (what the Q algorithm sees).
 READER_VIEWS = ("empty", "success", "collision")
@@ -217,7 +219,7 @@ def epc_hex_of(bits: np.ndarray) -> str:
     b = np.asarray(bits, dtype=np.uint8)
     if b.size < 48:
         return ""
-    epc = as_bits(b[16:-16])
+    epc = _bits.as_bits(b[16:-16])
     nibbles = epc[:epc.size - epc.size % 4].reshape(-1, 4) @ _NIBBLE_WEIGHTS  # MSB first
     return "".join(map("0123456789ABCDEF".__getitem__, nibbles.tolist()))
 
@@ -234,7 +236,7 @@ class _Clock:
     def __init__(self, link, config: InventoryConfig):
         self.link = link
         self.t2_s = config.t2_tpri * link.tpri_s
-        self.idle_s = max(t1(link).max_s + config.t3_s, 2.0 * link.rtcal_s)  # max(T1max + T3, T4)
+        self.idle_s = max(_link.t1(link).max_s + config.t3_s, 2.0 * link.rtcal_s)  # max(T1max + T3, T4)
         self.lead_s = link.tari_s  # CW before the delimiter (Reader.transmit default)
 
     def next_command_s(self, ex: AirExchange, reply_bits: int) -> float:
@@ -279,7 +281,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     n_slots = 0
     if config.select_mask or config.sel != "all":
         # assert SL on matching tags, deassert it on the others (Select action 0)
-        sel = Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
+        sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
         ex = air.exchange(sel, t_s=t_cmd - clock.lead_s, reply_bits=16, expect_crc=False, round_index=0,
                           new_round=True)
         t_cmd = clock.next_command_s(ex, 16)
@@ -288,14 +290,14 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
             on_round(rnd, t_cmd - clock.lead_s)
         new_round = True
         if config.select_before_round:
-            sel = Select(target=config.session, action=0 if target == "A" else 4, membank=1, pointer=32, mask="")
+            sel = _commands.Select(target=config.session, action=0 if target == "A" else 4, membank=1, pointer=32, mask="")
             ex = air.exchange(sel, t_s=t_cmd - clock.lead_s, reply_bits=16, expect_crc=False,
                               round_index=rnd, new_round=True)
             t_cmd = clock.next_command_s(ex, 16)
             new_round = False
         q = _round_half_up(qfp) if config.q_mode == "dynamic" else _round_half_up(config.q_initial)
-        cmd = Query(dr=link.dr, m=link.m, trext=link.trext, sel=config.sel, session=config.session,
-                    target=target, q=q)
+        cmd = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, sel=config.sel, session=config.session,
+                              target=target, q=q)
         frame_left = 1 << q
         detected_any = False
         slot = 0
@@ -328,10 +330,10 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
             if config.q_mode == "dynamic" and q_new != q:
                 updn = 1 if q_new > q else -1
                 q += updn
-                cmd = QueryAdjust(session=config.session, updn=updn)
+                cmd = _commands.QueryAdjust(session=config.session, updn=updn)
                 frame_left = 1 << q
             elif frame_left > 0:
-                cmd = QueryRep(session=config.session)
+                cmd = _commands.QueryRep(session=config.session)
             else:
                 break
         if n_slots >= config.max_slots:
@@ -357,14 +359,14 @@ def _slot(air, cmd, t_s: float, rnd: int, new_round: bool, clock: _Clock, config
         return "empty", t_next, None, first
     if not first.success or first.bits is None:
         return "collision", t_next, None, first
-    ack = ACK(bits_to_int(first.bits))
+    ack = _commands.ACK(_bits.bits_to_int(first.bits))
     second = air.exchange(ack, t_s=t_next - clock.lead_s, reply_bits=config.epc_reply_bits, expect_crc=True,
                           round_index=rnd, new_round=False)
     t_next = clock.next_command_s(second, config.epc_reply_bits)
     if second.success:
         return "success", t_next, second, first
     if second.detected:  # EPC with a bad CRC-16: NAK returns the tag to Arbitrate
-        nak = air.exchange(NAK(), t_s=t_next - clock.lead_s, reply_bits=16, expect_crc=False,
+        nak = air.exchange(_commands.NAK(), t_s=t_next - clock.lead_s, reply_bits=16, expect_crc=False,
                            round_index=rnd, new_round=False)
         t_next = clock.next_command_s(nak, 16)
     return "collision", t_next, None, first
@@ -439,7 +441,7 @@ class ProtocolAir:
             return AirExchange(type(cmd).__name__, float(t_s), cmd_end, replied, True, None, False,
                                "collision", start)
         bits = replies[0][1].bits
-        ok = (not expect_crc) or crc16_ok(bits)
+        ok = (not expect_crc) or _crc.crc16_ok(bits)
         return AirExchange(type(cmd).__name__, float(t_s), cmd_end, replied, True, bits, ok,
                            "" if ok else "crc error", start)
 

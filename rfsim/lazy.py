@@ -7,6 +7,10 @@ routine inside its functions declares the module with :func:`lazy_import` instea
 ``import`` statement: it gets a stand-in at once; the first attribute read through the
 stand-in imports the real module (an ordinary import, so concurrent first uses from
 several threads wait for one import) and copies its namespace into the stand-in.
+
+A package whose ``__init__`` gathers the public names of its modules does so with
+:func:`lazy_exports`: each name is imported from its module on first use (PEP 562), so that
+importing one module of the package does not import all the others.
 """
 
 from __future__ import annotations
@@ -47,4 +51,25 @@ def load_declared() -> None:
         importlib.import_module(name)
 
 
-__all__ = ["lazy_import", "load_declared", "DECLARED"]
+def lazy_exports(namespace: dict, sources: dict[str, tuple[str, ...]]):
+    """``(__getattr__, __dir__)`` for a package's ``__init__`` (PEP 562), given its
+    ``globals()``: ``sources`` maps a module of the package (name relative to it) to the
+    public names it provides; the first read of such a name imports that module and keeps
+    the value in the package's namespace."""
+    package = namespace["__name__"]
+    where = {name: f"{package}.{module}" for module, names in sources.items() for name in names}
+
+    def __getattr__(name: str):
+        if name not in where:
+            raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        value = getattr(importlib.import_module(where[name]), name)
+        namespace[name] = value
+        return value
+
+    def __dir__() -> list[str]:
+        return sorted(set(namespace) | set(where))
+
+    return __getattr__, __dir__
+
+
+__all__ = ["lazy_import", "lazy_exports", "load_declared", "DECLARED"]

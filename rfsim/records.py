@@ -35,7 +35,9 @@ import numpy as np
 
 from rfsim.config import param
 from rfsim.errors import ConfigError
-from rfsim.gen2.bits import bits_to_hex
+from rfsim.lazy import lazy_import
+
+_bits = lazy_import("rfsim.gen2.bits")
 
 READ_MEASUREMENT_FIELDS: dict[str, tuple[str, str]] = {
     "antenna": ("1", "reader antenna port (1-based, as LLRP)"),
@@ -124,7 +126,7 @@ def epc_hex(bits) -> str:
     b = np.asarray(bits, dtype=np.uint8)
     if b.size < 48 or (b.size - 32) % 4:
         return ""
-    return bits_to_hex(b[16:-16])
+    return _bits.bits_to_hex(b[16:-16])
 
 
 def report_columns(config: ReportConfig, *, t_s, antenna, rssi_dbm, phase_rad, success) -> dict[str, np.ndarray]:

@@ -90,6 +90,10 @@ def _release_free_memory() -> None:
         pass
 
 
+#: Top-level packages of the project (their lazily declared modules are loaded before a run).
+_PROJECT = ("rfsim", "devices", "channels", "scenarios")
+
+
 def _announce_compilation() -> None:
     """Say so up front when no kernel is cached yet (the pool workers compile silently)."""
     import importlib
@@ -97,11 +101,15 @@ def _announce_compilation() -> None:
     from rfsim._jit import first_compilation
     from rfsim.lazy import DECLARED
 
-    # the kernel modules declare their kernels when loaded; the libraries declared lazily
-    # beside them (scipy.signal, h5py, ...: ~70 MB resident) load only if the run uses them
-    for name in dict.fromkeys(DECLARED):
-        if name.rsplit(".", 1)[-1].endswith("_kernels"):
+    # the kernel modules declare their kernels when loaded. The project's modules declared
+    # lazily (a scenario's physics, so that 'rfsim config' stays light) are loaded first, until
+    # they declare no more; the libraries declared beside them (scipy.signal, h5py, ...:
+    # ~70 MB resident) load only if the run uses them
+    loaded: set[str] = set()
+    while todo := [n for n in dict.fromkeys(DECLARED) if n not in loaded and n.split(".")[0] in _PROJECT]:
+        for name in todo:
             importlib.import_module(name)
+            loaded.add(name)
     rep = current()
     if rep is not None and first_compilation():
         rep.compile_started()

@@ -68,16 +68,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from devices.reader import blf_grid_hz, rn16_threshold_db, search_decode
-from devices.st_analytic import cancellation_probability
-from devices.tag import TagConfig
+from devices.tag_config import TagConfig
 from devices.tag_spread import TagSpreadConfig
 from rfsim.config import check_fields, param
-from rfsim.gen2.capture import preamble_threshold
 from rfsim.gen2.link import profile, t1
-from rfsim.gen2.linecode import preamble_levels, reply_waveform
 from rfsim.progress import track
 from rfsim.rng import trial_rng
+from rfsim.lazy import lazy_import
+
+_reader = lazy_import("devices.reader")
+_st_analytic = lazy_import("devices.st_analytic")
+_capture = lazy_import("rfsim.gen2.capture")
+_linecode = lazy_import("rfsim.gen2.linecode")
 
 #: First point index of the sweep's streams (apart from the engine capture points at 10**6 + i).
 SEED_OFFSET = 2_000_000
@@ -171,15 +173,15 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
     y *= math.sqrt(sigma2 / 2.0)
     for j in range(nt):
         for k in range(2):
-            s = reply_waveform(bits[j, k], m=link.m, trext=link.trext, blf_hz=blf0 * (1.0 + eps[j, k]), fs_hz=fs,
-                               t0_s=t1_s[j, k] - t0, n_samples=n)
+            s = _linecode.reply_waveform(bits[j, k], m=link.m, trext=link.trext, blf_hz=blf0 * (1.0 + eps[j, k]), fs_hz=fs,
+                                         t0_s=t1_s[j, k] - t0, n_samples=n)
             s[s == 0] = -1.0
             y[j] += h[j, k] * s
-    out = search_decode(y, m=link.m, trext=link.trext, n_bits=RN16_BITS, blfs_hz=blf_grid_hz(link), fs_hz=fs,
-                        lo=lo, hi=hi, threads=cfg.threads)
-    n_pre = int(math.floor(preamble_levels(m=link.m, trext=link.trext)[0].size * link.m * fs / (2.0 * link.blf_hz)))
-    n_tests = (hi - lo + 1) * blf_grid_hz(link).size
-    detected = out.corr >= preamble_threshold(n_pre, n_tests, cfg.false_alarm_probability)
+    out = _reader.search_decode(y, m=link.m, trext=link.trext, n_bits=RN16_BITS, blfs_hz=_reader.blf_grid_hz(link), fs_hz=fs,
+                                lo=lo, hi=hi, threads=cfg.threads)
+    n_pre = int(math.floor(_linecode.preamble_levels(m=link.m, trext=link.trext)[0].size * link.m * fs / (2.0 * link.blf_hz)))
+    n_tests = (hi - lo + 1) * _reader.blf_grid_hz(link).size
+    detected = out.corr >= _capture.preamble_threshold(n_pre, n_tests, cfg.false_alarm_probability)
     match = np.all(out.bits[:, None, :] == bits, axis=2)  # (nt, 2)
     decoded = np.where(match[:, 0], 0, np.where(match[:, 1], 1, -1))
     return _Point(name, spread, float(ratio_db), detected, decoded, out.ebn0_db, out.decision_ebn0_db, out.corr, eps, t1_s)
@@ -236,13 +238,13 @@ def _line_code(m: int) -> str:
 
 def tables(cfg: CaptureSweepConfig, points: list[_Point]) -> tuple[dict, dict, dict]:
     """(capture_sweep rows, capture_trials rows, acceptance rows) from the points."""
-    gamma = rn16_threshold_db(cfg.rn16_false_accept)
+    gamma = _reader.rn16_threshold_db(cfg.rn16_false_accept)
     rows: dict[str, list] = {k: [] for k in POINT_FIELDS}
     trials: dict[str, list] = {k: [] for k in TRIAL_FIELDS}
     for i, pt in enumerate(points):
         acc = pt.detected & (pt.decision_ebn0_db >= gamma)
         cap = acc & (pt.decoded >= 0)
-        p, lo, hi, n = cancellation_probability(cap)
+        p, lo, hi, n = _st_analytic.cancellation_probability(cap)
         vals = dict(profile=pt.profile, line_code=_line_code(profile(pt.profile).m), spread=int(pt.spread),
                     ratio_db=pt.ratio_db, trials=int(n), p_capture=float(p), ci_lo=float(lo), ci_hi=float(hi),
                     p_capture_weak=float(np.mean(acc & (pt.decoded == 1))), p_decoded=float(np.mean(pt.decoded >= 0)),

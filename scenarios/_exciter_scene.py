@@ -24,14 +24,18 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, HalfWaveDipole, Patch, Scene
-from channels.noise import thermal_noise_power_w
-from channels.paths import NARROWBAND_TOLERANCE
-from devices import st_receiver as sr
-from devices.sense_a_tag import chain_rows, level_differences
 from rfsim.config import param
 from rfsim.errors import ConfigError
-from rfsim.gen2.linecode import decode_reply, reply_duration_s, reply_waveform
+from rfsim.lazy import lazy_import
+
+sr = lazy_import("devices.st_receiver")
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_noise = lazy_import("channels.noise")
+_paths = lazy_import("channels.paths")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_linecode = lazy_import("rfsim.gen2.linecode")
 
 
 @dataclass(frozen=True)
@@ -63,7 +67,7 @@ class NoiseConfig:
 
     def power_w(self, fs_hz: float) -> float:
         """Noise power per complex sample [W] (0 when disabled)."""
-        return float(thermal_noise_power_w(fs_hz, self.nf_db)) if self.enabled else 0.0
+        return float(_noise.thermal_noise_power_w(fs_hz, self.nf_db)) if self.enabled else 0.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,10 +140,10 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
         st = sr.stamp_frame(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
                             n_stamp_cycles=stamp_cycles, t0_s=t0_s, tail_s=tail_s)
     else:
-        n = int(math.ceil((t0_s + tail_s + reply_duration_s(b.size, m=frame.m, trext=frame.trext,
+        n = int(math.ceil((t0_s + tail_s + _linecode.reply_duration_s(b.size, m=frame.m, trext=frame.trext,
                                                                 blf_hz=frame.blf_hz)) * frame.fs_hz)) + 1
-        levels = reply_waveform(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
-                                t0_s=t0_s, n_samples=n)
+        levels = _linecode.reply_waveform(b, m=frame.m, trext=frame.trext, blf_hz=frame.blf_hz, fs_hz=frame.fs_hz,
+                                          t0_s=t0_s, n_samples=n)
         states = np.where(levels < 0, sr.STAMP_S2, sr.STAMP_S1).astype(np.int8)
         start = int(math.ceil(t0_s * frame.fs_hz))
         st = sr.StampFrame(states, levels, start, start, start, start)
@@ -149,14 +153,14 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
 def exciter_antenna(kind: str, gain_dbi: float, height_m: float):
     """The exciter's antenna at (0, 0, height): a patch (``gain_dbi``, 70° beamwidth) with
     boresight +x, or a vertical half-wave dipole (``channels.Antenna``)."""
-    pattern = Patch(gain_dbi, 70.0) if kind == "patch" else HalfWaveDipole()
-    return Antenna(position_m=(0.0, 0.0, height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
-                   polarization="linear")
+    pattern = _antennas.Patch(gain_dbi, 70.0) if kind == "patch" else _antennas.HalfWaveDipole()
+    return _antennas.Antenna(position_m=(0.0, 0.0, height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
+                             polarization="linear")
 
 
-def room(apdp: bool) -> Scene:
+def room(apdp: bool) -> _scene.Scene:
     """Friis, plus the exponential APDP with the PASS ST-room curves when ``apdp``."""
-    return Scene(apdp=ApdpModel() if apdp else None)
+    return _scene.Scene(apdp=_small_scale.ApdpModel() if apdp else None)
 
 
 def uniform_disc(rng: np.random.Generator, n: int, radius_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -180,7 +184,7 @@ class RowsChain:
 
     @classmethod
     def run(cls, rx: sr.STReceiver, x) -> "RowsChain":
-        return cls(*chain_rows(rx, x))
+        return cls(*_sense_a_tag.chain_rows(rx, x))
 
     def decoded(self, rx: sr.STReceiver, frame: Frame, rows=None) -> np.ndarray:
         """(r,) bool: the payload decoded exactly from the reply start on, in ``rows`` (default all).
@@ -196,9 +200,9 @@ class RowsChain:
         out = np.zeros(rows.size, dtype=bool)
         for i in np.flatnonzero(rows & (toggles >= rx.min_toggles)):
             try:
-                det = decode_reply(self.comparator[i, start:].astype(np.complex128), n_bits=frame.bits.size,
-                                   m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
-                                   search_samples=search)
+                det = _linecode.decode_reply(self.comparator[i, start:].astype(np.complex128), n_bits=frame.bits.size,
+                                             m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
+                                             search_samples=search)
             except ValueError:
                 continue
             out[i] = det.corr >= rx.min_corr and np.array_equal(det.bits, frame.bits)
@@ -206,7 +210,7 @@ class RowsChain:
 
     def level_difference_v(self, rx: sr.STReceiver, frame: Frame) -> np.ndarray:
         """(r,) |A(+1) − A(−1)| of the settled detector output over the reply [V]."""
-        return np.abs(level_differences(self.envelope_v, frame.stamp.levels, rx))
+        return np.abs(_sense_a_tag.level_differences(self.envelope_v, frame.stamp.levels, rx))
 
     def stamp_symbols(self, rx: sr.STReceiver, frame: Frame, min_transitions: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """Decoded ASK and PSK stamp symbols, (r,) bool each (True = '1', False = '-').
@@ -267,9 +271,9 @@ class BatchLink:
             p = np.abs(b.gain) ** 2
             rel2 = np.where(b.valid, (2.0 * np.pi * bandwidth_hz * (b.delay_s - tau0)) ** 2, 0.0)
             err = np.sqrt((p * rel2).sum(axis=1) / np.maximum(p.sum(axis=1), 1e-300))
-            if propagation == "exact" or np.any(err > NARROWBAND_TOLERANCE):
+            if propagation == "exact" or np.any(err > _paths.NARROWBAND_TOLERANCE):
                 raise ValueError(f"batched links need narrowband propagation at B = {bandwidth_hz:g} Hz "
-                                 f"(largest envelope error {err.max():.3g} > {NARROWBAND_TOLERANCE})")
+                                 f"(largest envelope error {err.max():.3g} > {_paths.NARROWBAND_TOLERANCE})")
             self._method[key] = "narrowband"
         return self._method[key]
 

@@ -42,17 +42,20 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, Channel, Isotropic, Scene
-from devices.himr_pylon import Pylon, PylonConfig
-from devices.himr_tag import HimrTag
-from rfsim.air import LinkTable, propagate
 from rfsim.config import param
 from rfsim.errors import ConfigError
 from rfsim.himr_dsp import PacketMeasurements, decode_packet, packet_table
-from rfsim.himr_link import calibrate_rss_constant, ptx_for_snr_w, rss_constant
-from rfsim.noise import thermal_noise_power_w
 from rfsim.progress import track
 from rfsim.rng import trial_rng
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_scene = lazy_import("channels.scene")
+_himr_pylon = lazy_import("devices.himr_pylon")
+_himr_tag = lazy_import("devices.himr_tag")
+_air = lazy_import("rfsim.air")
+_himr_link = lazy_import("rfsim.himr_link")
+_noise = lazy_import("rfsim.noise")
 
 
 @dataclass(frozen=True)
@@ -79,7 +82,7 @@ class RadioConfig:
                                        doc="pylon channel filter cut-off (None: none; 'joint' default: f_sc + 2 R_b)")
 
 
-def check_sample_rate(radio: RadioConfig, tag: HimrTag, pylon_fc_hz) -> None:
+def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -> None:
     """fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b). (A
     ``joint`` run below twice the carrier spread is allowed: the air step drops the carriers
     outside ±fs/2 and the run counts them, ``AirRun.dropped``.)"""
@@ -90,7 +93,7 @@ def check_sample_rate(radio: RadioConfig, tag: HimrTag, pylon_fc_hz) -> None:
         raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
 
 
-def check_pylons_off_the_track(positions_m, tag: HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,
+def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,
                                key: str = "pylons.positions_m") -> None:
     """A pylon on (or within ``min_distance_m`` of) the tag's track has no far-field link."""
     t = np.arange(0.0, t_end_s + 5e-4, 1e-3)
@@ -139,33 +142,33 @@ class _Memo:
 
 
 def pylon_antennas(positions_m, height_m: float, gain_dbi: float) -> list:
-    return [Antenna(position_m=(float(x), float(y), height_m), pattern=Isotropic(10 ** (gain_dbi / 10)))
+    return [_antennas.Antenna(position_m=(float(x), float(y), height_m), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
             for x, y in np.asarray(positions_m, float)[:, :2]]
 
 
-def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed: int, t_end_s: float,
+def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed: int, t_end_s: float,
              height_m: float = 0.0, desc: str = "packets") -> AirRun:
     """Plan the tag's packets up to ``t_end_s``, run them through the air and the DSP."""
     plan = tag.plan(t_end_s, rng=trial_rng(seed, 0))
     fs, code, fmt = radio.fs_hz, tag.config.code, tag.config.format
     g_p, g_t = 10 ** (radio.pylon_gain_dbi / 10), 10 ** (radio.tag_gain_dbi / 10)
-    noise_w = float(thermal_noise_power_w(fs, radio.noise_figure_db))
-    ptx = ptx_for_snr_w(radio.snr_db, radio.snr_distance_m, noise_power_w=noise_w, fc_hz=float(np.mean(carriers_hz)),
-                        g_tx=g_p, g_rx=g_p, g_tag=g_t)
+    noise_w = float(_noise.thermal_noise_power_w(fs, radio.noise_figure_db))
+    ptx = _himr_link.ptx_for_snr_w(radio.snr_db, radio.snr_distance_m, noise_power_w=noise_w, fc_hz=float(np.mean(carriers_hz)),
+                                   g_tx=g_p, g_rx=g_p, g_tag=g_t)
     ants = pylon_antennas(positions_m, height_m, radio.pylon_gain_dbi)
     pylons = []
     cutoff = radio.rx_cutoff_hz
     if cutoff is None and radio.cross_carrier == "joint":
         cutoff = code.subcarrier_hz_value + 2 * code.bit_rate_bps
     for u, (ant, fc) in enumerate(zip(ants, carriers_hz)):
-        p = Pylon(PylonConfig(fc_hz=float(fc), ptx_w=ptx, noise_figure_db=radio.noise_figure_db,
-                              coupling_db=radio.coupling_db), ant, name=f"pylon {u + 1}", rx_cutoff_hz=cutoff)
+        p = _himr_pylon.Pylon(_himr_pylon.PylonConfig(fc_hz=float(fc), ptx_w=ptx, noise_figure_db=radio.noise_figure_db,
+                                                      coupling_db=radio.coupling_db), ant, name=f"pylon {u + 1}", rx_cutoff_hz=cutoff)
         if radio.receiver_noise:
             p.set_sample_rate(fs)
         pylons.append(p)
     p0 = tag.position_m(0.0)
-    tag.antenna = Antenna(position_m=p0, pattern=Isotropic(g_t))
-    channel = Channel(Scene(image_order=0))
+    tag.antenna = _antennas.Antenna(position_m=p0, pattern=_antennas.Isotropic(g_t))
+    channel = _scene.Channel(_scene.Scene(image_order=0))
     air_s = tag.config.air_time_s
     n = int(math.ceil((air_s + 2 * radio.margin_s) * fs))
     decoded = [[] for _ in pylons]
@@ -179,9 +182,9 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
         t0 = t_k - radio.margin_s
         for grp in groups:
             devs = [pylons[u] for u in grp]
-            links = LinkTable(channel, motions={id(tag.antenna): motion})
-            res = propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
-                            rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
+            links = _air.LinkTable(channel, motions={id(tag.antenna): motion})
+            res = _air.propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
+                                 rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1
             dropped += len(res.dropped)
             for u, seg in zip(grp, res.outputs):
@@ -200,9 +203,9 @@ def simulate(tag: HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed
         v_true = np.full(idx.size, np.nan)
         v_true[1:] = np.diff(r_true) / np.diff(plan.start_s[idx])
         if radio.rss_calibration == "link-budget":
-            k_u = rss_constant(fc_hz=p.fc_hz, ptx_w=ptx, g_tx=g_p, g_rx=g_p, g_tag=g_t)
+            k_u = _himr_link.rss_constant(fc_hz=p.fc_hz, ptx_w=ptx, g_tx=g_p, g_rx=g_p, g_tag=g_t)
         else:
-            k_u = calibrate_rss_constant(abs(decoded[u][0].gain) ** 2, r_true[0]) if idx.size else float("nan")
+            k_u = _himr_link.calibrate_rss_constant(abs(decoded[u][0].gain) ** 2, r_true[0]) if idx.size else float("nan")
         k_us.append(k_u)
         out.append(packet_table(decoded[u], fc_hz=p.fc_hz, fmt=fmt, framing=tag.config.framing, k_u=k_u,
                                 true_radial_velocity_mps=v_true))

@@ -35,14 +35,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, LinkLargeScale, LogDistance, Scene, Wall
-from devices import ActiveReader, ActiveReaderConfig, ActiveTag, ActiveTagConfig
-from devices.rss_reader import RssReport
-from rfsim.air import LinkTable
-from rfsim.beacons import run_beacons
 from rfsim.config import param
 from rfsim.errors import ConfigError
 from rfsim.rng import trial_rng
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_large_scale = lazy_import("channels.large_scale")
+_active_reader = lazy_import("devices.active_reader")
+_active_tag = lazy_import("devices.active_tag")
+_rss_reader = lazy_import("devices.rss_reader")
+_air = lazy_import("rfsim.air")
+_beacons = lazy_import("rfsim.beacons")
 
 #: Tag transmit power [dBm] (L957).
 TX_POWER_DBM = 5.0
@@ -81,7 +87,7 @@ class WaveformStats:
     air_steps: int = 0
 
 
-def sample_level_reports(config, plan, channel, data, case: int, seed: int, report: RssReport):
+def sample_level_reports(config, plan, channel, data, case: int, seed: int, report: _rss_reader.RssReport):
     """Reported RSSI of the target (B, T, J) and of the reference tags (B, T, J, I) from beacons
     sent at sample level (module docstring), the beacons' start times [s] (B, T, 1 + I; NaN when
     listen-before-talk dropped one) and the case's :class:`WaveformStats`."""
@@ -89,10 +95,10 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
     b_n, t_n, j_n = data.rss_dbm.shape
     ref = plan.reference_xy
     i_n = ref.shape[0]
-    walls = tuple(Wall.segment_2d((x0, y0), (x1, y1), config.waf_db) for x0, y0, x1, y1 in plan.walls_xy)
-    apdp = ApdpModel() if wf.apdp else None
-    rcfg = ActiveReaderConfig(fs_hz=wf.fs_hz, noise_figure_db=wf.noise_figure_db, report=report)
-    readers = [ActiveReader(rcfg, Antenna([x, y, plan.reader_height_m])) for x, y in plan.readers_xy]
+    walls = tuple(_large_scale.Wall.segment_2d((x0, y0), (x1, y1), config.waf_db) for x0, y0, x1, y1 in plan.walls_xy)
+    apdp = _small_scale.ApdpModel() if wf.apdp else None
+    rcfg = _active_reader.ActiveReaderConfig(fs_hz=wf.fs_hz, noise_figure_db=wf.noise_figure_db, report=report)
+    readers = [_active_reader.ActiveReader(rcfg, _antennas.Antenna([x, y, plan.reader_height_m])) for x, y in plan.readers_xy]
     z = plan.tag_height_m
     ref_pts = np.column_stack([ref, np.full(i_n, z)]) if i_n else np.zeros((0, 3))
     out = np.full((b_n, t_n, j_n), np.nan)
@@ -102,7 +108,7 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
     for b in range(b_n):
         rng = trial_rng(seed, case, 2, b)
         tcfg = dict(jitter_s=wf.jitter_s, lbt_listen_s=wf.lbt_listen_s, tx_power_dbm=TX_POWER_DBM)
-        tags = [ActiveTag(ActiveTagConfig(tag_id=k + 1, **tcfg), None, rng=rng) for k in range(1 + i_n)]
+        tags = [_active_tag.ActiveTag(_active_tag.ActiveTagConfig(tag_id=k + 1, **tcfg), None, rng=rng) for k in range(1 + i_n)]
         offsets = rng.uniform(wf.jitter_s, 1.0 - wf.jitter_s - tags[0].burst_s, size=len(tags))
         for t in range(t_n):
             target = np.array([*data.truth_xy[b, t], z])
@@ -114,17 +120,17 @@ def sample_level_reports(config, plan, channel, data, case: int, seed: int, repo
             mean = channel.mean_rss_dbm(pts)                                               # (1 + I, J)
             by_tag = {}
             for k, tag in enumerate(tags):
-                tag.antenna = Antenna(pts[k])
+                tag.antenna = _antennas.Antenna(pts[k])
                 tag.seq = t % 256           # beacon t carries sequence number t
                 models = [(readers[j].antenna,
-                           LogDistance(r.exponent, r.d0_m,
-                                       pl_d0_db=TX_POWER_DBM - r.alpha_dbm - (total[k, j] - mean[k, j])))
+                           _large_scale.LogDistance(r.exponent, r.d0_m,
+                                                    pl_d0_db=TX_POWER_DBM - r.alpha_dbm - (total[k, j] - mean[k, j])))
                           for j, r in enumerate(channel.readers)]
-                scene = Scene(walls=walls, large_scale=LinkLargeScale(by_antenna=models), apdp=apdp, image_order=0)
-                by_tag[id(tag.antenna)] = (tag.antenna, LinkTable(Channel(scene), rng=rng if apdp else None))
-            common = LinkTable(Channel(Scene(walls=walls, image_order=0)))
-            run = run_beacons(tags, readers, _TagLinks(by_tag, common), t0_s=float(t), t1_s=float(t + 1),
-                              fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
+                scene = _scene.Scene(walls=walls, large_scale=_large_scale.LinkLargeScale(by_antenna=models), apdp=apdp, image_order=0)
+                by_tag[id(tag.antenna)] = (tag.antenna, _air.LinkTable(_scene.Channel(scene), rng=rng if apdp else None))
+            common = _air.LinkTable(_scene.Channel(_scene.Scene(walls=walls, image_order=0)))
+            run = _beacons.run_beacons(tags, readers, _TagLinks(by_tag, common), t0_s=float(t), t1_s=float(t + 1),
+                                       fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
             for burst in run.bursts:
                 starts[b, t, burst.tag] = burst.t_s
             stats.due += len(run.bursts)

@@ -53,20 +53,26 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from channels import ApdpModel, Channel, HalfWaveDipole, Patch, Scene
-from channels.antennas import Antenna
-from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import SenseATag, SenseATagConfig, listen_start_sample, st_antenna_positions
-from devices.tag import PassiveTag, TagConfig
-from rfsim.air import AntennaPort, FixedEmitter, propagate
+from devices.reader_config import ReaderConfig
+from devices.sense_a_tag_config import SenseATagConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.engine import ReaderPort
 from rfsim.errors import ConfigError
-from rfsim.gen2.commands import ACK, Query
-from rfsim.gen2.link import reply_window_s
 from rfsim.inventory import AirExchange, EngineAir, InventoryConfig, epc_hex_of, run_inventory
 from rfsim.rng import trial_rng
-from scenarios.detection_probability import PANEL_FRONT_TO_BACK_DB, EllipticalPanel
+from rfsim.lazy import lazy_import
+
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_antennas = lazy_import("channels.antennas")
+_reader = lazy_import("devices.reader")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_tag = lazy_import("devices.tag")
+_air = lazy_import("rfsim.air")
+_engine = lazy_import("rfsim.engine")
+_commands = lazy_import("rfsim.gen2.commands")
+_link = lazy_import("rfsim.gen2.link")
+_detection_probability = lazy_import("scenarios.detection_probability")
 
 #: Orientation (az, el, roll) [rad] of a dipole lying along x (local z → global x).
 ALONG_X = (0.0, math.pi / 2, 0.0)
@@ -98,17 +104,17 @@ class SampleLevelConfig:
     max_periods: int = param(1000, lo=1, hi=10**6, doc="stop after this many query periods")
 
 
-def panel(position_m, c: SampleLevelConfig) -> Antenna:
+def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
     """The reader's panel at ``position_m`` facing the floor (detection-probability's model)."""
-    return EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
-                           pattern=Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, PANEL_FRONT_TO_BACK_DB),
-                           polarization="circular", half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
+    return _detection_probability.EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
+                                                  pattern=_antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, _detection_probability.PANEL_FRONT_TO_BACK_DB),
+                                                  polarization="circular", half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
 
 
-def flat_dipole(position_m) -> Antenna:
+def flat_dipole(position_m) -> _antennas.Antenna:
     """A half-wave dipole lying along x at ``position_m``."""
-    return Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X, pattern=HalfWaveDipole(),
-                   polarization="linear")
+    return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X, pattern=_antennas.HalfWaveDipole(),
+                             polarization="linear")
 
 
 def landmark_epc_hex(k: int) -> str:
@@ -122,10 +128,10 @@ class ListeningAir(EngineAir):
     antennas as receivers and records the ST's detections in :attr:`detections`
     (``(reply start [s], landmark index)``)."""
 
-    def __init__(self, reader, tags, channel, st: SenseATag, st_center, *, st_config: SenseATagConfig,
+    def __init__(self, reader, tags, channel, st: _sense_a_tag.SenseATag, st_center, *, st_config: SenseATagConfig,
                  rng: np.random.Generator, st_rng: np.random.Generator, epcs: dict, st_step_m: float = 0.01):
         super().__init__(reader, tags, channel, rng=rng, fast=True)
-        self.st_channel = Channel(channel.scene)  # the ST's links (reader → ST, landmark → ST) on their own
+        self.st_channel = _scene.Channel(channel.scene)  # the ST's links (reader → ST, landmark → ST) on their own
         self.st, self.st_center, self.st_config = st, st_center, st_config
         self.st_rng, self.epcs, self.st_step_m = st_rng, epcs, float(st_step_m)
         self.detections: list[tuple[float, int]] = []
@@ -140,8 +146,8 @@ class ListeningAir(EngineAir):
         key = tuple(centre.tolist())
         if key == self._st_key:
             return self._st_ants, False
-        pos = st_antenna_positions(centre, n_antennas=c.n_antennas, spacing_m=c.spacing_m,
-                                   orientation_rad=math.radians(c.orientation_deg))
+        pos = _sense_a_tag.st_antenna_positions(centre, n_antennas=c.n_antennas, spacing_m=c.spacing_m,
+                                                orientation_rad=math.radians(c.orientation_deg))
         self._st_key, self._st_ants = key, [flat_dipole(p) for p in pos]
         self.st_channel.forget()
         return self._st_ants, True
@@ -151,18 +157,18 @@ class ListeningAir(EngineAir):
         reader, link = self.reader, self.link
         antenna = reader.antennas[reader.antenna_index(round_index)]
         listen = getattr(reader, "listen_window_s", None)  # as run_exchange: a BLF-searching reader listens longer
-        window_s = listen(int(reply_bits)) if listen is not None else reply_window_s(link, reply_bits)
+        window_s = listen(int(reply_bits)) if listen is not None else _link.reply_window_s(link, reply_bits)
         tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
-        port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
-        listens = isinstance(cmd, (ACK, Query))  # the ST needs the Query's link parameters and the ACK's reply
+        port = _engine.ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
+        listens = isinstance(cmd, (_commands.ACK, _commands.Query))  # the ST needs the Query's link parameters and the ACK's reply
         st_ants, moved = self._st_antennas(t_s) if listens else ([], False)
         if new_round:
             self._round_links.clear()
         links = _Links(self._channel, self.st_channel, antenna, st_ants, self.rng if new_round else None,
                        self.st_rng if moved else None, self._round_links, new_round)
-        air = propagate([FixedEmitter(antenna, tx, device=reader)], self._reflectors,
-                        [port, *[AntennaPort(a) for a in st_ants]], links, t0_s=t_s, fs_hz=tx.fs_hz,
-                        n_samples=tx.samples.size, rng=self.rng, bandwidth_hz=2.0 * link.blf_hz, decide=False)
+        air = _air.propagate([_air.FixedEmitter(antenna, tx, device=reader)], self._reflectors,
+                             [port, *[_air.AntennaPort(a) for a in st_ants]], links, t0_s=t_s, fs_hz=tx.fs_hz,
+                             n_samples=tx.samples.size, rng=self.rng, bandwidth_hz=2.0 * link.blf_hz, decide=False)
         n = len(self.tags)
         responses = [air.reflections[j] for j in range(n)]
         replied = tuple(j for j, r in enumerate(responses) if r.gamma is not None)
@@ -171,8 +177,8 @@ class ListeningAir(EngineAir):
         if listens:
             st_inputs = np.array([s.samples for s in air.inputs[1:]])
             self.st.listen(st_inputs[-1], t0_s=t_s, fs_hz=tx.fs_hz)
-            if isinstance(cmd, ACK) and len(replied) == 1:
-                i0 = listen_start_sample(tx.cmd_end_s, t0_s=t_s, fs_hz=tx.fs_hz)
+            if isinstance(cmd, _commands.ACK) and len(replied) == 1:
+                i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=t_s, fs_hz=tx.fs_hz)
                 obs = self.st.observe(st_inputs, start_sample=i0)
                 k = self.epcs.get(epc_hex_of(obs.bits)) if (obs.detected and obs.bits is not None) else None
                 if k is not None:
@@ -235,15 +241,15 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
         raise ConfigError("rounds", rounds, "at least 1 QT round per query period")
     lm = room.landmarks_xy()
     rc = ReaderConfig(link_profile=sl.link_profile, fs_hz=sl.fs_hz, ptx_dbm=sl.ptx_dbm, hopping=True)
-    reader = Reader(rc, [panel(p, sl) for p in room.antennas_xyz_m], rng=trial_rng(seed, *key, 0))
-    tags = [PassiveTag(replace(tag_config, epc_hex=landmark_epc_hex(i)), flat_dipole((x, y, 0.0)),
-                       rng=trial_rng(seed, *key, 100 + i)) for i, (x, y) in enumerate(lm)]
+    reader = _reader.Reader(rc, [panel(p, sl) for p in room.antennas_xyz_m], rng=trial_rng(seed, *key, 0))
+    tags = [_tag.PassiveTag(replace(tag_config, epc_hex=landmark_epc_hex(i)), flat_dipole((x, y, 0.0)),
+                            rng=trial_rng(seed, *key, 100 + i)) for i, (x, y) in enumerate(lm)]
     epcs = {landmark_epc_hex(i): i for i in range(len(tags))}
-    channel = Channel(Scene(apdp=ApdpModel() if sl.apdp else None))
-    st_ants = st_antenna_positions(np.asarray(st_center(0.0), float), n_antennas=st_config.n_antennas,
-                                   spacing_m=st_config.spacing_m,
-                                   orientation_rad=math.radians(st_config.orientation_deg))
-    st = SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3), fs_hz=sl.fs_hz)
+    channel = _scene.Channel(_scene.Scene(apdp=_small_scale.ApdpModel() if sl.apdp else None))
+    st_ants = _sense_a_tag.st_antenna_positions(np.asarray(st_center(0.0), float), n_antennas=st_config.n_antennas,
+                                                spacing_m=st_config.spacing_m,
+                                                orientation_rad=math.radians(st_config.orientation_deg))
+    st = _sense_a_tag.SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3), fs_hz=sl.fs_hz)
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)
     inv = InventoryConfig(q_initial=sl.q_initial)

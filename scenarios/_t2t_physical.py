@@ -32,19 +32,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from channels import vertical_dipole
-from channels.bulk import draw_links
 from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag import SenseATagConfig, make_receiver
-from devices.tag import PassiveTag, TagConfig
-from devices.tag_chip import PowerDependentChip
-from rfsim.air import AntennaPort, propagate
+from devices.sense_a_tag_config import SenseATagConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.gen2.bits import int_to_bits
-from rfsim.gen2.crc import append_crc16
-from rfsim.gen2.linecode import decode_reply
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, room)
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_bulk = lazy_import("channels.bulk")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_tag = lazy_import("devices.tag")
+_tag_chip = lazy_import("devices.tag_chip")
+_air = lazy_import("rfsim.air")
+_bits = lazy_import("rfsim.gen2.bits")
+_crc = lazy_import("rfsim.gen2.crc")
+_linecode = lazy_import("rfsim.gen2.linecode")
 
 
 def _listener_default() -> SenseATagConfig:
@@ -67,7 +71,7 @@ class PhysicalConfig:
 
 def payload(tag: int) -> np.ndarray:
     """32 bits a reference tag broadcasts: its 16-bit index and CRC-16."""
-    return append_crc16(int_to_bits(int(tag), 16))
+    return _crc.append_crc16(_bits.int_to_bits(int(tag), 16))
 
 
 def listener_inputs(config: PhysicalConfig, exciter_xyz, tags_xy, senders, listeners_xy, rng: np.random.Generator):
@@ -86,33 +90,33 @@ def listener_inputs(config: PhysicalConfig, exciter_xyz, tags_xy, senders, liste
 def _inputs(config, exciter_xyz, tags_xy, senders, frames, lis_pos, rng) -> np.ndarray:
     h, fr = config.height_m, config.frame
     n_samples = frames[0].n_samples
-    ex_ant = vertical_dipole(np.asarray(exciter_xyz, float))
+    ex_ant = _antennas.vertical_dipole(np.asarray(exciter_xyz, float))
     exciter = Exciter(config.exciter, ex_ant)
-    template = vertical_dipole(np.zeros(3))
+    template = _antennas.vertical_dipole(np.zeros(3))
     sc, fc = room(config.apdp), config.exciter.fc_hz
     single = lis_pos.shape[0] == 1
     links = DrawnLinks()
-    lis = vertical_dipole(lis_pos[0]) if single else BatchAntenna(template, lis_pos)
+    lis = _antennas.vertical_dipole(lis_pos[0]) if single else BatchAntenna(template, lis_pos)
 
     def listener_link(tx_pos, tx_ant):
-        bulk = draw_links(sc, tx_pos, lis_pos, fc_hz=fc, rng=rng, tx_antenna=tx_ant, rx_antenna=template)
+        bulk = _bulk.draw_links(sc, tx_pos, lis_pos, fc_hz=fc, rng=rng, tx_antenna=tx_ant, rx_antenna=template)
         return bulk.pathset(0) if single else BatchLink(bulk)
 
     links.add(ex_ant, lis, listener_link(ex_ant.position_m, ex_ant))
     reflectors = []
     for i, frame in zip(senders, frames):
         pos = np.array([tags_xy[i][0], tags_xy[i][1], h])
-        ant = vertical_dipole(pos)
-        tag = PassiveTag(dataclasses.replace(TagConfig(), structural_mode=0.0), ant, rng=rng,
-                         chip=PowerDependentChip.pass_default())
+        ant = _antennas.vertical_dipole(pos)
+        tag = _tag.PassiveTag(dataclasses.replace(TagConfig(), structural_mode=0.0), ant, rng=rng,
+                              chip=_tag_chip.PowerDependentChip.pass_default())
         reflectors.append(OwnSchedule(tag, frame))
-        links.add(ex_ant, ant, draw_links(sc, ex_ant.position_m, pos, fc_hz=fc, rng=rng, tx_antenna=ex_ant,
-                                          rx_antenna=ant).pathset(0))
+        links.add(ex_ant, ant, _bulk.draw_links(sc, ex_ant.position_m, pos, fc_hz=fc, rng=rng, tx_antenna=ex_ant,
+                                                rx_antenna=ant).pathset(0))
         links.add(ant, lis, listener_link(pos, ant))
     try:
-        air = propagate([exciter], reflectors, [AntennaPort(lis, noise_power_w=config.noise.power_w(fr.fs_hz))], links,
-                        t0_s=0.0, fs_hz=fr.fs_hz, n_samples=n_samples, rng=rng, bandwidth_hz=2.0 * fr.blf_hz,
-                        decide=False)
+        air = _air.propagate([exciter], reflectors, [_air.AntennaPort(lis, noise_power_w=config.noise.power_w(fr.fs_hz))], links,
+                             t0_s=0.0, fs_hz=fr.fs_hz, n_samples=n_samples, rng=rng, bandwidth_hz=2.0 * fr.blf_hz,
+                             decide=False)
     except ValueError as err:
         if single or "narrowband" not in str(err):
             raise
@@ -126,7 +130,7 @@ def decode_rows(config: PhysicalConfig, x, frames, senders, threshold_v: float) 
     """(n,) the sender whose 32 bits the chain (comparator at ``threshold_v``) decodes exactly, −1 none."""
     fr = config.frame
     listener = dataclasses.replace(config.listener, threshold_v=float(threshold_v))
-    rx = make_receiver(listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
+    rx = _sense_a_tag.make_receiver(listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
     chain = RowsChain.run(rx, x)
     start = frames[0].stamp.reply_start
     search = int(2 * rx.fs_hz / rx.blf_hz)
@@ -134,8 +138,8 @@ def decode_rows(config: PhysicalConfig, x, frames, senders, threshold_v: float) 
     toggles = np.count_nonzero(np.diff(chain.comparator[:, start:], axis=1), axis=1)
     for row in np.flatnonzero(toggles >= rx.min_toggles):
         try:
-            det = decode_reply(chain.comparator[row, start:].astype(np.complex128), n_bits=32, m=rx.m, trext=rx.trext,
-                               blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method, search_samples=search)
+            det = _linecode.decode_reply(chain.comparator[row, start:].astype(np.complex128), n_bits=32, m=rx.m, trext=rx.trext,
+                                         blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method, search_samples=search)
         except ValueError:
             continue
         if det.corr < rx.min_corr:

@@ -92,30 +92,34 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene
+from channels import Antenna, HalfWaveDipole, Patch
 from channels.antennas import vertical_dipole
-from channels.bulk import static_placements
-from devices import st_analytic as sa
-from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
-                                 make_receiver, st_antenna_positions)
-from devices.tag import PassiveTag, TagConfig
-from rfsim.air import AntennaPort, FixedEmitter, LinkTable
-from rfsim.batch import AirStep, propagate_batch
+from devices.reader_config import ReaderConfig
+from devices.sense_a_tag_config import SenseATagConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.detection import (RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY,
-                             binned_probability, cross_entropy, expected_cross_entropy, fit_logistic,
-                             predict_proba, rts_design, st_features, ts_design)
 from rfsim.errors import ConfigError, UserError
-from rfsim.gen2.commands import Query
-from rfsim.engine import ReaderPort
-from rfsim.gen2.link import reply_window_s, t1
 from rfsim.procs import map_in_order
 from rfsim.progress import stage
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+from rfsim.lazy import lazy_import
+
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_bulk = lazy_import("channels.bulk")
+sa = lazy_import("devices.st_analytic")
+_reader = lazy_import("devices.reader")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_tag = lazy_import("devices.tag")
+_air = lazy_import("rfsim.air")
+_batch = lazy_import("rfsim.batch")
+_dataset = lazy_import("rfsim.dataset")
+_detection = lazy_import("rfsim.detection")
+_commands = lazy_import("rfsim.gen2.commands")
+_engine = lazy_import("rfsim.engine")
+_link = lazy_import("rfsim.gen2.link")
 
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
@@ -247,9 +251,9 @@ def tag_antenna(position_m, roll_rad: float = 0.0) -> Antenna:
                    pattern=HalfWaveDipole(), polarization="linear")
 
 
-def scene(g: GeometryConfig) -> Scene:
+def scene(g: GeometryConfig) -> _scene.Scene:
     """Free space with the PASS room APDP (no surfaces)."""
-    return Scene(apdp=ApdpModel() if g.apdp else None)
+    return _scene.Scene(apdp=_small_scale.ApdpModel() if g.apdp else None)
 
 
 def draw_geometry(g: GeometryConfig, *, rng: np.random.Generator):
@@ -307,7 +311,7 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
     the sample (drawn when None); ``reader_tag``: the carrier-independent geometry of the
     reader → tag link (:func:`channels.bulk.static_placements`; evaluated by the channel when None)."""
     prepared = _reader_step(config, index, seed, ra, placed, reader_tag)
-    return _reader_outcome(config, prepared, propagate_batch([prepared[0]])[0])
+    return _reader_outcome(config, prepared, _batch.propagate_batch([prepared[0]])[0])
 
 
 def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
@@ -318,19 +322,19 @@ def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, plac
     g = config.geometry
     tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
-    reader = Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
-    tag = PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
+    reader = _reader.Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
+    tag = _tag.PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
     lk = reader.link
-    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=reply_window_s(lk, 16))
-    port = ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
+    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=_link.reply_window_s(lk, 16))
+    port = _engine.ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
-    channel = Channel(scene(g))
+    channel = _scene.Channel(scene(g))
     if reader_tag is not None:
         channel.hold_placement(ra, tag.antenna, reader_tag)
-    links = LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
-    emitter = FixedEmitter(ra, tx, device=reader)
-    step = AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
+    links = _air.LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
+    emitter = _air.FixedEmitter(ra, tx, device=reader)
+    step = _batch.AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
                    rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
     return step, index, tag_pos, st_pos, orient, tx
 
@@ -349,10 +353,10 @@ def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
     if replied:  # the reader decodes only when a tag replied, as run_exchange
         read = port.receive(air.inputs[0])
         reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
-        sa_pos = st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
+        sa_pos = _sense_a_tag.st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
                                       orientation_rad=orient)
         st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, port.reader.link)
-    big_d, small_d, theta, phi = (float(v[0]) for v in st_features(tag_pos, st_pos))
+    big_d, small_d, theta, phi = (float(v[0]) for v in _detection.st_features(tag_pos, st_pos))
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
                   theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=tx.fc_hz,
@@ -374,13 +378,13 @@ def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
     the ST antennas have no noise)."""
     steps = []
     for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
-        steps.append(AirStep([emitter], [_Replayed(tag_ant, resp)], [AntennaPort(a) for a in st_ants], links,
+        steps.append(_batch.AirStep([emitter], [_Replayed(tag_ant, resp)], [_air.AntennaPort(a) for a in st_ants], links,
                              t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=2.0 * lk.blf_hz,
                              decide=False))
     out = []
-    for st_step, st_air in zip(st_steps, propagate_batch(steps)):
+    for st_step, st_air in zip(st_steps, _batch.propagate_batch(steps)):
         tx = st_step[5]
-        i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
+        i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
         out.append(np.array([seg.samples for seg in st_air.inputs])[:, i0:])
     return out
 
@@ -412,7 +416,7 @@ def _st_outcomes(config: Config, samples: list) -> list[dict]:
             groups.setdefault((resp.blf_hz, resp.m, resp.trext, tx.fs_hz, y.shape[1]), []).append(k)
     chains: dict = {}
     for (blf, m, trext, fs, _), ks in groups.items():
-        rx = make_receiver(st, fs_hz=fs, blf_hz=blf, m=m, trext=trext)
+        rx = _sense_a_tag.make_receiver(st, fs_hz=fs, blf_hz=blf, m=m, trext=trext)
         rows = []
         for k in ks:
             y = samples[k][1]
@@ -421,7 +425,7 @@ def _st_outcomes(config: Config, samples: list) -> list[dict]:
                 rows.append(y[:1])
                 if st.technique == "combination":
                     rows.append(y[:1] + y[-1:])
-        env, bp, cmp, tog = chain_rows(rx, np.concatenate(rows))
+        env, bp, cmp, tog = _sense_a_tag.chain_rows(rx, np.concatenate(rows))
         for j, k in enumerate(ks):
             sl = slice(j * len(names), (j + 1) * len(names))
             chains[k] = (rx, env[sl], bp[sl], cmp[sl], tog[sl])
@@ -440,7 +444,7 @@ def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits
     st = config.st
     fs = tx.fs_hz
     rx, env, bp, cmp, tog = chain
-    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+    i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
     search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
     from rfsim.gen2.linecode import reply_waveform
@@ -452,9 +456,9 @@ def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits
     for j, name in enumerate(names):
         r = slice(j, j + 1)
         if name == "sa2":
-            out["st_diff_sa2_v"] = float(np.abs(level_differences(env[r], levels, rx))[0])
-        dec[name] = bool(decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
-                                     start_sample=0, search_samples=search)[0])
+            out["st_diff_sa2_v"] = float(np.abs(_sense_a_tag.level_differences(env[r], levels, rx))[0])
+        dec[name] = bool(_sense_a_tag.decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
+                                                  start_sample=0, search_samples=search)[0])
     out["st_detected_sa2"] = dec["sa2"]
     out["st_detected_sa1"] = dec.get("sa1", False)
     if st.technique == "single" or st.n_antennas != 2:
@@ -469,7 +473,7 @@ def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits
 def t1_max_s(config: Config) -> float:
     from rfsim.gen2.link import profile
 
-    return t1(profile(config.reader.link_profile)).max_s
+    return _link.t1(profile(config.reader.link_profile)).max_s
 
 
 # ----------------------------------------------------------------------------- run and fits
@@ -537,16 +541,16 @@ def _block_task(args) -> list[dict]:
     placed = [sample_placement(g, i, base) for i in range(lo, hi)]
     # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
     sc = scene(g)
-    reader_tag = static_placements(sc, ra, [p[3] for p in placed])
+    reader_tag = _bulk.static_placements(sc, ra, [p[3] for p in placed])
     # the air steps of the block's samples as one batch, then each sample's read
     prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
-    airs = propagate_batch([p[0] for p in prepared])
+    airs = _batch.propagate_batch([p[0] for p in prepared])
     rounds = [_reader_outcome(config, p, air) for p, air in zip(prepared, airs)]
     # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k
     steps = [r[1] for r in rounds if r[1] is not None]
     sa = [a for step in steps for a in step[4]]
-    from_reader = static_placements(sc, ra, sa)
-    from_tag = static_placements(sc, [step[1] for step in steps for _ in step[4]], sa)
+    from_reader = _bulk.static_placements(sc, ra, sa)
+    from_tag = _bulk.static_placements(sc, [step[1] for step in steps for _ in step[4]], sa)
     j = 0
     for emitter, tag_ant, _, links, antennas, _, _ in steps:
         for a in antennas:
@@ -588,26 +592,26 @@ def fit_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         raise UserError(f"fits need training and test samples (have {train.sum()} / {test.sum()})")
     if y[train].all() or not y[train].any():
         raise UserError("fits need both outcomes in the training set")
-    x_rts = rts_design(samples["D_m"], samples["d_m"], samples["theta_rad"], samples["phi_rad"])
-    x_ts = ts_design(samples["d_m"])
+    x_rts = _detection.rts_design(samples["D_m"], samples["d_m"], samples["theta_rad"], samples["phi_rad"])
+    x_ts = _detection.ts_design(samples["d_m"])
     cols: dict[str, list] = {k: [] for k in ("model", "source", *[f"a{i}" for i in range(5)],
                                              *[f"se_a{i}" for i in range(5)], "train_cross_entropy",
                                              "test_cross_entropy", "published_test_cross_entropy",
                                              "expected_test_cross_entropy", "n_train", "n_test",
                                              "n_train_detected", "n_test_detected")}
-    for name, x, pub, pub_ce in (("RTS", x_rts, RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY),
-                                 ("TS", x_ts, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY)):
-        fit = fit_logistic(x[train], y[train].astype(float))
+    for name, x, pub, pub_ce in (("RTS", x_rts, _detection.RTS_COEFFICIENTS, _detection.RTS_TEST_CROSS_ENTROPY),
+                                 ("TS", x_ts, _detection.TS_COEFFICIENTS, _detection.TS_TEST_CROSS_ENTROPY)):
+        fit = _detection.fit_logistic(x[train], y[train].astype(float))
         for source, coef, se in (("fit", fit.coefficients, fit.stderr), ("published", pub, np.full(pub.size, np.nan))):
             cols["model"].append(name)
             cols["source"].append(source)
             for i in range(5):
                 cols[f"a{i}"].append(float(coef[i]) if i < coef.size else np.nan)
                 cols[f"se_a{i}"].append(float(se[i]) if i < coef.size else np.nan)
-            cols["train_cross_entropy"].append(cross_entropy(y[train], predict_proba(x[train], coef)))
-            cols["test_cross_entropy"].append(cross_entropy(y[test], predict_proba(x[test], coef)))
+            cols["train_cross_entropy"].append(_detection.cross_entropy(y[train], _detection.predict_proba(x[train], coef)))
+            cols["test_cross_entropy"].append(_detection.cross_entropy(y[test], _detection.predict_proba(x[test], coef)))
             cols["published_test_cross_entropy"].append(pub_ce)
-            cols["expected_test_cross_entropy"].append(expected_cross_entropy(predict_proba(x[test], coef))[0])
+            cols["expected_test_cross_entropy"].append(_detection.expected_cross_entropy(_detection.predict_proba(x[test], coef))[0])
             cols["n_train"].append(int(train.sum()))
             cols["n_test"].append(int(test.sum()))
             cols["n_train_detected"].append(int(y[train].sum()))
@@ -637,7 +641,7 @@ def _fits_table(fits: dict[str, np.ndarray]) -> dict:
             text = f"standard error of {base} (inverse Fisher information)"
         else:
             text = desc.get(k, k.replace("_", " "))
-        out[k] = column(v, unit, text)
+        out[k] = _dataset.column(v, unit, text)
     return out
 
 
@@ -656,10 +660,10 @@ def fit_file(path) -> dict[str, np.ndarray]:
     return fit_models({k: np.asarray(v)[order] for k, v in s.items()})
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     samples = simulate(config, seed=seed)
-    ds = Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (AURIS dissertation Eqs. 4.6-4.8)")
-    ds.add_table("samples", {k: column(v, *FIELDS[k]) for k, v in samples.items()},
+    ds = _dataset.Dataset(title="sense-a-tag detection probability vs (D, d, theta, phi) (AURIS dissertation Eqs. 4.6-4.8)")
+    ds.add_table("samples", {k: _dataset.column(v, *FIELDS[k]) for k, v in samples.items()},
                  description="one row per sample: one Query round with a fresh geometry and channel; features "
                              "D, d, theta, phi and whether the ST (and the reader) decoded the tag's RN16")
     ds.attrs["st_sampling"] = (f"ST centre uniform in the {config.geometry.st_radius_m:g} m ball's "
@@ -753,7 +757,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     for ax, var, sel, edges, xlab, fixed in (
             (a1, "D_m", (s["d_m"] >= 0.4) & (s["d_m"] <= 1.0), np.arange(1.0, 10.01, 0.3), "D [m]", 0.6),
             (a2, "d_m", (s["D_m"] >= 2.0) & (s["D_m"] <= 4.0), np.arange(0.0, 2.01, 0.2), "d [m]", 3.0)):
-        b = binned_probability(s[var][sel], y[sel], edges)
+        b = _detection.binned_probability(s[var][sel], y[sel], edges)
         ok = b.trials > 0
         err = np.clip(np.vstack([b.p_hat[ok] - b.lower[ok], b.upper[ok] - b.p_hat[ok]]), 0.0, None)
         ax.errorbar(b.centers[ok], b.p_hat[ok], yerr=err,
@@ -763,10 +767,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         ph = float(np.median(np.abs(s["phi_rad"][sel]))) if sel.any() else 0.0
         at = f"|theta| = {th:.2f}, |phi| = {ph:.2f} rad (medians)"
         if var == "D_m":
-            x_rts, x_ts = rts_design(x, fixed, th, ph), ts_design(np.full_like(x, fixed))
+            x_rts, x_ts = _detection.rts_design(x, fixed, th, ph), _detection.ts_design(np.full_like(x, fixed))
             ax.set_title(f"vs D, d in [0.4, 1] m; curves at d = 0.6 m,\n{at}", fontsize=9)
         else:
-            x_rts, x_ts = rts_design(fixed, x, th, ph), ts_design(x)
+            x_rts, x_ts = _detection.rts_design(fixed, x, th, ph), _detection.ts_design(x)
             ax.set_title(f"vs d, D in [2, 4] m; curves at D = 3 m,\n{at}", fontsize=9)
         if fits is not None:
             for i in range(fits["model"].size):
@@ -774,18 +778,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
                 coef = coef[np.isfinite(coef)]
                 xx = x_rts if fits["model"][i] == "RTS" else x_ts
                 ls = "-" if fits["source"][i] == "fit" else ":"
-                ax.plot(x, predict_proba(xx, coef), ls, label=f"{fits['model'][i]} {fits['source'][i]}")
+                ax.plot(x, _detection.predict_proba(xx, coef), ls, label=f"{fits['model'][i]} {fits['source'][i]}")
         if fits is not None:
             # the fitted models averaged over the samples of each bin (the binned data mix all
             # angles and the other distance, the curves above fix them)
             xs = s[var][sel]
-            feats = {"RTS": rts_design(s["D_m"][sel], s["d_m"][sel], s["theta_rad"][sel], s["phi_rad"][sel]),
-                     "TS": ts_design(s["d_m"][sel])}
+            feats = {"RTS": _detection.rts_design(s["D_m"][sel], s["d_m"][sel], s["theta_rad"][sel], s["phi_rad"][sel]),
+                     "TS": _detection.ts_design(s["d_m"][sel])}
             for i in range(fits["model"].size):
                 if fits["source"][i] != "fit":
                     continue
                 coef = np.array([fits[f"a{j}"][i] for j in range(5)])
-                pr = predict_proba(feats[fits["model"][i]], coef[np.isfinite(coef)])
+                pr = _detection.predict_proba(feats[fits["model"][i]], coef[np.isfinite(coef)])
                 k = np.clip(np.searchsorted(edges, xs, side="right") - 1, 0, edges.size - 2)
                 mean_pr = np.bincount(k, pr, minlength=edges.size - 1) / np.maximum(b.trials, 1)
                 ax.plot(b.centers[ok], mean_pr[ok], "s--", ms=3,

@@ -61,26 +61,30 @@ from typing import Literal
 
 import numpy as np
 
-from channels import vertical_dipole
-from channels.bulk import draw_links
-from devices import st_analytic as sa
 from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag import SenseATagConfig, make_receiver
-from devices.tag import PassiveTag, TagConfig
+from devices.sense_a_tag_config import SenseATagConfig
+from devices.tag_config import TagConfig
 from devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
-from rfsim.air import AntennaPort, propagate
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.detection import fit_logistic, ts_design
 from rfsim.errors import ConfigError, UserError
-from rfsim.gen2.bits import int_to_bits
-from rfsim.gen2.crc import append_crc16
 from rfsim.procs import map_in_order
 from rfsim.references import cite
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, unit_of)
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_bulk = lazy_import("channels.bulk")
+sa = lazy_import("devices.st_analytic")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_tag = lazy_import("devices.tag")
+_air = lazy_import("rfsim.air")
+_dataset = lazy_import("rfsim.dataset")
+_detection = lazy_import("rfsim.detection")
+_bits = lazy_import("rfsim.gen2.bits")
+_crc = lazy_import("rfsim.gen2.crc")
 
 NAME = "exciter-link"
 DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
@@ -155,16 +159,16 @@ class Config:
 
 def payload(config: Config) -> np.ndarray:
     """The broadcast bits: the 16-bit word and its CRC-16 (32 bits)."""
-    return append_crc16(int_to_bits(config.tag_model.word, 16))
+    return _crc.append_crc16(_bits.int_to_bits(config.tag_model.word, 16))
 
 
-def make_tag(config: Config, antenna, rng) -> PassiveTag:
+def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
     tm = config.tag_model
     if tm.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                          chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
-    return PassiveTag(config.tag, antenna, rng=rng)
+        return _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
+                               chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
+    return _tag.PassiveTag(config.tag, antenna, rng=rng)
 
 
 def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
@@ -174,12 +178,12 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
     d_tt = np.asarray(sw.tag_distance_m, float)
     n = d_tt.size
     frame = build_frame(payload(config), fr, stamp_cycles=0)
-    rx = make_receiver(config.listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
+    rx = _sense_a_tag.make_receiver(config.listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
     ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
     exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, row, 0, 4))
     tag_pos = np.array([d_e, 0.0, g.height_m])
-    tag_ant = vertical_dipole(tag_pos)
-    template = vertical_dipole(np.zeros(3))
+    tag_ant = _antennas.vertical_dipole(tag_pos)
+    template = _antennas.vertical_dipole(np.zeros(3))
     sc, fc = room(g.apdp), config.exciter.fc_hz
     noise_w = config.noise.power_w(fr.fs_hz)
     i1, i2 = int(np.flatnonzero(frame.stamp.levels > 0)[-1]), int(np.flatnonzero(frame.stamp.levels < 0)[-1])
@@ -192,15 +196,15 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
         tag = OwnSchedule(device, frame)
         lrng = trial_rng(seed, row, k, 1)
         links = DrawnLinks()
-        links.add(ex_ant, tag_ant, draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
-                                              rx_antenna=tag_ant).pathset(0))
-        links.add(ex_ant, lis, BatchLink(draw_links(sc, ex_ant.position_m, lis_pos, fc_hz=fc, rng=lrng,
-                                                    tx_antenna=ex_ant, rx_antenna=template)))
-        links.add(tag_ant, lis, BatchLink(draw_links(sc, tag_pos, lis_pos, fc_hz=fc, rng=lrng, tx_antenna=tag_ant,
-                                                     rx_antenna=template)))
-        air = propagate([exciter], [tag], [AntennaPort(lis, noise_power_w=noise_w)], links, t0_s=0.0,
-                        fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
-                        bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
+        links.add(ex_ant, tag_ant, _bulk.draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
+                                                    rx_antenna=tag_ant).pathset(0))
+        links.add(ex_ant, lis, BatchLink(_bulk.draw_links(sc, ex_ant.position_m, lis_pos, fc_hz=fc, rng=lrng,
+                                                          tx_antenna=ex_ant, rx_antenna=template)))
+        links.add(tag_ant, lis, BatchLink(_bulk.draw_links(sc, tag_pos, lis_pos, fc_hz=fc, rng=lrng, tx_antenna=tag_ant,
+                                                           rx_antenna=template)))
+        air = _air.propagate([exciter], [tag], [_air.AntennaPort(lis, noise_power_w=noise_w)], links, t0_s=0.0,
+                             fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
+                             bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
         resp = air.reflections[0]
         op = device.operating_point
         cw = V_PER_SQRT_W * np.broadcast_to(air.direct[0][..., i1], (n,))
@@ -293,7 +297,7 @@ def fit_eq65(design, decoded_count, draws) -> Eq65Fit:
     if k.sum() == 0 or k.sum() == m.sum():
         return Eq65Fit(nan, nan, "nothing decoded" if k.sum() == 0 else "everything decoded")
     try:
-        f = fit_logistic(x, k, m)
+        f = _detection.fit_logistic(x, k, m)
     except UserError as err:
         return Eq65Fit(nan, nan, str(err))
     if x.shape[1] != 2:
@@ -309,11 +313,11 @@ def fits(grid, d_e, d_tt) -> dict:
     """Per-row Eq. (6.5) fits, and over the rows where the tag runs (it ran in at least half
     of the draws) the pooled fit and the fit with a d_e term (module docstring)."""
     k, m = grid["decoded_count"], grid["draws"]
-    rows = [fit_eq65(ts_design(d_tt), k[a], m[a]) for a in range(len(d_e))]
+    rows = [fit_eq65(_detection.ts_design(d_tt), k[a], m[a]) for a in range(len(d_e))]
     runs = grid["tag_replied_fraction"].mean(axis=1) >= 0.5
     dd_e, dd_tt = np.meshgrid(d_e[runs], d_tt, indexing="ij")
     kk, mm = k[runs].ravel(), m[runs].ravel()
-    pooled = fit_eq65(ts_design(dd_tt.ravel()), kk, mm)
+    pooled = fit_eq65(_detection.ts_design(dd_tt.ravel()), kk, mm)
     extended = fit_eq65(np.column_stack([np.ones(dd_e.size), dd_tt.ravel(), dd_e.ravel()]), kk, mm)
     return {"rows": rows, "pooled": pooled, "extended": extended, "runs": runs}
 
@@ -321,34 +325,34 @@ def fits(grid, d_e, d_tt) -> dict:
 # ----------------------------------------------------------------------------- run
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     samples = monte_carlo(config, seed=seed)
     d_e = np.asarray(config.sweep.exciter_distance_m, float)
     d_tt = np.asarray(config.sweep.tag_distance_m, float)
-    ds = Dataset(title="exciter-powered tag-to-tag link: decode probability vs d_e, d_tt and Eq. (6.5) fits")
-    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
+    ds = _dataset.Dataset(title="exciter-powered tag-to-tag link: decode probability vs d_e, d_tt and Eq. (6.5) fits")
+    ds.add_table("samples", {k: _dataset.column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
                  description=_GROUPS["samples"])
     grid = point_grid(samples, d_e, d_tt)
     dims = ("exciter_distance_m", "tag_distance_m")
-    ds.add_grid("points", {"exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e"),
-                           "tag_distance_m": column(d_tt, "m", "tag -> listener distance d_tt")},
-                {k: column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()},
+    ds.add_grid("points", {"exciter_distance_m": _dataset.column(d_e, "m", "exciter -> tag distance d_e"),
+                           "tag_distance_m": _dataset.column(d_tt, "m", "tag -> listener distance d_tt")},
+                {k: _dataset.column(v, unit_of(k), _describe(k), dims=dims) for k, v in grid.items()},
                 description=_GROUPS["points"])
     f = fits(grid, d_e, d_tt)
     rows = f["rows"]
     d50 = np.array([r.d50_m for r in rows])
     in_range = np.array([r.status == "ok" for r in rows]) & (d50 >= d_tt[0]) & (d50 <= d_tt[-1])
     ds.add_table("eq65_rows", {
-        "exciter_distance_m": column(d_e, "m", "exciter -> tag distance d_e of the row"),
-        "a1": column(np.array([r.coefficients[0] for r in rows]), "1", "Eq. (6.5) a1 (NaN: no finite fit)"),
-        "a2": column(np.array([r.coefficients[1] for r in rows]), "1/m", "Eq. (6.5) a2 on d_tt"),
-        "a1_stderr": column(np.array([r.stderr[0] for r in rows]), "1", "standard error of a1"),
-        "a2_stderr": column(np.array([r.stderr[1] for r in rows]), "1/m", "standard error of a2"),
-        "d50_m": column(np.array([r.d50_m for r in rows]), "m", "d_tt where the fitted p = 0.5 (-a1/a2)"),
-        "d50_stderr_m": column(np.array([r.d50_stderr_m for r in rows]), "m", "delta-method standard error of d50"),
-        "fit_status": column(np.array([r.status for r in rows]), "1", "ok, or why the fit has no finite maximum"),
-        "d50_in_range": column(in_range, "1", "fit ok and d50 inside the swept d_tt (p crosses 0.5 in the sweep)"),
-        "tag_runs": column(f["runs"], "1", "the tag ran in at least half of the draws (row used by the pooled fits)")},
+        "exciter_distance_m": _dataset.column(d_e, "m", "exciter -> tag distance d_e of the row"),
+        "a1": _dataset.column(np.array([r.coefficients[0] for r in rows]), "1", "Eq. (6.5) a1 (NaN: no finite fit)"),
+        "a2": _dataset.column(np.array([r.coefficients[1] for r in rows]), "1/m", "Eq. (6.5) a2 on d_tt"),
+        "a1_stderr": _dataset.column(np.array([r.stderr[0] for r in rows]), "1", "standard error of a1"),
+        "a2_stderr": _dataset.column(np.array([r.stderr[1] for r in rows]), "1/m", "standard error of a2"),
+        "d50_m": _dataset.column(np.array([r.d50_m for r in rows]), "m", "d_tt where the fitted p = 0.5 (-a1/a2)"),
+        "d50_stderr_m": _dataset.column(np.array([r.d50_stderr_m for r in rows]), "m", "delta-method standard error of d50"),
+        "fit_status": _dataset.column(np.array([r.status for r in rows]), "1", "ok, or why the fit has no finite maximum"),
+        "d50_in_range": _dataset.column(in_range, "1", "fit ok and d50 inside the swept d_tt (p crosses 0.5 in the sweep)"),
+        "tag_runs": _dataset.column(f["runs"], "1", "the tag ran in at least half of the draws (row used by the pooled fits)")},
         description=_GROUPS["eq65_rows"])
     for name, fit in (("pooled", f["pooled"]), ("extended", f["extended"])):
         ds.attrs[f"eq65_{name}_status"] = fit.status

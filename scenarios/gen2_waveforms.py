@@ -25,17 +25,19 @@ from pathlib import Path
 import numpy as np
 
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.gen2.bits import bits_to_str, hex_to_bits, int_to_bits
-from rfsim.gen2.commands import ACK, Query, QueryRep, encode
-from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
-from rfsim.gen2.linecode import reply_waveform_for_profile
-from rfsim.gen2.pie import pie_envelope_for_profile
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+from rfsim.lazy import lazy_import
+
+_dataset = lazy_import("rfsim.dataset")
+_bits = lazy_import("rfsim.gen2.bits")
+_commands = lazy_import("rfsim.gen2.commands")
+_crc = lazy_import("rfsim.gen2.crc")
+_linecode = lazy_import("rfsim.gen2.linecode")
+_pie = lazy_import("rfsim.gen2.pie")
 
 NAME = "gen2-waveforms"
 DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
@@ -75,24 +77,24 @@ class Config:
 
 def pc_word_bits(n_epc_bits: int) -> np.ndarray:
     """Gen2 StoredPC: EPC length in words in the 5 MSBs, other bits 0 (anchors §4.4)."""
-    return int_to_bits((n_epc_bits // 16) << 11, 16)
+    return _bits.int_to_bits((n_epc_bits // 16) << 11, 16)
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     rng = trial_rng(seed, 0)
     rn16 = int(rng.integers(0, 2**16)) if config.rn16 < 0 else config.rn16
-    epc = hex_to_bits(config.epc_hex.replace(" ", ""))
-    epc_reply = append_crc16(np.concatenate([pc_word_bits(epc.size), epc]))
-    rn16_bits = int_to_bits(rn16, 16)
+    epc = _bits.hex_to_bits(config.epc_hex.replace(" ", ""))
+    epc_reply = _crc.append_crc16(np.concatenate([pc_word_bits(epc.size), epc]))
+    rn16_bits = _bits.int_to_bits(rn16, 16)
 
-    ds = Dataset(title="EPC Gen2 link profiles, timing and exchange waveforms")
+    ds = _dataset.Dataset(title="EPC Gen2 link profiles, timing and exchange waveforms")
     rows: dict[str, list] = {k: [] for k in ("profile", "frame", "start_s", "end_s", "bits")}
     prof_rows: dict[str, list] = {}
     timing_rows: dict[str, list] = {}
     for name in config.profiles:
         link = profile(name)
-        query = Query(dr=link.dr, m=link.m, trext=link.trext, session=config.session, q=config.q)
-        ack = ACK(rn16)
+        query = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, session=config.session, q=config.q)
+        ack = _commands.ACK(rn16)
         _append(prof_rows, profile=name, tari_s=link.tari_s, data1_s=link.data1_s,
                 rtcal_s=link.rtcal_s, trcal_s=link.trcal_s, pw_s=link.pw_s,
                 delimiter_s=link.delimiter_s, dr=link.dr, m=link.m, trext=link.trext,
@@ -101,17 +103,17 @@ def run(config: Config, *, seed: int) -> Dataset:
         _append(timing_rows, profile=name, t1_min_s=t1(link).min_s, t1_nom_s=t1(link).nom_s,
                 t1_max_s=t1(link).max_s, t2_min_s=t2(link).min_s, t2_max_s=t2(link).max_s,
                 t4_min_s=t4(link).min_s, query_s=link.command_duration_s(query),
-                queryrep_s=link.command_duration_s(QueryRep(config.session)),
+                queryrep_s=link.command_duration_s(_commands.QueryRep(config.session)),
                 ack_s=link.command_duration_s(ack), rn16_reply_s=link.reply_duration_s(16),
                 epc_reply_s=link.reply_duration_s(epc_reply.size))
         time_s, reader, tag, frames = _exchange(link, query, ack, rn16_bits, epc_reply,
                                                 config.fs_hz, config.pie_rise_fall_tari)
         for frame, (start, end, bits) in frames.items():
-            _append(rows, profile=name, frame=frame, start_s=start, end_s=end, bits=bits_to_str(bits))
+            _append(rows, profile=name, frame=frame, start_s=start, end_s=end, bits=_bits.bits_to_str(bits))
         ds.add_table(f"exchange_{name}", {
-            "time_s": column(time_s, "s", "time since the start of the CW (the Query starts at 100 us)"),
-            "reader_envelope": column(reader, "1", "reader PIE amplitude envelope relative to the CW"),
-            "tag_state": column(tag, "1", "tag backscatter state: +1/-1 during replies, 0 absorbing"),
+            "time_s": _dataset.column(time_s, "s", "time since the start of the CW (the Query starts at 100 us)"),
+            "reader_envelope": _dataset.column(reader, "1", "reader PIE amplitude envelope relative to the CW"),
+            "tag_state": _dataset.column(tag, "1", "tag backscatter state: +1/-1 during replies, 0 absorbing"),
         }, description=f"the sampled exchange of profile {name}: reader PIE envelope and tag backscatter state "
                        f"on one time axis at fs_hz")
     ds.add_table("profiles", _columns(prof_rows, PROFILE_COLUMNS),
@@ -136,18 +138,18 @@ def _exchange(link, query, ack, rn16_bits, epc_reply, fs_hz, rise_fall_tari):
     n = int(np.ceil(t_end * fs_hz)) + 1
     time_s = np.arange(n) / fs_hz
     reader = np.ones(n)
-    q_env = pie_envelope_for_profile(encode(query), link, fs_hz=fs_hz, preamble="query", rise_fall_s=rf,
-                                     cw_before_s=CW_LEAD_S)
+    q_env = _pie.pie_envelope_for_profile(_commands.encode(query), link, fs_hz=fs_hz, preamble="query", rise_fall_s=rf,
+                                          cw_before_s=CW_LEAD_S)
     reader[:q_env.size] = q_env
-    a_env = pie_envelope_for_profile(encode(ack), link, fs_hz=fs_hz, preamble="frame-sync", rise_fall_s=rf)
+    a_env = _pie.pie_envelope_for_profile(_commands.encode(ack), link, fs_hz=fs_hz, preamble="frame-sync", rise_fall_s=rf)
     i_ack = int(np.ceil(t_ack * fs_hz))
     reader[i_ack:i_ack + a_env.size] = a_env[: n - i_ack]
-    tag = (reply_waveform_for_profile(rn16_bits, link, fs_hz=fs_hz, t0_s=t_rn16, n_samples=n)
-           + reply_waveform_for_profile(epc_reply, link, fs_hz=fs_hz, t0_s=t_epc, n_samples=n))
+    tag = (_linecode.reply_waveform_for_profile(rn16_bits, link, fs_hz=fs_hz, t0_s=t_rn16, n_samples=n)
+           + _linecode.reply_waveform_for_profile(epc_reply, link, fs_hz=fs_hz, t0_s=t_epc, n_samples=n))
     frames = {
-        "Query": (CW_LEAD_S, t_query, encode(query)),
+        "Query": (CW_LEAD_S, t_query, _commands.encode(query)),
         "RN16": (t_rn16, t_rn16 + link.reply_duration_s(16), rn16_bits),
-        "ACK": (i_ack / fs_hz, i_ack / fs_hz + link.command_duration_s(ack), encode(ack)),
+        "ACK": (i_ack / fs_hz, i_ack / fs_hz + link.command_duration_s(ack), _commands.encode(ack)),
         "EPC": (t_epc, t_end, epc_reply),
     }
     return time_s, reader, tag, frames
@@ -192,7 +194,7 @@ def _append(rows: dict[str, list], **values) -> None:
 
 
 def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
-    return {k: column(rows[k], *spec[k]) for k in spec}
+    return {k: _dataset.column(rows[k], *spec[k]) for k in spec}
 
 
 #: Approximate width [px] of a left panel of the figure (9 in at 120 dpi).

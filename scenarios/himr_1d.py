@@ -48,17 +48,19 @@ import numpy as np
 from devices.himr_tag import HimrTag, HimrTagConfig
 from devices.imu import ImuConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.estimators.himr_model import A3
-from rfsim.estimators.observer import gain_1d, observe_1d
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.progress import stage
 from rfsim.references import cite
 from rfsim.trajectories import LinearTrapezoid, check_inside
 from rfsim.units import wavelength_m
 from scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
-from scenarios._himr_tables import PACKET_COLUMNS, imu_columns, imu_table, packets_table, plot_rss_phase
+from rfsim.lazy import lazy_import
+
+_dataset = lazy_import("rfsim.dataset")
+_himr_model = lazy_import("rfsim.estimators.himr_model")
+_observer = lazy_import("rfsim.estimators.observer")
+_himr_tables = lazy_import("scenarios._himr_tables")
 
 NAME = "himr-1d"
 DESCRIPTION = ("1-D HIMR: 6-axis tag on the linear positioner, one 5.8 GHz pylon at sample level, CARE observer "
@@ -116,12 +118,12 @@ def estimate(t_s, y, z0_m: float) -> dict:
     dt = np.diff(t)
     v = np.concatenate([[0.0], np.cumsum(0.5 * (a[1:] + a[:-1]) * dt)])
     z = z0_m + np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)])
-    return {"himr": observe_1d(t, y, x0=x0),
+    return {"himr": _observer.observe_1d(t, y, x0=x0),
             "rss": np.column_stack([y[:, 0], y[:, 1], y[:, 2]]),
             "double-integration": np.column_stack([z, v, a])}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     sc = config.scene
     tag = HimrTag(config.tag, config.trajectory, config.imu)
     stage(f"sample level: {config.tag.format.n_bits}-bit packets at {config.radio.fs_hz / 1e6:g} MS/s")
@@ -130,7 +132,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     plan = tag.current_plan
     stage("observer")
     tick = time.perf_counter()
-    imu = imu_table(air, plan, config.imu, heading_start_rad=0.0)
+    imu = _himr_tables.imu_table(air, plan, config.imu, heading_start_rad=0.0)
     m, idx = air.measurements[0], air.packet_index[0]
     n = plan.start_s.size
     y = np.full((n, 3), np.nan)
@@ -150,27 +152,27 @@ def run(config: Config, *, seed: int) -> Dataset:
     observer_s = time.perf_counter() - tick
     moving = t <= config.trajectory.duration_s
 
-    ds = Dataset(title="1-D HIMR: linear positioner, one pylon at sample level, CARE observer vs RSS and double "
+    ds = _dataset.Dataset(title="1-D HIMR: linear positioner, one pylon at sample level, CARE observer vs RSS and double "
                        "integration")
-    pk = packets_table(air, plan)
-    ds.add_table("packets", {k: column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()},
+    pk = _himr_tables.packets_table(air, plan)
+    ds.add_table("packets", {k: _dataset.column(v, *_himr_tables.PACKET_COLUMNS[k]) for k, v in pk.items()},
                  description="one row per packet decoded at the pylon: CRC, complex gain, RSS, phase, radial velocity "
                              "(eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", imu_columns(imu), description="one row per scheduled packet: the accelerometer words it "
+    ds.add_table("imu", _himr_tables.imu_columns(imu), description="one row per scheduled packet: the accelerometer words it "
                                                       "carried (raw int16 and SI) as decoded by the pylon")
     ds.add_table("measurements", {
-        "t_s": column(t, "s", "epoch: scheduled start of the packet (observer time step)"),
-        "range_m": column(y[:, 0], "m", "RSS range r = (K_u/|h|^2)^(1/4), eq. 22 (NaN: packet lost)"),
-        "radial_velocity_mps": column(y[:, 1], "m/s", "phase-derived radial velocity, eq. 23 (NaN: lost or first)"),
-        "accel_mps2": column(y[:, 2], "m/s^2", "accelerometer reading along the travel (body y axis)"),
-        "valid_range": column(~np.isnan(y[:, 0]), "1", "the RSS range was measured at this epoch"),
-        "valid_radial_velocity": column(~np.isnan(y[:, 1]), "1", "the radial velocity was measured at this epoch"),
-        "valid_accel": column(~np.isnan(y[:, 2]), "1", "the accelerometer word arrived at this epoch")},
+        "t_s": _dataset.column(t, "s", "epoch: scheduled start of the packet (observer time step)"),
+        "range_m": _dataset.column(y[:, 0], "m", "RSS range r = (K_u/|h|^2)^(1/4), eq. 22 (NaN: packet lost)"),
+        "radial_velocity_mps": _dataset.column(y[:, 1], "m/s", "phase-derived radial velocity, eq. 23 (NaN: lost or first)"),
+        "accel_mps2": _dataset.column(y[:, 2], "m/s^2", "accelerometer reading along the travel (body y axis)"),
+        "valid_range": _dataset.column(~np.isnan(y[:, 0]), "1", "the RSS range was measured at this epoch"),
+        "valid_radial_velocity": _dataset.column(~np.isnan(y[:, 1]), "1", "the radial velocity was measured at this epoch"),
+        "valid_accel": _dataset.column(~np.isnan(y[:, 2]), "1", "the accelerometer word arrived at this epoch")},
         description="one row per epoch: the observer's outputs [range, radial velocity, acceleration] with flags")
-    ds.add_table("truth", {"t_s": column(t, "s", "epoch (scheduled packet start)"),
-                           "z_m": column(z, "m", "true distance pylon - tag"),
-                           "z_dot_mps": column(zd, "m/s", "true radial velocity"),
-                           "z_ddot_mps2": column(zdd, "m/s^2", "true acceleration along the travel")},
+    ds.add_table("truth", {"t_s": _dataset.column(t, "s", "epoch (scheduled packet start)"),
+                           "z_m": _dataset.column(z, "m", "true distance pylon - tag"),
+                           "z_dot_mps": _dataset.column(zd, "m/s", "true radial velocity"),
+                           "z_ddot_mps2": _dataset.column(zdd, "m/s^2", "true acceleration along the travel")},
                  description="one row per epoch: the true state [z z_dot z_ddot] of the 1-D model")
     rows = {"estimator": [], "t_s": [], "z_hat_m": [], "z_dot_hat_mps": [], "z_ddot_hat_mps2": [], "error_m": []}
     summary = []
@@ -188,42 +190,42 @@ def run(config: Config, *, seed: int) -> Dataset:
                         float(np.sqrt(np.nanmean(err[moving] ** 2))), SOURCE_ERROR_M[name]))
     rows = {k: np.concatenate(v) for k, v in rows.items()}
     ds.add_table("estimates", {
-        "estimator": column(rows["estimator"], "1", "himr observer, raw rss range or double integration"),
-        "t_s": column(rows["t_s"], "s", "epoch of the estimate"),
-        "z_hat_m": column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
-        "z_dot_hat_mps": column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
-        "z_ddot_hat_mps2": column(rows["z_ddot_hat_mps2"], "m/s^2",
-                                  "estimated acceleration along the travel (third state)"),
-        "error_m": column(rows["error_m"], "m", "estimated minus true distance")},
+        "estimator": _dataset.column(rows["estimator"], "1", "himr observer, raw rss range or double integration"),
+        "t_s": _dataset.column(rows["t_s"], "s", "epoch of the estimate"),
+        "z_hat_m": _dataset.column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
+        "z_dot_hat_mps": _dataset.column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
+        "z_ddot_hat_mps2": _dataset.column(rows["z_ddot_hat_mps2"], "m/s^2",
+                                           "estimated acceleration along the travel (third state)"),
+        "error_m": _dataset.column(rows["error_m"], "m", "estimated minus true distance")},
         description="one row per (estimator, epoch): the estimate and its error")
     ds.add_table("summary", {
-        "estimator": column(np.array([s[0] for s in summary]), "1", "estimator of the row"),
-        "max_error_m": column(np.array([s[1] for s in summary]), "m", "largest |distance error| until the motion ends"),
-        "final_error_m": column(np.array([s[2] for s in summary]), "m", "|distance error| at the last epoch"),
-        "rms_error_m": column(np.array([s[3] for s in summary]), "m", "RMS distance error until the motion ends"),
-        "source_error_m": column(np.array([s[4] for s in summary]), "m", "the source's figure: HIMR 1 mm (simulation, "
+        "estimator": _dataset.column(np.array([s[0] for s in summary]), "1", "estimator of the row"),
+        "max_error_m": _dataset.column(np.array([s[1] for s in summary]), "m", "largest |distance error| until the motion ends"),
+        "final_error_m": _dataset.column(np.array([s[2] for s in summary]), "m", "|distance error| at the last epoch"),
+        "rms_error_m": _dataset.column(np.array([s[3] for s in summary]), "m", "RMS distance error until the motion ends"),
+        "source_error_m": _dataset.column(np.array([s[4] for s in summary]), "m", "the source's figure: HIMR 1 mm (simulation, "
                                                                           "L640), drift 2.5 cm (L628); NaN: none")},
         description="one row per estimator: max, final and RMS error beside the source's numbers")
-    g = gain_1d()
+    g = _observer.gain_1d()
     names = ("z", "z_dot", "z_ddot")
     outs = ("range", "radial_velocity", "accel")
-    ds.add_grid("gains", {"state": column(np.array(names), "1", "state of the 1-D model (row of L)"),
-                          "output": column(np.array(outs), "1", "measured output (column of L)"),
-                          "mode": column(np.arange(1, 4), "1", "index of the eigenvalue of A - L C, by real part")},
-                {"L": column(g.L, "1", "CARE gain L = Y C' inv(V), W = 5e4 diag(3, 1, 1), V = I3 (eq. 17-18)",
-                             dims=("state", "output")),
-                 "eig_real": column(g.eigenvalues.real, "1/s", "real part of eig(A - L C), eq. 19", dims=("mode",)),
-                 "eig_imag": column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C), eq. 19",
-                                    dims=("mode",))},
+    ds.add_grid("gains", {"state": _dataset.column(np.array(names), "1", "state of the 1-D model (row of L)"),
+                          "output": _dataset.column(np.array(outs), "1", "measured output (column of L)"),
+                          "mode": _dataset.column(np.arange(1, 4), "1", "index of the eigenvalue of A - L C, by real part")},
+                {"L": _dataset.column(g.L, "1", "CARE gain L = Y C' inv(V), W = 5e4 diag(3, 1, 1), V = I3 (eq. 17-18)",
+                                      dims=("state", "output")),
+                 "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C), eq. 19", dims=("mode",)),
+                 "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C), eq. 19",
+                                             dims=("mode",))},
                 description="the 1-D observer gain L[state, output] and the eigenvalues of its error matrix")
     T = np.append(np.diff(t), np.diff(t)[-1:])
-    rho = np.array([np.abs(np.linalg.eigvals(np.eye(3) + Tk * (A3 - g.L))).max() for Tk in T])
+    rho = np.array([np.abs(np.linalg.eigvals(np.eye(3) + Tk * (_himr_model.A3 - g.L))).max() for Tk in T])
     ds.add_table("diagnostics", {
-        "t_s": column(t, "s", "epoch: scheduled start of the packet"),
-        "step_s": column(T, "s", "Euler step T of the epoch (packet interval)"),
-        "max_real_eig": column(np.full(n, g.eigenvalues.real.max()), "1/s",
-                               "largest real part of eig(A - L C) (constant: the 1-D model is linear)"),
-        "euler_spectral_radius": column(rho, "1", "spectral radius of I + T (A - L C): the Euler step is stable "
+        "t_s": _dataset.column(t, "s", "epoch: scheduled start of the packet"),
+        "step_s": _dataset.column(T, "s", "Euler step T of the epoch (packet interval)"),
+        "max_real_eig": _dataset.column(np.full(n, g.eigenvalues.real.max()), "1/s",
+                                        "largest real part of eig(A - L C) (constant: the 1-D model is linear)"),
+        "euler_spectral_radius": _dataset.column(rho, "1", "spectral radius of I + T (A - L C): the Euler step is stable "
                                                   "below 1")},
         description="one row per epoch: eigenvalues of the error dynamics and the stability of its Euler step")
     a = ds.attrs
@@ -276,7 +278,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="time [s]", ylabel="distance error [mm]", ylim=(-30, 30), title="Error vs time per estimator")
     ax.legend(fontsize=8)
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
-    fig = plot_rss_phase(plt, pk, f"RSS and phase at the pylon — {cite('himr', 'Fig. 15')}")
+    fig = _himr_tables.plot_rss_phase(plt, pk, f"RSS and phase at the pylon — {cite('himr', 'Fig. 15')}")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
     fig, ax = plt.subplots(figsize=(7, 3.5))
     ax.plot(dg["t_s"], dg["euler_spectral_radius"], label="spectral radius of I + T(A - LC)")

@@ -76,7 +76,6 @@ from devices.himr_tag import HimrTag, HimrTagConfig
 from devices.himr_pylon import HIMR_CARRIERS_HZ
 from devices.imu import ImuConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.estimators.himr_cases import CASES, case_stream
 from rfsim.estimators.himr_model import PYLONS_M, STATE_NAMES, output_names
@@ -88,8 +87,10 @@ from rfsim.references import cite
 from rfsim.trajectories import RotatingBoom, check_inside
 from rfsim.units import wavelength_m
 from scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
-from scenarios._himr_tables import (PACKET_BITS_NOTE, PACKET_COLUMNS, errors, imu_columns, imu_table,
-                                    packets_table, plot_rss_phase, wrap_periods)
+from rfsim.lazy import lazy_import
+
+_dataset = lazy_import("rfsim.dataset")
+_himr_tables = lazy_import("scenarios._himr_tables")
 
 NAME = "himr-2d"
 DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80/5.81 GHz at sample level, "
@@ -251,7 +252,7 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
         sel = list(cs.pylons)
         wrap = hook = None
         if dealias in ("gated", "innovation"):
-            per = wrap_periods(cs.t_s, 3, fc_hz)
+            per = _himr_tables.wrap_periods(cs.t_s, 3, fc_hz)
             wrap = np.zeros_like(cs.y)
             for j, u in enumerate(sel):
                 wrap[:, 2 * j + 1] = per[:, u]
@@ -261,7 +262,7 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
                          wrap_period=wrap, innovation=hook)
         truth = config.trajectory(cs.t_s).state_2d()
         ex, ey = np.abs(est[:, 0] - truth[:, 0]), np.abs(est[:, 3] - truth[:, 3])
-        e = errors(est[:, [0, 3]], truth[:, [0, 3]])
+        e = _himr_tables.errors(est[:, [0, 3]], truth[:, [0, 3]])
         moving = cs.t_s <= motion_end
         above = np.nonzero(e > ob.converged_m)[0]
         conv = float(cs.t_s[above[-1]]) if above.size else 0.0
@@ -300,15 +301,15 @@ def sample_level(config: Config, *, seed: int):
     air = simulate(tag, sc.pylons_m, sc.carriers_hz, config.radio, seed=seed, t_end_s=sc.duration_s,
                    height_m=config.trajectory.height_m)
     plan = tag.current_plan
-    imu = imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
+    imu = _himr_tables.imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
     return air, plan, imu
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     return dataset(config, *sample_level(config, seed=seed))
 
 
-def dataset(config: Config, air, plan, imu: dict) -> Dataset:
+def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     """Observers, cases, diagnostics and the tables of the dataset (module docstring)."""
     sc = config.scene
     tick = time.perf_counter()
@@ -325,18 +326,18 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
     ranks = ranks_along(truth, pylons_m=pyl)
     observer_s = time.perf_counter() - tick
 
-    ds = Dataset(title="2-D HIMR: rotating-boom tag, three pylons at sample level, fixed-gain observers and cases")
-    pk = packets_table(air, plan)
-    ds.add_table("packets", {k: column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()},
+    ds = _dataset.Dataset(title="2-D HIMR: rotating-boom tag, three pylons at sample level, fixed-gain observers and cases")
+    pk = _himr_tables.packets_table(air, plan)
+    ds.add_table("packets", {k: _dataset.column(v, *_himr_tables.PACKET_COLUMNS[k]) for k, v in pk.items()},
                  description="one row per packet decoded at one pylon: CRC, complex gain, RSS, phase, radial "
                              "velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", imu_columns(imu),
+    ds.add_table("imu", _himr_tables.imu_columns(imu),
                  description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
                              "by the first pylon with a good CRC")
     names = output_names(3)
     y = stream["y"]
-    mcols = {"t_s": column(stream["t_s"], "s", "epoch: scheduled start of the packet (observer time step)"),
-             "packet": column(stream["packet"], "1", "index of the packet in the tag's schedule")}
+    mcols = {"t_s": _dataset.column(stream["t_s"], "s", "epoch: scheduled start of the packet (observer time step)"),
+             "packet": _dataset.column(stream["packet"], "1", "index of the packet in the tag's schedule")}
     units = {"r": "m", "a": "m/s^2", "theta_z": "rad", "omega_z": "rad/s"}
     text = {"r": "RSS range to pylon {u} (eq. 22)", "rdot": "phase-derived radial velocity to pylon {u} (eq. 23, "
                                                             "wrapped: aliased above the limit)",
@@ -349,28 +350,28 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
             u, unit, desc = nm[1:], "m", text["r"].format(u=nm[1:])
         else:
             unit, desc = units.get(nm[:1] if nm in ("a1", "a2") else nm), text[nm]
-        mcols[nm] = column(y[:, j], unit, desc + " (NaN: not measured at this epoch)")
-        mcols[f"valid_{nm}"] = column(~np.isnan(y[:, j]), "1", f"{desc} was measured at this epoch")
+        mcols[nm] = _dataset.column(y[:, j], unit, desc + " (NaN: not measured at this epoch)")
+        mcols[f"valid_{nm}"] = _dataset.column(~np.isnan(y[:, j]), "1", f"{desc} was measured at this epoch")
     ds.add_table("measurements", mcols, description="one row per epoch: the observer's outputs "
                                                     "[r1 r1_dot r2 r2_dot r3 r3_dot a1 a2 theta_z omega_z] with "
                                                     "validity flags")
     tunits = ("m", "m/s", "m/s^2", "m", "m/s", "m/s^2", "rad", "rad/s", "rad/s^2")
-    ds.add_table("truth", {"t_s": column(stream["t_s"], "s", "epoch (scheduled packet start)"),
-                           **{s: column(truth[:, i], tunits[i], f"true state {s} of the 9-state model at the epoch")
+    ds.add_table("truth", {"t_s": _dataset.column(stream["t_s"], "s", "epoch (scheduled packet start)"),
+                           **{s: _dataset.column(truth[:, i], tunits[i], f"true state {s} of the 9-state model at the epoch")
                               for i, s in enumerate(STATE_NAMES)}},
                  description="one row per epoch: the true 9-state [x x_dot x_ddot y y_dot y_ddot psi psi_dot psi_ddot]")
     cat = {k: np.concatenate([e[k] for e in estimates]) for k in estimates[0]}
-    ecols = {"variant": column(cat["variant"], "1", "observer variant: literal, prerotated or ekf"),
-             "dealias": column(cat["dealias"], "1", "how the radial-velocity aliasing was treated (observer.dealias; "
+    ecols = {"variant": _dataset.column(cat["variant"], "1", "observer variant: literal, prerotated or ekf"),
+             "dealias": _dataset.column(cat["dealias"], "1", "how the radial-velocity aliasing was treated (observer.dealias; "
                                                     "oracle: ground truth picks the alias)"),
-             "case": column(cat["case"], "1", "analysis case 1-7 of the source (L1050-L1072)"),
-             "t_s": column(cat["t_s"], "s", "epoch of the estimate")}
+             "case": _dataset.column(cat["case"], "1", "analysis case 1-7 of the source (L1050-L1072)"),
+             "t_s": _dataset.column(cat["t_s"], "s", "epoch of the estimate")}
     for i, s in enumerate(STATE_NAMES):
-        ecols[f"{s}_hat"] = column(cat[f"{s}_hat"], tunits[i], f"estimated state {s} at the epoch")
-    ecols["error_x_m"] = column(cat["error_x_m"], "m", "estimated minus true x")
-    ecols["error_y_m"] = column(cat["error_y_m"], "m", "estimated minus true y")
-    ecols["error_psi_rad"] = column(cat["error_psi_rad"], "rad", "estimated minus true heading psi")
-    ecols["error_m"] = column(cat["error_m"], "m", "Euclidean position error of the estimate")
+        ecols[f"{s}_hat"] = _dataset.column(cat[f"{s}_hat"], tunits[i], f"estimated state {s} at the epoch")
+    ecols["error_x_m"] = _dataset.column(cat["error_x_m"], "m", "estimated minus true x")
+    ecols["error_y_m"] = _dataset.column(cat["error_y_m"], "m", "estimated minus true y")
+    ecols["error_psi_rad"] = _dataset.column(cat["error_psi_rad"], "rad", "estimated minus true heading psi")
+    ecols["error_m"] = _dataset.column(cat["error_m"], "m", "Euclidean position error of the estimate")
     ds.add_table("estimates", ecols, description="one row per (variant, case, epoch): the observer's estimate "
                                                  "and its error")
     scols = {}
@@ -387,27 +388,27 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
              "source_max_error_y_m": ("m", "max y error the source prints for the case (NaN: not printed)"),
              "source_convergence_s": ("s", "convergence time the source states for the case (NaN: not stated)")}
     for k, (u, d) in sdesc.items():
-        scols[k] = column(np.array([r[k] for r in summary]), u, d)
+        scols[k] = _dataset.column(np.array([r[k] for r in summary]), u, d)
     ds.add_table("summary", scols, description="one row per (variant, case) run: max, final error and convergence "
                                                "beside the source's printed numbers")
-    ds.add_grid("gains", {"state": column(np.array(STATE_NAMES), "1", "state of the 9-state model (row of L)"),
-                          "output": column(np.array(names), "1", "output in observer order (column of L)"),
-                          "mode": column(np.arange(1, 10), "1", "index of the eigenvalue of A - L C, by real part")},
-                {"L": column(g.L, "1", f"CARE gain L = Y C' inv(V) at the Table 8 point, tuning "
+    ds.add_grid("gains", {"state": _dataset.column(np.array(STATE_NAMES), "1", "state of the 9-state model (row of L)"),
+                          "output": _dataset.column(np.array(names), "1", "output in observer order (column of L)"),
+                          "mode": _dataset.column(np.arange(1, 10), "1", "index of the eigenvalue of A - L C, by real part")},
+                {"L": _dataset.column(g.L, "1", f"CARE gain L = Y C' inv(V) at the Table 8 point, tuning "
                                        f"{config.observer.tuning}, V = I (the source prints L')",
-                             dims=("state", "output")),
-                 "eig_real": column(g.eigenvalues.real, "1/s", "real part of eig(A - L C) at the Table 8 point",
-                                    dims=("mode",)),
-                 "eig_imag": column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C) at the Table 8 point",
-                                    dims=("mode",))},
+                                      dims=("state", "output")),
+                 "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C) at the Table 8 point",
+                                             dims=("mode",)),
+                 "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C) at the Table 8 point",
+                                             dims=("mode",))},
                 description="the observer gain L[state, output] at the linearisation point and the eigenvalues of "
                             "its error matrix")
     ds.add_table("diagnostics", {
-        "t_s": column(stream["t_s"], "s", "epoch: scheduled start of the packet"),
-        "max_real_eig_literal": column(mr_lit, "1/s", "largest real part of eig(A - L C(x(t))) of the literal model "
+        "t_s": _dataset.column(stream["t_s"], "s", "epoch: scheduled start of the packet"),
+        "max_real_eig_literal": _dataset.column(mr_lit, "1/s", "largest real part of eig(A - L C(x(t))) of the literal model "
                                                       "along the true trajectory (positive: locally unstable)"),
-        "max_real_eig_prerotated": column(mr_pre, "1/s", "the same with the prerotated accelerations (constant rows)"),
-        "observability_rank": column(ranks, "1", "rank of O = [C; CA; CA^2] at the true state (9: observable)")},
+        "max_real_eig_prerotated": _dataset.column(mr_pre, "1/s", "the same with the prerotated accelerations (constant rows)"),
+        "observability_rank": _dataset.column(ranks, "1", "rank of O = [C; CA; CA^2] at the true state (9: observable)")},
         description="one row per epoch: frozen-time eigenvalues and observability along the true trajectory (Fig. 82)")
 
     a = ds.attrs
@@ -429,7 +430,7 @@ def dataset(config: Config, air, plan, imu: dict) -> Dataset:
         "variant reaches the source's magnitudes")
     a["dealias"] = config.observer.dealias
     a["packet_bits"] = config.tag.format.n_bits
-    a["packet_bits_note"] = PACKET_BITS_NOTE
+    a["packet_bits_note"] = _himr_tables.PACKET_BITS_NOTE
     a["air_time_s"] = config.tag.air_time_s
     a["n_packets"] = int(plan.start_s.size)
     a["air_steps"] = air.n_steps
@@ -494,7 +495,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     a2.legend(fontsize=7)
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
 
-    fig = plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
+    fig = _himr_tables.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
 
     fig, ax = plt.subplots(figsize=(8, 4))

@@ -61,21 +61,28 @@ from pathlib import Path
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Patch, Scene, Surface
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
+from devices.reader_config import ReaderConfig
+from devices.tag_config import TagConfig
 from devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig, orientation_offsets_rad
 from scenarios import _capture_sweep as sweep
 from rfsim.config import check_fields, param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.gen2.link import t1
 from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
 from rfsim.progress import track
 from rfsim.rng import trial_rng
 from rfsim.units import C_M_S
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_surfaces = lazy_import("channels.surfaces")
+_reader = lazy_import("devices.reader")
+_tag = lazy_import("devices.tag")
+_dataset = lazy_import("rfsim.dataset")
+_link = lazy_import("rfsim.gen2.link")
 
 NAME = "inventory"
 DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
@@ -168,32 +175,32 @@ def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...], s
             a = replace(a, orientation=tuple(o + d for o, d in zip(a.orientation, off)))
             if records is not None:
                 records.append(rec)
-        tags.append(PassiveTag(cfg, a, rng=trial_rng(seed, *key, k)))
+        tags.append(_tag.PassiveTag(cfg, a, rng=trial_rng(seed, *key, k)))
     return tags
 
 
-def tag_antenna(position_m, azimuth_rad: float) -> Antenna:
+def tag_antenna(position_m, azimuth_rad: float) -> _antennas.Antenna:
     """Vertical half-wave dipole tag at ``position_m`` facing ``azimuth_rad``."""
-    return Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
-                   pattern=HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
+    return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
+                             pattern=_antennas.HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
 
 
-def reader_antennas(room: RoomConfig) -> list[Antenna]:
+def reader_antennas(room: RoomConfig) -> list[_antennas.Antenna]:
     """Patches in the middle of the walls x=0, x=L, y=0, y=W (in that order), facing inwards."""
     L, W, h = room.length_m, room.width_m, room.reader_height_m
     spots = [((0.0, W / 2, h), 0.0), ((L, W / 2, h), math.pi), ((L / 2, 0.0, h), math.pi / 2),
              ((L / 2, W, h), -math.pi / 2)]
-    return [Antenna(position_m=p, orientation=(yaw, 0.0, 0.0),
-                    pattern=Patch(room.reader_gain_dbi, room.reader_beamwidth_deg), polarization="circular")
+    return [_antennas.Antenna(position_m=p, orientation=(yaw, 0.0, 0.0),
+                              pattern=_antennas.Patch(room.reader_gain_dbi, room.reader_beamwidth_deg), polarization="circular")
             for p, yaw in spots[: room.n_antennas]]
 
 
-def room_scene(room: RoomConfig) -> Scene:
-    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if room.floor else ()
-    return Scene(surfaces=surfaces, apdp=ApdpModel() if room.apdp else None, image_order=1)
+def room_scene(room: RoomConfig) -> _scene.Scene:
+    surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if room.floor else ()
+    return _scene.Scene(surfaces=surfaces, apdp=_small_scale.ApdpModel() if room.apdp else None, image_order=1)
 
 
-def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -> list[Antenna]:
+def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -> list[_antennas.Antenna]:
     """``n`` tags uniformly in the room (0.5 m from the walls), random azimuth."""
     x = rng.uniform(0.5, room.length_m - 0.5, n)
     y = rng.uniform(0.5, room.width_m - 0.5, n)
@@ -223,14 +230,14 @@ def capture_trial(cfg: Config, far_m: float, *, seed: int, key: tuple[int, ...])
 
     cap = cfg.capture
     h = cfg.room.reader_height_m
-    reader_ant = Antenna(position_m=(0.0, 0.0, h), orientation=(0.0, 0.0, 0.0),
-                         pattern=Patch(cfg.room.reader_gain_dbi, cfg.room.reader_beamwidth_deg),
-                         polarization="circular")
+    reader_ant = _antennas.Antenna(position_m=(0.0, 0.0, h), orientation=(0.0, 0.0, 0.0),
+                                   pattern=_antennas.Patch(cfg.room.reader_gain_dbi, cfg.room.reader_beamwidth_deg),
+                                   polarization="circular")
     ants = [tag_antenna((cap.near_m, 0.0, h), math.pi), tag_antenna((far_m, 0.0, h), math.pi)]
     tags = make_tags(cfg.tag, ants, seed=seed, key=key + (0,))
     reader_cfg = replace(cfg.reader, noise_figure_db=cap.noise_figure_db)
-    reader = Reader(reader_cfg, [reader_ant], rng=trial_rng(seed, *key, 1))
-    air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, *key, 2), keep_exchanges=True)
+    reader = _reader.Reader(reader_cfg, [reader_ant], rng=trial_rng(seed, *key, 1))
+    air = EngineAir(reader, tags, _scene.Channel(_scene.Scene()), rng=trial_rng(seed, *key, 2), keep_exchanges=True)
     inv = InventoryConfig(q_mode="fixed", q_initial=0.0, max_rounds=1, session=cfg.inventory.session)
     log = run_inventory(air, inv)
     p_inc = air.exchanges[0].incident_power_dbm  # the Query
@@ -316,13 +323,13 @@ def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
             for mode in ("capture", "no-capture", "protocol")]
     for p, n, r, mode in track(plan, desc="inventories with capture on/off", unit="inventories"):
         key = (3_000_000 + p, r)
-        reader = Reader(reader_cfg, antennas, rng=trial_rng(seed, *key, 1))
+        reader = _reader.Reader(reader_cfg, antennas, rng=trial_rng(seed, *key, 1))
         tags = make_tags(config.tag, random_tag_antennas(room, n, rng=trial_rng(seed, *key, 0)), seed=seed,
                          key=key + (3,), spread=cs.spread, link=reader.link)
         if mode == "protocol":
             air = ProtocolAir(reader.link, tags)
         else:
-            air = EngineAir(reader, tags, Channel(room_scene(room)), rng=trial_rng(seed, *key, 2),
+            air = EngineAir(reader, tags, _scene.Channel(room_scene(room)), rng=trial_rng(seed, *key, 2),
                             keep_exchanges=True)
         log = run_inventory(NoCaptureAir(air) if mode == "no-capture" else air, config.inventory)
         done = log.completion(n)
@@ -378,7 +385,7 @@ def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: floa
             rows[key].append(v)
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     if config.spread.enabled and config.reader.blf_search != "preamble":
         raise ConfigError("spread.enabled", True, "with reader.blf_search = 'preamble' (tags with their own BLF "
                                                   "need a reader that estimates it)")
@@ -391,12 +398,12 @@ def run(config: Config, *, seed: int) -> Dataset:
     for p, n in enumerate(config.populations):
         for r in track(range(config.runs), desc=f"inventories of {n} tags", unit="runs"):
             tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, p, r, 0))
-            reader = Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
+            reader = _reader.Reader(config.reader, antennas, rng=trial_rng(seed, p, r, 1))
             recs: list = []
             tags = make_tags(config.tag, tag_ants, seed=seed, key=(p, r, 3), spread=config.spread,
                              link=reader.link, records=recs)
-            _tag_rows(tag_rows, n, r, tags, recs, t1(reader.link).nom_s)
-            air = EngineAir(reader, tags, Channel(room_scene(room)), rng=trial_rng(seed, p, r, 2))
+            _tag_rows(tag_rows, n, r, tags, recs, _link.t1(reader.link).nom_s)
+            air = EngineAir(reader, tags, _scene.Channel(room_scene(room)), rng=trial_rng(seed, p, r, 2))
             log = run_inventory(air, config.inventory)
             for k in SLOT_FIELDS:
                 slots[k].extend(log.slots[k])
@@ -414,39 +421,39 @@ def run(config: Config, *, seed: int) -> Dataset:
                              air_time_to_all_s=done[1] if done else math.nan,
                              efficiency=succ / max(log.n_slots, 1)).items():
                 inv[k].append(v)
-    ds = Dataset(title="Q-algorithm inventory of tags in a room: slots, reads, capture")
+    ds = _dataset.Dataset(title="Q-algorithm inventory of tags in a room: slots, reads, capture")
     units = {"population": ("1", "number of tags N"), "run": INVENTORY_FIELDS["run"]}
-    ds.add_table("slots", {k: column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()},
+    ds.add_table("slots", {k: _dataset.column(np.asarray(v), *(units.get(k) or SLOT_FIELDS[k])) for k, v in slots.items()},
                  description="one row per slot of every inventory: what the reader saw and what happened "
                              "(ground truth), the Q algorithm's state")
-    ds.add_table("reads", {k: column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()},
+    ds.add_table("reads", {k: _dataset.column(np.asarray(v), *(units.get(k) or READ_FIELDS[k])) for k, v in reads.items()},
                  description="one row per EPC read (CRC ok): the reader's per-read report")
-    ds.add_table("inventories", {k: column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()},
+    ds.add_table("inventories", {k: _dataset.column(np.asarray(v), *INVENTORY_FIELDS[k]) for k, v in inv.items()},
                  description="one row per inventory (population, run): tags read, slots, air time, efficiency")
-    ds.add_table("tags", {k: column(np.asarray(v), *TAG_FIELDS[k]) for k, v in tag_rows.items()},
+    ds.add_table("tags", {k: _dataset.column(np.asarray(v), *TAG_FIELDS[k]) for k, v in tag_rows.items()},
                  description="one row per tag of every inventory: position, antenna orientation and the tag's "
                              "own spread (BLF error, T1, chip states; zeros / nominal T1 without spread)")
     if config.capture_sweep.enabled:
         cs = config.capture_sweep
         rows, trials, accept = sweep.tables(cs, sweep.run_sweep(cs, seed=seed))
-        ds.add_table("capture_sweep", {k: column(np.asarray(v), *sweep.POINT_FIELDS[k]) for k, v in rows.items()},
+        ds.add_table("capture_sweep", {k: _dataset.column(np.asarray(v), *sweep.POINT_FIELDS[k]) for k, v in rows.items()},
                      description="one row per point (profile, spread, power ratio) of the batched two-tag capture "
                                  "sweep: P(capture) with its Clopper-Pearson interval, false ACKs")
-        ds.add_table("capture_trials", {k: column(np.asarray(v), *sweep.TRIAL_FIELDS[k]) for k, v in trials.items()},
+        ds.add_table("capture_trials", {k: _dataset.column(np.asarray(v), *sweep.TRIAL_FIELDS[k]) for k, v in trials.items()},
                      description="one row per collision of the capture sweep: what the reader decoded, its "
                                  "acceptance statistic, the two tags' BLF errors and T1")
-        ds.add_table("acceptance", {k: column(np.asarray(v), *sweep.ACCEPT_FIELDS[k]) for k, v in accept.items()},
+        ds.add_table("acceptance", {k: _dataset.column(np.asarray(v), *sweep.ACCEPT_FIELDS[k]) for k, v in accept.items()},
                      description="RN16 acceptance threshold against false-ACK and missed-capture rates over the "
                                  "collisions of the capture sweep (ratios pooled), per profile and spread")
     if config.capture_inventory.enabled:
         ci = capture_inventories(config, seed=seed)
-        ds.add_table("capture_inventories", {k: column(np.asarray(v), *CAPTURE_INVENTORY_FIELDS[k])
+        ds.add_table("capture_inventories", {k: _dataset.column(np.asarray(v), *CAPTURE_INVENTORY_FIELDS[k])
                                              for k, v in ci.items()},
                      description="one row per inventory of a population with spread, with capture on and off at "
                                  "sample level and at protocol level: slots and air time to read every tag")
     if config.capture.enabled:
         cap = capture_table(config, seed=seed)
-        ds.add_table("capture", {k: column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
+        ds.add_table("capture", {k: _dataset.column(np.asarray(v), *CAPTURE_FIELDS[k]) for k, v in cap.items()},
                      description="one row per capture trial: two tags in one Q = 0 slot at a set backscatter power "
                                  "ratio; whether the reader still read an EPC")
     return ds

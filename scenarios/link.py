@@ -23,17 +23,24 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, Isotropic, Patch, Scene, Surface
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
+from devices.reader_config import ReaderConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
-from rfsim.batch import singulate_batch
-from rfsim.gen2.commands import Query
 from rfsim.progress import track
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_surfaces = lazy_import("channels.surfaces")
+_reader = lazy_import("devices.reader")
+_tag = lazy_import("devices.tag")
+_dataset = lazy_import("rfsim.dataset")
+_batch = lazy_import("rfsim.batch")
+_commands = lazy_import("rfsim.gen2.commands")
 
 NAME = "link"
 DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler, SNR and read success"
@@ -70,31 +77,31 @@ class Config:
                                   doc="time between round starts (silent time is skipped)")
 
 
-def reader_antenna(g: GeometryConfig) -> Antenna:
+def reader_antenna(g: GeometryConfig) -> _antennas.Antenna:
     """The reader antenna of the geometry: at (0, 0, height), boresight +x."""
     if g.reader_antenna == "patch":
-        pattern = Patch(g.reader_gain_dbi, g.reader_beamwidth_deg)
+        pattern = _antennas.Patch(g.reader_gain_dbi, g.reader_beamwidth_deg)
     elif g.reader_antenna == "dipole":
-        pattern = HalfWaveDipole()
+        pattern = _antennas.HalfWaveDipole()
     else:
-        pattern = Isotropic()
-    return Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
-                   polarization=g.reader_polarization)
+        pattern = _antennas.Isotropic()
+    return _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
+                             polarization=g.reader_polarization)
 
 
-def tag_antenna(g: GeometryConfig, distance_m: float) -> Antenna:
+def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
     """A vertical half-wave dipole tag at ``distance_m`` and ``g.angle_deg`` facing the reader."""
     a = np.deg2rad(g.angle_deg)
     pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)
     # A dipole tag facing the reader, its axis vertical (local +z), boresight towards the reader.
-    return Antenna(position_m=pos, orientation=(a + np.pi, 0.0, 0.0), pattern=HalfWaveDipole(),
-                   polarization="linear", pol_tilt_rad=0.0)
+    return _antennas.Antenna(position_m=pos, orientation=(a + np.pi, 0.0, 0.0), pattern=_antennas.HalfWaveDipole(),
+                             polarization="linear", pol_tilt_rad=0.0)
 
 
-def scene(c: ChannelConfig) -> Scene:
+def scene(c: ChannelConfig) -> _scene.Scene:
     """The default channel: Friis, optional concrete floor (image method), optional APDP."""
-    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=c.floor_eps_r),) if c.floor else ()
-    return Scene(surfaces=surfaces, apdp=ApdpModel() if c.apdp else None, image_order=1)
+    surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=c.floor_eps_r),) if c.floor else ()
+    return _scene.Scene(surfaces=surfaces, apdp=_small_scale.ApdpModel() if c.apdp else None, image_order=1)
 
 
 FIELDS = {
@@ -111,17 +118,17 @@ FIELDS = {
 READ_FIELDS = {**FIELDS, **READ_REPORT_FIELDS}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     g = config.geometry
     n_rounds = config.rounds_per_point
     rows: dict[str, list] = {k: [] for k in FIELDS}
     rows["epc"] = []
     antenna = reader_antenna(g)
     n_points = len(g.distances_m)
-    readers = [Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds)) for i in range(n_points)]
-    tags = [[PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))]
+    readers = [_reader.Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds)) for i in range(n_points)]
+    tags = [[_tag.PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))]
             for i, d in enumerate(g.distances_m)]
-    channels = [Channel(scene(config.channel)) for _ in range(n_points)]
+    channels = [_scene.Channel(scene(config.channel)) for _ in range(n_points)]
     lk = readers[0].link
     # Round r of every point in one batch (the points are independent trials; the rounds of a
     # point follow one another: its tag's S0 flag carries over).
@@ -129,9 +136,9 @@ def run(config: Config, *, seed: int) -> Dataset:
         times = [(i * n_rounds + r) * config.round_period_s for i in range(n_points)]
         # Dual-target inventory: a read flips the tag's S0 flag, so rounds alternate
         # target A and B (as commercial readers do to read a tag again and again).
-        query = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2])
+        query = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2])
         rngs = [trial_rng(seed, i, r) for i in range(n_points)]
-        batch = singulate_batch(readers, tags, channels, t_s=times, rngs=rngs, query=query, round_index=r)
+        batch = _batch.singulate_batch(readers, tags, channels, t_s=times, rngs=rngs, query=query, round_index=r)
         for i, (d, exchanges) in enumerate(zip(g.distances_m, batch)):
             last = exchanges[-1]
             read = last.read if last.command == "ACK" else None
@@ -148,8 +155,8 @@ def run(config: Config, *, seed: int) -> Dataset:
     cols.update(report_columns(config.reader.report, t_s=cols["time_s"], antenna=cols["antenna"],
                                rssi_dbm=cols["rssi_dbm"], phase_rad=cols["phase_rad"], success=cols["success"]))
     cols = long_table(cols)
-    ds = Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {k: column(cols[k], *READ_FIELDS[k]) for k in READ_FIELDS},
+    ds = _dataset.Dataset(title="reader-tag link vs distance: per-read measurements")
+    ds.add_table("reads", {k: _dataset.column(cols[k], *READ_FIELDS[k]) for k in READ_FIELDS},
                  description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
                              "per-read report (long format, sorted by time stamp), or why the read failed")
     return ds

@@ -162,33 +162,38 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, HalfWaveDipole, HeldLinks, Patch, Scene
-from channels.antennas import Tabulated
-from channels.bulk import draw_links
-from channels.paths import NARROWBAND_TOLERANCE, narrowband_rms_error
-from channels.antennas import vertical_dipole as st_antenna
-from devices import st_analytic as sa
 from devices import st_receiver as sr
-from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import (SenseATagConfig, chain_rows, decode_rows, level_differences, listen_start_sample,
-                                 st_antenna_positions)
-from devices.tag import PassiveTag, TagConfig
-from devices.tag_chip import PowerDependentChip
-from devices.tag_frontend import ReflectionStates
+from devices.reader_config import ReaderConfig
+from devices.sense_a_tag_config import SenseATagConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.gen2.commands import Query
-from rfsim.noise import thermal_noise_power_w
-from rfsim.air import AntennaPort, FixedEmitter, Segment, propagate
-from rfsim.gen2.link import reply_window_s, t1
 from rfsim.progress import stage
-from scenarios import _phase_cancellation_columns as columns
+from scenarios._monte_carlo import MonteCarloConfig
 from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
 from rfsim.procs import map_in_order
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_channels_scene = lazy_import("channels.scene")
+_bulk = lazy_import("channels.bulk")
+_paths = lazy_import("channels.paths")
+sa = lazy_import("devices.st_analytic")
+_reader = lazy_import("devices.reader")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_tag = lazy_import("devices.tag")
+_tag_chip = lazy_import("devices.tag_chip")
+_tag_frontend = lazy_import("devices.tag_frontend")
+_dataset = lazy_import("rfsim.dataset")
+_commands = lazy_import("rfsim.gen2.commands")
+_noise = lazy_import("rfsim.noise")
+_air = lazy_import("rfsim.air")
+_link = lazy_import("rfsim.gen2.link")
+columns = lazy_import("scenarios._phase_cancellation_columns")
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -208,22 +213,6 @@ STAMP_SETTLE_CYCLES = 8
 STAMP_DECISION_MARGIN = 0.03
 STAMP_PSI_RAD = math.pi
 TECHS = ("single", "combination", "selection", "stamp")
-
-
-@dataclass(frozen=True)
-class MonteCarloConfig:
-    full: bool = param(False, doc="paper size: 300 positions per cell, 3 repetitions (overrides the two below)")
-    positions_per_cell: int = param(100, lo=1, hi=100000, doc="ST positions per cell and repetition")
-    repetitions: int = param(1, lo=1, hi=1000, doc="repetitions (new positions and channel draws)")
-    workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
-
-    @property
-    def n_positions(self) -> int:
-        return 300 if self.full else self.positions_per_cell
-
-    @property
-    def n_repetitions(self) -> int:
-        return 3 if self.full else self.repetitions
 
 
 @dataclass(frozen=True)
@@ -353,7 +342,7 @@ class PassReplicationConfig:
 PASS_TAG_ANTENNA_FILE = "channelchar_directivity_l2-dipole.mat"
 
 
-def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
+def q_matched_assembly_resistance_ohm(chip: _tag_chip.PowerDependentChip) -> float:
     """PASS's "Rat Q-matched at 915 MHz" (pass-paris-simulator.md §5.2; ``tagchar_modulator_adsm``:
     R_at shifts in % "from optimum"), read as the R_at whose parallel Q with C_at equals the
     chip's parallel Q at its minimum power: ``R_at = (|Im Y_ic|/Re Y_ic)/(ω·C_at)``. Checked on
@@ -365,22 +354,22 @@ def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
 
 @lru_cache(maxsize=8)
 def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
-               assembly_resistance_ohm: float = math.inf) -> PowerDependentChip:
+               assembly_resistance_ohm: float = math.inf) -> _tag_chip.PowerDependentChip:
     """The 'measured' tag chip: full PASS tables from a folder, else the quoted points; with
     ``assembly_resistance_ohm`` = 0 the Q-matched R_at (:func:`q_matched_assembly_resistance_ohm`)."""
     if characteristics_dir:
-        chip = PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
+        chip = _tag_chip.PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
     else:
-        chip = PowerDependentChip.pass_default(margin_db=margin_db)
+        chip = _tag_chip.PowerDependentChip.pass_default(margin_db=margin_db)
     if assembly_resistance_ohm == 0.0:
         assembly_resistance_ohm = q_matched_assembly_resistance_ohm(chip)
     return replace(chip, assembly_resistance_ohm=float(assembly_resistance_ohm))
 
 
 @lru_cache(maxsize=4)
-def pass_tag_pattern(characteristics_dir: str) -> Tabulated:
+def pass_tag_pattern(characteristics_dir: str) -> _antennas.Tabulated:
     """PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0)."""
-    return Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
+    return _antennas.Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
 
 
 #: The source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) [W]
@@ -424,18 +413,18 @@ class Config:
 # ----------------------------------------------------------------------------- one exchange
 
 
-def _reader_antenna(g: GeometryConfig) -> Antenna:
-    return Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0),
-                   pattern=Patch(g.reader_gain_dbi, 70.0), polarization="linear")
+def _reader_antenna(g: GeometryConfig) -> _antennas.Antenna:
+    return _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, 0.0, 0.0),
+                             pattern=_antennas.Patch(g.reader_gain_dbi, 70.0), polarization="linear")
 
 
-def _tag_antenna(x_m: float, config: "Config") -> Antenna:
+def _tag_antenna(x_m: float, config: "Config") -> _antennas.Antenna:
     # dipole facing the reader, axis vertical (as in the link scenario); PASS's file with
     # pass_replication (both patterns along the local z axis, omnidirectional in azimuth)
     pr = config.pass_replication
-    pattern = pass_tag_pattern(pr.characteristics_dir) if pr.enabled else HalfWaveDipole()
-    return Antenna(position_m=(x_m, 0.0, config.geometry.height_m), orientation=(math.pi, 0.0, 0.0),
-                   pattern=pattern, polarization="linear")
+    pattern = pass_tag_pattern(pr.characteristics_dir) if pr.enabled else _antennas.HalfWaveDipole()
+    return _antennas.Antenna(position_m=(x_m, 0.0, config.geometry.height_m), orientation=(math.pi, 0.0, 0.0),
+                             pattern=pattern, polarization="linear")
 
 
 @dataclass(frozen=True, eq=False)
@@ -504,24 +493,24 @@ class _Replay:
         return self.r
 
 
-def _make_tag(config: Config, antenna, fc_hz: float, rng) -> PassiveTag:
+def _make_tag(config: Config, antenna, fc_hz: float, rng) -> _tag.PassiveTag:
     ts = config.tag_states
     if ts.model == "source":
         # The source re-radiates Γ·incident (no structural term): its states are the
         # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
         # only; power-up keeps the tag config's chip model (the source's tag replies in
         # every cell).
-        tag = PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng)
-        tag.reflection_states = ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
+        tag = _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng)
+        tag.reflection_states = _tag_frontend.ReflectionStates.ask(-ts.source_gamma_a, -ts.source_gamma_b)
         return tag
     if ts.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        return PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                          chip=_chip(config, fc_hz))
-    return PassiveTag(config.tag, antenna, rng=rng)
+        return _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
+                               chip=_chip(config, fc_hz))
+    return _tag.PassiveTag(config.tag, antenna, rng=rng)
 
 
-def _chip(config: "Config", fc_hz: float) -> PowerDependentChip:
+def _chip(config: "Config", fc_hz: float) -> _tag_chip.PowerDependentChip:
     ts, pr = config.tag_states, config.pass_replication
     if pr.enabled:
         return chip_model(pr.characteristics_dir, round(fc_hz, 3), ts.power_margin_db, pr.assembly_resistance_ohm)
@@ -536,34 +525,34 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     antennas the stamped frame too (module docstring)."""
     g = config.geometry
     ra = _reader_antenna(g)
-    reader = Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
+    reader = _reader.Reader(config.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = _tag_antenna(tag_x_m, config)
     lk = reader.link
     stamp_s = (2.0 * STAMP_CYCLES + STAMP_SETTLE_CYCLES + 2.0) / lk.blf_hz
     # the RN16 reply window with room for the stamp before the reply and one Tpri more
-    window = reply_window_s(lk, 16) + stamp_s + lk.tpri_s
-    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    window = _link.reply_window_s(lk, 16) + stamp_s + lk.tpri_s
+    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=window)
     fs, fc = tx.fs_hz, tx.fc_hz
     tag = _make_tag(config, ta, fc, trial_rng(seed, *index, 1))
-    fwd = draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
-                     tx_antenna=ra, rx_antenna=ta).pathset(0)
+    fwd = _bulk.draw_links(_scene(g.apdp), ra.position_m, ta.position_m, fc_hz=fc, rng=trial_rng(seed, *index, 2),
+                           tx_antenna=ra, rx_antenna=ta).pathset(0)
     sta = _STAntennas(np.asarray(sa_pos))
     a_link, b_link = _st_links(config, fc, sta.positions_m, ta, link_rng)
-    links = HeldLinks([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
+    links = _channels_scene.HeldLinks([(ra, ta, fwd), (ra, sta, a_link), (ta, sta, b_link)])
     bw = 2.0 * lk.blf_hz
     # 1. the tag decides on the whole segment
-    air = propagate([FixedEmitter(ra, tx, device=reader)], [tag], [], links, t0_s=tx.t0_s, fs_hz=fs,
-                    n_samples=tx.samples.size, bandwidth_hz=bw)
+    air = _air.propagate([_air.FixedEmitter(ra, tx, device=reader)], [tag], [], links, t0_s=tx.t0_s, fs_hz=fs,
+                         n_samples=tx.samples.size, bandwidth_hz=bw)
     inc, resp = air.incident[0].samples, air.reflections[0]
     op = tag.operating_point
     p_av, p_chip = (op.p_available_w, op.p_chip_w) if op is not None else (float("nan"), float("nan"))
-    i0 = listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
+    i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     x_tx, inc_w = tx.samples[i0:], inc[i0:]
     n = x_tx.size
     a_s = resp.structural_mode
     r_a, r_b = a_s - complex(tag.reflection_states.gamma_a), a_s - complex(tag.reflection_states.gamma_b)
-    search = int(math.ceil((t1(lk).max_s + 2 * lk.tpri_s) * fs))
+    search = int(math.ceil((_link.t1(lk).max_s + 2 * lk.tpri_s) * fs))
     blf = resp.blf_hz if resp.gamma is not None else lk.blf_hz
     err = max(a_link.narrowband_error(2.0 * blf), b_link.narrowband_error(2.0 * blf))
     shape = sta.positions_m.shape[:2]
@@ -585,20 +574,20 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
         return Exchange(x_tx, inc_w, None, None, levels=np.zeros(n), frame=None, i_ref=n // 2, search=search,
                         rerad_a=r_a, rerad_b=r_a, rn16=None, **common)
     if fwd.method(bw) != "narrowband" or not fwd.static:
-        raise ValueError(f"the reader-tag link is not narrowband (error {narrowband_rms_error(fwd, bw):.3g} > "
-                         f"{NARROWBAND_TOLERANCE}): phase-cancellation needs narrowband links")
+        raise ValueError(f"the reader-tag link is not narrowband (error {_paths.narrowband_rms_error(fwd, bw):.3g} > "
+                         f"{_paths.NARROWBAND_TOLERANCE}): phase-cancellation needs narrowband links")
 
     # 2. the ST antennas hear the reply: one step on the ST window [i0, end) with the tag's
     #    decided re-radiation replayed (narrowband links: the same samples as the whole segment's)
-    win = Segment(tx.t0_s + i0 / fs, fs, fc, x_tx)
+    win = _air.Segment(tx.t0_s + i0 / fs, fs, fc, x_tx)
     dc = config.detector
-    noise_w = float(thermal_noise_power_w(fs, dc.noise_figure_db)) if dc.noise else 0.0
-    port = AntennaPort(sta, noise_power_w=noise_w)  # k·T0·fs·F per sample at every ST antenna
+    noise_w = float(_noise.thermal_noise_power_w(fs, dc.noise_figure_db)) if dc.noise else 0.0
+    port = _air.AntennaPort(sta, noise_power_w=noise_w)  # k·T0·fs·F per sample at every ST antenna
     noise_rng = trial_rng(seed, *index, 5)
 
     def hear(r_window):
-        return propagate([FixedEmitter(ra, win, device=reader)], [_Replay(ta, r_window)], [port], links,
-                         t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw, rng=noise_rng).inputs[0].samples
+        return _air.propagate([_air.FixedEmitter(ra, win, device=reader)], [_Replay(ta, r_window)], [port], links,
+                              t0_s=win.t0_s, fs_hz=fs, n_samples=n, bandwidth_hz=bw, rng=noise_rng).inputs[0].samples
 
     inputs = couple(hear(resp.reradiation(inc.size)[i0:]))
     t_rel = (resp.reply_start_s - tx.t0_s) - i0 / fs  # reply start within the window [s]
@@ -625,8 +614,8 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
                     rerad_a=r_a, rerad_b=r_b, rn16=np.asarray(resp.reply.bits, np.uint8), **common)
 
 
-def _scene(apdp: bool) -> Scene:
-    return Scene(apdp=ApdpModel() if apdp else None)
+def _scene(apdp: bool) -> _channels_scene.Scene:
+    return _channels_scene.Scene(apdp=_small_scale.ApdpModel() if apdp else None)
 
 
 # ----------------------------------------------------------------------------- ST positions
@@ -695,12 +684,12 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
         for name in ("sa2", "combined", "sa1"):
             if name not in inputs:
                 continue
-            env, bp, cmp, tog = chain_rows(rx, inputs[name])
-            out[f"diff_{name}_v"] = np.abs(level_differences(env, ex.levels, rx))
+            env, bp, cmp, tog = _sense_a_tag.chain_rows(rx, inputs[name])
+            out[f"diff_{name}_v"] = np.abs(_sense_a_tag.level_differences(env, ex.levels, rx))
             # Algorithm 1 returns ID2 whenever P2 decodes: P1's result matters only where P2 failed
             rows = ~dec["sa2"] if name == "sa1" else np.ones(n, bool)
-            dec[name] = decode_rows(rx, env, bp, cmp, tog, rows=rows, expected_bits=ex.rn16, start_sample=0,
-                                    search_samples=ex.search)
+            dec[name] = _sense_a_tag.decode_rows(rx, env, bp, cmp, tog, rows=rows, expected_bits=ex.rn16, start_sample=0,
+                                                 search_samples=ex.search)
         out["detected_single"] = dec["sa2"]
         if two:
             out["detected_combination"] = dec["combined"]
@@ -717,7 +706,7 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
 def _stamp(rx, ex: Exchange):
     """ASK-PSK stamp technique (§5): stamp symbols on SA2, decode on the chosen path."""
     f = ex.frame
-    env2, bp2, cmp2, tog2 = chain_rows(rx, ex.stamp_inputs[:, 1])
+    env2, bp2, cmp2, tog2 = _sense_a_tag.chain_rows(rx, ex.stamp_inputs[:, 1])
     # '1' when a comparator at (1 + STAMP_DECISION_MARGIN)·threshold follows every transition
     # of the second (settled) half of the ASK stamp (the band-pass starts from rest at the
     # stamp's first edge); the margin: see STAMP_DECISION_MARGIN
@@ -727,11 +716,11 @@ def _stamp(rx, ex: Exchange):
                        for row in bp2[:, f.start:f.ask_stop]]) >= STAMP_CYCLES - 1
     use_p1 = ~ask_ok
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
-    det = decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
+    det = _sense_a_tag.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
     if use_p1.any():
         idx = np.flatnonzero(use_p1)
-        env1, bp1, cmp1, tog1 = chain_rows(rx, ex.stamp_inputs[idx, 0])
-        det[idx] = decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
+        env1, bp1, cmp1, tog1 = _sense_a_tag.chain_rows(rx, ex.stamp_inputs[idx, 0])
+        det[idx] = _sense_a_tag.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
     return use_p1, det
 
 
@@ -741,14 +730,14 @@ def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):
     g = config.geometry
     ra = _reader_antenna(g)
     pr = config.pass_replication
-    sta = st_antenna(np.zeros(3))
+    sta = _antennas.vertical_dipole(np.zeros(3))
     if pr.enabled and pr.st_antenna_file:  # PASS's sensatag antenna: the tag's file, vertical (local z)
         sta = replace(sta, pattern=pass_tag_pattern(pr.characteristics_dir))
     n, k, _ = sa_pos.shape
     flat = sa_pos.reshape(-1, 3)
     scene = _scene(g.apdp)
-    return tuple(draw_links(scene, src.position_m, flat, fc_hz=fc_hz, rng=rng, tx_antenna=src,
-                            rx_antenna=sta).batch_link((n, k)) for src in (ra, tag_antenna))
+    return tuple(_bulk.draw_links(scene, src.position_m, flat, fc_hz=fc_hz, rng=rng, tx_antenna=src,
+                                  rx_antenna=sta).batch_link((n, k)) for src in (ra, tag_antenna))
 
 
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
@@ -762,7 +751,7 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     orient = rng.uniform(-np.pi, np.pi, n)
     tag_pos = np.array([x_tag, 0.0, g.height_m])
     centers = tag_pos + np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
-    sa_pos = st_antenna_positions(centers, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
+    sa_pos = _sense_a_tag.st_antenna_positions(centers, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
     ex = simulate_exchange(config, x_tag, sa_pos, seed=seed, index=(cell, rep), link_rng=trial_rng(seed, cell, rep, 4))
     out = st_outcomes(config, ex, ex.a_gain, ex.b_gain)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
@@ -881,11 +870,11 @@ def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
     return out
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
-    ds = Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
-    ds.add_table("samples", {k: column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
+    ds = _dataset.Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
+    ds.add_table("samples", {k: _dataset.column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
                  description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     summ = _summary(samples, n_cells)
@@ -895,7 +884,7 @@ def run(config: Config, *, seed: int) -> Dataset:
     summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
                                             for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
-    ds.add_table("cells", {k: column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
+    ds.add_table("cells", {k: _dataset.column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
                  description="one row per cell (tag position): probability of phase cancellation per technique "
                              "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
     far = ~samples["near_field"]
@@ -908,16 +897,16 @@ def run(config: Config, *, seed: int) -> Dataset:
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
     stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
-    ds.add_grid("tracks", {"angle_deg": column(tr["angle_deg"], "deg", "track angle, measured from the "
+    ds.add_grid("tracks", {"angle_deg": _dataset.column(tr["angle_deg"], "deg", "track angle, measured from the "
                                                                       "tag->reader direction"),
-                           "distance_m": column(tr["distance_m"], "m", "distance of the single-antenna ST from "
+                           "distance_m": _dataset.column(tr["distance_m"], "m", "distance of the single-antenna ST from "
                                                                        "the tag along the track")},
-                {"diff_v": column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
+                {"diff_v": _dataset.column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
                                                      "detector output along the track (Fig. 3.15)"),
-                 "closed_diff_v": column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
+                 "closed_diff_v": _dataset.column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
                                                                    "measured phasors through the detector law at the "
                                                                    "same points"),
-                 "theta_rad": column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
+                 "theta_rad": _dataset.column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
                                                              "at the ST, (-pi, pi]")},
                 description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
                             "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
@@ -987,32 +976,32 @@ BELOW_1_PERCENT = (
     "tag only 11.3 %; physical default 13.3 %. Not the detectability label, the antenna spacing or the pair coupling")
 
 
-def _analytic_grids(ds: Dataset) -> None:
+def _analytic_grids(ds: _dataset.Dataset) -> None:
     th = np.linspace(-np.pi, np.pi, 721)
     pairs = np.array([[0.4, 0.3], [0.2, 0.1], [0.9, 0.8], [0.05, 0.04]])
-    ds.add_grid("fig3_3", {"case": column(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
-                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
-                {"diff": column(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
-                                "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
-                 "a_t1": column(pairs[:, 0], "1", "A_T1 of the case, backscatter amplitude in the modulating "
+    ds.add_grid("fig3_3", {"case": _dataset.column(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
+                           "theta_rad": _dataset.column(th, "rad", "relative phase theta of backscatter and CW")},
+                {"diff": _dataset.column(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
+                                         "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
+                 "a_t1": _dataset.column(pairs[:, 0], "1", "A_T1 of the case, backscatter amplitude in the modulating "
                                                   "state relative to A_R", dims=("case",)),
-                 "a_t2": column(pairs[:, 1], "1", "A_T2 of the case, backscatter amplitude in the absorbing "
+                 "a_t2": _dataset.column(pairs[:, 1], "1", "A_T2 of the case, backscatter amplitude in the absorbing "
                                                   "state relative to A_R", dims=("case",))},
                 description="closed form of AURIS dissertation Fig. 3.3: ASK envelope difference vs relative phase")
     psi = np.array([np.pi, np.pi / 2, np.pi / 4, np.pi / 8])
-    ds.add_grid("fig3_5", {"psi_rad": column(psi, "rad", "phase separation psi of the two PSK states"),
-                           "theta_rad": column(th, "rad", "relative phase theta of backscatter and CW")},
-                {"diff": column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
-                                "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
+    ds.add_grid("fig3_5", {"psi_rad": _dataset.column(psi, "rad", "phase separation psi of the two PSK states"),
+                           "theta_rad": _dataset.column(th, "rad", "relative phase theta of backscatter and CW")},
+                {"diff": _dataset.column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
+                                         "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
                 description="closed form of AURIS dissertation Fig. 3.5: PSK envelope difference vs relative phase")
     m = sa.NullMapModel()
     x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
     y = np.linspace(0.0, 3.0, 301)  # y = 0 is safe: no x sample sits on the reader
-    ds.add_grid("fig3_8", {"y_m": column(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
-                           "x_m": column(x, "m", "x of the ST position (reader and tag at x = 0)")},
-                {"diff_v": column(m.envelope_difference(x[None, :], y[:, None]), "V",
-                                  "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
-                                  "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
+    ds.add_grid("fig3_8", {"y_m": _dataset.column(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
+                           "x_m": _dataset.column(x, "m", "x of the ST position (reader and tag at x = 0)")},
+                {"diff_v": _dataset.column(m.envelope_difference(x[None, :], y[:, None]), "V",
+                                           "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
+                                           "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
                 description="null map of AURIS dissertation Fig. 3.8: closed-form envelope difference over ST "
                             "positions in the plane")
 

@@ -43,18 +43,11 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, HalfWaveDipole, Isotropic, Patch, Scene
-from channels.bulk import draw_links
-from devices.reader import Reader, ReaderConfig, frequency_plan
-from devices.tag import PassiveTag, TagConfig
+from devices.reader_config import ReaderConfig, frequency_plan
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.engine import singulate
 from rfsim.errors import ConfigError
 from rfsim.lazy import lazy_import
-from rfsim.estimators.phase_tracking import (continuous_model, discrete_model, initial_state, rssi_fix,
-                                             track_phase, unwrap_limit_mps, unwrap_pseudoranges)
-from rfsim.gen2.commands import Query
 from rfsim.procs import map_in_order
 from rfsim.progress import stage
 from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, epc_hex, long_table, report_columns
@@ -62,6 +55,15 @@ from rfsim.rng import trial_rng
 from rfsim.units import wavelength_m
 
 _ndimage = lazy_import("scipy.ndimage")
+_antennas = lazy_import("channels.antennas")
+_scene = lazy_import("channels.scene")
+_bulk = lazy_import("channels.bulk")
+_reader = lazy_import("devices.reader")
+_tag = lazy_import("devices.tag")
+_rfsim_dataset = lazy_import("rfsim.dataset")
+_engine = lazy_import("rfsim.engine")
+_phase_tracking = lazy_import("rfsim.estimators.phase_tracking")
+_commands = lazy_import("rfsim.gen2.commands")
 
 NAME = "phase-tracking"
 DESCRIPTION = ("Särkkä's 890 MHz phase tracking: 4 corner antennas read a moving tag at sample level; "
@@ -141,15 +143,15 @@ class Config:
 # ----------------------------------------------------------------------------- geometry and motion
 
 
-def reader_antennas(g: GeometryConfig) -> list[Antenna]:
+def reader_antennas(g: GeometryConfig) -> list[_antennas.Antenna]:
     """The reader antennas at ``antennas_xy_m`` and ``height_m``, boresight towards the room centre."""
     cx, cy = 0.5 * g.room_m[0], 0.5 * g.room_m[1]
     out = []
     for x, y in g.antennas_xy_m:
-        pattern = Patch(g.antenna_gain_dbi, g.antenna_beamwidth_deg) if g.antenna_pattern == "patch" else Isotropic()
+        pattern = _antennas.Patch(g.antenna_gain_dbi, g.antenna_beamwidth_deg) if g.antenna_pattern == "patch" else _antennas.Isotropic()
         yaw = math.atan2(cy - y, cx - x) if (cx, cy) != (x, y) else 0.0
-        out.append(Antenna(position_m=(x, y, g.height_m), orientation=(yaw, 0.0, 0.0), pattern=pattern,
-                           polarization=g.antenna_polarization))
+        out.append(_antennas.Antenna(position_m=(x, y, g.height_m), orientation=(yaw, 0.0, 0.0), pattern=pattern,
+                                     polarization=g.antenna_polarization))
     return out
 
 
@@ -233,7 +235,7 @@ class RoundLinks:
     path, so no random draw). Monostatic and reciprocal: the backward link is the forward one.
     :meth:`hold` selects the round; a link asked of another antenna pair is an error."""
 
-    def __init__(self, scene: Scene, antennas, tag_antenna: Antenna, antenna_of_round: np.ndarray,
+    def __init__(self, scene: _scene.Scene, antennas, tag_antenna: _antennas.Antenna, antenna_of_round: np.ndarray,
                  tag_xyz_m: np.ndarray, *, fc_hz: float):
         self.fc_hz = float(fc_hz)
         self.antennas, self.antenna_of_round = antennas, antenna_of_round
@@ -242,17 +244,17 @@ class RoundLinks:
             rows = np.flatnonzero(antenna_of_round == i)
             if rows.size == 0:
                 continue
-            bulk = draw_links(scene, ant.position_m, tag_xyz_m[rows], fc_hz=self.fc_hz, rng=np.random.default_rng(0),
-                              tx_antenna=ant, rx_antenna=tag_antenna)
+            bulk = _bulk.draw_links(scene, ant.position_m, tag_xyz_m[rows], fc_hz=self.fc_hz, rng=np.random.default_rng(0),
+                                    tx_antenna=ant, rx_antenna=tag_antenna)
             for k, j in enumerate(rows):
                 self._paths[j] = bulk.pathset(k)
         self._held = None
 
-    def hold(self, j: int, tag: Antenna) -> None:
+    def hold(self, j: int, tag: _antennas.Antenna) -> None:
         """Round ``j`` (0-based within the chunk), its tag antenna ``tag``."""
         self._held = (j, tag)
 
-    def backscatter_links(self, emitter: Antenna, tag: Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
+    def backscatter_links(self, emitter: _antennas.Antenna, tag: _antennas.Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
                           tag_motion=None):
         j, held_tag = self._held
         if tag is not held_tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
@@ -268,16 +270,16 @@ def _simulate_chunk(task) -> dict[str, np.ndarray]:
     g, sch = config.geometry, config.schedule
     motion = TagMotion(config.trajectory, rng=trial_rng(seed, 0))
     antennas = reader_antennas(g)
-    reader = Reader(config.reader, antennas, rng=trial_rng(seed, 1 + c, 0))
-    tag_antenna = Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, math.radians(g.tag_tilt_deg), 0.0),
-                          pattern=HalfWaveDipole(), polarization="linear")
+    reader = _reader.Reader(config.reader, antennas, rng=trial_rng(seed, 1 + c, 0))
+    tag_antenna = _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, math.radians(g.tag_tilt_deg), 0.0),
+                                    pattern=_antennas.HalfWaveDipole(), polarization="linear")
     t_round = np.arange(r_lo, r_hi) * sch.read_period_s
     truth, intended = motion.true(t_round), motion.intended(t_round)
-    tag = PassiveTag(config.tag, tag_antenna, rng=trial_rng(seed, 1 + c, 1), t0_s=float(t_round[0]))
+    tag = _tag.PassiveTag(config.tag, tag_antenna, rng=trial_rng(seed, 1 + c, 1), t0_s=float(t_round[0]))
     rounds = np.arange(r_lo, r_hi)
     antenna_of_round = np.array([reader.antenna_index(r) for r in rounds])
     tag_xyz = np.column_stack([truth, np.full(rounds.size, g.height_m)])
-    channel = RoundLinks(Scene(image_order=0), antennas, tag_antenna, antenna_of_round, tag_xyz,
+    channel = RoundLinks(_scene.Scene(image_order=0), antennas, tag_antenna, antenna_of_round, tag_xyz,
                          fc_hz=carrier_hz(config.reader))
     link = reader.link
     rows: dict[str, list] = {k: [] for k in ("time_s", "antenna", "channel_index", "frequency_hz", "rssi_dbm",
@@ -288,8 +290,8 @@ def _simulate_chunk(task) -> dict[str, np.ndarray]:
         t_s = float(t_round[j])
         tag.antenna = dataclasses.replace(tag_antenna, position_m=(truth[j, 0], truth[j, 1], g.height_m))
         channel.hold(j, tag.antenna)
-        query = Query(dr=link.dr, m=link.m, trext=link.trext, q=0, target="AB"[target])
-        ex = singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, 1 + c, 2, r), query=query, round_index=r)
+        query = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, q=0, target="AB"[target])
+        ex = _engine.singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, 1 + c, 2, r), query=query, round_index=r)
         last = ex[-1]
         ok = last.command == "ACK" and last.success
         target ^= int(ok)
@@ -351,7 +353,7 @@ def _cycle_first_fix(antenna0: np.ndarray, rssi: np.ndarray, anchors: np.ndarray
             raise ConfigError("geometry.antennas_xy_m", f"antenna {i + 1} reported no read",
                               "antennas that can read the tag (check range, power and pattern)")
         first[i] = rssi[idx[0]]
-    return rssi_fix(first, anchors)[0]
+    return _phase_tracking.rssi_fix(first, anchors)[0]
 
 
 def _latest_rssi(antenna0: np.ndarray, rssi: np.ndarray, n_antennas: int) -> np.ndarray:
@@ -371,7 +373,7 @@ def _stats(err: np.ndarray) -> dict[str, float]:
             "p90_m": float(np.quantile(e, 0.9)), "max_m": float(e.max()), "std_m": float(e.std())}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
     check_geometry(config)
     carrier_hz(config.reader)
     g, tr, sch, est = config.geometry, config.trajectory, config.schedule, config.estimator
@@ -384,7 +386,7 @@ def run(config: Config, *, seed: int) -> Dataset:
 
     # the unwrapping limit of the true motion (warn and flag, do not stop)
     dt_antenna = s * sch.read_period_s
-    limit = float(unwrap_limit_mps(lam, dt_antenna))
+    limit = float(_phase_tracking.unwrap_limit_mps(lam, dt_antenna))
     motion = TagMotion(tr, rng=trial_rng(seed, 0))
     t_fine = np.arange(0.0, tr.duration_s, 1e-3)
     p_fine = motion.true(t_fine)
@@ -424,17 +426,17 @@ def run(config: Config, *, seed: int) -> Dataset:
     intended = np.column_stack([reads["intended_x_m"], reads["intended_y_m"]])
     p0 = _cycle_first_fix(ant0, rssi, anchors)
     r0 = np.linalg.norm(p0 - anchors, axis=1)
-    z = unwrap_pseudoranges(ant0, phase, wavelength_m=lam, r0_m=r0)
+    z = _phase_tracking.unwrap_pseudoranges(ant0, phase, wavelength_m=lam, r0_m=r0)
     true_range = np.linalg.norm(truth - anchors[ant0], axis=1)
     offset = z - true_range
     jump = np.zeros(t.size, dtype=bool)
     for i in range(s):
         idx = np.flatnonzero((ant0 == i) & np.isfinite(z))
         jump[idx[1:]] = np.abs(np.diff(offset[idx])) > lam / 4
-    x0, P0 = initial_state(p0, s, pos_std_m=est.pos_std_m, bias_std_m=est.bias_std_m, vel_std_mps=est.vel_std_mps)
-    passes = track_phase(t, ant0, z, anchors, x0, P0, q_v=est.q_v, q_b=est.q_b, sigma_m=est.sigma_m,
-                         passes=est.passes, keep_covariances=False)
-    rssi_track, _ = rssi_fix(_latest_rssi(ant0, rssi, s), anchors)
+    x0, P0 = _phase_tracking.initial_state(p0, s, pos_std_m=est.pos_std_m, bias_std_m=est.bias_std_m, vel_std_mps=est.vel_std_mps)
+    passes = _phase_tracking.track_phase(t, ant0, z, anchors, x0, P0, q_v=est.q_v, q_b=est.q_b, sigma_m=est.sigma_m,
+                                         passes=est.passes, keep_covariances=False)
+    rssi_track, _ = _phase_tracking.rssi_fix(_latest_rssi(ant0, rssi, s), anchors)
     rssi_track[~np.all(np.isfinite(_latest_rssi(ant0, rssi, s)), axis=1)] = np.nan
 
     estimates = {"t_s": t, "antenna": reads["antenna"], "x_m": truth[:, 0], "y_m": truth[:, 1],
@@ -462,21 +464,21 @@ def run(config: Config, *, seed: int) -> Dataset:
 
 
 def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, anchors, lam, limit, v_radial,
-             exceeded, p0, busy) -> Dataset:
+             exceeded, p0, busy) -> _rfsim_dataset.Dataset:
     est, sch = config.estimator, config.schedule
     s = anchors.shape[0]
-    ds = Dataset(title="Särkkä 890 MHz phase tracking: sample-level reads, pseudo-ranges, EKF/RTS tracks")
-    ds.add_table("reads", {k: column(reads[k], *READ_FIELDS[k]) for k in READ_FIELDS},
+    ds = _rfsim_dataset.Dataset(title="Särkkä 890 MHz phase tracking: sample-level reads, pseudo-ranges, EKF/RTS tracks")
+    ds.add_table("reads", {k: _rfsim_dataset.column(reads[k], *READ_FIELDS[k]) for k in READ_FIELDS},
                  description="one row per read round (Query, RN16, ACK, EPC) in the long per-read format, sorted "
                              "by time stamp: the reader's measurements and report, and the true tag position")
     ds.add_table("pseudoranges", {
-        "t_s": column(reads["t_s"], *READ_FIELDS["t_s"]),
-        "antenna": column(reads["antenna"], *READ_FIELDS["antenna"]),
-        "pseudorange_m": column(z, "m", "unwrapped pseudo-range r̂ of eq. (4)-(5) from the reported phase "
+        "t_s": _rfsim_dataset.column(reads["t_s"], *READ_FIELDS["t_s"]),
+        "antenna": _rfsim_dataset.column(reads["antenna"], *READ_FIELDS["antenna"]),
+        "pseudorange_m": _rfsim_dataset.column(z, "m", "unwrapped pseudo-range r̂ of eq. (4)-(5) from the reported phase "
                                         "(NaN for a failed read)"),
-        "true_range_m": column(true_range, "m", "true distance from the antenna to the tag"),
-        "offset_m": column(offset, "m", "pseudo-range minus true range: the constant bias b_i of eq. (6) plus noise"),
-        "jump": column(jump, "1", "the offset changed by more than λ/4 since this antenna's previous read "
+        "true_range_m": _rfsim_dataset.column(true_range, "m", "true distance from the antenna to the tag"),
+        "offset_m": _rfsim_dataset.column(offset, "m", "pseudo-range minus true range: the constant bias b_i of eq. (6) plus noise"),
+        "jump": _rfsim_dataset.column(jump, "1", "the offset changed by more than λ/4 since this antenna's previous read "
                                   "(an unwrapping jump of λ/2)"),
     }, description="one row per read: the unwrapped pseudo-range of eq. (4)-(5) beside the true range")
     desc = {"t_s": ("s", "time of the read"), "antenna": READ_FIELDS["antenna"], "x_m": READ_FIELDS["x_m"],
@@ -489,7 +491,7 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
             name, axis = k.split("_")[:2]
             kind = "EKF (filtered, eq. 16-17)" if name.startswith("ekf") else "RTS (smoothed, eq. 19)"
             desc[k] = ("m", f"{kind} position {axis} at the read, pass {name[3:]}")
-    ds.add_table("estimates", {k: column(v, *desc[k]) for k, v in estimates.items()},
+    ds.add_table("estimates", {k: _rfsim_dataset.column(v, *desc[k]) for k, v in estimates.items()},
                  description="one row per read: the tracks of every estimator and pass beside the true and intended path")
     sdesc = {"estimator": ("", "estimator: EKF (eq. 16-17), RTS (eq. 19) or RSSI eq. 13 (point-wise)"),
              "pass": ("1", "filter + smoother pass (1 = from the RSSI fix; k+1 starts from pass k's smoothed state; "
@@ -502,10 +504,10 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
              "max_m": ("m", "largest position error against the intended path"),
              "std_m": ("m", "standard deviation of the position error against the intended path"),
              "published_rmse_m": ("m", "RMSE of experiment 1 in Särkkä et al. 2012 (L203-L207; NaN where none is given)")}
-    ds.add_table("summary", {k: column(np.asarray(v), *sdesc[k]) for k, v in summary.items()},
+    ds.add_table("summary", {k: _rfsim_dataset.column(np.asarray(v), *sdesc[k]) for k, v in summary.items()},
                  description="one row per estimator and pass: position error statistics beside the published RMSE")
-    F, L, Qc = continuous_model(2, s, q_v=est.q_v, q_b=est.q_b)
-    A, W = discrete_model(sch.read_period_s, 2, s, q_v=est.q_v, q_b=est.q_b)
+    F, L, Qc = _phase_tracking.continuous_model(2, s, q_v=est.q_v, q_b=est.q_b)
+    A, W = _phase_tracking.discrete_model(sch.read_period_s, 2, s, q_v=est.q_v, q_b=est.q_b)
     reported = reads["reported"].astype(bool)
     rmse = {(n, k): r for n, k, r in zip(summary["estimator"], summary["pass"], summary["rmse_m"])}
     last = est.passes

@@ -104,19 +104,10 @@ from pathlib import Path
 
 import numpy as np
 
-from channels import Antenna, ApdpModel, Channel, HalfWaveDipole, HeldLinks, Patch, Scene, Surface
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
+from devices.reader_config import ReaderConfig
+from devices.tag_config import TagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.detection import PUBLISHED_READER_MODEL, fit_reader_mle, fit_reader_moments
-from rfsim.detection.fit import DA_PARAMETER_NAMES
 from rfsim.errors import ConfigError, UserError
-from rfsim.gen2.commands import Query
-from rfsim.air import FixedEmitter
-from rfsim.batch import AirStep, propagate_batch
-from rfsim.engine import ReaderPort
-from rfsim.gen2.link import reply_window_s
 from rfsim.progress import stage
 from rfsim.rng import trial_rng
 from rfsim.plots import figure_path, pyplot, save_figure
@@ -125,6 +116,20 @@ from rfsim.procs import map_in_order
 from rfsim.lazy import lazy_import
 
 _special = lazy_import("scipy.special")
+_antennas = lazy_import("channels.antennas")
+_small_scale = lazy_import("channels.small_scale")
+_scene = lazy_import("channels.scene")
+_surfaces = lazy_import("channels.surfaces")
+_reader = lazy_import("devices.reader")
+_tag = lazy_import("devices.tag")
+_dataset = lazy_import("rfsim.dataset")
+_detection = lazy_import("rfsim.detection")
+_fit = lazy_import("rfsim.detection.fit")
+_commands = lazy_import("rfsim.gen2.commands")
+_air = lazy_import("rfsim.air")
+_batch = lazy_import("rfsim.batch")
+_engine = lazy_import("rfsim.engine")
+_link = lazy_import("rfsim.gen2.link")
 
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
@@ -244,12 +249,12 @@ class Config:
 # ----------------------------------------------------------------------------- one trial
 
 
-def scene(rooms: RoomsConfig, room: int) -> Scene:
+def scene(rooms: RoomsConfig, room: int) -> _scene.Scene:
     """Room ``room`` (0 or 1): floor and APDP curves (module docstring)."""
-    apdp = ApdpModel(k_a_db=rooms.k_a_db[room], k_b=rooms.k_b[room], k_c_db=rooms.k_c_db[room],
-                     tau_max_s=rooms.tau_max_s[room], tau_b=rooms.tau_b[room])
-    surfaces = (Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if rooms.floor else ()
-    return Scene(surfaces=surfaces, apdp=apdp, image_order=1)
+    apdp = _small_scale.ApdpModel(k_a_db=rooms.k_a_db[room], k_b=rooms.k_b[room], k_c_db=rooms.k_c_db[room],
+                                  tau_max_s=rooms.tau_max_s[room], tau_b=rooms.tau_b[room])
+    surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if rooms.floor else ()
+    return _scene.Scene(surfaces=surfaces, apdp=apdp, image_order=1)
 
 
 def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int) -> dict:
@@ -259,17 +264,17 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     d, theta = dists[i_d], angles[i_a]
     key = (room, i_d, i_a, rep)
     jitter = trial_rng(seed, *key, 0).uniform(-c.jitter_m, c.jitter_m, 3)
-    ant = Antenna(position_m=(0.0, 0.0, h), orientation=(math.radians(theta), 0.0, 0.0),
-                  pattern=Patch(config.geometry.reader_gain_dbic, config.geometry.reader_beamwidth_deg),
-                  polarization="circular")
+    ant = _antennas.Antenna(position_m=(0.0, 0.0, h), orientation=(math.radians(theta), 0.0, 0.0),
+                            pattern=_antennas.Patch(config.geometry.reader_gain_dbic, config.geometry.reader_beamwidth_deg),
+                            polarization="circular")
     tag_pos = np.array([d, 0.0, h]) + jitter
-    tag_ant = Antenna(position_m=tag_pos, orientation=(math.atan2(-tag_pos[1], -tag_pos[0]), 0.0, 0.0),
-                      pattern=HalfWaveDipole(), polarization="linear")
-    reader = Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
+    tag_ant = _antennas.Antenna(position_m=tag_pos, orientation=(math.atan2(-tag_pos[1], -tag_pos[0]), 0.0, 0.0),
+                                pattern=_antennas.HalfWaveDipole(), polarization="linear")
+    reader = _reader.Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
     tag_cfg = replace(config.tag, sensitivity_dbm=TAG_CLASS_SENSITIVITY_DBM[c.tag_class])
-    tag = PassiveTag(tag_cfg, tag_ant, rng=trial_rng(seed, *key, 2))
+    tag = _tag.PassiveTag(tag_cfg, tag_ant, rng=trial_rng(seed, *key, 2))
     lk = reader.link
-    q = Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
+    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     # the round: N queries evenly over U(round_s) s from a random instant of the hop dwell
     trng = trial_rng(seed, *key, 5)
     t_round = trng.uniform(*c.round_s)
@@ -277,7 +282,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     times = t_start + t_round * np.arange(c.queries) / c.queries
     h = rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
     crng = trial_rng(seed, *key, 3)
-    chan = Channel(scene(config.rooms, room))
+    chan = _scene.Channel(scene(config.rooms, room))
     drawn: dict = {}  # one link draw per hop channel of the round (held within the dwell)
     nrng = trial_rng(seed, *key, 4)
     channels = set()
@@ -287,15 +292,15 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
         # channel times the moving-scatterer gain h_q, both ways (reciprocal); one air step
         # (reader port: leakage, backscatter, receiver noise from nrng every query)
         t_j = float(times[j])
-        seg = reader.transmit(q, t0_s=t_j, cw_after_s=reply_window_s(lk, 16))
+        seg = reader.transmit(q, t0_s=t_j, cw_after_s=_link.reply_window_s(lk, 16))
         channels.add(seg.channel_index)
         if seg.fc_hz not in drawn:
             drawn[seg.fc_hz] = chan.backscatter_links(ant, tag_ant, fc_hz=seg.fc_hz, rng=crng)
         fwd, bwd = drawn[seg.fc_hz]
-        links = HeldLinks([(ant, tag_ant, replace(fwd, gain=fwd.gain * h[j])),
+        links = _scene.HeldLinks([(ant, tag_ant, replace(fwd, gain=fwd.gain * h[j])),
                            (tag_ant, ant, replace(bwd, gain=bwd.gain * h[j]))])
-        port = ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
-        return seg, AirStep([FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j,
+        port = _engine.ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
+        return seg, _batch.AirStep([_air.FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j,
                             fs_hz=seg.fs_hz, n_samples=seg.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz,
                             decide=False)
 
@@ -305,7 +310,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     p_inc = -np.inf
     for j0 in range(0, c.queries, QUERY_BLOCK):
         txs, steps = zip(*[query_step(j) for j in range(j0, min(c.queries, j0 + QUERY_BLOCK))])
-        for step, air in zip(steps, propagate_batch(steps)):
+        for step, air in zip(steps, _batch.propagate_batch(steps)):
             resp = air.reflections[0]
             p_inc = max(p_inc, float(resp.incident_power_dbm))
             n_powered += bool(resp.powered)
@@ -371,17 +376,17 @@ def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     matrix not positive definite) when p̂ is almost always 0 or 1: the variance is then
     clipped at κ·μ(1 − μ) in most cells and the likelihood is flat along the c's."""
     d, th, n, nq = trials["distance_m"], trials["theta_deg"], trials["n_reads"], trials["n_queries"]
-    rows = [("published", PUBLISHED_READER_MODEL, None)]
+    rows = [("published", _detection.PUBLISHED_READER_MODEL, None)]
     errors = []
     try:
-        mom = fit_reader_moments(d, th, n, nq)
+        mom = _detection.fit_reader_moments(d, th, n, nq)
         rows.append(("moments", mom.model, mom))
     except (UserError, np.linalg.LinAlgError, ValueError) as exc:
         mom = None
         rows.append(("moments", None, None))
         errors.append(f"moments: {exc}")
     try:
-        mle = fit_reader_mle(d, th, n, nq, start=mom.model if mom is not None else None)
+        mle = _detection.fit_reader_mle(d, th, n, nq, start=mom.model if mom is not None else None)
         rows.append(("mle", mle.model, mle))
     except (UserError, np.linalg.LinAlgError, ValueError) as exc:
         rows.append(("mle", None, None))
@@ -389,7 +394,7 @@ def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     from rfsim.detection.fit import log_likelihood_reader  # Eq. 4.11 log-likelihood of a model
 
     out: dict[str, list] = {"method": [], "stderr_basis": []}
-    for name in DA_PARAMETER_NAMES:
+    for name in _fit.DA_PARAMETER_NAMES:
         out[name], out["se_" + name] = [], []
     for a in D50_ANGLES_DEG:
         out[f"d50_{int(a)}deg_m"] = []
@@ -405,7 +410,7 @@ def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         est = (fit.estimates if fit is not None else
                np.array([*model.mean_coefficients, *model.variance_coefficients, model.dead_zone_mean]))
         se = fit.stderr if fit is not None else np.full(9, np.nan)
-        for i, name in enumerate(DA_PARAMETER_NAMES):
+        for i, name in enumerate(_fit.DA_PARAMETER_NAMES):
             out[name].append(float(est[i]))
             out["se_" + name].append(float(se[i]))
         for a in D50_ANGLES_DEG:
@@ -431,20 +436,20 @@ def cell_moments(trials: dict[str, np.ndarray], dists, angles) -> dict[str, np.n
     return {"p_mean": mean, "p_var": var}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     dists, angles, reps = config.campaign.grid
     trials = simulate(config, seed=seed)
-    ds = Dataset(title="reader detection campaign A replica (Geng dissertation Ch. 4 DA model)")
-    ds.add_table("trials", {k: column(v, *FIELDS[k]) for k, v in trials.items()},
+    ds = _dataset.Dataset(title="reader detection campaign A replica (Geng dissertation Ch. 4 DA model)")
+    ds.add_table("trials", {k: _dataset.column(v, *FIELDS[k]) for k, v in trials.items()},
                  description="one row per trial: a (room, distance, angle, repetition) cell queried N times with "
                              "the channel held; reads counted (Geng dissertation campaign A)")
     cm = cell_moments(trials, dists, angles)
-    ds.add_grid("cells", {"room": column(np.arange(2), "1", "room (channel parameter set): 0 lab, 1 cluttered"),
-                          "distance_m": column(np.asarray(dists, float), "m", "nominal antenna-tag distance d"),
-                          "theta_deg": column(np.asarray(angles, float), "deg",
-                                              "tag angle off the antenna boresight (antenna rotated)")},
-                {"p_mean": column(cm["p_mean"], "1", "mean over the cell's repetitions of p_hat = n_reads / n_queries"),
-                 "p_var": column(cm["p_var"], "1", "variance (ddof 1) over the cell's repetitions of p_hat")},
+    ds.add_grid("cells", {"room": _dataset.column(np.arange(2), "1", "room (channel parameter set): 0 lab, 1 cluttered"),
+                          "distance_m": _dataset.column(np.asarray(dists, float), "m", "nominal antenna-tag distance d"),
+                          "theta_deg": _dataset.column(np.asarray(angles, float), "deg",
+                                                       "tag angle off the antenna boresight (antenna rotated)")},
+                {"p_mean": _dataset.column(cm["p_mean"], "1", "mean over the cell's repetitions of p_hat = n_reads / n_queries"),
+                 "p_var": _dataset.column(cm["p_var"], "1", "variance (ddof 1) over the cell's repetitions of p_hat")},
                 description="per-cell moments of the detection probability over repetitions, per room")
     ds.attrs["outcome"] = "reader decoded the tag's RN16 exactly (no ACK/EPC exchange)"
     ds.attrs["n_trials"] = int(trials["room"].size)
@@ -453,12 +458,12 @@ def run(config: Config, *, seed: int) -> Dataset:
         stage("fitting the DA model (moments and maximum likelihood)")
         f = fit_trials(trials)
         ds.attrs["fit_errors"] = f.pop("errors")
-        cols = {"method": column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "
+        cols = {"method": _dataset.column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "
                                                   "moments, the source's method) or mle (Eq. 4.11)")}
-        cols["stderr_basis"] = column(f["stderr_basis"], "", "how the standard errors were obtained: 'full' inverse "
-                                      "information, 'mean block' (ML maximum on the edge of the feasible region: "
-                                      "a1-a3 only, conditional on the variance and dead-zone estimates), 'least "
-                                      "squares' (moments), 'none' (published)")
+        cols["stderr_basis"] = _dataset.column(f["stderr_basis"], "", "how the standard errors were obtained: 'full' inverse "
+                                               "information, 'mean block' (ML maximum on the edge of the feasible region: "
+                                               "a1-a3 only, conditional on the variance and dead-zone estimates), 'least "
+                                               "squares' (moments), 'none' (published)")
         for k, v in f.items():
             if k in ("method", "stderr_basis"):
                 continue
@@ -470,7 +475,7 @@ def run(config: Config, *, seed: int) -> Dataset:
                     "distance where E[p] = 1/2" if k.startswith("d50") else
                     "log-likelihood of Eq. 4.11 on the trials" if k == "log_likelihood" else
                     f"DA model parameter {k} (mean 1/(1+exp(a1+a2 d+a3|theta|)), variance c1+c2 d+c3 d^2+c4|theta|+c5 theta^2, dead-zone mean lambda)")
-            cols[k] = column(v, "nat" if k == "log_likelihood" else unit, text)
+            cols[k] = _dataset.column(v, "nat" if k == "log_likelihood" else unit, text)
         ds.add_table("fits", cols, description="one row per method (published, moments, mle): parameters of the "
                                                "DA model with standard errors, log-likelihood and d50")
         for i, m in enumerate(f["method"]):

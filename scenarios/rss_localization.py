@@ -53,20 +53,22 @@ from typing import Literal
 
 import numpy as np
 
-from channels.large_scale import Wall
-from channels.rss import ReaderLink, RssChannel, people_term_db, quasi_static_shadowing_db
 from devices.rss_reader import RssReport
 from rfsim.config import check_fields, param
-from rfsim.dataset import Dataset
 from rfsim.errors import ConfigError
-from rfsim.estimators import fit_log_distance, log_distance_crlb
 from rfsim.progress import track
 from rfsim.rng import trial_rng
-from scenarios import _rss_estimate as est
-from scenarios._rss_figures import plot_all
 from scenarios._rss_waveform import WaveformConfig, sample_level_reports
-from scenarios._rss_plans import (PUBLISHED_HOME, RECURSIONS, FloorPlan, home_plan, published,
-                                  simulation_plan)
+from rfsim.lazy import lazy_import
+
+_large_scale = lazy_import("channels.large_scale")
+_rss = lazy_import("channels.rss")
+_dataset = lazy_import("rfsim.dataset")
+_calibration = lazy_import("rfsim.estimators.calibration")
+_bounds = lazy_import("rfsim.estimators.bounds")
+est = lazy_import("scenarios._rss_estimate")
+_rss_figures = lazy_import("scenarios._rss_figures")
+_rss_plans = lazy_import("scenarios._rss_plans")
 
 NAME = "rss-localization"
 DESCRIPTION = ("active-RFID RSSI localization (Özkaya): log-distance RSS datasets, kNN, grid Bayes, "
@@ -133,17 +135,17 @@ class Config:
 # --------------------------------------------------------------------------- geometry
 
 
-def floor_plan(config: Config) -> FloorPlan:
+def floor_plan(config: Config) -> _rss_plans.FloorPlan:
     """The preset's plan with the reader/wall overrides, validated (one-line errors).
 
     Overridden readers keep the preset's per-reader (α, n, σ) when their number is unchanged;
     otherwise every reader takes the first reader's parameters.
     """
     if config.preset == "home-2room":
-        plan = home_plan()
+        plan = _rss_plans.home_plan()
     else:
         w, l = (5.0, 8.0) if config.preset == "sim-5x8" else (10.0, 16.0)
-        plan = simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
+        plan = _rss_plans.simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
     xmin, ymin, xmax, ymax = plan.bounds
     readers = plan.readers_xy if config.readers_xy is None else config.readers_xy
     if len(readers) == 0:
@@ -159,17 +161,17 @@ def floor_plan(config: Config) -> FloorPlan:
     params = plan.reader_params
     if len(readers) != len(params):
         params = (params[0],) * len(readers)
-    return FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
-                     plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
-                     plan.reader_height_m, plan.tag_height_m)
+    return _rss_plans.FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
+                                plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
+                                plan.reader_height_m, plan.tag_height_m)
 
 
-def rss_channel(plan: FloorPlan, waf_db: float, sigma_db=None) -> RssChannel:
+def rss_channel(plan: _rss_plans.FloorPlan, waf_db: float, sigma_db=None) -> _rss.RssChannel:
     """The per-reader log-distance channel of ``plan`` (σ_j replaced by ``sigma_db`` if given)."""
-    readers = [ReaderLink((x, y, plan.reader_height_m), a, n, s if sigma_db is None else sigma_db)
+    readers = [_rss.ReaderLink((x, y, plan.reader_height_m), a, n, s if sigma_db is None else sigma_db)
                for (x, y), (a, n, s) in zip(plan.readers_xy, plan.reader_params)]
-    walls = [Wall.segment_2d((x0, y0), (x1, y1), waf_db) for x0, y0, x1, y1 in plan.walls_xy]
-    return RssChannel(readers, walls)
+    walls = [_large_scale.Wall.segment_2d((x0, y0), (x1, y1), waf_db) for x0, y0, x1, y1 in plan.walls_xy]
+    return _rss.RssChannel(readers, walls)
 
 
 def _xyz(xy: np.ndarray, z: float) -> np.ndarray:
@@ -235,7 +237,7 @@ class CaseData:
     beacon_t_s: np.ndarray | None = None
 
 
-def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: int, motion: str,
+def simulate_case(config: Config, plan: _rss_plans.FloorPlan, channel: _rss.RssChannel, case: int, motion: str,
                   n_steps: int, seed: int) -> CaseData:
     """Draw every trial's track and beacons for one case (per-trial streams)."""
     dec, frac = _shadowing(config)
@@ -255,15 +257,15 @@ def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: in
                      else random_walk(start, n_steps, config.step_std_m, plan.bounds, rng=rng))
         fp = _fingerprint_points(plan, rng) if _home(config) else np.zeros((0, 2))
         pts = _xyz(np.concatenate([track, ref, fp]), plan.tag_height_m)
-        x = quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec,
-                                      shared=config.shadowing.readers == "shared")
+        x = _rss.quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec,
+                                           shared=config.shadowing.readers == "shared")
         sp = np.sqrt(1.0 - frac) * sig
         kw = dict(rng=rng, correlation=config.shadowing.people_correlation)
         tracks.append(track)
         shadow_t.append(x[:n_steps])
         shadow_r.append(x[n_steps:n_steps + n_ref])
-        people_t.append(people_term_db(n_steps, n_read, 1.0, **kw) * sp)
-        people_r.append(people_term_db(n_steps, n_read * n_ref, 1.0, **kw).reshape(n_steps, n_ref, n_read) * sp)
+        people_t.append(_rss.people_term_db(n_steps, n_read, 1.0, **kw) * sp)
+        people_r.append(_rss.people_term_db(n_steps, n_read * n_ref, 1.0, **kw).reshape(n_steps, n_ref, n_read) * sp)
         if fp.size:
             fp_rss = channel.mean_rss_dbm(pts[n_steps + n_ref:]) + x[n_steps + n_ref:]
             fp_rss = fp_rss + rng.standard_normal(fp_rss.shape) * sp
@@ -281,12 +283,12 @@ def simulate_case(config: Config, plan: FloorPlan, channel: RssChannel, case: in
 FINGERPRINTS_PER_CELL = 40
 
 
-def _fingerprint_points(plan: FloorPlan, rng) -> np.ndarray:
+def _fingerprint_points(plan: _rss_plans.FloorPlan, rng) -> np.ndarray:
     jitter = rng.uniform(-0.1, 0.1, size=(plan.cells_xy.shape[0], FINGERPRINTS_PER_CELL, 2))
     return (plan.cells_xy[:, None, :] + jitter).reshape(-1, 2)
 
 
-def n_tracks(config: Config, plan: FloorPlan, motion: str) -> int:
+def n_tracks(config: Config, plan: _rss_plans.FloorPlan, motion: str) -> int:
     """Tracks of a case: ``trials`` (simulation) or ``trials`` × 25 (home: the 25 fixed points, or
     25 walks alternating between the two room paths)."""
     if not _home(config):
@@ -294,14 +296,14 @@ def n_tracks(config: Config, plan: FloorPlan, motion: str) -> int:
     return (config.trials if config.trials is not None else 4) * plan.fixed_points_xy.shape[0]
 
 
-def _home_track(plan: FloorPlan, motion: str, trial: int, n_steps: int) -> np.ndarray:
+def _home_track(plan: _rss_plans.FloorPlan, motion: str, trial: int, n_steps: int) -> np.ndarray:
     if motion == "fixed":
         p = plan.fixed_points_xy[trial % plan.fixed_points_xy.shape[0]]
         return np.repeat(p[None], n_steps, axis=0)
     return plan.mobile_paths_xy[trial % len(plan.mobile_paths_xy)]
 
 
-def offline_campaign(channel: RssChannel, waf_db: float, *, rng) -> list[dict]:
+def offline_campaign(channel: _rss.RssChannel, waf_db: float, *, rng) -> list[dict]:
     """The offline calibration of Sec. 6.1 (L988–L1011) on the simulated channel.
 
     Per reader: 4 locations × 100 reads (8 orientations, people moving: every read an
@@ -314,7 +316,7 @@ def offline_campaign(channel: RssChannel, waf_db: float, *, rng) -> list[dict]:
     for j, r in enumerate(channel.readers):
         mean = r.alpha_dbm - 10.0 * r.exponent * np.log10(d)
         rss = mean + rng.normal(0.0, r.sigma_db, size=d.size)
-        fit = fit_log_distance(rss, d)
+        fit = _calibration.fit_log_distance(rss, d)
         wall = r.alpha_dbm - 10.0 * r.exponent * np.log10(3.0) - waf_db + rng.normal(0.0, r.sigma_db, 400)
         waf = float(np.mean(rss[d == 3.0]) - np.mean(wall))
         rows.append(dict(reader=j + 1, alpha_dbm=float(fit.alpha_dbm), exponent=float(fit.exponent),
@@ -331,7 +333,7 @@ def _recursions(config: Config, family: str, sigma0: float) -> int:
         return config.recursions
     if _home(config):
         return config.home_steps
-    return RECURSIONS[family].get(round(sigma0, 3), 10)
+    return _rss_plans.RECURSIONS[family].get(round(sigma0, 3), 10)
 
 
 def _scored(motion: str, n_rt: int, n_steps: int) -> np.ndarray:
@@ -349,7 +351,7 @@ def _cases(config: Config) -> list[tuple[float, str]]:
     return [(s, m) for s in config.sigma0_db for m in config.motions]
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     plan = floor_plan(config)
     home = _home(config)
     tables = est.Tables()
@@ -379,16 +381,16 @@ def run(config: Config, *, seed: int) -> Dataset:
                                               rng=rng)
             scored = {name: _scored(motion, rt[name.split("-")[0]], n_steps) for name in results}
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
-        crlb = log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
-                                 np.maximum(channel.sigma_db, 1e-3))
+        crlb = _bounds.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
+                                         np.maximum(channel.sigma_db, 1e-3))
         tables.add_case(case, sigma0, motion, data, results, scored, crlb,
                         beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
                         reference_xy=plan.reference_xy)
         for name in results:
-            pub = (PUBLISHED_HOME.get((name, motion)),) if home else published(
+            pub = (_rss_plans.PUBLISHED_HOME.get((name, motion)),) if home else _rss_plans.published(
                 plan.name, len(plan.readers_xy), name, motion, sigma0)
             tables.add_summary(case, name, sigma0, motion, pub)
-    ds = Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
+    ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
     tables.write(ds, offline)
     ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float),
                     walls_xy=np.asarray(plan.walls_xy, float).reshape(-1, 4),
@@ -405,4 +407,4 @@ def run(config: Config, *, seed: int) -> Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Floor plan with tracks, error CDF per estimator, RMSE vs σ0 beside the thesis."""
-    return plot_all(dataset_path, out_dir)
+    return _rss_figures.plot_all(dataset_path, out_dir)

@@ -82,17 +82,19 @@ from typing import Literal
 import numpy as np
 
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.detection import RTS_COEFFICIENTS
 from rfsim.errors import ConfigError
-from rfsim.estimators.landmark_pf import bias_compensate, pf_aa, pf_bin, wcl_track
 from rfsim.procs import map_in_order
 from rfsim.rng import trial_rng
 from scenarios import _st_paths as paths
-from scenarios._exciter_scene import concat
-from scenarios._st_figures import plot_all
 from scenarios._st_sample_level import SampleLevelConfig, listen_track
-from devices.sense_a_tag import SenseATagConfig
+from devices.sense_a_tag_config import SenseATagConfig
+from rfsim.lazy import lazy_import
+
+_dataset = lazy_import("rfsim.dataset")
+_detection = lazy_import("rfsim.detection")
+_landmark_pf = lazy_import("rfsim.estimators.landmark_pf")
+_exciter_scene = lazy_import("scenarios._exciter_scene")
+_st_figures = lazy_import("scenarios._st_figures")
 
 NAME = "st-localization"
 DESCRIPTION = ("sense-a-tag tracking from landmark detections (AURIS ch. 4): RTS surrogate, PF-BIN, PF-AA with "
@@ -239,7 +241,7 @@ def cases(config: Config) -> list[Case]:
 
 def antenna_geometry(room: paths.Room, landmarks: np.ndarray) -> np.ndarray:
     """base (A, L) = a0 + a1·D + a3·|θ| + a4·|φ| of every antenna → landmark pair (Eq. 4.6)."""
-    a = RTS_COEFFICIENTS
+    a = _detection.RTS_COEFFICIENTS
     ant = np.asarray(room.antennas_xyz_m, float)
     v = np.concatenate([landmarks, np.zeros((landmarks.shape[0], 1))], axis=1)[None] - ant[:, None, :]
     D = np.linalg.norm(v, axis=-1)
@@ -249,7 +251,7 @@ def antenna_geometry(room: paths.Room, landmarks: np.ndarray) -> np.ndarray:
 
 def rts_p(base, d_m) -> np.ndarray:
     """Eq. 4.6 from the fixed part ``base`` and the ST → landmark distance d."""
-    return 1.0 / (1.0 + np.exp(base + RTS_COEFFICIENTS[2] * d_m))
+    return 1.0 / (1.0 + np.exp(base + _detection.RTS_COEFFICIENTS[2] * d_m))
 
 
 def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
@@ -355,17 +357,17 @@ def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, 
     for k, (label, kind, vt) in enumerate(case.trackers):
         rng = trial_rng(seed, case.index, 1000 + group, k)
         if kind == "wcl":
-            est = wcl_track(counts, landmarks, np.mean(landmarks, axis=0))
+            est = _landmark_pf.wcl_track(counts, landmarks, np.mean(landmarks, axis=0))
         elif kind == "pfbin":
-            est = pf_bin(counts, np.stack([d["start"] for d in tracks]), n_particles=f.particles, period_s=Ts,
-                         accel_var=f.pfbin_accel_var, n_rounds=N, probability=probability, rng=rng)
+            est = _landmark_pf.pf_bin(counts, np.stack([d["start"] for d in tracks]), n_particles=f.particles, period_s=Ts,
+                                      accel_var=f.pfbin_accel_var, n_rounds=N, probability=probability, rng=rng)
         else:
-            x, v = pf_aa(counts, landmarks, n_particles=f.particles, period_s=Ts, q_std_m=f.q_std_m,
-                         init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
+            x, v = _landmark_pf.pf_aa(counts, landmarks, n_particles=f.particles, period_s=Ts, q_std_m=f.q_std_m,
+                                      init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
             if np.isfinite(vt):
-                est = np.concatenate([bias_compensate(x[i:i + 1], v[i:i + 1], period_end_s=t_end[i],
-                                                      mean_detection_s=mean_t[i:i + 1], b0=f.b0, b1=f.b1,
-                                                      v_threshold_mps=vt) for i in range(len(tracks))])
+                est = np.concatenate([_landmark_pf.bias_compensate(x[i:i + 1], v[i:i + 1], period_end_s=t_end[i],
+                                                                   mean_detection_s=mean_t[i:i + 1], b0=f.b0, b1=f.b1,
+                                                                   v_threshold_mps=vt) for i in range(len(tracks))])
             else:
                 est = x
         estimates[label] = est
@@ -410,8 +412,8 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
                              "error_m": err})
     labels = [t[0] for t in case.trackers]
     order = sorted(range(len(est_rows)), key=lambda i: labels.index(est_rows[i]["tracker"][0]))
-    return {"periods": concat(periods), "detections": concat(detections),
-            "estimates": concat([est_rows[i] for i in order])}
+    return {"periods": _exciter_scene.concat(periods), "detections": _exciter_scene.concat(detections),
+            "estimates": _exciter_scene.concat([est_rows[i] for i in order])}
 
 
 def _task(args):
@@ -425,7 +427,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
         for g, a in enumerate(range(0, c.realizations, 10)):
             tasks.append((config, c, g, list(range(a, min(a + 10, c.realizations))), seed))
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
-    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
+    return {n: _exciter_scene.concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
 
 
 # ----------------------------------------------------------------------------- summary and run
@@ -491,7 +493,7 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
     return {k: np.asarray(v) for k, v in rows.items()}, attrs
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     tables = monte_carlo(config, seed=seed)
     summary, attrs = summarize(config, tables)
     tables["summary"] = summary
@@ -503,9 +505,9 @@ def run(config: Config, *, seed: int) -> Dataset:
                        "speed_mps": np.array([c.speed_mps for c in cs]),
                        "realizations": np.array([c.realizations for c in cs]),
                        "duration_s": np.array([c.duration_s for c in cs])}
-    ds = Dataset(title=f"sense-a-tag localization from landmark detections (AURIS ch. 4), preset {config.preset}")
+    ds = _dataset.Dataset(title=f"sense-a-tag localization from landmark detections (AURIS ch. 4), preset {config.preset}")
     for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
-        ds.add_table(name, {k: column(v, _unit(k), _describe(k)) for k, v in tables[name].items()},
+        ds.add_table(name, {k: _dataset.column(v, _unit(k), _describe(k)) for k, v in tables[name].items()},
                      description=_GROUPS[name])
     room = config.room
     ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
@@ -576,7 +578,7 @@ def _describe(key: str) -> str:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Room with landmarks and tracks, error vs time, error CDF, speed sweep, RMSE vs published."""
-    return plot_all(Path(dataset_path), Path(out_dir))
+    return _st_figures.plot_all(Path(dataset_path), Path(out_dir))
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "cases", "simulate_chunk", "summarize", "PUBLISHED"]

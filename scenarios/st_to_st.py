@@ -70,14 +70,9 @@ from typing import Literal
 
 import numpy as np
 
-from channels import vertical_dipole
-from channels.bulk import draw_links
-from devices import st_analytic as sa
 from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver, st_antenna_positions
-from rfsim.air import AntennaPort, propagate
+from devices.sense_a_tag_config import SenseATagConfig
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
 from rfsim.procs import map_in_order
 from rfsim.references import cite
@@ -86,7 +81,15 @@ from rfsim.rng import trial_rng
 from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, uniform_disc,
                                       unit_of)
-from scenarios.phase_cancellation import MonteCarloConfig
+from scenarios._monte_carlo import MonteCarloConfig
+from rfsim.lazy import lazy_import
+
+_antennas = lazy_import("channels.antennas")
+_bulk = lazy_import("channels.bulk")
+sa = lazy_import("devices.st_analytic")
+_sense_a_tag = lazy_import("devices.sense_a_tag")
+_air = lazy_import("rfsim.air")
+_dataset = lazy_import("rfsim.dataset")
 
 NAME = "st-to-st"
 DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for single antenna, combination, "
@@ -165,30 +168,30 @@ def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, n
     ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
     exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, cell, rep, 3))
     tx_pos = np.array([g.st_x_m[cell], 0.0, g.height_m])
-    tx_ant = vertical_dipole(tx_pos)
-    st_tx = SenseATag(config.tx_st, [tx_ant], rng=trial_rng(seed, cell, rep, 4), fs_hz=fr.fs_hz)
+    tx_ant = _antennas.vertical_dipole(tx_pos)
+    st_tx = _sense_a_tag.SenseATag(config.tx_st, [tx_ant], rng=trial_rng(seed, cell, rep, 4), fs_hz=fr.fs_hz)
     tx = OwnSchedule(st_tx, frame, psi_rad=math.radians(config.stamp.psi_deg))
     # receiving STs: centres in the disc, random orientation of the λ/4 pair
     prng = trial_rng(seed, cell, rep, 0)
     dx, dy = uniform_disc(prng, n, g.disc_radius_m)
     orient = prng.uniform(-np.pi, np.pi, n)
     centres = tx_pos + np.stack([dx, dy, np.zeros(n)], axis=1)
-    sa_pos = st_antenna_positions(centres, n_antennas=2, spacing_m=config.st.spacing_m, orientation_rad=orient)
-    template = vertical_dipole(np.zeros(3))
+    sa_pos = _sense_a_tag.st_antenna_positions(centres, n_antennas=2, spacing_m=config.st.spacing_m, orientation_rad=orient)
+    template = _antennas.vertical_dipole(np.zeros(3))
     sa = [BatchAntenna(template, sa_pos[:, j]) for j in range(2)]
     # links, drawn in bulk: exciter → tx ST, then per antenna exciter → SA and tx ST → SA
     lrng = trial_rng(seed, cell, rep, 1)
     sc, fc = room(g.apdp), config.exciter.fc_hz
     links = DrawnLinks()
-    links.add(ex_ant, tx_ant, draw_links(sc, ex_ant.position_m, tx_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
-                                         rx_antenna=tx_ant).pathset(0))
+    links.add(ex_ant, tx_ant, _bulk.draw_links(sc, ex_ant.position_m, tx_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
+                                               rx_antenna=tx_ant).pathset(0))
     for a in sa:
-        links.add(ex_ant, a, BatchLink(draw_links(sc, ex_ant.position_m, a.positions_m, fc_hz=fc, rng=lrng,
-                                                  tx_antenna=ex_ant, rx_antenna=template)))
-        links.add(tx_ant, a, BatchLink(draw_links(sc, tx_pos, a.positions_m, fc_hz=fc, rng=lrng,
-                                                  tx_antenna=tx_ant, rx_antenna=template)))
+        links.add(ex_ant, a, BatchLink(_bulk.draw_links(sc, ex_ant.position_m, a.positions_m, fc_hz=fc, rng=lrng,
+                                                        tx_antenna=ex_ant, rx_antenna=template)))
+        links.add(tx_ant, a, BatchLink(_bulk.draw_links(sc, tx_pos, a.positions_m, fc_hz=fc, rng=lrng,
+                                                        tx_antenna=tx_ant, rx_antenna=template)))
     noise_w = config.noise.power_w(fr.fs_hz)
-    air = propagate([exciter], [tx], [AntennaPort(a, noise_power_w=noise_w) for a in sa], links, t0_s=0.0,
+    air = _air.propagate([exciter], [tx], [_air.AntennaPort(a, noise_power_w=noise_w) for a in sa], links, t0_s=0.0,
                     fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, cell, rep, 2),
                     bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
     incident_w = float(np.mean(np.abs(air.incident[0].samples) ** 2))
@@ -224,7 +227,7 @@ def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
     ``detected_*``, ``cancelled_*``, ``closed_cancelled_*``; the stamp symbols on P2.
     """
     st, fr = config.st, config.frame
-    rx = make_receiver(st, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
+    rx = _sense_a_tag.make_receiver(st, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
     out: dict[str, np.ndarray] = {}
     for (cw, b1, b2), name in zip(ph, ("sa1", "sa2")):
         out[f"a_r_{name}_v"], out[f"a_t1_{name}_v"], out[f"a_t2_{name}_v"] = np.abs(cw), np.abs(b1), np.abs(b2)
@@ -301,13 +304,13 @@ def stamp_vs_selection(samples) -> dict[str, float | int]:
             "stamp_left_p2_data_ok": int(left.sum()), "stamp_selection_samples": int(n)}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     samples = monte_carlo(config, seed=seed)
-    ds = Dataset(title="exciter-powered ST-to-ST phase cancellation (AURIS Fig. 5.8)")
-    ds.add_table("samples", {k: column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
+    ds = _dataset.Dataset(title="exciter-powered ST-to-ST phase cancellation (AURIS Fig. 5.8)")
+    ds.add_table("samples", {k: _dataset.column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
                  description=_GROUPS["samples"])
     cells = cell_table(samples, config.geometry.st_x_m)
-    ds.add_table("cells", {k: column(v, unit_of(k), _describe(k)) for k, v in cells.items()},
+    ds.add_table("cells", {k: _dataset.column(v, unit_of(k), _describe(k)) for k, v in cells.items()},
                  description=_GROUPS["cells"])
     for t in TECHS:
         p, lo, hi, _ = sa.cancellation_probability(samples[f"cancelled_{t}"])

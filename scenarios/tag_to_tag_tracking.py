@@ -79,15 +79,17 @@ from typing import Literal
 import numpy as np
 
 from rfsim.config import param
-from rfsim.dataset import Dataset, column
 from rfsim.errors import ConfigError
-from rfsim.estimators.proximity import association, bernoulli_pf, proximity_kalman, rbpf
 from rfsim.procs import map_in_order
 from rfsim.rng import trial_rng
-from scenarios import _t2t_network as net
-from scenarios._exciter_scene import concat
-from scenarios._t2t_figures import plot_all
 from scenarios._t2t_physical import PhysicalConfig, calibrate_threshold, decode_events
+from rfsim.lazy import lazy_import
+
+_dataset = lazy_import("rfsim.dataset")
+_proximity = lazy_import("rfsim.estimators.proximity")
+net = lazy_import("scenarios._t2t_network")
+_exciter_scene = lazy_import("scenarios._exciter_scene")
+_t2t_figures = lazy_import("scenarios._t2t_figures")
 
 NAME = "tag-to-tag-tracking"
 DESCRIPTION = ("reader-free self-tracking of a mobile tag from reference-tag broadcasts (Geng ch. 6): "
@@ -231,19 +233,19 @@ def track(config: Config, range_m: float, times_s, observed_xy, truth_xy, x0, *,
     out = []
     for (label, kind, m), rng in zip(config.trackers_list, rngs):
         if kind == "nn":
-            est = association(observed_xy)[None]
+            est = _proximity.association(observed_xy)[None]
         elif kind == "kf":
-            est = proximity_kalman(times_s, observed_xy, x0, P0, t0_s=0.0, accel_var=config.motion.accel_var,
-                                   range_m=range_m).x[None][..., 0::2]
+            est = _proximity.proximity_kalman(times_s, observed_xy, x0, P0, t0_s=0.0, accel_var=config.motion.accel_var,
+                                              range_m=range_m).x[None][..., 0::2]
         else:
             a1, a2 = filter_coefficients(config, range_m)
             init = _prior(config, x0, rng, config.filter_runs, m, kind)
             if kind == "pf":
-                res = bernoulli_pf(times_s, observed_xy, init, t0_s=0.0, accel_var=config.motion.accel_var,
-                                   a1=a1, a2=a2, rng=rng)
+                res = _proximity.bernoulli_pf(times_s, observed_xy, init, t0_s=0.0, accel_var=config.motion.accel_var,
+                                              a1=a1, a2=a2, rng=rng)
             else:
-                res = rbpf(times_s, observed_xy, init, t.prior_velocity_std_mps ** 2, t0_s=0.0,
-                           accel_var=config.motion.accel_var, a1=a1, a2=a2, rng=rng)
+                res = _proximity.rbpf(times_s, observed_xy, init, t.prior_velocity_std_mps ** 2, t0_s=0.0,
+                                      accel_var=config.motion.accel_var, a1=a1, a2=a2, rng=rng)
             est = res.mmse[..., 0::2]
         err = np.linalg.norm(est - truth_xy[None], axis=-1)
         out.append({"label": label, "kind": kind, "m": m, "estimates": est, "error_m": err,
@@ -328,12 +330,12 @@ def simulate_trajectory(config: Config, j: int, seed: int, thresholds_v=None) ->
                             "tracker": np.full(k.size, res["label"]), "observation": np.arange(k.size),
                             "t_s": b["t_s"][k], "x_est_m": e0[:, 0], "y_est_m": e0[:, 1],
                             "x_true_m": pos[k, 0], "y_true_m": pos[k, 1], "error_m": res["error_m"][0]})
-    tables["receptions"] = concat(rec)
-    tables["observations"] = concat(obs)
+    tables["receptions"] = _exciter_scene.concat(rec)
+    tables["observations"] = _exciter_scene.concat(obs)
     if runs:
-        tables["runs"] = concat(runs)
+        tables["runs"] = _exciter_scene.concat(runs)
     if est:
-        tables["estimates"] = concat(est)
+        tables["estimates"] = _exciter_scene.concat(est)
     return tables
 
 
@@ -356,7 +358,7 @@ def monte_carlo(config: Config, *, seed: int, thresholds_v=None) -> dict[str, di
     parts = [t for chunk in map_in_order(_task, tasks, config.workers,
                                         desc="trajectories", unit="chunks") for t in chunk]
     names = dict.fromkeys(n for part in parts for n in part)
-    return {n: concat([part[n] for part in parts if n in part]) for n in names}
+    return {n: _exciter_scene.concat([part[n] for part in parts if n in part]) for n in names}
 
 
 # ----------------------------------------------------------------------------- summary and run
@@ -384,14 +386,14 @@ def summarize(config: Config, tables) -> dict[str, np.ndarray]:
     return {k: np.asarray(v) for k, v in {**out, **extra}.items()}
 
 
-def run(config: Config, *, seed: int) -> Dataset:
+def run(config: Config, *, seed: int) -> _dataset.Dataset:
     cal = calibrate(config, seed=seed) if config.uses_physical else None
     tables = monte_carlo(config, seed=seed, thresholds_v=None if cal is None else [c[0] for c in cal])
     tables["summary"] = summarize(config, tables)
-    ds = Dataset(title="reader-free tag-to-tag self-tracking (Geng ch. 6): broadcasts, decodes, NN/KF/PF/RBPF")
+    ds = _dataset.Dataset(title="reader-free tag-to-tag self-tracking (Geng ch. 6): broadcasts, decodes, NN/KF/PF/RBPF")
     for name in ("broadcasts", "receptions", "observations", "truth", "estimates", "runs", "summary"):
         if name in tables:
-            ds.add_table(name, {k: column(v, _unit(k), _describe(name, k)) for k, v in tables[name].items()},
+            ds.add_table(name, {k: _dataset.column(v, _unit(k), _describe(name, k)) for k, v in tables[name].items()},
                          description=_GROUPS[name])
     s = tables["summary"]
     ds.attrs["tags_xy_m"] = np.asarray(config.layout.tags_xy_m, float)
@@ -469,7 +471,7 @@ def _describe(table: str, key: str) -> str:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Aisle with tracks, error vs time, RMSE CDF per tracker, Table 6.2 bars (:mod:`scenarios._t2t_figures`)."""
-    return plot_all(Path(dataset_path), Path(out_dir))
+    return _t2t_figures.plot_all(Path(dataset_path), Path(out_dir))
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "simulate_trajectory", "summarize", "PUBLISHED_TABLE_6_2"]

@@ -1,8 +1,9 @@
 """Start-up of the ``rfsim`` command: ``--help`` and ``list`` import no scenario physics, no
-numba and no scipy.signal (issue 16 item 4); ``config NAME`` imports the modules that declare
-the config dataclasses but runs no kernel module, numba, scipy.signal/stats/optimize or h5py
-(they are declared with :func:`rfsim.lazy.lazy_import`); the scenario metadata read from the
-sources equals the modules' own."""
+numba and no scipy.signal (issue 16 item 4); ``config NAME`` imports the scenario module and
+the modules that declare its config dataclasses, but no device, air, channel-assembly or
+dataset module, no kernel module, numba, scipy.signal/stats/optimize or h5py (the physics is
+declared with :func:`rfsim.lazy.lazy_import`, the packages export their names on first use);
+the scenario metadata read from the sources equals the modules' own."""
 
 from __future__ import annotations
 
@@ -50,6 +51,63 @@ def test_config_runs_no_kernel_module_nor_heavy_library(name):
              or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize", "scipy.ndimage"))
              or m.endswith("_kernels")]
     assert heavy == []
+
+
+#: Signal processing that no scenario's config needs: the sample-level devices, the air and
+#: the engine, the assembly and application of channels, the capture decoders, the dataset
+#: file and the detection fits (each costs start-up; together they made 'rfsim config
+#: reader-detection' twice as slow as 'rfsim --help').
+PHYSICS = ("devices.reader", "devices.tag", "devices.sense_a_tag", "devices.tag_population",
+           "devices.gen2_tag_state", "devices.active_reader", "devices.active_tag", "channels.scene",
+           "channels.bulk", "channels.paths", "channels.small_scale", "channels.rss", "rfsim.air",
+           "rfsim.engine", "rfsim.batch", "rfsim.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
+           "rfsim.gen2.replies", "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
+
+
+@pytest.mark.parametrize("name", sorted(scenario_descriptions()))
+def test_config_imports_no_scenario_physics(name):
+    """``rfsim config NAME`` imports none of :data:`PHYSICS`: the config dataclasses live in
+    modules that import only numpy and the config machinery (e.g. :mod:`devices.reader_config`),
+    and the scenario declares its physics lazily."""
+    mods = _imported_after(["config", name])
+    assert f"scenarios.{name.replace('-', '_')}" in mods
+    assert sorted(set(mods) & set(PHYSICS)) == []
+
+
+@pytest.mark.parametrize("package", ["devices", "channels", "rfsim.gen2", "rfsim.estimators"])
+def test_a_package_imports_a_module_for_the_first_name_read_from_it(package):
+    """Importing a package imports none of its modules; reading a public name imports the module
+    that provides it (the name is the module's own object), and every name of ``__all__``
+    resolves; an unknown name is an AttributeError."""
+    code = ("import importlib, json, sys\n"
+            f"pkg = importlib.import_module({package!r})\n"
+            f"before = sorted(m for m in sys.modules if m.startswith({package + '.'!r}))\n"
+            "name = pkg.__all__[0]\n"
+            "value = getattr(pkg, name)\n"
+            "source = pkg.__dict__['_SOURCES']\n"
+            "module = next(m for m, names in source.items() if name in names)\n"
+            f"same = value is getattr(importlib.import_module({package!r} + '.' + module), name)\n"
+            "every = all(getattr(pkg, n) is not None for n in pkg.__all__)\n"
+            "listed = set(pkg.__all__) <= set(dir(pkg))\n"
+            "try:\n    pkg.no_such_name\nexcept AttributeError:\n    unknown = True\nelse:\n    unknown = False\n"
+            "print(json.dumps([before, same, every, listed, unknown]))")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert json.loads(out.stdout) == [[], True, True, True, True]
+
+
+def test_a_run_loads_the_lazily_declared_physics_before_asking_for_cached_kernels():
+    """Before a run asks numba which kernels are cached (the first-run notice), the scenario's
+    lazily declared modules are imported, so that the kernel modules they declare are declared
+    too: after it, the reader's kernel module is loaded for reader-detection (whose module
+    imports no device)."""
+    code = ("import sys\nimport scenarios.reader_detection\n"
+            "print('devices.reader' in sys.modules)\n"
+            "from rfsim.runner import _announce_compilation\n_announce_compilation()\n"
+            "print('devices.reader' in sys.modules, 'devices._reader_kernels' in sys.modules)")
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    assert out.stdout.split() == ["False", "True", "True"]
 
 
 def test_a_lazily_declared_module_is_whole_for_threads_that_first_use_it_together(tmp_path):

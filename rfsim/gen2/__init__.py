@@ -9,13 +9,19 @@ decoders), :mod:`~rfsim.gen2.capture` (reader commands in recorded waveforms) an
 :mod:`~rfsim.gen2.replies` (tag replies in recorded waveforms).
 """
 
-from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits, int_to_bits
-from rfsim.gen2.commands import (ACK, NAK, CommandParseError, Query, QueryAdjust, QueryRep, Read,
-                                 ReqRN, Select, command_name, command_preamble, encode, parse)
-from rfsim.gen2.crc import (append_crc5, append_crc16, crc5, crc5_ok, crc16, crc16_bytes,
-                            crc16_ok)
-from rfsim.gen2.link import (PROFILES, LinkProfile, TimingRange, backscatter_duration_s,
-                             frt_fraction, pie_duration_s, profile, t1, t2, t3, t4, t5, t6, t7)
+from rfsim.lazy import lazy_exports
+
+#: Module of the package → the public names it provides, each imported on first use (so
+#: that importing one module, e.g. the link profiles, does not import the others).
+_SOURCES = {
+    "bits": ("bits_to_hex", "bits_to_int", "hex_to_bits", "int_to_bits"),
+    "commands": ("ACK", "NAK", "CommandParseError", "Query", "QueryAdjust", "QueryRep", "Read", "ReqRN",
+                 "Select", "command_name", "command_preamble", "encode", "parse"),
+    "crc": ("append_crc5", "append_crc16", "crc5", "crc5_ok", "crc16", "crc16_bytes", "crc16_ok"),
+    "link": ("PROFILES", "LinkProfile", "TimingRange", "backscatter_duration_s", "frt_fraction",
+             "pie_duration_s", "profile", "t1", "t2", "t3", "t4", "t5", "t6", "t7"),
+}
+__getattr__, __dir__ = lazy_exports(globals(), _SOURCES)
 
 __all__ = [
     "int_to_bits", "bits_to_int", "hex_to_bits", "bits_to_hex",

@@ -27,8 +27,10 @@ from fractions import Fraction
 import numpy as np
 
 from rfsim.errors import ConfigError, did_you_mean
-from rfsim.gen2.bits import as_bits
-from rfsim.gen2.commands import COMMAND_TYPES, DR_VALUES, encode, normalize_dr
+from rfsim.lazy import lazy_import
+
+_bits = lazy_import("rfsim.gen2.bits")
+_commands = lazy_import("rfsim.gen2.commands")
 
 TARI_RANGE_S = (6.25e-6, 25e-6)
 DATA1_TARI_RANGE = (1.5, 2.0)
@@ -97,7 +99,7 @@ def frt_fraction(dr, trcal_s: float, *, extended_temperature: bool = False) -> f
 
     Raises ``ConfigError("link.trcal_s", ...)`` outside the table's TRcal range.
     """
-    name = normalize_dr(dr, "link.dr")
+    name = _commands.normalize_dr(dr, "link.dr")
     t_us = float(trcal_s) * 1e6
     tol = _POINT_TOL
     for lo, hi, lo_closed, hi_closed, nominal, extended in _FRT_ROWS[name]:
@@ -120,7 +122,7 @@ def pie_duration_s(bits, *, tari_s: float, data1_s: float, delimiter_s: float = 
     ``trcal_s`` is given (the Query preamble). n0, n1 are the counts of 0 and 1 bits in
     ``bits`` ((n,) uint8), so the duration depends on the bit values.
     """
-    arr = as_bits(bits)
+    arr = _bits.as_bits(bits)
     n1 = int(arr.sum())
     n0 = arr.size - n1
     lead_in = delimiter_s + tari_s + (tari_s + data1_s) + (trcal_s if trcal_s is not None else 0.0)
@@ -214,7 +216,7 @@ class LinkProfile:
         if not (_ge(d1, DATA1_TARI_RANGE[0]) and _le(d1, DATA1_TARI_RANGE[1])):
             raise ConfigError("link.data1_tari", self.data1_tari, "[1.5, 2.0] (data-1 length in Tari)")
         object.__setattr__(self, "data1_tari", d1)
-        object.__setattr__(self, "dr", normalize_dr(self.dr, "link.dr"))
+        object.__setattr__(self, "dr", _commands.normalize_dr(self.dr, "link.dr"))
         trcal = num("trcal_s", self.trcal_s)
         rtcal = self.rtcal_s
         lo, hi = TRCAL_RTCAL_RANGE[0] * rtcal, TRCAL_RTCAL_RANGE[1] * rtcal
@@ -265,7 +267,7 @@ class LinkProfile:
     @property
     def dr_value(self) -> Fraction:
         """Divide ratio as an exact fraction (8 or 64/3)."""
-        return DR_VALUES[self.dr]
+        return _commands.DR_VALUES[self.dr]
 
     @property
     def blf_hz(self) -> float:
@@ -309,11 +311,11 @@ class LinkProfile:
         ``bits_or_cmd`` is a command object (its lead-in is used unless ``preamble`` is given)
         or its bits ((n,) uint8; ``preamble`` is then required: "query" or "frame-sync").
         """
-        if isinstance(bits_or_cmd, COMMAND_TYPES):
-            bits = encode(bits_or_cmd)
+        if isinstance(bits_or_cmd, _commands.COMMAND_TYPES):
+            bits = _commands.encode(bits_or_cmd)
             preamble = preamble or bits_or_cmd.PREAMBLE
         else:
-            bits = as_bits(bits_or_cmd)
+            bits = _bits.as_bits(bits_or_cmd)
         if preamble not in ("query", "frame-sync"):
             raise ValueError(f'preamble must be "query" or "frame-sync", got {preamble!r}')
         return pie_duration_s(bits, tari_s=self.tari_s, data1_s=self.data1_s, delimiter_s=self.delimiter_s,

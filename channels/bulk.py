@@ -539,7 +539,9 @@ def static_placements(scene, tx, rx_antennas) -> list[tuple]:
     p_tx = np.array([a.position_m for a in txs], dtype=float)
     p_rx = np.array([a.position_m for a in rx_antennas], dtype=float)
     diff = p_rx - p_tx
-    d = np.sqrt((diff * diff).sum(axis=1))
+    # d as the channel's own link forms it (np.linalg.norm of the (3,) vector): its BLAS dot may
+    # fuse or reorder the products on some CPUs, so a reduction over axis 1 can differ in the last bit
+    d = np.array([np.linalg.norm(v) for v in diff], dtype=float)
     if not np.all(d > 0):
         raise ValueError("tx and rx are at the same position")
     u = diff / d[:, None]

@@ -785,14 +785,9 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                     if pj is None:
                         pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
                     inc_e = y if y is not None else g * seg.samples
-                    r_e = rc if rc is not None else r.reradiation(n_samples)
-                    # g·x formed here: the products below may reuse its buffer (the same values)
-                    own = y is None and np.shape(r_e) in ((), inc_e.shape)
-                    scattered = np.multiply(r_e, inc_e, out=inc_e) if own else r_e * inc_e
+                    scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
                     gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
                                       memo=memo)
-                    if yb is None and own:
-                        yb = np.multiply(gb, scattered, out=scattered)
                     parts.append(shift(yb if yb is not None else gb * scattered, off))
                     continue
                 # the links are asked for whatever the reflector does (the draws do not depend on it)

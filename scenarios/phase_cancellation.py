@@ -676,20 +676,23 @@ def st_outcomes(config: Config, ex: Exchange, a_gain, b_gain) -> dict[str, np.nd
             out[f"diff_{name}_v"] = np.zeros(n)
         out["stamp_use_p1"] = np.zeros(n, bool)
     else:
-        inputs = {"sa2": ex.inputs[:, -1]}
+        inputs = {"sa2": lambda: ex.inputs[:, -1]}
         if two:
-            inputs["sa1"] = ex.inputs[:, 0]
-            inputs["combined"] = inputs["sa1"] + inputs["sa2"]
+            inputs["sa1"] = lambda: ex.inputs[:, 0]
+            inputs["combined"] = lambda: ex.inputs[:, 0] + ex.inputs[:, -1]
         dec = {}
         for name in ("sa2", "combined", "sa1"):
             if name not in inputs:
                 continue
-            env, bp, cmp, tog = _sense_a_tag.chain_rows(rx, inputs[name])
-            out[f"diff_{name}_v"] = np.abs(_sense_a_tag.level_differences(env, ex.levels, rx))
+            # one chain at a time: its four (n, samples) arrays are the largest of the cell's memory
+            chain = None
+            chain = _sense_a_tag.chain_rows(rx, inputs[name]())
+            out[f"diff_{name}_v"] = np.abs(_sense_a_tag.level_differences(chain[0], ex.levels, rx))
             # Algorithm 1 returns ID2 whenever P2 decodes: P1's result matters only where P2 failed
             rows = ~dec["sa2"] if name == "sa1" else np.ones(n, bool)
-            dec[name] = _sense_a_tag.decode_rows(rx, env, bp, cmp, tog, rows=rows, expected_bits=ex.rn16, start_sample=0,
+            dec[name] = _sense_a_tag.decode_rows(rx, *chain, rows=rows, expected_bits=ex.rn16, start_sample=0,
                                                  search_samples=ex.search)
+        chain = None
         out["detected_single"] = dec["sa2"]
         if two:
             out["detected_combination"] = dec["combined"]
@@ -717,6 +720,7 @@ def _stamp(rx, ex: Exchange):
     use_p1 = ~ask_ok
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
     det = _sense_a_tag.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
+    env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
     if use_p1.any():
         idx = np.flatnonzero(use_p1)
         env1, bp1, cmp1, tog1 = _sense_a_tag.chain_rows(rx, ex.stamp_inputs[idx, 0])

@@ -181,10 +181,11 @@ def _has_file_descriptors() -> bool:
     return True
 
 
-def run_in_child(fn) -> None:
+def run_in_child(fn, *, while_waiting=None) -> None:
     """``fn()`` in a forked child process, which exits afterwards; its exception, if any, is
     raised here (with the child's traceback as a note where it is not a
-    :class:`~rfsim.errors.UserError` nor an interrupt).
+    :class:`~rfsim.errors.UserError` nor an interrupt). ``while_waiting()``, if given, runs
+    here meanwhile (e.g. the imports of what comes after the child), before its result is read.
 
     All the memory the child allocated (numba's compiler, imported libraries, the arrays of
     a run) is returned to the system when it exits, not merely freed inside this process.
@@ -229,6 +230,8 @@ def run_in_child(fn) -> None:
             os._exit(0)
     os.close(write_fd)
     try:
+        if while_waiting is not None:
+            while_waiting()
         with os.fdopen(read_fd, "rb") as f:
             data = f.read()
     except BaseException as interrupt:  # Ctrl-C or SIGTERM here: wait for the child to clean up

@@ -131,6 +131,8 @@ _batch = lazy_import("rfsim.batch")
 _engine = lazy_import("rfsim.engine")
 _link = lazy_import("rfsim.gen2.link")
 
+#: modules the figures use (imported by the runner while the simulation runs)
+FIGURE_IMPORTS = ("rfsim.detection", "scipy.stats")
 NAME = "reader-detection"
 DESCRIPTION = ("reader detection campaign A replica: 27 dBm, 6 dBic patch, distances x angles x repetitions x "
                "50 queries in two rooms; Beta-binomial DA fits and d50 (Geng dissertation Ch. 4)")

@@ -27,9 +27,11 @@ def work():
     with open(sys.argv[1], "w") as f:
         f.write(str(os.getpid()))
 
-run_in_child(work)
+waited = []
+run_in_child(work, while_waiting=lambda: waited.append(os.getpid()))
 out["child"] = int(open(sys.argv[1]).read())
 out["set_here"] = state["set_by_child"]
+out["waited_in"] = waited
 
 def refuse():
     raise UserError("bad key 'x'")
@@ -56,6 +58,7 @@ def test_the_child_runs_elsewhere_and_its_errors_are_raised_here(tmp_path):
                          env=env, check=True)
     out = json.loads(run.stdout.strip().splitlines()[-1])
     assert out["child"] != out["leader"] and out["set_here"] is False
+    assert out["waited_in"] == [out["leader"]]  # while_waiting runs once, in the leader
     assert out["user_error"] == ["UserError", "bad key 'x'", []]
     message, note = out["value_error"]
     assert message == "boom" and note.startswith("in the child process") and "crash" in note

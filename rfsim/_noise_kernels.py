@@ -52,5 +52,5 @@ def add_awgn_compiled(rng, y, ab, scale: float) -> None:
 
     sig = tuple(typeof(a) for a in (rng, y, ab, scale))
     cres = add_awgn_kernel.overloads.get(sig)
-    if cres is not None:
-        _ENTRY.append(cres.entry_point)
+    # the dispatcher itself where no overload matches: typed once here, not on every call
+    _ENTRY.append(add_awgn_kernel if cres is None else cres.entry_point)

@@ -137,17 +137,16 @@ def propagate_batch(steps: Sequence[AirStep]) -> list[AirResult]:
 def _check_noise_order(steps: Sequence[AirStep]) -> None:
     """A one-line error where a step's link table draws from a noise generator in a way the
     batch would reorder (module docstring)."""
+    noisy = [[k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0] for s in steps]
     noisy_rngs = {}  # id(generator) -> index of the first step that draws noise from it
     for b, s in enumerate(steps):
-        noisy = [k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0]
-        if noisy and s.rng is not None:
+        if noisy[b] and s.rng is not None:
             noisy_rngs.setdefault(id(s.rng), b)
     for b, s in enumerate(steps):
         link_rng = getattr(s.links, "rng", None)
         if link_rng is None or id(link_rng) not in noisy_rngs:
             continue
-        noisy = [k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0]
-        own_last = s.rng is link_rng and noisy == [len(s.receivers) - 1] and noisy_rngs[id(link_rng)] == b
+        own_last = s.rng is link_rng and noisy[b] == [len(s.receivers) - 1] and noisy_rngs[id(link_rng)] == b
         shared = sum(1 for t in steps if t.rng is link_rng) > 1
         if not own_last or shared:
             raise ValueError(f"steps[{b}].links: draws from a generator that receiver noise is drawn from; the batch "

@@ -41,11 +41,8 @@ def test_fallback_for_non_contiguous_input():
     assert np.array_equal(y_k, y_ref)
 
 
-def test_compiled_entry_point_equals_reference_call_after_call():
-    # from the second call on the kernel's compiled entry point is called directly (no
-    # dispatch): still the reference's draws, for new generators and lengths each time
-    from rfsim import _noise_kernels
-
+def test_kernel_equals_reference_call_after_call():
+    # new generators and lengths each time: the reference's draws and generator state
     for k, n in enumerate((5, 5, 12, 1, 300)):
         y0 = np.full(n, 0.25 - 0.5j)
         y_ref, y_k = y0.copy(), y0.copy()
@@ -53,7 +50,37 @@ def test_compiled_entry_point_equals_reference_call_after_call():
         assert np.array_equal(add_awgn(y_k, 1e-9, g_k), add_awgn_reference(y_ref, 1e-9, g_ref))
         assert np.array_equal(y_k.view(np.float64), y_ref.view(np.float64))
         assert g_k.bit_generator.state == g_ref.bit_generator.state
-    assert _noise_kernels._ENTRY  # the entry point was found and kept
+
+
+def test_ziggurat_rare_branches_and_buffered_uint32_equal_numpy():
+    # 2·10⁵ draws: ≈ 1.2 % leave the layer rectangles (the wedge test, one uniform more) and
+    # ≈ 0.01 % are tail draws |x| > r = 3.654 (two uniforms and log1p per try): both branches
+    # are taken hundreds / tens of times, and every draw after them must still agree
+    from rfsim import _noise_kernels as k
+
+    g_ref, g_k = np.random.default_rng(7), np.random.default_rng(7)
+    for g in (g_ref, g_k):  # a buffered 32-bit output the normals must leave alone
+        g.integers(0, 2**31, dtype=np.int32)
+    y_ref, y_k = np.zeros(100_000, complex), np.zeros(100_000, complex)
+    ab_ref = add_awgn_reference(y_ref, 2.0, g_ref)
+    ab_k = add_awgn(y_k, 2.0, g_k)
+    assert np.array_equal(ab_k, ab_ref)
+    assert np.sum(np.abs(ab_ref) > k.ziggurat_nor_r) >= 5  # the tail branch was taken
+    assert g_k.bit_generator.state == g_ref.bit_generator.state
+    assert g_k.integers(0, 2**31, dtype=np.int32) == g_ref.integers(0, 2**31, dtype=np.int32)
+
+
+def test_standard_normal_kernel_equals_generator():
+    from rfsim import _noise_kernels as k
+
+    g = np.random.default_rng(12345)
+    st, d = k.pcg64_state(g.bit_generator)
+    out = np.empty(50_000)
+    k.standard_normal_kernel(st, out)
+    k.set_pcg64_state(g.bit_generator, st, d)
+    ref = np.random.default_rng(12345)
+    assert np.array_equal(out, ref.standard_normal(50_000))
+    assert g.bit_generator.state == ref.bit_generator.state
 
 
 def test_read_only_input_takes_the_reference_path():

@@ -166,6 +166,12 @@ class TagResponse:
         return np.full(int(n_samples), self.structural_mode - self.gamma_rest, dtype=np.complex128)
 
     @property
+    def reradiation_terms(self) -> tuple[complex, np.ndarray] | None:
+        """``(A_s, Γ(t))`` with r(t) = A_s − Γ(t) (:meth:`reradiation`) while the tag replies, else
+        None: the air step forms A_s − Γ(t) with the products that follow it in one pass."""
+        return None if self.gamma is None else (self.structural_mode, self.gamma)
+
+    @property
     def constant_reradiation(self) -> complex | None:
         """r = A_s − Γ_A when the tag does not reply (constant over the segment), else None."""
         return None if self.gamma is not None else self.structural_mode - self.gamma_rest

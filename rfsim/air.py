@@ -190,7 +190,10 @@ class Emitter(Protocol):
 class Reflection(Protocol):
     """What a reflector returns: its re-radiation factor r(t) (the field it scatters is
     r(t)·incident(t)). ``constant_reradiation`` is r as one complex number when it does not
-    change during the segment (None otherwise); ``reradiation(n)`` gives (…, n) samples."""
+    change during the segment (None otherwise); ``reradiation(n)`` gives (…, n) samples.
+    Optionally ``reradiation_terms`` → ``(A_s, Γ)`` when r(t) = A_s − Γ(t) (a chip's reflection
+    states behind the antenna's structural mode), which lets the step form r(t)·g·x and its
+    backward link in one pass."""
 
     scatters: bool
 
@@ -557,6 +560,68 @@ def _through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwid
     return None, y.reshape(src.shape)
 
 
+class _Backscatter:
+    """The contribution b·((A_s − Γ(t))·(g·x(t))) of one modulating reflector at a receiver on
+    the emitter's carrier (narrowband, static links g and b; re-radiation r = A_s − Γ), kept
+    as its factors until the receiver's sum is formed (:func:`_fused_sum`)."""
+
+    __slots__ = ("x", "g", "a_s", "gamma", "b")
+
+    def __init__(self, x, g, a_s, gamma, b):
+        self.x, self.g, self.a_s, self.gamma, self.b = x, g, a_s, gamma, b
+
+    def samples(self) -> np.ndarray:
+        """The contribution as the step's array operations form it (n,)."""
+        return self.b * ((self.a_s - self.gamma) * (self.g * self.x))
+
+
+def _lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, bw: float, propagation: str,
+                      memo: dict):
+    """A :class:`_Backscatter` for reflection ``r`` through backward link ``pj`` when the
+    contribution has that form (one-dimensional samples, forward constant ``g``, backward
+    constant, no carrier offset, r(t) = A_s − Γ(t) given by ``r.reradiation_terms``), else None."""
+    if y is not None or rc is not None or off != 0.0 or g is None:
+        return None
+    terms = getattr(r, "reradiation_terms", None)
+    if terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,):
+        return None
+    b = _constant(pj, seg.fc_hz, bw, propagation, memo)
+    if b is None:
+        return None
+    return _Backscatter(seg.samples, g, terms[0], terms[1], b)
+
+
+def _fused_sum(const: dict, parts: list, segs: list, n_samples: int):
+    """A receiver's constant-factor terms Σ_e a_e·x_e (in ``const`` order) and, when they are
+    one term a·x and ``parts`` is one :class:`_Backscatter` of the same x, that part too, in
+    one kernel pass (:mod:`rfsim._air_kernels`: the same products and sums as the array
+    operations; ``parts`` is then emptied). None when ``const`` is empty."""
+    if len(const) == 1 and len(parts) == 1 and isinstance(parts[0], _Backscatter):
+        (i, a), = const.items()
+        bs = parts[0]
+        x = segs[i].samples
+        if x is bs.x and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128 and _air_kernels_ok():
+            from rfsim import _air_kernels
+
+            out = np.empty(n_samples, dtype=np.complex128)
+            _air_kernels.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b),
+                                            out)
+            parts.clear()
+            return out
+    y = None
+    for i, a in const.items():
+        v = a * segs[i].samples
+        y = v if y is None else y + v
+    return y
+
+
+def _air_kernels_ok() -> bool:
+    """The fused kernel reproduces NumPy's complex products here (:func:`rfsim._air_kernels.fused_matches_numpy`)."""
+    from rfsim import _air_kernels
+
+    return _air_kernels.fused_matches_numpy()
+
+
 def _link(links, tx, rx, *, fc_hz, t_s, what: str):
     p = links.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
     if p is None:
@@ -784,6 +849,10 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                             continue
                     if pj is None:
                         pj = links.paths(refl.antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
+                    lazy = _lazy_backscatter(r, pj, seg, g, y, rc, off, n_samples, bw, propagation, memo)
+                    if lazy is not None:  # b·((A_s − Γ)·(g·x)): formed with the sum below
+                        parts.append(lazy)
+                        continue
                     inc_e = y if y is not None else g * seg.samples
                     scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
                     gb, yb = _through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation,
@@ -827,11 +896,10 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
                             part = v if part is None else part + v
                 if keep_components:
                     back_l[j][k] = np.zeros(n_samples, dtype=np.complex128) if part is None else part
-        y = None
-        for i, g in const.items():
-            v = g * segs[i].samples
-            y = v if y is None else y + v
+        y = _fused_sum(const, parts, segs, n_samples)
         for v in parts:
+            if isinstance(v, _Backscatter):
+                v = v.samples()
             if y is None:
                 y = np.array(v, dtype=np.complex128)
             elif y.shape == v.shape:

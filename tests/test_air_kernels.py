@@ -1,0 +1,63 @@
+"""The air step's fused backscatter kernel (:mod:`rfsim._air_kernels`) against its NumPy
+reference, bit for bit, and the air step with and without it."""
+
+import numpy as np
+import pytest
+
+from rfsim import _air_kernels as k
+from rfsim import air
+
+needs_match = pytest.mark.skipif(not k.fused_matches_numpy(),
+                                 reason="this CPU's NumPy complex product differs from the kernel's: the step keeps NumPy")
+
+
+@needs_match
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 5, 8, 9, 17, 1000, 6013])
+def test_backscatter_kernel_equals_reference_bit_for_bit(n):
+    rng = np.random.default_rng(n)
+    x = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 0.7
+    gamma = np.where(rng.random(n) < 0.5, 0.35 - 0.62j, -0.11 + 0.05j)
+    c, g, a_s, b = 3e-3 - 1e-2j, 2.1e-2 + 7e-3j, 0.4 + 0.1j, -1.3e-2 + 4e-3j
+    out = np.empty(n, dtype=np.complex128)
+    k.backscatter_kernel(x, c, g, a_s, gamma, b, out)
+    ref = k.backscatter_reference(x, c, g, a_s, gamma, b)
+    assert np.array_equal(out.view(np.float64), ref.view(np.float64))
+
+
+def test_cmul_differs_from_the_plain_formula_somewhere():
+    # the kernel's product is NumPy's fused one: on many random pairs at least one differs
+    # in the last bit from (a_r·b_r − a_i·b_i) rounded twice, so the check can fail
+    rng = np.random.default_rng(1)
+    a = rng.standard_normal(2000) + 1j * rng.standard_normal(2000)
+    b = rng.standard_normal(2000) * 1e3 + 1j * rng.standard_normal(2000)
+    out = np.empty(2000, dtype=np.complex128)
+    k.cmul_kernel(a, b, out)
+    plain = (a.real * b.real - a.imag * b.imag) + 1j * (a.real * b.imag + a.imag * b.real)
+    assert not np.array_equal(out, plain)
+
+
+def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
+    from rfsim.bench.exchange import _canonical
+    from rfsim.engine import singulate
+    from rfsim.rng import trial_rng
+
+    def rounds():
+        reader, make_tag, channel, query = _canonical(3.0, 0)
+        tag = make_tag(None)
+        out = []
+        for r in range(4):
+            for ex in singulate(reader, [tag], channel, t_s=r * 20e-3, rng=trial_rng(0, 2, r), query=query(r),
+                                round_index=r):
+                out.append((ex.command, ex.failure_reason, ex.read.bits.tobytes() if ex.read else None,
+                            ex.read.rssi_dbm if ex.read else None, ex.read.phase_rad if ex.read else None,
+                            ex.read.snr_db if ex.read else None))
+        return out
+
+    calls = []
+    kernel = k.backscatter_kernel
+    monkeypatch.setattr(k, "backscatter_kernel", lambda *a: (calls.append(1), kernel(*a)))
+    fused = rounds()
+    assert calls or not k.fused_matches_numpy()
+    monkeypatch.setattr(air, "_air_kernels_ok", lambda: False)
+    assert rounds() == fused
+    assert any(c == "ACK" and f == "" for c, f, *_ in fused)

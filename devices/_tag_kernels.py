@@ -102,3 +102,11 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
         if not (v == xm or v == -xm):
             return -1
     return win[margin]
+
+
+@njit
+def reflection_kernel(s, gamma_b, gamma_a, out):
+    """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0``, else
+    ``gamma_a`` (plain-NumPy twin: :func:`devices.tag.reflection_reference`)."""
+    for i in range(s.size):
+        out[i] = gamma_b if s[i] > 0 else gamma_a

@@ -218,6 +218,19 @@ def cw_power_reference(env: np.ndarray, levels: tuple[float, float, float]) -> f
     return float(np.median(env * env))
 
 
+def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray:
+    """Γ(t) of a reply, (n,) complex128: Γ_B where the ±1 reply waveform ``s`` (float64, 0
+    outside the reply) is +1, Γ_A elsewhere (numba kernel; :func:`reflection_reference`)."""
+    out = np.empty(s.size, dtype=np.complex128)
+    _k.reflection_kernel(s, complex(gamma_b), complex(gamma_a), out)
+    return out
+
+
+def reflection_reference(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray:
+    """Plain-NumPy twin of :func:`_reflection`."""
+    return np.where(s > 0, gamma_b, gamma_a).astype(np.complex128, copy=False)
+
+
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     """Envelope detector output (arbitrary units): |x|, optionally RC low-passed.
 
@@ -681,7 +694,7 @@ class PassiveTag:
             start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
         s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,
                            t0_s=start_s - t0_s, n_samples=n_samples)
-        gamma = np.where(s > 0, self.reflection_states.gamma_b, rest).astype(np.complex128, copy=False)
+        gamma = _reflection(s, self.reflection_states.gamma_b, rest)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=query.trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,

@@ -147,6 +147,22 @@ def add_awgn_kernel(st, y, ab, scale):
         y[i] = complex(v.real + a, v.imag + b)
 
 
+@njit
+def add_awgn_inplace_kernel(st, y, a, scale):
+    """:func:`add_awgn_kernel` without keeping the draws: ``a`` (n,) is scratch for the real
+    parts (all drawn before the imaginary parts); each imaginary part is added as it is
+    drawn. The same draws, products and sums."""
+    n = y.size
+    s_hi, s_lo, inc_hi, inc_lo = st[0], st[1], st[2], st[3]
+    for i in range(n):
+        a[i], s_hi, s_lo = _normal(s_hi, s_lo, inc_hi, inc_lo)
+    for i in range(n):
+        b, s_hi, s_lo = _normal(s_hi, s_lo, inc_hi, inc_lo)
+        v = y[i]
+        y[i] = complex(v.real + a[i] * scale, v.imag + b * scale)
+    st[0], st[1] = s_hi, s_lo
+
+
 def pcg64_state(bit_generator) -> tuple[np.ndarray, dict]:
     """``([s_hi, s_lo, inc_hi, inc_lo] uint64, the state dict)`` of a PCG64 bit generator."""
     d = bit_generator.state

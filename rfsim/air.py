@@ -914,7 +914,7 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
             if rng is None:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
             # complex white noise √(N/2)·(a + j·b): every a then every b drawn from rng
-            ab = add_awgn(y, noise_w, rng)
+            ab = add_awgn(y, noise_w, rng, keep=keep_components)
             if keep_components:
                 n_k = ab[0] + 1j * ab[1]
         if keep_components:

@@ -125,7 +125,8 @@ def propagate_batch(steps: Sequence[AirStep]) -> list[AirResult]:
             if noise_w > 0:
                 if s.rng is None:
                     raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-                ab = add_awgn(air.inputs[k].samples, noise_w, s.rng)  # the step's own sum, in place
+                ab = add_awgn(air.inputs[k].samples, noise_w, s.rng,  # the step's own sum, in place
+                              keep=s.keep_components)
                 if s.keep_components:
                     air.noise[k] = ab[0] + 1j * ab[1]
     for s, air in zip(steps, airs):

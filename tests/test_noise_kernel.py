@@ -88,3 +88,15 @@ def test_read_only_input_takes_the_reference_path():
     y.setflags(write=False)
     with pytest.raises(ValueError):  # NumPy refuses to add into a read-only array
         add_awgn(y, 1e-12, np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("n", [1, 6, 5000])
+def test_without_kept_draws_same_sums_and_state(n):
+    base = np.random.default_rng(8)
+    y0 = base.standard_normal(n) + 1j * base.standard_normal(n)
+    y_ref, y_k = y0.copy(), y0.copy()
+    g_ref, g_k = np.random.default_rng(21), np.random.default_rng(21)
+    add_awgn_reference(y_ref, 3e-12, g_ref)
+    assert add_awgn(y_k, 3e-12, g_k, keep=False) is None
+    assert np.array_equal(y_k.view(np.float64), y_ref.view(np.float64))
+    assert g_k.bit_generator.state == g_ref.bit_generator.state

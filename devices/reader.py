@@ -501,12 +501,18 @@ class Reader:
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
         n_bits = int(n_bits)
         lk, fs = self.link, self.fs_hz
-        blf = lk.blf_hz if blf_hz is None else float(blf_hz)
+        memo = self._reply_memo()
+        blf = memo[3] if blf_hz is None else float(blf_hz)
         if not blf > 0:
             raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
-        pre_n = self.preamble_samples(blf)
-        # reply length in samples (preamble + n_bits + dummy)
-        n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
+        hit = memo[4].get((n_bits, blf))
+        if hit is None:
+            if len(memo[4]) >= TX_CACHE_SIZE:
+                memo[4].clear()
+            # reply length in samples (preamble + n_bits + dummy)
+            hit = memo[4][(n_bits, blf)] = (self.preamble_samples(blf), int(math.ceil(
+                reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
+        pre_n, n_reply = hit
         if cmd_end_s is None:
             lo, hi = 0, rx.size - n_reply
         else:
@@ -594,6 +600,15 @@ class Reader:
                 self._rn16_blf_hz = blf
         return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
                           decision_ebn0_db=stat, **meas)
+
+    def _reply_memo(self) -> tuple:
+        """``(config, link, fs, nominal BLF [Hz], {(n_bits, BLF): (preamble samples, reply
+        samples)})`` of :meth:`receive`, kept while config, link and fs are the same objects
+        (pure functions of them)."""
+        memo = getattr(self, "_rx_memo", None)
+        if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
+            memo = self._rx_memo = (self.config, self.link, self.fs_hz, self.link.blf_hz, {})
+        return memo
 
     def _preamble_elements(self) -> int:
         """Elements of the reply preamble (pilot included) of the current link (kept while the

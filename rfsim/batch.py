@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from rfsim.air import AirResult, propagate
-from rfsim.engine import Exchange, _air_arguments, _prepare, _record, _transmit, _truth
+from rfsim.engine import Exchange, _ack_delays_s, _air_arguments, _prepare, _record, _transmit, _truth
 from rfsim.errors import ConfigError
 from rfsim.noise import add_awgn
 
@@ -243,7 +243,8 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     for b in go:
         lk = readers[b].link
         acks.append(ACK(bits_to_int(first[b].read.bits)))
-        t_acks.append(first[b].read.start_s + lk.reply_duration_s(16) + 10.0 * lk.tpri_s)
+        reply_s, t2_s = _ack_delays_s(lk)
+        t_acks.append(first[b].read.start_s + reply_s + t2_s)
     second = run_exchanges([readers[b] for b in go], [tags[b] for b in go], [channels[b] for b in go], acks,
                            t_s=t_acks, rngs=[rngs[b] for b in go], reply_bits=epc_bits, expect_crc=True,
                            motions=motions, round_index=[rounds[b] for b in go], draw_channel=False,

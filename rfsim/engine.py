@@ -221,7 +221,7 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
                          link_cache if (link_cache is not None) else None, draw_channel)
     return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
                      reflectors=reflectors, members=members, links=links, propagation=propagation,
-                     bandwidth_hz=2.0 * reader.link.blf_hz)
+                     bandwidth_hz=_reply_bandwidth_hz(reader.link))
 
 
 def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
@@ -285,7 +285,8 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
     decoded_tag = None
     if read is not None and read.bits is not None:
         for i, bits in zip(replied, sent):
-            if bits.size == read.bits.size and np.array_equal(bits, read.bits):
+            if bits.size == read.bits.size and (np.array_equal(bits, read.bits) if bits.dtype != read.bits.dtype
+                                                else bits.tobytes() == read.bits.tobytes()):
                 decoded_tag = i
                 break
     t1_range = _t1_range(prep.port.reader.link)
@@ -306,6 +307,19 @@ def _t1_range(link):
     from rfsim.gen2.link import t1
 
     return t1(link)
+
+
+@functools.lru_cache(maxsize=64)
+def _reply_bandwidth_hz(link) -> float:
+    """B = 2·BLF [Hz] of a profile's reply: the main lobe of FM0/Miller (module docstring)."""
+    return 2.0 * link.blf_hz
+
+
+@functools.lru_cache(maxsize=64)
+def _ack_delays_s(link) -> tuple[float, float]:
+    """From an RN16 reply's start to the ACK [s]: ``(the reply, 16 bits at the nominal BLF;
+    T2 = 10 Tpri, inside the Gen2 3–20 Tpri window)`` — added to the start in that order."""
+    return link.reply_duration_s(16), 10.0 * link.tpri_s
 
 
 @functools.lru_cache(maxsize=256)
@@ -451,7 +465,8 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     if first.read is None or not first.read.success:
         return [first]
     rn16 = bits_to_int(first.read.bits)
-    t_ack = first.read.start_s + reader.link.reply_duration_s(16) + 10.0 * reader.link.tpri_s
+    reply_s, t2_s = _ack_delays_s(reader.link)
+    t_ack = first.read.start_s + reply_s + t2_s
     second = run_exchange(reader, tags, channel, ACK(rn16), t_s=t_ack, rng=rng,
                           reply_bits=epc_bits, expect_crc=True, motions=motions,
                           round_index=round_index, draw_channel=False, link_cache=links)

@@ -268,6 +268,13 @@ class Reader:
         """Conducted CW power at the antenna port [W]."""
         return float(dbm_to_w(self.config.ptx_dbm))
 
+    def _cw_amplitude(self) -> float:
+        """CW amplitude A = √P_tx [√W] of the (frozen) config, recomputed when it is replaced."""
+        hit = getattr(self, "_amp", None)
+        if hit is None or hit[0] is not self.config:
+            hit = self._amp = (self.config, math.sqrt(self.ptx_w))
+        return hit[1]
+
     def _fixed(self) -> tuple:
         """``(config, fs, noise power, leakage gain)``, recomputed only when the (frozen)
         config or the sample rate is replaced."""
@@ -328,7 +335,7 @@ class Reader:
                       cw_before_s=float(cw_before_s))
         tl = pie_timeline(bits, **timing)
         rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
-        amp = math.sqrt(self.ptx_w)
+        amp = self._cw_amplitude()
         if lk.modulation in ("DSB-ASK", "PR-ASK"):
             # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
             # longer changes: the samples up to 2 Tari after that edge are modulated, the CW

@@ -308,17 +308,30 @@ class TagClock:
         integer, the nearest one to N_TRcal/DR (as PASS: ``round(fclk/LF)`` ticks per
         period, modulated half floor(N/2), unmodulated half ceil(N/2) ticks).
         """
-        dr_frac: Fraction = _commands.DR_VALUES[_commands.normalize_dr(dr, "link.dr")]
         n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
+        key = (n_trcal, type(dr), dr) if isinstance(dr, str) else None  # a DR name: no Fraction hash
+        hit = _DIVIDERS.get(key) if key is not None else None
+        if hit is not None:
+            return hit
+        dr_frac: Fraction = _commands.DR_VALUES[_commands.normalize_dr(dr, "link.dr")]
         if n_trcal < 1:
             raise ValueError(f"TRcal count must be >= 1 tick, got {n_trcal}")
-        return _divider(n_trcal, dr_frac)
+        n = _divider(n_trcal, dr_frac)
+        if key is not None:
+            if len(_DIVIDERS) >= 256:
+                _DIVIDERS.clear()
+            _DIVIDERS[key] = n
+        return n
 
     def blf_hz(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> float:
         """Backscatter link frequency the tag produces [Hz]: f / N with N from
         :meth:`blf_divider`. Nominally BLF = DR / TRcal (anchors §4.2); the clock error
         cancels in N_TRcal up to the integer rounding of N."""
         return self.f_hz / self.blf_divider(trcal_s, dr, trcal_ticks=trcal_ticks)
+
+
+#: :meth:`TagClock.blf_divider` of (TRcal count, DR given by name): checked and computed once
+_DIVIDERS: dict = {}
 
 
 @functools.lru_cache(maxsize=256)

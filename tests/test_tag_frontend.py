@@ -230,3 +230,23 @@ def test_clock_jitter_statistics():
     t2 = clock.tick_times_s(n, rng=np.random.default_rng(2024), t0_s=1e-3)
     np.testing.assert_array_equal(t, t2)
     np.testing.assert_array_equal(TagClock().tick_times_s(5, rng=rng), np.arange(5) / 1.92e6)
+
+
+def test_blf_divider_remembered_by_dr_name_still_checks_and_agrees():
+    # the divider of a (TRcal count, DR name) is remembered; a bad DR is still refused after
+    # a good one with the same count, and int/Fraction DRs give the same N as the names
+    from fractions import Fraction
+
+    from devices.tag_frontend import TagClock
+    from rfsim.errors import ConfigError
+
+    clk = TagClock()
+    for n_trcal in (100, 101, 533, 1707):
+        by_name = [clk.blf_divider(0.0, "64/3", trcal_ticks=n_trcal) for _ in range(2)]
+        assert by_name[0] == by_name[1] == clk.blf_divider(0.0, Fraction(64, 3), trcal_ticks=n_trcal)
+        assert by_name[0] == max(1, round(Fraction(n_trcal) * 3 / 64))
+        assert clk.blf_divider(0.0, "8", trcal_ticks=n_trcal) == clk.blf_divider(0.0, 8, trcal_ticks=n_trcal)
+    with pytest.raises(ConfigError):
+        clk.blf_divider(0.0, "7", trcal_ticks=100)
+    with pytest.raises(ValueError):
+        clk.blf_divider(0.0, "8", trcal_ticks=0)

@@ -81,7 +81,10 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from rfsim.errors import ConfigError
+from rfsim.lazy import lazy_import
 from rfsim.noise import add_awgn
+
+_ak = lazy_import("rfsim._air_kernels")
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
@@ -601,11 +604,8 @@ def _fused_sum(const: dict, parts: list, segs: list, n_samples: int):
         bs = parts[0]
         x = segs[i].samples
         if x is bs.x and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128 and _air_kernels_ok():
-            from rfsim import _air_kernels
-
             out = np.empty(n_samples, dtype=np.complex128)
-            _air_kernels.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b),
-                                            out)
+            _ak.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), out)
             parts.clear()
             return out
     y = None
@@ -617,9 +617,7 @@ def _fused_sum(const: dict, parts: list, segs: list, n_samples: int):
 
 def _air_kernels_ok() -> bool:
     """The fused kernel reproduces NumPy's complex products here (:func:`rfsim._air_kernels.fused_matches_numpy`)."""
-    from rfsim import _air_kernels
-
-    return _air_kernels.fused_matches_numpy()
+    return _ak.fused_matches_numpy()
 
 
 def _link(links, tx, rx, *, fc_hz, t_s, what: str):

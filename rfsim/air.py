@@ -583,13 +583,13 @@ def _lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int,
     """A :class:`_Backscatter` for reflection ``r`` through backward link ``pj`` when the
     contribution has that form (one-dimensional samples, forward constant ``g``, backward
     constant, no carrier offset, r(t) = A_s − Γ(t) given by ``r.reradiation_terms``), else None."""
-    if y is not None or rc is not None or off != 0.0 or g is None:
+    if y is not None or rc is not None or off != 0.0 or g is None or np.ndim(g) != 0:
         return None
     terms = getattr(r, "reradiation_terms", None)
-    if terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,):
+    if terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,) or np.ndim(terms[0]) != 0:
         return None
     b = _constant(pj, seg.fc_hz, bw, propagation, memo)
-    if b is None:
+    if b is None or np.ndim(b) != 0:
         return None
     return _Backscatter(seg.samples, g, terms[0], terms[1], b)
 
@@ -603,7 +603,8 @@ def _fused_sum(const: dict, parts: list, segs: list, n_samples: int):
         (i, a), = const.items()
         bs = parts[0]
         x = segs[i].samples
-        if x is bs.x and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128 and _air_kernels_ok():
+        if (x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128
+                and _air_kernels_ok()):
             out = np.empty(n_samples, dtype=np.complex128)
             _ak.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), out)
             parts.clear()

@@ -61,3 +61,17 @@ def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
     monkeypatch.setattr(air, "_air_kernels_ok", lambda: False)
     assert rounds() == fused
     assert any(c == "ACK" and f == "" for c, f, *_ in fused)
+
+
+def test_fused_sum_with_batched_constants_takes_the_array_operations():
+    # a factor per batch row ((B, 1) constants on 1-D samples): no kernel, NumPy's broadcasting
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal(50) + 1j * rng.standard_normal(50)
+    gamma = np.where(rng.random(50) < 0.5, 0.3 + 0.2j, -0.1j)
+    a = (rng.standard_normal((4, 1)) + 1j * rng.standard_normal((4, 1))) * 1e-2
+    bs = air._Backscatter(x, 2e-2 - 1e-2j, 0.4 + 0.1j, gamma, -1e-2 + 3e-3j)
+    seg = air.Segment(0.0, 1e6, 915e6, x)
+    parts = [bs]
+    y = air._fused_sum({0: a}, parts, [seg], 50)
+    assert parts == [bs] and y.shape == (4, 50)
+    assert np.array_equal(y, a * x)

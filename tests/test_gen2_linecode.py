@@ -237,3 +237,18 @@ def test_benchmark_smoke():
     out = benchmark_linecode(n_bits=2000, n_bits_reference=500)
     assert out["numba_bit_errors"] == 0 and out["reference_bit_errors"] == 0
     assert out["numba_s"] > 0 and out["fs_hz"] == 2 * 160e3 * 8
+
+
+def test_reply_waveform_remembered_elements_follow_the_bits():
+    # the element sequence of a reply is remembered by its bits: the same bits again, and the
+    # same array changed in place, give the reference's waveform
+    from rfsim.gen2.linecode import reply_waveform, reply_waveform_reference
+
+    bits = np.array([0, 1, 1, 0, 1, 0, 0, 0, 1, 1, 1, 0, 0, 1, 0, 1], dtype=np.uint8)
+    kw = dict(m=4, trext=False, blf_hz=320e3, fs_hz=4e6, t0_s=3.1e-6, n_samples=900)
+    for _ in range(2):
+        assert np.array_equal(reply_waveform(bits, **kw), reply_waveform_reference(bits, **kw))
+    bits[3] = 1
+    assert np.array_equal(reply_waveform(bits, **kw), reply_waveform_reference(bits, **kw))
+    with pytest.raises(ValueError):
+        reply_waveform(np.array([0, 2], dtype=np.uint8), **kw)

@@ -193,7 +193,16 @@ def reply_waveform(
     ``t0_s`` and after the reply (the tag's rest state). Sample n is at ``t = n/fs``;
     the default length ends with the reply.
     """
-    el = _element_values(bits, m, trext, dummy, np.float64)
+    key = None
+    if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
+        key = (bits.tobytes(), m, bool(trext), bool(dummy))
+    el = _WAVEFORM_ELEMENTS.get(key) if key is not None else None
+    if el is None:
+        el = _element_values(bits, m, trext, dummy, np.float64)
+        if key is not None:
+            if len(_WAVEFORM_ELEMENTS) >= 64:
+                _WAVEFORM_ELEMENTS.pop(next(iter(_WAVEFORM_ELEMENTS)))
+            _WAVEFORM_ELEMENTS[key] = el
     r = _check_rates(blf_hz, fs_hz)
     t0 = float(t0_s) * float(fs_hz)
     if n_samples is None:
@@ -201,6 +210,12 @@ def reply_waveform(
     out = np.empty(int(n_samples), dtype=np.float64)
     _k.waveform_kernel(el, t0, r, out)
     return out
+
+
+#: Element sequences (float64) of recent replies, by (bit bytes, M, TRext, dummy): a tag sends
+#: its EPC round after round, and the reader forms the reference of the reply it decoded.
+#: Only :func:`reply_waveform` reads them (never handed out).
+_WAVEFORM_ELEMENTS: dict = {}
 
 
 def reply_waveform_reference(

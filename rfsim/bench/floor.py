@@ -7,8 +7,9 @@ of its Query and its ACK, ≈ 11,800 complex samples, 2.96 ms of air at 4 MS/s):
 * **one memory pass**: read and write every complex128 sample once (``np.multiply(y, g,
   out=y)``); a round needs a few dozen such passes (modulation, channel, tag, receiver);
 * **the receiver noise**: 2 × n standard normal draws from the trial's own PCG64 stream and
-  their sum into the samples (:func:`rfsim.noise.add_awgn`, NumPy's ziggurat compiled by
-  numba), with a new generator per round as the engine spawns one per trial.
+  their sum into the samples (:func:`rfsim.noise.add_awgn`: PCG64 and NumPy's ziggurat
+  compiled by numba on the generator's state), with a new generator per round as the engine
+  spawns one per trial.
 
 The noise alone bounds a round with fresh receiver noise at
 ``air_time / noise_cpu_s`` real time per CPU second, batched or not: trials do not share

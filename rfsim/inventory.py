@@ -537,6 +537,7 @@ class EngineAir:
         if draw:
             self._channel.clear()
             self._round_links.clear()
+            self._hold_placements(round_index)
         ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
                           round_index=round_index, draw_channel=draw, propagation=self.propagation,
@@ -551,6 +552,16 @@ class EngineAir:
         if self.exchanges is not None:
             self.exchanges.append(out)
         return out
+
+    def _hold_placements(self, round_index: int) -> None:
+        """At a new draw: the carrier-independent geometry of the round's reader antenna →
+        tag links of static tags evaluated at once by a channel that offers it
+        (``hold_placements``, channels.scene.Channel: bit-identical to the link-by-link
+        evaluation it replaces)."""
+        hold = getattr(self._channel.channel, "hold_placements", None)
+        if hold is None or self.motions is not None or not self.tags:
+            return
+        hold(self.reader.antennas[self.reader.antenna_index(round_index)], [t.antenna for t in self.tags])
 
     def _links_still_held(self) -> bool:
         """At a new round: whether the held links are still the channel's (a channel without

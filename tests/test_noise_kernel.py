@@ -61,3 +61,29 @@ def test_read_only_input_takes_the_reference_path():
     y.setflags(write=False)
     with pytest.raises(ValueError):  # NumPy refuses to add into a read-only array
         add_awgn(y, 1e-12, np.random.default_rng(0))
+
+
+def test_kernel_draws_numpys_normals_through_the_ziggurat_tails():
+    # 2 × 400,000 normals: beyond the layers' fast path (≈ 0.7 % wedge tests) and the tail
+    # |x| > r = 3.654 (≈ 2.5e-4 of the draws, ~200 here) — numbers and state as NumPy's own
+    y = np.zeros(400_000, dtype=np.complex128)
+    g_k, g_np = np.random.default_rng(2024), np.random.default_rng(2024)
+    ab = add_awgn(y, 2.0, g_k)  # scale √(2/2) = 1: ab holds the draws themselves
+    want = g_np.standard_normal((2, 400_000))
+    assert np.array_equal(ab, want)
+    assert np.sum(np.abs(want) > 3.6541528853610088) > 50  # the tail branch was taken
+    assert g_k.bit_generator.state == g_np.bit_generator.state
+    assert g_k.integers(0, 2**32, 3).tolist() == g_np.integers(0, 2**32, 3).tolist()
+
+
+def test_kernel_keeps_the_buffered_32_bit_half():
+    # a generator with a buffered 32-bit value (after an odd number of 32-bit draws) keeps it
+    g_k, g_ref = np.random.default_rng(9), np.random.default_rng(9)
+    for g in (g_k, g_ref):
+        g.integers(0, 2**31, 1, dtype=np.int32)
+    assert g_k.bit_generator.state["has_uint32"] == 1
+    y_k, y_ref = np.zeros(33, dtype=np.complex128), np.zeros(33, dtype=np.complex128)
+    add_awgn(y_k, 1e-12, g_k)
+    add_awgn_reference(y_ref, 1e-12, g_ref)
+    assert np.array_equal(y_k, y_ref)
+    assert g_k.bit_generator.state == g_ref.bit_generator.state

@@ -173,6 +173,17 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     return ct.next_uint32(ct.state) >> (32 - q)
 
 
+class SharedClock:
+    """A time [s] that many :class:`TagState` objects follow at once (:meth:`TagState.follow`):
+    the silent steps of a population (:class:`StateArrays`) advance every tag that takes one
+    by setting this one value, not each tag's own."""
+
+    __slots__ = ("t_s",)
+
+    def __init__(self, t_s: float = 0.0):
+        self.t_s = float(t_s)
+
+
 class TagState:
     """Explicit Gen2 protocol state of one passive tag.
 
@@ -199,6 +210,7 @@ class TagState:
     q, slot, rn16, handle : int or None
     session : int or None — session of the current inventory round
     last_query : Query or None — link parameters (DR, M, TRext) of the reply
+    t_s : time of the state [s] (its last command or power event)
     """
 
     def __init__(self, epc, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
@@ -226,7 +238,8 @@ class TagState:
         self.handle: int | None = None
         self.session: int | None = None
         self.last_query: Query | None = None
-        self.t_s = float(t0_s)
+        self._clock: SharedClock | None = None
+        self._t_s = float(t0_s)
         self._s1_set_s: float | None = None  # time S1 was last set to B
         self._off_since_s: float | None = None if self.powered else float(t0_s)
 
@@ -254,6 +267,25 @@ class TagState:
         raise ValueError(f"memory bank must be 0-3, got {membank}")
 
     # ------------------------------------------------------------------ time and power
+    @property
+    def t_s(self) -> float:
+        """Time of the state [s]: its own, or the :class:`SharedClock` it follows."""
+        clock = self._clock
+        return self._t_s if clock is None else clock.t_s
+
+    @t_s.setter
+    def t_s(self, value: float) -> None:
+        self._clock = None  # the tag's own time from now on
+        self._t_s = value
+
+    def follow(self, clock: SharedClock | None) -> None:
+        """Let the state's time be ``clock.t_s`` until it is set (None: keep the current
+        time as the state's own)."""
+        if clock is None:
+            self.t_s = self.t_s
+        else:
+            self._clock = clock
+
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)
         if t_s < self.t_s:
@@ -534,6 +566,11 @@ class StateArrays:
     of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
     (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
     tag's own generator).
+
+    The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
+    (``clock``; ``following`` marks them): the next silent step advances them all by setting
+    the clock, and only the tags that join or leave that set are touched one by one. A tag's
+    own step (``on_command`` …) sets its time, which ends its following; :meth:`read` notes it.
     """
 
     def __init__(self, states):
@@ -547,6 +584,8 @@ class StateArrays:
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
         self.q = np.zeros(n, np.int64)
+        self.clock = SharedClock()
+        self.following = np.zeros(n, bool)
         self.read(range(n))
 
     def read(self, index) -> None:
@@ -558,6 +597,8 @@ class StateArrays:
         cols = list(zip(*[states[i].row() for i in index]))
         for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
+        clock = self.clock
+        self.following[index] = [states[i]._clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
@@ -610,6 +651,7 @@ class StateArrays:
             slots.append(st.slot)
             if reply is not None:
                 replies.append((i, reply))
+        self.following[idx] = False  # each tag's own time was set
         self.t_s[idx] = t_s
         self.q[idx] = q_new
         slot = np.array(slots, dtype=np.int64)
@@ -638,8 +680,23 @@ class StateArrays:
             for st, slot in zip(compress(self.states, decrement.tolist()), self.slot[idx].tolist()):
                 st.slot = slot
         self.t_s[silent] = t_s
-        for st in compress(self.states, silent.tolist()):
-            st.t_s = t_s
+        self._follow(silent, t_s)
+
+    def _follow(self, silent: np.ndarray, t_s: float) -> None:
+        """The tags ``silent`` (bool mask) advance to ``t_s`` [s] through the shared clock:
+        those that followed it and are not silent now keep the clock's time as their own,
+        the clock moves to ``t_s``, and the silent ones follow it."""
+        clock, states = self.clock, self.states
+        leave = self.following & ~silent
+        if leave.any():
+            for st in compress(states, leave.tolist()):
+                st.follow(None)
+        clock.t_s = t_s
+        join = silent & ~self.following
+        if join.any():
+            for st in compress(states, join.tolist()):
+                st.follow(clock)
+        self.following = silent.copy()
 
 
 STATE_CODES = {s: k for k, s in enumerate(STATES)}
@@ -675,6 +732,7 @@ __all__ = [
     "DEFAULT_TID_HEX",
     "Reply",
     "FlagPersistence",
+    "SharedClock",
     "TagState",
     "StateArrays",
     "STATE_CODES",

@@ -174,14 +174,16 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
 
 
 class SharedClock:
-    """A time [s] that many :class:`TagState` objects follow at once (:meth:`TagState.follow`):
-    the silent steps of a population (:class:`StateArrays`) advance every tag that takes one
-    by setting this one value, not each tag's own."""
+    """A time [s] and a count of slot-counter decrements that many :class:`TagState` objects
+    follow at once (:meth:`TagState.follow`, :meth:`TagState.follow_decrements`): the silent
+    steps of a population (:class:`StateArrays`) advance every tag that takes one, and count
+    down every counter a QueryRep decrements, by setting these two values, not each tag's."""
 
-    __slots__ = ("t_s",)
+    __slots__ = ("t_s", "decrements")
 
     def __init__(self, t_s: float = 0.0):
         self.t_s = float(t_s)
+        self.decrements = 0
 
 
 class TagState:
@@ -233,7 +235,8 @@ class TagState:
         self.inventoried = {s: "A" for s in range(4)}
         self.sl = False
         self.q = 0
-        self.slot: int | None = None
+        self._slot_clock: SharedClock | None = None
+        self._slot: int | None = None
         self.rn16: int | None = None
         self.handle: int | None = None
         self.session: int | None = None
@@ -285,6 +288,27 @@ class TagState:
             self.t_s = self.t_s
         else:
             self._clock = clock
+
+    @property
+    def slot(self) -> int | None:
+        """Slot counter (None: no round): its own, or counted down by the :class:`SharedClock`
+        it follows, (offset − decrements) mod 2^15."""
+        clock = self._slot_clock
+        return self._slot if clock is None else (self._slot - clock.decrements) & 0x7FFF
+
+    @slot.setter
+    def slot(self, value: int | None) -> None:
+        self._slot_clock = None  # the tag's own counter from now on
+        self._slot = value
+
+    def follow_decrements(self, clock: SharedClock | None) -> None:
+        """Let the slot counter count down with ``clock.decrements`` from now on, from its
+        current value, until it is set (None: keep the current value as the tag's own)."""
+        slot = self.slot
+        if clock is None:
+            self.slot = slot
+        else:
+            self._slot_clock, self._slot = clock, slot + clock.decrements
 
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)
@@ -569,8 +593,10 @@ class StateArrays:
 
     The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
     (``clock``; ``following`` marks them): the next silent step advances them all by setting
-    the clock, and only the tags that join or leave that set are touched one by one. A tag's
-    own step (``on_command`` …) sets its time, which ends its following; :meth:`read` notes it.
+    the clock, and only the tags that join or leave that set are touched one by one. So do
+    the slot counters of the tags whose last step was a QueryRep's decrement
+    (``counting``: ``clock.decrements``). A tag's own step (``on_command`` …) sets its time
+    and counter, which ends its following; :meth:`read` notes it.
     """
 
     def __init__(self, states):
@@ -586,6 +612,7 @@ class StateArrays:
         self.q = np.zeros(n, np.int64)
         self.clock = SharedClock()
         self.following = np.zeros(n, bool)
+        self.counting = np.zeros(n, bool)
         self.read(range(n))
 
     def read(self, index) -> None:
@@ -599,6 +626,7 @@ class StateArrays:
             getattr(self, name)[index] = col
         clock = self.clock
         self.following[index] = [states[i]._clock is clock for i in index]
+        self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
@@ -651,7 +679,8 @@ class StateArrays:
             slots.append(st.slot)
             if reply is not None:
                 replies.append((i, reply))
-        self.following[idx] = False  # each tag's own time was set
+        self.following[idx] = False  # each tag's own time and counter were set
+        self.counting[idx] = False
         self.t_s[idx] = t_s
         self.q[idx] = q_new
         slot = np.array(slots, dtype=np.int64)
@@ -676,11 +705,30 @@ class StateArrays:
             decrement = decrement & ~due
         if decrement.any():
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
-            idx = np.flatnonzero(decrement)
-            for st, slot in zip(compress(self.states, decrement.tolist()), self.slot[idx].tolist()):
-                st.slot = slot
+        self._count_down(decrement)
         self.t_s[silent] = t_s
         self._follow(silent, t_s)
+
+    def _count_down(self, decrement: np.ndarray) -> None:
+        """The counters of the tags ``decrement`` (bool mask) go to (slot − 1) mod 2^15
+        through the shared clock: when any does, those that counted with it and do not
+        decrement now keep their counter as their own, the clock counts one decrement more,
+        and the decrementing ones that did not count with it join it from their decremented
+        value (a step without decrements changes no counter: the clock stays)."""
+        if not decrement.any():
+            return
+        clock, states = self.clock, self.states
+        leave = self.counting & ~decrement
+        if leave.any():
+            for st in compress(states, leave.tolist()):
+                st.follow_decrements(None)
+        join = (decrement & ~self.counting).tolist()
+        for st in compress(states, join):
+            st.slot = (st.slot - 1) & 0x7FFF
+        clock.decrements += 1
+        for st in compress(states, join):
+            st.follow_decrements(clock)
+        self.counting = decrement.copy()
 
     def _follow(self, silent: np.ndarray, t_s: float) -> None:
         """The tags ``silent`` (bool mask) advance to ``t_s`` [s] through the shared clock:

@@ -620,11 +620,20 @@ class StateArrays:
         index = list(index)
         if not index:
             return
-        states = self.states
+        states, clock = self.states, self.clock
+        if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
+            columns = [getattr(self, name) for name in _COLUMNS]
+            following, counting = self.following, self.counting
+            for i in index:
+                st = states[i]
+                for col, value in zip(columns, st.row()):
+                    col[i] = value
+                following[i] = st._clock is clock
+                counting[i] = st._slot_clock is clock
+            return
         cols = list(zip(*[states[i].row() for i in index]))
         for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
-        clock = self.clock
         self.following[index] = [states[i]._clock is clock for i in index]
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 

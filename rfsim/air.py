@@ -387,12 +387,17 @@ def _check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers
 
     ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
     of antennas whose positions are read-only arrays (``channels.Antenna``) is checked once
-    and remembered by identity."""
+    and remembered by identity (a tuple of reflector antennas also by its own identity: a
+    population's antennas are one tuple object, not compared antenna by antenna)."""
     emitter_ids = {id(e.antenna) for e in emitters}
     listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
-    key = (tuple(id(e.antenna) for e in emitters), tuple(map(id, reflector_antennas)),
-           tuple(id(a) for _, a in listening))
+    ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
+    by_tuple = _POSITIONS_CHECKED_TUPLES.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
+    if by_tuple is not None and by_tuple[0] is reflector_antennas and by_tuple[1] == ends:
+        return
+    key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
     if key in _POSITIONS_CHECKED:
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
         return
     named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
              + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]
@@ -415,10 +420,25 @@ def _check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers
         if len(_POSITIONS_CHECKED) >= 64:
             _POSITIONS_CHECKED.pop(next(iter(_POSITIONS_CHECKED)))
         _POSITIONS_CHECKED[key] = [a for _, a in named]  # kept alive: their ids stay theirs
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
+
+
+def _remember_tuple(reflector_antennas, ends: tuple, emitters, listening) -> None:
+    """Remember a checked tuple of reflector antennas by its identity, with the ids of the
+    emitter and listening receiver antennas it was checked with (the tuple and those antennas
+    kept alive: their ids stay their own)."""
+    if type(reflector_antennas) is not tuple:
+        return
+    if len(_POSITIONS_CHECKED_TUPLES) >= 64:
+        _POSITIONS_CHECKED_TUPLES.pop(next(iter(_POSITIONS_CHECKED_TUPLES)))
+    _POSITIONS_CHECKED_TUPLES[id(reflector_antennas)] = (reflector_antennas, ends, [e.antenna for e in emitters],
+                                                         [a for _, a in listening])
 
 
 #: antenna-identity keys of position sets already checked (:func:`_check_positions`)
 _POSITIONS_CHECKED: dict = {}
+#: id of a checked tuple of reflector antennas -> (the tuple, its emitter and receiver antenna ids, those antennas)
+_POSITIONS_CHECKED_TUPLES: dict = {}
 
 
 # ----------------------------------------------------------------------------- result

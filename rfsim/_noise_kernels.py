@@ -127,9 +127,33 @@ def add_awgn_kernel(st, y, ab, scale, ki, wi, fi):
         y[i] = complex(v.real + a, v.imag + b)
 
 
+@njit
+def skip_normals_kernel(st, n, ki, wi, fi):
+    """Advance the PCG64 state ``st`` (in place) past ``n`` standard normals, as drawing them
+    would (the ziggurat's rejections included), without keeping them."""
+    out = np.empty(1)
+    for _ in range(n):
+        _standard_normals(st, out, ki, wi, fi)
+
+
 _ENTRY: list = []  # the compiled entry point of add_awgn_kernel for the wrapper's argument kind
 _TABLES: list = []
 _WORD = (1 << 64) - 1
+
+
+def _pcg64_state(rng) -> tuple:
+    """(state dict of ``rng.bit_generator``, its PCG64 (4,) uint64 words for the kernels)."""
+    full = rng.bit_generator.state
+    s = full["state"]
+    st = np.array([s["state"] >> 64, s["state"] & _WORD, s["inc"] >> 64, s["inc"] & _WORD], dtype=np.uint64)
+    if not _TABLES:
+        _TABLES.extend(_tables())
+    return full, st
+
+
+def _set_pcg64_state(rng, full: dict, st: np.ndarray) -> None:
+    full["state"]["state"] = (int(st[0]) << 64) | int(st[1])
+    rng.bit_generator.state = full
 
 
 def add_awgn_compiled(rng, y, ab, scale: float) -> None:
@@ -139,12 +163,7 @@ def add_awgn_compiled(rng, y, ab, scale: float) -> None:
     the state is read from ``rng.bit_generator.state``, advanced by the kernel and written
     back. The first call goes through the dispatcher (compilation or cache load) and keeps
     the compiled entry point, later calls use it."""
-    bg = rng.bit_generator
-    full = bg.state
-    s = full["state"]
-    st = np.array([s["state"] >> 64, s["state"] & _WORD, s["inc"] >> 64, s["inc"] & _WORD], dtype=np.uint64)
-    if not _TABLES:
-        _TABLES.extend(_tables())
+    full, st = _pcg64_state(rng)
     if _ENTRY:
         _ENTRY[0](st, y, ab, scale, *_TABLES)
     else:
@@ -155,5 +174,12 @@ def add_awgn_compiled(rng, y, ab, scale: float) -> None:
         cres = add_awgn_kernel.overloads.get(tuple(typeof(a) for a in args))
         # the dispatcher itself where no overload matches: typed once here, not on every call
         _ENTRY.append(add_awgn_kernel if cres is None else cres.entry_point)
-    s["state"] = (int(st[0]) << 64) | int(st[1])
-    bg.state = full
+    _set_pcg64_state(rng, full, st)
+
+
+def skip_normals_compiled(rng, n: int) -> None:
+    """:func:`skip_normals_kernel` on ``rng``'s PCG64 state (a PCG64 Generator; read and
+    written back as in :func:`add_awgn_compiled`)."""
+    full, st = _pcg64_state(rng)
+    skip_normals_kernel(st, int(n), *_TABLES)
+    _set_pcg64_state(rng, full, st)

@@ -81,7 +81,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from rfsim.errors import ConfigError
-from rfsim.noise import add_awgn
+from rfsim.noise import add_awgn, skip_awgn
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
@@ -588,7 +588,7 @@ def _link(links, tx, rx, *, fc_hz, t_s, what: str):
 def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, links, *, t0_s: float,
               fs_hz: float, n_samples: int, rng: np.random.Generator | None = None,
               fc_ref_hz: float | None = None, bandwidth_hz: float | None = None, propagation: str = "auto",
-              decide: bool = True, keep_components: bool = False) -> AirResult:
+              decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False) -> AirResult:
     """Run one exchange through the air (module docstring): emit, propagate, reflect,
     superpose, add noise, receive.
 
@@ -606,6 +606,13 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     propagation : ``"auto"``, ``"exact"`` or ``"narrowband"`` (``channels.paths``)
     decide : call every receiver's ``receive`` (else ``outputs`` holds None)
     keep_components : keep the direct, backscatter and noise parts per receiver
+    skip_unmodulated : when no reflector modulates (every re-radiation is a constant: no tag
+        replies), form no receiver input: every noisy receiver's noise is still drawn from
+        ``rng`` in receiver order (the generator is left as adding it leaves it), ``inputs``
+        and ``outputs`` hold None and ``dropped`` lists the reflectors' side only. For a
+        caller that reads the inputs only when something modulates, and whose links draw
+        nothing for the receivers' side (the engine: its backward links are drawn with the
+        forward ones). Ignored with ``keep_components``.
 
     Returns
     -------
@@ -726,6 +733,16 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         return comps if comps is not None else ((i0, seg0, gains[j], None),)
 
     incident = _PerMember(incident, lambda j: Segment.scaled(seg0, gains[j], fc_ref_hz))
+    if skip_unmodulated and not keep_components and not _modulates(entries, reflections, shortcut):
+        for rcv in receivers:  # silent air: nobody reads these inputs, the noise draws are made
+            if float(rcv.noise_power_w) > 0:
+                if rng is None:
+                    raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
+                skip_awgn(n_samples, rng)
+        none = [None] * len(receivers)
+        return AirResult(segments=segs, incident=incident, reflections=_PerMember(reflections, shortcut_of),
+                         inputs=none, outputs=list(none), dropped=dropped, fc_ref_hz=float(fc_ref_hz),
+                         groups=sorted(shortcut.items()))
     reflections = _PerMember(reflections, shortcut_of)
 
     # 2. every receiver: direct paths (or coupling), backscatter, noise
@@ -877,6 +894,18 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     return AirResult(segments=segs, incident=incident, reflections=reflections, inputs=inputs, outputs=outputs,
                      dropped=dropped, fc_ref_hz=float(fc_ref_hz), direct=direct_l, backscatter=back_l,
                      noise=noise_l, links=used, groups=sorted(shortcut.items()))
+
+
+def _modulates(entries: list, reflections: list, shortcut: dict) -> bool:
+    """Whether any reflection of the step (of a group that took the shortcut: its reactions,
+    its quiet members being constant) scatters a field that is not a constant multiple of its
+    incident one."""
+    for start, stop, _ in entries:
+        gr = shortcut.get(start)
+        for r in (gr.reactions.values() if gr is not None else reflections[start:stop]):
+            if r is not None and r.scatters and r.constant_reradiation is None:
+                return True
+    return False
 
 
 def _group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant, seg, links, const: dict,

@@ -232,8 +232,11 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
 
 
 def _air_step(prep: _Prepared, *, rng):
-    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``)."""
-    return propagate(**_air_arguments(prep), rng=rng)
+    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``).
+    When no tag replies the reader's input is not formed, its noise only drawn
+    (``skip_unmodulated``: the reader reads only when a tag replied, and the engine's links
+    draw nothing on the receiver's side): silent air costs no samples at the receiver."""
+    return propagate(**_air_arguments(prep), rng=rng, skip_unmodulated=True)
 
 
 def _air_arguments(prep: _Prepared) -> dict:

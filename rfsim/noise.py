@@ -68,4 +68,15 @@ def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator) -> np.ndar
     return ab
 
 
-__all__ += ["add_awgn", "add_awgn_reference"]
+def skip_awgn(shape, rng: np.random.Generator) -> None:
+    """Advance ``rng`` exactly as :func:`add_awgn` of an array of ``shape`` would (its 2·n
+    standard normals), without forming the noise: a receiver whose input nobody reads
+    (rfsim.air ``skip_unmodulated``)."""
+    n = 2 * math.prod(shape) if isinstance(shape, tuple) else 2 * int(shape)
+    if type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64:
+        _k.skip_normals_compiled(rng, n)
+    else:
+        rng.standard_normal(n)
+
+
+__all__ += ["add_awgn", "add_awgn_reference", "skip_awgn"]

@@ -87,3 +87,20 @@ def test_kernel_keeps_the_buffered_32_bit_half():
     add_awgn_reference(y_ref, 1e-12, g_ref)
     assert np.array_equal(y_k, y_ref)
     assert g_k.bit_generator.state == g_ref.bit_generator.state
+
+
+@pytest.mark.parametrize("make", [np.random.PCG64, np.random.Philox])
+def test_skip_advances_the_generator_as_adding_the_noise(make):
+    from rfsim.noise import skip_awgn
+
+    for shape in ((1,), (5000,), (3, 7)):
+        g_add, g_skip = np.random.Generator(make(8)), np.random.Generator(make(8))
+        add_awgn(np.zeros(shape, dtype=np.complex128), 1e-12, g_add)
+        skip_awgn(shape, g_skip)
+        # the same stream from here on (Philox's state holds arrays: compared by its draws)
+        assert g_skip.standard_normal(5).tolist() == g_add.standard_normal(5).tolist()
+        assert g_skip.integers(0, 2**32, 3).tolist() == g_add.integers(0, 2**32, 3).tolist()
+    g_add, g_skip = np.random.default_rng(3), np.random.default_rng(3)
+    add_awgn(np.zeros(1234, dtype=np.complex128), 1e-12, g_add)
+    skip_awgn(1234, g_skip)  # an int is a length
+    assert g_skip.bit_generator.state == g_add.bit_generator.state

@@ -683,9 +683,9 @@ class StateArrays:
         replies, slots = [], []
         for i, q, rng in zip(index, q_new.tolist(), rngs):
             st = states[i]
-            st.t_s, st.q = t_s, q
+            st._clock, st._t_s, st.q = None, t_s, q  # its own time (the t_s setter)
             reply = st._load_slot(rng)
-            slots.append(st.slot)
+            slots.append(st._slot)  # its own counter, just set
             if reply is not None:
                 replies.append((i, reply))
         self.following[idx] = False  # each tag's own time and counter were set
@@ -731,12 +731,11 @@ class StateArrays:
         if leave.any():
             for st in compress(states, leave.tolist()):
                 st.follow_decrements(None)
-        join = (decrement & ~self.counting).tolist()
-        for st in compress(states, join):
-            st.slot = (st.slot - 1) & 0x7FFF
-        clock.decrements += 1
-        for st in compress(states, join):
-            st.follow_decrements(clock)
+        d = clock.decrements + 1
+        for st in compress(states, (decrement & ~self.counting).tolist()):
+            # follow_decrements(clock) of the decremented counter, the clock one decrement on
+            st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
+        clock.decrements = d
         self.counting = decrement.copy()
 
     def _follow(self, silent: np.ndarray, t_s: float) -> None:
@@ -752,7 +751,7 @@ class StateArrays:
         join = silent & ~self.following
         if join.any():
             for st in compress(states, join.tolist()):
-                st.follow(clock)
+                st._clock = clock  # follow(clock)
         self.following = silent.copy()
 
 

@@ -704,15 +704,15 @@ class StateArrays:
         :meth:`TagState.on_command_if_silent` itself (and its row is read back)."""
         t_s = float(t_s)
         due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
-        if due.any():
-            idx = np.flatnonzero(due)
+        if np.count_nonzero(due):
+            idx = due.nonzero()[0]
             for i in idx.tolist():
                 if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
                     raise RuntimeError("a silent step was refused")  # the rules above disagree
             self.read(idx.tolist())
             silent = silent & ~due
             decrement = decrement & ~due
-        if decrement.any():
+        if np.count_nonzero(decrement):
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
         self._count_down(decrement)
         self.t_s[silent] = t_s
@@ -724,11 +724,11 @@ class StateArrays:
         decrement now keep their counter as their own, the clock counts one decrement more,
         and the decrementing ones that did not count with it join it from their decremented
         value (a step without decrements changes no counter: the clock stays)."""
-        if not decrement.any():
+        if not np.count_nonzero(decrement):
             return
         clock, states = self.clock, self.states
         leave = self.counting & ~decrement
-        if leave.any():
+        if np.count_nonzero(leave):
             for st in compress(states, leave.tolist()):
                 st.follow_decrements(None)
         d = clock.decrements + 1
@@ -744,12 +744,12 @@ class StateArrays:
         the clock moves to ``t_s``, and the silent ones follow it."""
         clock, states = self.clock, self.states
         leave = self.following & ~silent
-        if leave.any():
+        if np.count_nonzero(leave):
             for st in compress(states, leave.tolist()):
                 st.follow(None)
         clock.t_s = t_s
         join = silent & ~self.following
-        if join.any():
+        if np.count_nonzero(join):
             for st in compress(states, join.tolist()):
                 st._clock = clock  # follow(clock)
         self.following = silent.copy()

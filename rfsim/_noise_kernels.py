@@ -131,9 +131,12 @@ def add_awgn_kernel(st, y, ab, scale, ki, wi, fi):
 def skip_normals_kernel(st, n, ki, wi, fi):
     """Advance the PCG64 state ``st`` (in place) past ``n`` standard normals, as drawing them
     would (the ziggurat's rejections included), without keeping them."""
-    out = np.empty(1)
-    for _ in range(n):
-        _standard_normals(st, out, ki, wi, fi)
+    buf = np.empty(min(n, 1024))  # drawn in blocks (the draws' loop as in add_awgn_kernel)
+    done = 0
+    while done < n:
+        k = min(n - done, buf.size)
+        _standard_normals(st, buf[:k], ki, wi, fi)
+        done += k
 
 
 _ENTRY: list = []  # the compiled entry point of add_awgn_kernel for the wrapper's argument kind

@@ -678,7 +678,7 @@ class StateArrays:
             return []
         t_s = float(t_s)
         idx = np.asarray(index, dtype=np.int64)
-        q_new = np.clip(self.q[idx] + int(cmd.updn), 0, 15)
+        q_new = np.minimum(np.maximum(self.q[idx] + int(cmd.updn), 0), 15)  # min(15, max(0, Q + UpDn))
         states = self.states
         replies, slots = [], []
         for i, q, rng in zip(index, q_new.tolist(), rngs):

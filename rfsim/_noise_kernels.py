@@ -7,7 +7,7 @@ The kernel draws NumPy's standard normals itself, with NumPy's own algorithms wr
   algorithms for random number generation", 2014; XSL-RR 128/64): the 128-bit state
   s ← s·M + inc (mod 2^128), M = 2549297995355413924·2^64 + 4865540595714422341, then the
   output rotr64(hi(s) ⊕ lo(s), hi(s) >> 58) of the new state; s and inc as (hi, lo)
-  uint64 words, the 64 × 64 → 128-bit product of the low words from 32-bit halves;
+  uint64 words, the 64 × 64 → 128-bit product of the low words one widening multiply;
   ``next_double`` = (u64 >> 11)·2^−53.
 * **Ziggurat** (Marsaglia & Tsang 2000, NumPy's 256-layer variant ``random_standard_normal``):
   idx = u & 0xff, the sign bit u >> 8 & 1, |x| = ((u >> 9) & (2^52 − 1))·w[idx], accepted
@@ -32,9 +32,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim._jit import njit, njit_inline
+from rfsim._jit import njit, njit_inline  # before numba itself: it chooses numba's cache folder
 
-_MASK32 = np.uint64(0xFFFFFFFF)
+from numba import types  # noqa: E402
+from numba.extending import intrinsic  # noqa: E402
+
 _MASK52 = np.uint64(0x000FFFFFFFFFFFFF)
 _MULT_HI = np.uint64(2549297995355413924)  # PCG64's 128-bit multiplier M, high and low words
 _MULT_LO = np.uint64(4865540595714422341)
@@ -50,15 +52,24 @@ def _tables() -> tuple:
             np.ascontiguousarray(fi_double, dtype=np.float64))
 
 
+@intrinsic
+def _mulhi64(typingctx, a, b):
+    """The high 64 bits of the 128-bit product of two uint64 (one widening multiply)."""
+    from llvmlite import ir
+
+    def codegen(context, builder, signature, args):
+        wide = ir.IntType(128)
+        p = builder.mul(builder.zext(args[0], wide), builder.zext(args[1], wide))
+        return builder.trunc(builder.lshr(p, ir.Constant(wide, 64)), ir.IntType(64))
+
+    return types.uint64(types.uint64, types.uint64), codegen
+
+
 @njit_inline
 def _next_uint64(st):
     """One PCG64 (XSL-RR 128/64) output; ``st`` = (state hi, state lo, inc hi, inc lo) uint64."""
     sh, sl = st[0], st[1]
-    a_lo, a_hi = sl & _MASK32, sl >> np.uint64(32)
-    b_lo, b_hi = _MULT_LO & _MASK32, _MULT_LO >> np.uint64(32)
-    p1, p2 = a_lo * b_hi, a_hi * b_lo
-    mid = ((a_lo * b_lo) >> np.uint64(32)) + (p1 & _MASK32) + (p2 & _MASK32)
-    hi = a_hi * b_hi + (p1 >> np.uint64(32)) + (p2 >> np.uint64(32)) + (mid >> np.uint64(32))
+    hi = _mulhi64(sl, _MULT_LO)
     lo = sl * _MULT_LO
     hi = hi + sl * _MULT_HI + sh * _MULT_LO  # the cross terms, mod 2^64
     new_lo = lo + st[3]

@@ -173,6 +173,15 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     return ct.next_uint32(ct.state) >> (32 - q)
 
 
+def _slot_drawer(rng):
+    """``q → slot_draw(rng, q)`` with the bit generator's ctypes interface looked up once."""
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    if ct is None:
+        return lambda q: slot_draw(rng, q)
+    word, state = ct.next_uint32, ct.state
+    return lambda q: (word(state) >> (32 - q)) if q > 0 else 0
+
+
 class SharedClock:
     """A time [s] and a count of slot-counter decrements that many :class:`TagState` objects
     follow at once (:meth:`TagState.follow`, :meth:`TagState.follow_decrements`): the silent
@@ -681,13 +690,17 @@ class StateArrays:
         q_new = np.minimum(np.maximum(self.q[idx] + int(cmd.updn), 0), 15)  # min(15, max(0, Q + UpDn))
         states = self.states
         replies, slots = [], []
-        for i, q, rng in zip(index, q_new.tolist(), rngs):
+        for i, q, rng, draw in zip(index, q_new.tolist(), rngs, self._slot_draws(rngs)):
             st = states[i]
             st._clock, st._t_s, st.q = None, t_s, q  # its own time (the t_s setter)
-            reply = st._load_slot(rng)
-            slots.append(st._slot)  # its own counter, just set
-            if reply is not None:
-                replies.append((i, reply))
+            # TagState._load_slot: the counter (slot_draw), a reply with an RN16 at 0
+            slot = draw(q)
+            st._slot_clock, st._slot = None, slot  # its own counter (the slot setter)
+            if slot == 0:
+                replies.append((i, st._reply_if_zero(rng)))
+            else:
+                st.state = "arbitrate"
+            slots.append(slot)
         self.following[idx] = False  # each tag's own time and counter were set
         self.counting[idx] = False
         self.t_s[idx] = t_s
@@ -696,6 +709,21 @@ class StateArrays:
         self.slot[idx] = slot
         self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
         return replies
+
+    def _slot_draws(self, rngs: list) -> list:
+        """Per generator a function ``q → slot_draw(rng, q)``, kept per generator: the bit
+        generator's 32-bit word read through its ctypes interface, found once (not on every
+        draw), or ``slot_draw`` itself for a generator without it."""
+        memo = self.__dict__.setdefault("_draw_memo", {})
+        if len(memo) > 4 * len(self.states) + 16:
+            memo.clear()
+        out = []
+        for rng in rngs:
+            hit = memo.get(id(rng))
+            if hit is None or hit[0] is not rng:
+                hit = memo[id(rng)] = (rng, _slot_drawer(rng))  # the generator kept alive: its id stays its own
+            out.append(hit[1])
+        return out
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
         """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock

@@ -153,9 +153,10 @@ class TagPopulation:
                     redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s)
                     if np.count_nonzero(redraw):
                         redraws.append((decoded, redraw, t_end_s))
-        for cmd, silent, dec, t_end_s in steps:
-            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
+        silent_steps = list(steps)
         replies = {}
+        # the redraws first: their tags set their own time, so the silent steps' shared clock
+        # need not hand them its time first (the two sets of tags are disjoint)
         for decoded, redraw, t_end_s in redraws:
             # QueryAdjust: the round's tags load new counters; those that do not reply are quiet
             index = redraw.nonzero()[0].tolist()
@@ -165,6 +166,8 @@ class TagPopulation:
                 redraw[j] = False
             quiet = quiet | redraw
             steps.append((decoded[0], redraw, None, t_end_s))
+        for cmd, silent, dec, t_end_s in silent_steps:
+            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
         need = quiet & rnd.needs
         if np.count_nonzero(need):
             members, points = self.members, rnd.points

@@ -28,7 +28,9 @@ a·x + Σ b_i·r_i·x rule), not a full-length pass; a tag population (a reflect
 decides its quiet tags at once and adds them as one constant (rfsim.air "Groups").
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
-command, T4 between commands without a reply), so silent air time costs nothing. Each
+command, T4 between commands without a reply), so silent air time costs nothing; within an
+exchange in which no tag replies the reader's input is not formed either (the reader reads
+only replies; the noise draws are still made, ``propagate(skip_unmodulated=True)``). Each
 :class:`Exchange` records the number of samples it simulated (``n_samples``, the length of
 the reader's segment: one Tari of CW, the command, T1max + reply + 3 Tpri).
 

@@ -238,10 +238,13 @@ class _Clock:
         self.t2_s = config.t2_tpri * link.tpri_s
         self.idle_s = max(_link.t1(link).max_s + config.t3_s, 2.0 * link.rtcal_s)  # max(T1max + T3, T4)
         self.lead_s = link.tari_s  # CW before the delimiter (Reader.transmit default)
+        self._reply_s: dict = {}  # nominal reply duration per reply length (a pure function of the link)
 
     def next_command_s(self, ex: AirExchange, reply_bits: int) -> float:
         if ex.detected and math.isfinite(ex.reply_start_s):
-            duration = self.link.reply_duration_s(reply_bits)
+            duration = self._reply_s.get(reply_bits)
+            if duration is None:
+                duration = self._reply_s[reply_bits] = self.link.reply_duration_s(reply_bits)
             blf = getattr(ex.read, "blf_hz", math.nan)  # the BLF the reader measured, if it did
             if blf > 0:
                 duration *= self.link.blf_hz / blf

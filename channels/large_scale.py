@@ -12,6 +12,7 @@ g = min(1, (c/(4π·d·f))^{pl/2})), DESIGN.md "Channel".
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,10 @@ def friis_amplitude_gain(distance_m, fc_hz) -> np.ndarray:
     -------
     (...) float64, dimensionless amplitude factor
     """
+    if type(distance_m) is float and type(fc_hz) is float:  # one link: the same operations on floats
+        if not distance_m > 0:
+            raise ValueError("distances must be positive and finite")
+        return np.float64(C_M_S / (4.0 * math.pi * fc_hz * distance_m))
     d = _positive_distance(distance_m)
     return C_M_S / (4.0 * np.pi * np.asarray(fc_hz, dtype=float) * d)
 

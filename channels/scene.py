@@ -255,6 +255,31 @@ class Channel:
             self._placements.pop(next(iter(self._placements)))
         self._placements[(tx, rx)] = placement
 
+    def hold_placements(self, tx: Antenna, rx_antennas) -> int:
+        """Evaluate at once the carrier-independent geometry of the static links ``tx → rx_i``
+        not held yet (:func:`channels.bulk.static_placements`, bit-identical to
+        :meth:`_placement`) and hold it (:meth:`hold_placement`), so that the first
+        :meth:`link` of each does not evaluate it on its own. A scene with reflecting
+        surfaces or walls, receivers that are not linearly polarized antennas sharing one
+        pattern, or more links than :data:`GEOMETRY_CACHE_SIZE` are left to :meth:`link`.
+        Returns the number of placements held."""
+        sc = self.scene
+        if (sc.surfaces and sc.image_order > 0) or sc.walls or not isinstance(tx, Antenna):
+            return 0
+        todo = [rx for rx in dict.fromkeys(rx_antennas) if (tx, rx) not in self._placements]
+        if not todo or len(todo) + len(self._placements) > GEOMETRY_CACHE_SIZE:
+            return 0
+        pattern = todo[0].pattern if isinstance(todo[0], Antenna) else None
+        if not all(isinstance(a, Antenna) and a.polarization == "linear" and a.pattern == pattern for a in todo):
+            return 0
+        if any(np.array_equal(a.position_m, tx.position_m) for a in todo):
+            return 0  # left to link(), which names the error
+        from .bulk import static_placements
+
+        for rx, place in zip(todo, static_placements(sc, tx, todo)):
+            self.hold_placement(tx, rx, place)
+        return len(todo)
+
     def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> tuple:
         """Carrier-independent geometry of the link: ``(d, unit vector, wall amplitude,
         antenna gain, √PLF, p_tx, p_rx, v_tx, v_rx, image paths or None, APDP (K, τ_rms) or

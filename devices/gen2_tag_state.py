@@ -173,6 +173,28 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     return ct.next_uint32(ct.state) >> (32 - q)
 
 
+def _slot_drawer(rng):
+    """``q → slot_draw(rng, q)`` with the bit generator's ctypes interface looked up once."""
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    if ct is None:
+        return lambda q: slot_draw(rng, q)
+    word, state = ct.next_uint32, ct.state
+    return lambda q: (word(state) >> (32 - q)) if q > 0 else 0
+
+
+class SharedClock:
+    """A time [s] and a count of slot-counter decrements that many :class:`TagState` objects
+    follow at once (:meth:`TagState.follow`, :meth:`TagState.follow_decrements`): the silent
+    steps of a population (:class:`StateArrays`) advance every tag that takes one, and count
+    down every counter a QueryRep decrements, by setting these two values, not each tag's."""
+
+    __slots__ = ("t_s", "decrements")
+
+    def __init__(self, t_s: float = 0.0):
+        self.t_s = float(t_s)
+        self.decrements = 0
+
+
 class TagState:
     """Explicit Gen2 protocol state of one passive tag.
 
@@ -199,6 +221,7 @@ class TagState:
     q, slot, rn16, handle : int or None
     session : int or None — session of the current inventory round
     last_query : Query or None — link parameters (DR, M, TRext) of the reply
+    t_s : time of the state [s] (its last command or power event)
     """
 
     def __init__(self, epc, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
@@ -221,12 +244,14 @@ class TagState:
         self.inventoried = {s: "A" for s in range(4)}
         self.sl = False
         self.q = 0
-        self.slot: int | None = None
+        self._slot_clock: SharedClock | None = None
+        self._slot: int | None = None
         self.rn16: int | None = None
         self.handle: int | None = None
         self.session: int | None = None
         self.last_query: Query | None = None
-        self.t_s = float(t0_s)
+        self._clock: SharedClock | None = None
+        self._t_s = float(t0_s)
         self._s1_set_s: float | None = None  # time S1 was last set to B
         self._off_since_s: float | None = None if self.powered else float(t0_s)
 
@@ -254,6 +279,46 @@ class TagState:
         raise ValueError(f"memory bank must be 0-3, got {membank}")
 
     # ------------------------------------------------------------------ time and power
+    @property
+    def t_s(self) -> float:
+        """Time of the state [s]: its own, or the :class:`SharedClock` it follows."""
+        clock = self._clock
+        return self._t_s if clock is None else clock.t_s
+
+    @t_s.setter
+    def t_s(self, value: float) -> None:
+        self._clock = None  # the tag's own time from now on
+        self._t_s = value
+
+    def follow(self, clock: SharedClock | None) -> None:
+        """Let the state's time be ``clock.t_s`` until it is set (None: keep the current
+        time as the state's own)."""
+        if clock is None:
+            self.t_s = self.t_s
+        else:
+            self._clock = clock
+
+    @property
+    def slot(self) -> int | None:
+        """Slot counter (None: no round): its own, or counted down by the :class:`SharedClock`
+        it follows, (offset − decrements) mod 2^15."""
+        clock = self._slot_clock
+        return self._slot if clock is None else (self._slot - clock.decrements) & 0x7FFF
+
+    @slot.setter
+    def slot(self, value: int | None) -> None:
+        self._slot_clock = None  # the tag's own counter from now on
+        self._slot = value
+
+    def follow_decrements(self, clock: SharedClock | None) -> None:
+        """Let the slot counter count down with ``clock.decrements`` from now on, from its
+        current value, until it is set (None: keep the current value as the tag's own)."""
+        slot = self.slot
+        if clock is None:
+            self.slot = slot
+        else:
+            self._slot_clock, self._slot = clock, slot + clock.decrements
+
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)
         if t_s < self.t_s:
@@ -534,6 +599,13 @@ class StateArrays:
     of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
     (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
     tag's own generator).
+
+    The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
+    (``clock``; ``following`` marks them): the next silent step advances them all by setting
+    the clock, and only the tags that join or leave that set are touched one by one. So do
+    the slot counters of the tags whose last step was a QueryRep's decrement
+    (``counting``: ``clock.decrements``). A tag's own step (``on_command`` …) sets its time
+    and counter, which ends its following; :meth:`read` notes it.
     """
 
     def __init__(self, states):
@@ -547,6 +619,9 @@ class StateArrays:
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
         self.q = np.zeros(n, np.int64)
+        self.clock = SharedClock()
+        self.following = np.zeros(n, bool)
+        self.counting = np.zeros(n, bool)
         self.read(range(n))
 
     def read(self, index) -> None:
@@ -554,10 +629,22 @@ class StateArrays:
         index = list(index)
         if not index:
             return
-        states = self.states
+        states, clock = self.states, self.clock
+        if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
+            columns = [getattr(self, name) for name in _COLUMNS]
+            following, counting = self.following, self.counting
+            for i in index:
+                st = states[i]
+                for col, value in zip(columns, st.row()):
+                    col[i] = value
+                following[i] = st._clock is clock
+                counting[i] = st._slot_clock is clock
+            return
         cols = list(zip(*[states[i].row() for i in index]))
         for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
+        self.following[index] = [states[i]._clock is clock for i in index]
+        self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
@@ -600,22 +687,43 @@ class StateArrays:
             return []
         t_s = float(t_s)
         idx = np.asarray(index, dtype=np.int64)
-        q_new = np.clip(self.q[idx] + int(cmd.updn), 0, 15)
+        q_new = np.minimum(np.maximum(self.q[idx] + int(cmd.updn), 0), 15)  # min(15, max(0, Q + UpDn))
         states = self.states
         replies, slots = [], []
-        for i, q, rng in zip(index, q_new.tolist(), rngs):
+        for i, q, rng, draw in zip(index, q_new.tolist(), rngs, self._slot_draws(rngs)):
             st = states[i]
-            st.t_s, st.q = t_s, q
-            reply = st._load_slot(rng)
-            slots.append(st.slot)
-            if reply is not None:
-                replies.append((i, reply))
+            st._clock, st._t_s, st.q = None, t_s, q  # its own time (the t_s setter)
+            # TagState._load_slot: the counter (slot_draw), a reply with an RN16 at 0
+            slot = draw(q)
+            st._slot_clock, st._slot = None, slot  # its own counter (the slot setter)
+            if slot == 0:
+                replies.append((i, st._reply_if_zero(rng)))
+            else:
+                st.state = "arbitrate"
+            slots.append(slot)
+        self.following[idx] = False  # each tag's own time and counter were set
+        self.counting[idx] = False
         self.t_s[idx] = t_s
         self.q[idx] = q_new
         slot = np.array(slots, dtype=np.int64)
         self.slot[idx] = slot
         self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
         return replies
+
+    def _slot_draws(self, rngs: list) -> list:
+        """Per generator a function ``q → slot_draw(rng, q)``, kept per generator: the bit
+        generator's 32-bit word read through its ctypes interface, found once (not on every
+        draw), or ``slot_draw`` itself for a generator without it."""
+        memo = self.__dict__.setdefault("_draw_memo", {})
+        if len(memo) > 4 * len(self.states) + 16:
+            memo.clear()
+        out = []
+        for rng in rngs:
+            hit = memo.get(id(rng))
+            if hit is None or hit[0] is not rng:
+                hit = memo[id(rng)] = (rng, _slot_drawer(rng))  # the generator kept alive: its id stays its own
+            out.append(hit[1])
+        return out
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
         """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock
@@ -624,22 +732,55 @@ class StateArrays:
         :meth:`TagState.on_command_if_silent` itself (and its row is read back)."""
         t_s = float(t_s)
         due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
-        if due.any():
-            idx = np.flatnonzero(due)
+        if np.count_nonzero(due):
+            idx = due.nonzero()[0]
             for i in idx.tolist():
                 if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
                     raise RuntimeError("a silent step was refused")  # the rules above disagree
             self.read(idx.tolist())
             silent = silent & ~due
             decrement = decrement & ~due
-        if decrement.any():
+        if np.count_nonzero(decrement):
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
-            idx = np.flatnonzero(decrement)
-            for st, slot in zip(compress(self.states, decrement.tolist()), self.slot[idx].tolist()):
-                st.slot = slot
+        self._count_down(decrement)
         self.t_s[silent] = t_s
-        for st in compress(self.states, silent.tolist()):
-            st.t_s = t_s
+        self._follow(silent, t_s)
+
+    def _count_down(self, decrement: np.ndarray) -> None:
+        """The counters of the tags ``decrement`` (bool mask) go to (slot − 1) mod 2^15
+        through the shared clock: when any does, those that counted with it and do not
+        decrement now keep their counter as their own, the clock counts one decrement more,
+        and the decrementing ones that did not count with it join it from their decremented
+        value (a step without decrements changes no counter: the clock stays)."""
+        if not np.count_nonzero(decrement):
+            return
+        clock, states = self.clock, self.states
+        leave = self.counting & ~decrement
+        if np.count_nonzero(leave):
+            for st in compress(states, leave.tolist()):
+                st.follow_decrements(None)
+        d = clock.decrements + 1
+        for st in compress(states, (decrement & ~self.counting).tolist()):
+            # follow_decrements(clock) of the decremented counter, the clock one decrement on
+            st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
+        clock.decrements = d
+        self.counting = decrement.copy()
+
+    def _follow(self, silent: np.ndarray, t_s: float) -> None:
+        """The tags ``silent`` (bool mask) advance to ``t_s`` [s] through the shared clock:
+        those that followed it and are not silent now keep the clock's time as their own,
+        the clock moves to ``t_s``, and the silent ones follow it."""
+        clock, states = self.clock, self.states
+        leave = self.following & ~silent
+        if np.count_nonzero(leave):
+            for st in compress(states, leave.tolist()):
+                st.follow(None)
+        clock.t_s = t_s
+        join = silent & ~self.following
+        if np.count_nonzero(join):
+            for st in compress(states, join.tolist()):
+                st._clock = clock  # follow(clock)
+        self.following = silent.copy()
 
 
 STATE_CODES = {s: k for k, s in enumerate(STATES)}
@@ -675,6 +816,7 @@ __all__ = [
     "DEFAULT_TID_HEX",
     "Reply",
     "FlagPersistence",
+    "SharedClock",
     "TagState",
     "StateArrays",
     "STATE_CODES",

@@ -134,10 +134,10 @@ class TagPopulation:
         on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
         quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
         steps, redraws, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
-        if on.any():
+        if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
                 sel = on & group
-                if not sel.any():
+                if not np.count_nonzero(sel):
                     continue
                 decoded = fe.command(rc)
                 decoded_by.append((sel, decoded))
@@ -146,33 +146,36 @@ class TagPopulation:
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
-                if silent.any():
+                if np.count_nonzero(silent):
                     steps.append((cmd, silent, dec, t_end_s))
                     quiet = quiet | silent
                 if rnd.own_rngs:
                     redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s)
-                    if redraw.any():
+                    if np.count_nonzero(redraw):
                         redraws.append((decoded, redraw, t_end_s))
-        for cmd, silent, dec, t_end_s in steps:
-            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
+        silent_steps = list(steps)
         replies = {}
+        # the redraws first: their tags set their own time, so the silent steps' shared clock
+        # need not hand them its time first (the two sets of tags are disjoint)
         for decoded, redraw, t_end_s in redraws:
             # QueryAdjust: the round's tags load new counters; those that do not reply are quiet
-            index = np.flatnonzero(redraw).tolist()
+            index = redraw.nonzero()[0].tolist()
             members = self.members
             for j, reply in arrays.take_redraw_steps(decoded[0], index, [members[j].rng for j in index], t_end_s):
                 replies[j] = (decoded, reply)
                 redraw[j] = False
             quiet = quiet | redraw
             steps.append((decoded[0], redraw, None, t_end_s))
+        for cmd, silent, dec, t_end_s in silent_steps:
+            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
         need = quiet & rnd.needs
-        if need.any():
+        if np.count_nonzero(need):
             members, points = self.members, rnd.points
-            for j in np.flatnonzero(need).tolist():
+            for j in need.nonzero()[0].tolist():
                 members[j].take_quiet_step(points[j])
             rnd.needs[need] = False
         reactions = {}
-        react = np.flatnonzero(~quiet).tolist()
+        react = (~quiet).nonzero()[0].tolist()
         for j in react:
             m = self.members[j]
             decoded = next((d for sel, d in decoded_by if sel[j]), None)

@@ -70,6 +70,16 @@ def njit(func):
     return dispatcher
 
 
+_INLINE = numba.njit(cache=True, nogil=True, inline="always")
+
+
+def njit_inline(func):
+    """A helper of kernels, inlined into each kernel that calls it (numba IR inlining: a
+    step of a per-sample loop that must not cost a call); not a kernel of its own (it is
+    compiled only inside its callers, so it is not in :data:`KERNELS`)."""
+    return _INLINE(func)
+
+
 def uncached_kernels() -> list[str]:
     """Names of the declared kernels that have no on-disk cache index yet.
 

@@ -82,7 +82,7 @@ import numpy as np
 
 from rfsim.errors import ConfigError
 from rfsim.lazy import lazy_import
-from rfsim.noise import add_awgn
+from rfsim.noise import add_awgn, skip_awgn
 
 _ak = lazy_import("rfsim._air_kernels")
 
@@ -393,12 +393,17 @@ def _check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers
 
     ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
     of antennas whose positions are read-only arrays (``channels.Antenna``) is checked once
-    and remembered by identity."""
+    and remembered by identity (a tuple of reflector antennas also by its own identity: a
+    population's antennas are one tuple object, not compared antenna by antenna)."""
     emitter_ids = {id(e.antenna) for e in emitters}
     listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
-    key = (tuple(id(e.antenna) for e in emitters), tuple(map(id, reflector_antennas)),
-           tuple(id(a) for _, a in listening))
+    ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
+    by_tuple = _POSITIONS_CHECKED_TUPLES.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
+    if by_tuple is not None and by_tuple[0] is reflector_antennas and by_tuple[1] == ends:
+        return
+    key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
     if key in _POSITIONS_CHECKED:
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
         return
     named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
              + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]
@@ -421,10 +426,25 @@ def _check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers
         if len(_POSITIONS_CHECKED) >= 64:
             _POSITIONS_CHECKED.pop(next(iter(_POSITIONS_CHECKED)))
         _POSITIONS_CHECKED[key] = [a for _, a in named]  # kept alive: their ids stay theirs
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
+
+
+def _remember_tuple(reflector_antennas, ends: tuple, emitters, listening) -> None:
+    """Remember a checked tuple of reflector antennas by its identity, with the ids of the
+    emitter and listening receiver antennas it was checked with (the tuple and those antennas
+    kept alive: their ids stay their own)."""
+    if type(reflector_antennas) is not tuple:
+        return
+    if len(_POSITIONS_CHECKED_TUPLES) >= 64:
+        _POSITIONS_CHECKED_TUPLES.pop(next(iter(_POSITIONS_CHECKED_TUPLES)))
+    _POSITIONS_CHECKED_TUPLES[id(reflector_antennas)] = (reflector_antennas, ends, [e.antenna for e in emitters],
+                                                         [a for _, a in listening])
 
 
 #: antenna-identity keys of position sets already checked (:func:`_check_positions`)
 _POSITIONS_CHECKED: dict = {}
+#: id of a checked tuple of reflector antennas -> (the tuple, its emitter and receiver antenna ids, those antennas)
+_POSITIONS_CHECKED_TUPLES: dict = {}
 
 
 # ----------------------------------------------------------------------------- result
@@ -632,7 +652,7 @@ def _link(links, tx, rx, *, fc_hz, t_s, what: str):
 def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, links, *, t0_s: float,
               fs_hz: float, n_samples: int, rng: np.random.Generator | None = None,
               fc_ref_hz: float | None = None, bandwidth_hz: float | None = None, propagation: str = "auto",
-              decide: bool = True, keep_components: bool = False) -> AirResult:
+              decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False) -> AirResult:
     """Run one exchange through the air (module docstring): emit, propagate, reflect,
     superpose, add noise, receive.
 
@@ -650,6 +670,13 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     propagation : ``"auto"``, ``"exact"`` or ``"narrowband"`` (``channels.paths``)
     decide : call every receiver's ``receive`` (else ``outputs`` holds None)
     keep_components : keep the direct, backscatter and noise parts per receiver
+    skip_unmodulated : when no reflector modulates (every re-radiation is a constant: no tag
+        replies), form no receiver input: every noisy receiver's noise is still drawn from
+        ``rng`` in receiver order (the generator is left as adding it leaves it), ``inputs``
+        and ``outputs`` hold None and ``dropped`` lists the reflectors' side only. For a
+        caller that reads the inputs only when something modulates, and whose links draw
+        nothing for the receivers' side (the engine: its backward links are drawn with the
+        forward ones). Ignored with ``keep_components``.
 
     Returns
     -------
@@ -770,6 +797,16 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         return comps if comps is not None else ((i0, seg0, gains[j], None),)
 
     incident = _PerMember(incident, lambda j: Segment.scaled(seg0, gains[j], fc_ref_hz))
+    if skip_unmodulated and not keep_components and not _modulates(entries, reflections, shortcut):
+        for rcv in receivers:  # silent air: nobody reads these inputs, the noise draws are made
+            if float(rcv.noise_power_w) > 0:
+                if rng is None:
+                    raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
+                skip_awgn(n_samples, rng)
+        none = [None] * len(receivers)
+        return AirResult(segments=segs, incident=incident, reflections=_PerMember(reflections, shortcut_of),
+                         inputs=none, outputs=list(none), dropped=dropped, fc_ref_hz=float(fc_ref_hz),
+                         groups=sorted(shortcut.items()))
     reflections = _PerMember(reflections, shortcut_of)
 
     # 2. every receiver: direct paths (or coupling), backscatter, noise
@@ -924,6 +961,18 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     return AirResult(segments=segs, incident=incident, reflections=reflections, inputs=inputs, outputs=outputs,
                      dropped=dropped, fc_ref_hz=float(fc_ref_hz), direct=direct_l, backscatter=back_l,
                      noise=noise_l, links=used, groups=sorted(shortcut.items()))
+
+
+def _modulates(entries: list, reflections: list, shortcut: dict) -> bool:
+    """Whether any reflection of the step (of a group that took the shortcut: its reactions,
+    its quiet members being constant) scatters a field that is not a constant multiple of its
+    incident one."""
+    for start, stop, _ in entries:
+        gr = shortcut.get(start)
+        for r in (gr.reactions.values() if gr is not None else reflections[start:stop]):
+            if r is not None and r.scatters and r.constant_reradiation is None:
+                return True
+    return False
 
 
 def _group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant, seg, links, const: dict,

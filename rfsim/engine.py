@@ -28,7 +28,9 @@ a·x + Σ b_i·r_i·x rule), not a full-length pass; a tag population (a reflect
 decides its quiet tags at once and adds them as one constant (rfsim.air "Groups").
 
 Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
-command, T4 between commands without a reply), so silent air time costs nothing. Each
+command, T4 between commands without a reply), so silent air time costs nothing; within an
+exchange in which no tag replies the reader's input is not formed either (the reader reads
+only replies; the noise draws are still made, ``propagate(skip_unmodulated=True)``). Each
 :class:`Exchange` records the number of samples it simulated (``n_samples``, the length of
 the reader's segment: one Tari of CW, the command, T1max + reply + 3 Tpri).
 
@@ -232,8 +234,11 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
 
 
 def _air_step(prep: _Prepared, *, rng):
-    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``)."""
-    return propagate(**_air_arguments(prep), rng=rng)
+    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``).
+    When no tag replies the reader's input is not formed, its noise only drawn
+    (``skip_unmodulated``: the reader reads only when a tag replied, and the engine's links
+    draw nothing on the receiver's side): silent air costs no samples at the receiver."""
+    return propagate(**_air_arguments(prep), rng=rng, skip_unmodulated=True)
 
 
 def _air_arguments(prep: _Prepared) -> dict:

@@ -238,10 +238,13 @@ class _Clock:
         self.t2_s = config.t2_tpri * link.tpri_s
         self.idle_s = max(_link.t1(link).max_s + config.t3_s, 2.0 * link.rtcal_s)  # max(T1max + T3, T4)
         self.lead_s = link.tari_s  # CW before the delimiter (Reader.transmit default)
+        self._reply_s: dict = {}  # nominal reply duration per reply length (a pure function of the link)
 
     def next_command_s(self, ex: AirExchange, reply_bits: int) -> float:
         if ex.detected and math.isfinite(ex.reply_start_s):
-            duration = self.link.reply_duration_s(reply_bits)
+            duration = self._reply_s.get(reply_bits)
+            if duration is None:
+                duration = self._reply_s[reply_bits] = self.link.reply_duration_s(reply_bits)
             blf = getattr(ex.read, "blf_hz", math.nan)  # the BLF the reader measured, if it did
             if blf > 0:
                 duration *= self.link.blf_hz / blf
@@ -537,6 +540,7 @@ class EngineAir:
         if draw:
             self._channel.clear()
             self._round_links.clear()
+            self._hold_placements(round_index)
         ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
                           reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
                           round_index=round_index, draw_channel=draw, propagation=self.propagation,
@@ -551,6 +555,16 @@ class EngineAir:
         if self.exchanges is not None:
             self.exchanges.append(out)
         return out
+
+    def _hold_placements(self, round_index: int) -> None:
+        """At a new draw: the carrier-independent geometry of the round's reader antenna →
+        tag links of static tags evaluated at once by a channel that offers it
+        (``hold_placements``, channels.scene.Channel: bit-identical to the link-by-link
+        evaluation it replaces)."""
+        hold = getattr(self._channel.channel, "hold_placements", None)
+        if hold is None or self.motions is not None or not self.tags:
+            return
+        hold(self.reader.antennas[self.reader.antenna_index(round_index)], [t.antenna for t in self.tags])
 
     def _links_still_held(self) -> bool:
         """At a new round: whether the held links are still the channel's (a channel without

@@ -65,17 +65,24 @@ def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, keep: b
             and type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64):
         ab = add_awgn_reference(y, noise_w, rng)
         return ab if keep else None
-    bg = rng.bit_generator
-    st, d = _k.pcg64_state(bg)
     scale = math.sqrt(noise_w / 2.0)
-    if keep:
-        ab = np.empty((2,) + y.shape)
-        _k.add_awgn_kernel(st, y.reshape(-1), ab.reshape(2, -1), scale)
-    else:
-        ab = None
-        _k.add_awgn_inplace_kernel(st, y.reshape(-1), np.empty(y.size), scale)
-    _k.set_pcg64_state(bg, st, d)
+    if not keep:
+        _k.add_awgn_inplace_compiled(rng, y.reshape(-1), scale)
+        return None
+    ab = np.empty((2,) + y.shape)
+    _k.add_awgn_compiled(rng, y.reshape(-1), ab.reshape(2, -1), scale)
     return ab
 
 
-__all__ += ["add_awgn", "add_awgn_reference"]
+def skip_awgn(shape, rng: np.random.Generator) -> None:
+    """Advance ``rng`` exactly as :func:`add_awgn` of an array of ``shape`` would (its 2·n
+    standard normals), without forming the noise: a receiver whose input nobody reads
+    (rfsim.air ``skip_unmodulated``)."""
+    n = 2 * math.prod(shape) if isinstance(shape, tuple) else 2 * int(shape)
+    if type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64:
+        _k.skip_normals_compiled(rng, n)
+    else:
+        rng.standard_normal(n)
+
+
+__all__ += ["add_awgn", "add_awgn_reference", "skip_awgn"]

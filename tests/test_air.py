@@ -293,3 +293,41 @@ def test_moving_reflector_phase_refers_to_the_step_start():
     f_d = -2.0 * FC / C * 3.0
     want = friis(e, rx) + 0.5 * friis(e, at_t0) * friis(at_t0, rx) * np.exp(2j * math.pi * f_d * np.arange(N) / FS)
     np.testing.assert_allclose(outs[0], want, rtol=2e-3)
+
+
+def test_position_check_remembers_a_reflector_tuple_only_with_its_emitters():
+    # a tuple of reflector antennas checked with one emitter is not checked again with it;
+    # with another emitter at one of its positions it is checked, and refused
+    from rfsim.air import _POSITIONS_CHECKED_TUPLES, _check_positions
+
+    ants = (iso([1, 0, 1]), iso([2, 0, 1]))
+    far, on_top = _cw(iso([0, 0, 1])), _cw(iso([2, 0, 1]))
+    _check_positions([far], ants, [])
+    assert _POSITIONS_CHECKED_TUPLES[id(ants)][0] is ants
+    _check_positions([far], ants, [])
+    with pytest.raises(ConfigError) as err:
+        _check_positions([on_top], ants, [])
+    assert err.value.key == "reflector[1].position_m"
+
+
+@pytest.mark.parametrize("modulating", [False, True])
+def test_skip_unmodulated_draws_the_noise_but_forms_no_input(modulating):
+    # two noisy receivers; a constant reflector: no inputs, each generator left exactly as the
+    # full step leaves it (2·N normals per noisy receiver); a modulating one: the full step
+    e, t = iso([0, 0, 1]), iso([1.5, 0.3, 1])
+    r = np.where((np.arange(N) // 25) % 2 == 0, 0.3 + 0.1j, -0.2) if modulating else 0.7 - 0.2j
+    outs = []
+    for skip in (False, True):
+        g = np.random.default_rng(42)
+        ports = [AntennaPort(iso([0.4, 2.0, 1.2]), 1e-12), AntennaPort(iso([-1.0, 1.0, 1.0]), 2e-12)]
+        out = propagate([_cw(e)], [Const(t, r)], ports, LinkTable(Channel(Scene())), t0_s=0.0, fs_hz=FS,
+                        n_samples=N, rng=g, skip_unmodulated=skip)
+        outs.append((out, g.standard_normal(3).tolist()))
+    (full, after_full), (skipped, after_skip) = outs
+    assert after_skip == after_full
+    if modulating:
+        for a, b in zip(full.inputs, skipped.inputs):
+            assert np.array_equal(a.samples, b.samples)
+    else:
+        assert skipped.inputs == [None, None] and skipped.outputs == [None, None]
+        assert all(seg is not None for seg in full.inputs)

@@ -186,3 +186,19 @@ def test_shadowing_correlation_within_one_realisation():
         vb = f.value_db(a + lag * dirs)
         rho = np.mean(va * vb) / sigma**2
         assert rho == pytest.approx(np.exp(-lag / dcorr), abs=0.1)
+
+
+def test_friis_of_one_link_equals_the_array_form_bit_for_bit():
+    # the float fast path (one link) against the array path, element by element with ==
+    from channels.large_scale import friis_amplitude_gain
+
+    rng = np.random.default_rng(17)
+    d, fc = rng.uniform(0.05, 80.0, 2000), rng.uniform(860e6, 960e6, 2000)
+    arr = friis_amplitude_gain(d, fc)
+    one = [friis_amplitude_gain(float(a), float(b)) for a, b in zip(d, fc)]
+    assert all(type(v) is np.float64 for v in one)
+    assert np.array_equal(np.array(one), arr)
+    with pytest.raises(ValueError):
+        friis_amplitude_gain(0.0, 915e6)
+    with pytest.raises(ValueError):
+        friis_amplitude_gain(float("nan"), 915e6)

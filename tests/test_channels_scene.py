@@ -182,3 +182,25 @@ def test_held_links_return_the_held_draw_per_pair_only():
     assert links.paths(a, b, fc_hz=866e6, t_s=3.0) is fwd  # held: whatever the carrier and time
     assert links.paths(b, a, fc_hz=915e6, t_s=0.0) is None
     assert links.paths(a, twin, fc_hz=915e6, t_s=0.0) is None
+
+
+def test_hold_placements_gives_the_links_the_channel_evaluates_itself():
+    # 40 dipoles around an isotropic reader: links after hold_placements equal, bit for bit,
+    # those of a channel that evaluates each placement on its own; a scene with a reflecting
+    # floor, or circularly polarized receivers, is left to link()
+    from channels.antennas import Isotropic
+
+    tx = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(), polarization="circular")
+    a = 2 * np.pi * np.arange(40) / 40
+    tags = [Antenna(position_m=(2 * np.cos(x), 2 * np.sin(x), 1.0), orientation=(x + np.pi, 0.0, 0.0),
+                    pattern=HalfWaveDipole(), polarization="linear") for x in a]
+    held, own = Channel(Scene()), Channel(Scene())
+    assert held.hold_placements(tx, tags) == 40
+    assert held.hold_placements(tx, tags) == 0  # already held
+    for t in tags:
+        p, q = held.link(tx, t, fc_hz=915e6), own.link(tx, t, fc_hz=915e6)
+        assert np.array_equal(p.gain, q.gain) and np.array_equal(p.delay_s, q.delay_s)
+        assert np.array_equal(p.doppler_hz, q.doppler_hz)
+    floor = Scene(surfaces=(Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),), image_order=1)
+    assert Channel(floor).hold_placements(tx, tags) == 0
+    assert Channel(Scene()).hold_placements(tags[0], [tx]) == 0  # a circular receiver

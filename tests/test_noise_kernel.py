@@ -41,8 +41,11 @@ def test_fallback_for_non_contiguous_input():
     assert np.array_equal(y_k, y_ref)
 
 
-def test_kernel_equals_reference_call_after_call():
-    # new generators and lengths each time: the reference's draws and generator state
+def test_compiled_entry_point_equals_reference_call_after_call():
+    # from the second call on the kernel's compiled entry point is called directly (no
+    # dispatch): still the reference's draws, for new generators and lengths each time
+    from rfsim import _noise_kernels
+
     for k, n in enumerate((5, 5, 12, 1, 300)):
         y0 = np.full(n, 0.25 - 0.5j)
         y_ref, y_k = y0.copy(), y0.copy()
@@ -50,37 +53,7 @@ def test_kernel_equals_reference_call_after_call():
         assert np.array_equal(add_awgn(y_k, 1e-9, g_k), add_awgn_reference(y_ref, 1e-9, g_ref))
         assert np.array_equal(y_k.view(np.float64), y_ref.view(np.float64))
         assert g_k.bit_generator.state == g_ref.bit_generator.state
-
-
-def test_ziggurat_rare_branches_and_buffered_uint32_equal_numpy():
-    # 2·10⁵ draws: ≈ 1.2 % leave the layer rectangles (the wedge test, one uniform more) and
-    # ≈ 0.01 % are tail draws |x| > r = 3.654 (two uniforms and log1p per try): both branches
-    # are taken hundreds / tens of times, and every draw after them must still agree
-    from rfsim import _noise_kernels as k
-
-    g_ref, g_k = np.random.default_rng(7), np.random.default_rng(7)
-    for g in (g_ref, g_k):  # a buffered 32-bit output the normals must leave alone
-        g.integers(0, 2**31, dtype=np.int32)
-    y_ref, y_k = np.zeros(100_000, complex), np.zeros(100_000, complex)
-    ab_ref = add_awgn_reference(y_ref, 2.0, g_ref)
-    ab_k = add_awgn(y_k, 2.0, g_k)
-    assert np.array_equal(ab_k, ab_ref)
-    assert np.sum(np.abs(ab_ref) > k.ziggurat_nor_r) >= 5  # the tail branch was taken
-    assert g_k.bit_generator.state == g_ref.bit_generator.state
-    assert g_k.integers(0, 2**31, dtype=np.int32) == g_ref.integers(0, 2**31, dtype=np.int32)
-
-
-def test_standard_normal_kernel_equals_generator():
-    from rfsim import _noise_kernels as k
-
-    g = np.random.default_rng(12345)
-    st, d = k.pcg64_state(g.bit_generator)
-    out = np.empty(50_000)
-    k.standard_normal_kernel(st, out)
-    k.set_pcg64_state(g.bit_generator, st, d)
-    ref = np.random.default_rng(12345)
-    assert np.array_equal(out, ref.standard_normal(50_000))
-    assert g.bit_generator.state == ref.bit_generator.state
+    assert _noise_kernels._ENTRY  # the entry point was found and kept
 
 
 def test_read_only_input_takes_the_reference_path():
@@ -90,7 +63,50 @@ def test_read_only_input_takes_the_reference_path():
         add_awgn(y, 1e-12, np.random.default_rng(0))
 
 
-@pytest.mark.parametrize("n", [1, 6, 5000])
+def test_kernel_draws_numpys_normals_through_the_ziggurat_tails():
+    # 2 × 400,000 normals: beyond the layers' fast path (≈ 0.7 % wedge tests) and the tail
+    # |x| > r = 3.654 (≈ 2.5e-4 of the draws, ~200 here) — numbers and state as NumPy's own
+    y = np.zeros(400_000, dtype=np.complex128)
+    g_k, g_np = np.random.default_rng(2024), np.random.default_rng(2024)
+    ab = add_awgn(y, 2.0, g_k)  # scale √(2/2) = 1: ab holds the draws themselves
+    want = g_np.standard_normal((2, 400_000))
+    assert np.array_equal(ab, want)
+    assert np.sum(np.abs(want) > 3.6541528853610088) > 50  # the tail branch was taken
+    assert g_k.bit_generator.state == g_np.bit_generator.state
+    assert g_k.integers(0, 2**32, 3).tolist() == g_np.integers(0, 2**32, 3).tolist()
+
+
+def test_kernel_keeps_the_buffered_32_bit_half():
+    # a generator with a buffered 32-bit value (after an odd number of 32-bit draws) keeps it
+    g_k, g_ref = np.random.default_rng(9), np.random.default_rng(9)
+    for g in (g_k, g_ref):
+        g.integers(0, 2**31, 1, dtype=np.int32)
+    assert g_k.bit_generator.state["has_uint32"] == 1
+    y_k, y_ref = np.zeros(33, dtype=np.complex128), np.zeros(33, dtype=np.complex128)
+    add_awgn(y_k, 1e-12, g_k)
+    add_awgn_reference(y_ref, 1e-12, g_ref)
+    assert np.array_equal(y_k, y_ref)
+    assert g_k.bit_generator.state == g_ref.bit_generator.state
+
+
+@pytest.mark.parametrize("make", [np.random.PCG64, np.random.Philox])
+def test_skip_advances_the_generator_as_adding_the_noise(make):
+    from rfsim.noise import skip_awgn
+
+    for shape in ((1,), (5000,), (3, 7)):
+        g_add, g_skip = np.random.Generator(make(8)), np.random.Generator(make(8))
+        add_awgn(np.zeros(shape, dtype=np.complex128), 1e-12, g_add)
+        skip_awgn(shape, g_skip)
+        # the same stream from here on (Philox's state holds arrays: compared by its draws)
+        assert g_skip.standard_normal(5).tolist() == g_add.standard_normal(5).tolist()
+        assert g_skip.integers(0, 2**32, 3).tolist() == g_add.integers(0, 2**32, 3).tolist()
+    g_add, g_skip = np.random.default_rng(3), np.random.default_rng(3)
+    add_awgn(np.zeros(1234, dtype=np.complex128), 1e-12, g_add)
+    skip_awgn(1234, g_skip)  # an int is a length
+    assert g_skip.bit_generator.state == g_add.bit_generator.state
+
+
+@pytest.mark.parametrize("n", [1, 6, 1024, 1025, 5000])
 def test_without_kept_draws_same_sums_and_state(n):
     base = np.random.default_rng(8)
     y0 = base.standard_normal(n) + 1j * base.standard_normal(n)

@@ -24,6 +24,15 @@ GOLDEN_REPLIES = [
 EPC = GOLDEN_REPLIES[0][1]
 
 
+def _observable(st: TagState) -> dict:
+    """A state's attributes but its arrays, with its time and slot counter as read (``t_s``,
+    ``slot``: its own or following a shared clock) instead of how they are held."""
+    held = ("_clock", "_t_s", "_slot_clock", "_slot")
+    out = {k: v for k, v in vars(st).items() if not isinstance(v, np.ndarray) and k not in held}
+    out["t_s"], out["slot"] = st.t_s, st.slot
+    return out
+
+
 def _rn(reply: Reply) -> int:
     assert reply is not None and reply.kind == "RN16" and reply.bits.size == 16
     return bits_to_int(reply.bits)
@@ -411,8 +420,7 @@ def test_silent_steps_equal_on_command():
             taken += done
             total += 1
             assert (a is None and b is None) or a == b
-            assert {k: v for k, v in vars(full).items() if not isinstance(v, np.ndarray)} == \
-                {k: v for k, v in vars(fast).items() if not isinstance(v, np.ndarray)}
+            assert _observable(full) == _observable(fast)
             assert r_full.bit_generator.state == r_fast.bit_generator.state
     assert 0.2 * total <= taken < total, (taken, total)
 
@@ -479,8 +487,7 @@ def test_state_arrays_silent_steps_equal_on_command():
         for a, b in zip(expected, got):
             assert (a is None and b is None) or a == b
         for a, b in zip(full, fast):
-            assert {k: v for k, v in vars(a).items() if not isinstance(v, np.ndarray)} == \
-                {k: v for k, v in vars(b).items() if not isinstance(v, np.ndarray)}, step
+            assert _observable(a) == _observable(b), step
         assert [g.bit_generator.state for g in g_full] == [g.bit_generator.state for g in g_fast]
         rows = StateArrays(fast)
         for name in ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q"):
@@ -539,3 +546,39 @@ def test_rn16_bits_by_byte_lookup_equal_int_to_bits():
         b = _bits16(v)
         assert b.dtype == np.uint8 and not b.flags.writeable
         assert np.array_equal(b, int_to_bits(v, 16))
+
+
+def test_tags_following_the_arrays_clock_keep_their_own_times():
+    # three powered tags in Arbitrate of session 0 with counters 5, 2, 9: two QueryReps at
+    # 1 ms and 2 ms are silent for all three (counters 4, 1, 8 then 3, 0 → not silent for
+    # tag 1, which goes its own way at 2 ms), an ACK not for tag 1 at 2.5 ms silent for tags
+    # 0, 2 (no counter changes), a third QueryRep at 3 ms silent for tags 0, 2 (2, 6)
+    from devices.gen2_tag_state import StateArrays
+
+    states = [TagState(EPC) for _ in range(3)]
+    for st, slot in zip(states, (5, 2, 9)):
+        st.state, st.session, st.slot, st.q = "arbitrate", 0, slot, 4
+    arrays = StateArrays(states)
+    rep = QueryRep(session=0)
+    silent, dec = arrays.silent_steps(rep, np.ones(3, bool), 1e-3)
+    assert silent.tolist() == [True, True, True]
+    arrays.take_silent_steps(rep, silent, dec, 1e-3)
+    assert [st.t_s for st in states] == [1e-3] * 3 and [st.slot for st in states] == [4, 1, 8]
+    silent, dec = arrays.silent_steps(rep, np.ones(3, bool), 2e-3)
+    assert silent.tolist() == [True, False, True]
+    arrays.take_silent_steps(rep, silent, dec, 2e-3)
+    assert states[1].t_s == 1e-3  # left the clock with the time of its last silent step
+    reply = states[1].on_command(rep, t_s=2e-3, rng=np.random.default_rng(0))
+    assert reply is not None and reply.kind == "RN16" and states[1].t_s == 2e-3
+    arrays.read([1])
+    ack = ACK(int(reply.bits.dot(1 << np.arange(15, -1, -1))) ^ 1)  # not tag 1's RN16
+    silent, dec = arrays.silent_steps(ack, np.ones(3, bool), 2.5e-3)  # silent in Arbitrate, no decrement
+    assert silent.tolist() == [True, False, True] and not dec.any()
+    arrays.take_silent_steps(ack, silent, dec, 2.5e-3)
+    assert [st.slot for st in states] == [3, 0, 7]
+    silent, dec = arrays.silent_steps(rep, np.ones(3, bool), 3e-3)
+    assert silent.tolist() == [True, False, True]
+    arrays.take_silent_steps(rep, silent, dec, 3e-3)
+    assert [st.t_s for st in states] == [3e-3, 2e-3, 3e-3] and [st.slot for st in states] == [2, 0, 6]
+    with pytest.raises(ValueError, match="backwards"):
+        states[0].on_command(rep, t_s=2.5e-3, rng=np.random.default_rng(0))

@@ -66,6 +66,7 @@ from rfsim.units import dbm_to_w, w_to_dbm
 from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
+_kernels = lazy_import("devices._sense_a_tag_kernels")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -334,9 +335,33 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     Returns
     -------
     envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
-    Identical to ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the
-    steady state of the first sample, comparator from −1).
+    ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the steady state
+    of the first sample, comparator from −1; equal to rounding: the RC here is SciPy's
+    ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the diode law the detector,
+    RC, band-pass and comparator run in one numba kernel per row
+    (:func:`devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
+    :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws run the
+    reference.
     """
+    x = np.atleast_2d(np.asarray(x))
+    det = rx.envelope_detector
+    if det.law != "diode" or x.shape[1] < 1:
+        return chain_rows_reference(rx, x)
+    v_peak = det.rf_peak_v(x)
+    r, n = v_peak.shape
+    env, bp, cmp = np.empty((r, n)), np.empty((r, n)), np.empty((r, n))
+    tog = np.empty(r, dtype=np.int64)
+    sos = np.ascontiguousarray(rx.sos, dtype=np.float64)
+    _kernels.diode_chain_rows_kernel(v_peak, np.array([det.matching_gain, det.thermal_voltage_v]),
+                                     det.thermal_voltage_v, -math.expm1(-1.0 / (rx.fs_hz * det.tau_s)), sos,
+                                     np.ascontiguousarray(_signal.sosfilt_zi(sos)), 0.5 * rx.threshold_v,
+                                     -0.5 * rx.threshold_v, env, bp, cmp, tog)
+    return env, bp, cmp, tog
+
+
+def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Plain NumPy/SciPy twin of :func:`chain_rows` (detector law, ``lfilter``, ``sosfilt``,
+    the comparator row by row)."""
     x = np.atleast_2d(np.asarray(x))
     det = rx.envelope_detector
     u = det.instantaneous_v(x)
@@ -379,5 +404,6 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "chain_rows_reference",
+           "level_differences",
            "decode_rows"]

@@ -194,6 +194,7 @@ _noise = lazy_import("rfsim.noise")
 _air = lazy_import("rfsim.air")
 _link = lazy_import("rfsim.gen2.link")
 columns = lazy_import("scenarios._phase_cancellation_columns")
+_kernels = lazy_import("scenarios._phase_cancellation_kernels")
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -561,8 +562,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
         if coupled else None
 
     def couple(x):
-        # port signals of the λ/4 pair after mutual coupling: (N, 2, ...) → M·(SA1, SA2)
-        return np.einsum("ij,nj...->ni...", mix, x) if coupled else x
+        return couple_ports(mix, x) if coupled else x
 
     common = dict(a_gain=couple(a_link.constant_gain(fc).reshape(shape)),
                   b_gain=couple(b_link.constant_gain(fc).reshape(shape)),
@@ -612,6 +612,29 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     common.update(m=resp.m, trext=resp.trext)
     return Exchange(x_tx, inc_w, inputs, stamp_inputs, levels=levels, frame=frame, i_ref=i_ref, search=search,
                     rerad_a=r_a, rerad_b=r_b, rn16=np.asarray(resp.reply.bits, np.uint8), **common)
+
+
+def couple_ports(mix, x) -> np.ndarray:
+    """Port signals of the λ/4 pair after mutual coupling, ``y_i = Σ_j M_ij·x_j``
+    (:func:`devices.st_analytic.coupling_matrix`) for ``x`` (N, 2, ...) complex (SA1, SA2 on
+    axis 1). Waveforms (N, 2, n) go through a numba kernel
+    (:mod:`scenarios._phase_cancellation_kernels`: the operations of
+    :func:`couple_ports_reference`, equal bit for bit); gains (N, 2) through the reference
+    itself (its loop over (N, 2) sums from +0, which turns a −0 sum into +0)."""
+    x = np.asarray(x)
+    if x.ndim < 2 or x.shape[1] != 2:
+        raise ValueError(f"x must be (N, 2, ...), got shape {x.shape}")
+    if x.ndim != 3:
+        return couple_ports_reference(mix, x)
+    x = np.ascontiguousarray(x, dtype=np.complex128)
+    out = np.empty_like(x)
+    _kernels.couple_ports_kernel(np.ascontiguousarray(mix, dtype=np.complex128), x, out)
+    return out
+
+
+def couple_ports_reference(mix, x) -> np.ndarray:
+    """Plain NumPy twin of :func:`couple_ports` (``einsum``)."""
+    return np.einsum("ij,nj...->ni...", mix, x)
 
 
 def _scene(apdp: bool) -> _channels_scene.Scene:

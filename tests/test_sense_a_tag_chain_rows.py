@@ -60,3 +60,17 @@ def test_chain_rows_follows_the_single_chain_row_by_row():
         np.testing.assert_allclose(bp[i], ch.bandpassed_v, rtol=0.0, atol=1e-13 * np.abs(ch.envelope_v).max())
         np.testing.assert_array_equal(cmp[i], ch.comparator)
         assert tog[i] == ch.toggles
+
+
+@pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 2467])
+def test_i0e_kernel_blocks_equal_scipy_bit_for_bit(n):
+    """The block-wise I0 kernel of the diode law against scipy.special.i0e with both series
+    mixed in every block (shuffled), at block-boundary sizes."""
+    from scipy.special import i0e
+
+    rng = np.random.default_rng(n)
+    x = np.where(rng.random(n) < 0.2, rng.uniform(-8.0, 8.0, n), rng.uniform(8.0, 60.0, n))
+    if n > 3:
+        x[:4] = [8.0, np.nextafter(8.0, 9.0), -8.0, 0.0]
+        rng.shuffle(x)
+    np.testing.assert_array_equal(sr.i0e(x).view(np.int64), i0e(x).view(np.int64))

@@ -60,7 +60,7 @@ from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_p
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
-from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import decode_reply_rows, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
 from rfsim.units import dbm_to_w, w_to_dbm
 from rfsim.lazy import lazy_import
@@ -397,8 +397,11 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     exp = np.asarray(expected_bits, dtype=np.uint8)
     part = cmp[:, start_sample:]
     toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
-    for i in np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles)):
-        det = rx.decode_comparator(part[i], n_bits=exp.size, search_samples=search_samples)
+    idx = np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles))
+    # rx.decode_comparator row by row, its setup done once (rfsim.gen2.linecode.decode_reply_rows)
+    dets = decode_reply_rows(part, idx, n_bits=exp.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz,
+                             method=rx.method, search_samples=search_samples)
+    for i, det in zip(idx.tolist(), dets):
         out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
     return out
 

@@ -14,27 +14,27 @@ from rfsim._jit import njit
 
 
 @njit
-def diode_chain_rows_kernel(v_peak, gain_over_nvt, nvt, a, sos, zi, v_high, v_low, env, bp, cmp, tog):
-    """Diode detector, RC, band-pass and comparator of every row of ``v_peak`` (r, n) [V].
+def diode_chain_rows_kernel(x_abs, v_per_sqrt_w, matching_gain, nvt, a, sos, zi, v_high, v_low, env, bp, cmp,
+                            tog):
+    """Diode detector, RC, band-pass and comparator of every row of ``x_abs`` (r, n) [√W].
 
-    Per row: ``x = (G_v·V)/(n·V_T)`` as ``(G_v·V)/nvt``, ``u = (ln i0e(x) + x)·nvt``; the RC
+    Per row: the RF peak ``V = v_per_sqrt_w·|x|`` [V], the diode law's argument
+    ``x = (G_v·V)/nvt`` (nvt = n·V_T [V]) and output ``u = (ln i0e(x) + x)·nvt`` [V] (the steps
+    of :meth:`devices.st_receiver.EnvelopeDetector.transfer_v`); the RC
     ``env[t] = env[t−1]·(1 − a) + a·u[t]`` from ``env[−1] = u[0]`` (in the operation order of
     SciPy's ``lfilter``: state ``(1 − a)·y``, output ``state + a·u``); the second-order
     sections ``sos`` (s, 6) from the state ``zi`` (s, 2) times ``env[0]`` (SciPy's
     ``sosfilt`` recursion); the hysteresis comparator from −1 (``toggles`` into ``tog``).
-    ``gain_over_nvt`` is (G_v, nvt): the gain multiplies first, the division follows.
     """
-    r, n = v_peak.shape
+    r, n = x_abs.shape
     n_sec = sos.shape[0]
     x = np.empty(n)
     y = np.empty(n)
     z = np.empty((n_sec, 2))
-    g = gain_over_nvt[0]
-    d = gain_over_nvt[1]
     b = 1.0 - a
     for i in range(r):
         for t in range(n):
-            x[t] = (g * v_peak[i, t]) / d
+            x[t] = (matching_gain * (v_per_sqrt_w * x_abs[i, t])) / nvt
         i0e_kernel(x, y)
         state = 0.0
         for t in range(n):

@@ -338,8 +338,8 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
     ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the steady state
     of the first sample, comparator from −1; equal to rounding: the RC here is SciPy's
-    ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the diode law the detector,
-    RC, band-pass and comparator run in one numba kernel per row
+    ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
+    diode law the detector, RC, band-pass and comparator run in one numba kernel per row
     (:func:`devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
     :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws run the
     reference.
@@ -348,14 +348,14 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     det = rx.envelope_detector
     if det.law != "diode" or x.shape[1] < 1:
         return chain_rows_reference(rx, x)
-    v_peak = det.rf_peak_v(x)
-    r, n = v_peak.shape
+    x_abs = np.abs(x)  # the RF peak sqrt(2R)·|x| of EnvelopeDetector.rf_peak_v is taken in the kernel
+    r, n = x_abs.shape
     env, bp, cmp = np.empty((r, n)), np.empty((r, n)), np.empty((r, n))
     tog = np.empty(r, dtype=np.int64)
     sos, zi = _band_pass(rx.bpf_order, rx.bpf_low_factor, rx.bpf_high_factor, rx.blf_hz, rx.fs_hz)
-    _kernels.diode_chain_rows_kernel(v_peak, np.array([det.matching_gain, det.thermal_voltage_v]),
-                                     det.thermal_voltage_v, -math.expm1(-1.0 / (rx.fs_hz * det.tau_s)), sos, zi,
-                                     0.5 * rx.threshold_v, -0.5 * rx.threshold_v, env, bp, cmp, tog)
+    _kernels.diode_chain_rows_kernel(x_abs, det.volts_per_sqrt_w, det.matching_gain, det.thermal_voltage_v,
+                                     -math.expm1(-1.0 / (rx.fs_hz * det.tau_s)), sos, zi, 0.5 * rx.threshold_v,
+                                     -0.5 * rx.threshold_v, env, bp, cmp, tog)
     return env, bp, cmp, tog
 
 

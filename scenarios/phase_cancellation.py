@@ -736,11 +736,8 @@ def _stamp(rx, ex: Exchange):
     # '1' when a comparator at (1 + STAMP_DECISION_MARGIN)·threshold follows every transition
     # of the second (settled) half of the ASK stamp (the band-pass starts from rest at the
     # stamp's first edge); the margin: see STAMP_DECISION_MARGIN
-    mid = (f.start + f.ask_stop) // 2
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
-    ask_ok = np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=thr)[0][mid - f.start:]))
-                       for row in bp2[:, f.start:f.ask_stop]]) >= STAMP_CYCLES - 1
-    use_p1 = ~ask_ok
+    use_p1 = ask_stamp_transitions(bp2, f, thr) < STAMP_CYCLES - 1
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
     det = _sense_a_tag.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
     env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
@@ -749,6 +746,26 @@ def _stamp(rx, ex: Exchange):
         env1, bp1, cmp1, tog1 = _sense_a_tag.chain_rows(rx, ex.stamp_inputs[idx, 0])
         det[idx] = _sense_a_tag.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
     return use_p1, det
+
+
+def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
+    """Per row of ``bandpassed_v`` (r, n) [V]: the transitions of a comparator of hysteresis
+    width ``threshold_v`` [V], run from −1 at the ASK stamp's first sample ``frame.start``,
+    over the second half of the ASK stamp (from ``(start + ask_stop)//2`` to ``ask_stop``),
+    ``(r,) int64`` (numba kernel, :mod:`scenarios._phase_cancellation_kernels`; the twin is
+    :func:`ask_stamp_transitions_reference`)."""
+    seg = np.ascontiguousarray(bandpassed_v[:, frame.start:frame.ask_stop], dtype=np.float64)
+    out = np.empty(seg.shape[0], dtype=np.int64)
+    skip = (frame.start + frame.ask_stop) // 2 - frame.start
+    _kernels.comparator_changes_rows_kernel(seg, 0.5 * threshold_v, -0.5 * threshold_v, skip, out)
+    return out
+
+
+def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
+    """Plain twin of :func:`ask_stamp_transitions` (the comparator row by row)."""
+    mid = (frame.start + frame.ask_stop) // 2
+    return np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=threshold_v)[0][mid - frame.start:]))
+                     for row in bandpassed_v[:, frame.start:frame.ask_stop]], dtype=np.int64)
 
 
 def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):

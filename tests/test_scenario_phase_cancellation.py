@@ -408,3 +408,24 @@ def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
     assert got.shape == want.shape == x.shape
     np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
     assert not np.allclose(got, x)  # the coupling mixes the ports
+
+
+def test_ask_stamp_transitions_kernel_equals_the_comparator_row_by_row():
+    """The stamp decision's transition count (numba) against the comparator run row by row,
+    on band-passed square waves of swings around the 5.15 mV hysteresis (some rows toggle at
+    every edge, some never) with noise."""
+    from devices import st_receiver as sr
+
+    fs, blf = 1e6, 48e3
+    frame = sr.stamp_frame(np.zeros(16, np.uint8), m=2, trext=True, blf_hz=blf, fs_hz=fs, n_stamp_cycles=8,
+                           t0_s=30e-6, n_settle_cycles=8)
+    rng = np.random.default_rng(5)
+    n = frame.states.size
+    square = np.where(np.floor(np.arange(n) * 2 * blf / fs) % 2 == 0, 0.5, -0.5)
+    swing = rng.uniform(0.003, 0.008, 40)
+    bp = swing[:, None] * square[None, :] + 2e-4 * rng.standard_normal((40, n))
+    thr = 1.03 * 0.005
+    got = pc.ask_stamp_transitions(bp, frame, thr)
+    want = pc.ask_stamp_transitions_reference(bp, frame, thr)
+    np.testing.assert_array_equal(got, want)
+    assert got.min() == 0 and got.max() >= pc.STAMP_CYCLES - 1  # both decisions occur

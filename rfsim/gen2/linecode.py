@@ -474,6 +474,12 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
     return _decode_planned(plan, r, search_samples, start_sample, gain, impl)
 
 
+def _mean(seg: np.ndarray):
+    """``seg.mean()`` of a 1-D array by its own two steps (``np.add.reduce``, then the
+    division by the count as ``intp``) without its Python-level wrapper."""
+    return np.add.reduce(seg) / np.intp(seg.size)
+
+
 def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, impl) -> ReplyDetection:
     """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous)."""
     m, trext, ratio, n_reply, n_pre = plan.m, plan.trext, plan.ratio, plan.n_reply, plan.n_pre
@@ -508,12 +514,12 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, im
     if gain is None:
         peak = complex(seg @ tpl0)
         h = peak / e_t
-        seg_mean = seg.mean()
+        seg_mean = _mean(seg)
         dc = seg_mean - h * tpl_mean
         corr = _correlation(peak, seg - seg_mean, e_t)
     else:
         h, dc = complex(gain), 0.0
-        corr = _correlation(complex(seg @ tpl0), seg - seg.mean(), e_t)
+        corr = _correlation(complex(seg @ tpl0), seg - _mean(seg), e_t)
     bits = _decisions(r, lag, start - lag, h, dc, ratio, m, plan.n_bits, plan.method, plan.nh, plan.cur, plan.prev,
                       impl)
     return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)

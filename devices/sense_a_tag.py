@@ -48,6 +48,7 @@ and "conveys the stored IDs inside its EPC payload"):
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -60,12 +61,13 @@ from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_p
 from rfsim.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
-from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import decode_reply_rows, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
 from rfsim.units import dbm_to_w, w_to_dbm
 from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
+_kernels = lazy_import("devices._sense_a_tag_kernels")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -334,9 +336,44 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     Returns
     -------
     envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
-    Identical to ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the
-    steady state of the first sample, comparator from −1).
+    ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the steady state
+    of the first sample, comparator from −1; equal to rounding: the RC here is SciPy's
+    ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
+    diode law the detector, RC, band-pass and comparator run in one numba kernel per row
+    (:func:`devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
+    :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws run the
+    reference.
     """
+    x = np.atleast_2d(np.asarray(x))
+    det = rx.envelope_detector
+    if det.law != "diode" or x.shape[1] < 1:
+        return chain_rows_reference(rx, x)
+    x_abs = np.abs(x)  # the RF peak sqrt(2R)·|x| of EnvelopeDetector.rf_peak_v is taken in the kernel
+    r, n = x_abs.shape
+    env, bp, cmp = np.empty((r, n)), np.empty((r, n)), np.empty((r, n))
+    tog = np.empty(r, dtype=np.int64)
+    sos, zi = _band_pass(rx.bpf_order, rx.bpf_low_factor, rx.bpf_high_factor, rx.blf_hz, rx.fs_hz)
+    _kernels.diode_chain_rows_kernel(x_abs, det.volts_per_sqrt_w, det.matching_gain, det.thermal_voltage_v,
+                                     -math.expm1(-1.0 / (rx.fs_hz * det.tau_s)), sos, zi, 0.5 * rx.threshold_v,
+                                     -0.5 * rx.threshold_v, env, bp, cmp, tog)
+    return env, bp, cmp, tog
+
+
+@functools.lru_cache(maxsize=16)
+def _band_pass(order: int, low_factor: float, high_factor: float, blf_hz: float,
+               fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """:attr:`STReceiver.sos` of a receiver with these band-pass settings and its
+    ``sosfilt_zi`` (cached: a receiver's chains all use the same filter; the kernel only
+    reads them, and they stay writeable so that it is compiled for one array type)."""
+    rx = sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, bpf_order=order, bpf_low_factor=low_factor,
+                       bpf_high_factor=high_factor)
+    sos = np.ascontiguousarray(rx.sos, dtype=np.float64)
+    return sos, np.ascontiguousarray(_signal.sosfilt_zi(sos))
+
+
+def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Plain NumPy/SciPy twin of :func:`chain_rows` (detector law, ``lfilter``, ``sosfilt``,
+    the comparator row by row)."""
     x = np.atleast_2d(np.asarray(x))
     det = rx.envelope_detector
     u = det.instantaneous_v(x)
@@ -372,12 +409,16 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     exp = np.asarray(expected_bits, dtype=np.uint8)
     part = cmp[:, start_sample:]
     toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
-    for i in np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles)):
-        det = rx.decode_comparator(part[i], n_bits=exp.size, search_samples=search_samples)
+    idx = np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles))
+    # rx.decode_comparator row by row, its setup done once (rfsim.gen2.linecode.decode_reply_rows)
+    dets = decode_reply_rows(part, idx, n_bits=exp.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz,
+                             method=rx.method, search_samples=search_samples)
+    for i, det in zip(idx.tolist(), dets):
         out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
     return out
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "chain_rows_reference",
+           "level_differences",
            "decode_rows"]

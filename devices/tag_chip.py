@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -149,13 +150,23 @@ class PowerDependentChip:
         """Chip power needed to run [W] = P_min·10^(margin/10)."""
         return self.picmin_w * 10.0 ** (self.margin_db / 10.0)
 
+    @cached_property
+    def _table(self) -> tuple[np.ndarray, ...]:
+        """ln P_chip, Re/Im Z_ic, Re/Im Z_mod of the table as arrays (made once per chip;
+        the operating point's bisection asks for the impedances 120 times)."""
+        zc, zm = np.asarray(self.z_chip_ohm, complex), np.asarray(self.z_mod_ohm, complex)
+        out = tuple(np.ascontiguousarray(a) for a in (np.log(np.asarray(self.p_chip_w, float)), zc.real, zc.imag,
+                                                      zm.real, zm.imag))
+        for a in out:
+            a.setflags(write=False)
+        return out
+
     def impedances(self, p_chip_w: float) -> tuple[complex, complex]:
         """(Z_ic, Z_mod) at a chip power [Ω], linear in log P, held outside the table."""
-        lp = np.log(np.asarray(self.p_chip_w, float))
+        lp, zc_re, zc_im, zm_re, zm_im = self._table
         x = math.log(min(max(p_chip_w, self.p_chip_w[0]), self.p_chip_w[-1]))
-        zc, zm = np.asarray(self.z_chip_ohm, complex), np.asarray(self.z_mod_ohm, complex)
-        return (complex(np.interp(x, lp, zc.real), np.interp(x, lp, zc.imag)),
-                complex(np.interp(x, lp, zm.real), np.interp(x, lp, zm.imag)))
+        return (complex(np.interp(x, lp, zc_re), np.interp(x, lp, zc_im)),
+                complex(np.interp(x, lp, zm_re), np.interp(x, lp, zm_im)))
 
     def states(self, p_chip_w: float) -> tuple[complex, complex]:
         """(Γ_u, Γ_m) at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna."""

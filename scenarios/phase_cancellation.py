@@ -194,6 +194,7 @@ _noise = lazy_import("rfsim.noise")
 _air = lazy_import("rfsim.air")
 _link = lazy_import("rfsim.gen2.link")
 columns = lazy_import("scenarios._phase_cancellation_columns")
+_kernels = lazy_import("scenarios._phase_cancellation_kernels")
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -561,8 +562,7 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
         if coupled else None
 
     def couple(x):
-        # port signals of the λ/4 pair after mutual coupling: (N, 2, ...) → M·(SA1, SA2)
-        return np.einsum("ij,nj...->ni...", mix, x) if coupled else x
+        return couple_ports(mix, x) if coupled else x
 
     common = dict(a_gain=couple(a_link.constant_gain(fc).reshape(shape)),
                   b_gain=couple(b_link.constant_gain(fc).reshape(shape)),
@@ -612,6 +612,29 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
     common.update(m=resp.m, trext=resp.trext)
     return Exchange(x_tx, inc_w, inputs, stamp_inputs, levels=levels, frame=frame, i_ref=i_ref, search=search,
                     rerad_a=r_a, rerad_b=r_b, rn16=np.asarray(resp.reply.bits, np.uint8), **common)
+
+
+def couple_ports(mix, x) -> np.ndarray:
+    """Port signals of the λ/4 pair after mutual coupling, ``y_i = Σ_j M_ij·x_j``
+    (:func:`devices.st_analytic.coupling_matrix`) for ``x`` (N, 2, ...) complex (SA1, SA2 on
+    axis 1). Waveforms (N, 2, n) go through a numba kernel
+    (:mod:`scenarios._phase_cancellation_kernels`: the operations of
+    :func:`couple_ports_reference`, equal bit for bit); gains (N, 2) through the reference
+    itself (its loop over (N, 2) sums from +0, which turns a −0 sum into +0)."""
+    x = np.asarray(x)
+    if x.ndim < 2 or x.shape[1] != 2:
+        raise ValueError(f"x must be (N, 2, ...), got shape {x.shape}")
+    if x.ndim != 3:
+        return couple_ports_reference(mix, x)
+    x = np.ascontiguousarray(x, dtype=np.complex128)
+    out = np.empty_like(x)
+    _kernels.couple_ports_kernel(np.ascontiguousarray(mix, dtype=np.complex128), x, out)
+    return out
+
+
+def couple_ports_reference(mix, x) -> np.ndarray:
+    """Plain NumPy twin of :func:`couple_ports` (``einsum``)."""
+    return np.einsum("ij,nj...->ni...", mix, x)
 
 
 def _scene(apdp: bool) -> _channels_scene.Scene:
@@ -713,11 +736,8 @@ def _stamp(rx, ex: Exchange):
     # '1' when a comparator at (1 + STAMP_DECISION_MARGIN)·threshold follows every transition
     # of the second (settled) half of the ASK stamp (the band-pass starts from rest at the
     # stamp's first edge); the margin: see STAMP_DECISION_MARGIN
-    mid = (f.start + f.ask_stop) // 2
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
-    ask_ok = np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=thr)[0][mid - f.start:]))
-                       for row in bp2[:, f.start:f.ask_stop]]) >= STAMP_CYCLES - 1
-    use_p1 = ~ask_ok
+    use_p1 = ask_stamp_transitions(bp2, f, thr) < STAMP_CYCLES - 1
     kw = dict(expected_bits=ex.rn16, start_sample=f.reply_start, search_samples=int(2 * ex.fs_hz / ex.blf_hz))
     det = _sense_a_tag.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
     env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
@@ -726,6 +746,26 @@ def _stamp(rx, ex: Exchange):
         env1, bp1, cmp1, tog1 = _sense_a_tag.chain_rows(rx, ex.stamp_inputs[idx, 0])
         det[idx] = _sense_a_tag.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
     return use_p1, det
+
+
+def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
+    """Per row of ``bandpassed_v`` (r, n) [V]: the transitions of a comparator of hysteresis
+    width ``threshold_v`` [V], run from −1 at the ASK stamp's first sample ``frame.start``,
+    over the second half of the ASK stamp (from ``(start + ask_stop)//2`` to ``ask_stop``),
+    ``(r,) int64`` (numba kernel, :mod:`scenarios._phase_cancellation_kernels`; the twin is
+    :func:`ask_stamp_transitions_reference`)."""
+    seg = np.ascontiguousarray(bandpassed_v[:, frame.start:frame.ask_stop], dtype=np.float64)
+    out = np.empty(seg.shape[0], dtype=np.int64)
+    skip = (frame.start + frame.ask_stop) // 2 - frame.start
+    _kernels.comparator_changes_rows_kernel(seg, 0.5 * threshold_v, -0.5 * threshold_v, skip, out)
+    return out
+
+
+def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
+    """Plain twin of :func:`ask_stamp_transitions` (the comparator row by row)."""
+    mid = (frame.start + frame.ask_stop) // 2
+    return np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=threshold_v)[0][mid - frame.start:]))
+                     for row in bandpassed_v[:, frame.start:frame.ask_stop]], dtype=np.int64)
 
 
 def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):

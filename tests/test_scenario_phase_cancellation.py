@@ -388,3 +388,44 @@ def test_below_one_percent_needs_passs_backscatter_level_at_the_st():
         assert abs(p - expected) < 4 * se, (tech, p)
     p_sel = s["cancelled_selection"][far].mean()
     assert p_sel < 0.01 + 2 * math.sqrt(0.01 * 0.99 / n)
+
+
+@pytest.mark.parametrize("shape", [(7, 2, 2467), (7, 2, 333), (5, 2, 2), (5, 2, 1), (1, 2, 40), (7, 2)])
+def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
+    """couple_ports (numba) against its einsum twin on waveforms and on gains, with the
+    default pair's coupling matrix (Z12 at λ/4) and inputs spanning six decades, zeros and
+    negative zeros included."""
+    from devices import st_analytic as sa
+
+    rng = np.random.default_rng(3)
+    mix = sa.coupling_matrix(z12_ohm=complex(sa.mutual_impedance_half_wave_ohm(LAMBDA_915_M / 4, 915e6)))
+    x = (rng.standard_normal(shape) + 1j * rng.standard_normal(shape)) * 10.0 ** rng.uniform(-6, 0, shape)
+    zeros = np.array([0.0, -0.0, complex(-0.0, 0.0), complex(0.0, -0.0)])
+    first = (0,) * (x.ndim - 2)
+    x[(0, slice(None)) + first] = zeros[:2]  # both ports zero: a zero sum
+    x[(-1, slice(None)) + first] = zeros[2:]
+    got, want = pc.couple_ports(mix, x), pc.couple_ports_reference(mix, x)
+    assert got.shape == want.shape == x.shape
+    np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
+    assert not np.allclose(got, x)  # the coupling mixes the ports
+
+
+def test_ask_stamp_transitions_kernel_equals_the_comparator_row_by_row():
+    """The stamp decision's transition count (numba) against the comparator run row by row,
+    on band-passed square waves of swings around the 5.15 mV hysteresis (some rows toggle at
+    every edge, some never) with noise."""
+    from devices import st_receiver as sr
+
+    fs, blf = 1e6, 48e3
+    frame = sr.stamp_frame(np.zeros(16, np.uint8), m=2, trext=True, blf_hz=blf, fs_hz=fs, n_stamp_cycles=8,
+                           t0_s=30e-6, n_settle_cycles=8)
+    rng = np.random.default_rng(5)
+    n = frame.states.size
+    square = np.where(np.floor(np.arange(n) * 2 * blf / fs) % 2 == 0, 0.5, -0.5)
+    swing = rng.uniform(0.003, 0.008, 40)
+    bp = swing[:, None] * square[None, :] + 2e-4 * rng.standard_normal((40, n))
+    thr = 1.03 * 0.005
+    got = pc.ask_stamp_transitions(bp, frame, thr)
+    want = pc.ask_stamp_transitions_reference(bp, frame, thr)
+    np.testing.assert_array_equal(got, want)
+    assert got.min() == 0 and got.max() >= pc.STAMP_CYCLES - 1  # both decisions occur

@@ -452,20 +452,52 @@ def _kernel_refine(r, cands, shifts, templates, norms):
     return float(best), float(start)
 
 
-def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
+@dataclass(frozen=True)
+class _DecodePlan:
+    """What :func:`decode_reply` derives from its arguments before it looks at a sample."""
+
+    n_bits: int
+    m: int
+    trext: bool
+    method: str
+    ratio: float
+    cur: int
+    prev: int
+    nh: int
+    n_reply: int
+    n_pre: int
+
+
+def _plan(n_bits, m, trext, blf_hz, fs_hz, method) -> _DecodePlan:
     m = _check_m(m)
     trext = bool(trext)
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
-    r = np.ascontiguousarray(r, dtype=np.complex128)
-    if r.ndim != 1:
-        raise ValueError(f"r must be 1-D, got shape {r.shape}")
     ratio = _check_rates(blf_hz, fs_hz)
     pre, cur, prev = _preamble(m, trext)
     nh = pre.size + 2 * (int(n_bits) + 1)
-    n_reply = int(math.ceil(nh * m / ratio))
-    n_pre = int(math.floor(pre.size * m / ratio))  # samples fully inside the preamble
+    return _DecodePlan(n_bits=int(n_bits), m=m, trext=trext, method=method, ratio=ratio, cur=cur, prev=prev, nh=nh,
+                       n_reply=int(math.ceil(nh * m / ratio)),
+                       n_pre=int(math.floor(pre.size * m / ratio)))  # samples fully inside the preamble
 
+
+def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
+    plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    if r.ndim != 1:
+        raise ValueError(f"r must be 1-D, got shape {r.shape}")
+    return _decode_planned(plan, r, search_samples, start_sample, gain, impl)
+
+
+def _mean(seg: np.ndarray):
+    """``seg.mean()`` of a 1-D array by its own two steps (``np.add.reduce``, then the
+    division by the count as ``intp``) without its Python-level wrapper."""
+    return np.add.reduce(seg) / np.intp(seg.size)
+
+
+def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, impl) -> ReplyDetection:
+    """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous)."""
+    m, trext, ratio, n_reply, n_pre = plan.m, plan.trext, plan.ratio, plan.n_reply, plan.n_pre
     if start_sample is None:
         last = r.size - n_reply
         if search_samples is not None:
@@ -497,13 +529,14 @@ def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sa
     if gain is None:
         peak = complex(seg @ tpl0)
         h = peak / e_t
-        seg_mean = seg.mean()
+        seg_mean = _mean(seg)
         dc = seg_mean - h * tpl_mean
         corr = _correlation(peak, seg - seg_mean, e_t)
     else:
         h, dc = complex(gain), 0.0
-        corr = _correlation(complex(seg @ tpl0), seg - seg.mean(), e_t)
-    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, int(n_bits), method, nh, cur, prev, impl)
+        corr = _correlation(complex(seg @ tpl0), seg - _mean(seg), e_t)
+    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, plan.n_bits, plan.method, plan.nh, plan.cur, plan.prev,
+                      impl)
     return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
 
 
@@ -573,6 +606,28 @@ def decode_reply(
     return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, _KERNELS)
 
 
+def decode_reply_rows(
+    r, rows, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
+    search_samples: int | None = None,
+) -> list[ReplyDetection | None]:
+    """:func:`decode_reply` on the rows ``rows`` (indices) of ``r`` ((R, n) complex), with the
+    argument checks and the per-profile setup done once: row by row the same steps and the
+    same results, None where :func:`decode_reply` raises ``ValueError`` for that row (no room
+    for the reply, zero gain)."""
+    plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
+    r = np.asarray(r)
+    if r.ndim != 2:
+        raise ValueError(f"r must be 2-D (rows, samples), got shape {r.shape}")
+    out: list[ReplyDetection | None] = []
+    for i in np.asarray(rows, dtype=np.int64).tolist():
+        row = np.ascontiguousarray(r[i], dtype=np.complex128)
+        try:
+            out.append(_decode_planned(plan, row, search_samples, None, None, _KERNELS))
+        except ValueError:
+            out.append(None)
+    return out
+
+
 def decode_reply_reference(r, **kwargs) -> ReplyDetection:
     """Plain NumPy/Python twin of :func:`decode_reply` (same keyword arguments)."""
     args = [kwargs.pop(k, d) for k, d in (("n_bits", None), ("m", None), ("trext", None), ("blf_hz", None),
@@ -598,6 +653,7 @@ __all__ = [
     "reply_waveform_reference",
     "reply_waveform_for_profile",
     "decode_reply",
+    "decode_reply_rows",
     "decode_reply_reference",
     "decode_bits",
     "fm0_levels_reference",

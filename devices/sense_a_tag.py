@@ -66,6 +66,7 @@ from rfsim.units import dbm_to_w, w_to_dbm
 from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
+_k = lazy_import("devices._st_receiver_kernels")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -324,7 +325,7 @@ def make_receiver(config: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: in
 
 
 def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:meth:`STReceiver.chain` for many inputs at once (rows), vectorised over rows.
+    """:meth:`STReceiver.chain` for many inputs at once (rows), in one numba pass per row.
 
     Parameters
     ----------
@@ -334,22 +335,42 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     Returns
     -------
     envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
-    Identical to ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the
-    steady state of the first sample, comparator from −1).
+    Row by row the chain of ``rx.chain(x[i])``: the detector law, the RC
+    ``y[n] = a·u[n] + (1 − a)·y[n−1]`` (``a = 1 − exp(−1/(fs·τ))``) started in the steady
+    state of the first sample, the band-pass started in the steady state of the first
+    envelope sample, the comparator from −1 (:func:`devices._st_receiver_kernels.chain_rows_kernel`;
+    the SciPy twin :func:`chain_rows_reference` gives the same bits).
     """
-    x = np.atleast_2d(np.asarray(x))
-    det = rx.envelope_detector
-    u = det.instantaneous_v(x)
-    a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
+    u, a, sos, sos_zi = _chain_inputs(rx, x)
+    env, bp, cmp = np.empty_like(u), np.empty_like(u), np.empty_like(u)
+    tog = np.empty(u.shape[0], dtype=np.int64)
+    _k.chain_rows_kernel(u, a, -(1.0 - a), np.ascontiguousarray(sos), np.ascontiguousarray(sos_zi),
+                         0.5 * rx.threshold_v, -0.5 * rx.threshold_v, env, bp, cmp, tog)
+    return env, bp, cmp, tog
+
+
+def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt`` for the band-pass,
+    :func:`devices.st_receiver.comparator` row by row)."""
+    u, a, sos, sos_zi = _chain_inputs(rx, x)
     env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
-    sos = rx.sos
-    zi = _signal.sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
-    bp = _signal.sosfilt(sos, env, axis=1, zi=zi)[0]
+    bp = _signal.sosfilt(sos, env, axis=1, zi=sos_zi[:, None, :] * env[None, :, :1])[0]
     cmp = np.empty_like(bp)
-    tog = np.empty(x.shape[0], dtype=np.int64)
-    for i in range(x.shape[0]):
+    tog = np.empty(u.shape[0], dtype=np.int64)
+    for i in range(u.shape[0]):
         cmp[i], _, tog[i] = sr.comparator(bp[i], threshold_v=rx.threshold_v)
     return env, bp, cmp, tog
+
+
+def _chain_inputs(rx: sr.STReceiver, x) -> tuple:
+    """``(detector output before the RC (r, n) [V], RC coefficient a, band-pass sections,
+    their steady state per unit input)`` of the rows ``x``."""
+    x = np.atleast_2d(np.asarray(x))
+    det = rx.envelope_detector
+    u = np.ascontiguousarray(det.instantaneous_v(x), dtype=np.float64)
+    a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
+    sos = rx.sos
+    return u, a, sos, _signal.sosfilt_zi(sos)
 
 
 def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
@@ -379,5 +400,5 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "level_differences",
-           "decode_rows"]
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "chain_rows_reference",
+           "level_differences", "decode_rows"]

@@ -122,7 +122,7 @@ _engine = lazy_import("rfsim.engine")
 _link = lazy_import("rfsim.gen2.link")
 
 #: modules the figures use (imported by the runner while the simulation runs)
-FIGURE_IMPORTS = ("rfsim.detection", "scipy.stats")
+FIGURE_IMPORTS = ("rfsim.detection", "scipy.special")
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
                "rounds, ML fits of the TS and RTS models (AURIS dissertation Eqs. 4.6-4.8)")

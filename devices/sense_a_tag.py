@@ -54,6 +54,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from devices import st_receiver as sr
+from devices.st_bandpass import sos_steady_state
 from devices.sense_a_tag_config import DEFAULT_SPACING_M, SenseATagConfig
 from devices.gen2_tag_state import Reply
 from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
@@ -370,7 +371,7 @@ def _chain_inputs(rx: sr.STReceiver, x) -> tuple:
     u = np.ascontiguousarray(det.instantaneous_v(x), dtype=np.float64)
     a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
     sos = rx.sos
-    return u, a, sos, _signal.sosfilt_zi(sos)
+    return u, a, sos, sos_steady_state(sos)
 
 
 def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:

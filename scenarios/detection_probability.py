@@ -101,7 +101,7 @@ from rfsim.config import param
 from rfsim.errors import ConfigError, UserError
 from rfsim.procs import map_in_order
 from rfsim.progress import stage
-from rfsim.rng import trial_rng
+from rfsim.rng import trial_rng, trial_rng_grid
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
 from rfsim.lazy import lazy_import
@@ -288,11 +288,21 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
 
 
-def sample_placement(g: GeometryConfig, index: int, seed: int) -> tuple:
+#: Random streams of a sample (module docstring, "Randomness"): k = 0 … 5
+N_STREAMS = 6
+
+
+def sample_rngs(index: int, seed: int) -> list:
+    """The generators ``trial_rng(seed, index, k)``, k = 0 … :data:`N_STREAMS` − 1, of sample ``index``."""
+    return [trial_rng(seed, index, k) for k in range(N_STREAMS)]
+
+
+def sample_placement(g: GeometryConfig, index: int, seed: int, rngs: list | None = None) -> tuple:
     """Tag position, ST centre, ST azimuth and the rolled tag antenna of sample ``index``
-    (streams 0 and 5 of the sample)."""
-    tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
-    roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
+    (streams 0 and 5 of the sample; ``rngs``: its :func:`sample_rngs`, drawn when None)."""
+    rngs = sample_rngs(index, seed) if rngs is None else rngs
+    tag_pos, st_pos, orient = draw_geometry(g, rng=rngs[0])
+    roll = math.radians(g.tag_roll_deg) * rngs[5].uniform(-1.0, 1.0)
     return tag_pos, st_pos, orient, tag_antenna(tag_pos, roll)
 
 
@@ -317,15 +327,17 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
 
 
 def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
-                 reader_tag: tuple | None) -> tuple:
+                 reader_tag: tuple | None, rngs: list | None = None) -> tuple:
     """The air step of sample ``index`` prepared (:class:`rfsim.batch.AirStep`: the reader's
     segment, the tag, the reader's port; links drawn from stream 3, the port's noise from
-    stream 4) and what :func:`_reader_outcome` needs of it."""
+    stream 4) and what :func:`_reader_outcome` needs of it. ``rngs``: the sample's
+    :func:`sample_rngs` (drawn when None; streams 0 and 5 unused when ``placed`` is given)."""
     g = config.geometry
-    tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
+    rngs = sample_rngs(index, seed) if rngs is None else rngs
+    tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed, rngs) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
-    reader = _reader.Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
-    tag = _tag.PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
+    reader = _reader.Reader(config.reader, [ra], rng=rngs[1])
+    tag = _tag.PassiveTag(config.tag, tag_ant, rng=rngs[2])
     lk = reader.link
     q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
     tx = reader.transmit(q, t0_s=0.0, cw_after_s=_link.reply_window_s(lk, 16))
@@ -334,10 +346,10 @@ def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, plac
     channel = _scene.Channel(scene(g))
     if reader_tag is not None:
         channel.hold_placement(ra, tag.antenna, reader_tag)
-    links = _air.LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
+    links = _air.LinkTable(channel, rng=rngs[3], reciprocal=True)
     emitter = _air.FixedEmitter(ra, tx, device=reader)
     step = _batch.AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
-                   rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+                   rng=rngs[4], bandwidth_hz=2.0 * lk.blf_hz, decide=False)
     return step, index, tag_pos, st_pos, orient, tx
 
 
@@ -540,12 +552,14 @@ def _block_task(args) -> list[dict]:
     config, base, lo, hi = args
     g = config.geometry
     ra = reader_antenna(g)
-    placed = [sample_placement(g, i, base) for i in range(lo, hi)]
+    rngs = trial_rng_grid(base, range(lo, hi), range(N_STREAMS))  # the samples' streams, seeded at once
+    placed = [sample_placement(g, i, base, rngs[i - lo]) for i in range(lo, hi)]
     # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
     sc = scene(g)
     reader_tag = _bulk.static_placements(sc, ra, [p[3] for p in placed])
     # the air steps of the block's samples as one batch, then each sample's read
-    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
+    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo], rngs[i - lo])
+                for i in range(lo, hi)]
     airs = _batch.propagate_batch([p[0] for p in prepared])
     rounds = [_reader_outcome(config, p, air) for p, air in zip(prepared, airs)]
     # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k

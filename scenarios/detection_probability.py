@@ -327,11 +327,12 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
 
 
 def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
-                 reader_tag: tuple | None, rngs: list | None = None) -> tuple:
+                 reader_tag: tuple | None, rngs: list | None = None, sc: "_scene.Scene | None" = None) -> tuple:
     """The air step of sample ``index`` prepared (:class:`rfsim.batch.AirStep`: the reader's
     segment, the tag, the reader's port; links drawn from stream 3, the port's noise from
     stream 4) and what :func:`_reader_outcome` needs of it. ``rngs``: the sample's
-    :func:`sample_rngs` (drawn when None; streams 0 and 5 unused when ``placed`` is given)."""
+    :func:`sample_rngs` (drawn when None; streams 0 and 5 unused when ``placed`` is given);
+    ``sc``: the (immutable) :func:`scene` of the geometry, shared by a block's samples."""
     g = config.geometry
     rngs = sample_rngs(index, seed) if rngs is None else rngs
     tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed, rngs) if placed is None else placed
@@ -339,11 +340,11 @@ def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, plac
     reader = _reader.Reader(config.reader, [ra], rng=rngs[1])
     tag = _tag.PassiveTag(config.tag, tag_ant, rng=rngs[2])
     lk = reader.link
-    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=_link.reply_window_s(lk, 16))
+    q, cw_after_s = _query_round(lk)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=cw_after_s)
     port = _engine.ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
-    channel = _scene.Channel(scene(g))
+    channel = _scene.Channel(scene(g) if sc is None else sc)
     if reader_tag is not None:
         channel.hold_placement(ra, tag.antenna, reader_tag)
     links = _air.LinkTable(channel, rng=rngs[3], reciprocal=True)
@@ -353,9 +354,17 @@ def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, plac
     return step, index, tag_pos, st_pos, orient, tx
 
 
-def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
+@functools.lru_cache(maxsize=8)
+def _query_round(lk) -> tuple:
+    """The round's Query (Q = 0, the link's DR, M, TRext) and the CW after it for an RN16
+    reply (:func:`rfsim.gen2.link.reply_window_s`) of the (immutable) link profile ``lk``."""
+    return _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0), _link.reply_window_s(lk, 16)
+
+
+def _reader_outcome(config: Config, prepared: tuple, air, features: tuple | None = None) -> tuple:
     """The reader's read of a step of :func:`_reader_step` (only when the tag replied, as
-    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step."""
+    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step. ``features``:
+    the sample's (D, d, θ, φ) (:func:`rfsim.detection.st_features`; evaluated when None)."""
     step, index, tag_pos, st_pos, orient, tx = prepared
     st = config.st
     emitter, tag, port, links = step.emitters[0], step.reflectors[0], step.receivers[0], step.links
@@ -370,7 +379,9 @@ def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
         sa_pos = _sense_a_tag.st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
                                       orientation_rad=orient)
         st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, port.reader.link)
-    big_d, small_d, theta, phi = (float(v[0]) for v in _detection.st_features(tag_pos, st_pos))
+    if features is None:
+        features = tuple(float(v[0]) for v in _detection.st_features(tag_pos, st_pos))
+    big_d, small_d, theta, phi = features
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
                   theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=tx.fc_hz,
@@ -558,10 +569,12 @@ def _block_task(args) -> list[dict]:
     sc = scene(g)
     reader_tag = _bulk.static_placements(sc, ra, [p[3] for p in placed])
     # the air steps of the block's samples as one batch, then each sample's read
-    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo], rngs[i - lo])
+    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo], rngs[i - lo], sc)
                 for i in range(lo, hi)]
     airs = _batch.propagate_batch([p[0] for p in prepared])
-    rounds = [_reader_outcome(config, p, air) for p, air in zip(prepared, airs)]
+    # the features of the block's samples at once (element by element the same operations)
+    features = list(zip(*(v.tolist() for v in _detection.st_features([p[0] for p in placed], [p[1] for p in placed]))))
+    rounds = [_reader_outcome(config, p, air, f) for p, air, f in zip(prepared, airs, features)]
     # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k
     steps = [r[1] for r in rounds if r[1] is not None]
     sa = [a for step in steps for a in step[4]]

@@ -455,35 +455,34 @@ def _st_outcomes(config: Config, samples: list) -> list[dict]:
             sl = slice(j * len(names), (j + 1) * len(names))
             chains[k] = (rx, env[sl], bp[sl], cmp[sl], tog[sl])
     out = []
+    t1_max = t1_max_s(config)
     for k, (record, y, tx, resp, bits) in enumerate(samples):
         det = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
         if bits is not None:
-            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits)
+            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits, t1_max)
         out.append({**record, **det})
     return out
 
 
-def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits) -> dict:
+def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits, t1_max: float) -> dict:
     """Decoding of one sample's ST chain outputs (rows ``names``, ``n`` samples from the
-    listening start) and the technique outcome."""
+    listening start; every row decoded on its own) and the technique outcome; ``t1_max``:
+    :func:`t1_max_s` of the config [s]."""
     st = config.st
     fs = tx.fs_hz
     rx, env, bp, cmp, tog = chain
     i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
-    search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
+    search = int(math.ceil((t1_max + 2.0 / resp.blf_hz) * fs))
     from rfsim.gen2.linecode import reply_waveform
 
     t_rel = resp.reply_start_s - i0 / fs
     levels = reply_waveform(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
                             t0_s=t_rel, n_samples=n)
-    dec = {}
-    for j, name in enumerate(names):
-        r = slice(j, j + 1)
-        if name == "sa2":
-            out["st_diff_sa2_v"] = float(np.abs(_sense_a_tag.level_differences(env[r], levels, rx))[0])
-        dec[name] = bool(_sense_a_tag.decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
-                                                  start_sample=0, search_samples=search)[0])
+    out["st_diff_sa2_v"] = float(np.abs(_sense_a_tag.level_differences(env[:1], levels, rx))[0])  # row 0: SA2
+    ok = _sense_a_tag.decode_rows(rx, env, bp, cmp, tog, rows=np.ones(len(names), bool), expected_bits=bits,
+                                  start_sample=0, search_samples=search)
+    dec = {name: bool(ok[j]) for j, name in enumerate(names)}
     out["st_detected_sa2"] = dec["sa2"]
     out["st_detected_sa1"] = dec.get("sa1", False)
     if st.technique == "single" or st.n_antennas != 2:

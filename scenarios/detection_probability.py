@@ -410,7 +410,7 @@ def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
     for st_step, st_air in zip(st_steps, _batch.propagate_batch(steps)):
         tx = st_step[5]
         i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
-        out.append(np.array([seg.samples for seg in st_air.inputs])[:, i0:])
+        out.append(np.stack([seg.samples[i0:] for seg in st_air.inputs]))
     return out
 
 

@@ -351,9 +351,10 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt`` for the band-pass,
-    :func:`devices.st_receiver.comparator` row by row)."""
-    u, a, sos, sos_zi = _chain_inputs(rx, x)
+    """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt_zi`` and ``sosfilt``
+    for the band-pass, :func:`devices.st_receiver.comparator` row by row)."""
+    u, a, sos, _ = _chain_inputs(rx, x)
+    sos_zi = _signal.sosfilt_zi(sos)
     env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
     bp = _signal.sosfilt(sos, env, axis=1, zi=sos_zi[:, None, :] * env[None, :, :1])[0]
     cmp = np.empty_like(bp)

@@ -139,3 +139,48 @@ def i0e_kernel(x, out):
         c = I0E_A[29]
         for j in range(n_small):
             out[s + small[j]] = 0.5 * ((y[j] * p[j] - q[j] + c) - q[j])
+
+
+@njit
+def chain_rows_kernel(u, rc_b0, rc_a1, sos, sos_zi, v_high, v_low, env, bp, cmp, toggles):
+    """RC low-pass, band-pass and hysteresis comparator of every row of ``u`` (r, n) in one
+    pass (the detector output before the RC, [V]).
+
+    RC: the first-order recursion ``y[n] = b0·u[n] + z``, ``z ← 0·u[n] − a1·y[n]`` (direct
+    form II transposed, the operations of ``scipy.signal.lfilter([b0], [1, a1])``), started
+    from ``z = −a1·u[0]`` (the steady state of the first sample). Band-pass: the cascade
+    of second-order sections ``sos`` (s, 6) in direct form II transposed, the operations of
+    ``scipy.signal.sosfilt``, started from ``sos_zi·env[0]`` (the steady state,
+    ``sosfilt_zi`` (s, 2)). Comparator: :func:`comparator_kernel` from −1. Fills ``env``,
+    ``bp``, ``cmp`` (r, n) and ``toggles`` (r,)."""
+    n_sections = sos.shape[0]
+    z = np.empty((n_sections, 2))
+    for r in range(u.shape[0]):
+        w = -rc_a1 * u[r, 0]
+        for n in range(u.shape[1]):
+            x = u[r, n]
+            y = w + rc_b0 * x
+            w = x * 0.0 - y * rc_a1
+            env[r, n] = y
+        e0 = env[r, 0]
+        for s in range(n_sections):
+            z[s, 0] = sos_zi[s, 0] * e0
+            z[s, 1] = sos_zi[s, 1] * e0
+        state = -1
+        count = 0
+        for n in range(u.shape[1]):
+            x_cur = env[r, n]
+            for s in range(n_sections):
+                x_new = sos[s, 0] * x_cur + z[s, 0]
+                z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
+                z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+                x_cur = x_new
+            bp[r, n] = x_cur
+            if state < 0 and x_cur > v_high:
+                state = 1
+                count += 1
+            elif state > 0 and x_cur < v_low:
+                state = -1
+                count += 1
+            cmp[r, n] = state
+        toggles[r] = count

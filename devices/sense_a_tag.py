@@ -55,6 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from devices import st_receiver as sr
+from devices.st_bandpass import sos_steady_state
 from devices.sense_a_tag_config import DEFAULT_SPACING_M, SenseATagConfig
 from devices.gen2_tag_state import Reply
 from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
@@ -68,6 +69,7 @@ from rfsim.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 _kernels = lazy_import("devices._sense_a_tag_kernels")
+_k = lazy_import("devices._st_receiver_kernels")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -326,7 +328,7 @@ def make_receiver(config: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: in
 
 
 def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:meth:`STReceiver.chain` for many inputs at once (rows), vectorised over rows.
+    """:meth:`STReceiver.chain` for many inputs at once (rows), in one numba pass per row.
 
     Parameters
     ----------
@@ -341,13 +343,15 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
     diode law the detector, RC, band-pass and comparator run in one numba kernel per row
     (:func:`devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
-    :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws run the
-    reference.
+    :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws compute
+    the detector in NumPy and the rest in :func:`devices._st_receiver_kernels.chain_rows_kernel`.
     """
     x = np.atleast_2d(np.asarray(x))
     det = rx.envelope_detector
-    if det.law != "diode" or x.shape[1] < 1:
+    if x.shape[1] < 1:
         return chain_rows_reference(rx, x)
+    if det.law != "diode":
+        return _chain_rows_of_law(rx, x)
     x_abs = np.abs(x)  # the RF peak sqrt(2R)·|x| of EnvelopeDetector.rf_peak_v is taken in the kernel
     r, n = x_abs.shape
     env, bp, cmp = np.empty((r, n)), np.empty((r, n)), np.empty((r, n))
@@ -368,25 +372,44 @@ def _band_pass(order: int, low_factor: float, high_factor: float, blf_hz: float,
     rx = sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, bpf_order=order, bpf_low_factor=low_factor,
                        bpf_high_factor=high_factor)
     sos = np.ascontiguousarray(rx.sos, dtype=np.float64)
-    return sos, np.ascontiguousarray(_signal.sosfilt_zi(sos))
+    return sos, np.ascontiguousarray(sos_steady_state(sos))
+
+
+def _chain_rows_of_law(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`chain_rows` of the laws other than the diode's: the detector law in NumPy, then the
+    RC, band-pass and comparator in one numba pass per row
+    (:func:`devices._st_receiver_kernels.chain_rows_kernel`)."""
+    u, a, sos, sos_zi = _chain_inputs(rx, x)
+    env, bp, cmp = np.empty_like(u), np.empty_like(u), np.empty_like(u)
+    tog = np.empty(u.shape[0], dtype=np.int64)
+    _k.chain_rows_kernel(u, a, -(1.0 - a), np.ascontiguousarray(sos), np.ascontiguousarray(sos_zi),
+                         0.5 * rx.threshold_v, -0.5 * rx.threshold_v, env, bp, cmp, tog)
+    return env, bp, cmp, tog
 
 
 def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Plain NumPy/SciPy twin of :func:`chain_rows` (detector law, ``lfilter``, ``sosfilt``,
-    the comparator row by row)."""
-    x = np.atleast_2d(np.asarray(x))
-    det = rx.envelope_detector
-    u = det.instantaneous_v(x)
-    a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
+    """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt_zi`` and ``sosfilt``
+    for the band-pass, :func:`devices.st_receiver.comparator` row by row)."""
+    u, a, sos, _ = _chain_inputs(rx, x)
+    sos_zi = _signal.sosfilt_zi(sos)
     env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
-    sos = rx.sos
-    zi = _signal.sosfilt_zi(sos)[:, None, :] * env[None, :, :1]
-    bp = _signal.sosfilt(sos, env, axis=1, zi=zi)[0]
+    bp = _signal.sosfilt(sos, env, axis=1, zi=sos_zi[:, None, :] * env[None, :, :1])[0]
     cmp = np.empty_like(bp)
-    tog = np.empty(x.shape[0], dtype=np.int64)
-    for i in range(x.shape[0]):
+    tog = np.empty(u.shape[0], dtype=np.int64)
+    for i in range(u.shape[0]):
         cmp[i], _, tog[i] = sr.comparator(bp[i], threshold_v=rx.threshold_v)
     return env, bp, cmp, tog
+
+
+def _chain_inputs(rx: sr.STReceiver, x) -> tuple:
+    """``(detector output before the RC (r, n) [V], RC coefficient a, band-pass sections,
+    their steady state per unit input)`` of the rows ``x``."""
+    x = np.atleast_2d(np.asarray(x))
+    det = rx.envelope_detector
+    u = np.ascontiguousarray(det.instantaneous_v(x), dtype=np.float64)
+    a = -math.expm1(-1.0 / (rx.fs_hz * det.tau_s))
+    sos = rx.sos
+    return u, a, sos, sos_steady_state(sos)
 
 
 def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
@@ -420,5 +443,4 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
            "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "chain_rows_reference",
-           "level_differences",
-           "decode_rows"]
+           "level_differences", "decode_rows"]

@@ -86,6 +86,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from devices.st_analytic import THRESHOLD_V, select_path
+from devices.st_bandpass import butter_bandpass_sos
 from rfsim.errors import ConfigError
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
@@ -473,9 +474,9 @@ class STReceiver:
 
     @property
     def sos(self) -> np.ndarray:
-        """Band-pass second-order sections (Butterworth)."""
-        return _signal.butter(self.bpf_order, [self.bpf_low_factor * self.blf_hz, self.bpf_high_factor * self.blf_hz],
-                      btype="bandpass", fs=self.fs_hz, output="sos")
+        """Band-pass second-order sections (Butterworth, :func:`devices.st_bandpass.butter_bandpass_sos`)."""
+        return butter_bandpass_sos(self.bpf_order, self.bpf_low_factor * self.blf_hz,
+                                   self.bpf_high_factor * self.blf_hz, self.fs_hz)
 
     @property
     def settle_samples(self) -> int:

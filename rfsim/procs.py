@@ -25,6 +25,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import contextlib
 import ctypes
+import gc
 import os
 import signal
 import sys
@@ -70,6 +71,10 @@ def worker_init(leader_pid: int) -> None:
         os._exit(1)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
                      name="rfsim-leader-watch").start()
+    # what the worker inherited (modules, kernels, the leader's data) lives as long as it
+    # does: out of the collector's generations, it is not traversed again by every full
+    # collection of the tasks' garbage (nor are its pages, shared with the leader, written)
+    gc.freeze()
 
 
 def _alive(pid: int) -> bool:

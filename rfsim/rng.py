@@ -50,4 +50,107 @@ def trial_rngs(seed: int, indices: Sequence[int]) -> list[np.random.Generator]:
     return [trial_rng(seed, i) for i in indices]
 
 
-__all__ = ["run_seed_sequence", "trial_seed_sequence", "trial_rng", "trial_rngs"]
+def trial_rng_grid(seed: int, indices: Sequence[int], streams: Sequence[int]) -> list[list[np.random.Generator]]:
+    """``[[trial_rng(seed, i, k) for k in streams] for i in indices]``: the same generators
+    (the same states, draw for draw), their seeds formed for all of them at once.
+
+    A PCG64 is seeded with ``SeedSequence(seed, spawn_key=(i, k)).generate_state(4, uint64)``;
+    :func:`_pcg64_seed_words` evaluates NumPy's SeedSequence (hash mixing of the entropy words
+    into a pool of 4, then the pool hashed into the output words; O'Neill's seed_seq design)
+    with one NumPy operation per step over every (i, k), instead of one SeedSequence object
+    each (≈ 25 µs per generator); the tests compare the states with :func:`trial_rng`'s.
+    Indices and streams of 2³² or more take the one-by-one path.
+    """
+    entropy = _checked_seed(seed)
+    keys = [(int(i), int(k)) for i in indices for k in streams]
+    if any(i < 0 or k < 0 for i, k in keys):
+        raise ValueError(f"trial index must be non-negative, got {min(min(key) for key in keys)}")
+    n_streams = len(streams)
+    if not keys:
+        return [[] for _ in indices]
+    if max(max(key) for key in keys) >= 2 ** 32:
+        return [[trial_rng(seed, int(i), int(k)) for k in streams] for i in indices]
+    run_words = _uint32_words(entropy)
+    run_words = run_words + [0] * max(_POOL_SIZE - len(run_words), 0)
+    entropy_words = np.empty((len(keys), len(run_words) + 2), dtype=np.uint32)
+    entropy_words[:, :len(run_words)] = run_words
+    entropy_words[:, len(run_words):] = keys
+    words = _pcg64_seed_words(entropy_words)
+    gens = [np.random.Generator(np.random.PCG64(_SeedWords(w))) for w in words]
+    return [gens[j:j + n_streams] for j in range(0, len(gens), n_streams)]
+
+
+# NumPy's SeedSequence constants (numpy/random/bit_generator.pyx; M. E. O'Neill's seed_seq)
+_POOL_SIZE = 4
+_INIT_A, _MULT_A = 0x43B0D7E5, 0x931E8875
+_INIT_B, _MULT_B = 0x8B51F9DD, 0x58F38DED
+_MIX_MULT_L, _MIX_MULT_R = 0xCA01F9DD, 0x4973F715
+_XSHIFT = 16
+_MASK32 = 0xFFFFFFFF
+
+
+def _uint32_words(value: int) -> list[int]:
+    """A non-negative int as 32-bit words, least significant first (0 → [0]), as SeedSequence
+    splits its entropy."""
+    words = []
+    while True:
+        words.append(value & _MASK32)
+        value >>= 32
+        if not value:
+            return words
+
+
+def _pcg64_seed_words(entropy_words: np.ndarray) -> np.ndarray:
+    """``SeedSequence.generate_state(4, uint64)`` of the assembled entropy words of many
+    sequences (rows of ``entropy_words`` (n, m) uint32, pool size 4), (n, 4) uint64.
+
+    ``hashmix(v) = ((v ⊕ h)·h') ⊕ ((v ⊕ h)·h' ≫ 16)`` with the running constant h (h' = h·MULT_A),
+    ``mix(x, y) = (L·x − R·y) ⊕ ((L·x − R·y) ≫ 16)``, all mod 2³²; the constants' sequence is
+    the same for every row, the rows are one array each step."""
+    e = np.asarray(entropy_words, dtype=np.uint32)
+    n, m = e.shape
+    h = _INIT_A
+
+    def hashmix(value):
+        nonlocal h
+        value = value ^ np.uint32(h)
+        h = (h * _MULT_A) & _MASK32
+        value = value * np.uint32(h)
+        return value ^ (value >> np.uint32(_XSHIFT))
+
+    def mix(x, y):
+        r = np.uint32(_MIX_MULT_L) * x - np.uint32(_MIX_MULT_R) * y
+        return r ^ (r >> np.uint32(_XSHIFT))
+
+    pool = [hashmix(e[:, i] if i < m else np.zeros(n, np.uint32)) for i in range(_POOL_SIZE)]
+    for i_src in range(_POOL_SIZE):
+        for i_dst in range(_POOL_SIZE):
+            if i_src != i_dst:
+                pool[i_dst] = mix(pool[i_dst], hashmix(pool[i_src]))
+    for i_src in range(_POOL_SIZE, m):
+        for i_dst in range(_POOL_SIZE):
+            pool[i_dst] = mix(pool[i_dst], hashmix(e[:, i_src]))
+    out = np.empty((n, 8), dtype=np.uint32)
+    h = _INIT_B
+    for i_dst in range(8):
+        v = pool[i_dst % _POOL_SIZE] ^ np.uint32(h)
+        h = (h * _MULT_B) & _MASK32
+        v = v * np.uint32(h)
+        out[:, i_dst] = v ^ (v >> np.uint32(_XSHIFT))
+    lo, hi = out[:, 0::2].astype(np.uint64), out[:, 1::2].astype(np.uint64)
+    return lo | (hi << np.uint64(32))  # uint32 pairs as little-endian uint64 (SeedSequence's view)
+
+
+class _SeedWords(np.random.bit_generator.ISeedSequence):
+    """The seed words of one PCG64, formed beforehand (:func:`trial_rng_grid`)."""
+
+    def __init__(self, words: np.ndarray):
+        self._words = words
+
+    def generate_state(self, n_words, dtype=np.uint32):
+        if n_words != 4 or np.dtype(dtype) != np.uint64:
+            raise ValueError("only the 4 uint64 words a PCG64 asks for were formed")
+        return self._words.copy()
+
+
+__all__ = ["run_seed_sequence", "trial_seed_sequence", "trial_rng", "trial_rngs", "trial_rng_grid"]

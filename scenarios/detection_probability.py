@@ -101,7 +101,7 @@ from rfsim.config import param
 from rfsim.errors import ConfigError, UserError
 from rfsim.procs import map_in_order
 from rfsim.progress import stage
-from rfsim.rng import trial_rng
+from rfsim.rng import trial_rng, trial_rng_grid
 from rfsim.plots import figure_path, pyplot, save_figure
 from rfsim.references import cite
 from rfsim.lazy import lazy_import
@@ -122,7 +122,7 @@ _engine = lazy_import("rfsim.engine")
 _link = lazy_import("rfsim.gen2.link")
 
 #: modules the figures use (imported by the runner while the simulation runs)
-FIGURE_IMPORTS = ("rfsim.detection", "scipy.stats")
+FIGURE_IMPORTS = ("rfsim.detection", "scipy.special")
 NAME = "detection-probability"
 DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 + 1000 sample-level Query "
                "rounds, ML fits of the TS and RTS models (AURIS dissertation Eqs. 4.6-4.8)")
@@ -288,11 +288,21 @@ def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     return _st_outcomes(config, [_air_sample(config, index, seed)])[0]
 
 
-def sample_placement(g: GeometryConfig, index: int, seed: int) -> tuple:
+#: Random streams of a sample (module docstring, "Randomness"): k = 0 … 5
+N_STREAMS = 6
+
+
+def sample_rngs(index: int, seed: int) -> list:
+    """The generators ``trial_rng(seed, index, k)``, k = 0 … :data:`N_STREAMS` − 1, of sample ``index``."""
+    return [trial_rng(seed, index, k) for k in range(N_STREAMS)]
+
+
+def sample_placement(g: GeometryConfig, index: int, seed: int, rngs: list | None = None) -> tuple:
     """Tag position, ST centre, ST azimuth and the rolled tag antenna of sample ``index``
-    (streams 0 and 5 of the sample)."""
-    tag_pos, st_pos, orient = draw_geometry(g, rng=trial_rng(seed, index, 0))
-    roll = math.radians(g.tag_roll_deg) * trial_rng(seed, index, 5).uniform(-1.0, 1.0)
+    (streams 0 and 5 of the sample; ``rngs``: its :func:`sample_rngs`, drawn when None)."""
+    rngs = sample_rngs(index, seed) if rngs is None else rngs
+    tag_pos, st_pos, orient = draw_geometry(g, rng=rngs[0])
+    roll = math.radians(g.tag_roll_deg) * rngs[5].uniform(-1.0, 1.0)
     return tag_pos, st_pos, orient, tag_antenna(tag_pos, roll)
 
 
@@ -317,33 +327,44 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
 
 
 def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
-                 reader_tag: tuple | None) -> tuple:
+                 reader_tag: tuple | None, rngs: list | None = None, sc: "_scene.Scene | None" = None) -> tuple:
     """The air step of sample ``index`` prepared (:class:`rfsim.batch.AirStep`: the reader's
     segment, the tag, the reader's port; links drawn from stream 3, the port's noise from
-    stream 4) and what :func:`_reader_outcome` needs of it."""
+    stream 4) and what :func:`_reader_outcome` needs of it. ``rngs``: the sample's
+    :func:`sample_rngs` (drawn when None; streams 0 and 5 unused when ``placed`` is given);
+    ``sc``: the (immutable) :func:`scene` of the geometry, shared by a block's samples."""
     g = config.geometry
-    tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed) if placed is None else placed
+    rngs = sample_rngs(index, seed) if rngs is None else rngs
+    tag_pos, st_pos, orient, tag_ant = sample_placement(g, index, seed, rngs) if placed is None else placed
     ra = reader_antenna(g) if ra is None else ra
-    reader = _reader.Reader(config.reader, [ra], rng=trial_rng(seed, index, 1))
-    tag = _tag.PassiveTag(config.tag, tag_ant, rng=trial_rng(seed, index, 2))
+    reader = _reader.Reader(config.reader, [ra], rng=rngs[1])
+    tag = _tag.PassiveTag(config.tag, tag_ant, rng=rngs[2])
     lk = reader.link
-    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    tx = reader.transmit(q, t0_s=0.0, cw_after_s=_link.reply_window_s(lk, 16))
+    q, cw_after_s = _query_round(lk)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=cw_after_s)
     port = _engine.ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
     # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
-    channel = _scene.Channel(scene(g))
+    channel = _scene.Channel(scene(g) if sc is None else sc)
     if reader_tag is not None:
         channel.hold_placement(ra, tag.antenna, reader_tag)
-    links = _air.LinkTable(channel, rng=trial_rng(seed, index, 3), reciprocal=True)
+    links = _air.LinkTable(channel, rng=rngs[3], reciprocal=True)
     emitter = _air.FixedEmitter(ra, tx, device=reader)
     step = _batch.AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
-                   rng=trial_rng(seed, index, 4), bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+                   rng=rngs[4], bandwidth_hz=2.0 * lk.blf_hz, decide=False)
     return step, index, tag_pos, st_pos, orient, tx
 
 
-def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
+@functools.lru_cache(maxsize=8)
+def _query_round(lk) -> tuple:
+    """The round's Query (Q = 0, the link's DR, M, TRext) and the CW after it for an RN16
+    reply (:func:`rfsim.gen2.link.reply_window_s`) of the (immutable) link profile ``lk``."""
+    return _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0), _link.reply_window_s(lk, 16)
+
+
+def _reader_outcome(config: Config, prepared: tuple, air, features: tuple | None = None) -> tuple:
     """The reader's read of a step of :func:`_reader_step` (only when the tag replied, as
-    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step."""
+    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step. ``features``:
+    the sample's (D, d, θ, φ) (:func:`rfsim.detection.st_features`; evaluated when None)."""
     step, index, tag_pos, st_pos, orient, tx = prepared
     st = config.st
     emitter, tag, port, links = step.emitters[0], step.reflectors[0], step.receivers[0], step.links
@@ -358,7 +379,9 @@ def _reader_outcome(config: Config, prepared: tuple, air) -> tuple:
         sa_pos = _sense_a_tag.st_antenna_positions(st_pos, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
                                       orientation_rad=orient)
         st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, port.reader.link)
-    big_d, small_d, theta, phi = (float(v[0]) for v in _detection.st_features(tag_pos, st_pos))
+    if features is None:
+        features = tuple(float(v[0]) for v in _detection.st_features(tag_pos, st_pos))
+    big_d, small_d, theta, phi = features
     record = dict(sample=index, tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
                   st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=orient, D_m=big_d, d_m=small_d,
                   theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=tx.fc_hz,
@@ -387,7 +410,7 @@ def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
     for st_step, st_air in zip(st_steps, _batch.propagate_batch(steps)):
         tx = st_step[5]
         i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
-        out.append(np.array([seg.samples for seg in st_air.inputs])[:, i0:])
+        out.append(np.stack([seg.samples[i0:] for seg in st_air.inputs]))
     return out
 
 
@@ -432,35 +455,34 @@ def _st_outcomes(config: Config, samples: list) -> list[dict]:
             sl = slice(j * len(names), (j + 1) * len(names))
             chains[k] = (rx, env[sl], bp[sl], cmp[sl], tog[sl])
     out = []
+    t1_max = t1_max_s(config)
     for k, (record, y, tx, resp, bits) in enumerate(samples):
         det = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
         if bits is not None:
-            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits)
+            det = _st_decode(config, chains[k], names, y.shape[1], tx, resp, bits, t1_max)
         out.append({**record, **det})
     return out
 
 
-def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits) -> dict:
+def _st_decode(config: Config, chain: tuple, names: list, n: int, tx, resp, bits, t1_max: float) -> dict:
     """Decoding of one sample's ST chain outputs (rows ``names``, ``n`` samples from the
-    listening start) and the technique outcome."""
+    listening start; every row decoded on its own) and the technique outcome; ``t1_max``:
+    :func:`t1_max_s` of the config [s]."""
     st = config.st
     fs = tx.fs_hz
     rx, env, bp, cmp, tog = chain
     i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=fs)
     out = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1": False, "st_diff_sa2_v": 0.0}
-    search = int(math.ceil((t1_max_s(config) + 2.0 / resp.blf_hz) * fs))
+    search = int(math.ceil((t1_max + 2.0 / resp.blf_hz) * fs))
     from rfsim.gen2.linecode import reply_waveform
 
     t_rel = resp.reply_start_s - i0 / fs
     levels = reply_waveform(resp.reply.bits, m=resp.m, trext=resp.trext, blf_hz=resp.blf_hz, fs_hz=fs,
                             t0_s=t_rel, n_samples=n)
-    dec = {}
-    for j, name in enumerate(names):
-        r = slice(j, j + 1)
-        if name == "sa2":
-            out["st_diff_sa2_v"] = float(np.abs(_sense_a_tag.level_differences(env[r], levels, rx))[0])
-        dec[name] = bool(_sense_a_tag.decode_rows(rx, env[r], bp[r], cmp[r], tog[r], rows=np.ones(1, bool), expected_bits=bits,
-                                                  start_sample=0, search_samples=search)[0])
+    out["st_diff_sa2_v"] = float(np.abs(_sense_a_tag.level_differences(env[:1], levels, rx))[0])  # row 0: SA2
+    ok = _sense_a_tag.decode_rows(rx, env, bp, cmp, tog, rows=np.ones(len(names), bool), expected_bits=bits,
+                                  start_sample=0, search_samples=search)
+    dec = {name: bool(ok[j]) for j, name in enumerate(names)}
     out["st_detected_sa2"] = dec["sa2"]
     out["st_detected_sa1"] = dec.get("sa1", False)
     if st.technique == "single" or st.n_antennas != 2:
@@ -540,14 +562,18 @@ def _block_task(args) -> list[dict]:
     config, base, lo, hi = args
     g = config.geometry
     ra = reader_antenna(g)
-    placed = [sample_placement(g, i, base) for i in range(lo, hi)]
+    rngs = trial_rng_grid(base, range(lo, hi), range(N_STREAMS))  # the samples' streams, seeded at once
+    placed = [sample_placement(g, i, base, rngs[i - lo]) for i in range(lo, hi)]
     # the reader → tag geometry of the whole block at once (bit-identical to the channel's own)
     sc = scene(g)
     reader_tag = _bulk.static_placements(sc, ra, [p[3] for p in placed])
     # the air steps of the block's samples as one batch, then each sample's read
-    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo]) for i in range(lo, hi)]
+    prepared = [_reader_step(config, i, base, ra, placed[i - lo], reader_tag[i - lo], rngs[i - lo], sc)
+                for i in range(lo, hi)]
     airs = _batch.propagate_batch([p[0] for p in prepared])
-    rounds = [_reader_outcome(config, p, air) for p, air in zip(prepared, airs)]
+    # the features of the block's samples at once (element by element the same operations)
+    features = list(zip(*(v.tolist() for v in _detection.st_features([p[0] for p in placed], [p[1] for p in placed]))))
+    rounds = [_reader_outcome(config, p, air, f) for p, air, f in zip(prepared, airs, features)]
     # the ST links of every sample whose tag replied at once: reader → SA_k and tag → SA_k
     steps = [r[1] for r in rounds if r[1] is not None]
     sa = [a for step in steps for a in step[4]]

@@ -452,3 +452,24 @@ def test_binned_probability():
     bb = binned_probability(xs, ys, np.linspace(0, 1, 21))
     assert bb.trials.sum() == 2000
     assert np.mean((bb.lower <= 0.3) & (0.3 <= bb.upper)) >= 0.8
+
+
+def test_entropy_and_wilson_use_the_values_of_scipy_stats():
+    # the scipy.stats forms (Bernoulli log-pmf, normal quantile) as the reference, bit for bit
+    import scipy.stats
+
+    rng = np.random.default_rng(11)
+    p = np.concatenate([rng.random(5000), 10.0 ** rng.uniform(-300, 0, 500), [0.5, 1.0 - 1e-16]])
+    h_ref = -(scipy.stats.bernoulli.logpmf(1, p) * p + np.log1p(-p) * (1.0 - p))
+    mean, _ = expected_cross_entropy(p)
+    assert mean == float(np.mean(h_ref))
+    k, n = rng.integers(0, 50, 200), rng.integers(50, 100, 200)
+    for conf in (0.95, 0.9, 0.5):
+        z = scipy.stats.norm.ppf(0.5 + conf / 2.0)
+        pk = k / n
+        denom = 1.0 + z * z / n
+        centre = (pk + z * z / (2.0 * n)) / denom
+        half = z * np.sqrt(pk * (1.0 - pk) / n + z * z / (4.0 * n * n)) / denom
+        lo, hi = wilson_interval(k, n, confidence=conf)
+        np.testing.assert_array_equal(lo, np.clip(centre - half, 0.0, 1.0))
+        np.testing.assert_array_equal(hi, np.clip(centre + half, 0.0, 1.0))

@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from rfsim.rng import trial_rng, trial_seed_sequence
+from rfsim.rng import trial_rng, trial_rng_grid, trial_seed_sequence
 
 SOURCE_PACKAGES = ("rfsim", "channels", "devices", "scenarios")
 
@@ -58,3 +58,25 @@ def test_no_global_or_clock_seeding_anywhere(project_root):
                 if re.search(pattern, line):
                     offences.append(f"{path.relative_to(project_root)}:{lineno}: {what}: {line.strip()}")
     assert not offences, "\n".join(offences)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2**32 - 1, 2**32, 2**63 + 5])
+def test_trial_rng_grid_gives_the_generators_of_trial_rng(seed):
+    # reference: NumPy's own SeedSequence for every (trial, stream), one by one
+    indices, streams = [0, 1, 7, 2**31, 2**32 - 1], [0, 3, 5, 40]
+    grid = trial_rng_grid(seed, indices, streams)
+    assert [len(row) for row in grid] == [len(streams)] * len(indices)
+    for row, i in zip(grid, indices):
+        for rng, k in zip(row, streams):
+            ref = np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=(i, k))))
+            assert type(rng.bit_generator) is np.random.PCG64
+            assert rng.bit_generator.state == ref.bit_generator.state
+            np.testing.assert_array_equal(rng.standard_normal(20), ref.standard_normal(20))
+
+
+def test_trial_rng_grid_large_indices_and_empty():
+    big = trial_rng_grid(3, [2**33], [1])[0][0]
+    assert big.bit_generator.state == trial_rng(3, 2**33, 1).bit_generator.state
+    assert trial_rng_grid(3, [], [0, 1]) == []
+    with pytest.raises(ValueError):
+        trial_rng_grid(3, [-1], [0])

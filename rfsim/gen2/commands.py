@@ -160,17 +160,14 @@ class Query:
         _set(self, "q", _check_int("query.q", self.q, 0, 15))
 
     def _encode(self) -> np.ndarray:
-        head = [
-            str_to_bits("1000"),
-            int_to_bits(self.dr == "64/3", 1),
-            int_to_bits(M_CODES[self.m], 2),
-            int_to_bits(self.trext, 1),
-            int_to_bits(SEL_CODES[self.sel], 2),
-            int_to_bits(self.session, 2),
-            int_to_bits(TARGET_CODES[self.target], 1),
-            int_to_bits(self.q, 4),
-        ]
-        return append_crc5(np.concatenate(head))
+        # code 1000, DR (1), M (2), TRext (1), Sel (2), Session (2), Target (1), Q (4): the
+        # fields as one 17-bit word, MSB first, then its CRC-5
+        word = 0b1000
+        for value, n_bits in ((self.dr == "64/3", 1), (M_CODES[self.m], 2), (self.trext, 1),
+                              (SEL_CODES[self.sel], 2), (self.session, 2), (TARGET_CODES[self.target], 1),
+                              (self.q, 4)):
+            word = (word << n_bits) | int(value)
+        return append_crc5(int_to_bits(word, 17))
 
 
 @dataclass(frozen=True)

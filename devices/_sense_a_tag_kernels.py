@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from devices._st_receiver_kernels import comparator_kernel, i0e_kernel
+from devices._st_receiver_kernels import comparator_kernel, i0e_kernel, sos_sample
 from rfsim._jit import njit
 
 
@@ -47,11 +47,5 @@ def diode_chain_rows_kernel(x_abs, v_per_sqrt_w, matching_gain, nvt, a, sos, zi,
             e = state + a * u
             state = e * b
             env[i, t] = e
-            xc = e
-            for s in range(n_sec):
-                xn = sos[s, 0] * xc + z[s, 0]
-                z[s, 0] = sos[s, 1] * xc - sos[s, 4] * xn + z[s, 1]
-                z[s, 1] = sos[s, 2] * xc - sos[s, 5] * xn
-                xc = xn
-            bp[i, t] = xc
+            bp[i, t] = sos_sample(sos, z, e)
         _, tog[i] = comparator_kernel(bp[i], v_high, v_low, -1, cmp[i])

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim._jit import njit, njit_inline
 
 
 @njit
@@ -141,6 +141,19 @@ def i0e_kernel(x, out):
             out[s + small[j]] = 0.5 * ((y[j] * p[j] - q[j] + c) - q[j])
 
 
+@njit_inline
+def sos_sample(sos, z, x):
+    """One input sample ``x`` through the second-order sections ``sos`` (s, 6) in direct form
+    II transposed (the recursion of ``scipy.signal.sosfilt``, in its operation order), the
+    states ``z`` (s, 2) updated in place; returns the output sample."""
+    for s in range(sos.shape[0]):
+        y = sos[s, 0] * x + z[s, 0]
+        z[s, 0] = sos[s, 1] * x - sos[s, 4] * y + z[s, 1]
+        z[s, 1] = sos[s, 2] * x - sos[s, 5] * y
+        x = y
+    return x
+
+
 @njit
 def chain_rows_kernel(u, rc_b0, rc_a1, sos, sos_zi, v_high, v_low, env, bp, cmp, toggles):
     """RC low-pass, band-pass and hysteresis comparator of every row of ``u`` (r, n) in one
@@ -169,12 +182,7 @@ def chain_rows_kernel(u, rc_b0, rc_a1, sos, sos_zi, v_high, v_low, env, bp, cmp,
         state = -1
         count = 0
         for n in range(u.shape[1]):
-            x_cur = env[r, n]
-            for s in range(n_sections):
-                x_new = sos[s, 0] * x_cur + z[s, 0]
-                z[s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + z[s, 1]
-                z[s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-                x_cur = x_new
+            x_cur = sos_sample(sos, z, env[r, n])
             bp[r, n] = x_cur
             if state < 0 and x_cur > v_high:
                 state = 1

@@ -179,16 +179,6 @@ def chain_rows_kernel(u, rc_b0, rc_a1, sos, sos_zi, v_high, v_low, env, bp, cmp,
         for s in range(n_sections):
             z[s, 0] = sos_zi[s, 0] * e0
             z[s, 1] = sos_zi[s, 1] * e0
-        state = -1
-        count = 0
         for n in range(u.shape[1]):
-            x_cur = sos_sample(sos, z, env[r, n])
-            bp[r, n] = x_cur
-            if state < 0 and x_cur > v_high:
-                state = 1
-                count += 1
-            elif state > 0 and x_cur < v_low:
-                state = -1
-                count += 1
-            cmp[r, n] = state
-        toggles[r] = count
+            bp[r, n] = sos_sample(sos, z, env[r, n])
+        _, toggles[r] = comparator_kernel(bp[r], v_high, v_low, -1, cmp[r])

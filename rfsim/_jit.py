@@ -57,6 +57,11 @@ if _CACHE_DIR is not None:  # must be set before numba is imported (it reads it 
 
 import numba  # noqa: E402  (after choosing the cache folder)
 
+if _CACHE_DIR is not None:
+    # numba imported before this module read the environment before the folder was chosen:
+    # re-read it now, before any kernel is declared (a kernel's cache locator is fixed then)
+    numba.core.config.reload_config()
+
 _NJIT = numba.njit(cache=True, nogil=True)
 
 #: Every kernel declared with :func:`njit`, in declaration order.

@@ -171,6 +171,31 @@ def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_pa
     assert any((tmp_path / "cache").rglob("*.nbi"))
 
 
+def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
+    """A script that imports numba before rfsim: numba has read the environment already, yet a
+    kernel declared afterwards is cached in the folder rfsim chose for an unwritable package
+    ($XDG_CACHE_HOME/rfsim/numba). The unwritable folder is simulated by making the write probe
+    fail while rfsim._jit is imported (as root, permissions cannot stop the write)."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "kfirst.py").write_text("from rfsim._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
+    code = ("import numba, tempfile\n"
+            "real = tempfile.NamedTemporaryFile\n"
+            "def refuse(*a, **k):\n    raise OSError('read-only')\n"
+            "tempfile.NamedTemporaryFile = refuse\n"
+            "import rfsim._jit\n"
+            "tempfile.NamedTemporaryFile = real\n"
+            "import kfirst\nassert kfirst.thrice(14) == 42\n"
+            "print(numba.config.CACHE_DIR)")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(PYTHONPATH=f"{src}{os.pathsep}{ROOT}", XDG_CACHE_HOME=str(tmp_path / "xdg"))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    chosen = tmp_path / "xdg" / "rfsim" / "numba"
+    assert out.stdout.strip() == str(chosen)
+    assert any(chosen.rglob("*thrice*.nbi"))
+    assert not list(src.rglob("*.nbi"))  # not beside the source
+
+
 _PILOT_TASK = """
 import os
 from rfsim._jit import njit

@@ -20,6 +20,16 @@ from rfsim.gen2.capture import SUFFIXES
 from rfsim.registry import scenario_descriptions, scenario_modules
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _module_folder(tmp_path: Path, name: str, source: str) -> Path:
+    """A folder ``tmp_path/src`` holding the module ``name`` with ``source`` (for a child process's PYTHONPATH)."""
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / f"{name}.py").write_text(source)
+    return src
+
+
 HEAVY = ("numba", "scipy.signal", "scipy.stats", "h5py", "devices", "channels", "matplotlib")
 
 
@@ -115,9 +125,7 @@ def test_a_lazily_declared_module_is_whole_for_threads_that_first_use_it_togethe
     its import is still running (it sleeps before defining the attribute): each gets the
     attribute (the import runs once; the others wait for it) — a module whose import had
     merely started would lack it."""
-    src = tmp_path / "src"
-    src.mkdir()
-    (src / "slowmod.py").write_text("import time\nCOUNT = [0]\ntime.sleep(0.3)\nVALUE = 42\nCOUNT[0] += 1\n")
+    src = _module_folder(tmp_path, "slowmod", "import time\nCOUNT = [0]\ntime.sleep(0.3)\nVALUE = 42\nCOUNT[0] += 1\n")
     code = ("import threading\nfrom rfsim.lazy import lazy_import\nm = lazy_import('slowmod')\n"
             "out = []\nb = threading.Barrier(4)\n"
             "def use():\n    b.wait()\n    out.append(m.VALUE)\n"
@@ -159,9 +167,7 @@ def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_pa
     (uncached_kernels() is empty before any call) — the mechanism the first-run notice and
     the worker processes rely on. (As root, a read-only package folder cannot be simulated
     here; the folder choice itself is tested above.)"""
-    src = tmp_path / "src"
-    src.mkdir()
-    (src / "kmod.py").write_text("from rfsim._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
+    src = _module_folder(tmp_path, "kmod", "from rfsim._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
     code = ("import kmod\nfrom rfsim import _jit\nprint(len(_jit.uncached_kernels()))\n"
             "assert kmod.twice(21) == 42\nprint(len(_jit.uncached_kernels()))")
     env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{ROOT}", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
@@ -176,9 +182,7 @@ def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
     kernel declared afterwards is cached in the folder rfsim chose for an unwritable package
     ($XDG_CACHE_HOME/rfsim/numba). The unwritable folder is simulated by making the write probe
     fail while rfsim._jit is imported (as root, permissions cannot stop the write)."""
-    src = tmp_path / "src"
-    src.mkdir()
-    (src / "kfirst.py").write_text("from rfsim._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
+    src = _module_folder(tmp_path, "kfirst", "from rfsim._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
     code = ("import numba, tempfile\n"
             "real = tempfile.NamedTemporaryFile\n"
             "def refuse(*a, **k):\n    raise OSError('read-only')\n"

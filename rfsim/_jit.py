@@ -52,14 +52,14 @@ def cache_dir(environ=os.environ, package_dir: Path = PACKAGE_DIR, writable=_wri
 
 
 _CACHE_DIR = cache_dir()
-if _CACHE_DIR is not None:  # must be set before numba is imported (it reads it once)
+if _CACHE_DIR is not None:  # numba reads it when first imported
     os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
 
 import numba  # noqa: E402  (after choosing the cache folder)
 
 if _CACHE_DIR is not None:
-    # numba imported before this module read the environment before the folder was chosen:
-    # re-read it now, before any kernel is declared (a kernel's cache locator is fixed then)
+    # If a script imported numba before rfsim, numba read the environment before the folder
+    # was chosen: re-read it now, before any kernel is declared (its cache locator is fixed then).
     numba.core.config.reload_config()
 
 _NJIT = numba.njit(cache=True, nogil=True)

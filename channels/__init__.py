@@ -5,14 +5,14 @@ A channel yields, per link, a :class:`PathSet` (complex amplitude gains and dela
 float64 seconds, plus Doppler shifts); applying it to a waveform is a separate step
 (:func:`apply_paths`) with the exact carrier phase exp(−j2π·fc·τ).
 
-Modules: :mod:`~channels.geometry` (orientations, directions), :mod:`~channels.antennas`
-(patterns, polarization), :mod:`~channels.large_scale` (Friis/log-distance, walls,
-shadowing), :mod:`~channels.small_scale` (exponential APDP taps), :mod:`~channels.surfaces`
-(Fresnel, image method), :mod:`~channels.noise` (AWGN), :mod:`~channels.paths` (path sets
-and their application), :mod:`~channels.scene` (assembly of links in a scene).
+Modules: :mod:`~rfsim.channels.geometry` (orientations, directions), :mod:`~rfsim.channels.antennas`
+(patterns, polarization), :mod:`~rfsim.channels.large_scale` (Friis/log-distance, walls,
+shadowing), :mod:`~rfsim.channels.small_scale` (exponential APDP taps), :mod:`~rfsim.channels.surfaces`
+(Fresnel, image method), :mod:`~rfsim.channels.noise` (AWGN), :mod:`~rfsim.channels.paths` (path sets
+and their application), :mod:`~rfsim.channels.scene` (assembly of links in a scene).
 """
 
-from rfsim.lazy import lazy_exports
+from rfsim.core.lazy import lazy_exports
 
 #: Module of the package → the public names it provides, each imported on first use (so
 #: that importing one module, e.g. for a config dataclass, does not import the others).

@@ -1,10 +1,10 @@
-"""Compiled loops behind :func:`channels.paths.apply_paths` (see there for the model)."""
+"""Compiled loops behind :func:`rfsim.channels.paths.apply_paths` (see there for the model)."""
 
 from __future__ import annotations
 
 import math
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 #: Samples between exact re-evaluations of the Doppler phasor (recurrence in between).
 _REANCHOR = 4096

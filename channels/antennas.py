@@ -2,7 +2,7 @@
 
 Every pattern has one method, ``gain(az_rad, el_rad)``, returning the **linear power gain over
 isotropic** (directivity × radiation efficiency; ``10·log10`` of it is in dBi) in the antenna's
-*local* frame (:mod:`channels.geometry` conventions: az about local ``+z`` from the boresight
+*local* frame (:mod:`rfsim.channels.geometry` conventions: az about local ``+z`` from the boresight
 ``+x``, el up from the local ``xy``-plane). Links use amplitude factors ``√G`` per end.
 
 An :class:`Antenna` places a pattern at a position with an orientation ``(az, el, roll)`` and a
@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.errors import ConfigError, UserError
-from rfsim.units import db_to_lin
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.units import db_to_lin
 
 from .geometry import Pose, _as_points, local_angles, rotation_matrix
 
@@ -335,7 +335,7 @@ class Antenna:
     Parameters
     ----------
     position_m : (3,) float [m] (stored read-only)
-    orientation : ``(az, el, roll)`` [rad], :func:`channels.geometry.rotation_matrix`
+    orientation : ``(az, el, roll)`` [rad], :func:`rfsim.channels.geometry.rotation_matrix`
     pattern : any object with ``gain(az_rad, el_rad)`` (local frame, linear power)
     polarization : ``"linear"`` or ``"circular"``
     pol_tilt_rad : linear only: the local E-plane vector is ``cos(t)·ẑ + sin(t)·ŷ`` (local
@@ -399,7 +399,7 @@ class Antenna:
 
     @property
     def pose(self) -> Pose:
-        """Position and orientation as a :class:`channels.geometry.Pose`."""
+        """Position and orientation as a :class:`rfsim.channels.geometry.Pose`."""
         return Pose(self.position_m, *self.orientation)
 
     def gain_towards(self, points_m) -> np.ndarray:

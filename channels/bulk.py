@@ -1,15 +1,15 @@
-"""Many link draws at once: the physics of :meth:`channels.scene.Channel.link`, vectorised.
+"""Many link draws at once: the physics of :meth:`rfsim.channels.scene.Channel.link`, vectorised.
 
 :func:`draw_links` returns the paths of n links tx_i → rx_i in one call, as rectangular
 arrays (:class:`BulkPaths`), for Monte Carlo over positions (RSS/phase maps, detection
-probability). Every link gets, as in :mod:`channels.scene` (DESIGN.md "Channel";
+probability). Every link gets, as in :mod:`rfsim.channels.scene` (DESIGN.md "Channel";
 auris-sense-a-tag.md §1.7; pass-paris-simulator.md §2.4):
 
 * **LoS** (column 0): ``A = g_ls(d, fc)·√(G_tx·G_rx)·√PLF·10^(−L_walls/20)·10^(−S/20)``,
   delay d/c, Doppler ``f_D = −(fc/c)·û·(v_rx − v_tx)``; times √(K/(K+1)) when the scene has
   an APDP.
 * **Image paths** (columns 1 … S): one column per surface sequence of
-  :func:`channels.surfaces.image_paths` (orders 1 … ``scene.image_order``, by order then
+  :func:`rfsim.channels.surfaces.image_paths` (orders 1 … ``scene.image_order``, by order then
   surface index, no surface twice in a row). The mirror geometry, the side test, the
   finite-extent test and the Fresnel coefficients ``w_s·r_TE + (1 − w_s)·r_TM`` are evaluated
   for all links of one sequence at once; amplitude ``g_ls(ℓ)·Πr·√(G_tx(first leg)·
@@ -18,7 +18,7 @@ auris-sense-a-tag.md §1.7; pass-paris-simulator.md §2.4):
 * **Diffuse taps** (the last T columns, when ``scene.apdp`` is set): ``g_ls·walls·shadowing·h_i``
   with ``h_i ~ CN(0, P_i)``, delay ``d/c + τ_i``, the LoS Doppler.
 
-Average profile — method and exactness against :func:`channels.small_scale.average_profile`
+Average profile — method and exactness against :func:`rfsim.channels.small_scale.average_profile`
 (the profile :meth:`Channel.link` draws from). The NLoS tail ``γe^{−γτ}`` is cut, as there,
 into T equal bins over ``[0, t_trunc]`` with ``t_trunc = ln((1 + ε)/ε)/γ``,
 ``ε = min(ε_K, (ε_τ/3)^√2)``, renormalised to the NLoS power, one tap per bin at the bin's
@@ -47,7 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.units import C_M_S
+from rfsim.core.units import C_M_S
 
 from .antennas import Antenna, Isotropic, polarization_mismatch_factor
 from .geometry import local_angles
@@ -72,7 +72,7 @@ class BulkPaths:
     Attributes
     ----------
     gain : (n, p) complex128, amplitude gains [linear], carrier phase excluded (as in
-        :class:`~channels.paths.PathSet`); 0 in padded slots
+        :class:`~rfsim.channels.paths.PathSet`); 0 in padded slots
     delay_s : (n, p) float64, delays [s]; 0 in padded slots
     doppler_hz : (n, p) float64 Doppler shifts [Hz], or None when both ends are static
     valid : (n, p) bool, False in the padded image slots
@@ -112,7 +112,7 @@ class BulkPaths:
         return PathSet(self.gain[i, keep], self.delay_s[i, keep], dop)
 
     def narrowband_rms_error(self, bandwidth_hz: float) -> np.ndarray:
-        """(n,) float64: :func:`channels.paths.narrowband_rms_error` of every link, at once.
+        """(n,) float64: :func:`rfsim.channels.paths.narrowband_rms_error` of every link, at once.
 
         √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²) per link, τ0 its earliest valid delay, padded
         slots excluded (gain 0); 0 for a link without power.
@@ -124,20 +124,20 @@ class BulkPaths:
         return np.sqrt((p * rel**2).sum(axis=1) / np.where(total > 0, total, 1.0))
 
     def batch_link(self, shape: tuple[int, ...]) -> "BatchLink":
-        """The n links as one link of the air interface (:mod:`rfsim.air`) over a batch of
+        """The n links as one link of the air interface (:mod:`rfsim.air.step`) over a batch of
         ``shape`` (n = prod(shape)): row-major, link i is batch element ``unravel(i, shape)``."""
         return BatchLink(self, tuple(int(s) for s in shape))
 
 
 class BatchLink:
-    """n narrowband static links as one link of a batched air step (:func:`rfsim.air.propagate`).
+    """n narrowband static links as one link of a batched air step (:func:`rfsim.air.step.propagate`).
 
     The step multiplies a segment (…, n_samples) by :meth:`constant_gain`, a (*shape, 1) array
     of the links' narrowband gains Σ_p g·e^{−j2π·fc·τ} (:meth:`BulkPaths.narrowband_gain`),
     which gives the (*shape, n_samples) batch of every link's output at once. The
-    narrowband decision is the one rule of :func:`channels.paths.propagation_method` applied to
+    narrowband decision is the one rule of :func:`rfsim.channels.paths.propagation_method` applied to
     every link: "narrowband" iff the largest :meth:`BulkPaths.narrowband_rms_error` is at most
-    :data:`channels.paths.NARROWBAND_TOLERANCE` (:meth:`narrowband_error`). Only the
+    :data:`rfsim.channels.paths.NARROWBAND_TOLERANCE` (:meth:`narrowband_error`). Only the
     narrowband method is offered (:meth:`apply` raises otherwise).
     """
 
@@ -216,7 +216,7 @@ def diffuse_profile(apdp, distance_m, *, template=None):
 
     Parameters
     ----------
-    apdp : :class:`~channels.small_scale.ApdpModel`
+    apdp : :class:`~rfsim.channels.small_scale.ApdpModel`
     distance_m : (n,) float64 [m]
     template : ``(w, x)`` from :func:`diffuse_template` (computed when None)
 
@@ -269,7 +269,7 @@ def _plf(tx: Antenna, rx: Antenna, k) -> np.ndarray:
     Linear–linear in closed form: with ``c = axis × k`` the transverse axis has
     ``|a_⊥| = |c|/|k|`` and ``a_⊥·b_⊥ = c_a·c_b/|k|²``, so ``PLF = (c_a·c_b)²/(|c_a|²·|c_b|²)``,
     0 where an axis is parallel to k (``|a_⊥| ≤ 1e-12``, the rule of
-    :meth:`~channels.antennas.Antenna.polarization_vector`). Other pairs use the antennas' own
+    :meth:`~rfsim.channels.antennas.Antenna.polarization_vector`). Other pairs use the antennas' own
     polarization vectors.
     """
     if tx.polarization == "linear" and rx.polarization == "linear":
@@ -287,7 +287,7 @@ def _plf(tx: Antenna, rx: Antenna, k) -> np.ndarray:
 def _te_weight(tx: Antenna, k, nrm) -> np.ndarray:
     """TE power fraction of the tx field on unit rays k (n, 3) hitting a plane of normal ``nrm``.
 
-    As :func:`channels.surfaces._s_weight` with ``e = tx.polarization_vector(k)``: with
+    As :func:`rfsim.channels.surfaces._s_weight` with ``e = tx.polarization_vector(k)``: with
     ``s = k × n`` (1 where ``|s| < 1e-12``: normal incidence), ``w = |ŝ·e_⊥|²/|e_⊥|²``. For a
     linear antenna ``ŝ ⊥ k`` gives ``ŝ·a_⊥ = ŝ·a``, so ``w = (s·a)²/(|s|²·|a × k|²)`` (1 where
     ``a ∥ k``: no transverse field).
@@ -363,12 +363,12 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
 
     Parameters
     ----------
-    scene : :class:`~channels.scene.Scene` (surfaces, walls, large scale, APDP, shadowing,
+    scene : :class:`~rfsim.channels.scene.Scene` (surfaces, walls, large scale, APDP, shadowing,
         image order)
     tx_positions_m, rx_positions_m : (n, 3) or (3,) float64 [m], broadcast against each other
     fc_hz : carrier frequency [Hz]
     rng : numpy Generator (keyword-only); one call draws ``n·T`` complex normals
-    tx_antenna, rx_antenna : :class:`~channels.antennas.Antenna` templates whose orientation,
+    tx_antenna, rx_antenna : :class:`~rfsim.channels.antennas.Antenna` templates whose orientation,
         pattern and polarization apply at every position (their position is ignored); None is
         ``Antenna(...)``'s default (isotropic, linear, vertical)
     tx_velocity_m_s, rx_velocity_m_s : (n, 3) or (3,) velocities [m/s], or None (static)
@@ -378,7 +378,7 @@ def draw_links(scene, tx_positions_m, rx_positions_m, *, fc_hz: float, rng: np.r
     :class:`BulkPaths` with p = 1 + S + T columns; ``pathset(i)`` equals
     ``Channel(scene).link(tx_i, rx_i, ...)`` in its deterministic paths (LoS, images) and in
     the law of its diffuse taps (module docstring). A per-link large-scale model
-    (``channels.large_scale.LinkLargeScale``) contributes its default model: the links are
+    (``rfsim.channels.large_scale.LinkLargeScale``) contributes its default model: the links are
     named by positions here, not by antennas.
 
     Raises
@@ -482,7 +482,7 @@ def _image_columns(scene, seqs, p_tx, p_rx, v_tx, v_rx, tx, rx, fc, moving, gain
 
 
 def _linear_polarization(antennas, k) -> np.ndarray:
-    """(n, 3) complex: :meth:`~channels.antennas.Antenna.polarization_vector` of linearly
+    """(n, 3) complex: :meth:`~rfsim.channels.antennas.Antenna.polarization_vector` of linearly
     polarized ``antennas[i]`` along ``k[i]`` (the same operations on (n, 3) arrays)."""
     k = k / np.linalg.norm(k, axis=-1, keepdims=True)
     axes = np.array([a.polarization_axis for a in antennas])
@@ -500,9 +500,9 @@ def _shared_linear_pattern(antennas, name):
 
 def static_placements(scene, tx, rx_antennas) -> list[tuple]:
     """The carrier-independent geometry of the static links ``tx → rx_i`` of many receivers at
-    once, each in the form of ``Channel._placement`` (for :meth:`channels.scene.Channel.hold_placement`).
+    once, each in the form of ``Channel._placement`` (for :meth:`rfsim.channels.scene.Channel.hold_placement`).
 
-    The same operations as :meth:`channels.scene.Channel._placement` on (n, 3) arrays instead of
+    The same operations as :meth:`rfsim.channels.scene.Channel._placement` on (n, 3) arrays instead of
     one (3,) vector at a time: ``d = √(Σ diff²)``, ``u = diff/d``, antenna gain
     ``√(G_tx(diff)·G_rx(−diff))``, ``√PLF`` from the two polarization vectors along ``diff``,
     the APDP's K(d) and τrms(d). Element by element these are the scalar path's IEEE
@@ -510,8 +510,8 @@ def static_placements(scene, tx, rx_antennas) -> list[tuple]:
 
     Parameters
     ----------
-    scene : :class:`~channels.scene.Scene` without surfaces (or ``image_order`` 0) and walls
-    tx : the common transmitting :class:`~channels.antennas.Antenna`, or a sequence of n
+    scene : :class:`~rfsim.channels.scene.Scene` without surfaces (or ``image_order`` 0) and walls
+    tx : the common transmitting :class:`~rfsim.channels.antennas.Antenna`, or a sequence of n
         linearly polarized antennas sharing one pattern (one transmitter per link)
     rx_antennas : sequence of n linearly polarized antennas sharing one pattern (the
         receivers; their rotations and polarization axes are their own)

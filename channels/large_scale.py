@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.units import C_M_S
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import C_M_S
 
 from .geometry import _as_points
 
@@ -111,8 +111,8 @@ class LinkLargeScale:
     3. ``default`` (None = Friis free space).
 
     The lookup is symmetric, so links stay reciprocal. Antennas compare by value
-    (``channels.Antenna``). Callers that know only distances (``los_links``, the bulk links of
-    ``channels.bulk``) get the default model through :meth:`amplitude_gain`.
+    (``rfsim.channels.Antenna``). Callers that know only distances (``los_links``, the bulk links of
+    ``rfsim.channels.bulk``) get the default model through :meth:`amplitude_gain`.
 
     Parameters
     ----------

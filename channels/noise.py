@@ -3,7 +3,7 @@
 Waveforms are complex baseband in √W (|x|² is power in W, DESIGN.md "Signal model"); the noise
 power of a complex baseband signal sampled at ``fs`` with a noise-equivalent bandwidth ``B`` is
 ``N = N0·B`` with the one-sided density ``N0`` [W/Hz] (``B = fs`` for white noise at the full
-sample rate). The thermal power kTB·F lives in the core (:func:`rfsim.noise.thermal_noise_power_w`:
+sample rate). The thermal power kTB·F lives in the core (:func:`rfsim.air.noise.thermal_noise_power_w`:
 devices such as the reader compute their receiver noise with it) and is exported here with the
 other noise models. Source: DESIGN.md "Channel" (AWGN from a noise density or kTB·NF);
 pass-paris-simulator.md §2.4 ``channel_noise`` for the PASS legacy formula.
@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.noise import thermal_noise_power_w
-from rfsim.units import dbm_to_w
+from rfsim.core.errors import ConfigError
+from rfsim.air.noise import thermal_noise_power_w
+from rfsim.core.units import dbm_to_w
 
 
 def noise_power_from_density_w(density_dbm_hz, bandwidth_hz) -> np.ndarray:

@@ -30,9 +30,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
-_pk = lazy_import("channels._paths_kernels")
+_pk = lazy_import("rfsim.channels._paths_kernels")
 
 
 __all__ = [
@@ -134,7 +134,7 @@ class PathSet:
         """Σ|g|², the incoherent path power gain."""
         return float(np.sum(np.abs(self.gain) ** 2))
 
-    # The air interface (rfsim.air) uses a link through these members only.
+    # The air interface (rfsim.air.step) uses a link through these members only.
 
     @property
     def static(self) -> bool:

@@ -8,12 +8,12 @@ The statistical ("log-distance") mode of Özkaya's active-RFID RSSI campaigns
 - α_j [dBm]: mean received power at d0 = 1 m for reader j (per reader: antenna gains differ,
   L984); n_j: path-loss exponent of reader j; d_j = |x − p_j| [m] (3-D).
 - nW_j(x)·WAF: the loss of the walls the straight line tag → reader j crosses (eq. 6.3/5.10;
-  one WAF per crossing, channels.large_scale.Wall / wall_loss_db).
+  one WAF per crossing, rfsim.channels.large_scale.Wall / wall_loss_db).
 - X_j(x) ~ N(0, σ_j²) [dB]: **quasi-static** shadowing per position and reader (the noise of
   the thesis's fixed-target simulations is frozen while the target stands still, erratum
   R§5.16, and redrawn when it moves). ``decorrelation_m = 0`` draws it independently for every
   distinct position; ``> 0`` uses a Gudmundson-correlated field per reader
-  (ρ(Δ) = exp(−Δ/d_corr), channels.large_scale.ShadowingField), so nearby tags (a target next
+  (ρ(Δ) = exp(−Δ/d_corr), rfsim.channels.large_scale.ShadowingField), so nearby tags (a target next
   to a reference tag, §1.9) see similar shadowing. Readers are independent of each other: the
   thesis adds its noise "on the transmit power of the target" (L1309) but its Table 7.3 is
   reproduced with independent per-reader terms (1.36/1.92/2.20/2.48 m vs 1.38/1.95/2.29/2.57)
@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 
 from .geometry import _as_points
 from .large_scale import ShadowingField, Wall, wall_loss_db
@@ -76,7 +76,7 @@ class RssChannel:
     Parameters
     ----------
     readers : sequence of :class:`ReaderLink` (at least one)
-    walls : sequence of :class:`channels.large_scale.Wall` (attenuation = WAF per crossing)
+    walls : sequence of :class:`rfsim.channels.large_scale.Wall` (attenuation = WAF per crossing)
     """
 
     def __init__(self, readers: Sequence[ReaderLink], walls: Sequence[Wall] = ()):
@@ -134,7 +134,7 @@ def quasi_static_shadowing_db(points_m, sigma_db, *, rng: np.random.Generator,
     decorrelation_m : 0 → independent per distinct position; > 0 → Gudmundson field per reader
     shared : one standard term for all readers, scaled by σ_j (the thesis's "noise on the
         transmit power of the target", L1309, read literally) instead of independent readers
-    n_features : random features of the correlated field (channels.large_scale.ShadowingField)
+    n_features : random features of the correlated field (rfsim.channels.large_scale.ShadowingField)
 
     Returns
     -------

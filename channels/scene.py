@@ -5,13 +5,13 @@ pass-paris-simulator.md §2.4)
 
 * **LoS**: amplitude ``A = g_ls(d, fc)·√(G_tx·G_rx)·√(PLF)·10^(−L_walls/20)·10^(−S/20)``
   with ``g_ls`` the large-scale amplitude gain (Friis λ/(4πd) by default, or a
-  :class:`~channels.large_scale.LogDistance`), G the antennas' power gains towards each
+  :class:`~rfsim.channels.large_scale.LogDistance`), G the antennas' power gains towards each
   other, PLF the polarization mismatch, L_walls the WAF wall loss on the straight line and S
   the shadowing field at the link midpoint (symmetric, so links stay reciprocal); delay d/c.
-* **Image paths** up to ``image_order`` reflections (:func:`channels.surfaces.image_paths`):
+* **Image paths** up to ``image_order`` reflections (:func:`rfsim.channels.surfaces.image_paths`):
   amplitude ``g_ls(ℓ, fc)·Πr·√(G_tx(first leg)·G_rx(last leg))·√(PLF along the image
   direction)``; delay ℓ/c. Walls and shadowing are not applied to reflected paths.
-* **Diffuse NLoS taps** (when an :class:`~channels.small_scale.ApdpModel` is set): the APDP
+* **Diffuse NLoS taps** (when an :class:`~rfsim.channels.small_scale.ApdpModel` is set): the APDP
   splits the LoS large-scale power into LoS K/(K+1) and NLoS 1/(K+1) (PASS: the unit-power
   profile is scaled by the LoS large-scale gain), so the LoS amplitude becomes A·√(K/(K+1))
   and tap i gets ``g_ls·walls·shadowing·h_i`` with ``h_i ~ CN(0, P_i)``, delay d/c + τ_i. The
@@ -26,7 +26,7 @@ Motion: each end may move with a constant velocity (``(3,)`` [m/s], position
 ``p0 + v·t``) or along a trajectory (callable ``t → (3,)`` position [m]; velocity by a central
 difference). Every path gets the Doppler shift ``f_D = −(fc/c)·dℓ/dt`` of its length ℓ (image
 sources move with the mirrored velocity; diffuse taps share the LoS Doppler), so that
-:func:`channels.paths.apply_paths` continues the carrier phase −2π·fc·ℓ(t)/c to first order
+:func:`rfsim.channels.paths.apply_paths` continues the carrier phase −2π·fc·ℓ(t)/c to first order
 inside an exchange (gen2-and-validation-anchors.md §4.7: f_D = 2v/λ for a monostatic tag).
 """
 
@@ -37,8 +37,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.units import C_M_S
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import C_M_S
 
 from .antennas import Antenna
 from .large_scale import friis_amplitude_gain, wall_loss_db
@@ -58,14 +58,14 @@ class Scene:
 
     Parameters
     ----------
-    surfaces : sequence of :class:`~channels.surfaces.Surface` (specular reflectors)
-    walls : sequence of :class:`~channels.large_scale.Wall` (WAF loss on the LoS)
+    surfaces : sequence of :class:`~rfsim.channels.surfaces.Surface` (specular reflectors)
+    walls : sequence of :class:`~rfsim.channels.large_scale.Wall` (WAF loss on the LoS)
     large_scale : object with ``amplitude_gain(distance_m, fc_hz)`` (e.g.
-        :class:`~channels.large_scale.LogDistance`), one for every link; or a
-        :class:`~channels.large_scale.LinkLargeScale` (a model per antenna pair or per
+        :class:`~rfsim.channels.large_scale.LogDistance`), one for every link; or a
+        :class:`~rfsim.channels.large_scale.LinkLargeScale` (a model per antenna pair or per
         antenna, e.g. per reader); or None for Friis free space
-    apdp : :class:`~channels.small_scale.ApdpModel` or None (no diffuse taps)
-    shadowing : :class:`~channels.large_scale.ShadowingField` or None
+    apdp : :class:`~rfsim.channels.small_scale.ApdpModel` or None (no diffuse taps)
+    shadowing : :class:`~rfsim.channels.large_scale.ShadowingField` or None
     image_order : maximum reflection order of the image paths (0: none)
     reciprocal : the link a → b equals b → a (one held diffuse draw per unordered pair)
     """
@@ -249,7 +249,7 @@ class Channel:
 
     def hold_placement(self, tx: Antenna, rx: Antenna, placement: tuple) -> None:
         """Keep ``placement`` as the carrier-independent geometry of the static link ``tx → rx``
-        (the tuple :meth:`_placement` returns; :func:`channels.bulk.static_placements` makes
+        (the tuple :meth:`_placement` returns; :func:`rfsim.channels.bulk.static_placements` makes
         them for many links at once, bit-identical), so that :meth:`link` does not evaluate it."""
         if len(self._placements) >= GEOMETRY_CACHE_SIZE:
             self._placements.pop(next(iter(self._placements)))
@@ -257,7 +257,7 @@ class Channel:
 
     def hold_placements(self, tx: Antenna, rx_antennas) -> int:
         """Evaluate at once the carrier-independent geometry of the static links ``tx → rx_i``
-        not held yet (:func:`channels.bulk.static_placements`, bit-identical to
+        not held yet (:func:`rfsim.channels.bulk.static_placements`, bit-identical to
         :meth:`_placement`) and hold it (:meth:`hold_placement`), so that the first
         :meth:`link` of each does not evaluate it on its own. A scene with reflecting
         surfaces or walls, receivers that are not linearly polarized antennas sharing one
@@ -362,12 +362,12 @@ class Channel:
 
 class HeldLinks:
     """Links already drawn, by antenna pair: the channel side (``Links``) of an air step
-    (:func:`rfsim.air.propagate`) over a held channel state.
+    (:func:`rfsim.air.step.propagate`) over a held channel state.
 
     Parameters
     ----------
     pairs : iterable of ``(tx_antenna, rx_antenna, paths)``; ``paths`` is a
-        :class:`~channels.paths.PathSet` or a batched link (:class:`channels.bulk.BatchLink`)
+        :class:`~rfsim.channels.paths.PathSet` or a batched link (:class:`rfsim.channels.bulk.BatchLink`)
 
     :meth:`paths` returns the link of a pair (matched by antenna identity, whatever the carrier
     and time: the draw is held), or None for a pair it does not hold.
@@ -392,8 +392,8 @@ def los_links(tx_positions_m, rx_positions_m, fc_hz, *, large_scale=None, walls=
     tx_positions_m, rx_positions_m : (..., 3) float [m], broadcastable
     fc_hz : carrier frequency [Hz] (scalar or broadcastable)
     large_scale : model with ``amplitude_gain(d, fc)`` or None (Friis)
-    walls : sequence of :class:`~channels.large_scale.Wall`
-    tx_antenna, rx_antenna : optional :class:`~channels.antennas.Antenna` templates whose
+    walls : sequence of :class:`~rfsim.channels.large_scale.Wall`
+    tx_antenna, rx_antenna : optional :class:`~rfsim.channels.antennas.Antenna` templates whose
         orientation, pattern and polarization apply at every position (their own position is
         ignored); None means isotropic, matched polarization
     tx_velocity_m_s, rx_velocity_m_s : optional (..., 3) velocities [m/s]

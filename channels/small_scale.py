@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.units import db_to_lin
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import db_to_lin
 
 __all__ = [
     "ApdpModel",
@@ -253,7 +253,7 @@ def draw_taps(k_lin: float, tau_rms_s: float, *, rng: np.random.Generator, n_dra
 
     Tap 0 (LoS) is deterministic: amplitude √(K/(K+1)) and phase ``los_phase_rad`` (default 0:
     the LoS phase comes from geometry, ``exp(−j2π·fc·τ_LoS)``, when the taps are applied as a
-    :class:`~channels.paths.PathSet`). NLoS taps are independent zero-mean circular complex
+    :class:`~rfsim.channels.paths.PathSet`). NLoS taps are independent zero-mean circular complex
     Gaussian, ``g_i ~ CN(0, P_i)`` with P_i the average-profile powers; their phases and
     amplitudes are the only random quantities. Delays are the (deterministic) profile delays.
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 
 __all__ = [
     "fresnel_reflection",
@@ -279,7 +279,7 @@ def image_paths(tx_m, rx_m, surfaces, order: int = 1, *, polarization=None) -> l
     surfaces : sequence of :class:`Surface`
     order : maximum number of reflections (0 gives no paths)
     polarization : transmit E-field direction: ``None`` (vertical, ẑ), a (3,) vector, or a
-        callable ``k -> (3,) complex`` such as :meth:`channels.antennas.Antenna.polarization_vector`;
+        callable ``k -> (3,) complex`` such as :meth:`rfsim.channels.antennas.Antenna.polarization_vector`;
         it sets the TE/TM mix of each reflection (see :meth:`Surface.reflection`)
 
     Returns

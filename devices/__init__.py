@@ -1,26 +1,26 @@
 """Device models: reader, passive tag, sense-a-tag, HIMR inertial tag, exciter.
 
-Reader (:mod:`devices.reader`): PIE transmitter (DSB/SSB/PR-ASK), frequency plans and
+Reader (:mod:`rfsim.devices.reader`): PIE transmitter (DSB/SSB/PR-ASK), frequency plans and
 hopping, antennas in turn, IQ receiver with leakage removal, FM0/Miller decoding and
 per-read RSSI/phase/Doppler/SNR.
 
-Sense-a-tag (:mod:`devices.sense_a_tag`): one or two antennas, envelope detector, band-pass
-and comparator (:mod:`devices.st_receiver`), the closed forms of phase cancellation
-(:mod:`devices.st_analytic`), dual-antenna techniques and the locator protocol.
+Sense-a-tag (:mod:`rfsim.devices.sense_a_tag`): one or two antennas, envelope detector, band-pass
+and comparator (:mod:`rfsim.devices.st_receiver`), the closed forms of phase cancellation
+(:mod:`rfsim.devices.st_analytic`), dual-antenna techniques and the locator protocol.
 
-Passive tag: Gen2 protocol logic (:mod:`devices.gen2_tag_state`), front-end physics —
-power-up, reflection-coefficient states, clock (:mod:`devices.tag_frontend`), a chip whose
-impedance follows its absorbed power (:mod:`devices.tag_chip`) — and the
+Passive tag: Gen2 protocol logic (:mod:`rfsim.devices.gen2_tag_state`), front-end physics —
+power-up, reflection-coefficient states, clock (:mod:`rfsim.devices.tag_frontend`), a chip whose
+impedance follows its absorbed power (:mod:`rfsim.devices.tag_chip`) — and the
 sample-level device that listens to a reader segment and answers with Γ(t)
-(:mod:`devices.tag`); many tags join the air step as one population
-(:mod:`devices.tag_population`).
+(:mod:`rfsim.devices.tag`); many tags join the air step as one population
+(:mod:`rfsim.devices.tag_population`).
 
-Active RFID (Özkaya's 868 MHz beacons): the beacon tag (:mod:`devices.active_tag`), its frame
-and MSK modulation (:mod:`devices.msk_beacon`), the sample-level reader with its RSSI
-(:mod:`devices.active_reader`) and the RSSI report stage (:mod:`devices.rss_reader`).
+Active RFID (Özkaya's 868 MHz beacons): the beacon tag (:mod:`rfsim.devices.active_tag`), its frame
+and MSK modulation (:mod:`rfsim.devices.msk_beacon`), the sample-level reader with its RSSI
+(:mod:`rfsim.devices.active_reader`) and the RSSI report stage (:mod:`rfsim.devices.rss_reader`).
 """
 
-from rfsim.lazy import lazy_exports
+from rfsim.core.lazy import lazy_exports
 
 #: Module of the package → the public names it provides, each imported on first use (so
 #: that importing one module, e.g. for a config dataclass, does not import the others).

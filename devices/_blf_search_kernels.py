@@ -1,6 +1,6 @@
 """numba kernel of the reader's BLF-searching reply decoder, over a stack of windows
-(wrapped and documented in :func:`devices.reader.search_decode`; its plain-NumPy twin is
-:func:`devices.reader.search_decode_reference`)."""
+(wrapped and documented in :func:`rfsim.devices.reader.search_decode`; its plain-NumPy twin is
+:func:`rfsim.devices.reader.search_decode_reference`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
                                           waveform_kernel)
 
@@ -98,7 +98,7 @@ def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
 def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, cur, prev, m,
                          n_bits, n_first_bits, fine_span, fine_per_side, target_first, fine_target, out_bits,
                          out_ratio, out_start, out_corr, out_h, out_sigma2, out_sigma2_bit):
-    """BLF search and decoding of every window ``rs[b]`` (see :func:`devices.reader.search_decode`).
+    """BLF search and decoding of every window ``rs[b]`` (see :func:`rfsim.devices.reader.search_decode`).
 
     Coarse: the largest zero-mean normalised preamble correlation over the BLF grid
     (``coarse_ratios`` = 2·BLF/fs, templates ``coarse_tpl0[k, :coarse_len[k]]``) and the lags

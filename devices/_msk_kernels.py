@@ -1,5 +1,5 @@
 """numba kernels of the active beacon's MSK modulator and the reader's FM discriminator
-(wrapped and documented in :mod:`devices.msk_beacon`; NumPy twins there as ``*_reference``).
+(wrapped and documented in :mod:`rfsim.devices.msk_beacon`; NumPy twins there as ``*_reference``).
 """
 
 from __future__ import annotations
@@ -8,12 +8,12 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 
 @njit
 def msk_phase_kernel(chips, sps, offset_chips, phase_out, on_out):
-    """MSK phase at samples n = 0…N−1 of a burst (module :mod:`devices.msk_beacon`).
+    """MSK phase at samples n = 0…N−1 of a burst (module :mod:`rfsim.devices.msk_beacon`).
 
     ``u = offset_chips + n/sps`` is the time of sample n in chips since the burst start; in
     chip k = ⌊u⌋ the phase is ``Φ_k + a_k·(π/2)·(u − k)`` with ``Φ_k = (π/2)·Σ_{i<k} a_i``;

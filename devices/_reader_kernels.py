@@ -1,5 +1,5 @@
-"""numba kernels of the reader's receiver (wrapped and documented in :mod:`devices.reader`;
-the plain-NumPy twin is :func:`devices.reader.measure_reference`)."""
+"""numba kernels of the reader's receiver (wrapped and documented in :mod:`rfsim.devices.reader`;
+the plain-NumPy twin is :func:`rfsim.devices.reader.measure_reference`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 
 #: Samples between exact evaluations of the Doppler rotation phasor in the measurement.
@@ -17,7 +17,7 @@ ROTATION_RESYNC = 64
 @njit
 def measure_kernel(z, s, fs_hz, n_blocks):
     """Gain, Doppler slope and residual power of ``z = h(t)·s(t) + noise`` (see
-    :meth:`devices.reader.Reader.receive`, step 5).
+    :meth:`rfsim.devices.reader.Reader.receive`, step 5).
 
     Uses the samples of the reply span (first to last non-zero ``s``) whose two neighbours
     carry the same level; ``t`` is the time from the span's centre [s]. The span is cut into

@@ -1,6 +1,6 @@
 """numba kernel of the sense-a-tag's many-positions receive chain (wrapped and documented in
-:func:`devices.sense_a_tag.chain_rows`; its NumPy/SciPy twin there is
-:func:`devices.sense_a_tag.chain_rows_reference`).
+:func:`rfsim.devices.sense_a_tag.chain_rows`; its NumPy/SciPy twin there is
+:func:`rfsim.devices.sense_a_tag.chain_rows_reference`).
 """
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import math
 
 import numpy as np
 
-from devices._st_receiver_kernels import comparator_kernel, i0e_kernel, sos_sample
-from rfsim._jit import njit
+from rfsim.devices._st_receiver_kernels import comparator_kernel, i0e_kernel, sos_sample
+from rfsim.core._jit import njit
 
 
 @njit
@@ -20,7 +20,7 @@ def diode_chain_rows_kernel(x_abs, v_per_sqrt_w, matching_gain, nvt, a, sos, zi,
 
     Per row: the RF peak ``V = v_per_sqrt_w·|x|`` [V], the diode law's argument
     ``x = (G_v·V)/nvt`` (nvt = n·V_T [V]) and output ``u = (ln i0e(x) + x)·nvt`` [V] (the steps
-    of :meth:`devices.st_receiver.EnvelopeDetector.transfer_v`); the RC
+    of :meth:`rfsim.devices.st_receiver.EnvelopeDetector.transfer_v`); the RC
     ``env[t] = env[t−1]·(1 − a) + a·u[t]`` from ``env[−1] = u[0]`` (in the operation order of
     SciPy's ``lfilter``: state ``(1 − a)·y``, output ``state + a·u``); the second-order
     sections ``sos`` (s, 6) from the state ``zi`` (s, 2) times ``env[0]`` (SciPy's

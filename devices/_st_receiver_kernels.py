@@ -1,5 +1,5 @@
 """numba kernels of the sense-a-tag receive chain (wrapped and documented in
-:mod:`devices.st_receiver`; NumPy twins there as ``*_reference``).
+:mod:`rfsim.devices.st_receiver`; NumPy twins there as ``*_reference``).
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit, njit_inline
+from rfsim.core._jit import njit, njit_inline
 
 
 @njit

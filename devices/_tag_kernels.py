@@ -1,5 +1,5 @@
-"""numba kernels of the passive tag's front end (wrapped and documented in :mod:`devices.tag`;
-the plain-NumPy twin is :func:`devices.tag.cw_power_reference`)."""
+"""numba kernels of the passive tag's front end (wrapped and documented in :mod:`rfsim.devices.tag`;
+the plain-NumPy twin is :func:`rfsim.devices.tag.cw_power_reference`)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 
 @njit
@@ -38,7 +38,7 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     threshold``, all if not ``select``; ties in sample order, as a stable sort) when the
     2·``margin`` + 1 samples around it in that order are all ±x at that index; −1 when they
     are not (or too few samples are selected), −2 when a NaN is among them (the caller then
-    asks :func:`devices.tag.plateau_reference`). ``buf``/``idx``: scratch of ``env.size``
+    asks :func:`rfsim.devices.tag.plateau_reference`). ``buf``/``idx``: scratch of ``env.size``
     (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1.
 
     The median value v is found by counting (a candidate sample's value) or selection
@@ -107,6 +107,6 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
 @njit
 def reflection_kernel(s, gamma_b, gamma_a, out):
     """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0``, else
-    ``gamma_a`` (plain-NumPy twin: :func:`devices.tag.reflection_reference`)."""
+    ``gamma_a`` (plain-NumPy twin: :func:`rfsim.devices.tag.reflection_reference`)."""
     for i in range(s.size):
         out[i] = gamma_b if s[i] > 0 else gamma_a

@@ -7,16 +7,16 @@ baseband √W at the antenna port, noise included by the air step: k·T0·fs·F 
     1. channel filter   y_f = h * y, h a linear-phase FIR low-pass (``FILTER_TAPS`` taps,
                         Hamming window, cut-off B/2 for the two-sided bandwidth B = 540 kHz,
                         L1770; zero delay: odd length, centred)
-    2. discriminator    d[n] = arg(y_f[n]·conj(y_f[n−1]))  (devices.msk_beacon)
+    2. discriminator    d[n] = arg(y_f[n]·conj(y_f[n−1]))  (rfsim.devices.msk_beacon)
     3. synchronisation  normalised correlation of d with the preamble + sync-word template
                         ρ(τ) = Σ d[τ+n]·t[n] / (‖t‖·‖d[τ:τ+L]‖); a frame starts at each
                         maximum ρ ≥ ``sync_threshold`` (the next searched outside that frame)
     4. chips            sign of Σ d over each chip (the chip's sample boundaries excluded)
-    5. decoding         Manchester → ID, sequence, CRC-16 (devices.msk_beacon)
+    5. decoding         Manchester → ID, sequence, CRC-16 (rfsim.devices.msk_beacon)
     6. RSSI             P = mean |y_f|² over the frame [dBm], what a transceiver's RSSI
                         register measures: the power in the channel bandwidth, in-band noise
                         included (at −90 dBm with NF = 10 dB the noise adds 0.09 dB)
-    7. report           devices.rss_reader.RssReport: 1 dB steps, nothing below −90 dBm;
+    7. report           rfsim.devices.rss_reader.RssReport: 1 dB steps, nothing below −90 dBm;
                         only frames with a valid CRC are reported
 
 MSK keeps 99.5 % of its power inside ±270 kHz at 250 kchip/s, so the filtered RSSI of a clean
@@ -33,16 +33,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.noise import thermal_noise_power_w
-from rfsim.units import w_to_dbm
+from rfsim.air.carriers import SUPPORTED_CARRIER_RANGE_HZ
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.air.noise import thermal_noise_power_w
+from rfsim.core.units import w_to_dbm
 
 from .msk_beacon import (FRAME_CHIPS, HEADER_CHIPS, discriminate, header_chips, manchester_decode,
                          msk_phase, parse_payload)
 from .rss_reader import RssReport
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 
@@ -120,7 +120,7 @@ class ActiveReader:
     Parameters
     ----------
     config : ActiveReaderConfig
-    antenna : its antenna (``channels.Antenna``)
+    antenna : its antenna (``rfsim.channels.Antenna``)
     """
 
     def __init__(self, config: ActiveReaderConfig, antenna):

@@ -2,14 +2,14 @@
 
 Özkaya's tags (rssi-localization.md §2.1, §7 P0.3; seeds/002 L957, L1768–L1775): the ID every
 1 s, 5 dBm at 868 MHz, Manchester-coded MSK at 250 kbaud (frame and modulation in
-:mod:`devices.msk_beacon`), listen-before-talk; 3.3 V coin cell, quarter-wave monopole
+:mod:`rfsim.devices.msk_beacon`), listen-before-talk; 3.3 V coin cell, quarter-wave monopole
 (isotropic in azimuth when vertical: the channel applies whatever antenna it is given).
 
 Schedule. Beacon n of a tag is due at ``t_n = offset + n·period + U(−jitter, +jitter)``
 (the tags are not synchronised; the jitter keeps two tags from meeting at every period,
 as the randomised intervals of real beacons do — the thesis gives none, the default
 ±10 ms is this model's choice). Listen-before-talk (ETSI EN 300 220 style energy detection)
-is decided by the beacon MAC (:func:`rfsim.beacons.run_beacons`): the tag listens for
+is decided by the beacon MAC (:func:`rfsim.protocols.beacons.run_beacons`): the tag listens for
 ``lbt_listen_s`` before a due beacon; when the mean power it receives exceeds
 ``lbt_threshold_dbm`` it backs off ``U(0, backoff_max_s)`` and tries again, at most
 ``max_attempts`` times, then drops the beacon. Decided beacons are kept as bursts
@@ -26,10 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.air import Segment
-from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
-from rfsim.config import check_fields, param
-from rfsim.units import dbm_to_w
+from rfsim.air.step import Segment
+from rfsim.air.carriers import SUPPORTED_CARRIER_RANGE_HZ
+from rfsim.core.config import check_fields, param
+from rfsim.core.units import dbm_to_w
 
 from .msk_beacon import FRAME_CHIPS, beacon_bits, manchester_encode, msk_phase
 
@@ -67,7 +67,7 @@ class ActiveTag:
     Parameters
     ----------
     config : ActiveTagConfig
-    antenna : the antenna it radiates from (``channels.Antenna``)
+    antenna : the antenna it radiates from (``rfsim.channels.Antenna``)
     rng : generator (keyword-only) of the schedule jitter and the oscillator phases
     """
 

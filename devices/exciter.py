@@ -29,15 +29,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.carriers import SUPPORTED_CARRIER_RANGE_HZ
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.units import dbm_to_w
-from rfsim.lazy import lazy_import
+from rfsim.air.carriers import SUPPORTED_CARRIER_RANGE_HZ
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import dbm_to_w
+from rfsim.core.lazy import lazy_import
 
-_air = lazy_import("rfsim.air")
+_air = lazy_import("rfsim.air.step")
 
-#: Carrier range the models support [Hz] (rfsim.carriers).
+#: Carrier range the models support [Hz] (rfsim.air.carriers).
 CARRIER_RANGE_HZ = SUPPORTED_CARRIER_RANGE_HZ
 #: The AURIS ST-to-ST exciter (ch. 5, Fig. 5.8): 3.28 W EIRP = 35.16 dBm.
 AURIS_EIRP_DBM = 10.0 * math.log10(3.28e3)
@@ -92,7 +92,7 @@ class Exciter:
     Parameters
     ----------
     config : ExciterConfig
-    antenna : the antenna it radiates from (``channels.Antenna``: position, orientation,
+    antenna : the antenna it radiates from (``rfsim.channels.Antenna``: position, orientation,
         pattern; its pattern's peak gain converts the EIRP to the conducted power)
     rng : generator of the phase noise (keyword-only; needed when ``linewidth_hz > 0``)
     """

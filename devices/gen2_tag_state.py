@@ -47,7 +47,7 @@ from itertools import compress
 
 import numpy as np
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import as_bits, bits_to_int, hex_to_bits, int_to_bits, str_to_bits
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
 from rfsim.gen2.crc import append_crc16, crc16_bits

@@ -1,5 +1,5 @@
 """HIMR receiver "pylon": a coherent homodyne SDR transceiver on its own carrier — an
-emitter of CW and an I/Q receiver in one device of the air step (:mod:`rfsim.air`).
+emitter of CW and an I/Q receiver in one device of the air step (:mod:`rfsim.air.step`).
 
 Model (himr-tag.md §2.3; wave2-specs.md §H "Pylons"; seed 000 L447, L997, L1024–L1030):
 
@@ -13,7 +13,7 @@ Model (himr-tag.md §2.3; wave2-specs.md §H "Pylons"; seed 000 L447, L997, L102
   complex white noise of power N = k·T₀·F·fs per sample (the whole simulated band is the
   noise bandwidth; noise figure ``noise_figure_db``). The seed gives no Tx power, gains or
   sample rate (H§0.2): the scenarios calibrate P_T to an SNR at a reference distance
-  (:func:`rfsim.himr_link.ptx_for_snr_w`).
+  (:func:`rfsim.himr.link.ptx_for_snr_w`).
 * **Co-located TX/RX** (monostatic, "co-located bi-static", L447): one antenna position for
   both; the direct TX → RX path of its own CW is the leakage ``coupling_db`` (amplitude
   10^(coupling_db/20)·e^{j·coupling_phase}); another pylon's CW reaches it through the
@@ -27,8 +27,8 @@ Model (himr-tag.md §2.3; wave2-specs.md §H "Pylons"; seed 000 L447, L997, L102
   backscatter at 2 m) in a run with every carrier in band, and keeps the tag's subcarrier
   (±f_sc with its bit sidebands) — and whatever the other carriers put there.
 
-``receive`` returns the (filtered) input :class:`rfsim.air.Segment`; the per-packet DSP
-(:mod:`rfsim.himr_dsp`) runs on it.
+``receive`` returns the (filtered) input :class:`rfsim.air.step.Segment`; the per-packet DSP
+(:mod:`rfsim.himr.dsp`) runs on it.
 """
 
 from __future__ import annotations
@@ -39,13 +39,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.config import check_fields, param
-from rfsim.lazy import lazy_import
+from rfsim.core.config import check_fields, param
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
-_air = lazy_import("rfsim.air")
-_carriers = lazy_import("rfsim.carriers")
-_noise = lazy_import("rfsim.noise")
+_air = lazy_import("rfsim.air.step")
+_carriers = lazy_import("rfsim.air.carriers")
+_noise = lazy_import("rfsim.air.noise")
 
 #: Carriers of the 2-D experiment (L997) [Hz].
 HIMR_CARRIERS_HZ = (5.79e9, 5.80e9, 5.81e9)
@@ -73,7 +73,7 @@ class Pylon:
     Parameters
     ----------
     config : :class:`PylonConfig`
-    antenna : its antenna (a ``channels.Antenna``; TX and RX co-located)
+    antenna : its antenna (a ``rfsim.channels.Antenna``; TX and RX co-located)
     name : label used in error messages and tables
     """
 

@@ -8,7 +8,7 @@ Model (himr-tag.md §0.1, §2.1–2.2; wave2-specs.md §H; seed 000 L411–L422,
 * **Packet size**: ``9axis-2d`` is 192 bit (24 B: 3 header + 2 ID + 6 accel + 6 gyro + 6 compass
   + 1 CRC, the byte counts of seed 000 Table 5 / L715), air time 0.384 ms at 8 chips/bit and
   4 Mcps; the issue's and reference pages' "240 bit, 0.48 ms" (30 B) does not follow from those
-  byte counts, so the bytes of the source are kept (:mod:`rfsim.himr_packet`; the HIMR datasets
+  byte counts, so the bytes of the source are kept (:mod:`rfsim.himr.packet`; the HIMR datasets
   say so in ``packet_bits_note``). ``6axis-1d`` is 96 bit (12 B, Table 2), 1.2288 ms.
 * **Schedule**: packet k starts at t_k = t_{k−1} + T + σ_j·ε_k, ε_k ~ N(0, 1), t_0 =
   ``start_s``, T = 1/packet rate (141 packets/s for ``9axis-2d``, L715; ≈ 300 for
@@ -16,12 +16,12 @@ Model (himr-tag.md §0.1, §2.1–2.2; wave2-specs.md §H; seed 000 L411–L422,
   packet rate (L1354–L1360; no figure given: ``jitter_rms_s``, default 0). A period never
   falls below the air time (the tag sends one packet at a time).
 * **IMU words** are sampled at the packet start (the MCU reads the sensor, then sends) by
-  :func:`devices.imu.imu_words`, packed by :func:`rfsim.himr_packet.build_packets`; the
+  :func:`rfsim.devices.imu.imu_words`, packed by :func:`rfsim.himr.packet.build_packets`; the
   ``6axis-1d`` format carries the three accelerometer words only.
 * **RF states** (L432, L715): Γ_open = +1 on a +1 chip, Γ_short = −1 on a −1 chip
-  (:func:`rfsim.boc.boc_train`); between packets the switch rests in ``rest_state``.
+  (:func:`rfsim.himr.boc.boc_train`); between packets the switch rests in ``rest_state``.
   Re-radiation factor r(t) = A_s − Γ(t) (structural-mode term A_s, ``structural_mode``,
-  default 0: antenna mode only), the convention of :mod:`devices.tag`.
+  default 0: antenna mode only), the convention of :mod:`rfsim.devices.tag`.
 
 As a reflector of the air step: :meth:`HimrTag.plan` draws the schedule and the IMU words
 once per run (from the run's generator), then :meth:`HimrTag.reflection` returns Γ(t) on
@@ -42,14 +42,14 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.himr_packet import Framing, PacketFormat, build_packets, packet_format
-from rfsim.trajectories import Kinematics
-from rfsim.lazy import lazy_import
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.himr.packet import Framing, PacketFormat, build_packets, packet_format
+from rfsim.core.trajectories import Kinematics
+from rfsim.core.lazy import lazy_import
 
-_imu = lazy_import("devices.imu")
-_boc = lazy_import("rfsim.boc")
+_imu = lazy_import("rfsim.devices.imu")
+_boc = lazy_import("rfsim.himr.boc")
 
 GAMMA_OPEN = 1.0 + 0j
 GAMMA_SHORT = -1.0 + 0j
@@ -112,7 +112,7 @@ class HimrPlan:
     start_s : (P,) packet start times [s]
     words : (P, n_words) int16, the IMU words carried
     bits : (P, n_bits) uint8, the packets on the air
-    truth : :class:`rfsim.trajectories.Kinematics` at ``start_s``
+    truth : :class:`rfsim.core.trajectories.Kinematics` at ``start_s``
     """
 
     start_s: np.ndarray
@@ -146,8 +146,8 @@ class HimrTag:
     Parameters
     ----------
     config : :class:`HimrTagConfig`
-    trajectory : callable ``t_s → Kinematics`` (:mod:`rfsim.trajectories`)
-    imu : :class:`devices.imu.ImuConfig`
+    trajectory : callable ``t_s → Kinematics`` (:mod:`rfsim.core.trajectories`)
+    imu : :class:`rfsim.devices.imu.ImuConfig`
     antenna : the tag's antenna object for a channel (optional; its position is the
         trajectory's, see :meth:`position_m`)
     """

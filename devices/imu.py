@@ -10,7 +10,7 @@ bias or quantisation figures (himr-tag.md §0.2); the defaults are datasheet-cla
 Body frame (wave2-specs.md §H, erratum 13 default): heading ψ is the direction of y^B,
 x^B = (sin ψ, −cos ψ, 0), y^B = (cos ψ, sin ψ, 0), z^B = (0, 0, 1) up (right-handed).
 
-Measured quantities at the sample times t (:class:`rfsim.trajectories.Kinematics`):
+Measured quantities at the sample times t (:class:`rfsim.core.trajectories.Kinematics`):
 
 * accelerometer, specific force f = a − g with g = (0, 0, −9.80665) m/s²:
   f_x = a·x^B, f_y = a·y^B, f_z = a_z + 9.80665 [m/s²];
@@ -37,9 +37,9 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.trajectories import Kinematics
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.core.trajectories import Kinematics
 
 G_MPS2 = 9.80665
 #: Words per IMU sample: accel x y z, gyro x y z, compass x y z.

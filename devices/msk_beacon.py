@@ -34,7 +34,7 @@ a constant envelope; 99 % of the power lies within ±0.6·R_c (Pasupathy, IEEE C
 k it sums to a_k·π/2 for a clean signal, whose sign is the chip.
 
 Hot paths: :func:`msk_phase` and :func:`discriminate` call numba kernels
-(:mod:`devices._msk_kernels`); :func:`msk_phase_reference` and :func:`discriminate_reference`
+(:mod:`rfsim.devices._msk_kernels`); :func:`msk_phase_reference` and :func:`discriminate_reference`
 are their NumPy twins (tests compare them).
 """
 
@@ -44,9 +44,9 @@ import numpy as np
 
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.crc import append_crc16, crc16_ok
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
-_mk = lazy_import("devices._msk_kernels")
+_mk = lazy_import("rfsim.devices._msk_kernels")
 
 
 PREAMBLE_BITS = 32

@@ -23,7 +23,7 @@ A segment holds ``cw_before_s`` of CW (default one Tari), the command and ``cw_a
 CW: ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples, ``T_cmd =
 LinkProfile.command_duration_s(cmd)``.
 
-Frequency plan (anchors §4.7 "Regulatory", §4.9; :mod:`rfsim.carriers`): FCC 50 channels
+Frequency plan (anchors §4.7 "Regulatory", §4.9; :mod:`rfsim.air.carriers`): FCC 50 channels
 ``902.75 + 0.5·k`` MHz, ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz, or any
 explicit list (``region = "custom"``, ``channels_hz``: one 890 MHz carrier, 5.79/5.80/5.81 GHz;
 each inside the supported carrier range); a custom plan hops cyclically like ETSI. FCC hopping visits the channels
@@ -40,10 +40,10 @@ preamble correlation inside the T1 window and decoded by
 :func:`rfsim.gen2.linecode.decode_reply`; EPC replies are checked with CRC-16; RSSI, phase,
 Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
 
-Report (``ReaderConfig.report``, :class:`rfsim.records.ReportConfig`): what the reader hands
+Report (``ReaderConfig.report``, :class:`rfsim.core.records.ReportConfig`): what the reader hands
 over of a read — RSSI rounded to its step, a sensitivity floor, the phase with the port's
 phase offset as a 12-bit code, µs time stamps — is applied to the read log by
-:func:`rfsim.records.report_columns`; the measurements of :class:`ReadResult` stay unquantized.
+:func:`rfsim.core.records.report_columns`; the measurements of :class:`ReadResult` stay unquantized.
 """
 
 from __future__ import annotations
@@ -56,23 +56,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
-from rfsim.config import validate
-from rfsim.errors import ConfigError
+from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
+from rfsim.core.config import validate
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
 from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
-from rfsim.noise import thermal_noise_power_w
-from rfsim.units import dbm_to_w, w_to_dbm, wrap_phase_rad
-from devices.reader_config import ReaderConfig, frequency_plan
-from rfsim.lazy import lazy_import
+from rfsim.air.noise import thermal_noise_power_w
+from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
+from rfsim.devices.reader_config import ReaderConfig, frequency_plan
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
-_bk = lazy_import("devices._blf_search_kernels")
-_rk = lazy_import("devices._reader_kernels")
+_bk = lazy_import("rfsim.devices._blf_search_kernels")
+_rk = lazy_import("rfsim.devices._reader_kernels")
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -133,7 +133,7 @@ class ReadResult:
     rssi_dbm : power of the modulated component at the antenna port, 10·log10(|h|²)+30, with
         h the complex amplitude of the ±1 reply waveform (NaN without a reply)
     phase_rad : (−arg h) mod 2π, h at the centre of the reply; for a tag re-radiating
-        r = A_s − Γ (devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels
+        r = A_s − Γ (rfsim.devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels
     doppler_hz : (1/2π)·d(arg h)/dt across the reply (positive for an approaching tag)
     snr_db : |h|²/σ², σ² the residual power per sample at ``fs_hz`` (noise bandwidth fs)
     ebn0_db : snr_db + 10·log10(fs/bit rate), independent of fs
@@ -181,7 +181,7 @@ _VALIDATED_SIZE = 16
 
 
 def _validated(config: ReaderConfig) -> ReaderConfig:
-    """:func:`rfsim.config.validate` of a (frozen) config, remembered for the last few config
+    """:func:`rfsim.core.config.validate` of a (frozen) config, remembered for the last few config
     objects: a Monte Carlo builds one reader per sample from the same config."""
     hit = _VALIDATED.get(id(config))
     if hit is not None and hit[0] is config:
@@ -199,7 +199,7 @@ class Reader:
     Parameters
     ----------
     config : ReaderConfig
-    antennas : non-empty sequence of channels.antennas.Antenna
+    antennas : non-empty sequence of rfsim.channels.antennas.Antenna
     rng : numpy Generator (keyword-only); draws the FCC hop table
     link : optional LinkProfile overriding ``config.link_profile`` (custom profiles)
     """

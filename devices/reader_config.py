@@ -1,8 +1,8 @@
 """Reader settings (:class:`ReaderConfig`) and the frequency plans they name, apart from
-the reader's signal processing (:mod:`devices.reader`) so that a scenario's config is read
+the reader's signal processing (:mod:`rfsim.devices.reader`) so that a scenario's config is read
 without importing it (``rfsim config NAME``).
 
-Frequency plan (gen2-and-validation-anchors.md §4.7, §4.9; :mod:`rfsim.carriers`): FCC 50
+Frequency plan (gen2-and-validation-anchors.md §4.7, §4.9; :mod:`rfsim.air.carriers`): FCC 50
 channels ``902.75 + 0.5·k`` MHz, ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz,
 or an explicit list (``region = "custom"``, ``channels_hz``).
 """
@@ -14,24 +14,24 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.carriers import frequency_plan as _plan
-from rfsim.config import param
-from rfsim.errors import ConfigError
+from rfsim.air.carriers import frequency_plan as _plan
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import profile
-from rfsim.records import ReportConfig
+from rfsim.core.records import ReportConfig
 
 
 def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
     """Channel centre frequencies [Hz] of a plan, ``(n,) float64``: ``"FCC"``: 50 channels
     902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9, 867.5 MHz
     (gen2-and-validation-anchors.md §4.7); ``"custom"``: the explicit list ``channels_hz``
-    (:func:`rfsim.carriers.frequency_plan`, validated against the supported carrier range)."""
+    (:func:`rfsim.air.carriers.frequency_plan`, validated against the supported carrier range)."""
     return _plan(region, channels_hz, key="reader")
 
 
 @dataclass(frozen=True)
 class ReaderConfig:
-    """Reader settings (validated by :class:`Reader`, see :func:`rfsim.config.validate`)."""
+    """Reader settings (validated by :class:`Reader`, see :func:`rfsim.core.config.validate`)."""
 
     link_profile: str = param("miller4-320k", doc="link profile name (rfsim.gen2.link.PROFILES)")
     ptx_dbm: float = param(30.0, lo=-20.0, hi=36.0, unit="dBm", doc="conducted TX power at the antenna port")
@@ -50,7 +50,7 @@ class ReaderConfig:
     false_alarm_probability: float = param(1e-3, lo=0.0, hi=1.0, lo_open=True, hi_open=True,
                                            doc="preamble detection false-alarm probability per reply window")
     report: ReportConfig = param(ReportConfig(), doc="what the reader reports of a read: RSSI step, sensitivity "
-                                                     "floor, phase code, per-port phase offsets (rfsim.records)")
+                                                     "floor, phase code, per-port phase offsets (rfsim.core.records)")
     blf_search: Literal["off", "preamble"] = param(
         "off", doc="'preamble': estimate each reply's BLF within FrT (tags with their own BLF); 'off': nominal BLF")
     rn16_false_accept: float = param(0.0, lo=0.0, hi=0.5, hi_open=True,

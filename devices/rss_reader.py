@@ -9,7 +9,7 @@ should look like"). The reported value is::
 
 with ``step = 0`` meaning no quantization. This is the reader's report stage of both modes:
 the statistical log-distance mode applies it to the model's received power, the sample-level
-reader (devices.active_reader: MSK beacons through the air interface) to the power it
+reader (rfsim.devices.active_reader: MSK beacons through the air interface) to the power it
 measures over each frame.
 """
 
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.records import quantize_rssi_dbm
+from rfsim.core.config import param
+from rfsim.core.records import quantize_rssi_dbm
 
 
 @dataclass(frozen=True)

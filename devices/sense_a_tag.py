@@ -4,9 +4,9 @@ and the locator protocol (auris-sense-a-tag.md §1.1 "ST locator protocol", §1.
 
 Antennas. SA2 carries the full ST path P2 (backscatter modulator, envelope detector,
 band-pass, comparator, decoder); a dual-antenna ST adds SA1, the receive-only path P1
-(source convention, :mod:`devices.st_analytic`). The ST is handed its antennas (SA1, SA2) or
+(source convention, :mod:`rfsim.devices.st_analytic`). The ST is handed its antennas (SA1, SA2) or
 (SA2,): the source models vertical half-wave dipoles (omnidirectional in azimuth, L2878-2880,
-:func:`channels.antennas.vertical_dipole`) at the positions of :func:`st_antenna_positions`,
+:func:`rfsim.channels.antennas.vertical_dipole`) at the positions of :func:`st_antenna_positions`,
 ``center ± s/2·û`` with ``û = (cos φ, sin φ, 0)``, ``s = spacing_m`` (default λ/4 = 0.082 m at
 915 MHz, L3420-3422) and ``φ = orientation_deg``; a single-antenna ST is SA2 alone at the
 centre.
@@ -16,15 +16,15 @@ Own schedule. Besides answering a reader, an ST can backscatter a frame on its o
 incident — an exciter's CW for ST-to-ST links, auris-sense-a-tag.md ch. 5): during the frame
 it re-radiates A_s − Γ(t) with Γ(t) its modulator's two states.
 
-Receive chain: :class:`devices.st_receiver.STReceiver` (linear diode detector at
-:data:`devices.st_receiver.REFERENCE_IMPEDANCE_OHM` = 50 Ω, output ``gain·sqrt(2R)·|x|``
+Receive chain: :class:`rfsim.devices.st_receiver.STReceiver` (linear diode detector at
+:data:`rfsim.devices.st_receiver.REFERENCE_IMPEDANCE_OHM` = 50 Ω, output ``gain·sqrt(2R)·|x|``
 [V], RC, Butterworth band-pass, hysteresis comparator at ``threshold_v`` = 5 mV). The
 source's detector output is ≈ 6× the antenna-level difference in its own voltage unit
 (R3-1/R3-4; peak sqrt(2P) across 1 Ω, i.e. ≈ 0.85× the 50 Ω difference,
-:func:`devices.st_receiver.to_source_volts`); ``detector_gain`` sets the factor per 50 Ω
+:func:`rfsim.devices.st_receiver.to_source_volts`); ``detector_gain`` sets the factor per 50 Ω
 volt (default 1: the output equals the closed forms).
 
-Own identity. The ST answers the reader like a tag through a :class:`devices.tag.PassiveTag`
+Own identity. The ST answers the reader like a tag through a :class:`rfsim.devices.tag.PassiveTag`
 on SA2 (PIE decoding with its clock, Gen2 state machine, Γ(t) of its modulator). It is
 semi-passive (battery): ``sensitivity_dbm`` is the command-detection floor of its PIE path,
 not a harvesting threshold.
@@ -54,22 +54,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from devices import st_receiver as sr
-from devices.st_bandpass import sos_steady_state
-from devices.sense_a_tag_config import DEFAULT_SPACING_M, SenseATagConfig
-from devices.gen2_tag_state import Reply
-from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
-from rfsim.errors import ConfigError
+from rfsim.devices import st_receiver as sr
+from rfsim.devices.st_bandpass import sos_steady_state
+from rfsim.devices.sense_a_tag_config import DEFAULT_SPACING_M, SenseATagConfig
+from rfsim.devices.gen2_tag_state import Reply
+from rfsim.devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, CommandParseError, Query, QueryAdjust, QueryRep, Select, parse
 from rfsim.gen2.linecode import decode_reply_rows, reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode
-from rfsim.units import dbm_to_w, w_to_dbm
-from rfsim.lazy import lazy_import
+from rfsim.core.units import dbm_to_w, w_to_dbm
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
-_kernels = lazy_import("devices._sense_a_tag_kernels")
-_k = lazy_import("devices._st_receiver_kernels")
+_kernels = lazy_import("rfsim.devices._sense_a_tag_kernels")
+_k = lazy_import("rfsim.devices._st_receiver_kernels")
 
 TECHNIQUES = ("single", "combination", "selection", "stamp")
 #: Maximum number of hashes in the report (EPC ≤ 496 bits = 31 words, 2 header words).
@@ -124,7 +124,7 @@ class SenseATag:
     Parameters
     ----------
     config : SenseATagConfig
-    antennas : (SA1, SA2) or (SA2,) antennas (``channels.Antenna``), ``config.n_antennas`` of them
+    antennas : (SA1, SA2) or (SA2,) antennas (``rfsim.channels.Antenna``), ``config.n_antennas`` of them
     rng : numpy Generator — the ST's own stream (its RN16s and slot counter)
     fs_hz : sample rate of the segments it will hear [Hz]
     """
@@ -204,7 +204,7 @@ class SenseATag:
         return float(start_s) + reply_duration_s(b.size, m=m, trext=trext, blf_hz=blf_hz)
 
     def reflect(self, incident) -> TagResponse:
-        """Reflector protocol of the air interface (:mod:`rfsim.air`): a scheduled frame
+        """Reflector protocol of the air interface (:mod:`rfsim.air.step`): a scheduled frame
         overlapping the segment is backscattered (Γ(t) of the ST's modulator), otherwise
         :meth:`listen`."""
         t0, fs, n = incident.t0_s, incident.fs_hz, incident.n_samples
@@ -270,7 +270,7 @@ class SenseATag:
         Parameters
         ----------
         inputs : (n_antennas, n) complex128, input at SA1 (, SA2) [√W] (e.g.
-            :attr:`rfsim.bistatic.BistaticExchange.inputs`); call :meth:`listen` on the
+            :attr:`rfsim.protocols.bistatic.BistaticExchange.inputs`); call :meth:`listen` on the
             SA2 input of the same segment first (it sets what to expect)
         start_sample : decode from this sample on (after the reader's command)
         stamp : the stamped frame (technique "stamp": the transmitter's ASK-PSK stamp)
@@ -342,9 +342,9 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     of the first sample, comparator from −1; equal to rounding: the RC here is SciPy's
     ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
     diode law the detector, RC, band-pass and comparator run in one numba kernel per row
-    (:func:`devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
+    (:func:`rfsim.devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
     :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws compute
-    the detector in NumPy and the rest in :func:`devices._st_receiver_kernels.chain_rows_kernel`.
+    the detector in NumPy and the rest in :func:`rfsim.devices._st_receiver_kernels.chain_rows_kernel`.
     """
     x = np.atleast_2d(np.asarray(x))
     det = rx.envelope_detector
@@ -378,7 +378,7 @@ def _band_pass(order: int, low_factor: float, high_factor: float, blf_hz: float,
 def _chain_rows_of_law(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`chain_rows` of the laws other than the diode's: the detector law in NumPy, then the
     RC, band-pass and comparator in one numba pass per row
-    (:func:`devices._st_receiver_kernels.chain_rows_kernel`)."""
+    (:func:`rfsim.devices._st_receiver_kernels.chain_rows_kernel`)."""
     u, a, sos, sos_zi = _chain_inputs(rx, x)
     env, bp, cmp = np.empty_like(u), np.empty_like(u), np.empty_like(u)
     tog = np.empty(u.shape[0], dtype=np.int64)
@@ -389,7 +389,7 @@ def _chain_rows_of_law(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np
 
 def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt_zi`` and ``sosfilt``
-    for the band-pass, :func:`devices.st_receiver.comparator` row by row)."""
+    for the band-pass, :func:`rfsim.devices.st_receiver.comparator` row by row)."""
     u, a, sos, _ = _chain_inputs(rx, x)
     sos_zi = _signal.sosfilt_zi(sos)
     env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
@@ -413,7 +413,7 @@ def _chain_inputs(rx: sr.STReceiver, x) -> tuple:
 
 
 def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
-    """Signed ``A(+1) − A(−1)`` of every row [V] (:func:`devices.st_receiver.state_envelope_difference`
+    """Signed ``A(+1) − A(−1)`` of every row [V] (:func:`rfsim.devices.st_receiver.state_envelope_difference`
     vectorised; ``levels`` (n,) the true line-code levels common to all rows)."""
     ok = sr.settled_mask(levels, rx.settle_samples, rx.guard_samples)
     hi, lo = ok & (levels == 1), ok & (levels == -1)

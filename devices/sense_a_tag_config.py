@@ -1,5 +1,5 @@
 """Settings of one sense-a-tag (:class:`SenseATagConfig`: identity, antennas, technique,
-threshold, detector gain), apart from the device (:mod:`devices.sense_a_tag`) so that a
+threshold, detector gain), apart from the device (:mod:`rfsim.devices.sense_a_tag`) so that a
 scenario's config is read without importing it (``rfsim config NAME``).
 """
 
@@ -8,9 +8,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from devices.st_analytic import THRESHOLD_V
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
+from rfsim.devices.st_analytic import THRESHOLD_V
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
 
 #: Default antenna spacing λ/4 at 915 MHz, as the source quotes it (L3420-3422) [m].
 DEFAULT_SPACING_M = 0.082

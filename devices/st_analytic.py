@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 
-from rfsim.errors import ConfigError
-from rfsim.units import wavelength_m
-from rfsim.lazy import lazy_import
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import wavelength_m
+from rfsim.core.lazy import lazy_import
 
 _optimize = lazy_import("scipy.optimize")
 _stats = lazy_import("scipy.stats")
@@ -454,7 +454,7 @@ def technique_outcomes(cw_sa1, bs1_sa1, bs2_sa1, cw_sa2, bs1_sa2, bs2_sa2, *, de
     detector_gain : envelope-detector output per input volt (linear regime)
     threshold_v : phase-cancellation threshold on the detector output difference [V]
     transfer : optional detector law ``v_out = transfer(V_peak)`` [V → V] (e.g. the diode's
-        ``n·V_T·ln I0(G_v·V/(n·V_T))``, :meth:`devices.st_receiver.EnvelopeDetector.transfer_v`);
+        ``n·V_T·ln I0(G_v·V/(n·V_T))``, :meth:`rfsim.devices.st_receiver.EnvelopeDetector.transfer_v`);
         replaces ``detector_gain``. Actual differences ``|f(|c + b1|) − f(|c + b2|)|``;
         synchronised ``|f(|c| + D/2) − f(|c| − D/2)|`` with ``D`` = :func:`synchronised_difference`
         (the secant of the law across the swing around the CW level; exact for a linear law)

@@ -1,5 +1,5 @@
 """The ST's band-pass: a digital Butterworth band-pass as second-order sections and the
-steady state of its sections (the band-pass of :class:`devices.st_receiver.STReceiver`).
+steady state of its sections (the band-pass of :class:`rfsim.devices.st_receiver.STReceiver`).
 
 Design (the bilinear-transform Butterworth design of ``scipy.signal.butter``): analog
 prototype pole ``p = −1`` (order 1), edges pre-warped ``ω = 4·tan(π·f/fs)`` (normalised
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 

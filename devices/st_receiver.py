@@ -85,16 +85,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from devices.st_analytic import THRESHOLD_V, select_path
-from devices.st_bandpass import butter_bandpass_sos
-from rfsim.errors import ConfigError
+from rfsim.devices.st_analytic import THRESHOLD_V, select_path
+from rfsim.devices.st_bandpass import butter_bandpass_sos
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 _special = lazy_import("scipy.special")
-_k = lazy_import("devices._st_receiver_kernels")
+_k = lazy_import("rfsim.devices._st_receiver_kernels")
 
 REFERENCE_IMPEDANCE_OHM = 50.0
 #: Reference impedance of the source's amplitudes (PASS: peak sqrt(2P) across 1 Ω) [Ω]
@@ -474,7 +474,7 @@ class STReceiver:
 
     @property
     def sos(self) -> np.ndarray:
-        """Band-pass second-order sections (Butterworth, :func:`devices.st_bandpass.butter_bandpass_sos`)."""
+        """Band-pass second-order sections (Butterworth, :func:`rfsim.devices.st_bandpass.butter_bandpass_sos`)."""
         return butter_bandpass_sos(self.bpf_order, self.bpf_low_factor * self.blf_hz,
                                    self.bpf_high_factor * self.blf_hz, self.fs_hz)
 

@@ -1,9 +1,9 @@
 """Passive EPC Gen2 tag as a sample-level device: power-up, envelope detection, PIE
 decoding with the tag's own clock, Gen2 state machine and the backscatter Γ(t).
 
-:class:`PassiveTag` composes the tested pieces of :mod:`devices.tag_frontend` (power-up,
+:class:`PassiveTag` composes the tested pieces of :mod:`rfsim.devices.tag_frontend` (power-up,
 reflection states, tag clock), :mod:`rfsim.gen2.pie` (PIE decoder),
-:mod:`rfsim.gen2.commands` (parser), :mod:`devices.gen2_tag_state` (protocol logic) and
+:mod:`rfsim.gen2.commands` (parser), :mod:`rfsim.devices.gen2_tag_state` (protocol logic) and
 :mod:`rfsim.gen2.linecode` (FM0/Miller waveform). One call of :meth:`PassiveTag.listen`
 handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" steps 3–4:
 
@@ -16,7 +16,7 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    exactly); PASS averages over the whole vector instead, which lets the command's
    modulation lower the estimate. The buffer capacitor is assumed to bridge the PIE low
    pulses. The chip absorbs P_chip = τ·P_inc with τ = 1 − |Γ_A|² (the power-wave
-   identity of :func:`devices.tag_frontend.power_transmission_coefficient`; τ = 1 for
+   identity of :func:`rfsim.devices.tag_frontend.power_transmission_coefficient`; τ = 1 for
    the default conjugate-matched ASK tag); powered ⇔ P_chip ≥ P_min (chip sensitivity).
 2. **Envelope detection**: the ideal envelope detector e = |x|, optionally followed by a
    first-order RC low-pass e_f[n] = a·e_f[n−1] + (1 − a)·e[n], a = exp(−1/(τ_RC·fs))
@@ -31,7 +31,7 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    §4.2: nominal BLF = DR/TRcal, the clock error cancels up to the integer rounding). A
    tag's own BLF error ε (``blf_error_percent``; the oscillator drifting between TRcal and
    the reply, Gen2 allows |ε| ≤ FrT) scales it: BLF = f_clk/N_BLF·(1 + ε)
-   (:mod:`devices.tag_spread` draws ε per tag).
+   (:mod:`rfsim.devices.tag_spread` draws ε per tag).
 4. **Reply timing** (anchors §4.3): the tag waits T1 = max(RTcal, 10·Tpri) counted in its
    own ticks, N_T1 = max(N_RTcal, 10·N_BLF), from the command's last rising edge, so the
    true T1 = N_T1 / f_clk: the RTcal branch is exact up to the half-tick rounding of
@@ -39,7 +39,7 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    (``clock_jitter_rms``, a fraction of one period, as in PASS ``tag_clock``) displaces the
    reply start by σ·ε/f_clk, ε ~ N(0, 1); the reply itself is on an ideal grid of the
    tag's actual BLF (no per-element jitter). A tag's own T1 adds ``t1_offset_s`` to the
-   counted T1 (:mod:`devices.tag_spread` draws it so that T1 is uniform in [T1min, T1max]).
+   counted T1 (:mod:`rfsim.devices.tag_spread` draws it so that T1 is uniform in [T1min, T1max]).
    Reply start and BLF are floats: the waveform is sampled at fractional-sample timing
    (:func:`rfsim.gen2.linecode.reply_waveform`), never rounded to samples.
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
@@ -67,7 +67,7 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    scattered amplitudes |A_s − Γ_A|, |A_s − Γ_B| (what an envelope detector beside the tag
    sees) and the static backscatter at the reader depend on A_s.
 
-Γ states (:class:`devices.tag_frontend.ReflectionStates`): ``"ASK"`` uses the PASS UCODE
+Γ states (:class:`rfsim.devices.tag_frontend.ReflectionStates`): ``"ASK"`` uses the PASS UCODE
 G2XM-class chip at 900 MHz against a conjugate-matched antenna
 (:meth:`ReflectionStates.pass_default`: Γ_A = 0, Γ_B = Γ(Z_ic ∥ Z_mod)); ``"PSK"`` uses
 Γ_A,B = |Γ|·e^(±jφ) (:meth:`ReflectionStates.psk`, ``psk_gamma_magnitude``,
@@ -81,18 +81,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from devices.gen2_tag_state import Reply, TagState
-from devices.tag_chip import ChipOperatingPoint, PowerDependentChip
-from devices.tag_config import DEFAULT_SENSITIVITY_DBM, TagConfig, chip_spread as _chip_spread
-from devices.tag_frontend import ReflectionStates
-from devices.tag_population import TagPopulation
+from rfsim.devices.gen2_tag_state import Reply, TagState
+from rfsim.devices.tag_chip import ChipOperatingPoint, PowerDependentChip
+from rfsim.devices.tag_config import DEFAULT_SENSITIVITY_DBM, TagConfig, chip_spread as _chip_spread
+from rfsim.devices.tag_frontend import ReflectionStates
+from rfsim.devices.tag_population import TagPopulation
 from rfsim.gen2.commands import CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.pie import pie_decode, two_level_threshold
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
-_k = lazy_import("devices._tag_kernels")
+_k = lazy_import("rfsim.devices._tag_kernels")
 
 #: A segment counts as modulated when the swing between its two envelope clusters exceeds
 #: this fraction of the high level (Gen2 PIE depth is 80–100 %).
@@ -111,7 +111,7 @@ class TagResponse:
     ----------
     powered : bool
     command : the parsed command object, or None (not powered / nothing decoded)
-    reply : :class:`devices.gen2_tag_state.Reply` or None
+    reply : :class:`rfsim.devices.gen2_tag_state.Reply` or None
     gamma : (n,) complex128 or None
         Γ(t) on the time base of the incident segment (sample n at t0_s + n/fs_hz); None
         when the tag does not reply (it then reflects ``gamma_rest`` throughout).
@@ -343,7 +343,7 @@ def plateau_reference(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | No
 
 
 def _dbm(p_w: float) -> float:
-    """10·log10(P) + 30 [dBm] (−inf for 0 W), as :func:`rfsim.units.w_to_dbm` for a scalar."""
+    """10·log10(P) + 30 [dBm] (−inf for 0 W), as :func:`rfsim.core.units.w_to_dbm` for a scalar."""
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
@@ -364,20 +364,20 @@ class PassiveTag:
     Parameters
     ----------
     config : TagConfig
-    antenna : channels.Antenna (position, orientation, pattern; used by the engine's channel)
+    antenna : rfsim.channels.Antenna (position, orientation, pattern; used by the engine's channel)
     rng : numpy.random.Generator — the tag's own stream (slot counters, RN16, handles, jitter)
     t0_s : time of the initial, unpowered state [s]; segments must not start earlier
-    chip : :class:`devices.tag_chip.PowerDependentChip` or None
+    chip : :class:`rfsim.devices.tag_chip.PowerDependentChip` or None
         A chip whose impedance follows its absorbed power: each segment's CW power sets
         :attr:`reflection_states` and power-up (its rule, not ``config.sensitivity_dbm``)
-        through :meth:`~devices.tag_chip.PowerDependentChip.operating_point`.
+        through :meth:`~rfsim.devices.tag_chip.PowerDependentChip.operating_point`.
 
     Attributes
     ----------
-    state : :class:`devices.gen2_tag_state.TagState`
-    clock : :class:`devices.tag_frontend.TagClock`
-    reflection_states : :class:`devices.tag_frontend.ReflectionStates`
-    operating_point : :class:`devices.tag_chip.ChipOperatingPoint` of the last segment (with
+    state : :class:`rfsim.devices.gen2_tag_state.TagState`
+    clock : :class:`rfsim.devices.tag_frontend.TagClock`
+    reflection_states : :class:`rfsim.devices.tag_frontend.ReflectionStates`
+    operating_point : :class:`rfsim.devices.tag_chip.ChipOperatingPoint` of the last segment (with
         ``chip``; None otherwise)
     """
 
@@ -404,12 +404,12 @@ class PassiveTag:
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
 
     #: Number of times any tag's :attr:`antenna` has been set (a population's antenna tuple,
-    #: devices.tag_population, stays valid while this count stays the same).
+    #: rfsim.devices.tag_population, stays valid while this count stays the same).
     antenna_changes = 0
 
     @property
     def antenna(self):
-        """The tag's antenna (channels.Antenna); setting it moves the tag."""
+        """The tag's antenna (rfsim.channels.Antenna); setting it moves the tag."""
         return self._antenna
 
     @antenna.setter
@@ -440,8 +440,8 @@ class PassiveTag:
         return int(round(samples * self.clock.f_hz / fs_hz))
 
     def reflect(self, incident) -> TagResponse:
-        """Reflector protocol of the air interface (:mod:`rfsim.air`): the tag's reaction to
-        the incident :class:`rfsim.air.Segment`.
+        """Reflector protocol of the air interface (:mod:`rfsim.air.step`): the tag's reaction to
+        the incident :class:`rfsim.air.step.Segment`.
 
         When the segment is a scaled copy g·x of an emitted segment x (a narrowband, static
         link) and :attr:`shared_front_end` is set, the front end's work on x — envelope,
@@ -495,7 +495,7 @@ class PassiveTag:
 
     @classmethod
     def population(cls, tags) -> TagPopulation:
-        """``tags`` as one reflector group of the air step (:class:`devices.tag_population.TagPopulation`)."""
+        """``tags`` as one reflector group of the air step (:class:`rfsim.devices.tag_population.TagPopulation`)."""
         return TagPopulation(tags)
 
     def _incident_power_w(self, fe: SharedFrontEnd, gain: complex) -> float:
@@ -519,7 +519,7 @@ class PassiveTag:
         return None
 
     def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> tuple | None:
-        """For a population (devices.tag_population): the remembered power decision of the
+        """For a population (rfsim.devices.tag_population): the remembered power decision of the
         scaled copy gain·x of ``fe``'s segment, or None when it is not known yet or the tag
         does not share front ends. A tuple ``(config, chip, powered, P_inc [dBm], Γ_A, A_s,
         chip operating point or None, its reflection states, the unpowered response)``."""
@@ -686,7 +686,7 @@ class PassiveTag:
         f_clk = self.clock.f_hz
         n_blf = self.clock.blf_divider(self._trcal_ticks / f_clk, query.dr, trcal_ticks=self._trcal_ticks)
         blf_hz = f_clk / n_blf
-        if self.config.blf_error_percent:  # the tag's own BLF error (devices.tag_spread)
+        if self.config.blf_error_percent:  # the tag's own BLF error (rfsim.devices.tag_spread)
             blf_hz *= 1.0 + 0.01 * self.config.blf_error_percent
         n_t1 = max(self.ticks(frame.rtcal, fs_hz), 10 * n_blf)
         start_s = cmd_end_s + n_t1 / f_clk + self.config.t1_offset_s

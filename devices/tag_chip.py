@@ -21,7 +21,7 @@ PASS re-radiates Γ·incident with no structural term; the chip power splits 98 
 (``pfnc_bias``), here 100 % unmodulated.
 
 Default tables: the three chip impedances quoted above and the modulation impedance at the
-chip's minimum operating power (:data:`devices.tag_frontend.PASS_ZMOD_900MHZ_OHM`), held
+chip's minimum operating power (:data:`rfsim.devices.tag_frontend.PASS_ZMOD_900MHZ_OHM`), held
 outside the quoted range. :meth:`PowerDependentChip.from_pass_files` reads the full measured
 tables (601 powers × 11 frequencies) from a folder holding the PASS characteristic files.
 """
@@ -35,9 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_ZMOD_900MHZ_OHM, PowerUp, ReflectionStates,
+from rfsim.devices.tag_frontend import (PASS_PICMIN_900MHZ_W, PASS_ZMOD_900MHZ_OHM, PowerUp, ReflectionStates,
                                   parallel_ohm, reflection_coefficient)
-from rfsim.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError, UserError
 
 #: Chip input impedance vs chip power at 900 MHz quoted from ``meas_tag_zic`` [(W, Ω)]
 #: (pass-paris-simulator.md §5.2).
@@ -114,7 +114,7 @@ class PowerDependentChip:
                         margin_db: float = PASS_POWER_MARGIN_DB) -> PowerDependentChip:
         """Full measured tables from ``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
         ``meas_tag_za-<antenna>`` and ``meas_tag_picmin`` in ``folder``, interpolated
-        linearly in frequency at ``fc_hz``. One-line :class:`~rfsim.errors.UserError` when a
+        linearly in frequency at ``fc_hz``. One-line :class:`~rfsim.core.errors.UserError` when a
         file is missing."""
         from scipy.io import loadmat
 
@@ -243,10 +243,10 @@ def load_pass_tag_characteristics(folder, *, fc_hz: float, p_chip_w: float, zmod
     """Read the PASS tag characteristic files (``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
     ``meas_tag_za-<antenna>``, ``meas_tag_picmin``) from ``folder`` and interpolate them at
     (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2),
-    through :meth:`devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range
+    through :meth:`rfsim.devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range
     is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
 
-    Raises :class:`rfsim.errors.UserError` when a file is missing.
+    Raises :class:`rfsim.core.errors.UserError` when a file is missing.
     """
     chip = PowerDependentChip.from_pass_files(folder, fc_hz=fc_hz, zmod=zmod, antenna=antenna)
     z_chip, z_mod = chip.impedances(p_chip_w)

@@ -1,7 +1,7 @@
 """Settings of one passive tag (:class:`TagConfig`: sensitivity, clock, reflection states,
-reply timing, chip spread), apart from the sample-level tag (:mod:`devices.tag`) so that a
+reply timing, chip spread), apart from the sample-level tag (:mod:`rfsim.devices.tag`) so that a
 scenario's config is read without importing it (``rfsim config NAME``). The physics of the
-fields is described in :mod:`devices.tag`.
+fields is described in :mod:`rfsim.devices.tag`.
 """
 
 from __future__ import annotations
@@ -10,14 +10,14 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-from devices.tag_frontend import PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates, TagClock
-from devices.tag_spread import spread_gamma_b
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.units import dbm_to_w, w_to_dbm
+from rfsim.devices.tag_frontend import PASS_PICMIN_900MHZ_W, PASS_TAG_CLOCK_HZ, PowerUp, ReflectionStates, TagClock
+from rfsim.devices.tag_spread import spread_gamma_b
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import dbm_to_w, w_to_dbm
 
 #: Default chip sensitivity [dBm]: the PASS minimum operating chip power at 900 MHz
-#: (:data:`devices.tag_frontend.PASS_PICMIN_900MHZ_W`, −12.78 dBm, no PASS margin).
+#: (:data:`rfsim.devices.tag_frontend.PASS_PICMIN_900MHZ_W`, −12.78 dBm, no PASS margin).
 DEFAULT_SENSITIVITY_DBM = float(w_to_dbm(PASS_PICMIN_900MHZ_W))
 
 @dataclass(frozen=True)
@@ -51,9 +51,9 @@ class TagConfig:
     t1_offset_s: float = param(0.0, lo=-100e-6, hi=100e-6, unit="s",
                                doc="added to the T1 the tag counts (its own T1 within [T1min, T1max])")
     chip_gain_db: float = param(0.0, lo=-10.0, hi=10.0, unit="dB",
-                                doc="chip spread: gain of Γ_B − Γ_A (devices.tag_spread)")
+                                doc="chip spread: gain of Γ_B − Γ_A (rfsim.devices.tag_spread)")
     chip_phase_deg: float = param(0.0, lo=-180.0, hi=180.0, unit="deg",
-                                  doc="chip spread: phase of Γ_B − Γ_A (devices.tag_spread)")
+                                  doc="chip spread: phase of Γ_B − Γ_A (rfsim.devices.tag_spread)")
 
     def __post_init__(self):
         check_fields(self, "tag")
@@ -71,7 +71,7 @@ class TagConfig:
 
     @property
     def clock(self) -> TagClock:
-        """The tag oscillator (:class:`devices.tag_frontend.TagClock`)."""
+        """The tag oscillator (:class:`rfsim.devices.tag_frontend.TagClock`)."""
         return TagClock(f_nominal_hz=self.clock_hz, freq_error_ppm=self.clock_error_percent * 1e4,
                         jitter_rms=self.clock_jitter_rms)
 
@@ -79,7 +79,7 @@ class TagConfig:
     def reflection_states(self) -> ReflectionStates:
         """Γ_A (absorbing) and Γ_B (modulating), see the module docstring; with a chip
         spread (``chip_gain_db``, ``chip_phase_deg``) Γ_B moves about Γ_A
-        (:func:`devices.tag_spread.spread_gamma_b`)."""
+        (:func:`rfsim.devices.tag_spread.spread_gamma_b`)."""
         return chip_spread(self._base_states(), self.chip_gain_db, self.chip_phase_deg)
 
     def _base_states(self) -> ReflectionStates:
@@ -94,7 +94,7 @@ class TagConfig:
 
     @property
     def power_up(self) -> PowerUp:
-        """Chip sensitivity as a :class:`devices.tag_frontend.PowerUp` (compared with τ·P_inc)."""
+        """Chip sensitivity as a :class:`rfsim.devices.tag_frontend.PowerUp` (compared with τ·P_inc)."""
         return PowerUp(chip_sensitivity_w=float(dbm_to_w(self.sensitivity_dbm)))
 
     def reply_timing(self, link) -> tuple[float, float]:

@@ -17,7 +17,7 @@ Three small pieces, each a frozen dataclass with the equations in its docstring:
 Default chip numbers come from the PASS measurements of an NXP UCODE G2XM-class chip
 (pass-paris-simulator.md §5.2, files ``meas_tag_picmin``, ``meas_tag_zic``,
 ``meas_tag_zmod-act``), read at 900 MHz and at the chip's minimum operating power; the
-files themselves are not part of rfsim — :func:`devices.tag_chip.load_pass_tag_characteristics` reads them
+files themselves are not part of rfsim — :func:`rfsim.devices.tag_chip.load_pass_tag_characteristics` reads them
 from a folder the user has.
 """
 
@@ -29,9 +29,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.units import dbm_to_w, w_to_dbm
-from rfsim.lazy import lazy_import
+from rfsim.core.errors import ConfigError
+from rfsim.core.units import dbm_to_w, w_to_dbm
+from rfsim.core.lazy import lazy_import
 
 _commands = lazy_import("rfsim.gen2.commands")
 

@@ -1,10 +1,10 @@
-"""A population of passive tags as one reflector group of the air step (rfsim.air).
+"""A population of passive tags as one reflector group of the air step (rfsim.air.step).
 
 In an inventory almost every tag does nothing on almost every command: it stays unpowered,
 or it takes a silent step of its state machine (a QueryRep counting down its slot counter,
-an ACK or NAK not for it; :meth:`devices.gen2_tag_state.TagState.on_command_if_silent`).
+an ACK or NAK not for it; :meth:`rfsim.devices.gen2_tag_state.TagState.on_command_if_silent`).
 :class:`TagPopulation` keeps the Gen2 state of all its tags in arrays
-(:class:`devices.gen2_tag_state.StateArrays`) and, on an exchange where every tag sees a
+(:class:`rfsim.devices.gen2_tag_state.StateArrays`) and, on an exchange where every tag sees a
 scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, static links),
 
 1. decides for all tags at once which of them stay quiet — the remembered power decision of
@@ -24,7 +24,7 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
    Query, change state — through their own full path (``PassiveTag.reflect``): a tag with
    its own reply parameters (clock, T1, line code) answers with them.
 
-The quiet tags re-radiate r_j = A_s − Γ_A, a constant (devices.tag, step 6), so at a
+The quiet tags re-radiate r_j = A_s − Γ_A, a constant (rfsim.devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,
 c = Σ_j b_j·(r_j·g_j) over the quiet, scattering tags (:meth:`PopulationReflection.terms`),
 added to the factor of x(t) in tag order: the air step accumulates it sequentially
@@ -47,8 +47,8 @@ import operator
 
 import numpy as np
 
-from devices.gen2_tag_state import StateArrays
-from rfsim.air import Segment
+from rfsim.devices.gen2_tag_state import StateArrays
+from rfsim.air.step import Segment
 from rfsim.gen2.commands import Query
 
 _antenna = operator.attrgetter("antenna")
@@ -56,7 +56,7 @@ _antenna = operator.attrgetter("antenna")
 
 def _counting_class(members):
     """The members' one class when it counts the settings of its ``antenna`` property
-    (``antenna_changes``, devices.tag.PassiveTag), else None."""
+    (``antenna_changes``, rfsim.devices.tag.PassiveTag), else None."""
     cls = type(members[0]) if members else None
     if cls is None or not all(type(m) is cls for m in members):
         return None
@@ -66,8 +66,8 @@ def _counting_class(members):
 
 
 class TagPopulation:
-    """Passive tags (``devices.tag.PassiveTag`` or alike) as one reflector group of
-    :func:`rfsim.air.propagate` (:class:`rfsim.air.ReflectorGroup`).
+    """Passive tags (``rfsim.devices.tag.PassiveTag`` or alike) as one reflector group of
+    :func:`rfsim.air.step.propagate` (:class:`rfsim.air.step.ReflectorGroup`).
 
     Parameters
     ----------
@@ -94,7 +94,7 @@ class TagPopulation:
     @property
     def antennas(self) -> tuple:
         """The members' antennas (the same tuple object while none of them changes). Members
-        whose ``antenna`` is the counted property of :class:`devices.tag.PassiveTag` are not
+        whose ``antenna`` is the counted property of :class:`rfsim.devices.tag.PassiveTag` are not
         compared one by one while no tag's antenna has been set since they last were."""
         ants = self._antennas
         count = self._counting.antenna_changes if self._counting is not None else None
@@ -255,7 +255,7 @@ class _Round:
 
 
 class PopulationReflection:
-    """What a :class:`TagPopulation` did with one exchange (:class:`rfsim.air.GroupReflection`).
+    """What a :class:`TagPopulation` did with one exchange (:class:`rfsim.air.step.GroupReflection`).
 
     Attributes
     ----------

@@ -6,7 +6,7 @@ one slot drift against each other in timing and phase (the physics of capture). 
 :class:`TagSpreadConfig` draws, for one tag, from the tag's own stream:
 
 * **BLF error** ε_BLF: the tag's BLF is (f_clk / N_BLF)·(1 + ε_BLF) (``TagConfig.
-  blf_error_percent``, devices.tag step 3). Gen2 only bounds it, |ε_BLF| ≤ FrT of the link
+  blf_error_percent``, rfsim.devices.tag step 3). Gen2 only bounds it, |ε_BLF| ≤ FrT of the link
   (gen2-and-validation-anchors.md §4.2: FrT from DR and TRcal, e.g. ±10 % for Miller-4 at
   320 kHz, ±4 % for FM0 at 40 kHz; :func:`rfsim.gen2.link.frt_fraction`). The reference pages
   hold no measured distribution over a tag population, so the default is an *assumption*:
@@ -18,14 +18,14 @@ one slot drift against each other in timing and phase (the physics of capture). 
   T1nom = max(RTcal, 10/BLF) of the link: the tag adds it to the T1 it counts.
 * **Chip spread**: the modulated reflection state moves by a gain g ~ N(0, σ_g²) [dB] and a
   phase φ ~ N(0, σ_φ²) [deg] about the absorbing one, Γ_B' = Γ_A + (Γ_B − Γ_A)·10^(g/20)·e^(jφ)
-  (``TagConfig.chip_gain_db``, ``chip_phase_deg``; devices.tag). Assumption (no measured
+  (``TagConfig.chip_gain_db``, ``chip_phase_deg``; rfsim.devices.tag). Assumption (no measured
   chip-to-chip spread in the reference pages): σ_g = 0.5 dB, σ_φ = 5°; draws that would make
   |Γ_B'| > 1 (a passive load cannot reflect more than it receives) are drawn again.
 * **Antenna orientation**: yaw and roll offsets uniform in ±``orientation_deg`` added to the
   antenna the scenario places (:func:`orientation_offsets_rad`).
 
 Randomness: :meth:`TagSpreadConfig.draw` takes the tag's own spread stream — by convention
-the sub-stream ``trial_rng(seed, *tag_key, 0)`` of tag key ``tag_key`` (rfsim/rng.py: nested
+the sub-stream ``trial_rng(seed, *tag_key, 0)`` of tag key ``tag_key`` (rfsim/core/rng.py: nested
 paths key sub-streams), so the tag's protocol stream (slot counters, RN16s) is the same with
 and without spread.
 """
@@ -38,7 +38,7 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import check_fields, param
+from rfsim.core.config import check_fields, param
 from rfsim.gen2.link import t1
 
 #: Columns of the per-tag spread record (:meth:`TagSpreadConfig.record`): (unit, description).
@@ -108,7 +108,7 @@ class TagSpreadConfig:
     def draw(self, tag_config, link, *, rng: np.random.Generator, states=None) -> tuple:
         """``(TagConfig with the tag's own spread, record)`` for one tag on ``link``.
 
-        ``tag_config`` : devices.tag.TagConfig (its ``reflection_states`` bound the chip gain,
+        ``tag_config`` : rfsim.devices.tag.TagConfig (its ``reflection_states`` bound the chip gain,
         or ``states`` when given); ``link`` : :class:`rfsim.gen2.link.LinkProfile`; ``rng`` :
         the tag's spread stream. The record has the keys of :data:`SPREAD_FIELDS`. Disabled:
         the config unchanged and a record of zeros (T1 nominal). The draws are made in a

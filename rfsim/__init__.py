@@ -1,13 +1,13 @@
 """rfsim — time-domain, sample-level UHF RFID link-level simulator.
 
-Core package: units and constants (:mod:`rfsim.units`), reproducible randomness
-(:mod:`rfsim.rng`), typed configs (:mod:`rfsim.config`), HDF5 datasets
-(:mod:`rfsim.dataset`), the EPC Gen2 PHY/MAC primitives (:mod:`rfsim.gen2`) and the
+Core package: units and constants (:mod:`rfsim.core.units`), reproducible randomness
+(:mod:`rfsim.core.rng`), typed configs (:mod:`rfsim.core.config`), HDF5 datasets
+(:mod:`rfsim.core.dataset`), the EPC Gen2 PHY/MAC primitives (:mod:`rfsim.gen2`) and the
 command line (:mod:`rfsim.cli`). Propagation lives in the sibling package
 ``channels``, device models in ``devices`` and runnable scenarios in ``scenarios``.
 
 Scripts build a scene from ``devices`` and ``channels`` and run it with
-:class:`rfsim.Simulation` (:mod:`rfsim.simulation`; imported on first use, so
+:class:`rfsim.Simulation` (:mod:`rfsim.protocols.simulation`; imported on first use, so
 ``import rfsim`` stays light).
 """
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import os as _os
 
-# rfsim parallelises by processes (one per core, rfsim.procs) and its kernels are
+# rfsim parallelises by processes (one per core, rfsim.core.procs) and its kernels are
 # single-threaded; a multi-threaded BLAS inside each process only oversubscribes the cores
 # (on a loaded 2-core machine a 17,600-sample dot product took 7.8 ms with OpenBLAS threads
 # and 5 µs with one). One BLAS thread unless the user chose otherwise; effective when rfsim
@@ -40,7 +40,7 @@ def __getattr__(name: str):
         globals()["__version__"] = value
         return value
     if name == "Simulation":
-        from rfsim.simulation import Simulation
+        from rfsim.protocols.simulation import Simulation
 
         return Simulation
     raise AttributeError(f"module 'rfsim' has no attribute {name!r}")

@@ -2,5 +2,5 @@
 
 A scenario module defines ``NAME`` (the CLI name), ``DESCRIPTION`` (one line),
 ``Config`` (a frozen dataclass with defaults), ``run(config, *, seed) ->
-rfsim.dataset.Dataset`` and ``plot(dataset_path, out_dir) -> list[Path]``.
+rfsim.core.dataset.Dataset`` and ``plot(dataset_path, out_dir) -> list[Path]``.
 """

@@ -2,16 +2,16 @@
 replies in one slot, and the reader's RN16 acceptance measured on the same trials.
 
 One trial is one collided slot of a Q = 0 Query: two tags answer with their RN16s. Each tag
-replies at its own BLF and T1 (the rules of :meth:`devices.tag.TagConfig.reply_timing`,
+replies at its own BLF and T1 (the rules of :meth:`rfsim.devices.tag.TagConfig.reply_timing`,
 vectorised: BLF = f_clk/N_BLF·(1 + ε), T1 = the counted T1 + offset) with the spread of
-:class:`devices.tag_spread.TagSpreadConfig` or, without spread, at the nominal BLF and T1
+:class:`rfsim.devices.tag_spread.TagSpreadConfig` or, without spread, at the nominal BLF and T1
 (identical tags in lock-step). The reader's input over the RN16 window is the superposition
 
     y(t) = h1·s1(t) + h2·s2(t) + c + n(t),
 
 s_i = ±1 the line code of tag i during its reply and −1 around it (the tag rests in its
 absorbing state), which is the tag's re-radiation A_s − Γ_i(t) = (A_s − (Γ_A + Γ_B)/2) −
-((Γ_B − Γ_A)/2)·s_i(t) (devices.tag step 6) through a narrowband link, up to the constant c
+((Γ_B − Γ_A)/2)·s_i(t) (rfsim.devices.tag step 6) through a narrowband link, up to the constant c
 (carrier leakage and static scattering, removed by the receiver); h_i = −g_i(Γ_B − Γ_A)/2 for
 a link gain g_i. |h1| = 1, |h2| = 10^(−ratio/20): the **ratio is the ratio of the two replies'
 modulated powers at the reader**, |h1|²/|h2|², set exactly (the simulated ratio is the plotted
@@ -19,13 +19,13 @@ one). Chip spread and antenna orientation change |h_i| and arg h_i only, so for 
 they are absorbed in it and in the phases, drawn uniform in [0, 2π) per tag. n(t) is complex
 white noise with the stronger reply at Eb/N0 = ``strong_ebn0_db``.
 
-The reader decodes each window with its BLF search (:func:`devices.reader.search_decode`: the
+The reader decodes each window with its BLF search (:func:`rfsim.devices.reader.search_decode`: the
 kernel of ``Reader.receive`` with ``blf_search = "preamble"``, here on a stacked array of
 windows) over the T1 window of the link, detects with the preamble-correlation threshold
 (false-alarm probability ``false_alarm_probability`` per window, union over BLFs and lags,
 :func:`rfsim.gen2.capture.preamble_threshold`) and accepts the RN16 when its Eb/(N0 + I)
 statistic reaches the threshold of the stated false-accept probability
-(:func:`devices.reader.rn16_threshold_db`). **Capture** = the reader accepts the RN16 and it is
+(:func:`rfsim.devices.reader.rn16_threshold_db`). **Capture** = the reader accepts the RN16 and it is
 exactly one tag's RN16: it ACKs that tag, the other leaves the slot (wrong RN16 → Arbitrate),
 and the EPC that follows is a single reply. **False ACK** = accepted bits that no tag sent.
 
@@ -68,16 +68,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from devices.tag_config import TagConfig
-from devices.tag_spread import TagSpreadConfig
-from rfsim.config import check_fields, param
+from rfsim.devices.tag_config import TagConfig
+from rfsim.devices.tag_spread import TagSpreadConfig
+from rfsim.core.config import check_fields, param
 from rfsim.gen2.link import profile, t1
-from rfsim.progress import track
-from rfsim.rng import trial_rng
-from rfsim.lazy import lazy_import
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.core.lazy import lazy_import
 
-_reader = lazy_import("devices.reader")
-_st_analytic = lazy_import("devices.st_analytic")
+_reader = lazy_import("rfsim.devices.reader")
+_st_analytic = lazy_import("rfsim.devices.st_analytic")
 _capture = lazy_import("rfsim.gen2.capture")
 _linecode = lazy_import("rfsim.gen2.linecode")
 

@@ -9,7 +9,7 @@ The frame (auris-sense-a-tag.md §5, seed L6011-6023; wave2-specs.md §X): CW re
 ``stamp_cycles`` subcarrier cycles at BLF alternating S1/S2 (ASK stamp), as many alternating
 S1/S3 (PSK stamp), then a Gen2 reply of the payload bits (TRext pilot, preamble, data,
 dummy 1) in FM0/Miller-M with line-code level +1 → S1 and −1 → S2
-(:func:`devices.st_receiver.stamp_frame`). The three-state modulator (L5914-5923) has the
+(:func:`rfsim.devices.st_receiver.stamp_frame`). The three-state modulator (L5914-5923) has the
 reflection coefficients S1 = Γ_B (modulating), S2 = Γ_A (absorbing), S3 = Γ_B·e^{jψ} (the PSK
 state, ψ = 180° ideally, L6017-6019); the device re-radiates r(t) = A_s − Γ(t).
 """
@@ -24,17 +24,17 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.lazy import lazy_import
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.lazy import lazy_import
 
-sr = lazy_import("devices.st_receiver")
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_noise = lazy_import("channels.noise")
-_paths = lazy_import("channels.paths")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
+sr = lazy_import("rfsim.devices.st_receiver")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_noise = lazy_import("rfsim.channels.noise")
+_paths = lazy_import("rfsim.channels.paths")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
 _linecode = lazy_import("rfsim.gen2.linecode")
 
 
@@ -60,7 +60,7 @@ class FrameConfig:
 @dataclass(frozen=True)
 class NoiseConfig:
     """Receiver noise at the listening antennas: kT·fs·F per complex sample
-    (:func:`channels.noise.thermal_noise_power_w` over the simulated bandwidth fs)."""
+    (:func:`rfsim.channels.noise.thermal_noise_power_w` over the simulated bandwidth fs)."""
 
     enabled: bool = param(True, doc="receiver noise at the listening antennas")
     nf_db: float = param(10.0, lo=0.0, hi=60.0, unit="dB", doc="noise figure; N = kT·fs·F per complex sample")
@@ -76,7 +76,7 @@ class Frame:
 
     Attributes
     ----------
-    stamp : :class:`devices.st_receiver.StampFrame` — ``states`` (n,) int8 labels S1/S2/S3,
+    stamp : :class:`rfsim.devices.st_receiver.StampFrame` — ``states`` (n,) int8 labels S1/S2/S3,
         ``levels`` (n,) ±1 inside the reply, indices of the stamp and reply parts
     bits : (k,) uint8 payload bits
     n_samples : segment length
@@ -102,13 +102,13 @@ class Frame:
 
 
 class OwnSchedule:
-    """A device that backscatters ``frame`` on its own schedule (a reflector of :mod:`rfsim.air`).
+    """A device that backscatters ``frame`` on its own schedule (a reflector of :mod:`rfsim.air.step`).
 
     The device's own front end decides first (``device.reflect``: the incident power, a
     harvesting tag's power-up and its chip's reflection states; a semi-passive sense-a-tag is
     always powered); a powered device then modulates the frame with its reflection states
-    (``reflection_states`` of a :class:`devices.tag.PassiveTag`, of ``device.tag`` for a
-    :class:`devices.sense_a_tag.SenseATag`) as S1 = Γ_B, S2 = Γ_A, S3 = Γ_B·e^{jψ} (module
+    (``reflection_states`` of a :class:`rfsim.devices.tag.PassiveTag`, of ``device.tag`` for a
+    :class:`rfsim.devices.sense_a_tag.SenseATag`) as S1 = Γ_B, S2 = Γ_A, S3 = Γ_B·e^{jψ} (module
     docstring). An unpowered device keeps its front end's answer (rest state, no reply).
     """
 
@@ -152,7 +152,7 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
 
 def exciter_antenna(kind: str, gain_dbi: float, height_m: float):
     """The exciter's antenna at (0, 0, height): a patch (``gain_dbi``, 70° beamwidth) with
-    boresight +x, or a vertical half-wave dipole (``channels.Antenna``)."""
+    boresight +x, or a vertical half-wave dipole (``rfsim.channels.Antenna``)."""
     pattern = _antennas.Patch(gain_dbi, 70.0) if kind == "patch" else _antennas.HalfWaveDipole()
     return _antennas.Antenna(position_m=(0.0, 0.0, height_m), orientation=(0.0, 0.0, 0.0), pattern=pattern,
                              polarization="linear")
@@ -189,7 +189,7 @@ class RowsChain:
     def decoded(self, rx: sr.STReceiver, frame: Frame, rows=None) -> np.ndarray:
         """(r,) bool: the payload decoded exactly from the reply start on, in ``rows`` (default all).
 
-        The decision of :func:`devices.sense_a_tag.decode_rows` (comparator toggles at least
+        The decision of :func:`rfsim.devices.sense_a_tag.decode_rows` (comparator toggles at least
         ``rx.min_toggles`` times, preamble correlation ≥ ``rx.min_corr``, bits equal), without
         its envelope-level measurement (:meth:`level_difference_v` does that for all rows at once).
         """
@@ -217,7 +217,7 @@ class RowsChain:
 
         A stamp part decodes as '1' when the comparator makes at least ``min_transitions``
         transitions in it; 0 means one per subcarrier cycle of the part (half the transitions of
-        an undisturbed part), the rule of :func:`devices.st_receiver.receive_stamp`.
+        an undisturbed part), the rule of :func:`rfsim.devices.st_receiver.receive_stamp`.
         """
         st = frame.stamp
         need = min_transitions or max(1, int(round((st.ask_stop - st.start) * rx.blf_hz / rx.fs_hz)))
@@ -231,12 +231,12 @@ class RowsChain:
 
 
 class BatchAntenna:
-    """The same antenna at n positions: one receiver of :func:`rfsim.air.propagate` whose
+    """The same antenna at n positions: one receiver of :func:`rfsim.air.step.propagate` whose
     input has a leading batch dimension of n (one row per position).
 
-    ``template`` gives pattern, orientation and polarization (``channels.Antenna``);
+    ``template`` gives pattern, orientation and polarization (``rfsim.channels.Antenna``);
     ``positions_m`` (n, 3) [m]. ``position_m`` is None: the step's distance check does not
-    apply; :func:`channels.bulk.draw_links` rejects a receiver at its transmitter instead.
+    apply; :func:`rfsim.channels.bulk.draw_links` rejects a receiver at its transmitter instead.
     """
 
     position_m = None
@@ -247,11 +247,11 @@ class BatchAntenna:
 
 
 class BatchLink:
-    """n links drawn at once (:class:`channels.bulk.BulkPaths`) as one narrowband, static link of
+    """n links drawn at once (:class:`rfsim.channels.bulk.BulkPaths`) as one narrowband, static link of
     the air step: its constant gain is the (n, 1) column of per-row gains Σ_p g_p·e^{−j2π·fc·τ_p}.
 
-    Every row is judged by the one narrowband rule of :func:`channels.paths.propagation_method`
-    (relative RMS envelope error ≤ :data:`channels.paths.NARROWBAND_TOLERANCE`); a batch with a
+    Every row is judged by the one narrowband rule of :func:`rfsim.channels.paths.propagation_method`
+    (relative RMS envelope error ≤ :data:`rfsim.channels.paths.NARROWBAND_TOLERANCE`); a batch with a
     row that needs exact delays is refused (the static ST links of these scenes are
     narrowband with errors of ≈ 0.001–0.01 at B = 2·BLF = 96 kHz).
     """
@@ -266,7 +266,7 @@ class BatchLink:
         key = (float(bandwidth_hz), propagation)
         if key not in self._method:
             b = self.bulk
-            # channels.paths.narrowband_rms_error of every row at once (padded slots have g = 0)
+            # rfsim.channels.paths.narrowband_rms_error of every row at once (padded slots have g = 0)
             tau0 = np.where(b.valid, b.delay_s, np.inf).min(axis=1, keepdims=True)
             p = np.abs(b.gain) ** 2
             rel2 = np.where(b.valid, (2.0 * np.pi * bandwidth_hz * (b.delay_s - tau0)) ** 2, 0.0)
@@ -285,7 +285,7 @@ class BatchLink:
 
 
 class DrawnLinks:
-    """The ``Links`` of :mod:`rfsim.air` for links drawn beforehand: ``paths(tx, rx)`` looks the
+    """The ``Links`` of :mod:`rfsim.air.step` for links drawn beforehand: ``paths(tx, rx)`` looks the
     antenna pair up (either direction: the channel is reciprocal)."""
 
     def __init__(self):

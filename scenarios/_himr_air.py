@@ -1,7 +1,7 @@
 """Sample-level HIMR packets through the air: a free-running HIMR tag on a trajectory, N
-pylons (:mod:`devices.himr_pylon`), one :func:`rfsim.air.propagate` step per packet and
+pylons (:mod:`rfsim.devices.himr_pylon`), one :func:`rfsim.air.step.propagate` step per packet and
 pylon (``cross_carrier = "ignore"``) or per packet with every pylon (``"joint"``), and the
-per-packet DSP of :mod:`rfsim.himr_dsp` on each pylon's input. Shared by the scenarios
+per-packet DSP of :mod:`rfsim.himr.dsp` on each pylon's input. Shared by the scenarios
 ``himr-1d`` and ``himr-2d``.
 
 Physics per step (wave2-specs.md §H "Pylons", "Per-packet DSP"; himr-tag.md §1.1–1.3):
@@ -10,10 +10,10 @@ Physics per step (wave2-specs.md §H "Pylons", "Per-packet DSP"; himr-tag.md §1
   reach the BOC bandwidth 2·(f_sc + R_b) and at least 8·f_sc, wave2-specs.md §H);
 * links: free space (Friis, no image paths) between antennas with isotropic patterns of the
   configured gains and vertical polarization (PLF 1); the tag antenna moves along the
-  trajectory (``channels.Channel`` with a motion callable: the geometry at the step's start,
+  trajectory (``rfsim.channels.Channel`` with a motion callable: the geometry at the step's start,
   the Doppler shift over the step); monostatic round trip (a reciprocal link, one path both
   ways);
-* the tag re-radiates r(t) = A_s − Γ(t) (:class:`devices.himr_tag.HimrTag`); each pylon's
+* the tag re-radiates r(t) = A_s − Γ(t) (:class:`rfsim.devices.himr_tag.HimrTag`); each pylon's
   input is its CW leakage, the backscatter and its thermal noise;
 * ``"ignore"``: each pylon with only its own carrier — the others are 10–20 MHz away, outside
   ±fs/2 for fs < 20 MS/s, where the air step drops them; ``"joint"``: all pylons in one step,
@@ -22,13 +22,13 @@ Physics per step (wave2-specs.md §H "Pylons", "Per-packet DSP"; himr-tag.md §1
   (wave2-specs.md §H: the 9th/11th harmonics of an ideal 2 MHz subcarrier, −19.1/−20.8 dB, put
   the 5.81 GHz carrier on the 5.79 GHz pylon's ±2 MHz);
 * ``"joint"`` filters every pylon's input (channel filter, ``rx_cutoff_hz``, default f_sc + 2·R_b,
-  :class:`devices.himr_pylon.Pylon`): the other pylons' direct CW would otherwise dominate;
+  :class:`rfsim.devices.himr_pylon.Pylon`): the other pylons' direct CW would otherwise dominate;
 * the receiver's packet detector is given the scheduled start to within ±``search_s``
   (preamble correlation finds it; acquisition from scratch is not modelled).
 
 Transmit power: every pylon gets the P_T that gives the per-sample SNR |h|²/N =
 ``snr_db`` at ``snr_distance_m`` (seed 000 L646: 31.6 dB at 1 m, 1-D experiment), with
-N = k·T₀·F·fs (:func:`rfsim.himr_link.ptx_for_snr_w`). RSS range constant K_u of eq. 22:
+N = k·T₀·F·fs (:func:`rfsim.himr.link.ptx_for_snr_w`). RSS range constant K_u of eq. 22:
 ``"link-budget"`` — P_T·G_T·G_R·G_t²·λ⁴/(4π)⁴ of the configured radio; ``"start-pose"`` —
 |h₀|²·d₀⁴ from the first decoded packet at the known start distance d₀.
 """
@@ -42,20 +42,20 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.himr_dsp import PacketMeasurements, decode_packet, packet_table
-from rfsim.progress import track
-from rfsim.rng import trial_rng
-from rfsim.lazy import lazy_import
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.himr.dsp import PacketMeasurements, decode_packet, packet_table
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_scene = lazy_import("channels.scene")
-_himr_pylon = lazy_import("devices.himr_pylon")
-_himr_tag = lazy_import("devices.himr_tag")
-_air = lazy_import("rfsim.air")
-_himr_link = lazy_import("rfsim.himr_link")
-_noise = lazy_import("rfsim.noise")
+_antennas = lazy_import("rfsim.channels.antennas")
+_scene = lazy_import("rfsim.channels.scene")
+_himr_pylon = lazy_import("rfsim.devices.himr_pylon")
+_himr_tag = lazy_import("rfsim.devices.himr_tag")
+_air = lazy_import("rfsim.air.step")
+_himr_link = lazy_import("rfsim.himr.link")
+_noise = lazy_import("rfsim.air.noise")
 
 
 @dataclass(frozen=True)
@@ -111,8 +111,8 @@ def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: flo
 class AirRun:
     """What the pylons measured: per pylon its packet table, plus the run's bookkeeping."""
 
-    pylons: list                 #: the :class:`devices.himr_pylon.Pylon` objects
-    measurements: list           #: per pylon :class:`rfsim.himr_dsp.PacketMeasurements`
+    pylons: list                 #: the :class:`rfsim.devices.himr_pylon.Pylon` objects
+    measurements: list           #: per pylon :class:`rfsim.himr.dsp.PacketMeasurements`
     packet_index: list           #: per pylon (P_u,) index of each row's packet in the tag's plan
     true_range_m: list           #: per pylon (P_u,) true distance at the packet's middle [m]
     k_u: np.ndarray              #: (N,) K_u used [W·m⁴]

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from devices.imu import WORD_NAMES, heading_from_compass, words_to_si
-from rfsim.dataset import column
-from rfsim.units import wavelength_m
+from rfsim.devices.imu import WORD_NAMES, heading_from_compass, words_to_si
+from rfsim.core.dataset import column
+from rfsim.core.units import wavelength_m
 
 PACKET_BITS_NOTE = (
     "packet size from the source's byte counts: the 9axis-2d packet is 3 B header + 2 B ID + 6 B accel + 6 B gyro + "
@@ -18,7 +18,7 @@ PACKET_BITS_NOTE = (
 
 
 def packets_table(run, plan) -> dict:
-    """One row per (packet, pylon) decoded (:class:`scenarios._himr_air.AirRun`)."""
+    """One row per (packet, pylon) decoded (:class:`rfsim.scenarios._himr_air.AirRun`)."""
     cols: dict[str, list] = {}
     for u, (p, m) in enumerate(zip(run.pylons, run.measurements)):
         idx = run.packet_index[u]

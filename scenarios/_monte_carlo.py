@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from rfsim.config import param
+from rfsim.core.config import param
 
 
 @dataclass(frozen=True)

@@ -35,14 +35,14 @@ FIXED: dict[str, tuple[str, str]] = {
     "tag_replied": ("1", "the tag powered up, decoded the reader's Query and replied its RN16 in this "
                          "cell and repetition (false: no backscatter to detect)"),
     "narrowband_error": ("1", "largest relative RMS envelope error of applying the ST links narrowband "
-                              "(rfsim.engine.narrowband_rms_error, must stay <= NARROWBAND_TOLERANCE)"),
+                              "(rfsim.protocols.engine.narrowband_rms_error, must stay <= NARROWBAND_TOLERANCE)"),
     "tag_available_power_w": ("W", "CW power available at the tag antenna port during the Query"),
     "tag_chip_power_w": ("W", "power absorbed by the tag chip (available power x power transmission "
                               "coefficient of the chip's unmodulated state)"),
     "sync_sa2_v": ("V", "detector-output envelope difference at SA2 with the CW synchronised to the "
                         "backscatter: max over the CW phase phi of ||c e^{j phi} + b1| - |c e^{j phi} + b2|| "
                         "(= |b1 - b2| when the CW dominates) through the detector law: the detectability "
-                        "condition (R3-5, devices.st_analytic.synchronised_difference)"),
+                        "condition (R3-5, rfsim.devices.st_analytic.synchronised_difference)"),
     "rerad_b_abs": ("1", "|r_B| = |A_s - Gamma_B|, magnitude of the tag's re-radiated modulating state"),
     "rerad_a_abs": ("1", "|r_A| = |A_s - Gamma_A|, magnitude of the tag's re-radiated absorbing state"),
     "near_field": ("1", "an ST antenna lies within lambda/(2 pi) = 5.2 cm of the tag (reactive near "

@@ -1,6 +1,6 @@
 """numba kernels of the phase-cancellation scenario (wrapped and documented in
-:func:`scenarios.phase_cancellation.couple_ports` and
-:func:`scenarios.phase_cancellation.ask_stamp_transitions`; their NumPy twins there are
+:func:`rfsim.scenarios.phase_cancellation.couple_ports` and
+:func:`rfsim.scenarios.phase_cancellation.ask_stamp_transitions`; their NumPy twins there are
 ``couple_ports_reference`` and ``ask_stamp_transitions_reference``).
 """
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from devices._st_receiver_kernels import comparator_kernel
-from rfsim._jit import njit
+from rfsim.devices._st_receiver_kernels import comparator_kernel
+from rfsim.core._jit import njit
 
 
 @njit
@@ -32,7 +32,7 @@ def couple_ports_kernel(mix, x, out):
 @njit
 def comparator_changes_rows_kernel(v, v_high, v_low, skip, out):
     """Per row of ``v`` (r, n): the hysteresis comparator from −1
-    (:func:`devices._st_receiver_kernels.comparator_kernel`, levels ``v_high``/``v_low``) and
+    (:func:`rfsim.devices._st_receiver_kernels.comparator_kernel`, levels ``v_high``/``v_low``) and
     the number of changes of its output after sample ``skip``, ``out[i] = Σ_{t > skip}
     [c[t] ≠ c[t−1]]`` (``count_nonzero(diff(c[skip:]))``)."""
     r, n = v.shape

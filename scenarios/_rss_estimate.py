@@ -14,7 +14,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from rfsim.dataset import Column, Dataset, column
+from rfsim.core.dataset import Column, Dataset, column
 from rfsim.estimators import (calibrate_log_distance, gaussian_log_likelihood, gaussian_transition,
                               grid_bayes_filter, grid_estimates, landmarc, sir_filter)
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.dataset import read_table
-from rfsim.lazy import lazy_import
-from rfsim.plots import figure_path, pyplot, save_figure
+from rfsim.core.dataset import read_table
+from rfsim.core.lazy import lazy_import
+from rfsim.core.plots import figure_path, pyplot, save_figure
 
 h5py = lazy_import("h5py")
 

@@ -3,10 +3,10 @@
 The statistical draws of the log-distance mode (the same truth, quasi-static shadowing and
 people term, so that the two modes are paired trial by trial) fix the large-scale received
 power of every tag → reader link and beacon, Pr_j = α_j − 10·n_j·log10 d_j − nW·WAF + X_j + P_j
-(channels.rss). The waveform stage then sends the beacons physically:
+(rfsim.channels.rss). The waveform stage then sends the beacons physically:
 
 * per beacon epoch (1 s) and tag i a scene whose walls are the floor plan's (WAF per
-  crossing) and whose large scale is per reader (channels.LinkLargeScale, ``by_antenna``):
+  crossing) and whose large scale is per reader (rfsim.channels.LinkLargeScale, ``by_antenna``):
   tag i → reader j is a ``LogDistance(n_j, 1 m, pl_d0 = P_t − α_j − X_ij − P_ij)``, so the
   channel's LoS power is exactly that Pr_j; tag ↔ tag links (listen-before-talk) are Friis
   through the walls. A target standing on a reference tag's spot (the home plan's fixed
@@ -14,10 +14,10 @@ power of every tag → reader link and beacon, Pr_j = α_j − 10·n_j·log10 d_
   absorbs the 3-D distance change, so its Pr_j is unchanged); optionally the
   exponential APDP (``waveform.apdp``: PASS room curves, taps redrawn every epoch — people
   moving) adds small-scale fading on top;
-* every tag (the target and the reference tags) is a ``devices.ActiveTag`` (Manchester MSK,
+* every tag (the target and the reference tags) is a ``rfsim.devices.ActiveTag`` (Manchester MSK,
   5 dBm, 868 MHz, its own schedule phase in the 1 s period and ±``jitter_s``), every reader
-  a ``devices.ActiveReader`` (540 kHz filter, discriminator, CRC, RSSI over the frame,
-  1 dB steps, −90 dBm floor); ``rfsim.beacons.run_beacons`` runs listen-before-talk,
+  a ``rfsim.devices.ActiveReader`` (540 kHz filter, discriminator, CRC, RSSI over the frame,
+  1 dB steps, −90 dBm floor); ``rfsim.protocols.beacons.run_beacons`` runs listen-before-talk,
   collisions and one air step per burst cluster;
 * the reported RSSI of beacon (epoch t, tag i, reader j) is the reader's report of the frame
   with tag i's ID and sequence number t; a lost beacon (collision, CRC, below the floor) is
@@ -35,20 +35,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.rng import trial_rng
-from rfsim.lazy import lazy_import
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.rng import trial_rng
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_large_scale = lazy_import("channels.large_scale")
-_active_reader = lazy_import("devices.active_reader")
-_active_tag = lazy_import("devices.active_tag")
-_rss_reader = lazy_import("devices.rss_reader")
-_air = lazy_import("rfsim.air")
-_beacons = lazy_import("rfsim.beacons")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_large_scale = lazy_import("rfsim.channels.large_scale")
+_active_reader = lazy_import("rfsim.devices.active_reader")
+_active_tag = lazy_import("rfsim.devices.active_tag")
+_rss_reader = lazy_import("rfsim.devices.rss_reader")
+_air = lazy_import("rfsim.air.step")
+_beacons = lazy_import("rfsim.protocols.beacons")
 
 #: Tag transmit power [dBm] (L957).
 TX_POWER_DBM = 5.0

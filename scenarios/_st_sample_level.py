@@ -5,18 +5,18 @@ detections that result (and the time they take) feed the trackers (auris-sense-a
 (Eq. 4.10: detections and their instants), L5405-L5409 (the query period grows with the tag
 population); wave2-specs.md §R "sample-level").
 
-Scene. The preset's room (:mod:`scenarios._st_paths`): landmark tags on the floor (z = 0) as
+Scene. The preset's room (:mod:`rfsim.scenarios._st_paths`): landmark tags on the floor (z = 0) as
 half-wave dipoles lying along x (a tag label flat on the floor), the reader's panel antenna(s)
-at the preset position facing down (:class:`scenarios.detection_probability.EllipticalPanel`,
+at the preset position facing down (:class:`rfsim.scenarios.detection_probability.EllipticalPanel`,
 9 dBic, 70°, 30 dBm, link profile ``pass-miller2-48k`` at 1 MS/s as the source's PASS runs,
 FCC hopping, L3811-L3817), channel "room": free space with the PASS exponential APDP
-(:class:`channels.ApdpModel`). The ST's two antennas (SA1, SA2, λ/4 apart along x) are
+(:class:`rfsim.channels.ApdpModel`). The ST's two antennas (SA1, SA2, λ/4 apart along x) are
 half-wave dipoles parallel to the landmarks' at ``st_height_m`` above the floor (the source's
 vertical ST dipoles are cross-polarised to a tag lying on the floor); technique: path selection
-(:class:`devices.sense_a_tag.SenseATag`, Algorithm 1).
+(:class:`rfsim.devices.sense_a_tag.SenseATag`, Algorithm 1).
 
 Query period. One period is N QT rounds; each QT round is a Gen2 inventory of all landmarks
-(:func:`rfsim.inventory.run_inventory`: Q algorithm from Q = 4, RN16 → ACK → PC+EPC+CRC-16 per
+(:func:`rfsim.protocols.inventory.run_inventory`: Q algorithm from Q = 4, RN16 → ACK → PC+EPC+CRC-16 per
 slot, rounds until a round without a reply), after a CW interruption that returns every
 landmark's S0 flag to A (``EngineAir.cw_off``) so that each round reads every landmark again.
 Its duration follows from the exchanges (command durations of the link profile, detected
@@ -25,9 +25,9 @@ reply starts, T2, T4; silent air time is skipped, not sampled) plus the CW-off t
 replaces the source's 0.3 s (10 rounds over 45 landmarks take ≈ 1.1 s or more at these links,
 wave2-specs.md §R [derived]).
 
-One exchange is one step of the air interface (:func:`rfsim.air.propagate`): the reader's
+One exchange is one step of the air interface (:func:`rfsim.air.step.propagate`): the reader's
 segment, every landmark (its own front end and Gen2 state machine, Γ(t) when it replies) and as
-receivers the reader's port (:class:`rfsim.engine.ReaderPort`: leakage, backscatter, noise) and
+receivers the reader's port (:class:`rfsim.protocols.engine.ReaderPort`: leakage, backscatter, noise) and
 the ST's antennas (no noise; the ST's 5 mV comparator decides, as in ``detection-probability``).
 The ST decodes the reader's command on SA2 (:meth:`SenseATag.listen`: link parameters, what
 reply to expect) and, after an ACK, the EPC reply on SA1/SA2 (:meth:`SenseATag.observe`); a
@@ -35,7 +35,7 @@ CRC-valid EPC equal to landmark k's is a detection of k at the reply's start. It
 in the exchanges that matter to it (Query: link parameters; ACK: the EPC reply); in the others
 it is no receiver of the step. The ST is not a reflector of the step (its own scatter at the
 reader and the landmarks is neglected), so the reader's records are those of
-:class:`rfsim.inventory.EngineAir` on the same streams, to the bit (test). The ST's position is
+:class:`rfsim.protocols.inventory.EngineAir` on the same streams, to the bit (test). The ST's position is
 its trajectory's at the exchange start, snapped to ``st_step_m`` (1 cm; it moves ≤ 1 cm within
 one exchange at 3 m/s). Links: reader ↔ landmark drawn at the first exchange of every inventory
 round and held for the round (quasi-static, as ``EngineAir``); reader → ST and landmark → ST
@@ -53,26 +53,26 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from devices.reader_config import ReaderConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.inventory import AirExchange, EngineAir, InventoryConfig, epc_hex_of, run_inventory
-from rfsim.rng import trial_rng
-from rfsim.lazy import lazy_import
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.protocols.inventory import AirExchange, EngineAir, InventoryConfig, epc_hex_of, run_inventory
+from rfsim.core.rng import trial_rng
+from rfsim.core.lazy import lazy_import
 
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_antennas = lazy_import("channels.antennas")
-_reader = lazy_import("devices.reader")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_tag = lazy_import("devices.tag")
-_air = lazy_import("rfsim.air")
-_engine = lazy_import("rfsim.engine")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_antennas = lazy_import("rfsim.channels.antennas")
+_reader = lazy_import("rfsim.devices.reader")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_tag = lazy_import("rfsim.devices.tag")
+_air = lazy_import("rfsim.air.step")
+_engine = lazy_import("rfsim.protocols.engine")
 _commands = lazy_import("rfsim.gen2.commands")
 _link = lazy_import("rfsim.gen2.link")
-_detection_probability = lazy_import("scenarios.detection_probability")
+_detection_probability = lazy_import("rfsim.scenarios.detection_probability")
 
 #: Orientation (az, el, roll) [rad] of a dipole lying along x (local z → global x).
 ALONG_X = (0.0, math.pi / 2, 0.0)
@@ -123,7 +123,7 @@ def landmark_epc_hex(k: int) -> str:
 
 
 class ListeningAir(EngineAir):
-    """The sample-level air of :func:`rfsim.inventory.run_inventory` with an ST listening
+    """The sample-level air of :func:`rfsim.protocols.inventory.run_inventory` with an ST listening
     (module docstring): ``exchange`` runs one air step with the reader port and the ST's
     antennas as receivers and records the ST's detections in :attr:`detections`
     (``(reply start [s], landmark index)``)."""

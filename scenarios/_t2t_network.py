@@ -22,7 +22,7 @@ The seed gives no slot count.
   ``exciter-link`` fit, optionally stretched so that p(r) = 0.5 (a2 → −a1/r).
 
 Collisions (``collision_model``): ``loss`` — every collided broadcast is lost (L1084);
-``physical`` — see :mod:`scenarios._t2t_physical`.
+``physical`` — see :mod:`rfsim.scenarios._t2t_physical`.
 """
 
 from __future__ import annotations

@@ -4,13 +4,13 @@ with ``collision_model = "physical"``).
 
 Scene of one slot (as in ``exciter-link``; wave2-specs.md §X): the exciter (CW, 3.28 W EIRP at
 915 MHz, vertical dipole at ``layout.exciter_xyz_m``) powers every broadcasting reference tag
-(the PASS UCODE-class chip of :mod:`devices.tag_chip`: power-up at picmin + 2.5 dB, reflection
+(the PASS UCODE-class chip of :mod:`rfsim.devices.tag_chip`: power-up at picmin + 2.5 dB, reflection
 states following its absorbed power); each sends its 16-bit index and CRC-16 (32 bits,
-Miller-2 with pilot at 48 kHz) from the slot start (:class:`scenarios._exciter_scene.OwnSchedule`);
+Miller-2 with pilot at 48 kHz) from the slot start (:class:`rfsim.scenarios._exciter_scene.OwnSchedule`);
 the mobile tag listens with the single-antenna sense-a-tag chain (detector, band-pass,
-comparator, Miller decoder; :mod:`devices.st_receiver`) and receiver noise kT·fs·F. Friis +
+comparator, Miller decoder; :mod:`rfsim.devices.st_receiver`) and receiver noise kT·fs·F. Friis +
 the exponential APDP (PASS ST-room curves), one channel draw per slot. Frames of one slot
-superpose at the listener's antenna (first-order backscatter, :func:`rfsim.air.propagate`): the
+superpose at the listener's antenna (first-order backscatter, :func:`rfsim.air.step.propagate`): the
 slot is decoded as the tag whose 32 bits come out exactly, so a collision is lost unless one
 frame dominates (capture).
 
@@ -32,20 +32,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+from rfsim.devices.exciter import Exciter, ExciterConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, room)
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_bulk = lazy_import("channels.bulk")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_tag = lazy_import("devices.tag")
-_tag_chip = lazy_import("devices.tag_chip")
-_air = lazy_import("rfsim.air")
+_antennas = lazy_import("rfsim.channels.antennas")
+_bulk = lazy_import("rfsim.channels.bulk")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_tag = lazy_import("rfsim.devices.tag")
+_tag_chip = lazy_import("rfsim.devices.tag_chip")
+_air = lazy_import("rfsim.air.step")
 _bits = lazy_import("rfsim.gen2.bits")
 _crc = lazy_import("rfsim.gen2.crc")
 _linecode = lazy_import("rfsim.gen2.linecode")
@@ -79,7 +79,7 @@ def listener_inputs(config: PhysicalConfig, exciter_xyz, tags_xy, senders, liste
     ``listeners_xy (n, 2)``. Returns the listener inputs (n, samples) and the frames.
 
     The listeners form one batched receiver with narrowband links; a batch holding a link that
-    needs exact delays (:class:`scenarios._exciter_scene.BatchLink`) is split in halves, down to
+    needs exact delays (:class:`rfsim.scenarios._exciter_scene.BatchLink`) is split in halves, down to
     single listeners on exact path sets."""
     fr = config.frame
     lis_pos = np.column_stack([np.asarray(listeners_xy, float), np.full(len(listeners_xy), config.height_m)])

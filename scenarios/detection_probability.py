@@ -14,12 +14,12 @@ radius sampling and 0.062 / 0.077 with volume sampling, against the published te
 0.1278 / 0.1502 — radius sampling is the closer reading (volume sampling puts 7/8 of the
 STs beyond 1 m, where p ≈ 0, and leaves few detections to fit). The ST is the dual-antenna
 device of the source (L3819-3821): two vertical λ/2 dipoles λ/4 apart at a uniformly random
-azimuth (:mod:`devices.sense_a_tag`), technique ``st.technique`` (default: receiving-path
+azimuth (:mod:`rfsim.devices.sense_a_tag`), technique ``st.technique`` (default: receiving-path
 selection, Algorithm 1). The tag is a vertical half-wave dipole facing the reader antenna.
 
 Reader antenna: a circularly polarised panel like the RFMAX S9028PCRJ (902-928 MHz,
 L3811-3817; its pattern, Fig. 4.3, is not in the text), modelled analytically by
-:class:`channels.Patch` with 9 dBic peak gain, 70° half-power beamwidth in both planes and
+:class:`rfsim.channels.Patch` with 9 dBic peak gain, 70° half-power beamwidth in both planes and
 20 dB front-to-back ratio (the panel's data-sheet class; the pattern is rotationally
 symmetric, ``G(ψ) = G₀[(1 − b)cos^q ψ + b]``), 30 dBm at its port (L3815). Its polarisation
 is elliptical with an axial ratio growing off boresight (:class:`EllipticalPanel`, 1 dB on
@@ -28,21 +28,21 @@ about its line to the panel by a uniform ±90° (``geometry.tag_roll_deg``; the 
 say how its tags were oriented), so the polarisation mismatch follows the two orientations
 (between 1/(1 + r²) and r²/(1 + r²), r = 1/AR) instead of the constant 3 dB of an ideal
 circular panel. Channel "room" (L3817): Friis and the
-exponential APDP with the PASS room curves (:class:`channels.ApdpModel` defaults), no
+exponential APDP with the PASS room curves (:class:`rfsim.channels.ApdpModel` defaults), no
 surfaces (the source's cuboid spans z = −4…4 m around the antenna: no floor).
 
 One sample = one sample-level Query round with a fresh channel draw and a random hop
 channel (FCC plan, the reader's random hop table): the reader sends a Query (Q = 0, link
 profile ``pass-miller2-48k`` at 1 MS/s, as the source's PASS runs); the tag receives it
 through its forward link, decodes it and answers its RN16 with Γ(t)
-(:class:`devices.tag.PassiveTag`). One step of the air interface (:func:`rfsim.air.propagate`)
+(:class:`rfsim.devices.tag.PassiveTag`). One step of the air interface (:func:`rfsim.air.step.propagate`)
 carries the round: the ST antennas receive the reader's segment and the tag's re-radiated
 field (A_s − Γ(t))·incident, the ST receive chain (linear detector, band-pass, 5 mV
 comparator, Miller decoder) runs from the end of the command and the outcome ``st_detected``
 is "the ST decoded the tag's RN16 exactly". In the same step the reader's port
-(:class:`rfsim.engine.ReaderPort`) hears the reply through the reciprocal backward link with
+(:class:`rfsim.protocols.engine.ReaderPort`) hears the reply through the reciprocal backward link with
 TX leakage and receiver noise (``reader_detected``: RN16 bits exact, as
-:func:`rfsim.engine.run_exchange` judges them). No noise at the ST (the source's threshold decides, as in
+:func:`rfsim.protocols.engine.run_exchange` judges them). No noise at the ST (the source's threshold decides, as in
 ``phase-cancellation``).
 
 Features (:func:`rfsim.detection.st_features`): D = |tag − antenna|, d = |ST − tag|,
@@ -92,33 +92,33 @@ from typing import Literal
 
 import numpy as np
 
-from channels import Antenna, HalfWaveDipole, Patch
-from channels.antennas import vertical_dipole
-from devices.reader_config import ReaderConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError, UserError
-from rfsim.procs import map_in_order
-from rfsim.progress import stage
-from rfsim.rng import trial_rng, trial_rng_grid
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
-from rfsim.lazy import lazy_import
+from rfsim.channels import Antenna, HalfWaveDipole, Patch
+from rfsim.channels.antennas import vertical_dipole
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.procs import map_in_order
+from rfsim.core.progress import stage
+from rfsim.core.rng import trial_rng, trial_rng_grid
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.references import cite
+from rfsim.core.lazy import lazy_import
 
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_bulk = lazy_import("channels.bulk")
-sa = lazy_import("devices.st_analytic")
-_reader = lazy_import("devices.reader")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_tag = lazy_import("devices.tag")
-_air = lazy_import("rfsim.air")
-_batch = lazy_import("rfsim.batch")
-_dataset = lazy_import("rfsim.dataset")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_bulk = lazy_import("rfsim.channels.bulk")
+sa = lazy_import("rfsim.devices.st_analytic")
+_reader = lazy_import("rfsim.devices.reader")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_tag = lazy_import("rfsim.devices.tag")
+_air = lazy_import("rfsim.air.step")
+_batch = lazy_import("rfsim.protocols.batch")
+_dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _commands = lazy_import("rfsim.gen2.commands")
-_engine = lazy_import("rfsim.engine")
+_engine = lazy_import("rfsim.protocols.engine")
 _link = lazy_import("rfsim.gen2.link")
 
 #: modules the figures use (imported by the runner while the simulation runs)
@@ -279,9 +279,9 @@ def draw_geometry(g: GeometryConfig, *, rng: np.random.Generator):
 def simulate_sample(config: Config, index: int, seed: int) -> dict[str, float]:
     """One Query round for sample ``index`` (module docstring): geometry, outcomes, features.
 
-    One air step (:func:`rfsim.air.propagate`): the reader's segment, the tag, and as receivers
+    One air step (:func:`rfsim.air.step.propagate`): the reader's segment, the tag, and as receivers
     the reader's own port (TX→RX leakage, backscatter through the reciprocal forward link,
-    receiver noise; :class:`rfsim.engine.ReaderPort`) and the ST antennas (no noise). The ST
+    receiver noise; :class:`rfsim.protocols.engine.ReaderPort`) and the ST antennas (no noise). The ST
     antennas are received in a second call over the same links and the tag's reaction
     replayed, only when the tag replied (the same inputs as receivers of the one step: each
     receiver's input is formed on its own, their links are drawn after the reader's)."""
@@ -321,14 +321,14 @@ def _reader_round(config: Config, index: int, seed: int, ra: Antenna | None = No
     ``(record, ST step or None when the tag did not reply, tx, tag response, RN16 bits or None)``;
     the ST step is the argument of :func:`_st_inputs`. ``placed``: :func:`sample_placement` of
     the sample (drawn when None); ``reader_tag``: the carrier-independent geometry of the
-    reader → tag link (:func:`channels.bulk.static_placements`; evaluated by the channel when None)."""
+    reader → tag link (:func:`rfsim.channels.bulk.static_placements`; evaluated by the channel when None)."""
     prepared = _reader_step(config, index, seed, ra, placed, reader_tag)
     return _reader_outcome(config, prepared, _batch.propagate_batch([prepared[0]])[0])
 
 
 def _reader_step(config: Config, index: int, seed: int, ra: Antenna | None, placed: tuple | None,
                  reader_tag: tuple | None, rngs: list | None = None, sc: "_scene.Scene | None" = None) -> tuple:
-    """The air step of sample ``index`` prepared (:class:`rfsim.batch.AirStep`: the reader's
+    """The air step of sample ``index`` prepared (:class:`rfsim.protocols.batch.AirStep`: the reader's
     segment, the tag, the reader's port; links drawn from stream 3, the port's noise from
     stream 4) and what :func:`_reader_outcome` needs of it. ``rngs``: the sample's
     :func:`sample_rngs` (drawn when None; streams 0 and 5 unused when ``placed`` is given);
@@ -363,7 +363,7 @@ def _query_round(lk) -> tuple:
 
 def _reader_outcome(config: Config, prepared: tuple, air, features: tuple | None = None) -> tuple:
     """The reader's read of a step of :func:`_reader_step` (only when the tag replied, as
-    :func:`rfsim.engine.run_exchange`), the sample's record and its ST step. ``features``:
+    :func:`rfsim.protocols.engine.run_exchange`), the sample's record and its ST step. ``features``:
     the sample's (D, d, θ, φ) (:func:`rfsim.detection.st_features`; evaluated when None)."""
     step, index, tag_pos, st_pos, orient, tx = prepared
     st = config.st
@@ -399,7 +399,7 @@ def _st_inputs(st_step: tuple) -> np.ndarray:
 
 
 def _st_inputs_batch(st_steps: list) -> list[np.ndarray]:
-    """:func:`_st_inputs` of many samples as one batch of air steps (:func:`rfsim.batch.propagate_batch`;
+    """:func:`_st_inputs` of many samples as one batch of air steps (:func:`rfsim.protocols.batch.propagate_batch`;
     the ST antennas have no noise)."""
     steps = []
     for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
@@ -430,7 +430,7 @@ def _st_outcomes(config: Config, samples: list) -> list[dict]:
     the end of the command, and each sample's technique outcome; the records completed.
 
     The chains of every sample whose tag replied run as the rows of one
-    :func:`devices.sense_a_tag.chain_rows` call per receive chain (row by row the same
+    :func:`rfsim.devices.sense_a_tag.chain_rows` call per receive chain (row by row the same
     filters from the same start states as one sample alone), then each sample is decoded."""
     st = config.st
     two = st.n_antennas == 2
@@ -540,7 +540,7 @@ def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Samples ``first … first + count − 1`` as columns (see :data:`FIELDS`).
 
     The samples run in blocks (the first of :data:`WARM_BLOCK` samples, then of
-    :data:`ST_BLOCK`) on ``samples.workers`` processes (:func:`rfsim.procs.map_in_order`; the
+    :data:`ST_BLOCK`) on ``samples.workers`` processes (:func:`rfsim.core.procs.map_in_order`; the
     first block alone first), concatenated in order: every sample draws only from its own streams and a block
     is the batch of its ST chains, so the rows do not depend on the number of workers."""
     s = config.samples
@@ -679,7 +679,7 @@ def fit_file(path) -> dict[str, np.ndarray]:
     Rows are ordered by sample index first and duplicate indices rejected (a merged sweep
     holds each block once).
     """
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
 
     s = read_table(path, "samples")
     order = np.argsort(s["sample"], kind="stable")
@@ -773,7 +773,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     D < 3 m against ≈ 0.35 over all angles)."""
     plt = pyplot()
 
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
 
     s = read_table(dataset_path, "samples")
     try:

@@ -3,19 +3,19 @@ exciter→tag distance d_e and the tag→listener distance d_tt, with the logist
 of the reader-free network fitted (binary-detection.md §1.11 Eq. (6.5), seed 004 L1049-1127;
 wave2-specs.md §X "Geng ch. 6"; auris-sense-a-tag.md ch. 5 for the exciter).
 
-Scene: an exciter at the origin (:class:`devices.exciter.Exciter`, CW only, 3.28 W EIRP at
+Scene: an exciter at the origin (:class:`rfsim.devices.exciter.Exciter`, CW only, 3.28 W EIRP at
 915 MHz by default, patch with boresight +x); a passive tag at (d_e, 0) that harvests the
 exciter's CW and backscatters a frame on its own schedule — a 16-bit word (its "location",
 L1089) with its CRC-16, Miller-2 with pilot, no command involved (Geng's reference tags,
 L1051, L1068); a listener with the sense-a-tag receive chain (single antenna: linear detector,
-band-pass, 5 mV comparator, Miller decoder, :mod:`devices.st_receiver`) at distance d_tt from
+band-pass, 5 mV comparator, Miller decoder, :mod:`rfsim.devices.st_receiver`) at distance d_tt from
 the tag, azimuth uniform, all at ``height_m``; receiver noise kT·fs·F at the listener. Channel:
 Friis + the exponential APDP with the PASS ST-room curves.
 
-Physics per draw (sample level, one :func:`rfsim.air.propagate` step per (d_e, draw) with the
+Physics per draw (sample level, one :func:`rfsim.air.step.propagate` step per (d_e, draw) with the
 listeners of every d_tt as one batched receiver): the tag's incident power P_inc = the CW power
 of its incident segment through the drawn exciter→tag link; with the default ``measured`` tag
-(the PASS UCODE-class chip of :mod:`devices.tag_chip`, re-radiating Γ·incident) it runs iff its
+(the PASS UCODE-class chip of :mod:`rfsim.devices.tag_chip`, re-radiating Γ·incident) it runs iff its
 absorbed power reaches picmin + 2.5 dB, and its two reflection states follow P_chip; the
 listener gets the exciter's direct CW plus the tag's (A_s − Γ(t))·incident through its links
 and its noise; ``decoded`` = the chain decodes the 32 bits exactly. The envelope difference
@@ -24,7 +24,7 @@ from the step's phasors, ``sync_v`` the same with the CW synchronised (its upper
 The backscatter at the listener scales as 1/(d_e·d_tt) (Eq. 4.2: power ∝ 1/(D²·d²)) for fixed
 reflection states; the measured chip's states are not fixed — its modulation deepens as its
 power falls (|Γ_m − Γ_u| = 0.26 at 1 mW available, ≈ 0.6 at its power-up limit of 0.13 mW,
-:mod:`devices.tag_chip`), which offsets most of the 1/d_e: the full run (seed 1) finds the 50 %
+:mod:`rfsim.devices.tag_chip`), which offsets most of the 1/d_e: the full run (seed 1) finds the 50 %
 range d50 ≈ 0.4 m for every d_e from 1.5 to 5 m (1.2 m at 0.5 m) and nothing beyond the tag's
 power-up limit (it runs in most draws up to 5 m, in a few at 5.5 m). d_tt below ≈ λ/2 = 0.16 m
 is at the edge of the far-field link model.
@@ -61,27 +61,27 @@ from typing import Literal
 
 import numpy as np
 
-from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from devices.tag_config import TagConfig
-from devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
-from rfsim.config import param
-from rfsim.errors import ConfigError, UserError
-from rfsim.procs import map_in_order
-from rfsim.references import cite
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+from rfsim.devices.exciter import Exciter, ExciterConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.procs import map_in_order
+from rfsim.core.references import cite
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, unit_of)
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_bulk = lazy_import("channels.bulk")
-sa = lazy_import("devices.st_analytic")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_tag = lazy_import("devices.tag")
-_air = lazy_import("rfsim.air")
-_dataset = lazy_import("rfsim.dataset")
+_antennas = lazy_import("rfsim.channels.antennas")
+_bulk = lazy_import("rfsim.channels.bulk")
+sa = lazy_import("rfsim.devices.st_analytic")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_tag = lazy_import("rfsim.devices.tag")
+_air = lazy_import("rfsim.air.step")
+_dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _bits = lazy_import("rfsim.gen2.bits")
 _crc = lazy_import("rfsim.gen2.crc")
@@ -90,7 +90,7 @@ NAME = "exciter-link"
 DESCRIPTION = ("exciter-powered tag-to-tag link vs exciter-tag and tag-listener distance: incident power, "
                "envelope difference, decode probability, Eq. (6.5) logistic fit")
 
-V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (devices.st_receiver)
+V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (rfsim.devices.st_receiver)
 
 
 @dataclass(frozen=True)
@@ -121,7 +121,7 @@ class GeometryConfig:
 class TagModelConfig:
     model: Literal["measured", "chip"] = param(
         "measured", doc="'measured' = the PASS UCODE chip (impedance vs absorbed power, Gamma*incident, power-up "
-                        "at picmin + margin; devices.tag_chip); 'chip' = the tag config's fixed states and "
+                        "at picmin + margin; rfsim.devices.tag_chip); 'chip' = the tag config's fixed states and "
                         "sensitivity with its structural mode")
     power_margin_db: float = param(PASS_POWER_MARGIN_DB, lo=0.0, hi=20.0, unit="dB",
                                    doc="'measured': power-up margin on the chip's minimum power (PASS: 2.5 dB)")
@@ -245,7 +245,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 
 def point_grid(samples, d_e, d_tt) -> dict[str, np.ndarray]:
     """(n_de, n_dtt) per point: decodes k, draws m, p = k/m with its Clopper–Pearson 95 %
-    interval (:func:`devices.st_analytic.cancellation_probability`, a binomial proportion),
+    interval (:func:`rfsim.devices.st_analytic.cancellation_probability`, a binomial proportion),
     medians of the incident power and the envelope differences, the tag's reply fraction."""
     i = np.searchsorted(d_e, samples["exciter_distance_m"])
     j = np.searchsorted(d_tt, samples["tag_distance_m"])
@@ -421,7 +421,7 @@ def _describe(key: str) -> str:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """p(d_e, d_tt) heat map with the fitted 50 % contours (per row and with the d_e term)."""
-    from rfsim.dataset import read_dataset, read_table
+    from rfsim.core.dataset import read_dataset, read_table
 
     plt = pyplot()
     ds = read_dataset(dataset_path)

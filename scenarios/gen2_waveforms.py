@@ -24,15 +24,15 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
-from rfsim.rng import trial_rng
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
-from rfsim.lazy import lazy_import
+from rfsim.core.rng import trial_rng
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.references import cite
+from rfsim.core.lazy import lazy_import
 
-_dataset = lazy_import("rfsim.dataset")
+_dataset = lazy_import("rfsim.core.dataset")
 _bits = lazy_import("rfsim.gen2.bits")
 _commands = lazy_import("rfsim.gen2.commands")
 _crc = lazy_import("rfsim.gen2.crc")
@@ -210,7 +210,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """
     plt = pyplot()
 
-    from rfsim.dataset import read_dataset
+    from rfsim.core.dataset import read_dataset
 
     ds = read_dataset(dataset_path)
     names = list(ds.tables["profiles"]["profile"].data)

@@ -3,14 +3,14 @@ linear positioner moving away from one 5.8 GHz pylon, every packet at sample lev
 1-D CARE observer against the raw RSS range and the double integration of the accelerometer
 (himr-tag.md §1.5–1.8, §2.1, §3.1–3.2, §6.4; wave2-specs.md §H; seed 000 L411–L660).
 
-Scene: one pylon (:mod:`devices.himr_pylon`, monostatic, 9.5 dBi TX and RX, L632) at the
-origin on 5.8 GHz; the tag (:class:`devices.himr_tag.HimrTag`, ``6axis-1d``: 96-bit packets,
+Scene: one pylon (:mod:`rfsim.devices.himr_pylon`, monostatic, 9.5 dBi TX and RX, L632) at the
+origin on 5.8 GHz; the tag (:class:`rfsim.devices.himr_tag.HimrTag`, ``6axis-1d``: 96-bit packets,
 BOC 64 chips/bit at 5 Mcps = 78,125 b/s, ≈ 300 packets/s, L411; accelerometer words only) on
-:class:`rfsim.trajectories.LinearTrapezoid` — from 1 m straight away from the pylon, ±7.35 m/s²
+:class:`rfsim.core.trajectories.LinearTrapezoid` — from 1 m straight away from the pylon, ±7.35 m/s²
 to 1.2 m/s, 355 ms cruise (L610; travel 0.622 m, erratum 9: ``preserve = "distance"`` gives the
 printed 0.61 m), after ``t_start_s`` at rest. Transmit power calibrated to a per-sample SNR of
 31.6 dB at 1 m (L646); the packets go through the air step and the per-packet DSP
-(:mod:`scenarios._himr_air`). The R⁻⁴ law then gives 31.6 − 40·log10(1.62) = 23.2 dB at the
+(:mod:`rfsim.scenarios._himr_air`). The R⁻⁴ law then gives 31.6 − 40·log10(1.62) = 23.2 dB at the
 end, not the 29.4 dB the source measured (erratum 14, not reproduced).
 
 Measurements per packet: [RSS range (eq. 22), phase-derived radial velocity (eq. 23; the
@@ -45,22 +45,22 @@ from pathlib import Path
 
 import numpy as np
 
-from devices.himr_tag import HimrTag, HimrTagConfig
-from devices.imu import ImuConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.progress import stage
-from rfsim.references import cite
-from rfsim.trajectories import LinearTrapezoid, check_inside
-from rfsim.units import wavelength_m
-from scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
-from rfsim.lazy import lazy_import
+from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.devices.imu import ImuConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.progress import stage
+from rfsim.core.references import cite
+from rfsim.core.trajectories import LinearTrapezoid, check_inside
+from rfsim.core.units import wavelength_m
+from rfsim.scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.core.lazy import lazy_import
 
-_dataset = lazy_import("rfsim.dataset")
+_dataset = lazy_import("rfsim.core.dataset")
 _himr_model = lazy_import("rfsim.estimators.himr_model")
 _observer = lazy_import("rfsim.estimators.observer")
-_himr_tables = lazy_import("scenarios._himr_tables")
+_himr_tables = lazy_import("rfsim.scenarios._himr_tables")
 
 NAME = "himr-1d"
 DESCRIPTION = ("1-D HIMR: 6-axis tag on the linear positioner, one 5.8 GHz pylon at sample level, CARE observer "
@@ -254,7 +254,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """True vs estimated distance, error vs time per estimator, RSS and phase, eigenvalues."""
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
 
     plt = pyplot()
     est = read_table(dataset_path, "estimates")

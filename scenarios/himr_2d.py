@@ -3,14 +3,14 @@ rotating boom, three pylons at 5.79/5.80/5.81 GHz, every packet at sample level,
 fixed-gain observers of the source with its seven analysis cases (himr-tag.md §1.9–1.12, §3.3–3.5,
 §4.3, §5, §6; wave2-specs.md §H; seed 000 Ch. IV, L993–L1404).
 
-Scene: the tag (:class:`devices.himr_tag.HimrTag`, ``9axis-2d``: 192-bit packets, BOC 8 chips/bit
-at 4 Mcps, 141 packets/s, IMU words of :mod:`devices.imu`) on the boom
-(:class:`rfsim.trajectories.RotatingBoom`: R = 0.31 m, one counter-clockwise 2π stroke in
+Scene: the tag (:class:`rfsim.devices.himr_tag.HimrTag`, ``9axis-2d``: 192-bit packets, BOC 8 chips/bit
+at 4 Mcps, 141 packets/s, IMU words of :mod:`rfsim.devices.imu`) on the boom
+(:class:`rfsim.core.trajectories.RotatingBoom`: R = 0.31 m, one counter-clockwise 2π stroke in
 0.5/0.2/0.5 s from (2, 1.8048) m heading π; ``lag_s`` 0.15 s by default, the actual trajectory
-the source compares with, L1014–L1020); pylons (:mod:`devices.himr_pylon`) at Table 7's
+the source compares with, L1014–L1020); pylons (:mod:`rfsim.devices.himr_pylon`) at Table 7's
 (−0.1, 1.5), (2, 3.05), (2.7, −0.03) m (L1006–L1008) on 5.79, 5.80, 5.81 GHz (L997; the
 per-pylon mapping is not stated). The packets go through the air step and the per-packet DSP
-(:mod:`scenarios._himr_air`, :mod:`rfsim.himr_dsp`): BOC decode, CRC, complex gain, RSS, phase,
+(:mod:`rfsim.scenarios._himr_air`, :mod:`rfsim.himr.dsp`): BOC decode, CRC, complex gain, RSS, phase,
 radial velocity (eq. 23) and RSS range (eq. 22).
 
 Measurement stream (one epoch per scheduled packet, outputs in observer order
@@ -72,25 +72,25 @@ from typing import Literal
 
 import numpy as np
 
-from devices.himr_tag import HimrTag, HimrTagConfig
-from devices.himr_pylon import HIMR_CARRIERS_HZ
-from devices.imu import ImuConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
+from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.devices.himr_pylon import HIMR_CARRIERS_HZ
+from rfsim.devices.imu import ImuConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 from rfsim.estimators.himr_cases import CASES, case_stream
 from rfsim.estimators.himr_model import PYLONS_M, STATE_NAMES, output_names
 from rfsim.estimators.observer import (VARIANTS, W_D1, W_D2, eig_along, gain_2d, observe_2d, ranks_along,
                                        unstable_intervals, wrap_innovation)
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.progress import stage
-from rfsim.references import cite
-from rfsim.trajectories import RotatingBoom, check_inside
-from rfsim.units import wavelength_m
-from scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
-from rfsim.lazy import lazy_import
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.progress import stage
+from rfsim.core.references import cite
+from rfsim.core.trajectories import RotatingBoom, check_inside
+from rfsim.core.units import wavelength_m
+from rfsim.scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.core.lazy import lazy_import
 
-_dataset = lazy_import("rfsim.dataset")
-_himr_tables = lazy_import("scenarios._himr_tables")
+_dataset = lazy_import("rfsim.core.dataset")
+_himr_tables = lazy_import("rfsim.scenarios._himr_tables")
 
 NAME = "himr-2d"
 DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80/5.81 GHz at sample level, "
@@ -460,7 +460,7 @@ def _runs_of_case_1(est) -> list[tuple[str, str]]:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """True vs estimated track, error vs time per case, RSS and phase per pylon, eigenvalues."""
-    from rfsim.dataset import read_dataset, read_table
+    from rfsim.core.dataset import read_dataset, read_table
 
     plt = pyplot()
     ds = read_dataset(dataset_path)

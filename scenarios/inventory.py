@@ -1,6 +1,6 @@
 """Scenario ``inventory``: a reader inventories N tags at random positions in a room.
 
-Every inventory runs the Gen2 Q algorithm (:mod:`rfsim.inventory`) at sample level through
+Every inventory runs the Gen2 Q algorithm (:mod:`rfsim.protocols.inventory`) at sample level through
 the engine: the reader's PIE commands, every tag's power-up, PIE decoding and state machine,
 the superposition of all RN16/EPC replies at the reader and its receiver. Collisions and
 capture therefore emerge from the waveforms (gen2-and-validation-anchors.md §4.4–4.6).
@@ -13,9 +13,9 @@ and the exponential APDP (PASS room curves), drawn per round and held within it.
 
 Tables:
 
-* ``slots``: one row per slot (see :data:`rfsim.inventory.SLOT_FIELDS`) with the population
+* ``slots``: one row per slot (see :data:`rfsim.protocols.inventory.SLOT_FIELDS`) with the population
   and run;
-* ``reads``: one row per EPC read (:data:`rfsim.inventory.READ_FIELDS`), as the ``link``
+* ``reads``: one row per EPC read (:data:`rfsim.protocols.inventory.READ_FIELDS`), as the ``link``
   scenario's reads;
 * ``inventories``: one row per inventory (tags read, slots, air time, efficiency);
 * ``capture``: two tags in the same slot at different distances on the boresight of a
@@ -26,15 +26,15 @@ Tables:
   power ratio that the noise cannot mask, and fails when h1 + h2 ≈ 0 (the preamble
   cancels). The experiment therefore runs at a reduced SNR (``capture.noise_figure_db``).
 * ``tags``: one row per tag of every inventory: position, orientation and the tag's own
-  spread (``spread``, :mod:`devices.tag_spread`: BLF error within FrT, T1 within
+  spread (``spread``, :mod:`rfsim.devices.tag_spread`: BLF error within FrT, T1 within
   [T1min, T1max], chip states, antenna yaw/roll; off by default, then zeros and the nominal
   T1). Tags with spread need ``reader.blf_search = "preamble"``.
 * ``capture_sweep``, ``capture_trials``, ``acceptance`` (``capture_sweep``,
-  :mod:`scenarios._capture_sweep`): P(capture) against the modulated power ratio of two
+  :mod:`rfsim.scenarios._capture_sweep`): P(capture) against the modulated power ratio of two
   colliding RN16 replies, 0–15 dB, FM0 (``fm0-40k``) and Miller-4 (``miller4-320k``), with
   and without the tags' spread, ``capture_sweep.trials`` collisions per point with the
   Clopper–Pearson 95 % interval; the reader's BLF search and RN16 acceptance
-  (:func:`devices.reader.search_decode`, :func:`devices.reader.rn16_threshold_db`) on a
+  (:func:`rfsim.devices.reader.search_decode`, :func:`rfsim.devices.reader.rn16_threshold_db`) on a
   stacked array of RN16 windows; the false-ACK and missed-capture rates against the
   acceptance threshold on the same collisions.
 * ``capture_inventories`` (``capture_inventory.enabled``, off by default): a population with
@@ -61,27 +61,27 @@ from pathlib import Path
 
 import numpy as np
 
-from devices.reader_config import ReaderConfig
-from devices.tag_config import TagConfig
-from devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig, orientation_offsets_rad
-from scenarios import _capture_sweep as sweep
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
-from rfsim.progress import track
-from rfsim.rng import trial_rng
-from rfsim.units import C_M_S
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
-from rfsim.lazy import lazy_import
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig, orientation_offsets_rad
+from rfsim.scenarios import _capture_sweep as sweep
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.protocols.inventory import READ_FIELDS, SLOT_FIELDS, EngineAir, InventoryConfig, run_inventory
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import C_M_S
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.references import cite
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_surfaces = lazy_import("channels.surfaces")
-_reader = lazy_import("devices.reader")
-_tag = lazy_import("devices.tag")
-_dataset = lazy_import("rfsim.dataset")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_surfaces = lazy_import("rfsim.channels.surfaces")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+_dataset = lazy_import("rfsim.core.dataset")
 _link = lazy_import("rfsim.gen2.link")
 
 NAME = "inventory"
@@ -162,7 +162,7 @@ def make_tags(config: TagConfig, antennas, *, seed: int, key: tuple[int, ...], s
 
     With an enabled ``spread`` tag k draws its own BLF error, T1, chip states and antenna
     yaw/roll offsets on ``link`` from its spread sub-stream ``trial_rng(seed, *key, k, 0)``
-    (:class:`devices.tag_spread.TagSpreadConfig`); each draw is appended to ``records``.
+    (:class:`rfsim.devices.tag_spread.TagSpreadConfig`); each draw is appended to ``records``.
     """
     from dataclasses import replace
 
@@ -272,7 +272,7 @@ def capture_table(cfg: Config, *, seed: int) -> dict[str, list]:
 class NoCaptureAir:
     """A sample-level air interface whose reader never decodes a slot in which two or more
     tags replied (ground truth): capture switched off, the protocol level's collision rule
-    (:class:`rfsim.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
+    (:class:`rfsim.protocols.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
     detected, not decoded, so the reader does not ACK and counts a collision."""
 
     def __init__(self, air):
@@ -312,7 +312,7 @@ def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
     ``trial_rng(seed, 3_000_000 + p, r, ...)`` as the main inventories."""
     from dataclasses import replace
 
-    from rfsim.inventory import ProtocolAir
+    from rfsim.protocols.inventory import ProtocolAir
 
     ci, cs = config.capture_inventory, config.capture_sweep
     rows: dict[str, list] = {k: [] for k in CAPTURE_INVENTORY_FIELDS}
@@ -481,9 +481,9 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     plt = pyplot()
     import h5py
 
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
     from rfsim.detection.fit import wilson_interval
-    from rfsim.inventory import SLOT_TYPES
+    from rfsim.protocols.inventory import SLOT_TYPES
 
     s = read_table(dataset_path, "slots")
     inv = read_table(dataset_path, "inventories")
@@ -545,7 +545,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
 
 def _plot_sweep(a, b, path) -> None:
     """P(capture) vs power ratio (Clopper-Pearson 95 %) and the acceptance trade-off."""
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
 
     if path is None:
         for ax in (a, b):

@@ -1,12 +1,12 @@
 """Scenario ``link``: one reader and one tag, the tag distance swept, N rounds per point.
 
 Every round is a sample-level singulation (Query → RN16 → ACK → PC+EPC+CRC-16) through the
-engine (:mod:`rfsim.engine`; round r of every distance point in one batch, :mod:`rfsim.batch`) over a fresh draw of the default channel: Friis large scale,
+engine (:mod:`rfsim.protocols.engine`; round r of every distance point in one batch, :mod:`rfsim.protocols.batch`) over a fresh draw of the default channel: Friis large scale,
 an optional floor reflection (image method, concrete) and the exponential APDP with the PASS
-room curves K(d), τrms(d) (channels.small_scale.ApdpModel defaults). The reader hops
+room curves K(d), τrms(d) (rfsim.channels.small_scale.ApdpModel defaults). The reader hops
 channels, so rounds also differ by carrier frequency. Per round the dataset records what
 a commercial reader reports for a read (gen2-and-validation-anchors.md §4.9) and why a
-read failed, and the reader's report of it (``reader.report``, :mod:`rfsim.records`: EPC as
+read failed, and the reader's report of it (``reader.report``, :mod:`rfsim.core.records`: EPC as
 hex, µs time stamp, RSSI in its steps above the sensitivity floor, the 12-bit phase code with
 the port's phase offset), one row per read sorted by time.
 
@@ -23,23 +23,23 @@ from typing import Literal
 
 import numpy as np
 
-from devices.reader_config import ReaderConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
-from rfsim.progress import track
-from rfsim.rng import trial_rng
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.lazy import lazy_import
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_surfaces = lazy_import("channels.surfaces")
-_reader = lazy_import("devices.reader")
-_tag = lazy_import("devices.tag")
-_dataset = lazy_import("rfsim.dataset")
-_batch = lazy_import("rfsim.batch")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_surfaces = lazy_import("rfsim.channels.surfaces")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+_dataset = lazy_import("rfsim.core.dataset")
+_batch = lazy_import("rfsim.protocols.batch")
 _commands = lazy_import("rfsim.gen2.commands")
 
 NAME = "link"
@@ -178,7 +178,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     plt = pyplot()
     from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
 
     t = read_table(dataset_path, "reads")
     d = np.unique(t["distance_m"])

@@ -11,35 +11,35 @@ with the PASS ST-room curves (``phasecan.m``: small scale on, surfaces off, §1.
 Sample level, per cell and repetition (one reader segment, as the source's runs): the
 reader sends a Query (``pass-miller2-48k``: PR-ASK, Tari 25 µs, Miller-2, TRext, BLF 48 kHz)
 followed by CW; the tag receives it through its drawn forward link, decodes it and answers
-its RN16 with Γ(t) (:class:`devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
-(structural mode A_s and the chip's Γ, :meth:`devices.tag.TagResponse.reradiation`), in one
-step of the air interface (:func:`rfsim.air.propagate`) over the whole segment. Every ST
+its RN16 with Γ(t) (:class:`rfsim.devices.tag.PassiveTag`) and re-radiates r(t) = A_s − Γ(t)
+(structural mode A_s and the chip's Γ, :meth:`rfsim.devices.tag.TagResponse.reradiation`), in one
+step of the air interface (:func:`rfsim.air.step.propagate`) over the whole segment. Every ST
 antenna of the cell hears it at once (a batch of N positions × k antennas) in a second step
 over the ST window (from the end of the command on) with the tag's decided r(t) replayed:
 per ST position only the links differ, and with narrowband links (the one rule of
-:func:`channels.paths.propagation_method` applied to every link, :class:`channels.bulk.BatchLink`;
+:func:`rfsim.channels.paths.propagation_method` applied to every link, :class:`rfsim.channels.bulk.BatchLink`;
 a wideband link is an error, and the window step gives the same samples as the whole
 segment's) the input at antenna k is ``a_k·x_tx(t) + b_k·r(t)·x_inc(t)`` with ``a_k``,
-``b_k`` the drawn reader→SA_k and tag→SA_k gains (:func:`channels.bulk.draw_links`). The
+``b_k`` the drawn reader→SA_k and tag→SA_k gains (:func:`rfsim.channels.bulk.draw_links`). The
 stamped frame is a third step on the same links with the stamp modulator's r(t). The two backscatter
 amplitudes of Eq. 3.4 are those of the re-radiated states, A_T1 ∝ |A_s − Γ_B| (modulating)
 and A_T2 ∝ |A_s − Γ_A| (absorbing). The ST receive chain
-(:mod:`devices.st_receiver`: diode detector at 50 Ω, RC, band-pass, 5 mV comparator,
+(:mod:`rfsim.devices.st_receiver`: diode detector at 50 Ω, RC, band-pass, 5 mV comparator,
 Miller decoder) runs on every input, vectorised over positions
-(:func:`devices.sense_a_tag.chain_rows`), from the end of the reader's command on.
+(:func:`rfsim.devices.sense_a_tag.chain_rows`), from the end of the reader's command on.
 
-Techniques and flags (R3-5, :func:`devices.st_analytic.technique_outcomes` for the
+Techniques and flags (R3-5, :func:`rfsim.devices.st_analytic.technique_outcomes` for the
 definition): a sample is *detectable* when the single-antenna ST (SA2) would see a
 detector-output difference above the threshold with the CW synchronised to the
 backscatter: ``D_sync = max over φ of ||c·e^{jφ} + b1| − |c·e^{jφ} + b2||``
-(:func:`devices.st_analytic.synchronised_difference`; = |b1 − b2| whenever the CW dominates,
+(:func:`rfsim.devices.st_analytic.synchronised_difference`; = |b1 − b2| whenever the CW dominates,
 the source's "synchronized Reader's CW" condition, seed L3490-3502) through the detector law;
 the measured chip states are not collinear (arg(Γm/Γu) from −10° at 1 m to −55° at 5.5 m), so
 the no-CW limit ``||b1| − |b2||`` used before labelled half of the replying samples
 undetectable. A technique *detects* when its chain decodes the tag's RN16 exactly: single =
 SA2, combination = chain on SA1 + SA2, selection = Algorithm 1 over SA2 then SA1, stamp = the
 transmitter sends an ASK-PSK stamp (8 + 8 subcarrier cycles, PSK 180°, then 8 ASK settling
-cycles, :func:`devices.st_receiver.stamp_frame`) before the RN16 and the ST decodes on SA2
+cycles, :func:`rfsim.devices.st_receiver.stamp_frame`) before the RN16 and the ST decodes on SA2
 unless the ASK stamp symbol is '-' (then on SA1); *cancelled* = detectable and not detected.
 Samples with an ST antenna within λ/2π (5.2 cm) of the tag (reactive near field, 2 %: 236 of 11 700 in the full run) are
 excluded from the probabilities and counted (``near_field``, ``n_near_field``). The
@@ -56,7 +56,7 @@ stamp-only against 31 selection-only failures of 11 464; 0.72 with ``pass_replic
 swing is within ±3.5 % of the threshold.
 
 Detector and noise (``detector``): the ST's diode, ``v = n·V_T·ln I0(G_v·V/(n·V_T))``
-(:class:`devices.st_receiver.EnvelopeDetector`, n = 1.05, 290 K) with the matching gain
+(:class:`rfsim.devices.st_receiver.EnvelopeDetector`, n = 1.05, 290 K) with the matching gain
 G_v = 0.96 that meets the source's two quoted conversions within 1 % (R3-1: Table 3.1's
 0.0015 V → "0.01 V"; R3-4: 0.0019 V → 0.012 V, in source volts, i.e. √50× smaller than the
 50 Ω peak volts here); the threshold is 5 mV at the detector output. ``linear`` is the old
@@ -92,7 +92,7 @@ V). Not the cause: the detector gain (A_T is at the antenna), the volt conventio
 matches) or R_at (it only sets |r_B|, which enters as |ρ_m|/|r_B| = 0.91–0.93).
 
 Tag (``tag_states.model``): by default ``"measured"``, the source's own tag physics
-(:mod:`devices.tag_chip`): the UCODE chip's impedance moves with its absorbed power, so the
+(:mod:`rfsim.devices.tag_chip`): the UCODE chip's impedance moves with its absorbed power, so the
 reflection states Γ_u, Γ_m follow the cell's available power (|Γ_u| ≈ 0.72, |Γ_m| ≈ 0.84 at
 1 m; 0.53 / 0.78 near 5 m, complex, not pure ASK), the tag re-radiates Γ·incident as PASS
 does, and it runs only where P_chip ≥ picmin + 2.5 dB (≈ 5 m at 3.28 W EIRP). A tag that does
@@ -143,7 +143,7 @@ one reader segment per (cell, repetition) with its own channel draw; the near fi
 excluded, not modelled. The λ/4 pair's mutual coupling (``geometry.pair_coupling``, default
 on: Z11 = 73.1 + j42.5 Ω, Z12 from the induced-EMF formula at ``st.spacing_m`` (40.4 − j28.4 Ω
 at λ/4), conjugate-matched loads,
-:func:`devices.st_analytic.coupling_matrix`) mixes the two ports' signals, CW and backscatter
+:func:`rfsim.devices.st_analytic.coupling_matrix`) mixes the two ports' signals, CW and backscatter
 alike; it raises path selection from 12.7 % to 13.3 % (full run; 7.5 % → 11.3 % with
 ``pass_replication``) by correlating the ports.
 
@@ -162,39 +162,39 @@ from typing import Literal
 
 import numpy as np
 
-from devices import st_receiver as sr
-from devices.reader_config import ReaderConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.progress import stage
-from scenarios._monte_carlo import MonteCarloConfig
-from rfsim.rng import trial_rng
-from rfsim.units import wavelength_m
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
-from rfsim.procs import map_in_order
-from rfsim.lazy import lazy_import
+from rfsim.devices import st_receiver as sr
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.progress import stage
+from rfsim.scenarios._monte_carlo import MonteCarloConfig
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import wavelength_m
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.references import cite
+from rfsim.core.procs import map_in_order
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_channels_scene = lazy_import("channels.scene")
-_bulk = lazy_import("channels.bulk")
-_paths = lazy_import("channels.paths")
-sa = lazy_import("devices.st_analytic")
-_reader = lazy_import("devices.reader")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_tag = lazy_import("devices.tag")
-_tag_chip = lazy_import("devices.tag_chip")
-_tag_frontend = lazy_import("devices.tag_frontend")
-_dataset = lazy_import("rfsim.dataset")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_channels_scene = lazy_import("rfsim.channels.scene")
+_bulk = lazy_import("rfsim.channels.bulk")
+_paths = lazy_import("rfsim.channels.paths")
+sa = lazy_import("rfsim.devices.st_analytic")
+_reader = lazy_import("rfsim.devices.reader")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_tag = lazy_import("rfsim.devices.tag")
+_tag_chip = lazy_import("rfsim.devices.tag_chip")
+_tag_frontend = lazy_import("rfsim.devices.tag_frontend")
+_dataset = lazy_import("rfsim.core.dataset")
 _commands = lazy_import("rfsim.gen2.commands")
-_noise = lazy_import("rfsim.noise")
-_air = lazy_import("rfsim.air")
+_noise = lazy_import("rfsim.air.noise")
+_air = lazy_import("rfsim.air.step")
 _link = lazy_import("rfsim.gen2.link")
-columns = lazy_import("scenarios._phase_cancellation_columns")
-_kernels = lazy_import("scenarios._phase_cancellation_kernels")
+columns = lazy_import("rfsim.scenarios._phase_cancellation_columns")
+_kernels = lazy_import("rfsim.scenarios._phase_cancellation_kernels")
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -204,7 +204,7 @@ R_OHM = sr.REFERENCE_IMPEDANCE_OHM
 V_PER_SQRT_W = math.sqrt(2.0 * R_OHM)
 STAMP_CYCLES = 8
 #: ASK pilot cycles between the PSK stamp and the reply: the band-pass settles after the
-#: PSK swing (:func:`devices.st_receiver.stamp_frame`)
+#: PSK swing (:func:`rfsim.devices.st_receiver.stamp_frame`)
 STAMP_SETTLE_CYCLES = 8
 #: Relative margin of the ASK-stamp decision over the data threshold. Four regular
 #: subcarrier cycles toggle the comparator at a swing a few % below the one Miller data
@@ -226,7 +226,7 @@ class GeometryConfig:
     apdp: bool = param(True, doc="exponential APDP small scale (PASS ST-room curves)")
     pair_coupling: bool = param(True, doc="mutual coupling of the ST's dipole pair (Z11 = 73.1 + j42.5 ohm, Z12 "
                                           "of side-by-side half-wave dipoles at st.spacing_m: 40.4 - j28.4 ohm at "
-                                          "lambda/4; conjugate-matched loads; devices.st_analytic.coupling_matrix)")
+                                          "lambda/4; conjugate-matched loads; rfsim.devices.st_analytic.coupling_matrix)")
 
 
 @dataclass(frozen=True)
@@ -243,7 +243,7 @@ class TrackConfig:
 @dataclass(frozen=True)
 class DetectorConfig:
     law: Literal["diode", "linear", "agc"] = param(
-        "diode", doc="ST envelope detector: 'diode' = n*V_T*ln I0(G_v*V/(n*V_T)) (devices.st_receiver); "
+        "diode", doc="ST envelope detector: 'diode' = n*V_T*ln I0(G_v*V/(n*V_T)) (rfsim.devices.st_receiver); "
                      "'linear' = st.detector_gain*V (the closed forms' unit-gain detector); 'agc' = PASS's "
                      "demodulator characteristic meas_tag_agc (needs agc_dir)")
     matching_gain: float = param(sr.DEFAULT_MATCHING_GAIN, lo=0.01, hi=100.0,
@@ -297,7 +297,7 @@ class TagStatesConfig:
     model: Literal["measured", "chip", "source"] = param(
         "measured", doc="tag reflection states: 'measured' = the PASS tag (UCODE chip impedance vs absorbed "
                         "power on PASS's antenna, Gamma*incident, power-up with the PASS margin; "
-                        "devices.tag_chip); 'chip' = the tag config's fixed states with structural mode A_s; "
+                        "rfsim.devices.tag_chip); 'chip' = the tag config's fixed states with structural mode A_s; "
                         "'source' = two strong re-radiated ASK states with A_T1/A_T2 = 1.03 (Tables 3.1/3.2)")
     characteristics_dir: str = param("", doc="'measured': folder with the PASS tag files (meas_tag_zic, "
                                              "meas_tag_zmod-act, meas_tag_za-v6, meas_tag_picmin); empty = the "
@@ -437,7 +437,7 @@ class Exchange:
     during the RN16 reply (None when the tag did not reply); stamp_inputs : the same with the tag sending the stamped frame
     (None unless k = 2 and the tag replied); a_gain, b_gain : (N, k) complex narrowband gains
     reader→SA and tag→SA; narrowband_error : largest relative envelope error of the ST links
-    (:meth:`channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF); levels : (n,) true line-code
+    (:meth:`rfsim.channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF); levels : (n,) true line-code
     levels; frame : StampFrame (indices relative to the window) or None; i_ref : a CW sample
     inside the reply; search : decoder search window [samples]; rerad_b, rerad_a : re-radiated
     states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits or None;
@@ -616,9 +616,9 @@ def simulate_exchange(config: Config, tag_x_m: float, sa_pos, *, seed: int, inde
 
 def couple_ports(mix, x) -> np.ndarray:
     """Port signals of the λ/4 pair after mutual coupling, ``y_i = Σ_j M_ij·x_j``
-    (:func:`devices.st_analytic.coupling_matrix`) for ``x`` (N, 2, ...) complex (SA1, SA2 on
+    (:func:`rfsim.devices.st_analytic.coupling_matrix`) for ``x`` (N, 2, ...) complex (SA1, SA2 on
     axis 1). Waveforms (N, 2, n) go through a numba kernel
-    (:mod:`scenarios._phase_cancellation_kernels`: the operations of
+    (:mod:`rfsim.scenarios._phase_cancellation_kernels`: the operations of
     :func:`couple_ports_reference`, equal bit for bit); gains (N, 2) through the reference
     itself (its loop over (N, 2) sums from +0, which turns a −0 sum into +0)."""
     x = np.asarray(x)
@@ -752,7 +752,7 @@ def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float
     """Per row of ``bandpassed_v`` (r, n) [V]: the transitions of a comparator of hysteresis
     width ``threshold_v`` [V], run from −1 at the ASK stamp's first sample ``frame.start``,
     over the second half of the ASK stamp (from ``(start + ask_stop)//2`` to ``ask_stop``),
-    ``(r,) int64`` (numba kernel, :mod:`scenarios._phase_cancellation_kernels`; the twin is
+    ``(r,) int64`` (numba kernel, :mod:`rfsim.scenarios._phase_cancellation_kernels`; the twin is
     :func:`ask_stamp_transitions_reference`)."""
     seg = np.ascontiguousarray(bandpassed_v[:, frame.start:frame.ask_stop], dtype=np.float64)
     out = np.empty(seg.shape[0], dtype=np.int64)
@@ -770,7 +770,7 @@ def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshol
 
 def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):
     """Batched narrowband links reader→SA and tag→SA for (N, k, 3) antenna positions
-    (:meth:`channels.bulk.BulkPaths.batch_link`), drawn in that order from ``rng``."""
+    (:meth:`rfsim.channels.bulk.BulkPaths.batch_link`), drawn in that order from ``rng``."""
     g = config.geometry
     ra = _reader_antenna(g)
     pr = config.pass_replication
@@ -902,7 +902,7 @@ def _summary(samples, n_cells: int) -> dict[str, np.ndarray]:
 
 def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
     """Per-cell medians of A_R, A_T1, A_T2 and A_T1/A_R at SA2 in the source's voltage unit
-    (peak sqrt(2P) across 1 Ω, :func:`devices.st_receiver.to_source_volts`), the unit of
+    (peak sqrt(2P) across 1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`), the unit of
     Tables 3.1/3.2 (cell 1: A_R = 0.0802–0.1247 V, A_T1/A_R = 0.54–0.99)."""
     out = {}
     cell = samples["cell"]
@@ -1058,7 +1058,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     Fig. 3.16/5.8 probabilities, named ``<dataset stem>-fig3_*.png``."""
     plt = pyplot()
 
-    from rfsim.dataset import read_dataset, read_table
+    from rfsim.core.dataset import read_dataset, read_table
 
     ds = read_dataset(dataset_path)
     paths = []

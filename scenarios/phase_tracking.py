@@ -16,13 +16,13 @@ alternate target A/B after each successful read (the tag's S0 flag flips). The t
 at its position of the round start for the round (quasi-static: it moves ≤ 0.2 m/s·0.71 ms =
 0.14 mm, a phase change ≤ 5 mrad), so the channel's narrowband held-link path applies; silent
 time between rounds is not simulated. The links of a chunk's rounds are drawn at once
-(:class:`RoundLinks`, ``channels.bulk.draw_links``). The run is cut into chunks of
+(:class:`RoundLinks`, ``rfsim.channels.bulk.draw_links``). The run is cut into chunks of
 ``schedule.chunk_s`` simulated in parallel (each with its own reader and tag, reproducible
 whatever the number of workers: the chunks are part of the config); round 0 alone runs first
 in the leading process (the slot check, and the kernels the workers inherit), then every chunk
 in the pool.
 
-The reader reports (``reader.report``, rfsim.records): RSSI in 1 dB steps, the 12-bit phase
+The reader reports (``reader.report``, rfsim.core.records): RSSI in 1 dB steps, the 12-bit phase
 code with the port's offset, µs time stamps. Estimators (rfsim.estimators.phase_tracking):
 the eq. (13) RSSI fix of the first read cycle gives p̂₀; the reported phases are unwrapped to
 pseudo-ranges (eq. 4–5) from r̂₀ = |p̂₀ − a_i|; the CWNA + bias EKF per read, the RTS smoother
@@ -43,25 +43,25 @@ from typing import Literal
 
 import numpy as np
 
-from devices.reader_config import ReaderConfig, frequency_plan
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.lazy import lazy_import
-from rfsim.procs import map_in_order
-from rfsim.progress import stage
-from rfsim.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, epc_hex, long_table, report_columns
-from rfsim.rng import trial_rng
-from rfsim.units import wavelength_m
+from rfsim.devices.reader_config import ReaderConfig, frequency_plan
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.lazy import lazy_import
+from rfsim.core.procs import map_in_order
+from rfsim.core.progress import stage
+from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, epc_hex, long_table, report_columns
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import wavelength_m
 
 _ndimage = lazy_import("scipy.ndimage")
-_antennas = lazy_import("channels.antennas")
-_scene = lazy_import("channels.scene")
-_bulk = lazy_import("channels.bulk")
-_reader = lazy_import("devices.reader")
-_tag = lazy_import("devices.tag")
-_rfsim_dataset = lazy_import("rfsim.dataset")
-_engine = lazy_import("rfsim.engine")
+_antennas = lazy_import("rfsim.channels.antennas")
+_scene = lazy_import("rfsim.channels.scene")
+_bulk = lazy_import("rfsim.channels.bulk")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+_rfsim_dataset = lazy_import("rfsim.core.dataset")
+_engine = lazy_import("rfsim.protocols.engine")
 _phase_tracking = lazy_import("rfsim.estimators.phase_tracking")
 _commands = lazy_import("rfsim.gen2.commands")
 
@@ -230,7 +230,7 @@ def check_geometry(config: Config) -> None:
 class RoundLinks:
     """The channel of a chunk (the engine's ``backscatter_links``): the anechoic link of every
     round's antenna to the tag at its held position, drawn for all rounds at once by
-    :func:`channels.bulk.draw_links` (the physics of :meth:`channels.scene.Channel.link`,
+    :func:`rfsim.channels.bulk.draw_links` (the physics of :meth:`rfsim.channels.scene.Channel.link`,
     vectorised: LoS amplitude g_ls(d, fc)·√(G_tx·G_rx)·√PLF, delay d/c; no image or diffuse
     path, so no random draw). Monostatic and reciprocal: the backward link is the forward one.
     :meth:`hold` selects the round; a link asked of another antenna pair is an error."""
@@ -317,7 +317,7 @@ READ_FIELDS = {
     **READ_REPORT_FIELDS,
     **{k: v for k, v in READ_MEASUREMENT_FIELDS.items()},
     "success": ("1", "EPC decoded with CRC ok"),
-    "failure_reason": ("", "why the read failed ('' = success, rfsim.engine.FAILURE_REASONS)"),
+    "failure_reason": ("", "why the read failed ('' = success, rfsim.protocols.engine.FAILURE_REASONS)"),
     "round": ("1", "read round (0-based); round r starts at r·schedule.read_period_s on antenna r mod s"),
     "tx_power_dbm": ("dBm", "conducted reader transmit power at the antenna port"),
     "x_m": ("m", "true tag x during the round (intended path + jitter), held from the round start"),
@@ -538,6 +538,6 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Phase and pseudo-range vs time per antenna, true vs estimated tracks, error CDFs."""
-    from scenarios._phase_figures import plot_all
+    from rfsim.scenarios._phase_figures import plot_all
 
     return plot_all(dataset_path, out_dir)

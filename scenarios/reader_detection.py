@@ -3,7 +3,7 @@ behind the Beta-binomial DA model (binary-detection.md §1.6, §4 item 1, §5 P0
 004 L612-L666, L838).
 
 Campaign (§4 item 1, L664-L666): reader at 27 dBm with one 6 dBic circularly polarised
-patch (:class:`channels.Patch`, 70° half-power beamwidth, 20 dB front-to-back — the
+patch (:class:`rfsim.channels.Patch`, 70° half-power beamwidth, 20 dB front-to-back — the
 beamwidth is not given by the source), one tag facing the antenna at ``distances_m`` and
 angles ``angles_deg`` off boresight (θ is varied by *rotating the antenna* about its vertical
 axis, as the source did), ``repetitions`` trials of ``queries`` = 50 queries each, in two
@@ -30,11 +30,11 @@ as in a real campaign: the N queries are spread evenly over U(``round_s``) = U(0
 Rician gain ``h_q`` of the moving people (:func:`rician_gains`: K = ``fading_k_db`` = 6 dB,
 correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values assumed, the source gives
 none). Each query is simulated at sample level, one step of the air interface
-(:func:`rfsim.air.propagate` on the links, :class:`channels.HeldLinks`; the N queries of a
-trial as one batch, :func:`rfsim.batch.propagate_batch`): the tag's PIE
+(:func:`rfsim.air.step.propagate` on the links, :class:`rfsim.channels.HeldLinks`; the N queries of a
+trial as one batch, :func:`rfsim.protocols.batch.propagate_batch`): the tag's PIE
 decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
-(:meth:`devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
-noise, decoder; :class:`rfsim.engine.ReaderPort`). Per query the outcome is **the reader
+(:meth:`rfsim.devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
+noise, decoder; :class:`rfsim.protocols.engine.ReaderPort`). Per query the outcome is **the reader
 decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange and
 the inventoried flags (S0–S3) are not simulated, so a "read" here is an RN16 decode). The tag's chip
 sensitivity follows its class (``tag_class``, :data:`TAG_CLASS_SENSITIVITY_DBM`): the
@@ -104,31 +104,31 @@ from pathlib import Path
 
 import numpy as np
 
-from devices.reader_config import ReaderConfig
-from devices.tag_config import TagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError, UserError
-from rfsim.progress import stage
-from rfsim.rng import trial_rng
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.references import cite
-from rfsim.procs import map_in_order
-from rfsim.lazy import lazy_import
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.progress import stage
+from rfsim.core.rng import trial_rng
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.references import cite
+from rfsim.core.procs import map_in_order
+from rfsim.core.lazy import lazy_import
 
 _special = lazy_import("scipy.special")
-_antennas = lazy_import("channels.antennas")
-_small_scale = lazy_import("channels.small_scale")
-_scene = lazy_import("channels.scene")
-_surfaces = lazy_import("channels.surfaces")
-_reader = lazy_import("devices.reader")
-_tag = lazy_import("devices.tag")
-_dataset = lazy_import("rfsim.dataset")
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_surfaces = lazy_import("rfsim.channels.surfaces")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+_dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _fit = lazy_import("rfsim.detection.fit")
 _commands = lazy_import("rfsim.gen2.commands")
-_air = lazy_import("rfsim.air")
-_batch = lazy_import("rfsim.batch")
-_engine = lazy_import("rfsim.engine")
+_air = lazy_import("rfsim.air.step")
+_batch = lazy_import("rfsim.protocols.batch")
+_engine = lazy_import("rfsim.protocols.engine")
 _link = lazy_import("rfsim.gen2.link")
 
 #: modules the figures use (imported by the runner while the simulation runs)
@@ -499,7 +499,7 @@ ROOM_NAMES = ("lab", "cluttered")
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """p̄(d, θ) heat maps per room and the mean p̂ vs d at 0°/30°/60° with the fitted and
     published mean models."""
-    from rfsim.dataset import read_dataset, read_table
+    from rfsim.core.dataset import read_dataset, read_table
     from rfsim.detection import ReaderDetectionModel
 
     plt = pyplot()

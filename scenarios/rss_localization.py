@@ -2,16 +2,16 @@
 
 An active tag beacons once per second (868 MHz, 5 dBm; seeds/002 L957, L1773); every reader
 reports the beacon's RSSI. ``rss_model = "log-distance"`` draws the received power from the
-thesis's statistical model (channels.rss: per-reader α_j, n_j, σ_j, WAF per wall crossing,
+thesis's statistical model (rfsim.channels.rss: per-reader α_j, n_j, σ_j, WAF per wall crossing,
 quasi-static shadowing per position and reader, optionally spatially correlated, plus a
-time-varying people term) and the reader's report from devices.rss_reader (quantization,
+time-varying people term) and the reader's report from rfsim.devices.rss_reader (quantization,
 −90 dBm floor). ``rss_model = "waveform"`` keeps those draws (paired trial by trial) and sends
-every beacon at sample level instead: Manchester MSK bursts of devices.ActiveTag through the
+every beacon at sample level instead: Manchester MSK bursts of rfsim.devices.ActiveTag through the
 air interface, per-link log-distance models in the channel, listen-before-talk and
-collisions (rfsim.beacons), the RSSI measured and reported by devices.ActiveReader
-(scenarios._rss_waveform); its counts are in the table ``waveform``.
+collisions (rfsim.protocols.beacons), the RSSI measured and reported by rfsim.devices.ActiveReader
+(rfsim.scenarios._rss_waveform); its counts are in the table ``waveform``.
 
-Presets (scenarios._rss_plans): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x16`` and
+Presets (rfsim.scenarios._rss_plans): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x16`` and
 ``home-2room`` (two rooms, a brick wall, Table 6.1 readers, 4 reference tags).
 
 Experiments per σ0 (simulation presets; §2.4, L1133–L1155, L1319–L1327): a **fixed** target
@@ -26,7 +26,7 @@ replica adds the offline fit, online calibration of α_j, n_j and σ from the re
 resampling when N_eff < 0.5 N, the known 0.5 m/step velocity for the mobile target); kNN
 uses k = 36 there (L1814).
 
-Noise model: **independent per reader** (see channels.rss; dataset attribute ``noise_model``):
+Noise model: **independent per reader** (see rfsim.channels.rss; dataset attribute ``noise_model``):
 it reproduces Table 7.3, a term shared by all readers does not (wave2-specs.md §R: 1.24/1.61/
 1.82/2.01 m shared vs 1.36/1.92/2.20/2.48 m independent; tested here). Physically each reader
 sees the tag through its own obstacles, orientation and multipath. Simulation presets: all of σ0² quasi-static and
@@ -53,22 +53,22 @@ from typing import Literal
 
 import numpy as np
 
-from devices.rss_reader import RssReport
-from rfsim.config import check_fields, param
-from rfsim.errors import ConfigError
-from rfsim.progress import track
-from rfsim.rng import trial_rng
-from scenarios._rss_waveform import WaveformConfig, sample_level_reports
-from rfsim.lazy import lazy_import
+from rfsim.devices.rss_reader import RssReport
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios._rss_waveform import WaveformConfig, sample_level_reports
+from rfsim.core.lazy import lazy_import
 
-_large_scale = lazy_import("channels.large_scale")
-_rss = lazy_import("channels.rss")
-_dataset = lazy_import("rfsim.dataset")
+_large_scale = lazy_import("rfsim.channels.large_scale")
+_rss = lazy_import("rfsim.channels.rss")
+_dataset = lazy_import("rfsim.core.dataset")
 _calibration = lazy_import("rfsim.estimators.calibration")
 _bounds = lazy_import("rfsim.estimators.bounds")
-est = lazy_import("scenarios._rss_estimate")
-_rss_figures = lazy_import("scenarios._rss_figures")
-_rss_plans = lazy_import("scenarios._rss_plans")
+est = lazy_import("rfsim.scenarios._rss_estimate")
+_rss_figures = lazy_import("rfsim.scenarios._rss_figures")
+_rss_plans = lazy_import("rfsim.scenarios._rss_plans")
 
 NAME = "rss-localization"
 DESCRIPTION = ("active-RFID RSSI localization (Özkaya): log-distance RSS datasets, kNN, grid Bayes, "

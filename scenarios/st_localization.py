@@ -2,7 +2,7 @@
 (AURIS ch. 4: PF-BIN, PF-AA, SQLAM's tracking module, weighted centroid; auris-sense-a-tag.md
 §3.3, §4.2, §7; seeds/003 L4493-L4650, L5375-L5415, L5600-L5690; wave2-specs.md §R).
 
-Scene (presets, :mod:`scenarios._st_paths`): a reader's panel antenna(s) 2 m above the floor
+Scene (presets, :mod:`rfsim.scenarios._st_paths`): a reader's panel antenna(s) 2 m above the floor
 facing down, an nx × ny grid of landmark tags on the floor, the ST moving on the floor. In each
 query period of T_s = 0.3 s the reader runs N = 10 rounds; in round j the ST decodes landmark k
 with the RTS probability (Eq. 4.6, :func:`rfsim.detection.rts_probability`'s coefficients)
@@ -54,7 +54,7 @@ gives 0.156 m (0.190 m at the period end), PF-AA 0.209 m (0.215 m); PF-AA's AR n
 the room's edges (9 × 5 at 0.5 × 0.8 m) is worse (PF-BIN 0.214 m, PF-AA 0.240 m). SQLAM's
 mapping and landmark-replacement modules are not implemented.
 
-``mode = "sample-level"`` (:mod:`scenarios._st_sample_level`; presets with one antenna): each
+``mode = "sample-level"`` (:mod:`rfsim.scenarios._st_sample_level`; presets with one antenna): each
 query period is N QT rounds of a real Gen2 inventory of the landmarks at sample level (Q
 algorithm, RN16 → ACK → EPC), the ST decoding every EPC reply with its envelope receiver; a
 CRC-valid EPC is a detection at the reply's start. The periods are as long as the rounds take
@@ -81,20 +81,20 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.procs import map_in_order
-from rfsim.rng import trial_rng
-from scenarios import _st_paths as paths
-from scenarios._st_sample_level import SampleLevelConfig, listen_track
-from devices.sense_a_tag_config import SenseATagConfig
-from rfsim.lazy import lazy_import
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.procs import map_in_order
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios import _st_paths as paths
+from rfsim.scenarios._st_sample_level import SampleLevelConfig, listen_track
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.core.lazy import lazy_import
 
-_dataset = lazy_import("rfsim.dataset")
+_dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _landmark_pf = lazy_import("rfsim.estimators.landmark_pf")
-_exciter_scene = lazy_import("scenarios._exciter_scene")
-_st_figures = lazy_import("scenarios._st_figures")
+_exciter_scene = lazy_import("rfsim.scenarios._exciter_scene")
+_st_figures = lazy_import("rfsim.scenarios._st_figures")
 
 NAME = "st-localization"
 DESCRIPTION = ("sense-a-tag tracking from landmark detections (AURIS ch. 4): RTS surrogate, PF-BIN, PF-AA with "
@@ -132,7 +132,7 @@ class Config:
     preset: Literal["pfaa", "sqlam", "lab"] = param("pfaa", doc="room, landmark grid and antennas")
     mode: Literal["surrogate", "sample-level"] = param(
         "surrogate", doc="'surrogate' = Bernoulli RTS detections per round; 'sample-level' = the ST listens "
-                         "through real Gen2 rounds (scenarios._st_sample_level)")
+                         "through real Gen2 rounds (rfsim.scenarios._st_sample_level)")
     sample_level: SampleLevelConfig = param(SampleLevelConfig(), doc="sample-level mode: reader, rounds, duration")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sample-level mode: the sense-a-tag (technique, threshold)")
     experiments: tuple[Literal["speed-sweep", "trajectory-2", "random-walk"], ...] | None = param(
@@ -323,7 +323,7 @@ def _surrogate_track(config: Config, case: Case, b: int, seed: int, base, landma
 
 def _sample_level_track(config: Config, case: Case, b: int, seed: int) -> dict:
     """Truth, PF-BIN start and the detections of realization b heard through sample-level Gen2
-    rounds (:func:`scenarios._st_sample_level.listen_track`, streams ``trial_rng(seed, case, b, 2, k)``)."""
+    rounds (:func:`rfsim.scenarios._st_sample_level.listen_track`, streams ``trial_rng(seed, case, b, 2, k)``)."""
     h = config.sample_level.st_height_m
 
     def centre(t):

@@ -3,24 +3,24 @@ single antenna vs simple combination vs receiving-path selection vs the ASK-PSK 
 (auris-sense-a-tag.md §4.3 R5-1 "Fig. 5.8", §5; seed L5735-6060; wave2-specs.md §X).
 
 Scene (L5998-6045): an RF exciter at the origin (CW only, ``exciter.eirp_dbm`` = 35.16 dBm =
-3.28 W EIRP at 915 MHz by default, :class:`devices.exciter.Exciter` behind a patch antenna with
+3.28 W EIRP at 915 MHz by default, :class:`rfsim.devices.exciter.Exciter` behind a patch antenna with
 boresight +x); a transmitting ST (its modulating antenna SA2, a vertical half-wave dipole) at
 x = 1, 1.5, …, 7 m (13 cells); per cell and repetition ``positions_per_cell`` receiving
 dual-antenna STs uniform in a disc of radius 0.5 m around it, each with a uniformly random
 orientation of its λ/4 antenna pair. All at ``height_m``. Channel: Friis + the exponential APDP
 with the PASS ST-room curves (as ``phase-cancellation``).
 
-The exchange (sample level, one :func:`rfsim.air.propagate` step per cell and repetition): the
-exciter emits CW; the transmitting ST (semi-passive, :class:`devices.sense_a_tag.SenseATag`,
-its front end first, then its own schedule: :class:`scenarios._exciter_scene.OwnSchedule`)
+The exchange (sample level, one :func:`rfsim.air.step.propagate` step per cell and repetition): the
+exciter emits CW; the transmitting ST (semi-passive, :class:`rfsim.devices.sense_a_tag.SenseATag`,
+its front end first, then its own schedule: :class:`rfsim.scenarios._exciter_scene.OwnSchedule`)
 backscatters the frame of ch. 5 — the ASK-PSK stamp (``stamp_cycles`` subcarrier cycles
 S1/S2, then S1/S3) followed by 10 × '0' in Miller-2 (TRext pilot and the Gen2 preamble for
 synchronisation, L6011-6017) — through its three-state modulator S1 = Γ_B, S2 = Γ_A,
 S3 = Γ_B·e^{jψ}, ψ = 180° (L5914-5923, L6017-6019; Γ_A, Γ_B the ST modulator's states,
-A_s its structural mode, devices.tag), re-radiating (A_s − Γ(t))·incident; every receiving antenna (SA1, SA2 of every position, one batched
+A_s its structural mode, rfsim.devices.tag), re-radiating (A_s − Γ(t))·incident; every receiving antenna (SA1, SA2 of every position, one batched
 receiver each) gets the exciter's direct CW plus the backscatter, with receiver noise
 ``noise.nf_db`` over fs when ``noise.enabled``. Links are drawn in bulk per (cell, repetition)
-(:func:`channels.bulk.draw_links`) and handed to the step per antenna pair.
+(:func:`rfsim.channels.bulk.draw_links`) and handed to the step per antenna pair.
 
 Techniques (R3-5 and R5-1 definitions, as ``phase-cancellation``): a sample is *detectable*
 when SA2 alone would see an envelope difference above the 5 mV threshold with the CW
@@ -30,14 +30,14 @@ combination = the RF sum SA1 + SA2, selection = Algorithm 1 (P2, else P1 = SA1),
 ST decodes the ASK stamp on P2 and, when it reads '-', decodes the data on P1 instead of P2
 (L5984-5990, L6019-6023); *cancelled* = detectable and not detected. Per cell and technique
 the probability has a Clopper–Pearson 95 % interval. Closed forms (Eq. 3.4/3.21,
-:func:`devices.st_analytic.technique_outcomes`) from the phasors the step produced are stored
+:func:`rfsim.devices.st_analytic.technique_outcomes`) from the phasors the step produced are stored
 beside the sample-level outcomes.
 
 Full run (``mc.full``, seed 1, 11 700 samples): P(cancel) single 17.7 % [17.0, 18.4],
 combination 10.1 % [9.5, 10.6], selection 4.7 % [4.3, 5.1], stamp 5.2 % [4.8, 5.6] (Clopper–Pearson
 95 %); the three dual-antenna techniques stay below single antenna in every cell (R5-1). The
 probability rises with distance (selection: 0.2 % at 1 m, 10–11 % at 6.5–7 m): the ST's modulator
-(semi-passive, fixed states Γ_A = 0, |Γ_B| = 0.84 with A_s = 1, devices.tag) keeps nearly every
+(semi-passive, fixed states Γ_A = 0, |Γ_B| = 0.84 with A_s = 1, rfsim.devices.tag) keeps nearly every
 sample detectable to 7 m, and far away more of them sit just above the threshold, where the
 null region covers more phases (median synchronised difference 9.7× the threshold at 1 m, 1.4×
 at 7 m; single-antenna P(cancel) ≈ 30 % below 2× the threshold, ≈ 14 % above; as
@@ -52,7 +52,7 @@ the 5 mV threshold, where the hysteresis comparator toggles intermittently: enou
 8-cycle stamp's '1' but not for the data, or the reverse. The full run (seed 1, 11 700
 samples) measures stamp − selection = +0.49 % (57 samples kept on P2, none left; their
 |A1 − A2| within 2 % of the threshold), against the source's < 0.1 % (R5-1). The stamp rule
-(``stamp.ask_min_transitions``, default one per cycle as ``devices.st_receiver.receive_stamp``)
+(``stamp.ask_min_transitions``, default one per cycle as ``rfsim.devices.st_receiver.receive_stamp``)
 moves samples between the two classes: requiring 12 of the 16 transitions gives −0.23 %, all
 16 gives −2.1 %; no rule removes the near-threshold disagreement.
 
@@ -70,33 +70,33 @@ from typing import Literal
 
 import numpy as np
 
-from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag_config import SenseATagConfig
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.procs import map_in_order
-from rfsim.references import cite
-from rfsim.plots import figure_path, pyplot, save_figure
-from rfsim.rng import trial_rng
-from scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
+from rfsim.devices.exciter import Exciter, ExciterConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.procs import map_in_order
+from rfsim.core.references import cite
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, concat, exciter_antenna, room, uniform_disc,
                                       unit_of)
-from scenarios._monte_carlo import MonteCarloConfig
-from rfsim.lazy import lazy_import
+from rfsim.scenarios._monte_carlo import MonteCarloConfig
+from rfsim.core.lazy import lazy_import
 
-_antennas = lazy_import("channels.antennas")
-_bulk = lazy_import("channels.bulk")
-sa = lazy_import("devices.st_analytic")
-_sense_a_tag = lazy_import("devices.sense_a_tag")
-_air = lazy_import("rfsim.air")
-_dataset = lazy_import("rfsim.dataset")
+_antennas = lazy_import("rfsim.channels.antennas")
+_bulk = lazy_import("rfsim.channels.bulk")
+sa = lazy_import("rfsim.devices.st_analytic")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
+_air = lazy_import("rfsim.air.step")
+_dataset = lazy_import("rfsim.core.dataset")
 
 NAME = "st-to-st"
 DESCRIPTION = ("exciter-powered ST-to-ST link (Fig. 5.8): P(cancel) per cell for single antenna, combination, "
                "path selection and the ASK-PSK stamp")
 
 TECHS = ("single", "combination", "selection", "stamp")
-V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (devices.st_receiver)
+V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω detector (rfsim.devices.st_receiver)
 
 
 @dataclass(frozen=True)
@@ -379,7 +379,7 @@ def _describe(key: str) -> str:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Fig. 5.8: P(phase cancellation) vs transmitting-ST distance per technique."""
-    from rfsim.dataset import read_dataset, read_table
+    from rfsim.core.dataset import read_dataset, read_table
 
     plt = pyplot()
     cells = read_table(dataset_path, "cells")

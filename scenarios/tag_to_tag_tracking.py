@@ -9,7 +9,7 @@ broadcasts its location once per T_s = 0.5 s in a random slotted-Aloha slot (L10
 50 slots by default, the seed gives none); a mobile tag that enters the aisle at the portal and
 moves by the motion model (6.1) (Q = diag(0.01, 0.01), initial speed U[0.1, 1] m/s along the
 aisle, 12 s, L1203-L1212) decodes what reaches it (``range_model``, ``collision_model``:
-:mod:`scenarios._t2t_network`, :mod:`scenarios._t2t_physical`) and records y_k = l_i (L1089).
+:mod:`rfsim.scenarios._t2t_network`, :mod:`rfsim.scenarios._t2t_physical`) and records y_k = l_i (L1089).
 
 Trackers (:mod:`rfsim.estimators.proximity`): NN (association, L1099), KF with H = I⊗[1 0] and
 G = diag(r²/2, r²/2) (L1115-L1119), the Bernoulli PF with Eq. (6.5) (M = 10/20/30, L1125,
@@ -54,7 +54,7 @@ Error metric: per run, RMSE = sqrt(mean over the run's observation instants of �
 with no decode have no estimate and are counted in ``summary/undecoded_trajectories``).
 
 ``range_model = "physical"`` and ``collision_model = "physical"`` decode slots at sample level
-(:mod:`scenarios._t2t_physical`: exciter, harvesting tags, superposed frames, the mobile tag's
+(:mod:`rfsim.scenarios._t2t_physical`: exciter, harvesting tags, superposed frames, the mobile tag's
 comparator chain with its threshold calibrated so that the tag at the median exciter distance
 is decoded half of the time at r). Measured (10 trajectories × 10 runs, seed 1): the physical
 range is soft — P(decode) ≈ 0.8 within 1 m (the single-antenna listener's phase cancellation,
@@ -78,18 +78,18 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.errors import ConfigError
-from rfsim.procs import map_in_order
-from rfsim.rng import trial_rng
-from scenarios._t2t_physical import PhysicalConfig, calibrate_threshold, decode_events
-from rfsim.lazy import lazy_import
+from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
+from rfsim.core.procs import map_in_order
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios._t2t_physical import PhysicalConfig, calibrate_threshold, decode_events
+from rfsim.core.lazy import lazy_import
 
-_dataset = lazy_import("rfsim.dataset")
+_dataset = lazy_import("rfsim.core.dataset")
 _proximity = lazy_import("rfsim.estimators.proximity")
-net = lazy_import("scenarios._t2t_network")
-_exciter_scene = lazy_import("scenarios._exciter_scene")
-_t2t_figures = lazy_import("scenarios._t2t_figures")
+net = lazy_import("rfsim.scenarios._t2t_network")
+_exciter_scene = lazy_import("rfsim.scenarios._exciter_scene")
+_t2t_figures = lazy_import("rfsim.scenarios._t2t_figures")
 
 NAME = "tag-to-tag-tracking"
 DESCRIPTION = ("reader-free self-tracking of a mobile tag from reference-tag broadcasts (Geng ch. 6): "
@@ -256,7 +256,7 @@ def track(config: Config, range_m: float, times_s, observed_xy, truth_xy, x0, *,
 def receptions(config: Config, b, pos, dist, tags, i: int, r: float, rng, threshold_v: float) -> tuple:
     """(reached, decoded) per broadcast at range r by ``range_model`` and ``collision_model``.
 
-    Physical decodes run per slot (:func:`scenarios._t2t_physical.decode_events`): all slots for
+    Physical decodes run per slot (:func:`rfsim.scenarios._t2t_physical.decode_events`): all slots for
     ``range_model = "physical"``, the collided ones for ``collision_model = "physical"``; a slot
     decodes as at most one of its senders.
     """
@@ -346,7 +346,7 @@ def _task(args):
 
 def calibrate(config: Config, *, seed: int) -> list[tuple[float, float, float]]:
     """Per range: (threshold [V], min, max decode fraction at r over the tags) of the physical
-    listener (:func:`scenarios._t2t_physical.calibrate_threshold`, ``trial_rng(seed, 10**6, i)``)."""
+    listener (:func:`rfsim.scenarios._t2t_physical.calibrate_threshold`, ``trial_rng(seed, 10**6, i)``)."""
     return [calibrate_threshold(config.physical, config.layout.exciter_xyz_m, config.layout.tags_xy_m, r,
                                 trial_rng(seed, 10 ** 6, i)) for i, r in enumerate(config.ranges_m)]
 
@@ -470,7 +470,7 @@ def _describe(table: str, key: str) -> str:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Aisle with tracks, error vs time, RMSE CDF per tracker, Table 6.2 bars (:mod:`scenarios._t2t_figures`)."""
+    """Aisle with tracks, error vs time, RMSE CDF per tracker, Table 6.2 bars (:mod:`rfsim.scenarios._t2t_figures`)."""
     return _t2t_figures.plot_all(Path(dataset_path), Path(out_dir))
 
 

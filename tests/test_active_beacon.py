@@ -1,7 +1,7 @@
 """Active beacon tag and active-RFID reader at sample level (Özkaya's 868 MHz system): MSK
 kernels vs their NumPy twins, MSK spectrum and envelope, frame and CRC against crcmod, RSSI
 through the air step against the link budget, reporting floor and steps, collisions and
-listen-before-talk (rfsim.beacons)."""
+listen-before-talk (rfsim.protocols.beacons)."""
 
 from __future__ import annotations
 
@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 from scipy.signal import firwin
 
-from channels import Antenna, Channel, LinkLargeScale, LogDistance, Scene
-from devices.active_reader import ActiveReader, ActiveReaderConfig
-from devices.active_tag import ActiveTag, ActiveTagConfig
-from devices.msk_beacon import (FRAME_BITS, beacon_bits, discriminate, discriminate_reference,
+from rfsim.channels import Antenna, Channel, LinkLargeScale, LogDistance, Scene
+from rfsim.devices.active_reader import ActiveReader, ActiveReaderConfig
+from rfsim.devices.active_tag import ActiveTag, ActiveTagConfig
+from rfsim.devices.msk_beacon import (FRAME_BITS, beacon_bits, discriminate, discriminate_reference,
                                 manchester_decode, manchester_encode, msk_phase, msk_phase_reference)
-from rfsim.air import LinkTable, propagate
-from rfsim.beacons import run_beacons
-from rfsim.rng import trial_rng
+from rfsim.air.step import LinkTable, propagate
+from rfsim.protocols.beacons import run_beacons
+from rfsim.core.rng import trial_rng
 
 FS = 2e6
 RC = 250e3
@@ -146,7 +146,7 @@ def test_collisions_lose_equal_beacons_and_capture_the_much_stronger():
 
 
 def test_listen_before_talk_defers_and_simultaneous_starts_collide():
-    """rfsim.beacons: tag B due 0.3 ms after tag A began senses A's beacon (4.2 m apart, free space
+    """rfsim.protocols.beacons: tag B due 0.3 ms after tag A began senses A's beacon (4.2 m apart, free space
     between tags: −39 dBm > −90 dBm) and backs off, so both are read; without LBT they collide and, at equal
     power at the reader (both 3 m away), both are lost; two tags due at the same instant both
     find the channel idle and collide."""

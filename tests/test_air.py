@@ -1,8 +1,8 @@
-"""The air interface (rfsim.air): superposition, carrier offsets, noise, batches, exciter,
+"""The air interface (rfsim.air.step): superposition, carrier offsets, noise, batches, exciter,
 own-schedule reflectors and bad input.
 
 Expected values are written out from the free-space link model (Friis amplitude λ/(4πd),
-delay d/c, carrier phase e^{−j2π·fc·d/c}; channels.scene docstring) — not taken from the
+delay d/c, carrier phase e^{−j2π·fc·d/c}; rfsim.channels.scene docstring) — not taken from the
 step itself.
 """
 
@@ -13,14 +13,14 @@ import math
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, Isotropic, Scene, vertical_dipole
-from channels.paths import PathSet, apply_paths_reference
-from devices.exciter import Exciter, ExciterConfig
-from devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver
-from devices.tag import PassiveTag, TagConfig
-from rfsim.air import AntennaPort, FixedEmitter, LinkTable, Segment, propagate
-from rfsim.errors import ConfigError, UserError
-from rfsim.rng import trial_rng
+from rfsim.channels import Antenna, Channel, Isotropic, Scene, vertical_dipole
+from rfsim.channels.paths import PathSet, apply_paths_reference
+from rfsim.devices.exciter import Exciter, ExciterConfig
+from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.air.step import AntennaPort, FixedEmitter, LinkTable, Segment, propagate
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.rng import trial_rng
 
 C = 299792458.0
 FC, FS, N = 915e6, 4e6, 400
@@ -229,10 +229,10 @@ class OwnPort(AntennaPort):
 def test_tag_population_equals_its_tags_one_by_one(links_kind):
     # A Query, then QueryReps and an ACK for nobody, from a reader to 9 passive tags (ASK and
     # PSK, some too far to power up), received with noise: the tags as one population
-    # (devices.tag_population) and the same tags one by one give the same receiver input, bit
+    # (rfsim.devices.tag_population) and the same tags one by one give the same receiver input, bit
     # for bit, the same reflections and tag states. With held constants the population
     # answers its quiet tags at once (AirResult.groups); without, every tag reflects.
-    from devices.reader import Reader, ReaderConfig
+    from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.gen2.commands import ACK, Query, QueryRep
 
     radii = [1.0, 1.3, 1.7, 2.2, 2.8, 3.5, 9.0, 12.0, 1.5]
@@ -298,7 +298,7 @@ def test_moving_reflector_phase_refers_to_the_step_start():
 def test_position_check_remembers_a_reflector_tuple_only_with_its_emitters():
     # a tuple of reflector antennas checked with one emitter is not checked again with it;
     # with another emitter at one of its positions it is checked, and refused
-    from rfsim.air import _POSITIONS_CHECKED_TUPLES, _check_positions
+    from rfsim.air.step import _POSITIONS_CHECKED_TUPLES, _check_positions
 
     ants = (iso([1, 0, 1]), iso([2, 0, 1]))
     far, on_top = _cw(iso([0, 0, 1])), _cw(iso([2, 0, 1]))

@@ -1,11 +1,11 @@
-"""The air step's fused backscatter kernel (:mod:`rfsim._air_kernels`) against its NumPy
+"""The air step's fused backscatter kernel (:mod:`rfsim.air._step_kernels`) against its NumPy
 reference, bit for bit, and the air step with and without it."""
 
 import numpy as np
 import pytest
 
-from rfsim import _air_kernels as k
-from rfsim import air
+from rfsim.air import _step_kernels as k
+from rfsim.air import step as air
 
 needs_match = pytest.mark.skipif(not k.fused_matches_numpy(),
                                  reason="this CPU's NumPy complex product differs from the kernel's: the step keeps NumPy")
@@ -38,8 +38,8 @@ def test_cmul_differs_from_the_plain_formula_somewhere():
 
 def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
     from rfsim.bench.exchange import _canonical
-    from rfsim.engine import singulate
-    from rfsim.rng import trial_rng
+    from rfsim.protocols.engine import singulate
+    from rfsim.core.rng import trial_rng
 
     def rounds():
         reader, make_tag, channel, query = _canonical(3.0, 0)

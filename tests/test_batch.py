@@ -16,14 +16,14 @@ import math
 import numpy as np
 import pytest
 
-from channels import Channel
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
-from rfsim.batch import run_exchanges, singulate_batch
-from rfsim.engine import run_exchange, singulate
+from rfsim.channels import Channel
+from rfsim.devices.reader import Reader, ReaderConfig
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.protocols.batch import run_exchanges, singulate_batch
+from rfsim.protocols.engine import run_exchange, singulate
 from rfsim.gen2.commands import Query
-from rfsim.rng import trial_rng
-from scenarios import link as link_scenario
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios import link as link_scenario
 
 SEED = 11
 
@@ -84,7 +84,7 @@ def test_run_exchanges_equals_separate_run_exchange_calls():
 
 @pytest.mark.parametrize("link_profile, block", [("miller4-320k", 64), ("fm0-640k", 64), ("miller4-320k", 3)])
 def test_singulate_batch_equals_separate_singulations(link_profile, block, monkeypatch):
-    monkeypatch.setattr("rfsim.batch.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
+    monkeypatch.setattr("rfsim.protocols.batch.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
     reader, tags, channel = devices(DISTANCES, link_profile=link_profile)
     rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
     batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)
@@ -159,10 +159,10 @@ def air_scene(b, *, noise_w, shared_rng=None, link_rng_is_noise=False, keep=Fals
     """Step b of a batch, built afresh: a reader's Query segment, one tag, as receivers the
     reader's port and two listening antennas (each with noise ``noise_w``), links drawn from
     the step's own link stream (or, ``link_rng_is_noise``, from its noise generator)."""
-    from channels.antennas import vertical_dipole
-    from rfsim.air import AntennaPort, FixedEmitter, LinkTable
-    from rfsim.batch import AirStep
-    from rfsim.engine import ReaderPort
+    from rfsim.channels.antennas import vertical_dipole
+    from rfsim.air.step import AntennaPort, FixedEmitter, LinkTable
+    from rfsim.protocols.batch import AirStep
+    from rfsim.protocols.engine import ReaderPort
 
     cfg = link_scenario.Config()
     ra = link_scenario.reader_antenna(cfg.geometry)
@@ -184,7 +184,7 @@ def air_scene(b, *, noise_w, shared_rng=None, link_rng_is_noise=False, keep=Fals
 
 
 def separate(step):
-    from rfsim.air import propagate
+    from rfsim.air.step import propagate
 
     return propagate(step.emitters, step.reflectors, step.receivers, step.links, t0_s=step.t0_s, fs_hz=step.fs_hz,
                      n_samples=step.n_samples, rng=step.rng, bandwidth_hz=step.bandwidth_hz,
@@ -228,7 +228,7 @@ def assert_same_read(ra, rb):
 
 @pytest.mark.parametrize("keep", [False, True])
 def test_propagate_batch_equals_separate_steps_with_noise_at_several_receivers(keep):
-    from rfsim.batch import propagate_batch
+    from rfsim.protocols.batch import propagate_batch
 
     n, noise_w = 5, 1e-9
     batch = propagate_batch([air_scene(b, noise_w=noise_w, keep=keep) for b in range(n)])
@@ -243,7 +243,7 @@ def test_propagate_batch_equals_separate_steps_with_noise_at_several_receivers(k
 
 def test_propagate_batch_steps_sharing_one_noise_generator_equal_the_sequence():
     """Steps drawing noise from one generator (a trial's queries): drawn in step order."""
-    from rfsim.batch import propagate_batch
+    from rfsim.protocols.batch import propagate_batch
 
     shared = trial_rng(SEED, 12)
     batch = propagate_batch([air_scene(b, noise_w=1e-9, shared_rng=shared) for b in range(4)])
@@ -257,7 +257,7 @@ def test_propagate_batch_steps_sharing_one_noise_generator_equal_the_sequence():
 def test_propagate_batch_links_and_noise_from_one_generator():
     """The engine's case (the links' draws come before the one noisy receiver's noise) is
     exact; where the batch would move a noise draw before a link draw it refuses."""
-    from rfsim.batch import propagate_batch
+    from rfsim.protocols.batch import propagate_batch
 
     batch = propagate_batch([air_scene(b, noise_w=1e-9, link_rng_is_noise=True) for b in range(3)])
     single = [separate(air_scene(b, noise_w=1e-9, link_rng_is_noise=True)) for b in range(3)]

@@ -13,7 +13,7 @@ import pytest
 from scipy.stats import beta
 
 from rfsim.cli.decode import add_parser, run
-from rfsim.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError, UserError
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.replies import decode_tag_replies
 from rfsim.gen2.capture import (decode_reader_commands, fit_gain_offset, load_capture,
@@ -21,7 +21,7 @@ from rfsim.gen2.capture import (decode_reader_commands, fit_gain_offset, load_ca
 from rfsim.gen2.commands import ACK, Query, ReqRN, encode
 from rfsim.gen2.link import t1
 from rfsim.gen2.pie import pie_envelope
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 QUERY_Q0 = "1000000000000000010000"  # anchors §3.3: Query DR=8, FM0, TRext 0, All, S0, A, Q=0
 
@@ -173,17 +173,17 @@ def test_cli_decode_no_commands(tmp_path, capsys):
 def _link_capture(profile: str, clock_error_percent: float, seed: int):
     """A monostatic capture made by the simulator's own devices: Query → RN16, ACK → PC+EPC.
 
-    Reader (``devices.reader.Reader``, 30 dB TX→RX isolation, 10 dB NF, 4 MS/s), passive tag
-    (``devices.tag.PassiveTag``) at 3 m in free space (``channels.Channel``, LoS only). The
-    reader's RX is built as the engine builds it (rfsim.engine.run_exchange): carrier leakage
+    Reader (``rfsim.devices.reader.Reader``, 30 dB TX→RX isolation, 10 dB NF, 4 MS/s), passive tag
+    (``rfsim.devices.tag.PassiveTag``) at 3 m in free space (``rfsim.channels.Channel``, LoS only). The
+    reader's RX is built as the engine builds it (rfsim.protocols.engine.run_exchange): carrier leakage
     L·x_tx + the tag's backscatter ((A_s − Γ(t))·incident through the backward link, exact fractional
     delays) + complex thermal noise kTB·NF. The two segments are concatenated and scaled by an
     arbitrary complex factor (unknown capture scale). Returns (capture complex64, fs, RN16 bits
     and PC+EPC+CRC bits the tag actually sent, the tag's BLF)."""
-    from channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
-    from channels.paths import apply_paths
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
+    from rfsim.channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
+    from rfsim.channels.paths import apply_paths
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, TagConfig
 
     reader = Reader(ReaderConfig(link_profile=profile, hopping=False),
                     [Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Patch(6.0, 70.0),

@@ -14,7 +14,7 @@ from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_e
                                 _track_decode_reference, preamble_correlation)
 from rfsim.gen2.reply_tracking import (_block_correlations, block_correlations_reference, track, track_reference,
                                        weighted_polyfit)
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 
 def _noise(n, seed):

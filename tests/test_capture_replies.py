@@ -22,7 +22,7 @@ from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2.pie import pie_envelope, pie_timeline
 from rfsim.gen2.replies import decode_tag_replies
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 EPC_BITS = np.array([int(c) for c in f"{0x300833B2DDD9014000000027:096b}"], dtype=np.uint8)
 PC_BITS = np.array([int(c) for c in f"{0x3000:016b}"], dtype=np.uint8)

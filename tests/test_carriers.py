@@ -1,16 +1,16 @@
-"""Frequency plans beyond FCC/ETSI: explicit carrier lists, validated (rfsim.carriers, Reader)."""
+"""Frequency plans beyond FCC/ETSI: explicit carrier lists, validated (rfsim.air.carriers, Reader)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from channels import Antenna
-from devices.exciter import ExciterConfig
-from devices.reader import Reader, ReaderConfig
+from rfsim.channels import Antenna
+from rfsim.devices.exciter import ExciterConfig
+from rfsim.devices.reader import Reader, ReaderConfig
 from rfsim.cli import main
-from rfsim.errors import ConfigError
-from rfsim.rng import trial_rng
+from rfsim.core.errors import ConfigError
+from rfsim.core.rng import trial_rng
 
 
 def _reader(**kw):
@@ -70,9 +70,9 @@ def test_cli_bad_carrier_exits_2_with_one_line(sets, fragment, capsys, tmp_path,
 
 
 def test_custom_plan_runs_an_exchange_on_its_carrier():
-    from channels import Channel, Isotropic, Scene
-    from devices.tag import PassiveTag, TagConfig
-    from rfsim.engine import run_exchange
+    from rfsim.channels import Channel, Isotropic, Scene
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.protocols.engine import run_exchange
     from rfsim.gen2.commands import Query
 
     r = Reader(ReaderConfig(region="custom", channels_hz=(890e6,)),

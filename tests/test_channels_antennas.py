@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.io import loadmat
 
-from channels.antennas import (
+from rfsim.channels.antennas import (
     Antenna,
     HalfWaveDipole,
     Isotropic,
@@ -14,7 +14,7 @@ from channels.antennas import (
     Tabulated,
     polarization_mismatch_factor,
 )
-from channels.geometry import (
+from rfsim.channels.geometry import (
     Pose,
     direction_to,
     local_angles,
@@ -23,7 +23,7 @@ from channels.geometry import (
     rotation_matrix,
     unit_vector,
 )
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 
 
 def _load(path):

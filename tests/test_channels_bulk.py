@@ -1,4 +1,4 @@
-"""channels.bulk: vectorised link draws against Channel.link and the APDP model.
+"""rfsim.channels.bulk: vectorised link draws against Channel.link and the APDP model.
 
 Deterministic paths (LoS, image paths) are compared with :meth:`Channel.link`, the
 one-link-at-a-time assembly, link by link. The diffuse taps are compared in law: the exact
@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from channels.antennas import Antenna, HalfWaveDipole, Patch
-from channels.bulk import diffuse_profile, draw_links, static_placements
-from channels.large_scale import LogDistance, ShadowingField, Wall
-from channels.scene import Channel, Scene
-from channels.small_scale import ApdpModel, average_profile, profile_statistics
-from channels.surfaces import Surface
-from rfsim.units import C_M_S
+from rfsim.channels.antennas import Antenna, HalfWaveDipole, Patch
+from rfsim.channels.bulk import diffuse_profile, draw_links, static_placements
+from rfsim.channels.large_scale import LogDistance, ShadowingField, Wall
+from rfsim.channels.scene import Channel, Scene
+from rfsim.channels.small_scale import ApdpModel, average_profile, profile_statistics
+from rfsim.channels.surfaces import Surface
+from rfsim.core.units import C_M_S
 
 FC = 915e6
 LO, HI = np.array([0.3, 0.3, 0.2]), np.array([7.7, 5.7, 2.8])
@@ -259,9 +259,9 @@ def test_bench_bulk_links_runs():
 
 def test_narrowband_rms_error_per_link_two_path_closed_form_and_pathset():
     """Two paths g1 at τ0 and g2 at τ0 + Δ: error = 2π·B·Δ·|g2| / √(|g1|² + |g2|²) (independent
-    derivation); with surfaces and APDP every link equals the PathSet rule of channels.paths."""
-    from channels.bulk import BulkPaths
-    from channels.paths import narrowband_rms_error
+    derivation); with surfaces and APDP every link equals the PathSet rule of rfsim.channels.paths."""
+    from rfsim.channels.bulk import BulkPaths
+    from rfsim.channels.paths import narrowband_rms_error
 
     g = np.array([[1.0, 0.5j], [0.3, 0.0]], dtype=np.complex128)
     tau = np.array([[10e-9, 60e-9], [20e-9, 0.0]])

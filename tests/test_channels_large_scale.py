@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.io import loadmat
 
-from channels.large_scale import (
+from rfsim.channels.large_scale import (
     LogDistance,
     ShadowingField,
     Wall,
@@ -15,8 +15,8 @@ from channels.large_scale import (
     wall_crossings,
     wall_loss_db,
 )
-from rfsim.errors import ConfigError
-from rfsim.rng import trial_rng
+from rfsim.core.errors import ConfigError
+from rfsim.core.rng import trial_rng
 
 # --------------------------------------------------------------------------- golden
 
@@ -190,7 +190,7 @@ def test_shadowing_correlation_within_one_realisation():
 
 def test_friis_of_one_link_equals_the_array_form_bit_for_bit():
     # the float fast path (one link) against the array path, element by element with ==
-    from channels.large_scale import friis_amplitude_gain
+    from rfsim.channels.large_scale import friis_amplitude_gain
 
     rng = np.random.default_rng(17)
     d, fc = rng.uniform(0.05, 80.0, 2000), rng.uniform(860e6, 960e6, 2000)

@@ -1,4 +1,4 @@
-"""Per-link large-scale models (channels.large_scale.LinkLargeScale) in the Scene: Özkaya's
+"""Per-link large-scale models (rfsim.channels.large_scale.LinkLargeScale) in the Scene: Özkaya's
 per-reader α_j, n_j (Table 6.1) reached through the channel's links, reciprocity, precedence,
 and the one-model scenes unchanged."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, LinkLargeScale, LogDistance, Scene, Surface, Wall
-from rfsim.errors import ConfigError
+from rfsim.channels import Antenna, Channel, LinkLargeScale, LogDistance, Scene, Surface, Wall
+from rfsim.core.errors import ConfigError
 
 FC = 868e6
 P_TX_DBM = 5.0

@@ -7,14 +7,14 @@ import pytest
 from scipy import stats
 from scipy.io import loadmat
 
-from channels.noise import (
+from rfsim.channels.noise import (
     complex_awgn,
     noise_power_from_density_w,
     pass_noise_variance_w,
     thermal_noise_power_w,
 )
-from rfsim.errors import ConfigError
-from rfsim.rng import trial_rng
+from rfsim.core.errors import ConfigError
+from rfsim.core.rng import trial_rng
 
 
 def test_pass_channel_noise_golden(reference_data):

@@ -7,7 +7,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from channels.paths import (
+from rfsim.channels.paths import (
     PathSet,
     apply_backscatter,
     apply_paths,

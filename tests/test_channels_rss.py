@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from channels.large_scale import Wall
-from channels.rss import ReaderLink, RssChannel, people_term_db, quasi_static_shadowing_db
-from devices.rss_reader import RssReport
-from rfsim.errors import ConfigError
-from rfsim.rng import trial_rng
+from rfsim.channels.large_scale import Wall
+from rfsim.channels.rss import ReaderLink, RssChannel, people_term_db, quasi_static_shadowing_db
+from rfsim.devices.rss_reader import RssReport
+from rfsim.core.errors import ConfigError
+from rfsim.core.rng import trial_rng
 
 
 def _home_like():

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from channels.antennas import Antenna, HalfWaveDipole
-from channels.large_scale import LogDistance, Wall, friis_amplitude_gain
-from channels.paths import apply_backscatter, apply_paths, compose_backscatter
-from channels.scene import Channel, Scene, los_links
-from channels.small_scale import ApdpModel
-from channels.surfaces import Surface
-from rfsim.units import C_M_S
+from rfsim.channels.antennas import Antenna, HalfWaveDipole
+from rfsim.channels.large_scale import LogDistance, Wall, friis_amplitude_gain
+from rfsim.channels.paths import apply_backscatter, apply_paths, compose_backscatter
+from rfsim.channels.scene import Channel, Scene, los_links
+from rfsim.channels.small_scale import ApdpModel
+from rfsim.channels.surfaces import Surface
+from rfsim.core.units import C_M_S
 
 FC = 915e6
 
@@ -171,8 +171,8 @@ def test_held_draw_follows_moving_link():
 def test_held_links_return_the_held_draw_per_pair_only():
     """HeldLinks: the PathSet given for (tx, rx), by antenna identity; None for any other pair
     (including the reverse pair and an equal antenna at the same place)."""
-    from channels.scene import HeldLinks
-    from channels.paths import PathSet
+    from rfsim.channels.scene import HeldLinks
+    from rfsim.channels.paths import PathSet
 
     a, b = Antenna([0.0, 0.0, 1.0]), Antenna([2.0, 0.0, 1.0])
     twin = Antenna([2.0, 0.0, 1.0])
@@ -188,7 +188,7 @@ def test_hold_placements_gives_the_links_the_channel_evaluates_itself():
     # 40 dipoles around an isotropic reader: links after hold_placements equal, bit for bit,
     # those of a channel that evaluates each placement on its own; a scene with a reflecting
     # floor, or circularly polarized receivers, is left to link()
-    from channels.antennas import Isotropic
+    from rfsim.channels.antennas import Isotropic
 
     tx = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(), polarization="circular")
     a = 2 * np.pi * np.arange(40) / 40

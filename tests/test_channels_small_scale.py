@@ -7,7 +7,7 @@ import pytest
 from scipy import integrate
 from scipy.io import loadmat
 
-from channels.small_scale import ApdpModel, apdp_decay_rate, average_profile, draw_taps
+from rfsim.channels.small_scale import ApdpModel, apdp_decay_rate, average_profile, draw_taps
 
 N_DETERMINISTIC = 1000  # PASS results_channel_small.mat partition "deterministic NLOS"
 

@@ -7,17 +7,17 @@ import pytest
 from scipy import optimize
 from scipy.io import loadmat
 
-from channels.antennas import Antenna
-from channels.paths import apply_paths
-from channels.scene import Channel, Scene
-from channels.surfaces import (
+from rfsim.channels.antennas import Antenna
+from rfsim.channels.paths import apply_paths
+from rfsim.channels.scene import Channel, Scene
+from rfsim.channels.surfaces import (
     Surface,
     fresnel_reflection,
     fresnel_transmission,
     image_paths,
     surface_coefficient,
 )
-from rfsim.units import C_M_S
+from rfsim.core.units import C_M_S
 
 _PASS_MODES = {0: "off", 1: "transmission", 2: "reflection"}
 

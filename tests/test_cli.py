@@ -160,7 +160,7 @@ def test_binary_and_folder_config_files(tmp_path, capsys):
 @pytest.fixture
 def no_simulation(monkeypatch):
     """Make the scenario's simulation fail loudly: output checks must come before it."""
-    import scenarios.gen2_waveforms as gw
+    import rfsim.scenarios.gen2_waveforms as gw
 
     def refuse(*args, **kwargs):
         raise AssertionError("the simulation started before the outputs were checked")
@@ -220,7 +220,7 @@ def test_missing_output_folders_are_created(tmp_path, monkeypatch, capsys):
 
 
 def test_a_figure_that_cannot_be_saved_keeps_the_dataset(tmp_path, monkeypatch, capsys):
-    import scenarios.gen2_waveforms as gw
+    import rfsim.scenarios.gen2_waveforms as gw
 
     def plot(path, out_dir):
         raise IsADirectoryError(21, "Is a directory")

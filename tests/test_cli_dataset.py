@@ -77,7 +77,7 @@ def test_info_lists_groups_columns_units_descriptions_and_provenance(run_dir, ca
 
 
 def test_info_of_a_grid_names_its_dimensions(tmp_path, capsys):
-    from rfsim.dataset import Dataset, column, write_dataset
+    from rfsim.core.dataset import Dataset, column, write_dataset
 
     ds = Dataset(title="grid test", scenario="none")
     ds.add_grid("g", {"a_m": column([1.0, 2.0], "m", "first axis of the grid"),

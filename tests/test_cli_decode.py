@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.dataset import read_table
+from rfsim.core.dataset import read_table
 from rfsim.gen2.bits import bits_to_int
-from rfsim.records import READ_MEASUREMENT_FIELDS
+from rfsim.core.records import READ_MEASUREMENT_FIELDS
 
 from test_capture_replies import _rn16, query_ack_items, synth_capture
 

@@ -7,9 +7,9 @@ from typing import Literal
 
 import pytest
 
-from rfsim.config import describe, from_dict, load_config, parse_override, to_toml
-from rfsim.errors import ConfigError, UserError
-from rfsim.config import param
+from rfsim.core.config import describe, from_dict, load_config, parse_override, to_toml
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.config import param
 
 
 @dataclass(frozen=True)
@@ -130,7 +130,7 @@ def test_binary_toml_file_is_a_one_line_user_error(tmp_path):
 
 
 def test_check_value_checks_one_dotted_key():
-    from rfsim.config import check_value
+    from rfsim.core.config import check_value
 
     assert check_value(ToyConfig, "reader.ptx_dbm", 12) == 12.0
     with pytest.raises(ConfigError, match="config key 'reader.ptx_dbm': got 99"):

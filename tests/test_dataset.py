@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
-from rfsim.dataset import (Dataset, column, make_provenance, read_dataset, read_provenance,
+from rfsim.core.dataset import (Dataset, column, make_provenance, read_dataset, read_provenance,
                            read_table, utc_now, write_dataset)
 
 
@@ -89,7 +89,7 @@ def test_rejects_misaligned_columns_and_grids():
 _KILLED_WRITER = textwrap.dedent("""
     import sys, time
     import numpy as np
-    import rfsim.dataset as d
+    import rfsim.core.dataset as d
 
     original = d._write_table
     def slow_write_table(f, name, cols):

@@ -20,7 +20,7 @@ import pytest
 import xarray as xr
 
 from rfsim.cli import main
-from rfsim.dataset import read_table
+from rfsim.core.dataset import read_table
 
 #: Tiny configs (``--set`` overrides) that still produce every table of each scenario.
 TINY = {

@@ -4,8 +4,8 @@ import h5py
 import numpy as np
 import pytest
 
-import rfsim.dataset as dsmod
-from rfsim.dataset import Column, Dataset, write_dataset
+import rfsim.core.dataset as dsmod
+from rfsim.core.dataset import Column, Dataset, write_dataset
 
 #: non-ASCII, empty and long strings, 10 rows: more than 3 slices of 3 rows
 TEXT = np.array(["", "µ", "Özkaya", "", "a" * 40, "ß€😀", "fixed", "", "mobile", "x"])

@@ -19,7 +19,7 @@ from rfsim.detection import (DA_DEAD_ZONE, DA_MEAN_COEFFICIENTS, DA_VARIANCE_COE
                              cross_entropy, expected_cross_entropy, fit_logistic, fit_reader_mle,
                              fit_reader_moments, predict_proba, rts_design, rts_probability,
                              st_features, ts_design, ts_probability, wilson_interval)
-from rfsim.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError, UserError
 
 MODEL = PUBLISHED_READER_MODEL
 N50 = 50

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import re
 
-from rfsim.references import REFERENCES
-from rfsim.registry import scenario_modules
+from rfsim.core.references import REFERENCES
+from rfsim.runs.registry import scenario_modules
 
 
 def _readme(project_root) -> str:

@@ -15,15 +15,15 @@ import crcmod.predefined
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
-from devices.gen2_tag_state import Reply
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
-from rfsim.engine import FAILURE_REASONS, run_exchange, singulate
+from rfsim.channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
+from rfsim.devices.gen2_tag_state import Reply
+from rfsim.devices.reader import Reader, ReaderConfig
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.protocols.engine import FAILURE_REASONS, run_exchange, singulate
 from rfsim.gen2.bits import bits_to_int, hex_to_bits
 from rfsim.gen2.commands import ACK, Query
 from rfsim.gen2.link import t1
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 HEIGHT_M = 1.0
 READER_ANTENNA = Antenna(position_m=(0.0, 0.0, HEIGHT_M), orientation=(0.0, 0.0, 0.0),

@@ -8,17 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from channels.antennas import Antenna, HalfWaveDipole, Patch
-from channels.scene import Channel, Scene
-from channels.small_scale import ApdpModel
-from channels.surfaces import Surface
-from devices.reader import Reader, ReaderConfig
+from rfsim.channels.antennas import Antenna, HalfWaveDipole, Patch
+from rfsim.channels.scene import Channel, Scene
+from rfsim.channels.small_scale import ApdpModel
+from rfsim.channels.surfaces import Surface
+from rfsim.devices.reader import Reader, ReaderConfig
 from rfsim.gen2 import _linecode_kernels as LK
 from rfsim.gen2 import _pie_kernels as PK
 from rfsim.gen2 import linecode as L
 from rfsim.gen2.commands import ACK, Query
 from rfsim.gen2.pie import two_level_threshold, two_level_threshold_reference
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -188,7 +188,7 @@ def test_reader_command_cache():
 def test_cw_power_kernel_equals_reference():
     """Median of env² over the CW samples: odd/even counts, ties (rounded envelopes), an
     unmodulated segment (all samples) and NaN handling as numpy.median."""
-    from devices.tag import _cw_power_w, cw_power_reference
+    from rfsim.devices.tag import _cw_power_w, cw_power_reference
 
     rng = trial_rng(56, 0)
     n_cases = 0
@@ -250,7 +250,7 @@ def test_measure_kernel_equals_reference(doppler_hz):
     """Reader measurements (gain, Doppler slope, residual power) of a Miller-4 reply with a
     rotating phase and noise: kernel and NumPy twin agree to round-off (different summation
     order, so not bit for bit)."""
-    from devices.reader import _measure, measure_reference
+    from rfsim.devices.reader import _measure, measure_reference
 
     rng = trial_rng(59, int(abs(doppler_hz)))
     fs, blf = 4e6, 320e3
@@ -283,7 +283,7 @@ def test_projected_halfbit_sums_kernel_equals_reference():
 def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
-    from devices.reader import _known_levels, known_levels_reference
+    from rfsim.devices.reader import _known_levels, known_levels_reference
 
     rng = trial_rng(61, m)
     fs, blf = 4e6, 320e3 if m > 1 else 160e3
@@ -328,10 +328,10 @@ def test_corr_abs_runs_kernel_equals_scipy(samples_per_element, offset):
         LK.corr_abs_runs_kernel(r, t0, out)
         np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-9, atol=1e-9 * t.size)
 def test_air_accumulate_is_the_sequential_sum():
-    """The air step's held constant of a tag population (rfsim.air._accumulate) equals the
+    """The air step's held constant of a tag population (rfsim.air.step._accumulate) equals the
     left-to-right Python sum of the same complex terms, bit for bit, over magnitudes spread
     across 16 decades (where the summation order changes the rounding)."""
-    from rfsim.air import _accumulate
+    from rfsim.air.step import _accumulate
 
     rng = trial_rng(62, 0)
     n = 0
@@ -352,8 +352,8 @@ def test_front_end_cache_of_read_only_segments():
     """A reader's cached (read-only) command segment sent twice: the second segment gets the
     kept SharedFrontEnd, whose level split, plateau, CW sample and decoded command equal a
     fresh one's; a writable copy of the samples is never taken from the cache."""
-    from devices.tag import PassiveTag, SharedFrontEnd
-    from rfsim.air import Segment
+    from rfsim.devices.tag import PassiveTag, SharedFrontEnd
+    from rfsim.air.step import Segment
     from rfsim.gen2.commands import QueryRep
 
     rd = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(63, 0))
@@ -422,7 +422,7 @@ def test_preamble_search_kernel_equals_reference(m, trext):
 def test_measurement_on_the_reply_span_equals_the_window():
     """The reader measures on the reply's samples only: the same (h, slope, σ²) bit for bit as
     over the whole window (times from the span's centre do not depend on the slice)."""
-    from devices.reader import _measure
+    from rfsim.devices.reader import _measure
 
     rng = trial_rng(64, 0)
     fs = 4e6

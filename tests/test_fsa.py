@@ -1,4 +1,4 @@
-"""FSA analytics (rfsim.fsa) against independent derivations: exhaustive enumeration of all
+"""FSA analytics (rfsim.protocols.fsa) against independent derivations: exhaustive enumeration of all
 L^N slot choices, the anchors' quoted values (gen2-and-validation-anchors.md §4.6) and a
 multinomial Monte-Carlo."""
 
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from rfsim import fsa
-from rfsim.rng import trial_rng
+from rfsim.protocols import fsa
+from rfsim.core.rng import trial_rng
 
 SMALL_CASES = [(n, L) for n in range(0, 6) for L in (1, 2, 3, 4)]
 

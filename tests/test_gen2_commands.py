@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.io import loadmat
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_str, str_to_bits
 from rfsim.gen2.commands import (
     ACK,

@@ -19,7 +19,7 @@ from rfsim.gen2.crc import (
     crc16_bytes,
     crc16_ok,
 )
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 CHECK_BITS = np.unpackbits(np.frombuffer(b"123456789", dtype=np.uint8))
 

@@ -27,7 +27,7 @@ from rfsim.gen2.linecode import (
     reply_waveform_for_profile,
     reply_waveform_reference,
 )
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 CODES = [("fm0", 1, 2), ("miller2", 2, 3), ("miller4", 4, 3), ("miller8", 8, 3)]
 

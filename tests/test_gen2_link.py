@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_str, str_to_bits
 from rfsim.gen2.commands import ACK, Query, QueryRep, encode
 from rfsim.gen2.link import (

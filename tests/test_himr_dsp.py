@@ -10,11 +10,11 @@ import math
 
 import numpy as np
 
-from devices.himr_tag import HimrTag, HimrTagConfig
-from rfsim.boc import boc_train
-from rfsim.himr_dsp import measure_packets
-from rfsim.rng import trial_rng
-from rfsim.trajectories import RotatingBoom
+from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.himr.boc import boc_train
+from rfsim.himr.dsp import measure_packets
+from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import RotatingBoom
 
 PYLON_1 = np.array([-0.1, 1.5, 0.0])  # seed 000 Table 7
 FC = 5.79e9

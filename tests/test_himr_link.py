@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfsim.himr_link import (aliasing_limit_mps, backscatter_power_w, calibrate_rss_constant,
+from rfsim.himr.link import (aliasing_limit_mps, backscatter_power_w, calibrate_rss_constant,
                              lambda_over_4pi_m, radial_velocity_mps, rss_constant, rss_range_m, wrap_pi)
 
 

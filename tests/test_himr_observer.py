@@ -15,8 +15,8 @@ from rfsim.estimators.himr_model import (A3, A9, PYLONS_M, TABLE8_STATE, h_2d, j
                                          observability_rank, prerotate_accelerations)
 from rfsim.estimators.observer import (W_D1, W_D2, care_gain, eig_along, gain_1d, gain_2d,
                                        ranks_along, unstable_intervals)
-from rfsim.rng import trial_rng
-from rfsim.trajectories import RotatingBoom
+from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import RotatingBoom
 
 
 def _printed_tol(printed: np.ndarray, digits: np.ndarray) -> np.ndarray:

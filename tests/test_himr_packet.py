@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rfsim.errors import ConfigError
-from rfsim.himr_packet import Framing, build_packets, crc8, packet_format, parse_packets
-from rfsim.rng import trial_rng
+from rfsim.core.errors import ConfigError
+from rfsim.himr.packet import Framing, build_packets, crc8, packet_format, parse_packets
+from rfsim.core.rng import trial_rng
 
 
 def test_six_axis_format_against_table_2():

@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from devices.himr_tag import HimrTag, HimrTagConfig
-from devices.imu import G_MPS2, ImuConfig, heading_from_compass, imu_words, true_readings, words_to_si
-from rfsim.boc import boc_decode
-from rfsim.errors import ConfigError
-from rfsim.himr_packet import parse_packets
-from rfsim.rng import trial_rng
-from rfsim.trajectories import LinearTrapezoid, RotatingBoom, check_inside
+from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.devices.imu import G_MPS2, ImuConfig, heading_from_compass, imu_words, true_readings, words_to_si
+from rfsim.himr.boc import boc_decode
+from rfsim.core.errors import ConfigError
+from rfsim.himr.packet import parse_packets
+from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import LinearTrapezoid, RotatingBoom, check_inside
 
 PYLONS = np.array([(-0.1, 1.5), (2.0, 3.05), (2.7, -0.03)])   # seed 000 Table 7, L1006–L1008
 

@@ -9,15 +9,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from devices.himr_tag import HimrTag, HimrTagConfig
-from devices.imu import ImuConfig, heading_from_compass, true_readings, words_to_si
+from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.devices.imu import ImuConfig, heading_from_compass, true_readings, words_to_si
 from rfsim.estimators.himr_cases import case_stream
 from rfsim.estimators.himr_model import PYLONS_M, h_2d
 from rfsim.estimators.himr_surrogate import SurrogateNoise, geometric_measurements
 from rfsim.estimators.observer import W_D1, observe_2d
-from rfsim.himr_packet import parse_packets
-from rfsim.rng import trial_rng
-from rfsim.trajectories import LinearTrapezoid, RotatingBoom
+from rfsim.himr.packet import parse_packets
+from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import LinearTrapezoid, RotatingBoom
 
 N_TRIALS = 16
 
@@ -152,7 +152,7 @@ def test_case_stream_by_hand():
 
 
 def test_imu_device_matches_model_outputs():
-    """devices.imu readings (f_y, −f_x, heading, ψ̇) are the model's outputs a₁, a₂, θ_z, ω_z."""
+    """rfsim.devices.imu readings (f_y, −f_x, heading, ψ̇) are the model's outputs a₁, a₂, θ_z, ω_z."""
     k = RotatingBoom()(np.linspace(0, 1.2, 60))
     f = true_readings(k, ImuConfig())
     h = h_2d(k.state_2d())

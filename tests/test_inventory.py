@@ -1,5 +1,5 @@
-"""Reader inventory control (rfsim.inventory): Q algorithm on scripted outcomes, slot timing,
-protocol-level FSA statistics against the exact analytics (rfsim.fsa, anchors §4.6), and the
+"""Reader inventory control (rfsim.protocols.inventory): Q algorithm on scripted outcomes, slot timing,
+protocol-level FSA statistics against the exact analytics (rfsim.protocols.fsa, anchors §4.6), and the
 sample-level air interface (collisions, capture, ACK/NAK, power loss, fast path = full path).
 
 Split of the FSA validation (stated in the issue): the slot statistics over ≥ 2000 frames
@@ -14,13 +14,13 @@ import math
 import numpy as np
 import pytest
 
-from devices.gen2_tag_state import TagState
-from rfsim import fsa
+from rfsim.devices.gen2_tag_state import TagState
+from rfsim.protocols import fsa
 from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.link import profile, t1
-from rfsim.inventory import AirExchange, EngineAir, InventoryConfig, ProtocolAir, run_inventory
-from rfsim.rng import trial_rng
+from rfsim.protocols.inventory import AirExchange, EngineAir, InventoryConfig, ProtocolAir, run_inventory
+from rfsim.core.rng import trial_rng
 
 LINK = profile("miller4-320k")
 
@@ -110,7 +110,7 @@ def test_dual_target_and_c_bounds():
     air = ScriptedAir("", default="c")
     log = run_inventory(air, InventoryConfig(q_initial=14.8, c=0.4, max_slots=5))
     assert max(log.slots["qfp"]) == 15.0
-    from rfsim.errors import ConfigError
+    from rfsim.core.errors import ConfigError
 
     with pytest.raises(ConfigError):
         InventoryConfig(c=0.0)
@@ -173,7 +173,7 @@ def _check_fsa(n, L, frames, seed):
     counts = _frame_counts(log, frames)
     assert counts.sum() == frames * L
     mean = np.array(fsa.expected_counts(n, L))
-    # 3σ with σ = sqrt(Var(count per frame) / frames), Var exact (rfsim.fsa.count_covariance);
+    # 3σ with σ = sqrt(Var(count per frame) / frames), Var exact (rfsim.protocols.fsa.count_covariance);
     # a count with zero variance must match exactly.
     se = np.sqrt(np.diag(fsa.count_covariance(n, L)) / frames)
     assert np.all(np.abs(counts.mean(0) - mean) <= 3 * se + 1e-12), (n, L, counts.mean(0), mean, se)
@@ -257,10 +257,10 @@ def test_select_mask_inventories_only_matching():
 def _circle_population(n, *, seed, radius_m=2.0, noise_figure_db=10.0, fast=True, keep=False):
     """n tags on a circle around an isotropic reader in free space: equal received powers
     and phases (capture disabled by geometry)."""
-    from channels import Antenna, Channel, Isotropic, Scene
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import TagConfig
-    from scenarios.inventory import make_tags, tag_antenna
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import TagConfig
+    from rfsim.scenarios.inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
                  polarization="circular")
@@ -309,10 +309,10 @@ def test_sample_level_fsa_agrees_with_reply_count():
 
 
 def test_collision_capture_and_ack_only_matching_tag():
-    from channels import Antenna, Channel, Patch, Scene
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import TagConfig
-    from scenarios.inventory import make_tags, tag_antenna
+    from rfsim.channels import Antenna, Channel, Patch, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import TagConfig
+    from rfsim.scenarios.inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Patch(6.0, 70.0),
                  polarization="circular")
@@ -389,15 +389,15 @@ def test_hundred_tags_sample_level_under_10_s():
 
 
 def test_chip_tags_fast_path_equals_full_listen():
-    # Tags with the power-dependent chip (devices.tag_chip) at different distances, so that
+    # Tags with the power-dependent chip (rfsim.devices.tag_chip) at different distances, so that
     # their incident powers, reflection states and power-up differ (some never power up).
     # The shared front end (PassiveTag.reflect on scaled copies) and every tag listening to
     # its own samples must give the same records, bit for bit, and the same tag states.
-    from channels import Antenna, Channel, Isotropic, Scene
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
-    from devices.tag_chip import PowerDependentChip
-    from scenarios.inventory import tag_antenna
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.devices.tag_chip import PowerDependentChip
+    from rfsim.scenarios.inventory import tag_antenna
 
     chip = PowerDependentChip.pass_default()
     radii = [1.0, 1.6, 2.2, 2.9, 3.6, 6.0, 9.0]
@@ -427,16 +427,16 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
     # the Q algorithm, target flips) and then in session 2 with a Select mask that leaves half
     # of the tags outside the round (QueryReps of a round they are not in). The fast
     # population path (shared front end, held link constants, the population's vectorised
-    # silent steps, devices.tag_population) and every tag listening to its own samples must
+    # silent steps, rfsim.devices.tag_population) and every tag listening to its own samples must
     # give the same records, bit for bit, and the same tag states; the silent steps must
     # actually have been taken, most of them by the population at once.
-    from channels import Antenna, Channel, Isotropic, Scene
-    from devices.gen2_tag_state import StateArrays
-    from devices.gen2_tag_state import TagState as _State
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
-    from devices.tag_chip import PowerDependentChip
-    from scenarios.inventory import tag_antenna
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.gen2_tag_state import StateArrays
+    from rfsim.devices.gen2_tag_state import TagState as _State
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.devices.tag_chip import PowerDependentChip
+    from rfsim.scenarios.inventory import tag_antenna
 
     silent_steps, population_steps = [], []
     original = _State.on_command_if_silent
@@ -498,11 +498,11 @@ def test_population_with_individual_tags_equals_full_listen():
     # the population's silent steps then go through TagState.on_command_if_silent). The
     # population path must give the records, exchanges and tag states (clocks included) of
     # every tag on its own.
-    from channels import Antenna, Channel, Isotropic, Scene
-    from devices.gen2_tag_state import FlagPersistence
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
-    from scenarios.inventory import tag_antenna
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.gen2_tag_state import FlagPersistence
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.scenarios.inventory import tag_antenna
 
     radii = [1.0, 1.5, 2.0, 2.5, 3.0, 1.2, 1.8, 2.2]
     runs = []
@@ -554,8 +554,8 @@ def test_links_held_across_rounds_equal_a_draw_per_round():
     # declared random (a draw per round) must give the same records, exchanges and tag
     # states, bit for bit, with the links evaluated more often; a tag moved between rounds
     # (a new antenna) must be seen at its new place (its incident power changes).
-    from channels import Channel, Scene
-    from scenarios.inventory import tag_antenna
+    from rfsim.channels import Channel, Scene
+    from rfsim.scenarios.inventory import tag_antenna
 
     assert Channel(Scene()).has_random_part is False
     runs = []

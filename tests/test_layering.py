@@ -3,7 +3,7 @@
 An AST scan of every import — at module level and inside functions — asserts that
 
 * ``channels`` and ``devices`` do not import each other (nor ``scenarios``);
-* the core (``rfsim`` minus its edges ``rfsim/cli``, ``rfsim/registry.py``, ``rfsim/bench``)
+* the core (``rfsim`` minus its edges ``rfsim/cli``, ``rfsim/runs/registry.py``, ``rfsim/bench``)
   imports none of ``channels``, ``devices``, ``scenarios``;
 * the project's modules have no import cycles (a function-level import counts: it is a
   dependency all the same).
@@ -14,15 +14,18 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-PACKAGES = ("rfsim", "channels", "devices", "scenarios")
-CORE_EDGES = ("rfsim.cli", "rfsim.registry", "rfsim.bench")
+#: Folder of the checkout → the package it installs as (pyproject.toml ``package-dir``).
+PACKAGES = {"rfsim": "rfsim", "channels": "rfsim.channels", "devices": "rfsim.devices",
+            "scenarios": "rfsim.scenarios"}
+CORE_EDGES = ("rfsim.cli", "rfsim.runs", "rfsim.bench")
+OUTER = ("rfsim.channels", "rfsim.devices", "rfsim.scenarios")
 
 
 def _modules(root: Path) -> dict[str, Path]:
     mods = {}
-    for pkg in PACKAGES:
-        for path in sorted((root / pkg).rglob("*.py")):
-            parts = list(path.relative_to(root).with_suffix("").parts)
+    for folder, package in PACKAGES.items():
+        for path in sorted((root / folder).rglob("*.py")):
+            parts = [package, *path.relative_to(root / folder).with_suffix("").parts]
             if parts[-1] == "__init__":
                 parts = parts[:-1]
             mods[".".join(parts)] = path
@@ -59,29 +62,30 @@ def _graph(project_root: Path) -> dict[str, set[str]]:
 
 
 def _top(mod: str) -> str:
-    return mod.split(".")[0]
+    """The layer of a module: ``rfsim.channels``, ``rfsim.devices``, ``rfsim.scenarios`` or ``rfsim`` (the core)."""
+    return next((o for o in OUTER if mod == o or mod.startswith(o + ".")), "rfsim")
 
 
 def test_the_scan_sees_the_packages(project_root):
     g = _graph(project_root)
-    assert {"rfsim.air", "rfsim.engine", "channels.paths", "devices.tag", "scenarios.link"} <= set(g)
-    assert "rfsim.air" in g["rfsim.engine"] and "channels.paths" in g["channels.scene"]
-    assert "devices.tag" in g["devices.sense_a_tag"]  # relative and absolute imports resolved
+    assert {"rfsim.air.step", "rfsim.protocols.engine", "rfsim.channels.paths", "rfsim.devices.tag", "rfsim.scenarios.link"} <= set(g)
+    assert "rfsim.air.step" in g["rfsim.protocols.engine"] and "rfsim.channels.paths" in g["rfsim.channels.scene"]
+    assert "rfsim.devices.tag" in g["rfsim.devices.sense_a_tag"]  # relative and absolute imports resolved
 
 
 def test_channels_and_devices_do_not_import_each_other(project_root):
     g = _graph(project_root)
     bad = sorted((m, t) for m, ts in g.items() for t in ts
-                 if (_top(m), _top(t)) in {("channels", "devices"), ("devices", "channels"),
-                                           ("channels", "scenarios"), ("devices", "scenarios")})
+                 if (_top(m), _top(t)) in {("rfsim.channels", "rfsim.devices"), ("rfsim.devices", "rfsim.channels"),
+                                           ("rfsim.channels", "rfsim.scenarios"), ("rfsim.devices", "rfsim.scenarios")})
     assert bad == []
 
 
 def test_core_imports_no_channels_devices_or_scenarios(project_root):
     g = _graph(project_root)
     core = [m for m in g if _top(m) == "rfsim" and not any(m == e or m.startswith(e + ".") for e in CORE_EDGES)]
-    assert "rfsim.engine" in core and "rfsim.bench.inventory" not in core
-    bad = sorted((m, t) for m in core for t in g[m] if _top(t) in ("channels", "devices", "scenarios"))
+    assert "rfsim.protocols.engine" in core and "rfsim.bench.inventory" not in core
+    bad = sorted((m, t) for m in core for t in g[m] if _top(t) in OUTER)
     assert bad == []
 
 

@@ -11,7 +11,7 @@ Gaussian of variance σ² per sample. With sps = fs·M/BLF samples per bit, Eb =
 N0 = σ² (same sample units), so Eb/N0 = |h|²·sps/σ². fs = 8·BLF makes every FM0/Miller
 element exactly 4 samples and the start an integer sample, so the matched filter is exact.
 Each reply is one air step (the waveform radiated over one path of gain h to a listening
-antenna with noise σ²), the replies run as batches of :func:`rfsim.batch.propagate_batch`,
+antenna with noise σ²), the replies run as batches of :func:`rfsim.protocols.batch.propagate_batch`,
 reply b drawing its bits, gain and noise from its own stream ``trial_rng(seed, b)``.
 
 Theory (gen2-and-validation-anchors.md §4.8): bit-by-bit coherent detection compares the
@@ -30,12 +30,12 @@ import pytest
 from scipy.integrate import quad
 from scipy.special import erfc
 
-from channels import HeldLinks, PathSet
-from channels.antennas import vertical_dipole
-from rfsim.air import AntennaPort, FixedEmitter, Segment
-from rfsim.batch import AirStep
+from rfsim.channels import HeldLinks, PathSet
+from rfsim.channels.antennas import vertical_dipole
+from rfsim.air.step import AntennaPort, FixedEmitter, Segment
+from rfsim.protocols.batch import AirStep
 from rfsim.gen2.linecode import decode_reply, reply_duration_s, reply_waveform
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 BLF_HZ = 40e3
 FC_HZ = 915e6
@@ -62,11 +62,11 @@ def bit_errors(bits_per_reply: int, n_replies: int, *, ebn0_db: float, m: int, m
     """(errors, bits) over ``n_replies`` replies of random bits decoded with known start/gain.
 
     Reply b draws from its own stream ``trial_rng(seed, b)``: its bits, its gain h (Rayleigh),
-    then the receiver noise. Each reply is one air step (:class:`rfsim.batch.AirStep`): the
+    then the receiver noise. Each reply is one air step (:class:`rfsim.protocols.batch.AirStep`): the
     waveform s radiated, one path of gain h to a listening antenna with noise σ², the steps run
-    in batches of :data:`REPLY_BLOCK` (:func:`rfsim.batch.propagate_batch`: the noise after the
+    in batches of :data:`REPLY_BLOCK` (:func:`rfsim.protocols.batch.propagate_batch`: the noise after the
     air of the batch, from each reply's stream)."""
-    from rfsim.batch import propagate_batch
+    from rfsim.protocols.batch import propagate_batch
 
     sps = FS_HZ * m / BLF_HZ
     sigma2 = sps / 10 ** (ebn0_db / 10)  # for E|h|² = 1
@@ -207,7 +207,7 @@ def test_viterbi_is_about_3_db_better():
 def test_reply_air_step_is_the_signal_model():
     """The reply's air step gives r = h·s + w, w = √(σ²/2)·(a + j·b) with a then b drawn from
     the reply's stream after its bits and gain, for every reply of a batch."""
-    from rfsim.batch import propagate_batch
+    from rfsim.protocols.batch import propagate_batch
 
     n, sigma2 = 300, 0.7
     steps = [_reply_step(trial_rng(9, b), 16, n, m=2, sigma2=sigma2, rayleigh=True) for b in range(3)]

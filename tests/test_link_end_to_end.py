@@ -17,15 +17,15 @@ import math
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig
-from rfsim.engine import singulate
+from rfsim.channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
+from rfsim.devices.reader import Reader, ReaderConfig
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.protocols.engine import singulate
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import PROFILES, LinkProfile
-from rfsim.rng import trial_rng
-from rfsim.units import C_M_S
-from scenarios import link as link_scenario
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import C_M_S
+from rfsim.scenarios import link as link_scenario
 
 PTX_DBM = 30.0
 PATCH_GAIN_DBI = 6.0
@@ -136,7 +136,7 @@ DISTANCES_M = (0.5, 0.7, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 7.0, 10.0)
 def test_phase_rssi_against_free_space_physics():
     """Reported phase and RSSI vs the monostatic radar equation.
 
-    The tag re-radiates r = A_s − Γ (structural mode A_s, devices.tag; Nikitin, Rao & Lam
+    The tag re-radiates r = A_s − Γ (structural mode A_s, rfsim.devices.tag; Nikitin, Rao & Lam
     2006): r_B for s = +1, r_A for s = −1, so r = (r_A + r_B)/2 + s·(r_B − r_A)/2 with
     r_B − r_A = (A_s − Γ_B) − (A_s − Γ_A) = Γ_A − Γ_B (A_s cancels; the static part is
     removed with the leakage). h = √P_tx·a²·e^{−j4πd/λ}·(Γ_A − Γ_B)/2 with

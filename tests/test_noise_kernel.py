@@ -1,10 +1,10 @@
-"""The receiver-noise kernel (:func:`rfsim.noise.add_awgn`) against its NumPy reference:
+"""The receiver-noise kernel (:func:`rfsim.air.noise.add_awgn`) against its NumPy reference:
 the same draws, sums and generator state, bit for bit."""
 
 import numpy as np
 import pytest
 
-from rfsim.noise import add_awgn, add_awgn_reference
+from rfsim.air.noise import add_awgn, add_awgn_reference
 
 
 @pytest.mark.parametrize("shape", [(1,), (7,), (3, 5), (2, 2, 4)])
@@ -44,7 +44,7 @@ def test_fallback_for_non_contiguous_input():
 def test_compiled_entry_point_equals_reference_call_after_call():
     # from the second call on the kernel's compiled entry point is called directly (no
     # dispatch): still the reference's draws, for new generators and lengths each time
-    from rfsim import _noise_kernels
+    from rfsim.air import _noise_kernels
 
     for k, n in enumerate((5, 5, 12, 1, 300)):
         y0 = np.full(n, 0.25 - 0.5j)
@@ -91,7 +91,7 @@ def test_kernel_keeps_the_buffered_32_bit_half():
 
 @pytest.mark.parametrize("make", [np.random.PCG64, np.random.Philox])
 def test_skip_advances_the_generator_as_adding_the_noise(make):
-    from rfsim.noise import skip_awgn
+    from rfsim.air.noise import skip_awgn
 
     for shape in ((1,), (5000,), (3, 7)):
         g_add, g_skip = np.random.Generator(make(8)), np.random.Generator(make(8))

@@ -5,19 +5,19 @@ depth; FM0 reply at BLF 640 kHz) is simulated twice:
 
 * **complex baseband** at fs = 4 MS/s, as the engine does it: the reader's envelope √P·e(t),
   one propagation path (gain g, delay τ = 3 m / c = 10.007 ns — 0.04 baseband samples,
-  24.02 RF samples, i.e. never on a sample) through ``channels.paths.apply_paths(...,
+  24.02 RF samples, i.e. never on a sample) through ``rfsim.channels.paths.apply_paths(...,
   method="exact")`` (carrier phase e^{−j2πfcτ} and a Kaiser-sinc fractional delay), the tag's
-  detector ``devices.tag.envelope`` (|x|, optionally RC-filtered), the backscatter
+  detector ``rfsim.devices.tag.envelope`` (|x|, optionally RC-filtered), the backscatter
   Γ(t)·incident through the backward path;
 * **real passband** at fs_rf = 600 × 4 MS/s = 2.4 GS/s ≥ 2.5·fc (fc = 915 MHz), with
-  x_rf(t) = √2·Re{x(t)·e^{j2πfc t}} (power convention of :mod:`rfsim.passband`: the mean of
+  x_rf(t) = √2·Re{x(t)·e^{j2πfc t}} (power convention of :mod:`rfsim.air.passband`: the mean of
   x_rf² over a cycle is |x|² in W). The delay is exact: the analytic PIE envelope
   (raised-cosine edges) and the FM0 reply are evaluated at t − τ and the carrier at t − τ —
   nothing is interpolated. The tag's detector is the RF peak envelope |x_rf + jH{x_rf}|/√2,
-  or a full-wave rectifier + RC low-pass (``devices.st_receiver.passband_envelope_v``, whose
+  or a full-wave rectifier + RC low-pass (``rfsim.devices.st_receiver.passband_envelope_v``, whose
   (π/2)·mean|v| gives the RF peak amplitude √2·|x|); the reader's receiver mixes with
   √2·cos and −√2·sin at fc, low-passes (Hamming FIR, 40 MHz, removes the 2·fc image) and
-  keeps every 600th sample (:func:`rfsim.passband.iq_demodulate`).
+  keeps every 600th sample (:func:`rfsim.air.passband.iq_demodulate`).
 
 The two are compared on the 4 MS/s grid as the relative RMS error
 √(Σ|passband − baseband|²/Σ|baseband|²). "Steady parts" are the samples more than the edge
@@ -32,15 +32,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from channels.paths import PathSet, apply_paths
-from devices.st_receiver import passband_envelope_v
-from devices.tag import envelope
+from rfsim.channels.paths import PathSet, apply_paths
+from rfsim.devices.st_receiver import passband_envelope_v
+from rfsim.devices.tag import envelope
 from rfsim.gen2.commands import Query, encode
 from rfsim.gen2.link import profile
 from rfsim.gen2.linecode import halfsymbols, reply_waveform
 from rfsim.gen2.pie import pie_envelope_for_profile, pie_timeline
-from rfsim.passband import analytic_envelope, carrier_phase_rad, iq_demodulate, relative_rms_error, upconvert
-from rfsim.units import C_M_S
+from rfsim.air.passband import analytic_envelope, carrier_phase_rad, iq_demodulate, relative_rms_error, upconvert
+from rfsim.core.units import C_M_S
 
 FS_BB = 4e6
 L = 600
@@ -166,7 +166,7 @@ def test_reader_iq_receiver_tag_reply_passband_vs_baseband(blf_hz, duration_s, m
     not asserted at 640 kHz: 1.6 % at 1 sample, 1.3 % at 2, and the elements (3.1 samples)
     leave no sample farther away. The Kaiser-sinc fractional delay of a hard-switched Γ(t)
     rings with a 1/k tail (≈ d/(πk) for a delay of d = 0.04 samples) — the artefact the
-    engine's narrowband path avoids (rfsim.engine module docstring)."""
+    engine's narrowband path avoids (rfsim.protocols.engine module docstring)."""
     bits = np.array([1, 0, 1, 1, 0, 0, 1, 0, 1, 1, 1, 0, 0, 0, 1, 1], dtype=np.uint8)
     t_r = 4e-6
     n = int(round(duration_s * FS_BB))

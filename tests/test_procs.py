@@ -1,4 +1,4 @@
-"""rfsim.procs.run_in_child: a scenario's simulation runs in a forked child that returns its
+"""rfsim.core.procs.run_in_child: a scenario's simulation runs in a forked child that returns its
 memory to the system when it exits; its errors are raised in the leader."""
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
 
 _CHILD = """
 import json, os, sys
-from rfsim.errors import UserError
-from rfsim.procs import run_in_child
+from rfsim.core.errors import UserError
+from rfsim.core.procs import run_in_child
 
 state = {"set_by_child": False}
 out = {"leader": os.getpid()}

@@ -1,4 +1,4 @@
-"""Progress reporting (rfsim.progress): terminal bars, batch-log lines, quiet, the compile notice."""
+"""Progress reporting (rfsim.core.progress): terminal bars, batch-log lines, quiet, the compile notice."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import types
 import numba
 import pytest
 
-from rfsim import _jit
-from rfsim.progress import COMPILE_NOTICE, Reporter, reporting, stage, track
+from rfsim.core import _jit
+from rfsim.core.progress import COMPILE_NOTICE, Reporter, reporting, stage, track
 
 
 def test_track_without_a_reporter_is_the_plain_iteration():

@@ -16,15 +16,15 @@ import pytest
 from scipy.signal import welch
 from scipy.stats import norm
 
-from channels.antennas import Antenna
-from devices.reader import Reader, ReaderConfig, frequency_plan
-from rfsim.errors import ConfigError
+from rfsim.channels.antennas import Antenna
+from rfsim.devices.reader import Reader, ReaderConfig, frequency_plan
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.commands import ACK, Query, QueryRep, Select, encode
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.link import PROFILES, t1
 from rfsim.gen2.linecode import decode_reply, reply_waveform
 from rfsim.gen2.pie import pie_decode, pie_timeline
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 ANT = Antenna(position_m=np.zeros(3))
 MODULATIONS = ("DSB-ASK", "SSB-ASK", "PR-ASK")

@@ -14,16 +14,16 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from channels import Channel, Scene
-from devices.gen2_tag_state import Reply
-from devices.reader import (ReaderConfig, blf_grid_hz, rn16_threshold_db, search_decode,
+from rfsim.channels import Channel, Scene
+from rfsim.devices.gen2_tag_state import Reply
+from rfsim.devices.reader import (ReaderConfig, blf_grid_hz, rn16_threshold_db, search_decode,
                             search_decode_reference)
-from devices.tag_spread import TagSpreadConfig
-from rfsim.errors import ConfigError
+from rfsim.devices.tag_spread import TagSpreadConfig
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import PROFILES, t1
 from rfsim.gen2.linecode import reply_waveform
-from rfsim.inventory import EngineAir, InventoryConfig, run_inventory
-from rfsim.rng import trial_rng
+from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+from rfsim.core.rng import trial_rng
 
 from test_engine import make_reader, make_tag, run_round
 
@@ -123,7 +123,7 @@ def test_collision_rejected_and_capture_with_bad_crc_is_nakked_from_waveforms():
     the reader captures the stronger RN16 (accepted), ACKs it; only that tag answers (the other
     leaves the slot on a wrong RN16); the EPC's CRC-16 fails in the reader's decode of the
     waveform, so the reader sends a NAK and the tag returns to Arbitrate (not Acknowledged)."""
-    from devices.tag import TagConfig
+    from rfsim.devices.tag import TagConfig
 
     reader = make_reader(blf_search="preamble", rn16_false_accept=0.01)
     sp = TagSpreadConfig(enabled=True)

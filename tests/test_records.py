@@ -1,4 +1,4 @@
-"""The reader's report stage (rfsim.records): RSSI steps, sensitivity floor, 12-bit phase codes,
+"""The reader's report stage (rfsim.core.records): RSSI steps, sensitivity floor, 12-bit phase codes,
 per-port phase offsets, µs time stamps, EPC hex strings and the time-sorted long table.
 
 Expected values are worked out by hand from the definitions (LLRP PeakRSSI in whole dBm,
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.dataset import read_table
-from rfsim.errors import ConfigError
+from rfsim.core.dataset import read_table
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.crc import append_crc16
-from rfsim.records import (ReportConfig, epc_hex, long_table, phase_code, phase_of_code, quantize_rssi_dbm,
+from rfsim.core.records import (ReportConfig, epc_hex, long_table, phase_code, phase_of_code, quantize_rssi_dbm,
                            report_columns, time_stamp_us)
 
 

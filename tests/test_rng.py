@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from rfsim.rng import trial_rng, trial_rng_grid, trial_seed_sequence
+from rfsim.core.rng import trial_rng, trial_rng_grid, trial_seed_sequence
 
 SOURCE_PACKAGES = ("rfsim", "channels", "devices", "scenarios")
 

@@ -16,13 +16,13 @@ import h5py
 import numpy as np
 import pytest
 
-from rfsim.dataset import read_table
+from rfsim.core.dataset import read_table
 from rfsim.detection import rts_probability, st_features
-from rfsim.rng import trial_rng
-from rfsim.runner import run_scenario
+from rfsim.core.rng import trial_rng
+from rfsim.runs.runner import run_scenario
 from rfsim.sweep.runner import run_sweep
 from rfsim.sweep.spec import load_spec
-from scenarios import detection_probability as dp
+from rfsim.scenarios import detection_probability as dp
 
 TINY = dp.Config(samples=dp.SampleConfig(count=40, n_train=30))
 
@@ -163,7 +163,7 @@ def test_elliptical_panel_mismatch_against_a_rolled_dipole():
     # constant 3 dB of an ideal circular panel). Boresight: AR = 1 dB; at the beam edge 3 dB.
     import math
 
-    from scenarios import detection_probability as dp
+    from rfsim.scenarios import detection_probability as dp
 
     g = dp.GeometryConfig()
     panel = dp.reader_antenna(g)

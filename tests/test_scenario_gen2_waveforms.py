@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfsim.config import load_config
+from rfsim.core.config import load_config
 from rfsim.gen2.commands import ACK, Query, parse
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply
 from rfsim.gen2.link import profile
 from rfsim.gen2.pie import pie_decode
 from rfsim.gen2.bits import bits_to_int, bits_to_str
-from scenarios import gen2_waveforms as scenario
+from rfsim.scenarios import gen2_waveforms as scenario
 
 
 @pytest.fixture(scope="module")

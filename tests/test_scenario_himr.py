@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from scenarios import himr_1d, himr_2d
+from rfsim.scenarios import himr_1d, himr_2d
 
 C = 299792458.0
 

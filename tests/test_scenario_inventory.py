@@ -5,8 +5,8 @@ import h5py
 import numpy as np
 import pytest
 
-from rfsim.dataset import read_table, write_dataset
-from scenarios import inventory as scen
+from rfsim.core.dataset import read_table, write_dataset
+from rfsim.scenarios import inventory as scen
 
 
 def _small(**kw):
@@ -43,7 +43,7 @@ def test_run_write_plot(tmp_path):
 
 
 def test_config_validation():
-    from rfsim.errors import ConfigError
+    from rfsim.core.errors import ConfigError
 
     with pytest.raises(ConfigError):
         scen.RoomConfig(n_antennas=5)
@@ -73,8 +73,8 @@ def test_capture_probability_binning():
 
 
 def test_spread_needs_the_searching_reader():
-    from rfsim.errors import ConfigError
-    from devices.tag_spread import TagSpreadConfig
+    from rfsim.core.errors import ConfigError
+    from rfsim.devices.tag_spread import TagSpreadConfig
 
     with pytest.raises(ConfigError, match="spread.enabled"):
         scen.run(_small(spread=TagSpreadConfig(enabled=True)), seed=1)
@@ -83,7 +83,7 @@ def test_spread_needs_the_searching_reader():
 def test_tags_table_records_each_tags_spread(tmp_path):
     from dataclasses import replace
 
-    from devices.tag_spread import TagSpreadConfig
+    from rfsim.devices.tag_spread import TagSpreadConfig
 
     cfg = _small(spread=TagSpreadConfig(enabled=True), reader=replace(scen.ReaderConfig(), blf_search="preamble",
                                                                       rn16_false_accept=0.01),

@@ -18,9 +18,9 @@ import h5py
 import numpy as np
 import pytest
 
-from rfsim.dataset import read_dataset, read_table
-from rfsim.runner import run_scenario
-from scenarios import phase_cancellation as pc
+from rfsim.core.dataset import read_dataset, read_table
+from rfsim.runs.runner import run_scenario
+from rfsim.scenarios import phase_cancellation as pc
 
 LAMBDA_915_M = 299792458.0 / 915e6
 
@@ -299,7 +299,7 @@ def test_pass_replication_uses_the_6_dbi_file_and_the_assembly_resistance(refere
 
 
 def test_pass_replication_needs_the_characteristics_folder():
-    from rfsim.errors import ConfigError
+    from rfsim.core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="pass_replication.characteristics_dir"):
         pc.PassReplicationConfig(enabled=True, characteristics_dir="")
@@ -343,7 +343,7 @@ def test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_
     r_point = k_pass / 0.0576
 
     folder = str(reference_data / "pass-characteristics")
-    from devices.st_receiver import to_source_volts
+    from rfsim.devices.st_receiver import to_source_volts
 
     base = replace(_tiny(), mc=replace(_tiny().mc, positions_per_cell=100),
                    geometry=replace(_tiny().geometry, pair_coupling=False))
@@ -395,7 +395,7 @@ def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
     """couple_ports (numba) against its einsum twin on waveforms and on gains, with the
     default pair's coupling matrix (Z12 at λ/4) and inputs spanning six decades, zeros and
     negative zeros included."""
-    from devices import st_analytic as sa
+    from rfsim.devices import st_analytic as sa
 
     rng = np.random.default_rng(3)
     mix = sa.coupling_matrix(z12_ohm=complex(sa.mutual_impedance_half_wave_ohm(LAMBDA_915_M / 4, 915e6)))
@@ -414,7 +414,7 @@ def test_ask_stamp_transitions_kernel_equals_the_comparator_row_by_row():
     """The stamp decision's transition count (numba) against the comparator run row by row,
     on band-passed square waves of swings around the 5.15 mV hysteresis (some rows toggle at
     every edge, some never) with noise."""
-    from devices import st_receiver as sr
+    from rfsim.devices import st_receiver as sr
 
     fs, blf = 1e6, 48e3
     frame = sr.stamp_frame(np.zeros(16, np.uint8), m=2, trext=True, blf_hz=blf, fs_hz=fs, n_stamp_cycles=8,

@@ -17,7 +17,7 @@ import pytest
 from scipy.linalg import expm
 
 from rfsim.cli import main
-from rfsim.dataset import read_table
+from rfsim.core.dataset import read_table
 
 LAMBDA_890 = 299792458.0 / 890e6
 
@@ -155,13 +155,13 @@ def test_config_keys_show_the_scenarios_own_reader_defaults(capsys):
 
 
 def test_round_links_are_the_channel_links_of_each_round():
-    """The chunk's links drawn at once (channels.bulk) equal Channel.link of every round's
+    """The chunk's links drawn at once (rfsim.channels.bulk) equal Channel.link of every round's
     antenna and tag position (free space, one LoS path), and refuse any other pair."""
     import dataclasses
     import math
 
-    from channels import Antenna, Channel, HalfWaveDipole, Scene
-    from scenarios.phase_tracking import GeometryConfig, RoundLinks, reader_antennas
+    from rfsim.channels import Antenna, Channel, HalfWaveDipole, Scene
+    from rfsim.scenarios.phase_tracking import GeometryConfig, RoundLinks, reader_antennas
 
     g = GeometryConfig()
     antennas = reader_antennas(g)

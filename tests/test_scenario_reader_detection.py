@@ -17,10 +17,10 @@ import h5py
 import numpy as np
 import pytest
 
-from rfsim.dataset import read_dataset, read_table
+from rfsim.core.dataset import read_dataset, read_table
 from rfsim.detection import ReaderDetectionModel
-from rfsim.runner import run_scenario
-from scenarios import reader_detection as rd
+from rfsim.runs.runner import run_scenario
+from rfsim.scenarios import reader_detection as rd
 
 TINY = rd.Config(campaign=rd.CampaignConfig(distances_m=(1.0, 9.0), angles_deg=(0.0, 90.0), repetitions=2,
                                             queries=5, workers=1))

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.config import from_dict
-from scenarios import rss_localization as rl
+from rfsim.core.config import from_dict
+from rfsim.scenarios import rss_localization as rl
 
 
 def _run(seed=7, **overrides):
@@ -146,7 +146,7 @@ def test_waveform_apdp_adds_rician_fading_of_the_link_k_factor():
     room). The spread of (waveform − statistical) RSSI over 60 trials × 3 readers matches the
     spread of 10·log10|h|² drawn here with numpy at the same K's within ±30 % (sample std of
     180 values: ±16 % at 3 SE)."""
-    from channels import ApdpModel
+    from rfsim.channels import ApdpModel
 
     kw = dict(estimators=["nn"], motions=["fixed"], sigma0_db=[5.2], trials=60)
     wave = _run(rss_model="waveform", waveform={"apdp": True}, **kw)
@@ -256,7 +256,7 @@ def test_table_7_3_through_the_sweep_machinery(project_root, tmp_path):
     × 2 repetitions × 4000 trials, NN + grid Bayes), serial executor: ≤ 30 s of CPU time per
     4 × 4000 trials; the merged summary holds the 8 runs and every run's NN RMSE is within
     ±10 % + 3 SE of the published 1.38/1.95/2.29/2.57 m."""
-    from rfsim.dataset import read_table
+    from rfsim.core.dataset import read_table
     from rfsim.sweep import SerialExecutor, load_spec, run_sweep
 
     text = (project_root / "examples" / "sweeps" / "rss-localization.toml").read_text()

@@ -11,9 +11,9 @@ import pytest
 
 from rfsim.cli import main
 from rfsim.estimators.landmark_pf import bias_compensate, binomial_log_likelihood, pf_aa
-from rfsim.rng import trial_rng
-from scenarios import _st_paths as paths
-from scenarios import st_localization as st
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios import _st_paths as paths
+from rfsim.scenarios import st_localization as st
 
 
 def test_rts_probability_below_the_antenna_is_eq_4_6_by_hand():
@@ -191,8 +191,8 @@ def test_sqlam_beats_wcl_by_about_42_percent_over_500_s():
 
 
 def _listen(grid, centre, rounds, seed=1):
-    from devices.sense_a_tag import SenseATagConfig
-    from scenarios._st_sample_level import SampleLevelConfig, listen_track
+    from rfsim.devices.sense_a_tag import SenseATagConfig
+    from rfsim.scenarios._st_sample_level import SampleLevelConfig, listen_track
 
     room = paths.Room((4.0, 3.2), grid, ((0.0, 0.0, 2.0),))
     sl = SampleLevelConfig(duration_s=1e-3, max_periods=1)
@@ -245,7 +245,7 @@ def test_sample_level_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, mo
 
 
 def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
-    from scenarios._st_sample_level import SampleLevelConfig
+    from rfsim.scenarios._st_sample_level import SampleLevelConfig
 
     cfg = st.Config(mode="sample-level", landmark_grid=(3, 2), rounds=2, trajectory_2_speeds_mps=(0.5,),
                     sample_level=SampleLevelConfig(duration_s=0.4), workers=1)
@@ -264,15 +264,15 @@ def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
 
 def test_sample_level_reader_side_equals_the_engine_inventory():
     """The ST only listens: an inventory through ListeningAir gives the same slots and reads, to
-    the bit, as rfsim.inventory.EngineAir (run_exchange) on the same devices and streams."""
+    the bit, as rfsim.protocols.inventory.EngineAir (run_exchange) on the same devices and streams."""
     from dataclasses import replace
 
-    from channels import ApdpModel, Channel, Scene
-    from devices.reader import Reader, ReaderConfig
-    from devices.sense_a_tag import SenseATag, SenseATagConfig, st_antenna_positions
-    from devices.tag import PassiveTag, TagConfig
-    from rfsim.inventory import EngineAir, InventoryConfig, run_inventory
-    from scenarios import _st_sample_level as sl
+    from rfsim.channels import ApdpModel, Channel, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, st_antenna_positions
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+    from rfsim.scenarios import _st_sample_level as sl
 
     room = paths.Room((4.0, 3.2), (3, 2), ((0.0, 0.0, 2.0),))
     c = sl.SampleLevelConfig()

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from devices.tag import TagConfig
+from rfsim.devices.tag import TagConfig
 from rfsim.cli import main
-from rfsim.dataset import read_dataset, read_table
-from rfsim.runner import run_scenario
-from scenarios import st_to_st as s
+from rfsim.core.dataset import read_dataset, read_table
+from rfsim.runs.runner import run_scenario
+from rfsim.scenarios import st_to_st as s
 
 C_M_S = 299792458.0
 D0 = 2.0 / quad(lambda t: math.cos(0.5 * math.pi * math.cos(t)) ** 2 / math.sin(t), 1e-12, math.pi - 1e-12)[0]

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.rng import trial_rng
-from scenarios import _t2t_network as net
-from scenarios import _t2t_physical as ph
-from scenarios import tag_to_tag_tracking as t2t
+from rfsim.core.rng import trial_rng
+from rfsim.scenarios import _t2t_network as net
+from rfsim.scenarios import _t2t_physical as ph
+from rfsim.scenarios import tag_to_tag_tracking as t2t
 
 PUBLISHED = {  # Table 6.2, seeds/004 L1247-L1249 (copied from the source, not from the module)
     1.5: (1.0720, 0.5611, 0.6466, 0.5484, 0.5183),

@@ -2,11 +2,11 @@
 envelope difference vs the closed forms with θ controlled on the tag→ST link (issue 5 item
 4), nulls at θ_cancel, the locator protocol end to end (listening round, report, responding
 round decoded by the reader), dual-antenna selection at a single-antenna null, and the
-listener waveform model of :mod:`rfsim.bistatic` against a direct superposition.
+listener waveform model of :mod:`rfsim.protocols.bistatic` against a direct superposition.
 
 Expectations are phasor sums of the drawn links (Eq. 3.1/3.6: ``A_R = |g_RS·x|``,
 ``A_Ti = |g_TS·r_i·g_RT·x|`` with the re-radiated states r_i = A_s − Γ_i of the tag's
-structural mode A_s and chip states Γ_i (devices.tag; Nikitin, Rao & Lam 2006), θ = arg of
+structural mode A_s and chip states Γ_i (rfsim.devices.tag; Nikitin, Rao & Lam 2006), θ = arg of
 their ratio) fed to the closed forms (Eq. 3.3/3.5/3.9/3.11), not outputs of the ST chain.
 With A_s = 1 the default chip's two re-radiated states (1 and 1 − Γ_B, Γ_B complex) are
 not in phase, so the ASK expectations use Eq. 3.3 per state and the null condition
@@ -20,22 +20,22 @@ import math
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, HalfWaveDipole, Isotropic, Scene, vertical_dipole
-from channels.paths import apply_paths
-from devices import st_analytic as sa
-from devices import st_receiver as sr
-from devices.reader import Reader, ReaderConfig
-from devices.sense_a_tag import SenseATag, SenseATagConfig, chain_rows, level_differences, st_antenna_positions
-from devices.tag import PassiveTag, TagConfig
-from rfsim.bistatic import listen_exchange
-from rfsim.engine import run_exchange
-from rfsim.errors import ConfigError
+from rfsim.channels import Antenna, Channel, HalfWaveDipole, Isotropic, Scene, vertical_dipole
+from rfsim.channels.paths import apply_paths
+from rfsim.devices import st_analytic as sa
+from rfsim.devices import st_receiver as sr
+from rfsim.devices.reader import Reader, ReaderConfig
+from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, chain_rows, level_differences, st_antenna_positions
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.protocols.bistatic import listen_exchange
+from rfsim.protocols.engine import run_exchange
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, int_to_bits
 from rfsim.gen2.commands import ACK, Query, Select
 from rfsim.gen2.crc import crc16_bits
 from rfsim.gen2.link import t1
 from rfsim.gen2.linecode import reply_waveform
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 V_PER_SQRT_W = math.sqrt(2.0 * 50.0)
 READER_CFG = ReaderConfig(link_profile="pass-miller2-48k", fs_hz=1e6, hopping=False, fixed_channel=26)
@@ -287,7 +287,7 @@ def test_selection_rescues_a_single_antenna_null():
 
 
 def test_listen_start_sample_is_one_past_the_first_sample_at_or_after_the_edge():
-    from devices.sense_a_tag import listen_start_sample
+    from rfsim.devices.sense_a_tag import listen_start_sample
 
     # edge exactly on sample 1000 (t = 1 ms at 1 MS/s): chains start at sample 1001
     assert listen_start_sample(1e-3, t0_s=0.0, fs_hz=1e6) == 1001

@@ -1,4 +1,4 @@
-"""The many-positions ST receive chain (:func:`devices.sense_a_tag.chain_rows`): its numba
+"""The many-positions ST receive chain (:func:`rfsim.devices.sense_a_tag.chain_rows`): its numba
 kernel for the diode law against the NumPy/SciPy twin (``lfilter``, ``sosfilt``, the
 comparator row by row), bit for bit, and against :meth:`STReceiver.chain` row by row (to
 rounding: its RC runs in another operation order).
@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from devices import st_receiver as sr
-from devices.sense_a_tag import chain_rows, chain_rows_reference
+from rfsim.devices import st_receiver as sr
+from rfsim.devices.sense_a_tag import chain_rows, chain_rows_reference
 
 FS_HZ, BLF_HZ = 1e6, 48e3
 

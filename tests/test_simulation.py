@@ -11,12 +11,12 @@ import re
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, Isotropic, Scene
-from devices import PassiveTag, Reader, ReaderConfig, TagConfig
+from rfsim.channels import Antenna, Channel, Isotropic, Scene
+from rfsim.devices import PassiveTag, Reader, ReaderConfig, TagConfig
 from rfsim import Simulation
-from rfsim.dataset import read_table
-from rfsim.rng import trial_rng
-from rfsim.units import C_M_S
+from rfsim.core.dataset import read_table
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import C_M_S
 
 
 def readme_example(project_root) -> str:

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from devices import st_analytic as sa
-from rfsim.errors import ConfigError
+from rfsim.devices import st_analytic as sa
+from rfsim.core.errors import ConfigError
 
 # Table 3.1 (seed L3372-3380): A_R, A_T1, A_T2, θ, printed |A1−A2|, printed θ_cancel
 TABLE_3_1 = [

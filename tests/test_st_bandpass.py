@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 import scipy.signal as ss
 
-from devices import st_receiver as sr
-from devices.sense_a_tag import chain_rows, chain_rows_reference
-from devices.st_bandpass import butter_bandpass_sos, sos_steady_state
+from rfsim.devices import st_receiver as sr
+from rfsim.devices.sense_a_tag import chain_rows, chain_rows_reference
+from rfsim.devices.st_bandpass import butter_bandpass_sos, sos_steady_state
 
 
 def _edges(n, seed):

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from devices import st_analytic as sa
-from devices import st_receiver as sr
-from rfsim.errors import ConfigError
+from rfsim.devices import st_analytic as sa
+from rfsim.devices import st_receiver as sr
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.linecode import reply_waveform

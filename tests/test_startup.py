@@ -2,7 +2,7 @@
 numba and no scipy.signal (issue 16 item 4); ``config NAME`` imports the scenario module and
 the modules that declare its config dataclasses, but no device, air, channel-assembly or
 dataset module, no kernel module, numba, scipy.signal/stats/optimize or h5py (the physics is
-declared with :func:`rfsim.lazy.lazy_import`, the packages export their names on first use);
+declared with :func:`rfsim.core.lazy.lazy_import`, the packages export their names on first use);
 the scenario metadata read from the sources equals the modules' own."""
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pytest
 
 from rfsim.cli.decode import SUFFIXES as CLI_SUFFIXES
 from rfsim.gen2.capture import SUFFIXES
-from rfsim.registry import scenario_descriptions, scenario_modules
+from rfsim.runs.registry import scenario_descriptions, scenario_modules
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -30,7 +30,7 @@ def _module_folder(tmp_path: Path, name: str, source: str) -> Path:
     return src
 
 
-HEAVY = ("numba", "scipy.signal", "scipy.stats", "h5py", "devices", "channels", "matplotlib")
+HEAVY = ("numba", "scipy.signal", "scipy.stats", "h5py", "rfsim.devices", "rfsim.channels", "matplotlib")
 
 
 def _imported_after(argv: list[str]) -> list[str]:
@@ -46,8 +46,8 @@ def _imported_after(argv: list[str]) -> list[str]:
 @pytest.mark.parametrize("argv", [["--help"], ["list"]])
 def test_help_and_list_import_no_physics(argv):
     mods = _imported_after(argv)
-    heavy = [m for m in mods if m.split(".")[0] in ("numba", "h5py", "devices", "channels", "matplotlib")
-             or m.startswith(("scipy.signal", "scipy.stats", "scenarios."))]
+    heavy = [m for m in mods if m.split(".")[0] in ("numba", "h5py", "matplotlib")
+             or m.startswith(("scipy.signal", "scipy.stats", "rfsim.scenarios.", "rfsim.devices", "rfsim.channels"))]
     assert heavy == []
 
 
@@ -56,7 +56,7 @@ def test_config_runs_no_kernel_module_nor_heavy_library(name):
     """``rfsim config NAME`` loads no numba (so no kernel module ran: each imports numba),
     no scipy.signal / scipy.stats / scipy.optimize / scipy.ndimage, no h5py and no matplotlib."""
     mods = _imported_after(["config", name])
-    assert f"scenarios.{name.replace('-', '_')}" in mods  # the command did resolve the scenario
+    assert f"rfsim.scenarios.{name.replace('-', '_')}" in mods  # the command did resolve the scenario
     heavy = [m for m in mods if m.split(".")[0] in ("numba", "llvmlite", "h5py", "matplotlib")
              or m.startswith(("scipy.signal", "scipy.stats", "scipy.optimize", "scipy.ndimage"))
              or m.endswith("_kernels")]
@@ -67,24 +67,24 @@ def test_config_runs_no_kernel_module_nor_heavy_library(name):
 #: the engine, the assembly and application of channels, the capture decoders, the dataset
 #: file and the detection fits (each costs start-up; together they made 'rfsim config
 #: reader-detection' twice as slow as 'rfsim --help').
-PHYSICS = ("devices.reader", "devices.tag", "devices.sense_a_tag", "devices.tag_population",
-           "devices.gen2_tag_state", "devices.active_reader", "devices.active_tag", "channels.scene",
-           "channels.bulk", "channels.paths", "channels.small_scale", "channels.rss", "rfsim.air",
-           "rfsim.engine", "rfsim.batch", "rfsim.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
+PHYSICS = ("rfsim.devices.reader", "rfsim.devices.tag", "rfsim.devices.sense_a_tag", "rfsim.devices.tag_population",
+           "rfsim.devices.gen2_tag_state", "rfsim.devices.active_reader", "rfsim.devices.active_tag", "rfsim.channels.scene",
+           "rfsim.channels.bulk", "rfsim.channels.paths", "rfsim.channels.small_scale", "rfsim.channels.rss", "rfsim.air.step",
+           "rfsim.protocols.engine", "rfsim.protocols.batch", "rfsim.core.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
            "rfsim.gen2.replies", "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
 
 
 @pytest.mark.parametrize("name", sorted(scenario_descriptions()))
 def test_config_imports_no_scenario_physics(name):
     """``rfsim config NAME`` imports none of :data:`PHYSICS`: the config dataclasses live in
-    modules that import only numpy and the config machinery (e.g. :mod:`devices.reader_config`),
+    modules that import only numpy and the config machinery (e.g. :mod:`rfsim.devices.reader_config`),
     and the scenario declares its physics lazily."""
     mods = _imported_after(["config", name])
-    assert f"scenarios.{name.replace('-', '_')}" in mods
+    assert f"rfsim.scenarios.{name.replace('-', '_')}" in mods
     assert sorted(set(mods) & set(PHYSICS)) == []
 
 
-@pytest.mark.parametrize("package", ["devices", "channels", "rfsim.gen2", "rfsim.estimators"])
+@pytest.mark.parametrize("package", ["rfsim.devices", "rfsim.channels", "rfsim.gen2", "rfsim.estimators"])
 def test_a_package_imports_a_module_for_the_first_name_read_from_it(package):
     """Importing a package imports none of its modules; reading a public name imports the module
     that provides it (the name is the module's own object), and every name of ``__all__``
@@ -111,10 +111,10 @@ def test_a_run_loads_the_lazily_declared_physics_before_asking_for_cached_kernel
     lazily declared modules are imported, so that the kernel modules they declare are declared
     too: after it, the reader's kernel module is loaded for reader-detection (whose module
     imports no device)."""
-    code = ("import sys\nimport scenarios.reader_detection\n"
-            "print('devices.reader' in sys.modules)\n"
-            "from rfsim.runner import _announce_compilation\n_announce_compilation()\n"
-            "print('devices.reader' in sys.modules, 'devices._reader_kernels' in sys.modules)")
+    code = ("import sys\nimport rfsim.scenarios.reader_detection\n"
+            "print('rfsim.devices.reader' in sys.modules)\n"
+            "from rfsim.runs.runner import _announce_compilation\n_announce_compilation()\n"
+            "print('rfsim.devices.reader' in sys.modules, 'rfsim.devices._reader_kernels' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.split() == ["False", "True", "True"]
@@ -126,7 +126,7 @@ def test_a_lazily_declared_module_is_whole_for_threads_that_first_use_it_togethe
     attribute (the import runs once; the others wait for it) — a module whose import had
     merely started would lack it."""
     src = _module_folder(tmp_path, "slowmod", "import time\nCOUNT = [0]\ntime.sleep(0.3)\nVALUE = 42\nCOUNT[0] += 1\n")
-    code = ("import threading\nfrom rfsim.lazy import lazy_import\nm = lazy_import('slowmod')\n"
+    code = ("import threading\nfrom rfsim.core.lazy import lazy_import\nm = lazy_import('slowmod')\n"
             "out = []\nb = threading.Barrier(4)\n"
             "def use():\n    b.wait()\n    out.append(m.VALUE)\n"
             "ts = [threading.Thread(target=use) for _ in range(4)]\n"
@@ -151,7 +151,7 @@ def test_numba_cache_folder_choice(tmp_path):
     """The user's NUMBA_CACHE_DIR wins; a writable package folder keeps numba's in-tree
     cache; a package folder that cannot be written (non-editable install) gets
     $XDG_CACHE_HOME/rfsim/numba, or ~/.cache/rfsim/numba."""
-    from rfsim._jit import cache_dir
+    from rfsim.core._jit import cache_dir
 
     pkg = tmp_path / "site-packages" / "rfsim"
     assert cache_dir({"NUMBA_CACHE_DIR": "/x"}, pkg, writable=lambda p: False) is None
@@ -167,8 +167,8 @@ def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_pa
     (uncached_kernels() is empty before any call) — the mechanism the first-run notice and
     the worker processes rely on. (As root, a read-only package folder cannot be simulated
     here; the folder choice itself is tested above.)"""
-    src = _module_folder(tmp_path, "kmod", "from rfsim._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
-    code = ("import kmod\nfrom rfsim import _jit\nprint(len(_jit.uncached_kernels()))\n"
+    src = _module_folder(tmp_path, "kmod", "from rfsim.core._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
+    code = ("import kmod\nfrom rfsim.core import _jit\nprint(len(_jit.uncached_kernels()))\n"
             "assert kmod.twice(21) == 42\nprint(len(_jit.uncached_kernels()))")
     env = dict(os.environ, PYTHONPATH=f"{src}{os.pathsep}{ROOT}", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
@@ -181,13 +181,13 @@ def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
     """A script that imports numba before rfsim: numba has read the environment already, yet a
     kernel declared afterwards is cached in the folder rfsim chose for an unwritable package
     ($XDG_CACHE_HOME/rfsim/numba). The unwritable folder is simulated by making the write probe
-    fail while rfsim._jit is imported (as root, permissions cannot stop the write)."""
-    src = _module_folder(tmp_path, "kfirst", "from rfsim._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
+    fail while rfsim.core._jit is imported (as root, permissions cannot stop the write)."""
+    src = _module_folder(tmp_path, "kfirst", "from rfsim.core._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
     code = ("import numba, tempfile\n"
             "real = tempfile.NamedTemporaryFile\n"
             "def refuse(*a, **k):\n    raise OSError('read-only')\n"
             "tempfile.NamedTemporaryFile = refuse\n"
-            "import rfsim._jit\n"
+            "import rfsim.core._jit\n"
             "tempfile.NamedTemporaryFile = real\n"
             "import kfirst\nassert kfirst.thrice(14) == 42\n"
             "print(numba.config.CACHE_DIR)")
@@ -202,7 +202,7 @@ def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
 
 _PILOT_TASK = """
 import os
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 
 @njit
@@ -219,7 +219,7 @@ def task(i):
 _PILOT_RUN = """
 import json, os
 import kpilot
-from rfsim.procs import map_in_order
+from rfsim.core.procs import map_in_order
 
 out = map_in_order(kpilot.task, range(4), 2, desc="t", unit="tasks")
 print(json.dumps(dict(leader=os.getpid(), out=out, leader_signatures=len(kpilot.twice.signatures),

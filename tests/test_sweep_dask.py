@@ -8,7 +8,7 @@ import signal
 
 import pytest
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 from rfsim.sweep import DaskExecutor, SerialExecutor, load_spec, run_sweep
 from rfsim.sweep.executors import parse_dask_target
 from test_sweep_run import assert_identical, write_spec

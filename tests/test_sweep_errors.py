@@ -151,7 +151,7 @@ def test_shards_do_not_lock_each_other_out(tmp_path, monkeypatch):
     with OutputLock(out, shard=(0, 2)), OutputLock(out, shard=(1, 2)), OutputLock(out):
         pass
     with OutputLock(out, shard=(0, 2)):
-        from rfsim.errors import UserError
+        from rfsim.core.errors import UserError
         with pytest.raises(UserError, match="in use by another sweep"):
             OutputLock(out, shard=(0, 2)).acquire()
 
@@ -187,7 +187,7 @@ def test_dry_run_of_ten_million_points_is_fast_and_small(tmp_path):
     angles = ", ".join(f"{-90 + 0.18 * i:.2f}" for i in range(1000))
     (tmp_path / "huge.toml").write_text(HUGE.format(angles=angles))
     # peak RSS from VmHWM: ru_maxrss would include the forking pytest process's own RSS
-    code = ("import re, sys, time; import scenarios.link; from rfsim.cli import main; "
+    code = ("import re, sys, time; import rfsim.scenarios.link; from rfsim.cli import main; "
             "t0 = time.perf_counter(); rc = main(['sweep', 'dry-run', 'huge.toml']); "
             "hwm = re.search(r'VmHWM:\\s*(\\d+)', open('/proc/self/status').read()).group(1); "
             "print('WALL', time.perf_counter() - t0, 'RSS', hwm, file=sys.stderr); sys.exit(rc)")

@@ -10,9 +10,9 @@ import types
 import numpy as np
 import pytest
 
-from rfsim.config import param
-from rfsim.dataset import Dataset, column, read_dataset
-from rfsim.rng import trial_rng
+from rfsim.core.config import param
+from rfsim.core.dataset import Dataset, column, read_dataset
+from rfsim.core.rng import trial_rng
 from rfsim.sweep import SerialExecutor, parse_spec, run_sweep
 from rfsim.sweep import runner as sweep_runner
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.dataset import read_provenance, read_table
-from rfsim.errors import UserError
+from rfsim.core.dataset import read_provenance, read_table
+from rfsim.core.errors import UserError
 from rfsim.sweep import (PoolExecutor, Progress, SerialExecutor, StoreIndex, load_spec, merge_sweep, point_seed,
                          points_dir, run_sweep)
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.errors import UserError
-from rfsim.registry import get_scenario
+from rfsim.core.errors import UserError
+from rfsim.runs.registry import get_scenario
 from rfsim.sweep import parse_spec, point_configs, point_seed, point_values, shard_runs
 
 BASE = {"scenario": "gen2-waveforms", "seed": 11, "output": "results/s.h5",
@@ -160,7 +160,7 @@ def test_sweep_help_lists_the_verbs(capsys):
 
 
 def test_every_dataset_scenario_has_a_valid_example_spec(project_root):
-    from rfsim.registry import scenario_modules
+    from rfsim.runs.registry import scenario_modules
     from rfsim.sweep import load_spec, plan_sweep
 
     examples = sorted((project_root / "examples" / "sweeps").glob("*.toml"))

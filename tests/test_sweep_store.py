@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import rfsim.bench.sweep_scale as toy
-from rfsim.dataset import Column, Dataset, column, read_dataset
+from rfsim.core.dataset import Column, Dataset, column, read_dataset
 from rfsim.sweep import PoolExecutor, SerialExecutor, StoreIndex, parse_spec, points_dir, run_sweep
 from rfsim.sweep.store import INDEX_DTYPE, RecordReader, SegmentWriter, decode_dataset, encode_dataset, read_index
 from test_sweep_run import assert_identical
@@ -153,7 +153,7 @@ def test_a_1000_run_toy_sweep_writes_few_files_and_resumes_exactly(tmp_path):
 
 @pytest.mark.parametrize("where,message", [("header", "header unreadable"), ("payload", "fails its CRC")])
 def test_a_corrupt_indexed_record_stops_the_merge_with_one_line(where, message, tmp_path):
-    from rfsim.errors import UserError
+    from rfsim.core.errors import UserError
     from rfsim.sweep import merge_sweep
 
     spec = toy_spec(tmp_path, n_points=3, reps=1)

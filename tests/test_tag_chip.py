@@ -1,4 +1,4 @@
-"""Power-dependent tag chip (devices.tag_chip): reflection states against a hand computation
+"""Power-dependent tag chip (rfsim.devices.tag_chip): reflection states against a hand computation
 of the PASS reflection-table equations (pass-paris-simulator.md §5.2), the self-consistent
 operating point and PASS's power-up rule (§2.2 step 4), and the measured tables against the
 impedances quoted on the reference page.
@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from devices.tag_chip import PowerDependentChip
-from rfsim.errors import ConfigError, UserError
+from rfsim.devices.tag_chip import PowerDependentChip
+from rfsim.core.errors import ConfigError, UserError
 
 ZA = 30.3 + 157.0j  # meas_tag_za-v6 at 915 MHz (§5.2)
 C_AT = 450e-15  # PASS assembly capacitance (§2.2)

@@ -14,16 +14,16 @@ import math
 import numpy as np
 import pytest
 
-from devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
-from rfsim.config import from_dict
-from rfsim.errors import ConfigError
+from rfsim.devices.tag import PassiveTag, TagConfig, TagResponse, envelope, incident_power_w
+from rfsim.core.config import from_dict
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, hex_to_bits, int_to_bits
 from rfsim.gen2.commands import ACK, Query, QueryRep, encode
 from rfsim.gen2.crc import append_crc5, crc16_ok
 from rfsim.gen2.link import PROFILES, frt_fraction, t1_range
 from rfsim.gen2.linecode import decode_reply
 from rfsim.gen2.pie import pie_envelope, pie_timeline
-from rfsim.units import dbm_to_w
+from rfsim.core.units import dbm_to_w
 
 FS_HZ = 6e6          # 4.7 samples per reply element at 640 kHz, non-integer everywhere
 CW_BEFORE_S = 20e-6
@@ -392,7 +392,7 @@ def test_pr_ask_phase_reversals_and_noise():
 def test_power_dependent_chip_sets_states_and_power_up():
     # PassiveTag(chip=...): the segment's CW power fixes the operating point, which decides
     # power-up (P_chip ≥ 52.709 µW + 2.5 dB) and the reflection states of the reply
-    from devices.tag_chip import PowerDependentChip
+    from rfsim.devices.tag_chip import PowerDependentChip
 
     link = PROFILES["miller4-320k"]
     chip = PowerDependentChip.pass_default()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from devices.tag_frontend import (
+from rfsim.devices.tag_frontend import (
     PASS_PICMIN_900MHZ_W,
     PASS_TAG_JITTER_RMS,
     PASS_ZIC_900MHZ_OHM,
@@ -24,9 +24,9 @@ from devices.tag_frontend import (
     power_transmission_coefficient,
     reflection_coefficient,
 )
-from devices.tag_chip import load_pass_tag_characteristics
-from rfsim.errors import ConfigError, UserError
-from rfsim.units import dbm_to_w, wavelength_m
+from rfsim.devices.tag_chip import load_pass_tag_characteristics
+from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.units import dbm_to_w, wavelength_m
 
 ZC = complex(32.0, -198.6)
 
@@ -237,8 +237,8 @@ def test_blf_divider_remembered_by_dr_name_still_checks_and_agrees():
     # a good one with the same count, and int/Fraction DRs give the same N as the names
     from fractions import Fraction
 
-    from devices.tag_frontend import TagClock
-    from rfsim.errors import ConfigError
+    from rfsim.devices.tag_frontend import TagClock
+    from rfsim.core.errors import ConfigError
 
     clk = TagClock()
     for n_trcal in (100, 101, 533, 1707):

@@ -1,10 +1,10 @@
-"""The shared front end's CW plateau (devices.tag: which sample the CW median lands on, and
+"""The shared front end's CW plateau (rfsim.devices.tag: which sample the CW median lands on, and
 whether the samples around it are ±one value) — the numba kernel against its NumPy twin."""
 
 import numpy as np
 import pytest
 
-from devices.tag import _MIN_MODULATION, _plateau, plateau_reference
+from rfsim.devices.tag import _MIN_MODULATION, _plateau, plateau_reference
 from rfsim.gen2.pie import two_level_threshold
 
 
@@ -80,7 +80,7 @@ def test_too_few_samples_and_nan():
 
 def test_reflection_kernel_equals_reference():
     # Γ(t) of a reply from its ±1 waveform (0 outside the reply, a NaN taken as "not +1")
-    from devices.tag import _reflection, reflection_reference
+    from rfsim.devices.tag import _reflection, reflection_reference
 
     rng = np.random.default_rng(4)
     s = rng.choice([-1.0, 0.0, 1.0], size=1001)

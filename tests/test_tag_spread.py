@@ -14,12 +14,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from devices.tag import PassiveTag, TagConfig
-from devices.tag_spread import TagSpreadConfig, spread_gamma_b
-from rfsim.errors import ConfigError
+from rfsim.devices.tag import PassiveTag, TagConfig
+from rfsim.devices.tag_spread import TagSpreadConfig, spread_gamma_b
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import PROFILES, t1
 from rfsim.gen2.linecode import halfsymbols
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 from test_tag_device import FS_HZ, query_segment
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
+from rfsim.devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select, encode, parse
 from rfsim.gen2.crc import crc16_ok
@@ -435,7 +435,7 @@ def test_state_arrays_silent_steps_equal_on_command():
     # state, the generators and the arrays (equal to the states' rows) must stay equal; most commands must be
     # silent steps for most tags, and at least one of them must find S1 due to revert (persistence
     # 3 ms, sessions 0–2).
-    from devices.gen2_tag_state import FlagPersistence, StateArrays
+    from rfsim.devices.gen2_tag_state import FlagPersistence, StateArrays
 
     rng = np.random.default_rng(8)
     n = 12
@@ -502,7 +502,7 @@ def test_slot_draw_equals_generator_integers():
     # with one seed, q = 0…16 interleaved with 16-bit and normal draws, the numbers and the
     # generator states must stay equal (q = 0 draws nothing), for PCG64 and Philox (q = 16 is
     # the tag's RN16 and handle draw).
-    from devices.gen2_tag_state import slot_draw
+    from rfsim.devices.gen2_tag_state import slot_draw
 
     for make in (np.random.PCG64, np.random.Philox):
         a, b = np.random.Generator(make(3)), np.random.Generator(make(3))
@@ -539,7 +539,7 @@ def test_epc_reply_kept_follows_the_epc(pc, epc, crc):
 
 
 def test_rn16_bits_by_byte_lookup_equal_int_to_bits():
-    from devices.gen2_tag_state import _bits16
+    from rfsim.devices.gen2_tag_state import _bits16
     from rfsim.gen2.bits import int_to_bits
 
     for v in (0, 1, 0x00FF, 0x0100, 0x8000, 0xA5C3, 0xFFFF):
@@ -553,7 +553,7 @@ def test_tags_following_the_arrays_clock_keep_their_own_times():
     # 1 ms and 2 ms are silent for all three (counters 4, 1, 8 then 3, 0 → not silent for
     # tag 1, which goes its own way at 2 ms), an ACK not for tag 1 at 2.5 ms silent for tags
     # 0, 2 (no counter changes), a third QueryRep at 3 ms silent for tags 0, 2 (2, 6)
-    from devices.gen2_tag_state import StateArrays
+    from rfsim.devices.gen2_tag_state import StateArrays
 
     states = [TagState(EPC) for _ in range(3)]
     for st, slot in zip(states, (5, 2, 9)):

@@ -1,6 +1,6 @@
 """Antenna structural-mode scattering of the passive tag: r(t) = A_s − Γ(t).
 
-Physics (devices.tag module docstring step 6; Nikitin, Rao & Lam, IEEE AP Magazine 48(6),
+Physics (rfsim.devices.tag module docstring step 6; Nikitin, Rao & Lam, IEEE AP Magazine 48(6),
 2006): the tag scatters (A_s − Γ(t))·incident. Expectations derived from that equation:
 
 * the re-radiation factor takes exactly the two values A_s − Γ_A, A_s − Γ_B (and A_s − Γ_A
@@ -20,16 +20,16 @@ import math
 import numpy as np
 import pytest
 
-from channels import Antenna, Channel, HalfWaveDipole, Isotropic, Patch, Scene
-from channels.paths import apply_paths
-from devices.reader import Reader, ReaderConfig
-from devices.tag import PassiveTag, TagConfig, TagResponse
-from rfsim.bistatic import listen_exchange
-from rfsim.engine import run_exchange
-from rfsim.errors import ConfigError
+from rfsim.channels import Antenna, Channel, HalfWaveDipole, Isotropic, Patch, Scene
+from rfsim.channels.paths import apply_paths
+from rfsim.devices.reader import Reader, ReaderConfig
+from rfsim.devices.tag import PassiveTag, TagConfig, TagResponse
+from rfsim.protocols.bistatic import listen_exchange
+from rfsim.protocols.engine import run_exchange
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 READER_CFG = ReaderConfig(link_profile="pass-miller2-48k", fs_hz=1e6, hopping=False, fixed_channel=26,
                           noise_figure_db=0.0)

@@ -23,11 +23,11 @@ def bench_channels(*, n_links: int = 2000, n_samples: int = 1_000_000, n_paths: 
     Compile time is excluded (one warm-up call each).
     """
     # imported here: rfsim does not import channels at module level (DESIGN.md layout)
-    from channels.antennas import Antenna, HalfWaveDipole
-    from channels.paths import PathSet, apply_paths
-    from channels.scene import Channel, Scene, los_links
-    from channels.small_scale import ApdpModel
-    from channels.surfaces import Surface
+    from rfsim.channels.antennas import Antenna, HalfWaveDipole
+    from rfsim.channels.paths import PathSet, apply_paths
+    from rfsim.channels.scene import Channel, Scene, los_links
+    from rfsim.channels.small_scale import ApdpModel
+    from rfsim.channels.surfaces import Surface
 
     fc, fs = 915e6, 4e6
     rng = np.random.default_rng(seed)
@@ -80,7 +80,7 @@ def bench_channels(*, n_links: int = 2000, n_samples: int = 1_000_000, n_paths: 
 
 
 def bench_bulk_links(*, n_links: int = 100_000, repeats: int = 3, seed: int = 0) -> dict:
-    """Full link draws per second of :func:`channels.bulk.draw_links` (one core).
+    """Full link draws per second of :func:`rfsim.channels.bulk.draw_links` (one core).
 
     The scene of :func:`bench_channels`: a half-wave dipole reader in a 6-surface
     8 m × 6 m × 3 m room, ``n_links`` random tag positions, each link with LoS + 6 first-order
@@ -88,11 +88,11 @@ def bench_bulk_links(*, n_links: int = 100_000, repeats: int = 3, seed: int = 0)
     calls is reported (one warm-up call first), as ``bulk_links_per_s``, with the columns per
     link ``paths_per_link`` and the fraction of image slots that hold a path.
     """
-    from channels.antennas import Antenna, HalfWaveDipole
-    from channels.bulk import draw_links
-    from channels.scene import Scene
-    from channels.small_scale import ApdpModel
-    from channels.surfaces import Surface
+    from rfsim.channels.antennas import Antenna, HalfWaveDipole
+    from rfsim.channels.bulk import draw_links
+    from rfsim.channels.scene import Scene
+    from rfsim.channels.small_scale import ApdpModel
+    from rfsim.channels.surfaces import Surface
 
     fc = 915e6
     rng = np.random.default_rng(seed)

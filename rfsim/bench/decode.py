@@ -25,7 +25,7 @@ from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2 import _pie_kernels as _pk
 from rfsim.gen2.pie import pie_timeline
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 #: PC (EPC length 6 words) and the 96-bit EPC of the benchmark tag.
 PC_BITS = np.array([int(c) for c in f"{0x3000:016b}"], dtype=np.uint8)

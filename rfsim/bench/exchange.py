@@ -5,7 +5,7 @@ BLF 320 kHz, Miller-4, PR-ASK) at 4 MS/s, reader (30 dBm, 6 dBi circular patch) 
 dipole tag at 3 m over the ``link`` scenario's default channel (Friis + concrete floor by
 the image method + exponential APDP, drawn anew every round), receiver noise (NF 10 dB),
 the full reader receive chain (detection, Viterbi decoding, CRC, RSSI/phase/Doppler/SNR).
-One round is a singulation Query → RN16 → ACK → PC+EPC+CRC (:func:`rfsim.engine.singulate`).
+One round is a singulation Query → RN16 → ACK → PC+EPC+CRC (:func:`rfsim.protocols.engine.singulate`).
 """
 
 from __future__ import annotations
@@ -31,8 +31,8 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     ``rounds_per_s``,
     ``air_time_per_round_s``, ``samples_per_round``, ``read_rate``, ``peak_traced_mb``.
     """
-    from rfsim.engine import singulate
-    from rfsim.rng import trial_rng
+    from rfsim.protocols.engine import singulate
+    from rfsim.core.rng import trial_rng
 
     reader, make_tag, channel, query = _canonical(distance_m, seed)
     tag = make_tag(None)
@@ -78,12 +78,12 @@ def _canonical(distance_m: float, seed: int):
     """The canonical exchange's reader, a maker of its tag (``trial_rng(seed, 1)``, trial b of a
     batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the round's Query (target A/B alternating)."""
     # imported here: rfsim does not import devices/channels/scenarios at module level
-    from channels import Channel
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import PassiveTag, TagConfig
+    from rfsim.channels import Channel
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, TagConfig
     from rfsim.gen2.commands import Query
-    from rfsim.rng import trial_rng
-    from scenarios import link as link_scenario
+    from rfsim.core.rng import trial_rng
+    from rfsim.scenarios import link as link_scenario
 
     cfg = link_scenario.Config()
     reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
@@ -103,7 +103,7 @@ def _canonical(distance_m: float, seed: int):
 
 def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0) -> dict:
     """Aggregate air time per second of the canonical exchange run as batches of ``batch``
-    independent singulations (:func:`rfsim.batch.singulate_batch`: B tags at the same place,
+    independent singulations (:func:`rfsim.protocols.batch.singulate_batch`: B tags at the same place,
     trial b of batch k drawing its channel and noise from ``trial_rng(seed, 2, k, b)``), on
     one core. Air time as in :func:`bench_exchange` (the samples of every trial's Query and
     ACK segments / fs); one warm-up batch of 4 other tags first.
@@ -113,8 +113,8 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
     dict with ``batch``, ``air_time_per_wall_s``, ``air_time_per_cpu_s``, ``trials_per_s``,
     ``cpu_s_per_trial``, ``read_rate``.
     """
-    from rfsim.batch import singulate_batch
-    from rfsim.rng import trial_rng
+    from rfsim.protocols.batch import singulate_batch
+    from rfsim.core.rng import trial_rng
 
     reader, make_tag, channel, query = _canonical(distance_m, seed)
     tags = [[make_tag(b)] for b in range(int(batch) + 4)]

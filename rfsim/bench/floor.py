@@ -7,7 +7,7 @@ of its Query and its ACK, ≈ 11,800 complex samples, 2.96 ms of air at 4 MS/s):
 * **one memory pass**: read and write every complex128 sample once (``np.multiply(y, g,
   out=y)``); a round needs a few dozen such passes (modulation, channel, tag, receiver);
 * **the receiver noise**: 2 × n standard normal draws from the trial's own PCG64 stream and
-  their sum into the samples (:func:`rfsim.noise.add_awgn`: PCG64 and NumPy's ziggurat
+  their sum into the samples (:func:`rfsim.air.noise.add_awgn`: PCG64 and NumPy's ziggurat
   compiled by numba on the generator's state), with a new generator per round as the engine
   spawns one per trial.
 
@@ -37,9 +37,9 @@ def bench_floor(*, n_rounds: int = 400, seed: int = 0, distance_m: float = 3.0) 
     import numpy as np
 
     from rfsim.bench.exchange import _canonical
-    from rfsim.engine import singulate
-    from rfsim.noise import add_awgn
-    from rfsim.rng import trial_rng
+    from rfsim.protocols.engine import singulate
+    from rfsim.air.noise import add_awgn
+    from rfsim.core.rng import trial_rng
 
     reader, make_tag, channel, query = _canonical(distance_m, seed)
     ex = singulate(reader, [make_tag(None)], channel, t_s=0.0, rng=trial_rng(seed, 2, 0), query=query(0))

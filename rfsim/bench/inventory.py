@@ -9,16 +9,16 @@ import time
 
 import numpy as np
 
-from rfsim.inventory import EngineAir, InventoryConfig, ProtocolAir, run_inventory
-from rfsim.rng import trial_rng
+from rfsim.protocols.inventory import EngineAir, InventoryConfig, ProtocolAir, run_inventory
+from rfsim.core.rng import trial_rng
 
 
 def _circle(n: int, seed: int) -> EngineAir:
     """n tags on a 2 m circle around an isotropic reader in free space (equal powers)."""
-    from channels import Antenna, Channel, Isotropic, Scene
-    from devices.reader import Reader, ReaderConfig
-    from devices.tag import TagConfig
-    from scenarios.inventory import make_tags, tag_antenna
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import TagConfig
+    from rfsim.scenarios.inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
                  polarization="circular")
@@ -55,7 +55,7 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
     20-tag inventory first; the 1-minute load average is recorded before and after. At
     protocol level: mean ± std of slots and air time to read all N tags over ``runs``
     populations for each of ``populations``."""
-    from devices.gen2_tag_state import TagState
+    from rfsim.devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 
     run_inventory(_circle(3, seed + 1), InventoryConfig())  # warm-up (compilation / cache load)

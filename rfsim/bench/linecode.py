@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from rfsim.gen2.linecode import decode_reply, decode_reply_reference, reply_waveform, reply_waveform_reference
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 #: Bits encoded and decoded per block.
 BLOCK_BITS = 10_000

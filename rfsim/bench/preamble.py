@@ -2,7 +2,7 @@
 or better, measured at 1–64 MS/s).
 
 The search is that of :func:`rfsim.gen2.linecode.decode_reply` (the simulated reader's
-receiver, devices.reader, and the capture decoder): the normalised correlation of the
+receiver, rfsim.devices.reader, and the capture decoder): the normalised correlation of the
 pilot + preamble template over every lag of a window. Here: a Miller-4 RN16 with pilot at
 BLF 160 kHz (the template spans 112 elements, 350 µs), searched over a 100 µs window of
 lags (T1 ± FrT and margin), in noise. Both the number of lags and the template length
@@ -19,7 +19,7 @@ import time
 import numpy as np
 
 from rfsim.gen2.linecode import _kernel_corr_abs, _template, corr_abs_reference, decode_reply, reply_waveform
-from rfsim.rng import trial_rng
+from rfsim.core.rng import trial_rng
 
 
 def _best_time(fn, repeats: int) -> float:

@@ -46,7 +46,7 @@ def run_measured(argv: list[str], *, cwd: str | None = None) -> dict:
 
 
 def _scenario_names() -> list[str]:
-    from rfsim.registry import scenario_descriptions
+    from rfsim.runs.registry import scenario_descriptions
 
     return list(scenario_descriptions())
 

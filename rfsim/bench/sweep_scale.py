@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.config import param
-from rfsim.dataset import Dataset, column
-from rfsim.rng import trial_rng
+from rfsim.core.config import param
+from rfsim.core.dataset import Dataset, column
+from rfsim.core.rng import trial_rng
 
 NAME = "sweep-scale-toy"
 DESCRIPTION = "toy scenario for sweep benchmarks (a few kB of seeded random arrays per run)"

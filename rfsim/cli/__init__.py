@@ -1,7 +1,7 @@
 """The ``rfsim`` command line.
 
 Each subcommand lives in its own module with ``add_parser(subparsers)`` and
-``run(args) -> int``. User mistakes (:class:`rfsim.errors.UserError`, which includes
+``run(args) -> int``. User mistakes (:class:`rfsim.core.errors.UserError`, which includes
 config errors) print one line to stderr and exit with status 2 — never a traceback.
 """
 
@@ -14,8 +14,8 @@ import sys
 from collections.abc import Sequence
 
 import rfsim
-from rfsim.errors import Terminated, UserError
-from rfsim.procs import terminate_as_interrupt
+from rfsim.core.errors import Terminated, UserError
+from rfsim.core.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
 _SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",

@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 
 #: name → (module, function, keyword arguments of the quick variant)
 BENCHMARKS = {
@@ -49,7 +49,7 @@ def machine_facts() -> dict:
     import scipy
 
     import rfsim
-    from rfsim.dataset import git_revision, utc_now
+    from rfsim.core.dataset import git_revision, utc_now
 
     cpu = platform.processor() or platform.machine()
     try:
@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise UserError(f"unknown benchmark {unknown[0]!r}; available: {', '.join(BENCHMARKS)}")
     if args.json is not None:
-        from rfsim.outputs import check_output_file
+        from rfsim.core.outputs import check_output_file
 
         check_output_file(args.json, "--json")
     machine = machine_facts()

@@ -17,7 +17,7 @@ import textwrap
 from pathlib import Path
 
 from rfsim.cli.verbosity import add_verbosity_args, reporter
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -58,8 +58,8 @@ def _text(value) -> str:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from rfsim.progress import reporting
-    from rfsim.registry import get_scenario
+    from rfsim.core.progress import reporting
+    from rfsim.runs.registry import get_scenario
 
     with _open(args.dataset) as f:
         scenario = _text(f.attrs.get("scenario", ""))

@@ -12,7 +12,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 
 FORMATS = ("text", "json", "csv")
 #: Capture file endings (rfsim.gen2.capture.SUFFIXES, spelled out here so that building the
@@ -124,7 +124,7 @@ def _json_value(v):
 
 
 def _write(args, records, replies, timing) -> None:
-    from rfsim.capture_records import COMMAND_FIELDS, READ_FIELDS, command_row, reply_row
+    from rfsim.gen2.capture_records import COMMAND_FIELDS, READ_FIELDS, command_row, reply_row
 
     fmt = getattr(args, "output_format", "text")
     out = sys.stdout
@@ -162,7 +162,7 @@ def _write(args, records, replies, timing) -> None:
 def run(args: argparse.Namespace) -> int:
     """Decode ``args.capture`` sampled at ``args.fs_hz``, print it in ``args.output_format`` and
     write ``args.output``; exit code 0 (also when stdout is closed early, e.g. ``| head``)."""
-    from rfsim.capture_records import capture_dataset
+    from rfsim.gen2.capture_records import capture_dataset
     from rfsim.gen2.capture import decode_reader_commands, load_capture
     from rfsim.gen2.replies import decode_tag_replies
 
@@ -181,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
                                  dr=getattr(args, "dr", None), m=getattr(args, "m", None),
                                  trext=None if trext is None else bool(trext))
     if output is not None:
-        from rfsim.dataset import make_provenance, utc_now, write_dataset
+        from rfsim.core.dataset import make_provenance, utc_now, write_dataset
         prov = make_provenance(config_toml="", seed=0, scenario="decode", start_time_utc=utc_now(),
                                extra={"capture": str(args.capture), "fs_hz": fs_hz})
         write_dataset(output, capture_dataset(records, replies, capture=str(args.capture), fs_hz=fs_hz,

@@ -6,9 +6,9 @@ import argparse
 from pathlib import Path
 
 from rfsim.cli.verbosity import add_verbosity_args, reporter
-from rfsim.config import describe, load_config, to_toml
-from rfsim.errors import SEED_RANGE_TEXT, UserError, check_seed
-from rfsim.registry import get_scenario, scenario_descriptions
+from rfsim.core.config import describe, load_config, to_toml
+from rfsim.core.errors import SEED_RANGE_TEXT, UserError, check_seed
+from rfsim.runs.registry import get_scenario, scenario_descriptions
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -74,8 +74,8 @@ def _config(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from rfsim.progress import reporting
-    from rfsim.runner import run_scenario
+    from rfsim.core.progress import reporting
+    from rfsim.runs.runner import run_scenario
 
     module, config = _resolve(args)
     with reporting(reporter(args)) as rep:

@@ -16,7 +16,7 @@ import os
 import sys
 from pathlib import Path
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 
 _VERBS = ("run", "dry-run", "plan", "merge")
 
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _dry_run(ns: argparse.Namespace) -> int:
-    from rfsim.config import to_toml
+    from rfsim.core.config import to_toml
     from rfsim.sweep import load_spec, plan_sweep, point_seed
 
     spec = load_spec(ns.spec)
@@ -181,7 +181,7 @@ def _run(ns: argparse.Namespace) -> int:
 
 
 def _plan(ns: argparse.Namespace) -> int:
-    from rfsim.outputs import check_output_file
+    from rfsim.core.outputs import check_output_file
     from rfsim.sweep import load_spec, plan_sweep, sbatch_script
     from rfsim.sweep.slurm import check_time_limit
 

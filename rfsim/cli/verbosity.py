@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rfsim.progress import Reporter
+from rfsim.core.progress import Reporter
 
 
 def add_verbosity_args(p: argparse.ArgumentParser) -> None:

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.detection.models import (DA_DEAD_ZONE, ReaderDetectionModel, mixture_logpmf)
-from rfsim.errors import UserError
-from rfsim.lazy import lazy_import
+from rfsim.core.errors import UserError
+from rfsim.core.lazy import lazy_import
 
 optimize = lazy_import("scipy.optimize")
 _special = lazy_import("scipy.special")

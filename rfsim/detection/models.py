@@ -36,8 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
-from rfsim.lazy import lazy_import
+from rfsim.core.errors import ConfigError
+from rfsim.core.lazy import lazy_import
 
 stats = lazy_import("scipy.stats")
 _special = lazy_import("scipy.special")

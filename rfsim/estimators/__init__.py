@@ -14,7 +14,7 @@ The public names are listed one per line (so that independent additions merge), 
 imported from its module on first use; ``__all__`` is every listed name.
 """
 
-from rfsim.lazy import lazy_exports
+from rfsim.core.lazy import lazy_exports
 
 #: Module of the package → the public names it provides, each imported on first use (so
 #: that importing one estimator does not import the others).

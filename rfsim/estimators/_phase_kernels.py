@@ -1,6 +1,6 @@
 """Numba kernels of the sequential per-read EKF and the RTS smoother of phase tracking.
 
-Plain loops over preallocated arrays (rfsim._jit policy); the validating wrappers are in
+Plain loops over preallocated arrays (rfsim.core._jit policy); the validating wrappers are in
 :mod:`rfsim.estimators.phase_tracking`. Their NumPy twins are the generic
 :func:`rfsim.estimators.kalman.extended_kalman_filter` and :func:`~rfsim.estimators.kalman.rts_smoother`
 run on the same data with one-hot measurement vectors (tests/test_estimators_phase.py), and
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 
 @njit

@@ -15,7 +15,7 @@ A = blkdiag(A₃, A₃, A₃), outputs in the order of C and of the printed gain
     θ_z = ψ,   ω_z = ψ̇                                              (L828, L830)
 
 With ψ the heading of the body's y^B axis (erratum 13 default), a₁ is the accelerometer's
-y^B reading and a₂ minus its x^B reading (:mod:`devices.imu` conventions).
+y^B reading and a₂ minus its x^B reading (:mod:`rfsim.devices.imu` conventions).
 ``accel = "prerotated"`` replaces a₁, a₂ by −ẍ, −ÿ — the body accelerations rotated into
 the fixed frame with the measured θ_z and then by π (:func:`prerotate_accelerations`), so
 that those two rows of C are constant and equal to the rows of (55) (himr-tag.md §6.3).

@@ -46,7 +46,7 @@ import numpy as np
 from rfsim.estimators.himr_model import (A3, A9, C1, PYLONS_M, TABLE8_STATE, h_2d, jacobian_2d,
                                          prerotate_accelerations)
 from rfsim.estimators.himr_surrogate import SurrogateNoise
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _linalg = lazy_import("scipy.linalg")
 

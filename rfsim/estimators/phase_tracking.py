@@ -45,7 +45,7 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _pk = lazy_import("rfsim.estimators._phase_kernels")
 

@@ -9,7 +9,7 @@ decoders), :mod:`~rfsim.gen2.capture` (reader commands in recorded waveforms) an
 :mod:`~rfsim.gen2.replies` (tag replies in recorded waveforms).
 """
 
-from rfsim.lazy import lazy_exports
+from rfsim.core.lazy import lazy_exports
 
 #: Module of the package → the public names it provides, each imported on first use (so
 #: that importing one module, e.g. the link profiles, does not import the others).

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 from rfsim.gen2._pie_kernels import env_value
 
 

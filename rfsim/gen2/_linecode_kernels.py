@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 #: Added to the fractional element index before flooring, so that a sample that falls
 #: exactly on an element boundary (up to float64 rounding) belongs to the later element.

@@ -13,7 +13,7 @@ import numpy as np
 from numba import types
 from numba.extending import overload
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 
 FALL = 0
 RISE = 1

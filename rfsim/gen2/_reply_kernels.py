@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from rfsim._jit import njit
+from rfsim.core._jit import njit
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
                                         viterbi_kernel, waveform_kernel)

@@ -3,7 +3,7 @@
 A capture is a complex baseband recording (GNU Radio file sink: raw interleaved
 complex64, or a NumPy ``.npy`` array) of unknown amplitude scale, or a real envelope
 (|IQ|) that may also carry an unknown offset; it must be finite (NaN/Inf are refused with
-a one-line :class:`rfsim.errors.UserError`). Reader commands are found in its envelope,
+a one-line :class:`rfsim.core.errors.UserError`). Reader commands are found in its envelope,
 normalised to 0…1 by the two level clusters (:func:`envelope_levels`), decoded with the PIE
 decoder of :mod:`rfsim.gen2.pie` and kept only when they pass the PIE plausibility gate
 (:func:`plausible_frames`: every symbol Tari or RTcal − Tari, equal pulse widths, Gen2
@@ -13,7 +13,7 @@ parsed with :mod:`rfsim.gen2.commands`. Timings are the medians over all command
 limits (a wrong sample rate). Tag replies: :mod:`rfsim.gen2.replies`.
 
 :func:`fit_gain_offset` and :func:`preamble_threshold` are shared by the capture decoder
-and the simulated reader's receiver (devices.reader).
+and the simulated reader's receiver (rfsim.devices.reader).
 """
 
 from __future__ import annotations
@@ -25,14 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 from rfsim.gen2.bits import bits_to_str
 from rfsim.gen2.commands import CommandParseError, command_fields, command_name, parse
 from rfsim.gen2.crc import crc5_ok, crc16_ok
 from rfsim.gen2.link import (DATA1_TARI_RANGE, DELIMITER_NOMINAL_S, DELIMITER_RANGE_S, TARI_RANGE_S,
                              TRCAL_RTCAL_RANGE)
 from rfsim.gen2.pie import PieEdges, pie_decode_arrays
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _ck = lazy_import("rfsim.gen2._capture_kernels")
 
@@ -53,7 +53,7 @@ def load_capture(path) -> np.ndarray:
     """Read a capture file as ``(n,) complex64``.
 
     ``.npy`` (1-D, real or complex) or raw interleaved float32 I/Q with one of
-    :data:`RAW_SUFFIXES`. Raises :class:`rfsim.errors.UserError` (one line) when the file is
+    :data:`RAW_SUFFIXES`. Raises :class:`rfsim.core.errors.UserError` (one line) when the file is
     missing, has another ending, is empty or malformed.
     """
     p = Path(path)
@@ -81,7 +81,7 @@ def load_capture(path) -> np.ndarray:
 
 
 def check_finite(samples, what: str = "capture") -> None:
-    """Raise :class:`rfsim.errors.UserError` (one line) when ``samples`` hold NaN or ±Inf."""
+    """Raise :class:`rfsim.core.errors.UserError` (one line) when ``samples`` hold NaN or ±Inf."""
     x = np.asarray(samples)
     bad = ~np.isfinite(x)
     if bad.any():
@@ -172,7 +172,7 @@ def _check_samples(samples) -> np.ndarray:
 def _split_levels(v) -> tuple[float, float, float]:
     """``(threshold, low, high)`` of the envelope of ``v`` (real, or complex: its magnitude
     read on the fly): the isodata split on the :data:`LEVEL_BINS`-bin histogram (module
-    docstring of :func:`envelope_levels`); raises :class:`rfsim.errors.UserError` on NaN/Inf."""
+    docstring of :func:`envelope_levels`); raises :class:`rfsim.core.errors.UserError` on NaN/Inf."""
     cplx = v.dtype in (np.complex64, np.complex128)
     lo, hi, n_bad, first_bad = (_ck.power_range_kernel if cplx else _ck.range_kernel)(v)
     if n_bad:
@@ -204,7 +204,7 @@ def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
     below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
     envelope instead of the samples themselves (one pass over the capture; the threshold
     is exact to one bin, 1/16384 of the envelope's range). Raises
-    :class:`rfsim.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
+    :class:`rfsim.core.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
     """
     x = _check_samples(samples)
     if x.size == 0:
@@ -326,7 +326,7 @@ def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
     Parameters
     ----------
     samples : (n,) complex baseband or real envelope, arbitrary scale (and offset, if real);
-        must be finite (NaN/Inf raise :class:`rfsim.errors.UserError`)
+        must be finite (NaN/Inf raise :class:`rfsim.core.errors.UserError`)
     fs_hz : sample rate [Hz]
     gate : apply the PIE plausibility gate (:func:`plausible_frames`)
 
@@ -435,7 +435,7 @@ def preamble_threshold(n_samples: int, n_tests: int, false_alarm_probability: fl
     On complex white noise the zero-mean normalised correlation of an ``n_samples`` template
     obeys corr² ~ Beta(1, n − 2), P(corr > γ) = (1 − γ²)^(n−2); the sub-sample refinement
     of :func:`rfsim.gen2.linecode.decode_reply` counts as about twice as many tests (the
-    rule and the factor of the reader receiver, devices.reader ``detection_threshold``).
+    rule and the factor of the reader receiver, rfsim.devices.reader ``detection_threshold``).
     γ = √(1 − (P_FA/(2·n_tests))^(1/(n−2))).
     """
     if not 0.0 < false_alarm_probability < 1.0:

@@ -20,7 +20,7 @@ Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16
 Field conventions (Query): DR "8" → 0, "64/3" → 1; M 1/2/4/8 (FM0, Miller-2/4/8) → 00/01/10/11;
 Sel "all" → 00, "all01" → 01 (the standard's second code for All), "~sl" → 10, "sl" → 11;
 Session 0–3 (S0–S3); Target "A" → 0, "B" → 1; Q 0–15. QueryAdjust UpDn +1 → 110, 0 → 000,
-−1 → 011. Invalid field values raise :class:`rfsim.errors.ConfigError` (a ``ValueError``)
+−1 → 011. Invalid field values raise :class:`rfsim.core.errors.ConfigError` (a ``ValueError``)
 naming the field, the value and what is allowed.
 
 :func:`parse` identifies a command by its prefix and length and verifies its CRC. It
@@ -37,7 +37,7 @@ from typing import ClassVar, Union
 
 import numpy as np
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import as_bits, bits_to_int, bits_to_str, int_to_bits, str_to_bits
 from rfsim.gen2.crc import append_crc5, append_crc16, crc5_ok, crc16_ok
 

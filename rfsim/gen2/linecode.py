@@ -40,7 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.bits import as_bits
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _k = lazy_import("rfsim.gen2._linecode_kernels")
 

@@ -26,8 +26,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from rfsim.errors import ConfigError, did_you_mean
-from rfsim.lazy import lazy_import
+from rfsim.core.errors import ConfigError, did_you_mean
+from rfsim.core.lazy import lazy_import
 
 _bits = lazy_import("rfsim.gen2.bits")
 _commands = lazy_import("rfsim.gen2.commands")

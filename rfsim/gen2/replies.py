@@ -60,7 +60,7 @@ same form with real h (|h| ≪ |c|). Steps per window:
    coloured or impulsive noise that passes the correlation test is not reported.
    RSSI 10·log10|h|² + 30 (dBm if the capture is in √W, else dB relative to its unit),
    phase (−arg h) mod 2π and SNR |h|²/σ² per sample at the capture's rate, as the
-   simulated reader defines them (devices.reader ``ReadResult``).
+   simulated reader defines them (rfsim.devices.reader ``ReadResult``).
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.errors import ConfigError
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_int, bits_to_str
 from rfsim.gen2.capture import ReaderCommandRecord, fit_gain_offset, preamble_threshold
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
@@ -81,7 +81,7 @@ from rfsim.gen2.linecode import (METHODS, _preamble, _state_index, decode_reply,
                                  reply_waveform)
 from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSAMPLES, TRACK_BLOCK_ELEMENTS, TRACK_SPANS,
                                       resample, track_reference, warp_positions)
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
 

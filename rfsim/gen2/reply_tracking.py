@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from rfsim.gen2.linecode import halfsymbols
-from rfsim.lazy import lazy_import
+from rfsim.core.lazy import lazy_import
 
 _ck = lazy_import("rfsim.gen2._capture_kernels")
 

@@ -28,8 +28,8 @@ import uuid
 from collections.abc import Iterable, Iterator
 from typing import Any
 
-from rfsim.errors import UserError
-from rfsim.procs import worker_pool
+from rfsim.core.errors import UserError
+from rfsim.core.procs import worker_pool
 from rfsim.sweep.store import PointResult, PointTask, run_point, run_points
 
 
@@ -78,7 +78,7 @@ class SerialExecutor:
 
 
 class PoolExecutor:
-    """A local process pool of ``workers`` processes (:func:`rfsim.procs.worker_pool`).
+    """A local process pool of ``workers`` processes (:func:`rfsim.core.procs.worker_pool`).
 
     Tasks are sent in batches (:func:`batch_size`) with at most ``4 × workers`` batches in
     flight, so a sweep of millions of runs is never held in memory as futures. The workers

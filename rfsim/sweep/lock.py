@@ -21,8 +21,8 @@ import os
 import sys
 from pathlib import Path
 
-from rfsim.dataset import utc_now
-from rfsim.errors import UserError
+from rfsim.core.dataset import utc_now
+from rfsim.core.errors import UserError
 from rfsim.sweep.store import points_dir
 
 try:

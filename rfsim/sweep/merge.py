@@ -33,8 +33,8 @@ from typing import Any
 import h5py
 import numpy as np
 
-from rfsim.config import field_at, field_meta, toml_value
-from rfsim.dataset import (Column, Dataset, atomic_h5file, column, create_array, create_row_scale, stored_values,
+from rfsim.core.config import field_at, field_meta, toml_value
+from rfsim.core.dataset import (Column, Dataset, atomic_h5file, column, create_array, create_row_scale, stored_values,
                            write_group_descriptions, write_provenance, write_root_attrs)
 from rfsim.sweep.store import RecordReader, RecordRef, decode_array, decode_dataset
 

@@ -3,7 +3,7 @@
 On a TTY a tqdm bar ``sweep:  47%|████▋     | 120/256 runs [00:35<00:40,  3.40runs/s]`` is
 redrawn in place; when the stream is not a TTY (SLURM logs, pipes) a plain line
 ``sweep: 120/256 runs (46.9 %),  3.40runs/s, elapsed 00:35, ETA 00:40`` is printed at the
-start, at most every ``log_interval_s`` and at the end (:class:`rfsim.progress.Reporter`).
+start, at most every ``log_interval_s`` and at the end (:class:`rfsim.core.progress.Reporter`).
 Runs already finished (``--resume``) count as done from the start; tqdm's rate and ETA
 count only the runs finished in this process.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import TextIO
 
-from rfsim.progress import Reporter
+from rfsim.core.progress import Reporter
 
 
 class Progress:

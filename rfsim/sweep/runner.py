@@ -24,11 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.config import to_toml
-from rfsim.dataset import make_provenance, utc_now
-from rfsim.errors import UserError
-from rfsim.outputs import check_output_file, check_output_folder
-from rfsim.registry import get_scenario
+from rfsim.core.config import to_toml
+from rfsim.core.dataset import make_provenance, utc_now
+from rfsim.core.errors import UserError
+from rfsim.core.outputs import check_output_file, check_output_folder
+from rfsim.runs.registry import get_scenario
 from rfsim.sweep.executors import SerialExecutor
 from rfsim.sweep.lock import OutputLock
 from rfsim.sweep.merge import merge_store

@@ -18,7 +18,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from rfsim.errors import UserError
+from rfsim.core.errors import UserError
 
 
 def default_command() -> str:

@@ -34,7 +34,7 @@ same ``n`` form one group (they move together, draw j of each axis in the same p
 The points are the Cartesian product of the groups, in the order the groups first appear
 in the spec, the last group varying fastest (``itertools.product`` order). Random axis
 number ``a`` (its position in ``[[axes]]``) draws its ``n`` values from
-``rfsim.rng.trial_rng(seed, a)`` — a one-element spawn key, so it never shares a stream
+``rfsim.core.rng.trial_rng(seed, a)`` — a one-element spawn key, so it never shares a stream
 with a point's run seed (two-element keys ``(point, repetition)``).
 
 Point ``i``, repetition ``k`` runs the scenario with the seed :func:`point_seed`
@@ -53,9 +53,9 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.config import check_value, from_dict, read_toml
-from rfsim.errors import SEED_LIMIT, SEED_RANGE_TEXT, ConfigError, UserError, did_you_mean
-from rfsim.rng import trial_rng, trial_seed_sequence
+from rfsim.core.config import check_value, from_dict, read_toml
+from rfsim.core.errors import SEED_LIMIT, SEED_RANGE_TEXT, ConfigError, UserError, did_you_mean
+from rfsim.core.rng import trial_rng, trial_seed_sequence
 
 _TOP_KEYS = ("scenario", "seed", "repetitions", "output", "base", "axes")
 _AXIS_KEYS = {
@@ -398,7 +398,7 @@ def point_config(spec: SweepSpec, config_cls: type, index: int, values: Mapping[
     """Validated config of point ``index``; a bad point raises a one-line error.
 
     The message names the point index and its swept values, then the key, the value and
-    what is allowed (the :class:`ConfigError` of :func:`rfsim.config.from_dict`).
+    what is allowed (the :class:`ConfigError` of :func:`rfsim.core.config.from_dict`).
     """
     values = point_value(spec, index) if values is None else values
     try:

@@ -51,9 +51,9 @@ from typing import Any
 import numpy as np
 
 import rfsim
-from rfsim.config import to_toml
-from rfsim.dataset import Column, Dataset, git_revision, utc_now
-from rfsim.errors import UserError
+from rfsim.core.config import to_toml
+from rfsim.core.dataset import Column, Dataset, git_revision, utc_now
+from rfsim.core.errors import UserError
 
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
@@ -117,7 +117,7 @@ def _array_meta(arr: np.ndarray, offset: int) -> dict[str, Any]:
 
 def _fixed_width_text(name: str, data: np.ndarray) -> np.ndarray:
     """A text column held as an object array of ``str`` (one shared object per distinct value,
-    :func:`rfsim.dataset.is_text`) as fixed-width ``U``: the store keeps raw array bytes only."""
+    :func:`rfsim.core.dataset.is_text`) as fixed-width ``U``: the store keeps raw array bytes only."""
     if data.dtype.kind != "O":
         return data
     if not all(isinstance(v, str) for v in set(data.ravel().tolist())):

@@ -1,0 +1,483 @@
+"""HDF5 datasets: columnar tables, gridded data with dimension scales, provenance.
+
+Layout of a file written by :func:`write_dataset` (one HDF5 group per table or grid)::
+
+    /                     attrs: title, scenario, rfsim_version, the run's scalar results
+    /<table>              attr description (what one row is)
+    /<table>/row          dimension scale 0..n-1
+    /<table>/<column>     1-D, one per field, attrs units, long_name, description
+    /<grid>               attr description
+    /<grid>/<coord>       1-D dimension scales (attrs units, long_name, description)
+    /<grid>/<variable>    N-D over named coords (attrs units, long_name, description)
+    /provenance           attrs: config_toml, seed, rfsim_version, git_revision,
+                          start_time_utc, end_time_utc, platform, python, numpy, numba
+
+Every group is also a valid netCDF-4 group: ``xarray.open_dataset(path,
+engine="h5netcdf", group="<name>")`` opens it without custom code and shows ``units`` and
+``long_name`` (CF conventions) on every variable. Booleans are stored as ``uint8`` with the
+CF attributes ``flag_values = [0, 1]``, ``flag_meanings = "false true"`` and
+``rfsim_dtype = "bool"`` (netCDF has no bool type; :func:`read_table` gives them back as
+bool); strings as UTF-8 variable-length strings.
+
+Root attributes that are not finite numbers (NaN, ±inf) must say what they mean: a text
+attribute ``<name>_meaning`` beside them (e.g. "inf: no nulls along this track"), else
+:func:`write_dataset` refuses the dataset.
+
+Any table into pandas, in one line (``read_table`` returns plain NumPy columns)::
+
+    frame = pandas.DataFrame(rfsim.core.dataset.read_table("results/link.h5", "reads"))
+
+and any group, grids included, through xarray::
+
+    frame = xarray.open_dataset(path, engine="h5netcdf", group="tracks").to_dataframe()
+
+Files are written to a hidden temporary name beside the target, flushed, fsync'ed and
+renamed over the final name, so a killed run never leaves a truncated file under the
+final name.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime as _dt
+import os
+import platform
+import subprocess
+import sys
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import rfsim
+from rfsim.core.lazy import lazy_import
+
+h5py = lazy_import("h5py")
+
+_ROW_DIM = "row"
+_BOOL_ATTR = "rfsim_dtype"
+#: Description attribute of every file's provenance group.
+PROVENANCE_DESCRIPTION = ("how this file was made: the resolved config (TOML), the seed, the rfsim version "
+                          "and git revision, start and end time (UTC) and the software platform")
+
+
+@dataclasses.dataclass(frozen=True)
+class Column:
+    """One named array with its unit and description.
+
+    ``dims`` names the grid coordinates a gridded variable spans (in axis order);
+    table columns leave it empty. The CF ``long_name`` written with it is the description's
+    first clause (up to the first ";" or ":").
+    """
+
+    data: np.ndarray
+    units: str
+    description: str
+    dims: tuple[str, ...] = ()
+
+
+def column(data: Any, units: str, description: str, dims: tuple[str, ...] = ()) -> Column:
+    """Build a :class:`Column`, converting ``data`` to an array (strings to ``str``)."""
+    arr = np.asarray(data)
+    if arr.dtype.kind in "OU":
+        arr = arr.astype(str)
+    return Column(arr, units, description, tuple(dims))
+
+
+@dataclasses.dataclass
+class Dataset:
+    """In-memory content of one dataset file: tables, grids and root attributes."""
+
+    title: str = ""
+    scenario: str = ""
+    tables: dict[str, dict[str, Column]] = dataclasses.field(default_factory=dict)
+    grids: dict[str, tuple[dict[str, Column], dict[str, Column]]] = dataclasses.field(
+        default_factory=dict)
+    attrs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: group name → what the group holds (what one row of a table is)
+    descriptions: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def add_table(self, name: str, columns: Mapping[str, Column], description: str = "") -> None:
+        """Add a columnar table: aligned 1-D columns of equal length; ``description`` says
+        what one row is."""
+        self._check_new(name)
+        lengths = {k: c.data.shape for k, c in columns.items()}
+        if not columns:
+            raise ValueError(f"table {name!r} has no columns")
+        if any(len(s) != 1 for s in lengths.values()):
+            raise ValueError(f"table {name!r}: columns must be 1-D, got shapes {lengths}")
+        if len({s[0] for s in lengths.values()}) != 1:
+            raise ValueError(f"table {name!r}: columns differ in length: {lengths}")
+        if _ROW_DIM in columns:
+            raise ValueError(f"table {name!r}: {_ROW_DIM!r} is reserved for the row index")
+        self.tables[name] = dict(columns)
+        if description:
+            self.descriptions[name] = description
+
+    def add_grid(self, name: str, coords: Mapping[str, Column],
+                 variables: Mapping[str, Column], description: str = "") -> None:
+        """Add gridded data: 1-D coordinates and variables over (a subset of) them."""
+        self._check_new(name)
+        for cname, c in coords.items():
+            if c.data.ndim != 1:
+                raise ValueError(f"grid {name!r}: coordinate {cname!r} must be 1-D")
+        for vname, v in variables.items():
+            dims = v.dims or tuple(coords)
+            if any(d not in coords for d in dims):
+                raise ValueError(f"grid {name!r}: variable {vname!r} names unknown dims {dims}")
+            expected = tuple(len(coords[d].data) for d in dims)
+            if v.data.shape != expected:
+                raise ValueError(f"grid {name!r}: variable {vname!r} has shape "
+                                 f"{v.data.shape}, expected {expected} over {dims}")
+        self.grids[name] = (dict(coords), {k: dataclasses.replace(v, dims=v.dims or tuple(coords))
+                                           for k, v in variables.items()})
+        if description:
+            self.descriptions[name] = description
+
+    def _check_new(self, name: str) -> None:
+        if name in self.tables or name in self.grids or name == "provenance" or not name:
+            raise ValueError(f"dataset group name {name!r} is empty, reserved or already used")
+
+
+# ----------------------------------------------------------------------------- provenance
+
+
+def git_revision() -> str:
+    """The git commit of the rfsim source tree, or ``""`` when not in a checkout."""
+    src = Path(rfsim.__file__).resolve().parent.parent
+    try:
+        out = subprocess.run(["git", "-C", str(src), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    rev = out.stdout.strip()
+    if out.returncode != 0 or len(rev) != 40:
+        return ""
+    dirty = subprocess.run(["git", "-C", str(src), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True, timeout=5, check=False).stdout.strip()
+    return rev + ("-dirty" if dirty else "")
+
+
+def utc_now() -> str:
+    """Current UTC time, ISO 8601 with seconds (for provenance only, never for seeding)."""
+    return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_utc: str,
+                    extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Provenance attributes of a run (the end time is stamped when the file is written)."""
+    import numba
+
+    prov = {
+        "config_toml": config_toml,
+        "seed": int(seed),
+        "scenario": scenario,
+        "rfsim_version": rfsim.__version__,
+        "git_revision": git_revision(),
+        "start_time_utc": start_time_utc,
+        "platform": platform.platform(),
+        "python": sys.version.split()[0],
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "h5py": h5py.__version__,
+    }
+    prov.update(extra or {})
+    return prov
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def long_name(description: str) -> str:
+    """CF ``long_name`` of a column: the first clause of its description."""
+    for sep in (";", ": "):
+        description = description.split(sep, 1)[0]
+    return description.strip()
+
+
+def _array_attrs(col: Column, name: str) -> dict[str, Any]:
+    attrs: dict[str, Any] = {"units": col.units, "long_name": long_name(col.description) or name,
+                             "description": col.description}
+    if col.data.dtype == bool:
+        attrs[_BOOL_ATTR] = "bool"
+        attrs["flag_values"] = np.array([0, 1], dtype=np.uint8)
+        attrs["flag_meanings"] = "false true"
+    return attrs
+
+
+def is_text(data: np.ndarray) -> bool:
+    """Whether ``data`` is a text column: fixed-width ``str`` (``U``) or an object array of
+    ``str`` (which a column of few distinct values can use to hold one shared object per
+    value instead of a copy per row)."""
+    return data.dtype.kind in "OU"
+
+
+def stored_values(data: np.ndarray) -> np.ndarray:
+    """``data`` as it is written to HDF5 (booleans as uint8, text as UTF-8 objects)."""
+    if data.dtype == bool:
+        return data.astype(np.uint8)
+    if data.dtype.kind == "U":
+        return data.astype(object)
+    return data
+
+
+def _h5_dtype(data: np.ndarray) -> Any:
+    if is_text(data):
+        return h5py.string_dtype("utf-8")
+    return stored_values(data[:0]).dtype
+
+
+#: Rows of a text column converted to Python strings at a time when it is written (the
+#: conversion costs ~100 bytes a row; written whole, a long column's copy would be the peak).
+TEXT_SLICE_ROWS = 1 << 16
+
+
+def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
+    if is_text(col.data):
+        ds = group.create_dataset(name, shape=col.data.shape, dtype=_h5_dtype(col.data))
+        if col.data.ndim != 1:   # text over a grid: rare and small, written whole
+            ds[...] = stored_values(col.data)
+        for start in range(0, len(col.data) if col.data.ndim == 1 else 0, TEXT_SLICE_ROWS):
+            ds[start:start + TEXT_SLICE_ROWS] = stored_values(col.data[start:start + TEXT_SLICE_ROWS])
+    else:
+        data = stored_values(col.data)
+        opts = {"compression": "gzip", "compression_opts": 4} if data.size >= 4096 else {}
+        ds = group.create_dataset(name, data=data, **opts)
+    for k, v in _array_attrs(col, name).items():
+        ds.attrs[k] = v
+    return ds
+
+
+def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, ...]) -> h5py.Dataset:
+    """An empty dataset of ``shape``, typed and described like ``like`` (filled in parts later).
+
+    Same dtype conventions and attributes as :func:`write_dataset`; chunked with gzip
+    (and byte shuffle) when it holds at least 4096 values, so large merged columns are
+    compressed. Write parts with ``ds[i:j] = stored_values(data)``.
+    """
+    size = int(np.prod(shape, dtype=np.int64))
+    opts: dict[str, Any] = {}
+    if size >= 4096 and not is_text(like.data):
+        opts = {"compression": "gzip", "compression_opts": 4, "shuffle": True, "chunks": True}
+    ds = group.create_dataset(name, shape=shape, dtype=_h5_dtype(like.data), **opts)
+    for k, v in _array_attrs(like, name).items():
+        ds.attrs[k] = v
+    return ds
+
+
+def create_row_scale(group: h5py.Group, n_rows: int) -> h5py.Dataset:
+    """The ``row`` dimension scale (0 … n_rows − 1) of a table group."""
+    like = Column(np.zeros(0, np.int64), "1", "row index of the table, 0-based")
+    row = create_array(group, _ROW_DIM, like, (n_rows,))
+    row.attrs["long_name"] = "row index"
+    step = 1 << 20
+    for start in range(0, n_rows, step):
+        row[start:min(start + step, n_rows)] = np.arange(start, min(start + step, n_rows), dtype=np.int64)
+    row.make_scale(_ROW_DIM)
+    return row
+
+
+def _write_table(f: h5py.File, name: str, columns: Mapping[str, Column]) -> None:
+    g = f.create_group(name)
+    row = create_row_scale(g, len(next(iter(columns.values())).data))
+    for cname, col in columns.items():
+        ds = _write_array(g, cname, col)
+        ds.dims[0].attach_scale(row)
+
+
+def _write_grid(f: h5py.File, name: str, coords: Mapping[str, Column],
+                variables: Mapping[str, Column]) -> None:
+    g = f.create_group(name)
+    scales = {}
+    for cname, c in coords.items():
+        ds = _write_array(g, cname, c)
+        ds.make_scale(cname)
+        scales[cname] = ds
+    for vname, v in variables.items():
+        ds = _write_array(g, vname, v)
+        for axis, dim in enumerate(v.dims):
+            ds.dims[axis].attach_scale(scales[dim])
+
+
+def check_attributes(attrs: Mapping[str, Any]) -> None:
+    """ValueError naming the first non-finite numeric attribute without a ``<name>_meaning``."""
+    for k, v in attrs.items():
+        arr = np.asarray(v)
+        if arr.dtype.kind in "fc" and not np.all(np.isfinite(arr)) and not str(attrs.get(f"{k}_meaning", "")):
+            raise ValueError(f"dataset attribute {k!r} = {v!r} is not finite; add a text attribute "
+                             f"'{k}_meaning' that says what the value means")
+
+
+@contextlib.contextmanager
+def atomic_h5file(path: str | Path) -> Iterator[h5py.File]:
+    """An HDF5 file open for writing under a hidden temporary name beside ``path``.
+
+    On leaving the block the file is closed, fsync'ed and renamed over ``path`` (with the
+    folder fsync'ed); on an exception (including Ctrl-C and SIGTERM) the temporary file is
+    removed, so ``path`` is either the old file or the complete new one.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        with h5py.File(tmp, "w") as f:
+            yield f
+            f.flush()
+        _fsync_file(tmp)
+        os.replace(tmp, path)
+        _fsync_dir(path.parent)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
+    """The root attributes of a dataset file: title, scenario, version and ``dataset.attrs``."""
+    f.attrs["title"] = dataset.title
+    f.attrs["scenario"] = dataset.scenario
+    f.attrs["rfsim_version"] = rfsim.__version__
+    for k, v in dataset.attrs.items():
+        f.attrs[k] = v
+
+
+def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
+    """The ``/provenance`` group, with ``end_time_utc`` stamped now."""
+    prov = f.create_group("provenance")
+    prov.attrs["description"] = PROVENANCE_DESCRIPTION
+    for k, v in {**provenance, "end_time_utc": utc_now()}.items():
+        prov.attrs[k] = v
+
+
+def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
+    """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
+
+    The provenance gets ``end_time_utc`` stamped now. Returns the final path. Non-finite
+    root attributes need a ``<name>_meaning`` (:func:`check_attributes`).
+    """
+    check_attributes(dataset.attrs)
+    path = Path(path)
+    with atomic_h5file(path) as f:
+        write_root_attrs(f, dataset)
+        for name, cols in dataset.tables.items():
+            _write_table(f, name, cols)
+        for name, (coords, variables) in dataset.grids.items():
+            _write_grid(f, name, coords, variables)
+        write_group_descriptions(f, dataset.descriptions)
+        write_provenance(f, provenance)
+    return path
+
+
+def write_group_descriptions(f: h5py.File, descriptions: Mapping[str, str]) -> None:
+    """The ``description`` attribute of each named group that is in the file."""
+    for name, text in descriptions.items():
+        if name in f:
+            f[name].attrs["description"] = text
+
+
+def _fsync_file(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _fsync_dir(path: Path) -> None:
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def _read_array(ds: h5py.Dataset) -> np.ndarray:
+    if h5py.check_string_dtype(ds.dtype) is not None:
+        return ds.asstr()[()].astype(str)
+    data = ds[()]
+    if ds.attrs.get(_BOOL_ATTR) == "bool":
+        data = data.astype(bool)
+    return np.asarray(data)
+
+
+def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
+    """Columns of table ``name`` as plain arrays (without the row index); booleans as bool.
+
+    ``pandas.DataFrame(read_table(path, name))`` is the table as a data frame.
+    """
+    with h5py.File(path, "r") as f:
+        g = f[name]
+        return {k: _read_array(ds) for k, ds in g.items() if k != _ROW_DIM}
+
+
+def read_provenance(path: str | Path) -> dict[str, Any]:
+    """The provenance attributes of a dataset file."""
+    with h5py.File(path, "r") as f:
+        return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()
+            if k != "description"}
+
+
+def read_dataset(path: str | Path) -> Dataset:
+    """Read a whole file written by :func:`write_dataset` back into a :class:`Dataset`."""
+    out = Dataset()
+    with h5py.File(path, "r") as f:
+        out.title = str(f.attrs.get("title", ""))
+        out.scenario = str(f.attrs.get("scenario", ""))
+        out.attrs = {k: v for k, v in f.attrs.items() if k not in ("title", "scenario", "rfsim_version")}
+        for gname, g in f.items():
+            if gname == "provenance":
+                continue
+            if g.attrs.get("description"):
+                out.descriptions[gname] = str(g.attrs["description"])
+
+            def col(ds: h5py.Dataset, dims: tuple[str, ...] = ()) -> Column:
+                return Column(_read_array(ds), str(ds.attrs.get("units", "")),
+                              str(ds.attrs.get("description", "")), dims)
+
+            if _ROW_DIM in g and g[_ROW_DIM].is_scale:
+                out.tables[gname] = {k: col(ds) for k, ds in g.items() if k != _ROW_DIM}
+            else:
+                coords = {k: col(ds) for k, ds in g.items() if ds.is_scale}
+                variables = {}
+                for k, ds in g.items():
+                    if ds.is_scale:
+                        continue
+                    dims = tuple(ds.dims[i][0].name.rsplit("/", 1)[-1] for i in range(ds.ndim))
+                    variables[k] = col(ds, dims)
+                out.grids[gname] = (coords, variables)
+    return out
+
+
+__all__ = [
+    "Column",
+    "column",
+    "Dataset",
+    "make_provenance",
+    "git_revision",
+    "utc_now",
+    "write_dataset",
+    "atomic_h5file",
+    "create_array",
+    "create_row_scale",
+    "stored_values",
+    "is_text",
+    "TEXT_SLICE_ROWS",
+    "write_root_attrs",
+    "write_provenance",
+    "write_group_descriptions",
+    "check_attributes",
+    "long_name",
+    "PROVENANCE_DESCRIPTION",
+    "read_dataset",
+    "read_table",
+    "read_provenance",
+]

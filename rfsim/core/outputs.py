@@ -1,0 +1,69 @@
+"""Output paths checked before any simulation starts, so no computed result is lost.
+
+:func:`check_output_file` and :func:`check_output_folder` are called by ``rfsim run``
+(dataset and figure folder), ``rfsim sweep`` (merged file and point store) and the other
+commands that write files, before they compute anything. They create missing parent
+folders and turn every path that could not be written later — a folder where a file is
+expected, a file where a folder is expected, a place without write permission or on a
+read-only or virtual file system (``/proc``) — into a one-line :class:`UserError`
+(exit status 2). Writability is tested by creating and removing a hidden probe file, which
+also catches read-only mounts and the root user's ``/proc`` (where permission bits do not
+tell).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from rfsim.core.errors import UserError
+
+
+def _why(err: OSError) -> str:
+    return err.strerror or type(err).__name__
+
+
+def _writable_folder(folder: Path, label: str) -> None:
+    for anc in (folder, *folder.parents):
+        if anc.exists() and not anc.is_dir():
+            raise UserError(f"{label}: {str(anc)!r} is a file, not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UserError(f"{label}: cannot create the folder {str(folder)!r} ({_why(err)})") from None
+    try:
+        fd, probe = tempfile.mkstemp(prefix=".rfsim-write-probe-", dir=folder)
+    except OSError as err:
+        raise UserError(f"{label}: cannot write into the folder {str(folder)!r} ({_why(err)})") from None
+    os.close(fd)
+    os.unlink(probe)
+
+
+def check_output_folder(folder: str | Path, what: str) -> Path:
+    """Make sure ``folder`` is (or can be created as) a writable folder; returns it.
+
+    ``what`` names the option or setting in the message, e.g. ``"--out-dir"``.
+    """
+    folder = Path(folder)
+    _writable_folder(folder, f"{what} {str(folder)!r}")
+    return folder
+
+
+def check_output_file(path: str | Path, what: str, *, suffixes: tuple[str, ...] = ()) -> Path:
+    """Make sure a file can be written (atomically, by rename) at ``path``; returns it.
+
+    Missing parent folders are created. ``suffixes`` (e.g. ``(".h5", ".hdf5")``) are the
+    allowed file name endings.
+    """
+    path = Path(path)
+    label = f"{what} {str(path)!r}"
+    if suffixes and path.suffix not in suffixes:
+        raise UserError(f"{label}: the file name must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise UserError(f"{label}: is a folder; expected a file name")
+    _writable_folder(path.parent, label)
+    return path
+
+
+__all__ = ["check_output_folder", "check_output_file"]

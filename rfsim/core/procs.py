@@ -1,0 +1,295 @@
+"""Worker processes that never outlive their leader, and SIGTERM handled like Ctrl-C.
+
+Every process pool of rfsim (sweep executors, scenarios' Monte-Carlo pools) is made with
+:func:`worker_pool`. Its workers
+
+* ask the kernel to kill them when the leader dies (Linux ``prctl(PR_SET_PDEATHSIG,
+  SIGKILL)``), and, on every POSIX system, watch their parent process id from a daemon
+  thread every :data:`WATCH_INTERVAL_S` and exit when they have been re-parented (the
+  leader was killed, even with SIGKILL, which no handler can see);
+* ignore SIGINT: Ctrl-C reaches the whole process group, and the leader alone decides
+  (it stops the pool, see below), so workers print no tracebacks of their own.
+
+Leaving the ``with worker_pool(...)`` block by an exception (Ctrl-C, SIGTERM, an error)
+cancels the queued tasks and terminates the running workers at once instead of waiting
+for their tasks to finish.
+
+:func:`terminate_as_interrupt` turns SIGTERM (what ``kill``, ``timeout`` and SLURM's
+``scancel`` send) into :class:`rfsim.core.errors.Terminated`, a ``KeyboardInterrupt``, so that
+every cleanup path written for Ctrl-C (atomic writes removing their temporary file, pools
+stopping their workers) runs for SIGTERM too.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import ctypes
+import gc
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Iterator
+
+from rfsim.core.errors import Terminated
+
+#: How often a worker checks that its leader is still alive [s].
+WATCH_INTERVAL_S = 0.5
+_PR_SET_PDEATHSIG = 1
+
+
+def _set_parent_death_signal() -> None:
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - exotic libc
+        pass
+
+
+def _watch_parent(parent_pid: int) -> None:
+    event = threading.Event()
+    while not event.wait(WATCH_INTERVAL_S):
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+
+def worker_init(leader_pid: int) -> None:
+    """Initializer of every worker process (see the module docstring).
+
+    ``leader_pid`` is the process that made the pool; a worker whose parent is already
+    gone (re-parented to init, pid 1) when it starts exits at once.
+    """
+    _set_parent_death_signal()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    parent = os.getppid()  # the leader itself (fork) or its fork server
+    if parent == 1 or (parent != leader_pid and not _alive(leader_pid)):
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
+                     name="rfsim-leader-watch").start()
+    # what the worker inherited (modules, kernels, the leader's data) lives as long as it
+    # does: out of the collector's generations, it is not traversed again by every full
+    # collection of the tasks' garbage (nor are its pages, shared with the leader, written)
+    gc.freeze()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # pragma: no cover - exists, owned by someone else
+        return True
+    return True
+
+
+def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
+    """Cancel the queued tasks of ``pool`` and kill its running workers now."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.terminate()
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(5.0)
+
+
+@contextlib.contextmanager
+def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
+    """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions."""
+    pool = cf.ProcessPoolExecutor(max_workers=max_workers, initializer=worker_init,
+                                  initargs=(os.getpid(),))
+    try:
+        yield pool
+    except BaseException:
+        terminate_workers(pool)
+        raise
+    pool.shutdown(wait=True)
+
+
+def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
+    """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
+    with a pool the first task runs alone first, see :func:`_pilot`), results in task order so
+    they do not depend on the number of workers; progress is shown with
+    :func:`rfsim.core.progress.track` (``desc``, ``unit``) and every pool is a :func:`worker_pool`."""
+    from rfsim.core.progress import track  # progress pulls in tqdm: only when a loop runs
+
+    tasks = list(tasks)
+    w = workers or (os.cpu_count() or 1)
+    if w <= 1 or len(tasks) <= 1:
+        return [fn(t) for t in track(tasks, desc=desc, unit=unit)]
+
+    def results():
+        # The first task runs alone in a pilot process, which compiles the numba kernels it
+        # needs (or loads them from the on-disk cache) and writes them to that cache; this
+        # process then loads the same kernels from the cache, once, before the pool exists,
+        # and the workers forked afterwards inherit them instead of each compiling or loading
+        # them again. The compiler's memory and the first task's arrays stay in the pilot.
+        first, kernels, modules = _pilot(fn, tasks[0])
+        load_kernels(kernels)
+        _import_all(modules)
+        yield first
+        with worker_pool(min(w, len(tasks) - 1)) as pool:
+            yield from pool.map(fn, tasks[1:])
+
+    return list(track(results(), total=len(tasks), desc=desc, unit=unit))
+
+
+def _run_and_list_kernels(fn, task):
+    from rfsim.core._jit import compiled_signatures
+
+    before = set(sys.modules)
+    out = fn(task)
+    return out, compiled_signatures(), [name for name in sys.modules if name not in before]
+
+
+def _pilot(fn, task):
+    """``fn(task)`` in a one-off worker process, with the numba kernels (and signatures) it
+    holds afterwards (:func:`rfsim.core._jit.compiled_signatures`) and the modules it imported."""
+    with worker_pool(1) as pool:
+        return pool.submit(_run_and_list_kernels, fn, task).result()
+
+
+def _import_all(names) -> None:
+    """Import the modules ``names`` (in import order) here, so that the workers forked later
+    inherit them instead of each importing them again (scipy.signal alone is ≈ 0.5 s CPU);
+    a module that cannot be imported by its name alone is left to the tasks that need it."""
+    import importlib
+
+    for name in names:
+        if name not in sys.modules:
+            with contextlib.suppress(Exception):
+                importlib.import_module(name)
+
+
+def load_kernels(kernels) -> None:
+    """Load into this process the kernels listed by :func:`rfsim.core._jit.compiled_signatures`
+    in another one (from the on-disk cache; compiled here where it has no entry)."""
+    from rfsim.core._jit import load_signatures
+
+    load_signatures(kernels)
+
+
+def _has_file_descriptors() -> bool:
+    """True when this process's stdout and stderr are real files (a forked child's output
+    then goes where this process's goes)."""
+    try:
+        sys.stdout.fileno()
+        sys.stderr.fileno()
+    except (AttributeError, OSError, ValueError):
+        return False
+    return True
+
+
+def run_in_child(fn, *, while_waiting=None) -> None:
+    """``fn()`` in a forked child process, which exits afterwards; its exception, if any, is
+    raised here (with the child's traceback as a note where it is not a
+    :class:`~rfsim.core.errors.UserError` nor an interrupt). ``while_waiting()``, if given, runs
+    here meanwhile (e.g. the imports of what comes after the child), before its result is read.
+
+    All the memory the child allocated (numba's compiler, imported libraries, the arrays of
+    a run) is returned to the system when it exits, not merely freed inside this process.
+    Ctrl-C reaches both processes (one process group): the child cleans up and reports the
+    interrupt. SIGTERM reaching only this process (:func:`terminate_as_interrupt`) is passed
+    on to the child, which then cleans up the same way; a child whose leader dies is killed.
+    Without ``fork``, or when stdout/stderr are not real files (e.g. captured in memory),
+    ``fn()`` runs in this process.
+    """
+    import pickle
+    import traceback
+
+    from rfsim.core.errors import UserError
+
+    if not hasattr(os, "fork") or not _has_file_descriptors():
+        fn()
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into the caller's code
+        try:
+            os.close(read_fd)
+            _set_parent_death_signal()
+            err = None
+            try:
+                fn()
+            except BaseException as e:  # reported to the leader, which raises it
+                err = e
+                if not isinstance(e, (UserError, KeyboardInterrupt)):
+                    e.add_note("in the child process:\n" + "".join(traceback.format_exception(e)).rstrip())
+            try:
+                data = pickle.dumps(err)
+            except Exception:
+                data = pickle.dumps(RuntimeError(f"{type(err).__name__}: {err}"))
+            with os.fdopen(write_fd, "wb") as f:
+                f.write(data)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(0)
+    os.close(write_fd)
+    try:
+        if while_waiting is not None:
+            while_waiting()
+        with os.fdopen(read_fd, "rb") as f:
+            data = f.read()
+    except BaseException as interrupt:  # Ctrl-C or SIGTERM here: wait for the child to clean up
+        if isinstance(interrupt, Terminated):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGTERM)
+        os.waitpid(pid, 0)
+        raise
+    _, status = os.waitpid(pid, 0)
+    if not data:
+        raise RuntimeError(f"the run's child process ended without a result (wait status {status})")
+    err = pickle.loads(data)
+    if err is not None:
+        raise err
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
+def _redeliver_later() -> None:
+    time.sleep(0.05)
+    os.kill(os.getpid(), signal.SIGTERM)
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM raises :class:`~rfsim.core.errors.Terminated` (main thread only).
+
+    A Python exception raised while the interpreter runs a callback whose errors it
+    ignores (e.g. an at-fork handler while a worker process is being started) would be
+    lost; such a swallowed :class:`Terminated` reaches ``sys.unraisablehook``, which here
+    delivers SIGTERM again a moment later instead of printing it.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_hook = sys.unraisablehook
+
+    def hook(unraisable) -> None:
+        if isinstance(unraisable.exc_value, Terminated):
+            threading.Thread(target=_redeliver_later, daemon=True).start()
+        else:
+            previous_hook(unraisable)
+
+    sys.unraisablehook = hook
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        sys.unraisablehook = previous_hook
+
+
+__all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
+           "map_in_order", "load_kernels", "run_in_child"]

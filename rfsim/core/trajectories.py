@@ -1,0 +1,188 @@
+"""Trajectories as callables of time: position, velocity, acceleration, heading and turn rate.
+
+A trajectory is an object whose call ``traj(t_s)`` returns :class:`Kinematics` on the
+time array ``t_s`` (s). Planar motion in the horizontal x–y plane at a constant height;
+the *heading* ψ is the direction of the moving body's y^B axis in that plane (for the
+HIMR boom the direction of the tangential velocity, π at the start: seed 000 L1100;
+wave2-specs.md §H, erratum 13 default), unwrapped, in rad.
+
+Profiles (himr-tag.md §1.15, §3.1, §3.3):
+
+* :func:`trapezoid_profile`: rest, constant acceleration for t_acc, cruise for t_cruise,
+  constant deceleration for t_acc, rest (seed 000 App. C L1857–L1874, with the erratum-10
+  correction θ_f − θ_i = θ̇_cruise·(t_acc + t_cruise)): for a travel d,
+  v = d/(t_acc + t_cruise), a = v/t_acc.
+* :class:`LinearTrapezoid`: the 1-D positioner (L610): start 1 m from the reader, ±7.35 m/s²
+  to 1.2 m/s, 355 ms cruise. Travel = v·(t_acc + t_cruise) = 0.622 m with t_acc = v/a =
+  0.1633 s; the seed's "0.61 m" needs a 0.3451 s cruise (erratum 9):
+  ``preserve = "cruise"`` (default) keeps the printed cruise, ``"distance"`` the 0.61 m.
+* :class:`RotatingBoom`: the 2-D boom (L997, L1014): radius 0.31 m, one counter-clockwise 2π
+  stroke in 0.5 s / 0.2 s / 0.5 s, starting at the top of the circle, (2, 1.8048) m heading
+  π (L1159, L1100), centre (2, 1.4948) m [derived, H§3.3]; ``lag_s`` delays the motion (the
+  actual trajectory ran 150 ms behind the programmed one, L1014).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+
+
+@dataclass(frozen=True, eq=False)
+class Kinematics:
+    """Kinematics on a time array (n samples).
+
+    Attributes
+    ----------
+    t_s : (n,) s
+    position_m, velocity_mps, acceleration_mps2 : (n, 3) in the fixed frame [m, m/s, m/s²]
+    heading_rad : (n,) direction of the body's y^B axis, unwrapped [rad]
+    rate_rad_s : (n,) dψ/dt [rad/s];  angular_accel_rad_s2 : (n,) d²ψ/dt² [rad/s²]
+    """
+
+    t_s: np.ndarray
+    position_m: np.ndarray
+    velocity_mps: np.ndarray
+    acceleration_mps2: np.ndarray
+    heading_rad: np.ndarray
+    rate_rad_s: np.ndarray
+    angular_accel_rad_s2: np.ndarray
+
+    def state_2d(self) -> np.ndarray:
+        """(n, 9) state [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈] of the 2-D HIMR model (himr-tag.md §1.9)."""
+        p, v, a = self.position_m, self.velocity_mps, self.acceleration_mps2
+        return np.column_stack([p[:, 0], v[:, 0], a[:, 0], p[:, 1], v[:, 1], a[:, 1],
+                                self.heading_rad, self.rate_rad_s, self.angular_accel_rad_s2])
+
+    def state_1d(self, axis: int = 0) -> np.ndarray:
+        """(n, 3) state [z ż z̈] along a fixed-frame axis (1-D HIMR model, §1.5)."""
+        return np.column_stack([self.position_m[:, axis], self.velocity_mps[:, axis],
+                                self.acceleration_mps2[:, axis]])
+
+
+def trapezoid_profile(t_s, *, travel: float, t_acc_s: float, t_cruise_s: float):
+    """Trapezoidal velocity profile starting at t = 0: ``(s, ṡ, s̈)`` arrays of ``t_s``.
+
+    s goes from 0 (t ≤ 0) to ``travel`` (t ≥ 2·t_acc + t_cruise); cruise speed
+    v = travel/(t_acc + t_cruise), acceleration a = v/t_acc (module docstring).
+    """
+    t = np.asarray(t_s, dtype=float)
+    v = travel / (t_acc_s + t_cruise_s)
+    a = v / t_acc_s
+    t_end = 2.0 * t_acc_s + t_cruise_s
+    tau = np.clip(t, 0.0, t_end)
+    back = t_end - tau
+    s = np.where(tau < t_acc_s, 0.5 * a * tau ** 2,
+                 np.where(tau < t_acc_s + t_cruise_s, 0.5 * a * t_acc_s ** 2 + v * (tau - t_acc_s),
+                          travel - 0.5 * a * back ** 2))
+    sd = np.where(tau < t_acc_s, a * tau, np.where(tau < t_acc_s + t_cruise_s, v, a * back))
+    sdd = np.where((t > 0) & (t < t_acc_s), a,
+                   np.where((t >= t_acc_s + t_cruise_s) & (t < t_end), -a, 0.0))
+    return s, np.where(t > 0, sd, 0.0), sdd
+
+
+@dataclass(frozen=True)
+class LinearTrapezoid:
+    """1-D positioner: straight-line trapezoid along ``direction`` (module docstring)."""
+
+    start_m: tuple[float, float, float] = param((1.0, 0.0, 0.0), unit="m", doc="start position")
+    direction: tuple[float, float, float] = param((1.0, 0.0, 0.0), doc="direction of travel (normalised)")
+    accel_mps2: float = param(7.35, lo=0.0, lo_open=True, unit="m/s^2", doc="|acceleration| (0.75 g, L610)")
+    speed_mps: float = param(1.2, lo=0.0, lo_open=True, unit="m/s", doc="cruise speed (L610)")
+    cruise_s: float = param(0.355, lo=0.0, unit="s", doc="cruise duration (L610)")
+    distance_m: float = param(0.61, lo=0.0, lo_open=True, unit="m", doc="travel if preserve = distance")
+    preserve: Literal["cruise", "distance"] = param("cruise", doc="keep the printed cruise or distance")
+    t_start_s: float = param(0.0, lo=0.0, unit="s", doc="motion start")
+
+    def __post_init__(self):
+        check_fields(self, "trajectory")
+        if not np.linalg.norm(self.direction) > 0:
+            raise ConfigError("trajectory.direction", self.direction, "a non-zero vector")
+        if self.preserve == "distance" and self.cruise_time_s < 0:
+            raise ConfigError("trajectory.distance_m", self.distance_m,
+                              f"at least v²/a = {self.speed_mps ** 2 / self.accel_mps2:g} m")
+
+    @property
+    def t_acc_s(self) -> float:
+        return self.speed_mps / self.accel_mps2
+
+    @property
+    def cruise_time_s(self) -> float:
+        if self.preserve == "cruise":
+            return self.cruise_s
+        return self.distance_m / self.speed_mps - self.t_acc_s
+
+    @property
+    def travel_m(self) -> float:
+        return self.speed_mps * (self.t_acc_s + self.cruise_time_s)
+
+    @property
+    def duration_s(self) -> float:
+        return self.t_start_s + 2 * self.t_acc_s + self.cruise_time_s
+
+    def __call__(self, t_s) -> Kinematics:
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        u = np.asarray(self.direction, float) / np.linalg.norm(self.direction)
+        s, sd, sdd = trapezoid_profile(t - self.t_start_s, travel=self.travel_m, t_acc_s=self.t_acc_s,
+                                       t_cruise_s=self.cruise_time_s)
+        zero = np.zeros_like(t)
+        return Kinematics(t, np.asarray(self.start_m, float) + s[:, None] * u, sd[:, None] * u,
+                          sdd[:, None] * u, zero + math.atan2(u[1], u[0]), zero, zero.copy())
+
+
+@dataclass(frozen=True)
+class RotatingBoom:
+    """2-D rotating boom: the tag on a circle, trapezoidal angle profile (module docstring)."""
+
+    centre_m: tuple[float, float] = param((2.0, 1.4948), unit="m", doc="circle centre (derived, H§3.3)")
+    radius_m: float = param(0.31, lo=0.0, lo_open=True, unit="m", doc="boom length (L997)")
+    start_angle_rad: float = param(math.pi / 2, unit="rad", doc="polar angle of the start (top of the circle)")
+    travel_rad: float = param(2 * math.pi, lo=0.0, lo_open=True, unit="rad", doc="stroke angle")
+    t_acc_s: float = param(0.5, lo=0.0, lo_open=True, unit="s", doc="acceleration phase (L1014)")
+    t_cruise_s: float = param(0.2, lo=0.0, unit="s", doc="cruise phase (L1014)")
+    direction: Literal["ccw", "cw"] = param("ccw", doc="sense of rotation (L999: ccw)")
+    lag_s: float = param(0.0, lo=0.0, hi=1.0, unit="s", doc="delay of the motion (actual: 0.15, L1014)")
+    height_m: float = param(0.0, unit="m", doc="constant z")
+
+    def __post_init__(self):
+        check_fields(self, "trajectory")
+
+    @property
+    def duration_s(self) -> float:
+        return self.lag_s + 2 * self.t_acc_s + self.t_cruise_s
+
+    def __call__(self, t_s) -> Kinematics:
+        t = np.atleast_1d(np.asarray(t_s, dtype=float))
+        sign = 1.0 if self.direction == "ccw" else -1.0
+        s, sd, sdd = trapezoid_profile(t - self.lag_s, travel=self.travel_rad, t_acc_s=self.t_acc_s,
+                                       t_cruise_s=self.t_cruise_s)
+        ang, w, al = self.start_angle_rad + sign * s, sign * sd, sign * sdd
+        c, sn, r = np.cos(ang), np.sin(ang), self.radius_m
+        pos = np.column_stack([self.centre_m[0] + r * c, self.centre_m[1] + r * sn, np.full_like(t, self.height_m)])
+        vel = np.column_stack([-r * sn * w, r * c * w, np.zeros_like(t)])
+        acc = np.column_stack([-r * c * w ** 2 - r * sn * al, -r * sn * w ** 2 + r * c * al, np.zeros_like(t)])
+        return Kinematics(t, pos, vel, acc, ang + sign * math.pi / 2, w, al)
+
+
+def check_inside(traj, *, t_end_s: float, room_min_m, room_max_m, key: str = "trajectory",
+                 dt_s: float = 1e-3) -> None:
+    """Raise a one-line :class:`ConfigError` when ``traj`` leaves the box [room_min, room_max]
+    (checked every ``dt_s`` from 0 to ``t_end_s``; 2 or 3 coordinates)."""
+    lo, hi = np.asarray(room_min_m, float), np.asarray(room_max_m, float)
+    t = np.arange(0.0, float(t_end_s) + 0.5 * dt_s, dt_s)
+    p = traj(t).position_m[:, :lo.size]
+    bad = np.nonzero(np.any((p < lo) | (p > hi), axis=1))[0]
+    if bad.size:
+        i = int(bad[0])
+        where = ", ".join(f"{v:.3f}" for v in p[i])
+        raise ConfigError(key, f"position ({where}) m at t = {t[i]:.3f} s",
+                          f"a trajectory inside the room {lo.tolist()}–{hi.tolist()} m")
+
+
+__all__ = ["Kinematics", "trapezoid_profile", "LinearTrapezoid", "RotatingBoom", "check_inside"]

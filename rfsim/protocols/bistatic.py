@@ -1,0 +1,121 @@
+"""Waveforms at listener antennas during one reader exchange (bistatic reception).
+
+A listener (a sense-a-tag antenna, a second reader's receive antenna) hears the reader's
+segment directly and the backscatter of every tag (DESIGN.md "Simulation flow" step 5;
+auris-sense-a-tag.md §6 "Signal flow": the reader→ST downlink and the tag→ST backscatter
+channel, Fig. A.1). For a reader segment ``x_tx(t)`` (``reader.transmit``), the field at
+tag i is ``inc_i = fwd_i{x_tx}`` and the tag re-radiates ``r_i(t)·inc_i(t)`` with
+``r_i = A_s − Γ_i(t)`` (``tag.listen`` → ``TagResponse.reradiation``: structural mode A_s and
+the chip's Γ, rfsim.devices.tag); listener antenna k receives
+
+    ``y_k(t) = D_k{x_tx}(t) + Σ_i B_ik{r_i·inc_i}(t) (+ n_k(t))``
+
+with ``D_k`` the reader→listener link and ``B_ik`` the tag→listener link, each applied with
+the link's own narrowband/exact choice (``PathSet.method`` on the reply bandwidth 2·BLF,
+:func:`rfsim.channels.paths.propagation_method`). Every tag scatters: A_s − Γ_A outside its reply.
+All waveforms are complex baseband [√W] on the segment's time base. The step is one call
+of the air interface (:func:`rfsim.air.step.propagate`) with the listeners as receivers and the
+components kept.
+
+The reader side (its own decode) is :func:`rfsim.protocols.engine.run_exchange`; this module only
+adds the listeners, and returns the tag responses and the per-link components so that a
+caller can measure the quantities of the closed forms (A_R, A_T1, A_T2, θ).
+
+The channel is used through ``channel.link(tx, rx, *, fc_hz, rng, t_s)`` (one draw per link
+when ``rng`` is given, the held draw otherwise; :class:`rfsim.air.step.LinkTable`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rfsim.air.step import AntennaPort, FixedEmitter, LinkTable, as_reflector, propagate
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class BistaticExchange:
+    """One reader segment as heard by the tags and by the listener antennas.
+
+    Attributes
+    ----------
+    tx : the reader's ``TxSegment`` (``samples`` (n,) complex128 [√W], ``t0_s``, ``fs_hz``, ``fc_hz``)
+    responses : one ``TagResponse`` per tag (``gamma`` on the segment's time base)
+    incident : (n_tags, n) complex128, field at each tag's antenna port [√W]
+    direct : (n_listeners, n) complex128, reader → listener component [√W]
+    backscatter : (n_tags, n_listeners, n) complex128, tag i → listener k component [√W]
+    noise : (n_listeners, n) complex128 or None, the added noise [√W]
+    direct_links, forward_links, backward_links : the PathSets used
+        (``direct_links[k]``, ``forward_links[i]``, ``backward_links[i][k]``)
+    """
+
+    tx: Any
+    responses: tuple
+    incident: np.ndarray
+    direct: np.ndarray
+    backscatter: np.ndarray
+    noise: np.ndarray | None
+    direct_links: tuple
+    forward_links: tuple
+    backward_links: tuple
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """(n_listeners, n) complex128: total input at each listener antenna [√W]."""
+        y = self.direct + self.backscatter.sum(axis=0)
+        return y if self.noise is None else y + self.noise
+
+
+def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *, t_s: float,
+                    rng: np.random.Generator | None, cw_after_s: float, round_index: int = 0,
+                    propagation: str = "auto", noise_power_w: float = 0.0) -> BistaticExchange:
+    """Simulate one reader segment at the tags and at ``listeners`` (antennas).
+
+    Parameters
+    ----------
+    reader : reader device (``transmit``, ``antennas``, ``antenna_index``, ``link``)
+    tags : tag devices (``listen``, ``antenna``)
+    channel : link model with ``link(tx, rx, *, fc_hz, rng, t_s)`` → PathSet
+    cmd : the Gen2 command the reader sends
+    listeners : receiving antennas (``rfsim.channels.Antenna``)
+    t_s : start of the segment [s]
+    rng : draws the links (forward, then per listener direct and backward) and the noise;
+        None reuses the channel's held draws (noise then needs ``noise_power_w == 0``)
+    cw_after_s : CW after the command [s] (the reply window)
+    round_index : inventory round (selects the reader antenna)
+    propagation : "auto", "exact" or "narrowband" (as :func:`rfsim.protocols.engine.run_exchange`)
+    noise_power_w : complex AWGN power per sample added at every listener [W]
+    """
+    antenna = reader.antennas[reader.antenna_index(round_index)]
+    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=cw_after_s, round_index=round_index)
+    fs, x = tx.fs_hz, tx.samples
+    if noise_power_w > 0 and rng is None:
+        raise ValueError("noise needs an rng")
+    ports = [AntennaPort(lis, noise_power_w) for lis in listeners]
+    reflectors = [as_reflector(t) for t in tags]
+    links = LinkTable(channel, rng=rng, reciprocal=False)
+    air = propagate([FixedEmitter(antenna, tx, device=reader)], reflectors, ports, links, t0_s=t_s, fs_hz=fs,
+                    n_samples=x.size, rng=rng, bandwidth_hz=2.0 * reader.link.blf_hz, propagation=propagation,
+                    decide=False, keep_components=True)
+    n_l, n_t = len(listeners), len(tags)
+    direct = np.array(air.direct) if n_l else np.zeros((0, x.size), dtype=np.complex128)
+    back = np.zeros((n_t, n_l, x.size), dtype=np.complex128)
+    for i in range(n_t):
+        for k in range(n_l):
+            back[i, k] = air.backscatter[i][k]
+    noise = np.array(air.noise) if (noise_power_w > 0 and n_l) else None
+    incident = [seg.samples for seg in air.incident]
+    inc_arr = np.array(incident) if incident else np.zeros((0, x.size), dtype=np.complex128)
+    lk = air.links
+    return BistaticExchange(tx=tx, responses=tuple(air.reflections), incident=inc_arr, direct=direct,
+                            backscatter=back, noise=noise,
+                            direct_links=tuple(lk[("emitter", 0, "receiver", k)] for k in range(n_l)),
+                            forward_links=tuple(lk[("emitter", 0, "reflector", i)] for i in range(n_t)),
+                            backward_links=tuple(tuple(lk.get(("reflector", i, "receiver", k)) for k in range(n_l))
+                                                 for i in range(n_t)))
+
+
+__all__ = ["BistaticExchange", "listen_exchange"]

@@ -1,0 +1,481 @@
+"""The time-domain engine: event-driven between exchanges, sample-level inside them.
+
+One *exchange* is a reader command followed by the CW during which tags may reply
+(DESIGN.md "Simulation flow"):
+
+Every exchange is one step of the air interface (:func:`rfsim.air.step.propagate`); this module is
+the Gen2 wrapper around it:
+
+1. the reader emits a segment: the PIE command and CW up to the end of the reply window
+   (``reader.transmit``, window :func:`rfsim.gen2.link.reply_window_s`), in √W at its antenna port;
+2. for every tag the channel gives the forward and backward links (PathSets); the incident
+   field is the segment through the forward link (exact carrier phase);
+3. each tag listens (``tag.listen``): power-up, envelope/PIE decoding with its own clock,
+   Gen2 state machine, and — if it replies — a reflection coefficient Γ(t) on the same
+   time base;
+4. each tag re-radiates r(t)·incident(t), r = A_s − Γ(t) (``TagResponse.reradiation``: the
+   antenna's structural mode A_s and the chip's Γ; rfsim.devices.tag, Nikitin, Rao & Lam 2006),
+   through its backward link; at the reader the backscatter of all tags superposes with
+   the TX→RX leakage (the reader port's ``coupling``) and thermal noise;
+5. the reader decodes the reply window from :func:`rfsim.gen2.link.reader_listen_start_s`
+   (``reader.receive``) and measures RSSI, phase, Doppler and SNR.
+
+Propagation (``propagation="auto"``, the default): each link decides between narrowband and
+exact fractional delays on the reply bandwidth B = 2·BLF (the main lobe of the FM0/Miller
+reply) — the one rule :func:`rfsim.channels.paths.propagation_method`. On narrowband, static links
+a tag that does not reply adds one constant to the reader's input (the air step's
+a·x + Σ b_i·r_i·x rule), not a full-length pass; a tag population (a reflector group)
+decides its quiet tags at once and adds them as one constant (rfsim.air.step "Groups").
+
+Between exchanges nothing is sampled: time advances by the link timing (T2 before the next
+command, T4 between commands without a reply), so silent air time costs nothing; within an
+exchange in which no tag replies the reader's input is not formed either (the reader reads
+only replies; the noise draws are still made, ``propagate(skip_unmodulated=True)``). Each
+:class:`Exchange` records the number of samples it simulated (``n_samples``, the length of
+the reader's segment: one Tari of CW, the command, T1max + reply + 3 Tpri).
+
+Failure reasons (:data:`FAILURE_REASONS`, checked in this order). The engine knows the ground
+truth — who replied, with which bits, when — and uses it to say *why* a read failed; the
+reader itself only sees its samples:
+
+* ``"not powered"`` — no tag had enough incident power;
+* ``"decode error"`` — no tag replied and a powered tag could not decode the command (PIE);
+* ``"no reply"`` — tags were powered but none replied (not addressed: target flag, session,
+  wrong RN16 in an ACK, slot counter ≠ 0);
+* ``""`` — the reader decoded (CRC ok where there is one) exactly the bits one replying tag
+  sent (with several repliers this is *capture*: ``Exchange.decoded_tag`` names the winner);
+* ``"timing violation"`` — every replying tag started its reply outside the Gen2 T1 window
+  [T1min, T1max] after the command's last rising edge (the reader searches only there; its
+  own verdict is then "preamble not found" or a wrong decode);
+* ``"collision"`` — several tags replied and the reader decoded none of them;
+* the reader's own verdict otherwise: ``"preamble not found"``, ``"crc error"``;
+* ``"bit error"`` — the reader accepted the reply (no CRC: an RN16) but its bits differ from
+  what the tag sent (the ACK that follows then gets no reply).
+
+The engine only sees devices and the channel through these methods (and the PathSet members
+of the air interface's link protocol); it imports neither ``channels`` nor ``devices``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of, propagate
+from rfsim.gen2.link import reader_listen_start_s, reply_window_s
+
+#: Failure reasons of a read, in the order the engine checks them.
+FAILURE_REASONS = ("", "not powered", "decode error", "no reply", "timing violation", "collision",
+                   "preamble not found", "crc error", "bit error")
+
+
+@dataclasses.dataclass(frozen=True)
+class Exchange:
+    """Record of one reader command and what came back.
+
+    Attributes
+    ----------
+    time_s : start of the reader's segment [s] (CW lead-in, then the command)
+    command : command name (``"Query"``, ``"ACK"``, …)
+    antenna : reader antenna index (0-based)
+    channel_index : 1-based index into the reader's frequency plan (as LLRP reports it)
+    fc_hz : carrier frequency [Hz]
+    replied : indices of the tags that replied
+    powered : indices of the tags that were powered
+    incident_power_dbm : (n_tags,) incident power at each tag's antenna port [dBm]
+    read : the reader's :class:`ReadResult`-like measurement, or None when nobody replied
+    failure_reason : one of :data:`FAILURE_REASONS` (``""`` = decoded; module docstring)
+    end_s : end of the reply window [s]
+    decoded_tag : index of the replying tag whose bits the reader decoded exactly (None if
+        none); with several repliers a non-None value means capture
+    reply_start_s : (n_replied,) true reply start of each replying tag [s]
+    timing_ok : (n_replied,) whether each reply started inside the T1 window
+    n_samples : samples simulated for this exchange (the reader's segment)
+    cmd_end_s : end of the command (last rising edge) [s]
+    """
+
+    time_s: float
+    command: str
+    antenna: int
+    channel_index: int
+    fc_hz: float
+    replied: tuple[int, ...]
+    powered: tuple[int, ...]
+    incident_power_dbm: tuple[float, ...]
+    read: Any
+    failure_reason: str
+    end_s: float
+    decoded_tag: int | None = None
+    reply_start_s: tuple[float, ...] = ()
+    timing_ok: tuple[bool, ...] = ()
+    n_samples: int = 0
+    cmd_end_s: float = math.nan
+
+    @property
+    def success(self) -> bool:
+        """The reader decoded one replying tag's bits exactly (failure_reason ``""``)."""
+        return self.failure_reason == ""
+
+    @property
+    def bits(self):
+        """Bits the reader decoded ((n,) uint8), or None."""
+        return None if self.read is None else self.read.bits
+
+
+def _failure(read, replied: Sequence[int], powered: Sequence[int], decode_error: bool,
+             decoded_tag: int | None, timing_ok: Sequence[bool]) -> str:
+    """Failure reason from the ground truth and the reader's verdict (module docstring);
+    ``decode_error``: a powered tag could not decode the command."""
+    if not powered:
+        return "not powered"
+    if not replied:
+        return "decode error" if decode_error else "no reply"
+    if decoded_tag is not None and read.success:
+        return ""
+    if not any(timing_ok):
+        return "timing violation"
+    if len(replied) > 1:
+        return "collision"
+    if read is None:
+        return "preamble not found"
+    return read.failure_reason if not read.success else "bit error"
+
+
+def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.random.Generator,
+                 reply_bits: int, expect_crc: bool, motions: Sequence | None = None,
+                 round_index: int = 0, draw_channel: bool = True,
+                 propagation: str = "auto", link_cache: dict | None = None) -> Exchange:
+    """Simulate one command + reply window at sample level; return its :class:`Exchange`.
+
+    Parameters
+    ----------
+    reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
+        ``antennas``, ``antenna_index``, ``link``)
+    tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
+        ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
+        or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population, whose
+        members count as tags in the order given)
+    channel : link model with ``backscatter_links(emitter, tag, *, fc_hz, rng, t_s,
+        tag_motion)`` → (forward, backward) PathSets
+    cmd : the Gen2 command object to send
+    t_s : start time of the command [s]
+    rng : generator for the channel draw and the receiver noise
+    reply_bits : number of bits of the expected reply (16 for RN16, PC+EPC+CRC otherwise)
+    expect_crc : whether the reply carries a CRC-16 (EPC replies)
+    motions : optional per-tag motion (velocity (3,) m/s or callable t → position)
+    round_index : which inventory round (selects the antenna when several are used in turn)
+    draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
+        draw the channel holds: a quasi-static channel within a round)
+    propagation : "auto", "exact" or "narrowband" (see the module docstring)
+    link_cache : optional dict holding the (forward, backward) links of static tags for one
+        channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
+        read only with ``draw_channel=False`` for a tag without motion — the links are then
+        exactly what the channel would return again (held draw, same geometry and carrier).
+        (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
+    """
+    prep = _prepare(reader, tags, channel, cmd, t_s=t_s, rng=rng, reply_bits=reply_bits, expect_crc=expect_crc,
+                    motions=motions, round_index=round_index, draw_channel=draw_channel,
+                    propagation=propagation, link_cache=link_cache)
+    air = _air_step(prep, rng=rng)
+    truth = _truth(air, prep.members)
+    read = prep.port.receive(air.inputs[0]) if truth[0] else None
+    return _record(prep, truth, read)
+
+
+@dataclasses.dataclass
+class _Prepared:
+    """One exchange set up for the air step: the reader's segment, its port, the reflectors
+    and their links (:func:`_prepare`)."""
+
+    t_s: float
+    cmd: Any
+    antenna_index: int
+    tx: Any
+    emitter: FixedEmitter
+    port: "ReaderPort"
+    reflectors: list
+    members: list
+    links: "_EngineLinks"
+    propagation: str
+    bandwidth_hz: float
+
+
+def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, motions, round_index, draw_channel,
+             propagation, link_cache, tx=None) -> _Prepared:
+    """Steps 1–2 of the module docstring up to the air step: the reader's segment (``tx`` when
+    already made for this command, time and round), its port and the tags' links."""
+    if propagation not in PROPAGATION_METHODS:
+        raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
+    antenna_index = reader.antenna_index(round_index)
+    antenna = reader.antennas[antenna_index]
+    if tx is None:
+        tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index)
+    emitter = FixedEmitter(antenna, tx, device=reader)
+    port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
+    reflectors = [as_reflector(t) for t in tags]
+    members = members_of(reflectors)
+    links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
+                         link_cache if (link_cache is not None) else None, draw_channel)
+    return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
+                     reflectors=reflectors, members=members, links=links, propagation=propagation,
+                     bandwidth_hz=_reply_bandwidth_hz(reader.link))
+
+
+def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
+    """The reader's segment: ``cmd`` at ``t_s`` and CW to the end of the reply window."""
+    listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
+    window_s = listen(int(reply_bits)) if listen is not None else _window_s(reader.link, int(reply_bits))
+    return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
+
+
+def _air_step(prep: _Prepared, *, rng):
+    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``).
+    When no tag replies the reader's input is not formed, its noise only drawn
+    (``skip_unmodulated``: the reader reads only when a tag replied, and the engine's links
+    draw nothing on the receiver's side): silent air costs no samples at the receiver."""
+    return propagate(**_air_arguments(prep), rng=rng, skip_unmodulated=True)
+
+
+def _air_arguments(prep: _Prepared) -> dict:
+    """The arguments of :func:`rfsim.air.step.propagate` for a prepared exchange, but its ``rng``
+    (``rfsim.protocols.batch`` builds its batched steps from them too)."""
+    tx = prep.tx
+    return dict(emitters=[prep.emitter], reflectors=prep.reflectors, receivers=[prep.port], links=prep.links,
+                t0_s=prep.t_s, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=prep.bandwidth_hz,
+                propagation=prep.propagation, decide=False)
+
+
+def _truth(air, members) -> tuple:
+    """Ground truth of the step: ``(replied, powered, incident_dbm, sent bits, reply starts,
+    decode_error)`` over the members (tag populations that answered at once included)."""
+    replied, powered, incident_dbm, sent, starts = [], [], [], [], []
+    decode_error = False
+    shortcut = dict(air.groups)
+    j, n_members = 0, len(members)
+    while j < n_members:
+        group = shortcut.get(j)
+        if group is not None:  # a tag population that answered at once: its arrays, its reacting tags
+            incident_dbm.extend(group.incident_power_dbm.tolist())
+            powered.extend((np.flatnonzero(group.powered) + j).tolist())
+            for jl, response in group.reactions.items():
+                decode_error |= response.reason == "decode error"
+                if response.gamma is not None:
+                    replied.append(j + jl)
+                    sent.append(np.asarray(response.reply.bits))
+                    starts.append(float(response.reply_start_s))
+            j += len(group)
+            continue
+        response = air.reflections[j]
+        incident_dbm.append(float(response.incident_power_dbm))
+        decode_error |= response.reason == "decode error"
+        if response.powered:
+            powered.append(j)
+        if response.gamma is not None:
+            replied.append(j)
+            sent.append(np.asarray(response.reply.bits))
+            starts.append(float(response.reply_start_s))
+        j += 1
+    return replied, powered, incident_dbm, sent, starts, decode_error
+
+
+def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
+    """The :class:`Exchange` of a prepared exchange from its ground truth and the reader's read."""
+    replied, powered, incident_dbm, sent, starts, decode_error = truth
+    tx = prep.tx
+    decoded_tag = None
+    if read is not None and read.bits is not None:
+        for i, bits in zip(replied, sent):
+            if bits.size == read.bits.size and (np.array_equal(bits, read.bits) if bits.dtype != read.bits.dtype
+                                                else bits.tobytes() == read.bits.tobytes()):
+                decoded_tag = i
+                break
+    t1_range = _t1_range(prep.port.reader.link)
+    timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
+    n = int(tx.samples.size)
+    return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=prep.antenna_index,
+                    channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
+                    powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
+                    failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
+                    end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
+                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
+                    cmd_end_s=float(tx.cmd_end_s))
+
+
+# Timing of a (frozen, hashable) LinkProfile: pure functions, cached per profile.
+@functools.lru_cache(maxsize=64)
+def _t1_range(link):
+    from rfsim.gen2.link import t1
+
+    return t1(link)
+
+
+@functools.lru_cache(maxsize=64)
+def _reply_bandwidth_hz(link) -> float:
+    """B = 2·BLF [Hz] of a profile's reply: the main lobe of FM0/Miller (module docstring)."""
+    return 2.0 * link.blf_hz
+
+
+@functools.lru_cache(maxsize=64)
+def _ack_delays_s(link) -> tuple[float, float]:
+    """From an RN16 reply's start to the ACK [s]: ``(the reply, 16 bits at the nominal BLF;
+    T2 = 10 Tpri, inside the Gen2 3–20 Tpri window)`` — added to the start in that order."""
+    return link.reply_duration_s(16), 10.0 * link.tpri_s
+
+
+@functools.lru_cache(maxsize=256)
+def _window_s(link, reply_bits: int) -> float:
+    """CW after a command [s]: :func:`rfsim.gen2.link.reply_window_s`."""
+    return reply_window_s(link, reply_bits)
+
+
+class ReaderPort:
+    """The reader's IQ input as a receiver of the air step (:class:`rfsim.air.step.Receiver`).
+
+    Its noise is ``reader.noise_power_w()``; its own TX→RX leakage ``reader.leakage_gain()`` is
+    the coupling from its own transmitter (a :class:`rfsim.air.step.FixedEmitter` with ``device=reader``
+    on ``antenna``), instead of a channel link. :meth:`receive` is the reader's read of one
+    reply: it listens from :func:`rfsim.gen2.link.reader_listen_start_s` after the command of
+    ``tx`` (the edge and the channel's delay spread have settled), searches the reply in the T1
+    window with no knowledge of the tags (BLF: the profile's nominal value) and takes its
+    phase reference from its own carrier during the reply window (``tx.samples[-1]``: PR-ASK
+    ends a command with either polarity, depending on the parity of its PIE symbols).
+
+    Parameters
+    ----------
+    reader : reader device (``receive``, ``leakage_gain``, ``noise_power_w``, ``link``)
+    antenna : the reader antenna of the exchange
+    tx : the reader's segment (``t0_s``, ``fs_hz``, ``samples``, ``cmd_end_s`` [s])
+    reply_bits : bits of the expected reply; expect_crc : whether it carries a CRC-16
+    """
+
+    fc_hz = None
+
+    def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool):
+        self.reader, self.antenna, self.tx = reader, antenna, tx
+        self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
+        self.noise_power_w = reader.noise_power_w()
+
+    def coupling(self, emitter):
+        if getattr(emitter, "device", None) is self.reader and emitter.antenna is self.antenna:
+            return self.reader.leakage_gain()
+        return None
+
+    def receive(self, input):
+        """The reader's :class:`ReadResult`-like measurement of the reply in ``input`` (a
+        :class:`rfsim.air.step.Segment` on the time base of ``tx``)."""
+        tx, fs = self.tx, input.fs_hz
+        i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
+        return self.reader.receive(input.samples[i0:], t0_s=input.t0_s + i0 / fs, n_bits=self.reply_bits,
+                                   expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
+
+
+class _EngineLinks:
+    """The engine's links for the air step: forward and backward link of each tag from
+    ``channel.backscatter_links`` (monostatic), held in ``link_cache`` as described in
+    :func:`run_exchange`."""
+
+    def __init__(self, channel, antenna, reflectors, members, motions, rng, t_s, cache, draw):
+        self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s
+        self.cache, self.draw, self.motions = cache, draw, motions
+        if len(reflectors) == 1 and hasattr(reflectors[0], "antennas"):  # a tag population: index kept
+            ants = reflectors[0].antennas
+            hit = cache.get(("index",)) if cache is not None else None
+            if hit is None or hit[0] is not ants:
+                hit = (ants, {id(a): i for i, a in enumerate(ants)})
+                if cache is not None:
+                    cache[("index",)] = hit
+            self.index = hit[1]
+        else:
+            self.index = {id(t.antenna): i for i, t in enumerate(members)}
+        self.backward: dict = {}
+        if draw and cache:  # a new draw: the held constants of the previous one are void
+            for key in [k for k in cache if k[0] == "held"]:
+                del cache[key]
+
+    def paths(self, tx, rx, *, fc_hz, t_s):
+        if tx is self.antenna:
+            i = self.index.get(id(rx))
+            if i is None:
+                return None
+            motion = self.motions[i] if self.motions is not None else None
+            links = None
+            if self.cache is not None:
+                key = (i, id(self.antenna), fc_hz)
+                if motion is None and not self.draw:
+                    links = self.cache.get(key)
+            if links is None:
+                links = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s,
+                                                       tag_motion=motion)
+                if self.cache is not None and motion is None:
+                    self.cache[key] = links
+            self.backward[id(rx)] = links[1]
+            return links[0]
+        if rx is self.antenna:
+            hit = self.backward.get(id(tx))
+            if hit is None and self.cache is not None and not self.draw:  # after held_constants
+                i = self.index.get(id(tx))
+                links = self.cache.get((i, id(self.antenna), fc_hz)) if i is not None else None
+                hit = links[1] if links is not None else None
+            return hit
+        return None
+
+    def held_constants(self, antenna, others, *, fc_hz, bandwidth_hz, propagation, inbound):
+        """The narrowband constants of the held links between the reader ``antenna`` and the
+        tag antennas ``others`` (forward, or backward with ``inbound``), in that order; None
+        unless every one of them is held in the link cache (no new draw, no motion) and is
+        narrowband and static. Remembered in the cache for the round's draw."""
+        if self.draw or self.cache is None or self.motions is not None or antenna is not self.antenna:
+            return None
+        key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
+        hit = self.cache.get(key)
+        if hit is not None and (hit[2] is others or hit[0] == [id(a) for a in others]):
+            return hit[1]
+        side = 1 if inbound else 0
+        out = []
+        for ant in others:
+            i = self.index.get(id(ant))
+            links = self.cache.get((i, id(antenna), fc_hz)) if i is not None else None
+            f = getattr(links[side], "narrowband_constant", None) if links is not None else None
+            c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
+            if c is None:
+                return None
+            out.append(c)
+        self.cache[key] = ([id(a) for a in others], out, others)
+        return out
+
+
+def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,
+              query, round_index: int = 0, motions: Sequence | None = None,
+              epc_bits: int = 128, draw_channel: bool = True) -> list[Exchange]:
+    """Query → RN16 → ACK → PC+EPC+CRC: one inventory round of a Q = 0 Query.
+
+    Returns the exchanges (one or two). The ACK is sent whenever the *reader* accepted an
+    RN16 (its preamble was found) — as a real reader does, it cannot know of a collision or a
+    bit error; the ACK then carries the RN16 it decoded, and a wrong one gets no reply. It
+    starts T2 (10 Tpri, inside the 3–20 Tpri window) after the RN16 reply ends. The channel
+    is drawn (when ``draw_channel``) for the Query and held for the ACK.
+    """
+    from rfsim.gen2.bits import bits_to_int
+    from rfsim.gen2.commands import ACK
+
+    links: dict = {}  # the Query's channel draw, held for the ACK
+    first = run_exchange(reader, tags, channel, query, t_s=t_s, rng=rng, reply_bits=16,
+                         expect_crc=False, motions=motions, round_index=round_index,
+                         draw_channel=draw_channel, link_cache=links)
+    if first.read is None or not first.read.success:
+        return [first]
+    rn16 = bits_to_int(first.read.bits)
+    reply_s, t2_s = _ack_delays_s(reader.link)
+    t_ack = first.read.start_s + reply_s + t2_s
+    second = run_exchange(reader, tags, channel, ACK(rn16), t_s=t_ack, rng=rng,
+                          reply_bits=epc_bits, expect_crc=True, motions=motions,
+                          round_index=round_index, draw_channel=False, link_cache=links)
+    return [first, second]
+
+
+__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "ReaderPort", "run_exchange", "singulate"]

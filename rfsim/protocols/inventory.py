@@ -1,0 +1,583 @@
+"""Reader inventory control: Gen2 rounds with the Q algorithm over an air interface.
+
+The controller (:func:`run_inventory`) is the reader's MAC (gen2-and-validation-anchors.md
+§4.4–4.6). A round starts with a Query of Q = round(Qfp); every tag loads a slot counter
+uniformly from [0, 2^Q − 1] and replies with an RN16 when it reaches 0. Per slot the reader
+
+* receives the slot's RN16 window; if it decodes an RN16 it sends ACK(RN16) T2 after the
+  reply; the tag whose RN16 it is answers with PC + EPC + CRC-16 (others go to Arbitrate);
+* checks the CRC-16: a good EPC is a *read*; a bad one is NAKed (tag back to Arbitrate);
+* classifies the slot as the reader sees it: ``empty`` (no RN16 preamble), ``success`` (EPC
+  read) or ``collision`` (an RN16 was detected but no EPC was read);
+* Q algorithm (anchors §4.5, the standard's example): collision → Qfp = min(15, Qfp + C),
+  empty → Qfp = max(0, Qfp − C), success → unchanged; when round(Qfp) ≠ Q it sends
+  QueryAdjust (UpDn ±1: every tag in Arbitrate/Reply redraws its counter in 2^Q' slots),
+  otherwise a QueryRep. Fixed-Q mode never adjusts.
+* A round ends when its frame (2^Q slots after the last Query/QueryAdjust) is used up; the
+  next round starts with a new Query. The inventory stops after a round in which the reader
+  detected no reply at all ("rounds until no reply"); in dual-target mode it then flips the
+  Query target A ↔ B (tags read in the last pass answer again) until ``target_switches``
+  flips have been made.
+
+Timing (anchors §4.3, §4.6): the reader starts its next command T2 (``t2_tpri`` Tpri) after
+the end of a detected reply, and max(T1max + T3, T4) after the end of its command when it
+detected nothing. Each command segment starts with one Tari of CW before the delimiter
+(``Reader.transmit``), which lies inside the preceding gap. A slot lasts from its command's
+start to the next command's start: an empty slot command + max(T1max + T3, T4), a collided
+slot command + T1 + RN16 + T2 (+ the ACK exchange when the reader decoded garbage bits from
+the collision and ACKed them), a successful one adds ACK + T1 + EPC + T2.
+Durations come from the exchanges themselves (command durations of the link profile, reply
+starts as detected by the receiver); silent time is skipped, not sampled.
+
+Air interfaces (anything with ``link`` and ``exchange(...) -> AirExchange``):
+
+* :class:`EngineAir` — sample level, through :func:`rfsim.protocols.engine.run_exchange`: the reader's
+  waveform, every tag's front end and state machine, superposition of all replies at the
+  reader, the receiver's preamble detection and decoding. Capture, collisions and CRC errors
+  emerge from the waveforms.
+* :class:`ProtocolAir` — protocol level: the same tag state machines driven with the command
+  objects, no waveforms; a slot with exactly one reply is decoded, two or more are a
+  collision that is never decoded (no capture) and that the reader does not ACK. Timing
+  uses the nominal T1 and BLF. It reproduces the slot statistics of the Gen2 MAC at a
+  fraction of the cost; slot durations of collided slots differ from the sample level when
+  the sample-level reader ACKs bits decoded from a collision.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from rfsim.core.config import check_fields, param
+from rfsim.core.errors import ConfigError
+from rfsim.core.records import READ_MEASUREMENT_FIELDS
+from rfsim.core.lazy import lazy_import
+
+_bits = lazy_import("rfsim.gen2.bits")
+_commands = lazy_import("rfsim.gen2.commands")
+_crc = lazy_import("rfsim.gen2.crc")
+_link = lazy_import("rfsim.gen2.link")
+
+#: Reader-side slot classes (what the Q algorithm sees).
+READER_VIEWS = ("empty", "success", "collision")
+#: Slot types with the ground truth (number of tags that replied with an RN16):
+#: empty (0, nothing detected), false_alarm (0, something detected), success (1 reply, EPC
+#: read), capture (≥ 2 replies, one EPC read), collision (≥ 2, none read), lost (1, not read).
+SLOT_TYPES = ("empty", "false_alarm", "success", "capture", "collision", "lost")
+
+
+@dataclass(frozen=True)
+class InventoryConfig:
+    """Reader inventory settings (validated; errors name ``inventory.<key>``)."""
+
+    q_mode: Literal["dynamic", "fixed"] = param("dynamic", doc="Q algorithm or fixed Q")
+    q_initial: float = param(4.0, lo=0.0, hi=15.0, doc="initial Qfp (fixed mode: Q = round(q_initial))")
+    c: float = param(0.3, lo=0.0, hi=1.0, lo_open=True, hi_open=True, doc="Q-algorithm step C")
+    session: int = param(0, lo=0, hi=3, doc="inventory session S0–S3")
+    sel: Literal["all", "sl", "~sl"] = param("all", doc="Query Sel field")
+    target: Literal["A", "B"] = param("A", doc="initial Query target")
+    target_switches: int = param(0, lo=0, hi=1000,
+                                 doc="dual target: A↔B flips after a round without replies (0 = single target)")
+    select_before_round: bool = param(False, doc="send a Select that sets every tag's session flag to the "
+                                                 "target before each Query (repeatable frames)")
+    select_mask: str = param("", doc="Select mask ('0'/'1' string) on the EPC bank asserting SL on matching tags "
+                                     "at the start (sent when non-empty or sel is not 'all')")
+    select_pointer: int = param(32, lo=0, hi=496, doc="bit address of the Select mask in the EPC bank (EPC at 20h)")
+    t2_tpri: float = param(10.0, lo=3.0, hi=20.0, unit="Tpri", doc="T2: reply end → next command")
+    t3_s: float = param(0.0, lo=0.0, hi=1e-3, unit="s", doc="T3: extra wait after T1 when nothing was detected")
+    epc_reply_bits: int = param(128, lo=32, hi=528, doc="PC + EPC + CRC-16 bits of the ACK reply")
+    max_rounds: int = param(10000, lo=1, hi=10**7, doc="stop after this many rounds")
+    max_slots: int = param(100000, lo=1, hi=10**8, doc="stop after this many slots")
+
+    def __post_init__(self):
+        check_fields(self, "inventory")
+        if any(ch not in "01" for ch in self.select_mask) or len(self.select_mask) > 255:
+            raise ConfigError("inventory.select_mask", self.select_mask, "at most 255 '0'/'1' characters")
+
+
+@dataclass(frozen=True, eq=False)
+class AirExchange:
+    """One reader command and what the reader got back (both air interfaces).
+
+    Attributes
+    ----------
+    command : command name
+    time_s : start of the reader's segment [s] (one Tari of CW, then the command)
+    cmd_end_s : last rising edge of the command [s]
+    replied : indices of the tags that replied (ground truth)
+    detected : the receiver found a reply preamble
+    bits : (n,) uint8 decoded bits or None
+    success : decoded (and CRC-16 correct where expected)
+    failure_reason : "" or the reason (see :data:`rfsim.protocols.engine.FAILURE_REASONS`)
+    reply_start_s : detected reply start [s] (NaN when nothing was detected)
+    antenna : 0-based reader antenna; channel_index : 1-based; fc_hz : carrier [Hz]
+    read : the receiver's ReadResult (sample level) or None
+    incident_power_dbm : (n_tags,) CW power at each tag [dBm] (NaN at protocol level)
+    """
+
+    command: str
+    time_s: float
+    cmd_end_s: float
+    replied: tuple[int, ...]
+    detected: bool
+    bits: np.ndarray | None
+    success: bool
+    failure_reason: str
+    reply_start_s: float
+    antenna: int = 0
+    channel_index: int = 0
+    fc_hz: float = math.nan
+    read: Any = None
+    incident_power_dbm: tuple[float, ...] = ()
+
+
+# ============================================================================ records
+
+
+SLOT_FIELDS = {
+    "time_s": ("s", "start of the slot's first command segment"),
+    "duration_s": ("s", "air time of the slot (until the next command starts)"),
+    "round": ("1", "inventory round (one Query each)"),
+    "slot": ("1", "slot index within the round"),
+    "q": ("1", "Q of the slot's frame"),
+    "qfp": ("1", "Q algorithm's floating-point Qfp after the slot"),
+    "command": ("", "command that opened the slot (Query, QueryRep, QueryAdjust)"),
+    "target": ("", "Query target (A/B)"),
+    "antenna": ("1", "reader antenna port (1-based)"),
+    "slot_type": ("", "empty/false_alarm/success/capture/collision/lost (ground truth + reader)"),
+    "reader_view": ("", "empty/success/collision as the reader sees it (drives the Q algorithm)"),
+    "n_replies": ("1", "number of tags that replied with an RN16 (ground truth)"),
+    "epc_hex": ("", "EPC read in the slot ('' if none)"),
+    "tag": ("1", "index of the tag read (-1 if none)"),
+}
+
+READ_FIELDS = {
+    "time_s": ("s", "start of the ACK segment of the read"),
+    "round": ("1", "inventory round (one Query and its QueryReps) of the read, 0-based"),
+    "slot": ("1", "slot index within the round"),
+    "tag": ("1", "index of the tag that answered the ACK (-1 if not unique)"),
+    "epc_hex": ("", "EPC decoded (CRC-16 ok)"),
+    **READ_MEASUREMENT_FIELDS,
+    "n_replies": ("1", "tags that replied in the RN16 slot (> 1: capture)"),
+    "tag_incident_power_dbm": ("dBm", "CW power incident at the read tag (ACK)"),
+}
+
+
+@dataclass(eq=False)
+class InventoryLog:
+    """Records of one inventory: per-slot and per-read columns (lists) and the time span."""
+
+    slots: dict[str, list]
+    reads: dict[str, list]
+    t0_s: float
+    t_end_s: float = math.nan
+
+    @property
+    def n_slots(self) -> int:
+        return len(self.slots["time_s"])
+
+    @property
+    def air_time_s(self) -> float:
+        """Total air time [s] from the first command to the end of the last slot."""
+        return self.t_end_s - self.t0_s
+
+    def tags_read(self) -> set[int]:
+        """Indices of the tags read at least once."""
+        return {t for t in self.reads["tag"] if t >= 0}
+
+    def completion(self, n_tags: int) -> tuple[int, float] | None:
+        """(slots, air time [s]) until ``n_tags`` distinct tags were read, or None."""
+        seen: set[int] = set()
+        for k, (tag, t, d) in enumerate(zip(self.slots["tag"], self.slots["time_s"], self.slots["duration_s"])):
+            if tag >= 0:
+                seen.add(tag)
+                if len(seen) >= n_tags:
+                    return k + 1, t + d - self.t0_s
+        return None
+
+    def counts(self, column: str = "slot_type") -> dict[str, int]:
+        """Number of slots per value of ``column``."""
+        vals = self.slots[column]
+        return {v: vals.count(v) for v in (SLOT_TYPES if column == "slot_type" else READER_VIEWS)}
+
+
+def _slot_type(n_replies: int, detected: bool, read: bool) -> str:
+    if read:
+        return "success" if n_replies == 1 else "capture"
+    if n_replies == 0:
+        return "false_alarm" if detected else "empty"
+    return "collision" if n_replies >= 2 else "lost"
+
+
+def epc_hex_of(bits: np.ndarray) -> str:
+    """EPC of a PC + EPC + CRC-16 reply as upper-case hex ('' for fewer than 48 bits)."""
+    b = np.asarray(bits, dtype=np.uint8)
+    if b.size < 48:
+        return ""
+    epc = _bits.as_bits(b[16:-16])
+    nibbles = epc[:epc.size - epc.size % 4].reshape(-1, 4) @ _NIBBLE_WEIGHTS  # MSB first
+    return "".join(map("0123456789ABCDEF".__getitem__, nibbles.tolist()))
+
+
+_NIBBLE_WEIGHTS = np.array([8, 4, 2, 1], dtype=np.int64)
+
+
+# ============================================================================ controller
+
+
+class _Clock:
+    """Reader timing rules (module docstring): when the next command starts."""
+
+    def __init__(self, link, config: InventoryConfig):
+        self.link = link
+        self.t2_s = config.t2_tpri * link.tpri_s
+        self.idle_s = max(_link.t1(link).max_s + config.t3_s, 2.0 * link.rtcal_s)  # max(T1max + T3, T4)
+        self.lead_s = link.tari_s  # CW before the delimiter (Reader.transmit default)
+        self._reply_s: dict = {}  # nominal reply duration per reply length (a pure function of the link)
+
+    def next_command_s(self, ex: AirExchange, reply_bits: int) -> float:
+        if ex.detected and math.isfinite(ex.reply_start_s):
+            duration = self._reply_s.get(reply_bits)
+            if duration is None:
+                duration = self._reply_s[reply_bits] = self.link.reply_duration_s(reply_bits)
+            blf = getattr(ex.read, "blf_hz", math.nan)  # the BLF the reader measured, if it did
+            if blf > 0:
+                duration *= self.link.blf_hz / blf
+            return ex.reply_start_s + duration + self.t2_s
+        return ex.cmd_end_s + self.idle_s
+
+
+def _round_half_up(x: float) -> int:
+    """Q = round(Qfp) with halves rounded up (Python's round() would round 2.5 to 2)."""
+    return int(math.floor(x + 0.5))
+
+
+def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: float = 0.0,
+                  on_round: Callable[[int, float], None] | None = None) -> InventoryLog:
+    """Inventory the tags behind ``air`` with the Q algorithm (module docstring).
+
+    Parameters
+    ----------
+    air : :class:`EngineAir`, :class:`ProtocolAir` or an object with ``link`` and
+        ``exchange(cmd, *, t_s, reply_bits, expect_crc, round_index, new_round)``
+    config : InventoryConfig
+    t0_s : start time [s] of the first command segment
+    on_round : optional callback ``(round_index, t_s)`` before each round (e.g. to interrupt
+        the CW or move tags)
+
+    Returns
+    -------
+    InventoryLog with one row per slot and one per read.
+    """
+    link = air.link
+    clock = _Clock(link, config)
+    log = InventoryLog({k: [] for k in SLOT_FIELDS}, {k: [] for k in READ_FIELDS}, float(t0_s))
+    qfp = float(config.q_initial)
+    target = config.target
+    switches = 0
+    t_cmd = float(t0_s) + clock.lead_s  # start of the next command (its delimiter)
+    n_slots = 0
+    if config.select_mask or config.sel != "all":
+        # assert SL on matching tags, deassert it on the others (Select action 0)
+        sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
+        ex = air.exchange(sel, t_s=t_cmd - clock.lead_s, reply_bits=16, expect_crc=False, round_index=0,
+                          new_round=True)
+        t_cmd = clock.next_command_s(ex, 16)
+    for rnd in range(config.max_rounds):
+        if on_round is not None:
+            on_round(rnd, t_cmd - clock.lead_s)
+        new_round = True
+        if config.select_before_round:
+            sel = _commands.Select(target=config.session, action=0 if target == "A" else 4, membank=1, pointer=32, mask="")
+            ex = air.exchange(sel, t_s=t_cmd - clock.lead_s, reply_bits=16, expect_crc=False,
+                              round_index=rnd, new_round=True)
+            t_cmd = clock.next_command_s(ex, 16)
+            new_round = False
+        q = _round_half_up(qfp) if config.q_mode == "dynamic" else _round_half_up(config.q_initial)
+        cmd = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, sel=config.sel, session=config.session,
+                              target=target, q=q)
+        frame_left = 1 << q
+        detected_any = False
+        slot = 0
+        while True:
+            t_slot = t_cmd - clock.lead_s
+            view, t_cmd, read_ex, first = _slot(air, cmd, t_slot, rnd, new_round, clock, config)
+            new_round = False
+            detected_any |= first.detected
+            n_rep = len(first.replied)
+            stype = _slot_type(n_rep, first.detected, read_ex is not None)
+            if config.q_mode == "dynamic":
+                if view == "collision":
+                    qfp = min(15.0, qfp + config.c)
+                elif view == "empty":
+                    qfp = max(0.0, qfp - config.c)
+            tag = read_ex.replied[0] if read_ex is not None and len(read_ex.replied) == 1 else -1
+            epc = epc_hex_of(read_ex.bits) if read_ex is not None else ""
+            _append(log.slots, time_s=t_slot, duration_s=(t_cmd - clock.lead_s) - t_slot, round=rnd,
+                    slot=slot, q=q, qfp=qfp, command=first.command, target=target,
+                    antenna=first.antenna + 1, slot_type=stype, reader_view=view, n_replies=n_rep,
+                    epc_hex=epc, tag=tag)
+            if read_ex is not None:
+                _append_read(log.reads, read_ex, rnd, slot, tag, epc, n_rep)
+            slot += 1
+            n_slots += 1
+            frame_left -= 1
+            if n_slots >= config.max_slots:
+                break
+            q_new = _round_half_up(qfp)
+            if config.q_mode == "dynamic" and q_new != q:
+                updn = 1 if q_new > q else -1
+                q += updn
+                cmd = _commands.QueryAdjust(session=config.session, updn=updn)
+                frame_left = 1 << q
+            elif frame_left > 0:
+                cmd = _commands.QueryRep(session=config.session)
+            else:
+                break
+        if n_slots >= config.max_slots:
+            break
+        if not detected_any:
+            if switches >= config.target_switches:
+                break
+            switches += 1
+            target = "B" if target == "A" else "A"
+    log.t_end_s = t_cmd - clock.lead_s
+    return log
+
+
+def _slot(air, cmd, t_s: float, rnd: int, new_round: bool, clock: _Clock, config: InventoryConfig):
+    """One slot: RN16 window, ACK if an RN16 was decoded, NAK on a bad EPC CRC.
+
+    Returns (reader view, start of the next command [s], the EPC exchange if read, the
+    RN16 exchange).
+    """
+    first = air.exchange(cmd, t_s=t_s, reply_bits=16, expect_crc=False, round_index=rnd, new_round=new_round)
+    t_next = clock.next_command_s(first, 16)
+    if not first.detected:
+        return "empty", t_next, None, first
+    if not first.success or first.bits is None:
+        return "collision", t_next, None, first
+    ack = _commands.ACK(_bits.bits_to_int(first.bits))
+    second = air.exchange(ack, t_s=t_next - clock.lead_s, reply_bits=config.epc_reply_bits, expect_crc=True,
+                          round_index=rnd, new_round=False)
+    t_next = clock.next_command_s(second, config.epc_reply_bits)
+    if second.success:
+        return "success", t_next, second, first
+    if second.detected:  # EPC with a bad CRC-16: NAK returns the tag to Arbitrate
+        nak = air.exchange(_commands.NAK(), t_s=t_next - clock.lead_s, reply_bits=16, expect_crc=False,
+                           round_index=rnd, new_round=False)
+        t_next = clock.next_command_s(nak, 16)
+    return "collision", t_next, None, first
+
+
+def _append(rows: dict[str, list], **values) -> None:
+    for k, v in values.items():
+        rows[k].append(v)
+
+
+def _append_read(rows, ex: AirExchange, rnd: int, slot: int, tag: int, epc: str, n_rep: int) -> None:
+    r = ex.read
+    nan = math.nan
+    inc = ex.incident_power_dbm[tag] if (tag >= 0 and ex.incident_power_dbm) else nan
+    _append(rows, time_s=ex.time_s, round=rnd, slot=slot, tag=tag, epc_hex=epc, antenna=ex.antenna + 1,
+            channel_index=ex.channel_index, frequency_hz=ex.fc_hz,
+            rssi_dbm=r.rssi_dbm if r is not None else nan, phase_rad=r.phase_rad if r is not None else nan,
+            doppler_hz=r.doppler_hz if r is not None else nan, snr_db=r.snr_db if r is not None else nan,
+            n_replies=n_rep, tag_incident_power_dbm=inc)
+
+
+# ============================================================================ protocol level
+
+
+class ProtocolAir:
+    """Protocol-level air interface: Gen2 tag state machines, no waveforms.
+
+    Parameters
+    ----------
+    link : LinkProfile (timing)
+    tags : sequence of PassiveTag-like objects (``state``, ``rng``) or (TagState, Generator)
+        pairs; each tag keeps its own generator
+    powered : None (every tag powered) or callable ``t_s → (n_tags,) bool``; a tag that
+        becomes unpowered loses its round state (``TagState.on_power``)
+
+    A slot with exactly one reply is decoded (its bits are the tag's reply bits, the reply
+    starts at the nominal T1 = max(RTcal, 10·Tpri) after the command); two or more replies
+    are a detected, undecodable collision (no capture).
+    """
+
+    def __init__(self, link, tags: Sequence, *, powered: Callable[[float], np.ndarray] | None = None):
+        self.link = link
+        self._tags = [(t.state, t.rng) if hasattr(t, "state") else (t[0], t[1]) for t in tags]
+        self.powered = powered
+        self._t1_s = max(link.rtcal_s, 10.0 * link.tpri_s)
+
+    @property
+    def states(self) -> list:
+        return [s for s, _ in self._tags]
+
+    def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
+                 new_round: bool = False) -> AirExchange:
+        lk = self.link
+        cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
+        mask = np.ones(len(self._tags), bool) if self.powered is None else np.asarray(self.powered(t_s), bool)
+        replies = []
+        for i, (state, rng) in enumerate(self._tags):
+            if not mask[i]:
+                state.on_power(False, t_s)
+                continue
+            if not state.powered:
+                state.on_power(True, t_s)
+            reply = state.on_command(cmd, t_s=cmd_end, rng=rng)
+            if reply is not None:
+                replies.append((i, reply))
+        replied = tuple(i for i, _ in replies)
+        nan = math.nan
+        if not replies:
+            return AirExchange(type(cmd).__name__, float(t_s), cmd_end, (), False, None, False, "no reply", nan)
+        start = cmd_end + self._t1_s
+        if len(replies) > 1:
+            return AirExchange(type(cmd).__name__, float(t_s), cmd_end, replied, True, None, False,
+                               "collision", start)
+        bits = replies[0][1].bits
+        ok = (not expect_crc) or _crc.crc16_ok(bits)
+        return AirExchange(type(cmd).__name__, float(t_s), cmd_end, replied, True, bits, ok,
+                           "" if ok else "crc error", start)
+
+
+# ============================================================================ sample level
+
+
+class _RoundChannel:
+    """The channel held for a round: the PathSets of each (antenna, tag, fc) are computed once
+    and reused until :meth:`clear` (static tags; moving tags are evaluated at every call).
+
+    With a quasi-static channel the links are deterministic functions of the geometry and the
+    held diffuse draw, so reusing them is exact; it only saves recomputing geometry.
+    """
+
+    def __init__(self, channel):
+        self.channel = channel
+        self._links: dict = {}
+
+    def clear(self) -> None:
+        self._links.clear()
+
+    def backscatter_links(self, emitter, tag, receiver=None, *, fc_hz, rng=None, t_s=0.0, tag_motion=None,
+                          **kw):
+        if tag_motion is not None or kw:
+            return self.channel.backscatter_links(emitter, tag, receiver, fc_hz=fc_hz, rng=rng, t_s=t_s,
+                                                  tag_motion=tag_motion, **kw)
+        key = (id(emitter), id(tag), id(receiver), float(fc_hz))
+        if rng is None and key in self._links:
+            return self._links[key]
+        out = self.channel.backscatter_links(emitter, tag, receiver, fc_hz=fc_hz, rng=rng, t_s=t_s)
+        self._links[key] = out
+        return out
+
+
+class EngineAir:
+    """Sample-level air interface through :func:`rfsim.protocols.engine.run_exchange`.
+
+    Parameters
+    ----------
+    reader : rfsim.devices.reader.Reader
+    tags : sequence of rfsim.devices.tag.PassiveTag (each with its own generator)
+    channel : channel with ``backscatter_links`` (e.g. ``rfsim.channels.Channel``); its random part
+        is drawn at the first exchange of every round and held for the round. A channel
+        without one (``has_random_part`` False: no diffuse taps, no shadowing field) gives
+        static tags the same links in every round, so its links are evaluated once and held
+        across rounds while no tag's antenna changes (and without ``motions``); the records
+        are those of a draw per round, bit for bit (the draw takes nothing from ``rng``)
+    rng : generator for the channel draws and the receiver noise
+    motions : optional per-tag motions (see ``run_exchange``)
+    propagation : "auto", "exact" or "narrowband"
+    fast : let tags that see scaled copies of one reader segment share its front-end work
+        (``PassiveTag.shared_front_end``, rfsim.devices.tag) and join the air step as one
+        population (the tags' ``population``, rfsim.devices.tag_population: the quiet tags of an
+        exchange decided at once, their re-radiation one held constant); False makes every
+        tag listen to its own samples on every exchange (identical records, slower). Sets
+        the attribute on every tag that has it.
+    keep_exchanges : append every :class:`AirExchange` to ``self.exchanges``
+    """
+
+    def __init__(self, reader, tags: Sequence, channel, *, rng: np.random.Generator, motions=None,
+                 propagation: str = "auto", fast: bool = True, keep_exchanges: bool = False):
+        self.exchanges: list[AirExchange] | None = [] if keep_exchanges else None
+        self.reader = reader
+        self.tags = list(tags)
+        self.link = reader.link
+        self.rng = rng
+        self.motions = motions
+        self.propagation = propagation
+        self._channel = _RoundChannel(channel)
+        self._round_links: dict = {}  # run_exchange's link_cache: the round's (forward, backward) links
+        self._held_antennas: tuple | None = None  # the tag antennas of links held across rounds
+        for t in self.tags:
+            if hasattr(t, "shared_front_end"):
+                t.shared_front_end = bool(fast)
+        make = getattr(type(self.tags[0]), "population", None) if (fast and self.tags) else None
+        same = make is not None and all(getattr(type(t), "population", None) == make for t in self.tags)
+        self._reflectors = [make(self.tags)] if same else self.tags
+
+    def cw_off(self, t_s: float) -> None:
+        """The reader interrupts its CW at ``t_s`` [s]: every tag loses power (Gen2: back to
+        Ready, S0 flag to A; S1–S3 and SL kept within their persistence times)."""
+        for tag in self.tags:
+            tag.state.on_power(False, t_s)
+        if self._reflectors is not self.tags:
+            self._reflectors[0].refresh()
+
+    def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
+                 new_round: bool = False) -> AirExchange:
+        from rfsim.protocols.engine import run_exchange
+
+        draw = new_round and not self._links_still_held()
+        if draw:
+            self._channel.clear()
+            self._round_links.clear()
+            self._hold_placements(round_index)
+        ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
+                          reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
+                          round_index=round_index, draw_channel=draw, propagation=self.propagation,
+                          link_cache=self._round_links)
+        read = ex.read
+        detected = read is not None and read.bits is not None
+        cmd_end = ex.cmd_end_s  # t_s + Tari (CW lead-in) + T_cmd, from the reader's segment
+        out = AirExchange(ex.command, float(t_s), cmd_end, ex.replied, detected,
+                          read.bits if detected else None, bool(read is not None and read.success),
+                          ex.failure_reason, read.start_s if detected else math.nan, ex.antenna,
+                          ex.channel_index, ex.fc_hz, read, ex.incident_power_dbm)
+        if self.exchanges is not None:
+            self.exchanges.append(out)
+        return out
+
+    def _hold_placements(self, round_index: int) -> None:
+        """At a new draw: the carrier-independent geometry of the round's reader antenna →
+        tag links of static tags evaluated at once by a channel that offers it
+        (``hold_placements``, rfsim.channels.scene.Channel: bit-identical to the link-by-link
+        evaluation it replaces)."""
+        hold = getattr(self._channel.channel, "hold_placements", None)
+        if hold is None or self.motions is not None or not self.tags:
+            return
+        hold(self.reader.antennas[self.reader.antenna_index(round_index)], [t.antenna for t in self.tags])
+
+    def _links_still_held(self) -> bool:
+        """At a new round: whether the held links are still the channel's (a channel without
+        random part, no motions, the same tag antennas as when they were evaluated); else
+        they are to be drawn again (and the antennas are remembered for the next round)."""
+        ants = tuple(t.antenna for t in self.tags)
+        held = self._held_antennas
+        same = held is not None and len(held) == len(ants) and all(map(operator.is_, held, ants))
+        keep = (same and self.motions is None and self._round_links
+                and getattr(self._channel.channel, "has_random_part", True) is False)
+        self._held_antennas = ants
+        return bool(keep)
+
+
+__all__ = ["InventoryConfig", "AirExchange", "InventoryLog", "EngineAir", "ProtocolAir", "run_inventory",
+           "epc_hex_of", "READER_VIEWS", "SLOT_TYPES", "SLOT_FIELDS", "READ_FIELDS"]

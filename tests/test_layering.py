@@ -18,7 +18,7 @@ from pathlib import Path
 PACKAGES = {"rfsim": "rfsim", "channels": "rfsim.channels", "devices": "rfsim.devices",
             "scenarios": "rfsim.scenarios"}
 CORE_EDGES = ("rfsim.cli", "rfsim.runs", "rfsim.bench")
-OUTER = ("rfsim.channels", "rfsim.devices", "rfsim.scenarios")
+OUTER = ("rfsim.channels", "rfsim.devices", "rfsim.scenes", "rfsim.scenarios")
 
 
 def _modules(root: Path) -> dict[str, Path]:
@@ -77,7 +77,9 @@ def test_channels_and_devices_do_not_import_each_other(project_root):
     g = _graph(project_root)
     bad = sorted((m, t) for m, ts in g.items() for t in ts
                  if (_top(m), _top(t)) in {("rfsim.channels", "rfsim.devices"), ("rfsim.devices", "rfsim.channels"),
-                                           ("rfsim.channels", "rfsim.scenarios"), ("rfsim.devices", "rfsim.scenarios")})
+                                           ("rfsim.channels", "rfsim.scenarios"), ("rfsim.devices", "rfsim.scenarios"),
+                                           ("rfsim.channels", "rfsim.scenes"), ("rfsim.devices", "rfsim.scenes"),
+                                           ("rfsim.scenes", "rfsim.scenarios")})
     assert bad == []
 
 

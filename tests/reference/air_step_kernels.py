@@ -15,6 +15,4 @@ def backscatter_reference(x: np.ndarray, c: complex, g: complex, a_s: complex, g
     return y
 
 
-
-
 __all__ = ["backscatter_reference"]

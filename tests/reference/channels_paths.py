@@ -32,6 +32,4 @@ def apply_paths_reference(x, *, fs_hz: float, fc_hz: float, paths: PathSet, t0_s
     return y
 
 
-
-
 __all__ = ["apply_paths_reference"]

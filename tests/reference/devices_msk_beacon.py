@@ -24,6 +24,4 @@ def discriminate_reference(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
     return np.angle(x * np.conj(prev))
 
 
-
-
 __all__ = ["msk_phase_reference", "discriminate_reference"]

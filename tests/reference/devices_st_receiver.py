@@ -31,6 +31,4 @@ def comparator_reference(v, *, threshold_v: float, state0: int = -1) -> tuple[np
     return out, st, tog
 
 
-
-
 __all__ = ["rc_lowpass_reference", "comparator_reference"]

@@ -48,6 +48,4 @@ def plausible_frames_reference(edges: PieEdges, env: np.ndarray) -> tuple[np.nda
     return keep, contrast
 
 
-
-
 __all__ = ["plausible_frames_reference"]

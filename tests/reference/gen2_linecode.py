@@ -165,8 +165,6 @@ def decode_reply_reference(r, **kwargs) -> ReplyDetection:
     return _decode(r, *args, _REFERENCES)
 
 
-
-
 __all__ = ["fm0_levels_reference", "miller_levels_reference", "halfsymbols_reference", "reply_waveform_reference",
            "halfbit_sums_reference", "bitwise_reference", "viterbi_reference", "projected_halfbit_sums_reference",
            "refine_reference", "peak_candidates_reference", "corr_abs_reference", "decode_reply_reference"]

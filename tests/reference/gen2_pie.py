@@ -107,6 +107,4 @@ def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float
     return frames
 
 
-
-
 __all__ = ["pr_ask_baseband_reference", "pie_envelope_reference", "two_level_threshold_reference", "pie_decode_reference"]

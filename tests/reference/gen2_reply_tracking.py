@@ -30,6 +30,4 @@ def block_correlations_reference(y, start, u1, u2, el, n_blocks, base, shifts, s
     return corr, centres
 
 
-
-
 __all__ = ["block_correlations_reference"]

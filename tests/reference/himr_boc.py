@@ -61,6 +61,4 @@ def boc_decode_reference(r, *, code: BocCode, fs_hz: float, n_bits: int, start_s
     return _decide(boc_bit_sums_reference(r, start_sample, code, fs_hz=fs_hz, n_bits=n_bits), pre)
 
 
-
-
 __all__ = ["boc_chips_reference", "boc_train_reference", "boc_bit_sums_reference", "boc_decode_reference"]

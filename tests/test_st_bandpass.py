@@ -32,6 +32,8 @@ def test_order_one_design_equals_scipy_bit_for_bit():
         ours = butter_bandpass_sos(1, a, b, f)
         ref = ss.butter(1, [a, b], btype="bandpass", fs=f, output="sos")
         assert ours.dtype == ref.dtype and ours.shape == ref.shape == (1, 6)
+        # exact: the design calls the same NumPy ufuncs (tan, exp, complex sqrt) on the same arrays
+        # in SciPy's order, and the steady state solves the same 2×2 system with np.linalg.solve
         assert np.array_equal(ours, ref), (f, a, b)
         assert np.array_equal(sos_steady_state(ours), ss.sosfilt_zi(ref)), (f, a, b)
         n_complex += np.iscomplex(np.roots(ref[0, 3:])).any()

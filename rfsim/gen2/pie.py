@@ -248,7 +248,7 @@ def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, fl
     return float(thr), float(m_lo), float(m_hi)
 
 
-def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
+def _prepare(x, threshold, hysteresis, levels=None):
     x = np.asarray(x)
     if x.dtype in (np.complex64, np.complex128) and levels is not None:
         # complex samples: the kernels read their magnitude on the fly; the caller's levels
@@ -264,7 +264,7 @@ def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
             raise ValueError(f"x must be 1-D, got shape {x.shape}")
         if x.size < 2 or not np.all(np.isfinite(x)):
             return x, None, None
-    thr, m_lo, m_hi = split(x) if levels is None else (float(v) for v in levels)
+    thr, m_lo, m_hi = two_level_threshold(x) if levels is None else (float(v) for v in levels)
     if threshold is not None:
         thr = float(threshold)
     return x, thr, float(hysteresis) * (m_hi - m_lo)

@@ -61,7 +61,9 @@ def two_level_threshold_reference(x: np.ndarray, *, max_iter: int = 50) -> tuple
 
 def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
     """Plain NumPy/Python twin of :func:`rfsim.gen2.pie.pie_decode` (same algorithm)."""
-    x, thr, hyst = _prepare(x, threshold, hysteresis, split=two_level_threshold_reference)
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    levels = two_level_threshold_reference(x) if x.ndim == 1 and x.size >= 2 and np.all(np.isfinite(x)) else None
+    x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
     if thr is None:
         return []
     above, below = x > thr + hyst, x < thr - hyst

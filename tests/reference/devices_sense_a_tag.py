@@ -36,12 +36,13 @@ def diode_chain_bounds(rx: sr.STReceiver, x) -> tuple[int, float]:
     then ``u = (ln i0e(X) + X)·n·V_T``. ``ln`` is the only step that may differ: numba calls the
     C library's ``log``, NumPy may take a SIMD path; both are faithfully rounded, so the two
     values of L = ln i0e(X) < 0 differ by ≤ 1 ulp(L). The sum s = L + X = ln I0(X) > 0 cancels:
-    ulp(L)/ulp(s) ≤ 2·|L|/s, largest at the smallest X (|L|/s ≈ 4/X for small X), plus
-    one rounding of s and one of the product with n·V_T: u differs by ≤ A + 2 ulp(u),
-    A = 2·|L|/s at min X. The RC (lfilter order, y = a·u + (1 − a)·y, coefficients > 0)
-    averages u with positive weights summing to 1, so its relative error is u's, ≤ 2·(A + 2)
-    ulp of the output (a factor 2 for the binade), plus its own re-rounding: ≤ 3 roundings per
-    sample, accumulated through 1/(1 − (1 − a)z⁻¹) whose l1 gain is 1/a, ≤ 2·3/a ulp.
+    ulp(L)/ulp(s) ≤ 2·|L|/s, largest at the smallest X (|L|/s ≈ 4/X for small X); with the
+    rounding of s and of the product with n·V_T the two values of u differ by at most
+    (A + 2)·2⁻⁵² relative, A = 2·|L|/s at min X. The RC (lfilter order, y = a·u + (1 − a)·y,
+    coefficients > 0) averages u with positive weights summing to 1, so its relative error is
+    u's, ≤ 2·(A + 2) ulp of the output (ulp(v) ≥ |v|·2⁻⁵³), plus its own re-rounding: ≤ 3
+    roundings per sample, accumulated through 1/(1 − (1 − a)z⁻¹) whose l1 gain is 1/a, ≤ 2·3/a
+    ulp.
 
     The band-pass output is formed by cancellation (it removes the DC of the envelope), so it is
     bounded in absolute terms: the envelope's difference through the cascade's l1 gain ‖h‖₁,

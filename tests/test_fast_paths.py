@@ -328,10 +328,10 @@ def test_corr_abs_runs_kernel_equals_scipy(samples_per_element, offset):
         LK.corr_abs_runs_kernel(r, t0, out)
         np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-9, atol=1e-9 * t.size)
 def test_air_accumulate_is_the_sequential_sum():
-    """The air step's held constant of a tag population (rfsim.air.step._accumulate) equals the
+    """The air step's held constant of a tag population (rfsim.air.groups.accumulate) equals the
     left-to-right Python sum of the same complex terms, bit for bit, over magnitudes spread
     across 16 decades (where the summation order changes the rounding)."""
-    from rfsim.air.step import _accumulate
+    from rfsim.air.groups import accumulate
 
     rng = trial_rng(62, 0)
     n = 0
@@ -342,7 +342,7 @@ def test_air_accumulate_is_the_sequential_sum():
         want = start
         for x in v.tolist():
             want = want + x
-        got = _accumulate(start, v)
+        got = accumulate(start, v)
         assert got == want and type(got) is complex
         n += 1
     assert n == 100

@@ -250,7 +250,8 @@ def test_measure_kernel_equals_reference(doppler_hz):
     """Reader measurements (gain, Doppler slope, residual power) of a Miller-4 reply with a
     rotating phase and noise: kernel and NumPy twin agree to round-off (different summation
     order, so not bit for bit)."""
-    from rfsim.devices.reader import _measure, measure_reference
+    from rfsim.devices.reader import measure_reference
+    from rfsim.devices.reader_measure import measure as _measure
 
     rng = trial_rng(59, int(abs(doppler_hz)))
     fs, blf = 4e6, 320e3
@@ -283,7 +284,8 @@ def test_projected_halfbit_sums_kernel_equals_reference():
 def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
-    from rfsim.devices.reader import _known_levels, known_levels_reference
+    from rfsim.devices.reader import known_levels_reference
+    from rfsim.devices.reader_measure import known_levels as _known_levels
 
     rng = trial_rng(61, m)
     fs, blf = 4e6, 320e3 if m > 1 else 160e3
@@ -422,7 +424,7 @@ def test_preamble_search_kernel_equals_reference(m, trext):
 def test_measurement_on_the_reply_span_equals_the_window():
     """The reader measures on the reply's samples only: the same (h, slope, σ²) bit for bit as
     over the whole window (times from the span's centre do not depend on the slice)."""
-    from rfsim.devices.reader import _measure
+    from rfsim.devices.reader_measure import measure as _measure
 
     rng = trial_rng(64, 0)
     fs = 4e6

@@ -254,10 +254,10 @@ def _begin(emitters, reflectors, receivers: list, links, *, t0_s, fs_hz, n_sampl
 
 
 def _emit(st: _Step, fc_ref_hz) -> None:
-    """Emit: every emitter's segment on the step's time base (None: silent), the reference
-    carrier (default the first live emitter's) and, for one emitter on the reference carrier
-    (a reader's exchange), the held constants of its links to the members when the links
-    hold them (``links.held_constants``)."""
+    """Emit: every emitter's segment on the step's time base, (…, n) complex128 [√W] on its
+    own carrier (None: silent), the reference carrier (default the first live emitter's)
+    and, for one emitter on the reference carrier (a reader's exchange), the held constants
+    of its links to the members when the links hold them (``links.held_constants``)."""
     segs = []
     for i, e in enumerate(st.emitters):
         s = e.emit(t0_s=st.t0_s, fs_hz=st.fs_hz, n_samples=st.n_samples)
@@ -281,11 +281,11 @@ def _emit(st: _Step, fc_ref_hz) -> None:
 
 
 def _reflect(st: _Step) -> None:
-    """Links → reflect: the incident field at every member (reference carrier; kept per
-    emitter in the emitter's own baseband for the backscatter) and what it does with it. A
-    group whose members all see held scaled copies of the one emitter answers at once
-    (``reflect_scaled``: the shortcut); otherwise its members reflect together
-    (``reflect_each``), a lone reflector on its own."""
+    """Links → reflect: the incident field at every member, a (…, n) [√W] segment on the
+    reference carrier (kept per emitter in the emitter's own baseband for the backscatter),
+    and what the member does with it. A group whose members all see held scaled copies of
+    the one emitter answers at once (``reflect_scaled``: the shortcut); otherwise its members
+    reflect together (``reflect_each``), a lone reflector on its own."""
     n_mem = len(st.members)
     st.incident, st.reflections, st.per_emitter = [UNSET] * n_mem, [UNSET] * n_mem, [None] * n_mem
     st.shortcut = {}
@@ -405,7 +405,7 @@ def _receive(st: _Step, receivers: list, incident, *, rng, decide: bool) -> AirR
 def _direct(st: _Step, k: int, rcv, fc_k: float) -> tuple[dict, list]:
     """Receiver k's direct contributions: ``(const, parts)`` — per emitter index the complex
     factor of x_e (narrowband, static contributions on the receiver's carrier; a coupling
-    replaces the channel's link) and the full-length contributions (n,) [√W], added after the
+    replaces the channel's link) and the full-length contributions (…, n) [√W], added after the
     constants in this order."""
     r_ant = rcv.antenna
     coupling = getattr(rcv, "coupling", None)
@@ -436,7 +436,7 @@ def _direct(st: _Step, k: int, rcv, fc_k: float) -> tuple[dict, list]:
 
 
 def _direct_component(st: _Step, const: dict, parts: list) -> np.ndarray:
-    """The emitters' contribution at a receiver, (n,) [√W] (``keep_components``)."""
+    """The emitters' contribution at a receiver, (…, n) complex128 [√W] (``keep_components``)."""
     d = np.zeros(st.n_samples, dtype=np.complex128)
     for i, g in const.items():
         d = d + g * st.segs[i].samples

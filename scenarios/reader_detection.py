@@ -27,7 +27,7 @@ as in a real campaign: the N queries are spread evenly over U(``round_s``) = U(0
 (the source's round, L580) from a random instant of the 0.4 s hop dwell, so a trial visits
 2–3 hop channels (one link draw per channel: the hop spacing exceeds the coherence bandwidth
 ≈ 1/(2π·τrms) ≈ 2 MHz of room 1), and every query multiplies the held links (both ways) by a
-Rician gain ``h_q`` of the moving people (:func:`rician_gains`: K = ``fading_k_db`` = 6 dB,
+Rician gain ``h_q`` of the moving people (:func:`rfsim.channels.small_scale.rician_gains`: K = ``fading_k_db`` = 6 dB,
 correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values assumed, the source gives
 none). Each query is simulated at sample level, one step of the air interface
 (:func:`rfsim.air.step.propagate` on the links, :class:`rfsim.channels.HeldLinks`; the N queries of a
@@ -115,7 +115,6 @@ from rfsim.core.references import cite
 from rfsim.core.procs import map_in_order
 from rfsim.core.lazy import lazy_import
 
-_special = lazy_import("scipy.special")
 _antennas = lazy_import("rfsim.channels.antennas")
 _small_scale = lazy_import("rfsim.channels.small_scale")
 _scene = lazy_import("rfsim.channels.scene")
@@ -154,25 +153,6 @@ QUERY_BLOCK = 64
 #: such; Spine-class inlays carried chips of −15 to −17.4 dBm). 'pass-ucode' is the PASS UCODE
 #: G2XM minimum chip power at 900 MHz (−12.78 dBm).
 TAG_CLASS_SENSITIVITY_DBM = {"smartrac-spine": -16.0, "pass-ucode": -12.78}
-
-
-def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Generator) -> np.ndarray:
-    """Per-query complex gains ``h_q = sqrt(K/(K+1))·e^{jφ} + sqrt(1/(K+1))·g_q`` with E|h|² = 1.
-
-    ``g_q`` is circular complex Gaussian, unit power, with the Jakes (Clarke) correlation
-    ``E[g_q g_p*] = J0(2π·f_D·(t_q − t_p))`` of scatterers moving at up to f_D·λ (people:
-    1 m/s at 915 MHz is 3 Hz), drawn exactly by a Cholesky factor of that Toeplitz matrix;
-    φ uniform. Draw order: φ, then 2·n normals (real, imaginary)."""
-    t = np.asarray(times_s, float)
-    k = 10.0 ** (k_db / 10.0)
-    phi = rng.uniform(-np.pi, np.pi)
-    w = rng.standard_normal((2, t.size))
-    if doppler_hz <= 0:
-        return np.full(t.size, np.exp(1j * phi), dtype=complex)
-    r = _special.j0(2.0 * np.pi * doppler_hz * np.abs(t[:, None] - t[None, :]))
-    lower = np.linalg.cholesky(r + 1e-9 * np.eye(t.size))
-    g = lower @ ((w[0] + 1j * w[1]) / math.sqrt(2.0))
-    return math.sqrt(k / (k + 1.0)) * np.exp(1j * phi) + math.sqrt(1.0 / (k + 1.0)) * g
 
 
 @dataclass(frozen=True)
@@ -282,7 +262,7 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     t_round = trng.uniform(*c.round_s)
     t_start = trng.uniform(0.0, config.reader.dwell_s)
     times = t_start + t_round * np.arange(c.queries) / c.queries
-    h = rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
+    h = _small_scale.rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
     crng = trial_rng(seed, *key, 3)
     chan = _scene.Channel(scene(config.rooms, room))
     drawn: dict = {}  # one link draw per hop channel of the round (held within the dwell)

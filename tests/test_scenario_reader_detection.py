@@ -109,22 +109,7 @@ def test_detection_falls_with_distance_and_angle():
     assert p(3.0, 0.0) > p(3.0, 90.0) + 0.5
 
 
-def test_per_query_gains_are_rician_with_the_jakes_correlation():
-    # h_q = sqrt(K/(K+1))·e^{jφ} + sqrt(1/(K+1))·g_q, E[g_q g_p*] = J0(2π f_D Δt) (Clarke/Jakes;
-    # the expectation is scipy's J0, not the scenario's code). 1500 independent pairs: the
-    # covariance estimate has a standard error ≈ σ²/sqrt(1500) = 0.005 for K = 6 dB (σ² = 0.2).
-    from scipy.special import j0
-
-    k = 10 ** 0.6
-    for dt, f_d in ((0.004, 2.0), (0.1, 2.0), (0.3, 3.0)):
-        h = np.array([rd.rician_gains([0.0, dt], doppler_hz=f_d, k_db=6.0, rng=np.random.default_rng(i))
-                      for i in range(1500)])
-        mean_power = np.mean(np.abs(h) ** 2)
-        assert mean_power == pytest.approx(1.0, abs=0.03)
-        # remove the LoS term by its magnitude: |E h| = sqrt(K/(K+1)) with a random phase per draw,
-        # so use the product h_q·conj(h_p) − K/(K+1) (the LoS phase cancels in the product)
-        cov = np.mean(h[:, 0] * np.conj(h[:, 1])).real - k / (k + 1)
-        assert cov == pytest.approx(j0(2 * np.pi * f_d * dt) / (k + 1), abs=0.015)
+def test_unknown_tag_class_is_a_config_error():
     with pytest.raises(rd.ConfigError):
         rd.CampaignConfig(tag_class="unknown")
 

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from rfsim.core.dataset import read_dataset, read_table
-from rfsim.detection import ReaderDetectionModel
+from rfsim.detection import ReaderDetectionModel, fit_reader_models
 from rfsim.runs.runner import run_scenario
 from rfsim.scenarios import reader_detection as rd
 
@@ -80,7 +80,7 @@ def test_fits_recover_a_known_model_on_the_campaign_grid():
     dd, aa = np.meshgrid(rd.FULL_DISTANCES_M, rd.FULL_ANGLES_DEG, indexing="ij")
     dd, aa = np.repeat(dd.ravel(), 20), np.repeat(aa.ravel(), 20)
     n = truth.sample_reads(50, dd, aa, rng=np.random.default_rng(7))
-    f = rd.fit_trials(dict(distance_m=dd, theta_deg=aa, n_reads=n, n_queries=np.full(dd.size, 50)))
+    f = fit_reader_models(dict(distance_m=dd, theta_deg=aa, n_reads=n, n_queries=np.full(dd.size, 50)))
     assert f["errors"] == ""
     i = list(f["method"]).index("mle")
     for k, v in zip(("a1", "a2", "a3"), truth.mean_coefficients):
@@ -125,7 +125,7 @@ def test_default_campaign_gives_a_regular_ml_fit():
     p = trials["p_hat"]
     assert np.mean((p > 0) & (p < 1)) > 0.15
     assert np.all(trials["n_channels"] >= 1) and np.mean(trials["n_channels"] > 1) > 0.5
-    f = rd.fit_trials(trials)
+    f = fit_reader_models(trials)
     assert f["errors"] == ""
     i = list(f["method"]).index("mle")
     assert np.all(np.isfinite([f[k][i] for k in ("a1", "a2", "a3", "se_a1", "se_a2", "se_a3")]))
@@ -158,7 +158,7 @@ def test_full_campaign_fits_pin_the_documented_difference_from_the_published_mod
     standard errors from the mean block only, flagged."""
     trials = rd.simulate(rd.Config(campaign=rd.CampaignConfig(full=True)), seed=1)
     assert trials["room"].size == 4680
-    f = rd.fit_trials(trials)
+    f = fit_reader_models(trials)
     j = list(f["method"]).index("moments")
     published = dict(zip(("a1", "a2", "a3"), ReaderDetectionModel().mean_coefficients))
     for k, v in (("a1", -6.525), ("a2", 1.1826), ("a3", 0.06415)):

@@ -30,7 +30,7 @@ RTS_NAMES = ("a0", "a1_D", "a2_d", "a3_abs_theta", "a4_abs_phi")
 TS_NAMES = ("a0", "a1_d")
 #: Units of the ST coefficients (the others are dimensionless).
 ST_FIT_UNITS = {"a1": "1/m", "a2": "1/m", "a3": "1/rad", "a4": "1/rad"}
-#: Angles [deg] at which the reader fits report d50.
+#: Angles [deg] at which the reader fits report d50 by default (the source's, seed 004 L838).
 D50_ANGLES_DEG = (0.0, 30.0, 60.0)
 
 _ST_COUNTS = ("n_train", "n_test", "n_train_detected", "n_test_detected")
@@ -143,18 +143,20 @@ def st_fits_comparison(fits: dict[str, np.ndarray]) -> str:
 # --------------------------------------------------------------------------- reader DA model
 
 
-def fit_reader_models(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def fit_reader_models(trials: dict[str, np.ndarray], *,
+                      d50_angles_deg: tuple[float, ...] = D50_ANGLES_DEG) -> dict[str, np.ndarray]:
     """DA fits of reader trials: rows ``published``, ``moments`` and ``mle``.
 
     Parameters
     ----------
     trials : dict with ``distance_m`` [m], ``theta_deg`` [deg], ``n_reads``, ``n_queries``
         (one entry per trial)
+    d50_angles_deg : angles [deg] of the ``d50_<θ>deg_m`` columns
 
     Returns
     -------
     dict: ``method``, ``stderr_basis``, the 9 parameters (:data:`DA_PARAMETER_NAMES`), their
-    standard errors ``se_<name>``, ``d50_<θ>deg_m`` at :data:`D50_ANGLES_DEG` and the
+    standard errors ``se_<name>``, ``d50_<θ>deg_m`` at ``d50_angles_deg`` and the
     log-likelihood of Eq. 4.11 (NaN row where a fit fails); key ``errors``: why a fit failed
     ("" if none). The maximum-likelihood fit fails (information matrix not positive definite)
     when p̂ is almost always 0 or 1: the variance is then clipped at κ·μ(1 − μ) in most cells
@@ -179,7 +181,7 @@ def fit_reader_models(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     out: dict[str, list] = {"method": [], "stderr_basis": []}
     for name in DA_PARAMETER_NAMES:
         out[name], out["se_" + name] = [], []
-    for a in D50_ANGLES_DEG:
+    for a in d50_angles_deg:
         out[f"d50_{int(a)}deg_m"] = []
     out["log_likelihood"] = []
     for method, model, fit in rows:
@@ -196,7 +198,7 @@ def fit_reader_models(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         for i, name in enumerate(DA_PARAMETER_NAMES):
             out[name].append(float(est[i]))
             out["se_" + name].append(float(se[i]))
-        for a in D50_ANGLES_DEG:
+        for a in d50_angles_deg:
             out[f"d50_{int(a)}deg_m"].append(float(model.d50(a)))
         out["log_likelihood"].append(log_likelihood_reader(model, np.asarray(d, float), np.asarray(th, float),
                                                            np.asarray(n), np.asarray(nq), model.dead_zone_mean))

@@ -6,9 +6,9 @@ sent in it. The receive chains of every listening run as the rows of one
 :func:`rfsim.devices.sense_a_tag.chain_rows` call per link setting (row by row the same filters
 from the same start states as one listening alone); then every row is decoded on its own
 (:func:`rfsim.devices.sense_a_tag.decode_rows`: the decoded bits equal the reply's) and the
-technique decides (auris-sense-a-tag.md §2.1, seed 003 L2878-2960): ``single`` reads SA2 (the
-full ST path), ``combination`` the sum SA1 + SA2 before the detector, ``selection`` SA2 else SA1
-(Algorithm 1, :func:`rfsim.devices.st_analytic.select_detected`).
+technique decides (auris-sense-a-tag.md §1.5-1.6, seed 003 L2854-3289): ``single`` reads SA2
+(the full ST path), ``combination`` the sum SA1 + SA2 before the detector (§1.5), ``selection``
+SA2 else SA1 (Algorithm 1, L3182-3196, :func:`rfsim.devices.st_analytic.select_detected`).
 """
 
 from __future__ import annotations

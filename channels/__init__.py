@@ -7,7 +7,7 @@ float64 seconds, plus Doppler shifts); applying it to a waveform is a separate s
 
 Modules: :mod:`~rfsim.channels.geometry` (orientations, directions), :mod:`~rfsim.channels.antennas`
 (patterns, polarization), :mod:`~rfsim.channels.large_scale` (Friis/log-distance, walls,
-shadowing), :mod:`~rfsim.channels.small_scale` (exponential APDP taps), :mod:`~rfsim.channels.surfaces`
+shadowing), :mod:`~rfsim.channels.small_scale` (exponential APDP taps, a Rician gain process in time), :mod:`~rfsim.channels.surfaces`
 (Fresnel, image method), :mod:`~rfsim.channels.noise` (AWGN), :mod:`~rfsim.channels.paths` (path sets
 and their application), :mod:`~rfsim.channels.scene` (assembly of links in a scene).
 """

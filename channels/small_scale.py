@@ -22,6 +22,9 @@ fraction ε/(1+ε) of the tail, ε = min(ε_K, (ε_τ/3)^√2)); if the tap budg
 is shortened to that truncation point (PASS keeps t_max ≥ 1/f_res and fails instead). Delays are exact floats unless
 ``fs_hz`` is given, in which case they are rounded to the sample grid and NLoS taps that fall
 on the same sample are power-summed (PASS-compatible mode; the LoS tap is never merged).
+
+In time, :func:`rician_gains` draws a held link's slow variation: a Rician gain process with the
+Jakes (Clarke) correlation J0(2π·f_D·Δt) of scatterers moving in the room.
 """
 
 from __future__ import annotations

@@ -2,74 +2,49 @@
 (AURIS ch. 4: PF-BIN, PF-AA, SQLAM's tracking module, weighted centroid; auris-sense-a-tag.md
 §3.3, §4.2, §7; seeds/003 L4493-L4650, L5375-L5415, L5600-L5690; wave2-specs.md §R).
 
-Scene (presets, :mod:`rfsim.scenarios._st_paths`): a reader's panel antenna(s) 2 m above the floor
-facing down, an nx × ny grid of landmark tags on the floor, the ST moving on the floor. In each
-query period of T_s = 0.3 s the reader runs N = 10 rounds; in round j the ST decodes landmark k
-with the RTS probability (Eq. 4.6, :func:`rfsim.detection.rts_probability`'s coefficients)
-
-    p = 1/(1 + exp(a0 + a1·D_k + a2·d + a3·|θ_k| + a4·|φ_k|))
-
-with D_k, θ_k, φ_k the active antenna → landmark geometry (antenna frame: boresight down;
-θ = arcsin(Δy/D), φ = arcsin(Δx/D)) and d the ST → landmark distance at the round's time
-τ_j = (t + (j + ½)/N)·T_s. ``mode = "surrogate"`` draws those detections as Bernoulli trials, so
-a still ST sees n ~ Binomial(N, p_RTS) — what the source did (its PASS had no Q algorithm,
-L469-L473); a moving ST sees the Poisson-binomial of its positions, which is the "false
-synchronous detection" that PF-AA's bias compensation corrects. With several antennas (``lab``)
-the one nearest to the previous period's WCL estimate is active (the source: "nearest to the
-current ST estimate", L5633-L5641; the WCL keeps one data set for all trackers).
+Scene (:mod:`rfsim.scenes.landmark_room`): a reader's panel antenna(s) 2 m above the floor facing
+down, an nx × ny grid of landmark tags on the floor, the ST moving on the floor. In each query
+period of T_s = 0.3 s the reader runs N = 10 rounds; ``mode = "surrogate"`` draws the ST's
+detections from the RTS model round by round (:mod:`rfsim.detection.landmark_rts`: Eq. 4.6, the
+active antenna nearest to the previous WCL estimate); the trackers are
+:mod:`rfsim.estimators.landmark_pf` (parameters ``filters``, L4503-L4616, L5393-L5409).
 
 Experiments (preset defaults; ``realizations`` and durations reduced unless ``full``):
+``speed-sweep`` (Fig. 4.11, L4587-L4605): trajectory 1 at 0.1-3 m/s, PF-AA with compensation
+never (v_threshold = ∞) and always (0), the crossover speed (published ≈ 1.2 m/s);
+``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636): PF-BIN (known initial state), PF-AA
+(v_threshold 1.2 m/s) and WCL at 0.5 and 2.5 m/s (published 0.1681 / 0.1717 m at 0.5 m/s);
+``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664): pfaa: PF-AA vs
+WCL over 1500 s (−36.6 %); sqlam: SQLAM's tracking PF (PF-AA without compensation) vs WCL over
+500 s (−41.9 %); lab: SQLAM over 10,000 s (0.2560 m). Error: ‖x̃_t − x_t‖ at the period end; a
+case's value is the source's "average RMSE" (``summary.mean_error_m``, that ℓ2 error averaged over
+realizations and periods, L4507-L4513, L5383-L5385); ``summary.rmse_m`` is the time average of
+RMSE_t over realizations (:func:`rfsim.estimators.track_errors.mean_rms_error`), larger (0.196
+against 0.179 m for PF-BIN below).
 
-* ``speed-sweep`` (Fig. 4.11, L4587-L4605): trajectory 1 at 0.1-3 m/s, PF-AA with compensation
-  never (v_threshold = ∞) and always (0); the crossover speed where "always" becomes better
-  (published ≈ 1.2 m/s).
-* ``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636): PF-BIN (known initial state) vs PF-AA
-  (v_threshold 1.2 m/s) vs WCL at 0.5 and 2.5 m/s (published 0.1681 / 0.1717 m at 0.5 m/s).
-* ``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664): pfaa: PF-AA vs
-  WCL over 1500 s (−36.6 %); sqlam: SQLAM's tracking PF (PF-AA without compensation, Algorithm 3)
-  vs WCL over 500 s (−41.9 %); lab: SQLAM over 10,000 s (0.2560 m).
+Measured (seed 1): crossover 1.19 m/s (20 realizations); random walk 1500 s PF-AA vs WCL −44.6 %;
+sqlam (20 tracks × 500 s) −37.3 % (SQLAM 0.268 m, WCL 0.428 m); lab SQLAM 0.316 m (+23 %, inside
+the ±25 % of wave2-specs §R; WCL 0.412 m); trajectory 2 at 0.5 m/s (100 realizations) PF-BIN
+0.179 m, PF-AA 0.188 m (standard errors 0.0014 / 0.0008 m). Above the published values because
+the detections of a period are spread over it (the estimates lag the period end by T_s/2, 0.075 m
+at 0.5 m/s, compensated only above 1.2 m/s) and the 45 binomial counts per period of this
+replica's grid (the source's heights and grid offsets are not given) carry ≈ 0.2 m of position
+information (RMS, 20 realizations: against the truth T_s/2 before the period end PF-BIN 0.156 m,
+PF-AA 0.209 m; landmarks on the room's edges are worse). SQLAM's mapping and landmark-replacement
+modules are not implemented.
 
-Filter parameters (L4503-L4616, L5393-L5409): M = 200, q_t std 0.3 m (the source's N(0, 0.3)
-does not say std or variance, A§0.4: std taken), b0 = 0.8, b1 = 0.2, initial spread 0.3 m;
-PF-BIN u ~ N(0, diag(0.01, 0.01)). Error: ‖x̃_t − x_t‖ at the period end. A case's value is the
-source's "average RMSE" (``summary.mean_error_m``): that ℓ2 error ("the RMSE for one realization",
-L4507-L4513; "ℓ2-norm operation of the difference between estimation and true location",
-L5383-L5385) averaged over realizations and periods; ``summary.rmse_m`` is the time average of
-RMSE_t = sqrt(mean over realizations of the squared error), which is larger (0.196 against
-0.179 m for PF-BIN below). Changes vs WCL and the crossover use the source's measure.
-
-Measured (seed 1): crossover 1.19 m/s (published ≈ 1.2; speed sweep, 20 realizations); random
-walk 1500 s PF-AA vs WCL −44.6 % (−36.6 %); sqlam, 20 tracks × 500 s, SQLAM vs WCL −37.3 %
-(−41.9 %; SQLAM 0.268 m, WCL 0.428 m); lab, 10,000 s, SQLAM 0.316 m (published 0.2560 m,
-+23 %, inside the ±25 % of wave2-specs §R; WCL 0.412 m), 31-91 s CPU; trajectory 2 at 0.5 m/s
-(100 realizations) PF-BIN 0.179 m, PF-AA 0.188 m (published 0.1681 / 0.1717 m; standard errors
-0.0014 / 0.0008 m). What remains above the published values: the detections of a period are
-spread over it, so the estimates lag the period end by T_s/2 on average (0.075 m at 0.5 m/s,
-the false synchronous detection PF-AA compensates only above 1.2 m/s), and the 45 binomial
-counts per period of this replica's grid (landmarks at cell centres, ST and tags on the floor;
-the source's heights and grid offsets are not given) carry ≈ 0.2 m of position information.
-In the RMS measure (20 realizations): against the truth T_s/2 before the period end PF-BIN
-gives 0.156 m (0.190 m at the period end), PF-AA 0.209 m (0.215 m); PF-AA's AR noise q std
-0.15 m gives 0.202 m, the variance reading of q (std 0.548 m) 0.229 m; a grid with landmarks on
-the room's edges (9 × 5 at 0.5 × 0.8 m) is worse (PF-BIN 0.214 m, PF-AA 0.240 m). SQLAM's
-mapping and landmark-replacement modules are not implemented.
-
-``mode = "sample-level"`` (:mod:`rfsim.scenarios._st_sample_level`; presets with one antenna): each
-query period is N QT rounds of a real Gen2 inventory of the landmarks at sample level (Q
-algorithm, RN16 → ACK → EPC), the ST decoding every EPC reply with its envelope receiver; a
-CRC-valid EPC is a detection at the reply's start. The periods are as long as the rounds take
-(``periods.period_duration_s``, attribute ``detection_period_s``), the truth is taken at each
-measured period end and the trackers use the mean period as Δt and the RTS model as their
-likelihood. Cases: ``sample_level.realizations`` tracks of ``sample_level.duration_s`` (default
-experiment pfaa: trajectory 2). Measured (seed 1, pfaa, 0.5 m/s, 12 s, N = 10; 62 s CPU, 291 MB):
-period 4.72 s (694 slots and 450 EPC reads per period, the source assumed 0.3 s); the ST decodes
-≈ 53 of the 450 replies (13-19 landmarks) per period; average RMSE PF-BIN 1.62 m, PF-AA 0.99 m, WCL
+``mode = "sample-level"`` (presets with one antenna; :mod:`rfsim.scenes.landmark_listening`): each
+period is N QT rounds of a real Gen2 inventory of the landmarks, the ST decoding every EPC reply
+with its envelope receiver; the periods last as long as the rounds take (``detection_period_s``),
+the truth is taken at each measured period end and the trackers use the mean period as Δt.
+Cases: ``sample_level.realizations`` tracks of ``sample_level.duration_s``. Measured (seed 1, pfaa
+trajectory 2, 0.5 m/s, 12 s, N = 10; 62 s CPU): period 4.72 s (694 slots, 450 EPC reads), the ST
+decodes ≈ 53 replies (13-19 landmarks) per period; average RMSE PF-BIN 1.62 m, PF-AA 0.99 m, WCL
 0.94 m (the ST moves 2.4 m per period).
 
-Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the random walk,
-``trial_rng(seed, c, b, 1)`` the detections (sample level: ``trial_rng(seed, c, b, 2, k)`` the
-reader, air, ST links, ST and landmarks); the trackers of case c and realization chunk g use
-``trial_rng(seed, c, 1000 + g, f)`` for tracker f (sample level, realization i of chunk g:
+Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the random walk, ``(seed, c, b,
+1)`` the detections (sample level: ``(seed, c, b, 2, k)`` reader, air, ST links, ST, landmarks);
+tracker f of chunk g: ``trial_rng(seed, c, 1000 + g, f)`` (sample level, realization i of chunk g:
 ``trial_rng(seed, c, 2000 + 100·g + i, f)``).
 """
 
@@ -85,14 +60,16 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios import _st_paths as paths
-from rfsim.scenarios._st_sample_level import SampleLevelConfig, listen_track
+from rfsim.core.trajectories import along_path, random_walk
+from rfsim.detection.landmark_rts import draw_landmark_detections, rts_fixed_logit, rts_likelihood_model
+from rfsim.estimators.landmark_pf import LandmarkFilterConfig, run_tracker
+from rfsim.estimators.track_errors import mean_rms_error
+from rfsim.scenes import landmark_room as rooms
+from rfsim.scenes.landmark_listening import SampleLevelConfig, listen_track
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
-_detection = lazy_import("rfsim.detection")
-_landmark_pf = lazy_import("rfsim.estimators.landmark_pf")
 _exciter_scene = lazy_import("rfsim.scenarios._exciter_scene")
 _st_figures = lazy_import("rfsim.scenarios._st_figures")
 
@@ -116,23 +93,11 @@ _WALK_S = {"pfaa": 1500.0, "sqlam": 500.0, "lab": 10000.0}
 
 
 @dataclass(frozen=True)
-class FilterConfig:
-    particles: int = param(200, lo=1, hi=1_000_000, doc="particles M of PF-AA, SQLAM and PF-BIN (L4505)")
-    q_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA / SQLAM AR noise std per period (L4503)")
-    init_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA initial spread around the first WCL")
-    b0: float = param(0.8, lo=0.0, hi=1.0, doc="velocity AR weight of the current WCL velocity (L5403)")
-    b1: float = param(0.2, lo=0.0, hi=1.0, doc="velocity AR weight of the previous velocity (L5403)")
-    v_threshold_mps: float = param(1.2, lo=0.0, hi=1000.0, unit="m/s", doc="bias compensation above (L4605)")
-    pfbin_accel_var: float = param(0.01, lo=0.0, hi=100.0, unit="m2/s2",
-                                   doc="PF-BIN velocity noise variance per period (L4614)")
-
-
-@dataclass(frozen=True)
 class Config:
     preset: Literal["pfaa", "sqlam", "lab"] = param("pfaa", doc="room, landmark grid and antennas")
     mode: Literal["surrogate", "sample-level"] = param(
         "surrogate", doc="'surrogate' = Bernoulli RTS detections per round; 'sample-level' = the ST listens "
-                         "through real Gen2 rounds (rfsim.scenarios._st_sample_level)")
+                         "through real Gen2 rounds (rfsim.scenes.landmark_listening)")
     sample_level: SampleLevelConfig = param(SampleLevelConfig(), doc="sample-level mode: reader, rounds, duration")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sample-level mode: the sense-a-tag (technique, threshold)")
     experiments: tuple[Literal["speed-sweep", "trajectory-2", "random-walk"], ...] | None = param(
@@ -151,9 +116,9 @@ class Config:
                                           doc="random-walk duration (none = preset: 1500 pfaa, 500 sqlam, 10000 lab)")
     walk_speed_mps: tuple[float, float] = param((0.1, 3.0), lo=0.0, hi=20.0, unit="m/s",
                                                 doc="random-walk speed range U[lo, hi] (L4638)")
-    trajectory_1_xy_m: tuple[tuple[float, float], ...] = param(paths.TRAJECTORY_1_XY, unit="m",
+    trajectory_1_xy_m: tuple[tuple[float, float], ...] = param(rooms.TRAJECTORY_1_XY, unit="m",
                                                                doc="trajectory 1 waypoints (closed polyline)")
-    filters: FilterConfig = param(FilterConfig(), doc="particle-filter parameters")
+    filters: LandmarkFilterConfig = param(LandmarkFilterConfig(), doc="particle-filter parameters")
     workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
 
     def __post_init__(self):
@@ -177,9 +142,8 @@ class Config:
             raise ConfigError("walk_speed_mps", list(self.walk_speed_mps), "[lo, hi] with 0 <= lo <= hi, hi > 0")
 
     @property
-    def room(self) -> paths.Room:
-        r = paths.PRESETS[self.preset]
-        return r if self.landmark_grid is None else paths.Room(r.size_m, tuple(self.landmark_grid), r.antennas_xyz_m)
+    def room(self) -> rooms.Room:
+        return rooms.PRESETS[self.preset].with_grid(self.landmark_grid)
 
     @property
     def n_landmarks(self) -> int:
@@ -236,22 +200,7 @@ def cases(config: Config) -> list[Case]:
     return out
 
 
-# ----------------------------------------------------------------------------- detections
-
-
-def antenna_geometry(room: paths.Room, landmarks: np.ndarray) -> np.ndarray:
-    """base (A, L) = a0 + a1·D + a3·|θ| + a4·|φ| of every antenna → landmark pair (Eq. 4.6)."""
-    a = _detection.RTS_COEFFICIENTS
-    ant = np.asarray(room.antennas_xyz_m, float)
-    v = np.concatenate([landmarks, np.zeros((landmarks.shape[0], 1))], axis=1)[None] - ant[:, None, :]
-    D = np.linalg.norm(v, axis=-1)
-    theta, phi = np.arcsin(v[..., 1] / D), np.arcsin(v[..., 0] / D)
-    return a[0] + a[1] * D + a[3] * np.abs(theta) + a[4] * np.abs(phi)
-
-
-def rts_p(base, d_m) -> np.ndarray:
-    """Eq. 4.6 from the fixed part ``base`` and the ST → landmark distance d."""
-    return 1.0 / (1.0 + np.exp(base + _detection.RTS_COEFFICIENTS[2] * d_m))
+# ----------------------------------------------------------------------------- one chunk
 
 
 def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
@@ -260,118 +209,53 @@ def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
         pts = np.asarray(config.trajectory_1_xy_m, float)
         if not np.array_equal(pts[0], pts[-1]):
             pts = np.vstack([pts, pts[:1]])
-        return paths.along_path(pts, case.speed_mps, t_s)
+        return along_path(pts, case.speed_mps, t_s)
     if case.trajectory == "2":
-        return paths.along_path(paths.trajectory_2_xy(), case.speed_mps, t_s)
+        return along_path(rooms.trajectory_2_xy(), case.speed_mps, t_s)
     flat = np.asarray(t_s, float).ravel()
     order = np.argsort(flat, kind="stable")
     out = np.empty((flat.size, 2))
-    out[order] = paths.random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
-                                   flat[order])
+    out[order] = random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
+                             flat[order])
     return out.reshape(np.shape(t_s) + (2,))
 
 
-def detect(config: Config, base, landmarks, pos_rounds, rng) -> dict[str, np.ndarray]:
-    """Detections of one realization: counts (T, L), mean detection time (T,), active antenna (T,).
-
-    pos_rounds : (T, N, 2) ST positions at the round times.
-    """
-    T, N, _ = pos_rounds.shape
-    Ts = config.period_s
-    tau = (np.arange(T)[:, None] + (np.arange(N)[None, :] + 0.5) / N) * Ts
-    ant = np.asarray(config.room.antennas_xyz_m, float)[:, :2]
-    active = np.zeros(T, dtype=np.int64)
-    counts = np.zeros((T, landmarks.shape[0]), dtype=np.int64)
-    tsum = np.zeros(T)
-    if ant.shape[0] == 1:
-        for a in range(0, T, 2000):
-            d = np.linalg.norm(pos_rounds[a:a + 2000, :, None, :] - landmarks, axis=-1)
-            det = rng.random(d.shape) < rts_p(base[0], d)
-            counts[a:a + 2000] = det.sum(axis=1)
-            tsum[a:a + 2000] = np.einsum("tnl,tn->t", det, tau[a:a + 2000])
-    else:
-        est = np.zeros(2)
-        u = rng.random((T, N, landmarks.shape[0]))
-        for t in range(T):
-            active[t] = int(np.argmin(np.linalg.norm(ant - est, axis=1)))
-            d = np.linalg.norm(pos_rounds[t, :, None, :] - landmarks, axis=-1)
-            det = u[t] < rts_p(base[active[t]], d)
-            counts[t] = det.sum(axis=0)
-            tsum[t] = det.sum(axis=1) @ tau[t]
-            if counts[t].sum() > 0:
-                est = counts[t] @ landmarks / counts[t].sum()
-    total = counts.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean_t = np.where(total > 0, tsum / total, np.nan)
-    return {"counts": counts, "mean_detection_s": mean_t, "active": active}
-
-
-# ----------------------------------------------------------------------------- one chunk
-
-
-def _surrogate_track(config: Config, case: Case, b: int, seed: int, base, landmarks) -> dict:
-    """Truth, PF-BIN start and RTS detections of realization b on the fixed period grid."""
+def _track(config: Config, case: Case, b: int, seed: int, base, landmarks) -> dict:
+    """Truth, PF-BIN start and detections of realization b: RTS draws on the fixed period grid
+    (surrogate), or heard through sample-level Gen2 rounds (streams ``trial_rng(seed, case, b, 2, k)``)."""
+    if config.mode == "sample-level":
+        h = config.sample_level.st_height_m
+        res = listen_track(config.room, lambda t: np.r_[truth_at(config, case, b, seed, np.array([t]))[0], h],
+                           rounds=config.rounds, sl=config.sample_level, st_config=config.st, seed=seed,
+                           key=(case.index, b, 2))
+        T, t_end = res.t_end_s.size, res.t_end_s
+        det = {"counts": res.counts, "mean_detection_s": res.mean_detection_s, "active": np.zeros(T, np.int64),
+               "slots": res.slots_per_period, "reads": res.reads_per_period}
+        pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], t_end]))
+        return {"t_end_s": t_end, "truth": pos[2:], "start": np.r_[pos[0], (pos[1] - pos[0]) / 1e-3], **det}
     Ts, N = config.period_s, config.rounds
     T = int(round(case.duration_s / Ts))
     t_end = (np.arange(T) + 1) * Ts
     tau = (np.arange(T)[:, None] + (np.arange(N)[None, :] + 0.5) / N) * Ts
     pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], tau.ravel(), t_end]))
-    det = detect(config, base, landmarks, pos[2:2 + tau.size].reshape(T, N, 2), trial_rng(seed, case.index, b, 1))
+    det = draw_landmark_detections(base, landmarks, config.room.antennas_xyz_m, pos[2:2 + tau.size].reshape(T, N, 2),
+                                   period_s=Ts, rng=trial_rng(seed, case.index, b, 1))
     return {"t_end_s": t_end, "truth": pos[2 + tau.size:], "start": np.r_[pos[0], (pos[1] - pos[0]) / 1e-3],
             "slots": np.zeros(T, np.int64), "reads": np.zeros(T, np.int64), **det}
-
-
-def _sample_level_track(config: Config, case: Case, b: int, seed: int) -> dict:
-    """Truth, PF-BIN start and the detections of realization b heard through sample-level Gen2
-    rounds (:func:`rfsim.scenarios._st_sample_level.listen_track`, streams ``trial_rng(seed, case, b, 2, k)``)."""
-    h = config.sample_level.st_height_m
-
-    def centre(t):
-        return np.r_[truth_at(config, case, b, seed, np.array([t]))[0], h]
-
-    res = listen_track(config.room, centre, rounds=config.rounds, sl=config.sample_level, st_config=config.st,
-                       seed=seed, key=(case.index, b, 2))
-    pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], res.t_end_s]))
-    T = res.t_end_s.size
-    return {"t_end_s": res.t_end_s, "truth": pos[2:], "start": np.r_[pos[0], (pos[1] - pos[0]) / 1e-3],
-            "counts": res.counts, "mean_detection_s": res.mean_detection_s, "active": np.zeros(T, np.int64),
-            "slots": res.slots_per_period, "reads": res.reads_per_period}
 
 
 def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, landmarks,
               seed: int) -> dict[str, np.ndarray]:
     """Every tracker of the case on realizations with a common number of periods: (B, T, 2) each.
     The filters' period Δt is the mean period of the tracks (T_s in the surrogate mode)."""
-    f, N = config.filters, config.rounds
-    counts = np.stack([d["counts"] for d in tracks])
-    mean_t = np.stack([d["mean_detection_s"] for d in tracks])
-    active = np.stack([d["active"] for d in tracks])
-    t_end = np.stack([d["t_end_s"] for d in tracks])
-    Ts = float(np.mean(t_end[:, -1] / t_end.shape[1]))
-
-    def probability(p, t):
-        d = np.linalg.norm(p[:, :, None, :] - landmarks, axis=-1)
-        return rts_p(base[active[:, t]][:, None, :], d)
-
-    estimates = {}
-    for k, (label, kind, vt) in enumerate(case.trackers):
-        rng = trial_rng(seed, case.index, 1000 + group, k)
-        if kind == "wcl":
-            est = _landmark_pf.wcl_track(counts, landmarks, np.mean(landmarks, axis=0))
-        elif kind == "pfbin":
-            est = _landmark_pf.pf_bin(counts, np.stack([d["start"] for d in tracks]), n_particles=f.particles, period_s=Ts,
-                                      accel_var=f.pfbin_accel_var, n_rounds=N, probability=probability, rng=rng)
-        else:
-            x, v = _landmark_pf.pf_aa(counts, landmarks, n_particles=f.particles, period_s=Ts, q_std_m=f.q_std_m,
-                                      init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=N, probability=probability, rng=rng)
-            if np.isfinite(vt):
-                est = np.concatenate([_landmark_pf.bias_compensate(x[i:i + 1], v[i:i + 1], period_end_s=t_end[i],
-                                                                   mean_detection_s=mean_t[i:i + 1], b0=f.b0, b1=f.b1,
-                                                                   v_threshold_mps=vt) for i in range(len(tracks))])
-            else:
-                est = x
-        estimates[label] = est
-    return estimates
+    col = {k: np.stack([d[k] for d in tracks]) for k in ("counts", "mean_detection_s", "active", "t_end_s", "start")}
+    t_end = col["t_end_s"]
+    probability = rts_likelihood_model(base, col["active"], landmarks)
+    return {label: run_tracker(kind, col["counts"], landmarks, config=config.filters, v_threshold_mps=vt,
+                               period_s=float(np.mean(t_end[:, -1] / t_end.shape[1])), n_rounds=config.rounds,
+                               probability=probability, initial_state=col["start"], period_end_s=t_end,
+                               mean_detection_s=col["mean_detection_s"], rng=trial_rng(seed, case.index, 1000 + group, k))
+            for k, (label, kind, vt) in enumerate(case.trackers)}
 
 
 def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: int) -> dict[str, dict]:
@@ -380,13 +264,10 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
     Surrogate: the trackers run on the chunk at once. Sample level: the tracks have their own
     period counts, and the trackers run per realization (tracker streams
     ``trial_rng(seed, c, 2000 + 100·g + i, f)`` for realization i of chunk g)."""
-    room = config.room
-    landmarks = room.landmarks_xy()
-    base = antenna_geometry(room, landmarks)
-    sample = config.mode == "sample-level"
-    tracks = [(_sample_level_track(config, case, b, seed) if sample else
-               _surrogate_track(config, case, b, seed, base, landmarks)) for b in bs]
-    if sample:
+    landmarks = config.room.landmarks_xy()
+    base = rts_fixed_logit(config.room.antennas_xyz_m, landmarks)
+    tracks = [_track(config, case, b, seed, base, landmarks) for b in bs]
+    if config.mode == "sample-level":
         est = [_trackers(config, case, 1000 + 100 * group + i, [d], base, landmarks, seed)
                for i, d in enumerate(tracks)]
     else:
@@ -396,20 +277,17 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
     for b, d, e in zip(bs, tracks, est):
         T = d["t_end_s"].size
         c, truth = d["counts"], d["truth"]
-        dur = np.diff(np.r_[0.0, d["t_end_s"]])
-        periods.append({"case": np.full(T, case.index), "realization": np.full(T, b), "period": np.arange(T),
-                        "t_end_s": d["t_end_s"], "period_duration_s": dur, "x_true_m": truth[:, 0],
-                        "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
+        key = {"case": np.full(T, case.index), "realization": np.full(T, b), "period": np.arange(T)}
+        periods.append({**key, "t_end_s": d["t_end_s"], "period_duration_s": np.diff(np.r_[0.0, d["t_end_s"]]),
+                        "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
                         "detections": c.sum(axis=1), "mean_detection_s": d["mean_detection_s"],
                         "active_antenna": d["active"], "slots": d["slots"], "reads": d["reads"]})
         nz = np.nonzero(c)
         detections.append({"case": np.full(nz[0].size, case.index), "realization": np.full(nz[0].size, b),
                            "period": nz[0], "landmark": nz[1], "count": c[nz]})
         for label, x in e.items():
-            err = np.linalg.norm(x[0] - truth, axis=-1)
-            est_rows.append({"case": np.full(T, case.index), "realization": np.full(T, b), "period": np.arange(T),
-                             "tracker": np.full(T, label), "x_est_m": x[0, :, 0], "y_est_m": x[0, :, 1],
-                             "error_m": err})
+            est_rows.append({**key, "tracker": np.full(T, label), "x_est_m": x[0, :, 0], "y_est_m": x[0, :, 1],
+                             "error_m": np.linalg.norm(x[0] - truth, axis=-1)})
     labels = [t[0] for t in case.trackers]
     order = sorted(range(len(est_rows)), key=lambda i: labels.index(est_rows[i]["tracker"][0]))
     return {"periods": _exciter_scene.concat(periods), "detections": _exciter_scene.concat(detections),
@@ -433,30 +311,10 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
 # ----------------------------------------------------------------------------- summary and run
 
 
-def case_rmse(est, case: int, tracker: str) -> float:
-    """Time average of RMSE_t = sqrt(mean over realizations of err_t²), over the periods t that
-    some realization has (sample level: tracks of unequal period counts)."""
-    sel = (est["case"] == case) & (est["tracker"] == tracker)
-    n_periods = int(est["period"][sel].max()) + 1 if sel.any() else 0
-    e2 = np.zeros(n_periods)
-    cnt = np.zeros(n_periods)
-    np.add.at(e2, est["period"][sel], est["error_m"][sel] ** 2)
-    np.add.at(cnt, est["period"][sel], 1)
-    ok = cnt > 0
-    return float(np.mean(np.sqrt(e2[ok] / cnt[ok]))) if ok.any() else float("nan")
-
-
-def case_mean_error(est, case: int, tracker: str) -> float:
-    """The source's "average RMSE": the ℓ2 error ‖x̃_t − x_t‖ ("the RMSE for one realization",
-    L4507-L4513; "ℓ2-norm of the difference between estimation and true location", L5383-L5385)
-    averaged over realizations and time."""
-    sel = (est["case"] == case) & (est["tracker"] == tracker)
-    return float(np.mean(est["error_m"][sel])) if sel.any() else float("nan")
-
-
 def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
-    """One row per (case, tracker): the source's average RMSE (:func:`case_mean_error`) beside the
-    published value, the RMS error (:func:`case_rmse`), the change vs WCL (of the source's
+    """One row per (case, tracker): the source's average RMSE (the ℓ2 error averaged over
+    realizations and periods, L4507-L4513, L5383-L5385) beside the published value, the RMS error
+    (:func:`rfsim.estimators.track_errors.mean_rms_error`), the change vs WCL (of the source's
     measure); and the headline numbers (crossover speed, PF-AA / SQLAM vs WCL, lab) as attributes,
     all of the source's measure."""
     est = tables["estimates"]
@@ -466,7 +324,8 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
     attrs: dict = {}
     sweep: dict[str, list] = {}
     for c in cases(config):
-        vals = {label: case_mean_error(est, c.index, label) for label, _, _ in c.trackers}
+        sel = {label: (est["case"] == c.index) & (est["tracker"] == label) for label, _, _ in c.trackers}
+        vals = {label: float(np.mean(est["error_m"][s])) if s.any() else float("nan") for label, s in sel.items()}
         for label, value in vals.items():
             pub = PUBLISHED.get((c.experiment, label, c.speed_mps), np.nan)
             rel = 100.0 * (value / vals["wcl"] - 1.0) if "wcl" in vals and label != "wcl" else np.nan
@@ -476,8 +335,9 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
                     PUBLISHED["sqlam_vs_wcl_percent"] if config.preset == "sqlam" else np.nan)
                 attrs[f"{label}_vs_wcl_percent"] = rel
                 attrs[f"{label}_random_walk_rmse_m"] = value
+            rmse = mean_rms_error(est["period"][sel[label]], est["error_m"][sel[label]])
             for k, v in zip(rows, (c.index, c.experiment, c.trajectory, c.speed_mps, c.realizations, c.duration_s,
-                                   label, value, case_rmse(est, c.index, label), pub, rel, pub_rel)):
+                                   label, value, rmse, pub, rel, pub_rel)):
                 rows[k].append(v)
             if c.experiment == "speed-sweep":
                 sweep.setdefault(label, []).append(value)
@@ -500,11 +360,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     cs = cases(config)
     tables["truth"] = {k: tables["periods"][k] for k in ("case", "realization", "period", "t_end_s", "x_true_m",
                                                          "y_true_m")}
-    tables["cases"] = {"case": np.array([c.index for c in cs]), "experiment": np.array([c.experiment for c in cs]),
-                       "trajectory": np.array([c.trajectory for c in cs]),
-                       "speed_mps": np.array([c.speed_mps for c in cs]),
-                       "realizations": np.array([c.realizations for c in cs]),
-                       "duration_s": np.array([c.duration_s for c in cs])}
+    tables["cases"] = {k: np.array([getattr(c, a) for c in cs]) for k, a in (
+        ("case", "index"), ("experiment", "experiment"), ("trajectory", "trajectory"), ("speed_mps", "speed_mps"),
+        ("realizations", "realizations"), ("duration_s", "duration_s"))}
     ds = _dataset.Dataset(title=f"sense-a-tag localization from landmark detections (AURIS ch. 4), preset {config.preset}")
     for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
         ds.add_table(name, {k: _dataset.column(v, _unit(k), _describe(k)) for k, v in tables[name].items()},
@@ -513,7 +371,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
                      "landmarks_xy_m": room.landmarks_xy(), "antennas_xyz_m": np.asarray(room.antennas_xyz_m),
                      "trajectory_1_xy_m": np.asarray(config.trajectory_1_xy_m, float),
-                     "trajectory_2_xy_m": paths.trajectory_2_xy(200), "detection_period_s": config.period_s})
+                     "trajectory_2_xy_m": rooms.trajectory_2_xy(200), "detection_period_s": config.period_s})
     if config.mode == "sample-level":
         dur = tables["periods"]["period_duration_s"]
         ds.attrs.update({"detection_period_s": float(np.mean(dur)), "detection_period_std_s": float(np.std(dur)),

@@ -10,9 +10,11 @@ import numpy as np
 import pytest
 
 from rfsim.cli import main
-from rfsim.estimators.landmark_pf import bias_compensate, binomial_log_likelihood, pf_aa
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios import _st_paths as paths
+from rfsim.core.trajectories import along_path, random_walk
+from rfsim.detection.landmark_rts import draw_landmark_detections, rts_fixed_logit, rts_landmark_probability
+from rfsim.estimators.landmark_pf import bias_compensate, binomial_log_likelihood, pf_aa
+from rfsim.scenes import landmark_room as paths
 from rfsim.scenarios import st_localization as st
 
 
@@ -20,13 +22,13 @@ def test_rts_probability_below_the_antenna_is_eq_4_6_by_hand():
     """Landmark right under the 2 m antenna: D = 2, θ = φ = 0; at d = 0 and 0.5 m
     p = 1/(1 + exp(−1.462 + 0.4941·2 + 2.506·d)) (coefficients L3854-L3873)."""
     room = paths.Room((1.0, 1.0), (1, 1), ((0.0, 0.0, 2.0),))
-    base = st.antenna_geometry(room, room.landmarks_xy())
+    base = rts_fixed_logit(room.antennas_xyz_m, room.landmarks_xy())
     for d in (0.0, 0.5):
-        assert st.rts_p(base[0, 0], d) == pytest.approx(1 / (1 + math.exp(-1.462 + 0.9882 + 2.506 * d)), rel=1e-12)
+        assert rts_landmark_probability(base[0, 0], d) == pytest.approx(1 / (1 + math.exp(-1.462 + 0.9882 + 2.506 * d)), rel=1e-12)
     # a landmark 1 m off along y: D = √5, θ = arcsin(1/√5), φ = 0
     room = paths.Room((4.0, 2.0), (1, 2), ((0.0, -0.5, 2.0),))
     lm = room.landmarks_xy()  # (0, −0.5) and (0, 0.5)
-    base = st.antenna_geometry(room, lm)
+    base = rts_fixed_logit(room.antennas_xyz_m, lm)
     expected = -1.462 + 0.4941 * math.sqrt(5) + 0.0126 * math.asin(1 / math.sqrt(5))
     assert base[0, 1] == pytest.approx(expected, rel=1e-12)
 
@@ -37,11 +39,11 @@ def test_a_still_st_sees_binomial_counts():
     config = st.Config(preset="pfaa")
     room = config.room
     lm = room.landmarks_xy()
-    base = st.antenna_geometry(room, lm)
+    base = rts_fixed_logit(room.antennas_xyz_m, lm)
     pos = np.broadcast_to(lm[22] + [0.1, 0.0], (4000, 10, 2))
-    out = st.detect(config, base, lm, pos, trial_rng(4, 0))
+    out = draw_landmark_detections(base, lm, room.antennas_xyz_m, pos, period_s=0.3, rng=trial_rng(4, 0))
     n = out["counts"][:, 22]
-    p = st.rts_p(base[0, 22], 0.1)
+    p = rts_landmark_probability(base[0, 22], 0.1)
     assert abs(n.mean() - 10 * p) < 4 * math.sqrt(10 * p * (1 - p) / 4000)
     assert abs(n.var() / (10 * p * (1 - p)) - 1) < 4 * math.sqrt(2 / 4000)
     # the mean detection time is inside each period
@@ -79,13 +81,13 @@ def test_pf_aa_finds_a_still_st():
     config = st.Config(preset="pfaa")
     room = config.room
     lm = room.landmarks_xy()
-    base = st.antenna_geometry(room, lm)
+    base = rts_fixed_logit(room.antennas_xyz_m, lm)
     truth = np.array([0.7, -0.4])
-    counts = np.stack([st.detect(config, base, lm, np.broadcast_to(truth, (30, 10, 2)), trial_rng(5, b))["counts"]
-                       for b in range(5)])
+    counts = np.stack([draw_landmark_detections(base, lm, room.antennas_xyz_m, np.broadcast_to(truth, (30, 10, 2)),
+                                                period_s=0.3, rng=trial_rng(5, b))["counts"] for b in range(5)])
 
     def probability(p, t):
-        return st.rts_p(base[0][None, None, :], np.linalg.norm(p[:, :, None, :] - lm, axis=-1))
+        return rts_landmark_probability(base[0][None, None, :], np.linalg.norm(p[:, :, None, :] - lm, axis=-1))
 
     x, _ = pf_aa(counts, lm, n_particles=200, period_s=0.3, q_std_m=0.3, init_std_m=0.3, b0=0.8, b1=0.2,
                  n_rounds=10, probability=probability, rng=trial_rng(5, 99))
@@ -94,10 +96,10 @@ def test_pf_aa_finds_a_still_st():
 
 def test_trajectories_are_closed_constant_speed_and_the_walk_stays_in_the_room():
     t = np.linspace(0, 20, 2001)
-    p1 = paths.along_path(np.array(paths.TRAJECTORY_1_XY), 0.5, t)
+    p1 = along_path(np.array(paths.TRAJECTORY_1_XY), 0.5, t)
     assert np.allclose(np.linalg.norm(np.diff(p1, axis=0), axis=1)[:900], 0.005, atol=1e-9)  # 10 m loop, 0.5 m/s
-    assert np.allclose(paths.along_path(np.array(paths.TRAJECTORY_1_XY), 1.0, [0.0, 10.0]), [[-1.5, -1.0]] * 2)
-    w = paths.random_walk(trial_rng(2, 0), (-2, -1.6, 2, 1.6), (0.1, 3.0), np.linspace(0, 600, 20001))
+    assert np.allclose(along_path(np.array(paths.TRAJECTORY_1_XY), 1.0, [0.0, 10.0]), [[-1.5, -1.0]] * 2)
+    w = random_walk(trial_rng(2, 0), (-2, -1.6, 2, 1.6), (0.1, 3.0), np.linspace(0, 600, 20001))
     assert np.all(np.abs(w[:, 0]) <= 2 + 1e-9) and np.all(np.abs(w[:, 1]) <= 1.6 + 1e-9)
     step = np.linalg.norm(np.diff(w, axis=0), axis=1) / 0.03
     assert step.max() <= 3.0 + 1e-6 and np.ptp(w[:, 0]) > 3.0
@@ -192,7 +194,7 @@ def test_sqlam_beats_wcl_by_about_42_percent_over_500_s():
 
 def _listen(grid, centre, rounds, seed=1):
     from rfsim.devices.sense_a_tag import SenseATagConfig
-    from rfsim.scenarios._st_sample_level import SampleLevelConfig, listen_track
+    from rfsim.scenes.landmark_listening import SampleLevelConfig, listen_track
 
     room = paths.Room((4.0, 3.2), grid, ((0.0, 0.0, 2.0),))
     sl = SampleLevelConfig(duration_s=1e-3, max_periods=1)
@@ -245,7 +247,7 @@ def test_sample_level_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, mo
 
 
 def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
-    from rfsim.scenarios._st_sample_level import SampleLevelConfig
+    from rfsim.scenes.landmark_listening import SampleLevelConfig
 
     cfg = st.Config(mode="sample-level", landmark_grid=(3, 2), rounds=2, trajectory_2_speeds_mps=(0.5,),
                     sample_level=SampleLevelConfig(duration_s=0.4), workers=1)
@@ -258,7 +260,7 @@ def test_sample_level_run_feeds_the_trackers_with_the_measured_period():
     assert sorted(set(est["tracker"])) == ["pfaa", "pfbin", "wcl"]
     assert est["error_m"].size == 3 * per["t_end_s"].size and np.all(np.isfinite(est["error_m"]))
     # the truth is the trajectory-2 position at each measured period end
-    want = paths.along_path(paths.trajectory_2_xy(), 0.5, per["t_end_s"])
+    want = along_path(paths.trajectory_2_xy(), 0.5, per["t_end_s"])
     np.testing.assert_allclose(np.column_stack([per["x_true_m"], per["y_true_m"]]), want, atol=1e-12)
 
 
@@ -272,7 +274,7 @@ def test_sample_level_reader_side_equals_the_engine_inventory():
     from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, st_antenna_positions
     from rfsim.devices.tag import PassiveTag, TagConfig
     from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
-    from rfsim.scenarios import _st_sample_level as sl
+    from rfsim.scenes import landmark_listening as sl
 
     room = paths.Room((4.0, 3.2), (3, 2), ((0.0, 0.0, 2.0),))
     c = sl.SampleLevelConfig()

@@ -20,6 +20,9 @@ Profiles (himr-tag.md §1.15, §3.1, §3.3):
   stroke in 0.5 s / 0.2 s / 0.5 s, starting at the top of the circle, (2, 1.8048) m heading
   π (L1159, L1100), centre (2, 1.4948) m [derived, H§3.3]; ``lag_s`` delays the motion (the
   actual trajectory ran 150 ms behind the programmed one, L1014).
+
+Planar paths as position arrays only (no heading): :func:`along_path` (a closed polyline at
+constant speed) and :func:`random_walk` (straight lines bouncing off the walls of a rectangle).
 """
 
 from __future__ import annotations
@@ -185,4 +188,75 @@ def check_inside(traj, *, t_end_s: float, room_min_m, room_max_m, key: str = "tr
                           f"a trajectory inside the room {lo.tolist()}–{hi.tolist()} m")
 
 
-__all__ = ["Kinematics", "trapezoid_profile", "LinearTrapezoid", "RotatingBoom", "check_inside"]
+def along_path(path_xy, speed_mps: float, t_s) -> np.ndarray:
+    """Positions on a closed polyline traversed at constant speed by arc length.
+
+    Parameters
+    ----------
+    path_xy : (n, 2) m
+        Waypoints; the path is closed when the last equals the first (otherwise the motion
+        jumps back to the first waypoint after the last).
+    speed_mps : float, m/s
+    t_s : (...) s
+        Times; the arc length s = speed·t is taken modulo the path's length.
+
+    Returns
+    -------
+    (..., 2) m
+        Positions, linearly interpolated in arc length between the waypoints.
+    """
+    p = np.asarray(path_xy, float)
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    arc = np.mod(speed_mps * np.asarray(t_s, float), s[-1])
+    return np.stack([np.interp(arc, s, p[:, 0]), np.interp(arc, s, p[:, 1])], axis=-1)
+
+
+def random_walk(rng: np.random.Generator, bounds_m, speed_range_mps, t_s) -> np.ndarray:
+    """Positions of a bouncing random walk in a rectangle (AURIS ch. 4 random track, seed 003
+    L4638-L4648): straight lines at constant speed; at a wall the walker turns into a uniformly
+    random inward direction (±(π/2 − 10⁻³) about the wall's inward normal) with a new speed
+    ~ U[v_min, v_max].
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws, in order: the start point (x, y uniform in the rectangle), the first heading
+        (uniform in [−π, π)) and speed, then per bounce the new heading and speed.
+    bounds_m : (x0, y0, x1, y1) m
+    speed_range_mps : (v_min, v_max) m/s
+    t_s : (n,) s, ≥ 0
+        Times; the segments (start time, start point, velocity) are drawn first, up to max(t_s).
+
+    Returns
+    -------
+    (n, 2) m
+        The start of each time's segment plus velocity × elapsed time.
+    """
+    x0, y0, x1, y1 = bounds_m
+    t = np.asarray(t_s, float)
+    pos = np.array([rng.uniform(x0, x1), rng.uniform(y0, y1)])
+    ang, speed = rng.uniform(-np.pi, np.pi), rng.uniform(*speed_range_mps)
+    starts, points, vels = [0.0], [pos], []
+    now, t_max = 0.0, float(t.max(initial=0.0))
+    while True:
+        v = speed * np.array([np.cos(ang), np.sin(ang)])
+        vels.append(v)
+        tx = (x1 - pos[0]) / v[0] if v[0] > 0 else ((x0 - pos[0]) / v[0] if v[0] < 0 else np.inf)
+        ty = (y1 - pos[1]) / v[1] if v[1] > 0 else ((y0 - pos[1]) / v[1] if v[1] < 0 else np.inf)
+        hit = max(min(tx, ty), 0.0)
+        now += hit
+        if now > t_max:
+            break
+        pos = np.clip(pos + v * hit, [x0, y0], [x1, y1])
+        normal = np.array([-np.sign(v[0]), 0.0]) if tx <= ty else np.array([0.0, -np.sign(v[1])])
+        ang = np.arctan2(normal[1], normal[0]) + rng.uniform(-np.pi / 2 + 1e-3, np.pi / 2 - 1e-3)
+        speed = rng.uniform(*speed_range_mps)
+        starts.append(now)
+        points.append(pos)
+    k = np.searchsorted(np.asarray(starts), t, side="right") - 1
+    return np.asarray(points)[k] + np.asarray(vels)[k] * (t - np.asarray(starts)[k])[:, None]
+
+
+__all__ = ["Kinematics", "trapezoid_profile", "LinearTrapezoid", "RotatingBoom", "check_inside", "along_path",
+           "random_walk"]

@@ -83,11 +83,17 @@ _SOURCES = {
         "rbpf",
     ),
     "landmark_pf": (
+        "LandmarkFilterConfig",
+        "run_tracker",
         "binomial_log_likelihood",
         "wcl_track",
         "pf_bin",
         "pf_aa",
         "bias_compensate",
+    ),
+    "track_errors": (
+        "rms_per_step",
+        "mean_rms_error",
     ),
 }
 __getattr__, __dir__ = lazy_exports(globals(), _SOURCES)

@@ -26,13 +26,22 @@ Both PFs run :func:`rfsim.estimators.particle.sir_filter` with multinomial resam
 step (L5008-L5014). PF-AA's motion needs x̂_{t−1}: since every step resamples, the weights
 entering step t are uniform and the MMSE of step t is Σ softmax(log-likelihood)·particles, which
 its likelihood hook records for the next propagation (exactly the filter's own MMSE).
+
+Parameters (:class:`LandmarkFilterConfig`; L4503-L4616, L5393-L5409): M = 200, q_t std 0.3 m
+(the source's N(0, 0.3) does not say std or variance, A§0.4: std taken), b0 = 0.8, b1 = 0.2,
+initial spread 0.3 m, v_threshold 1.2 m/s; PF-BIN u ~ N(0, diag(0.01, 0.01)).
+:func:`run_tracker` runs one of them by name ("wcl", "pfbin", "pfaa" with a threshold; SQLAM's
+tracking module is "pfaa" with v_threshold = ∞).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
+
+from rfsim.core.config import param
 
 from rfsim.estimators.nearest import weighted_centroid
 from rfsim.estimators.particle import sir_filter
@@ -146,7 +155,54 @@ def bias_compensate(x_hat, v_hat, *, period_end_s, mean_detection_s, b0: float, 
     return x_hat + shift
 
 
+@dataclass(frozen=True)
+class LandmarkFilterConfig:
+    """Parameters of PF-AA, SQLAM's tracking PF and PF-BIN (module docstring)."""
+
+    particles: int = param(200, lo=1, hi=1_000_000, doc="particles M of PF-AA, SQLAM and PF-BIN (L4505)")
+    q_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA / SQLAM AR noise std per period (L4503)")
+    init_std_m: float = param(0.3, lo=1e-6, hi=10.0, unit="m", doc="PF-AA initial spread around the first WCL")
+    b0: float = param(0.8, lo=0.0, hi=1.0, doc="velocity AR weight of the current WCL velocity (L5403)")
+    b1: float = param(0.2, lo=0.0, hi=1.0, doc="velocity AR weight of the previous velocity (L5403)")
+    v_threshold_mps: float = param(1.2, lo=0.0, hi=1000.0, unit="m/s", doc="bias compensation above (L4605)")
+    pfbin_accel_var: float = param(0.01, lo=0.0, hi=100.0, unit="m2/s2",
+                                   doc="PF-BIN velocity noise variance per period (L4614)")
+
+
+def run_tracker(kind: str, counts, landmarks_xy, *, config: LandmarkFilterConfig, v_threshold_mps: float,
+                period_s: float, n_rounds: int, probability: Callable, initial_state, period_end_s,
+                mean_detection_s, rng: np.random.Generator) -> np.ndarray:
+    """One tracker's estimates ``(B, T, 2)`` [m] on the detections of B runs.
+
+    Parameters
+    ----------
+    kind : "wcl" (:func:`wcl_track` from the landmarks' centre), "pfbin" (:func:`pf_bin`) or "pfaa"
+        (:func:`pf_aa`, then :func:`bias_compensate` per run unless ``v_threshold_mps`` is ∞)
+    counts : (B, T, L) detections;  landmarks_xy : (L, 2) m
+    config : the filters' parameters (its own ``v_threshold_mps`` is not read: the argument is)
+    period_s : Δt [s];  n_rounds : N;  probability : as in :func:`pf_bin`
+    initial_state : (B, 4) PF-BIN's known [x1, x2, ẋ1, ẋ2]
+    period_end_s, mean_detection_s : (B, T) [s] t and t̂ of every period (NaN: no detection)
+    rng : the filter's stream (WCL draws nothing)
+    """
+    f = config
+    if kind == "wcl":
+        return wcl_track(counts, landmarks_xy, np.mean(landmarks_xy, axis=0))
+    if kind == "pfbin":
+        return pf_bin(counts, initial_state, n_particles=f.particles, period_s=period_s, accel_var=f.pfbin_accel_var,
+                      n_rounds=n_rounds, probability=probability, rng=rng)
+    x, v = pf_aa(counts, landmarks_xy, n_particles=f.particles, period_s=period_s, q_std_m=f.q_std_m,
+                 init_std_m=f.init_std_m, b0=f.b0, b1=f.b1, n_rounds=n_rounds, probability=probability, rng=rng)
+    if not np.isfinite(v_threshold_mps):
+        return x
+    return np.concatenate([bias_compensate(x[i:i + 1], v[i:i + 1], period_end_s=period_end_s[i],
+                                           mean_detection_s=mean_detection_s[i:i + 1], b0=f.b0, b1=f.b1,
+                                           v_threshold_mps=v_threshold_mps) for i in range(x.shape[0])])
+
+
 __all__ = [
+    "LandmarkFilterConfig",
+    "run_tracker",
     "binomial_log_likelihood",
     "wcl_track",
     "pf_bin",

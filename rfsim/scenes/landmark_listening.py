@@ -1,14 +1,15 @@
-"""``st-localization`` at sample level: the reader inventories the landmark tags in real Gen2
-rounds, the sense-a-tag (ST) listens to every EPC reply with its envelope receiver, and the
-detections that result (and the time they take) feed the trackers (auris-sense-a-tag.md §1.1
+"""A sense-a-tag (ST) listening to a reader's inventory of landmark tags at sample level: the
+reader inventories the landmark tags in real Gen2 rounds, the ST listens to every EPC reply
+with its envelope receiver, and the detections that result (and the time they take) feed a
+tracker (``st-localization``'s sample-level mode) (auris-sense-a-tag.md §1.1
 "ST locator protocol", §7.2; seeds/003 L4040-L4060 (N rounds of QT, then QS), L4169-L4199
 (Eq. 4.10: detections and their instants), L5405-L5409 (the query period grows with the tag
 population); wave2-specs.md §R "sample-level").
 
-Scene. The preset's room (:mod:`rfsim.scenarios._st_paths`): landmark tags on the floor (z = 0) as
+Scene. A room of :mod:`rfsim.scenes.landmark_room`: landmark tags on the floor (z = 0) as
 half-wave dipoles lying along x (a tag label flat on the floor), the reader's panel antenna(s)
-at the preset position facing down (:class:`rfsim.scenarios.detection_probability.EllipticalPanel`,
-9 dBic, 70°, 30 dBm, link profile ``pass-miller2-48k`` at 1 MS/s as the source's PASS runs,
+at the preset position facing down (:class:`rfsim.channels.EllipticalPanel`,
+9 dBic, 70°, 20 dB front-to-back, 30 dBm, link profile ``pass-miller2-48k`` at 1 MS/s as the source's PASS runs,
 FCC hopping, L3811-L3817), channel "room": free space with the PASS exponential APDP
 (:class:`rfsim.channels.ApdpModel`). The ST's two antennas (SA1, SA2, λ/4 apart along x) are
 half-wave dipoles parallel to the landmarks' at ``st_height_m`` above the floor (the source's
@@ -72,19 +73,21 @@ _air = lazy_import("rfsim.air.step")
 _engine = lazy_import("rfsim.protocols.engine")
 _commands = lazy_import("rfsim.gen2.commands")
 _link = lazy_import("rfsim.gen2.link")
-_detection_probability = lazy_import("rfsim.scenarios.detection_probability")
 
 #: Orientation (az, el, roll) [rad] of a dipole lying along x (local z → global x).
 ALONG_X = (0.0, math.pi / 2, 0.0)
 #: Panel facing the floor (boresight local +x → global −z).
 FACING_DOWN = (0.0, -math.pi / 2, 0.0)
+#: Front-to-back ratio [dB] of the reader's panel (data-sheet class of 9 dBic patch panels,
+#: as in the ``detection-probability`` scene).
+PANEL_FRONT_TO_BACK_DB = 20.0
 
 
 @dataclass(frozen=True)
 class SampleLevelConfig:
-    """Reader, channel, ST placement and track length of the sample-level mode (validated; errors
-    name ``sample_level.<key>``). ``Config.full`` does not apply: the cases have
-    ``realizations`` tracks of ``duration_s``."""
+    """Reader, channel, ST placement and track length of the listening scene (validated; in
+    ``st-localization`` its errors name ``sample_level.<key>``; the scenario's ``full`` does not
+    apply: its cases have ``realizations`` tracks of ``duration_s``)."""
 
     link_profile: str = param("pass-miller2-48k", doc="reader link profile (PASS: Miller-2, BLF 48 kHz)")
     fs_hz: float = param(1e6, lo=2e5, hi=2e8, unit="Hz", doc="sample rate of the exchanges")
@@ -105,10 +108,13 @@ class SampleLevelConfig:
 
 
 def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
-    """The reader's panel at ``position_m`` facing the floor (detection-probability's model)."""
-    return _detection_probability.EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
-                                                  pattern=_antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, _detection_probability.PANEL_FRONT_TO_BACK_DB),
-                                                  polarization="circular", half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
+    """The reader's circular panel at ``position_m`` [m] facing the floor: a patch pattern of
+    ``c.panel_gain_dbic`` and ``c.panel_beamwidth_deg`` with :data:`PANEL_FRONT_TO_BACK_DB`,
+    axial ratio growing off boresight (:class:`rfsim.channels.EllipticalPanel` defaults)."""
+    pattern = _antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, PANEL_FRONT_TO_BACK_DB)
+    return _antennas.EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
+                                     pattern=pattern, polarization="circular",
+                                     half_beamwidth_rad=math.radians(0.5 * c.panel_beamwidth_deg))
 
 
 def flat_dipole(position_m) -> _antennas.Antenna:
@@ -281,4 +287,4 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
 
 
 __all__ = ["SampleLevelConfig", "ListeningAir", "Listened", "listen_track", "panel", "flat_dipole",
-           "landmark_epc_hex"]
+           "landmark_epc_hex", "PANEL_FRONT_TO_BACK_DB", "ALONG_X", "FACING_DOWN"]

@@ -1,0 +1,40 @@
+"""Error measures of a tracker over Monte-Carlo runs of unequal lengths.
+
+A tracker's rows are (step t, error e = ‖x̂_t − x_t‖) pooled over runs. The RMS error at step t
+is RMSE_t = sqrt(mean over the runs that reach t of e²) (AURIS ch. 4's RMSE over realizations,
+seeds/003 L4507-L4513); its time average is :func:`mean_rms_error`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _sums(step, error_m) -> tuple[np.ndarray, np.ndarray]:
+    step = np.asarray(step)
+    n_steps = int(step.max()) + 1 if step.size else 0
+    e2 = np.zeros(n_steps)
+    cnt = np.zeros(n_steps)
+    np.add.at(e2, step, np.asarray(error_m) ** 2)
+    np.add.at(cnt, step, 1)
+    return e2, cnt
+
+
+def rms_per_step(step, error_m) -> np.ndarray:
+    """RMSE_t = sqrt(Σ e² / n_t) per step t = 0 … max(step), NaN where no run has step t.
+
+    step : (n,) int, the step of each row;  error_m : (n,) [m].  Returns (max(step) + 1,) [m].
+    """
+    e2, cnt = _sums(step, error_m)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(e2 / cnt)
+
+
+def mean_rms_error(step, error_m) -> float:
+    """Time average of :func:`rms_per_step` over the steps some run has (NaN: no rows)."""
+    e2, cnt = _sums(step, error_m)
+    ok = cnt > 0
+    return float(np.mean(np.sqrt(e2[ok] / cnt[ok]))) if ok.any() else float("nan")
+
+
+__all__ = ["rms_per_step", "mean_rms_error"]

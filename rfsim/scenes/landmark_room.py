@@ -1,0 +1,74 @@
+"""A room of landmark tags on the floor under the reader's panel antenna(s), and the sense-a-tag
+(ST) paths through it (AURIS ch. 4; auris-sense-a-tag.md §3.3; seeds/003 L4493-L4501,
+L5375-L5383, L5600-L5641).
+
+Presets: the room is centred on the origin, the landmark tags sit at the centres of an nx × ny
+grid of equal cells on the floor (z = 0, as the ST), the reader's panel antennas hang at 2 m
+facing the floor.
+
+Trajectories 1 and 2 exist only as drawings (Fig. 4.10, L4587-L4630); this replica defines them:
+
+* **1** (:data:`TRAJECTORY_1_XY`): a rectangle loop through the corners (±1.5, ±1.0) m (10 m
+  long, anticlockwise from (−1.5, −1.0)), at constant speed;
+* **2** (:func:`trajectory_2_xy`): a figure-eight x = 1.5 sin s, y = 1.0 sin 2s (Lissajous 1:2),
+  at constant speed (a polyline of 2000 points);
+* the random walk of L4638-L4648 is :func:`rfsim.core.trajectories.random_walk`.
+
+Both paths are traversed at constant speed by arc length
+(:func:`rfsim.core.trajectories.along_path`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Room:
+    """A preset: room size (x, y) [m], landmark grid (nx, ny), reader antenna positions [m]."""
+
+    size_m: tuple[float, float]
+    grid: tuple[int, int]
+    antennas_xyz_m: tuple[tuple[float, float, float], ...]
+
+    @property
+    def bounds_m(self) -> tuple[float, float, float, float]:
+        """(x0, y0, x1, y1) [m] of the floor, centred on the origin."""
+        w, h = self.size_m
+        return (-w / 2, -h / 2, w / 2, h / 2)
+
+    def landmarks_xy(self) -> np.ndarray:
+        """(nx·ny, 2) [m] landmark positions at the cell centres, x-major (index = ix·ny + iy)."""
+        (w, h), (nx, ny) = self.size_m, self.grid
+        x = -w / 2 + (np.arange(nx) + 0.5) * w / nx
+        y = -h / 2 + (np.arange(ny) + 0.5) * h / ny
+        gx, gy = np.meshgrid(x, y, indexing="ij")
+        return np.column_stack([gx.ravel(), gy.ravel()])
+
+    def with_grid(self, grid: tuple[int, int] | None) -> Room:
+        """The same room and antennas with another landmark grid (``None``: this room)."""
+        return self if grid is None else Room(self.size_m, tuple(grid), self.antennas_xyz_m)
+
+
+#: The source's rooms: PF-AA (4 × 3.2 m, L4493), SQLAM (5 × 4 m, L5375) and the lab with four
+#: antennas (10 × 8 m, L5600-L5641).
+PRESETS = {
+    "pfaa": Room((4.0, 3.2), (9, 5), ((0.0, 0.0, 2.0),)),
+    "sqlam": Room((5.0, 4.0), (7, 6), ((0.0, 0.0, 2.0),)),
+    "lab": Room((10.0, 8.0), (11, 9), ((-2.5, -2.0, 2.0), (2.5, -2.0, 2.0), (-2.5, 2.0, 2.0), (2.5, 2.0, 2.0))),
+}
+
+#: Trajectory 1: the closed rectangle loop (x, y) [m].
+TRAJECTORY_1_XY = ((-1.5, -1.0), (1.5, -1.0), (1.5, 1.0), (-1.5, 1.0), (-1.5, -1.0))
+
+
+def trajectory_2_xy(n: int = 2000) -> np.ndarray:
+    """Trajectory 2: (n, 2) [m] points of the closed figure-eight x = 1.5 sin s, y = sin 2s,
+    s ∈ [0, 2π]."""
+    s = np.linspace(0.0, 2.0 * np.pi, n)
+    return np.column_stack([1.5 * np.sin(s), 1.0 * np.sin(2.0 * s)])
+
+
+__all__ = ["Room", "PRESETS", "TRAJECTORY_1_XY", "trajectory_2_xy"]

@@ -2,55 +2,41 @@
 (AURIS ch. 4: PF-BIN, PF-AA, SQLAM's tracking module, weighted centroid; auris-sense-a-tag.md
 §3.3, §4.2, §7; seeds/003 L4493-L4650, L5375-L5415, L5600-L5690; wave2-specs.md §R).
 
-Scene (:mod:`rfsim.scenes.landmark_room`): a reader's panel antenna(s) 2 m above the floor facing
-down, an nx × ny grid of landmark tags on the floor, the ST moving on the floor. In each query
-period of T_s = 0.3 s the reader runs N = 10 rounds; ``mode = "surrogate"`` draws the ST's
-detections from the RTS model round by round (:mod:`rfsim.detection.landmark_rts`: Eq. 4.6, the
-active antenna nearest to the previous WCL estimate); the trackers are
-:mod:`rfsim.estimators.landmark_pf` (parameters ``filters``, L4503-L4616, L5393-L5409).
+Scene (:mod:`rfsim.scenes.landmark_room`, tracks :mod:`rfsim.scenes.landmark_tracks`): a reader's
+panel antenna(s) 2 m above the floor facing down, a grid of landmark tags on the floor, the ST
+moving on the floor; per query period of T_s = 0.3 s, N = 10 rounds. ``mode = "surrogate"``: RTS
+detections per round (:mod:`rfsim.detection.landmark_rts`); ``"sample-level"`` (one-antenna
+presets): N real Gen2 QT rounds per period, the ST decoding every EPC reply
+(:mod:`rfsim.scenes.landmark_listening`), periods as long as the rounds take
+(``detection_period_s``), ``sample_level.realizations`` tracks of ``sample_level.duration_s``.
+Trackers: :mod:`rfsim.estimators.landmark_pf` (``filters``, L4503-L4616, L5393-L5409).
 
-Experiments (preset defaults; ``realizations`` and durations reduced unless ``full``):
-``speed-sweep`` (Fig. 4.11, L4587-L4605): trajectory 1 at 0.1-3 m/s, PF-AA with compensation
-never (v_threshold = ∞) and always (0), the crossover speed (published ≈ 1.2 m/s);
-``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636): PF-BIN (known initial state), PF-AA
-(v_threshold 1.2 m/s) and WCL at 0.5 and 2.5 m/s (published 0.1681 / 0.1717 m at 0.5 m/s);
-``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664): pfaa: PF-AA vs
-WCL over 1500 s (−36.6 %); sqlam: SQLAM's tracking PF (PF-AA without compensation) vs WCL over
-500 s (−41.9 %); lab: SQLAM over 10,000 s (0.2560 m). Error: ‖x̃_t − x_t‖ at the period end; a
-case's value is the source's "average RMSE" (``summary.mean_error_m``, that ℓ2 error averaged over
-realizations and periods, L4507-L4513, L5383-L5385); ``summary.rmse_m`` is the time average of
-RMSE_t over realizations (:func:`rfsim.estimators.track_errors.mean_rms_error`), larger (0.196
-against 0.179 m for PF-BIN below).
+Experiments (``realizations`` and durations reduced unless ``full``): ``speed-sweep`` (Fig. 4.11,
+L4587-L4605; trajectory 1, PF-AA compensating never / always, crossover ≈ 1.2 m/s);
+``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636; PF-BIN, PF-AA, WCL at 0.5 and 2.5 m/s; 0.1681 /
+0.1717 m at 0.5 m/s); ``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664;
+pfaa: PF-AA vs WCL, 1500 s, −36.6 %; sqlam: SQLAM vs WCL, 500 s, −41.9 %; lab: SQLAM, 10,000 s,
+0.2560 m). A case's value is the source's "average RMSE" (``summary.mean_error_m``: ‖x̃_t − x_t‖
+at the period end averaged over realizations and periods, L4507-L4513, L5383-L5385);
+``summary.rmse_m`` is the time average of RMSE_t over realizations (larger).
 
-Measured (seed 1): crossover 1.19 m/s (20 realizations); random walk 1500 s PF-AA vs WCL −44.6 %;
-sqlam (20 tracks × 500 s) −37.3 % (SQLAM 0.268 m, WCL 0.428 m); lab SQLAM 0.316 m (+23 %, inside
-the ±25 % of wave2-specs §R; WCL 0.412 m); trajectory 2 at 0.5 m/s (100 realizations) PF-BIN
-0.179 m, PF-AA 0.188 m (standard errors 0.0014 / 0.0008 m). Above the published values because
-the detections of a period are spread over it (the estimates lag the period end by T_s/2, 0.075 m
-at 0.5 m/s, compensated only above 1.2 m/s) and the 45 binomial counts per period of this
-replica's grid (the source's heights and grid offsets are not given) carry ≈ 0.2 m of position
-information (RMS, 20 realizations: against the truth T_s/2 before the period end PF-BIN 0.156 m,
-PF-AA 0.209 m; landmarks on the room's edges are worse). SQLAM's mapping and landmark-replacement
-modules are not implemented.
+Measured (seed 1): crossover 1.19 m/s; random walk PF-AA vs WCL −44.6 %; sqlam (20 × 500 s)
+−37.3 % (0.268 / 0.428 m); lab 0.316 m (+23 %, WCL 0.412 m); trajectory 2 at 0.5 m/s (100
+realizations) PF-BIN 0.179 m, PF-AA 0.188 m (standard errors 0.0014 / 0.0008 m): the detections
+of a period are spread over it (a T_s/2 lag) and this replica's grid carries ≈ 0.2 m of position
+information. SQLAM's mapping and landmark replacement are not implemented. Sample level (pfaa,
+0.5 m/s, 12 s): period 4.72 s (694 slots, 450 reads), ≈ 53 replies decoded per period, PF-BIN
+1.62 m, PF-AA 0.99 m, WCL 0.94 m (the ST moves 2.4 m per period).
 
-``mode = "sample-level"`` (presets with one antenna; :mod:`rfsim.scenes.landmark_listening`): each
-period is N QT rounds of a real Gen2 inventory of the landmarks, the ST decoding every EPC reply
-with its envelope receiver; the periods last as long as the rounds take (``detection_period_s``),
-the truth is taken at each measured period end and the trackers use the mean period as Δt.
-Cases: ``sample_level.realizations`` tracks of ``sample_level.duration_s``. Measured (seed 1, pfaa
-trajectory 2, 0.5 m/s, 12 s, N = 10; 62 s CPU): period 4.72 s (694 slots, 450 EPC reads), the ST
-decodes ≈ 53 replies (13-19 landmarks) per period; average RMSE PF-BIN 1.62 m, PF-AA 0.99 m, WCL
-0.94 m (the ST moves 2.4 m per period).
-
-Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the random walk, ``(seed, c, b,
-1)`` the detections (sample level: ``(seed, c, b, 2, k)`` reader, air, ST links, ST, landmarks);
-tracker f of chunk g: ``trial_rng(seed, c, 1000 + g, f)`` (sample level, realization i of chunk g:
-``trial_rng(seed, c, 2000 + 100·g + i, f)``).
+Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the walk, ``(…, 1)`` the
+detections (sample level ``(…, 2, k)``); tracker f of chunk g ``trial_rng(seed, c, 1000 + g, f)``
+(sample level, realization i of chunk g: ``trial_rng(seed, c, 2000 + 100·g + i, f)``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Literal
 
@@ -61,11 +47,11 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
 from rfsim.core.rng import trial_rng
 from rfsim.core.trajectories import along_path, random_walk
-from rfsim.detection.landmark_rts import draw_landmark_detections, rts_fixed_logit, rts_likelihood_model
-from rfsim.estimators.landmark_pf import LandmarkFilterConfig, run_tracker
+from rfsim.estimators.landmark_pf import LandmarkFilterConfig
 from rfsim.estimators.track_errors import mean_rms_error
 from rfsim.scenes import landmark_room as rooms
-from rfsim.scenes.landmark_listening import SampleLevelConfig, listen_track
+from rfsim.scenes import landmark_tracks as tracks
+from rfsim.scenes.landmark_listening import SampleLevelConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.core.lazy import lazy_import
 
@@ -122,17 +108,9 @@ class Config:
     workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
 
     def __post_init__(self):
-        if self.n_landmarks == 0:
+        if 0 in self.room.grid:
             raise ConfigError("landmark_grid", list(self.landmark_grid), "nx, ny >= 1 (at least one landmark)")
-        x0, y0, x1, y1 = self.room.bounds_m
-        pts = np.asarray(self.trajectory_1_xy_m, float).reshape(-1, 2)
-        if pts.shape[0] < 2:
-            raise ConfigError("trajectory_1_xy_m", [list(p) for p in pts], "at least 2 waypoints (x, y) in m")
-        out = ~((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0) & (pts[:, 1] <= y1))
-        if out.any():
-            raise ConfigError("trajectory_1_xy_m", list(pts[np.argmax(out)]),
-                              f"waypoints inside the {self.preset} room x in [{x0:g}, {x1:g}], y in [{y0:g}, {y1:g}] m "
-                              "(the trajectory leaves the room)")
+        self.room.check_waypoints("trajectory_1_xy_m", self.trajectory_1_xy_m, self.preset)
         if self.mode == "sample-level" and len(self.room.antennas_xyz_m) != 1:
             raise ConfigError("mode", self.mode, f"'surrogate' for preset {self.preset} (sample-level: presets with "
                                                  "one reader antenna, pfaa or sqlam)")
@@ -144,11 +122,6 @@ class Config:
     @property
     def room(self) -> rooms.Room:
         return rooms.PRESETS[self.preset].with_grid(self.landmark_grid)
-
-    @property
-    def n_landmarks(self) -> int:
-        g = self.room.grid
-        return int(g[0] * g[1])
 
     @property
     def experiment_list(self) -> tuple[str, ...]:
@@ -194,10 +167,9 @@ def cases(config: Config) -> list[Case]:
             main = ("pfaa", "pfaa", vt) if config.preset == "pfaa" else ("sqlam", "pfaa", np.inf)
             n = (100 if config.preset == "sqlam" else 1) if full else (R if config.preset == "sqlam" else 1)
             out.append(Case(len(out), exp, "random-walk", np.nan, n, config.walk_s, (main, ("wcl", "wcl", 0.0))))
-    if config.mode == "sample-level":
-        sl = config.sample_level
-        out = [replace(c, realizations=sl.realizations, duration_s=sl.duration_s) for c in out]
-    return out
+    sl = config.sample_level
+    return [replace(c, realizations=sl.realizations, duration_s=sl.duration_s) for c in out] \
+        if config.mode == "sample-level" else out
 
 
 # ----------------------------------------------------------------------------- one chunk
@@ -207,91 +179,42 @@ def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
     """True ST positions at times ``t_s`` (…, 2) for realization b of the case."""
     if case.trajectory == "1":
         pts = np.asarray(config.trajectory_1_xy_m, float)
-        if not np.array_equal(pts[0], pts[-1]):
-            pts = np.vstack([pts, pts[:1]])
-        return along_path(pts, case.speed_mps, t_s)
+        return along_path(pts if np.array_equal(pts[0], pts[-1]) else np.vstack([pts, pts[:1]]), case.speed_mps, t_s)
     if case.trajectory == "2":
         return along_path(rooms.trajectory_2_xy(), case.speed_mps, t_s)
     flat = np.asarray(t_s, float).ravel()
-    order = np.argsort(flat, kind="stable")
-    out = np.empty((flat.size, 2))
-    out[order] = random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
-                             flat[order])
-    return out.reshape(np.shape(t_s) + (2,))
+    return random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
+                       flat).reshape(np.shape(t_s) + (2,))
 
 
-def _track(config: Config, case: Case, b: int, seed: int, base, landmarks) -> dict:
-    """Truth, PF-BIN start and detections of realization b: RTS draws on the fixed period grid
-    (surrogate), or heard through sample-level Gen2 rounds (streams ``trial_rng(seed, case, b, 2, k)``)."""
+def _track(config: Config, case: Case, b: int, seed: int) -> dict:
+    """Realization b's track (:mod:`rfsim.scenes.landmark_tracks`): surrogate detections (stream
+    ``trial_rng(seed, case, b, 1)``) or heard at sample level (``trial_rng(seed, case, b, 2, k)``)."""
+    position_at = partial(truth_at, config, case, b, seed)
     if config.mode == "sample-level":
-        h = config.sample_level.st_height_m
-        res = listen_track(config.room, lambda t: np.r_[truth_at(config, case, b, seed, np.array([t]))[0], h],
-                           rounds=config.rounds, sl=config.sample_level, st_config=config.st, seed=seed,
-                           key=(case.index, b, 2))
-        T, t_end = res.t_end_s.size, res.t_end_s
-        det = {"counts": res.counts, "mean_detection_s": res.mean_detection_s, "active": np.zeros(T, np.int64),
-               "slots": res.slots_per_period, "reads": res.reads_per_period}
-        pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], t_end]))
-        return {"t_end_s": t_end, "truth": pos[2:], "start": np.r_[pos[0], (pos[1] - pos[0]) / 1e-3], **det}
-    Ts, N = config.period_s, config.rounds
-    T = int(round(case.duration_s / Ts))
-    t_end = (np.arange(T) + 1) * Ts
-    tau = (np.arange(T)[:, None] + (np.arange(N)[None, :] + 0.5) / N) * Ts
-    pos = truth_at(config, case, b, seed, np.concatenate([[0.0, 1e-3], tau.ravel(), t_end]))
-    det = draw_landmark_detections(base, landmarks, config.room.antennas_xyz_m, pos[2:2 + tau.size].reshape(T, N, 2),
-                                   period_s=Ts, rng=trial_rng(seed, case.index, b, 1))
-    return {"t_end_s": t_end, "truth": pos[2 + tau.size:], "start": np.r_[pos[0], (pos[1] - pos[0]) / 1e-3],
-            "slots": np.zeros(T, np.int64), "reads": np.zeros(T, np.int64), **det}
-
-
-def _trackers(config: Config, case: Case, group: int, tracks: list[dict], base, landmarks,
-              seed: int) -> dict[str, np.ndarray]:
-    """Every tracker of the case on realizations with a common number of periods: (B, T, 2) each.
-    The filters' period Δt is the mean period of the tracks (T_s in the surrogate mode)."""
-    col = {k: np.stack([d[k] for d in tracks]) for k in ("counts", "mean_detection_s", "active", "t_end_s", "start")}
-    t_end = col["t_end_s"]
-    probability = rts_likelihood_model(base, col["active"], landmarks)
-    return {label: run_tracker(kind, col["counts"], landmarks, config=config.filters, v_threshold_mps=vt,
-                               period_s=float(np.mean(t_end[:, -1] / t_end.shape[1])), n_rounds=config.rounds,
-                               probability=probability, initial_state=col["start"], period_end_s=t_end,
-                               mean_detection_s=col["mean_detection_s"], rng=trial_rng(seed, case.index, 1000 + group, k))
-            for k, (label, kind, vt) in enumerate(case.trackers)}
+        return tracks.listened_track(config.room, position_at, height_m=config.sample_level.st_height_m,
+                                     rounds=config.rounds, sl=config.sample_level, st_config=config.st, seed=seed,
+                                     key=(case.index, b, 2))
+    return tracks.surrogate_track(config.room, position_at, duration_s=case.duration_s, period_s=config.period_s,
+                                  rounds=config.rounds, rng=trial_rng(seed, case.index, b, 1))
 
 
 def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: int) -> dict[str, dict]:
-    """Detections and every tracker of realizations ``bs`` of ``case``: per-table columns.
-
-    Surrogate: the trackers run on the chunk at once. Sample level: the tracks have their own
-    period counts, and the trackers run per realization (tracker streams
-    ``trial_rng(seed, c, 2000 + 100·g + i, f)`` for realization i of chunk g)."""
-    landmarks = config.room.landmarks_xy()
-    base = rts_fixed_logit(config.room.antennas_xyz_m, landmarks)
-    tracks = [_track(config, case, b, seed, base, landmarks) for b in bs]
-    if config.mode == "sample-level":
-        est = [_trackers(config, case, 1000 + 100 * group + i, [d], base, landmarks, seed)
-               for i, d in enumerate(tracks)]
+    """Detections and every tracker of realizations ``bs`` of ``case``: per-table columns (the
+    trackers on the chunk at once; at sample level, with unequal period counts, per realization)."""
+    chunk = [_track(config, case, b, seed) for b in bs]
+    f, N, n = config.filters, config.rounds, len(case.trackers)
+    if config.mode == "sample-level":  # tracker streams (seed, c, 2000 + 100·g + i, f)
+        est = [tracks.track_estimates(config.room, [d], case.trackers, filters=f, rounds=N, rngs=[
+            trial_rng(seed, case.index, 2000 + 100 * group + i, k) for k in range(n)]) for i, d in enumerate(chunk)]
     else:
-        est = [_trackers(config, case, group, tracks, base, landmarks, seed)]
-        est = [{k: v[i:i + 1] for k, v in est[0].items()} for i in range(len(tracks))]
-    periods, detections, est_rows = [], [], []
-    for b, d, e in zip(bs, tracks, est):
-        T = d["t_end_s"].size
-        c, truth = d["counts"], d["truth"]
-        key = {"case": np.full(T, case.index), "realization": np.full(T, b), "period": np.arange(T)}
-        periods.append({**key, "t_end_s": d["t_end_s"], "period_duration_s": np.diff(np.r_[0.0, d["t_end_s"]]),
-                        "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
-                        "detections": c.sum(axis=1), "mean_detection_s": d["mean_detection_s"],
-                        "active_antenna": d["active"], "slots": d["slots"], "reads": d["reads"]})
-        nz = np.nonzero(c)
-        detections.append({"case": np.full(nz[0].size, case.index), "realization": np.full(nz[0].size, b),
-                           "period": nz[0], "landmark": nz[1], "count": c[nz]})
-        for label, x in e.items():
-            est_rows.append({**key, "tracker": np.full(T, label), "x_est_m": x[0, :, 0], "y_est_m": x[0, :, 1],
-                             "error_m": np.linalg.norm(x[0] - truth, axis=-1)})
-    labels = [t[0] for t in case.trackers]
-    order = sorted(range(len(est_rows)), key=lambda i: labels.index(est_rows[i]["tracker"][0]))
-    return {"periods": _exciter_scene.concat(periods), "detections": _exciter_scene.concat(detections),
-            "estimates": _exciter_scene.concat([est_rows[i] for i in order])}
+        est = tracks.track_estimates(config.room, chunk, case.trackers, filters=f, rounds=N,
+                                     rngs=[trial_rng(seed, case.index, 1000 + group, k) for k in range(n)])
+        est = [{k: v[i:i + 1] for k, v in est.items()} for i in range(len(chunk))]
+    rows = [tracks.estimate_rows(case.index, b, d, {k: x[0] for k, x in e.items()}) for b, d, e in zip(bs, chunk, est)]
+    return {"periods": _exciter_scene.concat([tracks.period_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
+            "detections": _exciter_scene.concat([tracks.detection_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
+            "estimates": _exciter_scene.concat([r[k] for k in range(len(case.trackers)) for r in rows])}
 
 
 def _task(args):
@@ -317,28 +240,20 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
     (:func:`rfsim.estimators.track_errors.mean_rms_error`), the change vs WCL (of the source's
     measure); and the headline numbers (crossover speed, PF-AA / SQLAM vs WCL, lab) as attributes,
     all of the source's measure."""
-    est = tables["estimates"]
-    rows: dict[str, list] = {k: [] for k in ("case", "experiment", "trajectory", "speed_mps", "realizations",
-                                             "duration_s", "tracker", "mean_error_m", "rmse_m", "published_rmse_m",
-                                             "vs_wcl_percent", "published_vs_wcl_percent")}
-    attrs: dict = {}
-    sweep: dict[str, list] = {}
+    est, rows, attrs, sweep = tables["estimates"], [], {}, {}
+    pub_rel = {"pfaa": PUBLISHED["pfaa_vs_wcl_percent"], "sqlam": PUBLISHED["sqlam_vs_wcl_percent"]}.get(config.preset, np.nan)
     for c in cases(config):
         sel = {label: (est["case"] == c.index) & (est["tracker"] == label) for label, _, _ in c.trackers}
-        vals = {label: float(np.mean(est["error_m"][s])) if s.any() else float("nan") for label, s in sel.items()}
+        vals = {label: float(np.mean(est["error_m"][m])) if m.any() else float("nan") for label, m in sel.items()}
         for label, value in vals.items():
-            pub = PUBLISHED.get((c.experiment, label, c.speed_mps), np.nan)
             rel = 100.0 * (value / vals["wcl"] - 1.0) if "wcl" in vals and label != "wcl" else np.nan
-            pub_rel = np.nan
-            if c.experiment == "random-walk" and label != "wcl":
-                pub_rel = PUBLISHED["pfaa_vs_wcl_percent"] if config.preset == "pfaa" else (
-                    PUBLISHED["sqlam_vs_wcl_percent"] if config.preset == "sqlam" else np.nan)
+            walk = c.experiment == "random-walk" and label != "wcl"
+            if walk:
                 attrs[f"{label}_vs_wcl_percent"] = rel
                 attrs[f"{label}_random_walk_rmse_m"] = value
-            rmse = mean_rms_error(est["period"][sel[label]], est["error_m"][sel[label]])
-            for k, v in zip(rows, (c.index, c.experiment, c.trajectory, c.speed_mps, c.realizations, c.duration_s,
-                                   label, value, rmse, pub, rel, pub_rel)):
-                rows[k].append(v)
+            rows.append((c.index, c.experiment, c.trajectory, c.speed_mps, c.realizations, c.duration_s, label, value,
+                         mean_rms_error(est["period"][sel[label]], est["error_m"][sel[label]]),
+                         PUBLISHED.get((c.experiment, label, c.speed_mps), np.nan), rel, pub_rel if walk else np.nan))
             if c.experiment == "speed-sweep":
                 sweep.setdefault(label, []).append(value)
     if sweep:
@@ -350,7 +265,9 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
         attrs["published_crossover_mps"] = PUBLISHED["crossover_mps"]
     if config.preset == "lab":
         attrs["published_lab_rmse_m"] = PUBLISHED["lab_rmse_m"]
-    return {k: np.asarray(v) for k, v in rows.items()}, attrs
+    keys = ("case", "experiment", "trajectory", "speed_mps", "realizations", "duration_s", "tracker", "mean_error_m",
+            "rmse_m", "published_rmse_m", "vs_wcl_percent", "published_vs_wcl_percent")
+    return {k: np.asarray(v) for k, v in zip(keys, zip(*rows))}, attrs
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
@@ -360,12 +277,11 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     cs = cases(config)
     tables["truth"] = {k: tables["periods"][k] for k in ("case", "realization", "period", "t_end_s", "x_true_m",
                                                          "y_true_m")}
-    tables["cases"] = {k: np.array([getattr(c, a) for c in cs]) for k, a in (
-        ("case", "index"), ("experiment", "experiment"), ("trajectory", "trajectory"), ("speed_mps", "speed_mps"),
-        ("realizations", "realizations"), ("duration_s", "duration_s"))}
+    tables["cases"] = {k: np.array([getattr(c, "index" if k == "case" else k) for c in cs]) for k in (
+        "case", "experiment", "trajectory", "speed_mps", "realizations", "duration_s")}
     ds = _dataset.Dataset(title=f"sense-a-tag localization from landmark detections (AURIS ch. 4), preset {config.preset}")
     for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
-        ds.add_table(name, {k: _dataset.column(v, _unit(k), _describe(k)) for k, v in tables[name].items()},
+        ds.add_table(name, {k: _dataset.column(v, _unit(k), _TEXT.get(k, k.replace("_", " "))) for k, v in tables[name].items()},
                      description=_GROUPS[name])
     room = config.room
     ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
@@ -373,11 +289,11 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                      "trajectory_1_xy_m": np.asarray(config.trajectory_1_xy_m, float),
                      "trajectory_2_xy_m": rooms.trajectory_2_xy(200), "detection_period_s": config.period_s})
     if config.mode == "sample-level":
-        dur = tables["periods"]["period_duration_s"]
-        ds.attrs.update({"detection_period_s": float(np.mean(dur)), "detection_period_std_s": float(np.std(dur)),
-                         "source_detection_period_s": config.period_s,
-                         "slots_per_period": float(np.mean(tables["periods"]["slots"])),
-                         "reads_per_period": float(np.mean(tables["periods"]["reads"])),
+        per = tables["periods"]
+        ds.attrs.update({"detection_period_s": float(np.mean(per["period_duration_s"])),
+                         "detection_period_std_s": float(np.std(per["period_duration_s"])),
+                         "source_detection_period_s": config.period_s, "slots_per_period": float(np.mean(per["slots"])),
+                         "reads_per_period": float(np.mean(per["reads"])),
                          "detection_period_meaning": "mean duration of a query period of N QT rounds at sample "
                                                      "level (the source assumed 0.3 s)"})
     ds.attrs.update(attrs)
@@ -387,30 +303,13 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 
 def _unit(key: str) -> str:
-    if key.endswith("_percent"):
-        return "%"
-    return next((u for suf, u in (("_mps", "m/s"), ("_m", "m"), ("_s", "s")) if key.endswith(suf)), "1")
+    return next((u for suf, u in (("_percent", "%"), ("_mps", "m/s"), ("_m", "m"), ("_s", "s")) if key.endswith(suf)), "1")
 
 
 _TEXT = {
-    "case": "index of the case (experiment, trajectory, speed) in the cases table",
-    "realization": "realization (independent detections, and walk) of the case",
-    "period": "query period index t (the period ends at (t + 1) T_s)", "landmark": "landmark index (grid order)",
-    "count": "detections n_{t,k} of the landmark among the N rounds of the period (zeros not stored)",
-    "t_end_s": "end of the period (the estimate's time)",
-    "period_duration_s": "duration of the query period (T_s in the surrogate mode; sample level: N QT rounds)",
-    "slots": "Gen2 slots of the period's N QT rounds (sample level; 0 in the surrogate mode)",
-    "reads": "landmark EPCs the reader read in the period (sample level; 0 in the surrogate mode)",
-    "x_true_m": "true x of the ST at the period end",
-    "y_true_m": "true y of the ST at the period end", "detected_landmarks": "landmarks detected at least once",
-    "detections": "detections summed over landmarks and rounds",
-    "mean_detection_s": "mean detection time t-hat of the period (Eq. 4.23; NaN: nothing detected)",
-    "active_antenna": "reader antenna active in the period (nearest to the previous WCL estimate)",
+    **tracks.COLUMN_TEXT, "case": "index of the case (experiment, trajectory, speed) in the cases table",
     "tracker": "tracker: wcl, pfbin, pfaa (v_threshold), pfaa-never / pfaa-always, sqlam",
-    "x_est_m": "estimated x (compensated where the tracker compensates)",
-    "y_est_m": "estimated y of the tracker at the period end (compensated where the tracker compensates)",
-    "error_m": "distance from the estimate to the true position", "experiment": "speed-sweep, trajectory-2 or random-walk",
-    "trajectory": "trajectory: 1, 2 (Fig. 4.10 replicas) or random-walk",
+    "experiment": "speed-sweep, trajectory-2 or random-walk", "trajectory": "trajectory: 1, 2 (Fig. 4.10 replicas) or random-walk",
     "speed_mps": "constant speed on trajectories 1 and 2 (NaN for the random walk)",
     "realizations": "realizations of the case", "duration_s": "tracking duration of the case",
     "mean_error_m": "the source's average RMSE: the l2 error averaged over realizations and periods (L4507, L5383)",
@@ -421,17 +320,9 @@ _TEXT = {
 }
 
 _GROUPS = {
-    "detections": "one row per (case, realization, period, landmark) with at least one detection",
-    "periods": "one row per (case, realization, query period): duration, truth, detection totals, active antenna",
-    "truth": "true ST position at the end of every query period of every realization",
-    "estimates": "one row per (case, realization, period, tracker): estimate and error",
-    "summary": "one row per (case, tracker): RMSE beside the published value and the change vs WCL",
+    **tracks.TABLE_TEXT, "summary": "one row per (case, tracker): RMSE beside the published value and the change vs WCL",
     "cases": "one row per case: experiment, trajectory, speed, realizations, duration",
 }
-
-
-def _describe(key: str) -> str:
-    return _TEXT.get(key, key.replace("_", " "))
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rfsim.core.errors import ConfigError
+
 
 @dataclass(frozen=True)
 class Room:
@@ -46,6 +48,18 @@ class Room:
         y = -h / 2 + (np.arange(ny) + 0.5) * h / ny
         gx, gy = np.meshgrid(x, y, indexing="ij")
         return np.column_stack([gx.ravel(), gy.ravel()])
+
+    def check_waypoints(self, key: str, points_xy, name: str = "") -> None:
+        """Raise :class:`ConfigError` (naming ``key``, and the room's ``name`` if any) unless
+        ``points_xy`` are ≥ 2 points (x, y) [m] inside the floor."""
+        x0, y0, x1, y1 = self.bounds_m
+        pts = np.asarray(points_xy, float).reshape(-1, 2)
+        if pts.shape[0] < 2:
+            raise ConfigError(key, [list(p) for p in pts], "at least 2 waypoints (x, y) in m")
+        out = ~((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0) & (pts[:, 1] <= y1))
+        if out.any():
+            raise ConfigError(key, list(pts[np.argmax(out)]), f"waypoints inside the {name + ' ' if name else ''}room x in [{x0:g}, {x1:g}], "
+                                                              f"y in [{y0:g}, {y1:g}] m (the trajectory leaves the room)")
 
     def with_grid(self, grid: tuple[int, int] | None) -> Room:
         """The same room and antennas with another landmark grid (``None``: this room)."""

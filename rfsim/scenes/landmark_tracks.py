@@ -1,0 +1,146 @@
+"""Tracks of a sense-a-tag (ST) through a room of landmark tags (:mod:`rfsim.scenes.landmark_room`)
+and the tables of a tracking run (AURIS ch. 4; seeds/003 L4493-L4650).
+
+A *track* is one realization's record, a dict of arrays over its T query periods:
+``t_end_s`` (T,) period ends [s], ``truth`` (T, 2) the ST at the period ends [m], ``start`` (4,)
+the known initial state [x, y, ẋ, ẏ] (PF-BIN's start: the position at t = 0 and the velocity
+by the difference over the first millisecond), ``counts`` (T, L) detections per landmark,
+``mean_detection_s`` (T,) t̂ [s] (NaN: none), ``active`` (T,) the reader antenna, ``slots`` and
+``reads`` (T,) the Gen2 slots and EPC reads of the period (0 for the surrogate).
+
+* :func:`surrogate_track`: the RTS surrogate (:mod:`rfsim.detection.landmark_rts`) on the fixed
+  period grid t_end = (t + 1)·T_s, the rounds at τ_j = (t + (j + ½)/N)·T_s;
+* :func:`listened_track`: the sample-level listening scene (:mod:`rfsim.scenes.landmark_listening`),
+  periods as long as the rounds take;
+* :func:`track_estimates`: the trackers of :mod:`rfsim.estimators.landmark_pf` on tracks.
+
+:func:`period_rows`, :func:`detection_rows` and :func:`estimate_rows` turn a track (and the
+trackers' estimates on it) into table rows; :data:`COLUMN_TEXT` and :data:`TABLE_TEXT` describe them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from rfsim.detection.landmark_rts import draw_landmark_detections, rts_fixed_logit, rts_likelihood_model
+from rfsim.estimators.landmark_pf import LandmarkFilterConfig, run_tracker
+from rfsim.scenes.landmark_listening import SampleLevelConfig, listen_track
+from rfsim.scenes.landmark_room import Room
+
+#: Time step [s] of the finite difference that gives the initial velocity.
+_START_DT_S = 1e-3
+
+
+def _start(p0, p1) -> np.ndarray:
+    return np.r_[p0, (p1 - p0) / _START_DT_S]
+
+
+def surrogate_track(room: Room, position_at: Callable, *, duration_s: float, period_s: float, rounds: int,
+                    rng: np.random.Generator) -> dict[str, np.ndarray]:
+    """A track of round(duration_s / period_s) periods of RTS surrogate detections.
+
+    position_at : ``t_s (n,) → (n, 2)`` the ST's true position [m], called once on every time
+    (0, 1 ms, the round times, the period ends); rng : the detections' draws.
+    """
+    landmarks = room.landmarks_xy()
+    T = int(round(duration_s / period_s))
+    t_end = (np.arange(T) + 1) * period_s
+    tau = (np.arange(T)[:, None] + (np.arange(rounds)[None, :] + 0.5) / rounds) * period_s
+    pos = position_at(np.concatenate([[0.0, _START_DT_S], tau.ravel(), t_end]))
+    det = draw_landmark_detections(rts_fixed_logit(room.antennas_xyz_m, landmarks), landmarks, room.antennas_xyz_m,
+                                   pos[2:2 + tau.size].reshape(T, rounds, 2), period_s=period_s, rng=rng)
+    return {"t_end_s": t_end, "truth": pos[2 + tau.size:], "start": _start(pos[0], pos[1]),
+            "slots": np.zeros(T, np.int64), "reads": np.zeros(T, np.int64), **det}
+
+
+def listened_track(room: Room, position_at: Callable, *, height_m: float, rounds: int, sl: SampleLevelConfig,
+                   st_config, seed: int, key: tuple[int, ...]) -> dict[str, np.ndarray]:
+    """A track heard through sample-level Gen2 rounds (:func:`rfsim.scenes.landmark_listening.listen_track`,
+    streams ``trial_rng(seed, *key, k)``), the ST's antennas ``height_m`` [m] above its floor
+    position; ``position_at`` as in :func:`surrogate_track`."""
+    res = listen_track(room, lambda t: np.r_[position_at(np.array([t]))[0], height_m], rounds=rounds, sl=sl,
+                       st_config=st_config, seed=seed, key=key)
+    pos = position_at(np.concatenate([[0.0, _START_DT_S], res.t_end_s]))
+    return {"t_end_s": res.t_end_s, "truth": pos[2:], "start": _start(pos[0], pos[1]), "counts": res.counts,
+            "mean_detection_s": res.mean_detection_s, "active": np.zeros(res.t_end_s.size, np.int64),
+            "slots": res.slots_per_period, "reads": res.reads_per_period}
+
+
+def track_estimates(room: Room, chunk: list[dict], trackers, *, filters: LandmarkFilterConfig, rounds: int,
+                    rngs: list) -> dict[str, np.ndarray]:
+    """Every tracker on tracks with a common number of periods, ``label → (B, T, 2)`` [m].
+
+    trackers : (label, kind, v_threshold [m/s]) per tracker (:func:`rfsim.estimators.landmark_pf.run_tracker`),
+    ``rngs`` one stream each. The filters' period Δt is the mean period of the tracks (T_s for
+    the surrogate) and their likelihood the RTS model of each period's active antenna.
+    """
+    landmarks = room.landmarks_xy()
+    col = {k: np.stack([d[k] for d in chunk]) for k in ("counts", "mean_detection_s", "active", "t_end_s", "start")}
+    t_end = col["t_end_s"]
+    probability = rts_likelihood_model(rts_fixed_logit(room.antennas_xyz_m, landmarks), col["active"], landmarks)
+    return {label: run_tracker(kind, col["counts"], landmarks, config=filters, v_threshold_mps=vt,
+                               period_s=float(np.mean(t_end[:, -1] / t_end.shape[1])), n_rounds=rounds,
+                               probability=probability, initial_state=col["start"], period_end_s=t_end,
+                               mean_detection_s=col["mean_detection_s"], rng=rng)
+            for (label, kind, vt), rng in zip(trackers, rngs)}
+
+
+def _keys(case: int, realization: int, n: int) -> dict[str, np.ndarray]:
+    return {"case": np.full(n, case), "realization": np.full(n, realization), "period": np.arange(n)}
+
+
+def period_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
+    """One row per query period: duration, truth, detection totals, active antenna, slots, reads."""
+    c, truth, t_end = track["counts"], track["truth"], track["t_end_s"]
+    return {**_keys(case, realization, t_end.size), "t_end_s": t_end, "period_duration_s": np.diff(np.r_[0.0, t_end]),
+            "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
+            "detections": c.sum(axis=1), "mean_detection_s": track["mean_detection_s"],
+            "active_antenna": track["active"], "slots": track["slots"], "reads": track["reads"]}
+
+
+def detection_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
+    """One row per (period, landmark) with at least one detection."""
+    c = track["counts"]
+    nz = np.nonzero(c)
+    return {"case": np.full(nz[0].size, case), "realization": np.full(nz[0].size, realization), "period": nz[0],
+            "landmark": nz[1], "count": c[nz]}
+
+
+def estimate_rows(case: int, realization: int, track: dict, estimates: dict) -> list[dict[str, np.ndarray]]:
+    """Per tracker (label → (T, 2) [m] estimates), one row per period: estimate and error [m]."""
+    T = track["t_end_s"].size
+    return [{**_keys(case, realization, T), "tracker": np.full(T, label), "x_est_m": x[:, 0], "y_est_m": x[:, 1],
+             "error_m": np.linalg.norm(x - track["truth"], axis=-1)} for label, x in estimates.items()]
+
+
+#: Descriptions of the columns of :func:`period_rows`, :func:`detection_rows`, :func:`estimate_rows`.
+COLUMN_TEXT = {
+    "realization": "realization (independent detections, and walk) of the case",
+    "period": "query period index t (the period ends at (t + 1) T_s)", "landmark": "landmark index (grid order)",
+    "count": "detections n_{t,k} of the landmark among the N rounds of the period (zeros not stored)",
+    "t_end_s": "end of the period (the estimate's time)",
+    "period_duration_s": "duration of the query period (T_s in the surrogate mode; sample level: N QT rounds)",
+    "slots": "Gen2 slots of the period's N QT rounds (sample level; 0 in the surrogate mode)",
+    "reads": "landmark EPCs the reader read in the period (sample level; 0 in the surrogate mode)",
+    "x_true_m": "true x of the ST at the period end",
+    "y_true_m": "true y of the ST at the period end", "detected_landmarks": "landmarks detected at least once",
+    "detections": "detections summed over landmarks and rounds",
+    "mean_detection_s": "mean detection time t-hat of the period (Eq. 4.23; NaN: nothing detected)",
+    "active_antenna": "reader antenna active in the period (nearest to the previous WCL estimate)",
+    "x_est_m": "estimated x (compensated where the tracker compensates)",
+    "y_est_m": "estimated y of the tracker at the period end (compensated where the tracker compensates)",
+    "error_m": "distance from the estimate to the true position",
+}
+
+#: Descriptions of the tables of a tracking run (``truth``: the period table's truth columns).
+TABLE_TEXT = {
+    "detections": "one row per (case, realization, period, landmark) with at least one detection",
+    "periods": "one row per (case, realization, query period): duration, truth, detection totals, active antenna",
+    "truth": "true ST position at the end of every query period of every realization",
+    "estimates": "one row per (case, realization, period, tracker): estimate and error",
+}
+
+__all__ = ["surrogate_track", "listened_track", "track_estimates", "period_rows", "detection_rows", "estimate_rows", "COLUMN_TEXT",
+           "TABLE_TEXT"]

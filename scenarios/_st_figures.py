@@ -27,9 +27,8 @@ def plot_all(path: Path, out_dir: Path) -> list[Path]:
     idx = np.flatnonzero(cases["experiment"] != "speed-sweep")
     c = int(cases["case"][idx[0]] if idx.size else cases["case"][0])
     fig, ax = plt.subplots(figsize=(7, 5.5))
-    x0, y0, x1, y1 = a["bounds_m"]
+    (x0, y0, x1, y1), lm, ant = a["bounds_m"], np.atleast_2d(a["landmarks_xy_m"]), np.atleast_2d(a["antennas_xyz_m"])
     ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
-    lm, ant = np.atleast_2d(a["landmarks_xy_m"]), np.atleast_2d(a["antennas_xyz_m"])
     ax.plot(lm[:, 0], lm[:, 1], "s", ms=4, color="0.55", label="landmark tags")
     ax.plot(ant[:, 0], ant[:, 1], "x", ms=12, mew=3, color="tab:red", label="reader antennas (2 m, facing down)")
     ps = (per["case"] == c) & (per["realization"] == 0) & (per["period"] < 200)
@@ -56,16 +55,14 @@ def plot_all(path: Path, out_dir: Path) -> list[Path]:
                 rmse = rms_per_step(est["period"][m], est["error_m"][m])
                 k = max(1, rmse.size // 300)
                 ax.plot(((np.arange(rmse.size) + 1) * a["detection_period_s"])[::k], rmse[::k], lw=0.8, label=label)
+        ax.set(**({"xlabel": "position error [m]", "ylabel": "CDF", "title": f"Error CDF — {cite('auris', 'Fig. 4.14')}"}
+                  if cdf else {"xlabel": "time [s]", "ylabel": "RMSE over realizations [m]",
+                               "title": f"Error vs time — {cite('auris', 'Fig. 4.12')}"}))
         if cdf:
-            ax.set(xlabel="position error [m]", ylabel="CDF", title=f"Error CDF — {cite('auris', 'Fig. 4.14')}")
             ax.grid(alpha=0.3)
-        else:
-            ax.set(xlabel="time [s]", ylabel="RMSE over realizations [m]",
-                   title=f"Error vs time — {cite('auris', 'Fig. 4.12')}")
         ax.legend(fontsize=8)
         out.append(save_figure(fig, figure_path(path, out_dir, name)))
-    keep = s["experiment"] != "speed-sweep"
-    keep = keep if keep.any() else np.ones_like(keep)
+    keep = (s["experiment"] != "speed-sweep") | np.all(s["experiment"] == "speed-sweep")  # all if only the sweep
     x = np.arange(int(keep.sum()))
     fig, ax = plt.subplots(figsize=(max(6, 0.7 * x.size), 4.5))
     ax.bar(x, s["mean_error_m"][keep], 0.6, label="this run")

@@ -2,31 +2,27 @@
 (AURIS ch. 4: PF-BIN, PF-AA, SQLAM's tracking module, weighted centroid; auris-sense-a-tag.md
 §3.3, §4.2, §7; seeds/003 L4493-L4650, L5375-L5415, L5600-L5690; wave2-specs.md §R).
 
-Scene (:mod:`rfsim.scenes.landmark_room`, tracks :mod:`rfsim.scenes.landmark_tracks`): a reader's
-panel antenna(s) 2 m above the floor facing down, a grid of landmark tags on the floor, the ST
-moving on the floor; per query period of T_s = 0.3 s, N = 10 rounds. ``mode = "surrogate"``: RTS
-detections per round (:mod:`rfsim.detection.landmark_rts`); ``"sample-level"`` (one-antenna
-presets): N real Gen2 QT rounds per period, the ST decoding every EPC reply
-(:mod:`rfsim.scenes.landmark_listening`), periods as long as the rounds take
-(``detection_period_s``), ``sample_level.realizations`` tracks of ``sample_level.duration_s``.
-Trackers: :mod:`rfsim.estimators.landmark_pf` (``filters``, L4503-L4616, L5393-L5409).
+Scene :mod:`rfsim.scenes.landmark_room` (tracks: :mod:`rfsim.scenes.landmark_tracks`): reader
+panel(s) 2 m above a floor of landmark tags, the ST moving on the floor, N = 10 rounds per query
+period. ``mode``: ``surrogate`` (RTS detections per round of a T_s = 0.3 s period,
+:mod:`rfsim.detection.landmark_rts`) or ``sample-level`` (real Gen2 QT rounds heard by the ST,
+:mod:`rfsim.scenes.landmark_listening`; periods as long as the rounds take). Trackers:
+:mod:`rfsim.estimators.landmark_pf` (``filters``, L4503-L4616, L5393-L5409).
 
-Experiments (``realizations`` and durations reduced unless ``full``): ``speed-sweep`` (Fig. 4.11,
-L4587-L4605; trajectory 1, PF-AA compensating never / always, crossover ≈ 1.2 m/s);
-``trajectory-2`` (Figs. 4.12-4.14, L4616-L4636; PF-BIN, PF-AA, WCL at 0.5 and 2.5 m/s; 0.1681 /
-0.1717 m at 0.5 m/s); ``random-walk`` (Fig. 4.15, L4638-L4650; Fig. 4.19, L5409-L5415; L5657-L5664;
-pfaa: PF-AA vs WCL, 1500 s, −36.6 %; sqlam: SQLAM vs WCL, 500 s, −41.9 %; lab: SQLAM, 10,000 s,
-0.2560 m). A case's value is the source's "average RMSE" (``summary.mean_error_m``: ‖x̃_t − x_t‖
-at the period end averaged over realizations and periods, L4507-L4513, L5383-L5385);
-``summary.rmse_m`` is the time average of RMSE_t over realizations (larger).
+Experiments (reduced unless ``full``): ``speed-sweep`` (Fig. 4.11, L4587-L4605: PF-AA compensating
+never / always on trajectory 1, crossover ≈ 1.2 m/s); ``trajectory-2`` (Figs. 4.12-4.14,
+L4616-L4636: PF-BIN, PF-AA, WCL; 0.1681 / 0.1717 m at 0.5 m/s); ``random-walk`` (Figs. 4.15,
+4.19, L4638-L4650, L5409-L5415, L5657-L5664: PF-AA vs WCL −36.6 % over 1500 s; sqlam: SQLAM vs
+WCL −41.9 % over 500 s; lab: SQLAM 0.2560 m over 10,000 s). ``summary.mean_error_m`` is the
+source's "average RMSE" (‖x̃_t − x_t‖ at period ends averaged over realizations and periods,
+L4507-L4513, L5383-L5385); ``summary.rmse_m`` the time average of RMSE_t (larger).
 
-Measured (seed 1): crossover 1.19 m/s; random walk PF-AA vs WCL −44.6 %; sqlam (20 × 500 s)
-−37.3 % (0.268 / 0.428 m); lab 0.316 m (+23 %, WCL 0.412 m); trajectory 2 at 0.5 m/s (100
-realizations) PF-BIN 0.179 m, PF-AA 0.188 m (standard errors 0.0014 / 0.0008 m): the detections
-of a period are spread over it (a T_s/2 lag) and this replica's grid carries ≈ 0.2 m of position
-information. SQLAM's mapping and landmark replacement are not implemented. Sample level (pfaa,
-0.5 m/s, 12 s): period 4.72 s (694 slots, 450 reads), ≈ 53 replies decoded per period, PF-BIN
-1.62 m, PF-AA 0.99 m, WCL 0.94 m (the ST moves 2.4 m per period).
+Measured (seed 1): crossover 1.19 m/s; PF-AA vs WCL −44.6 %; sqlam −37.3 % (0.268 / 0.428 m);
+lab 0.316 m (+23 %); trajectory 2 at 0.5 m/s (100 realizations) PF-BIN 0.179 m, PF-AA 0.188 m
+(standard errors 0.0014 / 0.0008 m): the detections lag the period end by T_s/2 on average and
+this grid carries ≈ 0.2 m of position information. SQLAM's mapping and landmark replacement are
+not implemented. Sample level (pfaa, 0.5 m/s, 12 s): 4.72 s periods (694 slots, 450 reads, ≈ 53
+replies decoded), PF-BIN 1.62 m, PF-AA 0.99 m, WCL 0.94 m.
 
 Randomness: case c, realization b: ``trial_rng(seed, c, b, 0)`` the walk, ``(…, 1)`` the
 detections (sample level ``(…, 2, k)``); tracker f of chunk g ``trial_rng(seed, c, 1000 + g, f)``
@@ -46,7 +42,6 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
 from rfsim.core.rng import trial_rng
-from rfsim.core.trajectories import along_path, random_walk
 from rfsim.estimators.landmark_pf import LandmarkFilterConfig
 from rfsim.estimators.track_errors import mean_rms_error
 from rfsim.scenes import landmark_room as rooms
@@ -73,8 +68,7 @@ PUBLISHED = {
     "lab_rmse_m": 0.2560,                     # L5664, 10,000 s
 }
 
-_EXPERIMENTS = {"pfaa": ("speed-sweep", "trajectory-2", "random-walk"), "sqlam": ("random-walk",),
-                "lab": ("random-walk",)}
+_EXPERIMENTS = {"pfaa": ("speed-sweep", "trajectory-2", "random-walk"), "sqlam": ("random-walk",), "lab": ("random-walk",)}
 _WALK_S = {"pfaa": 1500.0, "sqlam": 500.0, "lab": 10000.0}
 
 
@@ -127,9 +121,7 @@ class Config:
     def experiment_list(self) -> tuple[str, ...]:
         if self.experiments is not None:
             return self.experiments
-        if self.mode == "sample-level" and self.preset == "pfaa":
-            return ("trajectory-2",)
-        return _EXPERIMENTS[self.preset]
+        return ("trajectory-2",) if self.mode == "sample-level" and self.preset == "pfaa" else _EXPERIMENTS[self.preset]
 
     @property
     def walk_s(self) -> float:
@@ -167,24 +159,15 @@ def cases(config: Config) -> list[Case]:
             main = ("pfaa", "pfaa", vt) if config.preset == "pfaa" else ("sqlam", "pfaa", np.inf)
             n = (100 if config.preset == "sqlam" else 1) if full else (R if config.preset == "sqlam" else 1)
             out.append(Case(len(out), exp, "random-walk", np.nan, n, config.walk_s, (main, ("wcl", "wcl", 0.0))))
-    sl = config.sample_level
-    return [replace(c, realizations=sl.realizations, duration_s=sl.duration_s) for c in out] \
-        if config.mode == "sample-level" else out
-
-
-# ----------------------------------------------------------------------------- one chunk
+    sl, sample = config.sample_level, config.mode == "sample-level"
+    return [replace(c, realizations=sl.realizations, duration_s=sl.duration_s) for c in out] if sample else out
 
 
 def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
     """True ST positions at times ``t_s`` (…, 2) for realization b of the case."""
-    if case.trajectory == "1":
-        pts = np.asarray(config.trajectory_1_xy_m, float)
-        return along_path(pts if np.array_equal(pts[0], pts[-1]) else np.vstack([pts, pts[:1]]), case.speed_mps, t_s)
-    if case.trajectory == "2":
-        return along_path(rooms.trajectory_2_xy(), case.speed_mps, t_s)
-    flat = np.asarray(t_s, float).ravel()
-    return random_walk(trial_rng(seed, case.index, b, 0), config.room.bounds_m, config.walk_speed_mps,
-                       flat).reshape(np.shape(t_s) + (2,))
+    return rooms.path_positions(case.trajectory, t_s, speed_mps=case.speed_mps, trajectory_1_xy=config.trajectory_1_xy_m,
+                                bounds_m=config.room.bounds_m, walk_speed_mps=config.walk_speed_mps,
+                                walk_rng=partial(trial_rng, seed, case.index, b, 0))
 
 
 def _track(config: Config, case: Case, b: int, seed: int) -> dict:
@@ -223,15 +206,10 @@ def _task(args):
 
 def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]]:
     """Every case in chunks of ≤ 10 realizations on ``config.workers`` processes, in order."""
-    tasks = []
-    for c in cases(config):
-        for g, a in enumerate(range(0, c.realizations, 10)):
-            tasks.append((config, c, g, list(range(a, min(a + 10, c.realizations))), seed))
+    tasks = [(config, c, g, list(range(a, min(a + 10, c.realizations))), seed) for c in cases(config)
+             for g, a in enumerate(range(0, c.realizations, 10))]
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
     return {n: _exciter_scene.concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
-
-
-# ----------------------------------------------------------------------------- summary and run
 
 
 def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
@@ -309,15 +287,14 @@ def _unit(key: str) -> str:
 _TEXT = {
     **tracks.COLUMN_TEXT, "case": "index of the case (experiment, trajectory, speed) in the cases table",
     "tracker": "tracker: wcl, pfbin, pfaa (v_threshold), pfaa-never / pfaa-always, sqlam",
-    "experiment": "speed-sweep, trajectory-2 or random-walk", "trajectory": "trajectory: 1, 2 (Fig. 4.10 replicas) or random-walk",
+    "experiment": "speed-sweep, trajectory-2 or random-walk", "realizations": "realizations of the case",
+    "trajectory": "trajectory: 1, 2 (Fig. 4.10 replicas) or random-walk", "duration_s": "tracking duration of the case",
     "speed_mps": "constant speed on trajectories 1 and 2 (NaN for the random walk)",
-    "realizations": "realizations of the case", "duration_s": "tracking duration of the case",
     "mean_error_m": "the source's average RMSE: the l2 error averaged over realizations and periods (L4507, L5383)",
     "rmse_m": "time average of the RMS error over realizations",
     "published_rmse_m": "the source's average RMSE (compare mean_error_m; NaN: none)",
     "vs_wcl_percent": "change of mean_error_m against WCL on the same detections",
-    "published_vs_wcl_percent": "the source's change against WCL (L4650, L5415; NaN: none)",
-}
+    "published_vs_wcl_percent": "the source's change against WCL (L4650, L5415; NaN: none)"}
 
 _GROUPS = {
     **tracks.TABLE_TEXT, "summary": "one row per (case, tracker): RMSE beside the published value and the change vs WCL",

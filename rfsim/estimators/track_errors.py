@@ -11,7 +11,7 @@ import numpy as np
 
 
 def _sums(step, error_m) -> tuple[np.ndarray, np.ndarray]:
-    step = np.asarray(step)
+    step = np.asarray(step, dtype=np.intp)
     n_steps = int(step.max()) + 1 if step.size else 0
     e2 = np.zeros(n_steps)
     cnt = np.zeros(n_steps)

@@ -119,8 +119,8 @@ def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
 
 def flat_dipole(position_m) -> _antennas.Antenna:
     """A half-wave dipole lying along x at ``position_m``."""
-    return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X, pattern=_antennas.HalfWaveDipole(),
-                             polarization="linear")
+    return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X,
+                             pattern=_antennas.HalfWaveDipole(), polarization="linear")
 
 
 def landmark_epc_hex(k: int) -> str:
@@ -166,7 +166,8 @@ class ListeningAir(EngineAir):
         window_s = listen(int(reply_bits)) if listen is not None else _link.reply_window_s(link, reply_bits)
         tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
         port = _engine.ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
-        listens = isinstance(cmd, (_commands.ACK, _commands.Query))  # the ST needs the Query's link parameters and the ACK's reply
+        # the ST needs the Query's link parameters and the ACK's reply
+        listens = isinstance(cmd, (_commands.ACK, _commands.Query))
         st_ants, moved = self._st_antennas(t_s) if listens else ([], False)
         if new_round:
             self._round_links.clear()
@@ -255,7 +256,8 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     st_ants = _sense_a_tag.st_antenna_positions(np.asarray(st_center(0.0), float), n_antennas=st_config.n_antennas,
                                                 spacing_m=st_config.spacing_m,
                                                 orientation_rad=math.radians(st_config.orientation_deg))
-    st = _sense_a_tag.SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3), fs_hz=sl.fs_hz)
+    st = _sense_a_tag.SenseATag(st_config, [flat_dipole(p) for p in st_ants], rng=trial_rng(seed, *key, 3),
+                                fs_hz=sl.fs_hz)
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)
     inv = InventoryConfig(q_initial=sl.q_initial)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.errors import ConfigError
+from rfsim.core.trajectories import along_path, random_walk
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,8 @@ class Room:
             raise ConfigError(key, [list(p) for p in pts], "at least 2 waypoints (x, y) in m")
         out = ~((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0) & (pts[:, 1] <= y1))
         if out.any():
-            raise ConfigError(key, list(pts[np.argmax(out)]), f"waypoints inside the {name + ' ' if name else ''}room x in [{x0:g}, {x1:g}], "
+            room = f"{name} room" if name else "room"
+            raise ConfigError(key, list(pts[np.argmax(out)]), f"waypoints inside the {room} x in [{x0:g}, {x1:g}], "
                                                               f"y in [{y0:g}, {y1:g}] m (the trajectory leaves the room)")
 
     def with_grid(self, grid: tuple[int, int] | None) -> Room:
@@ -85,4 +87,19 @@ def trajectory_2_xy(n: int = 2000) -> np.ndarray:
     return np.column_stack([1.5 * np.sin(s), 1.0 * np.sin(2.0 * s)])
 
 
-__all__ = ["Room", "PRESETS", "TRAJECTORY_1_XY", "trajectory_2_xy"]
+def path_positions(trajectory: str, t_s, *, speed_mps: float, trajectory_1_xy, bounds_m, walk_speed_mps,
+                   walk_rng) -> np.ndarray:
+    """The ST's true positions (…, 2) [m] at times ``t_s`` [s] on trajectory "1" (the closed
+    polyline ``trajectory_1_xy``, closed if it is not), "2" (:func:`trajectory_2_xy`) at
+    ``speed_mps``, or otherwise the random walk in ``bounds_m`` at speeds ``walk_speed_mps``
+    (:func:`rfsim.core.trajectories.random_walk`, drawn from a fresh ``walk_rng()`` each call)."""
+    if trajectory == "1":
+        pts = np.asarray(trajectory_1_xy, float)
+        return along_path(pts if np.array_equal(pts[0], pts[-1]) else np.vstack([pts, pts[:1]]), speed_mps, t_s)
+    if trajectory == "2":
+        return along_path(trajectory_2_xy(), speed_mps, t_s)
+    flat = np.asarray(t_s, float).ravel()
+    return random_walk(walk_rng(), bounds_m, walk_speed_mps, flat).reshape(np.shape(t_s) + (2,))
+
+
+__all__ = ["Room", "PRESETS", "TRAJECTORY_1_XY", "trajectory_2_xy", "path_positions"]

@@ -169,12 +169,11 @@ from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.progress import stage
-from rfsim.scenarios._monte_carlo import MonteCarloConfig
+from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import wavelength_m
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.references import cite
-from rfsim.core.procs import map_in_order
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -810,16 +809,9 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     return out
 
 
-def _run_task(args):
-    return run_cell(*args)
-
-
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every (cell, repetition), on ``config.mc.workers`` processes; concatenated in task order."""
-    tasks = [(config, c, r, seed) for c in range(len(config.geometry.tag_x_m))
-             for r in range(config.mc.n_repetitions)]
-    parts = map_in_order(_run_task, tasks, config.mc.workers, desc="monte carlo", unit="cells")
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    return run_cells(run_cell, config, len(config.geometry.tag_x_m), config.mc, seed=seed)
 
 
 # ----------------------------------------------------------------------------- radial tracks

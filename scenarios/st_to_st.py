@@ -74,14 +74,12 @@ from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.core.procs import map_in_order
+from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.rng import trial_rng
 from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, concat, exciter_antenna, room, uniform_disc,
-                                      unit_of)
-from rfsim.scenarios._monte_carlo import MonteCarloConfig
+                                      RowsChain, build_frame, exciter_antenna, room, uniform_disc, unit_of)
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -264,14 +262,9 @@ def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
     return out
 
 
-def _task(args):
-    return simulate_cell(*args)
-
-
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every (cell, repetition) on ``config.mc.workers`` processes, concatenated in task order."""
-    tasks = [(config, c, r, seed) for c in range(len(config.geometry.st_x_m)) for r in range(config.mc.n_repetitions)]
-    return concat(map_in_order(_task, tasks, config.mc.workers, desc="monte carlo", unit="cells"))
+    return run_cells(simulate_cell, config, len(config.geometry.st_x_m), config.mc, seed=seed)
 
 
 # ----------------------------------------------------------------------------- run

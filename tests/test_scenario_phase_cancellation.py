@@ -20,6 +20,7 @@ import pytest
 
 from rfsim.core.dataset import read_dataset, read_table
 from rfsim.runs.runner import run_scenario
+from rfsim.devices import pass_tag, st_pair
 from rfsim.scenarios import phase_cancellation as pc
 
 LAMBDA_915_M = 299792458.0 / 915e6
@@ -290,7 +291,7 @@ def test_pass_replication_uses_the_6_dbi_file_and_the_assembly_resistance(refere
     ratio = rep["tag_available_power_w"][0] / phys["tag_available_power_w"][0]
     assert ratio == pytest.approx(4.0 / 1.6409, rel=0.01)
     assert rep["tag_chip_power_w"][0] < rep["tag_available_power_w"][0]
-    chip = pc.chip_model(str(folder), 915.25e6, 2.5, 0.0)
+    chip = pass_tag.chip_model(str(folder), 915.25e6, 2.5, 0.0)
     # R_at ∥ C_at with the chip's parallel Q at its minimum power (written out here)
     y = 1.0 / chip.impedances(chip.picmin_w)[0]
     r_at = (abs(y.imag) / y.real) / (2 * np.pi * chip.fc_hz * 450e-15)
@@ -392,7 +393,7 @@ def test_below_one_percent_needs_passs_backscatter_level_at_the_st():
 
 @pytest.mark.parametrize("shape", [(7, 2, 2467), (7, 2, 333), (5, 2, 2), (5, 2, 1), (1, 2, 40), (7, 2)])
 def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
-    """couple_ports (numba) against its einsum twin on waveforms and on gains, with the
+    """st_pair.couple_ports (numba) against its einsum twin on waveforms and on gains, with the
     default pair's coupling matrix (Z12 at λ/4) and inputs spanning six decades, zeros and
     negative zeros included."""
     from rfsim.devices import st_analytic as sa
@@ -404,7 +405,7 @@ def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
     first = (0,) * (x.ndim - 2)
     x[(0, slice(None)) + first] = zeros[:2]  # both ports zero: a zero sum
     x[(-1, slice(None)) + first] = zeros[2:]
-    got, want = pc.couple_ports(mix, x), pc.couple_ports_reference(mix, x)
+    got, want = st_pair.couple_ports(mix, x), pc.couple_ports_reference(mix, x)
     assert got.shape == want.shape == x.shape
     np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
     assert not np.allclose(got, x)  # the coupling mixes the ports
@@ -425,7 +426,7 @@ def test_ask_stamp_transitions_kernel_equals_the_comparator_row_by_row():
     swing = rng.uniform(0.003, 0.008, 40)
     bp = swing[:, None] * square[None, :] + 2e-4 * rng.standard_normal((40, n))
     thr = 1.03 * 0.005
-    got = pc.ask_stamp_transitions(bp, frame, thr)
+    got = st_pair.ask_stamp_transitions(bp, frame, thr)
     want = pc.ask_stamp_transitions_reference(bp, frame, thr)
     np.testing.assert_array_equal(got, want)
-    assert got.min() == 0 and got.max() >= pc.STAMP_CYCLES - 1  # both decisions occur
+    assert got.min() == 0 and got.max() >= st_pair.STAMP_CYCLES - 1  # both decisions occur

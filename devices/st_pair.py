@@ -227,5 +227,111 @@ def _decoded_rows(rx: sr.STReceiver, reply, two: bool) -> dict[str, np.ndarray]:
     return out
 
 
+# ----------------------------------------------------------------------------- column descriptions
+
+#: The antennas as the column descriptions name them (key: the name inside a column name)
+ANTENNAS = {
+    "sa1": "SA1 (receive-only path P1)",
+    "sa2": "SA2 (full ST path P2; the single-antenna ST)",
+    "combined": "the RF sum SA1 + SA2 (simple combination)",
+}
+#: The techniques as the column descriptions name them
+TECHNIQUE_NAMES = {
+    "single": "single antenna (SA2 alone)",
+    "combination": "simple combination (one chain on SA1 + SA2)",
+    "selection": "receiving-path selection (Algorithm 1: SA2, else SA1)",
+    "stamp": "ASK-PSK stamp (the stamp's ASK symbol picks SA2 or SA1)",
+}
+_VOLTS = ("antenna-level amplitude sqrt(2R)|phasor| at R = 50 ohm of the narrowband phasor at the "
+          "reference sample (the reader's CW after its command)")
+#: (unit, description) of the :func:`technique_rows` columns that are neither per antenna nor per technique
+OUTCOME_COLUMNS: dict[str, tuple[str, str]] = {
+    "sync_sa2_v": ("V", "detector-output envelope difference at SA2 with the CW synchronised to the "
+                        "backscatter: max over the CW phase phi of ||c e^{j phi} + b1| - |c e^{j phi} + b2|| "
+                        "(= |b1 - b2| when the CW dominates) through the detector law: the detectability "
+                        "condition (R3-5, rfsim.devices.st_analytic.synchronised_difference)"),
+    "detectable": ("1", "sync_sa2_v above the comparator threshold st.threshold_v: a single-antenna ST "
+                        "would see the tag without phase cancellation"),
+    "stamp_use_p1": ("1", "the ASK stamp symbol was '-' on SA2, so the stamp technique decoded on SA1"),
+}
+#: (name prefix, description template) of the per-antenna columns; {ant} names the antenna.
+ANTENNA_COLUMNS = (
+    ("a_r_", "A_R, amplitude of the reader's CW at {ant}: " + _VOLTS),
+    ("a_t1_", "A_T1, backscatter amplitude at {ant} in the tag's modulating state (re-radiated A_s - Gamma_B "
+              "times the incident field): " + _VOLTS),
+    ("a_t2_", "A_T2, backscatter amplitude at {ant} in the tag's absorbing state (re-radiated A_s - Gamma_A "
+              "times the incident field): " + _VOLTS),
+    ("theta_", "theta, phase of the backscatter (state 1) relative to the reader's CW at {ant}, (-pi, pi]"),
+    ("diff_", "sample-level envelope difference |A(+1) - A(-1)| at the detector output of {ant}: mean detector "
+              "level in the tag's two states over the RN16 reply (0 when the tag did not reply)"),
+    ("closed_diff_", "closed-form envelope difference |A1 - A2| (Eq. 3.4, Eq. 3.21 for the sum) at {ant} from "
+                     "the measured phasors through the detector law (detector.law; |f(|c + b1|) - f(|c + b2|)|)"),
+)
+#: (name prefix, description template) of the per-technique columns (of :func:`technique_rows`
+#: and of per-cell probabilities); {tech} names the technique.
+TECHNIQUE_COLUMNS = (
+    ("detected_", "the ST decoded the tag's RN16 exactly with {tech} (sample-level receive chain)"),
+    ("closed_cancelled_", "phase cancellation predicted by the closed forms (Eq. 3.4/3.21, R3-5) for {tech}: "
+                          "detectable, but the technique's envelope difference is below the threshold"),
+    ("cancelled_", "phase cancellation with {tech}: detectable and not detected (sample level)"),
+    ("p_", "probability of phase cancellation with {tech} in the cell: cancelled samples / n_samples (R3-5)"),
+    ("ci_lo_", "lower bound of the Clopper-Pearson 95 % interval of p_{key} (n_samples trials)"),
+    ("ci_hi_", "upper bound of the Clopper-Pearson 95 % interval of p_{key} (n_samples trials)"),
+)
+
+
+def column_unit(key: str) -> str:
+    """Unit of a column from its name's suffix (``_v`` V, ``_m`` m, ``_rad`` rad, ``_w`` W, else 1)."""
+    for suffix, unit in (("_v", "V"), ("_m", "m"), ("_rad", "rad"), ("_w", "W")):
+        if key.endswith(suffix):
+            return unit
+    return "1"
+
+
+def describe_column(key: str) -> str | None:
+    """Description of a column of :func:`technique_rows` or of a per-cell probability (``p_``,
+    ``ci_lo_``, ``ci_hi_`` + technique), from its name; None for other names."""
+    if key in OUTCOME_COLUMNS:
+        return OUTCOME_COLUMNS[key][1]
+    ant = next((a for a in ANTENNAS if f"_{a}_" in f"_{key}_"), None)
+    tech = next((t for t in TECHNIQUE_NAMES if key.endswith(f"_{t}")), None)
+    if ant:
+        for prefix, template in ANTENNA_COLUMNS:
+            if key.startswith(prefix):
+                return template.format(ant=ANTENNAS[ant])
+    if tech:
+        for prefix, template in TECHNIQUE_COLUMNS:
+            if key.startswith(prefix):
+                return template.format(tech=TECHNIQUE_NAMES[tech], key=tech)
+    return None
+
+
+def cell_probabilities(flags: dict[str, np.ndarray], cell, n_cells: int, keep=None) -> dict[str, np.ndarray]:
+    """P(cancel) per cell and technique with its Clopper–Pearson 95 % interval
+    (:func:`rfsim.devices.st_analytic.cancellation_probability`).
+
+    Parameters
+    ----------
+    flags : technique → (n,) bool cancelled flags of the samples
+    cell : (n,) int cell of each sample; n_cells : number of cells
+    keep : (n,) bool samples that count (default all)
+
+    Returns
+    -------
+    dict of (n_cells,) arrays: ``p_<t>``, ``ci_lo_<t>``, ``ci_hi_<t>`` per technique (in the
+    order of ``flags``) and ``n_samples`` (samples kept per cell) after the first technique.
+    """
+    out: dict[str, np.ndarray] = {}
+    for t, f in flags.items():
+        p, lo, hi, nn = np.empty(n_cells), np.empty(n_cells), np.empty(n_cells), np.empty(n_cells, int)
+        for c in range(n_cells):
+            sel = (cell == c) if keep is None else (cell == c) & keep
+            p[c], lo[c], hi[c], nn[c] = sa.cancellation_probability(f[sel])
+        out[f"p_{t}"], out[f"ci_lo_{t}"], out[f"ci_hi_{t}"] = p, lo, hi
+        out["n_samples"] = nn
+    return out
+
+
 __all__ = ["STAMP_CYCLES", "STAMP_SETTLE_CYCLES", "STAMP_DECISION_MARGIN", "STAMP_PSI_RAD", "couple_ports",
-           "ask_stamp_transitions", "stamp_rows", "technique_rows"]
+           "ask_stamp_transitions", "stamp_rows", "technique_rows", "ANTENNAS", "TECHNIQUE_NAMES", "OUTCOME_COLUMNS",
+           "ANTENNA_COLUMNS", "TECHNIQUE_COLUMNS", "column_unit", "describe_column", "cell_probabilities"]

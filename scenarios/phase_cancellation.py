@@ -71,13 +71,12 @@ from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS, st_antenna_positions
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_detector import DetectorConfig, make_st_receiver
-from rfsim.devices.st_pair import technique_rows
+from rfsim.devices.st_pair import ANTENNAS, cell_probabilities, column_unit, describe_column, technique_rows
 from rfsim.devices.tag_config import TagConfig
 from rfsim.scenes.tag_listening import TagListeningScene, simulate_exchange
 
 sa = lazy_import("rfsim.devices.st_analytic")
 _dataset = lazy_import("rfsim.core.dataset")
-columns = lazy_import("rfsim.scenarios._phase_cancellation_columns")
 
 NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
@@ -263,24 +262,65 @@ def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
 # ----------------------------------------------------------------------------- run
 
 
+#: (unit, description) of the scenario's own columns; the techniques' columns are described by
+#: :func:`rfsim.devices.st_pair.describe_column`
+COLUMNS: dict[str, tuple[str, str]] = {
+    "cell": ("1", "index of the cell (tag position) in geometry.tag_x_m, 0-based"),
+    "repetition": ("1", "repetition of the cell: new ST positions, reader/tag draws and channel"),
+    "tag_x_m": ("m", "tag x position of the cell (reader antenna at the origin, boresight +x)"),
+    "st_x_m": ("m", "x of the ST centre, uniform in a disc of geometry.disc_radius_m around the tag"),
+    "st_y_m": ("m", "y of the ST centre, uniform in a disc of geometry.disc_radius_m around the tag"),
+    "orientation_rad": ("rad", "azimuth of the ST's antenna pair axis SA1->SA2, uniform in [-pi, pi)"),
+    "tag_replied": ("1", "the tag powered up, decoded the reader's Query and replied its RN16 in this "
+                         "cell and repetition (false: no backscatter to detect)"),
+    "narrowband_error": ("1", "largest relative RMS envelope error of applying the ST links narrowband "
+                              "(rfsim.protocols.engine.narrowband_rms_error, must stay <= NARROWBAND_TOLERANCE)"),
+    "tag_available_power_w": ("W", "CW power available at the tag antenna port during the Query"),
+    "tag_chip_power_w": ("W", "power absorbed by the tag chip (available power x power transmission "
+                              "coefficient of the chip's unmodulated state)"),
+    "rerad_b_abs": ("1", "|r_B| = |A_s - Gamma_B|, magnitude of the tag's re-radiated modulating state"),
+    "rerad_a_abs": ("1", "|r_A| = |A_s - Gamma_A|, magnitude of the tag's re-radiated absorbing state"),
+    "near_field": ("1", "an ST antenna lies within lambda/(2 pi) = 5.2 cm of the tag (reactive near "
+                        "field, where the far-field links do not hold): excluded from the probabilities"),
+    "n_near_field": ("1", "ST samples of the cell with an antenna within lambda/(2 pi) of the tag (excluded)"),
+    "n_samples": ("1", "ST samples of the cell over all repetitions outside the near field (the trials "
+                       "of each probability)"),
+    "tag_replied_fraction": ("1", "fraction of the cell's repetitions in which the tag replied its RN16 "
+                                  "(0: the tag does not run at this distance)"),
+    "detectable_fraction": ("1", "fraction of the cell's ST samples that are detectable"),
+    "median_a_t1_over_a_r_sa2": ("1", "median over the cell's samples of A_T1/A_R at SA2 (Table 3.1/3.2 "
+                                      "quote 0.54-0.99 in cell 1)"),
+}
+
+
+def _describe(key: str) -> str:
+    """Description of column ``key`` of the samples or cells table (ValueError if unknown)."""
+    text = COLUMNS[key][1] if key in COLUMNS else describe_column(key)
+    ant = next((a for a in ANTENNAS if key.startswith(f"{a}_")), None)
+    if text is None and key.startswith("median_") and key.endswith("_sa2_source_v"):
+        name = {"a_r": "A_R", "a_t1": "A_T1", "a_t2": "A_T2"}[key[len("median_"):-len("_sa2_source_v")]]
+        text = (f"median over the cell's samples of {name} at SA2 in the source's voltage unit (peak sqrt(2P) "
+                f"across 1 ohm, the unit of Tables 3.1/3.2)")
+    elif text is None and ant and key.endswith(("_x_m", "_y_m")):
+        text = f"{key[-3]} position of the antenna {ANTENNAS[ant]} (ST centre +- half the antenna spacing)"
+    if text is None:
+        raise ValueError(f"phase-cancellation column {key!r} has no description")
+    return text
+
+
+def _columns(table: dict[str, np.ndarray]) -> dict:
+    return {k: _dataset.column(v, COLUMNS[k][0] if k in COLUMNS else column_unit(k), _describe(k))
+            for k, v in table.items()}
+
+
 def _summary(samples, n_cells: int) -> dict[str, np.ndarray]:
     """Per cell and technique P(cancel) with its Clopper–Pearson interval over the samples
     outside the near field (``near_field`` excluded and counted in ``n_near_field``)."""
-    out = {"cell": np.arange(n_cells)}
-    far = ~samples["near_field"]
-    out["n_near_field"] = np.array([np.count_nonzero(samples["near_field"][samples["cell"] == c])
-                                    for c in range(n_cells)])
-    for t in TECHS:
-        key = f"cancelled_{t}"
-        if key not in samples:
-            continue
-        p, lo, hi, nn = np.empty(n_cells), np.empty(n_cells), np.empty(n_cells), np.empty(n_cells, int)
-        for c in range(n_cells):
-            sel = (samples["cell"] == c) & far
-            p[c], lo[c], hi[c], nn[c] = sa.cancellation_probability(samples[key][sel])
-        out[f"p_{t}"], out[f"ci_lo_{t}"], out[f"ci_hi_{t}"] = p, lo, hi
-        out["n_samples"] = nn
-    return out
+    cell, near = samples["cell"], samples["near_field"]
+    out = {"cell": np.arange(n_cells), "n_near_field": np.array([np.count_nonzero(near[cell == c])
+                                                                 for c in range(n_cells)])}
+    flags = {t: samples[f"cancelled_{t}"] for t in TECHS if f"cancelled_{t}" in samples}
+    return {**out, **cell_probabilities(flags, cell, n_cells, keep=~near)}
 
 
 def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
@@ -301,7 +341,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
     ds = _dataset.Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
-    ds.add_table("samples", {k: _dataset.column(v, columns.units(k), columns.describe(k)) for k, v in samples.items()},
+    ds.add_table("samples", _columns(samples),
                  description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     summ = _summary(samples, n_cells)
@@ -311,7 +351,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
                                             for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
-    ds.add_table("cells", {k: _dataset.column(v, columns.units(k), columns.describe(k)) for k, v in summ.items()},
+    ds.add_table("cells", _columns(summ),
                  description="one row per cell (tag position): probability of phase cancellation per technique "
                              "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
     far = ~samples["near_field"]

@@ -72,6 +72,7 @@ import numpy as np
 
 from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.st_pair import cell_probabilities
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
@@ -275,10 +276,7 @@ def cell_table(samples, x_m) -> dict[str, np.ndarray]:
     n_cells = len(x_m)
     out = {"cell": np.arange(n_cells), "tx_x_m": np.asarray(x_m, float)}
     cell = samples["cell"]
-    for t in TECHS:
-        res = [sa.cancellation_probability(samples[f"cancelled_{t}"][cell == c]) for c in range(n_cells)]
-        out[f"p_{t}"], out[f"ci_lo_{t}"], out[f"ci_hi_{t}"] = (np.array([r[i] for r in res], float) for i in range(3))
-        out["n_samples"] = np.array([r[3] for r in res], int)
+    out.update(cell_probabilities({t: samples[f"cancelled_{t}"] for t in TECHS}, cell, n_cells))
     out["detectable_fraction"] = np.array([samples["detectable"][cell == c].mean() for c in range(n_cells)])
     out["median_tx_incident_power_w"] = np.array([np.median(samples["tx_incident_power_w"][cell == c])
                                                   for c in range(n_cells)])

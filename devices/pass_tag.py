@@ -143,5 +143,21 @@ def make_tag(tag: TagConfig, states: TagStatesConfig, pr: PassReplicationConfig,
     return PassiveTag(tag, antenna, rng=rng)
 
 
+def tag_attributes(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -> dict:
+    """The tag and ST antennas of these settings in words, and R_at [Ω] when replicating PASS
+    (dataset attributes ``tag_states``, ``tag_antenna``, ``tag_assembly_resistance_ohm``, ``st_antenna``)."""
+    out = {"tag_states": {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna "
+                                      "(Gamma*incident, power-up at picmin + 2.5 dB)",
+                          "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
+                          "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[states.model],
+           "tag_antenna": ("PASS channelchar_directivity_l2-dipole (peak amplitude 2.0, 6.02 dBi: a full-wave "
+                           "pattern)" if pr.enabled else "physical half-wave dipole (2.15 dBi)")}
+    if pr.enabled:
+        out["tag_assembly_resistance_ohm"] = float(tag_chip(states, pr, fc_hz).assembly_resistance_ohm)
+    out["st_antenna"] = ("PASS channelchar_directivity_l2-dipole (PASS's sensatag antenna)"
+                         if pr.enabled and pr.st_antenna_file else "physical half-wave dipoles")
+    return out
+
+
 __all__ = ["PASS_TAG_ANTENNA_FILE", "TagStatesConfig", "PassReplicationConfig", "q_matched_assembly_resistance_ohm",
-           "chip_model", "tag_chip", "make_tag"]
+           "chip_model", "tag_chip", "make_tag", "tag_attributes"]

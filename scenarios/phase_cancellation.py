@@ -60,20 +60,20 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.plots import figure_path, grid_arrays, probability_errorbars, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import wavelength_m
 from rfsim.devices import st_receiver as sr
-from rfsim.devices.pass_tag import PassReplicationConfig, TagStatesConfig, tag_chip
+from rfsim.devices.pass_tag import PassReplicationConfig, TagStatesConfig, tag_attributes
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS, st_antenna_positions
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_detector import DetectorConfig, make_st_receiver
 from rfsim.devices.st_pair import ANTENNAS, cell_probabilities, column_unit, describe_column, technique_rows
 from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.tag_listening import TagListeningScene, simulate_exchange
+from rfsim.scenes.tag_listening import TagListeningScene, geometric_null_spacing_m, simulate_exchange
 
 sa = lazy_import("rfsim.devices.st_analytic")
 _dataset = lazy_import("rfsim.core.dataset")
@@ -228,29 +228,6 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
             "theta_rad": out["theta_sa2_rad"].reshape(shape), "fc_hz": ex.fc_hz}
 
 
-def geometric_null_spacing_m(angle_deg: float, d_min_m: float, d_max_m: float, tag_x_m: float,
-                             fc_hz: float) -> float:
-    """Mean spacing of the nulls along a radial track from its geometry alone [m].
-
-    θ = 2π(R̃ − r)/λ + const (Eq. 3.23) with R̃ the reader–ST and r the tag–ST distance; for
-    weak backscatter θ_cancel ≈ π/2, so a null every π of θ, i.e. every λ/2 of ``R̃ − r``:
-    ``(d_max − d_min)·(λ/2)/|Δ(R̃ − r)|`` over the track (reader at the origin, tag at
-    ``(tag_x_m, 0)``, track at ``angle_deg`` from the tag→reader direction). Near the tag this
-    is λ/(2(1 + cos α)) (0°: λ/4, 90°: λ/2); further out R̃ turns (90°: 0.217 m over
-    0.04–1 m for the tag at 2 m, not the 0.164 m of the tangent). ``inf`` where ``R̃ − r``
-    does not change (180°: the ST behind the tag on the reader–tag line).
-    """
-    lam = float(wavelength_m(fc_hz))
-    u = np.array([math.cos(math.pi + math.radians(angle_deg)), math.sin(math.pi + math.radians(angle_deg))])
-
-    def path_difference(d):
-        p = np.array([tag_x_m, 0.0]) + d * u
-        return float(np.hypot(*p)) - d
-
-    dp = abs(path_difference(d_max_m) - path_difference(d_min_m))
-    return (d_max_m - d_min_m) * 0.5 * lam / dp if dp > 1e-9 else float("inf")
-
-
 def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
     """Local minima of |A1 − A2| along a track and their average spacing [m] (NaN if < 2)."""
     y = np.asarray(diff_v)
@@ -364,17 +341,16 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
             ds.attrs[f"overall_ci_{t}"] = [float(lo), float(hi)]
     stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
-    ds.add_grid("tracks", {"angle_deg": _dataset.column(tr["angle_deg"], "deg", "track angle, measured from the "
-                                                                      "tag->reader direction"),
-                           "distance_m": _dataset.column(tr["distance_m"], "m", "distance of the single-antenna ST from "
-                                                                       "the tag along the track")},
-                {"diff_v": _dataset.column(tr["diff_v"], "V", "sample-level envelope difference |A(+1) - A(-1)| at the ST "
-                                                     "detector output along the track (Fig. 3.15)"),
-                 "closed_diff_v": _dataset.column(tr["closed_diff_v"], "V", "closed-form |A1 - A2| (Eq. 3.4) from the "
-                                                                   "measured phasors through the detector law at the "
-                                                                   "same points"),
-                 "theta_rad": _dataset.column(tr["theta_rad"], "rad", "phase of the backscatter relative to the reader's CW "
-                                                             "at the ST, (-pi, pi]")},
+    spec = {"angle_deg": ("deg", "track angle, measured from the tag->reader direction"),
+            "distance_m": ("m", "distance of the single-antenna ST from the tag along the track"),
+            "diff_v": ("V", "sample-level envelope difference |A(+1) - A(-1)| at the ST detector output along the "
+                            "track (Fig. 3.15)"),
+            "closed_diff_v": ("V", "closed-form |A1 - A2| (Eq. 3.4) from the measured phasors through the detector "
+                                   "law at the same points"),
+            "theta_rad": ("rad", "phase of the backscatter relative to the reader's CW at the ST, (-pi, pi]")}
+    col = {k: _dataset.column(tr[k], *spec[k]) for k in spec}
+    ds.add_grid("tracks", {k: col[k] for k in ("angle_deg", "distance_m")},
+                {k: col[k] for k in ("diff_v", "closed_diff_v", "theta_rad")},
                 description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
                             "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
     for i, a in enumerate(tr["angle_deg"]):
@@ -390,18 +366,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                 "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
                 "distance, 1 + cos(angle) = 0, so there are no nulls")
     _analytic_grids(ds)
-    states = {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna (Gamma*incident, "
-                          "power-up at picmin + 2.5 dB)",
-              "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
-              "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[config.tag_states.model]
-    ds.attrs["tag_states"] = states
-    pr = config.pass_replication
-    ds.attrs["tag_antenna"] = ("PASS channelchar_directivity_l2-dipole (peak amplitude 2.0, 6.02 dBi: a full-wave "
-                               "pattern)" if pr.enabled else "physical half-wave dipole (2.15 dBi)")
-    if pr.enabled:
-        ds.attrs["tag_assembly_resistance_ohm"] = float(tag_chip(config.tag_states, pr, tr["fc_hz"]).assembly_resistance_ohm)
-    ds.attrs["st_antenna"] = ("PASS channelchar_directivity_l2-dipole (PASS's sensatag antenna)"
-                              if pr.enabled and pr.st_antenna_file else "physical half-wave dipoles")
+    ds.attrs.update(tag_attributes(config.tag_states, config.pass_replication, tr["fc_hz"]))
     ds.attrs["a_t_vs_table_3_1"] = A_T_VS_TABLE_3_1
     ds.attrs["below_1_percent"] = BELOW_1_PERCENT
     ds.attrs["deviations"] = (
@@ -480,78 +445,61 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """AURIS dissertation Fig. 3.3/3.5 curves, the Fig. 3.8 map, Fig. 3.15 tracks and
     Fig. 3.16/5.8 probabilities, named ``<dataset stem>-fig3_*.png``."""
     plt = pyplot()
-
-    from rfsim.core.dataset import read_dataset, read_table
-
-    ds = read_dataset(dataset_path)
+    ds = _dataset.read_dataset(dataset_path)
     paths = []
-
-    def grid(name):
-        coords, vars_ = ds.grids[name]
-        return {k: c.data for k, c in coords.items()}, {k: v.data for k, v in vars_.items()}
-
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
-    c, v = grid("fig3_3")
-    for i in range(v["diff"].shape[0]):
-        a1.plot(c["theta_rad"], v["diff"][i], label=f"A_T1={v['a_t1'][i]:g}, A_T2={v['a_t2'][i]:g}")
-    a1.set_title("ASK, A_R = 1 (Eq. 3.4)", fontsize=10)
-    c, v = grid("fig3_5")
-    for i, p in enumerate(c["psi_rad"]):
-        a2.plot(c["theta_rad"], v["diff"][i], label=f"psi = pi/{np.pi / p:.0f}")
-    a2.set_title("PSK, A_R = 1, A_T = 0.4 (Eq. 3.9)", fontsize=10)
-    for a in (a1, a2):
-        a.set_xlabel("relative phase theta [rad]")
-        a.set_ylabel("|A1 - A2|")
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4))
+    (c3, v3), (c5, v5) = grid_arrays(ds, "fig3_3"), grid_arrays(ds, "fig3_5")
+    labels = ([f"A_T1={v3['a_t1'][i]:g}, A_T2={v3['a_t2'][i]:g}" for i in range(v3["diff"].shape[0])],
+              [f"psi = pi/{np.pi / p:.0f}" for p in c5["psi_rad"]])
+    titles = ("ASK, A_R = 1 (Eq. 3.4)", "PSK, A_R = 1, A_T = 0.4 (Eq. 3.9)")
+    for a, (c, v), names, title in zip(axs, ((c3, v3), (c5, v5)), labels, titles):
+        for i, label in enumerate(names):
+            a.plot(c["theta_rad"], v["diff"][i], label=label)
+        a.set_title(title, fontsize=10)
+        a.set(xlabel="relative phase theta [rad]", ylabel="|A1 - A2|")
         a.legend(fontsize=7)
         a.grid(alpha=0.3)
     fig.suptitle(f"Envelope difference vs relative phase — {cite('auris', 'Fig. 3.3 and 3.5')}", fontsize=11)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_3_3_5")))
 
-    c, v = grid("fig3_8")
+    c, v = grid_arrays(ds, "fig3_8")
     fig, ax = plt.subplots(figsize=(5.6, 6.4))
     vmax = 0.02
     im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=vmax)
     fig.colorbar(im, ax=ax, extend="max", label=f"|A1 - A2| [V] (white: >= {vmax:g} V, near the tag)")
     ax.plot([0], [0], "^", color="tab:blue", ms=10, clip_on=False, zorder=5, label="reader (0, 0)")
     ax.plot([0], [2], "s", color="tab:red", ms=7, zorder=5, label="tag (0, 2)")
-    ax.set_xlim(c["x_m"].min(), c["x_m"].max())
-    ax.set_xticks(np.linspace(-1.0, 1.0, 5))
-    ax.set_ylim(min(0.0, c["y_m"].min()), c["y_m"].max())
+    ax.set(xlim=(c["x_m"].min(), c["x_m"].max()), xticks=np.linspace(-1.0, 1.0, 5),
+           ylim=(min(0.0, c["y_m"].min()), c["y_m"].max()), xlabel="x [m]", ylabel="y [m]", aspect="equal")
     ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
-    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal")
     ax.set_title(f"Null map of Eq. 3.4 with Eq. 3.23\n{cite('auris', 'Fig. 3.8')}; dark = cancellation",
                  fontsize=10)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_8")))
 
-    c, v = grid("tracks")
+    c, v = grid_arrays(ds, "tracks")
     fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"]) + 0.6), sharex=True)
-    for i, a in enumerate(np.atleast_1d(axs)):
+    axs = np.atleast_1d(axs)
+    for i, a in enumerate(axs):
         a.plot(c["distance_m"], v["diff_v"][i], "o-", ms=3, label="sample level")
         a.plot(c["distance_m"], v["closed_diff_v"][i], "--", label="Eq. 3.4 from the measured amplitudes")
         a.set_ylabel("|A1-A2| [V]")
         a.set_title(f"track at {c['angle_deg'][i]:g} deg from the tag-reader direction", fontsize=9)
         a.grid(alpha=0.3)
-    np.atleast_1d(axs)[0].legend(fontsize=7)
-    np.atleast_1d(axs)[-1].set_xlabel("ST distance from the tag [m]")
+    axs[0].legend(fontsize=7)
+    axs[-1].set_xlabel("ST distance from the tag [m]")
     fig.suptitle(f"Radial tracks around the tag — {cite('auris', 'Fig. 3.15')}", fontsize=11)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_15")))
 
-    cells = read_table(dataset_path, "cells")
+    cells = _dataset.read_table(dataset_path, "cells")
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    for t in TECHS:
-        if f"p_{t}" not in cells:
-            continue
-        p = cells[f"p_{t}"]
-        err = np.vstack([p - cells[f"ci_lo_{t}"], cells[f"ci_hi_{t}"] - p])
-        ax.errorbar(cells["tag_x_m"], 100 * p, yerr=100 * err, marker="o", capsize=3, label=t)
+    probability_errorbars(ax, cells["tag_x_m"], cells, TECHS)
     silent = cells["tag_replied_fraction"] == 0
     if silent.any():
         x0 = cells["tag_x_m"][silent].min()
         ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
-    attrs = ds.attrs
-    antennas = ("tag: " + ("PASS's 6.02 dBi file" if "PASS" in str(attrs.get("tag_antenna", "")) else "half-wave dipole")
-                + ", ST: " + ("PASS's file" if "PASS" in str(attrs.get("st_antenna", "")) else "half-wave dipoles"))
+    antennas = ("tag: " + ("PASS's 6.02 dBi file" if "PASS" in str(ds.attrs.get("tag_antenna", "")) else "half-wave dipole")
+                + ", ST: " + ("PASS's file" if "PASS" in str(ds.attrs.get("st_antenna", "")) else "half-wave dipoles"))
     ax.set_title("Probability of phase cancellation per technique, this model (95 % Clopper-Pearson)\n"
                  f"to compare with {cite('auris', 'Fig. 3.16 and 5.8')} (path selection there: below 1 %)\n"
                  f"{antennas}", fontsize=9)

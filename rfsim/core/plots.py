@@ -41,3 +41,22 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
 
 
 __all__ = ["pyplot", "save_figure", "figure_path"]
+
+
+def grid_arrays(dataset, name: str) -> tuple[dict, dict]:
+    """Coordinates and variables of grid ``name`` of a read dataset (:func:`rfsim.core.dataset.read_dataset`)
+    as two dicts of NumPy arrays."""
+    coords, variables = dataset.grids[name]
+    return {k: c.data for k, c in coords.items()}, {k: v.data for k, v in variables.items()}
+
+
+def probability_errorbars(ax, x, table, names, labels=None) -> None:
+    """For each name with a column ``p_<name>`` in ``table``: 100·p against ``x`` with the interval
+    ``[ci_lo_<name>, ci_hi_<name>]`` as error bars [%], labelled ``labels[name]`` (default the name)."""
+    for name in names:
+        if f"p_{name}" not in table:
+            continue
+        p = table[f"p_{name}"]
+        err = [p - table[f"ci_lo_{name}"], table[f"ci_hi_{name}"] - p]
+        ax.errorbar(x, 100 * p, yerr=[100 * e for e in err], marker="o", capsize=3,
+                    label=name if labels is None else labels[name])

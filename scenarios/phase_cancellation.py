@@ -64,16 +64,16 @@ from rfsim.core.plots import figure_path, grid_arrays, probability_errorbars, py
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
 from rfsim.core.rng import trial_rng
-from rfsim.core.units import wavelength_m
 from rfsim.devices import st_receiver as sr
 from rfsim.devices.pass_tag import PassReplicationConfig, TagStatesConfig, tag_attributes
 from rfsim.devices.reader_config import ReaderConfig
-from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS, st_antenna_positions
+from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_detector import DetectorConfig, make_st_receiver
 from rfsim.devices.st_pair import ANTENNAS, cell_probabilities, column_unit, describe_column, technique_rows
 from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.tag_listening import TagListeningScene, geometric_null_spacing_m, simulate_exchange
+from rfsim.scenes.tag_listening import (TagListeningScene, geometric_null_spacing_m, in_near_field, minima_spacing_m,
+                                        radial_track_positions, simulate_exchange, sts_in_disc)
 
 sa = lazy_import("rfsim.devices.st_analytic")
 _dataset = lazy_import("rfsim.core.dataset")
@@ -177,17 +177,13 @@ def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshol
 
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
     """All ST positions of one (cell, repetition)."""
-    g, st, mc = config.geometry, config.st, config.mc
-    x_tag = g.tag_x_m[cell]
-    n = mc.n_positions
-    rng = trial_rng(seed, cell, rep, 3)
-    r = g.disc_radius_m * np.sqrt(rng.random(n))
-    phi = rng.uniform(-np.pi, np.pi, n)
-    orient = rng.uniform(-np.pi, np.pi, n)
+    g, st = config.geometry, config.st
+    x_tag, n = g.tag_x_m[cell], config.mc.n_positions
     tag_pos = np.array([x_tag, 0.0, g.height_m])
-    centers = tag_pos + np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
-    sa_pos = st_antenna_positions(centers, n_antennas=st.n_antennas, spacing_m=st.spacing_m, orientation_rad=orient)
-    ex = simulate_exchange(scene(config), x_tag, sa_pos, seed=seed, index=(cell, rep), link_rng=trial_rng(seed, cell, rep, 4))
+    centers, orient, sa_pos = sts_in_disc(trial_rng(seed, cell, rep, 3), tag_pos, n, radius_m=g.disc_radius_m,
+                                          n_antennas=st.n_antennas, spacing_m=st.spacing_m)
+    ex = simulate_exchange(scene(config), x_tag, sa_pos, seed=seed, index=(cell, rep),
+                           link_rng=trial_rng(seed, cell, rep, 4))
     out = st_outcomes(config, ex)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
                st_x_m=centers[:, 0], st_y_m=centers[:, 1], orientation_rad=orient,
@@ -196,8 +192,7 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     for j, name in enumerate(("sa1", "sa2")[-sa_pos.shape[1]:]):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
     out["rerad_a_abs"], out["rerad_b_abs"] = np.full(n, abs(ex.rerad_a)), np.full(n, abs(ex.rerad_b))
-    r_tag = np.linalg.norm(sa_pos - tag_pos, axis=-1)
-    out["near_field"] = np.any(r_tag < wavelength_m(ex.fc_hz) / (2.0 * math.pi), axis=1)
+    out["near_field"] = in_near_field(sa_pos, tag_pos, ex.fc_hz)
     return out
 
 
@@ -214,26 +209,14 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     tc, g = config.tracks, config.geometry
     x_tag = g.tag_x_m[tc.cell]
     d = np.arange(tc.d_min_m, tc.d_max_m + 0.5 * tc.step_m, tc.step_m)
-    tag_pos = np.array([x_tag, 0.0, g.height_m])
-    ang = np.deg2rad(np.asarray(tc.angles_deg))
-    base = math.pi  # tag → reader direction (reader at the origin, tag on +x)
-    pos = tag_pos + np.stack([np.cos(base + ang)[:, None] * d, np.sin(base + ang)[:, None] * d,
-                              np.zeros((ang.size, d.size))], axis=-1)
-    sa_pos = pos.reshape(-1, 1, 3)
-    ex = simulate_exchange(scene(config, apdp=tc.apdp), x_tag, sa_pos, seed=seed, index=(1000,), link_rng=trial_rng(seed, 1000, 4))
+    sa_pos = radial_track_positions(np.array([x_tag, 0.0, g.height_m]), tc.angles_deg, d).reshape(-1, 1, 3)
+    ex = simulate_exchange(scene(config, apdp=tc.apdp), x_tag, sa_pos, seed=seed, index=(1000,),
+                           link_rng=trial_rng(seed, 1000, 4))
     out = st_outcomes(replace(config, st=replace(config.st, n_antennas=1, technique="single")), ex)
-    shape = (ang.size, d.size)
+    shape = (len(tc.angles_deg), d.size)
     return {"angle_deg": np.asarray(tc.angles_deg, float), "distance_m": d,
             "diff_v": out["diff_sa2_v"].reshape(shape), "closed_diff_v": out["closed_diff_sa2_v"].reshape(shape),
             "theta_rad": out["theta_sa2_rad"].reshape(shape), "fc_hz": ex.fc_hz}
-
-
-def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
-    """Local minima of |A1 − A2| along a track and their average spacing [m] (NaN if < 2)."""
-    y = np.asarray(diff_v)
-    i = np.flatnonzero((y[1:-1] < y[:-2]) & (y[1:-1] <= y[2:])) + 1
-    pos = np.asarray(d_m)[i]
-    return pos, float(np.mean(np.diff(pos))) if pos.size >= 2 else float("nan")
 
 
 # ----------------------------------------------------------------------------- run
@@ -304,14 +287,10 @@ def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
     """Per-cell medians of A_R, A_T1, A_T2 and A_T1/A_R at SA2 in the source's voltage unit
     (peak sqrt(2P) across 1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`), the unit of
     Tables 3.1/3.2 (cell 1: A_R = 0.0802–0.1247 V, A_T1/A_R = 0.54–0.99)."""
-    out = {}
     cell = samples["cell"]
-    for key in ("a_r", "a_t1", "a_t2"):
-        v = sr.to_source_volts(samples[f"{key}_sa2_v"])
-        out[f"median_{key}_sa2_source_v"] = np.array([np.median(v[cell == c]) for c in range(n_cells)])
-    ratio = samples["a_t1_sa2_v"] / samples["a_r_sa2_v"]
-    out["median_a_t1_over_a_r_sa2"] = np.array([np.median(ratio[cell == c]) for c in range(n_cells)])
-    return out
+    values = {f"median_{k}_sa2_source_v": sr.to_source_volts(samples[f"{k}_sa2_v"]) for k in ("a_r", "a_t1", "a_t2")}
+    values["median_a_t1_over_a_r_sa2"] = samples["a_t1_sa2_v"] / samples["a_r_sa2_v"]
+    return {k: np.array([np.median(v[cell == c]) for c in range(n_cells)]) for k, v in values.items()}
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
@@ -323,10 +302,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     summ = _summary(samples, n_cells)
     summ["tag_x_m"] = np.asarray(config.geometry.tag_x_m, float)
-    summ["tag_replied_fraction"] = np.array([samples["tag_replied"][samples["cell"] == c].mean()
-                                             for c in range(n_cells)])
-    summ["detectable_fraction"] = np.array([samples["detectable"][samples["cell"] == c].mean()
-                                            for c in range(n_cells)])
+    for key in ("tag_replied", "detectable"):
+        summ[f"{key}_fraction"] = np.array([samples[key][samples["cell"] == c].mean() for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
     ds.add_table("cells", _columns(summ),
                  description="one row per cell (tag position): probability of phase cancellation per technique "
@@ -353,14 +330,14 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                 {k: col[k] for k in ("diff_v", "closed_diff_v", "theta_rad")},
                 description="single-antenna ST moved along radial tracks around the tag of cell tracks.cell "
                             "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
+    d, x_tag = tr["distance_m"], config.geometry.tag_x_m[config.tracks.cell]
     for i, a in enumerate(tr["angle_deg"]):
         name = f"track_{int(round(a))}deg"
-        ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(tr["distance_m"], tr["diff_v"][i])[1]
+        ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(d, tr["diff_v"][i])[1]
         if not np.isfinite(ds.attrs[f"{name}_minima_spacing_m"]):
             ds.attrs[f"{name}_minima_spacing_m_meaning"] = "NaN: fewer than two minima of diff_v along this track"
-        d = tr["distance_m"]
-        ds.attrs[f"{name}_geometric_spacing_m"] = geometric_null_spacing_m(
-            a, float(d[0]), float(d[-1]), config.geometry.tag_x_m[config.tracks.cell], tr["fc_hz"])
+        ds.attrs[f"{name}_geometric_spacing_m"] = geometric_null_spacing_m(a, float(d[0]), float(d[-1]), x_tag,
+                                                                           tr["fc_hz"])
         if not np.isfinite(ds.attrs[f"{name}_geometric_spacing_m"]):
             ds.attrs[f"{name}_geometric_spacing_m_meaning"] = (
                 "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "

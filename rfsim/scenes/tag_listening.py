@@ -50,7 +50,7 @@ from rfsim.devices import st_receiver as sr
 from rfsim.devices.pass_tag import PASS_TAG_ANTENNA_FILE, PassReplicationConfig, TagStatesConfig, make_tag
 from rfsim.devices.reader import Reader
 from rfsim.devices.reader_config import ReaderConfig
-from rfsim.devices.sense_a_tag import listen_start_sample
+from rfsim.devices.sense_a_tag import listen_start_sample, st_antenna_positions
 from rfsim.devices.tag_config import TagConfig
 from rfsim.gen2 import commands as _commands
 from rfsim.gen2 import link as _link
@@ -314,5 +314,44 @@ def geometric_null_spacing_m(angle_deg: float, d_min_m: float, d_max_m: float, t
     return (d_max_m - d_min_m) * 0.5 * lam / dp if dp > 1e-9 else float("inf")
 
 
+def sts_in_disc(rng: np.random.Generator, tag_pos_m, n: int, *, radius_m: float, n_antennas: int,
+                spacing_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n ST centres uniform in a horizontal disc of ``radius_m`` around ``tag_pos_m`` (3,) [m], each
+    with a uniform orientation of its antenna pair; drawn from ``rng`` as radius² (uniform), angle,
+    orientation. Returns centres (n, 3) [m], orientations (n,) [rad] and the antenna positions
+    (n, n_antennas, 3) [m] (:func:`rfsim.devices.sense_a_tag.st_antenna_positions`)."""
+    r = radius_m * np.sqrt(rng.random(n))
+    phi = rng.uniform(-np.pi, np.pi, n)
+    orient = rng.uniform(-np.pi, np.pi, n)
+    centres = tag_pos_m + np.stack([r * np.cos(phi), r * np.sin(phi), np.zeros(n)], axis=1)
+    return centres, orient, st_antenna_positions(centres, n_antennas=n_antennas, spacing_m=spacing_m,
+                                                 orientation_rad=orient)
+
+
+def in_near_field(sa_pos_m, tag_pos_m, fc_hz: float) -> np.ndarray:
+    """(N,) bool: an antenna of the ST (``sa_pos_m`` (N, k, 3) [m]) lies within λ/2π of the tag
+    (reactive near field, where the far-field links do not hold)."""
+    r_tag = np.linalg.norm(sa_pos_m - tag_pos_m, axis=-1)
+    return np.any(r_tag < wavelength_m(fc_hz) / (2.0 * math.pi), axis=1)
+
+
+def radial_track_positions(tag_pos_m, angles_deg, d_m) -> np.ndarray:
+    """Points (A, D, 3) [m] at distances ``d_m`` (D,) from the tag along tracks at ``angles_deg``
+    (A,) from the tag→reader direction (reader at the origin, tag on +x), at the tag's height."""
+    ang = np.deg2rad(np.asarray(angles_deg))
+    base = math.pi  # tag → reader direction (reader at the origin, tag on +x)
+    return tag_pos_m + np.stack([np.cos(base + ang)[:, None] * d_m, np.sin(base + ang)[:, None] * d_m,
+                                 np.zeros((ang.size, d_m.size))], axis=-1)
+
+
+def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
+    """Local minima of |A1 − A2| along a track and their average spacing [m] (NaN if < 2)."""
+    y = np.asarray(diff_v)
+    i = np.flatnonzero((y[1:-1] < y[:-2]) & (y[1:-1] <= y[2:])) + 1
+    pos = np.asarray(d_m)[i]
+    return pos, float(np.mean(np.diff(pos))) if pos.size >= 2 else float("nan")
+
+
 __all__ = ["V_PER_SQRT_W", "TagListeningScene", "pass_tag_pattern", "room", "reader_antenna", "tag_antenna",
-           "st_links", "Exchange", "simulate_exchange", "geometric_null_spacing_m"]
+           "st_links", "Exchange", "simulate_exchange", "geometric_null_spacing_m",
+           "sts_in_disc", "in_near_field", "radial_track_positions", "minima_spacing_m"]

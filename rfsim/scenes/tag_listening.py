@@ -352,6 +352,26 @@ def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
     return pos, float(np.mean(np.diff(pos))) if pos.size >= 2 else float("nan")
 
 
-__all__ = ["V_PER_SQRT_W", "TagListeningScene", "pass_tag_pattern", "room", "reader_antenna", "tag_antenna",
+#: (unit, description) of the per-position columns a scenario of this scene writes: placement
+#: (:func:`sts_in_disc`), near field (:func:`in_near_field`) and the exchange (:class:`Exchange`)
+SAMPLE_COLUMNS: dict[str, tuple[str, str]] = {
+    "st_x_m": ("m", "x of the ST centre, uniform in a disc of geometry.disc_radius_m around the tag"),
+    "st_y_m": ("m", "y of the ST centre, uniform in a disc of geometry.disc_radius_m around the tag"),
+    "orientation_rad": ("rad", "azimuth of the ST's antenna pair axis SA1->SA2, uniform in [-pi, pi)"),
+    "tag_replied": ("1", "the tag powered up, decoded the reader's Query and replied its RN16 in this "
+                         "cell and repetition (false: no backscatter to detect)"),
+    "narrowband_error": ("1", "largest relative RMS envelope error of applying the ST links narrowband "
+                              "(rfsim.protocols.engine.narrowband_rms_error, must stay <= NARROWBAND_TOLERANCE)"),
+    "tag_available_power_w": ("W", "CW power available at the tag antenna port during the Query"),
+    "tag_chip_power_w": ("W", "power absorbed by the tag chip (available power x power transmission "
+                              "coefficient of the chip's unmodulated state)"),
+    "rerad_b_abs": ("1", "|r_B| = |A_s - Gamma_B|, magnitude of the tag's re-radiated modulating state"),
+    "rerad_a_abs": ("1", "|r_A| = |A_s - Gamma_A|, magnitude of the tag's re-radiated absorbing state"),
+    "near_field": ("1", "an ST antenna lies within lambda/(2 pi) = 5.2 cm of the tag (reactive near "
+                        "field, where the far-field links do not hold): excluded from the probabilities"),
+}
+
+
+__all__ = ["V_PER_SQRT_W", "SAMPLE_COLUMNS", "TagListeningScene", "pass_tag_pattern", "room", "reader_antenna", "tag_antenna",
            "st_links", "Exchange", "simulate_exchange", "geometric_null_spacing_m",
            "sts_in_disc", "in_near_field", "radial_track_positions", "minima_spacing_m"]

@@ -148,8 +148,10 @@ def tag_attributes(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: fl
     (dataset attributes ``tag_states``, ``tag_antenna``, ``tag_assembly_resistance_ohm``, ``st_antenna``)."""
     out = {"tag_states": {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna "
                                       "(Gamma*incident, power-up at picmin + 2.5 dB)",
-                          "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with distance)",
-                          "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)"}[states.model],
+                          "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with "
+                                  "distance)",
+                          "source": "source-like re-radiated states, A_T1/A_T2 = 1.03 (backscatter only)",
+                          }[states.model],
            "tag_antenna": ("PASS channelchar_directivity_l2-dipole (peak amplitude 2.0, 6.02 dBi: a full-wave "
                            "pattern)" if pr.enabled else "physical half-wave dipole (2.15 dBi)")}
     if pr.enabled:

@@ -4,33 +4,30 @@ for a single antenna, simple combination, receiving-path selection and the ASK-P
 
 Geometry (§3.2): reader at the origin (patch, boresight +x), a tag at x = 1, 1.5, …, 7 m (13
 cells), all at ``height_m``; per cell and repetition ``positions_per_cell`` ST centres uniform in
-a 0.5 m disc around the tag, each with a random orientation of its λ/4 pair (L3420-3422).
-Channel: Friis + the exponential APDP, PASS ST-room curves (``phasecan.m``, §1.7). Composition:
-one reader segment (``pass-miller2-48k``) per (cell, repetition), heard by every ST antenna at
-once (:mod:`rfsim.scenes.tag_listening`); the tag (:mod:`rfsim.devices.pass_tag`); the ST's
-diode detector and noise (:mod:`rfsim.devices.st_detector`); pair coupling, stamp decision and
-the four techniques at sample level (:mod:`rfsim.devices.st_pair`).
+a 0.5 m disc around the tag, random orientation of the λ/4 pair (L3420-3422); Friis + the
+exponential APDP, PASS ST-room curves (``phasecan.m``, §1.7). One reader segment
+(``pass-miller2-48k``) per (cell, repetition) heard by every ST antenna at once
+(:mod:`rfsim.scenes.tag_listening`); tag: :mod:`rfsim.devices.pass_tag`; detector and noise:
+:mod:`rfsim.devices.st_detector`; pair coupling, stamp decision, techniques: :mod:`rfsim.devices.st_pair`.
 
 Detectability (R3-5, :func:`rfsim.devices.st_analytic.technique_outcomes`): SA2 would see a
 detector-output difference above 5 mV with the CW synchronised, ``max over φ of ||c·e^{jφ} + b1|
-− |c·e^{jφ} + b2||`` (= |b1 − b2| for a dominant CW, seed L3490-3502); the measured chip states
-are not collinear, so the no-CW limit ``||b1| − |b2||`` would label half the replying samples
-undetectable. *Cancelled* = detectable and not detected. ST antennas within λ/2π of the tag
-(2 %) are excluded and counted; probabilities have Clopper–Pearson 95 % intervals. The uniform-θ
-closed form ``E[(2/π)·arcsin(t/|Δb|)·1{|Δb| > t}]`` matches the chain (full run: 25.1 % vs 25.0 %).
+− |c·e^{jφ} + b2||`` (= |b1 − b2| for a dominant CW, seed L3490-3502; the chip states are not
+collinear, so the no-CW ``||b1| − |b2||`` would miss half the replying samples). *Cancelled* =
+detectable and not detected. ST antennas within λ/2π of the tag (2 %) are excluded and counted;
+Clopper–Pearson 95 % intervals. Uniform-θ closed form ``E[(2/π)·arcsin(t/|Δb|)·1{|Δb| > t}]``:
+25.1 % vs the chain's 25.0 % (full run).
 
 Calibration (§6.1, Table 3.1): EIRP 3.28 W (:data:`SOURCE_PTX_DBM` + 6 dBi); source volts =
 peak sqrt(2P) across 1 Ω (:func:`source_amplitudes`; median CW at SA2 in cell 1 ≈ 0.077 V vs
-0.0802 V). Backscatter below Table 3.1's points: attribute ``a_t_vs_table_3_1``. Results (full run,
-seed 1): path selection 13.3 % [12.7, 13.9] (11.3 % with ``pass_replication``), far above the
-source's "below 1 %" (why: ``below_1_percent``), not falling with distance where the tag runs
-(single 27 % at 1 m, 32–39 % over 1.5–5 m); the tag does not power up beyond ≈ 5 m. Selection
-fails where both antennas see the null: Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 or ≈ π. Deviations:
-attribute ``deviations``.
+0.0802 V); backscatter below Table 3.1's points: attribute ``a_t_vs_table_3_1``. Full run, seed 1:
+path selection 13.3 % [12.7, 13.9] (11.3 % with ``pass_replication``), far above the source's
+"below 1 %" (why: ``below_1_percent``), not falling with distance where the tag runs (single 27 %
+at 1 m, 32–39 % over 1.5–5 m; no power-up beyond ≈ 5 m). Selection fails where both antennas see
+the null, Δθ = 2π/λ·s·û·(e_R − e_r) ≈ 0 or π. Deviations: attribute ``deviations``.
 
-Randomness: (cell c, repetition r) uses ``trial_rng(seed, c, r, k)``: k = 0 reader, 1 tag,
-2 forward link, 3 ST positions, 4 ST links, 5 ST noise; radial tracks ``trial_rng(seed, 1000, k)``.
-Results do not depend on the number of worker processes.
+Randomness: ``trial_rng(seed, c, r, k)`` for cell c, repetition r: k = 0 reader, 1 tag, 2 forward link,
+3 ST positions, 4 ST links, 5 ST noise; tracks ``trial_rng(seed, 1000, k)``; independent of the workers.
 """
 
 from __future__ import annotations
@@ -66,6 +63,7 @@ NAME = "phase-cancellation"
 DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single antenna, simple combination, "
                "path selection and ASK-PSK stamp, radial tracks, closed forms (AURIS dissertation Fig. 3.3-3.16, 5.8)")
 
+
 @dataclass(frozen=True)
 class GeometryConfig:
     tag_x_m: tuple[float, ...] = param(tuple(1.0 + 0.5 * i for i in range(13)), lo=0.2, hi=100.0, unit="m",
@@ -90,9 +88,8 @@ class TrackConfig:
     apdp: bool = param(False, doc="small scale on the tracks (off: deterministic LoS, as the Fig. 3.8 model)")
 
 
-#: The source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) [W]
-SOURCE_EIRP_W = 3.28
-#: Conducted power giving SOURCE_EIRP_W with the default 6 dBi reader patch [dBm]
+#: Conducted power giving the source's reader EIRP (PASS ``create_stdrdr``: 3.28 W = 2 W ERP, §6.1) with
+#: the default 6 dBi reader patch [dBm]
 SOURCE_PTX_DBM = 29.16
 
 
@@ -214,33 +211,20 @@ COLUMNS: dict[str, tuple[str, str]] = {**SAMPLE_COLUMNS,
 }
 
 
-def _describe(key: str) -> str:
-    """Description of column ``key`` of the samples or cells table (ValueError if unknown)."""
-    text = COLUMNS[key][1] if key in COLUMNS else describe_column(key)
-    if text is None:
-        raise ValueError(f"phase-cancellation column {key!r} has no description")
-    return text
-
-
 def _columns(table: dict[str, np.ndarray]) -> dict:
-    return {k: _dataset.column(v, COLUMNS[k][0] if k in COLUMNS else column_unit(k), _describe(k))
-            for k, v in table.items()}
-
-
-def _summary(samples, n_cells: int) -> dict[str, np.ndarray]:
-    """Per cell and technique P(cancel) with its Clopper–Pearson interval over the samples
-    outside the near field (``near_field`` excluded and counted in ``n_near_field``)."""
-    cell, near = samples["cell"], samples["near_field"]
-    out = {"cell": np.arange(n_cells), "n_near_field": np.array([np.count_nonzero(near[cell == c])
-                                                                 for c in range(n_cells)])}
-    flags = {t: samples[f"cancelled_{t}"] for t in TECHS if f"cancelled_{t}" in samples}
-    return {**out, **cell_probabilities(flags, cell, n_cells, keep=~near)}
+    """Columns of the samples or cells table with their units and descriptions (ValueError if unknown)."""
+    out = {}
+    for k, v in table.items():
+        unit, text = COLUMNS.get(k) or (column_unit(k), describe_column(k))
+        if text is None:
+            raise ValueError(f"phase-cancellation column {k!r} has no description")
+        out[k] = _dataset.column(v, unit, text)
+    return out
 
 
 def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
-    """Per-cell medians of A_R, A_T1, A_T2 and A_T1/A_R at SA2 in the source's voltage unit
-    (peak sqrt(2P) across 1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`), the unit of
-    Tables 3.1/3.2 (cell 1: A_R = 0.0802–0.1247 V, A_T1/A_R = 0.54–0.99)."""
+    """Per-cell medians of A_R, A_T1, A_T2 and A_T1/A_R at SA2 in the source's volts (peak sqrt(2P) across
+    1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`; Table 3.1/3.2, cell 1: A_R = 0.0802–0.1247 V)."""
     cell = samples["cell"]
     values = {f"median_{k}_sa2_source_v": sr.to_source_volts(samples[f"{k}_sa2_v"]) for k in ("a_r", "a_t1", "a_t2")}
     values["median_a_t1_over_a_r_sa2"] = samples["a_t1_sa2_v"] / samples["a_r_sa2_v"]
@@ -254,18 +238,21 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     ds.add_table("samples", _columns(samples),
                  description="one row per simulated sense-a-tag position: cell, repetition, geometry, the measured "
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")
-    summ = _summary(samples, n_cells)
-    summ["tag_x_m"] = np.asarray(config.geometry.tag_x_m, float)
+    # P(cancel) per cell and technique over the samples outside the near field (excluded and counted)
+    cell, near = samples["cell"], samples["near_field"]
+    flags = {t: samples[f"cancelled_{t}"] for t in TECHS if f"cancelled_{t}" in samples}
+    summ = {"cell": np.arange(n_cells),
+            "n_near_field": np.array([np.count_nonzero(near[cell == c]) for c in range(n_cells)]),
+            **cell_probabilities(flags, cell, n_cells, keep=~near), "tag_x_m": np.asarray(config.geometry.tag_x_m, float)}
     for key in ("tag_replied", "detectable"):
-        summ[f"{key}_fraction"] = np.array([samples[key][samples["cell"] == c].mean() for c in range(n_cells)])
+        summ[f"{key}_fraction"] = np.array([samples[key][cell == c].mean() for c in range(n_cells)])
     summ.update(source_amplitudes(samples, n_cells))
     ds.add_table("cells", _columns(summ),
                  description="one row per cell (tag position): probability of phase cancellation per technique "
                              "with its 95 % interval (AURIS dissertation Fig. 3.16/5.8), median amplitudes")
-    far = ~samples["near_field"]
-    ds.attrs["n_near_field"] = int(np.count_nonzero(samples["near_field"]))
-    for t in (t for t in TECHS if f"cancelled_{t}" in samples):
-        p, lo, hi, _ = sa.cancellation_probability(samples[f"cancelled_{t}"][far])
+    ds.attrs["n_near_field"] = int(np.count_nonzero(near))
+    for t, f in flags.items():
+        p, lo, hi, _ = sa.cancellation_probability(f[~near])
         ds.attrs[f"overall_p_{t}"], ds.attrs[f"overall_ci_{t}"] = float(p), [float(lo), float(hi)]
     stage("radial tracks (Fig. 3.15)")
     tr = radial_tracks(config, seed=seed)
@@ -283,16 +270,15 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                             "(AURIS dissertation Fig. 3.15): envelope difference vs distance per track angle")
     d, x_tag = tr["distance_m"], config.geometry.tag_x_m[config.tracks.cell]
     for i, a in enumerate(tr["angle_deg"]):
-        name = f"track_{int(round(a))}deg"
-        ds.attrs[f"{name}_minima_spacing_m"] = minima_spacing_m(d, tr["diff_v"][i])[1]
-        if not np.isfinite(ds.attrs[f"{name}_minima_spacing_m"]):
-            ds.attrs[f"{name}_minima_spacing_m_meaning"] = "NaN: fewer than two minima of diff_v along this track"
-        ds.attrs[f"{name}_geometric_spacing_m"] = geometric_null_spacing_m(a, float(d[0]), float(d[-1]), x_tag,
-                                                                           tr["fc_hz"])
-        if not np.isfinite(ds.attrs[f"{name}_geometric_spacing_m"]):
-            ds.attrs[f"{name}_geometric_spacing_m_meaning"] = (
-                "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
-                "distance, 1 + cos(angle) = 0, so there are no nulls")
+        for key, value, meaning in (
+                ("minima", minima_spacing_m(d, tr["diff_v"][i])[1],
+                 "NaN: fewer than two minima of diff_v along this track"),
+                ("geometric", geometric_null_spacing_m(a, float(d[0]), float(d[-1]), x_tag, tr["fc_hz"]),
+                 "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
+                 "distance, 1 + cos(angle) = 0, so there are no nulls")):
+            ds.attrs[f"track_{int(round(a))}deg_{key}_spacing_m"] = value
+            if not np.isfinite(value):
+                ds.attrs[f"track_{int(round(a))}deg_{key}_spacing_m_meaning"] = meaning
     _analytic_grids(ds)
     ds.attrs.update(tag_attributes(config.tag_states, config.pass_replication, tr["fc_hz"]))
     ds.attrs.update(NOTES)
@@ -333,31 +319,30 @@ NOTES = {"a_t_vs_table_3_1": (
 
 
 def _analytic_grids(ds: _dataset.Dataset) -> None:
-    th = np.linspace(-np.pi, np.pi, 721)
+    """The closed-form grids of Fig. 3.3 (Eq. 3.4), Fig. 3.5 (Eq. 3.9) and the Fig. 3.8 null map (Eq. 3.23)."""
+    col, th = _dataset.column, np.linspace(-np.pi, np.pi, 721)
+    theta = col(th, "rad", "relative phase theta of backscatter and CW")
     pairs = np.array([[0.4, 0.3], [0.2, 0.1], [0.9, 0.8], [0.05, 0.04]])
-    ds.add_grid("fig3_3", {"case": _dataset.column(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
-                           "theta_rad": _dataset.column(th, "rad", "relative phase theta of backscatter and CW")},
-                {"diff": _dataset.column(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
-                                         "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
-                 "a_t1": _dataset.column(pairs[:, 0], "1", "A_T1 of the case, backscatter amplitude in the modulating "
-                                                  "state relative to A_R", dims=("case",)),
-                 "a_t2": _dataset.column(pairs[:, 1], "1", "A_T2 of the case, backscatter amplitude in the absorbing "
-                                                  "state relative to A_R", dims=("case",))},
+    ds.add_grid("fig3_3", {"case": col(np.arange(len(pairs)), "1", "index of the (A_T1, A_T2) pair, A_R = 1"),
+                           "theta_rad": theta},
+                {"diff": col(sa.ask_envelope_difference(1.0, pairs[:, :1], pairs[:, 1:], th), "1",
+                             "ASK envelope difference |A1 - A2| (Eq. 3.4), amplitudes relative to A_R = 1"),
+                 **{f"a_t{i + 1}": col(pairs[:, i], "1", f"A_T{i + 1} of the case, backscatter amplitude in the {s} "
+                                                        "state relative to A_R", dims=("case",))
+                    for i, s in enumerate(("modulating", "absorbing"))}},
                 description="closed form of AURIS dissertation Fig. 3.3: ASK envelope difference vs relative phase")
     psi = np.array([np.pi, np.pi / 2, np.pi / 4, np.pi / 8])
-    ds.add_grid("fig3_5", {"psi_rad": _dataset.column(psi, "rad", "phase separation psi of the two PSK states"),
-                           "theta_rad": _dataset.column(th, "rad", "relative phase theta of backscatter and CW")},
-                {"diff": _dataset.column(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
-                                         "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
+    ds.add_grid("fig3_5", {"psi_rad": col(psi, "rad", "phase separation psi of the two PSK states"), "theta_rad": theta},
+                {"diff": col(sa.psk_envelope_difference(1.0, 0.4, psi[:, None], th), "1",
+                             "PSK envelope difference |A1 - A2| (Eq. 3.9) with A_R = 1, A_T = 0.4")},
                 description="closed form of AURIS dissertation Fig. 3.5: PSK envelope difference vs relative phase")
-    m = sa.NullMapModel()
     x = np.linspace(-1.0, 1.0, 200)  # even count: the grid misses the tag itself (r = 0)
     y = np.linspace(0.0, 3.0, 301)  # y = 0 is safe: no x sample sits on the reader
-    ds.add_grid("fig3_8", {"y_m": _dataset.column(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
-                           "x_m": _dataset.column(x, "m", "x of the ST position (reader and tag at x = 0)")},
-                {"diff_v": _dataset.column(m.envelope_difference(x[None, :], y[:, None]), "V",
-                                           "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
-                                           "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
+    ds.add_grid("fig3_8", {"y_m": col(y, "m", "y of the ST position (reader at y = 0, tag at y = 2 m)"),
+                           "x_m": col(x, "m", "x of the ST position (reader and tag at x = 0)")},
+                {"diff_v": col(sa.NullMapModel().envelope_difference(x[None, :], y[:, None]), "V",
+                               "envelope difference |A1 - A2| of Eq. 3.4 with the amplitudes and phase of "
+                               "Eq. 3.23 (PASS-measured constants), reader (0, 0), tag (0, 2)")},
                 description="null map of AURIS dissertation Fig. 3.8: closed-form envelope difference over ST "
                             "positions in the plane")
 
@@ -382,12 +367,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         a.grid(alpha=0.3)
     fig.suptitle(f"Envelope difference vs relative phase — {cite('auris', 'Fig. 3.3 and 3.5')}", fontsize=11)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_3_3_5")))
-
     c, v = grid_arrays(ds, "fig3_8")
     fig, ax = plt.subplots(figsize=(5.6, 6.4))
-    vmax = 0.02
-    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=vmax)
-    fig.colorbar(im, ax=ax, extend="max", label=f"|A1 - A2| [V] (white: >= {vmax:g} V, near the tag)")
+    im = ax.pcolormesh(c["x_m"], c["y_m"], v["diff_v"], shading="auto", cmap="gray", vmax=0.02)
+    fig.colorbar(im, ax=ax, extend="max", label="|A1 - A2| [V] (white: >= 0.02 V, near the tag)")
     ax.plot([0], [0], "^", color="tab:blue", ms=10, clip_on=False, zorder=5, label="reader (0, 0)")
     ax.plot([0], [2], "s", color="tab:red", ms=7, zorder=5, label="tag (0, 2)")
     ax.set(xlim=(c["x_m"].min(), c["x_m"].max()), xticks=np.linspace(-1.0, 1.0, 5),
@@ -396,7 +379,6 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set_title(f"Null map of Eq. 3.4 with Eq. 3.23\n{cite('auris', 'Fig. 3.8')}; dark = cancellation",
                  fontsize=10)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_8")))
-
     c, v = grid_arrays(ds, "tracks")
     fig, axs = plt.subplots(len(c["angle_deg"]), 1, figsize=(7, 2.2 * len(c["angle_deg"]) + 0.6), sharex=True)
     axs = np.atleast_1d(axs)
@@ -410,14 +392,13 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     axs[-1].set_xlabel("ST distance from the tag [m]")
     fig.suptitle(f"Radial tracks around the tag — {cite('auris', 'Fig. 3.15')}", fontsize=11)
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_15")))
-
     cells = _dataset.read_table(dataset_path, "cells")
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     probability_errorbars(ax, cells["tag_x_m"], cells, TECHS)
     silent = cells["tag_replied_fraction"] == 0
     if silent.any():
-        x0 = cells["tag_x_m"][silent].min()
-        ax.axvspan(x0 - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0, label="tag not powered")
+        ax.axvspan(cells["tag_x_m"][silent].min() - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0,
+                   label="tag not powered")
     ax.set(xlabel="tag x [m] (cell)", ylabel="P(phase cancellation) [%]")
     antennas = ("tag: " + ("PASS's 6.02 dBi file" if "PASS" in str(ds.attrs.get("tag_antenna", "")) else "half-wave dipole")
                 + ", ST: " + ("PASS's file" if "PASS" in str(ds.attrs.get("st_antenna", "")) else "half-wave dipoles"))

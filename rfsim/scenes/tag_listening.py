@@ -372,6 +372,6 @@ SAMPLE_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
-__all__ = ["V_PER_SQRT_W", "SAMPLE_COLUMNS", "TagListeningScene", "pass_tag_pattern", "room", "reader_antenna", "tag_antenna",
-           "st_links", "Exchange", "simulate_exchange", "geometric_null_spacing_m",
+__all__ = ["V_PER_SQRT_W", "SAMPLE_COLUMNS", "TagListeningScene", "pass_tag_pattern", "room", "reader_antenna",
+           "tag_antenna", "st_links", "Exchange", "simulate_exchange", "geometric_null_spacing_m",
            "sts_in_disc", "in_near_field", "radial_track_positions", "minima_spacing_m"]

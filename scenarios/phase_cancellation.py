@@ -141,13 +141,6 @@ def couple_ports_reference(mix, x) -> np.ndarray:
     return np.einsum("ij,nj...->ni...", mix, x)
 
 
-def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
-    """Plain twin of :func:`ask_stamp_transitions` (the comparator row by row)."""
-    mid = (frame.start + frame.ask_stop) // 2
-    return np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=threshold_v)[0][mid - frame.start:]))
-                     for row in bandpassed_v[:, frame.start:frame.ask_stop]], dtype=np.int64)
-
-
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
     """All ST positions of one (cell, repetition)."""
     g, st = config.geometry, config.st

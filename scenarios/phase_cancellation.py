@@ -136,11 +136,6 @@ def st_outcomes(config: Config, ex) -> dict[str, np.ndarray]:
                           threshold_v=config.st.threshold_v)
 
 
-def couple_ports_reference(mix, x) -> np.ndarray:
-    """Plain NumPy twin of :func:`couple_ports` (``einsum``)."""
-    return np.einsum("ij,nj...->ni...", mix, x)
-
-
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
     """All ST positions of one (cell, repetition)."""
     g, st = config.geometry, config.st

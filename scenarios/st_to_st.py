@@ -77,7 +77,7 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.plots import figure_path, probability_errorbars, pyplot, save_figure
 from rfsim.core.rng import trial_rng
 from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
                                       RowsChain, build_frame, exciter_antenna, room, uniform_disc, unit_of)
@@ -376,11 +376,8 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     cells = read_table(dataset_path, "cells")
     attrs = read_dataset(dataset_path).attrs
     fig, ax = plt.subplots(figsize=(7, 4))
-    for t in TECHS:
-        p = cells[f"p_{t}"]
-        err = np.vstack([p - cells[f"ci_lo_{t}"], cells[f"ci_hi_{t}"] - p])
-        ax.errorbar(cells["tx_x_m"], 100 * p, yerr=100 * err, marker="o", capsize=3,
-                    label=f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)")
+    probability_errorbars(ax, cells["tx_x_m"], cells, TECHS,
+                          labels={t: f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)" for t in TECHS})
     ax.set(xlabel="transmitting ST x [m] (exciter at the origin)", ylabel="P(phase cancellation) [%]",
            title=f"Exciter-powered ST-to-ST link — {cite('auris', 'Fig. 5.8')}")
     ax.legend(fontsize=8)

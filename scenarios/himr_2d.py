@@ -10,7 +10,7 @@ at 4 Mcps, 141 packets/s, IMU words of :mod:`rfsim.devices.imu`) on the boom
 the source compares with, L1014–L1020); pylons (:mod:`rfsim.devices.himr_pylon`) at Table 7's
 (−0.1, 1.5), (2, 3.05), (2.7, −0.03) m (L1006–L1008) on 5.79, 5.80, 5.81 GHz (L997; the
 per-pylon mapping is not stated). The packets go through the air step and the per-packet DSP
-(:mod:`rfsim.scenarios._himr_air`, :mod:`rfsim.himr.dsp`): BOC decode, CRC, complex gain, RSS, phase,
+(:mod:`rfsim.scenes.himr_air`, :mod:`rfsim.himr.dsp`): BOC decode, CRC, complex gain, RSS, phase,
 radial velocity (eq. 23) and RSS range (eq. 22).
 
 Measurement stream (one epoch per scheduled packet, outputs in observer order
@@ -66,7 +66,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -77,25 +77,30 @@ from rfsim.devices.himr_pylon import HIMR_CARRIERS_HZ
 from rfsim.devices.imu import ImuConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.estimators.himr_cases import CASES, case_stream
+from rfsim.estimators.himr_cases import CASES, measurement_stream, observe_case
 from rfsim.estimators.himr_model import PYLONS_M, STATE_NAMES, output_names
-from rfsim.estimators.observer import (VARIANTS, W_D1, W_D2, eig_along, gain_2d, observe_2d, ranks_along,
-                                       unstable_intervals, wrap_innovation)
+from rfsim.estimators.observer import VARIANTS, W_D1, W_D2, eig_along, gain_2d, ranks_along, unstable_intervals
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
 from rfsim.core.trajectories import RotatingBoom, check_inside
-from rfsim.core.units import wavelength_m
-from rfsim.scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.scenes.himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
-_himr_tables = lazy_import("rfsim.scenarios._himr_tables")
+_himr_figures = lazy_import("rfsim.scenarios._himr_figures")
+_himr_air = lazy_import("rfsim.scenes.himr_air")
 
 NAME = "himr-2d"
 DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80/5.81 GHz at sample level, "
                "literal/prerotated/EKF observers and the seven outage cases")
 
+#: Why the 2-D packet has 192 bits (dataset attribute ``packet_bits_note``).
+PACKET_BITS_NOTE = (
+    "packet size from the source's byte counts: the 9axis-2d packet is 3 B header + 2 B ID + 6 B accel + 6 B gyro + "
+    "6 B compass + 1 B CRC = 24 B = 192 bit (seed 000 Table 5, L715-L720; 'three-bytes header, two-bytes ID, "
+    "18-bytes inertial data, single-byte CRC'), air time 192 x 8 / 4 Mcps = 0.384 ms; the reference pages' "
+    "'30 bytes = 240 bit, 0.48 ms' does not follow from those byte counts")
 #: Initial conditions of Table 9 (L1196-L1206): (x, y, ψ), at rest.
 INITIAL_CONDITIONS = {1: (2.0, 1.8048, math.pi), 2: (1.0, 1.0, math.pi / 2), 3: (2.5, 2.3, 3 * math.pi / 2)}
 #: Max errors the source prints per case (x, y) [m], L1176-L1404 (NaN: not printed).
@@ -167,65 +172,9 @@ class Config:
         _check(self, HimrTag(self.tag, self.trajectory, self.imu))
 
 
-# ----------------------------------------------------------------------------- measurement stream
-
-
-def measurement_stream(run, plan, imu: dict, *, every: int = 1) -> dict:
-    """Per epoch (every ``every``-th scheduled packet) the outputs in observer order with NaN
-    where not measured; radial velocities from the phases of the kept packets."""
-    keep = np.arange(0, plan.start_s.size, every)
-    t = plan.start_s[keep]
-    n_p = len(run.pylons)
-    y = np.full((t.size, 2 * n_p + 4), np.nan)
-    oracle = np.full((t.size, n_p), np.nan)
-    for u, (p, m) in enumerate(zip(run.pylons, run.measurements)):
-        idx = run.packet_index[u]
-        pos = np.full(plan.start_s.size, -1)
-        pos[idx] = np.arange(idx.size)
-        rows = pos[keep]
-        ok = rows >= 0
-        ok[ok] &= m.crc_ok[rows[ok]]
-        y[ok, 2 * u] = m.range_m[rows[ok]]
-        phase = np.full(t.size, np.nan)
-        phase[ok] = m.phase_rad[rows[ok]]
-        dphi = np.angle(np.exp(1j * np.diff(phase)))
-        y[1:, 2 * u + 1] = wavelength_m(p.fc_hz) / (4 * np.pi) * dphi / np.diff(t)
-        # the alias nearest the true mean radial velocity (ground truth: dealias = "oracle")
-        r_true = np.full(plan.start_s.size, np.nan)
-        r_true[idx] = run.true_range_m[u]
-        v_true = np.diff(r_true[keep]) / np.diff(t)
-        period = wavelength_m(p.fc_hz) / (2 * np.diff(t))
-        oracle[1:, u] = y[1:, 2 * u + 1] + period * np.round((v_true - y[1:, 2 * u + 1]) / period)
-    k = 2 * n_p
-    y[:, k] = imu["accel_y"][keep]
-    y[:, k + 1] = -imu["accel_x"][keep]
-    y[:, k + 2] = imu["heading_rad"][keep]
-    y[:, k + 3] = imu["gyro_z"][keep]
-    return {"t_s": t, "packet": keep, "y": y, "rdot_oracle": oracle}
-
-
 def _x0(ic: int) -> np.ndarray:
     x, y, psi = INITIAL_CONDITIONS[ic]
     return np.array([x, 0, 0, y, 0, 0, psi, 0, 0], float)
-
-
-def _range_gate(n_pylons: int, gate_m: float, period):
-    """Innovation hook of ``dealias = "gated"``: the radial-velocity innovations are wrapped
-    into ±period/2 only while every measured RSS-range innovation is below ``gate_m`` — then
-    the position the other sensors support is close enough for the prediction to pick the
-    right alias; otherwise (after an outage, from a far initial condition) the measured value
-    is used as it is. Wrapping always can lock the observer onto a wrong alias: a velocity
-    error of a multiple of λ/(2Δt) along every pylon's direction gives zero wrapped
-    innovation and is held by a constant range innovation."""
-    rows = np.arange(0, 2 * n_pylons, 2)
-
-    def hook(k, innov):
-        r = innov[rows]
-        r = r[~np.isnan(r)]
-        if r.size and np.abs(r).max() < gate_m:
-            return wrap_innovation(innov, period[k])
-        return innov
-    return hook
 
 
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:
@@ -241,28 +190,11 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
         runs.append(("literal", 1, "oracle"))  # what the literal observer gives without aliasing
     estimates, summary = [], []
     for variant, case, dealias in runs:
-        base = streams[6 if case == 6 else 1]
-        yb = base["y"]
-        if dealias == "oracle":
-            yb = yb.copy()
-            yb[:, 1:6:2] = base["rdot_oracle"]
-        cs = case_stream(1 if case == 6 else case, base["t_s"], yb, n_pylons=3, outage_s=ob.outage_s)
-        if case == 6:
-            cs = replace(cs, case=6)
-        sel = list(cs.pylons)
-        wrap = hook = None
-        if dealias in ("gated", "innovation"):
-            per = _himr_tables.wrap_periods(cs.t_s, 3, fc_hz)
-            wrap = np.zeros_like(cs.y)
-            for j, u in enumerate(sel):
-                wrap[:, 2 * j + 1] = per[:, u]
-        if dealias == "gated" and variant != "ekf":
-            wrap, hook = None, _range_gate(len(sel), ob.gate_m, wrap)
-        est = observe_2d(cs.t_s, cs.y, x0=x0, variant=variant, pylons_m=pyl[sel], W=W, gain_on=cs.gain_on,
-                         wrap_period=wrap, innovation=hook)
+        cs, est = observe_case(variant, case, dealias, streams, x0=x0, W=W, pylons_m=pyl, fc_hz=fc_hz,
+                               outage_s=ob.outage_s, gate_m=ob.gate_m)
         truth = config.trajectory(cs.t_s).state_2d()
         ex, ey = np.abs(est[:, 0] - truth[:, 0]), np.abs(est[:, 3] - truth[:, 3])
-        e = _himr_tables.errors(est[:, [0, 3]], truth[:, [0, 3]])
+        e = np.hypot(est[:, 0] - truth[:, 0], est[:, 3] - truth[:, 3])
         moving = cs.t_s <= motion_end
         above = np.nonzero(e > ob.converged_m)[0]
         conv = float(cs.t_s[above[-1]]) if above.size else 0.0
@@ -301,7 +233,7 @@ def sample_level(config: Config, *, seed: int):
     air = simulate(tag, sc.pylons_m, sc.carriers_hz, config.radio, seed=seed, t_end_s=sc.duration_s,
                    height_m=config.trajectory.height_m)
     plan = tag.current_plan
-    imu = _himr_tables.imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
+    imu = _himr_air.imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
     return air, plan, imu
 
 
@@ -327,11 +259,11 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     observer_s = time.perf_counter() - tick
 
     ds = _dataset.Dataset(title="2-D HIMR: rotating-boom tag, three pylons at sample level, fixed-gain observers and cases")
-    pk = _himr_tables.packets_table(air, plan)
-    ds.add_table("packets", {k: _dataset.column(v, *_himr_tables.PACKET_COLUMNS[k]) for k, v in pk.items()},
+    pk = _himr_air.packets_table(air, plan)
+    ds.add_table("packets", {k: _dataset.column(v, *_himr_air.PACKET_COLUMNS[k]) for k, v in pk.items()},
                  description="one row per packet decoded at one pylon: CRC, complex gain, RSS, phase, radial "
                              "velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", _himr_tables.imu_columns(imu),
+    ds.add_table("imu", _himr_air.imu_columns(imu),
                  description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
                              "by the first pylon with a good CRC")
     names = output_names(3)
@@ -430,7 +362,7 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
         "variant reaches the source's magnitudes")
     a["dealias"] = config.observer.dealias
     a["packet_bits"] = config.tag.format.n_bits
-    a["packet_bits_note"] = _himr_tables.PACKET_BITS_NOTE
+    a["packet_bits_note"] = PACKET_BITS_NOTE
     a["air_time_s"] = config.tag.air_time_s
     a["n_packets"] = int(plan.start_s.size)
     a["air_steps"] = air.n_steps
@@ -495,7 +427,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     a2.legend(fontsize=7)
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
 
-    fig = _himr_tables.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
+    fig = _himr_figures.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
 
     fig, ax = plt.subplots(figsize=(8, 4))

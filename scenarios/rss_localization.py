@@ -9,9 +9,9 @@ time-varying people term) and the reader's report from rfsim.devices.rss_reader 
 every beacon at sample level instead: Manchester MSK bursts of rfsim.devices.ActiveTag through the
 air interface, per-link log-distance models in the channel, listen-before-talk and
 collisions (rfsim.protocols.beacons), the RSSI measured and reported by rfsim.devices.ActiveReader
-(rfsim.scenarios._rss_waveform); its counts are in the table ``waveform``.
+(rfsim.scenes.active_beacons); its counts are in the table ``waveform``.
 
-Presets (rfsim.scenarios._rss_plans): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x16`` and
+Presets (rfsim.scenes.rss_rooms): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x16`` and
 ``home-2room`` (two rooms, a brick wall, Table 6.1 readers, 4 reference tags).
 
 Experiments per σ0 (simulation presets; §2.4, L1133–L1155, L1319–L1327): a **fixed** target
@@ -58,17 +58,15 @@ from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios._rss_waveform import WaveformConfig, sample_level_reports
+from rfsim.scenes.active_beacons import WaveformConfig, sample_level_reports
 from rfsim.core.lazy import lazy_import
 
-_large_scale = lazy_import("rfsim.channels.large_scale")
-_rss = lazy_import("rfsim.channels.rss")
 _dataset = lazy_import("rfsim.core.dataset")
-_calibration = lazy_import("rfsim.estimators.calibration")
 _bounds = lazy_import("rfsim.estimators.bounds")
-est = lazy_import("rfsim.scenarios._rss_estimate")
+est = lazy_import("rfsim.estimators.rss_localization")
+_rss_tables = lazy_import("rfsim.scenarios._rss_tables")
 _rss_figures = lazy_import("rfsim.scenarios._rss_figures")
-_rss_plans = lazy_import("rfsim.scenarios._rss_plans")
+_rooms = lazy_import("rfsim.scenes.rss_rooms")
 
 NAME = "rss-localization"
 DESCRIPTION = ("active-RFID RSSI localization (Özkaya): log-distance RSS datasets, kNN, grid Bayes, "
@@ -135,17 +133,17 @@ class Config:
 # --------------------------------------------------------------------------- geometry
 
 
-def floor_plan(config: Config) -> _rss_plans.FloorPlan:
+def floor_plan(config: Config) -> _rooms.FloorPlan:
     """The preset's plan with the reader/wall overrides, validated (one-line errors).
 
     Overridden readers keep the preset's per-reader (α, n, σ) when their number is unchanged;
     otherwise every reader takes the first reader's parameters.
     """
     if config.preset == "home-2room":
-        plan = _rss_plans.home_plan()
+        plan = _rooms.home_plan()
     else:
         w, l = (5.0, 8.0) if config.preset == "sim-5x8" else (10.0, 16.0)
-        plan = _rss_plans.simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
+        plan = _rooms.simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
     xmin, ymin, xmax, ymax = plan.bounds
     readers = plan.readers_xy if config.readers_xy is None else config.readers_xy
     if len(readers) == 0:
@@ -161,21 +159,9 @@ def floor_plan(config: Config) -> _rss_plans.FloorPlan:
     params = plan.reader_params
     if len(readers) != len(params):
         params = (params[0],) * len(readers)
-    return _rss_plans.FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
+    return _rooms.FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
                                 plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
                                 plan.reader_height_m, plan.tag_height_m)
-
-
-def rss_channel(plan: _rss_plans.FloorPlan, waf_db: float, sigma_db=None) -> _rss.RssChannel:
-    """The per-reader log-distance channel of ``plan`` (σ_j replaced by ``sigma_db`` if given)."""
-    readers = [_rss.ReaderLink((x, y, plan.reader_height_m), a, n, s if sigma_db is None else sigma_db)
-               for (x, y), (a, n, s) in zip(plan.readers_xy, plan.reader_params)]
-    walls = [_large_scale.Wall.segment_2d((x0, y0), (x1, y1), waf_db) for x0, y0, x1, y1 in plan.walls_xy]
-    return _rss.RssChannel(readers, walls)
-
-
-def _xyz(xy: np.ndarray, z: float) -> np.ndarray:
-    return np.concatenate([xy, np.full(xy.shape[:-1] + (1,), z)], axis=-1)
 
 
 #: The thesis's k_NN per preset (Tables 7.3, 7.6; L1814).
@@ -204,91 +190,7 @@ def _shadowing(config: Config) -> tuple[float, float]:
     return dec, frac
 
 
-# --------------------------------------------------------------------------- simulation
-
-
-def random_walk(start_xy, n_steps: int, step_std_m: float, bounds, *, rng) -> np.ndarray:
-    """Gaussian random walk (D0 per step) whose steps leaving ``bounds`` are redrawn → (T, 2)."""
-    xmin, ymin, xmax, ymax = bounds
-    track = np.empty((n_steps, 2))
-    track[0] = start_xy
-    for t in range(1, n_steps):
-        while True:
-            p = track[t - 1] + rng.normal(0.0, step_std_m, size=2)
-            if xmin <= p[0] <= xmax and ymin <= p[1] <= ymax:
-                break
-        track[t] = p
-    return track
-
-
-@dataclass
-class CaseData:
-    """Simulated beacons of one case: truth (B, T, 2), true/reported RSS (B, T, J) of the
-    target and (B, T, J, I) of the reference tags, the pattern map (B, M, J), and in the
-    waveform mode the beacons' start times."""
-
-    truth_xy: np.ndarray
-    rss_dbm: np.ndarray
-    reported_dbm: np.ndarray
-    ref_rss_dbm: np.ndarray
-    ref_reported_dbm: np.ndarray
-    pattern_map_dbm: np.ndarray | None
-    #: waveform mode: start time [s] of every tag's beacon (B, T, 1 + I) (NaN: dropped by LBT)
-    beacon_t_s: np.ndarray | None = None
-
-
-def simulate_case(config: Config, plan: _rss_plans.FloorPlan, channel: _rss.RssChannel, case: int, motion: str,
-                  n_steps: int, seed: int) -> CaseData:
-    """Draw every trial's track and beacons for one case (per-trial streams)."""
-    dec, frac = _shadowing(config)
-    sig = channel.sigma_db
-    report = _report(config)
-    ref = plan.reference_xy
-    n_ref, n_read = ref.shape[0], channel.n_readers
-    tracks, shadow_t, shadow_r, people_t, people_r, pattern = [], [], [], [], [], []
-    xmin, ymin, xmax, ymax = plan.bounds
-    for b in range(n_tracks(config, plan, motion)):
-        rng = trial_rng(seed, case, 0, b)
-        if _home(config):
-            track = _home_track(plan, motion, b, n_steps)
-        else:
-            start = rng.uniform((xmin, ymin), (xmax, ymax))
-            track = (np.repeat(start[None], n_steps, axis=0) if motion == "fixed"
-                     else random_walk(start, n_steps, config.step_std_m, plan.bounds, rng=rng))
-        fp = _fingerprint_points(plan, rng) if _home(config) else np.zeros((0, 2))
-        pts = _xyz(np.concatenate([track, ref, fp]), plan.tag_height_m)
-        x = _rss.quasi_static_shadowing_db(pts, np.sqrt(frac) * sig, rng=rng, decorrelation_m=dec,
-                                           shared=config.shadowing.readers == "shared")
-        sp = np.sqrt(1.0 - frac) * sig
-        kw = dict(rng=rng, correlation=config.shadowing.people_correlation)
-        tracks.append(track)
-        shadow_t.append(x[:n_steps])
-        shadow_r.append(x[n_steps:n_steps + n_ref])
-        people_t.append(_rss.people_term_db(n_steps, n_read, 1.0, **kw) * sp)
-        people_r.append(_rss.people_term_db(n_steps, n_read * n_ref, 1.0, **kw).reshape(n_steps, n_ref, n_read) * sp)
-        if fp.size:
-            fp_rss = channel.mean_rss_dbm(pts[n_steps + n_ref:]) + x[n_steps + n_ref:]
-            fp_rss = fp_rss + rng.standard_normal(fp_rss.shape) * sp
-            pattern.append(np.nanmean(report.report(fp_rss).reshape(plan.cells_xy.shape[0], -1, n_read), axis=1))
-    truth = np.array(tracks)
-    rss = channel.mean_rss_dbm(_xyz(truth, plan.tag_height_m)) + np.array(shadow_t) + np.array(people_t)
-    ref_mean = channel.mean_rss_dbm(_xyz(ref, plan.tag_height_m))                       # (I, J)
-    ref_rss = ref_mean[None, None] + np.array(shadow_r)[:, None] + np.array(people_r)  # (B, T, I, J)
-    ref_rss = np.swapaxes(ref_rss, -1, -2) if n_ref else np.zeros(rss.shape + (0,))
-    return CaseData(truth, rss, report.report(rss), ref_rss, report.report(ref_rss),
-                    np.array(pattern) if pattern else None)
-
-
-#: Fingerprint campaign (Sec. 6.3, L1057–L1061): 40 vectors per cell, tag moved within 20 cm.
-FINGERPRINTS_PER_CELL = 40
-
-
-def _fingerprint_points(plan: _rss_plans.FloorPlan, rng) -> np.ndarray:
-    jitter = rng.uniform(-0.1, 0.1, size=(plan.cells_xy.shape[0], FINGERPRINTS_PER_CELL, 2))
-    return (plan.cells_xy[:, None, :] + jitter).reshape(-1, 2)
-
-
-def n_tracks(config: Config, plan: _rss_plans.FloorPlan, motion: str) -> int:
+def n_tracks(config: Config, plan: _rooms.FloorPlan, motion: str) -> int:
     """Tracks of a case: ``trials`` (simulation) or ``trials`` × 25 (home: the 25 fixed points, or
     25 walks alternating between the two room paths)."""
     if not _home(config):
@@ -296,33 +198,15 @@ def n_tracks(config: Config, plan: _rss_plans.FloorPlan, motion: str) -> int:
     return (config.trials if config.trials is not None else 4) * plan.fixed_points_xy.shape[0]
 
 
-def _home_track(plan: _rss_plans.FloorPlan, motion: str, trial: int, n_steps: int) -> np.ndarray:
-    if motion == "fixed":
-        p = plan.fixed_points_xy[trial % plan.fixed_points_xy.shape[0]]
-        return np.repeat(p[None], n_steps, axis=0)
-    return plan.mobile_paths_xy[trial % len(plan.mobile_paths_xy)]
-
-
-def offline_campaign(channel: _rss.RssChannel, waf_db: float, *, rng) -> list[dict]:
-    """The offline calibration of Sec. 6.1 (L988–L1011) on the simulated channel.
-
-    Per reader: 4 locations × 100 reads (8 orientations, people moving: every read an
-    independent draw of the reader's σ_j) at 1, 1.5, 2, 2.5, 3 m in the reader's room → LS fit of
-    α_j, n_j, σ_j (fit_log_distance); WAF from the same 400 reads at 3 m through one wall minus
-    the in-room mean at 3 m (L1000).
-    """
-    rows = []
-    d = np.repeat([1.0, 1.5, 2.0, 2.5, 3.0], 400)
-    for j, r in enumerate(channel.readers):
-        mean = r.alpha_dbm - 10.0 * r.exponent * np.log10(d)
-        rss = mean + rng.normal(0.0, r.sigma_db, size=d.size)
-        fit = _calibration.fit_log_distance(rss, d)
-        wall = r.alpha_dbm - 10.0 * r.exponent * np.log10(3.0) - waf_db + rng.normal(0.0, r.sigma_db, 400)
-        waf = float(np.mean(rss[d == 3.0]) - np.mean(wall))
-        rows.append(dict(reader=j + 1, alpha_dbm=float(fit.alpha_dbm), exponent=float(fit.exponent),
-                         sigma_db=float(fit.sigma_db), waf_db=waf, true_alpha_dbm=r.alpha_dbm,
-                         true_exponent=r.exponent, true_sigma_db=r.sigma_db))
-    return rows
+def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, motion: str,
+                  n_steps: int, seed: int) -> _rooms.CaseData:
+    """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons)."""
+    dec, frac = _shadowing(config)
+    sh = config.shadowing
+    return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion,
+                                   n_tracks=n_tracks(config, plan, motion), n_steps=n_steps,
+                                   step_std_m=config.step_std_m, decorrelation_m=dec, static_fraction=frac,
+                                   shared=sh.readers == "shared", people_correlation=sh.people_correlation, seed=seed)
 
 
 # --------------------------------------------------------------------------- run
@@ -333,7 +217,7 @@ def _recursions(config: Config, family: str, sigma0: float) -> int:
         return config.recursions
     if _home(config):
         return config.home_steps
-    return _rss_plans.RECURSIONS[family].get(round(sigma0, 3), 10)
+    return _rooms.RECURSIONS[family].get(round(sigma0, 3), 10)
 
 
 def _scored(motion: str, n_rt: int, n_steps: int) -> np.ndarray:
@@ -354,11 +238,11 @@ def _cases(config: Config) -> list[tuple[float, str]]:
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     plan = floor_plan(config)
     home = _home(config)
-    tables = est.Tables()
-    nominal = rss_channel(plan, config.waf_db)
-    offline = offline_campaign(nominal, config.waf_db, rng=trial_rng(seed, 10 ** 6)) if home else []
+    tables = _rss_tables.Tables()
+    nominal = _rooms.rss_channel(plan, config.waf_db)
+    offline = _rooms.offline_campaign(nominal, config.waf_db, rng=trial_rng(seed, 10 ** 6)) if home else []
     for case, (sigma0, motion) in enumerate(track(_cases(config), desc="cases", unit="cases")):
-        channel = nominal if home else rss_channel(plan, config.waf_db, sigma_db=sigma0)
+        channel = nominal if home else _rooms.rss_channel(plan, config.waf_db, sigma_db=sigma0)
         if home:
             n_steps = config.home_steps if motion == "fixed" else plan.mobile_paths_xy[0].shape[0]
             rt = {f: n_steps for f in ("grid", "pf")}
@@ -369,16 +253,24 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         data = simulate_case(config, plan, channel, case, motion, n_steps, seed)
         if config.rss_model == "waveform":
             data.reported_dbm, data.ref_reported_dbm, data.beacon_t_s, st = sample_level_reports(
-                config, plan, channel, data, case, seed, _report(config))
+                config.waveform, plan, channel, data, waf_db=config.waf_db, case=case, seed=seed, report=_report(config))
             tables.add_waveform(case, sigma0, motion, st)
         rng = trial_rng(seed, case, 1)
+        floor = config.report.floor_dbm if config.report is not None else -90.0
+        common = dict(k=nn_k(config), floor_dbm=floor, step_std_m=config.step_std_m, n_particles=config.particles,
+                      rng=rng)
         if home:
-            results = est.estimate_home(config, plan, channel, data, offline, motion, nn_k(config), rng=rng,
-                                        tables=tables, case=case)
+            path = plan.mobile_paths_xy[0]
+            results, cal = est.estimate_home(
+                data.reported_dbm, data.ref_reported_dbm, data.pattern_map_dbm, channel, plan,
+                reference_xy=plan.reference_xy, offline_alpha_dbm=np.array([r["alpha_dbm"] for r in offline]),
+                offline_exponent=np.array([r["exponent"] for r in offline]),
+                velocity_xy=(0.0, 0.0) if motion == "fixed" else tuple(path[1] - path[0]), **common)
+            tables.add_calibration(case, cal.alpha_dbm, cal.exponent, cal.sigma_db)
             scored = {name: np.ones(n_steps, bool) for name in results}
         else:
-            results = est.estimate_simulation(config, plan, channel, data, sigma0, motion, rt, nn_k(config),
-                                              rng=rng)
+            results = est.estimate_simulation(data.reported_dbm, channel, plan, sigma0_db=sigma0, rt=rt,
+                                              estimators=config.estimators, **common)
             scored = {name: _scored(motion, rt[name.split("-")[0]], n_steps) for name in results}
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
         crlb = _bounds.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
@@ -387,7 +279,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                         beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
                         reference_xy=plan.reference_xy)
         for name in results:
-            pub = (_rss_plans.PUBLISHED_HOME.get((name, motion)),) if home else _rss_plans.published(
+            pub = (_rooms.PUBLISHED_HOME.get((name, motion)),) if home else _rooms.published(
                 plan.name, len(plan.readers_xy), name, motion, sigma0)
             tables.add_summary(case, name, sigma0, motion, pub)
     ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")

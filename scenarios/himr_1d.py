@@ -52,9 +52,9 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
-from rfsim.core.trajectories import LinearTrapezoid, check_inside
+from rfsim.core.trajectories import LinearTrapezoid
 from rfsim.core.units import wavelength_m
-from rfsim.scenes.himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.scenes.himr_air import RadioConfig, check_scene, simulate
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
@@ -72,14 +72,6 @@ ESTIMATORS = ("himr", "rss", "double-integration")
 SOURCE_ERROR_M = {"himr": 0.001, "rss": float("nan"), "double-integration": 0.025}
 
 
-def _tag_default() -> HimrTagConfig:
-    return HimrTagConfig(packet_format="6axis-1d")
-
-
-def _radio_default() -> RadioConfig:
-    return RadioConfig(fs_hz=20e6)
-
-
 @dataclass(frozen=True)
 class SceneConfig:
     pylon_m: tuple[float, float, float] = param((0.0, 0.0, 0.0), unit="m", doc="position of the pylon")
@@ -91,11 +83,11 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class Config:
-    tag: HimrTagConfig = param(_tag_default(), doc="the HIMR tag (packet format, rate, framing)")
+    tag: HimrTagConfig = param(HimrTagConfig(packet_format="6axis-1d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: LinearTrapezoid = param(LinearTrapezoid(t_start_s=0.05), doc="the positioner profile (L610)")
     scene: SceneConfig = param(SceneConfig(), doc="pylon and test range")
-    radio: RadioConfig = param(_radio_default(), doc="pylon radio and DSP")
+    radio: RadioConfig = param(RadioConfig(fs_hz=20e6), doc="pylon radio and DSP")
 
     def __post_init__(self):
         if self.tag.packet_format != "6axis-1d":
@@ -105,9 +97,8 @@ class Config:
             raise ConfigError("scene.duration_s", sc.duration_s,
                               f"longer than the rest before the motion ({self.trajectory.t_start_s} s)")
         tag = HimrTag(self.tag, self.trajectory, self.imu)
-        check_inside(self.trajectory, t_end_s=sc.duration_s, room_min_m=sc.room_min_m, room_max_m=sc.room_max_m)
-        check_pylons_off_the_track([sc.pylon_m], tag, sc.duration_s, key="scene.pylon_m")
-        check_sample_rate(self.radio, tag, [sc.carrier_hz])
+        check_scene(self.radio, tag, [sc.pylon_m], [sc.carrier_hz], t_end_s=sc.duration_s, room_min_m=sc.room_min_m,
+                    room_max_m=sc.room_max_m, key="scene.pylon_m")
 
 
 def estimate(t_s, y, z0_m: float) -> dict:
@@ -242,15 +233,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     a["travel_m"] = config.trajectory.travel_m
     a["packet_bits"] = config.tag.format.n_bits
     a["air_time_s"] = config.tag.air_time_s
-    a["n_packets"] = int(n)
-    a["air_steps"] = air.n_steps
-    a["samples_per_step"] = air.samples_per_step
-    a["sample_level_s"] = air.wall_s
-    a["sample_level_cpu_s"] = air.cpu_s
-    a["time_per_packet_s"] = air.wall_s / max(n, 1)
-    a["observers_s"] = observer_s
-    a["ptx_w"] = air.ptx_w
-    a["noise_power_w"] = air.noise_power_w
+    a.update(air.run_attrs(n), observers_s=observer_s)
     a["k_u_w_m4"] = float(air.k_u[0])
     a["snr_db_end"] = float(np.median(m.snr_db[-5:]))
     a["aliasing_limit_mps"] = float(wavelength_m(sc.carrier_hz) * (1 / config.tag.period_s) / 4)

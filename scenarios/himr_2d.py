@@ -19,14 +19,11 @@ Measurement stream (one epoch per scheduled packet, outputs in observer order
 x^B reading, θ_z = the compass heading, ω_z = the gyroscope z rate, from the first pylon that
 decoded the packet (the inertial words need one reader, L783; a lost packet loses RF and IMU
 together). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
-141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``dealias = "gated"``
-(default) wraps the observer's radial-velocity innovations into ±λ/(4Δt) — the aliasing
-"calibrated out using the other sensors" (L779) — while every RSS-range innovation is below
-``gate_m`` (5 cm), and uses the measured value otherwise; ``"innovation"`` always wraps (after
-an outage it can lock onto a wrong alias: a velocity error of a multiple of λ/(2Δt) along every
-pylon gives zero wrapped innovation, held by a constant range innovation — measured: Cases 2, 4,
-5 end 14 cm off); ``"none"`` feeds the wrapped values; ``"oracle"`` picks the alias nearest the
-true velocity (ground truth: the bound of a perfect dealiasing).
+141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``observer.dealias``
+(:func:`rfsim.estimators.himr_cases.observe_case`): ``"gated"`` (default) wraps the
+radial-velocity innovations while every range innovation is below ``gate_m`` — the aliasing
+"calibrated out using the other sensors" (L779); ``"innovation"`` always wraps (it can lock onto
+a wrong alias after an outage — measured: Cases 2, 4, 5 end 14 cm off); ``"none"``; ``"oracle"``.
 
 Observers (:mod:`rfsim.estimators.observer`): the CARE gain at the Table 8 point
 (``tuning`` D.2 = diag(579, 137, 149, 479, 127, 119, 191, 67, 67) or D.1 = 965·I₉, V = I₁₀),
@@ -67,24 +64,27 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.himr.packet import PACKET_BITS_NOTE
 from rfsim.devices.himr_pylon import HIMR_CARRIERS_HZ
 from rfsim.devices.imu import ImuConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.estimators.himr_cases import CASES, measurement_stream, observe_case
-from rfsim.estimators.himr_model import PYLONS_M, STATE_NAMES, output_names
+from rfsim.estimators.himr_cases import (CASES, SOURCE_CONVERGENCE_S, SOURCE_MAX_ERROR_M, measurement_stream,
+                                         observe_case)
+from rfsim.estimators.himr_model import INITIAL_CONDITIONS, PYLONS_M, STATE_NAMES, initial_state, output_names
 from rfsim.estimators.observer import VARIANTS, W_D1, W_D2, eig_along, gain_2d, ranks_along, unstable_intervals
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
-from rfsim.core.trajectories import RotatingBoom, check_inside
-from rfsim.scenes.himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.core.trajectories import RotatingBoom
+from rfsim.scenes.himr_air import RadioConfig, check_scene, simulate
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
@@ -94,25 +94,6 @@ _himr_air = lazy_import("rfsim.scenes.himr_air")
 NAME = "himr-2d"
 DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80/5.81 GHz at sample level, "
                "literal/prerotated/EKF observers and the seven outage cases")
-
-#: Why the 2-D packet has 192 bits (dataset attribute ``packet_bits_note``).
-PACKET_BITS_NOTE = (
-    "packet size from the source's byte counts: the 9axis-2d packet is 3 B header + 2 B ID + 6 B accel + 6 B gyro + "
-    "6 B compass + 1 B CRC = 24 B = 192 bit (seed 000 Table 5, L715-L720; 'three-bytes header, two-bytes ID, "
-    "18-bytes inertial data, single-byte CRC'), air time 192 x 8 / 4 Mcps = 0.384 ms; the reference pages' "
-    "'30 bytes = 240 bit, 0.48 ms' does not follow from those byte counts")
-#: Initial conditions of Table 9 (L1196-L1206): (x, y, ψ), at rest.
-INITIAL_CONDITIONS = {1: (2.0, 1.8048, math.pi), 2: (1.0, 1.0, math.pi / 2), 3: (2.5, 2.3, 3 * math.pi / 2)}
-#: Max errors the source prints per case (x, y) [m], L1176-L1404 (NaN: not printed).
-SOURCE_MAX_ERROR_M = {1: (0.10, math.nan), 2: (math.nan, 0.5), 3: (0.16, 0.30), 4: (0.10, 0.05),
-                      5: (math.nan, math.nan), 6: (0.13, 0.08), 7: (0.135, 0.10)}
-#: Convergence times the source states (L1176-L1404) [s].
-SOURCE_CONVERGENCE_S = {1: 0.8, 2: math.nan, 3: math.nan, 4: math.nan, 5: math.nan, 6: 1.2, 7: 1.1}
-
-
-def _tag_default() -> HimrTagConfig:
-    return HimrTagConfig(packet_format="9axis-2d")
-
 
 @dataclass(frozen=True)
 class SceneConfig:
@@ -142,7 +123,7 @@ class ObserverConfig:
 
 @dataclass(frozen=True)
 class Config:
-    tag: HimrTagConfig = param(_tag_default(), doc="the HIMR tag (packet format, rate, framing)")
+    tag: HimrTagConfig = param(HimrTagConfig(packet_format="9axis-2d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: RotatingBoom = param(RotatingBoom(lag_s=0.15), doc="the boom (actual trajectory: 150 ms lag)")
     scene: SceneConfig = param(SceneConfig(), doc="pylons and room")
@@ -169,12 +150,9 @@ class Config:
         lo, hi = self.observer.outage_s
         if not 0 < lo < hi < sc.duration_s:
             raise ConfigError("observer.outage_s", self.observer.outage_s, f"0 < start < end < {sc.duration_s} s")
-        _check(self, HimrTag(self.tag, self.trajectory, self.imu))
-
-
-def _x0(ic: int) -> np.ndarray:
-    x, y, psi = INITIAL_CONDITIONS[ic]
-    return np.array([x, 0, 0, y, 0, 0, psi, 0, 0], float)
+        check_scene(self.radio, HimrTag(self.tag, self.trajectory, self.imu),
+                    [(x, y, self.trajectory.height_m) for x, y in sc.pylons_m], sc.carriers_hz, t_end_s=sc.duration_s,
+                    room_min_m=sc.room_min_m, room_max_m=sc.room_max_m, key="scene.pylons_m")
 
 
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:
@@ -182,7 +160,7 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
     ob = config.observer
     W = W_D2 if ob.tuning == "D.2" else W_D1
     pyl = np.asarray(config.scene.pylons_m, float)
-    x0 = _x0(ob.initial_condition)
+    x0 = initial_state(ob.initial_condition)
     motion_end = config.trajectory.duration_s
     streams = {1: measurement_stream(run, plan, imu), 6: measurement_stream(run, plan, imu, every=2)}
     runs = [(v, 1, ob.dealias) for v in ob.variants] + [("prerotated", c, ob.dealias) for c in ob.cases if c != 1]
@@ -193,16 +171,14 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
         cs, est = observe_case(variant, case, dealias, streams, x0=x0, W=W, pylons_m=pyl, fc_hz=fc_hz,
                                outage_s=ob.outage_s, gate_m=ob.gate_m)
         truth = config.trajectory(cs.t_s).state_2d()
-        ex, ey = np.abs(est[:, 0] - truth[:, 0]), np.abs(est[:, 3] - truth[:, 3])
-        e = np.hypot(est[:, 0] - truth[:, 0], est[:, 3] - truth[:, 3])
-        moving = cs.t_s <= motion_end
+        dx, dy, moving = est[:, 0] - truth[:, 0], est[:, 3] - truth[:, 3], cs.t_s <= motion_end
+        ex, ey, e = np.abs(dx), np.abs(dy), np.hypot(dx, dy)
         above = np.nonzero(e > ob.converged_m)[0]
         conv = float(cs.t_s[above[-1]]) if above.size else 0.0
         n = cs.t_s.size
         estimates.append({"variant": np.full(n, variant), "case": np.full(n, case), "dealias": np.full(n, dealias),
-                          "t_s": cs.t_s,
-                          **{f"{s}_hat": est[:, i] for i, s in enumerate(STATE_NAMES)},
-                          "error_x_m": est[:, 0] - truth[:, 0], "error_y_m": est[:, 3] - truth[:, 3],
+                          "t_s": cs.t_s, **{f"{s}_hat": est[:, i] for i, s in enumerate(STATE_NAMES)},
+                          "error_x_m": dx, "error_y_m": dy,
                           "error_psi_rad": est[:, 6] - truth[:, 6], "error_m": e})
         sx, sy = SOURCE_MAX_ERROR_M[case]
         summary.append({"variant": variant, "case": case, "dealias": dealias, "case_name": CASES[case],
@@ -214,14 +190,6 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
 
 
 # ----------------------------------------------------------------------------- run
-
-
-def _check(config: Config, tag: HimrTag) -> None:
-    sc = config.scene
-    check_inside(config.trajectory, t_end_s=sc.duration_s, room_min_m=sc.room_min_m, room_max_m=sc.room_max_m)
-    check_pylons_off_the_track([(x, y, config.trajectory.height_m) for x, y in sc.pylons_m], tag, sc.duration_s,
-                               key="scene.pylons_m")
-    check_sample_rate(config.radio, tag, sc.carriers_hz)
 
 
 def sample_level(config: Config, *, seed: int):
@@ -248,10 +216,9 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     stage("observers and cases")
     stream = measurement_stream(air, plan, imu)
     estimates, summary = run_observers(config, air, plan, imu, sc.carriers_hz)
-    W = W_D2 if config.observer.tuning == "D.2" else W_D1
-    g = gain_2d(W, pylons_m=np.asarray(sc.pylons_m, float))
+    W, pyl = (W_D2 if config.observer.tuning == "D.2" else W_D1), np.asarray(sc.pylons_m, float)
+    g = gain_2d(W, pylons_m=pyl)
     truth = config.trajectory(stream["t_s"]).state_2d()
-    pyl = np.asarray(sc.pylons_m, float)
     mr_lit = eig_along(truth, g.L, pylons_m=pyl).real.max(axis=1)
     g_pre = gain_2d(W, pylons_m=pyl, accel="prerotated")
     mr_pre = eig_along(truth, g_pre.L, pylons_m=pyl, accel="prerotated").real.max(axis=1)
@@ -266,22 +233,17 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     ds.add_table("imu", _himr_air.imu_columns(imu),
                  description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
                              "by the first pylon with a good CRC")
-    names = output_names(3)
-    y = stream["y"]
+    names, y = output_names(3), stream["y"]
+    rdot = "phase-derived radial velocity to pylon {} (eq. 23, wrapped: aliased above the limit)"
+    out_desc = {**{f"r{u}": ("m", f"RSS range to pylon {u} (eq. 22)") for u in "123"},
+                **{f"r{u}_dot": ("m/s", rdot.format(u)) for u in "123"},
+                "a1": ("m/s^2", "a1 = accelerometer y^B reading (body frame)"),
+                "a2": ("m/s^2", "a2 = minus the accelerometer x^B reading"),
+                "theta_z": ("rad", "compass heading theta_z of the body y axis"), "omega_z": ("rad/s", "gyroscope rate omega_z")}
     mcols = {"t_s": _dataset.column(stream["t_s"], "s", "epoch: scheduled start of the packet (observer time step)"),
              "packet": _dataset.column(stream["packet"], "1", "index of the packet in the tag's schedule")}
-    units = {"r": "m", "a": "m/s^2", "theta_z": "rad", "omega_z": "rad/s"}
-    text = {"r": "RSS range to pylon {u} (eq. 22)", "rdot": "phase-derived radial velocity to pylon {u} (eq. 23, "
-                                                            "wrapped: aliased above the limit)",
-            "a1": "a1 = accelerometer y^B reading (body frame)", "a2": "a2 = minus the accelerometer x^B reading",
-            "theta_z": "compass heading theta_z of the body y axis", "omega_z": "gyroscope rate omega_z"}
     for j, nm in enumerate(names):
-        if nm.startswith("r") and nm.endswith("_dot"):
-            u, unit, desc = nm[1], "m/s", text["rdot"].format(u=nm[1])
-        elif nm.startswith("r"):
-            u, unit, desc = nm[1:], "m", text["r"].format(u=nm[1:])
-        else:
-            unit, desc = units.get(nm[:1] if nm in ("a1", "a2") else nm), text[nm]
+        unit, desc = out_desc[nm]
         mcols[nm] = _dataset.column(y[:, j], unit, desc + " (NaN: not measured at this epoch)")
         mcols[f"valid_{nm}"] = _dataset.column(~np.isnan(y[:, j]), "1", f"{desc} was measured at this epoch")
     ds.add_table("measurements", mcols, description="one row per epoch: the observer's outputs "
@@ -300,15 +262,13 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
              "t_s": _dataset.column(cat["t_s"], "s", "epoch of the estimate")}
     for i, s in enumerate(STATE_NAMES):
         ecols[f"{s}_hat"] = _dataset.column(cat[f"{s}_hat"], tunits[i], f"estimated state {s} at the epoch")
-    ecols["error_x_m"] = _dataset.column(cat["error_x_m"], "m", "estimated minus true x")
-    ecols["error_y_m"] = _dataset.column(cat["error_y_m"], "m", "estimated minus true y")
-    ecols["error_psi_rad"] = _dataset.column(cat["error_psi_rad"], "rad", "estimated minus true heading psi")
-    ecols["error_m"] = _dataset.column(cat["error_m"], "m", "Euclidean position error of the estimate")
+    for k, u, d in (("error_x_m", "m", "estimated minus true x"), ("error_y_m", "m", "estimated minus true y"),
+                    ("error_psi_rad", "rad", "estimated minus true heading psi"),
+                    ("error_m", "m", "Euclidean position error of the estimate")):
+        ecols[k] = _dataset.column(cat[k], u, d)
     ds.add_table("estimates", ecols, description="one row per (variant, case, epoch): the observer's estimate "
                                                  "and its error")
-    scols = {}
-    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"),
-             "case": ("1", "analysis case 1-7"),
+    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"), "case": ("1", "analysis case 1-7"),
              "dealias": ("1", "radial-velocity aliasing treatment of the run (oracle: ground truth picks the alias)"),
              "case_name": ("1", "what the case does to the recorded stream"),
              "max_error_m": ("m", "largest Euclidean position error while the boom moves"),
@@ -319,8 +279,7 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
              "source_max_error_x_m": ("m", "max x error the source prints for the case (NaN: not printed)"),
              "source_max_error_y_m": ("m", "max y error the source prints for the case (NaN: not printed)"),
              "source_convergence_s": ("s", "convergence time the source states for the case (NaN: not stated)")}
-    for k, (u, d) in sdesc.items():
-        scols[k] = _dataset.column(np.array([r[k] for r in summary]), u, d)
+    scols = {k: _dataset.column(np.array([r[k] for r in summary]), u, d) for k, (u, d) in sdesc.items()}
     ds.add_table("summary", scols, description="one row per (variant, case) run: max, final error and convergence "
                                                "beside the source's printed numbers")
     ds.add_grid("gains", {"state": _dataset.column(np.array(STATE_NAMES), "1", "state of the 9-state model (row of L)"),
@@ -350,8 +309,7 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
             a[f"max_error_m_{r['variant']}{tail}"] = r["max_error_m"]
             a[f"final_error_m_{r['variant']}{tail}"] = r["final_error_m"]
     win = unstable_intervals(stream["t_s"], mr_lit)
-    a["literal_unstable_from_s"] = win[0][0] if win else float("nan")
-    a["literal_unstable_to_s"] = win[-1][1] if win else float("nan")
+    a["literal_unstable_from_s"], a["literal_unstable_to_s"] = (win[0][0], win[-1][1]) if win else (math.nan, math.nan)
     for key in ("literal_unstable_from_s", "literal_unstable_to_s"):
         if not np.isfinite(a[key]):
             a[f"{key}_meaning"] = "NaN: the literal error matrix stays stable along this trajectory"
@@ -364,15 +322,7 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     a["packet_bits"] = config.tag.format.n_bits
     a["packet_bits_note"] = PACKET_BITS_NOTE
     a["air_time_s"] = config.tag.air_time_s
-    a["n_packets"] = int(plan.start_s.size)
-    a["air_steps"] = air.n_steps
-    a["samples_per_step"] = air.samples_per_step
-    a["sample_level_s"] = air.wall_s
-    a["sample_level_cpu_s"] = air.cpu_s
-    a["time_per_packet_s"] = air.wall_s / max(plan.start_s.size, 1)
-    a["observers_s"] = observer_s
-    a["ptx_w"] = air.ptx_w
-    a["noise_power_w"] = air.noise_power_w
+    a.update(air.run_attrs(plan.start_s.size), observers_s=observer_s)
     a["dropped_contributions"] = air.dropped
     a["aliased_fraction"] = float(np.mean(pk["aliased"]))
     a["crc_ok_fraction"] = float(np.mean(pk["crc_ok"]))
@@ -385,9 +335,11 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
 # ----------------------------------------------------------------------------- plot
 
 
-def _runs_of_case_1(est) -> list[tuple[str, str]]:
+def _runs_of_case_1(est) -> list[tuple[str, str, np.ndarray]]:
+    """(variant, dealias, row mask) of every case-1 run."""
     s = est["case"] == 1
-    return sorted(set(zip(est["variant"][s].tolist(), est["dealias"][s].tolist())))
+    runs = sorted(set(zip(est["variant"][s].tolist(), est["dealias"][s].tolist())))
+    return [(v, d, s & (est["variant"] == v) & (est["dealias"] == d)) for v, d in runs]
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
@@ -395,41 +347,31 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     from rfsim.core.dataset import read_dataset, read_table
 
     plt = pyplot()
-    ds = read_dataset(dataset_path)
-    est = read_table(dataset_path, "estimates")
-    truth = read_table(dataset_path, "truth")
-    pk = read_table(dataset_path, "packets")
-    dg = read_table(dataset_path, "diagnostics")
-    out = []
+    est, truth, pk, dg = (read_table(dataset_path, k) for k in ("estimates", "truth", "packets", "diagnostics"))
+    path = partial(figure_path, dataset_path, out_dir)
     fig, ax = plt.subplots(figsize=(6.5, 5.5))
     ax.plot(truth["x"], truth["y"], "k-", lw=2, label="true")
-    for v, d in _runs_of_case_1(est):
-        s = (est["variant"] == v) & (est["case"] == 1) & (est["dealias"] == d)
+    for v, d, s in _runs_of_case_1(est):
         ax.plot(est["x_hat"][s], est["y_hat"][s], ".-", ms=2, lw=0.7, label=f"{v}, dealias {d} (case 1)")
     span = [truth["x"].min() - 0.5, truth["x"].max() + 0.5, truth["y"].min() - 0.5, truth["y"].max() + 0.5]
     ax.set(xlim=span[:2], ylim=span[2:], aspect="equal", xlabel="x [m]", ylabel="y [m]",
            title=f"True vs estimated track\n{cite('himr', 'Figs. 68-71')}")
     ax.legend(fontsize=7)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "trajectory")))
-
+    out = [save_figure(fig, path("trajectory"))]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
-    main = ds.attrs.get("dealias", "gated")
-    for c in np.unique(est["case"]):
-        s = (est["variant"] == "prerotated") & (est["case"] == c) & (est["dealias"] == main)
+    main = read_dataset(dataset_path).attrs.get("dealias", "gated")
+    pre = (est["variant"] == "prerotated") & (est["dealias"] == main)
+    runs = [(a1, f"case {c}", pre & (est["case"] == c)) for c in np.unique(est["case"])]
+    for ax, label, s in runs + [(a2, f"{v}, dealias {d}", s) for v, d, s in _runs_of_case_1(est)]:
         if s.any():
-            a1.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=f"case {c}")
-    for v, d in _runs_of_case_1(est):
-        s = (est["variant"] == v) & (est["case"] == 1) & (est["dealias"] == d)
-        a2.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=f"{v}, dealias {d}")
+            ax.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=label)
     a1.set(ylabel="position error [m]", title="prerotated observer, cases 1-7")
     a2.set(xlabel="time [s]", ylabel="position error [m]", title="case 1, every variant")
     a1.legend(fontsize=7, ncol=4)
     a2.legend(fontsize=7)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
-
-    fig = _himr_figures.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
-
+    out.append(save_figure(fig, path("errors")))
+    out.append(save_figure(_himr_figures.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}"),
+                           path("rss-phase")))
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(dg["t_s"], dg["max_real_eig_literal"], label="literal (trigonometric acceleration rows)")
     ax.plot(dg["t_s"], dg["max_real_eig_prerotated"], label="prerotated accelerations")
@@ -437,10 +379,9 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="time [s]", ylabel="max Re eig(A - L C(x(t))) [1/s]",
            title=f"Frozen-time eigenvalues along the trajectory — {cite('himr', 'Fig. 82')}")
     ax.legend(fontsize=8)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "eigenvalues")))
+    out.append(save_figure(fig, path("eigenvalues")))
     return out
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "SceneConfig", "ObserverConfig", "run", "plot", "sample_level", "dataset",
-           "measurement_stream",
-           "run_observers", "INITIAL_CONDITIONS", "SOURCE_MAX_ERROR_M"]
+           "measurement_stream", "run_observers", "INITIAL_CONDITIONS", "SOURCE_MAX_ERROR_M"]

@@ -39,6 +39,11 @@ CASES = {
     7: "pylons 1 and 2 only",
 }
 OUTAGE_S = (0.39, 0.75)
+#: Max errors the source prints per case (x, y) [m], L1176-L1404 (NaN: not printed).
+SOURCE_MAX_ERROR_M = {1: (0.10, np.nan), 2: (np.nan, 0.5), 3: (0.16, 0.30), 4: (0.10, 0.05),
+                      5: (np.nan, np.nan), 6: (0.13, 0.08), 7: (0.135, 0.10)}
+#: Convergence times the source states (L1176-L1404) [s].
+SOURCE_CONVERGENCE_S = {1: 0.8, 2: np.nan, 3: np.nan, 4: np.nan, 5: np.nan, 6: 1.2, 7: 1.1}
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,4 +210,4 @@ def observe_case(variant: str, case: int, dealias: str, streams: dict, *, x0, W,
     return cs, est
 
 
-__all__ = ["CASES", "OUTAGE_S", "CaseStream", "case_stream", "measurement_stream", "wrap_periods", "observe_case"]
+__all__ = ["CASES", "OUTAGE_S", "SOURCE_MAX_ERROR_M", "SOURCE_CONVERGENCE_S", "CaseStream", "case_stream", "measurement_stream", "wrap_periods", "observe_case"]

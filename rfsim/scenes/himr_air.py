@@ -47,6 +47,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.himr.dsp import PacketMeasurements, decode_packet, packet_table
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import check_inside
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -109,6 +110,17 @@ def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: flo
                               f"t = {t[i]:.3f} s)")
 
 
+def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_hz, *, t_end_s: float, room_min_m,
+                room_max_m, key: str = "pylons.positions_m") -> None:
+    """A scene the air step can run: the tag's trajectory inside the room until ``t_end_s``
+    (:func:`rfsim.core.trajectories.check_inside`), every pylon (x, y, z) [m] off its track
+    (:func:`check_pylons_off_the_track`, config key ``key``), the sample rate enough for the tag's
+    code (:func:`check_sample_rate`)."""
+    check_inside(tag.trajectory, t_end_s=t_end_s, room_min_m=room_min_m, room_max_m=room_max_m)
+    check_pylons_off_the_track(pylons_m, tag, t_end_s, key=key)
+    check_sample_rate(radio, tag, carriers_hz)
+
+
 @dataclass(frozen=True, eq=False)
 class AirRun:
     """What the pylons measured: per pylon its packet table, plus the run's bookkeeping."""
@@ -125,6 +137,13 @@ class AirRun:
     dropped: int                 #: carrier contributions the steps dropped (outside ±fs/2)
     wall_s: float                #: wall time of the steps and the DSP [s]
     cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
+
+    def run_attrs(self, n_packets: int) -> dict:
+        """The run's bookkeeping as dataset attributes (``n_packets`` scheduled packets)."""
+        return {"n_packets": int(n_packets), "air_steps": self.n_steps, "samples_per_step": self.samples_per_step,
+                "sample_level_s": self.wall_s, "sample_level_cpu_s": self.cpu_s,
+                "time_per_packet_s": self.wall_s / max(n_packets, 1), "ptx_w": self.ptx_w,
+                "noise_power_w": self.noise_power_w}
 
 
 class _Memo:
@@ -322,5 +341,5 @@ def imu_columns(table: dict) -> dict:
     return cols
 
 
-__all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track",
+__all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track", "check_scene",
            "pylon_antennas", "PacketMeasurements", "packets_table", "PACKET_COLUMNS", "imu_table", "imu_columns"]

@@ -26,19 +26,9 @@ replica adds the offline fit, online calibration of α_j, n_j and σ from the re
 resampling when N_eff < 0.5 N, the known 0.5 m/step velocity for the mobile target); kNN
 uses k = 36 there (L1814).
 
-Noise model: **independent per reader** (see rfsim.channels.rss; dataset attribute ``noise_model``):
-it reproduces Table 7.3, a term shared by all readers does not (wave2-specs.md §R: 1.24/1.61/
-1.82/2.01 m shared vs 1.36/1.92/2.20/2.48 m independent; tested here). Physically each reader
-sees the tag through its own obstacles, orientation and multipath. Simulation presets: all of σ0² quasi-static and
-independent per position (the thesis's "noise drawn once per run"), no quantization. Home: 75 %
-of σ_j² quasi-static with Gudmundson correlation (d_corr = 3 m, so that a target near a
-reference tag shares its error, §1.9), 25 % a people term redrawn per beacon, 1 dB RSSI steps
-(L1787); these shares are this replica's choice, the thesis does not split its σ. The share
-decides the home's fixed-target ordering: with 75 % quasi-static, grid Bayes ties the offline
-NN; with all of σ² quasi-static it falls behind both NNs as in Table 7.41, but then loses the
-mobile grid < online NN of Table 7.42 (tests/test_scenario_rss_localization.py). Grid Bayes
-fixed at σ0 = 1 dB is ≈ 13 % above Table 7.11: the targets are uniform in the room, and the
-28 cell centres leave a 1 m strip along the walls that no estimate on them reaches (tested).
+Noise model (rfsim.scenes.rss_rooms, dataset attribute ``noise_model``): independent per reader
+(it reproduces Table 7.3, a shared term does not); all of σ0² quasi-static in the simulation rooms,
+75 % quasi-static (Gudmundson, 3 m) + 25 % people term and 1 dB RSSI steps in the home.
 
 Randomness: case c (σ0 index × motion), trial b draws its environment and track from
 ``trial_rng(seed, c, 0, b)``; the estimators of case c (particle propagation, resampling) use
@@ -59,6 +49,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
 from rfsim.scenes.active_beacons import WaveformConfig, sample_level_reports
+from rfsim.scenes.rss_rooms import ShadowingConfig as _ShadowingConfig
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
@@ -73,20 +64,6 @@ DESCRIPTION = ("active-RFID RSSI localization (Özkaya): log-distance RSS datase
                "SIR PF, reference-tag calibration")
 
 BEACON_PERIOD_S = 1.0
-
-
-@dataclass(frozen=True)
-class ShadowingConfig:
-    decorrelation_m: float | None = param(
-        None, lo=0.0, hi=100.0, unit="m",
-        doc="Gudmundson decorrelation distance (0 = independent per position; none = preset: 0 sim, 3 home)")
-    static_fraction: float | None = param(
-        None, lo=0.0, hi=1.0,
-        doc="share of σ² that is quasi-static, the rest is the people term (none = preset: 1 sim, 0.75 home)")
-    people_correlation: float = param(0.0, lo=0.0, hi=0.999,
-                                      doc="AR(1) coefficient of the people term between beacons")
-    readers: Literal["independent", "shared"] = param(
-        "independent", doc="quasi-static term independent per reader, or one term shared by all readers")
 
 
 @dataclass(frozen=True)
@@ -117,7 +94,7 @@ class Config:
     recursions: int = param(0, lo=0, hi=1000, doc="rt (0 = the thesis's value for each σ0 and filter)")
     particles: int = param(250, lo=1, hi=1_000_000, doc="SIR particles N")
     home_steps: int = param(30, lo=1, hi=1000, doc="home: estimates per fixed point (30 in the thesis)")
-    shadowing: ShadowingConfig = param(ShadowingConfig(), doc="shadowing and people term")
+    shadowing: _ShadowingConfig = param(_ShadowingConfig(), doc="shadowing and people term")
     report: RssReport | None = param(
         None, doc="reader RSSI report (none = preset: no quantization sim, 1 dB home)")
     write_beacons: bool = param(True, doc="write the long per-beacon table")
@@ -134,43 +111,23 @@ class Config:
 
 
 def floor_plan(config: Config) -> _rooms.FloorPlan:
-    """The preset's plan with the reader/wall overrides, validated (one-line errors).
-
-    Overridden readers keep the preset's per-reader (α, n, σ) when their number is unchanged;
-    otherwise every reader takes the first reader's parameters.
-    """
+    """The preset's plan with the reader/wall overrides, validated (one-line errors)."""
     if config.preset == "home-2room":
         plan = _rooms.home_plan()
     else:
         w, l = (5.0, 8.0) if config.preset == "sim-5x8" else (10.0, 16.0)
         plan = _rooms.simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
-    xmin, ymin, xmax, ymax = plan.bounds
-    readers = plan.readers_xy if config.readers_xy is None else config.readers_xy
-    if len(readers) == 0:
-        raise ConfigError("readers_xy", [], "at least one reader position [x, y] in m")
-    for i, (x, y) in enumerate(readers):
-        if not (xmin <= x <= xmax and ymin <= y <= ymax):
-            raise ConfigError(f"readers_xy[{i}]", [x, y], f"a point inside the floor plan "
-                              f"[{xmin:g}, {xmax:g}] x [{ymin:g}, {ymax:g}] m")
-    walls = plan.walls_xy if config.walls_xy is None else config.walls_xy
-    for i, (x0, y0, x1, y1) in enumerate(walls):
-        if not np.hypot(x1 - x0, y1 - y0) > 0:
-            raise ConfigError(f"walls_xy[{i}]", [x0, y0, x1, y1], "a wall segment of non-zero length")
-    params = plan.reader_params
-    if len(readers) != len(params):
-        params = (params[0],) * len(readers)
-    return _rooms.FloorPlan(plan.name, plan.bounds, tuple(readers), tuple(walls), params, plan.cells_xy,
-                                plan.reference_xy, plan.fixed_points_xy, plan.mobile_paths_xy,
-                                plan.reader_height_m, plan.tag_height_m)
+    return _rooms.with_overrides(plan, readers_xy=config.readers_xy, walls_xy=config.walls_xy)
 
 
-#: The thesis's k_NN per preset (Tables 7.3, 7.6; L1814).
-DEFAULT_NN_K = {"sim-5x8": 4, "sim-10x16": 68, "home-2room": 36}
+def _preset(config: Config, key: str, value):
+    """``value`` of the config, or the preset's default (rfsim.scenes.rss_rooms.PRESET_DEFAULTS)."""
+    return _rooms.PRESET_DEFAULTS[config.preset][key] if value is None else value
 
 
 def nn_k(config: Config) -> int:
     """LANDMARC k of the run."""
-    return config.nn_k if config.nn_k is not None else DEFAULT_NN_K[config.preset]
+    return _preset(config, "nn_k", config.nn_k)
 
 
 def _home(config: Config) -> bool:
@@ -178,35 +135,25 @@ def _home(config: Config) -> bool:
 
 
 def _report(config: Config) -> RssReport:
-    if config.report is not None:
-        return config.report
-    return RssReport(step_db=1.0 if _home(config) else 0.0)
-
-
-def _shadowing(config: Config) -> tuple[float, float]:
-    s = config.shadowing
-    dec = s.decorrelation_m if s.decorrelation_m is not None else (3.0 if _home(config) else 0.0)
-    frac = s.static_fraction if s.static_fraction is not None else (0.75 if _home(config) else 1.0)
-    return dec, frac
+    return config.report if config.report is not None else RssReport(step_db=_preset(config, "report_step_db", None))
 
 
 def n_tracks(config: Config, plan: _rooms.FloorPlan, motion: str) -> int:
     """Tracks of a case: ``trials`` (simulation) or ``trials`` × 25 (home: the 25 fixed points, or
     25 walks alternating between the two room paths)."""
-    if not _home(config):
-        return config.trials if config.trials is not None else 1000
-    return (config.trials if config.trials is not None else 4) * plan.fixed_points_xy.shape[0]
+    n = _preset(config, "trials", config.trials)
+    return n * plan.fixed_points_xy.shape[0] if _home(config) else n
 
 
 def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, motion: str,
                   n_steps: int, seed: int) -> _rooms.CaseData:
     """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons)."""
-    dec, frac = _shadowing(config)
     sh = config.shadowing
+    dec, frac = _preset(config, "decorrelation_m", sh.decorrelation_m), _preset(config, "static_fraction", sh.static_fraction)
     return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion,
-                                   n_tracks=n_tracks(config, plan, motion), n_steps=n_steps,
-                                   step_std_m=config.step_std_m, decorrelation_m=dec, static_fraction=frac,
-                                   shared=sh.readers == "shared", people_correlation=sh.people_correlation, seed=seed)
+                               n_tracks=n_tracks(config, plan, motion), n_steps=n_steps,
+                               step_std_m=config.step_std_m, decorrelation_m=dec, static_fraction=frac,
+                               shared=sh.readers == "shared", people_correlation=sh.people_correlation, seed=seed)
 
 
 # --------------------------------------------------------------------------- run
@@ -218,15 +165,6 @@ def _recursions(config: Config, family: str, sigma0: float) -> int:
     if _home(config):
         return config.home_steps
     return _rooms.RECURSIONS[family].get(round(sigma0, 3), 10)
-
-
-def _scored(motion: str, n_rt: int, n_steps: int) -> np.ndarray:
-    mask = np.zeros(n_steps, bool)
-    if motion == "fixed":
-        mask[n_rt - 1] = True
-    else:
-        mask[:n_rt] = True
-    return mask
 
 
 def _cases(config: Config) -> list[tuple[float, str]]:
@@ -254,7 +192,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         if config.rss_model == "waveform":
             data.reported_dbm, data.ref_reported_dbm, data.beacon_t_s, st = sample_level_reports(
                 config.waveform, plan, channel, data, waf_db=config.waf_db, case=case, seed=seed, report=_report(config))
-            tables.add_waveform(case, sigma0, motion, st)
+            tables.extend("waveform", case=case, sigma0_db=sigma0, motion=motion, **st.row())
         rng = trial_rng(seed, case, 1)
         floor = config.report.floor_dbm if config.report is not None else -90.0
         common = dict(k=nn_k(config), floor_dbm=floor, step_std_m=config.step_std_m, n_particles=config.particles,
@@ -271,7 +209,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         else:
             results = est.estimate_simulation(data.reported_dbm, channel, plan, sigma0_db=sigma0, rt=rt,
                                               estimators=config.estimators, **common)
-            scored = {name: _scored(motion, rt[name.split("-")[0]], n_steps) for name in results}
+            scored = {name: _rooms.scored_steps(motion, rt[name.split("-")[0]], n_steps) for name in results}
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
         crlb = _bounds.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
                                          np.maximum(channel.sigma_db, 1e-3))
@@ -289,11 +227,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                     bounds_m=np.asarray(plan.bounds, float), cells_xy=plan.cells_xy,
                     reference_xy=plan.reference_xy, beacon_period_s=BEACON_PERIOD_S,
                     rss_model=config.rss_model,
-                    noise_model=("independent per reader" if config.shadowing.readers == "independent"
-                                 else "one term shared by all readers")
-                    + ", quasi-static per position: the independent model reproduces Table 7.3 "
-                      "(NN 1.36/1.92/2.20/2.48 m vs 1.38/1.95/2.29/2.57), a shared term does not "
-                      "(1.24/1.61/1.82/2.01 m)")
+                    noise_model=_rooms.noise_model(shared=config.shadowing.readers == "shared"))
     return ds
 
 

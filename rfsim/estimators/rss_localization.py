@@ -47,8 +47,8 @@ def reflect_into(p: np.ndarray, bounds) -> np.ndarray:
 
     Returns
     -------
-    (..., 2) positions mirrored once at the edge they crossed (x < xmin → 2·xmin − x, ...),
-    then clipped into the rectangle (a step longer than the room).
+    (..., 2) positions mirrored at the lower edges (x < xmin → 2·xmin − x), then at the upper
+    edges (x > xmax → 2·xmax − x), then clipped into the rectangle (a step longer than the room).
     """
     lo = np.array(bounds[:2], float)
     hi = np.array(bounds[2:], float)

@@ -88,6 +88,22 @@ class WaveformStats:
     reported: int = 0
     air_steps: int = 0
 
+    def row(self) -> dict:
+        """The counts as one table row (columns of :data:`WAVEFORM_UNITS`)."""
+        return dict(beacons_due=self.due, lbt_dropped=self.dropped, collided=self.collided, decoded=self.decoded,
+                    reported=self.reported, air_steps=self.air_steps)
+
+
+#: (unit, description) of the columns of :meth:`WaveformStats.row`.
+WAVEFORM_UNITS = {
+    "beacons_due": ("1", "beacons due in the case (every tag, trial and epoch)"),
+    "lbt_dropped": ("1", "beacons dropped after the last listen-before-talk attempt found the channel busy"),
+    "collided": ("1", "beacons that overlapped another tag's beacon in time"),
+    "decoded": ("1", "frames with a valid CRC, summed over the readers"),
+    "reported": ("1", "decoded frames of the right epoch reported above the reader floor, summed over readers"),
+    "air_steps": ("1", "air-interface steps run (reception clusters and carrier sensing)"),
+}
+
 
 def sample_level_reports(wf: WaveformConfig, plan, channel, data, *, waf_db: float, case: int, seed: int,
                          report: _rss_reader.RssReport):
@@ -180,4 +196,4 @@ class _TagLinks:
         return table.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
 
 
-__all__ = ["WaveformConfig", "WaveformStats", "sample_level_reports"]
+__all__ = ["WaveformConfig", "WaveformStats", "WAVEFORM_UNITS", "sample_level_reports"]

@@ -175,12 +175,10 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
     ds = _dataset.Dataset(title="1-D HIMR: linear positioner, one pylon at sample level, CARE observer vs RSS and double "
                        "integration")
-    pk = _himr_air.packets_table(air, plan)
-    ds.add_table("packets", {k: _dataset.column(v, *_himr_air.PACKET_COLUMNS[k]) for k, v in pk.items()},
-                 description="one row per packet decoded at the pylon: CRC, complex gain, RSS, phase, radial velocity "
-                             "(eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", _himr_air.imu_columns(imu), description="one row per scheduled packet: the accelerometer words it "
-                                                      "carried (raw int16 and SI) as decoded by the pylon")
+    _himr_air.add_run_tables(ds, air, plan, imu, packets="one row per packet decoded at the pylon: CRC, complex gain, RSS, "
+                             "phase, radial velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth",
+                             imu_description="one row per scheduled packet: the accelerometer words it carried (raw int16 "
+                                             "and SI) as decoded by the pylon")
     ds.add_table("measurements", {
         "t_s": _dataset.column(t, "s", "epoch: scheduled start of the packet (observer time step)"),
         "range_m": _dataset.column(y[:, 0], "m", "RSS range r = (K_u/|h|^2)^(1/4), eq. 22 (NaN: packet lost)"),

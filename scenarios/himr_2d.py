@@ -10,15 +10,11 @@ at 4 Mcps, 141 packets/s, IMU words of :mod:`rfsim.devices.imu`) on the boom
 the source compares with, L1014–L1020); pylons (:mod:`rfsim.devices.himr_pylon`) at Table 7's
 (−0.1, 1.5), (2, 3.05), (2.7, −0.03) m (L1006–L1008) on 5.79, 5.80, 5.81 GHz (L997; the
 per-pylon mapping is not stated). The packets go through the air step and the per-packet DSP
-(:mod:`rfsim.scenes.himr_air`, :mod:`rfsim.himr.dsp`): BOC decode, CRC, complex gain, RSS, phase,
-radial velocity (eq. 23) and RSS range (eq. 22).
+(:mod:`rfsim.scenes.himr_air`, :mod:`rfsim.himr.dsp`).
 
-Measurement stream (one epoch per scheduled packet, outputs in observer order
-[r₁ ṙ₁ r₂ ṙ₂ r₃ ṙ₃ a₁ a₂ θ_z ω_z], errata 1–3): RSS range and radial velocity of each pylon
-(NaN where that pylon's copy failed its CRC); a₁ = the accelerometer's y^B reading, a₂ = minus its
-x^B reading, θ_z = the compass heading, ω_z = the gyroscope z rate, from the first pylon that
-decoded the packet (the inertial words need one reader, L783; a lost packet loses RF and IMU
-together). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
+Measurement stream (:func:`rfsim.estimators.himr_cases.measurement_stream`, one epoch per
+scheduled packet, [r₁ ṙ₁ r₂ ṙ₂ r₃ ṙ₃ a₁ a₂ θ_z ω_z], errata 1–3): NaN where a pylon's copy failed
+its CRC; the IMU words from the first pylon that decoded the packet (L783). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
 141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``observer.dealias``
 (:func:`rfsim.estimators.himr_cases.observe_case`): ``"gated"`` (default) wraps the
 radial-velocity innovations while every range innovation is below ``gate_m`` — the aliasing
@@ -29,9 +25,8 @@ Observers (:mod:`rfsim.estimators.observer`): the CARE gain at the Table 8 point
 (``tuning`` D.2 = diag(579, 137, 149, 479, 127, 119, 191, 67, 67) or D.1 = 965·I₉, V = I₁₀),
 forward Euler at the packet epochs from IC #1–#3 of Table 9; variants ``literal`` (the seed's
 estimator), ``prerotated`` (accelerations rotated into the fixed frame with the measured
-heading) and ``ekf``. Cases 1–7 (:mod:`rfsim.estimators.himr_cases`) are post-processing of the
-recorded stream; Case 6 re-derives the radial velocities from the phases of every other
-packet (Δt doubled, limit 0.911 m/s).
+heading) and ``ekf``. Cases 1–7 (:mod:`rfsim.estimators.himr_cases`) post-process the recorded
+stream; Case 6 re-derives the radial velocities from every other packet (limit 0.911 m/s).
 
 What the literal observer gives (the source reports a ≈ 10 cm initial x error, Case 1,
 L1176–L1224): its frozen error dynamics A − L·C(x(t)) are unstable while the heading is more
@@ -137,8 +132,7 @@ class Config:
         if len(sc.carriers_hz) != len(sc.pylons_m):
             raise ConfigError("scene.carriers_hz", sc.carriers_hz, "one carrier per pylon")
         if self.tag.packet_format != "9axis-2d":
-            raise ConfigError("tag.packet_format", self.tag.packet_format, "'9axis-2d' (the 2-D tag carries gyro "
-                                                                           "and compass words)")
+            raise ConfigError("tag.packet_format", self.tag.packet_format, "'9axis-2d' (the 2-D tag carries gyro and compass words)")
         for v in self.observer.variants:
             if v not in VARIANTS:
                 raise ConfigError("observer.variants", v, "one of " + ", ".join(map(repr, VARIANTS)))
@@ -158,9 +152,7 @@ class Config:
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:
     """Every (variant, case) run: a list of estimate tables and a list of summary rows."""
     ob = config.observer
-    W = W_D2 if ob.tuning == "D.2" else W_D1
-    pyl = np.asarray(config.scene.pylons_m, float)
-    x0 = initial_state(ob.initial_condition)
+    W, pyl, x0 = (W_D2 if ob.tuning == "D.2" else W_D1), np.asarray(config.scene.pylons_m, float), initial_state(ob.initial_condition)
     motion_end = config.trajectory.duration_s
     streams = {1: measurement_stream(run, plan, imu), 6: measurement_stream(run, plan, imu, every=2)}
     runs = [(v, 1, ob.dealias) for v in ob.variants] + [("prerotated", c, ob.dealias) for c in ob.cases if c != 1]
@@ -194,8 +186,7 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
 
 def sample_level(config: Config, *, seed: int):
     """The packets through the air and the DSP: ``(AirRun, the tag's plan, imu table)``."""
-    tag = HimrTag(config.tag, config.trajectory, config.imu)
-    sc = config.scene
+    tag, sc = HimrTag(config.tag, config.trajectory, config.imu), config.scene
     stage(f"sample level: {config.tag.format.n_bits}-bit packets at {config.radio.fs_hz / 1e6:g} MS/s, "
           f"{len(sc.pylons_m)} pylons")
     air = simulate(tag, sc.pylons_m, sc.carriers_hz, config.radio, seed=seed, t_end_s=sc.duration_s,
@@ -226,13 +217,10 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     observer_s = time.perf_counter() - tick
 
     ds = _dataset.Dataset(title="2-D HIMR: rotating-boom tag, three pylons at sample level, fixed-gain observers and cases")
-    pk = _himr_air.packets_table(air, plan)
-    ds.add_table("packets", {k: _dataset.column(v, *_himr_air.PACKET_COLUMNS[k]) for k, v in pk.items()},
-                 description="one row per packet decoded at one pylon: CRC, complex gain, RSS, phase, radial "
-                             "velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", _himr_air.imu_columns(imu),
-                 description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
-                             "by the first pylon with a good CRC")
+    pk = _himr_air.add_run_tables(ds, air, plan, imu, packets="one row per packet decoded at one pylon: CRC, complex gain, "
+                                  "RSS, phase, radial velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth",
+                                  imu_description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) "
+                                                  "as decoded by the first pylon with a good CRC")
     names, y = output_names(3), stream["y"]
     rdot = "phase-derived radial velocity to pylon {} (eq. 23, wrapped: aliased above the limit)"
     out_desc = {**{f"r{u}": ("m", f"RSS range to pylon {u} (eq. 22)") for u in "123"},
@@ -272,8 +260,8 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
              "dealias": ("1", "radial-velocity aliasing treatment of the run (oracle: ground truth picks the alias)"),
              "case_name": ("1", "what the case does to the recorded stream"),
              "max_error_m": ("m", "largest Euclidean position error while the boom moves"),
-             "max_error_x_m": ("m", "largest |x error| while the boom moves"),
-             "max_error_y_m": ("m", "largest |y error| while the boom moves"),
+             "max_error_x_m": ("m", "largest |x error| while the boom moves"), "max_error_y_m": ("m", "largest |y error| while "
+                                                                                             "the boom moves"),
              "final_error_m": ("m", "Euclidean position error at the last epoch"),
              "convergence_s": ("s", "last epoch with a position error above observer.converged_m"),
              "source_max_error_x_m": ("m", "max x error the source prints for the case (NaN: not printed)"),
@@ -288,10 +276,8 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
                 {"L": _dataset.column(g.L, "1", f"CARE gain L = Y C' inv(V) at the Table 8 point, tuning "
                                        f"{config.observer.tuning}, V = I (the source prints L')",
                                       dims=("state", "output")),
-                 "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C) at the Table 8 point",
-                                             dims=("mode",)),
-                 "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C) at the Table 8 point",
-                                             dims=("mode",))},
+                 **{f"eig_{k}": _dataset.column(getattr(g.eigenvalues, k), "1/s", f"{w} part of eig(A - L C) at the Table 8 "
+                                                "point", dims=("mode",)) for k, w in (("real", "real"), ("imag", "imaginary"))}},
                 description="the observer gain L[state, output] at the linearisation point and the eigenvalues of "
                             "its error matrix")
     ds.add_table("diagnostics", {

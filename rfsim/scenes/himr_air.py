@@ -341,5 +341,14 @@ def imu_columns(table: dict) -> dict:
     return cols
 
 
+def add_run_tables(ds, run: AirRun, plan, imu: dict, *, packets: str, imu_description: str) -> dict:
+    """Add the run's ``packets`` (:func:`packets_table`) and ``imu`` (:func:`imu_table`) tables to the
+    dataset ``ds`` with these descriptions; returns the packet table's arrays."""
+    pk = packets_table(run, plan)
+    ds.add_table("packets", {k: _dataset.column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()}, description=packets)
+    ds.add_table("imu", imu_columns(imu), description=imu_description)
+    return pk
+
+
 __all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track", "check_scene",
-           "pylon_antennas", "PacketMeasurements", "packets_table", "PACKET_COLUMNS", "imu_table", "imu_columns"]
+           "pylon_antennas", "PacketMeasurements", "packets_table", "PACKET_COLUMNS", "imu_table", "imu_columns", "add_run_tables"]

@@ -9,7 +9,7 @@ import numpy as np
 
 from rfsim.core.dataset import read_table
 from rfsim.core.lazy import lazy_import
-from rfsim.core.plots import draw_floor_plan, figure_path, pyplot, save_figure
+from rfsim.core.plots import draw_floor_plan, pyplot, save_figure
 from rfsim.core.rows import read_block
 
 h5py = lazy_import("h5py")
@@ -104,10 +104,3 @@ def plot_rmse_vs_sigma(path: Path, out: Path) -> Path:
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
     return save_figure(fig, out)
-
-
-def plot_all(path: Path, out_dir: Path) -> list[Path]:
-    """The three figures, named after the dataset's stem (``x.h5`` → ``x-floorplan.png`` …)."""
-    return [plot_floor_plan(path, figure_path(path, out_dir, "floorplan")),
-            plot_error_cdf(path, figure_path(path, out_dir, "cdf")),
-            plot_rmse_vs_sigma(path, figure_path(path, out_dir, "rmse"))]

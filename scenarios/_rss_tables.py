@@ -20,25 +20,22 @@ class Tables(RowTables):
         self._errors = {}
         self._crlb = {}
 
-    def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m,
-                 reference_xy):
+    def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m, reference_xy):
         b, t, j = data.reported_dbm.shape
         tr, st = np.meshgrid(np.arange(b), np.arange(t), indexing="ij")
         if beacons:
             self.extend("beacons", **beacon_log(data, reference_xy, tag_z_m=tag_z_m, case=case), sigma0_db=float(sigma0),
                         motion=motion)
         wide = {f"rssi_r{r + 1}_dbm": data.reported_dbm[..., r].ravel() for r in range(j)}
-        self.extend("rssi_wide", case=np.full(b * t, case), trial=tr.ravel(), step=st.ravel(),
-                     t_s=st.ravel() * 1.0, x_m=data.truth_xy[..., 0].ravel(),
-                     y_m=data.truth_xy[..., 1].ravel(), **wide)
+        self.extend("rssi_wide", case=np.full(b * t, case), trial=tr.ravel(), step=st.ravel(), t_s=st.ravel() * 1.0,
+                    x_m=data.truth_xy[..., 0].ravel(), y_m=data.truth_xy[..., 1].ravel(), **wide)
         for name, est in results.items():
             err = np.linalg.norm(est - data.truth_xy, axis=-1)
             mask = np.broadcast_to(scored[name], (b, t))
-            self.extend("estimates", case=np.full(b * t, case), estimator=name,
-                         sigma0_db=float(sigma0), motion=motion,
-                         trial=tr.ravel(), step=st.ravel(), x_est_m=est[..., 0].ravel(),
-                         y_est_m=est[..., 1].ravel(), x_true_m=data.truth_xy[..., 0].ravel(),
-                         y_true_m=data.truth_xy[..., 1].ravel(), error_m=err.ravel(), scored=mask.ravel())
+            self.extend("estimates", case=np.full(b * t, case), estimator=name, sigma0_db=float(sigma0), motion=motion,
+                        trial=tr.ravel(), step=st.ravel(), x_est_m=est[..., 0].ravel(), y_est_m=est[..., 1].ravel(),
+                        x_true_m=data.truth_xy[..., 0].ravel(), y_true_m=data.truth_xy[..., 1].ravel(),
+                        error_m=err.ravel(), scored=mask.ravel())
             self._errors[(case, name)] = err[mask]
             self._crlb[(case, name)] = crlb[mask]
 
@@ -46,9 +43,8 @@ class Tables(RowTables):
         b, t, j = alpha.shape
         idx = np.indices((b, t, j))
         self.extend("calibration", kind=np.full(alpha.size, "online"), case=np.full(alpha.size, case),
-                     trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(),
-                     alpha_dbm=alpha.ravel(), exponent=exponent.ravel(),
-                     sigma_db=np.repeat(sigma.ravel(), j), waf_db=np.full(alpha.size, np.nan))
+                    trial=idx[0].ravel(), step=idx[1].ravel(), reader=(idx[2] + 1).ravel(), alpha_dbm=alpha.ravel(),
+                    exponent=exponent.ravel(), sigma_db=np.repeat(sigma.ravel(), j), waf_db=np.full(alpha.size, np.nan))
 
     def add_summary(self, case, name, sigma0, motion, pub):
         s = error_statistics(self._errors[(case, name)])
@@ -56,17 +52,15 @@ class Tables(RowTables):
         p = [np.nan if v is None else v for v in pub] + [np.nan] * (5 - len(pub))
         crlb = self._crlb[(case, name)]
         self.extend("summary", case=case, estimator=name, sigma0_db=sigma0, motion=motion,
-                     n_scored=self._errors[(case, name)].size, **s,
-                     crlb_m=float(np.sqrt(np.mean(np.where(np.isfinite(crlb), crlb, np.nan) ** 2))),
-                     published_rmse_m=p[0], published_mean_m=p[1], published_median_m=p[2],
-                     published_p90_m=p[3], published_std_m=p[4],
-                     relative_difference=(s["rmse_m"] - p[0]) / p[0] if np.isfinite(p[0]) else np.nan)
+                    n_scored=self._errors[(case, name)].size, **s,
+                    crlb_m=float(np.sqrt(np.mean(np.where(np.isfinite(crlb), crlb, np.nan) ** 2))),
+                    **{f"published_{k}_m": v for k, v in zip(("rmse", "mean", "median", "p90", "std"), p)},
+                    relative_difference=(s["rmse_m"] - p[0]) / p[0] if np.isfinite(p[0]) else np.nan)
 
     def write(self, ds: Dataset, offline):
         for r in offline:
             self.extend("calibration", kind="offline", case=-1, trial=-1, step=-1, reader=r["reader"],
-                        alpha_dbm=r["alpha_dbm"], exponent=r["exponent"], sigma_db=r["sigma_db"],
-                        waf_db=r["waf_db"])
+                        alpha_dbm=r["alpha_dbm"], exponent=r["exponent"], sigma_db=r["sigma_db"], waf_db=r["waf_db"])
         super().write(ds, _UNITS, _GROUPS)
 
 

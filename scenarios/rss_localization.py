@@ -17,14 +17,12 @@ Presets (rfsim.scenes.rss_rooms): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x
 Experiments per σ0 (simulation presets; §2.4, L1133–L1155, L1319–L1327): a **fixed** target
 (uniform in the room, shadowing frozen over the rt recursions, scored after the last) and a
 **mobile** target (Gaussian random walk D0 = 0.5 m per beacon, steps leaving the room redrawn,
-fresh shadowing at every new position, scored at every step). Estimators: LANDMARC kNN on the
-model map (k = 4; 68 in the 10 × 16 m room), grid Bayes over the k_CELL cells (D = 0.5 m, MMSE
-and MAP), SIR particle filter (N = 250, Gaussian proposal D = 0.5 m reflected at the walls,
-systematic resampling every step, MMSE and MAP); rt per σ from the thesis's tables. The home
-replica adds the offline fit, online calibration of α_j, n_j and σ from the reference tags (eq. 6.5–6.7), RSSI smoothing
-(§1.9), the fingerprint (pattern) map of 40 reads per cell and the improved SIR (√w selection,
-resampling when N_eff < 0.5 N, the known 0.5 m/step velocity for the mobile target); kNN
-uses k = 36 there (L1814).
+fresh shadowing at every new position, scored at every step). Estimators
+(rfsim.estimators.rss_localization): LANDMARC kNN on the model map (k = 4; 68 in the 10 × 16 m
+room), grid Bayes over the cells (D = 0.5 m, MMSE and MAP), SIR (N = 250, MMSE and MAP); rt per σ
+from the thesis's tables. The home replica adds the offline fit, online reference-tag calibration
+(eq. 6.5–6.7), RSSI smoothing (§1.9), the fingerprint map (40 reads per cell) and the improved
+SIR; kNN uses k = 36 there (L1814).
 
 Noise model (rfsim.scenes.rss_rooms, dataset attribute ``noise_model``): independent per reader
 (it reproduces Table 7.3, a shared term does not); all of σ0² quasi-static in the simulation rooms,
@@ -46,6 +44,7 @@ import numpy as np
 from rfsim.devices.rss_reader import RssReport
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
+from rfsim.core.plots import figure_path
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
 from rfsim.scenes.active_beacons import WaveformConfig, sample_level_reports
@@ -73,10 +72,9 @@ class Config:
         "log-distance", doc="statistical RSS model, or beacons sent at sample level (MSK, LBT, collisions)")
     waveform: WaveformConfig = param(WaveformConfig(), doc="sample-level beacons (rss_model = waveform)")
     n_readers: Literal[3, 4] = param(3, doc="corner readers of the simulation rooms")
-    readers_xy: tuple[tuple[float, float], ...] | None = param(
-        None, unit="m", doc="reader positions overriding the preset")
-    walls_xy: tuple[tuple[float, float, float, float], ...] | None = param(
-        None, unit="m", doc="walls (x0, y0, x1, y1) overriding the preset")
+    readers_xy: tuple[tuple[float, float], ...] | None = param(None, unit="m", doc="reader positions overriding the preset")
+    walls_xy: tuple[tuple[float, float, float, float], ...] | None = param(None, unit="m", doc="walls (x0, y0, x1, y1) "
+                                                                                            "overriding the preset")
     alpha_dbm: float = param(-52.0, lo=-120.0, hi=0.0, unit="dBm", doc="simulation presets: RSS at 1 m")
     exponent: float = param(2.3, lo=0.5, hi=8.0, lo_open=True, doc="simulation presets: path-loss exponent n")
     waf_db: float = param(2.0, lo=0.0, hi=40.0, unit="dB", doc="wall attenuation factor per crossing")
@@ -84,19 +82,14 @@ class Config:
                                          doc="simulation presets: RSSI noise σ0 values (σ = σ0 in the filters)")
     motions: tuple[Literal["fixed", "mobile"], ...] = param(("fixed", "mobile"), doc="target motions simulated")
     estimators: tuple[Literal["nn", "grid", "pf"], ...] = param(("nn", "grid", "pf"), doc="estimator families")
-    trials: int | None = param(
-        None, lo=1, hi=1_000_000,
-        doc="runs per case (none = preset: 1000 sim; home: 4 × the 25 points / 25 walks, own environments)")
-    nn_k: int | None = param(
-        None, lo=1, hi=100000,
-        doc="LANDMARC k ≤ the number of cells (none = the thesis's: 4 sim-5x8, 68 sim-10x16, 36 home)")
+    trials: int | None = param(None, lo=1, hi=1_000_000, doc="runs per case (none = preset: 1000 sim; home: 4 × the 25 points / 25 walks, own environments)")
+    nn_k: int | None = param(None, lo=1, hi=100000, doc="LANDMARC k ≤ the number of cells (none = the thesis's: 4 sim-5x8, 68 sim-10x16, 36 home)")
     step_std_m: float = param(0.5, lo=0.0, hi=100.0, lo_open=True, unit="m", doc="D = D0: motion std per beacon")
     recursions: int = param(0, lo=0, hi=1000, doc="rt (0 = the thesis's value for each σ0 and filter)")
     particles: int = param(250, lo=1, hi=1_000_000, doc="SIR particles N")
     home_steps: int = param(30, lo=1, hi=1000, doc="home: estimates per fixed point (30 in the thesis)")
     shadowing: _ShadowingConfig = param(_ShadowingConfig(), doc="shadowing and people term")
-    report: RssReport | None = param(
-        None, doc="reader RSSI report (none = preset: no quantization sim, 1 dB home)")
+    report: RssReport | None = param(None, doc="reader RSSI report (none = preset: no quantization sim, 1 dB home)")
     write_beacons: bool = param(True, doc="write the long per-beacon table")
 
     def __post_init__(self):
@@ -112,11 +105,7 @@ class Config:
 
 def floor_plan(config: Config) -> _rooms.FloorPlan:
     """The preset's plan with the reader/wall overrides, validated (one-line errors)."""
-    if config.preset == "home-2room":
-        plan = _rooms.home_plan()
-    else:
-        w, l = (5.0, 8.0) if config.preset == "sim-5x8" else (10.0, 16.0)
-        plan = _rooms.simulation_plan(w, l, config.n_readers, config.alpha_dbm, config.exponent)
+    plan = _rooms.preset_plan(config.preset, config.n_readers, config.alpha_dbm, config.exponent)
     return _rooms.with_overrides(plan, readers_xy=config.readers_xy, walls_xy=config.walls_xy)
 
 
@@ -138,20 +127,15 @@ def _report(config: Config) -> RssReport:
     return config.report if config.report is not None else RssReport(step_db=_preset(config, "report_step_db", None))
 
 
-def n_tracks(config: Config, plan: _rooms.FloorPlan, motion: str) -> int:
-    """Tracks of a case: ``trials`` (simulation) or ``trials`` × 25 (home: the 25 fixed points, or
-    25 walks alternating between the two room paths)."""
-    n = _preset(config, "trials", config.trials)
-    return n * plan.fixed_points_xy.shape[0] if _home(config) else n
-
-
 def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, motion: str,
                   n_steps: int, seed: int) -> _rooms.CaseData:
-    """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons)."""
+    """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons): ``trials``
+    tracks (simulation) or ``trials`` × 25 (home: the 25 fixed points, or 25 walks on the two room paths)."""
+    n = _preset(config, "trials", config.trials) * (plan.fixed_points_xy.shape[0] if _home(config) else 1)
     sh = config.shadowing
     dec, frac = _preset(config, "decorrelation_m", sh.decorrelation_m), _preset(config, "static_fraction", sh.static_fraction)
     return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion,
-                               n_tracks=n_tracks(config, plan, motion), n_steps=n_steps,
+                               n_tracks=n, n_steps=n_steps,
                                step_std_m=config.step_std_m, decorrelation_m=dec, static_fraction=frac,
                                shared=sh.readers == "shared", people_correlation=sh.people_correlation, seed=seed)
 
@@ -159,12 +143,14 @@ def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, mo
 # --------------------------------------------------------------------------- run
 
 
-def _recursions(config: Config, family: str, sigma0: float) -> int:
-    if config.recursions:
-        return config.recursions
+def _steps(config: Config, plan: _rooms.FloorPlan, sigma0: float, motion: str) -> tuple[int, dict]:
+    """Beacons per track and the recursions rt of each estimator family (the thesis's per σ0 and filter)."""
     if _home(config):
-        return config.home_steps
-    return _rooms.RECURSIONS[family].get(round(sigma0, 3), 10)
+        n_steps = config.home_steps if motion == "fixed" else plan.mobile_paths_xy[0].shape[0]
+        return n_steps, {f: n_steps for f in ("grid", "pf")}
+    rt = {f: config.recursions or _rooms.RECURSIONS[f].get(round(sigma0, 3), 10) for f in ("grid", "pf")}
+    n_steps = max(rt[f] for f in config.estimators if f != "nn") if set(config.estimators) - {"nn"} else 1
+    return n_steps, {**rt, "nn": n_steps}
 
 
 def _cases(config: Config) -> list[tuple[float, str]]:
@@ -181,22 +167,15 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     offline = _rooms.offline_campaign(nominal, config.waf_db, rng=trial_rng(seed, 10 ** 6)) if home else []
     for case, (sigma0, motion) in enumerate(track(_cases(config), desc="cases", unit="cases")):
         channel = nominal if home else _rooms.rss_channel(plan, config.waf_db, sigma_db=sigma0)
-        if home:
-            n_steps = config.home_steps if motion == "fixed" else plan.mobile_paths_xy[0].shape[0]
-            rt = {f: n_steps for f in ("grid", "pf")}
-        else:
-            rt = {f: _recursions(config, f, sigma0) for f in ("grid", "pf")}
-            n_steps = max(rt[f] for f in config.estimators if f != "nn") if set(config.estimators) - {"nn"} else 1
-            rt["nn"] = n_steps
+        n_steps, rt = _steps(config, plan, sigma0, motion)
         data = simulate_case(config, plan, channel, case, motion, n_steps, seed)
         if config.rss_model == "waveform":
             data.reported_dbm, data.ref_reported_dbm, data.beacon_t_s, st = sample_level_reports(
                 config.waveform, plan, channel, data, waf_db=config.waf_db, case=case, seed=seed, report=_report(config))
             tables.extend("waveform", case=case, sigma0_db=sigma0, motion=motion, **st.row())
         rng = trial_rng(seed, case, 1)
-        floor = config.report.floor_dbm if config.report is not None else -90.0
-        common = dict(k=nn_k(config), floor_dbm=floor, step_std_m=config.step_std_m, n_particles=config.particles,
-                      rng=rng)
+        common = dict(k=nn_k(config), floor_dbm=_report(config).floor_dbm, step_std_m=config.step_std_m,
+                      n_particles=config.particles, rng=rng)
         if home:
             path = plan.mobile_paths_xy[0]
             results, cal = est.estimate_home(
@@ -217,9 +196,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                         beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
                         reference_xy=plan.reference_xy)
         for name in results:
-            pub = (_rooms.PUBLISHED_HOME.get((name, motion)),) if home else _rooms.published(
-                plan.name, len(plan.readers_xy), name, motion, sigma0)
-            tables.add_summary(case, name, sigma0, motion, pub)
+            tables.add_summary(case, name, sigma0, motion, _rooms.published(plan.name, len(plan.readers_xy), name, motion,
+                                                                            sigma0))
     ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
     tables.write(ds, offline)
     ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float),
@@ -233,4 +211,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Floor plan with tracks, error CDF per estimator, RMSE vs σ0 beside the thesis."""
-    return _rss_figures.plot_all(dataset_path, out_dir)
+    return [_rss_figures.plot_floor_plan(dataset_path, figure_path(dataset_path, out_dir, "floorplan")),
+            _rss_figures.plot_error_cdf(dataset_path, figure_path(dataset_path, out_dir, "cdf")),
+            _rss_figures.plot_rmse_vs_sigma(dataset_path, figure_path(dataset_path, out_dir, "rmse"))]

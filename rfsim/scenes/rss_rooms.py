@@ -105,6 +105,15 @@ def home_plan() -> FloorPlan:
         tag_height_m=1.0)
 
 
+def preset_plan(preset: str, n_readers: int, alpha_dbm: float, exponent: float) -> FloorPlan:
+    """The plan of a preset: ``home-2room`` (:func:`home_plan`), ``sim-5x8`` or ``sim-10x16``
+    (:func:`simulation_plan` with ``n_readers`` corner readers of α [dBm] and n)."""
+    if preset == "home-2room":
+        return home_plan()
+    w, l = (5.0, 8.0) if preset == "sim-5x8" else (10.0, 16.0)
+    return simulation_plan(w, l, n_readers, alpha_dbm, exponent)
+
+
 def with_overrides(plan: FloorPlan, *, readers_xy=None, walls_xy=None) -> FloorPlan:
     """``plan`` with other reader positions and walls (x0, y0, x1, y1) [m] (None: the plan's),
     validated: readers inside the plan's bounds, walls of non-zero length (a one-line
@@ -210,7 +219,9 @@ PUBLISHED_HOME: dict[tuple[str, str], float] = {
 
 
 def published(preset: str, n_readers: int, estimator: str, motion: str, sigma0_db: float):
-    """Published (RMSE, mean, median, p90, std) or (RMSE,) for a case, or None."""
+    """Published (RMSE, mean, median, p90, std) or (RMSE,) for a case, or None (home: (RMSE or None,))."""
+    if preset == "home-2room":
+        return (PUBLISHED_HOME.get((estimator, motion)),)
     return PUBLISHED.get((preset, n_readers, estimator, motion, round(float(sigma0_db), 3)))
 
 
@@ -433,7 +444,7 @@ BEACON_LOG_UNITS = {
 }
 
 
-__all__ = ["FloorPlan", "simulation_plan", "home_plan", "with_overrides", "PRESET_DEFAULTS", "scored_steps",
+__all__ = ["FloorPlan", "simulation_plan", "home_plan", "preset_plan", "with_overrides", "PRESET_DEFAULTS", "scored_steps",
            "ShadowingConfig", "noise_model", "RECURSIONS", "PUBLISHED", "PUBLISHED_HOME", "published",
            "rss_channel", "random_walk", "CaseData", "FINGERPRINTS_PER_CELL", "draw_beacons", "offline_campaign",
            "FC_HZ", "TX_POWER_DBM", "epc", "beacon_log", "BEACON_LOG_UNITS"]

@@ -15,11 +15,6 @@ from rfsim.core.rows import read_block
 h5py = lazy_import("h5py")
 
 
-def _attrs(path: Path) -> dict:
-    with h5py.File(path, "r") as f:
-        return {k: f.attrs[k] for k in f.attrs}
-
-
 def _cases(path: Path) -> dict[str, np.ndarray]:
     """Case index, motion and σ0 of every case (from the small summary table)."""
     sm = read_table(path, "summary")
@@ -30,7 +25,8 @@ def _cases(path: Path) -> dict[str, np.ndarray]:
 def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     """Readers, walls, cells, reference tags and the first tracks of the first mobile case."""
     plt = pyplot()
-    a = _attrs(path)
+    with h5py.File(path, "r") as f:
+        a = {k: f.attrs[k] for k in f.attrs}
     cases = _cases(path)
     mobile = cases["motion"] == "mobile"
     case = int(cases["case"][np.flatnonzero(mobile)[0] if mobile.any() else 0])
@@ -44,15 +40,13 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     for tr in range(n_tracks):
         m = est["trial"] == tr
         first = m & (est["estimator"] == names[0])
-        ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5,
-                label="true track" if tr == 0 else None)
+        ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5, label="true track" if tr == 0 else None)
         for i, name in enumerate(names[::max(1, len(names) // 4)][:4]):
             mm = m & (est["estimator"] == name) & np.isfinite(est["x_est_m"])
             ax.plot(est["x_est_m"][mm], est["y_est_m"][mm], "--.", color=colors[(i + 1) % len(colors)],
                     lw=1, label=name if tr == 0 else None)
     ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]", title=f"{a['preset']}: readers, walls, true and estimated tracks")
-    handles, labels = ax.get_legend_handles_labels()
-    uniq = dict(zip(labels, handles))
+    uniq = dict(zip(*ax.get_legend_handles_labels()[::-1]))
     ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return save_figure(fig, out)
 

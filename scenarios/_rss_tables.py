@@ -17,8 +17,7 @@ class Tables(RowTables):
 
     def __init__(self):
         super().__init__()
-        self._errors = {}
-        self._crlb = {}
+        self._errors, self._crlb = {}, {}
 
     def add_case(self, case, sigma0, motion, data, results, scored, crlb, *, beacons, tag_z_m, reference_xy):
         b, t, j = data.reported_dbm.shape
@@ -84,8 +83,7 @@ _UNITS = {
     "sigma0_db": ("dB", "RSSI noise σ0 of the case (NaN = per-reader Table 6.1 σ)"), "motion": ("", "fixed or mobile target"),
     "estimator": ("", "which estimator produced the row: nn (kNN/LANDMARC), grid (grid Bayes) or pf (SIR particle filter), "
                       "with its variant"),
-    "x_est_m": ("m", "x coordinate the estimator returned for this step"),
-    "y_est_m": ("m", "y coordinate the estimator returned for this step"),
+    **{f"{c}_est_m": ("m", f"{c} coordinate the estimator returned for this step") for c in "xy"},
     "x_true_m": ("m", "true x coordinate of the tag at this step"), "y_true_m": ("m", "true y coordinate of the tag at this step"),
     "error_m": ("m", "localization error: Euclidean distance between the estimated and the true position"),
     "scored": ("1", "counted in the summary (fixed: last recursion; mobile/home: every step)"),

@@ -3,13 +3,11 @@
 An active tag beacons once per second (868 MHz, 5 dBm; seeds/002 L957, L1773); every reader
 reports the beacon's RSSI. ``rss_model = "log-distance"`` draws the received power from the
 thesis's statistical model (rfsim.channels.rss: per-reader α_j, n_j, σ_j, WAF per wall crossing,
-quasi-static shadowing per position and reader, optionally spatially correlated, plus a
-time-varying people term) and the reader's report from rfsim.devices.rss_reader (quantization,
-−90 dBm floor). ``rss_model = "waveform"`` keeps those draws (paired trial by trial) and sends
-every beacon at sample level instead: Manchester MSK bursts of rfsim.devices.ActiveTag through the
-air interface, per-link log-distance models in the channel, listen-before-talk and
-collisions (rfsim.protocols.beacons), the RSSI measured and reported by rfsim.devices.ActiveReader
-(rfsim.scenes.active_beacons); its counts are in the table ``waveform``.
+quasi-static shadowing, a time-varying people term; rfsim.scenes.rss_rooms.draw_beacons) and the
+reader's report from rfsim.devices.rss_reader (quantization, −90 dBm floor). ``rss_model =
+"waveform"`` keeps those draws (paired trial by trial) and sends every beacon at sample level
+instead (rfsim.scenes.active_beacons: MSK bursts of active tags through the air interface,
+listen-before-talk, collisions, the readers' RSSI); its counts are in the table ``waveform``.
 
 Presets (rfsim.scenes.rss_rooms): ``sim-5x8`` (3 or 4 corner readers), ``sim-10x16`` and
 ``home-2room`` (two rooms, a brick wall, Table 6.1 readers, 4 reference tags).
@@ -35,6 +33,7 @@ Randomness: case c (σ0 index × motion), trial b draws its environment and trac
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -114,15 +113,6 @@ def _preset(config: Config, key: str, value):
     return _rooms.PRESET_DEFAULTS[config.preset][key] if value is None else value
 
 
-def nn_k(config: Config) -> int:
-    """LANDMARC k of the run."""
-    return _preset(config, "nn_k", config.nn_k)
-
-
-def _home(config: Config) -> bool:
-    return config.preset == "home-2room"
-
-
 def _report(config: Config) -> RssReport:
     return config.report if config.report is not None else RssReport(step_db=_preset(config, "report_step_db", None))
 
@@ -131,12 +121,11 @@ def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, mo
                   n_steps: int, seed: int) -> _rooms.CaseData:
     """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons): ``trials``
     tracks (simulation) or ``trials`` × 25 (home: the 25 fixed points, or 25 walks on the two room paths)."""
-    n = _preset(config, "trials", config.trials) * (plan.fixed_points_xy.shape[0] if _home(config) else 1)
+    n = _preset(config, "trials", config.trials) * (plan.fixed_points_xy.shape[0] if config.preset == "home-2room" else 1)
     sh = config.shadowing
-    dec, frac = _preset(config, "decorrelation_m", sh.decorrelation_m), _preset(config, "static_fraction", sh.static_fraction)
-    return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion,
-                               n_tracks=n, n_steps=n_steps,
-                               step_std_m=config.step_std_m, decorrelation_m=dec, static_fraction=frac,
+    return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion, n_tracks=n, n_steps=n_steps,
+                               step_std_m=config.step_std_m, decorrelation_m=_preset(config, "decorrelation_m", sh.decorrelation_m),
+                               static_fraction=_preset(config, "static_fraction", sh.static_fraction),
                                shared=sh.readers == "shared", people_correlation=sh.people_correlation, seed=seed)
 
 
@@ -145,7 +134,7 @@ def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, mo
 
 def _steps(config: Config, plan: _rooms.FloorPlan, sigma0: float, motion: str) -> tuple[int, dict]:
     """Beacons per track and the recursions rt of each estimator family (the thesis's per σ0 and filter)."""
-    if _home(config):
+    if config.preset == "home-2room":
         n_steps = config.home_steps if motion == "fixed" else plan.mobile_paths_xy[0].shape[0]
         return n_steps, {f: n_steps for f in ("grid", "pf")}
     rt = {f: config.recursions or _rooms.RECURSIONS[f].get(round(sigma0, 3), 10) for f in ("grid", "pf")}
@@ -153,19 +142,14 @@ def _steps(config: Config, plan: _rooms.FloorPlan, sigma0: float, motion: str) -
     return n_steps, {**rt, "nn": n_steps}
 
 
-def _cases(config: Config) -> list[tuple[float, str]]:
-    if _home(config):
-        return [(float("nan"), m) for m in config.motions]
-    return [(s, m) for s in config.sigma0_db for m in config.motions]
-
-
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     plan = floor_plan(config)
-    home = _home(config)
+    home = config.preset == "home-2room"
     tables = _rss_tables.Tables()
     nominal = _rooms.rss_channel(plan, config.waf_db)
     offline = _rooms.offline_campaign(nominal, config.waf_db, rng=trial_rng(seed, 10 ** 6)) if home else []
-    for case, (sigma0, motion) in enumerate(track(_cases(config), desc="cases", unit="cases")):
+    cases = [(math.nan, m) for m in config.motions] if home else [(s, m) for s in config.sigma0_db for m in config.motions]
+    for case, (sigma0, motion) in enumerate(track(cases, desc="cases", unit="cases")):
         channel = nominal if home else _rooms.rss_channel(plan, config.waf_db, sigma_db=sigma0)
         n_steps, rt = _steps(config, plan, sigma0, motion)
         data = simulate_case(config, plan, channel, case, motion, n_steps, seed)
@@ -173,9 +157,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
             data.reported_dbm, data.ref_reported_dbm, data.beacon_t_s, st = sample_level_reports(
                 config.waveform, plan, channel, data, waf_db=config.waf_db, case=case, seed=seed, report=_report(config))
             tables.extend("waveform", case=case, sigma0_db=sigma0, motion=motion, **st.row())
-        rng = trial_rng(seed, case, 1)
-        common = dict(k=nn_k(config), floor_dbm=_report(config).floor_dbm, step_std_m=config.step_std_m,
-                      n_particles=config.particles, rng=rng)
+        common = dict(k=_preset(config, "nn_k", config.nn_k), floor_dbm=_report(config).floor_dbm, step_std_m=config.step_std_m,
+                      n_particles=config.particles, rng=trial_rng(seed, case, 1))
         if home:
             path = plan.mobile_paths_xy[0]
             results, cal = est.estimate_home(
@@ -192,19 +175,16 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         # 2-D bound on the floor plan (the 0.2 m height difference of the home is neglected)
         crlb = _bounds.log_distance_crlb(data.truth_xy, channel.positions_m[:, :2], channel.exponent,
                                          np.maximum(channel.sigma_db, 1e-3))
-        tables.add_case(case, sigma0, motion, data, results, scored, crlb,
-                        beacons=config.write_beacons, tag_z_m=plan.tag_height_m,
-                        reference_xy=plan.reference_xy)
+        tables.add_case(case, sigma0, motion, data, results, scored, crlb, beacons=config.write_beacons,
+                        tag_z_m=plan.tag_height_m, reference_xy=plan.reference_xy)
         for name in results:
             tables.add_summary(case, name, sigma0, motion, _rooms.published(plan.name, len(plan.readers_xy), name, motion,
                                                                             sigma0))
     ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
     tables.write(ds, offline)
-    ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float),
-                    walls_xy=np.asarray(plan.walls_xy, float).reshape(-1, 4),
-                    bounds_m=np.asarray(plan.bounds, float), cells_xy=plan.cells_xy,
-                    reference_xy=plan.reference_xy, beacon_period_s=BEACON_PERIOD_S,
-                    rss_model=config.rss_model,
+    ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float), bounds_m=np.asarray(plan.bounds, float),
+                    walls_xy=np.asarray(plan.walls_xy, float).reshape(-1, 4), cells_xy=plan.cells_xy,
+                    reference_xy=plan.reference_xy, beacon_period_s=BEACON_PERIOD_S, rss_model=config.rss_model,
                     noise_model=_rooms.noise_model(shared=config.shadowing.readers == "shared"))
     return ds
 

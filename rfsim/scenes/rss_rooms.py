@@ -18,7 +18,7 @@ in each room (the thesis's 0 → 3.5 m and 0 → 4 m, L1831, kept inside the roo
 
 Noise model: **independent per reader** (see rfsim.channels.rss; dataset attribute ``noise_model``):
 it reproduces Table 7.3, a term shared by all readers does not (wave2-specs.md §R: 1.24/1.61/
-1.82/2.01 m shared vs 1.36/1.92/2.20/2.48 m independent; tested here). Physically each reader
+1.82/2.01 m shared vs 1.36/1.92/2.20/2.48 m independent; tested with the scenario). Physically each reader
 sees the tag through its own obstacles, orientation and multipath. Simulation presets: all of σ0² quasi-static and
 independent per position (the thesis's "noise drawn once per run"), no quantization. Home: 75 %
 of σ_j² quasi-static with Gudmundson correlation (d_corr = 3 m, so that a target near a
@@ -42,6 +42,7 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.rng import trial_rng
+from rfsim.scenes.active_beacons import TX_POWER_DBM
 
 # the physics is imported on first use: a configuration (rfsim config) needs only the plans
 _large_scale = lazy_import("rfsim.channels.large_scale")
@@ -390,9 +391,8 @@ def offline_campaign(channel: _rss.RssChannel, waf_db: float, *, rng: np.random.
 # --------------------------------------------------------------------------- the per-beacon log
 
 
-#: Beacon carrier [Hz] and transmit power [dBm] of the active tag (L957).
+#: Beacon carrier [Hz] of the active tag (L957; its transmit power: active_beacons.TX_POWER_DBM).
 FC_HZ = 868e6
-TX_POWER_DBM = 5.0
 
 
 def epc(tag: int) -> str:
@@ -447,4 +447,4 @@ BEACON_LOG_UNITS = {
 __all__ = ["FloorPlan", "simulation_plan", "home_plan", "preset_plan", "with_overrides", "PRESET_DEFAULTS", "scored_steps",
            "ShadowingConfig", "noise_model", "RECURSIONS", "PUBLISHED", "PUBLISHED_HOME", "published",
            "rss_channel", "random_walk", "CaseData", "FINGERPRINTS_PER_CELL", "draw_beacons", "offline_campaign",
-           "FC_HZ", "TX_POWER_DBM", "epc", "beacon_log", "BEACON_LOG_UNITS"]
+           "FC_HZ", "epc", "beacon_log", "BEACON_LOG_UNITS"]

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from rfsim.core.dataset import read_table
-from rfsim.detection import rts_probability, st_features
+from rfsim.detection import fit_st_models, rts_probability, st_features
 from rfsim.core.rng import trial_rng
 from rfsim.runs.runner import run_scenario
 from rfsim.sweep.runner import run_sweep
@@ -133,7 +133,7 @@ def test_fits_recover_known_coefficients_on_the_scenario_geometry():
     truth = np.array([-1.0, 0.5, 2.5, 0.3, 0.6])
     y = np.random.default_rng(3).random(4000) < rts_probability(big_d, d, th, ph, truth)
     s = dict(D_m=big_d, d_m=d, theta_rad=th, phi_rad=ph, st_detected=y, is_test=np.arange(4000) >= 3000)
-    f = dp.fit_models(s)
+    f = fit_st_models(s)
     assert list(f["model"]) == ["RTS", "RTS", "TS", "TS"]
     assert list(f["source"]) == ["fit", "published", "fit", "published"]
     est = np.array([f[f"a{j}"][0] for j in range(5)])
@@ -199,7 +199,7 @@ def test_default_run_fits_pin_the_documented_difference_from_the_published_model
     from rfsim.detection import cross_entropy, fit_logistic, predict_proba, rts_design
 
     s = dp.simulate(dp.Config(), seed=1)
-    f = dp.fit_models(s)
+    f = fit_st_models(s)
     i = {(m, src): k for k, (m, src) in enumerate(zip(f["model"], f["source"]))}
     rts, ts = i["RTS", "fit"], i["TS", "fit"]
     for row, expected in ((rts, (-8.20, 0.773, 7.39, 4.10, 5.76)), (ts, (0.019, 5.37))):

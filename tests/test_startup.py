@@ -67,9 +67,12 @@ def test_config_runs_no_kernel_module_nor_heavy_library(name):
 #: the engine, the assembly and application of channels, the capture decoders, the dataset
 #: file and the detection fits (each costs start-up; together they made 'rfsim config
 #: reader-detection' twice as slow as 'rfsim --help').
-PHYSICS = ("rfsim.devices.reader", "rfsim.devices.tag", "rfsim.devices.sense_a_tag", "rfsim.devices.tag_population",
+PHYSICS = ("rfsim.devices.reader", "rfsim.devices.reader_tx", "rfsim.devices.reader_search",
+           "rfsim.devices.reader_measure", "rfsim.devices.tag", "rfsim.devices.tag_response",
+           "rfsim.devices.sense_a_tag", "rfsim.devices.tag_population",
            "rfsim.devices.gen2_tag_state", "rfsim.devices.active_reader", "rfsim.devices.active_tag", "rfsim.channels.scene",
            "rfsim.channels.bulk", "rfsim.channels.paths", "rfsim.channels.small_scale", "rfsim.channels.rss", "rfsim.air.step",
+           "rfsim.air.links", "rfsim.air.groups", "rfsim.air.fused",
            "rfsim.protocols.engine", "rfsim.protocols.batch", "rfsim.core.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
            "rfsim.gen2.replies", "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
 

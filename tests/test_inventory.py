@@ -195,10 +195,6 @@ def test_fsa_counts_protocol_level_2000_frames(n, L):
     _check_fsa(n, L, 2000, seed=12)
 
 
-def test_fsa_case_lists():
-    assert len(FULL_FSA) == 12 and len(FAST_FSA) == 4
-
-
 def _q_efficiency(n, runs, seed):
     eff, slots, air_s = [], [], []
     for r in range(runs):

@@ -113,12 +113,15 @@ values = [0, 5, 10]
     one = dp.simulate(replace(TINY, samples=dp.SampleConfig(count=15, n_train=10, seed=77)), seed=5)
     for k in dp.FIELDS:
         np.testing.assert_array_equal(merged[k], one[k], err_msg=k)
-    # the merged file can be fitted only if both outcomes occur; the call itself must work
-    # on the merged layout (sorted, no duplicates)
-    try:
+    # no ST detection among these 15 samples: fitting the merged file (rows sorted by sample
+    # index, no duplicates, so no layout error) refuses for the reason fitting the single
+    # run's samples directly refuses
+    assert not one["st_detected"].any()
+    with pytest.raises(dp.UserError) as direct:
+        dp.fit_models(one)
+    with pytest.raises(dp.UserError) as merged_fit:
         dp.fit_file(report.output)
-    except dp.UserError:
-        pass
+    assert str(merged_fit.value) == str(direct.value)
 
 
 def test_fits_recover_known_coefficients_on_the_scenario_geometry():

@@ -366,25 +366,24 @@ def test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_
 
 
 @pytest.mark.slow
-def test_below_one_percent_needs_passs_backscatter_level_at_the_st():
-    """The source's "below 1 %" for path selection (R3-5) is reached when the backscatter at the
-    ST stands to the 5 mV threshold as in PASS's antenna convention: (2/1.281)³ = 3.81× our A_T
-    (derived in test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag).
-    Paper-size Monte Carlo (11 464 samples outside the near field, seed 1) with the threshold
-    at 5 mV/3.81 and everything else ours: path selection 0.96 %, single antenna 7.34 %
-    (measured); pinned within 4 binomial standard errors (0.36 and 1.0 points), and below the
-    source's 1 % bound within 2 standard errors."""
+def test_regression_below_one_percent_needs_passs_backscatter_level_at_the_st():
+    """Regression, not validation: the source's "below 1 %" for path selection (R3-5) is
+    reached when the backscatter at the ST stands to the 5 mV threshold as in PASS's antenna
+    convention: (2/1.281)³ = 3.81× our A_T (derived in
+    test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag).
+    Paper-size Monte Carlo, seed 1, with the threshold at 5 mV/3.81 and everything else ours,
+    as recorded at revision 35629ba: of the 11 464 samples outside the near field, 110 cancelled
+    with path selection (0.96 %, below the source's 1 %) and 842 with a single antenna
+    (7.34 %). Counts, so exact: a rerun of the same code gives the same samples; a change means
+    the simulation changed, to be re-recorded deliberately."""
     base = pc.Config()
     cfg = replace(base, mc=replace(base.mc, full=True), st=replace(base.st, threshold_v=base.st.threshold_v / 3.81))
     s = pc.monte_carlo(cfg, seed=1)
     far = ~s["near_field"]
-    n = int(far.sum())
-    for tech, expected in (("selection", 0.0096), ("single", 0.0734)):
-        p = s[f"cancelled_{tech}"][far].mean()
-        se = math.sqrt(expected * (1 - expected) / n)
-        assert abs(p - expected) < 4 * se, (tech, p)
-    p_sel = s["cancelled_selection"][far].mean()
-    assert p_sel < 0.01 + 2 * math.sqrt(0.01 * 0.99 / n)
+    assert s["cell"].size == 11700 and int(far.sum()) == 11464
+    assert int(s["cancelled_selection"][far].sum()) == 110
+    assert int(s["cancelled_single"][far].sum()) == 842
+    assert s["cancelled_selection"][far].mean() < 0.01
 
 
 @pytest.mark.parametrize("shape", [(7, 2, 2467), (7, 2, 333), (5, 2, 2), (5, 2, 1), (1, 2, 40), (7, 2)])

@@ -228,7 +228,7 @@ def test_workers_do_not_change_results():
 
 
 @pytest.mark.slow
-def test_paper_size_monte_carlo_within_budget():
+def test_paper_size_monte_carlo_orders_the_techniques():
     """3900 positions × 3 repetitions × all techniques: the probabilities' order and the exact
     interval of the selection probability (its time is a figure of ``rfsim bench campaigns``,
     not a test)."""

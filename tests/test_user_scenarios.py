@@ -56,6 +56,13 @@ def test_cli_config_of_a_file(capsys):
     assert "rounds = 7" in text and "[reader]" in text and "distances_m = [1.0, 4.0, 8.0]" in text
 
 
+def test_cli_config_keys_of_a_file(capsys):
+    assert main(["config", str(EXAMPLE), "--keys"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.startswith("rounds = 4  #") and "inventory rounds per distance" in line for line in lines)
+    assert any(line.startswith("reader.ptx_dbm = 30.0") for line in lines)
+
+
 def test_a_bad_override_of_a_file_scenario_names_the_key():
     with pytest.raises(ConfigError, match="'rounds'"):
         rfsim.run(str(EXAMPLE), rounds=0)
@@ -179,9 +186,12 @@ def test_a_plugin_cannot_replace_a_builtin(plugin_site):
     assert registry.scenario_descriptions()["link"] != "a plug-in scenario for the tests"
 
 
-def test_a_broken_plugin_is_a_one_line_error(plugin_site):
-    plugin_site({"broken": "fakeplug.missing"}, {})
+@pytest.mark.parametrize("target", ["fakeplug.missing", "no_such_package_xyz.scen"])
+def test_a_broken_plugin_is_a_one_line_error(plugin_site, capsys, target):
+    plugin_site({"broken": target}, {})
     with pytest.raises(UserError) as err:
         registry.scenario_modules()
     assert "scenario plug-in 'broken'" in str(err.value) and "fake-rfsim-plugin" in str(err.value)
     assert "\n" not in str(err.value)
+    assert main(["list"]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

@@ -247,7 +247,8 @@ class Result:
     seed : the root seed
     provenance : how the dataset was made (as the file's ``/provenance`` attributes;
         ``end_time_utc`` is stamped when the dataset is saved)
-    path : the file the dataset is in (None until :meth:`save` for a run)
+    path : the sweep's merged file; None for a run (its dataset is in memory; :meth:`save`
+        writes a copy and leaves the result as it is)
     wall_time_s : wall time of the run [s]
     """
 

@@ -227,7 +227,10 @@ def scenario_descriptions() -> dict[str, str]:
         found[meta[0]] = meta[1]
     for ep in _entry_points():
         meta = None
-        spec = importlib.util.find_spec(ep.module) if ep.attr is None else None
+        try:
+            spec = importlib.util.find_spec(ep.module) if ep.attr is None else None
+        except (ImportError, ValueError):  # its package is missing: _plugin_module says so
+            spec = None
         if spec is not None and spec.origin and spec.origin.endswith(".py"):
             meta = _literal_metadata(Path(spec.origin))
         if meta is None:

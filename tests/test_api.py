@@ -294,3 +294,27 @@ def test_run_sweep_returns_the_merged_dataset(tmp_path):
         result.figures()
     with pytest.raises(UserError, match="executor 'fast'"):
         rfsim.run_sweep(spec, executor="fast")
+
+
+def test_sweep_progress_uses_the_notebook_widget(tmp_path, monkeypatch):
+    import rfsim.runs.api as api
+
+    made = []
+
+    class Widget:
+        def __init__(self, **kw):
+            made.append(dict(kw, n=0))
+
+        def update(self, n=1):
+            made[-1]["n"] += n
+
+        def close(self):
+            made[-1]["closed"] = True
+
+    monkeypatch.setattr(api, "_notebook_tqdm", lambda: Widget)
+    spec = {"scenario": "link", "seed": 5, "output": str(tmp_path / "sw.h5"),
+            "base": {"geometry": {"distances_m": [2.0]}, "rounds_per_point": 1},
+            "axes": [{"kind": "grid", "key": "reader.ptx_dbm", "values": [20.0, 25.0, 30.0]}]}
+    rfsim.run_sweep(spec, executor="serial", progress=True)
+    sweep_bars = [m for m in made if m["desc"] == "sweep"]
+    assert [(m["total"], m["initial"], m["n"], m.get("closed")) for m in sweep_bars] == [(3, 0, 3, True)]

@@ -56,13 +56,17 @@ def __getattr__(name: str):
         from rfsim.runs import api
 
         return getattr(api, name)
+    if name == "sweep":  # the sweep package, callable: rfsim.sweep(spec, executor=...)
+        import importlib
+
+        return importlib.import_module("rfsim.sweep")
     raise AttributeError(f"module 'rfsim' has no attribute {name!r}")
 
 
 #: Names exported from :mod:`rfsim.runs.api` on first use.
 _API = ("run", "run_sweep", "Result", "Scene")
 
-__all__ = ["__version__", "run", "run_sweep", "Result", "Simulation", "Scene"]
+__all__ = ["__version__", "run", "sweep", "run_sweep", "Result", "Simulation", "Scene"]
 
 
 def __dir__() -> list[str]:

@@ -318,3 +318,17 @@ def test_sweep_progress_uses_the_notebook_widget(tmp_path, monkeypatch):
     rfsim.run_sweep(spec, executor="serial", progress=True)
     sweep_bars = [m for m in made if m["desc"] == "sweep"]
     assert [(m["total"], m["initial"], m["n"], m.get("closed")) for m in sweep_bars] == [(3, 0, 3, True)]
+
+
+def test_the_sweep_package_is_callable_like_run_sweep(tmp_path):
+    """``rfsim.sweep(spec, executor=...)`` (the issue's spelling) is the same call as
+    :func:`rfsim.run_sweep`, and ``rfsim.sweep.<name>`` stays the package's API."""
+    spec = {"scenario": "link", "seed": 5, "output": str(tmp_path / "a.h5"),
+            "base": {"geometry": {"distances_m": [2.0]}, "rounds_per_point": 1},
+            "axes": [{"kind": "grid", "key": "reader.ptx_dbm", "values": [20.0, 30.0]}]}
+    a = rfsim.sweep(spec, executor="serial", progress=False)
+    b = rfsim.run_sweep({**spec, "output": str(tmp_path / "b.h5")}, executor="serial", progress=False)
+    for name in ("phase_rad", "rssi_dbm", "sweep_point"):
+        assert np.array_equal(a.dataset.tables["reads"][name].data, b.dataset.tables["reads"][name].data,
+                              equal_nan=True)
+    assert rfsim.sweep.load_spec is not None and "sweep" in rfsim.__all__

@@ -13,7 +13,8 @@ Pins beyond the declared names
   and ``distributed==2024.1.0`` (``distributed`` only asks for ``dask`` of its own
   version, but ``dask[distributed]`` alone would let pip pick a newer pair).
 * ``llvmlite`` is not pinned: every numba release requires one llvmlite minor series
-  (numba 0.59 -> llvmlite 0.42.*), so pinning numba pins llvmlite.
+  (numba 0.62.0 -> llvmlite 0.45.*), so pinning numba fixes llvmlite up to a bug-fix
+  release (pip takes that series' newest, e.g. 0.45.1).
 * Other transitive packages (pandas under xarray, packaging, ...) are left to pip, which
   picks the newest release the pinned packages allow. That is what a user who installs
   at the floors gets, so a floor that breaks with today's transitive releases is a floor

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
+from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
                                         viterbi_kernel, waveform_kernel)
@@ -145,6 +145,71 @@ def _first_sample(k, t0, rho, lo, hi):
     return n
 
 
+@njit_inline
+def _preamble_element_levels(pre, m):
+    """Pilot + preamble elements (±1) from the half-symbol levels ``pre``: each level held
+    for ``m`` elements, every other element inverted for Miller (M > 1)."""
+    pre_el = np.empty(pre.size * m)
+    for i in range(pre.size):
+        for q in range(m):
+            k = i * m + q
+            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    return pre_el
+
+
+@njit_inline
+def _cumulative_sums(r):
+    """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0."""
+    nr = r.size
+    c_re = np.zeros(nr + 1)
+    c_im = np.zeros(nr + 1)
+    p2 = np.zeros(nr + 1)
+    for n in range(nr):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    return c_re, c_im, p2
+
+
+@njit_inline
+def _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, n_end):
+    """Residual power of the least-squares fit r ≈ h·ref + c over r[:n_end], ref = −1 outside
+    the reply and ``el[k]`` on element k (sampled from ``start`` by the rule of
+    ``waveform_kernel``), from the cumulative sums of :func:`_cumulative_sums`, element by
+    element (``fine_kernel``'s closed form). Returns ``(ok, residual)``; ok False when the
+    reference is constant."""
+    t0s = (start / fs) * fs
+    # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
+    rs_re = -c_re[n_end]
+    rs_im = -c_im[n_end]
+    s1 = -float(n_end)
+    lo = max(0, int(math.ceil(t0s)))
+    n_a = _first_sample(0, t0s, rho, lo, n_end)
+    for k in range(n_el):
+        n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
+        if n_b > n_a and el[k] > 0:
+            rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
+            rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
+            s1 += 2.0 * (n_b - n_a)
+        n_a = n_b
+        if n_a >= n_end:
+            break
+    nn = float(n_end)
+    ss = nn  # every reference value is ±1
+    det = ss * nn - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+        return False, 0.0
+    rs = complex(rs_re, rs_im)
+    r1 = complex(c_re[n_end], c_im[n_end])
+    hh = (nn * rs - s1 * r1) / det
+    cc = (ss * r1 - s1 * rs) / det
+    acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
+           - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
+           + 2.0 * (cc.conjugate() * hh).real * s1)
+    return True, max(acc, 0.0) / nn
+
+
 @njit
 def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
     """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` and keep
@@ -171,11 +236,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     n_pre_el = pre.size * m
     nh = pre.size + 2 * (n_bits + 1)
     n_el = n_pre_el + 2 * m * (n_bits + 1)
-    pre_el = np.empty(n_pre_el)
-    for i in range(pre.size):
-        for q in range(m):
-            k = i * m + q
-            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    pre_el = _preamble_element_levels(pre, m)
     half = 0.5 * n_pre_el
     sums = np.empty(nh)
     n_data = nh - pre.size
@@ -184,14 +245,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     dec = np.empty(n_data // 2, dtype=np.uint8)
     el = np.empty(n_el)
     nr = r.size
-    c_re = np.zeros(nr + 1)
-    c_im = np.zeros(nr + 1)
-    p2 = np.zeros(nr + 1)
-    for n in range(nr):
-        z = r[n]
-        c_re[n + 1] = c_re[n] + z.real
-        c_im[n + 1] = c_im[n] + z.imag
-        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    c_re, c_im, p2 = _cumulative_sums(r)
     best_j = -1
     best_resid = math.inf
     best_start = math.nan
@@ -260,36 +314,9 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
             bitwise_kernel(a, b, miller, dec)
         # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
         elements_kernel(dec[:n_bits], True, m, pre, cur, prev, el)
-        t0s = (start / fs) * fs
-        n_end = min(r.size, int(start) + n_rep)
-        # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
-        rs_re = -c_re[n_end]
-        rs_im = -c_im[n_end]
-        s1 = -float(n_end)
-        lo = max(0, int(math.ceil(t0s)))
-        n_a = _first_sample(0, t0s, rho, lo, n_end)
-        for k in range(n_el):
-            n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
-            if n_b > n_a and el[k] > 0:
-                rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
-                rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
-                s1 += 2.0 * (n_b - n_a)
-            n_a = n_b
-            if n_a >= n_end:
-                break
-        nn = float(n_end)
-        ss = nn  # every reference value is ±1
-        det = ss * nn - s1 * s1
-        if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+        fitted, resid = _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, min(r.size, int(start) + n_rep))
+        if not fitted:
             continue
-        rs = complex(rs_re, rs_im)
-        r1 = complex(c_re[n_end], c_im[n_end])
-        hh = (nn * rs - s1 * r1) / det
-        cc = (ss * r1 - s1 * rs) / det
-        acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
-               - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
-               + 2.0 * (cc.conjugate() * hh).real * s1)
-        resid = max(acc, 0.0) / nn
         if best_j < 0 or resid < best_resid:
             best_j = j
             best_resid = resid
@@ -324,6 +351,43 @@ def _interp_unit(r, x):
     return complex((b.real - a.real) * f + a.real, (b.imag - a.imag) * f + a.imag)
 
 
+@njit_inline
+def _fit_rest_level(r, ref, n_end):
+    """Least-squares ``(h, c, ok)`` of r ≈ h·ref + c over r[:n_end], ``ref`` read as −1 where
+    it is 0 (the rest level around the reply)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        v = ref[n] if ref[n] != 0.0 else -1.0
+        ss += v * v
+        s1 += v
+        rs += r[n] * v
+        r1 += r[n]
+    return _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+
+
+@njit_inline
+def _fit_decision_free(rw, pre_s, n_rest):
+    """Least-squares ``(h, c, ok)`` of rw ≈ h·ref + c over the decision-free samples: the
+    rest level (−1) before sample ``n_rest`` and the pilot + preamble ``pre_s`` (nonzero)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    cnt = 0
+    for n in range(rw.size):
+        if pre_s[n] != 0.0 or n < n_rest:
+            v = pre_s[n] if pre_s[n] != 0.0 else -1.0
+            ss += v * v
+            s1 += v
+            rs += rw[n] * v
+            r1 += rw[n]
+            cnt += 1
+    return _ls_gain_offset(ss, s1, float(cnt), rs, r1)
+
+
 @njit
 def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dummy, viterbi, block_elements,
                         min_blocks, spans, sub, min_drift_blocks, converged_elements, n_rest, rw):
@@ -355,11 +419,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
     n_el = n_el_full - (0 if dummy else 2 * m)
     el = np.empty(n_el)
     el_full = np.empty(n_el_full)
-    pre_el = np.empty(n_pre_h * m)
-    for i in range(n_pre_h):
-        for q in range(m):
-            k = i * m + q
-            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    pre_el = _preamble_element_levels(pre, m)
     nr = r.size
     n_w = rw.size
     ref = np.empty(nr)
@@ -381,17 +441,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
             el[i] = el_full[i]
         n_end = min(nr, int(math.ceil(start + n_el / rho)))
         waveform_kernel(el, (start / fs) * fs, rho, ref[:n_end])
-        ss = 0.0
-        s1 = 0.0
-        rs = 0j
-        r1 = 0j
-        for n in range(n_end):
-            v = ref[n] if ref[n] != 0.0 else -1.0
-            ss += v * v
-            s1 += v
-            rs += r[n] * v
-            r1 += r[n]
-        h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+        h, c, ok = _fit_rest_level(r, ref, n_end)
         if not ok or h == 0:
             return False, start, u1, u2
         # 2. tracking loop
@@ -412,20 +462,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
             rw[i] = _interp_unit(r, start + 2.0 * target / (u1 + math.sqrt(disc)))
         # 4. fit on the decision-free samples, decoding with that gain
         waveform_kernel(pre_el, (n_rest / fs) * fs, rho, pre_s)
-        ss = 0.0
-        s1 = 0.0
-        rs = 0j
-        r1 = 0j
-        cnt = 0
-        for n in range(n_w):
-            if pre_s[n] != 0.0 or n < n_rest:
-                v = pre_s[n] if pre_s[n] != 0.0 else -1.0
-                ss += v * v
-                s1 += v
-                rs += rw[n] * v
-                r1 += rw[n]
-                cnt += 1
-        h, c, ok = _ls_gain_offset(ss, s1, float(cnt), rs, r1)
+        h, c, ok = _fit_decision_free(rw, pre_s, n_rest)
         if not ok or h == 0:
             return False, start, u1, u2
         g = 1.0 / h
@@ -549,6 +586,62 @@ def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, targe
         centre_blf = blfs[j]
 
 
+@njit_inline
+def _fit_steady(rw, ref, n_end):
+    """Least-squares ``(h, c, ok, σ²)`` of rw ≈ h·ref + c over rw[:n_end] (``ref``'s zeros set
+    to the rest level −1 in place), σ² the mean residual power over the steady samples (both
+    neighbours at the same level; NaN when there are none)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        if ref[n] == 0.0:
+            ref[n] = -1.0
+        v = ref[n]
+        ss += v * v
+        s1 += v
+        rs += rw[n] * v
+        r1 += rw[n]
+    h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+    if not ok:
+        return h, c, ok, math.nan
+    acc = 0.0
+    cnt = 0
+    for n in range(1, n_end - 1):
+        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
+            e = rw[n] - c - h * ref[n]
+            acc += e.real * e.real + e.imag * e.imag
+            cnt += 1
+    return h, c, ok, acc / cnt if cnt > 0 else math.nan
+
+
+@njit_inline
+def _correlation_at(rw, n_rest, pre_el, n_t, rho):
+    """Zero-mean normalised correlation of rw[n_rest : n_rest + n_t] with the pilot +
+    preamble ``pre_el`` sampled from 0 at ρ elements per sample:
+    |Σ z·t0| / (‖t0‖·‖z − mean z‖)."""
+    tpl = np.empty(n_t)
+    waveform_kernel(pre_el, 0.0, rho, tpl)
+    t_mean = 0.0
+    for i in range(n_t):
+        t_mean += tpl[i]
+    t_mean /= n_t
+    p = 0j
+    e_t = 0.0
+    sz = 0j
+    e_z = 0.0
+    for i in range(n_t):
+        t0 = tpl[i] - t_mean
+        z = rw[n_rest + i]
+        p += z * t0
+        e_t += t0 * t0
+        sz += z
+        e_z += z.real * z.real + z.imag * z.imag
+    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
+    return abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+
+
 @njit
 def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state0, viterbi, rule, fixed,
                          fine_span_steps, start_shifts, block_elements, min_blocks, spans, sub, min_drift_blocks,
@@ -630,50 +723,10 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
     n_end = min(rw.size, int(math.ceil(n_rest + n_el / rho)))
     ref = np.empty(n_end)
     waveform_kernel(el[:n_el], (n_rest / fs) * fs, rho, ref)
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        if ref[n] == 0.0:
-            ref[n] = -1.0
-        v = ref[n]
-        ss += v * v
-        s1 += v
-        rs += rw[n] * v
-        r1 += rw[n]
-    h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+    h, c, ok, sigma2 = _fit_steady(rw, ref, n_end)
     if not ok:
         return fail
-    acc = 0.0
-    cnt = 0
-    for n in range(1, n_end - 1):
-        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
-            e = rw[n] - c - h * ref[n]
-            acc += e.real * e.real + e.imag * e.imag
-            cnt += 1
-    sigma2 = acc / cnt if cnt > 0 else math.nan
-    n_t = int(math.floor(n_pre_el * fs / (2.0 * blf)))
-    tpl = np.empty(n_t)
-    pre_el = el[:n_pre_el]
-    waveform_kernel(pre_el, 0.0, rho, tpl)
-    t_mean = 0.0
-    for i in range(n_t):
-        t_mean += tpl[i]
-    t_mean /= n_t
-    p = 0j
-    e_t = 0.0
-    sz = 0j
-    e_z = 0.0
-    for i in range(n_t):
-        t0 = tpl[i] - t_mean
-        z = rw[n_rest + i]
-        p += z * t0
-        e_t += t0 * t0
-        sz += z
-        e_z += z.real * z.real + z.imag * z.imag
-    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
-    corr = abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+    corr = _correlation_at(rw, n_rest, el[:n_pre_el], int(math.floor(n_pre_el * fs / (2.0 * blf))), rho)
     for i in range(n_bits):
         bits_out[i] = bits[i]
     n_span = int(math.ceil(0.0 + n_el / rho)) / u1 * rho

@@ -1,12 +1,12 @@
-"""numba kernels of the capture reply decoder (wrapped and documented in
-:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_fine_reference``, ``_track_decode_reference``
-and ``_decode_window_reference`` there, and ``reference.gen2_replies._search_reference`` in the tests).
+"""numba kernels of the capture reply decoder's steps 3–5 (wrapped and documented in
+:mod:`rfsim.gen2.reply_decoding`; their plain-NumPy twins are ``_fine_python``,
+``_track_decode_python`` and ``_decode_window_python`` there). The preamble search of step 2
+is in :mod:`rfsim.gen2._reply_search_kernels`.
 
-``preamble_search_kernel`` and ``fine_kernel`` fuse, per BLF hypothesis, what the twins do
-with several NumPy calls: the preamble template (the element sequence of
-:mod:`rfsim.gen2.linecode` sampled with ``waveform_kernel``), the zero-mean normalised
-correlation, the coherent decoding of :func:`rfsim.gen2.linecode.decode_reply` at a known
-start (half-bit sums, Viterbi or bit-by-bit decisions) and the least-squares residual of
+``fine_kernel`` fuses, per BLF hypothesis, what the twins do with several NumPy calls: the
+preamble template (the element sequence of :mod:`rfsim.gen2.linecode` sampled with
+``waveform_kernel``), the coherent decoding of :func:`rfsim.gen2.linecode.decode_reply` at a
+known start (half-bit sums, Viterbi or bit-by-bit decisions) and the least-squares residual of
 the remodulated reply. ``track_decode_kernel`` is step 4 (fit, tracking loop, resampling
 on the tag's clock, decoding again) and ``decode_window_kernel`` steps 3–5 of a window in
 one call each, so that a reply costs one kernel call after its detection.
@@ -22,111 +22,6 @@ from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
                                         viterbi_kernel, waveform_kernel)
-
-
-@njit
-def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_element, out_corr):
-    """Largest zero-mean normalised preamble correlation over BLFs and lags.
-
-    For BLF ``blfs[j]`` (skipped when 2·BLF·``min_samples_per_element`` > fs) the template
-    t is ``pre_el`` (pilot + preamble elements) sampled at ρ = 2·BLF/fs from lag 0 over its
-    n = floor(n_pre·fs/(2·BLF)) samples, t0 = t − mean(t); the lags k = ``lo[j] …
-    min(hi[j], r.size − n_rep[j])`` are tested with c = |Σ r[k+i]·t0[i]| / (‖t0‖·‖r_k −
-    mean r_k‖). The template is constant over each element, so with the cumulative sums
-    C of r and P of |r|² every lag costs one term per run of equal template samples
-    (Σ t[i]·r[k+i] = Σ_runs t_run·(C[k + end] − C[k + begin])) instead of one per sample:
-    O(lags · preamble elements), independent of the sample rate. ``out_corr[j]`` receives
-    the best c of BLF j (−1 if skipped). Returns ``(best c, its BLF index, lag refined by
-    the parabola through the peak, lags tested, template length)``; the first maximum wins
-    ties (BLFs, then lags, in order).
-    """
-    best = -1.0
-    best_j = -1
-    best_pos = 0.0
-    best_n = 0
-    n_tests = 0
-    n_el = pre_el.size
-    n_r = r.size
-    c_re = np.zeros(n_r + 1)
-    c_im = np.zeros(n_r + 1)
-    p = np.zeros(n_r + 1)
-    for i in range(n_r):
-        z = r[i]
-        c_re[i + 1] = c_re[i] + z.real
-        c_im[i + 1] = c_im[i] + z.imag
-        p[i + 1] = p[i] + (z.real * z.real + z.imag * z.imag)
-    t = np.empty(0)
-    run_begin = np.empty(0, dtype=np.int64)
-    run_value = np.empty(0)
-    for j in range(blfs.size):
-        out_corr[j] = -1.0
-        blf = blfs[j]
-        if 2.0 * blf * min_samples_per_element > fs:
-            continue
-        rho = 2.0 * blf / fs
-        n = int(math.floor(n_el * fs / (2.0 * blf)))
-        last = min(hi[j], r.size - n_rep[j])
-        if last < lo[j] or n < 3:
-            continue
-        if t.size < n:
-            t = np.empty(n)
-            run_begin = np.empty(n + 1, dtype=np.int64)
-            run_value = np.empty(n)
-        tt = t[:n]
-        waveform_kernel(pre_el, 0.0, rho, tt)
-        mean = 0.0
-        for i in range(n):
-            mean += tt[i]
-        mean /= n
-        e_t = 0.0
-        n_runs = 0
-        for i in range(n):
-            e_t += (tt[i] - mean) * (tt[i] - mean)
-            if i == 0 or tt[i] != tt[i - 1]:
-                run_begin[n_runs] = i
-                run_value[n_runs] = tt[i]
-                n_runs += 1
-        run_begin[n_runs] = n
-        norm_t = math.sqrt(e_t)
-        n_tests += last - lo[j] + 1
-        c_prev = -1.0
-        kbest = -1
-        cbest = -1.0
-        cl = -1.0
-        cr = -1.0
-        for k in range(lo[j], last + 1):
-            a_re = 0.0
-            a_im = 0.0
-            for q in range(n_runs):
-                b0 = k + run_begin[q]
-                b1 = k + run_begin[q + 1]
-                a_re += run_value[q] * (c_re[b1] - c_re[b0])
-                a_im += run_value[q] * (c_im[b1] - c_im[b0])
-            s_re = c_re[k + n] - c_re[k]
-            s_im = c_im[k + n] - c_im[k]
-            acc_re = a_re - mean * s_re
-            acc_im = a_im - mean * s_im
-            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
-            c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
-            if k == kbest + 1 and kbest >= 0:
-                cr = c  # right neighbour of the running best
-            if c > cbest:
-                cbest = c
-                kbest = k
-                cl = c_prev
-                cr = -1.0
-            c_prev = c
-        out_corr[j] = cbest
-        if cbest > best:
-            frac = 0.0
-            if kbest > lo[j] and kbest < last:
-                den = cl - 2.0 * cbest + cr
-                frac = 0.5 * (cl - cr) / den if den < 0 else 0.0
-            best = cbest
-            best_j = j
-            best_pos = kbest + frac
-            best_n = n
-    return best, best_j, best_pos, n_tests, best_n
 
 
 @njit
@@ -391,8 +286,8 @@ def _fit_decision_free(rw, pre_s, n_rest):
 @njit
 def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dummy, viterbi, block_elements,
                         min_blocks, spans, sub, min_drift_blocks, converged_elements, n_rest, rw):
-    """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin: the loop of
-    ``_decode_length_reference`` there): up to two passes of
+    """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin:
+    ``rfsim.gen2.reply_decoding._track_decode_python``): up to two passes of
 
     1. (h, c) of r ≈ h·ref + c by least squares over the reply up to its end, ref the
        remodulated reply of ``bits`` (±1, sampled by the rule of ``waveform_kernel`` from
@@ -488,7 +383,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
     return True, start, u1, u2
 
 
-#: Length rules of ``decode_window_kernel`` (``rfsim.gen2.replies._NBitsRule``): a fixed
+#: Length rules of ``decode_window_kernel`` (``rfsim.gen2.reply_decoding._NBitsRule``): a fixed
 #: number of data bits, unknown (−1), or PC + EPC + CRC-16 from the PC's L field.
 RULE_FIXED = 0
 RULE_EPC = 1
@@ -510,7 +405,7 @@ def _n_bits_of(rule, fixed, bits, n):
 @njit
 def _bits_that_fit(n_avail, n_pre_el, m, rho):
     """Data bits (dummy excluded) of a reply whose preamble starts ``n_avail`` samples before
-    the window's end (``rfsim.gen2.replies._bits_that_fit``)."""
+    the window's end (``rfsim.gen2.reply_decoding._bits_that_fit``)."""
     elements = n_avail * rho - 2 * rho
     return int(math.floor((elements - n_pre_el) / (2 * m))) - 1
 
@@ -557,7 +452,7 @@ def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi,
 
 @njit
 def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
-    """``rfsim.gen2.replies._fine_search``: ``fine_kernel`` coarse to fine, each call passed
+    """``rfsim.gen2.reply_decoding._fine_search``: ``fine_kernel`` coarse to fine, each call passed
     only the samples up to its last BLF's reply end. Returns ``(found, blf, start)``."""
     n_pre_el = pre.size * m
     n_el = n_pre_el + 2 * m * (n_bits + 1)
@@ -648,7 +543,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
                          converged_elements, bits_out):
     """Steps 3–5 of :mod:`rfsim.gen2.replies` on a working-rate window after a detection at
     BLF ``blf_c``, start ``start_c`` (coarse step ``step_c``) in one call (its NumPy twin:
-    ``rfsim.gen2.replies._decode_window_reference``): the fine BLF search over the first 16
+    ``rfsim.gen2.reply_decoding._decode_window_python``): the fine BLF search over the first 16
     bits, the reply's length from them (``rule``/``fixed``: :data:`RULE_FIXED` bits, or the
     PC's L field), the whole reply's BLF search around the first bits' BLF, step 4
     (``track_decode_kernel``), repeated while the whole reply's PC announces another length

@@ -71,7 +71,8 @@ PHYSICS = ("rfsim.devices.reader", "rfsim.devices.tag", "rfsim.devices.sense_a_t
            "rfsim.devices.gen2_tag_state", "rfsim.devices.active_reader", "rfsim.devices.active_tag", "rfsim.channels.scene",
            "rfsim.channels.bulk", "rfsim.channels.paths", "rfsim.channels.small_scale", "rfsim.channels.rss", "rfsim.air.step",
            "rfsim.protocols.engine", "rfsim.protocols.batch", "rfsim.core.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
-           "rfsim.gen2.replies", "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
+           "rfsim.gen2.replies", "rfsim.gen2.reply_search", "rfsim.gen2.reply_decoding", "rfsim.devices.gen2_tag_arrays",
+           "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
 
 
 @pytest.mark.parametrize("name", sorted(scenario_descriptions()))

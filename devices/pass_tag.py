@@ -31,12 +31,21 @@ from typing import Literal
 
 import numpy as np
 
-from rfsim.devices.tag import PassiveTag
-from rfsim.devices.tag_chip import PowerDependentChip
+from typing import TYPE_CHECKING
+
 from rfsim.devices.tag_config import TagConfig
-from rfsim.devices.tag_frontend import ReflectionStates
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
+from rfsim.core.lazy import lazy_import
+
+if TYPE_CHECKING:
+    from rfsim.devices.tag import PassiveTag
+    from rfsim.devices.tag_chip import PowerDependentChip
+
+# the tag's physics loads on first use, so that the configs here stay light ('rfsim config')
+_tag = lazy_import("rfsim.devices.tag")
+_chip = lazy_import("rfsim.devices.tag_chip")
+_frontend = lazy_import("rfsim.devices.tag_frontend")
 
 #: PASS's tag antenna pattern file (amplitude, peak 2.0: 6.02 dBi)
 PASS_TAG_ANTENNA_FILE = "channelchar_directivity_l2-dipole.mat"
@@ -111,9 +120,9 @@ def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
     Memoised on its arguments (folder name, frequency, margin, R_at): every cell of a run
     builds the same chip."""
     if characteristics_dir:
-        chip = PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
+        chip = _chip.PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
     else:
-        chip = PowerDependentChip.pass_default(margin_db=margin_db)
+        chip = _chip.PowerDependentChip.pass_default(margin_db=margin_db)
     if assembly_resistance_ohm == 0.0:
         assembly_resistance_ohm = q_matched_assembly_resistance_ohm(chip)
     return replace(chip, assembly_resistance_ohm=float(assembly_resistance_ohm))
@@ -134,13 +143,13 @@ def make_tag(tag: TagConfig, states: TagStatesConfig, pr: PassReplicationConfig,
         # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
         # only; power-up keeps the tag config's chip model (the source's tag replies in
         # every cell).
-        out = PassiveTag(replace(tag, structural_mode=0.0), antenna, rng=rng)
-        out.reflection_states = ReflectionStates.ask(-states.source_gamma_a, -states.source_gamma_b)
+        out = _tag.PassiveTag(replace(tag, structural_mode=0.0), antenna, rng=rng)
+        out.reflection_states = _frontend.ReflectionStates.ask(-states.source_gamma_a, -states.source_gamma_b)
         return out
     if states.model == "measured":
         # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        return PassiveTag(replace(tag, structural_mode=0.0), antenna, rng=rng, chip=tag_chip(states, pr, fc_hz))
-    return PassiveTag(tag, antenna, rng=rng)
+        return _tag.PassiveTag(replace(tag, structural_mode=0.0), antenna, rng=rng, chip=tag_chip(states, pr, fc_hz))
+    return _tag.PassiveTag(tag, antenna, rng=rng)
 
 
 def tag_attributes(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -> dict:

@@ -24,13 +24,13 @@ from typing import Literal
 import numpy as np
 
 from rfsim.devices import st_receiver as sr
-from rfsim.devices.sense_a_tag import make_receiver
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 
 _io = lazy_import("scipy.io")
+_sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
 
 #: PASS ST chip impedance (``sensatag_modulation.m``: Zic = 70.085 − j111.36 Ω, §6.3): the
 #: AGC's chip voltage is sqrt(2P·R_p), R_p the parallel resistance of Z_ic
@@ -87,7 +87,7 @@ def make_st_receiver(dc: DetectorConfig, st: SenseATagConfig, *, fs_hz: float, b
     """The ST receive chain with this detector: band-pass, ``st.threshold_v`` comparator, decoder
     (the linear law is :func:`rfsim.devices.sense_a_tag.make_receiver`'s chain)."""
     if dc.law == "linear":
-        return make_receiver(st, fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext)
+        return _sense_a_tag.make_receiver(st, fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext)
     return sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext, threshold_v=st.threshold_v,
                          detector=make_detector(dc, st, blf_hz))
 

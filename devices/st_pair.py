@@ -38,10 +38,10 @@ import numpy as np
 
 from rfsim.devices import st_analytic as sa
 from rfsim.devices import st_receiver as sr
-from rfsim.devices.sense_a_tag import TECHNIQUES, chain_rows, decode_rows, level_differences
 from rfsim.core.lazy import lazy_import
 
 _kernels = lazy_import("rfsim.devices._st_pair_kernels")
+_sat = lazy_import("rfsim.devices.sense_a_tag")
 
 #: Subcarrier cycles of each stamp part (ASK, then PSK)
 STAMP_CYCLES = 8
@@ -117,16 +117,16 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
     (1 + :data:`STAMP_DECISION_MARGIN`)·threshold follows every transition of the second
     (settled) half of the ASK stamp (the band-pass starts from rest at the stamp's first edge).
     """
-    env2, bp2, cmp2, tog2 = chain_rows(rx, stamp_inputs[:, 1])
+    env2, bp2, cmp2, tog2 = _sat.chain_rows(rx, stamp_inputs[:, 1])
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
     use_p1 = ask_stamp_transitions(bp2, frame, thr) < STAMP_CYCLES - 1
     kw = dict(expected_bits=expected_bits, start_sample=frame.reply_start, search_samples=int(2 * fs_hz / blf_hz))
-    det = decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
+    det = _sat.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
     env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
     if use_p1.any():
         idx = np.flatnonzero(use_p1)
-        env1, bp1, cmp1, tog1 = chain_rows(rx, stamp_inputs[idx, 0])
-        det[idx] = decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
+        env1, bp1, cmp1, tog1 = _sat.chain_rows(rx, stamp_inputs[idx, 0])
+        det[idx] = _sat.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
     return use_p1, det
 
 
@@ -179,17 +179,17 @@ def technique_rows(rx: sr.STReceiver, cw, bs1, bs2, reply, *, detector_gain: flo
         out["closed_diff_combined_v"] = closed.diff_combined_v
     detectable = closed.sync_sa2_v > threshold_v
     out["detectable"] = detectable
-    for t in TECHNIQUES:
+    for t in _sat.TECHNIQUES:
         out[f"closed_cancelled_{t}"] = getattr(closed, f"cancelled_{t}")
     if reply.rn16 is None:
-        for t in TECHNIQUES:
+        for t in _sat.TECHNIQUES:
             out[f"detected_{t}"] = np.zeros(n, bool)
         for name in ("sa1", "sa2", "combined")[(0 if two else 1):(3 if two else 2)]:
             out[f"diff_{name}_v"] = np.zeros(n)
         out["stamp_use_p1"] = np.zeros(n, bool)
     else:
         out.update(_decoded_rows(rx, reply, two))
-    for t in TECHNIQUES:
+    for t in _sat.TECHNIQUES:
         if f"detected_{t}" in out:
             out[f"cancelled_{t}"] = detectable & ~out[f"detected_{t}"]
     return out
@@ -209,11 +209,11 @@ def _decoded_rows(rx: sr.STReceiver, reply, two: bool) -> dict[str, np.ndarray]:
             continue
         # one chain at a time: its four (n, samples) arrays are the largest of the cell's memory
         chain = None
-        chain = chain_rows(rx, inputs[name]())
-        out[f"diff_{name}_v"] = np.abs(level_differences(chain[0], reply.levels, rx))
+        chain = _sat.chain_rows(rx, inputs[name]())
+        out[f"diff_{name}_v"] = np.abs(_sat.level_differences(chain[0], reply.levels, rx))
         # Algorithm 1 returns ID2 whenever P2 decodes: P1's result matters only where P2 failed
         rows = ~dec["sa2"] if name == "sa1" else np.ones(n, bool)
-        dec[name] = decode_rows(rx, *chain, rows=rows, expected_bits=reply.rn16, start_sample=0,
+        dec[name] = _sat.decode_rows(rx, *chain, rows=rows, expected_bits=reply.rn16, start_sample=0,
                                 search_samples=reply.search)
     chain = None
     out["detected_single"] = dec["sa2"]

@@ -48,15 +48,14 @@ from rfsim.core.rng import trial_rng
 from rfsim.devices import st_receiver as sr
 from rfsim.devices.pass_tag import PassReplicationConfig, TagStatesConfig, tag_attributes
 from rfsim.devices.reader_config import ReaderConfig
-from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_detector import DetectorConfig, make_st_receiver
 from rfsim.devices.st_pair import ANTENNAS, cell_probabilities, column_unit, describe_column, technique_rows
 from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.tag_listening import (SAMPLE_COLUMNS, TagListeningScene, geometric_null_spacing_m, in_near_field,
-                                        minima_spacing_m, radial_track_positions, simulate_exchange, sts_in_disc)
 
 sa = lazy_import("rfsim.devices.st_analytic")
+_sat = lazy_import("rfsim.devices.sense_a_tag")
+_scene = lazy_import("rfsim.scenes.tag_listening")  # the physics loads on first use ('rfsim config' stays light)
 _dataset = lazy_import("rfsim.core.dataset")
 
 NAME = "phase-cancellation"
@@ -120,10 +119,10 @@ class Config:
             raise ConfigError("tracks.d_max_m", self.tracks.d_max_m, f"> tracks.d_min_m = {self.tracks.d_min_m}")
 
 
-def scene(config: Config, *, apdp: bool | None = None) -> TagListeningScene:
+def scene(config: Config, *, apdp: bool | None = None) -> "_scene.TagListeningScene":
     """The scene of the configuration (``apdp`` overrides ``geometry.apdp``)."""
     g, dc = config.geometry, config.detector
-    return TagListeningScene(config.reader, config.tag, config.tag_states, config.pass_replication, g.height_m,
+    return _scene.TagListeningScene(config.reader, config.tag, config.tag_states, config.pass_replication, g.height_m,
                              g.reader_gain_dbi, g.apdp if apdp is None else apdp, g.pair_coupling,
                              config.st.spacing_m, dc.noise_figure_db if dc.noise else None)
 
@@ -141,9 +140,9 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     g, st = config.geometry, config.st
     x_tag, n = g.tag_x_m[cell], config.mc.n_positions
     tag_pos = np.array([x_tag, 0.0, g.height_m])
-    centers, orient, sa_pos = sts_in_disc(trial_rng(seed, cell, rep, 3), tag_pos, n, radius_m=g.disc_radius_m,
+    centers, orient, sa_pos = _scene.sts_in_disc(trial_rng(seed, cell, rep, 3), tag_pos, n, radius_m=g.disc_radius_m,
                                           n_antennas=st.n_antennas, spacing_m=st.spacing_m)
-    ex = simulate_exchange(scene(config), x_tag, sa_pos, seed=seed, index=(cell, rep),
+    ex = _scene.simulate_exchange(scene(config), x_tag, sa_pos, seed=seed, index=(cell, rep),
                            link_rng=trial_rng(seed, cell, rep, 4))
     out = st_outcomes(config, ex)
     out.update(cell=np.full(n, cell), repetition=np.full(n, rep), tag_x_m=np.full(n, x_tag),
@@ -153,7 +152,7 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
     for j, name in enumerate(("sa1", "sa2")[-sa_pos.shape[1]:]):
         out[f"{name}_x_m"], out[f"{name}_y_m"] = sa_pos[:, j, 0], sa_pos[:, j, 1]
     out["rerad_a_abs"], out["rerad_b_abs"] = np.full(n, abs(ex.rerad_a)), np.full(n, abs(ex.rerad_b))
-    out["near_field"] = in_near_field(sa_pos, tag_pos, ex.fc_hz)
+    out["near_field"] = _scene.in_near_field(sa_pos, tag_pos, ex.fc_hz)
     return out
 
 
@@ -167,8 +166,8 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     tc, g = config.tracks, config.geometry
     x_tag = g.tag_x_m[tc.cell]
     d = np.arange(tc.d_min_m, tc.d_max_m + 0.5 * tc.step_m, tc.step_m)
-    sa_pos = radial_track_positions(np.array([x_tag, 0.0, g.height_m]), tc.angles_deg, d).reshape(-1, 1, 3)
-    ex = simulate_exchange(scene(config, apdp=tc.apdp), x_tag, sa_pos, seed=seed, index=(1000,),
+    sa_pos = _scene.radial_track_positions(np.array([x_tag, 0.0, g.height_m]), tc.angles_deg, d).reshape(-1, 1, 3)
+    ex = _scene.simulate_exchange(scene(config, apdp=tc.apdp), x_tag, sa_pos, seed=seed, index=(1000,),
                            link_rng=trial_rng(seed, 1000, 4))
     out = st_outcomes(replace(config, st=replace(config.st, n_antennas=1, technique="single")), ex)
     shape = (len(tc.angles_deg), d.size)
@@ -179,7 +178,7 @@ def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 
 #: (unit, description) of the scenario's own columns; the scene's by
 #: :data:`rfsim.scenes.tag_listening.SAMPLE_COLUMNS`, the techniques' by :func:`rfsim.devices.st_pair.describe_column`
-COLUMNS: dict[str, tuple[str, str]] = {**SAMPLE_COLUMNS,
+COLUMNS: dict[str, tuple[str, str]] = {
     "cell": ("1", "index of the cell (tag position) in geometry.tag_x_m, 0-based"),
     "repetition": ("1", "repetition of the cell: new ST positions, reader/tag draws and channel"),
     "tag_x_m": ("m", "tag x position of the cell (reader antenna at the origin, boresight +x)"),
@@ -203,7 +202,7 @@ def _columns(table: dict[str, np.ndarray]) -> dict:
     """Columns of the samples or cells table with their units and descriptions (ValueError if unknown)."""
     out = {}
     for k, v in table.items():
-        unit, text = COLUMNS.get(k) or (column_unit(k), describe_column(k))
+        unit, text = COLUMNS.get(k) or _scene.SAMPLE_COLUMNS.get(k) or (column_unit(k), describe_column(k))
         if text is None:
             raise ValueError(f"phase-cancellation column {k!r} has no description")
         out[k] = _dataset.column(v, unit, text)
@@ -228,7 +227,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                              "amplitudes and phases per antenna, envelope differences and the outcome per technique")
     # P(cancel) per cell and technique over the samples outside the near field (excluded and counted)
     cell, near = samples["cell"], samples["near_field"]
-    flags = {t: samples[f"cancelled_{t}"] for t in TECHS if f"cancelled_{t}" in samples}
+    flags = {t: samples[f"cancelled_{t}"] for t in _sat.TECHNIQUES if f"cancelled_{t}" in samples}
     summ = {"cell": np.arange(n_cells),
             "n_near_field": np.array([np.count_nonzero(near[cell == c]) for c in range(n_cells)]),
             **cell_probabilities(flags, cell, n_cells, keep=~near), "tag_x_m": np.asarray(config.geometry.tag_x_m, float)}
@@ -259,9 +258,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     d, x_tag = tr["distance_m"], config.geometry.tag_x_m[config.tracks.cell]
     for i, a in enumerate(tr["angle_deg"]):
         for key, value, meaning in (
-                ("minima", minima_spacing_m(d, tr["diff_v"][i])[1],
+                ("minima", _scene.minima_spacing_m(d, tr["diff_v"][i])[1],
                  "NaN: fewer than two minima of diff_v along this track"),
-                ("geometric", geometric_null_spacing_m(a, float(d[0]), float(d[-1]), x_tag, tr["fc_hz"]),
+                ("geometric", _scene.geometric_null_spacing_m(a, float(d[0]), float(d[-1]), x_tag, tr["fc_hz"]),
                  "inf: along this track (ST behind the tag, away from the reader) theta does not turn with "
                  "distance, 1 + cos(angle) = 0, so there are no nulls")):
             ds.attrs[f"track_{int(round(a))}deg_{key}_spacing_m"] = value
@@ -382,7 +381,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     paths.append(save_figure(fig, figure_path(dataset_path, out_dir, "fig3_15")))
     cells = _dataset.read_table(dataset_path, "cells")
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
-    probability_errorbars(ax, cells["tag_x_m"], cells, TECHS)
+    probability_errorbars(ax, cells["tag_x_m"], cells, _sat.TECHNIQUES)
     silent = cells["tag_replied_fraction"] == 0
     if silent.any():
         ax.axvspan(cells["tag_x_m"][silent].min() - 0.25, cells["tag_x_m"].max() + 0.25, color="0.9", zorder=0,

@@ -201,7 +201,7 @@ def test_every_module_declaring_kernels_is_hashed_and_imports_only_hashed_module
                       if "__pycache__" not in p.parts and b"njit" in p.read_bytes())
     hashed = kernel_sources(dirs)
     assert [name for name, _ in hashed] == mentions
-    assert {name.split("/")[0] for name, _ in hashed} >= {"rfsim", "channels", "devices", "scenarios"}
+    assert {name.split("/")[0] for name, _ in hashed} >= {"rfsim", "channels", "devices"}  # scenarios hold no kernel (tests/test_house.py)
     for name, data in hashed:
         for node in ast.walk(ast.parse(data)):
             if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "rfsim":

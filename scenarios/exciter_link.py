@@ -55,7 +55,7 @@ the d_tt values (one step); the points' draws are independent across k.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
@@ -74,9 +74,9 @@ from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_rows import RowsChain
-from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
+from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB
 from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, room, single_listener, tag_broadcast_step
+from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, measured_tag, room, single_listener, tag_broadcast_step
 from rfsim.scenes.links import BatchAntenna
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -163,10 +163,8 @@ def payload(config: Config) -> np.ndarray:
 def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
     """The broadcasting tag at ``antenna`` by ``tag_model.model`` (module docstring)."""
     tm = config.tag_model
-    if tm.model == "measured":
-        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        return _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                               chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
+    if tm.model == "measured":  # PASS tag: Γ·incident, its chip sets the states and power-up
+        return measured_tag(antenna, rng=rng, tag=config.tag, margin_db=tm.power_margin_db)
     return _tag.PassiveTag(config.tag, antenna, rng=rng)
 
 

@@ -8,12 +8,14 @@ Pieces: the exciter's antenna (:func:`exciter_antenna`), the room (:func:`room`:
 exponential APDP with the PASS ST-room curves), area-uniform placement in a disc
 (:func:`uniform_disc`), receiver noise kT·fs·F at the listeners (:class:`NoiseConfig`), the
 single-antenna listener (:func:`single_listener`) and one air step of an exciter, one
-broadcasting tag and a batch of listeners (:func:`tag_broadcast_step`). Many listeners are one
+broadcasting tag and a batch of listeners (:func:`tag_broadcast_step`); the measured passive tag
+(:func:`measured_tag`). Many listeners are one
 batched receiver with narrowband links (:mod:`rfsim.scenes.links`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,6 +23,8 @@ import numpy as np
 from rfsim.core.config import param
 from rfsim.core.lazy import lazy_import
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
+from rfsim.devices.tag_config import TagConfig
 from rfsim.scenes.links import DrawnLinks, add_drawn_link
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -28,6 +32,7 @@ _small_scale = lazy_import("rfsim.channels.small_scale")
 _scene = lazy_import("rfsim.channels.scene")
 _noise = lazy_import("rfsim.channels.noise")
 _air = lazy_import("rfsim.air.step")
+_tag = lazy_import("rfsim.devices.tag")
 
 
 @dataclass(frozen=True)
@@ -46,6 +51,16 @@ class NoiseConfig:
 def single_listener() -> SenseATagConfig:
     """The listener of the tag-to-tag links: one antenna, no combining (``technique="single"``)."""
     return SenseATagConfig(n_antennas=1, technique="single")
+
+
+def measured_tag(antenna, *, rng: np.random.Generator, tag: TagConfig = TagConfig(),
+                 margin_db: float = PASS_POWER_MARGIN_DB):
+    """The passive tag of the exciter scenes (:class:`rfsim.devices.tag.PassiveTag` at ``antenna``):
+    the PASS UCODE-class chip (:meth:`rfsim.devices.tag_chip.PowerDependentChip.pass_default`,
+    power-up at picmin + ``margin_db`` [dB], reflection states following its absorbed power),
+    re-radiating Γ·incident (``structural_mode`` 0); the rest of ``tag`` as given."""
+    return _tag.PassiveTag(dataclasses.replace(tag, structural_mode=0.0), antenna, rng=rng,
+                           chip=PowerDependentChip.pass_default(margin_db=margin_db))
 
 
 def exciter_antenna(kind: str, gain_dbi: float, height_m: float):
@@ -106,4 +121,4 @@ def tag_broadcast_step(scene, exciter, tag, listeners, *, fc_hz: float, fs_hz: f
                           decide=False, keep_components=keep_components)
 
 
-__all__ = ["NoiseConfig", "single_listener", "exciter_antenna", "room", "uniform_disc", "tag_broadcast_step"]
+__all__ = ["NoiseConfig", "single_listener", "measured_tag", "exciter_antenna", "room", "uniform_disc", "tag_broadcast_step"]

@@ -49,14 +49,11 @@ from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_rows import RowsChain
-from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.exciter import NoiseConfig, room, single_listener
+from rfsim.scenes.exciter import NoiseConfig, measured_tag, room, single_listener
 from rfsim.scenes.links import BatchAntenna, DrawnLinks, add_drawn_link
 
 _antennas = lazy_import("rfsim.channels.antennas")
 _sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
-_tag = lazy_import("rfsim.devices.tag")
-_tag_chip = lazy_import("rfsim.devices.tag_chip")
 _air = lazy_import("rfsim.air.step")
 _bits = lazy_import("rfsim.gen2.bits")
 _crc = lazy_import("rfsim.gen2.crc")
@@ -112,9 +109,7 @@ def _inputs(config, exciter_xyz, tags_xy, senders, frames, lis_pos, rng) -> np.n
     reflectors = []
     for i, frame in zip(senders, frames):
         ant = _antennas.vertical_dipole(np.array([tags_xy[i][0], tags_xy[i][1], h]))
-        tag = _tag.PassiveTag(dataclasses.replace(TagConfig(), structural_mode=0.0), ant, rng=rng,
-                              chip=_tag_chip.PowerDependentChip.pass_default())
-        reflectors.append(OwnSchedule(tag, frame))
+        reflectors.append(OwnSchedule(measured_tag(ant, rng=rng), frame))
         add_drawn_link(links, sc, ex_ant, ant, fc_hz=fc, rng=rng)
         add_drawn_link(links, sc, ant, lis, fc_hz=fc, rng=rng)
     try:

@@ -78,3 +78,19 @@ def test_step_cdf_and_grouped_bars_draw_what_they_are_given():
     assert heights == [1.0, 2.0, 3.0, 4.0]
     assert np.allclose([p.get_x() + p.get_width() / 2 for p in ax.patches], [-0.2, 0.8, 0.2, 1.2], rtol=0, atol=1e-12)
     plt.close(fig)
+
+
+def test_physical_collisions_decode_at_most_one_sender_per_slot():
+    """Tags 0 and 1 share a slot, tag 2 is alone; the mobile tag sits 0.3 m from tag 0. With the
+    disc range and physical collisions, the lone broadcast follows the disc, and of the collided
+    pair at most one is decoded (the slot decodes as one frame or none), never the far tag 1."""
+    tags = [(0.0, -1.0), (8.0, 1.0), (2.0, -1.0)]
+    b = {"period": np.array([0, 0, 0]), "slot": np.array([3, 3, 5]), "tag": np.array([0, 1, 2]),
+         "n_in_slot": np.array([2, 2, 1])}
+    pos = np.tile([0.3, -1.0], (3, 1))
+    dist = np.linalg.norm(pos - np.array(tags), axis=1)
+    reach, decoded = receive_broadcasts(ReferenceTagsConfig(), (4.0, 0.0, 2.0), tags, b, pos, dist,
+                                        range_model="disc", collision_model="physical", range_m=2.0, a1=0.0, a2=0.0,
+                                        n_slots=50, threshold_v=1e-3, rng=np.random.default_rng(4))
+    assert reach.tolist() == [True, False, True] and decoded[2]
+    assert not decoded[1] and decoded[:2].sum() <= 1

@@ -1,6 +1,6 @@
 """numba kernel of the reader's BLF-searching reply decoder, over a stack of windows
 (wrapped and documented in :func:`rfsim.devices.reader.search_decode`; its plain-NumPy twin is
-:func:`rfsim.devices.reader.search_decode_reference`)."""
+:func:`reference.devices_reader.search_decode_reference` in the tests)."""
 
 from __future__ import annotations
 

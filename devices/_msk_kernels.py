@@ -1,5 +1,6 @@
 """numba kernels of the active beacon's MSK modulator and the reader's FM discriminator
-(wrapped and documented in :mod:`rfsim.devices.msk_beacon`; NumPy twins there as ``*_reference``).
+(wrapped and documented in :mod:`rfsim.devices.msk_beacon`; NumPy twins in the tests'
+``reference.devices_msk_beacon``).
 """
 
 from __future__ import annotations

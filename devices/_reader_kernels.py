@@ -1,5 +1,5 @@
 """numba kernels of the reader's receiver (wrapped and documented in :mod:`rfsim.devices.reader`;
-the plain-NumPy twin is :func:`rfsim.devices.reader.measure_reference`)."""
+the plain-NumPy twin is :func:`reference.devices_reader.measure_reference` in the tests)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """numba kernel of the sense-a-tag's many-positions receive chain (wrapped and documented in
-:func:`rfsim.devices.sense_a_tag.chain_rows`; its NumPy/SciPy twin there is
-:func:`rfsim.devices.sense_a_tag.chain_rows_reference`).
+:func:`rfsim.devices.sense_a_tag.chain_rows`; its NumPy/SciPy twin is
+:func:`reference.devices_sense_a_tag.chain_rows_reference` in the tests).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """numba kernels of the sense-a-tag receive chain (wrapped and documented in
-:mod:`rfsim.devices.st_receiver`; NumPy twins there as ``*_reference``).
+:mod:`rfsim.devices.st_receiver`; NumPy twins in the tests' ``reference.devices_st_receiver``).
 """
 
 from __future__ import annotations

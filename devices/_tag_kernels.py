@@ -1,5 +1,5 @@
 """numba kernels of the passive tag's front end (wrapped and documented in :mod:`rfsim.devices.tag`;
-the plain-NumPy twin is :func:`rfsim.devices.tag.cw_power_reference`)."""
+the plain-NumPy twin is :func:`reference.devices_tag.cw_power_reference` in the tests)."""
 
 from __future__ import annotations
 
@@ -107,6 +107,6 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
 @njit
 def reflection_kernel(s, gamma_b, gamma_a, out):
     """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0``, else
-    ``gamma_a`` (plain-NumPy twin: :func:`rfsim.devices.tag.reflection_reference`)."""
+    ``gamma_a`` (plain-NumPy twin: :func:`reference.devices_tag.reflection_reference` in the tests)."""
     for i in range(s.size):
         out[i] = gamma_b if s[i] > 0 else gamma_a

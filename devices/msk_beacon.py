@@ -34,8 +34,7 @@ a constant envelope; 99 % of the power lies within ±0.6·R_c (Pasupathy, IEEE C
 k it sums to a_k·π/2 for a clean signal, whose sign is the chip.
 
 Hot paths: :func:`msk_phase` and :func:`discriminate` call numba kernels
-(:mod:`rfsim.devices._msk_kernels`); :func:`msk_phase_reference` and :func:`discriminate_reference`
-are their NumPy twins (tests compare them).
+(:mod:`rfsim.devices._msk_kernels`); the tests compare them with NumPy twins.
 """
 
 from __future__ import annotations
@@ -118,18 +117,6 @@ def msk_phase(chips, sps: float, offset_chips: float, n_samples: int) -> tuple[n
     return phase, on.astype(bool)
 
 
-def msk_phase_reference(chips, sps: float, offset_chips: float, n_samples: int):
-    """NumPy twin of :func:`msk_phase`."""
-    c = np.asarray(chips, dtype=np.float64)
-    u = float(offset_chips) + np.arange(int(n_samples)) / float(sps)
-    k = np.floor(u).astype(np.int64)
-    on = (k >= 0) & (k < c.size)
-    kk = np.clip(k, 0, c.size - 1)
-    starts = np.concatenate([[0.0], np.cumsum(0.5 * np.pi * c)])
-    phase = np.where(on, starts[kk] + 0.5 * np.pi * c[kk] * (u - kk), 0.0)
-    return phase, on
-
-
 def discriminate(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
     """FM discriminator ``arg(y[n]·conj(y[n−1]))`` [rad/sample] of ``y`` (n,) complex
     (``y[−1] = y_prev``)."""
@@ -139,13 +126,6 @@ def discriminate(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
     return out
 
 
-def discriminate_reference(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
-    """NumPy twin of :func:`discriminate`."""
-    x = np.asarray(y, dtype=np.complex128)
-    prev = np.concatenate([[complex(y_prev)], x[:-1]])
-    return np.angle(x * np.conj(prev))
-
-
 __all__ = ["PREAMBLE_BITS", "SYNC_WORD", "FRAME_BITS", "FRAME_CHIPS", "HEADER_CHIPS", "beacon_bits",
            "manchester_encode", "manchester_decode", "parse_payload", "header_chips", "msk_phase",
-           "msk_phase_reference", "discriminate", "discriminate_reference"]
+           "discriminate"]

@@ -67,7 +67,6 @@ from rfsim.gen2.pie import pie_decode
 from rfsim.core.units import dbm_to_w, w_to_dbm
 from rfsim.core.lazy import lazy_import
 
-_signal = lazy_import("scipy.signal")
 _kernels = lazy_import("rfsim.devices._sense_a_tag_kernels")
 _k = lazy_import("rfsim.devices._st_receiver_kernels")
 
@@ -343,13 +342,13 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
     diode law the detector, RC, band-pass and comparator run in one numba kernel per row
     (:func:`rfsim.devices._sense_a_tag_kernels.diode_chain_rows_kernel`: the operations of
-    :func:`chain_rows_reference` in the same order, equal bit for bit); the other laws compute
+    SciPy's ``lfilter``, ``sosfilt`` and the comparator in the same order); the other laws compute
     the detector in NumPy and the rest in :func:`rfsim.devices._st_receiver_kernels.chain_rows_kernel`.
     """
     x = np.atleast_2d(np.asarray(x))
     det = rx.envelope_detector
     if x.shape[1] < 1:
-        return chain_rows_reference(rx, x)
+        raise ValueError(f"x must hold at least one sample per row, got shape {x.shape}")
     if det.law != "diode":
         return _chain_rows_of_law(rx, x)
     x_abs = np.abs(x)  # the RF peak sqrt(2R)·|x| of EnvelopeDetector.rf_peak_v is taken in the kernel
@@ -384,20 +383,6 @@ def _chain_rows_of_law(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np
     tog = np.empty(u.shape[0], dtype=np.int64)
     _k.chain_rows_kernel(u, a, -(1.0 - a), np.ascontiguousarray(sos), np.ascontiguousarray(sos_zi),
                          0.5 * rx.threshold_v, -0.5 * rx.threshold_v, env, bp, cmp, tog)
-    return env, bp, cmp, tog
-
-
-def chain_rows_reference(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """SciPy twin of :func:`chain_rows` (``lfilter`` for the RC, ``sosfilt_zi`` and ``sosfilt``
-    for the band-pass, :func:`rfsim.devices.st_receiver.comparator` row by row)."""
-    u, a, sos, _ = _chain_inputs(rx, x)
-    sos_zi = _signal.sosfilt_zi(sos)
-    env = _signal.lfilter([a], [1.0, -(1.0 - a)], u, axis=1, zi=(1.0 - a) * u[:, :1])[0]
-    bp = _signal.sosfilt(sos, env, axis=1, zi=sos_zi[:, None, :] * env[None, :, :1])[0]
-    cmp = np.empty_like(bp)
-    tog = np.empty(u.shape[0], dtype=np.int64)
-    for i in range(u.shape[0]):
-        cmp[i], _, tog[i] = sr.comparator(bp[i], threshold_v=rx.threshold_v)
     return env, bp, cmp, tog
 
 
@@ -442,5 +427,5 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",
-           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows", "chain_rows_reference",
+           "Observation", "SenseATag", "make_receiver", "listen_start_sample", "chain_rows",
            "level_differences", "decode_rows"]

@@ -150,15 +150,6 @@ def rc_lowpass(u, *, fs_hz: float, tau_s: float, y0: float | None = None) -> tup
     return out, float(last)
 
 
-def rc_lowpass_reference(u, *, fs_hz: float, tau_s: float, y0: float | None = None) -> tuple[np.ndarray, float]:
-    """Plain SciPy twin of :func:`rc_lowpass` (``lfilter``)."""
-    u = np.asarray(u, dtype=np.float64)
-    a = _rc_coefficient(fs_hz, tau_s)
-    y0 = float(u[0]) if (y0 is None and u.size) else float(y0 or 0.0)
-    y, _ = _signal.lfilter([a], [1.0, -(1.0 - a)], u, zi=[(1.0 - a) * y0])
-    return y, float(y[-1]) if y.size else y0
-
-
 def _rc_coefficient(fs_hz: float, tau_s: float) -> float:
     if not (fs_hz > 0 and tau_s > 0):
         raise ValueError(f"fs_hz and tau_s must be > 0, got {fs_hz}, {tau_s}")
@@ -188,19 +179,6 @@ def comparator(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, 
     out = np.empty_like(v)
     st, tog = _k.comparator_kernel(v, 0.5 * threshold_v, -0.5 * threshold_v, int(state0), out)
     return out, int(st), int(tog)
-
-
-def comparator_reference(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, int, int]:
-    """Plain-Python twin of :func:`comparator`."""
-    out = np.empty(len(v))
-    st, tog = int(state0), 0
-    for n, x in enumerate(np.asarray(v, dtype=np.float64)):
-        if st < 0 and x > 0.5 * threshold_v:
-            st, tog = 1, tog + 1
-        elif st > 0 and x < -0.5 * threshold_v:
-            st, tog = -1, tog + 1
-        out[n] = st
-    return out, st, tog
 
 
 def settled_mask(states, settle_samples: int, guard_samples: int = 0) -> np.ndarray:
@@ -733,8 +711,8 @@ def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STR
 
 __all__ = [
     "REFERENCE_IMPEDANCE_OHM", "SOURCE_IMPEDANCE_OHM", "to_source_volts", "DETECTOR_LAWS", "K_OVER_Q_V_PER_K",
-    "DEFAULT_MATCHING_GAIN", "DEFAULT_IDEALITY", "DEFAULT_TEMPERATURE_K", "rc_lowpass", "rc_lowpass_reference", "i0e", "comparator",
-    "comparator_reference", "passband_envelope_v", "settled_mask", "state_levels",
+    "DEFAULT_MATCHING_GAIN", "DEFAULT_IDEALITY", "DEFAULT_TEMPERATURE_K", "rc_lowpass", "i0e", "comparator",
+    "passband_envelope_v", "settled_mask", "state_levels",
     "state_envelope_difference", "EnvelopeDetector", "ChainOutput", "Reception", "STReceiver",
     "receive_combined", "SelectionReception", "receive_selection", "STAMP_S1", "STAMP_S2", "STAMP_S3",
     "StampFrame", "stamp_frame", "StampReception", "receive_stamp",

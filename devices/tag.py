@@ -210,25 +210,12 @@ def _cw_power_w(env: np.ndarray, levels: tuple[float, float, float]) -> float:
                                     np.empty(env.size)))
 
 
-def cw_power_reference(env: np.ndarray, levels: tuple[float, float, float]) -> float:
-    """Plain-NumPy twin of the CW-power kernel (median of env² over the CW samples)."""
-    thr, lo, hi = levels
-    if hi > 0 and hi - lo >= _MIN_MODULATION * hi:
-        env = env[env >= thr]
-    return float(np.median(env * env))
-
-
 def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray:
     """Γ(t) of a reply, (n,) complex128: Γ_B where the ±1 reply waveform ``s`` (float64, 0
-    outside the reply) is +1, Γ_A elsewhere (numba kernel; :func:`reflection_reference`)."""
+    outside the reply) is +1, Γ_A elsewhere (numba kernel)."""
     out = np.empty(s.size, dtype=np.complex128)
     _k.reflection_kernel(s, complex(gamma_b), complex(gamma_a), out)
     return out
-
-
-def reflection_reference(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray:
-    """Plain-NumPy twin of :func:`_reflection`."""
-    return np.where(s > 0, gamma_b, gamma_a).astype(np.complex128, copy=False)
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:

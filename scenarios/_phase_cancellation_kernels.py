@@ -1,7 +1,8 @@
 """numba kernels of the phase-cancellation scenario (wrapped and documented in
 :func:`rfsim.scenarios.phase_cancellation.couple_ports` and
-:func:`rfsim.scenarios.phase_cancellation.ask_stamp_transitions`; their NumPy twins there are
-``couple_ports_reference`` and ``ask_stamp_transitions_reference``).
+:func:`rfsim.scenarios.phase_cancellation.ask_stamp_transitions`; their NumPy twins are
+``couple_ports_reference`` there and ``ask_stamp_transitions_reference`` in the tests'
+``reference.scenarios_phase_cancellation``).
 """
 
 from __future__ import annotations

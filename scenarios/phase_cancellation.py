@@ -752,20 +752,12 @@ def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float
     """Per row of ``bandpassed_v`` (r, n) [V]: the transitions of a comparator of hysteresis
     width ``threshold_v`` [V], run from −1 at the ASK stamp's first sample ``frame.start``,
     over the second half of the ASK stamp (from ``(start + ask_stop)//2`` to ``ask_stop``),
-    ``(r,) int64`` (numba kernel, :mod:`rfsim.scenarios._phase_cancellation_kernels`; the twin is
-    :func:`ask_stamp_transitions_reference`)."""
+    ``(r,) int64`` (numba kernel, :mod:`rfsim.scenarios._phase_cancellation_kernels`)."""
     seg = np.ascontiguousarray(bandpassed_v[:, frame.start:frame.ask_stop], dtype=np.float64)
     out = np.empty(seg.shape[0], dtype=np.int64)
     skip = (frame.start + frame.ask_stop) // 2 - frame.start
     _kernels.comparator_changes_rows_kernel(seg, 0.5 * threshold_v, -0.5 * threshold_v, skip, out)
     return out
-
-
-def ask_stamp_transitions_reference(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
-    """Plain twin of :func:`ask_stamp_transitions` (the comparator row by row)."""
-    mid = (frame.start + frame.ask_stop) // 2
-    return np.array([np.count_nonzero(np.diff(sr.comparator(row, threshold_v=threshold_v)[0][mid - frame.start:]))
-                     for row in bandpassed_v[:, frame.start:frame.ask_stop]], dtype=np.int64)
 
 
 def _st_links(config: Config, fc_hz: float, sa_pos, tag_antenna, rng):

@@ -14,13 +14,14 @@ import numpy as np
 import pytest
 
 from rfsim.channels import Antenna, Channel, Isotropic, Scene, vertical_dipole
-from rfsim.channels.paths import PathSet, apply_paths_reference
+from rfsim.channels.paths import PathSet
 from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver
 from rfsim.devices.tag import PassiveTag, TagConfig
 from rfsim.air.step import AntennaPort, FixedEmitter, LinkTable, Segment, propagate
 from rfsim.core.errors import ConfigError, UserError
 from rfsim.core.rng import trial_rng
+from reference.channels_paths import apply_paths_reference
 
 C = 299792458.0
 FC, FS, N = 915e6, 4e6, 400

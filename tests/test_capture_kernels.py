@@ -6,15 +6,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames, plausible_frames_reference
+from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames
 from rfsim.gen2.linecode import halfsymbols, reply_waveform
-from rfsim.gen2.pie import pie_decode_arrays, two_level_threshold_reference
-from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search, _search_reference,
+from rfsim.gen2.pie import pie_decode_arrays
+from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search,
                                 _decode_window, _decode_window_reference, _n_bits_rule, _track_decode,
                                 _track_decode_reference, preamble_correlation)
-from rfsim.gen2.reply_tracking import (_block_correlations, block_correlations_reference, track, track_reference,
+from rfsim.gen2.reply_tracking import (_block_correlations, track, track_reference,
                                        weighted_polyfit)
 from rfsim.core.rng import trial_rng
+from reference.gen2_capture import plausible_frames_reference
+from reference.gen2_pie import two_level_threshold_reference
+from reference.gen2_replies import _search_reference
+from reference.gen2_reply_tracking import block_correlations_reference
 
 
 def _noise(n, seed):

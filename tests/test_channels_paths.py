@@ -11,11 +11,11 @@ from rfsim.channels.paths import (
     PathSet,
     apply_backscatter,
     apply_paths,
-    apply_paths_reference,
     compose_backscatter,
     concatenate,
     narrowband_error_bound,
 )
+from reference.channels_paths import apply_paths_reference
 
 FS = 4e6
 FC = 915e6

@@ -17,8 +17,10 @@ from rfsim.gen2 import _linecode_kernels as LK
 from rfsim.gen2 import _pie_kernels as PK
 from rfsim.gen2 import linecode as L
 from rfsim.gen2.commands import ACK, Query
-from rfsim.gen2.pie import two_level_threshold, two_level_threshold_reference
+from rfsim.gen2.pie import two_level_threshold
 from rfsim.core.rng import trial_rng
+from reference import gen2_linecode as RL
+from reference.gen2_pie import pr_ask_baseband_reference, two_level_threshold_reference
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -44,6 +46,7 @@ def test_two_level_threshold_kernel_equals_reference(seed):
     n = int(rng.integers(50, 20000))
     levels = np.where(rng.random(n) < rng.uniform(0.05, 0.95), 1.0, 1.0 - rng.uniform(0.2, 1.0))
     x = np.abs(levels + 0.05 * rng.standard_normal(n)) * 10.0 ** rng.uniform(-4, 1)
+    # exact: the kernel sums in NumPy's pairwise order (test_pairwise_sum_equals_numpy_sum)
     assert two_level_threshold(x) == two_level_threshold_reference(x)
     assert two_level_threshold(x, max_iter=2) == two_level_threshold_reference(x, max_iter=2)
 
@@ -79,12 +82,12 @@ def test_refine_kernel_equals_reference(m):
     rows, norms = L._refine_bank(m, False, ratio)
     cands = np.array([31, 29, 0, 30])
     a = L._kernel_refine(r, cands, L._REFINE_SHIFTS, rows, norms)
-    b = L.refine_reference(r, cands, L._REFINE_SHIFTS, rows, norms)
+    b = RL.refine_reference(r, cands, L._REFINE_SHIFTS, rows, norms)
     assert a[1] == b[1] and a[0] == pytest.approx(b[0], rel=1e-12)
     assert 29.5 <= a[1] <= 31.0
     # negative positions are skipped, as in the reference
     a = L._kernel_refine(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)
-    assert a[1] >= 0 and a[1] == L.refine_reference(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)[1]
+    assert a[1] >= 0 and a[1] == RL.refine_reference(r, np.array([0]), L._REFINE_SHIFTS, rows, norms)[1]
 
 
 def test_refine_kernel_sums_in_sample_order_exactly():
@@ -188,7 +191,8 @@ def test_reader_command_cache():
 def test_cw_power_kernel_equals_reference():
     """Median of env² over the CW samples: odd/even counts, ties (rounded envelopes), an
     unmodulated segment (all samples) and NaN handling as numpy.median."""
-    from rfsim.devices.tag import _cw_power_w, cw_power_reference
+    from rfsim.devices.tag import _cw_power_w
+    from reference.devices_tag import cw_power_reference
 
     rng = trial_rng(56, 0)
     n_cases = 0
@@ -219,7 +223,7 @@ def test_halfsymbols_kernel_equals_reference():
                 for _ in range(10):
                     bits = rng.integers(0, 2, int(rng.integers(0, 150))).astype(np.uint8)
                     a = L.halfsymbols(bits, m=m, trext=trext, dummy=dummy)
-                    b = L.halfsymbols_reference(bits, m=m, trext=trext, dummy=dummy)
+                    b = RL.halfsymbols_reference(bits, m=m, trext=trext, dummy=dummy)
                     assert a.dtype == b.dtype == np.int8
                     np.testing.assert_array_equal(a, b)
                     n += 1
@@ -229,7 +233,7 @@ def test_halfsymbols_kernel_equals_reference():
 @pytest.mark.parametrize("preamble", ["query", "frame-sync"])
 def test_pr_ask_kernel_equals_reference(preamble):
     """PR-ASK baseband of random commands at a non-integer number of samples per Tari."""
-    from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, pr_ask_baseband_reference, timeline_envelope
+    from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 
     rng = trial_rng(58, len(preamble))
     for _ in range(5):
@@ -241,7 +245,7 @@ def test_pr_ask_kernel_equals_reference(preamble):
         a = pr_ask_baseband(tl, e, amplitude=0.7, fs_hz=fs)
         b = pr_ask_baseband_reference(tl, e, amplitude=0.7, fs_hz=fs)
         assert a.dtype == np.complex128
-        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, b)  # exact: one product amplitude·envelope, a sign flip
         assert np.any(a.real < 0) and np.any(a.real > 0)
 
 
@@ -250,7 +254,8 @@ def test_measure_kernel_equals_reference(doppler_hz):
     """Reader measurements (gain, Doppler slope, residual power) of a Miller-4 reply with a
     rotating phase and noise: kernel and NumPy twin agree to round-off (different summation
     order, so not bit for bit)."""
-    from rfsim.devices.reader import _measure, measure_reference
+    from rfsim.devices.reader import _measure
+    from reference.devices_reader import measure_reference
 
     rng = trial_rng(59, int(abs(doppler_hz)))
     fs, blf = 4e6, 320e3
@@ -275,7 +280,7 @@ def test_projected_halfbit_sums_kernel_equals_reference():
     g = complex(0.3, -1.7)
     for m, start in ((1, 0.0), (4, 2.3125), (8, 0.9375)):
         a = L._kernel_sums(part, g, 0.25, start, 0.16, m, 60)
-        b = L.projected_halfbit_sums_reference(part, g, 0.25, start, 0.16, m, 60)
+        b = RL.projected_halfbit_sums_reference(part, g, 0.25, start, 0.16, m, 60)
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
@@ -283,7 +288,8 @@ def test_projected_halfbit_sums_kernel_equals_reference():
 def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
-    from rfsim.devices.reader import _known_levels, known_levels_reference
+    from rfsim.devices.reader import _known_levels
+    from reference.devices_reader import known_levels_reference
 
     rng = trial_rng(61, m)
     fs, blf = 4e6, 320e3 if m > 1 else 160e3
@@ -297,7 +303,7 @@ def test_known_levels_kernel_equals_reference(m, trext):
         n_pre_el = L.preamble_levels(m=m, trext=trext)[0].size * m
         a = _known_levels(r, full, start / fs * fs, 2.0 * blf / fs, n_pre_el)
         b = known_levels_reference(r, pre, full)
-        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[0], b[0])  # a selection of samples and ±1 levels: exact
         np.testing.assert_array_equal(a[1], b[1])
         assert a[1].size > 1000 and set(np.unique(a[1])) <= {-1.0, 1.0}
         n += 1
@@ -386,7 +392,7 @@ def test_peak_candidates_kernel_equals_reference():
             c = np.round(c * 4) / 4
         w = int(rng.integers(1, 8))
         lag, cands = L._kernel_candidates(c, w)
-        lag_r, cands_r = L.peak_candidates_reference(c, w)
+        lag_r, cands_r = RL.peak_candidates_reference(c, w)
         assert lag == lag_r
         np.testing.assert_array_equal(cands, cands_r)
         assert 1 <= cands.size <= 5 and c[cands[0]] == c[cands].max()
@@ -408,7 +414,7 @@ def test_preamble_search_kernel_equals_reference(m, trext):
         r = h * np.where(s == 0, -1.0, s) + (0.3 - 0.2j) * 1e-3
         r = r + 2e-4 * (rng.standard_normal(r.size) + 1j * rng.standard_normal(r.size))
         kw = dict(n_bits=64, m=m, trext=trext, blf_hz=blf, fs_hz=fs, search_samples=120)
-        a, b = L.decode_reply(r, **kw), L.decode_reply_reference(r, **kw)
+        a, b = L.decode_reply(r, **kw), RL.decode_reply_reference(r, **kw)
         assert a.start_sample == b.start_sample and abs(a.start_sample - start) < 1.5 * fs / (2 * blf)  # ≤ 1 element
         np.testing.assert_array_equal(a.bits, b.bits)
         assert a.corr == b.corr and a.gain == b.gain
@@ -416,7 +422,7 @@ def test_preamble_search_kernel_equals_reference(m, trext):
         known = dict(n_bits=64, m=m, trext=trext, blf_hz=blf, fs_hz=fs, gain=a.gain * 1.01)
         full = L.decode_reply(r, start_sample=a.start_sample, **known).bits
         np.testing.assert_array_equal(L.decode_bits(r[lag:], start_sample=a.start_sample - lag, **known), full)
-        np.testing.assert_array_equal(L.decode_reply_reference(r, start_sample=a.start_sample, **known).bits, full)
+        np.testing.assert_array_equal(RL.decode_reply_reference(r, start_sample=a.start_sample, **known).bits, full)
 
 
 def test_measurement_on_the_reply_span_equals_the_window():

@@ -15,19 +15,10 @@ from scipy.stats import norm
 from rfsim.bench.linecode import benchmark_linecode
 from rfsim.gen2 import _linecode_kernels as K
 from rfsim.gen2.link import PROFILES, backscatter_duration_s
-from rfsim.gen2.linecode import (
-    decode_reply,
-    decode_reply_reference,
-    fm0_levels_reference,
-    halfbit_sums_reference,
-    halfsymbols,
-    miller_levels_reference,
-    reply_duration_s,
-    reply_waveform,
-    reply_waveform_for_profile,
-    reply_waveform_reference,
-)
+from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_duration_s, reply_waveform, reply_waveform_for_profile
 from rfsim.core.rng import trial_rng
+from reference.gen2_linecode import (decode_reply_reference, fm0_levels_reference, halfbit_sums_reference,
+                                     miller_levels_reference, reply_waveform_reference)
 
 CODES = [("fm0", 1, 2), ("miller2", 2, 3), ("miller4", 4, 3), ("miller8", 8, 3)]
 
@@ -234,16 +225,14 @@ def test_decode_rejects_bad_input():
 
 
 def test_benchmark_smoke():
-    out = benchmark_linecode(n_bits=2000, n_bits_reference=500)
-    assert out["numba_bit_errors"] == 0 and out["reference_bit_errors"] == 0
+    out = benchmark_linecode(n_bits=2000)
+    assert out["numba_bit_errors"] == 0
     assert out["numba_s"] > 0 and out["fs_hz"] == 2 * 160e3 * 8
 
 
 def test_reply_waveform_remembered_elements_follow_the_bits():
     # the element sequence of a reply is remembered by its bits: the same bits again, and the
     # same array changed in place, give the reference's waveform
-    from rfsim.gen2.linecode import reply_waveform, reply_waveform_reference
-
     bits = np.array([0, 1, 1, 0, 1, 0, 0, 0, 1, 1, 1, 0, 0, 1, 0, 1], dtype=np.uint8)
     kw = dict(m=4, trext=False, blf_hz=320e3, fs_hz=4e6, t0_s=3.1e-6, n_samples=900)
     for _ in range(2):

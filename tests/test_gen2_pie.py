@@ -13,14 +13,8 @@ from scipy.io import loadmat
 
 from rfsim.gen2.commands import ACK, Query, encode
 from rfsim.gen2.link import PROFILES, pie_duration_s
-from rfsim.gen2.pie import (
-    pie_decode,
-    pie_decode_reference,
-    pie_envelope,
-    pie_envelope_for_profile,
-    pie_envelope_reference,
-    pie_timeline,
-)
+from rfsim.gen2.pie import pie_decode, pie_envelope, pie_envelope_for_profile, pie_timeline
+from reference.gen2_pie import pie_decode_reference, pie_envelope_reference
 
 QUERY_Q0 = np.array([int(c) for c in "1000000000000000010000"], dtype=np.uint8)
 

@@ -16,13 +16,13 @@ from scipy.stats import norm
 
 from rfsim.channels import Channel, Scene
 from rfsim.devices.gen2_tag_state import Reply
-from rfsim.devices.reader import (ReaderConfig, blf_grid_hz, rn16_threshold_db, search_decode,
-                            search_decode_reference)
+from rfsim.devices.reader import ReaderConfig, blf_grid_hz, rn16_threshold_db, search_decode
 from rfsim.devices.tag_spread import TagSpreadConfig
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import PROFILES, t1
 from rfsim.gen2.linecode import reply_waveform
 from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+from reference.devices_reader import search_decode_reference
 from rfsim.core.rng import trial_rng
 
 from test_engine import make_reader, make_tag, run_round

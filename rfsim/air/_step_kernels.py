@@ -6,7 +6,7 @@ re-radiating r(t) = A_s − Γ(t) (:mod:`rfsim.air.step` model; rfsim.devices.ta
 
     y(t) = c·x(t) + b·((A_s − Γ(t))·(g·x(t)))    [√W],
 
-which :func:`backscatter_reference` forms with NumPy's array operations, one full-length
+which NumPy forms with its array operations (``c * x + b * ((a_s - gamma) * (g * x))``), one full-length
 array per product. The kernel forms the same products sample by sample, in one pass and
 without temporaries. NumPy multiplies complex arrays with fused multiply-adds where the CPU
 has them (its SIMD loop: re = fma(a_r, b_r, −a_i·b_i), im = fma(a_r, b_i, a_i·b_r)); the
@@ -55,18 +55,10 @@ def cmul_kernel(a, b, out):
 @njit
 def backscatter_kernel(x, c, g, a_s, gamma, b, out):
     """out[i] = c·x[i] + b·((a_s − gamma[i])·(g·x[i])) (module docstring; the products in
-    :func:`backscatter_reference`'s order)."""
+    NumPy formulation's order)."""
     for i in range(out.size):
         xi = x[i]
         out[i] = cmul(c, xi) + cmul(b, cmul(a_s - gamma[i], cmul(g, xi)))
-
-
-def backscatter_reference(x: np.ndarray, c: complex, g: complex, a_s: complex, gamma: np.ndarray,
-                          b: complex) -> np.ndarray:
-    """Plain-NumPy twin of :func:`backscatter_kernel`: the air step's own array operations."""
-    y = c * x
-    y += b * ((a_s - gamma) * (g * x))
-    return y
 
 
 _MATCHES: list = []

@@ -1,4 +1,4 @@
-"""Benchmark of the FM0/Miller encoder + decoder (numba kernels vs NumPy/Python twins)."""
+"""Benchmark of the FM0/Miller encoder + decoder (numba kernels)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from rfsim.gen2.linecode import decode_reply, decode_reply_reference, reply_waveform, reply_waveform_reference
+from rfsim.gen2.linecode import decode_reply, reply_waveform
 from rfsim.core.rng import trial_rng
 
 #: Bits encoded and decoded per block.
@@ -29,22 +29,20 @@ def _run(n_bits: int, block_bits: int, encode, decode, rng, *, m: int, blf_hz: f
     return time.perf_counter() - t_start, errors
 
 
-def benchmark_linecode(n_bits: int = 10**6, *, n_bits_reference: int = 10**5, m: int = 4,
+def benchmark_linecode(n_bits: int = 10**6, *, m: int = 4,
                        blf_hz: float = 160e3, samples_per_element: int = 8, seed: int = 0) -> dict:
     """Wall time to encode + sample + Viterbi-decode ``n_bits`` Miller-``m`` bits.
 
     fs = 2·BLF·samples_per_element (8 samples per half subcarrier cycle by default); the
     reply is processed in blocks of :data:`BLOCK_BITS` bits to bound memory (10⁴ bits of
     Miller-4 at 8 samples per element are 640,000 samples, ≈ 25 MB for the waveform and
-    its decoder; blocks of 10⁵ bits made the benchmark peak at 804 MB). The numba path is warmed up
-    first; the NumPy/Python reference decoder runs on ``n_bits_reference`` bits.
+    its decoder; blocks of 10⁵ bits made the benchmark peak at 804 MB). The kernels are warmed up
+    (compiled) first.
     """
     fs_hz = 2.0 * blf_hz * samples_per_element
     kw = dict(m=m, blf_hz=blf_hz, fs_hz=fs_hz)
     _run(1000, 1000, reply_waveform, decode_reply, trial_rng(seed, 0), **kw)  # warm-up (compilation)
     t_numba, err_numba = _run(n_bits, BLOCK_BITS, reply_waveform, decode_reply, trial_rng(seed, 1), **kw)
-    t_ref, err_ref = _run(n_bits_reference, BLOCK_BITS, reply_waveform_reference, decode_reply_reference,
-                          trial_rng(seed, 2), **kw)
     return {
         "m": m,
         "blf_hz": blf_hz,
@@ -53,10 +51,6 @@ def benchmark_linecode(n_bits: int = 10**6, *, n_bits_reference: int = 10**5, m:
         "numba_s": t_numba,
         "numba_bits_per_s": n_bits / t_numba,
         "numba_bit_errors": err_numba,
-        "n_bits_reference": n_bits_reference,
-        "reference_s": t_ref,
-        "reference_bits_per_s": n_bits_reference / t_ref,
-        "reference_bit_errors": err_ref,
     }
 
 

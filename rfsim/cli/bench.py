@@ -22,7 +22,7 @@ from rfsim.core.errors import UserError
 
 #: name → (module, function, keyword arguments of the quick variant)
 BENCHMARKS = {
-    "linecode": ("rfsim.bench.linecode", "benchmark_linecode", {"n_bits": 10**5, "n_bits_reference": 10**4}),
+    "linecode": ("rfsim.bench.linecode", "benchmark_linecode", {"n_bits": 10**5}),
     "channels": ("rfsim.bench.channels", "bench_channels", {"n_links": 200, "n_samples": 200_000}),
     "bulk-links": ("rfsim.bench.channels", "bench_bulk_links", {"n_links": 20_000, "repeats": 1}),
     "inventory": ("rfsim.bench.inventory", "bench_inventory", {"n_tags": 20, "sample_populations": (10, 20),

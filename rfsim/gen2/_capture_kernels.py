@@ -1,5 +1,7 @@
 """numba kernels of the capture decoders (wrapped and documented in :mod:`rfsim.gen2.capture`
-and :mod:`rfsim.gen2.replies`; the plain-NumPy twins are the ``*_reference`` functions there).
+and :mod:`rfsim.gen2.replies`; the plain-NumPy twins are ``*_reference`` functions in the tests'
+``reference`` package, and in :mod:`rfsim.gen2.reply_tracking` and :mod:`rfsim.gen2.replies` for
+the decoding steps that also serve a caller's own reply-length rule).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """numba kernels of the FM0 / Miller line codes (wrapped and documented in
-:mod:`rfsim.gen2.linecode`; NumPy twins there as ``*_reference``).
+:mod:`rfsim.gen2.linecode`; NumPy twins in the tests' ``reference.gen2_linecode``).
 
 Levels are ±1 (int8); a *half-bit* is half a data symbol; an *element* is half a
 subcarrier cycle (1/(2·BLF) s): FM0 has one element per half-bit, Miller-M has M.

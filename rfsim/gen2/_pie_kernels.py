@@ -1,8 +1,8 @@
 """numba kernels of the PIE encoder/decoder (wrapped and documented in :mod:`rfsim.gen2.pie`).
 
 Positions are in samples (ticks of the sampling clock) as float64; kernels fill
-preallocated arrays and return counts. Each kernel has a plain-NumPy twin in
-:mod:`rfsim.gen2.pie` (``*_reference``) that the tests compare against.
+preallocated arrays and return counts. Each kernel has a plain-NumPy twin in the tests'
+``reference.gen2_pie`` that the tests compare against.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """numba kernels of the capture reply decoder (wrapped and documented in
-:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_search_reference``,
-``_fine_reference``, ``_track_decode_reference`` and ``_decode_window_reference`` there).
+:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_fine_reference``, ``_track_decode_reference``
+and ``_decode_window_reference`` there, and ``reference.gen2_replies._search_reference`` in the tests).
 
 ``preamble_search_kernel`` and ``fine_kernel`` fuse, per BLF hypothesis, what the twins do
 with several NumPy calls: the preamble template (the element sequence of

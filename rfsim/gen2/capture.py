@@ -260,7 +260,7 @@ def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.n
     Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
     its levels are two well separated clusters (contrast ≥ :data:`GATE_MIN_CONTRAST`);
     thresholds crossed by noise alone form frames that fail both (numba kernel
-    ``frame_gate_kernel``; :func:`plausible_frames_reference` is its NumPy twin).
+    ``frame_gate_kernel``; the tests hold it to a plain-NumPy twin).
     """
     first, last = _frame_edges(edges)
     n = first.size
@@ -280,43 +280,6 @@ def _frame_edges(edges: PieEdges) -> tuple[np.ndarray, np.ndarray]:
     """Edge indices of each frame's first (delimiter fall) and last (closing rise) edge."""
     return (np.searchsorted(edges.pos, edges.start).astype(np.int64),
             np.searchsorted(edges.pos, edges.end).astype(np.int64))
-
-
-def plausible_frames_reference(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Plain-NumPy twin of :func:`plausible_frames`."""
-    first, last = _frame_edges(edges)
-    pos, env = edges.pos, np.asarray(env, dtype=np.float64)
-    keep = np.zeros(first.size, dtype=bool)
-    contrast = np.zeros(first.size)
-    for i, (e0, e1) in enumerate(zip(first.tolist(), last.tolist())):
-        t, rt, tr = edges.tari[i], edges.rtcal[i], edges.trcal[i]
-        tol = GATE_TOL_TARI * t + GATE_TOL_SAMPLES
-        fall, rise = pos[e0:e1 + 1:2], pos[e0 + 1:e1 + 1:2]
-        n_pre = 3 if math.isnan(tr) else 4
-        spans = np.diff(rise)[n_pre - 1:]
-        widths = (rise - fall)[1:]
-        checks = [
-            rise.size - n_pre >= GATE_MIN_BITS,
-            GATE_RTCAL_TARI[0] <= rt / t <= GATE_RTCAL_TARI[1],
-            math.isnan(tr) or GATE_TRCAL_RTCAL[0] <= tr / rt <= GATE_TRCAL_RTCAL[1],
-            GATE_DELIMITER_TARI[0] <= (rise[0] - fall[0]) / t <= GATE_DELIMITER_TARI[1],
-            bool(np.all((np.abs(spans - t) <= tol) | (np.abs(spans - (rt - t)) <= tol))),
-            GATE_PW_TARI[0] <= widths[0] / t <= GATE_PW_TARI[1],
-            bool(np.all(np.abs(widths - widths[0]) <= tol)),
-        ]
-        if not all(checks):
-            continue
-        lo_idx = np.round(0.5 * (fall + rise)).astype(np.int64)
-        hi_idx = np.round(0.5 * (rise[:-1] + fall[1:])).astype(np.int64)
-        lo = env[lo_idx[(lo_idx >= 0) & (lo_idx < env.size)]]
-        hi = env[hi_idx[(hi_idx >= 0) & (hi_idx < env.size)]]
-        if lo.size < 2 or hi.size < 2:
-            continue
-        var = 0.5 * (max(float(np.mean(lo * lo)) - float(lo.mean()) ** 2, 0.0)
-                     + max(float(np.mean(hi * hi)) - float(hi.mean()) ** 2, 0.0))
-        contrast[i] = (hi.mean() - lo.mean()) / math.sqrt(var) if var > 0 else math.inf
-        keep[i] = contrast[i] >= GATE_MIN_CONTRAST
-    return keep, contrast
 
 
 def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
@@ -454,7 +417,6 @@ __all__ = [
     "envelope_levels",
     "normalized_envelope",
     "plausible_frames",
-    "plausible_frames_reference",
     "parse_record",
     "decode_reader_commands",
     "timing_warnings",

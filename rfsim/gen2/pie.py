@@ -221,35 +221,6 @@ def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: f
     return out.astype(np.complex128)
 
 
-def pr_ask_baseband_reference(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: float,
-                              fs_hz: float) -> np.ndarray:
-    """Plain-NumPy twin of :func:`pr_ask_baseband`."""
-    mid = 0.5 * (timeline.fall_s + timeline.rise_s)
-    t = np.arange(envelope.size) / fs_hz
-    flips = np.searchsorted(mid, t, side="right")
-    sign = 1.0 - 2.0 * (flips % 2)
-    return (amplitude * sign * envelope).astype(np.complex128)
-
-
-def pie_envelope_reference(bits, *, depth: float, fs_hz: float, rise_fall_s: float = 0.0, **timing):
-    """Plain-NumPy twin of :func:`pie_envelope` (same arguments), for tests."""
-    fs_hz = _check_fs(fs_hz)
-    tl = pie_timeline(bits, **timing)
-    width = _ramp_width_samples(float(rise_fall_s), fs_hz, tl)
-    n = np.arange(int(math.ceil(tl.duration_s * fs_hz)), dtype=np.float64)
-
-    def step(tau):
-        if width <= 0:
-            return (tau >= 0).astype(np.float64)
-        inner = 0.5 * (1.0 + np.sin(np.pi * np.clip(tau, -width / 2, width / 2) / width))
-        return np.where(tau <= -width / 2, 0.0, np.where(tau >= width / 2, 1.0, inner))
-
-    out = np.ones(n.size)
-    for f, r in zip(tl.fall_s * fs_hz, tl.rise_s * fs_hz):
-        out -= depth * (step(n - f) - step(n - r))
-    return out
-
-
 def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "query", **kwargs):
     """:func:`pie_envelope` with the PIE timing and depth taken from a ``LinkProfile``
     (attributes ``tari_s, data1_tari, trcal_s, pw_s, delimiter_s, depth``)."""
@@ -277,25 +248,7 @@ def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, fl
     return float(thr), float(m_lo), float(m_hi)
 
 
-def two_level_threshold_reference(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
-    """Plain-NumPy twin of :func:`two_level_threshold`, for tests."""
-    x = np.asarray(x, dtype=np.float64)
-    lo, hi = float(x.min()), float(x.max())
-    thr = 0.5 * (lo + hi)
-    m_lo, m_hi = lo, hi
-    for _ in range(max_iter):
-        below = x < thr
-        if below.all() or not below.any():
-            break
-        m_lo, m_hi = float(x[below].mean()), float(x[~below].mean())
-        new = 0.5 * (m_lo + m_hi)
-        if new == thr:
-            break
-        thr = new
-    return thr, m_lo, m_hi
-
-
-def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
+def _prepare(x, threshold, hysteresis, levels=None):
     x = np.asarray(x)
     if x.dtype in (np.complex64, np.complex128) and levels is not None:
         # complex samples: the kernels read their magnitude on the fly; the caller's levels
@@ -311,7 +264,7 @@ def _prepare(x, threshold, hysteresis, levels=None, split=two_level_threshold):
             raise ValueError(f"x must be 1-D, got shape {x.shape}")
         if x.size < 2 or not np.all(np.isfinite(x)):
             return x, None, None
-    thr, m_lo, m_hi = split(x) if levels is None else (float(v) for v in levels)
+    thr, m_lo, m_hi = two_level_threshold(x) if levels is None else (float(v) for v in levels)
     if threshold is not None:
         thr = float(threshold)
     return x, thr, float(hysteresis) * (m_hi - m_lo)
@@ -393,69 +346,17 @@ def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
     return pie_decode_arrays(x, threshold=threshold, hysteresis=hysteresis, levels=levels).frames()
 
 
-def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float = 0.1) -> list[PieFrame]:
-    """Plain NumPy/Python twin of :func:`pie_decode` (same algorithm), for tests."""
-    x, thr, hyst = _prepare(x, threshold, hysteresis, split=two_level_threshold_reference)
-    if thr is None:
-        return []
-    above, below = x > thr + hyst, x < thr - hyst
-    defined = above | below
-    if not defined.any():
-        return []
-    idx = np.maximum.accumulate(np.where(defined, np.arange(x.size), -1))
-    first = int(np.argmax(defined))
-    state = np.where(idx >= 0, above[np.maximum(idx, 0)], above[first]).astype(np.int8)
-    n = np.flatnonzero(np.diff(state)) + 1
-    d = x[n] - x[n - 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        frac = np.where(d != 0.0, (thr - x[n - 1]) / np.where(d != 0.0, d, 1.0), 0.5)
-    pos = (n - 1) + np.clip(frac, 0.0, 1.0)
-    direction = state[n]
-
-    frames: list[PieFrame] = []
-    lo_ratio, hi_ratio = RTCAL_TARI_RANGE
-    ne, i = pos.size, 0
-    while i < ne:
-        if direction[i] != _k.FALL or i + 5 >= ne:
-            i += 1
-            continue
-        r0, r1, r2 = pos[i + 1], pos[i + 3], pos[i + 5]
-        tari, rtcal = r1 - r0, r2 - r1
-        if not (tari > 0 and lo_ratio * tari <= rtcal <= hi_ratio * tari):
-            i += 1
-            continue
-        j, trcal = i + 5, math.nan
-        if j + 2 < ne and rtcal < pos[j + 2] - pos[j] <= MAX_TRCAL_RTCAL * rtcal:
-            trcal = pos[j + 2] - pos[j]
-            j += 2
-        out = []
-        while j + 2 < ne and pos[j + 2] - pos[j] <= rtcal:
-            out.append(1 if pos[j + 2] - pos[j] > 0.5 * rtcal else 0)
-            j += 2
-        if not out:
-            i += 1
-            continue
-        frames.append(PieFrame(float(pos[i]), float(pos[j]), float(r0 - pos[i]), float(tari),
-                               float(rtcal), float(trcal), np.array(out, dtype=np.uint8)))
-        i = j + 1
-    return frames
-
-
 __all__ = [
     "PREAMBLES",
     "PieTimeline",
     "PieFrame",
     "pie_timeline",
     "pie_envelope",
-    "pie_envelope_reference",
     "pie_envelope_for_profile",
     "timeline_envelope",
     "pr_ask_baseband",
-    "pr_ask_baseband_reference",
     "two_level_threshold",
-    "two_level_threshold_reference",
     "PieEdges",
     "pie_decode_arrays",
     "pie_decode",
-    "pie_decode_reference",
 ]

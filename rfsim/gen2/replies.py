@@ -364,8 +364,7 @@ def _search(r, fs, hyps, lo_of, hi_of):
     hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
     over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
     a parabola through the peak) and the number of lags tested (numba kernel
-    ``preamble_search_kernel``, one call per hypothesis; :func:`_search_reference` is its
-    NumPy twin)."""
+    ``preamble_search_kernel``, one call per hypothesis; the tests hold it to a NumPy twin)."""
     best, n_tests = None, 0
     r = np.ascontiguousarray(r, dtype=np.complex128)
     for hyp in hyps:
@@ -381,32 +380,6 @@ def _search(r, fs, hyps, lo_of, hi_of):
         n_tests += nt
         if j >= 0 and (best is None or c > best[0]):
             best = (float(c), float(blfs[j]), hyp, float(pos), step_c, int(n_t))
-    return best, n_tests
-
-
-def _search_reference(r, fs, hyps, lo_of, hi_of):
-    """Plain-NumPy twin of :func:`_search` (scipy correlation per BLF)."""
-    best, n_tests = None, 0
-    for hyp in hyps:
-        step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
-        for blf in _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c):
-            if 2.0 * blf * MIN_SAMPLES_PER_ELEMENT > fs:
-                continue
-            lo, hi = int(lo_of(blf)), int(hi_of(blf))
-            t0 = _preamble_template(hyp.m, hyp.trext, blf, fs)
-            n_rep = int(math.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
-            last = min(hi, r.size - n_rep)
-            if last < lo or t0.size < 3:
-                continue
-            n_tests += last - lo + 1
-            c = preamble_correlation(r[lo: last + t0.size], t0)
-            k = int(np.argmax(c))
-            if best is None or c[k] > best[0]:
-                frac = 0.0
-                if 0 < k < c.size - 1:
-                    den = c[k - 1] - 2.0 * c[k] + c[k + 1]
-                    frac = 0.5 * (c[k - 1] - c[k + 1]) / den if den < 0 else 0.0
-                best = (float(c[k]), float(blf), hyp, lo + k + frac, step_c, t0.size)
     return best, n_tests
 
 

@@ -52,28 +52,6 @@ def resample(r: np.ndarray, positions: np.ndarray) -> np.ndarray:
     return np.interp(positions, x, r.real) + 1j * np.interp(positions, x, r.imag)
 
 
-def block_correlations_reference(y, start, u1, u2, el, n_blocks, base, shifts, sub):
-    """Plain-NumPy twin of the block-correlation kernel: ``(corr (n_shifts, n_blocks),
-    centre offsets (n_blocks,) [samples])``."""
-    n_el = el.size
-    t = np.arange(int(math.ceil(start)), y.size) - start
-    u0 = u1 * t + u2 * t * t
-    inside = (u0 >= 0) & (u0 < n_el)
-    t, yy = t[inside], y[int(math.ceil(start)):][inside]
-    block = np.minimum(np.floor(u0[inside] / (n_el / n_blocks)).astype(np.int64), n_blocks - 1)
-    corr = np.empty((shifts.size, n_blocks))
-    for i, d in enumerate(shifts):
-        s = np.zeros(t.size)
-        for e in sub:  # the reference averaged over the sample interval: a smooth function of d
-            tt = t - base[block] - d + e
-            u = u1 * tt + u2 * tt * tt
-            k = np.floor(u).astype(np.int64)
-            s += np.where((u >= 0) & (k < n_el), el[np.clip(k, 0, n_el - 1)], 0.0)
-        corr[i] = np.bincount(block, weights=yy * s, minlength=n_blocks)
-    centres = np.bincount(block, weights=t, minlength=n_blocks) / np.maximum(np.bincount(block, minlength=n_blocks), 1)
-    return corr, centres
-
-
 def _block_correlations(y, start, u1, u2, el, n_blocks, base, shifts, sub, n_blocks_used=None):
     corr = np.empty((shifts.size, n_blocks))
     centre_sum = np.empty(n_blocks)
@@ -181,5 +159,5 @@ def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
     return start + a0, u1 * (1.0 - a1), u2 - u1 * a2
 
 
-__all__ = ["warp_positions", "resample", "block_correlations_reference", "weighted_polyfit", "track", "track_reference",
+__all__ = ["warp_positions", "resample", "weighted_polyfit", "track", "track_reference",
            "TRACK_SPANS", "SUBSAMPLES"]

@@ -1,5 +1,5 @@
 """numba kernels of the binary-offset-carrier (BOC) line code (wrapped and documented in
-:mod:`rfsim.himr.boc`; plain-NumPy twins there as ``*_reference``).
+:mod:`rfsim.himr.boc`; plain-NumPy twins in the tests' ``reference.himr_boc``).
 
 A *chip* is one half of a subcarrier half-cycle group: chip k of a bit has the subcarrier
 sign ``q_k = +1`` if ``(k // half_cycle_chips)`` is even, else −1; the bit sets the

@@ -113,4 +113,16 @@ def get_scenario(name: str) -> ModuleType:
     return modules[name]
 
 
-__all__ = ["scenario_modules", "scenario_descriptions", "get_scenario"]
+def load_scenario(module_name: str) -> ModuleType:
+    """The scenario module of the importable name ``module_name`` (a built-in scenario's
+    ``rfsim.scenarios.<name>`` or any module with the scenario contract: ``NAME``,
+    ``DESCRIPTION``, ``Config``, ``run``, ``plot``), e.g. in a sweep worker that received the
+    name of its scenario's module. A module without the contract is a one-line user error."""
+    module = importlib.import_module(module_name)
+    missing = [a for a in _REQUIRED if not hasattr(module, a)]
+    if missing:
+        raise UserError(f"module {module_name!r} is not a scenario: it lacks {', '.join(missing)}")
+    return module
+
+
+__all__ = ["scenario_modules", "scenario_descriptions", "get_scenario", "load_scenario"]

@@ -33,7 +33,6 @@ import dataclasses
 import datetime as _dt
 import functools
 import hashlib
-import importlib
 import json
 import math
 import os
@@ -51,6 +50,7 @@ from typing import Any
 import numpy as np
 
 import rfsim
+from rfsim.runs.registry import load_scenario
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import Column, Dataset, git_revision, utc_now
 from rfsim.core.errors import UserError
@@ -67,7 +67,11 @@ SYNC_INTERVAL_S = 1.0
 
 @dataclasses.dataclass(frozen=True)
 class PointTask:
-    """Everything a worker needs to run one (point, repetition) and persist it."""
+    """Everything a worker needs to run one (point, repetition) and persist it.
+
+    ``scenario_module`` is the importable name of the scenario's module; the worker loads it
+    through the scenario registry (:func:`rfsim.runs.registry.load_scenario`), the one place
+    that imports scenarios by name."""
 
     scenario_module: str
     config: Any
@@ -292,7 +296,7 @@ def _static_provenance() -> dict[str, str]:
 
 def run_point(task: PointTask) -> PointResult:
     """Run one point in this process and append it to this process's segment."""
-    module = importlib.import_module(task.scenario_module)
+    module = load_scenario(task.scenario_module)
     start_utc, t0 = utc_now(), time.perf_counter()
     dataset = module.run(task.config, seed=task.seed)
     dataset.scenario = module.NAME

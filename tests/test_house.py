@@ -1,0 +1,111 @@
+"""The house rules of the tree (DESIGN.md "Layout"), scanned with ``ast``:
+
+* no module of the core (``rfsim/``), ``channels/`` or ``devices/`` over 700 lines, and no function
+  there over 120 lines, but for the exceptions listed below, each with its reason;
+* scenarios only compose: no scenario over 400 lines counting every ``scenarios/_*.py`` helper it
+  imports (directly or through another helper), and no numba kernel in ``scenarios/``;
+* every room of the core says in its ``__init__`` docstring what it holds.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MAX_MODULE_LINES = 700
+MAX_FUNCTION_LINES = 120
+MAX_SCENARIO_LINES = 400
+
+#: (path, function) → why it stays longer than MAX_FUNCTION_LINES.
+LONG_FUNCTIONS: dict[tuple[str, str], str] = {}
+#: path → why it stays longer than MAX_MODULE_LINES.
+LONG_MODULES: dict[str, str] = {}
+
+
+def _lines(path: Path) -> int:
+    return len(path.read_text(encoding="utf-8").splitlines())
+
+
+def _library_files():
+    for folder in ("rfsim", "channels", "devices"):
+        yield from sorted((ROOT / folder).rglob("*.py"))
+
+
+def test_no_long_modules():
+    long = {str(p.relative_to(ROOT)): _lines(p) for p in _library_files() if _lines(p) > MAX_MODULE_LINES}
+    assert {k: v for k, v in long.items() if k not in LONG_MODULES} == {}
+    assert set(LONG_MODULES) <= set(long), "an exception is no longer needed: drop it"
+
+
+def test_no_long_functions():
+    long = {}
+    for p in _library_files():
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                n = node.end_lineno - node.lineno + 1
+                if n > MAX_FUNCTION_LINES:
+                    long[(str(p.relative_to(ROOT)), node.name)] = n
+    assert {k: v for k, v in long.items() if k not in LONG_FUNCTIONS} == {}
+    assert set(LONG_FUNCTIONS) <= set(long), "an exception is no longer needed: drop it"
+
+
+def _helpers_of(path: Path, folder: Path, seen: set[str]) -> set[str]:
+    """Names of the ``_*.py`` helper modules of ``folder`` imported by ``path``, transitively."""
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        names = []
+        if isinstance(node, ast.ImportFrom):
+            mod = node.module or ""
+            if node.level:  # from . import _x / from ._x import y
+                names = [mod] if mod else [a.name for a in node.names]
+            elif mod.startswith("rfsim.scenarios."):
+                names = [mod.split(".")[2]]
+            elif mod == "rfsim.scenarios":
+                names = [a.name for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name.split(".")[2] for a in node.names if a.name.startswith("rfsim.scenarios.")]
+        elif isinstance(node, ast.Call) and getattr(node.func, "id", getattr(node.func, "attr", "")) == "lazy_import" \
+                and node.args and isinstance(node.args[0], ast.Constant) \
+                and str(node.args[0].value).startswith("rfsim.scenarios."):
+            names = [str(node.args[0].value).split(".")[2]]
+        for n in names:
+            if n.startswith("_") and n not in seen and (folder / f"{n}.py").is_file():
+                seen.add(n)
+                _helpers_of(folder / f"{n}.py", folder, seen)
+    return seen
+
+
+def _scenario_sizes() -> dict[str, int]:
+    folder = ROOT / "scenarios"
+    sizes = {}
+    for p in sorted(folder.glob("[!_]*.py")):
+        helpers = _helpers_of(p, folder, set())
+        sizes[p.stem] = _lines(p) + sum(_lines(folder / f"{h}.py") for h in helpers)
+    return sizes
+
+
+def test_the_scenario_count_includes_helpers():
+    sizes = _scenario_sizes()
+    assert "link" in sizes and all(not name.startswith("_") for name in sizes)
+
+
+@pytest.mark.parametrize("name", sorted(_scenario_sizes()))
+def test_scenarios_only_compose(name):
+    assert _scenario_sizes()[name] <= MAX_SCENARIO_LINES
+
+
+def test_no_numba_kernel_in_scenarios():
+    bad = []
+    for p in sorted((ROOT / "scenarios").glob("*.py")):
+        text = p.read_text(encoding="utf-8")
+        if "njit" in text or "import numba" in text or "from numba" in text:
+            bad.append(p.name)
+    assert bad == []
+
+
+@pytest.mark.parametrize("room", sorted(p.parent.name for p in (ROOT / "rfsim").glob("*/__init__.py")))
+def test_every_room_says_what_it_holds(room):
+    doc = ast.get_docstring(ast.parse((ROOT / "rfsim" / room / "__init__.py").read_text(encoding="utf-8")))
+    assert doc and len(doc.split()) >= 12

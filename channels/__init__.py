@@ -7,7 +7,7 @@ float64 seconds, plus Doppler shifts); applying it to a waveform is a separate s
 
 Modules: :mod:`~rfsim.channels.geometry` (orientations, directions), :mod:`~rfsim.channels.antennas`
 (patterns, polarization), :mod:`~rfsim.channels.large_scale` (Friis/log-distance, walls,
-shadowing), :mod:`~rfsim.channels.small_scale` (exponential APDP taps), :mod:`~rfsim.channels.surfaces`
+shadowing), :mod:`~rfsim.channels.small_scale` (exponential APDP taps, a Rician gain process in time), :mod:`~rfsim.channels.surfaces`
 (Fresnel, image method), :mod:`~rfsim.channels.noise` (AWGN), :mod:`~rfsim.channels.paths` (path sets
 and their application), :mod:`~rfsim.channels.scene` (assembly of links in a scene).
 """
@@ -17,7 +17,7 @@ from rfsim.core.lazy import lazy_exports
 #: Module of the package → the public names it provides, each imported on first use (so
 #: that importing one module, e.g. for a config dataclass, does not import the others).
 _SOURCES = {
-    "antennas": ("Antenna", "HalfWaveDipole", "Isotropic", "Patch", "Tabulated", "vertical_dipole"),
+    "antennas": ("Antenna", "EllipticalPanel", "HalfWaveDipole", "Isotropic", "Patch", "Tabulated", "vertical_dipole"),
     "bulk": ("BulkPaths", "draw_links"),
     "geometry": ("Pose", "direction_to", "rotation_matrix"),
     "large_scale": ("LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
@@ -27,13 +27,13 @@ _SOURCES = {
               "narrowband_error_bound", "narrowband_rms_error", "propagation_method",
               "NARROWBAND_TOLERANCE", "PROPAGATION_METHODS"),
     "scene": ("Channel", "HeldLinks", "Scene", "kinematics", "los_links"),
-    "small_scale": ("ApdpModel", "average_profile", "draw_taps", "profile_statistics"),
+    "small_scale": ("ApdpModel", "average_profile", "draw_taps", "profile_statistics", "rician_gains"),
     "surfaces": ("Surface", "fresnel_reflection", "fresnel_transmission", "image_paths"),
 }
 __getattr__, __dir__ = lazy_exports(globals(), _SOURCES)
 
 __all__ = [
-    "Antenna", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated", "vertical_dipole",
+    "Antenna", "EllipticalPanel", "Isotropic", "HalfWaveDipole", "Patch", "Tabulated", "vertical_dipole",
     "Pose", "direction_to", "rotation_matrix",
     "LogDistance", "ShadowingField", "Wall", "friis_amplitude_gain", "wall_loss_db",
     "LinkLargeScale",
@@ -42,6 +42,6 @@ __all__ = [
     "narrowband_error_bound", "narrowband_rms_error", "propagation_method", "NARROWBAND_TOLERANCE",
     "PROPAGATION_METHODS",
     "Scene", "Channel", "HeldLinks", "los_links", "kinematics", "draw_links", "BulkPaths",
-    "ApdpModel", "average_profile", "draw_taps", "profile_statistics",
+    "ApdpModel", "average_profile", "draw_taps", "profile_statistics", "rician_gains",
     "Surface", "fresnel_reflection", "fresnel_transmission", "image_paths",
 ]

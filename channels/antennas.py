@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import csv
 from dataclasses import dataclass, field
+import math
 from functools import cached_property
 from pathlib import Path
 
@@ -451,6 +452,60 @@ class Antenna:
                                             other.polarization_vector(k))
 
 
+@dataclass(frozen=True, eq=False)
+class EllipticalPanel(Antenna):
+    """A circularly polarised panel whose axial ratio grows off boresight.
+
+    ``AR(ψ) [dB] = AR0 + (AR1 − AR0)·(ψ/(BW/2))²`` for the angle ψ between the boresight axis
+    and the propagation line (data-sheet class of patch panels: ≈ 1 dB on boresight, ≈ 3 dB at
+    the beam edge). The polarisation vector for propagation along k is the ellipse
+    ``(û − j·h·r·v̂)/sqrt(1 + r²)``, r = 1/AR (field ratio, linear), major axis û along the
+    panel's vertical projected ⊥ k, ``v̂ = k × û``, h = +1 for RHCP (the hand convention of
+    :meth:`Antenna.polarization_vector`: r = 1 gives its circular vector). Against a linear
+    antenna whose axis makes the angle τ with û the mismatch is
+    ``(cos²τ + r²·sin²τ)/(1 + r²)``: 1/2 for AR = 0 dB (the constant 3 dB), between
+    ``1/(1 + r²)`` and ``r²/(1 + r²)`` otherwise (auris-sense-a-tag.md §3.3: the reader's
+    circular panel; the axial-ratio law is the data-sheet class, not the source's).
+
+    Parameters
+    ----------
+    axial_ratio_db : (AR0, AR1) [dB], on boresight and at ``half_beamwidth_rad`` off it
+    half_beamwidth_rad : half the half-power beamwidth [rad]
+    (other parameters: :class:`Antenna`; ``polarization`` is ``"circular"``)
+    """
+
+    axial_ratio_db: tuple = (1.0, 3.0)
+    half_beamwidth_rad: float = math.radians(35.0)
+
+    def _key(self):
+        # two panels that differ only in their axial-ratio law are different antennas
+        return (Antenna._key(self), tuple(self.axial_ratio_db), self.half_beamwidth_rad)
+
+    @cached_property
+    def _boresight_and_up(self) -> tuple[np.ndarray, np.ndarray]:
+        """The panel's boresight axis and its vertical in the global frame (rotation of local x, z)."""
+        return self.rotation @ np.array([1.0, 0.0, 0.0]), self.rotation @ np.array([0.0, 0.0, 1.0])
+
+    def polarization_vector(self, k) -> np.ndarray:
+        """Complex unit polarization vector (..., 3) of the ellipse for propagation along ``k`` (..., 3)."""
+        k = np.asarray(k, float)
+        k = k / np.linalg.norm(k, axis=-1, keepdims=True)
+        axis, up = self._boresight_and_up
+        psi = np.arccos(np.clip(np.abs(k @ axis), 0.0, 1.0))
+        ar0, ar1 = self.axial_ratio_db
+        ar_db = ar0 + (ar1 - ar0) * (psi / self.half_beamwidth_rad) ** 2
+        r = 10.0 ** (-ar_db / 20.0)[..., None]
+        u = up - np.sum(up * k, axis=-1, keepdims=True) * k
+        n = np.linalg.norm(u, axis=-1, keepdims=True)
+        u = np.where(n > 1e-9, u / np.where(n > 1e-9, n, 1.0), np.array([0.0, 1.0, 0.0]))
+        # v = k × u, written out (np.cross's own elementwise products and differences, without
+        # its axis handling, which costs more than the products for one direction)
+        v = np.stack([k[..., 1] * u[..., 2] - k[..., 2] * u[..., 1], k[..., 2] * u[..., 0] - k[..., 0] * u[..., 2],
+                      k[..., 0] * u[..., 1] - k[..., 1] * u[..., 0]], axis=-1)
+        h = 1.0 if self.handedness == "rhcp" else -1.0
+        return (u - 1j * h * r * v) / np.sqrt(1.0 + r * r)
+
+
 def vertical_dipole(position_m) -> Antenna:
     """A vertical half-wave dipole with linear polarization at ``position_m`` [m] (the
     sense-a-tag's antennas, auris-sense-a-tag.md L2878-2880: omnidirectional in azimuth)."""
@@ -465,6 +520,7 @@ __all__ = [
     "Patch",
     "Tabulated",
     "Antenna",
+    "EllipticalPanel",
     "polarization_mismatch_factor",
     "vertical_dipole",
 ]

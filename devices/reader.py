@@ -1,27 +1,8 @@
 """Gen2 interrogator (reader): PIE transmitter, frequency plan, antennas, IQ receiver.
 
-Transmitter (gen2-and-validation-anchors.md §4.1; pass-paris-simulator.md §2.1
-``reader_modulation``). With ``e(t)`` the PIE envelope of :func:`rfsim.gen2.pie.pie_envelope`
-(1 during CW, ``1 − depth`` in the low pulses, raised-cosine edges) and ``P`` the conducted
-power [W] at the antenna port, the complex baseband [√W] is
-
-* DSB-ASK: ``x = √P·e(t)``;
-* PR-ASK:  ``x = √P·s(t)·e(t)`` with ``s(t) = ±1`` changing sign at the middle of every low
-  pulse (delimiter included), i.e. every PIE symbol has the opposite polarity of the previous
-  one; ``|x|`` equals the DSB magnitude sample by sample. At ``depth < 1`` the sign change is
-  a jump of ``2(1 − depth)·√P`` (an ideal PR-ASK has depth 1 and passes through zero);
-* SSB-ASK: ``x = √P·(e(t) + j·(h_H * (e − 1))(t))`` with ``h_H`` a Blackman-windowed FIR
-  Hilbert transformer (``h[k] = 2/(πk)`` for odd k, 0 for even k, |k| ≤ 4·Tari·fs) applied
-  to the modulation part ``e − 1`` (zero during CW). Normalisation: the carrier term is not
-  transformed, so wherever the envelope has been CW for more than 4 Tari the baseband is
-  exactly ``√P`` (CW power = P); the modulation sideband sits at positive frequencies only.
-  (An ideal, infinitely long Hilbert transform such as ``scipy.signal.hilbert`` would spread
-  the pulse train's non-zero mean as a 1/t tail across the whole reply window; the finite
-  FIR leaves the band below ≈ 1/(8·Tari) double-sided instead.)
-
-A segment holds ``cw_before_s`` of CW (default one Tari), the command and ``cw_after_s`` of
-CW: ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples, ``T_cmd =
-LinkProfile.command_duration_s(cmd)``.
+Transmitter: :mod:`rfsim.devices.reader_tx` (PIE commands as DSB-, PR- or SSB-ASK complex
+baseband [√W] at the antenna port, :class:`~rfsim.devices.reader_tx.PieTransmitter`). BLF search:
+:mod:`rfsim.devices.reader_search`. Per-read measurements: :mod:`rfsim.devices.reader_measure`.
 
 Frequency plan (anchors §4.7 "Regulatory", §4.9; :mod:`rfsim.air.carriers`): FCC 50 channels
 ``902.75 + 0.5·k`` MHz, ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz, or any
@@ -48,11 +29,9 @@ phase offset as a 12-bit code, µs time stamps — is applied to the read log by
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -60,19 +39,18 @@ from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index 
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
-from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
 from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
-from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
-from rfsim.core.lazy import lazy_import
-
-_signal = lazy_import("scipy.signal")
-_bk = lazy_import("rfsim.devices._blf_search_kernels")
-_rk = lazy_import("rfsim.devices._reader_kernels")
+from rfsim.devices.reader_measure import (DOPPLER_BLOCKS, FAILURES, ReadResult, known_levels as _known_levels,
+                                          measure as _measure, steady as _steady)
+from rfsim.devices.reader_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, blf_grid_hz,
+                                         rn16_threshold_db, search_decode, search_result as _search_result,
+                                         search_setup as _search_setup)
+from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -80,100 +58,7 @@ FCC_MAX_DWELL_S = 0.4
 #: through path has some fixed phase); the receiver does not depend on it because the
 #: leakage of the CW is removed as an unknown complex constant.
 LEAKAGE_PHASE_RAD = math.pi / 3
-#: Half-length of the SSB Hilbert FIR in Tari.
-SSB_HILBERT_HALF_TARI = 4.0
-#: Number of blocks of the reply used for the Doppler fit.
-DOPPLER_BLOCKS = 8
 
-FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
-#: Number of modulated command segments a Reader keeps for reuse.
-TX_CACHE_SIZE = 64
-
-
-@dataclass(frozen=True)
-class TxSegment:
-    """One transmitted segment: PIE command + CW.
-
-    Attributes
-    ----------
-    t0_s : absolute time of sample 0 [s]
-    fs_hz : sample rate [Hz]
-    samples : (n,) complex128, baseband at the antenna port [√W]
-    fc_hz : carrier frequency [Hz]
-    channel_index : 1-based index into :func:`frequency_plan`
-    antenna_index : 0-based index into ``Reader.antennas``
-    cmd_start_s : absolute time of the delimiter's falling edge (50 % point) [s]
-    cmd_end_s : absolute time of the last rising edge of the command [s]
-    """
-
-    t0_s: float
-    fs_hz: float
-    samples: np.ndarray
-    fc_hz: float
-    channel_index: int
-    antenna_index: int
-    cmd_start_s: float
-    cmd_end_s: float
-
-    @property
-    def end_s(self) -> float:
-        """Time just after the last sample [s]."""
-        return self.t0_s + self.samples.size / self.fs_hz
-
-
-@dataclass(frozen=True)
-class ReadResult:
-    """Outcome and measurements of one reply window.
-
-    Attributes
-    ----------
-    success : reply detected, decoded and (if expected) CRC-16 correct
-    bits : (n_bits,) uint8 decoded bits (also on a CRC error), None if no reply was found
-    failure_reason : "", "preamble not found" or "crc error"
-    rssi_dbm : power of the modulated component at the antenna port, 10·log10(|h|²)+30, with
-        h the complex amplitude of the ±1 reply waveform (NaN without a reply)
-    phase_rad : (−arg h) mod 2π, h at the centre of the reply; for a tag re-radiating
-        r = A_s − Γ (rfsim.devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels
-    doppler_hz : (1/2π)·d(arg h)/dt across the reply (positive for an approaching tag)
-    snr_db : |h|²/σ², σ² the residual power per sample at ``fs_hz`` (noise bandwidth fs)
-    ebn0_db : snr_db + 10·log10(fs/bit rate), independent of fs
-    start_s : absolute time of the detected reply start [s]
-    corr : normalised preamble correlation (0…1) at the detected start
-    blf_hz : the BLF the reply was decoded at [Hz] (NaN: the nominal BLF, ``blf_search`` off)
-    decision_ebn0_db : the acceptance statistic, Eb/(N0 + I) of the decoded reply against its
-        residual (:func:`search_decode`; NaN with ``blf_search`` off)
-    """
-
-    success: bool
-    bits: np.ndarray | None
-    failure_reason: str
-    rssi_dbm: float = math.nan
-    phase_rad: float = math.nan
-    doppler_hz: float = math.nan
-    snr_db: float = math.nan
-    ebn0_db: float = math.nan
-    start_s: float = math.nan
-    corr: float = math.nan
-    blf_hz: float = math.nan
-    decision_ebn0_db: float = math.nan
-
-
-def hilbert_fir(half_length: int) -> np.ndarray:
-    """Blackman-windowed FIR Hilbert transformer, ``(2K+1,) float64``.
-
-    ``h[k] = 2/(πk)·w[k]`` for odd k, 0 for even k (k = −K…K); its response is ≈ −j·sign(f)
-    above ≈ 2·fs/K.
-    """
-    k = np.arange(-half_length, half_length + 1)
-    h = np.zeros(k.size)
-    odd = k % 2 != 0
-    h[odd] = 2.0 / (np.pi * k[odd])
-    return h * np.blackman(k.size + 2)[1:-1]
-
-
-#: recently transmitted baseband segments (read-only) of every reader: ``(id(config), id(link),
-#: fs, bits, preamble, CW lengths) → (config, link, samples)`` (:meth:`Reader.transmit`)
-_TX_SEGMENTS: dict = {}
 
 #: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
 _VALIDATED: dict = {}
@@ -193,7 +78,7 @@ def _validated(config: ReaderConfig) -> ReaderConfig:
     return out
 
 
-class Reader:
+class Reader(PieTransmitter):
     """A Gen2 reader with one or more antennas (used in turn), see the module docstring.
 
     Parameters
@@ -292,117 +177,6 @@ class Reader:
     def leakage_gain(self) -> complex:
         """TX→RX leakage as a complex amplitude: 10^(−isolation/20)·e^{j·LEAKAGE_PHASE_RAD}."""
         return self._fixed()[3]
-
-    def _command(self, cmd) -> tuple:
-        """``(bits, preamble, T_cmd [s])`` of a command (the last :data:`TX_CACHE_SIZE`
-        commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
-        if self._cmd_cache_link is not self.link:
-            self._cmd_cache.clear()
-            self._cmd_cache_link = self.link
-        try:
-            hit = self._cmd_cache.get(cmd)
-        except TypeError:  # an unhashable command: no caching
-            hit, cmd_key = None, None
-        else:
-            cmd_key = cmd
-        if hit is not None:
-            return hit
-        bits = encode(cmd)
-        bits.setflags(write=False)
-        preamble = command_preamble(cmd)
-        hit = (bits, preamble, self.link.command_duration_s(bits, preamble))
-        if cmd_key is not None:
-            if len(self._cmd_cache) >= TX_CACHE_SIZE:
-                self._cmd_cache.pop(next(iter(self._cmd_cache)))
-            self._cmd_cache[cmd_key] = hit
-        return hit
-
-    # ------------------------------------------------------------------ transmitter
-
-    def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
-        """Baseband of a PIE command [√W], ``(n,) complex128`` (module docstring equations).
-
-        Parameters
-        ----------
-        bits : (n,) 0/1 command bits (CRC included)
-        preamble : "query" or "frame-sync"
-        cw_after_s : CW after the last rising edge [s]
-        cw_before_s : CW before the falling edge of the delimiter [s]
-        """
-        lk = self.link
-        timing = dict(tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
-                      delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
-                      cw_before_s=float(cw_before_s))
-        tl = pie_timeline(bits, **timing)
-        rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
-        amp = self._cw_amplitude()
-        if lk.modulation in ("DSB-ASK", "PR-ASK"):
-            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
-            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
-            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
-            head = dataclasses.replace(tl, duration_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
-            e = timeline_envelope(head, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
-            x = np.empty(int(math.ceil(tl.duration_s * self.fs_hz)), dtype=np.complex128)
-            if lk.modulation == "DSB-ASK":
-                x[:e.size] = amp * e
-                x[e.size:] = amp
-            else:
-                x[:e.size] = pr_ask_baseband(head, e, amplitude=amp, fs_hz=self.fs_hz)
-                x[e.size:] = amp * (1.0 - 2.0 * (tl.rise_s.size % 2))
-            return x
-        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
-        # SSB-ASK
-        half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
-        quad = _signal.fftconvolve(e - 1.0, hilbert_fir(half), mode="same")
-        return amp * (e + 1j * quad)
-
-    def transmit(self, cmd, *, t0_s: float, cw_after_s: float, cw_before_s: float | None = None,
-                 round_index: int = 0) -> TxSegment:
-        """CW for ``cw_before_s``, PIE command ``cmd`` (Query: full preamble, others:
-        frame-sync), then CW for ``cw_after_s``.
-
-        Parameters
-        ----------
-        cmd : a command of :mod:`rfsim.gen2.commands`
-        t0_s : absolute time of the first sample [s]
-        cw_after_s : CW after the command [s] (T1max + reply + T2 for a reply window)
-        cw_before_s : CW before the delimiter [s]; default one Tari, so that a receiver's
-            envelope detector sees the delimiter's falling edge (the segment otherwise starts
-            in the middle of that edge). ``cmd_start_s = t0_s + cw_before_s``.
-        round_index : inventory round, selects the antenna (round robin)
-
-        The segment has ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
-        ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
-        ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept
-        and returned again for a repeated command.
-        """
-        if not isinstance(cmd, COMMAND_TYPES):
-            raise TypeError(f"not a Gen2 command: {cmd!r}")
-        if not cw_after_s >= 0:
-            raise ValueError(f"cw_after_s must be >= 0, got {cw_after_s}")
-        cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
-        if not cw_before_s >= 0:
-            raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        bits, preamble, cmd_duration_s = self._command(cmd)
-        # A reader sends the same commands (Query, QueryRep, …) again and again, and a Monte
-        # Carlo builds many readers of one config: keep the last modulated segments (read-only),
-        # shared by the readers of the same (frozen) config, link profile and sample rate.
-        key = (id(self.config), id(self.link), self.fs_hz, bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
-        hit = _TX_SEGMENTS.get(key)
-        if hit is not None and hit[0] is self.config and hit[1] is self.link:
-            x = hit[2]
-        else:
-            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
-            x.setflags(write=False)
-            if len(_TX_SEGMENTS) >= TX_CACHE_SIZE:
-                _TX_SEGMENTS.pop(next(iter(_TX_SEGMENTS)))
-            _TX_SEGMENTS[key] = (self.config, self.link, x)  # config and link kept alive: their ids stay theirs
-        t0_s = float(t0_s)
-        start = t0_s + cw_before_s
-        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
-                         channel_index=self.channel_index(t0_s),
-                         antenna_index=self.antenna_index(round_index),
-                         cmd_start_s=start, cmd_end_s=start + cmd_duration_s)
 
     # ------------------------------------------------------------------ receiver
 
@@ -653,172 +427,8 @@ class Reader:
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
 
 
-# ----------------------------------------------------------------------------- BLF search
 
 
-#: Fine BLF search: half-width in coarse steps and BLFs per side of each pass; bits of its
-#: first phase (a longer reply is searched again over all its bits).
-FINE_SPAN_STEPS = 2
-FINE_PER_SIDE = 4
-FINE_FIRST_BITS = 16
-
-
-@dataclass(frozen=True)
-class SearchDecode:
-    """Result of :func:`search_decode` for B windows (all arrays of length B).
-
-    bits : (B, n_bits) uint8; blf_hz : BLF decoded at [Hz]; start : reply start [samples into
-    the window]; corr : the coarse normalised preamble correlation; gain : h (complex);
-    sigma2 : residual power per sample over the reply's steady samples; ebn0_db :
-    10·log10(|h|²·(2M/ρ)/σ²), ρ = 2·BLF/fs (samples per bit 2M/ρ); sigma2_bit : σ_eff², the
-    disturbance that reaches the decisions: per data half-bit j the matched-filter output
-    of the projection y = Re((r − c)·h*)/|h| on the decided levels minus |h|·N_j (N_j steady
-    samples), σ_eff² = 2·Σδ_j²/ΣN_j (σ² for white noise; a second tag's in-band reply is not
-    reduced by the matched filter's gain); decision_ebn0_db : the acceptance statistic,
-    Eb/(N0 + I) in the decision domain = 10·log10(|h|²·(2M/ρ)/σ_eff²).
-    """
-
-    bits: np.ndarray
-    blf_hz: np.ndarray
-    start: np.ndarray
-    corr: np.ndarray
-    gain: np.ndarray
-    sigma2: np.ndarray
-    ebn0_db: np.ndarray
-    sigma2_bit: np.ndarray
-    decision_ebn0_db: np.ndarray
-
-
-def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | None = None) -> np.ndarray:
-    """Coarse BLF hypotheses [Hz]: a geometric grid over BLF·(1 ± FrT) of ``link`` (or
-    [lo, hi]) with relative step 1/(2·preamble elements), the correlation peak's half-width
-    (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
-    lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
-    n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
-    step = 1.0 / (2.0 * n_pre_el)
-    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return np.geomspace(lo, hi, max(n, 2))
-
-
-def _search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
-    """Preamble elements and levels, coarse templates and fine-search parameters."""
-    pre_levels, cur, prev = preamble_levels(m=m, trext=trext)
-    pre_el = np.repeat(pre_levels, m).astype(np.float64)
-    if m > 1:
-        pre_el[1::2] *= -1.0
-    ratios = 2.0 * np.asarray(blfs_hz, dtype=np.float64) / fs_hz
-    lens = np.floor(pre_el.size / ratios).astype(np.int64)
-    tpl0 = np.zeros((ratios.size, int(lens.max())))
-    for k, (ratio, n) in enumerate(zip(ratios, lens)):
-        t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz, fs_hz=fs_hz,
-                           dummy=False, n_samples=int(n))
-        tpl0[k, :n] = t - t.mean()
-    step_c = 1.0 / (2.0 * pre_el.size)
-    n_el = pre_el.size + 2 * m * (int(n_bits) + 1)
-    n_el1 = pre_el.size + 2 * m * (min(int(n_bits), FINE_FIRST_BITS) + 1)
-    return (pre_levels.astype(np.int8), int(cur), int(prev), pre_el, ratios, tpl0, lens,
-            FINE_SPAN_STEPS * step_c, 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
-
-
-def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int, hi: int,
-                  threads: int = 1, known_within: float | None = None) -> SearchDecode:
-    """Estimate the BLF of, and decode, one reply in each window of ``rs`` (numba kernel).
-
-    Parameters
-    ----------
-    rs : (B, n) complex, windows ``h·s(t) + c + noise`` [√W] (any constant offset c)
-    m, trext, n_bits : line code and data bits of the reply (without the dummy 1)
-    blfs_hz : coarse BLF hypotheses (:func:`blf_grid_hz`)
-    fs_hz : sample rate [Hz]; lo, hi : the reply start lags searched [samples]
-    threads : the windows are split into this many blocks decoded on as many threads (the
-        kernel releases the GIL and draws nothing at random: the result does not depend on it)
-    known_within : the BLF is known to this relative precision (``blfs_hz`` = the one known
-        BLF, e.g. measured on the RN16 of the tag an ACK addresses): the fine search starts
-        across ± that
-
-    Method (the reader with ``blf_search = "preamble"``; the capture decoder
-    :mod:`rfsim.gen2.replies` steps 2–3 do the same on recordings):
-
-    1. Coarse: the largest zero-mean normalised preamble correlation
-       |Σ r[l+i]·t_k[i]| / (‖t_k‖·‖r[l:l+L] − mean‖) over the BLF grid b_k and the lags l,
-       refined between lags by a parabola.
-    2. Fine: with the preamble's centre held, decode (preamble gain and offset, half-bit
-       matched filter, Viterbi) at 2·FINE_PER_SIDE + 1 BLFs across ±FINE_SPAN_STEPS coarse
-       steps; the one whose remodulated reply (rest level −1 around it) leaves the least
-       least-squares residual over the whole window wins; the span narrows to one step until the step is
-       ≤ 1/(4·reply elements) (decoding needs the BLF to about that) — first over the first
-       FINE_FIRST_BITS bits, then, for a longer reply, over twice as many bits at a time (all
-       at last) across ±4 final steps of the previous phase (a long reply misaligned by a
-       coarse step has a residual with many local minima).
-    3. Statistic: h and the residual σ² (noise plus whatever the fit does not explain, e.g. a
-       second tag) over the reply's steady samples; Eb/(N0 + I) = |h|²·(2M/ρ)/σ².
-    """
-    r = np.ascontiguousarray(rs, dtype=np.complex128)
-    if r.ndim == 1:
-        r = r[None, :]
-    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span, target1, target = _search_setup(m, trext, n_bits,
-                                                                                             blfs_hz, fs_hz)
-    first_bits = FINE_FIRST_BITS
-    if known_within is not None:
-        span = float(known_within)
-    b = r.shape[0]
-    bits = np.zeros((b, int(n_bits)), np.uint8)
-    ratio, start, corr, sigma2, sigma2_bit = (np.empty(b) for _ in range(5))
-    gain = np.empty(b, np.complex128)
-
-    def block(i0: int, i1: int) -> None:
-        _bk.search_decode_kernel(r[i0:i1], ratios, tpl0, lens, int(lo), int(hi), pre_el, pre_levels, np.int8(cur),
-                                 np.uint8(prev), int(m), int(n_bits), first_bits, span, FINE_PER_SIDE,
-                                 target1, target, bits[i0:i1],
-                                 ratio[i0:i1], start[i0:i1], corr[i0:i1], gain[i0:i1], sigma2[i0:i1],
-                                 sigma2_bit[i0:i1])
-
-    edges = np.linspace(0, b, max(1, min(int(threads), b)) + 1).astype(int)
-    if edges.size <= 2:
-        block(0, b)
-    else:
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(edges.size - 1) as pool:
-            list(pool.map(block, edges[:-1], edges[1:]))
-    return _search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz)
-
-
-def _search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz) -> SearchDecode:
-    with np.errstate(divide="ignore", invalid="ignore"):
-        e_bit = np.abs(gain) ** 2 * (2.0 * m / ratio)
-        ebn0 = 10.0 * np.log10(e_bit / sigma2)
-        ebn0_min = 10.0 * np.log10(e_bit / sigma2_bit)
-    return SearchDecode(bits, 0.5 * ratio * fs_hz, start, corr, gain, sigma2, ebn0, sigma2_bit, ebn0_min)
-
-
-def rn16_threshold_db(false_accept: float, *, n_bits: int = 16) -> float:
-    """Eb/(N0 + I) threshold [dB] of the RN16 acceptance for a stated false-accept probability p.
-
-    With Gaussian noise plus interference of density N0 + I, coherent antipodal decisions give
-    a bit error probability Q(√(2·Eb/(N0 + I))) (FM0 and Miller-M decoded by the matched
-    filter, anchors §4.8), and an n-bit word is wrong with probability
-    1 − (1 − P_b)^n ≈ n·P_b. Accepting only when the measured Eb/(N0 + I) ≥ γ with
-    n·Q(√(2γ)) = p bounds the probability that an accepted word is wrong by p (within this
-    model): γ = (Q⁻¹(p/n))²/2. p = 1e−2 → 7.2 dB for 16 bits. An approximation: the
-    interference of a second tag is not Gaussian, so the measured false-ACK rate against γ
-    is what sets the default (``inventory`` scenario, ``acceptance`` table).
-    """
-    from scipy.special import ndtri
-
-    if not 0.0 < false_accept < 0.5:
-        raise ValueError(f"false_accept must be in (0, 0.5), got {false_accept}")
-    q = -float(ndtri(false_accept / n_bits))  # Q⁻¹(p/n)
-    return 10.0 * math.log10(0.5 * q * q)
-
-
-def _measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float, float]:
-    """``(h, slope [rad/s], σ²)`` of ``z = h·e^{j·slope·t}·s(t) + noise`` (numba kernel; the
-    procedure is :meth:`Reader.receive` step 5)."""
-    z = np.ascontiguousarray(z, dtype=np.complex128)
-    s = np.ascontiguousarray(s, dtype=np.float64)
-    h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS)
-    return complex(h), float(slope), float(sigma2)
 
 
 @functools.lru_cache(maxsize=256)
@@ -836,25 +446,6 @@ def _t1_window(link: LinkProfile) -> tuple[float, float]:
     return r.min_s, r.max_s
 
 
-def _known_levels(r: np.ndarray, full: np.ndarray, t0_samples: float, elements_per_sample: float,
-                  n_pre_elements: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(r, level)`` at the samples whose level is known without decisions (numba kernel;
-    the tests hold it to a NumPy twin). ``full`` is the sampled reply starting
-    at ``t0_samples`` (``reply_waveform``'s t0_s·fs), its first ``n_pre_elements`` elements
-    the preamble."""
-    r_out = np.empty(r.size, dtype=np.complex128)
-    level_out = np.empty(r.size)
-    m = _rk.known_levels_kernel(np.ascontiguousarray(r, dtype=np.complex128),
-                                np.ascontiguousarray(full, dtype=np.float64), float(t0_samples),
-                                float(elements_per_sample), int(n_pre_elements), r_out, level_out)
-    return r_out[:m], level_out[:m]
-
-
-def _steady(level: np.ndarray) -> np.ndarray:
-    """(n,) bool: samples whose two neighbours have the same level (the ends are False)."""
-    out = np.zeros(level.size, dtype=bool)
-    out[1:-1] = (level[1:-1] == level[:-2]) & (level[1:-1] == level[2:])
-    return out
 
 
 __all__ = [

@@ -38,6 +38,7 @@ _commands = lazy_import("rfsim.gen2.commands")
 _crc = lazy_import("rfsim.gen2.crc")
 _linecode = lazy_import("rfsim.gen2.linecode")
 _pie = lazy_import("rfsim.gen2.pie")
+_tag_state = lazy_import("rfsim.devices.gen2_tag_state")
 
 NAME = "gen2-waveforms"
 DESCRIPTION = "Query/RN16/ACK/EPC exchange waveforms, link-profile and timing tables of the named Gen2 profiles"
@@ -71,20 +72,15 @@ class Config:
                 raise ConfigError("fs_hz", self.fs_hz,
                                   f">= 8 x BLF of profile {name!r} = {8 * link.blf_hz:g} Hz")
         text = self.epc_hex.replace(" ", "")
-        if not text or len(text) % 4 or any(c not in "0123456789abcdefABCDEF" for c in text):
-            raise ConfigError("epc_hex", self.epc_hex, "hex digits, a multiple of 4 (16-bit words)")
-
-
-def pc_word_bits(n_epc_bits: int) -> np.ndarray:
-    """Gen2 StoredPC: EPC length in words in the 5 MSBs, other bits 0 (anchors §4.4)."""
-    return _bits.int_to_bits((n_epc_bits // 16) << 11, 16)
+        if not text or len(text) % 4 or len(text) > 124 or any(c not in "0123456789abcdefABCDEF" for c in text):
+            raise ConfigError("epc_hex", self.epc_hex, "hex digits, a multiple of 4 (16-bit words), at most 31 words")
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     rng = trial_rng(seed, 0)
     rn16 = int(rng.integers(0, 2**16)) if config.rn16 < 0 else config.rn16
     epc = _bits.hex_to_bits(config.epc_hex.replace(" ", ""))
-    epc_reply = _crc.append_crc16(np.concatenate([pc_word_bits(epc.size), epc]))
+    epc_reply = _crc.append_crc16(np.concatenate([_bits.int_to_bits(_tag_state.pc_word(epc), 16), epc]))
     rn16_bits = _bits.int_to_bits(rn16, 16)
 
     ds = _dataset.Dataset(title="EPC Gen2 link profiles, timing and exchange waveforms")

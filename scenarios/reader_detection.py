@@ -27,21 +27,19 @@ as in a real campaign: the N queries are spread evenly over U(``round_s``) = U(0
 (the source's round, L580) from a random instant of the 0.4 s hop dwell, so a trial visits
 2–3 hop channels (one link draw per channel: the hop spacing exceeds the coherence bandwidth
 ≈ 1/(2π·τrms) ≈ 2 MHz of room 1), and every query multiplies the held links (both ways) by a
-Rician gain ``h_q`` of the moving people (:func:`rician_gains`: K = ``fading_k_db`` = 6 dB,
-correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values assumed, the source gives
-none). Each query is simulated at sample level, one step of the air interface
-(:func:`rfsim.air.step.propagate` on the links, :class:`rfsim.channels.HeldLinks`; the N queries of a
-trial as one batch, :func:`rfsim.protocols.batch.propagate_batch`): the tag's PIE
-decoding and a fresh RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident
-(:meth:`rfsim.devices.tag.TagResponse.reradiation`), and the reader's port (leakage, receiver
-noise, decoder; :class:`rfsim.protocols.engine.ReaderPort`). Per query the outcome is **the reader
-decoded the tag's RN16 exactly** (the first reply of a Q = 0 round; the ACK/EPC exchange and
-the inventoried flags (S0–S3) are not simulated, so a "read" here is an RN16 decode). The tag's chip
+Rician gain ``h_q`` of the moving people (:func:`rfsim.channels.small_scale.rician_gains`:
+K = ``fading_k_db`` = 6 dB, correlation J0(2π·f_D·Δt) with f_D = ``doppler_hz`` = 2 Hz; values
+assumed, the source gives none). Each query is simulated at sample level, one step of the air
+interface (the scene :mod:`rfsim.scenes.reader_queries`): the tag's PIE decoding and a fresh
+RN16 as Γ(t), the backscatter (A_s − Γ(t))·incident, and the reader's port (leakage, receiver
+noise, decoder). Per query the outcome is **the reader decoded the tag's RN16 exactly** (the
+first reply of a Q = 0 round; the ACK/EPC exchange and the inventoried flags (S0–S3) are not
+simulated, so a "read" here is an RN16 decode). The tag's chip
 sensitivity follows its class (``tag_class``, :data:`TAG_CLASS_SENSITIVITY_DBM`): the
 campaign's Smartrac Spine tags by default (−16.0 dBm, calibrated by Friis to the published
 boresight d50), or PASS's UCODE G2XM (−12.8 dBm).
 
-Fits (``rfsim.detection.fit``): the source's method (least squares of the mean model
+Fits (:func:`rfsim.detection.fit_reader_models`): the source's method (least squares of the mean model
 1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of
 p̂ = n/N, cells pooled over rooms, binomial part removed) and the maximum-likelihood fit of
 the Beta-binomial with dead zone (Eq. 4.11); d50 at 0°/30°/60° beside the published 6.63 /
@@ -107,7 +105,7 @@ import numpy as np
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
-from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError
 from rfsim.core.progress import stage
 from rfsim.core.rng import trial_rng
 from rfsim.core.plots import figure_path, pyplot, save_figure
@@ -115,21 +113,15 @@ from rfsim.core.references import cite
 from rfsim.core.procs import map_in_order
 from rfsim.core.lazy import lazy_import
 
-_special = lazy_import("scipy.special")
 _antennas = lazy_import("rfsim.channels.antennas")
 _small_scale = lazy_import("rfsim.channels.small_scale")
 _scene = lazy_import("rfsim.channels.scene")
 _surfaces = lazy_import("rfsim.channels.surfaces")
 _reader = lazy_import("rfsim.devices.reader")
 _tag = lazy_import("rfsim.devices.tag")
+_queries = lazy_import("rfsim.scenes.reader_queries")
 _dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
-_fit = lazy_import("rfsim.detection.fit")
-_commands = lazy_import("rfsim.gen2.commands")
-_air = lazy_import("rfsim.air.step")
-_batch = lazy_import("rfsim.protocols.batch")
-_engine = lazy_import("rfsim.protocols.engine")
-_link = lazy_import("rfsim.gen2.link")
 
 #: modules the figures use (imported by the runner while the simulation runs)
 FIGURE_IMPORTS = ("rfsim.detection", "scipy.stats")
@@ -142,9 +134,6 @@ FULL_ANGLES_DEG = tuple(-90.0 + 15.0 * j for j in range(13))
 FULL_REPETITIONS = 10
 D50_ANGLES_DEG = (0.0, 30.0, 60.0)
 PUBLISHED_D50_M = (6.63, 3.97, 1.30)
-QUERY_PERIOD_S = 4e-3
-#: Queries of a trial run as one batch of air steps (bounds the memory of long trials).
-QUERY_BLOCK = 64
 
 
 #: Chip sensitivity per tag class [dBm]. The source names the campaign's tags (Smartrac UHF
@@ -154,25 +143,6 @@ QUERY_BLOCK = 64
 #: such; Spine-class inlays carried chips of −15 to −17.4 dBm). 'pass-ucode' is the PASS UCODE
 #: G2XM minimum chip power at 900 MHz (−12.78 dBm).
 TAG_CLASS_SENSITIVITY_DBM = {"smartrac-spine": -16.0, "pass-ucode": -12.78}
-
-
-def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Generator) -> np.ndarray:
-    """Per-query complex gains ``h_q = sqrt(K/(K+1))·e^{jφ} + sqrt(1/(K+1))·g_q`` with E|h|² = 1.
-
-    ``g_q`` is circular complex Gaussian, unit power, with the Jakes (Clarke) correlation
-    ``E[g_q g_p*] = J0(2π·f_D·(t_q − t_p))`` of scatterers moving at up to f_D·λ (people:
-    1 m/s at 915 MHz is 3 Hz), drawn exactly by a Cholesky factor of that Toeplitz matrix;
-    φ uniform. Draw order: φ, then 2·n normals (real, imaginary)."""
-    t = np.asarray(times_s, float)
-    k = 10.0 ** (k_db / 10.0)
-    phi = rng.uniform(-np.pi, np.pi)
-    w = rng.standard_normal((2, t.size))
-    if doppler_hz <= 0:
-        return np.full(t.size, np.exp(1j * phi), dtype=complex)
-    r = _special.j0(2.0 * np.pi * doppler_hz * np.abs(t[:, None] - t[None, :]))
-    lower = np.linalg.cholesky(r + 1e-9 * np.eye(t.size))
-    g = lower @ ((w[0] + 1j * w[1]) / math.sqrt(2.0))
-    return math.sqrt(k / (k + 1.0)) * np.exp(1j * phi) + math.sqrt(1.0 / (k + 1.0)) * g
 
 
 @dataclass(frozen=True)
@@ -275,59 +245,20 @@ def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int
     reader = _reader.Reader(config.reader, [ant], rng=trial_rng(seed, *key, 1))
     tag_cfg = replace(config.tag, sensitivity_dbm=TAG_CLASS_SENSITIVITY_DBM[c.tag_class])
     tag = _tag.PassiveTag(tag_cfg, tag_ant, rng=trial_rng(seed, *key, 2))
-    lk = reader.link
-    q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)
-    # the round: N queries evenly over U(round_s) s from a random instant of the hop dwell
+    # the round: N queries evenly over U(round_s) s from a random instant of the hop dwell,
+    # each with the moving-scatterer gain h_q
     trng = trial_rng(seed, *key, 5)
     t_round = trng.uniform(*c.round_s)
     t_start = trng.uniform(0.0, config.reader.dwell_s)
     times = t_start + t_round * np.arange(c.queries) / c.queries
-    h = rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
-    crng = trial_rng(seed, *key, 3)
+    h = _small_scale.rician_gains(times, doppler_hz=c.doppler_hz, k_db=c.fading_k_db, rng=trng)
     chan = _scene.Channel(scene(config.rooms, room))
-    drawn: dict = {}  # one link draw per hop channel of the round (held within the dwell)
-    nrng = trial_rng(seed, *key, 4)
-    channels = set()
-
-    def query_step(j: int) -> tuple:
-        # query j at t_j: the reader's segment on the channel of t_j; the held links of that
-        # channel times the moving-scatterer gain h_q, both ways (reciprocal); one air step
-        # (reader port: leakage, backscatter, receiver noise from nrng every query)
-        t_j = float(times[j])
-        seg = reader.transmit(q, t0_s=t_j, cw_after_s=_link.reply_window_s(lk, 16))
-        channels.add(seg.channel_index)
-        if seg.fc_hz not in drawn:
-            drawn[seg.fc_hz] = chan.backscatter_links(ant, tag_ant, fc_hz=seg.fc_hz, rng=crng)
-        fwd, bwd = drawn[seg.fc_hz]
-        links = _scene.HeldLinks([(ant, tag_ant, replace(fwd, gain=fwd.gain * h[j])),
-                           (tag_ant, ant, replace(bwd, gain=bwd.gain * h[j]))])
-        port = _engine.ReaderPort(reader, ant, seg, reply_bits=16, expect_crc=False)
-        return seg, _batch.AirStep([_air.FixedEmitter(ant, seg, device=reader)], [tag], [port], links, t0_s=t_j,
-                            fs_hz=seg.fs_hz, n_samples=seg.samples.size, rng=nrng, bandwidth_hz=2.0 * lk.blf_hz,
-                            decide=False)
-
-    # the queries in batches of QUERY_BLOCK: their air steps in query order (the tag's state
-    # carried from one to the next), then their noise from nrng in query order, then the reads
-    n_reads = n_replied = n_powered = 0
-    p_inc = -np.inf
-    for j0 in range(0, c.queries, QUERY_BLOCK):
-        txs, steps = zip(*[query_step(j) for j in range(j0, min(c.queries, j0 + QUERY_BLOCK))])
-        for step, air in zip(steps, _batch.propagate_batch(steps)):
-            resp = air.reflections[0]
-            p_inc = max(p_inc, float(resp.incident_power_dbm))
-            n_powered += bool(resp.powered)
-            if resp.gamma is None:
-                continue  # nothing to decode (the engine's reader listens only when a tag replied)
-            n_replied += 1
-            read = step.receivers[0].receive(air.inputs[0])
-            n_reads += bool(read.bits is not None and read.success
-                            and np.array_equal(read.bits, np.asarray(resp.reply.bits, np.uint8)))
-    tx = txs[-1]  # the last query's segment
-    fc = tx.fc_hz
-    return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=n_reads,
-                p_hat=n_reads / c.queries, n_powered=n_powered, n_replied=n_replied, channel_index=tx.channel_index,
-                n_channels=len(channels), round_s=t_round,
-                frequency_hz=fc, tag_incident_power_dbm=p_inc, jitter_x_m=jitter[0], jitter_y_m=jitter[1],
+    r = _queries.repeated_queries(reader, tag, ant, chan, times, h, channel_rng=trial_rng(seed, *key, 3),
+                                  noise_rng=trial_rng(seed, *key, 4))
+    return dict(room=room, distance_m=d, theta_deg=theta, repetition=rep, n_queries=c.queries, n_reads=r.n_reads,
+                p_hat=r.n_reads / c.queries, n_powered=r.n_powered, n_replied=r.n_replied,
+                channel_index=r.channel_index, n_channels=r.n_channels, round_s=t_round, frequency_hz=r.frequency_hz,
+                tag_incident_power_dbm=r.max_incident_power_dbm, jitter_x_m=jitter[0], jitter_y_m=jitter[1],
                 jitter_z_m=jitter[2])
 
 
@@ -367,75 +298,7 @@ FIELDS = {
 }
 
 
-# ----------------------------------------------------------------------------- fits
-
-
-def fit_trials(trials: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """DA fits of the trials: rows ``published``, ``moments`` and ``mle`` (NaN row where a
-    fit fails); columns the 9 parameters (``DA_PARAMETER_NAMES``), their standard errors
-    ``se_<name>``, ``d50_<θ>deg_m`` at 0°/30°/60° and the log-likelihood of Eq. 4.11; key
-    ``errors``: why a fit failed ("" if none). The maximum-likelihood fit fails (information
-    matrix not positive definite) when p̂ is almost always 0 or 1: the variance is then
-    clipped at κ·μ(1 − μ) in most cells and the likelihood is flat along the c's."""
-    d, th, n, nq = trials["distance_m"], trials["theta_deg"], trials["n_reads"], trials["n_queries"]
-    rows = [("published", _detection.PUBLISHED_READER_MODEL, None)]
-    errors = []
-    try:
-        mom = _detection.fit_reader_moments(d, th, n, nq)
-        rows.append(("moments", mom.model, mom))
-    except (UserError, np.linalg.LinAlgError, ValueError) as exc:
-        mom = None
-        rows.append(("moments", None, None))
-        errors.append(f"moments: {exc}")
-    try:
-        mle = _detection.fit_reader_mle(d, th, n, nq, start=mom.model if mom is not None else None)
-        rows.append(("mle", mle.model, mle))
-    except (UserError, np.linalg.LinAlgError, ValueError) as exc:
-        rows.append(("mle", None, None))
-        errors.append(f"mle: {exc}")
-    from rfsim.detection.fit import log_likelihood_reader  # Eq. 4.11 log-likelihood of a model
-
-    out: dict[str, list] = {"method": [], "stderr_basis": []}
-    for name in _fit.DA_PARAMETER_NAMES:
-        out[name], out["se_" + name] = [], []
-    for a in D50_ANGLES_DEG:
-        out[f"d50_{int(a)}deg_m"] = []
-    out["log_likelihood"] = []
-    for method, model, fit in rows:
-        out["method"].append(method)
-        out["stderr_basis"].append(fit.stderr_basis if fit is not None else "none" if model is not None else "failed")
-        if model is None:
-            for k in out:
-                if k not in ("method", "stderr_basis"):
-                    out[k].append(np.nan)
-            continue
-        est = (fit.estimates if fit is not None else
-               np.array([*model.mean_coefficients, *model.variance_coefficients, model.dead_zone_mean]))
-        se = fit.stderr if fit is not None else np.full(9, np.nan)
-        for i, name in enumerate(_fit.DA_PARAMETER_NAMES):
-            out[name].append(float(est[i]))
-            out["se_" + name].append(float(se[i]))
-        for a in D50_ANGLES_DEG:
-            out[f"d50_{int(a)}deg_m"].append(float(model.d50(a)))
-        out["log_likelihood"].append(log_likelihood_reader(model, np.asarray(d, float), np.asarray(th, float),
-                                                     np.asarray(n), np.asarray(nq), model.dead_zone_mean))
-    out = {k: np.array(v) for k, v in out.items()}
-    out["errors"] = "; ".join(errors)
-    return out
-
-
-def cell_moments(trials: dict[str, np.ndarray], dists, angles) -> dict[str, np.ndarray]:
-    """(room, distance, angle) grids of the mean and variance (ddof 1) of p̂ over repetitions."""
-    shape = (2, len(dists), len(angles))
-    mean, var = np.full(shape, np.nan), np.full(shape, np.nan)
-    for k in range(2):
-        for i, d in enumerate(dists):
-            for j, a in enumerate(angles):
-                sel = (trials["room"] == k) & (trials["distance_m"] == d) & (trials["theta_deg"] == a)
-                if sel.any():
-                    mean[k, i, j] = trials["p_hat"][sel].mean()
-                    var[k, i, j] = trials["p_hat"][sel].var(ddof=1) if sel.sum() > 1 else np.nan
-    return {"p_mean": mean, "p_var": var}
+# ----------------------------------------------------------------------------- run
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
@@ -445,7 +308,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     ds.add_table("trials", {k: _dataset.column(v, *FIELDS[k]) for k, v in trials.items()},
                  description="one row per trial: a (room, distance, angle, repetition) cell queried N times with "
                              "the channel held; reads counted (Geng dissertation campaign A)")
-    cm = cell_moments(trials, dists, angles)
+    cm = _detection.cell_moments(trials, dists, angles)
     ds.add_grid("cells", {"room": _dataset.column(np.arange(2), "1", "room (channel parameter set): 0 lab, 1 cluttered"),
                           "distance_m": _dataset.column(np.asarray(dists, float), "m", "nominal antenna-tag distance d"),
                           "theta_deg": _dataset.column(np.asarray(angles, float), "deg",
@@ -458,26 +321,10 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     ds.attrs["n_queries_total"] = int(trials["n_queries"].sum())
     if config.fits:
         stage("fitting the DA model (moments and maximum likelihood)")
-        f = fit_trials(trials)
+        f = _detection.fit_reader_models(trials, d50_angles_deg=D50_ANGLES_DEG)
         ds.attrs["fit_errors"] = f.pop("errors")
-        cols = {"method": _dataset.column(f["method"], "", "published (seed 004 L666, L838), moments (LSQ on cell "
-                                                  "moments, the source's method) or mle (Eq. 4.11)")}
-        cols["stderr_basis"] = _dataset.column(f["stderr_basis"], "", "how the standard errors were obtained: 'full' inverse "
-                                               "information, 'mean block' (ML maximum on the edge of the feasible region: "
-                                               "a1-a3 only, conditional on the variance and dead-zone estimates), 'least "
-                                               "squares' (moments), 'none' (published)")
-        for k, v in f.items():
-            if k in ("method", "stderr_basis"):
-                continue
-            base = k[3:] if k.startswith("se_") else k
-            unit = {"a2": "1/m", "a3": "1/deg", "c2": "1/m", "c3": "1/m^2", "c4": "1/deg", "c5": "1/deg^2"}.get(base, "1")
-            if k.startswith("d50"):
-                unit = "m"
-            text = (f"standard error of {base}" if k.startswith("se_") else
-                    "distance where E[p] = 1/2" if k.startswith("d50") else
-                    "log-likelihood of Eq. 4.11 on the trials" if k == "log_likelihood" else
-                    f"DA model parameter {k} (mean 1/(1+exp(a1+a2 d+a3|theta|)), variance c1+c2 d+c3 d^2+c4|theta|+c5 theta^2, dead-zone mean lambda)")
-            cols[k] = _dataset.column(v, "nat" if k == "log_likelihood" else unit, text)
+        spec = _detection.reader_fit_columns(f)
+        cols = {k: _dataset.column(f[k], *spec[k]) for k in spec}
         ds.add_table("fits", cols, description="one row per method (published, moments, mle): parameters of the "
                                                "DA model with standard errors, log-likelihood and d50")
         for i, m in enumerate(f["method"]):

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from rfsim.air import _step_kernels as k
-from rfsim.air import step as air
 from reference.air_step_kernels import backscatter_reference
+from rfsim.air import fused as air_fused
+from rfsim.air.segment import Segment
 
 needs_match = pytest.mark.skipif(not k.fused_matches_numpy(),
                                  reason="this CPU's NumPy complex product differs from the kernel's: the step keeps NumPy")
@@ -58,10 +59,10 @@ def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
 
     calls = []
     kernel = k.backscatter_kernel
-    monkeypatch.setattr(air._ak, "backscatter_kernel", lambda *a: (calls.append(1), kernel(*a)))
+    monkeypatch.setattr(air_fused._ak, "backscatter_kernel", lambda *a: (calls.append(1), kernel(*a)))
     fused = rounds()
     assert calls or not k.fused_matches_numpy()
-    monkeypatch.setattr(air, "_air_kernels_ok", lambda: False)
+    monkeypatch.setattr(air_fused, "kernels_ok", lambda: False)
     assert rounds() == fused
     assert any(c == "ACK" and f == "" for c, f, *_ in fused)
 
@@ -72,9 +73,9 @@ def test_fused_sum_with_batched_constants_takes_the_array_operations():
     x = rng.standard_normal(50) + 1j * rng.standard_normal(50)
     gamma = np.where(rng.random(50) < 0.5, 0.3 + 0.2j, -0.1j)
     a = (rng.standard_normal((4, 1)) + 1j * rng.standard_normal((4, 1))) * 1e-2
-    bs = air._Backscatter(x, 2e-2 - 1e-2j, 0.4 + 0.1j, gamma, -1e-2 + 3e-3j)
-    seg = air.Segment(0.0, 1e6, 915e6, x)
+    bs = air_fused.Backscatter(x, 2e-2 - 1e-2j, 0.4 + 0.1j, gamma, -1e-2 + 3e-3j)
+    seg = Segment(0.0, 1e6, 915e6, x)
     parts = [bs]
-    y = air._fused_sum({0: a}, parts, [seg], 50)
+    y = air_fused.fused_sum({0: a}, parts, [seg], 50)
     assert parts == [bs] and y.shape == (4, 50)
     assert np.array_equal(y, a * x)

@@ -8,6 +8,7 @@ from scipy.io import loadmat
 
 from rfsim.channels.antennas import (
     Antenna,
+    EllipticalPanel,
     HalfWaveDipole,
     Isotropic,
     Patch,
@@ -317,3 +318,33 @@ def test_polarization_mismatch_cases():
     assert pm.shape == (7,)
     e = rhcp.polarization_vector(k)
     np.testing.assert_allclose(polarization_mismatch_factor(e, e), 1.0)
+
+
+def test_elliptical_panel_axial_ratio_against_rolled_dipoles():
+    # Ellipse of axial ratio AR (field ratio r = 1/AR) against a linear antenna at the angle τ from
+    # the major axis (the panel's vertical): PLF = (cos²τ + r²·sin²τ)/(1 + r²) (derived by hand:
+    # |(û − j r v̂)·(cos τ û + sin τ v̂)|²/(1 + r²)). AR(ψ) = 1 dB on boresight, 3 dB at ψ = 35°.
+    panel = EllipticalPanel(position_m=(0.0, 0.0, 0.0), pattern=Patch(9.0, 70.0, 20.0), polarization="circular",
+                            axial_ratio_db=(1.0, 3.0), half_beamwidth_rad=np.radians(35.0))
+    for ar_db, pos in ((1.0, np.array([5.0, 0.0, 0.0])),
+                       (3.0, 5.0 * np.array([np.cos(np.radians(35.0)), np.sin(np.radians(35.0)), 0.0]))):
+        r = 10 ** (-ar_db / 20)
+        az = np.arctan2(-pos[1], -pos[0])
+        for roll_deg in (0.0, 30.0, 90.0):
+            tau = np.radians(roll_deg)
+            dipole = Antenna(pos, (az, 0.0, tau), HalfWaveDipole())
+            expected = (np.cos(tau) ** 2 + r * r * np.sin(tau) ** 2) / (1 + r * r)
+            assert float(panel.polarization_mismatch(dipole)) == pytest.approx(expected, rel=1e-9), (ar_db, roll_deg)
+    # AR = 0 dB is the ideal circular panel of Antenna: the same vector up to a phase (the same
+    # hand: matched to it, |e·e'*|² = 1), 1/2 against any linear antenna
+    ideal = EllipticalPanel(position_m=(0.0, 0.0, 0.0), polarization="circular", axial_ratio_db=(0.0, 0.0))
+    k = np.random.default_rng(2).normal(size=(5, 3))
+    k[:, 0] = np.abs(k[:, 0]) + 0.5
+    circular = Antenna((0, 0, 0), polarization="circular").polarization_vector(k)
+    np.testing.assert_allclose(polarization_mismatch_factor(ideal.polarization_vector(k), circular), 1.0, rtol=1e-12)
+    assert float(ideal.polarization_mismatch(Antenna((3.0, 1.0, 0.5), (0.3, 0.0, 0.7)))) == pytest.approx(0.5)
+    # the axial-ratio law is part of the antenna's identity
+    assert ideal != EllipticalPanel(position_m=(0.0, 0.0, 0.0), polarization="circular")
+    assert panel == EllipticalPanel(position_m=(0.0, 0.0, 0.0), pattern=Patch(9.0, 70.0, 20.0),
+                                    polarization="circular", axial_ratio_db=(1.0, 3.0),
+                                    half_beamwidth_rad=np.radians(35.0))

@@ -7,7 +7,7 @@ import pytest
 from scipy import integrate
 from scipy.io import loadmat
 
-from rfsim.channels.small_scale import ApdpModel, apdp_decay_rate, average_profile, draw_taps
+from rfsim.channels.small_scale import ApdpModel, apdp_decay_rate, average_profile, draw_taps, rician_gains
 
 N_DETERMINISTIC = 1000  # PASS results_channel_small.mat partition "deterministic NLOS"
 
@@ -128,3 +128,24 @@ def test_draw_shapes_and_los():
     np.testing.assert_allclose(g[:, 0], np.sqrt(100 / 101) * np.exp(0.3j), rtol=1e-15)
     g1, _ = draw_taps(100.0, 10e-9, rng=np.random.default_rng(3), n_draws=5, los_phase_rad=0.3)
     np.testing.assert_array_equal(g, g1)
+
+
+def test_rician_gains_have_unit_power_and_the_jakes_correlation():
+    # h_q = sqrt(K/(K+1))·e^{jφ} + sqrt(1/(K+1))·g_q, E[g_q g_p*] = J0(2π f_D Δt) (Clarke/Jakes;
+    # the expectation is scipy's J0, not the code under test). 1500 independent pairs: the
+    # covariance estimate has a standard error ≈ σ²/sqrt(1500) = 0.005 for K = 6 dB (σ² = 0.2).
+    from scipy.special import j0
+
+    k = 10 ** 0.6
+    for dt, f_d in ((0.004, 2.0), (0.1, 2.0), (0.3, 3.0)):
+        h = np.array([rician_gains([0.0, dt], doppler_hz=f_d, k_db=6.0, rng=np.random.default_rng(i))
+                      for i in range(1500)])
+        mean_power = np.mean(np.abs(h) ** 2)
+        assert mean_power == pytest.approx(1.0, abs=0.03)
+        # remove the LoS term by its magnitude: |E h| = sqrt(K/(K+1)) with a random phase per draw,
+        # so use the product h_q·conj(h_p) − K/(K+1) (the LoS phase cancels in the product)
+        cov = np.mean(h[:, 0] * np.conj(h[:, 1])).real - k / (k + 1)
+        assert cov == pytest.approx(j0(2 * np.pi * f_d * dt) / (k + 1), abs=0.015)
+    # f_D = 0: a held channel, one constant unit-magnitude gain
+    h0 = rician_gains([0.0, 0.1, 0.2], doppler_hz=0.0, k_db=6.0, rng=np.random.default_rng(1))
+    assert np.all(h0 == h0[0]) and abs(h0[0]) == pytest.approx(1.0, rel=1e-12)

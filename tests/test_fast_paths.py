@@ -254,7 +254,7 @@ def test_measure_kernel_equals_reference(doppler_hz):
     """Reader measurements (gain, Doppler slope, residual power) of a Miller-4 reply with a
     rotating phase and noise: kernel and NumPy twin agree to round-off (different summation
     order, so not bit for bit)."""
-    from rfsim.devices.reader import _measure
+    from rfsim.devices.reader_measure import measure as _measure
     from reference.devices_reader import measure_reference
 
     rng = trial_rng(59, int(abs(doppler_hz)))
@@ -288,7 +288,7 @@ def test_projected_halfbit_sums_kernel_equals_reference():
 def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
-    from rfsim.devices.reader import _known_levels
+    from rfsim.devices.reader_measure import known_levels as _known_levels
     from reference.devices_reader import known_levels_reference
 
     rng = trial_rng(61, m)
@@ -334,10 +334,10 @@ def test_corr_abs_runs_kernel_equals_scipy(samples_per_element, offset):
         LK.corr_abs_runs_kernel(r, t0, out)
         np.testing.assert_allclose(out, L.corr_abs_reference(r, t0), rtol=1e-9, atol=1e-9 * t.size)
 def test_air_accumulate_is_the_sequential_sum():
-    """The air step's held constant of a tag population (rfsim.air.step._accumulate) equals the
+    """The air step's held constant of a tag population (rfsim.air.groups.accumulate) equals the
     left-to-right Python sum of the same complex terms, bit for bit, over magnitudes spread
     across 16 decades (where the summation order changes the rounding)."""
-    from rfsim.air.step import _accumulate
+    from rfsim.air.groups import accumulate
 
     rng = trial_rng(62, 0)
     n = 0
@@ -348,7 +348,7 @@ def test_air_accumulate_is_the_sequential_sum():
         want = start
         for x in v.tolist():
             want = want + x
-        got = _accumulate(start, v)
+        got = accumulate(start, v)
         assert got == want and type(got) is complex
         n += 1
     assert n == 100
@@ -428,7 +428,7 @@ def test_preamble_search_kernel_equals_reference(m, trext):
 def test_measurement_on_the_reply_span_equals_the_window():
     """The reader measures on the reply's samples only: the same (h, slope, σ²) bit for bit as
     over the whole window (times from the span's centre do not depend on the slice)."""
-    from rfsim.devices.reader import _measure
+    from rfsim.devices.reader_measure import measure as _measure
 
     rng = trial_rng(64, 0)
     fs = 4e6

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from rfsim.core.config import load_config
+from rfsim.core.errors import ConfigError
 from rfsim.gen2.commands import ACK, Query, parse
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_reply
@@ -53,6 +54,7 @@ def test_every_profile_exchange_decodes(dataset):
         got_epc = decode_reply(tag[i_epc - 20:], n_bits=128, m=link.m, trext=link.trext,
                                blf_hz=link.blf_hz, fs_hz=fs)
         assert crc16_ok(got_epc.bits)
+        assert bits_to_int(got_epc.bits[:16]) == 0x3000  # StoredPC of a 96-bit EPC: 6 words << 11
         assert bits_to_str(got_epc.bits[16:112]) == bits_to_str(
             np.unpackbits(np.frombuffer(bytes.fromhex(config.epc_hex), np.uint8)))
 
@@ -80,3 +82,10 @@ def test_seed_draws_the_rn16_and_is_reproducible():
     assert a == b and a != c
     fixed = load_config(scenario.Config, None, ["profiles=['fm0-40k']", "fs_hz=1e6", "rn16=4660"])
     assert scenario.run(fixed, seed=5).attrs["rn16"] == 4660
+
+
+def test_epc_longer_than_the_pc_length_field_is_a_config_error():
+    # the PC word's 5-bit length field holds at most 31 words (496 bits)
+    scenario.Config(epc_hex="AB12" * 31)
+    with pytest.raises(ConfigError, match="epc_hex"):
+        scenario.Config(epc_hex="AB12" * 32)

@@ -4,7 +4,9 @@
 coefficients (auris-sense-a-tag.md §2.2) and the reader Beta-binomial DA model with dead zone
 (binary-detection.md §1.6). :mod:`~rfsim.detection.fit`: maximum-likelihood logistic
 regression, cross-entropy, moment and maximum-likelihood fits of the DA model, binned
-empirical probabilities with Wilson intervals.
+empirical probabilities with Wilson intervals. :mod:`~rfsim.detection.tables`: fit tables (every
+model fitted beside the published one, with standard errors and cross-entropies or
+log-likelihoods) and their column units and descriptions.
 """
 
 from rfsim.detection.fit import (DA_PARAMETER_NAMES, BinnedProbability, LogisticFit,
@@ -18,6 +20,8 @@ from rfsim.detection.models import (DA_DEAD_ZONE, DA_MEAN_COEFFICIENTS, DA_QUERI
                                     beta_from_moments, mixture_logpmf, predict_proba,
                                     rts_design, rts_probability, st_features, ts_design,
                                     ts_probability)
+from rfsim.detection.tables import (cell_moments, fit_reader_models, fit_st_models,
+                                    reader_fit_columns, st_fit_columns, st_fits_comparison)
 
 __all__ = [
     "RTS_COEFFICIENTS", "TS_COEFFICIENTS", "RTS_TEST_CROSS_ENTROPY", "TS_TEST_CROSS_ENTROPY",
@@ -28,4 +32,6 @@ __all__ = [
     "LogisticFit", "fit_logistic", "cross_entropy", "cross_entropy_logits",
     "expected_cross_entropy", "ReaderModelFit", "DA_PARAMETER_NAMES", "fit_reader_moments",
     "fit_reader_mle", "BinnedProbability", "binned_probability", "wilson_interval",
+    "fit_st_models", "st_fit_columns", "st_fits_comparison", "fit_reader_models", "reader_fit_columns",
+    "cell_moments",
 ]

@@ -1,0 +1,179 @@
+"""The reader's BLF search: estimating a reply's BLF and decoding it in one pass
+(:func:`search_decode`, numba kernel), the coarse BLF grid and the RN16 acceptance threshold
+(:meth:`rfsim.devices.reader.Reader.receive` with ``blf_search = "preamble"``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.gen2.link import LinkProfile
+from rfsim.gen2.linecode import preamble_levels, reply_waveform
+from rfsim.core.lazy import lazy_import
+
+_bk = lazy_import("rfsim.devices._blf_search_kernels")
+
+__all__ = ["SearchDecode", "search_decode", "blf_grid_hz", "rn16_threshold_db", "search_setup", "search_result",
+           "FINE_SPAN_STEPS", "FINE_PER_SIDE", "FINE_FIRST_BITS"]
+
+
+#: Fine BLF search: half-width in coarse steps and BLFs per side of each pass; bits of its
+#: first phase (a longer reply is searched again over all its bits).
+FINE_SPAN_STEPS = 2
+FINE_PER_SIDE = 4
+FINE_FIRST_BITS = 16
+
+
+@dataclass(frozen=True)
+class SearchDecode:
+    """Result of :func:`search_decode` for B windows (all arrays of length B).
+
+    bits : (B, n_bits) uint8; blf_hz : BLF decoded at [Hz]; start : reply start [samples into
+    the window]; corr : the coarse normalised preamble correlation; gain : h (complex);
+    sigma2 : residual power per sample over the reply's steady samples; ebn0_db :
+    10·log10(|h|²·(2M/ρ)/σ²), ρ = 2·BLF/fs (samples per bit 2M/ρ); sigma2_bit : σ_eff², the
+    disturbance that reaches the decisions: per data half-bit j the matched-filter output
+    of the projection y = Re((r − c)·h*)/|h| on the decided levels minus |h|·N_j (N_j steady
+    samples), σ_eff² = 2·Σδ_j²/ΣN_j (σ² for white noise; a second tag's in-band reply is not
+    reduced by the matched filter's gain); decision_ebn0_db : the acceptance statistic,
+    Eb/(N0 + I) in the decision domain = 10·log10(|h|²·(2M/ρ)/σ_eff²).
+    """
+
+    bits: np.ndarray
+    blf_hz: np.ndarray
+    start: np.ndarray
+    corr: np.ndarray
+    gain: np.ndarray
+    sigma2: np.ndarray
+    ebn0_db: np.ndarray
+    sigma2_bit: np.ndarray
+    decision_ebn0_db: np.ndarray
+
+
+def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | None = None) -> np.ndarray:
+    """Coarse BLF hypotheses [Hz]: a geometric grid over BLF·(1 ± FrT) of ``link`` (or
+    [lo, hi]) with relative step 1/(2·preamble elements), the correlation peak's half-width
+    (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
+    lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
+    n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
+    step = 1.0 / (2.0 * n_pre_el)
+    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
+    return np.geomspace(lo, hi, max(n, 2))
+
+
+def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
+    """Preamble elements and levels, coarse templates and fine-search parameters of
+    :func:`search_decode` (and of its NumPy twin)."""
+    pre_levels, cur, prev = preamble_levels(m=m, trext=trext)
+    pre_el = np.repeat(pre_levels, m).astype(np.float64)
+    if m > 1:
+        pre_el[1::2] *= -1.0
+    ratios = 2.0 * np.asarray(blfs_hz, dtype=np.float64) / fs_hz
+    lens = np.floor(pre_el.size / ratios).astype(np.int64)
+    tpl0 = np.zeros((ratios.size, int(lens.max())))
+    for k, (ratio, n) in enumerate(zip(ratios, lens)):
+        t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz, fs_hz=fs_hz,
+                           dummy=False, n_samples=int(n))
+        tpl0[k, :n] = t - t.mean()
+    step_c = 1.0 / (2.0 * pre_el.size)
+    n_el = pre_el.size + 2 * m * (int(n_bits) + 1)
+    n_el1 = pre_el.size + 2 * m * (min(int(n_bits), FINE_FIRST_BITS) + 1)
+    return (pre_levels.astype(np.int8), int(cur), int(prev), pre_el, ratios, tpl0, lens,
+            FINE_SPAN_STEPS * step_c, 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
+
+
+def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int, hi: int,
+                  threads: int = 1, known_within: float | None = None) -> SearchDecode:
+    """Estimate the BLF of, and decode, one reply in each window of ``rs`` (numba kernel).
+
+    Parameters
+    ----------
+    rs : (B, n) complex, windows ``h·s(t) + c + noise`` [√W] (any constant offset c)
+    m, trext, n_bits : line code and data bits of the reply (without the dummy 1)
+    blfs_hz : coarse BLF hypotheses (:func:`blf_grid_hz`)
+    fs_hz : sample rate [Hz]; lo, hi : the reply start lags searched [samples]
+    threads : the windows are split into this many blocks decoded on as many threads (the
+        kernel releases the GIL and draws nothing at random: the result does not depend on it)
+    known_within : the BLF is known to this relative precision (``blfs_hz`` = the one known
+        BLF, e.g. measured on the RN16 of the tag an ACK addresses): the fine search starts
+        across ± that
+
+    Method (the reader with ``blf_search = "preamble"``; the capture decoder
+    :mod:`rfsim.gen2.replies` steps 2–3 do the same on recordings):
+
+    1. Coarse: the largest zero-mean normalised preamble correlation
+       |Σ r[l+i]·t_k[i]| / (‖t_k‖·‖r[l:l+L] − mean‖) over the BLF grid b_k and the lags l,
+       refined between lags by a parabola.
+    2. Fine: with the preamble's centre held, decode (preamble gain and offset, half-bit
+       matched filter, Viterbi) at 2·FINE_PER_SIDE + 1 BLFs across ±FINE_SPAN_STEPS coarse
+       steps; the one whose remodulated reply (rest level −1 around it) leaves the least
+       least-squares residual over the whole window wins; the span narrows to one step until the step is
+       ≤ 1/(4·reply elements) (decoding needs the BLF to about that) — first over the first
+       FINE_FIRST_BITS bits, then, for a longer reply, over twice as many bits at a time (all
+       at last) across ±4 final steps of the previous phase (a long reply misaligned by a
+       coarse step has a residual with many local minima).
+    3. Statistic: h and the residual σ² (noise plus whatever the fit does not explain, e.g. a
+       second tag) over the reply's steady samples; Eb/(N0 + I) = |h|²·(2M/ρ)/σ².
+    """
+    r = np.ascontiguousarray(rs, dtype=np.complex128)
+    if r.ndim == 1:
+        r = r[None, :]
+    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span, target1, target = search_setup(m, trext, n_bits,
+                                                                                             blfs_hz, fs_hz)
+    first_bits = FINE_FIRST_BITS
+    if known_within is not None:
+        span = float(known_within)
+    b = r.shape[0]
+    bits = np.zeros((b, int(n_bits)), np.uint8)
+    ratio, start, corr, sigma2, sigma2_bit = (np.empty(b) for _ in range(5))
+    gain = np.empty(b, np.complex128)
+
+    def block(i0: int, i1: int) -> None:
+        _bk.search_decode_kernel(r[i0:i1], ratios, tpl0, lens, int(lo), int(hi), pre_el, pre_levels, np.int8(cur),
+                                 np.uint8(prev), int(m), int(n_bits), first_bits, span, FINE_PER_SIDE,
+                                 target1, target, bits[i0:i1],
+                                 ratio[i0:i1], start[i0:i1], corr[i0:i1], gain[i0:i1], sigma2[i0:i1],
+                                 sigma2_bit[i0:i1])
+
+    edges = np.linspace(0, b, max(1, min(int(threads), b)) + 1).astype(int)
+    if edges.size <= 2:
+        block(0, b)
+    else:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(edges.size - 1) as pool:
+            list(pool.map(block, edges[:-1], edges[1:]))
+    return search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz)
+
+
+def search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz) -> SearchDecode:
+    """The :class:`SearchDecode` of the kernel's outputs: BLF from ρ = 2·BLF/fs, Eb/N0 and the
+    decision-domain Eb/(N0 + I) in dB."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e_bit = np.abs(gain) ** 2 * (2.0 * m / ratio)
+        ebn0 = 10.0 * np.log10(e_bit / sigma2)
+        ebn0_min = 10.0 * np.log10(e_bit / sigma2_bit)
+    return SearchDecode(bits, 0.5 * ratio * fs_hz, start, corr, gain, sigma2, ebn0, sigma2_bit, ebn0_min)
+
+
+def rn16_threshold_db(false_accept: float, *, n_bits: int = 16) -> float:
+    """Eb/(N0 + I) threshold [dB] of the RN16 acceptance for a stated false-accept probability p.
+
+    With Gaussian noise plus interference of density N0 + I, coherent antipodal decisions give
+    a bit error probability Q(√(2·Eb/(N0 + I))) (FM0 and Miller-M decoded by the matched
+    filter, anchors §4.8), and an n-bit word is wrong with probability
+    1 − (1 − P_b)^n ≈ n·P_b. Accepting only when the measured Eb/(N0 + I) ≥ γ with
+    n·Q(√(2γ)) = p bounds the probability that an accepted word is wrong by p (within this
+    model): γ = (Q⁻¹(p/n))²/2. p = 1e−2 → 7.2 dB for 16 bits. An approximation: the
+    interference of a second tag is not Gaussian, so the measured false-ACK rate against γ
+    is what sets the default (``inventory`` scenario, ``acceptance`` table).
+    """
+    from scipy.special import ndtri
+
+    if not 0.0 < false_accept < 0.5:
+        raise ValueError(f"false_accept must be in (0, 0.5), got {false_accept}")
+    q = -float(ndtri(false_accept / n_bits))  # Q⁻¹(p/n)
+    return 10.0 * math.log10(0.5 * q * q)

@@ -1,0 +1,213 @@
+"""Gen2 reader transmitter: PIE commands as complex baseband at the antenna port.
+
+Transmitter (gen2-and-validation-anchors.md §4.1; pass-paris-simulator.md §2.1
+``reader_modulation``). With ``e(t)`` the PIE envelope of :func:`rfsim.gen2.pie.pie_envelope`
+(1 during CW, ``1 − depth`` in the low pulses, raised-cosine edges) and ``P`` the conducted
+power [W] at the antenna port, the complex baseband [√W] is
+
+* DSB-ASK: ``x = √P·e(t)``;
+* PR-ASK:  ``x = √P·s(t)·e(t)`` with ``s(t) = ±1`` changing sign at the middle of every low
+  pulse (delimiter included), i.e. every PIE symbol has the opposite polarity of the previous
+  one; ``|x|`` equals the DSB magnitude sample by sample. At ``depth < 1`` the sign change is
+  a jump of ``2(1 − depth)·√P`` (an ideal PR-ASK has depth 1 and passes through zero);
+* SSB-ASK: ``x = √P·(e(t) + j·(h_H * (e − 1))(t))`` with ``h_H`` a Blackman-windowed FIR
+  Hilbert transformer (``h[k] = 2/(πk)`` for odd k, 0 for even k, |k| ≤ 4·Tari·fs) applied
+  to the modulation part ``e − 1`` (zero during CW). Normalisation: the carrier term is not
+  transformed, so wherever the envelope has been CW for more than 4 Tari the baseband is
+  exactly ``√P`` (CW power = P); the modulation sideband sits at positive frequencies only.
+  (An ideal, infinitely long Hilbert transform such as ``scipy.signal.hilbert`` would spread
+  the pulse train's non-zero mean as a 1/t tail across the whole reply window; the finite
+  FIR leaves the band below ≈ 1/(8·Tari) double-sided instead.)
+
+A segment holds ``cw_before_s`` of CW (default one Tari), the command and ``cw_after_s`` of
+CW: ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples, ``T_cmd =
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
+from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
+from rfsim.core.lazy import lazy_import
+
+_signal = lazy_import("scipy.signal")
+
+__all__ = ["TxSegment", "PieTransmitter", "hilbert_fir", "SSB_HILBERT_HALF_TARI", "TX_CACHE_SIZE"]
+
+#: Half-length of the SSB Hilbert FIR in Tari.
+SSB_HILBERT_HALF_TARI = 4.0
+#: Number of modulated command segments a Reader keeps for reuse.
+TX_CACHE_SIZE = 64
+
+
+@dataclass(frozen=True)
+class TxSegment:
+    """One transmitted segment: PIE command + CW.
+
+    Attributes
+    ----------
+    t0_s : absolute time of sample 0 [s]
+    fs_hz : sample rate [Hz]
+    samples : (n,) complex128, baseband at the antenna port [√W]
+    fc_hz : carrier frequency [Hz]
+    channel_index : 1-based index into :func:`frequency_plan`
+    antenna_index : 0-based index into ``Reader.antennas``
+    cmd_start_s : absolute time of the delimiter's falling edge (50 % point) [s]
+    cmd_end_s : absolute time of the last rising edge of the command [s]
+    """
+
+    t0_s: float
+    fs_hz: float
+    samples: np.ndarray
+    fc_hz: float
+    channel_index: int
+    antenna_index: int
+    cmd_start_s: float
+    cmd_end_s: float
+
+    @property
+    def end_s(self) -> float:
+        """Time just after the last sample [s]."""
+        return self.t0_s + self.samples.size / self.fs_hz
+
+
+def hilbert_fir(half_length: int) -> np.ndarray:
+    """Blackman-windowed FIR Hilbert transformer, ``(2K+1,) float64``.
+
+    ``h[k] = 2/(πk)·w[k]`` for odd k, 0 for even k (k = −K…K); its response is ≈ −j·sign(f)
+    above ≈ 2·fs/K.
+    """
+    k = np.arange(-half_length, half_length + 1)
+    h = np.zeros(k.size)
+    odd = k % 2 != 0
+    h[odd] = 2.0 / (np.pi * k[odd])
+    return h * np.blackman(k.size + 2)[1:-1]
+
+
+#: recently transmitted baseband segments (read-only) of every reader: ``(id(config), id(link),
+#: fs, bits, preamble, CW lengths) → (config, link, samples)`` (:meth:`PieTransmitter.transmit`)
+_TX_SEGMENTS: dict = {}
+
+
+class PieTransmitter:
+    """The transmitter side of :class:`rfsim.devices.reader.Reader`: a command's bits and
+    duration, its PIE baseband and the transmitted segment (module docstring).
+
+    Uses the reader's ``link`` (LinkProfile), ``config`` (ReaderConfig), ``fs_hz``,
+    ``_cw_amplitude()``, ``fc_hz(t)``, ``channel_index(t)``, ``antenna_index(round)`` and its
+    command cache ``_cmd_cache`` / ``_cmd_cache_link``.
+    """
+
+    def _command(self, cmd) -> tuple:
+        """``(bits, preamble, T_cmd [s])`` of a command (the last :data:`TX_CACHE_SIZE`
+        commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
+        if self._cmd_cache_link is not self.link:
+            self._cmd_cache.clear()
+            self._cmd_cache_link = self.link
+        try:
+            hit = self._cmd_cache.get(cmd)
+        except TypeError:  # an unhashable command: no caching
+            hit, cmd_key = None, None
+        else:
+            cmd_key = cmd
+        if hit is not None:
+            return hit
+        bits = encode(cmd)
+        bits.setflags(write=False)
+        preamble = command_preamble(cmd)
+        hit = (bits, preamble, self.link.command_duration_s(bits, preamble))
+        if cmd_key is not None:
+            if len(self._cmd_cache) >= TX_CACHE_SIZE:
+                self._cmd_cache.pop(next(iter(self._cmd_cache)))
+            self._cmd_cache[cmd_key] = hit
+        return hit
+
+    def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
+        """Baseband of a PIE command [√W], ``(n,) complex128`` (module docstring equations).
+
+        Parameters
+        ----------
+        bits : (n,) 0/1 command bits (CRC included)
+        preamble : "query" or "frame-sync"
+        cw_after_s : CW after the last rising edge [s]
+        cw_before_s : CW before the falling edge of the delimiter [s]
+        """
+        lk = self.link
+        timing = dict(tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
+                      delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
+                      cw_before_s=float(cw_before_s))
+        tl = pie_timeline(bits, **timing)
+        rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
+        amp = self._cw_amplitude()
+        if lk.modulation in ("DSB-ASK", "PR-ASK"):
+            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
+            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
+            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
+            head = dataclasses.replace(tl, duration_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
+            e = timeline_envelope(head, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
+            x = np.empty(int(math.ceil(tl.duration_s * self.fs_hz)), dtype=np.complex128)
+            if lk.modulation == "DSB-ASK":
+                x[:e.size] = amp * e
+                x[e.size:] = amp
+            else:
+                x[:e.size] = pr_ask_baseband(head, e, amplitude=amp, fs_hz=self.fs_hz)
+                x[e.size:] = amp * (1.0 - 2.0 * (tl.rise_s.size % 2))
+            return x
+        e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
+        # SSB-ASK
+        half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))
+        quad = _signal.fftconvolve(e - 1.0, hilbert_fir(half), mode="same")
+        return amp * (e + 1j * quad)
+
+    def transmit(self, cmd, *, t0_s: float, cw_after_s: float, cw_before_s: float | None = None,
+                 round_index: int = 0) -> TxSegment:
+        """CW for ``cw_before_s``, PIE command ``cmd`` (Query: full preamble, others:
+        frame-sync), then CW for ``cw_after_s``.
+
+        Parameters
+        ----------
+        cmd : a command of :mod:`rfsim.gen2.commands`
+        t0_s : absolute time of the first sample [s]
+        cw_after_s : CW after the command [s] (T1max + reply + T2 for a reply window)
+        cw_before_s : CW before the delimiter [s]; default one Tari, so that a receiver's
+            envelope detector sees the delimiter's falling edge (the segment otherwise starts
+            in the middle of that edge). ``cmd_start_s = t0_s + cw_before_s``.
+        round_index : inventory round, selects the antenna (round robin)
+
+        The segment has ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
+        ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
+        ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept
+        and returned again for a repeated command.
+        """
+        if not isinstance(cmd, COMMAND_TYPES):
+            raise TypeError(f"not a Gen2 command: {cmd!r}")
+        if not cw_after_s >= 0:
+            raise ValueError(f"cw_after_s must be >= 0, got {cw_after_s}")
+        cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
+        if not cw_before_s >= 0:
+            raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
+        bits, preamble, cmd_duration_s = self._command(cmd)
+        # A reader sends the same commands (Query, QueryRep, …) again and again, and a Monte
+        # Carlo builds many readers of one config: keep the last modulated segments (read-only),
+        # shared by the readers of the same (frozen) config, link profile and sample rate.
+        key = (id(self.config), id(self.link), self.fs_hz, bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
+        hit = _TX_SEGMENTS.get(key)
+        if hit is not None and hit[0] is self.config and hit[1] is self.link:
+            x = hit[2]
+        else:
+            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+            x.setflags(write=False)
+            if len(_TX_SEGMENTS) >= TX_CACHE_SIZE:
+                _TX_SEGMENTS.pop(next(iter(_TX_SEGMENTS)))
+            _TX_SEGMENTS[key] = (self.config, self.link, x)  # config and link kept alive: their ids stay theirs
+        t0_s = float(t0_s)
+        start = t0_s + cw_before_s
+        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
+                         channel_index=self.channel_index(t0_s),
+                         antenna_index=self.antenna_index(round_index),
+                         cmd_start_s=start, cmd_end_s=start + cmd_duration_s)

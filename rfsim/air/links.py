@@ -1,0 +1,161 @@
+"""The links of the air step (:func:`rfsim.air.step.propagate`): a table of one draw per antenna
+pair (:class:`LinkTable`), a link applied to a segment (:func:`through`: one held constant
+for a narrowband static link, else the paths' ``apply``), the check that no two antennas
+share a position (:func:`check_positions`) and the one-line error of a missing link.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from rfsim.core.errors import ConfigError
+from rfsim.air.segment import Segment
+
+__all__ = ["PROPAGATION_METHODS", "LinkTable", "check_positions", "link_constant", "through", "require_link"]
+
+#: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
+PROPAGATION_METHODS = ("auto", "exact", "narrowband")
+
+
+class LinkTable:
+    """Links of one step drawn from a channel, one draw per antenna pair.
+
+    Parameters
+    ----------
+    channel : object with ``link(tx, rx, *, fc_hz, rng, t_s, tx_motion, rx_motion)``
+        (``rfsim.channels.Channel``)
+    rng : generator for new draws (None: the channel's held draws)
+    reciprocal : a pair's reverse link is the same draw (the same PathSet object), as for a
+        reciprocal channel's monostatic round trip
+    motions : optional ``{antenna: motion}`` (velocity (3,) m/s or trajectory), passed on
+
+    Pairs are drawn in the order the step asks for them: every emitter → reflector link in
+    reflector order, then per receiver the direct links and the reflector links.
+    """
+
+    def __init__(self, channel, *, rng: np.random.Generator | None = None, reciprocal: bool = True,
+                 motions: dict | None = None):
+        self.channel, self.rng, self.reciprocal = channel, rng, reciprocal
+        self.motions = motions or {}
+        self._held: dict = {}
+
+    def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        key = (id(tx), id(rx), float(fc_hz))
+        hit = self._held.get(key)
+        if hit is None and self.reciprocal:
+            hit = self._held.get((id(rx), id(tx), float(fc_hz)))
+        if hit is None:
+            kw = {}
+            if self.motions.get(id(tx)) is not None:
+                kw["tx_motion"] = self.motions[id(tx)]
+            if self.motions.get(id(rx)) is not None:
+                kw["rx_motion"] = self.motions[id(rx)]
+            hit = self.channel.link(tx, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s, **kw)
+            self._held[key] = (tx, rx, hit)  # the antennas are kept alive with their ids
+            return hit
+        return hit[2]
+
+
+def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence) -> None:
+    """Distinct antennas at distance 0 have no far-field link: a one-line error.
+
+    ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
+    of antennas whose positions are read-only arrays (``rfsim.channels.Antenna``) is checked once
+    and remembered by identity (a tuple of reflector antennas also by its own identity: a
+    population's antennas are one tuple object, not compared antenna by antenna)."""
+    emitter_ids = {id(e.antenna) for e in emitters}
+    listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
+    ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
+    by_tuple = _POSITIONS_CHECKED_TUPLES.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
+    if by_tuple is not None and by_tuple[0] is reflector_antennas and by_tuple[1] == ends:
+        return
+    key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
+    if key in _POSITIONS_CHECKED:
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
+        return
+    named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
+             + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]
+             + [(f"receiver[{k}]", a) for k, a in listening])
+    seen: dict = {}
+    frozen = True
+    for name, ant in named:
+        p = getattr(ant, "position_m", None)
+        if p is None:
+            continue
+        if not (isinstance(p, np.ndarray) and not p.flags.writeable):
+            frozen = False
+        key_p = p.tobytes() if isinstance(p, np.ndarray) and p.dtype == np.float64 else np.asarray(p, float).tobytes()
+        other = seen.get(key_p)
+        if other is not None and other[1] is not ant:
+            raise ConfigError(f"{name}.position_m", tuple(np.frombuffer(key_p).tolist()),
+                              f"a position away from {other[0]}'s antenna (distance 0 m has no link)")
+        seen.setdefault(key_p, (name, ant))
+    if frozen:
+        if len(_POSITIONS_CHECKED) >= 64:
+            _POSITIONS_CHECKED.pop(next(iter(_POSITIONS_CHECKED)))
+        _POSITIONS_CHECKED[key] = [a for _, a in named]  # kept alive: their ids stay theirs
+        _remember_tuple(reflector_antennas, ends, emitters, listening)
+
+
+def _remember_tuple(reflector_antennas, ends: tuple, emitters, listening) -> None:
+    """Remember a checked tuple of reflector antennas by its identity, with the ids of the
+    emitter and listening receiver antennas it was checked with (the tuple and those antennas
+    kept alive: their ids stay their own)."""
+    if type(reflector_antennas) is not tuple:
+        return
+    if len(_POSITIONS_CHECKED_TUPLES) >= 64:
+        _POSITIONS_CHECKED_TUPLES.pop(next(iter(_POSITIONS_CHECKED_TUPLES)))
+    _POSITIONS_CHECKED_TUPLES[id(reflector_antennas)] = (reflector_antennas, ends, [e.antenna for e in emitters],
+                                                         [a for _, a in listening])
+
+
+#: antenna-identity keys of position sets already checked (:func:`check_positions`)
+_POSITIONS_CHECKED: dict = {}
+#: id of a checked tuple of reflector antennas -> (the tuple, its emitter and receiver antenna ids, those antennas)
+_POSITIONS_CHECKED_TUPLES: dict = {}
+
+
+def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):
+    """The complex constant of a narrowband static link at ``fc_hz``, or None (the link's
+    ``narrowband_constant`` when it has one, else from ``static``/``method``/``constant_gain``,
+    remembered in ``memo`` for the step)."""
+    f = getattr(paths, "narrowband_constant", None)
+    if f is not None:
+        return f(fc_hz, bandwidth_hz, propagation)
+    key = (id(paths), fc_hz)
+    hit = memo.get(key, memo)
+    if hit is memo:
+        hit = None
+        if paths.static and paths.method(bandwidth_hz, propagation) == "narrowband":
+            hit = paths.constant_gain(fc_hz)
+        memo[key] = hit
+    return hit
+
+
+def through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwidth_hz: float,
+            propagation: str, memo: dict) -> tuple:
+    """``paths`` applied to ``x`` (default the segment's samples): ``(gain, None)`` for a
+    narrowband static link (one constant), else ``(None, samples)``."""
+    g = link_constant(paths, fc_hz, bandwidth_hz, propagation, memo)
+    if g is not None:
+        return g, None
+    method = paths.method(bandwidth_hz, propagation)
+    src = seg.samples if x is None else x
+    # The step asks its links at its own start (``Links.paths(..., t_s=t0_s)``), and a link's
+    # Doppler phases refer to the time it was evaluated at, so every segment of the step (all
+    # on the step's time base) starts at t = 0 of its links.
+    if src.ndim == 1:
+        return None, paths.apply(src, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=0.0, method=method)
+    flat = src.reshape(-1, src.shape[-1])
+    y = np.stack([paths.apply(r, fs_hz=seg.fs_hz, fc_hz=fc_hz, t0_s=0.0, method=method) for r in flat])
+    return None, y.reshape(src.shape)
+
+
+def require_link(links, tx, rx, *, fc_hz, t_s, what: str):
+    p = links.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
+    if p is None:
+        raise ConfigError("air.links", what, "a link for every emitter → reflector/receiver and "
+                                             "reflector → receiver pair")
+    return p

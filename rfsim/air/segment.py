@@ -1,0 +1,101 @@
+"""Segments of the air step: complex baseband samples in √W on a carrier, on one time base.
+
+A :class:`Segment` is what an emitter radiates, what a reflector sees incident and what a
+receiver gets (:func:`rfsim.air.step.propagate`); a *scaled copy* (``Segment.scaled``) holds a
+base segment and a complex gain, its samples formed only when asked (the narrowband, static
+links of the step). :func:`carrier_shift` moves a baseband to another carrier's baseband.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rfsim.core.errors import ConfigError
+
+__all__ = ["Segment", "carrier_shift"]
+
+
+class Segment:
+    """A waveform segment: complex baseband samples in √W on a carrier.
+
+    Parameters
+    ----------
+    t0_s : absolute time of sample 0 [s]
+    fs_hz : sample rate [Hz]
+    fc_hz : carrier frequency of the baseband [Hz]
+    samples : (..., n) complex128 [√W] (leading batch dimensions allowed), or None together
+        with ``base``/``gain``
+    base, gain : a scaled copy ``gain · base.samples`` (``Segment.scaled``), formed only when
+        :attr:`samples` is read
+
+    ``memo`` is a dict for data derived from the samples that several devices share (a
+    reflector's decoding of a segment it sees scaled copies of); it belongs to the segment.
+    """
+
+    __slots__ = ("t0_s", "fs_hz", "fc_hz", "_samples", "base", "gain", "memo", "n_samples")
+
+    def __init__(self, t0_s: float, fs_hz: float, fc_hz: float, samples=None, *, base: "Segment | None" = None,
+                 gain: complex = 1.0):
+        self.t0_s, self.fs_hz, self.fc_hz = float(t0_s), float(fs_hz), float(fc_hz)
+        if not self.fs_hz > 0:
+            raise ConfigError("segment.fs_hz", fs_hz, "a sample rate > 0 Hz")
+        self.memo: dict = {}
+        if base is not None:
+            if samples is not None:
+                raise ValueError("give samples or base, not both")
+            while base.base is not None:  # a scaled copy of a scaled copy
+                gain = gain * base.gain
+                base = base.base
+            self.base, self.gain, self._samples = base, complex(gain), None
+            self.n_samples = base.n_samples
+            return
+        x = np.asarray(samples)
+        if x.ndim < 1 or x.shape[-1] < 1:
+            raise ConfigError("segment.samples", x.shape, "an array (..., n) with n ≥ 1 samples")
+        if x.dtype != np.complex128:
+            x = x.astype(np.complex128)
+        self.base, self.gain, self._samples = None, 1.0 + 0j, x
+        self.n_samples = int(x.shape[-1])
+
+    @classmethod
+    def scaled(cls, base: "Segment", gain: complex, fc_hz: float | None = None) -> "Segment":
+        """``gain · base`` on the time base of ``base`` (samples formed lazily)."""
+        if base.base is not None:
+            return cls(base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else fc_hz, base=base, gain=gain)
+        out = cls.__new__(cls)  # the hot path of the air step: no re-validation of a valid base
+        out.t0_s, out.fs_hz, out.fc_hz = base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else float(fc_hz)
+        out.base, out.gain, out._samples, out.memo, out.n_samples = base, complex(gain), None, {}, base.n_samples
+        return out
+
+    @property
+    def samples(self) -> np.ndarray:
+        """(..., n) complex128 [√W]."""
+        if self._samples is None:
+            self._samples = self.gain * self.base.samples
+        return self._samples
+
+    @property
+    def batch_shape(self) -> tuple:
+        """Leading (batch) dimensions of the samples."""
+        src = self.base if self.base is not None else self
+        return tuple(src._samples.shape[:-1])
+
+    @property
+    def end_s(self) -> float:
+        """Time just after the last sample [s]."""
+        return self.t0_s + self.n_samples / self.fs_hz
+
+    def same_time_base(self, t0_s: float, fs_hz: float, n_samples: int) -> bool:
+        return self.t0_s == float(t0_s) and self.fs_hz == float(fs_hz) and self.n_samples == int(n_samples)
+
+    def __repr__(self) -> str:
+        kind = "scaled" if self.base is not None else "samples"
+        return (f"Segment(t0_s={self.t0_s!r}, fs_hz={self.fs_hz!r}, fc_hz={self.fc_hz!r}, "
+                f"n_samples={self.n_samples}, {kind})")
+
+
+def carrier_shift(x: np.ndarray, offset_hz: float, *, t0_s: float, fs_hz: float) -> np.ndarray:
+    """``x·e^{j2π·Δ·t}`` with t = t0 + n/fs absolute time (phase reduced modulo one cycle)."""
+    n = x.shape[-1]
+    cycles = np.mod(offset_hz * t0_s, 1.0) + np.mod(offset_hz / fs_hz, 1.0) * np.arange(n)
+    return x * np.exp(2j * np.pi * np.mod(cycles, 1.0))

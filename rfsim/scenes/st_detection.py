@@ -1,0 +1,212 @@
+"""A reader's Query round to one tag with a sense-a-tag (ST) listening nearby, many placements
+as one batch (auris-sense-a-tag.md §3.3 "Detection-model data"; seed 003 L3811-3906).
+
+One round: the reader sends a Query (Q = 0, the link's DR, M, TRext) and keeps the CW on for
+an RN16 reply (:func:`rfsim.gen2.link.reply_window_s`); the tag
+(:class:`rfsim.devices.tag.PassiveTag`) receives it through its forward link, decodes it and
+answers its RN16 with Γ(t). One step of the air interface carries the round
+(:func:`rfsim.protocols.batch.propagate_batch`, the rounds of a batch at once): the reader's
+port (:class:`rfsim.protocols.engine.ReaderPort`: TX leakage, backscatter through the reciprocal
+forward link, receiver noise) decodes only when the tag replied, as
+:func:`rfsim.protocols.engine.run_exchange`. Only then the ST antennas (vertical dipoles,
+:func:`rfsim.devices.sense_a_tag.st_antenna_positions`) are received over the same channel, as
+receivers of the same step after the reader's port (their links drawn after the reader's, from
+the same stream; the tag's reaction replayed; no noise at the ST: its threshold decides), and
+the ST decodes with its technique (:func:`rfsim.devices.sense_a_tag_rows.detect_replies`).
+
+Every placement draws only from its own generators, so a batch gives, placement by placement,
+the rows of that placement alone. The carrier-independent geometry of the reader → tag,
+reader → SA_k and tag → SA_k links of a batch is evaluated at once
+(:func:`rfsim.channels.bulk.static_placements`, bit-identical to the channel's own).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.air import step as _air
+from rfsim.channels import bulk as _bulk
+from rfsim.channels import scene as _scene
+from rfsim.channels.antennas import Antenna, vertical_dipole
+from rfsim.detection.models import st_features
+from rfsim.devices import reader as _reader
+from rfsim.devices import sense_a_tag as _sense_a_tag
+from rfsim.devices import tag as _tag
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.sense_a_tag_rows import detect_replies
+from rfsim.devices.tag_config import TagConfig
+from rfsim.gen2 import commands as _commands
+from rfsim.gen2 import link as _link
+from rfsim.protocols import batch as _batch
+from rfsim.protocols import engine as _engine
+
+
+@dataclass(frozen=True)
+class Placement:
+    """Where one round's devices are: the tag (its antenna included) and the ST.
+
+    Attributes
+    ----------
+    tag_m : (3,) float64, tag position [m]
+    st_m : (3,) float64, ST centre [m]
+    st_azimuth_rad : azimuth of the ST's SA1 → SA2 axis [rad]
+    tag_antenna : the tag's antenna at ``tag_m``
+    """
+
+    tag_m: np.ndarray
+    st_m: np.ndarray
+    st_azimuth_rad: float
+    tag_antenna: Antenna
+
+
+@dataclass(frozen=True)
+class Devices:
+    """The configurations of one scene: reader, tag, ST, the reader's antenna and the scene.
+
+    ``scene`` is immutable and shared by every round of a batch.
+    """
+
+    reader: ReaderConfig
+    tag: TagConfig
+    st: SenseATagConfig
+    reader_antenna: Antenna
+    scene: _scene.Scene
+
+
+def run_rounds(devices: Devices, placements: list[Placement], rngs: list[list]) -> list[dict]:
+    """The rounds of many placements as one batch.
+
+    Parameters
+    ----------
+    devices : the scene's devices
+    placements : one :class:`Placement` per round
+    rngs : per round its generators; ``[1]`` the reader (hop table), ``[2]`` the tag, ``[3]``
+        the channel (all links), ``[4]`` the reader's receiver noise (the others unused)
+
+    Returns
+    -------
+    one dict per round: the features ``D_m``, ``d_m``, ``theta_rad``, ``phi_rad``
+    (:func:`rfsim.detection.st_features`), the positions (``tag_x_m`` …, ``st_x_m`` …,
+    ``st_orientation_rad``), ``channel_index``, ``frequency_hz``, ``tag_incident_power_dbm``,
+    ``tag_powered``, ``tag_replied``, ``reader_detected`` (the reader decoded the RN16 bits
+    exactly) and the ST outcomes of :func:`rfsim.devices.sense_a_tag_rows.detect_replies`
+    """
+    ra, sc = devices.reader_antenna, devices.scene
+    reader_tag = _bulk.static_placements(sc, ra, [p.tag_antenna for p in placements])
+    prepared = [prepare_round(devices, p, r, held) for p, r, held in zip(placements, rngs, reader_tag)]
+    airs = _batch.propagate_batch([p[0] for p in prepared])
+    # the features of the batch at once (element by element the same operations)
+    features = list(zip(*(v.tolist() for v in st_features([p.tag_m for p in placements],
+                                                           [p.st_m for p in placements]))))
+    rounds = [reader_outcome(devices, p, pl, air, f) for p, pl, air, f in zip(prepared, placements, airs, features)]
+    # the ST links of every round whose tag replied at once: reader → SA_k and tag → SA_k
+    steps = [r[1] for r in rounds if r[1] is not None]
+    sa = [a for step in steps for a in step[4]]
+    from_reader = _bulk.static_placements(sc, ra, sa)
+    from_tag = _bulk.static_placements(sc, [step[1] for step in steps for _ in step[4]], sa)
+    j = 0
+    for emitter, tag_ant, _, links, antennas, _, _ in steps:
+        for a in antennas:
+            links.channel.hold_placement(emitter.antenna, a, from_reader[j])
+            links.channel.hold_placement(tag_ant, a, from_tag[j])
+            j += 1
+    inputs = iter(st_inputs(steps))
+    listenings = [(None if step is None else next(inputs), tx, resp, bits) for _, step, tx, resp, bits in rounds]
+    t1_max = _link.t1(_link.profile(devices.reader.link_profile)).max_s
+    return [{**r[0], **det} for r, det in zip(rounds, detect_replies(devices.st, listenings, t1_max_s=t1_max))]
+
+
+def prepare_round(devices: Devices, placement: Placement, rngs: list, reader_tag: tuple | None = None) -> tuple:
+    """The air step of one round prepared (:class:`rfsim.protocols.batch.AirStep`: the
+    reader's segment, the tag, the reader's port; links drawn from ``rngs[3]``, the port's
+    noise from ``rngs[4]``) and the reader's segment: ``(step, tx)``. ``reader_tag``: the
+    carrier-independent geometry of the reader → tag link
+    (:func:`rfsim.channels.bulk.static_placements`; evaluated by the channel when None)."""
+    ra = devices.reader_antenna
+    reader = _reader.Reader(devices.reader, [ra], rng=rngs[1])
+    tag = _tag.PassiveTag(devices.tag, placement.tag_antenna, rng=rngs[2])
+    lk = reader.link
+    q, cw_after_s = query_round(lk)
+    tx = reader.transmit(q, t0_s=0.0, cw_after_s=cw_after_s)
+    port = _engine.ReaderPort(reader, ra, tx, reply_bits=16, expect_crc=False)
+    # links drawn in the step's order: reader→tag (held both ways), then reader→SA_k, tag→SA_k
+    channel = _scene.Channel(devices.scene)
+    if reader_tag is not None:
+        channel.hold_placement(ra, tag.antenna, reader_tag)
+    links = _air.LinkTable(channel, rng=rngs[3], reciprocal=True)
+    emitter = _air.FixedEmitter(ra, tx, device=reader)
+    step = _batch.AirStep([emitter], [tag], [port], links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
+                          rng=rngs[4], bandwidth_hz=2.0 * lk.blf_hz, decide=False)
+    return step, tx
+
+
+@functools.lru_cache(maxsize=8)
+def query_round(lk) -> tuple:
+    """The round's Query (Q = 0, the link's DR, M, TRext) and the CW after it [s] for an RN16
+    reply (:func:`rfsim.gen2.link.reply_window_s`) of the (immutable) link profile ``lk``."""
+    return _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0), _link.reply_window_s(lk, 16)
+
+
+def reader_outcome(devices: Devices, prepared: tuple, placement: Placement, air, features: tuple) -> tuple:
+    """The reader's read of a round of :func:`prepare_round` (only when the tag replied, as
+    :func:`rfsim.protocols.engine.run_exchange`): ``(record, ST step or None when the tag did
+    not reply, tx, tag response, RN16 bits or None)``; ``features``: the round's (D, d, θ, φ).
+    The ST step is an item of :func:`st_inputs`."""
+    step, tx = prepared
+    st = devices.st
+    emitter, tag, port, links = step.emitters[0], step.reflectors[0], step.receivers[0], step.links
+    resp = air.reflections[0]
+    replied = resp.gamma is not None
+    bits = np.asarray(resp.reply.bits, np.uint8) if replied else None
+    reader_ok = False
+    st_step = None
+    if replied:  # the reader decodes only when a tag replied, as run_exchange
+        read = port.receive(air.inputs[0])
+        reader_ok = read.bits is not None and read.success and np.array_equal(read.bits, bits)
+        sa_pos = _sense_a_tag.st_antenna_positions(placement.st_m, n_antennas=st.n_antennas, spacing_m=st.spacing_m,
+                                                   orientation_rad=placement.st_azimuth_rad)
+        st_step = (emitter, tag.antenna, resp, links, [vertical_dipole(p) for p in sa_pos], tx, port.reader.link)
+    big_d, small_d, theta, phi = features
+    tag_pos, st_pos = placement.tag_m, placement.st_m
+    record = dict(tag_x_m=tag_pos[0], tag_y_m=tag_pos[1], tag_z_m=tag_pos[2], st_x_m=st_pos[0],
+                  st_y_m=st_pos[1], st_z_m=st_pos[2], st_orientation_rad=placement.st_azimuth_rad, D_m=big_d,
+                  d_m=small_d, theta_rad=theta, phi_rad=phi, channel_index=tx.channel_index, frequency_hz=tx.fc_hz,
+                  tag_incident_power_dbm=float(resp.incident_power_dbm), tag_powered=bool(resp.powered),
+                  tag_replied=replied, reader_detected=bool(reader_ok))
+    return record, st_step, tx, resp, bits
+
+
+def st_inputs(st_steps: list) -> list[np.ndarray]:
+    """The ST antennas' inputs (k, n) from the listening start of many rounds, as one batch of
+    air steps: the ST antennas as the receivers of each round's step, after the reader's port
+    (no noise), the tag's reaction replayed (:class:`Replayed`)."""
+    steps = []
+    for emitter, tag_ant, resp, links, st_ants, tx, lk in st_steps:
+        steps.append(_batch.AirStep([emitter], [Replayed(tag_ant, resp)], [_air.AntennaPort(a) for a in st_ants],
+                                    links, t0_s=0.0, fs_hz=tx.fs_hz, n_samples=tx.samples.size,
+                                    bandwidth_hz=2.0 * lk.blf_hz, decide=False))
+    out = []
+    for st_step, st_air in zip(st_steps, _batch.propagate_batch(steps)):
+        tx = st_step[5]
+        i0 = _sense_a_tag.listen_start_sample(tx.cmd_end_s, t0_s=tx.t0_s, fs_hz=tx.fs_hz)
+        out.append(np.stack([seg.samples[i0:] for seg in st_air.inputs]))
+    return out
+
+
+class Replayed:
+    """A reflector that gives again the reaction a tag had in a step (its re-radiation on
+    the step's time base), without a second pass through the tag's state machine."""
+
+    def __init__(self, antenna, reflection):
+        self.antenna, self._reflection = antenna, reflection
+
+    def reflect(self, incident):
+        return self._reflection
+
+
+__all__ = ["Placement", "Devices", "run_rounds", "prepare_round", "query_round", "reader_outcome", "st_inputs",
+           "Replayed"]

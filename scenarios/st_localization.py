@@ -81,6 +81,7 @@ from typing import Literal
 
 import numpy as np
 
+from rfsim.core.columns import concat
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
@@ -93,7 +94,6 @@ from rfsim.core.lazy import lazy_import
 _dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _landmark_pf = lazy_import("rfsim.estimators.landmark_pf")
-_exciter_scene = lazy_import("rfsim.scenarios._exciter_scene")
 _st_figures = lazy_import("rfsim.scenarios._st_figures")
 
 NAME = "st-localization"
@@ -412,8 +412,8 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
                              "error_m": err})
     labels = [t[0] for t in case.trackers]
     order = sorted(range(len(est_rows)), key=lambda i: labels.index(est_rows[i]["tracker"][0]))
-    return {"periods": _exciter_scene.concat(periods), "detections": _exciter_scene.concat(detections),
-            "estimates": _exciter_scene.concat([est_rows[i] for i in order])}
+    return {"periods": concat(periods), "detections": concat(detections),
+            "estimates": concat([est_rows[i] for i in order])}
 
 
 def _task(args):
@@ -427,7 +427,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
         for g, a in enumerate(range(0, c.realizations, 10)):
             tasks.append((config, c, g, list(range(a, min(a + 10, c.realizations))), seed))
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
-    return {n: _exciter_scene.concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
+    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
 
 
 # ----------------------------------------------------------------------------- summary and run

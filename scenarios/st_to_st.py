@@ -12,7 +12,7 @@ with the PASS ST-room curves (as ``phase-cancellation``).
 
 The exchange (sample level, one :func:`rfsim.air.step.propagate` step per cell and repetition): the
 exciter emits CW; the transmitting ST (semi-passive, :class:`rfsim.devices.sense_a_tag.SenseATag`,
-its front end first, then its own schedule: :class:`rfsim.scenarios._exciter_scene.OwnSchedule`)
+its front end first, then its own schedule: :class:`rfsim.devices.own_schedule.OwnSchedule`)
 backscatters the frame of ch. 5 — the ASK-PSK stamp (``stamp_cycles`` subcarrier cycles
 S1/S2, then S1/S3) followed by 10 × '0' in Miller-2 (TRext pilot and the Gen2 preamble for
 synchronisation, L6011-6017) — through its three-state modulator S1 = Γ_B, S2 = Γ_A,
@@ -79,8 +79,11 @@ from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
 from rfsim.core.plots import figure_path, probability_errorbars, pyplot, save_figure
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, exciter_antenna, room, uniform_disc, unit_of)
+from rfsim.core.columns import unit_of
+from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
+from rfsim.devices.st_rows import RowsChain
+from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, room, uniform_disc
+from rfsim.scenes.links import BatchAntenna, BatchLink, DrawnLinks
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")

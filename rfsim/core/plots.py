@@ -43,6 +43,36 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
 __all__ = ["pyplot", "save_figure", "figure_path"]
 
 
+# --- generic figure pieces ------------------------------------------------------------------
+
+
+def step_cdf(ax, values, *, label: str | None = None) -> None:
+    """Draw the empirical CDF of ``values`` on ``ax`` as a step (k/n at the k-th smallest value);
+    nothing when ``values`` is empty."""
+    v = sorted(float(x) for x in values)
+    if v:
+        ax.step(v, [(k + 1) / len(v) for k in range(len(v))], where="post", label=label)
+
+
+def grouped_bars(ax, categories, groups, *, mark_label: str | None = None) -> None:
+    """Bars of several groups side by side per category, each bar with a black mark at a
+    reference value (e.g. a published one; NaN draws no mark).
+
+    ``groups``: (label, values, reference values) per group, values in the order of
+    ``categories``; ``mark_label`` labels the marks once in the legend.
+    """
+    n, width = len(groups), 0.8 / len(groups)
+    x = list(range(len(categories)))
+    for i, (label, values, marks) in enumerate(groups):
+        at = [c + (i - (n - 1) / 2) * width for c in x]
+        ax.bar(at, values, width * 0.9, label=label)
+        ax.plot(at, marks, "_", ms=16, mew=3, color="k", label=mark_label if i == 0 else None)
+    ax.set_xticks(x, categories)
+
+
+__all__ += ["step_cdf", "grouped_bars"]
+
+
 def draw_floor_plan(ax, bounds, *, walls=(), cells=(), readers=(), reference=()) -> None:
     """A localization floor plan on ``ax``: the area's outline ``bounds`` (xmin, ymin, xmax, ymax)
     [m], walls (n, 4) (x0, y0, x1, y1) [m] in brown, grid cells as grey dots, readers as red

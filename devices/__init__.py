@@ -18,6 +18,17 @@ sample-level device that listens to a reader segment and answers with Γ(t)
 Active RFID (Özkaya's 868 MHz beacons): the beacon tag (:mod:`rfsim.devices.active_tag`), its frame
 and MSK modulation (:mod:`rfsim.devices.msk_beacon`), the sample-level reader with its RSSI
 (:mod:`rfsim.devices.active_reader`) and the RSSI report stage (:mod:`rfsim.devices.rss_reader`).
+
+Module map of the rest: the reader's transmitter (:mod:`rfsim.devices.reader_tx`), BLF search
+(:mod:`rfsim.devices.reader_search`) and measurements (:mod:`rfsim.devices.reader_measure`); the
+tag's response record (:mod:`rfsim.devices.tag_response`), Gen2 values and the array state
+machine (:mod:`rfsim.devices.gen2_tag_values`, :mod:`rfsim.devices.gen2_tag_arrays`), the PASS
+replication tag (:mod:`rfsim.devices.pass_tag`); the sense-a-tag's settled levels
+(:mod:`rfsim.devices.st_levels`), detector choice (:mod:`rfsim.devices.st_detector`), dual-antenna
+pair coupling and techniques (:mod:`rfsim.devices.st_pair`), batched technique decoding
+(:mod:`rfsim.devices.sense_a_tag_rows`), the frame-level receive chain of an ST listening to a
+scheduled sender (:mod:`rfsim.devices.st_rows`) and a device's own transmit schedule
+(:mod:`rfsim.devices.own_schedule`).
 """
 
 from rfsim.core.lazy import lazy_exports

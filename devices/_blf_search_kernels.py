@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
+from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
                                           waveform_kernel)
 
@@ -94,6 +94,94 @@ def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
     return math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(en, 1e-300)))
 
 
+@njit_inline
+def _template_norms(coarse_tpl0, coarse_len):
+    """‖t_k‖ of every coarse template ``coarse_tpl0[k, :coarse_len[k]]``."""
+    norms = np.empty(coarse_len.size)
+    for k in range(coarse_len.size):
+        acc_n = 0.0
+        for i in range(coarse_len[k]):
+            acc_n += coarse_tpl0[k, i] * coarse_tpl0[k, i]
+        norms[k] = math.sqrt(acc_n)
+    return norms
+
+
+@njit_inline
+def _prefix_sums(r, p_e, p_s):
+    """Prefix sums of |r|² into ``p_e`` and of r into ``p_s`` (both ``(r.size + 1,)``, from 0)."""
+    p_e[0] = 0.0
+    p_s[0] = 0j
+    for i in range(r.size):
+        z = r[i]
+        p_e[i + 1] = p_e[i] + z.real * z.real + z.imag * z.imag
+        p_s[i + 1] = p_s[i] + z
+
+
+@njit_inline
+def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
+    """Coarse search: the largest correlation :func:`_corr` over the BLF grid × the lags
+    ``lo…hi``, the first wins ties; the lag refined by a parabola through the best lag's
+    neighbours (same BLF; ``cv`` (3,) scratch). Returns ``(corr, BLF index, lag, fraction of
+    a lag)``."""
+    nwin = r.size
+    cbest = -1.0
+    kbest = 0
+    lbest = lo
+    for k in range(coarse_len.size):
+        L = coarse_len[k]
+        for lag in range(lo, min(hi, nwin - L) + 1):
+            c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, p_s)
+            if c > cbest:
+                cbest, kbest, lbest = c, k, lag
+    # parabola through the best lag's neighbours (same BLF)
+    frac = 0.0
+    L = coarse_len[kbest]
+    if lbest > lo and lbest < min(hi, nwin - L):
+        for j in range(3):
+            cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
+        den = cv[0] - 2.0 * cv[1] + cv[2]
+        if den < 0:
+            frac = 0.5 * (cv[0] - cv[2]) / den
+    return cbest, kbest, lbest, frac
+
+
+@njit_inline
+def _steady_disturbance(r, ref, start, end, ratio, h, c, m, nh, n_pre_levels, n_bits):
+    """``(σ², σ_eff²)`` of the decoded reply (``ref`` its ±1 reference from ``start`` at
+    ``ratio`` elements per sample, fit r ≈ h·ref + c): the residual power over the steady
+    samples of the reply (both neighbours at the same level); and the disturbance that
+    reaches the decisions: per half-bit j, δ_j = Σ y_n·ref_n − |h|·N_j over its steady
+    samples, y_n = Re((r_n − c)·h*)/|h|, σ_eff² = 2·Σ δ_j² / Σ N_j over the data half-bits
+    (= σ² for white noise; in-band interference is not reduced by the matched filter's gain)."""
+    i0 = max(1, int(math.ceil(start)))
+    acc_e = 0.0
+    cnt = 0
+    habs = abs(h)
+    dsum = np.zeros(nh)
+    dcnt = np.zeros(nh)
+    for n in range(i0, end - 1):
+        v = ref[n]
+        if v == ref[n - 1] and v == ref[n + 1]:
+            z = r[n] - c
+            e = z - h * v
+            acc_e += e.real * e.real + e.imag * e.imag
+            cnt += 1
+            kel = int(math.floor((n - start) * ratio + 1e-9))
+            j = kel // m
+            if 0 <= j < nh and habs > 0:
+                yv = (z.real * h.real + z.imag * h.imag) / habs
+                dsum[j] += yv * v
+                dcnt[j] += 1.0
+    sigma2 = acc_e / cnt if cnt > 0 else math.nan
+    d2 = 0.0
+    nn = 0.0
+    for j in range(n_pre_levels, n_pre_levels + 2 * n_bits):  # the data half-bits
+        dj = dsum[j] - habs * dcnt[j]
+        d2 += dj * dj
+        nn += dcnt[j]
+    return sigma2, 2.0 * d2 / nn if nn > 0 else math.inf
+
+
 @njit
 def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, cur, prev, m,
                          n_bits, n_first_bits, fine_span, fine_per_side, target_first, fine_target, out_bits,
@@ -110,7 +198,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     phase down to 1/(4·its elements) (``fine_target`` for all bits). Outputs:
     bits, elements per sample, start [samples], coarse correlation, gain h, the residual
     power σ² over the reply's steady samples (both neighbours at the same level) and the
-    decision-domain disturbance σ_eff² of the data half-bits (see the comment in the code).
+    decision-domain disturbance σ_eff² of the data half-bits (:func:`_steady_disturbance`).
     """
     n_tr = rs.shape[0]
     nwin = rs.shape[1]
@@ -127,43 +215,14 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     ref = np.empty(nwin)
     best_ref = np.empty(nwin)
     tpl = np.empty(nwin)
-    n_k = coarse_ratios.size
     p_e = np.empty(nwin + 1)  # prefix sums of |r|² and r: sliding energy of every lag
     p_s = np.empty(nwin + 1, dtype=np.complex128)
-    norms = np.empty(n_k)
-    for k in range(n_k):
-        acc_n = 0.0
-        for i in range(coarse_len[k]):
-            acc_n += coarse_tpl0[k, i] * coarse_tpl0[k, i]
-        norms[k] = math.sqrt(acc_n)
+    norms = _template_norms(coarse_tpl0, coarse_len)
     cv = np.empty(3)
     for t in range(n_tr):
         r = rs[t]
-        p_e[0] = 0.0
-        p_s[0] = 0j
-        for i in range(nwin):
-            z = r[i]
-            p_e[i + 1] = p_e[i] + z.real * z.real + z.imag * z.imag
-            p_s[i + 1] = p_s[i] + z
-        # --- coarse: BLF grid × T1 lags
-        cbest = -1.0
-        kbest = 0
-        lbest = lo
-        for k in range(n_k):
-            L = coarse_len[k]
-            for lag in range(lo, min(hi, nwin - L) + 1):
-                c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, p_s)
-                if c > cbest:
-                    cbest, kbest, lbest = c, k, lag
-        # parabola through the best lag's neighbours (same BLF)
-        frac = 0.0
-        L = coarse_len[kbest]
-        if lbest > lo and lbest < min(hi, nwin - L):
-            for j in range(3):
-                cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
-            den = cv[0] - 2.0 * cv[1] + cv[2]
-            if den < 0:
-                frac = 0.5 * (cv[0] - cv[2]) / den
+        _prefix_sums(r, p_e, p_s)
+        cbest, kbest, lbest, frac = _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv)
         ratio_c = coarse_ratios[kbest]
         centre = lbest + frac + 0.5 * n_pre_el / ratio_c
         out_corr[t] = cbest
@@ -235,35 +294,6 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
         out_ratio[t] = best_ratio
         out_start[t] = best_start
         out_h[t] = best_h
-        # residual power over the steady samples of the reply (both neighbours at the same
-        # level); and the disturbance that reaches the decisions: per half-bit j,
-        # δ_j = Σ y_n·ref_n − |h|·N_j over its steady samples, y_n = Re((r_n − c)·h*)/|h|,
-        # σ_eff² = 2·Σ δ_j² / Σ N_j (= σ² for white noise; in-band interference is not
-        # reduced by the matched filter's gain)
-        i0 = max(1, int(math.ceil(best_start)))
-        acc_e = 0.0
-        cnt = 0
-        habs = abs(best_h)
-        dsum = np.zeros(nh)
-        dcnt = np.zeros(nh)
-        for n in range(i0, best_end - 1):
-            v = best_ref[n]
-            if v == best_ref[n - 1] and v == best_ref[n + 1]:
-                z = r[n] - best_c
-                e = z - best_h * v
-                acc_e += e.real * e.real + e.imag * e.imag
-                cnt += 1
-                kel = int(math.floor((n - best_start) * best_ratio + 1e-9))
-                j = kel // m
-                if 0 <= j < nh and habs > 0:
-                    yv = (z.real * best_h.real + z.imag * best_h.imag) / habs
-                    dsum[j] += yv * v
-                    dcnt[j] += 1.0
-        out_sigma2[t] = acc_e / cnt if cnt > 0 else math.nan
-        d2 = 0.0
-        nn = 0.0
-        for j in range(pre_levels.size, pre_levels.size + 2 * n_bits):  # the data half-bits
-            dj = dsum[j] - habs * dcnt[j]
-            d2 += dj * dj
-            nn += dcnt[j]
-        out_sigma2_bit[t] = 2.0 * d2 / nn if nn > 0 else math.inf
+        # σ² over the reply's steady samples, and the disturbance that reaches the decisions
+        out_sigma2[t], out_sigma2_bit[t] = _steady_disturbance(r, best_ref, best_start, best_end, best_ratio, best_h,
+                                                               best_c, m, nh, pre_levels.size, n_bits)

@@ -55,32 +55,34 @@ the d_tt values (one step); the points' draws are independent across k.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
-from rfsim.devices.exciter import Exciter, ExciterConfig
-from rfsim.devices.sense_a_tag_config import SenseATagConfig
-from rfsim.devices.tag_config import TagConfig
-from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
+from rfsim.core.columns import concat, unit_of
 from rfsim.core.config import param
-from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError
+from rfsim.core.lazy import lazy_import
+from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.procs import map_in_order
 from rfsim.core.references import cite
-from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, concat, exciter_antenna, room, unit_of)
-from rfsim.core.lazy import lazy_import
+from rfsim.detection.tag_to_tag import fit_eq65
+from rfsim.devices.exciter import Exciter, ExciterConfig
+from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
+from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.st_rows import RowsChain
+from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB
+from rfsim.devices.tag_config import TagConfig
+from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, measured_tag, room, single_listener, tag_broadcast_step
+from rfsim.scenes.links import BatchAntenna
 
 _antennas = lazy_import("rfsim.channels.antennas")
-_bulk = lazy_import("rfsim.channels.bulk")
 sa = lazy_import("rfsim.devices.st_analytic")
 _sense_a_tag = lazy_import("rfsim.devices.sense_a_tag")
 _tag = lazy_import("rfsim.devices.tag")
-_air = lazy_import("rfsim.air.step")
 _dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 _bits = lazy_import("rfsim.gen2.bits")
@@ -128,10 +130,6 @@ class TagModelConfig:
     word: int = param(0x0A5C, lo=0, hi=0xFFFF, doc="16-bit word the tag broadcasts (followed by its CRC-16)")
 
 
-def _listener_default() -> SenseATagConfig:
-    return SenseATagConfig(n_antennas=1, technique="single")
-
-
 @dataclass(frozen=True)
 class Config:
     sweep: SweepConfig = param(SweepConfig(), doc="distances and draws")
@@ -140,7 +138,7 @@ class Config:
     frame: FrameConfig = param(FrameConfig(), doc="the tag's frame (sample rate, BLF, line code)")
     tag: TagConfig = param(TagConfig(), doc="the broadcasting tag")
     tag_model: TagModelConfig = param(TagModelConfig(), doc="tag physics and payload")
-    listener: SenseATagConfig = param(_listener_default(), doc="listener receive chain (threshold, detector gain)")
+    listener: SenseATagConfig = param(single_listener(), doc="listener receive chain (threshold, detector gain)")
     noise: NoiseConfig = param(NoiseConfig(), doc="receiver noise")
 
     def __post_init__(self):
@@ -163,11 +161,10 @@ def payload(config: Config) -> np.ndarray:
 
 
 def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
+    """The broadcasting tag at ``antenna`` by ``tag_model.model`` (module docstring)."""
     tm = config.tag_model
-    if tm.model == "measured":
-        # PASS tag: Γ·incident (no structural term); its chip sets the states and power-up
-        return _tag.PassiveTag(replace(config.tag, structural_mode=0.0), antenna, rng=rng,
-                               chip=PowerDependentChip.pass_default(margin_db=tm.power_margin_db))
+    if tm.model == "measured":  # PASS tag: Γ·incident, its chip sets the states and power-up
+        return measured_tag(antenna, rng=rng, tag=config.tag, margin_db=tm.power_margin_db)
     return _tag.PassiveTag(config.tag, antenna, rng=rng)
 
 
@@ -179,8 +176,8 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
     n = d_tt.size
     frame = build_frame(payload(config), fr, stamp_cycles=0)
     rx = _sense_a_tag.make_receiver(config.listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
-    ex_ant = exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m)
-    exciter = Exciter(config.exciter, ex_ant, rng=trial_rng(seed, row, 0, 4))
+    exciter = Exciter(config.exciter, exciter_antenna(g.exciter_antenna, g.exciter_gain_dbi, g.height_m),
+                      rng=trial_rng(seed, row, 0, 4))
     tag_pos = np.array([d_e, 0.0, g.height_m])
     tag_ant = _antennas.vertical_dipole(tag_pos)
     template = _antennas.vertical_dipole(np.zeros(3))
@@ -190,21 +187,12 @@ def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
     parts, inputs = [], []
     for k in range(sw.n_draws):
         phi = trial_rng(seed, row, k, 0).uniform(-np.pi, np.pi, n)
-        lis_pos = tag_pos + np.stack([d_tt * np.cos(phi), d_tt * np.sin(phi), np.zeros(n)], axis=1)
-        lis = BatchAntenna(template, lis_pos)
+        lis = BatchAntenna(template, tag_pos + np.stack([d_tt * np.cos(phi), d_tt * np.sin(phi), np.zeros(n)], axis=1))
         device = make_tag(config, tag_ant, trial_rng(seed, row, k, 3))
-        tag = OwnSchedule(device, frame)
-        lrng = trial_rng(seed, row, k, 1)
-        links = DrawnLinks()
-        links.add(ex_ant, tag_ant, _bulk.draw_links(sc, ex_ant.position_m, tag_pos, fc_hz=fc, rng=lrng, tx_antenna=ex_ant,
-                                                    rx_antenna=tag_ant).pathset(0))
-        links.add(ex_ant, lis, BatchLink(_bulk.draw_links(sc, ex_ant.position_m, lis_pos, fc_hz=fc, rng=lrng,
-                                                          tx_antenna=ex_ant, rx_antenna=template)))
-        links.add(tag_ant, lis, BatchLink(_bulk.draw_links(sc, tag_pos, lis_pos, fc_hz=fc, rng=lrng, tx_antenna=tag_ant,
-                                                           rx_antenna=template)))
-        air = _air.propagate([exciter], [tag], [_air.AntennaPort(lis, noise_power_w=noise_w)], links, t0_s=0.0,
-                             fs_hz=fr.fs_hz, n_samples=frame.n_samples, rng=trial_rng(seed, row, k, 2),
-                             bandwidth_hz=2.0 * fr.blf_hz, decide=False, keep_components=True)
+        air = tag_broadcast_step(sc, exciter, OwnSchedule(device, frame), lis, fc_hz=fc, fs_hz=fr.fs_hz,
+                                 n_samples=frame.n_samples, bandwidth_hz=2.0 * fr.blf_hz, noise_power_w=noise_w,
+                                 link_rng=trial_rng(seed, row, k, 1), noise_rng=trial_rng(seed, row, k, 2),
+                                 keep_components=True)
         resp = air.reflections[0]
         op = device.operating_point
         cw = V_PER_SQRT_W * np.broadcast_to(air.direct[0][..., i1], (n,))
@@ -268,45 +256,6 @@ def point_grid(samples, d_e, d_tt) -> dict[str, np.ndarray]:
     out["draws"] = out["draws"].astype(int)
     out["decoded_count"] = out["decoded_count"].astype(int)
     return out
-
-
-@dataclass(frozen=True)
-class Eq65Fit:
-    """Eq. (6.5) fitted on one set of points: p = 1/(1 + exp(x·a)).
-
-    coefficients, stderr : (k,) a and its standard errors (NaN when the fit has no finite
-    maximum); status : "ok" or why not; d50_m, d50_stderr_m : −a1/a2 and its delta-method
-    standard error (2-coefficient model only)."""
-
-    coefficients: np.ndarray
-    stderr: np.ndarray
-    status: str
-    d50_m: float = float("nan")
-    d50_stderr_m: float = float("nan")
-
-
-def fit_eq65(design, decoded_count, draws) -> Eq65Fit:
-    """Maximum-likelihood fit of p = 1/(1 + exp(x·a)) (Eq. 6.5, binary-detection.md §1.11) on
-    k decodes out of m draws per row of ``design`` (:func:`rfsim.detection.fit_logistic`).
-
-    With the design [1, d]: d50 = −a1/a2 (p = 0.5) and
-    Var(d50) = (Var a1 + d50²·Var a2 + 2·d50·Cov(a1, a2)) / a2² (delta method)."""
-    x = np.asarray(design, float)
-    k, m = np.asarray(decoded_count, float), np.asarray(draws, float)
-    nan = np.full(x.shape[1], np.nan)
-    if k.sum() == 0 or k.sum() == m.sum():
-        return Eq65Fit(nan, nan, "nothing decoded" if k.sum() == 0 else "everything decoded")
-    try:
-        f = _detection.fit_logistic(x, k, m)
-    except UserError as err:
-        return Eq65Fit(nan, nan, str(err))
-    if x.shape[1] != 2:
-        return Eq65Fit(f.coefficients, f.stderr, "ok")
-    a1, a2 = f.coefficients
-    d50 = -a1 / a2
-    c = f.covariance
-    var = (c[0, 0] + d50 * d50 * c[1, 1] + 2.0 * d50 * c[0, 1]) / (a2 * a2)
-    return Eq65Fit(f.coefficients, f.stderr, "ok", float(d50), float(math.sqrt(max(var, 0.0))))
 
 
 def fits(grid, d_e, d_tt) -> dict:
@@ -446,5 +395,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     return [save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"))]
 
 
-__all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "simulate_row", "point_grid", "fit_eq65", "fits",
-           "Eq65Fit", "payload"]
+__all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "simulate_row", "point_grid", "fits", "payload"]

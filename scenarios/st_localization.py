@@ -38,6 +38,7 @@ from typing import Literal
 
 import numpy as np
 
+from rfsim.core.columns import concat
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
@@ -51,7 +52,6 @@ from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
-_exciter_scene = lazy_import("rfsim.scenarios._exciter_scene")
 _st_figures = lazy_import("rfsim.scenarios._st_figures")
 
 NAME = "st-localization"
@@ -195,9 +195,9 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
                                      rngs=[trial_rng(seed, case.index, 1000 + group, k) for k in range(n)])
         est = [{k: v[i:i + 1] for k, v in est.items()} for i in range(len(chunk))]
     rows = [tracks.estimate_rows(case.index, b, d, {k: x[0] for k, x in e.items()}) for b, d, e in zip(bs, chunk, est)]
-    return {"periods": _exciter_scene.concat([tracks.period_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
-            "detections": _exciter_scene.concat([tracks.detection_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
-            "estimates": _exciter_scene.concat([r[k] for k in range(len(case.trackers)) for r in rows])}
+    return {"periods": concat([tracks.period_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
+            "detections": concat([tracks.detection_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
+            "estimates": concat([r[k] for k in range(len(case.trackers)) for r in rows])}
 
 
 def _task(args):
@@ -209,7 +209,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
     tasks = [(config, c, g, list(range(a, min(a + 10, c.realizations))), seed) for c in cases(config)
              for g, a in enumerate(range(0, c.realizations, 10))]
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
-    return {n: _exciter_scene.concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
+    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
 
 
 def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:

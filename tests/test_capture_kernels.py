@@ -9,9 +9,10 @@ import pytest
 from rfsim.gen2.capture import envelope_levels, load_capture, plausible_frames
 from rfsim.gen2.linecode import halfsymbols, reply_waveform
 from rfsim.gen2.pie import pie_decode_arrays
-from rfsim.gen2.replies import (LinkHypothesis, _fine, _fine_reference, _n_pre_elements, _search,
-                                _decode_window, _decode_window_reference, _n_bits_rule, _track_decode,
-                                _track_decode_reference, preamble_correlation)
+from rfsim.gen2.replies import _n_bits_rule
+from rfsim.gen2.reply_decoding import (_decode_window, _decode_window_python, _fine, _fine_python, _track_decode,
+                                       _track_decode_python)
+from rfsim.gen2.reply_search import LinkHypothesis, _n_pre_elements, _search, preamble_correlation
 from rfsim.gen2.reply_tracking import (_block_correlations, track, track_reference,
                                        weighted_polyfit)
 from rfsim.core.rng import trial_rng
@@ -102,7 +103,7 @@ def test_fine_kernel_matches_twin(m, trext, method):
     centre = 60e-6 * fs + 0.5 * _n_pre_elements(m, trext) * fs / (2.0 * blf)
     blfs = 160e3 * (1.0 + 0.002 * np.arange(-8, 9))
     got = _fine(r, centre, 16, m, trext, blfs, fs, method)
-    want = _fine_reference(r, centre, 16, m, trext, blfs, fs, method)
+    want = _fine_python(r, centre, 16, m, trext, blfs, fs, method)
     assert got[0] == want[0] and got[2] == pytest.approx(want[2], abs=1e-9)
     assert np.array_equal(got[1], want[1]) and np.array_equal(got[1], bits)
     assert _fine(r, -1e6, 16, m, trext, blfs, fs, method) is None  # every start outside the window
@@ -190,7 +191,7 @@ def test_track_decode_kernel_matches_twin(m, trext, method, blf_error, drift_u2,
     s = np.where((u >= 0) & (k < el.size), el[np.clip(k, 0, el.size - 1)], -1.0)
     r = 0.4 - 0.1j + (0.05 + 0.08j) * s + 0.01 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
     args = (r, fs, blf, bits, 120.4, truncated, m, trext, method)
-    got, want = _track_decode(*args), _track_decode_reference(*args)
+    got, want = _track_decode(*args), _track_decode_python(*args)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[0], bits)
     np.testing.assert_allclose(got[1:4], want[1:4], rtol=1e-9, atol=1e-13)
     assert got[5] == want[5] == 120
@@ -222,7 +223,7 @@ def test_decode_window_kernel_matches_twin(m, trext, kind, cut_samples, method):
     found, _ = _search(r, fs, [LinkHypothesis(m, trext, 0.85 * 256e3, 1.15 * 256e3)], lambda b: 80, lambda b: 160)
     rule = _n_bits_rule(kind, ReaderCommandRecord(start_s=0.0, name="ACK", bits=""))
     got = _decode_window(r, fs, found, rule, method)
-    want = _decode_window_reference(r, fs, found, rule, method)
+    want = _decode_window_python(r, fs, found, rule, method)
     assert got is not None and want is not None
     assert np.array_equal(got["bits"], want["bits"])
     assert got["truncated"] == want["truncated"] == (cut_samples is not None) and got["n_full"] == want["n_full"]

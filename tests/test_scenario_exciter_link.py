@@ -21,6 +21,7 @@ from rfsim.devices.tag import TagConfig
 from rfsim.cli import main
 from rfsim.core.dataset import read_dataset, read_table
 from rfsim.detection import ts_design
+from rfsim.detection.tag_to_tag import fit_eq65
 from rfsim.runs.runner import run_scenario
 from rfsim.scenarios import exciter_link as el
 
@@ -137,7 +138,7 @@ def test_eq65_fit_recovers_known_coefficients_with_honest_errors():
     rng = np.random.default_rng(11)
     est, se, d50, d50_se = [], [], [], []
     for _ in range(300):
-        f = el.fit_eq65(ts_design(d), rng.binomial(m, p), m)
+        f = fit_eq65(ts_design(d), rng.binomial(m, p), m)
         assert f.status == "ok"
         est.append(f.coefficients)
         se.append(f.stderr)
@@ -153,9 +154,9 @@ def test_eq65_fit_recovers_known_coefficients_with_honest_errors():
 
 def test_eq65_fit_reports_separated_data():
     d = np.array([0.1, 0.5, 1.0])
-    none = el.fit_eq65(ts_design(d), [0, 0, 0], [5, 5, 5])
+    none = fit_eq65(ts_design(d), [0, 0, 0], [5, 5, 5])
     assert none.status == "nothing decoded" and np.all(np.isnan(none.coefficients))
-    split = el.fit_eq65(ts_design(d), [5, 5, 0], [5, 5, 5])  # perfectly separated: no finite maximum
+    split = fit_eq65(ts_design(d), [5, 5, 0], [5, 5, 5])  # perfectly separated: no finite maximum
     assert split.status != "ok" and np.isnan(split.d50_m)
 
 

@@ -10,8 +10,9 @@ import pytest
 
 from rfsim.cli import main
 from rfsim.core.rng import trial_rng
-from rfsim.scenarios import _t2t_network as net
-from rfsim.scenarios import _t2t_physical as ph
+from rfsim.protocols.tag_to_tag import aloha_schedule
+from rfsim.scenes import reference_tags as ph
+from rfsim.scenes.aisle import simulate_motion
 from rfsim.scenarios import tag_to_tag_tracking as t2t
 
 PUBLISHED = {  # Table 6.2, seeds/004 L1247-L1249 (copied from the source, not from the module)
@@ -24,7 +25,7 @@ PUBLISHED = {  # Table 6.2, seeds/004 L1247-L1249 (copied from the source, not f
 def test_every_tag_broadcasts_once_per_period_and_collisions_follow_aloha():
     """L tags, S slots: P(collision) = 1 − (1 − 1/S)^(L−1); 2000 periods × 10 tags = 20000
     broadcasts, binomial std ≈ 0.0026 — tolerance 4 σ."""
-    b = net.aloha_schedule(trial_rng(3, 0), n_tags=10, duration_s=1000.0, period_s=0.5, n_slots=20)
+    b = aloha_schedule(trial_rng(3, 0), n_tags=10, duration_s=1000.0, period_s=0.5, n_slots=20)
     counts = np.bincount(b["period"] * 10 + b["tag"])
     assert counts.size == 20000 and np.all(counts == 1)
     assert np.all(np.diff(b["t_s"]) >= 0)
@@ -33,8 +34,8 @@ def test_every_tag_broadcasts_once_per_period_and_collisions_follow_aloha():
 
 
 def test_motion_stays_between_the_shelves_and_starts_at_the_portal():
-    t, s = net.simulate_motion(trial_rng(1, 0), duration_s=60.0, dt_s=0.05, start_xy_m=(0.0, 0.0),
-                               speed_range_mps=(0.1, 1.0), accel_var=0.5, y_limit_m=0.9)
+    t, s = simulate_motion(trial_rng(1, 0), duration_s=60.0, dt_s=0.05, start_xy_m=(0.0, 0.0),
+                           speed_range_mps=(0.1, 1.0), accel_var=0.5, y_limit_m=0.9)
     assert t.size == 1201 and s[0, 0] == 0 and 0.1 <= s[0, 1] <= 1.0
     assert np.max(np.abs(s[:, 2])) <= 0.9 and np.max(np.abs(s[:, 2])) > 0.5  # it did reach a shelf
 

@@ -1,6 +1,7 @@
-"""The air interface: segments (:mod:`~rfsim.air.segment`), the one propagation step
-(:mod:`~rfsim.air.step`) with the devices' protocols (:mod:`~rfsim.air.roles`), its links
-(:mod:`~rfsim.air.links`), reflector groups (:mod:`~rfsim.air.groups`) and fused backscatter
-fast path (:mod:`~rfsim.air.fused`), receiver noise (:mod:`~rfsim.air.noise`), carrier plans (:mod:`~rfsim.air.carriers`) and the passband
-cross-check (:mod:`~rfsim.air.passband`). Imports only ``rfsim.core``; meets devices through protocols.
+"""The air interface: segments (:mod:`~rfsim.air.segment`), the roles devices play and their
+protocols (:mod:`~rfsim.air.roles`), links (:mod:`~rfsim.air.links`), reflector groups
+(:mod:`~rfsim.air.groups`), the one propagation step in stages (:mod:`~rfsim.air.step`) with its
+fused backscatter strategy (:mod:`~rfsim.air.fused`), receiver noise (:mod:`~rfsim.air.noise`),
+carrier plans (:mod:`~rfsim.air.carriers`) and the passband cross-check (:mod:`~rfsim.air.passband`).
+Imports only ``rfsim.core``; meets devices through the protocols of :mod:`~rfsim.air.roles`.
 """

@@ -7,6 +7,10 @@ regression, cross-entropy, moment and maximum-likelihood fits of the DA model, b
 empirical probabilities with Wilson intervals. :mod:`~rfsim.detection.tables`: fit tables (every
 model fitted beside the published one, with standard errors and cross-entropies or
 log-likelihoods) and their column units and descriptions.
+
+:mod:`~rfsim.detection.tag_to_tag`: the tag-to-tag decode-probability model of Eq. (6.5) and its fit.
+:mod:`~rfsim.detection.landmark_rts`: the RTS surrogate of a sense-a-tag detecting landmark tags
+round by round (Bernoulli draws, antenna selection, the trackers' likelihood model).
 """
 
 from rfsim.detection.fit import (DA_PARAMETER_NAMES, BinnedProbability, LogisticFit,

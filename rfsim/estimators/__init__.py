@@ -8,7 +8,9 @@ brute-force references. They are references for validating datasets, not a track
 HIMR: state-space models and observability (:mod:`~rfsim.estimators.himr_model`), CARE-gain
 observers and diagnostics (:mod:`~rfsim.estimators.observer`), the outage cases
 (:mod:`~rfsim.estimators.himr_cases`) and a geometric measurement surrogate for tests
-(:mod:`~rfsim.estimators.himr_surrogate`).
+(:mod:`~rfsim.estimators.himr_surrogate`). Landmark tracking: PF-BIN, PF-AA and WCL
+(:mod:`~rfsim.estimators.landmark_pf`) and per-step RMS errors over runs
+(:mod:`~rfsim.estimators.track_errors`).
 
 The public names are listed one per line (so that independent additions merge), each
 imported from its module on first use; ``__all__`` is every listed name.
@@ -55,6 +57,14 @@ _SOURCES = {
     ),
     "bounds": (
         "log_distance_crlb",
+    ),
+    "rss_localization": (
+        "reflect_into",
+        "rss_sir",
+        "estimate_simulation",
+        "smooth_rssi",
+        "estimate_home",
+        "error_statistics",
     ),
     "observer": (
         "care_gain",

@@ -7,6 +7,10 @@ Modules: :mod:`~rfsim.gen2.bits` (bit arrays), :mod:`~rfsim.gen2.crc` (CRC-5/CRC
 :mod:`~rfsim.gen2.linecode` (FM0/Miller encoders, sampled replies, coherent and Viterbi
 decoders), :mod:`~rfsim.gen2.capture` (reader commands in recorded waveforms) and
 :mod:`~rfsim.gen2.replies` (tag replies in recorded waveforms).
+
+Capture decoding of tag replies is split by step: detection (:mod:`~rfsim.gen2.reply_search`),
+decoding (:mod:`~rfsim.gen2.reply_decoding`), block tracking (:mod:`~rfsim.gen2.reply_tracking`)
+and the records (:mod:`~rfsim.gen2.replies`, :mod:`~rfsim.gen2.capture_records`).
 """
 
 from rfsim.core.lazy import lazy_exports

@@ -1,12 +1,12 @@
-"""numba kernels of the capture reply decoder (wrapped and documented in
-:mod:`rfsim.gen2.replies`; their plain-NumPy twins are ``_fine_reference``, ``_track_decode_reference``
-and ``_decode_window_reference`` there, and ``reference.gen2_replies._search_reference`` in the tests).
+"""numba kernels of the capture reply decoder's steps 3–5 (wrapped and documented in
+:mod:`rfsim.gen2.reply_decoding`; their plain-NumPy twins are ``_fine_python``,
+``_track_decode_python`` and ``_decode_window_python`` there). The preamble search of step 2
+is in :mod:`rfsim.gen2._reply_search_kernels`.
 
-``preamble_search_kernel`` and ``fine_kernel`` fuse, per BLF hypothesis, what the twins do
-with several NumPy calls: the preamble template (the element sequence of
-:mod:`rfsim.gen2.linecode` sampled with ``waveform_kernel``), the zero-mean normalised
-correlation, the coherent decoding of :func:`rfsim.gen2.linecode.decode_reply` at a known
-start (half-bit sums, Viterbi or bit-by-bit decisions) and the least-squares residual of
+``fine_kernel`` fuses, per BLF hypothesis, what the twins do with several NumPy calls: the
+preamble template (the element sequence of :mod:`rfsim.gen2.linecode` sampled with
+``waveform_kernel``), the coherent decoding of :func:`rfsim.gen2.linecode.decode_reply` at a
+known start (half-bit sums, Viterbi or bit-by-bit decisions) and the least-squares residual of
 the remodulated reply. ``track_decode_kernel`` is step 4 (fit, tracking loop, resampling
 on the tag's clock, decoding again) and ``decode_window_kernel`` steps 3–5 of a window in
 one call each, so that a reply costs one kernel call after its detection.
@@ -18,115 +18,10 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
+from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
                                         viterbi_kernel, waveform_kernel)
-
-
-@njit
-def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_element, out_corr):
-    """Largest zero-mean normalised preamble correlation over BLFs and lags.
-
-    For BLF ``blfs[j]`` (skipped when 2·BLF·``min_samples_per_element`` > fs) the template
-    t is ``pre_el`` (pilot + preamble elements) sampled at ρ = 2·BLF/fs from lag 0 over its
-    n = floor(n_pre·fs/(2·BLF)) samples, t0 = t − mean(t); the lags k = ``lo[j] …
-    min(hi[j], r.size − n_rep[j])`` are tested with c = |Σ r[k+i]·t0[i]| / (‖t0‖·‖r_k −
-    mean r_k‖). The template is constant over each element, so with the cumulative sums
-    C of r and P of |r|² every lag costs one term per run of equal template samples
-    (Σ t[i]·r[k+i] = Σ_runs t_run·(C[k + end] − C[k + begin])) instead of one per sample:
-    O(lags · preamble elements), independent of the sample rate. ``out_corr[j]`` receives
-    the best c of BLF j (−1 if skipped). Returns ``(best c, its BLF index, lag refined by
-    the parabola through the peak, lags tested, template length)``; the first maximum wins
-    ties (BLFs, then lags, in order).
-    """
-    best = -1.0
-    best_j = -1
-    best_pos = 0.0
-    best_n = 0
-    n_tests = 0
-    n_el = pre_el.size
-    n_r = r.size
-    c_re = np.zeros(n_r + 1)
-    c_im = np.zeros(n_r + 1)
-    p = np.zeros(n_r + 1)
-    for i in range(n_r):
-        z = r[i]
-        c_re[i + 1] = c_re[i] + z.real
-        c_im[i + 1] = c_im[i] + z.imag
-        p[i + 1] = p[i] + (z.real * z.real + z.imag * z.imag)
-    t = np.empty(0)
-    run_begin = np.empty(0, dtype=np.int64)
-    run_value = np.empty(0)
-    for j in range(blfs.size):
-        out_corr[j] = -1.0
-        blf = blfs[j]
-        if 2.0 * blf * min_samples_per_element > fs:
-            continue
-        rho = 2.0 * blf / fs
-        n = int(math.floor(n_el * fs / (2.0 * blf)))
-        last = min(hi[j], r.size - n_rep[j])
-        if last < lo[j] or n < 3:
-            continue
-        if t.size < n:
-            t = np.empty(n)
-            run_begin = np.empty(n + 1, dtype=np.int64)
-            run_value = np.empty(n)
-        tt = t[:n]
-        waveform_kernel(pre_el, 0.0, rho, tt)
-        mean = 0.0
-        for i in range(n):
-            mean += tt[i]
-        mean /= n
-        e_t = 0.0
-        n_runs = 0
-        for i in range(n):
-            e_t += (tt[i] - mean) * (tt[i] - mean)
-            if i == 0 or tt[i] != tt[i - 1]:
-                run_begin[n_runs] = i
-                run_value[n_runs] = tt[i]
-                n_runs += 1
-        run_begin[n_runs] = n
-        norm_t = math.sqrt(e_t)
-        n_tests += last - lo[j] + 1
-        c_prev = -1.0
-        kbest = -1
-        cbest = -1.0
-        cl = -1.0
-        cr = -1.0
-        for k in range(lo[j], last + 1):
-            a_re = 0.0
-            a_im = 0.0
-            for q in range(n_runs):
-                b0 = k + run_begin[q]
-                b1 = k + run_begin[q + 1]
-                a_re += run_value[q] * (c_re[b1] - c_re[b0])
-                a_im += run_value[q] * (c_im[b1] - c_im[b0])
-            s_re = c_re[k + n] - c_re[k]
-            s_im = c_im[k + n] - c_im[k]
-            acc_re = a_re - mean * s_re
-            acc_im = a_im - mean * s_im
-            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
-            c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
-            if k == kbest + 1 and kbest >= 0:
-                cr = c  # right neighbour of the running best
-            if c > cbest:
-                cbest = c
-                kbest = k
-                cl = c_prev
-                cr = -1.0
-            c_prev = c
-        out_corr[j] = cbest
-        if cbest > best:
-            frac = 0.0
-            if kbest > lo[j] and kbest < last:
-                den = cl - 2.0 * cbest + cr
-                frac = 0.5 * (cl - cr) / den if den < 0 else 0.0
-            best = cbest
-            best_j = j
-            best_pos = kbest + frac
-            best_n = n
-    return best, best_j, best_pos, n_tests, best_n
 
 
 @njit
@@ -143,6 +38,71 @@ def _first_sample(k, t0, rho, lo, hi):
     while n < hi and math.floor((n - t0) * rho + INDEX_EPS) < k:
         n += 1
     return n
+
+
+@njit_inline
+def _preamble_element_levels(pre, m):
+    """Pilot + preamble elements (±1) from the half-symbol levels ``pre``: each level held
+    for ``m`` elements, every other element inverted for Miller (M > 1)."""
+    pre_el = np.empty(pre.size * m)
+    for i in range(pre.size):
+        for q in range(m):
+            k = i * m + q
+            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    return pre_el
+
+
+@njit_inline
+def _cumulative_sums(r):
+    """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0."""
+    nr = r.size
+    c_re = np.zeros(nr + 1)
+    c_im = np.zeros(nr + 1)
+    p2 = np.zeros(nr + 1)
+    for n in range(nr):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    return c_re, c_im, p2
+
+
+@njit_inline
+def _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, n_end):
+    """Residual power of the least-squares fit r ≈ h·ref + c over r[:n_end], ref = −1 outside
+    the reply and ``el[k]`` on element k (sampled from ``start`` by the rule of
+    ``waveform_kernel``), from the cumulative sums of :func:`_cumulative_sums`, element by
+    element (``fine_kernel``'s closed form). Returns ``(ok, residual)``; ok False when the
+    reference is constant."""
+    t0s = (start / fs) * fs
+    # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
+    rs_re = -c_re[n_end]
+    rs_im = -c_im[n_end]
+    s1 = -float(n_end)
+    lo = max(0, int(math.ceil(t0s)))
+    n_a = _first_sample(0, t0s, rho, lo, n_end)
+    for k in range(n_el):
+        n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
+        if n_b > n_a and el[k] > 0:
+            rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
+            rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
+            s1 += 2.0 * (n_b - n_a)
+        n_a = n_b
+        if n_a >= n_end:
+            break
+    nn = float(n_end)
+    ss = nn  # every reference value is ±1
+    det = ss * nn - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+        return False, 0.0
+    rs = complex(rs_re, rs_im)
+    r1 = complex(c_re[n_end], c_im[n_end])
+    hh = (nn * rs - s1 * r1) / det
+    cc = (ss * r1 - s1 * rs) / det
+    acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
+           - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
+           + 2.0 * (cc.conjugate() * hh).real * s1)
+    return True, max(acc, 0.0) / nn
 
 
 @njit
@@ -171,11 +131,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     n_pre_el = pre.size * m
     nh = pre.size + 2 * (n_bits + 1)
     n_el = n_pre_el + 2 * m * (n_bits + 1)
-    pre_el = np.empty(n_pre_el)
-    for i in range(pre.size):
-        for q in range(m):
-            k = i * m + q
-            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    pre_el = _preamble_element_levels(pre, m)
     half = 0.5 * n_pre_el
     sums = np.empty(nh)
     n_data = nh - pre.size
@@ -184,14 +140,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
     dec = np.empty(n_data // 2, dtype=np.uint8)
     el = np.empty(n_el)
     nr = r.size
-    c_re = np.zeros(nr + 1)
-    c_im = np.zeros(nr + 1)
-    p2 = np.zeros(nr + 1)
-    for n in range(nr):
-        z = r[n]
-        c_re[n + 1] = c_re[n] + z.real
-        c_im[n + 1] = c_im[n] + z.imag
-        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    c_re, c_im, p2 = _cumulative_sums(r)
     best_j = -1
     best_resid = math.inf
     best_start = math.nan
@@ -260,36 +209,9 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
             bitwise_kernel(a, b, miller, dec)
         # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
         elements_kernel(dec[:n_bits], True, m, pre, cur, prev, el)
-        t0s = (start / fs) * fs
-        n_end = min(r.size, int(start) + n_rep)
-        # ref = −1 outside the reply, el[k] on element k: Σ ref·z = −Σz + Σ_k (el[k] + 1)·Σ_{n∈k} z
-        rs_re = -c_re[n_end]
-        rs_im = -c_im[n_end]
-        s1 = -float(n_end)
-        lo = max(0, int(math.ceil(t0s)))
-        n_a = _first_sample(0, t0s, rho, lo, n_end)
-        for k in range(n_el):
-            n_b = _first_sample(k + 1, t0s, rho, n_a, n_end)
-            if n_b > n_a and el[k] > 0:
-                rs_re += 2.0 * (c_re[n_b] - c_re[n_a])
-                rs_im += 2.0 * (c_im[n_b] - c_im[n_a])
-                s1 += 2.0 * (n_b - n_a)
-            n_a = n_b
-            if n_a >= n_end:
-                break
-        nn = float(n_end)
-        ss = nn  # every reference value is ±1
-        det = ss * nn - s1 * s1
-        if abs(det) <= 1e-12 * max(ss * nn, 1e-300):
+        fitted, resid = _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, min(r.size, int(start) + n_rep))
+        if not fitted:
             continue
-        rs = complex(rs_re, rs_im)
-        r1 = complex(c_re[n_end], c_im[n_end])
-        hh = (nn * rs - s1 * r1) / det
-        cc = (ss * r1 - s1 * rs) / det
-        acc = (p2[n_end] + nn * (cc.real * cc.real + cc.imag * cc.imag) + (hh.real * hh.real + hh.imag * hh.imag) * ss
-               - 2.0 * (cc.conjugate() * r1).real - 2.0 * (hh.conjugate() * rs).real
-               + 2.0 * (cc.conjugate() * hh).real * s1)
-        resid = max(acc, 0.0) / nn
         if best_j < 0 or resid < best_resid:
             best_j = j
             best_resid = resid
@@ -324,11 +246,48 @@ def _interp_unit(r, x):
     return complex((b.real - a.real) * f + a.real, (b.imag - a.imag) * f + a.imag)
 
 
+@njit_inline
+def _fit_rest_level(r, ref, n_end):
+    """Least-squares ``(h, c, ok)`` of r ≈ h·ref + c over r[:n_end], ``ref`` read as −1 where
+    it is 0 (the rest level around the reply)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        v = ref[n] if ref[n] != 0.0 else -1.0
+        ss += v * v
+        s1 += v
+        rs += r[n] * v
+        r1 += r[n]
+    return _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+
+
+@njit_inline
+def _fit_decision_free(rw, pre_s, n_rest):
+    """Least-squares ``(h, c, ok)`` of rw ≈ h·ref + c over the decision-free samples: the
+    rest level (−1) before sample ``n_rest`` and the pilot + preamble ``pre_s`` (nonzero)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    cnt = 0
+    for n in range(rw.size):
+        if pre_s[n] != 0.0 or n < n_rest:
+            v = pre_s[n] if pre_s[n] != 0.0 else -1.0
+            ss += v * v
+            s1 += v
+            rs += rw[n] * v
+            r1 += rw[n]
+            cnt += 1
+    return _ls_gain_offset(ss, s1, float(cnt), rs, r1)
+
+
 @njit
 def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dummy, viterbi, block_elements,
                         min_blocks, spans, sub, min_drift_blocks, converged_elements, n_rest, rw):
-    """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin: the loop of
-    ``_decode_length_reference`` there): up to two passes of
+    """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin:
+    ``rfsim.gen2.reply_decoding._track_decode_python``): up to two passes of
 
     1. (h, c) of r ≈ h·ref + c by least squares over the reply up to its end, ref the
        remodulated reply of ``bits`` (±1, sampled by the rule of ``waveform_kernel`` from
@@ -355,11 +314,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
     n_el = n_el_full - (0 if dummy else 2 * m)
     el = np.empty(n_el)
     el_full = np.empty(n_el_full)
-    pre_el = np.empty(n_pre_h * m)
-    for i in range(n_pre_h):
-        for q in range(m):
-            k = i * m + q
-            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    pre_el = _preamble_element_levels(pre, m)
     nr = r.size
     n_w = rw.size
     ref = np.empty(nr)
@@ -381,17 +336,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
             el[i] = el_full[i]
         n_end = min(nr, int(math.ceil(start + n_el / rho)))
         waveform_kernel(el, (start / fs) * fs, rho, ref[:n_end])
-        ss = 0.0
-        s1 = 0.0
-        rs = 0j
-        r1 = 0j
-        for n in range(n_end):
-            v = ref[n] if ref[n] != 0.0 else -1.0
-            ss += v * v
-            s1 += v
-            rs += r[n] * v
-            r1 += r[n]
-        h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+        h, c, ok = _fit_rest_level(r, ref, n_end)
         if not ok or h == 0:
             return False, start, u1, u2
         # 2. tracking loop
@@ -412,20 +357,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
             rw[i] = _interp_unit(r, start + 2.0 * target / (u1 + math.sqrt(disc)))
         # 4. fit on the decision-free samples, decoding with that gain
         waveform_kernel(pre_el, (n_rest / fs) * fs, rho, pre_s)
-        ss = 0.0
-        s1 = 0.0
-        rs = 0j
-        r1 = 0j
-        cnt = 0
-        for n in range(n_w):
-            if pre_s[n] != 0.0 or n < n_rest:
-                v = pre_s[n] if pre_s[n] != 0.0 else -1.0
-                ss += v * v
-                s1 += v
-                rs += rw[n] * v
-                r1 += rw[n]
-                cnt += 1
-        h, c, ok = _ls_gain_offset(ss, s1, float(cnt), rs, r1)
+        h, c, ok = _fit_decision_free(rw, pre_s, n_rest)
         if not ok or h == 0:
             return False, start, u1, u2
         g = 1.0 / h
@@ -451,7 +383,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
     return True, start, u1, u2
 
 
-#: Length rules of ``decode_window_kernel`` (``rfsim.gen2.replies._NBitsRule``): a fixed
+#: Length rules of ``decode_window_kernel`` (``rfsim.gen2.reply_decoding._NBitsRule``): a fixed
 #: number of data bits, unknown (−1), or PC + EPC + CRC-16 from the PC's L field.
 RULE_FIXED = 0
 RULE_EPC = 1
@@ -473,7 +405,7 @@ def _n_bits_of(rule, fixed, bits, n):
 @njit
 def _bits_that_fit(n_avail, n_pre_el, m, rho):
     """Data bits (dummy excluded) of a reply whose preamble starts ``n_avail`` samples before
-    the window's end (``rfsim.gen2.replies._bits_that_fit``)."""
+    the window's end (``rfsim.gen2.reply_decoding._bits_that_fit``)."""
     elements = n_avail * rho - 2 * rho
     return int(math.floor((elements - n_pre_el) / (2 * m))) - 1
 
@@ -520,7 +452,7 @@ def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi,
 
 @njit
 def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
-    """``rfsim.gen2.replies._fine_search``: ``fine_kernel`` coarse to fine, each call passed
+    """``rfsim.gen2.reply_decoding._fine_search``: ``fine_kernel`` coarse to fine, each call passed
     only the samples up to its last BLF's reply end. Returns ``(found, blf, start)``."""
     n_pre_el = pre.size * m
     n_el = n_pre_el + 2 * m * (n_bits + 1)
@@ -549,13 +481,69 @@ def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, targe
         centre_blf = blfs[j]
 
 
+@njit_inline
+def _fit_steady(rw, ref, n_end):
+    """Least-squares ``(h, c, ok, σ²)`` of rw ≈ h·ref + c over rw[:n_end] (``ref``'s zeros set
+    to the rest level −1 in place), σ² the mean residual power over the steady samples (both
+    neighbours at the same level; NaN when there are none)."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        if ref[n] == 0.0:
+            ref[n] = -1.0
+        v = ref[n]
+        ss += v * v
+        s1 += v
+        rs += rw[n] * v
+        r1 += rw[n]
+    h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+    if not ok:
+        return h, c, ok, math.nan
+    acc = 0.0
+    cnt = 0
+    for n in range(1, n_end - 1):
+        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
+            e = rw[n] - c - h * ref[n]
+            acc += e.real * e.real + e.imag * e.imag
+            cnt += 1
+    return h, c, ok, acc / cnt if cnt > 0 else math.nan
+
+
+@njit_inline
+def _correlation_at(rw, n_rest, pre_el, n_t, rho):
+    """Zero-mean normalised correlation of rw[n_rest : n_rest + n_t] with the pilot +
+    preamble ``pre_el`` sampled from 0 at ρ elements per sample:
+    |Σ z·t0| / (‖t0‖·‖z − mean z‖)."""
+    tpl = np.empty(n_t)
+    waveform_kernel(pre_el, 0.0, rho, tpl)
+    t_mean = 0.0
+    for i in range(n_t):
+        t_mean += tpl[i]
+    t_mean /= n_t
+    p = 0j
+    e_t = 0.0
+    sz = 0j
+    e_z = 0.0
+    for i in range(n_t):
+        t0 = tpl[i] - t_mean
+        z = rw[n_rest + i]
+        p += z * t0
+        e_t += t0 * t0
+        sz += z
+        e_z += z.real * z.real + z.imag * z.imag
+    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
+    return abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+
+
 @njit
 def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state0, viterbi, rule, fixed,
                          fine_span_steps, start_shifts, block_elements, min_blocks, spans, sub, min_drift_blocks,
                          converged_elements, bits_out):
     """Steps 3–5 of :mod:`rfsim.gen2.replies` on a working-rate window after a detection at
     BLF ``blf_c``, start ``start_c`` (coarse step ``step_c``) in one call (its NumPy twin:
-    ``rfsim.gen2.replies._decode_window_reference``): the fine BLF search over the first 16
+    ``rfsim.gen2.reply_decoding._decode_window_python``): the fine BLF search over the first 16
     bits, the reply's length from them (``rule``/``fixed``: :data:`RULE_FIXED` bits, or the
     PC's L field), the whole reply's BLF search around the first bits' BLF, step 4
     (``track_decode_kernel``), repeated while the whole reply's PC announces another length
@@ -630,50 +618,10 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
     n_end = min(rw.size, int(math.ceil(n_rest + n_el / rho)))
     ref = np.empty(n_end)
     waveform_kernel(el[:n_el], (n_rest / fs) * fs, rho, ref)
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        if ref[n] == 0.0:
-            ref[n] = -1.0
-        v = ref[n]
-        ss += v * v
-        s1 += v
-        rs += rw[n] * v
-        r1 += rw[n]
-    h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
+    h, c, ok, sigma2 = _fit_steady(rw, ref, n_end)
     if not ok:
         return fail
-    acc = 0.0
-    cnt = 0
-    for n in range(1, n_end - 1):
-        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
-            e = rw[n] - c - h * ref[n]
-            acc += e.real * e.real + e.imag * e.imag
-            cnt += 1
-    sigma2 = acc / cnt if cnt > 0 else math.nan
-    n_t = int(math.floor(n_pre_el * fs / (2.0 * blf)))
-    tpl = np.empty(n_t)
-    pre_el = el[:n_pre_el]
-    waveform_kernel(pre_el, 0.0, rho, tpl)
-    t_mean = 0.0
-    for i in range(n_t):
-        t_mean += tpl[i]
-    t_mean /= n_t
-    p = 0j
-    e_t = 0.0
-    sz = 0j
-    e_z = 0.0
-    for i in range(n_t):
-        t0 = tpl[i] - t_mean
-        z = rw[n_rest + i]
-        p += z * t0
-        e_t += t0 * t0
-        sz += z
-        e_z += z.real * z.real + z.imag * z.imag
-    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
-    corr = abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+    corr = _correlation_at(rw, n_rest, el[:n_pre_el], int(math.floor(n_pre_el * fs / (2.0 * blf))), rho)
     for i in range(n_bits):
         bits_out[i] = bits[i]
     n_span = int(math.ceil(0.0 + n_el / rho)) / u1 * rho

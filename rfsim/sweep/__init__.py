@@ -25,3 +25,17 @@ __all__ = [
     "SerialExecutor", "PoolExecutor", "DaskExecutor", "available_cpus", "make_executor",
     "Progress", "sbatch_script", "points_dir", "StoreIndex",
 ]
+
+
+class _SweepPackage(type(__import__("sys"))):
+    """This package, callable: ``rfsim.sweep(spec, executor=...)`` runs a sweep and returns its
+    merged result (:func:`rfsim.runs.api.run_sweep`), while ``rfsim.sweep.<name>`` stays the
+    package's API for finer control."""
+
+    def __call__(self, spec, *, executor=None, resume: bool = False, progress: bool = True):
+        from rfsim.runs.api import run_sweep as _run_sweep_result
+
+        return _run_sweep_result(spec, executor=executor, resume=resume, progress=progress)
+
+
+__import__("sys").modules[__name__].__class__ = _SweepPackage

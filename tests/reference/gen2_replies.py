@@ -1,4 +1,4 @@
-"""Reference twin of :mod:`rfsim.gen2.replies` (the preamble search, SciPy correlation per BLF)."""
+"""Reference twin of :mod:`rfsim.gen2.reply_search` (the preamble search, SciPy correlation per BLF)."""
 
 from __future__ import annotations
 
@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 
-from rfsim.gen2.replies import (MIN_SAMPLES_PER_ELEMENT, _geometric_grid, _n_elements, _n_pre_elements,
-                                _preamble_template, preamble_correlation)
+from rfsim.gen2.reply_search import (MIN_SAMPLES_PER_ELEMENT, _geometric_grid, _n_elements, _n_pre_elements,
+                                     _preamble_template, preamble_correlation)
 
 
 def _search_reference(r, fs, hyps, lo_of, hi_of):
-    """Plain-NumPy twin of :func:`rfsim.gen2.replies._search` (scipy correlation per BLF)."""
+    """Plain-NumPy twin of :func:`rfsim.gen2.reply_search._search` (scipy correlation per BLF)."""
     best, n_tests = None, 0
     for hyp in hyps:
         step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))

@@ -1,0 +1,220 @@
+"""The Gen2 state of many tags in arrays (:class:`StateArrays`), for the silent steps of a
+population: the rules of :meth:`rfsim.devices.gen2_tag_state.TagState.on_command_if_silent`
+and of a QueryAdjust's new slot counters applied to every tag at once.
+
+``TagState`` below is :class:`rfsim.devices.gen2_tag_state.TagState`; ``STATES`` and
+``SharedClock`` are in :mod:`rfsim.devices.gen2_tag_values`.
+"""
+
+from __future__ import annotations
+
+from itertools import compress
+
+import numpy as np
+
+from rfsim.gen2.commands import ACK, NAK, QueryAdjust, QueryRep
+from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, _slot_drawer
+
+_READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
+#: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
+_COLUMNS = ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q")
+
+
+class StateArrays:
+    """The Gen2 state of many tags in arrays, for the silent steps of a population.
+
+    Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
+    :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
+    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
+    :meth:`TagState.on_command_if_silent`'s decision for every row at once (the same rules);
+    :meth:`take_silent_steps` applies the steps so decided to the rows and to the
+    :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
+    :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
+    of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
+    (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
+    tag's own generator).
+
+    The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
+    (``clock``; ``following`` marks them): the next silent step advances them all by setting
+    the clock, and only the tags that join or leave that set are touched one by one. So do
+    the slot counters of the tags whose last step was a QueryRep's decrement
+    (``counting``: ``clock.decrements``). A tag's own step (``on_command`` …) sets its time
+    and counter, which ends its following; :meth:`read` notes it.
+    """
+
+    def __init__(self, states):
+        self.states = list(states)
+        n = len(self.states)
+        self.powered = np.zeros(n, bool)
+        self.code = np.zeros(n, np.int8)
+        self.session = np.full(n, -1, np.int64)
+        self.slot = np.full(n, -1, np.int64)
+        self.t_s = np.zeros(n)
+        self.s1_set_s = np.full(n, np.nan)
+        self.s1_keep_s = np.zeros(n)
+        self.q = np.zeros(n, np.int64)
+        self.clock = SharedClock()
+        self.following = np.zeros(n, bool)
+        self.counting = np.zeros(n, bool)
+        self.read(range(n))
+
+    def read(self, index) -> None:
+        """Copy the rows ``index`` (a sequence of ints) from their :class:`TagState` objects."""
+        index = list(index)
+        if not index:
+            return
+        states, clock = self.states, self.clock
+        if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
+            columns = [getattr(self, name) for name in _COLUMNS]
+            following, counting = self.following, self.counting
+            for i in index:
+                st = states[i]
+                for col, value in zip(columns, st.row()):
+                    col[i] = value
+                following[i] = st._clock is clock
+                counting[i] = st._slot_clock is clock
+            return
+        cols = list(zip(*[states[i].row() for i in index]))
+        for name, col in zip(_COLUMNS, cols):
+            getattr(self, name)[index] = col
+        self.following[index] = [states[i]._clock is clock for i in index]
+        self.counting[index] = [states[i]._slot_clock is clock for i in index]
+
+    def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
+        silent step for ``cmd`` received at ``t_s`` [s], and which of those decrement their
+        slot counter (a QueryRep in Arbitrate of the round's session). The rules of
+        :meth:`TagState.on_command_if_silent`; a tag whose clock is past ``t_s`` is left to
+        ``on_command`` (it raises)."""
+        ok = candidates & self.powered & (self.t_s <= t_s)
+        kind = type(cmd)
+        if kind is QueryRep:
+            other = (self.session < 0) | (self.session != cmd.session)
+            dec = ~other & (self.code == _ARBITRATE) & (self.slot >= 0) & (((self.slot - 1) & 0x7FFF) != 0)
+            return ok & (other | dec), ok & dec
+        if kind is QueryAdjust:
+            return ok & ((self.session < 0) | (self.session != cmd.session)), np.zeros_like(ok)
+        if kind is ACK or kind is NAK:
+            return ok & ((self.code == _READY) | (self.code == _ARBITRATE)), np.zeros_like(ok)
+        return np.zeros_like(ok), np.zeros_like(ok)
+
+    def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
+        """Which of the ``candidates`` (bool mask) load a new slot counter on ``cmd``, a
+        QueryAdjust received at ``t_s`` [s]: powered tags in Arbitrate or Reply of the
+        command's session (``TagState._query_adjust``) whose clock is not past ``t_s`` and
+        whose S1 flag is not due to revert (those are left to ``on_command``). All False for
+        other commands."""
+        if type(cmd) is not QueryAdjust:
+            return np.zeros(len(self.states), bool)
+        t_s = float(t_s)
+        ok = candidates & self.powered & (self.t_s <= t_s) & ~(t_s - self.s1_set_s >= self.s1_keep_s)
+        in_round = (self.session == cmd.session) & ((self.code == _ARBITRATE) | (self.code == _REPLY))
+        return ok & in_round
+
+    def take_redraw_steps(self, cmd, index: list, rngs: list, t_s: float) -> list:
+        """Apply the QueryAdjust ``cmd`` at ``t_s`` [s] to the rows ``index`` (from
+        :meth:`redraw_steps`), tag ``index[k]`` drawing from its own generator ``rngs[k]``:
+        its clock advances to ``t_s``, Q ← min(15, max(0, Q + UpDn)), and it loads its slot
+        counter and replies when it is 0 (``TagState._load_slot``: the same draws in the same
+        order as ``on_command``). Returns ``[(row, Reply)]`` of the tags that reply."""
+        if not index:
+            return []
+        t_s = float(t_s)
+        idx = np.asarray(index, dtype=np.int64)
+        q_new = np.minimum(np.maximum(self.q[idx] + int(cmd.updn), 0), 15)  # min(15, max(0, Q + UpDn))
+        states = self.states
+        replies, slots = [], []
+        for i, q, rng, draw in zip(index, q_new.tolist(), rngs, self._slot_draws(rngs)):
+            st = states[i]
+            st._clock, st._t_s, st.q = None, t_s, q  # its own time (the t_s setter)
+            # TagState._load_slot: the counter (slot_draw), a reply with an RN16 at 0
+            slot = draw(q)
+            st._slot_clock, st._slot = None, slot  # its own counter (the slot setter)
+            if slot == 0:
+                replies.append((i, st._reply_if_zero(rng)))
+            else:
+                st.state = "arbitrate"
+            slots.append(slot)
+        self.following[idx] = False  # each tag's own time and counter were set
+        self.counting[idx] = False
+        self.t_s[idx] = t_s
+        self.q[idx] = q_new
+        slot = np.array(slots, dtype=np.int64)
+        self.slot[idx] = slot
+        self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
+        return replies
+
+    def _slot_draws(self, rngs: list) -> list:
+        """Per generator a function ``q → slot_draw(rng, q)``, kept per generator: the bit
+        generator's 32-bit word read through its ctypes interface, found once (not on every
+        draw), or ``slot_draw`` itself for a generator without it."""
+        memo = self.__dict__.setdefault("_draw_memo", {})
+        if len(memo) > 4 * len(self.states) + 16:
+            memo.clear()
+        out = []
+        for rng in rngs:
+            hit = memo.get(id(rng))
+            if hit is None or hit[0] is not rng:
+                hit = memo[id(rng)] = (rng, _slot_drawer(rng))  # the generator kept alive: its id stays its own
+            out.append(hit[1])
+        return out
+
+    def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
+        """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock
+        advances to ``t_s`` and a decrementing tag's slot counter goes to (slot − 1) mod 2^15.
+        A tag whose S1 flag is due to revert takes the step through
+        :meth:`TagState.on_command_if_silent` itself (and its row is read back)."""
+        t_s = float(t_s)
+        due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
+        if np.count_nonzero(due):
+            idx = due.nonzero()[0]
+            for i in idx.tolist():
+                if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
+                    raise RuntimeError("a silent step was refused")  # the rules above disagree
+            self.read(idx.tolist())
+            silent = silent & ~due
+            decrement = decrement & ~due
+        if np.count_nonzero(decrement):
+            self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
+        self._count_down(decrement)
+        self.t_s[silent] = t_s
+        self._follow(silent, t_s)
+
+    def _count_down(self, decrement: np.ndarray) -> None:
+        """The counters of the tags ``decrement`` (bool mask) go to (slot − 1) mod 2^15
+        through the shared clock: when any does, those that counted with it and do not
+        decrement now keep their counter as their own, the clock counts one decrement more,
+        and the decrementing ones that did not count with it join it from their decremented
+        value (a step without decrements changes no counter: the clock stays)."""
+        if not np.count_nonzero(decrement):
+            return
+        clock, states = self.clock, self.states
+        leave = self.counting & ~decrement
+        if np.count_nonzero(leave):
+            for st in compress(states, leave.tolist()):
+                st.follow_decrements(None)
+        d = clock.decrements + 1
+        for st in compress(states, (decrement & ~self.counting).tolist()):
+            # follow_decrements(clock) of the decremented counter, the clock one decrement on
+            st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
+        clock.decrements = d
+        self.counting = decrement.copy()
+
+    def _follow(self, silent: np.ndarray, t_s: float) -> None:
+        """The tags ``silent`` (bool mask) advance to ``t_s`` [s] through the shared clock:
+        those that followed it and are not silent now keep the clock's time as their own,
+        the clock moves to ``t_s``, and the silent ones follow it."""
+        clock, states = self.clock, self.states
+        leave = self.following & ~silent
+        if np.count_nonzero(leave):
+            for st in compress(states, leave.tolist()):
+                st.follow(None)
+        clock.t_s = t_s
+        join = silent & ~self.following
+        if np.count_nonzero(join):
+            for st in compress(states, join.tolist()):
+                st._clock = clock  # follow(clock)
+        self.following = silent.copy()
+
+
+__all__ = ["StateArrays"]

@@ -1,0 +1,150 @@
+"""What the Gen2 tag state machine (:mod:`rfsim.devices.gen2_tag_state`) deals in: the state
+names and their codes, the reply record, the flag persistence times, the PC word, the
+slot-counter and RN16 draws, and the clock a population of tags follows at once
+(:class:`SharedClock`, moved by :class:`rfsim.devices.gen2_tag_arrays.StateArrays`).
+``TagState`` below is :class:`rfsim.devices.gen2_tag_state.TagState`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.core.errors import ConfigError
+from rfsim.gen2.bits import as_bits
+
+STATES = ("ready", "arbitrate", "reply", "acknowledged", "open", "secured")
+REPLY_KINDS = ("RN16", "EPC", "HANDLE", "READ", "ERROR")
+STATE_CODES = {s: k for k, s in enumerate(STATES)}
+
+
+@dataclass(frozen=True, eq=False)
+class Reply:
+    """What a tag backscatters in response to one command.
+
+    Attributes
+    ----------
+    kind : "RN16" | "EPC" | "HANDLE" | "READ" | "ERROR"
+    bits : (n,) uint8
+        Payload bits MSB first, CRC-16 included where Gen2 has one (all kinds but RN16);
+        the line-code preamble and the dummy 1 are not included.
+    """
+
+    kind: str
+    bits: np.ndarray
+
+    def __post_init__(self):
+        if self.kind not in REPLY_KINDS:
+            raise ValueError(f"reply kind must be one of {REPLY_KINDS}, got {self.kind!r}")
+        arr = as_bits(self.bits).copy()
+        arr.flags.writeable = False
+        object.__setattr__(self, "bits", arr)
+
+    def __eq__(self, other):
+        if not isinstance(other, Reply):
+            return NotImplemented
+        return self.kind == other.kind and np.array_equal(self.bits, other.bits)
+
+    __hash__ = None
+
+    @classmethod
+    def _own(cls, kind: str, bits: np.ndarray) -> "Reply":
+        """A Reply holding ``bits`` itself: a read-only (n,) uint8 0/1 array its caller has just
+        made (not validated and copied again)."""
+        out = object.__new__(cls)
+        object.__setattr__(out, "kind", kind)
+        object.__setattr__(out, "bits", bits)
+        return out
+
+
+@dataclass(frozen=True)
+class FlagPersistence:
+    """Persistence times of the inventoried and SL flags [s].
+
+    Defaults (anchors §4.4, *unverified*): S1 lies in 0.5–5 s (default 2 s, whether powered
+    or not); S2, S3, SL must exceed 2 s unpowered (default 2 s, the bound itself).
+    """
+
+    s1_s: float = 2.0
+    s2_s: float = 2.0
+    s3_s: float = 2.0
+    sl_s: float = 2.0
+
+    def __post_init__(self):
+        for name in ("s1_s", "s2_s", "s3_s", "sl_s"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+                raise ConfigError(f"tag.persistence.{name}", value, "a non-negative number of seconds")
+
+
+def pc_word(epc_bits) -> int:
+    """Protocol-control word of an EPC: L·2¹¹, L = len(epc)/16 ∈ [0, 31] words.
+
+    UMI, XI, T and the numbering-system bits are 0. ``pc_word(96 zeros) == 0x3000``.
+    """
+    n = as_bits(epc_bits).size
+    if n % 16 or n // 16 > 31:
+        raise ValueError(f"EPC length must be a multiple of 16 bits, at most 496, got {n}")
+    return (n // 16) << 11
+
+
+def _draw16(rng: np.random.Generator) -> int:
+    """A 16-bit random number, ``rng.integers(0, 2**16)`` (:func:`slot_draw` with Q = 16)."""
+    return slot_draw(rng, 16)
+
+
+#: The 8 bits of every byte value, MSB first ((256, 8) uint8).
+_BYTE_BITS = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1)
+
+
+def _bits16(value: int) -> np.ndarray:
+    """``int_to_bits(value, 16)`` for 0 ≤ value < 2¹⁶ (by byte lookup), read-only."""
+    bits = _BYTE_BITS[[value >> 8, value & 0xFF]].reshape(16)
+    bits.setflags(write=False)
+    return bits
+
+
+def slot_draw(rng: np.random.Generator, q: int) -> int:
+    """A slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
+
+    For a power-of-two range numpy's bounded draw (Lemire's multiply-shift) never rejects:
+    it returns the top Q bits of one 32-bit word of the bit generator, ``next_uint32 >> (32
+    − Q)``, and Q = 0 draws nothing. The word is read here through the bit generator's
+    ctypes interface — the same word, the same generator state afterwards (tested against
+    ``integers``), without the method's argument handling (a fifth of its cost; an inventory
+    draws a counter per tag on every QueryAdjust), and without the generator's lock (a tag's
+    generator is its own, used by one thread). A generator without that interface is asked
+    through ``integers``.
+    """
+    if q <= 0:
+        return 0
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    if ct is None:
+        return int(rng.integers(0, 1 << q))
+    return ct.next_uint32(ct.state) >> (32 - q)
+
+
+def _slot_drawer(rng):
+    """``q → slot_draw(rng, q)`` with the bit generator's ctypes interface looked up once."""
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    if ct is None:
+        return lambda q: slot_draw(rng, q)
+    word, state = ct.next_uint32, ct.state
+    return lambda q: (word(state) >> (32 - q)) if q > 0 else 0
+
+
+class SharedClock:
+    """A time [s] and a count of slot-counter decrements that many :class:`TagState` objects
+    follow at once (:meth:`TagState.follow`, :meth:`TagState.follow_decrements`): the silent
+    steps of a population (:class:`StateArrays`) advance every tag that takes one, and count
+    down every counter a QueryRep decrements, by setting these two values, not each tag's."""
+
+    __slots__ = ("t_s", "decrements")
+
+    def __init__(self, t_s: float = 0.0):
+        self.t_s = float(t_s)
+        self.decrements = 0
+
+
+__all__ = ["STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw"]

@@ -1,0 +1,268 @@
+"""Steps 1–2 of the capture reply decoder (:mod:`rfsim.gen2.replies`): the link hypotheses,
+the working rate and the detection of a reply by its preamble.
+
+A window after a command is averaged over boxcars of D samples
+(:func:`boxcar_decimate`, D from :data:`SAMPLES_PER_ELEMENT` at the highest BLF of each
+BLF octave, :func:`_bands`); every link hypothesis (:class:`LinkHypothesis`: M, TRext and a
+BLF range on a geometric grid of relative step 1/(2·preamble elements)) is correlated with
+its zero-mean pilot + preamble at every T1 lag (:class:`_Lags`); the largest normalised
+correlation is kept when it clears the threshold of
+:func:`rfsim.gen2.capture.preamble_threshold` over all lags and hypotheses tested
+(:func:`_detect`, with the narrow search around an earlier reply's BLF first).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rfsim.gen2.capture import preamble_threshold
+from rfsim.gen2.linecode import halfsymbols, preamble_levels, reply_waveform
+from rfsim.core.lazy import lazy_import
+
+_rsk = lazy_import("rfsim.gen2._reply_search_kernels")
+
+#: Samples per element (half subcarrier cycle) at the working rate, at the highest BLF searched.
+SAMPLES_PER_ELEMENT = 6
+#: Fewest samples per element a BLF hypothesis needs (above it the reply is not resolved).
+MIN_SAMPLES_PER_ELEMENT = 2.0
+
+
+@dataclass(frozen=True)
+class LinkHypothesis:
+    """Line code and BLF range [Hz] searched for a reply."""
+
+    m: int
+    trext: bool
+    blf_lo_hz: float
+    blf_hi_hz: float
+
+
+@functools.lru_cache(maxsize=32)
+def _n_pre_elements(m: int, trext: bool) -> int:
+    return preamble_levels(m=m, trext=trext)[0].size * m
+
+
+def _n_elements(n_bits: int, m: int, trext: bool) -> int:
+    return _n_pre_elements(m, trext) + 2 * m * (int(n_bits) + 1)
+
+
+@functools.lru_cache(maxsize=256)
+def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
+    grid = _geometric_grid_uncached(lo, hi, step)
+    grid.flags.writeable = False
+    return grid
+
+
+def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
+    """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only, cached: the
+    same hypotheses are searched after every command)."""
+    return _geometric_grid_cached(float(lo), float(hi), float(step))
+
+
+def _geometric_grid_uncached(lo: float, hi: float, step: float) -> np.ndarray:
+    if hi <= lo:
+        return np.array([0.5 * (lo + hi)])
+    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
+    return _geomspace(lo, hi, max(n, 2))
+
+
+def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
+    """``n`` ≥ 2 values from ``lo`` to ``hi`` (both exact) in equal ratios, lo·(hi/lo)^(k/(n−1))
+    (:func:`numpy.geomspace` without its overhead: this runs after every command)."""
+    out = lo * np.exp(np.arange(n) * (math.log(hi / lo) / (n - 1)))
+    out[0], out[-1] = lo, hi
+    return out
+
+
+def boxcar_decimate(r: np.ndarray, d: int) -> np.ndarray:
+    """Means of consecutive blocks of ``d`` samples, ``(len(r)//d,)`` (sample j of the result
+    is at input position j·d + (d − 1)/2)."""
+    n = r.size // d
+    return r[: n * d].reshape(n, d).mean(axis=1) if d > 1 else r.copy()
+
+
+def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
+    """Zero-mean normalised correlation of ``r`` with the zero-mean real template at every
+    valid lag: |Σ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), ``(r.size − L + 1,)`` in [0, 1]
+    (the statistic of :func:`rfsim.gen2.linecode.decode_reply` and of the detection
+    threshold; sliding sums by cumulative sums)."""
+    from scipy.signal import correlate  # imported when first used: scipy.signal costs ≈ 1 s to import
+
+    n = template0.size
+    c = np.abs(correlate(r, template0, mode="valid"))
+    p = np.concatenate([[0.0], np.cumsum(np.abs(r) ** 2)])
+    q = np.concatenate([[0.0], np.cumsum(r)])
+    energy = (p[n:] - p[:-n]) - np.abs(q[n:] - q[:-n]) ** 2 / n
+    return c / (math.sqrt(float(template0 @ template0)) * np.sqrt(np.maximum(energy, 1e-300)))
+
+
+def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray:
+    """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling)."""
+    n = int(math.floor(_n_pre_elements(m, trext) * fs / (2.0 * blf)))
+    t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs, dummy=False, n_samples=n)
+    return t - t.mean()
+
+
+@functools.lru_cache(maxsize=32)
+def _preamble_elements(m: int, trext: bool) -> np.ndarray:
+    """Pilot + preamble elements (±1) of a line code (read-only, cached)."""
+    el = halfsymbols(np.zeros(0, np.uint8), m=m, trext=trext, dummy=False).astype(np.float64)
+    el.flags.writeable = False
+    return el
+
+
+def _per_blf(f, blfs: np.ndarray) -> np.ndarray:
+    """``f`` (a lag bound of a BLF, given one BLF or an array of them) at every BLF of ``blfs``."""
+    v = f(blfs)
+    if isinstance(v, np.ndarray) and v.shape == blfs.shape:
+        return v.astype(np.int64, copy=False)
+    return np.broadcast_to(np.asarray(v), blfs.shape).astype(np.int64)
+
+
+def _search(r, fs, hyps, lo_of, hi_of):
+    """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
+    hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
+    over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
+    a parabola through the peak) and the number of lags tested (numba kernel
+    ``preamble_search_kernel``, one call per hypothesis; the tests hold it to a NumPy twin)."""
+    best, n_tests = None, 0
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    for hyp in hyps:
+        step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+        lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
+        n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+        pre_el = _preamble_elements(hyp.m, hyp.trext)
+        # no lag after hi leaves room for the preamble: the samples after it are not passed
+        cut = max(0, min(r.size, int(np.max(hi + n_rep)) + 1))
+        c, j, pos, nt, n_t = _rsk.preamble_search_kernel(r[:cut], pre_el, blfs, float(fs), lo, hi, n_rep,
+                                                        MIN_SAMPLES_PER_ELEMENT, np.empty(blfs.size))
+        n_tests += nt
+        if j >= 0 and (best is None or c > best[0]):
+            best = (float(c), float(blfs[j]), hyp, float(pos), step_c, int(n_t))
+    return best, n_tests
+
+
+def _bands(hyps) -> list[list[LinkHypothesis]]:
+    """Hypotheses split into BLF octaves (each gets its own working rate; cached)."""
+    return _bands_cached(tuple(hyps))
+
+
+@functools.lru_cache(maxsize=64)
+def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
+    out = []
+    for h in hyps:
+        edges = _geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
+        for k, (a, b) in enumerate(zip(edges[:-1], edges[1:])):
+            while len(out) <= k:
+                out.append([])
+            out[k].append(LinkHypothesis(h.m, h.trext, float(a), float(b)))
+    return out
+
+
+@dataclass(frozen=True)
+class _Lags:
+    """T1 window of a BLF as lags into a window decimated by ``d`` (sample j at input sample
+    i0 + j·d + (d − 1)/2)."""
+
+    fs: float
+    d: int
+    i0: int
+    cmd_end_s: float
+    rtcal_s: float
+    frt: float
+
+    def _lag(self, t_s):
+        return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
+
+    def _nominal(self, blf):
+        # T1 nominal max(RTcal, 10/BLF) of rfsim.gen2.link.t1_range, for one BLF or an array
+        return np.maximum(self.rtcal_s, 10.0 / np.asarray(blf, dtype=np.float64))
+
+    def lo(self, blf):
+        """First lag of the T1 window (t1_range min, one sample early) of a BLF or array of BLFs."""
+        t_s = self._nominal(blf) * (1 - self.frt) - 2e-6
+        return np.maximum(0, np.floor(self._lag(t_s)).astype(np.int64) - 1)
+
+    def hi(self, blf):
+        """Last lag of the T1 window (t1_range max, one sample late)."""
+        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6
+        return np.ceil(self._lag(t_s)).astype(np.int64) + 1
+
+
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
+    """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
+    n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None."""
+    best, n_tests = None, 0
+    for band in _bands(hyps):
+        d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        rd = boxcar_decimate(r, d) if d > 1 else r
+        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        n_tests += nt
+        if cand is not None and (best is None or cand[0] > best[0][0]):
+            best = (cand, rd, d)
+    return best, n_tests
+
+
+def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
+    """Lags :func:`_search` tests for ``hyp`` on a working-rate window of ``r_size`` samples
+    (the kernel's skip rules), without searching."""
+    step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+    lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
+    n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+    n = np.floor(_n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
+    last = np.minimum(hi, r_size - n_rep)
+    ok = (2.0 * blfs * MIN_SAMPLES_PER_ELEMENT <= fs) & (last >= lo) & (n >= 3)
+    return int(np.sum((last - lo + 1)[ok]))
+
+
+def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability):
+    """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
+
+    With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
+    ±2 coarse steps of the hint are searched first, at the working rate of the full search;
+    their best is kept if it does not lie at an inner edge of the narrow range (a tag with
+    another BLF) and clears the threshold of the narrow and the full search's tests together
+    (the full search's lags counted, not searched), otherwise the full range is searched,
+    with the same threshold: the union bound of the detection rule then covers both
+    searches, so the false-alarm probability per window stays as stated."""
+    if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
+        hyp = hyps[0]
+        span = 2.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        lo_n, hi_n = max(hyp.blf_lo_hz, blf_hint_hz * (1 - span)), min(hyp.blf_hi_hz, blf_hint_hz * (1 + span))
+        n_full, n_narrow, narrow = 0, 0, None
+        for band in _bands(hyps):
+            b = band[0]
+            d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
+            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+            n_full += _n_lags(r.size // d, fs / d, b, lags.lo, lags.hi)
+            a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
+            if a < z:
+                rd = boxcar_decimate(r, d) if d > 1 else r
+                cand, nt = _search(rd, fs / d, [LinkHypothesis(hyp.m, hyp.trext, a, z)], lags.lo, lags.hi)
+                n_narrow += nt
+                if cand is not None and (narrow is None or cand[0] > narrow[0][0]):
+                    narrow = (cand, rd, d)
+        if narrow is not None:
+            blf = narrow[0][1]
+            inner_edge = (blf <= lo_n and lo_n > hyp.blf_lo_hz) or (blf >= hi_n and hi_n < hyp.blf_hi_hz)
+            if not inner_edge and narrow[0][0] >= preamble_threshold(narrow[0][5], n_full + n_narrow,
+                                                                     false_alarm_probability):
+                return narrow
+    else:
+        n_narrow = 0
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt)
+    n_tests += n_narrow
+    if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
+        return None
+    return best
+
+
+__all__ = ["SAMPLES_PER_ELEMENT", "MIN_SAMPLES_PER_ELEMENT", "LinkHypothesis", "boxcar_decimate",
+           "preamble_correlation"]

@@ -6,9 +6,18 @@ Core package: units and constants (:mod:`rfsim.core.units`), reproducible random
 command line (:mod:`rfsim.cli`). Propagation lives in the sibling package
 ``channels``, device models in ``devices`` and runnable scenarios in ``scenarios``.
 
-Scripts build a scene from ``devices`` and ``channels`` and run it with
-:class:`rfsim.Simulation` (:mod:`rfsim.protocols.simulation`; imported on first use, so
-``import rfsim`` stays light).
+The Python API (:mod:`rfsim.runs.api`; every name below is imported on first use, so
+``import rfsim`` stays light):
+
+* :func:`rfsim.run` runs a scenario (a name from ``rfsim list`` or a scenario file's path)
+  and returns a :class:`rfsim.Result`: ``.table(name)`` (pandas), ``.to_xarray()``,
+  ``.figures()``, ``.save(path)``;
+* :func:`rfsim.run_sweep` runs a sweep spec and returns its merged dataset as a Result;
+* :class:`rfsim.Simulation` (:mod:`rfsim.protocols.simulation`) runs a scene of devices
+  and a channel built in a script, round by round;
+* :class:`rfsim.Scene` is the propagation environment of a channel
+  (:class:`rfsim.channels.Scene`: surfaces, walls, large- and small-scale models); devices
+  are placed by their antennas, not in the Scene.
 """
 
 from __future__ import annotations
@@ -43,7 +52,18 @@ def __getattr__(name: str):
         from rfsim.protocols.simulation import Simulation
 
         return Simulation
+    if name in _API:
+        from rfsim.runs import api
+
+        return getattr(api, name)
     raise AttributeError(f"module 'rfsim' has no attribute {name!r}")
 
 
-__all__ = ["__version__", "Simulation"]
+#: Names exported from :mod:`rfsim.runs.api` on first use.
+_API = ("run", "run_sweep", "Result", "Scene")
+
+__all__ = ["__version__", "run", "run_sweep", "Result", "Simulation", "Scene"]
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

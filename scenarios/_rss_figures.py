@@ -9,34 +9,10 @@ import numpy as np
 
 from rfsim.core.dataset import read_table
 from rfsim.core.lazy import lazy_import
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.plots import draw_floor_plan, pyplot, save_figure
+from rfsim.core.rows import read_block
 
 h5py = lazy_import("h5py")
-
-
-def _attrs(path: Path) -> dict:
-    with h5py.File(path, "r") as f:
-        return {k: f.attrs[k] for k in f.attrs}
-
-
-def _case_columns(path: Path, case: int, names) -> dict[str, np.ndarray]:
-    """Columns ``names`` of the estimates rows of one case (the rows of a case are contiguous:
-    the scenario writes case after case), read without loading the whole table."""
-    with h5py.File(path, "r") as f:
-        g = f["estimates"]
-        rows = np.flatnonzero(g["case"][()] == case)
-        if rows.size == 0:
-            return {k: np.zeros(0) for k in names}
-        sl = slice(int(rows[0]), int(rows[-1]) + 1)
-        out = {}
-        for k in names:
-            ds = g[k]
-            if h5py.check_string_dtype(ds.dtype) is not None:
-                out[k] = ds.asstr()[sl].astype(str)
-            else:
-                v = ds[sl]
-                out[k] = v.astype(bool) if ds.attrs.get("rfsim_dtype") == "bool" else v
-        return out
 
 
 def _cases(path: Path) -> dict[str, np.ndarray]:
@@ -49,41 +25,28 @@ def _cases(path: Path) -> dict[str, np.ndarray]:
 def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
     """Readers, walls, cells, reference tags and the first tracks of the first mobile case."""
     plt = pyplot()
-    a = _attrs(path)
+    with h5py.File(path, "r") as f:
+        a = {k: f.attrs[k] for k in f.attrs}
     cases = _cases(path)
     mobile = cases["motion"] == "mobile"
     case = int(cases["case"][np.flatnonzero(mobile)[0] if mobile.any() else 0])
-    est = _case_columns(path, case, ("estimator", "trial", "x_true_m", "y_true_m", "x_est_m", "y_est_m"))
+    est = read_block(path, "estimates", "case", case, ("estimator", "trial", "x_true_m", "y_true_m", "x_est_m", "y_est_m"))
     fig, ax = plt.subplots(figsize=(8, 6))
-    x0, y0, x1, y1 = a["bounds_m"]
-    ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
-    for w in np.atleast_2d(a["walls_xy"]):
-        if w.size:
-            ax.plot(w[[0, 2]], w[[1, 3]], color="brown", lw=4, label="wall")
-    cells = np.atleast_2d(a["cells_xy"])
-    ax.plot(cells[:, 0], cells[:, 1], ".", color="0.6", label="grid cells")
-    r = np.atleast_2d(a["readers_xy"])
-    ax.plot(r[:, 0], r[:, 1], "s", ms=10, color="tab:red", label="readers")
-    ref = np.atleast_2d(a["reference_xy"])
-    if ref.size:
-        ax.plot(ref[:, 0], ref[:, 1], "^", ms=9, color="tab:purple", label="reference tags")
+    draw_floor_plan(ax, a["bounds_m"], walls=np.atleast_2d(a["walls_xy"]).reshape(-1, 4),
+                    cells=np.atleast_2d(a["cells_xy"]), readers=np.atleast_2d(a["readers_xy"]),
+                    reference=np.atleast_2d(a["reference_xy"]).reshape(-1, 2))
     names = list(dict.fromkeys(est["estimator"]))
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for tr in range(n_tracks):
         m = est["trial"] == tr
         first = m & (est["estimator"] == names[0])
-        ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5,
-                label="true track" if tr == 0 else None)
+        ax.plot(est["x_true_m"][first], est["y_true_m"][first], "k-o", ms=3, lw=1.5, label="true track" if tr == 0 else None)
         for i, name in enumerate(names[::max(1, len(names) // 4)][:4]):
             mm = m & (est["estimator"] == name) & np.isfinite(est["x_est_m"])
             ax.plot(est["x_est_m"][mm], est["y_est_m"][mm], "--.", color=colors[(i + 1) % len(colors)],
                     lw=1, label=name if tr == 0 else None)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.set_title(f"{a['preset']}: readers, walls, true and estimated tracks")
-    handles, labels = ax.get_legend_handles_labels()
-    uniq = dict(zip(labels, handles))
+    ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]", title=f"{a['preset']}: readers, walls, true and estimated tracks")
+    uniq = dict(zip(*ax.get_legend_handles_labels()[::-1]))
     ax.legend(uniq.values(), uniq.keys(), fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return save_figure(fig, out)
 
@@ -98,14 +61,13 @@ def plot_error_cdf(path: Path, out: Path) -> Path:
     fig, axes = plt.subplots(1, len(motions), figsize=(5 * len(motions), 4), squeeze=False)
     for ax, motion in zip(axes[0], motions):
         for case in cases["case"][(cases["motion"] == motion) & ((s == target) | ~np.isfinite(s))]:
-            est = _case_columns(path, int(case), ("estimator", "error_m", "scored"))
+            est = read_block(path, "estimates", "case", int(case), ("estimator", "error_m", "scored"))
             m = est["scored"]
             for name in dict.fromkeys(est["estimator"][m]):
                 e = np.sort(est["error_m"][m & (est["estimator"] == name)])
                 ax.plot(e, np.arange(1, e.size + 1) / e.size, label=name)
-        ax.set_xlabel("localization error [m]")
-        ax.set_ylabel("CDF")
-        ax.set_title(f"{motion} target" + (f", σ0 = {target:g} dB" if np.isfinite(target) else ""))
+        ax.set(xlabel="localization error [m]", ylabel="CDF",
+               title=f"{motion} target" + (f", σ0 = {target:g} dB" if np.isfinite(target) else ""))
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7)
     return save_figure(fig, out)
@@ -125,24 +87,14 @@ def plot_rmse_vs_sigma(path: Path, out: Path) -> Path:
             c = colors[i % len(colors)]
             ax.plot(sm["sigma0_db"][m], sm["rmse_m"][m], "-o", color=c, label=f"{name} ({motion})")
             ax.plot(sm["sigma0_db"][m], sm["published_rmse_m"][m], "x", ms=9, mew=2, color=c)
-        ax.set_xlabel("σ0 [dB]")
-        ax.set_ylabel("RMSE [m]")
-        ax.set_title("RMSE vs σ0: simulated (lines) and thesis (crosses)")
+        ax.set(xlabel="σ0 [dB]", ylabel="RMSE [m]", title="RMSE vs σ0: simulated (lines) and thesis (crosses)")
     else:
         labels = [f"{n}\n({m})" for n, m in zip(sm["estimator"], sm["motion"])]
         x = np.arange(len(labels))
         ax.bar(x - 0.2, sm["rmse_m"], 0.4, label="simulated")
         ax.bar(x + 0.2, sm["published_rmse_m"], 0.4, label="thesis")
         ax.set_xticks(x, labels, rotation=60, fontsize=6)
-        ax.set_ylabel("RMSE [m]")
-        ax.set_title("home replica: RMSE beside the thesis")
+        ax.set(ylabel="RMSE [m]", title="home replica: RMSE beside the thesis")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=7)
     return save_figure(fig, out)
-
-
-def plot_all(path: Path, out_dir: Path) -> list[Path]:
-    """The three figures, named after the dataset's stem (``x.h5`` → ``x-floorplan.png`` …)."""
-    return [plot_floor_plan(path, figure_path(path, out_dir, "floorplan")),
-            plot_error_cdf(path, figure_path(path, out_dir, "cdf")),
-            plot_rmse_vs_sigma(path, figure_path(path, out_dir, "rmse"))]

@@ -48,7 +48,7 @@ a deterministic backscatter level, softened only by the APDP draw, the hop chann
 cancellation). The published TS and RTS imply different base rates: TS never exceeds
 p = 0.29 (a0 > 0) while RTS reaches 0.72 at D = 1 m, d = 0. Every run writes the comparison
 to the attribute ``fits_vs_published`` and the cause to ``fits_difference_cause``; the slow
-test ``test_default_run_fits_pin_the_documented_difference_from_the_published_models`` pins it.
+test ``test_regression_default_run_fits_and_the_documented_difference_from_the_published_models`` pins it.
 
 Randomness: sample i draws everything from ``trial_rng(s, i, k)``, s = ``samples.seed``
 (or the run seed when it is −1): k = 0 geometry, 1 reader (hop table), 2 tag, 3 channel
@@ -328,7 +328,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 
 #: Why the fits differ from the published ones (module docstring, "Differences from the source";
-#: test_default_run_fits_pin_the_documented_difference_from_the_published_models)
+#: test_regression_default_run_fits_and_the_documented_difference_from_the_published_models)
 FITS_DIFFERENCE_CAUSE = (
     "the tag replies in under half of the samples (UCODE-class chip at -12.8 dBm on a half-wave dipole, the panel's "
     "and the dipole's pattern, the rolled tag's polarisation mismatch), so where the ST decodes is set by the "

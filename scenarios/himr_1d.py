@@ -10,7 +10,7 @@ BOC 64 chips/bit at 5 Mcps = 78,125 b/s, ≈ 300 packets/s, L411; accelerometer 
 to 1.2 m/s, 355 ms cruise (L610; travel 0.622 m, erratum 9: ``preserve = "distance"`` gives the
 printed 0.61 m), after ``t_start_s`` at rest. Transmit power calibrated to a per-sample SNR of
 31.6 dB at 1 m (L646); the packets go through the air step and the per-packet DSP
-(:mod:`rfsim.scenarios._himr_air`). The R⁻⁴ law then gives 31.6 − 40·log10(1.62) = 23.2 dB at the
+(:mod:`rfsim.scenes.himr_air`). The R⁻⁴ law then gives 31.6 − 40·log10(1.62) = 23.2 dB at the
 end, not the 29.4 dB the source measured (erratum 14, not reproduced).
 
 Measurements per packet: [RSS range (eq. 22), phase-derived radial velocity (eq. 23; the
@@ -52,15 +52,16 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
-from rfsim.core.trajectories import LinearTrapezoid, check_inside
+from rfsim.core.trajectories import LinearTrapezoid
 from rfsim.core.units import wavelength_m
-from rfsim.scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.scenes.himr_air import RadioConfig, check_scene, simulate
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
 _himr_model = lazy_import("rfsim.estimators.himr_model")
 _observer = lazy_import("rfsim.estimators.observer")
-_himr_tables = lazy_import("rfsim.scenarios._himr_tables")
+_himr_figures = lazy_import("rfsim.scenarios._himr_figures")
+_himr_air = lazy_import("rfsim.scenes.himr_air")
 
 NAME = "himr-1d"
 DESCRIPTION = ("1-D HIMR: 6-axis tag on the linear positioner, one 5.8 GHz pylon at sample level, CARE observer "
@@ -69,14 +70,6 @@ DESCRIPTION = ("1-D HIMR: 6-axis tag on the linear positioner, one 5.8 GHz pylon
 ESTIMATORS = ("himr", "rss", "double-integration")
 #: The source's numbers (L628, L640, L652) [m]: simulated and measured peak HIMR error, drift.
 SOURCE_ERROR_M = {"himr": 0.001, "rss": float("nan"), "double-integration": 0.025}
-
-
-def _tag_default() -> HimrTagConfig:
-    return HimrTagConfig(packet_format="6axis-1d")
-
-
-def _radio_default() -> RadioConfig:
-    return RadioConfig(fs_hz=20e6)
 
 
 @dataclass(frozen=True)
@@ -90,11 +83,11 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class Config:
-    tag: HimrTagConfig = param(_tag_default(), doc="the HIMR tag (packet format, rate, framing)")
+    tag: HimrTagConfig = param(HimrTagConfig(packet_format="6axis-1d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: LinearTrapezoid = param(LinearTrapezoid(t_start_s=0.05), doc="the positioner profile (L610)")
     scene: SceneConfig = param(SceneConfig(), doc="pylon and test range")
-    radio: RadioConfig = param(_radio_default(), doc="pylon radio and DSP")
+    radio: RadioConfig = param(RadioConfig(fs_hz=20e6), doc="pylon radio and DSP")
 
     def __post_init__(self):
         if self.tag.packet_format != "6axis-1d":
@@ -104,9 +97,8 @@ class Config:
             raise ConfigError("scene.duration_s", sc.duration_s,
                               f"longer than the rest before the motion ({self.trajectory.t_start_s} s)")
         tag = HimrTag(self.tag, self.trajectory, self.imu)
-        check_inside(self.trajectory, t_end_s=sc.duration_s, room_min_m=sc.room_min_m, room_max_m=sc.room_max_m)
-        check_pylons_off_the_track([sc.pylon_m], tag, sc.duration_s, key="scene.pylon_m")
-        check_sample_rate(self.radio, tag, [sc.carrier_hz])
+        check_scene(self.radio, tag, [sc.pylon_m], [sc.carrier_hz], t_end_s=sc.duration_s, room_min_m=sc.room_min_m,
+                    room_max_m=sc.room_max_m, key="scene.pylon_m")
 
 
 def estimate(t_s, y, z0_m: float) -> dict:
@@ -123,6 +115,35 @@ def estimate(t_s, y, z0_m: float) -> dict:
             "double-integration": np.column_stack([z, v, a])}
 
 
+def _add_estimates(ds, est: dict, t, z, moving) -> list[tuple]:
+    """The ``estimates`` table; per estimator (name, max, final, RMS error, the source's error)."""
+    rows = {"estimator": [], "t_s": [], "z_hat_m": [], "z_dot_hat_mps": [], "z_ddot_hat_mps2": [], "error_m": []}
+    summary = []
+    for name in ESTIMATORS:
+        e = est[name]
+        err = e[:, 0] - z
+        rows["estimator"].append(np.full(t.size, name))
+        rows["t_s"].append(t)
+        rows["z_hat_m"].append(e[:, 0])
+        rows["z_dot_hat_mps"].append(e[:, 1])
+        rows["z_ddot_hat_mps2"].append(e[:, 2])
+        rows["error_m"].append(err)
+        a = np.abs(err[moving & ~np.isnan(err)])
+        summary.append((name, float(a.max()) if a.size else float("nan"), float(np.abs(err[-1])),
+                        float(np.sqrt(np.nanmean(err[moving] ** 2))), SOURCE_ERROR_M[name]))
+    rows = {k: np.concatenate(v) for k, v in rows.items()}
+    ds.add_table("estimates", {
+        "estimator": _dataset.column(rows["estimator"], "1", "himr observer, raw rss range or double integration"),
+        "t_s": _dataset.column(rows["t_s"], "s", "epoch of the estimate"),
+        "z_hat_m": _dataset.column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
+        "z_dot_hat_mps": _dataset.column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
+        "z_ddot_hat_mps2": _dataset.column(rows["z_ddot_hat_mps2"], "m/s^2",
+                                           "estimated acceleration along the travel (third state)"),
+        "error_m": _dataset.column(rows["error_m"], "m", "estimated minus true distance")},
+        description="one row per (estimator, epoch): the estimate and its error")
+    return summary
+
+
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     sc = config.scene
     tag = HimrTag(config.tag, config.trajectory, config.imu)
@@ -132,7 +153,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     plan = tag.current_plan
     stage("observer")
     tick = time.perf_counter()
-    imu = _himr_tables.imu_table(air, plan, config.imu, heading_start_rad=0.0)
+    imu = _himr_air.imu_table(air, plan, config.imu, heading_start_rad=0.0)
     m, idx = air.measurements[0], air.packet_index[0]
     n = plan.start_s.size
     y = np.full((n, 3), np.nan)
@@ -154,12 +175,10 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
     ds = _dataset.Dataset(title="1-D HIMR: linear positioner, one pylon at sample level, CARE observer vs RSS and double "
                        "integration")
-    pk = _himr_tables.packets_table(air, plan)
-    ds.add_table("packets", {k: _dataset.column(v, *_himr_tables.PACKET_COLUMNS[k]) for k, v in pk.items()},
-                 description="one row per packet decoded at the pylon: CRC, complex gain, RSS, phase, radial velocity "
-                             "(eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", _himr_tables.imu_columns(imu), description="one row per scheduled packet: the accelerometer words it "
-                                                      "carried (raw int16 and SI) as decoded by the pylon")
+    _himr_air.add_run_tables(ds, air, plan, imu, packets="one row per packet decoded at the pylon: CRC, complex gain, RSS, "
+                             "phase, radial velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth",
+                             imu_description="one row per scheduled packet: the accelerometer words it carried (raw int16 "
+                                             "and SI) as decoded by the pylon")
     ds.add_table("measurements", {
         "t_s": _dataset.column(t, "s", "epoch: scheduled start of the packet (observer time step)"),
         "range_m": _dataset.column(y[:, 0], "m", "RSS range r = (K_u/|h|^2)^(1/4), eq. 22 (NaN: packet lost)"),
@@ -174,30 +193,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                            "z_dot_mps": _dataset.column(zd, "m/s", "true radial velocity"),
                            "z_ddot_mps2": _dataset.column(zdd, "m/s^2", "true acceleration along the travel")},
                  description="one row per epoch: the true state [z z_dot z_ddot] of the 1-D model")
-    rows = {"estimator": [], "t_s": [], "z_hat_m": [], "z_dot_hat_mps": [], "z_ddot_hat_mps2": [], "error_m": []}
-    summary = []
-    for name in ESTIMATORS:
-        e = est[name]
-        err = e[:, 0] - z
-        rows["estimator"].append(np.full(n, name))
-        rows["t_s"].append(t)
-        rows["z_hat_m"].append(e[:, 0])
-        rows["z_dot_hat_mps"].append(e[:, 1])
-        rows["z_ddot_hat_mps2"].append(e[:, 2])
-        rows["error_m"].append(err)
-        a = np.abs(err[moving & ~np.isnan(err)])
-        summary.append((name, float(a.max()) if a.size else float("nan"), float(np.abs(err[-1])),
-                        float(np.sqrt(np.nanmean(err[moving] ** 2))), SOURCE_ERROR_M[name]))
-    rows = {k: np.concatenate(v) for k, v in rows.items()}
-    ds.add_table("estimates", {
-        "estimator": _dataset.column(rows["estimator"], "1", "himr observer, raw rss range or double integration"),
-        "t_s": _dataset.column(rows["t_s"], "s", "epoch of the estimate"),
-        "z_hat_m": _dataset.column(rows["z_hat_m"], "m", "estimated distance to the pylon"),
-        "z_dot_hat_mps": _dataset.column(rows["z_dot_hat_mps"], "m/s", "estimated radial velocity"),
-        "z_ddot_hat_mps2": _dataset.column(rows["z_ddot_hat_mps2"], "m/s^2",
-                                           "estimated acceleration along the travel (third state)"),
-        "error_m": _dataset.column(rows["error_m"], "m", "estimated minus true distance")},
-        description="one row per (estimator, epoch): the estimate and its error")
+    summary = _add_estimates(ds, est, t, z, moving)
     ds.add_table("summary", {
         "estimator": _dataset.column(np.array([s[0] for s in summary]), "1", "estimator of the row"),
         "max_error_m": _dataset.column(np.array([s[1] for s in summary]), "m", "largest |distance error| until the motion ends"),
@@ -235,15 +231,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     a["travel_m"] = config.trajectory.travel_m
     a["packet_bits"] = config.tag.format.n_bits
     a["air_time_s"] = config.tag.air_time_s
-    a["n_packets"] = int(n)
-    a["air_steps"] = air.n_steps
-    a["samples_per_step"] = air.samples_per_step
-    a["sample_level_s"] = air.wall_s
-    a["sample_level_cpu_s"] = air.cpu_s
-    a["time_per_packet_s"] = air.wall_s / max(n, 1)
-    a["observers_s"] = observer_s
-    a["ptx_w"] = air.ptx_w
-    a["noise_power_w"] = air.noise_power_w
+    a.update(air.run_attrs(n), observers_s=observer_s)
     a["k_u_w_m4"] = float(air.k_u[0])
     a["snr_db_end"] = float(np.median(m.snr_db[-5:]))
     a["aliasing_limit_mps"] = float(wavelength_m(sc.carrier_hz) * (1 / config.tag.period_s) / 4)
@@ -278,7 +266,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="time [s]", ylabel="distance error [mm]", ylim=(-30, 30), title="Error vs time per estimator")
     ax.legend(fontsize=8)
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
-    fig = _himr_tables.plot_rss_phase(plt, pk, f"RSS and phase at the pylon — {cite('himr', 'Fig. 15')}")
+    fig = _himr_figures.plot_rss_phase(plt, pk, f"RSS and phase at the pylon — {cite('himr', 'Fig. 15')}")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
     fig, ax = plt.subplots(figsize=(7, 3.5))
     ax.plot(dg["t_s"], dg["euler_spectral_radius"], label="spectral radius of I + T(A - LC)")

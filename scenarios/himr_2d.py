@@ -10,31 +10,23 @@ at 4 Mcps, 141 packets/s, IMU words of :mod:`rfsim.devices.imu`) on the boom
 the source compares with, L1014–L1020); pylons (:mod:`rfsim.devices.himr_pylon`) at Table 7's
 (−0.1, 1.5), (2, 3.05), (2.7, −0.03) m (L1006–L1008) on 5.79, 5.80, 5.81 GHz (L997; the
 per-pylon mapping is not stated). The packets go through the air step and the per-packet DSP
-(:mod:`rfsim.scenarios._himr_air`, :mod:`rfsim.himr.dsp`): BOC decode, CRC, complex gain, RSS, phase,
-radial velocity (eq. 23) and RSS range (eq. 22).
+(:mod:`rfsim.scenes.himr_air`, :mod:`rfsim.himr.dsp`).
 
-Measurement stream (one epoch per scheduled packet, outputs in observer order
-[r₁ ṙ₁ r₂ ṙ₂ r₃ ṙ₃ a₁ a₂ θ_z ω_z], errata 1–3): RSS range and radial velocity of each pylon
-(NaN where that pylon's copy failed its CRC); a₁ = the accelerometer's y^B reading, a₂ = minus its
-x^B reading, θ_z = the compass heading, ω_z = the gyroscope z rate, from the first pylon that
-decoded the packet (the inertial words need one reader, L783; a lost packet loses RF and IMU
-together). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
-141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``dealias = "gated"``
-(default) wraps the observer's radial-velocity innovations into ±λ/(4Δt) — the aliasing
-"calibrated out using the other sensors" (L779) — while every RSS-range innovation is below
-``gate_m`` (5 cm), and uses the measured value otherwise; ``"innovation"`` always wraps (after
-an outage it can lock onto a wrong alias: a velocity error of a multiple of λ/(2Δt) along every
-pylon gives zero wrapped innovation, held by a constant range innovation — measured: Cases 2, 4,
-5 end 14 cm off); ``"none"`` feeds the wrapped values; ``"oracle"`` picks the alias nearest the
-true velocity (ground truth: the bound of a perfect dealiasing).
+Measurement stream (:func:`rfsim.estimators.himr_cases.measurement_stream`, one epoch per
+scheduled packet, [r₁ ṙ₁ r₂ ṙ₂ r₃ ṙ₃ a₁ a₂ θ_z ω_z], errata 1–3): NaN where a pylon's copy failed
+its CRC; the IMU words from the first pylon that decoded the packet (L783). The radial velocity is phase-derived and aliases above λ/(4Δt) (1.822 m/s at
+141 packets/s; the boom reaches 2.78 m/s; ``packets.aliased``). ``observer.dealias``
+(:func:`rfsim.estimators.himr_cases.observe_case`): ``"gated"`` (default) wraps the
+radial-velocity innovations while every range innovation is below ``gate_m`` — the aliasing
+"calibrated out using the other sensors" (L779); ``"innovation"`` always wraps (it can lock onto
+a wrong alias after an outage — measured: Cases 2, 4, 5 end 14 cm off); ``"none"``; ``"oracle"``.
 
 Observers (:mod:`rfsim.estimators.observer`): the CARE gain at the Table 8 point
 (``tuning`` D.2 = diag(579, 137, 149, 479, 127, 119, 191, 67, 67) or D.1 = 965·I₉, V = I₁₀),
 forward Euler at the packet epochs from IC #1–#3 of Table 9; variants ``literal`` (the seed's
 estimator), ``prerotated`` (accelerations rotated into the fixed frame with the measured
-heading) and ``ekf``. Cases 1–7 (:mod:`rfsim.estimators.himr_cases`) are post-processing of the
-recorded stream; Case 6 re-derives the radial velocities from the phases of every other
-packet (Δt doubled, limit 0.911 m/s).
+heading) and ``ekf``. Cases 1–7 (:mod:`rfsim.estimators.himr_cases`) post-process the recorded
+stream; Case 6 re-derives the radial velocities from every other packet (limit 0.911 m/s).
 
 What the literal observer gives (the source reports a ≈ 10 cm initial x error, Case 1,
 L1176–L1224): its frozen error dynamics A − L·C(x(t)) are unstable while the heading is more
@@ -66,48 +58,37 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Literal
 
 import numpy as np
 
 from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
+from rfsim.himr.packet import PACKET_BITS_NOTE
 from rfsim.devices.himr_pylon import HIMR_CARRIERS_HZ
 from rfsim.devices.imu import ImuConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.estimators.himr_cases import CASES, case_stream
-from rfsim.estimators.himr_model import PYLONS_M, STATE_NAMES, output_names
-from rfsim.estimators.observer import (VARIANTS, W_D1, W_D2, eig_along, gain_2d, observe_2d, ranks_along,
-                                       unstable_intervals, wrap_innovation)
+from rfsim.estimators.himr_cases import (CASES, SOURCE_CONVERGENCE_S, SOURCE_MAX_ERROR_M, measurement_stream,
+                                         observe_case)
+from rfsim.estimators.himr_model import INITIAL_CONDITIONS, PYLONS_M, STATE_NAMES, initial_state, output_names
+from rfsim.estimators.observer import VARIANTS, W_D1, W_D2, eig_along, gain_2d, ranks_along, unstable_intervals
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
-from rfsim.core.trajectories import RotatingBoom, check_inside
-from rfsim.core.units import wavelength_m
-from rfsim.scenarios._himr_air import RadioConfig, check_pylons_off_the_track, check_sample_rate, simulate
+from rfsim.core.trajectories import RotatingBoom
+from rfsim.scenes.himr_air import RadioConfig, check_scene, simulate
 from rfsim.core.lazy import lazy_import
 
 _dataset = lazy_import("rfsim.core.dataset")
-_himr_tables = lazy_import("rfsim.scenarios._himr_tables")
+_himr_figures = lazy_import("rfsim.scenarios._himr_figures")
+_himr_air = lazy_import("rfsim.scenes.himr_air")
 
 NAME = "himr-2d"
 DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80/5.81 GHz at sample level, "
                "literal/prerotated/EKF observers and the seven outage cases")
-
-#: Initial conditions of Table 9 (L1196-L1206): (x, y, ψ), at rest.
-INITIAL_CONDITIONS = {1: (2.0, 1.8048, math.pi), 2: (1.0, 1.0, math.pi / 2), 3: (2.5, 2.3, 3 * math.pi / 2)}
-#: Max errors the source prints per case (x, y) [m], L1176-L1404 (NaN: not printed).
-SOURCE_MAX_ERROR_M = {1: (0.10, math.nan), 2: (math.nan, 0.5), 3: (0.16, 0.30), 4: (0.10, 0.05),
-                      5: (math.nan, math.nan), 6: (0.13, 0.08), 7: (0.135, 0.10)}
-#: Convergence times the source states (L1176-L1404) [s].
-SOURCE_CONVERGENCE_S = {1: 0.8, 2: math.nan, 3: math.nan, 4: math.nan, 5: math.nan, 6: 1.2, 7: 1.1}
-
-
-def _tag_default() -> HimrTagConfig:
-    return HimrTagConfig(packet_format="9axis-2d")
-
 
 @dataclass(frozen=True)
 class SceneConfig:
@@ -137,7 +118,7 @@ class ObserverConfig:
 
 @dataclass(frozen=True)
 class Config:
-    tag: HimrTagConfig = param(_tag_default(), doc="the HIMR tag (packet format, rate, framing)")
+    tag: HimrTagConfig = param(HimrTagConfig(packet_format="9axis-2d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: RotatingBoom = param(RotatingBoom(lag_s=0.15), doc="the boom (actual trajectory: 150 ms lag)")
     scene: SceneConfig = param(SceneConfig(), doc="pylons and room")
@@ -151,8 +132,7 @@ class Config:
         if len(sc.carriers_hz) != len(sc.pylons_m):
             raise ConfigError("scene.carriers_hz", sc.carriers_hz, "one carrier per pylon")
         if self.tag.packet_format != "9axis-2d":
-            raise ConfigError("tag.packet_format", self.tag.packet_format, "'9axis-2d' (the 2-D tag carries gyro "
-                                                                           "and compass words)")
+            raise ConfigError("tag.packet_format", self.tag.packet_format, "'9axis-2d' (the 2-D tag carries gyro and compass words)")
         for v in self.observer.variants:
             if v not in VARIANTS:
                 raise ConfigError("observer.variants", v, "one of " + ", ".join(map(repr, VARIANTS)))
@@ -164,76 +144,15 @@ class Config:
         lo, hi = self.observer.outage_s
         if not 0 < lo < hi < sc.duration_s:
             raise ConfigError("observer.outage_s", self.observer.outage_s, f"0 < start < end < {sc.duration_s} s")
-        _check(self, HimrTag(self.tag, self.trajectory, self.imu))
-
-
-# ----------------------------------------------------------------------------- measurement stream
-
-
-def measurement_stream(run, plan, imu: dict, *, every: int = 1) -> dict:
-    """Per epoch (every ``every``-th scheduled packet) the outputs in observer order with NaN
-    where not measured; radial velocities from the phases of the kept packets."""
-    keep = np.arange(0, plan.start_s.size, every)
-    t = plan.start_s[keep]
-    n_p = len(run.pylons)
-    y = np.full((t.size, 2 * n_p + 4), np.nan)
-    oracle = np.full((t.size, n_p), np.nan)
-    for u, (p, m) in enumerate(zip(run.pylons, run.measurements)):
-        idx = run.packet_index[u]
-        pos = np.full(plan.start_s.size, -1)
-        pos[idx] = np.arange(idx.size)
-        rows = pos[keep]
-        ok = rows >= 0
-        ok[ok] &= m.crc_ok[rows[ok]]
-        y[ok, 2 * u] = m.range_m[rows[ok]]
-        phase = np.full(t.size, np.nan)
-        phase[ok] = m.phase_rad[rows[ok]]
-        dphi = np.angle(np.exp(1j * np.diff(phase)))
-        y[1:, 2 * u + 1] = wavelength_m(p.fc_hz) / (4 * np.pi) * dphi / np.diff(t)
-        # the alias nearest the true mean radial velocity (ground truth: dealias = "oracle")
-        r_true = np.full(plan.start_s.size, np.nan)
-        r_true[idx] = run.true_range_m[u]
-        v_true = np.diff(r_true[keep]) / np.diff(t)
-        period = wavelength_m(p.fc_hz) / (2 * np.diff(t))
-        oracle[1:, u] = y[1:, 2 * u + 1] + period * np.round((v_true - y[1:, 2 * u + 1]) / period)
-    k = 2 * n_p
-    y[:, k] = imu["accel_y"][keep]
-    y[:, k + 1] = -imu["accel_x"][keep]
-    y[:, k + 2] = imu["heading_rad"][keep]
-    y[:, k + 3] = imu["gyro_z"][keep]
-    return {"t_s": t, "packet": keep, "y": y, "rdot_oracle": oracle}
-
-
-def _x0(ic: int) -> np.ndarray:
-    x, y, psi = INITIAL_CONDITIONS[ic]
-    return np.array([x, 0, 0, y, 0, 0, psi, 0, 0], float)
-
-
-def _range_gate(n_pylons: int, gate_m: float, period):
-    """Innovation hook of ``dealias = "gated"``: the radial-velocity innovations are wrapped
-    into ±period/2 only while every measured RSS-range innovation is below ``gate_m`` — then
-    the position the other sensors support is close enough for the prediction to pick the
-    right alias; otherwise (after an outage, from a far initial condition) the measured value
-    is used as it is. Wrapping always can lock the observer onto a wrong alias: a velocity
-    error of a multiple of λ/(2Δt) along every pylon's direction gives zero wrapped
-    innovation and is held by a constant range innovation."""
-    rows = np.arange(0, 2 * n_pylons, 2)
-
-    def hook(k, innov):
-        r = innov[rows]
-        r = r[~np.isnan(r)]
-        if r.size and np.abs(r).max() < gate_m:
-            return wrap_innovation(innov, period[k])
-        return innov
-    return hook
+        check_scene(self.radio, HimrTag(self.tag, self.trajectory, self.imu),
+                    [(x, y, self.trajectory.height_m) for x, y in sc.pylons_m], sc.carriers_hz, t_end_s=sc.duration_s,
+                    room_min_m=sc.room_min_m, room_max_m=sc.room_max_m, key="scene.pylons_m")
 
 
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:
     """Every (variant, case) run: a list of estimate tables and a list of summary rows."""
     ob = config.observer
-    W = W_D2 if ob.tuning == "D.2" else W_D1
-    pyl = np.asarray(config.scene.pylons_m, float)
-    x0 = _x0(ob.initial_condition)
+    W, pyl, x0 = (W_D2 if ob.tuning == "D.2" else W_D1), np.asarray(config.scene.pylons_m, float), initial_state(ob.initial_condition)
     motion_end = config.trajectory.duration_s
     streams = {1: measurement_stream(run, plan, imu), 6: measurement_stream(run, plan, imu, every=2)}
     runs = [(v, 1, ob.dealias) for v in ob.variants] + [("prerotated", c, ob.dealias) for c in ob.cases if c != 1]
@@ -241,36 +160,17 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
         runs.append(("literal", 1, "oracle"))  # what the literal observer gives without aliasing
     estimates, summary = [], []
     for variant, case, dealias in runs:
-        base = streams[6 if case == 6 else 1]
-        yb = base["y"]
-        if dealias == "oracle":
-            yb = yb.copy()
-            yb[:, 1:6:2] = base["rdot_oracle"]
-        cs = case_stream(1 if case == 6 else case, base["t_s"], yb, n_pylons=3, outage_s=ob.outage_s)
-        if case == 6:
-            cs = replace(cs, case=6)
-        sel = list(cs.pylons)
-        wrap = hook = None
-        if dealias in ("gated", "innovation"):
-            per = _himr_tables.wrap_periods(cs.t_s, 3, fc_hz)
-            wrap = np.zeros_like(cs.y)
-            for j, u in enumerate(sel):
-                wrap[:, 2 * j + 1] = per[:, u]
-        if dealias == "gated" and variant != "ekf":
-            wrap, hook = None, _range_gate(len(sel), ob.gate_m, wrap)
-        est = observe_2d(cs.t_s, cs.y, x0=x0, variant=variant, pylons_m=pyl[sel], W=W, gain_on=cs.gain_on,
-                         wrap_period=wrap, innovation=hook)
+        cs, est = observe_case(variant, case, dealias, streams, x0=x0, W=W, pylons_m=pyl, fc_hz=fc_hz,
+                               outage_s=ob.outage_s, gate_m=ob.gate_m)
         truth = config.trajectory(cs.t_s).state_2d()
-        ex, ey = np.abs(est[:, 0] - truth[:, 0]), np.abs(est[:, 3] - truth[:, 3])
-        e = _himr_tables.errors(est[:, [0, 3]], truth[:, [0, 3]])
-        moving = cs.t_s <= motion_end
+        dx, dy, moving = est[:, 0] - truth[:, 0], est[:, 3] - truth[:, 3], cs.t_s <= motion_end
+        ex, ey, e = np.abs(dx), np.abs(dy), np.hypot(dx, dy)
         above = np.nonzero(e > ob.converged_m)[0]
         conv = float(cs.t_s[above[-1]]) if above.size else 0.0
         n = cs.t_s.size
         estimates.append({"variant": np.full(n, variant), "case": np.full(n, case), "dealias": np.full(n, dealias),
-                          "t_s": cs.t_s,
-                          **{f"{s}_hat": est[:, i] for i, s in enumerate(STATE_NAMES)},
-                          "error_x_m": est[:, 0] - truth[:, 0], "error_y_m": est[:, 3] - truth[:, 3],
+                          "t_s": cs.t_s, **{f"{s}_hat": est[:, i] for i, s in enumerate(STATE_NAMES)},
+                          "error_x_m": dx, "error_y_m": dy,
                           "error_psi_rad": est[:, 6] - truth[:, 6], "error_m": e})
         sx, sy = SOURCE_MAX_ERROR_M[case]
         summary.append({"variant": variant, "case": case, "dealias": dealias, "case_name": CASES[case],
@@ -284,24 +184,15 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
 # ----------------------------------------------------------------------------- run
 
 
-def _check(config: Config, tag: HimrTag) -> None:
-    sc = config.scene
-    check_inside(config.trajectory, t_end_s=sc.duration_s, room_min_m=sc.room_min_m, room_max_m=sc.room_max_m)
-    check_pylons_off_the_track([(x, y, config.trajectory.height_m) for x, y in sc.pylons_m], tag, sc.duration_s,
-                               key="scene.pylons_m")
-    check_sample_rate(config.radio, tag, sc.carriers_hz)
-
-
 def sample_level(config: Config, *, seed: int):
     """The packets through the air and the DSP: ``(AirRun, the tag's plan, imu table)``."""
-    tag = HimrTag(config.tag, config.trajectory, config.imu)
-    sc = config.scene
+    tag, sc = HimrTag(config.tag, config.trajectory, config.imu), config.scene
     stage(f"sample level: {config.tag.format.n_bits}-bit packets at {config.radio.fs_hz / 1e6:g} MS/s, "
           f"{len(sc.pylons_m)} pylons")
     air = simulate(tag, sc.pylons_m, sc.carriers_hz, config.radio, seed=seed, t_end_s=sc.duration_s,
                    height_m=config.trajectory.height_m)
     plan = tag.current_plan
-    imu = _himr_tables.imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
+    imu = _himr_air.imu_table(air, plan, config.imu, heading_start_rad=float(config.trajectory(0.0).heading_rad[0]))
     return air, plan, imu
 
 
@@ -316,10 +207,9 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     stage("observers and cases")
     stream = measurement_stream(air, plan, imu)
     estimates, summary = run_observers(config, air, plan, imu, sc.carriers_hz)
-    W = W_D2 if config.observer.tuning == "D.2" else W_D1
-    g = gain_2d(W, pylons_m=np.asarray(sc.pylons_m, float))
+    W, pyl = (W_D2 if config.observer.tuning == "D.2" else W_D1), np.asarray(sc.pylons_m, float)
+    g = gain_2d(W, pylons_m=pyl)
     truth = config.trajectory(stream["t_s"]).state_2d()
-    pyl = np.asarray(sc.pylons_m, float)
     mr_lit = eig_along(truth, g.L, pylons_m=pyl).real.max(axis=1)
     g_pre = gain_2d(W, pylons_m=pyl, accel="prerotated")
     mr_pre = eig_along(truth, g_pre.L, pylons_m=pyl, accel="prerotated").real.max(axis=1)
@@ -327,29 +217,21 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
     observer_s = time.perf_counter() - tick
 
     ds = _dataset.Dataset(title="2-D HIMR: rotating-boom tag, three pylons at sample level, fixed-gain observers and cases")
-    pk = _himr_tables.packets_table(air, plan)
-    ds.add_table("packets", {k: _dataset.column(v, *_himr_tables.PACKET_COLUMNS[k]) for k, v in pk.items()},
-                 description="one row per packet decoded at one pylon: CRC, complex gain, RSS, phase, radial "
-                             "velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth")
-    ds.add_table("imu", _himr_tables.imu_columns(imu),
-                 description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) as decoded "
-                             "by the first pylon with a good CRC")
-    names = output_names(3)
-    y = stream["y"]
+    pk = _himr_air.add_run_tables(ds, air, plan, imu, packets="one row per packet decoded at one pylon: CRC, complex gain, "
+                                  "RSS, phase, radial velocity (eq. 23), RSS range (eq. 22), aliasing flag, ground truth",
+                                  imu_description="one row per scheduled packet: the IMU words it carried (raw int16 and SI) "
+                                                  "as decoded by the first pylon with a good CRC")
+    names, y = output_names(3), stream["y"]
+    rdot = "phase-derived radial velocity to pylon {} (eq. 23, wrapped: aliased above the limit)"
+    out_desc = {**{f"r{u}": ("m", f"RSS range to pylon {u} (eq. 22)") for u in "123"},
+                **{f"r{u}_dot": ("m/s", rdot.format(u)) for u in "123"},
+                "a1": ("m/s^2", "a1 = accelerometer y^B reading (body frame)"),
+                "a2": ("m/s^2", "a2 = minus the accelerometer x^B reading"),
+                "theta_z": ("rad", "compass heading theta_z of the body y axis"), "omega_z": ("rad/s", "gyroscope rate omega_z")}
     mcols = {"t_s": _dataset.column(stream["t_s"], "s", "epoch: scheduled start of the packet (observer time step)"),
              "packet": _dataset.column(stream["packet"], "1", "index of the packet in the tag's schedule")}
-    units = {"r": "m", "a": "m/s^2", "theta_z": "rad", "omega_z": "rad/s"}
-    text = {"r": "RSS range to pylon {u} (eq. 22)", "rdot": "phase-derived radial velocity to pylon {u} (eq. 23, "
-                                                            "wrapped: aliased above the limit)",
-            "a1": "a1 = accelerometer y^B reading (body frame)", "a2": "a2 = minus the accelerometer x^B reading",
-            "theta_z": "compass heading theta_z of the body y axis", "omega_z": "gyroscope rate omega_z"}
     for j, nm in enumerate(names):
-        if nm.startswith("r") and nm.endswith("_dot"):
-            u, unit, desc = nm[1], "m/s", text["rdot"].format(u=nm[1])
-        elif nm.startswith("r"):
-            u, unit, desc = nm[1:], "m", text["r"].format(u=nm[1:])
-        else:
-            unit, desc = units.get(nm[:1] if nm in ("a1", "a2") else nm), text[nm]
+        unit, desc = out_desc[nm]
         mcols[nm] = _dataset.column(y[:, j], unit, desc + " (NaN: not measured at this epoch)")
         mcols[f"valid_{nm}"] = _dataset.column(~np.isnan(y[:, j]), "1", f"{desc} was measured at this epoch")
     ds.add_table("measurements", mcols, description="one row per epoch: the observer's outputs "
@@ -368,27 +250,24 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
              "t_s": _dataset.column(cat["t_s"], "s", "epoch of the estimate")}
     for i, s in enumerate(STATE_NAMES):
         ecols[f"{s}_hat"] = _dataset.column(cat[f"{s}_hat"], tunits[i], f"estimated state {s} at the epoch")
-    ecols["error_x_m"] = _dataset.column(cat["error_x_m"], "m", "estimated minus true x")
-    ecols["error_y_m"] = _dataset.column(cat["error_y_m"], "m", "estimated minus true y")
-    ecols["error_psi_rad"] = _dataset.column(cat["error_psi_rad"], "rad", "estimated minus true heading psi")
-    ecols["error_m"] = _dataset.column(cat["error_m"], "m", "Euclidean position error of the estimate")
+    for k, u, d in (("error_x_m", "m", "estimated minus true x"), ("error_y_m", "m", "estimated minus true y"),
+                    ("error_psi_rad", "rad", "estimated minus true heading psi"),
+                    ("error_m", "m", "Euclidean position error of the estimate")):
+        ecols[k] = _dataset.column(cat[k], u, d)
     ds.add_table("estimates", ecols, description="one row per (variant, case, epoch): the observer's estimate "
                                                  "and its error")
-    scols = {}
-    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"),
-             "case": ("1", "analysis case 1-7"),
+    sdesc = {"variant": ("1", "observer variant of the run: literal, prerotated or ekf"), "case": ("1", "analysis case 1-7"),
              "dealias": ("1", "radial-velocity aliasing treatment of the run (oracle: ground truth picks the alias)"),
              "case_name": ("1", "what the case does to the recorded stream"),
              "max_error_m": ("m", "largest Euclidean position error while the boom moves"),
-             "max_error_x_m": ("m", "largest |x error| while the boom moves"),
-             "max_error_y_m": ("m", "largest |y error| while the boom moves"),
+             "max_error_x_m": ("m", "largest |x error| while the boom moves"), "max_error_y_m": ("m", "largest |y error| while "
+                                                                                             "the boom moves"),
              "final_error_m": ("m", "Euclidean position error at the last epoch"),
              "convergence_s": ("s", "last epoch with a position error above observer.converged_m"),
              "source_max_error_x_m": ("m", "max x error the source prints for the case (NaN: not printed)"),
              "source_max_error_y_m": ("m", "max y error the source prints for the case (NaN: not printed)"),
              "source_convergence_s": ("s", "convergence time the source states for the case (NaN: not stated)")}
-    for k, (u, d) in sdesc.items():
-        scols[k] = _dataset.column(np.array([r[k] for r in summary]), u, d)
+    scols = {k: _dataset.column(np.array([r[k] for r in summary]), u, d) for k, (u, d) in sdesc.items()}
     ds.add_table("summary", scols, description="one row per (variant, case) run: max, final error and convergence "
                                                "beside the source's printed numbers")
     ds.add_grid("gains", {"state": _dataset.column(np.array(STATE_NAMES), "1", "state of the 9-state model (row of L)"),
@@ -397,10 +276,8 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
                 {"L": _dataset.column(g.L, "1", f"CARE gain L = Y C' inv(V) at the Table 8 point, tuning "
                                        f"{config.observer.tuning}, V = I (the source prints L')",
                                       dims=("state", "output")),
-                 "eig_real": _dataset.column(g.eigenvalues.real, "1/s", "real part of eig(A - L C) at the Table 8 point",
-                                             dims=("mode",)),
-                 "eig_imag": _dataset.column(g.eigenvalues.imag, "1/s", "imaginary part of eig(A - L C) at the Table 8 point",
-                                             dims=("mode",))},
+                 **{f"eig_{k}": _dataset.column(getattr(g.eigenvalues, k), "1/s", f"{w} part of eig(A - L C) at the Table 8 "
+                                                "point", dims=("mode",)) for k, w in (("real", "real"), ("imag", "imaginary"))}},
                 description="the observer gain L[state, output] at the linearisation point and the eigenvalues of "
                             "its error matrix")
     ds.add_table("diagnostics", {
@@ -418,8 +295,7 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
             a[f"max_error_m_{r['variant']}{tail}"] = r["max_error_m"]
             a[f"final_error_m_{r['variant']}{tail}"] = r["final_error_m"]
     win = unstable_intervals(stream["t_s"], mr_lit)
-    a["literal_unstable_from_s"] = win[0][0] if win else float("nan")
-    a["literal_unstable_to_s"] = win[-1][1] if win else float("nan")
+    a["literal_unstable_from_s"], a["literal_unstable_to_s"] = (win[0][0], win[-1][1]) if win else (math.nan, math.nan)
     for key in ("literal_unstable_from_s", "literal_unstable_to_s"):
         if not np.isfinite(a[key]):
             a[f"{key}_meaning"] = "NaN: the literal error matrix stays stable along this trajectory"
@@ -430,17 +306,9 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
         "variant reaches the source's magnitudes")
     a["dealias"] = config.observer.dealias
     a["packet_bits"] = config.tag.format.n_bits
-    a["packet_bits_note"] = _himr_tables.PACKET_BITS_NOTE
+    a["packet_bits_note"] = PACKET_BITS_NOTE
     a["air_time_s"] = config.tag.air_time_s
-    a["n_packets"] = int(plan.start_s.size)
-    a["air_steps"] = air.n_steps
-    a["samples_per_step"] = air.samples_per_step
-    a["sample_level_s"] = air.wall_s
-    a["sample_level_cpu_s"] = air.cpu_s
-    a["time_per_packet_s"] = air.wall_s / max(plan.start_s.size, 1)
-    a["observers_s"] = observer_s
-    a["ptx_w"] = air.ptx_w
-    a["noise_power_w"] = air.noise_power_w
+    a.update(air.run_attrs(plan.start_s.size), observers_s=observer_s)
     a["dropped_contributions"] = air.dropped
     a["aliased_fraction"] = float(np.mean(pk["aliased"]))
     a["crc_ok_fraction"] = float(np.mean(pk["crc_ok"]))
@@ -453,9 +321,11 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
 # ----------------------------------------------------------------------------- plot
 
 
-def _runs_of_case_1(est) -> list[tuple[str, str]]:
+def _runs_of_case_1(est) -> list[tuple[str, str, np.ndarray]]:
+    """(variant, dealias, row mask) of every case-1 run."""
     s = est["case"] == 1
-    return sorted(set(zip(est["variant"][s].tolist(), est["dealias"][s].tolist())))
+    runs = sorted(set(zip(est["variant"][s].tolist(), est["dealias"][s].tolist())))
+    return [(v, d, s & (est["variant"] == v) & (est["dealias"] == d)) for v, d in runs]
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
@@ -463,41 +333,31 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     from rfsim.core.dataset import read_dataset, read_table
 
     plt = pyplot()
-    ds = read_dataset(dataset_path)
-    est = read_table(dataset_path, "estimates")
-    truth = read_table(dataset_path, "truth")
-    pk = read_table(dataset_path, "packets")
-    dg = read_table(dataset_path, "diagnostics")
-    out = []
+    est, truth, pk, dg = (read_table(dataset_path, k) for k in ("estimates", "truth", "packets", "diagnostics"))
+    path = partial(figure_path, dataset_path, out_dir)
     fig, ax = plt.subplots(figsize=(6.5, 5.5))
     ax.plot(truth["x"], truth["y"], "k-", lw=2, label="true")
-    for v, d in _runs_of_case_1(est):
-        s = (est["variant"] == v) & (est["case"] == 1) & (est["dealias"] == d)
+    for v, d, s in _runs_of_case_1(est):
         ax.plot(est["x_hat"][s], est["y_hat"][s], ".-", ms=2, lw=0.7, label=f"{v}, dealias {d} (case 1)")
     span = [truth["x"].min() - 0.5, truth["x"].max() + 0.5, truth["y"].min() - 0.5, truth["y"].max() + 0.5]
     ax.set(xlim=span[:2], ylim=span[2:], aspect="equal", xlabel="x [m]", ylabel="y [m]",
            title=f"True vs estimated track\n{cite('himr', 'Figs. 68-71')}")
     ax.legend(fontsize=7)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "trajectory")))
-
+    out = [save_figure(fig, path("trajectory"))]
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
-    main = ds.attrs.get("dealias", "gated")
-    for c in np.unique(est["case"]):
-        s = (est["variant"] == "prerotated") & (est["case"] == c) & (est["dealias"] == main)
+    main = read_dataset(dataset_path).attrs.get("dealias", "gated")
+    pre = (est["variant"] == "prerotated") & (est["dealias"] == main)
+    runs = [(a1, f"case {c}", pre & (est["case"] == c)) for c in np.unique(est["case"])]
+    for ax, label, s in runs + [(a2, f"{v}, dealias {d}", s) for v, d, s in _runs_of_case_1(est)]:
         if s.any():
-            a1.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=f"case {c}")
-    for v, d in _runs_of_case_1(est):
-        s = (est["variant"] == v) & (est["case"] == 1) & (est["dealias"] == d)
-        a2.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=f"{v}, dealias {d}")
+            ax.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=label)
     a1.set(ylabel="position error [m]", title="prerotated observer, cases 1-7")
     a2.set(xlabel="time [s]", ylabel="position error [m]", title="case 1, every variant")
     a1.legend(fontsize=7, ncol=4)
     a2.legend(fontsize=7)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
-
-    fig = _himr_tables.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}")
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
-
+    out.append(save_figure(fig, path("errors")))
+    out.append(save_figure(_himr_figures.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}"),
+                           path("rss-phase")))
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(dg["t_s"], dg["max_real_eig_literal"], label="literal (trigonometric acceleration rows)")
     ax.plot(dg["t_s"], dg["max_real_eig_prerotated"], label="prerotated accelerations")
@@ -505,10 +365,9 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.set(xlabel="time [s]", ylabel="max Re eig(A - L C(x(t))) [1/s]",
            title=f"Frozen-time eigenvalues along the trajectory — {cite('himr', 'Fig. 82')}")
     ax.legend(fontsize=8)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "eigenvalues")))
+    out.append(save_figure(fig, path("eigenvalues")))
     return out
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "SceneConfig", "ObserverConfig", "run", "plot", "sample_level", "dataset",
-           "measurement_stream",
-           "run_observers", "INITIAL_CONDITIONS", "SOURCE_MAX_ERROR_M"]
+           "measurement_stream", "run_observers", "INITIAL_CONDITIONS", "SOURCE_MAX_ERROR_M"]

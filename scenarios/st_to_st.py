@@ -72,16 +72,15 @@ import numpy as np
 
 from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
+from rfsim.devices.st_pair import cell_probabilities
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.core.procs import map_in_order
+from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.plots import figure_path, probability_errorbars, pyplot, save_figure
 from rfsim.core.rng import trial_rng
 from rfsim.scenarios._exciter_scene import (BatchAntenna, BatchLink, DrawnLinks, FrameConfig, NoiseConfig, OwnSchedule,
-                                      RowsChain, build_frame, concat, exciter_antenna, room, uniform_disc,
-                                      unit_of)
-from rfsim.scenarios._monte_carlo import MonteCarloConfig
+                                      RowsChain, build_frame, exciter_antenna, room, uniform_disc, unit_of)
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -264,14 +263,9 @@ def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
     return out
 
 
-def _task(args):
-    return simulate_cell(*args)
-
-
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Every (cell, repetition) on ``config.mc.workers`` processes, concatenated in task order."""
-    tasks = [(config, c, r, seed) for c in range(len(config.geometry.st_x_m)) for r in range(config.mc.n_repetitions)]
-    return concat(map_in_order(_task, tasks, config.mc.workers, desc="monte carlo", unit="cells"))
+    return run_cells(simulate_cell, config, len(config.geometry.st_x_m), config.mc, seed=seed)
 
 
 # ----------------------------------------------------------------------------- run
@@ -282,10 +276,7 @@ def cell_table(samples, x_m) -> dict[str, np.ndarray]:
     n_cells = len(x_m)
     out = {"cell": np.arange(n_cells), "tx_x_m": np.asarray(x_m, float)}
     cell = samples["cell"]
-    for t in TECHS:
-        res = [sa.cancellation_probability(samples[f"cancelled_{t}"][cell == c]) for c in range(n_cells)]
-        out[f"p_{t}"], out[f"ci_lo_{t}"], out[f"ci_hi_{t}"] = (np.array([r[i] for r in res], float) for i in range(3))
-        out["n_samples"] = np.array([r[3] for r in res], int)
+    out.update(cell_probabilities({t: samples[f"cancelled_{t}"] for t in TECHS}, cell, n_cells))
     out["detectable_fraction"] = np.array([samples["detectable"][cell == c].mean() for c in range(n_cells)])
     out["median_tx_incident_power_w"] = np.array([np.median(samples["tx_incident_power_w"][cell == c])
                                                   for c in range(n_cells)])
@@ -385,11 +376,8 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     cells = read_table(dataset_path, "cells")
     attrs = read_dataset(dataset_path).attrs
     fig, ax = plt.subplots(figsize=(7, 4))
-    for t in TECHS:
-        p = cells[f"p_{t}"]
-        err = np.vstack([p - cells[f"ci_lo_{t}"], cells[f"ci_hi_{t}"] - p])
-        ax.errorbar(cells["tx_x_m"], 100 * p, yerr=100 * err, marker="o", capsize=3,
-                    label=f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)")
+    probability_errorbars(ax, cells["tx_x_m"], cells, TECHS,
+                          labels={t: f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)" for t in TECHS})
     ax.set(xlabel="transmitting ST x [m] (exciter at the origin)", ylabel="P(phase cancellation) [%]",
            title=f"Exciter-powered ST-to-ST link — {cite('auris', 'Fig. 5.8')}")
     ax.legend(fontsize=8)

@@ -14,7 +14,7 @@ import pytest
 from scipy import optimize, stats
 
 from rfsim.detection import (DA_DEAD_ZONE, DA_MEAN_COEFFICIENTS, DA_VARIANCE_COEFFICIENTS,
-                             PUBLISHED_READER_MODEL, RTS_COEFFICIENTS, TS_COEFFICIENTS,
+                             PUBLISHED_READER_MODEL, RTS_COEFFICIENTS,
                              ReaderDetectionModel, beta_from_moments, binned_probability,
                              cross_entropy, expected_cross_entropy, fit_logistic, fit_reader_mle,
                              fit_reader_moments, predict_proba, rts_design, rts_probability,
@@ -33,12 +33,6 @@ RTS_TABLE = [
 ]
 TS_TABLE = [(0.0, 0.2897), (0.2, 0.2001), (0.4, 0.1330), (0.6, 0.0860), (1.0, 0.0342),
             (2.0, 0.0031)]
-
-
-def test_published_st_coefficients():
-    # seed 003 L3856 and L3870-3871
-    assert RTS_COEFFICIENTS.tolist() == [-1.462, 0.4941, 2.506, 0.0126, 0.0523]
-    assert TS_COEFFICIENTS.tolist() == [0.8970, 2.4443]
 
 
 def test_rts_ts_page_values():

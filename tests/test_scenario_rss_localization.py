@@ -4,7 +4,6 @@ one-line errors for bad input."""
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 import pytest
@@ -232,14 +231,10 @@ def test_bad_input_is_one_line_exit_2(setting, fragment, capsys, tmp_path):
 
 
 @pytest.mark.slow
-def test_table_7_3_reproduction_4000_trials_within_30_s():
-    """4 σ0 × 4000 trials, NN + grid Bayes (fixed target) in ≤ 30 s of CPU time (the number that
-    does not depend on the other jobs of a shared machine; wall time printed); NN within ±10 %
-    of Table 7.3 and grid Bayes of Table 7.11 + 3 SE."""
-    t0, c0 = time.perf_counter(), time.process_time()
+def test_table_7_3_reproduction_4000_trials():
+    """4 σ0 × 4000 trials, NN + grid Bayes (fixed target): NN within ±10 % of Table 7.3 and grid
+    Bayes of Table 7.11 + 3 SE. (Its cost is a figure of ``rfsim bench``, not a test.)"""
     ds = _run(estimators=["nn", "grid"], motions=["fixed"], trials=4000, write_beacons=False)
-    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
-    print(f"Table 7.3 reproduction: {cpu:.1f} s CPU, {wall:.1f} s wall")
     est = _table(ds, "estimates")
     for s, p in {3.0: 1.38, 5.2: 1.95, 7.0: 2.29, 9.0: 2.57}.items():
         rmse, se = _rmse_and_se(est, "nn", "fixed", s)
@@ -247,14 +242,12 @@ def test_table_7_3_reproduction_4000_trials_within_30_s():
     for s, p in {3.0: 1.36, 5.2: 1.83, 7.0: 2.07, 9.0: 2.34}.items():
         rmse, se = _rmse_and_se(est, "grid-mmse", "fixed", s)
         assert abs(rmse - p) <= 0.10 * p + 3 * se
-    assert cpu <= 30.0, cpu
 
 
 @pytest.mark.slow
 def test_table_7_3_through_the_sweep_machinery(project_root, tmp_path):
     """The repeated Table 7.3 run as a sweep (examples/sweeps/rss-localization.toml: 4 σ0 points
-    × 2 repetitions × 4000 trials, NN + grid Bayes), serial executor: ≤ 30 s of CPU time per
-    4 × 4000 trials; the merged summary holds the 8 runs and every run's NN RMSE is within
+    × 2 repetitions × 4000 trials, NN + grid Bayes), serial executor: the merged summary holds the 8 runs and every run's NN RMSE is within
     ±10 % + 3 SE of the published 1.38/1.95/2.29/2.57 m."""
     from rfsim.core.dataset import read_table
     from rfsim.sweep import SerialExecutor, load_spec, run_sweep
@@ -263,10 +256,7 @@ def test_table_7_3_through_the_sweep_machinery(project_root, tmp_path):
     text = text.replace('output = "results/sweep-rss-localization.h5"', f'output = "{tmp_path / "sweep.h5"}"')
     spec_path = tmp_path / "sweep.toml"
     spec_path.write_text(text)
-    c0, t0 = time.process_time(), time.perf_counter()
     report = run_sweep(load_spec(spec_path), SerialExecutor())
-    cpu, wall = time.process_time() - c0, time.perf_counter() - t0
-    print(f"sweep, 4 sigma0 x 2 x 4000 trials: {cpu:.1f} s CPU, {wall:.1f} s wall")
     sm = read_table(report.output, "summary")
     assert (sm["estimator"] == "nn").sum() == 8
     est = read_table(report.output, "estimates")
@@ -281,7 +271,6 @@ def test_table_7_3_through_the_sweep_machinery(project_root, tmp_path):
             assert abs(rmse - published[s0]) <= 0.10 * published[s0] + 3 * se, (s0, rep, rmse)
             checked += 1
     assert checked == 8
-    assert cpu <= 2 * 30.0, cpu
 
 
 @pytest.mark.slow

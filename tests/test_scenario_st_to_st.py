@@ -183,13 +183,10 @@ def test_bad_input_one_line_exit_2(extra, key, capsys, tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_paper_size_run():
-    """Fig. 5.8 size: 13 cells × 300 positions × 3 repetitions (item 6)."""
-    import time
-
+    """Fig. 5.8 size: 13 cells × 300 positions × 3 repetitions (item 6); its time is a figure
+    of ``rfsim bench campaigns``, not a test."""
     cfg = replace(s.Config(), mc=replace(s.Config().mc, full=True))
-    t0 = time.perf_counter()
     smp = s.monte_carlo(cfg, seed=1)
-    wall = time.perf_counter() - t0
     assert smp["cell"].size == 13 * 300 * 3
     p = {t: smp[f"cancelled_{t}"].mean() for t in s.TECHS}
     n = smp["cell"].size
@@ -198,4 +195,3 @@ def test_paper_size_run():
     # the stamp/selection difference (source: < 0.1 %, ≤ 0.3 % with the MC interval) stays
     # below 1 %: it is the near-threshold disagreement counted in the dataset
     assert abs(p["stamp"] - p["selection"]) < 0.01
-    assert wall < 120.0  # 2 cores under a shared load; ~20 s CPU per core when idle

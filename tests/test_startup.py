@@ -151,24 +151,120 @@ def test_decode_cli_lists_the_capture_endings_of_the_loader():
 
 
 def test_numba_cache_folder_choice(tmp_path):
-    """The user's NUMBA_CACHE_DIR wins; a writable package folder keeps numba's in-tree
-    cache; a package folder that cannot be written (non-editable install) gets
-    $XDG_CACHE_HOME/rfsim/numba, or ~/.cache/rfsim/numba."""
+    """The folder is named after the kernel sources' hash, inside: the user's NUMBA_CACHE_DIR;
+    the package's ``__pycache__`` when writable; $XDG_CACHE_HOME/rfsim/numba, or
+    ~/.cache/rfsim/numba, when the package folder cannot be written (non-editable install). A
+    NUMBA_CACHE_DIR that is already an rfsim-kernels folder (exported by an rfsim parent
+    process) gives that folder for the same sources and a sibling for other sources, never a
+    folder nested in it."""
     from rfsim.core._jit import cache_dir
 
     pkg = tmp_path / "site-packages" / "rfsim"
-    assert cache_dir({"NUMBA_CACHE_DIR": "/x"}, pkg, writable=lambda p: False) is None
-    assert cache_dir({}, pkg, writable=lambda p: True) is None
-    assert cache_dir({"XDG_CACHE_HOME": str(tmp_path / "c")}, pkg, writable=lambda p: False) == str(
-        tmp_path / "c" / "rfsim" / "numba")
-    assert cache_dir({}, pkg, writable=lambda p: False).endswith(os.path.join(".cache", "rfsim", "numba"))
+    assert cache_dir("ab12", {"NUMBA_CACHE_DIR": "/x"}, pkg, writable=lambda p: False) == os.path.join(
+        "/x", "rfsim-kernels-ab12")
+    assert cache_dir("ab12", {}, pkg, writable=lambda p: True) == str(pkg / "__pycache__" / "rfsim-kernels-ab12")
+    assert cache_dir("ab12", {"XDG_CACHE_HOME": str(tmp_path / "c")}, pkg, writable=lambda p: False) == str(
+        tmp_path / "c" / "rfsim" / "numba" / "rfsim-kernels-ab12")
+    assert cache_dir("ab12", {}, pkg, writable=lambda p: False).endswith(
+        os.path.join(".cache", "rfsim", "numba", "rfsim-kernels-ab12"))
+    inherited = {"NUMBA_CACHE_DIR": os.path.join("/x", "rfsim-kernels-ab12") + os.sep}
+    assert cache_dir("ab12", inherited, pkg, writable=lambda p: True) == os.path.join("/x", "rfsim-kernels-ab12")
+    assert cache_dir("cd34", inherited, pkg, writable=lambda p: True) == os.path.join("/x", "rfsim-kernels-cd34")
+
+
+def test_sources_hash_changes_with_any_byte_name_or_boundary():
+    """The hash of ``(name, bytes)`` pairs is 16 hex digits and changes when a byte, a name, or
+    the split of the same text between two files changes."""
+    from rfsim.core._jit import sources_hash
+
+    base = sources_hash([("a/_x_kernels.py", b"K = 1\n"), ("a/_y_kernels.py", b"L = 2\n")])
+    assert len(base) == 16 and int(base, 16) >= 0
+    others = [sources_hash([("a/_x_kernels.py", b"K = 2\n"), ("a/_y_kernels.py", b"L = 2\n")]),
+              sources_hash([("a/_z_kernels.py", b"K = 1\n"), ("a/_y_kernels.py", b"L = 2\n")]),
+              sources_hash([("a/_x_kernels.py", b"K = 1\nL"), ("a/_y_kernels.py", b" = 2\n")])]
+    assert base not in others and len(set(others)) == 3
+
+
+def test_every_module_declaring_kernels_is_hashed_and_imports_only_hashed_modules():
+    """Every file of the package folders that mentions ``njit`` is a kernel module by name (so
+    its source is in the cache folder's hash), the list includes the kernel modules of
+    rfsim.channels, rfsim.devices and rfsim.scenarios, and each kernel module imports, of the
+    project, only other kernel modules: a constant or kernel compiled into a kernel cannot come
+    from a file whose edit would leave the cache folder unchanged."""
+    import ast
+
+    from rfsim.core._jit import is_kernel_module, kernel_source_dirs, kernel_sources
+
+    dirs = kernel_source_dirs()
+    mentions = sorted(f"{d.name}/{p.relative_to(d).as_posix()}" for d in dirs for p in d.rglob("*.py")
+                      if "__pycache__" not in p.parts and b"njit" in p.read_bytes())
+    hashed = kernel_sources(dirs)
+    assert [name for name, _ in hashed] == mentions
+    assert {name.split("/")[0] for name, _ in hashed} >= {"rfsim", "channels", "devices", "scenarios"}
+    for name, data in hashed:
+        for node in ast.walk(ast.parse(data)):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "rfsim":
+                assert is_kernel_module(node.module.rsplit(".", 1)[-1] + ".py"), (name, node.module)
+            elif isinstance(node, ast.Import):
+                assert all(a.name.split(".")[0] != "rfsim" for a in node.names), name
+
+
+_CALLEE = "from rfsim.core._jit import njit\n\nSCALE = 3\n\n\n@njit\ndef scaled(x):\n    return SCALE * x\n"
+_CALLER = ("from rfsim.core._jit import njit\nfrom rfsim.core._probe_callee_kernels import scaled\n\n\n"
+           "@njit\ndef caller(x):\n    return scaled(x) + 1\n")
+_CALL_AND_ANNOUNCE = """
+import io, json
+from rfsim.core import _jit
+from rfsim.core.progress import COMPILE_NOTICE, Reporter, reporting
+from rfsim.runs.runner import _announce_compilation
+from rfsim.core._probe_caller_kernels import caller
+
+out = io.StringIO()
+with reporting(Reporter(out, tty=False)):
+    _announce_compilation()
+    value = caller(2)
+print(json.dumps([value, out.getvalue().count(COMPILE_NOTICE), _jit.CACHE_DIR]))
+"""
+
+
+def test_editing_a_callee_kernel_recompiles_its_callers_and_announces_it_once(tmp_path):
+    """A kernel calling a kernel of another file compiles the callee (and its constants) into
+    itself, and numba checks only the caller's own file. In a copy of the package: run 1
+    compiles ``caller`` (2·3 + 1 = 7) and prints the compile notice once; run 2 loads it (no
+    notice); after the callee's constant is edited (3 → 5, same file size), run 3 uses a new
+    cache folder, so ``caller`` sees the new value (2·5 + 1 = 11) and the notice appears once
+    again. With the folder keyed on the caller's file alone, run 3 would return 7."""
+    import shutil
+
+    pkg = tmp_path / "pkg"
+    shutil.copytree(ROOT / "rfsim", pkg / "rfsim", ignore=shutil.ignore_patterns("__pycache__"))
+    callee = pkg / "rfsim" / "core" / "_probe_callee_kernels.py"
+    callee.write_text(_CALLEE)
+    (pkg / "rfsim" / "core" / "_probe_caller_kernels.py").write_text(_CALLER)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env["PYTHONPATH"] = f"{pkg}{os.pathsep}{ROOT}"
+
+    def run():
+        out = subprocess.run([sys.executable, "-c", _CALL_AND_ANNOUNCE], capture_output=True, text=True, env=env,
+                             cwd=tmp_path)  # not the checkout: "-c" puts the working folder first on sys.path
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    first, again = run(), run()
+    callee.write_text(_CALLEE.replace("SCALE = 3", "SCALE = 5"))
+    edited = run()
+    assert [first[:2], again[:2], edited[:2]] == [[7, 1], [7, 0], [11, 1]]
+    assert first[2] == again[2] != edited[2]
+    assert Path(first[2]).parent == Path(edited[2]).parent == (pkg / "rfsim" / "__pycache__").resolve()
+    assert Path(first[2]).is_dir()  # the earlier sources' folder is left for a process still using it
 
 
 def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_path):
     """With the cache in a folder of its own (what a non-editable install gets), the first
     process compiles and writes the kernel there, the second finds it cached
     (uncached_kernels() is empty before any call) — the mechanism the first-run notice and
-    the worker processes rely on. (As root, a read-only package folder cannot be simulated
+    the worker processes rely on. A NUMBA_CACHE_DIR of the user's holds the folder named
+    after the kernel sources' hash. (As root, a read-only package folder cannot be simulated
     here; the folder choice itself is tested above.)"""
     src = _module_folder(tmp_path, "kmod", "from rfsim.core._jit import njit\n\n\n@njit\ndef twice(x):\n    return 2 * x\n")
     code = ("import kmod\nfrom rfsim.core import _jit\nprint(len(_jit.uncached_kernels()))\n"
@@ -177,13 +273,14 @@ def test_kernels_cached_in_a_chosen_folder_are_loaded_by_the_next_process(tmp_pa
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
             .stdout.split() for _ in range(2)]
     assert runs == [["1", "0"], ["0", "0"]]
-    assert any((tmp_path / "cache").rglob("*.nbi"))
+    (folder,) = (tmp_path / "cache").iterdir()
+    assert folder.name.startswith("rfsim-kernels-") and any(folder.rglob("*twice*.nbi"))
 
 
 def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
     """A script that imports numba before rfsim: numba has read the environment already, yet a
     kernel declared afterwards is cached in the folder rfsim chose for an unwritable package
-    ($XDG_CACHE_HOME/rfsim/numba). The unwritable folder is simulated by making the write probe
+    ($XDG_CACHE_HOME/rfsim/numba/rfsim-kernels-<hash>). The unwritable folder is simulated by making the write probe
     fail while rfsim.core._jit is imported (as root, permissions cannot stop the write)."""
     src = _module_folder(tmp_path, "kfirst", "from rfsim.core._jit import njit\n\n\n@njit\ndef thrice(x):\n    return 3 * x\n")
     code = ("import numba, tempfile\n"
@@ -197,8 +294,8 @@ def test_cache_folder_applies_when_numba_was_imported_first(tmp_path):
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
     env.update(PYTHONPATH=f"{src}{os.pathsep}{ROOT}", XDG_CACHE_HOME=str(tmp_path / "xdg"))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
-    chosen = tmp_path / "xdg" / "rfsim" / "numba"
-    assert out.stdout.strip() == str(chosen)
+    chosen = Path(out.stdout.strip())
+    assert chosen.parent == tmp_path / "xdg" / "rfsim" / "numba" and chosen.name.startswith("rfsim-kernels-")
     assert any(chosen.rglob("*thrice*.nbi"))
     assert not list(src.rglob("*.nbi"))  # not beside the source
 

@@ -31,7 +31,9 @@ def bench_floor(*, n_rounds: int = 400, seed: int = 0, distance_m: float = 3.0) 
     Returns
     -------
     dict with ``samples_per_round``, ``air_time_per_round_s``, ``pass_cpu_s_per_round``,
-    ``noise_cpu_s_per_round``, ``noise_ns_per_sample``, ``noise_bound_air_time_per_cpu_s``
+    ``noise_cpu_s_per_round``, ``noise_over_pass_cpu`` (how many memory passes the noise
+    costs; > 1: a normal draw costs ≥ 1 ns, a complex sample's pass well below that),
+    ``noise_ns_per_sample``, ``noise_bound_air_time_per_cpu_s``
     (the ceiling set by the noise draws alone), ``passes_25_bound_air_time_per_cpu_s``.
     """
     import numpy as np
@@ -65,7 +67,8 @@ def bench_floor(*, n_rounds: int = 400, seed: int = 0, distance_m: float = 3.0) 
             np.multiply(y, gain, out=y)
     one_pass = (time.process_time() - c0) / rounds
     return {"samples_per_round": n, "air_time_per_round_s": air, "pass_cpu_s_per_round": one_pass,
-            "noise_cpu_s_per_round": noise, "noise_ns_per_sample": noise / n * 1e9,
+            "noise_cpu_s_per_round": noise, "noise_over_pass_cpu": noise / one_pass if one_pass > 0 else float("inf"),
+            "noise_ns_per_sample": noise / n * 1e9,
             "noise_bound_air_time_per_cpu_s": air / noise,
             "passes_25_bound_air_time_per_cpu_s": air / (25.0 * one_pass)}
 

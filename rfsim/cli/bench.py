@@ -35,6 +35,7 @@ BENCHMARKS = {
     "decode": ("rfsim.bench.decode", "bench_decode", {"duration_s": 2.0, "reply_counts": (10, 100)}),
     "startup": ("rfsim.bench.startup", "bench_startup", {"repeats": 1}),
     "scenarios": ("rfsim.bench.startup", "bench_scenario_memory", {"names": ("gen2-waveforms", "link")}),
+    "campaigns": ("rfsim.bench.campaigns", "bench_campaigns", {"names": ("st-to-st",)}),
 }
 
 

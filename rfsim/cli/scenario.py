@@ -1,4 +1,9 @@
-"""``rfsim list``, ``rfsim config NAME`` and ``rfsim run NAME``."""
+"""``rfsim list``, ``rfsim config NAME`` and ``rfsim run NAME``.
+
+``NAME`` is a scenario of ``rfsim list`` (built-in or installed plug-in) or the path of a
+scenario file (``rfsim run my_scenario.py``: a module with ``NAME``, ``DESCRIPTION``,
+``Config``, ``run`` and ``plot``; :mod:`rfsim.runs.registry`).
+"""
 
 from __future__ import annotations
 
@@ -11,19 +16,22 @@ from rfsim.core.errors import SEED_RANGE_TEXT, UserError, check_seed
 from rfsim.runs.registry import get_scenario, scenario_descriptions
 
 
+_SCENARIO_HELP = "scenario name (see 'rfsim list') or path of a scenario file (my_scenario.py)"
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("list", help="list the scenarios with a one-line description")
+    p = sub.add_parser("list", help="list the scenarios (built-in and plug-ins) with a one-line description")
     p.set_defaults(func=_list)
 
     p = sub.add_parser("config", help="print a scenario's default (or resolved) config as TOML")
-    p.add_argument("scenario", help="scenario name (see 'rfsim list')")
+    p.add_argument("scenario", help=_SCENARIO_HELP)
     _add_config_args(p)
     p.add_argument("--keys", action="store_true", help="list every key with its allowed values")
     p.set_defaults(func=_config)
 
     p = sub.add_parser("run", help="run a scenario: writes an HDF5 dataset and figures",
                        description="Run a scenario and write <out-dir>/<scenario>.h5 plus figures.")
-    p.add_argument("scenario", help="scenario name (see 'rfsim list')")
+    p.add_argument("scenario", help=_SCENARIO_HELP)
     _add_config_args(p)
     p.add_argument("--seed", type=_seed, default=1,
                    help="root seed of the run's SeedSequence (integer in [0, 2**64), default 1)")

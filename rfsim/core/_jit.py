@@ -9,18 +9,97 @@ Every kernel declared here is remembered in :data:`KERNELS`, so a run can tell b
 starts that numba will have to compile: :func:`uncached_kernels` lists the kernels without an
 on-disk cache index; when none has one, this is the first run after install
 (:func:`first_compilation`). Kernels a run never calls are never cached, so a partial list
-alone says nothing. Where the cache lives: :func:`cache_dir` (beside the sources, or a
-per-user folder when the installed package cannot be written).
+alone says nothing.
+
+Where the cache lives: numba invalidates a cached kernel only when *its own* source file
+changes, yet a kernel that calls a kernel of another file compiles that callee (and the
+constants it reads) into itself. So the cache folder is named after a hash of the source of
+every kernel module (:func:`kernel_sources`, :func:`sources_hash`): an edit to any kernel file
+(or to this policy) selects a new, empty folder and every kernel is compiled afresh, and
+:func:`first_compilation` is true again, so the run prints the compile notice once for the new
+cache. The folder (:func:`cache_dir`) is ``rfsim-kernels-<hash>`` inside the package's
+``__pycache__``, or inside ``$XDG_CACHE_HOME/rfsim/numba`` when the installed package cannot be
+written, or inside the user's own ``NUMBA_CACHE_DIR``. It is chosen when this module is imported,
+before any kernel is declared, and exported as ``NUMBA_CACHE_DIR`` (so it applies to every
+``cache=True`` function of the process, and child processes find the same folder). Folders of
+earlier sources are left in place (a process started before the edit may still read its own);
+delete the ``rfsim-kernels-*`` folders that are not the current one (:data:`CACHE_DIR`) to free
+the space.
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import os
 import tempfile
 from pathlib import Path
 
-#: Folder of the rfsim package (numba caches beside the sources, in ``__pycache__``).
+#: Folder of the rfsim package.
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
+#: Packages whose folders hold kernel modules (rfsim.channels, rfsim.devices and
+#: rfsim.scenarios are folders of their own in a source checkout, inside rfsim when installed).
+KERNEL_PACKAGES = ("rfsim.channels", "rfsim.devices", "rfsim.scenarios")
+
+#: Start of the name of a cache folder; the rest is :func:`sources_hash` of the kernel sources.
+CACHE_PREFIX = "rfsim-kernels-"
+
+
+def kernel_source_dirs(package_dir: Path = PACKAGE_DIR, packages=KERNEL_PACKAGES) -> list[Path]:
+    """The folders searched for kernel modules: ``package_dir`` and the folders of ``packages``
+    (found with :func:`importlib.util.find_spec`, which does not import them), without a
+    folder that lies inside another (an installed package holds its subpackages)."""
+    dirs = [package_dir.resolve()]
+    for name in packages:
+        spec = importlib.util.find_spec(name)
+        if spec is not None and spec.submodule_search_locations:
+            dirs.extend(Path(d).resolve() for d in spec.submodule_search_locations)
+    kept: list[Path] = []
+    for d in sorted(set(dirs), key=lambda p: len(p.parts)):
+        if not any(d.is_relative_to(k) for k in kept):
+            kept.append(d)
+    return kept
+
+
+def is_kernel_module(filename: str) -> bool:
+    """True for the file name of a kernel module (``_<topic>_kernels.py``) or of this policy
+    (``_jit.py``). Kernels are declared only there (a test checks that every file of the
+    package that mentions ``njit`` is one of these)."""
+    return filename == "_jit.py" or (filename.startswith("_") and filename.endswith("kernels.py"))
+
+
+def kernel_sources(dirs) -> list[tuple[str, bytes]]:
+    """``(name, source bytes)`` of every kernel module under ``dirs`` (:func:`is_kernel_module`),
+    sorted by name; ``name`` is the path relative to its folder, prefixed by the folder's name.
+
+    Kernel modules import only other kernel modules and the libraries (a test checks), so these
+    files hold every source a compiled kernel depends on within rfsim. Only the file names of
+    the other modules are read (≈ 2 ms for the 17 kernel files among 175).
+    """
+    found = []
+    for root in dirs:
+        for folder, subdirs, files in os.walk(root):
+            subdirs[:] = [s for s in subdirs if s != "__pycache__" and not s.startswith(".")]
+            for f in files:
+                if is_kernel_module(f):
+                    path = os.path.join(folder, f)
+                    with open(path, "rb") as fh:
+                        data = fh.read()
+                    rel = os.path.relpath(path, root).replace(os.sep, "/")
+                    found.append((f"{root.name}/{rel}", data))
+    return sorted(found)
+
+
+def sources_hash(sources) -> str:
+    """16 hex digits of a BLAKE2b digest of ``(name, bytes)`` pairs (names and lengths are
+    included, so moving text between files changes it too)."""
+    h = hashlib.blake2b(digest_size=8)
+    for name, data in sources:
+        for part in (name.encode(), data):
+            h.update(len(part).to_bytes(8, "little"))
+            h.update(part)
+    return h.hexdigest()
 
 
 def _writable(folder: Path) -> bool:
@@ -33,34 +112,43 @@ def _writable(folder: Path) -> bool:
         return False
 
 
-def cache_dir(environ=os.environ, package_dir: Path = PACKAGE_DIR, writable=_writable) -> str | None:
-    """The numba cache folder rfsim chooses, or None for numba's own choice (``__pycache__``
-    beside each kernel's source).
+def cache_dir(digest: str, environ=os.environ, package_dir: Path = PACKAGE_DIR, writable=_writable) -> str:
+    """The numba cache folder for kernel sources whose :func:`sources_hash` is ``digest``:
+    ``<base>/rfsim-kernels-<digest>``.
 
-    ``NUMBA_CACHE_DIR`` set by the user wins (None: numba reads it itself). Otherwise, when
-    the package folder's ``__pycache__`` cannot be written (a non-editable install into a
-    system or read-only site-packages), the kernels are cached in
+    ``<base>`` is the user's ``NUMBA_CACHE_DIR`` when set; when that folder is itself an
+    ``rfsim-kernels-*`` folder (exported by an rfsim parent process), its parent, so a child
+    process uses the same folder, or a sibling if the sources changed since, never a folder
+    nested in it. Otherwise the package folder's ``__pycache__``, or, when that cannot be
+    written (a non-editable install into a system or read-only site-packages),
     ``$XDG_CACHE_HOME/rfsim/numba`` (default ``~/.cache/rfsim/numba``), so the compiled
     kernels survive the process there instead of being compiled again on every run.
     """
-    if environ.get("NUMBA_CACHE_DIR"):
-        return None
-    if writable(package_dir / "__pycache__"):
-        return None
+    name = CACHE_PREFIX + digest
+    user = environ.get("NUMBA_CACHE_DIR")
+    if user:
+        user = os.path.normpath(user)
+        if os.path.basename(user).startswith(CACHE_PREFIX):
+            return os.path.join(os.path.dirname(user), name)
+        return os.path.join(user, name)
+    pycache = package_dir / "__pycache__"
+    if writable(pycache):
+        return str(pycache / name)
     base = environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return os.path.join(base, "rfsim", "numba")
+    return os.path.join(base, "rfsim", "numba", name)
 
 
-_CACHE_DIR = cache_dir()
-if _CACHE_DIR is not None:  # numba reads it when first imported
-    os.environ["NUMBA_CACHE_DIR"] = _CACHE_DIR
+#: :func:`sources_hash` of the kernel sources of this process, read when this module is imported.
+SOURCES_HASH = sources_hash(kernel_sources(kernel_source_dirs()))
+#: The numba cache folder of this process (:func:`cache_dir`).
+CACHE_DIR = cache_dir(SOURCES_HASH)
+os.environ["NUMBA_CACHE_DIR"] = CACHE_DIR  # numba reads it when first imported
 
 import numba  # noqa: E402  (after choosing the cache folder)
 
-if _CACHE_DIR is not None:
-    # If a script imported numba before rfsim, numba read the environment before the folder
-    # was chosen: re-read it now, before any kernel is declared (its cache locator is fixed then).
-    numba.core.config.reload_config()
+# If a script imported numba before rfsim, numba read the environment before the folder
+# was chosen: re-read it now, before any kernel is declared (its cache locator is fixed then).
+numba.core.config.reload_config()
 
 _NJIT = numba.njit(cache=True, nogil=True)
 
@@ -89,7 +177,7 @@ def uncached_kernels() -> list[str]:
     """Names of the declared kernels that have no on-disk cache index yet.
 
     Reads numba's cache locator (``Dispatcher._cache._cache_file._index_path``, the
-    ``__pycache__/<module>.<name>-<line>.py3XX.nbi`` file); a kernel whose cache cannot be
+    ``<module>.<name>-<line>.py3XX.nbi`` file in :data:`CACHE_DIR`); a kernel whose cache cannot be
     located counts as cached (nothing is announced for it).
     """
     missing = []
@@ -126,5 +214,6 @@ def load_signatures(kernels) -> None:
             d.compile(sig)
 
 
-__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR",
+__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR", "CACHE_DIR",
+           "SOURCES_HASH", "kernel_source_dirs", "kernel_sources", "is_kernel_module", "sources_hash",
            "compiled_signatures", "load_signatures"]

@@ -41,3 +41,43 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
 
 
 __all__ = ["pyplot", "save_figure", "figure_path"]
+
+
+def draw_floor_plan(ax, bounds, *, walls=(), cells=(), readers=(), reference=()) -> None:
+    """A localization floor plan on ``ax``: the area's outline ``bounds`` (xmin, ymin, xmax, ymax)
+    [m], walls (n, 4) (x0, y0, x1, y1) [m] in brown, grid cells as grey dots, readers as red
+    squares, reference tags as purple triangles (point sets (n, 2) arrays [m]; empty: not drawn)."""
+    x0, y0, x1, y1 = bounds
+    ax.plot([x0, x1, x1, x0, x0], [y0, y0, y1, y1, y0], "k-", lw=2)
+    for w in walls:
+        ax.plot([w[0], w[2]], [w[1], w[3]], color="brown", lw=4, label="wall")
+    for pts, style, kw in ((cells, ".", dict(color="0.6", label="grid cells")),
+                           (readers, "s", dict(ms=10, color="tab:red", label="readers")),
+                           (reference, "^", dict(ms=9, color="tab:purple", label="reference tags"))):
+        if len(pts):
+            ax.plot(pts[:, 0], pts[:, 1], style, **kw)
+
+
+__all__ += ["draw_floor_plan"]
+
+
+def grid_arrays(dataset, name: str) -> tuple[dict, dict]:
+    """Coordinates and variables of grid ``name`` of a read dataset (:func:`rfsim.core.dataset.read_dataset`)
+    as two dicts of NumPy arrays."""
+    coords, variables = dataset.grids[name]
+    return {k: c.data for k, c in coords.items()}, {k: v.data for k, v in variables.items()}
+
+
+def probability_errorbars(ax, x, table, names, labels=None) -> None:
+    """For each name with a column ``p_<name>`` in ``table``: 100·p against ``x`` with the interval
+    ``[ci_lo_<name>, ci_hi_<name>]`` as error bars [%], labelled ``labels[name]`` (default the name)."""
+    for name in names:
+        if f"p_{name}" not in table:
+            continue
+        p = table[f"p_{name}"]
+        err = [p - table[f"ci_lo_{name}"], table[f"ci_hi_{name}"] - p]
+        ax.errorbar(x, 100 * p, yerr=[100 * e for e in err], marker="o", capsize=3,
+                    label=name if labels is None else labels[name])
+
+
+__all__ += ["grid_arrays", "probability_errorbars"]

@@ -56,6 +56,14 @@ _SOURCES = {
     "bounds": (
         "log_distance_crlb",
     ),
+    "rss_localization": (
+        "reflect_into",
+        "rss_sir",
+        "estimate_simulation",
+        "smooth_rssi",
+        "estimate_home",
+        "error_statistics",
+    ),
     "observer": (
         "care_gain",
         "observe_1d",

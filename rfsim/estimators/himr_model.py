@@ -43,7 +43,15 @@ C1 = np.eye(3)
 PYLONS_M = np.array([(-0.1, 1.5), (2.0, 3.05), (2.7, -0.03)])
 #: Linearisation point of Table 8 (L1161–L1172): (x, y) = (2.1, 1.75) m, at rest, ψ = π.
 TABLE8_STATE = np.array([2.1, 0.0, 0.0, 1.75, 0.0, 0.0, np.pi, 0.0, 0.0])
+#: Initial conditions of Table 9 (L1196–L1206): (x [m], y [m], ψ [rad]), at rest.
+INITIAL_CONDITIONS = {1: (2.0, 1.8048, np.pi), 2: (1.0, 1.0, np.pi / 2), 3: (2.5, 2.3, 3 * np.pi / 2)}
 STATE_NAMES = ("x", "x_dot", "x_ddot", "y", "y_dot", "y_ddot", "psi", "psi_dot", "psi_ddot")
+
+
+def initial_state(ic: int) -> np.ndarray:
+    """The 9-state initial estimate of Table 9's initial condition ``ic`` (1, 2 or 3): at rest."""
+    x, y, psi = INITIAL_CONDITIONS[ic]
+    return np.array([x, 0, 0, y, 0, 0, psi, 0, 0], float)
 
 
 def output_names(n_pylons: int) -> tuple[str, ...]:
@@ -135,5 +143,5 @@ def observability_rank(A, C, tol: float | None = None) -> int:
     return int(np.linalg.matrix_rank(observability_matrix(A, C), tol=tol))
 
 
-__all__ = ["A3", "A9", "C1", "PYLONS_M", "TABLE8_STATE", "STATE_NAMES", "output_names", "h_2d",
+__all__ = ["A3", "A9", "C1", "PYLONS_M", "TABLE8_STATE", "INITIAL_CONDITIONS", "initial_state", "STATE_NAMES", "output_names", "h_2d",
            "jacobian_2d", "prerotate_accelerations", "observability_matrix", "observability_rank"]

@@ -252,6 +252,32 @@ def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
     return np.linalg.matrix_rank(np.concatenate([C, C @ A9, C @ A9 @ A9], axis=-2)).astype(int)
 
 
-__all__ = ["Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",
+def range_gate(n_pylons: int, gate_m: float, period):
+    """Innovation hook (:func:`luenberger`) of the gated dealiasing of the 2-D radial velocities: the radial-velocity innovations are wrapped
+    into ±period/2 only while every measured RSS-range innovation is below ``gate_m`` — then
+    the position the other sensors support is close enough for the prediction to pick the
+    right alias; otherwise (after an outage, from a far initial condition) the measured value
+    is used as it is. Wrapping always can lock the observer onto a wrong alias: a velocity
+    error of a multiple of λ/(2Δt) along every pylon's direction gives zero wrapped
+    innovation and is held by a constant range innovation.
+
+    Parameters
+    ----------
+    n_pylons : P, the outputs are in observer order [r₁ ṙ₁ … r_P ṙ_P, …]
+    gate_m : the gate on every |range innovation| [m]
+    period : (n, 2P + 4) per epoch and output the wrap period (λ/(2Δt) on the ṙ outputs, 0 elsewhere)
+    """
+    rows = np.arange(0, 2 * n_pylons, 2)
+
+    def hook(k, innov):
+        r = innov[rows]
+        r = r[~np.isnan(r)]
+        if r.size and np.abs(r).max() < gate_m:
+            return wrap_innovation(innov, period[k])
+        return innov
+    return hook
+
+
+__all__ = ["range_gate", "Gain", "care_gain", "gain_1d", "gain_2d", "W_1D", "W_D1", "W_D2", "VARIANTS",
            "luenberger", "wrap_innovation", "observe_1d", "observe_2d", "eig_along", "unstable_intervals",
            "ranks_along"]

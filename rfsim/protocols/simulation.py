@@ -83,6 +83,29 @@ class Simulation:
         With ``ack`` (and Q = 0, the tags reply at once) the reader ACKs an RN16 it decoded
         and reads PC+EPC+CRC-16 (:func:`rfsim.protocols.engine.singulate`); otherwise only the Query
         and the RN16 replies (:func:`rfsim.protocols.engine.run_exchange`).
+
+        Parameters
+        ----------
+        q : slot-count parameter Q of the Query (2**Q slots; 0: every tag replies at once)
+        target : inventoried flag the Query selects, ``"A"`` or ``"B"``
+        session : session S0–S3 (0–3) whose inventoried flag the round uses
+        ack : ACK a decoded RN16 and read the EPC
+
+        Notes
+        -----
+        Calling this in a loop with the same ``target`` reads a tag once, then gets no
+        reply: that is Gen2 session behaviour, not a failure of the link. Each tag keeps
+        one inventoried flag per session (A or B) and replies only to a Query whose
+        ``target`` equals its flag in the Query's ``session``; a tag that was read (its
+        EPC acknowledged) inverts that flag when the round ends (A → B), so it stays
+        silent for later Queries targeting A until the flag returns to A. In S0 the flag
+        persists while the tag is powered (a tag stays powered from round to round as long
+        as each command's CW powers it; the silent time between rounds is skipped, not an
+        outage); S1 reverts to A 0.5–5 s after it was set, S2 and S3 persist more than
+        2 s without power (:class:`rfsim.devices.FlagPersistence`). To read a tag again
+        and again, alternate the target (``target="AB"[i % 2]`` in round ``i``, the
+        dual-target inventory of commercial readers and of the ``link`` scenario), or
+        use S1 with a ``round_period_s`` longer than its persistence.
         """
         from rfsim.protocols.engine import run_exchange, singulate
         from rfsim.gen2.commands import Query

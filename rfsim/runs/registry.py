@@ -1,4 +1,19 @@
-"""Scenario discovery: every module of the ``rfsim.scenarios`` package that defines ``NAME``.
+"""Scenario discovery: built-in scenarios, user scenario files and installed plug-ins.
+
+A scenario is any module with the scenario contract: ``NAME``, ``DESCRIPTION``, a config
+dataclass ``Config``, ``run(config, *, seed) -> Dataset`` and ``plot(dataset_path, out_dir)
+-> list[Path]``. Three places provide them:
+
+* built-in: every module of the ``rfsim.scenarios`` package that defines the contract;
+* a user's file: ``get_scenario("path/to/my_scenario.py")`` (``rfsim run my_scenario.py``)
+  imports the file under the module name :func:`file_module_name` — a name that encodes the
+  file's absolute path, so that any process that imported this registry (a sweep worker, a
+  Dask worker) imports the same file by that name (:class:`_ScenarioFileFinder`) and can
+  unpickle its ``Config``;
+* a plug-in: an installed distribution that declares an entry point in the group
+  ``rfsim.scenarios`` (``[project.entry-points."rfsim.scenarios"] my-scenario =
+  "my_package.my_scenario"``); the entry point names the module. A plug-in whose ``NAME``
+  is already a built-in scenario's is ignored (the built-in wins).
 
 The ``rfsim`` core never imports ``rfsim.scenarios`` at module level; the CLI asks this
 registry at run time, so the dependency direction stays scenarios → devices, channels
@@ -9,18 +24,132 @@ from __future__ import annotations
 
 import ast
 import importlib
+import importlib.abc
 import importlib.util
 import pkgutil
+import sys
 from pathlib import Path
 from types import ModuleType
 
 from rfsim.core.errors import UserError, did_you_mean
 
 _REQUIRED = ("NAME", "DESCRIPTION", "Config", "run", "plot")
+#: Entry point group of scenario plug-ins.
+ENTRY_POINT_GROUP = "rfsim.scenarios"
+#: Prefix of the module names of scenario files (followed by the hex of the UTF-8 absolute path).
+FILE_MODULE_PREFIX = "rfsim_scenario_file_"
+#: Suffixes of scenario files.
+FILE_SUFFIXES = (".py",)
 
 
-def scenario_modules() -> dict[str, ModuleType]:
-    """Map scenario name → module, in alphabetical order of names."""
+def file_module_name(path: str | Path) -> str:
+    """The module name a scenario file is imported under: :data:`FILE_MODULE_PREFIX` + the
+    hex of its absolute path (UTF-8), the same in every process and for every spelling of
+    the path."""
+    return FILE_MODULE_PREFIX + str(Path(path).resolve()).encode("utf-8").hex()
+
+
+def _file_of_module_name(name: str) -> Path | None:
+    """The scenario file a :func:`file_module_name` encodes, or None for any other name."""
+    if not name.startswith(FILE_MODULE_PREFIX) or "." in name:
+        return None
+    try:
+        return Path(bytes.fromhex(name[len(FILE_MODULE_PREFIX):]).decode("utf-8"))
+    except (ValueError, UnicodeDecodeError):
+        return None
+
+
+class _ScenarioFileFinder(importlib.abc.MetaPathFinder):
+    """Imports the module names of :func:`file_module_name` from the files they encode.
+
+    Installed on ``sys.meta_path`` when this registry is imported, so a worker process
+    that unpickles a task (and with it the scenario file's ``Config``) imports the file.
+    """
+
+    def find_spec(self, fullname, path=None, target=None):  # noqa: D102 - importlib hook
+        file = _file_of_module_name(fullname)
+        if file is None or not file.is_file():
+            return None
+        return importlib.util.spec_from_file_location(fullname, file)
+
+
+if not any(isinstance(f, _ScenarioFileFinder) for f in sys.meta_path):
+    sys.meta_path.append(_ScenarioFileFinder())
+
+
+def _missing(module: ModuleType) -> list[str]:
+    return [a for a in _REQUIRED if not hasattr(module, a)]
+
+
+def is_scenario_file(name: str) -> bool:
+    """Whether ``name`` names a scenario file (ends in ``.py``) rather than a scenario."""
+    return name.endswith(FILE_SUFFIXES)
+
+
+def scenario_from_file(path: str | Path) -> ModuleType:
+    """Import the scenario file ``path`` (see the module docstring); a missing file, a file
+    that is not Python or lacks the scenario contract is a one-line user error. Importing
+    the same file again returns the module already imported."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"scenario file {str(p)!r}: no such file")
+    if not is_scenario_file(p.name):
+        raise UserError(f"scenario file {str(p)!r}: expected a Python file (*.py)")
+    name = file_module_name(p)
+    try:
+        module = importlib.import_module(name)
+    except SyntaxError as err:
+        sys.modules.pop(name, None)
+        raise UserError(f"scenario file {str(p)!r}: syntax error at line {err.lineno}: {err.msg}") from None
+    except ImportError as err:
+        sys.modules.pop(name, None)
+        raise UserError(f"scenario file {str(p)!r}: cannot be imported ({err})") from None
+    missing = _missing(module)
+    if missing:
+        sys.modules.pop(name, None)
+        raise UserError(f"scenario file {str(p)!r} is not a scenario: it lacks {', '.join(missing)} "
+                        f"(a scenario defines {', '.join(_REQUIRED)})")
+    return module
+
+
+def _entry_points() -> list:
+    """The installed entry points of :data:`ENTRY_POINT_GROUP`, sorted by name."""
+    # importlib.metadata costs ≈ 0.1 s: imported when plug-ins are looked for, not at start-up
+    import importlib.metadata
+
+    return sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda e: e.name)
+
+
+def _plugin_module(ep) -> ModuleType:
+    """The scenario module of entry point ``ep``; one that does not load or lacks the
+    contract is a one-line user error naming the entry point and its distribution."""
+    dist = getattr(getattr(ep, "dist", None), "name", None) or "?"
+    where = f"scenario plug-in {ep.name!r} ({ep.value}, distribution {dist})"
+    try:
+        module = ep.load()
+    except ImportError as err:
+        raise UserError(f"{where} cannot be imported: {err}") from None
+    if not isinstance(module, ModuleType):
+        raise UserError(f"{where}: the entry point must name a module, got {type(module).__name__}")
+    missing = _missing(module)
+    if missing:
+        raise UserError(f"{where} is not a scenario: it lacks {', '.join(missing)}")
+    return module
+
+
+def plugin_modules(*, skip: tuple[str, ...] = ()) -> dict[str, ModuleType]:
+    """Map scenario name → module of the installed plug-ins (entry point group
+    :data:`ENTRY_POINT_GROUP`), without the names in ``skip`` (the built-ins)."""
+    found: dict[str, ModuleType] = {}
+    for ep in _entry_points():
+        module = _plugin_module(ep)
+        if module.NAME not in skip:
+            found.setdefault(module.NAME, module)
+    return found
+
+
+def builtin_modules() -> dict[str, ModuleType]:
+    """Map built-in scenario name → module, in alphabetical order of names."""
     package = importlib.import_module("rfsim.scenarios")
     found: dict[str, ModuleType] = {}
     for info in pkgutil.iter_modules(package.__path__):
@@ -29,6 +158,14 @@ def scenario_modules() -> dict[str, ModuleType]:
         module = importlib.import_module(f"rfsim.scenarios.{info.name}")
         if all(hasattr(module, attr) for attr in _REQUIRED):
             found[module.NAME] = module
+    return dict(sorted(found.items()))
+
+
+def scenario_modules() -> dict[str, ModuleType]:
+    """Map scenario name → module, built-ins and installed plug-ins, in alphabetical order
+    of names."""
+    found = builtin_modules()
+    found.update(plugin_modules(skip=tuple(found)))
     return dict(sorted(found.items()))
 
 
@@ -88,15 +225,31 @@ def scenario_descriptions() -> dict[str, str]:
                 continue
             meta = (module.NAME, module.DESCRIPTION)
         found[meta[0]] = meta[1]
+    for ep in _entry_points():
+        meta = None
+        try:
+            spec = importlib.util.find_spec(ep.module) if ep.attr is None else None
+        except (ImportError, ValueError):  # its package is missing: _plugin_module says so
+            spec = None
+        if spec is not None and spec.origin and spec.origin.endswith(".py"):
+            meta = _literal_metadata(Path(spec.origin))
+        if meta is None:
+            module = _plugin_module(ep)
+            meta = (module.NAME, module.DESCRIPTION)
+        found.setdefault(meta[0], meta[1])
     return dict(sorted(found.items()))
 
 
-def get_scenario(name: str) -> ModuleType:
-    """The scenario module called ``name``; unknown names are a one-line user error.
+def get_scenario(name: str | Path) -> ModuleType:
+    """The scenario module called ``name``, or of the scenario file ``name`` (a path ending
+    in ``.py``, :func:`scenario_from_file`); unknown names are a one-line user error.
 
-    Tries the module named after the scenario first (``gen2-waveforms`` →
-    ``rfsim.scenarios.gen2_waveforms``), so one scenario's imports are paid, not all of them.
+    Tries the built-in module named after the scenario first (``gen2-waveforms`` →
+    ``rfsim.scenarios.gen2_waveforms``), so one scenario's imports are paid, not all of them;
+    then every built-in and plug-in scenario.
     """
+    if isinstance(name, Path) or is_scenario_file(name):
+        return scenario_from_file(name)
     if name and name.replace("-", "_").isidentifier():
         try:
             module = importlib.import_module(f"rfsim.scenarios.{name.replace('-', '_')}")
@@ -115,14 +268,19 @@ def get_scenario(name: str) -> ModuleType:
 
 def load_scenario(module_name: str) -> ModuleType:
     """The scenario module of the importable name ``module_name`` (a built-in scenario's
-    ``rfsim.scenarios.<name>`` or any module with the scenario contract: ``NAME``,
+    ``rfsim.scenarios.<name>``, a plug-in's module, a scenario file's
+    :func:`file_module_name`, or any module with the scenario contract: ``NAME``,
     ``DESCRIPTION``, ``Config``, ``run``, ``plot``), e.g. in a sweep worker that received the
     name of its scenario's module. A module without the contract is a one-line user error."""
+    file = _file_of_module_name(module_name)
+    if file is not None:
+        return scenario_from_file(file)
     module = importlib.import_module(module_name)
-    missing = [a for a in _REQUIRED if not hasattr(module, a)]
+    missing = _missing(module)
     if missing:
         raise UserError(f"module {module_name!r} is not a scenario: it lacks {', '.join(missing)}")
     return module
 
 
-__all__ = ["scenario_modules", "scenario_descriptions", "get_scenario", "load_scenario"]
+__all__ = ["scenario_modules", "builtin_modules", "plugin_modules", "scenario_descriptions", "get_scenario",
+           "load_scenario", "scenario_from_file", "file_module_name", "is_scenario_file", "ENTRY_POINT_GROUP"]

@@ -1,8 +1,6 @@
-"""numba kernels of the phase-cancellation scenario (wrapped and documented in
-:func:`rfsim.scenarios.phase_cancellation.couple_ports` and
-:func:`rfsim.scenarios.phase_cancellation.ask_stamp_transitions`; their NumPy twins are
-``couple_ports_reference`` there and ``ask_stamp_transitions_reference`` in the tests'
-``reference.scenarios_phase_cancellation``).
+"""numba kernels of the dual-antenna sense-a-tag (wrapped and documented in
+:func:`rfsim.devices.st_pair.couple_ports` and :func:`rfsim.devices.st_pair.ask_stamp_transitions`;
+their NumPy twins are the tests' ``couple_ports_reference`` and ``ask_stamp_transitions_reference``).
 """
 
 from __future__ import annotations

@@ -1,7 +1,9 @@
-"""The ``rss_model = "waveform"`` stage of ``rss-localization``: beacons at sample level.
+"""Active beacon tags and readers in a room at sample level: the beacons of a localization run
+(Özkaya's active-RFID study; the ``rss_model = "waveform"`` mode of ``rss-localization``).
 
-The statistical draws of the log-distance mode (the same truth, quasi-static shadowing and
-people term, so that the two modes are paired trial by trial) fix the large-scale received
+The statistical draws of the log-distance mode (:func:`rfsim.scenes.rss_rooms.draw_beacons`: the
+same truth, quasi-static shadowing and people term, so that the two modes are paired trial by
+trial) fix the large-scale received
 power of every tag → reader link and beacon, Pr_j = α_j − 10·n_j·log10 d_j − nW·WAF + X_j + P_j
 (rfsim.channels.rss). The waveform stage then sends the beacons physically:
 
@@ -86,16 +88,46 @@ class WaveformStats:
     reported: int = 0
     air_steps: int = 0
 
+    def row(self) -> dict:
+        """The counts as one table row (columns of :data:`WAVEFORM_UNITS`)."""
+        return dict(beacons_due=self.due, lbt_dropped=self.dropped, collided=self.collided, decoded=self.decoded,
+                    reported=self.reported, air_steps=self.air_steps)
 
-def sample_level_reports(config, plan, channel, data, case: int, seed: int, report: _rss_reader.RssReport):
-    """Reported RSSI of the target (B, T, J) and of the reference tags (B, T, J, I) from beacons
-    sent at sample level (module docstring), the beacons' start times [s] (B, T, 1 + I; NaN when
-    listen-before-talk dropped one) and the case's :class:`WaveformStats`."""
-    wf = config.waveform
+
+#: (unit, description) of the columns of :meth:`WaveformStats.row`.
+WAVEFORM_UNITS = {
+    "beacons_due": ("1", "beacons due in the case (every tag, trial and epoch)"),
+    "lbt_dropped": ("1", "beacons dropped after the last listen-before-talk attempt found the channel busy"),
+    "collided": ("1", "beacons that overlapped another tag's beacon in time"),
+    "decoded": ("1", "frames with a valid CRC, summed over the readers"),
+    "reported": ("1", "decoded frames of the right epoch reported above the reader floor, summed over readers"),
+    "air_steps": ("1", "air-interface steps run (reception clusters and carrier sensing)"),
+}
+
+
+def sample_level_reports(wf: WaveformConfig, plan, channel, data, *, waf_db: float, case: int, seed: int,
+                         report: _rss_reader.RssReport):
+    """Beacons sent at sample level (module docstring).
+
+    Parameters
+    ----------
+    wf : the sample-level settings
+    plan : :class:`rfsim.scenes.rss_rooms.FloorPlan` (readers, walls, reference tags, heights)
+    channel : its :class:`rfsim.channels.rss.RssChannel` (per-reader α_j, n_j)
+    data : :class:`rfsim.scenes.rss_rooms.CaseData` of the case (truth and drawn powers)
+    waf_db : wall attenuation per crossing [dB]; case, seed : the random streams (module docstring)
+    report : the readers' RSSI report (quantization, floor)
+
+    Returns
+    -------
+    Reported RSSI of the target (B, T, J) and of the reference tags (B, T, J, I) [dBm], the
+    beacons' start times [s] (B, T, 1 + I; NaN when listen-before-talk dropped one) and the
+    case's :class:`WaveformStats`.
+    """
     b_n, t_n, j_n = data.rss_dbm.shape
     ref = plan.reference_xy
     i_n = ref.shape[0]
-    walls = tuple(_large_scale.Wall.segment_2d((x0, y0), (x1, y1), config.waf_db) for x0, y0, x1, y1 in plan.walls_xy)
+    walls = tuple(_large_scale.Wall.segment_2d((x0, y0), (x1, y1), waf_db) for x0, y0, x1, y1 in plan.walls_xy)
     apdp = _small_scale.ApdpModel() if wf.apdp else None
     rcfg = _active_reader.ActiveReaderConfig(fs_hz=wf.fs_hz, noise_figure_db=wf.noise_figure_db, report=report)
     readers = [_active_reader.ActiveReader(rcfg, _antennas.Antenna([x, y, plan.reader_height_m])) for x, y in plan.readers_xy]
@@ -164,4 +196,4 @@ class _TagLinks:
         return table.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
 
 
-__all__ = ["WaveformConfig", "WaveformStats", "sample_level_reports"]
+__all__ = ["WaveformConfig", "WaveformStats", "WAVEFORM_UNITS", "sample_level_reports"]

@@ -1,8 +1,8 @@
 """Sample-level HIMR packets through the air: a free-running HIMR tag on a trajectory, N
 pylons (:mod:`rfsim.devices.himr_pylon`), one :func:`rfsim.air.step.propagate` step per packet and
 pylon (``cross_carrier = "ignore"``) or per packet with every pylon (``"joint"``), and the
-per-packet DSP of :mod:`rfsim.himr.dsp` on each pylon's input. Shared by the scenarios
-``himr-1d`` and ``himr-2d``.
+per-packet DSP of :mod:`rfsim.himr.dsp` on each pylon's input, and the run's per-packet and IMU
+tables (wave2-specs.md §H "Datasets"). Used by the scenarios ``himr-1d`` and ``himr-2d``.
 
 Physics per step (wave2-specs.md §H "Pylons", "Per-packet DSP"; himr-tag.md §1.1–1.3):
 
@@ -47,6 +47,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.himr.dsp import PacketMeasurements, decode_packet, packet_table
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
+from rfsim.core.trajectories import check_inside
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -56,6 +57,8 @@ _himr_tag = lazy_import("rfsim.devices.himr_tag")
 _air = lazy_import("rfsim.air.step")
 _himr_link = lazy_import("rfsim.himr.link")
 _noise = lazy_import("rfsim.air.noise")
+_imu = lazy_import("rfsim.devices.imu")
+_dataset = lazy_import("rfsim.core.dataset")
 
 
 @dataclass(frozen=True)
@@ -107,6 +110,17 @@ def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: flo
                               f"t = {t[i]:.3f} s)")
 
 
+def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_hz, *, t_end_s: float, room_min_m,
+                room_max_m, key: str = "pylons.positions_m") -> None:
+    """A scene the air step can run: the tag's trajectory inside the room until ``t_end_s``
+    (:func:`rfsim.core.trajectories.check_inside`), every pylon (x, y, z) [m] off its track
+    (:func:`check_pylons_off_the_track`, config key ``key``), the sample rate enough for the tag's
+    code (:func:`check_sample_rate`)."""
+    check_inside(tag.trajectory, t_end_s=t_end_s, room_min_m=room_min_m, room_max_m=room_max_m)
+    check_pylons_off_the_track(pylons_m, tag, t_end_s, key=key)
+    check_sample_rate(radio, tag, carriers_hz)
+
+
 @dataclass(frozen=True, eq=False)
 class AirRun:
     """What the pylons measured: per pylon its packet table, plus the run's bookkeeping."""
@@ -123,6 +137,13 @@ class AirRun:
     dropped: int                 #: carrier contributions the steps dropped (outside ±fs/2)
     wall_s: float                #: wall time of the steps and the DSP [s]
     cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
+
+    def run_attrs(self, n_packets: int) -> dict:
+        """The run's bookkeeping as dataset attributes (``n_packets`` scheduled packets)."""
+        return {"n_packets": int(n_packets), "air_steps": self.n_steps, "samples_per_step": self.samples_per_step,
+                "sample_level_s": self.wall_s, "sample_level_cpu_s": self.cpu_s,
+                "time_per_packet_s": self.wall_s / max(n_packets, 1), "ptx_w": self.ptx_w,
+                "noise_power_w": self.noise_power_w}
 
 
 class _Memo:
@@ -142,6 +163,7 @@ class _Memo:
 
 
 def pylon_antennas(positions_m, height_m: float, gain_dbi: float) -> list:
+    """Isotropic antennas of gain ``gain_dbi`` [dBi] at the (x, y) ``positions_m`` [m] and ``height_m``."""
     return [_antennas.Antenna(position_m=(float(x), float(y), height_m), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
             for x, y in np.asarray(positions_m, float)[:, :2]]
 
@@ -216,5 +238,117 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
                   cpu_s=cpu)
 
 
-__all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track",
-           "pylon_antennas", "PacketMeasurements"]
+# ----------------------------------------------------------------------------- tables
+
+
+def packets_table(run, plan) -> dict:
+    """One row per (packet, pylon) decoded (an :class:`AirRun` and the tag's plan)."""
+    cols: dict[str, list] = {}
+    for u, (p, m) in enumerate(zip(run.pylons, run.measurements)):
+        idx = run.packet_index[u]
+        r_true = run.true_range_m[u]
+        v_true = np.full(idx.size, np.nan)
+        v_true[1:] = np.diff(r_true) / np.diff(plan.start_s[idx])
+        part = {
+            "t_s": m.start_s, "packet": idx, "pylon": np.full(idx.size, u + 1),
+            "carrier_hz": np.full(idx.size, p.fc_hz),
+            "crc_ok": m.crc_ok, "h_re": m.gain.real, "h_im": m.gain.imag, "rss_dbm": m.rss_dbm, "snr_db": m.snr_db,
+            "phase_rad": m.phase_rad, "dphase_rad": m.dphase_rad, "range_rss_m": m.range_m,
+            "radial_velocity_mps": m.radial_velocity_mps, "aliasing_limit_mps": m.aliasing_limit_mps,
+            "aliased": m.aliased, "true_range_m": r_true, "true_radial_velocity_mps": v_true,
+            "true_start_s": plan.start_s[idx]}
+        for k, v in part.items():
+            cols.setdefault(k, []).append(np.asarray(v))
+    return {k: np.concatenate(v) for k, v in cols.items()}
+
+
+PACKET_COLUMNS = {
+    "t_s": ("s", "packet start found by the pylon's preamble correlation (shared clock)"),
+    "packet": ("1", "index of the packet in the tag's schedule (its sequence number, from 0)"),
+    "pylon": ("1", "pylon (receiver) number 1..N, Table 7 order"),
+    "carrier_hz": ("Hz", "carrier of the pylon that measured the packet"),
+    "crc_ok": ("1", "the decoded packet passed its CRC-8 (else its IMU words and RF reading are not used)"),
+    "h_re": ("sqrt(W)", "real part of the least-squares complex gain h of the modulated backscatter"),
+    "h_im": ("sqrt(W)", "imaginary part of the least-squares complex gain h of the modulated backscatter"),
+    "rss_dbm": ("dBm", "received signal strength of the modulated part, 10 log10(|h|^2) + 30"),
+    "snr_db": ("dB", "per-sample SNR |h|^2 / residual noise power of the packet fit"),
+    "phase_rad": ("rad", "phase phi = -arg h of the packet (eq. 1 convention: grows as the tag recedes)"),
+    "dphase_rad": ("rad", "wrapped phase difference to the pylon's previous packet (NaN for its first)"),
+    "range_rss_m": ("m", "RSS range (K_u/|h|^2)^(1/4), eq. 22 (NaN without K_u)"),
+    "radial_velocity_mps": ("m/s", "lambda wrap(dphi) / (4 pi dt), eq. 23, positive receding (NaN for the first)"),
+    "aliasing_limit_mps": ("m/s", "largest unambiguous radial speed lambda / (4 dt) for this packet interval"),
+    "aliased": ("1", "the true mean radial speed over the interval reaches the aliasing limit (wrapped value wrong)"),
+    "true_range_m": ("m", "ground truth: distance pylon - tag at the middle of the packet"),
+    "true_radial_velocity_mps": ("m/s", "ground truth: mean radial velocity over the packet interval"),
+    "true_start_s": ("s", "ground truth: start of the packet in the tag's schedule"),
+}
+
+
+def imu_table(run, plan, imu_cfg, *, heading_start_rad: float) -> dict:
+    """One row per packet: the IMU words from the first pylon whose copy passed its CRC."""
+    n = plan.start_s.size
+    n_words = plan.words.shape[1]
+    words = np.zeros((n, n_words), dtype=np.int16)
+    by = np.zeros(n, dtype=np.int64)
+    for u in range(len(run.pylons) - 1, -1, -1):  # the first pylon wins
+        m, idx = run.measurements[u], run.packet_index[u]
+        ok = m.crc_ok
+        words[idx[ok]] = m.words[ok]
+        by[idx[ok]] = u + 1
+    valid = by > 0
+    si = _imu.words_to_si(words, imu_cfg).astype(float)
+    si[~valid] = np.nan
+    out = {"t_s": plan.start_s, "packet": np.arange(n), "decoded_by": by, "valid": valid}
+    names = _imu.WORD_NAMES[:n_words]
+    for j, name in enumerate(names):
+        out[f"{name}_raw"] = words[:, j]
+    for j, name in enumerate(names):
+        out[name] = si[:, j]
+    if n_words == 9:
+        head = np.full(n, np.nan)
+        if valid.any():
+            h = np.unwrap(_imu.heading_from_compass(si[valid, 6], si[valid, 7], imu_cfg.declination_rad))
+            head[valid] = h + 2 * np.pi * np.round((heading_start_rad - h[0]) / (2 * np.pi))
+        out["heading_rad"] = head
+    return out
+
+
+_IMU_UNITS = {"accel": ("m/s^2", "accelerometer specific force along body axis"),
+              "gyro": ("rad/s", "gyroscope rate about body axis"),
+              "compass": ("uT", "magnetometer field along body axis")}
+
+
+def imu_columns(table: dict) -> dict:
+    """The dataset columns (units, descriptions) of an :func:`imu_table`."""
+    cols = {"t_s": _dataset.column(table["t_s"], "s", "scheduled start of the packet that carried the IMU sample"),
+            "packet": _dataset.column(table["packet"], "1", "index of the packet in the tag's schedule"),
+            "decoded_by": _dataset.column(table["decoded_by"], "1",
+                                 "pylon whose copy passed the CRC first (0: none, sample lost)"),
+            "valid": _dataset.column(table["valid"], "1", "some pylon decoded the packet with a good CRC (else NaN readings)")}
+    for k, v in table.items():
+        if k in cols:
+            continue
+        if k == "heading_rad":
+            cols[k] = _dataset.column(v, "rad",
+                             "heading of the body y axis from the compass x, y words, unwrapped, start pose pi")
+            continue
+        sensor, axis = k.split("_")[0], k.split("_")[1]
+        unit, text = _IMU_UNITS[sensor]
+        if k.endswith("_raw"):
+            cols[k] = _dataset.column(v, "1", f"raw int16 word of the {sensor} {axis} axis as decoded from the packet")
+        else:
+            cols[k] = _dataset.column(v, unit, f"{text} {axis} from the int16 word (NaN when the packet was lost)")
+    return cols
+
+
+def add_run_tables(ds, run: AirRun, plan, imu: dict, *, packets: str, imu_description: str) -> dict:
+    """Add the run's ``packets`` (:func:`packets_table`) and ``imu`` (:func:`imu_table`) tables to the
+    dataset ``ds`` with these descriptions; returns the packet table's arrays."""
+    pk = packets_table(run, plan)
+    ds.add_table("packets", {k: _dataset.column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()}, description=packets)
+    ds.add_table("imu", imu_columns(imu), description=imu_description)
+    return pk
+
+
+__all__ = ["RadioConfig", "AirRun", "simulate", "check_sample_rate", "check_pylons_off_the_track", "check_scene",
+           "pylon_antennas", "PacketMeasurements", "packets_table", "PACKET_COLUMNS", "imu_table", "imu_columns", "add_run_tables"]

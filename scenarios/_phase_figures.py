@@ -45,16 +45,14 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
         z = pr["pseudorange_m"][mp]
         a2.plot(pr["t_s"][mp], z - z[0], lw=1.0, label=f"antenna {i}")
         a2.plot(pr["t_s"][mp], pr["true_range_m"][mp] - pr["true_range_m"][mp][0], "k:", lw=0.6)
-    a1.set_ylabel("reported phase [rad]")
-    a1.set_xlabel("time [s]")
-    a1.set_title(f"reported phase (12-bit, with port offsets), first {PHASE_WINDOW_S:g} s", fontsize=9)
-    a1.legend(fontsize=7, markerscale=6, loc="upper right", ncol=4)
-    a2.set_ylabel("pseudo-range − first value [m]")
-    a2.set_xlabel("time [s]")
-    a2.set_title(f"unwrapped pseudo-ranges (dotted: true range change); λ/2 jumps: {jumps} "
-                 f"(limit {limit:.3g} m/s radial)", fontsize=9)
-    for a in (a1, a2):
+    for a, ylabel, title in ((a1, "reported phase [rad]", f"reported phase (12-bit, with port offsets), first "
+                              f"{PHASE_WINDOW_S:g} s"),
+                             (a2, "pseudo-range − first value [m]", f"unwrapped pseudo-ranges (dotted: true range "
+                              f"change); λ/2 jumps: {jumps} (limit {limit:.3g} m/s radial)")):
+        a.set(xlabel="time [s]", ylabel=ylabel)
+        a.set_title(title, fontsize=9)
         a.grid(True, alpha=0.3)
+    a1.legend(fontsize=7, markerscale=6, loc="upper right", ncol=4)
     fig.suptitle(f"Phase and pseudo-range per antenna ({cite('sarkka', 'Fig. 4')})")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "phase")))
 
@@ -67,9 +65,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     ax.plot(est["ekf1_x_m"], est["ekf1_y_m"], "-", color="tab:orange", lw=0.8, label="EKF, pass 1")
     ax.plot(est[f"rts{n_pass}_x_m"], est[f"rts{n_pass}_y_m"], "-", color="tab:blue", lw=0.8,
             label=f"RTS, pass {n_pass}")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    ax.set(aspect="equal", xlabel="x [m]", ylabel="y [m]")
     ax.grid(True, alpha=0.3)
     leg = ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=3)  # below the room
     for h in leg.legend_handles:  # the RSSI dots, visible in the legend
@@ -93,9 +89,8 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
         line, = ax.plot(np.maximum(e, 1e-5), np.arange(1, e.size + 1) / e.size, label=label)
         if np.isfinite(pub):
             ax.axvline(pub, color=line.get_color(), ls=":", lw=1.0)
-    ax.set_xscale("log")
-    ax.set_xlabel("position error vs intended path [m] (dotted: published RMSE)")
-    ax.set_ylabel("fraction of reads")
+    ax.set(xscale="log", xlabel="position error vs intended path [m] (dotted: published RMSE)",
+           ylabel="fraction of reads")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")  # a fixed place: "best" tests every one of the 7 × 24,000 vertices
     fig.suptitle(f"CDF of the localization error per estimator ({cite('sarkka', 'experiment 1 setup')})")

@@ -7,16 +7,12 @@ Setup (phase-tracking.md §2, wave2-specs.md §R; seeds/001 L57, L174–L178): f
 890 MHz (custom carrier plan); an anechoic channel (Friis free space: no APDP, no surfaces,
 L174); a constant phase offset per reader port (P§1.2 [not in source]).
 
-Reads (L57, L178: CW from one antenna at a time, 100 reads/s per antenna): every read is one
-Gen2 singulation (Query → RN16 → ACK → PC+EPC+CRC-16) through the engine at sample level on a
-**fixed schedule** — round r starts at r·``schedule.read_period_s`` (2.5 ms: 400 reads/s, 100
-per antenna) on antenna r mod 4 (round robin), with the fm0-640k link (a singulation ≈ 0.71 ms
-fits the slot; miller4-320k takes ≈ 2.98 ms and reaches only ≈ 84 reads/s per antenna). Rounds
-alternate target A/B after each successful read (the tag's S0 flag flips). The tag is held
-at its position of the round start for the round (quasi-static: it moves ≤ 0.2 m/s·0.71 ms =
-0.14 mm, a phase change ≤ 5 mrad), so the channel's narrowband held-link path applies; silent
-time between rounds is not simulated. The links of a chunk's rounds are drawn at once
-(:class:`RoundLinks`, ``rfsim.channels.bulk.draw_links``). The run is cut into chunks of
+Reads (L57, L178: CW from one antenna at a time, 100 reads/s per antenna; the scene
+:mod:`rfsim.scenes.phase_tracking`): one Gen2 singulation per round at sample level on a **fixed
+schedule** — round r starts at r·``schedule.read_period_s`` (2.5 ms: 100 reads/s per antenna)
+on antenna r mod 4, with the fm0-640k link (a singulation ≈ 0.71 ms fits the slot; miller4-320k
+takes ≈ 2.98 ms and reaches only ≈ 84 reads/s per antenna); the tag held at its position of the
+round start; silent time between rounds is not simulated. The run is cut into chunks of
 ``schedule.chunk_s`` simulated in parallel (each with its own reader and tag, reproducible
 whatever the number of workers: the chunks are part of the config); round 0 alone runs first
 in the leading process (the slot check, and the kernels the workers inherit), then every chunk
@@ -35,35 +31,27 @@ Randomness: the jitter from ``trial_rng(seed, 0)``; chunk c's reader, tag and ro
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 
-from rfsim.devices.reader_config import ReaderConfig, frequency_plan
-from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.procs import map_in_order
 from rfsim.core.progress import stage
-from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, epc_hex, long_table, report_columns
+from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, long_table, report_columns
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import wavelength_m
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.scenes.phase_tracking import (GeometryConfig, RoundLinks, TagMotion, TrajectoryConfig,  # noqa: F401
+                                         carrier_hz, check_scene, reader_antennas, simulate_rounds)
 
-_ndimage = lazy_import("scipy.ndimage")
-_antennas = lazy_import("rfsim.channels.antennas")
-_scene = lazy_import("rfsim.channels.scene")
-_bulk = lazy_import("rfsim.channels.bulk")
-_reader = lazy_import("rfsim.devices.reader")
-_tag = lazy_import("rfsim.devices.tag")
 _rfsim_dataset = lazy_import("rfsim.core.dataset")
-_engine = lazy_import("rfsim.protocols.engine")
 _phase_tracking = lazy_import("rfsim.estimators.phase_tracking")
-_commands = lazy_import("rfsim.gen2.commands")
 
 NAME = "phase-tracking"
 DESCRIPTION = ("Särkkä's 890 MHz phase tracking: 4 corner antennas read a moving tag at sample level; "
@@ -72,36 +60,6 @@ DESCRIPTION = ("Särkkä's 890 MHz phase tracking: 4 corner antennas read a movi
 #: Published RMSEs of experiment 1 (L203–L207) [m]: (estimator, pass) → value.
 PUBLISHED_RMSE_M = {("EKF", 1): 0.032, ("EKF", 2): 0.022, ("RTS", 1): 0.015, ("RTS", 2): 0.015,
                     ("RTS", 3): 0.015, ("RSSI eq. 13", 0): 0.35}
-
-
-@dataclass(frozen=True)
-class GeometryConfig:
-    room_m: tuple[float, float] = param((3.0, 3.0), lo=0.1, hi=100.0, unit="m",
-                                        doc="floor plan [0, x] × [0, y]: antennas and tag must be inside")
-    antennas_xy_m: tuple[tuple[float, float], ...] = param(
-        ((0.0, 0.0), (3.0, 0.0), (3.0, 3.0), (0.0, 3.0)), lo=-1000.0, hi=1000.0, unit="m",
-        doc="reader antenna positions (corners of the 3 m square, L174), aimed at the room centre")
-    height_m: float = param(1.5, lo=0.0, hi=10.0, unit="m", doc="height of antennas and tag (L174, L176)")
-    antenna_pattern: Literal["patch", "isotropic"] = param("patch", doc="reader antenna pattern")
-    antenna_gain_dbi: float = param(8.0, lo=0.0, hi=15.0, unit="dBi", doc="panel peak gain (SPA 8090/75/8)")
-    antenna_beamwidth_deg: float = param(75.0, lo=20.0, hi=179.0, unit="deg", doc="panel half-power beamwidth")
-    antenna_polarization: Literal["circular", "linear"] = param("circular", doc="reader antenna polarization "
-                                                                "('linear': vertical)")
-    tag_tilt_deg: float = param(50.0, lo=0.0, hi=90.0, unit="deg",
-                                doc="tilt of the tag's dipole axis from vertical towards +x (90: lying along x)")
-
-
-@dataclass(frozen=True)
-class TrajectoryConfig:
-    corners_xy_m: tuple[tuple[float, float], ...] = param(
-        ((1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)), lo=-1000.0, hi=1000.0, unit="m",
-        doc="closed polygon the tag follows (the intended path), first corner at t = 0")
-    speed_mps: float = param(0.2, lo=0.0, hi=100.0, lo_open=True, unit="m/s", doc="speed along the path")
-    duration_s: float = param(60.0, lo=0.05, hi=3600.0, unit="s", doc="length of the run")
-    jitter_rms_m: float = param(0.015, lo=0.0, hi=0.5, unit="m",
-                                doc="RMS 2-D deviation of the true from the intended path (manual movement, L203)")
-    jitter_time_s: float = param(0.5, lo=0.01, hi=100.0, unit="s",
-                                 doc="std of the Gaussian smoothing kernel of the jitter (its correlation time)")
 
 
 @dataclass(frozen=True)
@@ -140,178 +98,6 @@ class Config:
     estimator: EstimatorConfig = param(EstimatorConfig(), doc="EKF/RTS tuning")
 
 
-# ----------------------------------------------------------------------------- geometry and motion
-
-
-def reader_antennas(g: GeometryConfig) -> list[_antennas.Antenna]:
-    """The reader antennas at ``antennas_xy_m`` and ``height_m``, boresight towards the room centre."""
-    cx, cy = 0.5 * g.room_m[0], 0.5 * g.room_m[1]
-    out = []
-    for x, y in g.antennas_xy_m:
-        pattern = _antennas.Patch(g.antenna_gain_dbi, g.antenna_beamwidth_deg) if g.antenna_pattern == "patch" else _antennas.Isotropic()
-        yaw = math.atan2(cy - y, cx - x) if (cx, cy) != (x, y) else 0.0
-        out.append(_antennas.Antenna(position_m=(x, y, g.height_m), orientation=(yaw, 0.0, 0.0), pattern=pattern,
-                                     polarization=g.antenna_polarization))
-    return out
-
-
-def polygon_path(t_s, corners_xy_m, speed_mps: float) -> np.ndarray:
-    """(n, 2) positions [m] at ``t_s`` on the closed polygon ``corners`` at constant speed."""
-    c = np.asarray(corners_xy_m, float)
-    ends = np.roll(c, -1, axis=0)
-    seg = np.linalg.norm(ends - c, axis=1)
-    cum = np.concatenate(([0.0], np.cumsum(seg)))
-    s = np.mod(np.asarray(t_s, float) * speed_mps, cum[-1])
-    k = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, c.shape[0] - 1)
-    frac = (s - cum[k]) / seg[k]
-    return c[k] + frac[:, None] * (ends[k] - c[k])
-
-
-class TagMotion:
-    """Intended path plus the smooth jitter: white noise on a 10 ms grid, Gaussian-smoothed
-    (std ``jitter_time_s``) and scaled so that the realised 2-D RMS equals ``jitter_rms_m``."""
-
-    GRID_S = 0.01
-
-    def __init__(self, tr: TrajectoryConfig, *, rng: np.random.Generator):
-        self.tr = tr
-        self.t_grid = np.arange(0.0, tr.duration_s + 2.0, self.GRID_S)
-        jit = _ndimage.gaussian_filter1d(rng.standard_normal((self.t_grid.size, 2)), tr.jitter_time_s / self.GRID_S,
-                                axis=0, mode="wrap")
-        rms = math.sqrt(np.mean(np.sum(jit ** 2, axis=1)))
-        self.jitter = jit * (tr.jitter_rms_m / rms) if tr.jitter_rms_m > 0 else np.zeros_like(jit)
-
-    def intended(self, t_s) -> np.ndarray:
-        return polygon_path(np.atleast_1d(t_s), self.tr.corners_xy_m, self.tr.speed_mps)
-
-    def true(self, t_s) -> np.ndarray:
-        t = np.atleast_1d(np.asarray(t_s, float))
-        j = np.column_stack([np.interp(t, self.t_grid, self.jitter[:, k]) for k in range(2)])
-        return self.intended(t) + j
-
-
-def carrier_hz(rc: ReaderConfig) -> float:
-    """The one carrier of the reader [Hz]; hopping over several is a one-line ``ConfigError``
-    (phase unwrapping needs one wavelength, L178)."""
-    plan = frequency_plan(rc.region, rc.channels_hz)
-    if rc.hopping and plan.size > 1:
-        raise ConfigError("reader.hopping", True, f"false (or a one-carrier plan): phase tracking needs one carrier, "
-                                                  f"the plan has {plan.size}")
-    if rc.fixed_channel > plan.size:
-        raise ConfigError("reader.fixed_channel", rc.fixed_channel, f"1…{plan.size}")
-    return float(plan[(rc.fixed_channel - 1) if not rc.hopping else 0])
-
-
-def check_geometry(config: Config) -> None:
-    """One-line ``ConfigError`` for antennas or a path outside the room, a degenerate path."""
-    g, tr = config.geometry, config.trajectory
-    w, ln = g.room_m
-    for i, (x, y) in enumerate(g.antennas_xy_m):
-        if not (0.0 <= x <= w and 0.0 <= y <= ln):
-            raise ConfigError(f"geometry.antennas_xy_m[{i}]", [x, y], f"a position inside the room [0, {w:g}] × [0, {ln:g}] m")
-    for i, (x, y) in enumerate(tr.corners_xy_m):
-        if not (0.0 <= x <= w and 0.0 <= y <= ln):
-            raise ConfigError(f"trajectory.corners_xy_m[{i}]", [x, y], f"a corner inside the room [0, {w:g}] × [0, {ln:g}] m")
-    c = np.asarray(tr.corners_xy_m, float)
-    if c.shape[0] < 2 or np.any(np.linalg.norm(np.roll(c, -1, axis=0) - c, axis=1) == 0):
-        raise ConfigError("trajectory.corners_xy_m", [list(p) for p in tr.corners_xy_m],
-                          "at least 2 corners, no two consecutive ones equal")
-    a = np.asarray(g.antennas_xy_m, float)
-    if a.shape[0] < 3:
-        raise ConfigError("geometry.antennas_xy_m", [list(p) for p in g.antennas_xy_m],
-                          "at least 3 antennas (a 2-D fix from ranges)")
-    if config.schedule.read_period_s * a.shape[0] > config.trajectory.duration_s:
-        raise ConfigError("trajectory.duration_s", tr.duration_s, "long enough for one read per antenna")
-
-
-# ----------------------------------------------------------------------------- reads
-
-
-class RoundLinks:
-    """The channel of a chunk (the engine's ``backscatter_links``): the anechoic link of every
-    round's antenna to the tag at its held position, drawn for all rounds at once by
-    :func:`rfsim.channels.bulk.draw_links` (the physics of :meth:`rfsim.channels.scene.Channel.link`,
-    vectorised: LoS amplitude g_ls(d, fc)·√(G_tx·G_rx)·√PLF, delay d/c; no image or diffuse
-    path, so no random draw). Monostatic and reciprocal: the backward link is the forward one.
-    :meth:`hold` selects the round; a link asked of another antenna pair is an error."""
-
-    def __init__(self, scene: _scene.Scene, antennas, tag_antenna: _antennas.Antenna, antenna_of_round: np.ndarray,
-                 tag_xyz_m: np.ndarray, *, fc_hz: float):
-        self.fc_hz = float(fc_hz)
-        self.antennas, self.antenna_of_round = antennas, antenna_of_round
-        self._paths = np.empty(antenna_of_round.size, dtype=object)
-        for i, ant in enumerate(antennas):
-            rows = np.flatnonzero(antenna_of_round == i)
-            if rows.size == 0:
-                continue
-            bulk = _bulk.draw_links(scene, ant.position_m, tag_xyz_m[rows], fc_hz=self.fc_hz, rng=np.random.default_rng(0),
-                                    tx_antenna=ant, rx_antenna=tag_antenna)
-            for k, j in enumerate(rows):
-                self._paths[j] = bulk.pathset(k)
-        self._held = None
-
-    def hold(self, j: int, tag: _antennas.Antenna) -> None:
-        """Round ``j`` (0-based within the chunk), its tag antenna ``tag``."""
-        self._held = (j, tag)
-
-    def backscatter_links(self, emitter: _antennas.Antenna, tag: _antennas.Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
-                          tag_motion=None):
-        j, held_tag = self._held
-        if tag is not held_tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
-                or tag_motion is not None:
-            raise ValueError("RoundLinks holds one static link per round: its antenna, tag and carrier")
-        p = self._paths[j]
-        return p, p
-
-
-def _simulate_chunk(task) -> dict[str, np.ndarray]:
-    """Rounds [r_lo, r_hi) of the run: one singulation per round (module docstring)."""
-    config, seed, c, r_lo, r_hi = task
-    g, sch = config.geometry, config.schedule
-    motion = TagMotion(config.trajectory, rng=trial_rng(seed, 0))
-    antennas = reader_antennas(g)
-    reader = _reader.Reader(config.reader, antennas, rng=trial_rng(seed, 1 + c, 0))
-    tag_antenna = _antennas.Antenna(position_m=(0.0, 0.0, g.height_m), orientation=(0.0, math.radians(g.tag_tilt_deg), 0.0),
-                                    pattern=_antennas.HalfWaveDipole(), polarization="linear")
-    t_round = np.arange(r_lo, r_hi) * sch.read_period_s
-    truth, intended = motion.true(t_round), motion.intended(t_round)
-    tag = _tag.PassiveTag(config.tag, tag_antenna, rng=trial_rng(seed, 1 + c, 1), t0_s=float(t_round[0]))
-    rounds = np.arange(r_lo, r_hi)
-    antenna_of_round = np.array([reader.antenna_index(r) for r in rounds])
-    tag_xyz = np.column_stack([truth, np.full(rounds.size, g.height_m)])
-    channel = RoundLinks(_scene.Scene(image_order=0), antennas, tag_antenna, antenna_of_round, tag_xyz,
-                         fc_hz=carrier_hz(config.reader))
-    link = reader.link
-    rows: dict[str, list] = {k: [] for k in ("time_s", "antenna", "channel_index", "frequency_hz", "rssi_dbm",
-                                             "phase_rad", "doppler_hz", "snr_db", "success", "failure_reason",
-                                             "epc", "round_end_s")}
-    target = 0
-    for j, r in enumerate(range(r_lo, r_hi)):
-        t_s = float(t_round[j])
-        tag.antenna = dataclasses.replace(tag_antenna, position_m=(truth[j, 0], truth[j, 1], g.height_m))
-        channel.hold(j, tag.antenna)
-        query = _commands.Query(dr=link.dr, m=link.m, trext=link.trext, q=0, target="AB"[target])
-        ex = _engine.singulate(reader, [tag], channel, t_s=t_s, rng=trial_rng(seed, 1 + c, 2, r), query=query, round_index=r)
-        last = ex[-1]
-        ok = last.command == "ACK" and last.success
-        target ^= int(ok)
-        read = last.read
-        rows["time_s"].append(read.start_s if ok else t_s)
-        rows["antenna"].append(last.antenna + 1)
-        rows["channel_index"].append(last.channel_index)
-        rows["frequency_hz"].append(last.fc_hz)
-        for k in ("rssi_dbm", "phase_rad", "doppler_hz", "snr_db"):
-            rows[k].append(getattr(read, k) if ok else np.nan)
-        rows["success"].append(ok)
-        rows["failure_reason"].append(last.failure_reason)
-        rows["epc"].append(epc_hex(read.bits) if ok else "")
-        rows["round_end_s"].append(last.end_s)
-    out = {k: np.asarray(v) for k, v in rows.items()}
-    out.update(round_start_s=t_round, x_m=truth[:, 0], y_m=truth[:, 1], intended_x_m=intended[:, 0],
-               intended_y_m=intended[:, 1])
-    return out
-
-
 READ_FIELDS = {
     "t_s": ("s", "time of the read: start of the EPC reply (the round start for a failed read)"),
     **READ_REPORT_FIELDS,
@@ -330,10 +116,13 @@ READ_FIELDS = {
 
 
 def _read_task(task) -> dict[str, np.ndarray]:
-    """:func:`_simulate_chunk` of ``task[:5]``; with ``task[5]`` (the probe) the slot is checked."""
-    out = _simulate_chunk(task[:5])
-    if task[5]:
-        _check_slot(task[0], float(np.max(out["round_end_s"] - out["round_start_s"])))
+    """Rounds [r_lo, r_hi) of chunk c (:func:`rfsim.scenes.phase_tracking.simulate_rounds`), ``task`` =
+    (config, seed, c, r_lo, r_hi, probe); the probe (round 0 alone) also checks the slot."""
+    config, seed, c, r_lo, r_hi, probe = task
+    out = simulate_rounds(config.geometry, config.trajectory, config.reader, config.tag,
+                          read_period_s=config.schedule.read_period_s, seed=seed, chunk=c, r_lo=r_lo, r_hi=r_hi)
+    if probe:
+        _check_slot(config, float(np.max(out["round_end_s"] - out["round_start_s"])))
     return out
 
 
@@ -344,37 +133,8 @@ def _check_slot(config: Config, singulation_s: float) -> None:
                           f"{config.reader.link_profile!r})")
 
 
-def _cycle_first_fix(antenna0: np.ndarray, rssi: np.ndarray, anchors: np.ndarray) -> np.ndarray:
-    """Eq. (13) on the first reported RSSI of every antenna: the initial position p̂₀."""
-    first = np.full(anchors.shape[0], np.nan)
-    for i in range(anchors.shape[0]):
-        idx = np.flatnonzero((antenna0 == i) & np.isfinite(rssi))
-        if idx.size == 0:
-            raise ConfigError("geometry.antennas_xy_m", f"antenna {i + 1} reported no read",
-                              "antennas that can read the tag (check range, power and pattern)")
-        first[i] = rssi[idx[0]]
-    return _phase_tracking.rssi_fix(first, anchors)[0]
-
-
-def _latest_rssi(antenna0: np.ndarray, rssi: np.ndarray, n_antennas: int) -> np.ndarray:
-    """(N, s): at each read, the latest reported RSSI of every antenna (NaN before its first)."""
-    out = np.full((rssi.size, n_antennas), np.nan)
-    idx = np.arange(rssi.size)
-    for i in range(n_antennas):
-        have = (antenna0 == i) & np.isfinite(rssi)
-        last = np.maximum.accumulate(np.where(have, idx, -1))
-        out[:, i] = np.where(last >= 0, rssi[np.maximum(last, 0)], np.nan)
-    return out
-
-
-def _stats(err: np.ndarray) -> dict[str, float]:
-    e = err[np.isfinite(err)]
-    return {"rmse_m": float(np.sqrt(np.mean(e ** 2))), "mean_m": float(e.mean()), "median_m": float(np.median(e)),
-            "p90_m": float(np.quantile(e, 0.9)), "max_m": float(e.max()), "std_m": float(e.std())}
-
-
 def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
-    check_geometry(config)
+    check_scene(config.geometry, config.trajectory, read_period_s=config.schedule.read_period_s)
     carrier_hz(config.reader)
     g, tr, sch, est = config.geometry, config.trajectory, config.schedule, config.estimator
     anchors = np.asarray(g.antennas_xy_m, float)
@@ -387,11 +147,7 @@ def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
     # the unwrapping limit of the true motion (warn and flag, do not stop)
     dt_antenna = s * sch.read_period_s
     limit = float(_phase_tracking.unwrap_limit_mps(lam, dt_antenna))
-    motion = TagMotion(tr, rng=trial_rng(seed, 0))
-    t_fine = np.arange(0.0, tr.duration_s, 1e-3)
-    p_fine = motion.true(t_fine)
-    radial = np.gradient(np.linalg.norm(p_fine[:, None, :] - anchors, axis=2), t_fine, axis=0)
-    v_radial = float(np.abs(radial).max())
+    v_radial = TagMotion(tr, rng=trial_rng(seed, 0)).max_radial_speed_mps(anchors)
     exceeded = v_radial >= limit
     if exceeded:
         stage(f"warning: the tag's radial speed reaches {v_radial:.3g} m/s, above the unwrapping limit "
@@ -424,20 +180,22 @@ def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
     phase = reads["phase_reported_rad"]
     truth = np.column_stack([reads["x_m"], reads["y_m"]])
     intended = np.column_stack([reads["intended_x_m"], reads["intended_y_m"]])
-    p0 = _cycle_first_fix(ant0, rssi, anchors)
+    first = _phase_tracking.first_per_antenna(ant0, rssi, s)
+    if np.isnan(first).any():
+        raise ConfigError("geometry.antennas_xy_m", f"antenna {int(np.flatnonzero(np.isnan(first))[0]) + 1} reported "
+                          "no read", "antennas that can read the tag (check range, power and pattern)")
+    p0 = _phase_tracking.rssi_fix(first, anchors)[0]  # eq. (13) on the first RSSI of every antenna
     r0 = np.linalg.norm(p0 - anchors, axis=1)
     z = _phase_tracking.unwrap_pseudoranges(ant0, phase, wavelength_m=lam, r0_m=r0)
     true_range = np.linalg.norm(truth - anchors[ant0], axis=1)
     offset = z - true_range
-    jump = np.zeros(t.size, dtype=bool)
-    for i in range(s):
-        idx = np.flatnonzero((ant0 == i) & np.isfinite(z))
-        jump[idx[1:]] = np.abs(np.diff(offset[idx])) > lam / 4
+    jump = _phase_tracking.unwrap_jumps(ant0, offset, wavelength_m=lam, n_antennas=s)
     x0, P0 = _phase_tracking.initial_state(p0, s, pos_std_m=est.pos_std_m, bias_std_m=est.bias_std_m, vel_std_mps=est.vel_std_mps)
     passes = _phase_tracking.track_phase(t, ant0, z, anchors, x0, P0, q_v=est.q_v, q_b=est.q_b, sigma_m=est.sigma_m,
                                          passes=est.passes, keep_covariances=False)
-    rssi_track, _ = _phase_tracking.rssi_fix(_latest_rssi(ant0, rssi, s), anchors)
-    rssi_track[~np.all(np.isfinite(_latest_rssi(ant0, rssi, s)), axis=1)] = np.nan
+    latest = _phase_tracking.latest_per_antenna(ant0, rssi, s)
+    rssi_track, _ = _phase_tracking.rssi_fix(latest, anchors)
+    rssi_track[~np.all(np.isfinite(latest), axis=1)] = np.nan
 
     estimates = {"t_s": t, "antenna": reads["antenna"], "x_m": truth[:, 0], "y_m": truth[:, 1],
                  "intended_x_m": intended[:, 0], "intended_y_m": intended[:, 1]}
@@ -452,13 +210,11 @@ def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
     summary: dict[str, list] = {k: [] for k in ("estimator", "pass", "rmse_m", "rmse_true_m", "mean_m", "median_m",
                                                 "p90_m", "max_m", "std_m", "published_rmse_m")}
     for name, k, xy in tracks:
-        st = _stats(np.linalg.norm(xy - intended, axis=1))
-        summary["estimator"].append(name)
-        summary["pass"].append(k)
-        for key, v in st.items():
+        row = {"estimator": name, "pass": k, **_phase_tracking.error_stats(np.linalg.norm(xy - intended, axis=1)),
+               "rmse_true_m": _phase_tracking.error_stats(np.linalg.norm(xy - truth, axis=1))["rmse_m"],
+               "published_rmse_m": PUBLISHED_RMSE_M.get((name, k), np.nan)}
+        for key, v in row.items():
             summary[key].append(v)
-        summary["rmse_true_m"].append(_stats(np.linalg.norm(xy - truth, axis=1))["rmse_m"])
-        summary["published_rmse_m"].append(PUBLISHED_RMSE_M.get((name, k), np.nan))
     return _dataset(config, reads, z, true_range, offset, jump, estimates, summary, anchors=anchors, lam=lam,
                     limit=limit, v_radial=v_radial, exceeded=exceeded, p0=p0, busy=busy)
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim.scenarios._capture_sweep import CaptureSweepConfig, simulate_point, tables
+from rfsim.scenes.capture_sweep import CaptureSweepConfig, simulate_point, tables
 
 CFG = CaptureSweepConfig(trials=150, ratios_db=(0.0, 15.0), thresholds_db=(0.0, 7.0, 20.0))
 

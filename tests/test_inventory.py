@@ -256,7 +256,7 @@ def _circle_population(n, *, seed, radius_m=2.0, noise_figure_db=10.0, fast=True
     from rfsim.channels import Antenna, Channel, Isotropic, Scene
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import TagConfig
-    from rfsim.scenarios.inventory import make_tags, tag_antenna
+    from rfsim.scenes.room_inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
                  polarization="circular")
@@ -308,7 +308,7 @@ def test_collision_capture_and_ack_only_matching_tag():
     from rfsim.channels import Antenna, Channel, Patch, Scene
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import TagConfig
-    from rfsim.scenarios.inventory import make_tags, tag_antenna
+    from rfsim.scenes.room_inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Patch(6.0, 70.0),
                  polarization="circular")
@@ -389,7 +389,7 @@ def test_chip_tags_fast_path_equals_full_listen():
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import PassiveTag, TagConfig
     from rfsim.devices.tag_chip import PowerDependentChip
-    from rfsim.scenarios.inventory import tag_antenna
+    from rfsim.scenes.room_inventory import tag_antenna
 
     chip = PowerDependentChip.pass_default()
     radii = [1.0, 1.6, 2.2, 2.9, 3.6, 6.0, 9.0]
@@ -428,7 +428,7 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import PassiveTag, TagConfig
     from rfsim.devices.tag_chip import PowerDependentChip
-    from rfsim.scenarios.inventory import tag_antenna
+    from rfsim.scenes.room_inventory import tag_antenna
 
     silent_steps, population_steps = [], []
     original = _State.on_command_if_silent
@@ -494,7 +494,7 @@ def test_population_with_individual_tags_equals_full_listen():
     from rfsim.devices.gen2_tag_state import FlagPersistence
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import PassiveTag, TagConfig
-    from rfsim.scenarios.inventory import tag_antenna
+    from rfsim.scenes.room_inventory import tag_antenna
 
     radii = [1.0, 1.5, 2.0, 2.5, 3.0, 1.2, 1.8, 2.2]
     runs = []
@@ -547,7 +547,7 @@ def test_links_held_across_rounds_equal_a_draw_per_round():
     # states, bit for bit, with the links evaluated more often; a tag moved between rounds
     # (a new antenna) must be seen at its new place (its incident power changes).
     from rfsim.channels import Channel, Scene
-    from rfsim.scenarios.inventory import tag_antenna
+    from rfsim.scenes.room_inventory import tag_antenna
 
     assert Channel(Scene()).has_random_part is False
     runs = []

@@ -1,12 +1,16 @@
 """Scenario ``inventory``: end-to-end run, dataset contents, figure, capture curve."""
 
 
+from dataclasses import replace
+
 import h5py
 import numpy as np
 import pytest
 
 from rfsim.core.dataset import read_table, write_dataset
+from rfsim.detection.fit import binned_probability
 from rfsim.scenarios import inventory as scen
+from rfsim.scenes.room_inventory import boresight_capture_rows, tag_epc_hex
 
 
 def _small(**kw):
@@ -28,7 +32,7 @@ def test_run_write_plot(tmp_path):
     assert len(cap["trial"]) == 6
     # every read EPC is one of the population's EPCs and the tag index matches it
     for n, tag, epc in zip(reads["population"], reads["tag"], reads["epc_hex"]):
-        assert 0 <= tag < n and epc == scen.tag_epc_hex("300833B2DDD9014000000027", int(tag))
+        assert 0 <= tag < n and epc == tag_epc_hex("300833B2DDD9014000000027", int(tag))
     for n in (3, 6):
         m = slots["population"] == n
         assert inv["slots"][inv["population"] == n][0] == m.sum()
@@ -55,7 +59,9 @@ def test_capture_needs_power_ratio():
     # every trial (6/6); at exactly equal distances (0 dB ± the λ/4 phase offset) either tag
     # may be captured, and the captured one is the one with more power at the reader.
     cfg = scen.Config(capture=scen.CaptureConfig(trials=6, ratios_db=(0.0, 4.0)))
-    rows = scen.capture_table(cfg, seed=5)
+    rows = boresight_capture_rows(cfg.room, replace(cfg.reader, noise_figure_db=cfg.capture.noise_figure_db), cfg.tag,
+                                  near_m=cfg.capture.near_m, ratios_db=cfg.capture.ratios_db, trials=cfg.capture.trials,
+                                  session=cfg.inventory.session, seed=5)
     r = np.array(rows["ratio_db"])
     nom = np.array(rows["nominal_ratio_db"])
     tag = np.array(rows["captured_tag"])
@@ -67,9 +73,8 @@ def test_capture_needs_power_ratio():
 
 
 def test_capture_probability_binning():
-    x, p, n = scen.capture_probability(np.array([0.1, 0.2, 1.5, 1.6, 1.7]), np.array([0, 1, 1, 1, 0]),
-                                       np.array([0.0, 1.0, 2.0]))
-    assert np.allclose(x, [0.5, 1.5]) and np.allclose(p, [0.5, 2 / 3]) and list(n) == [2, 3]
+    b = binned_probability(np.array([0.1, 0.2, 1.5, 1.6, 1.7]), np.array([0, 1, 1, 1, 0]), np.array([0.0, 1.0, 2.0]))
+    assert np.allclose(b.centers, [0.5, 1.5]) and np.allclose(b.p_hat, [0.5, 2 / 3]) and list(b.trials) == [2, 3]
 
 
 def test_spread_needs_the_searching_reader():

@@ -161,7 +161,7 @@ def test_round_links_are_the_channel_links_of_each_round():
     import math
 
     from rfsim.channels import Antenna, Channel, HalfWaveDipole, Scene
-    from rfsim.scenarios.phase_tracking import GeometryConfig, RoundLinks, reader_antennas
+    from rfsim.scenes.phase_tracking import GeometryConfig, RoundLinks, reader_antennas
 
     g = GeometryConfig()
     antennas = reader_antennas(g)

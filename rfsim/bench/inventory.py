@@ -18,7 +18,7 @@ def _circle(n: int, seed: int) -> EngineAir:
     from rfsim.channels import Antenna, Channel, Isotropic, Scene
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import TagConfig
-    from rfsim.scenarios.inventory import make_tags, tag_antenna
+    from rfsim.scenes.room_inventory import make_tags, tag_antenna
 
     ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
                  polarization="circular")

@@ -265,5 +265,74 @@ def track_phase(t_s, antenna, z_m, anchors_m, x0, P0, *, q_v: float = 1.0, q_b: 
     return out
 
 
-__all__ = ["LN_AMPLITUDE_PER_DB", "unwrap_limit_mps", "unwrap_pseudoranges", "rssi_fix", "continuous_model",
+def first_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
+    """(s,): the first finite value of every antenna in a time-sorted read log (NaN where an
+    antenna has none), e.g. the first reported RSSI per antenna for the eq. (13) start fix p̂₀.
+
+    Parameters
+    ----------
+    antenna : (N,) int, 0-based antenna of each read
+    values : (N,) float, one value per read (NaN for a failed read)
+    n_antennas : number of antennas s
+    """
+    ant, v = np.asarray(antenna), np.asarray(values, float)
+    first = np.full(n_antennas, np.nan)
+    for i in range(n_antennas):
+        idx = np.flatnonzero((ant == i) & np.isfinite(v))
+        if idx.size:
+            first[i] = v[idx[0]]
+    return first
+
+
+def latest_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
+    """(N, s): at each read of a time-sorted log, the latest finite value of every antenna up
+    to and including that read (NaN before its first), e.g. the RSSI vector of the RSSI-only
+    track (eq. 13 at every read, Fig. 8, L207).
+
+    Parameters
+    ----------
+    antenna : (N,) int, 0-based antenna of each read
+    values : (N,) float, one value per read (NaN for a failed read)
+    n_antennas : number of antennas s
+    """
+    ant, v = np.asarray(antenna), np.asarray(values, float)
+    out = np.full((v.size, n_antennas), np.nan)
+    idx = np.arange(v.size)
+    for i in range(n_antennas):
+        have = (ant == i) & np.isfinite(v)
+        last = np.maximum.accumulate(np.where(have, idx, -1))
+        out[:, i] = np.where(last >= 0, v[np.maximum(last, 0)], np.nan)
+    return out
+
+
+def unwrap_jumps(antenna, offset_m, *, wavelength_m: float, n_antennas: int) -> np.ndarray:
+    """(N,) bool: reads whose pseudo-range offset (pseudo-range − true range, eq. 6: the
+    constant b_i plus noise) changed by more than λ/4 since the same antenna's previous valid
+    read — an unwrapping jump of λ/2 (the radial speed exceeded λ/(4Δt), :func:`unwrap_limit_mps`).
+
+    Parameters
+    ----------
+    antenna : (N,) int, 0-based antenna of each read
+    offset_m : (N,) float [m], NaN for a failed read
+    wavelength_m : carrier wavelength λ [m]
+    n_antennas : number of antennas s
+    """
+    ant, off = np.asarray(antenna), np.asarray(offset_m, float)
+    jump = np.zeros(off.size, dtype=bool)
+    for i in range(n_antennas):
+        idx = np.flatnonzero((ant == i) & np.isfinite(off))
+        jump[idx[1:]] = np.abs(np.diff(off[idx])) > wavelength_m / 4
+    return jump
+
+
+def error_stats(err_m) -> dict[str, float]:
+    """RMSE, mean, median, 90th percentile, maximum and standard deviation [m] of the finite
+    position errors ``err_m`` [m] (the error statistics of Särkkä et al., L203–L207)."""
+    e = np.asarray(err_m, float)
+    e = e[np.isfinite(e)]
+    return {"rmse_m": float(np.sqrt(np.mean(e ** 2))), "mean_m": float(e.mean()), "median_m": float(np.median(e)),
+            "p90_m": float(np.quantile(e, 0.9)), "max_m": float(e.max()), "std_m": float(e.std())}
+
+
+__all__ = ["first_per_antenna", "latest_per_antenna", "unwrap_jumps", "error_stats", "LN_AMPLITUDE_PER_DB", "unwrap_limit_mps", "unwrap_pseudoranges", "rssi_fix", "continuous_model",
            "discrete_model", "initial_state", "PassResult", "ekf_reads", "rts_reads", "track_phase"]

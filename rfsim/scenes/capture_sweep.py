@@ -59,6 +59,30 @@ and double the missed captures.
 Randomness: point p (profile, spread, ratio in that order) draws everything from
 ``trial_rng(seed, 2_000_000 + p)``, vectorised over its trials in a fixed order (bits, BLF
 errors, T1, phases, noise): a point's results depend only on (seed, p).
+
+**Why the windows are built here and not by the air step** (:func:`rfsim.air.step.propagate`,
+:func:`rfsim.protocols.batch.propagate_batch`). The air step cannot give these windows with the
+same arithmetic in the same order, so the recorded datasets would change; a later change that
+routes the sweep through the air step has to accept new numbers. What differs:
+
+1. *Order of the sums.* Here the noise is drawn into the window first, scaled by √(σ²/2), and
+   the replies are added to it tag by tag: y = ((n + h1·s1) + h2·s2). The air step sums the
+   paths first and adds the receiver noise last (:func:`rfsim.air.noise.add_awgn`):
+   y = (Σ paths) + n. Floating-point addition is not associative, so the samples differ in
+   their last bits.
+2. *Signal model.* Here each reply is the bare line code s_i = ±1 (−1 around the reply) times
+   one complex gain h_i with |h1|²/|h2|² set exactly and a uniform phase. The air step forms
+   r_j(t)·L{x}(t) with the tag's re-radiation factor r = A_s − Γ(t) (chip states, structural
+   mode), the reader's CW segment, the links' path gains g·e^{−j2π·fc·τ} and the carrier
+   leakage c, which the receiver removes; the power ratio would then follow from geometry and
+   chips instead of being set.
+3. *Timing and rate.* Each reply here starts at its drawn T1 with its drawn BLF, written by
+   :func:`rfsim.gen2.linecode.reply_waveform` at fs = 2·BLF·``samples_per_element``; in the air
+   step a tag device answers a reader command on the reader's sample rate (4 MS/s), its
+   timing set by its own modulator.
+4. *Batch shape.* Here one (trials, samples) array per point is decoded at once by
+   :func:`rfsim.devices.reader.search_decode`; the air step produces one receiver segment per
+   exchange (or per batch member), each through the reader's own receive path.
 """
 
 from __future__ import annotations
@@ -115,7 +139,7 @@ class CaptureSweepConfig:
 
 
 @dataclass
-class _Point:
+class CapturePoint:
     """The records of one point (profile, spread, ratio): per-trial arrays."""
 
     profile: str
@@ -144,7 +168,7 @@ def _window(link, fs_hz: float):
 
 
 def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: float, *, seed: int,
-                   point: int) -> _Point:
+                   point: int) -> CapturePoint:
     """All ``cfg.trials`` collisions of one point (module docstring)."""
     link = profile(name)
     fs = 2.0 * link.blf_hz * cfg.samples_per_element
@@ -184,10 +208,10 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
     detected = out.corr >= _capture.preamble_threshold(n_pre, n_tests, cfg.false_alarm_probability)
     match = np.all(out.bits[:, None, :] == bits, axis=2)  # (nt, 2)
     decoded = np.where(match[:, 0], 0, np.where(match[:, 1], 1, -1))
-    return _Point(name, spread, float(ratio_db), detected, decoded, out.ebn0_db, out.decision_ebn0_db, out.corr, eps, t1_s)
+    return CapturePoint(name, spread, float(ratio_db), detected, decoded, out.ebn0_db, out.decision_ebn0_db, out.corr, eps, t1_s)
 
 
-def run_sweep(cfg: CaptureSweepConfig, *, seed: int) -> list[_Point]:
+def run_sweep(cfg: CaptureSweepConfig, *, seed: int) -> list[CapturePoint]:
     """Every point: profiles × (without, with spread) × ratios, in that order."""
     plan = [(name, spread, r) for name in cfg.profiles for spread in (False, True) for r in cfg.ratios_db]
     return [simulate_point(cfg, name, spread, r, seed=seed, point=p)
@@ -236,7 +260,7 @@ def _line_code(m: int) -> str:
     return "FM0" if m == 1 else f"Miller-{m}"
 
 
-def tables(cfg: CaptureSweepConfig, points: list[_Point]) -> tuple[dict, dict, dict]:
+def tables(cfg: CaptureSweepConfig, points: list[CapturePoint]) -> tuple[dict, dict, dict]:
     """(capture_sweep rows, capture_trials rows, acceptance rows) from the points."""
     gamma = _reader.rn16_threshold_db(cfg.rn16_false_accept)
     rows: dict[str, list] = {k: [] for k in POINT_FIELDS}
@@ -278,5 +302,5 @@ def tables(cfg: CaptureSweepConfig, points: list[_Point]) -> tuple[dict, dict, d
     return rows, trials, accept
 
 
-__all__ = ["CaptureSweepConfig", "simulate_point", "run_sweep", "tables", "POINT_FIELDS", "TRIAL_FIELDS",
+__all__ = ["CaptureSweepConfig", "CapturePoint", "simulate_point", "run_sweep", "tables", "POINT_FIELDS", "TRIAL_FIELDS",
            "ACCEPT_FIELDS"]

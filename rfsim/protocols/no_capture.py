@@ -1,0 +1,33 @@
+"""An air interface with capture switched off: the protocol level's collision rule on
+sample-level waveforms (a comparison baseline for capture at the reader)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+
+class NoCaptureAir:
+    """A sample-level air interface whose reader never decodes a slot in which two or more
+    tags replied (ground truth): capture switched off, the protocol level's collision rule
+    (:class:`rfsim.protocols.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
+    detected, not decoded, so the reader does not ACK and counts a collision.
+
+    Parameters
+    ----------
+    air
+        The wrapped air interface (``link`` and ``exchange(cmd, **kw)`` returning an exchange
+        record with ``replied``, ``detected``, ``success``, ``bits``, ``failure_reason``).
+    """
+
+    def __init__(self, air):
+        self.air, self.link = air, air.link
+
+    def exchange(self, cmd, **kw):
+        """The wrapped exchange; with ≥ 2 replies and a detected slot: failed, reason "collision"."""
+        ex = self.air.exchange(cmd, **kw)
+        if len(ex.replied) >= 2 and ex.detected:
+            return replace(ex, success=False, bits=None, failure_reason="collision")
+        return ex
+
+
+__all__ = ["NoCaptureAir"]

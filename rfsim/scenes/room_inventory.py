@@ -1,0 +1,217 @@
+"""A tag population in a room read by one reader, and two tags on the boresight of a patch.
+
+Geometry: a rectangular room (floor at z = 0); tags uniformly inside it (margin 0.5 m),
+heights uniform in ``tag_height_m``, vertical half-wave dipoles with a random azimuth; one to
+four reader patch antennas in the middle of the walls at ``reader_height_m``, facing the room
+centre, used in turn per round. Channel: Friis LoS, optional floor reflection (image method,
+concrete ε_r = 5.3) and the exponential APDP (PASS room curves), drawn per round and held
+within it (:class:`rfsim.channels.scene.Scene`).
+
+Tags are :class:`rfsim.devices.tag.PassiveTag` numbered by their EPC; with an enabled
+:class:`rfsim.devices.tag_spread.TagSpreadConfig` every tag draws its own BLF error, T1, chip
+states and antenna yaw/roll offsets. The inventory itself runs through
+:class:`rfsim.protocols.inventory.EngineAir` (sample level).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from rfsim.core.config import check_fields, param
+from rfsim.core.lazy import lazy_import
+from rfsim.core.progress import track
+from rfsim.core.rng import trial_rng
+from rfsim.core.units import C_M_S
+from rfsim.devices.tag_spread import TagSpreadConfig, orientation_offsets_rad
+from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+
+_antennas = lazy_import("rfsim.channels.antennas")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_surfaces = lazy_import("rfsim.channels.surfaces")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+
+
+@dataclass(frozen=True)
+class RoomConfig:
+    """The room and the reader's antennas (errors name ``room.<key>``)."""
+
+    length_m: float = param(8.0, lo=2.0, hi=100.0, unit="m", doc="room extent along x")
+    width_m: float = param(6.0, lo=2.0, hi=100.0, unit="m", doc="room extent along y")
+    tag_height_m: tuple[float, float] = param((0.5, 1.5), lo=0.05, hi=10.0, unit="m", doc="tag height range")
+    reader_height_m: float = param(1.5, lo=0.1, hi=10.0, unit="m", doc="reader antenna height")
+    n_antennas: int = param(1, lo=1, hi=4, doc="reader antennas (middle of walls x=0, x=L, y=0, y=W)")
+    reader_gain_dbi: float = param(6.0, lo=0.0, hi=15.0, unit="dBi", doc="patch peak gain")
+    reader_beamwidth_deg: float = param(70.0, lo=20.0, hi=180.0, unit="deg", doc="patch beamwidth")
+    floor: bool = param(True, doc="floor reflection (image method, concrete eps_r 5.3)")
+    apdp: bool = param(True, doc="exponential APDP diffuse taps (PASS room curves)")
+
+    def __post_init__(self):
+        check_fields(self, "room")
+
+
+def tag_epc_hex(template: str, k: int) -> str:
+    """EPC of tag k: the template's length with the index in its last digits (unique EPCs).
+
+    >>> tag_epc_hex("3000 0000", 10)
+    '0000000B'
+    """
+    n = len(template.replace(" ", ""))
+    return format(k + 1, f"0{n}X")[-n:]
+
+
+def make_tags(config, antennas, *, seed: int, key: tuple[int, ...], spread: TagSpreadConfig | None = None,
+              link=None, records: list | None = None) -> list:
+    """One PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``.
+
+    Parameters
+    ----------
+    config : rfsim.devices.tag_config.TagConfig
+        Template; tag k gets the EPC :func:`tag_epc_hex` ``(config.epc_hex, k)``.
+    antennas : sequence of rfsim.channels.antennas.Antenna
+        One per tag.
+    spread, link, records
+        With an enabled ``spread`` tag k draws its own BLF error, T1, chip states and antenna
+        yaw/roll offsets on ``link`` from its spread sub-stream ``trial_rng(seed, *key, k, 0)``
+        (:class:`rfsim.devices.tag_spread.TagSpreadConfig`); each draw is appended to ``records``.
+    """
+    tags = []
+    for k, a in enumerate(antennas):
+        cfg = replace(config, epc_hex=tag_epc_hex(config.epc_hex, k))
+        if spread is not None and spread.enabled:
+            cfg, rec = spread.draw(cfg, link, rng=trial_rng(seed, *key, k, 0))
+            off = orientation_offsets_rad(rec)
+            a = replace(a, orientation=tuple(o + d for o, d in zip(a.orientation, off)))
+            if records is not None:
+                records.append(rec)
+        tags.append(_tag.PassiveTag(cfg, a, rng=trial_rng(seed, *key, k)))
+    return tags
+
+
+def tag_antenna(position_m, azimuth_rad: float):
+    """Vertical half-wave dipole tag at ``position_m`` [m] facing ``azimuth_rad`` [rad]."""
+    return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
+                             pattern=_antennas.HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
+
+
+def reader_antennas(room: RoomConfig) -> list:
+    """Circular patches in the middle of the walls x=0, x=L, y=0, y=W (in that order), facing
+    inwards, the first ``room.n_antennas`` of them."""
+    L, W, h = room.length_m, room.width_m, room.reader_height_m
+    spots = [((0.0, W / 2, h), 0.0), ((L, W / 2, h), math.pi), ((L / 2, 0.0, h), math.pi / 2),
+             ((L / 2, W, h), -math.pi / 2)]
+    return [_antennas.Antenna(position_m=p, orientation=(yaw, 0.0, 0.0),
+                              pattern=_antennas.Patch(room.reader_gain_dbi, room.reader_beamwidth_deg),
+                              polarization="circular")
+            for p, yaw in spots[: room.n_antennas]]
+
+
+def room_scene(room: RoomConfig):
+    """The room's channel scene: the floor (ε_r 5.3, image order 1) and the APDP, as enabled."""
+    surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if room.floor else ()
+    return _scene.Scene(surfaces=surfaces, apdp=_small_scale.ApdpModel() if room.apdp else None, image_order=1)
+
+
+def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -> list:
+    """``n`` tags uniformly in the room (0.5 m from the walls), random azimuth in [−π, π)."""
+    x = rng.uniform(0.5, room.length_m - 0.5, n)
+    y = rng.uniform(0.5, room.width_m - 0.5, n)
+    z = rng.uniform(*room.tag_height_m, n)
+    yaw = rng.uniform(-math.pi, math.pi, n)
+    return [tag_antenna((x[k], y[k], z[k]), yaw[k]) for k in range(n)]
+
+
+def room_population(room: RoomConfig, reader_config, tag_config, n: int, antennas, *, seed: int,
+                    key: tuple[int, ...], spread: TagSpreadConfig | None = None, records: list | None = None):
+    """(reader, tags): ``n`` tags placed at random in the room and the reader on ``antennas``.
+
+    Streams: tag positions ``trial_rng(seed, *key, 0)``, the reader ``trial_rng(seed, *key, 1)``,
+    tag k ``trial_rng(seed, *key, 3, k)`` (its spread ``..., 3, k, 0``, see :func:`make_tags`).
+    """
+    tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, *key, 0))
+    reader = _reader.Reader(reader_config, antennas, rng=trial_rng(seed, *key, 1))
+    tags = make_tags(tag_config, tag_ants, seed=seed, key=key + (3,), spread=spread, link=reader.link, records=records)
+    return reader, tags
+
+
+def room_air(room: RoomConfig, reader, tags, *, seed: int, key: tuple[int, ...], keep_exchanges: bool = False):
+    """The sample-level air interface of the room (channel and receiver noise from
+    ``trial_rng(seed, *key, 2)``)."""
+    return EngineAir(reader, tags, _scene.Channel(room_scene(room)), rng=trial_rng(seed, *key, 2),
+                     keep_exchanges=keep_exchanges)
+
+
+def boresight_pair_slot(room: RoomConfig, reader_config, tag_config, *, near_m: float, far_m: float,
+                        session: int, seed: int, key: tuple[int, ...]) -> dict:
+    """One Q = 0 slot with a near and a far tag on the boresight of a patch; both reply.
+
+    A circular patch (``room``'s gain and beamwidth) at (0, 0, h), h = ``room.reader_height_m``,
+    faces +x; the tags are :func:`tag_antenna` dipoles at (``near_m``, 0, h) and (``far_m``, 0, h)
+    facing it, in free space. Streams: the tags ``trial_rng(seed, *key, 0, k)``, the reader
+    ``trial_rng(seed, *key, 1)``, the channel and noise ``trial_rng(seed, *key, 2)``.
+
+    Returns
+    -------
+    dict
+        ``ratio_db``: 2·(P_inc,near − P_inc,far) [dB] from the Query's incident CW powers
+        (monostatic: the backscatter power ratio at the reader); ``far_m``; ``n_replies`` (tags
+        that replied); ``captured`` (an EPC read although both replied); ``captured_tag``
+        (0 near, 1 far, −1 none).
+    """
+    h = room.reader_height_m
+    reader_ant = _antennas.Antenna(position_m=(0.0, 0.0, h), orientation=(0.0, 0.0, 0.0),
+                                   pattern=_antennas.Patch(room.reader_gain_dbi, room.reader_beamwidth_deg),
+                                   polarization="circular")
+    ants = [tag_antenna((near_m, 0.0, h), math.pi), tag_antenna((far_m, 0.0, h), math.pi)]
+    tags = make_tags(tag_config, ants, seed=seed, key=key + (0,))
+    reader = _reader.Reader(reader_config, [reader_ant], rng=trial_rng(seed, *key, 1))
+    air = EngineAir(reader, tags, _scene.Channel(_scene.Scene()), rng=trial_rng(seed, *key, 2), keep_exchanges=True)
+    log = run_inventory(air, InventoryConfig(q_mode="fixed", q_initial=0.0, max_rounds=1, session=session))
+    p_inc = air.exchanges[0].incident_power_dbm  # the Query
+    tag = log.slots["tag"][0]
+    return dict(ratio_db=2.0 * (p_inc[0] - p_inc[1]), far_m=far_m, n_replies=log.slots["n_replies"][0],
+                captured=bool(tag >= 0 and log.slots["n_replies"][0] >= 2), captured_tag=tag)
+
+
+CAPTURE_FIELDS = {
+    "point": ("1", "index of the nominal power ratio"),
+    "trial": ("1", "trial at this ratio"),
+    "nominal_ratio_db": ("dB", "nominal backscatter power ratio near/far, 40·log10(d_far/d_near)"),
+    "ratio_db": ("dB", "ratio from the incident CW powers: 2·(P_inc,near − P_inc,far) (monostatic)"),
+    "far_m": ("m", "distance of the far tag (with a random sub-wavelength offset)"),
+    "n_replies": ("1", "tags that replied with an RN16 in the slot"),
+    "captured": ("1", "an EPC was read although both tags replied"),
+    "captured_tag": ("1", "0 = near tag, 1 = far tag, -1 = none"),
+}
+
+
+def boresight_capture_rows(room: RoomConfig, reader_config, tag_config, *, near_m: float, ratios_db, trials: int,
+                           session: int, seed: int) -> dict[str, list]:
+    """Capture probability data (:data:`CAPTURE_FIELDS`): for each nominal ratio r [dB] in
+    ``ratios_db``, ``trials`` slots of :func:`boresight_pair_slot`.
+
+    The far tag sits at d_near·10^(r/40) plus a uniform offset in ±λ/4 (λ at 915 MHz): the
+    round-trip phase difference 4π·Δd/λ then spans a full turn, so the relative phase of
+    the two replies is random, as it is between real tags. Streams: ratio i, trial j:
+    ``trial_rng(seed, 10**6 + i, j, ...)`` (the offset from ``..., 3``).
+    """
+    rows: dict[str, list] = {k: [] for k in CAPTURE_FIELDS}
+    lam = C_M_S / 915e6
+    for i, r_db in enumerate(track(ratios_db, desc="capture", unit="ratios")):
+        for j in range(trials):
+            key = (10**6 + i, j)
+            off = trial_rng(seed, *key, 3).uniform(-lam / 4, lam / 4)
+            far = near_m * 10.0 ** (r_db / 40.0) + off
+            out = boresight_pair_slot(room, reader_config, tag_config, near_m=near_m, far_m=far, session=session,
+                                      seed=seed, key=key)
+            for k, v in dict(point=i, trial=j, nominal_ratio_db=r_db, **out).items():
+                rows[k].append(v)
+    return rows
+
+
+__all__ = ["CAPTURE_FIELDS", "boresight_capture_rows", "RoomConfig", "tag_epc_hex", "make_tags", "tag_antenna", "reader_antennas", "room_scene",
+           "random_tag_antennas", "room_population", "room_air", "boresight_pair_slot"]

@@ -452,6 +452,11 @@ class Antenna:
                                             other.polarization_vector(k))
 
 
+#: Front-to-back ratio [dB] of a 9 dBic UHF RFID reader patch panel (data-sheet class), the
+#: back-lobe floor of the readers' panels in the AURIS scenes (detection-probability, st-localization).
+PANEL_FRONT_TO_BACK_DB = 20.0
+
+
 @dataclass(frozen=True, eq=False)
 class EllipticalPanel(Antenna):
     """A circularly polarised panel whose axial ratio grows off boresight.
@@ -521,6 +526,7 @@ __all__ = [
     "Tabulated",
     "Antenna",
     "EllipticalPanel",
+    "PANEL_FRONT_TO_BACK_DB",
     "polarization_mismatch_factor",
     "vertical_dipole",
 ]

@@ -69,7 +69,7 @@ from typing import Literal
 import numpy as np
 
 from rfsim.channels import Antenna, HalfWaveDipole, Patch
-from rfsim.channels.antennas import EllipticalPanel
+from rfsim.channels.antennas import PANEL_FRONT_TO_BACK_DB, EllipticalPanel
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.tag_config import TagConfig
@@ -96,7 +96,6 @@ DESCRIPTION = ("sense-a-tag detection of a tag's reply vs (D, d, θ, φ): 3000 +
 
 PANEL_GAIN_DBIC = 9.0
 PANEL_BEAMWIDTH_DEG = 70.0
-PANEL_FRONT_TO_BACK_DB = 20.0
 
 
 @dataclass(frozen=True)

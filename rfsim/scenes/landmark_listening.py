@@ -78,9 +78,8 @@ _link = lazy_import("rfsim.gen2.link")
 ALONG_X = (0.0, math.pi / 2, 0.0)
 #: Panel facing the floor (boresight local +x → global −z).
 FACING_DOWN = (0.0, -math.pi / 2, 0.0)
-#: Front-to-back ratio [dB] of the reader's panel (data-sheet class of 9 dBic patch panels,
-#: as in the ``detection-probability`` scene).
-PANEL_FRONT_TO_BACK_DB = 20.0
+#: Front-to-back ratio [dB] of the reader's panel: :data:`rfsim.channels.antennas.PANEL_FRONT_TO_BACK_DB`.
+PANEL_FRONT_TO_BACK_DB = _antennas.PANEL_FRONT_TO_BACK_DB
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,9 @@ which ``rfsim info`` and ``rfsim plot`` read like the file of a single ``rfsim r
   (the values are in the config and in the tables);
 * for one run, the root attributes of that run (its scalar results, from ``sweep_runs``;
   attributes that were arrays are not kept by the merge and so are not restored);
-* the provenance: the resolved config of the point (``config_toml``, recomputed from the
-  spec stored in the merged file), the run's seed (the sweep's root seed when several
+* the provenance: the resolved config of the point (``config_toml``, rebuilt from the
+  spec stored in the merged file: its TOML text, or the JSON of a spec given as a mapping),
+  the run's seed (the sweep's root seed when several
   repetitions are extracted), the scenario name, the software versions of the sweep, and
   ``sweep_point``, ``sweep_repetition`` (-1: all), ``sweep_seed``, ``sweep_spec_toml`` and
   ``extracted_from``.
@@ -24,6 +25,7 @@ One run is chosen by ``repetition``; a sweep of one repetition gives its only ru
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -144,7 +146,8 @@ def extract_point(merged: str | Path, point: int, output: str | Path, *, repetit
                     value = _read(ds, runs_rows)[0]
                     out.attrs[name] = str(value) if isinstance(value, str) else value
         spec_text = _text(prov.get("spec_toml", ""))
-    config_toml = _point_config_toml(spec_text, scenario, point, prov)
+        spec_json = _text(prov.get("spec_json", ""))
+    config_toml = _point_config_toml(spec_text, spec_json, scenario, point)
     root_seed = int(prov["seed"])
     provenance = {k: prov[k] for k in _SOFTWARE if k in prov}
     provenance.update(
@@ -173,16 +176,17 @@ def _add_stacked(out: Dataset, name: str, g: h5py.Group, point: int, repetition:
     out.add_grid(name, coords, variables, desc)
 
 
-def _point_config_toml(spec_text: str, scenario: str, point: int, prov: dict[str, Any]) -> str:
-    """The resolved config of ``point`` from the spec stored in the merged file (its output
-    is irrelevant here); a spec built from a mapping has no stored text, and then the
-    merged file's config (of point 0) is all there is."""
-    if not spec_text:
-        if point == 0:
-            return _text(prov.get("config_toml", ""))
-        raise UserError("sweep extract: the merged file does not hold its spec (it was run from a mapping), "
-                        f"so the config of point {point} cannot be restored")
-    spec = parse_spec(tomllib.loads(spec_text), output="unused.h5")
+def _point_config_toml(spec_text: str, spec_json: str, scenario: str, point: int) -> str:
+    """The resolved config of ``point``, rebuilt from the spec stored in the merged file (its
+    TOML text, or — for a spec given as a mapping — its JSON; the output is irrelevant here)."""
+    if spec_text:
+        data = tomllib.loads(spec_text)
+    elif spec_json:
+        data = json.loads(spec_json)
+    else:
+        raise UserError(f"sweep extract: the merged file does not hold its spec, so the config of point "
+                        f"{point} cannot be rebuilt")
+    spec = parse_spec(data, output="unused.h5")
     return to_toml(point_config(spec, get_scenario(scenario).Config, point))
 
 

@@ -110,6 +110,9 @@ class SweepSpec:
     text: str = ""
     #: where the spec was read from (None when built from a dict)
     path: Path | None = None
+    #: the checked spec mapping without ``output`` (a merged file of a spec built from a
+    #: mapping stores it as JSON, so that its points can be rebuilt)
+    data: Mapping[str, Any] = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
     @property
     def swept_keys(self) -> tuple[str, ...]:
@@ -198,7 +201,8 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
             if k in seen:
                 raise ConfigError(f"axes[{i}].key", k, f"a key not already swept by axes[{seen[k]}]")
             seen[k] = i
-    spec = SweepSpec(scenario, seed, repetitions, out_path, dict(base), axes, text, path)
+    spec = SweepSpec(scenario, seed, repetitions, out_path, dict(base), axes, text, path,
+                     {k: copy.deepcopy(v) for k, v in data.items() if k != "output"})
     if spec.n_runs > MAX_RUNS:
         raise ConfigError("axes", f"{spec.n_points} points x {repetitions} repetitions",
                           f"at most {MAX_RUNS} runs in one sweep")

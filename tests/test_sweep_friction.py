@@ -193,6 +193,15 @@ def test_sbatch_script_has_partition_account_time_memory(tmp_path, monkeypatch):
     assert f"sweep merge {spec.resolve()} --output {out}" in text
 
 
+def test_slurm_verb_is_plan_slurm_and_plan_needs_slurm(tmp_path, capsys):
+    spec = write_spec(tmp_path, "s")
+    assert main(["sweep", "slurm", str(spec), "--shards", "2", "--partition", "p1", "--mem", "512M"]) == 0
+    text = capsys.readouterr().out
+    assert "#SBATCH --array=0-1\n" in text and "#SBATCH --partition=p1\n" in text and "#SBATCH --mem=512M\n" in text
+    assert exit_code(["sweep", "plan", str(spec), "--shards", "2"]) == 2
+    one_line(capsys, "add --slurm")
+
+
 @pytest.mark.parametrize("option,value", [
     ("--partition", "gpu short"), ("--account", "a;b"), ("--time", "1h"), ("--mem", "4GB"), ("--mem", "0"),
 ])

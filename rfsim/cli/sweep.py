@@ -7,6 +7,7 @@ Shape (a verb first, the spec second, then options; the verb ``run`` may be left
     rfsim sweep dry-run SPEC.toml [--output FILE] [--show K]
     rfsim sweep plan SPEC.toml --slurm --shards N [--output FILE] [--out SCRIPT] [--cpus-per-task C]
                                [--partition P] [--account A] [--time T] [--mem M] [--job-name NAME]
+    rfsim sweep slurm SPEC.toml --shards N ...     (= plan --slurm)
     rfsim sweep merge SPEC.toml [--output FILE] [--quiet]
     rfsim sweep extract MERGED.h5 --point N [--repetition K] -o POINT.h5
 
@@ -23,12 +24,12 @@ from pathlib import Path
 
 from rfsim.core.errors import UserError
 
-_VERBS = ("run", "dry-run", "plan", "merge", "extract")
+_VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sweep", add_help=False,
-                       help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge",
+                       help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge, extract",
                        description="Run 'rfsim sweep --help' for the forms of this command.")
     p.add_argument("-h", "--help", action="store_true", dest="sweep_help", help=argparse.SUPPRESS)
     p.add_argument("argv", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
@@ -97,9 +98,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--show", type=_count, default=3, metavar="K", help="configs to print (default 3)")
     p.set_defaults(handler=_dry_run)
 
-    p = verbs.add_parser("plan", help="write a SLURM array script running the sweep in shards")
+    p = verbs.add_parser("plan", aliases=["slurm"], help="write a SLURM array script running the sweep in shards "
+                                                         "('slurm' is 'plan --slurm')")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
-    p.add_argument("--slurm", action="store_true", required=True, help="plan a SLURM array job")
+    p.add_argument("--slurm", action="store_true", help="plan a SLURM array job (required after 'plan')")
     p.add_argument("--shards", type=_positive, required=True, metavar="N", help="number of array tasks")
     p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
                    help=output_help + "; passed on to the script's run and merge commands")
@@ -212,6 +214,8 @@ def _plan(ns: argparse.Namespace) -> int:
     from rfsim.sweep import load_spec, plan_sweep, sbatch_script
     from rfsim.sweep.slurm import check_account, check_memory, check_partition, check_time_limit
 
+    if ns.verb == "plan" and not ns.slurm:
+        raise UserError("sweep plan: add --slurm (the only kind of plan), or use 'rfsim sweep slurm'")
     for value, check in ((ns.time, check_time_limit), (ns.partition, check_partition),
                          (ns.account, check_account), (ns.mem, check_memory)):
         if value:

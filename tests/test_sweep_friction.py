@@ -68,8 +68,8 @@ def test_a_string_swept_key_is_a_column_of_every_row(link_sweep):
     assert list(reads["sweep.reader.link_profile"]) == [PROFILES[p] for p in reads["sweep_point"]]
     assert list(reads["sweep.reader.fs_hz"]) == [[2e6, 4e6][p] for p in reads["sweep_point"]]
     with h5py.File(merged, "r") as f:
-        ds = f["reads/sweep.reader.link_profile"]
-        assert h5py.check_string_dtype(ds.dtype).encoding == "utf-8" and h5py.check_string_dtype(ds.dtype).length is None
+        kind = h5py.check_string_dtype(f["reads/sweep.reader.link_profile"].dtype)
+        assert kind.encoding == "utf-8" and kind.length is None  # variable-length UTF-8
     runs = read_table(merged, "sweep_runs")
     assert list(runs["reader.link_profile"]) == PROFILES
 

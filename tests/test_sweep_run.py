@@ -85,8 +85,9 @@ def reference(tmp_path_factory) -> Path:
 
 def test_merged_layout_seeds_and_provenance(reference):
     runs = read_table(reference, "sweep_runs")
-    assert list(runs["point"]) == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]
-    assert list(runs["repetition"]) == [0, 1] * 6
+    assert list(runs["sweep_point"]) == [0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5]
+    assert list(runs["sweep_repetition"]) == [0, 1] * 6
+    assert "point" not in runs and "repetition" not in runs  # one name for the index in every table
     assert list(runs["seed"]) == [point_seed(5, i, k) for i in range(6) for k in range(2)]
     assert list(runs["q"]) == [1] * 4 + [2] * 4 + [3] * 4
     # the drawn RN16 depends on the run seed only

@@ -67,8 +67,8 @@ def _plot(args: argparse.Namespace) -> int:
     if not scenario:
         raise UserError(f"dataset {str(args.dataset)!r} has no 'scenario' attribute: not written by 'rfsim run'")
     if is_sweep:
-        raise UserError(f"dataset {str(args.dataset)!r} is a merged sweep; plot one of its runs "
-                        f"(the point files in {args.dataset}.points/)")
+        raise UserError(f"dataset {str(args.dataset)!r} is a merged sweep; extract a point and plot it: "
+                        f"rfsim sweep extract {args.dataset} --point N -o point.h5")
     module = get_scenario(scenario)
     out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
     with reporting(reporter(args)) as rep:

@@ -1,12 +1,18 @@
-"""``rfsim sweep``: run, dry-run, plan (SLURM) and merge parameter sweeps.
+"""``rfsim sweep``: run, dry-run, plan (SLURM), merge and extract parameter sweeps.
 
 Shape (a verb first, the spec second, then options; the verb ``run`` may be left out)::
 
-    rfsim sweep [run] SPEC.toml [--serial | --workers N | --dask ADDRESS|local[:N]]
+    rfsim sweep [run] SPEC.toml [--output FILE] [--serial | --workers N | --dask ADDRESS|local[:N]]
                                 [--resume] [--quiet] [--shard I/N] [--dry-run] [--max-runs N] [--yes]
-    rfsim sweep dry-run SPEC.toml [--show K]
-    rfsim sweep plan SPEC.toml --slurm --shards N [--out FILE] [--cpus-per-task C] [--time T]
-    rfsim sweep merge SPEC.toml [--quiet]
+    rfsim sweep dry-run SPEC.toml [--output FILE] [--show K]
+    rfsim sweep plan SPEC.toml --slurm --shards N [--output FILE] [--out SCRIPT] [--cpus-per-task C]
+                               [--partition P] [--account A] [--time T] [--mem M] [--job-name NAME]
+    rfsim sweep slurm SPEC.toml --shards N ...     (= plan --slurm)
+    rfsim sweep merge SPEC.toml [--output FILE] [--quiet]
+    rfsim sweep extract MERGED.h5 --point N [--repetition K] -o POINT.h5
+
+A relative ``output`` in the spec resolves against the spec file's folder; ``--output``
+replaces it and resolves against the working directory.
 """
 
 from __future__ import annotations
@@ -18,12 +24,12 @@ from pathlib import Path
 
 from rfsim.core.errors import UserError
 
-_VERBS = ("run", "dry-run", "plan", "merge")
+_VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sweep", add_help=False,
-                       help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge",
+                       help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge, extract",
                        description="Run 'rfsim sweep --help' for the forms of this command.")
     p.add_argument("-h", "--help", action="store_true", dest="sweep_help", help=argparse.SUPPRESS)
     p.add_argument("argv", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
@@ -62,10 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Every run (point, repetition) is appended to the point store <output>.points/ as it "
                "finishes; the merged file appears under the output name only when all runs exist.")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB")
+    output_help = ("merged file (.h5); replaces the spec's output (relative: to the working directory; "
+                   "a relative output in the spec is relative to the spec's folder)")
 
     p = verbs.add_parser("run", help="run the sweep (or one shard) and merge it",
                          description="Run a sweep on local processes (default), serially or on Dask.")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE", help=output_help)
     how = p.add_mutually_exclusive_group()
     how.add_argument("--serial", action="store_true", help="run in this process, one run after another")
     how.add_argument("--workers", type=_positive, default=None, metavar="N",
@@ -85,25 +94,44 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = verbs.add_parser("dry-run", help="print the number of points and the first expanded configs")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE", help=output_help)
     p.add_argument("--show", type=_count, default=3, metavar="K", help="configs to print (default 3)")
     p.set_defaults(handler=_dry_run)
 
-    p = verbs.add_parser("plan", help="write a SLURM array script running the sweep in shards")
+    p = verbs.add_parser("plan", aliases=["slurm"], help="write a SLURM array script running the sweep in shards "
+                                                         "('slurm' is 'plan --slurm')")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
-    p.add_argument("--slurm", action="store_true", required=True, help="plan a SLURM array job")
+    p.add_argument("--slurm", action="store_true", help="plan a SLURM array job (required after 'plan')")
     p.add_argument("--shards", type=_positive, required=True, metavar="N", help="number of array tasks")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
+                   help=output_help + "; passed on to the script's run and merge commands")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="script file (default: print to stdout)")
     p.add_argument("--cpus-per-task", type=_positive, default=1, metavar="C",
                    help="CPUs per array task; each task runs C worker processes (default 1)")
+    p.add_argument("--partition", default="", metavar="P", help="SLURM partition (#SBATCH --partition)")
+    p.add_argument("--account", default="", metavar="A", help="SLURM account to charge (#SBATCH --account)")
     p.add_argument("--time", default="", metavar="T", help="SLURM time limit per task, e.g. 01:00:00")
+    p.add_argument("--mem", default="", metavar="M", help="SLURM memory per node, e.g. 4G (#SBATCH --mem)")
     p.add_argument("--job-name", default="", help="SLURM job name (default rfsim-sweep-<spec>)")
     p.set_defaults(handler=_plan)
 
     p = verbs.add_parser("merge", help="merge the point store of a (sharded) sweep into the output")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE", help=output_help)
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(handler=_merge)
+
+    p = verbs.add_parser("extract", help="write one point of a merged sweep as a dataset of its own",
+                         description="Write point N (one repetition, or all) of a merged sweep file as a "
+                                     "standalone dataset that 'rfsim info' and 'rfsim plot' read.")
+    p.add_argument("merged", type=Path, help="merged sweep file (.h5)")
+    p.add_argument("--point", type=_count, required=True, metavar="N", help="point index (sweep_point)")
+    p.add_argument("--repetition", type=_count, default=None, metavar="K",
+                   help="repetition (sweep_repetition; default: the only one, or all of them)")
+    p.add_argument("-o", "--output", type=Path, required=True, metavar="FILE", help="dataset to write (.h5)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(handler=_extract)
     return parser
 
 
@@ -123,7 +151,7 @@ def _dry_run(ns: argparse.Namespace) -> int:
     from rfsim.core.config import to_toml
     from rfsim.sweep import load_spec, plan_sweep, point_seed
 
-    spec = load_spec(ns.spec)
+    spec = load_spec(ns.spec, output=ns.output)
     plan = plan_sweep(spec, check="sample")  # the shown points and every axis value once
     n = spec.n_points
     print(f"# {spec.scenario}: {n} points x {spec.repetitions} repetitions = {spec.n_runs} runs "
@@ -156,7 +184,7 @@ def _run(ns: argparse.Namespace) -> int:
     from rfsim.sweep import Progress, load_spec, make_executor, run_sweep
     from rfsim.sweep.runner import check_sweep_outputs
 
-    spec = load_spec(ns.spec)
+    spec = load_spec(ns.spec, output=ns.output)
     _check_size(ns, spec)
     check_sweep_outputs(spec)  # before a Dask cluster is started or anything runs
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
@@ -166,7 +194,8 @@ def _run(ns: argparse.Namespace) -> int:
 
         report = run_sweep(spec, executor, shard=ns.shard, resume=ns.resume, progress=progress)
     except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the finished runs are in the point store
-        err.hint = f"; finished runs are kept, continue with: rfsim sweep run {ns.spec} --resume"
+        again = f" --output {ns.output}" if ns.output is not None else ""
+        err.hint = f"; finished runs are kept, continue with: rfsim sweep run {ns.spec}{again} --resume"
         raise
     finally:
         executor.close()
@@ -183,18 +212,23 @@ def _run(ns: argparse.Namespace) -> int:
 def _plan(ns: argparse.Namespace) -> int:
     from rfsim.core.outputs import check_output_file
     from rfsim.sweep import load_spec, plan_sweep, sbatch_script
-    from rfsim.sweep.slurm import check_time_limit
+    from rfsim.sweep.slurm import check_account, check_memory, check_partition, check_time_limit
 
-    if ns.time:
-        check_time_limit(ns.time)
+    if ns.verb == "plan" and not ns.slurm:
+        raise UserError("sweep plan: add --slurm (the only kind of plan), or use 'rfsim sweep slurm'")
+    for value, check in ((ns.time, check_time_limit), (ns.partition, check_partition),
+                         (ns.account, check_account), (ns.mem, check_memory)):
+        if value:
+            check(value)
     if ns.out is not None:
         check_output_file(ns.out, "--out")
-    spec = load_spec(ns.spec)  # a bad spec fails here, not on the cluster
+    spec = load_spec(ns.spec, output=ns.output)  # a bad spec fails here, not on the cluster
     plan_sweep(spec, check="sample")
     if ns.shards > spec.n_runs:
         raise UserError(f"--shards {ns.shards}: more shards than runs ({spec.n_runs})")
     text = sbatch_script(ns.spec, ns.shards, workdir=Path(os.getcwd()), job_name=ns.job_name,
-                         cpus_per_task=ns.cpus_per_task, time_limit=ns.time)
+                         cpus_per_task=ns.cpus_per_task, time_limit=ns.time, partition=ns.partition,
+                         account=ns.account, memory=ns.mem, output=ns.output)
     if ns.out is None:
         print(text, end="")
     else:
@@ -207,7 +241,20 @@ def _plan(ns: argparse.Namespace) -> int:
 def _merge(ns: argparse.Namespace) -> int:
     from rfsim.sweep import load_spec, merge_sweep
 
-    path = merge_sweep(load_spec(ns.spec))
+    path = merge_sweep(load_spec(ns.spec, output=ns.output))
+    if not ns.quiet:
+        print(f"dataset: {path}")
+    return 0
+
+
+def _extract(ns: argparse.Namespace) -> int:
+    from rfsim.core.outputs import check_output_file
+    from rfsim.sweep.extract import extract_point
+
+    check_output_file(ns.output, "--output", suffixes=(".h5", ".hdf5"))
+    if ns.output.resolve() == ns.merged.resolve():
+        raise UserError(f"--output {str(ns.output)!r} is the merged file itself; name another file")
+    path = extract_point(ns.merged, ns.point, ns.output, repetition=ns.repetition)
     if not ns.quiet:
         print(f"dataset: {path}")
     return 0

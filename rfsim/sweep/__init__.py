@@ -7,10 +7,15 @@ Public names::
     plan_sweep(spec) -> SweepPlan           run_sweep(spec, executor, ...) -> SweepReport
     merge_sweep(spec) -> Path               sbatch_script(spec_path, shards, workdir=...)
     SerialExecutor(), PoolExecutor(workers), DaskExecutor(target), make_executor(...)
-    Progress(total, ...)
+    Progress(total, ...)                    extract_point(merged, point, output, repetition=None)
+
+Modules: spec (parsing, expansion, seeds), runner (plan, run, merge), store (point store),
+merge (merged file layout), extract (one point of a merged file as a dataset), executors,
+slurm (sbatch script), lock, progress.
 """
 
 from rfsim.sweep.executors import DaskExecutor, PoolExecutor, SerialExecutor, available_cpus, make_executor
+from rfsim.sweep.extract import extract_point
 from rfsim.sweep.progress import Progress
 from rfsim.sweep.runner import SweepPlan, SweepReport, merge_sweep, missing_runs, plan_sweep, run_sweep
 from rfsim.sweep.slurm import sbatch_script
@@ -23,7 +28,7 @@ __all__ = [
     "point_config", "point_config_dict", "point_configs", "point_seed", "shard_runs",
     "SweepPlan", "SweepReport", "plan_sweep", "run_sweep", "merge_sweep", "missing_runs",
     "SerialExecutor", "PoolExecutor", "DaskExecutor", "available_cpus", "make_executor",
-    "Progress", "sbatch_script", "points_dir", "StoreIndex",
+    "Progress", "sbatch_script", "points_dir", "StoreIndex", "extract_point",
 ]
 
 

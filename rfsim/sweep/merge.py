@@ -2,18 +2,23 @@
 
 Layout of the merged file (runs in (point, repetition) order):
 
-* ``sweep_runs`` — one row per run: ``point``, ``repetition``, ``seed``, the swept values
-  under their dotted keys (units from the config field metadata; list, table and
-  ``none`` values as their TOML/Python text — stored once per run, here only) and the
+* ``sweep_runs`` — one row per run: ``sweep_point``, ``sweep_repetition``, ``seed``, the
+  swept values under their dotted keys (units from the config field metadata) and the
   scalar root attributes every run has.
 * every table of the runs, concatenated, with the added columns ``sweep_point``,
-  ``sweep_repetition`` and ``sweep.<key>`` for each swept key whose values are numbers or
-  booleans (text and list values are only in ``sweep_runs``; join on ``sweep_point`` /
-  ``sweep_repetition``). The prefix keeps them apart from the scenario's own columns.
+  ``sweep_repetition`` and ``sweep.<key>`` for *every* swept key. The prefix keeps them
+  apart from the scenario's own columns. The point index has the one name
+  ``sweep_point`` (and the repetition ``sweep_repetition``) in every table and grid.
 * a grid that every run has with identical coordinates and variable shapes is stacked
   along two new leading dimensions ``sweep_point`` and ``sweep_repetition`` (with the
   variables ``sweep.<key>`` over ``sweep_point``); otherwise each run's copy is stored as
   its own grid ``<grid>__point-000123-rep-00``.
+
+Swept values that are numbers (or all booleans) keep their type; any other swept value —
+a string such as a link profile name, a list, a table, ``none`` — is text: an HDF5
+variable-length UTF-8 string (``h5py.string_dtype("utf-8")``, as every text column of
+:mod:`rfsim.core.dataset`), lists and ``none`` as their TOML text, tables as their Python
+text. The text of a value is the same in ``sweep_runs`` and on the rows (:func:`value_text`).
 
 Columns of 4096 values or more are chunked and gzip-compressed. The merge makes two
 passes over the store: the first reads only the records' headers (names, dtypes,
@@ -61,14 +66,22 @@ def _as_stored(v: Any) -> Any:
     return v
 
 
-def value_column(key: str, values: Sequence[Any], config_cls: type) -> Column:
-    """One column of the swept values of ``key`` (lists/tuples/None as TOML text, tables as text)."""
+def value_text(v: Any) -> str:
+    """The text a non-numeric swept value is stored as (strings as they are, lists/tuples/None
+    as TOML text, tables as their Python text, numbers mixed with text as ``str``)."""
+    return v if isinstance(v, str) else str(_as_stored(v))
+
+
+def value_column(key: str, values: Sequence[Any], config_cls: type, *, text: bool | None = None) -> Column:
+    """One column of the swept values of ``key``: numbers/booleans as such, anything else as
+    text (:func:`value_text`). ``text`` forces the choice (None: text unless every value in
+    ``values`` is a number, or every one a boolean)."""
     found = field_at(config_cls, key)
     meta = field_meta(found[0]) if found is not None else {"unit": "", "doc": ""}
-    if all(_is_scalar_number(v) or isinstance(v, str) for v in values):
-        data = list(values)
-    else:
-        data = [str(_as_stored(v)) for v in values]
+    if text is None:
+        text = not (all(isinstance(v, (bool, np.bool_)) for v in values)
+                    or all(_is_scalar_number(v) and not isinstance(v, (bool, np.bool_)) for v in values))
+    data = [value_text(v) for v in values] if text else list(values)
     desc = f"swept config value {key}" + (f": {meta['doc']}" if meta["doc"] else "")
     return column(data, meta["unit"], desc)
 
@@ -195,8 +208,9 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
 
     ``point_value(i)`` gives the swept values of point ``i``; the runs are in
     (point, repetition) order, ``n_points × n_repetitions`` of them. ``numeric_keys`` maps
-    the swept keys whose every value is a number or boolean to their column dtype (these
-    are repeated on every row of the tables as ``sweep.<key>``).
+    the swept keys whose every value is a number or boolean to their column dtype; every
+    other swept key is a text column. Every swept key is repeated on every row of the
+    tables as ``sweep.<key>``.
     """
     with RecordReader() as reader:
         tables, grids, attr_names, descriptions = _scan(refs, reader)
@@ -210,9 +224,8 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
                 _check_reserved("table", name, names, keys)
                 like = {POINT: column(np.zeros(0, np.int64), "1", "sweep point index"),
                         REPETITION: column(np.zeros(0, np.int64), "1", "repetition of the point")}
-                for key, dtype in numeric_keys.items():
-                    v = value_column(key, [point_value(0)[key]], config_cls)
-                    like[KEY_PREFIX + key] = dataclasses.replace(v, data=v.data.astype(dtype))
+                for key in keys:
+                    like[KEY_PREFIX + key] = _key_column(key, [point_value(0)[key]], config_cls, numeric_keys)
                 for cname, units, desc, dtype in schema.columns:
                     like[cname] = Column(np.zeros(0, dtype), units, desc)
                 n_rows = int(schema.lengths[schema.lengths > 0].sum())
@@ -242,15 +255,19 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
                 for name, cols in run.tables.items():
                     n = len(next(iter(cols.values())).data)
                     part = {POINT: np.full(n, p, np.int64), REPETITION: np.full(n, k, np.int64)}
-                    for key, dtype in numeric_keys.items():
-                        part[KEY_PREFIX + key] = np.full(n, values[key], dtype=dtype)
+                    for key in keys:
+                        if key in numeric_keys:
+                            part[KEY_PREFIX + key] = np.full(n, values[key], dtype=numeric_keys[key])
+                        else:  # one shared str object per row, not a fixed-width copy
+                            part[KEY_PREFIX + key] = np.full(n, value_text(values[key]), dtype=object)
                     part.update({c: col.data for c, col in cols.items()})
                     writers[name].add(part)
                 for name, (coords, variables) in run.grids.items():
                     if name in stacked:
                         if stacked[name] is None:
                             stacked[name] = _create_stacked(f, name, coords, variables, grids[name], n_points,
-                                                            n_repetitions, keys, point_value, config_cls)
+                                                            n_repetitions, keys, point_value, config_cls,
+                                                            numeric_keys)
                         stacked[name].add(p, k, {vname: v.data for vname, v in variables.items()})
                     else:
                         _write_grid_copy(f, f"{name}__point-{p:06d}-rep-{k:02d}", coords, variables)
@@ -258,13 +275,14 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
             for w in [*writers.values(), *(g for g in stacked.values() if g is not None)]:
                 w.flush()
             runs_cols: dict[str, Column] = {
-                "point": column(pts, "1", "sweep point index"),
-                "repetition": column(reps, "1", "repetition of the point"),
+                POINT: column(pts, "1", "sweep point index"),
+                REPETITION: column(reps, "1", "repetition of the point"),
                 "seed": column(seeds, "1",
                                "seed the scenario ran with (SeedSequence(seed, spawn_key=(point, repetition)))"),
             }
             for key in keys:
-                runs_cols[key] = value_column(key, [point_value(int(p))[key] for p in pts], config_cls)
+                runs_cols[key] = _key_column(key, [point_value(int(p))[key] for p in pts], config_cls,
+                                             numeric_keys)
             for name in attr_names:
                 if name not in runs_cols:
                     runs_cols[name] = column(attr_values[name], "", f"root attribute {name!r} of the run")
@@ -279,8 +297,17 @@ def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray,
     return output
 
 
+def _key_column(key: str, values: Sequence[Any], config_cls: type,
+                numeric_keys: Mapping[str, np.dtype]) -> Column:
+    """Column of swept values of ``key``: the key's dtype if it is numeric, else text."""
+    if key in numeric_keys:
+        v = value_column(key, values, config_cls, text=False)
+        return dataclasses.replace(v, data=v.data.astype(numeric_keys[key]))
+    return value_column(key, values, config_cls, text=True)
+
+
 def _create_stacked(f, name, coords, variables, schema: _GridSchema, n_points, n_reps, keys, point_value,
-                    config_cls) -> _GridWriter:
+                    config_cls, numeric_keys) -> _GridWriter:
     _check_reserved("grid", name, [*coords, *variables], keys)
     g = f.create_group(name)
     all_coords = {POINT: column(np.arange(n_points, dtype=np.int64), "1", "sweep point index"),
@@ -288,7 +315,7 @@ def _create_stacked(f, name, coords, variables, schema: _GridSchema, n_points, n
                   **coords}
     scales = _write_scales(g, all_coords)
     for key in keys:
-        vals = value_column(key, [point_value(i)[key] for i in range(n_points)], config_cls)
+        vals = _key_column(key, [point_value(i)[key] for i in range(n_points)], config_cls, numeric_keys)
         _write_full(g, KEY_PREFIX + key, vals).dims[0].attach_scale(scales[POINT])
     out = {}
     dtypes = {v[0]: np.dtype(v[3]) for v in schema.variables}
@@ -354,4 +381,4 @@ def _write_grid_copy(f, name, coords, variables) -> None:
             ds.dims[axis].attach_scale(scales[dim])
 
 
-__all__ = ["RUNS_TABLE", "POINT", "REPETITION", "KEY_PREFIX", "value_column", "merge_store"]
+__all__ = ["RUNS_TABLE", "POINT", "REPETITION", "KEY_PREFIX", "value_text", "value_column", "merge_store"]

@@ -16,6 +16,7 @@ it is iterated.
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -269,6 +270,8 @@ def _merge(plan: SweepPlan, start_time_utc: str | None) -> Path:
     extra = {"spec_toml": spec.text, "sweep_points": spec.n_points, "sweep_repetitions": spec.repetitions,
              "sweep_runs": n, "sweep_keys": ", ".join(spec.swept_keys),
              "config_toml_is": "the resolved config of point 0"}
+    if not spec.text:  # built from a mapping: keep it, so that a point's config can be rebuilt
+        extra["spec_json"] = json.dumps(spec.data, default=str)
     if n <= SEED_ATTR_MAX_RUNS:
         extra["point_seeds"] = plan.seeds()
     prov = make_provenance(config_toml=to_toml(plan.config(0)), seed=spec.seed, scenario=plan.module.NAME,

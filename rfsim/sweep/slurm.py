@@ -30,6 +30,11 @@ def default_command() -> str:
 _TIME = re.compile(r"\d+(?::\d{1,2}){0,2}|\d+-\d{1,2}(?::\d{1,2}){0,2}|UNLIMITED|INFINITE", re.IGNORECASE)
 #: A job name that is one word in the script (no spaces, quotes or line breaks).
 _JOB_NAME = re.compile(r"[A-Za-z0-9_.+-]{1,128}")
+#: SLURM partition (or comma-separated list of partitions) and account names: one word each.
+_PARTITION = re.compile(r"[A-Za-z0-9_.+-]{1,128}(,[A-Za-z0-9_.+-]{1,128})*")
+_ACCOUNT = re.compile(r"[A-Za-z0-9_.+-]{1,128}")
+#: SLURM --mem: a positive integer with an optional unit K, M, G or T (sbatch(1); default M).
+_MEM = re.compile(r"[1-9]\d{0,11}[KMGT]?", re.IGNORECASE)
 
 
 def check_time_limit(text: str) -> str:
@@ -40,19 +45,57 @@ def check_time_limit(text: str) -> str:
     return text
 
 
+def check_partition(text: str) -> str:
+    """``text`` if it is a SLURM partition name (or comma list), else a one-line :class:`UserError`."""
+    if not _PARTITION.fullmatch(text):
+        raise UserError(f"--partition {text!r}: expected a partition name (letters, digits, _ . + -; "
+                        "several separated by commas)")
+    return text
+
+
+def check_account(text: str) -> str:
+    """``text`` if it is a SLURM account name, else a one-line :class:`UserError`."""
+    if not _ACCOUNT.fullmatch(text):
+        raise UserError(f"--account {text!r}: expected an account name (1-128 letters, digits or _ . + -)")
+    return text
+
+
+def check_memory(text: str) -> str:
+    """``text`` if it is a SLURM ``--mem`` value, else a one-line :class:`UserError`."""
+    if not _MEM.fullmatch(text):
+        raise UserError(f"--mem {text!r}: expected memory per node as a positive integer with an "
+                        "optional unit K, M, G or T (e.g. 4G; no unit: megabytes)")
+    return text
+
+
 def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str = "",
-                  cpus_per_task: int = 1, time_limit: str = "", command: str | None = None) -> str:
-    """Text of an ``sbatch`` array script running ``shards`` shards of the spec."""
+                  cpus_per_task: int = 1, time_limit: str = "", partition: str = "", account: str = "",
+                  memory: str = "", output: Path | None = None, command: str | None = None) -> str:
+    """Text of an ``sbatch`` array script running ``shards`` shards of the spec.
+
+    ``partition``, ``account``, ``time_limit`` and ``memory`` become the ``#SBATCH``
+    lines ``--partition``, ``--account``, ``--time`` and ``--mem`` (left out when empty;
+    each checked, a bad one is a one-line :class:`UserError` naming the option).
+    ``output`` (the command line's ``--output``) is passed on to the run and merge
+    commands as an absolute path.
+    """
     if shards < 1:
         raise UserError(f"--shards {shards}: expected an integer >= 1")
     if cpus_per_task < 1:
         raise UserError(f"--cpus-per-task {cpus_per_task}: expected an integer >= 1")
     if time_limit:
         check_time_limit(time_limit)
+    if partition:
+        check_partition(partition)
+    if account:
+        check_account(account)
+    if memory:
+        check_memory(memory)
     if job_name and not _JOB_NAME.fullmatch(job_name):
         raise UserError(f"--job-name {job_name!r}: expected 1-128 letters, digits or _ . + -")
     spec = shlex.quote(str(spec_path.resolve()))
     cmd = command or default_command()
+    out_opt = f" --output {shlex.quote(str(output.resolve()))}" if output is not None else ""
     name = job_name or "rfsim-sweep-" + (re.sub(r"[^A-Za-z0-9_.+-]", "_", spec_path.stem) or "spec")
     lines = [
         "#!/bin/bash",
@@ -63,22 +106,29 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         f"#SBATCH --chdir={workdir.resolve()}",
         f"#SBATCH --output={name}-%A_%a.out",
     ]
+    if partition:
+        lines.append(f"#SBATCH --partition={partition}")
+    if account:
+        lines.append(f"#SBATCH --account={account}")
     if time_limit:
         lines.append(f"#SBATCH --time={time_limit}")
+    if memory:
+        lines.append(f"#SBATCH --mem={memory}")
     lines += [
         "",
         f"# {shards} array tasks; task I runs shard I/{shards} of the sweep into the shared point store.",
         "# When all tasks have finished, merge the shards:",
-        f"#   {cmd} sweep merge {spec}",
+        f"#   {cmd} sweep merge {spec}{out_opt}",
         "# or submit the merge as a dependent job:",
         "#   jid=$(sbatch --parsable THIS_SCRIPT)",
-        f"#   sbatch --dependency=afterok:$jid --wrap \"{cmd} sweep merge {spec}\"",
+        f"#   sbatch --dependency=afterok:$jid --wrap \"{cmd} sweep merge {spec}{out_opt}\"",
         "set -euo pipefail",
-        f"{cmd} sweep run {spec} --shard \"${{SLURM_ARRAY_TASK_ID}}/{shards}\" "
+        f"{cmd} sweep run {spec}{out_opt} --shard \"${{SLURM_ARRAY_TASK_ID}}/{shards}\" "
         f"--workers \"${{SLURM_CPUS_PER_TASK:-{cpus_per_task}}}\" --resume",
         "",
     ]
     return "\n".join(lines)
 
 
-__all__ = ["sbatch_script", "default_command", "check_time_limit"]
+__all__ = ["sbatch_script", "default_command", "check_time_limit", "check_partition", "check_account",
+           "check_memory"]

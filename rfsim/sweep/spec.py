@@ -37,6 +37,12 @@ number ``a`` (its position in ``[[axes]]``) draws its ``n`` values from
 ``rfsim.core.rng.trial_rng(seed, a)`` — a one-element spawn key, so it never shares a stream
 with a point's run seed (two-element keys ``(point, repetition)``).
 
+Paths: a relative ``output`` in a spec file resolves against the spec file's folder (so a
+spec and its results move together, whatever the working directory); a spec given as a
+mapping (``parse_spec(dict)``, ``rfsim.sweep(dict)``) has no folder, and its relative
+``output`` resolves against the working directory. An ``output=`` override (the command
+line's ``--output``) replaces the spec's and resolves against the working directory.
+
 Point ``i``, repetition ``k`` runs the scenario with the seed :func:`point_seed`
 ``(seed, i, k)``, so the result of a point does not depend on the executor, the number of
 workers or the order in which points finish.
@@ -104,6 +110,9 @@ class SweepSpec:
     text: str = ""
     #: where the spec was read from (None when built from a dict)
     path: Path | None = None
+    #: the checked spec mapping without ``output`` (a merged file of a spec built from a
+    #: mapping stores it as JSON, so that its points can be rebuilt)
+    data: Mapping[str, Any] = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
     @property
     def swept_keys(self) -> tuple[str, ...]:
@@ -131,20 +140,40 @@ class SweepSpec:
 # ----------------------------------------------------------------------------- parsing
 
 
-def load_spec(path: str | Path) -> SweepSpec:
-    """Read and check a sweep spec TOML file (one-line :class:`UserError` on mistakes)."""
+def load_spec(path: str | Path, *, output: str | Path | None = None) -> SweepSpec:
+    """Read and check a sweep spec TOML file (one-line :class:`UserError` on mistakes).
+
+    A relative ``output`` in the file resolves against the file's folder; ``output`` (e.g.
+    ``rfsim sweep run --output``) replaces it and resolves against the working directory.
+    """
     p = Path(path)
     data = read_toml(p)
-    return parse_spec(data, text=p.read_text(encoding="utf-8"), path=p)
+    return parse_spec(data, text=p.read_text(encoding="utf-8"), path=p, output=output)
 
 
-def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = None) -> SweepSpec:
-    """Check the spec mapping ``data`` and draw its random axes."""
+def _output_path(value: Any, where: str) -> Path:
+    if isinstance(value, Path):
+        value = str(value)
+    if not isinstance(value, str) or not value.endswith((".h5", ".hdf5")):
+        if where.startswith("--"):
+            raise UserError(f"{where} {value!r}: expected a file name ending in .h5 or .hdf5")
+        raise ConfigError(where, value, "a file name ending in .h5 or .hdf5")
+    return Path(value)
+
+
+def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = None,
+               output: str | Path | None = None) -> SweepSpec:
+    """Check the spec mapping ``data`` and draw its random axes.
+
+    A relative ``output`` of the spec resolves against the folder of ``path`` (the spec
+    file), or — without ``path`` — against the working directory. ``output`` overrides the
+    spec's output (then the spec's ``output`` key may be left out).
+    """
     for k, v in data.items():
         if k not in _TOP_KEYS:
             raise ConfigError(k, v, "a sweep spec key" + _hint(k, _TOP_KEYS))
     for k in ("scenario", "seed", "output"):
-        if k not in data:
+        if k not in data and not (k == "output" and output is not None):
             raise UserError(f"sweep spec: the key {k!r} is missing (required: scenario, seed, output)")
     scenario = data["scenario"]
     if not isinstance(scenario, str) or not scenario:
@@ -153,9 +182,12 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < SEED_LIMIT:
         raise ConfigError("seed", seed, SEED_RANGE_TEXT)
     repetitions = _int(data, "repetitions", lo=1, default=1)
-    output = data["output"]
-    if not isinstance(output, str) or not output.endswith((".h5", ".hdf5")):
-        raise ConfigError("output", output, "a file name ending in .h5 or .hdf5")
+    if output is not None:
+        out_path = _output_path(output, "--output")
+    else:
+        out_path = _output_path(data["output"], "output")
+        if path is not None and not out_path.is_absolute():
+            out_path = Path(path).parent / out_path
     base = data.get("base", {})
     if not isinstance(base, Mapping):
         raise ConfigError("base", base, "a table of config values ([base])")
@@ -169,7 +201,8 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
             if k in seen:
                 raise ConfigError(f"axes[{i}].key", k, f"a key not already swept by axes[{seen[k]}]")
             seen[k] = i
-    spec = SweepSpec(scenario, seed, repetitions, Path(output), dict(base), axes, text, path)
+    spec = SweepSpec(scenario, seed, repetitions, out_path, dict(base), axes, text, path,
+                     {k: copy.deepcopy(v) for k, v in data.items() if k != "output"})
     if spec.n_runs > MAX_RUNS:
         raise ConfigError("axes", f"{spec.n_points} points x {repetitions} repetitions",
                           f"at most {MAX_RUNS} runs in one sweep")

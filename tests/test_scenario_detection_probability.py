@@ -118,7 +118,7 @@ values = [0, 5, 10]
     # run's samples directly refuses
     assert not one["st_detected"].any()
     with pytest.raises(dp.UserError) as direct:
-        dp.fit_models(one)
+        fit_st_models(one)
     with pytest.raises(dp.UserError) as merged_fit:
         dp.fit_file(report.output)
     assert str(merged_fit.value) == str(direct.value)

@@ -21,6 +21,8 @@ from rfsim.core.dataset import read_dataset, read_table
 from rfsim.runs.runner import run_scenario
 from rfsim.devices import pass_tag, st_pair
 from rfsim.scenarios import phase_cancellation as pc
+from rfsim.devices.sense_a_tag import TECHNIQUES as TECHS
+from rfsim.scenes.tag_listening import minima_spacing_m
 from reference.devices_st_pair import ask_stamp_transitions_reference, couple_ports_reference
 
 LAMBDA_915_M = 299792458.0 / 915e6
@@ -55,7 +57,7 @@ def test_default_run_is_complete(default_run):
                        np.hypot(s["sa2_x_m"] - s["tag_x_m"], s["sa2_y_m"]))
     np.testing.assert_array_equal(s["near_field"], r_min < LAMBDA_915_M / (2 * np.pi))
     assert read_dataset(res.dataset_path).attrs["n_near_field"] == s["near_field"].sum()
-    for t in pc.TECHS:
+    for t in TECHS:
         for c in range(13):
             sel = (s["cell"] == c) & ~s["near_field"]
             assert cells["n_samples"][c] == sel.sum()
@@ -145,10 +147,10 @@ def test_sample_level_matches_closed_form_in_the_monte_carlo(default_run):
         assert big.sum() > 300
         np.testing.assert_allclose(meas[big], closed[big], rtol=0.01)
     # decoded flags against the closed-form threshold: disagreements only near 5 mV
-    for t in pc.TECHS:
+    for t in TECHS:
         diff = s[f"cancelled_{t}"] != s[f"closed_cancelled_{t}"]
         assert diff.mean() < 0.03, t
-    p = {t: s[f"cancelled_{t}"].mean() for t in pc.TECHS}
+    p = {t: s[f"cancelled_{t}"].mean() for t in TECHS}
     assert p["selection"] < p["single"] and p["combination"] < p["single"]
 
 
@@ -178,7 +180,7 @@ def test_measured_tag_powers_up_by_the_pass_rule_and_silent_tags_are_not_detecta
     np.testing.assert_array_equal(s["tag_replied"], s["tag_chip_power_w"] >= 52.709e-6 * 10 ** 0.25)
     assert s["tag_replied"][s["cell"] == 0].all() and not s["tag_replied"][s["cell"] == 12].any()
     silent = ~s["tag_replied"]
-    for t in pc.TECHS:
+    for t in TECHS:
         assert not s[f"cancelled_{t}"][silent].any(), t
     assert not s["detectable"][silent].any()
     cells = read_table(res.dataset_path, "cells")
@@ -193,7 +195,7 @@ def test_radial_tracks_null_spacing_lambda_over_4():
     assert list(tr["angle_deg"]) == [0.0, 45.0, 90.0, 180.0]
     d = tr["distance_m"]
     assert d.size == 49 and d[0] == pytest.approx(0.04) and d[-1] == pytest.approx(1.0)
-    pos, spacing = pc.minima_spacing_m(d, tr["diff_v"][0])
+    pos, spacing = minima_spacing_m(d, tr["diff_v"][0])
     assert pos.size >= 8
     assert abs(spacing - LAMBDA_915_M / 4) <= 0.05 * LAMBDA_915_M / 4
     # 45°, 90°, 180°: between two neighbouring nulls R̃ − r changes by λ/2 (θ turns by π,
@@ -201,7 +203,7 @@ def test_radial_tracks_null_spacing_lambda_over_4():
     # the origin (geometry written out here). So between the first and the last minimum the
     # path difference turns by (n − 1)·λ/2, up to the 0.02 m grid at both ends.
     for i, a in enumerate(tr["angle_deg"]):
-        pos, _ = pc.minima_spacing_m(d, tr["diff_v"][i])
+        pos, _ = minima_spacing_m(d, tr["diff_v"][i])
         u = np.array([np.cos(np.pi + np.radians(a)), np.sin(np.pi + np.radians(a))])
         path = lambda x: np.hypot(2.0 + x * u[0], x * u[1]) - x  # noqa: E731
         if a == 180.0:
@@ -241,7 +243,7 @@ def test_paper_size_monte_carlo_orders_the_techniques():
     s = pc.monte_carlo(cfg, seed=1)
     assert s["cell"].size == 13 * 300 * 3
     far = ~s["near_field"]
-    p = {t: s[f"cancelled_{t}"][far].mean() for t in pc.TECHS}
+    p = {t: s[f"cancelled_{t}"][far].mean() for t in TECHS}
     assert p["selection"] < p["combination"] < p["single"] and p["stamp"] < p["single"]
     # overall selection probability with its exact 95 % interval (scipy's binomtest, not the
     # scenario's code): the documented deviation is that it lies above the source's "below

@@ -75,7 +75,7 @@ PHYSICS = ("rfsim.devices.reader", "rfsim.devices.reader_tx", "rfsim.devices.rea
            "rfsim.air.links", "rfsim.air.groups", "rfsim.air.fused",
            "rfsim.protocols.engine", "rfsim.protocols.batch", "rfsim.core.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
            "rfsim.gen2.replies", "rfsim.gen2.reply_search", "rfsim.gen2.reply_decoding", "rfsim.devices.gen2_tag_arrays",
-           "rfsim.detection", "rfsim.estimators.kalman", "rfsim.estimators.particle")
+           "rfsim.detection.fit", "rfsim.estimators.kalman", "rfsim.estimators.particle")
 
 
 @pytest.mark.parametrize("name", sorted(scenario_descriptions()))

@@ -19,7 +19,9 @@ import numpy as np
 
 from rfsim.core.config import param
 from rfsim.core.errors import UserError
-from rfsim.detection.fit import fit_logistic
+from rfsim.core.lazy import lazy_import
+
+_fit = lazy_import("rfsim.detection.fit")
 
 
 def logistic_coefficients(a1: float, a2_per_m: float, range_m: float, scale_to_range: bool) -> tuple[float, float]:
@@ -95,7 +97,7 @@ def fit_eq65(design, decoded_count, draws) -> Eq65Fit:
     if k.sum() == 0 or k.sum() == m.sum():
         return Eq65Fit(nan, nan, "nothing decoded" if k.sum() == 0 else "everything decoded")
     try:
-        f = fit_logistic(x, k, m)
+        f = _fit.fit_logistic(x, k, m)
     except UserError as err:
         return Eq65Fit(nan, nan, str(err))
     if x.shape[1] != 2:

@@ -44,7 +44,9 @@ import numpy as np
 from rfsim.core.config import param
 
 from rfsim.estimators.nearest import weighted_centroid
-from rfsim.estimators.particle import sir_filter
+from rfsim.core.lazy import lazy_import
+
+_particle = lazy_import("rfsim.estimators.particle")  # the SIR filter loads on first use
 
 
 def binomial_log_likelihood(counts, p, n_rounds: int) -> np.ndarray:
@@ -97,7 +99,7 @@ def pf_bin(counts, initial_state, *, n_particles: int, period_s: float, accel_va
         step["t"] += 1
         return ll
 
-    res = sir_filter(counts, particles, propagate=propagate, log_likelihood=loglik, rng=rng,
+    res = _particle.sir_filter(counts, particles, propagate=propagate, log_likelihood=loglik, rng=rng,
                      resampler="multinomial")
     return res.mmse[..., :2]
 
@@ -138,7 +140,7 @@ def pf_aa(counts, landmarks_xy, *, n_particles: int, period_s: float, q_std_m: f
         state["t"] = t + 1
         return ll
 
-    res = sir_filter(n, particles, propagate=propagate, log_likelihood=loglik, rng=rng, resampler="multinomial")
+    res = _particle.sir_filter(n, particles, propagate=propagate, log_likelihood=loglik, rng=rng, resampler="multinomial")
     return res.mmse, v_hat
 
 

@@ -35,7 +35,9 @@ from typing import Literal
 import numpy as np
 
 from rfsim.core.config import param
-from rfsim.estimators.proximity import association, bernoulli_pf, proximity_kalman, rbpf
+from rfsim.core.lazy import lazy_import
+
+_proximity = lazy_import("rfsim.estimators.proximity")  # the filters load on first use
 
 
 #: Table 6.2 (seeds/004 L1242-L1249): average RMSE [m] per sensing range r: NN, KF, PF M = 10, 20, 30.
@@ -101,17 +103,17 @@ def run_tracker(kind: str, times_s, observed_xy, x0, *, m: int, n_runs: int, ran
     rng : the filter's stream (prior draws, propagation, resampling)
     """
     if kind == "nn":
-        return association(observed_xy)[None]
+        return _proximity.association(observed_xy)[None]
     if kind == "kf":
         P0 = np.diag([position_std_m, velocity_std_mps] * 2) ** 2
-        return proximity_kalman(times_s, observed_xy, x0, P0, t0_s=0.0, accel_var=accel_var,
+        return _proximity.proximity_kalman(times_s, observed_xy, x0, P0, t0_s=0.0, accel_var=accel_var,
                                 range_m=range_m).x[None][..., 0::2]
     init = prior_particles(x0, rng, n_runs, m, position_std_m=position_std_m, velocity_std_mps=velocity_std_mps,
                            rao_blackwellised=kind == "rbpf")
     if kind == "pf":
-        res = bernoulli_pf(times_s, observed_xy, init, t0_s=0.0, accel_var=accel_var, a1=a1, a2=a2, rng=rng)
+        res = _proximity.bernoulli_pf(times_s, observed_xy, init, t0_s=0.0, accel_var=accel_var, a1=a1, a2=a2, rng=rng)
     else:
-        res = rbpf(times_s, observed_xy, init, velocity_std_mps ** 2, t0_s=0.0, accel_var=accel_var, a1=a1, a2=a2,
+        res = _proximity.rbpf(times_s, observed_xy, init, velocity_std_mps ** 2, t0_s=0.0, accel_var=accel_var, a1=a1, a2=a2,
                    rng=rng)
     return res.mmse[..., 0::2]
 

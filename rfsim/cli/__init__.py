@@ -2,7 +2,9 @@
 
 Each subcommand lives in its own module with ``add_parser(subparsers)`` and
 ``run(args) -> int``. User mistakes (:class:`rfsim.core.errors.UserError`, which includes
-config errors) print one line to stderr and exit with status 2 — never a traceback.
+config errors) print one line to stderr and exit with status 2 — never a traceback; failures
+of the system (:class:`rfsim.core.errors.ResourceError`, an ``OSError`` such as a full disk or
+a failing standard output, a run's process killed by a signal) print one line and exit 1.
 """
 
 from __future__ import annotations
@@ -14,12 +16,12 @@ import sys
 from collections.abc import Sequence
 
 import rfsim
-from rfsim.core.errors import Terminated, UserError
+from rfsim.core.errors import ResourceError, Terminated, UserError, os_error_number, write_failure
 from rfsim.core.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
 _SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
-                "rfsim.cli.sweep")
+                "rfsim.cli.sweep", "rfsim.cli.clean")
 
 
 class Parser(argparse.ArgumentParser):
@@ -59,9 +61,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         with terminate_as_interrupt():
-            return int(args.func(args) or 0)
-    except UserError as err:
+            status = int(args.func(args) or 0)
+            flush_stdout()  # a full or failing stdout is reported here, not at exit
+            return status
+    except (UserError, ResourceError) as err:
         print(f"rfsim: error: {err}", file=sys.stderr)
+        if isinstance(err, ResourceError):
+            try:
+                sys.stdout.flush()
+            except OSError:  # stdout itself failed: the interpreter's final flush must not fail again
+                _discard_stdout()
         return err.exit_code
     except Terminated as err:
         print(f"rfsim: terminated (SIGTERM){getattr(err, 'hint', '')}", file=sys.stderr)
@@ -72,6 +81,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. '| head': the reader has enough; no traceback, exit 0
         _discard_stdout()
         return 0
+    except OSError as err:  # the system refused a write or read (disk full, I/O error...)
+        if os_error_number(err) is None:
+            raise
+        print(f"rfsim: error: {_os_error_line(err)}", file=sys.stderr)
+        _discard_stdout()
+        return 1
+
+
+def flush_stdout() -> None:
+    """Flush stdout; a refused write (``/dev/full``, an I/O error) is a one-line
+    :class:`ResourceError`, a closed pipe stays a ``BrokenPipeError`` (quiet, exit 0)."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as err:
+        failure = write_failure(err, "the standard output")
+        if failure is None:
+            raise
+        raise failure from None
+
+
+def _os_error_line(err: OSError) -> str:
+    """One line for an operating-system error that reached the command line."""
+    reason = os.strerror(os_error_number(err))
+    if err.filename is not None:
+        return f"{str(err.filename)!r}: {reason}"
+    return f"cannot write or read: {reason}"
 
 
 def _discard_stdout() -> None:

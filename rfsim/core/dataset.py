@@ -41,8 +41,11 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as _dt
+import gc
+import io
 import os
 import platform
+import re
 import subprocess
 import sys
 from collections.abc import Iterator, Mapping
@@ -52,6 +55,7 @@ from typing import Any
 import numpy as np
 
 import rfsim
+from rfsim.core.errors import ResourceError, write_failure
 from rfsim.core.lazy import lazy_import
 
 h5py = lazy_import("h5py")
@@ -316,21 +320,96 @@ def atomic_h5file(path: str | Path) -> Iterator[h5py.File]:
 
     On leaving the block the file is closed, fsync'ed and renamed over ``path`` (with the
     folder fsync'ed); on an exception (including Ctrl-C and SIGTERM) the temporary file is
-    removed, so ``path`` is either the old file or the complete new one.
+    removed, so ``path`` is either the old file or the complete new one. A write the
+    operating system refuses (disk full, I/O error, quota) is a one-line
+    :class:`~rfsim.core.errors.ResourceError` naming ``path``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    tmp = partial_path(path)
     try:
-        with h5py.File(tmp, "w") as f:
-            yield f
-            f.flush()
+        with _h5py_reports_held() as held:
+            f = h5py.File(tmp, "w")
+            try:
+                yield f
+                f.flush()
+                f.close()
+            except BaseException as failed:
+                if write_failure(failed, "") is not None:
+                    held.drop()
+                _abandon(f, tmp)
+                raise
         _fsync_file(tmp)
         os.replace(tmp, path)
         _fsync_dir(path.parent)
-    except BaseException:
+    except BaseException as err:
         tmp.unlink(missing_ok=True)
+        failure = write_failure(err, f"{str(path)!r}")
+        if failure is not None:
+            raise ResourceError(f"{failure}; the previous file, if any, is unchanged") from None
         raise
+
+
+class _HeldText(io.StringIO):
+    """What was written to ``sys.stderr`` while an HDF5 file was written (see below)."""
+
+    dropped = False
+
+    def drop(self) -> None:
+        self.dropped = True
+
+
+@contextlib.contextmanager
+def _h5py_reports_held() -> Iterator[_HeldText]:
+    """Hold back what is printed on ``sys.stderr`` while an HDF5 file is written.
+
+    After a refused write (disk full), HDF5 fails again for every object freed or flushed
+    until the file is closed, and h5py prints a traceback for each (hundreds of lines)
+    before the error reaches the writer, where the one-line error says what happened. The
+    held text is printed when the write succeeds and dropped when it fails (``drop()``).
+    Progress reporters keep their own reference to the stream and are not held back."""
+    held, saved = _HeldText(), sys.stderr
+    sys.stderr = held
+    try:
+        yield held
+    finally:
+        sys.stderr = saved
+        if not held.dropped and held.getvalue():
+            saved.write(held.getvalue())
+
+
+def _abandon(f: h5py.File, tmp: Path) -> None:
+    """Close the HDF5 file ``f`` (at ``tmp``) after a failure: truncated first, which gives
+    its space back, so that HDF5's last writes as it closes do not fail again."""
+    with contextlib.suppress(OSError):
+        os.truncate(tmp, 0)
+    with contextlib.suppress(Exception):
+        f.close()
+    gc.collect()
+
+
+def partial_path(path: Path) -> Path:
+    """The hidden temporary name under which this process writes ``path``."""
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+def remove_stale_partials(path: str | Path) -> list[Path]:
+    """Remove the temporary files (``.<name>.<pid>.partial``) that killed writers of ``path``
+    left beside it; returns them. Call it only while holding the output's lock
+    (:mod:`rfsim.core.locks`): then no other writer is using any of them."""
+    path = Path(path)
+    removed = []
+    for tmp in path.parent.glob(f".{glob_escape(path.name)}.*.partial"):
+        if tmp.name[len(path.name) + 2:-len(".partial")].isdigit():
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+                removed.append(tmp)
+    return removed
+
+
+def glob_escape(text: str) -> str:
+    """``text`` with the glob wildcards ``*?[`` quoted."""
+    return re.sub(r"([*?[])", r"[\1]", text)
 
 
 def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
@@ -466,6 +545,8 @@ __all__ = [
     "utc_now",
     "write_dataset",
     "atomic_h5file",
+    "partial_path",
+    "remove_stale_partials",
     "create_array",
     "create_row_scale",
     "stored_values",

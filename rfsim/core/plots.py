@@ -6,7 +6,10 @@ backend, so the core and the tests stay headless.
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
+
+from rfsim.core.errors import ResourceError, write_failure
 
 
 def pyplot():
@@ -30,13 +33,27 @@ def figure_path(dataset_path: str | Path, out_dir: str | Path, what: str) -> Pat
 
 def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     """Lay out (unless ``tight`` is False, e.g. with a shared colorbar), write ``fig`` to
-    ``path`` (creating its folder) and close it."""
+    ``path`` (creating its folder) and close it.
+
+    The figure is written under a hidden temporary name and renamed over ``path``, so a
+    failed write (disk full: a one-line :class:`~rfsim.core.errors.ResourceError`) leaves
+    the previous figure, if any, intact."""
     if tight:
         fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    pyplot().close(fig)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        failure = write_failure(err, f"the figure {str(path)!r}")
+        if failure is not None:
+            raise ResourceError(f"{failure}; the previous figure, if any, is unchanged") from None
+        raise
+    finally:
+        pyplot().close(fig)
     return path
 
 

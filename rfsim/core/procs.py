@@ -33,7 +33,7 @@ import threading
 import time
 from collections.abc import Iterator
 
-from rfsim.core.errors import Terminated
+from rfsim.core.errors import ResourceError, Terminated
 
 #: How often a worker checks that its leader is still alive [s].
 WATCH_INTERVAL_S = 0.5
@@ -221,7 +221,7 @@ def run_in_child(fn, *, while_waiting=None) -> None:
                 fn()
             except BaseException as e:  # reported to the leader, which raises it
                 err = e
-                if not isinstance(e, (UserError, KeyboardInterrupt)):
+                if not isinstance(e, (UserError, ResourceError, KeyboardInterrupt)):
                     e.add_note("in the child process:\n" + "".join(traceback.format_exception(e)).rstrip())
             try:
                 data = pickle.dumps(err)
@@ -247,10 +247,27 @@ def run_in_child(fn, *, while_waiting=None) -> None:
         raise
     _, status = os.waitpid(pid, 0)
     if not data:
-        raise RuntimeError(f"the run's child process ended without a result (wait status {status})")
+        raise child_failure(status)
     err = pickle.loads(data)
     if err is not None:
         raise err
+
+
+def child_failure(status: int) -> ResourceError:
+    """The one-line error for a child process that ended (wait ``status``) without reporting."""
+    if os.WIFSIGNALED(status):
+        number = os.WTERMSIG(status)
+        try:
+            name = signal.Signals(number).name
+        except ValueError:
+            name = f"signal {number}"
+        cause = {signal.SIGKILL: "most likely the system ran out of memory and its out-of-memory "
+                                 "killer chose it (see 'dmesg'); try fewer workers or a smaller config",
+                 signal.SIGSEGV: "a crash in compiled code", signal.SIGBUS: "a crash in compiled code "
+                 "or a file that shrank while mapped"}.get(number, "it was sent from outside")
+        return ResourceError(f"the run's process was killed by {name} ({cause}); no output was written")
+    return ResourceError(f"the run's process ended without a result (exit status "
+                         f"{os.waitstatus_to_exitcode(status)}); no output was written")
 
 
 def _raise_terminated(signum, frame) -> None:
@@ -292,4 +309,4 @@ def terminate_as_interrupt() -> Iterator[None]:
 
 
 __all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
-           "map_in_order", "load_kernels", "run_in_child"]
+           "map_in_order", "load_kernels", "run_in_child", "child_failure"]

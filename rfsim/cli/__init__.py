@@ -55,10 +55,17 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``rfsim`` console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["sweep"]:  # its own parser reads the rest, options first included ('sweep -q S')
+        args = argparse.Namespace(command="sweep", func=importlib.import_module("rfsim.cli.sweep").run,
+                                  sweep_help=False, argv=argv[1:])
+    else:
+        args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    stdout = sys.stdout
+    sys.stdout = _Stdout(stdout)
     try:
         with terminate_as_interrupt():
             status = int(args.func(args) or 0)
@@ -87,6 +94,41 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"rfsim: error: {_os_error_line(err)}", file=sys.stderr)
         _discard_stdout()
         return 1
+    finally:
+        if isinstance(sys.stdout, _Stdout):
+            sys.stdout = stdout
+
+
+class _Stdout:
+    """``sys.stdout`` during a command: a refused write (``/dev/full``, an I/O error) is a
+    one-line :class:`ResourceError` naming the standard output; a closed pipe stays a
+    ``BrokenPipeError`` (``| head``: quiet, exit 0). Everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _guarded(self, method, *args):
+        try:
+            return method(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as err:
+            failure = write_failure(err, "the standard output", hint=False)
+            if failure is None:
+                raise
+            raise failure from None
+
+    def write(self, text):
+        return self._guarded(self._stream.write, text)
+
+    def writelines(self, lines):
+        return self._guarded(self._stream.writelines, lines)
+
+    def flush(self):
+        return self._guarded(self._stream.flush)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
 
 
 def flush_stdout() -> None:
@@ -97,7 +139,7 @@ def flush_stdout() -> None:
     except BrokenPipeError:
         raise
     except OSError as err:
-        failure = write_failure(err, "the standard output")
+        failure = write_failure(err, "the standard output", hint=False)
         if failure is None:
             raise
         raise failure from None

@@ -219,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
     except OSError as err:
-        failure = write_failure(err, "the standard output")
+        failure = write_failure(err, "the standard output", hint=False)
         if failure is None:
             raise
         raise failure from None

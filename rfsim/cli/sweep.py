@@ -7,6 +7,7 @@ Shape (a verb first, the spec second, then options; the verb ``run`` may be left
     rfsim sweep dry-run SPEC.toml [--show K]
     rfsim sweep plan SPEC.toml --slurm --shards N [--out FILE] [--cpus-per-task C] [--time T]
     rfsim sweep merge SPEC.toml [--quiet]
+    rfsim sweep repair SPEC.toml [--quiet]
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pathlib import Path
 
 from rfsim.core.errors import UserError
 
-_VERBS = ("run", "dry-run", "plan", "merge")
+_VERBS = ("run", "dry-run", "plan", "merge", "repair")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -104,6 +105,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(handler=_merge)
+
+    p = verbs.add_parser("repair", help="rebuild the damaged index files of the point store from their logs",
+                         description="Check every index entry of the sweep's point store and rebuild each "
+                                     "damaged index file from its log; then continue with 'run --resume'.")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(handler=_repair)
     return parser
 
 
@@ -116,7 +124,13 @@ def run(args: argparse.Namespace) -> int:
     if not getattr(ns, "handler", None):
         parser.print_help()
         return 0
-    return int(ns.handler(ns) or 0)
+    from rfsim.sweep.store import DamagedIndexError
+
+    try:
+        return int(ns.handler(ns) or 0)
+    except DamagedIndexError as err:  # name the command that repairs it with this spec
+        err.spec = str(ns.spec)
+        raise
 
 
 def _dry_run(ns: argparse.Namespace) -> int:
@@ -162,7 +176,7 @@ def _run(ns: argparse.Namespace) -> int:
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
     try:
         def progress(total: int, *, done: int) -> Progress:
-            return Progress(total, done=done, stream=sys.stdout, quiet=ns.quiet)
+            return Progress(total, done=done, stream=sys.stderr, quiet=ns.quiet)
 
         report = run_sweep(spec, executor, shard=ns.shard, resume=ns.resume, progress=progress)
     except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the finished runs are in the point store
@@ -210,4 +224,23 @@ def _merge(ns: argparse.Namespace) -> int:
     path = merge_sweep(load_spec(ns.spec))
     if not ns.quiet:
         print(f"dataset: {path}")
+    return 0
+
+
+def _repair(ns: argparse.Namespace) -> int:
+    from rfsim.sweep import load_spec, points_dir
+    from rfsim.sweep.lock import OutputLock
+    from rfsim.sweep.store import repair_store
+
+    spec = load_spec(ns.spec)
+    store = points_dir(spec.output)
+    if not store.is_dir():
+        raise UserError(f"sweep {str(ns.spec)!r}: no point store at {str(store)!r}")
+    with OutputLock(spec.output):
+        repaired = repair_store(store)
+    if not ns.quiet:
+        for index, n in repaired:
+            print(f"rebuilt: {index} ({n} records)")
+        print(f"point store {store}: {len(repaired)} index file{'s' if len(repaired) != 1 else ''} rebuilt; "
+              f"continue with: rfsim sweep run {ns.spec} --resume")
     return 0

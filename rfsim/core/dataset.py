@@ -366,16 +366,22 @@ def _h5py_reports_held() -> Iterator[_HeldText]:
     After a refused write (disk full), HDF5 fails again for every object freed or flushed
     until the file is closed, and h5py prints a traceback for each (hundreds of lines)
     before the error reaches the writer, where the one-line error says what happened. The
-    held text is printed when the write succeeds and dropped when it fails (``drop()``).
+    held text (and the reports to ``sys.unraisablehook``) are passed on when the write
+    succeeds and dropped when it fails (``drop()``).
     Progress reporters keep their own reference to the stream and are not held back."""
-    held, saved = _HeldText(), sys.stderr
+    held, saved, saved_hook = _HeldText(), sys.stderr, sys.unraisablehook
+    reports: list = []
     sys.stderr = held
+    sys.unraisablehook = reports.append  # h5py's reports of objects it could not free
     try:
         yield held
     finally:
-        sys.stderr = saved
-        if not held.dropped and held.getvalue():
-            saved.write(held.getvalue())
+        sys.stderr, sys.unraisablehook = saved, saved_hook
+        if not held.dropped:
+            if held.getvalue():
+                saved.write(held.getvalue())
+            for report in reports:
+                saved_hook(report)
 
 
 def _abandon(f: h5py.File, tmp: Path) -> None:

@@ -50,12 +50,13 @@ def os_error_number(err: BaseException) -> int | None:
     return None
 
 
-def write_failure(err: BaseException, what: str) -> ResourceError | None:
+def write_failure(err: BaseException, what: str, *, hint: bool = True) -> ResourceError | None:
     """A one-line :class:`ResourceError` for a failed write of ``what`` (e.g. ``"dataset
     'x.h5'"``) when ``err`` comes from the operating system, else None (a bug: let it show).
 
     ``ENOSPC`` (disk full), ``EDQUOT`` (quota), ``EIO`` (device error), ``EFBIG``, ``EROFS``...
-    all give ``cannot write <what>: <strerror>``.
+    all give ``cannot write <what>: <strerror>`` (with what to do about a full disk, unless
+    ``hint`` is False).
     """
     if isinstance(err, (UserError, ResourceError, KeyboardInterrupt)):
         return None
@@ -63,7 +64,7 @@ def write_failure(err: BaseException, what: str) -> ResourceError | None:
     if number is None:
         return None
     reason = os.strerror(number)
-    if number in (_errno.ENOSPC, _errno.EDQUOT):
+    if hint and number in (_errno.ENOSPC, _errno.EDQUOT):
         reason += " (free some space or write elsewhere)"
     return ResourceError(f"cannot write {what}: {reason}")
 

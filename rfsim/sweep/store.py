@@ -358,8 +358,58 @@ def segments(store: Path) -> list[Path]:
     return sorted(store.glob("seg-*.log")) if store.is_dir() else []
 
 
+#: Shortest record: prefix, empty header and payload, CRC [bytes].
+MIN_RECORD_BYTES = _PREFIX.size + _CRC.size
+#: Bounds of a valid index entry: far above any sweep (10¹² points, 4·10⁶ repetitions,
+#: 1 TB records) and low enough that ``point * (max repetition + 1)`` fits in int64.
+MAX_POINT, MAX_REPETITION, MAX_RECORD_BYTES = 2**40, 2**22, 2**40
+
+
+class DamagedIndexError(UserError):
+    """An index file of the point store is not what its writer appended: it names the file
+    and the command that rebuilds it from its log (``rfsim sweep repair SPEC``)."""
+
+    def __init__(self, index: Path, why: str, spec: str = "SPEC.toml"):
+        self.index, self.why, self.spec = Path(index), why, spec
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        return (f"point store index {str(self.index)!r} is damaged ({self.why}); rebuild it from its "
+                f"log with: rfsim sweep repair {self.spec} (then continue with --resume)")
+
+    def __reduce__(self):
+        return (type(self), (self.index, self.why, self.spec))
+
+
+def check_index(entries: np.ndarray, index: Path) -> None:
+    """:class:`DamagedIndexError` unless every entry of ``index`` is one its writer appended:
+    point, repetition and length in bounds and each record starting where the one before
+    ended (the writer appends records back to back from offset 0)."""
+    if not len(entries):
+        return
+    point, rep = entries["point"], entries["repetition"]
+    offset, length = entries["offset"], entries["length"]
+    checks = [((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
+              ((rep < 0) | (rep >= MAX_REPETITION), f"a repetition outside [0, {MAX_REPETITION})"),
+              ((length < MIN_RECORD_BYTES) | (length > MAX_RECORD_BYTES), "a record length out of bounds"),
+              ((offset < 0) | (offset > MAX_RECORD_BYTES * MAX_POINT), "an offset out of bounds")]
+    first = [(int(np.argmax(bad)), what) for bad, what in checks if bad.any()]
+    if first:  # the first damaged entry is named
+        k, what = min(first, key=lambda hit: hit[0])
+        raise DamagedIndexError(index, f"entry {k} of {len(entries)} has {what}")
+    expected = np.concatenate([[0], np.cumsum(length[:-1])])  # no overflow: bounded above
+    gaps = offset != expected
+    if gaps.any():
+        k = int(np.argmax(gaps))
+        raise DamagedIndexError(index, f"entry {k} of {len(entries)} points at byte {int(offset[k])}, "
+                                       f"where the records before it end at byte {int(expected[k])}")
+
+
 def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
-    """(log, index entries of its complete records) of every segment, oldest first."""
+    """(log, index entries of its complete records) of every segment, oldest first.
+
+    Every index entry is checked (:func:`check_index`); a damaged index file is a
+    :class:`DamagedIndexError` naming it."""
     for log in segments(store):
         index = log.with_suffix(".idx")
         try:
@@ -369,13 +419,48 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
             continue
         n = len(raw) // INDEX_DTYPE.itemsize
         entries = np.frombuffer(raw[:n * INDEX_DTYPE.itemsize], INDEX_DTYPE)
-        entries = entries[entries["offset"] + entries["length"] <= size]
+        check_index(entries, index)
+        entries = entries[entries["offset"] + entries["length"] <= size]  # a log cut short (crash)
         end = int((entries["offset"] + entries["length"]).max()) if len(entries) else 0
         if end < size:  # records written after the last index entry (killed in between)
             extra = _scan_log(log, end, size)
             if extra:
                 entries = np.concatenate([entries, np.array(extra, INDEX_DTYPE)])
         yield log, entries
+
+
+def rebuild_index(log: Path) -> int:
+    """Rewrite the index of segment ``log`` from the log itself (its complete, CRC-valid
+    records from the start, up to the first damaged one); returns the number of entries.
+    The new index replaces the old one atomically. Only while no sweep writes the store."""
+    index = log.with_suffix(".idx")
+    entries = np.array(_scan_log(log, 0, log.stat().st_size), INDEX_DTYPE)
+    tmp = index.with_name(f".{index.name}.{os.getpid()}.partial")
+    try:
+        with open(tmp, "wb") as f:
+            f.write(entries.tobytes())
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, index)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return len(entries)
+
+
+def repair_store(store: Path) -> list[tuple[Path, int]]:
+    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`);
+    returns (index, entries) of each one rebuilt."""
+    repaired = []
+    for log in segments(store):
+        index = log.with_suffix(".idx")
+        raw = index.read_bytes() if index.exists() else b""
+        entries = np.frombuffer(raw[:len(raw) // INDEX_DTYPE.itemsize * INDEX_DTYPE.itemsize], INDEX_DTYPE)
+        try:
+            check_index(entries, index)
+        except DamagedIndexError:
+            repaired.append((index, rebuild_index(log)))
+    return repaired
 
 
 class StoreIndex:
@@ -483,6 +568,10 @@ __all__ = [
     "StoreIndex",
     "RecordReader",
     "CorruptRecordError",
+    "DamagedIndexError",
+    "check_index",
+    "rebuild_index",
+    "repair_store",
     "SegmentWriter",
     "INDEX_DTYPE",
     "SYNC_INTERVAL_S",

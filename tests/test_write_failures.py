@@ -300,3 +300,33 @@ def test_the_cli_names_the_repair_command_with_the_spec(tmp_path, capsys, monkey
     assert code == 0 and err == ""
     assert "rebuilt: " in out and "(0 records)" in out
     assert len(StoreIndex(store)) == 0
+
+
+def _kill_myself(task):
+    import signal
+
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_a_pool_worker_killed_by_a_signal_is_one_line():
+    from rfsim.core.procs import worker_pool
+
+    with pytest.raises(ResourceError, match="killed by SIGKILL .*out of memory") as info:
+        with worker_pool(1) as pool:
+            list(pool.map(_kill_myself, [1]))
+    assert "\n" not in str(info.value)
+
+
+def test_a_full_disk_under_a_sweep_names_the_segment(tmp_path, monkeypatch):
+    import rfsim.sweep.store as store_module
+
+    def refuse(fd, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(store_module, "_write_all", refuse)
+    spec = toy_spec(tmp_path, n_points=2, reps=1)
+    with pytest.raises(ResourceError, match=r"cannot write the point store segment '.*seg-.*\.log': No space left "
+                                            r"on device .*continue with --resume") as info:
+        run_sweep(spec, SerialExecutor(), module=toy)
+    assert "\n" not in str(info.value)
+    assert not spec.output.exists()

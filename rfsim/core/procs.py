@@ -106,10 +106,29 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
                                   initargs=(os.getpid(),))
     try:
         yield pool
-    except BaseException:
+    except BaseException as err:
+        statuses = _exit_statuses(pool)
         terminate_workers(pool)
+        if isinstance(err, cf.process.BrokenProcessPool):  # a worker died without a word
+            raise _worker_failure(statuses) from None
         raise
     pool.shutdown(wait=True)
+
+
+def _exit_statuses(pool: cf.ProcessPoolExecutor) -> list[int]:
+    """The exit codes of the pool's workers that have ended (``-N``: killed by signal N)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    return [p.exitcode for p in processes if getattr(p, "exitcode", None) is not None]
+
+
+def _worker_failure(exit_codes: list[int]) -> ResourceError:
+    """The one-line error for a process pool whose worker died (``exit_codes`` of the ended ones)."""
+    signals = [-code for code in exit_codes if code < 0]
+    if signals:
+        # a wait status whose low bits are the signal: what child_failure reads
+        return ResourceError(str(child_failure(signals[0])).replace("the run's process", "a worker process", 1))
+    return ResourceError("a worker process ended abruptly (killed, most likely because the system ran out of "
+                         "memory; see 'dmesg'); try fewer workers or a smaller config")
 
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:

@@ -53,7 +53,7 @@ import rfsim
 from rfsim.runs.registry import load_scenario
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import Column, Dataset, git_revision, utc_now
-from rfsim.core.errors import UserError
+from rfsim.core.errors import ResourceError, UserError, write_failure
 
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
@@ -234,9 +234,15 @@ class SegmentWriter:
                buffers: Iterable[bytes]) -> int:
         """Append one record and its index entry; returns the record's offset in the log."""
         record = encode_record(header, buffers)
-        _write_all(self._log, record)
         entry = np.array([(point, repetition, seed, self.offset, len(record), digest)], INDEX_DTYPE)
-        _write_all(self._index, entry.tobytes())
+        try:
+            _write_all(self._log, record)
+            _write_all(self._index, entry.tobytes())
+        except OSError as err:  # disk full, I/O error: one line naming the segment
+            failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
+            if failure is None:
+                raise
+            raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
         offset = self.offset
         self.offset += len(record)
         self.records += 1

@@ -330,3 +330,22 @@ def test_a_full_disk_under_a_sweep_names_the_segment(tmp_path, monkeypatch):
         run_sweep(spec, SerialExecutor(), module=toy)
     assert "\n" not in str(info.value)
     assert not spec.output.exists()
+
+
+def test_a_text_output_that_cannot_be_written_leaves_the_previous_one(tmp_path, monkeypatch):
+    from rfsim.core.outputs import write_text_atomic
+
+    target = tmp_path / "plan.sh"
+    target.write_bytes(PREVIOUS)
+    real_fsync = os.fsync
+
+    def refuse(fd):
+        raise OSError(errno.EIO, os.strerror(errno.EIO))
+
+    monkeypatch.setattr(os, "fsync", refuse)
+    with pytest.raises(ResourceError, match=r"cannot write --out '.*plan.sh': Input/output error; the previous"):
+        write_text_atomic(target, "new text", "--out")
+    monkeypatch.setattr(os, "fsync", real_fsync)
+    assert target.read_bytes() == PREVIOUS and [p.name for p in tmp_path.iterdir()] == ["plan.sh"]
+    write_text_atomic(target, "new text", "--out")
+    assert target.read_text() == "new text"

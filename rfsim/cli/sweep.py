@@ -195,7 +195,7 @@ def _run(ns: argparse.Namespace) -> int:
 
 
 def _plan(ns: argparse.Namespace) -> int:
-    from rfsim.core.outputs import check_output_file
+    from rfsim.core.outputs import check_output_file, write_text_atomic
     from rfsim.sweep import load_spec, plan_sweep, sbatch_script
     from rfsim.sweep.slurm import check_time_limit
 
@@ -212,7 +212,7 @@ def _plan(ns: argparse.Namespace) -> int:
     if ns.out is None:
         print(text, end="")
     else:
-        ns.out.write_text(text, encoding="utf-8")
+        write_text_atomic(ns.out, text, "--out")
         print(f"sbatch script: {ns.out} ({ns.shards} array tasks, {spec.n_runs} runs); "
               f"submit with: sbatch {ns.out}")
     return 0

@@ -17,7 +17,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from rfsim.core.errors import UserError
+from rfsim.core.errors import ResourceError, UserError, write_failure
 
 
 def _why(err: OSError) -> str:
@@ -66,4 +66,25 @@ def check_output_file(path: str | Path, what: str, *, suffixes: tuple[str, ...] 
     return path
 
 
-__all__ = ["check_output_folder", "check_output_file"]
+def write_text_atomic(path: str | Path, text: str, what: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` under a hidden temporary name, fsync'ed and renamed
+    over ``path``; a refused write (disk full, I/O error) is a one-line
+    :class:`~rfsim.core.errors.ResourceError` naming ``what`` and leaves the previous file."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        failure = write_failure(err, f"{what} {str(path)!r}")
+        if failure is not None:
+            raise ResourceError(f"{failure}; the previous file, if any, is unchanged") from None
+        raise
+    return path
+
+
+__all__ = ["check_output_folder", "check_output_file", "write_text_atomic"]

@@ -111,4 +111,5 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-__all__ = ["UserError", "ResourceError", "os_error_number", "write_failure", "ConfigError", "Terminated", "did_you_mean", "check_seed", "SEED_LIMIT", "SEED_RANGE_TEXT"]
+__all__ = ["UserError", "ResourceError", "os_error_number", "write_failure",
+           "ConfigError", "Terminated", "did_you_mean", "check_seed", "SEED_LIMIT", "SEED_RANGE_TEXT"]

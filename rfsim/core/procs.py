@@ -284,7 +284,7 @@ def child_failure(status: int) -> ResourceError:
                                  "killer chose it (see 'dmesg'); try fewer workers or a smaller config",
                  signal.SIGSEGV: "a crash in compiled code", signal.SIGBUS: "a crash in compiled code "
                  "or a file that shrank while mapped"}.get(number, "it was sent from outside")
-        return ResourceError(f"the run's process was killed by {name} ({cause}); no output was written")
+        return ResourceError(f"the run's process was killed by {name}: {cause}; no output was written")
     return ResourceError(f"the run's process ended without a result (exit status "
                          f"{os.waitstatus_to_exitcode(status)}); no output was written")
 

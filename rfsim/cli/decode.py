@@ -201,7 +201,8 @@ def run(args: argparse.Namespace) -> int:
                                  dr=getattr(args, "dr", None), m=getattr(args, "m", None),
                                  trext=None if trext is None else bool(trext))
     if output is not None:
-        from rfsim.core.dataset import make_provenance, remove_stale_partials, utc_now, write_dataset
+        from rfsim.core.dataset import make_provenance, utc_now, write_dataset
+        from rfsim.core.outputs import remove_stale_partials
         from rfsim.core.locks import output_lock
         prov = make_provenance(config_toml="", seed=0, scenario="decode", start_time_utc=utc_now(),
                                extra={"capture": str(args.capture), "fs_hz": fs_hz})

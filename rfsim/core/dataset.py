@@ -45,7 +45,6 @@ import gc
 import io
 import os
 import platform
-import re
 import subprocess
 import sys
 from collections.abc import Iterator, Mapping
@@ -57,6 +56,7 @@ import numpy as np
 import rfsim
 from rfsim.core.errors import ResourceError, write_failure
 from rfsim.core.lazy import lazy_import
+from rfsim.core.outputs import partial_path
 
 h5py = lazy_import("h5py")
 
@@ -394,30 +394,6 @@ def _abandon(f: h5py.File, tmp: Path) -> None:
     gc.collect()
 
 
-def partial_path(path: Path) -> Path:
-    """The hidden temporary name under which this process writes ``path``."""
-    return path.with_name(f".{path.name}.{os.getpid()}.partial")
-
-
-def remove_stale_partials(path: str | Path) -> list[Path]:
-    """Remove the temporary files (``.<name>.<pid>.partial``) that killed writers of ``path``
-    left beside it; returns them. Call it only while holding the output's lock
-    (:mod:`rfsim.core.locks`): then no other writer is using any of them."""
-    path = Path(path)
-    removed = []
-    for tmp in path.parent.glob(f".{glob_escape(path.name)}.*.partial"):
-        if tmp.name[len(path.name) + 2:-len(".partial")].isdigit():
-            with contextlib.suppress(FileNotFoundError):
-                tmp.unlink()
-                removed.append(tmp)
-    return removed
-
-
-def glob_escape(text: str) -> str:
-    """``text`` with the glob wildcards ``*?[`` quoted."""
-    return re.sub(r"([*?[])", r"[\1]", text)
-
-
 def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
     """The root attributes of a dataset file: title, scenario, version and ``dataset.attrs``."""
     f.attrs["title"] = dataset.title
@@ -551,8 +527,6 @@ __all__ = [
     "utc_now",
     "write_dataset",
     "atomic_h5file",
-    "partial_path",
-    "remove_stale_partials",
     "create_array",
     "create_row_scale",
     "stored_values",

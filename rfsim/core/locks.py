@@ -10,7 +10,7 @@ next writer. A second writer of a locked output stops with a one-line
 :class:`~rfsim.core.errors.UserError` naming the holder (exit status 2).
 
 While holding the lock, a writer also removes the temporary files (``.<name>.<pid>.partial``)
-that killed writers of the same output left behind (:func:`rfsim.core.dataset.remove_stale_partials`).
+that killed writers of the same output left behind (:func:`rfsim.core.outputs.remove_stale_partials`).
 
 ``flock`` works on local file systems and on the cluster file systems that support it
 (NFSv4, Lustre mounted with ``-o flock``, GPFS); where it is not supported the lock is

@@ -6,10 +6,9 @@ backend, so the core and the tests stay headless.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
-from rfsim.core.errors import ResourceError, write_failure
+from rfsim.core.outputs import atomic_path
 
 
 def pyplot():
@@ -42,16 +41,9 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
         fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
     try:
-        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
-        os.replace(tmp, path)
-    except BaseException as err:
-        tmp.unlink(missing_ok=True)
-        failure = write_failure(err, f"the figure {str(path)!r}")
-        if failure is not None:
-            raise ResourceError(f"{failure}; the previous figure, if any, is unchanged") from None
-        raise
+        with atomic_path(path, f"the figure {str(path)!r}") as tmp:
+            fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
     finally:
         pyplot().close(fig)
     return path

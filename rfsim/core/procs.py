@@ -102,8 +102,7 @@ def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
 @contextlib.contextmanager
 def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions."""
-    pool = cf.ProcessPoolExecutor(max_workers=max_workers, initializer=worker_init,
-                                  initargs=(os.getpid(),))
+    pool = _Pool(max_workers=max_workers, initializer=worker_init, initargs=(os.getpid(),))
     try:
         yield pool
     except BaseException as err:
@@ -115,10 +114,25 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     pool.shutdown(wait=True)
 
 
+class _Pool(cf.ProcessPoolExecutor):
+    """A ``ProcessPoolExecutor`` that remembers every worker it started, so that the exit
+    status of one that died is still known after the pool dropped it (broken pool)."""
+
+    def _spawn_process(self):
+        super()._spawn_process()
+        self.started = {**getattr(self, "started", {}), **(self._processes or {})}
+
+
 def _exit_statuses(pool: cf.ProcessPoolExecutor) -> list[int]:
     """The exit codes of the pool's workers that have ended (``-N``: killed by signal N)."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    return [p.exitcode for p in processes if getattr(p, "exitcode", None) is not None]
+    processes = {**(getattr(pool, "_processes", None) or {}), **getattr(pool, "started", {})}.values()
+    codes = []
+    for p in processes:
+        with contextlib.suppress(Exception):
+            if not p.is_alive():
+                p.join(1.0)
+                codes.append(p.exitcode)
+    return [c for c in codes if c is not None]
 
 
 def _worker_failure(exit_codes: list[int]) -> ResourceError:

@@ -18,10 +18,10 @@ from types import ModuleType
 from typing import Any
 
 from rfsim.core.config import to_toml
-from rfsim.core.dataset import make_provenance, remove_stale_partials, utc_now, write_dataset
+from rfsim.core.dataset import make_provenance, utc_now, write_dataset
 from rfsim.core.errors import ResourceError, UserError, check_seed
 from rfsim.core.locks import output_lock
-from rfsim.core.outputs import check_output_file, check_output_folder
+from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.core.procs import run_in_child
 from rfsim.core.progress import current, stage
 

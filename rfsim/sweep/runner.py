@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from rfsim.core.config import to_toml
-from rfsim.core.dataset import make_provenance, remove_stale_partials, utc_now
+from rfsim.core.dataset import make_provenance, utc_now
 from rfsim.core.errors import UserError
-from rfsim.core.outputs import check_output_file, check_output_folder
+from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.runs.registry import get_scenario
 from rfsim.sweep.executors import SerialExecutor
 from rfsim.sweep.lock import OutputLock

@@ -54,6 +54,7 @@ from rfsim.runs.registry import load_scenario
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import Column, Dataset, git_revision, utc_now
 from rfsim.core.errors import ResourceError, UserError, write_failure
+from rfsim.core.outputs import atomic_path
 
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
@@ -441,16 +442,8 @@ def rebuild_index(log: Path) -> int:
     The new index replaces the old one atomically. Only while no sweep writes the store."""
     index = log.with_suffix(".idx")
     entries = np.array(_scan_log(log, 0, log.stat().st_size), INDEX_DTYPE)
-    tmp = index.with_name(f".{index.name}.{os.getpid()}.partial")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(entries.tobytes())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, index)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_path(index, f"the point store index {str(index)!r}") as tmp:
+        tmp.write_bytes(entries.tobytes())
     return len(entries)
 
 

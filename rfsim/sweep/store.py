@@ -20,6 +20,11 @@ inside the log, and scan the log past the last indexed record for complete recor
 CRC holds (so a record written just before the kill is not lost). Nothing is ever
 rewritten in place, and no file is left under a temporary name.
 
+Every index entry is checked when the store is read (:func:`check_index`: point,
+repetition and length in bounds, records back to back from offset 0); a damaged index
+file (bad disk, stray write) is a one-line :class:`DamagedIndexError` naming it and the
+command that rebuilds it from its log (``rfsim sweep repair SPEC``, :func:`repair_store`).
+
 A record stands for a run of the current spec when its point, repetition, seed and config
 digest all match — a changed spec recomputes exactly the points it changed, as with
 ``--resume``. When a run has several matching records (a sweep run again without

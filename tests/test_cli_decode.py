@@ -187,6 +187,11 @@ BAD_CASES = [
     (["{ok.cf32}", "--fs", "1e6", "-o", "{capdir.cf32}"], "is a directory"),
     (["{ok.cf32}", "--fs", "1e6", "-o", "{afile}/x.h5"], "is not a folder"),
     (["{ok.cf32}", "--fs", "1e6", "-o", "/proc/rfsim-no/x.h5"], "cannot write"),
+    (["{ok.cf32}", "--fs", "1e6", "-o", "{ok.cf32}"], "is the capture being decoded"),
+    (["{ok.cf32}", "--fs", "1e6", "-o", "x.txt"], "must end in .h5 or .hdf5"),
+    (["{ok.cf32}", "--fs", "1e6", "--blf", "1e12"], "--blf 1e+12: outside the Gen2 range 31.2–780.8 kHz"),
+    (["{ok.cf32}", "--fs", "1e6", "--blf", "1e3"], "--blf 1000: outside the Gen2 range"),
+    (["{ok.cf32}", "--fs", "1e6", "--trcal", "1e-9"], "--trcal 1e-09: outside the Gen2 range 17.2–225 µs"),
 ]
 ARGPARSE_CASES = [
     ["{ok.cf32}"],                                   # --fs missing

@@ -227,13 +227,16 @@ def test_progress_bar_on_a_tty_and_quiet():
 def test_cli_run_prints_progress_in_batch_logs(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     spec = write_spec(tmp_path, "s", q=(1,))
-    assert main(["sweep", str(spec), "--serial"]) == 0  # captured stdout is not a TTY
-    out = capsys.readouterr().out
-    assert "\r" not in out
-    assert "sweep: 0/4 runs (0.0 %)" in out and "sweep: 4/4 runs (100.0 %)" in out
+    assert main(["sweep", str(spec), "--serial"]) == 0  # captured stderr is not a TTY
+    captured = capsys.readouterr()
+    out, err = captured.out, captured.err
+    assert "\r" not in err
+    # progress on stderr (as for 'rfsim run'), results on stdout
+    assert "sweep: 0/4 runs (0.0 %)" in err and "sweep: 4/4 runs (100.0 %)" in err
+    assert "runs (" not in out
     assert f"dataset: {tmp_path / 's.h5'}" in out
-    assert main(["sweep", str(spec), "--serial", "--resume", "--quiet"]) == 0
-    assert capsys.readouterr().out == ""
+    assert main(["sweep", "-q", str(spec), "--serial", "--resume"]) == 0  # options before the spec too
+    assert capsys.readouterr() == ("", "")
 
 
 def test_sbatch_script(tmp_path, monkeypatch, capsys):

@@ -2,7 +2,9 @@
 
 Each subcommand lives in its own module with ``add_parser(subparsers)`` and
 ``run(args) -> int``. User mistakes (:class:`rfsim.core.errors.UserError`, which includes
-config errors) print one line to stderr and exit with status 2 — never a traceback.
+config errors) print one line to stderr and exit with status 2 — never a traceback; failures
+of the system (:class:`rfsim.core.errors.ResourceError`, an ``OSError`` such as a full disk or
+a failing standard output, a run's process killed by a signal) print one line and exit 1.
 """
 
 from __future__ import annotations
@@ -14,12 +16,12 @@ import sys
 from collections.abc import Sequence
 
 import rfsim
-from rfsim.core.errors import Terminated, UserError
+from rfsim.core.errors import ResourceError, Terminated, UserError, os_error_number, write_failure
 from rfsim.core.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
 _SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
-                "rfsim.cli.sweep")
+                "rfsim.cli.sweep", "rfsim.cli.clean")
 
 
 class Parser(argparse.ArgumentParser):
@@ -53,15 +55,29 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``rfsim`` console script; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["sweep"]:  # its own parser reads the rest, options first included ('sweep -q S')
+        args = argparse.Namespace(command="sweep", func=importlib.import_module("rfsim.cli.sweep").run,
+                                  sweep_help=False, argv=argv[1:])
+    else:
+        args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
         return 0
+    stdout = sys.stdout
+    sys.stdout = _Stdout(stdout)
     try:
         with terminate_as_interrupt():
-            return int(args.func(args) or 0)
-    except UserError as err:
+            status = int(args.func(args) or 0)
+            flush_stdout()  # a full or failing stdout is reported here, not at exit
+            return status
+    except (UserError, ResourceError) as err:
         print(f"rfsim: error: {err}", file=sys.stderr)
+        if isinstance(err, ResourceError):
+            try:
+                sys.stdout.flush()
+            except OSError:  # stdout itself failed: the interpreter's final flush must not fail again
+                _discard_stdout()
         return err.exit_code
     except Terminated as err:
         print(f"rfsim: terminated (SIGTERM){getattr(err, 'hint', '')}", file=sys.stderr)
@@ -72,6 +88,69 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. '| head': the reader has enough; no traceback, exit 0
         _discard_stdout()
         return 0
+    except OSError as err:  # the system refused a write or read (disk full, I/O error...)
+        if os_error_number(err) is None:
+            raise
+        print(f"rfsim: error: {_os_error_line(err)}", file=sys.stderr)
+        _discard_stdout()
+        return 1
+    finally:
+        if isinstance(sys.stdout, _Stdout):
+            sys.stdout = stdout
+
+
+class _Stdout:
+    """``sys.stdout`` during a command: a refused write (``/dev/full``, an I/O error) is a
+    one-line :class:`ResourceError` naming the standard output; a closed pipe stays a
+    ``BrokenPipeError`` (``| head``: quiet, exit 0). Everything else is the stream's own."""
+
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _guarded(self, method, *args):
+        try:
+            return method(*args)
+        except BrokenPipeError:
+            raise
+        except OSError as err:
+            failure = write_failure(err, "the standard output", hint=False)
+            if failure is None:
+                raise
+            raise failure from None
+
+    def write(self, text):
+        return self._guarded(self._stream.write, text)
+
+    def writelines(self, lines):
+        return self._guarded(self._stream.writelines, lines)
+
+    def flush(self):
+        return self._guarded(self._stream.flush)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def flush_stdout() -> None:
+    """Flush stdout; a refused write (``/dev/full``, an I/O error) is a one-line
+    :class:`ResourceError`, a closed pipe stays a ``BrokenPipeError`` (quiet, exit 0)."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as err:
+        failure = write_failure(err, "the standard output", hint=False)
+        if failure is None:
+            raise
+        raise failure from None
+
+
+def _os_error_line(err: OSError) -> str:
+    """One line for an operating-system error that reached the command line."""
+    reason = os.strerror(os_error_number(err))
+    if err.filename is not None:
+        return f"{str(err.filename)!r}: {reason}"
+    return f"cannot write or read: {reason}"
 
 
 def _discard_stdout() -> None:

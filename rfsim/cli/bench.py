@@ -93,13 +93,13 @@ def _peak_rss_mb() -> float:
 def run(args: argparse.Namespace) -> int:
     import importlib
 
+    from rfsim.core.outputs import check_output_file, write_text_atomic
+
     names = list(BENCHMARKS) if not args.names or args.names == ["all"] else args.names
     unknown = [n for n in names if n not in BENCHMARKS]
     if unknown:
         raise UserError(f"unknown benchmark {unknown[0]!r}; available: {', '.join(BENCHMARKS)}")
     if args.json is not None:
-        from rfsim.core.outputs import check_output_file
-
         check_output_file(args.json, "--json")
     machine = machine_facts()
     results = {}
@@ -118,6 +118,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {key:<40} {shown}")
     if args.json is not None:
         doc = {"machine": machine, **results}
-        args.json.write_text(json.dumps(doc, indent=2, default=float) + "\n")
+        write_text_atomic(args.json, json.dumps(doc, indent=2, default=float) + "\n", "--json")
         print(f"written: {args.json}")
     return 0

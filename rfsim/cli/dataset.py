@@ -18,6 +18,7 @@ from pathlib import Path
 
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.errors import UserError
+from rfsim.core.outputs import check_output_folder
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -71,6 +72,7 @@ def _plot(args: argparse.Namespace) -> int:
                         f"rfsim sweep extract {args.dataset} --point N -o point.h5")
     module = get_scenario(scenario)
     out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
+    check_output_folder(out_dir, "--out-dir")  # before drawing: a file, /proc, no permission
     with reporting(reporter(args)) as rep:
         rep.stage(f"drawing the {scenario} figures of {args.dataset}")
         try:
@@ -116,17 +118,23 @@ def _info(args: argparse.Namespace) -> int:
             if gname == "provenance" or not isinstance(g, h5py.Group):
                 continue
             desc = _text(g.attrs.get("description", ""))
-            if "row" in g and g["row"].is_scale:
-                kind = f"table, {g['row'].shape[0]} rows"
-            else:
-                coords = [k for k, ds in g.items() if ds.is_scale]
-                kind = "grid " + " x ".join(f"{c}[{g[c].shape[0]}]" for c in coords)
+            arrays = {k: ds for k, ds in g.items() if isinstance(ds, h5py.Dataset)}
+            subgroups = [k for k, sub in g.items() if isinstance(sub, h5py.Group)]
+            if "row" in arrays and arrays["row"].is_scale:
+                kind = f"table, {arrays['row'].shape[0]} rows"
+            elif any(ds.is_scale for ds in arrays.values()):
+                coords = [k for k, ds in arrays.items() if ds.is_scale]
+                kind = "grid " + " x ".join(f"{c}[{arrays[c].shape[0] if arrays[c].ndim else 1}]" for c in coords)
+            else:  # not written by rfsim: a plain group
+                kind = "group"
+            if subgroups:  # other HDF5 files may nest groups; rfsim's never do
+                kind += f", {len(subgroups)} nested group{'s' if len(subgroups) != 1 else ''}: " + ", ".join(subgroups)
             lines.append("")
             lines.append(f"[{gname}] ({kind})" + (f": {desc}" if desc else ""))
-            names = [k for k in g if k != "row"]
+            names = [k for k in arrays if k != "row"]
             width = max((len(k) for k in names), default=0)
             for k in names:
-                ds = g[k]
+                ds = arrays[k]
                 dtype = "bool" if ds.attrs.get("rfsim_dtype") == "bool" else (
                     "str" if h5py.check_string_dtype(ds.dtype) else str(ds.dtype))
                 dims = "" if ds.ndim <= 1 else "(" + ", ".join(

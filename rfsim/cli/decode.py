@@ -12,7 +12,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from rfsim.core.errors import UserError
+from rfsim.core.errors import UserError, write_failure
 
 FORMATS = ("text", "json", "csv")
 #: Capture file endings (rfsim.gen2.capture.SUFFIXES, spelled out here so that building the
@@ -99,14 +99,32 @@ def _positive(value, flag: str):
     return value
 
 
-def _check_output(path: str | None) -> Path | None:
-    """The dataset path, checked before any decoding: not a directory, its folder created
-    if missing and writable (a probe file is created and removed there)."""
+#: Gen2 ranges (EPC UHF Gen2 v2.0.1, Tables 6.9 and 6.10): TRcal 17.2–225 µs; BLF 40–640 kHz,
+#: with the largest frequency tolerance of Table 6.9 (±22 %) on either side.
+TRCAL_RANGE_S = (17.2e-6, 225e-6)
+BLF_RANGE_HZ = (40e3 * (1 - 0.22), 640e3 * (1 + 0.22))
+
+
+def _in_range(value, flag: str, bounds: tuple[float, float], unit: str, scale: float):
+    if value is not None and not bounds[0] <= value <= bounds[1]:
+        raise UserError(f"{flag} {value:g}: outside the Gen2 range {bounds[0] * scale:g}–{bounds[1] * scale:g} "
+                        f"{unit} (is the unit right? {flag} takes {'Hz' if unit == 'kHz' else 'seconds'})")
+    return value
+
+
+def _check_output(path: str | None, capture: str | None = None) -> Path | None:
+    """The dataset path, checked before any decoding: an HDF5 name (``.h5``/``.hdf5``), not
+    the capture itself, not a directory, its folder created if missing and writable (a probe
+    file is created and removed there)."""
     if path is None:
         return None
     p = Path(path)
     if p.is_dir():
         raise UserError(f"--output '{p}' is a directory; give a file name such as {p / 'capture.h5'}")
+    if capture is not None and p.exists() and Path(capture).exists() and os.path.samefile(p, capture):
+        raise UserError(f"--output '{p}' is the capture being decoded; give another file name")
+    if p.suffix not in (".h5", ".hdf5"):
+        raise UserError(f"--output '{p}': the file name must end in .h5 or .hdf5 (it is an HDF5 dataset)")
     parent = p.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -171,8 +189,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--fs must be a positive sample rate in Hz, got {args.fs_hz!r}")
     blf_hz = _positive(getattr(args, "blf_hz", None), "--blf")
     trcal_s = _positive(getattr(args, "trcal_s", None), "--trcal")
+    _in_range(blf_hz, "--blf", BLF_RANGE_HZ, "kHz", 1e-3)
+    _in_range(trcal_s, "--trcal", TRCAL_RANGE_S, "µs", 1e6)
     trext = getattr(args, "trext", None)
-    output = _check_output(getattr(args, "output", None))
+    output = _check_output(getattr(args, "output", None), args.capture)
     samples = load_capture(args.capture)
     records, timing = decode_reader_commands(samples, fs_hz)
     for warning in timing.warnings:
@@ -182,10 +202,14 @@ def run(args: argparse.Namespace) -> int:
                                  trext=None if trext is None else bool(trext))
     if output is not None:
         from rfsim.core.dataset import make_provenance, utc_now, write_dataset
+        from rfsim.core.outputs import remove_stale_partials
+        from rfsim.core.locks import output_lock
         prov = make_provenance(config_toml="", seed=0, scenario="decode", start_time_utc=utc_now(),
                                extra={"capture": str(args.capture), "fs_hz": fs_hz})
-        write_dataset(output, capture_dataset(records, replies, capture=str(args.capture), fs_hz=fs_hz,
-                                              timing=timing), prov)
+        with output_lock(output, what="--output", kind="decode"):
+            remove_stale_partials(output)
+            write_dataset(output, capture_dataset(records, replies, capture=str(args.capture), fs_hz=fs_hz,
+                                                  timing=timing), prov)
     try:
         _write(args, records, replies, timing)
         sys.stdout.flush()
@@ -195,6 +219,11 @@ def run(args: argparse.Namespace) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         os.close(devnull)
+    except OSError as err:
+        failure = write_failure(err, "the standard output", hint=False)
+        if failure is None:
+            raise
+        raise failure from None
     return 0
 
 

@@ -35,8 +35,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _add_config_args(p)
     p.add_argument("--seed", type=_seed, default=1,
                    help="root seed of the run's SeedSequence (integer in [0, 2**64), default 1)")
-    p.add_argument("--out-dir", type=Path, default=Path("results"),
-                   help="folder for the dataset and figures (default: results)")
+    p.add_argument("--out-dir", type=Path, default=None,
+                   help="folder for the dataset and figures (default: results; with -o, the "
+                        "dataset's folder)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="dataset file name (default: <out-dir>/<scenario>.h5)")
     p.add_argument("--no-plot", action="store_true", help="write the dataset only")
@@ -88,7 +89,9 @@ def _run(args: argparse.Namespace) -> int:
     module, config = _resolve(args)
     with reporting(reporter(args)) as rep:
         rep.detail("resolved config:\n" + to_toml(config).rstrip())
-        out = run_scenario(module, config, seed=args.seed, out_dir=args.out_dir, output=args.output,
+        out_dir = args.out_dir if args.out_dir is not None else (
+            args.output.parent if args.output is not None else Path("results"))  # figures beside -o
+        out = run_scenario(module, config, seed=args.seed, out_dir=out_dir, output=args.output,
                            make_plots=not args.no_plot)
     if not args.quiet:
         print(f"dataset: {out.dataset_path}")

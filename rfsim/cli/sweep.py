@@ -10,6 +10,7 @@ Shape (a verb first, the spec second, then options; the verb ``run`` may be left
     rfsim sweep slurm SPEC.toml --shards N ...     (= plan --slurm)
     rfsim sweep merge SPEC.toml [--output FILE] [--quiet]
     rfsim sweep extract MERGED.h5 --point N [--repetition K] -o POINT.h5
+    rfsim sweep repair SPEC.toml [--quiet]
 
 A relative ``output`` in the spec resolves against the spec file's folder; ``--output``
 replaces it and resolves against the working directory.
@@ -24,7 +25,7 @@ from pathlib import Path
 
 from rfsim.core.errors import UserError
 
-_VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract")
+_VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract", "repair")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -132,6 +133,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, required=True, metavar="FILE", help="dataset to write (.h5)")
     p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(handler=_extract)
+
+    p = verbs.add_parser("repair", help="rebuild the damaged index files of the point store from their logs",
+                         description="Check every index entry of the sweep's point store and rebuild each "
+                                     "damaged index file from its log; then continue with 'run --resume'.")
+    p.add_argument("spec", type=Path, help="sweep spec (TOML)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(handler=_repair)
     return parser
 
 
@@ -144,7 +152,13 @@ def run(args: argparse.Namespace) -> int:
     if not getattr(ns, "handler", None):
         parser.print_help()
         return 0
-    return int(ns.handler(ns) or 0)
+    from rfsim.sweep.store import DamagedIndexError
+
+    try:
+        return int(ns.handler(ns) or 0)
+    except DamagedIndexError as err:  # name the command that repairs it with this spec
+        err.spec = str(ns.spec)
+        raise
 
 
 def _dry_run(ns: argparse.Namespace) -> int:
@@ -190,7 +204,7 @@ def _run(ns: argparse.Namespace) -> int:
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
     try:
         def progress(total: int, *, done: int) -> Progress:
-            return Progress(total, done=done, stream=sys.stdout, quiet=ns.quiet)
+            return Progress(total, done=done, stream=sys.stderr, quiet=ns.quiet)
 
         report = run_sweep(spec, executor, shard=ns.shard, resume=ns.resume, progress=progress)
     except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the finished runs are in the point store
@@ -210,7 +224,7 @@ def _run(ns: argparse.Namespace) -> int:
 
 
 def _plan(ns: argparse.Namespace) -> int:
-    from rfsim.core.outputs import check_output_file
+    from rfsim.core.outputs import check_output_file, write_text_atomic
     from rfsim.sweep import load_spec, plan_sweep, sbatch_script
     from rfsim.sweep.slurm import check_account, check_memory, check_partition, check_time_limit
 
@@ -232,7 +246,7 @@ def _plan(ns: argparse.Namespace) -> int:
     if ns.out is None:
         print(text, end="")
     else:
-        ns.out.write_text(text, encoding="utf-8")
+        write_text_atomic(ns.out, text, "--out")
         print(f"sbatch script: {ns.out} ({ns.shards} array tasks, {spec.n_runs} runs); "
               f"submit with: sbatch {ns.out}")
     return 0
@@ -257,4 +271,23 @@ def _extract(ns: argparse.Namespace) -> int:
     path = extract_point(ns.merged, ns.point, ns.output, repetition=ns.repetition)
     if not ns.quiet:
         print(f"dataset: {path}")
+    return 0
+
+
+def _repair(ns: argparse.Namespace) -> int:
+    from rfsim.sweep import load_spec, points_dir
+    from rfsim.sweep.lock import OutputLock
+    from rfsim.sweep.store import repair_store
+
+    spec = load_spec(ns.spec)
+    store = points_dir(spec.output)
+    if not store.is_dir():
+        raise UserError(f"sweep {str(ns.spec)!r}: no point store at {str(store)!r}")
+    with OutputLock(spec.output):
+        repaired = repair_store(store)
+    if not ns.quiet:
+        for index, n in repaired:
+            print(f"rebuilt: {index} ({n} records)")
+        print(f"point store {store}: {len(repaired)} index file{'s' if len(repaired) != 1 else ''} rebuilt; "
+              f"continue with: rfsim sweep run {ns.spec} --resume")
     return 0

@@ -41,6 +41,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import datetime as _dt
+import gc
+import io
 import os
 import platform
 import subprocess
@@ -52,7 +54,9 @@ from typing import Any
 import numpy as np
 
 import rfsim
+from rfsim.core.errors import ResourceError, write_failure
 from rfsim.core.lazy import lazy_import
+from rfsim.core.outputs import partial_path
 
 h5py = lazy_import("h5py")
 
@@ -316,21 +320,78 @@ def atomic_h5file(path: str | Path) -> Iterator[h5py.File]:
 
     On leaving the block the file is closed, fsync'ed and renamed over ``path`` (with the
     folder fsync'ed); on an exception (including Ctrl-C and SIGTERM) the temporary file is
-    removed, so ``path`` is either the old file or the complete new one.
+    removed, so ``path`` is either the old file or the complete new one. A write the
+    operating system refuses (disk full, I/O error, quota) is a one-line
+    :class:`~rfsim.core.errors.ResourceError` naming ``path``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.partial")
+    tmp = partial_path(path)
     try:
-        with h5py.File(tmp, "w") as f:
-            yield f
-            f.flush()
+        with _h5py_reports_held() as held:
+            f = h5py.File(tmp, "w")
+            try:
+                yield f
+                f.flush()
+                f.close()
+            except BaseException as failed:
+                if write_failure(failed, "") is not None:
+                    held.drop()
+                _abandon(f, tmp)
+                raise
         _fsync_file(tmp)
         os.replace(tmp, path)
         _fsync_dir(path.parent)
-    except BaseException:
+    except BaseException as err:
         tmp.unlink(missing_ok=True)
+        failure = write_failure(err, f"{str(path)!r}")
+        if failure is not None:
+            raise ResourceError(f"{failure}; the previous file, if any, is unchanged") from None
         raise
+
+
+class _HeldText(io.StringIO):
+    """What was written to ``sys.stderr`` while an HDF5 file was written (see below)."""
+
+    dropped = False
+
+    def drop(self) -> None:
+        self.dropped = True
+
+
+@contextlib.contextmanager
+def _h5py_reports_held() -> Iterator[_HeldText]:
+    """Hold back what is printed on ``sys.stderr`` while an HDF5 file is written.
+
+    After a refused write (disk full), HDF5 fails again for every object freed or flushed
+    until the file is closed, and h5py prints a traceback for each (hundreds of lines)
+    before the error reaches the writer, where the one-line error says what happened. The
+    held text (and the reports to ``sys.unraisablehook``) are passed on when the write
+    succeeds and dropped when it fails (``drop()``).
+    Progress reporters keep their own reference to the stream and are not held back."""
+    held, saved, saved_hook = _HeldText(), sys.stderr, sys.unraisablehook
+    reports: list = []
+    sys.stderr = held
+    sys.unraisablehook = reports.append  # h5py's reports of objects it could not free
+    try:
+        yield held
+    finally:
+        sys.stderr, sys.unraisablehook = saved, saved_hook
+        if not held.dropped:
+            if held.getvalue():
+                saved.write(held.getvalue())
+            for report in reports:
+                saved_hook(report)
+
+
+def _abandon(f: h5py.File, tmp: Path) -> None:
+    """Close the HDF5 file ``f`` (at ``tmp``) after a failure: truncated first, which gives
+    its space back, so that HDF5's last writes as it closes do not fail again."""
+    with contextlib.suppress(OSError):
+        os.truncate(tmp, 0)
+    with contextlib.suppress(Exception):
+        f.close()
+    gc.collect()
 
 
 def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:

@@ -2,11 +2,16 @@
 
 A :class:`UserError` is a mistake of the user (bad config key, value or input file).
 The CLI prints its one-line message and exits with status 2 — never a traceback.
+A :class:`ResourceError` is a failure of the system the command ran on (disk full, I/O
+error, a process killed by a signal); the CLI prints its one line and exits with status 1.
 """
 
 from __future__ import annotations
 
 import difflib
+import errno as _errno
+import os
+import re
 from collections.abc import Iterable
 
 
@@ -14,6 +19,54 @@ class UserError(Exception):
     """A mistake in user input; ``str(err)`` is a single line for the terminal."""
 
     exit_code = 2
+
+
+class ResourceError(Exception):
+    """The system, not the user, stopped a command (disk full, I/O error, a killed process);
+    ``str(err)`` is a single line for the terminal, exit status 1."""
+
+    exit_code = 1
+
+
+#: ``errno = 28`` inside the message of an error from the HDF5 library, which h5py raises
+#: as an ``OSError`` (or, when closing after a failed write, a ``RuntimeError``) without
+#: setting its ``errno`` attribute.
+_EMBEDDED_ERRNO = re.compile(r"errno = (\d+)")
+
+
+def os_error_number(err: BaseException) -> int | None:
+    """The operating-system error number behind ``err`` or the errors it was raised from or
+    while handling (``__cause__``/``__context__``), or None when there is none."""
+    seen: set[int] = set()
+    while err is not None and id(err) not in seen:
+        seen.add(id(err))
+        if isinstance(err, OSError) and err.errno:
+            return int(err.errno)
+        if isinstance(err, (OSError, RuntimeError)):
+            found = _EMBEDDED_ERRNO.search(str(err))
+            if found and int(found.group(1)):
+                return int(found.group(1))
+        err = err.__cause__ or err.__context__
+    return None
+
+
+def write_failure(err: BaseException, what: str, *, hint: bool = True) -> ResourceError | None:
+    """A one-line :class:`ResourceError` for a failed write of ``what`` (e.g. ``"dataset
+    'x.h5'"``) when ``err`` comes from the operating system, else None (a bug: let it show).
+
+    ``ENOSPC`` (disk full), ``EDQUOT`` (quota), ``EIO`` (device error), ``EFBIG``, ``EROFS``...
+    all give ``cannot write <what>: <strerror>`` (with what to do about a full disk, unless
+    ``hint`` is False).
+    """
+    if isinstance(err, (UserError, ResourceError, KeyboardInterrupt)):
+        return None
+    number = os_error_number(err)
+    if number is None:
+        return None
+    reason = os.strerror(number)
+    if hint and number in (_errno.ENOSPC, _errno.EDQUOT):
+        reason += " (free some space or write elsewhere)"
+    return ResourceError(f"cannot write {what}: {reason}")
 
 
 class ConfigError(UserError, ValueError):
@@ -58,4 +111,5 @@ def did_you_mean(name: str, candidates: Iterable[str]) -> str:
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 
-__all__ = ["UserError", "ConfigError", "Terminated", "did_you_mean", "check_seed", "SEED_LIMIT", "SEED_RANGE_TEXT"]
+__all__ = ["UserError", "ResourceError", "os_error_number", "write_failure",
+           "ConfigError", "Terminated", "did_you_mean", "check_seed", "SEED_LIMIT", "SEED_RANGE_TEXT"]

@@ -13,11 +13,14 @@ tell).
 
 from __future__ import annotations
 
+import contextlib
+import glob
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
-from rfsim.core.errors import UserError
+from rfsim.core.errors import ResourceError, UserError, write_failure
 
 
 def _why(err: OSError) -> str:
@@ -66,4 +69,57 @@ def check_output_file(path: str | Path, what: str, *, suffixes: tuple[str, ...] 
     return path
 
 
-__all__ = ["check_output_folder", "check_output_file"]
+def partial_path(path: Path) -> Path:
+    """The hidden temporary name under which this process writes ``path``:
+    ``.<name>.<pid>.partial`` beside it."""
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+def remove_stale_partials(path: str | Path) -> list[Path]:
+    """Remove the temporary files (``.<name>.<pid>.partial``) that killed writers of ``path``
+    left beside it; returns them. Call it only while holding the output's lock
+    (:mod:`rfsim.core.locks`): then no other writer is using any of them."""
+    path = Path(path)
+    removed = []
+    for tmp in path.parent.glob(f".{glob.escape(path.name)}.*.partial"):
+        if tmp.name[len(path.name) + 2:-len(".partial")].isdigit():
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
+                removed.append(tmp)
+    return removed
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path, what: str) -> Iterator[Path]:
+    """A temporary path (:func:`partial_path`) to write ``path`` at: fsync'ed and renamed over
+    ``path`` when the block succeeds, removed when it fails. A write the system refuses
+    (disk full, I/O error) is a one-line :class:`~rfsim.core.errors.ResourceError` naming
+    ``what`` (e.g. ``"the figure 'x.png'"``); the previous file, if any, stays."""
+    path = Path(path)
+    tmp = partial_path(path)
+    try:
+        yield tmp
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException as err:
+        tmp.unlink(missing_ok=True)
+        failure = write_failure(err, what)
+        if failure is not None:
+            raise ResourceError(f"{failure}; the previous file, if any, is unchanged") from None
+        raise
+
+
+def write_text_atomic(path: str | Path, text: str, what: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_path`); ``what`` names the
+    option in a one-line error, e.g. ``"--out"``."""
+    with atomic_path(path, f"{what} {str(path)!r}") as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    return Path(path)
+
+
+__all__ = ["check_output_folder", "check_output_file", "partial_path", "remove_stale_partials", "atomic_path",
+           "write_text_atomic"]

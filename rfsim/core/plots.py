@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from rfsim.core.outputs import atomic_path
+
 
 def pyplot():
     """``matplotlib.pyplot`` on the Agg backend."""
@@ -30,13 +32,20 @@ def figure_path(dataset_path: str | Path, out_dir: str | Path, what: str) -> Pat
 
 def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     """Lay out (unless ``tight`` is False, e.g. with a shared colorbar), write ``fig`` to
-    ``path`` (creating its folder) and close it."""
+    ``path`` (creating its folder) and close it.
+
+    The figure is written under a hidden temporary name and renamed over ``path``, so a
+    failed write (disk full: a one-line :class:`~rfsim.core.errors.ResourceError`) leaves
+    the previous figure, if any, intact."""
     if tight:
         fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
-    pyplot().close(fig)
+    try:
+        with atomic_path(path, f"the figure {str(path)!r}") as tmp:
+            fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip(".") or "png")
+    finally:
+        pyplot().close(fig)
     return path
 
 

@@ -33,7 +33,7 @@ import threading
 import time
 from collections.abc import Iterator
 
-from rfsim.core.errors import Terminated
+from rfsim.core.errors import ResourceError, Terminated
 
 #: How often a worker checks that its leader is still alive [s].
 WATCH_INTERVAL_S = 0.5
@@ -102,14 +102,47 @@ def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
 @contextlib.contextmanager
 def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions."""
-    pool = cf.ProcessPoolExecutor(max_workers=max_workers, initializer=worker_init,
-                                  initargs=(os.getpid(),))
+    pool = _Pool(max_workers=max_workers, initializer=worker_init, initargs=(os.getpid(),))
     try:
         yield pool
-    except BaseException:
+    except BaseException as err:
+        statuses = _exit_statuses(pool)
         terminate_workers(pool)
+        if isinstance(err, cf.process.BrokenProcessPool):  # a worker died without a word
+            raise _worker_failure(statuses) from None
         raise
     pool.shutdown(wait=True)
+
+
+class _Pool(cf.ProcessPoolExecutor):
+    """A ``ProcessPoolExecutor`` that remembers every worker it started, so that the exit
+    status of one that died is still known after the pool dropped it (broken pool)."""
+
+    def _spawn_process(self):
+        super()._spawn_process()
+        self.started = {**getattr(self, "started", {}), **(self._processes or {})}
+
+
+def _exit_statuses(pool: cf.ProcessPoolExecutor) -> list[int]:
+    """The exit codes of the pool's workers that have ended (``-N``: killed by signal N)."""
+    processes = {**(getattr(pool, "_processes", None) or {}), **getattr(pool, "started", {})}.values()
+    codes = []
+    for p in processes:
+        with contextlib.suppress(Exception):
+            if not p.is_alive():
+                p.join(1.0)
+                codes.append(p.exitcode)
+    return [c for c in codes if c is not None]
+
+
+def _worker_failure(exit_codes: list[int]) -> ResourceError:
+    """The one-line error for a process pool whose worker died (``exit_codes`` of the ended ones)."""
+    signals = [-code for code in exit_codes if code < 0]
+    if signals:
+        # a wait status whose low bits are the signal: what child_failure reads
+        return ResourceError(str(child_failure(signals[0])).replace("the run's process", "a worker process", 1))
+    return ResourceError("a worker process ended abruptly (killed, most likely because the system ran out of "
+                         "memory; see 'dmesg'); try fewer workers or a smaller config")
 
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
@@ -221,7 +254,7 @@ def run_in_child(fn, *, while_waiting=None) -> None:
                 fn()
             except BaseException as e:  # reported to the leader, which raises it
                 err = e
-                if not isinstance(e, (UserError, KeyboardInterrupt)):
+                if not isinstance(e, (UserError, ResourceError, KeyboardInterrupt)):
                     e.add_note("in the child process:\n" + "".join(traceback.format_exception(e)).rstrip())
             try:
                 data = pickle.dumps(err)
@@ -247,10 +280,27 @@ def run_in_child(fn, *, while_waiting=None) -> None:
         raise
     _, status = os.waitpid(pid, 0)
     if not data:
-        raise RuntimeError(f"the run's child process ended without a result (wait status {status})")
+        raise child_failure(status)
     err = pickle.loads(data)
     if err is not None:
         raise err
+
+
+def child_failure(status: int) -> ResourceError:
+    """The one-line error for a child process that ended (wait ``status``) without reporting."""
+    if os.WIFSIGNALED(status):
+        number = os.WTERMSIG(status)
+        try:
+            name = signal.Signals(number).name
+        except ValueError:
+            name = f"signal {number}"
+        cause = {signal.SIGKILL: "most likely the system ran out of memory and its out-of-memory "
+                                 "killer chose it (see 'dmesg'); try fewer workers or a smaller config",
+                 signal.SIGSEGV: "a crash in compiled code", signal.SIGBUS: "a crash in compiled code "
+                 "or a file that shrank while mapped"}.get(number, "it was sent from outside")
+        return ResourceError(f"the run's process was killed by {name}: {cause}; no output was written")
+    return ResourceError(f"the run's process ended without a result (exit status "
+                         f"{os.waitstatus_to_exitcode(status)}); no output was written")
 
 
 def _raise_terminated(signum, frame) -> None:
@@ -292,4 +342,4 @@ def terminate_as_interrupt() -> Iterator[None]:
 
 
 __all__ = ["WATCH_INTERVAL_S", "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
-           "map_in_order", "load_kernels", "run_in_child"]
+           "map_in_order", "load_kernels", "run_in_child", "child_failure"]

@@ -19,8 +19,9 @@ from typing import Any
 
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import make_provenance, utc_now, write_dataset
-from rfsim.core.errors import UserError, check_seed
-from rfsim.core.outputs import check_output_file, check_output_folder
+from rfsim.core.errors import ResourceError, UserError, check_seed
+from rfsim.core.locks import output_lock
+from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.core.procs import run_in_child
 from rfsim.core.progress import current, stage
 
@@ -61,14 +62,20 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
 
     # The figures read the file: the run's kernels, libraries and arrays need not stay in
     # memory beside them; a child process returns all of them to the system when it exits.
-    run_in_child(simulate_and_write,
-                 while_waiting=(lambda: _import_figure_libraries(module)) if make_plots else None)
+    # No other rfsim process writes the dataset meanwhile (its lock), and what killed
+    # writers of it left behind is removed.
+    with output_lock(path, what="--output" if output is not None else "dataset", kind="run"):
+        remove_stale_partials(path)
+        run_in_child(simulate_and_write,
+                     while_waiting=(lambda: _import_figure_libraries(module)) if make_plots else None)
     figures: tuple[Path, ...] = ()
     if make_plots:
         _release_free_memory()
         stage("drawing figures")
         try:
             figures = tuple(module.plot(path, out_dir))
+        except ResourceError as err:  # disk full while drawing: the dataset is safe
+            raise ResourceError(f"dataset {str(path)!r} written, but {err}") from None
         except OSError as err:  # e.g. a folder where a figure file should go; the dataset is safe
             raise UserError(f"dataset {str(path)!r} written, but a figure could not be saved in "
                             f"{str(out_dir)!r}: {err.strerror or err}; redraw after fixing it") from None

@@ -28,7 +28,7 @@ import numpy as np
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import make_provenance, utc_now
 from rfsim.core.errors import UserError
-from rfsim.core.outputs import check_output_file, check_output_folder
+from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.runs.registry import get_scenario
 from rfsim.sweep.executors import SerialExecutor
 from rfsim.sweep.lock import OutputLock
@@ -193,6 +193,8 @@ def run_sweep(spec: SweepSpec, executor: Any = None, *, shard: tuple[int, int] |
     check_sweep_outputs(spec)
     executor = SerialExecutor() if executor is None else executor
     with OutputLock(spec.output, shard=shard):
+        if shard is None:
+            remove_stale_partials(spec.output)
         runs: Sequence[int] = range(spec.n_runs) if shard is None else shard_runs(spec.n_runs, *shard)
         if resume:
             index = StoreIndex(points_dir(spec.output))
@@ -239,6 +241,7 @@ def merge_sweep(spec: SweepSpec, *, plan: SweepPlan | None = None, start_time_ut
         plan = plan_sweep(spec, check="none", module=module)
         check_sweep_outputs(spec)
         with OutputLock(spec.output):
+            remove_stale_partials(spec.output)
             return _merge(plan, start_time_utc)
     return _merge(plan, start_time_utc)
 

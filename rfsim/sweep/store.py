@@ -20,6 +20,11 @@ inside the log, and scan the log past the last indexed record for complete recor
 CRC holds (so a record written just before the kill is not lost). Nothing is ever
 rewritten in place, and no file is left under a temporary name.
 
+Every index entry is checked when the store is read (:func:`check_index`: point,
+repetition and length in bounds, records back to back from offset 0); a damaged index
+file (bad disk, stray write) is a one-line :class:`DamagedIndexError` naming it and the
+command that rebuilds it from its log (``rfsim sweep repair SPEC``, :func:`repair_store`).
+
 A record stands for a run of the current spec when its point, repetition, seed and config
 digest all match — a changed spec recomputes exactly the points it changed, as with
 ``--resume``. When a run has several matching records (a sweep run again without
@@ -53,7 +58,8 @@ import rfsim
 from rfsim.runs.registry import load_scenario
 from rfsim.core.config import to_toml
 from rfsim.core.dataset import Column, Dataset, git_revision, utc_now
-from rfsim.core.errors import UserError
+from rfsim.core.errors import ResourceError, UserError, write_failure
+from rfsim.core.outputs import atomic_path
 
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
@@ -234,9 +240,15 @@ class SegmentWriter:
                buffers: Iterable[bytes]) -> int:
         """Append one record and its index entry; returns the record's offset in the log."""
         record = encode_record(header, buffers)
-        _write_all(self._log, record)
         entry = np.array([(point, repetition, seed, self.offset, len(record), digest)], INDEX_DTYPE)
-        _write_all(self._index, entry.tobytes())
+        try:
+            _write_all(self._log, record)
+            _write_all(self._index, entry.tobytes())
+        except OSError as err:  # disk full, I/O error: one line naming the segment
+            failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
+            if failure is None:
+                raise
+            raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
         offset = self.offset
         self.offset += len(record)
         self.records += 1
@@ -358,8 +370,58 @@ def segments(store: Path) -> list[Path]:
     return sorted(store.glob("seg-*.log")) if store.is_dir() else []
 
 
+#: Shortest record: prefix, empty header and payload, CRC [bytes].
+MIN_RECORD_BYTES = _PREFIX.size + _CRC.size
+#: Bounds of a valid index entry: far above any sweep (10¹² points, 4·10⁶ repetitions,
+#: 1 TB records) and low enough that ``point * (max repetition + 1)`` fits in int64.
+MAX_POINT, MAX_REPETITION, MAX_RECORD_BYTES = 2**40, 2**22, 2**40
+
+
+class DamagedIndexError(UserError):
+    """An index file of the point store is not what its writer appended: it names the file
+    and the command that rebuilds it from its log (``rfsim sweep repair SPEC``)."""
+
+    def __init__(self, index: Path, why: str, spec: str = "SPEC.toml"):
+        self.index, self.why, self.spec = Path(index), why, spec
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        return (f"point store index {str(self.index)!r} is damaged ({self.why}); rebuild it from its "
+                f"log with: rfsim sweep repair {self.spec} (then continue with --resume)")
+
+    def __reduce__(self):
+        return (type(self), (self.index, self.why, self.spec))
+
+
+def check_index(entries: np.ndarray, index: Path) -> None:
+    """:class:`DamagedIndexError` unless every entry of ``index`` is one its writer appended:
+    point, repetition and length in bounds and each record starting where the one before
+    ended (the writer appends records back to back from offset 0)."""
+    if not len(entries):
+        return
+    point, rep = entries["point"], entries["repetition"]
+    offset, length = entries["offset"], entries["length"]
+    checks = [((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
+              ((rep < 0) | (rep >= MAX_REPETITION), f"a repetition outside [0, {MAX_REPETITION})"),
+              ((length < MIN_RECORD_BYTES) | (length > MAX_RECORD_BYTES), "a record length out of bounds"),
+              ((offset < 0) | (offset > MAX_RECORD_BYTES * MAX_POINT), "an offset out of bounds")]
+    first = [(int(np.argmax(bad)), what) for bad, what in checks if bad.any()]
+    if first:  # the first damaged entry is named
+        k, what = min(first, key=lambda hit: hit[0])
+        raise DamagedIndexError(index, f"entry {k} of {len(entries)} has {what}")
+    expected = np.concatenate([[0], np.cumsum(length[:-1])])  # no overflow: bounded above
+    gaps = offset != expected
+    if gaps.any():
+        k = int(np.argmax(gaps))
+        raise DamagedIndexError(index, f"entry {k} of {len(entries)} points at byte {int(offset[k])}, "
+                                       f"where the records before it end at byte {int(expected[k])}")
+
+
 def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
-    """(log, index entries of its complete records) of every segment, oldest first."""
+    """(log, index entries of its complete records) of every segment, oldest first.
+
+    Every index entry is checked (:func:`check_index`); a damaged index file is a
+    :class:`DamagedIndexError` naming it."""
     for log in segments(store):
         index = log.with_suffix(".idx")
         try:
@@ -369,13 +431,40 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
             continue
         n = len(raw) // INDEX_DTYPE.itemsize
         entries = np.frombuffer(raw[:n * INDEX_DTYPE.itemsize], INDEX_DTYPE)
-        entries = entries[entries["offset"] + entries["length"] <= size]
+        check_index(entries, index)
+        entries = entries[entries["offset"] + entries["length"] <= size]  # a log cut short (crash)
         end = int((entries["offset"] + entries["length"]).max()) if len(entries) else 0
         if end < size:  # records written after the last index entry (killed in between)
             extra = _scan_log(log, end, size)
             if extra:
                 entries = np.concatenate([entries, np.array(extra, INDEX_DTYPE)])
         yield log, entries
+
+
+def rebuild_index(log: Path) -> int:
+    """Rewrite the index of segment ``log`` from the log itself (its complete, CRC-valid
+    records from the start, up to the first damaged one); returns the number of entries.
+    The new index replaces the old one atomically. Only while no sweep writes the store."""
+    index = log.with_suffix(".idx")
+    entries = np.array(_scan_log(log, 0, log.stat().st_size), INDEX_DTYPE)
+    with atomic_path(index, f"the point store index {str(index)!r}") as tmp:
+        tmp.write_bytes(entries.tobytes())
+    return len(entries)
+
+
+def repair_store(store: Path) -> list[tuple[Path, int]]:
+    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`);
+    returns (index, entries) of each one rebuilt."""
+    repaired = []
+    for log in segments(store):
+        index = log.with_suffix(".idx")
+        raw = index.read_bytes() if index.exists() else b""
+        entries = np.frombuffer(raw[:len(raw) // INDEX_DTYPE.itemsize * INDEX_DTYPE.itemsize], INDEX_DTYPE)
+        try:
+            check_index(entries, index)
+        except DamagedIndexError:
+            repaired.append((index, rebuild_index(log)))
+    return repaired
 
 
 class StoreIndex:
@@ -483,6 +572,10 @@ __all__ = [
     "StoreIndex",
     "RecordReader",
     "CorruptRecordError",
+    "DamagedIndexError",
+    "check_index",
+    "rebuild_index",
+    "repair_store",
     "SegmentWriter",
     "INDEX_DTYPE",
     "SYNC_INTERVAL_S",

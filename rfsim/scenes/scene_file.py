@@ -52,7 +52,7 @@ from typing import Any, Literal
 import numpy as np
 
 from rfsim.core.config import from_dict, param, parse_override
-from rfsim.core.errors import ConfigError, UserError
+from rfsim.core.errors import ConfigError, UserError, did_you_mean
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.records import READ_MEASUREMENT_FIELDS
@@ -210,7 +210,8 @@ def _fields(cls) -> set[str]:
 
 
 def _unknown(key: str, value: Any, allowed: set[str]) -> ConfigError:
-    return ConfigError(key, value, f"a known key (one of {', '.join(sorted(allowed))})")
+    hint = did_you_mean(key.rsplit(".", 1)[-1], allowed)
+    return ConfigError(key, value, "a known key" + (hint or f" (one of {', '.join(sorted(allowed))})"))
 
 
 def _table(data: Any, key: str) -> dict:
@@ -249,7 +250,8 @@ def parse_scene(data: dict) -> SceneSpec:
     for k in data:
         if k not in SECTIONS:
             extra = " (not supported in scene files yet)" if k in NOT_SUPPORTED else ""
-            raise ConfigError(k, "…", f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run]")
+            form = f"[[{k}]]" if isinstance(data[k], list) else f"[{k}]" if isinstance(data[k], dict) else f"{k} = …"
+            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run]")
     scene = _table(data.get("scene", {}), "scene")
     for k in scene:
         if k != "description":

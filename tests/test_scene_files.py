@@ -86,12 +86,12 @@ def test_the_trolley_tag_moves_with_its_velocity(tmp_path):
     reads = _read(out, "reads")
     moving = reads["tag"] == 0
     assert moving.any()
-    # tag 0 starts at (-0.2, 0, 0.9) moving at 1.5 m/s along x; port 1 at (0, -1, 1)
+    # tag 0 starts at (-0.2, 0, 0.9) moving at 3 m/s along x; port 1 at (0, -1, 1)
     t = reads["time_s"][moving]
     port = np.where(reads["antenna"][moving] == 1, -1.0, 1.0)
-    expect = np.sqrt((-0.2 + 1.5 * t) ** 2 + port ** 2 + 0.1 ** 2)
+    expect = np.sqrt((-0.2 + 3.0 * t) ** 2 + port ** 2 + 0.1 ** 2)
     np.testing.assert_allclose(reads["true_distance_m"][moving], expect, rtol=1e-12)
-    assert np.all(np.abs(reads["doppler_hz"][moving]) < 50.0)  # 1.5 m/s at 915 MHz: |2v/λ| ≤ 9.2 Hz, plus noise
+    assert np.all(np.abs(reads["doppler_hz"][moving]) < 50.0)  # 3 m/s at 928 MHz: |2v/λ| ≤ 18.6 Hz, plus noise
 
 
 def test_one_reader_one_tag_equals_the_same_deployment_built_in_python(tmp_path):

@@ -532,9 +532,9 @@ def plot(dataset_path, out_dir) -> list[Path]:
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "reads")))
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-    a1.plot(reads["time_s"], reads["rssi_dbm"], ".", ms=3)
-    a1.set(ylabel="RSSI [dBm]", title="per read")
-    a2.plot(reads["time_s"], reads["phase_rad"], ".", ms=3)
+    a1.scatter(reads["time_s"], reads["rssi_dbm"], s=4, c=reads["tag"], cmap="viridis")
+    a1.set(ylabel="RSSI [dBm]", title="per read (colour: tag index)")
+    a2.scatter(reads["time_s"], reads["phase_rad"], s=4, c=reads["tag"], cmap="viridis")
     a2.set(xlabel="time [s]", ylabel="phase [rad]")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
     return out

@@ -69,6 +69,9 @@ def test_the_shelf_uses_both_readers_and_both_ports_and_reads_every_tag(tmp_path
     reads, slots = _read(out, "reads"), _read(out, "slots")
     assert set(slots["reader"]) == {0, 1} and set(slots["antenna"]) == {1, 2}
     assert set(reads["tag"]) == set(range(6))
+    walls = _read(out, "walls")
+    assert walls["start_x_m"].tolist() == [2.5] and walls["end_y_m"].tolist() == [3.0]
+    assert walls["attenuation_db"].tolist() == [3.0]
     # true distance from the reading port to the tag, recomputed from the file's geometry
     tags, ports = _read(out, "tags"), _read(out, "readers")
     k = 0

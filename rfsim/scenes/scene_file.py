@@ -433,7 +433,7 @@ SLOT_COLUMNS = {
 
 
 def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
-    """The dataset: tables ``reads``, ``slots``, ``readers`` (one row per antenna port) and ``tags``."""
+    """The dataset: tables ``reads``, ``slots``, ``readers`` (one row per antenna port), ``tags`` and ``walls``."""
     d = _dataset
     ds = d.Dataset(title=spec.description or "scene file: Gen2 inventory of a described deployment")
 
@@ -475,6 +475,12 @@ def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
            for k, c in enumerate("xyz")},
         "sensitivity_dbm": d.column(np.array([e.config.sensitivity_dbm for e in t]), "dBm", "chip sensitivity"),
     }, "one tag (index = tag column of reads)")
+    w = spec.walls
+    ds.add_table("walls", {
+        **{f"{e}_{c}_m": d.column(np.array([getattr(x, f"{e}_m")[k] for x in w], float), "m", f"wall segment {e} {c}")
+           for e in ("start", "end") for k, c in enumerate("xy")},
+        "attenuation_db": d.column(np.array([x.attenuation_db for x in w], float), "dB", "loss per crossing"),
+    }, "one vertical wall over a floor-plan segment")
     return ds
 
 
@@ -505,12 +511,16 @@ def run(config: Config, *, seed: int):
 
 
 def plot(dataset_path, out_dir) -> list[Path]:
-    """Figures: geometry (top view), reads per tag over time, RSSI per read."""
+    """Figures: geometry (top view: ports, tags, velocities, walls), reads per tag over time,
+    RSSI and phase per read."""
     plt = pyplot()
-    reads, ports, tags = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags"))
+    reads, ports, tags, walls = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags", "walls"))
     out = []
     fig, ax = plt.subplots(figsize=(6, 5))
     ax.scatter(tags["x_m"], tags["y_m"], s=12, c="tab:green", label="tags (t = 0)")
+    for k in range(len(walls["attenuation_db"])):
+        ax.plot([walls["start_x_m"][k], walls["end_x_m"][k]], [walls["start_y_m"][k], walls["end_y_m"][k]], "-",
+                color="0.4", lw=3, label=f"wall {walls['attenuation_db'][k]:g} dB")
     moving = (tags["vx_m_s"] != 0) | (tags["vy_m_s"] != 0)
     for k in np.flatnonzero(moving):
         ax.arrow(tags["x_m"][k], tags["y_m"][k], tags["vx_m_s"][k], tags["vy_m_s"][k], width=0.01,

@@ -168,3 +168,14 @@ def test_the_scenario_is_named_after_the_file_and_config_prints_it(capsys):
     assert main(["config", str(SCENES / "shelf.toml"), "--set", "run.session=2"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("scene_json = ") and '\\"session\\": 2' in out
+
+
+def test_the_link_scene_of_the_readme_runs(tmp_path):
+    readme = (SCENES / "README.md").read_text()
+    block = readme.split("```toml\n", 1)[1].split("```", 1)[0]
+    path = tmp_path / "link-2m.toml"
+    path.write_text(block)
+    out = tmp_path / "link-2m.h5"
+    assert main(["run", str(path), "--set", "run.max_rounds=2", "--no-plot", "-q", "-o", str(out)]) == 0
+    reads = _read(out, "reads")
+    assert reads["round"].tolist() == [0, 1] and np.all(reads["true_distance_m"] == 2.0)

@@ -11,6 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
+import rfsim
 from rfsim.channels.antennas import Antenna, HalfWaveDipole, Patch
 from rfsim.channels.scene import Channel, Scene
 from rfsim.cli import main
@@ -21,6 +22,7 @@ from rfsim.devices.tag import PassiveTag
 from rfsim.devices.tag_config import TagConfig
 from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
 from rfsim.runs import registry
+from rfsim.scenes.scene_file import scene_config
 
 SCENES = Path(__file__).resolve().parents[1] / "examples" / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.toml"))
@@ -173,9 +175,18 @@ def test_the_scenario_is_named_after_the_file_and_config_prints_it(capsys):
 def test_the_link_scene_of_the_readme_runs(tmp_path):
     readme = (SCENES / "README.md").read_text()
     block = readme.split("```toml\n", 1)[1].split("```", 1)[0]
+    assert "[[reader]]" in block
     path = tmp_path / "link-2m.toml"
     path.write_text(block)
     out = tmp_path / "link-2m.h5"
     assert main(["run", str(path), "--set", "run.max_rounds=2", "--no-plot", "-q", "-o", str(out)]) == 0
     reads = _read(out, "reads")
     assert reads["round"].tolist() == [0, 1] and np.all(reads["true_distance_m"] == 2.0)
+
+
+def test_rfsim_run_in_python_gives_the_reads_of_the_command_line(tmp_path):
+    path = SCENES / "one-reader-one-tag.toml"
+    out = tmp_path / "x.h5"
+    assert main(["run", str(path), "--set", "run.max_rounds=2", "--seed", "7", "--no-plot", "-q", "-o", str(out)]) == 0
+    result = rfsim.run(str(path), seed=7, config=scene_config(path, ["run.max_rounds=2"]), progress=False)
+    np.testing.assert_array_equal(result.table("reads")["rssi_dbm"].to_numpy(), _read(out, "reads")["rssi_dbm"])

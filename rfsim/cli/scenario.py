@@ -2,7 +2,8 @@
 
 ``NAME`` is a scenario of ``rfsim list`` (built-in or installed plug-in) or the path of a
 scenario file (``rfsim run my_scenario.py``: a module with ``NAME``, ``DESCRIPTION``,
-``Config``, ``run`` and ``plot``; :mod:`rfsim.runs.registry`).
+``Config``, ``run`` and ``plot``; :mod:`rfsim.runs.registry`) or of a scene file
+(``rfsim run my-scene.toml``, :mod:`rfsim.scenes.scene_file`: the file is the config).
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ from rfsim.core.errors import SEED_RANGE_TEXT, UserError, check_seed
 from rfsim.runs.registry import get_scenario, scenario_descriptions
 
 
-_SCENARIO_HELP = "scenario name (see 'rfsim list') or path of a scenario file (my_scenario.py)"
+_SCENARIO_HELP = ("scenario name (see 'rfsim list'), path of a scenario file (my_scenario.py) "
+                  "or of a scene file (my-scene.toml)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -61,6 +63,8 @@ def _add_config_args(p: argparse.ArgumentParser) -> None:
 
 def _resolve(args: argparse.Namespace):
     module = get_scenario(args.scenario)
+    if hasattr(module, "scene_config"):  # a scene file is its own config
+        return module, module.scene_config(args.config, args.overrides)
     return module, load_config(module.Config, args.config, args.overrides)
 
 

@@ -10,6 +10,9 @@ dataclass ``Config``, ``run(config, *, seed) -> Dataset`` and ``plot(dataset_pat
   file's absolute path, so that any process that imported this registry (a sweep worker, a
   Dask worker) imports the same file by that name (:class:`_ScenarioFileFinder`) and can
   unpickle its ``Config``;
+* a scene file: ``get_scenario("path/to/my-scene.toml")`` (``rfsim run my-scene.toml``), a
+  TOML file whose top level has ``[[reader]]`` (:mod:`rfsim.scenes.scene_file`): its scenario
+  is named after the file's stem and its config is the file itself;
 * a plug-in: an installed distribution that declares an entry point in the group
   ``rfsim.scenarios`` (``[project.entry-points."rfsim.scenarios"] my-scenario =
   "my_package.my_scenario"``); the entry point names the module. A plug-in whose ``NAME``
@@ -40,6 +43,8 @@ ENTRY_POINT_GROUP = "rfsim.scenarios"
 FILE_MODULE_PREFIX = "rfsim_scenario_file_"
 #: Suffixes of scenario files.
 FILE_SUFFIXES = (".py",)
+#: Suffix of scene files (a deployment described in TOML).
+SCENE_SUFFIX = ".toml"
 
 
 def file_module_name(path: str | Path) -> str:
@@ -110,6 +115,20 @@ def scenario_from_file(path: str | Path) -> ModuleType:
         raise UserError(f"scenario file {str(p)!r} is not a scenario: it lacks {', '.join(missing)} "
                         f"(a scenario defines {', '.join(_REQUIRED)})")
     return module
+
+
+def scene_from_file(path: str | Path) -> ModuleType:
+    """The scenario of the scene file ``path`` (:func:`rfsim.scenes.scene_file.scenario_module`);
+    a missing file or a TOML file without ``[[reader]]`` (e.g. a scenario's ``-c`` config) is a
+    one-line user error."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"scene file {str(p)!r}: no such file")
+    scene_file = importlib.import_module("rfsim.scenes.scene_file")
+    if not scene_file.is_scene_file(p):
+        raise UserError(f"{str(p)!r} is not a scene file: a scene file is TOML with [[reader]] tables at its "
+                        f"top level (a scenario's config file goes after -c)")
+    return scene_file.scenario_module(p)
 
 
 def _entry_points() -> list:
@@ -248,6 +267,8 @@ def get_scenario(name: str | Path) -> ModuleType:
     ``rfsim.scenarios.gen2_waveforms``), so one scenario's imports are paid, not all of them;
     then every built-in and plug-in scenario.
     """
+    if str(name).endswith(SCENE_SUFFIX):
+        return scene_from_file(name)
     if isinstance(name, Path) or is_scenario_file(name):
         return scenario_from_file(name)
     if name and name.replace("-", "_").isidentifier():
@@ -283,4 +304,4 @@ def load_scenario(module_name: str) -> ModuleType:
 
 
 __all__ = ["scenario_modules", "builtin_modules", "plugin_modules", "scenario_descriptions", "get_scenario",
-           "load_scenario", "scenario_from_file", "file_module_name", "is_scenario_file", "ENTRY_POINT_GROUP"]
+           "load_scenario", "scenario_from_file", "scene_from_file", "file_module_name", "is_scenario_file", "ENTRY_POINT_GROUP"]

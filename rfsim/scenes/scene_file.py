@@ -1,0 +1,577 @@
+"""Scene files: a Gen2 deployment described in TOML and run as a scenario.
+
+``rfsim run my-scene.toml`` runs the deployment a user writes down: readers with antenna
+ports, passive tags (static or moving on a straight line), the channel, and the Gen2
+inventory settings. A TOML file is a scene file when its top level has ``[[reader]]``
+(:func:`is_scene_file`); a scenario's ``-c`` config never has that table. The keys, with
+units, are listed in ``examples/scenes/README.md``; every key is validated like a scenario
+config (a one-line :class:`~rfsim.core.errors.ConfigError` naming the key, e.g.
+``reader[1].antenna[0].position_m``).
+
+Sections:
+
+* ``[scene]``: ``description`` (optional text).
+* ``[[reader]]``: any :class:`rfsim.devices.reader_config.ReaderConfig` key (``link_profile``,
+  ``ptx_dbm``, ``region``, ``channels_hz``, ``hopping``, ``dwell_s``, ``fixed_channel``, ...)
+  plus ``name`` and one or more ``[[reader.antenna]]`` ports (:class:`AntennaSpec`), used in
+  turn, one per inventory round (round robin, :meth:`rfsim.devices.reader.Reader.antenna_index`).
+* ``[[tag]]``: any :class:`rfsim.devices.tag_config.TagConfig` key (``epc_hex``,
+  ``sensitivity_dbm``, ``modulation``, ...) plus the pose and motion of :class:`TagSpec`
+  (``count`` tags in a row ``step_m`` apart; ``velocity_m_s`` moves them on a straight line
+  from ``position_m`` at t = 0).
+* ``[channel]``: :class:`ChannelSpec` (large scale, floor reflection, APDP) with optional
+  ``[[channel.wall]]`` tables (:class:`WallSpec`).
+* ``[run]``: any :class:`rfsim.protocols.inventory.InventoryConfig` key (``session``,
+  ``q_initial``, ``q_mode``, ``target``, ``max_rounds``, ...) plus ``duration_s``.
+
+How it runs (:func:`run_scene`): the readers take turns (time division; one transmits at a
+time, no reader-to-reader interference is modelled). Reader i runs one inventory
+(:func:`rfsim.protocols.inventory.run_inventory` over a sample-level
+:class:`~rfsim.protocols.inventory.EngineAir`: rounds until one without a reply, at most
+``run.max_rounds``), then switches its CW off (every tag loses power) and hands over to reader
+i + 1. With ``duration_s = 0`` every reader runs once; with ``duration_s > 0`` the cycle of
+readers repeats until the air time reaches ``duration_s``.
+
+Randomness (``seed`` is the run's root seed, :func:`rfsim.core.rng.trial_rng`): reader i
+(its hop table) ``trial_rng(seed, 1, i)``; tag k (in file order, rows expanded)
+``trial_rng(seed, 3, k)``; the channel draws and receiver noise of reader i
+``trial_rng(seed, 2, i)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import tomllib
+from dataclasses import dataclass, replace
+from pathlib import Path
+from types import ModuleType
+from typing import Any, Literal
+
+import numpy as np
+
+from rfsim.core.config import from_dict, param, parse_override
+from rfsim.core.errors import ConfigError, UserError, did_you_mean
+from rfsim.core.lazy import lazy_import
+from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.records import READ_MEASUREMENT_FIELDS
+from rfsim.core.rng import trial_rng
+from rfsim.devices.reader_config import ReaderConfig
+from rfsim.devices.tag_config import TagConfig
+from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+
+_antennas = lazy_import("rfsim.channels.antennas")
+_large_scale = lazy_import("rfsim.channels.large_scale")
+_small_scale = lazy_import("rfsim.channels.small_scale")
+_scene = lazy_import("rfsim.channels.scene")
+_surfaces = lazy_import("rfsim.channels.surfaces")
+_reader = lazy_import("rfsim.devices.reader")
+_tag = lazy_import("rfsim.devices.tag")
+_dataset = lazy_import("rfsim.core.dataset")
+
+#: Top-level sections of a scene file.
+SECTIONS = ("scene", "reader", "tag", "channel", "run")
+#: Device kinds of other scenarios that scene files do not describe (yet).
+NOT_SUPPORTED = ("sense_a_tag", "exciter", "beacon", "himr")
+
+
+@dataclass(frozen=True)
+class AntennaSpec:
+    """One antenna port of a reader or the antenna of a tag (errors name ``…antenna[j].<key>``)."""
+
+    position_m: tuple[float, float, float] = param((0.0, 0.0, 1.0), lo=-1e4, hi=1e4, unit="m",
+                                                   doc="antenna position (x, y, z)")
+    orientation_deg: tuple[float, float, float] = param(
+        (0.0, 0.0, 0.0), lo=-360.0, hi=360.0, unit="deg",
+        doc="(azimuth, elevation, roll): boresight direction (azimuth from +x towards +y)")
+    pattern: Literal["isotropic", "dipole", "patch"] = param(
+        "patch", doc="isotropic, half-wave dipole (axis along local z) or patch (boresight local +x)")
+    gain_dbi: float = param(6.0, lo=-20.0, hi=30.0, unit="dBi", doc="patch peak gain (isotropic: its gain)")
+    beamwidth_deg: float = param(70.0, lo=10.0, hi=180.0, unit="deg", doc="patch half-power beamwidth")
+    polarization: Literal["linear", "circular"] = param("circular", doc="antenna polarization")
+
+    def antenna(self):
+        """The :class:`rfsim.channels.antennas.Antenna` this spec describes."""
+        a = _antennas
+        if self.pattern == "patch":
+            pattern = a.Patch(self.gain_dbi, self.beamwidth_deg)
+        elif self.pattern == "dipole":
+            pattern = a.HalfWaveDipole()
+        else:
+            pattern = a.Isotropic(10.0 ** (self.gain_dbi / 10.0))
+        return a.Antenna(position_m=self.position_m, orientation=tuple(math.radians(v) for v in self.orientation_deg),
+                         pattern=pattern, polarization=self.polarization)
+
+
+@dataclass(frozen=True)
+class TagSpec:
+    """Pose, antenna and motion of a ``[[tag]]`` entry (the rest of its keys are TagConfig's)."""
+
+    position_m: tuple[float, float, float] = param((1.0, 0.0, 1.0), lo=-1e4, hi=1e4, unit="m",
+                                                   doc="position of the (first) tag at t = 0")
+    orientation_deg: tuple[float, float, float] = param(
+        (180.0, 0.0, 0.0), lo=-360.0, hi=360.0, unit="deg", doc="(azimuth, elevation, roll) of the tag antenna")
+    pattern: Literal["isotropic", "dipole"] = param("dipole", doc="tag antenna pattern (half-wave dipole)")
+    polarization: Literal["linear", "circular"] = param("linear", doc="tag antenna polarization")
+    count: int = param(1, lo=1, hi=10000, doc="tags in a row: tag n at position_m + n·step_m, EPCs numbered")
+    step_m: tuple[float, float, float] = param((0.05, 0.0, 0.0), lo=-1e3, hi=1e3, unit="m",
+                                               doc="spacing of the row (count > 1)")
+    velocity_m_s: tuple[float, float, float] = param((0.0, 0.0, 0.0), lo=-100.0, hi=100.0, unit="m/s",
+                                                     doc="straight-line motion: position_m + v·t")
+
+
+@dataclass(frozen=True)
+class WallSpec:
+    """A vertical wall over a floor-plan segment (``[[channel.wall]]``)."""
+
+    start_m: tuple[float, float] = param((0.0, 0.0), lo=-1e4, hi=1e4, unit="m", doc="segment start (x, y)")
+    end_m: tuple[float, float] = param((1.0, 0.0), lo=-1e4, hi=1e4, unit="m", doc="segment end (x, y)")
+    attenuation_db: float = param(5.0, lo=0.0, hi=100.0, unit="dB", doc="loss per crossing (WAF)")
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """The ``[channel]`` table."""
+
+    large_scale: Literal["friis", "log_distance"] = param("friis", doc="large-scale path-loss model")
+    path_loss_exponent: float = param(2.0, lo=1.0, hi=6.0, unit="1", doc="log_distance: exponent n")
+    d0_m: float = param(1.0, lo=0.01, hi=100.0, unit="m", doc="log_distance: reference distance (free space there)")
+    floor: bool = param(False, doc="floor reflection at z = 0 (image method)")
+    floor_eps_r: float = param(5.3, lo=1.0, hi=100.0, unit="1", doc="floor relative permittivity (concrete 5.3)")
+    apdp: bool = param(False, doc="exponential APDP diffuse taps, drawn per round (PASS room curves)")
+    k_a_db: float = param(60.0, lo=-100.0, hi=200.0, unit="dB", doc="APDP K(d) = k_a_db·10^(−k_b·d) + k_c_db")
+    k_b: float = param(0.02, lo=0.0, hi=10.0, unit="1/m", doc="APDP K-factor decay")
+    k_c_db: float = param(-30.0, lo=-100.0, hi=100.0, unit="dB", doc="APDP K-factor offset")
+    tau_max_s: float = param(70e-9, lo=0.0, hi=1e-5, lo_open=True, unit="s",
+                             doc="APDP τrms(d) = tau_max_s·(1 − 10^(−tau_b·d))")
+    tau_b: float = param(0.03, lo=0.0, hi=10.0, lo_open=True, unit="1/m", doc="APDP delay-spread growth")
+
+    def scene(self, walls: tuple = ()):
+        """The :class:`rfsim.channels.scene.Scene` of this table and the walls."""
+        surfaces = ((_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=self.floor_eps_r),)
+                    if self.floor else ())
+        large = (_large_scale.LogDistance(exponent=self.path_loss_exponent, d0_m=self.d0_m)
+                 if self.large_scale == "log_distance" else None)
+        apdp = (_small_scale.ApdpModel(k_a_db=self.k_a_db, k_b=self.k_b, k_c_db=self.k_c_db,
+                                       tau_max_s=self.tau_max_s, tau_b=self.tau_b) if self.apdp else None)
+        walls = tuple(_large_scale.Wall.segment_2d(w.start_m, w.end_m, w.attenuation_db) for w in walls)
+        return _scene.Scene(surfaces=surfaces, walls=walls, large_scale=large, apdp=apdp, image_order=1)
+
+
+@dataclass(frozen=True)
+class ReaderSpec:
+    """One ``[[reader]]``: its name, config and antenna ports."""
+
+    name: str
+    config: ReaderConfig
+    antennas: tuple[AntennaSpec, ...]
+
+
+@dataclass(frozen=True)
+class TagEntry:
+    """One tag after the rows of ``[[tag]]`` are expanded."""
+
+    config: TagConfig
+    antenna: AntennaSpec
+    velocity_m_s: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A validated scene file."""
+
+    description: str
+    readers: tuple[ReaderSpec, ...]
+    tags: tuple[TagEntry, ...]
+    channel: ChannelSpec
+    walls: tuple[WallSpec, ...]
+    inventory: InventoryConfig
+    duration_s: float
+
+
+# ------------------------------------------------------------------------------ parsing
+
+
+def is_scene_file(path: str | Path) -> bool:
+    """Whether ``path`` is a readable ``.toml`` file whose top level has ``[[reader]]``."""
+    p = Path(path)
+    if p.suffix != ".toml" or not p.is_file():
+        return False
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return False
+    return isinstance(data.get("reader"), list)
+
+
+def _fields(cls) -> set[str]:
+    return {f.name for f in dataclasses.fields(cls) if f.init}
+
+
+def _unknown(key: str, value: Any, allowed: set[str]) -> ConfigError:
+    hint = did_you_mean(key.rsplit(".", 1)[-1], allowed)
+    return ConfigError(key, value, "a known key" + (hint or f" (one of {', '.join(sorted(allowed))})"))
+
+
+def _table(data: Any, key: str) -> dict:
+    if not isinstance(data, dict):
+        raise ConfigError(key, data, "a table")
+    return data
+
+
+def _array_of_tables(data: Any, key: str, *, required: bool) -> list:
+    if data is None:
+        if required:
+            raise ConfigError(key, None, f"at least one [[{key}]] table")
+        return []
+    if not isinstance(data, list) or not all(isinstance(d, dict) for d in data) or (required and not data):
+        raise ConfigError(key, data, f"an array of tables ([[{key}]])")
+    return data
+
+
+def _split(data: dict, a: set[str], b: set[str], prefix: str, extra: tuple[str, ...] = ()) -> tuple[dict, dict]:
+    """Split a table's keys between two sets of names (unknown keys: one-line error)."""
+    left, right = {}, {}
+    for k, v in data.items():
+        if k in extra:
+            continue
+        if k in a:
+            left[k] = v
+        elif k in b:
+            right[k] = v
+        else:
+            raise _unknown(f"{prefix}.{k}", v, a | b | set(extra))
+    return left, right
+
+
+def parse_scene(data: dict) -> SceneSpec:
+    """Validate a scene file's tables (:func:`tomllib.loads` output) into a :class:`SceneSpec`."""
+    for k in data:
+        if k not in SECTIONS:
+            extra = " (not supported in scene files yet)" if k in NOT_SUPPORTED else ""
+            form = f"[[{k}]]" if isinstance(data[k], list) else f"[{k}]" if isinstance(data[k], dict) else f"{k} = …"
+            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run]")
+    scene = _table(data.get("scene", {}), "scene")
+    for k in scene:
+        if k != "description":
+            raise _unknown(f"scene.{k}", scene[k], {"description"})
+    description = scene.get("description", "")
+    if not isinstance(description, str):
+        raise ConfigError("scene.description", description, "a string")
+
+    readers = []
+    for i, r in enumerate(_array_of_tables(data.get("reader"), "reader", required=True)):
+        prefix = f"reader[{i}]"
+        cfg, _ = _split(r, _fields(ReaderConfig), set(), prefix, extra=("name", "antenna"))
+        name = r.get("name", f"R{i + 1}")
+        if not isinstance(name, str) or not name:
+            raise ConfigError(f"{prefix}.name", name, "a non-empty string")
+        ants = tuple(from_dict(AntennaSpec, a, prefix=f"{prefix}.antenna[{j}]")
+                     for j, a in enumerate(_array_of_tables(r.get("antenna"), f"{prefix}.antenna", required=True)))
+        spec = ReaderSpec(name, from_dict(ReaderConfig, cfg, prefix=prefix), ants)
+        try:  # the checks a Reader makes of its config with its ports (dwell, channel, fs)
+            _reader.Reader(spec.config, [a.antenna() for a in ants], rng=np.random.default_rng(0))
+        except ConfigError as err:
+            key = prefix + err.key[len("reader"):] if err.key.startswith("reader.") else f"{prefix}.{err.key}"
+            raise ConfigError(key, err.value, err.allowed) from None
+        readers.append(spec)
+    if len({r.name for r in readers}) != len(readers):
+        raise ConfigError("reader.name", [r.name for r in readers], "distinct reader names")
+
+    tags = []
+    for i, t in enumerate(_array_of_tables(data.get("tag"), "tag", required=True)):
+        prefix = f"tag[{i}]"
+        pose_d, cfg_d = _split(t, _fields(TagSpec), _fields(TagConfig), prefix)
+        pose = from_dict(TagSpec, pose_d, prefix=prefix)
+        cfg = from_dict(TagConfig, cfg_d, prefix=prefix)
+        for n in range(pose.count):
+            pos = tuple(p + n * s for p, s in zip(pose.position_m, pose.step_m))
+            ant = AntennaSpec(position_m=pos, orientation_deg=pose.orientation_deg, pattern=pose.pattern,
+                              gain_dbi=0.0, polarization=pose.polarization)
+            epc = cfg.epc_hex if "epc_hex" in cfg_d and pose.count == 1 else None
+            tags.append((cfg, ant, pose.velocity_m_s, epc))
+    entries = []
+    for k, (cfg, ant, vel, epc) in enumerate(tags):
+        # tags without an explicit EPC are numbered in file order: the template's length with k + 1
+        n_hex = len(cfg.epc_hex.replace(" ", ""))
+        entries.append(TagEntry(replace(cfg, epc_hex=epc or format(k + 1, f"0{n_hex}X")[-n_hex:]), ant, vel))
+    epcs = [e.config.epc_hex for e in entries]
+    if len(set(epcs)) != len(epcs):
+        raise ConfigError("tag.epc_hex", sorted({e for e in epcs if epcs.count(e) > 1}), "distinct EPCs")
+
+    ch = dict(_table(data.get("channel", {}), "channel"))
+    walls = tuple(from_dict(WallSpec, w, prefix=f"channel.wall[{j}]")
+                  for j, w in enumerate(_array_of_tables(ch.pop("wall", None), "channel.wall", required=False)))
+    channel = from_dict(ChannelSpec, ch, prefix="channel")
+
+    run = dict(_table(data.get("run", {}), "run"))
+    duration_s = run.pop("duration_s", 0.0)
+    if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not 0.0 <= duration_s <= 3600.0:
+        raise ConfigError("run.duration_s", duration_s, "a number in [0, 3600] s (0: each reader one inventory)")
+    for k in run:
+        if k not in _fields(InventoryConfig):
+            raise _unknown(f"run.{k}", run[k], _fields(InventoryConfig) | {"duration_s"})
+    inventory = from_dict(InventoryConfig, run, prefix="run")
+    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s))
+
+
+def _apply_override(data: dict, text: str) -> None:
+    """``--set a.b=value`` on the scene's tables (arrays of tables are addressed by index:
+    ``reader.0.ptx_dbm=20``)."""
+    path, value = parse_override(text)
+    node: Any = data
+    for depth, part in enumerate(path[:-1]):
+        where = ".".join(path[: depth + 1])
+        if isinstance(node, list):
+            if not part.isdigit() or int(part) >= len(node):
+                raise UserError(f"--set {text!r}: {where!r} must index one of the {len(node)} entries")
+            node = node[int(part)]
+        elif isinstance(node, dict):
+            node = node.setdefault(part, {})
+        if not isinstance(node, (dict, list)):
+            raise UserError(f"--set {text!r}: {where!r} is a plain value, not a table")
+    if isinstance(node, list):
+        raise UserError(f"--set {text!r}: name a key of one entry, e.g. reader.0.ptx_dbm=20")
+    node[path[-1]] = value
+
+
+def read_scene(path: str | Path, overrides=()) -> dict:
+    """The tables of scene file ``path`` with ``--set`` overrides applied (one-line user errors)."""
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise UserError(f"scene file {str(p)!r}: cannot be read ({err.strerror})") from None
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as err:
+        raise UserError(f"scene file {str(p)!r}: not valid TOML ({err})") from None
+    for text in overrides:
+        _apply_override(data, text)
+    return data
+
+
+# ------------------------------------------------------------------------------ building
+
+
+def build_readers(spec: SceneSpec, *, seed: int) -> list:
+    """One :class:`rfsim.devices.reader.Reader` per ``[[reader]]``, reader i on ``trial_rng(seed, 1, i)``."""
+    return [_reader.Reader(r.config, [a.antenna() for a in r.antennas], rng=trial_rng(seed, 1, i))
+            for i, r in enumerate(spec.readers)]
+
+
+def build_tags(spec: SceneSpec, *, seed: int) -> list:
+    """One :class:`rfsim.devices.tag.PassiveTag` per tag, tag k on ``trial_rng(seed, 3, k)``."""
+    return [_tag.PassiveTag(e.config, e.antenna.antenna(), rng=trial_rng(seed, 3, k)) for k, e in enumerate(spec.tags)]
+
+
+def _true_distance_m(reader_ant, tag_entry: TagEntry, t_s: float) -> float:
+    p = np.asarray(tag_entry.antenna.position_m) + np.asarray(tag_entry.velocity_m_s) * t_s
+    return float(np.linalg.norm(p - np.asarray(reader_ant.position_m)))
+
+
+def run_scene(spec: SceneSpec, *, seed: int) -> dict[str, dict[str, list]]:
+    """Run the scene (module docstring); returns the ``reads`` and ``slots`` rows.
+
+    Every row carries ``reader`` (0-based index); reads also the tag's true distance to the
+    reading antenna at the read time [m].
+    """
+    readers = build_readers(spec, seed=seed)
+    tags = build_tags(spec, seed=seed)
+    moving = any(any(v != 0.0 for v in e.velocity_m_s) for e in spec.tags)
+    motions = [np.asarray(e.velocity_m_s, float) for e in spec.tags] if moving else None
+    channel = _scene.Channel(spec.channel.scene(spec.walls))
+    airs = [EngineAir(r, tags, channel, rng=trial_rng(seed, 2, i), motions=motions) for i, r in enumerate(readers)]
+    reads: dict[str, list] = {}
+    slots: dict[str, list] = {}
+    t_s = 0.0
+    while True:
+        for i, air in enumerate(airs):
+            log = run_inventory(air, spec.inventory, t0_s=t_s)
+            t_s = log.t_end_s
+            air.cw_off(t_s)
+            for rows, part in ((reads, log.reads), (slots, log.slots)):
+                n = len(next(iter(part.values())))
+                rows.setdefault("reader", []).extend([i] * n)
+                for k, v in part.items():
+                    rows.setdefault(k, []).extend(v)
+            ants = readers[i].antennas
+            for tag, ant, t in zip(log.reads["tag"], log.reads["antenna"], log.reads["time_s"]):
+                d = _true_distance_m(ants[ant - 1], spec.tags[tag], t) if tag >= 0 else math.nan
+                reads.setdefault("true_distance_m", []).append(d)
+        if spec.duration_s <= 0.0 or t_s >= spec.duration_s:
+            break
+    reads.setdefault("true_distance_m", [])
+    return {"reads": reads, "slots": slots}
+
+
+# ------------------------------------------------------------------------------ dataset
+
+READ_COLUMNS = {
+    "time_s": ("s", "start of the ACK segment of the read"),
+    "reader": ("1", "reader (0-based index in file order, see table readers)"),
+    **{k: READ_MEASUREMENT_FIELDS[k] for k in ("antenna", "channel_index", "frequency_hz", "rssi_dbm",
+                                               "phase_rad", "doppler_hz", "snr_db")},
+    "tag": ("1", "tag (0-based index into table tags; -1 if not unique)"),
+    "epc_hex": ("", "EPC decoded (CRC-16 ok)"),
+    "round": ("1", "inventory round of the reader's inventory (0-based)"),
+    "n_replies": ("1", "tags that replied in the RN16 slot (> 1: capture)"),
+    "tag_incident_power_dbm": ("dBm", "CW power incident at the read tag (ACK)"),
+    "true_distance_m": ("m", "true distance reading antenna → tag at the read time"),
+}
+SLOT_COLUMNS = {
+    "time_s": ("s", "slot start (its command's segment)"),
+    "duration_s": ("s", "slot duration"),
+    "reader": ("1", "reader (0-based index)"),
+    "antenna": ("1", "reader antenna port (1-based)"),
+    "round": ("1", "inventory round (0-based)"),
+    "q": ("1", "Q of the slot"),
+    "slot_type": ("", "ground truth: empty, false_alarm, success, capture, collision or lost"),
+    "reader_view": ("", "what the reader saw: empty, success or collision"),
+    "n_replies": ("1", "tags that replied with an RN16"),
+    "tag": ("1", "tag read (-1: none)"),
+}
+
+
+def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
+    """The dataset: tables ``reads``, ``slots``, ``readers`` (one row per antenna port), ``tags`` and ``walls``."""
+    d = _dataset
+    ds = d.Dataset(title=spec.description or "scene file: Gen2 inventory of a described deployment")
+
+    def col(values, spec_, dtype=None):
+        units, doc = spec_
+        arr = np.asarray(values, dtype=dtype) if len(values) or dtype else np.asarray(values, dtype=float)
+        return d.column(arr, units, doc)
+
+    text_cols = {"epc_hex", "slot_type", "reader_view"}
+    int_cols = {"reader", "antenna", "channel_index", "tag", "round", "n_replies", "q"}
+
+    def table(src, columns):
+        out = {}
+        for k, s in columns.items():
+            dt = str if k in text_cols else (np.int64 if k in int_cols else float)
+            v = src.get(k, [])
+            out[k] = d.column(np.asarray(v, dtype=dt) if v else np.zeros(0, dtype="U1" if dt is str else dt), *s)
+        return out
+
+    ds.add_table("reads", table(rows["reads"], READ_COLUMNS), "one successful read (EPC decoded, CRC ok)")
+    ds.add_table("slots", table(rows["slots"], SLOT_COLUMNS), "one inventory slot of a reader")
+    ports = [(i, j, r.name, a) for i, r in enumerate(spec.readers) for j, a in enumerate(r.antennas)]
+    ds.add_table("readers", {
+        "reader": d.column(np.array([p[0] for p in ports], np.int64), "1", "reader (0-based)"),
+        "name": d.column(np.array([p[2] for p in ports], str), "", "reader name"),
+        "antenna": d.column(np.array([p[1] + 1 for p in ports], np.int64), "1", "antenna port (1-based)"),
+        "x_m": d.column(np.array([p[3].position_m[0] for p in ports]), "m", "port antenna x"),
+        "y_m": d.column(np.array([p[3].position_m[1] for p in ports]), "m", "port antenna y"),
+        "z_m": d.column(np.array([p[3].position_m[2] for p in ports]), "m", "port antenna z"),
+        "azimuth_deg": d.column(np.array([p[3].orientation_deg[0] for p in ports]), "deg", "boresight azimuth"),
+        "ptx_dbm": d.column(np.array([spec.readers[p[0]].config.ptx_dbm for p in ports]), "dBm", "TX power"),
+    }, "one reader antenna port")
+    t = spec.tags
+    ds.add_table("tags", {
+        "epc_hex": d.column(np.array([e.config.epc_hex for e in t], str), "", "EPC"),
+        **{f"{c}_m": d.column(np.array([e.antenna.position_m[k] for e in t]), "m", f"tag {c} at t = 0")
+           for k, c in enumerate("xyz")},
+        **{f"v{c}_m_s": d.column(np.array([e.velocity_m_s[k] for e in t]), "m/s", f"tag velocity along {c}")
+           for k, c in enumerate("xyz")},
+        "sensitivity_dbm": d.column(np.array([e.config.sensitivity_dbm for e in t]), "dBm", "chip sensitivity"),
+    }, "one tag (index = tag column of reads)")
+    w = spec.walls
+    ds.add_table("walls", {
+        **{f"{e}_{c}_m": d.column(np.array([getattr(x, f"{e}_m")[k] for x in w], float), "m", f"wall segment {e} {c}")
+           for e in ("start", "end") for k, c in enumerate("xy")},
+        "attenuation_db": d.column(np.array([x.attenuation_db for x in w], float), "dB", "loss per crossing"),
+    }, "one vertical wall over a floor-plan segment")
+    return ds
+
+
+# ------------------------------------------------------------------------------ scenario contract
+
+#: Description of a scene file's scenario when its ``[scene]`` has none.
+DESCRIPTION = "a Gen2 deployment described in a scene file (readers, tags, channel, inventory)"
+
+
+@dataclass(frozen=True)
+class Config:
+    """A scene file as a scenario config: its tables (with ``--set`` applied) as JSON text."""
+
+    scene_json: str = param("{}", doc="the scene file's tables as JSON")
+
+
+def scene_config(path: str | Path, overrides=()) -> Config:
+    """The validated :class:`Config` of scene file ``path`` (errors are one-line)."""
+    data = read_scene(path, overrides)
+    parse_scene(data)
+    return Config(scene_json=json.dumps(data, sort_keys=True))
+
+
+def run(config: Config, *, seed: int):
+    """Run the scene of ``config`` with root seed ``seed`` → Dataset."""
+    spec = parse_scene(json.loads(config.scene_json))
+    return scene_dataset(spec, run_scene(spec, seed=seed))
+
+
+def plot(dataset_path, out_dir) -> list[Path]:
+    """Figures: geometry (top view: ports, tags, velocities, walls), reads per tag over time,
+    RSSI and phase per read."""
+    plt = pyplot()
+    reads, ports, tags, walls = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags", "walls"))
+    out = []
+    fig, ax = plt.subplots(figsize=(6, 5))
+    ax.scatter(tags["x_m"], tags["y_m"], s=12, c="tab:green", label="tags (t = 0)")
+    for k in range(len(walls["attenuation_db"])):
+        ax.plot([walls["start_x_m"][k], walls["end_x_m"][k]], [walls["start_y_m"][k], walls["end_y_m"][k]], "-",
+                color="0.4", lw=3, label=f"wall {walls['attenuation_db'][k]:g} dB")
+    moving = (tags["vx_m_s"] != 0) | (tags["vy_m_s"] != 0)
+    for k in np.flatnonzero(moving):
+        ax.arrow(tags["x_m"][k], tags["y_m"][k], tags["vx_m_s"][k], tags["vy_m_s"][k], width=0.01,
+                 color="tab:green", length_includes_head=True)
+    for k in range(len(ports["x_m"])):
+        az = math.radians(ports["azimuth_deg"][k])
+        ax.plot(ports["x_m"][k], ports["y_m"][k], "s", color=f"C{ports['reader'][k] % 10}")
+        ax.arrow(ports["x_m"][k], ports["y_m"][k], 0.3 * math.cos(az), 0.3 * math.sin(az), width=0.01,
+                 color=f"C{ports['reader'][k] % 10}")
+        ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=7)
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="geometry (top view; arrows: boresight, velocity per 1 s)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(fontsize=7)
+    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "geometry")))
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.scatter(reads["time_s"], reads["tag"], s=6, c=reads["reader"], cmap="tab10", vmin=0, vmax=9)
+    ax.set(xlabel="time [s]", ylabel="tag index", title=f"reads per tag over time ({len(reads['time_s'])} reads)")
+    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "reads")))
+
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    a1.scatter(reads["time_s"], reads["rssi_dbm"], s=4, c=reads["tag"], cmap="viridis")
+    a1.set(ylabel="RSSI [dBm]", title="per read (colour: tag index)")
+    a2.scatter(reads["time_s"], reads["phase_rad"], s=4, c=reads["tag"], cmap="viridis")
+    a2.set(xlabel="time [s]", ylabel="phase [rad]")
+    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
+    return out
+
+
+def scenario_module(path: str | Path) -> ModuleType:
+    """The scenario of scene file ``path``: a module with ``NAME`` (the file's stem),
+    ``DESCRIPTION``, ``Config``, ``run``, ``plot`` and ``scene_config(toml_path, overrides)``
+    (the file's validated config; a ``-c`` config file is refused: the scene is its own)."""
+    p = Path(path)
+    data = read_scene(p)
+    description = data.get("scene", {}).get("description", "") if isinstance(data.get("scene"), dict) else ""
+
+    def config_of(toml_path=None, overrides=()) -> Config:
+        if toml_path is not None:
+            raise UserError(f"scene file {str(p)!r} is its own config: no -c file; change values with --set "
+                            f"(e.g. --set run.session=1 or --set reader.0.ptx_dbm=20)")
+        return scene_config(p, overrides)
+
+    module = ModuleType(f"{__name__}:{p.stem}", f"scene file {p}")
+    module.NAME = p.stem
+    module.DESCRIPTION = description or DESCRIPTION
+    module.Config, module.run, module.plot, module.scene_config = Config, run, plot, config_of
+    module.FIGURE_IMPORTS = ()
+    return module
+
+
+__all__ = ["scenario_module", "AntennaSpec", "TagSpec", "WallSpec", "ChannelSpec", "ReaderSpec", "TagEntry", "SceneSpec", "SECTIONS",
+           "is_scene_file", "parse_scene", "read_scene", "build_readers", "build_tags", "run_scene", "scene_dataset",
+           "Config", "scene_config", "run", "plot", "READ_COLUMNS", "SLOT_COLUMNS"]

@@ -190,3 +190,15 @@ def test_rfsim_run_in_python_gives_the_reads_of_the_command_line(tmp_path):
     assert main(["run", str(path), "--set", "run.max_rounds=2", "--seed", "7", "--no-plot", "-q", "-o", str(out)]) == 0
     result = rfsim.run(str(path), seed=7, config=scene_config(path, ["run.max_rounds=2"]), progress=False)
     np.testing.assert_array_equal(result.table("reads")["rssi_dbm"].to_numpy(), _read(out, "reads")["rssi_dbm"])
+
+
+def test_rfsim_run_takes_a_scene_file_with_overrides_and_no_config():
+    """``rfsim.run("scene.toml", **overrides)`` reads the scene as its own config; the overrides
+    are the command line's ``--set`` keys; a bad one is a one-line ConfigError naming it."""
+    path = SCENES / "one-reader-one-tag.toml"
+    a = rfsim.run(str(path), seed=7, progress=False, **{"run.max_rounds": 2})
+    b = rfsim.run(str(path), seed=7, config=scene_config(path, ["run.max_rounds=2"]), progress=False)
+    for name in ("time_s", "rssi_dbm", "phase_rad"):
+        np.testing.assert_array_equal(a.dataset.tables["reads"][name].data, b.dataset.tables["reads"][name].data)
+    with pytest.raises(rfsim.core.errors.UserError, match="reader"):
+        rfsim.run(str(path), progress=False, **{"reader.0.ptx": 20})

@@ -102,6 +102,13 @@ def resolve_config(module: ModuleType, config: Any = None, overrides: Mapping[st
     A wrong key, type or value raises a one-line :class:`~rfsim.core.errors.ConfigError`
     naming the dotted key, the same checks as the command line's.
     """
+    if hasattr(module, "scene_config"):  # a scene file is its own config; overrides as --set
+        if config is not None and not isinstance(config, module.Config):
+            raise UserError(f"config: scene file {module.NAME!r} is its own config; change values with "
+                            f"overrides (e.g. **{{'reader.0.ptx_dbm': 20}})")
+        if isinstance(config, module.Config):
+            return config
+        return module.scene_config(None, [f"{k}={_toml_literal(v)}" for k, v in (overrides or {}).items()])
     data: dict[str, Any] = {}
     if isinstance(config, (str, Path)):
         data = read_toml(config)
@@ -116,6 +123,19 @@ def resolve_config(module: ModuleType, config: Any = None, overrides: Mapping[st
     for key, value in (overrides or {}).items():
         _set_dotted(data, str(key), value)
     return from_dict(module.Config, data)
+
+
+def _toml_literal(value: Any) -> str:
+    """``value`` as the TOML text a ``--set KEY=VALUE`` takes (numbers, booleans, strings, arrays)."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_literal(v) for v in value) + "]"
+    if isinstance(value, str):
+        return json.dumps(value)
+    return repr(value)
 
 
 # ----------------------------------------------------------------------------- progress

@@ -156,7 +156,7 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     ----------
     reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
         ``antennas``, ``antenna_index``, ``link``)
-    tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
+    tags : reflectors of the air step (with reflect and antenna; a device with only
         ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
         or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population, whose
         members count as tags in the order given)

@@ -9,10 +9,9 @@ import os
 import re
 import sys
 import types
-from pathlib import Path
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _installed_version
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "examples" / "gallery"))
 os.environ.setdefault("MPLBACKEND", "Agg")
 # ``rfsim/__main__.py`` runs the command line when imported (``python -m rfsim``); the
 # API reference walks every module of the package, so it meets an empty stand-in instead.
@@ -22,10 +21,8 @@ project = "rfsim"
 author = "rfsim authors"
 copyright = "rfsim authors, MIT licence"
 try:
-    from importlib.metadata import version as _version
-
-    release = _version("rfsim")
-except Exception:  # a source tree that is not installed
+    release = _installed_version("rfsim")
+except PackageNotFoundError:  # a source tree that is not installed
     release = "0+unknown"
 version = release
 
@@ -51,7 +48,6 @@ autodoc_member_order = "bysource"
 # The signatures carry the type hints; the numpydoc "Parameters" sections carry types
 # and units in words. Repeating the hints in the description would double them.
 autodoc_typehints = "signature"
-autodoc_mock_imports: list[str] = []
 
 # numpydoc, with the conventions of numpy/scipy. Class pages list members through
 # autodoc, not through numpydoc's member tables (which would list each member twice).

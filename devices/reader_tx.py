@@ -21,6 +21,7 @@ power [W] at the antenna port, the complex baseband [√W] is
 
 A segment holds ``cw_before_s`` of CW (default one Tari), the command and ``cw_after_s`` of
 CW: ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples, ``T_cmd =
+LinkProfile.command_duration_s(cmd)``.
 """
 
 from __future__ import annotations

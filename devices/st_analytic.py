@@ -421,9 +421,10 @@ def synchronised_difference(cw, bs1, bs2, *, n_grid: int = 64, n_refine: int = 4
 
 @dataclass(frozen=True)
 class TechniqueOutcome:
-    """Envelope differences [V] and phase-cancellation flags of the four ST techniques.
+    """Envelope differences [V] and phase-cancellation flags of the four ST techniques
+    (arrays broadcast from the inputs).
 
-    Attributes (arrays broadcast from the inputs)
+    Attributes
     ----------
     diff_sa1_v, diff_sa2_v, diff_combined_v : actual ``|A1 − A2|`` at SA1, SA2, of the RF sum
     sync_sa1_v, sync_sa2_v, sync_combined_v : the same with the CW synchronised (θ = 0)

@@ -14,7 +14,8 @@ Select         ``1010`` | Target(3) | Action(3) | MemBank(2) | Pointer(EBV) | Le
                Mask(Length) | Truncate(1) | CRC-16
 NAK            ``11000000``                                                                 8
 Req_RN         ``11000001`` | RN16(16) | CRC-16                                              40
-Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) | CRC-16  ≥ 58
+Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) |         ≥ 58
+               CRC-16
 =============  ==========================================================================  ======
 
 Field conventions (Query): DR "8" → 0, "64/3" → 1; M 1/2/4/8 (FM0, Miller-2/4/8) → 00/01/10/11;

@@ -160,8 +160,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
         or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population, whose
         members count as tags in the order given)
-    channel : link model with ``backscatter_links(emitter, tag, *, fc_hz, rng, t_s,
-        tag_motion)`` → (forward, backward) PathSets
+    channel : link model with a ``backscatter_links`` method
+        ``(emitter, tag, *, fc_hz, rng, t_s, tag_motion)`` → (forward, backward) PathSets
     cmd : the Gen2 command object to send
     t_s : start time of the command [s]
     rng : generator for the channel draw and the receiver noise

@@ -139,8 +139,13 @@ def test_sigterm_of_a_scenario_run_leaves_no_file(tmp_path):
     assert not [p for p in (tmp_path / "out").rglob("*") if p.is_file()]  # no dataset, no temporary
 
 
+#: A serial sweep long enough (64 runs at 4 MS/s) that Ctrl-C reaches it before it ends, even on a
+#: busy machine where the store index is seen late (it is synced about once a second).
+LONG_SWEEP = dict(q=tuple(range(16)), profiles=("fm0-40k",), fs_hz=4e6)
+
+
 def test_ctrl_c_of_a_sweep_says_how_to_resume(tmp_path):
-    spec_path = write_spec(tmp_path, "big", **SWEEP)
+    spec_path = write_spec(tmp_path, "big", **LONG_SWEEP)
     store = points_dir(load_spec(spec_path).output)
     proc = start(["sweep", "run", str(spec_path), "--serial"], tmp_path)
     assert wait_for(lambda: len(StoreIndex(store)) >= 1 or proc.poll() is not None, 120)

@@ -309,9 +309,12 @@ def _kill_myself(task):
 
 
 def test_a_pool_worker_killed_by_a_signal_is_one_line():
+    """A pool worker killed by a signal is one line naming the kill and the likely cause. The
+    pool reports the signal when it saw the worker's exit status, and says "ended abruptly
+    (killed ...)" when the broken pool was noticed first (a race of the pool's threads)."""
     from rfsim.core.procs import worker_pool
 
-    with pytest.raises(ResourceError, match="killed by SIGKILL: most likely the system ran out of memory") as info:
+    with pytest.raises(ResourceError, match=r"(killed by SIGKILL|ended abruptly \(killed).*ran out of memory") as info:
         with worker_pool(1) as pool:
             list(pool.map(_kill_myself, [1]))
     assert "\n" not in str(info.value)

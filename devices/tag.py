@@ -605,5 +605,5 @@ class PassiveTag:
                            m=query.m, trext=query.trext, gamma_rest=rest, structural_mode=a_s)
 
 
-__all__ = ["TagConfig", "TagResponse", "PassiveTag", "SharedFrontEnd", "incident_power_w", "envelope",
+__all__ = ["TagResponse", "PassiveTag", "SharedFrontEnd", "incident_power_w", "envelope",
            "DEFAULT_SENSITIVITY_DBM", "REASONS"]

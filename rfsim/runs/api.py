@@ -375,8 +375,8 @@ class Result:
         return xr.DataTree.from_dict(nodes, name=self.scenario)
 
     def save(self, path: str | Path) -> Path:
-        """Write the dataset to the HDF5 file ``path`` (atomically; the format of ``rfsim
-        run``, with the run's provenance); returns the path. For a sweep result the merged
+        """Write the dataset to the HDF5 file ``path`` (atomically; the format of
+        ``rfsim run``, with the run's provenance); returns the path. For a sweep result the merged
         file is copied."""
         path = Path(path)
         check_output_file(path, "dataset", suffixes=(".h5", ".hdf5"))
@@ -480,8 +480,8 @@ def run_sweep(spec: Any, *, executor: Any = None, resume: bool = False, progress
     spec : the path of a sweep spec TOML file, its content as a mapping or a
         :class:`~rfsim.sweep.spec.SweepSpec` (:mod:`rfsim.sweep.spec`; the scenario may be a
         scenario file's path)
-    executor : None or ``"pool"`` (a process pool over the available cores, as ``rfsim
-        sweep``), ``"serial"`` (this process), a number of worker processes, or an executor
+    executor : None or ``"pool"`` (a process pool over the available cores, as
+        ``rfsim sweep``), ``"serial"`` (this process), a number of worker processes, or an executor
         object (:class:`rfsim.sweep.DaskExecutor`, ...)
     resume : reuse the runs already in the sweep's point store (``rfsim sweep --resume``)
     progress : show a progress bar (a ``tqdm.auto`` widget in Jupyter)

@@ -107,25 +107,14 @@ class _Stdout:
     def __init__(self, stream):
         self._stream = stream
 
-    def _guarded(self, method, *args):
-        try:
-            return method(*args)
-        except BrokenPipeError:
-            raise
-        except OSError as err:
-            failure = write_failure(err, "the standard output", hint=False)
-            if failure is None:
-                raise
-            raise failure from None
-
     def write(self, text):
-        return self._guarded(self._stream.write, text)
+        return _guarded(self._stream.write, text)
 
     def writelines(self, lines):
-        return self._guarded(self._stream.writelines, lines)
+        return _guarded(self._stream.writelines, lines)
 
     def flush(self):
-        return self._guarded(self._stream.flush)
+        return _guarded(self._stream.flush)
 
     def __getattr__(self, name):
         return getattr(self._stream, name)
@@ -134,8 +123,14 @@ class _Stdout:
 def flush_stdout() -> None:
     """Flush stdout; a refused write (``/dev/full``, an I/O error) is a one-line
     :class:`ResourceError`, a closed pipe stays a ``BrokenPipeError`` (quiet, exit 0)."""
+    _guarded(sys.stdout.flush)
+
+
+def _guarded(method, *args):
+    """``method(*args)`` on the standard output; a refused write is a one-line
+    :class:`ResourceError`, a closed pipe stays a ``BrokenPipeError``."""
     try:
-        sys.stdout.flush()
+        return method(*args)
     except BrokenPipeError:
         raise
     except OSError as err:

@@ -160,30 +160,6 @@ class NotebookReporter(Reporter):
         return widget(total=total, initial=initial, desc=desc, unit=unit, leave=True)
 
 
-class _SweepProgress:
-    """The sweep runner's progress protocol (``start``, ``update``, ``close``) on a
-    :class:`NotebookReporter` bar."""
-
-    def __init__(self, total: int, *, done: int = 0, quiet: bool = False):
-        self.total, self.done = total, done
-        self._reporter = NotebookReporter(quiet=quiet)
-        self._bar = None
-
-    def start(self) -> None:
-        if self._bar is None:
-            self._bar = self._reporter.bar(self.total, desc="sweep", unit="runs", initial=self.done)
-
-    def update(self, n: int = 1) -> None:
-        self.start()
-        self.done += n
-        self._bar.update(n)
-
-    def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
-            self._bar = None
-
-
 # ----------------------------------------------------------------------------- optional libraries
 
 
@@ -499,7 +475,9 @@ def run_sweep(spec: Any, *, executor: Any = None, resume: bool = False, progress
     ex = _executor(executor)
 
     def make_progress(total: int, *, done: int) -> _SweepProgress:
-        return _SweepProgress(total, done=done, quiet=not progress)
+        from rfsim.sweep.progress import Progress
+
+        return Progress(total, done=done, reporter=NotebookReporter(quiet=not progress))
 
     try:
         report = run_spec(spec, ex, resume=resume, progress=make_progress, module=module)

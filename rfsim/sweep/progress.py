@@ -24,12 +24,16 @@ class Progress:
     stream : where the bar goes (default stderr); ``tty`` forces terminal or log style
     quiet : print nothing
     log_interval_s : minimum time [s] between two log lines when the stream is not a TTY
+    reporter : the :class:`~rfsim.core.progress.Reporter` that draws the bar (e.g. a notebook
+        widget's); replaces ``stream``, ``quiet``, ``tty`` and ``log_interval_s``
     """
 
     def __init__(self, total: int, *, done: int = 0, stream: TextIO | None = None,
-                 quiet: bool = False, tty: bool | None = None, log_interval_s: float = 10.0):
+                 quiet: bool = False, tty: bool | None = None, log_interval_s: float = 10.0,
+                 reporter: Reporter | None = None):
         self.total, self.done = total, done
-        self._reporter = Reporter(stream, quiet=quiet, tty=tty, log_interval_s=log_interval_s)
+        self._reporter = reporter if reporter is not None else Reporter(stream, quiet=quiet, tty=tty,
+                                                                        log_interval_s=log_interval_s)
         self._bar = None
 
     def start(self) -> None:

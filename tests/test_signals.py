@@ -139,13 +139,32 @@ def test_sigterm_of_a_scenario_run_leaves_no_file(tmp_path):
     assert not [p for p in (tmp_path / "out").rglob("*") if p.is_file()]  # no dataset, no temporary
 
 
-#: A serial sweep long enough (64 runs at 4 MS/s) that Ctrl-C reaches it before it ends, even on a
-#: busy machine where the store index is seen late (it is synced about once a second).
-LONG_SWEEP = dict(q=tuple(range(16)), profiles=("fm0-40k",), fs_hz=4e6)
+#: A serial sweep of 3,200 runs (≈ 20 ms each: about a minute) that Ctrl-C reaches long before it
+#: ends, even on a busy machine where the store index is seen late (it is synced about once a
+#: second; the 64-run sweep of the other tests can finish first there).
+LONG_SWEEP_SPEC = """\
+scenario = "gen2-waveforms"
+seed = 5
+repetitions = 1
+output = "{output}"
+
+[base]
+profiles = ["fm0-40k"]
+fs_hz = 1e6
+
+[[axes]]
+kind = "random"
+key = "pie_rise_fall_tari"
+distribution = "uniform"
+low = 0.05
+high = 0.3
+n = 3200
+"""
 
 
 def test_ctrl_c_of_a_sweep_says_how_to_resume(tmp_path):
-    spec_path = write_spec(tmp_path, "big", **LONG_SWEEP)
+    spec_path = tmp_path / "long.toml"
+    spec_path.write_text(LONG_SWEEP_SPEC.format(output=str(tmp_path / "long.h5")))
     store = points_dir(load_spec(spec_path).output)
     proc = start(["sweep", "run", str(spec_path), "--serial"], tmp_path)
     assert wait_for(lambda: len(StoreIndex(store)) >= 1 or proc.poll() is not None, 120)

@@ -63,9 +63,15 @@ def wait_for(condition, timeout_s: float) -> bool:
     return condition()
 
 
+def _default_sigint() -> None:
+    # a shell without job control starts background commands with SIGINT ignored, and a child
+    # inherits that: give the command the disposition it has in a terminal, where Ctrl-C reaches it
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def start(args: list[str], cwd: Path) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "rfsim", *args], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
 
 
 SWEEP = dict(q=tuple(range(8)), profiles=("fm0-40k",), fs_hz=1e6)  # 32 runs
@@ -139,9 +145,8 @@ def test_sigterm_of_a_scenario_run_leaves_no_file(tmp_path):
     assert not [p for p in (tmp_path / "out").rglob("*") if p.is_file()]  # no dataset, no temporary
 
 
-#: A serial sweep of 3,200 runs (≈ 20 ms each: about a minute) that Ctrl-C reaches long before it
-#: ends, even on a busy machine where the store index is seen late (it is synced about once a
-#: second; the 64-run sweep of the other tests can finish first there).
+#: A serial sweep of 3,200 runs that Ctrl-C reaches long before it ends, even on a busy machine
+#: where the store index is seen late (it is synced about once a second).
 LONG_SWEEP_SPEC = """\
 scenario = "gen2-waveforms"
 seed = 5

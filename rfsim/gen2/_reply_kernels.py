@@ -20,6 +20,7 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
+from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
                                         viterbi_kernel, waveform_kernel)
 
@@ -51,20 +52,6 @@ def _preamble_element_levels(pre, m):
             pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
     return pre_el
 
-
-@njit_inline
-def _cumulative_sums(r):
-    """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0."""
-    nr = r.size
-    c_re = np.zeros(nr + 1)
-    c_im = np.zeros(nr + 1)
-    p2 = np.zeros(nr + 1)
-    for n in range(nr):
-        z = r[n]
-        c_re[n + 1] = c_re[n] + z.real
-        c_im[n + 1] = c_im[n] + z.imag
-        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
-    return c_re, c_im, p2
 
 
 @njit_inline

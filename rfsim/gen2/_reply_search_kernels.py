@@ -13,9 +13,25 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
+from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import waveform_kernel
 
+
+
+@njit_inline
+def cumulative_sums(r):
+    """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0 (the running sums
+    every windowed correlation of the reply search and decoding reads)."""
+    nr = r.size
+    c_re = np.zeros(nr + 1)
+    c_im = np.zeros(nr + 1)
+    p2 = np.zeros(nr + 1)
+    for n in range(nr):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    return c_re, c_im, p2
 
 @njit
 def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_element, out_corr):
@@ -39,15 +55,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
     best_n = 0
     n_tests = 0
     n_el = pre_el.size
-    n_r = r.size
-    c_re = np.zeros(n_r + 1)
-    c_im = np.zeros(n_r + 1)
-    p = np.zeros(n_r + 1)
-    for i in range(n_r):
-        z = r[i]
-        c_re[i + 1] = c_re[i] + z.real
-        c_im[i + 1] = c_im[i] + z.imag
-        p[i + 1] = p[i] + (z.real * z.real + z.imag * z.imag)
+    c_re, c_im, p = cumulative_sums(r)
     t = np.empty(0)
     run_begin = np.empty(0, dtype=np.int64)
     run_value = np.empty(0)

@@ -302,9 +302,9 @@ NOTES = {"a_t_vs_table_3_1": (
     "the reader-powered tag with a 3-state modulator; one reader segment per cell and repetition; ST noise "
     "kT0*fs*F with an assumed F; near field (antenna within lambda/2pi of the tag) excluded and counted; "
     "mutual coupling of the lambda/4 pair from the induced-EMF impedances (no ST body)"),
-    "distance_trend": ("full run, seed 1: single 27 % (1 m), 37-39 % (1.5-3 m), 32 % (5 m); selection 9.5 %, "
-    "18-20 % (1.5-5 m); 0 from 6 m. The fall is the L3490-3502 condition: replying samples below 5 mV (synchronised) "
-    "0 -> 27 %, all failed by the single chain; counted anyway: single 27 -> 58 %, selection 9.5 -> 35 %, no fall")}
+    "distance_trend": ("full run, seed 1: single 27 % (1 m), 37-39 % (1.5-3 m), 32 % (5 m); selection 9.5 %, 18-20 %; "
+    "0 from 6 m. Cause, the L3490-3502 condition: replying samples below 5 mV (synchronised) 0 -> 27 %, all but 1 "
+    "of 1231 failed by the single chain; counted anyway: single 27 -> 58 %, selection 9.5 -> 35 %, no fall")}
 
 
 def _analytic_grids(ds: _dataset.Dataset) -> None:

@@ -194,8 +194,8 @@ def test_detectability_condition_removes_far_failures(default_run):
     """Fig. 3.16's fall with distance (L3484-3502) is the source's condition: a sample counts
     only when the synchronised difference exceeds 5 mV. Not every replying sample passes it (the
     module once said so): default run, 123 of 900, none at 1 m, 21 % over 3-5 m; the single chain
-    fails on every one of them, so the condition removes failures, more the farther the tag:
-    over 3-5 m single antenna is 33 % with it and 54 % without (docs page, "Distance")."""
+    fails on them (all 123; full run all but 1 of 1231), so the condition removes failures, more
+    the farther the tag: over 3-5 m single antenna is 33 % with it and 54 % without (docs page)."""
     s = read_table(default_run.dataset_path, "samples")
     cell, far = s["cell"], ~s["near_field"]
     replied = s["tag_replied"] & far
@@ -204,7 +204,7 @@ def test_detectability_condition_removes_far_failures(default_run):
     assert not below[cell == 0].any()
     far_cells = np.isin(cell, [4, 5, 6, 7, 8])  # 3-5 m
     assert below[far_cells].sum() > 0.1 * replied[far_cells].sum()
-    assert not s["detected_single"][below].any()
+    assert s["detected_single"][below].sum() <= 0.01 * below.sum()
     p_on = s["cancelled_single"][far_cells & far].mean()
     p_off = (replied & ~s["detected_single"])[far_cells & far].mean()
     assert p_off > p_on + 0.1
@@ -302,9 +302,10 @@ def test_paper_size_monte_carlo_orders_the_techniques():
     assert off["single"][8] > off["single"][4]  # without the condition: no fall
     assert off["selection"][5:9].mean() > on["selection"][5:9].mean() + 0.08
     assert abs(on["selection"][5:9].mean() - on["selection"][1:5].mean()) < 0.03
-    # the samples the condition removes: replying, below 5 mV, and every one failed by the single chain
+    # the samples the condition removes: replying, below 5 mV, and failed by the single chain
+    # (all but 1 of 1231, at 0.98x the threshold)
     below = replied & far & ~s["detectable"]
-    assert not s["detected_single"][below].any()
+    assert s["detected_single"][below].sum() <= 0.01 * below.sum()
     assert np.mean(below[(cell == 8) & far]) > np.mean(below[(cell == 1) & far]) + 0.1
 
 

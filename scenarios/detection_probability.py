@@ -341,8 +341,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     ds.attrs["st_sampling"] = (f"ST centre uniform in the {config.geometry.st_radius_m:g} m ball's "
                                + ("volume (r = R u^(1/3))" if config.geometry.st_sampling == "volume"
                                   else "radius (r = R u)") + ", isotropic direction")
-    ds.attrs["reader_antenna"] = (("pass-like reading (geometry.antenna_model): " if config.geometry.antenna_model == "pass-like"
-                                   else "") +
+    pass_like = config.geometry.antenna_model == "pass-like"
+    ds.attrs["reader_antenna"] = (("pass-like reading (geometry.antenna_model): " if pass_like else "") +
                                   f"analytic circular panel (RFMAX S9028PCRJ class): {config.geometry.reader_gain_dbic:g} "
                                   f"dBic, {config.geometry.reader_beamwidth_deg:g} deg beamwidth, "
                                   f"{PANEL_FRONT_TO_BACK_DB:g} dB front-to-back")

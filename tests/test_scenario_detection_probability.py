@@ -273,7 +273,8 @@ def test_angle_coefficients_follow_the_reader_pattern_and_the_tag_power_up():
     0.01 of the published 0.1278 / 0.1502 (measured 0.1281 / 0.1488; seeds 1-3 0.130 ± 0.003 /
     0.153 ± 0.005), RTS below TS."""
     pub_a3, pub_ce = 0.0126, (0.1278, 0.1502)
-    powered = dp.Config(geometry=dp.GeometryConfig(tag_roll_deg=0.0), tag=replace(dp.TagConfig(), sensitivity_dbm=-40.0))
+    powered = dp.Config(geometry=dp.GeometryConfig(tag_roll_deg=0.0),
+                        tag=replace(dp.TagConfig(), sensitivity_dbm=-40.0))
     passlike = dp.Config(geometry=dp.GeometryConfig(antenna_model="pass-like"))
     f = fit_st_models(dp.simulate(powered, seed=1))
     assert f["a3"][0] - pub_a3 > 4 * f["se_a3"][0], (f["a3"][0], f["se_a3"][0])

@@ -53,7 +53,8 @@ def test_named_layouts_are_ten_tags_on_the_shelf_faces_and_exclude_custom_tags()
     with pytest.raises(t2t.ConfigError):
         AisleConfig(tags_xy_m=((0.0, 1.0),), tag_layout="staggered")
     # a named layout survives replacing another field (the config's overrides do that)
-    assert dataclasses.replace(AisleConfig(tag_layout="staggered"), aisle_width_m=2.0).tags_xy_m == NAMED_LAYOUTS["staggered"]
+    kept = dataclasses.replace(AisleConfig(tag_layout="staggered"), aisle_width_m=2.0)
+    assert kept.tags_xy_m == NAMED_LAYOUTS["staggered"]
 
 
 def test_velocity_vector_reading_starts_with_that_velocity_and_the_same_noise():

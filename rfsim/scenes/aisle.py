@@ -34,8 +34,8 @@ DEFAULT_TAGS_XY_M = tuple((2.0 * i, s) for s in (-1.0, 1.0) for i in range(5))
 #: Readings of L1203's "10 reference tags placed on a portal and shelves" (y = ±1 m, the shelf
 #: faces of the 2 m aisle; the mobile tag enters at x = 0 and covers 1.2-12 m in 12 s):
 #: "every-2m" the default (x = 0…8 m), "every-3m" the 12 m path covered (x = 0, 3, …, 12 m),
-#: "portal-4-per-face" a portal pair at x = 0 and 4 per face at x = 1.5, 4.5, 7.5, 10.5 m, "staggered" the two faces alternating along
-#: 0…10.8 m (one tag every 1.2 m), "short-1m" a field shorter than the path (x = 0…4 m, 1 m apart).
+#: "portal-4-per-face" a portal pair at x = 0 and 4 per face at x = 1.5, 4.5, 7.5, 10.5 m,
+#: "staggered" the two faces alternating along 0…10.8 m (one tag every 1.2 m), "short-1m" a field shorter than the path (x = 0…4 m, 1 m apart).
 NAMED_LAYOUTS = {
     "every-2m": DEFAULT_TAGS_XY_M,
     "every-3m": tuple((3.0 * i, s) for s in (-1.0, 1.0) for i in range(5)),

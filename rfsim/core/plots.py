@@ -37,7 +37,7 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     The figure is written under a hidden temporary name and renamed over ``path``, so a
     failed write (disk full: a one-line :class:`~rfsim.core.errors.ResourceError`) leaves
     the previous figure, if any, intact."""
-    if tight:
+    if tight and not _has_layout_engine(fig):
         fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -47,6 +47,13 @@ def save_figure(fig, path: Path, *, dpi: int = 120, tight: bool = True) -> Path:
     finally:
         pyplot().close(fig)
     return path
+
+
+def _has_layout_engine(fig) -> bool:
+    """Whether ``fig`` is laid out by an engine of its own (e.g. the constrained layout of
+    :func:`rfsim.core.figure_style.figure`), which ``tight_layout`` must not override."""
+    get = getattr(fig, "get_layout_engine", None)
+    return get is not None and get() is not None
 
 
 __all__ = ["pyplot", "save_figure", "figure_path"]

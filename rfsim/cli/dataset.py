@@ -16,6 +16,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+from rfsim.cli.figures import add_figure_args, figure_output_of, written_files
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.errors import UserError
 from rfsim.core.outputs import check_output_folder
@@ -28,6 +29,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dataset", type=Path, help="dataset file written by 'rfsim run'")
     p.add_argument("--out-dir", type=Path, default=None,
                    help="folder for the figures (default: the dataset's folder)")
+    add_figure_args(p)
     add_verbosity_args(p)
     p.set_defaults(func=_plot)
 
@@ -59,6 +61,7 @@ def _text(value) -> str:
 
 
 def _plot(args: argparse.Namespace) -> int:
+    from rfsim.core.plots import figure_output
     from rfsim.core.progress import reporting
     from rfsim.runs.registry import get_scenario
 
@@ -73,7 +76,8 @@ def _plot(args: argparse.Namespace) -> int:
     module = get_scenario(scenario)
     out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
     check_output_folder(out_dir, "--out-dir")  # before drawing: a file, /proc, no permission
-    with reporting(reporter(args)) as rep:
+    output = figure_output_of(args)
+    with reporting(reporter(args)) as rep, figure_output(output):
         rep.stage(f"drawing the {scenario} figures of {args.dataset}")
         try:
             figures = module.plot(args.dataset, out_dir)
@@ -81,7 +85,7 @@ def _plot(args: argparse.Namespace) -> int:
             raise UserError(f"dataset {str(args.dataset)!r} lacks what the {scenario} figures need "
                             f"({type(exc).__name__}: {exc})") from None
     if not args.quiet:
-        for fig in figures:
+        for fig in written_files(figures, output):
             print(f"figure:  {fig}")
     return 0
 

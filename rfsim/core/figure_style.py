@@ -209,8 +209,9 @@ def _below_xlabel(ax):
 
 
 def legend_outside(ax, where: str = "right", **kw):
-    """A legend off the data: to the right of ``ax`` (``where="right"``, the default) or
-    below the figure (``where="below"``, entries in columns). Keyword arguments go to
+    """A legend off the data: to the right of ``ax`` (``where="right"``, the default), under
+    ``ax`` below its x label (``where="below"``, entries in columns), or one legend for the
+    whole figure under all its axes (``where="figure"``). Keyword arguments go to
     :meth:`~matplotlib.axes.Axes.legend` (``handles``, ``labels``, ``ncols``, ``title``...).
 
     The figure's constrained layout makes room for it. Returns the legend.
@@ -219,17 +220,38 @@ def legend_outside(ax, where: str = "right", **kw):
         kw.setdefault("loc", "upper left")
         kw.setdefault("bbox_to_anchor", (1.02, 1.0))
         kw.setdefault("borderaxespad", 0.0)
-        return ax.legend(**kw)
+        return ax.legend(*_handles_labels(ax, kw), **kw)
     if where == "below":
-        handles, labels = kw.pop("handles", None), kw.pop("labels", None)
-        if handles is None:
-            handles, labels = ax.get_legend_handles_labels()
-        elif labels is None:
-            labels = [h.get_label() for h in handles]
+        from matplotlib.transforms import ScaledTranslation
+
+        fig = ax.figure
+        # the x axis' tick labels and label have a height independent of the axes' size:
+        # measured now, the offset holds after the layout engine resizes the axes
+        renderer = fig.canvas.get_renderer()
+        axis_box = ax.xaxis.get_tightbbox(renderer)
+        depth_in = 0.0 if axis_box is None else max(0.0, ax.bbox.y0 - axis_box.y0) / fig.dpi
+        kw.setdefault("loc", "upper center")
+        kw.setdefault("bbox_to_anchor", (0.5, 0.0))
+        kw.setdefault("bbox_transform", ax.transAxes + ScaledTranslation(0, -depth_in - 0.04,
+                                                                         fig.dpi_scale_trans))
+        kw.setdefault("borderaxespad", 0.0)
+        handles, labels = _handles_labels(ax, kw)
+        kw.setdefault("ncols", min(3, max(1, len(handles))))
+        return ax.legend(handles, labels, **kw)
+    if where == "figure":
+        handles, labels = _handles_labels(ax, kw)
         kw.setdefault("ncols", min(3, max(1, len(handles))))
         kw.setdefault("loc", "outside lower center")
         return ax.figure.legend(handles, labels, **kw)
-    raise ValueError(f"where must be 'right' or 'below', not {where!r}")
+    raise ValueError(f"where must be 'right', 'below' or 'figure', not {where!r}")
+
+
+def _handles_labels(ax, kw: dict) -> tuple[list, list]:
+    """The ``handles`` and ``labels`` popped from ``kw``, by default those of ``ax``."""
+    handles, labels = kw.pop("handles", None), kw.pop("labels", None)
+    if handles is None:
+        return ax.get_legend_handles_labels()
+    return list(handles), [h.get_label() for h in handles] if labels is None else list(labels)
 
 
 def _edges(centres) -> np.ndarray:

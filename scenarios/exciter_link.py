@@ -396,9 +396,10 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         fig.colorbar(im, ax=ax, label=r"decode probability $P_\mathrm{dec}$ [%]")
         hatch = mask_no_data(ax, d_e, d_tt, unpowered.T, label="tag not powered (no reply)")
         ok = rows["d50_in_range"]
-        ax.errorbar(rows["exciter_distance_m"][ok], rows["d50_m"][ok], yerr=rows["d50_stderr_m"][ok],
-                    color="white", marker="o", ms=3.5, mec="black", mew=0.6, capsize=2, lw=1.2,
-                    ecolor="white", label=r"Eq. (6.5) per $d_\mathrm{e}$: $P_\mathrm{dec}$ = 50 % ($\pm$1 s.e.)")
+        if ok.any():
+            ax.errorbar(rows["exciter_distance_m"][ok], rows["d50_m"][ok], yerr=rows["d50_stderr_m"][ok],
+                        color="white", marker="o", ms=3.5, mec="black", mew=0.6, capsize=2, lw=1.2,
+                        ecolor="white", label=r"Eq. (6.5) per $d_\mathrm{e}$: $P_\mathrm{dec}$ = 50 % ($\pm$1 s.e.)")
         if a.get("eq65_extended_status") == "ok":
             x = d_e[rows["tag_runs"]]
             line = -(a["eq65_extended_a1"] + a["eq65_extended_a3"] * x) / a["eq65_extended_a2"]

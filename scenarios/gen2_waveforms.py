@@ -269,7 +269,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
                    Line2D([], [], **tag_style, label="tag backscatter state ±1 (drawn offset)"),
                    Patch(color=OKABE_ITO[1], alpha=0.35, lw=0, label="tag replying (subcarrier finer than a pixel)"),
                    Patch(color="0.85", label="interval zoomed on the right")]
-        legend_outside(axes[-1, 0], where="figure", handles=handles, ncols=2)
+        legend_outside(axes[0, 1], where="figure", handles=handles)
         fig.suptitle(f"Query → RN16 → ACK → PC+EPC+CRC-16 per link profile ({cite('gen2')}; "
                      "no channel, no noise)")
         return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"), dpi=200)]

@@ -198,4 +198,18 @@ def probability_errorbars(ax, x, table, names, labels=None) -> None:
                     label=name if labels is None else labels[name])
 
 
-__all__ += ["grid_arrays", "probability_errorbars"]
+def run_config(dataset_path) -> dict:
+    """The resolved config a dataset was written with (its ``provenance`` group's
+    ``config_toml``) as nested dicts, e.g. to say on a figure that a run is a reduced
+    default; ``{}`` when the file has none."""
+    import tomllib
+
+    import h5py
+
+    with h5py.File(dataset_path, "r") as f:
+        text = f["provenance"].attrs.get("config_toml", "") if "provenance" in f else ""
+    text = text.decode() if isinstance(text, bytes) else str(text)
+    return tomllib.loads(text) if text else {}
+
+
+__all__ += ["grid_arrays", "probability_errorbars", "run_config"]

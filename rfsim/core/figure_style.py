@@ -179,12 +179,14 @@ def source_note(ax_or_fig, text: str, *, fontsize: float = 6.5):
     """
     from matplotlib.figure import Figure, SubFigure
 
-    if isinstance(ax_or_fig, (Figure, SubFigure)):
-        fig = ax_or_fig
+    fig = ax_or_fig if isinstance(ax_or_fig, (Figure, SubFigure)) else ax_or_fig.figure
+    # wrapped to the figure's width (a character is about 0.6 font sizes wide); under an
+    # axes, to its share of the width at creation
+    share = 1.0 if fig is ax_or_fig else max(0.3, ax_or_fig.get_position().width)
+    width_chars = max(20, int(share * fig.get_figwidth() * 72 / (0.6 * fontsize)) - 4)
+    text = textwrap.fill(text, width_chars)
+    if fig is ax_or_fig:
         existing = fig.get_supxlabel() if hasattr(fig, "get_supxlabel") else ""
-        # wrapped to the figure's width (a character is about half the font size wide)
-        width_chars = max(20, int(fig.get_figwidth() * 72 / (0.6 * fontsize)) - 4)
-        text = textwrap.fill(text, width_chars)
         label = f"{existing}\n{text}" if existing else text
         return fig.supxlabel(label, fontsize=fontsize, color="0.3", x=0.01, ha="left",
                              fontstyle="italic")

@@ -384,7 +384,7 @@ def _plot_fig3_8(ds, path: Path) -> Path:
            ylim=(min(0.0, c["y_m"].min()), c["y_m"].max()), xlabel="$x$ [m]", ylabel="$y$ [m]", aspect="equal")
     ax.grid(False)
     legend_outside(ax, where="below", ncols=2)
-    fig.suptitle(f"Null map of Eq. 3.4 with Eq. 3.23\n({cite('auris', 'Fig. 3.8')}); dark: cancellation")
+    fig.suptitle(f"Null map of Eq. 3.4 with Eq. 3.23, dark: cancellation\n({cite('auris', 'Fig. 3.8')})")
     return save_figure(fig, path)
 
 

@@ -2,6 +2,7 @@
 
 * no drawn text (title, axis labels, tick labels, legend, annotations) leaves the canvas,
   and no title or axis label overlaps another one (e.g. the titles of neighbouring panels),
+* no legend lies on the data: its box stays off every axes' plotting area,
 * no axes is empty (each draws data),
 * every axes has an x and a y label (colorbars excepted; a label may be that of an axes
   sharing the axis, as in a stack of panels over one time axis or a row over one y scale),
@@ -153,6 +154,28 @@ def _overlapping_labels(fig, extents: dict) -> list[str]:
     return out
 
 
+def _legends_on_data(fig) -> list[str]:
+    """Legends whose box overlaps an axes' plotting area by more than 2 pixels each way."""
+    renderer = fig.canvas.get_renderer()
+    legends = [ax.get_legend() for ax in fig.get_axes() if ax.get_legend() is not None] + list(fig.legends)
+    out = []
+    for leg in legends:
+        if not leg.get_visible():
+            continue
+        box = leg.get_window_extent(renderer)
+        for ax in fig.get_axes():
+            if not ax.get_visible() or _is_colorbar(ax):
+                continue
+            w = min(box.x1, ax.bbox.x1) - max(box.x0, ax.bbox.x0)
+            h = min(box.y1, ax.bbox.y1) - max(box.y0, ax.bbox.y0)
+            if w > 2 and h > 2:
+                first = leg.get_texts()[0].get_text()[:30] if leg.get_texts() else ""
+                out.append(f"the legend ({first!r}, ...) lies on the data of axes "
+                           f"{ax.get_title()[:40] or 'untitled'!r}")
+                break
+    return out
+
+
 def readability_problems(fig, monkeypatch, name: str = "figure") -> list[str]:
     """What a reader of ``fig`` would stumble on (an empty list when nothing)."""
     problems = []
@@ -167,6 +190,7 @@ def readability_problems(fig, monkeypatch, name: str = "figure") -> list[str]:
                             f"(extent {ext.x0:.0f}..{ext.x1:.0f} x {ext.y0:.0f}..{ext.y1:.0f} px, "
                             f"canvas {canvas.width:.0f} x {canvas.height:.0f} px)")
     problems += [f"{name}: {o}" for o in _overlapping_labels(fig, {id(t): e for t, e in drawn})]
+    problems += [f"{name}: {o}" for o in _legends_on_data(fig)]
     axes = [ax for ax in fig.get_axes() if ax.get_visible()]
     for k, ax in enumerate(axes):
         if _is_colorbar(ax):
@@ -252,7 +276,8 @@ def test_the_checks_see_a_clipped_title_an_empty_axes_and_a_legend_lie(held_figu
     text = "\n".join(problems)
     assert "leaves the canvas" in text and "a very long title" in text
     assert "'all NaN' names a series not drawn" in text and "'out of view' names a series" in text
-    assert "'drawn'" not in text
+    assert "'drawn'" not in text.replace("the legend ('drawn'", "")
+    assert "the legend ('drawn', ...) lies on the data" in text
     assert "axes 0 (a very long title" in text and "no x label" in text
     assert "axes 1 (the second panel's title, long too): empty" in text
     assert any("'a very long title that cannot fit on so ' overlaps" in p and "second panel" in p
@@ -261,5 +286,5 @@ def test_the_checks_see_a_clipped_title_an_empty_axes_and_a_legend_lie(held_figu
     fig, ax = plt.subplots(figsize=(3, 2), layout="constrained")
     ax.plot([0, 1], [0, 1], label="drawn")
     ax.set(xlabel="x [m]", ylabel="y [m]", title="short")
-    ax.legend()
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
     assert readability_problems(fig, monkeypatch) == []

@@ -14,7 +14,7 @@ from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sum
 
 
 @njit
-def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_bits, miller, state0,
+def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0,
                tpl, sums, bits, elems, ref):
     """Decode ``r`` at one (elements per sample, start): preamble gain h, offset, half-bit
     sums, Viterbi; remodulate (``ref``: the reply ±1, −1 around it, over the whole window);
@@ -53,7 +53,7 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_b
     viterbi_kernel(a, b, miller, state0, True, full)
     for i in range(n_bits):
         bits[i] = full[i]
-    elements_kernel(bits, True, m, pre_levels, cur, prev, elems)
+    elements_kernel(bits, True, m, pre_levels, state0, elems)
     n_el = elems.size
     end = min(r.size, int(math.ceil(start + n_el / blf_ratio)) + 1)
     waveform_kernel(elems.astype(np.float64), start, blf_ratio, ref)
@@ -183,7 +183,7 @@ def _steady_disturbance(r, ref, start, end, ratio, h, c, m, nh, n_pre_levels, n_
 
 
 @njit
-def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, cur, prev, m,
+def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, state0, m,
                          n_bits, n_first_bits, fine_span, fine_per_side, target_first, fine_target, out_bits,
                          out_ratio, out_start, out_corr, out_h, out_sigma2, out_sigma2_bit):
     """BLF search and decoding of every window ``rs[b]`` (see :func:`rfsim.devices.reader.search_decode`).
@@ -204,7 +204,6 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     nwin = rs.shape[1]
     n_pre_el = pre_el.size
     miller = m > 1
-    state0 = (0 if cur == 1 else 1) + (2 * prev if miller else 0)
     nh = pre_levels.size + 2 * (n_bits + 1)
     best_bits = np.empty(n_bits, dtype=np.uint8)
     n_first = min(n_bits, n_first_bits)
@@ -236,7 +235,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
             if start < 0 or start > nwin - n_rep:
                 continue
             n_pre = int(math.floor(n_pre_el / ratio_c))
-            res, end, h2, c2 = _decode_at(r, ratio_c, start, pre_el, n_pre, pre_levels, cur, prev, m, n_first,
+            res, end, h2, c2 = _decode_at(r, ratio_c, start, pre_el, n_pre, pre_levels, m, n_first,
                                           miller, state0, tpl, sums1, bits1, elems1, ref)
             if res < best_res:
                 best_res, best_d = res, d
@@ -272,7 +271,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
                     if start < 0 or start > nwin - n_rep:
                         continue
                     n_pre = int(math.floor(n_pre_el / ratio))
-                    res, end, h2, c2 = _decode_at(r, ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, nbx,
+                    res, end, h2, c2 = _decode_at(r, ratio, start, pre_el, n_pre, pre_levels, m, nbx,
                                                   miller, state0, tpl, sx, bx, ex, ref)
                     if res < best_res:
                         best_res, best_ratio, best_start, best_h, best_end, best_c = res, ratio, start, h2, end, c2

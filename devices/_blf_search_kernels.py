@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
-from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
-                                          waveform_kernel)
+from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
+                                          viterbi_kernel, waveform_kernel)
 
 
 @njit
@@ -21,11 +21,7 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
     return (residual energy of the least-squares fit r ≈ h2·ref + c2 over the whole window,
     the reply's end, h2, c2): every hypothesis explains the same samples."""
     lag = int(math.floor(start))
-    waveform_kernel(pre_el, start - lag, blf_ratio, tpl[:n_pre])
-    mean_t = 0.0
-    for i in range(n_pre):
-        mean_t += tpl[i]
-    mean_t /= n_pre
+    mean_t = sampled_template(pre_el, start - lag, blf_ratio, tpl[:n_pre])
     acc = 0j
     e_t = 0.0
     seg_mean = 0j
@@ -77,6 +73,23 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
         e = r[n] - c2 - h2 * ref[n]
         res += e.real * e.real + e.imag * e.imag
     return res, end, h2, c2
+
+
+@njit_inline
+def _decode_centred(r, blf_ratio, centre, pre_el, nh, pre_levels, m, n_bits, miller, state0, tpl, sums, bits, elems,
+                    ref):
+    """:func:`_decode_at` with the preamble centred on sample ``centre``: start = centre −
+    n_pre_el/(2ρ); skipped (ok False) when the reply of ``nh`` half-bits does not fit in the
+    window from there. Returns ``(ok, start, residual, end, h2, c2)``."""
+    n_pre_el = pre_el.size
+    start = centre - 0.5 * n_pre_el / blf_ratio
+    n_rep = int(math.ceil(nh * m / blf_ratio)) + 2
+    if start < 0 or start > r.shape[0] - n_rep:
+        return False, start, math.inf, 0, 0j, 0j
+    n_pre = int(math.floor(n_pre_el / blf_ratio))
+    res, end, h2, c2 = _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0, tpl, sums,
+                                  bits, elems, ref)
+    return True, start, res, end, h2, c2
 
 
 @njit
@@ -230,14 +243,9 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
         best_res = math.inf
         best_d = 0
         for d in range(-1, 2):
-            start = centre + d / ratio_c - 0.5 * n_pre_el / ratio_c
-            n_rep = int(math.ceil(nh * m / ratio_c)) + 2
-            if start < 0 or start > nwin - n_rep:
-                continue
-            n_pre = int(math.floor(n_pre_el / ratio_c))
-            res, end, h2, c2 = _decode_at(r, ratio_c, start, pre_el, n_pre, pre_levels, m, n_first,
-                                          miller, state0, tpl, sums1, bits1, elems1, ref)
-            if res < best_res:
+            ok, start, res, end, h2, c2 = _decode_centred(r, ratio_c, centre + d / ratio_c, pre_el, nh, pre_levels,
+                                                          m, n_first, miller, state0, tpl, sums1, bits1, elems1, ref)
+            if ok and res < best_res:
                 best_res, best_d = res, d
         centre += best_d / ratio_c
         best_bits[:] = 0
@@ -266,14 +274,9 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
                 found = False
                 for j in range(-kk, kk + 1):
                     ratio = centre_ratio * (1.0 + step * j)
-                    start = centre - 0.5 * n_pre_el / ratio
-                    n_rep = int(math.ceil(nh * m / ratio)) + 2
-                    if start < 0 or start > nwin - n_rep:
-                        continue
-                    n_pre = int(math.floor(n_pre_el / ratio))
-                    res, end, h2, c2 = _decode_at(r, ratio, start, pre_el, n_pre, pre_levels, m, nbx,
-                                                  miller, state0, tpl, sx, bx, ex, ref)
-                    if res < best_res:
+                    ok, start, res, end, h2, c2 = _decode_centred(r, ratio, centre, pre_el, nh, pre_levels, m, nbx,
+                                                                  miller, state0, tpl, sx, bx, ex, ref)
+                    if ok and res < best_res:
                         best_res, best_ratio, best_start, best_h, best_end, best_c = res, ratio, start, h2, end, c2
                         if nbx == n_bits:
                             best_bits[:] = bx

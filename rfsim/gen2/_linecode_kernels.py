@@ -140,6 +140,33 @@ def waveform_kernel(elements, t0_samples, elements_per_sample, out):
         out[n] = elements[k] if k < ne else 0.0
 
 
+@njit_inline
+def sampled_template(elements, t0_samples, elements_per_sample, out):
+    """:func:`waveform_kernel` of ``elements`` into ``out`` (a template, e.g. the pilot +
+    preamble from a fractional start); returns its mean, Σ out / out.size (summed in order)."""
+    waveform_kernel(elements, t0_samples, elements_per_sample, out)
+    mean = 0.0
+    for i in range(out.size):
+        mean += out[i]
+    mean /= out.size
+    return mean
+
+
+@njit_inline
+def runs_dot(k, begin, value, n_runs, c_re, c_im):
+    """``Σ_q value[q]·(C[k + begin[q + 1]] − C[k + begin[q]])`` for the cumulative sums C = (c_re,
+    c_im) of a signal: its dot product at lag k with a template made of ``n_runs`` runs of
+    equal values (run q from ``begin[q]``, ``begin[n_runs]`` its end). Returns (re, im)."""
+    a_re = 0.0
+    a_im = 0.0
+    for q in range(n_runs):
+        b0 = k + begin[q]
+        b1 = k + begin[q + 1]
+        a_re += value[q] * (c_re[b1] - c_re[b0])
+        a_im += value[q] * (c_im[b1] - c_im[b0])
+    return a_re, a_im
+
+
 @njit
 def bitwise_kernel(a, b, miller, out):
     """Bit-by-bit coherent decisions from the half-bit sums (a, b) of each bit.
@@ -382,13 +409,7 @@ def corr_abs_runs_kernel(r, t0, out):
         mean_t += t0[i]
     mean_t /= n
     for k in range(out.size):
-        a_re = 0.0
-        a_im = 0.0
-        for q in range(n_runs):
-            b0 = k + begin[q]
-            b1 = k + begin[q + 1]
-            a_re += value[q] * (c_re[b1] - c_re[b0])
-            a_im += value[q] * (c_im[b1] - c_im[b0])
+        a_re, a_im = runs_dot(k, begin, value, n_runs, c_re, c_im)
         # a template with a non-zero mean: add back mean(r)·Σ t0
         out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
 

@@ -22,8 +22,8 @@ from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, element_sign, elements_kernel,
-                                          level_elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
-                                          waveform_kernel)
+                                          level_elements_kernel, projected_halfbit_sums_kernel, sampled_template,
+                                          viterbi_kernel, waveform_kernel)
 
 
 @njit
@@ -140,11 +140,7 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
         n_pre = int(math.floor(pre.size * m / ratio))
         lag = int(math.floor(start))
         tpl = np.empty(n_pre)
-        waveform_kernel(pre_el, start - lag, ratio, tpl)
-        t_mean = 0.0
-        for i in range(n_pre):
-            t_mean += tpl[i]
-        t_mean /= n_pre
+        t_mean = sampled_template(pre_el, start - lag, ratio, tpl)
         p_re = 0.0
         p_im = 0.0
         e_t = 0.0
@@ -500,11 +496,7 @@ def _correlation_at(rw, n_rest, pre_el, n_t, rho):
     preamble ``pre_el`` sampled from 0 at ρ elements per sample:
     |Σ z·t0| / (‖t0‖·‖z − mean z‖)."""
     tpl = np.empty(n_t)
-    waveform_kernel(pre_el, 0.0, rho, tpl)
-    t_mean = 0.0
-    for i in range(n_t):
-        t_mean += tpl[i]
-    t_mean /= n_t
+    t_mean = sampled_template(pre_el, 0.0, rho, tpl)
     p = 0j
     e_t = 0.0
     sz = 0j

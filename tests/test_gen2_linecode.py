@@ -15,10 +15,11 @@ from scipy.stats import norm
 from rfsim.bench.linecode import benchmark_linecode
 from rfsim.gen2 import _linecode_kernels as K
 from rfsim.gen2.link import PROFILES, backscatter_duration_s
-from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_duration_s, reply_waveform, reply_waveform_for_profile
+from rfsim.gen2.linecode import (decode_reply, elements_of_levels, halfsymbols, preamble_levels, preamble_state,
+                                 reply_duration_s, reply_waveform, reply_waveform_for_profile)
 from rfsim.core.rng import trial_rng
-from reference.gen2_linecode import (decode_reply_reference, fm0_levels_reference, halfbit_sums_reference,
-                                     miller_levels_reference, reply_waveform_reference)
+from reference.gen2_linecode import (_elements, _state_index, decode_reply_reference, fm0_levels_reference,
+                                     halfbit_sums_reference, miller_levels_reference, reply_waveform_reference)
 
 CODES = [("fm0", 1, 2), ("miller2", 2, 3), ("miller4", 4, 3), ("miller8", 8, 3)]
 
@@ -64,6 +65,27 @@ def test_level_kernels_equal_reference():
                 ref, rc, rp = miller_levels_reference(bits, cur, prev)
                 assert np.array_equal(out, ref)
                 assert (K.LEVEL_OF_STATE[last], K.PREV_BIT_OF_STATE[last]) == (rc, rp)
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_elements_of_levels_equal_reference(m):
+    """Each level held for M elements, the odd ones inverted for Miller (the NumPy twin)."""
+    levels = np.where(np.random.default_rng(m).integers(0, 2, 50) == 1, 1, -1).astype(np.int8)
+    assert np.array_equal(elements_of_levels(levels, m), _elements(levels, m))
+    assert np.array_equal(elements_of_levels(levels, m, np.float64), _elements(levels, m).astype(np.float64))
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+@pytest.mark.parametrize("trext", [False, True])
+def test_preamble_state_is_the_state_after_the_preamble(m, trext):
+    """The encoder state after pilot + preamble: FM0 ends on level +1; Miller ends the preamble
+    ``010111`` on a data-1 (previous bit 1) at the level its encoding leaves."""
+    _, level, prev = preamble_levels(m=m, trext=trext)
+    assert preamble_state(m=m, trext=trext) == _state_index(level, prev, m > 1)
+    if m == 1:
+        assert (level, prev) == (1, 0)
+    else:
+        assert prev == 1
 
 
 @pytest.mark.parametrize("miller", [False, True])

@@ -13,6 +13,10 @@ Encoding (gen2-and-validation-anchors.md §3.6, §4.2; pass-paris-simulator.md �
   the first preamble 0 continues the pilot level (encoder state: level +1, previous bit 1).
 * Every reply ends with a dummy data-1.
 
+The rules themselves are written once, as the transition tables of
+:mod:`rfsim.gen2._linecode_kernels` (half-bit levels and next encoder state per state and bit,
+subcarrier sign per element), which the encoder, the Viterbi trellis and every decoder read.
+
 An *element* is half a subcarrier cycle, 1/(2·BLF) s (FM0: one per half-bit, Miller-M:
 M per half-bit); :func:`halfsymbols` returns the element sequence (the PASS golden
 representation). :func:`reply_waveform` samples it at any fs: sample n takes the element
@@ -429,19 +433,14 @@ def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: fl
     """``decode_reply(r, ..., start_sample=, gain=).bits`` without the correlation it also
     reports (numba kernels): the decisions of a reply whose start and gain are known,
     ``(n_bits,) uint8``."""
-    m = _check_m(m)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.ascontiguousarray(r, dtype=np.complex128)
-    ratio = _check_rates(blf_hz, fs_hz)
-    pre, state = _preamble(m, bool(trext))
-    nh = pre.size + 2 * (int(n_bits) + 1)
     start = float(start_sample)
-    if r.ndim != 1 or not 0 <= start <= r.size - int(math.ceil(nh * m / ratio)):
+    if r.ndim != 1 or not 0 <= start <= r.size - plan.n_reply:
         raise ValueError(f"start_sample {start_sample} leaves no room for the reply in r of shape {r.shape}")
     lag = int(math.floor(start))
-    return _decisions(r, lag, start - lag, complex(gain), 0.0, ratio, m, int(n_bits), method, nh, state,
-                      _KERNELS)
+    return _decisions(r, lag, start - lag, complex(gain), 0.0, plan.ratio, plan.m, plan.n_bits, method, plan.nh,
+                      plan.state, _KERNELS)
 
 
 _KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs, _kernel_candidates)

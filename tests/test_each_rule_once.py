@@ -108,3 +108,38 @@ def test_linecode_users_import_the_one_definition(module):
             if _const(node.args[0], "rfsim.gen2._linecode_kernels"):
                 imported.add("*")
     assert imported, f"{module} does not import rfsim.gen2._linecode_kernels"
+
+
+# ----------------------------------------------------------------- Gen2 tag: silent steps
+
+#: The one definition of the silent steps of a tag (no reply, no draw) and its two users: a
+#: single tag's state and a population's arrays.
+SILENT_HOME = ("devices/gen2_tag_arrays.py", "silent_step")
+SILENT_USERS = (("devices/gen2_tag_state.py", "on_command_if_silent"),
+                ("devices/gen2_tag_arrays.py", "silent_steps"))
+COMMAND_NAMES = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK", "Select", "ReqRN", "Read"}
+
+
+def _function(module: str, name: str) -> ast.FunctionDef:
+    found = [n for n in ast.walk(MODULES[module]) if isinstance(n, ast.FunctionDef) and n.name == name]
+    assert len(found) == 1, (module, name)
+    return found[0]
+
+
+def _names(node: ast.AST) -> set[str]:
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+
+
+def test_silent_step_home_names_the_commands():
+    """The rule's home tells the commands apart (so the users' scan below can fail)."""
+    assert {"QueryRep", "QueryAdjust", "ACK", "NAK"} <= _names(_function(*SILENT_HOME))
+
+
+@pytest.mark.parametrize("module, name", SILENT_USERS)
+def test_silent_step_users_call_the_one_rule(module, name):
+    """A tag's and a population's silent steps call ``silent_step`` and name no command
+    themselves (no second copy of which command is silent in which state)."""
+    fn = _function(module, name)
+    calls = {n.func.id for n in ast.walk(fn) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    assert "silent_step" in calls
+    assert not (_names(fn) & COMMAND_NAMES), sorted(_names(fn) & COMMAND_NAMES)

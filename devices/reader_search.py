@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.link import LinkProfile
+from rfsim.gen2.reply_search import geometric_blf_grid_hz
 from rfsim.gen2.linecode import elements_of_levels, preamble_levels, preamble_state, reply_waveform
 from rfsim.core.lazy import lazy_import
 
@@ -59,9 +60,7 @@ def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | No
     (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
     lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
     n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
-    step = 1.0 / (2.0 * n_pre_el)
-    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return np.geomspace(lo, hi, max(n, 2))
+    return geometric_blf_grid_hz(lo, hi, 1.0 / (2.0 * n_pre_el))
 
 
 def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):

@@ -340,10 +340,13 @@ class TagState:
         self._reset_round()
         return True
 
+    def _outside_round(self, cmd) -> bool:
+        """A QueryRep/QueryAdjust ``cmd`` that the tag's round does not go on with: of another
+        session (or no round), or one that ends the tag's access (:meth:`_close_access`)."""
+        return self.session is None or cmd.session != self.session or self._close_access()
+
     def _query_rep(self, cmd: QueryRep, rng) -> Reply | None:
-        if self.session is None or cmd.session != self.session:
-            return None
-        if self._close_access():
+        if self._outside_round(cmd):
             return None
         if self.state == "reply":
             self.state, self.slot = "arbitrate", SLOT_AFTER_WRAP
@@ -354,9 +357,7 @@ class TagState:
         return None
 
     def _query_adjust(self, cmd: QueryAdjust, rng) -> Reply | None:
-        if self.session is None or cmd.session != self.session:
-            return None
-        if self._close_access():
+        if self._outside_round(cmd):
             return None
         if self.state in ("arbitrate", "reply"):
             self.q = int(adjusted_q(self.q, cmd.updn))

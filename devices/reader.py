@@ -35,6 +35,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rfsim.air.cache import AirCache
 from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
@@ -120,6 +121,9 @@ class Reader(PieTransmitter):
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
         self._cmd_cache_link = self.link
+        #: the air step's per-run strategy and caches (:class:`rfsim.air.cache.AirCache`) for the
+        #: exchanges this reader runs (:mod:`rfsim.protocols.engine`)
+        self.air_cache = AirCache()
         #: (config, fs, noise power, leakage gain): derived from the frozen config
         self._derived: tuple = (None, None, 0.0, 0j)
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),

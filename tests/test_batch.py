@@ -84,7 +84,7 @@ def test_run_exchanges_equals_separate_run_exchange_calls():
 
 @pytest.mark.parametrize("link_profile, block", [("miller4-320k", 64), ("fm0-640k", 64), ("miller4-320k", 3)])
 def test_singulate_batch_equals_separate_singulations(link_profile, block, monkeypatch):
-    monkeypatch.setattr("rfsim.protocols.batch.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
+    monkeypatch.setattr("rfsim.protocols.engine.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
     reader, tags, channel = devices(DISTANCES, link_profile=link_profile)
     rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
     batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)

@@ -88,10 +88,14 @@ class Reader(PieTransmitter):
     antennas : non-empty sequence of rfsim.channels.antennas.Antenna
     rng : numpy Generator (keyword-only); draws the FCC hop table
     link : optional LinkProfile overriding ``config.link_profile`` (custom profiles)
+    air_cache : the run's :class:`rfsim.air.cache.AirCache` (its air-step strategy, the
+        modulated command segments and what tags derive from them); default a new one. A scene
+        that makes a reader per trial gives them one, so that a command is modulated and
+        decoded once per run.
     """
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
-                 link: LinkProfile | None = None):
+                 link: LinkProfile | None = None, air_cache: AirCache | None = None):
         self.config = _validated(config)
         self.link = profile(self.config.link_profile) if link is None else link
         if not isinstance(self.link, LinkProfile):
@@ -121,9 +125,9 @@ class Reader(PieTransmitter):
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
         self._cmd_cache_link = self.link
-        #: the air step's per-run strategy and caches (:class:`rfsim.air.cache.AirCache`) for the
-        #: exchanges this reader runs (:mod:`rfsim.protocols.engine`)
-        self.air_cache = AirCache()
+        #: the run's air-step strategy and caches (:class:`rfsim.air.cache.AirCache`): the
+        #: exchanges this reader runs (:mod:`rfsim.protocols.engine`), its modulated segments
+        self.air_cache = AirCache() if air_cache is None else air_cache
         #: (config, fs, noise power, leakage gain): derived from the frozen config
         self._derived: tuple = (None, None, 0.0, 0j)
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),

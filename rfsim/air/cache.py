@@ -4,20 +4,24 @@ reader's, a scene may give its own).
 
 * :class:`Strategy` names the fast paths the step may take. It is chosen by the owner, never
   by a probe of the machine at run time.
-* :class:`AirCache` holds what the step may reuse from one call to the next: the antenna sets
-  whose positions were found distinct (:class:`CheckedAntennas` entries). An entry keeps the
-  objects it was made from alive, so that their identities, the keys, stay their own; the
-  oldest entry is dropped first beyond ``max_entries``.
+* :class:`AirCache` holds what the step and its devices may reuse from one call to the next:
+  the antenna sets whose positions were found distinct (:class:`CheckedAntennas` entries) and
+  the emitted waveforms by their content (:class:`Waveform` entries: a reader's command bits
+  → its PIE segment, with the data devices derive from it, e.g. a tag's decoding of it). An
+  entry keeps the objects it was made from alive, so that their identities, where part of a
+  key, stay their own; the least recently used entry is dropped first beyond ``max_entries``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "AirCache"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "AirCache"]
 
 
 @dataclass(frozen=True)
@@ -64,23 +68,55 @@ class CheckedAntennas:
 
 
 @dataclass
+class Waveform:
+    """One emitted waveform, kept by its content (e.g. a command's bits, preamble and CW
+    lengths) with the objects that fix the rest of it.
+
+    Attributes
+    ----------
+    samples : (n,) complex128, read-only [√W]
+    makers : the objects the samples also depend on (a reader's frozen config and link
+        profile), compared by identity on a hit
+    memo : data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
+        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`)
+    """
+
+    samples: np.ndarray
+    makers: tuple
+    memo: dict = field(default_factory=dict)
+
+
+@dataclass
 class AirCache:
     """Everything the air step reuses between its calls in one run (module docstring).
 
     Attributes
     ----------
     strategy : the step's :class:`Strategy`
-    max_entries : entries kept per table (the oldest dropped first)
+    max_entries : entries kept per table (the least recently used dropped first)
     checked : antenna sets found at distinct positions, keyed by the identities of their
         antennas (emitters, reflectors, receivers)
     checked_tuples : the same, keyed by the identity of a tuple of reflector antennas (a
         population's one tuple: no look at its members)
+    waveforms : :class:`Waveform` entries by content key
     """
 
     strategy: Strategy = field(default_factory=Strategy)
     max_entries: int = 64
     checked: dict = field(default_factory=dict)
     checked_tuples: dict = field(default_factory=dict)
+    waveforms: dict = field(default_factory=dict)
+
+    def waveform(self, key, makers: tuple) -> Waveform | None:
+        """The :class:`Waveform` of content ``key`` made by ``makers`` (the same objects), or
+        None; a hit becomes the most recently used entry."""
+        hit = self.waveforms.pop(key, None)
+        if hit is None:
+            return None
+        self.waveforms[key] = hit
+        if len(hit.makers) != len(makers) or any(a is not b for a, b in zip(hit.makers, makers)):
+            return None
+        return hit
 
     def remember(self, table: dict, key, entry) -> None:
         """``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`."""

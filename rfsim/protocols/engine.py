@@ -174,8 +174,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
         draw the channel holds: a quasi-static channel within a round)
     propagation : "auto", "exact" or "narrowband" (see the module docstring)
-    link_cache : optional dict holding the (forward, backward) links of static tags for one
-        channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
+    link_cache : optional dict holding the forward and backward links of static tags for one
+        channel draw, keyed by (tag index, reader antenna, carrier) (entries: :class:`_EngineLinks`). Filled on every call;
         read only with ``draw_channel=False`` for a tag without motion — the links are then
         exactly what the channel would return again (held draw, same geometry and carrier).
         (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
@@ -445,10 +445,39 @@ class ReaderPort:
                                    expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
 
 
+@dataclasses.dataclass
+class _TagIndex:
+    """A tag population's antennas (held: their identities are the keys) and the index of
+    each in the population."""
+
+    antennas: tuple
+    index: dict
+
+
+@dataclasses.dataclass
+class _LinkPair:
+    """A tag's forward (reader → tag) and backward (tag → reader) links of one draw."""
+
+    forward: Any
+    backward: Any
+
+
+@dataclasses.dataclass
+class _HeldConstants:
+    """The narrowband constants of held links between a reader antenna and ``antennas`` (held,
+    with their identities ``antenna_ids``), one per antenna in that order."""
+
+    antennas: Sequence
+    antenna_ids: list
+    constants: list
+
+
 class _EngineLinks:
     """The engine's links for the air step: forward and backward link of each tag from
     ``channel.backscatter_links`` (monostatic), held in ``link_cache`` as described in
-    :func:`run_exchange`."""
+    :func:`run_exchange`: ``(tag index, id(reader antenna), carrier)`` → :class:`_LinkPair`,
+    ``("index",)`` → a population's :class:`_TagIndex`, ``("held", …)`` → :class:`_HeldConstants`
+    (the link cache keeps the antennas it keys by identity alive)."""
 
     def __init__(self, channel, antenna, reflectors, members, motions, rng, t_s, cache, draw):
         self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s
@@ -456,11 +485,11 @@ class _EngineLinks:
         if len(reflectors) == 1 and hasattr(reflectors[0], "antennas"):  # a tag population: index kept
             ants = reflectors[0].antennas
             hit = cache.get(("index",)) if cache is not None else None
-            if hit is None or hit[0] is not ants:
-                hit = (ants, {id(a): i for i, a in enumerate(ants)})
+            if hit is None or hit.antennas is not ants:
+                hit = _TagIndex(antennas=ants, index={id(a): i for i, a in enumerate(ants)})
                 if cache is not None:
                     cache[("index",)] = hit
-            self.index = hit[1]
+            self.index = hit.index
         else:
             self.index = {id(t.antenna): i for i, t in enumerate(members)}
         self.backward: dict = {}
@@ -480,18 +509,19 @@ class _EngineLinks:
                 if motion is None and not self.draw:
                     links = self.cache.get(key)
             if links is None:
-                links = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s,
-                                                       tag_motion=motion)
+                forward, backward = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng,
+                                                                   t_s=t_s, tag_motion=motion)
+                links = _LinkPair(forward=forward, backward=backward)
                 if self.cache is not None and motion is None:
                     self.cache[key] = links
-            self.backward[id(rx)] = links[1]
-            return links[0]
+            self.backward[id(rx)] = links.backward
+            return links.forward
         if rx is self.antenna:
             hit = self.backward.get(id(tx))
             if hit is None and self.cache is not None and not self.draw:  # after held_constants
                 i = self.index.get(id(tx))
                 links = self.cache.get((i, id(self.antenna), fc_hz)) if i is not None else None
-                hit = links[1] if links is not None else None
+                hit = links.backward if links is not None else None
             return hit
         return None
 
@@ -504,19 +534,19 @@ class _EngineLinks:
             return None
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
         hit = self.cache.get(key)
-        if hit is not None and (hit[2] is others or hit[0] == [id(a) for a in others]):
-            return hit[1]
-        side = 1 if inbound else 0
+        if hit is not None and (hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
+            return hit.constants
         out = []
         for ant in others:
             i = self.index.get(id(ant))
             links = self.cache.get((i, id(antenna), fc_hz)) if i is not None else None
-            f = getattr(links[side], "narrowband_constant", None) if links is not None else None
+            link = None if links is None else links.backward if inbound else links.forward
+            f = getattr(link, "narrowband_constant", None)
             c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
             if c is None:
                 return None
             out.append(c)
-        self.cache[key] = ([id(a) for a in others], out, others)
+        self.cache[key] = _HeldConstants(antennas=others, antenna_ids=[id(a) for a in others], constants=out)
         return out
 
 

@@ -86,6 +86,25 @@ def splitmix(key, c):
     return z ^ (z >> _S31)
 
 
+#: Horner coefficients in s² of (atanh(s)/s − 1)/s² = Σ s^(2k−2)/(2k+1), k = 1…10 (highest first)
+LOG_SERIES = tuple(1.0 / d for d in (21.0, 19.0, 17.0, 15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0))
+#: Horner coefficients in φ² of cos φ (to φ¹⁶) and of (sin φ − φ)/φ³ (to φ¹⁵), highest first
+COS_SERIES = (1.0 / 20922789888000.0, -1.0 / 87178291200.0, 1.0 / 479001600.0, -1.0 / 3628800.0, 1.0 / 40320.0,
+              -1.0 / 720.0, 1.0 / 24.0, -0.5, 1.0)
+SIN_SERIES = (-1.0 / 1307674368000.0, 1.0 / 6227020800.0, -1.0 / 39916800.0, 1.0 / 362880.0, -1.0 / 5040.0,
+              1.0 / 120.0, -1.0 / 6.0)
+
+
+@njit_inline
+def horner(coefs, x):
+    """Σ coefs[k]·x^(K−k), K = len(coefs) − 1, by Horner's rule (one product and one sum per
+    coefficient after the first)."""
+    p = coefs[0]
+    for c in coefs[1:]:
+        p = p * x + c
+    return p
+
+
 @njit_inline
 def log_unit(u):
     """ln u for u ∈ [2⁻⁵², 1] (module docstring, step 4)."""
@@ -96,16 +115,7 @@ def log_unit(u):
     ef = float(np.int64(bits >> _S52) - (1022 if big else 1023))
     s = (m - 1.0) / (m + 1.0)
     s2 = s * s
-    p = 1.0 / 21.0
-    p = p * s2 + 1.0 / 19.0
-    p = p * s2 + 1.0 / 17.0
-    p = p * s2 + 1.0 / 15.0
-    p = p * s2 + 1.0 / 13.0
-    p = p * s2 + 1.0 / 11.0
-    p = p * s2 + 1.0 / 9.0
-    p = p * s2 + 1.0 / 7.0
-    p = p * s2 + 1.0 / 5.0
-    p = p * s2 + 1.0 / 3.0
+    p = horner(LOG_SERIES, s2)
     return ef * _LN2_HI + (2.0 * s + (2.0 * s * s2 * p + ef * _LN2_LO))
 
 
@@ -113,24 +123,7 @@ def log_unit(u):
 def cos_sin_octant(phi):
     """(cos φ, sin φ) for φ ∈ [0, π/4] (module docstring, step 4)."""
     x2 = phi * phi
-    c = 1.0 / 20922789888000.0  # 1/16!
-    c = c * x2 - 1.0 / 87178291200.0
-    c = c * x2 + 1.0 / 479001600.0
-    c = c * x2 - 1.0 / 3628800.0
-    c = c * x2 + 1.0 / 40320.0
-    c = c * x2 - 1.0 / 720.0
-    c = c * x2 + 1.0 / 24.0
-    c = c * x2 - 0.5
-    c = c * x2 + 1.0
-    s = 1.0 / 1307674368000.0  # 1/15!
-    s = s * x2 - 1.0 / 6227020800.0
-    s = s * x2 + 1.0 / 39916800.0
-    s = s * x2 - 1.0 / 362880.0
-    s = s * x2 + 1.0 / 5040.0
-    s = s * x2 - 1.0 / 120.0
-    s = s * x2 + 1.0 / 6.0
-    s = phi - phi * x2 * s
-    return c, s
+    return horner(COS_SERIES, x2), phi + phi * x2 * horner(SIN_SERIES, x2)
 
 
 @njit_inline

@@ -4,6 +4,8 @@ the same polynomials in Horner form)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 GAMMA = np.uint64(0x9E3779B97F4A7C15)
@@ -18,6 +20,13 @@ def splitmix(key: int, c: np.ndarray) -> np.ndarray:
         return z ^ (z >> np.uint64(31))
 
 
+def _horner(coefs, x: np.ndarray) -> np.ndarray:
+    p = np.full_like(x, coefs[0])
+    for c in coefs[1:]:
+        p = p * x + c
+    return p
+
+
 def log_unit(u: np.ndarray) -> np.ndarray:
     """ln u from exponent and mantissa: 2·atanh((m − 1)/(m + 1)) to s²¹ plus e·ln 2 (split)."""
     bits = u.view(np.uint64)
@@ -27,23 +36,17 @@ def log_unit(u: np.ndarray) -> np.ndarray:
     ef = ((bits >> np.uint64(52)).astype(np.int64) - np.where(big, 1022, 1023)).astype(np.float64)
     s = (m - 1.0) / (m + 1.0)
     s2 = s * s
-    p = np.full_like(s, 1.0 / 21.0)
-    for d in (19.0, 17.0, 15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0):
-        p = p * s2 + 1.0 / d
+    p = _horner([1.0 / d for d in (21.0, 19.0, 17.0, 15.0, 13.0, 11.0, 9.0, 7.0, 5.0, 3.0)], s2)
     return ef * 6.93147180369123816490e-01 + (2.0 * s + (2.0 * s * s2 * p + ef * 1.90821492927058770002e-10))
 
 
 def cos_sin_octant(phi: np.ndarray) -> tuple:
-    """(cos φ, sin φ) on [0, π/4] by Taylor series to φ¹⁶ and φ¹⁵ (Horner)."""
+    """(cos φ, sin φ) on [0, π/4] by Taylor series to φ¹⁶ and φ¹⁵ (Horner in φ²)."""
     x2 = phi * phi
-    c = np.full_like(phi, 1.0 / 20922789888000.0)
-    for k, d in enumerate((87178291200.0, 479001600.0, 3628800.0, 40320.0, 720.0, 24.0, 2.0)):
-        c = c * x2 - 1.0 / d if k % 2 == 0 else c * x2 + 1.0 / d
-    c = c * x2 + 1.0
-    s = np.full_like(phi, 1.0 / 1307674368000.0)
-    for k, d in enumerate((6227020800.0, 39916800.0, 362880.0, 5040.0, 120.0, 6.0)):
-        s = s * x2 - 1.0 / d if k % 2 == 0 else s * x2 + 1.0 / d
-    return c, phi - phi * x2 * s
+    fact = [float(math.factorial(k)) for k in range(17)]
+    cos_c = [(-1.0) ** (k // 2) / fact[k] for k in range(16, -1, -2)]  # φ¹⁶ … φ⁰
+    sin_c = [(-1.0) ** ((k - 1) // 2) / fact[k] for k in range(15, 2, -2)]  # φ¹⁵ … φ³, over φ³
+    return _horner(cos_c, x2), phi + phi * x2 * _horner(sin_c, x2)
 
 
 def normal_pairs(key: int, pairs: np.ndarray) -> tuple:

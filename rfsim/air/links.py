@@ -78,7 +78,8 @@ def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers:
             return
         key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
         if key in cache.checked:
-            _remember_tuple(cache, reflector_antennas, emitters, listening)
+            if len(reflector_antennas) > 1:  # a population's tuple: next time by its identity alone
+                _remember_tuple(cache, reflector_antennas, emitters, listening)
             return
     named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
              + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]

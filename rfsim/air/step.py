@@ -35,7 +35,9 @@ D_ek either the channel's link or, for a receiver sharing the emitter's antenna 
 receiver's own ``coupling`` (a reader's TX→RX leakage), r_j the reflector's re-radiation
 factor and n_k complex white Gaussian noise of power ``receiver.noise_power_w`` per sample
 (kTB·F from :func:`rfsim.air.noise.thermal_noise_power_w`, which :mod:`rfsim.channels.noise` exports
-with the other noise models; real part then imaginary part drawn from the step's ``rng``).
+with the other noise models; real part then imaginary part drawn from the step's ``rng``, or,
+with the run's strategy ``noise="counter"``, from the counter-based stream of one key drawn
+from ``rng`` and only from the receiver's ``first_read_sample`` on: :mod:`rfsim.air.noise`).
 
 * **Carrier offsets.** S_Δ multiplies by e^{j2π·Δ·t} (t absolute time, phase reduced modulo
   one cycle): an emitter on another carrier appears shifted by the offset when |Δ| < fs/2,
@@ -75,8 +77,10 @@ receiver direct paths, backscatter, superposition, noise, receive) and its resul
 (:class:`AirResult`); its parts live beside it and are importable from here:
 :mod:`rfsim.air.segment` (:class:`Segment`, :func:`carrier_shift`), :mod:`rfsim.air.roles`
 (the protocols and adapters), :mod:`rfsim.air.links` (:class:`LinkTable`, a link applied,
-the position check), :mod:`rfsim.air.groups` (members of reflector groups) and
-:mod:`rfsim.air.fused` (the fused backscatter fast path).
+the position check), :mod:`rfsim.air.groups` (members of reflector groups),
+:mod:`rfsim.air.fused` (the fused backscatter fast path) and :mod:`rfsim.air.cache` (the run's
+:class:`AirCache`: its explicit fast-path :class:`Strategy` and what the step reuses between
+calls). :mod:`rfsim.air.batch` runs B prepared steps as one batch.
 """
 
 from __future__ import annotations

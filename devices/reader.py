@@ -61,24 +61,6 @@ FCC_MAX_DWELL_S = 0.4
 LEAKAGE_PHASE_RAD = math.pi / 3
 
 
-#: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
-_VALIDATED: dict = {}
-_VALIDATED_SIZE = 16
-
-
-def _validated(config: ReaderConfig) -> ReaderConfig:
-    """:func:`rfsim.core.config.validate` of a (frozen) config, remembered for the last few config
-    objects: a Monte Carlo builds one reader per sample from the same config."""
-    hit = _VALIDATED.get(id(config))
-    if hit is not None and hit[0] is config:
-        return hit[1]
-    out = validate(config)
-    if len(_VALIDATED) >= _VALIDATED_SIZE:
-        _VALIDATED.pop(next(iter(_VALIDATED)))
-    _VALIDATED[id(config)] = (config, out)  # config kept alive: its id stays its own
-    return out
-
-
 class Reader(PieTransmitter):
     """A Gen2 reader with one or more antennas (used in turn), see the module docstring.
 
@@ -96,7 +78,8 @@ class Reader(PieTransmitter):
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
                  link: LinkProfile | None = None, air_cache: AirCache | None = None):
-        self.config = _validated(config)
+        air_cache = AirCache() if air_cache is None else air_cache
+        self.config = air_cache.derived(config, validate)  # a frozen config: validated once per run
         self.link = profile(self.config.link_profile) if link is None else link
         if not isinstance(self.link, LinkProfile):
             raise ValueError(f"link must be a LinkProfile, got {link!r}")
@@ -127,7 +110,7 @@ class Reader(PieTransmitter):
         self._cmd_cache_link = self.link
         #: the run's air-step strategy and caches (:class:`rfsim.air.cache.AirCache`): the
         #: exchanges this reader runs (:mod:`rfsim.protocols.engine`), its modulated segments
-        self.air_cache = AirCache() if air_cache is None else air_cache
+        self.air_cache = air_cache
         #: (config, fs, noise power, leakage gain): derived from the frozen config
         self._derived: tuple = (None, None, 0.0, 0j)
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),

@@ -21,7 +21,7 @@ import numpy as np
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "AirCache"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "Derived", "AirCache"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +87,21 @@ class Waveform:
 
 
 @dataclass
+class Derived:
+    """A value derived from an immutable object by a pure function (e.g. a device's validated
+    config), kept with the object (alive: its identity is the key).
+
+    Attributes
+    ----------
+    source : the object
+    value : what the function gave for it
+    """
+
+    source: object
+    value: object
+
+
+@dataclass
 class AirCache:
     """Everything the air step reuses between its calls in one run (module docstring).
 
@@ -99,6 +114,7 @@ class AirCache:
     checked_tuples : the same, keyed by the identity of a tuple of reflector antennas (a
         population's one tuple: no look at its members)
     waveforms : :class:`Waveform` entries by content key
+    derivations : :class:`Derived` entries by (function, identity of the source)
     """
 
     strategy: Strategy = field(default_factory=Strategy)
@@ -106,6 +122,18 @@ class AirCache:
     checked: dict = field(default_factory=dict)
     checked_tuples: dict = field(default_factory=dict)
     waveforms: dict = field(default_factory=dict)
+    derivations: dict = field(default_factory=dict)
+
+    def derived(self, source, make):
+        """``make(source)`` for an immutable ``source``, computed once per run (a :class:`Derived`
+        entry: the readers of one run made from one config validate it once)."""
+        key = (make, id(source))
+        hit = self.derivations.get(key)
+        if hit is not None and hit.source is source:
+            return hit.value
+        value = make(source)
+        self.remember(self.derivations, key, Derived(source=source, value=value))
+        return value
 
     def waveform(self, key, makers: tuple) -> Waveform | None:
         """The :class:`Waveform` of content ``key`` made by ``makers`` (the same objects), or

@@ -28,7 +28,7 @@ from rfsim.scenarios._captions import caption
 from rfsim.estimators.himr_cases import OUTAGE_S
 
 #: Grey of the true track or distance, drawn wide under the estimates so they stay visible.
-TRUE_STYLE = dict(color="0.55", linewidth=3.2, alpha=0.55, solid_capstyle="round", zorder=1)
+TRUE_STYLE = dict(color="0.55", linestyle="-", linewidth=3.2, alpha=0.55, solid_capstyle="round", zorder=1)
 #: The source in legend entries (the caption cites it in full).
 SHORT = "Akbar 2016"
 #: What the 2-D figures call an observer run (variant, dealias) in the legend.
@@ -287,7 +287,7 @@ def plot_2d(dataset_path: Path, out_dir: Path) -> list[Path]:
                 **series_style(1))
         a1.axhline(0.0, color="0.3", linewidth=0.8, linestyle=(0, (4, 2)))
         a1.set(ylabel="max Re eig$(A - LC(x(t)))$ [1/s]", title="Observer error dynamics along the true track")
-        a2.plot(truth["t_s"], np.degrees(truth["psi"]), color="0.25", linewidth=1.2, label="true heading $\\psi$")
+        a2.plot(truth["t_s"], np.degrees(truth["psi"]), color="0.25", linestyle="-", linewidth=1.2, label="true heading $\\psi$")
         psi_deg = np.degrees(truth["psi"])
         lo_d, hi_d = np.nanmin(psi_deg), np.nanmax(psi_deg)
         bounds = np.arange(90.0 + 180.0 * np.ceil((lo_d - 180.0) / 180.0), hi_d + 90.0 + 1e-9, 180.0)

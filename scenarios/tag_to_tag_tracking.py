@@ -360,7 +360,7 @@ def _tracks(ax, a, est, truth) -> None:
     ax.plot(ex[0], ex[1], "*", markersize=9, color="0.2", markerfacecolor="white", linestyle="none", label="exciter",
             zorder=3)
     tr = truth["trajectory"] == 0
-    ax.plot(truth["x_m"][tr], truth["y_m"][tr], color="0.55", linewidth=3.2, alpha=0.55, label="true track", zorder=1)
+    ax.plot(truth["x_m"][tr], truth["y_m"][tr], color="0.55", linestyle="-", linewidth=3.2, alpha=0.55, label="true track", zorder=1)
     shown = [lab for lab in _trackers(est["tracker"]) if lab in ("nn", "kf") or lab.startswith("rbpf")
              or lab == max((x for x in dict.fromkeys(est["tracker"]) if x.startswith("pf")),
                            key=lambda x: int(x[2:] or 0), default="")]

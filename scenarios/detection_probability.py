@@ -78,7 +78,9 @@ from rfsim.core.errors import ConfigError, UserError
 from rfsim.core.procs import map_in_order
 from rfsim.core.progress import stage
 from rfsim.core.rng import trial_rng_grid
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.figure_style import (OKABE_ITO, PUBLISHED, ci_errorbar, figure, legend_outside, paper_style,
+                                     published_label, source_note)
+from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.references import cite
 from rfsim.core.lazy import lazy_import
 
@@ -341,14 +343,16 @@ FITS_DIFFERENCE_CAUSE = (
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """AURIS dissertation Fig. 4.7 analogues, ``<stem>-fig4_7.png``: P(ST detects) vs D
-    (d ∈ [0.4, 1] m, 0.3 m bins) and vs d (D ∈ [2, 4] m, 0.2 m bins), binned with Wilson 95 %
-    intervals, the fitted and published RTS and TS curves at the other distance fixed
-    (d = 0.6 m / D = 3 m) and the *median* |θ|, |φ| of the selected samples (at θ = φ = 0, the
-    best direction, not a typical one, the fitted RTS lies far above the data: its angle
-    coefficients are ≈ 5-7 /rad, the median angles ≈ 0.4 rad), and the fitted models averaged
-    over each bin's samples."""
-    plt = pyplot()
+    """AURIS dissertation Fig. 4.7 analogues, ``<stem>-fig4_7.png``: P(ST detects) vs the
+    reader–tag distance D (d ∈ [0.4, 1] m) and vs the ST–tag distance d (D ∈ [2, 4] m), binned
+    with Wilson 95 % intervals (0.3 m / 0.2 m bins, merged until each holds at least
+    ``MIN_BIN_SAMPLES`` samples; the horizontal bar is the bin), the fitted and published RTS
+    and TS curves at the other distance fixed (d = 0.6 m / D = 3 m) and the *median* |θ|, |φ|
+    of the selected samples (at θ = φ = 0, the best direction, not a typical one, the fitted
+    RTS lies far above the data: its angle coefficients are ≈ 5-7 /rad, the median angles
+    ≈ 0.4 rad), and the fitted models averaged over each bin's samples."""
+    from matplotlib.lines import Line2D
+
     det = _detection
     s = _dataset.read_table(dataset_path, "samples")
     try:
@@ -360,40 +364,82 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         for i in range(fits["model"].size)]
     coefs = [(m, src, c[np.isfinite(c)]) for m, src, c in coefs]
     y = s["st_detected"].astype(float)
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.6))
-    for ax, var, sel, edges, xlab, fixed in (
-            (axes[0], "D_m", (s["d_m"] >= 0.4) & (s["d_m"] <= 1.0), np.arange(1.0, 10.01, 0.3), "D [m]", 0.6),
-            (axes[1], "d_m", (s["D_m"] >= 2.0) & (s["D_m"] <= 4.0), np.arange(0.0, 2.01, 0.2), "d [m]", 3.0)):
-        b = det.binned_probability(s[var][sel], y[sel], edges)
-        ok = b.trials > 0
-        err = np.clip(np.vstack([b.p_hat[ok] - b.lower[ok], b.upper[ok] - b.p_hat[ok]]), 0.0, None)
-        ax.errorbar(b.centers[ok], b.p_hat[ok], yerr=err,
-                    fmt="o", capsize=3, label=f"simulated ({int(sel.sum())} samples, Wilson 95 %)")
-        x = np.linspace(edges[0], edges[-1], 200)
-        th, ph = (float(np.median(np.abs(s[k][sel]))) if sel.any() else 0.0 for k in ("theta_rad", "phi_rad"))
-        at = f"|theta| = {th:.2f}, |phi| = {ph:.2f} rad (medians)"
-        if var == "D_m":
-            curves = {"RTS": det.rts_design(x, fixed, th, ph), "TS": det.ts_design(np.full_like(x, fixed))}
-            ax.set_title(f"vs D, d in [0.4, 1] m; curves at d = 0.6 m,\n{at}", fontsize=9)
-        else:
-            curves = {"RTS": det.rts_design(fixed, x, th, ph), "TS": det.ts_design(x)}
-            ax.set_title(f"vs d, D in [2, 4] m; curves at D = 3 m,\n{at}", fontsize=9)
-        for model, source, coef in coefs:
-            ax.plot(x, det.predict_proba(curves[model], coef), "-" if source == "fit" else ":",
-                    label=f"{model} {source}")
-        # the fitted models averaged over the samples of each bin (the binned data mix all
-        # angles and the other distance, the curves above fix them)
-        feats = {"RTS": det.rts_design(s["D_m"][sel], s["d_m"][sel], s["theta_rad"][sel], s["phi_rad"][sel]),
-                 "TS": det.ts_design(s["d_m"][sel])}
-        k = np.clip(np.searchsorted(edges, s[var][sel], side="right") - 1, 0, edges.size - 2)
-        for model, source, coef in coefs:
-            if source == "fit":
-                pr = det.predict_proba(feats[model], coef)
-                mean_pr = np.bincount(k, pr, minlength=edges.size - 1) / np.maximum(b.trials, 1)
-                ax.plot(b.centers[ok], mean_pr[ok], "s--", ms=3, label=f"{model} fit, mean over the bin's samples")
-        ax.set(xlabel=xlab, ylabel="detection probability", ylim=(-0.02, 1.02))
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.suptitle(f"P(ST detects the tag's RN16) — {cite('auris', 'Fig. 4.7')} (RTS/TS models, Eqs. 4.6-4.7)",
-                 fontsize=11)
-    return [save_figure(fig, figure_path(dataset_path, out_dir, "fig4_7"), dpi=110)]
+    colour = {"RTS": OKABE_ITO[0], "TS": OKABE_ITO[1]}
+    published = {"RTS": dict(PUBLISHED), "TS": {**PUBLISHED, "linestyle": ":", "marker": "s"}}
+    with paper_style():
+        fig, axes = figure(columns=2, ncols=2, height_in=3.2, sharey=True)
+        for ax, var, sel, edges, xlab, fixed in (
+                (axes[0], "D_m", (s["d_m"] >= 0.4) & (s["d_m"] <= 1.0), np.arange(1.0, 10.01, 0.3),
+                 "reader antenna–tag distance $D$ [m]", 0.6),
+                (axes[1], "d_m", (s["D_m"] >= 2.0) & (s["D_m"] <= 4.0), np.arange(0.0, 2.01, 0.2),
+                 "ST–tag distance $d$ [m]", 3.0)):
+            edges = _merged_edges(s[var][sel], edges, MIN_BIN_SAMPLES)
+            b = det.binned_probability(s[var][sel], y[sel], edges)
+            ok = b.trials > 0
+            ci_errorbar(ax, b.centers[ok], b.p_hat[ok], b.lower[ok], b.upper[ok], scale=100.0,
+                        xerr=0.5 * np.diff(edges)[ok], color="0.15", marker="o", ms=3.5, linestyle="none",
+                        elinewidth=0.7, zorder=4)
+            x = np.linspace(edges[0], edges[-1], 200)
+            th, ph = (float(np.median(np.abs(s[k][sel]))) if sel.any() else 0.0 for k in ("theta_rad", "phi_rad"))
+            at = rf"$|\theta|$ = {th:.2f}, $|\phi|$ = {ph:.2f} rad (medians)"
+            if var == "D_m":
+                curves = {"RTS": det.rts_design(x, fixed, th, ph), "TS": det.ts_design(np.full_like(x, fixed))}
+                ax.set_title(f"$d$ in [0.4, 1] m ({int(sel.sum())} samples);\ncurves at $d$ = 0.6 m and\n{at}")
+            else:
+                curves = {"RTS": det.rts_design(fixed, x, th, ph), "TS": det.ts_design(x)}
+                ax.set_title(f"$D$ in [2, 4] m ({int(sel.sum())} samples);\ncurves at $D$ = 3 m and\n{at}")
+            for model, source, coef in coefs:
+                pr = 100 * det.predict_proba(curves[model], coef)
+                if source == "fit":
+                    ax.plot(x, pr, color=colour[model], ls="-" if model == "RTS" else "--", lw=1.3)
+                else:
+                    ax.plot(x, pr, markevery=25, **published[model])
+            # the fitted models averaged over the samples of each bin (the binned data mix all
+            # angles and the other distance, the curves above fix them)
+            feats = {"RTS": det.rts_design(s["D_m"][sel], s["d_m"][sel], s["theta_rad"][sel], s["phi_rad"][sel]),
+                     "TS": det.ts_design(s["d_m"][sel])}
+            k = np.clip(np.searchsorted(edges, s[var][sel], side="right") - 1, 0, edges.size - 2)
+            for model, source, coef in coefs:
+                if source == "fit":
+                    pr = det.predict_proba(feats[model], coef)
+                    mean_pr = np.bincount(k, pr, minlength=edges.size - 1) / np.maximum(b.trials, 1)
+                    ax.plot(b.centers[ok], 100 * mean_pr[ok], ls="none", marker="D" if model == "RTS" else "v",
+                            ms=3.5, mfc="white", mec=colour[model], mew=0.9, zorder=5)
+            ax.set(xlabel=xlab, ylim=(-2, 102))
+        axes[0].set_ylabel("P(ST decodes the tag's RN16) [%]")
+        handles = [Line2D([], [], color="0.15", marker="o", ms=3.5, ls="none",
+                          label=f"simulated, binned (≥ {MIN_BIN_SAMPLES}\nsamples/bin; Wilson 95 %)")]
+        for model in ("RTS", "TS"):
+            if any(m == model and src == "fit" for m, src, _ in coefs):
+                handles += [Line2D([], [], color=colour[model], ls="-" if model == "RTS" else "--",
+                                   label=f"{model} ML fit of this run"),
+                            Line2D([], [], ls="none", marker="D" if model == "RTS" else "v", mfc="white",
+                                   mec=colour[model], label=f"{model} fit averaged\nover the bin's samples")]
+            if any(m == model and src != "fit" for m, src, _ in coefs):
+                handles.append(Line2D([], [], **published[model],
+                                      label=published_label(f"AURIS {model}")))
+        legend_outside(axes[1], where="figure", handles=handles)
+        fig.suptitle(f"ST detection of the tag's reply, {cite('auris', 'Fig. 4.7')} (RTS/TS models, Eqs. 4.6–4.8)")
+        source_note(fig, f"{s['D_m'].size} samples in all; D: reader antenna to tag, d: ST centre to tag, "
+                         "θ, φ: azimuth and elevation of the tag seen from the antenna")
+        return [save_figure(fig, figure_path(dataset_path, out_dir, "fig4_7"))]
+
+
+#: Fewest samples in a bin of the Fig. 4.7 analogue (narrow bins are merged up to it).
+MIN_BIN_SAMPLES = 40
+
+
+def _merged_edges(x, edges, min_count: int) -> np.ndarray:
+    """``edges`` with neighbouring bins merged, left to right, until each bin holds at least
+    ``min_count`` of the values ``x`` (a short remainder joins the last bin)."""
+    counts, _ = np.histogram(x, bins=edges)
+    kept, run = [edges[0]], 0
+    for i, c in enumerate(counts):
+        run += c
+        if run >= min_count:
+            kept.append(edges[i + 1])
+            run = 0
+    if len(kept) == 1:
+        return np.array([edges[0], edges[-1]])
+    kept[-1] = edges[-1]  # the remainder (fewer than min_count) joins the last bin
+    return np.asarray(kept)

@@ -396,14 +396,15 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         fig.colorbar(im, ax=ax, label=r"decode probability $P_\mathrm{dec}$ [%]")
         hatch = mask_no_data(ax, d_e, d_tt, unpowered.T, label="tag not powered (no reply)")
         ok = rows["d50_in_range"]
-        ax.errorbar(rows["exciter_distance_m"][ok], rows["d50_m"][ok], yerr=rows["d50_stderr_m"][ok],
-                    color="white", marker="o", ms=3.5, mec="black", mew=0.6, capsize=2, lw=1.2,
-                    ecolor="white", label=r"Eq. (6.5) per $d_\mathrm{e}$: $P_\mathrm{dec}$ = 50 % ($\pm$1 s.e.)")
+        if ok.any():
+            ax.errorbar(rows["exciter_distance_m"][ok], rows["d50_m"][ok], yerr=rows["d50_stderr_m"][ok],
+                        color="white", marker="o", ms=3.5, mec="black", mew=0.6, capsize=2, lw=1.2,
+                        ecolor="white", label=r"50 % point of Eq. (6.5) per $d_\mathrm{e}$ ($\pm$1 s.e.)")
         if a.get("eq65_extended_status") == "ok":
             x = d_e[rows["tag_runs"]]
             line = -(a["eq65_extended_a1"] + a["eq65_extended_a3"] * x) / a["eq65_extended_a2"]
             ax.plot(x, line, color=OKABE_ITO[1], ls="--", lw=1.4,
-                    label=r"Eq. (6.5) + $a_3 d_\mathrm{e}$ (rows where the tag runs): 50 %")
+                    label=r"50 % line of Eq. (6.5) + $a_3 d_\mathrm{e}$ (pooled)")
         ax.set(xlabel=r"exciter–tag distance $d_\mathrm{e}$ [m]",
                ylabel=r"tag–listener distance $d_\mathrm{tt}$ [m]",
                xticks=d_e[::2], yticks=_spaced(d_tt, 0.1 * np.ptp(d_tt)),
@@ -423,11 +424,11 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
                 title=r"$P_\mathrm{dec}$ at three $d_\mathrm{e}$")
         handles, labels = ax.get_legend_handles_labels()
         legend_outside(ax, where="below", handles=handles + ([hatch] if hatch is not None else []),
-                       ncols=3)
+                       ncols=1)
         handles, labels = ax2.get_legend_handles_labels()
         legend_outside(ax2, handles=handles + [Line2D([], [], color="0.4", lw=0.8, label="Eq. (6.5) fit of the row")])
         fig.suptitle(f"Exciter-powered tag-to-tag link, Eq. (6.5) fit — {cite('geng', 'Ch. 6')}")
-        source_note(fig, f"{int(np.median(draws))} channel draws per (d_e, d_tt) point, "
+        source_note(fig, f"{int(np.median(draws))} channel draws per (" + r"$d_\mathrm{e}$, $d_\mathrm{tt}$) point, "
                          f"{d_e.size} × {d_tt.size} points")
         return [save_figure(fig, figure_path(dataset_path, out_dir, "heatmap"))]
 

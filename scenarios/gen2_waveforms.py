@@ -265,11 +265,11 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
                 ax.axvspan(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3, color="0.85", zorder=0)
             zoom.set_title("start of the RN16 (6 bits)")
             zoom.xaxis.set_major_locator(MaxNLocator(3))
-        handles = [Line2D([], [], **reader_style, label="reader PIE envelope (relative to the CW)"),
-                   Line2D([], [], **tag_style, label="tag backscatter state ±1 (drawn offset)"),
-                   Patch(color=OKABE_ITO[1], alpha=0.35, lw=0, label="tag replying (subcarrier finer than a pixel)"),
+        handles = [Line2D([], [], **reader_style, label="reader PIE envelope (rel. CW)"),
+                   Line2D([], [], **tag_style, label="tag backscatter state ±1"),
+                   Patch(color=OKABE_ITO[1], alpha=0.35, lw=0, label="tag replying (finer than a pixel)"),
                    Patch(color="0.85", label="interval zoomed on the right")]
-        legend_outside(axes[-1, 0], where="figure", handles=handles, ncols=2)
+        legend_outside(axes[-1, 0], where="below", handles=handles, ncols=2)
         fig.suptitle(f"Query → RN16 → ACK → PC+EPC+CRC-16 per link profile ({cite('gen2')}; "
                      "no channel, no noise)")
         return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"), dpi=200)]

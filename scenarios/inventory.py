@@ -354,9 +354,11 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
             else:
                 axes[1].remove()
                 axes[2].remove()
-            handles = [h for ax in axes if ax.axes is not None for h in ax.get_legend_handles_labels()[0]]
-            legend_outside(axes[-1], where="figure", handles=handles, ncols=3)
             fig.suptitle(f"Two tags replying in one slot: capture and RN16 acceptance ({cite('gen2')})")
+            if has_sweep:
+                sw = read_table(dataset_path, "capture_sweep")
+                source_note(fig, "sweep profiles " + ", ".join(dict.fromkeys(np.asarray(sw["profile"]).astype(str)))
+                            + f"; RN16 accepted at $E_b/(N_0+I)$ ≥ {float(sw['threshold_db'][0]):.1f} dB")
             out.append(save_figure(fig, figure_path(dataset_path, out_dir, "capture")))
     return out
 
@@ -376,11 +378,12 @@ def _plot_capture_trials(a, c, wilson_interval) -> None:
     k = np.array([np.sum(c["captured"][m]) for m in sel])
     lo, hi = wilson_interval(k, n)
     ci_errorbar(a, x, k / np.maximum(n, 1), lo, hi, scale=100.0,
-                label=f"engine: {_count_text(n)} trials per ratio (Wilson 95 %)", **series_style(4))
+                label=f"{_count_text(n)} trials/ratio,\nWilson 95 %", **series_style(4))
     a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 104, -4), "|", color="0.45", ms=5,
-           label="engine: one trial (captured: top)")
-    a.set(ylim=(-9, 109), xlabel="power ratio near/far at the reader [dB]",
+           label="one trial (top: captured)")
+    a.set(ylim=(-9, 109), xlabel="power ratio near/far\nat the reader [dB]",
           ylabel=r"$P_\mathrm{capture}$ [%]", title="engine, lock-step tags\n(sample level)")
+    legend_outside(a, where="below", ncols=1)
 
 
 def _plot_sweep(a, b, path) -> None:
@@ -402,15 +405,15 @@ def _plot_sweep(a, b, path) -> None:
             i += 1
             if m.any():
                 ci_errorbar(a, c["ratio_db"][m], c["p_capture"][m], c["ci_lo"][m], c["ci_hi"][m], scale=100.0,
-                            ms=3, label=f"{code[m][0]} ({name}), {how}", **style)
+                            ms=3, label=f"{code[m][0]}, {how}", **style)
             if ma.any():
                 floor = 0.5 / np.maximum(acc["collisions"][ma], 1)
                 b.plot(np.maximum(acc["false_ack_rate"][ma], floor), 100 * acc["missed_capture_rate"][ma],
                        ms=2.5, markevery=4, **style)
     n = int(c["trials"].min()) if len(c["trials"]) else 0
-    gamma = float(c["threshold_db"][0]) if len(c["threshold_db"]) else math.nan
-    a.set(xlabel="power ratio of the two replies [dB]", ylabel=r"$P_\mathrm{capture}$ [%] (C-P 95 %)",
-          ylim=(-3, 103), title=f"batched sweep, {n} collisions/point\n(RN16 accepted at {gamma:.1f} dB)")
+    a.set(xlabel="power ratio of the two\nreplies at the reader [dB]", ylabel=r"$P_\mathrm{capture}$ [%] (C-P 95 %)",
+          ylim=(-3, 103), title=f"batched sweep, {n}\ncollisions/point")
+    legend_outside(a, where="below", ncols=1)
     b.set_xscale("log")
-    b.set(xlabel="false-ACK rate per collided slot (0 at 1/2n)", ylabel="missed captures [%]",
-          title="RN16 acceptance (threshold 0–20 dB;\nsame series as the sweep)")
+    b.set(xlabel="false-ACK rate\nper collided slot (0 at 1/2n)", ylabel="missed captures [%]",
+          title="RN16 acceptance threshold\n0–20 dB (series as left)")

@@ -88,3 +88,37 @@ def test_save_figure_in_a_figure_output_block(tmp_path):
     assert 360 <= w <= 400 and 160 <= h <= 200
     with pytest.raises(UserError):
         FigureOutput.parse("png,tiff")
+
+
+def test_contact_sheet_puts_every_figure_of_every_dataset_on_one_page(dataset, tmp_path, capsys):
+    runs = tmp_path / "results"
+    runs.mkdir()
+    (runs / "gen2-waveforms.h5").write_bytes(dataset.read_bytes())
+    assert main(["run", "link", "-q", "--no-plot", "-o", str(runs / "link.h5"), "--set",
+                 "geometry.distances_m=[1.0, 9.0]", "--set", "rounds_per_point=2"]) == 0
+    (runs / "notes.h5").write_text("not a dataset")  # skipped, as is anything not written by 'rfsim run'
+    sheet_dir = tmp_path / "sheet"
+    assert main(["plot", "--all-scenarios", str(runs), "--out-dir", str(sheet_dir), "--format", "png,pdf"]) == 0
+    out = capsys.readouterr()
+    assert out.out.split() == ["figure:", str(sheet_dir / "contact-sheet.png"),
+                               "figure:", str(sheet_dir / "contact-sheet.pdf")]
+    # scenarios in 'rfsim list' order: gen2-waveforms before link
+    assert out.err.index("gen2-waveforms figures") < out.err.index("link figures")
+    assert (sheet_dir / "contact-sheet.pdf").read_bytes().startswith(MAGIC["pdf"])
+    # two figures side by side: two cells of 4.2 in at 150 dpi (the tight box trims the margins)
+    w, h = _png_size(sheet_dir / "contact-sheet.png")
+    assert 2 * 4.2 * 150 * 0.85 < w <= 2 * 4.2 * 150 and h > 300
+    assert not list(runs.glob("*.png"))  # the datasets' folder is left as it was
+
+
+@pytest.mark.parametrize("args, message", [
+    ([], "give a dataset file or --all-scenarios DIR"),
+    (["x.h5", "--all-scenarios", "."], "give a dataset file or --all-scenarios DIR"),
+    (["--all-scenarios", "missing"], "not a folder"),
+    (["--all-scenarios", "."], "no dataset written by 'rfsim run'"),
+])
+def test_contact_sheet_errors_are_one_line(tmp_path, monkeypatch, capsys, args, message):
+    monkeypatch.chdir(tmp_path)
+    assert main(["plot", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("rfsim: error: ") and message in err and err.count("\n") == 1

@@ -38,6 +38,7 @@ presentations that are friendly to colorblind people", 2008 (the palette below).
 from __future__ import annotations
 
 import contextlib
+import textwrap
 from collections.abc import Iterator
 
 import numpy as np
@@ -178,8 +179,13 @@ def source_note(ax_or_fig, text: str, *, fontsize: float = 6.5):
     """
     from matplotlib.figure import Figure, SubFigure
 
-    if isinstance(ax_or_fig, (Figure, SubFigure)):
-        fig = ax_or_fig
+    fig = ax_or_fig if isinstance(ax_or_fig, (Figure, SubFigure)) else ax_or_fig.figure
+    # wrapped to the figure's width (a character is about 0.6 font sizes wide); under an
+    # axes, to its share of the width at creation
+    share = 1.0 if fig is ax_or_fig else max(0.3, ax_or_fig.get_position().width)
+    width_chars = max(20, int(share * fig.get_figwidth() * 72 / (0.6 * fontsize)) - 4)
+    text = textwrap.fill(text, width_chars)
+    if fig is ax_or_fig:
         existing = fig.get_supxlabel() if hasattr(fig, "get_supxlabel") else ""
         label = f"{existing}\n{text}" if existing else text
         return fig.supxlabel(label, fontsize=fontsize, color="0.3", x=0.01, ha="left",
@@ -211,7 +217,8 @@ def _below_xlabel(ax):
 def legend_outside(ax, where: str = "right", **kw):
     """A legend off the data: to the right of ``ax`` (``where="right"``, the default), under
     ``ax`` below its x label (``where="below"``, entries in columns), or one legend for the
-    whole figure under all its axes (``where="figure"``). Keyword arguments go to
+    whole figure to the right of all its axes (``where="figure"``; the bottom of the figure
+    is kept for its :func:`source_note`). Keyword arguments go to
     :meth:`~matplotlib.axes.Axes.legend` (``handles``, ``labels``, ``ncols``, ``title``...).
 
     The figure's constrained layout makes room for it. Returns the legend.
@@ -240,8 +247,7 @@ def legend_outside(ax, where: str = "right", **kw):
         return ax.legend(handles, labels, **kw)
     if where == "figure":
         handles, labels = _handles_labels(ax, kw)
-        kw.setdefault("ncols", min(3, max(1, len(handles))))
-        kw.setdefault("loc", "outside lower center")
+        kw.setdefault("loc", "outside right center")
         return ax.figure.legend(handles, labels, **kw)
     raise ValueError(f"where must be 'right', 'below' or 'figure', not {where!r}")
 

@@ -198,4 +198,52 @@ def probability_errorbars(ax, x, table, names, labels=None) -> None:
                     label=name if labels is None else labels[name])
 
 
-__all__ += ["grid_arrays", "probability_errorbars"]
+def run_config(dataset_path) -> dict:
+    """The resolved config a dataset was written with (its ``provenance`` group's
+    ``config_toml``) as nested dicts, e.g. to say on a figure that a run is a reduced
+    default; ``{}`` when the file has none."""
+    import tomllib
+
+    import h5py
+
+    with h5py.File(dataset_path, "r") as f:
+        text = f["provenance"].attrs.get("config_toml", "") if "provenance" in f else ""
+    text = text.decode() if isinstance(text, bytes) else str(text)
+    return tomllib.loads(text) if text else {}
+
+
+__all__ += ["grid_arrays", "probability_errorbars", "run_config"]
+
+
+def contact_sheet(images, path: Path, *, ncols: int = 4, title: str = "", cell_width_in: float = 4.2) -> Path:
+    """One page with the figure images ``images`` ((caption, PNG path) pairs) side by side,
+    ``ncols`` per row in the given order, each under its caption, so a reviewer sees every
+    figure at once; written by :func:`save_figure` (the formats of the
+    :func:`figure_output` in effect) to ``path`` and returned.
+
+    Each image keeps its aspect ratio inside a cell ``cell_width_in`` inches wide; a row is as
+    tall as its tallest image.
+    """
+    plt = pyplot()
+    import matplotlib.image as mpimg
+
+    loaded = [(caption, mpimg.imread(str(p))) for caption, p in images]
+    if not loaded:
+        raise UserError("no figures to put on a contact sheet")
+    ncols = max(1, min(ncols, len(loaded)))
+    rows = [loaded[i:i + ncols] for i in range(0, len(loaded), ncols)]
+    heights = [max(img.shape[0] / img.shape[1] for _, img in row) * cell_width_in + 0.3 for row in rows]
+    fig = plt.figure(figsize=(ncols * cell_width_in, sum(heights) + (0.5 if title else 0.1)), layout="constrained")
+    grid = fig.add_gridspec(len(rows), ncols, height_ratios=heights)
+    for r, row in enumerate(rows):
+        for c, (caption, img) in enumerate(row):
+            ax = fig.add_subplot(grid[r, c])
+            ax.imshow(img, interpolation="antialiased")
+            ax.set_axis_off()
+            ax.set_title(caption, fontsize=9, loc="left")
+    if title:
+        fig.suptitle(title, fontsize=12)
+    return save_figure(fig, path, dpi=150)
+
+
+__all__ += ["contact_sheet"]

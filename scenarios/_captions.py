@@ -1,4 +1,5 @@
-"""Caption lines of the scenarios' figures, wrapped to the figure's width.
+"""Caption lines of the scenarios' figures, wrapped to the figure's width, and the legend
+entries of several axes without repeats.
 
 :func:`rfsim.core.figure_style.source_note` writes one line under a figure; a line naming a
 document, its figure number and the run's size is often wider than a one-column figure
@@ -28,4 +29,14 @@ def caption(fig, *parts: str):
     return source_note(fig, "\n".join(lines), fontsize=CAPTION_PT)
 
 
-__all__ = ["caption"]
+def unique_handles(*axes) -> list:
+    """The legend handles of ``axes``, one per label, in order of appearance (e.g. one legend for
+    panels that draw the same series, or a floor plan that labels every wall)."""
+    seen = {}
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(label, h)
+    return list(seen.values())
+
+
+__all__ = ["caption", "unique_handles"]

@@ -24,7 +24,7 @@ from rfsim.core.dataset import read_dataset, read_provenance, read_table
 from rfsim.core.figure_style import PUBLISHED, figure, legend_outside, paper_style, published_label, series_style
 from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.references import cite
-from rfsim.scenarios._captions import caption
+from rfsim.scenarios._captions import caption, unique_handles
 from rfsim.estimators.himr_cases import OUTAGE_S
 
 #: Grey of the true track or distance, drawn wide under the estimates so they stay visible.
@@ -46,15 +46,6 @@ def _every(n_points: int, i: int, per_line: int = 14) -> tuple[int, int]:
     so that coinciding curves still show each one's markers."""
     step = max(1, n_points // per_line)
     return ((i * step) // 4 % step, step)
-
-
-def _unique_handles(*axes) -> list:
-    """The legend handles of ``axes``, one per label, in order."""
-    seen = {}
-    for ax in axes:
-        for h, label in zip(*ax.get_legend_handles_labels()):
-            seen.setdefault(label, h)
-    return list(seen.values())
 
 
 # ----------------------------------------------------------------------------- RSS and radial velocity
@@ -298,7 +289,7 @@ def plot_2d(dataset_path: Path, out_dir: Path) -> list[Path]:
         y0, y1 = min(lo_d, bounds.min()) - 30.0, max(hi_d, bounds.max()) + 30.0
         a2.set(xlabel="time $t$ [s]", ylabel="heading $\\psi$ [°]", ylim=(y0, y1),
                yticks=np.arange(90.0 * np.ceil(y0 / 90.0), y1, 90.0))
-        legend_outside(a2, where="below", handles=_unique_handles(a1, a2), ncols=2)
+        legend_outside(a2, where="below", handles=unique_handles(a1, a2), ncols=2)
         caption(fig, f"After {cite('himr', 'Fig. 82')}, here along the actual track (positive: locally unstable).")
         out.append(save_figure(fig, path("eigenvalues")))
     return out

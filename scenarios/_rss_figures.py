@@ -14,7 +14,7 @@ from rfsim.core.figure_style import PUBLISHED, figure, legend_outside, paper_sty
 from rfsim.core.plots import draw_floor_plan, save_figure
 from rfsim.core.references import cite
 from rfsim.core.rows import read_block
-from rfsim.scenarios._captions import caption
+from rfsim.scenarios._captions import caption, unique_handles
 
 h5py = lazy_import("h5py")
 
@@ -75,20 +75,12 @@ def plot_floor_plan(path: Path, out: Path, *, n_tracks: int = 2) -> Path:
         ax.set_aspect("equal", adjustable="datalim")
         what = "readers, walls, tracks" if walls.size else "readers, cells, tracks"
         ax.set(xlabel="$x$ [m]", ylabel="$y$ [m]", title=f"{a['preset']}: {what}")
-        legend_outside(ax, handles=_unique(ax), fontsize=6)
+        legend_outside(ax, handles=unique_handles(ax), fontsize=6)
         sigma = cases["sigma0_db"][k0]
         caption(fig, f"{_room_source(str(a['preset']))}.",
                 f"Mobile target{f', σ0 = {sigma:g} dB' if np.isfinite(sigma) else ''}: the first {trials.size} "
                 f"of {np.unique(est['trial']).size} trials; estimators of the thesis (all in the CDF figure).")
         return save_figure(fig, out)
-
-
-def _unique(ax) -> list:
-    """The legend handles of ``ax``, one per label (the floor plan labels every wall)."""
-    seen = {}
-    for h, label in zip(*ax.get_legend_handles_labels()):
-        seen.setdefault(label, h)
-    return list(seen.values())
 
 
 def plot_error_cdf(path: Path, out: Path) -> Path:
@@ -116,7 +108,7 @@ def plot_error_cdf(path: Path, out: Path) -> Path:
             ax.set(xlabel="localization error [m]",
                    title=f"{motion} target" + (f", $\\sigma_0$ = {target:g} dB" if np.isfinite(target) else ""))
         axes[0][0].set_ylabel("CDF [–]")
-        legend_outside(axes[0][-1], handles=_unique(axes[0][0]), title="estimator")
+        legend_outside(axes[0][-1], handles=unique_handles(axes[0][0]), title="estimator")
         n = f"{min(counts)}" if counts and min(counts) == max(counts) else (f"{min(counts)}-{max(counts)}" if counts else "0")
         caption(fig, f"Estimators and setup of {_room_source(preset)}; the thesis prints the statistics, not the CDFs "
                      f"({TABLES}).", f"{n} scored estimates per estimator and motion.")
@@ -154,7 +146,7 @@ def plot_rmse_vs_sigma(path: Path, out: Path) -> Path:
                                 label=f"{name}, {published_label(SHORT)}")
                 ax.set(xlabel="RSSI noise $\\sigma_0$ [dB]", title=f"{motion} target")
             axes[0][0].set_ylabel("RMSE [m]")
-            by_label = {h.get_label(): h for ax in axes[0] for h in _unique(ax)}
+            by_label = {h.get_label(): h for ax in axes[0] for h in unique_handles(ax)}
             order = ["corrected CRLB"] + [k for n in styles for k in (n, f"{n}, {published_label(SHORT)}")]
             legend_outside(axes[0][-1], handles=[by_label[k] for k in order if k in by_label], fontsize=6)
             n = sm["n_scored"]

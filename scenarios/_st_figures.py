@@ -14,7 +14,7 @@ from rfsim.core.figure_style import PUBLISHED, figure, legend_outside, paper_sty
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.references import cite
-from rfsim.scenarios._captions import caption
+from rfsim.scenarios._captions import caption, unique_handles
 from rfsim.estimators.track_errors import rms_per_step
 
 h5py = lazy_import("h5py")
@@ -125,7 +125,7 @@ def plot_all(path: Path, out_dir: Path) -> list[Path]:
             ax.set(xlabel="position error [m]", title=(f"{spd:g} m/s" if np.isfinite(spd) else str(cases["experiment"][r]))
                    + (" (Fig. 4.14)" if np.isfinite(spd) and spd >= 2.5 else ""))
         axes[0][0].set_ylabel("CDF [–]")
-        legend_outside(axes[0][-1], handles=_unique(*axes[0]))
+        legend_outside(axes[0][-1], handles=unique_handles(*axes[0]))
         caption(fig, f"After {cite('auris', 'Fig. 4.14')} (2.5 m/s); trajectory {cases['trajectory'][row]}; every "
                      "period of every realization.",
                 "; ".join(f"{cases['speed_mps'][np.flatnonzero(cases['case'] == cc)[0]]:g} m/s: "
@@ -137,14 +137,6 @@ def plot_all(path: Path, out_dir: Path) -> list[Path]:
         if np.any(s["experiment"] == "speed-sweep"):
             out.append(save_figure(_speed(s, cases, a, full), figure_path(path, out_dir, "speed")))
     return out
-
-
-def _unique(*axes) -> list:
-    seen = {}
-    for ax in axes:
-        for h, label in zip(*ax.get_legend_handles_labels()):
-            seen.setdefault(label, h)
-    return list(seen.values())
 
 
 def _rmse_bars(s, cases, full: bool):

@@ -119,13 +119,13 @@ def plot_1d(dataset_path: Path, out_dir: Path, estimators) -> list[Path]:
     names = {"himr": "HIMR observer", "rss": "RSS range alone", "double-integration": "double integration"}
     out = []
     with paper_style():
-        fig, ax = figure(columns=1, height_in=2.7)
+        fig, ax = figure(columns=1, height_in=3.0)
         ax.plot(truth["t_s"], truth["z_m"], **TRUE_STYLE, label="true")
         for i, name in enumerate(estimators):
             s = est["estimator"] == name
             ax.plot(est["t_s"][s], est["z_hat_m"][s], linewidth=0.9, markevery=_every(int(s.sum()), i, 12),
                     label=names.get(name, name), **series_style(i))
-        ax.set(xlabel="time $t$ [s]", ylabel="distance to the pylon $z$ [m]", title="True and estimated distance")
+        ax.set(xlabel="time $t$ [s]", ylabel="distance $z$ [m]", title="True and estimated distance to the pylon")
         legend_outside(ax, where="below", ncols=2)
         caption(fig, f"After {cite('himr', 'Figs. 12-16')}.", f"{size.capitalize()}.",
                 "HIMR and RSS lie within 5 mm of the true distance (error figure).")

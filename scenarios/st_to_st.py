@@ -78,7 +78,9 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
+from rfsim.core.figure_style import ci_errorbar, dodge, figure, legend_outside, paper_style, series_style
 from rfsim.core.plots import figure_path, save_figure
+from rfsim.scenarios._captions import caption
 from rfsim.core.rng import trial_rng
 from rfsim.core.columns import unit_of
 from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
@@ -376,8 +378,6 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Fig. 5.8: P(phase cancellation) vs transmitting-ST distance per technique, the techniques'
     Clopper-Pearson intervals side by side at each distance."""
     from rfsim.core.dataset import read_dataset, read_provenance, read_table
-    from rfsim.core.figure_style import ci_errorbar, dodge, figure, legend_outside, paper_style, series_style
-    from rfsim.scenarios._captions import caption
 
     cells = read_table(dataset_path, "cells")
     attrs = read_dataset(dataset_path).attrs

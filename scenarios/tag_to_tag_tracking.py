@@ -55,7 +55,7 @@ from rfsim.core.columns import concat, unit_of
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
-from rfsim.core.figure_style import PUBLISHED, published_label, series_style
+from rfsim.core.figure_style import PUBLISHED, figure, legend_outside, paper_style, published_label, series_style
 from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.procs import map_in_order
 from rfsim.core.references import cite
@@ -64,6 +64,7 @@ from rfsim.detection.tag_to_tag import Eq65Config
 from rfsim.estimators.proximity_trackers import PUBLISHED_TABLE_6_2, TrackerConfig, run_tracker
 from rfsim.protocols.tag_to_tag import AlohaConfig, aloha_schedule
 from rfsim.scenes.aisle import AisleConfig, MotionConfig, position_at, simulate_motion
+from rfsim.scenarios._captions import caption
 from rfsim.scenes.reference_tags import ReferenceTagsConfig, calibrate_threshold, receive_broadcasts
 
 _dataset = lazy_import("rfsim.core.dataset")
@@ -439,9 +440,6 @@ def _table(ax, s) -> str:
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """The figures the dataset has tables for: Table 6.2 bars, RMSE CDF per tracker (Fig. 6.4), the aisle
     with the tracks of trajectory 0 (after Fig. 6.3), error vs time."""
-    from rfsim.core.figure_style import figure, legend_outside, paper_style
-    from rfsim.scenarios._captions import caption
-
     path, ds = Path(dataset_path), _dataset.read_dataset(dataset_path)
     t = {name: {k: c.data for k, c in cols.items()} for name, cols in ds.tables.items()}
     size = _size(t)

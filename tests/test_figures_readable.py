@@ -1,6 +1,8 @@
 """Every scenario's figures as a reader sees them: after ``fig.canvas.draw()``
 
 * no drawn text (title, axis labels, tick labels, legend, annotations) leaves the canvas,
+  and no title or axis label overlaps another one (e.g. the titles of neighbouring panels),
+* no legend lies on the data: its box stays off every axes' plotting area,
 * no axes is empty (each draws data),
 * every axes has an x and a y label (colorbars excepted; a label may be that of an axes
   sharing the axis, as in a stack of panels over one time axis or a row over one y scale),
@@ -134,11 +136,52 @@ def _draws_inside(artist, ax) -> bool:
                        & (pts[:, 1] >= box.y0) & (pts[:, 1] <= box.y1)))
 
 
+def _overlapping_labels(fig, extents: dict) -> list[str]:
+    """Pairs of drawn titles and axis labels (of the axes and of the figure) whose extents
+    overlap by more than 2 pixels each way."""
+    labels = [t for t in (getattr(fig, "_suptitle", None), getattr(fig, "_supxlabel", None),
+                          getattr(fig, "_supylabel", None)) if t is not None]
+    for ax in fig.get_axes():
+        labels += [ax.title, ax._left_title, ax._right_title, ax.xaxis.label, ax.yaxis.label]
+    seen = [(t, extents[id(t)]) for t in labels if id(t) in extents]
+    out = []
+    for i, (a, ea) in enumerate(seen):
+        for b, eb in seen[i + 1:]:
+            w = min(ea.x1, eb.x1) - max(ea.x0, eb.x0)
+            h = min(ea.y1, eb.y1) - max(ea.y0, eb.y0)
+            if w > 2 and h > 2:
+                out.append(f"{a.get_text()[:40]!r} overlaps {b.get_text()[:40]!r}")
+    return out
+
+
+def _legends_on_data(fig) -> list[str]:
+    """Legends whose box overlaps an axes' plotting area by more than 2 pixels each way."""
+    renderer = fig.canvas.get_renderer()
+    legends = [ax.get_legend() for ax in fig.get_axes() if ax.get_legend() is not None] + list(fig.legends)
+    out = []
+    for leg in legends:
+        if not leg.get_visible():
+            continue
+        box = leg.get_window_extent(renderer)
+        for ax in fig.get_axes():
+            if not ax.get_visible() or _is_colorbar(ax):
+                continue
+            w = min(box.x1, ax.bbox.x1) - max(box.x0, ax.bbox.x0)
+            h = min(box.y1, ax.bbox.y1) - max(box.y0, ax.bbox.y0)
+            if w > 2 and h > 2:
+                first = leg.get_texts()[0].get_text()[:30] if leg.get_texts() else ""
+                out.append(f"the legend ({first!r}, ...) lies on the data of axes "
+                           f"{ax.get_title()[:40] or 'untitled'!r}")
+                break
+    return out
+
+
 def readability_problems(fig, monkeypatch, name: str = "figure") -> list[str]:
     """What a reader of ``fig`` would stumble on (an empty list when nothing)."""
     problems = []
     canvas = fig.bbox
-    for text, ext in _drawn_texts(fig, monkeypatch):
+    drawn = _drawn_texts(fig, monkeypatch)
+    for text, ext in drawn:
         if (ext.x0 < canvas.x0 - EDGE_PX or ext.y0 < canvas.y0 - EDGE_PX
                 or ext.x1 > canvas.x1 + EDGE_PX or ext.y1 > canvas.y1 + EDGE_PX):
             if text.get_clip_on() and text.get_clip_box() is not None and not ext.overlaps(text.get_clip_box()):
@@ -146,6 +189,8 @@ def readability_problems(fig, monkeypatch, name: str = "figure") -> list[str]:
             problems.append(f"{name}: text {text.get_text()[:50]!r} leaves the canvas "
                             f"(extent {ext.x0:.0f}..{ext.x1:.0f} x {ext.y0:.0f}..{ext.y1:.0f} px, "
                             f"canvas {canvas.width:.0f} x {canvas.height:.0f} px)")
+    problems += [f"{name}: {o}" for o in _overlapping_labels(fig, {id(t): e for t, e in drawn})]
+    problems += [f"{name}: {o}" for o in _legends_on_data(fig)]
     axes = [ax for ax in fig.get_axes() if ax.get_visible()]
     for k, ax in enumerate(axes):
         if _is_colorbar(ax):
@@ -226,16 +271,20 @@ def test_the_checks_see_a_clipped_title_an_empty_axes_and_a_legend_lie(held_figu
     a.legend(loc="upper left")
     a.set_title("a very long title that cannot fit on so small a canvas at all, not at all")
     a.set_ylabel("y [m]")
+    b.set_title("the second panel's title, long too")
     problems = readability_problems(fig, monkeypatch)
     text = "\n".join(problems)
     assert "leaves the canvas" in text and "a very long title" in text
     assert "'all NaN' names a series not drawn" in text and "'out of view' names a series" in text
-    assert "'drawn'" not in text
+    assert "'drawn'" not in text.replace("the legend ('drawn'", "")
+    assert "the legend ('drawn', ...) lies on the data" in text
     assert "axes 0 (a very long title" in text and "no x label" in text
-    assert "axes 1 (untitled): empty" in text
+    assert "axes 1 (the second panel's title, long too): empty" in text
+    assert any("'a very long title that cannot fit on so ' overlaps" in p and "second panel" in p
+               for p in problems)
     plt.close(fig)
     fig, ax = plt.subplots(figsize=(3, 2), layout="constrained")
     ax.plot([0, 1], [0, 1], label="drawn")
     ax.set(xlabel="x [m]", ylabel="y [m]", title="short")
-    ax.legend()
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
     assert readability_problems(fig, monkeypatch) == []

@@ -58,16 +58,17 @@ def plot_rss_phase(packets: dict, source: str, *, size_note: str):
     pylons = np.unique(packets["pylon"])
     n = pylons.size
     if n == 1:
-        fig, axes = figure(columns=1, nrows=2, height_in=3.9, sharex=True)
+        fig, axes = figure(columns=1, nrows=2, height_in=4.3, sharex=True)
         a_rss, a_vel = axes[0], list(axes[1:])
     else:
-        fig, axes = figure(columns=2, nrows=(n + 2) // 2, ncols=2, height_in=2.0 * ((n + 2) // 2) + 0.5,
+        fig, axes = figure(columns=2, nrows=(n + 2) // 2, ncols=2, height_in=2.0 * ((n + 2) // 2) + 1.0,
                            sharex=True)
         axes = axes.ravel()
         a_rss, a_vel = axes[0], list(axes[1:n + 1])
         for ax in axes[n + 1:]:
             ax.remove()
     t = packets["t_s"]
+    limits = []
     for i, u in enumerate(pylons):
         s = packets["pylon"] == u
         st = series_style(i)
@@ -80,30 +81,27 @@ def plot_rss_phase(packets: dict, source: str, *, size_note: str):
         ok = s & (packets["aliased"] == 0)
         al = s & (packets["aliased"] > 0)
         ax.plot(t[ok], packets["radial_velocity_mps"][ok], linestyle="none", marker=st["marker"], markersize=2.2,
-                color=st["color"], label="measured")
+                color=st["color"], label="measured (the pylon's marker)")
         if al.any():
             ax.plot(t[al], packets["radial_velocity_mps"][al], linestyle="none", marker=st["marker"], markersize=3.2,
-                    markerfacecolor="none", markeredgewidth=0.7, color=st["color"],
-                    label=f"measured, aliased ({al.sum()} of {s.sum()})")
+                    markerfacecolor="none", markeredgewidth=0.7, color=st["color"], label="measured, aliased (hollow)")
         lim = np.nanmedian(packets["aliasing_limit_mps"][s])
         if np.isfinite(lim):
+            limits.append(f"{lim:.2f}")
             for sign in (1, -1):
                 ax.axhline(sign * lim, color="0.3", linestyle=(0, (4, 2)), linewidth=0.8,
-                           label=f"aliasing limit $\\pm\\lambda/(4\\Delta t)$ = ±{lim:.2f} m/s" if sign > 0 else None)
-        ax.set_ylabel(f"pylon {u}: $\\dot r$ [m/s]")
-        ax.legend(loc="lower left", fontsize=6, ncols=2 if n > 1 else 1)
+                           label="aliasing limit $\\pm\\lambda/(4\\Delta t)$" if sign > 0 else None)
+        ax.set_ylabel(f"$\\dot r$ [m/s]")
+        ax.set_title(f"pylon {u}: $\\dot r$, {int(al.sum())} of {int(s.sum())} aliased")
         top = max(np.nanmax(np.abs(packets["true_radial_velocity_mps"][s])), lim if np.isfinite(lim) else 0.0)
-        ax.set_ylim(-1.6 * top, 1.25 * top)
+        ax.set_ylim(-1.25 * top, 1.25 * top)
     a_rss.set_ylabel("RSS [dBm]")
-    a_rss.set_title("RSS of the modulated part per pylon")
-    if n > 1:
-        lo, hi = a_rss.get_ylim()
-        a_rss.set_ylim(lo - 0.22 * (hi - lo), hi)
-        a_rss.legend(loc="lower center", ncols=n, fontsize=6)
+    a_rss.set_title("RSS of the modulated part")
     for ax in [a_rss, *a_vel][-2 if n > 1 else -1:]:
         ax.set_xlabel("time $t$ [s]")
-    a_vel[0].set_title("radial velocity $\\dot r$ from the phase step (eq. 23)")
-    caption(fig, f"After {source}.", f"{size_note.capitalize()}.")
+    legend_outside(a_vel[-1], where="below", handles=unique_handles(*([a_rss] if n > 1 else []), *a_vel), ncols=2)
+    caption(fig, f"After {source}; radial velocity from the packet-to-packet phase step (eq. 23), aliasing "
+                 f"limit ±{'/'.join(limits)} m/s.", f"{size_note.capitalize()}.")
     return fig
 
 

@@ -49,7 +49,6 @@ from rfsim.devices.himr_tag import HimrTag, HimrTagConfig
 from rfsim.devices.imu import ImuConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
-from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
 from rfsim.core.trajectories import LinearTrapezoid
@@ -241,41 +240,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """True vs estimated distance, error vs time per estimator, RSS and phase, eigenvalues."""
-    from rfsim.core.dataset import read_table
-
-    plt = pyplot()
-    est = read_table(dataset_path, "estimates")
-    truth = read_table(dataset_path, "truth")
-    pk = read_table(dataset_path, "packets")
-    dg = read_table(dataset_path, "diagnostics")
-    out = []
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    ax.plot(truth["t_s"], truth["z_m"], "k-", lw=2, label="true")
-    for name in ESTIMATORS:
-        s = est["estimator"] == name
-        ax.plot(est["t_s"][s], est["z_hat_m"][s], lw=0.8, label=name)
-    ax.set(xlabel="time [s]", ylabel="distance to the pylon [m]",
-           title=f"True vs estimated distance\n{cite('himr', 'Figs. 12-16')}")
-    ax.legend(fontsize=8)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "trajectory")))
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for name in ESTIMATORS:
-        s = est["estimator"] == name
-        ax.plot(est["t_s"][s], 1e3 * est["error_m"][s], lw=0.8, label=name)
-    ax.set(xlabel="time [s]", ylabel="distance error [mm]", ylim=(-30, 30), title="Error vs time per estimator")
-    ax.legend(fontsize=8)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "errors")))
-    fig = _himr_figures.plot_rss_phase(plt, pk, f"RSS and phase at the pylon — {cite('himr', 'Fig. 15')}")
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rss-phase")))
-    fig, ax = plt.subplots(figsize=(7, 3.5))
-    ax.plot(dg["t_s"], dg["euler_spectral_radius"], label="spectral radius of I + T(A - LC)")
-    ax.axhline(1.0, color="k", lw=0.6)
-    ax.set(xlabel="time [s]", ylabel="spectral radius",
-           title=f"Error dynamics of the Euler observer (eig A - LC = {dg['max_real_eig'][0]:.1f} 1/s max)")
-    ax.legend(fontsize=8)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "eigenvalues")))
-    return out
+    """True vs estimated distance, error vs time per estimator, RSS and radial velocity, stability of the
+    Euler step (:mod:`rfsim.scenarios._himr_figures`)."""
+    return _himr_figures.plot_1d(Path(dataset_path), Path(out_dir), ESTIMATORS)
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "SceneConfig", "run", "plot", "estimate", "ESTIMATORS"]

@@ -59,7 +59,6 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 from typing import Literal
 
@@ -75,7 +74,6 @@ from rfsim.estimators.himr_cases import (CASES, SOURCE_CONVERGENCE_S, SOURCE_MAX
                                          observe_case)
 from rfsim.estimators.himr_model import INITIAL_CONDITIONS, PYLONS_M, STATE_NAMES, initial_state, output_names
 from rfsim.estimators.observer import VARIANTS, W_D1, W_D2, eig_along, gain_2d, ranks_along, unstable_intervals
-from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import stage
 from rfsim.core.references import cite
 from rfsim.core.trajectories import RotatingBoom
@@ -321,52 +319,10 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
 # ----------------------------------------------------------------------------- plot
 
 
-def _runs_of_case_1(est) -> list[tuple[str, str, np.ndarray]]:
-    """(variant, dealias, row mask) of every case-1 run."""
-    s = est["case"] == 1
-    runs = sorted(set(zip(est["variant"][s].tolist(), est["dealias"][s].tolist())))
-    return [(v, d, s & (est["variant"] == v) & (est["dealias"] == d)) for v, d in runs]
-
-
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """True vs estimated track, error vs time per case, RSS and phase per pylon, eigenvalues."""
-    from rfsim.core.dataset import read_dataset, read_table
-
-    plt = pyplot()
-    est, truth, pk, dg = (read_table(dataset_path, k) for k in ("estimates", "truth", "packets", "diagnostics"))
-    path = partial(figure_path, dataset_path, out_dir)
-    fig, ax = plt.subplots(figsize=(6.5, 5.5))
-    ax.plot(truth["x"], truth["y"], "k-", lw=2, label="true")
-    for v, d, s in _runs_of_case_1(est):
-        ax.plot(est["x_hat"][s], est["y_hat"][s], ".-", ms=2, lw=0.7, label=f"{v}, dealias {d} (case 1)")
-    span = [truth["x"].min() - 0.5, truth["x"].max() + 0.5, truth["y"].min() - 0.5, truth["y"].max() + 0.5]
-    ax.set(xlim=span[:2], ylim=span[2:], aspect="equal", xlabel="x [m]", ylabel="y [m]",
-           title=f"True vs estimated track\n{cite('himr', 'Figs. 68-71')}")
-    ax.legend(fontsize=7)
-    out = [save_figure(fig, path("trajectory"))]
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
-    main = read_dataset(dataset_path).attrs.get("dealias", "gated")
-    pre = (est["variant"] == "prerotated") & (est["dealias"] == main)
-    runs = [(a1, f"case {c}", pre & (est["case"] == c)) for c in np.unique(est["case"])]
-    for ax, label, s in runs + [(a2, f"{v}, dealias {d}", s) for v, d, s in _runs_of_case_1(est)]:
-        if s.any():
-            ax.semilogy(est["t_s"][s], np.maximum(est["error_m"][s], 1e-4), lw=0.8, label=label)
-    a1.set(ylabel="position error [m]", title="prerotated observer, cases 1-7")
-    a2.set(xlabel="time [s]", ylabel="position error [m]", title="case 1, every variant")
-    a1.legend(fontsize=7, ncol=4)
-    a2.legend(fontsize=7)
-    out.append(save_figure(fig, path("errors")))
-    out.append(save_figure(_himr_figures.plot_rss_phase(plt, pk, f"RSS and phase per pylon — {cite('himr', 'Ch. IV')}"),
-                           path("rss-phase")))
-    fig, ax = plt.subplots(figsize=(8, 4))
-    ax.plot(dg["t_s"], dg["max_real_eig_literal"], label="literal (trigonometric acceleration rows)")
-    ax.plot(dg["t_s"], dg["max_real_eig_prerotated"], label="prerotated accelerations")
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax.set(xlabel="time [s]", ylabel="max Re eig(A - L C(x(t))) [1/s]",
-           title=f"Frozen-time eigenvalues along the trajectory — {cite('himr', 'Fig. 82')}")
-    ax.legend(fontsize=8)
-    out.append(save_figure(fig, path("eigenvalues")))
-    return out
+    """True vs estimated track, error vs time per case and variant, RSS and radial velocity per pylon,
+    eigenvalues along the trajectory (:mod:`rfsim.scenarios._himr_figures`)."""
+    return _himr_figures.plot_2d(Path(dataset_path), Path(out_dir))
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "SceneConfig", "ObserverConfig", "run", "plot", "sample_level", "dataset",

@@ -63,6 +63,7 @@ stream. Results do not depend on the number of worker processes.
 from __future__ import annotations
 
 import math
+import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -76,7 +77,9 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
 from rfsim.core.references import cite
-from rfsim.core.plots import figure_path, probability_errorbars, pyplot, save_figure
+from rfsim.core.figure_style import ci_errorbar, dodge, figure, legend_outside, paper_style, series_style
+from rfsim.core.plots import figure_path, save_figure
+from rfsim.scenarios._captions import caption
 from rfsim.core.rng import trial_rng
 from rfsim.core.columns import unit_of
 from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
@@ -379,20 +382,35 @@ def _describe(key: str) -> str:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Fig. 5.8: P(phase cancellation) vs transmitting-ST distance per technique."""
-    from rfsim.core.dataset import read_dataset, read_table
+    """Fig. 5.8: P(phase cancellation) vs transmitting-ST distance per technique, the techniques'
+    Clopper-Pearson intervals side by side at each distance."""
+    from rfsim.core.dataset import read_dataset, read_provenance, read_table
 
-    plt = pyplot()
     cells = read_table(dataset_path, "cells")
     attrs = read_dataset(dataset_path).attrs
-    fig, ax = plt.subplots(figsize=(7, 4))
-    probability_errorbars(ax, cells["tx_x_m"], cells, TECHS,
-                          labels={t: f"{t} (overall {100 * attrs[f'overall_p_{t}']:.2f} %)" for t in TECHS})
-    ax.set(xlabel="transmitting ST x [m] (exciter at the origin)", ylabel="P(phase cancellation) [%]",
-           title=f"Exciter-powered ST-to-ST link — {cite('auris', 'Fig. 5.8')}")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    return [save_figure(fig, figure_path(dataset_path, out_dir, "pcancel"))]
+    mc = tomllib.loads(read_provenance(dataset_path).get("config_toml", "")).get("mc", {})
+    x = cells["tx_x_m"]
+    step = float(np.min(np.diff(np.unique(x)))) if np.unique(x).size > 1 else 1.0
+    with paper_style():
+        fig, ax = figure(columns=1, height_in=3.3)
+        for i, t in enumerate(TECHS):
+            if f"p_{t}" not in cells:
+                continue
+            lo, hi = attrs.get(f"overall_ci_{t}", (np.nan, np.nan))
+            ci_errorbar(ax, dodge(x, i, len(TECHS), width=0.6 * step), cells[f"p_{t}"], cells[f"ci_lo_{t}"],
+                        cells[f"ci_hi_{t}"], scale=100.0, markersize=3.5, linewidth=1.0, **series_style(i),
+                        label=f"{t} {100 * attrs[f'overall_p_{t}']:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]")
+        ax.set(xlabel="transmitting ST position $x$ [m] (exciter at the origin)",
+               ylabel="$P_\\mathrm{cancel}$ [%]", title="Phase cancellation on the ST-to-ST link")
+        ax.set_ylim(bottom=-1.0)
+        legend_outside(ax, where="below", ncols=2, title="technique, overall $P_\\mathrm{cancel}$ [%] (95 % CI)",
+                       columnspacing=1.0)
+        n = int(np.median(cells["n_samples"]))
+        size = (f"{n} receiving positions per distance, {int(cells['n_samples'].sum())} in all"
+                + ("" if mc.get("full", True) else " (reduced default run; mc.full = true runs the full size)"))
+        caption(fig, f"After {cite('auris', 'Fig. 5.8')}.", f"{size}.",
+                "Bars: Clopper-Pearson 95 % intervals, techniques side by side at each distance.")
+        return [save_figure(fig, figure_path(dataset_path, out_dir, "pcancel"))]
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "TECHS", "simulate_cell", "st_outcomes", "cell_table"]

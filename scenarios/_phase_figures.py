@@ -28,7 +28,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     plt = pyplot()
     summ = read_table(dataset_path, "summary")
     with h5py.File(dataset_path, "r") as f:  # the numeric columns drawn, not the whole tables
-        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna", "phase_reported_rad")}
+        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna_port", "phase_reported_rad")}
         pr = {k: f["pseudoranges"][k][()] for k in ("t_s", "antenna", "pseudorange_m", "true_range_m")}
         est = {k: f["estimates"][k][()] for k in f["estimates"] if k != "row"}
         anchors = np.asarray(f.attrs["antennas_xyz_m"])[:, :2]
@@ -37,7 +37,7 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     out = []
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6.4))
-    ant = reads["antenna"]
+    ant = reads["antenna_port"]
     for i in np.unique(ant):
         m = (ant == i) & (reads["t_s"] <= reads["t_s"][0] + PHASE_WINDOW_S)
         a1.plot(reads["t_s"][m], reads["phase_reported_rad"][m], ".", ms=1.5, label=f"antenna {i}")

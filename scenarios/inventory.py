@@ -65,6 +65,8 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import track
+from rfsim.core.reads import read_columns
+from rfsim.core.records import time_stamp_us
 from rfsim.core.references import cite
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
@@ -217,6 +219,26 @@ def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: floa
             rows[key].append(v)
 
 
+#: Columns of the inventory's read log that the per-read schema holds under its own names.
+_SCHEMA_SOURCES = ("antenna", "epc_hex", "rssi_dbm", "phase_rad", "doppler_hz", "tag_incident_power_dbm")
+
+
+def _read_schema(reads: dict[str, list], truth: dict[str, list]) -> dict:
+    """The per-read schema's columns (rfsim.core.reads) of the inventories' reads: every row is a
+    reported read; the time stamp is the read's ``time_s``."""
+    n = len(reads["time_s"])
+    return read_columns(epc=np.asarray(reads["epc_hex"], dtype=str), antenna_port=reads["antenna"],
+                        channel_index=reads["channel_index"], frequency_hz=reads["frequency_hz"],
+                        first_seen_timestamp_us=time_stamp_us(reads["time_s"]), tag_seen_count=np.ones(n, np.int64),
+                        peak_rssi_dbm=reads["rssi_dbm"], phase_angle_rad=reads["phase_rad"],
+                        doppler_frequency_hz=reads["doppler_hz"], true_distance_m=np.asarray(truth["distance_m"]),
+                        true_position_m=np.reshape(truth["position_m"], (n, 3)),
+                        true_incident_power_dbm=reads["tag_incident_power_dbm"],
+                        notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 in each "
+                                                          "inventory (population, run)",
+                               "true_incident_power_dbm": "during the ACK"})
+
+
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     if config.spread.enabled and config.reader.blf_search != "preamble":
         raise ConfigError("spread.enabled", True, "with reader.blf_search = 'preamble' (tags with their own BLF "
@@ -225,6 +247,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     reads: dict[str, list] = {k: [] for k in ("population", "run", *READ_FIELDS)}
     inv: dict[str, list] = {k: [] for k in INVENTORY_FIELDS}
     tag_rows: dict[str, list] = {k: [] for k in TAG_FIELDS}
+    truth: dict[str, list] = {"position_m": [], "distance_m": []}  # of each read's tag (the per-read schema)
     room = config.room
     antennas = reader_antennas(room)
     for p, n in enumerate(config.populations):
@@ -243,6 +266,10 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
             slots["run"].extend([r] * log.n_slots)
             reads["population"].extend([n] * len(log.reads["time_s"]))
             reads["run"].extend([r] * len(log.reads["time_s"]))
+            for tag, port in zip(log.reads["tag"], log.reads["antenna"]):
+                at = np.asarray(tags[tag].antenna.position_m, float) if tag >= 0 else np.full(3, np.nan)
+                truth["position_m"].append(at)
+                truth["distance_m"].append(float(np.linalg.norm(at - np.asarray(antennas[port - 1].position_m, float))))
             done = log.completion(n)
             n_read = len(log.tags_read())
             succ = sum(1 for v in log.slots["reader_view"] if v == "success")
@@ -255,7 +282,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     units = {"population": ("1", "number of tags N"), "run": INVENTORY_FIELDS["run"]}
     tables = [("slots", slots, {**SLOT_FIELDS, **units}, "one row per slot of every inventory: what the reader saw and "
                "what happened (ground truth), the Q algorithm's state"),
-              ("reads", reads, {**READ_FIELDS, **units}, "one row per EPC read (CRC ok): the reader's per-read report"),
+              ("reads", reads, {**READ_FIELDS, **units}, "one row per EPC read (CRC ok): the reader's per-read report "
+               "in the per-read schema (rfsim.core.reads), with the slot's context"),
               ("inventories", inv, INVENTORY_FIELDS, "one row per inventory (population, run): tags read, slots, air "
                "time, efficiency"),
               ("tags", tag_rows, TAG_FIELDS, "one row per tag of every inventory: position, antenna orientation and "
@@ -281,7 +309,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         tables.append(("capture", rows, CAPTURE_FIELDS, "one row per capture trial: two "
                        "tags in one Q = 0 slot at a set backscatter power ratio; whether the reader still read an EPC"))
     for name, cols, fields, description in tables:
-        ds.add_table(name, {k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()},
+        columns = _read_schema(cols, truth) if name == "reads" else {}
+        ds.add_table(name, {**columns, **{k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()
+                                          if k not in columns and k not in _SCHEMA_SOURCES}},
                      description=description)
     return ds
 

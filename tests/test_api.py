@@ -116,6 +116,8 @@ def test_to_xarray_has_every_group_with_units(small_run, tmp_path):
     assert tree["provenance"].attrs["seed"] == 1
     reads = tree["reads"].to_dataset()
     assert reads["peak_rssi_dbm"].attrs["units"] == "dBm" and reads["peak_rssi_dbm"].dims == ("row",)
+    assert reads["peak_rssi_dbm"].attrs["long_name"] == "peak RSSI"  # short; the sentence is the description
+    assert reads["epc"].attrs["units"] == "" and reads["epc"].attrs["long_name"] == "EPC"
     # the same values as the file opened by xarray itself (h5netcdf, no rfsim code)
     path = small_run.save(tmp_path / "x.h5")
     with xr.open_dataset(path, engine="h5netcdf", group="reads") as on_disk:

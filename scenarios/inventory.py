@@ -310,8 +310,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                        "tags in one Q = 0 slot at a set backscatter power ratio; whether the reader still read an EPC"))
     for name, cols, fields, description in tables:
         columns = _read_schema(cols, truth) if name == "reads" else {}
+        skip = (*columns, *_SCHEMA_SOURCES) if columns else ()
         ds.add_table(name, {**columns, **{k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()
-                                          if k not in columns and k not in _SCHEMA_SOURCES}},
+                                          if k not in skip}},
                      description=description)
     return ds
 

@@ -13,8 +13,8 @@ Tables:
 
 * ``slots``: one row per slot (see :data:`rfsim.protocols.inventory.SLOT_FIELDS`) with the population
   and run;
-* ``reads``: one row per EPC read (:data:`rfsim.protocols.inventory.READ_FIELDS`), as the ``link``
-  scenario's reads;
+* ``reads``: one row per EPC read in the per-read schema (:mod:`rfsim.core.reads`), as the ``link``
+  scenario's reads, with the slot's context (:data:`rfsim.protocols.inventory.READ_FIELDS`);
 * ``inventories``: one row per inventory (tags read, slots, air time, efficiency);
 * ``capture``: two tags in the same slot at different distances on the boresight of a
   patch; whether the reader read either EPC (capture), against the ratio of their

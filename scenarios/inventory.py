@@ -65,8 +65,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import track
-from rfsim.core.reads import read_columns
-from rfsim.core.records import time_stamp_us
+from rfsim.core.reads import inventory_read_columns
 from rfsim.core.references import cite
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
@@ -224,19 +223,11 @@ _SCHEMA_SOURCES = ("antenna", "epc_hex", "rssi_dbm", "phase_rad", "doppler_hz", 
 
 
 def _read_schema(reads: dict[str, list], truth: dict[str, list]) -> dict:
-    """The per-read schema's columns (rfsim.core.reads) of the inventories' reads: every row is a
-    reported read; the time stamp is the read's ``time_s``."""
-    n = len(reads["time_s"])
-    return read_columns(epc=np.asarray(reads["epc_hex"], dtype=str), antenna_port=reads["antenna"],
-                        channel_index=reads["channel_index"], frequency_hz=reads["frequency_hz"],
-                        first_seen_timestamp_us=time_stamp_us(reads["time_s"]), tag_seen_count=np.ones(n, np.int64),
-                        peak_rssi_dbm=reads["rssi_dbm"], phase_angle_rad=reads["phase_rad"],
-                        doppler_frequency_hz=reads["doppler_hz"], true_distance_m=np.asarray(truth["distance_m"]),
-                        true_position_m=np.reshape(truth["position_m"], (n, 3)),
-                        true_incident_power_dbm=reads["tag_incident_power_dbm"],
-                        notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 in each "
-                                                          "inventory (population, run)",
-                               "true_incident_power_dbm": "during the ACK"})
+    """The per-read schema's columns (rfsim.core.reads) of the inventories' reads."""
+    return inventory_read_columns(reads, true_distance_m=truth["distance_m"], true_position_m=truth["position_m"],
+                                  notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 "
+                                                                    "in each inventory (population, run)",
+                                         "true_incident_power_dbm": "during the ACK"})
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:

@@ -42,8 +42,7 @@ from rfsim.core.columns import concat
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
-from rfsim.core.reads import read_columns
-from rfsim.core.records import time_stamp_us
+from rfsim.core.reads import inventory_read_columns
 from rfsim.core.rng import trial_rng
 from rfsim.estimators.landmark_pf import LandmarkFilterConfig
 from rfsim.estimators.track_errors import mean_rms_error
@@ -289,14 +288,11 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 def _read_table(reads: dict[str, np.ndarray]) -> dict:
     """The sample-level reads (:func:`rfsim.scenes.landmark_tracks.read_rows`) in the per-read schema
     (rfsim.core.reads), then their context columns."""
-    schema = read_columns(epc=reads["epc_hex"], antenna_port=reads["antenna"], channel_index=reads["channel_index"],
-                          frequency_hz=reads["frequency_hz"], first_seen_timestamp_us=time_stamp_us(reads["time_s"]),
-                          tag_seen_count=np.ones(reads["tag"].size, np.int64), peak_rssi_dbm=reads["rssi_dbm"],
-                          phase_angle_rad=reads["phase_rad"], doppler_frequency_hz=reads["doppler_hz"],
-                          true_distance_m=reads["true_distance_m"], true_position_m=reads["true_position_m"],
-                          true_incident_power_dbm=reads["tag_incident_power_dbm"],
-                          notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 in each "
-                                                            "realization", "true_incident_power_dbm": "during the ACK"})
+    schema = inventory_read_columns(reads, true_distance_m=reads["true_distance_m"],
+                                    true_position_m=reads["true_position_m"],
+                                    notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 "
+                                                                      "in each realization",
+                                           "true_incident_power_dbm": "during the ACK"})
     context = {"case": ("1", _TEXT["case"]), "realization": ("1", tracks.COLUMN_TEXT["realization"]),
                "period": ("1", "query period of the read (0-based)"), "tag": ("1", "landmark read (grid order)"),
                **{k: READ_FIELDS[k] for k in ("time_s", "round", "slot", "n_replies", "snr_db")}}

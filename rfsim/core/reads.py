@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
-from rfsim.core.records import phase_code, phase_of_code, quantize_rssi_dbm
+from rfsim.core.records import phase_code, phase_of_code, quantize_rssi_dbm, time_stamp_us
 
 if TYPE_CHECKING:
     from rfsim.core.dataset import Column
@@ -221,10 +221,31 @@ def read_columns(*, epc, antenna_port, channel_index, frequency_hz, first_seen_t
     return out
 
 
+def inventory_read_columns(log: Mapping, *, true_distance_m, true_position_m,
+                           notes: Mapping[str, str] | None = None) -> dict[str, Column]:
+    """The schema's columns of a Gen2 inventory's read log, in which every entry is a reported read.
+
+    ``log`` holds the protocol layer's names (:data:`rfsim.protocols.inventory.READ_FIELDS`):
+    ``epc_hex``, ``antenna``, ``channel_index``, ``frequency_hz``, ``time_s`` [s] (the time stamp
+    is ``round(time_s·1e6)``), ``rssi_dbm``, ``phase_rad``, ``doppler_hz`` and
+    ``tag_incident_power_dbm`` (sequences of one length); the truth and ``notes`` as in
+    :func:`read_columns`, whose columns this returns."""
+    n = len(log["time_s"])
+    return read_columns(epc=np.asarray(log["epc_hex"], dtype=str).reshape(n),
+                        antenna_port=np.asarray(log["antenna"], dtype=np.int64).reshape(n),
+                        channel_index=np.asarray(log["channel_index"], dtype=np.int64).reshape(n),
+                        frequency_hz=log["frequency_hz"], first_seen_timestamp_us=time_stamp_us(log["time_s"]),
+                        tag_seen_count=np.ones(n, np.int64), peak_rssi_dbm=log["rssi_dbm"], phase_angle_rad=log["phase_rad"],
+                        doppler_frequency_hz=log["doppler_hz"], true_distance_m=np.asarray(true_distance_m, float),
+                        true_position_m=np.reshape(np.asarray(true_position_m, float), (n, 3)),
+                        true_incident_power_dbm=np.asarray(log["tag_incident_power_dbm"], float), notes=notes)
+
+
 def has_read_schema(names) -> bool:
     """Whether a table with columns ``names`` holds every column of :data:`READ_SCHEMA`."""
     return set(READ_SCHEMA) <= set(names)
 
 
 __all__ = ["ReadField", "READ_SCHEMA", "REPORT_KEYS", "IMPINJ_RSSI_STEP_DB", "IMPINJ_PHASE_BITS",
-           "quantize_rssi_impinj_dbm", "quantize_phase_12bit_rad", "read_columns", "has_read_schema"]
+           "quantize_rssi_impinj_dbm", "quantize_phase_12bit_rad", "read_columns", "inventory_read_columns",
+           "has_read_schema"]

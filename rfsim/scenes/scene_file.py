@@ -55,7 +55,7 @@ from rfsim.core.config import from_dict, param, parse_override
 from rfsim.core.errors import ConfigError, UserError, did_you_mean
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, pyplot, save_figure
-from rfsim.core.records import READ_MEASUREMENT_FIELDS, time_stamp_us
+from rfsim.core.records import READ_MEASUREMENT_FIELDS
 from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
@@ -438,19 +438,11 @@ SLOT_COLUMNS = {
 
 def _read_schema(reads: dict[str, list]) -> dict:
     """The per-read schema's columns of the scene's reads (every row a reported read)."""
-    n = len(reads.get("time_s", []))
-
-    def values(key, dtype):
-        return np.asarray(reads.get(key, []), dtype=dtype)
-
-    return _reads.read_columns(
-        epc=values("epc_hex", str), antenna_port=values("antenna", np.int64),
-        channel_index=values("channel_index", np.int64), frequency_hz=values("frequency_hz", float),
-        first_seen_timestamp_us=time_stamp_us(values("time_s", float)), tag_seen_count=np.ones(n, np.int64),
-        peak_rssi_dbm=values("rssi_dbm", float), phase_angle_rad=values("phase_rad", float),
-        doppler_frequency_hz=values("doppler_hz", float), true_distance_m=values("true_distance_m", float),
-        true_position_m=np.reshape(values("true_position_m", float), (n, 3)),
-        true_incident_power_dbm=values("tag_incident_power_dbm", float),
+    if not reads.get("time_s"):  # nothing read: empty columns of the schema's types
+        reads = {"epc_hex": [], "antenna": [], "channel_index": [], **{k: np.zeros(0) for k in (
+            "time_s", "frequency_hz", "rssi_dbm", "phase_rad", "doppler_hz", "tag_incident_power_dbm")}}
+    return _reads.inventory_read_columns(
+        reads, true_distance_m=reads.get("true_distance_m", []), true_position_m=reads.get("true_position_m", []),
         notes={"first_seen_timestamp_us": "start of the ACK segment", "true_incident_power_dbm": "during the ACK"})
 
 

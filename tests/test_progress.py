@@ -41,6 +41,23 @@ def test_terminal_bar_redraws_in_place_with_eta():
     assert "<00:00" in text  # elapsed<remaining, tqdm's ETA
 
 
+def test_eta_leaves_out_the_first_step_that_carries_the_compilation():
+    clock = [100.0]
+    bar = Reporter(io.StringIO(), tty=False, log_interval_s=3600.0).bar(10, desc="cells", unit="cells")
+    bar._time, bar.start_t = (lambda: clock[0]), 100.0
+    clock[0] = 160.0  # the first cell: 60 s, of which most is numba compiling
+    bar.update(1)
+    assert bar.format_dict["rate"] == 0.0  # no second step yet: ETA "?"
+    for _ in range(2):  # then one cell per second
+        clock[0] += 1.0
+        bar.update(1)
+    fd = bar.format_dict
+    assert fd["rate"] == pytest.approx(1.0) and fd["elapsed"] == pytest.approx(62.0)
+    line = bar.format_meter(**fd)
+    assert "ETA 00:07" in line  # 7 cells left at 1 cell/s, not 7 x 20.7 s
+    bar.close()
+
+
 def test_quiet_prints_nothing_and_details_need_verbose():
     out = io.StringIO()
     with reporting(Reporter(out, quiet=True)) as rep:

@@ -15,6 +15,12 @@ its stages with :func:`stage`; both do nothing unless a reporter is active
 (:func:`reporting`, entered by the command line around a run). The first time numba
 compiles a kernel while a reporter is active (a cache miss: the first run after install or
 after a kernel changed) one line says so, because that can take tens of seconds.
+
+The rate and ETA of a bar are measured from the end of its first step on (:class:`_Bar`):
+the first step carries one-off work (numba compiling the kernels, warming caches, starting
+pool workers), so counting it would predict "58 s/cell, ETA 11:40" for work that ends
+seconds later. Until a second step finishes the ETA is shown as ``?``; ``elapsed`` is the
+whole time.
 """
 
 from __future__ import annotations
@@ -73,6 +79,36 @@ class _NullBar:
         pass
 
 
+def _bar_class():
+    """The tqdm subclass used for terminal and log bars (tqdm imported on first use)."""
+    from tqdm import tqdm
+
+    class _Bar(tqdm):
+        """A tqdm bar whose rate and ETA leave out the first step (see the module docstring).
+
+        ``rate = (n - n_first) / (t - t_first)`` where ``n_first`` and ``t_first`` are the
+        count and time when the first update arrived; 0 (shown ``?``) before the second.
+        """
+
+        _t_first: float | None = None
+        _n_first: int = 0
+
+        def update(self, n: int = 1):
+            if self._t_first is None and n:
+                self._t_first, self._n_first = self._time(), self.n + n
+            return super().update(n)
+
+        @property
+        def format_dict(self):
+            d = super().format_dict
+            done = self.n - self._n_first
+            d["rate"] = (done / (self._time() - self._t_first)
+                         if self._t_first is not None and done > 0 and self._time() > self._t_first else 0.0)
+            return d
+
+    return _Bar
+
+
 class Reporter:
     """Where progress goes: ``stream`` (default stderr), TTY or log style, or nothing.
 
@@ -120,8 +156,7 @@ class Reporter:
         """A tqdm bar of ``total`` steps (``unit`` names them), or a silent stand-in."""
         if self.quiet:
             return _NullBar()
-        from tqdm import tqdm
-
+        tqdm = _bar_class()
         if self.tty:
             return tqdm(total=total, initial=initial, desc=desc, unit=unit, file=self.stream,
                         mininterval=0.2, leave=True, bar_format=TTY_FORMAT,

@@ -51,9 +51,9 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import gc
+import importlib.metadata
 import io
 import os
-import importlib.metadata
 import platform
 import subprocess
 import sys
@@ -263,9 +263,10 @@ def _first_clause(text: str) -> str:
 def long_name(description: str) -> str:
     """CF ``long_name`` of a column: a short label derived from its description.
 
-    The description's first clause (up to the first ";" or ": "); longer than
-    :data:`LONG_NAME_MAX` characters, without its parenthesised parts; still longer than :data:`LONG_NAME_MAX` characters, it is cut after its last whole word
-    that fits (at a comma if one is in the second half), without a dangling "of", "at", ….
+    The description's first clause (up to the first ";" or ": " outside parentheses); if it is
+    longer than :data:`LONG_NAME_MAX` characters, without its parenthesised parts; if still
+    longer, cut after its last whole word that fits (at a comma if one is in the second half),
+    without a dangling "of", "at", ….
     The full sentence stays in ``description``. A description written as
     ``"<label>: <sentence>"`` gives exactly ``<label>``.
     """

@@ -144,4 +144,5 @@ def capture_dataset(records, replies, *, capture: str, fs_hz: float, timing) -> 
     return ds
 
 
-__all__ = ["CAPTURE_FIELDS", "SCHEMA_NOTES", "READ_FIELDS", "COMMAND_FIELDS", "reply_row", "command_row", "capture_dataset"]
+__all__ = ["CAPTURE_FIELDS", "SCHEMA_NOTES", "READ_FIELDS", "COMMAND_FIELDS", "reply_row", "command_row",
+           "capture_dataset"]

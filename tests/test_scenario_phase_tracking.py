@@ -118,20 +118,73 @@ def test_bad_inputs_exit_2_with_one_line(tmp_path, override, fragment):
     assert "Traceback" not in err
 
 
-@pytest.mark.slow
-def test_published_accuracy_on_the_default_run(tmp_path):
-    """60 s, 1.5 cm RMS jitter, RSSI fix start (L203–L207): RTS in [1.0, 2.5] cm, EKF pass 1 and
-    2 within ±30 % of 3.2–5.2 and 1.6–2.2 cm, RTS ≤ EKF, RSSI-only ≥ 10× the RTS error."""
-    rc, path, err = _run(tmp_path, "full", "schedule.workers=0")
+@pytest.fixture(scope="module")
+def full_run(tmp_path_factory):
+    """The 60 s default run (seed 1)."""
+    rc, path, err = _run(tmp_path_factory.mktemp("full"), "full", "schedule.workers=0")
     assert rc == 0, err
-    with h5py.File(path, "r") as f:
-        a = {k: float(f.attrs[k]) for k in ("rts_rmse_m", "ekf1_rmse_m", "ekf2_rmse_m", "rts1_rmse_m", "rssi_rmse_m")}
+    return path
+
+
+@pytest.mark.slow
+def test_published_accuracy_on_the_default_run(full_run):
+    """60 s, 1.5 cm RMS jitter, RSSI fix start (L203–L207). The RTS error against the intended
+    path (1.48 cm) is the injected jitter (trajectory.jitter_rms_m = 1.5 cm) and cannot test
+    the estimator; what can is its error against the true (jittered) path: below 2 mm (measured
+    0.16 mm; 12-bit phase code λ/4π·2π/4096/√12 = 0.012 mm per read). EKF pass 2 within ±30 %
+    of 1.6–2.2 cm, RTS ≤ EKF on the first pass, RSSI-only ≥ 10× the RTS error."""
+    with h5py.File(full_run, "r") as f:
+        a = {k: float(f.attrs[k]) for k in ("rts_rmse_m", "ekf2_rmse_m", "rts1_rmse_m", "ekf1_rmse_m", "rssi_rmse_m")}
         assert int(f.attrs["unwrap_jumps"]) == 0
-    assert 0.010 <= a["rts_rmse_m"] <= 0.025, a
-    assert 0.7 * 0.032 <= a["ekf1_rmse_m"] <= 1.3 * 0.052, a
+    summary = read_table(full_run, "summary")
+    last = (summary["estimator"].astype(str) == "RTS") & (summary["pass"] == summary["pass"].max())
+    assert float(summary["rmse_true_m"][last][0]) < 0.002, summary["rmse_true_m"][last]
     assert 0.7 * 0.016 <= a["ekf2_rmse_m"] <= 1.3 * 0.022, a
     assert a["rts1_rmse_m"] <= a["ekf1_rmse_m"]
     assert a["rssi_rmse_m"] >= 10 * a["rts_rmse_m"], a
+
+
+def _first_pass(path, start_xy_m):
+    """EKF and RTS RMSE [m] against the intended path of the first pass over the dataset's
+    reported reads, started (prior mean and unwrapping origin) at ``start_xy_m``."""
+    from rfsim.estimators import phase_tracking as pt
+
+    reads = read_table(path, "reads")
+    with h5py.File(path, "r") as f:
+        anchors, lam = f.attrs["antennas_xyz_m"][:, :2], float(f.attrs["wavelength_m"])
+    ant = reads["antenna"].astype(np.int64) - 1
+    p0 = np.asarray(start_xy_m, float)
+    z = pt.unwrap_pseudoranges(ant, reads["phase_reported_rad"], wavelength_m=lam, r0_m=np.linalg.norm(p0 - anchors, axis=1))
+    x0, P0 = pt.initial_state(p0, anchors.shape[0])
+    ps = pt.track_phase(reads["t_s"], ant, z, anchors, x0, P0, passes=1, keep_covariances=False)[0]
+    intended = np.column_stack([reads["intended_x_m"], reads["intended_y_m"]])
+    return tuple(float(np.sqrt(np.mean(np.sum((x[:, :2] - intended) ** 2, axis=1)))) for x in (ps.x_filt, ps.x_smooth))
+
+
+@pytest.mark.slow
+def test_first_pass_gap_is_the_start_transient(full_run):
+    """First pass (L203): published EKF 3.2 cm, RTS 1.5 cm; from the eq. (13) RSSI fix (0.41 m
+    off, seed 1) this run gives 6.66 / 3.25 cm. One trajectory is one trial, and its first-pass
+    RMSE is the bias-convergence transient from the start fix averaged over the run: the same
+    reads started at the true start position give 1.48 / 1.48 cm (the jitter alone), 0.2 m off
+    2.1–2.5 / 1.48–1.65 cm over 8 directions, the source's stated ≈ 0.6 m off 8.0–12.1 / 1.5–6.1 cm
+    (module docstring). So the gap is the transient: it closes when the start error does, and
+    the source's 60 cm start gives no match here."""
+    with h5py.File(full_run, "r") as f:
+        ekf1, rts1 = float(f.attrs["ekf1_rmse_m"]), float(f.attrs["rts1_rmse_m"])
+        fix_error = float(f.attrs["initial_fix_error_m"])
+    reads = read_table(full_run, "reads")
+    start = np.array([reads["intended_x_m"][0], reads["intended_y_m"][0]])
+    assert 0.3 < fix_error < 0.5
+    assert ekf1 > 1.5 * 0.032 and rts1 > 1.5 * 0.015  # the documented gap (not reproduced)
+    e0, r0 = _first_pass(full_run, start)  # transient off
+    assert e0 < 0.017 and r0 < 0.017
+    ring = np.array([_first_pass(full_run, start + 0.2 * np.array([np.cos(a), np.sin(a)]))
+                     for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)])
+    assert np.all(ring[:, 0] < 0.032) and np.all(ring[:, 1] < 0.02)  # 0.2 m off: at or below the published
+    far = np.array([_first_pass(full_run, start + 0.6 * np.array([np.cos(a), np.sin(a)]))
+                    for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)])
+    assert np.all(far[:, 0] > 2 * 0.032)  # the source's 60 cm start: no match
 
 
 @pytest.mark.slow

@@ -33,6 +33,7 @@ _small_scale = lazy_import("rfsim.channels.small_scale")
 _scene = lazy_import("rfsim.channels.scene")
 _surfaces = lazy_import("rfsim.channels.surfaces")
 _reader = lazy_import("rfsim.devices.reader")
+_sweep = lazy_import("rfsim.scenes.capture_sweep")
 _tag = lazy_import("rfsim.devices.tag")
 
 
@@ -173,18 +174,22 @@ def boresight_pair_slot(room: RoomConfig, reader_config, tag_config, *, near_m: 
     log = run_inventory(air, InventoryConfig(q_mode="fixed", q_initial=0.0, max_rounds=1, session=session))
     p_inc = air.exchanges[0].incident_power_dbm  # the Query
     tag = log.slots["tag"][0]
-    return dict(ratio_db=2.0 * (p_inc[0] - p_inc[1]), far_m=far_m, n_replies=log.slots["n_replies"][0],
-                captured=bool(tag >= 0 and log.slots["n_replies"][0] >= 2), captured_tag=tag)
+    n = log.slots["n_replies"][0]  # the reader ACKs only an RN16 its own gate accepted (none by default)
+    return dict(ratio_db=2.0 * (p_inc[0] - p_inc[1]), far_m=far_m, n_replies=n,
+                captured=bool(_sweep.captured(n, tag, True)), captured_tag=tag)
 
 
 CAPTURE_FIELDS = {
     "point": ("1", "index of the nominal power ratio"),
     "trial": ("1", "trial at this ratio"),
     "nominal_ratio_db": ("dB", "nominal backscatter power ratio near/far, 40·log10(d_far/d_near)"),
-    "ratio_db": ("dB", "ratio from the incident CW powers: 2·(P_inc,near − P_inc,far) (monostatic)"),
+    "ratio_db": ("dB", "modulated power ratio of the two replies at the reader: near/far, the capture_sweep's "
+                       "x-axis, 2·(P_inc,near − P_inc,far) from the Query's incident CW powers, exact for these "
+                       "identical fixed-state tags on reciprocal free-space links"),
     "far_m": ("m", "distance of the far tag (with a random sub-wavelength offset)"),
     "n_replies": ("1", "tags that replied with an RN16 in the slot"),
-    "captured": ("1", "an EPC was read although both tags replied"),
+    "captured": ("1", "capture (rfsim.scenes.capture_sweep.captured): both replied, the RN16 was one tag's and "
+                      "accepted (this reader has no gate: reader.rn16_false_accept = 0), that tag's EPC was read"),
     "captured_tag": ("1", "0 = near tag, 1 = far tag, -1 = none"),
 }
 

@@ -13,8 +13,8 @@ Tables:
 
 * ``slots``: one row per slot (see :data:`rfsim.protocols.inventory.SLOT_FIELDS`) with the population
   and run;
-* ``reads``: one row per EPC read in the per-read schema (:mod:`rfsim.core.reads`), as the ``link``
-  scenario's reads, with the slot's context (:data:`rfsim.protocols.inventory.READ_FIELDS`);
+* ``reads``: one row per EPC read (:data:`rfsim.protocols.inventory.READ_FIELDS`), as the ``link``
+  scenario's reads;
 * ``inventories``: one row per inventory (tags read, slots, air time, efficiency);
 * ``capture``: two tags in the same slot at different distances on the boresight of a
   patch; capture (:func:`rfsim.scenes.capture_sweep.captured`, as ``capture_sweep``) against
@@ -68,7 +68,6 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.plots import figure_path, pyplot, save_figure
 from rfsim.core.progress import track
-from rfsim.core.reads import inventory_read_columns
 from rfsim.core.references import cite
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
@@ -77,7 +76,7 @@ from rfsim.protocols.inventory import READ_FIELDS, SLOT_FIELDS, InventoryConfig,
 from rfsim.protocols.no_capture import NoCaptureAir
 from rfsim.scenes import capture_sweep as sweep
 from rfsim.scenes.room_inventory import (CAPTURE_FIELDS, RoomConfig, boresight_capture_rows,  # noqa: F401
-                                         make_tags, reader_antennas, room_air, room_population, tag_antenna)
+                                         make_tags, reader_antennas, room_air, room_population, room_reads, tag_antenna)
 
 _dataset = lazy_import("rfsim.core.dataset")
 _link = lazy_import("rfsim.gen2.link")
@@ -221,18 +220,6 @@ def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: floa
             rows[key].append(v)
 
 
-#: Columns of the inventory's read log that the per-read schema holds under its own names.
-_SCHEMA_SOURCES = ("antenna", "epc_hex", "rssi_dbm", "phase_rad", "doppler_hz", "tag_incident_power_dbm")
-
-
-def _read_schema(reads: dict[str, list], truth: dict[str, list]) -> dict:
-    """The per-read schema's columns (rfsim.core.reads) of the inventories' reads."""
-    return inventory_read_columns(reads, true_distance_m=truth["distance_m"], true_position_m=truth["position_m"],
-                                  notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 "
-                                                                    "in each inventory (population, run)",
-                                         "true_incident_power_dbm": "during the ACK"})
-
-
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
     if config.spread.enabled and config.reader.blf_search != "preamble":
         raise ConfigError("spread.enabled", True, "with reader.blf_search = 'preamble' (tags with their own BLF "
@@ -241,7 +228,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     reads: dict[str, list] = {k: [] for k in ("population", "run", *READ_FIELDS)}
     inv: dict[str, list] = {k: [] for k in INVENTORY_FIELDS}
     tag_rows: dict[str, list] = {k: [] for k in TAG_FIELDS}
-    truth: dict[str, list] = {"position_m": [], "distance_m": []}  # of each read's tag (the per-read schema)
     room = config.room
     antennas = reader_antennas(room)
     for p, n in enumerate(config.populations):
@@ -260,10 +246,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
             slots["run"].extend([r] * log.n_slots)
             reads["population"].extend([n] * len(log.reads["time_s"]))
             reads["run"].extend([r] * len(log.reads["time_s"]))
-            for tag, port in zip(log.reads["tag"], log.reads["antenna"]):
-                at = np.asarray(tags[tag].antenna.position_m, float) if tag >= 0 else np.full(3, np.nan)
-                truth["position_m"].append(at)
-                truth["distance_m"].append(float(np.linalg.norm(at - np.asarray(antennas[port - 1].position_m, float))))
             done = log.completion(n)
             n_read = len(log.tags_read())
             succ = sum(1 for v in log.slots["reader_view"] if v == "success")
@@ -276,8 +258,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     units = {"population": ("1", "number of tags N"), "run": INVENTORY_FIELDS["run"]}
     tables = [("slots", slots, {**SLOT_FIELDS, **units}, "one row per slot of every inventory: what the reader saw and "
                "what happened (ground truth), the Q algorithm's state"),
-              ("reads", reads, {**READ_FIELDS, **units}, "one row per EPC read (CRC ok): the reader's per-read report "
-               "in the per-read schema (rfsim.core.reads), with the slot's context"),
+              ("reads", reads, {**READ_FIELDS, **units}, "one row per EPC read (CRC ok): the reader's per-read report"),
               ("inventories", inv, INVENTORY_FIELDS, "one row per inventory (population, run): tags read, slots, air "
                "time, efficiency"),
               ("tags", tag_rows, TAG_FIELDS, "one row per tag of every inventory: position, antenna orientation and "
@@ -303,12 +284,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                                       session=config.inventory.session, seed=seed)
         tables.append(("capture", rows, CAPTURE_FIELDS, "one row per capture trial: two tags in one Q = 0 slot at a "
                        "set backscatter power ratio; whether the reader captured one. " + sweep.TABLES_COMPARED))
-    for name, cols, fields, description in tables:
-        columns = _read_schema(cols, truth) if name == "reads" else {}
-        skip = (*columns, *_SCHEMA_SOURCES) if columns else ()
-        ds.add_table(name, {**columns, **{k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()
-                                          if k not in skip}},
-                     description=description)
+    for name, cols, fields, description in tables:  # reads: in the per-read schema (rfsim.core.reads)
+        ds.add_table(name, room_reads(cols, fields, tag_rows, room) if name == "reads" else
+                     {k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()}, description=description)
     return ds
 
 

@@ -6,9 +6,10 @@ an optional floor reflection (image method, concrete) and the exponential APDP w
 room curves K(d), τrms(d) (rfsim.channels.small_scale.ApdpModel defaults). The reader hops
 channels, so rounds also differ by carrier frequency. Per round the dataset records what
 a commercial reader reports for a read (gen2-and-validation-anchors.md §4.9) and why a
-read failed in the per-read schema (:mod:`rfsim.core.reads`), and the reader's report of it (``reader.report``, :mod:`rfsim.core.records`: EPC as
+read failed, and the reader's report of it (``reader.report``, :mod:`rfsim.core.records`: EPC as
 hex, µs time stamp, RSSI in its steps above the sensitivity floor, the 12-bit phase code with
-the port's phase offset), one row per read sorted by time.
+the port's phase offset), one row per read sorted by time, in the per-read schema
+(:mod:`rfsim.core.reads`).
 
 Randomness: point i, round r uses ``trial_rng(seed, i, r)`` for the channel draw and the
 receiver noise; the reader (hop sequence) and the tag (RN16, slot) of point i have their own
@@ -26,7 +27,7 @@ import numpy as np
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
-from rfsim.core.reads import READ_SCHEMA, read_columns
+from rfsim.core.reads import reads_table
 from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
@@ -115,12 +116,9 @@ FIELDS = {
     "failure_reason": ("", "why the read failed ('' = success)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port (Query)"),
 }
-#: Columns of the reads table beside the per-read schema (rfsim.core.reads, which holds the
-#: EPC, port, time stamp, RSSI, phase, Doppler and the truth): the round's context, the SNR and
-#: the configured reader report.
-READ_FIELDS = {k: v for k, v in {**FIELDS, **READ_REPORT_FIELDS}.items()
-               if k not in READ_SCHEMA and k not in ("distance_m", "antenna", "rssi_dbm", "phase_rad", "doppler_hz",
-                                                     "tag_incident_power_dbm", "t_us")}
+#: Columns of the read log: the round's context and measurements, then the reader's report (in the
+#: dataset, those the per-read schema holds appear under its names: rfsim.core.reads).
+READ_FIELDS = {**FIELDS, **READ_REPORT_FIELDS}
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
@@ -161,16 +159,11 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                                rssi_dbm=cols["rssi_dbm"], phase_rad=cols["phase_rad"], success=cols["success"]))
     cols = long_table(cols)
     tag_m = np.array([tag_antenna(g, d).position_m for d in g.distances_m])[cols["point"]]
-    reads = read_columns(epc=cols["epc"], antenna_port=cols["antenna"], channel_index=cols["channel_index"],
-                         frequency_hz=cols["frequency_hz"], first_seen_timestamp_us=cols["t_us"],
-                         tag_seen_count=cols["reported"], peak_rssi_dbm=cols["rssi_dbm"],
-                         phase_angle_rad=cols["phase_rad"], doppler_frequency_hz=cols["doppler_hz"],
-                         true_distance_m=cols["distance_m"], true_position_m=tag_m,
-                         true_incident_power_dbm=cols["tag_incident_power_dbm"],
-                         notes={"true_distance_m": "the point's geometry.distances_m",
-                                "true_incident_power_dbm": "during the round's Query"})
+    reads = reads_table(cols, READ_FIELDS, true_position_m=tag_m,
+                        notes={"true_distance_m": "the point's geometry.distances_m",
+                               "true_incident_power_dbm": "during the round's Query"})
     ds = _dataset.Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {**reads, **{k: _dataset.column(cols[k], *READ_FIELDS[k]) for k in READ_FIELDS}},
+    ds.add_table("reads", reads,
                  description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
                              "per-read report (long format, sorted by time stamp), or why the read failed")
     return ds

@@ -43,7 +43,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.procs import map_in_order
 from rfsim.core.progress import stage
-from rfsim.core.reads import read_columns
+from rfsim.core.reads import reads_table
 from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, long_table, report_columns
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import wavelength_m
@@ -110,14 +110,10 @@ READ_FIELDS = {
     "tx_power_dbm": ("dBm", "conducted reader transmit power at the antenna port"),
     "x_m": ("m", "true tag x during the round (intended path + jitter), held from the round start"),
     "y_m": ("m", "true tag y during the round (intended path + jitter), held from the round start"),
-    "z_m": ("m", "height of the tag above the floor (geometry.height_m, constant)"),
     "intended_x_m": ("m", "intended (marked) path x at the round start, what the paper's RMSE refers to"),
     "intended_y_m": ("m", "intended (marked) path y at the round start"),
     "trial": ("1", "trial index of the run (one trajectory: 0)"),
 }
-
-#: Columns of the read log that the per-read schema (rfsim.core.reads) holds under its own names.
-_SCHEMA_SOURCES = ("antenna", "rssi_dbm", "phase_rad", "doppler_hz", "t_us", "x_m", "y_m", "z_m")
 
 
 def _read_task(task) -> dict[str, np.ndarray]:
@@ -229,18 +225,7 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
     est, sch = config.estimator, config.schedule
     s = anchors.shape[0]
     ds = _rfsim_dataset.Dataset(title="Särkkä 890 MHz phase tracking: sample-level reads, pseudo-ranges, EKF/RTS tracks")
-    schema = read_columns(epc=reads["epc"], antenna_port=reads["antenna"], channel_index=reads["channel_index"],
-                          frequency_hz=reads["frequency_hz"], first_seen_timestamp_us=reads["t_us"],
-                          tag_seen_count=reads["reported"], peak_rssi_dbm=reads["rssi_dbm"],
-                          phase_angle_rad=reads["phase_rad"], doppler_frequency_hz=reads["doppler_hz"],
-                          true_distance_m=true_range,
-                          true_position_m=np.column_stack([reads["x_m"], reads["y_m"], reads["z_m"]]),
-                          notes={"true_distance_m": "antennas and tag at geometry.height_m",
-                                 "true_x_m": "intended path + jitter, held from the round start",
-                                 "true_y_m": "intended path + jitter, held from the round start",
-                                 "true_incident_power_dbm": "not recorded by this scenario"})
-    ds.add_table("reads", {**schema, **{k: _rfsim_dataset.column(reads[k], *READ_FIELDS[k]) for k in READ_FIELDS
-                                        if k not in schema and k not in _SCHEMA_SOURCES}},
+    ds.add_table("reads", reads_table(reads, READ_FIELDS, true_distance_m=true_range),  # the schema: rfsim.core.reads
                  description="one row per read round (Query, RN16, ACK, EPC) in the long per-read format, sorted "
                              "by time stamp: the reader's measurements and report, and the true tag position")
     ds.add_table("pseudoranges", {

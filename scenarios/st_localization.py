@@ -42,11 +42,9 @@ from rfsim.core.columns import concat
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.procs import map_in_order
-from rfsim.core.reads import inventory_read_columns
 from rfsim.core.rng import trial_rng
 from rfsim.estimators.landmark_pf import LandmarkFilterConfig
 from rfsim.estimators.track_errors import mean_rms_error
-from rfsim.protocols.inventory import READ_FIELDS
 from rfsim.scenes import landmark_room as rooms
 from rfsim.scenes import landmark_tracks as tracks
 from rfsim.scenes.landmark_listening import SampleLevelConfig
@@ -199,8 +197,7 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
     rows = [tracks.estimate_rows(case.index, b, d, {k: x[0] for k, x in e.items()}) for b, d, e in zip(bs, chunk, est)]
     return {"periods": concat([tracks.period_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
             "detections": concat([tracks.detection_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
-            "estimates": concat([r[k] for k in range(len(case.trackers)) for r in rows]),
-            "reads": concat([tracks.read_rows(case.index, b, d, config.room) for b, d in zip(bs, chunk)])}
+            "estimates": concat([r[k] for k in range(len(case.trackers)) for r in rows])}
 
 
 def _task(args):
@@ -212,7 +209,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
     tasks = [(config, c, g, list(range(a, min(a + 10, c.realizations))), seed) for c in cases(config)
              for g, a in enumerate(range(0, c.realizations, 10))]
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
-    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates", "reads")}
+    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
 
 
 def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
@@ -264,8 +261,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
         ds.add_table(name, {k: _dataset.column(v, _unit(k), _TEXT.get(k, k.replace("_", " "))) for k, v in tables[name].items()},
                      description=_GROUPS[name])
-    if tables["reads"]:  # sample level: the reader's reads of the landmarks in the per-read schema
-        ds.add_table("reads", _read_table(tables["reads"]), description=_GROUPS["reads"])
     room = config.room
     ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
                      "landmarks_xy_m": room.landmarks_xy(), "antennas_xyz_m": np.asarray(room.antennas_xyz_m),
@@ -283,20 +278,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     for key in [k for k, v in ds.attrs.items() if isinstance(v, float) and not np.isfinite(v)]:
         ds.attrs[f"{key}_meaning"] = "NaN: the curves do not cross inside the swept speeds (or no WCL reference)"
     return ds
-
-
-def _read_table(reads: dict[str, np.ndarray]) -> dict:
-    """The sample-level reads (:func:`rfsim.scenes.landmark_tracks.read_rows`) in the per-read schema
-    (rfsim.core.reads), then their context columns."""
-    schema = inventory_read_columns(reads, true_distance_m=reads["true_distance_m"],
-                                    true_position_m=reads["true_position_m"],
-                                    notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 "
-                                                                      "in each realization",
-                                           "true_incident_power_dbm": "during the ACK"})
-    context = {"case": ("1", _TEXT["case"]), "realization": ("1", tracks.COLUMN_TEXT["realization"]),
-               "period": ("1", "query period of the read (0-based)"), "tag": ("1", "landmark read (grid order)"),
-               **{k: READ_FIELDS[k] for k in ("time_s", "round", "slot", "n_replies", "snr_db")}}
-    return {**schema, **{k: _dataset.column(reads[k], *v) for k, v in context.items()}}
 
 
 def _unit(key: str) -> str:
@@ -317,8 +298,6 @@ _TEXT = {
 
 _GROUPS = {
     **tracks.TABLE_TEXT, "summary": "one row per (case, tracker): RMSE beside the published value and the change vs WCL",
-    "reads": "one row per EPC read of a landmark by the reader (sample level), in the per-read schema, with the "
-             "case, realization and query period",
     "cases": "one row per case: experiment, trajectory, speed, realizations, duration",
 }
 

@@ -221,25 +221,58 @@ def read_columns(*, epc, antenna_port, channel_index, frequency_hz, first_seen_t
     return out
 
 
-def inventory_read_columns(log: Mapping, *, true_distance_m, true_position_m,
-                           notes: Mapping[str, str] | None = None) -> dict[str, Column]:
-    """The schema's columns of a Gen2 inventory's read log, in which every entry is a reported read.
+#: The names a read log uses for what the schema holds (the protocol layer's
+#: :data:`rfsim.protocols.inventory.READ_FIELDS`, :data:`rfsim.core.records.READ_MEASUREMENT_FIELDS` and
+#: :data:`~rfsim.core.records.READ_REPORT_FIELDS`, a scenario's ``distance_m``/``x_m``/…): in a
+#: dataset's reads table they appear only under the schema's names (:func:`reads_table`).
+LOG_NAMES = ("epc", "epc_hex", "antenna", "t_us", "reported", "rssi_dbm", "phase_rad", "doppler_hz",
+             "tag_incident_power_dbm", "distance_m", "true_position_m", "x_m", "y_m", "z_m")
 
-    ``log`` holds the protocol layer's names (:data:`rfsim.protocols.inventory.READ_FIELDS`):
-    ``epc_hex``, ``antenna``, ``channel_index``, ``frequency_hz``, ``time_s`` [s] (the time stamp
-    is ``round(time_s·1e6)``), ``rssi_dbm``, ``phase_rad``, ``doppler_hz`` and
-    ``tag_incident_power_dbm`` (sequences of one length); the truth and ``notes`` as in
-    :func:`read_columns`, whose columns this returns."""
-    n = len(log["time_s"])
-    return read_columns(epc=np.asarray(log["epc_hex"], dtype=str).reshape(n),
-                        antenna_port=np.asarray(log["antenna"], dtype=np.int64).reshape(n),
+
+def _first(log: Mapping, names: tuple[str, ...], default=None):
+    return next((log[k] for k in names if k in log), default)
+
+
+def log_read_columns(log: Mapping, *, true_position_m=None, true_distance_m=None,
+                     notes: Mapping[str, str] | None = None) -> dict[str, Column]:
+    """The schema's columns (:func:`read_columns`) of a read log under the protocol layer's names.
+
+    ``log`` maps names to sequences of one length: ``epc`` or ``epc_hex``, ``antenna``,
+    ``channel_index``, ``frequency_hz``, ``rssi_dbm``, ``phase_rad``, ``doppler_hz``; the time
+    stamp ``t_us`` [µs], else ``round(time_s·1e6)`` (or ``t_s``); ``reported`` (else every entry
+    is a reported read); the truth ``tag_incident_power_dbm`` [dBm], ``distance_m`` or
+    ``true_distance_m`` [m] and ``true_position_m`` (n, 3) or ``x_m``/``y_m``/``z_m`` [m] where the
+    log has them (else NaN), unless given as arguments.
+    """
+    epc = np.asarray(_first(log, ("epc", "epc_hex")), dtype=str)
+    n = epc.shape[0]
+    t_us = log["t_us"] if "t_us" in log else time_stamp_us(_first(log, ("time_s", "t_s")))
+    if true_position_m is None and "x_m" in log:
+        true_position_m = np.column_stack([log["x_m"], log["y_m"], log["z_m"]])
+    if true_position_m is None and "true_position_m" in log:
+        true_position_m = log["true_position_m"]
+    if true_distance_m is None:
+        true_distance_m = _first(log, ("distance_m", "true_distance_m"), math.nan)
+    return read_columns(epc=epc.reshape(n), antenna_port=np.asarray(log["antenna"], dtype=np.int64).reshape(n),
                         channel_index=np.asarray(log["channel_index"], dtype=np.int64).reshape(n),
-                        frequency_hz=log["frequency_hz"], first_seen_timestamp_us=time_stamp_us(log["time_s"]),
-                        tag_seen_count=np.ones(n, np.int64), peak_rssi_dbm=log["rssi_dbm"],
-                        phase_angle_rad=log["phase_rad"],
+                        frequency_hz=log["frequency_hz"], first_seen_timestamp_us=t_us,
+                        tag_seen_count=log["reported"] if "reported" in log else np.ones(n, np.int64),
+                        peak_rssi_dbm=log["rssi_dbm"], phase_angle_rad=log["phase_rad"],
                         doppler_frequency_hz=log["doppler_hz"], true_distance_m=np.asarray(true_distance_m, float),
-                        true_position_m=np.reshape(np.asarray(true_position_m, float), (n, 3)),
-                        true_incident_power_dbm=np.asarray(log["tag_incident_power_dbm"], float), notes=notes)
+                        true_position_m=None if true_position_m is None else
+                        np.reshape(np.asarray(true_position_m, float), (n, 3)),
+                        true_incident_power_dbm=np.asarray(_first(log, ("tag_incident_power_dbm",), math.nan), float),
+                        notes=notes)
+
+
+def reads_table(log: Mapping, fields: Mapping[str, tuple[str, str]], *, true_position_m=None, true_distance_m=None,
+                notes: Mapping[str, str] | None = None) -> dict[str, Column]:
+    """A dataset's ``reads`` table from a read log: the schema's columns (:func:`log_read_columns`),
+    then the log's other columns named in ``fields`` (name → (units, description)), the
+    :data:`LOG_NAMES` the schema holds left out."""
+    schema = log_read_columns(log, true_position_m=true_position_m, true_distance_m=true_distance_m, notes=notes)
+    return {**schema, **{k: _dataset.column(np.asarray(log[k]), *fields[k]) for k in fields
+                         if k not in schema and k not in LOG_NAMES}}
 
 
 def has_read_schema(names) -> bool:
@@ -248,5 +281,5 @@ def has_read_schema(names) -> bool:
 
 
 __all__ = ["ReadField", "READ_SCHEMA", "REPORT_KEYS", "IMPINJ_RSSI_STEP_DB", "IMPINJ_PHASE_BITS",
-           "quantize_rssi_impinj_dbm", "quantize_phase_12bit_rad", "read_columns", "inventory_read_columns",
-           "has_read_schema"]
+           "quantize_rssi_impinj_dbm", "quantize_phase_12bit_rad", "read_columns", "LOG_NAMES",
+           "log_read_columns", "reads_table", "has_read_schema"]

@@ -50,7 +50,7 @@ Cost (CPU, seed 1, pfaa, N = 10): ≈ 6 s per period for a still ST, ≈ 20 s pe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -225,9 +225,7 @@ class _Links:
 @dataclass(frozen=True, eq=False)
 class Listened:
     """One sample-level track: period end times (T,) [s], counts (T, L), mean detection time (T,)
-    [s] (NaN: none), every detection's instant [s] and landmark, slots and EPC reads per period, and
-    the reader's read log: the inventory's per-read columns (:data:`rfsim.protocols.inventory.READ_FIELDS`)
-    and ``period``, one entry per EPC read."""
+    [s] (NaN: none), every detection's instant [s] and landmark, slots and EPC reads per period."""
 
     t_end_s: np.ndarray
     counts: np.ndarray
@@ -236,7 +234,6 @@ class Listened:
     landmarks: np.ndarray
     slots_per_period: np.ndarray
     reads_per_period: np.ndarray
-    read_log: dict = field(default_factory=dict)
 
 
 def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_config: SenseATagConfig,
@@ -263,7 +260,7 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)
     inv = InventoryConfig(q_initial=sl.q_initial)
-    t, ends, slots, reads, read_log = 0.0, [], [], [], {}
+    t, ends, slots, reads = 0.0, [], [], []
     while t < sl.duration_s and len(ends) < sl.max_periods:
         slots.append(0)
         reads.append(0)
@@ -273,8 +270,6 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
             log = run_inventory(air, inv, t0_s=t)
             slots[-1] += log.n_slots
             reads[-1] += len(log.reads["tag"])
-            for k, v in {**log.reads, "period": [len(ends)] * len(log.reads["tag"])}.items():
-                read_log.setdefault(k, []).extend(v)
             t = log.t_end_s
         ends.append(t)
     t_end = np.asarray(ends)
@@ -289,8 +284,7 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     total = counts.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_t = np.where(total > 0, tsum / total, np.nan)
-    return Listened(t_end, counts, mean_t, times, which, np.asarray(slots), np.asarray(reads),
-                    {k: np.asarray(v) for k, v in read_log.items()})
+    return Listened(t_end, counts, mean_t, times, which, np.asarray(slots), np.asarray(reads))
 
 
 __all__ = ["SampleLevelConfig", "ListeningAir", "Listened", "listen_track", "panel", "flat_dipole",

@@ -76,7 +76,7 @@ def listened_track(room: Room, position_at: Callable, *, height_m: float, rounds
     pos = position_at(np.concatenate([[0.0, _START_DT_S], res.t_end_s]))
     return {"t_end_s": res.t_end_s, "truth": pos[2:], "start": _start(pos[0], pos[1]), "counts": res.counts,
             "mean_detection_s": res.mean_detection_s, "active": np.zeros(res.t_end_s.size, np.int64),
-            "slots": res.slots_per_period, "reads": res.reads_per_period, "read_log": res.read_log}
+            "slots": res.slots_per_period, "reads": res.reads_per_period}
 
 
 def track_estimates(room: Room, chunk: list[dict], trackers, *, filters: LandmarkFilterConfig, rounds: int,
@@ -109,24 +109,6 @@ def period_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarra
             "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
             "detections": c.sum(axis=1), "mean_detection_s": track["mean_detection_s"],
             "active_antenna": track["active"], "slots": track["slots"], "reads": track["reads"]}
-
-
-def read_rows(case: int, realization: int, track: dict, room: Room) -> dict[str, np.ndarray]:
-    """One row per EPC read of a sample-level track: the reader's read log, the period and the
-    ground truth of the read landmark (on the floor at its grid position) — ``true_position_m``
-    (n, 3) and ``true_distance_m`` from the reading antenna [m]. Empty for a surrogate track."""
-    log = track.get("read_log") or {}
-    n = len(log.get("tag", ()))
-    if n == 0:
-        return {}
-    tag = np.asarray(log["tag"], np.int64)
-    xy = room.landmarks_xy()
-    position = np.full((n, 3), np.nan)
-    position[tag >= 0] = np.column_stack([xy[tag[tag >= 0]], np.zeros(int(np.sum(tag >= 0)))])
-    antenna_m = np.asarray(room.antennas_xyz_m, float)[np.asarray(log["antenna"], np.int64) - 1]
-    return {"case": np.full(n, case), "realization": np.full(n, realization),
-            **{k: np.asarray(v) for k, v in log.items()}, "true_position_m": position,
-            "true_distance_m": np.linalg.norm(position - antenna_m, axis=1)}
 
 
 def detection_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
@@ -171,6 +153,5 @@ TABLE_TEXT = {
     "estimates": "one row per (case, realization, period, tracker): estimate and error",
 }
 
-__all__ = ["surrogate_track", "listened_track", "track_estimates", "period_rows", "read_rows", "detection_rows",
-           "estimate_rows",
+__all__ = ["surrogate_track", "listened_track", "track_estimates", "period_rows", "detection_rows", "estimate_rows",
            "COLUMN_TEXT", "TABLE_TEXT"]

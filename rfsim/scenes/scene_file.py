@@ -439,11 +439,11 @@ SLOT_COLUMNS = {
 def _read_schema(reads: dict[str, list]) -> dict:
     """The per-read schema's columns of the scene's reads (every row a reported read)."""
     if not reads.get("time_s"):  # nothing read: empty columns of the schema's types
-        reads = {"epc_hex": [], "antenna": [], "channel_index": [], **{k: np.zeros(0) for k in (
-            "time_s", "frequency_hz", "rssi_dbm", "phase_rad", "doppler_hz", "tag_incident_power_dbm")}}
-    return _reads.inventory_read_columns(
-        reads, true_distance_m=reads.get("true_distance_m", []), true_position_m=reads.get("true_position_m", []),
-        notes={"first_seen_timestamp_us": "start of the ACK segment", "true_incident_power_dbm": "during the ACK"})
+        reads = {"epc_hex": [], "antenna": [], "channel_index": [], "true_position_m": np.zeros((0, 3)), **{
+            k: np.zeros(0) for k in ("time_s", "frequency_hz", "rssi_dbm", "phase_rad", "doppler_hz",
+                                     "tag_incident_power_dbm", "true_distance_m")}}
+    return _reads.log_read_columns(reads, notes={"first_seen_timestamp_us": "start of the ACK segment",
+                                                 "true_incident_power_dbm": "during the ACK"})
 
 
 def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):

@@ -87,6 +87,9 @@ def datasets(tmp_path_factory):
         "phase-tracking": ["run", "phase-tracking", "--set", "trajectory.duration_s=0.1",
                            "--set", "schedule.workers=1"],
         "scene": ["run", str(ONE_TAG_SCENE), "--set", "run.max_rounds=3"],
+        "st-localization": ["run", "st-localization", "--set", "mode=sample-level", "--set", "landmark_grid=[3, 2]",
+                            "--set", "rounds=2", "--set", "trajectory_2_speeds_mps=[0.5]",
+                            "--set", "sample_level.duration_s=0.3", "--set", "workers=1"],
     }
     paths = {}
     for name, argv in runs.items():
@@ -101,7 +104,7 @@ def datasets(tmp_path_factory):
     return paths
 
 
-@pytest.mark.parametrize("name", ["link", "inventory", "phase-tracking", "scene", "decode"])
+@pytest.mark.parametrize("name", ["link", "inventory", "phase-tracking", "scene", "st-localization", "decode"])
 def test_every_reads_table_holds_the_schema_with_units(datasets, name):
     with h5py.File(datasets[name], "r") as f:
         g = f["reads"]
@@ -126,6 +129,10 @@ def test_every_reads_table_holds_the_schema_with_units(datasets, name):
 
 def test_link_truth_is_the_geometry(datasets):
     t = read_table(datasets["link"], "reads")
+    # the scenario's own columns stay beside the schema's (the round's context, the configured report)
+    assert {"time_s", "point", "round", "success", "failure_reason", "snr_db", "reported", "rssi_reported_dbm",
+            "phase_reported_rad", "phase_code"} <= set(t)
+    np.testing.assert_array_equal(t["tag_seen_count"], t["reported"])
     np.testing.assert_array_equal(np.unique(t["true_distance_m"]), [1.0, 12.0])
     # the tag faces the reader along +x at the reader's height (geometry defaults)
     np.testing.assert_allclose(np.hypot(t["true_x_m"], t["true_y_m"]), t["true_distance_m"], rtol=1e-12)
@@ -137,6 +144,17 @@ def test_inventory_truth_is_the_tags_table(datasets):
     np.testing.assert_array_equal(reads["true_x_m"], tags["x_m"][reads["tag"]])  # one population, one run
     np.testing.assert_array_equal(reads["true_z_m"], tags["z_m"][reads["tag"]])
     assert np.all((reads["true_distance_m"] > 0) & (reads["true_distance_m"] < 20))
+
+
+def test_st_localization_truth_is_the_landmark_grid(datasets):
+    t = read_table(datasets["st-localization"], "reads")
+    with h5py.File(datasets["st-localization"], "r") as f:
+        landmarks, antennas = f.attrs["landmarks_xy_m"], f.attrs["antennas_xyz_m"]
+    np.testing.assert_array_equal(np.column_stack([t["true_x_m"], t["true_y_m"]]), landmarks[t["tag"]])
+    assert (t["true_z_m"] == 0).all()  # landmarks lie on the floor
+    tag_m = np.column_stack([t["true_x_m"], t["true_y_m"], t["true_z_m"]])
+    np.testing.assert_allclose(t["true_distance_m"], np.linalg.norm(antennas[t["antenna_port"] - 1] - tag_m, axis=1),
+                               rtol=1e-12)
 
 
 # ----------------------------------------------------------------------------- export

@@ -225,7 +225,7 @@ def read_columns(*, epc, antenna_port, channel_index, frequency_hz, first_seen_t
 #: :data:`rfsim.protocols.inventory.READ_FIELDS`, :data:`rfsim.core.records.READ_MEASUREMENT_FIELDS` and
 #: :data:`~rfsim.core.records.READ_REPORT_FIELDS`, a scenario's ``distance_m``/``x_m``/…): in a
 #: dataset's reads table they appear only under the schema's names (:func:`reads_table`).
-LOG_NAMES = ("epc", "epc_hex", "antenna", "t_us", "reported", "rssi_dbm", "phase_rad", "doppler_hz",
+LOG_NAMES = ("epc", "epc_hex", "antenna", "t_us", "rssi_dbm", "phase_rad", "doppler_hz",
              "tag_incident_power_dbm", "distance_m", "true_position_m", "x_m", "y_m", "z_m")
 
 

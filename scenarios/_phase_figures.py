@@ -54,7 +54,7 @@ def _key(name: str, k: int) -> str:
 def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
     summ = read_table(dataset_path, "summary")
     with h5py.File(dataset_path, "r") as f:  # the numeric columns drawn, not the whole tables
-        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna", "phase_reported_rad")}
+        reads = {k: f["reads"][k][()] for k in ("t_s", "antenna_port", "phase_reported_rad")}
         pr = {k: f["pseudoranges"][k][()] for k in ("t_s", "antenna", "pseudorange_m", "true_range_m")}
         est = {k: f["estimates"][k][()] for k in f["estimates"] if k != "row"}
         anchors = np.asarray(f.attrs["antennas_xyz_m"])[:, :2]
@@ -63,11 +63,11 @@ def plot_all(dataset_path: Path, out_dir: Path) -> list[Path]:
         rate = float(f.attrs.get("reads_per_s_per_antenna", np.nan))
     duration = float(reads["t_s"].max() - reads["t_s"].min())
     size = (f"{reads['t_s'].size} reads over {duration:.0f} s ({rate:g} reads/s per antenna, "
-            f"{np.unique(reads['antenna']).size} antennas)")
+            f"{np.unique(reads['antenna_port']).size} antennas)")
     out = []
     with paper_style():
         fig, (a1, a2) = figure(columns=2, nrows=2, height_in=4.6)
-        ant = reads["antenna"]
+        ant = reads["antenna_port"]
         for k, i in enumerate(np.unique(ant)):
             st = series_style(k)
             m = (ant == i) & (reads["t_s"] <= reads["t_s"][0] + PHASE_WINDOW_S)

@@ -74,7 +74,7 @@ from rfsim.protocols.inventory import READ_FIELDS, SLOT_FIELDS, InventoryConfig,
 from rfsim.protocols.no_capture import NoCaptureAir
 from rfsim.scenes import capture_sweep as sweep
 from rfsim.scenes.room_inventory import (CAPTURE_FIELDS, RoomConfig, boresight_capture_rows,  # noqa: F401
-                                         make_tags, reader_antennas, room_air, room_population, tag_antenna)
+                                         make_tags, reader_antennas, room_air, room_population, room_reads, tag_antenna)
 
 _dataset = lazy_import("rfsim.core.dataset")
 _link = lazy_import("rfsim.gen2.link")
@@ -283,9 +283,9 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
                                       session=config.inventory.session, seed=seed)
         tables.append(("capture", rows, CAPTURE_FIELDS, "one row per capture trial: two tags in one Q = 0 slot at a "
                        "set backscatter power ratio; whether the reader captured one. " + sweep.TABLES_COMPARED))
-    for name, cols, fields, description in tables:
-        ds.add_table(name, {k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()},
-                     description=description)
+    for name, cols, fields, description in tables:  # reads: in the per-read schema (rfsim.core.reads)
+        ds.add_table(name, room_reads(cols, fields, tag_rows, room) if name == "reads" else
+                     {k: _dataset.column(np.asarray(v), *fields[k]) for k, v in cols.items()}, description=description)
     return ds
 
 

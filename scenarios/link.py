@@ -8,7 +8,8 @@ channels, so rounds also differ by carrier frequency. Per round the dataset reco
 a commercial reader reports for a read (gen2-and-validation-anchors.md §4.9) and why a
 read failed, and the reader's report of it (``reader.report``, :mod:`rfsim.core.records`: EPC as
 hex, µs time stamp, RSSI in its steps above the sensitivity floor, the 12-bit phase code with
-the port's phase offset), one row per read sorted by time.
+the port's phase offset), one row per read sorted by time, in the per-read schema
+(:mod:`rfsim.core.reads`).
 
 Randomness: point i, round r uses ``trial_rng(seed, i, r)`` for the channel draw and the
 receiver noise; the reader (hop sequence) and the tag (RN16, slot) of point i have their own
@@ -26,6 +27,7 @@ import numpy as np
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
+from rfsim.core.reads import reads_table
 from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
@@ -116,7 +118,8 @@ FIELDS = {
     "failure_reason": ("", "why the read failed ('' = success)"),
     "tag_incident_power_dbm": ("dBm", "CW power incident at the tag antenna port (Query)"),
 }
-#: Columns of the reads table: the round's context and measurements, then the reader's report.
+#: Columns of the read log: the round's context and measurements, then the reader's report (in the
+#: dataset, those the per-read schema holds appear under its names: rfsim.core.reads).
 READ_FIELDS = {**FIELDS, **READ_REPORT_FIELDS}
 
 
@@ -157,8 +160,12 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     cols.update(report_columns(config.reader.report, t_s=cols["time_s"], antenna=cols["antenna"],
                                rssi_dbm=cols["rssi_dbm"], phase_rad=cols["phase_rad"], success=cols["success"]))
     cols = long_table(cols)
+    tag_m = np.array([tag_antenna(g, d).position_m for d in g.distances_m])[cols["point"]]
+    reads = reads_table(cols, READ_FIELDS, true_position_m=tag_m,
+                        notes={"true_distance_m": "the point's geometry.distances_m",
+                               "true_incident_power_dbm": "during the round's Query"})
     ds = _dataset.Dataset(title="reader-tag link vs distance: per-read measurements")
-    ds.add_table("reads", {k: _dataset.column(cols[k], *READ_FIELDS[k]) for k in READ_FIELDS},
+    ds.add_table("reads", reads,
                  description="one row per inventory round (Query, RN16, ACK, EPC) at each distance: the reader's "
                              "per-read report (long format, sorted by time stamp), or why the read failed")
     return ds
@@ -184,34 +191,34 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     from rfsim.detection.fit import wilson_interval
 
     t = read_table(dataset_path, "reads")
-    d = np.unique(t["distance_m"])
-    at = [t["distance_m"] == x for x in d]
+    d = np.unique(t["true_distance_m"])
+    at = [t["true_distance_m"] == x for x in d]
     ok = t["success"]
     k = np.array([np.sum(ok[s]) for s in at])
     n = np.array([np.sum(s) for s in at])
-    rssi = [t["rssi_dbm"][s & ok] for s in at]
+    rssi = [t["peak_rssi_dbm"][s & ok] for s in at]
     mean = np.array([r.mean() if r.size else np.nan for r in rssi])
     with paper_style():
         fig, axes = figure(columns=2, nrows=2, ncols=2, sharex=True, height_in=4.6)
         (a1, a2), (a3, a4) = axes
         each = dict(ls="none", marker="o", ms=3, mfc="none", mew=0.6, color=OKABE_ITO[4])
-        a1.plot(t["distance_m"][ok], t["rssi_dbm"][ok], label="one read", **each)
+        a1.plot(t["true_distance_m"][ok], t["peak_rssi_dbm"][ok], label="one read", **each)
         a1.plot(d, mean, label="mean of the reads", **series_style(0))
         a1.set(ylabel="RSSI [dBm]", title="RSSI of the EPC reply")
         lo, hi = wilson_interval(k, n)
         ci_errorbar(a2, d, k / n, lo, hi, scale=100.0, label="read rate,\nWilson 95 %", **series_style(0))
         a2.set(ylabel="read rate [%] (EPC, CRC ok)", ylim=(-3, 103), title="read rate")
-        a3.plot(t["distance_m"][ok], np.degrees(t["phase_rad"][ok]), **each)
+        a3.plot(t["true_distance_m"][ok], np.degrees(t["phase_angle_rad"][ok]), **each)
         a3.set(ylabel=r"reported phase $\phi$ [°]", ylim=(-10, 370), yticks=[0, 90, 180, 270, 360],
                xlabel="reader–tag distance $d$ [m]", title="phase of the EPC reply")
-        a4.plot(t["distance_m"][ok], t["doppler_hz"][ok], **each)
+        a4.plot(t["true_distance_m"][ok], t["doppler_frequency_hz"][ok], **each)
         a4.set(ylabel=r"Doppler $f_\mathrm{D}$ [Hz]", xlabel="reader–tag distance $d$ [m]",
                title="Doppler estimate (static tag)")
         missing = k == 0
         why = []
         for i in np.flatnonzero(missing):  # say why there is no read there instead of a silent gap
             reasons, counts = np.unique(t["failure_reason"][at[i]], return_counts=True)
-            p_inc = float(np.mean(t["tag_incident_power_dbm"][at[i]]))
+            p_inc = float(np.mean(t["true_incident_power_dbm"][at[i]]))
             why.append(f"{d[i]:g} m: {reasons[np.argmax(counts)] or 'other'}, CW at the tag {p_inc:.1f} dBm")
         hatch = None
         for a in axes.flat:

@@ -43,6 +43,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.procs import map_in_order
 from rfsim.core.progress import stage
+from rfsim.core.reads import reads_table
 from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, ReportConfig, long_table, report_columns
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import wavelength_m
@@ -109,7 +110,6 @@ READ_FIELDS = {
     "tx_power_dbm": ("dBm", "conducted reader transmit power at the antenna port"),
     "x_m": ("m", "true tag x during the round (intended path + jitter), held from the round start"),
     "y_m": ("m", "true tag y during the round (intended path + jitter), held from the round start"),
-    "z_m": ("m", "height of the tag above the floor (geometry.height_m, constant)"),
     "intended_x_m": ("m", "intended (marked) path x at the round start, what the paper's RMSE refers to"),
     "intended_y_m": ("m", "intended (marked) path y at the round start"),
     "trial": ("1", "trial index of the run (one trajectory: 0)"),
@@ -225,7 +225,7 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
     est, sch = config.estimator, config.schedule
     s = anchors.shape[0]
     ds = _rfsim_dataset.Dataset(title="Särkkä 890 MHz phase tracking: sample-level reads, pseudo-ranges, EKF/RTS tracks")
-    ds.add_table("reads", {k: _rfsim_dataset.column(reads[k], *READ_FIELDS[k]) for k in READ_FIELDS},
+    ds.add_table("reads", reads_table(reads, READ_FIELDS, true_distance_m=true_range),  # the schema: rfsim.core.reads
                  description="one row per read round (Query, RN16, ACK, EPC) in the long per-read format, sorted "
                              "by time stamp: the reader's measurements and report, and the true tag position")
     ds.add_table("pseudoranges", {

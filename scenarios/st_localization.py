@@ -195,9 +195,7 @@ def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: 
                                      rngs=[trial_rng(seed, case.index, 1000 + group, k) for k in range(n)])
         est = [{k: v[i:i + 1] for k, v in est.items()} for i in range(len(chunk))]
     rows = [tracks.estimate_rows(case.index, b, d, {k: x[0] for k, x in e.items()}) for b, d, e in zip(bs, chunk, est)]
-    return {"periods": concat([tracks.period_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
-            "detections": concat([tracks.detection_rows(case.index, b, d) for b, d in zip(bs, chunk)]),
-            "estimates": concat([r[k] for k in range(len(case.trackers)) for r in rows])}
+    return tracks.chunk_tables(case.index, bs, chunk, rows, config.room, len(case.trackers))
 
 
 def _task(args):
@@ -209,7 +207,7 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]
     tasks = [(config, c, g, list(range(a, min(a + 10, c.realizations))), seed) for c in cases(config)
              for g, a in enumerate(range(0, c.realizations, 10))]
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
-    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates")}
+    return {n: concat([p[n] for p in parts]) for n in ("periods", "detections", "estimates", "reads")}
 
 
 def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
@@ -261,6 +259,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     for name in ("detections", "periods", "truth", "estimates", "summary", "cases"):
         ds.add_table(name, {k: _dataset.column(v, _unit(k), _TEXT.get(k, k.replace("_", " "))) for k, v in tables[name].items()},
                      description=_GROUPS[name])
+    if tables["reads"]:  # sample level: the reader's reads of the landmarks (per-read schema, rfsim.core.reads)
+        ds.add_table("reads", tracks.reads_columns(tables["reads"]), description=_GROUPS["reads"])
     room = config.room
     ds.attrs.update({"preset": config.preset, "mode": config.mode, "bounds_m": np.asarray(room.bounds_m),
                      "landmarks_xy_m": room.landmarks_xy(), "antennas_xyz_m": np.asarray(room.antennas_xyz_m),

@@ -23,7 +23,7 @@ from rfsim.core.errors import ConfigError, UserError
 SMALL_SET = ["geometry.distances_m=[1.0, 3.0]", "rounds_per_point=2"]
 SMALL = {"geometry.distances_m": [1.0, 3.0], "rounds_per_point": 2}
 #: Provenance attributes that name a time, a host or a version (they differ between two runs).
-VOLATILE = ("start_time_utc", "end_time_utc", "platform", "python", "git_revision")
+VOLATILE = ("start_time_utc", "end_time_utc", "platform", "python", "git_revision", "command_line", "history")
 
 
 def _members(path) -> dict:
@@ -35,7 +35,7 @@ def _members(path) -> dict:
             value = obj[()] if isinstance(obj, h5py.Dataset) else None
             out[name] = (value, str(obj.dtype) if value is not None else "", attrs)
         f.visititems(visit)
-        out["/"] = (None, "", {k: v for k, v in f.attrs.items()})
+        out["/"] = (None, "", {k: v for k, v in f.attrs.items() if k not in VOLATILE})
     return out
 
 
@@ -76,14 +76,14 @@ def test_another_seed_gives_another_dataset(small_run):
     other = rfsim.run("link", seed=2, progress=False, **SMALL)
     a, b = small_run.dataset.tables["reads"], other.dataset.tables["reads"]
     assert not np.array_equal(a["frequency_hz"].data, b["frequency_hz"].data) or \
-        not np.array_equal(a["phase_rad"].data, b["phase_rad"].data, equal_nan=True)
+        not np.array_equal(a["phase_angle_rad"].data, b["phase_angle_rad"].data, equal_nan=True)
 
 
 def test_default_seed_is_the_command_lines(small_run):
     assert small_run.seed == 1
     again = rfsim.run("link", progress=False, **SMALL)
-    assert np.array_equal(again.dataset.tables["reads"]["phase_rad"].data,
-                          small_run.dataset.tables["reads"]["phase_rad"].data, equal_nan=True)
+    assert np.array_equal(again.dataset.tables["reads"]["phase_angle_rad"].data,
+                          small_run.dataset.tables["reads"]["phase_angle_rad"].data, equal_nan=True)
 
 
 def test_table_is_a_dataframe_with_units_from_the_file(small_run, tmp_path):
@@ -103,7 +103,7 @@ def test_table_is_a_dataframe_with_units_from_the_file(small_run, tmp_path):
                 got = got.astype(np.uint8)
             assert np.array_equal(got, stored, equal_nan=got.dtype.kind == "f"), k
     assert frame.attrs["units"] == file_units
-    assert frame.attrs["units"]["rssi_dbm"] == "dBm" and frame.attrs["units"]["frequency_hz"] == "Hz"
+    assert frame.attrs["units"]["peak_rssi_dbm"] == "dBm" and frame.attrs["units"]["frequency_hz"] == "Hz"
     assert sorted(frame.columns) == sorted(file_units)  # HDF5 lists members alphabetically
 
 
@@ -115,11 +115,13 @@ def test_to_xarray_has_every_group_with_units(small_run, tmp_path):
     assert tree.attrs["scenario"] == "link"
     assert tree["provenance"].attrs["seed"] == 1
     reads = tree["reads"].to_dataset()
-    assert reads["rssi_dbm"].attrs["units"] == "dBm" and reads["rssi_dbm"].dims == ("row",)
+    assert reads["peak_rssi_dbm"].attrs["units"] == "dBm" and reads["peak_rssi_dbm"].dims == ("row",)
+    assert reads["peak_rssi_dbm"].attrs["long_name"] == "peak RSSI"  # short; the sentence is the description
+    assert reads["epc"].attrs["units"] == "" and reads["epc"].attrs["long_name"] == "EPC"
     # the same values as the file opened by xarray itself (h5netcdf, no rfsim code)
     path = small_run.save(tmp_path / "x.h5")
     with xr.open_dataset(path, engine="h5netcdf", group="reads") as on_disk:
-        for k in ("rssi_dbm", "phase_rad", "frequency_hz", "time_s"):
+        for k in ("peak_rssi_dbm", "phase_angle_rad", "frequency_hz", "time_s"):
             assert np.array_equal(reads[k].values, on_disk[k].values, equal_nan=True), k
             assert reads[k].attrs["long_name"] == on_disk[k].attrs["long_name"]
 
@@ -288,7 +290,7 @@ def test_run_sweep_returns_the_merged_dataset(tmp_path):
                     rounds_per_point=2, **{"reader.ptx_dbm": 30.0})
     point = reads["sweep_point"].data
     assert list(reads["sweep.reader.ptx_dbm"].data) == [20.0, 20.0, 30.0, 30.0]
-    assert np.array_equal(reads["phase_rad"].data[point == 1], one.dataset.tables["reads"]["phase_rad"].data,
+    assert np.array_equal(reads["phase_angle_rad"].data[point == 1], one.dataset.tables["reads"]["phase_angle_rad"].data,
                           equal_nan=True)
     with pytest.raises(UserError, match="no link figures"):
         result.figures()
@@ -328,7 +330,7 @@ def test_the_sweep_package_is_callable_like_run_sweep(tmp_path):
             "axes": [{"kind": "grid", "key": "reader.ptx_dbm", "values": [20.0, 30.0]}]}
     a = rfsim.sweep(spec, executor="serial", progress=False)
     b = rfsim.run_sweep({**spec, "output": str(tmp_path / "b.h5")}, executor="serial", progress=False)
-    for name in ("phase_rad", "rssi_dbm", "sweep_point"):
+    for name in ("phase_angle_rad", "peak_rssi_dbm", "sweep_point"):
         assert np.array_equal(a.dataset.tables["reads"][name].data, b.dataset.tables["reads"][name].data,
                               equal_nan=True)
     assert rfsim.sweep.load_spec is not None and "sweep" in rfsim.__all__

@@ -17,7 +17,7 @@ import pytest
 from rfsim.cli import main
 from rfsim.core.dataset import read_table
 from rfsim.gen2.bits import bits_to_int
-from rfsim.core.records import READ_MEASUREMENT_FIELDS
+from rfsim.core.reads import READ_SCHEMA
 
 from test_capture_replies import _rn16, query_ack_items, synth_capture
 
@@ -57,18 +57,19 @@ def test_json_and_csv_formats(link_capture, capsys):
     assert [r["kind"] for r in doc["replies"]] == ["RN16", "EPC"]
     assert doc["replies"][0]["rn16"] == bits_to_int(rn) and doc["replies"][1]["crc_ok"] is True
     assert doc["replies"][0]["frequency_hz"] is None  # NaN → null: valid JSON
-    assert set(READ_MEASUREMENT_FIELDS) <= set(doc["replies"][0])
+    assert set(READ_SCHEMA) <= set(doc["replies"][0])
+    assert [r["tag_seen_count"] for r in doc["replies"]] == [0, 1]  # the EPC reply (CRC ok) is the tag report
     assert "2 tag replies" in doc["summary"]
     code, out, err = _run(["decode", str(path), "--fs", "4e6", "--format", "csv"], capsys)
     rows = list(csv.DictReader(io.StringIO(out)))
     assert code == 0 and [r["record"] for r in rows] == ["command", "reply", "command", "reply"]
-    assert rows[3]["epc_hex"] == "300833B2DDD9014000000027" and rows[3]["crc_ok"] == "True"
+    assert rows[3]["epc"] == "300833B2DDD9014000000027" and rows[3]["crc_ok"] == "True"
     assert "2 tag replies" in err  # the summary goes to stderr, stdout stays a clean table
 
 
 def test_output_dataset_read_table_layout(link_capture, capsys, tmp_path):
-    """--output writes the replies in the per-read layout of the simulated readers (every
-    READ_MEASUREMENT_FIELDS column, same units) and the commands; parent folders are made."""
+    """--output writes the replies in the per-read schema of the simulated readers (every
+    READ_SCHEMA column, same units) and the commands; parent folders are made."""
     path, rn, truth = link_capture
     out = tmp_path / "new" / "dir" / "cap.h5"
     code, _, _ = _run(["decode", str(path), "--fs", "4e6", "-o", str(out), "--format", "json"], capsys)
@@ -76,14 +77,14 @@ def test_output_dataset_read_table_layout(link_capture, capsys, tmp_path):
     reads = read_table(out, "reads")
     cmds = read_table(out, "commands")
     assert list(cmds["command"]) == ["Query", "ACK"]
-    assert set(READ_MEASUREMENT_FIELDS) <= set(reads)
+    assert set(READ_SCHEMA) <= set(reads)
     assert list(reads["kind"]) == ["RN16", "EPC"] and int(reads["rn16"][0]) == bits_to_int(rn)
-    assert list(reads["epc_hex"]) == ["", "300833B2DDD9014000000027"]
+    assert list(reads["epc"]) == ["", "300833B2DDD9014000000027"]
     assert reads["time_s"][1] == pytest.approx(truth[1][1], abs=1e-6)
     import h5py
     with h5py.File(out) as f:
-        for name, (units, _) in READ_MEASUREMENT_FIELDS.items():
-            assert f["reads"][name].attrs["units"] == units
+        for name, field in READ_SCHEMA.items():
+            assert f["reads"][name].attrs["units"] == field.units
 
 
 def test_broken_pipe_is_quiet(reference_data, project_root):

@@ -10,17 +10,22 @@ their NaN/inf means, and every table goes into pandas in one line.
 from __future__ import annotations
 
 import contextlib
+import datetime as _dt
 import io
 import re
 
 import h5py
+import matplotlib
 import numpy as np
 import pandas as pd
 import pytest
+import scipy
 import xarray as xr
 
+import rfsim
+
 from rfsim.cli import main
-from rfsim.core.dataset import read_table
+from rfsim.core.dataset import CONVENTIONS, LONG_NAME_MAX, read_table
 
 #: Tiny configs (``--set`` overrides) that still produce every table of each scenario.
 TINY = {
@@ -105,6 +110,11 @@ def _problems(path) -> list[str]:
                     bad.append(f"{where}: description {desc!r} says no more than the name")
                 if "units" not in ds.attrs or not str(ds.attrs.get("long_name", "")):
                     bad.append(f"{where}: units or long_name missing")
+                if len(str(ds.attrs.get("long_name", ""))) > LONG_NAME_MAX:
+                    bad.append(f"{where}: long_name longer than {LONG_NAME_MAX} characters (the sentence "
+                               "belongs in description)")
+                if h5py.check_string_dtype(ds.dtype) is not None and ds.attrs.get("units") != "":
+                    bad.append(f"{where}: text column with units {ds.attrs.get('units')!r} (text has units '')")
                 if ds.attrs.get("rfsim_dtype") == "bool":
                     if list(ds.attrs.get("flag_values", [])) != [0, 1] or \
                             len(str(ds.attrs.get("flag_meanings", "")).split()) != 2:
@@ -117,6 +127,25 @@ def test_every_group_and_column_explains_itself(datasets, scenario):
     assert _problems(datasets[scenario]) == []
 
 
+@pytest.mark.parametrize("scenario", sorted(TINY))
+def test_every_file_says_where_it_comes_from(datasets, scenario):
+    """Root ``Conventions``, ``source`` (version + scenario) and ``history`` (ISO time and the
+    command line); provenance with the command line and the scipy and matplotlib versions.
+    xarray shows them on every group it opens."""
+    path = datasets[scenario]
+    with h5py.File(path, "r") as f:
+        assert f.attrs["Conventions"] == CONVENTIONS
+        assert f.attrs["source"] == f"rfsim {rfsim.__version__}, scenario {scenario}"
+        history = str(f.attrs["history"])
+        prov = {k: str(v) for k, v in f["provenance"].attrs.items()}
+    assert prov["command_line"].startswith(f"rfsim run {scenario} --no-plot -o ")
+    assert prov["scipy"] == scipy.__version__ and prov["matplotlib"] == matplotlib.__version__
+    stamp, command = history.split(" ", 1)
+    assert _dt.datetime.fromisoformat(stamp).tzinfo is not None and command == prov["command_line"]
+    with xr.open_dataset(path, engine="h5netcdf") as root:
+        assert root.attrs["Conventions"] == CONVENTIONS and root.attrs["history"] == history
+
+
 def test_the_check_finds_what_it_should(tmp_path):
     """The checker above is not vacuous: a file with each defect is reported for each."""
     path = tmp_path / "bad.h5"
@@ -126,16 +155,19 @@ def test_the_check_finds_what_it_should(tmp_path):
         g.create_dataset("n_test", data=np.arange(3)).attrs["description"] = "n test"
         b = g.create_dataset("ok", data=np.ones(3, np.uint8))
         b.attrs.update(description="the ST decoded the reply", units="1", long_name="decoded", rfsim_dtype="bool")
+        w = g.create_dataset("why", data=np.array(["a", "b", "c"], dtype=h5py.string_dtype()))
+        w.attrs.update(description="why the read failed, in words", units="1", long_name="x" * 61)
     text = "\n".join(_problems(path))
     for expected in ("root attribute spacing_m", "group t: no description", "t/n_test: description",
-                     "t/n_test: units or long_name", "t/ok: boolean without CF"):
+                     "t/n_test: units or long_name", "t/ok: boolean without CF", "t/why: long_name longer",
+                     "t/why: text column with units '1'"):
         assert expected in text
 
 
 def test_xarray_shows_units_long_name_and_group_description(datasets):
     with xr.open_dataset(datasets["link"], engine="h5netcdf", group="reads") as reads:
-        assert reads["rssi_dbm"].attrs["units"] == "dBm"
-        assert "RSSI" in reads["rssi_dbm"].attrs["long_name"] or "power" in reads["rssi_dbm"].attrs["long_name"]
+        assert reads["peak_rssi_dbm"].attrs["units"] == "dBm"
+        assert reads["peak_rssi_dbm"].attrs["long_name"] == "peak RSSI"
         assert "round" in reads.attrs["description"]
         # CF flags: xarray keeps them as attributes of the uint8 variable
         assert list(reads["success"].attrs["flag_values"]) == [0, 1]

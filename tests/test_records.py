@@ -95,10 +95,10 @@ def test_link_reads_carry_the_report(tmp_path):
     ok = t["success"].astype(bool)
     assert ok.all()
     assert set(t["epc"].astype(str)) == {"300833B2DDD9014000000027"}
-    np.testing.assert_array_equal(t["t_us"], np.round(t["time_s"] * 1e6).astype(np.int64))
-    assert np.all(np.diff(t["t_us"]) > 0)
-    np.testing.assert_allclose(t["rssi_reported_dbm"], np.round(t["rssi_dbm"] * 100) / 100, atol=1e-9)
-    expect = np.mod(np.round((t["phase_rad"] + 1.0) * 4096 / (2 * np.pi)), 4096)
+    np.testing.assert_array_equal(t["first_seen_timestamp_us"], np.round(t["time_s"] * 1e6).astype(np.int64))
+    assert np.all(np.diff(t["first_seen_timestamp_us"]) > 0)
+    np.testing.assert_allclose(t["rssi_reported_dbm"], np.round(t["peak_rssi_dbm"] * 100) / 100, atol=1e-9)
+    expect = np.mod(np.round((t["phase_angle_rad"] + 1.0) * 4096 / (2 * np.pi)), 4096)
     np.testing.assert_array_equal(t["phase_code"], expect)
 
 

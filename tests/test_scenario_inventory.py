@@ -31,17 +31,17 @@ def test_run_write_plot(tmp_path):
     assert set(inv["population"]) == {3, 6}
     assert len(cap["trial"]) == 6
     # every read EPC is one of the population's EPCs and the tag index matches it
-    for n, tag, epc in zip(reads["population"], reads["tag"], reads["epc_hex"]):
+    for n, tag, epc in zip(reads["population"], reads["tag"], reads["epc"]):
         assert 0 <= tag < n and epc == tag_epc_hex("300833B2DDD9014000000027", int(tag))
     for n in (3, 6):
         m = slots["population"] == n
         assert inv["slots"][inv["population"] == n][0] == m.sum()
         assert inv["tags_read"][inv["population"] == n][0] == len(set(reads["tag"][reads["population"] == n]))
     assert np.all(slots["duration_s"] > 0)
-    assert np.all(np.isfinite(reads["rssi_dbm"]))
+    assert np.all(np.isfinite(reads["peak_rssi_dbm"]))
     with h5py.File(path, "r") as f:
         assert f["slots/slot_type"].attrs["units"] == ""
-        assert f["reads/rssi_dbm"].attrs["units"] == "dBm"
+        assert f["reads/peak_rssi_dbm"].attrs["units"] == "dBm"
     figs = scen.plot(path, tmp_path / "fig")
     assert figs and figs[0].exists()
 

@@ -7,8 +7,8 @@ import pytest
 
 from rfsim.cli import main
 
-FIELDS = ("time_s", "distance_m", "antenna", "channel_index", "rssi_dbm", "phase_rad", "doppler_hz",
-          "snr_db", "success", "failure_reason", "tag_incident_power_dbm")
+FIELDS = ("time_s", "true_distance_m", "antenna_port", "channel_index", "peak_rssi_dbm", "phase_angle_rad",
+          "doppler_frequency_hz", "snr_db", "success", "failure_reason", "true_incident_power_dbm")
 
 
 def test_rfsim_run_link_writes_reads_and_figure(tmp_path, capsys):
@@ -28,22 +28,22 @@ def test_rfsim_run_link_writes_reads_and_figure(tmp_path, capsys):
             assert field in reads, field
         n = reads.sizes[next(iter(reads.sizes))]
         assert n == 2 * len(distances)
-        d = reads["distance_m"].values
+        d = reads["true_distance_m"].values
         ok = reads["success"].values.astype(bool)
         reasons = reads["failure_reason"].values.astype(str)
-        rssi = reads["rssi_dbm"].values
-        assert reads["rssi_dbm"].attrs["units"] == "dBm"
+        rssi = reads["peak_rssi_dbm"].values
+        assert reads["peak_rssi_dbm"].attrs["units"] == "dBm"
         near = d < 5
         assert ok[near].all() and (reasons[near] == "").all()
         assert not ok[~near].any() and (reasons[~near] == "not powered").all()
         assert np.isnan(rssi[~near]).all()
         mean_rssi = [rssi[d == x].mean() for x in distances[:2]]
         assert mean_rssi[0] > mean_rssi[1] + 6  # ≈ 12 dB (d⁻⁴) apart, fades aside
-        inc = reads["tag_incident_power_dbm"].values
+        inc = reads["true_incident_power_dbm"].values
         assert inc[d == 1.0].min() > inc[d == 20.0].max()
-        assert set(np.unique(reads["antenna"].values)) == {1}
+        assert set(np.unique(reads["antenna_port"].values)) == {1}
         ch = reads["channel_index"].values
         assert ((ch >= 1) & (ch <= 50)).all()
-        assert np.all(np.isfinite(reads["phase_rad"].values[ok]))
-        assert np.all((reads["phase_rad"].values[ok] >= 0) & (reads["phase_rad"].values[ok] < 2 * np.pi))
+        assert np.all(np.isfinite(reads["phase_angle_rad"].values[ok]))
+        assert np.all((reads["phase_angle_rad"].values[ok] >= 0) & (reads["phase_angle_rad"].values[ok] < 2 * np.pi))
         assert np.all(np.diff(reads["time_s"].values) > 0)

@@ -46,16 +46,16 @@ def test_reads_follow_the_fixed_schedule_in_the_long_format(short):
     reads = read_table(short, "reads")
     n = reads["t_s"].size
     assert n == 200  # 0.5 s at 2.5 ms per read
-    ant = reads["antenna"]
+    ant = reads["antenna_port"]
     np.testing.assert_array_equal(ant, np.arange(n) % 4 + 1)  # round robin
     assert all(np.sum(ant == a) == 50 for a in (1, 2, 3, 4))  # 100 reads/s per antenna
-    assert np.all(np.diff(reads["t_us"]) > 0)
+    assert np.all(np.diff(reads["first_seen_timestamp_us"]) > 0)
     assert reads["reported"].all()
     assert set(reads["epc"].astype(str)) == {"300833B2DDD9014000000027"}
     np.testing.assert_array_equal(reads["frequency_hz"], 890e6)
     # the reported phase carries the port's offset and the 12-bit code
     offsets = np.array([0.61, 2.23, -1.37, 3.9])
-    code = np.mod(np.round(np.mod(reads["phase_rad"] + offsets[ant - 1], 2 * np.pi) * 4096 / (2 * np.pi)), 4096)
+    code = np.mod(np.round(np.mod(reads["phase_angle_rad"] + offsets[ant - 1], 2 * np.pi) * 4096 / (2 * np.pi)), 4096)
     np.testing.assert_array_equal(reads["phase_code"], code)
     with h5py.File(short, "r") as f:
         assert f.attrs["reads_per_s_per_antenna"] == pytest.approx(100.0)

@@ -56,11 +56,12 @@ def test_each_example_runs_through_rfsim_run(example, tmp_path, capsys):
     reads, tags, ports = _read(out, "reads"), _read(out, "tags"), _read(out, "readers")
     assert len(reads["time_s"]) > 0
     assert np.all(np.diff(reads["time_s"][reads["reader"] == 0]) > 0)
-    assert np.all(np.isfinite(reads["rssi_dbm"])) and np.all((reads["phase_rad"] >= 0) & (reads["phase_rad"] < 2 * np.pi))
+    phase = reads["phase_angle_rad"]
+    assert np.all(np.isfinite(reads["peak_rssi_dbm"])) and np.all((phase >= 0) & (phase < 2 * np.pi))
     # the EPC read is the EPC of the tag the row names
     epcs = tags["epc_hex"].astype(str)
-    assert [e.decode() if isinstance(e, bytes) else e for e in reads["epc_hex"]] == [epcs[t] for t in reads["tag"]]
-    assert set(reads["antenna"]) <= set(ports["antenna"])
+    assert [e.decode() if isinstance(e, bytes) else e for e in reads["epc"]] == [epcs[t] for t in reads["tag"]]
+    assert set(reads["antenna_port"]) <= set(ports["antenna"])
     for what in ("geometry", "reads", "rssi-phase"):
         assert (tmp_path / f"{example.stem}-{what}.png").is_file()
 
@@ -77,7 +78,7 @@ def test_the_shelf_uses_both_readers_and_both_ports_and_reads_every_tag(tmp_path
     # true distance from the reading port to the tag, recomputed from the file's geometry
     tags, ports = _read(out, "tags"), _read(out, "readers")
     k = 0
-    port = np.flatnonzero((ports["reader"] == reads["reader"][k]) & (ports["antenna"] == reads["antenna"][k]))[0]
+    port = np.flatnonzero((ports["reader"] == reads["reader"][k]) & (ports["antenna"] == reads["antenna_port"][k]))[0]
     t = reads["tag"][k]
     d = math.dist((ports["x_m"][port], ports["y_m"][port], ports["z_m"][port]),
                   (tags["x_m"][t], tags["y_m"][t], tags["z_m"][t]))
@@ -93,10 +94,10 @@ def test_the_trolley_tag_moves_with_its_velocity(tmp_path):
     assert moving.any()
     # tag 0 starts at (-0.2, 0, 0.9) moving at 3 m/s along x; port 1 at (0, -1, 1)
     t = reads["time_s"][moving]
-    port = np.where(reads["antenna"][moving] == 1, -1.0, 1.0)
+    port = np.where(reads["antenna_port"][moving] == 1, -1.0, 1.0)
     expect = np.sqrt((-0.2 + 3.0 * t) ** 2 + port ** 2 + 0.1 ** 2)
     np.testing.assert_allclose(reads["true_distance_m"][moving], expect, rtol=1e-12)
-    assert np.all(np.abs(reads["doppler_hz"][moving]) < 50.0)  # 3 m/s at 928 MHz: |2v/λ| ≤ 18.6 Hz, plus noise
+    assert np.all(np.abs(reads["doppler_frequency_hz"][moving]) < 50.0)  # 3 m/s at 928 MHz: |2v/λ| ≤ 18.6 Hz, plus noise
 
 
 def test_one_reader_one_tag_equals_the_same_deployment_built_in_python(tmp_path):
@@ -116,8 +117,10 @@ def test_one_reader_one_tag_equals_the_same_deployment_built_in_python(tmp_path)
     log = run_inventory(air, InventoryConfig(session=0, q_mode="fixed", q_initial=0.0, max_rounds=4,
                                              select_before_round=True))
     assert len(log.reads["time_s"]) == 4
-    for k in ("time_s", "rssi_dbm", "phase_rad", "doppler_hz", "frequency_hz", "channel_index", "antenna"):
-        np.testing.assert_array_equal(reads[k], np.asarray(log.reads[k]), err_msg=k)
+    for k, schema in (("time_s", "time_s"), ("rssi_dbm", "peak_rssi_dbm"), ("phase_rad", "phase_angle_rad"),
+                      ("doppler_hz", "doppler_frequency_hz"), ("frequency_hz", "frequency_hz"),
+                      ("channel_index", "channel_index"), ("antenna", "antenna_port")):
+        np.testing.assert_array_equal(reads[schema], np.asarray(log.reads[k]), err_msg=k)
     np.testing.assert_array_equal(reads["true_distance_m"], 2.0)
 
 
@@ -189,7 +192,7 @@ def test_rfsim_run_in_python_gives_the_reads_of_the_command_line(tmp_path):
     out = tmp_path / "x.h5"
     assert main(["run", str(path), "--set", "run.max_rounds=2", "--seed", "7", "--no-plot", "-q", "-o", str(out)]) == 0
     result = rfsim.run(str(path), seed=7, config=scene_config(path, ["run.max_rounds=2"]), progress=False)
-    np.testing.assert_array_equal(result.table("reads")["rssi_dbm"].to_numpy(), _read(out, "reads")["rssi_dbm"])
+    np.testing.assert_array_equal(result.table("reads")["peak_rssi_dbm"].to_numpy(), _read(out, "reads")["peak_rssi_dbm"])
 
 
 def test_rfsim_run_takes_a_scene_file_with_overrides_and_no_config():
@@ -198,7 +201,7 @@ def test_rfsim_run_takes_a_scene_file_with_overrides_and_no_config():
     path = SCENES / "one-reader-one-tag.toml"
     a = rfsim.run(str(path), seed=7, progress=False, **{"run.max_rounds": 2})
     b = rfsim.run(str(path), seed=7, config=scene_config(path, ["run.max_rounds=2"]), progress=False)
-    for name in ("time_s", "rssi_dbm", "phase_rad"):
+    for name in ("time_s", "peak_rssi_dbm", "phase_angle_rad"):
         np.testing.assert_array_equal(a.dataset.tables["reads"][name].data, b.dataset.tables["reads"][name].data)
     with pytest.raises(rfsim.core.errors.UserError, match="reader"):
         rfsim.run(str(path), progress=False, **{"reader.0.ptx": 20})

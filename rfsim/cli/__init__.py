@@ -16,12 +16,13 @@ import sys
 from collections.abc import Sequence
 
 import rfsim
+from rfsim.core.command_line import running_command
 from rfsim.core.errors import ResourceError, Terminated, UserError, os_error_number, write_failure
 from rfsim.core.procs import terminate_as_interrupt
 
 #: Subcommand modules in help order.
-_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.decode", "rfsim.cli.bench",
-                "rfsim.cli.sweep", "rfsim.cli.clean")
+_SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.export", "rfsim.cli.decode",
+                "rfsim.cli.bench", "rfsim.cli.sweep", "rfsim.cli.clean")
 
 
 class Parser(argparse.ArgumentParser):
@@ -67,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     stdout = sys.stdout
     sys.stdout = _Stdout(stdout)
     try:
-        with terminate_as_interrupt():
+        with terminate_as_interrupt(), running_command(argv):
             status = int(args.func(args) or 0)
             flush_stdout()  # a full or failing stdout is reported here, not at exit
             return status

@@ -18,8 +18,10 @@ def unit_of(key: str, units: Mapping[str, str] = UNITS) -> str:
 
 
 def concat(parts: Sequence[Mapping[str, np.ndarray]]) -> dict[str, np.ndarray]:
-    """Concatenate column dicts with the same keys (in the keys' order of ``parts[0]``) into one."""
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    """Concatenate column dicts with the same keys (in the keys' order of the first) into one; empty
+    dicts (parts without rows or columns) are skipped, and nothing gives ``{}``."""
+    parts = [p for p in parts if p]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else {}
 
 
 __all__ = ["UNITS", "unit_of", "concat"]

@@ -2,22 +2,31 @@
 
 Layout of a file written by :func:`write_dataset` (one HDF5 group per table or grid)::
 
-    /                     attrs: title, scenario, rfsim_version, the run's scalar results
+    /                     attrs: title, scenario, rfsim_version, Conventions, source, history,
+                          the run's scalar results
     /<table>              attr description (what one row is)
     /<table>/row          dimension scale 0..n-1
     /<table>/<column>     1-D, one per field, attrs units, long_name, description
     /<grid>               attr description
     /<grid>/<coord>       1-D dimension scales (attrs units, long_name, description)
     /<grid>/<variable>    N-D over named coords (attrs units, long_name, description)
-    /provenance           attrs: config_toml, seed, rfsim_version, git_revision,
-                          start_time_utc, end_time_utc, platform, python, numpy, numba
+    /provenance           attrs: config_toml, seed, rfsim_version, git_revision, command_line,
+                          start_time_utc, end_time_utc, platform, python, numpy, numba, h5py,
+                          scipy, matplotlib
 
 Every group is also a valid netCDF-4 group: ``xarray.open_dataset(path,
 engine="h5netcdf", group="<name>")`` opens it without custom code and shows ``units`` and
 ``long_name`` (CF conventions) on every variable. Booleans are stored as ``uint8`` with the
 CF attributes ``flag_values = [0, 1]``, ``flag_meanings = "false true"`` and
 ``rfsim_dtype = "bool"`` (netCDF has no bool type; :func:`read_table` gives them back as
-bool); strings as UTF-8 variable-length strings.
+bool); strings as UTF-8 variable-length strings, with ``units = ""`` (text is not a quantity;
+every variable still has the attribute). A ``long_name`` is short (a label for an axis or a
+legend, :func:`long_name`); the sentence is in ``description``.
+
+The root attributes ``Conventions`` (:data:`CONVENTIONS`), ``source`` (rfsim version and
+scenario) and ``history`` (ISO time and the command line that wrote the file) say where a file
+comes from; ``Conventions`` does not claim CF compliance (units such as dBm are not UDUNITS
+units), it names this layout.
 
 Root attributes that are not finite numbers (NaN, ±inf) must say what they mean: a text
 attribute ``<name>_meaning`` beside them (e.g. "inf: no nulls along this track"), else
@@ -42,6 +51,7 @@ import contextlib
 import dataclasses
 import datetime as _dt
 import gc
+import importlib.metadata
 import io
 import os
 import platform
@@ -54,6 +64,7 @@ from typing import Any
 import numpy as np
 
 import rfsim
+from rfsim.core.command_line import command_line
 from rfsim.core.errors import ResourceError, write_failure
 from rfsim.core.lazy import lazy_import
 from rfsim.core.outputs import partial_path
@@ -61,10 +72,19 @@ from rfsim.core.outputs import partial_path
 h5py = lazy_import("h5py")
 
 _ROW_DIM = "row"
+#: Root attributes :func:`write_root_attrs` writes itself (not copied from ``Dataset.attrs``).
+_ROOT_OWN = ("title", "scenario", "rfsim_version", "Conventions", "source", "history")
 _BOOL_ATTR = "rfsim_dtype"
 #: Description attribute of every file's provenance group.
 PROVENANCE_DESCRIPTION = ("how this file was made: the resolved config (TOML), the seed, the rfsim version "
-                          "and git revision, start and end time (UTC) and the software platform")
+                          "and git revision, the command line, start and end time (UTC) and the software platform")
+#: The root ``Conventions`` attribute: this layout (groups of aligned columns with a ``row``
+#: dimension scale, ``units``/``long_name``/``description`` on every variable, CF flag attributes on
+#: booleans, ``<name>_meaning`` beside non-finite attributes), documented on the datasets page.
+#: Not "CF-1.x": some units (dBm, dBi) are not UDUNITS units.
+CONVENTIONS = "rfsim-dataset-1"
+#: Longest ``long_name`` [characters] derived from a description (:func:`long_name`).
+LONG_NAME_MAX = 60
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,13 +93,17 @@ class Column:
 
     ``dims`` names the grid coordinates a gridded variable spans (in axis order);
     table columns leave it empty. The CF ``long_name`` written with it is the description's
-    first clause (up to the first ";" or ":").
+    first clause, kept short (:func:`long_name`). A text column's units are ``""``.
     """
 
     data: np.ndarray
     units: str
     description: str
     dims: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if is_text(np.asarray(self.data)) and self.units:  # text is not a quantity: one spelling, ""
+            object.__setattr__(self, "units", "")
 
 
 def column(data: Any, units: str, description: str, dims: tuple[str, ...] = ()) -> Column:
@@ -169,9 +193,21 @@ def utc_now() -> str:
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
+def package_version(name: str) -> str:
+    """Installed version of the distribution ``name`` (``""`` if it is not installed), read
+    from its metadata without importing it."""
+    try:
+        return importlib.metadata.version(name)
+    except importlib.metadata.PackageNotFoundError:
+        return ""
+
+
 def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_utc: str,
                     extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """Provenance attributes of a run (the end time is stamped when the file is written)."""
+    """Provenance attributes of a run (the end time is stamped when the file is written):
+    the config, seed, scenario, rfsim version and git revision, the command line
+    (:func:`command_line`), the start time and the versions of Python and of the libraries
+    the numbers depend on (numpy, numba, h5py, scipy, matplotlib)."""
     import numba
 
     prov = {
@@ -180,12 +216,15 @@ def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_ut
         "scenario": scenario,
         "rfsim_version": rfsim.__version__,
         "git_revision": git_revision(),
+        "command_line": command_line(),
         "start_time_utc": start_time_utc,
         "platform": platform.platform(),
         "python": sys.version.split()[0],
         "numpy": np.__version__,
         "numba": numba.__version__,
         "h5py": h5py.__version__,
+        "scipy": package_version("scipy"),
+        "matplotlib": package_version("matplotlib"),
     }
     prov.update(extra or {})
     return prov
@@ -194,11 +233,55 @@ def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_ut
 # ----------------------------------------------------------------------------- writing
 
 
+#: Words a shortened ``long_name`` does not end on.
+_DANGLING = frozenset("a an and as at by for from in into of on or over per the to with without".split())
+
+
+def _outside_brackets(text: str) -> str:
+    """``text`` without its parenthesised parts (nested ones too; an unclosed "(" ends it)."""
+    out, depth = [], 0
+    for ch in text:
+        if ch == "(":
+            depth += 1
+        elif ch == ")" and depth:
+            depth -= 1
+        elif not depth:
+            out.append(ch)
+    return "".join(out)
+
+
+def _first_clause(text: str) -> str:
+    """``text`` up to its first ";" or ": " outside parentheses."""
+    depth = 0
+    for i, ch in enumerate(text):
+        depth += (ch == "(") - (ch == ")" and depth > 0)
+        if not depth and (ch == ";" or text.startswith(": ", i)):
+            return text[:i]
+    return text
+
+
 def long_name(description: str) -> str:
-    """CF ``long_name`` of a column: the first clause of its description."""
-    for sep in (";", ": "):
-        description = description.split(sep, 1)[0]
-    return description.strip()
+    """CF ``long_name`` of a column: a short label derived from its description.
+
+    The description's first clause (up to the first ";" or ": " outside parentheses); if it is
+    longer than :data:`LONG_NAME_MAX` characters, without its parenthesised parts; if still
+    longer, cut after its last whole word that fits (at a comma if one is in the second half),
+    without a dangling "of", "at", ….
+    The full sentence stays in ``description``. A description written as
+    ``"<label>: <sentence>"`` gives exactly ``<label>``.
+    """
+    clause = _first_clause(description)
+    text = " ".join(clause.split()).strip(" ,.")
+    if len(text) <= LONG_NAME_MAX:
+        return text
+    text = " ".join(_outside_brackets(clause).split()).strip(" ,.") or text
+    if len(text) <= LONG_NAME_MAX:
+        return text
+    cut = text.rfind(", ", 0, LONG_NAME_MAX + 1)
+    words = text[:cut].split() if cut > LONG_NAME_MAX // 2 else text[:LONG_NAME_MAX + 1].split()[:-1]
+    while len(words) > 1 and words[-1].lower().strip(",") in _DANGLING:
+        words.pop()
+    return " ".join(words).rstrip(",") or text[:LONG_NAME_MAX]
 
 
 def _array_attrs(col: Column, name: str) -> dict[str, Any]:
@@ -394,13 +477,31 @@ def _abandon(f: h5py.File, tmp: Path) -> None:
     gc.collect()
 
 
-def write_root_attrs(f: h5py.File, dataset: Dataset) -> None:
-    """The root attributes of a dataset file: title, scenario, version and ``dataset.attrs``."""
+def history_line(command: str | None = None, time_utc: str | None = None) -> str:
+    """One line of the root ``history`` attribute: ``"<ISO time UTC> <command line>"``
+    (default: now and :func:`command_line`)."""
+    return f"{time_utc or utc_now()} {command if command is not None else command_line()}"
+
+
+def write_root_attrs(f: h5py.File, dataset: Dataset, provenance: Mapping[str, Any] | None = None) -> None:
+    """The root attributes of a dataset file: title, scenario, version, ``Conventions``,
+    ``source``, ``history`` and ``dataset.attrs``.
+
+    ``source`` is ``"rfsim <version>, scenario <name>"``; ``history`` is one
+    :func:`history_line` with the provenance's command line (the running one without
+    provenance), after the history the dataset already had (a file read back and written
+    again keeps its past lines)."""
     f.attrs["title"] = dataset.title
     f.attrs["scenario"] = dataset.scenario
     f.attrs["rfsim_version"] = rfsim.__version__
+    f.attrs["Conventions"] = CONVENTIONS
+    f.attrs["source"] = f"rfsim {rfsim.__version__}, scenario {dataset.scenario or 'none'}"
+    past = str(dataset.attrs.get("history", ""))
+    line = history_line((provenance or {}).get("command_line"))
+    f.attrs["history"] = f"{past}\n{line}" if past else line
     for k, v in dataset.attrs.items():
-        f.attrs[k] = v
+        if k not in _ROOT_OWN:
+            f.attrs[k] = v
 
 
 def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
@@ -420,7 +521,7 @@ def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, A
     check_attributes(dataset.attrs)
     path = Path(path)
     with atomic_h5file(path) as f:
-        write_root_attrs(f, dataset)
+        write_root_attrs(f, dataset, provenance)
         for name, cols in dataset.tables.items():
             _write_table(f, name, cols)
         for name, (coords, variables) in dataset.grids.items():
@@ -493,7 +594,7 @@ def read_dataset(path: str | Path) -> Dataset:
     with h5py.File(path, "r") as f:
         out.title = str(f.attrs.get("title", ""))
         out.scenario = str(f.attrs.get("scenario", ""))
-        out.attrs = {k: v for k, v in f.attrs.items() if k not in ("title", "scenario", "rfsim_version")}
+        out.attrs = {k: v for k, v in f.attrs.items() if k not in _ROOT_OWN or k == "history"}
         for gname, g in f.items():
             if gname == "provenance":
                 continue
@@ -533,6 +634,11 @@ __all__ = [
     "is_text",
     "TEXT_SLICE_ROWS",
     "write_root_attrs",
+    "history_line",
+    "command_line",
+    "package_version",
+    "CONVENTIONS",
+    "LONG_NAME_MAX",
     "write_provenance",
     "write_group_descriptions",
     "check_attributes",

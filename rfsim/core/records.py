@@ -2,8 +2,10 @@
 
 What a reader reports for one decoded reply (gen2-and-validation-anchors.md §4.9, LLRP
 TagReportData + Impinj low-level data): antenna port, hop-table channel, carrier, RSSI,
-phase, Doppler and SNR. Scenarios build their read tables from these definitions (name →
-(units, description)) plus their own context columns, so a column means the same thing in
+phase, Doppler and SNR, under the names the protocol layer's read logs use (name → (units,
+description)). In a dataset's ``reads`` table they appear under the per-read schema's names
+(:mod:`rfsim.core.reads`: ``antenna_port``, ``peak_rssi_dbm``, ``phase_angle_rad``,
+``doppler_frequency_hz``, ``first_seen_timestamp_us``, …), so a column means the same thing in
 every dataset.
 
 The *report stage* (:class:`ReportConfig`, :func:`report_columns`) turns the receiver's

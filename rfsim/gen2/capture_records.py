@@ -1,11 +1,13 @@
 """Decoded captures as tables: the commands and the tag replies of ``rfsim decode``.
 
-The replies table is the per-read layout every simulated reader writes
-(:data:`rfsim.core.records.READ_MEASUREMENT_FIELDS`: antenna, channel, carrier, RSSI, phase,
-Doppler, SNR) plus the capture's own columns, so a measured session and a simulated one
-can be put side by side (``rfsim.core.dataset.read_table(path, "reads")`` → pandas). What a
-capture cannot know is written as its "unknown" value: antenna and channel 0, carrier and
-Doppler NaN. The same rows serve ``--format json|csv``.
+The replies table is a per-read table in the schema every simulated reader writes
+(:mod:`rfsim.core.reads`: EPC, antenna port, channel, carrier, time stamps, seen count, RSSI,
+phase, Doppler, their reader-quantized variants and the ground truth) plus the capture's own
+columns, so a measured session and a simulated one can be put side by side
+(``rfsim.core.dataset.read_table(path, "reads")`` → pandas; ``rfsim export``). What a capture
+cannot know is written as the schema's "unknown" value: antenna port and channel 0; carrier,
+Doppler and the ground truth NaN. A reply is a tag report (``tag_seen_count`` 1) when it is an
+EPC reply with a correct CRC-16. The same rows serve ``--format json|csv``.
 """
 
 from __future__ import annotations
@@ -17,9 +19,11 @@ from typing import Any
 import numpy as np
 
 from rfsim.core.dataset import Dataset, column
-from rfsim.core.records import READ_MEASUREMENT_FIELDS
+from rfsim.core.reads import READ_SCHEMA, read_columns
+from rfsim.core.records import time_stamp_us
 
-READ_FIELDS: dict[str, tuple[str, str]] = {
+#: The capture's own columns of the replies table (beside the per-read schema).
+CAPTURE_FIELDS: dict[str, tuple[str, str]] = {
     "time_s": ("s", "start of the tag reply (pilot or preamble) in the capture"),
     "end_s": ("s", "end of the reply, or where the next command cut it"),
     "command_index": ("1", "row of the preceding reader command in the commands table"),
@@ -27,7 +31,6 @@ READ_FIELDS: dict[str, tuple[str, str]] = {
     "kind": ("", "reply type the command implies: RN16, EPC (PC+EPC+CRC-16), handle, read"),
     "rn16": ("1", "RN16 (RN16 reply) or handle (handle/read reply); -1 if none"),
     "pc": ("1", "protocol-control word of an EPC reply; -1 if none"),
-    "epc_hex": ("", "EPC of an EPC reply as upper-case hex ('' if none)"),
     "data_hex": ("", "words of a read reply as upper-case hex ('' if none)"),
     "crc_checked": ("1", "the reply carries a CRC-16 and was decoded complete"),
     "crc_ok": ("1", "CRC-16 over the reply correct (False where crc_checked is False)"),
@@ -39,16 +42,21 @@ READ_FIELDS: dict[str, tuple[str, str]] = {
     "blf_hz": ("Hz", "mean backscatter link frequency measured on the reply"),
     "blf_drift": ("1", "relative BLF change from the reply's start to its end (tracked)"),
     "corr": ("1", "normalised preamble correlation at the decoded start and BLF (0..1)"),
-    **READ_MEASUREMENT_FIELDS,
+    "snr_db": ("dB", "|h|^2 over the residual noise power per sample at the capture's sample rate"),
 }
-READ_FIELDS["rssi_dbm"] = ("dBm", "10*log10|h|^2 + 30 of the reply's complex amplitude h: dBm if the capture is "
-                                  "in sqrt(W), else dB relative to the capture's unit")
-READ_FIELDS["snr_db"] = ("dB", "|h|^2 over the residual noise power per sample at the capture's sample rate")
-READ_FIELDS["antenna"] = ("1", "reader antenna port (0: not known from a capture)")
-READ_FIELDS["channel_index"] = ("1", "hop-table channel (0: not known from a capture)")
-READ_FIELDS["frequency_hz"] = ("Hz", "carrier frequency (NaN: not known from a baseband capture)")
-READ_FIELDS["doppler_hz"] = ("Hz", "Doppler (NaN: not measured by the capture decoder)")
-
+#: What a capture's values of the per-read schema mean (added to the schema's descriptions).
+SCHEMA_NOTES = {
+    "first_seen_timestamp_us": "start of the reply in the capture",
+    "tag_seen_count": "1 for an EPC reply with a correct CRC-16",
+    "peak_rssi_dbm": "10*log10|h|^2 + 30 of the reply's complex amplitude h: dBm if the capture is in sqrt(W), "
+                     "else dB relative to the capture's unit",
+    "doppler_frequency_hz": "not measured by the capture decoder",
+}
+#: Columns of the replies table: the capture's own, then the per-read schema (name → (units, description)).
+READ_FIELDS: dict[str, tuple[str, str]] = {
+    **CAPTURE_FIELDS,
+    **{k: (f.units, f.text(SCHEMA_NOTES.get(k, ""))) for k, f in READ_SCHEMA.items()},
+}
 COMMAND_FIELDS: dict[str, tuple[str, str]] = {
     "time_s": ("s", "falling edge of the command's delimiter"),
     "end_s": ("s", "last rising edge of the command"),
@@ -69,17 +77,34 @@ def _int_or(value, default: int = -1) -> int:
     return default if value is None else int(value)
 
 
-def reply_row(rep) -> dict[str, Any]:
-    """One replies-table row (:data:`READ_FIELDS`) of a :class:`rfsim.gen2.replies.TagReplyRecord`."""
+def _schema_inputs(reps) -> dict[str, Any]:
+    """The arguments of :func:`rfsim.core.reads.read_columns` for decoded replies ``reps``."""
+    n = len(reps)
+    return dict(epc=np.array([r.epc_hex or "" for r in reps], dtype=str).reshape(n),
+                antenna_port=np.zeros(n, np.int64), channel_index=np.zeros(n, np.int64),
+                frequency_hz=np.full(n, math.nan), first_seen_timestamp_us=time_stamp_us([r.start_s for r in reps]),
+                tag_seen_count=np.array([r.kind == "EPC" and bool(r.crc_ok) for r in reps], dtype=bool).reshape(n),
+                peak_rssi_dbm=np.array([r.rssi_dbm for r in reps], float).reshape(n),
+                phase_angle_rad=np.array([r.phase_rad for r in reps], float).reshape(n),
+                doppler_frequency_hz=np.full(n, math.nan), notes=SCHEMA_NOTES)
+
+
+def _capture_row(rep) -> dict[str, Any]:
     return {
         "time_s": rep.start_s, "end_s": rep.end_s, "command_index": rep.command_index, "command": rep.command,
-        "kind": rep.kind, "rn16": _int_or(rep.rn16), "pc": _int_or(rep.pc), "epc_hex": rep.epc_hex or "",
+        "kind": rep.kind, "rn16": _int_or(rep.rn16), "pc": _int_or(rep.pc),
         "data_hex": rep.data_hex or "", "crc_checked": rep.crc_ok is not None, "crc_ok": bool(rep.crc_ok),
         "truncated": bool(rep.truncated), "bits": rep.bits, "n_bits_expected": rep.n_bits_expected,
         "m": rep.m, "trext": bool(rep.trext), "blf_hz": rep.blf_hz, "blf_drift": rep.blf_drift, "corr": rep.corr,
-        "antenna": 0, "channel_index": 0, "frequency_hz": math.nan, "rssi_dbm": rep.rssi_dbm,
-        "phase_rad": rep.phase_rad, "doppler_hz": math.nan, "snr_db": rep.snr_db,
+        "snr_db": rep.snr_db,
     }
+
+
+def reply_row(rep) -> dict[str, Any]:
+    """One replies-table row (:data:`READ_FIELDS`) of a :class:`rfsim.gen2.replies.TagReplyRecord`:
+    the capture's columns and the per-read schema's, as Python scalars."""
+    schema = read_columns(**_schema_inputs([rep]))
+    return {**_capture_row(rep), **{k: c.data[0].item() for k, c in schema.items()}}
 
 
 def command_row(rec) -> dict[str, Any]:
@@ -108,7 +133,8 @@ def capture_dataset(records, replies, *, capture: str, fs_hz: float, timing) -> 
     tag reply) and the capture's sample rate, median timings and warnings as attributes."""
     ds = Dataset(title=f"rfsim decode of {capture}", scenario="decode")
     ds.add_table("commands", _columns([command_row(r) for r in records], COMMAND_FIELDS))
-    ds.add_table("reads", _columns([reply_row(r) for r in replies], READ_FIELDS))
+    ds.add_table("reads", {**_columns([_capture_row(r) for r in replies], CAPTURE_FIELDS),
+                           **read_columns(**_schema_inputs(replies))})
     ds.attrs.update(capture=str(capture), fs_hz=float(fs_hz), n_commands=int(timing.n_commands),
                     warnings="\n".join(timing.warnings))
     for key in ("tari_s", "rtcal_s", "trcal_s", "delimiter_s"):
@@ -118,4 +144,5 @@ def capture_dataset(records, replies, *, capture: str, fs_hz: float, timing) -> 
     return ds
 
 
-__all__ = ["READ_FIELDS", "COMMAND_FIELDS", "reply_row", "command_row", "capture_dataset"]
+__all__ = ["CAPTURE_FIELDS", "SCHEMA_NOTES", "READ_FIELDS", "COMMAND_FIELDS", "reply_row", "command_row",
+           "capture_dataset"]

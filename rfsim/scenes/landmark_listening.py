@@ -50,7 +50,7 @@ Cost (CPU, seed 1, pfaa, N = 10): ≈ 6 s per period for a still ST, ≈ 20 s pe
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -225,7 +225,9 @@ class _Links:
 @dataclass(frozen=True, eq=False)
 class Listened:
     """One sample-level track: period end times (T,) [s], counts (T, L), mean detection time (T,)
-    [s] (NaN: none), every detection's instant [s] and landmark, slots and EPC reads per period."""
+    [s] (NaN: none), every detection's instant [s] and landmark, slots and EPC reads per period, and
+    the reader's read log: the inventory's per-read columns (:data:`rfsim.protocols.inventory.READ_FIELDS`)
+    and ``period``, one entry per EPC read."""
 
     t_end_s: np.ndarray
     counts: np.ndarray
@@ -234,6 +236,7 @@ class Listened:
     landmarks: np.ndarray
     slots_per_period: np.ndarray
     reads_per_period: np.ndarray
+    read_log: dict = field(default_factory=dict)
 
 
 def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_config: SenseATagConfig,
@@ -260,7 +263,7 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     air = ListeningAir(reader, tags, channel, st, st_center, st_config=st_config, rng=trial_rng(seed, *key, 1),
                        st_rng=trial_rng(seed, *key, 2), epcs=epcs, st_step_m=sl.st_step_m)
     inv = InventoryConfig(q_initial=sl.q_initial)
-    t, ends, slots, reads = 0.0, [], [], []
+    t, ends, slots, reads, read_log = 0.0, [], [], [], {}
     while t < sl.duration_s and len(ends) < sl.max_periods:
         slots.append(0)
         reads.append(0)
@@ -270,6 +273,8 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
             log = run_inventory(air, inv, t0_s=t)
             slots[-1] += log.n_slots
             reads[-1] += len(log.reads["tag"])
+            for k, v in {**log.reads, "period": [len(ends)] * len(log.reads["tag"])}.items():
+                read_log.setdefault(k, []).extend(v)
             t = log.t_end_s
         ends.append(t)
     t_end = np.asarray(ends)
@@ -284,7 +289,8 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
     total = counts.sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_t = np.where(total > 0, tsum / total, np.nan)
-    return Listened(t_end, counts, mean_t, times, which, np.asarray(slots), np.asarray(reads))
+    return Listened(t_end, counts, mean_t, times, which, np.asarray(slots), np.asarray(reads),
+                    {k: np.asarray(v) for k, v in read_log.items()})
 
 
 __all__ = ["SampleLevelConfig", "ListeningAir", "Listened", "listen_track", "panel", "flat_dipole",

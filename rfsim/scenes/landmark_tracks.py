@@ -35,9 +35,12 @@ from collections.abc import Callable
 
 import numpy as np
 
+from rfsim.core.columns import concat
+from rfsim.core.reads import reads_table
 from rfsim.detection.landmark_rts import draw_landmark_detections, rts_fixed_logit, rts_likelihood_model
 from rfsim.estimators.landmark_pf import LandmarkFilterConfig, run_tracker
 from rfsim.scenes.landmark_listening import SampleLevelConfig, listen_track
+from rfsim.protocols.inventory import READ_FIELDS
 from rfsim.scenes.landmark_room import Room
 
 #: Time step [s] of the finite difference that gives the initial velocity.
@@ -76,7 +79,7 @@ def listened_track(room: Room, position_at: Callable, *, height_m: float, rounds
     pos = position_at(np.concatenate([[0.0, _START_DT_S], res.t_end_s]))
     return {"t_end_s": res.t_end_s, "truth": pos[2:], "start": _start(pos[0], pos[1]), "counts": res.counts,
             "mean_detection_s": res.mean_detection_s, "active": np.zeros(res.t_end_s.size, np.int64),
-            "slots": res.slots_per_period, "reads": res.reads_per_period}
+            "slots": res.slots_per_period, "reads": res.reads_per_period, "read_log": res.read_log}
 
 
 def track_estimates(room: Room, chunk: list[dict], trackers, *, filters: LandmarkFilterConfig, rounds: int,
@@ -109,6 +112,48 @@ def period_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarra
             "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
             "detections": c.sum(axis=1), "mean_detection_s": track["mean_detection_s"],
             "active_antenna": track["active"], "slots": track["slots"], "reads": track["reads"]}
+
+
+def read_rows(case: int, realization: int, track: dict, room: Room) -> dict[str, np.ndarray]:
+    """One row per EPC read of a sample-level track: the reader's read log, the period and the
+    ground truth of the read landmark (on the floor at its grid position) — ``true_position_m``
+    (n, 3) and ``true_distance_m`` from the reading antenna [m]. Empty for a surrogate track."""
+    log = track.get("read_log") or {}
+    n = len(log.get("tag", ()))
+    if n == 0:
+        return {}
+    tag = np.asarray(log["tag"], np.int64)
+    position = np.full((n, 3), np.nan)
+    position[tag >= 0, :2] = room.landmarks_xy()[tag[tag >= 0]]
+    position[tag >= 0, 2] = 0.0
+    antenna_m = np.asarray(room.antennas_xyz_m, float)[np.asarray(log["antenna"], np.int64) - 1]
+    return {"case": np.full(n, case), "realization": np.full(n, realization),
+            **{k: np.asarray(v) for k, v in log.items()}, "true_position_m": position,
+            "true_distance_m": np.linalg.norm(position - antenna_m, axis=1)}
+
+
+def reads_columns(rows: dict[str, np.ndarray]) -> dict:
+    """The ``reads`` table of :func:`read_rows` in the per-read schema (:func:`rfsim.core.reads.reads_table`),
+    then the case, realization, period, landmark and the slot's context."""
+    fields = {"case": ("1", "index of the case (experiment, trajectory, speed) in the cases table"),
+              "realization": ("1", COLUMN_TEXT["realization"]), "period": ("1", "query period of the read (0-based)"),
+              "tag": ("1", "landmark read (grid order)"),
+              **{k: READ_FIELDS[k] for k in ("time_s", "round", "slot", "n_replies", "snr_db")}}
+    return reads_table(rows, fields, notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 "
+                                                                       "in each realization",
+                                            "true_incident_power_dbm": "during the ACK"})
+
+
+def chunk_tables(case: int, realizations: list[int], chunk: list[dict], estimates: list[list[dict]], room: Room,
+                 n_trackers: int) -> dict[str, dict[str, np.ndarray]]:
+    """The rows of a chunk of realizations of a case: ``periods``, ``detections``, ``estimates``
+    (tracker by tracker; ``estimates[i]`` the :func:`estimate_rows` of realization i) and
+    ``reads`` (:func:`read_rows`; empty for surrogate tracks)."""
+    pairs = list(zip(realizations, chunk))
+    return {"periods": concat([period_rows(case, b, d) for b, d in pairs]),
+            "detections": concat([detection_rows(case, b, d) for b, d in pairs]),
+            "estimates": concat([r[k] for k in range(n_trackers) for r in estimates]),
+            "reads": concat([read_rows(case, b, d, room) for b, d in pairs])}
 
 
 def detection_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
@@ -151,7 +196,10 @@ TABLE_TEXT = {
     "periods": "one row per (case, realization, query period): duration, truth, detection totals, active antenna",
     "truth": "true ST position at the end of every query period of every realization",
     "estimates": "one row per (case, realization, period, tracker): estimate and error",
+    "reads": "one row per EPC read of a landmark by the reader (sample level), in the per-read schema, with the "
+             "case, realization and query period",
 }
 
-__all__ = ["surrogate_track", "listened_track", "track_estimates", "period_rows", "detection_rows", "estimate_rows",
+__all__ = ["surrogate_track", "listened_track", "track_estimates", "period_rows", "read_rows", "reads_columns",
+           "chunk_tables", "detection_rows", "estimate_rows",
            "COLUMN_TEXT", "TABLE_TEXT"]

@@ -23,6 +23,7 @@ import numpy as np
 from rfsim.core.config import check_fields, param
 from rfsim.core.lazy import lazy_import
 from rfsim.core.progress import track
+from rfsim.core.reads import reads_table
 from rfsim.core.rng import trial_rng
 from rfsim.core.units import C_M_S
 from rfsim.devices.tag_spread import TagSpreadConfig, orientation_offsets_rad
@@ -218,5 +219,25 @@ def boresight_capture_rows(room: RoomConfig, reader_config, tag_config, *, near_
     return rows
 
 
+def room_reads(reads, fields, tag_rows, room: RoomConfig) -> dict:
+    """The ``inventory`` scenario's reads table in the per-read schema (:func:`rfsim.core.reads.reads_table`).
+
+    ``reads`` are the inventories' read logs with ``population`` and ``run``; ``tag_rows`` one row
+    per tag of every inventory (``population``, ``run``, ``tag``, ``x_m``, ``y_m``, ``z_m``). The
+    ground truth of a read is its tag's position and the distance from the reading antenna
+    (:func:`reader_antennas`) [m]; NaN where the tag is not known (index -1).
+    """
+    row = {key: i for i, key in enumerate(zip(tag_rows["population"], tag_rows["run"], tag_rows["tag"]))}
+    xyz = np.vstack([np.column_stack([tag_rows["x_m"], tag_rows["y_m"], tag_rows["z_m"]]), np.full((1, 3), np.nan)])
+    at = np.array([row.get(key, -1) for key in zip(reads["population"], reads["run"], reads["tag"])], dtype=np.int64)
+    position = xyz[at]  # -1 (a tag not known): the last row, NaN
+    ports = np.asarray([a.position_m for a in reader_antennas(room)], float)
+    distance = np.linalg.norm(position - ports[np.asarray(reads["antenna"], np.int64) - 1], axis=1)
+    return reads_table(reads, fields, true_position_m=position, true_distance_m=distance,
+                       notes={"first_seen_timestamp_us": "start of the ACK segment; time restarts at 0 in each "
+                                                         "inventory (population, run)",
+                              "true_incident_power_dbm": "during the ACK"})
+
+
 __all__ = ["CAPTURE_FIELDS", "boresight_capture_rows", "RoomConfig", "tag_epc_hex", "make_tags", "tag_antenna", "reader_antennas", "room_scene",
-           "random_tag_antennas", "room_population", "room_air", "boresight_pair_slot"]
+           "random_tag_antennas", "room_population", "room_air", "boresight_pair_slot", "room_reads"]

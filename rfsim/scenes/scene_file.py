@@ -69,6 +69,7 @@ _surfaces = lazy_import("rfsim.channels.surfaces")
 _reader = lazy_import("rfsim.devices.reader")
 _tag = lazy_import("rfsim.devices.tag")
 _dataset = lazy_import("rfsim.core.dataset")
+_reads = lazy_import("rfsim.core.reads")
 
 #: Top-level sections of a scene file.
 SECTIONS = ("scene", "reader", "tag", "channel", "run")
@@ -364,9 +365,12 @@ def build_tags(spec: SceneSpec, *, seed: int) -> list:
     return [_tag.PassiveTag(e.config, e.antenna.antenna(), rng=trial_rng(seed, 3, k)) for k, e in enumerate(spec.tags)]
 
 
+def _true_position_m(tag_entry: TagEntry, t_s: float) -> np.ndarray:
+    return np.asarray(tag_entry.antenna.position_m) + np.asarray(tag_entry.velocity_m_s) * t_s
+
+
 def _true_distance_m(reader_ant, tag_entry: TagEntry, t_s: float) -> float:
-    p = np.asarray(tag_entry.antenna.position_m) + np.asarray(tag_entry.velocity_m_s) * t_s
-    return float(np.linalg.norm(p - np.asarray(reader_ant.position_m)))
+    return float(np.linalg.norm(_true_position_m(tag_entry, t_s) - np.asarray(reader_ant.position_m)))
 
 
 def run_scene(spec: SceneSpec, *, seed: int) -> dict[str, dict[str, list]]:
@@ -398,25 +402,25 @@ def run_scene(spec: SceneSpec, *, seed: int) -> dict[str, dict[str, list]]:
             for tag, ant, t in zip(log.reads["tag"], log.reads["antenna"], log.reads["time_s"]):
                 d = _true_distance_m(ants[ant - 1], spec.tags[tag], t) if tag >= 0 else math.nan
                 reads.setdefault("true_distance_m", []).append(d)
+                reads.setdefault("true_position_m", []).append(
+                    _true_position_m(spec.tags[tag], t) if tag >= 0 else np.full(3, np.nan))
         if spec.duration_s <= 0.0 or t_s >= spec.duration_s:
             break
     reads.setdefault("true_distance_m", [])
+    reads.setdefault("true_position_m", [])
     return {"reads": reads, "slots": slots}
 
 
 # ------------------------------------------------------------------------------ dataset
 
+#: Columns of the reads table beside the per-read schema (rfsim.core.reads).
 READ_COLUMNS = {
     "time_s": ("s", "start of the ACK segment of the read"),
     "reader": ("1", "reader (0-based index in file order, see table readers)"),
-    **{k: READ_MEASUREMENT_FIELDS[k] for k in ("antenna", "channel_index", "frequency_hz", "rssi_dbm",
-                                               "phase_rad", "doppler_hz", "snr_db")},
+    "snr_db": READ_MEASUREMENT_FIELDS["snr_db"],
     "tag": ("1", "tag (0-based index into table tags; -1 if not unique)"),
-    "epc_hex": ("", "EPC decoded (CRC-16 ok)"),
     "round": ("1", "inventory round of the reader's inventory (0-based)"),
     "n_replies": ("1", "tags that replied in the RN16 slot (> 1: capture)"),
-    "tag_incident_power_dbm": ("dBm", "CW power incident at the read tag (ACK)"),
-    "true_distance_m": ("m", "true distance reading antenna → tag at the read time"),
 }
 SLOT_COLUMNS = {
     "time_s": ("s", "slot start (its command's segment)"),
@@ -430,6 +434,16 @@ SLOT_COLUMNS = {
     "n_replies": ("1", "tags that replied with an RN16"),
     "tag": ("1", "tag read (-1: none)"),
 }
+
+
+def _read_schema(reads: dict[str, list]) -> dict:
+    """The per-read schema's columns of the scene's reads (every row a reported read)."""
+    if not reads.get("time_s"):  # nothing read: empty columns of the schema's types
+        reads = {"epc_hex": [], "antenna": [], "channel_index": [], "true_position_m": np.zeros((0, 3)), **{
+            k: np.zeros(0) for k in ("time_s", "frequency_hz", "rssi_dbm", "phase_rad", "doppler_hz",
+                                     "tag_incident_power_dbm", "true_distance_m")}}
+    return _reads.log_read_columns(reads, notes={"first_seen_timestamp_us": "start of the ACK segment",
+                                                 "true_incident_power_dbm": "during the ACK"})
 
 
 def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
@@ -453,7 +467,8 @@ def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
             out[k] = d.column(np.asarray(v, dtype=dt) if v else np.zeros(0, dtype="U1" if dt is str else dt), *s)
         return out
 
-    ds.add_table("reads", table(rows["reads"], READ_COLUMNS), "one successful read (EPC decoded, CRC ok)")
+    ds.add_table("reads", {**_read_schema(rows["reads"]), **table(rows["reads"], READ_COLUMNS)},
+                 "one successful read (EPC decoded, CRC ok) in the per-read schema (rfsim.core.reads)")
     ds.add_table("slots", table(rows["slots"], SLOT_COLUMNS), "one inventory slot of a reader")
     ports = [(i, j, r.name, a) for i, r in enumerate(spec.readers) for j, a in enumerate(r.antennas)]
     ds.add_table("readers", {
@@ -542,9 +557,9 @@ def plot(dataset_path, out_dir) -> list[Path]:
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "reads")))
 
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-    a1.scatter(reads["time_s"], reads["rssi_dbm"], s=4, c=reads["tag"], cmap="viridis")
+    a1.scatter(reads["time_s"], reads["peak_rssi_dbm"], s=4, c=reads["tag"], cmap="viridis")
     a1.set(ylabel="RSSI [dBm]", title="per read (colour: tag index)")
-    a2.scatter(reads["time_s"], reads["phase_rad"], s=4, c=reads["tag"], cmap="viridis")
+    a2.scatter(reads["time_s"], reads["phase_angle_rad"], s=4, c=reads["tag"], cmap="viridis")
     a2.set(xlabel="time [s]", ylabel="phase [rad]")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
     return out

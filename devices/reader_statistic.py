@@ -142,15 +142,17 @@ def spread(piece_of: np.ndarray, sign: np.ndarray, sums: np.ndarray, sizes: np.n
     return sign * (sums / np.maximum(sizes, 1))[piece_of]
 
 
-def bridge_split(total: complex, n_a: int, n_b: int, sigma2_w: float, *,
-                 rng: np.random.Generator) -> tuple[complex, complex]:
-    """The two partial sums (A, B) of n_a and n_b samples of white noise (power σ² per sample)
-    given their sum ``total``: independent draws a ~ CN(0, σ²·n_a), b ~ CN(0, σ²·n_b) moved by
-    the share n/(n_a + n_b) of ``total − a − b`` (a Gaussian bridge, exactly the conditional law)."""
-    a, b = draw_piece_sums(np.array([n_a, n_b]), sigma2_w, rng=rng)
-    miss = complex(total) - a - b
-    n = n_a + n_b
-    return complex(a + miss * n_a / n), complex(b + miss * n_b / n)
+def bridge_split(total, n_a, n_b, sigma2_w: float, *, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Partial sums (A, B) of n_a and n_b samples of white noise (power σ² per sample) given their
+    sums ``total`` (arrays of equal length k): independent draws a ~ CN(0, σ²·n_a),
+    b ~ CN(0, σ²·n_b) moved by the shares n_a/n, n_b/n of ``total − a − b`` (n = n_a + n_b; a
+    Gaussian bridge: exactly the conditional law of (A, B) given A + B). Returns two (k,) complex."""
+    n_a = np.asarray(n_a, dtype=np.float64)
+    n_b = np.asarray(n_b, dtype=np.float64)
+    ab = draw_piece_sums(np.concatenate([n_a, n_b]), sigma2_w, rng=rng)
+    a, b = ab[: n_a.size], ab[n_a.size:]
+    miss = np.asarray(total, dtype=np.complex128) - a - b
+    return a + miss * (n_a / (n_a + n_b)), b + miss * (n_b / (n_a + n_b))
 
 
 def residual_correction(n_free: int, sigma2_w: float, n_used: int, *, rng: np.random.Generator) -> float:
@@ -261,33 +263,31 @@ def _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rn
     """Steps 4 and 6 of the module docstring on ``r`` (in place): the steady samples of the
     reference ``s`` (from ``r[i0]``) as the measurement kernel selects them, the steady pieces cut
     by its block edges split by a bridge and spread again. Returns (Σ(|p| − 1) over the steady
-    pieces it reads, the number of samples it reads)."""
+    pieces, all of which the measurement reads; the number of samples it reads)."""
     nz = np.flatnonzero(s)
     if nz.size == 0:
         return 0, 0
-    ok = np.zeros(s.size, bool)
-    ok[nz[0]: nz[-1] + 1] = steady(s[nz[0]: nz[-1] + 1])
-    used = np.flatnonzero(ok) + i0  # the samples of the measurement, in order
+    used = np.flatnonzero(steady(s[nz[0]: nz[-1] + 1])) + (i0 + nz[0])  # the measurement's samples, in order
     n_used = used.size
-    post = used[used >= b1] - b1
-    steady_kind = _sk.STEADY
-    read = np.unique(piece_of[post])
-    read = read[kind[read] == steady_kind]
-    n_free = int(np.sum(sizes[read] - 1))
-    for k in range(1, DOPPLER_BLOCKS):
-        edge = used[k * n_used // DOPPLER_BLOCKS] if n_used else 0
-        if edge < b1:
+    is_steady = kind == _sk.STEADY
+    n_free = int(np.sum(sizes[is_steady] - 1))
+    edges = used[np.arange(1, DOPPLER_BLOCKS) * n_used // DOPPLER_BLOCKS] - b1 if n_used else used[:0]
+    cuts = []  # (piece, its samples before the edge, after it)
+    reach = int(np.max(sizes[is_steady], initial=0)) * 8 + 8  # a steady piece lies within one half-bit
+    for e in edges[edges >= 0].tolist():
+        p = piece_of[e]
+        if not is_steady[p]:
             continue
-        p = piece_of[edge - b1]
-        if kind[p] != steady_kind:
-            continue
-        members = np.flatnonzero(piece_of == p)
-        before = members[members < edge - b1]
-        after = members[members >= edge - b1]
-        if before.size == 0 or after.size == 0:
-            continue
-        a, b = bridge_split(sums[p], before.size, after.size, sigma2, rng=rng)
-        r[b1 + before] += sign[before] * (a / before.size - sums[p] / sizes[p])
-        r[b1 + after] += sign[after] * (b / after.size - sums[p] / sizes[p])
-        n_free -= 1  # two pieces now: one more degree of freedom in the sums, one fewer inside
+        w0 = max(0, e - reach)
+        members = np.flatnonzero(piece_of[w0: e + reach] == p) + w0
+        k = int(np.searchsorted(members, e))
+        if 0 < k < members.size:
+            cuts.append((p, members[:k], members[k:]))
+    if cuts:
+        a, b = bridge_split(sums[[c[0] for c in cuts]], [c[1].size for c in cuts], [c[2].size for c in cuts],
+                            sigma2, rng=rng)
+        for q, (p, before, after) in enumerate(cuts):
+            r[b1 + before] += sign[before] * (a[q] / before.size - sums[p] / sizes[p])
+            r[b1 + after] += sign[after] * (b[q] / after.size - sums[p] / sizes[p])
+        n_free -= len(cuts)  # per cut: one more sum drawn, one fewer degree of freedom inside
     return n_free, n_used

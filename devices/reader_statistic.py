@@ -82,7 +82,6 @@ import math
 
 import numpy as np
 
-from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.lazy import lazy_import
 from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.capture import fit_gain_offset
@@ -168,15 +167,18 @@ def _noise_fill(x: np.ndarray, lo: int, b1: int, sigma2_w: float, rng: np.random
     """``x`` plus the noise of the stretch before the search block (two pieces: sample 0 and
     samples 1 … b0 − 1) and of the search block b0 … b1 − 1 drawn per sample; samples from b1 on
     noise-free (drawn later, once the reply's start is known). Returns the new array."""
-    r = x.copy()
     b0 = max(0, lo - SEARCH_MARGIN)
-    if b0 > 0:
-        sizes = np.array([1, b0 - 1])
-        p = draw_piece_sums(sizes, sigma2_w, rng=rng)
+    head = min(b0, 2)  # pieces before the block: {0} and 1 … b0 − 1
+    sizes = np.ones(head + b1 - b0)
+    if head == 2:
+        sizes[1] = b0 - 1
+    p = draw_piece_sums(sizes, sigma2_w, rng=rng)
+    r = x.copy()
+    if head:
         r[:1] += p[0]
-        if b0 > 1:
-            r[1:b0] += p[1] / (b0 - 1)
-    r[b0:b1] += draw_piece_sums(np.ones(b1 - b0), sigma2_w, rng=rng)
+    if head == 2:
+        r[1:b0] += p[1] / (b0 - 1)
+    r[b0:b1] += p[head:]
     return r
 
 
@@ -199,7 +201,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         raise ValueError(f"rx must be 1-D, got shape {x.shape}")
     n_bits = int(n_bits)
     lk, fs = reader.link, reader.fs_hz
-    sigma2 = float(thermal_noise_power_w(fs, reader.config.noise_figure_db))
+    sigma2 = reader._fixed()[2]  # k·T0·fs·F, the sample-level model's noise power
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
     if not blf > 0:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")

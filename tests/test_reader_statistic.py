@@ -169,10 +169,17 @@ def compare(m: int, n: int, *, ebn0_db: float, seed: int, second_db: float | Non
     # BER: bit errors per detected reply (errors come in bursts: the reply is the trial), as a mean
     ok, tol = mean_close(a.bit_errors, b.bit_errors)
     rows.append(("ber", np.nanmean(a.bit_errors) / bits, np.nanmean(b.bit_errors) / bits, tol / bits, ok))
-    if measurements:
+    if measurements:  # over the successful reads
         ok_a, ok_b = a.success > 0, b.success > 0
-        phase = [np.angle(np.exp(1j * (o.phase_rad[k] + trials.PHASE_RAD))) for o, k in ((a, ok_a), (b, ok_b))]
-        for name, x1, x2 in (("rssi_dbm", a.rssi_dbm[ok_a], b.rssi_dbm[ok_b]), ("phase_err_rad", *phase)):
+        err = [np.angle(np.exp(1j * (o.phase_rad[k] + trials.PHASE_RAD))) for o, k in ((a, ok_a), (b, ok_b))]
+        # a read decoded from a start one Miller element off (the pilot is periodic; Miller
+        # decisions do not depend on the sign) measures −h: its phase is π off. The rate of
+        # these is compared as a proportion, the phase of the others by mean and std.
+        flip = [np.abs(e) > 0.5 * math.pi for e in err]
+        p1, p2 = flip[0].mean(), flip[1].mean()
+        rows.append(("phase flipped by pi", p1, p2, *proportion_close(p1, p2, min(ok_a.sum(), ok_b.sum()))[::-1]))
+        for name, x1, x2 in (("rssi_dbm", a.rssi_dbm[ok_a], b.rssi_dbm[ok_b]),
+                             ("phase_err_rad", err[0][~flip[0]], err[1][~flip[1]])):
             ok, tol = mean_close(x1, x2)
             rows.append((name + " mean", x1.mean(), x2.mean(), tol, ok))
             ok, tol = std_close(x1, x2)
@@ -248,13 +255,13 @@ def test_engine_rounds_read_alike_with_either_model():
         assert ra.rssi_dbm != rb.rssi_dbm  # different noise draws
 
 
-def test_link_and_detection_probability_scenarios_take_the_key():
-    """``reader.rx_model`` is a key of the ``link`` and ``detection-probability`` configs (the
-    reader section), loaded and validated like every other key."""
+def test_reader_scenarios_take_the_key():
+    """``reader.rx_model`` is a key of the ``link``, ``detection-probability`` and
+    ``reader-detection`` configs (the reader section), loaded and validated like every other key."""
     from rfsim.core.config import from_dict
-    from rfsim.scenarios import detection_probability, link
+    from rfsim.scenarios import detection_probability, link, reader_detection
 
-    for module in (link, detection_probability):
+    for module in (link, detection_probability, reader_detection):
         cfg = from_dict(module.Config, {"reader": {"rx_model": "statistic"}})
         assert cfg.reader.rx_model == "statistic"
         with pytest.raises(ConfigError, match="rx_model"):

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 
@@ -36,48 +38,35 @@ def piece_map_kernel(n, i_first, start, elements_per_sample, m, n_elements, piec
     half-bit edge or next to the reply's end, or the last sample; :data:`REST`: after the
     reply, both neighbours after it too, one piece). Returns the number of pieces."""
     n_p = 0
-    cur_steady = -1  # piece of the half-bit being walked
-    cur_inner = -1
+    cur = np.full(4, -1, np.int64)  # the open piece of each merged class (STEADY, INNER_EDGE: this half-bit)
     cur_half = -1
-    rest = -1
     kp = _element(i_first - 1, start, elements_per_sample)
     k = _element(i_first, start, elements_per_sample)
     for i in range(i_first, n):
         kn = _element(i + 1, start, elements_per_sample) if i + 1 < n else -2
         q = i - i_first
+        h = k // m if 0 <= k < n_elements else -1
+        if h != cur_half:
+            cur_half = h
+            cur[STEADY] = -1
+            cur[INNER_EDGE] = -1
+        sign[q] = -1.0 if (m > 1 and 0 <= k < n_elements and (k & 1)) else 1.0
         if k >= n_elements:
-            sign[q] = 1.0
-            if kp >= n_elements and kn >= n_elements:
-                if rest < 0:
-                    rest = n_p
-                    kind[n_p] = REST
-                    n_p += 1
-                piece_of[q] = rest
-            else:
-                kind[n_p] = SINGLE
-                piece_of[q] = n_p
-                n_p += 1
+            cls = REST if (kp >= n_elements and kn >= n_elements) else SINGLE
+        elif k >= 0 and kp == k and kn == k:
+            cls = STEADY
+        elif m > 1 and k >= 0 and kp >= 0 and kp // m == h and 0 <= kn < n_elements and kn // m == h:
+            cls = INNER_EDGE
         else:
-            h = k // m if k >= 0 else -1
-            sign[q] = -1.0 if (m > 1 and k >= 0 and (k & 1)) else 1.0
-            if h != cur_half:
-                cur_half, cur_steady, cur_inner = h, -1, -1
-            if k >= 0 and kp == k and kn == k:
-                if cur_steady < 0:
-                    cur_steady = n_p
-                    kind[n_p] = STEADY
-                    n_p += 1
-                piece_of[q] = cur_steady
-            elif m > 1 and k >= 0 and kp >= 0 and kp // m == h and 0 <= kn < n_elements and kn // m == h:
-                if cur_inner < 0:
-                    cur_inner = n_p
-                    kind[n_p] = INNER_EDGE
-                    n_p += 1
-                piece_of[q] = cur_inner
-            else:
-                kind[n_p] = SINGLE
-                piece_of[q] = n_p
-                n_p += 1
+            cls = SINGLE
+        if cls == SINGLE or cur[cls] < 0:
+            kind[n_p] = cls
+            if cls != SINGLE:
+                cur[cls] = n_p
+            piece_of[q] = n_p
+            n_p += 1
+        else:
+            piece_of[q] = cur[cls]
         kp = k
         k = kn
     return n_p

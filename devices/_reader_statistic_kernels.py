@@ -70,3 +70,89 @@ def piece_map_kernel(n, i_first, start, elements_per_sample, m, n_elements, piec
         kp = k
         k = kn
     return n_p
+
+
+@njit
+def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut_edge, cut_before, cut_after):
+    """The steady pieces the measurement's block edges cut (:mod:`rfsim.devices.reader_statistic`
+    step 4). ``s``: the reference reply from sample ``i0`` of the input (0 outside the reply);
+    the measurement reads the samples strictly inside its first and last non-zero sample whose
+    two neighbours carry the same level (:func:`rfsim.devices._reader_kernels.measure_kernel`),
+    block k starting at the floor(k·m/K)-th of those m samples. For each edge k = 1 … K − 1 at a
+    sample ≥ ``b1`` (the first sample of the pieces) inside a STEADY piece with members on both
+    sides (searched within ±``reach`` samples): the piece, the edge (index from ``b1``) and its
+    numbers of members before and after the edge, into the ``cut_*`` arrays (K − 1). Returns
+    ``(m, number of cuts)``."""
+    n = s.size
+    first = 0
+    while first < n and s[first] == 0.0:
+        first += 1
+    if first == n:
+        return 0, 0
+    last = n - 1
+    while s[last] == 0.0:
+        last -= 1
+    m = 0
+    for i in range(first + 1, last):
+        m += (s[i] == s[i - 1]) & (s[i] == s[i + 1])
+    n_cuts = 0
+    count = 0
+    k = 1
+    target = m // n_blocks if m > 0 else -1
+    for i in range(first + 1, last):
+        if not ((s[i] == s[i - 1]) & (s[i] == s[i + 1])):
+            continue
+        while k < n_blocks and count == target:
+            e = i0 + i - b1
+            if e >= 0 and kind[piece_of[e]] == STEADY:
+                p = piece_of[e]
+                before = 0
+                after = 0
+                for q in range(max(0, e - reach), min(piece_of.size, e + reach)):
+                    if piece_of[q] == p:
+                        if q < e:
+                            before += 1
+                        else:
+                            after += 1
+                if before > 0 and after > 0:
+                    cut_piece[n_cuts] = p
+                    cut_edge[n_cuts] = e
+                    cut_before[n_cuts] = before
+                    cut_after[n_cuts] = after
+                    n_cuts += 1
+            k += 1
+            target = k * m // n_blocks
+        count += 1
+    return m, n_cuts
+
+
+@njit
+def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
+    """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place)."""
+    for q in range(piece_of.size):
+        p = piece_of[q]
+        r[b1 + q] += sign[q] * (sums[p] / sizes[p])
+
+
+@njit
+def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, reach, part_a, part_b):
+    """Respread every cut piece: its members before the edge carry ``part_a``, after it
+    ``part_b`` (each over its own members) instead of the whole piece's sum, in place."""
+    for c in range(cut_piece.size):
+        p = cut_piece[c]
+        e = cut_edge[c]
+        n_a = 0
+        n_b = 0
+        lo = max(0, e - reach)
+        hi = min(piece_of.size, e + reach)
+        for q in range(lo, hi):
+            if piece_of[q] == p:
+                if q < e:
+                    n_a += 1
+                else:
+                    n_b += 1
+        mean = sums[p] / sizes[p]
+        for q in range(lo, hi):
+            if piece_of[q] == p:
+                part = part_a[c] / n_a if q < e else part_b[c] / n_b
+                r[b1 + q] += sign[q] * (part - mean)

@@ -87,12 +87,12 @@ from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.capture import fit_gain_offset
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s
-from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult, known_levels, steady
+from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult, known_levels
 
 _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
 
 __all__ = ["RX_MODELS", "SEARCH_MARGIN", "piece_map", "draw_piece_sums", "spread", "bridge_split",
-           "residual_correction", "receive"]
+           "block_cuts", "residual_correction", "receive"]
 
 #: Receiver models of ``ReaderConfig.rx_model``.
 RX_MODELS = ("sample", "statistic")
@@ -232,7 +232,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     piece_of, sign, kind = piece_map(x.size, b1, start, ratio, lk.m, n_el)
     sizes = np.bincount(piece_of, minlength=kind.size)
     sums = draw_piece_sums(sizes, sigma2, rng=rng)
-    r[b1:] += spread(piece_of, sign, sums, sizes)
+    _sk.spread_add_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64))
     r = r - (r[:lo].mean() if lo >= 8 else 0.0)
     det = decode_reply(r[lo:], start_sample=start_rel, **kw)
     start_s = float(t0_s) + start / fs
@@ -262,34 +262,33 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
 
 
 def _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng) -> tuple[int, int]:
-    """Steps 4 and 6 of the module docstring on ``r`` (in place): the steady samples of the
-    reference ``s`` (from ``r[i0]``) as the measurement kernel selects them, the steady pieces cut
-    by its block edges split by a bridge and spread again. Returns (Σ(|p| − 1) over the steady
-    pieces, all of which the measurement reads; the number of samples it reads)."""
-    nz = np.flatnonzero(s)
-    if nz.size == 0:
-        return 0, 0
-    used = np.flatnonzero(steady(s[nz[0]: nz[-1] + 1])) + (i0 + nz[0])  # the measurement's samples, in order
-    n_used = used.size
+    """Steps 4 and 6 of the module docstring on ``r`` (in place): the steady pieces cut by the
+    measurement's block edges (:func:`block_cuts`) split by a bridge and spread again. Returns
+    (Σ(|p| − 1) over the steady pieces, all of which the measurement reads, less one per cut;
+    the number of samples the measurement reads)."""
     is_steady = kind == _sk.STEADY
     n_free = int(np.sum(sizes[is_steady] - 1))
-    edges = used[np.arange(1, DOPPLER_BLOCKS) * n_used // DOPPLER_BLOCKS] - b1 if n_used else used[:0]
-    cuts = []  # (piece, its samples before the edge, after it)
-    reach = int(np.max(sizes[is_steady], initial=0)) * 8 + 8  # a steady piece lies within one half-bit
-    for e in edges[edges >= 0].tolist():
-        p = piece_of[e]
-        if not is_steady[p]:
-            continue
-        w0 = max(0, e - reach)
-        members = np.flatnonzero(piece_of[w0: e + reach] == p) + w0
-        k = int(np.searchsorted(members, e))
-        if 0 < k < members.size:
-            cuts.append((p, members[:k], members[k:]))
-    if cuts:
-        a, b = bridge_split(sums[[c[0] for c in cuts]], [c[1].size for c in cuts], [c[2].size for c in cuts],
-                            sigma2, rng=rng)
-        for q, (p, before, after) in enumerate(cuts):
-            r[b1 + before] += sign[before] * (a[q] / before.size - sums[p] / sizes[p])
-            r[b1 + after] += sign[after] * (b[q] / after.size - sums[p] / sizes[p])
-        n_free -= len(cuts)  # per cut: one more sum drawn, one fewer degree of freedom inside
-    return n_free, n_used
+    reach = _reach(sizes, is_steady)
+    n_used, piece, edge, n_a, n_b = block_cuts(s, i0, b1, piece_of, kind, reach)
+    if piece.size:
+        a, b = bridge_split(sums[piece], n_a, n_b, sigma2, rng=rng)
+        _sk.apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64), piece, edge, reach, a, b)
+    return n_free - piece.size, n_used  # per cut: one more sum drawn, one fewer degree of freedom inside
+
+
+def _reach(sizes: np.ndarray, is_steady: np.ndarray) -> int:
+    """Samples around a block edge within which a steady piece's members lie: a steady piece
+    lies within one half-bit, whose samples are at most 8 times its steady ones (plus 8)."""
+    return int(np.max(sizes[is_steady], initial=0)) * 8 + 8
+
+
+def block_cuts(s: np.ndarray, i0: int, b1: int, piece_of: np.ndarray, kind: np.ndarray,
+               reach: int) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The measurement's block edges that cut a steady piece (numba kernel; module docstring
+    step 4): ``(samples the measurement reads, piece, edge (from b1), members before, after)``,
+    the arrays ``(n_cuts,)`` int64. ``s``: the reference reply from sample ``i0`` of the input."""
+    k = DOPPLER_BLOCKS - 1
+    out = [np.empty(k, np.int64) for _ in range(4)]
+    n_used, n = _sk.block_cuts_kernel(np.ascontiguousarray(s, dtype=np.float64), int(i0), int(b1), piece_of, kind,
+                                      DOPPLER_BLOCKS, int(reach), *out)
+    return int(n_used), *(o[:n] for o in out)

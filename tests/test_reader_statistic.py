@@ -25,7 +25,8 @@ from rfsim.core.errors import ConfigError
 from rfsim.devices import reader_statistic as rs
 from rfsim.devices.reader import ReaderConfig
 from rfsim.gen2._linecode_kernels import INDEX_EPS
-from reference.devices_reader_statistic import piece_map_reference
+from reference.ulp import assert_close_ulp
+from reference.devices_reader_statistic import block_cuts_reference, piece_map_reference
 
 import statistic_trials as trials
 
@@ -113,6 +114,43 @@ def test_spread_noise_gives_every_functional_of_the_receiver_its_exact_value(m):
     rest = steady & (k >= n_el)
     assert rest.sum() > 5
     np.testing.assert_allclose(np.sum(spread[rest]), np.sum(noise[rest]), atol=tol)
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_block_cuts_and_spread_kernels_match_reference(m):
+    """The measurement's block edges in the steady pieces (kernel) against the NumPy twin, on
+    random replies; the in-place spread against :func:`spread`."""
+    from rfsim.devices import _reader_statistic_kernels as sk
+    from rfsim.devices.reader_measure import DOPPLER_BLOCKS
+
+    rng = np.random.default_rng(20 + m)
+    n_cut = 0
+    for _ in range(10):
+        ratio, start, n_half = rng.uniform(0.1, 0.3), rng.uniform(5, 9), 2 * int(rng.integers(20, 60))
+        n_el = n_half * m
+        n = int(start + n_el / ratio) + 12
+        b1 = int(rng.integers(int(start) + 2, int(start) + 30))
+        piece_of, sign, kind = rs.piece_map(n, b1, start, ratio, m, n_el)
+        sizes = np.bincount(piece_of, minlength=kind.size)
+        k = _elements(n, start, ratio)
+        half = np.where((k >= 0) & (k < n_el), k // m, -1)
+        sig = np.where((m > 1) & (k >= 0) & (k % 2 == 1), -1.0, 1.0)
+        s = np.where(half >= 0, rng.choice([-1.0, 1.0], n_half)[np.maximum(half, 0)] * sig, 0.0)
+        i0 = int(start) - 1
+        got = rs.block_cuts(s[i0:], i0, b1, piece_of, kind, 10**6)
+        want = block_cuts_reference(s[i0:], i0, b1, piece_of, kind, DOPPLER_BLOCKS)
+        assert got[0] == want[0]
+        for g, w in zip(got[1:], want[1:]):
+            np.testing.assert_array_equal(g, w)
+        n_cut += got[1].size
+        sums = rng.standard_normal(kind.size) + 1j * rng.standard_normal(kind.size)
+        r = np.zeros(n, np.complex128)
+        sk.spread_add_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64))
+        # P/|p|: numba divides each part by the real |p| (one rounding), NumPy divides by the
+        # complex |p| + 0j (Smith's algorithm: a ratio, a product, a sum and a division, ≤ 4
+        # roundings per part); the sign is exact: ≤ 4 ULP
+        assert_close_ulp(r[b1:], rs.spread(piece_of, sign, sums, sizes), 4)
+    assert n_cut > 0  # edges did fall inside steady pieces
 
 
 def test_bridge_split_has_the_conditional_law_of_partial_sums():

@@ -43,3 +43,27 @@ def piece_map_reference(n, i_first, start, elements_per_sample, m, n_elements):
             kinds.append({"steady": STEADY, "inner": INNER_EDGE, "single": SINGLE, "rest": REST}[key[0]])
         piece_of[q] = number[key]
     return piece_of, np.array(signs), np.array(kinds, dtype=np.int64)
+
+
+def block_cuts_reference(s, i0, b1, piece_of, kind, n_blocks):
+    """``(m, piece, edge, before, after)`` as :func:`rfsim.devices.reader_statistic.block_cuts`:
+    the measurement's samples by :func:`rfsim.devices.reader_measure.steady`, its block edges,
+    the steady pieces with members on both sides of an edge (searched over the whole map)."""
+    from rfsim.devices.reader_measure import steady
+
+    nz = np.flatnonzero(s)
+    if nz.size == 0:
+        return 0, *(np.zeros(0, np.int64) for _ in range(4))
+    used = np.flatnonzero(steady(s[nz[0]: nz[-1] + 1])) + nz[0] + i0
+    m = used.size
+    rows = []
+    for k in range(1, n_blocks):
+        e = used[k * m // n_blocks] - b1 if m else -1
+        if e < 0 or kind[piece_of[e]] != STEADY:
+            continue
+        members = np.flatnonzero(piece_of == piece_of[e])
+        before, after = int(np.sum(members < e)), int(np.sum(members >= e))
+        if before and after:
+            rows.append((piece_of[e], e, before, after))
+    cols = np.array(rows, dtype=np.int64).reshape(-1, 4).T
+    return m, *cols

@@ -68,12 +68,18 @@ Step by step (the steps of :meth:`Reader.receive`):
 
 Noise stream: the air adds no noise to a statistic-level reader's input (its
 :meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator,
-spawned from the reader's ``rng`` when the reader is made, so a run is reproducible from its
-seed, but its records differ from the sample-level model draw by draw (the same distribution).
+spawned from the reader's ``rng`` when the reader is made, in the order of its ``receive``
+calls, so a run is reproducible from its seed, but its records differ from the sample-level
+model draw by draw (the same distribution).
 
-Cost: noise normals ≈ 2·(search block + 4 per half-bit) instead of 2 per sample read (≈ 5×
-fewer for an EPC reply at Miller-4, 320 kHz, 4 MS/s); the receiver's own passes over the samples
-are those of the sample-level receiver plus a second call of the decoder at the found start.
+Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
+320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
+(the sample-level decoder and measurement on ``x + ñ``, the piece map, the spread, the block
+cuts) and calls the decoder twice; on the canonical exchange these cost more than the normals
+saved (``rfsim bench exchange-statistic``), so this model is an equivalent draw of the same
+receiver, not a faster one. A faster one would form the half-bit, block and fit sums of ``x``
+per piece without per-sample passes and replace the search block's per-sample draw by a draw of
+the searched lags' correlations (conditionally Gaussian given the integer-lag ones).
 """
 
 from __future__ import annotations

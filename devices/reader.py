@@ -52,6 +52,7 @@ from rfsim.devices.reader_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchD
                                          rn16_threshold_db, search_decode, search_result as _search_result,
                                          search_setup as _search_setup)
 from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
+from rfsim.devices import reader_statistic as _statistic
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -116,6 +117,8 @@ class Reader(PieTransmitter):
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),
         #: used for the EPC reply that follows; cleared by the next reply decoded
         self._rn16_blf_hz: float | None = None
+        #: ``rx_model = "statistic"``: the receiver's own noise stream (rfsim.devices.reader_statistic)
+        self._rx_rng = rng.spawn(1)[0] if self.config.rx_model == "statistic" else None
 
     # ------------------------------------------------------------------ plan, antennas
 
@@ -162,8 +165,9 @@ class Reader(PieTransmitter):
         return d
 
     def noise_power_w(self) -> float:
-        """Receiver noise power per complex sample [W]: k·T0·fs·F (kTB·NF over B = fs)."""
-        return self._fixed()[2]
+        """Receiver noise power per complex sample [W]: k·T0·fs·F (kTB·NF over B = fs); 0 with
+        ``rx_model = "statistic"`` (the air adds none: the receiver draws its own)."""
+        return 0.0 if self._rx_rng is not None else self._fixed()[2]
 
     def leakage_gain(self) -> complex:
         """TX→RX leakage as a complex amplitude: 10^(−isolation/20)·e^{j·LEAKAGE_PHASE_RAD}."""
@@ -268,6 +272,9 @@ class Reader(PieTransmitter):
            estimate is unambiguous for |f_D| < K/(2T). Decoding itself assumes a constant h
            over the reply (phase drift |f_D|·T ≲ 1/8 cycle).
         """
+        if self._rx_rng is not None:  # rx is noise-free: rfsim.devices.reader_statistic
+            return _statistic.receive(self, rx, t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+                                      blf_hz=blf_hz, carrier=carrier, rng=self._rx_rng)
         rx = np.ascontiguousarray(rx, dtype=np.complex128)
         if rx.ndim != 1:
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")

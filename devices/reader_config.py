@@ -56,6 +56,10 @@ class ReaderConfig:
     rn16_false_accept: float = param(0.0, lo=0.0, hi=0.5, hi_open=True,
                                      doc="RN16 acceptance: stated probability that an accepted RN16 is wrong, sets "
                                          "the Eb/N0 threshold (0: no gate, every detected RN16 is ACKed)")
+    rx_model: Literal["sample", "statistic"] = param(
+        "sample", doc="receiver noise model: 'sample' draws noise per sample; 'statistic' draws the statistics the "
+                      "receiver reads, same distribution, fewer draws (rfsim.devices.reader_statistic; "
+                      "needs blf_search 'off')")
 
     def __post_init__(self):
         try:  # checked when the config is loaded, so the message names this key
@@ -68,6 +72,11 @@ class ReaderConfig:
         if self.rn16_false_accept > 0 and self.blf_search != "preamble":
             raise ConfigError("reader.rn16_false_accept", self.rn16_false_accept,
                               "0 unless reader.blf_search = 'preamble' (its decoder computes the statistic)")
+        if self.rx_model not in ("sample", "statistic"):
+            raise ConfigError("reader.rx_model", self.rx_model, "one of 'sample', 'statistic'")
+        if self.rx_model == "statistic" and self.blf_search != "off":
+            raise ConfigError("reader.rx_model", self.rx_model,
+                              "'sample' with reader.blf_search = 'preamble' ('statistic' needs blf_search 'off')")
 
 
 __all__ = ["ReaderConfig", "frequency_plan"]

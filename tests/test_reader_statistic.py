@@ -1,0 +1,316 @@
+"""The statistic-level receiver model (``reader.rx_model = "statistic"``,
+:mod:`rfsim.devices.reader_statistic`) against the sample-level receiver and against its own
+definition.
+
+Equivalence (tests/statistic_trials.py): the same synthetic replies received by both models
+over N trials per point; each summary (P(detected), packet success, BER, P(capture), RSSI and
+phase mean and standard deviation) must agree within a two-sample interval from the trial
+count: |p̂₁ − p̂₂| ≤ Z·√(p̄(1 − p̄)·2/N) + 1/N for proportions (normal approximation, p̄ the pooled
+estimate); |m̂₁ − m̂₂| ≤ Z·√(s₁²/N₁ + s₂²/N₂) for means (the BER as the mean of the bit errors per
+detected reply over the reply's bits: errors come in bursts, a reply is one trial); |ln(s₁/s₂)| ≤ Z·√(1/(2(N₁−1)) + 1/(2(N₂−1)))
+for standard deviations. Z = 4 (two-sided 6e−5 per comparison: with ≈ 60 comparisons in the
+slow tier a false failure has probability ≈ 4e−3). The default tier runs N = 300 per point at a
+few points; the slow tier N = 10,000 per point over BER/PER vs Eb/N0 for FM0 and Miller-2/4/8,
+P(detected) near the detection threshold, P(capture) at 0/3/6 dB.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from rfsim.core.errors import ConfigError
+from rfsim.devices import reader_statistic as rs
+from rfsim.devices.reader import ReaderConfig
+from rfsim.gen2._linecode_kernels import INDEX_EPS
+from reference.ulp import assert_close_ulp
+from reference.devices_reader_statistic import block_cuts_reference, piece_map_reference
+
+import statistic_trials as trials
+
+Z = 4.0
+
+
+# ----------------------------------------------------------------------------- configuration
+
+
+def test_rx_model_default_is_sample_and_bad_values_are_one_line_errors():
+    assert ReaderConfig().rx_model == "sample"
+    with pytest.raises(ConfigError) as err:
+        ReaderConfig(rx_model="stats")
+    msg = str(err.value)
+    assert "reader.rx_model" in msg and "'stats'" in msg and "'statistic'" in msg and "\n" not in msg
+    with pytest.raises(ConfigError, match="blf_search"):
+        ReaderConfig(rx_model="statistic", blf_search="preamble")
+
+
+def test_statistic_reader_adds_no_air_noise_and_sample_reader_does():
+    sample = trials.make_reader(4, "sample", 1)
+    stat = trials.make_reader(4, "statistic", 1)
+    assert stat.noise_power_w() == 0.0
+    assert sample.noise_power_w() == pytest.approx(1.380649e-23 * 290.0 * 4e6 * 10.0, rel=1e-9)
+
+
+# ----------------------------------------------------------------------------- pieces
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_piece_map_matches_reference(m):
+    rng = np.random.default_rng(m)
+    n_checked = 0
+    for _ in range(20):
+        ratio = rng.uniform(0.05, 0.45)
+        start = rng.uniform(10, 30)
+        n_el = 2 * m * int(rng.integers(10, 40))
+        n = int(start + n_el / ratio) + int(rng.integers(3, 20))
+        i_first = int(rng.integers(int(start) + 1, int(start) + 60))
+        got = rs.piece_map(n, i_first, start, ratio, m, n_el)
+        want = piece_map_reference(n, i_first, start, ratio, m, n_el)
+        for g, w in zip(got, want):  # the same exactly-rounded arithmetic on both sides
+            np.testing.assert_array_equal(g, w)
+        n_checked += 1
+    assert n_checked == 20
+
+
+def _elements(n, start, ratio):
+    u = (np.arange(n) - start) * ratio
+    return np.where(u < 0, -1, np.floor(u + INDEX_EPS)).astype(np.int64)
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_spread_noise_gives_every_functional_of_the_receiver_its_exact_value(m):
+    """On white noise n, the pieces' sums spread over the pieces (ñ) give the same half-bit sums
+    Σσ_i·n_i, the same measurement sums Σ_steady s_i·n_i for any decoded levels, and the same rest
+    sum as n itself: the receiver cannot tell ñ from n."""
+    rng = np.random.default_rng(10 + m)
+    ratio, start, n_half = 0.16 if m > 1 else 0.32, 17.3, 2 * 40
+    n_el = n_half * m
+    n = int(start + n_el / ratio) + 15
+    i_first = 40
+    noise = rng.standard_normal(n) + 1j * rng.standard_normal(n)
+    piece_of, sign, kind = rs.piece_map(n, i_first, start, ratio, m, n_el)
+    sizes = np.bincount(piece_of, minlength=kind.size)
+    sums = np.bincount(piece_of, sign * noise[i_first:].real, kind.size) + 1j * np.bincount(
+        piece_of, sign * noise[i_first:].imag, kind.size)
+    spread = noise.copy()
+    spread[i_first:] = rs.spread(piece_of, sign, sums, sizes)
+    k = _elements(n, start, ratio)
+    sig = np.where((m > 1) & (k >= 0) & (k % 2 == 1), -1.0, 1.0)
+    half = np.where((k >= 0) & (k < n_el), k // m, -1)
+    levels = rng.choice([-1.0, 1.0], n_half)
+    s = np.where(half >= 0, levels[np.maximum(half, 0)] * sig, 0.0)  # a reference reply, 0 outside
+    lev = np.where(s == 0, -1.0, s)
+    steady = np.zeros(n, bool)
+    steady[1:-1] = (lev[1:-1] == lev[:-2]) & (lev[1:-1] == lev[2:])
+    tol = 1e-12 * n  # sums of n terms of order 1 in a different order
+    for j in range(n_half):
+        sel = half == j
+        np.testing.assert_allclose(np.sum(sig[sel] * spread[sel]), np.sum(sig[sel] * noise[sel]), atol=tol)
+    # any set of whole half-bits (a block edge inside a piece is the bridge's: tested below)
+    for ranges in (steady & (half >= 0) & (half < n_half // 3), steady & (half >= n_half // 3)):
+        np.testing.assert_allclose(np.sum(s[ranges] * spread[ranges]), np.sum(s[ranges] * noise[ranges]), atol=tol)
+    rest = steady & (k >= n_el)
+    assert rest.sum() > 5
+    np.testing.assert_allclose(np.sum(spread[rest]), np.sum(noise[rest]), atol=tol)
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_block_cuts_and_spread_kernels_match_reference(m):
+    """The measurement's block edges in the steady pieces (kernel) against the NumPy twin, on
+    random replies; the in-place spread against :func:`spread`."""
+    from rfsim.devices import _reader_statistic_kernels as sk
+    from rfsim.devices.reader_measure import DOPPLER_BLOCKS
+
+    rng = np.random.default_rng(20 + m)
+    n_cut = 0
+    for _ in range(10):
+        ratio, start, n_half = rng.uniform(0.1, 0.3), rng.uniform(5, 9), 2 * int(rng.integers(20, 60))
+        n_el = n_half * m
+        n = int(start + n_el / ratio) + 12
+        b1 = int(rng.integers(int(start) + 2, int(start) + 30))
+        piece_of, sign, kind = rs.piece_map(n, b1, start, ratio, m, n_el)
+        sizes = np.bincount(piece_of, minlength=kind.size)
+        k = _elements(n, start, ratio)
+        half = np.where((k >= 0) & (k < n_el), k // m, -1)
+        sig = np.where((m > 1) & (k >= 0) & (k % 2 == 1), -1.0, 1.0)
+        s = np.where(half >= 0, rng.choice([-1.0, 1.0], n_half)[np.maximum(half, 0)] * sig, 0.0)
+        i0 = int(start) - 1
+        got = rs.block_cuts(s[i0:], i0, b1, piece_of, kind, 10**6)
+        want = block_cuts_reference(s[i0:], i0, b1, piece_of, kind, DOPPLER_BLOCKS)
+        assert got[0] == want[0]
+        for g, w in zip(got[1:], want[1:]):
+            np.testing.assert_array_equal(g, w)
+        n_cut += got[1].size
+        sums = rng.standard_normal(kind.size) + 1j * rng.standard_normal(kind.size)
+        r = np.zeros(n, np.complex128)
+        sk.spread_add_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64))
+        # P/|p|: numba divides each part by the real |p| (one rounding), NumPy divides by the
+        # complex |p| + 0j (Smith's algorithm: a ratio, a product, a sum and a division, ≤ 4
+        # roundings per part); the sign is exact: ≤ 4 ULP
+        assert_close_ulp(r[b1:], rs.spread(piece_of, sign, sums, sizes), 4)
+    assert n_cut > 0  # edges did fall inside steady pieces
+
+
+def test_bridge_split_has_the_conditional_law_of_partial_sums():
+    """(A, B) given A + B = T for independent A ~ CN(0, σ²·a), B ~ CN(0, σ²·b): E[A | T] = T·a/(a+b),
+    Var(Re A | T) = σ²·a·b/(2(a + b)); N = 40,000 draws, means within Z standard errors, variance
+    within Z·√(2/N) relative."""
+    rng = np.random.default_rng(5)
+    n, a, b, sigma2 = 40_000, 7, 13, 2.5
+    total = np.full(n, 3.0 - 1.0j)
+    xa, xb = rs.bridge_split(total, np.full(n, a), np.full(n, b), sigma2, rng=rng)
+    np.testing.assert_allclose(xa + xb, total, atol=1e-12)
+    var = sigma2 * a * b / (2 * (a + b))
+    se = math.sqrt(var / n)
+    assert abs(xa.real.mean() - 3.0 * a / (a + b)) < Z * se
+    assert abs(xa.imag.mean() + 1.0 * a / (a + b)) < Z * se
+    assert abs(xa.real.var() / var - 1) < Z * math.sqrt(2 / n)
+    assert abs(xa.imag.var() / var - 1) < Z * math.sqrt(2 / n)
+
+
+# ----------------------------------------------------------------------------- equivalence
+
+
+def proportion_close(p1: float, p2: float, n: int) -> tuple[bool, float]:
+    """Two-sample test of two proportions from n trials each (module docstring)."""
+    p = 0.5 * (p1 + p2)
+    tol = Z * math.sqrt(p * (1 - p) * 2 / n) + 1.0 / n
+    return abs(p1 - p2) <= tol, tol
+
+
+def mean_close(x1, x2) -> tuple[bool, float]:
+    x1, x2 = x1[np.isfinite(x1)], x2[np.isfinite(x2)]
+    tol = Z * math.sqrt(x1.var(ddof=1) / x1.size + x2.var(ddof=1) / x2.size)
+    return abs(x1.mean() - x2.mean()) <= tol, tol
+
+
+def std_close(x1, x2) -> tuple[bool, float]:
+    x1, x2 = x1[np.isfinite(x1)], x2[np.isfinite(x2)]
+    tol = Z * math.sqrt(1 / (2 * (x1.size - 1)) + 1 / (2 * (x2.size - 1)))
+    return abs(math.log(x1.std(ddof=1) / x2.std(ddof=1))) <= tol, tol
+
+
+def compare(m: int, n: int, *, ebn0_db: float, seed: int, second_db: float | None = None,
+            measurements: bool = False) -> list[tuple]:
+    """Rows ``(quantity, sample-level value, statistic-level value, tolerance, within)`` of every
+    summary of one point (module docstring), each printed (``pytest -s`` shows the table)."""
+    a = trials.run(m, "sample", n, ebn0_db=ebn0_db, seed=seed, second_db=second_db)
+    b = trials.run(m, "statistic", n, ebn0_db=ebn0_db, seed=seed + 1, second_db=second_db)
+    bits = trials.PAYLOAD_BITS + 16
+    point = f"M={m} Eb/N0={ebn0_db:g} dB" + ("" if second_db is None else f" second tag -{second_db:g} dB")
+    rows = []
+    for name in ("detected", "success", "captured"):
+        p1, p2 = getattr(a, name).mean(), getattr(b, name).mean()
+        rows.append((name, p1, p2, *proportion_close(p1, p2, n)[::-1]))
+    # BER: bit errors per detected reply (errors come in bursts: the reply is the trial), as a mean
+    ok, tol = mean_close(a.bit_errors, b.bit_errors)
+    rows.append(("ber", np.nanmean(a.bit_errors) / bits, np.nanmean(b.bit_errors) / bits, tol / bits, ok))
+    if measurements:  # over the successful reads
+        ok_a, ok_b = a.success > 0, b.success > 0
+        err = [np.angle(np.exp(1j * (o.phase_rad[k] + trials.PHASE_RAD))) for o, k in ((a, ok_a), (b, ok_b))]
+        # a read decoded from a start one Miller element off (the pilot is periodic; Miller
+        # decisions do not depend on the sign) measures −h: its phase is π off. The rate of
+        # these is compared as a proportion, the phase of the others by mean and std.
+        flip = [np.abs(e) > 0.5 * math.pi for e in err]
+        p1, p2 = flip[0].mean(), flip[1].mean()
+        rows.append(("phase flipped by pi", p1, p2, *proportion_close(p1, p2, min(ok_a.sum(), ok_b.sum()))[::-1]))
+        for name, x1, x2 in (("rssi_dbm", a.rssi_dbm[ok_a], b.rssi_dbm[ok_b]),
+                             ("phase_err_rad", err[0][~flip[0]], err[1][~flip[1]])):
+            ok, tol = mean_close(x1, x2)
+            rows.append((name + " mean", x1.mean(), x2.mean(), tol, ok))
+            ok, tol = std_close(x1, x2)
+            rows.append((name + " std", x1.std(ddof=1), x2.std(ddof=1), tol, ok))
+    for q, v1, v2, tol, ok in rows:
+        print(f"{point} N={n} | {q} | {v1:.5g} | {v2:.5g} | {tol:.3g} | {'ok' if ok else 'OUTSIDE'}")
+    return [r for r in rows if not r[4]]
+
+
+@pytest.mark.parametrize("m, ebn0_db", [(4, 7.0), (1, 8.0)])
+def test_statistic_receiver_matches_sample_receiver(m, ebn0_db):
+    assert compare(m, 300, ebn0_db=ebn0_db, seed=100 + m, measurements=True) == []
+
+
+def test_statistic_receiver_matches_sample_receiver_under_capture():
+    assert compare(4, 300, ebn0_db=20.0, seed=200, second_db=3.0) == []
+
+
+#: Slow-tier points: BER/packet error where the packet error is between ≈ 0.1 and 0.9 (FM0,
+#: Miller-2/4/8), P(detected) near its midpoint, RSSI/phase at the higher Eb/N0.
+SLOW_POINTS = [(1, 6.0), (1, 8.0), (2, 6.0), (2, 8.0), (4, 6.0), (4, 8.0), (8, 6.0), (8, 8.0),
+               (1, 2.0), (2, -4.0), (4, 0.0), (8, 0.0)]
+N_SLOW = 10_000
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("m, ebn0_db", SLOW_POINTS)
+def test_statistic_receiver_matches_sample_receiver_slow(m, ebn0_db):
+    assert compare(m, N_SLOW, ebn0_db=ebn0_db, seed=1000 + 10 * m, measurements=ebn0_db == 8.0) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("second_db", [0.0, 3.0, 6.0])
+def test_statistic_receiver_matches_sample_receiver_under_capture_slow(second_db):
+    assert compare(4, N_SLOW, ebn0_db=20.0, seed=2000 + int(second_db), second_db=second_db) == []
+
+
+# ----------------------------------------------------------------------------- through the engine
+
+
+def _singulations(rx_model: str, n_rounds: int, distance_m: float) -> list:
+    """Rounds of the link scenario's singulation (Query → RN16 → ACK → EPC) at ``distance_m``,
+    round r's channel drawn from ``trial_rng(3, 2, r)`` (the same draws for either model: the
+    statistic-level reader's noise does not come from that stream)."""
+    from rfsim.channels import Channel
+    from rfsim.core.rng import trial_rng
+    from rfsim.devices.reader import Reader
+    from rfsim.devices.tag import PassiveTag, TagConfig
+    from rfsim.gen2.commands import Query
+    from rfsim.protocols.engine import singulate
+    from rfsim.scenarios import link
+
+    cfg = link.Config()
+    reader = Reader(ReaderConfig(rx_model=rx_model), [link.reader_antenna(cfg.geometry)], rng=trial_rng(3, 0))
+    tag = PassiveTag(TagConfig(), link.tag_antenna(cfg.geometry, distance_m), rng=trial_rng(3, 1))
+    channel = Channel(link.scene(cfg.channel))
+    lk = reader.link
+    return [singulate(reader, [tag], channel, t_s=r * 20e-3, rng=trial_rng(3, 2, r), round_index=r,
+                      query=Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0, target="AB"[r % 2]))
+            for r in range(n_rounds)]
+
+
+def test_engine_rounds_read_alike_with_either_model():
+    """At 3 m (SNR ≈ 60 dB) every round reads with either model, and per round the RSSI and
+    phase agree to the noise's size (σ of the RSSI ≈ 4.3/√(2·E/N0) dB ≪ 0.01 dB, of the phase
+    ≪ 1e−3 rad): the statistic-level reader got the same noise-free input plus its own noise."""
+    a, b = _singulations("sample", 6, 3.0), _singulations("statistic", 6, 3.0)
+    assert all(ex[-1].command == "ACK" and ex[-1].read.success for ex in a + b)
+    for ea, eb in zip(a, b):
+        ra, rb = ea[-1].read, eb[-1].read
+        assert abs(ra.rssi_dbm - rb.rssi_dbm) < 0.01
+        assert abs(np.angle(np.exp(1j * (ra.phase_rad - rb.phase_rad)))) < 1e-3
+        assert ra.rssi_dbm != rb.rssi_dbm  # different noise draws
+
+
+def test_reader_scenarios_take_the_key():
+    """``reader.rx_model`` is a key of the ``link``, ``detection-probability`` and
+    ``reader-detection`` configs (the reader section), loaded and validated like every other key."""
+    from rfsim.core.config import from_dict
+    from rfsim.scenarios import detection_probability, link, reader_detection
+
+    for module in (link, detection_probability, reader_detection):
+        cfg = from_dict(module.Config, {"reader": {"rx_model": "statistic"}})
+        assert cfg.reader.rx_model == "statistic"
+        with pytest.raises(ConfigError, match="rx_model"):
+            from_dict(module.Config, {"reader": {"rx_model": "exact"}})
+
+
+def test_link_scenario_runs_with_the_statistic_receiver():
+    from rfsim.scenarios import link
+
+    cfg = link.Config(geometry=link.GeometryConfig(distances_m=(1.0, 2.0)), rounds_per_point=3,
+                      reader=ReaderConfig(rx_model="statistic"))
+    ds = link.run(cfg, seed=1)
+    success = np.asarray(ds.tables["reads"]["success"].data)
+    assert success.size == 6 and success.all()

@@ -164,9 +164,20 @@ def _names(entries: list, key: str, default: str) -> tuple[str, ...]:
     return tuple(names)
 
 
+def _checked(cls, table: dict, prefix: str):
+    """``from_dict`` whose errors name ``<prefix>.<key>`` also for the checks a device config
+    makes of itself (which name the key in their own namespace)."""
+    try:
+        return from_dict(cls, table, prefix=prefix)
+    except ConfigError as err:
+        if err.key.startswith(prefix + ".") and err.key[len(prefix) + 1:].split(".")[0] in _fields(cls):
+            raise
+        raise ConfigError(f"{prefix}.{err.key.rsplit('.', 1)[-1]}", err.value, err.allowed) from None
+
+
 def _two(cls_a, cls_b, table: dict, prefix: str, split):
     a, b = split(table, _fields(cls_a), _fields(cls_b), prefix)
-    return from_dict(cls_a, a, prefix=prefix), from_dict(cls_b, b, prefix=prefix)
+    return _checked(cls_a, a, prefix), _checked(cls_b, b, prefix)
 
 
 def _fields(cls) -> set[str]:
@@ -181,13 +192,16 @@ def parse_devices(data: dict, split) -> DeviceSpec:
     exciters = tuple(_two(ExciterConfig, ExciterPose, e, f"exciter[{i}]", split) for i, e in enumerate(ex))
     st = [dict(e) for e in _entries(data.get("sense_a_tag"), "sense_a_tag")]
     st_names = _names(st, "sense_a_tag", "ST")
-    sts = tuple(from_dict(SenseATagSpec, e, prefix=f"sense_a_tag[{i}]") for i, e in enumerate(st))
+    sts = tuple(_checked(SenseATagSpec, e, f"sense_a_tag[{i}]") for i, e in enumerate(st))
     fr = data.get("frame", {})
     if not isinstance(fr, dict):
         raise ConfigError("frame", fr, "a table")
     fr = dict(fr)
-    noise = from_dict(NoiseConfig, {k[len("noise_"):]: fr.pop(k) for k in list(fr) if k.startswith("noise_")},
-                      prefix="frame.noise")
+    try:
+        noise = from_dict(NoiseConfig, {k[len("noise_"):]: fr.pop(k) for k in list(fr) if k.startswith("noise_")},
+                          prefix="frame")
+    except ConfigError as err:  # the file's keys are frame.noise_<key>
+        raise ConfigError(f"frame.noise_{err.key.rsplit('.', 1)[-1]}", err.value, err.allowed) from None
     frame = from_dict(FrameConfig, fr, prefix="frame")
     frame.check("frame")
     if any(s.period_s > 0 for s in sts) and not exciters:
@@ -201,7 +215,7 @@ def parse_devices(data: dict, split) -> DeviceSpec:
         offset_s = e.pop("offset_s", None)
         pose_d = {k: e.pop(k) for k in list(e) if k == "position_m"}
         e.setdefault("tag_id", i + 1)
-        cfg = from_dict(ActiveTagConfig, e, prefix=f"beacon[{i}]")
+        cfg = _checked(ActiveTagConfig, e, f"beacon[{i}]")
         if offset_s is None:
             offset_s = cfg.jitter_s
         if isinstance(offset_s, bool) or not isinstance(offset_s, (int, float)) or not 0.0 <= offset_s <= 3600.0:
@@ -214,7 +228,7 @@ def parse_devices(data: dict, split) -> DeviceSpec:
     for i, e in enumerate(_entries(data.get("beacon_reader"), "beacon_reader")):
         e = dict(e)
         pose_d = {k: e.pop(k) for k in list(e) if k == "position_m"}
-        readers.append((from_dict(ActiveReaderConfig, e, prefix=f"beacon_reader[{i}]"),
+        readers.append((_checked(ActiveReaderConfig, e, f"beacon_reader[{i}]"),
                         from_dict(Pose, pose_d, prefix=f"beacon_reader[{i}]")))
     if bool(beacons) != bool(readers):
         missing = "beacon_reader" if beacons else "beacon"

@@ -164,3 +164,17 @@ def test_the_link_scene_of_the_docs_runs(tmp_path):
     assert (tmp_path / "link-scene-geometry.png").is_file()
     doc = (ROOT / "docs" / "tutorials" / "own-scene.md").read_text()
     assert "```{literalinclude} link-scene.toml" in doc
+
+
+def test_gen2_readers_and_beacons_in_one_scene(tmp_path):
+    """A scene with a Gen2 reader and beacons runs both: reads and beacon frames."""
+    base = (ROOT / "examples" / "scenes" / "one-reader-one-tag.toml").read_text()
+    scene = tmp_path / "both.toml"
+    scene.write_text(base.replace("max_rounds = 20", "max_rounds = 2")
+                     + "\n[[beacon]]\nposition_m = [0.0, 3.0, 1.0]\nperiod_s = 0.05\n"
+                     + "\n[[beacon_reader]]\nposition_m = [0.0, 5.0, 1.0]\n")
+    out = tmp_path / "both.h5"
+    assert main(["run", str(scene), "--no-plot", "-q", "-o", str(out)]) == 0
+    assert len(_read(out, "reads")["time_s"]) == 2
+    bf = _read(out, "beacon_frames")
+    assert len(bf["time_s"]) == 1 and bf["decoded"].all() and bf["tag_id"].tolist() == [1]

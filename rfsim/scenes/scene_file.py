@@ -23,6 +23,9 @@ Sections:
   ``[[channel.wall]]`` tables (:class:`WallSpec`).
 * ``[run]``: any :class:`rfsim.protocols.inventory.InventoryConfig` key (``session``,
   ``q_initial``, ``q_mode``, ``target``, ``max_rounds``, ...) plus ``duration_s``.
+* ``[[exciter]]``, ``[[sense_a_tag]]``, ``[frame]``, ``[[beacon]]``, ``[[beacon_reader]]``:
+  devices that run on their own schedules (:mod:`rfsim.scenes.scene_devices`; tables
+  ``detections`` and ``beacon_frames``). A scene of these alone needs no ``[[reader]]``.
 
 How it runs (:func:`run_scene`): the readers take turns (time division; one transmits at a
 time, no reader-to-reader interference is modelled). Reader i runs one inventory

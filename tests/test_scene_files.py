@@ -31,6 +31,8 @@ SMALL = {
     "one-reader-one-tag": ["--set", "run.max_rounds=3"],
     "shelf": ["--set", "run.max_rounds=2", "--set", "tag.0.count=6"],
     "trolley-portal": ["--set", "run.duration_s=0.02", "--set", "tag.0.position_m=[-0.2, 0.0, 0.9]"],
+    "exciter-sense-a-tags": ["--set", "run.duration_s=0.12", "--set", "beacon.0.period_s=0.06",
+                             "--set", "beacon.1.period_s=0.06"],
 }
 
 
@@ -39,12 +41,14 @@ def _read(path: Path, table: str) -> dict[str, np.ndarray]:
         return {k: v[()] for k, v in f[table].items()}
 
 
-def test_there_are_three_examples_and_a_readme_naming_every_key():
+def test_there_are_four_examples_and_a_readme_naming_every_key():
     assert [p.stem for p in EXAMPLES] == sorted(SMALL)
     readme = (SCENES / "README.md").read_text()
     for key in ("position_m", "orientation_deg", "pattern", "gain_dbi", "beamwidth_deg", "velocity_m_s", "count",
                 "step_m", "large_scale", "path_loss_exponent", "floor", "apdp", "attenuation_db", "duration_s",
-                "session", "q_initial", "link_profile", "ptx_dbm", "sensitivity_dbm"):
+                "session", "q_initial", "link_profile", "ptx_dbm", "sensitivity_dbm", "eirp_dbm", "schedule_s",
+                "period_s", "offset_s", "word", "threshold_v", "blf_hz", "tag_id", "tx_power_dbm", "jitter_s",
+                "lbt_listen_s", "noise_figure_db"):
         assert f"`{key}`" in readme, key
 
 
@@ -54,7 +58,11 @@ def test_each_example_runs_through_rfsim_run(example, tmp_path, capsys):
     assert main(["run", str(example), *SMALL[example.stem], "--seed", "2", "-q", "--out-dir", str(tmp_path),
                  "-o", str(out)]) == 0
     reads, tags, ports = _read(out, "reads"), _read(out, "tags"), _read(out, "readers")
-    assert len(reads["time_s"]) > 0
+    if len(ports["x_m"]) == 0:  # schedule-driven devices only: detections and beacon frames instead of reads
+        assert _read(out, "detections")["decoded"].any() and _read(out, "beacon_frames")["decoded"].any()
+        assert (tmp_path / f"{example.stem}-detections.png").is_file()
+    else:
+        assert len(reads["time_s"]) > 0
     assert np.all(np.diff(reads["time_s"][reads["reader"] == 0]) > 0)
     phase = reads["phase_angle_rad"]
     assert np.all(np.isfinite(reads["peak_rssi_dbm"])) and np.all((phase >= 0) & (phase < 2 * np.pi))
@@ -132,7 +140,7 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 
 @pytest.mark.parametrize("text, key", [
-    ("[[sense_a_tag]]\nposition_m = [0, 0, 0]\n", "'sense_a_tag'"),
+    ("[[himr]]\nposition_m = [0, 0, 0]\n", "'himr'"),
     ("[[reader]]\nname = \"R2\"\nptx_dbm = 50.0\n[[reader.antenna]]\n", "'reader[1].ptx_dbm'"),
     ("[[reader]]\nname = \"R2\"\n[[reader.antenna]]\nposition_m = [0, 1]\n", "'reader[1].antenna[0].position_m'"),
     ("[[reader]]\nname = \"R2\"\n[[reader.antenna]]\npatern = \"patch\"\n", "'reader[1].antenna[0].patern'"),

@@ -23,6 +23,9 @@ Sections:
   ``[[channel.wall]]`` tables (:class:`WallSpec`).
 * ``[run]``: any :class:`rfsim.protocols.inventory.InventoryConfig` key (``session``,
   ``q_initial``, ``q_mode``, ``target``, ``max_rounds``, ...) plus ``duration_s``.
+* ``[[exciter]]``, ``[[sense_a_tag]]``, ``[frame]``, ``[[beacon]]``, ``[[beacon_reader]]``:
+  devices that run on their own schedules (:mod:`rfsim.scenes.scene_devices`; tables
+  ``detections`` and ``beacon_frames``). A scene of these alone needs no ``[[reader]]``.
 
 How it runs (:func:`run_scene`): the readers take turns (time division; one transmits at a
 time, no reader-to-reader interference is modelled). Reader i runs one inventory
@@ -60,6 +63,7 @@ from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
+from rfsim.scenes import scene_devices
 
 _antennas = lazy_import("rfsim.channels.antennas")
 _large_scale = lazy_import("rfsim.channels.large_scale")
@@ -72,9 +76,11 @@ _dataset = lazy_import("rfsim.core.dataset")
 _reads = lazy_import("rfsim.core.reads")
 
 #: Top-level sections of a scene file.
-SECTIONS = ("scene", "reader", "tag", "channel", "run")
+SECTIONS = ("scene", "reader", "tag", "channel", "run", *scene_devices.DEVICE_SECTIONS)
 #: Device kinds of other scenarios that scene files do not describe (yet).
-NOT_SUPPORTED = ("sense_a_tag", "exciter", "beacon", "himr")
+NOT_SUPPORTED = ("himr", "pylon")
+#: Arrays of tables that make a TOML file a scene file.
+DEVICE_KINDS = ("reader", "exciter", "sense_a_tag", "beacon")
 
 
 @dataclass(frozen=True)
@@ -189,13 +195,15 @@ class SceneSpec:
     walls: tuple[WallSpec, ...]
     inventory: InventoryConfig
     duration_s: float
+    devices: scene_devices.DeviceSpec = scene_devices.DeviceSpec()
 
 
 # ------------------------------------------------------------------------------ parsing
 
 
 def is_scene_file(path: str | Path) -> bool:
-    """Whether ``path`` is a readable ``.toml`` file whose top level has ``[[reader]]``."""
+    """Whether ``path`` is a readable ``.toml`` file whose top level has ``[[reader]]`` (or
+    ``[[exciter]]``, ``[[sense_a_tag]]``, ``[[beacon]]``)."""
     p = Path(path)
     if p.suffix != ".toml" or not p.is_file():
         return False
@@ -203,7 +211,7 @@ def is_scene_file(path: str | Path) -> bool:
         data = tomllib.loads(p.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
         return False
-    return isinstance(data.get("reader"), list)
+    return any(isinstance(data.get(k), list) for k in DEVICE_KINDS)
 
 
 def _fields(cls) -> set[str]:
@@ -252,7 +260,8 @@ def parse_scene(data: dict) -> SceneSpec:
         if k not in SECTIONS:
             extra = " (not supported in scene files yet)" if k in NOT_SUPPORTED else ""
             form = f"[[{k}]]" if isinstance(data[k], list) else f"[{k}]" if isinstance(data[k], dict) else f"{k} = …"
-            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run]")
+            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run], "
+                                       "[[exciter]], [[sense_a_tag]], [frame], [[beacon]], [[beacon_reader]]")
     scene = _table(data.get("scene", {}), "scene")
     for k in scene:
         if k != "description":
@@ -260,9 +269,11 @@ def parse_scene(data: dict) -> SceneSpec:
     description = scene.get("description", "")
     if not isinstance(description, str):
         raise ConfigError("scene.description", description, "a string")
+    devices = scene_devices.parse_devices(data, _split)
+    gen2 = devices.empty or "reader" in data  # a scene of schedule-driven devices alone needs no reader
 
     readers = []
-    for i, r in enumerate(_array_of_tables(data.get("reader"), "reader", required=True)):
+    for i, r in enumerate(_array_of_tables(data.get("reader"), "reader", required=gen2)):
         prefix = f"reader[{i}]"
         cfg, _ = _split(r, _fields(ReaderConfig), set(), prefix, extra=("name", "antenna"))
         name = r.get("name", f"R{i + 1}")
@@ -281,7 +292,7 @@ def parse_scene(data: dict) -> SceneSpec:
         raise ConfigError("reader.name", [r.name for r in readers], "distinct reader names")
 
     tags = []
-    for i, t in enumerate(_array_of_tables(data.get("tag"), "tag", required=True)):
+    for i, t in enumerate(_array_of_tables(data.get("tag"), "tag", required=gen2)):
         prefix = f"tag[{i}]"
         pose_d, cfg_d = _split(t, _fields(TagSpec), _fields(TagConfig), prefix)
         pose = from_dict(TagSpec, pose_d, prefix=prefix)
@@ -314,7 +325,7 @@ def parse_scene(data: dict) -> SceneSpec:
         if k not in _fields(InventoryConfig):
             raise _unknown(f"run.{k}", run[k], _fields(InventoryConfig) | {"duration_s"})
     inventory = from_dict(InventoryConfig, run, prefix="run")
-    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s))
+    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices)
 
 
 def _apply_override(data: dict, text: str) -> None:
@@ -522,7 +533,12 @@ def scene_config(path: str | Path, overrides=()) -> Config:
 def run(config: Config, *, seed: int):
     """Run the scene of ``config`` with root seed ``seed`` → Dataset."""
     spec = parse_scene(json.loads(config.scene_json))
-    return scene_dataset(spec, run_scene(spec, seed=seed))
+    ds = scene_dataset(spec, run_scene(spec, seed=seed) if spec.readers else {"reads": {}, "slots": {}})
+    if not spec.devices.empty:
+        scene = spec.channel.scene(spec.walls)
+        rows = scene_devices.run_devices(spec.devices, scene, duration_s=spec.duration_s, seed=seed)
+        scene_devices.add_device_tables(ds, _dataset, spec.devices, rows)
+    return ds
 
 
 def plot(dataset_path, out_dir) -> list[Path]:
@@ -546,6 +562,8 @@ def plot(dataset_path, out_dir) -> list[Path]:
         ax.arrow(ports["x_m"][k], ports["y_m"][k], 0.3 * math.cos(az), 0.3 * math.sin(az), width=0.01,
                  color=f"C{ports['reader'][k] % 10}")
         ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=7)
+    device_tables = scene_devices.read_device_tables(dataset_path, _dataset.read_table)
+    scene_devices.plot_devices(ax, device_tables)
     ax.set(xlabel="x [m]", ylabel="y [m]", title="geometry (top view; arrows: boresight, velocity per 1 s)")
     ax.set_aspect("equal", adjustable="datalim")
     ax.legend(fontsize=7)
@@ -562,6 +580,9 @@ def plot(dataset_path, out_dir) -> list[Path]:
     a2.scatter(reads["time_s"], reads["phase_angle_rad"], s=4, c=reads["tag"], cmap="viridis")
     a2.set(xlabel="time [s]", ylabel="phase [rad]")
     out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
+    fig = scene_devices.plot_detections(plt, device_tables)
+    if fig is not None:
+        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "detections")))
     return out
 
 

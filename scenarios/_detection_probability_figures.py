@@ -20,14 +20,14 @@ from rfsim.core.lazy import lazy_import
 _dataset = lazy_import("rfsim.core.dataset")
 _detection = lazy_import("rfsim.detection")
 
-from rfsim.scenarios.detection_probability import fit_file
 
 
 # ----------------------------------------------------------------------------- plots
 
 
-def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Draw the figures; see :func:`rfsim.scenarios.detection_probability.plot`."""
+def plot(dataset_path: Path, out_dir: Path, *, fit_file) -> list[Path]:
+    """Draw the figures, the models fitted by ``fit_file(dataset_path)``; see
+    :func:`rfsim.scenarios.detection_probability.plot`."""
     from matplotlib.lines import Line2D
 
     det = _detection

@@ -15,7 +15,13 @@ from rfsim.core.figure_style import (OKABE_ITO, ci_errorbar, figure, legend_outs
                                      source_note)
 from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.references import cite
-from rfsim.scenarios.inventory import _count_text
+
+
+def _count_text(n: np.ndarray) -> str:
+    """"20" or "18-20": the trial counts of the plotted points."""
+    if not n.size:
+        return "0"
+    return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:

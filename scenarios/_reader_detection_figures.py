@@ -14,11 +14,12 @@ from rfsim.core.figure_style import (PUBLISHED, ci_errorbar, figure, legend_outs
                                      published_label, series_style, source_note)
 from rfsim.core.plots import figure_path, run_config, save_figure
 from rfsim.core.references import cite
-from rfsim.scenarios.reader_detection import D50_ANGLES_DEG, ROOM_NAMES
 
 
-def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Draw the figures; see :func:`rfsim.scenarios.reader_detection.plot`."""
+def plot(dataset_path: Path, out_dir: Path, *, d50_angles_deg: tuple[float, ...],
+         room_names: tuple[str, ...]) -> list[Path]:
+    """Draw the figures (d50 at ``d50_angles_deg`` [°], rooms named ``room_names``); see
+    :func:`rfsim.scenarios.reader_detection.plot`."""
     from matplotlib.lines import Line2D
     from scipy import stats
 
@@ -41,7 +42,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
             im = ax.pcolormesh(a, d, np.where(np.isfinite(p), p, np.nan), shading="nearest", vmin=0, vmax=100,
                                cmap="viridis")
             hatch = mask_no_data(ax, a, d, ~np.isfinite(p), label="no trials")
-            ax.set(xlabel=r"angle off boresight $\theta$ [°]", title=f"room {k} ({ROOM_NAMES[k]})",
+            ax.set(xlabel=r"angle off boresight $\theta$ [°]", title=f"room {k} ({room_names[k]})",
                    xticks=a, yticks=d)
             ax.grid(False)
             if hatch is not None:
@@ -56,7 +57,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         fig, ax = figure(columns=2, height_in=3.4)
         x = np.linspace(0.0, max(10.0, float(d.max())), 200)
         handles, drawn = [], set()
-        for j, ang in enumerate(D50_ANGLES_DEG):
+        for j, ang in enumerate(d50_angles_deg):
             style = series_style(j)
             sel = np.abs(np.abs(trials["theta_deg"]) - ang) < 1e-9
             handles.append(Line2D([], [], **style, label=f"|θ| = {ang:g}°"))

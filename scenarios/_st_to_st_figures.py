@@ -19,14 +19,13 @@ from rfsim.core.lazy import lazy_import
 
 sa = lazy_import("rfsim.devices.st_analytic")
 
-from rfsim.scenarios.st_to_st import TECHS
 
 
 # ----------------------------------------------------------------------------- plot
 
 
-def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Draw the figures; see :func:`rfsim.scenarios.st_to_st.plot`."""
+def plot(dataset_path: Path, out_dir: Path, *, techniques: tuple[str, ...]) -> list[Path]:
+    """Draw the figures of ``techniques`` (in legend order); see :func:`rfsim.scenarios.st_to_st.plot`."""
     from rfsim.core.dataset import read_dataset, read_provenance, read_table
 
     cells = read_table(dataset_path, "cells")
@@ -36,11 +35,11 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     step = float(np.min(np.diff(np.unique(x)))) if np.unique(x).size > 1 else 1.0
     with paper_style():
         fig, ax = figure(columns=1, height_in=3.3)
-        for i, t in enumerate(TECHS):
+        for i, t in enumerate(techniques):
             if f"p_{t}" not in cells:
                 continue
             lo, hi = attrs.get(f"overall_ci_{t}", (np.nan, np.nan))
-            ci_errorbar(ax, dodge(x, i, len(TECHS), width=0.6 * step), cells[f"p_{t}"], cells[f"ci_lo_{t}"],
+            ci_errorbar(ax, dodge(x, i, len(techniques), width=0.6 * step), cells[f"p_{t}"], cells[f"ci_lo_{t}"],
                         cells[f"ci_hi_{t}"], scale=100.0, markersize=3.5, linewidth=1.0, **series_style(i),
                         label=f"{t} {100 * attrs[f'overall_p_{t}']:.1f} [{100 * lo:.1f}, {100 * hi:.1f}]")
         ax.set(xlabel="transmitting ST position $x$ [m] (exciter at the origin)",

@@ -392,4 +392,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
 
     Drawn by :mod:`rfsim.scenarios._detection_probability_figures`.
     """
-    return _figures.plot(dataset_path, out_dir)
+    return _figures.plot(dataset_path, out_dir, fit_file=fit_file)

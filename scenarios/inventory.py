@@ -289,13 +289,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     return ds
 
 
-def _count_text(n: np.ndarray) -> str:
-    """"20" or "18-20": the trial counts of the plotted points."""
-    if not n.size:
-        return "0"
-    return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
-
-
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """Two figures: ``<stem>-summary.png``, the inventories (slot types, read rate and slot
     efficiency against the population N, Wilson 95 % intervals over the runs pooled), and

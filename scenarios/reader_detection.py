@@ -376,4 +376,4 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
 
     Drawn by :mod:`rfsim.scenarios._reader_detection_figures`.
     """
-    return _figures.plot(dataset_path, out_dir)
+    return _figures.plot(dataset_path, out_dir, d50_angles_deg=D50_ANGLES_DEG, room_names=ROOM_NAMES)

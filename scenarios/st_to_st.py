@@ -380,7 +380,7 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
 
     Drawn by :mod:`rfsim.scenarios._st_to_st_figures`.
     """
-    return _figures.plot(dataset_path, out_dir)
+    return _figures.plot(dataset_path, out_dir, techniques=TECHS)
 
 
 __all__ = ["NAME", "DESCRIPTION", "Config", "run", "plot", "TECHS", "simulate_cell", "st_outcomes", "cell_table"]

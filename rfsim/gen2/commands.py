@@ -489,7 +489,17 @@ def _check_crc16(name: str, b: np.ndarray) -> None:
 
 
 def parse(bits) -> Command:
-    """Parse a reader command from its bits ((n,) uint8 0/1, MSB first, CRC included).
+    """Parse a reader command from its bits.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first, CRC included.
+
+    Returns
+    -------
+    Command
+        The command object.
 
     Raises
     ------

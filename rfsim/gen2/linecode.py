@@ -97,19 +97,15 @@ def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
 
     Parameters
     ----------
-    m : int
-        Symbols per bit M (1 = FM0, 2/4/8 = Miller).
-    trext : bool
-        Pilot tone present.
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
 
     Returns
     -------
     levels : numpy.ndarray
         ``(2·n_pre,) int8`` half-bit levels ±1.
-    level : int
-        Baseband level after the preamble (±1).
-    previous_bit : int
-        Previous bit of the encoder state (0/1).
+    level, previous_bit : int
+        Encoder state after the preamble: baseband level (±1) and previous bit (0/1).
     """
     levels, state = _preamble(_check_m(m), bool(trext))
     return levels.copy(), int(_k.LEVEL_OF_STATE[state]), int(_k.PREV_BIT_OF_STATE[state])
@@ -118,20 +114,15 @@ def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
 def preamble_state(*, m: int, trext: bool) -> int:
     """Encoder state after pilot + preamble: where the data bits' encoder and trellis start.
 
-    The state index of the tables of :mod:`rfsim.gen2._linecode_kernels` (level index +
-    2·previous bit).
-
     Parameters
     ----------
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
 
     Returns
     -------
     int
-        State index.
+        State index of :mod:`rfsim.gen2._linecode_kernels` (level + 2·previous bit).
     """
     return _preamble(_check_m(m), bool(trext))[1]
 
@@ -143,12 +134,8 @@ def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np
     ----------
     bits : array_like or str
         ``(n,) uint8`` data bits.
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
-    dummy : bool
-        Append the dummy data-1.
+    m, trext, dummy : int, bool, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone; dummy data-1 appended.
 
     Returns
     -------
@@ -167,8 +154,6 @@ def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np
 
 def elements_of_levels(levels, m: int, dtype=np.int8) -> np.ndarray:
     """Elements of half-bit ``levels``: each level held for ``m`` elements, times the subcarrier sign for Miller.
-
-    Numba kernel ``level_elements_kernel``.
 
     Parameters
     ----------
@@ -214,22 +199,13 @@ def halfsymbols(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
     ----------
     bits : array_like or str
         ``(n,) uint8`` data bits.
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
-    dummy : bool
-        Append the dummy data-1.
+    m, trext, dummy : int, bool, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone; dummy data-1 appended.
 
     Returns
     -------
     numpy.ndarray
         ``(n_el,) int8`` of ±1.
-
-    Raises
-    ------
-    ValueError
-        If ``bits`` holds values other than 0 and 1 or ``m`` is not 1, 2, 4, 8.
     """
     return _element_values(bits, m, trext, dummy, np.int8)
 
@@ -241,10 +217,8 @@ def reply_duration_s(n_bits: int, *, m: int, trext: bool, blf_hz: float, dummy: 
     ----------
     n_bits : int
         Data bits (without the dummy-1).
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
     blf_hz : float
         Backscatter link frequency [Hz].
     dummy : bool
@@ -272,27 +246,18 @@ def reply_waveform(
 ) -> np.ndarray:
     """Sampled tag reply (numba kernel).
 
-    Sample n is at ``t = n/fs`` and takes the element ``floor((n − t0·fs)·2·BLF/fs + 1e−9)``
-    (module docstring).
-
     Parameters
     ----------
     bits : array_like or str
         ``(n,) uint8`` data bits.
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
-    blf_hz : float
-        Backscatter link frequency [Hz].
-    fs_hz : float
-        Sample rate [Hz].
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
     t0_s : float
         Start of the reply [s].
-    dummy : bool
-        Append the dummy data-1.
-    n_samples : int or None
-        Output length; default ends with the reply.
+    dummy, n_samples : bool, int or None
+        Dummy data-1 appended; output length (default: ends with the reply).
 
     Returns
     -------
@@ -300,11 +265,6 @@ def reply_waveform(
         ``(n_samples,) float64``: ±1 during the reply (the two modulation states; the caller
         maps them to reflection coefficients) and 0 before ``t0_s`` and after the reply (the
         tag's rest state).
-
-    Raises
-    ------
-    ValueError
-        If ``blf_hz`` or ``fs_hz`` is not positive.
     """
     key = None
     if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
@@ -601,23 +561,16 @@ def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: fl
                 gain: complex, method: str = "viterbi") -> np.ndarray:
     """Decisions of a reply whose start and gain are known (numba kernels).
 
-    ``decode_reply(r, ..., start_sample=, gain=).bits`` without the correlation it also
-    reports.
-
     Parameters
     ----------
     r : array_like
         ``(n,)`` complex baseband ``h·s(t) + noise`` at ``fs_hz``.
     n_bits : int
         Data bits (without the dummy 1).
-    m : int
-        Symbols per bit M.
-    trext : bool
-        Pilot tone present.
-    blf_hz : float
-        BLF [Hz].
-    fs_hz : float
-        Sample rate [Hz].
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
     start_sample : float
         Reply start [samples].
     gain : complex
@@ -652,8 +605,7 @@ def decode_reply(
 ) -> ReplyDetection:
     """Detect and decode one FM0/Miller reply of ``n_bits`` bits (numba kernels).
 
-    The steps of the module docstring: preamble correlation, least-squares (h, c), then
-    bitwise (P_b = 2p(1 − p), p = Q(√(Eb/N0))) or Viterbi decisions (anchors §4.8).
+    Module docstring: preamble correlation, least-squares (h, c), bitwise or Viterbi decisions.
 
     Parameters
     ----------
@@ -661,23 +613,17 @@ def decode_reply(
         ``(n,)`` complex, baseband ``h·s(t) + c + noise`` sampled at ``fs_hz``.
     n_bits : int
         Number of data bits (without the dummy 1).
-    m : int
-        Line code: 1 = FM0, 2/4/8 = Miller.
-    trext : bool
-        Pilot tone present.
-    blf_hz : float
-        BLF [Hz].
-    fs_hz : float
-        Sample rate [Hz].
+    m, trext : int, bool
+        Line code (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
     method : {"viterbi", "bitwise"}
         ML sequence or bit-by-bit coherent.
     search_samples : int or None
         The reply start is searched among sample lags 0…search_samples (default: every lag
         that leaves room for the whole reply).
-    start_sample : float or None
-        Known start [samples]: skips the search.
-    gain : complex or None
-        Known gain h (then c = 0): skips the estimation.
+    start_sample, gain : float or None, complex or None
+        Known start [samples] / gain h (then c = 0): skip the search / the estimation.
 
     Returns
     -------
@@ -697,8 +643,6 @@ def decode_reply_rows(
     search_samples: int | None = None,
 ) -> list[ReplyDetection | None]:
     """:func:`decode_reply` on the rows ``rows`` of ``r``, the argument checks and per-profile setup done once.
-
-    Row by row the same steps and the same results.
 
     Parameters
     ----------

@@ -31,6 +31,22 @@ COMPLETE = (
     "rfsim.gen2.reply_decoding",
     "rfsim.gen2.reply_search",
     "rfsim.gen2.reply_tracking",
+    "rfsim.estimators.bounds",
+    "rfsim.estimators.calibration",
+    "rfsim.estimators.grid_bayes",
+    "rfsim.estimators.himr_cases",
+    "rfsim.estimators.himr_model",
+    "rfsim.estimators.himr_surrogate",
+    "rfsim.estimators.kalman",
+    "rfsim.estimators.landmark_pf",
+    "rfsim.estimators.nearest",
+    "rfsim.estimators.observer",
+    "rfsim.estimators.particle",
+    "rfsim.estimators.phase_tracking",
+    "rfsim.estimators.proximity",
+    "rfsim.estimators.proximity_trackers",
+    "rfsim.estimators.rss_localization",
+    "rfsim.estimators.track_errors",
 )
 
 _HEADER = re.compile(r"^(\w[\w ]*)\n-{3,}[ \t]*$", re.M)

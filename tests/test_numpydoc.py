@@ -47,6 +47,11 @@ COMPLETE = (
     "rfsim.estimators.proximity_trackers",
     "rfsim.estimators.rss_localization",
     "rfsim.estimators.track_errors",
+    "rfsim.detection.fit",
+    "rfsim.detection.landmark_rts",
+    "rfsim.detection.models",
+    "rfsim.detection.tables",
+    "rfsim.detection.tag_to_tag",
 )
 
 _HEADER = re.compile(r"^(\w[\w ]*)\n-{3,}[ \t]*$", re.M)

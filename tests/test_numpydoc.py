@@ -52,6 +52,10 @@ COMPLETE = (
     "rfsim.detection.models",
     "rfsim.detection.tables",
     "rfsim.detection.tag_to_tag",
+    "rfsim.himr.boc",
+    "rfsim.himr.dsp",
+    "rfsim.himr.link",
+    "rfsim.himr.packet",
 )
 
 _HEADER = re.compile(r"^(\w[\w ]*)\n-{3,}[ \t]*$", re.M)

@@ -56,6 +56,16 @@ COMPLETE = (
     "rfsim.himr.dsp",
     "rfsim.himr.link",
     "rfsim.himr.packet",
+    "rfsim.channels.antennas",
+    "rfsim.channels.bulk",
+    "rfsim.channels.geometry",
+    "rfsim.channels.large_scale",
+    "rfsim.channels.noise",
+    "rfsim.channels.paths",
+    "rfsim.channels.rss",
+    "rfsim.channels.scene",
+    "rfsim.channels.small_scale",
+    "rfsim.channels.surfaces",
 )
 
 _HEADER = re.compile(r"^(\w[\w ]*)\n-{3,}[ \t]*$", re.M)

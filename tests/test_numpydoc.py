@@ -66,6 +66,12 @@ COMPLETE = (
     "rfsim.channels.scene",
     "rfsim.channels.small_scale",
     "rfsim.channels.surfaces",
+    "rfsim.core.errors",
+    "rfsim.core.lazy",
+    "rfsim.core.monte_carlo",
+    "rfsim.core.references",
+    "rfsim.core.trajectories",
+    "rfsim.core.units",
 )
 
 _HEADER = re.compile(r"^(\w[\w ]*)\n-{3,}[ \t]*$", re.M)

@@ -179,3 +179,20 @@ def test_section_parser_can_fail():
     assert "Parameters" not in _sections(inspect.getdoc(bare))
     assert _returns_value(bare) == (True, False)
     assert _documented_names(_sections(inspect.getdoc(partial))["Parameters"]) == {"x"}
+
+
+@pytest.mark.parametrize("module_name", COMPLETE)
+def test_numpydoc_parser_agrees(module_name):
+    """Where numpydoc is installed (the ``docs`` extra), its own parser reads every docstring of
+    the module without a warning and finds the same parameter names as the plain rules above."""
+    docscrape = pytest.importorskip("numpydoc.docscrape")
+    import warnings
+
+    module = importlib.import_module(module_name)
+    for name, function in _public_functions(module):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            doc = docscrape.FunctionDoc(function)
+        names = {n.strip().lstrip("*") for p in doc["Parameters"] for n in p.name.split(",")}
+        expected = _documented_names(_sections(inspect.getdoc(function) or "").get("Parameters", ""))
+        assert names == expected, name

@@ -76,8 +76,9 @@ def rss_sir(channel, plan, z_aug, n_particles: int, step_std_m: float, *, rng: n
     Parameters
     ----------
     channel, plan : module docstring
-    z_aug : (B, T, 3J + 1) per trial and epoch [z | α | n | σ]: the reported RSS of the J
-        readers [dBm] (NaN: not heard), the map's α_j [dBm] and n_j, and σ [dB]
+    z_aug : (B, T, 3J + 1) or (B, T, 4J) per trial and epoch [z | α | n | σ]: the reported RSS
+        of the J readers [dBm] (NaN: not heard), the map's α_j [dBm] and n_j, and σ [dB], one
+        value or one per reader (:func:`augment` repeats it per reader)
     n_particles : N, drawn uniformly over ``plan.bounds`` at the first epoch
     step_std_m : D, std of the Gaussian random-walk proposal per epoch [m], reflected at the
         walls (:func:`reflect_into`)

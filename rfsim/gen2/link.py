@@ -99,8 +99,9 @@ def frt_fraction(dr, trcal_s: float, *, extended_temperature: bool = False) -> f
 
     Parameters
     ----------
-    dr : str or float
-        Divide ratio, 8 or 64/3 (any spelling :func:`rfsim.gen2.commands.normalize_dr` accepts).
+    dr : str, int or fractions.Fraction
+        Divide ratio, 8 or 64/3 (what :func:`rfsim.gen2.commands.normalize_dr` accepts; not a
+        float).
     trcal_s : float
         TRcal [s].
     extended_temperature : bool

@@ -44,7 +44,18 @@ class Isotropic:
     gain_lin: float = 1.0
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
-        """Linear power gain, shape of ``broadcast(az_rad, el_rad)``."""
+        """Linear power gain of the pattern (class docstring).
+
+        Parameters
+        ----------
+        az_rad, el_rad : array_like
+            Local azimuth and elevation [rad], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1], shape of ``broadcast(az_rad, el_rad)``.
+        """
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
         return np.full(az.shape, float(self.gain_lin))
 
@@ -66,6 +77,18 @@ class HalfWaveDipole:
             raise ConfigError("dipole.efficiency", self.efficiency, "a number in (0, 1]")
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
+        """Linear power gain of the pattern (class docstring).
+
+        Parameters
+        ----------
+        az_rad, el_rad : array_like
+            Local azimuth and elevation [rad], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1], shape of ``broadcast(az_rad, el_rad)``.
+        """
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
         cos_t = np.sin(el)            # cos θ, θ from +z
         sin_t = np.cos(el)
@@ -135,6 +158,18 @@ class Patch:
         return self.peak_gain_lin * ((1 - b) / (2 * (self.exponent + 1)) + b)
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
+        """Linear power gain of the pattern (class docstring).
+
+        Parameters
+        ----------
+        az_rad, el_rad : array_like
+            Local azimuth and elevation [rad], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1], shape of ``broadcast(az_rad, el_rad)``.
+        """
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
         cos_psi = np.clip(np.cos(el) * np.cos(az), 0.0, None)
         b = self.back_level
@@ -218,6 +253,18 @@ class Tabulated:
                 + (1 - wa) * we * tx[i, j + 1] + wa * we * tx[i + 1, j + 1])
 
     def gain(self, az_rad, el_rad) -> np.ndarray:
+        """Linear power gain of the pattern (class docstring).
+
+        Parameters
+        ----------
+        az_rad, el_rad : array_like
+            Local azimuth and elevation [rad], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1], shape of ``broadcast(az_rad, el_rad)``.
+        """
         az, el = np.broadcast_arrays(np.asarray(az_rad, float), np.asarray(el_rad, float))
         v = self._interp(az, el)
         if self.quantity == "amplitude":
@@ -315,10 +362,20 @@ def _transverse_basis(k):
 
 
 def polarization_mismatch_factor(e_a, e_b) -> np.ndarray:
-    """Polarization mismatch ``|ê_a·ê_b*|²`` of complex unit polarization vectors (..., 3).
+    """Polarization mismatch ``|ê_a·ê_b*|²`` of complex unit polarization vectors.
 
     Both vectors must be expressed for the **same** propagation direction (from a to b); see
     :meth:`Antenna.polarization_vector`.
+
+    Parameters
+    ----------
+    e_a, e_b : array_like
+        ``(..., 3)`` complex unit vectors.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(...)`` power factor in [0, 1].
     """
     return np.abs(np.sum(np.asarray(e_a) * np.conj(np.asarray(e_b)), axis=-1)) ** 2
 
@@ -404,12 +461,34 @@ class Antenna:
         return Pose(self.position_m, *self.orientation)
 
     def gain_towards(self, points_m) -> np.ndarray:
-        """Linear power gain towards global ``points_m`` (..., 3) [m] → (...) float64."""
+        """Linear power gain towards global points.
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` points [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...) float64`` gain [1].
+        """
         d = _as_points(points_m) - self.position_m
         return self.gain_in_direction(d)
 
     def gain_in_direction(self, directions) -> np.ndarray:
-        """Linear power gain in global directions (..., 3) (any length) → (...) float64."""
+        """Linear power gain in global directions.
+
+        Parameters
+        ----------
+        directions : array_like
+            ``(..., 3)`` direction vectors (any length).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...) float64`` gain [1].
+        """
         az, el = local_angles(directions, self.rotation)
         return np.asarray(self.pattern.gain(az, el), dtype=float)
 
@@ -420,13 +499,23 @@ class Antenna:
         return self.rotation @ np.array([0.0, np.sin(t), np.cos(t)])
 
     def polarization_vector(self, k) -> np.ndarray:
-        """Complex unit polarization vector (..., 3) for propagation along global ``k`` (..., 3).
+        """Complex unit polarization vector for propagation along global ``k``.
 
         Linear: the polarization axis projected on the plane ⊥ ``k`` and normalized (zero
         where the axis is parallel to ``k`` — no transverse field). Circular:
         ``(u ∓ j·v)/√2`` for RHCP/LHCP with ``(u, v, k)`` right-handed; the same vector serves
         the transmitting and the receiving end when both use the same ``k`` (a → b), so equal
         hands match and opposite hands are orthogonal.
+
+        Parameters
+        ----------
+        k : array_like
+            ``(..., 3)`` propagation directions (any length).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., 3) complex``.
         """
         k = _as_points(k)
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
@@ -440,12 +529,23 @@ class Antenna:
         return (u + 1j * h * v) / np.sqrt(2.0)
 
     def polarization_mismatch(self, other: "Antenna", *, direction=None) -> np.ndarray:
-        """Polarization mismatch factor ``|ê_self·ê_other*|²`` (power, in [0, 1]).
+        """Polarization mismatch factor ``|ê_self·ê_other*|²``.
 
-        ``direction`` (..., 3) is the propagation direction from ``self`` to ``other`` (default:
-        the straight line between their positions; give image directions for reflected paths).
         Linear–linear gives ``cos²Δ`` of the angle between the projected axes, linear–circular
         1/2, circular same hand 1, opposite hand 0 (ideal axial ratio).
+
+        Parameters
+        ----------
+        other : Antenna
+            The other end.
+        direction : array_like or None
+            ``(..., 3)`` propagation direction from ``self`` to ``other`` (default: the straight
+            line between their positions; give image directions for reflected paths).
+
+        Returns
+        -------
+        numpy.ndarray
+            Power factor in [0, 1].
         """
         k = (other.position_m - self.position_m) if direction is None else direction
         return polarization_mismatch_factor(self.polarization_vector(k),
@@ -492,7 +592,18 @@ class EllipticalPanel(Antenna):
         return self.rotation @ np.array([1.0, 0.0, 0.0]), self.rotation @ np.array([0.0, 0.0, 1.0])
 
     def polarization_vector(self, k) -> np.ndarray:
-        """Complex unit polarization vector (..., 3) of the ellipse for propagation along ``k`` (..., 3)."""
+        """Complex unit polarization vector of the ellipse for propagation along ``k`` (class docstring).
+
+        Parameters
+        ----------
+        k : array_like
+            ``(..., 3)`` propagation directions (any length).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., 3) complex``.
+        """
         k = np.asarray(k, float)
         k = k / np.linalg.norm(k, axis=-1, keepdims=True)
         axis, up = self._boresight_and_up
@@ -512,8 +623,20 @@ class EllipticalPanel(Antenna):
 
 
 def vertical_dipole(position_m) -> Antenna:
-    """A vertical half-wave dipole with linear polarization at ``position_m`` [m] (the
-    sense-a-tag's antennas, auris-sense-a-tag.md L2878-2880: omnidirectional in azimuth)."""
+    """A vertical half-wave dipole with linear polarization (auris-sense-a-tag.md L2878-2880).
+
+    The sense-a-tag's antennas: omnidirectional in azimuth.
+
+    Parameters
+    ----------
+    position_m : array_like
+        ``(3,)`` position [m].
+
+    Returns
+    -------
+    Antenna
+        The antenna.
+    """
     return Antenna(position_m=position_m, orientation=(0.0, 0.0, 0.0), pattern=HalfWaveDipole(),
                    polarization="linear")
 

@@ -98,24 +98,67 @@ class BulkPaths:
         return int(self.gain.shape[1])
 
     def coefficients(self, fc_hz: float) -> np.ndarray:
-        """(n, p) complex128: ``g·e^{−j2π·fc·τ}``, phase reduced modulo one cycle in float64."""
+        """Complex path coefficients ``g·e^{−j2π·fc·τ}``, phase reduced modulo one cycle in float64.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, p) complex128`` [1].
+        """
         return self.gain * np.exp(-2j * np.pi * np.mod(float(fc_hz) * self.delay_s, 1.0))
 
     def narrowband_gain(self, fc_hz: float) -> np.ndarray:
-        """(n,) complex128: ``Σ_p g·e^{−j2π·fc·τ}`` per link (at t = 0; padding adds 0)."""
+        """Narrowband gain ``Σ_p g·e^{−j2π·fc·τ}`` per link (at t = 0; padding adds 0).
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,) complex128`` [1].
+        """
         return self.coefficients(fc_hz).sum(axis=1)
 
     def pathset(self, i: int) -> PathSet:
-        """Link ``i`` as a :class:`PathSet` without padding (the path order of ``Channel.link``)."""
+        """Link ``i`` as a :class:`PathSet` without padding (the path order of ``Channel.link``).
+
+        Parameters
+        ----------
+        i : int
+            Link index.
+
+        Returns
+        -------
+        PathSet
+            The link.
+        """
         keep = self.valid[i]
         dop = None if self.doppler_hz is None else self.doppler_hz[i, keep]
         return PathSet(self.gain[i, keep], self.delay_s[i, keep], dop)
 
     def narrowband_rms_error(self, bandwidth_hz: float) -> np.ndarray:
-        """(n,) float64: :func:`rfsim.channels.paths.narrowband_rms_error` of every link, at once.
+        """:func:`rfsim.channels.paths.narrowband_rms_error` of every link, at once.
 
         √(Σ|g|²·(2π·B·(τ − τ0))²) / √(Σ|g|²) per link, τ0 its earliest valid delay, padded
         slots excluded (gain 0); 0 for a link without power.
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            One-sided signal bandwidth B [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,) float64`` [1].
         """
         p = np.abs(self.gain) ** 2
         tau0 = np.where(self.valid, self.delay_s, np.inf).min(axis=1, keepdims=True)
@@ -124,8 +167,20 @@ class BulkPaths:
         return np.sqrt((p * rel**2).sum(axis=1) / np.where(total > 0, total, 1.0))
 
     def batch_link(self, shape: tuple[int, ...]) -> "BatchLink":
-        """The n links as one link of the air interface (:mod:`rfsim.air.step`) over a batch of
-        ``shape`` (n = prod(shape)): row-major, link i is batch element ``unravel(i, shape)``."""
+        """The n links as one link of the air interface (:mod:`rfsim.air.step`) over a batch.
+
+        Row-major: link i is batch element ``unravel(i, shape)``.
+
+        Parameters
+        ----------
+        shape : tuple of int
+            Batch shape, prod(shape) = n.
+
+        Returns
+        -------
+        BatchLink
+            The batched link.
+        """
         return BatchLink(self, tuple(int(s) for s in shape))
 
 
@@ -149,7 +204,18 @@ class BatchLink:
         self._gain: dict[float, np.ndarray] = {}
 
     def narrowband_error(self, bandwidth_hz: float) -> float:
-        """Largest :meth:`BulkPaths.narrowband_rms_error` over the links (0 without links)."""
+        """Largest :meth:`BulkPaths.narrowband_rms_error` over the links (0 without links).
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            One-sided signal bandwidth [Hz].
+
+        Returns
+        -------
+        float
+            Relative RMS error [1].
+        """
         b = float(bandwidth_hz)
         if b not in self._max_error:
             err = self.paths.narrowband_rms_error(b)
@@ -162,7 +228,20 @@ class BatchLink:
         return self.paths.doppler_hz is None or not np.any(self.paths.doppler_hz)
 
     def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
-        """"narrowband" or "exact" for all links together (class docstring)."""
+        """"narrowband" or "exact" for all links together (class docstring).
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            One-sided signal bandwidth [Hz].
+        propagation : {"auto", "exact", "narrowband"}
+            Policy.
+
+        Returns
+        -------
+        str
+            "narrowband" or "exact".
+        """
         if propagation not in PROPAGATION_METHODS:
             raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
         if propagation != "auto":
@@ -170,7 +249,18 @@ class BatchLink:
         return "narrowband" if self.narrowband_error(bandwidth_hz) <= NARROWBAND_TOLERANCE else "exact"
 
     def constant_gain(self, fc_hz: float) -> np.ndarray:
-        """(*shape, 1) complex128 narrowband gains at ``fc_hz`` (computed once per carrier; read-only)."""
+        """Narrowband gains at ``fc_hz`` (computed once per carrier; read-only).
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(*shape, 1) complex128`` [1].
+        """
         f = float(fc_hz)
         g = self._gain.get(f)
         if g is None:
@@ -180,13 +270,38 @@ class BatchLink:
         return g
 
     def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact"):
+        """Refuse: a batch of bulk links is applied narrowband only (by :meth:`constant_gain`).
+
+        Parameters
+        ----------
+        x, fs_hz, fc_hz, t0_s, method
+            As :meth:`rfsim.channels.paths.PathSet.apply` (unused).
+
+        Raises
+        ------
+        ValueError
+            Always, stating the largest narrowband error.
+        """
         raise ValueError(f"a batch of bulk links is applied narrowband only (asked for {method!r}): "
                          f"the largest narrowband error is {max(self._max_error.values(), default=float('nan')):.3g} "
                          f"> {NARROWBAND_TOLERANCE}")
 
 
 def surface_sequences(n_surfaces: int, order: int) -> list[tuple]:
-    """Surface index sequences of orders 1 … ``order`` in the order of ``image_paths``."""
+    """Surface index sequences of orders 1 … ``order`` in the order of ``image_paths``.
+
+    Parameters
+    ----------
+    n_surfaces : int
+        Number of surfaces.
+    order : int
+        Highest reflection order.
+
+    Returns
+    -------
+    list of tuple of int
+        Sequences without a surface repeated back to back.
+    """
     out = []
     for k in range(1, int(order) + 1):
         for seq in itertools.product(range(int(n_surfaces)), repeat=k):
@@ -198,10 +313,18 @@ def surface_sequences(n_surfaces: int, order: int) -> list[tuple]:
 def diffuse_template(apdp) -> tuple[np.ndarray, np.ndarray]:
     """Unit-γ NLoS profile ``(w, x)`` used by :func:`draw_links` (see the module docstring).
 
+    Parameters
+    ----------
+    apdp : rfsim.channels.small_scale.ApdpModel
+        Profile-sampling options (bandwidth, resolution, tolerances).
+
     Returns
     -------
-    w : (T,) float64, tap powers, Σw = 1
-    x : (T,) float64, tap delays in units of 1/γ (bin centres of gravity on ``[0, ln((1+ε)/ε)]``)
+    w : numpy.ndarray
+        ``(T,) float64`` tap powers, Σw = 1.
+    x : numpy.ndarray
+        ``(T,) float64`` tap delays in units of 1/γ (bin centres of gravity on
+        ``[0, ln((1+ε)/ε)]``).
     """
     eps = min(apdp.eps_k, (apdp.eps_trms / 3.0) ** math.sqrt(2.0))
     n = min(int(math.ceil(2.0 * apdp.bandwidth_hz / apdp.fres_hz)) + 1, apdp.max_taps - 1)

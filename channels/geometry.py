@@ -77,7 +77,20 @@ def rotation_matrix(az_rad, el_rad, roll_rad=0.0) -> np.ndarray:
 
 
 def unit_vector(az_rad, el_rad) -> np.ndarray:
-    """Unit vector ``(cos el·cos az, cos el·sin az, sin el)``, shape ``(..., 3)``."""
+    """Unit vector ``(cos el·cos az, cos el·sin az, sin el)`` (module conventions).
+
+    Parameters
+    ----------
+    az_rad : array_like
+        Azimuth [rad].
+    el_rad : array_like
+        Elevation [rad] (broadcast with ``az_rad``).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., 3)`` unit vectors [1].
+    """
     az = np.asarray(az_rad, dtype=float)
     el = np.asarray(el_rad, dtype=float)
     ce = np.cos(el)
@@ -85,10 +98,21 @@ def unit_vector(az_rad, el_rad) -> np.ndarray:
 
 
 def cartesian_to_spherical(v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Length, azimuth and elevation of vectors ``v`` of shape ``(..., 3)``.
+    """Length, azimuth and elevation of vectors.
 
-    Returns ``(r [m], az [rad] in (−π, π], el [rad] in [−π/2, π/2])``; a zero vector gives
-    ``az = el = 0``.
+    Parameters
+    ----------
+    v : array_like
+        ``(..., 3)`` vectors [m] (``(..., 2)`` means ``z = 0``).
+
+    Returns
+    -------
+    r : numpy.ndarray
+        Length [m].
+    az : numpy.ndarray
+        Azimuth in (−π, π] [rad] (0 for a zero vector).
+    el : numpy.ndarray
+        Elevation in [−π/2, π/2] [rad] (0 for a zero vector).
     """
     v = _as_points(v)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
@@ -113,12 +137,21 @@ def direction_to(src_m, dst_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def local_angles(directions, rotation) -> tuple[np.ndarray, np.ndarray]:
-    """Local ``(az, el)`` [rad] of global ``directions`` seen by a device with ``rotation``.
+    """Local ``(az, el)`` of global ``directions`` seen by a device with ``rotation``.
+
+    v_local = Rᵀ·v, then the module's angle convention.
 
     Parameters
     ----------
-    directions : (..., 3) float, global direction vectors (need not be unit length)
-    rotation : (3, 3) or (..., 3, 3) float, local → global (:func:`rotation_matrix`)
+    directions : array_like
+        ``(..., 3)`` global direction vectors (need not be unit length).
+    rotation : array_like
+        ``(3, 3)`` or ``(..., 3, 3)`` local → global (:func:`rotation_matrix`).
+
+    Returns
+    -------
+    az, el : numpy.ndarray
+        Local azimuth and elevation [rad].
     """
     d = _as_points(directions)
     R = np.asarray(rotation, dtype=float)
@@ -161,7 +194,20 @@ class Pose:
         return self.rotation[:, 0].copy()
 
     def local_angles_to(self, points_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(distance_m, az_local_rad, el_local_rad)`` of ``points_m`` (..., 3) seen from here."""
+        """Distance and local angles of points seen from this pose.
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` points [m].
+
+        Returns
+        -------
+        distance_m : numpy.ndarray
+            [m].
+        az_local_rad, el_local_rad : numpy.ndarray
+            Local azimuth and elevation [rad].
+        """
         d = _as_points(points_m) - self.position_m
         az, el = local_angles(d, self.rotation)
         return np.linalg.norm(d, axis=-1), az, el
@@ -181,8 +227,21 @@ class Pose:
 def pass_spherical_deg(v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """PASS ``get_distances`` angles (legacy, pass-paris-simulator.md §2.4 ``channel_newpos``).
 
-    Returns ``(az_deg in [0, 360), el_deg from +z in [0, 180], r_m)`` of vectors ``(..., 3)``:
     MATLAB ``cart2sph`` azimuth wrapped to ``[0, 360)`` and elevation ``90° − el``.
+
+    Parameters
+    ----------
+    v : array_like
+        ``(..., 3)`` vectors [m].
+
+    Returns
+    -------
+    az_deg : numpy.ndarray
+        Azimuth in [0, 360) [deg].
+    el_deg : numpy.ndarray
+        Elevation from +z in [0, 180] [deg].
+    r_m : numpy.ndarray
+        Length [m].
     """
     r, az, el = cartesian_to_spherical(v)
     return np.mod(np.degrees(az), 360.0), 90.0 - np.degrees(el), r

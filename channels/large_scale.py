@@ -82,7 +82,25 @@ class LogDistance:
             raise ConfigError("channel.d0_m", self.d0_m, "a distance > 0 m")
 
     def path_loss_db(self, distance_m, fc_hz) -> np.ndarray:
-        """Path loss [dB] (positive = loss), shape of ``broadcast(distance_m, fc_hz)``."""
+        """Path loss ``PL(d) = PL(d0) + 10·n·log10(d/d0)`` (eq. 5.3).
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance d > 0 [m].
+        fc_hz : array_like
+            Carrier frequency [Hz] (for the free-space PL(d0)).
+
+        Returns
+        -------
+        numpy.ndarray
+            Loss [dB] (positive = loss), shape of ``broadcast(distance_m, fc_hz)``.
+
+        Raises
+        ------
+        ValueError
+            If a distance is not positive and finite.
+        """
         d = _positive_distance(distance_m)
         if self.pl_d0_db is None:
             pl0 = 20.0 * np.log10(4.0 * np.pi * self.d0_m * np.asarray(fc_hz, float) / C_M_S)
@@ -91,7 +109,20 @@ class LogDistance:
         return pl0 + 10.0 * self.exponent * np.log10(d / self.d0_m)
 
     def amplitude_gain(self, distance_m, fc_hz) -> np.ndarray:
-        """Amplitude gain ``10^(−PL(d)/20)`` (dimensionless)."""
+        """Amplitude gain ``10^(−PL(d)/20)``.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance d > 0 [m].
+        fc_hz : array_like
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1].
+        """
         return np.power(10.0, -self.path_loss_db(distance_m, fc_hz) / 20.0)
 
 
@@ -131,7 +162,23 @@ class LinkLargeScale:
         self._pairs = {frozenset((a, b)): m for a, b, m in by_pair}
 
     def model(self, tx, rx):
-        """The model of the link ``tx ↔ rx`` (None = Friis), by the rules of the class."""
+        """The model of the link ``tx ↔ rx`` by the lookup rules of the class.
+
+        Parameters
+        ----------
+        tx, rx : rfsim.channels.Antenna
+            The link's ends (unordered).
+
+        Returns
+        -------
+        object or None
+            The model (None = Friis).
+
+        Raises
+        ------
+        ConfigError
+            When both antennas have their own models and no pair entry settles the link.
+        """
         m = self._pairs.get(frozenset((tx, rx)))
         if m is not None:
             return m
@@ -143,12 +190,40 @@ class LinkLargeScale:
         return self.default if m is None else m
 
     def link_amplitude_gain(self, tx, rx, distance_m, fc_hz) -> np.ndarray:
-        """Amplitude gain of the link ``tx ↔ rx`` at ``distance_m`` (its model, or Friis)."""
+        """Amplitude gain of the link ``tx ↔ rx`` at ``distance_m`` (its model, or Friis).
+
+        Parameters
+        ----------
+        tx, rx : rfsim.channels.Antenna
+            The link's ends.
+        distance_m : array_like
+            Distance [m].
+        fc_hz : array_like
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1].
+        """
         m = self.model(tx, rx)
         return friis_amplitude_gain(distance_m, fc_hz) if m is None else m.amplitude_gain(distance_m, fc_hz)
 
     def amplitude_gain(self, distance_m, fc_hz) -> np.ndarray:
-        """The default model's gain (Friis when None), for callers without antennas."""
+        """The default model's gain (Friis when None), for callers without antennas.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance [m].
+        fc_hz : array_like
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1].
+        """
         if self.default is None:
             return friis_amplitude_gain(distance_m, fc_hz)
         return self.default.amplitude_gain(distance_m, fc_hz)
@@ -160,6 +235,22 @@ def pass_log_distance_gain(distance_m, fc_hz, exponent, c_m_s=C_M_S) -> np.ndarr
     ``g = min(1, (c/(4π·d·f))^{pl/2})``: a log-distance **amplitude** factor with reference
     distance ``λ/(4π)`` (where it equals 1) and exponent ``pl``, saturated to 1 closer in.
     PASS uses ``c = 3e8`` by default; its selftest draws ``c`` at random, hence the argument.
+
+    Parameters
+    ----------
+    distance_m : array_like
+        Distance d [m].
+    fc_hz : array_like
+        Carrier frequency f [Hz].
+    exponent : array_like
+        Path-loss exponent pl [1].
+    c_m_s : array_like
+        Speed of light c [m/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Gain [1].
     """
     d = np.asarray(distance_m, dtype=float)
     g = np.power(np.asarray(c_m_s, float) / (4.0 * np.pi * d * np.asarray(fc_hz, float)),
@@ -246,7 +337,18 @@ class Wall:
         return cls(point_m, e1, np.cross(n, e1), attenuation_db)
 
     def crossed(self, tx_m, rx_m) -> np.ndarray:
-        """Whether the segments ``tx → rx`` (..., 3), broadcast, cross this wall → bool (...)."""
+        """Whether the segments ``tx → rx`` cross this wall.
+
+        Parameters
+        ----------
+        tx_m, rx_m : array_like
+            ``(..., 3)`` segment ends [m], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...)`` bool.
+        """
         tx = _as_points(tx_m)
         rx = _as_points(rx_m)
         n = self.normal
@@ -263,7 +365,20 @@ class Wall:
 
 
 def wall_crossings(tx_m, rx_m, walls) -> np.ndarray:
-    """Crossing matrix → bool ``(..., n_walls)`` for segments ``tx_m → rx_m`` (broadcast)."""
+    """Crossing matrix of segments ``tx_m → rx_m`` with every wall.
+
+    Parameters
+    ----------
+    tx_m, rx_m : array_like
+        ``(..., 3)`` segment ends [m], broadcast.
+    walls : sequence of Wall
+        The walls.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., n_walls)`` bool.
+    """
     shape = np.broadcast_shapes(_as_points(tx_m).shape, _as_points(rx_m).shape)[:-1]
     if len(walls) == 0:
         return np.zeros(shape + (0,), dtype=bool)
@@ -338,7 +453,13 @@ class ShadowingField:
         self.redraw(rng)
 
     def redraw(self, rng: np.random.Generator) -> None:
-        """Replace the realisation by a new, independent one drawn from ``rng``."""
+        """Replace the realisation by a new, independent one.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            Source of the new ω_m, a_m, b_m.
+        """
         m = self.n_features
         z = rng.standard_normal((m, 3))
         g = np.abs(rng.standard_normal(m))
@@ -349,12 +470,22 @@ class ShadowingField:
         self._theta = np.arctan2(b, a)
 
     def value_db(self, points_m) -> np.ndarray:
-        """Shadowing [dB] at ``points_m`` (..., 3) (or (..., 2), z = 0) → (...) float64.
+        """Shadowing S(x) at points.
 
         Bit-for-bit reproducible per point: every point's value is computed from its own
-        coordinates in a fixed order (elementwise products, then a row sum), independent of
-        the other points requested with it. Cost ≈ M cosines per point, in blocks of
-        ``_BLOCK`` points to bound memory.
+        coordinates in a fixed order (elementwise products, then a row sum), independent of the
+        other points requested with it. Cost ≈ M cosines per point, in blocks of ``_BLOCK`` points
+        to bound memory.
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` (or ``(..., 2)``, z = 0) positions [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...) float64`` [dB].
         """
         x = _as_points(points_m)
         flat = x.reshape(-1, 3)
@@ -370,7 +501,18 @@ class ShadowingField:
         return out.reshape(x.shape[:-1])
 
     def amplitude_gain(self, points_m) -> np.ndarray:
-        """Amplitude factor ``10^(−S/20)`` at ``points_m`` (a positive S is extra loss)."""
+        """Amplitude factor ``10^(−S/20)`` at points (a positive S is extra loss).
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` positions [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...)`` gain [1].
+        """
         return np.power(10.0, -self.value_db(points_m) / 20.0)
 
 

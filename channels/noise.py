@@ -19,7 +19,25 @@ from rfsim.core.units import dbm_to_w
 
 
 def noise_power_from_density_w(density_dbm_hz, bandwidth_hz) -> np.ndarray:
-    """Noise power ``N = N0·B`` [W] from a one-sided density ``N0`` [dBm/Hz] and bandwidth [Hz]."""
+    """Noise power ``N = N0·B`` from a one-sided density ``N0`` and a bandwidth.
+
+    Parameters
+    ----------
+    density_dbm_hz : array_like
+        One-sided density N0 [dBm/Hz].
+    bandwidth_hz : array_like
+        Noise-equivalent bandwidth B [Hz] (≥ 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        N [W].
+
+    Raises
+    ------
+    ConfigError
+        If a bandwidth is negative.
+    """
     b = np.asarray(bandwidth_hz, dtype=float)
     if np.any(b < 0):
         raise ConfigError("noise.bandwidth_hz", bandwidth_hz, "a bandwidth ≥ 0 Hz")
@@ -53,11 +71,27 @@ def complex_awgn(shape, power_w, *, rng: np.random.Generator) -> np.ndarray:
 def pass_noise_variance_w(n0_dbm, n0_bandwidth_hz, fs_hz, frxs_hz) -> np.ndarray:
     """PASS ``channel_noise`` legacy variance (pass-paris-simulator.md §2.4), for golden tests.
 
-    ``var = 10^(n0/10 − 3)/n0_bw · fs/frxs`` [W]: the density ``n0`` [dBm per ``n0_bw`` Hz]
+    ``var = 10^(n0/10 − 3)/n0_bw · fs/frxs``: the density ``n0`` [dBm per ``n0_bw`` Hz]
     times ``fs/frxs`` (PASS's simulation rate over the receiver sample rate), stated as
     "noise power matching at receiver". It is dimensionally odd (a density times a ratio of
     rates, not a bandwidth) and is not used by rfsim's own noise model; the PASS default
     ``n0 = −47 dBm per 3000 Hz`` gives 3.1e−10 W at ``frxs = 65 MHz`` (PASS ``fs`` ≈ 3 GHz).
+
+    Parameters
+    ----------
+    n0_dbm : array_like
+        Noise power n0 in ``n0_bandwidth_hz`` [dBm].
+    n0_bandwidth_hz : array_like
+        Bandwidth of ``n0`` [Hz].
+    fs_hz : array_like
+        PASS simulation sample rate [Hz].
+    frxs_hz : array_like
+        Receiver sample rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        Variance [W] (as PASS states it).
     """
     return (dbm_to_w(n0_dbm) / np.asarray(n0_bandwidth_hz, dtype=float)
             * np.asarray(fs_hz, dtype=float) / np.asarray(frxs_hz, dtype=float))

@@ -112,25 +112,77 @@ class PathSet:
         return int(self.gain.size)
 
     def coefficients(self, fc_hz: float) -> np.ndarray:
-        """(n,) complex128: ``g·e^{−j2π·fc·τ}`` with the phase reduced modulo one cycle in float64."""
+        """Complex path coefficients ``g·e^{−j2π·fc·τ}``, the phase reduced modulo one cycle in float64.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,) complex128`` [√W per √W].
+        """
         cycles = np.mod(float(fc_hz) * self.delay_s, 1.0)
         return self.gain * np.exp(-2j * np.pi * cycles)
 
     def narrowband_gain(self, fc_hz: float, t_s: float = 0.0) -> complex:
-        """Total narrowband gain ``Σ g·e^{−j2π·fc·τ}·e^{j2π·f_D·t}`` at time ``t_s`` [s]."""
+        """Total narrowband gain ``Σ g·e^{−j2π·fc·τ}·e^{j2π·f_D·t}`` at time ``t_s``.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+        t_s : float
+            Time relative to the paths' reference time [s].
+
+        Returns
+        -------
+        complex
+            Gain [√W per √W].
+        """
         dop = np.exp(2j * np.pi * np.mod(self.doppler_hz * float(t_s), 1.0))
         return complex(np.sum(self.coefficients(fc_hz) * dop))
 
     def scaled(self, factor) -> "PathSet":
-        """All gains multiplied by ``factor`` (scalar, complex allowed)."""
+        """All gains multiplied by ``factor``.
+
+        Parameters
+        ----------
+        factor : complex
+            Scalar factor [1].
+
+        Returns
+        -------
+        PathSet
+            A new path set.
+        """
         return PathSet(self.gain * factor, self.delay_s, self.doppler_hz)
 
     def delayed(self, delay_s: float) -> "PathSet":
-        """All delays increased by ``delay_s`` [s]."""
+        """All delays increased by ``delay_s``.
+
+        Parameters
+        ----------
+        delay_s : float
+            Extra delay [s].
+
+        Returns
+        -------
+        PathSet
+            A new path set.
+        """
         return PathSet(self.gain, self.delay_s + float(delay_s), self.doppler_hz)
 
     def power(self) -> float:
-        """Σ|g|², the incoherent path power gain."""
+        """Σ|g|², the incoherent path power gain.
+
+        Returns
+        -------
+        float
+            Power gain [W per W].
+        """
         return float(np.sum(np.abs(self.gain) ** 2))
 
     # The air interface (rfsim.air.step) uses a link through these members only.
@@ -144,8 +196,20 @@ class PathSet:
         return st
 
     def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
-        """"narrowband" or "exact" for this link under ``propagation`` (:func:`propagation_method`),
-        remembered per (bandwidth, policy): the PathSet is immutable."""
+        """"narrowband" or "exact" for this link (:func:`propagation_method`), remembered per (bandwidth, policy).
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            One-sided bandwidth B of the signal [Hz].
+        propagation : {"auto", "exact", "narrowband"}
+            Policy.
+
+        Returns
+        -------
+        str
+            "narrowband" or "exact".
+        """
         memo = self.__dict__.setdefault("_methods", {})
         key = (float(bandwidth_hz), propagation)
         m = memo.get(key)
@@ -154,8 +218,21 @@ class PathSet:
         return m
 
     def constant_gain(self, fc_hz: float) -> complex:
-        """Σ_p g_p·e^{−j2π·fc·τ_p} summed in path order — bit for bit the factor by which
-        :func:`apply_paths` (``method="narrowband"``) multiplies a static link's input."""
+        """Σ_p g_p·e^{−j2π·fc·τ_p} summed in path order.
+
+        Bit for bit the factor by which :func:`apply_paths` (``method="narrowband"``) multiplies a
+        static link's input; remembered per carrier.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        complex
+            Gain [√W per √W].
+        """
         memo = self.__dict__.setdefault("_constant", {})
         a = memo.get(float(fc_hz))
         if a is None:
@@ -166,8 +243,24 @@ class PathSet:
         return a
 
     def narrowband_constant(self, fc_hz: float, bandwidth_hz: float, propagation: str = "auto") -> complex | None:
-        """:meth:`constant_gain` when the link is static and :meth:`method` says "narrowband"
-        (it then multiplies its input by that one constant), else None; remembered."""
+        """:meth:`constant_gain` when the link is static and :meth:`method` says "narrowband", else None.
+
+        The link then multiplies its input by that one constant; remembered.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+        bandwidth_hz : float
+            One-sided signal bandwidth [Hz].
+        propagation : {"auto", "exact", "narrowband"}
+            Policy.
+
+        Returns
+        -------
+        complex or None
+            The constant [√W per √W], or None.
+        """
         memo = self.__dict__.setdefault("_nb_constant", {})
         key = (fc_hz, bandwidth_hz, propagation)
         hit = memo.get(key, memo)
@@ -178,12 +271,42 @@ class PathSet:
         return hit
 
     def apply(self, x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0, method: str = "exact") -> np.ndarray:
-        """:func:`apply_paths` of this link to ``x`` ((n,) complex128 [√W])."""
+        """:func:`apply_paths` of this link to ``x``.
+
+        Parameters
+        ----------
+        x : array_like
+            ``(n,) complex128`` baseband [√W].
+        fs_hz : float
+            Sample rate [Hz].
+        fc_hz : float
+            Carrier frequency [Hz].
+        t0_s : float
+            Time of x[0] [s].
+        method : {"exact", "narrowband"}
+            As in :func:`apply_paths`.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,) complex128`` [√W].
+        """
         return apply_paths(x, fs_hz=fs_hz, fc_hz=fc_hz, paths=self, t0_s=t0_s, method=method)
 
 
 def concatenate(*sets: PathSet) -> PathSet:
-    """One :class:`PathSet` holding the paths of all ``sets`` (in order)."""
+    """One :class:`PathSet` holding the paths of all ``sets`` (in order).
+
+    Parameters
+    ----------
+    *sets : PathSet
+        Path sets.
+
+    Returns
+    -------
+    PathSet
+        The union (empty without arguments).
+    """
     if not sets:
         return PathSet(np.zeros(0, complex), np.zeros(0))
     return PathSet(
@@ -199,6 +322,18 @@ def compose_backscatter(forward: PathSet, backward: PathSet) -> PathSet:
     Gains multiply, delays add, Dopplers add (gen2-and-validation-anchors.md §4.7: round trip
     h_f·h_b). Valid for a constant reflection coefficient; for a time-varying Γ(t) use
     :func:`apply_backscatter`. Path order: forward-major (``i_f·n_b + i_b``).
+
+    Parameters
+    ----------
+    forward : PathSet
+        Emitter → reflector.
+    backward : PathSet
+        Reflector → receiver.
+
+    Returns
+    -------
+    PathSet
+        ``n_f·n_b`` round-trip paths.
     """
     g = (forward.gain[:, None] * backward.gain[None, :]).ravel()
     d = (forward.delay_s[:, None] + backward.delay_s[None, :]).ravel()
@@ -338,7 +473,17 @@ def apply_backscatter(x_tx, gamma_t, forward: PathSet, backward: PathSet, *, fs_
 def narrowband_error_bound(paths: PathSet, bandwidth_hz: float) -> float:
     """Bound on max|y_narrowband − y_delayed| / max|x|: Σ|g_p|·2π·B·|τ_p| (Bernstein).
 
-    ``bandwidth_hz`` is the one-sided bandwidth B of x (its spectrum within |f| ≤ B).
+    Parameters
+    ----------
+    paths : PathSet
+        The link.
+    bandwidth_hz : float
+        One-sided bandwidth B of x (its spectrum within |f| ≤ B) [Hz].
+
+    Returns
+    -------
+    float
+        Relative error bound [1].
     """
     return float(np.sum(np.abs(paths.gain) * 2.0 * np.pi * bandwidth_hz * np.abs(paths.delay_s)))
 
@@ -352,6 +497,18 @@ def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
     of flight, 3.3 ns/m) is dropped from the envelope only: it shifts a reply by tens of ns,
     far below the Gen2 T1 tolerance, and leaves RSSI, phase and Doppler (exact carrier phase
     of every path) unchanged.
+
+    Parameters
+    ----------
+    paths : PathSet
+        The link.
+    bandwidth_hz : float
+        One-sided signal bandwidth B [Hz].
+
+    Returns
+    -------
+    float
+        Relative RMS error [1] (0 for no power).
     """
     # ufunc reductions (the sums and the minimum of np.sum / np.min, without their wrappers)
     p = np.abs(paths.gain) ** 2
@@ -371,6 +528,25 @@ def propagation_method(paths: PathSet, bandwidth_hz: float, propagation: str = "
     :data:`NARROWBAND_TOLERANCE`, else every path with its exact fractional delay (which also
     avoids the interpolator's ringing on hard-switched FM0/Miller edges being taken for a
     delay effect). ``"exact"`` and ``"narrowband"`` force the method.
+
+    Parameters
+    ----------
+    paths : PathSet
+        The link.
+    bandwidth_hz : float
+        One-sided signal bandwidth [Hz].
+    propagation : {"auto", "exact", "narrowband"}
+        Policy.
+
+    Returns
+    -------
+    str
+        "narrowband" or "exact".
+
+    Raises
+    ------
+    ValueError
+        For an unknown policy.
     """
     if propagation not in PROPAGATION_METHODS:
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")

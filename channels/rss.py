@@ -95,21 +95,55 @@ class RssChannel:
         return len(self.readers)
 
     def distance_m(self, points_m) -> np.ndarray:
-        """Tag–reader distances ``(..., J)`` [m] of points ``(..., 3)``, clamped at 1 cm."""
+        """Tag–reader distances of points, clamped at :data:`MIN_DISTANCE_M` (1 cm).
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` tag positions [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., J)`` distances [m].
+        """
         x = _as_points(points_m)
         d = np.linalg.norm(x[..., None, :] - self.positions_m, axis=-1)
         return np.maximum(d, MIN_DISTANCE_M)
 
     def wall_loss_db(self, points_m) -> np.ndarray:
-        """``nW_j·WAF`` [dB] on the lines point → reader j, ``(..., J)``."""
+        """Wall loss ``nW_j·WAF`` on the lines point → reader j.
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` tag positions [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., J)`` losses [dB].
+        """
         x = _as_points(points_m)
         return wall_loss_db(x[..., None, :], self.positions_m, self.walls)
 
     def mean_rss_dbm(self, points_m, alpha_dbm=None, exponent=None) -> np.ndarray:
-        """``α_j − 10·n_j·log10(d_j/d0) − nW_j·WAF`` [dBm] at points ``(..., 3)`` → ``(..., J)``.
+        """Mean RSS ``α_j − 10·n_j·log10(d_j/d0) − nW_j·WAF`` at points (module docstring).
 
-        ``alpha_dbm``/``exponent`` (broadcast against ``(..., J)``, e.g. per-trial calibrated
-        values) replace the readers' own parameters when given.
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` tag positions [m].
+        alpha_dbm : array_like or None
+            α_j [dBm], broadcast against ``(..., J)`` (e.g. per-trial calibrated values); None:
+            the readers' own.
+        exponent : array_like or None
+            n_j [1], broadcast likewise; None: the readers' own.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., J)`` mean RSS [dBm].
         """
         a = self.alpha_dbm if alpha_dbm is None else np.asarray(alpha_dbm, float)
         n = self.exponent if exponent is None else np.asarray(exponent, float)
@@ -157,10 +191,33 @@ def quasi_static_shadowing_db(points_m, sigma_db, *, rng: np.random.Generator,
 
 def people_term_db(n_beacons: int, n_readers: int, sigma_db: float, *, rng: np.random.Generator,
                    correlation: float = 0.0) -> np.ndarray:
-    """Time-varying people term ``P_j(t)`` [dB] over beacons, ``(n_beacons, n_readers)``.
+    """Time-varying people term ``P_j(t)`` over beacons.
 
     Stationary AR(1) per reader: ``P_0 ~ N(0, σ²)``, ``P_t = ρ·P_{t−1} + √(1 − ρ²)·σ·w_t``
-    (``ρ = correlation`` in [0, 1); 0 = independent per beacon).
+    (``ρ = correlation``; 0 = independent per beacon).
+
+    Parameters
+    ----------
+    n_beacons : int
+        Beacons (time steps).
+    n_readers : int
+        Readers J.
+    sigma_db : float
+        σ_p [dB].
+    rng : numpy.random.Generator
+        The draws.
+    correlation : float
+        ρ_p in [0, 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_beacons, n_readers)`` [dB].
+
+    Raises
+    ------
+    ConfigError
+        If ``correlation`` is outside [0, 1).
     """
     if not 0.0 <= correlation < 1.0:
         raise ConfigError("people.correlation", correlation, "a number in [0, 1)")

@@ -87,15 +87,44 @@ class Scene:
             raise ConfigError("channel.large_scale", self.large_scale, "a model with amplitude_gain(d, fc)")
 
     def amplitude_gain(self, distance_m, fc_hz):
-        """Large-scale amplitude gain at ``distance_m`` (Friis when ``large_scale`` is None)."""
+        """Large-scale amplitude gain at ``distance_m`` (Friis when ``large_scale`` is None).
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance [m].
+        fc_hz : array_like
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1].
+        """
         if self.large_scale is None:
             return friis_amplitude_gain(distance_m, fc_hz)
         return self.large_scale.amplitude_gain(distance_m, fc_hz)
 
     def link_amplitude_gain(self, tx, rx, distance_m, fc_hz):
-        """Large-scale amplitude gain of the link ``tx → rx`` at ``distance_m``: the link's
-        own model when ``large_scale`` is per link (``link_amplitude_gain``), else
-        :meth:`amplitude_gain`."""
+        """Large-scale amplitude gain of the link ``tx → rx`` at ``distance_m``.
+
+        The link's own model when ``large_scale`` is per link (``link_amplitude_gain``), else
+        :meth:`amplitude_gain`.
+
+        Parameters
+        ----------
+        tx, rx : Antenna
+            The link's ends.
+        distance_m : array_like
+            Distance [m].
+        fc_hz : array_like
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        numpy.ndarray
+            Gain [1].
+        """
         per_link = getattr(self.large_scale, "link_amplitude_gain", None)
         if per_link is None:
             return self.amplitude_gain(distance_m, fc_hz)
@@ -103,10 +132,26 @@ class Scene:
 
 
 def kinematics(antenna: Antenna, motion, t_s: float):
-    """Position [m] and velocity [m/s] of an antenna at time ``t_s``.
+    """Position and velocity of an antenna at time ``t_s``.
 
-    ``motion`` is None (static at ``antenna.position_m``), a (3,) velocity [m/s] (position
-    ``antenna.position_m + v·t_s``) or a callable trajectory ``t → (3,)`` position [m].
+    A trajectory's velocity is its central difference over ±``_TRAJ_DT_S``.
+
+    Parameters
+    ----------
+    antenna : Antenna
+        The antenna (``position_m`` is its position at t = 0 for a velocity motion).
+    motion : None, array_like or callable
+        None (static at ``antenna.position_m``), a (3,) velocity [m/s] (position
+        ``antenna.position_m + v·t_s``) or a trajectory ``t → (3,)`` position [m].
+    t_s : float
+        Time [s].
+
+    Returns
+    -------
+    position_m : numpy.ndarray
+        ``(3,)`` [m].
+    velocity_mps : numpy.ndarray
+        ``(3,)`` [m/s].
     """
     p0 = antenna.position_m
     if motion is None:
@@ -248,21 +293,43 @@ class Channel:
                 apdp_args)
 
     def hold_placement(self, tx: Antenna, rx: Antenna, placement: tuple) -> None:
-        """Keep ``placement`` as the carrier-independent geometry of the static link ``tx → rx``
-        (the tuple :meth:`_placement` returns; :func:`rfsim.channels.bulk.static_placements` makes
-        them for many links at once, bit-identical), so that :meth:`link` does not evaluate it."""
+        """Keep ``placement`` as the carrier-independent geometry of the static link ``tx → rx``.
+
+        The tuple :meth:`_placement` returns; :func:`rfsim.channels.bulk.static_placements` makes
+        them for many links at once, bit-identical, so that :meth:`link` does not evaluate it.
+
+        Parameters
+        ----------
+        tx, rx : Antenna
+            The link's ends.
+        placement : tuple
+            The geometry (:meth:`_placement`).
+        """
         if len(self._placements) >= GEOMETRY_CACHE_SIZE:
             self._placements.pop(next(iter(self._placements)))
         self._placements[(tx, rx)] = placement
 
     def hold_placements(self, tx: Antenna, rx_antennas) -> int:
-        """Evaluate at once the carrier-independent geometry of the static links ``tx → rx_i``
-        not held yet (:func:`rfsim.channels.bulk.static_placements`, bit-identical to
-        :meth:`_placement`) and hold it (:meth:`hold_placement`), so that the first
-        :meth:`link` of each does not evaluate it on its own. A scene with reflecting
-        surfaces or walls, receivers that are not linearly polarized antennas sharing one
-        pattern, or more links than :data:`GEOMETRY_CACHE_SIZE` are left to :meth:`link`.
-        Returns the number of placements held."""
+        """Evaluate at once, and hold, the carrier-independent geometry of the static links ``tx → rx_i`` not held yet.
+
+        :func:`rfsim.channels.bulk.static_placements`, bit-identical to :meth:`_placement`, then
+        :meth:`hold_placement`, so that the first :meth:`link` of each does not evaluate it on its
+        own. A scene with reflecting surfaces or walls, receivers that are not linearly polarized
+        antennas sharing one pattern, or more links than :data:`GEOMETRY_CACHE_SIZE` are left to
+        :meth:`link`.
+
+        Parameters
+        ----------
+        tx : Antenna
+            The transmitter.
+        rx_antennas : iterable of Antenna
+            The receivers.
+
+        Returns
+        -------
+        int
+            The number of placements held.
+        """
         sc = self.scene
         if (sc.surfaces and sc.image_order > 0) or sc.walls or not isinstance(tx, Antenna):
             return 0
@@ -350,6 +417,26 @@ class Channel:
         Monostatic (``receiver`` None or equal to ``emitter``) with ``reciprocal=True``: the
         backward paths are the forward paths (one held draw). Otherwise the backward link is
         assembled on its own (its diffuse draw uses the same ``rng`` after the forward one).
+
+        Parameters
+        ----------
+        emitter, tag : Antenna
+            The emitter and the tag.
+        receiver : Antenna or None
+            The receiver (None: the emitter).
+        fc_hz : float
+            Carrier frequency [Hz].
+        rng : numpy.random.Generator or None
+            Draw the diffuse taps anew; None reuses the held draws.
+        t_s : float
+            Evaluation time [s].
+        emitter_motion, tag_motion, receiver_motion : None, array_like or callable
+            Motions as in :meth:`link`.
+
+        Returns
+        -------
+        forward, backward : PathSet
+            The two links.
         """
         fwd = self.link(emitter, tag, fc_hz=fc_hz, rng=rng, t_s=t_s, tx_motion=emitter_motion, rx_motion=tag_motion)
         if (receiver is None or receiver == emitter) and self.scene.reciprocal:
@@ -379,6 +466,22 @@ class HeldLinks:
             self._pairs[(id(tx), id(rx))] = (tx, rx, p)  # the antennas are kept alive with their ids
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        """The held link of a pair (matched by antenna identity, whatever the carrier and time).
+
+        Parameters
+        ----------
+        tx, rx : Antenna
+            The pair.
+        fc_hz : float
+            Carrier frequency [Hz] (unused: the draw is held).
+        t_s : float
+            Time [s] (unused).
+
+        Returns
+        -------
+        PathSet or BatchLink or None
+            The link, or None for a pair it does not hold.
+        """
         hit = self._pairs.get((id(tx), id(rx)))
         return None if hit is None else hit[2]
 

@@ -91,16 +91,51 @@ class ApdpModel:
             raise ConfigError("apdp.eps_trms", self.eps_trms, "tolerances in (0, 1)")
 
     def k_db_at(self, distance_m):
-        """K-factor [dB] at ``distance_m`` [m] (array-like)."""
+        """K-factor ``K(d) = k_a_db·10^(−k_b·d) + k_c_db`` (auris-sense-a-tag.md §1.7).
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance d [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            K [dB].
+        """
         d = np.asarray(distance_m, dtype=float)
         return self.k_a_db * np.power(10.0, -self.k_b * d) + self.k_c_db
 
     def k_lin_at(self, distance_m):
-        """K-factor (linear power ratio) at ``distance_m``."""
+        """K-factor as a linear power ratio at ``distance_m``.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance d [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            K [1].
+        """
         return db_to_lin(self.k_db_at(distance_m))
 
     def tau_rms_s_at(self, distance_m):
-        """RMS delay spread [s] at ``distance_m`` (≥ a tiny floor so γ stays finite at d = 0)."""
+        """RMS delay spread ``τrms(d) = tau_max_s·(1 − 10^(−tau_b·d))``.
+
+        Floored at 1e−15 s so γ stays finite at d = 0.
+
+        Parameters
+        ----------
+        distance_m : array_like
+            Distance d [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            τrms [s].
+        """
         d = np.asarray(distance_m, dtype=float)
         return np.maximum(self.tau_max_s * (1.0 - np.power(10.0, -self.tau_b * d)), 1e-15)
 
@@ -117,25 +152,60 @@ class ApdpModel:
         )
 
     def profile_at(self, distance_m: float):
-        """``(powers, delays_s)`` of the average profile at one distance."""
+        """The average profile at one distance (:func:`average_profile`).
+
+        Parameters
+        ----------
+        distance_m : float
+            Distance d [m].
+
+        Returns
+        -------
+        powers : numpy.ndarray
+            Tap powers [1] (unit total).
+        delays_s : numpy.ndarray
+            Tap delays [s].
+        """
         return average_profile(
             float(self.k_lin_at(distance_m)), float(self.tau_rms_s_at(distance_m)), **self.profile_options
         )
 
 
 def apdp_decay_rate(k_lin, tau_rms_s):
-    """γ = √(2K+1)/((K+1)·τrms) [1/s] (auris-sense-a-tag.md §1.7, derived Eq. 2.48)."""
+    """Decay rate γ = √(2K+1)/((K+1)·τrms) of the APDP tail (auris-sense-a-tag.md §1.7, derived Eq. 2.48).
+
+    Parameters
+    ----------
+    k_lin : array_like
+        K-factor [1].
+    tau_rms_s : array_like
+        RMS delay spread [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        γ [1/s].
+    """
     k = np.asarray(k_lin, dtype=float)
     return np.sqrt(2.0 * k + 1.0) / ((k + 1.0) * np.asarray(tau_rms_s, dtype=float))
 
 
 def profile_statistics(powers, delays_s):
-    """K (first tap over the rest) and RMS delay spread [s] of a discrete profile.
+    """K (first tap over the rest) and RMS delay spread of a discrete profile.
 
     Parameters
     ----------
-    powers : (n,) float64, tap powers; ``powers[0]`` is the LoS tap
-    delays_s : (n,) float64, tap delays [s]
+    powers : array_like
+        ``(n,) float64`` tap powers; ``powers[0]`` is the LoS tap.
+    delays_s : array_like
+        ``(n,) float64`` tap delays [s].
+
+    Returns
+    -------
+    k : float
+        K [1] (inf without NLoS power).
+    tau_rms_s : float
+        RMS delay spread [s].
     """
     p = np.asarray(powers, dtype=float)
     t = np.asarray(delays_s, dtype=float)
@@ -148,7 +218,27 @@ def profile_statistics(powers, delays_s):
 
 
 def binned_tail(gamma, t_max, n):
-    """Bin powers (unit total) and centre-of-gravity delays of γe^{−γτ} on n bins of [0, t_max]."""
+    """Bin powers and centre-of-gravity delays of γe^{−γτ} on n bins of [0, t_max].
+
+    Bin power ∫_a^{a+Δ} γe^{−γτ} dτ = e^{−γa}(1 − e^{−γΔ}); centre of gravity
+    a + 1/γ − Δ/(e^{γΔ} − 1) (series Δ/2 − γΔ²/12 for small γΔ).
+
+    Parameters
+    ----------
+    gamma : float
+        Decay rate γ [1/s].
+    t_max : float
+        End of the last bin [s].
+    n : int
+        Number of bins.
+
+    Returns
+    -------
+    powers : numpy.ndarray
+        ``(n,)`` bin powers, unit total [1].
+    delays_s : numpy.ndarray
+        ``(n,)`` centre-of-gravity delays [s].
+    """
     delta = t_max / n
     a = np.arange(n) * delta
     gd = gamma * delta

@@ -46,7 +46,22 @@ _POLS = ("TE", "TM")
 
 
 def relative_permittivity(eps_rel: float, sigma_s_m: float, fc_hz: float) -> complex:
-    """Complex relative permittivity ε_r = ε' − j·σ/(2π·f·ε0) (e^{+jωt} convention)."""
+    """Complex relative permittivity ε_r = ε' − j·σ/(2π·f·ε0) (e^{+jωt} convention, module docstring).
+
+    Parameters
+    ----------
+    eps_rel : float
+        Real part ε' [1].
+    sigma_s_m : float
+        Conductivity σ [S/m].
+    fc_hz : float
+        Frequency f [Hz].
+
+    Returns
+    -------
+    complex
+        ε_r [1].
+    """
     from scipy.constants import epsilon_0  # CODATA value of the installed scipy
 
     return complex(eps_rel, -sigma_s_m / (2.0 * np.pi * fc_hz * epsilon_0))
@@ -82,13 +97,50 @@ def fresnel_reflection(aoi_rad, n2, polarization: str):
 
 
 def fresnel_transmission(aoi_rad, n2, polarization: str):
-    """PASS transmission amplitude factor ``1 − |r|²`` (slab crossing, see module docstring)."""
+    """PASS transmission amplitude factor ``1 − |r|²`` (slab crossing, see module docstring).
+
+    Parameters
+    ----------
+    aoi_rad : array_like
+        Angle of incidence from the normal [rad], in [0, π/2].
+    n2 : complex or array_like
+        Complex refractive index of the second medium.
+    polarization : {"TE", "TM"}
+        Polarisation.
+
+    Returns
+    -------
+    numpy.ndarray
+        Amplitude factor [1], broadcast shape.
+    """
     r = fresnel_reflection(aoi_rad, n2, polarization)
     return 1.0 - np.abs(r) ** 2
 
 
 def surface_coefficient(aoi_rad, n2, polarization: str, mode: str):
-    """Surface gain for ``mode`` in {``"off"``, ``"reflection"``, ``"transmission"``} (PASS modes)."""
+    """Surface gain for one of the PASS surface modes.
+
+    Parameters
+    ----------
+    aoi_rad : array_like
+        Angle of incidence from the normal [rad].
+    n2 : complex or array_like
+        Complex refractive index of the second medium.
+    polarization : {"TE", "TM"}
+        Polarisation.
+    mode : {"off", "reflection", "transmission"}
+        0, :func:`fresnel_reflection` or :func:`fresnel_transmission`.
+
+    Returns
+    -------
+    numpy.ndarray
+        complex128 gain [1], broadcast shape.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown mode or polarisation.
+    """
     if mode == "off":
         return np.zeros(np.broadcast(np.asarray(aoi_rad), np.asarray(n2)).shape, dtype=complex)
     if mode == "reflection":
@@ -155,11 +207,35 @@ class Surface:
         return complex(np.sqrt(self.eps_r))
 
     def signed_distance(self, points_m) -> np.ndarray:
-        """Signed distance [m] of points (..., 3) from the plane along ``normal``."""
+        """Signed distance of points from the plane along ``normal``.
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` points [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...)`` distances [m].
+        """
         return (np.asarray(points_m, dtype=float) - self.point_m) @ self.normal
 
     def contains(self, points_m, *, tol_m: float = 1e-9) -> np.ndarray:
-        """Whether in-plane points (..., 3) lie inside the finite extent (always True if unbounded)."""
+        """Whether in-plane points lie inside the finite extent (always True if unbounded).
+
+        Parameters
+        ----------
+        points_m : array_like
+            ``(..., 3)`` points in the plane [m].
+        tol_m : float
+            Tolerance on the half-widths [m].
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(...)`` bool.
+        """
         p = np.asarray(points_m, dtype=float)
         if self.half_size_m is None:
             return np.ones(p.shape[:-1], dtype=bool)
@@ -170,10 +246,22 @@ class Surface:
     def reflection(self, aoi_rad, s_weight):
         """Co-polar reflection coefficient ``w_s·r_TE + (1 − w_s)·r_TM``.
 
-        ``s_weight`` is the power fraction of the incident field along the TE direction
-        (⟂ plane of incidence). Exact for pure TE or pure TM incidence (vertical dipole over a
-        floor: TM; over a vertical wall at horizontal incidence: TE); a co-polar approximation
-        otherwise (depolarisation is neglected).
+        Exact for pure TE or pure TM incidence (vertical dipole over a floor: TM; over a vertical
+        wall at horizontal incidence: TE); a co-polar approximation otherwise (depolarisation is
+        neglected).
+
+        Parameters
+        ----------
+        aoi_rad : array_like
+            Angle of incidence from the normal [rad].
+        s_weight : array_like
+            Power fraction w_s of the incident field along the TE direction (⟂ plane of
+            incidence) [1].
+
+        Returns
+        -------
+        numpy.ndarray
+            complex128 coefficient [1].
         """
         n2 = self.n2
         return s_weight * fresnel_reflection(aoi_rad, n2, "TE") + (1.0 - s_weight) * fresnel_reflection(
@@ -182,7 +270,20 @@ class Surface:
 
 
 def reflect_point(points_m, surface: Surface) -> np.ndarray:
-    """Mirror image of points (..., 3) in the plane of ``surface``."""
+    """Mirror image of points in the plane of ``surface``.
+
+    Parameters
+    ----------
+    points_m : array_like
+        ``(..., 3)`` points [m].
+    surface : Surface
+        The mirror plane.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., 3)`` images [m].
+    """
     p = np.asarray(points_m, dtype=float)
     return p - 2.0 * surface.signed_distance(p)[..., None] * surface.normal
 

@@ -45,9 +45,30 @@ def param(
 ) -> Any:
     """A dataclass field with a validated range, a unit and a description.
 
-    ``lo``/``hi`` bound numbers (and every element of numeric tuples); ``lo_open`` /
-    ``hi_open`` make the bound strict. Choices are expressed with ``Literal[...]``
-    types on the field itself.
+    Choices are expressed with ``Literal[...]`` types on the field itself.
+
+    Parameters
+    ----------
+    default : object
+        Default value (immutable: a tuple, not a list).
+    lo, hi : float or None
+        Bounds of numbers (and of every element of numeric tuples); None: unbounded.
+    lo_open, hi_open : bool
+        Make the bound strict.
+    unit : str
+        Unit shown in help and errors.
+    doc : str
+        One-line description.
+
+    Returns
+    -------
+    dataclasses.Field
+        The field.
+
+    Raises
+    ------
+    TypeError
+        For a mutable default (list, dict, set).
     """
     meta = {_META_KEY: {"lo": lo, "hi": hi, "lo_open": lo_open, "hi_open": hi_open,
                         "unit": unit, "doc": doc}}
@@ -61,6 +82,16 @@ def field_meta(f: dataclasses.Field) -> dict[str, Any]:
 
     ``nonempty`` is true for a list field whose default is not empty: such a list may not
     be set to ``[]`` (a list that may be empty has the default ``()``).
+
+    Parameters
+    ----------
+    f : dataclasses.Field
+        The field.
+
+    Returns
+    -------
+    dict of str to object
+        ``lo``, ``hi``, ``lo_open``, ``hi_open``, ``unit``, ``doc``, ``nonempty``.
     """
     meta = f.metadata.get(_META_KEY, {"lo": None, "hi": None, "lo_open": False,
                                       "hi_open": False, "unit": "", "doc": ""})
@@ -159,7 +190,20 @@ def type_hints(cls: type) -> dict[str, Any]:
 
 
 def field_at(cls: type, key: str) -> tuple[dataclasses.Field, Any] | None:
-    """(field, type) of the dotted ``key`` in the config class ``cls``; None if there is none."""
+    """(field, type) of the dotted ``key`` in the config class ``cls``.
+
+    Parameters
+    ----------
+    cls : type
+        A config dataclass.
+    key : str
+        Dotted key, e.g. ``"reader.ptx_dbm"``.
+
+    Returns
+    -------
+    tuple of (dataclasses.Field, type) or None
+        The field and its type hint; None if there is none.
+    """
     parts = key.split(".")
     for j, part in enumerate(parts):
         if not dataclasses.is_dataclass(cls):
@@ -178,7 +222,26 @@ def check_value(cls: type, key: str, value: Any) -> Any:
     """Check one value of the dotted ``key`` against its field's type, range or choices.
 
     The per-field checks of :func:`from_dict` without the cross-field checks of the
-    configs' ``__post_init__``; unknown keys raise :class:`ConfigError`.
+    configs' ``__post_init__``.
+
+    Parameters
+    ----------
+    cls : type
+        A config dataclass.
+    key : str
+        Dotted key.
+    value : object
+        The value as given.
+
+    Returns
+    -------
+    object
+        The value in canonical form.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown key or a value its field does not allow.
     """
     found = field_at(cls, key)
     if found is None:
@@ -194,8 +257,26 @@ def _type_name(tp: Any) -> str:
 def from_dict(cls: type, data: Mapping[str, Any], *, prefix: str = "") -> Any:
     """Build the dataclass ``cls`` from a (nested) mapping, validating everything.
 
-    Missing keys take the defaults; unknown keys, wrong types and out-of-range values
-    raise :class:`ConfigError` naming the dotted key.
+    Missing keys take the defaults.
+
+    Parameters
+    ----------
+    cls : type
+        A config dataclass.
+    data : mapping
+        Nested values (e.g. parsed TOML).
+    prefix : str
+        Dotted key of ``cls`` in its parent, for error messages.
+
+    Returns
+    -------
+    object
+        An instance of ``cls``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown keys, wrong types and out-of-range values, naming the dotted key.
     """
     hints = type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
@@ -233,6 +314,18 @@ def check_fields(config: Any, prefix: str = "") -> None:
 
     Same per-field checks as :func:`from_dict` (types, ranges, choices), with keys named
     ``prefix.field``; values are stored in canonical form (e.g. ints as floats).
+
+    Parameters
+    ----------
+    config : object
+        The config dataclass instance (updated in place).
+    prefix : str
+        Dotted key of the config, for error messages.
+
+    Raises
+    ------
+    ConfigError
+        For a value its field does not allow.
     """
     hints = type_hints(type(config))
     for f in dataclasses.fields(config):
@@ -241,7 +334,23 @@ def check_fields(config: Any, prefix: str = "") -> None:
 
 
 def validate(config: Any) -> Any:
-    """Re-check an already built config (e.g. one created in Python code)."""
+    """Re-check an already built config (e.g. one created in Python code).
+
+    Parameters
+    ----------
+    config : object
+        A config dataclass instance.
+
+    Returns
+    -------
+    object
+        A new, validated instance.
+
+    Raises
+    ------
+    ConfigError
+        For a value its field does not allow.
+    """
     return from_dict(type(config), to_dict(config))
 
 
@@ -249,10 +358,27 @@ def validate(config: Any) -> Any:
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:
-    """Split ``"a.b=value"`` into (``["a", "b"]``, parsed value).
+    """Split ``"a.b=value"`` into the key path and the parsed value.
 
     The value is read as a TOML literal (``30``, ``1.5e-6``, ``true``, ``[1, 2]``,
     ``"text"``); anything that is not valid TOML is taken as a bare string.
+
+    Parameters
+    ----------
+    text : str
+        A ``--set`` argument.
+
+    Returns
+    -------
+    path : list of str
+        The key's parts, e.g. ``["a", "b"]``.
+    value : object
+        The parsed value.
+
+    Raises
+    ------
+    UserError
+        Without ``=`` or with an empty key part.
     """
     if "=" not in text:
         raise UserError(f"--set {text!r}: expected KEY=VALUE, e.g. --set reader.ptx_dbm=30")
@@ -279,7 +405,23 @@ def _set_nested(data: dict[str, Any], path: list[str], value: Any) -> None:
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file; a missing or malformed file is a one-line :class:`UserError`."""
+    """Read a TOML file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    dict of str to object
+        The parsed TOML.
+
+    Raises
+    ------
+    UserError
+        One line, for a missing, unreadable, non-UTF-8 or malformed file.
+    """
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -296,7 +438,27 @@ def read_toml(path: str | Path) -> dict[str, Any]:
 
 def load_config(cls: type, toml_path: str | Path | None = None,
                 overrides: Iterable[str] = ()) -> Any:
-    """Defaults ← TOML file ← ``--set`` overrides, validated into ``cls``."""
+    """Defaults ← TOML file ← ``--set`` overrides, validated into ``cls``.
+
+    Parameters
+    ----------
+    cls : type
+        A config dataclass.
+    toml_path : str or pathlib.Path or None
+        TOML file (None: defaults only).
+    overrides : iterable of str
+        ``KEY=VALUE`` overrides, applied in order.
+
+    Returns
+    -------
+    object
+        An instance of ``cls``.
+
+    Raises
+    ------
+    UserError
+        For a bad file or override (:class:`ConfigError` for a bad value).
+    """
     data: dict[str, Any] = read_toml(toml_path) if toml_path is not None else {}
     for text in overrides:
         path, value = parse_override(text)
@@ -308,7 +470,18 @@ def load_config(cls: type, toml_path: str | Path | None = None,
 
 
 def to_dict(config: Any) -> dict[str, Any]:
-    """Nested plain-dict view of a config (tuples stay tuples, None stays None)."""
+    """Nested plain-dict view of a config (tuples stay tuples, None stays None).
+
+    Parameters
+    ----------
+    config : object
+        A config dataclass instance.
+
+    Returns
+    -------
+    dict of str to object
+        The values, nested configs as dicts.
+    """
     out: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
@@ -317,7 +490,23 @@ def to_dict(config: Any) -> dict[str, Any]:
 
 
 def toml_value(value: Any) -> str:
-    """One value as TOML text (``"none"`` for None)."""
+    """One value as TOML text (``"none"`` for None).
+
+    Parameters
+    ----------
+    value : bool, int, float, str, tuple, list or None
+        The value.
+
+    Returns
+    -------
+    str
+        TOML literal.
+
+    Raises
+    ------
+    TypeError
+        For a value TOML cannot hold.
+    """
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, int):
@@ -336,7 +525,18 @@ def toml_value(value: Any) -> str:
 
 
 def to_toml(config: Any) -> str:
-    """The resolved config as TOML text (round-trips through :func:`load_config`)."""
+    """The resolved config as TOML text (round-trips through :func:`load_config`).
+
+    Parameters
+    ----------
+    config : object
+        A config dataclass instance.
+
+    Returns
+    -------
+    str
+        TOML text.
+    """
     lines: list[str] = []
 
     def emit(d: Mapping[str, Any], table: str) -> None:
@@ -356,9 +556,23 @@ def to_toml(config: Any) -> str:
 
 
 def describe(cls: type, prefix: str = "", defaults: Any = None) -> list[tuple[str, str, str, str]]:
-    """(key, default, allowed, description) rows for help output. ``defaults`` is the instance
-    whose values are the defaults (a nested config's default in its parent, which may differ
-    from the nested class's own defaults); None: the class defaults."""
+    """(key, default, allowed, description) rows for help output.
+
+    Parameters
+    ----------
+    cls : type
+        A config dataclass.
+    prefix : str
+        Dotted key of ``cls``.
+    defaults : object or None
+        The instance whose values are the defaults (a nested config's default in its parent,
+        which may differ from the nested class's own defaults); None: the class defaults.
+
+    Returns
+    -------
+    list of tuple of str
+        One row per leaf key.
+    """
     rows = []
     hints = type_hints(cls)
     for f in dataclasses.fields(cls):

@@ -35,8 +35,21 @@ _EMBEDDED_ERRNO = re.compile(r"errno = (\d+)")
 
 
 def os_error_number(err: BaseException) -> int | None:
-    """The operating-system error number behind ``err`` or the errors it was raised from or
-    while handling (``__cause__``/``__context__``), or None when there is none."""
+    """The operating-system error number behind ``err``.
+
+    Also looked for in the errors it was raised from or while handling
+    (``__cause__``/``__context__``), and as ``errno = N`` inside an HDF5 message.
+
+    Parameters
+    ----------
+    err : BaseException
+        The error.
+
+    Returns
+    -------
+    int or None
+        The errno, or None when there is none.
+    """
     seen: set[int] = set()
     while err is not None and id(err) not in seen:
         seen.add(id(err))
@@ -51,12 +64,25 @@ def os_error_number(err: BaseException) -> int | None:
 
 
 def write_failure(err: BaseException, what: str, *, hint: bool = True) -> ResourceError | None:
-    """A one-line :class:`ResourceError` for a failed write of ``what`` (e.g. ``"dataset
-    'x.h5'"``) when ``err`` comes from the operating system, else None (a bug: let it show).
+    """A one-line :class:`ResourceError` for a failed write of ``what`` when ``err`` comes from the operating system.
 
     ``ENOSPC`` (disk full), ``EDQUOT`` (quota), ``EIO`` (device error), ``EFBIG``, ``EROFS``...
     all give ``cannot write <what>: <strerror>`` (with what to do about a full disk, unless
     ``hint`` is False).
+
+    Parameters
+    ----------
+    err : BaseException
+        The error raised by the write.
+    what : str
+        What was written, e.g. ``"dataset 'x.h5'"``.
+    hint : bool
+        Add what to do about a full disk or quota.
+
+    Returns
+    -------
+    ResourceError or None
+        The error to raise, or None (not an operating-system error: a bug, let it show).
     """
     if isinstance(err, (UserError, ResourceError, KeyboardInterrupt)):
         return None
@@ -99,14 +125,45 @@ SEED_RANGE_TEXT = "an integer in [0, 2**64)"
 
 
 def check_seed(value: object, what: str = "seed") -> int:
-    """``value`` as a seed in [0, 2**64); anything else is a one-line :class:`UserError`."""
+    """``value`` as a seed in [0, 2**64).
+
+    Parameters
+    ----------
+    value : object
+        The seed as given.
+    what : str
+        What the value is, for the message.
+
+    Returns
+    -------
+    int
+        The seed.
+
+    Raises
+    ------
+    UserError
+        One line, for anything but an int in [0, 2**64).
+    """
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < SEED_LIMIT:
         raise UserError(f"{what} {value!r}: expected {SEED_RANGE_TEXT}")
     return value
 
 
 def did_you_mean(name: str, candidates: Iterable[str]) -> str:
-    """Return ``" (did you mean 'x'?)"`` for the closest candidate, or ``""``."""
+    """A did-you-mean hint for the closest candidate (difflib, cutoff 0.6).
+
+    Parameters
+    ----------
+    name : str
+        The unknown name.
+    candidates : iterable of str
+        The known names.
+
+    Returns
+    -------
+    str
+        ``" (did you mean 'x'?)"``, or ``""`` when none is close.
+    """
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
 

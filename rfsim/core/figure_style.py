@@ -119,6 +119,11 @@ def paper_style() -> Iterator[None]:
     Sans-serif fonts at paper sizes (8 pt text, 7 pt ticks and legends), mathtext in the same
     font, a light grid, constrained layout, framed legends, ``savefig`` with a tight bounding
     box, TrueType fonts in PDF. Create, draw and save the figure inside the context.
+
+    Yields
+    ------
+    None
+        The block runs with the style's rcParams.
     """
     plt = pyplot()
     with plt.rc_context(_rc()):
@@ -153,10 +158,22 @@ def figure(columns: int = 1, nrows: int = 1, ncols: int = 1, height_in: float | 
 
 
 def series_style(i: int) -> dict:
-    """Keyword arguments of ``ax.plot``/``ax.errorbar`` for the ``i``-th series of a figure:
-    a colour of the colour-blind-safe cycle, a line style and a marker, all three changing
+    """Keyword arguments of ``ax.plot``/``ax.errorbar`` for the ``i``-th series of a figure.
+
+    A colour of the colour-blind-safe cycle, a line style and a marker, all three changing
     from one series to the next (7 distinct combinations, then the cycle repeats with the
-    line styles and markers shifted, so the first 49 series are all distinct)."""
+    line styles and markers shifted, so the first 49 series are all distinct).
+
+    Parameters
+    ----------
+    i : int
+        Index of the series.
+
+    Returns
+    -------
+    dict
+        ``color``, ``linestyle``, ``marker``.
+    """
     n = len(OKABE_ITO)
     shift = (i // n) % n
     return dict(color=OKABE_ITO[i % n], linestyle=LINE_STYLES[(i + shift) % len(LINE_STYLES)],
@@ -164,18 +181,41 @@ def series_style(i: int) -> dict:
 
 
 def published_label(source: str) -> str:
-    """Legend label of published values: ``published (<source>)``, e.g.
-    ``published_label("AURIS Fig. 3.8")`` → ``"published (AURIS Fig. 3.8)"``."""
+    """Legend label of published values: ``published (<source>)``.
+
+    Parameters
+    ----------
+    source : str
+        The source, e.g. ``"AURIS Fig. 3.8"``.
+
+    Returns
+    -------
+    str
+        E.g. ``"published (AURIS Fig. 3.8)"``.
+    """
     return f"published ({source})"
 
 
 def source_note(ax_or_fig, text: str, *, fontsize: float = 6.5):
-    """A small caption line under an axes (or under a whole figure) naming what the figure
-    reproduces (document, figure/table number) and the run's size, e.g.
-    ``"after AURIS Fig. 3.16 · reduced default run: 64 trials per cell"``.
+    """A small caption line naming what the figure reproduces and the run's size.
 
-    Under an axes the line sits below its x label; under a figure it is the figure's bottom
-    line (placed by the constrained layout, so it stays on the canvas). Returns the text artist.
+    E.g. ``"after AURIS Fig. 3.16 · reduced default run: 64 trials per cell"``. Under an axes
+    the line sits below its x label; under a figure it is the figure's bottom line (placed by
+    the constrained layout, so it stays on the canvas).
+
+    Parameters
+    ----------
+    ax_or_fig : matplotlib.axes.Axes or matplotlib.figure.Figure
+        Where the line goes (a figure or subfigure: its bottom line).
+    text : str
+        The caption (wrapped to the width).
+    fontsize : float
+        Font size [pt].
+
+    Returns
+    -------
+    matplotlib.text.Text
+        The text artist.
     """
     from matplotlib.figure import Figure, SubFigure
 
@@ -215,13 +255,27 @@ def _below_xlabel(ax):
 
 
 def legend_outside(ax, where: str = "right", **kw):
-    """A legend off the data: to the right of ``ax`` (``where="right"``, the default), under
-    ``ax`` below its x label (``where="below"``, entries in columns), or one legend for the
-    whole figure to the right of all its axes (``where="figure"``; the bottom of the figure
-    is kept for its :func:`source_note`). Keyword arguments go to
-    :meth:`~matplotlib.axes.Axes.legend` (``handles``, ``labels``, ``ncols``, ``title``...).
+    """A legend off the data.
 
-    The figure's constrained layout makes room for it. Returns the legend.
+    To the right of ``ax`` (``where="right"``, the default), under ``ax`` below its x label
+    (``where="below"``, entries in columns), or one legend for the whole figure to the right of
+    all its axes (``where="figure"``; the bottom of the figure is kept for its
+    :func:`source_note`). The figure's constrained layout makes room for it.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    where : {"right", "below", "figure"}
+        Placement.
+    **kw
+        Passed to :meth:`~matplotlib.axes.Axes.legend` (``handles``, ``labels``, ``ncols``,
+        ``title``...).
+
+    Returns
+    -------
+    matplotlib.legend.Legend
+        The legend.
     """
     if where == "right":
         kw.setdefault("loc", "upper left")
@@ -309,10 +363,30 @@ def mask_no_data(ax, x, y, mask, *, label: str = "no data", **style):
 
 
 def shade_no_data(ax, x, mask, *, label: str = "no data", log: bool = False, **style):
-    """Hatch the x intervals of a curve where there is no data (``mask`` True at the points
-    ``x``, sorted), half-way to the neighbouring points (geometric half-way when ``log``).
+    """Hatch the x intervals of a curve where there is no data.
 
-    Returns a legend patch (label ``label``) or ``None`` when nothing is masked.
+    Each masked point's interval reaches half-way to the neighbouring points (geometric
+    half-way when ``log``).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    x : array_like
+        Sorted x values of the curve.
+    mask : array_like of bool
+        True where there is no data.
+    label : str
+        Legend label of the patch.
+    log : bool
+        The x axis is logarithmic.
+    **style
+        Patch style, over :data:`NO_DATA`.
+
+    Returns
+    -------
+    matplotlib.patches.Patch or None
+        A legend patch, or None when nothing is masked.
     """
     from matplotlib.patches import Patch
 
@@ -326,12 +400,30 @@ def shade_no_data(ax, x, mask, *, label: str = "no data", log: bool = False, **s
 
 
 def ci_errorbar(ax, x, p, lo, hi, *, scale: float = 1.0, **style):
-    """Estimated probabilities (or rates) ``p`` at ``x`` with their confidence interval
-    ``[lo, hi]`` as asymmetric error bars, all multiplied by ``scale`` (100 for percent).
+    """Estimated probabilities (or rates) with their confidence interval as asymmetric error bars.
 
-    Points where ``p`` is NaN (no trials) are not drawn. ``style`` goes to
-    :meth:`~matplotlib.axes.Axes.errorbar` (e.g. ``**series_style(i)``, ``label``).
-    Returns the errorbar container.
+    Points where ``p`` is NaN (no trials) are not drawn.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    x : array_like
+        Abscissae.
+    p : array_like
+        Estimates [1].
+    lo, hi : array_like
+        Confidence interval [1].
+    scale : float
+        Factor applied to p, lo, hi (100 for percent).
+    **style
+        Passed to :meth:`~matplotlib.axes.Axes.errorbar` (e.g. ``**series_style(i)``,
+        ``label``).
+
+    Returns
+    -------
+    matplotlib.container.ErrorbarContainer
+        The error bars.
     """
     x = np.asarray(x, dtype=float)
     p, lo, hi = (scale * np.asarray(v, dtype=float) for v in (p, lo, hi))
@@ -344,9 +436,28 @@ def ci_errorbar(ax, x, p, lo, hi, *, scale: float = 1.0, **style):
 
 
 def dodge(x, i: int, n: int, *, width: float, log: bool = False) -> np.ndarray:
-    """``x`` shifted for the ``i``-th of ``n`` series drawn at the same x values, so their
-    error bars do not overlap: offsets spread over ``width`` (data units; a factor when
-    ``log``) centred on ``x``."""
+    """``x`` shifted for the ``i``-th of ``n`` series drawn at the same x values, so their error bars do not overlap.
+
+    Offsets spread over ``width`` centred on ``x``.
+
+    Parameters
+    ----------
+    x : array_like
+        Abscissae.
+    i : int
+        Index of the series.
+    n : int
+        Number of series.
+    width : float
+        Spread (data units; a factor when ``log``).
+    log : bool
+        Multiplicative offsets for a log axis.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shifted abscissae.
+    """
     x = np.asarray(x, dtype=float)
     off = 0.0 if n <= 1 else (i - (n - 1) / 2) * width / n
     return x * np.exp(off) if log else x + off

@@ -37,8 +37,21 @@ class _Deferred(types.ModuleType):
 
 
 def lazy_import(name: str) -> types.ModuleType:
-    """A stand-in of the module ``name`` (absolute dotted name) that imports it on the first
-    attribute read (see the module docstring); nothing is imported now."""
+    """A stand-in of the module ``name`` that imports it on the first attribute read.
+
+    See the module docstring; nothing is imported now. The name is recorded in
+    :data:`DECLARED`.
+
+    Parameters
+    ----------
+    name : str
+        Absolute dotted module name.
+
+    Returns
+    -------
+    types.ModuleType
+        The stand-in.
+    """
     with _LOCK:
         DECLARED.append(name)
     return _Deferred(name)
@@ -52,10 +65,23 @@ def load_declared() -> None:
 
 
 def lazy_exports(namespace: dict, sources: dict[str, tuple[str, ...]]):
-    """``(__getattr__, __dir__)`` for a package's ``__init__`` (PEP 562), given its
-    ``globals()``: ``sources`` maps a module of the package (name relative to it) to the
-    public names it provides; the first read of such a name imports that module and keeps
-    the value in the package's namespace."""
+    """``(__getattr__, __dir__)`` for a package's ``__init__`` (PEP 562).
+
+    The first read of an exported name imports its module and keeps the value in the
+    package's namespace.
+
+    Parameters
+    ----------
+    namespace : dict
+        The package's ``globals()``.
+    sources : dict of str to tuple of str
+        A module of the package (name relative to it) → the public names it provides.
+
+    Returns
+    -------
+    __getattr__, __dir__ : callable
+        The module-level hooks.
+    """
     package = namespace["__name__"]
     where = {name: f"{package}.{module}" for module, names in sources.items() for name in names}
 

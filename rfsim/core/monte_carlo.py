@@ -46,11 +46,30 @@ def _cell_task(args):
 
 def run_cells(cell_fn: Callable[..., dict], config, n_cells: int, mc: MonteCarloConfig, *,
               seed: int) -> dict[str, np.ndarray]:
-    """``cell_fn(config, cell, rep, seed)`` for every cell < ``n_cells`` and repetition <
-    ``mc.n_repetitions`` on ``mc.workers`` processes; the returned column dicts (same keys)
+    """Run ``cell_fn(config, cell, rep, seed)`` for every cell and repetition on worker processes.
+
+    Cells < ``n_cells`` and repetitions < ``mc.n_repetitions`` on ``mc.workers`` processes
+    (:func:`rfsim.core.procs.map_in_order`); the returned column dicts (same keys) are
     concatenated in task order (cells outer, repetitions inner).
 
-    ``cell_fn`` must be picklable (a module-level function) when ``mc.workers`` ≠ 1.
+    Parameters
+    ----------
+    cell_fn : callable
+        ``(config, cell, rep, seed) → dict of str to numpy.ndarray``; must be picklable (a
+        module-level function) when ``mc.workers`` ≠ 1.
+    config : object
+        The scenario's configuration, passed on.
+    n_cells : int
+        Number of cells.
+    mc : MonteCarloConfig
+        Monte Carlo size and worker count.
+    seed : int
+        Run seed, passed on.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        The concatenated columns.
     """
     tasks = [(cell_fn, config, c, r, seed) for c in range(n_cells) for r in range(mc.n_repetitions)]
     parts = map_in_order(_cell_task, tasks, mc.workers, desc="monte carlo", unit="cells")

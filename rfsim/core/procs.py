@@ -60,8 +60,13 @@ def _watch_parent(parent_pid: int) -> None:
 def worker_init(leader_pid: int) -> None:
     """Initializer of every worker process (see the module docstring).
 
-    ``leader_pid`` is the process that made the pool; a worker whose parent is already
-    gone (re-parented to init, pid 1) when it starts exits at once.
+    A worker whose parent is already gone (re-parented to init, pid 1) when it starts exits
+    at once.
+
+    Parameters
+    ----------
+    leader_pid : int
+        The process that made the pool.
     """
     _set_parent_death_signal()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -88,7 +93,13 @@ def _alive(pid: int) -> bool:
 
 
 def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
-    """Cancel the queued tasks of ``pool`` and kill its running workers now."""
+    """Cancel the queued tasks of ``pool`` and kill its running workers now.
+
+    Parameters
+    ----------
+    pool : concurrent.futures.ProcessPoolExecutor
+        The pool.
+    """
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for p in processes:
@@ -101,7 +112,23 @@ def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
 
 @contextlib.contextmanager
 def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
-    """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions."""
+    """A ``ProcessPoolExecutor`` whose workers die with the leader; torn down on exceptions.
+
+    Parameters
+    ----------
+    max_workers : int
+        Worker processes.
+
+    Yields
+    ------
+    concurrent.futures.ProcessPoolExecutor
+        The pool (shut down when the block ends).
+
+    Raises
+    ------
+    ResourceError
+        When a worker died without a word (the pool broke), naming its exit status.
+    """
     pool = _Pool(max_workers=max_workers, initializer=worker_init, initargs=(os.getpid(),))
     try:
         yield pool
@@ -146,10 +173,30 @@ def _worker_failure(exit_codes: list[int]) -> ResourceError:
 
 
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
-    """``[fn(t) for t in tasks]``, on ``workers`` processes (0 = all cores, 1 = in this process;
-    with a pool the first task runs alone first, see :func:`_pilot`), results in task order so
-    they do not depend on the number of workers; progress is shown with
-    :func:`rfsim.core.progress.track` (``desc``, ``unit``) and every pool is a :func:`worker_pool`."""
+    """``[fn(t) for t in tasks]`` on worker processes, results in task order.
+
+    With a pool the first task runs alone first (:func:`_pilot`); the order of the results
+    does not depend on the number of workers; progress is shown with
+    :func:`rfsim.core.progress.track` and every pool is a :func:`worker_pool`.
+
+    Parameters
+    ----------
+    fn : callable
+        Picklable (module-level) function of one task.
+    tasks : iterable
+        The tasks.
+    workers : int
+        Worker processes (0 = all cores, 1 = in this process).
+    desc : str
+        Progress description.
+    unit : str
+        Progress unit.
+
+    Returns
+    -------
+    list
+        ``fn(t)`` for every task, in task order.
+    """
     from rfsim.core.progress import track  # progress pulls in tqdm: only when a loop runs
 
     tasks = list(tasks)
@@ -201,8 +248,15 @@ def _import_all(names) -> None:
 
 
 def load_kernels(kernels) -> None:
-    """Load into this process the kernels listed by :func:`rfsim.core._jit.compiled_signatures`
-    in another one (from the on-disk cache; compiled here where it has no entry)."""
+    """Load into this process the kernels listed by :func:`rfsim.core._jit.compiled_signatures` in another one.
+
+    From the on-disk cache; compiled here where it has no entry.
+
+    Parameters
+    ----------
+    kernels : object
+        The listing :func:`rfsim.core._jit.compiled_signatures` returned.
+    """
     from rfsim.core._jit import load_signatures
 
     load_signatures(kernels)
@@ -220,10 +274,7 @@ def _has_file_descriptors() -> bool:
 
 
 def run_in_child(fn, *, while_waiting=None) -> None:
-    """``fn()`` in a forked child process, which exits afterwards; its exception, if any, is
-    raised here (with the child's traceback as a note where it is not a
-    :class:`~rfsim.core.errors.UserError` nor an interrupt). ``while_waiting()``, if given, runs
-    here meanwhile (e.g. the imports of what comes after the child), before its result is read.
+    """``fn()`` in a forked child process, which exits afterwards.
 
     All the memory the child allocated (numba's compiler, imported libraries, the arrays of
     a run) is returned to the system when it exits, not merely freed inside this process.
@@ -232,6 +283,22 @@ def run_in_child(fn, *, while_waiting=None) -> None:
     on to the child, which then cleans up the same way; a child whose leader dies is killed.
     Without ``fork``, or when stdout/stderr are not real files (e.g. captured in memory),
     ``fn()`` runs in this process.
+
+    Parameters
+    ----------
+    fn : callable
+        The work, without arguments.
+    while_waiting : callable or None
+        Runs here meanwhile (e.g. the imports of what comes after the child), before the
+        child's result is read.
+
+    Raises
+    ------
+    Exception
+        The child's exception, if any, raised here (with the child's traceback as a note
+        where it is not a :class:`~rfsim.core.errors.UserError` nor an interrupt).
+    ResourceError
+        When the child ended without reporting (:func:`child_failure`).
     """
     import pickle
     import traceback
@@ -287,7 +354,18 @@ def run_in_child(fn, *, while_waiting=None) -> None:
 
 
 def child_failure(status: int) -> ResourceError:
-    """The one-line error for a child process that ended (wait ``status``) without reporting."""
+    """The one-line error for a child process that ended without reporting.
+
+    Parameters
+    ----------
+    status : int
+        The child's wait status.
+
+    Returns
+    -------
+    ResourceError
+        Naming the signal and its likely cause, or the exit status.
+    """
     if os.WIFSIGNALED(status):
         number = os.WTERMSIG(status)
         try:
@@ -320,6 +398,12 @@ def terminate_as_interrupt() -> Iterator[None]:
     ignores (e.g. an at-fork handler while a worker process is being started) would be
     lost; such a swallowed :class:`Terminated` reaches ``sys.unraisablehook``, which here
     delivers SIGTERM again a moment later instead of printing it.
+
+    Yields
+    ------
+    None
+        The block runs with the handler installed; the previous handler and hook are restored
+        after it.
     """
     if threading.current_thread() is not threading.main_thread():
         yield

@@ -63,7 +63,20 @@ REFERENCES: dict[str, Reference] = {r.key: r for r in (
 
 
 def cite(key: str, where: str = "") -> str:
-    """Caption text for ``where`` (e.g. ``"Fig. 3.16"``) in document ``key``: "AURIS … Fig. 3.16"."""
+    """Caption text for ``where`` in document ``key``: "AURIS … Fig. 3.16".
+
+    Parameters
+    ----------
+    key : str
+        Key of :data:`REFERENCES`.
+    where : str
+        Place in the document, e.g. ``"Fig. 3.16"``.
+
+    Returns
+    -------
+    str
+        The short citation followed by ``where``.
+    """
     short = REFERENCES[key].short
     return f"{short} {where}".strip()
 

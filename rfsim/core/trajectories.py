@@ -58,22 +58,55 @@ class Kinematics:
     angular_accel_rad_s2: np.ndarray
 
     def state_2d(self) -> np.ndarray:
-        """(n, 9) state [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈] of the 2-D HIMR model (himr-tag.md §1.9)."""
+        """State of the 2-D HIMR model (himr-tag.md §1.9).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, 9)`` [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈] [m, m/s, m/s², m, m/s, m/s², rad, rad/s, rad/s²].
+        """
         p, v, a = self.position_m, self.velocity_mps, self.acceleration_mps2
         return np.column_stack([p[:, 0], v[:, 0], a[:, 0], p[:, 1], v[:, 1], a[:, 1],
                                 self.heading_rad, self.rate_rad_s, self.angular_accel_rad_s2])
 
     def state_1d(self, axis: int = 0) -> np.ndarray:
-        """(n, 3) state [z ż z̈] along a fixed-frame axis (1-D HIMR model, §1.5)."""
+        """State [z ż z̈] along a fixed-frame axis (1-D HIMR model, §1.5).
+
+        Parameters
+        ----------
+        axis : int
+            Fixed-frame axis 0, 1 or 2.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n, 3)`` [m, m/s, m/s²].
+        """
         return np.column_stack([self.position_m[:, axis], self.velocity_mps[:, axis],
                                 self.acceleration_mps2[:, axis]])
 
 
 def trapezoid_profile(t_s, *, travel: float, t_acc_s: float, t_cruise_s: float):
-    """Trapezoidal velocity profile starting at t = 0: ``(s, ṡ, s̈)`` arrays of ``t_s``.
+    """Trapezoidal velocity profile starting at t = 0.
 
     s goes from 0 (t ≤ 0) to ``travel`` (t ≥ 2·t_acc + t_cruise); cruise speed
     v = travel/(t_acc + t_cruise), acceleration a = v/t_acc (module docstring).
+
+    Parameters
+    ----------
+    t_s : array_like
+        Times [s].
+    travel : float
+        Distance travelled, unit of s (e.g. [m] or [rad]).
+    t_acc_s : float
+        Duration of each ramp [s].
+    t_cruise_s : float
+        Duration of the cruise [s].
+
+    Returns
+    -------
+    s, s_dot, s_ddot : numpy.ndarray
+        Position, speed and acceleration at ``t_s`` [unit, unit/s, unit/s²].
     """
     t = np.asarray(t_s, dtype=float)
     v = travel / (t_acc_s + t_cruise_s)
@@ -175,8 +208,28 @@ class RotatingBoom:
 
 def check_inside(traj, *, t_end_s: float, room_min_m, room_max_m, key: str = "trajectory",
                  dt_s: float = 1e-3) -> None:
-    """Raise a one-line :class:`ConfigError` when ``traj`` leaves the box [room_min, room_max]
-    (checked every ``dt_s`` from 0 to ``t_end_s``; 2 or 3 coordinates)."""
+    """Check that ``traj`` stays inside the box [room_min, room_max].
+
+    Checked every ``dt_s`` from 0 to ``t_end_s``, on 2 or 3 coordinates.
+
+    Parameters
+    ----------
+    traj : callable
+        ``t_s → Kinematics``.
+    t_end_s : float
+        End of the check [s].
+    room_min_m, room_max_m : array_like
+        Corners of the room, 2 or 3 coordinates [m].
+    key : str
+        Configuration key named in the error.
+    dt_s : float
+        Time step of the check [s].
+
+    Raises
+    ------
+    ConfigError
+        One line, naming the first position outside and its time.
+    """
     lo, hi = np.asarray(room_min_m, float), np.asarray(room_max_m, float)
     t = np.arange(0.0, float(t_end_s) + 0.5 * dt_s, dt_s)
     p = traj(t).position_m[:, :lo.size]

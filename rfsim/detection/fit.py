@@ -49,19 +49,55 @@ class LogisticFit:
     n_samples: int
 
     def predict_proba(self, features) -> np.ndarray:
-        """p for a design matrix, (n,) float64."""
+        """p = 1/(1 + exp(x·a)) of the fitted model for a design matrix.
+
+        Parameters
+        ----------
+        features : array_like
+            ``(n, k)`` design matrix x.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n,) float64`` probabilities [1].
+        """
         return _special.expit(-(np.asarray(features, float) @ self.coefficients))
 
     def cross_entropy(self, features, y) -> float:
-        """Eq. (4.8) of the fitted model on (features, y) [nat per sample]."""
+        """Eq. (4.8) of the fitted model on (features, y).
+
+        Parameters
+        ----------
+        features : array_like
+            ``(n, k)`` design matrix x.
+        y : array_like
+            ``(n,)`` outcomes {0, 1}.
+
+        Returns
+        -------
+        float
+            Mean cross-entropy [nat per sample].
+        """
         return cross_entropy_logits(np.asarray(features, float) @ self.coefficients, y)
 
 
 def cross_entropy_logits(z, y) -> float:
-    """Mean cross-entropy (Eq. 4.8) for p = 1/(1 + exp(z)), computed stably [nat].
+    """Mean cross-entropy (Eq. 4.8) for p = 1/(1 + exp(z)), computed stably.
 
     ``−log p = softplus(z)`` and ``−log(1 − p) = softplus(z) − z``, so the per-sample loss is
     ``softplus(z) − (1 − y)·z``.
+
+    Parameters
+    ----------
+    z : array_like
+        ``(m,)`` logits z = x·a.
+    y : array_like
+        ``(m,)`` outcomes {0, 1}.
+
+    Returns
+    -------
+    float
+        Mean cross-entropy [nat].
     """
     z = np.asarray(z, float)
     y = np.asarray(y, float)
@@ -69,13 +105,20 @@ def cross_entropy_logits(z, y) -> float:
 
 
 def cross_entropy(y, p) -> float:
-    """Mean cross-entropy J = (1/m) Σ −y log p − (1 − y) log(1 − p) (Eq. 4.8) [nat].
+    """Mean cross-entropy J = (1/m) Σ −y log p − (1 − y) log(1 − p) (Eq. 4.8).
 
     Parameters
     ----------
-    y : (m,) {0, 1}, outcomes
-    p : (m,) float64 in (0, 1), predicted probabilities (a 0 or 1 prediction contradicted by
-        the outcome gives +inf)
+    y : array_like
+        ``(m,)`` outcomes {0, 1}.
+    p : array_like
+        ``(m,) float64`` predicted probabilities in (0, 1) (a 0 or 1 prediction contradicted
+        by the outcome gives +inf).
+
+    Returns
+    -------
+    float
+        J [nat].
     """
     y = np.asarray(y, float)
     p = np.asarray(p, float)
@@ -85,15 +128,21 @@ def cross_entropy(y, p) -> float:
 
 
 def expected_cross_entropy(p):
-    """Mean and standard deviation of the cross-entropy of the *true* model on m independent
-    outcomes y_i ~ Bernoulli(p_i), given the p_i.
+    """Mean and standard deviation of the cross-entropy of the *true* model.
 
+    On m independent outcomes y_i ~ Bernoulli(p_i), given the p_i:
     ``E[J] = (1/m) Σ H(p_i)`` with H the binary entropy [nat];
     ``Var[J] = (1/m²) Σ p_i (1 − p_i) (log(p_i/(1 − p_i)))²``.
 
+    Parameters
+    ----------
+    p : array_like
+        ``(m,)`` true probabilities [1].
+
     Returns
     -------
-    mean, std : float [nat]
+    mean, std : float
+        [nat].
     """
     p = np.asarray(p, float)
     m = p.size
@@ -213,7 +262,13 @@ class ReaderModelFit:
     stderr_basis: str = "full"
 
     def as_dict(self) -> dict:
-        """{name: (estimate, stderr)}."""
+        """The estimates and standard errors by parameter name.
+
+        Returns
+        -------
+        dict of str to tuple of float
+            ``{name: (estimate, stderr)}`` in the units of :data:`DA_PARAMETER_NAMES`.
+        """
         return {k: (float(e), float(s)) for k, e, s in
                 zip(self.parameter_names, self.estimates, self.stderr)}
 
@@ -240,8 +295,28 @@ def _model_from(params, dead_zone_concentration, variance_cutoff_m, kappa):
 
 
 def log_likelihood_reader(model: ReaderDetectionModel, d, th, n, nq, lam) -> float:
-    """Eq. 4.11 log-likelihood of reads n out of nq queries at (d, θ) under ``model`` with
-    dead-zone mean ``lam``."""
+    """Eq. 4.11 log-likelihood of read counts under a DA model with a dead-zone mean.
+
+    Parameters
+    ----------
+    model : ReaderDetectionModel
+        The DA model.
+    d : array_like
+        Distances [m].
+    th : array_like
+        Angles θ [deg].
+    n : array_like
+        Reads per trial.
+    nq : array_like
+        Queries per trial.
+    lam : float
+        Dead-zone mean λ̄ [1].
+
+    Returns
+    -------
+    float
+        Log-likelihood [nat].
+    """
     mu = model.mean(d, th)
     alpha, beta = model.beta_params(d, th)
     return float(np.sum(mixture_logpmf(n, nq, mu, alpha, beta, lam)))
@@ -474,15 +549,30 @@ class BinnedProbability:
 
 
 def binned_probability(x, y, edges, *, confidence: float = 0.95) -> BinnedProbability:
-    """Empirical P(y = 1) in bins of x with Wilson intervals (for plots like seed 003
-    Fig. 4.7: D in 0.3 m bins, d in 0.2 m bins, L3877-3897).
+    """Empirical P(y = 1) in bins of x with Wilson intervals.
+
+    For plots like seed 003 Fig. 4.7: D in 0.3 m bins, d in 0.2 m bins, L3877-3897.
 
     Parameters
     ----------
-    x : (m,) float64, binning variable (samples outside ``edges`` are dropped)
-    y : (m,) {0, 1}, outcomes
-    edges : (b+1,) float64, increasing bin edges; bins are [e_i, e_{i+1}), the last closed
-    confidence : float, Wilson interval level
+    x : array_like
+        ``(m,) float64`` binning variable (samples outside ``edges`` are dropped).
+    y : array_like
+        ``(m,)`` outcomes {0, 1}.
+    edges : array_like
+        ``(b+1,) float64`` increasing bin edges; bins are [e_i, e_{i+1}), the last closed.
+    confidence : float
+        Wilson interval level.
+
+    Returns
+    -------
+    BinnedProbability
+        Per bin: centres, trials, successes, p̂ and Wilson interval (NaN in empty bins).
+
+    Raises
+    ------
+    ValueError
+        If x and y differ in length or ``edges`` are not increasing with at least 2 entries.
     """
     x = np.asarray(x, float).ravel()
     y = np.asarray(y, float).ravel()

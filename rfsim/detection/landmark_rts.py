@@ -56,8 +56,20 @@ def rts_fixed_logit(antennas_xyz_m, landmarks_xy) -> np.ndarray:
 
 
 def rts_landmark_probability(fixed_logit, distance_st_m) -> np.ndarray:
-    """Eq. 4.6, p = 1/(1 + exp(fixed + a2·d)), from the fixed part (:func:`rts_fixed_logit`) and the
-    ST → landmark distance d [m] (broadcast)."""
+    """Eq. 4.6, p = 1/(1 + exp(fixed + a2·d)), from the fixed part and the ST → landmark distance.
+
+    Parameters
+    ----------
+    fixed_logit : array_like
+        a0 + a1·D + a3·|θ| + a4·|φ| (:func:`rts_fixed_logit`) [1].
+    distance_st_m : array_like
+        ST → landmark distance d [m] (broadcast).
+
+    Returns
+    -------
+    numpy.ndarray
+        Detection probabilities [1].
+    """
     return 1.0 / (1.0 + np.exp(fixed_logit + RTS_COEFFICIENTS[2] * distance_st_m))
 
 
@@ -67,16 +79,24 @@ def draw_landmark_detections(fixed_logit, landmarks_xy, antennas_xyz_m, position
 
     Parameters
     ----------
-    fixed_logit : (A, L) from :func:`rts_fixed_logit`
-    landmarks_xy : (L, 2) m;  antennas_xyz_m : (A, 3) m
-    positions_m : (T, N, 2) m, the ST at the round times τ_j of each of the T periods
-    period_s : T_s [s]
-    rng : the uniforms, (T, N, L) in one draw with several antennas, in blocks of periods with one
+    fixed_logit : numpy.ndarray
+        ``(A, L)`` from :func:`rts_fixed_logit`.
+    landmarks_xy : numpy.ndarray
+        ``(L, 2)`` landmark positions [m].
+    antennas_xyz_m : array_like
+        ``(A, 3)`` antenna positions [m].
+    positions_m : numpy.ndarray
+        ``(T, N, 2)`` the ST at the round times τ_j of each of the T periods [m].
+    period_s : float
+        T_s [s].
+    rng : numpy.random.Generator
+        The uniforms, (T, N, L) in one draw with several antennas, in blocks of periods with one.
 
     Returns
     -------
-    ``counts`` (T, L) int64 detections n_{t,k}; ``mean_detection_s`` (T,) mean τ of the period's
-    detections t̂ (Eq. 4.23; NaN: none); ``active`` (T,) int64 active antenna.
+    dict of str to numpy.ndarray
+        ``counts`` (T, L) int64 detections n_{t,k}; ``mean_detection_s`` (T,) mean τ of the
+        period's detections t̂ [s] (Eq. 4.23; NaN: none); ``active`` (T,) int64 active antenna.
     """
     T, N, _ = positions_m.shape
     base = fixed_logit
@@ -110,11 +130,23 @@ def draw_landmark_detections(fixed_logit, landmarks_xy, antennas_xyz_m, position
 
 
 def rts_likelihood_model(fixed_logit, active, landmarks_xy) -> Callable:
-    """The RTS detection probabilities as the particle filters' model
-    (:func:`rfsim.estimators.landmark_pf.pf_aa`'s ``probability``).
+    """The RTS detection probabilities as the particle filters' model.
 
-    fixed_logit : (A, L);  active : (B, T) active antenna per run and period;  landmarks_xy : (L, 2) m.
-    Returns ``(positions (B, M, 2) [m], t) → p (B, M, L)``.
+    The ``probability`` of :func:`rfsim.estimators.landmark_pf.pf_aa`.
+
+    Parameters
+    ----------
+    fixed_logit : numpy.ndarray
+        ``(A, L)`` from :func:`rts_fixed_logit`.
+    active : numpy.ndarray
+        ``(B, T)`` active antenna per run and period.
+    landmarks_xy : numpy.ndarray
+        ``(L, 2)`` landmark positions [m].
+
+    Returns
+    -------
+    callable
+        ``(positions (B, M, 2) [m], t) → p (B, M, L)``.
     """
     def probability(p, t):
         d = np.linalg.norm(p[:, :, None, :] - landmarks_xy, axis=-1)

@@ -84,7 +84,22 @@ def predict_proba(features: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
 
 
 def rts_design(distance_reader_tag_m, distance_tag_st_m, theta_rad, phi_rad) -> np.ndarray:
-    """RTS design matrix ``[1, D, d, |θ|, |φ|]``, shape (n, 5) float64 (Eq. 4.6)."""
+    """RTS design matrix ``[1, D, d, |θ|, |φ|]`` (Eq. 4.6).
+
+    Parameters
+    ----------
+    distance_reader_tag_m : array_like
+        D, reader antenna → tag [m].
+    distance_tag_st_m : array_like
+        d, tag → ST [m].
+    theta_rad, phi_rad : array_like
+        Azimuth θ and elevation φ [rad] (broadcast together).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, 5) float64``.
+    """
     cols = np.broadcast_arrays(*(np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in
                                  (distance_reader_tag_m, distance_tag_st_m, theta_rad, phi_rad)))
     big_d, small_d, theta, phi = (c.ravel() for c in cols)
@@ -92,20 +107,59 @@ def rts_design(distance_reader_tag_m, distance_tag_st_m, theta_rad, phi_rad) -> 
 
 
 def ts_design(distance_tag_st_m) -> np.ndarray:
-    """TS design matrix ``[1, d]``, shape (n, 2) float64 (Eq. 4.7)."""
+    """TS design matrix ``[1, d]`` (Eq. 4.7).
+
+    Parameters
+    ----------
+    distance_tag_st_m : array_like
+        d, tag → ST [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, 2) float64``.
+    """
     small_d = np.atleast_1d(np.asarray(distance_tag_st_m, dtype=np.float64)).ravel()
     return np.column_stack([np.ones_like(small_d), small_d])
 
 
 def rts_probability(distance_reader_tag_m, distance_tag_st_m, theta_rad, phi_rad,
                     coefficients=RTS_COEFFICIENTS) -> np.ndarray:
-    """RTS detection probability p(D, d, θ, φ) (Eq. 4.6, seed 003 L3772-3778), (n,) float64."""
+    """RTS detection probability p(D, d, θ, φ) (Eq. 4.6, seed 003 L3772-3778).
+
+    Parameters
+    ----------
+    distance_reader_tag_m, distance_tag_st_m : array_like
+        D and d [m].
+    theta_rad, phi_rad : array_like
+        θ and φ [rad].
+    coefficients : array_like
+        ``(5,)`` (a0 … a4); default the published ones.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) float64`` probabilities [1].
+    """
     return predict_proba(rts_design(distance_reader_tag_m, distance_tag_st_m, theta_rad,
                                     phi_rad), coefficients)
 
 
 def ts_probability(distance_tag_st_m, coefficients=TS_COEFFICIENTS) -> np.ndarray:
-    """TS detection probability p(d) (Eq. 4.7, seed 003 L3793-3799), (n,) float64."""
+    """TS detection probability p(d) (Eq. 4.7, seed 003 L3793-3799).
+
+    Parameters
+    ----------
+    distance_tag_st_m : array_like
+        d [m].
+    coefficients : array_like
+        ``(2,)`` (a0, a1); default the published ones.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) float64`` probabilities [1].
+    """
     return predict_proba(ts_design(distance_tag_st_m), coefficients)
 
 
@@ -213,19 +267,52 @@ class ReaderDetectionModel:
         return self.dead_zone_alpha / (self.dead_zone_alpha + self.dead_zone_beta)
 
     def mean(self, distance_m, theta_deg) -> np.ndarray:
-        """E[p](d, θ) = 1 / (1 + exp(a1 + a2·d + a3·|θ|)) (4.4), without the dead zone."""
+        """E[p](d, θ) = 1 / (1 + exp(a1 + a2·d + a3·|θ|)) (4.4), without the dead zone.
+
+        Parameters
+        ----------
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            μ [1].
+        """
         a1, a2, a3 = self.mean_coefficients
         d, th = np.broadcast_arrays(np.asarray(distance_m, float), np.asarray(theta_deg, float))
         return _special.expit(-(a1 + a2 * d + a3 * np.abs(th)))
 
     def raw_variance(self, distance_m, theta_deg) -> np.ndarray:
-        """σ²(d, θ) = c1 + c2·d + c3·d² + c4·|θ| + c5·θ² (4.6), unclipped."""
+        """σ²(d, θ) = c1 + c2·d + c3·d² + c4·|θ| + c5·θ² (4.6), unclipped.
+
+        Parameters
+        ----------
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            σ² [1].
+        """
         c1, c2, c3, c4, c5 = self.variance_coefficients
         d, th = np.broadcast_arrays(np.asarray(distance_m, float), np.asarray(theta_deg, float))
         return c1 + c2 * d + c3 * d * d + c4 * np.abs(th) + c5 * th * th
 
     def variance(self, distance_m, theta_deg) -> np.ndarray:
-        """Var[p] after clipping: 0 where σ² ≤ 0 or d > cutoff; at most κ·μ(1−μ)."""
+        """Var[p] after clipping: 0 where σ² ≤ 0 or d > cutoff; at most κ·μ(1−μ).
+
+        Parameters
+        ----------
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Clipped σ² [1].
+        """
         d, th = np.broadcast_arrays(np.asarray(distance_m, float), np.asarray(theta_deg, float))
         var = self.raw_variance(d, th)
         if self.variance_cutoff_m is not None:
@@ -234,13 +321,35 @@ class ReaderDetectionModel:
         return np.clip(var, 0.0, self.kappa * mu * (1.0 - mu))
 
     def feasible(self, distance_m, theta_deg) -> np.ndarray:
-        """True where the unclipped σ² satisfies 0 < σ² < μ(1−μ) (no clipping needed)."""
+        """True where the unclipped σ² satisfies 0 < σ² < μ(1−μ) (no clipping needed).
+
+        Parameters
+        ----------
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            bool.
+        """
         var = self.raw_variance(distance_m, theta_deg)
         mu = self.mean(distance_m, theta_deg)
         return (var > 0.0) & (var < mu * (1.0 - mu))
 
     def beta_params(self, distance_m, theta_deg):
-        """(α, β) of the Beta law of p (4.5, 4.7) after clipping; +inf where σ² = 0."""
+        """(α, β) of the Beta law of p (4.5, 4.7) after clipping.
+
+        Parameters
+        ----------
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        alpha, beta : numpy.ndarray
+            Beta parameters [1], +inf where σ² = 0.
+        """
         mu = self.mean(distance_m, theta_deg)
         var = self.variance(distance_m, theta_deg)
         return beta_from_moments(mu, var, kappa=1.0 - 1e-12)
@@ -265,7 +374,22 @@ class ReaderDetectionModel:
         return np.exp(self.logpmf(n, n_queries, d, th))
 
     def logpmf(self, n_reads, n_queries: int, distance_m, theta_deg) -> np.ndarray:
-        """log P(n | d, θ) of Eq. (4.11), see :meth:`pmf`."""
+        """log P(n | d, θ) of Eq. (4.11), see :meth:`pmf`.
+
+        Parameters
+        ----------
+        n_reads : array_like of int
+            n in [0, N].
+        n_queries : int
+            N.
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast with ``n_reads``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Log-probabilities [nat].
+        """
         n, d, th = np.broadcast_arrays(np.asarray(n_reads), np.asarray(distance_m, float),
                                        np.asarray(theta_deg, float))
         mu = self.mean(d, th)
@@ -273,32 +397,98 @@ class ReaderDetectionModel:
         return mixture_logpmf(n, n_queries, mu, alpha, beta, self.dead_zone_mean)
 
     def cdf(self, n_reads, n_queries: int, distance_m, theta_deg) -> np.ndarray:
-        """P(n' ≤ n | d, θ) under Eq. (4.11), for scalar d and θ."""
+        """P(n' ≤ n | d, θ) under Eq. (4.11), for scalar d and θ.
+
+        Parameters
+        ----------
+        n_reads : array_like of int
+            n in [0, N].
+        n_queries : int
+            N.
+        distance_m : float
+            d [m].
+        theta_deg : float
+            θ [deg].
+
+        Returns
+        -------
+        numpy.ndarray
+            Probabilities [1], shape of ``n_reads``.
+        """
         k = np.arange(n_queries + 1)
         pmf = self.pmf(k, n_queries, distance_m, theta_deg)
         return np.cumsum(pmf)[np.asarray(n_reads)]
 
     def prob_no_read(self, n_queries: int, distance_m, theta_deg) -> np.ndarray:
-        """P(n = 0 | d, θ), Eq. (4.11) at n = 0."""
+        """P(n = 0 | d, θ), Eq. (4.11) at n = 0.
+
+        Parameters
+        ----------
+        n_queries : int
+            N.
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Probabilities [1].
+        """
         return self.pmf(0, n_queries, distance_m, theta_deg)
 
     def expected_reads(self, n_queries: int, distance_m, theta_deg) -> np.ndarray:
-        """E[n | d, θ] = N·(1 − λ̄)·μ(d, θ)."""
+        """E[n | d, θ] = N·(1 − λ̄)·μ(d, θ).
+
+        Parameters
+        ----------
+        n_queries : int
+            N.
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+
+        Returns
+        -------
+        numpy.ndarray
+            Expected reads.
+        """
         return n_queries * (1.0 - self.dead_zone_mean) * self.mean(distance_m, theta_deg)
 
     def d50(self, theta_deg) -> np.ndarray:
-        """Distance [m] where E[p] = 1/2: d50 = (−a1 − a3·|θ|)/a2 (negative: never reached)."""
+        """Distance where E[p] = 1/2: d50 = (−a1 − a3·|θ|)/a2.
+
+        Parameters
+        ----------
+        theta_deg : array_like
+            θ [deg].
+
+        Returns
+        -------
+        numpy.ndarray
+            d50 [m] (negative: never reached).
+        """
         a1, a2, a3 = self.mean_coefficients
         return (-a1 - a3 * np.abs(np.asarray(theta_deg, float))) / a2
 
     def sample_reads(self, n_queries: int, distance_m, theta_deg, *,
                      rng: np.random.Generator) -> np.ndarray:
-        """Draw read counts n from the hierarchy λ ~ Beta(αλ, βλ), dead ~ Bernoulli(λ),
-        p ~ Beta(α, β) (p = μ where σ² = 0), n ~ Binomial(N, p), n = 0 if dead.
+        """Draw read counts from the hierarchy of Eq. (4.11).
+
+        λ ~ Beta(αλ, βλ), dead ~ Bernoulli(λ), p ~ Beta(α, β) (p = μ where σ² = 0),
+        n ~ Binomial(N, p), n = 0 if dead.
+
+        Parameters
+        ----------
+        n_queries : int
+            N.
+        distance_m, theta_deg : array_like
+            d [m] and θ [deg], broadcast.
+        rng : numpy.random.Generator
+            The draws.
 
         Returns
         -------
-        (...) int64, shape of the broadcast (d, θ)
+        numpy.ndarray
+            int64 reads, shape of the broadcast (d, θ).
         """
         d, th = np.broadcast_arrays(np.asarray(distance_m, float), np.asarray(theta_deg, float))
         mu = self.mean(d, th)
@@ -321,9 +511,17 @@ def mixture_logpmf(n_reads, n_queries, mean, alpha, beta, dead_zone_mean) -> np.
 
     Parameters
     ----------
-    n_reads, n_queries : (...) int, n and N (broadcast)
-    mean, alpha, beta : (...) float64, μ and the Beta parameters
-    dead_zone_mean : float, λ̄ in [0, 1)
+    n_reads, n_queries : array_like of int
+        n and N (broadcast).
+    mean, alpha, beta : array_like
+        μ and the Beta parameters [1].
+    dead_zone_mean : float
+        λ̄ in [0, 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        Log-probabilities [nat], shape of the broadcast.
     """
     n, nq, mu, a, b = np.broadcast_arrays(np.asarray(n_reads), np.asarray(n_queries),
                                           np.asarray(mean, float), np.asarray(alpha, float),

@@ -102,7 +102,18 @@ def fit_st_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 
 def st_fit_columns(fits: dict[str, np.ndarray]) -> dict[str, tuple[str, str]]:
-    """``{column: (unit, description)}`` of a table of :func:`fit_st_models`."""
+    """Units and descriptions of the columns of a :func:`fit_st_models` table.
+
+    Parameters
+    ----------
+    fits : dict of str to numpy.ndarray
+        The table of :func:`fit_st_models`.
+
+    Returns
+    -------
+    dict of str to tuple of str
+        ``{column: (unit, description)}``.
+    """
     out = {}
     for k in fits:
         base = k[3:] if k.startswith("se_") else k
@@ -118,9 +129,22 @@ def st_fit_columns(fits: dict[str, np.ndarray]) -> dict[str, tuple[str, str]]:
 
 
 def st_fits_comparison(fits: dict[str, np.ndarray]) -> str:
-    """One line per model of a :func:`fit_st_models` table: fitted vs published coefficients
-    (± standard error), test cross-entropies (fit, published coefficients on this test set,
-    published value) and the order of the non-constant coefficients by size."""
+    """One line per model of a :func:`fit_st_models` table.
+
+    Fitted vs published coefficients (± standard error), test cross-entropies (fit, published
+    coefficients on this test set, published value) and the order of the non-constant
+    coefficients by size.
+
+    Parameters
+    ----------
+    fits : dict of str to numpy.ndarray
+        The table of :func:`fit_st_models`.
+
+    Returns
+    -------
+    str
+        The lines, newline-separated.
+    """
     lines = []
     for model in ST_MODELS:
         rows = {fits["source"][i]: i for i in range(fits["model"].size) if fits["model"][i] == model}
@@ -211,7 +235,18 @@ _DA_UNITS = {"a2": "1/m", "a3": "1/deg", "c2": "1/m", "c3": "1/m^2", "c4": "1/de
 
 
 def reader_fit_columns(fits: dict[str, np.ndarray]) -> dict[str, tuple[str, str]]:
-    """``{column: (unit, description)}`` of a table of :func:`fit_reader_models` (without ``errors``)."""
+    """Units and descriptions of the columns of a :func:`fit_reader_models` table (without ``errors``).
+
+    Parameters
+    ----------
+    fits : dict of str to numpy.ndarray
+        The table of :func:`fit_reader_models`.
+
+    Returns
+    -------
+    dict of str to tuple of str
+        ``{column: (unit, description)}``.
+    """
     out = {"method": ("", "published (seed 004 L666, L838), moments (LSQ on cell moments, the source's method) "
                           "or mle (Eq. 4.11)"),
            "stderr_basis": ("", "how the standard errors were obtained: 'full' inverse information, 'mean block' "

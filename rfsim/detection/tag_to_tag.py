@@ -25,8 +25,26 @@ _fit = lazy_import("rfsim.detection.fit")
 
 
 def logistic_coefficients(a1: float, a2_per_m: float, range_m: float, scale_to_range: bool) -> tuple[float, float]:
-    """(a1, a2 [1/m]) of Eq. (6.5) used at sensing range ``range_m`` [m]: as fitted, or (when
-    ``scale_to_range``) stretched so that p(r) = 0.5, i.e. a2 = −a1/r."""
+    """Coefficients of Eq. (6.5) used at a sensing range.
+
+    As fitted, or (when ``scale_to_range``) stretched so that p(r) = 0.5, i.e. a2 = −a1/r.
+
+    Parameters
+    ----------
+    a1 : float
+        Fitted a1 [1].
+    a2_per_m : float
+        Fitted a2 [1/m].
+    range_m : float
+        Sensing range r [m].
+    scale_to_range : bool
+        Stretch the curve to p(r) = 0.5.
+
+    Returns
+    -------
+    a1, a2 : float
+        [1], [1/m].
+    """
     return (float(a1), -float(a1) / range_m) if scale_to_range else (float(a1), float(a2_per_m))
 
 
@@ -42,21 +60,65 @@ class Eq65Config:
     scale_to_range: bool = param(True, doc="stretch the fitted curve so that p(r) = 0.5 (a2 = -a1/r)")
 
     def coefficients(self, range_m: float) -> tuple[float, float]:
-        """(a1, a2 [1/m]) at sensing range ``range_m`` [m] (:func:`logistic_coefficients`)."""
+        """Coefficients at a sensing range (:func:`logistic_coefficients`).
+
+        Parameters
+        ----------
+        range_m : float
+            Sensing range r [m].
+
+        Returns
+        -------
+        a1, a2 : float
+            [1], [1/m].
+        """
         return logistic_coefficients(self.logistic_a1, self.logistic_a2_per_m, range_m, self.scale_to_range)
 
 
 def logistic_p(d_m, a1: float, a2: float) -> np.ndarray:
-    """Eq. (6.5): p(d) = 1/(1 + exp(a1 + a2·d)) at distances ``d_m`` [m] (a2 in 1/m)."""
+    """Eq. (6.5): p(d) = 1/(1 + exp(a1 + a2·d)).
+
+    Parameters
+    ----------
+    d_m : array_like
+        Distances d [m].
+    a1 : float
+        Offset [1].
+    a2 : float
+        Slope [1/m].
+
+    Returns
+    -------
+    numpy.ndarray
+        Decode probabilities [1], shape of ``d_m``.
+    """
     return 1.0 / (1.0 + np.exp(a1 + a2 * np.asarray(d_m, float)))
 
 
 def in_range(distance_m, *, model: str, range_m: float, a1: float, a2: float,
              rng: np.random.Generator) -> np.ndarray:
-    """(n,) bool: the broadcast at ``distance_m`` [m] would be decoded on its own (no collision).
+    """Whether the broadcast at ``distance_m`` would be decoded on its own (no collision).
 
     ``model`` "disc": d ≤ r (seeds/004 L1068, "within its sensing range r"); "logistic": with
     probability :func:`logistic_p` (one uniform draw of ``rng`` per broadcast).
+
+    Parameters
+    ----------
+    distance_m : array_like
+        ``(n,)`` distances [m].
+    model : {"disc", "logistic"}
+        Range model.
+    range_m : float
+        Sensing range r of the disc model [m].
+    a1, a2 : float
+        Eq. (6.5) coefficients of the logistic model [1], [1/m].
+    rng : numpy.random.Generator
+        The uniforms of the logistic model.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) bool``.
     """
     d = np.asarray(distance_m, float)
     if model == "disc":
@@ -83,13 +145,27 @@ class Eq65Fit:
 
 
 def fit_eq65(design, decoded_count, draws) -> Eq65Fit:
-    """Maximum-likelihood fit of p = 1/(1 + exp(x·a)) (Eq. 6.5, binary-detection.md §1.11) on
-    k decodes out of m draws per row of ``design`` (:func:`rfsim.detection.fit.fit_logistic`).
+    """Maximum-likelihood fit of p = 1/(1 + exp(x·a)) (Eq. 6.5, binary-detection.md §1.11).
 
+    On k decodes out of m draws per row of ``design`` (:func:`rfsim.detection.fit.fit_logistic`).
     With the design [1, d]: d50 = −a1/a2 (p = 0.5) and
     Var(d50) = (Var a1 + d50²·Var a2 + 2·d50·Cov(a1, a2)) / a2² (delta method). Data with
     nothing or everything decoded, or perfectly separated, have no finite maximum: NaN
     coefficients and the reason in ``status``.
+
+    Parameters
+    ----------
+    design : array_like
+        ``(n, k)`` design matrix x (e.g. [1, d [m]]).
+    decoded_count : array_like
+        ``(n,)`` decodes per row.
+    draws : array_like
+        ``(n,)`` broadcasts per row.
+
+    Returns
+    -------
+    Eq65Fit
+        Coefficients, standard errors, status and d50 [m].
     """
     x = np.asarray(design, float)
     k, m = np.asarray(decoded_count, float), np.asarray(draws, float)

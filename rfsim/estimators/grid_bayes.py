@@ -98,7 +98,22 @@ def grid_bayes_filter(log_likelihood, transition=None, prior=None) -> np.ndarray
 
 
 def grid_estimates(beliefs, cells_m) -> tuple[np.ndarray, np.ndarray]:
-    """MMSE (eq. 4.8) and MAP (eq. 4.9) positions of beliefs ``(..., M)`` → two ``(..., d)``."""
+    """MMSE (eq. 4.8) and MAP (eq. 4.9) positions of grid beliefs.
+
+    x̂_MMSE = Σ_m b_m·c_m; x̂_MAP = c_argmax(b).
+
+    Parameters
+    ----------
+    beliefs : array_like
+        ``(..., M)`` probabilities over the M cells [1].
+    cells_m : array_like
+        ``(M, d)`` cell positions [m].
+
+    Returns
+    -------
+    mmse, map : numpy.ndarray
+        ``(..., d)`` positions [m].
+    """
     bel = np.asarray(beliefs, float)
     cells = np.asarray(cells_m, float)
     return bel @ cells, cells[np.argmax(bel, axis=-1)]

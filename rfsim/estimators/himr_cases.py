@@ -66,7 +66,33 @@ class CaseStream:
 
 
 def case_stream(case: int, t_s, y, *, n_pylons: int = 3, outage_s=OUTAGE_S) -> CaseStream:
-    """Apply case ``case`` (module docstring) to a stream ``y`` (n, 2·n_pylons + 4)."""
+    """Apply case ``case`` (module docstring) to a recorded stream.
+
+    Parameters
+    ----------
+    case : int
+        Case 1…7.
+    t_s : array_like
+        ``(n,)`` epochs [s].
+    y : array_like
+        ``(n, 2·n_pylons + 4)`` outputs in observer order (units of
+        :func:`rfsim.estimators.himr_model.h_2d`).
+    n_pylons : int
+        Number of pylons P.
+    outage_s : tuple of float
+        Outage window ``(t_start, t_end)`` [s].
+
+    Returns
+    -------
+    CaseStream
+        The stream prepared for the case (Case 6: every other epoch; Case 7: pylons 1, 2).
+
+    Raises
+    ------
+    ValueError
+        For an unknown case, a ``y`` of the wrong shape, an outage that starts before the first
+        measurement, or Case 4 without a measurement after the outage.
+    """
     if case not in CASES:
         raise ValueError(f"case must be one of {sorted(CASES)}, got {case!r}")
     t = np.asarray(t_s, float)
@@ -162,7 +188,22 @@ def measurement_stream(run, plan, imu: dict, *, every: int = 1) -> dict:
 
 
 def wrap_periods(t_s, n_pylons: int, fc_hz) -> np.ndarray:
-    """(n, N) period λ_u/(2·Δt_k) of the phase-derived radial velocities at the epochs."""
+    """Period λ_u/(2·Δt_k) of the phase-derived radial velocities at the epochs (eq. 23).
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(n,)`` epochs [s] (the first Δt repeats the second).
+    n_pylons : int
+        Number of pylons N.
+    fc_hz : array_like
+        ``(N,)`` carrier frequencies [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, N)`` periods [m/s].
+    """
     t = np.asarray(t_s, float)
     dt = np.append(np.diff(t[:2]), np.diff(t))
     lam = wavelength_m(np.asarray(fc_hz, float))
@@ -175,18 +216,36 @@ def observe_case(variant: str, case: int, dealias: str, streams: dict, *, x0, W,
 
     Parameters
     ----------
-    variant : "literal", "prerotated" or "ekf" (:func:`rfsim.estimators.observer.observe_2d`)
-    case : 1…7 (module docstring); dealias : the radial-velocity aliasing treatment:
-        "innovation" wraps the innovations into ±λ/(4Δt), "gated" does so while every range
-        innovation is below ``gate_m`` [m] (:func:`rfsim.estimators.observer.range_gate`; the
-        EKF wraps always), "none" feeds the wrapped values, "oracle" takes ``rdot_oracle``
-    streams : {1: the full stream, 6: every other packet} of :func:`measurement_stream`
-    x0 : (9,) initial estimate; W : CARE tuning; pylons_m : (3, 2) [m]; fc_hz : (3,) carriers [Hz]
-    outage_s : outage window of Cases 2–5 [s]
+    variant : {"literal", "prerotated", "ekf"}
+        Observer variant (:func:`rfsim.estimators.observer.observe_2d`).
+    case : int
+        Case 1…7 (module docstring).
+    dealias : {"innovation", "gated", "none", "oracle"}
+        The radial-velocity aliasing treatment: "innovation" wraps the innovations into
+        ±λ/(4Δt), "gated" does so while every range innovation is below ``gate_m``
+        (:func:`rfsim.estimators.observer.range_gate`; the EKF wraps always), "none" feeds the
+        wrapped values, "oracle" takes ``rdot_oracle``.
+    streams : dict
+        ``{1: the full stream, 6: every other packet}`` of :func:`measurement_stream`.
+    x0 : array_like
+        ``(9,)`` initial estimate (units of :func:`rfsim.estimators.himr_model.h_2d`).
+    W : array_like
+        CARE tuning weight (:func:`rfsim.estimators.observer.care_gain`).
+    pylons_m : array_like
+        ``(3, 2)`` pylon positions [m].
+    fc_hz : array_like
+        ``(3,)`` carriers [Hz].
+    outage_s : tuple of float
+        Outage window of Cases 2–5 [s].
+    gate_m : float
+        Range-innovation gate of ``dealias="gated"`` [m].
 
     Returns
     -------
-    (the case's :class:`CaseStream`, (n, 9) estimates at its epochs)
+    stream : CaseStream
+        The case's stream.
+    estimates : numpy.ndarray
+        ``(n, 9)`` state estimates at its epochs.
     """
     base = streams[6 if case == 6 else 1]
     yb = base["y"]

@@ -49,13 +49,35 @@ STATE_NAMES = ("x", "x_dot", "x_ddot", "y", "y_dot", "y_ddot", "psi", "psi_dot",
 
 
 def initial_state(ic: int) -> np.ndarray:
-    """The 9-state initial estimate of Table 9's initial condition ``ic`` (1, 2 or 3): at rest."""
+    """The 9-state initial estimate of Table 9's initial condition ``ic``, at rest (L1196–L1206).
+
+    Parameters
+    ----------
+    ic : int
+        Initial condition 1, 2 or 3.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(9,)`` state ``[x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈]`` [m, m/s, m/s², m, m/s, m/s², rad, rad/s, rad/s²].
+    """
     x, y, psi = INITIAL_CONDITIONS[ic]
     return np.array([x, 0, 0, y, 0, 0, psi, 0, 0], float)
 
 
 def output_names(n_pylons: int) -> tuple[str, ...]:
-    """Names of the 2-D outputs in observer order (module docstring)."""
+    """Names of the 2-D outputs in observer order (module docstring).
+
+    Parameters
+    ----------
+    n_pylons : int
+        Number of pylons P.
+
+    Returns
+    -------
+    tuple of str
+        ``("r1", "r1_dot", …, "a1", "a2", "theta_z", "omega_z")``, 2P + 4 names.
+    """
     rf = [n for u in range(1, n_pylons + 1) for n in (f"r{u}", f"r{u}_dot")]
     return tuple(rf + ["a1", "a2", "theta_z", "omega_z"])
 
@@ -68,7 +90,27 @@ def _pylons(pylons_m) -> np.ndarray:
 
 
 def h_2d(x, pylons_m=PYLONS_M, accel: Accel = "literal") -> np.ndarray:
-    """Outputs h(x) of the 2-D model: x (..., 9) → (..., 2P + 4) (module docstring)."""
+    """Outputs h(x) of the 2-D model (eq. 28, module docstring).
+
+    Parameters
+    ----------
+    x : array_like
+        ``(..., 9)`` states [m, m/s, m/s², m, m/s, m/s², rad, rad/s, rad/s²].
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    accel : {"literal", "prerotated"}
+        Acceleration rows: body-frame a₁, a₂ or −ẍ, −ÿ.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., 2P + 4)``: per pylon r [m], ṙ [m/s]; a₁, a₂ [m/s²]; θ_z [rad]; ω_z [rad/s].
+
+    Raises
+    ------
+    ValueError
+        If ``pylons_m`` is not ``(P, 2)``.
+    """
     x = np.asarray(x, dtype=float)
     p = _pylons(pylons_m)
     dx = x[..., 0, None] - p[:, 0]
@@ -86,7 +128,27 @@ def h_2d(x, pylons_m=PYLONS_M, accel: Accel = "literal") -> np.ndarray:
 
 
 def jacobian_2d(x, pylons_m=PYLONS_M, accel: Accel = "literal") -> np.ndarray:
-    """C(x) = ∂h/∂x: (..., 2P + 4, 9) for states x (..., 9) (App. B, module docstring)."""
+    """C(x) = ∂h/∂x of the 2-D model (App. B L1764–L1780, module docstring).
+
+    Parameters
+    ----------
+    x : array_like
+        ``(..., 9)`` states (units of :func:`h_2d`).
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    accel : {"literal", "prerotated"}
+        Acceleration rows as in :func:`h_2d`.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., 2P + 4, 9)`` Jacobian (output units per state unit).
+
+    Raises
+    ------
+    ValueError
+        If ``pylons_m`` is not ``(P, 2)``.
+    """
     x = np.asarray(x, dtype=float)
     p = _pylons(pylons_m)
     X, Xd, Xdd, Y, Yd, Ydd, psi = (x[..., i, None] for i in range(7))
@@ -117,7 +179,18 @@ def prerotate_accelerations(y, n_pylons: int) -> np.ndarray:
 
     With a₁ = a·y^B, a₂ = −a·x^B and y^B = (cos θ, sin θ), x^B = (sin θ, −cos θ):
     ẍ = a₁ cos θ − a₂ sin θ, ÿ = a₁ sin θ + a₂ cos θ, θ = the measured θ_z.
-    ``y`` (..., 2P + 4); returns a new array.
+
+    Parameters
+    ----------
+    y : array_like
+        ``(..., 2P + 4)`` measured outputs in observer order.
+    n_pylons : int
+        Number of pylons P.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new ``(..., 2P + 4)`` array, accelerations [m/s²] in the fixed frame, negated.
     """
     y = np.array(y, dtype=float, copy=True)
     k = 2 * n_pylons
@@ -129,7 +202,20 @@ def prerotate_accelerations(y, n_pylons: int) -> np.ndarray:
 
 
 def observability_matrix(A, C) -> np.ndarray:
-    """O = [C; CA; …; CA^(n−1)] ((n·p, n), eq. 13)."""
+    """Observability matrix O = [C; CA; …; CA^(n−1)] (eq. 13).
+
+    Parameters
+    ----------
+    A : array_like
+        ``(n, n)`` state matrix.
+    C : array_like
+        ``(p, n)`` output matrix.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n·p, n)``.
+    """
     A, C = np.asarray(A, float), np.asarray(C, float)
     blocks, M = [], C
     for _ in range(A.shape[0]):
@@ -139,7 +225,22 @@ def observability_matrix(A, C) -> np.ndarray:
 
 
 def observability_rank(A, C, tol: float | None = None) -> int:
-    """rank O (numpy SVD rank, default tolerance)."""
+    """rank O of :func:`observability_matrix` (numpy SVD rank); observable iff rank O = n.
+
+    Parameters
+    ----------
+    A : array_like
+        ``(n, n)`` state matrix.
+    C : array_like
+        ``(p, n)`` output matrix.
+    tol : float or None
+        Singular-value tolerance; None: numpy's default.
+
+    Returns
+    -------
+    int
+        The rank.
+    """
     return int(np.linalg.matrix_rank(observability_matrix(A, C), tol=tol))
 
 

@@ -30,15 +30,48 @@ class SurrogateNoise:
     rate_rad_s: float = 0.3
 
     def sigmas(self, n_pylons: int) -> np.ndarray:
-        """(2P + 4,) standard deviations in observer order."""
+        """Standard deviations in observer order (himr-tag.md §6.3).
+
+        Parameters
+        ----------
+        n_pylons : int
+            Number of pylons P.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(2P + 4,)``: per pylon range [m] and radial velocity [m/s], then two accelerations
+            [m/s²], heading [rad] and rate [rad/s].
+        """
         rf = [self.range_m, self.radial_velocity_mps] * n_pylons
         return np.array(rf + [self.accel_mps2, self.accel_mps2, self.heading_rad, self.rate_rad_s])
 
 
 def geometric_measurements(states, *, pylons_m=PYLONS_M, noise: SurrogateNoise | None = None,
                            rng: np.random.Generator | None = None) -> np.ndarray:
-    """Surrogate outputs (n, 2P + 4) of true states (n, 9) (module docstring); noise-free
-    when ``noise`` is None."""
+    """Surrogate outputs of true states: y = h(x(t_k)) + v_k (eq. 28, module docstring).
+
+    Parameters
+    ----------
+    states : array_like
+        ``(n, 9)`` true states of the 2-D model (:mod:`rfsim.estimators.himr_model`).
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    noise : SurrogateNoise or None
+        White-noise standard deviations; None: noise-free.
+    rng : numpy.random.Generator or None
+        Noise source; required with ``noise``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, 2P + 4)`` outputs in observer order (units of :meth:`SurrogateNoise.sigmas`).
+
+    Raises
+    ------
+    ValueError
+        If ``noise`` is given without ``rng``.
+    """
     y = h_2d(states, pylons_m, "literal")
     if noise is None:
         return y

@@ -51,16 +51,27 @@ def _mv(a: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def kf_predict(x, P, F, Q) -> tuple[np.ndarray, np.ndarray]:
-    """One prediction step ``m⁻ = F m``, ``P⁻ = F P Fᵀ + Q``.
+    """One prediction step ``m⁻ = F m``, ``P⁻ = F P Fᵀ + Q`` (Särkkä 2013 eq. 4.20).
+
+    Units are those of the model's state.
 
     Parameters
     ----------
-    x : (..., n) state mean;  P : (..., n, n) covariance
-    F : (..., n, n) transition;  Q : (..., n, n) process-noise covariance (broadcast)
+    x : array_like
+        ``(..., n)`` state mean.
+    P : array_like
+        ``(..., n, n)`` covariance.
+    F : array_like
+        ``(..., n, n)`` transition (broadcast).
+    Q : array_like
+        ``(..., n, n)`` process-noise covariance (broadcast).
 
     Returns
     -------
-    x_pred (..., n), P_pred (..., n, n)
+    x_pred : numpy.ndarray
+        ``(..., n)`` predicted mean.
+    P_pred : numpy.ndarray
+        ``(..., n, n)`` predicted covariance.
     """
     F = np.asarray(F, float)
     x_pred = _mv(F, np.asarray(x, float))
@@ -83,15 +94,29 @@ def _keep_where_missing(valid, new, old):
 
 
 def kf_update(x, P, z, H, R) -> tuple[np.ndarray, np.ndarray]:
-    """One linear update (Joseph form); trials whose ``z`` has a NaN keep ``(x, P)``.
+    """One linear update in Joseph form (eq. 4.21, module docstring).
+
+    Trials whose ``z`` has a NaN keep ``(x, P)``. Units are those of the model.
 
     Parameters
     ----------
-    x (..., n), P (..., n, n), z (..., m), H (..., m, n), R (..., m, m)
+    x : array_like
+        ``(..., n)`` predicted mean.
+    P : array_like
+        ``(..., n, n)`` predicted covariance.
+    z : array_like
+        ``(..., m)`` measurement (NaN: missing).
+    H : array_like
+        ``(..., m, n)`` measurement matrix.
+    R : array_like
+        ``(..., m, m)`` measurement-noise covariance.
 
     Returns
     -------
-    x_new (..., n), P_new (..., n, n)
+    x_new : numpy.ndarray
+        ``(..., n)`` updated mean.
+    P_new : numpy.ndarray
+        ``(..., n, n)`` updated covariance.
     """
     x = np.asarray(x, float)
     P = np.asarray(P, float)
@@ -116,10 +141,29 @@ def ekf_update(x, P, z, h: Callable, jacobian: Callable, R, *, x_lin=None,
 
     Parameters
     ----------
-    x (..., n), P (..., n, n), z (..., m), R (..., m, m)
-    h : callable (..., n) → (..., m), vectorised measurement function
-    jacobian : callable (..., n) → (..., m, n)
-    x_lin : (..., n) linearisation point or None
+    x : array_like
+        ``(..., n)`` predicted mean.
+    P : array_like
+        ``(..., n, n)`` predicted covariance.
+    z : array_like
+        ``(..., m)`` measurement (NaN: missing, the trial keeps ``(x, P)``).
+    h : callable
+        ``(..., n) → (..., m)``, vectorised measurement function.
+    jacobian : callable
+        ``(..., n) → (..., m, n)``.
+    R : array_like
+        ``(..., m, m)`` measurement-noise covariance.
+    x_lin : array_like or None
+        ``(..., n)`` linearisation point.
+    residual : callable or None
+        ``(z, ẑ) → innovation``; default ``z − ẑ``.
+
+    Returns
+    -------
+    x_new : numpy.ndarray
+        ``(..., n)`` updated mean.
+    P_new : numpy.ndarray
+        ``(..., n, n)`` updated covariance.
     """
     x = np.asarray(x, float)
     P = np.asarray(P, float)
@@ -170,12 +214,30 @@ def kalman_filter(zs, x0, P0, F, Q, H, R, *, predict_first: bool = False) -> Fil
 
     Parameters
     ----------
-    zs : (..., T, m);  x0 : (..., n);  P0 : (..., n, n)
-    F, Q : (n, n) or (T, n, n);  H : (m, n) or (T, m, n);  R : (m, m) or (T, m, m)
+    zs : array_like
+        ``(..., T, m)`` measurements.
+    x0 : array_like
+        ``(..., n)`` initial mean.
+    P0 : array_like
+        ``(..., n, n)`` initial covariance.
+    F, Q : array_like
+        ``(n, n)`` or ``(T, n, n)`` transition and process-noise covariance.
+    H : array_like
+        ``(m, n)`` or ``(T, m, n)`` measurement matrix.
+    R : array_like
+        ``(m, m)`` or ``(T, m, m)`` measurement-noise covariance.
+    predict_first : bool
+        Predict before the first update too.
 
     Returns
     -------
-    :class:`FilterResult`
+    FilterResult
+        Filtered and predicted means and covariances, ``(..., T, n)`` and ``(..., T, n, n)``.
+
+    Raises
+    ------
+    ValueError
+        If a time-varying model's length differs from the data's.
     """
     zs = np.asarray(zs, float)
     n_steps = zs.shape[-2]
@@ -204,12 +266,44 @@ def extended_kalman_filter(zs, x0, P0, F, Q, h: Callable, jacobian: Callable, R,
                            predict_first: bool = False) -> FilterResult:
     """EKF over ``zs (..., T, m)`` with a linear transition and a nonlinear measurement.
 
-    As :func:`kalman_filter`, with :func:`ekf_update` at each step; ``h(x, k)`` and
-    ``jacobian(x, k)`` get the step index (a sequential per-antenna model changes with k).
-    ``x_lin (..., T, n)``, e.g. the smoothed means of a previous pass, linearises step k at
-    ``x_lin[..., k, :]`` instead of the prediction: filter + :func:`rts_smoother` repeated this way
-    is the iterated extended RTS smoother (Särkkä 2013 §9; phase-tracking.md, seeds/001 L205).
-    NaN measurements are skipped.
+    As :func:`kalman_filter`, with :func:`ekf_update` at each step. Filter +
+    :func:`rts_smoother` repeated with ``x_lin`` the previous smoothed means is the iterated
+    extended RTS smoother (Särkkä 2013 §9; phase-tracking.md, seeds/001 L205). NaN
+    measurements are skipped.
+
+    Parameters
+    ----------
+    zs : array_like
+        ``(..., T, m)`` measurements.
+    x0 : array_like
+        ``(..., n)`` initial mean.
+    P0 : array_like
+        ``(..., n, n)`` initial covariance.
+    F, Q : array_like
+        ``(n, n)`` or ``(T, n, n)`` transition and process-noise covariance.
+    h : callable
+        ``h(x, k)``: ``(..., n) → (..., m)`` at step k (a sequential per-antenna model changes
+        with k).
+    jacobian : callable
+        ``jacobian(x, k)``: ``(..., n) → (..., m, n)``.
+    R : array_like
+        ``(m, m)`` or ``(T, m, m)`` measurement-noise covariance.
+    x_lin : array_like or None
+        ``(..., T, n)``: step k is linearised at ``x_lin[..., k, :]`` instead of the prediction.
+    residual : callable or None
+        ``(z, ẑ) → innovation``; default ``z − ẑ``.
+    predict_first : bool
+        Predict before the first update too.
+
+    Returns
+    -------
+    FilterResult
+        Filtered and predicted means and covariances.
+
+    Raises
+    ------
+    ValueError
+        If a time-varying model's length differs from the data's.
     """
     zs = np.asarray(zs, float)
     n_steps = zs.shape[-2]
@@ -239,12 +333,19 @@ def rts_smoother(xs, Ps, F, Q) -> tuple[np.ndarray, np.ndarray]:
 
     Parameters
     ----------
-    xs : (..., T, n) filtered means;  Ps : (..., T, n, n) filtered covariances
-    F, Q : (n, n), or (T, n, n) with ``F[k+1]`` the transition from step k to k+1
+    xs : array_like
+        ``(..., T, n)`` filtered means.
+    Ps : array_like
+        ``(..., T, n, n)`` filtered covariances.
+    F, Q : array_like
+        ``(n, n)``, or ``(T, n, n)`` with ``F[k+1]`` the transition from step k to k+1.
 
     Returns
     -------
-    xs_smooth (..., T, n), Ps_smooth (..., T, n, n)
+    xs_smooth : numpy.ndarray
+        ``(..., T, n)`` smoothed means.
+    Ps_smooth : numpy.ndarray
+        ``(..., T, n, n)`` smoothed covariances.
     """
     xs = np.asarray(xs, float)
     Ps = np.asarray(Ps, float)

@@ -50,10 +50,23 @@ _particle = lazy_import("rfsim.estimators.particle")  # the SIR filter loads on 
 
 
 def binomial_log_likelihood(counts, p, n_rounds: int) -> np.ndarray:
-    """Σ_k [n_k log p_k + (N − n_k) log(1 − p_k)] (Eq. 4.15 without the constant C(N, n)).
+    """Binomial log-likelihood of the landmark detections at every particle (Eq. 4.15 without the constant C(N, n)).
 
-    counts : (B, L) detections per landmark;  p : (B, M, L) detection probabilities in (0, 1)
-    Returns (B, M).
+    ln p(y | x) = Σ_k [n_k log p_k + (N − n_k) log(1 − p_k)], p clipped to [1e−12, 1 − 1e−12].
+
+    Parameters
+    ----------
+    counts : array_like
+        ``(B, L)`` detections per landmark in the period.
+    p : array_like
+        ``(B, M, L)`` detection probabilities in (0, 1).
+    n_rounds : int
+        Rounds N per period.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, M)`` log-likelihood [nats].
     """
     n = np.asarray(counts, float)[:, None, :]
     p = np.clip(p, 1e-12, 1.0 - 1e-12)
@@ -61,8 +74,25 @@ def binomial_log_likelihood(counts, p, n_rounds: int) -> np.ndarray:
 
 
 def wcl_track(counts, landmarks_xy, start_xy) -> np.ndarray:
-    """WCL (Eq. 4.12) per period, ``(B, T, 2)``; a period without detections keeps the previous
-    estimate (``start_xy`` before the first detection)."""
+    """Weighted-centroid positions per period (Eq. 4.12).
+
+    A period without detections keeps the previous estimate (``start_xy`` before the first
+    detection).
+
+    Parameters
+    ----------
+    counts : array_like
+        ``(B, T, L)`` detections per landmark.
+    landmarks_xy : array_like
+        ``(L, 2)`` landmark positions [m].
+    start_xy : array_like
+        ``(2,)`` or ``(B, 2)`` estimate before the first detection [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, T, 2)`` positions [m].
+    """
     est = weighted_centroid(np.asarray(counts, float), landmarks_xy)           # (B, T, 2), NaN if none
     out = np.empty_like(est)
     prev = np.broadcast_to(np.asarray(start_xy, float), est[:, 0].shape).copy()
@@ -75,10 +105,31 @@ def wcl_track(counts, landmarks_xy, start_xy) -> np.ndarray:
 
 def pf_bin(counts, initial_state, *, n_particles: int, period_s: float, accel_var: float, n_rounds: int,
            probability: Callable, rng: np.random.Generator) -> np.ndarray:
-    """PF-BIN MMSE positions ``(B, T, 2)``.
+    """PF-BIN MMSE positions (Eq. 4.9, module docstring).
 
-    counts : (B, T, L);  initial_state : (B, 4) the known [x1, x2, ẋ1, ẋ2] at the start
-    probability : ``(positions (B, M, 2), t) → p (B, M, L)`` (RTS model of every landmark)
+    Parameters
+    ----------
+    counts : array_like
+        ``(B, T, L)`` detections per landmark.
+    initial_state : array_like
+        ``(B, 4)`` the known [x1, x2, ẋ1, ẋ2] at the start [m, m, m/s, m/s].
+    n_particles : int
+        Particles M.
+    period_s : float
+        Query period T [s].
+    accel_var : float
+        Variance σ_u² of the velocity input per period [m²/s²].
+    n_rounds : int
+        Rounds N per period.
+    probability : callable
+        ``(positions (B, M, 2) [m], t) → p (B, M, L)`` (RTS model of every landmark).
+    rng : numpy.random.Generator
+        The filter's stream.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, T, 2)`` positions [m].
     """
     b = np.asarray(initial_state, float)
     particles = np.repeat(b[:, None, :], n_particles, axis=1)
@@ -107,10 +158,39 @@ def pf_bin(counts, initial_state, *, n_particles: int, period_s: float, accel_va
 def pf_aa(counts, landmarks_xy, *, n_particles: int, period_s: float, q_std_m: float, init_std_m: float,
           b0: float, b1: float, n_rounds: int, probability: Callable,
           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """PF-AA without compensation: MMSE positions x̂ and velocities v̂ (Eq. 4.22), both ``(B, T, 2)``.
+    """PF-AA without compensation (Algorithm 2, Eqs. 4.11–4.22).
 
-    counts : (B, T, L);  landmarks_xy : (L, 2);  probability as in :func:`pf_bin`.
     Step 0 is the initialisation (particles ~ N(x̂*_1, σ_1²), no propagation, v̂_1 = 0).
+
+    Parameters
+    ----------
+    counts : array_like
+        ``(B, T, L)`` detections per landmark.
+    landmarks_xy : array_like
+        ``(L, 2)`` landmark positions [m].
+    n_particles : int
+        Particles M.
+    period_s : float
+        Query period Δt [s].
+    q_std_m : float
+        AR noise std σ_q per period [m].
+    init_std_m : float
+        Initial spread σ_1 around the first WCL [m].
+    b0, b1 : float
+        Velocity AR weights (Eq. 4.14) [1].
+    n_rounds : int
+        Rounds N per period.
+    probability : callable
+        As in :func:`pf_bin`.
+    rng : numpy.random.Generator
+        The filter's stream.
+
+    Returns
+    -------
+    x_hat : numpy.ndarray
+        ``(B, T, 2)`` MMSE positions [m].
+    v_hat : numpy.ndarray
+        ``(B, T, 2)`` velocities (Eq. 4.22) [m/s].
     """
     n = np.asarray(counts, float)
     n_runs, n_steps, _ = n.shape
@@ -146,9 +226,27 @@ def pf_aa(counts, landmarks_xy, *, n_particles: int, period_s: float, q_std_m: f
 
 def bias_compensate(x_hat, v_hat, *, period_end_s, mean_detection_s, b0: float, b1: float,
                     v_threshold_mps: float) -> np.ndarray:
-    """Eqs. 4.23-4.24: x̃_t = x̂_t + (b0 v̂_t + b1 v̂_{t−1})(t − t̂) where |v̂_t| ≥ v_threshold, else x̂_t.
+    """Bias compensation of PF-AA (Eqs. 4.23–4.24).
 
-    x_hat, v_hat : (B, T, 2);  period_end_s : (T,) t;  mean_detection_s : (B, T) t̂ (NaN: no detection)
+    x̃_t = x̂_t + (b0 v̂_t + b1 v̂_{t−1})(t − t̂) where |v̂_t| ≥ v_threshold, else x̂_t.
+
+    Parameters
+    ----------
+    x_hat, v_hat : array_like
+        ``(B, T, 2)`` positions [m] and velocities [m/s].
+    period_end_s : array_like
+        ``(T,)`` period end times t [s].
+    mean_detection_s : array_like
+        ``(B, T)`` mean detection times t̂ [s] (NaN: no detection).
+    b0, b1 : float
+        Velocity AR weights [1].
+    v_threshold_mps : float
+        Speed above which the output is compensated [m/s].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, T, 2)`` compensated positions [m].
     """
     v_prev = np.concatenate([np.zeros_like(v_hat[:, :1]), v_hat[:, :-1]], axis=1)
     lag = np.asarray(period_end_s, float)[None, :] - np.asarray(mean_detection_s, float)
@@ -174,18 +272,39 @@ class LandmarkFilterConfig:
 def run_tracker(kind: str, counts, landmarks_xy, *, config: LandmarkFilterConfig, v_threshold_mps: float,
                 period_s: float, n_rounds: int, probability: Callable, initial_state, period_end_s,
                 mean_detection_s, rng: np.random.Generator) -> np.ndarray:
-    """One tracker's estimates ``(B, T, 2)`` [m] on the detections of B runs.
+    """One tracker's estimates on the detections of B runs.
 
     Parameters
     ----------
-    kind : "wcl" (:func:`wcl_track` from the landmarks' centre), "pfbin" (:func:`pf_bin`) or "pfaa"
-        (:func:`pf_aa`, then :func:`bias_compensate` per run unless ``v_threshold_mps`` is ∞)
-    counts : (B, T, L) detections;  landmarks_xy : (L, 2) m
-    config : the filters' parameters (its own ``v_threshold_mps`` is not read: the argument is)
-    period_s : Δt [s];  n_rounds : N;  probability : as in :func:`pf_bin`
-    initial_state : (B, 4) PF-BIN's known [x1, x2, ẋ1, ẋ2]
-    period_end_s, mean_detection_s : (B, T) [s] t and t̂ of every period (NaN: no detection)
-    rng : the filter's stream (WCL draws nothing)
+    kind : {"wcl", "pfbin", "pfaa"}
+        "wcl" (:func:`wcl_track` from the landmarks' centre), "pfbin" (:func:`pf_bin`) or
+        "pfaa" (:func:`pf_aa`, then :func:`bias_compensate` per run unless
+        ``v_threshold_mps`` is ∞).
+    counts : array_like
+        ``(B, T, L)`` detections.
+    landmarks_xy : array_like
+        ``(L, 2)`` landmark positions [m].
+    config : LandmarkFilterConfig
+        The filters' parameters (its own ``v_threshold_mps`` is not read: the argument is).
+    v_threshold_mps : float
+        Bias-compensation threshold [m/s] (∞: none).
+    period_s : float
+        Δt [s].
+    n_rounds : int
+        Rounds N per period.
+    probability : callable
+        As in :func:`pf_bin`.
+    initial_state : array_like
+        ``(B, 4)`` PF-BIN's known [x1, x2, ẋ1, ẋ2] [m, m, m/s, m/s].
+    period_end_s, mean_detection_s : array_like
+        ``(B, T)`` t and t̂ of every period [s] (NaN: no detection).
+    rng : numpy.random.Generator
+        The filter's stream (WCL draws nothing).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, T, 2)`` estimates [m].
     """
     f = config
     if kind == "wcl":

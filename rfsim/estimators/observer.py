@@ -69,8 +69,26 @@ class Gain:
 
 
 def care_gain(A, C, W, V) -> Gain:
-    """L = Y·Cᵀ·V⁻¹ with Y from the filter CARE (module docstring); eigenvalues sorted by
-    real part."""
+    """CARE gain L = Y·Cᵀ·V⁻¹ with Y from the filter CARE AY + YAᵀ − YCᵀV⁻¹CY + W = 0 (eqs. 14–16).
+
+    Solved by :func:`scipy.linalg.solve_continuous_are` on the dual problem (module docstring).
+
+    Parameters
+    ----------
+    A : array_like
+        ``(n, n)`` state matrix.
+    C : array_like
+        ``(p, n)`` output matrix.
+    W : array_like
+        ``(n, n)`` symmetric positive-definite state weight.
+    V : array_like
+        ``(p, p)`` symmetric positive-definite output weight.
+
+    Returns
+    -------
+    Gain
+        ``L`` (n, p), ``Y`` (n, n) and eig(A − L·C), sorted by real part [1/s].
+    """
     A, C, W, V = (np.asarray(m, dtype=float) for m in (A, C, W, V))
     Y = _linalg.solve_continuous_are(A.T, C.T, W, V)
     L = Y @ C.T @ np.linalg.inv(V)
@@ -79,12 +97,44 @@ def care_gain(A, C, W, V) -> Gain:
 
 
 def gain_1d(W=W_1D, V=None) -> Gain:
-    """The 1-D HIMR gain (eq. 17–18): A₃, C = I₃, W = 5·10⁴·diag(3, 1, 1), V = I₃."""
+    """The 1-D HIMR gain (eq. 17–18): A₃, C = I₃, W = 5·10⁴·diag(3, 1, 1), V = I₃.
+
+    Parameters
+    ----------
+    W : array_like
+        ``(3, 3)`` state weight.
+    V : array_like or None
+        ``(3, 3)`` output weight; None: I₃.
+
+    Returns
+    -------
+    Gain
+        The CARE gain.
+    """
     return care_gain(A3, C1, W, np.eye(3) if V is None else V)
 
 
 def gain_2d(W=W_D2, V=None, *, point=TABLE8_STATE, pylons_m=PYLONS_M, accel="literal") -> Gain:
-    """The 2-D HIMR gain at a linearisation point (Table 8 by default), V = I by default."""
+    """The 2-D HIMR gain at a linearisation point (Table 8 by default), V = I by default.
+
+    Parameters
+    ----------
+    W : array_like
+        ``(9, 9)`` state weight (default "D.2").
+    V : array_like or None
+        ``(2P + 4, 2P + 4)`` output weight; None: I.
+    point : array_like
+        ``(9,)`` linearisation state (units of :func:`rfsim.estimators.himr_model.h_2d`).
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    accel : {"literal", "prerotated"}
+        Acceleration rows of C.
+
+    Returns
+    -------
+    Gain
+        The CARE gain.
+    """
     C = jacobian_2d(point, pylons_m, "prerotated" if accel == "prerotated" else "literal")
     return care_gain(A9, C, W, np.eye(C.shape[0]) if V is None else V)
 
@@ -103,7 +153,20 @@ def _check_stream(t_s, y, n_out: int):
 
 
 def wrap_innovation(innov, period):
-    """``innov`` wrapped into ±period/2 where ``period`` > 0 (NaN or 0: unchanged)."""
+    """``innov`` wrapped into ±period/2 where ``period`` > 0 (NaN or 0: unchanged).
+
+    Parameters
+    ----------
+    innov : array_like
+        Innovations, unit of the output.
+    period : array_like
+        Wrap period per output (broadcast), same unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        Wrapped innovations.
+    """
     p = np.nan_to_num(np.asarray(period, float))
     safe = np.where(p > 0, p, 1.0)
     return np.where(p > 0, innov - safe * np.round(innov / safe), innov)
@@ -112,20 +175,41 @@ def wrap_innovation(innov, period):
 def luenberger(t_s, y, *, A, L, h, x0, gain_on=None, wrap_period=None, innovation=None) -> np.ndarray:
     """Forward-Euler fixed-gain observer (module docstring) with output map ``h``.
 
+    x̂_{k+1} = x̂_k + T_k·(A x̂_k + g_k·L·(y_k − h(x̂_k))) (eqs. 10, 20, 29, 53).
+
     Parameters
     ----------
-    t_s : (n,) epochs [s];  y : (n, p) measurements (NaN = missing)
-    A : (m, m);  L : (m, p);  h : callable x (m,) → (p,);  x0 : (m,) initial estimate
-    gain_on : (n,) bool or None (all on)
-    wrap_period : (p,) or (n, p) or None: an output measured modulo its period (a
-        phase-derived radial velocity, period λ/(2·Δt)) gets its innovation wrapped into
-        ±period/2 — the aliasing is resolved by the estimate the other sensors support
-    innovation : optional callable ``(k, innov) → innov`` applied after the wrapping (e.g.
-        to drop outputs at an epoch: NaN contributes no innovation)
+    t_s : array_like
+        ``(n,)`` increasing epochs [s].
+    y : array_like
+        ``(n, p)`` measurements (NaN = missing).
+    A : array_like
+        ``(m, m)`` state matrix.
+    L : array_like
+        ``(m, p)`` gain.
+    h : callable
+        Output map ``x (m,) → (p,)``.
+    x0 : array_like
+        ``(m,)`` initial estimate.
+    gain_on : array_like of bool or None
+        ``(n,)`` g_k (None: all on).
+    wrap_period : array_like or None
+        ``(p,)`` or ``(n, p)``: an output measured modulo its period (a phase-derived radial
+        velocity, period λ/(2·Δt)) gets its innovation wrapped into ±period/2 — the aliasing is
+        resolved by the estimate the other sensors support.
+    innovation : callable or None
+        ``(k, innov) → innov`` applied after the wrapping (e.g. to drop outputs at an epoch:
+        NaN contributes no innovation).
 
     Returns
     -------
-    (n, m) estimates x̂_k at the epochs
+    numpy.ndarray
+        ``(n, m)`` estimates x̂_k at the epochs.
+
+    Raises
+    ------
+    ValueError
+        If ``t_s`` is not increasing (at least two epochs) or ``y`` has the wrong shape.
     """
     A, L = np.asarray(A, float), np.asarray(L, float)
     t, y = _check_stream(t_s, y, L.shape[1])
@@ -149,7 +233,28 @@ def luenberger(t_s, y, *, A, L, h, x0, gain_on=None, wrap_period=None, innovatio
 
 
 def observe_1d(t_s, y, *, x0, gain: Gain | None = None, gain_on=None, wrap_period=None) -> np.ndarray:
-    """1-D HIMR observer (eq. 20): y (n, 3) = [RSS range, radial velocity, acceleration]."""
+    """1-D HIMR observer (eq. 20) on a measurement stream.
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(n,)`` increasing epochs [s].
+    y : array_like
+        ``(n, 3)`` = [RSS range [m], radial velocity [m/s], acceleration [m/s²]].
+    x0 : array_like
+        ``(3,)`` initial estimate [m, m/s, m/s²].
+    gain : Gain or None
+        Precomputed gain; None: :func:`gain_1d`.
+    gain_on : array_like of bool or None
+        ``(n,)`` gain switch (None: all on).
+    wrap_period : array_like or None
+        Wrap periods of outputs measured modulo them (:func:`luenberger`).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, 3)`` estimates [m, m/s, m/s²].
+    """
     g = gain_1d() if gain is None else gain
     return luenberger(t_s, y, A=A3, L=g.L, h=lambda x: C1 @ x, x0=x0, gain_on=gain_on, wrap_period=wrap_period)
 
@@ -186,21 +291,43 @@ def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYL
 
     Parameters
     ----------
-    t_s : (n,) epochs [s]
-    y : (n, 2P + 4) measured outputs in observer order with the literal acceleration
-        convention (a₁ = a·y^B, a₂ = −a·x^B); ``prerotated`` rotates them itself
-    x0 : (9,) initial estimate (default: IC #1 of Table 9, (2, 1.8048) m, ψ = π, at rest)
-    pylons_m : (P, 2) pylons whose outputs are in ``y`` (Case 7: the first two)
-    W, V : tuning (V default I); ``gain``: a precomputed :class:`Gain` (else from W, V at
-        Table 8); ``gain_on``: Case-3 switch; ``p0``, ``ekf_r``: EKF initial covariance
-        (9, 9) and measurement covariance (2P + 4, 2P + 4)
-    wrap_period : per-output (or per-epoch and output) period of outputs measured modulo
-        it (:func:`luenberger`; the EKF wraps its innovation the same way); ``innovation``:
-        a hook on the fixed-gain observers' innovations (:func:`luenberger`)
+    t_s : array_like
+        ``(n,)`` increasing epochs [s].
+    y : array_like
+        ``(n, 2P + 4)`` measured outputs in observer order with the literal acceleration
+        convention (a₁ = a·y^B, a₂ = −a·x^B); ``prerotated`` rotates them itself.
+    x0 : array_like or None
+        ``(9,)`` initial estimate (default: IC #1 of Table 9, (2, 1.8048) m, ψ = π, at rest).
+    variant : {"literal", "prerotated", "ekf"}
+        Observer variant.
+    pylons_m : array_like
+        ``(P, 2)`` pylons whose outputs are in ``y`` [m] (Case 7: the first two).
+    W, V : array_like or None
+        CARE tuning (V default I).
+    gain : Gain or None
+        A precomputed gain (else from W, V at Table 8).
+    gain_on : array_like of bool or None
+        ``(n,)`` Case-3 gain switch.
+    p0 : array_like or None
+        ``(9, 9)`` EKF initial covariance (default 10⁻²·I).
+    ekf_r : array_like or None
+        ``(2P + 4, 2P + 4)`` EKF measurement covariance (default: himr-tag.md §6.3 variances).
+    wrap_period : array_like or None
+        Per-output (or per-epoch and output) period of outputs measured modulo it
+        (:func:`luenberger`; the EKF wraps its innovation the same way).
+    innovation : callable or None
+        A hook on the fixed-gain observers' innovations (:func:`luenberger`).
 
     Returns
     -------
-    (n, 9) state estimates [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈]
+    numpy.ndarray
+        ``(n, 9)`` state estimates [x ẋ ẍ y ẏ ÿ ψ ψ̇ ψ̈] [m, m/s, m/s², m, m/s, m/s², rad,
+        rad/s, rad/s²].
+
+    Raises
+    ------
+    ValueError
+        For an unknown variant or a malformed stream.
     """
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
@@ -224,13 +351,43 @@ def observe_2d(t_s, y, *, x0=None, variant: Variant = "prerotated", pylons_m=PYL
 
 
 def eig_along(states, L, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
-    """eig(A − L·C(x)) for each state of a trajectory: states (n, 9) → (n, 9) complex."""
+    """eig(A − L·C(x)) for each state of a trajectory (eqs. 33–35).
+
+    Parameters
+    ----------
+    states : array_like
+        ``(n, 9)`` states.
+    L : array_like
+        ``(9, p)`` gain.
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    accel : {"literal", "prerotated"}
+        Acceleration rows of C.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n, 9) complex`` eigenvalues [1/s].
+    """
     st = np.atleast_2d(np.asarray(states, float))
     return np.linalg.eigvals(A9 - L @ jacobian_2d(st, pylons_m, accel))
 
 
 def unstable_intervals(t_s, max_real) -> list[tuple[float, float]]:
-    """Intervals [t_first, t_last] of consecutive epochs where ``max_real`` > 0."""
+    """Intervals [t_first, t_last] of consecutive epochs where ``max_real`` > 0.
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(n,)`` epochs [s].
+    max_real : array_like
+        ``(n,)`` largest real part of the error-matrix eigenvalues [1/s].
+
+    Returns
+    -------
+    list of tuple of float
+        ``(t_first, t_last)`` [s] per interval.
+    """
     t = np.asarray(t_s, float)
     pos = np.asarray(max_real) > 0
     out, i = [], 0
@@ -247,25 +404,50 @@ def unstable_intervals(t_s, max_real) -> list[tuple[float, float]]:
 
 
 def ranks_along(states, *, pylons_m=PYLONS_M, accel="literal") -> np.ndarray:
-    """rank of O = [C; CA; CA²] (A³ = 0) for each state: (n,) int."""
+    """Rank of O = [C; CA; CA²] (A³ = 0) for each state of a trajectory.
+
+    Parameters
+    ----------
+    states : array_like
+        ``(n, 9)`` states.
+    pylons_m : array_like
+        ``(P, 2)`` pylon positions [m].
+    accel : {"literal", "prerotated"}
+        Acceleration rows of C.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) int`` ranks.
+    """
     C = jacobian_2d(np.atleast_2d(np.asarray(states, float)), pylons_m, accel)
     return np.linalg.matrix_rank(np.concatenate([C, C @ A9, C @ A9 @ A9], axis=-2)).astype(int)
 
 
 def range_gate(n_pylons: int, gate_m: float, period):
-    """Innovation hook (:func:`luenberger`) of the gated dealiasing of the 2-D radial velocities: the radial-velocity innovations are wrapped
-    into ±period/2 only while every measured RSS-range innovation is below ``gate_m`` — then
-    the position the other sensors support is close enough for the prediction to pick the
-    right alias; otherwise (after an outage, from a far initial condition) the measured value
-    is used as it is. Wrapping always can lock the observer onto a wrong alias: a velocity
-    error of a multiple of λ/(2Δt) along every pylon's direction gives zero wrapped
-    innovation and is held by a constant range innovation.
+    """Innovation hook (:func:`luenberger`) of the gated dealiasing of the 2-D radial velocities.
+
+    The radial-velocity innovations are wrapped into ±period/2 only while every measured
+    RSS-range innovation is below ``gate_m`` — then the position the other sensors support is
+    close enough for the prediction to pick the right alias; otherwise (after an outage, from a
+    far initial condition) the measured value is used as it is. Wrapping always can lock the
+    observer onto a wrong alias: a velocity error of a multiple of λ/(2Δt) along every pylon's
+    direction gives zero wrapped innovation and is held by a constant range innovation.
 
     Parameters
     ----------
-    n_pylons : P, the outputs are in observer order [r₁ ṙ₁ … r_P ṙ_P, …]
-    gate_m : the gate on every |range innovation| [m]
-    period : (n, 2P + 4) per epoch and output the wrap period (λ/(2Δt) on the ṙ outputs, 0 elsewhere)
+    n_pylons : int
+        P; the outputs are in observer order [r₁ ṙ₁ … r_P ṙ_P, …].
+    gate_m : float
+        The gate on every |range innovation| [m].
+    period : array_like
+        ``(n, 2P + 4)`` wrap period per epoch and output (λ/(2Δt) [m/s] on the ṙ outputs, 0
+        elsewhere).
+
+    Returns
+    -------
+    callable
+        ``hook(k, innov) → innov``.
     """
     rows = np.arange(0, 2 * n_pylons, 2)
 

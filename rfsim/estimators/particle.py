@@ -33,7 +33,18 @@ import numpy as np
 
 
 def effective_sample_size(weights) -> np.ndarray:
-    """``N_eff = 1/Σ w²`` of normalised weights ``(..., N)`` → ``(...)`` (eq. 4.28)."""
+    """Effective sample size ``N_eff = 1/Σ w²`` of normalised weights (eq. 4.28).
+
+    Parameters
+    ----------
+    weights : array_like
+        ``(..., N)`` normalised weights [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(...)`` N_eff [particles].
+    """
     w = np.asarray(weights, float)
     return 1.0 / np.sum(w * w, axis=-1)
 
@@ -55,11 +66,29 @@ def _indices_from_counts(counts: np.ndarray) -> np.ndarray:
 
 
 def systematic_indices(weights, u1) -> np.ndarray:
-    """Systematic-resampling ancestors of ``weights (..., N)`` for offsets ``u1 (...)`` in [0, 1/N).
+    """Systematic-resampling ancestors of ``weights`` for given offsets ``u1``.
 
     Particle j is copied once for every ``u_i = u1 + i/N`` (i = 0..N−1) with
-    ``c_{j−1} < u_i ≤ c_j`` (inclusive CDF), i.e. ``ceil(N c_j − N u1) − ceil(N c_{j−1} − N u1)``
-    times; the result is sorted (ancestors in increasing order), as Table 4.2's loop produces.
+    ``c_{j−1} < u_i ≤ c_j`` (inclusive CDF, Table 4.2 with erratum R§5.6), i.e.
+    ``ceil(N c_j − N u1) − ceil(N c_{j−1} − N u1)`` times; the result is sorted (ancestors in
+    increasing order), as Table 4.2's loop produces.
+
+    Parameters
+    ----------
+    weights : array_like
+        ``(..., N)`` non-negative weights (normalised here).
+    u1 : array_like
+        ``(...)`` offsets in [0, 1/N).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., N) int`` ancestor indices.
+
+    Raises
+    ------
+    ValueError
+        If a weight vector does not have a positive finite sum.
     """
     w = _normalise(weights)
     n = w.shape[-1]
@@ -73,7 +102,20 @@ def systematic_indices(weights, u1) -> np.ndarray:
 
 
 def systematic_resample(weights, *, rng: np.random.Generator) -> np.ndarray:
-    """Systematic resampling (Table 4.2): one uniform offset per weight vector → ancestors (..., N)."""
+    """Systematic resampling (Table 4.2): one uniform offset per weight vector.
+
+    Parameters
+    ----------
+    weights : array_like
+        ``(..., N)`` non-negative weights.
+    rng : numpy.random.Generator
+        Source of the offsets u1 ~ U[0, 1/N).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., N) int`` sorted ancestor indices.
+    """
     w = np.asarray(weights, float)
     n = w.shape[-1]
     u1 = rng.uniform(0.0, 1.0 / n, size=w.shape[:-1])
@@ -81,7 +123,25 @@ def systematic_resample(weights, *, rng: np.random.Generator) -> np.ndarray:
 
 
 def multinomial_resample(weights, *, rng: np.random.Generator) -> np.ndarray:
-    """Multinomial resampling: N i.i.d. draws from the weights → sorted ancestors (..., N)."""
+    """Multinomial resampling: N i.i.d. draws from the weights.
+
+    Parameters
+    ----------
+    weights : array_like
+        ``(..., N)`` non-negative weights (normalised here).
+    rng : numpy.random.Generator
+        Source of the draws.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., N) int`` sorted ancestor indices.
+
+    Raises
+    ------
+    ValueError
+        If a weight vector does not have a positive finite sum.
+    """
     w = _normalise(weights)
     n = w.shape[-1]
     counts = rng.multinomial(n, w.reshape(-1, n)).reshape(w.shape)

@@ -55,8 +55,22 @@ LN_AMPLITUDE_PER_DB = math.log(10.0) / 20.0
 
 
 def unwrap_limit_mps(wavelength_m: float, dt_s) -> np.ndarray:
-    """Largest radial speed [m/s] the unwrapping (eq. 4) follows between reads ``dt_s`` [s]
-    apart: ``λ/(4Δt)`` (a range step below λ/4, phase step below π)."""
+    """Largest radial speed the unwrapping (eq. 4) follows between reads: ``λ/(4Δt)``.
+
+    A range step below λ/4, a phase step below π (module docstring; P§1.2).
+
+    Parameters
+    ----------
+    wavelength_m : float
+        Carrier wavelength λ [m].
+    dt_s : array_like
+        Time between reads of one antenna Δt [s].
+
+    Returns
+    -------
+    numpy.ndarray
+        Speed limit [m/s], shape of ``dt_s``.
+    """
     return float(wavelength_m) / (4.0 * np.asarray(dt_s, float))
 
 
@@ -140,7 +154,28 @@ def rssi_fix(rssi_dbm, anchors_m, *, p0_m=None, iterations: int = 30) -> tuple[n
 
 
 def continuous_model(dims: int, n_antennas: int, *, q_v: float, q_b: float) -> tuple[np.ndarray, ...]:
-    """``F (n, n)``, ``L (n, s + d)``, ``Qc (s + d, s + d)`` of eq. (8)–(12), n = 2d + s."""
+    """Continuous-time model ``dx/dt = F x + L w`` of eq. (8)–(12), n = 2d + s.
+
+    Parameters
+    ----------
+    dims : int
+        Spatial dimensions d.
+    n_antennas : int
+        Antennas s (one bias each).
+    q_v : float
+        Velocity noise spectral density [m²/s³].
+    q_b : float
+        Bias random-walk density [m²/s].
+
+    Returns
+    -------
+    F : numpy.ndarray
+        ``(n, n)`` drift matrix.
+    L : numpy.ndarray
+        ``(n, s + d)`` noise gain.
+    Qc : numpy.ndarray
+        ``(s + d, s + d)`` spectral density ``diag(q_b I_s, q_v I_d)``.
+    """
     d, s = int(dims), int(n_antennas)
     n = 2 * d + s
     F = np.zeros((n, n))
@@ -153,7 +188,28 @@ def continuous_model(dims: int, n_antennas: int, *, q_v: float, q_b: float) -> t
 
 
 def discrete_model(dt_s: float, dims: int, n_antennas: int, *, q_v: float, q_b: float) -> tuple[np.ndarray, np.ndarray]:
-    """``A(Δt) = exp(FΔt)`` and ``W(Δt)`` of eq. (14) in closed form (module docstring)."""
+    """``A(Δt) = exp(FΔt)`` and ``W(Δt)`` of eq. (14) in closed form (module docstring).
+
+    Parameters
+    ----------
+    dt_s : float
+        Time step Δt [s].
+    dims : int
+        Spatial dimensions d.
+    n_antennas : int
+        Antennas s.
+    q_v : float
+        Velocity noise spectral density [m²/s³].
+    q_b : float
+        Bias random-walk density [m²/s].
+
+    Returns
+    -------
+    A : numpy.ndarray
+        ``(n, n)`` transition.
+    W : numpy.ndarray
+        ``(n, n)`` process-noise covariance [m², m²/s, m²/s²].
+    """
     d, s = int(dims), int(n_antennas)
     n = 2 * d + s
     A, W = np.zeros((n, n)), np.zeros((n, n))
@@ -163,8 +219,30 @@ def discrete_model(dt_s: float, dims: int, n_antennas: int, *, q_v: float, q_b: 
 
 def initial_state(p0_m, n_antennas: int, *, pos_std_m: float = 3.0, bias_std_m: float = 1.0,
                   vel_std_mps: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Prior ``x0 = (p̂_0, 0, 0)`` and ``P0 = diag(σ_p², σ_b², σ_v²)`` (3 m position std, L203;
-    1 m bias and 0.5 m/s velocity std, P§6)."""
+    """Prior ``x0 = (p̂_0, 0, 0)`` and ``P0 = diag(σ_p², σ_b², σ_v²)``.
+
+    3 m position std (L203); 1 m bias and 0.5 m/s velocity std (P§6).
+
+    Parameters
+    ----------
+    p0_m : array_like
+        ``(d,)`` starting position p̂_0 [m].
+    n_antennas : int
+        Antennas s.
+    pos_std_m : float
+        σ_p [m].
+    bias_std_m : float
+        σ_b [m].
+    vel_std_mps : float
+        σ_v [m/s].
+
+    Returns
+    -------
+    x0 : numpy.ndarray
+        ``(2d + s,)`` state ``(p, b, v)`` [m, m, m/s].
+    P0 : numpy.ndarray
+        ``(2d + s, 2d + s)`` covariance.
+    """
     p0 = np.asarray(p0_m, float)
     d, s = p0.size, int(n_antennas)
     x0 = np.concatenate([p0, np.zeros(s), np.zeros(d)])
@@ -208,15 +286,41 @@ def _check_reads(t_s, antenna, z_m, anchors_m):
 
 
 def ekf_reads(t_s, antenna, z_m, anchors_m, x0, P0, *, q_v: float, q_b: float, sigma_m: float):
-    """Sequential per-read EKF (eq. 16–17); returns ``(x_filt, P_filt, x_pred, P_pred)``.
+    """Sequential per-read EKF (eq. 16–17).
 
     Parameters
     ----------
-    t_s : (N,) read times [s], sorted;  antenna : (N,) 0-based;  z_m : (N,) pseudo-ranges [m]
-        (NaN: the read is skipped)
-    anchors_m : (s, d) antenna positions [m];  x0 (n,), P0 (n, n): prior at ``t_s[0]``
-    q_v : velocity noise spectral density [m²/s³];  q_b : bias random-walk density [m²/s]
-    sigma_m : pseudo-range noise std σ [m]
+    t_s : array_like
+        ``(N,)`` read times [s], sorted.
+    antenna : array_like of int
+        ``(N,)`` 0-based antenna of each read.
+    z_m : array_like
+        ``(N,)`` pseudo-ranges [m] (NaN: the read is skipped).
+    anchors_m : array_like
+        ``(s, d)`` antenna positions [m].
+    x0 : array_like
+        ``(n,)`` prior mean at ``t_s[0]``, state ``(p, b, v)`` [m, m, m/s].
+    P0 : array_like
+        ``(n, n)`` prior covariance.
+    q_v : float
+        Velocity noise spectral density [m²/s³].
+    q_b : float
+        Bias random-walk density [m²/s].
+    sigma_m : float
+        Pseudo-range noise std σ [m].
+
+    Returns
+    -------
+    x_filt, P_filt : numpy.ndarray
+        ``(N, n)``, ``(N, n, n)`` filtered means and covariances.
+    x_pred, P_pred : numpy.ndarray
+        ``(N, n)``, ``(N, n, n)`` predictions before each update.
+
+    Raises
+    ------
+    ValueError
+        For reads of unequal length, none, unsorted, antenna indices out of range, or a prior of
+        the wrong shape.
     """
     t, ant, z, a = _check_reads(t_s, antenna, z_m, anchors_m)
     s, d = a.shape
@@ -233,7 +337,28 @@ def ekf_reads(t_s, antenna, z_m, anchors_m, x0, P0, *, q_v: float, q_b: float, s
 
 
 def rts_reads(t_s, x_filt, P_filt, x_pred, P_pred, *, dims: int, n_antennas: int, q_v: float, q_b: float):
-    """RTS smoother (eq. 19) of :func:`ekf_reads` output; returns ``(x_smooth, P_smooth)``."""
+    """RTS smoother (eq. 19) of :func:`ekf_reads` output.
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(N,)`` read times [s].
+    x_filt, P_filt, x_pred, P_pred : numpy.ndarray
+        The outputs of :func:`ekf_reads`.
+    dims : int
+        Spatial dimensions d.
+    n_antennas : int
+        Antennas s.
+    q_v : float
+        Velocity noise spectral density [m²/s³].
+    q_b : float
+        Bias random-walk density [m²/s].
+
+    Returns
+    -------
+    x_smooth, P_smooth : numpy.ndarray
+        ``(N, n)``, ``(N, n, n)`` smoothed means and covariances.
+    """
     t = np.ascontiguousarray(t_s, dtype=np.float64)
     xs, Ps = np.empty_like(x_filt), np.empty_like(P_filt)
     _pk.rts_kernel(t, int(dims), int(n_antennas), float(q_v), float(q_b), np.ascontiguousarray(x_filt),
@@ -243,10 +368,44 @@ def rts_reads(t_s, x_filt, P_filt, x_pred, P_pred, *, dims: int, n_antennas: int
 
 def track_phase(t_s, antenna, z_m, anchors_m, x0, P0, *, q_v: float = 1.0, q_b: float = 1e-4,
                 sigma_m: float = 0.01, passes: int = 2, keep_covariances: bool = True) -> list[PassResult]:
-    """EKF + RTS passes over the pseudo-ranges (module docstring); pass k+1 starts from the
-    smoothed state of pass k at the first read (L205). Defaults: q_v = 1 m²/s³, q_b = 1e-4
-    m²/s, σ = 0.01 m (wave2-specs.md §R, P§6). ``keep_covariances=False`` keeps only the means
-    of each pass (x_filt, x_smooth; the rest None), so memory does not grow with the passes."""
+    """EKF + RTS passes over the pseudo-ranges (module docstring).
+
+    Pass k+1 starts from the smoothed state of pass k at the first read (L205).
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(N,)`` read times [s], sorted.
+    antenna : array_like of int
+        ``(N,)`` 0-based antenna of each read.
+    z_m : array_like
+        ``(N,)`` pseudo-ranges [m] (NaN: skipped).
+    anchors_m : array_like
+        ``(s, d)`` antenna positions [m].
+    x0, P0 : array_like
+        Prior of the first pass (:func:`initial_state`).
+    q_v : float
+        Velocity noise spectral density [m²/s³] (default 1, wave2-specs.md §R, P§6).
+    q_b : float
+        Bias random-walk density [m²/s] (default 1e-4).
+    sigma_m : float
+        Pseudo-range noise std [m] (default 0.01).
+    passes : int
+        Number of passes (≥ 1).
+    keep_covariances : bool
+        False keeps only the means of each pass (x_filt, x_smooth; the rest None), so memory
+        does not grow with the passes.
+
+    Returns
+    -------
+    list of PassResult
+        One per pass.
+
+    Raises
+    ------
+    ValueError
+        If ``passes`` < 1 (and as :func:`ekf_reads`).
+    """
     if int(passes) < 1:
         raise ValueError(f"passes must be ≥ 1, got {passes}")
     a = np.asarray(anchors_m, float)
@@ -266,14 +425,23 @@ def track_phase(t_s, antenna, z_m, anchors_m, x0, P0, *, q_v: float = 1.0, q_b: 
 
 
 def first_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
-    """(s,): the first finite value of every antenna in a time-sorted read log (NaN where an
-    antenna has none), e.g. the first reported RSSI per antenna for the eq. (13) start fix p̂₀.
+    """The first finite value of every antenna in a time-sorted read log.
+
+    E.g. the first reported RSSI per antenna for the eq. (13) start fix p̂₀.
 
     Parameters
     ----------
-    antenna : (N,) int, 0-based antenna of each read
-    values : (N,) float, one value per read (NaN for a failed read)
-    n_antennas : number of antennas s
+    antenna : array_like of int
+        ``(N,)`` 0-based antenna of each read.
+    values : array_like of float
+        ``(N,)`` one value per read (NaN for a failed read), any unit.
+    n_antennas : int
+        Number of antennas s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(s,)`` unit of ``values``, NaN where an antenna has none.
     """
     ant, v = np.asarray(antenna), np.asarray(values, float)
     first = np.full(n_antennas, np.nan)
@@ -285,15 +453,24 @@ def first_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
 
 
 def latest_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
-    """(N, s): at each read of a time-sorted log, the latest finite value of every antenna up
-    to and including that read (NaN before its first), e.g. the RSSI vector of the RSSI-only
-    track (eq. 13 at every read, Fig. 8, L207).
+    """At each read of a time-sorted log, the latest finite value of every antenna.
+
+    Up to and including that read, e.g. the RSSI vector of the RSSI-only track (eq. 13 at
+    every read, Fig. 8, L207).
 
     Parameters
     ----------
-    antenna : (N,) int, 0-based antenna of each read
-    values : (N,) float, one value per read (NaN for a failed read)
-    n_antennas : number of antennas s
+    antenna : array_like of int
+        ``(N,)`` 0-based antenna of each read.
+    values : array_like of float
+        ``(N,)`` one value per read (NaN for a failed read), any unit.
+    n_antennas : int
+        Number of antennas s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N, s)`` unit of ``values``, NaN before an antenna's first value.
     """
     ant, v = np.asarray(antenna), np.asarray(values, float)
     out = np.full((v.size, n_antennas), np.nan)
@@ -306,16 +483,27 @@ def latest_per_antenna(antenna, values, n_antennas: int) -> np.ndarray:
 
 
 def unwrap_jumps(antenna, offset_m, *, wavelength_m: float, n_antennas: int) -> np.ndarray:
-    """(N,) bool: reads whose pseudo-range offset (pseudo-range − true range, eq. 6: the
-    constant b_i plus noise) changed by more than λ/4 since the same antenna's previous valid
-    read — an unwrapping jump of λ/2 (the radial speed exceeded λ/(4Δt), :func:`unwrap_limit_mps`).
+    """Reads whose pseudo-range offset jumped by more than λ/4 since the same antenna's previous valid read.
+
+    The offset (pseudo-range − true range, eq. 6) is the constant b_i plus noise; a change
+    above λ/4 is an unwrapping jump of λ/2 (the radial speed exceeded λ/(4Δt),
+    :func:`unwrap_limit_mps`).
 
     Parameters
     ----------
-    antenna : (N,) int, 0-based antenna of each read
-    offset_m : (N,) float [m], NaN for a failed read
-    wavelength_m : carrier wavelength λ [m]
-    n_antennas : number of antennas s
+    antenna : array_like of int
+        ``(N,)`` 0-based antenna of each read.
+    offset_m : array_like of float
+        ``(N,)`` offsets [m], NaN for a failed read.
+    wavelength_m : float
+        Carrier wavelength λ [m].
+    n_antennas : int
+        Number of antennas s.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(N,) bool``.
     """
     ant, off = np.asarray(antenna), np.asarray(offset_m, float)
     jump = np.zeros(off.size, dtype=bool)
@@ -326,8 +514,18 @@ def unwrap_jumps(antenna, offset_m, *, wavelength_m: float, n_antennas: int) -> 
 
 
 def error_stats(err_m) -> dict[str, float]:
-    """RMSE, mean, median, 90th percentile, maximum and standard deviation [m] of the finite
-    position errors ``err_m`` [m] (the error statistics of Särkkä et al., L203–L207)."""
+    """Error statistics of the finite position errors (Särkkä et al., L203–L207).
+
+    Parameters
+    ----------
+    err_m : array_like
+        Position errors [m] (non-finite values ignored).
+
+    Returns
+    -------
+    dict of str to float
+        ``rmse_m``, ``mean_m``, ``median_m``, ``p90_m``, ``max_m``, ``std_m`` [m].
+    """
     e = np.asarray(err_m, float)
     e = e[np.isfinite(e)]
     return {"rmse_m": float(np.sqrt(np.mean(e ** 2))), "mean_m": float(e.mean()), "median_m": float(np.median(e)),

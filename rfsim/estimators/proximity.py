@@ -50,7 +50,24 @@ from rfsim.estimators.particle import ParticleFilterResult, sir_filter
 
 
 def cv_transition(dt_s, n_dims: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """A and B of (6.1) for each Δt: ``(T, 2J, 2J)`` and ``(T, 2J, J)``."""
+    """A and B of the constant-velocity model (6.1) for each Δt.
+
+    A = I_J ⊗ [[1, Δt], [0, 1]], B = I_J ⊗ [Δt²/2; Δt].
+
+    Parameters
+    ----------
+    dt_s : array_like
+        ``(T,)`` or scalar time steps Δt [s].
+    n_dims : int
+        Number of axes J.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        ``(T, 2J, 2J)`` transitions.
+    B : numpy.ndarray
+        ``(T, 2J, J)`` input matrices [s², s].
+    """
     dt = np.atleast_1d(np.asarray(dt_s, float))
     eye = np.eye(n_dims)
     a1 = np.zeros((dt.size, 2, 2))
@@ -63,22 +80,68 @@ def cv_transition(dt_s, n_dims: int = 2) -> tuple[np.ndarray, np.ndarray]:
 
 
 def cv_process_noise(dt_s, accel_var) -> np.ndarray:
-    """Q_k = B(Δt_k) diag(q) B(Δt_k)ᵀ, ``(T, 2J, 2J)``; ``accel_var (J,)`` [m²/s⁴]."""
+    """Process noise Q_k = B(Δt_k) diag(q) B(Δt_k)ᵀ of (6.1).
+
+    Parameters
+    ----------
+    dt_s : array_like
+        ``(T,)`` or scalar time steps [s].
+    accel_var : array_like
+        ``(J,)`` acceleration variances q [m²/s⁴].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(T, 2J, 2J)`` covariances [m², m²/s, m²/s²].
+    """
     q = np.atleast_1d(np.asarray(accel_var, float))
     _, B = cv_transition(dt_s, q.size)
     return B @ (q[:, None] * np.swapaxes(B, -1, -2))
 
 
 def association(observed_xy) -> np.ndarray:
-    """NN / association: the estimate is the observed reference-tag location, ``(..., T, J)``."""
+    """NN / association (L1099): the estimate is the observed reference-tag location.
+
+    Parameters
+    ----------
+    observed_xy : array_like
+        ``(..., T, J)`` observed locations [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(..., T, J)`` estimates [m] (a copy).
+    """
     return np.array(observed_xy, float)
 
 
 def proximity_kalman(times_s, observed_xy, x0, P0, *, t0_s: float, accel_var, range_m: float) -> FilterResult:
-    """KF of (6.3)-(6.4) over observations ``observed_xy (T, J)`` at ``times_s (T,)``.
+    """KF of (6.3)-(6.4) over the observed reference-tag locations.
 
-    Predicts from the prior ``x0 (2J,)``, ``P0 (2J, 2J)`` at ``t0_s`` into the first observation,
-    then from each observation to the next; R = G = diag(r²/2, …).
+    Predicts from the prior at ``t0_s`` into the first observation, then from each observation
+    to the next; R = G = diag(r²/2, …).
+
+    Parameters
+    ----------
+    times_s : array_like
+        ``(T,)`` observation instants [s].
+    observed_xy : array_like
+        ``(T, J)`` observed locations [m].
+    x0 : array_like
+        ``(2J,)`` prior mean, state order of (6.1) [m, m/s, …].
+    P0 : array_like
+        ``(2J, 2J)`` prior covariance.
+    t0_s : float
+        Time of the prior [s].
+    accel_var : array_like or float
+        ``(J,)`` or scalar acceleration variance q [m²/s⁴].
+    range_m : float
+        Sensing range r [m].
+
+    Returns
+    -------
+    rfsim.estimators.kalman.FilterResult
+        Filtered and predicted moments.
     """
     t = np.asarray(times_s, float)
     z = np.asarray(observed_xy, float)
@@ -92,7 +155,24 @@ def proximity_kalman(times_s, observed_xy, x0, P0, *, t0_s: float, accel_var, ra
 
 
 def logistic_log_likelihood(positions_xy, observed_xy, a1: float, a2: float) -> np.ndarray:
-    """log p(d) of (6.5), p(d) = 1/(1 + exp(a1 + a2·d)); ``positions (B, M, J)``, ``observed (B, J)``."""
+    """log p(d) of (6.5), p(d) = 1/(1 + exp(a1 + a2·d)), d = ‖particle position − l_i‖.
+
+    Parameters
+    ----------
+    positions_xy : numpy.ndarray
+        ``(B, M, J)`` particle positions [m].
+    observed_xy : array_like
+        ``(B, J)`` observed reference-tag locations [m].
+    a1 : float
+        Offset of (6.5) [1].
+    a2 : float
+        Slope of (6.5) [1/m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(B, M)`` log-likelihood [nats].
+    """
     d = np.linalg.norm(positions_xy - np.asarray(observed_xy, float)[:, None, :], axis=-1)
     return -np.logaddexp(0.0, a1 + a2 * d)
 
@@ -107,14 +187,25 @@ def bernoulli_pf(times_s, observed_xy, initial_particles, *, t0_s: float, accel_
 
     Parameters
     ----------
-    times_s : (T,) observation instants [s];  observed_xy : (T, J) observed locations [m]
-    initial_particles : (B, M, 2J) draws from the prior at ``t0_s`` (state order of (6.1))
-    accel_var : (J,) or scalar acceleration variance q [m²/s⁴];  a1, a2 : (6.5) [1], [1/m]
-    rng : propagation noise and resampling (keyword-only)
+    times_s : array_like
+        ``(T,)`` observation instants [s].
+    observed_xy : array_like
+        ``(T, J)`` observed locations [m].
+    initial_particles : array_like
+        ``(B, M, 2J)`` draws from the prior at ``t0_s`` (state order of (6.1)).
+    t0_s : float
+        Time of the prior [s].
+    accel_var : array_like or float
+        ``(J,)`` or scalar acceleration variance q [m²/s⁴].
+    a1, a2 : float
+        (6.5) coefficients [1], [1/m].
+    rng : numpy.random.Generator
+        Propagation noise and resampling.
 
     Returns
     -------
-    :class:`rfsim.estimators.particle.ParticleFilterResult` (MMSE over the full state)
+    rfsim.estimators.particle.ParticleFilterResult
+        MMSE over the full state.
     """
     t = np.asarray(times_s, float)
     dt = np.diff(t, prepend=t0_s)
@@ -137,11 +228,32 @@ def bernoulli_pf(times_s, observed_xy, initial_particles, *, t0_s: float, accel_
 
 def rbpf(times_s, observed_xy, initial_particles, velocity_var0, *, t0_s: float, accel_var, a1: float, a2: float,
          rng: np.random.Generator) -> ParticleFilterResult:
-    """Rao-Blackwellised PF of Table 6.1 (module docstring) for B runs at once.
+    """Rao-Blackwellised PF of Table 6.1 (module docstring, (6.6)–(6.20)) for B runs at once.
 
-    ``initial_particles (B, M, 2J)``: position particles x^n drawn from the prior and, in the
-    velocity slots, the prior velocity mean x^l_0; ``velocity_var0 (J,)`` or scalar is P^l_0
-    [m²/s²]. The returned MMSE holds x̂^n and x̂^l (the weighted Kalman means) in the order of (6.1).
+    Parameters
+    ----------
+    times_s : array_like
+        ``(T,)`` observation instants [s].
+    observed_xy : array_like
+        ``(T, J)`` observed locations [m].
+    initial_particles : array_like
+        ``(B, M, 2J)``: position particles x^n drawn from the prior and, in the velocity slots,
+        the prior velocity mean x^l_0 [m, m/s].
+    velocity_var0 : array_like or float
+        ``(J,)`` or scalar P^l_0 [m²/s²].
+    t0_s : float
+        Time of the prior [s].
+    accel_var : array_like or float
+        ``(J,)`` or scalar acceleration variance q [m²/s⁴].
+    a1, a2 : float
+        (6.5) coefficients [1], [1/m].
+    rng : numpy.random.Generator
+        Propagation noise and resampling.
+
+    Returns
+    -------
+    rfsim.estimators.particle.ParticleFilterResult
+        The MMSE holds x̂^n and x̂^l (the weighted Kalman means) in the order of (6.1).
     """
     t = np.asarray(times_s, float)
     dt = np.diff(t, prepend=t0_s)

@@ -91,14 +91,43 @@ class TrackerConfig:
 
 def prior_for(prior: str, x0_true, start_xy_m, times_s, observed_xy, *, range_m: float, position_std_m: float,
               velocity_std_mps: float) -> tuple[float, np.ndarray, np.ndarray]:
-    """(t0 [s], mean (4,), std (4,)) of the trackers' prior ``[x, ẋ, y, ẏ]`` (:class:`TrackerConfig`
-    ``prior``; Table 6.1's "prior knowledge of the states", the source gives none).
+    """The trackers' prior ``[x, ẋ, y, ẏ]`` (:class:`TrackerConfig` ``prior``).
 
-    "truth": N(x0_true, diag(σ_p, σ_v, σ_p, σ_v)²) at t0 = 0 (the default). "portal": the mobile tag
-    is known to enter at ``start_xy_m`` at t0 = 0, its velocity is not: mean (start, 0), same σ.
-    "first-decode": nothing is known before the first decode; at t0 = t_1 the posterior of a flat
-    prior after y_1 = l_i under (6.3) is N(l_i, G), G = diag(r²/2, r²/2), velocity N(0, σ_v²); the
-    filters then process observations 2…T (the estimate at t_1 is the prior's mean).
+    Table 6.1's "prior knowledge of the states", which the source does not give.
+    "truth": N(x0_true, diag(σ_p, σ_v, σ_p, σ_v)²) at t0 = 0 (the default). "portal": the mobile
+    tag is known to enter at ``start_xy_m`` at t0 = 0, its velocity is not: mean (start, 0), same
+    σ. "first-decode": nothing is known before the first decode; at t0 = t_1 the posterior of a
+    flat prior after y_1 = l_i under (6.3) is N(l_i, G), G = diag(r²/2, r²/2), velocity
+    N(0, σ_v²); the filters then process observations 2…T (the estimate at t_1 is the prior's
+    mean).
+
+    Parameters
+    ----------
+    prior : {"truth", "portal", "first-decode"}
+        Which prior.
+    x0_true : array_like
+        ``(4,)`` true initial state [m, m/s, m, m/s].
+    start_xy_m : array_like
+        ``(2,)`` entry point [m].
+    times_s : array_like
+        ``(T,)`` observation instants [s].
+    observed_xy : array_like
+        ``(T, 2)`` observed locations [m].
+    range_m : float
+        Sensing range r [m].
+    position_std_m : float
+        σ_p [m].
+    velocity_std_mps : float
+        σ_v [m/s].
+
+    Returns
+    -------
+    t0_s : float
+        Time of the prior [s].
+    mean : numpy.ndarray
+        ``(4,)`` prior mean [m, m/s, m, m/s].
+    std : numpy.ndarray
+        ``(4,)`` prior standard deviations, same units.
     """
     sd_v = velocity_std_mps
     if prior == "truth":
@@ -112,10 +141,32 @@ def prior_for(prior: str, x0_true, start_xy_m, times_s, observed_xy, *, range_m:
 
 def prior_particles(x0, rng: np.random.Generator, n_runs: int, m: int, *, position_std_m: float,
                     velocity_std_mps: float, rao_blackwellised: bool) -> np.ndarray:
-    """(n_runs, m, 4) initial particles ``[x, ẋ, y, ẏ]`` drawn from the prior (module docstring).
+    """Initial particles ``[x, ẋ, y, ẏ]`` drawn from the prior (module docstring).
 
     For the RBPF (``rao_blackwellised``) the velocity slots hold the Kalman mean x^l_0 = the
     prior mean (Table 6.1); the normals are drawn all the same.
+
+    Parameters
+    ----------
+    x0 : numpy.ndarray
+        ``(4,)`` prior mean [m, m/s, m, m/s].
+    rng : numpy.random.Generator
+        The filter's stream.
+    n_runs : int
+        Independent filter runs.
+    m : int
+        Particles per run.
+    position_std_m : float
+        σ_p [m].
+    velocity_std_mps : float
+        σ_v [m/s].
+    rao_blackwellised : bool
+        Particles for the RBPF.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_runs, m, 4)`` particles [m, m/s, m, m/s].
     """
     sd = np.array([position_std_m, velocity_std_mps] * 2)
     p = x0 + rng.standard_normal((n_runs, m, 4)) * sd
@@ -127,25 +178,43 @@ def prior_particles(x0, rng: np.random.Generator, n_runs: int, m: int, *, positi
 def run_tracker(kind: str, times_s, observed_xy, x0, *, m: int, n_runs: int, range_m: float, accel_var: float,
                 a1: float, a2: float, position_std_m: float, velocity_std_mps: float,
                 rng: np.random.Generator, t0_s: float = 0.0, from_first: bool = False) -> np.ndarray:
-    """Position estimates of one tracker at the observation instants: (runs, T, 2) [m].
+    """Position estimates of one tracker at the observation instants.
 
     Parameters
     ----------
-    kind : "nn" (association), "kf" (:func:`~rfsim.estimators.proximity.proximity_kalman`, G from
+    kind : {"nn", "kf", "pf", "rbpf"}
+        "nn" (association), "kf" (:func:`~rfsim.estimators.proximity.proximity_kalman`, G from
         ``range_m``), "pf" (:func:`~rfsim.estimators.proximity.bernoulli_pf`) or "rbpf"
-        (:func:`~rfsim.estimators.proximity.rbpf`); NN and KF are deterministic (one run)
-    times_s : (T,) observation instants [s] (the motion starts at t = 0)
-    observed_xy : (T, 2) locations of the decoded reference tags [m]
-    x0 : (4,) prior mean ``[x, ẋ, y, ẏ]``
-    m, n_runs : particles per filter and independent filter runs (PF, RBPF)
-    accel_var : q of the motion model (6.1) [m²/s⁴]
-    a1, a2 : Eq. (6.5) coefficients of the filters' likelihood (a2 in 1/m)
-    position_std_m, velocity_std_mps : prior standard deviations σ_p [m], σ_v [m/s]
-    rng : the filter's stream (prior draws, propagation, resampling)
-    t0_s : time of the prior [s]
-    from_first : the prior is the posterior after the first observation (:func:`prior_for`
-        "first-decode"): the filters process observations 2…T, the estimate at the first is
-        the prior mean (KF) or the particles' mean (PF, RBPF)
+        (:func:`~rfsim.estimators.proximity.rbpf`); NN and KF are deterministic (one run).
+    times_s : array_like
+        ``(T,)`` observation instants [s] (the motion starts at t = 0).
+    observed_xy : array_like
+        ``(T, 2)`` locations of the decoded reference tags [m].
+    x0 : array_like
+        ``(4,)`` prior mean ``[x, ẋ, y, ẏ]`` [m, m/s, m, m/s].
+    m, n_runs : int
+        Particles per filter and independent filter runs (PF, RBPF).
+    range_m : float
+        Sensing range r [m] (the KF's G = diag(r²/2, r²/2)).
+    accel_var : float
+        q of the motion model (6.1) [m²/s⁴].
+    a1, a2 : float
+        Eq. (6.5) coefficients of the filters' likelihood [1], [1/m].
+    position_std_m, velocity_std_mps : float
+        Prior standard deviations σ_p [m], σ_v [m/s].
+    rng : numpy.random.Generator
+        The filter's stream (prior draws, propagation, resampling).
+    t0_s : float
+        Time of the prior [s].
+    from_first : bool
+        The prior is the posterior after the first observation (:func:`prior_for`
+        "first-decode"): the filters process observations 2…T, the estimate at the first is the
+        prior mean (KF) or the particles' mean (PF, RBPF).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(runs, T, 2)`` positions [m] (one run for NN and KF).
     """
     if kind == "nn":
         return _proximity.association(observed_xy)[None]

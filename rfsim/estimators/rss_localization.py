@@ -76,11 +76,13 @@ def rss_sir(channel, plan, z_aug, n_particles: int, step_std_m: float, *, rng: n
     Parameters
     ----------
     channel, plan : module docstring
-    z_aug : (B, T, 3J + 1) per trial and epoch [z | α | n | σ]: the reported RSS of the J
-        readers [dBm] (NaN: not heard), the map's α_j [dBm] and n_j, and σ [dB]
+    z_aug : (B, T, 3J + 1) or (B, T, 4J) per trial and epoch [z | α | n | σ]: the reported RSS
+        of the J readers [dBm] (NaN: not heard), the map's α_j [dBm] and n_j, and σ [dB], one
+        value or one per reader (:func:`augment` repeats it per reader)
     n_particles : N, drawn uniformly over ``plan.bounds`` at the first epoch
     step_std_m : D, std of the Gaussian random-walk proposal per epoch [m], reflected at the
         walls (:func:`reflect_into`)
+    rng : the filter's stream (initial particles, proposal, resampling)
     velocity_xy : known displacement per epoch [m] added to the proposal (improved SIR)
     threshold, sqrt_weights : resampling rule of :func:`rfsim.estimators.particle.sir_filter`
 
@@ -109,8 +111,19 @@ def rss_sir(channel, plan, z_aug, n_particles: int, step_std_m: float, *, rng: n
 
 
 def augment(z, alpha, exponent, sigma) -> np.ndarray:
-    """[z | α | n | σ] of :func:`rss_sir` from z (B, T, J) and α, n, σ broadcast to it
-    (σ (B, T) is one pooled value per epoch)."""
+    """[z | α | n | σ] of :func:`rss_sir` from z and α, n, σ broadcast to it.
+
+    Parameters
+    ----------
+    z : (B, T, J) reported RSS [dBm] (NaN: not heard)
+    alpha : α_j [dBm], broadcast to ``z``
+    exponent : path-loss exponents n_j [1], broadcast to ``z``
+    sigma : σ [dB], broadcast to ``z``; a (B, T) array is one pooled value per epoch
+
+    Returns
+    -------
+    (B, T, 4J) the concatenation [z | α | n | σ]
+    """
     b, t, j = z.shape
     a = np.broadcast_to(alpha, (b, t, j))
     n = np.broadcast_to(exponent, (b, t, j))
@@ -128,9 +141,12 @@ def estimate_simulation(z_dbm, channel, plan, *, sigma0_db: float, rt: dict, k: 
     channel, plan : module docstring (the channel's own α_j, n_j make the model map)
     sigma0_db : σ of the filters [dB] (0: :data:`DEFAULT_FILTER_SIGMA_DB`)
     rt : recursions of the filters, ``{"grid": rt, "pf": rt}`` (estimates after them are NaN)
-    k : LANDMARC k; estimators : families to run, from "nn", "grid", "pf"
+    k : LANDMARC k
+    estimators : families to run, from "nn", "grid", "pf"
     floor_dbm : the value kNN puts in place of an unheard reading [dBm]
-    step_std_m : D of the grid transition and the SIR proposal [m]; n_particles : SIR N
+    step_std_m : D of the grid transition and the SIR proposal [m]
+    n_particles : SIR N
+    rng : the SIR filter's stream
 
     Returns
     -------
@@ -167,7 +183,8 @@ def smooth_rssi(z, ref_z, ref_expected):
 
     Parameters
     ----------
-    z : (B, T, J) target RSS [dBm]; ref_z : (B, T, J, I) reference tags' RSS [dBm]
+    z : (B, T, J) target RSS [dBm]
+    ref_z : (B, T, J, I) reference tags' RSS [dBm]
     ref_expected : (B, T, J, I) the calibrated model's RSS at the reference tags [dBm]
 
     Returns
@@ -191,13 +208,15 @@ def estimate_home(z_dbm, ref_z_dbm, pattern_map_dbm, channel, plan, *, reference
 
     Parameters
     ----------
-    z_dbm : (B, T, J) reported RSS of the target [dBm]; ref_z_dbm : (B, T, J, I) of the I
-        reference tags at ``reference_xy`` (I, 2) [m]
+    z_dbm : (B, T, J) reported RSS of the target [dBm]
+    ref_z_dbm : (B, T, J, I) reported RSS of the I reference tags [dBm]
+    reference_xy : (I, 2) positions of the reference tags [m]
     pattern_map_dbm : (B, M, J) fingerprint map per trial [dBm] or None (no ``nn-pattern``)
     channel, plan : module docstring
     offline_alpha_dbm, offline_exponent : (J,) the offline fit's α_j [dBm] and n_j
     velocity_xy : known displacement per epoch of the improved SIR [m]
     k, floor_dbm, step_std_m, n_particles : as :func:`estimate_simulation`
+    rng : the SIR filters' stream
 
     Returns
     -------
@@ -242,7 +261,16 @@ def estimate_home(z_dbm, ref_z_dbm, pattern_map_dbm, channel, plan, *, reference
 
 
 def error_statistics(err: np.ndarray) -> dict[str, float]:
-    """RMSE, mean, median, 90th percentile and std of absolute errors [m] (L1155)."""
+    """RMSE, mean, median, 90th percentile and std of absolute errors [m] (L1155).
+
+    Parameters
+    ----------
+    err : (n,) absolute position errors [m]
+
+    Returns
+    -------
+    dict with ``rmse_m``, ``mean_m``, ``median_m``, ``p90_m``, ``std_m`` [m]
+    """
     e = np.asarray(err, float)
     return dict(rmse_m=float(np.sqrt(np.mean(e * e))), mean_m=float(e.mean()),
                 median_m=float(np.median(e)), p90_m=float(np.percentile(e, 90)), std_m=float(e.std()))

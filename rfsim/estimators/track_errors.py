@@ -21,9 +21,21 @@ def _sums(step, error_m) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rms_per_step(step, error_m) -> np.ndarray:
-    """RMSE_t = sqrt(Σ e² / n_t) per step t = 0 … max(step), NaN where no run has step t.
+    """RMS error per step over the runs that reach it.
 
-    step : (n,) int, the step of each row;  error_m : (n,) [m].  Returns (max(step) + 1,) [m].
+    RMSE_t = sqrt(Σ e² / n_t) per step t = 0 … max(step) (AURIS ch. 4, seeds/003 L4507-L4513).
+
+    Parameters
+    ----------
+    step : array_like of int
+        ``(n,)`` the step of each row.
+    error_m : array_like of float
+        ``(n,)`` position error of each row [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(max(step) + 1,)`` RMSE [m], NaN where no run has step t.
     """
     e2, cnt = _sums(step, error_m)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -31,7 +43,20 @@ def rms_per_step(step, error_m) -> np.ndarray:
 
 
 def mean_rms_error(step, error_m) -> float:
-    """Time average of :func:`rms_per_step` over the steps some run has (NaN: no rows)."""
+    """Time average of :func:`rms_per_step` over the steps some run has.
+
+    Parameters
+    ----------
+    step : array_like of int
+        ``(n,)`` the step of each row.
+    error_m : array_like of float
+        ``(n,)`` position error of each row [m].
+
+    Returns
+    -------
+    float
+        Mean RMSE [m]; NaN when there are no rows.
+    """
     e2, cnt = _sums(step, error_m)
     ok = cnt > 0
     return float(np.mean(np.sqrt(e2[ok] / cnt[ok]))) if ok.any() else float("nan")

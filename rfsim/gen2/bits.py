@@ -14,6 +14,21 @@ def as_bits(bits) -> np.ndarray:
 
     Accepts any 1-D sequence of 0/1 (ints, bools) or a string of ``'0'``/``'1'``
     characters (spaces and underscores are ignored).
+
+    Parameters
+    ----------
+    bits : array_like of int or bool, or str
+        1-D sequence of 0/1, MSB first, or a ``'0'``/``'1'`` string.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) uint8`` contiguous bit array.
+
+    Raises
+    ------
+    ValueError
+        If ``bits`` is not 1-D, not integer/bool, or holds values other than 0 and 1.
     """
     if isinstance(bits, str):
         return str_to_bits(bits)
@@ -32,8 +47,27 @@ def as_bits(bits) -> np.ndarray:
 
 
 def int_to_bits(value: int, n_bits: int) -> np.ndarray:
-    """``value`` as ``n_bits`` bits, MSB first; ``(n_bits,) uint8``.
+    """``value`` as ``n_bits`` bits, MSB first.
 
+    Parameters
+    ----------
+    value : int
+        Unsigned value to encode.
+    n_bits : int
+        Number of bits (any length; above 63 bits the value is unpacked byte-wise).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_bits,) uint8`` bit array, MSB first.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` or ``n_bits`` is negative or ``value`` does not fit in ``n_bits`` bits.
+
+    Examples
+    --------
     >>> int_to_bits(5, 4).tolist()
     [0, 1, 0, 1]
     """
@@ -49,8 +83,20 @@ def int_to_bits(value: int, n_bits: int) -> np.ndarray:
 
 
 def bits_to_int(bits) -> int:
-    """Unsigned integer of an MSB-first bit array (Python ``int``, any length).
+    """Unsigned integer of an MSB-first bit array.
 
+    Parameters
+    ----------
+    bits : array_like or str
+        Bit array, MSB first (anything :func:`as_bits` accepts).
+
+    Returns
+    -------
+    int
+        Python ``int`` of any length.
+
+    Examples
+    --------
     >>> bits_to_int([0, 1, 0, 1])
     5
     """
@@ -62,7 +108,23 @@ def bits_to_int(bits) -> int:
 
 
 def str_to_bits(text: str) -> np.ndarray:
-    """Bits of a ``'0'``/``'1'`` string (spaces and underscores ignored)."""
+    """Bits of a ``'0'``/``'1'`` string (spaces and underscores ignored).
+
+    Parameters
+    ----------
+    text : str
+        String of ``'0'``/``'1'`` characters.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) uint8`` bit array, MSB first.
+
+    Raises
+    ------
+    ValueError
+        If ``text`` holds a character other than 0, 1, space or underscore.
+    """
     clean = text.replace(" ", "").replace("_", "")
     if any(c not in "01" for c in clean):
         raise ValueError(f"not a bit string: {text!r}")
@@ -70,13 +132,41 @@ def str_to_bits(text: str) -> np.ndarray:
 
 
 def bits_to_str(bits) -> str:
-    """``'0'``/``'1'`` string of a bit array."""
+    """``'0'``/``'1'`` string of a bit array.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        Bit array (anything :func:`as_bits` accepts).
+
+    Returns
+    -------
+    str
+        One ``'0'``/``'1'`` character per bit, MSB first.
+    """
     return (as_bits(bits) + np.uint8(ord("0"))).tobytes().decode("ascii")
 
 
 def hex_to_bits(text: str) -> np.ndarray:
     """Bits of a hex string, 4 bits per digit, MSB first (spaces ignored).
 
+    Parameters
+    ----------
+    text : str
+        Hex digits, optionally prefixed ``0x``; spaces and underscores ignored.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4 * n_digits,) uint8`` bit array, MSB first.
+
+    Raises
+    ------
+    ValueError
+        If ``text`` is not a hex string.
+
+    Examples
+    --------
     >>> bits_to_str(hex_to_bits("3A"))
     '00111010'
     """
@@ -91,7 +181,23 @@ def hex_to_bits(text: str) -> np.ndarray:
 
 
 def bits_to_hex(bits) -> str:
-    """Upper-case hex string of a bit array whose length is a multiple of 4."""
+    """Upper-case hex string of a bit array whose length is a multiple of 4.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        Bit array, MSB first.
+
+    Returns
+    -------
+    str
+        Upper-case hex digits, ``n / 4`` of them (empty for no bits).
+
+    Raises
+    ------
+    ValueError
+        If the bit count is not a multiple of 4.
+    """
     arr = as_bits(bits)
     if arr.size % 4:
         raise ValueError(f"bit count {arr.size} is not a multiple of 4")

@@ -53,8 +53,23 @@ def load_capture(path) -> np.ndarray:
     """Read a capture file as ``(n,) complex64``.
 
     ``.npy`` (1-D, real or complex) or raw interleaved float32 I/Q with one of
-    :data:`RAW_SUFFIXES`. Raises :class:`rfsim.core.errors.UserError` (one line) when the file is
-    missing, has another ending, is empty or malformed.
+    :data:`RAW_SUFFIXES`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The capture file.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) complex64`` samples in the file's unit.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        (one line) When the file is missing, has another ending, is empty, malformed or holds
+        NaN/Inf.
     """
     p = Path(path)
     if not p.is_file():
@@ -81,7 +96,20 @@ def load_capture(path) -> np.ndarray:
 
 
 def check_finite(samples, what: str = "capture") -> None:
-    """Raise :class:`rfsim.core.errors.UserError` (one line) when ``samples`` hold NaN or ±Inf."""
+    """Raise a one-line error when ``samples`` hold NaN or ±Inf.
+
+    Parameters
+    ----------
+    samples : array_like
+        Samples of any shape and unit.
+    what : str
+        What the samples are, for the message.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        If a sample is not finite (the count and the first index are stated).
+    """
     x = np.asarray(samples)
     bad = ~np.isfinite(x)
     if bad.any():
@@ -143,7 +171,21 @@ def _crc_ok(name: str, bits: np.ndarray) -> bool | None:
 
 
 def parse_record(bits: np.ndarray, **timing) -> ReaderCommandRecord:
-    """Parse decoded command bits into a :class:`ReaderCommandRecord` (never raises)."""
+    """Parse decoded command bits into a :class:`ReaderCommandRecord` (never raises).
+
+    Parameters
+    ----------
+    bits : numpy.ndarray
+        ``(n,) uint8`` command bits.
+    **timing
+        ``start_s``, ``end_s``, ``delimiter_s``, ``tari_s``, ``rtcal_s``, ``trcal_s`` [s] of
+        the frame, passed to the record.
+
+    Returns
+    -------
+    ReaderCommandRecord
+        The record; a parse failure gives ``error`` and the name from the bits' prefix.
+    """
     text = bits_to_str(bits)
     try:
         cmd = parse(bits)
@@ -197,14 +239,32 @@ def _split_levels(v) -> tuple[float, float, float]:
 
 
 def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
-    """Envelope and its two level clusters: ``(env (n,) float64, threshold, low, high)``.
+    """Envelope and its two level clusters.
 
     ``env = |x|`` for complex samples, ``x`` for a real envelope. The levels are the isodata
     split of :func:`rfsim.gen2.pie.two_level_threshold` (threshold = midpoint of the means
     below and above it, iterated) computed on a :data:`LEVEL_BINS`-bin histogram of the
     envelope instead of the samples themselves (one pass over the capture; the threshold
-    is exact to one bin, 1/16384 of the envelope's range). Raises
-    :class:`rfsim.core.errors.UserError` when a sample is NaN or ±Inf (numba kernels).
+    is exact to one bin, 1/16384 of the envelope's range).
+
+    Parameters
+    ----------
+    samples : array_like
+        ``(n,)`` complex baseband or real envelope, any scale.
+
+    Returns
+    -------
+    env : numpy.ndarray
+        ``(n,) float64`` envelope, unit of ``samples``.
+    threshold, low, high : float
+        Decision threshold and the means of the low and high clusters, unit of ``samples``.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        When a sample is NaN or ±Inf (numba kernels).
+    ValueError
+        If ``samples`` is not 1-D numeric.
     """
     x = _check_samples(samples)
     if x.size == 0:
@@ -219,10 +279,19 @@ def envelope_levels(samples) -> tuple[np.ndarray, float, float, float]:
 
 
 def normalized_envelope(samples) -> np.ndarray:
-    """Envelope scaled so that the low level cluster is 0 and the high one 1
-    (:func:`envelope_levels`).
+    """Envelope scaled so that the low level cluster is 0 and the high one 1.
 
-    ``samples``: complex baseband (→ |x|) or a real envelope of any scale and offset.
+    (env − low)/(high − low) with the levels of :func:`envelope_levels`.
+
+    Parameters
+    ----------
+    samples : array_like
+        ``(n,)`` complex baseband (→ |x|) or a real envelope of any scale and offset.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) float64`` normalised envelope [1].
     """
     env, _, lo, hi = envelope_levels(samples)
     _ck.normalize_kernel(env, lo, 1.0 / (hi - lo) if hi > lo else 1.0)
@@ -252,15 +321,28 @@ GATE_MIN_BITS = 4
 
 
 def plausible_frames(edges: PieEdges, env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """PIE plausibility gate: ``(keep (nf,) bool, contrast (nf,))`` for the frames of ``edges``
-    (from :func:`rfsim.gen2.pie.pie_decode_arrays` of the envelope ``env``, any scale and
-    offset, or of complex samples, whose magnitude is then read).
+    """PIE plausibility gate for the frames of ``edges``.
 
     A frame is a command only if its timing is that of a PIE reader (every data symbol
-    Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …) and
-    its levels are two well separated clusters (contrast ≥ :data:`GATE_MIN_CONTRAST`);
-    thresholds crossed by noise alone form frames that fail both (numba kernel
-    ``frame_gate_kernel``; the tests hold it to a plain-NumPy twin).
+    Tari or RTcal − Tari, equal pulse widths, Gen2 ratios, :data:`GATE_RTCAL_TARI` …;
+    gen2-and-validation-anchors.md §4.1) and its levels are two well separated clusters
+    (contrast ≥ :data:`GATE_MIN_CONTRAST`); thresholds crossed by noise alone form frames
+    that fail both (numba kernel ``frame_gate_kernel``; the tests hold it to a plain-NumPy
+    twin).
+
+    Parameters
+    ----------
+    edges : rfsim.gen2.pie.PieEdges
+        Edges and frames from :func:`rfsim.gen2.pie.pie_decode_arrays` of ``env``.
+    env : numpy.ndarray
+        ``(n,)`` envelope (any scale and offset) or complex samples, whose magnitude is then read.
+
+    Returns
+    -------
+    keep : numpy.ndarray
+        ``(nf,) bool``, the frames that pass.
+    contrast : numpy.ndarray
+        ``(nf,) float64`` (high − low level)/σ of each frame [1].
     """
     first, last = _frame_edges(edges)
     n = first.size
@@ -334,15 +416,27 @@ def decode_reader_commands(samples, fs_hz: float, *, gate: bool = True
 
 
 def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
-    """One-line warnings for measured PIE timings outside the Gen2 limits (anchors §4.1):
-    Tari 6.25–25 µs, RTcal 2.5–3.0 Tari, TRcal 1.1–3.0 RTcal (1 % slack for measurement).
+    """One-line warnings for measured PIE timings outside the Gen2 limits.
 
-    A wrong ``fs_hz`` scales every duration: the Tari warning states the sample rates that
-    would put the measured Tari (in samples) inside 6.25–25 µs, and, where the delimiter
-    spans ≥ 10 samples (so that its edges do not dominate), the sample rate at which it is
-    the nominal 12.5 µs. (The delimiter itself is not checked: at a few samples per Tari
-    its measured length is off by up to a sample, e.g. 9.6 µs for the gr-rfid Query at
-    250 kS/s.)
+    Limits of gen2-and-validation-anchors.md §4.1: Tari 6.25–25 µs, RTcal 2.5–3.0 Tari,
+    TRcal 1.1–3.0 RTcal (1 % slack for measurement). A wrong ``fs_hz`` scales every duration:
+    the Tari warning states the sample rates that would put the measured Tari (in samples)
+    inside 6.25–25 µs, and, where the delimiter spans ≥ 10 samples (so that its edges do not
+    dominate), the sample rate at which it is the nominal 12.5 µs. (The delimiter itself is
+    not checked: at a few samples per Tari its measured length is off by up to a sample,
+    e.g. 9.6 µs for the gr-rfid Query at 250 kS/s.)
+
+    Parameters
+    ----------
+    timing : ReaderTiming
+        Median timings [s] (NaN: not measured).
+    fs_hz : float
+        Sample rate the timings were measured with [Hz].
+
+    Returns
+    -------
+    tuple of str
+        The warnings (empty when all timings are inside).
     """
     out = []
     t, d = timing.tari_s, timing.delimiter_s
@@ -372,13 +466,25 @@ def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
 def fit_gain_offset(r, s) -> tuple[complex, complex]:
     """Least-squares gain and offset ``(h, c)`` of ``r ≈ h·s + c``.
 
+    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr] in closed form.
+
     Parameters
     ----------
-    r : (n,) complex, received baseband (any unit)
-    s : (n,) real, the known reference: the ±1 reply levels, and −1 where the tag rests in
-        its absorbing state outside its reply (the DC step of a monostatic capture)
+    r : array_like
+        ``(n,)`` complex, received baseband (any unit).
+    s : array_like
+        ``(n,)`` real, the known reference: the ±1 reply levels, and −1 where the tag rests in
+        its absorbing state outside its reply (the DC step of a monostatic capture).
 
-    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr] in closed form.
+    Returns
+    -------
+    h, c : complex
+        Gain and offset, unit of ``r``.
+
+    Raises
+    ------
+    ValueError
+        If ``r`` and ``s`` differ in shape or ``s`` is constant.
     """
     r = np.asarray(r, dtype=np.complex128)
     s = np.asarray(s, dtype=np.float64)
@@ -400,6 +506,25 @@ def preamble_threshold(n_samples: int, n_tests: int, false_alarm_probability: fl
     of :func:`rfsim.gen2.linecode.decode_reply` counts as about twice as many tests (the
     rule and the factor of the reader receiver, rfsim.devices.reader ``detection_threshold``).
     γ = √(1 − (P_FA/(2·n_tests))^(1/(n−2))).
+
+    Parameters
+    ----------
+    n_samples : int
+        Template length n [samples].
+    n_tests : int
+        Trial lags × hypotheses tested.
+    false_alarm_probability : float
+        P_FA over all tests, in (0, 1).
+
+    Returns
+    -------
+    float
+        γ in [0, 1).
+
+    Raises
+    ------
+    ValueError
+        If ``false_alarm_probability`` is not in (0, 1).
     """
     if not 0.0 < false_alarm_probability < 1.0:
         raise ValueError(f"false_alarm_probability must be in (0, 1), got {false_alarm_probability}")

@@ -101,15 +101,37 @@ def _capture_row(rep) -> dict[str, Any]:
 
 
 def reply_row(rep) -> dict[str, Any]:
-    """One replies-table row (:data:`READ_FIELDS`) of a :class:`rfsim.gen2.replies.TagReplyRecord`:
-    the capture's columns and the per-read schema's, as Python scalars."""
+    """One replies-table row (:data:`READ_FIELDS`) of a tag reply record: the capture's
+    columns and the per-read schema's (:mod:`rfsim.core.reads`), as Python scalars.
+
+    Parameters
+    ----------
+    rep : rfsim.gen2.replies.TagReplyRecord
+        The decoded reply.
+
+    Returns
+    -------
+    dict of str to object
+        Column name → value (unknown integers −1, unknown numbers NaN), units as in
+        :data:`READ_FIELDS`.
+    """
     schema = read_columns(**_schema_inputs([rep]))
     return {**_capture_row(rep), **{k: c.data[0].item() for k, c in schema.items()}}
 
 
 def command_row(rec) -> dict[str, Any]:
-    """One commands-table row (:data:`COMMAND_FIELDS`) of a
-    :class:`rfsim.gen2.capture.ReaderCommandRecord`."""
+    """One commands-table row (:data:`COMMAND_FIELDS`) of a reader command record.
+
+    Parameters
+    ----------
+    rec : rfsim.gen2.capture.ReaderCommandRecord
+        The decoded command.
+
+    Returns
+    -------
+    dict of str to object
+        Column name → value, units as in :data:`COMMAND_FIELDS`.
+    """
     return {
         "time_s": rec.start_s, "end_s": rec.end_s, "command": rec.name, "bits": rec.bits,
         "fields_json": json.dumps(rec.fields, sort_keys=True), "crc_checked": rec.crc_ok is not None,
@@ -129,8 +151,29 @@ def _columns(rows: list[dict], fields: dict[str, tuple[str, str]]):
 
 
 def capture_dataset(records, replies, *, capture: str, fs_hz: float, timing) -> Dataset:
-    """A :class:`rfsim.core.dataset.Dataset` with the tables ``commands`` and ``reads`` (one row per
-    tag reply) and the capture's sample rate, median timings and warnings as attributes."""
+    """A dataset of a decoded capture.
+
+    The tables ``commands`` and ``reads`` (one row per tag reply) and the capture's sample
+    rate, median timings and warnings as attributes.
+
+    Parameters
+    ----------
+    records : sequence of rfsim.gen2.capture.ReaderCommandRecord
+        Decoded reader commands.
+    replies : sequence of rfsim.gen2.replies.TagReplyRecord
+        Decoded tag replies.
+    capture : str
+        Name of the capture (the title and the ``capture`` attribute).
+    fs_hz : float
+        Sample rate of the capture [Hz].
+    timing : rfsim.gen2.capture.ReaderTiming
+        Command count, median Tari/RTcal/TRcal/delimiter [s] (NaN: not measured) and warnings.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        The dataset.
+    """
     ds = Dataset(title=f"rfsim decode of {capture}", scenario="decode")
     ds.add_table("commands", _columns([command_row(r) for r in records], COMMAND_FIELDS))
     ds.add_table("reads", {**_columns([_capture_row(r) for r in replies], CAPTURE_FIELDS),

@@ -60,9 +60,26 @@ class CommandParseError(ValueError):
 
 
 def normalize_dr(value, key: str = "dr") -> str:
-    """Canonical divide-ratio name ``"8"`` or ``"64/3"`` from a name, int 8 or Fraction.
+    """Canonical divide-ratio name ``"8"`` or ``"64/3"``.
 
-    Floats are refused (64/3 has no exact float); raise ``ConfigError(key, ...)``.
+    Floats are refused (64/3 has no exact float).
+
+    Parameters
+    ----------
+    value : str, int or fractions.Fraction
+        A name, int 8 or ``Fraction(64, 3)``.
+    key : str
+        Configuration key named in the error.
+
+    Returns
+    -------
+    str
+        ``"8"`` or ``"64/3"``.
+
+    Raises
+    ------
+    ConfigError
+        ``(key, ...)`` for any other value.
     """
     if isinstance(value, str) and value.replace(" ", "") in DR_VALUES:
         return value.replace(" ", "")
@@ -95,9 +112,28 @@ def _set(obj, name: str, value) -> None:
 
 
 def ebv_encode(value: int) -> np.ndarray:
-    """Extensible bit vector: 8-bit blocks of (extension bit, 7 value bits), MSB block
-    first; the extension bit is 1 in every block but the last.
+    """Extensible bit vector of ``value``.
 
+    8-bit blocks of (extension bit, 7 value bits), MSB block first; the extension bit is 1
+    in every block but the last.
+
+    Parameters
+    ----------
+    value : int
+        Non-negative value.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(8·n_blocks,) uint8`` bits.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is negative.
+
+    Examples
+    --------
     >>> bits_to_str(ebv_encode(128))
     '1000000100000000'
     """
@@ -116,9 +152,26 @@ def ebv_encode(value: int) -> np.ndarray:
 
 
 def ebv_decode(bits, start: int = 0) -> tuple[int, int]:
-    """Decode an EBV starting at ``bits[start]``; return ``(value, n_bits_used)``.
+    """Decode an EBV starting at ``bits[start]``.
 
-    Raises ``ValueError`` when the bits end before a block with extension bit 0.
+    Parameters
+    ----------
+    bits : array_like or str
+        Bit array, MSB first.
+    start : int
+        Index of the EBV's first bit.
+
+    Returns
+    -------
+    value : int
+        The decoded value.
+    n_bits_used : int
+        Bits the EBV occupies (a multiple of 8).
+
+    Raises
+    ------
+    ValueError
+        When the bits end before a block with extension bit 0.
     """
     arr = as_bits(bits)
     value, pos = 0, int(start)
@@ -334,14 +387,46 @@ COMMAND_TYPES: tuple[type, ...] = (Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN
 
 
 def encode(cmd: Command) -> np.ndarray:
-    """Bits of ``cmd`` as sent after the PIE preamble/frame-sync; ``(n,) uint8``, CRC included."""
+    """Bits of ``cmd`` as sent after the PIE preamble/frame-sync, CRC included.
+
+    Parameters
+    ----------
+    cmd : Command
+        A Gen2 command object.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) uint8`` bits.
+
+    Raises
+    ------
+    TypeError
+        If ``cmd`` is not a Gen2 command.
+    """
     if not isinstance(cmd, COMMAND_TYPES):
         raise TypeError(f"not a Gen2 command: {cmd!r}")
     return cmd._encode()
 
 
 def command_name(cmd) -> str:
-    """Standard name of a command (instance or class): "Query", "Req_RN", ..."""
+    """Standard name of a command: "Query", "Req_RN", ...
+
+    Parameters
+    ----------
+    cmd : Command or type
+        A command instance or class.
+
+    Returns
+    -------
+    str
+        The name.
+
+    Raises
+    ------
+    TypeError
+        If ``cmd`` is not a Gen2 command.
+    """
     cls = cmd if isinstance(cmd, type) else type(cmd)
     if cls not in COMMAND_TYPES:
         raise TypeError(f"not a Gen2 command: {cmd!r}")
@@ -349,7 +434,23 @@ def command_name(cmd) -> str:
 
 
 def command_preamble(cmd) -> str:
-    """PIE lead-in of a command: ``"query"`` (full preamble with TRcal) or ``"frame-sync"``."""
+    """PIE lead-in of a command: ``"query"`` (full preamble with TRcal) or ``"frame-sync"``.
+
+    Parameters
+    ----------
+    cmd : Command or type
+        A command instance or class.
+
+    Returns
+    -------
+    str
+        ``"query"`` or ``"frame-sync"``.
+
+    Raises
+    ------
+    TypeError
+        If ``cmd`` is not a Gen2 command.
+    """
     cls = cmd if isinstance(cmd, type) else type(cmd)
     if cls not in COMMAND_TYPES:
         raise TypeError(f"not a Gen2 command: {cmd!r}")
@@ -388,7 +489,17 @@ def _check_crc16(name: str, b: np.ndarray) -> None:
 
 
 def parse(bits) -> Command:
-    """Parse a reader command from its bits ((n,) uint8 0/1, MSB first, CRC included).
+    """Parse a reader command from its bits.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first, CRC included.
+
+    Returns
+    -------
+    Command
+        The command object.
 
     Raises
     ------
@@ -467,7 +578,18 @@ def _parse_read(b: np.ndarray) -> Read:
 
 
 def command_fields(cmd: Command) -> dict:
-    """Field values of a command as a plain dict (for records and datasets)."""
+    """Field values of a command as a plain dict (for records and datasets).
+
+    Parameters
+    ----------
+    cmd : Command
+        A command object.
+
+    Returns
+    -------
+    dict
+        Field name → value.
+    """
     return {f.name: getattr(cmd, f.name) for f in fields(cmd)}
 
 

@@ -66,18 +66,56 @@ def _crc5_register(bits: np.ndarray, reg: int = CRC5_PRESET) -> int:
 
 
 def crc5(bits) -> int:
-    """CRC-5/EPC-C1G2 of ``bits`` ((n,) uint8 0/1, MSB first) as an int in [0, 31]."""
+    """CRC-5/EPC-C1G2 of a bit array.
+
+    g(x) = x⁵ + x³ + 1, preset 01001₂, no output inversion (module docstring;
+    gen2-and-validation-anchors.md §3.1).
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    int
+        CRC-5 in [0, 31].
+    """
     return _crc5_register(as_bits(bits))
 
 
 def crc16(bits) -> int:
-    """CRC-16/GENIBUS of ``bits`` ((n,) uint8 0/1, MSB first): ones' complement of the
-    register, an int in [0, 65535] — the value a Gen2 tag or reader transmits."""
+    """CRC-16/GENIBUS of a bit array, as transmitted.
+
+    g(x) = x¹⁶ + x¹² + x⁵ + 1, preset FFFFh; the result is the ones' complement of the
+    register, the value a Gen2 tag or reader transmits (gen2-and-validation-anchors.md §3.1).
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    int
+        CRC-16 in [0, 65535].
+    """
     return _crc16_register(as_bits(bits)) ^ 0xFFFF
 
 
 def crc16_bytes(data: bytes) -> int:
-    """CRC-16/GENIBUS of a byte string (bytes sent MSB first); same as ``crc16`` of its bits."""
+    """CRC-16/GENIBUS of a byte string (bytes sent MSB first); same as ``crc16`` of its bits.
+
+    Parameters
+    ----------
+    data : bytes
+        Message bytes.
+
+    Returns
+    -------
+    int
+        CRC-16 in [0, 65535] (ones' complement of the register).
+    """
     reg = CRC16_PRESET
     table = _CRC16_TABLE
     for byte in bytes(data):
@@ -86,36 +124,101 @@ def crc16_bytes(data: bytes) -> int:
 
 
 def crc5_bits(bits) -> np.ndarray:
-    """CRC-5 of ``bits`` as a ``(5,) uint8`` bit array, MSB first."""
+    """CRC-5 of ``bits`` as a bit array, MSB first.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(5,) uint8`` CRC-5 bits.
+    """
     return int_to_bits(crc5(bits), 5)
 
 
 def crc16_bits(bits) -> np.ndarray:
-    """CRC-16 of ``bits`` as a ``(16,) uint8`` bit array, MSB first."""
+    """CRC-16 of ``bits`` as a bit array, MSB first.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(16,) uint8`` CRC-16 bits (as transmitted).
+    """
     return int_to_bits(crc16(bits), 16)
 
 
 def append_crc5(bits) -> np.ndarray:
-    """``bits`` followed by their CRC-5; ``(n + 5,) uint8``."""
+    """``bits`` followed by their CRC-5.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n + 5,) uint8``.
+    """
     arr = as_bits(bits)
     return np.concatenate([arr, crc5_bits(arr)])
 
 
 def append_crc16(bits) -> np.ndarray:
-    """``bits`` followed by their CRC-16; ``(n + 16,) uint8``."""
+    """``bits`` followed by their CRC-16.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` 0/1, MSB first.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n + 16,) uint8``.
+    """
     arr = as_bits(bits)
     return np.concatenate([arr, crc16_bits(arr)])
 
 
 def crc5_ok(bits_with_crc) -> bool:
-    """True when the CRC-5 register run over data + CRC-5 ends at 00000₂ (needs ≥ 5 bits)."""
+    """Whether the CRC-5 register run over data + CRC-5 ends at 00000₂.
+
+    Parameters
+    ----------
+    bits_with_crc : array_like or str
+        Data bits followed by their CRC-5, MSB first.
+
+    Returns
+    -------
+    bool
+        True when the check passes; False for fewer than 5 bits.
+    """
     arr = as_bits(bits_with_crc)
     return arr.size >= 5 and _crc5_register(arr) == 0
 
 
 def crc16_ok(bits_with_crc) -> bool:
-    """True when the CRC-16 register run over data + CRC-16 ends at the residue 1D0Fh
-    (needs ≥ 16 bits)."""
+    """Whether the CRC-16 register run over data + CRC-16 ends at the residue 1D0Fh.
+
+    Parameters
+    ----------
+    bits_with_crc : array_like or str
+        Data bits followed by their transmitted CRC-16, MSB first.
+
+    Returns
+    -------
+    bool
+        True when the check passes; False for fewer than 16 bits.
+    """
     arr = as_bits(bits_with_crc)
     return arr.size >= 16 and _crc16_register(arr) == CRC16_RESIDUE
 

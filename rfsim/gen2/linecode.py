@@ -92,21 +92,58 @@ def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
 def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
     """Half-bit levels of pilot + preamble and the encoder state after them.
 
-    Returns ``(levels (2·n_pre,) int8, level, previous bit)``; Miller pilot half-bits are
-    at level +1 (8 or 32 of them: 4·M or 16·M subcarrier cycles of M/2 cycles each).
+    Miller pilot half-bits are at level +1 (8 or 32 of them: 4·M or 16·M subcarrier cycles
+    of M/2 cycles each); module docstring, gen2-and-validation-anchors.md §4.2.
+
+    Parameters
+    ----------
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+
+    Returns
+    -------
+    levels : numpy.ndarray
+        ``(2·n_pre,) int8`` half-bit levels ±1.
+    level, previous_bit : int
+        Encoder state after the preamble: baseband level (±1) and previous bit (0/1).
     """
     levels, state = _preamble(_check_m(m), bool(trext))
     return levels.copy(), int(_k.LEVEL_OF_STATE[state]), int(_k.PREV_BIT_OF_STATE[state])
 
 
 def preamble_state(*, m: int, trext: bool) -> int:
-    """Encoder state (of the tables of :mod:`rfsim.gen2._linecode_kernels`: level index +
-    2·previous bit) after pilot + preamble: where the data bits' encoder and trellis start."""
+    """Encoder state after pilot + preamble: where the data bits' encoder and trellis start.
+
+    Parameters
+    ----------
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+
+    Returns
+    -------
+    int
+        State index of :mod:`rfsim.gen2._linecode_kernels` (level + 2·previous bit).
+    """
     return _preamble(_check_m(m), bool(trext))[1]
 
 
 def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np.ndarray, int]:
-    """Baseband half-bit levels of a whole reply: ``(levels int8, n_preamble_halfbits)``."""
+    """Baseband half-bit levels of a whole reply (pilot, preamble, data, dummy-1).
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` data bits.
+    m, trext, dummy : int, bool, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone; dummy data-1 appended.
+
+    Returns
+    -------
+    levels : numpy.ndarray
+        ``int8`` half-bit levels ±1 (before the Miller subcarrier).
+    n_preamble_halfbits : int
+        Half-bits of pilot + preamble at the start of ``levels``.
+    """
     arr = as_bits(bits)
     if dummy:
         arr = np.concatenate([arr, np.ones(1, dtype=np.uint8)])
@@ -116,8 +153,22 @@ def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np
 
 
 def elements_of_levels(levels, m: int, dtype=np.int8) -> np.ndarray:
-    """Elements ``(levels.size·m,)`` of half-bit ``levels``: each level held for ``m``
-    elements, times the subcarrier sign for Miller (numba kernel)."""
+    """Elements of half-bit ``levels``: each level held for ``m`` elements, times the subcarrier sign for Miller.
+
+    Parameters
+    ----------
+    levels : array_like
+        ``(n,) int8`` half-bit levels ±1.
+    m : int
+        Symbols per bit M.
+    dtype : numpy.dtype
+        Output dtype.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n·m,)`` elements ±1.
+    """
     levels = np.ascontiguousarray(levels, dtype=np.int8)
     out = np.empty(levels.size * _check_m(m), dtype=dtype)
     _k.level_elements_kernel(levels, m, out)
@@ -139,14 +190,45 @@ def _element_values(bits, m: int, trext: bool, dummy: bool, dtype) -> np.ndarray
 
 
 def halfsymbols(bits, *, m: int, trext: bool, dummy: bool = True) -> np.ndarray:
-    """Element sequence of a reply: ``(n_el,) int8`` of ±1, one value per half subcarrier
-    cycle 1/(2·BLF) (pilot, preamble, data, dummy-1) — the PASS ``tag_encoding`` format
-    (numba kernel)."""
+    """Element sequence of a reply, one value per half subcarrier cycle 1/(2·BLF).
+
+    Pilot, preamble, data and dummy-1 — the PASS ``tag_encoding`` format
+    (pass-paris-simulator.md §2.2; numba kernel).
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` data bits.
+    m, trext, dummy : int, bool, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone; dummy data-1 appended.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_el,) int8`` of ±1.
+    """
     return _element_values(bits, m, trext, dummy, np.int8)
 
 
 def reply_duration_s(n_bits: int, *, m: int, trext: bool, blf_hz: float, dummy: bool = True) -> float:
-    """Duration of a reply of ``n_bits`` data bits [s] (elements / (2·BLF))."""
+    """Duration of a reply of ``n_bits`` data bits: elements / (2·BLF).
+
+    Parameters
+    ----------
+    n_bits : int
+        Data bits (without the dummy-1).
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz : float
+        Backscatter link frequency [Hz].
+    dummy : bool
+        Count the dummy data-1.
+
+    Returns
+    -------
+    float
+        Duration [s].
+    """
     m = _check_m(m)
     n_pre = _preamble(m, bool(trext))[0].size
     return (n_pre + 2 * (n_bits + int(dummy))) * m / (2.0 * blf_hz)
@@ -164,10 +246,25 @@ def reply_waveform(
 ) -> np.ndarray:
     """Sampled tag reply (numba kernel).
 
-    Returns ``s : (n_samples,) float64`` with values ±1 during the reply (the two
-    modulation states; the caller maps them to reflection coefficients) and 0 before
-    ``t0_s`` and after the reply (the tag's rest state). Sample n is at ``t = n/fs``;
-    the default length ends with the reply.
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` data bits.
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
+    t0_s : float
+        Start of the reply [s].
+    dummy, n_samples : bool, int or None
+        Dummy data-1 appended; output length (default: ends with the reply).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_samples,) float64``: ±1 during the reply (the two modulation states; the caller
+        maps them to reflection coefficients) and 0 before ``t0_s`` and after the reply (the
+        tag's rest state).
     """
     key = None
     if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
@@ -195,7 +292,26 @@ _WAVEFORM_ELEMENTS: dict = {}
 
 
 def reply_waveform_for_profile(bits, profile, *, fs_hz: float, t0_s: float = 0.0, **kwargs) -> np.ndarray:
-    """:func:`reply_waveform` with M, TRext and the nominal BLF of a ``LinkProfile``."""
+    """:func:`reply_waveform` with M, TRext and the nominal BLF of a ``LinkProfile``.
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n,) uint8`` data bits.
+    profile : rfsim.gen2.link.LinkProfile
+        The link.
+    fs_hz : float
+        Sample rate [Hz].
+    t0_s : float
+        Start of the reply [s].
+    **kwargs
+        ``dummy``, ``n_samples`` of :func:`reply_waveform`.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_samples,) float64`` waveform (±1, 0 at rest).
+    """
     return reply_waveform(bits, m=profile.m, trext=profile.trext, blf_hz=profile.blf_hz, fs_hz=fs_hz,
                           t0_s=t0_s, **kwargs)
 
@@ -279,7 +395,20 @@ def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndar
 
 
 def corr_abs_reference(r, t0) -> np.ndarray:
-    """|valid correlation| of ``r`` with the real template ``t0`` (scipy), ``(r.size − t0.size + 1,)``."""
+    """|valid correlation| of ``r`` with the real template ``t0`` (scipy; twin of the kernel).
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` complex samples, any unit.
+    t0 : numpy.ndarray
+        ``(L,) float64`` template.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n − L + 1,) float64``, unit of ``r``.
+    """
     from scipy.signal import correlate  # the twin only: scipy.signal costs ≈ 1 s to import
 
     return np.abs(correlate(r, t0, mode="valid"))
@@ -430,9 +559,35 @@ def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, state, impl) -
 
 def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, start_sample: float,
                 gain: complex, method: str = "viterbi") -> np.ndarray:
-    """``decode_reply(r, ..., start_sample=, gain=).bits`` without the correlation it also
-    reports (numba kernels): the decisions of a reply whose start and gain are known,
-    ``(n_bits,) uint8``."""
+    """Decisions of a reply whose start and gain are known (numba kernels).
+
+    Parameters
+    ----------
+    r : array_like
+        ``(n,)`` complex baseband ``h·s(t) + noise`` at ``fs_hz``.
+    n_bits : int
+        Data bits (without the dummy 1).
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
+    start_sample : float
+        Reply start [samples].
+    gain : complex
+        Channel gain h, unit of ``r``.
+    method : {"viterbi", "bitwise"}
+        ML sequence or bit-by-bit coherent decisions.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_bits,) uint8`` decoded bits.
+
+    Raises
+    ------
+    ValueError
+        If ``start_sample`` leaves no room for the reply in ``r``.
+    """
     plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.ascontiguousarray(r, dtype=np.complex128)
     start = float(start_sample)
@@ -450,16 +605,35 @@ def decode_reply(
 ) -> ReplyDetection:
     """Detect and decode one FM0/Miller reply of ``n_bits`` bits (numba kernels).
 
+    Module docstring: preamble correlation, least-squares (h, c), bitwise or Viterbi decisions.
+
     Parameters
     ----------
-    r : (n,) complex, baseband ``h·s(t) + c + noise`` sampled at ``fs_hz``
-    n_bits : number of data bits (without the dummy 1)
-    m, trext, blf_hz : line code (1 = FM0, 2/4/8 = Miller), pilot, BLF [Hz]
-    method : ``"viterbi"`` (ML sequence) or ``"bitwise"`` (bit-by-bit coherent)
-    search_samples : the reply start is searched among sample lags 0…search_samples
-        (default: every lag that leaves room for the whole reply)
-    start_sample, gain : known start [samples] / known gain h (then c = 0); skip the search /
-        the estimation
+    r : array_like
+        ``(n,)`` complex, baseband ``h·s(t) + c + noise`` sampled at ``fs_hz``.
+    n_bits : int
+        Number of data bits (without the dummy 1).
+    m, trext : int, bool
+        Line code (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    blf_hz, fs_hz : float
+        BLF and sample rate [Hz].
+    method : {"viterbi", "bitwise"}
+        ML sequence or bit-by-bit coherent.
+    search_samples : int or None
+        The reply start is searched among sample lags 0…search_samples (default: every lag
+        that leaves room for the whole reply).
+    start_sample, gain : float or None, complex or None
+        Known start [samples] / gain h (then c = 0): skip the search / the estimation.
+
+    Returns
+    -------
+    ReplyDetection
+        Bits, refined start [samples], gain, offset and preamble correlation.
+
+    Raises
+    ------
+    ValueError
+        If there is no room for the reply in ``r``, the gain is zero or an argument is invalid.
     """
     return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, _KERNELS)
 
@@ -468,10 +642,28 @@ def decode_reply_rows(
     r, rows, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
     search_samples: int | None = None,
 ) -> list[ReplyDetection | None]:
-    """:func:`decode_reply` on the rows ``rows`` (indices) of ``r`` ((R, n) complex), with the
-    argument checks and the per-profile setup done once: row by row the same steps and the
-    same results, None where :func:`decode_reply` raises ``ValueError`` for that row (no room
-    for the reply, zero gain)."""
+    """:func:`decode_reply` on the rows ``rows`` of ``r``, the argument checks and per-profile setup done once.
+
+    Parameters
+    ----------
+    r : array_like
+        ``(R, n)`` complex baseband at ``fs_hz``.
+    rows : array_like of int
+        Row indices to decode.
+    n_bits, m, trext, blf_hz, fs_hz, method, search_samples
+        As in :func:`decode_reply` (``blf_hz``, ``fs_hz`` [Hz]).
+
+    Returns
+    -------
+    list of ReplyDetection or None
+        One per row of ``rows``; None where :func:`decode_reply` raises ``ValueError`` for
+        that row (no room for the reply, zero gain).
+
+    Raises
+    ------
+    ValueError
+        If ``r`` is not 2-D.
+    """
     plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.asarray(r)
     if r.ndim != 2:

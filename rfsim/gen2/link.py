@@ -97,7 +97,25 @@ def frt_fraction(dr, trcal_s: float, *, extended_temperature: bool = False) -> f
     bracketed extended-temperature values with ``extended_temperature=True``). A TRcal
     within 1e-6 (relative) of a listed point takes that point's value.
 
-    Raises ``ConfigError("link.trcal_s", ...)`` outside the table's TRcal range.
+    Parameters
+    ----------
+    dr : str, int or fractions.Fraction
+        Divide ratio, 8 or 64/3 (what :func:`rfsim.gen2.commands.normalize_dr` accepts; not a
+        float).
+    trcal_s : float
+        TRcal [s].
+    extended_temperature : bool
+        Use the extended-temperature column.
+
+    Returns
+    -------
+    float
+        FrT as a fraction [1].
+
+    Raises
+    ------
+    ConfigError
+        ``("link.trcal_s", ...)`` outside the table's TRcal range.
     """
     name = _commands.normalize_dr(dr, "link.dr")
     t_us = float(trcal_s) * 1e6
@@ -116,11 +134,25 @@ def frt_fraction(dr, trcal_s: float, *, extended_temperature: bool = False) -> f
 
 def pie_duration_s(bits, *, tari_s: float, data1_s: float, delimiter_s: float = DELIMITER_NOMINAL_S,
                    trcal_s: float | None = None) -> float:
-    """Duration of a PIE frame [s]: lead-in + n0·Tari + n1·data-1.
+    """Duration of a PIE frame: lead-in + n0·Tari + n1·data-1.
 
     Lead-in = delimiter + Tari + RTcal (frame-sync; RTcal = Tari + data-1), plus TRcal when
-    ``trcal_s`` is given (the Query preamble). n0, n1 are the counts of 0 and 1 bits in
-    ``bits`` ((n,) uint8), so the duration depends on the bit values.
+    ``trcal_s`` is given (the Query preamble); gen2-and-validation-anchors.md §4.1. n0, n1
+    are the counts of 0 and 1 bits in ``bits``, so the duration depends on the bit values.
+
+    Parameters
+    ----------
+    bits : array_like
+        ``(n,) uint8`` command bits.
+    tari_s, data1_s, delimiter_s : float
+        Tari, data-1 and delimiter durations [s].
+    trcal_s : float or None
+        TRcal [s] for a Query preamble; None for frame-sync.
+
+    Returns
+    -------
+    float
+        Frame duration [s].
     """
     arr = _bits.as_bits(bits)
     n1 = int(arr.sum())
@@ -130,7 +162,25 @@ def pie_duration_s(bits, *, tari_s: float, data1_s: float, delimiter_s: float = 
 
 
 def reply_preamble_bits(m: int, trext: bool) -> int:
-    """Length of the tag-reply preamble in bit periods: FM0 6 (TRext 18), Miller 10 (22)."""
+    """Length of the tag-reply preamble in bit periods: FM0 6 (TRext 18), Miller 10 (22).
+
+    Parameters
+    ----------
+    m : int
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller).
+    trext : bool
+        Pilot tone (12 extra data-0) present.
+
+    Returns
+    -------
+    int
+        Preamble length [bit periods].
+
+    Raises
+    ------
+    ValueError
+        If ``m`` is not one of 1, 2, 4, 8.
+    """
     if m not in M_VALUES:
         raise ValueError(f"m must be one of {M_VALUES}, got {m!r}")
     return (6 if m == 1 else 10) + (12 if trext else 0)
@@ -138,7 +188,31 @@ def reply_preamble_bits(m: int, trext: bool) -> int:
 
 def backscatter_duration_s(n_payload_bits: int, *, blf_hz: float, m: int, trext: bool,
                            dummy_bit: bool = True) -> float:
-    """Duration of a tag reply [s]: (preamble + payload + dummy-1) bits × M / BLF."""
+    """Duration of a tag reply: (preamble + payload + dummy-1) bits × M / BLF (§4.2).
+
+    Parameters
+    ----------
+    n_payload_bits : int
+        Payload bits (≥ 0).
+    blf_hz : float
+        Backscatter link frequency [Hz].
+    m : int
+        Symbols per bit M.
+    trext : bool
+        Pilot tone present.
+    dummy_bit : bool
+        Count the trailing dummy data-1.
+
+    Returns
+    -------
+    float
+        Reply duration [s].
+
+    Raises
+    ------
+    ValueError
+        If ``n_payload_bits`` is negative.
+    """
     if int(n_payload_bits) < 0:
         raise ValueError(f"n_payload_bits must be >= 0, got {n_payload_bits}")
     n = reply_preamble_bits(m, trext) + int(n_payload_bits) + (1 if dummy_bit else 0)
@@ -158,13 +232,39 @@ class TimingRange:
 
 
 def t1_range(*, rtcal_s: float, blf_hz: float, frt: float) -> TimingRange:
-    """T1 (reader command end → tag reply start): max(RTcal, 10 Tpri)·(1 ± FT) ± 2 µs."""
+    """T1 (reader command end → tag reply start): max(RTcal, 10 Tpri)·(1 ± FrT) ± 2 µs (§4.2).
+
+    Parameters
+    ----------
+    rtcal_s : float
+        RTcal [s].
+    blf_hz : float
+        Backscatter link frequency [Hz] (Tpri = 1/BLF).
+    frt : float
+        BLF tolerance FrT [fraction].
+
+    Returns
+    -------
+    TimingRange
+        T1 min, nominal and max [s].
+    """
     nom = max(rtcal_s, 10.0 / blf_hz)
     return TimingRange(nom * (1 - frt) - 2e-6, nom, nom * (1 + frt) + 2e-6)
 
 
 def t2_range(*, blf_hz: float) -> TimingRange:
-    """T2 (tag reply end → reader command start): 3.0–20.0 Tpri."""
+    """T2 (tag reply end → reader command start): 3.0–20.0 Tpri.
+
+    Parameters
+    ----------
+    blf_hz : float
+        Backscatter link frequency [Hz].
+
+    Returns
+    -------
+    TimingRange
+        T2 min and max [s] (no nominal).
+    """
     return TimingRange(3.0 / blf_hz, None, 20.0 / blf_hz)
 
 
@@ -306,10 +406,25 @@ class LinkProfile:
 
     # ---- durations
     def command_duration_s(self, bits_or_cmd, preamble: str | None = None) -> float:
-        """Duration [s] of a reader command incl. its lead-in (see :func:`pie_duration_s`).
+        """Duration of a reader command incl. its lead-in (see :func:`pie_duration_s`).
 
-        ``bits_or_cmd`` is a command object (its lead-in is used unless ``preamble`` is given)
-        or its bits ((n,) uint8; ``preamble`` is then required: "query" or "frame-sync").
+        Parameters
+        ----------
+        bits_or_cmd : command object or array_like
+            A command object (its lead-in is used unless ``preamble`` is given) or its bits
+            (``(n,) uint8``; ``preamble`` is then required).
+        preamble : {"query", "frame-sync"} or None
+            Lead-in to use.
+
+        Returns
+        -------
+        float
+            Command duration [s].
+
+        Raises
+        ------
+        ValueError
+            If the lead-in is neither "query" nor "frame-sync".
         """
         if isinstance(bits_or_cmd, _commands.COMMAND_TYPES):
             bits = _commands.encode(bits_or_cmd)
@@ -322,7 +437,18 @@ class LinkProfile:
                               trcal_s=self.trcal_s if preamble == "query" else None)
 
     def reply_duration_s(self, n_payload_bits: int) -> float:
-        """Tag reply duration [s] at nominal BLF: (preamble + payload + dummy-1) · M / BLF."""
+        """Tag reply duration at nominal BLF: (preamble + payload + dummy-1) · M / BLF.
+
+        Parameters
+        ----------
+        n_payload_bits : int
+            Payload bits.
+
+        Returns
+        -------
+        float
+            Reply duration [s].
+        """
         return backscatter_duration_s(n_payload_bits, blf_hz=self.blf_hz, m=self.m, trext=self.trext)
 
 
@@ -338,48 +464,154 @@ READER_LISTEN_DELAY_TARI = 0.5
 
 
 def reply_window_s(link: LinkProfile, reply_bits: int) -> float:
-    """CW after a command for a reply of ``reply_bits`` payload bits [s]:
-    T1max + reply duration (nominal BLF) + :data:`REPLY_WINDOW_TAIL_TPRI` Tpri."""
+    """CW kept after a command for a reply of ``reply_bits`` payload bits.
+
+    T1max + reply duration (nominal BLF) + :data:`REPLY_WINDOW_TAIL_TPRI` Tpri.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+    reply_bits : int
+        Payload bits of the expected reply.
+
+    Returns
+    -------
+    float
+        Window length [s].
+    """
     return link.reply_duration_s(int(reply_bits)) + t1(link).max_s + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
 
 
 def reader_listen_start_s(link: LinkProfile, cmd_end_s: float) -> float:
-    """When the reader's receiver starts listening after a command ending at ``cmd_end_s`` [s]."""
+    """When the reader's receiver starts listening after a command.
+
+    ``cmd_end_s`` + :data:`READER_LISTEN_DELAY_TARI` · Tari.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+    cmd_end_s : float
+        The command's last rising edge [s].
+
+    Returns
+    -------
+    float
+        Listen start [s].
+    """
     return float(cmd_end_s) + READER_LISTEN_DELAY_TARI * link.tari_s
 
 
 def t1(link: LinkProfile) -> TimingRange:
-    """T1 of ``link`` with its nominal-temperature FrT (see :func:`t1_range`)."""
+    """T1 of ``link`` with its nominal-temperature FrT (see :func:`t1_range`).
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T1 [s].
+    """
     return t1_range(rtcal_s=link.rtcal_s, blf_hz=link.blf_hz, frt=link.frt)
 
 
 def t2(link: LinkProfile) -> TimingRange:
-    """T2 = 3.0–20.0 Tpri."""
+    """T2 = 3.0–20.0 Tpri.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T2 [s].
+    """
     return t2_range(blf_hz=link.blf_hz)
 
 
 def t3(link: LinkProfile) -> TimingRange:
-    """T3 (reader wait after T1 before the next command when no reply): ≥ 0."""
+    """T3 (reader wait after T1 before the next command when no reply): ≥ 0.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link (unused: T3 has no link-dependent bound).
+
+    Returns
+    -------
+    TimingRange
+        T3 [s].
+    """
     return TimingRange(0.0)
 
 
 def t4(link: LinkProfile) -> TimingRange:
-    """T4 (minimum time between reader commands): ≥ 2.0 RTcal."""
+    """T4 (minimum time between reader commands): ≥ 2.0 RTcal.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T4 [s].
+    """
     return TimingRange(2.0 * link.rtcal_s)
 
 
 def t5(link: LinkProfile) -> TimingRange:
-    """T5 (delayed-reply wait): T1 min … 20 ms."""
+    """T5 (delayed-reply wait): T1 min … 20 ms.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T5 [s].
+    """
     return TimingRange(t1(link).min_s, None, T_MAX_S)
 
 
 def t6(link: LinkProfile) -> TimingRange:
-    """T6: T1 min … 20 ms."""
+    """T6: T1 min … 20 ms.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T6 [s].
+    """
     return TimingRange(t1(link).min_s, None, T_MAX_S)
 
 
 def t7(link: LinkProfile) -> TimingRange:
-    """T7: max(250 µs, T2 max) … 20 ms."""
+    """T7: max(250 µs, T2 max) … 20 ms.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+
+    Returns
+    -------
+    TimingRange
+        T7 [s].
+    """
     return TimingRange(max(T7_MIN_S, t2(link).max_s), None, T_MAX_S)
 
 
@@ -403,8 +635,23 @@ PROFILES: dict[str, LinkProfile] = {
 
 
 def profile(name: str) -> LinkProfile:
-    """The named link profile from :data:`PROFILES`; ``ConfigError("link.profile", ...)``
-    with a did-you-mean hint for unknown names."""
+    """The named link profile from :data:`PROFILES`.
+
+    Parameters
+    ----------
+    name : str
+        Profile name, e.g. ``"fm0-40k"``.
+
+    Returns
+    -------
+    LinkProfile
+        The profile.
+
+    Raises
+    ------
+    ConfigError
+        ``("link.profile", ...)`` with a did-you-mean hint for unknown names.
+    """
     try:
         return PROFILES[name]
     except (KeyError, TypeError):

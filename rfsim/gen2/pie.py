@@ -105,17 +105,40 @@ def pie_timeline(
 ) -> PieTimeline:
     """Exact edge times of the PIE command carrying ``bits``.
 
+    Lead-in and symbol lengths of gen2-and-validation-anchors.md §4.1: delimiter, data-0,
+    RTcal (and TRcal for the Query preamble), then Tari per data-0 and data1_tari·Tari per
+    data-1, each symbol ending with a low pulse of width PW.
+
     Parameters
     ----------
-    bits : (n,) 0/1, MSB first
-    tari_s : data-0 duration [s]
-    data1_tari : data-1 duration in Tari (1.5–2.0); RTcal = (1 + data1_tari)·Tari
-    trcal_s : TRcal [s]; required for ``preamble="query"``, ignored for frame-sync
-    pw_s : low-pulse width [s], 0 < PW < Tari
-    delimiter_s : delimiter (low) duration [s]
-    preamble : ``"query"`` or ``"frame-sync"``
-    cw_before_s, cw_after_s : unmodulated carrier before the delimiter / after the last
-        rising edge [s]. Use ``cw_after_s > 0`` if the last rising edge must be sampled.
+    bits : array_like
+        ``(n,)`` 0/1, MSB first.
+    tari_s : float
+        Data-0 duration [s].
+    data1_tari : float
+        Data-1 duration in Tari (1.5–2.0); RTcal = (1 + data1_tari)·Tari.
+    trcal_s : float or None
+        TRcal [s]; required for ``preamble="query"``, ignored for frame-sync.
+    pw_s : float
+        Low-pulse width [s], 0 < PW < Tari.
+    delimiter_s : float
+        Delimiter (low) duration [s].
+    preamble : {"query", "frame-sync"}
+        Lead-in.
+    cw_before_s, cw_after_s : float
+        Unmodulated carrier before the delimiter / after the last rising edge [s]. Use
+        ``cw_after_s > 0`` if the last rising edge must be sampled.
+
+    Returns
+    -------
+    PieTimeline
+        Falling and rising edge times [s] and total duration [s].
+
+    Raises
+    ------
+    ValueError
+        For an unknown preamble, non-positive durations, PW ≥ Tari, data1_tari outside
+        (1, 2.5], or a Query without TRcal > RTcal.
     """
     arr = as_bits(bits)
     if preamble not in PREAMBLES:
@@ -177,11 +200,31 @@ def pie_envelope(
 ) -> np.ndarray:
     """Sampled ASK amplitude envelope of a PIE command (numba kernel).
 
-    Returns ``e : (ceil(T·fs),) float64`` in units of the CW amplitude: 1 during CW,
-    ``1 − depth`` during the low pulses (``depth = (A−B)/A``, 0 < depth ≤ 1), sample n at
-    ``t = n/fs``. Timing parameters as in :func:`pie_timeline`; ``rise_fall_s`` is the
-    10–90 % time of the raised-cosine edges (0: hard edges). Source:
-    gen2-and-validation-anchors.md §4.1, pass-paris-simulator.md §2.1.
+    ``1`` during CW and ``1 − depth`` during the low pulses (``depth = (A−B)/A``), sample n at
+    ``t = n/fs``. Source: gen2-and-validation-anchors.md §4.1, pass-paris-simulator.md §2.1.
+
+    Parameters
+    ----------
+    bits : array_like
+        ``(n,)`` 0/1, MSB first.
+    tari_s, data1_tari, trcal_s, pw_s, delimiter_s, preamble, cw_before_s, cw_after_s
+        Timing as in :func:`pie_timeline` (durations [s], data1_tari [Tari]).
+    depth : float
+        Modulation depth (A−B)/A, 0 < depth ≤ 1.
+    fs_hz : float
+        Sample rate [Hz].
+    rise_fall_s : float
+        10–90 % time of the raised-cosine edges [s] (0: hard edges).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(ceil(T·fs),) float64`` envelope in units of the CW amplitude [1].
+
+    Raises
+    ------
+    ValueError
+        If ``depth`` is outside (0, 1], ``fs_hz`` is not positive, or a timing is invalid.
     """
     fs_hz = _check_fs(fs_hz)
     if not 0 < depth <= 1:
@@ -195,7 +238,29 @@ def pie_envelope(
 
 
 def timeline_envelope(timeline: PieTimeline, *, depth: float, fs_hz: float, rise_fall_s: float = 0.0) -> np.ndarray:
-    """:func:`pie_envelope` of an already computed :class:`PieTimeline` (numba kernel)."""
+    """:func:`pie_envelope` of an already computed :class:`PieTimeline` (numba kernel).
+
+    Parameters
+    ----------
+    timeline : PieTimeline
+        Edge times [s].
+    depth : float
+        Modulation depth (A−B)/A, 0 < depth ≤ 1.
+    fs_hz : float
+        Sample rate [Hz].
+    rise_fall_s : float
+        10–90 % time of the raised-cosine edges [s] (0: hard edges).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(ceil(T·fs),) float64`` envelope in units of the CW amplitude [1].
+
+    Raises
+    ------
+    ValueError
+        If ``depth`` is outside (0, 1] or ``fs_hz`` is not positive.
+    """
     fs_hz = _check_fs(fs_hz)
     if not 0 < depth <= 1:
         raise ValueError(f"depth must be in (0, 1], got {depth}")
@@ -206,12 +271,27 @@ def timeline_envelope(timeline: PieTimeline, *, depth: float, fs_hz: float, rise
 
 
 def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: float, fs_hz: float) -> np.ndarray:
-    """PR-ASK baseband ``x = A·s(t)·e(t)`` (numba kernel), ``(n,) complex128``.
+    """PR-ASK baseband ``x = A·s(t)·e(t)`` (numba kernel).
 
     ``s(t) = ±1`` changes sign at the middle of every low pulse (delimiter included),
     ``(fall_s + rise_s)/2`` of ``timeline``: every PIE symbol has the opposite polarity of
-    the previous one (gen2-and-validation-anchors.md §4.1). ``envelope`` is e(t) at
-    ``t = n/fs`` (:func:`timeline_envelope`), ``amplitude`` A [√W].
+    the previous one (gen2-and-validation-anchors.md §4.1).
+
+    Parameters
+    ----------
+    timeline : PieTimeline
+        Edge times [s].
+    envelope : numpy.ndarray
+        ``(n,)`` e(t) at ``t = n/fs`` (:func:`timeline_envelope`) [1].
+    amplitude : float
+        CW amplitude A [√W].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) complex128`` baseband [√W].
     """
     fs_hz = _check_fs(fs_hz)
     mid = np.ascontiguousarray(0.5 * (timeline.fall_s + timeline.rise_s), dtype=np.float64)
@@ -222,8 +302,26 @@ def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: f
 
 
 def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "query", **kwargs):
-    """:func:`pie_envelope` with the PIE timing and depth taken from a ``LinkProfile``
-    (attributes ``tari_s, data1_tari, trcal_s, pw_s, delimiter_s, depth``)."""
+    """:func:`pie_envelope` with the PIE timing and depth taken from a ``LinkProfile``.
+
+    Parameters
+    ----------
+    bits : array_like
+        ``(n,)`` 0/1, MSB first.
+    profile : rfsim.gen2.link.LinkProfile
+        Supplies ``tari_s, data1_tari, trcal_s, pw_s, delimiter_s, depth``.
+    fs_hz : float
+        Sample rate [Hz].
+    preamble : {"query", "frame-sync"}
+        Lead-in.
+    **kwargs
+        ``rise_fall_s``, ``cw_before_s``, ``cw_after_s`` [s] of :func:`pie_envelope`.
+
+    Returns
+    -------
+    numpy.ndarray
+        Envelope in units of the CW amplitude [1].
+    """
     return pie_envelope(
         bits, tari_s=profile.tari_s, data1_tari=profile.data1_tari, trcal_s=profile.trcal_s,
         pw_s=profile.pw_s, delimiter_s=profile.delimiter_s, depth=profile.depth, fs_hz=fs_hz,
@@ -235,10 +333,22 @@ def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "qu
 
 
 def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
-    """Isodata split of a two-level signal: ``(threshold, low_mean, high_mean)`` (numba kernel).
+    """Isodata split of a two-level signal (numba kernel).
 
     Starts at (min + max)/2 and iterates threshold = (mean below + mean above)/2; the
     result is independent of the signal's scale and offset and of the duty cycle.
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Real samples, any scale and offset (flattened).
+    max_iter : int
+        Most iterations.
+
+    Returns
+    -------
+    threshold, low_mean, high_mean : float
+        Threshold and the cluster means, unit of ``x``.
     """
     x = np.ascontiguousarray(x, dtype=np.float64)
     lo, hi = float(x.min()), float(x.max())
@@ -292,7 +402,18 @@ class PieEdges:
     bits: np.ndarray
 
     def frames(self, keep=None) -> list[PieFrame]:
-        """The frames as :class:`PieFrame` objects (only those where ``keep`` is True)."""
+        """The frames as :class:`PieFrame` objects.
+
+        Parameters
+        ----------
+        keep : array_like of bool or None
+            ``(nf,)`` frames to keep (None: all).
+
+        Returns
+        -------
+        list of PieFrame
+            In time order, durations in samples.
+        """
         idx = range(self.start.size) if keep is None else np.flatnonzero(keep).tolist()
         return [
             PieFrame(start=float(self.start[i]), end=float(self.end[i]), delimiter=float(self.delimiter[i]),
@@ -304,10 +425,33 @@ class PieEdges:
 
 def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 0.1,
                       levels: tuple[float, float, float] | None = None) -> PieEdges:
-    """:func:`pie_decode` returning the edges and per-frame arrays (:class:`PieEdges`)
-    instead of frame objects (same arguments, numba kernels). With ``levels`` given, ``x``
-    may also be complex samples (complex64/128): the comparator then reads their magnitude
-    sample by sample, without a full-length envelope array."""
+    """:func:`pie_decode` returning the edges and per-frame arrays instead of frame objects (numba kernels).
+
+    With ``levels`` given, ``x`` may also be complex samples (complex64/128): the comparator
+    then reads their magnitude sample by sample, without a full-length envelope array.
+
+    Parameters
+    ----------
+    x : array_like
+        ``(n,)`` real envelope of any scale and offset (or complex samples with ``levels``).
+    threshold : float or None
+        Comparator threshold, unit of ``x``; default midway between the two level clusters.
+    hysteresis : float
+        Half-width of the hysteresis band as a fraction of high − low cluster means.
+    levels : tuple of float or None
+        ``(threshold, low, high)`` of ``x`` if already computed.
+
+    Returns
+    -------
+    PieEdges
+        Edges and per-frame arrays, in samples of ``x`` (empty for fewer than 2 samples or
+        non-finite real samples).
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not 1-D.
+    """
     x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
     if thr is None:
         z = np.zeros(0)
@@ -332,16 +476,21 @@ def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
 
     Parameters
     ----------
-    x : (n,) float, envelope of arbitrary scale and offset sampled by the decoder's clock
-    threshold : comparator threshold; default midway between the two level clusters
-    hysteresis : half-width of the comparator's hysteresis band as a fraction of the
-        difference between the high and low cluster means
-    levels : ``two_level_threshold(x)`` if the caller has already computed it (saves the
-        second isodata split); must belong to this ``x``
+    x : array_like
+        ``(n,) float`` envelope of arbitrary scale and offset sampled by the decoder's clock.
+    threshold : float or None
+        Comparator threshold; default midway between the two level clusters.
+    hysteresis : float
+        Half-width of the comparator's hysteresis band as a fraction of the difference
+        between the high and low cluster means.
+    levels : tuple of float or None
+        ``two_level_threshold(x)`` if the caller has already computed it (saves the second
+        isodata split); must belong to this ``x``.
 
     Returns
     -------
-    list of :class:`PieFrame` in time order (durations in samples of ``x``).
+    list of PieFrame
+        In time order (durations in samples of ``x``).
     """
     return pie_decode_arrays(x, threshold=threshold, hysteresis=hysteresis, levels=levels).frames()
 

@@ -213,9 +213,12 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     cmd_end_s, rtcal_s, frt : the command's last rising edge [s], its RTcal [s] and the BLF
         tolerance FrT that set the T1 window
     hypotheses : sequence of :class:`LinkHypothesis` searched
-    kind : reply kind (:data:`REPLY_KIND` values); ``n_bits_of(bits)`` the complete reply's
-        data bits from its first decoded bits (−1 unknown), ``max_bits`` the most it can have
-        (the window is cut after the longest reply)
+    kind : reply kind (:data:`REPLY_KIND` values)
+    n_bits_of : callable
+        ``n_bits_of(bits)`` the complete reply's data bits from its first decoded bits
+        (−1 unknown)
+    max_bits : int
+        The most data bits the reply can have (the window is cut after the longest reply)
     cut_s : where the window is cut (the next command's start) [s]; default ``window_end_s``
     method : "viterbi" or "bitwise"
     false_alarm_probability : per window, sets the detection threshold
@@ -224,7 +227,15 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     blf_hint_hz : BLF of an earlier reply in the capture: a single hypothesis is searched
         first within ±2 coarse steps of it (:func:`rfsim.gen2.reply_search._detect`)
 
-    Returns the :class:`TagReplyRecord` or None.
+    Returns
+    -------
+    TagReplyRecord or None
+        The decoded reply, or None when no reply is detected and validated.
+
+    Raises
+    ------
+    ValueError
+        If ``method`` is not one of :data:`METHODS`.
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -336,8 +347,12 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
-    of the BLF range searched (RTcal measured on the command). Returns the replies found,
-    in time order.
+    of the BLF range searched (RTcal measured on the command).
+
+    Returns
+    -------
+    list of TagReplyRecord
+        The replies found, in time order.
     """
     fs = float(fs_hz)
     if not (math.isfinite(fs) and fs > 0):

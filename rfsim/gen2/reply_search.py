@@ -64,11 +64,25 @@ def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
 
 
 def geometric_blf_grid_hz(lo_hz: float, hi_hz: float, step: float) -> np.ndarray:
-    """BLF hypotheses [Hz] ``lo_hz`` … ``hi_hz`` on a geometric grid of relative step ≤ ``step``:
+    """BLF hypotheses ``lo_hz`` … ``hi_hz`` on a geometric grid of relative step ≤ ``step``.
+
     n = ⌈ln(hi/lo) / ln(1 + step)⌉ + 1 values (at least 2) in equal ratios
     (:func:`numpy.geomspace`); the one middle value when hi ≤ lo. The coarse BLF grid of the
     capture decoder (step 2) and of the reader's BLF search, with step 1/(2·preamble elements),
-    the correlation peak's half-width."""
+    the correlation peak's half-width.
+
+    Parameters
+    ----------
+    lo_hz, hi_hz : float
+        Lowest and highest BLF [Hz].
+    step : float
+        Largest relative step between neighbours [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n,) float64`` BLFs [Hz].
+    """
     lo, hi = float(lo_hz), float(hi_hz)
     if hi <= lo:
         return np.array([0.5 * (lo + hi)])
@@ -85,17 +99,45 @@ def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
 
 
 def boxcar_decimate(r: np.ndarray, d: int) -> np.ndarray:
-    """Means of consecutive blocks of ``d`` samples, ``(len(r)//d,)`` (sample j of the result
-    is at input position j·d + (d − 1)/2)."""
+    """Means of consecutive blocks of ``d`` samples.
+
+    Sample j of the result is at input position j·d + (d − 1)/2.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` samples (real or complex, any unit).
+    d : int
+        Block length [samples]; 1 returns a copy.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n // d,)`` block means, same unit as ``r``.
+    """
     n = r.size // d
     return r[: n * d].reshape(n, d).mean(axis=1) if d > 1 else r.copy()
 
 
 def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
-    """Zero-mean normalised correlation of ``r`` with the zero-mean real template at every
-    valid lag: |Σ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), ``(r.size − L + 1,)`` in [0, 1]
-    (the statistic of :func:`rfsim.gen2.linecode.decode_reply` and of the detection
-    threshold; sliding sums by cumulative sums)."""
+    """Zero-mean normalised correlation of ``r`` with a zero-mean real template at every valid lag.
+
+    ρ[k] = |Σᵢ r[k+i]·t0[i]| / (‖t0‖·‖r[k:k+L] − mean‖), the statistic of
+    :func:`rfsim.gen2.linecode.decode_reply` and of the detection threshold; sliding sums by
+    cumulative sums.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` samples, real or complex, any unit.
+    template0 : numpy.ndarray
+        ``(L,) float64`` zero-mean template.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n − L + 1,) float64`` correlation in [0, 1].
+    """
     from scipy.signal import correlate  # imported when first used: scipy.signal costs ≈ 1 s to import
 
     n = template0.size

@@ -40,14 +40,47 @@ MIN_TRACK_BLOCKS = 6
 
 
 def warp_positions(n_prime: np.ndarray, u1: float, u2: float, rho: float) -> np.ndarray:
-    """Sample offsets t from the reply start where the element clock u(t) = u1·t + u2·t²
-    reaches ρ·n′ (stable root of the quadratic)."""
+    """Sample offsets where the element clock reaches ρ·n′.
+
+    Solves u(t) = u₁·t + u₂·t² = ρ·n′ for t by the stable root
+    t = 2ρn′ / (u₁ + √(u₁² + 4u₂ρn′)) (module docstring).
+
+    Parameters
+    ----------
+    n_prime : numpy.ndarray
+        Element positions n′ [elements].
+    u1 : float
+        Element rate u₁ [elements/sample].
+    u2 : float
+        Element-rate drift u₂ [elements/sample²].
+    rho : float
+        Scale of the element positions [1].
+
+    Returns
+    -------
+    numpy.ndarray
+        Offsets t from the reply start [samples], same shape as ``n_prime``.
+    """
     target = rho * n_prime
     disc = np.maximum(u1 * u1 + 4.0 * u2 * target, 1e-300)
     return 2.0 * target / (u1 + np.sqrt(disc))
 
 
 def resample(r: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Complex samples of ``r`` at fractional ``positions`` by linear interpolation.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` complex samples, sample k at position k.
+    positions : numpy.ndarray
+        ``(m,)`` positions [samples].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m,) complex128`` interpolated samples, same unit as ``r``.
+    """
     x = np.arange(r.size, dtype=np.float64)
     return np.interp(positions, x, r.real) + 1j * np.interp(positions, x, r.imag)
 
@@ -87,9 +120,23 @@ def _block_offsets(y, start, u1, u2, el, n_blocks, base, n_blocks_used=None):
 
 
 def weighted_polyfit(t, d, w, deg):
-    """Coefficients (highest power first, as :func:`numpy.polyfit`) of the polynomial of
-    degree ``deg`` minimising Σ w_i·(p(t_i) − d_i)² (w ≥ 0): the normal equations in the
-    centred, scaled variable x = (t − t̄)/s (well conditioned), then re-expanded in t."""
+    """Weighted least-squares polynomial fit.
+
+    Minimises Σ w_i·(p(t_i) − d_i)² (w ≥ 0) by the normal equations in the centred, scaled
+    variable x = (t − t̄)/s (well conditioned), then re-expanded in t.
+
+    Parameters
+    ----------
+    t, d, w : array_like
+        ``(n,)`` abscissae, ordinates and weights (≥ 0).
+    deg : int
+        Polynomial degree.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(deg + 1,)`` coefficients, highest power first (as :func:`numpy.polyfit`).
+    """
     t, d, w = (np.asarray(v, dtype=np.float64) for v in (t, d, w))
     tm = float(t.mean())
     ts = float(np.max(np.abs(t - tm))) or 1.0
@@ -106,8 +153,38 @@ def weighted_polyfit(t, d, w, deg):
 
 
 def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
-    """Element clock ``(start, u1, u2)`` of the reply refined by the tracking loop (one numba
-    kernel, ``track_kernel``; :func:`track_reference` is its NumPy twin, documented there)."""
+    """Element clock of the reply refined by the tracking loop.
+
+    One numba kernel (``track_kernel``); :func:`track_reference` is its NumPy twin and
+    documents the loop (module docstring: per-block offsets δ_b, a weighted quadratic δ(t)
+    over :data:`TRACK_SPANS`, u_new(t) ≈ u(t) − u₁·δ(t)).
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` complex window at the working rate, any unit.
+    start : float
+        Reply start [samples].
+    u1 : float
+        Element rate [elements/sample].
+    u2 : float
+        Element-rate drift [elements/sample²].
+    h, c : complex
+        Reply gain and rest level (the received ``y = Re((r − c)/h)``), unit of ``r``.
+    bits : numpy.ndarray
+        ``(n_bits,) uint8`` decoded data bits (the reference).
+    m : int
+        Symbols per bit M.
+    trext : bool
+        Pilot tone present.
+    dummy : bool
+        Trailing dummy data-1 present.
+
+    Returns
+    -------
+    tuple of float
+        ``(start, u1, u2)`` [samples, elements/sample, elements/sample²].
+    """
     el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
     n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
     y = np.ascontiguousarray(((r - c) / h).real)
@@ -118,12 +195,40 @@ def track(r, start, u1, u2, h, c, bits, m, trext, dummy):
 
 
 def track_reference(r, start, u1, u2, h, c, bits, m, trext, dummy):
-    """Element clock ``(start, u1, u2)`` [samples, elements/sample, elements/sample²] of the
-    reply, refined from per-block timing offsets (step 4): the blocks are taken in growing
-    spans from the reply start (the first quarter, half, all), each span's new offsets
-    searched around the extrapolation of the previous span's fit (the leading blocks whose
-    centres lay inside an earlier span keep the offsets measured then), so a BLF error or drift whose
-    timing error grows past half an element towards the reply's end is still followed."""
+    """Element clock of the reply refined from per-block timing offsets (NumPy twin of :func:`track`).
+
+    Step 4 of :mod:`rfsim.gen2.replies`: the blocks are taken in growing spans from the
+    reply start (the first quarter, half, all), each span's new offsets searched around the
+    extrapolation of the previous span's fit (the leading blocks whose centres lay inside an
+    earlier span keep the offsets measured then), so a BLF error or drift whose timing error
+    grows past half an element towards the reply's end is still followed.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` complex window at the working rate, any unit.
+    start : float
+        Reply start [samples].
+    u1 : float
+        Element rate [elements/sample].
+    u2 : float
+        Element-rate drift [elements/sample²].
+    h, c : complex
+        Reply gain and rest level (the received ``y = Re((r − c)/h)``), unit of ``r``.
+    bits : numpy.ndarray
+        ``(n_bits,) uint8`` decoded data bits (the reference).
+    m : int
+        Symbols per bit M.
+    trext : bool
+        Pilot tone present.
+    dummy : bool
+        Trailing dummy data-1 present.
+
+    Returns
+    -------
+    tuple of float
+        ``(start, u1, u2)`` [samples, elements/sample, elements/sample²].
+    """
     el = halfsymbols(bits, m=m, trext=trext, dummy=dummy).astype(np.float64)
     n_blocks = max(MIN_TRACK_BLOCKS, el.size // TRACK_BLOCK_ELEMENTS)
     y = ((r - c) / h).real

@@ -117,11 +117,40 @@ class BocCode:
         return 2.0 * (self.subcarrier_hz_value + self.bit_rate_bps)
 
     def duration_s(self, n_bits: int) -> float:
-        """Air time of ``n_bits`` bits [s] = n_bits·N / R_c."""
+        """Air time of ``n_bits`` bits: n_bits·N / R_c.
+
+        Parameters
+        ----------
+        n_bits : int
+            Number of bits.
+
+        Returns
+        -------
+        float
+            Air time [s].
+        """
         return int(n_bits) * self.chips_per_bit / self.chip_rate_hz
 
     def check_fs(self, fs_hz: float, key: str = "fs_hz") -> float:
-        """``fs_hz`` as float, or a :class:`ConfigError` when it is below :attr:`bandwidth_hz`."""
+        """``fs_hz`` as float, checked against :attr:`bandwidth_hz` = 2·(f_sc + R_b).
+
+        Parameters
+        ----------
+        fs_hz : float
+            Sample rate [Hz].
+        key : str
+            Configuration key named in the error.
+
+        Returns
+        -------
+        float
+            The sample rate [Hz].
+
+        Raises
+        ------
+        ConfigError
+            When the rate is not finite or below the BOC bandwidth.
+        """
         fs = float(fs_hz)
         if not (math.isfinite(fs) and fs >= self.bandwidth_hz * (1.0 - 1e-12)):
             raise ConfigError(key, fs_hz, f"a sample rate ≥ the BOC bandwidth 2·(f_sc + R_b) = "
@@ -133,7 +162,20 @@ class BocCode:
 
 
 def boc_chips(bits, code: BocCode) -> np.ndarray:
-    """Chip levels of ``bits``: ``(n_bits·N,) int8`` of ±1 (numba kernel)."""
+    """Chip levels of ``bits`` (numba kernel).
+
+    Parameters
+    ----------
+    bits : array_like or str
+        ``(n_bits,)`` 0/1.
+    code : BocCode
+        The line code.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_bits·N,) int8`` of ±1.
+    """
     arr = as_bits(bits)
     out = np.empty(arr.size * code.chips_per_bit, dtype=np.int8)
     _k.chips_kernel(arr, code.chips_per_bit, code.half_cycle_chips, out)
@@ -161,16 +203,34 @@ def boc_train(starts_s, bits, code: BocCode, *, t0_s: float, fs_hz: float, n_sam
 
     Parameters
     ----------
-    starts_s : (P,) float, start time of each packet [s]
-    bits : (P, n_bits) uint8 0/1 (or (n_bits,) for one packet)
-    code : the line code; ``fs_hz`` must reach :attr:`BocCode.bandwidth_hz`
-    n_samples : length of the time base
-    level_plus, level_minus : value on a +1 / −1 chip (e.g. Γ_open, Γ_short)
-    rest : value outside every packet
+    starts_s : array_like
+        ``(P,)`` start time of each packet [s].
+    bits : array_like
+        ``(P, n_bits)`` uint8 0/1 (or ``(n_bits,)`` for one packet).
+    code : BocCode
+        The line code.
+    t0_s : float
+        Time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz]; must reach :attr:`BocCode.bandwidth_hz`.
+    n_samples : int
+        Length of the time base.
+    level_plus, level_minus : complex
+        Value on a +1 / −1 chip (e.g. Γ_open, Γ_short).
+    rest : complex
+        Value outside every packet.
 
     Returns
     -------
-    (n_samples,) complex128
+    numpy.ndarray
+        ``(n_samples,) complex128``, in the unit of the levels.
+
+    Raises
+    ------
+    ConfigError
+        If ``fs_hz`` is below the BOC bandwidth.
+    ValueError
+        For malformed bits or a start count that differs from the packet count.
     """
     fs = code.check_fs(fs_hz)
     s0, bits = _train_args(starts_s, bits, t0_s, fs)
@@ -206,10 +266,28 @@ class BocDetection:
 
 
 def boc_bit_sums(r, start_sample: float, code: BocCode, *, fs_hz: float, n_bits: int):
-    """Per-bit sums ``(ysum, qsum, count, rsum, r2sum)`` of a packet (numba kernel).
+    """Per-bit sums of a packet (numba kernel).
 
-    ``ysum[i] = Σ r·q``, ``qsum[i] = Σ q``, ``count[i]`` samples, ``rsum[i] = Σ r``,
-    ``r2sum[i] = Σ |r|²`` over the samples of bit i (q = subcarrier sign).
+    Over the samples of bit i (q = subcarrier sign): ``ysum[i] = Σ r·q``, ``qsum[i] = Σ q``,
+    ``count[i]`` samples, ``rsum[i] = Σ r``, ``r2sum[i] = Σ |r|²``.
+
+    Parameters
+    ----------
+    r : array_like
+        ``(n,)`` complex baseband, any unit.
+    start_sample : float
+        Fractional sample index of the packet's first chip.
+    code : BocCode
+        The line code.
+    fs_hz : float
+        Sample rate [Hz].
+    n_bits : int
+        Bits of the packet.
+
+    Returns
+    -------
+    ysum, qsum, count, rsum, r2sum : numpy.ndarray
+        ``(n_bits,)`` each; unit of r (r2sum: its square).
     """
     fs = code.check_fs(fs_hz)
     r = np.ascontiguousarray(r, dtype=np.complex128)
@@ -249,12 +327,34 @@ def boc_decode(r, *, code: BocCode, fs_hz: float, n_bits: int, start_sample: flo
                preamble_bits=()) -> BocDetection:
     """Decode one BOC packet of ``n_bits`` bits starting at ``start_sample`` of ``r``.
 
+    Offset-corrected per-bit sums, preamble phase reference, sign decisions, then least-squares
+    h, c and σ² (module docstring).
+
     Parameters
     ----------
-    r : (n,) complex, baseband (any unit; h, c and σ² come out in it)
-    start_sample : fractional sample index of the packet's first chip
-    preamble_bits : the known first bits, used as phase reference (empty: all bits, which
-        leaves the sign of h ambiguous)
+    r : array_like
+        ``(n,)`` complex baseband (any unit; h, c and σ² come out in it).
+    code : BocCode
+        The line code.
+    fs_hz : float
+        Sample rate [Hz].
+    n_bits : int
+        Bits of the packet.
+    start_sample : float
+        Fractional sample index of the packet's first chip.
+    preamble_bits : array_like
+        The known first bits, used as phase reference (empty: all bits, which leaves the sign
+        of h ambiguous).
+
+    Returns
+    -------
+    BocDetection
+        Bits, gain, offset, noise variance, SNR [dB] and the preamble check.
+
+    Raises
+    ------
+    ValueError
+        If the packet is not fully inside ``r``.
     """
     pre = as_bits(preamble_bits) if len(preamble_bits) else np.zeros(0, np.uint8)
     return _decide(boc_bit_sums(r, start_sample, code, fs_hz=fs_hz, n_bits=n_bits), pre)
@@ -274,9 +374,34 @@ def _preamble_template(code: BocCode, preamble: bytes, fs_hz: float) -> np.ndarr
 def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int, int]) -> tuple[int, float]:
     """Integer start sample of a packet in ``r`` by preamble correlation.
 
-    Correlates ``r − mean(r)`` with the sampled preamble (start at sample 0) for every
-    start in ``range(search[0], search[1])`` and returns ``(start, |ρ|)`` with ρ the
-    normalised correlation (1 for a noise-free, sample-aligned packet).
+    Correlates ``r − mean(r)`` with the sampled preamble (start at sample 0) for every start
+    in ``range(search[0], search[1])``; ρ is the normalised correlation (1 for a noise-free,
+    sample-aligned packet).
+
+    Parameters
+    ----------
+    r : array_like
+        ``(n,)`` complex baseband, any unit.
+    code : BocCode
+        The line code.
+    fs_hz : float
+        Sample rate [Hz].
+    preamble_bits : array_like
+        The known preamble bits.
+    search : tuple of int
+        ``(first, end)`` start samples searched.
+
+    Returns
+    -------
+    start : int
+        Start sample.
+    rho : float
+        |ρ| at that start [1].
+
+    Raises
+    ------
+    ValueError
+        If the search window does not hold a whole preamble.
     """
     fs = code.check_fs(fs_hz)
     pre = as_bits(preamble_bits)

@@ -64,9 +64,36 @@ class PacketDecode:
 
 def decode_packet(r, *, t0_s: float, fs_hz: float, fmt: PacketFormat, framing: Framing, code: BocCode,
                   expected_start_s: float, search_s: float = 2e-6) -> PacketDecode | None:
-    """Steps 1 of the module docstring for one packet: search the start in ±``search_s``
-    around ``expected_start_s`` by preamble correlation, then BOC-decode there. None when
-    the packet (with its search window) is not wholly inside ``r``."""
+    """Step 1 of the module docstring for one packet.
+
+    Search the start in ±``search_s`` around ``expected_start_s`` by preamble correlation,
+    then BOC-decode there.
+
+    Parameters
+    ----------
+    r : array_like
+        ``(n,)`` complex baseband [√W] on the time base t = t0_s + n/fs_hz.
+    t0_s : float
+        Time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz].
+    fmt : PacketFormat
+        The packet format.
+    framing : Framing
+        The framing (its preamble is the correlation reference).
+    code : BocCode
+        The line code.
+    expected_start_s : float
+        Nominal packet start [s].
+    search_s : float
+        Half-width of the start search [s].
+
+    Returns
+    -------
+    PacketDecode or None
+        The decoded packet; None when the packet (with its search window) is not wholly
+        inside ``r``.
+    """
     fs = code.check_fs(fs_hz)
     n_air = int(np.ceil(code.duration_s(fmt.n_bits) * fs))
     half = int(np.ceil(search_s * fs))
@@ -86,13 +113,26 @@ def packet_table(decoded, *, fc_hz: float, fmt: PacketFormat, framing: Framing, 
 
     Parameters
     ----------
-    decoded : sequence of :class:`PacketDecode` in time order
-    fc_hz : the pylon's carrier (for λ)
-    k_u : RSS-range constant K_u [W·m⁴] (None: no range)
-    true_radial_velocity_mps : (P,) ground-truth mean radial velocity over each packet
-        interval, (r_k − r_{k−1})/Δt (None: ``aliased`` all False); a packet is
-        ``aliased`` where its magnitude reaches the limit λ/(4·Δt) — the wrapped Δφ then
-        no longer tells the true velocity
+    decoded : sequence of PacketDecode
+        In time order.
+    fc_hz : float
+        The pylon's carrier (for λ) [Hz].
+    fmt : PacketFormat
+        The packet format.
+    framing : Framing
+        The framing (CRC, word order).
+    k_u : float or None
+        RSS-range constant K_u [W·m⁴] (None: no range).
+    true_radial_velocity_mps : array_like or None
+        ``(P,)`` ground-truth mean radial velocity over each packet interval,
+        (r_k − r_{k−1})/Δt [m/s] (None: ``aliased`` all False); a packet is ``aliased`` where
+        its magnitude reaches the limit λ/(4·Δt) — the wrapped Δφ then no longer tells the
+        true velocity.
+
+    Returns
+    -------
+    PacketMeasurements
+        The pylon's packet table.
     """
     start = np.array([d.start_s for d in decoded], dtype=float)
     gain = np.array([d.gain for d in decoded], dtype=np.complex128)
@@ -126,13 +166,27 @@ def measure_packets(r, *, t0_s: float, fs_hz: float, fc_hz: float, fmt: PacketFo
 
     Parameters
     ----------
-    r : (n,) complex baseband [√W] on the time base t = t0_s + n/fs_hz
-    fc_hz : the pylon's carrier (for λ)
-    fmt, framing, code : the tag's packet format, framing and line code
-    expected_starts_s : (P,) nominal packet starts [s]; packets not wholly inside ``r`` are
-        skipped
-    search_s : half-width of the start search [s]
-    k_u : RSS-range constant K_u [W·m⁴] (None: no range)
+    r : array_like
+        ``(n,)`` complex baseband [√W] on the time base t = t0_s + n/fs_hz.
+    t0_s : float
+        Time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz].
+    fc_hz : float
+        The pylon's carrier (for λ) [Hz].
+    fmt, framing, code : PacketFormat, Framing, BocCode
+        The tag's packet format, framing and line code.
+    expected_starts_s : array_like
+        ``(P,)`` nominal packet starts [s]; packets not wholly inside ``r`` are skipped.
+    search_s : float
+        Half-width of the start search [s].
+    k_u : float or None
+        RSS-range constant K_u [W·m⁴] (None: no range).
+
+    Returns
+    -------
+    PacketMeasurements
+        The pylon's packet table.
     """
     r = np.asarray(r, dtype=np.complex128)
     found = [decode_packet(r, t0_s=t0_s, fs_hz=fs_hz, fmt=fmt, framing=framing, code=code, expected_start_s=t,

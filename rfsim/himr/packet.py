@@ -80,7 +80,22 @@ class PacketFormat:
 
     def code(self, *, chip_rate_hz: float | None = None, subcarrier_hz: float | None = None,
              key: str = "tag") -> BocCode:
-        """The BOC line code (optionally with another chip rate / subcarrier)."""
+        """The BOC line code of the format (optionally with another chip rate / subcarrier).
+
+        Parameters
+        ----------
+        chip_rate_hz : float or None
+            Chip rate R_c [chip/s]; None: the format's.
+        subcarrier_hz : float or None
+            Subcarrier frequency [Hz]; None: the code's default.
+        key : str
+            Configuration key named in errors.
+
+        Returns
+        -------
+        BocCode
+            The line code.
+        """
         return BocCode(self.chips_per_bit, self.chip_rate_hz if chip_rate_hz is None else chip_rate_hz,
                        subcarrier_hz, key=key)
 
@@ -117,7 +132,25 @@ PACKET_BITS_NOTE = (
 
 
 def packet_format(name: str, key: str = "tag.packet_format") -> PacketFormat:
-    """The :class:`PacketFormat` called ``name``; a one-line :class:`ConfigError` otherwise."""
+    """The :class:`PacketFormat` called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        Format name, a key of :data:`PACKET_FORMATS`.
+    key : str
+        Configuration key named in the error.
+
+    Returns
+    -------
+    PacketFormat
+        The format.
+
+    Raises
+    ------
+    ConfigError
+        One line, with a did-you-mean hint, for an unknown name.
+    """
     try:
         return PACKET_FORMATS[name]
     except (KeyError, TypeError):
@@ -142,6 +175,22 @@ def crc8(data, *, poly: int = 0x07, init: int = 0x00, xorout: int = 0x00) -> int
 
     ``reg ← T[reg ⊕ byte]`` with T[b] the register after shifting b through x⁸ + poly
     eight times; the result is ``reg ⊕ xorout``. Defaults: CRC-8/SMBUS (check 0xF4).
+
+    Parameters
+    ----------
+    data : bytes or array_like of uint8
+        The bytes.
+    poly : int
+        Polynomial without the x⁸ term.
+    init : int
+        Register preset.
+    xorout : int
+        Final XOR.
+
+    Returns
+    -------
+    int
+        CRC in [0, 255].
     """
     table = _crc8_table(int(poly))
     reg = int(init) & 0xFF
@@ -176,11 +225,33 @@ class Framing:
         return bytes.fromhex(self.preamble_hex.replace(" ", ""))
 
     def to_bits(self, byte_rows: np.ndarray) -> np.ndarray:
-        """(..., n_bytes) uint8 → (..., 8·n_bytes) uint8 bits in air order."""
+        """Bytes to bits in air order (:attr:`bit_order`).
+
+        Parameters
+        ----------
+        byte_rows : numpy.ndarray
+            ``(..., n_bytes) uint8``.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., 8·n_bytes) uint8`` bits.
+        """
         return np.unpackbits(byte_rows, axis=-1, bitorder="big" if self.bit_order == "msb" else "little")
 
     def to_bytes(self, bit_rows: np.ndarray) -> np.ndarray:
-        """Inverse of :meth:`to_bits`."""
+        """Inverse of :meth:`to_bits`.
+
+        Parameters
+        ----------
+        bit_rows : numpy.ndarray
+            ``(..., 8·n_bytes) uint8`` bits in air order.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(..., n_bytes) uint8``.
+        """
         return np.packbits(bit_rows, axis=-1, bitorder="big" if self.bit_order == "msb" else "little")
 
     @property
@@ -188,6 +259,18 @@ class Framing:
         return self.to_bits(np.frombuffer(self.preamble_bytes, dtype=np.uint8))
 
     def crc(self, payload: bytes) -> int:
+        """CRC-8 of a payload with this framing's polynomial, preset and final XOR (:func:`crc8`).
+
+        Parameters
+        ----------
+        payload : bytes
+            ID and data bytes.
+
+        Returns
+        -------
+        int
+            CRC in [0, 255].
+        """
         return crc8(payload, poly=self.crc_poly, init=self.crc_init, xorout=self.crc_xorout)
 
 
@@ -196,12 +279,28 @@ def _word_dtype(framing: Framing) -> str:
 
 
 def build_packets(fmt: PacketFormat, framing: Framing, tag_id: int, words) -> np.ndarray:
-    """Bits of P packets: ``(P, fmt.n_bits) uint8``.
+    """Bits of P packets: header, tag ID, data words, CRC-8.
 
     Parameters
     ----------
-    words : (P, fmt.n_words) int16 (values outside int16 are rejected)
-    tag_id : 0…65535, sent big-endian
+    fmt : PacketFormat
+        The packet layout.
+    framing : Framing
+        Preamble, CRC and bit/byte order.
+    tag_id : int
+        0…65535, sent big-endian.
+    words : array_like
+        ``(P, fmt.n_words)`` int16 (values outside int16 are rejected).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(P, fmt.n_bits) uint8`` bits in air order.
+
+    Raises
+    ------
+    ValueError
+        For words of the wrong shape or outside int16, or a tag ID outside 0…65535.
     """
     w = np.asarray(words)
     if w.ndim != 2 or w.shape[1] != fmt.n_words:
@@ -234,7 +333,27 @@ class ParsedPackets:
 
 
 def parse_packets(fmt: PacketFormat, framing: Framing, bits) -> ParsedPackets:
-    """Inverse of :func:`build_packets` with the CRC and header checks; ``bits`` (P, n_bits)."""
+    """Inverse of :func:`build_packets` with the CRC and header checks.
+
+    Parameters
+    ----------
+    fmt : PacketFormat
+        The packet layout.
+    framing : Framing
+        Preamble, CRC and bit/byte order.
+    bits : array_like
+        ``(P, fmt.n_bits)`` received bits.
+
+    Returns
+    -------
+    ParsedPackets
+        Tag IDs, words, CRC and header checks per packet.
+
+    Raises
+    ------
+    ValueError
+        If the rows do not have ``fmt.n_bits`` bits.
+    """
     b = np.atleast_2d(np.asarray(bits, dtype=np.uint8))
     if b.shape[1] != fmt.n_bits:
         raise ValueError(f"{fmt.name} packets have {fmt.n_bits} bits, got {b.shape[1]}")

@@ -38,7 +38,7 @@ BINDINGS = {
     "beacons.py": {"tag": itf.BeaconTag},
 }
 #: Loop variables over sequences of devices: (module, variable, iterable name) → protocol.
-LOOPS = {("batch.py", "r", "readers"): itf.Gen2Reader}
+LOOPS = {("engine.py", "r", "readers"): itf.Gen2Reader}
 
 
 def _members(proto) -> set[str]:
@@ -89,7 +89,7 @@ def test_the_scan_sees_the_uses():
     uses = [u for name in BINDINGS for u in _uses(ROOT / "rfsim" / "protocols" / name, BINDINGS[name], LOOPS)]
     chains = {(p.__name__, c) for p, c in uses}
     assert ("Gen2Reader", ("transmit",)) in chains
-    assert ("Gen2Reader", ("config", "blf_search")) in chains  # the once-undeclared edge of batch.py
+    assert ("Gen2Reader", ("config", "blf_search")) in chains  # the once-undeclared edge (the batched singulation in engine.py)
     assert ("BeaconTag", ("send",)) in chains
 
 

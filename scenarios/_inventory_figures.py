@@ -45,12 +45,20 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
         at = np.arange(pops.size)
         n_slots = np.array([np.sum(s["population"] == n) for n in pops])
         for i, st in enumerate(SLOT_TYPES):
-            frac = np.array([np.mean(types[s["population"] == n] == st) for n in pops])
+            k = np.array([np.sum(types[s["population"] == n] == st) for n in pops])
+            frac = k / np.maximum(n_slots, 1)
             a.bar(at, 100 * frac, bottom=100 * bottom, color=OKABE_ITO[i % len(OKABE_ITO)],
                   hatch=_HATCHES[i % len(_HATCHES)], edgecolor="white", lw=0.3, label=st.replace("_", " "))
+            # the share's Wilson 95 % interval, centred on its segment (its length is the interval's)
+            lo, hi = wilson_interval(k, n_slots)
+            mid = 100 * (bottom + frac / 2)
+            shown = k > 0
+            a.errorbar(at[shown] + 0.3 * (i / max(1, len(SLOT_TYPES) - 1) - 0.5), mid[shown],
+                       yerr=[100 * (frac - lo)[shown], 100 * (hi - frac)[shown]], fmt="none", ecolor="black",
+                       elinewidth=0.6, capsize=1.5)
             bottom += frac
         a.set_xticks(at, [f"{n}\n({k} slots)" for n, k in zip(pops, n_slots)])
-        a.set(xlabel="tags $N$", ylabel="share of slots [%]", ylim=(0, 100), title="slot types")
+        a.set(xlabel="tags $N$", ylabel="share of slots [%] (Wilson 95 %)", ylim=(0, 100), title="slot types")
         a.grid(False)
         legend_outside(a, where="below", ncols=3, title="slot type")
         read = np.array([np.sum(inv["tags_read"][inv["population"] == n]) for n in pops])
@@ -114,8 +122,10 @@ def _plot_capture_trials(a, c, wilson_interval) -> None:
 
 def _plot_sweep(a, b, path) -> None:
     """P(capture) vs power ratio (Clopper-Pearson 95 %) and the acceptance trade-off
-    (false-ACK rate on a log axis; a zero rate is drawn at half of one collision, 1/(2n))."""
+    (false-ACK rate on a log axis; a zero rate is drawn at half of one collision, 1/(2n);
+    Wilson 95 % intervals of both rates at every 4th threshold)."""
     from rfsim.core.dataset import read_table
+    from rfsim.detection.fit import wilson_interval
 
     c, acc = read_table(path, "capture_sweep"), read_table(path, "acceptance")
     code = np.asarray(c["line_code"]).astype(str)
@@ -133,13 +143,23 @@ def _plot_sweep(a, b, path) -> None:
                 ci_errorbar(a, c["ratio_db"][m], c["p_capture"][m], c["ci_lo"][m], c["ci_hi"][m], scale=100.0,
                             ms=3, label=f"{code[m][0]}, {how}", **style)
             if ma.any():
-                floor = 0.5 / np.maximum(acc["collisions"][ma], 1)
-                b.plot(np.maximum(acc["false_ack_rate"][ma], floor), 100 * acc["missed_capture_rate"][ma],
-                       ms=2.5, markevery=4, **style)
+                n_col = np.maximum(acc["collisions"][ma], 1)
+                floor = 0.5 / n_col
+                x = np.maximum(acc["false_ack_rate"][ma], floor)
+                b.plot(x, 100 * acc["missed_capture_rate"][ma], ms=2.5, markevery=4, **style)
+                if "captures" in acc:  # Wilson 95 % intervals of both rates, every 4th threshold
+                    n_cap = np.maximum(acc["captures"][ma], 1)
+                    miss = acc["missed_capture_rate"][ma]
+                    m_lo, m_hi = wilson_interval(np.round(miss * n_cap), n_cap)
+                    f_lo, f_hi = wilson_interval(np.round(acc["false_ack_rate"][ma] * n_col), n_col)
+                    e = slice(None, None, 4)
+                    b.errorbar(x[e], 100 * miss[e], yerr=[100 * (miss - m_lo)[e], 100 * (m_hi - miss)[e]],
+                               xerr=[(x - np.maximum(f_lo, floor))[e], (np.maximum(f_hi, floor) - x)[e]],
+                               fmt="none", ecolor=style["color"], elinewidth=0.5, capsize=1.0)
     n = int(c["trials"].min()) if len(c["trials"]) else 0
     a.set(xlabel="power ratio of the two\nreplies at the reader [dB]", ylabel=r"$P_\mathrm{capture}$ [%] (C-P 95 %)",
           ylim=(-3, 103), title=f"batched sweep, {n}\ncollisions/point")
     legend_outside(a, where="below", ncols=1)
     b.set_xscale("log")
-    b.set(xlabel="false-ACK rate\nper collided slot (0 at 1/2n)", ylabel="missed captures [%]",
+    b.set(xlabel="false-ACK rate\nper collided slot (0 at 1/2n)", ylabel="missed captures [%] (Wilson 95 %)",
           title="RN16 acceptance threshold\n0–20 dB (series as left)")

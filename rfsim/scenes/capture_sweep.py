@@ -285,6 +285,7 @@ ACCEPT_FIELDS = {
     "missed_capture_rate": ("1", "rejected although the RN16 was one tag's, per such slot"),
     "capture_rate": ("1", "accepted and one tag's RN16, per collided slot"),
     "collisions": ("1", "collided slots pooled"),
+    "captures": ("1", "collided slots whose decoded RN16 was one tag's (the missed-capture rate's denominator)"),
 }
 
 
@@ -329,7 +330,8 @@ def tables(cfg: CaptureSweepConfig, points: list[CapturePoint]) -> tuple[dict, d
                 for k, v in dict(profile=name, spread=int(spread), threshold_db=float(g),
                                  false_ack_rate=float(np.mean(a & ~right)),
                                  missed_capture_rate=float(np.sum(~a & right) / max(1, np.sum(right))),
-                                 capture_rate=float(np.mean(a & right)), collisions=int(dec.size)).items():
+                                 capture_rate=float(np.mean(a & right)), collisions=int(dec.size),
+                                 captures=int(np.sum(right))).items():
                     accept[k].append(v)
     return rows, trials, accept
 

@@ -43,6 +43,7 @@ import numpy as np
 
 from rfsim.core.config import from_dict, param
 from rfsim.core.errors import ConfigError
+from rfsim.core.figure_style import OKABE_ITO, figure, legend_outside
 from rfsim.core.lazy import lazy_import
 from rfsim.core.rng import trial_rng
 from rfsim.devices.active_reader import ActiveReaderConfig
@@ -437,16 +438,16 @@ def read_device_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
 
 def plot_devices(ax, tables: dict) -> None:
     """Draw exciters, sense-a-tags, beacons and beacon readers on the geometry axes."""
-    for name, marker, colour, label in (("exciters", "^", "tab:red", "exciters"),
-                                        ("sense_a_tags", "D", "tab:purple", "sense-a-tags"),
-                                        ("beacons", "o", "tab:orange", "beacons"),
-                                        ("beacon_readers", "P", "tab:brown", "beacon readers")):
+    for name, marker, colour, label in (("exciters", "^", OKABE_ITO[5], "exciters"),
+                                        ("sense_a_tags", "D", OKABE_ITO[6], "sense-a-tags"),
+                                        ("beacons", "v", OKABE_ITO[0], "beacons"),
+                                        ("beacon_readers", "P", OKABE_ITO[3], "beacon readers")):
         t = tables.get(name)
         if t is not None and len(t["x_m"]):
             ax.plot(t["x_m"], t["y_m"], marker, color=colour, ls="none", label=label)
 
 
-def plot_detections(plt, tables: dict):
+def plot_detections(tables: dict):
     """Figure: decoded (filled) and missed (open) sense-a-tag detections and beacon frames over
     time, one row per (sender, receiver) pair; None when the scene has neither."""
     det, bf = tables.get("detections"), tables.get("beacon_frames")
@@ -454,7 +455,7 @@ def plot_detections(plt, tables: dict):
     n_bf = len(bf["time_s"]) if bf is not None else 0
     if not (n_det or n_bf):
         return None
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = figure(columns=1, height_in=2.8)
     labels = []
     for t, a, b, prefix in ((det, "broadcaster", "listener", "ST"), (bf, "beacon", "reader", "B")):
         if t is None or not len(t["time_s"]):
@@ -464,11 +465,14 @@ def plot_detections(plt, tables: dict):
             sel = (t[a] == i) & (t[b] == j)
             y = len(labels)
             ok = sel & t["decoded"].astype(bool)
-            ax.plot(t["time_s"][ok], np.full(ok.sum(), y), "o", color="tab:green")
-            ax.plot(t["time_s"][sel & ~ok], np.full((sel & ~ok).sum(), y), "o", mfc="none", color="tab:red")
+            ax.plot(t["time_s"][ok], np.full(ok.sum(), y), "o", ms=3, color=OKABE_ITO[2],
+                    label="decoded" if not labels else None)
+            ax.plot(t["time_s"][sel & ~ok], np.full((sel & ~ok).sum(), y), "x", ms=3, color=OKABE_ITO[5],
+                    label="missed" if not labels else None)
             labels.append(f"{prefix}{i}→{'ST' if prefix == 'ST' else 'R'}{j}")
     ax.set_yticks(range(len(labels)), labels, fontsize=7)
-    ax.set(xlabel="time [s]", title="detections over time (filled: decoded, open: missed)")
+    ax.set(xlabel="time $t$ [s]", ylabel="sender → receiver", title="Detections over time")
+    legend_outside(ax)
     return fig
 
 

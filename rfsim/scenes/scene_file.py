@@ -57,7 +57,8 @@ import numpy as np
 from rfsim.core.config import from_dict, param, parse_override
 from rfsim.core.errors import ConfigError, UserError, did_you_mean
 from rfsim.core.lazy import lazy_import
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.figure_style import OKABE_ITO, figure, legend_outside, paper_style, series_style, source_note
+from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.records import READ_MEASUREMENT_FIELDS
 from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
@@ -542,47 +543,58 @@ def run(config: Config, *, seed: int):
 
 
 def plot(dataset_path, out_dir) -> list[Path]:
-    """Figures: geometry (top view: ports, tags, velocities, walls), reads per tag over time,
-    RSSI and phase per read."""
-    plt = pyplot()
+    """Figures, in the project style (:mod:`rfsim.core.figure_style`): geometry (top view:
+    ports, tags, velocities, walls, other devices), reads per tag over time, RSSI and phase
+    per read, and the devices' detections when the scene has any."""
     reads, ports, tags, walls = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags", "walls"))
-    out = []
-    fig, ax = plt.subplots(figsize=(6, 5))
-    ax.scatter(tags["x_m"], tags["y_m"], s=12, c="tab:green", label="tags (t = 0)")
-    for k in range(len(walls["attenuation_db"])):
-        ax.plot([walls["start_x_m"][k], walls["end_x_m"][k]], [walls["start_y_m"][k], walls["end_y_m"][k]], "-",
-                color="0.4", lw=3, label=f"wall {walls['attenuation_db'][k]:g} dB")
-    moving = (tags["vx_m_s"] != 0) | (tags["vy_m_s"] != 0)
-    for k in np.flatnonzero(moving):
-        ax.arrow(tags["x_m"][k], tags["y_m"][k], tags["vx_m_s"][k], tags["vy_m_s"][k], width=0.01,
-                 color="tab:green", length_includes_head=True)
-    for k in range(len(ports["x_m"])):
-        az = math.radians(ports["azimuth_deg"][k])
-        ax.plot(ports["x_m"][k], ports["y_m"][k], "s", color=f"C{ports['reader'][k] % 10}")
-        ax.arrow(ports["x_m"][k], ports["y_m"][k], 0.3 * math.cos(az), 0.3 * math.sin(az), width=0.01,
-                 color=f"C{ports['reader'][k] % 10}")
-        ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=7)
     device_tables = scene_devices.read_device_tables(dataset_path, _dataset.read_table)
-    scene_devices.plot_devices(ax, device_tables)
-    ax.set(xlabel="x [m]", ylabel="y [m]", title="geometry (top view; arrows: boresight, velocity per 1 s)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend(fontsize=7)
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "geometry")))
+    out = []
+    with paper_style():
+        fig, ax = figure(columns=1, height_in=3.6)
+        ax.plot(tags["x_m"], tags["y_m"], ls="none", marker="o", ms=3.5, color=OKABE_ITO[2], label="tags ($t$ = 0)")
+        for k in range(len(walls["attenuation_db"])):
+            ax.plot([walls["start_x_m"][k], walls["end_x_m"][k]], [walls["start_y_m"][k], walls["end_y_m"][k]], "-",
+                    color="0.4", lw=3, label=f"wall {walls['attenuation_db'][k]:g} dB")
+        moving = (tags["vx_m_s"] != 0) | (tags["vy_m_s"] != 0)
+        for k in np.flatnonzero(moving):
+            ax.arrow(tags["x_m"][k], tags["y_m"][k], tags["vx_m_s"][k], tags["vy_m_s"][k], width=0.01,
+                     color=OKABE_ITO[2], length_includes_head=True)
+        for k in range(len(ports["x_m"])):
+            az, st = math.radians(ports["azimuth_deg"][k]), series_style(int(ports["reader"][k]))
+            ax.plot(ports["x_m"][k], ports["y_m"][k], ls="none", marker="s", color=st["color"],
+                    label=f"reader {ports['name'][k]}" if ports["antenna"][k] == 0 else None)
+            ax.arrow(ports["x_m"][k], ports["y_m"][k], 0.3 * math.cos(az), 0.3 * math.sin(az), width=0.01,
+                     color=st["color"])
+            ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=6)
+        scene_devices.plot_devices(ax, device_tables)
+        ax.set(xlabel="$x$ [m]", ylabel="$y$ [m]", title="Scene geometry (top view)")
+        ax.set_aspect("equal", adjustable="datalim")
+        legend_outside(ax, where="below", ncols=2)
+        source_note(fig, "arrows: antenna boresight, tag velocity over 1 s")
+        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "geometry")))
 
-    fig, ax = plt.subplots(figsize=(7, 4))
-    ax.scatter(reads["time_s"], reads["tag"], s=6, c=reads["reader"], cmap="tab10", vmin=0, vmax=9)
-    ax.set(xlabel="time [s]", ylabel="tag index", title=f"reads per tag over time ({len(reads['time_s'])} reads)")
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "reads")))
+        fig, ax = figure(columns=1, height_in=2.6)
+        for r in np.unique(reads["reader"]) if len(reads["time_s"]) else []:
+            m = reads["reader"] == r
+            ax.plot(reads["time_s"][m], reads["tag"][m], ls="none", ms=2.5, label=f"reader {int(r)}",
+                    **{k: v for k, v in series_style(int(r)).items() if k != "linestyle"})
+        ax.set(xlabel="time $t$ [s]", ylabel="tag index", title=f"Reads per tag over time ({len(reads['time_s'])} reads)")
+        if len(reads["time_s"]):
+            legend_outside(ax)
+        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "reads")))
 
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-    a1.scatter(reads["time_s"], reads["peak_rssi_dbm"], s=4, c=reads["tag"], cmap="viridis")
-    a1.set(ylabel="RSSI [dBm]", title="per read (colour: tag index)")
-    a2.scatter(reads["time_s"], reads["phase_angle_rad"], s=4, c=reads["tag"], cmap="viridis")
-    a2.set(xlabel="time [s]", ylabel="phase [rad]")
-    out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
-    fig = scene_devices.plot_detections(plt, device_tables)
-    if fig is not None:
-        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "detections")))
+        fig, (a1, a2) = figure(columns=1, nrows=2, height_in=3.6, sharex=True)
+        for a, key, label in ((a1, "peak_rssi_dbm", "peak RSSI [dBm]"), (a2, "phase_angle_rad", r"phase $\phi$ [rad]")):
+            sc = a.scatter(reads["time_s"], reads[key], s=4, c=reads["tag"], cmap="viridis")
+            a.set(ylabel=label)
+        a1.set_title("Per read (colour: tag index)")
+        a2.set(xlabel="time $t$ [s]")
+        if len(reads["time_s"]):
+            fig.colorbar(sc, ax=[a1, a2], label="tag index")
+        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "rssi-phase")))
+        fig = scene_devices.plot_detections(device_tables)
+        if fig is not None:
+            out.append(save_figure(fig, figure_path(dataset_path, out_dir, "detections")))
     return out
 
 

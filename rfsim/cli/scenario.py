@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rfsim.cli.memory import add_max_memory_arg, max_memory
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.config import describe, load_config, to_toml
 from rfsim.core.errors import SEED_RANGE_TEXT, UserError, check_seed
@@ -43,6 +44,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="dataset file name (default: <out-dir>/<scenario>.h5)")
     p.add_argument("--no-plot", action="store_true", help="write the dataset only")
+    add_max_memory_arg(p)
     add_verbosity_args(p)
     p.set_defaults(func=_run)
 
@@ -96,7 +98,7 @@ def _run(args: argparse.Namespace) -> int:
         out_dir = args.out_dir if args.out_dir is not None else (
             args.output.parent if args.output is not None else Path("results"))  # figures beside -o
         out = run_scenario(module, config, seed=args.seed, out_dir=out_dir, output=args.output,
-                           make_plots=not args.no_plot)
+                           make_plots=not args.no_plot, max_memory_bytes=max_memory(args))
     if not args.quiet:
         print(f"dataset: {out.dataset_path}")
         for fig in out.figure_paths:

@@ -1,0 +1,119 @@
+"""The resource estimate before a run: parsing of --max-memory, the one-line refusal (exit 2)
+and, per built-in scenario, that the estimated peak bounds the measured peak resident memory
+of the run within 2x at two sizes (the larger sizes in the slow tier)."""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rfsim.core.config import load_config
+from rfsim.core.errors import UserError
+from rfsim.runs.registry import get_scenario
+from rfsim.runs.resources import Estimate, check_memory, parse_size
+from rfsim.runs.sizes import SIZE_MODELS, estimate_of
+
+
+def test_parse_size():
+    assert parse_size("2GiB") == 2 * 2**30
+    assert parse_size("500MB") == 500 * 10**6
+    assert parse_size("1e9") == 10**9
+    assert parse_size("1.5 kib") == 1536
+    for bad in ("", "two", "5 parsecs", "-1G", "0"):
+        with pytest.raises(UserError):
+            parse_size(bad)
+
+
+def test_check_memory_names_the_drivers_the_estimate_and_the_limit():
+    est = Estimate(work_units=1300, peak_bytes=3 * 2**30, drivers=("mc.positions_per_cell", "mc.repetitions"))
+    check_memory(est, 4 * 2**30, what="the x run")
+    with pytest.raises(UserError) as err:
+        check_memory(est, 2**30, what="the x run")
+    text = str(err.value)
+    assert "\n" not in text
+    assert "mc.positions_per_cell, mc.repetitions" in text and "3.0 GiB" in text and "1.0 GiB" in text
+    with pytest.raises(UserError, match=r"6.0 GiB × 2 at once"):
+        check_memory(est, 4 * 2**30, what="a point", processes=2)
+
+
+def test_every_builtin_scenario_has_a_size_model():
+    from rfsim.runs.registry import builtin_modules
+
+    assert set(builtin_modules()) == set(SIZE_MODELS)
+
+
+def test_max_memory_1mib_stops_the_run_before_any_work(tmp_path):
+    out = tmp_path / "x.h5"
+    r = subprocess.run([sys.executable, "-m", "rfsim", "run", "st-to-st", "--no-plot", "--max-memory", "1MiB",
+                        "--set", "mc.positions_per_cell=100000", "--set", "mc.repetitions=1000", "-o", str(out)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert "mc.positions_per_cell" in lines[0] and "mc.repetitions" in lines[0] and "1 MiB" in lines[0]
+    assert not out.exists()
+
+
+def test_the_issue_sizes_are_refused_at_the_default_limit_of_a_16_gib_machine():
+    limit = 8 * 2**30
+    for name, sets in (("st-to-st", ["mc.positions_per_cell=100000", "mc.repetitions=1000"]),
+                       ("exciter-link", ["sweep.draws_per_point=100000"]),
+                       ("rss-localization", ["particles=1000000", "trials=1000000"]),
+                       ("tag-to-tag-tracking", ["trajectories=1000000", "filter_runs=100000"])):
+        module = get_scenario(name)
+        with pytest.raises(UserError):
+            check_memory(estimate_of(module, load_config(module.Config, None, sets)), limit, what=name)
+
+
+def test_sweep_stops_before_any_run(tmp_path):
+    spec = tmp_path / "s.toml"
+    spec.write_text('scenario = "st-to-st"\n[base.mc]\npositions_per_cell = 100000\n'
+                    '[[axes]]\nkind = "grid"\nkey = "mc.repetitions"\nvalues = [1, 1000]\n')
+    out = tmp_path / "s.h5"
+    r = subprocess.run([sys.executable, "-m", "rfsim", "sweep", "run", str(spec), "-o", str(out), "--workers", "2",
+                        "--max-memory", "1GiB", "-q"], capture_output=True, text=True)
+    assert r.returncode == 2, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "× 2 at once" in lines[0] and "mc.repetitions" in lines[0], r.stderr
+    assert not out.exists()
+
+
+def measured_peak_bytes(name: str, sets: list[str], tmp: Path) -> int:
+    """Peak resident memory [B] of the largest process of ``rfsim run name`` (a fresh
+    intermediate process, so the children's maximum is this run's)."""
+    argv = [sys.executable, "-m", "rfsim", "run", name, "--seed", "1", "--no-plot", "-q", "--max-memory", "0",
+            "-o", str(tmp / "m.h5")] + [a for s in sets for a in ("--set", s)]
+    code = ("import resource, subprocess, sys; r = subprocess.run(sys.argv[1:]); "
+            "print(r.returncode, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    out = subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, check=True)
+    rc, kib = out.stdout.split()
+    assert rc == "0", out.stderr
+    return int(kib) * 1024
+
+
+#: (scenario, small size, larger size): the --set values of two runs whose per-unit parts
+#: differ; every run in process (workers = 1) so that the largest process holds the run.
+SIZES = {
+}
+
+
+def _check_bound(name: str, sets: list[str], tmp_path: Path) -> None:
+    module = get_scenario(name)
+    est = estimate_of(module, load_config(module.Config, None, sets))
+    peak = measured_peak_bytes(name, sets, tmp_path)
+    assert peak <= est.peak_bytes <= 2 * peak, (name, sets, peak / 2**20, est.peak_bytes / 2**20)
+
+
+@pytest.mark.parametrize("name", sorted(SIZES))
+def test_estimate_bounds_the_peak_of_a_small_run(name, tmp_path):
+    _check_bound(name, SIZES[name][0], tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(SIZES))
+def test_estimate_bounds_the_peak_of_a_larger_run(name, tmp_path):
+    _check_bound(name, SIZES[name][1], tmp_path)

@@ -71,10 +71,10 @@ def test_the_issue_sizes_are_refused_at_the_default_limit_of_a_16_gib_machine():
 
 def test_sweep_stops_before_any_run(tmp_path):
     spec = tmp_path / "s.toml"
-    spec.write_text('scenario = "st-to-st"\n[base.mc]\npositions_per_cell = 100000\n'
-                    '[[axes]]\nkind = "grid"\nkey = "mc.repetitions"\nvalues = [1, 1000]\n')
     out = tmp_path / "s.h5"
-    r = subprocess.run([sys.executable, "-m", "rfsim", "sweep", "run", str(spec), "-o", str(out), "--workers", "2",
+    spec.write_text(f'scenario = "st-to-st"\nseed = 1\noutput = "{out}"\n[base.mc]\npositions_per_cell = 100000\n'
+                    '[[axes]]\nkind = "grid"\nkey = "mc.repetitions"\nvalues = [1, 1000]\n')
+    r = subprocess.run([sys.executable, "-m", "rfsim", "sweep", "run", str(spec), "--workers", "2",
                         "--max-memory", "1GiB", "-q"], capture_output=True, text=True)
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()

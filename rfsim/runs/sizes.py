@@ -16,7 +16,7 @@ from typing import Callable
 
 from rfsim.runs.resources import Estimate, pool_processes, process_peak
 
-MiB = 2**20
+KiB, MiB = 2**10, 2**20
 
 
 def estimate_of(module, config) -> Estimate | None:
@@ -35,19 +35,104 @@ def _model(units: float, drivers: tuple[str, ...], *, base_mib: float, bytes_per
                     drivers)
 
 
-def _mc(config, cells_key: str, cells: int) -> Estimate:
+def _cells(config, cells_key: str, cells: int) -> Estimate:
     """phase-cancellation and st-to-st: cells × positions × repetitions sample rows."""
     mc = config.mc
     return _model(cells * mc.n_positions * mc.n_repetitions,
                   ("mc.positions_per_cell", "mc.repetitions", "mc.full", cells_key, "mc.workers"),
-                  base_mib=BASE_MIB["mc"], bytes_per_unit=PER_UNIT["mc"], workers=mc.workers,
-                  tasks=cells * mc.n_repetitions)
+                  base_mib=260, bytes_per_unit=16 * KiB, workers=mc.workers, tasks=cells * mc.n_repetitions)
 
 
-BASE_MIB = {}
-PER_UNIT = {}
+def _detection_probability(c) -> Estimate:
+    return _model(c.samples.count, ("samples.count", "samples.workers"), base_mib=260, bytes_per_unit=16 * KiB,
+                  workers=c.samples.workers, tasks=math.ceil(c.samples.count / 100))
+
+
+def _exciter_link(c) -> Estimate:
+    s = c.sweep
+    units = (100 if s.full else s.draws_per_point) * len(s.exciter_distance_m) * len(s.tag_distance_m)
+    return _model(units, ("sweep.draws_per_point", "sweep.full", "sweep.exciter_distance_m", "sweep.tag_distance_m",
+                          "sweep.workers"), base_mib=280, bytes_per_unit=16 * KiB, workers=s.workers, tasks=units)
+
+
+def _gen2_waveforms(c) -> Estimate:
+    return _model(1, ("fs_hz",), base_mib=180, bytes_per_unit=0)
+
+
+def _himr(c) -> Estimate:
+    """Per second of the run: the packets' sample-level records and the tracker's rows."""
+    return _model(math.ceil(c.scene.duration_s * 1000), ("scene.duration_s",), base_mib=260,
+                  bytes_per_unit=64 * KiB)
+
+
+def _inventory(c) -> Estimate:
+    units = (sum(c.populations) * c.runs + c.capture.trials * len(c.capture.ratios_db)
+             + c.capture_sweep.trials * len(c.capture_sweep.ratios_db)
+             + sum(c.capture_inventory.populations) * c.capture_inventory.runs * c.capture_inventory.enabled)
+    return _model(units, ("populations", "runs", "capture.trials", "capture_sweep.trials", "capture_inventory.runs"),
+                  base_mib=260, bytes_per_unit=4 * KiB)
+
+
+def _link(c) -> Estimate:
+    return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
+                  base_mib=260, bytes_per_unit=4 * KiB)
+
+
+def _phase_tracking(c) -> Estimate:
+    return _model(math.ceil(c.trajectory.duration_s), ("trajectory.duration_s", "schedule.workers"), base_mib=300,
+                  bytes_per_unit=64 * KiB, workers=c.schedule.workers, tasks=math.ceil(c.trajectory.duration_s / 10))
+
+
+def _reader_detection(c) -> Estimate:
+    k = c.campaign
+    cells = 18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions
+    return _model(2 * cells * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
+                                          "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
+                  base_mib=240, bytes_per_unit=4 * KiB, workers=k.workers, tasks=2 * cells)
+
+
+def _rss_localization(c) -> Estimate:
+    """Trials of one case at once, each with its particle cloud."""
+    trials = c.trials or 1000
+    return _model(trials * len(c.sigma0_db) * len(c.motions), ("trials", "particles", "sigma0_db", "motions"),
+                  base_mib=120, bytes_per_unit=4 * KiB + 64 * c.particles)
+
+
+def _st_localization(c) -> Estimate:
+    """Realization-seconds of tracking; ≤ 10 realizations' particle clouds at once."""
+    r = 500 if c.full else c.realizations
+    speeds = len(c.speeds_mps) + len(c.trajectory_2_speeds_mps)
+    seconds = r * speeds * c.path_duration_s + (c.walk_duration_s or 10000)
+    return _model(seconds, ("realizations", "full", "path_duration_s", "walk_duration_s", "filters.particles"),
+                  base_mib=120 + 10 * 3 * 64 * c.filters.particles / MiB, bytes_per_unit=2 * KiB, workers=c.workers,
+                  tasks=max(r // 10, 1) * speeds)
+
+
+def _tag_to_tag_tracking(c) -> Estimate:
+    """Trajectory × filter-run × time-step estimate rows; 5 trajectories' filters at once."""
+    steps = c.motion.duration_s / c.motion.dt_s
+    m = sum(c.trackers.particles) + sum(c.trackers.rbpf_particles)
+    return _model(c.trajectories * c.filter_runs * steps * len(c.ranges_m),
+                  ("trajectories", "filter_runs", "motion.duration_s", "trackers.particles", "workers"),
+                  base_mib=120 + 5 * c.filter_runs * m * 64 * 8 / MiB, bytes_per_unit=64, workers=c.workers,
+                  tasks=math.ceil(c.trajectories / 5))
+
 
 SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
+    "detection-probability": _detection_probability,
+    "exciter-link": _exciter_link,
+    "gen2-waveforms": _gen2_waveforms,
+    "himr-1d": _himr,
+    "himr-2d": _himr,
+    "inventory": _inventory,
+    "link": _link,
+    "phase-cancellation": lambda c: _cells(c, "geometry.tag_x_m", len(c.geometry.tag_x_m)),
+    "phase-tracking": _phase_tracking,
+    "reader-detection": _reader_detection,
+    "rss-localization": _rss_localization,
+    "st-localization": _st_localization,
+    "st-to-st": lambda c: _cells(c, "geometry.st_x_m", len(c.geometry.st_x_m)),
+    "tag-to-tag-tracking": _tag_to_tag_tracking,
 }
 
 __all__ = ["SIZE_MODELS", "estimate_of"]

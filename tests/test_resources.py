@@ -98,7 +98,34 @@ def measured_peak_bytes(name: str, sets: list[str], tmp: Path) -> int:
 #: (scenario, small size, larger size): the --set values of two runs whose per-unit parts
 #: differ; every run in process (workers = 1) so that the largest process holds the run.
 SIZES = {
+    "detection-probability": (["samples.count=20", "samples.n_train=10", "samples.workers=1"],
+                              ["samples.count=800", "samples.n_train=10", "samples.workers=1"]),
+    "exciter-link": (["sweep.draws_per_point=1", "sweep.workers=1"], ["sweep.draws_per_point=20", "sweep.workers=1"]),
+    "gen2-waveforms": ([], ["fs_hz=5e7"]),
+    "himr-1d": (["scene.duration_s=0.2"], ["scene.duration_s=2.0"]),
+    "himr-2d": (["scene.duration_s=0.8"], ["scene.duration_s=3.0"]),
+    "inventory": (["runs=1", "populations=[5]", "capture.trials=1", "capture_sweep.trials=10",
+                   "capture_sweep.ratios_db=[0.0,3.0]"], []),
+    "link": (["rounds_per_point=1"], ["rounds_per_point=40"]),
+    "phase-cancellation": (["mc.positions_per_cell=5", "mc.workers=1", "geometry.tag_x_m=[1.0,2.0,3.0]"],
+                           ["mc.positions_per_cell=60", "mc.workers=1", "geometry.tag_x_m=[1.0,2.0,3.0]"]),
+    "phase-tracking": (["trajectory.duration_s=2", "schedule.workers=1"],
+                       ["trajectory.duration_s=20", "schedule.workers=1"]),
+    "reader-detection": (["campaign.repetitions=2", "campaign.queries=5", "campaign.workers=1"],
+                         ["campaign.repetitions=20", "campaign.queries=50", "campaign.workers=1"]),
+    "rss-localization": (["trials=2", "particles=50", "sigma0_db=[3.0]", 'motions=["fixed"]'],
+                         ["trials=2", "particles=40000", "sigma0_db=[3.0]", 'motions=["fixed"]']),
+    "st-localization": (["realizations=1", "workers=1", "path_duration_s=5", "walk_duration_s=5"],
+                        ["realizations=4", "workers=1", "path_duration_s=5", "walk_duration_s=5",
+                         "filters.particles=20000"]),
+    "st-to-st": (["mc.positions_per_cell=5", "mc.workers=1", "geometry.st_x_m=[1.0,2.0]"],
+                 ["mc.positions_per_cell=60", "mc.workers=1", "geometry.st_x_m=[1.0,2.0]"]),
+    "tag-to-tag-tracking": (["trajectories=1", "filter_runs=1", "workers=1", "motion.duration_s=1"],
+                            ["trajectories=40", "filter_runs=40", "workers=1", "motion.duration_s=1"]),
 }
+
+#: Scenarios whose small run takes seconds (no sample-level kernels): in the default tier.
+FAST = ("gen2-waveforms", "rss-localization", "st-localization", "tag-to-tag-tracking")
 
 
 def _check_bound(name: str, sets: list[str], tmp_path: Path) -> None:
@@ -108,7 +135,7 @@ def _check_bound(name: str, sets: list[str], tmp_path: Path) -> None:
     assert peak <= est.peak_bytes <= 2 * peak, (name, sets, peak / 2**20, est.peak_bytes / 2**20)
 
 
-@pytest.mark.parametrize("name", sorted(SIZES))
+@pytest.mark.parametrize("name", [n if n in FAST else pytest.param(n, marks=pytest.mark.slow) for n in sorted(SIZES)])
 def test_estimate_bounds_the_peak_of_a_small_run(name, tmp_path):
     _check_bound(name, SIZES[name][0], tmp_path)
 

@@ -44,7 +44,7 @@ def _cells(config, cells_key: str, cells: int) -> Estimate:
 
 
 def _detection_probability(c) -> Estimate:
-    return _model(c.samples.count, ("samples.count", "samples.workers"), base_mib=260, bytes_per_unit=16 * KiB,
+    return _model(c.samples.count, ("samples.count", "samples.workers"), base_mib=290, bytes_per_unit=256 * KiB,
                   workers=c.samples.workers, tasks=math.ceil(c.samples.count / 100))
 
 
@@ -52,17 +52,18 @@ def _exciter_link(c) -> Estimate:
     s = c.sweep
     units = (100 if s.full else s.draws_per_point) * len(s.exciter_distance_m) * len(s.tag_distance_m)
     return _model(units, ("sweep.draws_per_point", "sweep.full", "sweep.exciter_distance_m", "sweep.tag_distance_m",
-                          "sweep.workers"), base_mib=280, bytes_per_unit=16 * KiB, workers=s.workers, tasks=units)
+                          "sweep.workers"), base_mib=290, bytes_per_unit=16 * KiB, workers=s.workers, tasks=units)
 
 
 def _gen2_waveforms(c) -> Estimate:
-    return _model(1, ("fs_hz",), base_mib=180, bytes_per_unit=0)
+    """Samples of the four exchanges (20.9 ms of signal in all) at ``fs_hz``."""
+    return _model(math.ceil(c.fs_hz * 0.021), ("fs_hz",), base_mib=170, bytes_per_unit=64)
 
 
 def _himr(c) -> Estimate:
-    """Per second of the run: the packets' sample-level records and the tracker's rows."""
-    return _model(math.ceil(c.scene.duration_s * 1000), ("scene.duration_s",), base_mib=260,
-                  bytes_per_unit=64 * KiB)
+    """Per millisecond of the run: the packets' sample-level records and the tracker's rows."""
+    return _model(math.ceil(c.scene.duration_s * 1000), ("scene.duration_s",), base_mib=280,
+                  bytes_per_unit=12 * KiB)
 
 
 def _inventory(c) -> Estimate:
@@ -70,12 +71,12 @@ def _inventory(c) -> Estimate:
              + c.capture_sweep.trials * len(c.capture_sweep.ratios_db)
              + sum(c.capture_inventory.populations) * c.capture_inventory.runs * c.capture_inventory.enabled)
     return _model(units, ("populations", "runs", "capture.trials", "capture_sweep.trials", "capture_inventory.runs"),
-                  base_mib=260, bytes_per_unit=4 * KiB)
+                  base_mib=300, bytes_per_unit=4 * KiB)
 
 
 def _link(c) -> Estimate:
     return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
-                  base_mib=260, bytes_per_unit=4 * KiB)
+                  base_mib=300, bytes_per_unit=4 * KiB)
 
 
 def _phase_tracking(c) -> Estimate:
@@ -88,7 +89,7 @@ def _reader_detection(c) -> Estimate:
     cells = 18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions
     return _model(2 * cells * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
                                           "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
-                  base_mib=240, bytes_per_unit=4 * KiB, workers=k.workers, tasks=2 * cells)
+                  base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=2 * cells)
 
 
 def _rss_localization(c) -> Estimate:

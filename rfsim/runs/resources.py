@@ -1,11 +1,11 @@
 """The size of a run before any work: work units and an upper bound on peak memory.
 
-A scenario may define ``resource_estimate(config) -> Estimate`` (the built-in scenarios' size models
-are in :mod:`rfsim.runs.sizes`, which finds a run's estimate: ``estimate_of``). :func:`check_memory` compares the estimate with a limit
-(``--max-memory``; default half the memory the system reports available) and stops with one
-line naming the config keys that drive the size, the estimate and the limit
-(:class:`~rfsim.core.errors.UserError`, exit status 2). A scenario without ``resource_estimate`` is not
-checked.
+A scenario may define ``resource_estimate(config) -> Estimate`` (the built-in scenarios' size
+models are in :mod:`rfsim.runs.sizes`, whose ``estimate_of`` finds a run's estimate).
+:func:`check_memory` compares the estimate with a limit (``--max-memory``; default half the
+memory the system reports available) and stops with one line naming the config keys that drive
+the size, the estimate and the limit (:class:`~rfsim.core.errors.UserError`, exit status 2).
+A scenario without ``resource_estimate`` is not checked.
 
 The peak is that of the largest rfsim process of the run, in bytes of resident memory: the
 baseline of a process that has imported the libraries and loaded the compiled kernels

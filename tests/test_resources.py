@@ -121,7 +121,7 @@ SIZES = {
     "st-to-st": (["mc.positions_per_cell=5", "mc.workers=1", "geometry.st_x_m=[1.0,2.0]"],
                  ["mc.positions_per_cell=60", "mc.workers=1", "geometry.st_x_m=[1.0,2.0]"]),
     "tag-to-tag-tracking": (["trajectories=1", "filter_runs=1", "workers=1", "motion.duration_s=1"],
-                            ["trajectories=40", "filter_runs=40", "workers=1", "motion.duration_s=1"]),
+                            ["trajectories=200", "filter_runs=50", "workers=1", "motion.duration_s=1"]),
 }
 
 #: Scenarios whose small run takes seconds (no sample-level kernels): in the default tier.

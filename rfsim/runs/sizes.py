@@ -29,10 +29,11 @@ def estimate_of(module, config) -> Estimate | None:
 
 
 def _model(units: float, drivers: tuple[str, ...], *, base_mib: float, bytes_per_unit: float,
-           workers: int = 1, tasks: int = 1) -> Estimate:
-    """``units`` work units of ``bytes_per_unit`` above ``base_mib`` per process; one process per
-    started pool worker (``workers`` for ``tasks`` tasks) besides the leader."""
-    peak = process_peak(bytes_per_unit, units, processes=pool_processes(workers, tasks),
+           workers: int = 1, tasks: int = 1, held: float | None = None) -> Estimate:
+    """``units`` work units, ``held`` of them (default all) of ``bytes_per_unit`` above
+    ``base_mib`` per process; one process per started pool worker (``workers`` for ``tasks``
+    tasks) besides the leader."""
+    peak = process_peak(bytes_per_unit, units if held is None else held, processes=pool_processes(workers, tasks),
                         baseline_bytes=int(base_mib * MiB))
     return Estimate(int(units), peak, drivers)
 
@@ -80,7 +81,7 @@ def _inventory(c) -> Estimate:
 
 def _link(c) -> Estimate:
     return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
-                  base_mib=300, bytes_per_unit=4 * KiB)
+                  base_mib=230, bytes_per_unit=4 * KiB)
 
 
 def _phase_tracking(c) -> Estimate:
@@ -89,11 +90,12 @@ def _phase_tracking(c) -> Estimate:
 
 
 def _reader_detection(c) -> Estimate:
+    """Queries in all; one row per trial (the queries of a trial are reduced in blocks)."""
     k = c.campaign
-    cells = 18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions
-    return _model(2 * cells * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
-                                          "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
-                  base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=2 * cells)
+    trials = 2 * (18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions)
+    return _model(trials * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
+                                       "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
+                  base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
 
 
 def _rss_localization(c) -> Estimate:

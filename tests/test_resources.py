@@ -115,7 +115,7 @@ SIZES = {
     "reader-detection": (["campaign.repetitions=2", "campaign.queries=5", "campaign.workers=1"],
                          ["campaign.repetitions=20", "campaign.queries=50", "campaign.workers=1"]),
     "rss-localization": (["trials=2", "particles=50", "sigma0_db=[3.0]", 'motions=["fixed"]'],
-                         ["trials=2", "particles=40000", "sigma0_db=[3.0]", 'motions=["fixed"]']),
+                         ["trials=2", "particles=200000", "sigma0_db=[3.0]", 'motions=["fixed"]']),
     "st-localization": (["realizations=1", "workers=1", "path_duration_s=5", "walk_duration_s=5"],
                         ["realizations=2", "workers=1", "path_duration_s=5", "walk_duration_s=5",
                          "filters.particles=20000", 'experiments=["speed-sweep"]', "speeds_mps=[1.0]"]),

@@ -9,23 +9,19 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
-from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, viterbi_kernel,
-                                          waveform_kernel)
+from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
+                                          viterbi_kernel, waveform_kernel)
 
 
 @njit
-def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_bits, miller, state0,
+def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0,
                tpl, sums, bits, elems, ref):
     """Decode ``r`` at one (elements per sample, start): preamble gain h, offset, half-bit
     sums, Viterbi; remodulate (``ref``: the reply ±1, −1 around it, over the whole window);
     return (residual energy of the least-squares fit r ≈ h2·ref + c2 over the whole window,
     the reply's end, h2, c2): every hypothesis explains the same samples."""
     lag = int(math.floor(start))
-    waveform_kernel(pre_el, start - lag, blf_ratio, tpl[:n_pre])
-    mean_t = 0.0
-    for i in range(n_pre):
-        mean_t += tpl[i]
-    mean_t /= n_pre
+    mean_t = sampled_template(pre_el, start - lag, blf_ratio, tpl[:n_pre])
     acc = 0j
     e_t = 0.0
     seg_mean = 0j
@@ -53,7 +49,7 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_b
     viterbi_kernel(a, b, miller, state0, True, full)
     for i in range(n_bits):
         bits[i] = full[i]
-    elements_kernel(bits, True, m, pre_levels, cur, prev, elems)
+    elements_kernel(bits, True, m, pre_levels, state0, elems)
     n_el = elems.size
     end = min(r.size, int(math.ceil(start + n_el / blf_ratio)) + 1)
     waveform_kernel(elems.astype(np.float64), start, blf_ratio, ref)
@@ -77,6 +73,23 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, n_b
         e = r[n] - c2 - h2 * ref[n]
         res += e.real * e.real + e.imag * e.imag
     return res, end, h2, c2
+
+
+@njit_inline
+def _decode_centred(r, blf_ratio, centre, pre_el, nh, pre_levels, m, n_bits, miller, state0, tpl, sums, bits, elems,
+                    ref):
+    """:func:`_decode_at` with the preamble centred on sample ``centre``: start = centre −
+    n_pre_el/(2ρ); skipped (ok False) when the reply of ``nh`` half-bits does not fit in the
+    window from there. Returns ``(ok, start, residual, end, h2, c2)``."""
+    n_pre_el = pre_el.size
+    start = centre - 0.5 * n_pre_el / blf_ratio
+    n_rep = int(math.ceil(nh * m / blf_ratio)) + 2
+    if start < 0 or start > r.shape[0] - n_rep:
+        return False, start, math.inf, 0, 0j, 0j
+    n_pre = int(math.floor(n_pre_el / blf_ratio))
+    res, end, h2, c2 = _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0, tpl, sums,
+                                  bits, elems, ref)
+    return True, start, res, end, h2, c2
 
 
 @njit
@@ -183,7 +196,7 @@ def _steady_disturbance(r, ref, start, end, ratio, h, c, m, nh, n_pre_levels, n_
 
 
 @njit
-def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, cur, prev, m,
+def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre_el, pre_levels, state0, m,
                          n_bits, n_first_bits, fine_span, fine_per_side, target_first, fine_target, out_bits,
                          out_ratio, out_start, out_corr, out_h, out_sigma2, out_sigma2_bit):
     """BLF search and decoding of every window ``rs[b]`` (see :func:`rfsim.devices.reader.search_decode`).
@@ -204,7 +217,6 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     nwin = rs.shape[1]
     n_pre_el = pre_el.size
     miller = m > 1
-    state0 = (0 if cur == 1 else 1) + (2 * prev if miller else 0)
     nh = pre_levels.size + 2 * (n_bits + 1)
     best_bits = np.empty(n_bits, dtype=np.uint8)
     n_first = min(n_bits, n_first_bits)
@@ -231,14 +243,9 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
         best_res = math.inf
         best_d = 0
         for d in range(-1, 2):
-            start = centre + d / ratio_c - 0.5 * n_pre_el / ratio_c
-            n_rep = int(math.ceil(nh * m / ratio_c)) + 2
-            if start < 0 or start > nwin - n_rep:
-                continue
-            n_pre = int(math.floor(n_pre_el / ratio_c))
-            res, end, h2, c2 = _decode_at(r, ratio_c, start, pre_el, n_pre, pre_levels, cur, prev, m, n_first,
-                                          miller, state0, tpl, sums1, bits1, elems1, ref)
-            if res < best_res:
+            ok, start, res, end, h2, c2 = _decode_centred(r, ratio_c, centre + d / ratio_c, pre_el, nh, pre_levels,
+                                                          m, n_first, miller, state0, tpl, sums1, bits1, elems1, ref)
+            if ok and res < best_res:
                 best_res, best_d = res, d
         centre += best_d / ratio_c
         best_bits[:] = 0
@@ -267,14 +274,9 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
                 found = False
                 for j in range(-kk, kk + 1):
                     ratio = centre_ratio * (1.0 + step * j)
-                    start = centre - 0.5 * n_pre_el / ratio
-                    n_rep = int(math.ceil(nh * m / ratio)) + 2
-                    if start < 0 or start > nwin - n_rep:
-                        continue
-                    n_pre = int(math.floor(n_pre_el / ratio))
-                    res, end, h2, c2 = _decode_at(r, ratio, start, pre_el, n_pre, pre_levels, cur, prev, m, nbx,
-                                                  miller, state0, tpl, sx, bx, ex, ref)
-                    if res < best_res:
+                    ok, start, res, end, h2, c2 = _decode_centred(r, ratio, centre, pre_el, nh, pre_levels, m, nbx,
+                                                                  miller, state0, tpl, sx, bx, ex, ref)
+                    if ok and res < best_res:
                         best_res, best_ratio, best_start, best_h, best_end, best_c = res, ratio, start, h2, end, c2
                         if nbx == n_bits:
                             best_bits[:] = bx

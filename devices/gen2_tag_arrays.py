@@ -13,11 +13,38 @@ from itertools import compress
 import numpy as np
 
 from rfsim.gen2.commands import ACK, NAK, QueryAdjust, QueryRep
-from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, _slot_drawer
+from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, _slot_drawer, adjusted_q
 
 _READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
 #: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
 _COLUMNS = ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q")
+
+
+def silent_step(cmd, code, session, slot):
+    """The silent steps of a powered tag, for one tag (ints) or many (arrays of the columns of
+    :class:`StateArrays`): ``(silent, decrement)``, whether ``cmd`` is a step without a reply
+    and without a random draw, and whether it decrements the slot counter. The one definition
+    of these rules, read by :meth:`TagState.on_command_if_silent` and :meth:`StateArrays.silent_steps`.
+
+    * a QueryRep or QueryAdjust of another session than the tag's round (``session`` −1: no
+      round) is ignored;
+    * a QueryRep of the round's session in Arbitrate (``code``) decrements the slot counter
+      (``slot`` −1: none) to (slot − 1) mod 2^15, silently unless that is 0 (the tag replies);
+    * an ACK or NAK in Ready or Arbitrate is ignored.
+
+    ``code`` is the index of the state in :data:`STATES`. Written with operators that mean the
+    same on Python ints and bools and on NumPy arrays (``==``, ``&``, ``|``; no ``~``).
+    """
+    kind = type(cmd)
+    if kind is QueryRep:
+        in_round = (session >= 0) & (session == cmd.session)
+        dec = in_round & (code == _ARBITRATE) & (slot >= 0) & (((slot - 1) & 0x7FFF) != 0)
+        return (in_round == False) | dec, dec  # noqa: E712  (elementwise on arrays)
+    if kind is QueryAdjust:
+        return (session < 0) | (session != cmd.session), code < 0
+    if kind is ACK or kind is NAK:
+        return (code == _READY) | (code == _ARBITRATE), code < 0
+    return code < 0, code < 0
 
 
 class StateArrays:
@@ -87,16 +114,8 @@ class StateArrays:
         :meth:`TagState.on_command_if_silent`; a tag whose clock is past ``t_s`` is left to
         ``on_command`` (it raises)."""
         ok = candidates & self.powered & (self.t_s <= t_s)
-        kind = type(cmd)
-        if kind is QueryRep:
-            other = (self.session < 0) | (self.session != cmd.session)
-            dec = ~other & (self.code == _ARBITRATE) & (self.slot >= 0) & (((self.slot - 1) & 0x7FFF) != 0)
-            return ok & (other | dec), ok & dec
-        if kind is QueryAdjust:
-            return ok & ((self.session < 0) | (self.session != cmd.session)), np.zeros_like(ok)
-        if kind is ACK or kind is NAK:
-            return ok & ((self.code == _READY) | (self.code == _ARBITRATE)), np.zeros_like(ok)
-        return np.zeros_like(ok), np.zeros_like(ok)
+        silent, dec = silent_step(cmd, self.code, self.session, self.slot)
+        return ok & silent, ok & dec
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
         """Which of the ``candidates`` (bool mask) load a new slot counter on ``cmd``, a
@@ -121,7 +140,7 @@ class StateArrays:
             return []
         t_s = float(t_s)
         idx = np.asarray(index, dtype=np.int64)
-        q_new = np.minimum(np.maximum(self.q[idx] + int(cmd.updn), 0), 15)  # min(15, max(0, Q + UpDn))
+        q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states = self.states
         replies, slots = [], []
         for i, q, rng, draw in zip(index, q_new.tolist(), rngs, self._slot_draws(rngs)):
@@ -130,10 +149,9 @@ class StateArrays:
             # TagState._load_slot: the counter (slot_draw), a reply with an RN16 at 0
             slot = draw(q)
             st._slot_clock, st._slot = None, slot  # its own counter (the slot setter)
-            if slot == 0:
-                replies.append((i, st._reply_if_zero(rng)))
-            else:
-                st.state = "arbitrate"
+            reply = st._reply_if_zero(rng)  # Reply with an RN16 at 0, else to Arbitrate
+            if reply is not None:
+                replies.append((i, reply))
             slots.append(slot)
         self.following[idx] = False  # each tag's own time and counter were set
         self.counting[idx] = False
@@ -217,4 +235,4 @@ class StateArrays:
         self.following = silent.copy()
 
 
-__all__ = ["StateArrays"]
+__all__ = ["StateArrays", "silent_step"]

@@ -51,9 +51,9 @@ import numpy as np
 from rfsim.gen2.bits import as_bits, bits_to_int, hex_to_bits, int_to_bits, str_to_bits
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
 from rfsim.gen2.crc import append_crc16, crc16_bits
-from rfsim.devices.gen2_tag_arrays import StateArrays
+from rfsim.devices.gen2_tag_arrays import StateArrays, silent_step
 from rfsim.devices.gen2_tag_values import (REPLY_KINDS, STATE_CODES, STATES, FlagPersistence, Reply, SharedClock,
-                                           _bits16, _draw16, pc_word, slot_draw)
+                                           _bits16, _draw16, adjusted_q, pc_word, slot_draw)
 
 #: Slot counter value after a QueryRep in Reply state (standard: 0000h decrements to 7FFFh).
 SLOT_AFTER_WRAP = 0x7FFF
@@ -275,36 +275,25 @@ class TagState:
         would leave it, and it does not reply), False if nothing was done (call
         :meth:`on_command`).
 
-        The silent steps of a powered tag: a QueryRep or QueryAdjust of another session than
-        the tag's round (or with no round); a QueryRep in Arbitrate whose decremented counter
-        is not 0 (the counter decrements, nothing else changes); an ACK or NAK in Ready or
-        Arbitrate. These are the same branches as in :meth:`on_command` (``_query_rep``,
-        ``_query_adjust``, ``_ack``, NAK), taken without the dispatch — in an inventory almost
-        every tag takes one of them on almost every command.
+        The silent steps of a powered tag (:func:`rfsim.devices.gen2_tag_arrays.silent_step`, the
+        rules :class:`StateArrays` applies to a population): a QueryRep or QueryAdjust of another
+        session than the tag's round (or with no round); a QueryRep in Arbitrate whose
+        decremented counter is not 0 (the counter decrements, nothing else changes); an ACK or
+        NAK in Ready or Arbitrate. These are the same branches as in :meth:`on_command`
+        (``_query_rep``, ``_query_adjust``, ``_ack``, NAK), taken without the dispatch — in an
+        inventory almost every tag takes one of them on almost every command.
         """
         if not self.powered:
             return False
-        kind = type(cmd)
-        if kind is QueryAdjust:
-            if self.session is None or cmd.session != self.session:
-                self._advance(t_s)
-                return True
+        slot = self.slot
+        silent, decrement = silent_step(cmd, STATE_CODES[self.state], -1 if self.session is None else self.session,
+                                        -1 if slot is None else slot)
+        if not silent:
             return False
-        if kind is QueryRep:
-            if self.session is None or cmd.session != self.session:
-                self._advance(t_s)
-                return True
-            if self.state == "arbitrate":
-                nxt = (self.slot - 1) & 0x7FFF
-                if nxt != 0:
-                    self._advance(t_s)
-                    self.slot = nxt
-                    return True
-            return False
-        if (kind is ACK or kind is NAK) and self.state in ("ready", "arbitrate"):
-            self._advance(t_s)
-            return True
-        return False
+        self._advance(t_s)
+        if decrement:
+            self.slot = (slot - 1) & 0x7FFF
+        return True
 
     def row(self) -> tuple:
         """The state as :class:`StateArrays` keeps it: ``(powered, state code, session or −1,
@@ -351,10 +340,13 @@ class TagState:
         self._reset_round()
         return True
 
+    def _outside_round(self, cmd) -> bool:
+        """A QueryRep/QueryAdjust ``cmd`` that the tag's round does not go on with: of another
+        session (or no round), or one that ends the tag's access (:meth:`_close_access`)."""
+        return self.session is None or cmd.session != self.session or self._close_access()
+
     def _query_rep(self, cmd: QueryRep, rng) -> Reply | None:
-        if self.session is None or cmd.session != self.session:
-            return None
-        if self._close_access():
+        if self._outside_round(cmd):
             return None
         if self.state == "reply":
             self.state, self.slot = "arbitrate", SLOT_AFTER_WRAP
@@ -365,12 +357,10 @@ class TagState:
         return None
 
     def _query_adjust(self, cmd: QueryAdjust, rng) -> Reply | None:
-        if self.session is None or cmd.session != self.session:
-            return None
-        if self._close_access():
+        if self._outside_round(cmd):
             return None
         if self.state in ("arbitrate", "reply"):
-            self.q = min(15, max(0, self.q + cmd.updn))
+            self.q = int(adjusted_q(self.q, cmd.updn))
             return self._load_slot(rng)
         return None
 

@@ -105,6 +105,12 @@ def _bits16(value: int) -> np.ndarray:
     return bits
 
 
+def adjusted_q(q, updn):
+    """Q after a QueryAdjust with UpDn ∈ {−1, 0, +1}: min(15, max(0, Q + UpDn)), for one tag
+    (an int; returns a NumPy integer) or many (an int array)."""
+    return np.minimum(np.maximum(q + updn, 0), 15)
+
+
 def slot_draw(rng: np.random.Generator, q: int) -> int:
     """A slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
 
@@ -147,4 +153,5 @@ class SharedClock:
         self.decrements = 0
 
 
-__all__ = ["STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw"]
+__all__ = ["STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw",
+           "adjusted_q"]

@@ -35,6 +35,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rfsim.air.cache import AirCache
 from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
@@ -60,24 +61,6 @@ FCC_MAX_DWELL_S = 0.4
 LEAKAGE_PHASE_RAD = math.pi / 3
 
 
-#: ReaderConfig objects already validated, by identity: ``id → (config, validated config)``
-_VALIDATED: dict = {}
-_VALIDATED_SIZE = 16
-
-
-def _validated(config: ReaderConfig) -> ReaderConfig:
-    """:func:`rfsim.core.config.validate` of a (frozen) config, remembered for the last few config
-    objects: a Monte Carlo builds one reader per sample from the same config."""
-    hit = _VALIDATED.get(id(config))
-    if hit is not None and hit[0] is config:
-        return hit[1]
-    out = validate(config)
-    if len(_VALIDATED) >= _VALIDATED_SIZE:
-        _VALIDATED.pop(next(iter(_VALIDATED)))
-    _VALIDATED[id(config)] = (config, out)  # config kept alive: its id stays its own
-    return out
-
-
 class Reader(PieTransmitter):
     """A Gen2 reader with one or more antennas (used in turn), see the module docstring.
 
@@ -87,11 +70,16 @@ class Reader(PieTransmitter):
     antennas : non-empty sequence of rfsim.channels.antennas.Antenna
     rng : numpy Generator (keyword-only); draws the FCC hop table
     link : optional LinkProfile overriding ``config.link_profile`` (custom profiles)
+    air_cache : the run's :class:`rfsim.air.cache.AirCache` (its air-step strategy, the
+        modulated command segments and what tags derive from them); default a new one. A scene
+        that makes a reader per trial gives them one, so that a command is modulated and
+        decoded once per run.
     """
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
-                 link: LinkProfile | None = None):
-        self.config = _validated(config)
+                 link: LinkProfile | None = None, air_cache: AirCache | None = None):
+        air_cache = AirCache() if air_cache is None else air_cache
+        self.config = air_cache.derived(config, validate)  # a frozen config: validated once per run
         self.link = profile(self.config.link_profile) if link is None else link
         if not isinstance(self.link, LinkProfile):
             raise ValueError(f"link must be a LinkProfile, got {link!r}")
@@ -120,6 +108,9 @@ class Reader(PieTransmitter):
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
         self._cmd_cache_link = self.link
+        #: the run's air-step strategy and caches (:class:`rfsim.air.cache.AirCache`): the
+        #: exchanges this reader runs (:mod:`rfsim.protocols.engine`), its modulated segments
+        self.air_cache = air_cache
         #: (config, fs, noise power, leakage gain): derived from the frozen config
         self._derived: tuple = (None, None, 0.0, 0j)
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),

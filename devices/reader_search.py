@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.link import LinkProfile
-from rfsim.gen2.linecode import preamble_levels, reply_waveform
+from rfsim.gen2.reply_search import geometric_blf_grid_hz
+from rfsim.gen2.linecode import elements_of_levels, preamble_levels, preamble_state, reply_waveform
 from rfsim.core.lazy import lazy_import
 
 _bk = lazy_import("rfsim.devices._blf_search_kernels")
@@ -59,18 +60,14 @@ def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | No
     (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
     lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
     n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
-    step = 1.0 / (2.0 * n_pre_el)
-    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return np.geomspace(lo, hi, max(n, 2))
+    return geometric_blf_grid_hz(lo, hi, 1.0 / (2.0 * n_pre_el))
 
 
 def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
     """Preamble elements and levels, coarse templates and fine-search parameters of
     :func:`search_decode` (and of its NumPy twin)."""
-    pre_levels, cur, prev = preamble_levels(m=m, trext=trext)
-    pre_el = np.repeat(pre_levels, m).astype(np.float64)
-    if m > 1:
-        pre_el[1::2] *= -1.0
+    pre_levels = preamble_levels(m=m, trext=trext)[0]
+    pre_el = elements_of_levels(pre_levels, m, np.float64)
     ratios = 2.0 * np.asarray(blfs_hz, dtype=np.float64) / fs_hz
     lens = np.floor(pre_el.size / ratios).astype(np.int64)
     tpl0 = np.zeros((ratios.size, int(lens.max())))
@@ -81,7 +78,7 @@ def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
     step_c = 1.0 / (2.0 * pre_el.size)
     n_el = pre_el.size + 2 * m * (int(n_bits) + 1)
     n_el1 = pre_el.size + 2 * m * (min(int(n_bits), FINE_FIRST_BITS) + 1)
-    return (pre_levels.astype(np.int8), int(cur), int(prev), pre_el, ratios, tpl0, lens,
+    return (pre_levels.astype(np.int8), preamble_state(m=m, trext=trext), pre_el, ratios, tpl0, lens,
             FINE_SPAN_STEPS * step_c, 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
 
 
@@ -121,8 +118,8 @@ def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float
     r = np.ascontiguousarray(rs, dtype=np.complex128)
     if r.ndim == 1:
         r = r[None, :]
-    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span, target1, target = search_setup(m, trext, n_bits,
-                                                                                             blfs_hz, fs_hz)
+    pre_levels, state, pre_el, ratios, tpl0, lens, span, target1, target = search_setup(m, trext, n_bits,
+                                                                                  blfs_hz, fs_hz)
     first_bits = FINE_FIRST_BITS
     if known_within is not None:
         span = float(known_within)
@@ -132,8 +129,7 @@ def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float
     gain = np.empty(b, np.complex128)
 
     def block(i0: int, i1: int) -> None:
-        _bk.search_decode_kernel(r[i0:i1], ratios, tpl0, lens, int(lo), int(hi), pre_el, pre_levels, np.int8(cur),
-                                 np.uint8(prev), int(m), int(n_bits), first_bits, span, FINE_PER_SIDE,
+        _bk.search_decode_kernel(r[i0:i1], ratios, tpl0, lens, int(lo), int(hi), pre_el, pre_levels, state, int(m), int(n_bits), first_bits, span, FINE_PER_SIDE,
                                  target1, target, bits[i0:i1],
                                  ratio[i0:i1], start[i0:i1], corr[i0:i1], gain[i0:i1], sigma2[i0:i1],
                                  sigma2_bit[i0:i1])

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rfsim.air.cache import Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.core.lazy import lazy_import
@@ -60,6 +61,8 @@ class TxSegment:
     antenna_index : 0-based index into ``Reader.antennas``
     cmd_start_s : absolute time of the delimiter's falling edge (50 % point) [s]
     cmd_end_s : absolute time of the last rising edge of the command [s]
+    memo : data derived from ``samples`` that devices share (the run's
+        :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them)
     """
 
     t0_s: float
@@ -70,6 +73,7 @@ class TxSegment:
     antenna_index: int
     cmd_start_s: float
     cmd_end_s: float
+    memo: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @property
     def end_s(self) -> float:
@@ -90,18 +94,14 @@ def hilbert_fir(half_length: int) -> np.ndarray:
     return h * np.blackman(k.size + 2)[1:-1]
 
 
-#: recently transmitted baseband segments (read-only) of every reader: ``(id(config), id(link),
-#: fs, bits, preamble, CW lengths) → (config, link, samples)`` (:meth:`PieTransmitter.transmit`)
-_TX_SEGMENTS: dict = {}
-
-
 class PieTransmitter:
     """The transmitter side of :class:`rfsim.devices.reader.Reader`: a command's bits and
     duration, its PIE baseband and the transmitted segment (module docstring).
 
     Uses the reader's ``link`` (LinkProfile), ``config`` (ReaderConfig), ``fs_hz``,
-    ``_cw_amplitude()``, ``fc_hz(t)``, ``channel_index(t)``, ``antenna_index(round)`` and its
-    command cache ``_cmd_cache`` / ``_cmd_cache_link``.
+    ``_cw_amplitude()``, ``fc_hz(t)``, ``channel_index(t)``, ``antenna_index(round)``, its
+    command cache ``_cmd_cache`` / ``_cmd_cache_link`` and its run's ``air_cache``
+    (:class:`rfsim.air.cache.AirCache`: the modulated segments by content).
     """
 
     def _command(self, cmd) -> tuple:
@@ -182,8 +182,9 @@ class PieTransmitter:
 
         The segment has ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
-        ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept
-        and returned again for a repeated command.
+        ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
+        the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble and CW
+        lengths) and returned again, with their ``memo``, for a repeated command.
         """
         if not isinstance(cmd, COMMAND_TYPES):
             raise TypeError(f"not a Gen2 command: {cmd!r}")
@@ -193,22 +194,20 @@ class PieTransmitter:
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
         bits, preamble, cmd_duration_s = self._command(cmd)
-        # A reader sends the same commands (Query, QueryRep, …) again and again, and a Monte
-        # Carlo builds many readers of one config: keep the last modulated segments (read-only),
-        # shared by the readers of the same (frozen) config, link profile and sample rate.
-        key = (id(self.config), id(self.link), self.fs_hz, bits.tobytes(), preamble, float(cw_after_s), cw_before_s)
-        hit = _TX_SEGMENTS.get(key)
-        if hit is not None and hit[0] is self.config and hit[1] is self.link:
-            x = hit[2]
-        else:
+        # A reader sends the same commands (Query, QueryRep, …) again and again: keep the last
+        # modulated segments (read-only) by content, made by this (frozen) config and link profile.
+        cache = self.air_cache
+        key = ("pie", bits.tobytes(), preamble, float(cw_after_s), cw_before_s, self.fs_hz)
+        makers = (self.config, self.link)
+        hit = cache.waveform(key, makers)
+        if hit is None:
             x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
             x.setflags(write=False)
-            if len(_TX_SEGMENTS) >= TX_CACHE_SIZE:
-                _TX_SEGMENTS.pop(next(iter(_TX_SEGMENTS)))
-            _TX_SEGMENTS[key] = (self.config, self.link, x)  # config and link kept alive: their ids stay theirs
+            hit = Waveform(samples=x, makers=makers)
+            cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
-        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=x, fc_hz=self.fc_hz(t0_s),
+        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=hit.samples, fc_hz=self.fc_hz(t0_s),
                          channel_index=self.channel_index(t0_s),
                          antenna_index=self.antenna_index(round_index),
-                         cmd_start_s=start, cmd_end_s=start + cmd_duration_s)
+                         cmd_start_s=start, cmd_end_s=start + cmd_duration_s, memo=hit.memo)

@@ -251,14 +251,6 @@ def _dbm(p_w: float) -> float:
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
-#: :class:`SharedFrontEnd` of read-only segments by the identity of their samples
-#: (``PassiveTag.front_end_of``): its work is a pure function of the samples. The least
-#: recently used entry is dropped first (a reader's few Query segments stay while every ACK,
-#: with its own RN16, passes through).
-_FRONT_ENDS: dict = {}
-_FRONT_END_CACHE_SIZE = 32
-
-
 # ----------------------------------------------------------------------------- device
 
 
@@ -376,25 +368,12 @@ class PassiveTag:
 
     @staticmethod
     def front_end_of(base) -> SharedFrontEnd:
-        """The :class:`SharedFrontEnd` of an emitted segment ``base`` (kept in its ``memo``;
-        for read-only samples that own their memory — a reader's cached command segments,
-        sent again and again — also kept by the samples' identity, :data:`_FRONT_ENDS`)."""
+        """The :class:`SharedFrontEnd` of an emitted segment ``base``, kept in its ``memo`` (for
+        a reader's command segment the memo of the run's cached waveform,
+        :class:`rfsim.air.cache.Waveform`: a command sent again is decoded once per run)."""
         fe = base.memo.get(SharedFrontEnd)
         if fe is None:
-            x = base.samples
-            frozen = not x.flags.writeable and x.flags.owndata
-            key = (id(x), base.fs_hz)
-            hit = _FRONT_ENDS.get(key) if frozen else None
-            if hit is not None and hit[0] is x:
-                fe = hit[1]
-                _FRONT_ENDS[key] = _FRONT_ENDS.pop(key)  # the most recently used last: dropped last
-            else:
-                fe = SharedFrontEnd(x, fs_hz=base.fs_hz)
-                if frozen:
-                    if len(_FRONT_ENDS) >= _FRONT_END_CACHE_SIZE:
-                        _FRONT_ENDS.pop(next(iter(_FRONT_ENDS)))
-                    _FRONT_ENDS[key] = (x, fe)  # x kept alive: its id stays its own
-            base.memo[SharedFrontEnd] = fe
+            fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
         return fe
 
     @classmethod

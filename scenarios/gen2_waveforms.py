@@ -28,7 +28,8 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.link import PROFILES, profile, t1, t2, t4
 from rfsim.core.rng import trial_rng
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.figure_style import OKABE_ITO, figure, legend_outside, paper_style
+from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.references import cite
 from rfsim.core.lazy import lazy_import
 
@@ -193,18 +194,27 @@ def _columns(rows: dict[str, list], spec: dict[str, tuple[str, str]]):
     return {k: _dataset.column(rows[k], *spec[k]) for k in spec}
 
 
-#: Approximate width [px] of a left panel of the figure (9 in at 120 dpi).
+#: Approximate width [px] of a left panel of the figure (5 in at 200 dpi).
 _PANEL_PX = 1000
+#: Vertical placement of the two traces: the reader envelope in [0, 1], the tag state ±1
+#: drawn at TAG_OFFSET ± 0.5.
+TAG_OFFSET = -1.0
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Per profile: the whole exchange (left) and the start of the RN16 reply (right).
+    """Per profile: the whole exchange (left) and the start of the RN16 reply (right),
+    ``<stem>-exchange.png``.
 
-    On the whole exchange a fast tag link (e.g. Miller-4 at 320 kHz: 1.28 M state changes
-    per second) is finer than a pixel, so the right panels zoom on the first 6 bits of the
-    RN16 reply (preamble), where the subcarrier is visible. ``<stem>-exchange.png``.
+    The reader's PIE envelope (relative to the CW, 0…1) and the tag's backscatter state (±1,
+    drawn below it) share a time axis; each frame (Query, RN16, ACK, PC+EPC+CRC-16) is named
+    at its place, reader frames above the envelope, tag frames below the tag trace. On the
+    whole exchange a fast tag link (e.g. Miller-4 at 320 kHz: 1.28 M state changes per second)
+    is finer than a pixel, so it is drawn as a band and the right panels zoom on the first 6
+    bits of the RN16 reply (preamble), the interval shaded grey on the left.
     """
-    plt = pyplot()
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 
     from rfsim.core.dataset import read_dataset
 
@@ -212,39 +222,54 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     names = list(ds.tables["profiles"]["profile"].data)
     prof = {k: c.data for k, c in ds.tables["profiles"].items()}
     frames = {k: c.data for k, c in ds.tables["frames"].items()}
-    fig, axes = plt.subplots(len(names), 2, figsize=(12, 2.3 * len(names) + 0.6), squeeze=False,
-                             gridspec_kw={"width_ratios": [3, 1]})
-    for (ax, zoom), name in zip(axes, names):
-        ex = ds.tables[f"exchange_{name}"]
-        t_ms = ex["time_s"].data * 1e3
-        reader, tag = ex["reader_envelope"].data, 0.5 * ex["tag_state"].data - 1.0
-        for a in (ax, zoom):
-            a.plot(t_ms, reader, lw=0.8, label="reader envelope")
-            a.set_yticks([])
-        zoom.plot(t_ms, tag, lw=0.7, color="C1")
-        changes = int(np.count_nonzero(np.diff(ex["tag_state"].data)))
-        if changes > 0.3 * _PANEL_PX:  # finer than a pixel: draw where the tag replies, say so
-            replying = ex["tag_state"].data != 0
-            ax.fill_between(t_ms, -1.5, -0.5, where=replying, color="C1", alpha=0.35, lw=0,
-                            label="tag backscatter state (offset)")
-            ax.text(0.99, 0.02, "tag subcarrier finer than a pixel here: see the zoom", transform=ax.transAxes,
-                    ha="right", va="bottom", fontsize=7, color="0.3")
-        else:
-            ax.plot(t_ms, tag, lw=0.7, color="C1", label="tag backscatter state (offset)")
-        i = int(np.flatnonzero(prof["profile"] == name)[0])
-        m, bitrate = int(prof["m"][i]), float(prof["bitrate_bps"][i])
-        ax.set_title(f"{name}: BLF {prof['blf_hz'][i] / 1e3:g} kHz, "
-                     f"{'FM0' if m == 1 else f'Miller-{m}'}, Tari {prof['tari_s'][i] * 1e6:g} us",
-                     fontsize=9, loc="left")
-        rn16 = np.flatnonzero((frames["profile"] == name) & (frames["frame"] == "RN16"))
-        if rn16.size:
-            t0 = float(frames["start_s"][rn16[0]])
-            zoom.set_xlim(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3)
-            ax.axvspan(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3, color="0.85", zorder=0)
-        zoom.set_title("start of the RN16 reply (6 bits)", fontsize=8)
-        zoom.tick_params(labelsize=7)
-    axes[-1, 0].set_xlabel("time [ms]")
-    axes[-1, 1].set_xlabel("time [ms]")
-    axes[0, 0].legend(loc="upper right", fontsize=8)
-    fig.suptitle(f"{cite('gen2')} Query → RN16 → ACK → PC+EPC+CRC-16 per link profile (no channel, no noise)")
-    return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"))]
+    reader_style, tag_style = dict(color=OKABE_ITO[0], lw=0.8), dict(color=OKABE_ITO[1], lw=0.7, ls="-")
+    with paper_style():
+        fig, axes = figure(columns=2, nrows=len(names), ncols=2, height_in=1.65 * len(names) + 0.7,
+                           squeeze=False, gridspec_kw={"width_ratios": [3, 1]})
+        for (ax, zoom), name in zip(axes, names):
+            ex = ds.tables[f"exchange_{name}"]
+            t_ms = ex["time_s"].data * 1e3
+            reader, tag = ex["reader_envelope"].data, 0.5 * ex["tag_state"].data + TAG_OFFSET
+            zoom.sharey(ax)  # same scale; the y label is the left panel's
+            for a in (ax, zoom):
+                a.plot(t_ms, reader, **reader_style)
+                a.set_yticks([TAG_OFFSET - 0.5, TAG_OFFSET + 0.5, 0.0, 1.0], ["−1", "+1", "0", "1"])
+                a.set_ylim(TAG_OFFSET - 1.0, 1.55)
+                a.set_xlabel(r"time $t$ [ms]")
+                a.grid(axis="y", visible=False)
+            ax.set_ylabel("tag state | reader\nenvelope [rel. CW]", fontsize=6.5)
+            zoom.plot(t_ms, tag, **tag_style)
+            changes = int(np.count_nonzero(np.diff(ex["tag_state"].data)))
+            if changes > 0.3 * _PANEL_PX:  # finer than a pixel: draw where the tag replies, say so
+                replying = ex["tag_state"].data != 0
+                ax.fill_between(t_ms, TAG_OFFSET - 0.5, TAG_OFFSET + 0.5, where=replying,
+                                color=OKABE_ITO[1], alpha=0.35, lw=0)
+            else:
+                ax.plot(t_ms, tag, **tag_style)
+            for k in np.flatnonzero(frames["profile"] == name):
+                frame = str(frames["frame"][k])
+                mid = 0.5e3 * (float(frames["start_s"][k]) + float(frames["end_s"][k]))
+                from_tag = frame in ("RN16", "EPC")
+                ax.text(mid, TAG_OFFSET - 0.62 if from_tag else 1.08, "PC+EPC+CRC" if frame == "EPC" else frame,
+                        ha="center", va="top" if from_tag else "bottom", fontsize=6.5,
+                        color=OKABE_ITO[1] if from_tag else OKABE_ITO[0])
+            i = int(np.flatnonzero(prof["profile"] == name)[0])
+            m, bitrate = int(prof["m"][i]), float(prof["bitrate_bps"][i])
+            ax.set_title(f"{name}: BLF {prof['blf_hz'][i] / 1e3:g} kHz, "
+                         f"{'FM0' if m == 1 else f'Miller-{m}'}, Tari {prof['tari_s'][i] * 1e6:g} $\\mu$s",
+                         loc="left")
+            rn16 = np.flatnonzero((frames["profile"] == name) & (frames["frame"] == "RN16"))
+            if rn16.size:
+                t0 = float(frames["start_s"][rn16[0]])
+                zoom.set_xlim(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3)
+                ax.axvspan(t0 * 1e3, (t0 + 6.0 / bitrate) * 1e3, color="0.85", zorder=0)
+            zoom.set_title("start of the RN16 (6 bits)")
+            zoom.xaxis.set_major_locator(MaxNLocator(3))
+        handles = [Line2D([], [], **reader_style, label="reader PIE envelope (rel. CW)"),
+                   Line2D([], [], **tag_style, label="tag backscatter state ±1"),
+                   Patch(color=OKABE_ITO[1], alpha=0.35, lw=0, label="tag replying (finer than a pixel)"),
+                   Patch(color="0.85", label="interval zoomed on the right")]
+        legend_outside(axes[-1, 0], where="below", handles=handles, ncols=2)
+        fig.suptitle(f"Query → RN16 → ACK → PC+EPC+CRC-16 per link profile ({cite('gen2')}; "
+                     "no channel, no noise)")
+        return [save_figure(fig, figure_path(dataset_path, out_dir, "exchange"), dpi=200)]

@@ -66,7 +66,9 @@ import numpy as np
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.figure_style import (OKABE_ITO, ci_errorbar, figure, legend_outside, paper_style, series_style,
+                                     source_note)
+from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.progress import track
 from rfsim.core.references import cite
 from rfsim.devices.reader_config import ReaderConfig
@@ -297,18 +299,11 @@ def _count_text(n: np.ndarray) -> str:
     return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
 
 
-def _label(ax, xlabel: str, ylabel: str, title: str | None = None, grid: bool = True) -> None:
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    if title:
-        ax.set_title(title, fontsize=10)
-    if grid:
-        ax.grid(True, alpha=0.3)
-
-
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Slot types per population, read rate and efficiency vs N, capture probability."""
-    plt = pyplot()
+    """Two figures: ``<stem>-summary.png``, the inventories (slot types, read rate and slot
+    efficiency against the population N, Wilson 95 % intervals over the runs pooled), and
+    ``<stem>-capture.png``, two tags in one slot (the engine's capture trials, the batched
+    capture sweep with Clopper-Pearson 95 % intervals, the RN16 acceptance trade-off)."""
     import h5py
 
     from rfsim.core.dataset import read_table
@@ -319,82 +314,110 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     with h5py.File(dataset_path, "r") as f:
         has_capture, has_sweep = "capture" in f, "capture_sweep" in f
     pops = np.unique(inv["population"])
-    fig, axes = plt.subplots(2, 3, figsize=(16, 8))
-    _plot_sweep(axes[0, 2], axes[1, 2], dataset_path if has_sweep else None)
-    a, bottom = axes[0, 0], np.zeros(pops.size)
-    types = np.asarray(s["slot_type"]).astype(str)
-    for st in SLOT_TYPES:
-        frac = np.array([np.mean(types[s["population"] == n] == st) for n in pops])
-        a.bar([str(n) for n in pops], frac, bottom=bottom, label=st)
-        bottom += frac
-    _label(a, "tags N", "fraction of slots", grid=False)
-    a.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    a.set_title("slot types")
-    a = axes[0, 1]
-    a.plot(pops, [inv["read_rate"][inv["population"] == n].mean() for n in pops], marker="o")
-    _label(a, "tags N", "read rate (fraction of tags read)")
-    a.set_ylim(-0.05, 1.05)
-    a = axes[1, 0]
-    a.plot(pops, [inv["efficiency"][inv["population"] == n].mean() for n in pops], marker="o", label="slot efficiency")
-    a.axhline(1 / math.e, color="k", ls=":", label="1/e")
-    _label(a, "tags N", "successful slots / slots")
-    a.legend()
-    a = axes[1, 1]
-    if has_capture:
-        c = read_table(dataset_path, "capture")
-        ok = np.isfinite(c["ratio_db"]) & (c["n_replies"] >= 2)
-        sel = [ok & (c["point"] == i) for i in np.unique(c["point"][ok])]
-        # one marker per simulated nominal ratio, at the mean of its trials' measured ratios
-        x = np.array([c["ratio_db"][m].mean() for m in sel])
-        n = np.array([np.sum(m) for m in sel])
-        k = np.array([np.sum(c["captured"][m]) for m in sel])
-        lo, hi = wilson_interval(k, n)
-        pc = k / n
-        a.errorbar(x, pc, yerr=np.vstack([pc - lo, hi - pc]), marker="o", capsize=3,
-                   label=f"per simulated ratio, {_count_text(n)} trials each (Wilson 95 %)")
-        a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 1.04, -0.04), "|",
-               color="0.6", ms=6, label="trials (captured = 1)")
-        a.set_ylim(-0.08, 1.08)
-        a.legend(fontsize=8, loc="lower right")
-    _label(a, "backscatter power ratio near/far at the reader [dB]", "capture probability",
-           "two tags in one slot, engine (lock-step tags): capture")
-    fig.suptitle(f"Inventory with the Q algorithm at sample level ({cite('gen2')}, Annex D)")
-    fig.tight_layout()
-    return [save_figure(fig, figure_path(dataset_path, out_dir, "summary"))]
+    runs = np.array([np.sum(inv["population"] == n) for n in pops])
+    out = []
+    with paper_style():
+        fig, (a, b, c) = figure(columns=2, ncols=3, height_in=2.8)
+        types = np.asarray(s["slot_type"]).astype(str)
+        bottom = np.zeros(pops.size)
+        at = np.arange(pops.size)
+        n_slots = np.array([np.sum(s["population"] == n) for n in pops])
+        for i, st in enumerate(SLOT_TYPES):
+            frac = np.array([np.mean(types[s["population"] == n] == st) for n in pops])
+            a.bar(at, 100 * frac, bottom=100 * bottom, color=OKABE_ITO[i % len(OKABE_ITO)],
+                  hatch=_HATCHES[i % len(_HATCHES)], edgecolor="white", lw=0.3, label=st.replace("_", " "))
+            bottom += frac
+        a.set_xticks(at, [f"{n}\n({k} slots)" for n, k in zip(pops, n_slots)])
+        a.set(xlabel="tags $N$", ylabel="share of slots [%]", ylim=(0, 100), title="slot types")
+        a.grid(False)
+        legend_outside(a, where="below", ncols=3, title="slot type")
+        read = np.array([np.sum(inv["tags_read"][inv["population"] == n]) for n in pops])
+        lo, hi = wilson_interval(read, pops * runs)
+        ci_errorbar(b, pops, read / (pops * runs), lo, hi, scale=100.0, **series_style(0))
+        b.set(xlabel="tags $N$", ylabel="tags read [%] (Wilson 95 %)", ylim=(-3, 103), title="read rate")
+        good = np.array([np.round(np.sum((inv["efficiency"] * inv["slots"])[inv["population"] == n]))
+                         for n in pops])
+        total = np.array([np.sum(inv["slots"][inv["population"] == n]) for n in pops])
+        lo, hi = wilson_interval(good, total)
+        ci_errorbar(c, pops, good / total, lo, hi, scale=100.0, label="this run (Wilson 95 %)",
+                    **series_style(0))
+        c.axhline(100 / math.e, color="black", ls="--", lw=1.0, label="$1/e$ (ideal framed Aloha)")
+        c.set(xlabel="tags $N$", ylabel="successful slots [%]", title="slot efficiency")
+        legend_outside(c, where="below", ncols=1)
+        fig.suptitle(f"Inventory with the Q algorithm at sample level ({cite('gen2')}, Annex D)")
+        source_note(fig, f"{_count_text(runs)} inventory run(s) per population, runs pooled")
+        out.append(save_figure(fig, figure_path(dataset_path, out_dir, "summary")))
+        if has_capture or has_sweep:
+            fig, axes = figure(columns=2, ncols=3, height_in=3.1)
+            if has_capture:
+                _plot_capture_trials(axes[0], read_table(dataset_path, "capture"), wilson_interval)
+            else:
+                axes[0].remove()
+            if has_sweep:
+                _plot_sweep(axes[1], axes[2], dataset_path)
+            else:
+                axes[1].remove()
+                axes[2].remove()
+            fig.suptitle(f"Two tags replying in one slot: capture and RN16 acceptance ({cite('gen2')})")
+            if has_sweep:
+                sw = read_table(dataset_path, "capture_sweep")
+                source_note(fig, "sweep profiles " + ", ".join(dict.fromkeys(np.asarray(sw["profile"]).astype(str)))
+                            + f"; RN16 accepted at $E_b/(N_0+I)$ ≥ {float(sw['threshold_db'][0]):.1f} dB")
+            out.append(save_figure(fig, figure_path(dataset_path, out_dir, "capture")))
+    return out
+
+
+#: Hatches of the slot types (so the stacked bars do not depend on colour alone).
+_HATCHES = ("", "////", "", "\\\\\\\\", "xx", "..", "--")
+
+
+def _plot_capture_trials(a, c, wilson_interval) -> None:
+    """The engine's capture trials: P(capture) per simulated ratio (Wilson 95 %) with the
+    trials as ticks at 0 and 100 %."""
+    ok = np.isfinite(c["ratio_db"]) & (c["n_replies"] >= 2)
+    sel = [ok & (c["point"] == i) for i in np.unique(c["point"][ok])]
+    # one marker per simulated nominal ratio, at the mean of its trials' measured ratios
+    x = np.array([c["ratio_db"][m].mean() for m in sel])
+    n = np.array([np.sum(m) for m in sel])
+    k = np.array([np.sum(c["captured"][m]) for m in sel])
+    lo, hi = wilson_interval(k, n)
+    ci_errorbar(a, x, k / np.maximum(n, 1), lo, hi, scale=100.0,
+                label=f"{_count_text(n)} trials/ratio,\nWilson 95 %", **series_style(4))
+    a.plot(c["ratio_db"][ok], np.where(c["captured"][ok], 104, -4), "|", color="0.45", ms=5,
+           label="one trial (top: captured)")
+    a.set(ylim=(-9, 109), xlabel="power ratio near/far\nat the reader [dB]",
+          ylabel=r"$P_\mathrm{capture}$ [%]", title="engine, lock-step tags\n(sample level)")
+    legend_outside(a, where="below", ncols=1)
 
 
 def _plot_sweep(a, b, path) -> None:
-    """P(capture) vs power ratio (Clopper-Pearson 95 %) and the acceptance trade-off."""
+    """P(capture) vs power ratio (Clopper-Pearson 95 %) and the acceptance trade-off
+    (false-ACK rate on a log axis; a zero rate is drawn at half of one collision, 1/(2n))."""
     from rfsim.core.dataset import read_table
 
-    if path is None:
-        for ax in (a, b):
-            ax.text(0.5, 0.5, "capture sweep not run", ha="center", va="center", transform=ax.transAxes)
-        return
     c, acc = read_table(path, "capture_sweep"), read_table(path, "acceptance")
     code = np.asarray(c["line_code"]).astype(str)
-    for table, ax in ((c, a), (acc, b)):
-        prof = np.asarray(table["profile"]).astype(str)
-        for name in dict.fromkeys(prof):
-            for sp in (0, 1):
-                m = (prof == name) & (table["spread"] == sp)
-                if not m.any():
-                    continue
-                how = f"{'own BLF/T1' if sp else 'lock-step'}"
-                if ax is a:
-                    x, p = c["ratio_db"][m], c["p_capture"][m]
-                    a.errorbar(x, p, yerr=np.vstack([p - c["ci_lo"][m], c["ci_hi"][m] - p]), marker="o" if sp else "s",
-                               ms=3, capsize=2, ls="-" if sp else "--", label=f"{code[m][0]} ({name}), {how}")
-                else:
-                    b.plot(acc["false_ack_rate"][m], acc["missed_capture_rate"][m], marker=".", ls="-" if sp else "--",
-                           label=f"{name}, {how}")
+    prof_c, prof_a = np.asarray(c["profile"]).astype(str), np.asarray(acc["profile"]).astype(str)
+    i = 0
+    for name in dict.fromkeys(prof_c):
+        for sp in (0, 1):
+            how = "own BLF/T1" if sp else "lock-step"
+            m, ma = (prof_c == name) & (c["spread"] == sp), (prof_a == name) & (acc["spread"] == sp)
+            if not m.any() and not ma.any():
+                continue
+            style = series_style(i)
+            i += 1
+            if m.any():
+                ci_errorbar(a, c["ratio_db"][m], c["p_capture"][m], c["ci_lo"][m], c["ci_hi"][m], scale=100.0,
+                            ms=3, label=f"{code[m][0]}, {how}", **style)
+            if ma.any():
+                floor = 0.5 / np.maximum(acc["collisions"][ma], 1)
+                b.plot(np.maximum(acc["false_ack_rate"][ma], floor), 100 * acc["missed_capture_rate"][ma],
+                       ms=2.5, markevery=4, **style)
     n = int(c["trials"].min()) if len(c["trials"]) else 0
-    gamma = float(c["threshold_db"][0]) if len(c["threshold_db"]) else math.nan
-    _label(a, "power ratio of the two replies at the reader [dB]", "P(capture): RN16 accepted and one tag's",
-           f"capture sweep: {n} collisions/point, RN16 accepted at {gamma:.1f} dB")
-    a.set_ylim(-0.03, 1.03)
-    a.legend(fontsize=7, loc="lower right")
-    b.set_xscale("symlog", linthresh=1e-3)
-    _label(b, "false-ACK rate per collided slot (threshold swept)", "missed-capture rate",
-           "RN16 acceptance: threshold on Eb/(N0+I), 0-20 dB")
-    b.legend(fontsize=7)
+    a.set(xlabel="power ratio of the two\nreplies at the reader [dB]", ylabel=r"$P_\mathrm{capture}$ [%] (C-P 95 %)",
+          ylim=(-3, 103), title=f"batched sweep, {n}\ncollisions/point")
+    legend_outside(a, where="below", ncols=1)
+    b.set_xscale("log")
+    b.set(xlabel="false-ACK rate\nper collided slot (0 at 1/2n)", ylabel="missed captures [%]",
+          title="RN16 acceptance threshold\n0–20 dB (series as left)")

@@ -29,7 +29,9 @@ from rfsim.core.config import param
 from rfsim.core.records import READ_MEASUREMENT_FIELDS, READ_REPORT_FIELDS, epc_hex, long_table, report_columns
 from rfsim.core.progress import track
 from rfsim.core.rng import trial_rng
-from rfsim.core.plots import figure_path, pyplot, save_figure
+from rfsim.core.figure_style import (OKABE_ITO, ci_errorbar, figure, legend_outside, paper_style, series_style,
+                                     shade_no_data, source_note)
+from rfsim.core.plots import figure_path, save_figure
 from rfsim.core.lazy import lazy_import
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -168,55 +170,65 @@ def _append(rows: dict[str, list], **values) -> None:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """RSSI (mean ± std of successful reads) and read rate vs distance, ``<stem>-rssi-read-rate.png``.
+    """RSSI, read rate, phase and Doppler against distance, ``<stem>-rssi-read-rate.png``.
 
     The distance axis is logarithmic (free-space RSSI is a straight line, −40 dB/decade
-    monostatic) with plain metre ticks at the simulated distances. Where no read succeeded
-    there is no RSSI; the gap is labelled with the failure reason of most rounds there and
-    the mean CW power at the tag.
+    monostatic) with plain metre ticks at the simulated distances. RSSI, phase and Doppler
+    are drawn per successful read (small hollow markers) with the mean RSSI; the read rate
+    with its Wilson 95 % interval. Distances without a successful read are hatched, and the
+    caption gives the failure reason of most rounds there and the mean CW power at the tag.
     """
-    plt = pyplot()
     from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 
     from rfsim.core.dataset import read_table
+    from rfsim.detection.fit import wilson_interval
 
     t = read_table(dataset_path, "reads")
     d = np.unique(t["distance_m"])
     at = [t["distance_m"] == x for x in d]
-    rate = np.array([t["success"][s].mean() for s in at])
-    rssi = [t["rssi_dbm"][s & t["success"]] for s in at]
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7.5, 6.2), sharex=True)
+    ok = t["success"]
+    k = np.array([np.sum(ok[s]) for s in at])
+    n = np.array([np.sum(s) for s in at])
+    rssi = [t["rssi_dbm"][s & ok] for s in at]
     mean = np.array([r.mean() if r.size else np.nan for r in rssi])
-    std = np.array([r.std() if r.size else np.nan for r in rssi])
-    a1.errorbar(d, mean, yerr=std, marker="o", capsize=3, label="successful reads: mean ± std")
-    missing = np.flatnonzero(~np.isfinite(mean))
-    if missing.size:  # say why there is no RSSI there instead of leaving a silent gap
+    with paper_style():
+        fig, axes = figure(columns=2, nrows=2, ncols=2, sharex=True, height_in=4.6)
+        (a1, a2), (a3, a4) = axes
+        each = dict(ls="none", marker="o", ms=3, mfc="none", mew=0.6, color=OKABE_ITO[4])
+        a1.plot(t["distance_m"][ok], t["rssi_dbm"][ok], label="one read", **each)
+        a1.plot(d, mean, label="mean of the reads", **series_style(0))
+        a1.set(ylabel="RSSI [dBm]", title="RSSI of the EPC reply")
+        lo, hi = wilson_interval(k, n)
+        ci_errorbar(a2, d, k / n, lo, hi, scale=100.0, label="read rate,\nWilson 95 %", **series_style(0))
+        a2.set(ylabel="read rate [%] (EPC, CRC ok)", ylim=(-3, 103), title="read rate")
+        a3.plot(t["distance_m"][ok], np.degrees(t["phase_rad"][ok]), **each)
+        a3.set(ylabel=r"reported phase $\phi$ [°]", ylim=(-10, 370), yticks=[0, 90, 180, 270, 360],
+               xlabel="reader–tag distance $d$ [m]", title="phase of the EPC reply")
+        a4.plot(t["distance_m"][ok], t["doppler_hz"][ok], **each)
+        a4.set(ylabel=r"Doppler $f_\mathrm{D}$ [Hz]", xlabel="reader–tag distance $d$ [m]",
+               title="Doppler estimate (static tag)")
+        missing = k == 0
         why = []
-        for k in missing:
-            reasons, counts = np.unique(t["failure_reason"][at[k]], return_counts=True)
-            p_inc = float(np.mean(t["tag_incident_power_dbm"][at[k]]))
-            why.append(f"{d[k]:g} m: {reasons[np.argmax(counts)] or 'other'}, CW at the tag {p_inc:.1f} dBm")
-            a1.axvspan(d[k] / 1.04, d[k] * 1.04, color="0.88", zorder=0)
-        a1.text(0.02, 0.04, "no successful read, so no RSSI, at\n" + "\n".join(why), transform=a1.transAxes,
-                fontsize=7.5, va="bottom", ha="left", bbox=dict(boxstyle="round", fc="white", ec="0.7"))
-    for k, r in enumerate(rssi):
-        if 0 < r.size < np.sum(at[k]):
-            a1.annotate(f"{r.size}/{np.sum(at[k])} read", (d[k], mean[k]), textcoords="offset points",
-                        xytext=(0, 8), ha="center", fontsize=7)
-    a1.set_ylabel("RSSI [dBm]")
-    a1.legend(fontsize=8, loc="upper right")
-    a1.margins(y=0.15)
-    a2.plot(d, rate, marker="o")
-    a2.set_ylabel("read rate (EPC with CRC ok)")
-    a2.set_xlabel("reader-tag distance [m]")
-    a2.set_ylim(-0.05, 1.05)
-    for a in (a1, a2):
-        a.set_xscale("log")
-        a.xaxis.set_major_locator(FixedLocator(d))
-        a.xaxis.set_major_formatter(lambda x, pos: f"{x:g}")
-        a.xaxis.set_minor_locator(NullLocator())
-        a.xaxis.set_minor_formatter(NullFormatter())
-        a.grid(True, alpha=0.3)
-    n = int(np.sum(at[0]))
-    fig.suptitle(f"Reader-tag link vs distance ({n} rounds per distance, log distance axis)")
-    return [save_figure(fig, figure_path(dataset_path, out_dir, "rssi-read-rate"))]
+        for i in np.flatnonzero(missing):  # say why there is no read there instead of a silent gap
+            reasons, counts = np.unique(t["failure_reason"][at[i]], return_counts=True)
+            p_inc = float(np.mean(t["tag_incident_power_dbm"][at[i]]))
+            why.append(f"{d[i]:g} m: {reasons[np.argmax(counts)] or 'other'}, CW at the tag {p_inc:.1f} dBm")
+        hatch = None
+        for a in axes.flat:
+            hatch = shade_no_data(a, d, missing, label="no read", log=True) or hatch
+            a.set_xscale("log")
+            a.xaxis.set_major_locator(FixedLocator(d))
+            a.xaxis.set_major_formatter(lambda x, pos: f"{x:g}")
+            a.xaxis.set_minor_locator(NullLocator())
+            a.xaxis.set_minor_formatter(NullFormatter())
+        for i in np.flatnonzero((k > 0) & (k < n)):
+            a1.annotate(f"{k[i]}/{n[i]}", (d[i], mean[i]), textcoords="offset points", xytext=(0, 6),
+                        ha="center", fontsize=6)
+        handles = a1.get_legend_handles_labels()[0] + a2.get_legend_handles_labels()[0]
+        legend_outside(a2, where="figure", handles=handles + ([hatch] if hatch is not None else []))
+        fig.suptitle("Reader–tag link against distance (log distance axis)")
+        note = f"{int(np.median(n))} rounds per distance, a fresh channel draw and hop channel each"
+        if why:
+            note += "; no read at " + "; ".join(why)
+        source_note(fig, note)
+        return [save_figure(fig, figure_path(dataset_path, out_dir, "rssi-read-rate"))]

@@ -299,15 +299,17 @@ def test_moving_reflector_phase_refers_to_the_step_start():
 def test_position_check_remembers_a_reflector_tuple_only_with_its_emitters():
     # a tuple of reflector antennas checked with one emitter is not checked again with it;
     # with another emitter at one of its positions it is checked, and refused
-    from rfsim.air.links import _POSITIONS_CHECKED_TUPLES, check_positions
+    from rfsim.air.cache import AirCache
+    from rfsim.air.links import check_positions
 
     ants = (iso([1, 0, 1]), iso([2, 0, 1]))
     far, on_top = _cw(iso([0, 0, 1])), _cw(iso([2, 0, 1]))
-    check_positions([far], ants, [])
-    assert _POSITIONS_CHECKED_TUPLES[id(ants)][0] is ants
-    check_positions([far], ants, [])
+    cache = AirCache()
+    check_positions([far], ants, [], cache)
+    assert cache.checked_tuples[id(ants)].reflectors is ants
+    check_positions([far], ants, [], cache)
     with pytest.raises(ConfigError) as err:
-        check_positions([on_top], ants, [])
+        check_positions([on_top], ants, [], cache)
     assert err.value.key == "reflector[1].position_m"
 
 

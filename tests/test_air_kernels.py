@@ -5,12 +5,12 @@ import numpy as np
 import pytest
 
 from rfsim.air import _step_kernels as k
-from reference.air_step_kernels import backscatter_reference
+from reference.air_step_kernels import backscatter_reference, numpy_products_fused
 from rfsim.air import fused as air_fused
 from rfsim.air.segment import Segment
 
-needs_match = pytest.mark.skipif(not k.fused_matches_numpy(),
-                                 reason="this CPU's NumPy complex product differs from the kernel's: the step keeps NumPy")
+MATCH = numpy_products_fused(k.cmul_kernel)
+needs_match = pytest.mark.skipif(not MATCH, reason="this CPU's NumPy complex product is not the kernel's fused one")
 
 
 @needs_match
@@ -24,7 +24,7 @@ def test_backscatter_kernel_equals_reference_bit_for_bit(n):
     k.backscatter_kernel(x, c, g, a_s, gamma, b, out)
     ref = backscatter_reference(x, c, g, a_s, gamma, b)
     # exact: where this test runs the kernel's products are NumPy's (the same fused, exactly rounded
-    # multiply-adds, checked by fused_matches_numpy), and the air step relies on that identity
+    # multiply-adds, checked by numpy_products_fused), and the air step relies on that identity
     assert np.array_equal(out.view(np.float64), ref.view(np.float64))
 
 
@@ -40,13 +40,16 @@ def test_cmul_differs_from_the_plain_formula_somewhere():
     assert not np.array_equal(out, plain)
 
 
+@needs_match
 def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
+    from rfsim.air.cache import AirCache, Strategy
     from rfsim.bench.exchange import _canonical
     from rfsim.protocols.engine import singulate
     from rfsim.core.rng import trial_rng
 
-    def rounds():
+    def rounds(fused: bool):
         reader, make_tag, channel, query = _canonical(3.0, 0)
+        reader.air_cache = AirCache(strategy=Strategy(fused_backscatter=fused))
         tag = make_tag(None)
         out = []
         for r in range(4):
@@ -60,10 +63,11 @@ def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
     calls = []
     kernel = k.backscatter_kernel
     monkeypatch.setattr(air_fused._ak, "backscatter_kernel", lambda *a: (calls.append(1), kernel(*a)))
-    fused = rounds()
-    assert calls or not k.fused_matches_numpy()
-    monkeypatch.setattr(air_fused, "kernels_ok", lambda: False)
-    assert rounds() == fused
+    fused = rounds(True)
+    assert calls
+    n_calls = len(calls)
+    assert rounds(False) == fused
+    assert len(calls) == n_calls  # the strategy turned the kernel off
     assert any(c == "ACK" and f == "" for c, f, *_ in fused)
 
 

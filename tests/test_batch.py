@@ -84,7 +84,7 @@ def test_run_exchanges_equals_separate_run_exchange_calls():
 
 @pytest.mark.parametrize("link_profile, block", [("miller4-320k", 64), ("fm0-640k", 64), ("miller4-320k", 3)])
 def test_singulate_batch_equals_separate_singulations(link_profile, block, monkeypatch):
-    monkeypatch.setattr("rfsim.protocols.batch.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
+    monkeypatch.setattr("rfsim.protocols.engine.BLOCK", block)  # 3: the trials run in blocks of 3, 3, 2
     reader, tags, channel = devices(DISTANCES, link_profile=link_profile)
     rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
     batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)
@@ -267,3 +267,31 @@ def test_propagate_batch_links_and_noise_from_one_generator():
     bad.links.rng = bad.rng  # the second listener's links would be drawn after the first one's noise
     with pytest.raises(ValueError, match=r"steps\[0\]\.links: draws from a generator that receiver noise"):
         propagate_batch([bad])
+
+
+def test_counter_noise_batch_equals_separate_singulations():
+    # with the counter-based noise (one key per step from the trial's generator, noise only on
+    # the samples the reader reads) a trial's records do not depend on the batch it ran in
+    from rfsim.air.cache import AirCache, Strategy
+
+    def with_counter(made):
+        made[0].air_cache = AirCache(strategy=Strategy(noise="counter"))
+        return made
+
+    reader, tags, channel = with_counter(devices(DISTANCES))
+    rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
+    batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)
+    reader2, tags2, channel2 = with_counter(devices(DISTANCES))
+    single = [singulate(reader2, tags2[b], channel2, t_s=0.0, rng=trial_rng(SEED, 3, b),
+                        query=query_of(reader2), round_index=1) for b in range(len(DISTANCES))]
+    assert any(len(s) == 2 and s[1].success for s in single)
+    for a, b in zip(batch, single):
+        assert [e.command for e in a] == [e.command for e in b]
+        for ea, eb in zip(a, b):
+            assert_same_exchange(ea, eb)
+    # and the noise is not the default generator's: some measurement differs from a pcg64 run
+    reader3, tags3, channel3 = devices(DISTANCES)
+    pcg = singulate_batch(reader3, tags3, channel3, t_s=0.0, rngs=[trial_rng(SEED, 3, b) for b in range(len(DISTANCES))],
+                          query=query_of(reader3), round_index=1)
+    assert any(a[0].read is not None and b[0].read is not None and a[0].read.snr_db != b[0].read.snr_db
+               for a, b in zip(batch, pcg))

@@ -163,7 +163,7 @@ def test_any_table_into_pandas_in_one_line(datasets):
 
 #: Figures each scenario draws (suffixes after the dataset's stem).
 FIGURES = {
-    "gen2-waveforms": ["exchange"], "link": ["rssi-read-rate"], "inventory": ["summary"],
+    "gen2-waveforms": ["exchange"], "link": ["rssi-read-rate"], "inventory": ["capture", "summary"],
     "reader-detection": ["heatmap", "mean"], "detection-probability": ["fig4_7"],
     "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],
     "rss-localization": ["cdf", "floorplan", "rmse"],

@@ -355,17 +355,20 @@ def test_air_accumulate_is_the_sequential_sum():
 
 
 def test_front_end_cache_of_read_only_segments():
-    """A reader's cached (read-only) command segment sent twice: the second segment gets the
-    kept SharedFrontEnd, whose level split, plateau, CW sample and decoded command equal a
-    fresh one's; a writable copy of the samples is never taken from the cache."""
+    """A reader's cached (read-only) command segment sent twice: the run's cache gives the
+    second segment the first one's memo, so the tag's SharedFrontEnd is kept, and its level
+    split, plateau, CW sample and decoded command equal a fresh one's; a segment made from a
+    copy of the samples (no shared memo) gets a front end of its own."""
     from rfsim.devices.tag import PassiveTag, SharedFrontEnd
-    from rfsim.air.step import Segment
+    from rfsim.air.step import FixedEmitter, Segment
     from rfsim.gen2.commands import QueryRep
 
     rd = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(63, 0))
     tx = [rd.transmit(QueryRep(session=s), t0_s=0.01 * k, cw_after_s=2e-4) for k, s in enumerate((1, 1, 2))]
     assert tx[0].samples is tx[1].samples and not tx[0].samples.flags.writeable
-    fes = [PassiveTag.front_end_of(Segment(t.t0_s, t.fs_hz, t.fc_hz, t.samples)) for t in tx]
+    assert tx[0].memo is tx[1].memo and tx[2].memo is not tx[0].memo
+    segs = [FixedEmitter(rd.antennas[0], t).segment for t in tx]
+    fes = [PassiveTag.front_end_of(seg) for seg in segs]
     assert fes[0] is fes[1] and fes[2] is not fes[0]
     for t, fe in zip(tx, fes):
         fresh = SharedFrontEnd(t.samples.copy(), fs_hz=t.fs_hz)
@@ -376,6 +379,9 @@ def test_front_end_cache_of_read_only_segments():
     a = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
     b = PassiveTag.front_end_of(Segment(0.0, tx[0].fs_hz, tx[0].fc_hz, writable))
     assert a is not b and a is not fes[0]
+    # another reader (another run) keeps its own segments
+    rd2 = Reader(ReaderConfig(), [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(63, 0))
+    assert rd2.transmit(QueryRep(session=1), t0_s=0.0, cw_after_s=2e-4).memo is not tx[0].memo
 
 
 # ----------------------------------------------------------------------------- reader receive / transmit

@@ -15,10 +15,11 @@ from scipy.stats import norm
 from rfsim.bench.linecode import benchmark_linecode
 from rfsim.gen2 import _linecode_kernels as K
 from rfsim.gen2.link import PROFILES, backscatter_duration_s
-from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_duration_s, reply_waveform, reply_waveform_for_profile
+from rfsim.gen2.linecode import (decode_reply, elements_of_levels, halfsymbols, preamble_levels, preamble_state,
+                                 reply_duration_s, reply_waveform, reply_waveform_for_profile)
 from rfsim.core.rng import trial_rng
-from reference.gen2_linecode import (decode_reply_reference, fm0_levels_reference, halfbit_sums_reference,
-                                     miller_levels_reference, reply_waveform_reference)
+from reference.gen2_linecode import (_elements, _state_index, decode_reply_reference, fm0_levels_reference,
+                                     halfbit_sums_reference, miller_levels_reference, reply_waveform_reference)
 
 CODES = [("fm0", 1, 2), ("miller2", 2, 3), ("miller4", 4, 3), ("miller8", 8, 3)]
 
@@ -51,16 +52,60 @@ def test_preamble_lengths_match_link_module():
 
 
 def test_level_kernels_equal_reference():
+    """The table-driven encoder gives the levels and final state of the rules written out."""
     bits = np.random.default_rng(0).integers(0, 2, 300).astype(np.uint8)
     for cur in (-1, 1):
         out = np.empty(600, dtype=np.int8)
-        last = K.fm0_levels_kernel(bits, np.int8(cur), out)
+        last = K.levels_kernel(bits, 1, (0 if cur == 1 else 1), out)
         ref, ref_last = fm0_levels_reference(bits, cur)
-        assert np.array_equal(out, ref) and last == ref_last
+        assert np.array_equal(out, ref) and K.LEVEL_OF_STATE[last] == ref_last
         for prev in (0, 1):
-            last_c, last_p = K.miller_levels_kernel(bits, np.int8(cur), np.uint8(prev), out)
-            ref, rc, rp = miller_levels_reference(bits, cur, prev)
-            assert np.array_equal(out, ref) and (last_c, last_p) == (rc, rp)
+            for m in (2, 4, 8):
+                last = K.levels_kernel(bits, m, (0 if cur == 1 else 1) + 2 * prev, out)
+                ref, rc, rp = miller_levels_reference(bits, cur, prev)
+                assert np.array_equal(out, ref)
+                assert (K.LEVEL_OF_STATE[last], K.PREV_BIT_OF_STATE[last]) == (rc, rp)
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+def test_elements_of_levels_equal_reference(m):
+    """Each level held for M elements, the odd ones inverted for Miller (the NumPy twin)."""
+    levels = np.where(np.random.default_rng(m).integers(0, 2, 50) == 1, 1, -1).astype(np.int8)
+    assert np.array_equal(elements_of_levels(levels, m), _elements(levels, m))
+    assert np.array_equal(elements_of_levels(levels, m, np.float64), _elements(levels, m).astype(np.float64))
+
+
+@pytest.mark.parametrize("m", [1, 2, 4, 8])
+@pytest.mark.parametrize("trext", [False, True])
+def test_preamble_state_is_the_state_after_the_preamble(m, trext):
+    """The encoder state after pilot + preamble: FM0 ends on level +1; Miller ends the preamble
+    ``010111`` on a data-1 (previous bit 1) at the level its encoding leaves."""
+    _, level, prev = preamble_levels(m=m, trext=trext)
+    assert preamble_state(m=m, trext=trext) == _state_index(level, prev, m > 1)
+    if m == 1:
+        assert (level, prev) == (1, 0)
+    else:
+        assert prev == 1
+
+
+@pytest.mark.parametrize("miller", [False, True])
+def test_transition_tables_follow_the_rules(miller):
+    """Every entry of the tables against the rules as text: FM0 inverts at each boundary and
+    mid-bit for data-0; Miller inverts mid-bit for data-1 and at the boundary of two data-0s."""
+    code = K.MILLER if miller else K.FM0
+    for state in range(K.N_STATES if miller else 2):
+        level, prev = (1 if state % 2 == 0 else -1), state // 2
+        for bit in (0, 1):
+            first, second = (int(v) for v in K.HALF_LEVELS[code, state, bit])
+            if miller:
+                assert first == (-level if (bit == 0 and prev == 0) else level)
+                assert second == (-first if bit == 1 else first)
+            else:
+                assert first == -level
+                assert second == (first if bit == 1 else -first)
+            nxt = int(K.NEXT_STATE[code, state, bit])
+            assert K.LEVEL_OF_STATE[nxt] == second
+            assert K.PREV_BIT_OF_STATE[nxt] == (bit if miller else 0)
 
 
 # ----------------------------------------------------------------- sampled waveform

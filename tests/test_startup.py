@@ -72,7 +72,7 @@ PHYSICS = ("rfsim.devices.reader", "rfsim.devices.reader_tx", "rfsim.devices.rea
            "rfsim.devices.sense_a_tag", "rfsim.devices.tag_population",
            "rfsim.devices.gen2_tag_state", "rfsim.devices.active_reader", "rfsim.devices.active_tag", "rfsim.channels.scene",
            "rfsim.channels.bulk", "rfsim.channels.paths", "rfsim.channels.small_scale", "rfsim.channels.rss", "rfsim.air.step",
-           "rfsim.air.links", "rfsim.air.groups", "rfsim.air.fused",
+           "rfsim.air.links", "rfsim.air.groups", "rfsim.air.fused", "rfsim.air.batch",
            "rfsim.protocols.engine", "rfsim.protocols.batch", "rfsim.core.dataset", "rfsim.gen2.pie", "rfsim.gen2.capture",
            "rfsim.gen2.replies", "rfsim.gen2.reply_search", "rfsim.gen2.reply_decoding", "rfsim.devices.gen2_tag_arrays",
            "rfsim.detection.fit", "rfsim.estimators.kalman", "rfsim.estimators.particle")

@@ -4,9 +4,9 @@ One modulating reflector at a receiver on the emitter's carrier, with narrowband
 links, contributes b·((A_s − Γ(t))·(g·x(t))); the step keeps it as its factors
 (:class:`Backscatter`) until the receiver's sum is formed, and when that sum is one constant
 term a·x plus this one contribution, :func:`fused_sum` forms it in one kernel pass
-(:mod:`rfsim.air._step_kernels`) — but only when the kernel reproduces NumPy's complex
-products on the machine at hand (:func:`kernels_ok`, a run-time probe whose answer the
-kernel module remembers); otherwise the step keeps NumPy's array operations.
+(:mod:`rfsim.air._step_kernels`) when the run's strategy asks for it
+(:attr:`rfsim.air.cache.Strategy.fused_backscatter`, chosen by the owner of the run, not by a
+probe of the machine); otherwise the step keeps NumPy's array operations.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from rfsim.air.segment import Segment
 
 _ak = lazy_import("rfsim.air._step_kernels")
 
-__all__ = ["Backscatter", "lazy_backscatter", "fused_sum", "kernels_ok"]
+__all__ = ["Backscatter", "lazy_backscatter", "fused_sum"]
 
 
 class Backscatter:
@@ -53,17 +53,17 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
     return Backscatter(seg.samples, g, terms[0], terms[1], b)
 
 
-def fused_sum(const: dict, parts: list, segs: list, n_samples: int):
-    """A receiver's constant-factor terms Σ_e a_e·x_e (in ``const`` order) and, when they are
-    one term a·x and ``parts`` is one :class:`Backscatter` of the same x, that part too, in
-    one kernel pass (:mod:`rfsim.air._step_kernels`: the same products and sums as the array
-    operations; ``parts`` is then emptied). None when ``const`` is empty."""
-    if len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
+def fused_sum(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool = True):
+    """A receiver's constant-factor terms Σ_e a_e·x_e (in ``const`` order) and, with ``fused``
+    (:attr:`rfsim.air.cache.Strategy.fused_backscatter`) when they are one term a·x and
+    ``parts`` is one :class:`Backscatter` of the same x, that part too, in one kernel pass
+    (:mod:`rfsim.air._step_kernels`: the same products and sums as the array operations;
+    ``parts`` is then emptied). None when ``const`` is empty."""
+    if fused and len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
         (i, a), = const.items()
         bs = parts[0]
         x = segs[i].samples
-        if (x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128
-                and kernels_ok()):
+        if (x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128):
             out = np.empty(n_samples, dtype=np.complex128)
             _ak.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), out)
             parts.clear()
@@ -73,9 +73,3 @@ def fused_sum(const: dict, parts: list, segs: list, n_samples: int):
         v = a * segs[i].samples
         y = v if y is None else y + v
     return y
-
-
-def kernels_ok() -> bool:
-    """The fused kernel reproduces NumPy's complex products on this machine (the run-time probe
-    :func:`rfsim.air._step_kernels.fused_matches_numpy`, its answer remembered there)."""
-    return _ak.fused_matches_numpy()

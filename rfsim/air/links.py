@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from rfsim.core.errors import ConfigError
+from rfsim.air.cache import AirCache, CheckedAntennas
 from rfsim.air.segment import Segment
 
 __all__ = ["PROPAGATION_METHODS", "LinkTable", "check_positions", "link_constant", "through", "require_link"]
@@ -58,23 +59,28 @@ class LinkTable:
         return hit[2]
 
 
-def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence) -> None:
+def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence,
+                    cache: AirCache | None = None) -> None:
     """Distinct antennas at distance 0 have no far-field link: a one-line error.
 
     ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
     of antennas whose positions are read-only arrays (``rfsim.channels.Antenna``) is checked once
-    and remembered by identity (a tuple of reflector antennas also by its own identity: a
-    population's antennas are one tuple object, not compared antenna by antenna)."""
+    per run and remembered in ``cache`` (:class:`rfsim.air.cache.AirCache`) by the identities
+    of its antennas (a tuple of reflector antennas also by its own identity: a population's
+    antennas are one tuple object, not compared antenna by antenna)."""
     emitter_ids = {id(e.antenna) for e in emitters}
     listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
     ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
-    by_tuple = _POSITIONS_CHECKED_TUPLES.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
-    if by_tuple is not None and by_tuple[0] is reflector_antennas and by_tuple[1] == ends:
-        return
-    key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
-    if key in _POSITIONS_CHECKED:
-        _remember_tuple(reflector_antennas, ends, emitters, listening)
-        return
+    if cache is not None:
+        by_tuple = cache.checked_tuples.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
+        if (by_tuple is not None and by_tuple.reflectors is reflector_antennas
+                and _ids(by_tuple.emitters) == ends[0] and _ids(by_tuple.receivers) == ends[1]):
+            return
+        key = (ends[0], tuple(map(id, reflector_antennas)), ends[1])
+        if key in cache.checked:
+            if len(reflector_antennas) > 1:  # a population's tuple: next time by its identity alone
+                _remember_tuple(cache, reflector_antennas, emitters, listening)
+            return
     named = ([(f"emitter[{i}]", e.antenna) for i, e in enumerate(emitters)]
              + [(f"reflector[{j}]", a) for j, a in enumerate(reflector_antennas)]
              + [(f"receiver[{k}]", a) for k, a in listening])
@@ -92,29 +98,25 @@ def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers:
             raise ConfigError(f"{name}.position_m", tuple(np.frombuffer(key_p).tolist()),
                               f"a position away from {other[0]}'s antenna (distance 0 m has no link)")
         seen.setdefault(key_p, (name, ant))
-    if frozen:
-        if len(_POSITIONS_CHECKED) >= 64:
-            _POSITIONS_CHECKED.pop(next(iter(_POSITIONS_CHECKED)))
-        _POSITIONS_CHECKED[key] = [a for _, a in named]  # kept alive: their ids stay theirs
-        _remember_tuple(reflector_antennas, ends, emitters, listening)
+    if frozen and cache is not None:
+        cache.remember(cache.checked, key, _entry(emitters, list(reflector_antennas), listening))
+        _remember_tuple(cache, reflector_antennas, emitters, listening)
 
 
-def _remember_tuple(reflector_antennas, ends: tuple, emitters, listening) -> None:
-    """Remember a checked tuple of reflector antennas by its identity, with the ids of the
-    emitter and listening receiver antennas it was checked with (the tuple and those antennas
-    kept alive: their ids stay their own)."""
-    if type(reflector_antennas) is not tuple:
-        return
-    if len(_POSITIONS_CHECKED_TUPLES) >= 64:
-        _POSITIONS_CHECKED_TUPLES.pop(next(iter(_POSITIONS_CHECKED_TUPLES)))
-    _POSITIONS_CHECKED_TUPLES[id(reflector_antennas)] = (reflector_antennas, ends, [e.antenna for e in emitters],
-                                                         [a for _, a in listening])
+def _ids(objects) -> tuple:
+    return tuple(map(id, objects))
 
 
-#: antenna-identity keys of position sets already checked (:func:`check_positions`)
-_POSITIONS_CHECKED: dict = {}
-#: id of a checked tuple of reflector antennas -> (the tuple, its emitter and receiver antenna ids, those antennas)
-_POSITIONS_CHECKED_TUPLES: dict = {}
+def _entry(emitters, reflector_antennas, listening) -> CheckedAntennas:
+    return CheckedAntennas(emitters=tuple(e.antenna for e in emitters), reflectors=reflector_antennas,
+                           receivers=tuple(a for _, a in listening))
+
+
+def _remember_tuple(cache: AirCache, reflector_antennas, emitters, listening) -> None:
+    """Remember a checked tuple of reflector antennas by its identity, with the emitter and
+    listening receiver antennas it was checked with."""
+    if type(reflector_antennas) is tuple:
+        cache.remember(cache.checked_tuples, id(reflector_antennas), _entry(emitters, reflector_antennas, listening))
 
 
 def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):

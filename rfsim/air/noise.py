@@ -86,3 +86,81 @@ def skip_awgn(shape, rng: np.random.Generator) -> None:
 
 
 __all__ += ["add_awgn", "add_awgn_reference", "skip_awgn"]
+
+
+# ----------------------------------------------------------------------------- counter-based noise
+
+_ck = lazy_import("rfsim.air._counter_noise_kernels")
+
+#: How a receiver's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`): ``"pcg64"`` every
+#: sample from the step's generator (:func:`add_awgn`), ``"counter"`` one key from it and the
+#: samples the receiver reads from the counter-based stream of that key (:func:`add_counter_awgn`).
+NOISE_METHODS = ("pcg64", "counter")
+
+
+def noise_key(rng: np.random.Generator) -> int:
+    """The key of one noise block: one uint64 drawn from the step's generator ``rng`` (a trial's
+    own stream, spawned from the run's SeedSequence: :mod:`rfsim.core.rng`). A trial's blocks
+    thus get their keys in the order its steps draw them, whether the trial runs alone, in a
+    batch or in another process."""
+    return int(rng.integers(0, 2**64, dtype=np.uint64))
+
+
+def counter_normals(key: int, n: int, *, first_pair: int = 0) -> np.ndarray:
+    """Normals 2·first_pair … 2·first_pair + n − 1 of the counter-based stream ``key``, (n,)
+    float64 (n even; algorithm: :mod:`rfsim.air._counter_noise_kernels`)."""
+    if n % 2:
+        raise ValueError(f"n must be even (normals come in pairs), got {n}")
+    out = np.empty(int(n))
+    _ck.normals_kernel(np.uint64(key), np.uint64(first_pair), out)
+    return out
+
+
+def add_counter_awgn(y: np.ndarray, noise_w: float, key: int, *, start: int = 0) -> None:
+    """Add complex white Gaussian noise of power ``noise_w`` [W per complex sample] to the
+    samples ``start:`` of ``y`` (…, n) complex128 in place: sample i of row b (flat index
+    f = b·n + i) gets √(N/2)·(a_f + j·b_f), (a_f, b_f) the normal pair f of the counter-based
+    stream ``key`` (:mod:`rfsim.air._counter_noise_kernels`). A sample's noise does not depend on
+    which other samples are drawn: the samples before ``start`` (read by nobody) cost nothing."""
+    scale = math.sqrt(noise_w / 2.0)
+    n = y.shape[-1]
+    rows = y.reshape(-1, n)
+    if not (rows.flags.c_contiguous and rows.flags.writeable and y.dtype == np.complex128):
+        raise ValueError("y must be a writeable C-contiguous complex128 array")
+    start = min(max(int(start), 0), n)
+    for b in range(rows.shape[0]):
+        _ck.add_noise_kernel(np.uint64(key), np.uint64(b * n + start), rows[b, start:], scale)
+
+
+def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, method: str = "pcg64",
+                       start: int = 0, keep: bool = False) -> np.ndarray | None:
+    """A receiver's noise of power ``noise_w`` [W] added to its input ``y`` (…, n) in place, by
+    ``method`` (:data:`NOISE_METHODS`): ``"pcg64"`` every sample from ``rng``
+    (:func:`add_awgn`); ``"counter"`` one key from ``rng`` (:func:`noise_key`) and the samples
+    ``start:`` that the receiver reads (:func:`add_counter_awgn`; every sample with ``keep``).
+    Returns the noise (…, n) [√W] with ``keep``, else None."""
+    if method == "counter":
+        key = noise_key(rng)
+        if not keep:
+            add_counter_awgn(y, noise_w, key, start=start)
+            return None
+        noise = np.zeros(y.shape, dtype=np.complex128)
+        add_counter_awgn(noise, noise_w, key)
+        y += noise
+        return noise
+    ab = add_awgn(y, noise_w, rng, keep=keep)
+    return ab[0] + 1j * ab[1] if keep else None
+
+
+def skip_receiver_noise(n_samples: int, rng: np.random.Generator, *, method: str = "pcg64") -> None:
+    """Advance ``rng`` as :func:`add_receiver_noise` of ``n_samples`` samples would, without
+    forming the noise (an input nobody reads): 2·n normals (``"pcg64"``) or the one key
+    (``"counter"``)."""
+    if method == "counter":
+        noise_key(rng)
+    else:
+        skip_awgn(n_samples, rng)
+
+
+__all__ += ["NOISE_METHODS", "noise_key", "counter_normals", "add_counter_awgn", "add_receiver_noise",
+            "skip_receiver_noise"]

@@ -134,13 +134,17 @@ class FixedEmitter:
     Parameters
     ----------
     antenna : the antenna it radiates from
-    segment : :class:`Segment` (or an object with ``t0_s``, ``fs_hz``, ``fc_hz``, ``samples``)
+    segment : :class:`Segment` (or an object with ``t0_s``, ``fs_hz``, ``fc_hz``, ``samples`` and
+        optionally ``memo``, a dict shared by every segment of these samples: the Segment's memo)
     device : the device behind it (lets a receiver recognise its own transmitter)
     """
 
     def __init__(self, antenna, segment, *, device=None):
         if not isinstance(segment, Segment):
+            memo = getattr(segment, "memo", None)
             segment = Segment(segment.t0_s, segment.fs_hz, segment.fc_hz, segment.samples)
+            if memo is not None:  # the made segment's shared memo (a reader's cached waveform)
+                segment.memo = memo
         self.antenna, self.segment, self.device = antenna, segment, device
 
     def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment:

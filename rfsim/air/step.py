@@ -35,7 +35,9 @@ D_ek either the channel's link or, for a receiver sharing the emitter's antenna 
 receiver's own ``coupling`` (a reader's TX→RX leakage), r_j the reflector's re-radiation
 factor and n_k complex white Gaussian noise of power ``receiver.noise_power_w`` per sample
 (kTB·F from :func:`rfsim.air.noise.thermal_noise_power_w`, which :mod:`rfsim.channels.noise` exports
-with the other noise models; real part then imaginary part drawn from the step's ``rng``).
+with the other noise models; real part then imaginary part drawn from the step's ``rng``, or,
+with the run's strategy ``noise="counter"``, from the counter-based stream of one key drawn
+from ``rng`` and only from the receiver's ``first_read_sample`` on: :mod:`rfsim.air.noise`).
 
 * **Carrier offsets.** S_Δ multiplies by e^{j2π·Δ·t} (t absolute time, phase reduced modulo
   one cycle): an emitter on another carrier appears shifted by the offset when |Δ| < fs/2,
@@ -75,8 +77,10 @@ receiver direct paths, backscatter, superposition, noise, receive) and its resul
 (:class:`AirResult`); its parts live beside it and are importable from here:
 :mod:`rfsim.air.segment` (:class:`Segment`, :func:`carrier_shift`), :mod:`rfsim.air.roles`
 (the protocols and adapters), :mod:`rfsim.air.links` (:class:`LinkTable`, a link applied,
-the position check), :mod:`rfsim.air.groups` (members of reflector groups) and
-:mod:`rfsim.air.fused` (the fused backscatter fast path).
+the position check), :mod:`rfsim.air.groups` (members of reflector groups),
+:mod:`rfsim.air.fused` (the fused backscatter fast path) and :mod:`rfsim.air.cache` (the run's
+:class:`AirCache`: its explicit fast-path :class:`Strategy` and what the step reuses between
+calls). :mod:`rfsim.air.batch` runs B prepared steps as one batch.
 """
 
 from __future__ import annotations
@@ -88,7 +92,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rfsim.core.errors import ConfigError
-from rfsim.air.noise import add_awgn, skip_awgn
+from rfsim.air.cache import AirCache, Strategy
+from rfsim.air.noise import add_receiver_noise, skip_receiver_noise
 from rfsim.air.segment import Segment, carrier_shift
 from rfsim.air.roles import (AntennaPort, Emitter, FixedEmitter, GroupReflection, Links, Receiver, Reflection,
                              Reflector, ReflectorGroup, as_reflector)
@@ -99,7 +104,7 @@ from rfsim.air.fused import Backscatter, fused_sum, lazy_backscatter
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
            "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
-           "PROPAGATION_METHODS"]
+           "PROPAGATION_METHODS", "AirCache", "Strategy"]
 
 _antenna_of = operator.attrgetter("antenna")
 
@@ -149,7 +154,8 @@ class AirResult:
 def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, links, *, t0_s: float,
               fs_hz: float, n_samples: int, rng: np.random.Generator | None = None,
               fc_ref_hz: float | None = None, bandwidth_hz: float | None = None, propagation: str = "auto",
-              decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False) -> AirResult:
+              decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False,
+              cache: AirCache | None = None) -> AirResult:
     """Run one exchange through the air (module docstring): emit, propagate, reflect,
     superpose, add noise, receive.
 
@@ -174,6 +180,9 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         caller that reads the inputs only when something modulates, and whose links draw
         nothing for the receivers' side (the engine: its backward links are drawn with the
         forward ones). Ignored with ``keep_components``.
+    cache : the run's :class:`rfsim.air.cache.AirCache` (its fast-path strategy and what the
+        step reuses between calls); default a new one for this call (the default strategy,
+        nothing reused)
 
     Returns
     -------
@@ -187,7 +196,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     """
     receivers = list(receivers)
     st = _begin(emitters, reflectors, receivers, links, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples,
-                bandwidth_hz=bandwidth_hz, propagation=propagation, keep=keep_components)
+                bandwidth_hz=bandwidth_hz, propagation=propagation, keep=keep_components,
+                cache=AirCache() if cache is None else cache)
     _emit(st, fc_ref_hz)
     _reflect(st)
     incident = PerMember(st.incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
@@ -205,11 +215,13 @@ class _Step:
     the reference carrier, with ``gains`` its held forward constants), the per-member
     ``incident``/``reflections``/``per_emitter`` (``(emitter, segment, constant gain or None,
     samples or None)`` per emitter) and ``shortcut`` (group start → its GroupReflection), and
-    the ``dropped``/``used`` records of the result."""
+    the ``dropped``/``used`` records of the result, and the run's ``cache``
+    (:class:`rfsim.air.cache.AirCache`)."""
 
     __slots__ = ("emitters", "links", "t0_s", "fs_hz", "n_samples", "bw", "propagation", "keep", "half",
                  "members", "entries", "member_antennas", "segs", "live", "fc_ref_hz", "single", "i0", "seg0",
-                 "held", "gains", "dropped", "used", "memo", "incident", "reflections", "per_emitter", "shortcut")
+                 "held", "gains", "dropped", "used", "memo", "incident", "reflections", "per_emitter", "shortcut",
+                 "cache")
 
     def shift(self, y, offset_hz: float):
         """``y`` moved by a carrier offset [Hz] (:func:`carrier_shift`; itself at offset 0)."""
@@ -229,7 +241,7 @@ class _Step:
 
 
 def _begin(emitters, reflectors, receivers: list, links, *, t0_s, fs_hz, n_samples, bandwidth_hz, propagation,
-           keep: bool) -> _Step:
+           keep: bool, cache: AirCache) -> _Step:
     """The arguments checked (one-line errors), the reflectors' members and entries, no two
     antennas at one position."""
     if propagation not in PROPAGATION_METHODS:
@@ -246,7 +258,8 @@ def _begin(emitters, reflectors, receivers: list, links, *, t0_s, fs_hz, n_sampl
     entries = st.entries
     st.member_antennas = (entries[0][2].antennas if len(entries) == 1 and entries[0][2] is not None
                           else tuple(map(_antenna_of, st.members)))
-    check_positions(emitters, st.member_antennas, receivers)
+    check_positions(emitters, st.member_antennas, receivers, cache)
+    st.cache = cache
     st.emitters, st.links, st.propagation, st.keep = emitters, links, propagation, keep
     st.half = 0.5 * st.fs_hz
     st.dropped, st.used, st.memo = [], {}, {}
@@ -369,7 +382,7 @@ def _unheard(st: _Step, receivers: list, incident, rng) -> AirResult:
         if float(rcv.noise_power_w) > 0:
             if rng is None:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-            skip_awgn(st.n_samples, rng)
+            skip_receiver_noise(st.n_samples, rng, method=st.cache.strategy.noise)
     none = [None] * len(receivers)
     return AirResult(segments=st.segs, incident=incident, reflections=PerMember(st.reflections, st.shortcut_of),
                      inputs=none, outputs=list(none), dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz),
@@ -390,8 +403,8 @@ def _receive(st: _Step, receivers: list, incident, *, rng, decide: bool) -> AirR
         if keep:
             direct_l.append(_direct_component(st, const, parts))
         _backscatter(st, k, rcv.antenna, fc_k, const, parts, back_l)
-        y = _superpose(const, parts, st.segs, st.n_samples)
-        n_k = _noise(y, rcv, rng, keep)
+        y = _superpose(const, parts, st.segs, st.n_samples, fused=st.cache.strategy.fused_backscatter)
+        n_k = _noise(y, rcv, rng, keep, st)
         if keep:
             noise_l.append(n_k)
         seg_k = Segment(st.t0_s, st.fs_hz, fc_k, y)
@@ -553,11 +566,11 @@ def _member_each(st: _Step, j: int, k: int, r_ant, fc_k: float, const: dict, par
         back_l[j][k] = np.zeros(st.n_samples, dtype=np.complex128) if part is None else part
 
 
-def _superpose(const: dict, parts: list, segs: list, n_samples: int) -> np.ndarray:
+def _superpose(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool) -> np.ndarray:
     """y = Σ_e a_e·x_e + Σ parts, (…, n) complex128 [√W]: the constant-factor terms (with the
-    fused kernel where it applies, :func:`rfsim.air.fused.fused_sum`), then the parts in
-    order; zeros when nothing arrives."""
-    y = fused_sum(const, parts, segs, n_samples)
+    fused kernel where it applies and ``fused`` asks for it, :func:`rfsim.air.fused.fused_sum`),
+    then the parts in order; zeros when nothing arrives."""
+    y = fused_sum(const, parts, segs, n_samples, fused=fused)
     for v in parts:
         if isinstance(v, Backscatter):
             v = v.samples()
@@ -572,14 +585,22 @@ def _superpose(const: dict, parts: list, segs: list, n_samples: int) -> np.ndarr
     return y
 
 
-def _noise(y: np.ndarray, rcv, rng, keep: bool):
-    """Adds the receiver's complex white noise √(N/2)·(a + j·b) to ``y`` in place (every a
-    then every b drawn from ``rng``, :func:`rfsim.air.noise.add_awgn`); returns the noise
-    (…, n) [√W] with ``keep``, else None."""
+def _noise(y: np.ndarray, rcv, rng, keep: bool, st: _Step):
+    """Adds the receiver's complex white noise √(N/2)·(a + j·b) to ``y`` (…, n) in place, drawn
+    as the run's strategy says (:func:`rfsim.air.noise.add_receiver_noise`: every a then every b
+    from ``rng``, or the samples from the receiver's :func:`first_read` on from a counter-based
+    stream keyed by one draw of ``rng``); returns the noise (…, n) [√W] with ``keep``, else None."""
     noise_w = float(rcv.noise_power_w)
     if not noise_w > 0:
         return None
     if rng is None:
         raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-    ab = add_awgn(y, noise_w, rng, keep=keep)
-    return ab[0] + 1j * ab[1] if keep else None
+    return add_receiver_noise(y, noise_w, rng, method=st.cache.strategy.noise,
+                              start=first_read(rcv, st.t0_s, st.fs_hz, st.n_samples), keep=keep)
+
+
+def first_read(rcv, t0_s: float, fs_hz: float, n_samples: int) -> int:
+    """The first sample of an input (t0_s [s], fs_hz [Hz], n_samples) that receiver ``rcv``
+    reads: its ``first_read_sample(t0_s, fs_hz, n_samples)`` when it has one, else 0."""
+    f = getattr(rcv, "first_read_sample", None)
+    return 0 if f is None else int(f(t0_s, fs_hz, n_samples))

@@ -14,7 +14,7 @@ import time
 import tracemalloc
 
 
-def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0) -> dict:
+def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str = "pcg64") -> dict:
     """Simulated air time per wall-clock second of the canonical exchange, on one core.
 
     Air time = the samples the engine simulated (the reader's segments: CW lead-in,
@@ -22,7 +22,8 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     between rounds is not counted (the engine skips it). Compile time is excluded (one
     warm-up round first). ``peak_traced_mb`` is the peak of Python/NumPy allocations during
     the timed rounds (``tracemalloc``, measured in a second, separate pass so that the
-    tracing does not slow the timed one).
+    tracing does not slow the timed one). ``noise``: how the reader's noise is drawn
+    (:attr:`rfsim.air.cache.Strategy.noise`).
 
     Returns
     -------
@@ -34,7 +35,7 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     from rfsim.protocols.engine import singulate
     from rfsim.core.rng import trial_rng
 
-    reader, make_tag, channel, query = _canonical(distance_m, seed)
+    reader, make_tag, channel, query = _canonical(distance_m, seed, noise)
     tag = make_tag(None)
     state = {"t": 0.0, "r": 0}
 
@@ -74,10 +75,13 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     }
 
 
-def _canonical(distance_m: float, seed: int):
-    """The canonical exchange's reader, a maker of its tag (``trial_rng(seed, 1)``, trial b of a
-    batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the round's Query (target A/B alternating)."""
+def _canonical(distance_m: float, seed: int, noise: str = "pcg64"):
+    """The canonical exchange's reader (its receiver noise drawn by ``noise``,
+    :attr:`rfsim.air.cache.Strategy.noise`), a maker of its tag (``trial_rng(seed, 1)``, trial b
+    of a batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the
+    round's Query (target A/B alternating)."""
     # imported here: rfsim does not import devices/channels/scenarios at module level
+    from rfsim.air.cache import AirCache, Strategy
     from rfsim.channels import Channel
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import PassiveTag, TagConfig
@@ -88,6 +92,7 @@ def _canonical(distance_m: float, seed: int):
     cfg = link_scenario.Config()
     reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
                     rng=trial_rng(seed, 0))
+    reader.air_cache = AirCache(strategy=Strategy(noise=noise))
     antenna = link_scenario.tag_antenna(cfg.geometry, distance_m)
     channel = Channel(link_scenario.scene(cfg.channel))
     lk = reader.link
@@ -101,12 +106,14 @@ def _canonical(distance_m: float, seed: int):
     return reader, make_tag, channel, query
 
 
-def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0) -> dict:
+def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0,
+                         noise: str = "pcg64") -> dict:
     """Aggregate air time per second of the canonical exchange run as batches of ``batch``
     independent singulations (:func:`rfsim.protocols.batch.singulate_batch`: B tags at the same place,
     trial b of batch k drawing its channel and noise from ``trial_rng(seed, 2, k, b)``), on
     one core. Air time as in :func:`bench_exchange` (the samples of every trial's Query and
-    ACK segments / fs); one warm-up batch of 4 other tags first.
+    ACK segments / fs); one warm-up batch of 4 other tags first. ``noise`` as for
+    :func:`bench_exchange`.
 
     Returns
     -------
@@ -116,7 +123,7 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
     from rfsim.protocols.batch import singulate_batch
     from rfsim.core.rng import trial_rng
 
-    reader, make_tag, channel, query = _canonical(distance_m, seed)
+    reader, make_tag, channel, query = _canonical(distance_m, seed, noise)
     tags = [[make_tag(b)] for b in range(int(batch) + 4)]
 
     def one_batch(k: int, trials: list):

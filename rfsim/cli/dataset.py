@@ -16,6 +16,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+from rfsim.cli.figures import add_figure_args, figure_output_of, written_files
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.errors import UserError
 from rfsim.core.outputs import check_output_folder
@@ -24,10 +25,16 @@ from rfsim.core.outputs import check_output_folder
 def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("plot", help="re-draw a run's figures from its dataset file",
                        description="Re-draw the figures of a run from its HDF5 dataset alone "
-                                   "(figures <stem>-*.png beside the dataset or in --out-dir).")
-    p.add_argument("dataset", type=Path, help="dataset file written by 'rfsim run'")
+                                   "(figures <stem>-*.png beside the dataset or in --out-dir). "
+                                   "With --all-scenarios DIR: one contact sheet with every figure "
+                                   "of every dataset in DIR (e.g. results/ after the default runs).")
+    p.add_argument("dataset", type=Path, nargs="?", help="dataset file written by 'rfsim run'")
+    p.add_argument("--all-scenarios", type=Path, default=None, metavar="DIR",
+                   help="draw the figures of every dataset in DIR (one per scenario, in 'rfsim list' "
+                        "order) side by side on one page, <out-dir>/contact-sheet.png")
     p.add_argument("--out-dir", type=Path, default=None,
-                   help="folder for the figures (default: the dataset's folder)")
+                   help="folder for the figures (default: the dataset's folder, or DIR)")
+    add_figure_args(p)
     add_verbosity_args(p)
     p.set_defaults(func=_plot)
 
@@ -59,9 +66,14 @@ def _text(value) -> str:
 
 
 def _plot(args: argparse.Namespace) -> int:
+    from rfsim.core.plots import figure_output
     from rfsim.core.progress import reporting
     from rfsim.runs.registry import get_scenario
 
+    if (args.dataset is None) == (args.all_scenarios is None):
+        raise UserError("give a dataset file or --all-scenarios DIR (one of the two)")
+    if args.all_scenarios is not None:
+        return _contact_sheet(args)
     with _open(args.dataset) as f:
         scenario = _text(f.attrs.get("scenario", ""))
         is_sweep = "provenance" in f and "spec_toml" in f["provenance"].attrs
@@ -73,7 +85,8 @@ def _plot(args: argparse.Namespace) -> int:
     module = get_scenario(scenario)
     out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
     check_output_folder(out_dir, "--out-dir")  # before drawing: a file, /proc, no permission
-    with reporting(reporter(args)) as rep:
+    output = figure_output_of(args)
+    with reporting(reporter(args)) as rep, figure_output(output):
         rep.stage(f"drawing the {scenario} figures of {args.dataset}")
         try:
             figures = module.plot(args.dataset, out_dir)
@@ -81,7 +94,62 @@ def _plot(args: argparse.Namespace) -> int:
             raise UserError(f"dataset {str(args.dataset)!r} lacks what the {scenario} figures need "
                             f"({type(exc).__name__}: {exc})") from None
     if not args.quiet:
-        for fig in figures:
+        for fig in written_files(figures, output):
+            print(f"figure:  {fig}")
+    return 0
+
+
+def _scenario_of(path: Path) -> str:
+    """The scenario that wrote the dataset ``path`` ('' for a merged sweep, a foreign or
+    unreadable file)."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if "provenance" in f and "spec_toml" in f["provenance"].attrs:
+                return ""
+            return _text(f.attrs.get("scenario", ""))
+    except OSError:
+        return ""
+
+
+def _contact_sheet(args: argparse.Namespace) -> int:
+    """``rfsim plot --all-scenarios DIR``: every dataset's figures (drawn afresh into a
+    temporary folder, PNG) on one page, scenarios in 'rfsim list' order, then by file name."""
+    import tempfile
+
+    from rfsim.core.plots import FigureOutput, contact_sheet, figure_output
+    from rfsim.core.progress import reporting
+    from rfsim.runs.registry import get_scenario, scenario_descriptions
+
+    folder = args.all_scenarios
+    if not folder.is_dir():
+        raise UserError(f"--all-scenarios {str(folder)!r}: not a folder")
+    out_dir = args.out_dir if args.out_dir is not None else folder
+    check_output_folder(out_dir, "--out-dir")
+    output = figure_output_of(args)
+    order = list(scenario_descriptions())
+    found = [(p, _scenario_of(p)) for p in sorted(folder.glob("*.h5"))]
+    found = sorted(((p, s) for p, s in found if s), key=lambda ps: (order.index(ps[1]) if ps[1] in order
+                                                                     else len(order), ps[0].name))
+    if not found:
+        raise UserError(f"--all-scenarios {str(folder)!r}: no dataset written by 'rfsim run' in it")
+    images = []
+    with reporting(reporter(args)) as rep, tempfile.TemporaryDirectory(prefix="rfsim-sheet-") as tmp:
+        with figure_output(FigureOutput(("png",), dpi=100)):
+            for path, scenario in found:
+                rep.stage(f"drawing the {scenario} figures of {path}")
+                try:
+                    drawn = get_scenario(scenario).plot(path, Path(tmp))
+                except (KeyError, ValueError, UserError) as exc:
+                    rep.stage(f"skipped {path}: its figures could not be drawn ({type(exc).__name__}: {exc})")
+                    continue
+                images += [(Path(p).stem, Path(p)) for p in drawn]
+        with figure_output(output):
+            sheet = contact_sheet(images, out_dir / "contact-sheet.png",
+                                  title=f"Every figure of the {len(found)} datasets in {folder}")
+    if not args.quiet:
+        for fig in written_files([sheet], output):
             print(f"figure:  {fig}")
     return 0
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rfsim.cli.figures import add_figure_args, figure_output_of, written_files
 from rfsim.cli.memory import add_max_memory_arg, max_memory
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.config import describe, load_config, to_toml
@@ -44,6 +45,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="dataset file name (default: <out-dir>/<scenario>.h5)")
     p.add_argument("--no-plot", action="store_true", help="write the dataset only")
+    add_figure_args(p)
     add_max_memory_arg(p)
     add_verbosity_args(p)
     p.set_defaults(func=_run)
@@ -89,11 +91,13 @@ def _config(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from rfsim.core.plots import figure_output
     from rfsim.core.progress import reporting
     from rfsim.runs.runner import run_scenario
 
     module, config = _resolve(args)
-    with reporting(reporter(args)) as rep:
+    output = figure_output_of(args)  # a wrong --format is reported before the run
+    with reporting(reporter(args)) as rep, figure_output(output):
         rep.detail("resolved config:\n" + to_toml(config).rstrip())
         out_dir = args.out_dir if args.out_dir is not None else (
             args.output.parent if args.output is not None else Path("results"))  # figures beside -o
@@ -101,7 +105,7 @@ def _run(args: argparse.Namespace) -> int:
                            make_plots=not args.no_plot, max_memory_bytes=max_memory(args))
     if not args.quiet:
         print(f"dataset: {out.dataset_path}")
-        for fig in out.figure_paths:
+        for fig in written_files(out.figure_paths, output):
             print(f"figure:  {fig}")
         print(f"done in {out.wall_time_s:.1f} s (seed {args.seed})")
     return 0

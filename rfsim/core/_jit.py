@@ -163,6 +163,19 @@ def njit(func):
     return dispatcher
 
 
+_VECTOR = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+
+def njit_vector(func):
+    """:func:`njit` with numba's ``error_model="numpy"``: a float division by zero gives inf/nan
+    as NumPy does instead of raising, so no zero check is compiled into every division and a
+    loop of divisions can be vectorised. For kernels whose divisors cannot be zero (say why
+    in the kernel's docstring); no fastmath, results stay bit-reproducible."""
+    dispatcher = _VECTOR(func)
+    KERNELS.append(dispatcher)
+    return dispatcher
+
+
 _INLINE = numba.njit(cache=True, nogil=True, inline="always")
 
 

@@ -1,10 +1,26 @@
 """numba kernels of the FM0 / Miller line codes (wrapped and documented in
-:mod:`rfsim.gen2.linecode`; NumPy twins in the tests' ``reference.gen2_linecode``).
+:mod:`rfsim.gen2.linecode`; NumPy twins in the tests' ``reference.gen2_linecode``), and the
+one definition of the line codes' rules as transition tables, read by the encoder, the Viterbi
+trellis, the reply decoders and the reader's BLF search (kernels read the arrays as constants).
+
+Rules (gen2-and-validation-anchors.md §3.6, §4.2; EPC Gen2 §6.3.1.3.2):
+
+* FM0: the level inverts at every bit boundary; data-0 has a mid-bit inversion.
+* Miller: data-1 has a mid-bit inversion; the level inverts at the boundary between two
+  consecutive data-0s. The baseband is then multiplied by a square subcarrier: element k
+  (half a subcarrier cycle) carries the sign (−1)^k (:data:`SUBCARRIER_SIGN`).
 
 Levels are ±1 (int8); a *half-bit* is half a data symbol; an *element* is half a
 subcarrier cycle (1/(2·BLF) s): FM0 has one element per half-bit, Miller-M has M.
-Trellis states are ``s = cur_idx + 2·prev`` with ``cur_idx = 0`` for level +1 and 1 for
-−1, and ``prev`` the previous data bit (Miller only; FM0 keeps ``prev = 0``).
+
+The encoder state is ``s = level_index + 2·prev``: ``level_index`` 0 for the level +1 and 1 for
+−1 (the level of the last half-bit sent), ``prev`` the last data bit (Miller only; FM0 states
+are 0 and 1, its rows 2 and 3 repeat rows 0 and 1 and are never entered). The Viterbi trellis
+has these states. Per code (:data:`FM0` = 0, :data:`MILLER` = 1), state and data bit the tables
+give the two half-bit levels sent and the next state::
+
+    HALF_LEVELS[code, state, bit] = (first, second)  (±1)
+    NEXT_STATE[code, state, bit]  = state after the bit
 """
 
 from __future__ import annotations
@@ -13,43 +29,102 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
+from rfsim.core._jit import njit, njit_inline
 
 #: Added to the fractional element index before flooring, so that a sample that falls
 #: exactly on an element boundary (up to float64 rounding) belongs to the later element.
 INDEX_EPS = 1e-9
 
+#: Table index of FM0 (M = 1) and of Miller (M = 2, 4, 8).
+FM0 = 0
+MILLER = 1
+#: Number of encoder states (level index + 2·previous bit).
+N_STATES = 4
+
+#: ``HALF_LEVELS[code, state, bit] = (first, second)`` half-bit levels of a data bit (int8 ±1).
+HALF_LEVELS = np.array([
+    # FM0: invert at the boundary (first = −level); data-0 inverts again mid-bit
+    [[[-1, 1], [-1, -1]],    # state 0: level +1
+     [[1, -1], [1, 1]],      # state 1: level −1
+     [[-1, 1], [-1, -1]],    # state 2 (= 0, never entered)
+     [[1, -1], [1, 1]]],     # state 3 (= 1, never entered)
+    # Miller: data-1 inverts mid-bit; a data-0 after a data-0 inverts at the boundary
+    [[[-1, -1], [1, -1]],    # state 0: level +1, previous bit 0
+     [[1, 1], [-1, 1]],      # state 1: level −1, previous bit 0
+     [[1, 1], [1, -1]],      # state 2: level +1, previous bit 1
+     [[-1, -1], [-1, 1]]],   # state 3: level −1, previous bit 1
+], dtype=np.int8)
+
+#: ``NEXT_STATE[code, state, bit]``: the encoder state after the bit (int8).
+NEXT_STATE = np.array([
+    [[0, 1], [1, 0], [0, 1], [1, 0]],   # FM0: level index of the second half-bit
+    [[1, 3], [0, 2], [0, 3], [1, 2]],   # Miller: level index of the second half-bit + 2·bit
+], dtype=np.int8)
+
+#: ``LEVEL_OF_STATE[state]``: the level of the last half-bit sent in that state (int8 ±1).
+LEVEL_OF_STATE = np.array([1, -1, 1, -1], dtype=np.int8)
+#: ``PREV_BIT_OF_STATE[state]``: the last data bit in that state (Miller; uint8).
+PREV_BIT_OF_STATE = np.array([0, 0, 1, 1], dtype=np.uint8)
+
+#: ``SUBCARRIER_SIGN[code, k % 2]``: sign of element k of a half-bit of level +1 (FM0: none;
+#: Miller: the square subcarrier, −1 on odd elements).
+SUBCARRIER_SIGN = np.array([[1, 1], [1, -1]], dtype=np.int8)
+
+for _table in (HALF_LEVELS, NEXT_STATE, LEVEL_OF_STATE, PREV_BIT_OF_STATE, SUBCARRIER_SIGN):
+    _table.setflags(write=False)
+del _table
+
 
 @njit
-def fm0_levels_kernel(bits, cur, out):
-    """FM0 half-bit levels of ``bits`` starting after level ``cur``; returns the last level.
-
-    Inversion at every bit boundary; data-0 has a mid-bit inversion.
-    """
-    for i in range(bits.size):
-        first = -cur
-        second = first if bits[i] == 1 else -first
-        out[2 * i] = first
-        out[2 * i + 1] = second
-        cur = second
-    return cur
+def code_of(m):
+    """Table index of the line code with ``m`` subcarrier cycles per bit: :data:`FM0` for
+    m = 1, :data:`MILLER` otherwise."""
+    return FM0 if m == 1 else MILLER
 
 
 @njit
-def miller_levels_kernel(bits, cur, prev, out):
-    """Miller baseband half-bit levels; returns ``(last level, last bit)``.
+def state_index(level, prev_bit, m):
+    """Encoder state of the tables from the last half-bit level (±1) and the last data bit
+    (ignored for FM0)."""
+    return (0 if level == 1 else 1) + (2 * prev_bit if code_of(m) == MILLER else 0)
 
-    data-1 has a mid-bit inversion; the level inverts between two consecutive data-0s.
-    """
+
+@njit_inline
+def element_sign(k, m):
+    """Subcarrier sign (±1) of element ``k`` (:data:`SUBCARRIER_SIGN`)."""
+    return SUBCARRIER_SIGN[code_of(m), k & 1]
+
+
+@njit_inline
+def put_half_bit(out, k, level, m):
+    """Write the ``m`` elements of a half-bit of ``level`` from element ``k`` (the level times
+    :func:`element_sign`); returns the next element index."""
+    for _ in range(m):
+        out[k] = level * element_sign(k, m)
+        k += 1
+    return k
+
+
+@njit
+def levels_kernel(bits, m, state, out):
+    """Half-bit levels ``out`` ((2·n,) int8) of ``bits`` from encoder ``state`` (the tables
+    :data:`HALF_LEVELS`, :data:`NEXT_STATE` of the code of ``m``); returns the final state."""
+    code = code_of(m)
     for i in range(bits.size):
         b = bits[i]
-        first = -cur if (b == 0 and prev == 0) else cur
-        second = -first if b == 1 else first
-        out[2 * i] = first
-        out[2 * i + 1] = second
-        cur = second
-        prev = b
-    return cur, prev
+        out[2 * i] = HALF_LEVELS[code, state, b, 0]
+        out[2 * i + 1] = HALF_LEVELS[code, state, b, 1]
+        state = NEXT_STATE[code, state, b]
+    return state
+
+
+@njit
+def level_elements_kernel(levels, m, out):
+    """Elements ``out`` ((levels.size·m,)) of the half-bit ``levels``: each held for ``m``
+    elements, times the subcarrier sign (:func:`put_half_bit`)."""
+    k = 0
+    for i in range(levels.size):
+        k = put_half_bit(out, k, levels[i], m)
 
 
 @njit
@@ -63,6 +138,33 @@ def waveform_kernel(elements, t0_samples, elements_per_sample, out):
             continue
         k = int(math.floor(u + INDEX_EPS))
         out[n] = elements[k] if k < ne else 0.0
+
+
+@njit_inline
+def sampled_template(elements, t0_samples, elements_per_sample, out):
+    """:func:`waveform_kernel` of ``elements`` into ``out`` (a template, e.g. the pilot +
+    preamble from a fractional start); returns its mean, Σ out / out.size (summed in order)."""
+    waveform_kernel(elements, t0_samples, elements_per_sample, out)
+    mean = 0.0
+    for i in range(out.size):
+        mean += out[i]
+    mean /= out.size
+    return mean
+
+
+@njit_inline
+def runs_dot(k, begin, value, n_runs, c_re, c_im):
+    """``Σ_q value[q]·(C[k + begin[q + 1]] − C[k + begin[q]])`` for the cumulative sums C = (c_re,
+    c_im) of a signal: its dot product at lag k with a template made of ``n_runs`` runs of
+    equal values (run q from ``begin[q]``, ``begin[n_runs]`` its end). Returns (re, im)."""
+    a_re = 0.0
+    a_im = 0.0
+    for q in range(n_runs):
+        b0 = k + begin[q]
+        b1 = k + begin[q + 1]
+        a_re += value[q] * (c_re[b1] - c_re[b0])
+        a_im += value[q] * (c_im[b1] - c_im[b0])
+    return a_re, a_im
 
 
 @njit
@@ -79,29 +181,17 @@ def bitwise_kernel(a, b, miller, out):
 
 
 @njit
-def _branch(state, bit, miller):
-    cur = 1 if (state & 1) == 0 else -1
-    prev = state >> 1
-    if miller:
-        first = -cur if (bit == 0 and prev == 0) else cur
-        second = -first if bit == 1 else first
-    else:
-        first = -cur
-        second = first if bit == 1 else -first
-    nxt = (0 if second == 1 else 1) + (2 * bit if miller else 0)
-    return first, second, nxt
-
-
-@njit
 def viterbi_kernel(a, b, miller, state0, last_is_one, out):
     """Maximum-likelihood sequence detection over the FM0/Miller trellis.
 
     Branch metric = e1·a + e2·b (correlation of the half-bit sums with the expected
     levels), maximised; starts from the known state ``state0``; if ``last_is_one`` the
-    final bit (the dummy 1) is forced to 1. Returns the final state.
+    final bit (the dummy 1) is forced to 1. Returns the final state. The trellis is that of
+    the tables :data:`HALF_LEVELS` (expected levels e1, e2) and :data:`NEXT_STATE`.
     """
+    code = MILLER if miller else FM0
     n = out.size
-    ns = 4
+    ns = N_STATES
     metric = np.full(ns, -np.inf)
     metric[state0] = 0.0
     back_state = np.zeros((n, ns), dtype=np.int8)
@@ -115,7 +205,9 @@ def viterbi_kernel(a, b, miller, state0, last_is_one, out):
             for bit in range(2):
                 if last_is_one and i == n - 1 and bit == 0:
                     continue
-                e1, e2, t = _branch(s, bit, miller)
+                e1 = HALF_LEVELS[code, s, bit, 0]
+                e2 = HALF_LEVELS[code, s, bit, 1]
+                t = NEXT_STATE[code, s, bit]
                 v = metric[s] + e1 * a[i] + e2 * b[i]
                 if v > new[t]:
                     new[t] = v
@@ -221,37 +313,24 @@ def corr_abs_kernel(r, t0, out):
 
 
 @njit
-def elements_kernel(bits, dummy, m, pre, cur, prev, out):
+def elements_kernel(bits, dummy, m, pre, state, out):
     """Element sequence of a reply into ``out`` ((len(pre) + 2·(n + dummy))·m,): the preamble
-    half-bit levels ``pre``, then the FM0 (m = 1) or Miller half-bit levels of ``bits`` (and a
-    dummy 1) from encoder state (``cur``, ``prev``); each half-bit is m elements, Miller
-    elements alternate the sign (subcarrier: −1 on odd element indices). Returns False
-    (``out`` untouched) if a bit is neither 0 nor 1."""
+    half-bit levels ``pre``, then the half-bit levels of ``bits`` (and a dummy 1) from encoder
+    ``state`` (:func:`levels_kernel`'s tables), as elements (:func:`put_half_bit`). Returns
+    False (``out`` untouched) if a bit is neither 0 nor 1."""
     for i in range(bits.size):
         if bits[i] > 1:
             return False
+    code = code_of(m)
     k = 0
     for i in range(pre.size):
-        for _ in range(m):
-            out[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
-            k += 1
+        k = put_half_bit(out, k, pre[i], m)
     nb = bits.size + (1 if dummy else 0)
     for i in range(nb):
         b = bits[i] if i < bits.size else 1
-        if m == 1:
-            first = -cur
-            second = first if b == 1 else -first
-        else:
-            first = -cur if (b == 0 and prev == 0) else cur
-            second = -first if b == 1 else first
-        for _ in range(m):
-            out[k] = first if (m == 1 or k % 2 == 0) else -first
-            k += 1
-        for _ in range(m):
-            out[k] = second if (m == 1 or k % 2 == 0) else -second
-            k += 1
-        cur = second
-        prev = b
+        k = put_half_bit(out, k, HALF_LEVELS[code, state, b, 0], m)
+        k = put_half_bit(out, k, HALF_LEVELS[code, state, b, 1], m)
+        state = NEXT_STATE[code, state, b]
     return True
 
 
@@ -283,7 +362,7 @@ def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_s
                 return
         z = part[n]
         y = (z.real * g_re - z.imag * g_im) - dc_re
-        if m > 1 and (k & 1):
+        if element_sign(k, m) < 0:
             acc -= y
         else:
             acc += y
@@ -330,13 +409,7 @@ def corr_abs_runs_kernel(r, t0, out):
         mean_t += t0[i]
     mean_t /= n
     for k in range(out.size):
-        a_re = 0.0
-        a_im = 0.0
-        for q in range(n_runs):
-            b0 = k + begin[q]
-            b1 = k + begin[q + 1]
-            a_re += value[q] * (c_re[b1] - c_re[b0])
-            a_im += value[q] * (c_im[b1] - c_im[b0])
+        a_re, a_im = runs_dot(k, begin, value, n_runs, c_re, c_im)
         # a template with a non-zero mean: add back mean(r)·Σ t0
         out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
 

@@ -21,8 +21,9 @@ import numpy as np
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, elements_kernel, projected_halfbit_sums_kernel,
-                                        viterbi_kernel, waveform_kernel)
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, element_sign, elements_kernel,
+                                          level_elements_kernel, projected_halfbit_sums_kernel, sampled_template,
+                                          viterbi_kernel, waveform_kernel)
 
 
 @njit
@@ -43,15 +44,10 @@ def _first_sample(k, t0, rho, lo, hi):
 
 @njit_inline
 def _preamble_element_levels(pre, m):
-    """Pilot + preamble elements (±1) from the half-symbol levels ``pre``: each level held
-    for ``m`` elements, every other element inverted for Miller (M > 1)."""
+    """Pilot + preamble elements (±1, float64) of the half-symbol levels ``pre``."""
     pre_el = np.empty(pre.size * m)
-    for i in range(pre.size):
-        for q in range(m):
-            k = i * m + q
-            pre_el[k] = pre[i] if (m == 1 or k % 2 == 0) else -pre[i]
+    level_elements_kernel(pre, m, pre_el)
     return pre_el
-
 
 
 @njit_inline
@@ -93,7 +89,7 @@ def _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, n_end):
 
 
 @njit
-def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
+def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     """Decode at every BLF of ``blfs`` with the preamble centred on sample ``centre`` and keep
     the one whose remodulated reply leaves the least residual power.
 
@@ -144,11 +140,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
         n_pre = int(math.floor(pre.size * m / ratio))
         lag = int(math.floor(start))
         tpl = np.empty(n_pre)
-        waveform_kernel(pre_el, start - lag, ratio, tpl)
-        t_mean = 0.0
-        for i in range(n_pre):
-            t_mean += tpl[i]
-        t_mean /= n_pre
+        t_mean = sampled_template(pre_el, start - lag, ratio, tpl)
         p_re = 0.0
         p_im = 0.0
         e_t = 0.0
@@ -180,7 +172,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
                 cnt = n_b - n_a
                 y = ((c_re[lag + n_b] - c_re[lag + n_a]) * g_re - (c_im[lag + n_b] - c_im[lag + n_a]) * g_im
                      - dc_re * cnt)
-                if m > 1 and (k & 1):
+                if element_sign(k, m) < 0:
                     sums[k // m] -= y
                 else:
                     sums[k // m] += y
@@ -195,7 +187,7 @@ def fine_kernel(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi,
         else:
             bitwise_kernel(a, b, miller, dec)
         # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
-        elements_kernel(dec[:n_bits], True, m, pre, cur, prev, el)
+        elements_kernel(dec[:n_bits], True, m, pre, state0, el)
         fitted, resid = _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, min(r.size, int(start) + n_rep))
         if not fitted:
             continue
@@ -271,7 +263,7 @@ def _fit_decision_free(rw, pre_s, n_rest):
 
 
 @njit
-def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dummy, viterbi, block_elements,
+def track_decode_kernel(r, start, rho, fs, bits, m, pre, state0, dummy, viterbi, block_elements,
                         min_blocks, spans, sub, min_drift_blocks, converged_elements, n_rest, rw):
     """Step 4 of :mod:`rfsim.gen2.replies` in one call (its NumPy twin:
     ``rfsim.gen2.reply_decoding._track_decode_python``): up to two passes of
@@ -318,7 +310,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, dumm
     n_span = int(math.ceil(0.0 + n_el / rho))
     for it in range(2):
         # 1. fit over the reply and the rest level before it
-        elements_kernel(bits, dummy, m, pre, cur, prev, el_full)
+        elements_kernel(bits, dummy, m, pre, state0, el_full)
         for i in range(n_el):
             el[i] = el_full[i]
         n_end = min(nr, int(math.ceil(start + n_el / rho)))
@@ -398,7 +390,7 @@ def _bits_that_fit(n_avail, n_pre_el, m, rho):
 
 
 @njit
-def _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out):
+def _fine_cut(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     """``fine_kernel`` passed only the samples up to its last BLF's reply end (the same result)."""
     n_pre_el = pre.size * m
     n_el = n_pre_el + 2 * m * (n_bits + 1)
@@ -407,11 +399,11 @@ def _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, b
         rho = 2.0 * blfs[i] / fs
         cut = max(cut, centre - 0.5 * n_pre_el / rho + (math.ceil(n_el / rho) + 2))
     n_cut = max(0, min(r.size, int(math.ceil(cut)) + 1))
-    return fine_kernel(r[:n_cut], centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, bits_out)
+    return fine_kernel(r[:n_cut], centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out)
 
 
 @njit
-def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi, shifts, bits, start):
+def _check_start(r, centre, n_bits, m, pre, state0, blf, fs, viterbi, shifts, bits, start):
     """The preamble correlates almost as well a whole element or two off its start (a Miller
     pilot is a plain subcarrier; one element inverts it, which |correlation| does not see):
     the decoding at ``blf`` with the preamble centre moved by each of ``shifts`` elements is
@@ -420,14 +412,14 @@ def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi,
     one = np.empty(1)
     one[0] = blf
     tmp = np.empty(n_bits, dtype=np.uint8)
-    j, best, _ = _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, one, fs, viterbi, tmp)
+    j, best, _ = _fine_cut(r, centre, n_bits, m, pre, state0, one, fs, viterbi, tmp)
     if j < 0:
         return centre, start
     rho = 2.0 * blf / fs
     best_centre = centre
     for q in range(shifts.size):
         c = centre + shifts[q] / rho
-        j, res, st = _fine_cut(r, c, n_bits, m, pre, cur, prev, state0, one, fs, viterbi, tmp)
+        j, res, st = _fine_cut(r, c, n_bits, m, pre, state0, one, fs, viterbi, tmp)
         if j >= 0 and res < best:
             best = res
             best_centre = c
@@ -438,7 +430,7 @@ def _check_start(r, centre, n_bits, m, pre, cur, prev, state0, blf, fs, viterbi,
 
 
 @njit
-def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
+def _fine_search(r, centre, n_bits, m, pre, state0, blf0, span, target, per_side, fs, viterbi, bits_out):
     """``rfsim.gen2.reply_decoding._fine_search``: ``fine_kernel`` coarse to fine, each call passed
     only the samples up to its last BLF's reply end. Returns ``(found, blf, start)``."""
     n_pre_el = pre.size * m
@@ -454,7 +446,7 @@ def _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf0, span, targe
         blfs = np.empty(2 * k + 1)
         for i in range(2 * k + 1):
             blfs[i] = centre_blf * (1.0 + step * (i - k))
-        j, _, start = _fine_cut(r, centre, n_bits, m, pre, cur, prev, state0, blfs, fs, viterbi, tmp)
+        j, _, start = _fine_cut(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, tmp)
         if j < 0:
             return found, best_blf, best_start
         found = True
@@ -504,11 +496,7 @@ def _correlation_at(rw, n_rest, pre_el, n_t, rho):
     preamble ``pre_el`` sampled from 0 at ρ elements per sample:
     |Σ z·t0| / (‖t0‖·‖z − mean z‖)."""
     tpl = np.empty(n_t)
-    waveform_kernel(pre_el, 0.0, rho, tpl)
-    t_mean = 0.0
-    for i in range(n_t):
-        t_mean += tpl[i]
-    t_mean /= n_t
+    t_mean = sampled_template(pre_el, 0.0, rho, tpl)
     p = 0j
     e_t = 0.0
     sz = 0j
@@ -525,7 +513,7 @@ def _correlation_at(rw, n_rest, pre_el, n_t, rho):
 
 
 @njit
-def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state0, viterbi, rule, fixed,
+def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, state0, viterbi, rule, fixed,
                          fine_span_steps, start_shifts, block_elements, min_blocks, spans, sub, min_drift_blocks,
                          converged_elements, bits_out):
     """Steps 3–5 of :mod:`rfsim.gen2.replies` on a working-rate window after a detection at
@@ -546,11 +534,11 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
     step_16 = 1.0 / (4.0 * (n_pre_el + 2 * m * (n_first + 1)))
     bits0 = np.empty(n_first, dtype=np.uint8)
     fail = (False, 0, 0.0, 0.0, 0.0, 0.0, False, 0, 0, 0j, 0.0, 0.0, 0.0)
-    ok, blf1, start1 = _fine_search(r, centre, n_first, m, pre, cur, prev, state0, blf_c, fine_span_steps * step_c,
+    ok, blf1, start1 = _fine_search(r, centre, n_first, m, pre, state0, blf_c, fine_span_steps * step_c,
                                     step_16, 8, fs, viterbi, bits0)
     if not ok:
         return fail
-    centre, start1 = _check_start(r, centre, n_first, m, pre, cur, prev, state0, blf1, fs, viterbi, start_shifts,
+    centre, start1 = _check_start(r, centre, n_first, m, pre, state0, blf1, fs, viterbi, start_shifts,
                                   bits0, start1)
     n_full = _n_bits_of(rule, fixed, bits0, n_first)
     truncated = False
@@ -574,7 +562,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
         if n_bits > n_first:
             n_el = n_pre_el + 2 * m * (n_bits + 1)
             span = fine_span_steps * step_16
-            found, b2, s2 = _fine_search(r, centre, n_bits, m, pre, cur, prev, state0, blf1, span,
+            found, b2, s2 = _fine_search(r, centre, n_bits, m, pre, state0, blf1, span,
                                          1.0 / (4.0 * n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
                                          bits)
             if found:
@@ -587,7 +575,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
         n_rest = int(min(start, 256))
         n_el_full = n_pre_el + 2 * m * (n_bits + 1)
         rw = np.empty(n_rest + int(math.ceil(0.0 + n_el_full / rho)) + 4, dtype=np.complex128)
-        ok, start, u1, u2 = track_decode_kernel(r, start, rho, fs, bits, m, pre, cur, prev, state0, not truncated,
+        ok, start, u1, u2 = track_decode_kernel(r, start, rho, fs, bits, m, pre, state0, not truncated,
                                                 viterbi, block_elements, min_blocks, spans, sub, min_drift_blocks,
                                                 converged_elements, n_rest, rw)
         if not ok:
@@ -601,7 +589,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, cur, prev, state
     dummy = not truncated
     n_el = n_pre_el + 2 * m * (n_bits + 1) - (0 if dummy else 2 * m)
     el = np.empty(n_pre_el + 2 * m * (n_bits + 1))
-    elements_kernel(bits, dummy, m, pre, cur, prev, el)
+    elements_kernel(bits, dummy, m, pre, state0, el)
     n_end = min(rw.size, int(math.ceil(n_rest + n_el / rho)))
     ref = np.empty(n_end)
     waveform_kernel(el[:n_el], (n_rest / fs) * fs, rho, ref)

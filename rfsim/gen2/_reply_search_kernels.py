@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
-from rfsim.gen2._linecode_kernels import waveform_kernel
+from rfsim.gen2._linecode_kernels import runs_dot, sampled_template
 
 
 
@@ -74,11 +74,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
             run_begin = np.empty(n + 1, dtype=np.int64)
             run_value = np.empty(n)
         tt = t[:n]
-        waveform_kernel(pre_el, 0.0, rho, tt)
-        mean = 0.0
-        for i in range(n):
-            mean += tt[i]
-        mean /= n
+        mean = sampled_template(pre_el, 0.0, rho, tt)
         e_t = 0.0
         n_runs = 0
         for i in range(n):
@@ -96,13 +92,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
         cl = -1.0
         cr = -1.0
         for k in range(lo[j], last + 1):
-            a_re = 0.0
-            a_im = 0.0
-            for q in range(n_runs):
-                b0 = k + run_begin[q]
-                b1 = k + run_begin[q + 1]
-                a_re += run_value[q] * (c_re[b1] - c_re[b0])
-                a_im += run_value[q] * (c_im[b1] - c_im[b0])
+            a_re, a_im = runs_dot(k, run_begin, run_value, n_runs, c_re, c_im)
             s_re = c_re[k + n] - c_re[k]
             s_im = c_im[k + n] - c_im[k]
             acc_re = a_re - mean * s_re

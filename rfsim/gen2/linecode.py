@@ -13,6 +13,10 @@ Encoding (gen2-and-validation-anchors.md §3.6, §4.2; pass-paris-simulator.md �
   the first preamble 0 continues the pilot level (encoder state: level +1, previous bit 1).
 * Every reply ends with a dummy data-1.
 
+The rules themselves are written once, as the transition tables of
+:mod:`rfsim.gen2._linecode_kernels` (half-bit levels and next encoder state per state and bit,
+subcarrier sign per element), which the encoder, the Viterbi trellis and every decoder read.
+
 An *element* is half a subcarrier cycle, 1/(2·BLF) s (FM0: one per half-bit, Miller-M:
 M per half-bit); :func:`halfsymbols` returns the element sequence (the PASS golden
 representation). :func:`reply_waveform` samples it at any fs: sample n takes the element
@@ -56,38 +60,33 @@ def _check_m(m: int) -> int:
     return int(m)
 
 
-def _state_index(cur: int, prev: int, miller: bool) -> int:
-    return (0 if cur == 1 else 1) + (2 * int(prev) if miller else 0)
-
-
 # ----------------------------------------------------------------------------- encoder
 
 
-def _levels(bits: np.ndarray, m: int, cur: int, prev: int) -> tuple[np.ndarray, int, int]:
+def _levels(bits: np.ndarray, m: int, state: int) -> tuple[np.ndarray, int]:
+    """Half-bit levels ``(2·n,) int8`` of ``bits`` from encoder ``state`` and the final state
+    (the tables of :mod:`rfsim.gen2._linecode_kernels`)."""
     out = np.empty(2 * bits.size, dtype=np.int8)
-    if m == 1:
-        cur = _k.fm0_levels_kernel(bits, np.int8(cur), out)
-        return out, int(cur), 0
-    cur, prev = _k.miller_levels_kernel(bits, np.int8(cur), np.uint8(prev), out)
-    return out, int(cur), int(prev)
+    state = _k.levels_kernel(bits, m, state, out)
+    return out, int(state)
 
 
 @functools.lru_cache(maxsize=16)
-def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int, int]:
-    """Cached (read-only) :func:`preamble_levels`; a pure function of (m, trext), at most
-    8 distinct keys."""
+def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
+    """Cached (read-only) pilot + preamble half-bit levels and the encoder state after them
+    (:func:`preamble_levels`); a pure function of (m, trext), at most 8 distinct keys."""
     if m == 1:
         parts = []
         if trext:
-            parts.append(_levels(np.zeros(12, dtype=np.uint8), 1, -1, 0)[0])
+            parts.append(_levels(np.zeros(12, dtype=np.uint8), 1, _k.state_index(-1, 0, 1))[0])
         parts.append(FM0_PREAMBLE)
-        levels, cur, prev = np.concatenate(parts), int(FM0_PREAMBLE[-1]), 0
+        levels, state = np.concatenate(parts), _k.state_index(int(FM0_PREAMBLE[-1]), 0, 1)
     else:
         pilot = np.ones(32 if trext else 8, dtype=np.int8)
-        pre, cur, prev = _levels(MILLER_PREAMBLE_BITS, m, 1, 1)
+        pre, state = _levels(MILLER_PREAMBLE_BITS, m, _k.state_index(1, 1, m))
         levels = np.concatenate([pilot, pre])
     levels.setflags(write=False)
-    return levels, cur, prev
+    return levels, int(state)
 
 
 def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
@@ -96,8 +95,14 @@ def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
     Returns ``(levels (2·n_pre,) int8, level, previous bit)``; Miller pilot half-bits are
     at level +1 (8 or 32 of them: 4·M or 16·M subcarrier cycles of M/2 cycles each).
     """
-    levels, cur, prev = _preamble(_check_m(m), bool(trext))
-    return levels.copy(), cur, prev
+    levels, state = _preamble(_check_m(m), bool(trext))
+    return levels.copy(), int(_k.LEVEL_OF_STATE[state]), int(_k.PREV_BIT_OF_STATE[state])
+
+
+def preamble_state(*, m: int, trext: bool) -> int:
+    """Encoder state (of the tables of :mod:`rfsim.gen2._linecode_kernels`: level index +
+    2·previous bit) after pilot + preamble: where the data bits' encoder and trellis start."""
+    return _preamble(_check_m(m), bool(trext))[1]
 
 
 def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np.ndarray, int]:
@@ -105,17 +110,18 @@ def halfbit_levels(bits, *, m: int, trext: bool, dummy: bool = True) -> tuple[np
     arr = as_bits(bits)
     if dummy:
         arr = np.concatenate([arr, np.ones(1, dtype=np.uint8)])
-    pre, cur, prev = _preamble(_check_m(m), bool(trext))
-    data, _, _ = _levels(arr, m, cur, prev)
+    pre, state = _preamble(_check_m(m), bool(trext))
+    data, _ = _levels(arr, m, state)
     return np.concatenate([pre, data]), pre.size
 
 
-def _elements(levels: np.ndarray, m: int) -> np.ndarray:
-    if m == 1:
-        return levels.astype(np.int8)
-    el = np.repeat(levels, m)
-    el[1::2] *= -1
-    return el
+def elements_of_levels(levels, m: int, dtype=np.int8) -> np.ndarray:
+    """Elements ``(levels.size·m,)`` of half-bit ``levels``: each level held for ``m``
+    elements, times the subcarrier sign for Miller (numba kernel)."""
+    levels = np.ascontiguousarray(levels, dtype=np.int8)
+    out = np.empty(levels.size * _check_m(m), dtype=dtype)
+    _k.level_elements_kernel(levels, m, out)
+    return out
 
 
 def _element_values(bits, m: int, trext: bool, dummy: bool, dtype) -> np.ndarray:
@@ -125,9 +131,9 @@ def _element_values(bits, m: int, trext: bool, dummy: bool, dtype) -> np.ndarray
         arr = np.ascontiguousarray(bits)  # values checked by the kernel
     else:
         arr = as_bits(bits)
-    pre, cur, prev = _preamble(m, bool(trext))
+    pre, state = _preamble(m, bool(trext))
     out = np.empty((pre.size + 2 * (arr.size + int(bool(dummy)))) * m, dtype=dtype)
-    if not _k.elements_kernel(arr, bool(dummy), m, pre, np.int8(cur), np.uint8(prev), out):
+    if not _k.elements_kernel(arr, bool(dummy), m, pre, state, out):
         raise ValueError("bits must contain only 0 and 1")
     return out
 
@@ -249,7 +255,7 @@ def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple:
     A pure function of its hashable arguments, cached because the decoder asks for the same
     few shifts (multiples of 1/16 sample) of the same profile over and over.
     """
-    pre_el = _elements(_preamble(m, trext)[0], m).astype(np.float64)
+    pre_el = elements_of_levels(_preamble(m, trext)[0], m, np.float64)
     n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
     t = np.empty(n_pre)
     _k.waveform_kernel(pre_el, float(delta), ratio, t)
@@ -323,8 +329,7 @@ class _DecodePlan:
     trext: bool
     method: str
     ratio: float
-    cur: int
-    prev: int
+    state: int
     nh: int
     n_reply: int
     n_pre: int
@@ -336,9 +341,9 @@ def _plan(n_bits, m, trext, blf_hz, fs_hz, method) -> _DecodePlan:
     if method not in METHODS:
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
     ratio = _check_rates(blf_hz, fs_hz)
-    pre, cur, prev = _preamble(m, trext)
+    pre, state = _preamble(m, trext)
     nh = pre.size + 2 * (int(n_bits) + 1)
-    return _DecodePlan(n_bits=int(n_bits), m=m, trext=trext, method=method, ratio=ratio, cur=cur, prev=prev, nh=nh,
+    return _DecodePlan(n_bits=int(n_bits), m=m, trext=trext, method=method, ratio=ratio, state=state, nh=nh,
                        n_reply=int(math.ceil(nh * m / ratio)),
                        n_pre=int(math.floor(pre.size * m / ratio)))  # samples fully inside the preamble
 
@@ -397,12 +402,12 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, im
     else:
         h, dc = complex(gain), 0.0
         corr = _correlation(complex(seg @ tpl0), seg - _mean(seg), e_t)
-    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, plan.n_bits, plan.method, plan.nh, plan.cur, plan.prev,
+    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, plan.n_bits, plan.method, plan.nh, plan.state,
                       impl)
     return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
 
 
-def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, cur, prev, impl) -> np.ndarray:
+def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, state, impl) -> np.ndarray:
     """Bits of the reply starting ``frac`` samples after ``r[lag]``: half-bit sums of
     Re((r − dc)/h), then bit-by-bit or Viterbi decisions (:func:`decode_reply` steps 3–4)."""
     if h == 0:
@@ -413,14 +418,14 @@ def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, cur, prev, imp
     if method != "bitwise" and impl is _KERNELS:  # sums and Viterbi in one kernel call
         sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
         _k.sums_viterbi_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
-                               _state_index(cur, prev, miller), sums, out)
+                               state, sums, out)
         return out[:n_bits]
     sums = impl[0](part, g, (dc * g).real, frac, ratio, m, nh)
     data = sums[nh - 2 * (n_bits + 1):]
     a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
     if method == "bitwise":
         return impl[1](a[:n_bits], b[:n_bits], miller)
-    return impl[2](a, b, miller, _state_index(cur, prev, miller), True)[:n_bits]
+    return impl[2](a, b, miller, state, True)[:n_bits]
 
 
 def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, start_sample: float,
@@ -428,19 +433,14 @@ def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: fl
     """``decode_reply(r, ..., start_sample=, gain=).bits`` without the correlation it also
     reports (numba kernels): the decisions of a reply whose start and gain are known,
     ``(n_bits,) uint8``."""
-    m = _check_m(m)
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.ascontiguousarray(r, dtype=np.complex128)
-    ratio = _check_rates(blf_hz, fs_hz)
-    pre, cur, prev = _preamble(m, bool(trext))
-    nh = pre.size + 2 * (int(n_bits) + 1)
     start = float(start_sample)
-    if r.ndim != 1 or not 0 <= start <= r.size - int(math.ceil(nh * m / ratio)):
+    if r.ndim != 1 or not 0 <= start <= r.size - plan.n_reply:
         raise ValueError(f"start_sample {start_sample} leaves no room for the reply in r of shape {r.shape}")
     lag = int(math.floor(start))
-    return _decisions(r, lag, start - lag, complex(gain), 0.0, ratio, m, int(n_bits), method, nh, cur, prev,
-                      _KERNELS)
+    return _decisions(r, lag, start - lag, complex(gain), 0.0, plan.ratio, plan.m, plan.n_bits, method, plan.nh,
+                      plan.state, _KERNELS)
 
 
 _KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs, _kernel_candidates)
@@ -493,8 +493,10 @@ __all__ = [
     "MILLER_PREAMBLE_BITS",
     "ReplyDetection",
     "preamble_levels",
+    "preamble_state",
     "halfbit_levels",
     "halfsymbols",
+    "elements_of_levels",
     "reply_duration_s",
     "reply_waveform",
     "reply_waveform_for_profile",

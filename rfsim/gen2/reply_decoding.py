@@ -18,7 +18,7 @@ import numpy as np
 
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.capture import fit_gain_offset
-from rfsim.gen2.linecode import _preamble, _state_index, decode_reply, reply_waveform
+from rfsim.gen2.linecode import _preamble, decode_reply, reply_waveform
 from rfsim.gen2.reply_search import _n_elements, _n_pre_elements, _preamble_template
 from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSAMPLES, TRACK_BLOCK_ELEMENTS, TRACK_SPANS,
                                       resample, track_reference, warp_positions)
@@ -73,7 +73,7 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     the one whose remodulated reply leaves the least residual power. Returns
     (blf, bits (n_bits,) uint8, start) or None (numba kernel ``fine_kernel``;
     :func:`_fine_python` is its plain-NumPy strategy)."""
-    pre, cur, prev = _preamble(m, trext)
+    pre, state = _preamble(m, trext)
     bits = np.empty(int(n_bits), dtype=np.uint8)
     blfs = np.ascontiguousarray(blfs, dtype=np.float64)
     # the kernel reads no sample after the last start + reply of a BLF: the rest is not passed
@@ -81,7 +81,7 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     n_rep = np.ceil(_n_elements(n_bits, m, trext) / rho) + 2
     cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * _n_pre_elements(m, trext) / rho + n_rep)))) + 1)
     j, resid, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
-                                  pre, np.int8(cur), np.uint8(prev), _state_index(cur, prev, m > 1), blfs, float(fs),
+                                  pre, state, blfs, float(fs),
                                   method == "viterbi", bits)
     return None if j < 0 else (float(blfs[j]), bits, float(start), float(resid))
 
@@ -173,12 +173,12 @@ def _track_decode(r, fs, blf, bits, start, truncated, m, trext, method):
     bits = np.array(bits, dtype=np.uint8)
     rho = 2.0 * blf / fs
     n_rest = int(min(start, 256))
-    pre, cur, prev = _preamble(m, trext)
+    pre, state = _preamble(m, trext)
     rw = np.empty(n_rest + _reply_end(0.0, bits.size, m, trext, rho, True) + 4, dtype=np.complex128)
     sub = (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES - 0.5
     ok, start, u1, u2 = _rk.track_decode_kernel(
-        np.ascontiguousarray(r, dtype=np.complex128), float(start), rho, float(fs), bits, int(m), pre, np.int8(cur),
-        np.uint8(prev), _state_index(cur, prev, m > 1), not truncated, method == "viterbi", TRACK_BLOCK_ELEMENTS,
+        np.ascontiguousarray(r, dtype=np.complex128), float(start), rho, float(fs), bits, int(m), pre, state,
+        not truncated, method == "viterbi", TRACK_BLOCK_ELEMENTS,
         MIN_TRACK_BLOCKS, np.array(TRACK_SPANS, dtype=np.float64), sub, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS,
         n_rest, rw)
     return (bits, float(start), float(u1), float(u2), rw, n_rest) if ok else None
@@ -231,12 +231,12 @@ def _decode_window(r, fs, found, n_bits_of, method):
         return _decode_window_python(r, fs, found, n_bits_of, method)
     _, blf_c, hyp, start_c, step_c, _ = found
     m, trext = hyp.m, hyp.trext
-    pre, cur, prev = _preamble(m, trext)
+    pre, state = _preamble(m, trext)
     r = np.ascontiguousarray(r, dtype=np.complex128)
     bits = np.empty(max(16, _bits_that_fit(r.size, m, trext, 2.0 * blf_c / fs) + 1), dtype=np.uint8)
     (ok, n_bits, start, u1, u2, blf, truncated, n_full, n_rest, h, sigma2, corr, n_span) = _rk.decode_window_kernel(
-        r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, np.int8(cur), np.uint8(prev),
-        _state_index(cur, prev, m > 1), method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
+        r, float(fs), float(blf_c), float(start_c), float(step_c), int(m), pre, state,
+        method == "viterbi", n_bits_of.rule, n_bits_of.fixed, float(FINE_SPAN_STEPS),
         _START_SHIFTS,
         TRACK_BLOCK_ELEMENTS, MIN_TRACK_BLOCKS, _SPANS, _SUB, MIN_DRIFT_BLOCKS, TRACK_CONVERGED_ELEMENTS, bits)
     if not ok:

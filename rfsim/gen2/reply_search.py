@@ -52,7 +52,7 @@ def _n_elements(n_bits: int, m: int, trext: bool) -> int:
 
 @functools.lru_cache(maxsize=256)
 def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
-    grid = _geometric_grid_uncached(lo, hi, step)
+    grid = geometric_blf_grid_hz(lo, hi, step)
     grid.flags.writeable = False
     return grid
 
@@ -63,11 +63,17 @@ def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
     return _geometric_grid_cached(float(lo), float(hi), float(step))
 
 
-def _geometric_grid_uncached(lo: float, hi: float, step: float) -> np.ndarray:
+def geometric_blf_grid_hz(lo_hz: float, hi_hz: float, step: float) -> np.ndarray:
+    """BLF hypotheses [Hz] ``lo_hz`` … ``hi_hz`` on a geometric grid of relative step ≤ ``step``:
+    n = ⌈ln(hi/lo) / ln(1 + step)⌉ + 1 values (at least 2) in equal ratios
+    (:func:`numpy.geomspace`); the one middle value when hi ≤ lo. The coarse BLF grid of the
+    capture decoder (step 2) and of the reader's BLF search, with step 1/(2·preamble elements),
+    the correlation peak's half-width."""
+    lo, hi = float(lo_hz), float(hi_hz)
     if hi <= lo:
         return np.array([0.5 * (lo + hi)])
     n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return _geomspace(lo, hi, max(n, 2))
+    return np.geomspace(lo, hi, max(n, 2))
 
 
 def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
@@ -265,4 +271,4 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
 
 
 __all__ = ["SAMPLES_PER_ELEMENT", "MIN_SAMPLES_PER_ELEMENT", "LinkHypothesis", "boxcar_decimate",
-           "preamble_correlation"]
+           "preamble_correlation", "geometric_blf_grid_hz"]

@@ -66,7 +66,8 @@ from typing import Any
 
 import numpy as np
 
-from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of, propagate
+from rfsim.air.batch import AirStep, propagate_batch
+from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of
 from rfsim.gen2.link import reader_listen_start_s, reply_window_s
 
 #: Failure reasons of a read, in the order the engine checks them.
@@ -155,7 +156,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     Parameters
     ----------
     reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
-        ``antennas``, ``antenna_index``, ``link``)
+        ``antennas``, ``antenna_index``, ``link``; its ``air_cache``, when it has one, is the
+        run's :class:`rfsim.air.cache.AirCache`: the reader lives for the run)
     tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
         ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
         or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population, whose
@@ -172,19 +174,89 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
         draw the channel holds: a quasi-static channel within a round)
     propagation : "auto", "exact" or "narrowband" (see the module docstring)
-    link_cache : optional dict holding the (forward, backward) links of static tags for one
-        channel draw, keyed by (tag index, reader antenna, carrier). Filled on every call;
+    link_cache : optional dict holding the forward and backward links of static tags for one
+        channel draw, keyed by (tag index, reader antenna, carrier) (entries: :class:`_EngineLinks`). Filled on every call;
         read only with ``draw_channel=False`` for a tag without motion — the links are then
         exactly what the channel would return again (held draw, same geometry and carrier).
         (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
+
+    One exchange is the batch of one of :func:`run_exchanges` (the same code).
     """
-    prep = _prepare(reader, tags, channel, cmd, t_s=t_s, rng=rng, reply_bits=reply_bits, expect_crc=expect_crc,
-                    motions=motions, round_index=round_index, draw_channel=draw_channel,
-                    propagation=propagation, link_cache=link_cache)
-    air = _air_step(prep, rng=rng)
-    truth = _truth(air, prep.members)
-    read = prep.port.receive(air.inputs[0]) if truth[0] else None
-    return _record(prep, truth, read)
+    return run_exchanges(reader, [tags], channel, cmd, t_s=t_s, rngs=[rng], reply_bits=reply_bits,
+                         expect_crc=expect_crc, motions=motions, round_index=round_index, draw_channel=draw_channel,
+                         propagation=propagation, link_caches=[link_cache])[0]
+
+
+def _per_trial(value, n: int, name: str) -> list:
+    """``value`` for each of ``n`` trials: a list/tuple of n values, or one value for all."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != n:
+            raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
+        return list(value)
+    return [value] * n
+
+
+#: Trials run together: their air steps, then their noise, then their reads
+#: (bounds the memory of a large batch: a few segments per trial of the block).
+BLOCK = 64
+
+
+def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: Sequence[np.random.Generator],
+                  reply_bits: int, expect_crc: bool, motions: Sequence | None = None, round_index=0,
+                  draw_channel: bool = True, propagation: str = "auto",
+                  link_caches: Sequence[dict | None] | None = None) -> list[Exchange]:
+    """B independent exchanges as one batch (:mod:`rfsim.protocols.batch`); ``[Exchange] * B``.
+    The one implementation of the exchange: :func:`run_exchange` is its batch of one.
+
+    Per block of :data:`BLOCK` trials: 1. per trial the reader's segment (made once per
+    distinct reader, command, time and round), its port and the tags' links (drawn from the
+    trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
+    trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``:
+    a trial in which no tag replies forms no reader input, its noise draws are still made);
+    3. the reader's reads of the trials with a reply; 4. the records.
+
+    Parameters
+    ----------
+    reader, channel, cmd, t_s, round_index : as for :func:`run_exchange`; each one value for
+        every trial or a list of B values (one per trial)
+    tags : B sequences of reflectors, trial b's tags (their own state and RN16 stream)
+    rngs : B generators: trial b's channel draw and receiver noise
+    reply_bits, expect_crc, motions, draw_channel, propagation : as for ``run_exchange``
+        (the same for every trial)
+    link_caches : None or B dicts (or None), trial b's ``link_cache``
+    """
+    n = len(rngs)
+    if len(tags) != n:
+        raise ValueError(f"tags: {len(tags)} tag lists for {n} trials (one per generator in rngs)")
+    readers = _per_trial(reader, n, "reader")
+    channels = _per_trial(channel, n, "channel")
+    cmds = _per_trial(cmd, n, "cmd")
+    times = _per_trial(t_s, n, "t_s")
+    rounds = _per_trial(round_index, n, "round_index")
+    caches = _per_trial(None if link_caches is None else list(link_caches), n, "link_caches")
+    segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
+    out: list = []
+    for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
+        preps = []
+        for b in range(k0, min(n, k0 + BLOCK)):
+            key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
+            tx = segments.get(key)
+            if tx is None:
+                if len(segments) >= BLOCK:
+                    segments.clear()
+                tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
+                                               round_index=rounds[b])
+            preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
+                                  reply_bits=reply_bits, expect_crc=expect_crc, motions=motions,
+                                  round_index=rounds[b], draw_channel=draw_channel, propagation=propagation,
+                                  link_cache=caches[b], tx=tx))
+        airs = propagate_batch([AirStep(**_air_arguments(prep), rng=rngs[k0 + k]) for k, prep in enumerate(preps)],
+                               skip_unmodulated=True)
+        for prep, air in zip(preps, airs):
+            truth = _truth(air, prep.members)
+            read = prep.port.receive(air.inputs[0]) if truth[0] else None
+            out.append(_record(prep, truth, read))
+    return out
 
 
 @dataclasses.dataclass
@@ -203,6 +275,7 @@ class _Prepared:
     links: "_EngineLinks"
     propagation: str
     bandwidth_hz: float
+    air_cache: Any
 
 
 def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, motions, round_index, draw_channel,
@@ -223,7 +296,7 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
                          link_cache if (link_cache is not None) else None, draw_channel)
     return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
                      reflectors=reflectors, members=members, links=links, propagation=propagation,
-                     bandwidth_hz=_reply_bandwidth_hz(reader.link))
+                     bandwidth_hz=_reply_bandwidth_hz(reader.link), air_cache=getattr(reader, "air_cache", None))
 
 
 def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
@@ -233,21 +306,13 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
     return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
-def _air_step(prep: _Prepared, *, rng):
-    """The air step of one prepared exchange (the reader port's noise drawn from ``rng``).
-    When no tag replies the reader's input is not formed, its noise only drawn
-    (``skip_unmodulated``: the reader reads only when a tag replied, and the engine's links
-    draw nothing on the receiver's side): silent air costs no samples at the receiver."""
-    return propagate(**_air_arguments(prep), rng=rng, skip_unmodulated=True)
-
-
 def _air_arguments(prep: _Prepared) -> dict:
     """The arguments of :func:`rfsim.air.step.propagate` for a prepared exchange, but its ``rng``
-    (``rfsim.protocols.batch`` builds its batched steps from them too)."""
+    (the fields of its :class:`rfsim.air.batch.AirStep`)."""
     tx = prep.tx
     return dict(emitters=[prep.emitter], reflectors=prep.reflectors, receivers=[prep.port], links=prep.links,
                 t0_s=prep.t_s, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=prep.bandwidth_hz,
-                propagation=prep.propagation, decide=False)
+                propagation=prep.propagation, decide=False, cache=prep.air_cache)
 
 
 def _truth(air, members) -> tuple:
@@ -365,6 +430,12 @@ class ReaderPort:
             return self.reader.leakage_gain()
         return None
 
+    def first_read_sample(self, t0_s: float, fs_hz: float, n_samples: int) -> int:
+        """The first sample of an input (starting at ``t0_s`` [s], ``fs_hz`` [Hz]) that
+        :meth:`receive` reads: the reader's listen start after the command of ``tx``."""
+        return min(int(math.ceil((reader_listen_start_s(self.reader.link, self.tx.cmd_end_s) - t0_s) * fs_hz)),
+                   int(n_samples))
+
     def receive(self, input):
         """The reader's :class:`ReadResult`-like measurement of the reply in ``input`` (a
         :class:`rfsim.air.step.Segment` on the time base of ``tx``)."""
@@ -374,10 +445,39 @@ class ReaderPort:
                                    expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
 
 
+@dataclasses.dataclass
+class _TagIndex:
+    """A tag population's antennas (held: their identities are the keys) and the index of
+    each in the population."""
+
+    antennas: tuple
+    index: dict
+
+
+@dataclasses.dataclass
+class _LinkPair:
+    """A tag's forward (reader → tag) and backward (tag → reader) links of one draw."""
+
+    forward: Any
+    backward: Any
+
+
+@dataclasses.dataclass
+class _HeldConstants:
+    """The narrowband constants of held links between a reader antenna and ``antennas`` (held,
+    with their identities ``antenna_ids``), one per antenna in that order."""
+
+    antennas: Sequence
+    antenna_ids: list
+    constants: list
+
+
 class _EngineLinks:
     """The engine's links for the air step: forward and backward link of each tag from
     ``channel.backscatter_links`` (monostatic), held in ``link_cache`` as described in
-    :func:`run_exchange`."""
+    :func:`run_exchange`: ``(tag index, id(reader antenna), carrier)`` → :class:`_LinkPair`,
+    ``("index",)`` → a population's :class:`_TagIndex`, ``("held", …)`` → :class:`_HeldConstants`
+    (the link cache keeps the antennas it keys by identity alive)."""
 
     def __init__(self, channel, antenna, reflectors, members, motions, rng, t_s, cache, draw):
         self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s
@@ -385,11 +485,11 @@ class _EngineLinks:
         if len(reflectors) == 1 and hasattr(reflectors[0], "antennas"):  # a tag population: index kept
             ants = reflectors[0].antennas
             hit = cache.get(("index",)) if cache is not None else None
-            if hit is None or hit[0] is not ants:
-                hit = (ants, {id(a): i for i, a in enumerate(ants)})
+            if hit is None or hit.antennas is not ants:
+                hit = _TagIndex(antennas=ants, index={id(a): i for i, a in enumerate(ants)})
                 if cache is not None:
                     cache[("index",)] = hit
-            self.index = hit[1]
+            self.index = hit.index
         else:
             self.index = {id(t.antenna): i for i, t in enumerate(members)}
         self.backward: dict = {}
@@ -409,18 +509,19 @@ class _EngineLinks:
                 if motion is None and not self.draw:
                     links = self.cache.get(key)
             if links is None:
-                links = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s,
-                                                       tag_motion=motion)
+                forward, backward = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng,
+                                                                   t_s=t_s, tag_motion=motion)
+                links = _LinkPair(forward=forward, backward=backward)
                 if self.cache is not None and motion is None:
                     self.cache[key] = links
-            self.backward[id(rx)] = links[1]
-            return links[0]
+            self.backward[id(rx)] = links.backward
+            return links.forward
         if rx is self.antenna:
             hit = self.backward.get(id(tx))
             if hit is None and self.cache is not None and not self.draw:  # after held_constants
                 i = self.index.get(id(tx))
                 links = self.cache.get((i, id(self.antenna), fc_hz)) if i is not None else None
-                hit = links[1] if links is not None else None
+                hit = links.backward if links is not None else None
             return hit
         return None
 
@@ -433,19 +534,19 @@ class _EngineLinks:
             return None
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
         hit = self.cache.get(key)
-        if hit is not None and (hit[2] is others or hit[0] == [id(a) for a in others]):
-            return hit[1]
-        side = 1 if inbound else 0
+        if hit is not None and (hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
+            return hit.constants
         out = []
         for ant in others:
             i = self.index.get(id(ant))
             links = self.cache.get((i, id(antenna), fc_hz)) if i is not None else None
-            f = getattr(links[side], "narrowband_constant", None) if links is not None else None
+            link = None if links is None else links.backward if inbound else links.forward
+            f = getattr(link, "narrowband_constant", None)
             c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
             if c is None:
                 return None
             out.append(c)
-        self.cache[key] = ([id(a) for a in others], out, others)
+        self.cache[key] = _HeldConstants(antennas=others, antenna_ids=[id(a) for a in others], constants=out)
         return out
 
 
@@ -458,24 +559,52 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
     RN16 (its preamble was found) — as a real reader does, it cannot know of a collision or a
     bit error; the ACK then carries the RN16 it decoded, and a wrong one gets no reply. It
     starts T2 (10 Tpri, inside the 3–20 Tpri window) after the RN16 reply ends. The channel
-    is drawn (when ``draw_channel``) for the Query and held for the ACK.
+    is drawn (when ``draw_channel``) for the Query and held for the ACK. The batch of one of
+    :func:`singulate_batch` (the same code).
+    """
+    return singulate_batch(reader, [tags], channel, t_s=t_s, rngs=[rng], query=query, round_index=round_index,
+                           motions=motions, epc_bits=epc_bits, draw_channel=draw_channel)[0]
+
+
+def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Sequence[np.random.Generator],
+                    query, round_index=0, motions: Sequence | None = None, epc_bits: int = 128,
+                    draw_channel: bool = True) -> list[list[Exchange]]:
+    """B independent singulations (:func:`singulate`) as two batches: the Queries of all
+    trials, then the ACKs of the trials whose RN16 the reader accepted (each with the RN16 it
+    decoded, T2 after that trial's reply). Returns per trial its exchanges (one or two).
+
+    ``reader``, ``channel``, ``t_s``, ``round_index``, ``query``: one value or one per trial.
     """
     from rfsim.gen2.bits import bits_to_int
     from rfsim.gen2.commands import ACK
 
-    links: dict = {}  # the Query's channel draw, held for the ACK
-    first = run_exchange(reader, tags, channel, query, t_s=t_s, rng=rng, reply_bits=16,
-                         expect_crc=False, motions=motions, round_index=round_index,
-                         draw_channel=draw_channel, link_cache=links)
-    if first.read is None or not first.read.success:
-        return [first]
-    rn16 = bits_to_int(first.read.bits)
-    reply_s, t2_s = _ack_delays_s(reader.link)
-    t_ack = first.read.start_s + reply_s + t2_s
-    second = run_exchange(reader, tags, channel, ACK(rn16), t_s=t_ack, rng=rng,
-                          reply_bits=epc_bits, expect_crc=True, motions=motions,
-                          round_index=round_index, draw_channel=False, link_cache=links)
-    return [first, second]
+    n = len(rngs)
+    readers = _per_trial(reader, n, "reader")
+    if len({id(r) for r in readers}) < n and any(r.config.blf_search != "off" for r in readers):
+        raise ValueError("reader: a reader with blf_search keeps the RN16's BLF for the ACK; give one reader per "
+                         "trial")
+    caches = [{} for _ in range(n)]  # each trial's Query draw, held for its ACK
+    first = run_exchanges(readers, tags, channel, query, t_s=t_s, rngs=rngs, reply_bits=16, expect_crc=False,
+                          motions=motions, round_index=round_index, draw_channel=draw_channel, link_caches=caches)
+    go = [b for b, ex in enumerate(first) if ex.read is not None and ex.read.success]
+    out = [[ex] for ex in first]
+    if not go:
+        return out
+    channels = _per_trial(channel, n, "channel")
+    rounds = _per_trial(round_index, n, "round_index")
+    acks, t_acks = [], []
+    for b in go:
+        acks.append(ACK(bits_to_int(first[b].read.bits)))
+        reply_s, t2_s = _ack_delays_s(readers[b].link)
+        t_acks.append(first[b].read.start_s + reply_s + t2_s)
+    second = run_exchanges([readers[b] for b in go], [tags[b] for b in go], [channels[b] for b in go], acks,
+                           t_s=t_acks, rngs=[rngs[b] for b in go], reply_bits=epc_bits, expect_crc=True,
+                           motions=motions, round_index=[rounds[b] for b in go], draw_channel=False,
+                           link_caches=[caches[b] for b in go])
+    for b, ex in zip(go, second):
+        out[b].append(ex)
+    return out
 
 
-__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "ReaderPort", "run_exchange", "singulate"]
+__all__ = ["Exchange", "FAILURE_REASONS", "PROPAGATION_METHODS", "ReaderPort", "run_exchange", "run_exchanges",
+           "singulate", "singulate_batch"]

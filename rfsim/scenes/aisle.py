@@ -7,20 +7,42 @@ u ~ N(0, diag(q, q)) piecewise-constant acceleration (q = 0.01 m²/s⁴, L1203);
 :func:`rfsim.estimators.proximity.cv_transition`. The tag enters the aisle at ``start_xy_m``
 with speed U[v_min, v_max] (L1203: "[0.1, 1] m/s") along +x; it cannot pass through the
 shelves: its y is reflected (and ẏ reversed) at ± ``y_limit_m`` (aisle half width − clearance).
-The source gives no layout beyond Fig. 6.3.
+``initial_velocity = "vector"`` reads L1203's "[0.1, 1] m/s" as a velocity vector instead (as
+"1 m/s for both velocity components" at L836): ``initial_velocity_mps`` = (along, across) the
+aisle, default (1, 0.1) m/s (the literal (x, y) = (0.1, 1) is (0.1, 1.0)).
+
+**Reference tags.** L1203 gives 10 tags "on a portal and shelves", the aisle 2 m wide; the
+layout is only drawn in Fig. 6.3, not in the text. ``tag_layout`` names the readings tried
+(:data:`NAMED_LAYOUTS`); ``"custom"`` (default) takes ``tags_xy_m`` as given, whose default is
+``"every-2m"``.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 
 #: Default reference tags: 5 per shelf face at y = ±1 m, x = 0, 2, …, 8 m (the layout of Fig. 6.3
 #: is not in the text; the pair at x = 0 is the portal).
 DEFAULT_TAGS_XY_M = tuple((2.0 * i, s) for s in (-1.0, 1.0) for i in range(5))
+
+#: Readings of L1203's "10 reference tags placed on a portal and shelves" (y = ±1 m, the shelf
+#: faces of the 2 m aisle; the mobile tag enters at x = 0 and covers 1.2-12 m in 12 s):
+#: "every-2m" the default (x = 0…8 m), "every-3m" the 12 m path covered (x = 0, 3, …, 12 m),
+#: "portal-4-per-face" a portal pair at x = 0 and 4 per face at x = 1.5, 4.5, 7.5, 10.5 m,
+#: "staggered" the two faces alternating along 0…10.8 m (one tag every 1.2 m), "short-1m" a field shorter than the path (x = 0…4 m, 1 m apart).
+NAMED_LAYOUTS = {
+    "every-2m": DEFAULT_TAGS_XY_M,
+    "every-3m": tuple((3.0 * i, s) for s in (-1.0, 1.0) for i in range(5)),
+    "portal-4-per-face": ((0.0, -1.0), (0.0, 1.0)) + tuple((1.5 + 3.0 * i, s) for s in (-1.0, 1.0) for i in range(4)),
+    "staggered": tuple((round(1.2 * i, 9), -1.0 if i % 2 == 0 else 1.0) for i in range(10)),
+    "short-1m": tuple((1.0 * i, s) for s in (-1.0, 1.0) for i in range(5)),
+}
 
 
 @dataclass(frozen=True)
@@ -34,6 +56,14 @@ class AisleConfig:
                                      doc="closest approach of the mobile tag to a shelf face (y reflected there)")
     exciter_xyz_m: tuple[float, float, float] = param((4.0, 0.0, 2.0), unit="m",
                                                       doc="exciter position (the seed gives none, B§0.2)")
+    tag_layout: Literal["custom", "every-2m", "every-3m", "portal-4-per-face", "staggered", "short-1m"] = param(
+        "custom", doc="named reference-tag layout (NAMED_LAYOUTS; replaces tags_xy_m) or 'custom' = tags_xy_m")
+
+    def __post_init__(self):
+        if self.tag_layout != "custom":
+            if tuple(map(tuple, self.tags_xy_m)) not in (DEFAULT_TAGS_XY_M, NAMED_LAYOUTS[self.tag_layout]):
+                raise ConfigError("layout.tag_layout", self.tag_layout, "'custom' when layout.tags_xy_m is set")
+            object.__setattr__(self, "tags_xy_m", NAMED_LAYOUTS[self.tag_layout])
 
     @property
     def y_limit_m(self) -> float:
@@ -51,10 +81,20 @@ class MotionConfig:
     speed_min_mps: float = param(0.1, lo=0.0, hi=10.0, unit="m/s", doc="initial speed lower bound (L1203)")
     speed_max_mps: float = param(1.0, lo=0.0, hi=10.0, unit="m/s", doc="initial speed upper bound (L1203)")
     start_xy_m: tuple[float, float] = param((0.0, 0.0), unit="m", doc="where the mobile tag enters the aisle")
+    initial_velocity: Literal["speed", "vector"] = param(
+        "speed", doc="L1203 '[0.1, 1] m/s' read as a speed range along +x ('speed') or as the velocity vector "
+                     "initial_velocity_mps ('vector')")
+    initial_velocity_mps: tuple[float, float] = param((1.0, 0.1), lo=-10.0, hi=10.0, unit="m/s",
+                                                      doc="(x, y) initial velocity when initial_velocity = 'vector'")
+
+    @property
+    def initial_velocity_xy_mps(self):
+        """The fixed (x, y) initial velocity [m/s], or None for a speed drawn along +x."""
+        return tuple(self.initial_velocity_mps) if self.initial_velocity == "vector" else None
 
 
 def simulate_motion(rng: np.random.Generator, *, duration_s: float, dt_s: float, start_xy_m, speed_range_mps,
-                    accel_var: float, y_limit_m: float) -> tuple[np.ndarray, np.ndarray]:
+                    accel_var: float, y_limit_m: float, velocity_xy_mps=None) -> tuple[np.ndarray, np.ndarray]:
     """One trajectory of (6.1) on the grid ``t = 0, dt, …, duration`` (module docstring).
 
     Parameters
@@ -65,6 +105,8 @@ def simulate_motion(rng: np.random.Generator, *, duration_s: float, dt_s: float,
     speed_range_mps : (v_min, v_max) of the initial speed along +x [m/s]
     accel_var : q [m²/s⁴]
     y_limit_m : |y| at which the tag is reflected [m]
+    velocity_xy_mps : (vx, vy) initial velocity [m/s] replacing the drawn speed (the draw is still
+        made, so the noise u is the same), or None
 
     Returns
     -------
@@ -72,6 +114,8 @@ def simulate_motion(rng: np.random.Generator, *, duration_s: float, dt_s: float,
     """
     n = int(round(duration_s / dt_s)) + 1
     x = np.array([start_xy_m[0], rng.uniform(*speed_range_mps), start_xy_m[1], 0.0])
+    if velocity_xy_mps is not None:
+        x[1], x[3] = velocity_xy_mps
     u = rng.standard_normal((n - 1, 2)) * np.sqrt(accel_var)
     out = np.empty((n, 4))
     out[0] = x
@@ -91,4 +135,4 @@ def position_at(t_grid, states, t_s) -> np.ndarray:
     return np.stack([np.interp(t_s, t_grid, states[:, 0]), np.interp(t_s, t_grid, states[:, 2])], axis=1)
 
 
-__all__ = ["DEFAULT_TAGS_XY_M", "AisleConfig", "MotionConfig", "simulate_motion", "position_at"]
+__all__ = ["DEFAULT_TAGS_XY_M", "NAMED_LAYOUTS", "AisleConfig", "MotionConfig", "simulate_motion", "position_at"]

@@ -19,8 +19,8 @@ def search_decode_reference(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs
     """Plain NumPy/Python twin of :func:`rfsim.devices.reader.search_decode` (same steps, one window at a time;
     decoding by :func:`reference.gen2_linecode.decode_reply_reference`)."""
     r_all = np.atleast_2d(np.asarray(rs, dtype=np.complex128))
-    pre_levels, cur, prev, pre_el, ratios, tpl0, lens, span0, target1, target = _search_setup(m, trext, n_bits,
-                                                                                              blfs_hz, fs_hz)
+    pre_levels, state, pre_el, ratios, tpl0, lens, span0, target1, target = _search_setup(m, trext, n_bits,
+                                                                                          blfs_hz, fs_hz)
     n1 = min(n_bits, FINE_FIRST_BITS)
     out = [[] for _ in range(7)]
     for r in r_all:

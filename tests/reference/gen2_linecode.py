@@ -9,8 +9,21 @@ import numpy as np
 
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 from rfsim.gen2.bits import as_bits
-from rfsim.gen2.linecode import (ReplyDetection, _check_m, _check_rates, _decode, _elements, _state_index,
-                                 corr_abs_reference, halfbit_levels)
+from rfsim.gen2.linecode import ReplyDetection, _check_m, _check_rates, _decode, corr_abs_reference, halfbit_levels
+
+
+def _state_index(cur: int, prev: int, miller: bool) -> int:
+    """Trellis state of a level and a previous bit: ``level index (0 for +1) + 2·prev`` (Miller)."""
+    return (0 if cur == 1 else 1) + (2 * int(prev) if miller else 0)
+
+
+def _elements(levels: np.ndarray, m: int) -> np.ndarray:
+    """Each half-bit level repeated M times, every odd element inverted for Miller (subcarrier)."""
+    if m == 1:
+        return np.asarray(levels, dtype=np.int8)
+    el = np.repeat(levels, m)
+    el[1::2] *= -1
+    return el
 
 
 def fm0_levels_reference(bits, cur: int) -> tuple[np.ndarray, int]:

@@ -1,0 +1,153 @@
+"""The per-run state of the air step (:func:`rfsim.air.step.propagate`): its fast-path strategy and
+its caches, in one explicit object that the owner of a run holds (the engine takes the
+reader's, a scene may give its own).
+
+* :class:`Strategy` names the fast paths the step may take. It is chosen by the owner, never
+  by a probe of the machine at run time.
+* :class:`AirCache` holds what the step and its devices may reuse from one call to the next:
+  the antenna sets whose positions were found distinct (:class:`CheckedAntennas` entries) and
+  the emitted waveforms by their content (:class:`Waveform` entries: a reader's command bits
+  → its PIE segment, with the data devices derive from it, e.g. a tag's decoding of it). An
+  entry keeps the objects it was made from alive, so that their identities, where part of a
+  key, stay their own; the least recently used entry is dropped first beyond ``max_entries``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rfsim.air.noise import NOISE_METHODS
+from rfsim.core.errors import ConfigError
+
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "Derived", "AirCache"]
+
+
+@dataclass(frozen=True)
+class Strategy:
+    """The fast paths of the air step, chosen explicitly.
+
+    Attributes
+    ----------
+    fused_backscatter : form a receiver's sum c·x + b·((A_s − Γ)·(g·x)) of one constant term
+        and one modulating reflector in one kernel pass (:mod:`rfsim.air._step_kernels`,
+        :func:`rfsim.air.fused.fused_sum`). The kernel's complex products are fused
+        multiply-adds, as NumPy's SIMD loop forms them on CPUs with FMA; where NumPy does not
+        use them the two differ in the last bit (tests/test_air_kernels.py bounds it). False:
+        NumPy's array operations.
+    noise : how receiver noise is drawn (:data:`rfsim.air.noise.NOISE_METHODS`): ``"pcg64"``
+        every sample of a receiver's input from the step's generator; ``"counter"`` one key
+        from it and, from the counter-based stream of that key, only the samples the receiver
+        reads (its ``first_read_sample``; :func:`rfsim.air.noise.add_receiver_noise`).
+    """
+
+    fused_backscatter: bool = True
+    noise: str = "pcg64"
+
+    def __post_init__(self):
+        if self.noise not in NOISE_METHODS:
+            raise ConfigError("air.strategy.noise", self.noise, f"one of {NOISE_METHODS}")
+
+
+@dataclass
+class CheckedAntennas:
+    """One set of antennas whose positions were found pairwise distinct
+    (:func:`rfsim.air.links.check_positions`); the antennas are kept alive with the entry.
+
+    Attributes
+    ----------
+    emitters : the emitters' antennas
+    reflectors : the reflectors' antennas (a tuple object of a population, or a list)
+    receivers : the antennas of the receivers that do not share an emitter's antenna
+    """
+
+    emitters: tuple
+    reflectors: tuple | list
+    receivers: tuple
+
+
+@dataclass
+class Waveform:
+    """One emitted waveform, kept by its content (e.g. a command's bits, preamble and CW
+    lengths) with the objects that fix the rest of it.
+
+    Attributes
+    ----------
+    samples : (n,) complex128, read-only [√W]
+    makers : the objects the samples also depend on (a reader's frozen config and link
+        profile), compared by identity on a hit
+    memo : data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
+        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`)
+    """
+
+    samples: np.ndarray
+    makers: tuple
+    memo: dict = field(default_factory=dict)
+
+
+@dataclass
+class Derived:
+    """A value derived from an immutable object by a pure function (e.g. a device's validated
+    config), kept with the object (alive: its identity is the key).
+
+    Attributes
+    ----------
+    source : the object
+    value : what the function gave for it
+    """
+
+    source: object
+    value: object
+
+
+@dataclass
+class AirCache:
+    """Everything the air step reuses between its calls in one run (module docstring).
+
+    Attributes
+    ----------
+    strategy : the step's :class:`Strategy`
+    max_entries : entries kept per table (the least recently used dropped first)
+    checked : antenna sets found at distinct positions, keyed by the identities of their
+        antennas (emitters, reflectors, receivers)
+    checked_tuples : the same, keyed by the identity of a tuple of reflector antennas (a
+        population's one tuple: no look at its members)
+    waveforms : :class:`Waveform` entries by content key
+    derivations : :class:`Derived` entries by (function, identity of the source)
+    """
+
+    strategy: Strategy = field(default_factory=Strategy)
+    max_entries: int = 64
+    checked: dict = field(default_factory=dict)
+    checked_tuples: dict = field(default_factory=dict)
+    waveforms: dict = field(default_factory=dict)
+    derivations: dict = field(default_factory=dict)
+
+    def derived(self, source, make):
+        """``make(source)`` for an immutable ``source``, computed once per run (a :class:`Derived`
+        entry: the readers of one run made from one config validate it once)."""
+        key = (make, id(source))
+        hit = self.derivations.get(key)
+        if hit is not None and hit.source is source:
+            return hit.value
+        value = make(source)
+        self.remember(self.derivations, key, Derived(source=source, value=value))
+        return value
+
+    def waveform(self, key, makers: tuple) -> Waveform | None:
+        """The :class:`Waveform` of content ``key`` made by ``makers`` (the same objects), or
+        None; a hit becomes the most recently used entry."""
+        hit = self.waveforms.pop(key, None)
+        if hit is None:
+            return None
+        self.waveforms[key] = hit
+        if len(hit.makers) != len(makers) or any(a is not b for a, b in zip(hit.makers, makers)):
+            return None
+        return hit
+
+    def remember(self, table: dict, key, entry) -> None:
+        """``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`."""
+        if key not in table and len(table) >= self.max_entries:
+            table.pop(next(iter(table)))
+        table[key] = entry

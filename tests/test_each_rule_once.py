@@ -1,0 +1,145 @@
+"""Each rule once: a scan of the source (``ast``) of rfsim/, devices/ and channels/ for copies of
+the rules that have one definition.
+
+The FM0/Miller line codes are the transition tables of :mod:`rfsim.gen2._linecode_kernels`
+(``HALF_LEVELS``, ``NEXT_STATE``, ``SUBCARRIER_SIGN``); the encoder, the Viterbi trellis, the
+element expansion, the reply decoders and the reader's BLF search read them there. A copy of the
+rules shows in the source as one of the idioms the tables replaced: an inversion of the level
+chosen by a condition (``-cur if … else cur``), a level index written as a conditional
+(``0 if level == 1 else 1``), the subcarrier as every other element inverted (``x[1::2] *= -1``,
+``m > 1 and k & 1``, ``k % 2 == 0``), a table of ±1 levels, or a Viterbi loop.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCANNED = ("rfsim", "devices", "channels")
+#: The one definition of the FM0/Miller rules.
+LINECODE_HOME = "rfsim/gen2/_linecode_kernels.py"
+#: Names of the tables of the line codes.
+LINECODE_TABLES = {"HALF_LEVELS", "NEXT_STATE", "SUBCARRIER_SIGN", "LEVEL_OF_STATE", "PREV_BIT_OF_STATE"}
+#: Modules that decode or encode FM0/Miller replies in compiled code: they must read the one
+#: definition (import its kernels) and hold no rule of their own.
+LINECODE_USERS = ("rfsim/gen2/_reply_kernels.py", "devices/_blf_search_kernels.py", "rfsim/gen2/linecode.py")
+
+
+def _modules():
+    for top in SCANNED:
+        for path in sorted((ROOT / top).rglob("*.py")):
+            if "__pycache__" in path.parts:
+                continue
+            yield path.relative_to(ROOT).as_posix(), ast.parse(path.read_text(), filename=str(path))
+
+
+MODULES = dict(_modules())
+
+
+#: Modules of other line codes, where a level inverted by a condition is their own rule: the
+#: BOC chips of HiMR beacons (not FM0/Miller).
+OTHER_LINE_CODES = ("rfsim/himr/_boc_kernels.py",)
+
+
+def _is_neg_of(node: ast.AST, other: ast.AST) -> bool:
+    """``node`` is ``-other`` for a variable ``other`` (a level, not a constant sign)."""
+    return (isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub) and isinstance(other, ast.Name)
+            and ast.dump(node.operand) == ast.dump(other))
+
+
+def _const(node: ast.AST, value) -> bool:
+    return isinstance(node, ast.Constant) and node.value == value and type(node.value) is type(value)
+
+
+def _linecode_idioms(tree: ast.AST) -> list[str]:
+    """Source idioms of a hand-written FM0/Miller rule (module docstring), as ``line: idiom``."""
+    found = []
+    for node in ast.walk(tree):
+        line = getattr(node, "lineno", 0)
+        if isinstance(node, ast.IfExp):
+            # -x if cond else x  /  x if cond else -x: a level inverted by a rule
+            if _is_neg_of(node.body, node.orelse) or _is_neg_of(node.orelse, node.body):
+                found.append(f"{line}: level inverted by a condition")
+            # 0 if level == 1 else 1: the level index of a trellis state
+            if (_const(node.body, 0) and _const(node.orelse, 1) and isinstance(node.test, ast.Compare)
+                    and any(_const(c, 1) for c in node.test.comparators)):
+                found.append(f"{line}: level index of a trellis state")
+        if isinstance(node, ast.AugAssign) and isinstance(node.op, ast.Mult) and isinstance(node.target, ast.Subscript):
+            sl = node.target.slice
+            if isinstance(sl, ast.Slice) and _const(sl.lower, 1) and _const(sl.step, 2):
+                found.append(f"{line}: every other element inverted (subcarrier)")
+        if isinstance(node, ast.BoolOp):
+            text = ast.unparse(node)
+            if ("m > 1" in text or "m == 1" in text) and ("& 1" in text or "% 2" in text):
+                found.append(f"{line}: subcarrier sign from the element parity")
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id in LINECODE_TABLES
+                                                for t in node.targets):
+            found.append(f"{line}: a line-code table")
+        if isinstance(node, ast.FunctionDef) and "viterbi" in node.name.lower():
+            if any(isinstance(n, (ast.For, ast.While)) for n in ast.walk(node)):
+                found.append(f"{line}: a Viterbi loop ({node.name})")
+    return found
+
+
+def test_linecode_home_holds_the_rules():
+    """The scan finds the rules where they are defined (so it can find a copy elsewhere)."""
+    found = _linecode_idioms(MODULES[LINECODE_HOME])
+    assert any("line-code table" in f for f in found)
+    assert any("Viterbi loop" in f for f in found)
+
+
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if m not in (LINECODE_HOME, *OTHER_LINE_CODES)))
+def test_no_other_module_defines_fm0_miller_rules(module):
+    """No module but the home of the tables writes an FM0/Miller rule, a level table or a Viterbi."""
+    assert _linecode_idioms(MODULES[module]) == [], module
+
+
+@pytest.mark.parametrize("module", LINECODE_USERS)
+def test_linecode_users_import_the_one_definition(module):
+    """The encoder, the reply decoders and the BLF search import the tables' kernels."""
+    imported = set()
+    for node in ast.walk(MODULES[module]):
+        if isinstance(node, ast.ImportFrom) and node.module == "rfsim.gen2._linecode_kernels":
+            imported |= {a.name for a in node.names}
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "lazy_import":
+            if _const(node.args[0], "rfsim.gen2._linecode_kernels"):
+                imported.add("*")
+    assert imported, f"{module} does not import rfsim.gen2._linecode_kernels"
+
+
+# ----------------------------------------------------------------- Gen2 tag: silent steps
+
+#: The one definition of the silent steps of a tag (no reply, no draw) and its two users: a
+#: single tag's state and a population's arrays.
+SILENT_HOME = ("devices/gen2_tag_arrays.py", "silent_step")
+SILENT_USERS = (("devices/gen2_tag_state.py", "on_command_if_silent"),
+                ("devices/gen2_tag_arrays.py", "silent_steps"))
+COMMAND_NAMES = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK", "Select", "ReqRN", "Read"}
+
+
+def _function(module: str, name: str) -> ast.FunctionDef:
+    found = [n for n in ast.walk(MODULES[module]) if isinstance(n, ast.FunctionDef) and n.name == name]
+    assert len(found) == 1, (module, name)
+    return found[0]
+
+
+def _names(node: ast.AST) -> set[str]:
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+
+
+def test_silent_step_home_names_the_commands():
+    """The rule's home tells the commands apart (so the users' scan below can fail)."""
+    assert {"QueryRep", "QueryAdjust", "ACK", "NAK"} <= _names(_function(*SILENT_HOME))
+
+
+@pytest.mark.parametrize("module, name", SILENT_USERS)
+def test_silent_step_users_call_the_one_rule(module, name):
+    """A tag's and a population's silent steps call ``silent_step`` and name no command
+    themselves (no second copy of which command is silent in which state)."""
+    fn = _function(module, name)
+    calls = {n.func.id for n in ast.walk(fn) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    assert "silent_step" in calls
+    assert not (_names(fn) & COMMAND_NAMES), sorted(_names(fn) & COMMAND_NAMES)

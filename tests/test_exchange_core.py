@@ -1,0 +1,55 @@
+"""The exchange is written once and the air step reads as stages (issue "One exchange core",
+items 1 and 2), checked on the source: the single exchange is the batch of one, every function
+of the air step is short, and the air step keeps no module-level caches."""
+
+from __future__ import annotations
+
+import ast
+import inspect
+from pathlib import Path
+
+import rfsim.air
+from rfsim.protocols import batch, engine
+
+AIR_DIR = Path(rfsim.air.__file__).parent
+
+
+def _calls(func) -> set[str]:
+    tree = ast.parse(inspect.getsource(func).lstrip())
+    return {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+
+
+def test_one_exchange_function():
+    # run_exchange and singulate delegate to their batches and do nothing else of their own
+    assert "run_exchanges" in _calls(engine.run_exchange)
+    assert "singulate_batch" in _calls(engine.singulate)
+    for single in (engine.run_exchange, engine.singulate):
+        body = ast.parse(inspect.getsource(single)).body[0].body
+        assert len(body) == 2 and isinstance(body[1], ast.Return), single.__name__  # docstring, return
+    # the batch module holds no second implementation: it re-exports the engine's
+    assert batch.run_exchanges is engine.run_exchanges and batch.singulate_batch is engine.singulate_batch
+    assert not [n for n in ast.parse(inspect.getsource(batch)).body if isinstance(n, (ast.FunctionDef, ast.ClassDef))]
+
+
+def test_air_step_functions_are_short():
+    long = []
+    for path in sorted(AIR_DIR.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and node.end_lineno - node.lineno + 1 >= 80:
+                long.append(f"{path.name}:{node.name}")
+    assert not long
+
+
+def test_air_keeps_no_module_level_caches():
+    # a module-level dict or list filled at run time is a cache shared by every run: the air
+    # step's caches live in the run's AirCache (rfsim.air.cache)
+    found = []
+    for path in sorted(AIR_DIR.glob("*.py")):
+        for node in ast.parse(path.read_text()).body:
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target] if isinstance(node, ast.AnnAssign) else []
+            value = getattr(node, "value", None)
+            if isinstance(value, (ast.Dict, ast.List)) and not (isinstance(value, ast.List) and value.elts) \
+                    and not (isinstance(value, ast.Dict) and value.keys):
+                found += [f"{path.name}:{t.id}" for t in targets if isinstance(t, ast.Name) and t.id != "__all__"]
+    # the numba wrappers' compiled entry points and tables are not caches of run data
+    assert sorted(found) == ["_noise_kernels.py:_ENTRY", "_noise_kernels.py:_TABLES"]

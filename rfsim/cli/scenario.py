@@ -12,6 +12,7 @@ import argparse
 from pathlib import Path
 
 from rfsim.cli.figures import add_figure_args, figure_output_of, written_files
+from rfsim.cli.memory import add_max_memory_arg, max_memory
 from rfsim.cli.verbosity import add_verbosity_args, reporter
 from rfsim.core.config import describe, load_config, to_toml
 from rfsim.core.errors import SEED_RANGE_TEXT, UserError, check_seed
@@ -45,6 +46,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="dataset file name (default: <out-dir>/<scenario>.h5)")
     p.add_argument("--no-plot", action="store_true", help="write the dataset only")
     add_figure_args(p)
+    add_max_memory_arg(p)
     add_verbosity_args(p)
     p.set_defaults(func=_run)
 
@@ -100,7 +102,7 @@ def _run(args: argparse.Namespace) -> int:
         out_dir = args.out_dir if args.out_dir is not None else (
             args.output.parent if args.output is not None else Path("results"))  # figures beside -o
         out = run_scenario(module, config, seed=args.seed, out_dir=out_dir, output=args.output,
-                           make_plots=not args.no_plot)
+                           make_plots=not args.no_plot, max_memory_bytes=max_memory(args))
     if not args.quiet:
         print(f"dataset: {out.dataset_path}")
         for fig in written_files(out.figure_paths, output):

@@ -23,6 +23,7 @@ import os
 import sys
 from pathlib import Path
 
+from rfsim.cli.memory import add_max_memory_arg, max_memory
 from rfsim.core.errors import UserError
 
 _VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract", "repair")
@@ -91,6 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"refuse to start more than N runs without --yes (default {DEFAULT_MAX_RUNS})")
     p.add_argument("-y", "--yes", action="store_true", help="run even more than --max-runs runs")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress and no summary")
+    add_max_memory_arg(p)
     p.set_defaults(handler=_run)
 
     p = verbs.add_parser("dry-run", help="print the number of points and the first expanded configs")
@@ -196,10 +198,13 @@ def _run(ns: argparse.Namespace) -> int:
         ns.show = 3
         return _dry_run(ns)
     from rfsim.sweep import Progress, load_spec, make_executor, run_sweep
-    from rfsim.sweep.runner import check_sweep_outputs
+    from rfsim.sweep.executors import available_cpus
+    from rfsim.sweep.runner import check_sweep_memory, check_sweep_outputs
 
     spec = load_spec(ns.spec, output=ns.output)
     _check_size(ns, spec)
+    if ns.dask is None:  # a Dask cluster's workers have their own memory
+        check_sweep_memory(spec, max_memory(ns), 1 if ns.serial else (ns.workers or available_cpus()))
     check_sweep_outputs(spec)  # before a Dask cluster is started or anything runs
     executor = make_executor(serial=ns.serial, workers=ns.workers, dask=ns.dask)
     try:

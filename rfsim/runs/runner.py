@@ -24,6 +24,8 @@ from rfsim.core.locks import output_lock
 from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.core.procs import run_in_child
 from rfsim.core.progress import current, stage
+from rfsim.runs.resources import check_memory, default_limit_bytes
+from rfsim.runs.sizes import estimate_of
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,15 +38,20 @@ class RunOutput:
 
 
 def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
-                 output: Path | None = None, make_plots: bool = True) -> RunOutput:
+                 output: Path | None = None, make_plots: bool = True,
+                 max_memory_bytes: int | None | str = "default") -> RunOutput:
     """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures.
 
     The dataset path and the figure folder are checked (and missing folders created)
     before the simulation starts; a path that cannot be written is a one-line
-    :class:`~rfsim.core.errors.UserError` then, not a lost result afterwards.
+    :class:`~rfsim.core.errors.UserError` then, not a lost result afterwards. So is a run
+    whose estimated peak memory (:func:`rfsim.runs.sizes.estimate_of`) exceeds
+    ``max_memory_bytes`` (``"default"``: half the available memory; None: no check).
     """
     start_utc, t0 = utc_now(), time.perf_counter()
     check_seed(seed)
+    limit = default_limit_bytes() if max_memory_bytes == "default" else max_memory_bytes
+    check_memory(estimate_of(module, config), limit, what=f"the {module.NAME} run")
     path = output if output is not None else out_dir / f"{module.NAME}.h5"
     if make_plots or output is None:
         check_output_folder(out_dir, "--out-dir")

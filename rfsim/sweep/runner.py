@@ -30,6 +30,8 @@ from rfsim.core.dataset import make_provenance, utc_now
 from rfsim.core.errors import UserError
 from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
 from rfsim.runs.registry import get_scenario
+from rfsim.runs.resources import check_memory
+from rfsim.runs.sizes import estimate_of
 from rfsim.sweep.executors import SerialExecutor
 from rfsim.sweep.lock import OutputLock
 from rfsim.sweep.merge import merge_store
@@ -164,6 +166,25 @@ def _quiet(total: int, *, done: int) -> Progress:
     return Progress(total, done=done, quiet=True)
 
 
+def check_sweep_memory(spec: SweepSpec, limit_bytes: int | None, processes: int, *,
+                       module: ModuleType | None = None) -> None:
+    """Stop before any run (one-line UserError) when the largest estimated peak memory of the
+    sweep's points (:func:`rfsim.runs.sizes.estimate_of`) times the ``processes`` that run
+    points at once exceeds ``limit_bytes`` (None: no check; a scenario without an estimate
+    is not checked)."""
+    if limit_bytes is None:
+        return
+    plan = plan_sweep(spec, check="none", module=module)
+    worst = None
+    for i in range(plan.n_points):
+        est = estimate_of(plan.module, plan.config(i))
+        if est is None:
+            return
+        if worst is None or est.peak_bytes > worst.peak_bytes:
+            worst = est
+    check_memory(worst, limit_bytes, what=f"a point of sweep {spec.scenario!r}", processes=processes)
+
+
 def check_sweep_outputs(spec: SweepSpec) -> None:
     """The merged file and the point store can be written (before anything runs)."""
     check_output_file(spec.output, "sweep output", suffixes=(".h5", ".hdf5"))
@@ -285,4 +306,4 @@ def _merge(plan: SweepPlan, start_time_utc: str | None) -> Path:
 
 
 __all__ = ["SweepReport", "SweepPlan", "plan_sweep", "run_sweep", "missing_runs", "merge_sweep",
-           "check_sweep_outputs", "SEED_ATTR_MAX_RUNS"]
+           "check_sweep_memory", "check_sweep_outputs", "SEED_ATTR_MAX_RUNS"]

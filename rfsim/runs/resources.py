@@ -1,0 +1,107 @@
+"""The size of a run before any work: work units and an upper bound on peak memory.
+
+A scenario may define ``resource_estimate(config) -> Estimate`` (the built-in scenarios' size
+models are in :mod:`rfsim.runs.sizes`, whose ``estimate_of`` finds a run's estimate).
+:func:`check_memory` compares the estimate with a limit (``--max-memory``; default half the
+memory the system reports available) and stops with one line naming the config keys that drive
+the size, the estimate and the limit (:class:`~rfsim.core.errors.UserError`, exit status 2).
+A scenario without ``resource_estimate`` is not checked.
+
+The peak is that of the largest rfsim process of the run, in bytes of resident memory: the
+baseline of a process that has imported the libraries and loaded the compiled kernels
+(:data:`BASELINE_BYTES`, measured) plus the bytes per work unit times the units held at once.
+A run with worker processes counts one such process per worker besides the leader.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import re
+from pathlib import Path
+
+from rfsim.core.errors import UserError
+
+#: Resident memory of a run's process before its arrays [B]: interpreter, numpy, scipy, numba,
+#: h5py and the compiled kernels of a scenario (measured 180-260 MB by the peak resident set
+#: of the smallest run of every built-in scenario, rounded up).
+BASELINE_BYTES = 300 * 2**20
+
+_UNITS = {"": 1, "b": 1, "k": 10**3, "kb": 10**3, "m": 10**6, "mb": 10**6, "g": 10**9, "gb": 10**9,
+          "t": 10**12, "tb": 10**12, "kib": 2**10, "mib": 2**20, "gib": 2**30, "tib": 2**40}
+_SIZE = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][0-9]+)?)\s*([a-zA-Z]*)\s*")
+
+
+@dataclasses.dataclass(frozen=True)
+class Estimate:
+    """The size of a run: ``work_units`` (trials, draws, positions... the scenario's unit),
+    ``peak_bytes`` (upper bound on the peak resident memory [B]) and ``drivers`` (the config
+    keys that set the size, named in the error when it is too large)."""
+
+    work_units: int
+    peak_bytes: int
+    drivers: tuple[str, ...]
+
+
+def process_peak(bytes_per_unit: float, units_at_once: float, *, processes: int = 1,
+                 baseline_bytes: int = BASELINE_BYTES) -> int:
+    """Peak [B] of ``processes`` processes, each holding ``units_at_once`` units of
+    ``bytes_per_unit`` bytes above :data:`BASELINE_BYTES`."""
+    return int(processes * (baseline_bytes + bytes_per_unit * units_at_once))
+
+
+def pool_processes(workers: int, tasks: int) -> int:
+    """Processes of a run on ``workers`` pool workers (0 = all cores, 1 = in process) with
+    ``tasks`` tasks: the leader plus the workers that start."""
+    w = workers or (os.cpu_count() or 1)
+    return 1 if w <= 1 or tasks <= 1 else 1 + min(w, tasks)
+
+
+def parse_size(text: str) -> int:
+    """Bytes of a size such as ``2GiB``, ``500M``, ``1e9`` (k/M/G/T decimal, KiB/MiB/GiB/TiB
+    binary, case-insensitive); :class:`~rfsim.core.errors.UserError` if it is not one."""
+    m = _SIZE.fullmatch(text)
+    unit = m.group(2).lower() if m else ""
+    if not m or unit not in _UNITS or float(m.group(1)) * _UNITS[unit] < 1:
+        raise UserError(f"--max-memory {text!r}: expected a size such as 2GiB, 500MB or 1e9 (bytes)")
+    return int(float(m.group(1)) * _UNITS[unit])
+
+
+def available_bytes(meminfo: Path = Path("/proc/meminfo")) -> int | None:
+    """``MemAvailable`` of the system [B], or None where it is not reported."""
+    try:
+        for line in meminfo.read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def default_limit_bytes() -> int | None:
+    """Half of the available memory [B] (None where it is unknown: no check)."""
+    avail = available_bytes()
+    return avail // 2 if avail else None
+
+
+def format_bytes(n: float) -> str:
+    """``n`` bytes in MiB or GiB, e.g. ``'1.5 GiB'``."""
+    return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.0f} MiB"
+
+
+def check_memory(estimate: Estimate | None, limit_bytes: int | None, *, what: str,
+                 processes: int = 1) -> None:
+    """Stop (UserError, one line) when ``processes`` × the estimated peak exceeds the limit."""
+    if estimate is None or limit_bytes is None:
+        return
+    peak = estimate.peak_bytes * processes
+    if peak > limit_bytes:
+        times = f" × {processes} at once" if processes > 1 else ""
+        raise UserError(f"{what} is too large: {', '.join(estimate.drivers)} give an estimated peak "
+                        f"memory of {format_bytes(peak)}{times} ({estimate.work_units} work units) "
+                        f"over the limit of {format_bytes(limit_bytes)}; make them smaller or raise "
+                        f"--max-memory")
+
+
+__all__ = ["BASELINE_BYTES", "Estimate", "available_bytes", "check_memory", "default_limit_bytes",
+           "format_bytes", "parse_size", "pool_processes", "process_peak"]

@@ -1,0 +1,147 @@
+"""Size models of the built-in scenarios (:class:`~rfsim.runs.resources.Estimate` of a config).
+
+A model reads only the config's keys (the core never imports the scenarios). Its peak is the
+scenario's baseline (the peak resident memory of its smallest run, kernels cached, rounded up)
+plus bytes per work unit times the units held at once (the rows every unit adds to the tables
+the run keeps until it writes them, and the unit's working arrays), both measured on runs of
+two sizes and rounded up; a run with worker processes counts one process per worker besides
+the leader (each holding the same baseline). ``tests/test_resources.py`` checks that the
+estimate bounds the measured peak within 2x at two sizes of every scenario.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+from rfsim.runs.resources import Estimate, pool_processes, process_peak
+
+KiB, MiB = 2**10, 2**20
+
+
+def estimate_of(module, config) -> Estimate | None:
+    """The scenario's own ``resource_estimate(config)``, else the size model of its name (built-in
+    scenario modules only), else None (no check)."""
+    fn = getattr(module, "resource_estimate", None)
+    if fn is None and getattr(module, "__name__", "").startswith("rfsim.scenarios."):
+        fn = SIZE_MODELS.get(module.NAME)
+    return fn(config) if fn is not None else None
+
+
+def _model(units: float, drivers: tuple[str, ...], *, base_mib: float, bytes_per_unit: float,
+           workers: int = 1, tasks: int = 1, held: float | None = None) -> Estimate:
+    """``units`` work units, ``held`` of them (default all) of ``bytes_per_unit`` above
+    ``base_mib`` per process; one process per started pool worker (``workers`` for ``tasks``
+    tasks) besides the leader."""
+    peak = process_peak(bytes_per_unit, units if held is None else held, processes=pool_processes(workers, tasks),
+                        baseline_bytes=int(base_mib * MiB))
+    return Estimate(int(units), peak, drivers)
+
+
+def _cells(config, cells_key: str, cells: int) -> Estimate:
+    """phase-cancellation and st-to-st: cells × positions × repetitions sample rows."""
+    mc = config.mc
+    return _model(cells * mc.n_positions * mc.n_repetitions,
+                  ("mc.positions_per_cell", "mc.repetitions", "mc.full", cells_key, "mc.workers"),
+                  base_mib=260, bytes_per_unit=16 * KiB, workers=mc.workers, tasks=cells * mc.n_repetitions)
+
+
+def _detection_probability(c) -> Estimate:
+    """A block of ≤ 256 samples simulated at once (256 KiB each) and every sample's row."""
+    block = min(c.samples.count, 256) * 256 * KiB
+    return _model(c.samples.count, ("samples.count", "samples.workers"), base_mib=290 + block / MiB,
+                  bytes_per_unit=4 * KiB, workers=c.samples.workers, tasks=math.ceil(c.samples.count / 256))
+
+
+def _exciter_link(c) -> Estimate:
+    s = c.sweep
+    units = (100 if s.full else s.draws_per_point) * len(s.exciter_distance_m) * len(s.tag_distance_m)
+    return _model(units, ("sweep.draws_per_point", "sweep.full", "sweep.exciter_distance_m", "sweep.tag_distance_m",
+                          "sweep.workers"), base_mib=290, bytes_per_unit=16 * KiB, workers=s.workers, tasks=units)
+
+
+def _gen2_waveforms(c) -> Estimate:
+    """Samples of the four exchanges (20.9 ms of signal in all) at ``fs_hz``."""
+    return _model(math.ceil(c.fs_hz * 0.021), ("fs_hz",), base_mib=170, bytes_per_unit=64)
+
+
+def _himr(c) -> Estimate:
+    """Per millisecond of the run: the packets' sample-level records and the tracker's rows."""
+    return _model(math.ceil(c.scene.duration_s * 1000), ("scene.duration_s",), base_mib=280,
+                  bytes_per_unit=12 * KiB)
+
+
+def _inventory(c) -> Estimate:
+    units = (sum(c.populations) * c.runs + c.capture.trials * len(c.capture.ratios_db)
+             + c.capture_sweep.trials * len(c.capture_sweep.ratios_db)
+             + sum(c.capture_inventory.populations) * c.capture_inventory.runs * c.capture_inventory.enabled)
+    return _model(units, ("populations", "runs", "capture.trials", "capture_sweep.trials", "capture_inventory.runs"),
+                  base_mib=300, bytes_per_unit=4 * KiB)
+
+
+def _link(c) -> Estimate:
+    return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
+                  base_mib=230, bytes_per_unit=4 * KiB)
+
+
+def _phase_tracking(c) -> Estimate:
+    return _model(math.ceil(c.trajectory.duration_s), ("trajectory.duration_s", "schedule.workers"), base_mib=300,
+                  bytes_per_unit=64 * KiB, workers=c.schedule.workers, tasks=math.ceil(c.trajectory.duration_s / 10))
+
+
+def _reader_detection(c) -> Estimate:
+    """Queries in all; one row per trial (the queries of a trial are reduced in blocks)."""
+    k = c.campaign
+    trials = 2 * (18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions)
+    return _model(trials * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
+                                       "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
+                  base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
+
+
+def _rss_localization(c) -> Estimate:
+    """Every case's rows; the particle clouds of one case's trials at once (384 B per particle and
+    trial: 94 -> 195 MiB from 2 × 50 to 2 × 200000 trials × particles)."""
+    trials = c.trials or 1000
+    return _model(trials * len(c.sigma0_db) * len(c.motions), ("trials", "particles", "sigma0_db", "motions"),
+                  base_mib=120 + trials * c.particles * 384 / MiB, bytes_per_unit=4 * KiB)
+
+
+def _st_localization(c) -> Estimate:
+    """Realization-seconds of tracking; ≤ 10 realizations' particle clouds at once (3 KiB per
+    particle: its landmark probabilities; 263 MiB measured at 4 × 20000 particles, stopped)."""
+    r = 500 if c.full else c.realizations
+    speeds = len(c.speeds_mps) + len(c.trajectory_2_speeds_mps)
+    seconds = r * speeds * c.path_duration_s + (c.walk_duration_s or 10000)
+    return _model(seconds, ("realizations", "full", "path_duration_s", "walk_duration_s", "filters.particles"),
+                  base_mib=120 + min(r, 10) * c.filters.particles * 3 * KiB / MiB, bytes_per_unit=2 * KiB,
+                  workers=c.workers, tasks=max(r // 10, 1) * speeds)
+
+
+def _tag_to_tag_tracking(c) -> Estimate:
+    """Rows per trajectory, filter run and range (every tracker's estimate); the particle
+    clouds of the filter runs of 5 trajectories at once (95 -> 112 MiB from 1 x 1 to 200 x 50)."""
+    m = sum(c.trackers.particles) + sum(c.trackers.rbpf_particles)
+    return _model(c.trajectories * c.filter_runs * len(c.ranges_m),
+                  ("trajectories", "filter_runs", "ranges_m", "trackers.particles", "workers"),
+                  base_mib=120 + 5 * c.filter_runs * m * 64 * 8 / MiB, bytes_per_unit=KiB, workers=c.workers,
+                  tasks=math.ceil(c.trajectories / 5))
+
+
+SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
+    "detection-probability": _detection_probability,
+    "exciter-link": _exciter_link,
+    "gen2-waveforms": _gen2_waveforms,
+    "himr-1d": _himr,
+    "himr-2d": _himr,
+    "inventory": _inventory,
+    "link": _link,
+    "phase-cancellation": lambda c: _cells(c, "geometry.tag_x_m", len(c.geometry.tag_x_m)),
+    "phase-tracking": _phase_tracking,
+    "reader-detection": _reader_detection,
+    "rss-localization": _rss_localization,
+    "st-localization": _st_localization,
+    "st-to-st": lambda c: _cells(c, "geometry.st_x_m", len(c.geometry.st_x_m)),
+    "tag-to-tag-tracking": _tag_to_tag_tracking,
+}
+
+__all__ = ["SIZE_MODELS", "estimate_of"]

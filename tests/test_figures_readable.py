@@ -288,3 +288,19 @@ def test_the_checks_see_a_clipped_title_an_empty_axes_and_a_legend_lie(held_figu
     ax.set(xlabel="x [m]", ylabel="y [m]", title="short")
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0))  # off the data
     assert readability_problems(fig, monkeypatch) == []
+
+
+@pytest.mark.parametrize("scene", ["one-reader-one-tag.toml", "exciter-sense-a-tags.toml"])
+def test_scene_file_figures_are_readable(scene, project_root, tmp_path, held_figures, monkeypatch):
+    """A scene file's figures (geometry, reads, RSSI/phase, detections) pass the same checks."""
+    from rfsim.scenes.scene_file import plot
+
+    data = tmp_path / "scene.h5"
+    assert main(["run", str(project_root / "examples" / "scenes" / scene), "--seed", "1", "--no-plot", "-q",
+                 "-o", str(data)]) == 0
+    paths = plot(data, tmp_path)
+    problems = []
+    for path, fig in zip(paths, held_figures):
+        if fig.axes and any(ax.has_data() for ax in fig.axes):  # a scene without readers draws empty reads
+            problems += readability_problems(fig, monkeypatch, path.stem)
+    assert paths and not problems, "\n".join(problems)

@@ -456,7 +456,7 @@ def plot_detections(tables: dict):
     if not (n_det or n_bf):
         return None
     fig, ax = figure(columns=1, height_in=2.8)
-    labels = []
+    labels, named = [], set()
     for t, a, b, prefix in ((det, "broadcaster", "listener", "ST"), (bf, "beacon", "reader", "B")):
         if t is None or not len(t["time_s"]):
             continue
@@ -465,10 +465,12 @@ def plot_detections(tables: dict):
             sel = (t[a] == i) & (t[b] == j)
             y = len(labels)
             ok = sel & t["decoded"].astype(bool)
-            ax.plot(t["time_s"][ok], np.full(ok.sum(), y), "o", ms=3, color=OKABE_ITO[2],
-                    label="decoded" if not labels else None)
-            ax.plot(t["time_s"][sel & ~ok], np.full((sel & ~ok).sum(), y), "x", ms=3, color=OKABE_ITO[5],
-                    label="missed" if not labels else None)
+            for mask, marker, colour, label in ((ok, "o", OKABE_ITO[2], "decoded"),
+                                                (sel & ~ok, "x", OKABE_ITO[5], "missed")):
+                if mask.any():
+                    ax.plot(t["time_s"][mask], np.full(mask.sum(), y), marker, ms=3, color=colour,
+                            label=None if label in named else label)
+                    named.add(label)
             labels.append(f"{prefix}{i}→{'ST' if prefix == 'ST' else 'R'}{j}")
     ax.set_yticks(range(len(labels)), labels, fontsize=7)
     ax.set(xlabel="time $t$ [s]", ylabel="sender → receiver", title="Detections over time")

@@ -551,7 +551,8 @@ def plot(dataset_path, out_dir) -> list[Path]:
     out = []
     with paper_style():
         fig, ax = figure(columns=1, height_in=3.6)
-        ax.plot(tags["x_m"], tags["y_m"], ls="none", marker="o", ms=3.5, color=OKABE_ITO[2], label="tags ($t$ = 0)")
+        if len(tags["x_m"]):
+            ax.plot(tags["x_m"], tags["y_m"], ls="none", marker="o", ms=3.5, color=OKABE_ITO[2], label="tags ($t$ = 0)")
         for k in range(len(walls["attenuation_db"])):
             ax.plot([walls["start_x_m"][k], walls["end_x_m"][k]], [walls["start_y_m"][k], walls["end_y_m"][k]], "-",
                     color="0.4", lw=3, label=f"wall {walls['attenuation_db'][k]:g} dB")

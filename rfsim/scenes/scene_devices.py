@@ -439,7 +439,7 @@ def read_device_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
 def plot_devices(ax, tables: dict) -> None:
     """Draw exciters, sense-a-tags, beacons and beacon readers on the geometry axes."""
     for name, marker, colour, label in (("exciters", "^", OKABE_ITO[5], "exciters"),
-                                        ("sense_a_tags", "D", OKABE_ITO[6], "sense-a-tags"),
+                                        ("sense_a_tags", "D", OKABE_ITO[1], "sense-a-tags"),
                                         ("beacons", "v", OKABE_ITO[0], "beacons"),
                                         ("beacon_readers", "P", OKABE_ITO[3], "beacon readers")):
         t = tables.get(name)

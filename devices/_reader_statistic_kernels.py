@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import INDEX_EPS
+from rfsim.gen2._linecode_kernels import INDEX_EPS, element_sign
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -50,7 +50,7 @@ def piece_map_kernel(n, i_first, start, elements_per_sample, m, n_elements, piec
             cur_half = h
             cur[STEADY] = -1
             cur[INNER_EDGE] = -1
-        sign[q] = -1.0 if (m > 1 and 0 <= k < n_elements and (k & 1)) else 1.0
+        sign[q] = float(element_sign(k, m)) if 0 <= k < n_elements else 1.0
         if k >= n_elements:
             cls = REST if (kp >= n_elements and kn >= n_elements) else SINGLE
         elif k >= 0 and kp == k and kn == k:

@@ -84,6 +84,13 @@ class RadioConfig:
     rx_cutoff_hz: float | None = param(None, lo=1e4, hi=1e8, unit="Hz",
                                        doc="pylon channel filter cut-off (None: none; 'joint' default: f_sc + 2 R_b)")
 
+    def __post_init__(self):
+        need = math.ceil(self.search_s * self.fs_hz) + 2
+        if math.floor(self.margin_s * self.fs_hz) < need:
+            raise ConfigError("radio.margin_s", self.margin_s, f"≥ radio.search_s + 2 samples = {need / self.fs_hz:.6g} s "
+                                                               f"at radio.fs_hz = {self.fs_hz:g} Hz (the start search must lie inside the "
+                                                               "packet's time base)")
+
 
 def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -> None:
     """fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b). (A

@@ -31,31 +31,11 @@ import rfsim.sweep.merge as merge_module
 import rfsim.sweep.store as store_module
 from rfsim.cli import main
 from rfsim.sweep import StoreIndex, points_dir
+from test_sweep_run import SPEC as RUN_SPEC
 from test_sweep_run import arrays
 
-SPEC = """\
-scenario = "gen2-waveforms"
-seed = 5
-repetitions = 2
-output = "out.h5"
-
-[base]
-profiles = ["fm0-40k"]
-fs_hz = 1e6
-
-[[axes]]
-kind = "grid"
-key = "q"
-values = [0, 1, 2]
-
-[[axes]]
-kind = "random"
-key = "pie_rise_fall_tari"
-distribution = "uniform"
-low = 0.05
-high = 0.3
-n = 2
-"""
+#: 3 q values x 2 random PIE edge times x 2 repetitions of gen2-waveforms: 12 runs
+SPEC = RUN_SPEC.format(output="out.h5", profiles='["fm0-40k"]', fs_hz=1e6, q=[0, 1, 2])
 N_RUNS = 12
 SUMMARY = re.compile(r"sweep: (\d+) runs, (\d+) computed, (\d+) reused")
 
@@ -197,8 +177,9 @@ def test_a_killed_leader_or_worker(trial, pristine, tmp_path, capsys):
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.communicate()
-        raise AssertionError(f"the sweep did not end within 180 s after SIGKILL of "
-                             f"{'its leader' if victim == proc.pid else f'worker {victim}'} at {target} stored runs") from None
+        who = "its leader" if victim == proc.pid else f"worker {victim}"
+        raise AssertionError(f"the sweep did not end within 180 s after SIGKILL of {who} at {target} stored runs"
+                             ) from None
     assert "Traceback" not in err, err
     if victim is not None and victim != proc.pid and proc.returncode != 0:
         # a worker died: the leader stops with one line naming the kill
@@ -262,8 +243,8 @@ def test_a_full_disk_mid_write(trial, pristine, tmp_path, capsys, monkeypatch):
 
 @pytest.mark.slow
 def test_a_real_full_disk_under_a_sweep(pristine, tmp_path, capsys):
-    """On a small tmpfs (root only; else skipped) the sweep stops with one line, then resumes
-    elsewhere... in place once space is freed: here the tmpfs is grown."""
+    """On a small tmpfs (root only; else skipped) the sweep stops with one line; once space is
+    freed (here: the tmpfs grown) ``--resume`` finishes it in place."""
     _, reference = pristine
     where = tmp_path / "tiny"
     where.mkdir()

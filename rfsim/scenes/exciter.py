@@ -136,4 +136,5 @@ def check_exciter_on(exciter: ExciterConfig, *, fs_hz: float, n_samples: int, ke
                                                          f"[t2, t3), …)")
 
 
-__all__ = ["NoiseConfig", "check_exciter_on", "single_listener", "measured_tag", "exciter_antenna", "room", "uniform_disc", "tag_broadcast_step"]
+__all__ = ["NoiseConfig", "check_exciter_on", "single_listener", "measured_tag", "exciter_antenna", "room",
+           "uniform_disc", "tag_broadcast_step"]

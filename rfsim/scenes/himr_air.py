@@ -87,9 +87,9 @@ class RadioConfig:
     def __post_init__(self):
         need = math.ceil(self.search_s * self.fs_hz) + 2
         if math.floor(self.margin_s * self.fs_hz) < need:
-            raise ConfigError("radio.margin_s", self.margin_s, f"≥ radio.search_s + 2 samples = {need / self.fs_hz:.6g} s "
-                                                               f"at radio.fs_hz = {self.fs_hz:g} Hz (the start search must lie inside the "
-                                                               "packet's time base)")
+            raise ConfigError("radio.margin_s", self.margin_s,
+                              f"≥ radio.search_s + 2 samples = {need / self.fs_hz:.6g} s at radio.fs_hz = "
+                              f"{self.fs_hz:g} Hz (the start search must lie inside the packet's time base)")
 
 
 def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -> None:

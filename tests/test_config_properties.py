@@ -193,6 +193,8 @@ FOUND = [
     ("st-to-st", ["exciter.schedule_s=[10.0]"], "exciter.schedule_s"),
     ("st-to-st", ["exciter.schedule_s=[0.5, 1.0]"], "exciter.schedule_s"),
     ("exciter-link", ["exciter.schedule_s=[10.0]"], "exciter.schedule_s"),
+    ("himr-1d", ["tag.chip_rate_hz=1e9"], "tag.chip_rate_hz"),
+    ("himr-1d", ["radio.margin_s=0"], "radio.margin_s"),
 ]
 
 

@@ -97,10 +97,18 @@ def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -
     ``joint`` run below twice the carrier spread is allowed: the air step drops the carriers
     outside ±fs/2 and the run counts them, ``AirRun.dropped``.)"""
     code = tag.config.code
-    code.check_fs(radio.fs_hz, key="radio.fs_hz")
-    need = 8.0 * code.subcarrier_hz_value
-    if radio.fs_hz < need * (1 - 1e-12):
-        raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
+    try:
+        code.check_fs(radio.fs_hz, key="radio.fs_hz")
+        need = 8.0 * code.subcarrier_hz_value
+        if radio.fs_hz < need * (1 - 1e-12):
+            raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
+    except ConfigError as err:  # a rate the user set on the tag is named, not the sample rate it outgrew
+        for key in ("subcarrier_hz", "chip_rate_hz"):
+            value = getattr(tag.config, key)
+            if value is not None:
+                raise ConfigError(f"tag.{key}", value, f"a lower rate at radio.fs_hz = {radio.fs_hz:g} Hz (the rule: "
+                                                        f"{err.allowed}), or a higher radio.fs_hz") from None
+        raise
 
 
 def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,

@@ -195,6 +195,7 @@ FOUND = [
     ("exciter-link", ["exciter.schedule_s=[10.0]"], "exciter.schedule_s"),
     ("himr-1d", ["tag.chip_rate_hz=1e9"], "tag.chip_rate_hz"),
     ("himr-1d", ["radio.margin_s=0"], "radio.margin_s"),
+    ("himr-1d", ["tag.packet_rate_hz=2.3", "scene.duration_s=0.1"], "tag.packet_rate_hz"),
 ]
 
 

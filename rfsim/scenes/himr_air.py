@@ -134,6 +134,20 @@ def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_h
     check_inside(tag.trajectory, t_end_s=t_end_s, room_min_m=room_min_m, room_max_m=room_max_m)
     check_pylons_off_the_track(pylons_m, tag, t_end_s, key=key)
     check_sample_rate(radio, tag, carriers_hz)
+    check_two_packets(tag, t_end_s)
+
+
+def check_two_packets(tag: _himr_tag.HimrTag, t_end_s: float) -> None:
+    """The observers need at least two packets: the second one's start (one period, six RMS
+    jitters late) and air time inside the run; else a :class:`ConfigError` naming the tag's
+    packet rate, its start or the run's length, whichever the user set."""
+    cfg = tag.config
+    need_s = cfg.start_s + cfg.period_s + cfg.air_time_s + 6.0 * cfg.jitter_rms_s
+    if need_s >= t_end_s:
+        key, value = (("tag.packet_rate_hz", cfg.packet_rate_hz) if cfg.packet_rate_hz is not None else
+                      ("tag.start_s", cfg.start_s) if cfg.start_s > 0 else ("scene.duration_s", t_end_s))
+        raise ConfigError(key, value, f"at least two packets in the run: tag.start_s + 1/packet rate + air time + "
+                                      f"6 jitter = {need_s:.6g} s before scene.duration_s = {t_end_s:g} s")
 
 
 @dataclass(frozen=True, eq=False)

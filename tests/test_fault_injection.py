@@ -141,7 +141,7 @@ def _children(pid: int) -> list[int]:
     return [int(p) for p in text.split()]
 
 
-KILL_TRIALS = 12
+KILL_TRIALS = 16
 
 
 @pytest.mark.slow

@@ -175,7 +175,7 @@ def test_drawn_configs_give_a_result_or_one_line(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(TINY))
 def test_drawn_configs_give_a_result_or_one_line_many(name):
-    check_scenario(name, examples=150)
+    check_scenario(name, examples=60)
 
 
 def test_every_scenario_has_a_tiny_size():

@@ -74,7 +74,7 @@ from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.st_rows import RowsChain
 from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB
 from rfsim.devices.tag_config import TagConfig
-from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, measured_tag, room, single_listener, tag_broadcast_step
+from rfsim.scenes.exciter import NoiseConfig, check_exciter_on, exciter_antenna, measured_tag, room, single_listener, tag_broadcast_step
 from rfsim.scenes.links import BatchAntenna
 
 _antennas = lazy_import("rfsim.channels.antennas")
@@ -149,6 +149,9 @@ class Config:
         if self.listener.n_antennas != 1:
             raise ConfigError("listener.n_antennas", self.listener.n_antennas, "1 (single-antenna listener)")
         self.frame.check("frame")
+        if self.exciter.schedule_s:
+            frame = build_frame(payload(self), self.frame, stamp_cycles=0)
+            check_exciter_on(self.exciter, fs_hz=self.frame.fs_hz, n_samples=frame.n_samples)
 
 
 # ----------------------------------------------------------------------------- one (d_e, draw)

@@ -129,6 +129,7 @@ class Config:
             raise ConfigError("scene.pylons_m", sc.pylons_m, "three (x, y) positions (the 2-D model has 3 pylons)")
         if len(sc.carriers_hz) != len(sc.pylons_m):
             raise ConfigError("scene.carriers_hz", sc.carriers_hz, "one carrier per pylon")
+        check_distinct_pylons(sc.pylons_m)
         if self.tag.packet_format != "9axis-2d":
             raise ConfigError("tag.packet_format", self.tag.packet_format, "'9axis-2d' (the 2-D tag carries gyro and compass words)")
         for v in self.observer.variants:
@@ -145,6 +146,22 @@ class Config:
         check_scene(self.radio, HimrTag(self.tag, self.trajectory, self.imu),
                     [(x, y, self.trajectory.height_m) for x, y in sc.pylons_m], sc.carriers_hz, t_end_s=sc.duration_s,
                     room_min_m=sc.room_min_m, room_max_m=sc.room_max_m, key="scene.pylons_m")
+
+
+#: closest two pylons may be [m]: the observer's gain needs range geometry from distinct pylons
+MIN_PYLON_SEPARATION_M = 0.05
+
+
+def check_distinct_pylons(pylons_m) -> None:
+    """Every two pylons at least :data:`MIN_PYLON_SEPARATION_M` apart: two pylons at one point
+    give the range outputs of a case without the third pylon one direction, and the filter CARE
+    of its gain has no finite solution."""
+    for j, q in enumerate(pylons_m):
+        for i, p in enumerate(pylons_m[:j]):
+            if math.dist(p, q) < MIN_PYLON_SEPARATION_M:
+                raise ConfigError(f"scene.pylons_m[{j}]", list(q), f"a position ≥ {MIN_PYLON_SEPARATION_M} m from "
+                                  f"pylon {i} at {list(p)} (two pylons at one point leave the observer's gain "
+                                  "without a solution)")
 
 
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:

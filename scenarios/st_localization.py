@@ -102,6 +102,9 @@ class Config:
     workers: int = param(2, lo=0, hi=256, doc="worker processes (0 = all cores, 1 = in process)")
 
     def __post_init__(self):
+        if self.experiments is not None and not self.experiments:
+            raise ConfigError("experiments", [], "a non-empty list of 'speed-sweep', 'trajectory-2', 'random-walk' "
+                                                 "or none (the preset's experiments)")
         if 0 in self.room.grid:
             raise ConfigError("landmark_grid", list(self.landmark_grid), "nx, ny >= 1 (at least one landmark)")
         self.room.check_waypoints("trajectory_1_xy_m", self.trajectory_1_xy_m, self.preset)

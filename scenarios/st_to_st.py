@@ -79,7 +79,7 @@ from rfsim.core.rng import trial_rng
 from rfsim.core.columns import unit_of
 from rfsim.devices.own_schedule import FrameConfig, OwnSchedule, build_frame
 from rfsim.devices.st_rows import RowsChain
-from rfsim.scenes.exciter import NoiseConfig, exciter_antenna, room, uniform_disc
+from rfsim.scenes.exciter import NoiseConfig, check_exciter_on, exciter_antenna, room, uniform_disc
 from rfsim.scenes.links import BatchAntenna, BatchLink, DrawnLinks
 from rfsim.core.lazy import lazy_import
 
@@ -153,6 +153,9 @@ class Config:
         if self.tx_st.n_antennas != 1:
             raise ConfigError("tx_st.n_antennas", self.tx_st.n_antennas, "1 (the modulating antenna SA2)")
         self.frame.check("frame")
+        if self.exciter.schedule_s:
+            frame = build_frame(payload(self), self.frame, stamp_cycles=self.stamp.stamp_cycles)
+            check_exciter_on(self.exciter, fs_hz=self.frame.fs_hz, n_samples=frame.n_samples)
 
 
 # ----------------------------------------------------------------------------- one (cell, repetition)

@@ -21,7 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
+from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag_config import SenseATagConfig
 from rfsim.devices.tag_chip import PASS_POWER_MARGIN_DB, PowerDependentChip
 from rfsim.devices.tag_config import TagConfig
@@ -121,4 +123,18 @@ def tag_broadcast_step(scene, exciter, tag, listeners, *, fc_hz: float, fs_hz: f
                           decide=False, keep_components=keep_components)
 
 
-__all__ = ["NoiseConfig", "single_listener", "measured_tag", "exciter_antenna", "room", "uniform_disc", "tag_broadcast_step"]
+def check_exciter_on(exciter: ExciterConfig, *, fs_hz: float, n_samples: int, key: str = "exciter.schedule_s") -> None:
+    """The exciter's schedule is on at some sample of the frame's time base (``n_samples``
+    samples at ``fs_hz`` [Hz] from t = 0): a frame with no CW has no backscatter to read, so a
+    schedule that never switches on there is a :class:`ConfigError` naming ``key``."""
+    if not exciter.schedule_s:
+        return
+    t_s = np.arange(int(n_samples)) / float(fs_hz)
+    if not Exciter(exciter, None, rng=None).is_on(t_s).any():
+        raise ConfigError(key, list(exciter.schedule_s), f"switching times with the exciter on at some time in the "
+                                                         f"frame, [0, {n_samples / fs_hz:.6g}) s (on in [t0, t1), "
+                                                         f"[t2, t3), …)")
+
+
+__all__ = ["NoiseConfig", "check_exciter_on", "single_listener", "measured_tag", "exciter_antenna", "room",
+           "uniform_disc", "tag_broadcast_step"]

@@ -84,16 +84,31 @@ class RadioConfig:
     rx_cutoff_hz: float | None = param(None, lo=1e4, hi=1e8, unit="Hz",
                                        doc="pylon channel filter cut-off (None: none; 'joint' default: f_sc + 2 R_b)")
 
+    def __post_init__(self):
+        need = math.ceil(self.search_s * self.fs_hz) + 2
+        if math.floor(self.margin_s * self.fs_hz) < need:
+            raise ConfigError("radio.margin_s", self.margin_s,
+                              f"≥ radio.search_s + 2 samples = {need / self.fs_hz:.6g} s at radio.fs_hz = "
+                              f"{self.fs_hz:g} Hz (the start search must lie inside the packet's time base)")
+
 
 def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -> None:
     """fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b). (A
     ``joint`` run below twice the carrier spread is allowed: the air step drops the carriers
     outside ±fs/2 and the run counts them, ``AirRun.dropped``.)"""
     code = tag.config.code
-    code.check_fs(radio.fs_hz, key="radio.fs_hz")
-    need = 8.0 * code.subcarrier_hz_value
-    if radio.fs_hz < need * (1 - 1e-12):
-        raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
+    try:
+        code.check_fs(radio.fs_hz, key="radio.fs_hz")
+        need = 8.0 * code.subcarrier_hz_value
+        if radio.fs_hz < need * (1 - 1e-12):
+            raise ConfigError("radio.fs_hz", radio.fs_hz, f"a sample rate ≥ 8·f_sc = {need:g} Hz (wave2-specs §H)")
+    except ConfigError as err:  # a rate the user set on the tag is named, not the sample rate it outgrew
+        for key in ("subcarrier_hz", "chip_rate_hz"):
+            value = getattr(tag.config, key)
+            if value is not None:
+                raise ConfigError(f"tag.{key}", value, f"a lower rate at radio.fs_hz = {radio.fs_hz:g} Hz (the rule: "
+                                                        f"{err.allowed}), or a higher radio.fs_hz") from None
+        raise
 
 
 def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,
@@ -119,6 +134,20 @@ def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_h
     check_inside(tag.trajectory, t_end_s=t_end_s, room_min_m=room_min_m, room_max_m=room_max_m)
     check_pylons_off_the_track(pylons_m, tag, t_end_s, key=key)
     check_sample_rate(radio, tag, carriers_hz)
+    check_two_packets(tag, t_end_s)
+
+
+def check_two_packets(tag: _himr_tag.HimrTag, t_end_s: float) -> None:
+    """The observers need at least two packets: the second one's start (one period, six RMS
+    jitters late) and air time inside the run; else a :class:`ConfigError` naming the tag's
+    packet rate, its start or the run's length, whichever the user set."""
+    cfg = tag.config
+    need_s = cfg.start_s + cfg.period_s + cfg.air_time_s + 6.0 * cfg.jitter_rms_s
+    if need_s >= t_end_s:
+        key, value = (("tag.packet_rate_hz", cfg.packet_rate_hz) if cfg.packet_rate_hz is not None else
+                      ("tag.start_s", cfg.start_s) if cfg.start_s > 0 else ("scene.duration_s", t_end_s))
+        raise ConfigError(key, value, f"at least two packets in the run: tag.start_s + 1/packet rate + air time + "
+                                      f"6 jitter = {need_s:.6g} s before scene.duration_s = {t_end_s:g} s")
 
 
 @dataclass(frozen=True, eq=False)

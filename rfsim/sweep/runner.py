@@ -38,8 +38,8 @@ from rfsim.sweep.merge import merge_store
 from rfsim.sweep.progress import Progress
 from rfsim.sweep.spec import (SweepSpec, axis_support, check_axis_values, point_config, point_seed, point_value,
                               shard_runs)
-from rfsim.sweep.store import (PointResult, PointTask, RecordRef, StoreIndex, close_writers, config_digest,
-                               points_dir)
+from rfsim.sweep.store import (CorruptRecordError, PointResult, PointTask, RecordReader, RecordRef, StoreIndex,
+                               close_writers, config_digest, points_dir)
 
 #: Provenance keeps the (points, repetitions) seed array as an attribute up to this many
 #: runs (HDF5 attributes are limited to 64 kB); ``sweep_runs/seed`` always has every seed.
@@ -196,6 +196,19 @@ def _found(plan: SweepPlan, index: StoreIndex, run: int):
     return index.find(i, k, point_seed(plan.spec.seed, i, k), plan.digest(i))
 
 
+def _reusable(ref: RecordRef | None, reader: RecordReader) -> bool:
+    """A run found in the point store whose record also reads back whole (its CRC): a
+    damaged record is run again, and the merge takes the new record (the newest segment
+    wins), so one flipped byte costs one run, not its segment."""
+    if ref is None:
+        return False
+    try:
+        reader.read(ref)
+    except CorruptRecordError:
+        return False
+    return True
+
+
 def run_sweep(spec: SweepSpec, executor: Any = None, *, shard: tuple[int, int] | None = None,
               resume: bool = False, merge: bool = True,
               progress: Callable[..., Progress] | None = None,
@@ -219,7 +232,8 @@ def run_sweep(spec: SweepSpec, executor: Any = None, *, shard: tuple[int, int] |
         runs: Sequence[int] = range(spec.n_runs) if shard is None else shard_runs(spec.n_runs, *shard)
         if resume:
             index = StoreIndex(points_dir(spec.output))
-            todo = [j for j in runs if _found(plan, index, j) is None]
+            with RecordReader() as reader:
+                todo = [j for j in runs if not _reusable(_found(plan, index, j), reader)]
             del index
         else:
             todo = runs

@@ -215,6 +215,36 @@ class Reader(PieTransmitter):
         """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
         return _t1_window(self.link)
 
+    def reply_start_lags(self, n_samples: int, n_reply: int, *, t0_s: float,
+                         cmd_end_s: float | None) -> tuple[int, int]:
+        """First and last sample index where a reply of ``n_reply`` samples may start.
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples at the receiver input, the first at absolute time ``t0_s`` [s].
+        n_reply : int
+            Samples of the whole reply (preamble, bits, dummy 1).
+        t0_s : float
+            Absolute time of sample 0 [s].
+        cmd_end_s : float or None
+            End of the command the reply answers [s]; None searches every start.
+
+        Returns
+        -------
+        lo, hi : int
+            The window ``[cmd_end + T1min, cmd_end + T1max]`` (:meth:`reply_search_window_s`)
+            in samples at the configured rate, one sample wider each side, clipped to
+            ``[0, n_samples - n_reply]`` (``hi < lo``: no room for a reply).
+        """
+        if cmd_end_s is None:
+            return 0, n_samples - n_reply
+        fs = self.fs_hz
+        t1min, t1max = self.reply_search_window_s()
+        lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
+        hi = min(n_samples - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
+        return lo, hi
+
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
                 cmd_end_s: float | None = None, blf_hz: float | None = None,
                 carrier: complex | None = None) -> ReadResult:
@@ -292,12 +322,7 @@ class Reader(PieTransmitter):
             hit = memo[4][(n_bits, blf)] = (self.preamble_samples(blf), int(math.ceil(
                 reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
         pre_n, n_reply = hit
-        if cmd_end_s is None:
-            lo, hi = 0, rx.size - n_reply
-        else:
-            t1min, t1max = self.reply_search_window_s()
-            lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
-            hi = min(rx.size - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
+        lo, hi = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
         if self.config.blf_search == "preamble" and blf_hz is None:
             n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
             hi = min(hi, rx.size - n_slow)

@@ -213,12 +213,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
     pre_n = reader.preamble_samples(blf)
     n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
-    if cmd_end_s is None:
-        lo, hi = 0, x.size - n_reply
-    else:
-        t1min, t1max = reader.reply_search_window_s()
-        lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
-        hi = min(x.size - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
+    lo, hi = reader.reply_start_lags(x.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
     if hi < lo or pre_n < 3:
         return ReadResult(False, None, "preamble not found")
     ratio = 2.0 * blf / fs

@@ -54,8 +54,8 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
             mid = 100 * (bottom + frac / 2)
             shown = k > 0
             a.errorbar(at[shown] + 0.3 * (i / max(1, len(SLOT_TYPES) - 1) - 0.5), mid[shown],
-                       yerr=[100 * (frac - lo)[shown], 100 * (hi - frac)[shown]], fmt="none", ecolor="black",
-                       elinewidth=0.6, capsize=1.5)
+                       yerr=np.maximum(0.0, [100 * (frac - lo)[shown], 100 * (hi - frac)[shown]]), fmt="none",
+                       ecolor="black", elinewidth=0.6, capsize=1.5)
             bottom += frac
         a.set_xticks(at, [f"{n}\n({k} slots)" for n, k in zip(pops, n_slots)])
         a.set(xlabel="tags $N$", ylabel="share of slots [%] (Wilson 95 %)", ylim=(0, 100), title="slot types")
@@ -153,8 +153,10 @@ def _plot_sweep(a, b, path) -> None:
                     m_lo, m_hi = wilson_interval(np.round(miss * n_cap), n_cap)
                     f_lo, f_hi = wilson_interval(np.round(acc["false_ack_rate"][ma] * n_col), n_col)
                     e = slice(None, None, 4)
-                    b.errorbar(x[e], 100 * miss[e], yerr=[100 * (miss - m_lo)[e], 100 * (m_hi - miss)[e]],
-                               xerr=[(x - np.maximum(f_lo, floor))[e], (np.maximum(f_hi, floor) - x)[e]],
+                    # (clipped at 0: the Wilson bounds at k = 0 or k = n can miss the estimate by an ulp)
+                    b.errorbar(x[e], 100 * miss[e],
+                               yerr=np.maximum(0.0, [100 * (miss - m_lo)[e], 100 * (m_hi - miss)[e]]),
+                               xerr=np.maximum(0.0, [(x - np.maximum(f_lo, floor))[e], (np.maximum(f_hi, floor) - x)[e]]),
                                fmt="none", ecolor=style["color"], elinewidth=0.5, capsize=1.0)
     n = int(c["trials"].min()) if len(c["trials"]) else 0
     a.set(xlabel="power ratio of the two\nreplies at the reader [dB]", ylabel=r"$P_\mathrm{capture}$ [%] (C-P 95 %)",

@@ -200,7 +200,7 @@ def test_info_on_a_foreign_file_with_nested_groups(tmp_path, capsys):
 def test_figures_go_beside_the_output_dataset(tmp_path, capsys, monkeypatch):
     seen = {}
 
-    def fake_run_scenario(module, config, *, seed, out_dir, output=None, make_plots=True):
+    def fake_run_scenario(module, config, *, seed, out_dir, output=None, make_plots=True, **options):
         seen["out_dir"] = out_dir
         raise ResourceError("stop here")
 

@@ -7,20 +7,20 @@ sllurp hands them to its users (gen2-and-validation-anchors.md §2.5 and §4.9; 
 "What a per-read dataset should look like"), spelled in snake case with the unit as the
 suffix:
 
-========================== ====== =====================================================
-column                     units  LLRP / Impinj parameter
-========================== ====== =====================================================
-``epc``                    text   EPC-96 / EPCData (upper-case hex)
-``antenna_port``           1      AntennaID (1-based)
-``channel_index``          1      ChannelIndex (1-based index into the hop table)
-``frequency_hz``           Hz     the hop table's frequency at ChannelIndex
-``first_seen_timestamp_us`` us    FirstSeenTimestampUptime (µs since the start of the run)
-``last_seen_timestamp_us`` us     LastSeenTimestampUptime
-``tag_seen_count``         1      TagSeenCount
-``peak_rssi_dbm``          dBm    PeakRSSI / ImpinjPeakRSSI, unquantized
-``phase_angle_rad``        rad    ImpinjRFPhaseAngle, unquantized
-``doppler_frequency_hz``   Hz     ImpinjRFDopplerFrequency
-========================== ====== =====================================================
+============================ ====== =====================================================
+column                       units  LLRP / Impinj parameter
+============================ ====== =====================================================
+``epc``                      text   EPC-96 / EPCData (upper-case hex)
+``antenna_port``             1      AntennaID (1-based)
+``channel_index``            1      ChannelIndex (1-based index into the hop table)
+``frequency_hz``             Hz     the hop table's frequency at ChannelIndex
+``first_seen_timestamp_us``  us     FirstSeenTimestampUptime (µs since the start of the run)
+``last_seen_timestamp_us``   us     LastSeenTimestampUptime
+``tag_seen_count``           1      TagSeenCount
+``peak_rssi_dbm``            dBm    PeakRSSI / ImpinjPeakRSSI, unquantized
+``phase_angle_rad``          rad    ImpinjRFPhaseAngle, unquantized
+``doppler_frequency_hz``     Hz     ImpinjRFDopplerFrequency
+============================ ====== =====================================================
 
 Beside them, the reader-quantized variants (what an Impinj reader's numbers look like) and
 the ground truth a simulation knows:

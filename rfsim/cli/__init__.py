@@ -26,9 +26,24 @@ _SUBCOMMANDS = ("rfsim.cli.scenario", "rfsim.cli.dataset", "rfsim.cli.export", "
 
 
 class Parser(argparse.ArgumentParser):
-    """``argparse`` parser whose usage errors are one line (exit 2), like every user error."""
+    """``argparse`` parser whose usage errors are one line (exit 2), like every user error.
 
-    def error(self, message: str):  # noqa: D102 - argparse hook
+    Parameters
+    ----------
+    *args, **kwargs
+        As for :class:`argparse.ArgumentParser`.
+    """
+
+    def error(self, message: str):
+        """Print a usage error in one line, pointing at ``--help``, and exit with status 2.
+
+        The ``argparse`` hook called on a usage error; it does not return.
+
+        Parameters
+        ----------
+        message : str
+            argparse's description of the error.
+        """
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
@@ -41,6 +56,14 @@ class _Version(argparse.Action):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """Build the ``rfsim`` parser with every subcommand's parser.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A :class:`Parser` with ``--version`` and the subcommands, in help order; each
+        subcommand sets ``func`` to its ``run``.
+    """
     parser = Parser(
         prog="rfsim",
         description="Time-domain, sample-level UHF RFID (EPC Gen2) link-level simulator.",
@@ -54,7 +77,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``rfsim`` console script; returns the exit status."""
+    """Run the ``rfsim`` console script.
+
+    Parses ``argv`` (``sweep`` reads its own arguments), runs the subcommand and turns its
+    failures into one line on stderr (see the module docstring): no command prints the help.
+
+    Parameters
+    ----------
+    argv : sequence of str or None, default None
+        The arguments after the program name (None: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status: the command's own (0 on success), 2 for a user error, 1 for a
+        failure of the system, 130 when interrupted, 0 after a closed pipe (``| head``).
+    """
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv[:1] == ["sweep"]:  # its own parser reads the rest, options first included ('sweep -q S')

@@ -41,9 +41,15 @@ BENCHMARKS = {
 
 
 def machine_facts() -> dict:
-    """Where the figures were measured: CPU model, logical cores, load average at the start
-    (1, 5, 15 min), platform and the versions of Python, NumPy, numba, SciPy, h5py and
-    rfsim with its git revision, and the start time (UTC)."""
+    """Describe where the figures were measured.
+
+    Returns
+    -------
+    dict
+        ``cpu`` (model name), ``logical_cores``, ``load_average_at_start`` (1, 5 and 15 min;
+        empty where unknown), ``platform``, the versions ``python``, ``numpy``, ``numba``,
+        ``scipy``, ``h5py`` and ``rfsim``, ``git_revision`` and ``start_time_utc``.
+    """
     import platform
 
     import numba
@@ -76,6 +82,13 @@ def _h5py_version() -> str:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``bench`` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``bench`` is added to it with ``func=run``.
+    """
     p = sub.add_parser("bench", help="time the hot paths (waveforms, channels) on this machine",
                        description="Run rfsim's benchmarks on one core and print their measurements.")
     p.add_argument("names", nargs="*", metavar="NAME",
@@ -92,6 +105,29 @@ def _peak_rss_mb() -> float:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``rfsim bench``: time the chosen benchmarks and print (and optionally write) the table.
+
+    Each benchmark's figures are printed under ``[name]`` with its wall time [s] and the
+    process's peak resident memory so far [MB]; with ``--json`` they are written with
+    :func:`machine_facts` to one file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments: ``names`` (benchmark names, empty or ``["all"]`` for all of
+        :data:`BENCHMARKS`), ``quick`` (bool: the smaller problem sizes) and ``json``
+        (pathlib.Path or None).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        For an unknown benchmark name or an unusable ``--json`` path.
+    """
     import importlib
 
     from rfsim.core.outputs import check_output_file, write_text_atomic

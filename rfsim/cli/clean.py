@@ -21,6 +21,13 @@ _PARTIAL = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.partial$")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``clean`` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``clean`` is added to it with ``func=run``.
+    """
     p = sub.add_parser("clean", help="remove the temporary files (.partial) that killed runs left behind",
                        description="Remove the hidden .<name>.<pid>.partial files of killed runs in the "
                                    "given folders (not those of an output being written now).")
@@ -32,7 +39,21 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def stale_partials(folder: Path) -> list[Path]:
-    """The ``.partial`` files in ``folder`` whose output nobody is writing now."""
+    """List the ``.partial`` files in a folder whose output nobody is writing now.
+
+    A file counts if its name is ``.<output name>.<pid>.partial`` and the lock of its output
+    (:func:`rfsim.core.locks.is_locked`) is not held.
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+        The folder (not searched recursively).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files, sorted by path.
+    """
     from rfsim.core.locks import is_locked
 
     found = []
@@ -44,6 +65,27 @@ def stale_partials(folder: Path) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``rfsim clean``: remove (or list) the stale ``.partial`` files of the given folders.
+
+    Prints each file removed with its size and a total line (unless quiet).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments: ``paths`` (folders, or files whose folder to clean; empty:
+        ``results`` and ``.``, those that exist), ``dry_run`` (bool: list only) and ``quiet``
+        (bool).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        If a path is neither a folder nor a file (or file name) in an existing folder.
+    """
     paths = args.paths or [p for p in (Path("results"), Path(".")) if p.is_dir()]
     folders: list[Path] = []
     for path in paths:

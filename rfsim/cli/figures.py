@@ -10,7 +10,14 @@ from rfsim.core.plots import FIGURE_FORMATS, FigureOutput
 
 
 def add_figure_args(p: argparse.ArgumentParser) -> None:
-    """Add ``--format FMT[,FMT...]`` and ``--dpi N`` to ``p``."""
+    """Add ``--format FMT[,FMT...]`` and ``--dpi N`` to a parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser; changed in place. The values are stored as ``figure_format``
+        (default ``"png"``) and ``figure_dpi`` (default None: the figure's own, 120).
+    """
     p.add_argument("--format", dest="figure_format", default="png", metavar="FMT[,FMT...]",
                    help="figure file formats, comma-separated, of " + ", ".join(FIGURE_FORMATS)
                         + " (default png), e.g. --format png,pdf,svg")
@@ -19,14 +26,42 @@ def add_figure_args(p: argparse.ArgumentParser) -> None:
 
 
 def figure_output_of(args: argparse.Namespace) -> FigureOutput:
-    """The :class:`~rfsim.core.plots.FigureOutput` the parsed ``args`` ask for (unknown
-    formats and out-of-range resolutions are one-line user errors)."""
+    """Figure formats and resolution that parsed command-line arguments ask for.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments with ``figure_format`` (comma-separated formats) and ``figure_dpi``
+        (dots per inch, or None), as added by :func:`add_figure_args`.
+
+    Returns
+    -------
+    rfsim.core.plots.FigureOutput
+        The formats and resolution.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        For an unknown format or an out-of-range resolution (a one-line user error).
+    """
     return FigureOutput.parse(args.figure_format, args.figure_dpi)
 
 
 def written_files(figures, output: FigureOutput) -> list[Path]:
-    """Every file written for the figures ``figures`` (the paths ``plot`` returned, one per
-    figure): one per format of ``output``, in figure order."""
+    """List every file written for a set of figures: one per format of ``output``, in figure order.
+
+    Parameters
+    ----------
+    figures : iterable of path-like
+        The figure paths that ``plot`` returned, one per figure (any suffix).
+    output : rfsim.core.plots.FigureOutput
+        The formats the figures were written in.
+
+    Returns
+    -------
+    list of pathlib.Path
+        For each figure, its path with each format's suffix, in the order of ``output``'s formats.
+    """
     return [p for fig in figures for p in output.paths(fig)]
 
 

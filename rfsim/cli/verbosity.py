@@ -15,7 +15,13 @@ from rfsim.core.progress import Reporter
 
 
 def add_verbosity_args(p: argparse.ArgumentParser) -> None:
-    """Add the mutually exclusive ``-q/--quiet`` and ``-v/--verbose`` flags to ``p``."""
+    """Add the mutually exclusive ``-q/--quiet`` and ``-v/--verbose`` flags to a parser.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The command's parser (or sub-command parser); changed in place.
+    """
     group = p.add_mutually_exclusive_group()
     group.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     group.add_argument("-v", "--verbose", action="store_true",
@@ -23,7 +29,19 @@ def add_verbosity_args(p: argparse.ArgumentParser) -> None:
 
 
 def reporter(args: argparse.Namespace) -> Reporter:
-    """The progress reporter on stderr for the parsed ``args``."""
+    """Make the progress reporter on stderr for parsed command-line arguments.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments; ``args.quiet`` and ``args.verbose`` (False when absent) choose the
+        reporter's level.
+
+    Returns
+    -------
+    rfsim.core.progress.Reporter
+        A reporter writing to ``sys.stderr``.
+    """
     return Reporter(sys.stderr, quiet=bool(getattr(args, "quiet", False)),
                     verbose=bool(getattr(args, "verbose", False)))
 

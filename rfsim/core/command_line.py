@@ -19,7 +19,20 @@ _COMMAND: ContextVar[tuple[str, ...] | None] = ContextVar("rfsim_command_line", 
 
 @contextlib.contextmanager
 def running_command(argv: Sequence[str], prog: str = "rfsim") -> Iterator[None]:
-    """Within the block, :func:`command_line` is ``prog argv…`` (what the user typed)."""
+    """Make :func:`command_line` report ``prog argv…`` (what the user typed) within the block.
+
+    Parameters
+    ----------
+    argv : sequence of str
+        The arguments after the program name (each converted with ``str``).
+    prog : str, default "rfsim"
+        The program name.
+
+    Yields
+    ------
+    None
+        The block runs with the command recorded; the previous value is restored at its end.
+    """
     token = _COMMAND.set((prog, *map(str, argv)))
     try:
         yield
@@ -28,8 +41,14 @@ def running_command(argv: Sequence[str], prog: str = "rfsim") -> Iterator[None]:
 
 
 def command_line() -> str:
-    """The command that is running, shell-quoted: ``rfsim run link --seed 1`` inside
-    :func:`running_command`, else ``python`` and the interpreter's ``sys.argv``."""
+    """The command that is running, shell-quoted.
+
+    Returns
+    -------
+    str
+        ``rfsim run link --seed 1`` inside :func:`running_command`, else ``python`` followed by
+        the interpreter's ``sys.argv``, each word quoted with :func:`shlex.join`.
+    """
     argv = _COMMAND.get()
     return shlex.join(argv if argv is not None else ["python", *sys.argv])
 

@@ -35,13 +35,38 @@ except ImportError:  # pragma: no cover - not POSIX
 
 
 def output_lock_path(output: str | Path) -> Path:
-    """The lock file of ``output``: ``<output>.lock`` beside it."""
+    """Lock file of an output file.
+
+    Parameters
+    ----------
+    output : str or pathlib.Path
+        The output file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``<output>.lock`` beside it.
+    """
     output = Path(output)
     return output.with_name(output.name + ".lock")
 
 
 def holder_text(path: Path) -> tuple[str, str]:
-    """(kind, description) of the holder recorded in lock file ``path``."""
+    """Describe the holder recorded in a lock file.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The lock file (JSON written by :meth:`FileLock.acquire`).
+
+    Returns
+    -------
+    kind : str
+        What the holder is (``"run"``, ``"sweep"``...); ``"rfsim process"`` when unknown.
+    description : str
+        ``pid P on HOST since TIME (COMMAND)``; ``"another process"`` when the file cannot be
+        read or parsed.
+    """
     try:
         info = json.loads(path.read_text(encoding="utf-8") or "{}")
     except (OSError, ValueError):
@@ -52,10 +77,27 @@ def holder_text(path: Path) -> tuple[str, str]:
 
 
 class FileLock:
-    """Context manager holding ``lock_file`` for ``output`` (see the module docstring).
+    """Context manager holding a lock file for an output (see the module docstring).
 
-    ``what`` names the output in the error message (``"sweep output"``, ``"dataset"``);
-    ``kind`` is what this holder is (``"sweep"``, ``"run"``, ``"decode"``).
+    Parameters
+    ----------
+    lock_file : pathlib.Path
+        The lock file (:func:`output_lock_path`).
+    output : pathlib.Path
+        The output it protects, named in the error message.
+    what : str
+        What the output is, for the error message (``"sweep output"``, ``"dataset"``).
+    kind : str
+        What this holder is (``"sweep"``, ``"run"``, ``"decode"``), recorded in the lock file.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The lock file.
+    output : pathlib.Path
+        The output.
+    what, kind : str
+        As given.
     """
 
     def __init__(self, lock_file: Path, output: Path, *, what: str, kind: str):
@@ -64,6 +106,17 @@ class FileLock:
         self._fd: int | None = None
 
     def acquire(self) -> None:
+        """Take the lock (non-blocking) and record this holder in the lock file.
+
+        The holder is written as JSON: kind, pid, host, start time (UTC) and command line.
+        Without ``fcntl`` (not POSIX) or ``flock`` support on the file system, nothing is locked
+        and no error is raised.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            If another process holds the lock; the message names the holder.
+        """
         if fcntl is None:
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -92,6 +145,7 @@ class FileLock:
         self._fd = fd
 
     def release(self) -> None:
+        """Remove the lock file and release the lock (nothing if it is not held)."""
         if self._fd is None:
             return
         try:
@@ -109,12 +163,41 @@ class FileLock:
 
 
 def output_lock(output: str | Path, *, what: str, kind: str) -> FileLock:
-    """The lock of output file ``output`` (``<output>.lock``), shared by every kind of writer."""
+    """Lock of an output file, shared by every kind of writer.
+
+    Parameters
+    ----------
+    output : str or pathlib.Path
+        The output file; the lock file is ``<output>.lock``.
+    what : str
+        What the output is, for the error message (``"sweep output"``, ``"dataset"``).
+    kind : str
+        What this holder is (``"sweep"``, ``"run"``, ``"decode"``).
+
+    Returns
+    -------
+    FileLock
+        The lock, not yet taken (use it as a context manager).
+    """
     return FileLock(output_lock_path(output), Path(output), what=what, kind=kind)
 
 
 def is_locked(output: str | Path) -> bool:
-    """True when a live process holds the lock of ``output`` (probed without taking it for long)."""
+    """Whether a live process holds the lock of an output.
+
+    Probed with a non-blocking shared ``flock`` released at once.
+
+    Parameters
+    ----------
+    output : str or pathlib.Path
+        The output file.
+
+    Returns
+    -------
+    bool
+        True when the lock is held; False when it is not, the lock file does not exist or
+        cannot be opened, or locking is not supported.
+    """
     path = output_lock_path(output)
     if fcntl is None or not path.exists():
         return False

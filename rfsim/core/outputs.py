@@ -44,9 +44,27 @@ def _writable_folder(folder: Path, label: str) -> None:
 
 
 def check_output_folder(folder: str | Path, what: str) -> Path:
-    """Make sure ``folder`` is (or can be created as) a writable folder; returns it.
+    """Make sure a folder is (or can be created as) a writable folder.
 
-    ``what`` names the option or setting in the message, e.g. ``"--out-dir"``.
+    Missing folders are created; writability is tested with a hidden probe file.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The folder.
+    what : str
+        The option or setting named in the message, e.g. ``"--out-dir"``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``folder``.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        If the folder or one of its parents is a file, or the folder cannot be created or
+        written into.
     """
     folder = Path(folder)
     _writable_folder(folder, f"{what} {str(folder)!r}")
@@ -54,10 +72,30 @@ def check_output_folder(folder: str | Path, what: str) -> Path:
 
 
 def check_output_file(path: str | Path, what: str, *, suffixes: tuple[str, ...] = ()) -> Path:
-    """Make sure a file can be written (atomically, by rename) at ``path``; returns it.
+    """Make sure a file can be written (atomically, by rename) at a path.
 
-    Missing parent folders are created. ``suffixes`` (e.g. ``(".h5", ".hdf5")``) are the
-    allowed file name endings.
+    Missing parent folders are created; writability of the folder is tested with a hidden
+    probe file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    what : str
+        The option or setting named in the message, e.g. ``"--out"``.
+    suffixes : tuple of str, default ()
+        Allowed file name endings, e.g. ``(".h5", ".hdf5")`` (empty: any).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        If the suffix is not allowed, ``path`` is a folder, or its folder cannot be created or
+        written into.
     """
     path = Path(path)
     label = f"{what} {str(path)!r}"
@@ -70,15 +108,37 @@ def check_output_file(path: str | Path, what: str, *, suffixes: tuple[str, ...] 
 
 
 def partial_path(path: Path) -> Path:
-    """The hidden temporary name under which this process writes ``path``:
-    ``.<name>.<pid>.partial`` beside it."""
+    """Hidden temporary name under which this process writes a file.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        ``.<name>.<pid>.partial`` beside ``path`` (``pid`` of this process).
+    """
     return path.with_name(f".{path.name}.{os.getpid()}.partial")
 
 
 def remove_stale_partials(path: str | Path) -> list[Path]:
-    """Remove the temporary files (``.<name>.<pid>.partial``) that killed writers of ``path``
-    left beside it; returns them. Call it only while holding the output's lock
-    (:mod:`rfsim.core.locks`): then no other writer is using any of them."""
+    """Remove the temporary files that killed writers of a file left beside it.
+
+    Call it only while holding the output's lock (:mod:`rfsim.core.locks`): then no other
+    writer is using any of them.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The output file; its leftovers are ``.<name>.<pid>.partial`` beside it.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The files removed (those removed meanwhile by another process are not listed).
+    """
     path = Path(path)
     removed = []
     for tmp in path.parent.glob(f".{glob.escape(path.name)}.*.partial"):
@@ -91,10 +151,29 @@ def remove_stale_partials(path: str | Path) -> list[Path]:
 
 @contextlib.contextmanager
 def atomic_path(path: str | Path, what: str) -> Iterator[Path]:
-    """A temporary path (:func:`partial_path`) to write ``path`` at: fsync'ed and renamed over
-    ``path`` when the block succeeds, removed when it fails. A write the system refuses
-    (disk full, I/O error) is a one-line :class:`~rfsim.core.errors.ResourceError` naming
-    ``what`` (e.g. ``"the figure 'x.png'"``); the previous file, if any, stays."""
+    """Give a temporary path at which to write a file, renamed over it when the block succeeds.
+
+    The temporary path is :func:`partial_path`; it is fsync'ed and renamed over ``path`` when
+    the block succeeds, removed when it fails, so the previous file, if any, stays on failure.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write.
+    what : str
+        What is written, for the error message, e.g. ``"the figure 'x.png'"``.
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary path the block writes to.
+
+    Raises
+    ------
+    rfsim.core.errors.ResourceError
+        If the system refuses the write (disk full, I/O error), in one line naming ``what``;
+        other exceptions of the block propagate.
+    """
     path = Path(path)
     tmp = partial_path(path)
     try:
@@ -114,8 +193,27 @@ def atomic_path(path: str | Path, what: str) -> Iterator[Path]:
 
 
 def write_text_atomic(path: str | Path, text: str, what: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_path`); ``what`` names the
-    option in a one-line error, e.g. ``"--out"``."""
+    """Write text (UTF-8) to a file atomically (:func:`atomic_path`).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+    text : str
+        Its content.
+    what : str
+        The option named in a one-line error, e.g. ``"--out"``.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    rfsim.core.errors.ResourceError
+        If the system refuses the write (disk full, I/O error).
+    """
     with atomic_path(path, f"{what} {str(path)!r}") as tmp:
         tmp.write_text(text, encoding="utf-8")
     return Path(path)

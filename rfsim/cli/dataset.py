@@ -23,6 +23,13 @@ from rfsim.core.outputs import check_output_folder
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``plot`` and ``info`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``plot`` and ``info`` are added to it.
+    """
     p = sub.add_parser("plot", help="re-draw a run's figures from its dataset file",
                        description="Re-draw the figures of a run from its HDF5 dataset alone "
                                    "(figures <stem>-*.png beside the dataset or in --out-dir). "

@@ -21,6 +21,13 @@ SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat", ".npy")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``decode`` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``decode`` is added to it with ``func=run``.
+    """
     p = sub.add_parser(
         "decode",
         help="decode the reader (PIE) commands and tag replies in a baseband capture",
@@ -178,8 +185,34 @@ def _write(args, records, replies, timing) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Decode ``args.capture`` sampled at ``args.fs_hz``, print it in ``args.output_format`` and
-    write ``args.output``; exit code 0 (also when stdout is closed early, e.g. ``| head``)."""
+    """Run ``rfsim decode``: decode a capture, print what it holds and optionally write a dataset.
+
+    The reader commands are decoded (:func:`rfsim.gen2.capture.decode_reader_commands`), then
+    the tag replies after them (:func:`rfsim.gen2.replies.decode_tag_replies`); the timing
+    warnings go to stderr, the listing to stdout in ``args.output_format``, and with
+    ``--output`` the commands and replies tables are written as HDF5 under the output's lock.
+    A reader that closes stdout early (``| head``) is not an error.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments: ``capture`` (path), ``fs_hz`` (sample rate [Hz]), optional
+        ``blf_hz`` [Hz], ``trcal_s`` [s], ``dr``, ``m``, ``trext`` (None: from the Query),
+        ``output_format`` (one of :data:`FORMATS`) and ``output`` (HDF5 path or None).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        For a sample rate that is not positive, a BLF or TRcal that is not positive or outside
+        the Gen2 range, an unusable output path or an unreadable capture.
+    rfsim.core.errors.ResourceError
+        If the system refuses a write to the standard output.
+    """
     from rfsim.gen2.capture_records import capture_dataset
     from rfsim.gen2.capture import decode_reader_commands, load_capture
     from rfsim.gen2.replies import decode_tag_replies

@@ -36,6 +36,13 @@ FORMATS = ("csv", "jsonl")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``export`` subcommand.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``export`` is added to it with ``func=run``.
+    """
     p = sub.add_parser("export", help="write a dataset table as CSV or JSON lines (reads as tag reports)",
                        description="Write one table of an HDF5 dataset as CSV or JSON lines. A reads table "
                                    "(the per-read schema) is written as tag reports: one reported read per "
@@ -50,9 +57,29 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def load_table(path: Path, table: str) -> dict:
-    """The columns to export of ``table`` in the dataset at ``path`` (module docstring); a
-    missing file, a file that is not HDF5 or a name that is not a table is a one-line
-    :class:`UserError`."""
+    """Read the columns to export of a table of a dataset.
+
+    A table with the per-read schema (:func:`rfsim.core.reads.has_read_schema`) gives the
+    columns of :data:`rfsim.core.reads.READ_SCHEMA`, in its order, and only the reads the
+    reader reports (``tag_seen_count`` ≥ 1); any other table gives every column and row.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The HDF5 dataset.
+    table : str
+        Name of the table (a group with a ``row`` dimension).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Column name → values, shape (n_rows,), in the order described above.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        If the file is missing, is a folder or is not HDF5, or has no such table.
+    """
     if not path.is_file():
         raise UserError(f"dataset {str(path)!r}: no such file" if not path.exists()
                         else f"dataset {str(path)!r} is a directory, not an HDF5 file")
@@ -91,7 +118,18 @@ def _csv_field(v) -> str:
 
 
 def rows(cols: dict) -> Iterator[dict]:
-    """The table's rows as dicts of JSON values (:func:`_value`)."""
+    """Iterate over a table's rows as dicts of JSON values.
+
+    Parameters
+    ----------
+    cols : dict of str to ndarray
+        Columns of equal length (the first gives the row count).
+
+    Yields
+    ------
+    dict
+        Column name → value of one row: bool, int, float (None for NaN, ±inf kept) or str.
+    """
     names = list(cols)
     n = len(cols[names[0]]) if names else 0
     for i in range(n):
@@ -99,7 +137,21 @@ def rows(cols: dict) -> Iterator[dict]:
 
 
 def write_text(cols: dict, fmt: str, out) -> None:
-    """Write ``cols`` to the text stream ``out`` as ``csv`` or ``jsonl``."""
+    """Write a table to a text stream as CSV or JSON lines.
+
+    CSV has a header row; floats are written with ``repr`` (they read back to the same bits),
+    NaN as an empty field, booleans as ``true``/``false``. JSON lines hold one object per
+    row (:func:`rows`).
+
+    Parameters
+    ----------
+    cols : dict of str to ndarray
+        Columns of equal length, written in the dict's order.
+    fmt : {"csv", "jsonl"}
+        The format (anything but ``"csv"`` writes JSON lines).
+    out : file-like
+        A text stream open for writing.
+    """
     names = list(cols)
     if fmt == "csv":
         w = csv.writer(out, lineterminator="\n")
@@ -113,6 +165,25 @@ def write_text(cols: dict, fmt: str, out) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``rfsim export``: write a dataset table to stdout or, atomically, to a file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed arguments: ``dataset`` (pathlib.Path), ``table`` (str), ``format`` (one of
+        :data:`FORMATS`) and ``output`` (pathlib.Path or None: standard output).
+
+    Returns
+    -------
+    int
+        Exit status 0.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        For an unusable output path, or a dataset or table that cannot be read
+        (:func:`load_table`).
+    """
     if args.output is not None:
         check_output_file(args.output, "-o")
     cols = load_table(args.dataset, args.table)

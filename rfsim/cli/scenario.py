@@ -24,6 +24,13 @@ _SCENARIO_HELP = ("scenario name (see 'rfsim list'), path of a scenario file (my
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``list``, ``config`` and ``run`` subcommands.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; the three subcommands are added to it.
+    """
     p = sub.add_parser("list", help="list the scenarios (built-in and plug-ins) with a one-line description")
     p.set_defaults(func=_list)
 

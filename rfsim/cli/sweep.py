@@ -30,6 +30,16 @@ _VERBS = ("run", "dry-run", "plan", "slurm", "merge", "extract", "repair")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Add the ``sweep`` subcommand, whose arguments are left to :func:`build_parser`.
+
+    The entry point hands every argument after ``sweep`` to :func:`run`; this parser only
+    registers the name and its help line.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subparsers of the ``rfsim`` parser; ``sweep`` is added to it with ``func=run``.
+    """
     p = sub.add_parser("sweep", add_help=False,
                        help="parameter sweeps: run (processes, Dask), dry-run, plan (SLURM), merge, extract",
                        description="Run 'rfsim sweep --help' for the forms of this command.")
@@ -62,6 +72,14 @@ def _positive(text: str) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """Build the parser of ``rfsim sweep`` with one sub-parser per verb.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        A :class:`rfsim.cli.Parser` whose verbs (``run``, ``dry-run``, ``plan``,
+        ``slurm``, ``merge``, ``extract``, ``repair``) set ``handler``.
+    """
     from rfsim.cli import Parser
 
     parser = Parser(
@@ -146,6 +164,28 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``rfsim sweep``: parse the verb and its options and call its handler.
+
+    A first argument that is not a verb (nor ``-h``/``--help``) means ``run``; no verb
+    prints the help.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``sweep_help`` (bool: ``-h`` was given) and ``argv`` (list of str: the arguments
+        after ``sweep``).
+
+    Returns
+    -------
+    int
+        The handler's exit status (0 on success, or after printing the help).
+
+    Raises
+    ------
+    rfsim.sweep.store.DamagedIndexError
+        If the point store's index is damaged; its ``spec`` is set to the spec path so the
+        message can name the repair command.
+    """
     argv = ["--help"] if args.sweep_help else list(args.argv)
     if argv and argv[0] not in _VERBS and argv[0] not in ("-h", "--help"):
         argv.insert(0, "run")

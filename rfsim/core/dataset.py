@@ -91,9 +91,21 @@ LONG_NAME_MAX = 60
 class Column:
     """One named array with its unit and description.
 
-    ``dims`` names the grid coordinates a gridded variable spans (in axis order);
-    table columns leave it empty. The CF ``long_name`` written with it is the description's
-    first clause, kept short (:func:`long_name`). A text column's units are ``""``.
+    The CF ``long_name`` written with it is the description's first clause, kept short
+    (:func:`long_name`).
+
+    Parameters
+    ----------
+    data : ndarray
+        The values: shape (n_rows,) in a table, the shape over ``dims`` in a grid.
+    units : str
+        Unit, e.g. ``"m"``, ``"dBm"``, ``"1"`` for dimensionless; a text column's units are
+        always ``""`` (set so whatever is given).
+    description : str
+        What the values are, one sentence.
+    dims : tuple of str, default ()
+        The grid coordinates a gridded variable spans, in axis order; table columns leave it
+        empty.
     """
 
     data: np.ndarray
@@ -107,7 +119,24 @@ class Column:
 
 
 def column(data: Any, units: str, description: str, dims: tuple[str, ...] = ()) -> Column:
-    """Build a :class:`Column`, converting ``data`` to an array (strings to ``str``)."""
+    """Build a :class:`Column`, converting ``data`` to an array (strings to ``str``).
+
+    Parameters
+    ----------
+    data : array_like
+        The values; object and ``str`` arrays become fixed-width ``str`` arrays.
+    units : str
+        Unit (``""`` for text).
+    description : str
+        What the values are, one sentence.
+    dims : tuple of str, default ()
+        Grid coordinates the values span, in axis order (empty for a table column).
+
+    Returns
+    -------
+    Column
+        The column.
+    """
     arr = np.asarray(data)
     if arr.dtype.kind in "OU":
         arr = arr.astype(str)
@@ -116,7 +145,23 @@ def column(data: Any, units: str, description: str, dims: tuple[str, ...] = ()) 
 
 @dataclasses.dataclass
 class Dataset:
-    """In-memory content of one dataset file: tables, grids and root attributes."""
+    """In-memory content of one dataset file: tables, grids and root attributes.
+
+    Parameters
+    ----------
+    title : str, default ""
+        Root ``title`` attribute.
+    scenario : str, default ""
+        Name of the scenario that made it (root ``scenario`` attribute).
+    tables : dict of str to dict of str to Column, default {}
+        Table name → its aligned 1-D columns.
+    grids : dict of str to (dict of str to Column, dict of str to Column), default {}
+        Grid name → (coordinates, variables over them).
+    attrs : dict of str to object, default {}
+        Further root attributes (e.g. the run's scalar results).
+    descriptions : dict of str to str, default {}
+        Group name → what the group holds (what one row of a table is).
+    """
 
     title: str = ""
     scenario: str = ""
@@ -128,8 +173,23 @@ class Dataset:
     descriptions: dict[str, str] = dataclasses.field(default_factory=dict)
 
     def add_table(self, name: str, columns: Mapping[str, Column], description: str = "") -> None:
-        """Add a columnar table: aligned 1-D columns of equal length; ``description`` says
-        what one row is."""
+        """Add a columnar table of aligned 1-D columns of equal length.
+
+        Parameters
+        ----------
+        name : str
+            Group name of the table (not empty, not ``"provenance"``, not used yet).
+        columns : mapping of str to Column
+            Column name → column, each of shape (n_rows,); ``"row"`` is reserved.
+        description : str, default ""
+            What one row is.
+
+        Raises
+        ------
+        ValueError
+            If the name is empty, reserved or used, there are no columns, a column is not 1-D,
+            the lengths differ, or a column is named ``"row"``.
+        """
         self._check_new(name)
         lengths = {k: c.data.shape for k, c in columns.items()}
         if not columns:
@@ -146,7 +206,26 @@ class Dataset:
 
     def add_grid(self, name: str, coords: Mapping[str, Column],
                  variables: Mapping[str, Column], description: str = "") -> None:
-        """Add gridded data: 1-D coordinates and variables over (a subset of) them."""
+        """Add gridded data: 1-D coordinates and variables over (a subset of) them.
+
+        Parameters
+        ----------
+        name : str
+            Group name of the grid (not empty, not ``"provenance"``, not used yet).
+        coords : mapping of str to Column
+            Coordinate name → 1-D column (a dimension scale).
+        variables : mapping of str to Column
+            Variable name → column whose shape is the coordinates' lengths over its ``dims``
+            (empty ``dims``: every coordinate, in the order of ``coords``).
+        description : str, default ""
+            What the grid holds.
+
+        Raises
+        ------
+        ValueError
+            If the name is empty, reserved or used, a coordinate is not 1-D, a variable names an
+            unknown coordinate or has the wrong shape.
+        """
         self._check_new(name)
         for cname, c in coords.items():
             if c.data.ndim != 1:
@@ -173,7 +252,14 @@ class Dataset:
 
 
 def git_revision() -> str:
-    """The git commit of the rfsim source tree, or ``""`` when not in a checkout."""
+    """Git commit of the rfsim source tree.
+
+    Returns
+    -------
+    str
+        The 40-hex commit, with ``-dirty`` appended when tracked files have changes; ``""``
+        when not in a git checkout (or git is not available).
+    """
     src = Path(rfsim.__file__).resolve().parent.parent
     try:
         out = subprocess.run(["git", "-C", str(src), "rev-parse", "HEAD"], capture_output=True,
@@ -189,13 +275,29 @@ def git_revision() -> str:
 
 
 def utc_now() -> str:
-    """Current UTC time, ISO 8601 with seconds (for provenance only, never for seeding)."""
+    """Current UTC time, ISO 8601 with seconds (for provenance only, never for seeding).
+
+    Returns
+    -------
+    str
+        E.g. ``"2026-01-31T12:00:00+00:00"``.
+    """
     return _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
 
 
 def package_version(name: str) -> str:
-    """Installed version of the distribution ``name`` (``""`` if it is not installed), read
-    from its metadata without importing it."""
+    """Installed version of a distribution, read from its metadata without importing it.
+
+    Parameters
+    ----------
+    name : str
+        Distribution name, e.g. ``"scipy"``.
+
+    Returns
+    -------
+    str
+        The version, or ``""`` if it is not installed.
+    """
     try:
         return importlib.metadata.version(name)
     except importlib.metadata.PackageNotFoundError:
@@ -204,10 +306,31 @@ def package_version(name: str) -> str:
 
 def make_provenance(*, config_toml: str, seed: int, scenario: str, start_time_utc: str,
                     extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """Provenance attributes of a run (the end time is stamped when the file is written):
-    the config, seed, scenario, rfsim version and git revision, the command line
-    (:func:`command_line`), the start time and the versions of Python and of the libraries
-    the numbers depend on (numpy, numba, h5py, scipy, matplotlib)."""
+    """Provenance attributes of a run.
+
+    The end time is stamped when the file is written (:func:`write_provenance`).
+
+    Parameters
+    ----------
+    config_toml : str
+        The resolved config as TOML.
+    seed : int
+        Root seed of the run.
+    scenario : str
+        Scenario name.
+    start_time_utc : str
+        Start time, ISO 8601 (:func:`utc_now`).
+    extra : mapping of str to object or None, default None
+        Further attributes; they override those above of the same name.
+
+    Returns
+    -------
+    dict of str to object
+        ``config_toml``, ``seed``, ``scenario``, ``rfsim_version``, ``git_revision``,
+        ``command_line`` (:func:`command_line`), ``start_time_utc``, ``platform`` and the
+        versions of ``python``, ``numpy``, ``numba``, ``h5py``, ``scipy`` and ``matplotlib``
+        (the libraries the numbers depend on), then ``extra``.
+    """
     import numba
 
     prov = {
@@ -266,9 +389,17 @@ def long_name(description: str) -> str:
     The description's first clause (up to the first ";" or ": " outside parentheses); if it is
     longer than :data:`LONG_NAME_MAX` characters, without its parenthesised parts; if still
     longer, cut after its last whole word that fits (at a comma if one is in the second half),
-    without a dangling "of", "at", ….
-    The full sentence stays in ``description``. A description written as
-    ``"<label>: <sentence>"`` gives exactly ``<label>``.
+    without a dangling "of", "at", …. The full sentence stays in ``description``.
+
+    Parameters
+    ----------
+    description : str
+        The column's description; ``"<label>: <sentence>"`` gives exactly ``<label>``.
+
+    Returns
+    -------
+    str
+        The label, whitespace collapsed, without trailing spaces, commas or periods.
     """
     clause = _first_clause(description)
     text = " ".join(clause.split()).strip(" ,.")
@@ -295,14 +426,37 @@ def _array_attrs(col: Column, name: str) -> dict[str, Any]:
 
 
 def is_text(data: np.ndarray) -> bool:
-    """Whether ``data`` is a text column: fixed-width ``str`` (``U``) or an object array of
-    ``str`` (which a column of few distinct values can use to hold one shared object per
-    value instead of a copy per row)."""
+    """Whether an array is a text column.
+
+    Parameters
+    ----------
+    data : ndarray
+        The column's values.
+
+    Returns
+    -------
+    bool
+        True for fixed-width ``str`` (``U``) and object arrays (of ``str``, which a column of
+        few distinct values can use to hold one shared object per value instead of a copy per
+        row).
+    """
     return data.dtype.kind in "OU"
 
 
 def stored_values(data: np.ndarray) -> np.ndarray:
-    """``data`` as it is written to HDF5 (booleans as uint8, text as UTF-8 objects)."""
+    """Values of an array as they are written to HDF5.
+
+    Parameters
+    ----------
+    data : ndarray
+        The column's values.
+
+    Returns
+    -------
+    ndarray
+        Booleans as uint8, fixed-width text as an object array of ``str`` (UTF-8 in the file),
+        anything else unchanged (not copied).
+    """
     if data.dtype == bool:
         return data.astype(np.uint8)
     if data.dtype.kind == "U":
@@ -338,11 +492,28 @@ def _write_array(group: h5py.Group, name: str, col: Column) -> h5py.Dataset:
 
 
 def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, ...]) -> h5py.Dataset:
-    """An empty dataset of ``shape``, typed and described like ``like`` (filled in parts later).
+    """Create an empty HDF5 dataset typed and described like a column, to be filled in parts.
 
-    Same dtype conventions and attributes as :func:`write_dataset`; chunked with gzip
-    (and byte shuffle) when it holds at least 4096 values, so large merged columns are
+    Same dtype conventions and attributes as :func:`write_dataset`; chunked with gzip (and
+    byte shuffle) when it holds at least 4096 non-text values, so large merged columns are
     compressed. Write parts with ``ds[i:j] = stored_values(data)``.
+
+    Parameters
+    ----------
+    group : h5py.Group
+        The group to create it in.
+    name : str
+        Its name.
+    like : Column
+        The dtype (of ``like.data``), units and description to use.
+    shape : tuple of int
+        Its shape.
+
+    Returns
+    -------
+    h5py.Dataset
+        The new dataset, with its ``units``, ``long_name`` and ``description`` attributes (and
+        the flag attributes of a boolean).
     """
     size = int(np.prod(shape, dtype=np.int64))
     opts: dict[str, Any] = {}
@@ -355,7 +526,20 @@ def create_array(group: h5py.Group, name: str, like: Column, shape: tuple[int, .
 
 
 def create_row_scale(group: h5py.Group, n_rows: int) -> h5py.Dataset:
-    """The ``row`` dimension scale (0 … n_rows − 1) of a table group."""
+    """Create the ``row`` dimension scale (0 … n_rows − 1) of a table group.
+
+    Parameters
+    ----------
+    group : h5py.Group
+        The table's group.
+    n_rows : int
+        Number of rows.
+
+    Returns
+    -------
+    h5py.Dataset
+        The int64 ``row`` dataset, made a dimension scale.
+    """
     like = Column(np.zeros(0, np.int64), "1", "row index of the table, 0-based")
     row = create_array(group, _ROW_DIM, like, (n_rows,))
     row.attrs["long_name"] = "row index"
@@ -389,7 +573,19 @@ def _write_grid(f: h5py.File, name: str, coords: Mapping[str, Column],
 
 
 def check_attributes(attrs: Mapping[str, Any]) -> None:
-    """ValueError naming the first non-finite numeric attribute without a ``<name>_meaning``."""
+    """Check that every non-finite numeric attribute says what it means.
+
+    Parameters
+    ----------
+    attrs : mapping of str to object
+        Root attributes; a float or complex value (or array) with a NaN or ±inf needs a
+        non-empty text attribute ``<name>_meaning``.
+
+    Raises
+    ------
+    ValueError
+        Naming the first non-finite attribute without a meaning.
+    """
     for k, v in attrs.items():
         arr = np.asarray(v)
         if arr.dtype.kind in "fc" and not np.all(np.isfinite(arr)) and not str(attrs.get(f"{k}_meaning", "")):
@@ -399,13 +595,28 @@ def check_attributes(attrs: Mapping[str, Any]) -> None:
 
 @contextlib.contextmanager
 def atomic_h5file(path: str | Path) -> Iterator[h5py.File]:
-    """An HDF5 file open for writing under a hidden temporary name beside ``path``.
+    """Open an HDF5 file for writing under a hidden temporary name beside ``path``.
 
     On leaving the block the file is closed, fsync'ed and renamed over ``path`` (with the
     folder fsync'ed); on an exception (including Ctrl-C and SIGTERM) the temporary file is
-    removed, so ``path`` is either the old file or the complete new one. A write the
-    operating system refuses (disk full, I/O error, quota) is a one-line
-    :class:`~rfsim.core.errors.ResourceError` naming ``path``.
+    removed, so ``path`` is either the old file or the complete new one. The folder is
+    created if missing.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The final file.
+
+    Yields
+    ------
+    h5py.File
+        The temporary file, open for writing.
+
+    Raises
+    ------
+    rfsim.core.errors.ResourceError
+        If the operating system refuses a write (disk full, I/O error, quota), in one line
+        naming ``path``.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -478,19 +689,41 @@ def _abandon(f: h5py.File, tmp: Path) -> None:
 
 
 def history_line(command: str | None = None, time_utc: str | None = None) -> str:
-    """One line of the root ``history`` attribute: ``"<ISO time UTC> <command line>"``
-    (default: now and :func:`command_line`)."""
+    """One line of the root ``history`` attribute: ``"<ISO time UTC> <command line>"``.
+
+    Parameters
+    ----------
+    command : str or None, default None
+        The command line (None: the running one, :func:`command_line`).
+    time_utc : str or None, default None
+        ISO 8601 time (None or empty: now, :func:`utc_now`).
+
+    Returns
+    -------
+    str
+        The line.
+    """
     return f"{time_utc or utc_now()} {command if command is not None else command_line()}"
 
 
 def write_root_attrs(f: h5py.File, dataset: Dataset, provenance: Mapping[str, Any] | None = None) -> None:
-    """The root attributes of a dataset file: title, scenario, version, ``Conventions``,
-    ``source``, ``history`` and ``dataset.attrs``.
+    """Write the root attributes of a dataset file.
 
-    ``source`` is ``"rfsim <version>, scenario <name>"``; ``history`` is one
-    :func:`history_line` with the provenance's command line (the running one without
-    provenance), after the history the dataset already had (a file read back and written
-    again keeps its past lines)."""
+    They are ``title``, ``scenario``, ``rfsim_version``, ``Conventions``
+    (:data:`CONVENTIONS`), ``source`` (``"rfsim <version>, scenario <name>"``), ``history`` and
+    the other entries of ``dataset.attrs``. ``history`` is one :func:`history_line` with the
+    provenance's command line (the running one without provenance), after the history the
+    dataset already had (a file read back and written again keeps its past lines).
+
+    Parameters
+    ----------
+    f : h5py.File
+        The file, open for writing.
+    dataset : Dataset
+        Its content (title, scenario, attrs).
+    provenance : mapping of str to object or None, default None
+        Provenance attributes; only ``command_line`` is used here.
+    """
     f.attrs["title"] = dataset.title
     f.attrs["scenario"] = dataset.scenario
     f.attrs["rfsim_version"] = rfsim.__version__
@@ -505,7 +738,15 @@ def write_root_attrs(f: h5py.File, dataset: Dataset, provenance: Mapping[str, An
 
 
 def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
-    """The ``/provenance`` group, with ``end_time_utc`` stamped now."""
+    """Write the ``/provenance`` group, with ``end_time_utc`` stamped now.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The file, open for writing.
+    provenance : mapping of str to object
+        The attributes (:func:`make_provenance`); the group also gets its ``description``.
+    """
     prov = f.create_group("provenance")
     prov.attrs["description"] = PROVENANCE_DESCRIPTION
     for k, v in {**provenance, "end_time_utc": utc_now()}.items():
@@ -513,10 +754,31 @@ def write_provenance(f: h5py.File, provenance: Mapping[str, Any]) -> None:
 
 
 def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, Any]) -> Path:
-    """Write ``dataset`` atomically to ``path`` (temporary name, fsync, rename).
+    """Write a dataset atomically to a file (temporary name, fsync, rename).
 
-    The provenance gets ``end_time_utc`` stamped now. Returns the final path. Non-finite
-    root attributes need a ``<name>_meaning`` (:func:`check_attributes`).
+    See the module docstring for the layout; the provenance gets ``end_time_utc`` stamped now.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file to write (replaced if it exists).
+    dataset : Dataset
+        Tables, grids, descriptions and root attributes.
+    provenance : mapping of str to object
+        Provenance attributes (:func:`make_provenance`).
+
+    Returns
+    -------
+    pathlib.Path
+        The final path.
+
+    Raises
+    ------
+    ValueError
+        If a root attribute is not finite and has no ``<name>_meaning``
+        (:func:`check_attributes`); checked before anything is written.
+    rfsim.core.errors.ResourceError
+        If the system refuses the write (:func:`atomic_h5file`).
     """
     check_attributes(dataset.attrs)
     path = Path(path)
@@ -532,7 +794,15 @@ def write_dataset(path: str | Path, dataset: Dataset, provenance: Mapping[str, A
 
 
 def write_group_descriptions(f: h5py.File, descriptions: Mapping[str, str]) -> None:
-    """The ``description`` attribute of each named group that is in the file."""
+    """Set the ``description`` attribute of each named group that is in the file.
+
+    Parameters
+    ----------
+    f : h5py.File
+        The file, open for writing.
+    descriptions : mapping of str to str
+        Group name → description; names not in the file are skipped.
+    """
     for name, text in descriptions.items():
         if name in f:
             f[name].attrs["description"] = text
@@ -572,9 +842,22 @@ def _read_array(ds: h5py.Dataset) -> np.ndarray:
 
 
 def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
-    """Columns of table ``name`` as plain arrays (without the row index); booleans as bool.
+    """Read the columns of a table as plain arrays (without the row index).
 
     ``pandas.DataFrame(read_table(path, name))`` is the table as a data frame.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The HDF5 file.
+    name : str
+        The table's group.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Column name → values, shape (n_rows,), in the file's order; booleans as bool, text as
+        ``str`` arrays.
     """
     with h5py.File(path, "r") as f:
         g = f[name]
@@ -582,14 +865,41 @@ def read_table(path: str | Path, name: str) -> dict[str, np.ndarray]:
 
 
 def read_provenance(path: str | Path) -> dict[str, Any]:
-    """The provenance attributes of a dataset file."""
+    """Read the provenance attributes of a dataset file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The HDF5 file.
+
+    Returns
+    -------
+    dict of str to object
+        The attributes of its ``provenance`` group, without ``description``; bytes decoded to
+        ``str``.
+    """
     with h5py.File(path, "r") as f:
         return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f["provenance"].attrs.items()
             if k != "description"}
 
 
 def read_dataset(path: str | Path) -> Dataset:
-    """Read a whole file written by :func:`write_dataset` back into a :class:`Dataset`."""
+    """Read a whole file written by :func:`write_dataset` back into a :class:`Dataset`.
+
+    A group with a ``row`` dimension scale is a table; any other group but ``provenance`` is a
+    grid (its dimension scales the coordinates).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The HDF5 file.
+
+    Returns
+    -------
+    Dataset
+        Its title, scenario, root attributes (``history`` included), group descriptions,
+        tables and grids.
+    """
     out = Dataset()
     with h5py.File(path, "r") as f:
         out.title = str(f.attrs.get("title", ""))

@@ -23,15 +23,48 @@ def _checked_seed(seed: int) -> int:
 
 
 def run_seed_sequence(seed: int) -> np.random.SeedSequence:
-    """The root ``SeedSequence`` of a run with integer ``seed`` (≥ 0)."""
+    """Root ``SeedSequence`` of a run.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed, ≥ 0.
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+        ``SeedSequence(seed)``.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` is not a non-negative integer (bool included).
+    """
     return np.random.SeedSequence(_checked_seed(seed))
 
 
 def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
-    """Child ``SeedSequence`` of trial ``index`` (a path of non-negative ints).
+    """Child ``SeedSequence`` of a trial of a run.
 
-    ``trial_seed_sequence(s, i)`` equals ``SeedSequence(s).spawn(i + 1)[i]``;
-    nested paths (``(point, repetition)``) key sub-streams of a trial.
+    ``trial_seed_sequence(s, i)`` equals ``SeedSequence(s).spawn(i + 1)[i]``; nested paths
+    (``(point, repetition)``) key sub-streams of a trial.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed, ≥ 0.
+    *index : int
+        The trial's path of non-negative indices (the ``spawn_key``).
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+        ``SeedSequence(seed, spawn_key=index)``.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` or an index is negative or ``seed`` is not an integer.
     """
     entropy = _checked_seed(seed)  # the root's entropy; its spawn key is ()
     key = tuple(int(i) for i in index)
@@ -41,25 +74,76 @@ def trial_seed_sequence(seed: int, *index: int) -> np.random.SeedSequence:
 
 
 def trial_rng(seed: int, *index: int) -> np.random.Generator:
-    """``numpy.random.Generator`` (PCG64) of trial ``index`` of the run ``seed``."""
+    """Generator of a trial of a run.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed, ≥ 0.
+    *index : int
+        The trial's path of non-negative indices (:func:`trial_seed_sequence`).
+
+    Returns
+    -------
+    numpy.random.Generator
+        A PCG64 generator seeded with :func:`trial_seed_sequence`.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` or an index is negative or ``seed`` is not an integer.
+    """
     return np.random.Generator(np.random.PCG64(trial_seed_sequence(seed, *index)))
 
 
 def trial_rngs(seed: int, indices: Sequence[int]) -> list[np.random.Generator]:
-    """Generators for several trial indices of one run."""
+    """Generators for several trial indices of one run.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed, ≥ 0.
+    indices : sequence of int
+        Non-negative trial indices.
+
+    Returns
+    -------
+    list of numpy.random.Generator
+        ``trial_rng(seed, i)`` for each ``i`` in ``indices``, in order.
+    """
     return [trial_rng(seed, i) for i in indices]
 
 
 def trial_rng_grid(seed: int, indices: Sequence[int], streams: Sequence[int]) -> list[list[np.random.Generator]]:
-    """``[[trial_rng(seed, i, k) for k in streams] for i in indices]``: the same generators
-    (the same states, draw for draw), their seeds formed for all of them at once.
+    """Generators ``[[trial_rng(seed, i, k) for k in streams] for i in indices]``, seeded at once.
 
-    A PCG64 is seeded with ``SeedSequence(seed, spawn_key=(i, k)).generate_state(4, uint64)``;
-    :func:`_pcg64_seed_words` evaluates NumPy's SeedSequence (hash mixing of the entropy words
-    into a pool of 4, then the pool hashed into the output words; O'Neill's seed_seq design)
-    with one NumPy operation per step over every (i, k), instead of one SeedSequence object
-    each (≈ 25 µs per generator); the tests compare the states with :func:`trial_rng`'s.
-    Indices and streams of 2³² or more take the one-by-one path.
+    The same generators (the same states, draw for draw) as :func:`trial_rng`, their seeds
+    formed for all of them at once. A PCG64 is seeded with
+    ``SeedSequence(seed, spawn_key=(i, k)).generate_state(4, uint64)``; :func:`_pcg64_seed_words`
+    evaluates NumPy's SeedSequence (hash mixing of the entropy words into a pool of 4, then
+    the pool hashed into the output words; O'Neill's seed_seq design) with one NumPy operation
+    per step over every (i, k), instead of one SeedSequence object each (≈ 25 µs per
+    generator); the tests compare the states with :func:`trial_rng`'s. Indices and streams of
+    2³² or more take the one-by-one path.
+
+    Parameters
+    ----------
+    seed : int
+        The run's seed, ≥ 0.
+    indices : sequence of int
+        Non-negative trial indices (rows of the result).
+    streams : sequence of int
+        Non-negative stream indices within each trial (columns of the result).
+
+    Returns
+    -------
+    list of list of numpy.random.Generator
+        ``len(indices)`` lists of ``len(streams)`` PCG64 generators.
+
+    Raises
+    ------
+    ValueError
+        If ``seed`` or an index is negative or ``seed`` is not an integer.
     """
     entropy = _checked_seed(seed)
     keys = [(int(i), int(k)) for i in indices for k in streams]

@@ -22,8 +22,27 @@ h5py = lazy_import("h5py")
 
 
 class IndexedText:
-    """A text column held as integer indices: row r is ``name(index[r])``, one ``str`` object per
-    distinct index (e.g. a tag's EPC from its number)."""
+    """A text column held as integer indices, expanded to strings only when written.
+
+    Row r is ``name(index[r])``, one ``str`` object per distinct index (e.g. a tag's EPC from
+    its number).
+
+    Parameters
+    ----------
+    index : array_like of int, shape (n_rows,)
+        Non-negative index of each row.
+    name : callable
+        ``name(k) -> str``, the text of index ``k``.
+
+    Attributes
+    ----------
+    index : ndarray
+        The indices.
+    size : int
+        Number of rows.
+    name : callable
+        As given.
+    """
 
     def __init__(self, index: np.ndarray, name: Callable[[int], str]):
         self.index = np.asarray(index)
@@ -31,7 +50,15 @@ class IndexedText:
         self.name = name
 
     def strings(self) -> np.ndarray:
-        """The rows as an object array: one ``str`` per index, shared by that index's rows."""
+        """Expand the rows to an object array of strings.
+
+        ``name`` is called once for each k in 0 … ``index.max()``.
+
+        Returns
+        -------
+        ndarray of object, shape (n_rows,)
+            One ``str`` per index, shared by that index's rows.
+        """
         names = np.array([self.name(k) for k in range(int(self.index.max(initial=-1)) + 1)], dtype=object)
         return names[self.index] if self.size else np.zeros(0, dtype=object)
 
@@ -47,21 +74,50 @@ def _shared_text(part: np.ndarray) -> np.ndarray:
 
 
 def join_parts(parts) -> np.ndarray:
-    """One column from its parts (arrays, broadcast scalars or :class:`IndexedText`)."""
+    """Join one column from its parts.
+
+    If any part is text (``U`` dtype or :class:`IndexedText`), the column is an object array
+    with one ``str`` object per distinct value in each part; else the parts are concatenated.
+
+    Parameters
+    ----------
+    parts : sequence of ndarray or IndexedText
+        1-D arrays (possibly read-only broadcast scalars) and text columns, in row order.
+
+    Returns
+    -------
+    ndarray, shape (n_rows,)
+        The column.
+    """
     if any(isinstance(p, IndexedText) or p.dtype.kind == "U" for p in parts):
         return np.concatenate([p.strings() if isinstance(p, IndexedText) else _shared_text(p) for p in parts])
     return np.concatenate(parts)
 
 
 class RowTables:
-    """Columns of several tables accumulated block by block (module docstring)."""
+    """Columns of several tables accumulated block by block (see the module docstring).
+
+    Attributes
+    ----------
+    rows : dict of str to dict of str to list
+        Table name → column name → the parts appended so far.
+    """
 
     def __init__(self):
         self.rows = defaultdict(lambda: defaultdict(list))
 
     def extend(self, table: str, **cols) -> None:
-        """Append one block of rows to ``table``: arrays (raveled) and scalars (broadcast to the
-        block's length, the longest array)."""
+        """Append one block of rows to a table.
+
+        Parameters
+        ----------
+        table : str
+            Name of the table.
+        **cols : array_like or IndexedText
+            Column name → values of the block: arrays (raveled), :class:`IndexedText`, or
+            scalars, broadcast (as read-only views) to the block's length, that of the longest
+            array.
+        """
         n = max(v.size if isinstance(v, IndexedText) else np.size(v) for v in cols.values())
         for k, v in cols.items():
             if isinstance(v, IndexedText):
@@ -70,8 +126,21 @@ class RowTables:
                 self.rows[table][k].append(np.broadcast_to(np.asarray(v), (n,)) if np.ndim(v) == 0 else np.ravel(v))
 
     def write(self, ds: Dataset, units: Mapping[str, tuple[str, str]], descriptions: Mapping[str, str]) -> None:
-        """Join every column (one at a time, its parts freed as it is joined) and add the tables
-        to ``ds``; ``units[column] = (unit, description)``, ``descriptions[table]``."""
+        """Join every column and add the tables to a dataset.
+
+        The columns are joined one at a time, each one's parts freed as it is joined, and the
+        accumulated rows are emptied.
+
+        Parameters
+        ----------
+        ds : rfsim.core.dataset.Dataset
+            The dataset the tables are added to.
+        units : mapping of str to (str, str)
+            Column name → (unit, description); a column not in it gets unit ``""`` and its name
+            as description.
+        descriptions : mapping of str to str
+            Table name → what one row is; every table needs an entry.
+        """
         for name in list(self.rows):
             cols = self.rows.pop(name)
             out = {}
@@ -85,9 +154,30 @@ class RowTables:
 
 
 def read_block(path: str | Path, table: str, key: str, value, names) -> dict[str, np.ndarray]:
-    """Columns ``names`` of the rows of ``table`` whose ``key`` equals ``value``, read without
-    loading the whole table; those rows must be contiguous (a table written block by block).
-    Text as ``str`` arrays, booleans as bool."""
+    """Read the rows of a table whose key column equals a value, without loading the whole table.
+
+    Those rows must be contiguous (a table written block by block): the rows from the first
+    to the last match are read.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The HDF5 dataset.
+    table : str
+        The table's group.
+    key : str
+        Column to match.
+    value : object
+        The value of ``key`` the rows have.
+    names : iterable of str
+        Columns to read.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Column name → values of the block (text as ``str`` arrays, booleans as bool); empty
+        float arrays when no row matches.
+    """
     with h5py.File(path, "r") as f:
         g = f[table]
         rows = np.flatnonzero(g[key][()] == value)

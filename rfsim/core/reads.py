@@ -75,9 +75,18 @@ IMPINJ_PHASE_BITS = 12
 class ReadField:
     """One column of the per-read schema.
 
-    ``units`` as in the file (``""`` for text); ``long_name`` the short label (CF
-    ``long_name``); ``description`` the sentence; ``llrp`` the LLRP/Impinj parameter the
-    column corresponds to (``""`` for the simulation's ground truth)."""
+    Parameters
+    ----------
+    units : str
+        Units as in the file (``""`` for text).
+    long_name : str
+        The short label (CF ``long_name``).
+    description : str
+        The sentence that says what the column is.
+    llrp : str, default ""
+        The LLRP/Impinj parameter the column corresponds to (``""`` for the simulation's
+        ground truth).
+    """
 
     units: str
     long_name: str
@@ -85,8 +94,21 @@ class ReadField:
     llrp: str = ""
 
     def text(self, note: str = "") -> str:
-        """The column's ``description`` attribute: ``"<long_name>: <description>"`` (so the
-        file's ``long_name`` is exactly :attr:`long_name`), with a dataset's ``note`` after it."""
+        """The column's ``description`` attribute: ``"<long_name>: <description>"``.
+
+        Written so, the file's ``long_name`` (:func:`rfsim.core.dataset.long_name`) is exactly
+        :attr:`long_name`.
+
+        Parameters
+        ----------
+        note : str, default ""
+            What a dataset adds to the description, appended in parentheses ("" for nothing).
+
+        Returns
+        -------
+        str
+            The description attribute.
+        """
         return f"{self.long_name}: {self.description}" + (f" ({note})" if note else "")
 
 
@@ -134,15 +156,45 @@ REPORT_KEYS = ("epc", "antenna_port", "channel_index", "frequency_hz", "first_se
 
 
 def quantize_rssi_impinj_dbm(rssi_dbm) -> np.ndarray:
-    """RSSI [dBm] in the 0.5 dB steps of an Impinj reader: ``0.5·round(P/0.5)`` (NaN stays NaN;
-    ties to even, numpy's rounding). Source: gen2-and-validation-anchors.md §4.9."""
+    r"""RSSI in the 0.5 dB steps of an Impinj reader.
+
+    .. math:: P_q = 0.5 \, \mathrm{round}(P / 0.5)
+
+    with ties to even (numpy's rounding); NaN stays NaN. Source:
+    gen2-and-validation-anchors.md §4.9.
+
+    Parameters
+    ----------
+    rssi_dbm : array_like of float
+        RSSI [dBm].
+
+    Returns
+    -------
+    ndarray of float
+        Quantized RSSI [dBm], the shape of ``rssi_dbm``.
+    """
     return quantize_rssi_dbm(rssi_dbm, IMPINJ_RSSI_STEP_DB)
 
 
 def quantize_phase_12bit_rad(phase_rad) -> np.ndarray:
-    """Phase [rad] as the 12-bit ImpinjRFPhaseAngle reports it: ``c·2π/4096`` with
-    ``c = round(φ·4096/2π) mod 4096`` (in [0, 2π); NaN stays NaN). Source:
-    gen2-and-validation-anchors.md §2.5 (0–4095 ↔ 0–2π)."""
+    r"""Phase as the 12-bit ImpinjRFPhaseAngle reports it.
+
+    .. math:: c = \mathrm{round}(\varphi \cdot 4096 / 2\pi) \bmod 4096, \qquad
+              \varphi_q = c \cdot 2\pi / 4096
+
+    so :math:`\varphi_q \in [0, 2\pi)` in 1.534 mrad steps; NaN stays NaN. Source:
+    gen2-and-validation-anchors.md §2.5 (0–4095 ↔ 0–2π).
+
+    Parameters
+    ----------
+    phase_rad : array_like of float
+        Phase [rad], any range.
+
+    Returns
+    -------
+    ndarray of float
+        Quantized phase [rad], the shape of ``phase_rad``.
+    """
     return phase_of_code(phase_code(phase_rad, IMPINJ_PHASE_BITS), IMPINJ_PHASE_BITS)
 
 
@@ -237,12 +289,32 @@ def log_read_columns(log: Mapping, *, true_position_m=None, true_distance_m=None
                      notes: Mapping[str, str] | None = None) -> dict[str, Column]:
     """The schema's columns (:func:`read_columns`) of a read log under the protocol layer's names.
 
-    ``log`` maps names to sequences of one length: ``epc`` or ``epc_hex``, ``antenna``,
-    ``channel_index``, ``frequency_hz``, ``rssi_dbm``, ``phase_rad``, ``doppler_hz``; the time
-    stamp ``t_us`` [µs], else ``round(time_s·1e6)`` (or ``t_s``); ``reported`` (else every entry
-    is a reported read); the truth ``tag_incident_power_dbm`` [dBm], ``distance_m`` or
-    ``true_distance_m`` [m] and ``true_position_m`` (n, 3) or ``x_m``/``y_m``/``z_m`` [m] where the
-    log has them (else NaN), unless given as arguments.
+    Parameters
+    ----------
+    log : mapping of str to array_like
+        Read log, sequences of one length n: ``epc`` or ``epc_hex``, ``antenna``,
+        ``channel_index``, ``frequency_hz`` [Hz], ``rssi_dbm`` [dBm], ``phase_rad`` [rad],
+        ``doppler_hz`` [Hz]; the time stamp ``t_us`` [µs], else ``time_s`` (or ``t_s``) [s],
+        rounded to µs; ``reported`` (absent: every entry is a reported read); where the log
+        has them, the truth ``tag_incident_power_dbm`` [dBm], ``distance_m`` or
+        ``true_distance_m`` [m], and ``x_m``/``y_m``/``z_m`` or ``true_position_m``
+        (n, 3) [m] (absent: NaN).
+    true_position_m : array_like of float, shape (n, 3), optional
+        Ground-truth tag positions [m]; overrides the log's.
+    true_distance_m : array_like of float, shape (n,), or float, optional
+        Ground-truth distance [m]; overrides the log's.
+    notes : mapping of str to str or None, default None
+        Column → what this dataset adds to the schema's description.
+
+    Returns
+    -------
+    dict of str to rfsim.core.dataset.Column
+        The schema's columns, in the order of :data:`READ_SCHEMA`.
+
+    Raises
+    ------
+    ValueError
+        If ``notes`` names a column outside the schema.
     """
     epc = np.asarray(_first(log, ("epc", "epc_hex")), dtype=str)
     n = epc.shape[0]
@@ -267,16 +339,47 @@ def log_read_columns(log: Mapping, *, true_position_m=None, true_distance_m=None
 
 def reads_table(log: Mapping, fields: Mapping[str, tuple[str, str]], *, true_position_m=None, true_distance_m=None,
                 notes: Mapping[str, str] | None = None) -> dict[str, Column]:
-    """A dataset's ``reads`` table from a read log: the schema's columns (:func:`log_read_columns`),
-    then the log's other columns named in ``fields`` (name → (units, description)), the
-    :data:`LOG_NAMES` the schema holds left out."""
+    """A dataset's ``reads`` table from a read log.
+
+    The schema's columns (:func:`log_read_columns`), then the log's other columns named in
+    ``fields``; the :data:`LOG_NAMES` that the schema already holds are left out.
+
+    Parameters
+    ----------
+    log : mapping of str to array_like
+        Read log (see :func:`log_read_columns`).
+    fields : mapping of str to (str, str)
+        Column name → (units, description) of the log's extra columns to keep.
+    true_position_m : array_like of float, shape (n, 3), optional
+        Ground-truth tag positions [m]; overrides the log's.
+    true_distance_m : array_like of float, shape (n,), or float, optional
+        Ground-truth distance [m]; overrides the log's.
+    notes : mapping of str to str or None, default None
+        Column → what this dataset adds to the schema's description.
+
+    Returns
+    -------
+    dict of str to rfsim.core.dataset.Column
+        The table's columns, schema first.
+    """
     schema = log_read_columns(log, true_position_m=true_position_m, true_distance_m=true_distance_m, notes=notes)
     return {**schema, **{k: _dataset.column(np.asarray(log[k]), *fields[k]) for k in fields
                          if k not in schema and k not in LOG_NAMES}}
 
 
 def has_read_schema(names) -> bool:
-    """Whether a table with columns ``names`` holds every column of :data:`READ_SCHEMA`."""
+    """Whether a table holds every column of :data:`READ_SCHEMA`.
+
+    Parameters
+    ----------
+    names : iterable of str
+        The table's column names (a dict of columns works too).
+
+    Returns
+    -------
+    bool
+        True if every schema column is among ``names``.
+    """
     return set(READ_SCHEMA) <= set(names)
 
 

@@ -70,7 +70,22 @@ READ_REPORT_FIELDS: dict[str, tuple[str, str]] = {
 
 @dataclass(frozen=True)
 class ReportConfig:
-    """What a reader does with its measurements before it reports them (module docstring)."""
+    """What a reader does with its measurements before it reports them (see the module docstring).
+
+    Parameters
+    ----------
+    rssi_step_db : float, default 1.0
+        RSSI resolution [dB] in [0, 10]: 1 = LLRP PeakRSSI (whole dBm), 0.01 = Impinj,
+        0 = not quantized.
+    sensitivity_dbm : float, default -90.0
+        Receive sensitivity [dBm] in [-150, 0]: decoded replies weaker than this are not
+        reported.
+    phase_bits : int, default 12
+        Bits of the reported phase code in [0, 32] (Impinj: 12; 0 = not quantized).
+    port_phase_offsets_rad : tuple of float, default ()
+        Phase offset [rad] of each antenna port (cables, front end), port 1 first, each in
+        [-2π, 2π]; () = none.
+    """
 
     rssi_step_db: float = param(1.0, lo=0.0, hi=10.0, unit="dB",
                                 doc="RSSI resolution: 1 = LLRP PeakRSSI (whole dBm), 0.01 = Impinj, 0 = none")
@@ -82,8 +97,23 @@ class ReportConfig:
         doc="phase offset of each antenna port (cables, front end), port 1 first; () = none")
 
     def port_offset_rad(self, antenna) -> np.ndarray:
-        """Phase offset [rad] of the 1-based ``antenna`` ports (0 without offsets); a port the
-        list does not cover is a one-line ``ConfigError``."""
+        r"""Phase offset of antenna ports, :math:`\varphi_\mathrm{port}[a]`.
+
+        Parameters
+        ----------
+        antenna : array_like of int
+            1-based antenna ports.
+
+        Returns
+        -------
+        ndarray of float
+            Offset [rad] per port, the shape of ``antenna``; zeros without offsets.
+
+        Raises
+        ------
+        rfsim.core.errors.ConfigError
+            If a port is below 1 or beyond the list of offsets (one line).
+        """
         a = np.asarray(antenna, dtype=np.int64)
         if not self.port_phase_offsets_rad:
             return np.zeros(a.shape)
@@ -95,13 +125,41 @@ class ReportConfig:
 
 
 def quantize_rssi_dbm(rssi_dbm, step_db: float) -> np.ndarray:
-    """``step·round(P/step)`` [dBm] (``step = 0``: unchanged); NaN stays NaN."""
+    r"""Round RSSI to a reader's step: :math:`P_q = s \, \mathrm{round}(P/s)`.
+
+    The same rule as ``rfsim.devices.rss_reader.RssReport``; ties to even (numpy's rounding).
+
+    Parameters
+    ----------
+    rssi_dbm : array_like of float
+        RSSI [dBm]; NaN stays NaN.
+    step_db : float
+        Step :math:`s` [dB]; 0 leaves the values unchanged.
+
+    Returns
+    -------
+    ndarray of float
+        Quantized RSSI [dBm] (a copy), the shape of ``rssi_dbm``.
+    """
     p = np.asarray(rssi_dbm, float)
     return p.copy() if step_db == 0 else step_db * np.round(p / step_db)
 
 
 def phase_code(phase_rad, bits: int) -> np.ndarray:
-    """Integer phase code ``round(φ·2^bits/2π) mod 2^bits`` (int64; −1 where φ is NaN)."""
+    r"""Integer phase code :math:`c = \mathrm{round}(\varphi \, 2^b / 2\pi) \bmod 2^b`.
+
+    Parameters
+    ----------
+    phase_rad : array_like of float
+        Phase :math:`\varphi` [rad], any range.
+    bits : int
+        Bits :math:`b` of the code (12 for Impinj's RF phase angle).
+
+    Returns
+    -------
+    ndarray of int64
+        Codes in [0, 2^b), the shape of ``phase_rad``; −1 where the phase is not finite.
+    """
     phi = np.asarray(phase_rad, float)
     n = 2 ** int(bits)
     ok = np.isfinite(phi)
@@ -111,18 +169,56 @@ def phase_code(phase_rad, bits: int) -> np.ndarray:
 
 
 def phase_of_code(code, bits: int) -> np.ndarray:
-    """Phase [rad] of a phase code: ``c·2π/2^bits`` (NaN for the code −1)."""
+    r"""Phase of a phase code: :math:`\varphi = c \, 2\pi / 2^b`.
+
+    Parameters
+    ----------
+    code : array_like of int
+        Codes (:func:`phase_code`); −1 means none.
+    bits : int
+        Bits :math:`b` of the code.
+
+    Returns
+    -------
+    ndarray of float
+        Phase [rad] in [0, 2π), the shape of ``code``; NaN for the code −1.
+    """
     c = np.asarray(code, dtype=np.int64)
     return np.where(c >= 0, c * (2.0 * math.pi / 2 ** int(bits)), np.nan)
 
 
 def time_stamp_us(t_s) -> np.ndarray:
-    """Time stamps in whole microseconds, ``round(t_s·10⁶)`` (int64)."""
+    r"""Time stamps in whole microseconds, :math:`t_\mu = \mathrm{round}(t \cdot 10^6)`.
+
+    Parameters
+    ----------
+    t_s : array_like of float
+        Times [s] since the start of the run.
+
+    Returns
+    -------
+    ndarray of int64
+        Time stamps [µs], the shape of ``t_s``.
+    """
     return np.round(np.asarray(t_s, float) * 1e6).astype(np.int64)
 
 
 def epc_hex(bits) -> str:
-    """EPC of a decoded PC + EPC + CRC-16 reply as upper-case hex ('' for None or < 48 bits)."""
+    """EPC of a decoded PC + EPC + CRC-16 reply as upper-case hex.
+
+    The 16 PC bits and the 16 CRC bits are dropped (the ACK reply, gen2-and-validation-anchors.md §3.2).
+
+    Parameters
+    ----------
+    bits : array_like of int or None
+        The reply's bits (0/1), PC first, CRC-16 last.
+
+    Returns
+    -------
+    str
+        The EPC in hex; ``""`` for None, fewer than 48 bits, or an EPC that is not a whole
+        number of hex digits.
+    """
     if bits is None:
         return ""
     b = np.asarray(bits, dtype=np.uint8)
@@ -132,15 +228,43 @@ def epc_hex(bits) -> str:
 
 
 def report_columns(config: ReportConfig, *, t_s, antenna, rssi_dbm, phase_rad, success) -> dict[str, np.ndarray]:
-    """The report stage over a read log: ``t_us``, ``reported``, ``rssi_reported_dbm``,
-    ``phase_reported_rad``, ``phase_code`` (:data:`READ_REPORT_FIELDS`).
+    r"""Apply the report stage to a read log.
+
+    A read is reported when its EPC was decoded with CRC ok and its RSSI is finite and at
+    least ``config.sensitivity_dbm``. For reported reads the phase is
+    :math:`\varphi_\mathrm{rep} = (\varphi + \varphi_\mathrm{port}[a]) \bmod 2\pi`, then coded
+    (:func:`phase_code`, :func:`phase_of_code`) when ``config.phase_bits`` > 0, and the RSSI is
+    rounded to ``config.rssi_step_db`` (:func:`quantize_rssi_dbm`). See the module docstring
+    for the sources.
 
     Parameters
     ----------
-    config : :class:`ReportConfig`
-    t_s : (n,) read times [s];  antenna : (n,) 1-based ports
-    rssi_dbm, phase_rad : (n,) the receiver's measurements (NaN where nothing was decoded)
-    success : (n,) bool, EPC decoded with CRC ok
+    config : ReportConfig
+        The reader's report settings.
+    t_s : array_like of float, shape (n,)
+        Read times [s].
+    antenna : array_like of int, shape (n,)
+        1-based antenna ports.
+    rssi_dbm : array_like of float, shape (n,)
+        The receiver's RSSI [dBm] (NaN where nothing was decoded).
+    phase_rad : array_like of float, shape (n,)
+        The receiver's phase [rad] (NaN where nothing was decoded).
+    success : array_like of bool, shape (n,)
+        EPC decoded with CRC ok.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of :data:`READ_REPORT_FIELDS` but ``epc``, each shape (n,): ``t_us``
+        (int64 [µs]), ``reported`` (bool), ``rssi_reported_dbm`` [dBm] and
+        ``phase_reported_rad`` [rad] (NaN where not reported), ``phase_code`` (int64, −1 where
+        not reported or not quantized).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        If a port has no phase offset while offsets are given
+        (:meth:`ReportConfig.port_offset_rad`).
     """
     p = np.asarray(rssi_dbm, float)
     reported = np.asarray(success, bool) & np.isfinite(p) & (np.nan_to_num(p, nan=-np.inf) >= config.sensitivity_dbm)
@@ -158,8 +282,22 @@ def report_columns(config: ReportConfig, *, t_s, antenna, rssi_dbm, phase_rad, s
 
 
 def long_table(columns: dict[str, np.ndarray], *, time_key: str = "t_us") -> dict[str, np.ndarray]:
-    """The rows of ``columns`` sorted by ``time_key`` (a stable sort: reads at the same
-    microsecond keep their order), every column as an array."""
+    """Sort the rows of a read log by time stamp (one row per read, the long format).
+
+    The sort is stable: reads at the same time stamp keep their order.
+
+    Parameters
+    ----------
+    columns : dict of str to array_like
+        Columns of equal length n.
+    time_key : str, default "t_us"
+        The column to sort by.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Every column as an array, rows reordered.
+    """
     cols = {k: np.asarray(v) for k, v in columns.items()}
     order = np.argsort(cols[time_key], kind="stable")
     return {k: v[order] for k, v in cols.items()}

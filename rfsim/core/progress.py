@@ -110,15 +110,32 @@ def _bar_class():
 
 
 class Reporter:
-    """Where progress goes: ``stream`` (default stderr), TTY or log style, or nothing.
+    """Where progress goes: a stream, in terminal or log style, or nothing.
 
     Parameters
     ----------
-    stream : text stream for stages and bars (default ``sys.stderr``)
-    quiet : print nothing
-    verbose : also print :meth:`detail` lines
-    tty : force terminal (True) or log (False) style; default ``stream.isatty()``
-    log_interval_s : minimum time [s] between two plain lines of a bar in log style
+    stream : text stream or None, default None
+        Stream for stages and bars (None: ``sys.stderr``).
+    quiet : bool, default False
+        Print nothing.
+    verbose : bool, default False
+        Also print :meth:`detail` lines.
+    tty : bool or None, default None
+        Force terminal (True) or log (False) style; None: ``stream.isatty()`` (False when the
+        stream has no ``isatty``).
+    log_interval_s : float, default 10.0
+        Minimum time [s] between two plain lines of a bar in log style.
+
+    Attributes
+    ----------
+    stream : text stream
+        The stream written to.
+    quiet, verbose, tty : bool
+        As resolved from the parameters.
+    log_interval_s : float
+        As given [s].
+    compile_noticed : bool
+        Whether :data:`COMPILE_NOTICE` has been printed.
     """
 
     def __init__(self, stream: TextIO | None = None, *, quiet: bool = False, verbose: bool = False,
@@ -134,7 +151,13 @@ class Reporter:
         self._lock = threading.Lock()
 
     def line(self, text: str) -> None:
-        """Print one line (above any bar being drawn)."""
+        """Print one line (above any bar being drawn); nothing when quiet.
+
+        Parameters
+        ----------
+        text : str
+            The line, without a newline.
+        """
         if self.quiet:
             return
         from tqdm import tqdm
@@ -144,16 +167,49 @@ class Reporter:
             self.stream.flush()
 
     def stage(self, text: str) -> None:
-        """Announce a stage of the work: ``rfsim: <text>``."""
+        """Announce a stage of the work: ``rfsim: <text>`` (nothing when quiet).
+
+        Parameters
+        ----------
+        text : str
+            What is starting, e.g. ``"running phase-cancellation (seed 1)"``.
+        """
         self.line(f"rfsim: {text}")
 
     def detail(self, text: str) -> None:
-        """A line shown only with ``verbose``."""
+        """Print ``rfsim: <text>`` only when verbose (and not quiet).
+
+        Parameters
+        ----------
+        text : str
+            The detail.
+        """
         if self.verbose:
             self.line(f"rfsim: {text}")
 
     def bar(self, total: int | None, *, desc: str, unit: str, initial: int = 0):
-        """A tqdm bar of ``total`` steps (``unit`` names them), or a silent stand-in."""
+        """Make a progress bar, or a silent stand-in when quiet.
+
+        On a terminal the bar is redrawn in place (:data:`TTY_FORMAT`, at most every 0.2 s); in
+        log style each update is one plain line (:data:`LOG_FORMAT`, at most one every
+        ``log_interval_s``). Rate and ETA leave out the first step (see the module docstring).
+
+        Parameters
+        ----------
+        total : int or None
+            Number of steps (None: unknown, no percentage or ETA).
+        desc : str
+            Label before the count, e.g. ``"monte carlo"``.
+        unit : str
+            What a step is, e.g. ``"cells"``.
+        initial : int, default 0
+            Steps already done.
+
+        Returns
+        -------
+        tqdm.tqdm or stand-in
+            An object with ``update(n=1)``, ``close()`` and a count ``n``.
+        """
         if self.quiet:
             return _NullBar()
         tqdm = _bar_class()
@@ -166,29 +222,57 @@ class Reporter:
                     leave=True, bar_format=LOG_FORMAT)
 
     def compile_started(self) -> None:
-        """Called on a numba compilation; prints :data:`COMPILE_NOTICE` the first time."""
+        """Tell the reporter that numba started compiling; prints :data:`COMPILE_NOTICE` the first time."""
         if not self.compile_noticed:
             self.compile_noticed = True
             self.stage(COMPILE_NOTICE)
 
 
 def current() -> Reporter | None:
-    """The active reporter, or None."""
+    """The active reporter.
+
+    Returns
+    -------
+    Reporter or None
+        The reporter of the innermost :func:`reporting` block, or None outside any.
+    """
     return _CURRENT.get()
 
 
 def stage(text: str) -> None:
-    """Announce a stage on the active reporter (nothing if none is active)."""
+    """Announce a stage on the active reporter (nothing if none is active).
+
+    Parameters
+    ----------
+    text : str
+        What is starting; printed as ``rfsim: <text>``.
+    """
     rep = _CURRENT.get()
     if rep is not None:
         rep.stage(text)
 
 
 def track(iterable: Iterable[T], *, total: int | None = None, desc: str, unit: str = "trials") -> Iterator[T]:
-    """Iterate over ``iterable``, advancing a bar of ``total`` (default ``len(iterable)``) steps.
+    """Iterate over an iterable, advancing a progress bar of the active reporter.
 
     Without an active reporter this is the plain iteration. Progress is counted when an item
     is yielded, so a pool's ordered ``map`` shows the finished tasks.
+
+    Parameters
+    ----------
+    iterable : iterable
+        The items.
+    total : int or None, default None
+        Number of steps (None: ``len(iterable)`` if it has one, else unknown).
+    desc : str
+        Label of the bar.
+    unit : str, default "trials"
+        What a step is.
+
+    Yields
+    ------
+    object
+        The items of ``iterable``, in order.
     """
     rep = _CURRENT.get()
     if rep is None:
@@ -237,7 +321,21 @@ def _install_compile_listener() -> None:
 
 @contextlib.contextmanager
 def reporting(reporter: Reporter) -> Iterator[Reporter]:
-    """Make ``reporter`` the active one inside the ``with`` block (and watch numba compiles)."""
+    """Make a reporter the active one inside the ``with`` block.
+
+    Also registers (once per process) a numba compile listener, so the active reporter prints
+    :data:`COMPILE_NOTICE` on the first compilation (a cache miss).
+
+    Parameters
+    ----------
+    reporter : Reporter
+        The reporter.
+
+    Yields
+    ------
+    Reporter
+        ``reporter``; the previously active one is restored when the block ends.
+    """
     _install_compile_listener()
     token = _CURRENT.set(reporter)
     try:

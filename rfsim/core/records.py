@@ -206,7 +206,8 @@ def time_stamp_us(t_s) -> np.ndarray:
 def epc_hex(bits) -> str:
     """EPC of a decoded PC + EPC + CRC-16 reply as upper-case hex.
 
-    The 16 PC bits and the 16 CRC bits are dropped (the ACK reply, gen2-and-validation-anchors.md §3.2).
+    The 16 PC bits and the 16 CRC bits are dropped (the ACK reply,
+    gen2-and-validation-anchors.md §3.2).
 
     Parameters
     ----------

@@ -16,14 +16,27 @@ from collections.abc import Iterable
 
 
 class UserError(Exception):
-    """A mistake in user input; ``str(err)`` is a single line for the terminal."""
+    """A mistake in user input; ``str(err)`` is a single line for the terminal.
+
+    Attributes
+    ----------
+    exit_code : int
+        Exit status of the command line, 2.
+    """
 
     exit_code = 2
 
 
 class ResourceError(Exception):
-    """The system, not the user, stopped a command (disk full, I/O error, a killed process);
-    ``str(err)`` is a single line for the terminal, exit status 1."""
+    """The system, not the user, stopped a command (disk full, I/O error, a killed process).
+
+    ``str(err)`` is a single line for the terminal.
+
+    Attributes
+    ----------
+    exit_code : int
+        Exit status of the command line, 1.
+    """
 
     exit_code = 1
 
@@ -100,9 +113,17 @@ class ConfigError(UserError, ValueError):
 
     Parameters
     ----------
-    key : dotted config key, e.g. ``"reader.ptx_dbm"``
-    value : the offending value as given
-    allowed : what would be allowed, in words (``"a number in [0, 36]"``)
+    key : str
+        Dotted config key, e.g. ``"reader.ptx_dbm"``.
+    value : object
+        The offending value as given.
+    allowed : str
+        What would be allowed, in words (``"a number in [0, 36]"``).
+
+    Attributes
+    ----------
+    key, value, allowed
+        As given.
     """
 
     def __init__(self, key: str, value: object, allowed: str):
@@ -114,7 +135,13 @@ class ConfigError(UserError, ValueError):
 
 
 class Terminated(KeyboardInterrupt):
-    """SIGTERM arrived (``kill``, ``timeout``, SLURM ``scancel``); handled like Ctrl-C, exit 143."""
+    """SIGTERM arrived (``kill``, ``timeout``, SLURM ``scancel``); handled like Ctrl-C.
+
+    Attributes
+    ----------
+    exit_code : int
+        Exit status of the command line, 143 (128 + SIGTERM).
+    """
 
     exit_code = 128 + 15
 

@@ -21,7 +21,19 @@ from rfsim.core.procs import map_in_order
 
 @dataclass(frozen=True)
 class MonteCarloConfig:
-    """Monte Carlo size: positions per cell and repetition, repetitions, worker processes."""
+    """Monte Carlo size: positions per cell and repetition, repetitions, worker processes.
+
+    Parameters
+    ----------
+    full : bool, default False
+        Paper size: 300 positions per cell, 3 repetitions (overrides the two below).
+    positions_per_cell : int, default 100
+        Device positions per cell and repetition, in [1, 100000].
+    repetitions : int, default 1
+        Repetitions (new positions and channel draws), in [1, 1000].
+    workers : int, default 2
+        Worker processes in [0, 256] (0 = all cores, 1 = in process).
+    """
 
     full: bool = param(False, doc="paper size: 300 positions per cell, 3 repetitions (overrides the two below)")
     positions_per_cell: int = param(100, lo=1, hi=100000, doc="ST positions per cell and repetition")

@@ -13,7 +13,17 @@ import dataclasses
 
 @dataclasses.dataclass(frozen=True)
 class Reference:
-    """One source document: ``short`` for captions, ``full`` the bibliographic entry."""
+    """One source document.
+
+    Parameters
+    ----------
+    key : str
+        Key of the entry in :data:`REFERENCES`.
+    short : str
+        Short name for figure captions.
+    full : str
+        The bibliographic entry.
+    """
 
     key: str
     short: str

@@ -39,14 +39,24 @@ from rfsim.core.errors import ConfigError
 
 @dataclass(frozen=True, eq=False)
 class Kinematics:
-    """Kinematics on a time array (n samples).
+    """Kinematics on a time array of n samples.
 
     Attributes
     ----------
-    t_s : (n,) s
-    position_m, velocity_mps, acceleration_mps2 : (n, 3) in the fixed frame [m, m/s, m/s²]
-    heading_rad : (n,) direction of the body's y^B axis, unwrapped [rad]
-    rate_rad_s : (n,) dψ/dt [rad/s];  angular_accel_rad_s2 : (n,) d²ψ/dt² [rad/s²]
+    t_s : ndarray, shape (n,)
+        Times [s].
+    position_m : ndarray, shape (n, 3)
+        Position in the fixed frame [m].
+    velocity_mps : ndarray, shape (n, 3)
+        Velocity in the fixed frame [m/s].
+    acceleration_mps2 : ndarray, shape (n, 3)
+        Acceleration in the fixed frame [m/s²].
+    heading_rad : ndarray, shape (n,)
+        Heading ψ, the direction of the body's y^B axis, unwrapped [rad].
+    rate_rad_s : ndarray, shape (n,)
+        Turn rate dψ/dt [rad/s].
+    angular_accel_rad_s2 : ndarray, shape (n,)
+        Angular acceleration d²ψ/dt² [rad/s²].
     """
 
     t_s: np.ndarray
@@ -125,7 +135,35 @@ def trapezoid_profile(t_s, *, travel: float, t_acc_s: float, t_cruise_s: float):
 
 @dataclass(frozen=True)
 class LinearTrapezoid:
-    """1-D positioner: straight-line trapezoid along ``direction`` (module docstring)."""
+    """1-D positioner: straight-line trapezoid along ``direction`` (see the module docstring).
+
+    Calling it on times ``t_s`` [s] gives :class:`Kinematics` (heading: the direction of travel
+    in the x–y plane, constant). Defaults are the seed's positioner (seed 000 L610).
+
+    Parameters
+    ----------
+    start_m : tuple of float, default (1.0, 0.0, 0.0)
+        Start position (x, y, z) [m].
+    direction : tuple of float, default (1.0, 0.0, 0.0)
+        Direction of travel (normalised here; must not be zero).
+    accel_mps2 : float, default 7.35
+        Magnitude of the acceleration and deceleration [m/s²] (0.75 g, L610), > 0.
+    speed_mps : float, default 1.2
+        Cruise speed [m/s] (L610), > 0.
+    cruise_s : float, default 0.355
+        Cruise duration [s] (L610), used when ``preserve = "cruise"``.
+    distance_m : float, default 0.61
+        Travel [m], used when ``preserve = "distance"``; at least v²/a.
+    preserve : {"cruise", "distance"}, default "cruise"
+        Keep the printed cruise duration or the printed distance (erratum 9).
+    t_start_s : float, default 0.0
+        Start of the motion [s].
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        For a value out of range, a zero ``direction`` or a ``distance_m`` shorter than v²/a.
+    """
 
     start_m: tuple[float, float, float] = param((1.0, 0.0, 0.0), unit="m", doc="start position")
     direction: tuple[float, float, float] = param((1.0, 0.0, 0.0), doc="direction of travel (normalised)")
@@ -146,20 +184,24 @@ class LinearTrapezoid:
 
     @property
     def t_acc_s(self) -> float:
+        """Duration of each ramp, t_acc = v/a [s]."""
         return self.speed_mps / self.accel_mps2
 
     @property
     def cruise_time_s(self) -> float:
+        """Cruise duration [s]: ``cruise_s``, or d/v − t_acc when the distance is preserved."""
         if self.preserve == "cruise":
             return self.cruise_s
         return self.distance_m / self.speed_mps - self.t_acc_s
 
     @property
     def travel_m(self) -> float:
+        """Distance travelled, v·(t_acc + t_cruise) [m]."""
         return self.speed_mps * (self.t_acc_s + self.cruise_time_s)
 
     @property
     def duration_s(self) -> float:
+        """Time at which the motion ends, t_start + 2·t_acc + t_cruise [s]."""
         return self.t_start_s + 2 * self.t_acc_s + self.cruise_time_s
 
     def __call__(self, t_s) -> Kinematics:
@@ -174,7 +216,37 @@ class LinearTrapezoid:
 
 @dataclass(frozen=True)
 class RotatingBoom:
-    """2-D rotating boom: the tag on a circle, trapezoidal angle profile (module docstring)."""
+    """2-D rotating boom: the tag on a circle, trapezoidal angle profile (see the module docstring).
+
+    Calling it on times ``t_s`` [s] gives :class:`Kinematics`. Defaults are the seed's boom
+    (seed 000 L997, L1014).
+
+    Parameters
+    ----------
+    centre_m : tuple of float, default (2.0, 1.4948)
+        Circle centre (x, y) [m] (derived, H§3.3).
+    radius_m : float, default 0.31
+        Boom length [m] (L997), > 0.
+    start_angle_rad : float, default π/2
+        Polar angle of the start [rad] (the top of the circle).
+    travel_rad : float, default 2π
+        Stroke angle [rad], > 0.
+    t_acc_s : float, default 0.5
+        Duration of each angular ramp [s] (L1014), > 0.
+    t_cruise_s : float, default 0.2
+        Duration of the cruise [s] (L1014).
+    direction : {"ccw", "cw"}, default "ccw"
+        Sense of rotation (L999: ccw).
+    lag_s : float, default 0.0
+        Delay of the motion [s] in [0, 1] (the actual run: 0.15, L1014).
+    height_m : float, default 0.0
+        Constant z [m].
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        For a value out of range.
+    """
 
     centre_m: tuple[float, float] = param((2.0, 1.4948), unit="m", doc="circle centre (derived, H§3.3)")
     radius_m: float = param(0.31, lo=0.0, lo_open=True, unit="m", doc="boom length (L997)")
@@ -191,6 +263,7 @@ class RotatingBoom:
 
     @property
     def duration_s(self) -> float:
+        """Time at which the motion ends, lag + 2·t_acc + t_cruise [s]."""
         return self.lag_s + 2 * self.t_acc_s + self.t_cruise_s
 
     def __call__(self, t_s) -> Kinematics:

@@ -91,7 +91,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     -------
     int
         The exit status: the command's own (0 on success), 2 for a user error, 1 for a
-        failure of the system, 130 when interrupted, 0 after a closed pipe (``| head``).
+        failure of the system, 130 when interrupted (Ctrl-C), 143 on SIGTERM, 0 after a closed
+        pipe (``| head``).
     """
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)

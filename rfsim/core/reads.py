@@ -237,6 +237,11 @@ def read_columns(*, epc, antenna_port, channel_index, frequency_hz, first_seen_t
         column name → :class:`rfsim.core.dataset.Column`, the quantized variants computed
         here (:func:`quantize_rssi_impinj_dbm`, :func:`quantize_phase_12bit_rad`) and
         ``last_seen_timestamp_us = first_seen_timestamp_us``.
+
+    Raises
+    ------
+    ValueError
+        If ``notes`` names a column outside the schema.
     """
     epc = np.asarray(epc)
     n = epc.shape[0]

@@ -146,8 +146,15 @@ def figure(columns: int = 1, nrows: int = 1, ncols: int = 1, height_in: float | 
 
     Returns
     -------
-    (fig, axes) as :func:`matplotlib.pyplot.subplots` (one Axes or an array of them), laid
-    out by the constrained layout engine.
+    fig : matplotlib.figure.Figure
+        The figure, laid out by the constrained layout engine.
+    axes : matplotlib.axes.Axes or ndarray of Axes
+        As :func:`matplotlib.pyplot.subplots` returns them (one Axes or an array of them).
+
+    Raises
+    ------
+    ValueError
+        If ``columns`` is not 1 or 2.
     """
     if columns not in COLUMN_WIDTH_IN:
         raise ValueError(f"columns must be 1 or 2, not {columns!r}")
@@ -344,8 +351,13 @@ def mask_no_data(ax, x, y, mask, *, label: str = "no data", **style):
 
     Returns
     -------
-    A :class:`matplotlib.patches.Patch` for the legend (label ``label``), or ``None`` when
-    no cell is masked.
+    matplotlib.patches.Patch or None
+        A patch for the legend (label ``label``), or None when no cell is masked.
+
+    Raises
+    ------
+    ValueError
+        If ``mask`` is not of shape (len(y), len(x)).
     """
     from matplotlib.patches import Patch, Rectangle
 

@@ -319,17 +319,18 @@ def along_path(path_xy, speed_mps: float, t_s) -> np.ndarray:
 
     Parameters
     ----------
-    path_xy : (n, 2) m
-        Waypoints; the path is closed when the last equals the first (otherwise the motion
+    path_xy : array_like of float, shape (n, 2)
+        Waypoints [m]; the path is closed when the last equals the first (otherwise the motion
         jumps back to the first waypoint after the last).
-    speed_mps : float, m/s
-    t_s : (...) s
-        Times; the arc length s = speed·t is taken modulo the path's length.
+    speed_mps : float
+        Speed along the path [m/s].
+    t_s : array_like of float
+        Times [s], any shape; the arc length s = speed·t is taken modulo the path's length.
 
     Returns
     -------
-    (..., 2) m
-        Positions, linearly interpolated in arc length between the waypoints.
+    ndarray of float, shape t_s.shape + (2,)
+        Positions [m], linearly interpolated in arc length between the waypoints.
     """
     p = np.asarray(path_xy, float)
     seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
@@ -339,25 +340,29 @@ def along_path(path_xy, speed_mps: float, t_s) -> np.ndarray:
 
 
 def random_walk(rng: np.random.Generator, bounds_m, speed_range_mps, t_s) -> np.ndarray:
-    """Positions of a bouncing random walk in a rectangle (AURIS ch. 4 random track, seed 003
-    L4638-L4648): straight lines at constant speed; at a wall the walker turns into a uniformly
-    random inward direction (±(π/2 − 10⁻³) about the wall's inward normal) with a new speed
-    ~ U[v_min, v_max].
+    """Positions of a bouncing random walk in a rectangle.
+
+    Straight lines at constant speed; at a wall the walker turns into a uniformly random
+    inward direction (±(π/2 − 10⁻³) about the wall's inward normal) with a new speed
+    ~ U[v_min, v_max] (AURIS ch. 4 random track, seed 003 L4638–L4648).
 
     Parameters
     ----------
     rng : numpy.random.Generator
         Draws, in order: the start point (x, y uniform in the rectangle), the first heading
         (uniform in [−π, π)) and speed, then per bounce the new heading and speed.
-    bounds_m : (x0, y0, x1, y1) m
-    speed_range_mps : (v_min, v_max) m/s
-    t_s : (n,) s, ≥ 0
-        Times; the segments (start time, start point, velocity) are drawn first, up to max(t_s).
+    bounds_m : sequence of float, length 4
+        The rectangle (x0, y0, x1, y1) [m].
+    speed_range_mps : sequence of float, length 2
+        (v_min, v_max) [m/s].
+    t_s : array_like of float, shape (n,)
+        Times [s], ≥ 0; the segments (start time, start point, velocity) are drawn first, up
+        to max(t_s).
 
     Returns
     -------
-    (n, 2) m
-        The start of each time's segment plus velocity × elapsed time.
+    ndarray of float, shape (n, 2)
+        Positions [m]: the start of each time's segment plus velocity × elapsed time.
     """
     x0, y0, x1, y1 = bounds_m
     t = np.asarray(t_s, float)

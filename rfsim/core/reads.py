@@ -355,17 +355,19 @@ def reads_table(log: Mapping, fields: Mapping[str, tuple[str, str]], *, true_pos
         Read log (see :func:`log_read_columns`).
     fields : mapping of str to (str, str)
         Column name → (units, description) of the log's extra columns to keep.
-    true_position_m : array_like of float, shape (n, 3), optional
-        Ground-truth tag positions [m]; overrides the log's.
-    true_distance_m : array_like of float, shape (n,), or float, optional
-        Ground-truth distance [m]; overrides the log's.
-    notes : mapping of str to str or None, default None
-        Column → what this dataset adds to the schema's description.
+    true_position_m, true_distance_m, notes : optional
+        As in :func:`log_read_columns` (ground truth [m] that overrides the log's, and the
+        dataset's notes on the schema's descriptions).
 
     Returns
     -------
     dict of str to rfsim.core.dataset.Column
         The table's columns, schema first.
+
+    Raises
+    ------
+    ValueError
+        If ``notes`` names a column outside the schema.
     """
     schema = log_read_columns(log, true_position_m=true_position_m, true_distance_m=true_distance_m, notes=notes)
     return {**schema, **{k: _dataset.column(np.asarray(log[k]), *fields[k]) for k in fields

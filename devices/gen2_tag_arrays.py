@@ -126,7 +126,8 @@ class StateArrays:
         Parameters
         ----------
         index : iterable of int
-            Rows (tag indices) to read, also whether each follows the arrays' clock.
+            Rows (tag indices) to read: their columns, and whether each tag's time and slot
+            counter follow the arrays' clock.
         """
         index = list(index)
         if not index:

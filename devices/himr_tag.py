@@ -219,7 +219,8 @@ class HimrTag:
         t_end_s : float
             End of the schedule [s] (exclusive).
         rng : numpy.random.Generator
-            Keyword-only: generator of the jitter (drawn even when σ_j = 0).
+            Keyword-only: generator of the jitter (drawn even when σ_j = 0; nothing is drawn
+            when ``t_end_s`` ≤ ``start_s``).
 
         Returns
         -------

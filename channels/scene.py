@@ -58,16 +58,29 @@ class Scene:
 
     Parameters
     ----------
-    surfaces : sequence of :class:`~rfsim.channels.surfaces.Surface` (specular reflectors)
-    walls : sequence of :class:`~rfsim.channels.large_scale.Wall` (WAF loss on the LoS)
-    large_scale : object with ``amplitude_gain(distance_m, fc_hz)`` (e.g.
+    surfaces : sequence of rfsim.channels.surfaces.Surface
+        Specular reflectors; default none.
+    walls : sequence of rfsim.channels.large_scale.Wall
+        Walls whose WAF loss applies on the LoS; default none.
+    large_scale : object or None
+        A model with ``amplitude_gain(distance_m, fc_hz)`` (e.g.
         :class:`~rfsim.channels.large_scale.LogDistance`), one for every link; or a
         :class:`~rfsim.channels.large_scale.LinkLargeScale` (a model per antenna pair or per
-        antenna, e.g. per reader); or None for Friis free space
-    apdp : :class:`~rfsim.channels.small_scale.ApdpModel` or None (no diffuse taps)
-    shadowing : :class:`~rfsim.channels.large_scale.ShadowingField` or None
-    image_order : maximum reflection order of the image paths (0: none)
-    reciprocal : the link a → b equals b → a (one held diffuse draw per unordered pair)
+        antenna, e.g. per reader); default None, Friis free space.
+    apdp : rfsim.channels.small_scale.ApdpModel or None
+        Diffuse taps; default None, none.
+    shadowing : rfsim.channels.large_scale.ShadowingField or None
+        Shadowing field; default None.
+    image_order : int
+        Maximum reflection order of the image paths (0: none), default 1.
+    reciprocal : bool
+        The link a → b equals b → a (one held diffuse draw per unordered pair), default True.
+
+    Raises
+    ------
+    ConfigError
+        ``channel.image_order`` unless a non-negative integer; ``channel.large_scale`` for a
+        model without ``amplitude_gain``.
     """
 
     surfaces: tuple = ()
@@ -88,6 +101,8 @@ class Scene:
 
     def amplitude_gain(self, distance_m, fc_hz):
         """Large-scale amplitude gain at ``distance_m`` (Friis when ``large_scale`` is None).
+
+        Friis: :math:`\\lambda / (4 \\pi d)` (:func:`rfsim.channels.large_scale.friis_amplitude_gain`).
 
         Parameters
         ----------
@@ -216,15 +231,31 @@ class Channel:
 
         Parameters
         ----------
-        tx, rx : antennas (their ``position_m`` is the position at t = 0 for a velocity motion)
-        fc_hz : carrier frequency [Hz]
-        rng : draw the diffuse taps anew (and hold them); None reuses the held draw
-        t_s : evaluation time [s]; Doppler phases of the result refer to this time
-        tx_motion, rx_motion : None, (3,) velocity [m/s] or trajectory ``t → position``
+        tx, rx : Antenna
+            The link's ends (their ``position_m`` is the position at t = 0 for a velocity
+            motion).
+        fc_hz : float
+            Keyword-only: carrier frequency [Hz].
+        rng : numpy.random.Generator or None, optional
+            Keyword-only: draw the diffuse taps anew (and hold them); default None reuses the
+            held draw.
+        t_s : float, optional
+            Keyword-only: evaluation time [s], default 0.0; Doppler phases of the result refer
+            to this time.
+        tx_motion, rx_motion : None, array_like or callable, optional
+            Keyword-only: None (static, default), a (3,) velocity [m/s] or a trajectory
+            ``t → position``.
 
         Returns
         -------
-        :class:`PathSet` — LoS first, then image paths, then diffuse taps.
+        PathSet
+            LoS first, then image paths, then diffuse taps.
+
+        Raises
+        ------
+        ValueError
+            When the scene has diffuse taps, no ``rng`` is given and no draw is held for the
+            link.
         """
         sc = self.scene
         key = self._key(tx, rx)  # the antennas as given (before motion) name the link
@@ -451,13 +482,15 @@ class HeldLinks:
     """Links already drawn, by antenna pair: the channel side (``Links``) of an air step
     (:func:`rfsim.air.step.propagate`) over a held channel state.
 
-    Parameters
-    ----------
-    pairs : iterable of ``(tx_antenna, rx_antenna, paths)``; ``paths`` is a
-        :class:`~rfsim.channels.paths.PathSet` or a batched link (:class:`rfsim.channels.bulk.BatchLink`)
-
     :meth:`paths` returns the link of a pair (matched by antenna identity, whatever the carrier
     and time: the draw is held), or None for a pair it does not hold.
+
+    Parameters
+    ----------
+    pairs : iterable of tuple, optional
+        ``(tx_antenna, rx_antenna, paths)``; ``paths`` is a
+        :class:`~rfsim.channels.paths.PathSet` or a batched link
+        (:class:`rfsim.channels.bulk.BatchLink`). Default empty.
     """
 
     def __init__(self, pairs=()):
@@ -490,23 +523,37 @@ def los_links(tx_positions_m, rx_positions_m, fc_hz, *, large_scale=None, walls=
               rx_antenna=None, tx_velocity_m_s=None, rx_velocity_m_s=None):
     """Vectorised LoS responses of many links at once.
 
+    Amplitude gain :math:`g_{ls}(d) \\cdot 10^{-L_{walls}/20} \\sqrt{G_{tx} G_{rx} \\, p}`
+    (p the polarization mismatch factor, when both antennas are given), delay d/c and Doppler
+    :math:`f_D = -(f_c/c)\\, \\hat u \\cdot (v_{rx} - v_{tx})`.
+
     Parameters
     ----------
-    tx_positions_m, rx_positions_m : (..., 3) float [m], broadcastable
-    fc_hz : carrier frequency [Hz] (scalar or broadcastable)
-    large_scale : model with ``amplitude_gain(d, fc)`` or None (Friis)
-    walls : sequence of :class:`~rfsim.channels.large_scale.Wall`
-    tx_antenna, rx_antenna : optional :class:`~rfsim.channels.antennas.Antenna` templates whose
-        orientation, pattern and polarization apply at every position (their own position is
-        ignored); None means isotropic, matched polarization
-    tx_velocity_m_s, rx_velocity_m_s : optional (..., 3) velocities [m/s]
+    tx_positions_m, rx_positions_m : array_like of float, shape (..., 3)
+        Positions [m], broadcastable.
+    fc_hz : float or array_like of float
+        Carrier frequency [Hz] (scalar or broadcastable).
+    large_scale : object or None, optional
+        Keyword-only: model with ``amplitude_gain(d, fc)``; default None (Friis).
+    walls : sequence of rfsim.channels.large_scale.Wall, optional
+        Keyword-only: walls on the LoS; default none.
+    tx_antenna, rx_antenna : rfsim.channels.antennas.Antenna or None, optional
+        Keyword-only: templates whose orientation, pattern and polarization apply at every
+        position (their own position is ignored); default None, isotropic, matched
+        polarization.
+    tx_velocity_m_s, rx_velocity_m_s : array_like of float, shape (..., 3), or None, optional
+        Keyword-only: velocities [m/s]; default None, at rest.
 
     Returns
     -------
-    gain : (...) complex128, LoS amplitude gains (carrier phase excluded, as in :class:`PathSet`)
-    delay_s : (...) float64 [s]
-    doppler_hz : (...) float64 [Hz]
+    gain : ndarray of complex128, shape (...)
+        LoS amplitude gains (carrier phase excluded, as in :class:`PathSet`).
+    delay_s : ndarray of float64, shape (...)
+        Delays [s].
+    doppler_hz : ndarray of float64, shape (...)
+        Doppler shifts [Hz].
     """
+
     tx = np.asarray(tx_positions_m, dtype=float)
     rx = np.asarray(rx_positions_m, dtype=float)
     diff = rx - tx

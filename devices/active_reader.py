@@ -84,11 +84,24 @@ class ActiveReaderConfig:
 class BeaconRead:
     """One frame the reader found in a segment.
 
-    t_s : time of the frame's first sample [s]; tag_id, seq : decoded fields; crc_ok : the
-    CRC-16 holds; rssi_dbm : measured power over the frame [dBm]; rssi_reported_dbm : what the
-    reader reports (quantized; NaN when the CRC fails or below the floor); correlation : ρ of
-    the synchronisation; violations : Manchester code violations in the payload.
+    Attributes
+    ----------
+    t_s : float
+        Time of the frame's first sample [s].
+    tag_id, seq : int
+        Decoded tag ID and sequence number.
+    crc_ok : bool
+        The CRC-16 holds.
+    rssi_dbm : float
+        Measured power over the frame [dBm].
+    rssi_reported_dbm : float
+        What the reader reports [dBm] (quantized; NaN when the CRC fails or below the floor).
+    correlation : float
+        Normalised correlation ρ of the synchronisation [1].
+    violations : int
+        Manchester code violations in the payload.
     """
+
 
     t_s: float
     tag_id: int
@@ -120,7 +133,21 @@ class ActiveReader:
     Parameters
     ----------
     config : ActiveReaderConfig
-    antenna : its antenna (``rfsim.channels.Antenna``)
+        Receiver settings (carrier, sample rate, channel filter, noise figure, RSSI report).
+    antenna : rfsim.channels.Antenna
+        The reader's antenna.
+
+    Attributes
+    ----------
+    fc_hz : float
+        Receive carrier [Hz].
+    noise_power_w : float
+        Noise power per complex sample at ``fs_hz`` [W]: :math:`k T_0 f_s F`.
+
+    Raises
+    ------
+    TypeError
+        When ``config`` is not an :class:`ActiveReaderConfig`.
     """
 
     def __init__(self, config: ActiveReaderConfig, antenna):
@@ -132,11 +159,49 @@ class ActiveReader:
         self.noise_power_w = float(thermal_noise_power_w(config.fs_hz, config.noise_figure_db))
 
     def channel_filter(self, y: np.ndarray) -> np.ndarray:
-        """Step 1: the zero-delay FIR channel filter of ``y`` (n,)."""
+        """Apply step 1, the zero-delay FIR channel filter, to ``y``.
+
+        The filter is a linear-phase low-pass of ``FILTER_TAPS`` taps (Hamming window, cut-off
+        B/2 for the two-sided bandwidth B), convolved in ``"same"`` mode so that its odd, centred
+        impulse response adds no delay.
+
+        Parameters
+        ----------
+        y : ndarray of complex, shape (n_samples,)
+            Complex baseband samples at ``fs_hz`` [√W].
+
+        Returns
+        -------
+        ndarray of complex, shape (n_samples,)
+            The filtered samples [√W].
+        """
         return np.convolve(y, _filter_taps(self.config.fs_hz, self.config.bandwidth_hz), mode="same")
 
     def receive(self, input) -> list[BeaconRead]:
-        """Every frame found in the air step's segment ``input`` (module docstring)."""
+        """Find and decode every beacon frame in one air-step segment.
+
+        Runs the receive chain of the module docstring: channel filter, FM discriminator,
+        normalised preamble correlation, chip decisions, Manchester/CRC decoding and RSSI.
+
+        Parameters
+        ----------
+        input : rfsim.air.segment.Segment
+            The segment at the antenna port (``samples`` shape (n_samples,) [√W], noise
+            included; ``fs_hz`` must equal the configured sample rate; ``t0_s`` its start [s]).
+
+        Returns
+        -------
+        list of BeaconRead
+            The frames found (at most ``MAX_FRAMES``), sorted by start time; empty when the
+            segment is shorter than one frame or no correlation peak reaches
+            ``sync_threshold``.
+
+        Raises
+        ------
+        ConfigError
+            When the segment's sample rate differs from ``fs_hz`` or it has batch dimensions.
+        """
+
         cfg = self.config
         if input.fs_hz != cfg.fs_hz:
             raise ConfigError("active_reader.fs_hz", cfg.fs_hz, f"the air step's sample rate {input.fs_hz:g} Hz")

@@ -67,8 +67,27 @@ class ActiveTag:
     Parameters
     ----------
     config : ActiveTagConfig
-    antenna : the antenna it radiates from (``rfsim.channels.Antenna``)
-    rng : generator (keyword-only) of the schedule jitter and the oscillator phases
+        Tag settings (ID, carrier, power, chip rate, schedule, listen-before-talk).
+    antenna : rfsim.channels.Antenna
+        The antenna it radiates from.
+    rng : numpy.random.Generator
+        Keyword-only: generator of the schedule jitter and the oscillator phases.
+
+    Attributes
+    ----------
+    fc_hz : float
+        Transmit carrier [Hz].
+    amplitude : float
+        :math:`\\sqrt{P}` of the conducted transmit power P [√W].
+    bursts : list of tuple
+        Decided bursts ``(start time [s], sequence number, oscillator phase [rad])``.
+    seq : int
+        Sequence number of the next beacon (modulo 256; a scenario may set it).
+
+    Raises
+    ------
+    TypeError
+        When ``config`` is not an :class:`ActiveTagConfig`.
     """
 
     def __init__(self, config: ActiveTagConfig, antenna, *, rng: np.random.Generator):
@@ -88,7 +107,19 @@ class ActiveTag:
         return self.config.burst_s
 
     def chips(self, seq: int) -> np.ndarray:
-        """Manchester chips of beacon ``seq`` (remembered per sequence number)."""
+        """Return the Manchester chips of beacon ``seq`` (remembered per sequence number).
+
+        Parameters
+        ----------
+        seq : int
+            Sequence number (taken modulo 256).
+
+        Returns
+        -------
+        ndarray of int, shape (n_chips,)
+            The ±1 chips of the beacon's payload, as :func:`rfsim.devices.msk_beacon.manchester_encode`
+            gives them for :func:`~rfsim.devices.msk_beacon.beacon_bits`.
+        """
         seq %= 256
         c = self._chips.get(seq)
         if c is None:
@@ -96,20 +127,53 @@ class ActiveTag:
         return c
 
     def due_times(self, t0_s: float, t1_s: float, offset_s: float = 0.0) -> np.ndarray:
-        """Due times [s] of the beacons ``offset + n·period`` in [t0, t1), each jittered."""
+        """Draw the due times of the beacons in a time window.
+
+        Beacon n is due at :math:`t_n = \\mathrm{offset} + n T + U(-J, J)` for every n with
+        :math:`t_0 \\le \\mathrm{offset} + n T < t_1` (T the period, J the jitter; the jitter is
+        drawn from the tag's ``rng``, none when J = 0).
+
+        Parameters
+        ----------
+        t0_s, t1_s : float
+            Window [t0, t1) of the nominal (unjittered) times [s].
+        offset_s : float, optional
+            Schedule offset [s], default 0.0.
+
+        Returns
+        -------
+        ndarray of float, shape (n_beacons,)
+            The jittered due times [s].
+        """
         p = self.config.period_s
         n = np.arange(math.ceil((t0_s - offset_s) / p - 1e-12), math.ceil((t1_s - offset_s) / p - 1e-12))
         j = self.config.jitter_s
         return offset_s + n * p + (self.rng.uniform(-j, j, n.size) if j > 0 else 0.0)
 
     def next_seq(self) -> int:
-        """The sequence number of the next beacon (advances the counter)."""
+        """Take the sequence number of the next beacon and advance the counter.
+
+        Returns
+        -------
+        int
+            The sequence number, 0 ≤ seq < 256.
+        """
         s = self.seq % 256
         self.seq = (s + 1) % 256
         return s
 
     def send(self, t_s: float, seq: int) -> None:
-        """Decide a beacon at ``t_s`` [s] (after listen-before-talk)."""
+        """Decide a beacon at ``t_s`` (after listen-before-talk).
+
+        Appends a burst with a fresh oscillator phase θ ~ U[0, 2π) to :attr:`bursts`.
+
+        Parameters
+        ----------
+        t_s : float
+            Start time of the beacon [s].
+        seq : int
+            Its sequence number.
+        """
         self.bursts.append((float(t_s), int(seq), float(self.rng.uniform(0.0, 2.0 * math.pi))))
 
     def clear(self) -> None:
@@ -117,7 +181,27 @@ class ActiveTag:
         self.bursts.clear()
 
     def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> Segment | None:
-        """The tag's segment on ``(t0_s, fs_hz, n_samples)``; None when no burst overlaps it."""
+        """Emit the tag's segment on a time base.
+
+        The samples are :math:`\\sqrt{P} e^{j(\\varphi(t) + \\theta)}` of every decided burst
+        overlapping the window, at its exact (sub-sample) start time, zero elsewhere.
+
+        Parameters
+        ----------
+        t0_s : float
+            Start time of the segment [s] (keyword-only, like the others).
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        rfsim.air.segment.Segment or None
+            The segment on the tag's carrier (samples shape (n_samples,) [√W]); None when no
+            burst overlaps the window.
+        """
+
         n = int(n_samples)
         t1 = t0_s + n / fs_hz
         x = None

@@ -70,6 +70,18 @@ def peak_gain_lin(antenna, *, step_deg: float = 1.0) -> float:
     included), so a pattern whose peak lies on an axis (patch, dipole) is exact; the local
     frame makes it independent of the antenna's orientation. Remembered per hashable pattern
     (:func:`functools.lru_cache`).
+
+    Parameters
+    ----------
+    antenna : rfsim.channels.Antenna
+        The antenna; its ``pattern.gain(az_rad, el_rad)`` gives the power gain.
+    step_deg : float, optional
+        Keyword-only: grid step in azimuth and elevation [deg], default 1.0.
+
+    Returns
+    -------
+    float
+        The largest power gain on the grid [linear, 1].
     """
     pattern = antenna.pattern
     try:
@@ -92,9 +104,28 @@ class Exciter:
     Parameters
     ----------
     config : ExciterConfig
-    antenna : the antenna it radiates from (``rfsim.channels.Antenna``: position, orientation,
-        pattern; its pattern's peak gain converts the EIRP to the conducted power)
-    rng : generator of the phase noise (keyword-only; needed when ``linewidth_hz > 0``)
+        Carrier, EIRP, linewidth and on/off schedule.
+    antenna : rfsim.channels.Antenna
+        The antenna it radiates from (position, orientation, pattern); its pattern's peak gain
+        converts the EIRP to the conducted power, :math:`P = \\mathrm{EIRP} / G_{peak}` (an
+        antenna without a pattern counts as G_peak = 1).
+    rng : numpy.random.Generator or None, optional
+        Keyword-only: generator of the phase noise, needed when ``linewidth_hz > 0``; default
+        None.
+
+    Attributes
+    ----------
+    fc_hz : float
+        Carrier [Hz].
+    power_w : float
+        Conducted CW power at the antenna port [W].
+
+    Raises
+    ------
+    TypeError
+        When ``config`` is not an :class:`ExciterConfig`.
+    ConfigError
+        ``exciter.linewidth_hz`` when a linewidth is set without an ``rng``.
     """
 
     def __init__(self, config: ExciterConfig, antenna, *, rng: np.random.Generator | None = None):
@@ -110,7 +141,22 @@ class Exciter:
         self._phase = (None, 0.0)  # (time just after the last emitted sample [s], phase [rad])
 
     def is_on(self, t_s) -> np.ndarray:
-        """u(t): the schedule at times ``t_s`` [s] (bool array)."""
+        """Evaluate the on/off schedule u(t) at given times.
+
+        With switching times :math:`t_0 < t_1 < \\dots` the exciter is on in
+        :math:`[t_0, t_1), [t_2, t_3), \\dots` (and from the last time on when their count is
+        odd); always on when the schedule is empty.
+
+        Parameters
+        ----------
+        t_s : float or array_like of float
+            Times [s], any shape.
+
+        Returns
+        -------
+        ndarray of bool
+            u(t), the shape of ``t_s``: True where the exciter is on.
+        """
         t = np.asarray(t_s, dtype=float)
         sw = self.config.schedule_s
         if not sw:
@@ -118,7 +164,28 @@ class Exciter:
         return np.searchsorted(np.asarray(sw), t, side="right") % 2 == 1
 
     def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> _air.Segment | None:
-        """The exciter's segment on the given time base (None when it is off throughout)."""
+        """Emit the exciter's segment on a time base.
+
+        The samples are :math:`x[n] = \\sqrt{P}\\, u(t_n)\\, e^{j\\varphi[n]}` (module
+        docstring); the phase noise advances the exciter's phase state, carried across
+        segments.
+
+        Parameters
+        ----------
+        t0_s : float
+            Keyword-only (like the others): time of the first sample [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        rfsim.air.segment.Segment or None
+            The segment on the exciter's carrier (samples shape (n_samples,) [√W]); None when
+            the exciter is off throughout.
+        """
+
         n = int(n_samples)
         t = float(t0_s) + np.arange(n) / float(fs_hz)
         on = self.is_on(t)

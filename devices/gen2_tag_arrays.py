@@ -21,10 +21,12 @@ _COLUMNS = ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s"
 
 
 def silent_step(cmd, code, session, slot):
-    """The silent steps of a powered tag, for one tag (ints) or many (arrays of the columns of
-    :class:`StateArrays`): ``(silent, decrement)``, whether ``cmd`` is a step without a reply
-    and without a random draw, and whether it decrements the slot counter. The one definition
-    of these rules, read by :meth:`TagState.on_command_if_silent` and :meth:`StateArrays.silent_steps`.
+    """Decide the silent steps of powered tags: no reply, no random draw.
+
+    For one tag (ints) or many (arrays of the columns of :class:`StateArrays`): whether ``cmd``
+    is a step without a reply and without a random draw, and whether it decrements the slot
+    counter. The one definition of these rules, read by :meth:`TagState.on_command_if_silent`
+    and :meth:`StateArrays.silent_steps` (EPC Gen2 "Tag states and slot counter"):
 
     * a QueryRep or QueryAdjust of another session than the tag's round (``session`` −1: no
       round) is ignored;
@@ -32,8 +34,26 @@ def silent_step(cmd, code, session, slot):
       (``slot`` −1: none) to (slot − 1) mod 2^15, silently unless that is 0 (the tag replies);
     * an ACK or NAK in Ready or Arbitrate is ignored.
 
-    ``code`` is the index of the state in :data:`STATES`. Written with operators that mean the
-    same on Python ints and bools and on NumPy arrays (``==``, ``&``, ``|``; no ``~``).
+    Written with operators that mean the same on Python ints and bools and on NumPy arrays
+    (``==``, ``&``, ``|``; no ``~``).
+
+    Parameters
+    ----------
+    cmd : rfsim.gen2.commands command
+        The received command (QueryRep, QueryAdjust, ACK, NAK or any other: never silent).
+    code : int or ndarray of int, shape (n_tags,)
+        Index of the tag's state in :data:`STATES`.
+    session : int or ndarray of int, shape (n_tags,)
+        Session of the tag's round, −1 for no round.
+    slot : int or ndarray of int, shape (n_tags,)
+        Slot counter, −1 for none.
+
+    Returns
+    -------
+    silent : bool or ndarray of bool, shape (n_tags,)
+        The command is a silent step for the tag.
+    decrement : bool or ndarray of bool, shape (n_tags,)
+        The step decrements the slot counter (only where ``silent``).
     """
     kind = type(cmd)
     if kind is QueryRep:
@@ -67,7 +87,22 @@ class StateArrays:
     the slot counters of the tags whose last step was a QueryRep's decrement
     (``counting``: ``clock.decrements``). A tag's own step (``on_command`` …) sets its time
     and counter, which ends its following; :meth:`read` notes it.
+
+    Parameters
+    ----------
+    states : iterable of TagState
+        The tags, one row each, in this order.
+
+    Attributes
+    ----------
+    states : list of TagState
+        The tags.
+    clock : SharedClock
+        The clock the silently stepping tags follow.
+    following, counting : ndarray of bool, shape (n_tags,)
+        Tags whose time / slot counter follows ``clock``.
     """
+
 
     def __init__(self, states):
         self.states = list(states)
@@ -86,7 +121,14 @@ class StateArrays:
         self.read(range(n))
 
     def read(self, index) -> None:
-        """Copy the rows ``index`` (a sequence of ints) from their :class:`TagState` objects."""
+        """Copy rows from their :class:`TagState` objects.
+
+        Parameters
+        ----------
+        index : iterable of int
+            Rows (tag indices) to read: their columns, and whether each tag's time and slot
+            counter follow the arrays' clock.
+        """
         index = list(index)
         if not index:
             return
@@ -108,21 +150,53 @@ class StateArrays:
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(silent, decrement): which of the ``candidates`` (bool mask of powered tags) take a
-        silent step for ``cmd`` received at ``t_s`` [s], and which of those decrement their
-        slot counter (a QueryRep in Arbitrate of the round's session). The rules of
-        :meth:`TagState.on_command_if_silent`; a tag whose clock is past ``t_s`` is left to
-        ``on_command`` (it raises)."""
+        """Decide which tags take a silent step for a command (:func:`silent_step`).
+
+        The rules of :meth:`TagState.on_command_if_silent` for every row at once; a tag whose
+        clock is past ``t_s`` is left to ``on_command`` (it raises).
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            The received command.
+        candidates : ndarray of bool, shape (n_tags,)
+            Tags to consider (only powered ones can step).
+        t_s : float
+            Time the command is received [s].
+
+        Returns
+        -------
+        silent : ndarray of bool, shape (n_tags,)
+            Candidates that take a silent step.
+        decrement : ndarray of bool, shape (n_tags,)
+            Those of them that decrement their slot counter (a QueryRep in Arbitrate of the
+            round's session).
+        """
         ok = candidates & self.powered & (self.t_s <= t_s)
         silent, dec = silent_step(cmd, self.code, self.session, self.slot)
         return ok & silent, ok & dec
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
-        """Which of the ``candidates`` (bool mask) load a new slot counter on ``cmd``, a
-        QueryAdjust received at ``t_s`` [s]: powered tags in Arbitrate or Reply of the
-        command's session (``TagState._query_adjust``) whose clock is not past ``t_s`` and
-        whose S1 flag is not due to revert (those are left to ``on_command``). All False for
-        other commands."""
+        """Decide which tags load a new slot counter on a QueryAdjust.
+
+        Those are the powered tags in Arbitrate or Reply of the command's session
+        (``TagState._query_adjust``) whose clock is not past ``t_s`` and whose S1 flag is not
+        due to revert (those are left to ``on_command``).
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            The received command; any other than a QueryAdjust redraws nothing.
+        candidates : ndarray of bool, shape (n_tags,)
+            Tags to consider.
+        t_s : float
+            Time the command is received [s].
+
+        Returns
+        -------
+        ndarray of bool, shape (n_tags,)
+            Tags that redraw their counter; all False when ``cmd`` is not a QueryAdjust.
+        """
         if type(cmd) is not QueryAdjust:
             return np.zeros(len(self.states), bool)
         t_s = float(t_s)
@@ -131,11 +205,29 @@ class StateArrays:
         return ok & in_round
 
     def take_redraw_steps(self, cmd, index: list, rngs: list, t_s: float) -> list:
-        """Apply the QueryAdjust ``cmd`` at ``t_s`` [s] to the rows ``index`` (from
-        :meth:`redraw_steps`), tag ``index[k]`` drawing from its own generator ``rngs[k]``:
-        its clock advances to ``t_s``, Q ← min(15, max(0, Q + UpDn)), and it loads its slot
-        counter and replies when it is 0 (``TagState._load_slot``: the same draws in the same
-        order as ``on_command``). Returns ``[(row, Reply)]`` of the tags that reply."""
+        """Apply a QueryAdjust to the tags that redraw their slot counter.
+
+        Each tag's clock advances to ``t_s``, :math:`Q \\leftarrow \\min(15, \\max(0, Q +
+        \\mathrm{UpDn}))`, and it loads a slot counter uniform in [0, 2^Q − 1] and replies with
+        an RN16 when it is 0 (``TagState._load_slot``: the same draws in the same order as
+        ``on_command``). Rows and :class:`TagState` objects are both updated.
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands.QueryAdjust
+            The command.
+        index : list of int
+            Rows that redraw (from :meth:`redraw_steps`).
+        rngs : list of numpy.random.Generator
+            The tags' own generators, ``rngs[k]`` for tag ``index[k]``.
+        t_s : float
+            Time the command is received [s].
+
+        Returns
+        -------
+        list of tuple (int, Reply)
+            ``(row, reply)`` of the tags whose new counter is 0, each an RN16 reply.
+        """
         if not index:
             return []
         t_s = float(t_s)
@@ -178,10 +270,30 @@ class StateArrays:
         return out
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
-        """Apply the silent steps of :meth:`silent_steps` at ``t_s`` [s]: each tag's clock
-        advances to ``t_s`` and a decrementing tag's slot counter goes to (slot − 1) mod 2^15.
-        A tag whose S1 flag is due to revert takes the step through
-        :meth:`TagState.on_command_if_silent` itself (and its row is read back)."""
+        """Apply the silent steps decided by :meth:`silent_steps`.
+
+        Each tag's clock advances to ``t_s`` and a decrementing tag's slot counter goes to
+        (slot − 1) mod 2^15, through the shared clock. A tag whose S1 flag is due to revert
+        takes the step through :meth:`TagState.on_command_if_silent` itself (and its row is
+        read back).
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            The command received.
+        silent : ndarray of bool, shape (n_tags,)
+            Tags that take a silent step.
+        decrement : ndarray of bool, shape (n_tags,)
+            Those of them that decrement their slot counter.
+        t_s : float
+            Time the command is received [s].
+
+        Raises
+        ------
+        RuntimeError
+            When a tag refuses a step decided silent (the rules disagree; a bug).
+        """
+
         t_s = float(t_s)
         due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
         if np.count_nonzero(due):

@@ -74,26 +74,42 @@ class TagState:
     ----------
     epc : (n,) uint8 bits or hex string
         EPC, a multiple of 16 bits (≤ 496).
-    tid : bits or hex string, default :data:`DEFAULT_TID_HEX`
-    user : bits or hex string, default empty (no User memory)
+    tid : (n,) uint8 bits or hex string, optional
+        TID bank, whole 16-bit words; default :data:`DEFAULT_TID_HEX`.
+    user : (n,) uint8 bits or hex string, optional
+        User bank, whole 16-bit words; default empty (no User memory).
     kill_password, access_password : int
-        32-bit passwords (Reserved bank). Req_RN moves an acknowledged tag to Secured when
-        the access password is 0, else to Open.
+        32-bit passwords (Reserved bank), default 0. Req_RN moves an acknowledged tag to
+        Secured when the access password is 0, else to Open.
     persistence : FlagPersistence
+        Flag persistence times, default ``FlagPersistence()``.
     powered : bool
-        Initial power state (at time ``t0_s``).
+        Initial power state (at time ``t0_s``), default True.
     t0_s : float
-        Time of the initial state [s].
+        Time of the initial state [s], default 0.0.
 
     Attributes
     ----------
-    state : str, one of :data:`STATES`
-    inventoried : dict {0..3: "A" | "B"}
+    state : str
+        One of :data:`STATES`.
+    inventoried : dict of int to str
+        Inventoried flag ``"A"`` or ``"B"`` of each session 0–3.
     sl : bool
+        The SL flag.
     q, slot, rn16, handle : int or None
-    session : int or None — session of the current inventory round
-    last_query : Query or None — link parameters (DR, M, TRext) of the reply
-    t_s : time of the state [s] (its last command or power event)
+        Q, slot counter, last RN16 and access handle.
+    session : int or None
+        Session of the current inventory round.
+    last_query : Query or None
+        Link parameters (DR, M, TRext) of the reply.
+    t_s : float
+        Time of the state [s] (its last command or power event).
+
+    Raises
+    ------
+    ValueError
+        When TID or User are not whole 16-bit words, a password is not a 32-bit value, or the
+        EPC length is invalid (:func:`pc_word`).
     """
 
     def __init__(self, epc, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
@@ -139,7 +155,26 @@ class TagState:
         return np.concatenate([int_to_bits(self.pc, 16), self.epc])
 
     def bank_bits(self, membank: int) -> np.ndarray:
-        """Bits of a memory bank (0 Reserved, 1 EPC, 2 TID, 3 User), bit address 0 first."""
+        """Return the bits of a memory bank, bit address 0 first.
+
+        Reserved = kill password | access password; EPC = StoredCRC | PC | EPC (EPC Gen2
+        "Tag memory").
+
+        Parameters
+        ----------
+        membank : int
+            0 Reserved, 1 EPC, 2 TID, 3 User.
+
+        Returns
+        -------
+        ndarray of uint8, shape (n_bits,)
+            The bank's bits (0/1).
+
+        Raises
+        ------
+        ValueError
+            When ``membank`` is not 0–3.
+        """
         if membank == 0:
             return np.concatenate([int_to_bits(self.kill_password, 32), int_to_bits(self.access_password, 32)])
         if membank == 1:
@@ -163,8 +198,14 @@ class TagState:
         self._t_s = value
 
     def follow(self, clock: SharedClock | None) -> None:
-        """Let the state's time be ``clock.t_s`` until it is set (None: keep the current
-        time as the state's own)."""
+        """Let the state's time follow a shared clock until it is set.
+
+        Parameters
+        ----------
+        clock : SharedClock or None
+            The clock whose ``t_s`` becomes the state's time; None keeps the current time as
+            the state's own.
+        """
         if clock is None:
             self.t_s = self.t_s
         else:
@@ -183,8 +224,14 @@ class TagState:
         self._slot = value
 
     def follow_decrements(self, clock: SharedClock | None) -> None:
-        """Let the slot counter count down with ``clock.decrements`` from now on, from its
-        current value, until it is set (None: keep the current value as the tag's own)."""
+        """Let the slot counter count down with a shared clock until it is set.
+
+        Parameters
+        ----------
+        clock : SharedClock or None
+            The clock whose ``decrements`` count the counter down from its current value;
+            None keeps the current value as the tag's own.
+        """
         slot = self.slot
         if clock is None:
             self.slot = slot
@@ -210,7 +257,20 @@ class TagState:
 
         Power loss: state → Ready, round state cleared, S0 → A. Power-up after an outage of
         duration d: S2/S3 → A and SL deasserted when d exceeds their persistence time; S1
-        decays by its own timer regardless of power.
+        decays by its own timer regardless of power (EPC Gen2 "Sessions and inventoried
+        flags"). Nothing changes when the power state is the same.
+
+        Parameters
+        ----------
+        powered : bool
+            The new power state.
+        t_s : float
+            Time of the event [s].
+
+        Raises
+        ------
+        ValueError
+            When ``t_s`` is before the state's time.
         """
         self._advance(t_s)
         powered = bool(powered)
@@ -242,8 +302,29 @@ class TagState:
     def on_command(self, cmd, *, t_s: float, rng: np.random.Generator) -> Reply | None:
         """Apply one reader command received at time ``t_s`` [s]; return the tag's reply.
 
-        ``rng`` is the tag's own generator (slot counters, RN16s, handles). An unpowered
-        tag ignores every command (returns ``None``).
+        An unpowered tag ignores every command. The rules are those of the module docstring
+        (EPC Gen2 command sections).
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read or Select.
+        t_s : float
+            Keyword-only: time the command is received [s].
+        rng : numpy.random.Generator
+            Keyword-only: the tag's own generator (slot counters, RN16s, handles).
+
+        Returns
+        -------
+        Reply or None
+            What the tag backscatters; None when it stays silent.
+
+        Raises
+        ------
+        TypeError
+            When ``cmd`` is not a Gen2 command.
+        ValueError
+            When ``t_s`` is before the state's time.
         """
         self._advance(t_s)
         if not self.powered:
@@ -270,10 +351,10 @@ class TagState:
         raise TypeError(f"not a Gen2 command: {cmd!r}")
 
     def on_command_if_silent(self, cmd, *, t_s: float) -> bool:
-        """Apply ``cmd`` at ``t_s`` [s] when the rules above make it a silent step that needs no
-        random draw; return True if applied (the tag is then exactly as :meth:`on_command`
-        would leave it, and it does not reply), False if nothing was done (call
-        :meth:`on_command`).
+        """Apply ``cmd`` when it is a silent step that needs no random draw.
+
+        When applied, the tag is exactly as :meth:`on_command` would leave it, and it does not
+        reply; otherwise nothing is done (call :meth:`on_command`).
 
         The silent steps of a powered tag (:func:`rfsim.devices.gen2_tag_arrays.silent_step`, the
         rules :class:`StateArrays` applies to a population): a QueryRep or QueryAdjust of another
@@ -282,6 +363,24 @@ class TagState:
         NAK in Ready or Arbitrate. These are the same branches as in :meth:`on_command`
         (``_query_rep``, ``_query_adjust``, ``_ack``, NAK), taken without the dispatch — in an
         inventory almost every tag takes one of them on almost every command.
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            The received command.
+        t_s : float
+            Keyword-only: time the command is received [s].
+
+        Returns
+        -------
+        bool
+            True if the step was applied, False if nothing was done (also for an unpowered
+            tag).
+
+        Raises
+        ------
+        ValueError
+            When a silent step's ``t_s`` is before the state's time.
         """
         if not self.powered:
             return False
@@ -296,8 +395,14 @@ class TagState:
         return True
 
     def row(self) -> tuple:
-        """The state as :class:`StateArrays` keeps it: ``(powered, state code, session or −1,
-        slot or −1, t_s, time S1 was set to B or NaN, S1 persistence [s], Q)``."""
+        """Return the state as one row of :class:`StateArrays`.
+
+        Returns
+        -------
+        tuple
+            ``(powered, state code, session or −1, slot or −1, t_s [s], time S1 was set to B
+            [s] or NaN, S1 persistence [s], Q)``.
+        """
         return (self.powered, STATE_CODES[self.state], -1 if self.session is None else self.session,
                 -1 if self.slot is None else self.slot, self.t_s,
                 float("nan") if self._s1_set_s is None else self._s1_set_s, self.persistence.s1_s, self.q)
@@ -412,8 +517,20 @@ class TagState:
         return Reply("READ", append_crc16(body))
 
     def select_matches(self, cmd: Select) -> bool:
-        """True when ``cmd.mask`` equals the bank bits at ``cmd.pointer`` (Length 0: all
-        tags match; a mask running past the end of the bank does not match)."""
+        """Tell whether the tag matches a Select's mask (EPC Gen2 "Select").
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands.Select
+            The Select (``membank``, ``pointer``, ``length``, ``mask``).
+
+        Returns
+        -------
+        bool
+            True when ``cmd.mask`` equals the bank bits from bit ``cmd.pointer`` on; Length 0
+            matches every tag, a mask running past the end of the bank matches none.
+        """
+
         if cmd.length == 0:
             return True
         bank = self.bank_bits(cmd.membank)

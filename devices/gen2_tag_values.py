@@ -25,8 +25,9 @@ class Reply:
 
     Attributes
     ----------
-    kind : "RN16" | "EPC" | "HANDLE" | "READ" | "ERROR"
-    bits : (n,) uint8
+    kind : {"RN16", "EPC", "HANDLE", "READ", "ERROR"}
+        What the reply answers (:data:`REPLY_KINDS`).
+    bits : ndarray of uint8, shape (n_bits,)
         Payload bits MSB first, CRC-16 included where Gen2 has one (all kinds but RN16);
         the line-code preamble and the dummy 1 are not included.
     """
@@ -64,7 +65,20 @@ class FlagPersistence:
 
     Defaults (anchors §4.4, *unverified*): S1 lies in 0.5–5 s (default 2 s, whether powered
     or not); S2, S3, SL must exceed 2 s unpowered (default 2 s, the bound itself).
+
+    Attributes
+    ----------
+    s1_s : float
+        Time after which S1 reverts from B to A, powered or not [s], default 2.0.
+    s2_s, s3_s, sl_s : float
+        Longest power outage S2, S3 and SL survive [s], default 2.0 each.
+
+    Raises
+    ------
+    ConfigError
+        ``tag.persistence.<name>`` for a negative or non-numeric time.
     """
+
 
     s1_s: float = 2.0
     s2_s: float = 2.0
@@ -79,9 +93,25 @@ class FlagPersistence:
 
 
 def pc_word(epc_bits) -> int:
-    """Protocol-control word of an EPC: L·2¹¹, L = len(epc)/16 ∈ [0, 31] words.
+    """Return the protocol-control word of an EPC: L·2¹¹, L = len(epc)/16 ∈ [0, 31] words.
 
-    UMI, XI, T and the numbering-system bits are 0. ``pc_word(96 zeros) == 0x3000``.
+    UMI, XI, T and the numbering-system bits are 0 (EPC Gen2 "Tag memory": L is the 5 MSBs of
+    PC). ``pc_word(96 zeros) == 0x3000``.
+
+    Parameters
+    ----------
+    epc_bits : array_like of {0, 1}, shape (n_bits,)
+        The EPC bits.
+
+    Returns
+    -------
+    int
+        The 16-bit PC word.
+
+    Raises
+    ------
+    ValueError
+        When the EPC length is not a multiple of 16 bits or exceeds 496 bits.
     """
     n = as_bits(epc_bits).size
     if n % 16 or n // 16 > 31:
@@ -106,13 +136,27 @@ def _bits16(value: int) -> np.ndarray:
 
 
 def adjusted_q(q, updn):
-    """Q after a QueryAdjust with UpDn ∈ {−1, 0, +1}: min(15, max(0, Q + UpDn)), for one tag
-    (an int; returns a NumPy integer) or many (an int array)."""
+    """Return Q after a QueryAdjust: :math:`\\min(15, \\max(0, Q + \\mathrm{UpDn}))`.
+
+    EPC Gen2 "QueryAdjust". For one tag or many.
+
+    Parameters
+    ----------
+    q : int or ndarray of int
+        The tag's Q (0–15), or one per tag.
+    updn : int
+        UpDn ∈ {−1, 0, +1}.
+
+    Returns
+    -------
+    numpy integer or ndarray of int
+        The new Q, the shape of ``q`` (a NumPy integer for an int ``q``).
+    """
     return np.minimum(np.maximum(q + updn, 0), 15)
 
 
 def slot_draw(rng: np.random.Generator, q: int) -> int:
-    """A slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
+    """Draw a slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
 
     For a power-of-two range numpy's bounded draw (Lemire's multiply-shift) never rejects:
     it returns the top Q bits of one 32-bit word of the bit generator, ``next_uint32 >> (32
@@ -122,6 +166,18 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     draws a counter per tag on every QueryAdjust), and without the generator's lock (a tag's
     generator is its own, used by one thread). A generator without that interface is asked
     through ``integers``.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The tag's own generator (advanced by one 32-bit word when Q > 0).
+    q : int
+        Q, 0–16 (16 draws an RN16).
+
+    Returns
+    -------
+    int
+        The slot counter, 0 ≤ slot < 2^Q (0 without a draw when Q ≤ 0).
     """
     if q <= 0:
         return 0
@@ -141,10 +197,26 @@ def _slot_drawer(rng):
 
 
 class SharedClock:
-    """A time [s] and a count of slot-counter decrements that many :class:`TagState` objects
-    follow at once (:meth:`TagState.follow`, :meth:`TagState.follow_decrements`): the silent
-    steps of a population (:class:`StateArrays`) advance every tag that takes one, and count
-    down every counter a QueryRep decrements, by setting these two values, not each tag's."""
+    """A time and a count of slot-counter decrements that many tags follow at once.
+
+    Many :class:`TagState` objects follow it (:meth:`TagState.follow`,
+    :meth:`TagState.follow_decrements`): the silent steps of a population
+    (:class:`StateArrays`) advance every tag that takes one, and count down every counter a
+    QueryRep decrements, by setting these two values, not each tag's.
+
+    Parameters
+    ----------
+    t_s : float, optional
+        Initial time [s], default 0.0.
+
+    Attributes
+    ----------
+    t_s : float
+        The time of the following tags [s].
+    decrements : int
+        Decrements counted so far; a following tag's counter is (offset − decrements) mod 2^15.
+    """
+
 
     __slots__ = ("t_s", "decrements")
 

@@ -72,9 +72,22 @@ class Pylon:
 
     Parameters
     ----------
-    config : :class:`PylonConfig`
-    antenna : its antenna (a ``rfsim.channels.Antenna``; TX and RX co-located)
-    name : label used in error messages and tables
+    config : PylonConfig
+        Carrier, CW power, noise figure, TX → RX leakage and oscillator phase.
+    antenna : rfsim.channels.Antenna
+        Its antenna (TX and RX co-located).
+    name : str, optional
+        Keyword-only: label used in error messages and tables, default ``"pylon"``.
+    rx_cutoff_hz : float or None, optional
+        Keyword-only: cut-off of the receive channel filter [Hz] (:func:`lowpass_taps`);
+        default None, no filter.
+
+    Attributes
+    ----------
+    fc_hz : float
+        Carrier [Hz].
+    noise_power_w : float
+        Receiver noise power per complex sample [W] (0 until :meth:`set_sample_rate`).
     """
 
     def __init__(self, config: PylonConfig, antenna, *, name: str = "pylon", rx_cutoff_hz: float | None = None):
@@ -84,17 +97,52 @@ class Pylon:
         self.noise_power_w = 0.0
 
     def set_sample_rate(self, fs_hz: float) -> None:
-        """Noise power of the receiver at sample rate ``fs_hz``: N = k·T₀·F·fs [W per sample]."""
+        """Set the receiver noise power for a sample rate: :math:`N = k T_0 F f_s`.
+
+        Parameters
+        ----------
+        fs_hz : float
+            Sample rate of the air step [Hz]; ``noise_power_w`` becomes N [W per complex
+            sample].
+        """
         self.noise_power_w = float(_noise.thermal_noise_power_w(fs_hz, self.config.noise_figure_db))
 
     def emit(self, *, t0_s: float, fs_hz: float, n_samples: int) -> _air.Segment:
-        """CW √P_T·e^{jφ_0} on the step's time base, on the pylon's carrier."""
+        """Emit the CW :math:`\\sqrt{P_T} e^{j\\varphi_0}` on the step's time base.
+
+        Parameters
+        ----------
+        t0_s : float
+            Keyword-only (like the others): time of the first sample [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        rfsim.air.segment.Segment
+            The constant segment on the pylon's carrier, samples shape (n_samples,) [√W].
+        """
         c = self.config
         level = math.sqrt(c.ptx_w) * complex(math.cos(c.lo_phase_rad), math.sin(c.lo_phase_rad))
         return _air.Segment(t0_s, fs_hz, self.fc_hz, np.full(int(n_samples), level, dtype=np.complex128))
 
     def coupling(self, emitter) -> complex | None:
-        """Leakage of its own CW into its receiver; None (the channel) for other emitters."""
+        """Return the direct TX → RX leakage of an emitter into the pylon's receiver.
+
+        Parameters
+        ----------
+        emitter : object
+            An emitter of the air step.
+
+        Returns
+        -------
+        complex or None
+            For the pylon itself the amplitude gain
+            :math:`10^{c/20} e^{j\\phi_c}` (c = ``coupling_db``, φ_c = ``coupling_phase_rad``);
+            None for any other emitter (it reaches the pylon through the channel).
+        """
         if emitter is not self:
             return None
         c = self.config
@@ -102,6 +150,20 @@ class Pylon:
         return complex(a * math.cos(c.coupling_phase_rad), a * math.sin(c.coupling_phase_rad))
 
     def receive(self, input: _air.Segment) -> _air.Segment:
+        """Pass the received segment through the optional channel filter.
+
+        Parameters
+        ----------
+        input : rfsim.air.segment.Segment
+            The superposition at the antenna port, noise included (samples shape
+            (n_samples,) [√W]).
+
+        Returns
+        -------
+        rfsim.air.segment.Segment
+            ``input`` itself without ``rx_cutoff_hz``, else its zero-delay low-pass filtered
+            copy (:func:`lowpass_taps`) on the same time base.
+        """
         if self.rx_cutoff_hz is None:
             return input
         taps = lowpass_taps(self.rx_cutoff_hz, input.fs_hz)
@@ -111,7 +173,24 @@ class Pylon:
 
 @functools.lru_cache(maxsize=8)
 def lowpass_taps(cutoff_hz: float, fs_hz: float) -> np.ndarray:
-    """Odd-length Kaiser FIR low-pass: pass band to ``cutoff_hz``, 80 dB from 1.6·cutoff."""
+    """Design the odd-length Kaiser FIR low-pass of the pylon's channel filter.
+
+    Pass band to ``cutoff_hz``, 80 dB stop band from 1.6·cutoff (:func:`scipy.signal.kaiserord`
+    for the length and β, :func:`scipy.signal.firwin` with the cut-off at 1.3·cutoff).
+
+    Parameters
+    ----------
+    cutoff_hz : float
+        Edge of the pass band [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    ndarray of float, shape (n_taps,)
+        The taps (odd length: a centred, zero-delay filter in ``"same"`` convolution).
+    """
+
     width = 0.6 * cutoff_hz / (0.5 * fs_hz)
     n, beta = _signal.kaiserord(80.0, width)
     n += 1 - n % 2

@@ -109,10 +109,14 @@ class HimrPlan:
 
     Attributes
     ----------
-    start_s : (P,) packet start times [s]
-    words : (P, n_words) int16, the IMU words carried
-    bits : (P, n_bits) uint8, the packets on the air
-    truth : :class:`rfsim.core.trajectories.Kinematics` at ``start_s``
+    start_s : ndarray of float, shape (P,)
+        Packet start times [s].
+    words : ndarray of int16, shape (P, n_words)
+        The IMU words carried.
+    bits : ndarray of uint8, shape (P, n_bits)
+        The packets on the air.
+    truth : rfsim.core.trajectories.Kinematics
+        The true kinematics at ``start_s``.
     """
 
     start_s: np.ndarray
@@ -123,7 +127,15 @@ class HimrPlan:
 
 @dataclass(frozen=True, eq=False)
 class HimrReflection:
-    """What the tag scatters on one time base: r(t) = A_s − Γ(t) (air-step reflection)."""
+    """What the tag scatters on one time base: r(t) = A_s − Γ(t) (air-step reflection).
+
+    Attributes
+    ----------
+    samples : ndarray of complex128, shape (n_samples,)
+        r(t) on the time base.
+    scatters : bool
+        Always True: the tag re-radiates whatever the incident field.
+    """
 
     samples: np.ndarray  #: (n,) complex128
     scatters: bool = True
@@ -135,6 +147,23 @@ class HimrReflection:
         return complex(s[0]) if s.size and np.all(s == s[0]) else None
 
     def reradiation(self, n_samples: int) -> np.ndarray:
+        """Return the re-radiation factor r(t) on the time base.
+
+        Parameters
+        ----------
+        n_samples : int
+            Number of samples the air step expects.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,)
+            :attr:`samples`.
+
+        Raises
+        ------
+        ValueError
+            When ``n_samples`` differs from the length of :attr:`samples`.
+        """
         if n_samples != self.samples.size:
             raise ValueError(f"reflection has {self.samples.size} samples, asked for {n_samples}")
         return self.samples
@@ -145,11 +174,15 @@ class HimrTag:
 
     Parameters
     ----------
-    config : :class:`HimrTagConfig`
-    trajectory : callable ``t_s → Kinematics`` (:mod:`rfsim.core.trajectories`)
-    imu : :class:`rfsim.devices.imu.ImuConfig`
-    antenna : the tag's antenna object for a channel (optional; its position is the
-        trajectory's, see :meth:`position_m`)
+    config : HimrTagConfig
+        Packet format, rate, jitter, chip rate, rest state, structural mode, framing.
+    trajectory : callable
+        ``t_s → Kinematics`` for an array of times [s] (:mod:`rfsim.core.trajectories`).
+    imu : rfsim.devices.imu.ImuConfig or None, optional
+        The IMU's errors; default None, ``ImuConfig()``.
+    antenna : object, optional
+        Keyword-only: the tag's antenna object for a channel (its position is the
+        trajectory's, see :meth:`position_m`); default None.
     """
 
     def __init__(self, config: HimrTagConfig, trajectory, imu: _imu.ImuConfig | None = None, *, antenna=None):
@@ -160,11 +193,40 @@ class HimrTag:
         self._plan: HimrPlan | None = None
 
     def position_m(self, t_s: float) -> np.ndarray:
-        """Antenna position on the trajectory at time ``t_s``: (3,) [m]."""
+        """Return the antenna position on the trajectory at a time.
+
+        Parameters
+        ----------
+        t_s : float
+            Time [s].
+
+        Returns
+        -------
+        ndarray of float, shape (3,)
+            Position [m].
+        """
         return self.trajectory(np.array([float(t_s)])).position_m[0]
 
     def schedule(self, t_end_s: float, *, rng: np.random.Generator) -> np.ndarray:
-        """Packet start times in [start_s, t_end_s): (P,) float64 [s]."""
+        """Draw the packet start times in [start_s, t_end_s).
+
+        :math:`t_k = t_{k-1} + \\max(T + \\sigma_j \\varepsilon_k, T_{air})`,
+        :math:`\\varepsilon_k \\sim N(0, 1)`, :math:`t_0` = ``start_s`` (module docstring;
+        himr-tag.md §2.1–2.2).
+
+        Parameters
+        ----------
+        t_end_s : float
+            End of the schedule [s] (exclusive).
+        rng : numpy.random.Generator
+            Keyword-only: generator of the jitter (drawn even when σ_j = 0; nothing is drawn
+            when ``t_end_s`` ≤ ``start_s``).
+
+        Returns
+        -------
+        ndarray of float64, shape (P,)
+            Start times [s]; empty when ``t_end_s`` ≤ ``start_s``.
+        """
         cfg = self.config
         span = float(t_end_s) - cfg.start_s
         if span <= 0:
@@ -176,7 +238,23 @@ class HimrTag:
         return starts[starts < t_end_s]
 
     def plan(self, t_end_s: float, *, rng: np.random.Generator) -> HimrPlan:
-        """Draw the schedule and the IMU words up to ``t_end_s`` and keep them (one per run)."""
+        """Draw the schedule and the IMU words up to ``t_end_s`` and keep them (one per run).
+
+        The IMU words are sampled at each packet start (:func:`rfsim.devices.imu.imu_words`,
+        only the format's words kept) and packed by :func:`rfsim.himr.packet.build_packets`.
+
+        Parameters
+        ----------
+        t_end_s : float
+            End of the run [s].
+        rng : numpy.random.Generator
+            Keyword-only: the run's generator (schedule jitter, then IMU noise).
+
+        Returns
+        -------
+        HimrPlan
+            The plan, also kept as :attr:`current_plan`.
+        """
         cfg, fmt = self.config, self.config.format
         starts = self.schedule(t_end_s, rng=rng)
         truth = self.trajectory(starts)
@@ -195,7 +273,27 @@ class HimrTag:
         """Γ(t) at t = t0_s + n/fs_hz, n = 0 … n_samples−1: (n_samples,) complex128.
 
         +1 (open) / −1 (short) on the chips of every packet of the plan overlapping the time
-        base, ``gamma_rest`` elsewhere; ``fs_hz`` must reach the BOC bandwidth.
+        base, ``gamma_rest`` elsewhere; ``fs_hz`` must reach the BOC bandwidth
+        (:func:`rfsim.himr.boc.boc_train`).
+
+        Parameters
+        ----------
+        t0_s : float
+            Time of the first sample [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,)
+            Γ(t) [1].
+
+        Raises
+        ------
+        RuntimeError
+            When :meth:`plan` has not been called.
         """
         plan, cfg = self.current_plan, self.config
         t1 = t0_s + n_samples / fs_hz
@@ -206,11 +304,41 @@ class HimrTag:
                               rest=cfg.gamma_rest)
 
     def reradiation(self, t0_s: float, fs_hz: float, n_samples: int) -> np.ndarray:
-        """r(t) = A_s − Γ(t) on the same time base (the factor on the incident field)."""
+        """Return the re-radiation factor :math:`r(t) = A_s - \\Gamma(t)` on a time base.
+
+        The factor multiplies the incident field (the convention of :mod:`rfsim.devices.tag`).
+
+        Parameters
+        ----------
+        t0_s : float
+            Time of the first sample [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,)
+            r(t) [1].
+        """
         return self.config.structural_mode - self.reflection(t0_s, fs_hz, n_samples)
 
     def reflect(self, incident) -> HimrReflection:
-        """Air-step reflector protocol: r(t) on the incident segment's time base."""
+        """Reflect an incident segment (the air step's reflector protocol).
+
+        Parameters
+        ----------
+        incident : rfsim.air.segment.Segment
+            The incident field; only its time base (``t0_s``, ``fs_hz``, ``n_samples``) is
+            used (the tag is battery-assisted).
+
+        Returns
+        -------
+        HimrReflection
+            r(t) on that time base.
+        """
+
         return HimrReflection(self.reradiation(incident.t0_s, incident.fs_hz, incident.n_samples))
 
 

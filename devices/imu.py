@@ -98,7 +98,26 @@ class ImuConfig:
 
 
 def true_readings(kin: Kinematics, cfg: ImuConfig) -> np.ndarray:
-    """Noise-free readings in SI: (n, 9) [f_x f_y f_z (m/s²), ω_x ω_y ω_z (rad/s), m_x m_y m_z (µT)]."""
+    """Compute the noise-free IMU readings in SI units (module docstring).
+
+    Specific force :math:`f_x = a \\cdot x^B`, :math:`f_y = a \\cdot y^B`,
+    :math:`f_z = a_z + g`; angular rate :math:`\\omega = (0, 0, \\dot\\psi)`; the Earth's field
+    :math:`m = (B_h \\cos\\delta, B_h \\sin\\delta, B_z)` projected on the body axes
+    (wave2-specs.md §H).
+
+    Parameters
+    ----------
+    kin : rfsim.core.trajectories.Kinematics
+        Heading [rad], heading rate [rad/s] and acceleration [m/s²] at n sample times.
+    cfg : ImuConfig
+        The field (``field_horizontal_ut``, ``field_vertical_ut``, ``declination_rad``).
+
+    Returns
+    -------
+    ndarray of float, shape (n, 9)
+        ``f_x f_y f_z`` [m/s²], ``ω_x ω_y ω_z`` [rad/s], ``m_x m_y m_z`` [µT], in
+        :data:`WORD_NAMES` order.
+    """
     psi = kin.heading_rad
     xb = np.column_stack([np.sin(psi), -np.cos(psi)])
     yb = np.column_stack([np.cos(psi), np.sin(psi)])
@@ -118,7 +137,28 @@ def true_readings(kin: Kinematics, cfg: ImuConfig) -> np.ndarray:
 
 
 def imu_words(kin: Kinematics, cfg: ImuConfig, *, rng: np.random.Generator) -> np.ndarray:
-    """IMU samples at ``kin.t_s`` as int16 words, (n, 9) in :data:`WORD_NAMES` order."""
+    """Sample the IMU at ``kin.t_s`` as int16 words.
+
+    The readings of :func:`true_readings` plus bias and white noise (σ = noise density ·
+    √(noise bandwidth) in the ``datasheet`` mode), quantised
+    :math:`\\mathrm{word} = \\mathrm{clip}(\\mathrm{round}(v / \\mathrm{LSB}))` to the int16
+    range (±8190 for the magnetometer).
+
+    Parameters
+    ----------
+    kin : rfsim.core.trajectories.Kinematics
+        Kinematics at n sample times.
+    cfg : ImuConfig
+        Ranges, noise, biases and field.
+    rng : numpy.random.Generator
+        Keyword-only: generator of the noise (accelerometer, gyroscope, magnetometer draws,
+        each (n, 3), drawn even when their σ is 0).
+
+    Returns
+    -------
+    ndarray of int16, shape (n, 9)
+        The words in :data:`WORD_NAMES` order.
+    """
     si = true_readings(kin, cfg)
     n = si.shape[0]
     si[:, 0:3] += np.asarray(cfg.accel_bias_mps2) + cfg.accel_sigma_mps2 * rng.standard_normal((n, 3))
@@ -131,7 +171,25 @@ def imu_words(kin: Kinematics, cfg: ImuConfig, *, rng: np.random.Generator) -> n
 
 
 def words_to_si(words, cfg: ImuConfig) -> np.ndarray:
-    """int16 words (n, 9) or the first 3 (accelerometer only) → SI readings (same shape)."""
+    """Convert IMU words to SI readings: word · LSB.
+
+    Parameters
+    ----------
+    words : array_like of int, shape (..., 9) or (..., 3)
+        Words in :data:`WORD_NAMES` order, or the first 3 (accelerometer only).
+    cfg : ImuConfig
+        The ranges that set the LSBs.
+
+    Returns
+    -------
+    ndarray of float, shape of ``words``
+        Specific force [m/s²], angular rate [rad/s], magnetic field [µT].
+
+    Raises
+    ------
+    ConfigError
+        ``imu.words`` when the last dimension is neither 3 nor 9.
+    """
     w = np.asarray(words, dtype=float)
     if w.shape[-1] not in (3, 9):
         raise ConfigError("imu.words", w.shape, "3 (accelerometer) or 9 words per sample")
@@ -140,7 +198,24 @@ def words_to_si(words, cfg: ImuConfig) -> np.ndarray:
 
 
 def heading_from_compass(m_x_ut, m_y_ut, declination_rad: float = 0.0) -> np.ndarray:
-    """Heading ψ = δ + atan2(m_x, m_y) wrapped to (−π, π] [rad] (module docstring)."""
+    """Compute the heading from the compass: :math:`\\psi = \\delta + \\operatorname{atan2}(m_x, m_y)`.
+
+    From :math:`m \\cdot y^B = B_h \\cos(\\psi - \\delta)` and
+    :math:`m \\cdot x^B = B_h \\sin(\\psi - \\delta)` (module docstring).
+
+    Parameters
+    ----------
+    m_x_ut, m_y_ut : float or array_like of float
+        Body-frame field components [µT] (broadcast together).
+    declination_rad : float, optional
+        Direction δ of the horizontal field in the room [rad], default 0.0.
+
+    Returns
+    -------
+    ndarray of float
+        Heading ψ wrapped to (−π, π] [rad], the broadcast shape.
+    """
+
     psi = declination_rad + np.arctan2(np.asarray(m_x_ut, float), np.asarray(m_y_ut, float))
     return np.angle(np.exp(1j * psi))
 

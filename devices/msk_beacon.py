@@ -63,52 +63,123 @@ HEADER_CHIPS = 2 * (PREAMBLE_BITS + SYNC_BITS)
 
 
 def beacon_bits(tag_id: int, seq: int) -> np.ndarray:
-    """The frame of one beacon, ``(FRAME_BITS,) uint8`` (module docstring)."""
+    """Build the frame of one beacon: preamble, sync word, ID, sequence, CRC-16.
+
+    The layout of the module docstring (the project's own frame; CRC-16/GENIBUS over ID +
+    sequence).
+
+    Parameters
+    ----------
+    tag_id : int
+        32-bit tag ID, sent MSB first.
+    seq : int
+        Sequence number (taken modulo 256).
+
+    Returns
+    -------
+    ndarray of uint8, shape (FRAME_BITS,)
+        The frame's bits (0/1).
+    """
     pre = np.tile(np.array([1, 0], np.uint8), PREAMBLE_BITS // 2)
     payload = np.concatenate([int_to_bits(int(tag_id), ID_BITS), int_to_bits(int(seq) % 256, SEQ_BITS)])
     return np.concatenate([pre, int_to_bits(SYNC_WORD, SYNC_BITS), append_crc16(payload)])
 
 
 def manchester_encode(bits) -> np.ndarray:
-    """Chips ``(2n,) int8`` ±1 of ``bits`` (n,): 1 → (+1, −1), 0 → (−1, +1)."""
+    """Manchester-encode bits: 1 → chips (+1, −1), 0 → (−1, +1).
+
+    Parameters
+    ----------
+    bits : array_like of {0, 1}, shape (n,)
+        The bits (flattened).
+
+    Returns
+    -------
+    ndarray of int8, shape (2n,)
+        The ±1 chips.
+    """
     b = np.asarray(bits, np.int8).reshape(-1)
     first = 2 * b - 1
     return np.stack([first, -first], axis=1).reshape(-1).astype(np.int8)
 
 
 def manchester_decode(chips) -> tuple[np.ndarray, int]:
-    """Bits ``(n,) uint8`` of chips ``(2n,)`` ±1 and the number of code violations (equal chips
-    in a pair; such a bit is decided by its first chip)."""
+    """Decode Manchester chips to bits and count the code violations.
+
+    A bit is decided by the sign of its first chip; a pair of equal chips is a code violation.
+
+    Parameters
+    ----------
+    chips : array_like of float, shape (2n,)
+        The chips (±1, or soft values: only the signs count).
+
+    Returns
+    -------
+    bits : ndarray of uint8, shape (n,)
+        The decoded bits (0/1).
+    violations : int
+        Number of pairs of equal chips.
+    """
     c = np.asarray(chips).reshape(-1, 2)
     return (c[:, 0] > 0).astype(np.uint8), int(np.count_nonzero(c[:, 0] == c[:, 1]))
 
 
 def parse_payload(bits_after_sync) -> tuple[int, int, bool]:
-    """``(tag ID, sequence, CRC ok)`` of the ID + sequence + CRC bits that follow the sync word."""
+    """Parse the payload that follows the sync word: tag ID, sequence and the CRC check.
+
+    Parameters
+    ----------
+    bits_after_sync : array_like of {0, 1}, shape (≥ 56,)
+        The ID (32), sequence (8) and CRC-16 (16) bits, MSB first; further bits are ignored.
+
+    Returns
+    -------
+    tag_id : int
+        The decoded 32-bit ID.
+    seq : int
+        The decoded sequence number.
+    crc_ok : bool
+        The CRC-16 over ID + sequence holds.
+    """
     b = np.asarray(bits_after_sync, np.uint8)
     return (bits_to_int(b[:ID_BITS]), bits_to_int(b[ID_BITS:ID_BITS + SEQ_BITS]),
             bool(crc16_ok(b[:ID_BITS + SEQ_BITS + CRC_BITS])))
 
 
 def header_chips() -> np.ndarray:
-    """Chips of the preamble and sync word (common to every beacon), ``(HEADER_CHIPS,) int8``."""
+    """Return the chips of the preamble and sync word, common to every beacon.
+
+    Returns
+    -------
+    ndarray of int8, shape (HEADER_CHIPS,)
+        The ±1 chips (the receiver's synchronisation template).
+    """
     return manchester_encode(beacon_bits(0, 0)[:PREAMBLE_BITS + SYNC_BITS])
 
 
 def msk_phase(chips, sps: float, offset_chips: float, n_samples: int) -> tuple[np.ndarray, np.ndarray]:
-    """MSK phase [rad] and burst mask of ``n_samples`` samples (module docstring).
+    """Compute the MSK phase and burst mask of ``n_samples`` samples (module docstring).
+
+    .. math:: \\varphi(t) = \\Phi_k + a_k \\frac{\\pi}{2} (t/T_c - k), \\quad
+              k = \\lfloor t/T_c \\rfloor, \\quad \\Phi_k = \\frac{\\pi}{2} \\sum_{i<k} a_i
 
     Parameters
     ----------
-    chips : (K,) ±1 chips
-    sps : samples per chip fs/R_c (> 0, need not be an integer)
-    offset_chips : time of sample 0 since the burst start, in chips (may be negative)
-    n_samples : number of samples
+    chips : array_like of float, shape (K,)
+        The ±1 chips a_k.
+    sps : float
+        Samples per chip fs/R_c (> 0, need not be an integer).
+    offset_chips : float
+        Time of sample 0 since the burst start, in chips (may be negative).
+    n_samples : int
+        Number of samples.
 
     Returns
     -------
-    phase : (n_samples,) float64 [rad] (0 outside the burst)
-    on : (n_samples,) bool, inside the burst
+    phase : ndarray of float64, shape (n_samples,)
+        φ [rad] (0 outside the burst).
+    on : ndarray of bool, shape (n_samples,)
+        The sample lies inside the burst.
     """
     c = np.ascontiguousarray(chips, dtype=np.float64)
     phase = np.empty(int(n_samples))
@@ -118,8 +189,23 @@ def msk_phase(chips, sps: float, offset_chips: float, n_samples: int) -> tuple[n
 
 
 def discriminate(y, y_prev: complex = 1.0 + 0.0j) -> np.ndarray:
-    """FM discriminator ``arg(y[n]·conj(y[n−1]))`` [rad/sample] of ``y`` (n,) complex
-    (``y[−1] = y_prev``)."""
+    """Apply the FM discriminator :math:`d[n] = \\arg(y[n]\\, y^*[n-1])`.
+
+    Over chip k of a clean MSK signal d sums to :math:`a_k \\pi/2` (module docstring).
+
+    Parameters
+    ----------
+    y : array_like of complex, shape (n,)
+        Complex baseband samples.
+    y_prev : complex, optional
+        The sample before ``y[0]``, used as ``y[-1]``; default 1 + 0j.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+        Phase increments [rad/sample].
+    """
+
     x = np.ascontiguousarray(y, dtype=np.complex128)
     out = np.empty(x.size)
     _mk.discriminator_kernel(x, complex(y_prev), out)

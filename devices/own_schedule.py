@@ -42,7 +42,18 @@ class FrameConfig:
     tail_cycles: int = param(4, lo=1, hi=1000, doc="CW after the frame, in subcarrier cycles")
 
     def check(self, prefix: str = "frame") -> None:
-        """The receive chain's band-pass (up to 4·BLF) must fit below fs/2."""
+        """Check that the receive chain's band-pass (up to 4·BLF) fits below fs/2.
+
+        Parameters
+        ----------
+        prefix : str, optional
+            Key prefix of the error, default ``"frame"``.
+
+        Raises
+        ------
+        ConfigError
+            ``<prefix>.blf_hz`` unless 8·BLF < fs.
+        """
         if not 8.0 * self.blf_hz < self.fs_hz:
             raise ConfigError(f"{prefix}.blf_hz", self.blf_hz,
                               f"< {prefix}.fs_hz/8 = {self.fs_hz / 8:g} Hz (receiver band-pass up to 4 x BLF < fs/2)")
@@ -54,10 +65,13 @@ class Frame:
 
     Attributes
     ----------
-    stamp : :class:`rfsim.devices.st_receiver.StampFrame` — ``states`` (n,) int8 labels S1/S2/S3,
-        ``levels`` (n,) ±1 inside the reply, indices of the stamp and reply parts
-    bits : (k,) uint8 payload bits
-    n_samples : segment length
+    stamp : rfsim.devices.st_receiver.StampFrame
+        ``states`` (n,) int8 labels S1/S2/S3, ``levels`` (n,) ±1 inside the reply, indices of
+        the stamp and reply parts.
+    bits : ndarray of uint8, shape (k,)
+        Payload bits.
+    n_samples : int
+        Segment length.
     """
 
     stamp: sr.StampFrame
@@ -70,8 +84,25 @@ class Frame:
         return int(np.flatnonzero(self.stamp.levels != 0)[-1]) + 1
 
     def gamma(self, gamma_s1: complex, gamma_s2: complex, psi_rad: float) -> np.ndarray:
-        """Γ(t) of the three-state modulator, (n,) complex128: S1, S2, S3 = S1·e^{jψ} inside
-        the frame, the rest state S2 (= Γ_A, absorbing) before and after it."""
+        """Return Γ(t) of the three-state modulator on the frame's samples.
+
+        S1, S2 and S3 = S1·e^{jψ} inside the frame (auris-sense-a-tag.md §5, L5914-5923), the
+        rest state S2 (= Γ_A, absorbing) before and after it.
+
+        Parameters
+        ----------
+        gamma_s1 : complex
+            Reflection coefficient of S1 (Γ_B, modulating).
+        gamma_s2 : complex
+            Reflection coefficient of S2 (Γ_A, absorbing).
+        psi_rad : float
+            Phase ψ of the PSK state S3 relative to S1 [rad].
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,)
+            Γ per sample [1].
+        """
         table = np.array([gamma_s1, gamma_s2, gamma_s1 * np.exp(1j * psi_rad)], dtype=np.complex128)
         states = self.stamp.states.copy()
         states[:self.stamp.start] = sr.STAMP_S2
@@ -91,9 +122,12 @@ class OwnSchedule:
 
     Parameters
     ----------
-    device : a reflector of the air step with ``antenna`` and ``reflect(incident)``
-    frame : :class:`Frame` on the segment's sample grid
-    psi_rad : phase ψ of the PSK state S3 [rad] (π: the ideal stamp)
+    device : object
+        A reflector of the air step with ``antenna`` and ``reflect(incident)``.
+    frame : Frame
+        The frame on the segment's sample grid.
+    psi_rad : float, optional
+        Keyword-only: phase ψ of the PSK state S3 [rad], default π (the ideal stamp).
     """
 
     def __init__(self, device, frame: Frame, *, psi_rad: float = math.pi):
@@ -101,7 +135,24 @@ class OwnSchedule:
         self.antenna = device.antenna
 
     def reflect(self, incident):
-        """The device's response to ``incident`` with Γ(t) of the frame when it is powered."""
+        """Respond to an incident segment with Γ(t) of the frame when the device is powered.
+
+        Parameters
+        ----------
+        incident : rfsim.air.segment.Segment
+            The incident field on the frame's sample grid.
+
+        Returns
+        -------
+        rfsim.devices.tag_response.TagResponse
+            The device's own response, and when it is powered with ``gamma`` = Γ(t) of
+            :meth:`Frame.gamma`, the reply's start and end times [s] and the rest state Γ_A.
+
+        Raises
+        ------
+        ValueError
+            When the segment's length differs from the frame's.
+        """
         resp = self.device.reflect(incident)
         if not resp.powered:
             return resp
@@ -119,11 +170,20 @@ def build_frame(bits, frame: FrameConfig, *, stamp_cycles: int) -> Frame:
 
     Parameters
     ----------
-    bits : (k,) 0/1 payload bits
-    frame : sample rate, BLF, line code, CW lead and tail in subcarrier cycles
-    stamp_cycles : subcarrier cycles of each stamp part (ASK, PSK), or 0: no stamp, the reply
-        alone (all stamp indices at the reply start)
+    bits : array_like of {0, 1}, shape (k,)
+        Payload bits.
+    frame : FrameConfig
+        Sample rate, BLF, line code, CW lead and tail in subcarrier cycles.
+    stamp_cycles : int
+        Keyword-only: subcarrier cycles of each stamp part (ASK, PSK), or 0: no stamp, the
+        reply alone (all stamp indices at the reply start).
+
+    Returns
+    -------
+    Frame
+        The sampled frame (:func:`rfsim.devices.st_receiver.stamp_frame` with a stamp).
     """
+
     cycle_s = 1.0 / frame.blf_hz
     b = np.asarray(bits, np.uint8)
     t0_s, tail_s = frame.lead_cycles * cycle_s, frame.tail_cycles * cycle_s

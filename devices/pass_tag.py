@@ -103,11 +103,28 @@ class PassReplicationConfig:
 
 
 def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
-    """PASS's "Rat Q-matched at 915 MHz" (pass-paris-simulator.md §5.2; ``tagchar_modulator_adsm``:
+    """Compute PASS's "Rat Q-matched at 915 MHz" assembly resistance.
+
+    PASS's "Rat Q-matched at 915 MHz" (pass-paris-simulator.md §5.2; ``tagchar_modulator_adsm``:
     R_at shifts in % "from optimum"), read as the R_at whose parallel Q with C_at equals the
-    chip's parallel Q at its minimum power: ``R_at = (|Im Y_ic|/Re Y_ic)/(ω·C_at)`` [Ω]. Checked on
-    PASS's synthetic characteristic (``tagchar_modulator_synth01``: 463 Ω from its tables vs its
-    stored 437 Ω, 6 %). For the UCODE tables at 915 MHz 2.41 kΩ."""
+    chip's parallel Q at its minimum power:
+
+    .. math:: R_{at} = \\frac{|\\operatorname{Im} Y_{ic}| / \\operatorname{Re} Y_{ic}}{\\omega C_{at}}
+
+    with :math:`Y_{ic}` the chip admittance at ``picmin``. Checked on PASS's synthetic
+    characteristic (``tagchar_modulator_synth01``: 463 Ω from its tables vs its stored 437 Ω,
+    6 %). For the UCODE tables at 915 MHz 2.41 kΩ.
+
+    Parameters
+    ----------
+    chip : rfsim.devices.tag_chip.PowerDependentChip
+        The chip (impedances, ``picmin_w``, ``fc_hz``, ``assembly_capacitance_f``).
+
+    Returns
+    -------
+    float
+        R_at [Ω].
+    """
     y = 1.0 / chip.impedances(chip.picmin_w)[0]
     return (abs(y.imag) / y.real) / (2.0 * math.pi * chip.fc_hz * chip.assembly_capacitance_f)
 
@@ -115,10 +132,28 @@ def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
 @lru_cache(maxsize=8)
 def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
                assembly_resistance_ohm: float = math.inf) -> PowerDependentChip:
-    """The 'measured' tag chip: full PASS tables from a folder, else the quoted points; with
-    ``assembly_resistance_ohm`` = 0 the Q-matched R_at (:func:`q_matched_assembly_resistance_ohm`).
-    Memoised on its arguments (folder name, frequency, margin, R_at): every cell of a run
-    builds the same chip."""
+    """Build the 'measured' tag chip: full PASS tables from a folder, else the quoted points.
+
+    With ``assembly_resistance_ohm`` = 0 the Q-matched R_at
+    (:func:`q_matched_assembly_resistance_ohm`). Memoised on its arguments (folder name,
+    frequency, margin, R_at): every cell of a run builds the same chip.
+
+    Parameters
+    ----------
+    characteristics_dir : str
+        Folder with the PASS tag files; empty for the three quoted chip impedances.
+    fc_hz : float
+        Carrier [Hz].
+    margin_db : float
+        Power-up margin on the chip's minimum power [dB].
+    assembly_resistance_ohm : float, optional
+        R_at parallel to the chip [Ω]; 0 the Q-matched value; default inf (none).
+
+    Returns
+    -------
+    rfsim.devices.tag_chip.PowerDependentChip
+        The chip.
+    """
     if characteristics_dir:
         chip = _chip.PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
     else:
@@ -129,7 +164,22 @@ def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
 
 
 def tag_chip(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -> PowerDependentChip:
-    """The 'measured' chip of these settings at ``fc_hz`` [Hz] (PASS's tables and R_at when replicating)."""
+    """Return the 'measured' chip of these settings (:func:`chip_model`).
+
+    Parameters
+    ----------
+    states : TagStatesConfig
+        Folder of the tag files and power-up margin.
+    pr : PassReplicationConfig
+        When enabled, PASS's tables and its R_at replace the folder of ``states``.
+    fc_hz : float
+        Carrier [Hz] (rounded to 1 mHz for the memo).
+
+    Returns
+    -------
+    rfsim.devices.tag_chip.PowerDependentChip
+        The chip.
+    """
     if pr.enabled:
         return chip_model(pr.characteristics_dir, round(fc_hz, 3), states.power_margin_db, pr.assembly_resistance_ohm)
     return chip_model(states.characteristics_dir, round(fc_hz, 3), states.power_margin_db)
@@ -137,7 +187,32 @@ def tag_chip(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -
 
 def make_tag(tag: TagConfig, states: TagStatesConfig, pr: PassReplicationConfig, antenna, fc_hz: float,
              rng: np.random.Generator) -> PassiveTag:
-    """The passive tag of the tag-states model on ``antenna`` (a :class:`rfsim.channels.antennas.Antenna`)."""
+    """Build the passive tag of the tag-states model (module docstring).
+
+    ``"source"``: the tag config's chip with the re-radiated ASK states −Γ_A, −Γ_B and no
+    structural term; ``"measured"``: the measured chip (:func:`tag_chip`), no structural
+    term; ``"chip"``: the tag config as it is.
+
+    Parameters
+    ----------
+    tag : rfsim.devices.tag_config.TagConfig
+        The tag's settings.
+    states : TagStatesConfig
+        The tag-states model.
+    pr : PassReplicationConfig
+        PASS replication settings.
+    antenna : rfsim.channels.antennas.Antenna
+        The tag's antenna.
+    fc_hz : float
+        Carrier [Hz] (for the measured chip).
+    rng : numpy.random.Generator
+        The tag's own generator.
+
+    Returns
+    -------
+    rfsim.devices.tag.PassiveTag
+        The tag.
+    """
     if states.model == "source":
         # The source re-radiates Γ·incident (no structural term): its states are the
         # re-radiated states r = A_s − Γ, i.e. A_s = 0 and chip states −Γ_source. Backscatter
@@ -153,8 +228,24 @@ def make_tag(tag: TagConfig, states: TagStatesConfig, pr: PassReplicationConfig,
 
 
 def tag_attributes(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -> dict:
-    """The tag and ST antennas of these settings in words, and R_at [Ω] when replicating PASS
-    (dataset attributes ``tag_states``, ``tag_antenna``, ``tag_assembly_resistance_ohm``, ``st_antenna``)."""
+    """Describe the tag and ST antennas of these settings, and R_at when replicating PASS.
+
+    Parameters
+    ----------
+    states : TagStatesConfig
+        The tag-states model.
+    pr : PassReplicationConfig
+        PASS replication settings.
+    fc_hz : float
+        Carrier [Hz] (for R_at).
+
+    Returns
+    -------
+    dict
+        Dataset attributes: ``tag_states``, ``tag_antenna`` and ``st_antenna`` (str), and
+        ``tag_assembly_resistance_ohm`` (float, [Ω]) when replicating PASS.
+    """
+
     out = {"tag_states": {"measured": "measured UCODE chip impedance vs absorbed power on the PASS antenna "
                                       "(Gamma*incident, power-up at picmin + 2.5 dB)",
                           "chip": "fixed chip states with structural mode A_s (deep modulation: P rises with "

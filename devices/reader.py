@@ -68,13 +68,35 @@ class Reader(PieTransmitter):
     Parameters
     ----------
     config : ReaderConfig
-    antennas : non-empty sequence of rfsim.channels.antennas.Antenna
-    rng : numpy Generator (keyword-only); draws the FCC hop table
-    link : optional LinkProfile overriding ``config.link_profile`` (custom profiles)
-    air_cache : the run's :class:`rfsim.air.cache.AirCache` (its air-step strategy, the
-        modulated command segments and what tags derive from them); default a new one. A scene
-        that makes a reader per trial gives them one, so that a command is modulated and
-        decoded once per run.
+        The reader's settings (validated once per run through ``air_cache``).
+    antennas : sequence of rfsim.channels.antennas.Antenna
+        Its antennas, at least one, used in turn.
+    rng : numpy.random.Generator
+        Keyword-only: draws the FCC hop table (and spawns the receiver's noise stream with
+        ``rx_model = "statistic"``).
+    link : LinkProfile or None, optional
+        Keyword-only: overrides ``config.link_profile`` (custom profiles); default None.
+    air_cache : rfsim.air.cache.AirCache or None, optional
+        Keyword-only: the run's cache (its air-step strategy, the modulated command segments
+        and what tags derive from them); default None, a new one. A scene that makes a reader
+        per trial gives them one, so that a command is modulated and decoded once per run.
+
+    Attributes
+    ----------
+    fs_hz : float
+        Sample rate [Hz].
+    plan_hz : ndarray of float
+        Carrier of each channel of the frequency plan [Hz].
+    hop_sequence : ndarray of int
+        0-based hop table: channel ``hop_sequence[i % n]`` in dwell period i.
+
+    Raises
+    ------
+    ValueError
+        When ``link`` is not a LinkProfile or there is no antenna.
+    ConfigError
+        For port phase offsets not one per antenna, an FCC dwell above 0.4 s, a fixed channel
+        outside the plan, or a sample rate below 2·BLF_max.
     """
 
     def __init__(self, config: ReaderConfig, antennas: Sequence, *, rng: np.random.Generator,
@@ -123,23 +145,74 @@ class Reader(PieTransmitter):
     # ------------------------------------------------------------------ plan, antennas
 
     def channel_index(self, t_s: float) -> int:
-        """1-based channel index at time ``t_s`` [s] (LLRP ChannelIndex)."""
+        """Return the 1-based channel index at a time (LLRP ChannelIndex).
+
+        Without hopping the fixed channel; else the hop table's entry of dwell period
+        ⌊t/dwell⌋.
+
+        Parameters
+        ----------
+        t_s : float
+            Time [s].
+
+        Returns
+        -------
+        int
+            Channel index, 1 … number of channels in the plan.
+        """
         if not self.config.hopping:
             return int(self.config.fixed_channel)
         period = int(math.floor(float(t_s) / self.config.dwell_s))
         return int(self.hop_sequence[period % self.hop_sequence.size]) + 1
 
     def fc_hz(self, t_s: float) -> float:
-        """Carrier frequency [Hz] at time ``t_s`` [s]."""
+        """Return the carrier frequency at a time.
+
+        Parameters
+        ----------
+        t_s : float
+            Time [s].
+
+        Returns
+        -------
+        float
+            Carrier [Hz] of :meth:`channel_index` at ``t_s``.
+        """
         return float(self.plan_hz[self.channel_index(t_s) - 1])
 
     def channel_of(self, fc_hz: float) -> int:
-        """1-based channel index of the carrier ``fc_hz`` [Hz] in the reader's plan (a one-line
-        ``ConfigError`` on ``reader.channels_hz`` when the plan has no such carrier)."""
+        """Return the 1-based channel index of a carrier in the reader's plan.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier [Hz].
+
+        Returns
+        -------
+        int
+            Channel index, 1 … number of channels in the plan.
+
+        Raises
+        ------
+        ConfigError
+            ``reader.channels_hz`` when the plan has no such carrier.
+        """
         return _channel_index(self.plan_hz, fc_hz, key="reader.channels_hz")
 
     def antenna_index(self, round_index: int) -> int:
-        """0-based antenna used in inventory round ``round_index`` (round robin)."""
+        """Return the antenna used in an inventory round (round robin).
+
+        Parameters
+        ----------
+        round_index : int
+            Inventory round r.
+
+        Returns
+        -------
+        int
+            0-based index into ``antennas``: r mod (number of antennas).
+        """
         return int(round_index) % len(self.antennas)
 
     @property
@@ -165,19 +238,47 @@ class Reader(PieTransmitter):
         return d
 
     def noise_power_w(self) -> float:
-        """Receiver noise power per complex sample [W]: k·T0·fs·F (kTB·NF over B = fs); 0 with
-        ``rx_model = "statistic"`` (the air adds none: the receiver draws its own)."""
+        """Return the receiver noise power per complex sample: :math:`k T_0 f_s F`.
+
+        kTB·NF over B = fs.
+
+        Returns
+        -------
+        float
+            Noise power [W]; 0 with ``rx_model = "statistic"`` (the air adds none: the
+            receiver draws its own).
+        """
         return 0.0 if self._rx_rng is not None else self._fixed()[2]
 
     def leakage_gain(self) -> complex:
-        """TX→RX leakage as a complex amplitude: 10^(−isolation/20)·e^{j·LEAKAGE_PHASE_RAD}."""
+        """Return the TX→RX leakage as a complex amplitude gain.
+
+        :math:`L = 10^{-I/20} e^{j \\phi_L}`, I = ``isolation_db``, φ_L = :data:`LEAKAGE_PHASE_RAD`.
+
+        Returns
+        -------
+        complex
+            L [1] (the engine adds L·x_tx at the RX port).
+        """
         return self._fixed()[3]
 
     # ------------------------------------------------------------------ receiver
 
     def preamble_samples(self, blf_hz: float | None = None) -> int:
-        """Samples fully inside the reply preamble (incl. pilot), as correlated by the detector
-        (at ``blf_hz``, default the profile's nominal BLF)."""
+        """Count the samples fully inside the reply preamble (pilot included).
+
+        As correlated by the detector: ⌊elements · fs / (2·BLF)⌋.
+
+        Parameters
+        ----------
+        blf_hz : float or None, optional
+            BLF [Hz]; default None, the profile's nominal BLF.
+
+        Returns
+        -------
+        int
+            Number of samples.
+        """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
         return int(math.floor(self._preamble_elements() * self.fs_hz / (2.0 * blf)))
 
@@ -192,6 +293,19 @@ class Reader(PieTransmitter):
         out 1.0× the target for Miller-4 at 320 kHz and 1.9× for FM0 at 640 kHz, 4 MS/s).
         Hence γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2))), P_FA = ``config.false_alarm_probability``.
         The default P_FA = 1e−3 gives γ ≈ 0.15 for ``miller4-320k`` at 4 MS/s (n = 500, 44 lags).
+        (:func:`rfsim.gen2.capture.preamble_threshold`.)
+
+        Parameters
+        ----------
+        n_lags : int
+            Number of lags searched.
+        blf_hz : float or None, optional
+            BLF [Hz] of the preamble length n; default None, the profile's nominal BLF.
+
+        Returns
+        -------
+        float
+            γ, a normalised correlation in (0, 1).
         """
         memo = getattr(self, "_thresholds", None)  # kept while config, link and fs are the same
         if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
@@ -206,13 +320,32 @@ class Reader(PieTransmitter):
         return hit
 
     def listen_window_s(self, reply_bits: int) -> float:
-        """CW the reader keeps after a command to hear a reply of ``reply_bits`` bits [s]:
+        """Return how long the reader keeps its CW after a command to hear a reply.
+
         :func:`rfsim.gen2.link.reply_window_s` (T1max + reply + 3 Tpri at the nominal BLF);
-        with ``blf_search`` the reply at the slowest BLF of the tolerance, BLF·(1 − FrT)."""
+        with ``blf_search`` the reply at the slowest BLF of the tolerance, BLF·(1 − FrT).
+
+        Parameters
+        ----------
+        reply_bits : int
+            Data bits of the expected reply.
+
+        Returns
+        -------
+        float
+            Listen window [s].
+        """
         return _listen_window_s(self.link, int(reply_bits), self.config.blf_search != "off")
 
     def reply_search_window_s(self) -> tuple[float, float]:
-        """Reply start relative to the command end [s]: (T1min, T1max) of the link."""
+        """Return the window of the reply start relative to the command end.
+
+        Returns
+        -------
+        t1_min_s, t1_max_s : float
+            T1min and T1max of the link [s] (:func:`rfsim.gen2.link.t1`).
+        """
+
         return _t1_window(self.link)
 
     def reply_start_lags(self, n_samples: int, n_reply: int, *, t0_s: float,
@@ -252,27 +385,51 @@ class Reader(PieTransmitter):
 
         Parameters
         ----------
-        rx : (n,) complex, everything at the RX port [√W] (leakage, backscatter, noise)
-        t0_s : absolute time of ``rx[0]`` [s]
-        n_bits : data bits of the reply (16 for RN16, PC+EPC+CRC for an EPC reply)
-        expect_crc : check the last 16 bits as CRC-16 over the reply
-        cmd_end_s : end of the command [s]; the reply start is searched in
-            [cmd_end + T1min, cmd_end + T1max] (±1 sample). ``None``: anywhere in ``rx``.
-        blf_hz : the tag's actual BLF [Hz]; default the profile's nominal BLF. With
+        rx : ndarray of complex, shape (n,)
+            Everything at the RX port [√W] (leakage, backscatter, noise).
+        t0_s : float
+            Keyword-only (like the others): absolute time of ``rx[0]`` [s].
+        n_bits : int
+            Data bits of the reply (16 for RN16, PC+EPC+CRC for an EPC reply).
+        expect_crc : bool
+            Check the last 16 bits as CRC-16 over the reply.
+        cmd_end_s : float or None, optional
+            End of the command [s]; the reply start is searched in
+            [cmd_end + T1min, cmd_end + T1max] (±1 sample). Default None: anywhere in ``rx``.
+        blf_hz : float or None, optional
+            The tag's actual BLF [Hz]; default None, the profile's nominal BLF. With
             ``blf_search = "off"`` the receiver does not estimate the BLF: decoding needs the
             BLF to about 1/(4·elements of the reply) (≈ 0.02 % for a Miller-4 EPC reply), far
             finer than the tag tolerance FrT, so a tag with a BLF error must be read with its
             BLF given here. With ``blf_search = "preamble"`` and no ``blf_hz`` the receiver
-            estimates it within the FrT of the link (:meth:`_receive_searched`,
+            estimates it within the FrT of the link (``_receive_searched``,
             :func:`search_decode`), as a real reader must for tags with their own BLF.
-        carrier : the reader's own transmitted baseband during the reply window (the CW after
-            the command, :attr:`TxSegment.samples` ``[-1]``); the phase is referred to it,
+        carrier : complex or None, optional
+            The reader's own transmitted baseband during the reply window (the CW after the
+            command, :attr:`TxSegment.samples` ``[-1]``); the phase is referred to it,
             phase = (−arg(h·|carrier|/carrier)) mod 2π. A PR-ASK command ends with either
             polarity (the parity of its PIE symbols), which would otherwise add π to the
-            phase of some commands' replies. None: the unmodulated carrier (phase 0).
+            phase of some commands' replies. Default None: the unmodulated carrier (phase 0).
 
-        Processing
-        ----------
+        Returns
+        -------
+        ReadResult
+            Success, the decoded bits (kept on a CRC error), the failure reason (one of
+            :data:`FAILURES`), the reply's start time [s], correlation and the measurements
+            (RSSI [dBm], phase [rad],
+            Doppler [Hz], SNR and Eb/N0 [dB]; with the BLF search also the BLF [Hz]).
+
+        Raises
+        ------
+        ValueError
+            When ``rx`` is not 1-D or ``blf_hz`` is not positive.
+
+        Notes
+        -----
+        With ``rx_model = "statistic"`` ``rx`` is noise-free and
+        :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
+        is (anchors §4.8, §4.9):
+
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their
            mean is subtracted first (conditioning only). Detection is exactly invariant to a

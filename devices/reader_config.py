@@ -22,10 +22,31 @@ from rfsim.core.records import ReportConfig
 
 
 def frequency_plan(region: str, channels_hz=()) -> np.ndarray:
-    """Channel centre frequencies [Hz] of a plan, ``(n,) float64``: ``"FCC"``: 50 channels
-    902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9, 867.5 MHz
-    (gen2-and-validation-anchors.md §4.7); ``"custom"``: the explicit list ``channels_hz``
-    (:func:`rfsim.air.carriers.frequency_plan`, validated against the supported carrier range)."""
+    """Return the channel centre frequencies of a frequency plan.
+
+    ``"FCC"``: 50 channels 902.75 + 0.5·k MHz (k = 0…49); ``"ETSI"``: 865.7, 866.3, 866.9,
+    867.5 MHz (gen2-and-validation-anchors.md §4.7); ``"custom"``: the explicit list
+    ``channels_hz`` (:func:`rfsim.air.carriers.frequency_plan`, validated against the
+    supported carrier range).
+
+    Parameters
+    ----------
+    region : {"FCC", "ETSI", "custom"}
+        The plan.
+    channels_hz : sequence of float, optional
+        Carriers of the ``"custom"`` plan [Hz]; default empty.
+
+    Returns
+    -------
+    ndarray of float64, shape (n_channels,)
+        Channel centre frequencies [Hz].
+
+    Raises
+    ------
+    ConfigError
+        On ``reader.*`` for an unknown region or an invalid custom list.
+    """
+
     return _plan(region, channels_hz, key="reader")
 
 

@@ -29,21 +29,34 @@ class ReadResult:
 
     Attributes
     ----------
-    success : reply detected, decoded and (if expected) CRC-16 correct
-    bits : (n_bits,) uint8 decoded bits (also on a CRC error), None if no reply was found
-    failure_reason : "", "preamble not found" or "crc error"
-    rssi_dbm : power of the modulated component at the antenna port, 10·log10(|h|²)+30, with
-        h the complex amplitude of the ±1 reply waveform (NaN without a reply)
-    phase_rad : (−arg h) mod 2π, h at the centre of the reply; for a tag re-radiating
-        r = A_s − Γ (rfsim.devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels
-    doppler_hz : (1/2π)·d(arg h)/dt across the reply (positive for an approaching tag)
-    snr_db : |h|²/σ², σ² the residual power per sample at ``fs_hz`` (noise bandwidth fs)
-    ebn0_db : snr_db + 10·log10(fs/bit rate), independent of fs
-    start_s : absolute time of the detected reply start [s]
-    corr : normalised preamble correlation (0…1) at the detected start
-    blf_hz : the BLF the reply was decoded at [Hz] (NaN: the nominal BLF, ``blf_search`` off)
-    decision_ebn0_db : the acceptance statistic, Eb/(N0 + I) of the decoded reply against its
-        residual (:func:`rfsim.devices.reader_search.search_decode`; NaN with ``blf_search`` off)
+    success : bool
+        Reply detected, decoded and (if expected) CRC-16 correct.
+    bits : ndarray of uint8, shape (n_bits,), or None
+        Decoded bits (also on a CRC error), None if no reply was found.
+    failure_reason : str
+        One of :data:`FAILURES`: "" on success, "preamble not found", "crc error" or
+        "rn16 rejected".
+    rssi_dbm : float
+        Power of the modulated component at the antenna port, 10·log10(|h|²)+30 [dBm], with
+        h the complex amplitude of the ±1 reply waveform (NaN without a reply).
+    phase_rad : float
+        (−arg h) mod 2π [rad], h at the centre of the reply; for a tag re-radiating
+        r = A_s − Γ (rfsim.devices.tag) h ∝ (r_B − r_A)/2 = (Γ_A − Γ_B)/2, A_s cancels.
+    doppler_hz : float
+        (1/2π)·d(arg h)/dt across the reply [Hz] (positive for an approaching tag).
+    snr_db : float
+        |h|²/σ² [dB], σ² the residual power per sample at ``fs_hz`` (noise bandwidth fs).
+    ebn0_db : float
+        snr_db + 10·log10(fs/bit rate) [dB], independent of fs.
+    start_s : float
+        Absolute time of the detected reply start [s].
+    corr : float
+        Normalised preamble correlation (0…1) at the detected start.
+    blf_hz : float
+        The BLF the reply was decoded at [Hz] (NaN: the nominal BLF, ``blf_search`` off).
+    decision_ebn0_db : float
+        The acceptance statistic, Eb/(N0 + I) of the decoded reply against its residual [dB]
+        (:func:`rfsim.devices.reader_search.search_decode`; NaN with ``blf_search`` off).
     """
 
     success: bool
@@ -61,9 +74,31 @@ class ReadResult:
 
 
 def measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float, float]:
-    """``(h, slope [rad/s], σ²)`` of ``z = h·e^{j·slope·t}·s(t) + noise`` (numba kernel; the
-    procedure is :meth:`rfsim.devices.reader.Reader.receive` step 5,
-    :func:`reference.devices_reader.measure_reference` in the tests its NumPy twin)."""
+    """Measure gain, phase slope and residual power of a reply against its reference.
+
+    Fits :math:`z = h\\, e^{j \\cdot \\mathrm{slope} \\cdot t} s(t) + \\mathrm{noise}` (numba
+    kernel; the procedure is :meth:`rfsim.devices.reader.Reader.receive` step 5, over
+    :data:`DOPPLER_BLOCKS` blocks; ``reference.devices_reader.measure_reference`` in the tests
+    is its NumPy twin).
+
+    Parameters
+    ----------
+    z : ndarray of complex, shape (n,)
+        Received reply, offset removed [√W].
+    s : ndarray of float, shape (n,)
+        The ±1 reference waveform of the decoded reply (0 outside it).
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    h : complex
+        Complex amplitude at the centre of the reply [√W].
+    slope : float
+        Phase slope d(arg h)/dt [rad/s].
+    sigma2 : float
+        Mean residual power per sample over the reply [W].
+    """
     z = np.ascontiguousarray(z, dtype=np.complex128)
     s = np.ascontiguousarray(s, dtype=np.float64)
     h, slope, sigma2 = _rk.measure_kernel(z, s, float(fs_hz), DOPPLER_BLOCKS)
@@ -72,10 +107,32 @@ def measure(z: np.ndarray, s: np.ndarray, fs_hz: float) -> tuple[complex, float,
 
 def known_levels(r: np.ndarray, full: np.ndarray, t0_samples: float, elements_per_sample: float,
                   n_pre_elements: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(r, level)`` at the samples whose level is known without decisions (numba kernel;
-    :func:`reference.devices_reader.known_levels_reference` in the tests is its NumPy twin). ``full`` is the sampled reply starting
-    at ``t0_samples`` (``reply_waveform``'s t0_s·fs), its first ``n_pre_elements`` elements
-    the preamble."""
+    """Select the samples whose level is known without decisions.
+
+    Those on the preamble (pilot included) or outside the reply (the rest state, level −1),
+    whose two neighbours carry the same level (numba kernel;
+    ``reference.devices_reader.known_levels_reference`` in the tests is its NumPy twin).
+
+    Parameters
+    ----------
+    r : ndarray of complex, shape (n,)
+        Received samples [√W].
+    full : ndarray of float, shape (n,)
+        The sampled ±1 reply (0 outside it) starting at ``t0_samples``.
+    t0_samples : float
+        Start of the reply in samples (``reply_waveform``'s t0_s·fs).
+    elements_per_sample : float
+        Line-code elements per sample, 2·BLF/fs.
+    n_pre_elements : int
+        Elements of the preamble (the first of the reply).
+
+    Returns
+    -------
+    r : ndarray of complex, shape (m,)
+        The selected samples, in order.
+    level : ndarray of float, shape (m,)
+        Their known levels (±1).
+    """
     r_out = np.empty(r.size, dtype=np.complex128)
     level_out = np.empty(r.size)
     m = _rk.known_levels_kernel(np.ascontiguousarray(r, dtype=np.complex128),
@@ -85,7 +142,19 @@ def known_levels(r: np.ndarray, full: np.ndarray, t0_samples: float, elements_pe
 
 
 def steady(level: np.ndarray) -> np.ndarray:
-    """(n,) bool: samples whose two neighbours have the same level (the ends are False)."""
+    """Mark the samples whose two neighbours have the same level.
+
+    Parameters
+    ----------
+    level : ndarray, shape (n,)
+        Levels per sample.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True where ``level[i - 1] == level[i] == level[i + 1]`` (the ends are False).
+    """
+
     out = np.zeros(level.size, dtype=bool)
     out[1:-1] = (level[1:-1] == level[:-2]) & (level[1:-1] == level[2:])
     return out

@@ -32,15 +32,30 @@ FINE_FIRST_BITS = 16
 class SearchDecode:
     """Result of :func:`search_decode` for B windows (all arrays of length B).
 
-    bits : (B, n_bits) uint8; blf_hz : BLF decoded at [Hz]; start : reply start [samples into
-    the window]; corr : the coarse normalised preamble correlation; gain : h (complex);
-    sigma2 : residual power per sample over the reply's steady samples; ebn0_db :
-    10·log10(|h|²·(2M/ρ)/σ²), ρ = 2·BLF/fs (samples per bit 2M/ρ); sigma2_bit : σ_eff², the
-    disturbance that reaches the decisions: per data half-bit j the matched-filter output
-    of the projection y = Re((r − c)·h*)/|h| on the decided levels minus |h|·N_j (N_j steady
-    samples), σ_eff² = 2·Σδ_j²/ΣN_j (σ² for white noise; a second tag's in-band reply is not
-    reduced by the matched filter's gain); decision_ebn0_db : the acceptance statistic,
-    Eb/(N0 + I) in the decision domain = 10·log10(|h|²·(2M/ρ)/σ_eff²).
+    Attributes
+    ----------
+    bits : ndarray of uint8, shape (B, n_bits)
+        Decoded data bits.
+    blf_hz : ndarray of float, shape (B,)
+        BLF decoded at [Hz].
+    start : ndarray of float, shape (B,)
+        Reply start [samples into the window].
+    corr : ndarray of float, shape (B,)
+        The coarse normalised preamble correlation.
+    gain : ndarray of complex, shape (B,)
+        h [√W].
+    sigma2 : ndarray of float, shape (B,)
+        Residual power per sample over the reply's steady samples [W].
+    ebn0_db : ndarray of float, shape (B,)
+        10·log10(|h|²·(2M/ρ)/σ²) [dB], ρ = 2·BLF/fs (samples per bit 2M/ρ).
+    sigma2_bit : ndarray of float, shape (B,)
+        σ_eff² [W], the disturbance that reaches the decisions: per data half-bit j the
+        matched-filter output of the projection y = Re((r − c)·h*)/|h| on the decided levels
+        minus |h|·N_j (N_j steady samples), σ_eff² = 2·Σδ_j²/ΣN_j (σ² for white noise; a
+        second tag's in-band reply is not reduced by the matched filter's gain).
+    decision_ebn0_db : ndarray of float, shape (B,)
+        The acceptance statistic, Eb/(N0 + I) in the decision domain
+        = 10·log10(|h|²·(2M/ρ)/σ_eff²) [dB].
     """
 
     bits: np.ndarray
@@ -55,17 +70,57 @@ class SearchDecode:
 
 
 def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | None = None) -> np.ndarray:
-    """Coarse BLF hypotheses [Hz]: a geometric grid over BLF·(1 ± FrT) of ``link`` (or
-    [lo, hi]) with relative step 1/(2·preamble elements), the correlation peak's half-width
-    (as the capture decoder, :mod:`rfsim.gen2.replies` step 2)."""
+    """Return the coarse BLF hypotheses of the search.
+
+    A geometric grid over BLF·(1 ± FrT) of ``link`` (or [lo, hi]) with relative step
+    1/(2·preamble elements), the correlation peak's half-width (as the capture decoder,
+    :mod:`rfsim.gen2.replies` step 2; :func:`rfsim.gen2.reply_search.geometric_blf_grid_hz`).
+
+    Parameters
+    ----------
+    link : LinkProfile
+        Line code (M, TRext), nominal BLF and tolerance FrT.
+    lo_hz, hi_hz : float or None, optional
+        Range of the grid [Hz], both given or neither; default None, the link's BLF range.
+
+    Returns
+    -------
+    ndarray of float, shape (n_blfs,)
+        BLF hypotheses [Hz], increasing.
+    """
     lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
     n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
     return geometric_blf_grid_hz(lo, hi, 1.0 / (2.0 * n_pre_el))
 
 
 def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
-    """Preamble elements and levels, coarse templates and fine-search parameters of
-    :func:`search_decode` (and of its NumPy twin)."""
+    """Prepare the preamble, coarse templates and fine-search parameters of :func:`search_decode`.
+
+    Shared with its NumPy twin in the tests.
+
+    Parameters
+    ----------
+    m : int
+        Miller M (1 = FM0).
+    trext : bool
+        Pilot tone before the preamble.
+    n_bits : int
+        Data bits of the reply (without the dummy 1).
+    blfs_hz : array_like of float, shape (K,)
+        Coarse BLF hypotheses [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    tuple
+        ``(pre_levels, state, pre_el, ratios, tpl0, lens, span, target1, target)``: the
+        preamble levels (int8), the line-code state after the preamble, the preamble's
+        elements (float64), ρ_k = 2·BLF_k/fs (K,), the zero-mean coarse templates (K, L_max)
+        and their lengths (K,), the fine search's initial relative half-span
+        (``FINE_SPAN_STEPS`` coarse steps), and the relative BLF precision targets
+        1/(4·elements) of its first phase (``FINE_FIRST_BITS`` bits) and of the whole reply.
+    """
     pre_levels = preamble_levels(m=m, trext=trext)[0]
     pre_el = elements_of_levels(pre_levels, m, np.float64)
     ratios = 2.0 * np.asarray(blfs_hz, dtype=np.float64) / fs_hz
@@ -88,16 +143,36 @@ def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float
 
     Parameters
     ----------
-    rs : (B, n) complex, windows ``h·s(t) + c + noise`` [√W] (any constant offset c)
-    m, trext, n_bits : line code and data bits of the reply (without the dummy 1)
-    blfs_hz : coarse BLF hypotheses (:func:`blf_grid_hz`)
-    fs_hz : sample rate [Hz]; lo, hi : the reply start lags searched [samples]
-    threads : the windows are split into this many blocks decoded on as many threads (the
-        kernel releases the GIL and draws nothing at random: the result does not depend on it)
-    known_within : the BLF is known to this relative precision (``blfs_hz`` = the one known
-        BLF, e.g. measured on the RN16 of the tag an ACK addresses): the fine search starts
-        across ± that
+    rs : ndarray of complex, shape (B, n) or (n,)
+        Windows ``h·s(t) + c + noise`` [√W] (any constant offset c); one window when 1-D.
+    m : int
+        Miller M (1 = FM0).
+    trext : bool
+        Pilot tone before the preamble.
+    n_bits : int
+        Data bits of the reply (without the dummy 1).
+    blfs_hz : array_like of float
+        Coarse BLF hypotheses [Hz] (:func:`blf_grid_hz`).
+    fs_hz : float
+        Sample rate [Hz].
+    lo, hi : int
+        First and last reply start lag searched [samples].
+    threads : int, optional
+        The windows are split into this many blocks decoded on as many threads (the kernel
+        releases the GIL and draws nothing at random: the result does not depend on it);
+        default 1.
+    known_within : float or None, optional
+        The BLF is known to this relative precision (``blfs_hz`` = the one known BLF, e.g.
+        measured on the RN16 of the tag an ACK addresses): the fine search starts across ±
+        that. Default None: ``FINE_SPAN_STEPS`` coarse steps.
 
+    Returns
+    -------
+    SearchDecode
+        BLF, start, bits, gain and statistics of each window.
+
+    Notes
+    -----
     Method (the reader with ``blf_search = "preamble"``; the capture decoder
     :mod:`rfsim.gen2.replies` steps 2–3 do the same on recordings):
 
@@ -146,8 +221,37 @@ def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float
 
 
 def search_result(bits, ratio, start, corr, gain, sigma2, sigma2_bit, m, fs_hz) -> SearchDecode:
-    """The :class:`SearchDecode` of the kernel's outputs: BLF from ρ = 2·BLF/fs, Eb/N0 and the
-    decision-domain Eb/(N0 + I) in dB."""
+    """Assemble the :class:`SearchDecode` of the kernel's outputs.
+
+    BLF = ρ·fs/2; Eb/N0 = 10·log10(|h|²·(2M/ρ)/σ²) and the decision-domain Eb/(N0 + I) with
+    σ_eff² in place of σ², in dB.
+
+    Parameters
+    ----------
+    bits : ndarray of uint8, shape (B, n_bits)
+        Decoded bits.
+    ratio : ndarray of float, shape (B,)
+        ρ = 2·BLF/fs decoded at.
+    start : ndarray of float, shape (B,)
+        Reply start [samples into the window].
+    corr : ndarray of float, shape (B,)
+        Coarse normalised preamble correlation.
+    gain : ndarray of complex, shape (B,)
+        h [√W].
+    sigma2 : ndarray of float, shape (B,)
+        Residual power per sample [W].
+    sigma2_bit : ndarray of float, shape (B,)
+        σ_eff², the disturbance in the decision domain [W].
+    m : int
+        Miller M (1 = FM0).
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    SearchDecode
+        The result record.
+    """
     with np.errstate(divide="ignore", invalid="ignore"):
         e_bit = np.abs(gain) ** 2 * (2.0 * m / ratio)
         ebn0 = 10.0 * np.log10(e_bit / sigma2)
@@ -166,7 +270,25 @@ def rn16_threshold_db(false_accept: float, *, n_bits: int = 16) -> float:
     model): γ = (Q⁻¹(p/n))²/2. p = 1e−2 → 7.2 dB for 16 bits. An approximation: the
     interference of a second tag is not Gaussian, so the measured false-ACK rate against γ
     is what sets the default (``inventory`` scenario, ``acceptance`` table).
+
+    Parameters
+    ----------
+    false_accept : float
+        False-accept probability p, in (0, 0.5).
+    n_bits : int, optional
+        Keyword-only: bits of the word, default 16.
+
+    Returns
+    -------
+    float
+        γ [dB].
+
+    Raises
+    ------
+    ValueError
+        When ``false_accept`` is outside (0, 0.5).
     """
+
     from scipy.special import ndtri
 
     if not 0.0 < false_accept < 0.5:

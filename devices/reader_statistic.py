@@ -108,21 +108,35 @@ SEARCH_MARGIN = 3
 
 def piece_map(n: int, i_first: int, start: float, elements_per_sample: float, m: int,
               n_elements: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Noise pieces of the samples ``i_first … n − 1`` of a reply starting at sample ``start``
-    (module docstring, "Pieces"; numba kernel).
+    """Partition the samples after the search block into noise pieces.
+
+    The samples ``i_first … n − 1`` of a reply starting at sample ``start`` (module
+    docstring, "Pieces"; numba kernel).
 
     Parameters
     ----------
-    n : samples of the receiver's input; i_first : first sample of the pieces
-    start : reply start [samples, fractional]; elements_per_sample : 2·BLF/fs
-    m : Miller M (1: FM0); n_elements : elements of the reply (preamble, bits, dummy)
+    n : int
+        Samples of the receiver's input.
+    i_first : int
+        First sample of the pieces.
+    start : float
+        Reply start [samples, fractional].
+    elements_per_sample : float
+        Line-code elements per sample, 2·BLF/fs.
+    m : int
+        Miller M (1: FM0).
+    n_elements : int
+        Elements of the reply (preamble, bits, dummy).
 
     Returns
     -------
-    piece_of : (n − i_first,) int64, the piece of each sample
-    sign : (n − i_first,) float64, σ_i (±1)
-    kind : (n_pieces,) int64, the class of each piece (``STEADY``, ``INNER_EDGE``, ``SINGLE``,
-        ``REST`` of :mod:`rfsim.devices._reader_statistic_kernels`)
+    piece_of : ndarray of int64, shape (n − i_first,)
+        The piece of each sample.
+    sign : ndarray of float64, shape (n − i_first,)
+        σ_i (±1), the subcarrier sign of each sample.
+    kind : ndarray of int64, shape (n_pieces,)
+        The class of each piece (``STEADY``, ``INNER_EDGE``, ``SINGLE``, ``REST`` of
+        ``rfsim.devices._reader_statistic_kernels``).
     """
     size = max(int(n) - int(i_first), 0)
     piece_of = np.empty(size, np.int64)
@@ -134,24 +148,79 @@ def piece_map(n: int, i_first: int, start: float, elements_per_sample: float, m:
 
 
 def draw_piece_sums(sizes: np.ndarray, sigma2_w: float, *, rng: np.random.Generator) -> np.ndarray:
-    """Independent sums P_p ~ CN(0, σ²·|p|) of white noise over pieces of ``sizes`` samples,
-    ``(n_pieces,) complex128`` [√W] (real and imaginary parts each N(0, σ²·|p|/2))."""
+    """Draw the sums of white noise over pieces: :math:`P_p \\sim \\mathcal{CN}(0, \\sigma^2 |p|)`.
+
+    Independent; real and imaginary parts each N(0, σ²·|p|/2), drawn as one (2, n_pieces)
+    standard-normal array.
+
+    Parameters
+    ----------
+    sizes : array_like of float, shape (n_pieces,)
+        Samples |p| of each piece.
+    sigma2_w : float
+        Noise power per complex sample σ² [W].
+    rng : numpy.random.Generator
+        Keyword-only: the receiver's noise generator.
+
+    Returns
+    -------
+    ndarray of complex128, shape (n_pieces,)
+        The sums P_p [√W].
+    """
     scale = np.sqrt(0.5 * float(sigma2_w) * np.asarray(sizes, dtype=np.float64))
     z = rng.standard_normal((2, scale.size))
     return scale * z[0] + 1j * (scale * z[1])
 
 
 def spread(piece_of: np.ndarray, sign: np.ndarray, sums: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """Samples ñ_i = σ_i·P_p/|p| (i in piece p): every functional with weights c·σ_i on a piece
-    reads c·P_p, as on white noise with those piece sums, ``(piece_of.size,) complex128``."""
+    """Spread the piece sums over their samples: :math:`\\tilde n_i = \\sigma_i P_p / |p|`, i in p.
+
+    Every functional with weights c·σ_i on a piece then reads c·P_p, as on white noise with
+    those piece sums.
+
+    Parameters
+    ----------
+    piece_of : ndarray of int, shape (n,)
+        The piece of each sample.
+    sign : ndarray of float, shape (n,)
+        σ_i (±1).
+    sums : ndarray of complex, shape (n_pieces,)
+        Piece sums P_p [√W].
+    sizes : ndarray of int or float, shape (n_pieces,)
+        Samples |p| of each piece (0 is read as 1).
+
+    Returns
+    -------
+    ndarray of complex128, shape (n,)
+        The noise samples ñ_i [√W].
+    """
     return sign * (sums / np.maximum(sizes, 1))[piece_of]
 
 
 def bridge_split(total, n_a, n_b, sigma2_w: float, *, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Partial sums (A, B) of n_a and n_b samples of white noise (power σ² per sample) given their
-    sums ``total`` (arrays of equal length k): independent draws a ~ CN(0, σ²·n_a),
-    b ~ CN(0, σ²·n_b) moved by the shares n_a/n, n_b/n of ``total − a − b`` (n = n_a + n_b; a
-    Gaussian bridge: exactly the conditional law of (A, B) given A + B). Returns two (k,) complex."""
+    """Split noise sums into two partial sums by a Gaussian bridge.
+
+    Partial sums (A, B) of n_a and n_b samples of white noise (power σ² per sample) given their
+    sum ``total``: independent draws :math:`a \\sim \\mathcal{CN}(0, \\sigma^2 n_a)`,
+    :math:`b \\sim \\mathcal{CN}(0, \\sigma^2 n_b)` moved by the shares n_a/n, n_b/n of
+    ``total − a − b`` (n = n_a + n_b), exactly the conditional law of (A, B) given A + B.
+
+    Parameters
+    ----------
+    total : array_like of complex, shape (k,)
+        The sums A + B [√W].
+    n_a, n_b : array_like of int, shape (k,)
+        Samples in each part.
+    sigma2_w : float
+        Noise power per complex sample σ² [W].
+    rng : numpy.random.Generator
+        Keyword-only: the receiver's noise generator.
+
+    Returns
+    -------
+    a, b : ndarray of complex128, shape (k,)
+        The partial sums [√W]; ``a + b == total``.
+    """
     n_a = np.asarray(n_a, dtype=np.float64)
     n_b = np.asarray(n_b, dtype=np.float64)
     ab = draw_piece_sums(np.concatenate([n_a, n_b]), sigma2_w, rng=rng)
@@ -161,9 +230,28 @@ def bridge_split(total, n_a, n_b, sigma2_w: float, *, rng: np.random.Generator) 
 
 
 def residual_correction(n_free: int, sigma2_w: float, n_used: int, *, rng: np.random.Generator) -> float:
-    """Per-sample noise energy [W] the spread pieces lack in the measurement's residual: the
-    energy of white noise about its mean within the pieces, σ²·Gamma(Σ(|p| − 1)), divided by the
-    ``n_used`` samples the residual is averaged over (``n_free`` = Σ(|p| − 1))."""
+    """Draw the per-sample noise energy the spread pieces lack in the measurement's residual.
+
+    The energy of white noise about its mean within the pieces,
+    :math:`\\sigma^2 \\, \\mathrm{Gamma}(\\sum_p (|p| - 1))`, divided by the ``n_used`` samples the
+    residual is averaged over (module docstring, step 6).
+
+    Parameters
+    ----------
+    n_free : int
+        Degrees of freedom Σ(|p| − 1) over the pieces the measurement reads.
+    sigma2_w : float
+        Noise power per complex sample σ² [W].
+    n_used : int
+        Samples the residual is averaged over.
+    rng : numpy.random.Generator
+        Keyword-only: the receiver's noise generator (no draw when either count is ≤ 0).
+
+    Returns
+    -------
+    float
+        Energy per sample to add to the residual power [W]; 0 when either count is ≤ 0.
+    """
     if n_free <= 0 or n_used <= 0:
         return 0.0
     return float(sigma2_w) * float(rng.gamma(float(n_free))) / int(n_used)
@@ -191,16 +279,44 @@ def _noise_fill(x: np.ndarray, lo: int, b1: int, sigma2_w: float, rng: np.random
 def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
             blf_hz: float | None = None, carrier: complex | None = None,
             rng: np.random.Generator) -> ReadResult:
-    """:meth:`rfsim.devices.reader.Reader.receive` of ``x + n`` with the noise drawn as the
-    statistics the receiver reads (module docstring).
+    """Receive ``x + n`` with the noise drawn as the statistics the receiver reads.
+
+    :meth:`rfsim.devices.reader.Reader.receive` at statistic level (module docstring, steps
+    1–6; the BLF search is not modelled).
 
     Parameters
     ----------
-    reader : the :class:`~rfsim.devices.reader.Reader` (its link, sample rate, noise figure,
-        thresholds and reference/measurement steps)
-    x : (n,) complex, the noise-free waveform at the RX port [√W]
-    t0_s, n_bits, expect_crc, cmd_end_s, blf_hz, carrier : as :meth:`Reader.receive`
-    rng : the receiver's noise generator (keyword-only)
+    reader : rfsim.devices.reader.Reader
+        The reader (its link, sample rate, noise figure, thresholds and reference/measurement
+        steps).
+    x : ndarray of complex, shape (n,)
+        The noise-free waveform at the RX port [√W].
+    t0_s : float
+        Keyword-only (like the others): absolute time of ``x[0]`` [s].
+    n_bits : int
+        Data bits of the reply.
+    expect_crc : bool
+        Check the last 16 bits as CRC-16 over the reply.
+    cmd_end_s : float or None, optional
+        End of the command [s] (the search window as in :meth:`Reader.receive`); default
+        None, anywhere.
+    blf_hz : float or None, optional
+        The tag's BLF [Hz]; default None, the profile's nominal BLF.
+    carrier : complex or None, optional
+        The reader's transmitted baseband during the reply window, the phase reference;
+        default None (phase 0).
+    rng : numpy.random.Generator
+        The receiver's noise generator.
+
+    Returns
+    -------
+    ReadResult
+        As :meth:`Reader.receive` (failure reasons "preamble not found" or "crc error").
+
+    Raises
+    ------
+    ValueError
+        When ``x`` is not 1-D or ``blf_hz`` is not positive.
     """
     x = np.ascontiguousarray(x, dtype=np.complex128)
     if x.ndim != 1:
@@ -285,9 +401,37 @@ def _reach(sizes: np.ndarray, is_steady: np.ndarray) -> int:
 
 def block_cuts(s: np.ndarray, i0: int, b1: int, piece_of: np.ndarray, kind: np.ndarray,
                reach: int) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The measurement's block edges that cut a steady piece (numba kernel; module docstring
-    step 4): ``(samples the measurement reads, piece, edge (from b1), members before, after)``,
-    the arrays ``(n_cuts,)`` int64. ``s``: the reference reply from sample ``i0`` of the input."""
+    """Find the measurement's block edges that cut a steady piece (module docstring, step 4).
+
+    Numba kernel over the :data:`~rfsim.devices.reader_measure.DOPPLER_BLOCKS` blocks.
+
+    Parameters
+    ----------
+    s : ndarray of float, shape (n_s,)
+        The ±1 reference reply from sample ``i0`` of the input.
+    i0 : int
+        Input sample of ``s[0]``.
+    b1 : int
+        First sample of the pieces (end of the search block).
+    piece_of : ndarray of int64
+        The piece of each sample from ``b1`` on (:func:`piece_map`).
+    kind : ndarray of int64, shape (n_pieces,)
+        The class of each piece.
+    reach : int
+        Samples around a block edge within which a steady piece's members lie.
+
+    Returns
+    -------
+    n_used : int
+        Samples the measurement reads.
+    piece : ndarray of int64, shape (n_cuts,)
+        The cut pieces.
+    edge : ndarray of int64, shape (n_cuts,)
+        The block edge of each cut, counted from ``b1``.
+    n_before, n_after : ndarray of int64, shape (n_cuts,)
+        Members of the piece before and after the edge.
+    """
+
     k = DOPPLER_BLOCKS - 1
     out = [np.empty(k, np.int64) for _ in range(4)]
     n_used, n = _sk.block_cuts_kernel(np.ascontiguousarray(s, dtype=np.float64), int(i0), int(b1), piece_of, kind,

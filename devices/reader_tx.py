@@ -53,16 +53,25 @@ class TxSegment:
 
     Attributes
     ----------
-    t0_s : absolute time of sample 0 [s]
-    fs_hz : sample rate [Hz]
-    samples : (n,) complex128, baseband at the antenna port [√W]
-    fc_hz : carrier frequency [Hz]
-    channel_index : 1-based index into :func:`frequency_plan`
-    antenna_index : 0-based index into ``Reader.antennas``
-    cmd_start_s : absolute time of the delimiter's falling edge (50 % point) [s]
-    cmd_end_s : absolute time of the last rising edge of the command [s]
-    memo : data derived from ``samples`` that devices share (the run's
-        :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them)
+    t0_s : float
+        Absolute time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz].
+    samples : ndarray of complex128, shape (n,)
+        Baseband at the antenna port [√W].
+    fc_hz : float
+        Carrier frequency [Hz].
+    channel_index : int
+        1-based index into :func:`~rfsim.devices.reader_config.frequency_plan`.
+    antenna_index : int
+        0-based index into ``Reader.antennas``.
+    cmd_start_s : float
+        Absolute time of the delimiter's falling edge (50 % point) [s].
+    cmd_end_s : float
+        Absolute time of the last rising edge of the command [s].
+    memo : dict
+        Data derived from ``samples`` that devices share (the run's
+        :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them).
     """
 
     t0_s: float
@@ -82,10 +91,20 @@ class TxSegment:
 
 
 def hilbert_fir(half_length: int) -> np.ndarray:
-    """Blackman-windowed FIR Hilbert transformer, ``(2K+1,) float64``.
+    """Design the Blackman-windowed FIR Hilbert transformer of SSB-ASK.
 
-    ``h[k] = 2/(πk)·w[k]`` for odd k, 0 for even k (k = −K…K); its response is ≈ −j·sign(f)
-    above ≈ 2·fs/K.
+    :math:`h[k] = \\frac{2}{\\pi k} w[k]` for odd k, 0 for even k (k = −K…K, w the Blackman
+    window); its response is ≈ −j·sign(f) above ≈ 2·fs/K.
+
+    Parameters
+    ----------
+    half_length : int
+        K [samples].
+
+    Returns
+    -------
+    ndarray of float64, shape (2K + 1,)
+        The taps, centred on k = 0.
     """
     k = np.arange(-half_length, half_length + 1)
     h = np.zeros(k.size)
@@ -95,8 +114,10 @@ def hilbert_fir(half_length: int) -> np.ndarray:
 
 
 class PieTransmitter:
-    """The transmitter side of :class:`rfsim.devices.reader.Reader`: a command's bits and
-    duration, its PIE baseband and the transmitted segment (module docstring).
+    """The transmitter side of :class:`rfsim.devices.reader.Reader`.
+
+    A command's bits and duration, its PIE baseband and the transmitted segment (module
+    docstring).
 
     Uses the reader's ``link`` (LinkProfile), ``config`` (ReaderConfig), ``fs_hz``,
     ``_cw_amplitude()``, ``fc_hz(t)``, ``channel_index(t)``, ``antenna_index(round)``, its
@@ -129,14 +150,26 @@ class PieTransmitter:
         return hit
 
     def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
-        """Baseband of a PIE command [√W], ``(n,) complex128`` (module docstring equations).
+        """Modulate a PIE command to complex baseband (module docstring equations).
+
+        DSB-ASK :math:`x = \\sqrt{P} e(t)`, PR-ASK :math:`x = \\sqrt{P} s(t) e(t)` or SSB-ASK
+        :math:`x = \\sqrt{P} (e(t) + j (h_H * (e - 1))(t))`, per the link's modulation.
 
         Parameters
         ----------
-        bits : (n,) 0/1 command bits (CRC included)
-        preamble : "query" or "frame-sync"
-        cw_after_s : CW after the last rising edge [s]
-        cw_before_s : CW before the falling edge of the delimiter [s]
+        bits : array_like of {0, 1}, shape (n_bits,)
+            Command bits (CRC included).
+        preamble : {"query", "frame-sync"}
+            Keyword-only: the command's preamble.
+        cw_after_s : float
+            Keyword-only: CW after the last rising edge [s].
+        cw_before_s : float, optional
+            Keyword-only: CW before the falling edge of the delimiter [s], default 0.0.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,)
+            Baseband at the antenna port [√W].
         """
         lk = self.link
         timing = dict(tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
@@ -167,25 +200,44 @@ class PieTransmitter:
 
     def transmit(self, cmd, *, t0_s: float, cw_after_s: float, cw_before_s: float | None = None,
                  round_index: int = 0) -> TxSegment:
-        """CW for ``cw_before_s``, PIE command ``cmd`` (Query: full preamble, others:
-        frame-sync), then CW for ``cw_after_s``.
+        """Transmit CW, a PIE command, then CW.
 
-        Parameters
-        ----------
-        cmd : a command of :mod:`rfsim.gen2.commands`
-        t0_s : absolute time of the first sample [s]
-        cw_after_s : CW after the command [s] (T1max + reply + T2 for a reply window)
-        cw_before_s : CW before the delimiter [s]; default one Tari, so that a receiver's
-            envelope detector sees the delimiter's falling edge (the segment otherwise starts
-            in the middle of that edge). ``cmd_start_s = t0_s + cw_before_s``.
-        round_index : inventory round, selects the antenna (round robin)
-
-        The segment has ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
+        CW for ``cw_before_s``, the command ``cmd`` (Query: full preamble, others:
+        frame-sync), then CW for ``cw_after_s``. The segment has
+        ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
         ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
         the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble and CW
         lengths) and returned again, with their ``memo``, for a repeated command.
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            A command of :mod:`rfsim.gen2.commands`.
+        t0_s : float
+            Keyword-only (like the others): absolute time of the first sample [s].
+        cw_after_s : float
+            CW after the command [s] (T1max + reply + T2 for a reply window).
+        cw_before_s : float or None, optional
+            CW before the delimiter [s]; default None, one Tari, so that a receiver's
+            envelope detector sees the delimiter's falling edge (the segment otherwise starts
+            in the middle of that edge). ``cmd_start_s = t0_s + cw_before_s``.
+        round_index : int, optional
+            Inventory round, selects the antenna (round robin); default 0.
+
+        Returns
+        -------
+        TxSegment
+            The segment, on the carrier and channel of ``t0_s``.
+
+        Raises
+        ------
+        TypeError
+            When ``cmd`` is not a Gen2 command.
+        ValueError
+            When ``cw_after_s`` or ``cw_before_s`` is negative.
         """
+
         if not isinstance(cmd, COMMAND_TYPES):
             raise TypeError(f"not a Gen2 command: {cmd!r}")
         if not cw_after_s >= 0:

@@ -25,14 +25,38 @@ from rfsim.core.records import quantize_rssi_dbm
 
 @dataclass(frozen=True)
 class RssReport:
-    """Reader measurement stage: RSSI quantization step and sensitivity floor."""
+    """Reader measurement stage: RSSI quantization step and sensitivity floor.
+
+    Attributes
+    ----------
+    step_db : float
+        RSSI resolution [dB], default 1.0 (the thesis's readers; 0.01 = Impinj, 0 = none).
+    floor_dbm : float
+        Reader sensitivity [dBm], default −90.0: no read below.
+    """
 
     step_db: float = param(1.0, lo=0.0, hi=10.0, unit="dB",
                            doc="RSSI resolution (1 = the thesis's readers, 0.01 = Impinj, 0 = none)")
     floor_dbm: float = param(-90.0, lo=-150.0, hi=0.0, unit="dBm", doc="reader sensitivity: no read below")
 
     def report(self, rss_dbm) -> np.ndarray:
-        """Reported RSSI [dBm] of true received powers ``rss_dbm`` (any shape); NaN = not heard."""
+        """Return the reported RSSI of true received powers.
+
+        :math:`\\mathrm{RSSI}_{rep} = \\mathrm{step} \\cdot \\mathrm{round}(P_{rx}/\\mathrm{step})`
+        when :math:`P_{rx} \\ge` floor, else NaN (module docstring;
+        :func:`rfsim.core.records.quantize_rssi_dbm`).
+
+        Parameters
+        ----------
+        rss_dbm : float or array_like of float
+            True received powers [dBm], any shape.
+
+        Returns
+        -------
+        ndarray of float
+            Reported RSSI [dBm], the shape of ``rss_dbm``; NaN = not heard.
+        """
+
         p = np.asarray(rss_dbm, float)
         return np.where(p >= self.floor_dbm, quantize_rssi_dbm(p, self.step_db), np.nan)
 

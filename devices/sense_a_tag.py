@@ -77,16 +77,26 @@ MAX_REPORTED = 29
 
 def st_antenna_positions(center_m, *, n_antennas: int = 2, spacing_m: float = DEFAULT_SPACING_M,
                          orientation_rad=0.0) -> np.ndarray:
-    """Positions of SA1 and SA2 (or SA2 alone) [m].
+    """Return the positions of SA1 and SA2 (or SA2 alone).
+
+    :math:`c \\mp \\frac{s}{2} \\hat u`, :math:`\\hat u = (\\cos\\varphi, \\sin\\varphi, 0)`
+    (module docstring; auris-sense-a-tag.md, L3420-3422).
 
     Parameters
     ----------
-    center_m : (..., 3) float64 ST centre(s) [m]
-    orientation_rad : (...) azimuth of the SA1→SA2 axis [rad]
+    center_m : array_like of float, shape (..., 3)
+        ST centre(s) [m].
+    n_antennas : {1, 2}, optional
+        Keyword-only: 2 (default) for SA1 and SA2, 1 for SA2 alone at the centre.
+    spacing_m : float, optional
+        Keyword-only: antenna spacing s [m], default ``DEFAULT_SPACING_M`` (λ/4 at 915 MHz).
+    orientation_rad : float or array_like of float, shape (...), optional
+        Keyword-only: azimuth φ of the SA1→SA2 axis [rad], default 0.0.
 
     Returns
     -------
-    (..., n_antennas, 3) float64: ``center − s/2·û`` (SA1), ``center + s/2·û`` (SA2)
+    ndarray of float64, shape (..., n_antennas, 3)
+        ``center − s/2·û`` (SA1), ``center + s/2·û`` (SA2) [m].
     """
     c = np.asarray(center_m, dtype=float)
     if n_antennas == 1:
@@ -103,10 +113,20 @@ def st_antenna_positions(center_m, *, n_antennas: int = 2, spacing_m: float = DE
 class Observation:
     """What the ST made of other tags' backscatter in one reader segment.
 
-    command : the decoded reader command (or None); kind : "RN16", "EPC" or "" (nothing
-    expected); detected : a reply was decoded (EPC: CRC valid); bits : decoded bits or None;
-    path : 1/2 for selection and stamp (which path decoded), else None;
-    reception : the underlying st_receiver result
+    Attributes
+    ----------
+    command : object or None
+        The decoded reader command (or None).
+    kind : {"RN16", "EPC", ""}
+        What was expected ("" nothing).
+    detected : bool
+        A reply was decoded (EPC: CRC valid).
+    bits : ndarray of uint8 or None
+        Decoded bits.
+    path : int or None
+        1 or 2 for selection and stamp (which path decoded), else None.
+    reception : object or None
+        The underlying :mod:`rfsim.devices.st_receiver` result.
     """
 
     command: object | None
@@ -123,9 +143,31 @@ class SenseATag:
     Parameters
     ----------
     config : SenseATagConfig
-    antennas : (SA1, SA2) or (SA2,) antennas (``rfsim.channels.Antenna``), ``config.n_antennas`` of them
-    rng : numpy Generator — the ST's own stream (its RN16s and slot counter)
-    fs_hz : sample rate of the segments it will hear [Hz]
+        The ST's settings (identity, technique, detector, threshold, antennas).
+    antennas : sequence of rfsim.channels.Antenna
+        (SA1, SA2) or (SA2,), ``config.n_antennas`` of them.
+    rng : numpy.random.Generator
+        Keyword-only: the ST's own stream (its RN16s and slot counter).
+    fs_hz : float
+        Keyword-only: sample rate of the segments it will hear [Hz].
+
+    Attributes
+    ----------
+    mode : {"listening", "responding"}
+        The locator protocol's round.
+    heard : dict of int to list of int
+        CRC-16 hash of each EPC heard → the query rounds in which it was heard.
+    query_round : int
+        Index of the last Query heard (−1 before the first).
+    tag : rfsim.devices.tag.PassiveTag
+        The ST's own Gen2 identity on SA2.
+
+    Raises
+    ------
+    TypeError
+        When ``config`` is not a SenseATagConfig.
+    ConfigError
+        ``st.antennas`` when the number of antennas differs from ``config.n_antennas``.
     """
 
     def __init__(self, config: SenseATagConfig, antennas, *, rng: np.random.Generator, fs_hz: float):
@@ -159,13 +201,33 @@ class SenseATag:
     # -------------------------------------------------------------- protocol
 
     def report_epc_hex(self) -> str:
-        """The responding-round EPC: st_id, count, CRC-16 hashes (module docstring)."""
+        """Return the responding-round EPC: st_id, count, CRC-16 hashes (module docstring).
+
+        Returns
+        -------
+        str
+            The EPC in hex: word 0 ``st_id``, word 1 the number of tags heard, then their
+            hashes in order of first detection (at most :data:`MAX_REPORTED`).
+        """
         hashes = list(self.heard)[:MAX_REPORTED]
         return "".join(f"{w:04X}" for w in [self.config.st_id, len(hashes), *hashes])
 
     @staticmethod
     def parse_report(epc_bits) -> tuple[int, list[int]]:
-        """Inverse of :meth:`report_epc_hex` on EPC bits: ``(st_id, hashes)``."""
+        """Parse a report EPC, the inverse of :meth:`report_epc_hex`.
+
+        Parameters
+        ----------
+        epc_bits : array_like of {0, 1}, shape (n_bits,)
+            The report's EPC bits.
+
+        Returns
+        -------
+        st_id : int
+            Word 0.
+        hashes : list of int
+            The CRC-16 hashes of the tags heard.
+        """
         b = np.asarray(epc_bits, dtype=np.uint8)
         words = [bits_to_int(b[i:i + 16]) for i in range(0, b.size - 15, 16)]
         n = words[1]
@@ -176,9 +238,24 @@ class SenseATag:
         return isinstance(cmd, Select) and cmd.membank == 1 and cmd.pointer == 32 and cmd.mask == want
 
     def decode_command(self, x, *, fs_hz: float):
-        """PIE-decode the reader command in ``x`` (SA2 input [√W]) with the tag's PIE path.
+        """PIE-decode the reader command in ``x`` with the tag's PIE path.
 
-        Returns ``(cmd, frame)`` or ``(None, None)`` (below sensitivity, nothing or garbage).
+        Envelope detection (:func:`rfsim.devices.tag.envelope`), :func:`rfsim.gen2.pie.pie_decode`
+        and :func:`rfsim.gen2.commands.parse` of the first frame.
+
+        Parameters
+        ----------
+        x : array_like of complex, shape (n,)
+            SA2 input [√W].
+        fs_hz : float
+            Keyword-only: sample rate [Hz].
+
+        Returns
+        -------
+        cmd : rfsim.gen2.commands command or None
+            The command; None below ``sensitivity_dbm``, without a frame or on garbage.
+        frame : object or None
+            The PIE frame it was decoded from (its ``bits``, ``trcal``), or None.
         """
         x = np.asarray(x)
         if incident_power_w(x) < dbm_to_w(self.config.sensitivity_dbm):
@@ -192,8 +269,31 @@ class SenseATag:
             return None, None
 
     def send_frame(self, bits, *, start_s: float, blf_hz: float, m: int = 1, trext: bool = False) -> float:
-        """Schedule a frame of its own: ``bits`` line-coded (FM0 for m = 1, Miller-m) at
-        ``blf_hz`` from ``start_s`` [s]. Returns the frame's end [s]."""
+        """Schedule a frame of its own, backscattered by :meth:`reflect`.
+
+        Parameters
+        ----------
+        bits : array_like of {0, 1}, shape (n_bits,)
+            The frame's bits.
+        start_s : float
+            Keyword-only: start time [s].
+        blf_hz : float
+            Keyword-only: link frequency [Hz].
+        m : {1, 2, 4, 8}, optional
+            Keyword-only: line code, 1 = FM0 (default), else Miller-M.
+        trext : bool, optional
+            Keyword-only: pilot tone before the preamble, default False.
+
+        Returns
+        -------
+        float
+            The frame's end [s].
+
+        Raises
+        ------
+        ConfigError
+            ``st.frame.m`` or ``st.frame.blf_hz`` for an invalid line code or BLF.
+        """
         b = np.asarray(bits, dtype=np.uint8)
         if m not in (1, 2, 4, 8):
             raise ConfigError("st.frame.m", m, "1 (FM0), 2, 4 or 8")
@@ -203,9 +303,22 @@ class SenseATag:
         return float(start_s) + reply_duration_s(b.size, m=m, trext=trext, blf_hz=blf_hz)
 
     def reflect(self, incident) -> TagResponse:
-        """Reflector protocol of the air interface (:mod:`rfsim.air.step`): a scheduled frame
-        overlapping the segment is backscattered (Γ(t) of the ST's modulator), otherwise
-        :meth:`listen`."""
+        """Respond to an incident segment (reflector protocol of :mod:`rfsim.air.step`).
+
+        A scheduled frame overlapping the segment is backscattered (Γ(t) of the ST's
+        modulator: Γ_B on +1 levels, Γ_A on −1 and at rest); otherwise :meth:`listen`.
+
+        Parameters
+        ----------
+        incident : rfsim.air.segment.Segment
+            The incident field at SA2 (``samples`` [√W], ``t0_s``, ``fs_hz``,
+            ``n_samples``).
+
+        Returns
+        -------
+        rfsim.devices.tag_response.TagResponse
+            The response (powered: the ST is semi-passive).
+        """
         t0, fs, n = incident.t0_s, incident.fs_hz, incident.n_samples
         t_end = t0 + n / fs
         for bits, start, blf, m, trext in self._frames:
@@ -229,6 +342,20 @@ class SenseATag:
         tags) and does not reply (Γ_A throughout: it re-radiates A_s − Γ_A). Responding: acts
         as its tag. A QS Select switches to responding (with the report as EPC), any other
         Select to listening.
+
+        Parameters
+        ----------
+        incident : array_like of complex, shape (n,)
+            The segment at SA2 [√W].
+        t0_s : float
+            Keyword-only: time of the first sample [s].
+        fs_hz : float
+            Keyword-only: sample rate [Hz].
+
+        Returns
+        -------
+        rfsim.devices.tag_response.TagResponse
+            The response: no reply while listening, its tag's response while responding.
         """
         cmd, frame = self.decode_command(incident, fs_hz=fs_hz)
         if isinstance(cmd, Select):
@@ -257,7 +384,18 @@ class SenseATag:
                            structural_mode=complex(self.tag.config.structural_mode))
 
     def receiver(self) -> sr.STReceiver:
-        """Receive chain for the link parameters of the last Query."""
+        """Build the receive chain for the link parameters of the last Query (:func:`make_receiver`).
+
+        Returns
+        -------
+        rfsim.devices.st_receiver.STReceiver
+            The chain at the measured BLF = DR/TRcal and the Query's M and TRext.
+
+        Raises
+        ------
+        ValueError
+            When no Query has been heard yet.
+        """
         q = self._query
         if q is None or self._blf_hz is None:
             raise ValueError("no Query heard yet: link parameters unknown")
@@ -266,13 +404,30 @@ class SenseATag:
     def observe(self, inputs, *, start_sample: int = 0, stamp: sr.StampFrame | None = None) -> Observation:
         """Decode other tags' backscatter in one segment with the configured technique.
 
+        Records the CRC-16 hash of every EPC detected while listening in :attr:`heard`.
+
         Parameters
         ----------
-        inputs : (n_antennas, n) complex128, input at SA1 (, SA2) [√W] (e.g.
-            :attr:`rfsim.protocols.bistatic.BistaticExchange.inputs`); call :meth:`listen` on the
-            SA2 input of the same segment first (it sets what to expect)
-        start_sample : decode from this sample on (after the reader's command)
-        stamp : the stamped frame (technique "stamp": the transmitter's ASK-PSK stamp)
+        inputs : ndarray of complex128, shape (n_antennas, n)
+            Input at SA1 (, SA2) [√W] (e.g.
+            :attr:`rfsim.protocols.bistatic.BistaticExchange.inputs`); call :meth:`listen` on
+            the SA2 input of the same segment first (it sets what to expect).
+        start_sample : int, optional
+            Keyword-only: decode from this sample on (after the reader's command), default 0.
+        stamp : rfsim.devices.st_receiver.StampFrame or None, optional
+            Keyword-only: the stamped frame (technique "stamp": the transmitter's ASK-PSK
+            stamp); default None.
+
+        Returns
+        -------
+        Observation
+            What was expected and decoded (nothing when responding or nothing expected).
+
+        Raises
+        ------
+        ValueError
+            When ``inputs`` has not one row per antenna, no Query was heard, or technique
+            "stamp" is used without ``stamp``.
         """
         x = np.asarray(inputs)
         if x.shape[0] != len(self.antennas):
@@ -307,8 +462,24 @@ class SenseATag:
 
 
 def listen_start_sample(cmd_end_s: float, t0_s: float, fs_hz: float) -> int:
-    """First sample the ST's chains decode from: the sample after the reader command's last
-    rising edge ``cmd_end_s`` [s], in a segment starting at ``t0_s`` [s] sampled at ``fs_hz``."""
+    """Return the first sample the ST's chains decode from.
+
+    The sample after the reader command's last rising edge: ⌈(cmd_end − t0)·fs⌉ + 1.
+
+    Parameters
+    ----------
+    cmd_end_s : float
+        The command's last rising edge [s].
+    t0_s : float
+        Start of the segment [s].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    int
+        Sample index.
+    """
     return int(math.ceil((cmd_end_s - t0_s) * fs_hz)) + 1
 
 
@@ -317,7 +488,28 @@ def _dr(dr: str) -> float:
 
 
 def make_receiver(config: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: int, trext: bool) -> sr.STReceiver:
-    """The ST receive chain (linear detector with ``config.detector_gain`` at 50 Ω)."""
+    """Build the ST receive chain (linear detector with ``config.detector_gain`` at 50 Ω).
+
+    The detector's RC time constant is :math:`\\tau = 1/(2\\pi \\cdot 4\\,\\mathrm{BLF})`.
+
+    Parameters
+    ----------
+    config : SenseATagConfig
+        Detector gain and comparator threshold.
+    fs_hz : float
+        Keyword-only (like the others): sample rate [Hz].
+    blf_hz : float
+        Link frequency [Hz].
+    m : int
+        Line code (1 = FM0, else Miller-M).
+    trext : bool
+        Pilot tone before the preamble.
+
+    Returns
+    -------
+    rfsim.devices.st_receiver.STReceiver
+        The chain.
+    """
     det = sr.EnvelopeDetector(tau_s=1.0 / (2.0 * math.pi * 4.0 * blf_hz), gain=config.detector_gain)
     return sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext, threshold_v=config.threshold_v,
                          detector=det)
@@ -331,12 +523,27 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
     Parameters
     ----------
-    rx : receive chain
-    x : (r, n) complex128, baseband inputs [√W]
+    rx : rfsim.devices.st_receiver.STReceiver
+        The receive chain.
+    x : array_like of complex, shape (r, n) or (n,)
+        Baseband inputs [√W], one row per input.
 
     Returns
     -------
-    envelope_v, bandpassed_v, comparator : (r, n) float64; toggles : (r,) int64.
+    envelope_v, bandpassed_v : ndarray of float64, shape (r, n)
+        Detector output after the RC and band-passed [V].
+    comparator : ndarray of float64, shape (r, n)
+        Comparator output (±1).
+    toggles : ndarray of int64, shape (r,)
+        Comparator toggles per row.
+
+    Raises
+    ------
+    ValueError
+        When the rows hold no sample.
+
+    Notes
+    -----
     ``rx.chain(x[i])`` row by row (same RC start state, band-pass started in the steady state
     of the first sample, comparator from −1; equal to rounding: the RC here is SciPy's
     ``lfilter`` order ``y = (1 − a)·y + a·u``, the single chain's ``y += a·(u − y)``). With the
@@ -398,8 +605,25 @@ def _chain_inputs(rx: sr.STReceiver, x) -> tuple:
 
 
 def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
-    """Signed ``A(+1) − A(−1)`` of every row [V] (:func:`rfsim.devices.st_receiver.state_envelope_difference`
-    vectorised; ``levels`` (n,) the true line-code levels common to all rows)."""
+    """Return the signed envelope difference A(+1) − A(−1) of every row.
+
+    :func:`rfsim.devices.st_receiver.state_envelope_difference` vectorised: the mean envelope
+    over the settled samples of each level.
+
+    Parameters
+    ----------
+    envelope_v : ndarray of float, shape (r, n)
+        Detector envelopes [V].
+    levels : ndarray of int, shape (n,)
+        The true line-code levels (±1, 0 outside the reply), common to all rows.
+    rx : rfsim.devices.st_receiver.STReceiver
+        The chain (its settle and guard samples).
+
+    Returns
+    -------
+    ndarray of float, shape (r,)
+        A(+1) − A(−1) [V].
+    """
     ok = sr.settled_mask(levels, rx.settle_samples, rx.guard_samples)
     hi, lo = ok & (levels == 1), ok & (levels == -1)
     return envelope_v[:, hi].mean(axis=1) - envelope_v[:, lo].mean(axis=1)
@@ -407,12 +631,41 @@ def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
 
 def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, start_sample: int,
                 search_samples: int | None) -> np.ndarray:
-    """Decode the reply in the chosen ``rows`` (bool (r,)) → ``(r,) bool``: the decoded bits equal
-    ``expected_bits`` (the outcome of :meth:`STReceiver.decode_chain` without a CRC: a preamble
-    correlation of at least ``rx.min_corr``). Rows whose comparator does not toggle
+    """Decode the reply in the chosen rows and compare it with the expected bits.
+
+    The outcome of :meth:`STReceiver.decode_chain` without a CRC: a preamble correlation of
+    at least ``rx.min_corr`` and the expected bits. Rows whose comparator does not toggle
     ``rx.min_toggles`` times after ``start_sample`` are not decoded (False); the toggles of
     all rows are counted at once, and only the comparator is decoded (the envelope
-    measurements of ``decode_chain`` are not needed for the outcome)."""
+    measurements of ``decode_chain`` are not needed for the outcome).
+
+    Parameters
+    ----------
+    rx : rfsim.devices.st_receiver.STReceiver
+        The chain (line code, BLF, decoder, thresholds).
+    env : ndarray of float, shape (r, n)
+        Envelopes (:func:`chain_rows`); only their row count is read.
+    bp : ndarray of float, shape (r, n)
+        Band-passed outputs (not read).
+    cmp : ndarray of float, shape (r, n)
+        Comparator outputs (±1), the input of the decoder.
+    tog : ndarray of int, shape (r,)
+        Toggles of the whole rows (not read: the toggles after ``start_sample`` are counted).
+    rows : array_like of bool, shape (r,)
+        Keyword-only (like the others): the rows to decode.
+    expected_bits : array_like of {0, 1}, shape (n_bits,)
+        The bits sent.
+    start_sample : int
+        Decode from this sample on.
+    search_samples : int or None
+        The reply start is searched among lags 0…search_samples (None: every lag that fits).
+
+    Returns
+    -------
+    ndarray of bool, shape (r,)
+        True where the decoded bits equal ``expected_bits``.
+    """
+
     out = np.zeros(env.shape[0], dtype=bool)
     exp = np.asarray(expected_bits, dtype=np.uint8)
     part = cmp[:, start_sample:]

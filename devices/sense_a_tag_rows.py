@@ -27,8 +27,19 @@ NOT_DETECTED = {"st_detected": False, "st_detected_sa2": False, "st_detected_sa1
 
 
 def chain_names(config: SenseATagConfig) -> list[str]:
-    """The receive chains one listening runs, in row order: ``sa2``, then with two antennas
-    ``sa1`` and, for the combination technique, ``combined`` (SA1 + SA2)."""
+    """Name the receive chains one listening runs, in row order.
+
+    Parameters
+    ----------
+    config : SenseATagConfig
+        The ST (number of antennas, technique).
+
+    Returns
+    -------
+    list of str
+        ``"sa2"``, then with two antennas ``"sa1"`` and, for the combination technique,
+        ``"combined"`` (SA1 + SA2).
+    """
     two = config.n_antennas == 2
     return ["sa2"] + (["sa1"] + (["combined"] if config.technique == "combination" else []) if two else [])
 
@@ -38,22 +49,28 @@ def detect_replies(config: SenseATagConfig, listenings: list, *, t1_max_s: float
 
     Parameters
     ----------
-    config : the ST (technique, antennas, threshold, detector gain)
-    listenings : list of ``(inputs, tx, response, bits)``: ``inputs`` (n_antennas, n)
+    config : SenseATagConfig
+        The ST (technique, antennas, threshold, detector gain).
+    listenings : list of tuple
+        ``(inputs, tx, response, bits)`` per listening: ``inputs`` (n_antennas, n)
         complex128 [√W], SA1 (, SA2) from the listening start; ``tx`` the reader's segment
         (``fs_hz``, ``t0_s``, ``cmd_end_s``); ``response`` the tag's
         :class:`rfsim.devices.tag.TagResponse` (``blf_hz``, ``m``, ``trext``, ``reply_start_s``,
         ``reply.bits``); ``bits`` the reply's bits, None when the tag did not reply
-        (``inputs`` then unused)
-    t1_max_s : the link's largest T1 [s]; the preamble is searched up to T1 max + 2/BLF after
-        the listening start
+        (``inputs`` then unused).
+    t1_max_s : float
+        Keyword-only: the link's largest T1 [s]; the preamble is searched up to T1 max + 2/BLF
+        after the listening start.
 
     Returns
     -------
-    one dict per listening: ``st_detected`` (the technique's outcome), ``st_detected_sa2``,
-    ``st_detected_sa1`` (each path alone), ``st_diff_sa2_v`` (sample-level envelope difference
-    |A(+1) − A(−1)| at SA2's detector [V]); :data:`NOT_DETECTED` where the tag did not reply
+    list of dict
+        One per listening: ``st_detected`` (the technique's outcome), ``st_detected_sa2``,
+        ``st_detected_sa1`` (each path alone), ``st_diff_sa2_v`` (sample-level envelope
+        difference |A(+1) − A(−1)| at SA2's detector [V]); :data:`NOT_DETECTED` where the tag
+        did not reply.
     """
+
     names = chain_names(config)
     groups: dict = {}  # (BLF, M, TRext, fs, samples) -> indices of the listenings with a reply
     for k, (y, tx, resp, bits) in enumerate(listenings):

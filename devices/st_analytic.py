@@ -42,7 +42,9 @@ THRESHOLD_V = 5e-3
 def envelope_amplitude(a_r, a_t, theta_rad):
     r"""Envelope of the CW plus one backscatter state, Eq. 3.3 (seed L2532-2560).
 
-    .. math:: A = \sqrt{A_R^2 + 2 A_R A_T \cos\theta + A_T^2} = |A_R + A_T e^{j\theta}|
+    .. math::
+
+        A = \sqrt{A_R^2 + 2 A_R A_T \cos\theta + A_T^2} = |A_R + A_T e^{j\theta}|
 
     (auris-sense-a-tag.md §1.3). The radicand is clipped at 0 against rounding.
 
@@ -67,7 +69,9 @@ def envelope_amplitude(a_r, a_t, theta_rad):
 def ask_envelope_difference(a_r, a_t1, a_t2, theta_rad):
     r"""ASK envelope difference ``|A1 − A2|``, Eq. 3.4 (seed L2562-2595).
 
-    .. math:: |A_1 - A_2| = \frac{|A_{T1} - A_{T2}|\,|A_{T1} + A_{T2} + 2 A_R \cos\theta|}{A_1 + A_2}
+    .. math::
+
+        |A_1 - A_2| = \frac{|A_{T1} - A_{T2}|\,|A_{T1} + A_{T2} + 2 A_R \cos\theta|}{A_1 + A_2}
 
     with ``A_i`` from Eq. 3.3 (the rationalised form: no cancellation of nearly equal square
     roots near the null; auris-sense-a-tag.md §1.3). Where ``A1 + A2 = 0`` the result is 0.
@@ -97,7 +101,9 @@ def ask_envelope_difference(a_r, a_t1, a_t2, theta_rad):
 def ask_cancel_angle(a_r, a_t1, a_t2):
     r"""Cancellation angle of ASK backscatter, Eq. 3.5 (seed L2597-2608).
 
-    .. math:: \theta_{cancel} = \arccos\left(-\frac{A_{T1} + A_{T2}}{2 A_R}\right)
+    .. math::
+
+        \theta_{cancel} = \arccos\left(-\frac{A_{T1} + A_{T2}}{2 A_R}\right)
 
     The nulls of Eq. 3.4 lie at ``θ = ±θ_cancel`` (mod 2π) (auris-sense-a-tag.md §1.3).
 
@@ -122,7 +128,9 @@ def ask_cancel_angle(a_r, a_t1, a_t2):
 def psk_envelope_difference(a_r, a_t, psi_rad, theta_rad):
     r"""PSK envelope difference ``|A1 − A2|``, Eq. 3.9 (seed L2735-2762).
 
-    .. math:: |A_1 - A_2| = \frac{2 A_R A_T |\cos\theta - \cos(\theta + \psi)|}{A_1 + A_2}
+    .. math::
+
+        |A_1 - A_2| = \frac{2 A_R A_T |\cos\theta - \cos(\theta + \psi)|}{A_1 + A_2}
 
     with ``A1 = |A_R + A_T e^{jθ}|``, ``A2 = |A_R + A_T e^{j(θ+ψ)}|`` (Eq. 3.8, with the
     seed's ``A_T2`` misprint read as ``A_T``, reference §0.4; auris-sense-a-tag.md §1.4).
@@ -155,7 +163,9 @@ def psk_envelope_difference(a_r, a_t, psi_rad, theta_rad):
 def psk_cancel_angles(psi_rad, k=(0, 1)):
     r"""PSK null angles, Eq. 3.10/3.11 (seed L2764-2775).
 
-    .. math:: \theta_{cancel} = -\psi/2 + k\pi
+    .. math::
+
+        \theta_{cancel} = -\psi/2 + k\pi
 
     (auris-sense-a-tag.md §1.4).
 
@@ -177,7 +187,9 @@ def psk_cancel_angles(psi_rad, k=(0, 1)):
 def psk_peak_difference(a_t, psi_rad):
     r"""Maximum over θ of the PSK envelope difference, Eq. 3.9 (Fig. 3.5, reference §1.4).
 
-    .. math:: \max_\theta |A_1 - A_2| = 2 A_T |\sin(\psi/2)|
+    .. math::
+
+        \max_\theta |A_1 - A_2| = 2 A_T |\sin(\psi/2)|
 
     The envelope difference of two phasors is at most the length of the chord between the
     backscatter states, ``|A_T − A_T·e^{jψ}|``; the bound is reached where the chord points
@@ -303,7 +315,9 @@ def combined_envelope_difference(comb: CombinedSignal):
 def combined_cancel_angle(comb: CombinedSignal):
     r"""Cancellation condition of the combination, Eq. 3.22 (seed L3091-3096).
 
-    .. math:: \beta + \theta - \alpha = \pm\arccos\left(-\frac{\hat A_{T1} + \hat A_{T2}}{2 \hat A_R}\right)
+    .. math::
+
+        \beta + \theta - \alpha = \pm\arccos\left(-\frac{\hat A_{T1} + \hat A_{T2}}{2 \hat A_R}\right)
 
     Parameters
     ----------

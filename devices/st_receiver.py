@@ -313,7 +313,9 @@ class EnvelopeDetector:
 
         ``linear``: ``gain·V``; ``square``: ``responsivity·V²/(2R)``; ``diode``:
 
-        .. math:: v = n V_T \ln I_0\!\left(\frac{G_v V}{n V_T}\right)
+        .. math::
+
+            v = n V_T \ln I_0\!\left(\frac{G_v V}{n V_T}\right)
 
         (evaluated as ``n·V_T·(ln i0e(x) + x)``, no overflow; module docstring); ``agc``:
         ``agc_gain(V)·V`` sample by sample (the per-row scaling of :meth:`instantaneous_v` uses

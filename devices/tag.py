@@ -151,7 +151,9 @@ def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     r"""Envelope detector output (arbitrary units): |x|, optionally RC low-passed.
 
-    .. math:: e_f[n] = a\,e_f[n-1] + (1 - a)\,|x[n]|, \qquad a = e^{-1/(\tau_{RC} f_s)}
+    .. math::
+
+        e_f[n] = a\,e_f[n-1] + (1 - a)\,|x[n]|, \qquad a = e^{-1/(\tau_{RC} f_s)}
 
     started at ``e_f[−1] = |x[0]|`` (the detector has settled on the CW before the segment;
     step 2 of the module docstring, PASS ``tag_demodulation``).

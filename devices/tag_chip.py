@@ -236,7 +236,9 @@ class PowerDependentChip:
     def states(self, p_chip_w: float) -> tuple[complex, complex]:
         r"""Reflection states at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna.
 
-        .. math:: \Gamma = \frac{Z - Z_a^*}{Z + Z_a}, \qquad Z_{in} = Z_{ic} \parallel Z_{at},
+        .. math::
+
+            \Gamma = \frac{Z - Z_a^*}{Z + Z_a}, \qquad Z_{in} = Z_{ic} \parallel Z_{at},
             \quad Z_{in,m} = Z_{in} \parallel Z_{mod}
 
         (Kurokawa power waves; pass-paris-simulator.md §5.2).

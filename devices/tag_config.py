@@ -142,7 +142,9 @@ class TagConfig:
         The tag counts RTcal and TRcal exactly (PIE edges on ideal times): the rules of
         :meth:`PassiveTag.listen` steps 3–4,
 
-        .. math:: BLF = \frac{f_{clk}}{N_{BLF}}(1 + \varepsilon), \qquad
+        .. math::
+
+            BLF = \frac{f_{clk}}{N_{BLF}}(1 + \varepsilon), \qquad
             T_1 = \frac{\max(N_{RTcal}, 10 N_{BLF})}{f_{clk}} + t_{1,offset}
 
         (gen2-and-validation-anchors.md §4.2/§4.3).

@@ -77,7 +77,9 @@ def parallel_ohm(z1_ohm, z2_ohm):
 def power_transmission_coefficient(z_chip_ohm, z_ant_ohm):
     r"""Power transmission coefficient between antenna and chip.
 
-    .. math:: \tau = \frac{4 R_c R_a}{|Z_c + Z_a|^2}
+    .. math::
+
+        \tau = \frac{4 R_c R_a}{|Z_c + Z_a|^2}
 
     the share of the antenna's available power that the chip absorbs (Nikitin & Rao 2005;
     gen2-and-validation-anchors.md §4.7). τ = 1 for ``Z_c = Z_a*``; τ = 1 − |Γ|² with Γ the
@@ -103,7 +105,9 @@ def power_transmission_coefficient(z_chip_ohm, z_ant_ohm):
 def reflection_coefficient(z_chip_ohm, z_ant_ohm):
     r"""Power-wave (Kurokawa) reflection coefficient.
 
-    .. math:: \Gamma = \frac{Z_c - Z_a^*}{Z_c + Z_a}
+    .. math::
+
+        \Gamma = \frac{Z_c - Z_a^*}{Z_c + Z_a}
 
     Γ = 0 for a conjugate match; |Γ| = 1 for a reactive chip load; Γ = −1 for a short with a
     real antenna impedance (pass-paris-simulator.md §5.2 "Physics of the reflection table").
@@ -128,7 +132,9 @@ def reflection_coefficient(z_chip_ohm, z_ant_ohm):
 def modulation_factor(gamma_a, gamma_b):
     r"""Modulation factor of two reflection states.
 
-    .. math:: M = \frac{|\Gamma_A - \Gamma_B|^2}{4}
+    .. math::
+
+        M = \frac{|\Gamma_A - \Gamma_B|^2}{4}
 
     (Griffin & Durgin 2009; gen2-and-validation-anchors.md §4.7): the share of the power the
     tag could scatter that ends up in the modulated (data-bearing) signal for square-wave
@@ -152,7 +158,9 @@ def modulation_factor(gamma_a, gamma_b):
 def differential_rcs_m2(gamma_a, gamma_b, *, gain_lin, wavelength_m):
     r"""Differential radar cross-section of a tag [m²].
 
-    .. math:: \Delta\sigma = \frac{\lambda^2 G^2 |\Gamma_A - \Gamma_B|^2}{4\pi}
+    .. math::
+
+        \Delta\sigma = \frac{\lambda^2 G^2 |\Gamma_A - \Gamma_B|^2}{4\pi}
 
     For a minimum-scattering antenna loaded with Z_c the antenna-mode scattered field is
     proportional to A = 2R_a/(Z_c + Z_a) = 1 − Γ, so the two states differ by |Γ_A − Γ_B|

@@ -238,7 +238,9 @@ class TagSpreadConfig:
 def spread_gamma_b(gamma_a: complex, gamma_b: complex, gain_db: float, phase_deg: float) -> complex:
     r"""The chip spread of the modulated state.
 
-    .. math:: \Gamma_B' = \Gamma_A + (\Gamma_B - \Gamma_A)\,10^{g/20}\,e^{j\varphi}
+    .. math::
+
+        \Gamma_B' = \Gamma_A + (\Gamma_B - \Gamma_A)\,10^{g/20}\,e^{j\varphi}
 
     (the project's own model, module docstring).
 

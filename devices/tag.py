@@ -247,7 +247,7 @@ class SharedFrontEnd:
         Parameters
         ----------
         gain : complex
-            Complex gain g of the link [√W/√W].
+            Complex (dimensionless) gain g of the tag's link.
 
         Returns
         -------

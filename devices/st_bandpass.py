@@ -27,8 +27,31 @@ _signal = lazy_import("scipy.signal")
 
 
 def butter_bandpass_sos(order: int, low_hz: float, high_hz: float, fs_hz: float) -> np.ndarray:
-    """Butterworth band-pass ``[low_hz, high_hz]`` at ``fs_hz`` as (sections, 6) float64
-    (``scipy.signal.butter(order, [low, high], "bandpass", fs=fs, output="sos")``)."""
+    """Butterworth band-pass ``[low_hz, high_hz]`` at ``fs_hz`` as second-order sections.
+
+    Equal to ``scipy.signal.butter(order, [low, high], "bandpass", fs=fs, output="sos")``;
+    order 1 is computed here with NumPy (the design of the module docstring), other orders
+    call SciPy (:func:`butter_bandpass_sos_reference`).
+
+    Parameters
+    ----------
+    order : int
+        Order of the analog low-pass prototype (the band-pass has twice as many poles).
+    low_hz, high_hz : float
+        Lower and upper −3 dB band edges [Hz], ``0 < low_hz < high_hz < fs_hz/2``.
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_sections, 6), float64
+        Sections ``[b0, b1, b2, a0, a1, a2]`` (one section for order 1).
+
+    Raises
+    ------
+    ValueError
+        If the band edges are not ``0 < low_hz < high_hz < fs_hz/2``.
+    """
     if int(order) != 1:
         return butter_bandpass_sos_reference(order, low_hz, high_hz, fs_hz)
     fs = float(fs_hz)
@@ -68,12 +91,43 @@ def butter_bandpass_sos(order: int, low_hz: float, high_hz: float, fs_hz: float)
 
 
 def butter_bandpass_sos_reference(order: int, low_hz: float, high_hz: float, fs_hz: float) -> np.ndarray:
-    """SciPy's design (the twin of :func:`butter_bandpass_sos`)."""
+    """SciPy's design (the twin of :func:`butter_bandpass_sos`).
+
+    Parameters
+    ----------
+    order : int
+        Order of the analog low-pass prototype.
+    low_hz, high_hz : float
+        Lower and upper −3 dB band edges [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_sections, 6), float64
+        ``scipy.signal.butter(order, [low_hz, high_hz], btype="bandpass", fs=fs_hz, output="sos")``.
+    """
     return _signal.butter(int(order), [low_hz, high_hz], btype="bandpass", fs=fs_hz, output="sos")
 
 
 def sos_steady_state(sos) -> np.ndarray:
-    """Steady state per unit input of the sections ``sos`` (s, 2) (``scipy.signal.sosfilt_zi``)."""
+    """Steady state per unit input of second-order sections (``scipy.signal.sosfilt_zi``).
+
+    The state ``zi`` of a section in direct form II transposed that a constant unit input
+    leaves unchanged, ``(I − Aᵀ)·zi = b[1:] − a[1:]·b[0]`` with A the companion matrix of a;
+    one normalised section (``a0 = 1``) is solved here, anything else by SciPy
+    (:func:`sos_steady_state_reference`).
+
+    Parameters
+    ----------
+    sos : array_like, shape (n_sections, 6)
+        Second-order sections ``[b0, b1, b2, a0, a1, a2]``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_sections, 2), float64
+        Initial state per section for a unit step (scale by the first input sample).
+    """
     sos = np.asarray(sos, dtype=np.float64)
     if sos.shape[0] != 1 or sos[0, 3] != 1.0:
         return sos_steady_state_reference(sos)
@@ -87,7 +141,18 @@ def sos_steady_state(sos) -> np.ndarray:
 
 
 def sos_steady_state_reference(sos) -> np.ndarray:
-    """SciPy's ``sosfilt_zi`` (the twin of :func:`sos_steady_state`)."""
+    """SciPy's ``sosfilt_zi`` (the twin of :func:`sos_steady_state`).
+
+    Parameters
+    ----------
+    sos : array_like, shape (n_sections, 6)
+        Second-order sections ``[b0, b1, b2, a0, a1, a2]``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_sections, 2)
+        ``scipy.signal.sosfilt_zi(sos)``.
+    """
     return _signal.sosfilt_zi(sos)
 
 

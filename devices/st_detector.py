@@ -39,7 +39,38 @@ PASS_ST_ZIC_OHM = complex(70.085, -111.36)
 
 @dataclass(frozen=True)
 class DetectorConfig:
-    """ST envelope detector law, diode parameters and front-end noise."""
+    """ST envelope detector law, diode parameters and front-end noise.
+
+    The laws and the default diode constants are those of the module docstring
+    (auris-sense-a-tag.md §3.1, §6).
+
+    Parameters
+    ----------
+    law : {'diode', 'linear', 'agc'}, default 'diode'
+        Detector law: ``'diode'`` = ``n·V_T·ln I0(G_v·V/(n·V_T))``
+        (:class:`rfsim.devices.st_receiver.EnvelopeDetector`); ``'linear'`` =
+        ``st.detector_gain·V`` (the closed forms' unit-gain detector); ``'agc'`` = PASS's
+        demodulator characteristic ``meas_tag_agc`` (needs ``agc_dir``).
+    matching_gain : float, default DEFAULT_MATCHING_GAIN (0.96)
+        ``'diode'``: matching-network voltage gain G_v, in [0.01, 100].
+    ideality : float, default DEFAULT_IDEALITY (1.05)
+        ``'diode'``: ideality factor n, in [1, 3].
+    temperature_k : float, default DEFAULT_TEMPERATURE_K (290 K)
+        ``'diode'``: diode temperature T [K], in [1, 500].
+    noise_figure_db : float, default 15.0
+        ST front-end noise figure referred to the antenna port [dB]: thermal noise
+        ``k·T0·fs·F`` per sample at each ST antenna (an assumption: the source has no ST noise).
+    noise : bool, default True
+        Add the ST thermal/detector noise.
+    agc_dir : str, default ''
+        ``'agc'``: folder holding ``meas_tag_agc.mat`` (PASS characteristics).
+
+    Raises
+    ------
+    ConfigError
+        If ``law = 'agc'`` and ``agc_dir`` holds no ``meas_tag_agc.mat``, or a value is out of
+        its range.
+    """
 
     law: Literal["diode", "linear", "agc"] = param(
         "diode", doc="ST envelope detector: 'diode' = n*V_T*ln I0(G_v*V/(n*V_T)) (rfsim.devices.st_receiver); "
@@ -64,10 +95,26 @@ class DetectorConfig:
 
 
 def make_detector(dc: DetectorConfig, st: SenseATagConfig, blf_hz: float) -> sr.EnvelopeDetector:
-    """The ST's envelope detector from the detector settings (RC τ = 1/(2π·4·BLF), ``blf_hz`` [Hz]).
+    """The ST's envelope detector from the detector settings.
 
-    'agc': PASS's ``meas_tag_agc`` table at Vdda = 2 V, the chip voltage sqrt(2P·R_p) of
-    :data:`PASS_ST_ZIC_OHM` against the 50 Ω peak voltage here (``agc_scale = sqrt(R_p/50 Ω)``).
+    The RC time constant is ``τ = 1/(2π·4·BLF)`` (a low-pass at four times the BLF). For
+    ``'agc'``: PASS's ``meas_tag_agc`` table at Vdda = 2 V, the chip voltage
+    ``sqrt(2P·R_p)`` of :data:`PASS_ST_ZIC_OHM` against the 50 Ω peak voltage here
+    (``agc_scale = sqrt(R_p/50 Ω)``).
+
+    Parameters
+    ----------
+    dc : DetectorConfig
+        Detector law, diode parameters and AGC table folder.
+    st : SenseATagConfig
+        Sense-a-tag settings (``detector_gain`` of the linear law).
+    blf_hz : float
+        Backscatter link frequency [Hz].
+
+    Returns
+    -------
+    rfsim.devices.st_receiver.EnvelopeDetector
+        The detector of the chosen law.
     """
     tau = 1.0 / (2.0 * math.pi * 4.0 * blf_hz)
     if dc.law == "linear":
@@ -84,8 +131,31 @@ def make_detector(dc: DetectorConfig, st: SenseATagConfig, blf_hz: float) -> sr.
 
 def make_st_receiver(dc: DetectorConfig, st: SenseATagConfig, *, fs_hz: float, blf_hz: float, m: int,
                      trext: bool) -> sr.STReceiver:
-    """The ST receive chain with this detector: band-pass, ``st.threshold_v`` comparator, decoder
-    (the linear law is :func:`rfsim.devices.sense_a_tag.make_receiver`'s chain)."""
+    """The ST receive chain with this detector: band-pass, comparator, decoder.
+
+    The comparator threshold is ``st.threshold_v``; the linear law gives the chain of
+    :func:`rfsim.devices.sense_a_tag.make_receiver`.
+
+    Parameters
+    ----------
+    dc : DetectorConfig
+        Detector law and parameters.
+    st : SenseATagConfig
+        Sense-a-tag settings (threshold, linear detector gain).
+    fs_hz : float
+        Sample rate [Hz].
+    blf_hz : float
+        Backscatter link frequency [Hz].
+    m : int
+        Miller subcarrier cycles per symbol (1 = FM0, 2, 4, 8).
+    trext : bool
+        Whether the reply carries the extended (TRext) pilot tone.
+
+    Returns
+    -------
+    rfsim.devices.st_receiver.STReceiver
+        The receive chain.
+    """
     if dc.law == "linear":
         return _sense_a_tag.make_receiver(st, fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext)
     return sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, m=m, trext=trext, threshold_v=st.threshold_v,

@@ -10,9 +10,26 @@ import numpy as np
 
 
 def settled_mask(states, settle_samples: int, guard_samples: int = 0) -> np.ndarray:
-    """True where ``states`` has kept its value for at least ``settle_samples`` samples and
+    """Samples where a state sequence has settled.
+
+    True where ``states`` has kept its value for at least ``settle_samples`` samples and
     keeps it for at least ``guard_samples`` more (margin against a misaligned state
-    sequence)."""
+    sequence).
+
+    Parameters
+    ----------
+    states : array_like, shape (n_samples,)
+        State label of each sample.
+    settle_samples : int
+        Samples since the last state change required (RC settling).
+    guard_samples : int, default 0
+        Samples before the next state change required.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n_samples,)
+        The settled-sample mask.
+    """
     s = np.asarray(states)
     n = np.arange(s.size)
     change = np.ones(s.size, dtype=bool)
@@ -32,15 +49,26 @@ def state_levels(envelope_v, states, values, *, settle_samples: int, guard_sampl
 
     Parameters
     ----------
-    envelope_v : (n,) float64 detector output [V]
-    states : (n,) state label of each sample (e.g. ±1 line-code level, or 0/1/2)
-    values : the state labels to report
-    settle_samples : samples skipped after every state change (RC settling)
-    guard_samples : samples skipped before every state change
+    envelope_v : array_like, shape (n_samples,)
+        Detector output [V].
+    states : array_like, shape (n_samples,)
+        State label of each sample (e.g. ±1 line-code level, or 0/1/2).
+    values : sequence
+        The state labels to report.
+    settle_samples : int
+        Samples skipped after every state change (RC settling).
+    guard_samples : int, default 0
+        Samples skipped before every state change.
 
     Returns
     -------
-    (len(values),) float64 mean envelope per state (NaN when a state has no settled sample)
+    numpy.ndarray, shape (len(values),), float64
+        Mean envelope per state [V] (NaN when a state has no settled sample).
+
+    Raises
+    ------
+    ValueError
+        If ``envelope_v`` and ``states`` differ in shape.
     """
     env = np.asarray(envelope_v, dtype=np.float64)
     s = np.asarray(states)
@@ -58,8 +86,24 @@ def state_levels(envelope_v, states, values, *, settle_samples: int, guard_sampl
 def state_envelope_difference(envelope_v, states, *, settle_samples: int, guard_samples: int = 0) -> float:
     """Signed envelope difference ``A(+1) − A(−1)`` between the two line-code states [V].
 
-    The sample-level counterpart of ``A1 − A2`` (Eq. 3.3/3.4): mean of the settled detector
-    output in the +1 state minus that in the −1 state.
+    The sample-level counterpart of ``A1 − A2`` (auris-sense-a-tag.md Eq. 3.3/3.4): mean of
+    the settled detector output in the +1 state minus that in the −1 state.
+
+    Parameters
+    ----------
+    envelope_v : array_like, shape (n_samples,)
+        Detector output [V].
+    states : array_like, shape (n_samples,)
+        Line-code level of each sample (±1; other labels are ignored).
+    settle_samples : int
+        Samples skipped after every state change (RC settling).
+    guard_samples : int, default 0
+        Samples skipped before every state change.
+
+    Returns
+    -------
+    float
+        ``A(+1) − A(−1)`` [V]; NaN if a state has no settled sample.
     """
     hi, lo = state_levels(envelope_v, states, (1, -1), settle_samples=settle_samples,
                           guard_samples=guard_samples)

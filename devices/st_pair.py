@@ -64,16 +64,24 @@ def couple_ports(mix, x) -> np.ndarray:
 
     Parameters
     ----------
-    mix : (2, 2) complex, the coupling matrix M (:func:`rfsim.devices.st_analytic.coupling_matrix`)
-    x : (N, 2, ...) complex, uncoupled port signals (SA1, SA2 on axis 1): waveforms (N, 2, n)
-        [√W] or narrowband gains (N, 2)
+    mix : array_like, shape (2, 2), complex
+        Coupling matrix M (:func:`rfsim.devices.st_analytic.coupling_matrix`).
+    x : array_like, shape (N, 2, ...), complex
+        Uncoupled port signals (SA1, SA2 on axis 1): waveforms (N, 2, n_samples) [√W] or
+        narrowband gains (N, 2).
 
     Returns
     -------
-    (N, 2, ...) complex128, the coupled port signals. Waveforms go through a numba kernel
-    (:func:`rfsim.devices._st_pair_kernels.couple_ports_kernel`: the operations of
-    ``np.einsum("ij,nj...->ni...", mix, x)``, equal bit for bit); other shapes through that
-    ``einsum`` itself (its loop over (N, 2) sums from +0, which turns a −0 sum into +0).
+    numpy.ndarray, shape (N, 2, ...), complex128
+        The coupled port signals. Waveforms go through a numba kernel
+        (:func:`rfsim.devices._st_pair_kernels.couple_ports_kernel`: the operations of
+        ``np.einsum("ij,nj...->ni...", mix, x)``, equal bit for bit); other shapes through that
+        ``einsum`` itself (its loop over (N, 2) sums from +0, which turns a −0 sum into +0).
+
+    Raises
+    ------
+    ValueError
+        If ``x`` is not of shape (N, 2, ...).
     """
     x = np.asarray(x)
     if x.ndim < 2 or x.shape[1] != 2:
@@ -87,11 +95,28 @@ def couple_ports(mix, x) -> np.ndarray:
 
 
 def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float) -> np.ndarray:
-    """Per row of ``bandpassed_v`` (r, n) [V]: the transitions of a comparator of hysteresis
-    width ``threshold_v`` [V], run from −1 at the ASK stamp's first sample ``frame.start``,
-    over the second half of the ASK stamp (from ``(start + ask_stop)//2`` to ``ask_stop``),
-    ``(r,) int64`` (numba kernel :func:`rfsim.devices._st_pair_kernels.comparator_changes_rows_kernel`;
-    the twin is ``ask_stamp_transitions_reference``)."""
+    """Comparator transitions over the settled half of the ASK stamp, per row.
+
+    A comparator of hysteresis width ``threshold_v`` runs from −1 at the ASK stamp's first
+    sample ``frame.start``; its transitions are counted over the second half of the ASK
+    stamp, from ``(start + ask_stop)//2`` to ``ask_stop`` (numba kernel
+    :func:`rfsim.devices._st_pair_kernels.comparator_changes_rows_kernel`; the twin is
+    ``ask_stamp_transitions_reference``).
+
+    Parameters
+    ----------
+    bandpassed_v : numpy.ndarray, shape (n_rows, n_samples)
+        Band-pass output of each row [V].
+    frame : rfsim.devices.st_receiver.StampFrame
+        The stamped frame (``start``, ``ask_stop`` index the samples).
+    threshold_v : float
+        Comparator hysteresis width [V].
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_rows,), int64
+        Transitions in the second half of the ASK stamp.
+    """
     seg = np.ascontiguousarray(bandpassed_v[:, frame.start:frame.ask_stop], dtype=np.float64)
     out = np.empty(seg.shape[0], dtype=np.int64)
     skip = (frame.start + frame.ask_stop) // 2 - frame.start
@@ -103,19 +128,33 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
                blf_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """ASK-PSK stamp technique (§5) on many positions: stamp symbols on SA2, decode on the chosen path.
 
+    The ASK symbol is '1' when a comparator at (1 + :data:`STAMP_DECISION_MARGIN`)·threshold
+    makes at least ``STAMP_CYCLES − 1`` transitions in the second (settled) half of the ASK
+    stamp (the band-pass starts from rest at the stamp's first edge); otherwise the ST decodes
+    on SA1 (auris-sense-a-tag.md §5, seed L5984-5990).
+
     Parameters
     ----------
-    rx : the ST receive chain
-    stamp_inputs : (r, 2, n) complex128 [√W], SA1 and SA2 inputs during the stamped frame
-    frame : the stamped frame (indices into the inputs' samples)
-    expected_bits : the reply's bits; fs_hz, blf_hz : sample rate and BLF [Hz]
+    rx : rfsim.devices.st_receiver.STReceiver
+        The ST receive chain.
+    stamp_inputs : numpy.ndarray, shape (n_rows, 2, n_samples), complex128
+        SA1 and SA2 inputs during the stamped frame [√W].
+    frame : rfsim.devices.st_receiver.StampFrame
+        The stamped frame (indices into the inputs' samples).
+    expected_bits : array_like of uint8
+        The reply's bits.
+    fs_hz : float
+        Sample rate [Hz].
+    blf_hz : float
+        Backscatter link frequency [Hz] (the decoder searches the reply start within
+        ``2·fs/BLF`` samples of ``frame.reply_start``).
 
     Returns
     -------
-    use_p1, detected : (r,) bool — the ASK stamp read '-' on SA2 (decode on SA1); the chosen
-    path decoded ``expected_bits`` exactly. The ASK symbol is '1' when a comparator at
-    (1 + :data:`STAMP_DECISION_MARGIN`)·threshold follows every transition of the second
-    (settled) half of the ASK stamp (the band-pass starts from rest at the stamp's first edge).
+    use_p1 : numpy.ndarray of bool, shape (n_rows,)
+        The ASK stamp read '-' on SA2 (decode on SA1).
+    detected : numpy.ndarray of bool, shape (n_rows,)
+        The chosen path decoded ``expected_bits`` exactly.
     """
     env2, bp2, cmp2, tog2 = _sat.chain_rows(rx, stamp_inputs[:, 1])
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
@@ -132,27 +171,39 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
 
 def technique_rows(rx: sr.STReceiver, cw, bs1, bs2, reply, *, detector_gain: float,
                    threshold_v: float) -> dict[str, np.ndarray]:
-    """Sample-level ST chains of the four techniques for n positions, and the closed forms from
-    the same phasors.
+    """Sample-level ST chains of the four techniques for n positions, and the closed forms from the same phasors.
+
+    Techniques (module docstring; R3-5, R5-1): single, combination, selection, stamp; the
+    closed forms are :func:`rfsim.devices.st_analytic.technique_outcomes` through the
+    receiver's detector law.
 
     Parameters
     ----------
-    rx : the ST receive chain (its detector law is also the closed forms' law)
-    cw, bs1, bs2 : (n, k) complex [V], antenna-level phasors (RF peak at 50 Ω) of the CW and of
-        the backscatter in the modulating and absorbing states (k = 2: SA1, SA2; k = 1: SA2)
-    reply : the reply heard, with attributes ``inputs`` (n, k, samples) complex [√W] (SA1, SA2
+    rx : rfsim.devices.st_receiver.STReceiver
+        The ST receive chain (its detector law is also the closed forms' law).
+    cw, bs1, bs2 : numpy.ndarray, shape (n, k), complex
+        Antenna-level phasors [V] (RF peak at 50 Ω) of the CW and of the backscatter in the
+        modulating and absorbing states (k = 2: SA1, SA2; k = 1: SA2).
+    reply : object
+        The reply heard, with attributes ``inputs`` (n, k, samples) complex [√W] (SA1, SA2
         inputs during the reply), ``stamp_inputs`` (the same during the stamped frame, k = 2),
-        ``levels`` (samples,) the true line-code levels, ``frame`` (:class:`StampFrame`),
-        ``rn16`` (the reply's bits, None when the tag did not reply), ``search`` (decoder
-        search window [samples]), ``fs_hz``, ``blf_hz``
-    detector_gain : linear-law detector gain; threshold_v : comparator threshold [V]
+        ``levels`` (samples,) the true line-code levels, ``frame``
+        (:class:`rfsim.devices.st_receiver.StampFrame`), ``rn16`` (the reply's bits, None
+        when the tag did not reply), ``search`` (decoder search window [samples]), ``fs_hz``,
+        ``blf_hz``.
+    detector_gain : float
+        Linear-law detector gain [V/V].
+    threshold_v : float
+        Comparator threshold [V].
 
     Returns
     -------
-    dict of (n,) arrays: A_R, A_T1, A_T2, θ per antenna [V, rad] (``a_r_sa2_v``, ...),
-    ``sync_sa2_v``, closed-form differences ``closed_diff_*_v`` and flags
-    ``closed_cancelled_*``, sample-level detector differences ``diff_*_v``, ``detectable``,
-    ``detected_<technique>``, ``cancelled_<technique>``, ``stamp_use_p1``.
+    dict of str to numpy.ndarray, each shape (n,)
+        A_R, A_T1, A_T2, θ per antenna [V, rad] (``a_r_sa2_v``, ...), ``sync_sa2_v``,
+        closed-form differences ``closed_diff_*_v`` and flags ``closed_cancelled_*``,
+        sample-level detector differences ``diff_*_v``, ``detectable``,
+        ``detected_<technique>``, ``cancelled_<technique>``, ``stamp_use_p1``
+        (:func:`describe_column` describes each).
     """
     n, k = cw.shape
     det = rx.envelope_detector
@@ -281,7 +332,19 @@ TECHNIQUE_COLUMNS = (
 
 
 def column_unit(key: str) -> str:
-    """Unit of a column from its name's suffix (``_v`` V, ``_m`` m, ``_rad`` rad, ``_w`` W, else 1)."""
+    """Unit of a column from its name's suffix.
+
+    Parameters
+    ----------
+    key : str
+        Column name.
+
+    Returns
+    -------
+    str
+        ``"V"`` for ``_v``, ``"m"`` for ``_m``, ``"rad"`` for ``_rad``, ``"W"`` for ``_w``,
+        else ``"1"``.
+    """
     for suffix, unit in (("_v", "V"), ("_m", "m"), ("_rad", "rad"), ("_w", "W")):
         if key.endswith(suffix):
             return unit
@@ -289,8 +352,20 @@ def column_unit(key: str) -> str:
 
 
 def describe_column(key: str) -> str | None:
-    """Description of a column of :func:`technique_rows` or of a per-cell probability (``p_``,
-    ``ci_lo_``, ``ci_hi_`` + technique), from its name; None for other names."""
+    """Description of a column of :func:`technique_rows` or of a per-cell probability.
+
+    Parameters
+    ----------
+    key : str
+        Column name: an :data:`OUTCOME_COLUMNS` key, a per-antenna column (prefix of
+        :data:`ANTENNA_COLUMNS` + antenna) or a per-technique column (prefix of
+        :data:`TECHNIQUE_COLUMNS`, e.g. ``p_``, ``ci_lo_``, ``ci_hi_``, + technique).
+
+    Returns
+    -------
+    str or None
+        The description, None for other names.
+    """
     if key in OUTCOME_COLUMNS:
         return OUTCOME_COLUMNS[key][1]
     ant = next((a for a in ANTENNAS if f"_{a}_" in f"_{key}_"), None)
@@ -307,19 +382,32 @@ def describe_column(key: str) -> str | None:
 
 
 def cell_probabilities(flags: dict[str, np.ndarray], cell, n_cells: int, keep=None) -> dict[str, np.ndarray]:
-    """P(cancel) per cell and technique with its Clopper–Pearson 95 % interval
-    (:func:`rfsim.devices.st_analytic.cancellation_probability`).
+    """P(cancel) per cell and technique with its Clopper–Pearson 95 % interval.
+
+    Each cell's flags go through :func:`rfsim.devices.st_analytic.cancellation_probability`
+    (R3-5).
 
     Parameters
     ----------
-    flags : technique → (n,) bool cancelled flags of the samples
-    cell : (n,) int cell of each sample; n_cells : number of cells
-    keep : (n,) bool samples that count (default all)
+    flags : dict of str to numpy.ndarray
+        Technique → (n,) bool cancelled flags of the samples.
+    cell : numpy.ndarray, shape (n,), int
+        Cell index of each sample, in ``range(n_cells)``.
+    n_cells : int
+        Number of cells.
+    keep : numpy.ndarray of bool, shape (n,), optional
+        Samples that count (default all).
 
     Returns
     -------
-    dict of (n_cells,) arrays: ``p_<t>``, ``ci_lo_<t>``, ``ci_hi_<t>`` per technique (in the
-    order of ``flags``) and ``n_samples`` (samples kept per cell) after the first technique.
+    dict of str to numpy.ndarray, each shape (n_cells,)
+        ``p_<t>``, ``ci_lo_<t>``, ``ci_hi_<t>`` per technique (in the order of ``flags``) and
+        ``n_samples`` (samples kept per cell) after the first technique.
+
+    Raises
+    ------
+    ValueError
+        If a cell has no sample.
     """
     out: dict[str, np.ndarray] = {}
     for t, f in flags.items():

@@ -117,8 +117,26 @@ DEFAULT_TEMPERATURE_K = 290.0
 def to_source_volts(v, *, impedance_ohm: float = REFERENCE_IMPEDANCE_OHM):
     """Peak RF voltage across ``impedance_ohm`` → the source's amplitude unit [V].
 
-    ``sqrt(2P)`` across :data:`SOURCE_IMPEDANCE_OHM` for ``V = sqrt(2·R·P)``:
-    ``v·sqrt(SOURCE_IMPEDANCE_OHM / R)`` (module docstring, "Source voltage unit").
+    The source (PASS) amplitude is ``sqrt(2P)`` across :data:`SOURCE_IMPEDANCE_OHM` (1 Ω);
+    for ``V = sqrt(2·R·P)`` it is ``V·sqrt(SOURCE_IMPEDANCE_OHM / R)`` (module docstring,
+    "Source voltage unit"; auris-sense-a-tag.md §6.1).
+
+    Parameters
+    ----------
+    v : float or array_like
+        Peak RF voltage across ``impedance_ohm`` [V].
+    impedance_ohm : float, default REFERENCE_IMPEDANCE_OHM (50 Ω)
+        Reference impedance R of ``v`` [Ω] (> 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        Amplitude in source volts [V].
+
+    Raises
+    ------
+    ValueError
+        If ``impedance_ohm`` is not > 0.
     """
     if not impedance_ohm > 0:
         raise ValueError(f"impedance_ohm must be > 0, got {impedance_ohm}")
@@ -158,9 +176,21 @@ def _rc_coefficient(fs_hz: float, tau_s: float) -> float:
 
 
 def i0e(x) -> np.ndarray:
-    """Exponentially scaled modified Bessel function ``exp(−|x|)·I0(x)`` (numba, the Cephes
-    series of scipy.special.i0e evaluated in the same order: equal results; scipy's is the
-    twin), an array of the shape of ``x``."""
+    """Exponentially scaled modified Bessel function ``exp(−|x|)·I0(x)`` (numba).
+
+    The Cephes series of ``scipy.special.i0e`` evaluated in the same order (equal results;
+    SciPy's is the twin).
+
+    Parameters
+    ----------
+    x : float or array_like
+        Argument.
+
+    Returns
+    -------
+    numpy.ndarray, float64
+        ``exp(−|x|)·I0(x)``, shape of ``x``.
+    """
     x = np.asarray(x, dtype=np.float64)
     out = np.empty(x.shape)
     _k.i0e_kernel(np.ascontiguousarray(x).reshape(-1), out.reshape(-1))
@@ -170,7 +200,31 @@ def i0e(x) -> np.ndarray:
 def comparator(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, int, int]:
     """Hysteresis comparator (one-bit A/D) with switching levels ``±threshold_v/2`` (numba).
 
-    Returns ``(out, last_state, n_toggles)``; ``out : (n,) float64`` of ±1.
+    The output switches to +1 above ``+threshold_v/2`` and to −1 below ``−threshold_v/2``
+    (hysteresis width = threshold; auris-sense-a-tag.md §6, the 5 mV criterion of §3.1).
+
+    Parameters
+    ----------
+    v : array_like, shape (n_samples,)
+        Band-passed detector output [V].
+    threshold_v : float
+        Hysteresis width [V] (>= 0).
+    state0 : {-1, 1}, default -1
+        Output state before the first sample.
+
+    Returns
+    -------
+    out : numpy.ndarray, shape (n_samples,), float64
+        Comparator output (±1).
+    last_state : int
+        State after the last sample (pass as ``state0`` to continue in chunks).
+    n_toggles : int
+        Number of output transitions.
+
+    Raises
+    ------
+    ValueError
+        If ``threshold_v < 0`` or ``state0`` is not ±1.
     """
     v = np.ascontiguousarray(v, dtype=np.float64)
     if not threshold_v >= 0:
@@ -185,10 +239,23 @@ def comparator(v, *, threshold_v: float, state0: int = -1) -> tuple[np.ndarray, 
 def passband_envelope_v(v_rf, *, fs_hz: float, tau_s: float) -> np.ndarray:
     """Envelope of a real RF voltage by full-wave rectification and RC smoothing [V].
 
-    Cross-check of the baseband detector (DESIGN "passband mode"): for
-    ``v(t) = A(t)·cos(ωt + φ(t))`` with ``1/f_c ≪ τ``, the mean of ``|v|`` is ``(2/π)·A``,
-    so ``(π/2)·RC{|v|}`` tends to A (ripple at 2·f_c attenuated by ``≈ 1/(4π f_c τ)``).
-    ``v_rf : (n,) float64`` sampled at ``fs_hz ≫ f_c``.
+    Cross-check of the baseband detector (passband mode): for ``v(t) = A(t)·cos(ωt + φ(t))``
+    with ``1/f_c ≪ τ``, the mean of ``|v|`` is ``(2/π)·A``, so ``(π/2)·RC{|v|}`` tends to A
+    (ripple at 2·f_c attenuated by ``≈ 1/(4π f_c τ)``). The RC starts from 0.
+
+    Parameters
+    ----------
+    v_rf : array_like, shape (n_samples,)
+        Real RF voltage [V], sampled at ``fs_hz ≫ f_c``.
+    fs_hz : float
+        Sample rate [Hz].
+    tau_s : float
+        RC time constant [s].
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_samples,), float64
+        Envelope estimate [V].
     """
     u = 0.5 * np.pi * np.abs(np.asarray(v_rf, dtype=np.float64))
     return rc_lowpass(u, fs_hz=fs_hz, tau_s=tau_s, y0=0.0)[0]
@@ -242,8 +309,28 @@ class EnvelopeDetector:
         return self.ideality * K_OVER_Q_V_PER_K * self.temperature_k
 
     def transfer_v(self, v_peak):
-        """Static detector law: output [V] for an RF peak voltage at the port [V] (linear,
-        square, diode; for ``"agc"`` the per-row scaling of :meth:`instantaneous_v` applies)."""
+        r"""Static detector law: output for an RF peak voltage at the port.
+
+        ``linear``: ``gain·V``; ``square``: ``responsivity·V²/(2R)``; ``diode``:
+
+        .. math::
+
+            v = n V_T \ln I_0\!\left(\frac{G_v V}{n V_T}\right)
+
+        (evaluated as ``n·V_T·(ln i0e(x) + x)``, no overflow; module docstring); ``agc``:
+        ``agc_gain(V)·V`` sample by sample (the per-row scaling of :meth:`instantaneous_v` uses
+        the peak instead).
+
+        Parameters
+        ----------
+        v_peak : float or array_like
+            RF peak voltage at the port [V].
+
+        Returns
+        -------
+        numpy.ndarray or float
+            Detector output [V], shape of ``v_peak`` (a scalar for a scalar diode input).
+        """
         v = np.asarray(v_peak, float)
         if self.law == "linear":
             return self.gain * v
@@ -263,12 +350,40 @@ class EnvelopeDetector:
         return self.agc_gain(v) * v
 
     def agc_gain(self, v_peak_max):
-        """AGC law: ``venv(V·s)/V`` for the envelope peak V [V/V]."""
+        """AGC law: ``venv(V·s)/V`` for the envelope peak V [V/V].
+
+        ``venv`` is interpolated linearly in the AGC table (``agc_vrf_v`` → ``agc_venv_v``) at the
+        chip voltage ``V·agc_scale`` (pass-paris-simulator.md §2.2/§2.3).
+
+        Parameters
+        ----------
+        v_peak_max : float or array_like
+            Peak RF voltage of the envelope [V] (floored at 1e-30 V).
+
+        Returns
+        -------
+        numpy.ndarray
+            Conversion gain (output V per RF peak V).
+        """
         v = np.maximum(np.asarray(v_peak_max, float), 1e-30)
         return np.interp(v * self.agc_scale, self.agc_vrf_v, self.agc_venv_v) / v
 
     def slope(self, v_peak):
-        """Small-signal conversion dv/dV at an RF peak voltage [V/V]."""
+        """Small-signal conversion ``dv/dV`` at an RF peak voltage [V/V].
+
+        Diode: ``G_v·I1(x)/I0(x)`` with ``x = G_v·V/(n·V_T)``; square: ``responsivity·V/R``;
+        agc: the AGC gain at V; linear: ``gain``.
+
+        Parameters
+        ----------
+        v_peak : float or array_like
+            RF peak voltage at the port [V].
+
+        Returns
+        -------
+        numpy.ndarray
+            Slope of the detector law [V/V], shape of ``v_peak``.
+        """
         v = np.asarray(v_peak, float)
         if self.law == "diode":
             x = self.matching_gain * v / self.thermal_voltage_v
@@ -285,11 +400,37 @@ class EnvelopeDetector:
         return math.sqrt(2.0 * self.impedance_ohm)
 
     def rf_peak_v(self, x) -> np.ndarray:
-        """RF peak voltage at the port ``sqrt(2R)·|x|`` [V]."""
+        """RF peak voltage at the port, ``sqrt(2R)·|x|`` [V].
+
+        Parameters
+        ----------
+        x : complex or array_like of complex
+            Baseband signal at the antenna port [√W].
+
+        Returns
+        -------
+        numpy.ndarray
+            Peak voltage [V], shape of ``x``.
+        """
         return self.volts_per_sqrt_w * np.abs(np.asarray(x))
 
     def instantaneous_v(self, x) -> np.ndarray:
-        """Detector output before the RC filter [V]."""
+        """Detector output before the RC filter [V].
+
+        Linear: ``gain·sqrt(2R)·|x|``; square: ``responsivity·|x|²``; diode: :meth:`transfer_v`
+        of the peak voltage; agc: the peak voltage scaled by :meth:`agc_gain` of its maximum over
+        the last axis (per row).
+
+        Parameters
+        ----------
+        x : array_like of complex, shape (..., n_samples)
+            Baseband signal at the antenna port [√W].
+
+        Returns
+        -------
+        numpy.ndarray, float64
+            Instantaneous detector output [V], shape of ``x``.
+        """
         x = np.asarray(x)
         if self.law == "linear":
             return self.gain * self.rf_peak_v(x)
@@ -301,7 +442,22 @@ class EnvelopeDetector:
         return self.transfer_v(v)
 
     def output_v(self, x, *, fs_hz: float, y0: float | None = None) -> np.ndarray:
-        """Filtered detector output ``(n,) float64`` [V] (RC starting in steady state)."""
+        """Filtered detector output: :meth:`instantaneous_v` through the RC low-pass [V].
+
+        Parameters
+        ----------
+        x : array_like of complex, shape (n_samples,)
+            Baseband signal at the antenna port [√W].
+        fs_hz : float
+            Sample rate [Hz].
+        y0 : float, optional
+            RC state before the first sample [V] (default: the first input, the steady state).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_samples,), float64
+            Detector output after the RC [V].
+        """
         return rc_lowpass(self.instantaneous_v(x), fs_hz=fs_hz, tau_s=self.tau_s, y0=y0)[0]
 
 
@@ -310,10 +466,18 @@ class EnvelopeDetector:
 
 @dataclass(frozen=True)
 class ChainOutput:
-    """Intermediate signals of one receive path (all ``(n,) float64``).
+    """Intermediate signals of one receive path.
 
-    envelope_v : detector output after the RC [V]; bandpassed_v : after the band-pass [V];
-    comparator : ±1 one-bit output; toggles : number of comparator transitions.
+    Attributes
+    ----------
+    envelope_v : numpy.ndarray, shape (n_samples,), float64
+        Detector output after the RC [V].
+    bandpassed_v : numpy.ndarray, shape (n_samples,), float64
+        Output of the band-pass [V].
+    comparator : numpy.ndarray, shape (n_samples,), float64
+        One-bit comparator output (±1).
+    toggles : int
+        Number of comparator transitions.
     """
 
     envelope_v: np.ndarray
@@ -410,7 +574,26 @@ class STReceiver:
         return 2
 
     def chain(self, x) -> ChainOutput:
-        """Run detector, band-pass and comparator on ``x : (n,) complex, baseband [√W]``."""
+        """Run detector, band-pass and comparator on one input.
+
+        The band-pass starts in the steady state of the first detector sample, the comparator
+        in −1.
+
+        Parameters
+        ----------
+        x : array_like of complex, shape (n_samples,)
+            Baseband signal at the antenna port [√W], at least 2 samples.
+
+        Returns
+        -------
+        ChainOutput
+            Detector output, band-pass output, comparator output and toggle count.
+
+        Raises
+        ------
+        ValueError
+            If ``x`` is not 1-D with at least 2 samples.
+        """
         x = np.asarray(x)
         if x.ndim != 1 or x.size < 2:
             raise ValueError(f"x must be 1-D with >= 2 samples, got shape {x.shape}")
@@ -424,16 +607,30 @@ class STReceiver:
                 search_samples: int | None = None) -> Reception:
         """Detect and decode one reply of ``n_bits`` bits in ``x`` (baseband at the port, √W).
 
+        :meth:`chain` followed by :meth:`decode_chain`.
+
         Parameters
         ----------
-        x : (n,) complex128 baseband [√W]
-        n_bits : data bits of the reply (RN16: 16; PC+EPC+CRC-16: 128 for a 96-bit EPC)
-        crc : require a valid CRC-16 over the decoded bits
-        states : optional (n,) true line-code level (±1, 0 outside the reply) for measuring the
-            envelope difference; default: re-encode the decoded bits
-        start_sample : decode only from this sample on (the chain runs over all of ``x``)
-        search_samples : the reply start is searched within this many samples after
-            ``start_sample`` (default: anywhere; a known window makes decoding faster)
+        x : array_like of complex, shape (n_samples,)
+            Baseband signal at the antenna port [√W].
+        n_bits : int
+            Data bits of the reply (RN16: 16; PC+EPC+CRC-16: 128 for a 96-bit EPC).
+        crc : bool, default True
+            Require a valid CRC-16 over the decoded bits (else a preamble correlation of at least
+            ``min_corr``).
+        states : array_like, shape (n_samples,), optional
+            True line-code level (±1, 0 outside the reply) for measuring the envelope
+            difference; default: re-encode the decoded bits.
+        start_sample : int, default 0
+            Decode only from this sample on (the chain runs over all of ``x``).
+        search_samples : int, optional
+            The reply start is searched within this many samples after ``start_sample``
+            (default: anywhere; a known window makes decoding faster).
+
+        Returns
+        -------
+        Reception
+            Detection flag, decoded bits, envelope difference [V] and the chain's signals.
         """
         return self.decode_chain(self.chain(x), n_bits=n_bits, crc=crc, states=states, start_sample=start_sample,
                                  search_samples=search_samples)
@@ -463,8 +660,26 @@ class STReceiver:
         return out
 
     def decode_comparator(self, cmp, *, n_bits: int, search_samples: int | None = None):
-        """Line-code decoding of a comparator output ``cmp`` ((n,) ±1) from its first sample:
-        :func:`rfsim.gen2.linecode.decode_reply` on it, or None where no reply start fits."""
+        """Line-code decoding of a comparator output from its first sample.
+
+        :func:`rfsim.gen2.linecode.decode_reply` with this receiver's line code, BLF, sample rate
+        and decoder method.
+
+        Parameters
+        ----------
+        cmp : array_like, shape (n_samples,)
+            Comparator output (±1).
+        n_bits : int
+            Data bits of the reply.
+        search_samples : int, optional
+            The reply start is searched within this many samples (default: anywhere).
+
+        Returns
+        -------
+        rfsim.gen2.linecode.ReplyDetection or None
+            Decoded bits, preamble correlation and start sample, or None where no reply start
+            fits.
+        """
         try:
             return decode_reply(np.asarray(cmp).astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
                                 blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
@@ -474,7 +689,34 @@ class STReceiver:
 
     def decode_chain(self, ch: ChainOutput, *, n_bits: int, crc: bool = True, states=None,
                      start_sample: int = 0, search_samples: int | None = None) -> Reception:
-        """Decoding and measurement part of :meth:`receive` on a precomputed chain."""
+        """Decoding and measurement part of :meth:`receive` on a precomputed chain.
+
+        Decoding is tried only when the comparator toggles at least ``min_toggles`` times after
+        ``start_sample``; the envelope difference ``A(+1) − A(−1)`` is measured on the settled
+        detector output (:func:`rfsim.devices.st_levels.state_envelope_difference`).
+
+        Parameters
+        ----------
+        ch : ChainOutput
+            Output of :meth:`chain`.
+        n_bits : int
+            Data bits of the reply.
+        crc : bool, default True
+            Require a valid CRC-16 (else a preamble correlation of at least ``min_corr``).
+        states : array_like, shape (n_samples,), optional
+            True line-code level (±1, 0 outside the reply); default: the decoded bits re-encoded
+            and aligned on the detector output.
+        start_sample : int, default 0
+            Decode only from this sample on.
+        search_samples : int, optional
+            The reply start is searched within this many samples after ``start_sample``.
+
+        Returns
+        -------
+        Reception
+            Detection flag, decoded bits (None unless detected), envelope difference [V]
+            (NaN when unknown), toggles, correlation, reply start and ``ch``.
+        """
         s0 = int(start_sample)
         cmp_part = ch.comparator[s0:]
         toggles = int(np.count_nonzero(np.diff(cmp_part))) if cmp_part.size > 1 else 0
@@ -498,18 +740,42 @@ class STReceiver:
 
 
 def receive_combined(rx: STReceiver, x_sa1, x_sa2, **kwargs) -> Reception:
-    """Simple combination (§1.5, Eq. 3.14): one chain on the RF sum ``x_sa1 + x_sa2`` [√W].
+    """Simple combination (§1.5, Eq. 3.14): one chain on the RF sum ``x_sa1 + x_sa2``.
 
     The two ports are summed as complex amplitudes (ideal lossless combiner referred to one
-    port; a real Wilkinson combiner would scale the sum by 1/√2 — not modelled, as in Eq. 3.14).
+    port; a real Wilkinson combiner would scale the sum by 1/√2, not modelled, as in
+    Eq. 3.14; auris-sense-a-tag.md §1.5).
+
+    Parameters
+    ----------
+    rx : STReceiver
+        Receive chain.
+    x_sa1, x_sa2 : array_like of complex, shape (n_samples,)
+        Baseband signals at the ports of SA1 and SA2 [√W].
+    **kwargs
+        Passed to :meth:`STReceiver.receive` (``n_bits``, ``crc``, ...).
+
+    Returns
+    -------
+    Reception
+        Reception of the combined signal.
     """
     return rx.receive(np.asarray(x_sa1) + np.asarray(x_sa2), **kwargs)
 
 
 @dataclass(frozen=True)
 class SelectionReception:
-    """Receiving-path selection result: the selected reception, which path (1, 2 or None),
-    and both paths' receptions."""
+    """Receiving-path selection result.
+
+    Attributes
+    ----------
+    selected : Reception
+        The selected reception (P2's when neither path decoded).
+    path : {1, 2, None}
+        Selected path, None when neither decoded.
+    p1, p2 : Reception
+        Receptions of both paths.
+    """
 
     selected: Reception
     path: int | None
@@ -525,7 +791,24 @@ def receive_selection(rx: STReceiver, x_sa1, x_sa2, *, rx_p1: STReceiver | None 
     """Receiving-path selection (§1.6, Algorithm 1, seed L3182-3196).
 
     Path P1 = receive-only chain on SA1 (``rx_p1``, default ``rx``), P2 = the full ST chain on
-    SA2; both decode; ``ID2`` is returned if not NULL, else ``ID1``.
+    SA2; both decode; ``ID2`` is returned if not NULL, else ``ID1``
+    (:func:`rfsim.devices.st_analytic.select_path`).
+
+    Parameters
+    ----------
+    rx : STReceiver
+        Receive chain of P2 (and of P1 unless ``rx_p1`` is given).
+    x_sa1, x_sa2 : array_like of complex, shape (n_samples,)
+        Baseband signals at the ports of SA1 and SA2 [√W].
+    rx_p1 : STReceiver, optional
+        Receive chain of P1 (default ``rx``).
+    **kwargs
+        Passed to :meth:`STReceiver.receive` (``n_bits``, ``crc``, ...).
+
+    Returns
+    -------
+    SelectionReception
+        Selected reception, the chosen path and both receptions.
     """
     r1 = (rx_p1 or rx).receive(x_sa1, **kwargs)
     r2 = rx.receive(x_sa2, **kwargs)
@@ -548,10 +831,19 @@ STAMP_S1, STAMP_S2, STAMP_S3 = 0, 1, 2
 class StampFrame:
     """Sampled state sequence of a stamped frame and where its parts are [samples].
 
-    states : (n,) int8 reflection-state label per sample (rest state S1 outside the frame);
-    levels : (n,) float64 line-code level of the data reply (±1 inside it, 0 elsewhere);
-    ask_stop / psk_stop : ends of the ASK and PSK stamp segments (the ASK segment starts at
-    ``start``); reply_start : first sample of the Gen2 reply (pilot, preamble, data).
+    Attributes
+    ----------
+    states : numpy.ndarray, shape (n_samples,), int8
+        Reflection-state label per sample (:data:`STAMP_S1`, :data:`STAMP_S2`,
+        :data:`STAMP_S3`; rest state S1 outside the frame).
+    levels : numpy.ndarray, shape (n_samples,), float64
+        Line-code level of the data reply (±1 inside it, 0 elsewhere).
+    start : int
+        First sample of the ASK stamp segment.
+    ask_stop, psk_stop : int
+        Ends (exclusive) of the ASK and PSK stamp segments.
+    reply_start : int
+        First sample of the Gen2 reply (pilot, preamble, data).
     """
 
     states: np.ndarray
@@ -570,11 +862,44 @@ def stamp_frame(bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, n_sta
     ``n_stamp_cycles`` subcarrier cycles at BLF alternating S1/S2 (ASK part) followed by as
     many alternating S1/S3 (PSK part), then ``n_settle_cycles`` more ASK (S1/S2) pilot
     cycles before the reply's pilot tone (the stamp sits in the pilot, L6011-6017). The
-    reply maps line-code level +1 → S1 and −1 → S2.
+    reply maps line-code level +1 → S1 and −1 → S2 (auris-sense-a-tag.md §5).
 
+    Parameters
+    ----------
+    bits : array_like of uint8
+        Reply data bits.
+    m : int
+        Line code: 1 = FM0, 2/4/8 = Miller-M.
+    trext : bool
+        Whether the reply carries the extended pilot tone.
+    blf_hz : float
+        Backscatter link frequency [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+    n_stamp_cycles : int, default 8
+        Subcarrier cycles of each stamp part (>= 1).
+    t0_s : float, default 0.0
+        Start of the stamp [s].
+    tail_s : float, default 0.0
+        Rest-state time after the reply [s].
+    n_settle_cycles : int, default 0
+        ASK pilot cycles between the stamp and the reply (>= 0).
+
+    Returns
+    -------
+    StampFrame
+        State and level sequences and the segment boundaries [samples].
+
+    Raises
+    ------
+    ConfigError
+        If ``n_stamp_cycles < 1`` or ``n_settle_cycles < 0``.
+
+    Notes
+    -----
     Why the settling cycles: the PSK part swings the envelope by up to ``2·|b|`` (ψ = π)
-    against ``|b1 − b2|`` for the ASK reply — 5–10× more at the PASS tag's shallow
-    modulation — and the band-pass (high-pass pole at BLF/8, τ = 8/(2π·BLF)) carries that
+    against ``|b1 − b2|`` for the ASK reply (5–10× more at the PASS tag's shallow
+    modulation) and the band-pass (high-pass pole at BLF/8, τ = 8/(2π·BLF)) carries that
     swing's offset into the reply for a few τ. Without a guard the first pilot cycles are
     lost at the comparator, the preamble correlation of a reply barely above the threshold
     drops below ``min_corr`` and the stamp technique fails where path selection, decoding
@@ -611,8 +936,17 @@ def stamp_frame(bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, n_sta
 
 @dataclass(frozen=True)
 class StampReception:
-    """ASK-PSK stamp result: decoded stamp symbols on P2 ('1' or '-'), whether the ST
-    switched to P1, and the reception of the one path that decoded the data."""
+    """ASK-PSK stamp result.
+
+    Attributes
+    ----------
+    ask_symbol, psk_symbol : {'1', '-'}
+        Stamp symbols decoded on P2.
+    use_p1 : bool
+        Whether the ST switched to P1.
+    selected : Reception
+        Reception of the one path that decoded the data.
+    """
 
     ask_symbol: str
     psk_symbol: str
@@ -634,9 +968,29 @@ def receive_stamp(rx: STReceiver, x_sa1, x_sa2, frame: StampFrame, *, rx_p1: STR
     """ASK-PSK stamp path switching (§5, seed L5984-5990, L6019-6023).
 
     The default path P2 (SA2) runs its analog chain; a stamp segment decodes as '1' when
-    the comparator toggles at least ``n_stamp_cycles`` times in it (half the transitions of
-    an undisturbed segment), else '-'. An ASK '-' switches the digital decoding to P1 (SA1);
-    only the chosen path decodes the data (from ``frame.reply_start``).
+    the comparator toggles at least once per subcarrier cycle of the segment (half the
+    transitions of an undisturbed segment), else '-'. An ASK '-' switches the digital
+    decoding to P1 (SA1); only the chosen path decodes the data (from ``frame.reply_start``,
+    with ``frame.levels`` as the true states unless given).
+
+    Parameters
+    ----------
+    rx : STReceiver
+        Receive chain of P2 (and of P1 unless ``rx_p1`` is given).
+    x_sa1, x_sa2 : array_like of complex, shape (n_samples,)
+        Baseband signals at the ports of SA1 and SA2 [√W].
+    frame : StampFrame
+        The stamped frame sent (segment boundaries).
+    rx_p1 : STReceiver, optional
+        Receive chain of P1 (default ``rx``).
+    **kwargs
+        Passed to :meth:`STReceiver.receive` / :meth:`STReceiver.decode_chain`
+        (``n_bits``, ``crc``, ...).
+
+    Returns
+    -------
+    StampReception
+        Stamp symbols, path switch and the reception of the chosen path.
     """
     ch2 = rx.chain(x_sa2)
     n_cycles = (frame.ask_stop - frame.start) * rx.blf_hz / rx.fs_hz

@@ -106,11 +106,24 @@ def incident_power_w(x: np.ndarray) -> float:
     """CW power of a reader segment [W]: median of |x|² over the CW samples.
 
     CW samples: envelope above (high + low)/2, with high/low the isodata cluster means of
-    |x|; all samples when the swing is below half the high level (no command).
+    |x| (:func:`rfsim.gen2.pie.two_level_threshold`); all samples when the swing is below
+    half the high level (no command). Step 1 of the module docstring
+    (pass-paris-simulator.md §2.2).
 
     Parameters
     ----------
-    x : (n,) complex, baseband [√W]
+    x : numpy.ndarray, shape (n_samples,), complex
+        Incident baseband signal at the tag antenna port [√W].
+
+    Returns
+    -------
+    float
+        Incident (available) CW power P_inc [W].
+
+    Raises
+    ------
+    ValueError
+        If the segment is empty.
     """
     env = np.abs(np.asarray(x))
     if env.size == 0:
@@ -136,16 +149,28 @@ def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
-    """Envelope detector output (arbitrary units): |x|, optionally RC low-passed.
+    r"""Envelope detector output (arbitrary units): |x|, optionally RC low-passed.
 
-    e_f[n] = a·e_f[n−1] + (1 − a)·|x[n]|, a = exp(−1/(rc_s·fs)), started at e_f[−1] = |x[0]|
-    (the detector has settled on the CW before the segment).
+    .. math::
+
+        e_f[n] = a\,e_f[n-1] + (1 - a)\,|x[n]|, \qquad a = e^{-1/(\tau_{RC} f_s)}
+
+    started at ``e_f[−1] = |x[0]|`` (the detector has settled on the CW before the segment;
+    step 2 of the module docstring, PASS ``tag_demodulation``).
 
     Parameters
     ----------
-    x : (n,) complex, baseband [√W]
-    fs_hz : sample rate [Hz]
-    rc_s : RC time constant [s]; 0 → the ideal detector |x|
+    x : numpy.ndarray, shape (n_samples,), complex
+        Incident baseband signal [√W].
+    fs_hz : float
+        Sample rate [Hz].
+    rc_s : float, default 0.0
+        RC time constant [s]; 0 → the ideal detector |x|.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_samples,), float64
+        Detector output (scale of |x|).
     """
     env = np.abs(np.asarray(x)).astype(np.float64)
     if rc_s <= 0 or env.size == 0:
@@ -183,6 +208,24 @@ class SharedFrontEnd:
     complex value (a reader's CW: DSB or PR-ASK), so that for any gain g the median of |g·x|²
     over the CW samples is |g·x_m|² exactly; None otherwise (the tags then listen on their
     own samples).
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (n_samples,), complex
+        The emitted segment [√W].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Attributes
+    ----------
+    env : numpy.ndarray, shape (n_samples,)
+        Envelope |x|.
+    levels : tuple of float
+        ``(threshold, low, high)`` of :func:`rfsim.gen2.pie.two_level_threshold` of ``env``.
+    plateau : int or None
+        Index of the median CW sample on a flat plateau, or None.
+    cw_sample : complex
+        ``x[plateau]`` (only when ``plateau`` is not None).
     """
 
     def __init__(self, x: np.ndarray, *, fs_hz: float):
@@ -196,12 +239,41 @@ class SharedFrontEnd:
         self._commands: dict = {}
 
     def power_w(self, gain: complex) -> float:
-        """CW power [W] of the scaled copy gain·x (as :func:`incident_power_w` of it)."""
+        """CW power of the scaled copy g·x, as :func:`incident_power_w` of it.
+
+        Requires :attr:`plateau` to be set: the power is ``|g·x_m|²`` with x_m the median CW
+        sample.
+
+        Parameters
+        ----------
+        gain : complex
+            Complex (dimensionless) gain g of the tag's link.
+
+        Returns
+        -------
+        float
+            Incident CW power [W].
+        """
         v = float(np.abs(gain * self._xm)[0])  # as numpy's |x| of the copy computes it
         return v * v
 
     def command(self, rc_s: float) -> tuple:
-        """(command, frame) as a tag with RC time constant ``rc_s`` decodes every copy of x."""
+        """The command every copy of x decodes to, for a tag with RC time constant ``rc_s``.
+
+        PIE decoding (:func:`rfsim.gen2.pie.pie_decode`) is scale-invariant, so one decoding per
+        RC time constant serves every tag (remembered per ``rc_s``).
+
+        Parameters
+        ----------
+        rc_s : float
+            Envelope-detector RC time constant [s] (0 = ideal detector).
+
+        Returns
+        -------
+        tuple
+            ``(command, frame)``: the parsed command and its :class:`rfsim.gen2.pie.PieFrame`,
+            or ``(None, None)`` when no valid command is decoded.
+        """
         hit = self._commands.get(rc_s)
         if hit is None:
             if rc_s > 0:
@@ -229,9 +301,26 @@ def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
 
 
 def plateau_reference(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
-    """Plain-NumPy twin of the plateau kernel: a stable sort of env² over the CW samples (as
-    :func:`_cw_power_w` selects them), its 2·:data:`_PLATEAU_MARGIN` + 1 middle positions, and
-    whether their samples are ± the sample at the median position (its index, else None)."""
+    """Plain-NumPy twin of the plateau kernel of :class:`SharedFrontEnd`.
+
+    A stable sort of env² over the CW samples (as :func:`_cw_power_w` selects them), its
+    2·:data:`_PLATEAU_MARGIN` + 1 middle positions, and whether their samples are ± the
+    sample at the median position.
+
+    Parameters
+    ----------
+    x : numpy.ndarray, shape (n_samples,), complex128
+        Segment samples [√W].
+    env : numpy.ndarray, shape (n_samples,), float64
+        Envelope |x|.
+    levels : tuple of float
+        ``(threshold, low, high)`` of :func:`rfsim.gen2.pie.two_level_threshold` of ``env``.
+
+    Returns
+    -------
+    int or None
+        Index of the median CW sample when it lies on a flat ± plateau, else None.
+    """
     thr, lo, hi = levels
     sel = np.flatnonzero(env >= thr) if (hi > 0 and hi - lo >= _MIN_MODULATION * hi) else np.arange(env.size)
     if sel.size <= 2 * _PLATEAU_MARGIN:
@@ -331,23 +420,45 @@ class PassiveTag:
         return d[1]
 
     def ticks(self, samples: float, fs_hz: float) -> int:
-        """A duration of ``samples`` input samples counted in tag clock ticks,
-        round(samples · f_clk / fs)."""
+        """A duration of input samples counted in tag clock ticks, ``round(samples·f_clk/fs)``.
+
+        Parameters
+        ----------
+        samples : float
+            Duration in input samples.
+        fs_hz : float
+            Input sample rate [Hz].
+
+        Returns
+        -------
+        int
+            Duration in ticks of the tag's oscillator (step 3 of the module docstring).
+        """
         return int(round(samples * self.clock.f_hz / fs_hz))
 
     def reflect(self, incident) -> TagResponse:
-        """Reflector protocol of the air interface (:mod:`rfsim.air.step`): the tag's reaction to
-        the incident :class:`rfsim.air.step.Segment`.
+        """Reflector protocol of the air interface: the tag's reaction to an incident segment.
 
         When the segment is a scaled copy g·x of an emitted segment x (a narrowband, static
-        link) and :attr:`shared_front_end` is set, the front end's work on x — envelope,
-        level split, PIE decoding, the CW samples' median — is done once per emitted segment
-        for every tag that sees a copy of it (:class:`SharedFrontEnd`, kept in the segment's
-        ``memo``): the envelope detector, the decoder's relative thresholds and the median
-        are scale-equivariant, and the CW power is |g·x_m|² with x_m the median CW sample,
-        computed as :meth:`listen` computes it. The state machine, power-up (config or chip)
-        and the reply are the same code as :meth:`listen` (:meth:`_respond`). Otherwise, or
-        when the median is not on a flat CW plateau, :meth:`listen` runs on the samples.
+        link) and :attr:`shared_front_end` is set, the front end's work on x (envelope, level
+        split, PIE decoding, the CW samples' median) is done once per emitted segment for every
+        tag that sees a copy of it (:class:`SharedFrontEnd`, kept in the segment's ``memo``):
+        the envelope detector, the decoder's relative thresholds and the median are
+        scale-equivariant, and the CW power is |g·x_m|² with x_m the median CW sample, computed
+        as :meth:`listen` computes it. The state machine, power-up (config or chip) and the reply
+        are the same code as :meth:`listen` (:meth:`_respond`). Otherwise, or when the median is
+        not on a flat CW plateau, :meth:`listen` runs on the samples.
+
+        Parameters
+        ----------
+        incident : rfsim.air.segment.Segment
+            The incident segment (``samples`` [√W], ``t0_s``, ``fs_hz``, ``n_samples``, and
+            ``base``/``gain`` when it is a scaled copy).
+
+        Returns
+        -------
+        TagResponse
+            Power state, decoded command, reply and its Γ(t).
         """
         base = incident.base
         if self.shared_front_end and base is not None and base.samples.ndim == 1:
@@ -368,9 +479,21 @@ class PassiveTag:
 
     @staticmethod
     def front_end_of(base) -> SharedFrontEnd:
-        """The :class:`SharedFrontEnd` of an emitted segment ``base``, kept in its ``memo`` (for
-        a reader's command segment the memo of the run's cached waveform,
-        :class:`rfsim.air.cache.Waveform`: a command sent again is decoded once per run)."""
+        """The :class:`SharedFrontEnd` of an emitted segment, kept in its ``memo``.
+
+        For a reader's command segment the memo is that of the run's cached waveform
+        (:class:`rfsim.air.cache.Waveform`): a command sent again is decoded once per run.
+
+        Parameters
+        ----------
+        base : rfsim.air.segment.Segment
+            The emitted segment (``samples``, ``fs_hz``, ``memo``).
+
+        Returns
+        -------
+        SharedFrontEnd
+            The shared front end of ``base`` (created on first use).
+        """
         fe = base.memo.get(SharedFrontEnd)
         if fe is None:
             fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
@@ -378,7 +501,18 @@ class PassiveTag:
 
     @classmethod
     def population(cls, tags) -> TagPopulation:
-        """``tags`` as one reflector group of the air step (:class:`rfsim.devices.tag_population.TagPopulation`)."""
+        """Tags as one reflector group of the air step.
+
+        Parameters
+        ----------
+        tags : sequence of PassiveTag
+            The tags of the group.
+
+        Returns
+        -------
+        rfsim.devices.tag_population.TagPopulation
+            The group.
+        """
         return TagPopulation(tags)
 
     def _incident_power_w(self, fe: SharedFrontEnd, gain: complex) -> float:
@@ -402,17 +536,39 @@ class PassiveTag:
         return None
 
     def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> tuple | None:
-        """For a population (rfsim.devices.tag_population): the remembered power decision of the
-        scaled copy gain·x of ``fe``'s segment, or None when it is not known yet or the tag
-        does not share front ends. A tuple ``(config, chip, powered, P_inc [dBm], Γ_A, A_s,
-        chip operating point or None, its reflection states, the unpowered response)``."""
+        """The remembered power decision for the scaled copy g·x of a shared segment.
+
+        Used by a population (:mod:`rfsim.devices.tag_population`).
+
+        Parameters
+        ----------
+        fe : SharedFrontEnd
+            Shared front end of the emitted segment x.
+        gain : complex
+            Complex gain g of the tag's link.
+
+        Returns
+        -------
+        tuple or None
+            ``(config, chip, powered, P_inc [dBm], Γ_A, A_s, chip operating point or None, its
+            reflection states, the unpowered response)``; None when it is not known yet, the
+            tag does not share front ends or the segment has no CW plateau.
+        """
         if not self.shared_front_end or fe.plateau is None:
             return None
         return self._quiet_at(self._incident_power_w(fe, gain))
 
     def take_quiet_step(self, quiet: tuple) -> None:
-        """What :meth:`_quiet_response` does to the tag besides its state machine's silent
-        step: the operating point of ``quiet`` and, unpowered, no TRcal."""
+        """Apply a remembered power decision to the tag (besides its state machine's silent step).
+
+        Sets the operating point and reflection states of ``quiet`` (with a chip) and, when
+        unpowered, forgets the TRcal of the last Query.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Power decision from :meth:`quiet_point`.
+        """
         op = quiet[6]
         if op is not None:
             self.operating_point, self.reflection_states = op, quiet[7]
@@ -420,18 +576,48 @@ class PassiveTag:
             self._trcal_ticks = None
 
     def respond_decoded(self, quiet: tuple, decoded: tuple, incident) -> TagResponse:
-        """:meth:`reflect` of a powered tag whose power decision for this incident segment is
-        the remembered ``quiet`` (powered): its operating point, then :meth:`_respond` from
-        the decoded ``(command, frame)`` of the segment on (state machine, reply) — what
-        :meth:`_respond` computes, without deciding the power again."""
+        """:meth:`reflect` of a powered tag whose power decision for this segment is known.
+
+        Applies the operating point of ``quiet``, then continues from the decoded
+        ``(command, frame)`` on (state machine, reply): what :meth:`_respond` computes, without
+        deciding the power again.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Remembered power decision (powered) from :meth:`quiet_point`.
+        decoded : tuple
+            ``(command, frame)`` decoded from the segment (:meth:`SharedFrontEnd.command`).
+        incident : rfsim.air.segment.Segment
+            The segment (``t0_s``, ``fs_hz``, ``n_samples`` are read).
+
+        Returns
+        -------
+        TagResponse
+            The tag's reaction.
+        """
         self.take_quiet_step(quiet)
         return self._decoded(decoded[0], decoded[1], quiet[3], quiet[4], quiet[5], t0_s=incident.t0_s,
                              fs_hz=incident.fs_hz, n_samples=incident.n_samples)
 
     @staticmethod
     def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
-        """The response :meth:`_quiet_response` gives for ``quiet``: the unpowered one, or a
-        powered tag's silent step of ``cmd`` ending at ``cmd_end_s`` [s]."""
+        """The response for a remembered power decision without a reply.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Remembered power decision from :meth:`quiet_point`.
+        cmd : object
+            The decoded command.
+        cmd_end_s : float
+            End time of the command [s].
+
+        Returns
+        -------
+        TagResponse
+            The unpowered response, or a powered tag's silent step of ``cmd`` ("no reply").
+        """
         if not quiet[2]:
             return quiet[8]
         return TagResponse(True, cmd, None, None, None, None, "no reply", quiet[3], cmd_end_s, None, None, None,
@@ -460,14 +646,29 @@ class PassiveTag:
     def listen(self, incident: np.ndarray, *, t0_s: float, fs_hz: float) -> TagResponse:
         """Receive one reader segment and return the tag's reaction.
 
+        Steps 1–6 of the module docstring: power-up from the CW power, envelope detection, PIE
+        decoding with the tag's clock, the Gen2 state machine and the reply's Γ(t). A segment
+        carries one command: if the decoder finds several PIE frames, the first is used. Power
+        is judged once per segment (at ``t0_s``).
+
         Parameters
         ----------
-        incident : (n,) complex, field at the tag antenna port [√W] (command + CW)
-        t0_s : absolute time of sample 0 [s]; segments must come in time order
-        fs_hz : sample rate [Hz]
+        incident : numpy.ndarray, shape (n_samples,), complex
+            Field at the tag antenna port [√W] (command + CW), at least 2 samples.
+        t0_s : float
+            Absolute time of sample 0 [s]; segments must come in time order.
+        fs_hz : float
+            Sample rate [Hz] (> 0).
 
-        A segment carries one command: if the decoder finds several PIE frames, the first
-        is used. Power is judged once per segment (at ``t0_s``).
+        Returns
+        -------
+        TagResponse
+            Power state, decoded command, reply, Γ(t) over the segment and reply timing.
+
+        Raises
+        ------
+        ValueError
+            If ``incident`` is not 1-D with at least 2 samples or ``fs_hz`` is not > 0.
         """
         x = np.asarray(incident)
         if x.ndim != 1 or x.size < 2:
@@ -548,10 +749,29 @@ class PassiveTag:
                              n_samples=n_samples)
 
     def respond_reply(self, quiet: tuple, decoded: tuple, incident, reply) -> TagResponse:
-        """:meth:`respond_decoded` of a tag whose state machine has already taken the decoded
-        ``(command, frame)`` and given ``reply`` (a population's QueryAdjust, the counters
-        loaded at once: ``StateArrays.take_redraw_steps``): its operating point, then the
-        reply's Γ(t) as :meth:`_decoded` forms it."""
+        """:meth:`respond_decoded` of a tag whose state machine has already answered.
+
+        The state machine has already taken the decoded ``(command, frame)`` and given ``reply``
+        (a population's QueryAdjust, the counters loaded at once:
+        ``StateArrays.take_redraw_steps``): applies the operating point of ``quiet``, then forms
+        the reply's Γ(t) as :meth:`_decoded` does.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Remembered power decision (powered) from :meth:`quiet_point`.
+        decoded : tuple
+            ``(command, frame)`` decoded from the segment.
+        incident : rfsim.air.segment.Segment
+            The segment (``t0_s``, ``fs_hz``, ``n_samples`` are read).
+        reply : object or None
+            The state machine's reply (bits to backscatter), or None.
+
+        Returns
+        -------
+        TagResponse
+            The tag's reaction.
+        """
         self.take_quiet_step(quiet)
         cmd, frame = decoded
         return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet[3], quiet[4],

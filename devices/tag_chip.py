@@ -53,8 +53,21 @@ PASS_POWER_MARGIN_DB = 2.5
 
 @dataclass(frozen=True)
 class ChipOperatingPoint:
-    """The chip at one available power: P_av, P_chip [W], Γ_u (unmodulated), Γ_m
-    (modulating), and whether it runs."""
+    """The chip at one available power (pass-paris-simulator.md §2.2 steps 1–4).
+
+    Attributes
+    ----------
+    p_available_w : float
+        Available power at the antenna port P_av [W].
+    p_chip_w : float
+        Power absorbed by the chip P_chip [W] (the self-consistent solution).
+    gamma_unmod : complex
+        Reflection coefficient Γ_u of the unmodulated state.
+    gamma_mod : complex
+        Reflection coefficient Γ_m of the modulating state.
+    powered : bool
+        Whether ``P_chip ≥ P_min·10^(margin/10)``.
+    """
 
     p_available_w: float
     p_chip_w: float
@@ -104,7 +117,19 @@ class PowerDependentChip:
 
     @classmethod
     def pass_default(cls, *, margin_db: float = PASS_POWER_MARGIN_DB) -> PowerDependentChip:
-        """The quoted 900 MHz points (module docstring), Z_mod constant."""
+        """The quoted 900 MHz points (module docstring), Z_mod constant.
+
+        Parameters
+        ----------
+        margin_db : float, default PASS_POWER_MARGIN_DB (2.5 dB)
+            Power-up margin on the minimum chip power [dB].
+
+        Returns
+        -------
+        PowerDependentChip
+            Chip with the three quoted impedances of ``meas_tag_zic`` and
+            :data:`rfsim.devices.tag_frontend.PASS_ZMOD_900MHZ_OHM`.
+        """
         p = tuple(pt[0] for pt in PASS_ZIC_900MHZ_POINTS)
         return cls(p, tuple(pt[1] for pt in PASS_ZIC_900MHZ_POINTS), (PASS_ZMOD_900MHZ_OHM,) * len(p),
                    margin_db=margin_db)
@@ -112,10 +137,35 @@ class PowerDependentChip:
     @classmethod
     def from_pass_files(cls, folder, *, fc_hz: float = 915e6, zmod: str = "act", antenna: str = "v6",
                         margin_db: float = PASS_POWER_MARGIN_DB) -> PowerDependentChip:
-        """Full measured tables from ``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
-        ``meas_tag_za-<antenna>`` and ``meas_tag_picmin`` in ``folder``, interpolated
-        linearly in frequency at ``fc_hz``. One-line :class:`~rfsim.core.errors.UserError` when a
-        file is missing."""
+        """Full measured tables from the PASS tag characteristic files.
+
+        Reads ``meas_tag_zic``, ``meas_tag_zmod-<zmod>``, ``meas_tag_za-<antenna>`` and
+        ``meas_tag_picmin`` (``.mat``) in ``folder``, interpolated linearly in frequency at
+        ``fc_hz`` (pass-paris-simulator.md §5.2); repeated chip powers are dropped.
+
+        Parameters
+        ----------
+        folder : str or path-like
+            Folder holding the characteristic files.
+        fc_hz : float, default 915e6
+            Frequency of the tables [Hz].
+        zmod : str, default 'act'
+            Suffix of the modulation-impedance file.
+        antenna : str, default 'v6'
+            Suffix of the antenna-impedance file.
+        margin_db : float, default PASS_POWER_MARGIN_DB (2.5 dB)
+            Power-up margin on the minimum chip power [dB].
+
+        Returns
+        -------
+        PowerDependentChip
+            The chip at ``fc_hz``.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            When a file is missing (one line naming it).
+        """
         from scipy.io import loadmat
 
         folder = Path(folder)
@@ -162,14 +212,49 @@ class PowerDependentChip:
         return out
 
     def impedances(self, p_chip_w: float) -> tuple[complex, complex]:
-        """(Z_ic, Z_mod) at a chip power [Ω], linear in log P, held outside the table."""
+        """Chip and modulation impedances at a chip power.
+
+        Interpolated linearly in log P_chip, held outside the table.
+
+        Parameters
+        ----------
+        p_chip_w : float
+            Chip power [W].
+
+        Returns
+        -------
+        z_ic : complex
+            Chip input impedance Z_ic [Ω].
+        z_mod : complex
+            Modulation impedance Z_mod [Ω].
+        """
         lp, zc_re, zc_im, zm_re, zm_im = self._table
         x = math.log(min(max(p_chip_w, self.p_chip_w[0]), self.p_chip_w[-1]))
         return (complex(np.interp(x, lp, zc_re), np.interp(x, lp, zc_im)),
                 complex(np.interp(x, lp, zm_re), np.interp(x, lp, zm_im)))
 
     def states(self, p_chip_w: float) -> tuple[complex, complex]:
-        """(Γ_u, Γ_m) at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna."""
+        r"""Reflection states at a chip power: chip ∥ assembly (∥ Z_mod) against the antenna.
+
+        .. math::
+
+            \Gamma = \frac{Z - Z_a^*}{Z + Z_a}, \qquad Z_{in} = Z_{ic} \parallel Z_{at},
+            \quad Z_{in,m} = Z_{in} \parallel Z_{mod}
+
+        (Kurokawa power waves; pass-paris-simulator.md §5.2).
+
+        Parameters
+        ----------
+        p_chip_w : float
+            Chip power [W].
+
+        Returns
+        -------
+        gamma_u : complex
+            Γ_u of the unmodulated state (``Z = Z_in``).
+        gamma_m : complex
+            Γ_m of the modulating state (``Z = Z_in,m``).
+        """
         z_ic, z_mod = self.impedances(p_chip_w)
         z_in = complex(1.0 / (1.0 / z_ic + self._assembly_admittance()))
         return (reflection_coefficient(z_in, self.z_ant_ohm),
@@ -181,13 +266,40 @@ class PowerDependentChip:
             2j * math.pi * self.fc_hz * self.assembly_capacitance_f
 
     def chip_share(self, p_chip_w: float) -> float:
-        """Share of the absorbed power that reaches the chip, ``Re(Y_ic)/Re(Y_ic + Y_at)``."""
+        """Share of the absorbed power that reaches the chip, ``Re(Y_ic)/Re(Y_ic + Y_at)``.
+
+        Parameters
+        ----------
+        p_chip_w : float
+            Chip power [W] (sets Z_ic).
+
+        Returns
+        -------
+        float
+            Fraction in (0, 1] (1 without an assembly resistance).
+        """
         y_ic = 1.0 / self.impedances(p_chip_w)[0]
         return y_ic.real / (y_ic.real + self._assembly_admittance().real)
 
     def operating_point(self, p_available_w: float) -> ChipOperatingPoint:
-        """Solve P_chip = (1 − |Γ_u(P_chip)|²)·P_av by bisection in log P_chip (60 halvings:
-        relative error < 1e-15 of the bracket [P_av·1e-9, P_av])."""
+        r"""The chip's operating point at an available power.
+
+        Solves :math:`P_{chip} = (1 - |\Gamma_u(P_{chip})|^2)\,P_{av}\,s(P_{chip})`
+        (``s`` = :meth:`chip_share`) by bisection in log P_chip (60 halvings: relative error
+        < 1e-15 of the bracket [P_av·1e-9, P_av]); powered when
+        ``P_chip ≥ P_min·10^(margin/10)`` (module docstring).
+
+        Parameters
+        ----------
+        p_available_w : float
+            Available power at the antenna port P_av [W].
+
+        Returns
+        -------
+        ChipOperatingPoint
+            P_av, P_chip, Γ_u, Γ_m and the power state (unpowered with P_chip = 0 and the states
+            of the smallest table power when ``P_av ≤ 0``).
+        """
         pav = float(p_available_w)
         if not pav > 0:
             u, m = self.states(self.p_chip_w[0])
@@ -231,22 +343,60 @@ class PassTagCharacteristics:
     picmin_w: float
 
     def power_up(self) -> PowerUp:
+        """Power-up rule of these numbers.
+
+        Returns
+        -------
+        rfsim.devices.tag_frontend.PowerUp
+            Chip sensitivity ``picmin_w`` with the chip and antenna impedances (τ from their
+            mismatch).
+        """
         return PowerUp(chip_sensitivity_w=self.picmin_w, z_chip_ohm=self.z_chip_ohm, z_ant_ohm=self.z_ant_ohm)
 
     def reflection_states(self) -> ReflectionStates:
+        """Reflection states of these numbers: Z_ic (absorbing) and Z_ic ∥ Z_mod (modulating) against Z_a.
+
+        Returns
+        -------
+        rfsim.devices.tag_frontend.ReflectionStates
+            Γ_A and Γ_B (:meth:`ReflectionStates.from_impedances`).
+        """
         return ReflectionStates.from_impedances(self.z_chip_ohm, parallel_ohm(self.z_chip_ohm, self.z_mod_ohm),
                                                 self.z_ant_ohm)
 
 
 def load_pass_tag_characteristics(folder, *, fc_hz: float, p_chip_w: float, zmod: str = "act",
                                   antenna: str = "v6") -> PassTagCharacteristics:
-    """Read the PASS tag characteristic files (``meas_tag_zic``, ``meas_tag_zmod-<zmod>``,
-    ``meas_tag_za-<antenna>``, ``meas_tag_picmin``) from ``folder`` and interpolate them at
-    (fc, P_chip): linear in frequency, linear in log P_chip (pass-paris-simulator.md §5.2),
-    through :meth:`rfsim.devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range
-    is 0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
+    """Read the PASS tag characteristic files and interpolate them at (fc, P_chip).
 
-    Raises :class:`rfsim.core.errors.UserError` when a file is missing.
+    Files ``meas_tag_zic``, ``meas_tag_zmod-<zmod>``, ``meas_tag_za-<antenna>``,
+    ``meas_tag_picmin`` in ``folder``; linear in frequency, linear in log P_chip
+    (pass-paris-simulator.md §5.2), through
+    :meth:`rfsim.devices.tag_chip.PowerDependentChip.from_pass_files`. The measured range is
+    0.7–1.2 GHz and 0.147 µW–8.1 mW; outside it values are held.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        Folder holding the characteristic files.
+    fc_hz : float
+        Frequency [Hz].
+    p_chip_w : float
+        Chip power [W].
+    zmod : str, default 'act'
+        Suffix of the modulation-impedance file.
+    antenna : str, default 'v6'
+        Suffix of the antenna-impedance file.
+
+    Returns
+    -------
+    PassTagCharacteristics
+        Impedances and minimum chip power at the point.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        When a file is missing.
     """
     chip = PowerDependentChip.from_pass_files(folder, fc_hz=fc_hz, zmod=zmod, antenna=antenna)
     z_chip, z_mod = chip.impedances(p_chip_w)

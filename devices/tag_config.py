@@ -26,7 +26,46 @@ class TagConfig:
 
     The clock-error range keeps the subcarrier divider meaningful; the BLF stays within the
     Gen2 tolerance FrT over the whole TRcal table for |error| ≤ 10 % at 1.92 MHz (tested
-    in the tag front end); larger errors simulate out-of-spec tags.
+    in the tag front end); larger errors simulate out-of-spec tags. The physics of the
+    fields is described in :mod:`rfsim.devices.tag`.
+
+    Parameters
+    ----------
+    epc_hex : str
+        EPC in hex, a multiple of 16 bits, at most 496 bits.
+    sensitivity_dbm : float, default DEFAULT_SENSITIVITY_DBM (−12.78 dBm)
+        Minimum chip power for operation [dBm].
+    clock_hz : float, default PASS_TAG_CLOCK_HZ
+        Nominal tag clock [Hz].
+    clock_error_percent : float, default 0.0
+        Static relative frequency error of the tag clock [%].
+    clock_jitter_rms : float, default 0.0
+        RMS tick jitter [fraction of a clock period] (PASS: 1/60).
+    modulation : {'ASK', 'PSK'}, default 'ASK'
+        Backscatter states: ASK (ohmic, PASS chip) or PSK (capacitive).
+    psk_gamma_magnitude : float, default 0.5
+        PSK: |Γ| of both states.
+    psk_phase_deg : float, default 45.0
+        PSK: φ of ``Γ_A,B = |Γ|·exp(±jφ)`` [deg].
+    envelope_rc_s : float, default 0.0
+        RC time constant of the envelope detector [s] (0 = ideal |x|).
+    structural_mode : float, default 1.0
+        Antenna structural-mode scattering A_s (1: minimum-scattering antenna; 0: antenna
+        mode only).
+    blf_error_percent : float, default 0.0
+        The tag's own BLF error ε [%]: BLF = f_clk/N_BLF·(1 + ε).
+    t1_offset_s : float, default 0.0
+        Added to the T1 the tag counts [s].
+    chip_gain_db : float, default 0.0
+        Chip spread: gain of Γ_B − Γ_A [dB] (:mod:`rfsim.devices.tag_spread`).
+    chip_phase_deg : float, default 0.0
+        Chip spread: phase of Γ_B − Γ_A [deg].
+
+    Raises
+    ------
+    ConfigError
+        If a value is out of range, ``epc_hex`` is not valid hex of whole 16-bit words, or
+        the chip spread makes |Γ_B| > 1.
     """
 
     epc_hex: str = param("300833B2DDD9014000000027", doc="EPC (hex, a multiple of 16 bits)")
@@ -98,10 +137,30 @@ class TagConfig:
         return PowerUp(chip_sensitivity_w=float(dbm_to_w(self.sensitivity_dbm)))
 
     def reply_timing(self, link) -> tuple[float, float]:
-        """``(BLF [Hz], T1 [s])`` of this tag's reply to a Query of ``link``
-        (:class:`rfsim.gen2.link.LinkProfile`) whose RTcal and TRcal it counts exactly
-        (PIE edges on ideal times): the rules of :meth:`PassiveTag.listen` steps 3–4,
-        BLF = f_clk/N_BLF·(1 + ε), T1 = max(N_RTcal, 10·N_BLF)/f_clk + ``t1_offset_s``."""
+        r"""BLF and T1 of this tag's reply to a Query of ``link``.
+
+        The tag counts RTcal and TRcal exactly (PIE edges on ideal times): the rules of
+        :meth:`PassiveTag.listen` steps 3–4,
+
+        .. math::
+
+            BLF = \frac{f_{clk}}{N_{BLF}}(1 + \varepsilon), \qquad
+            T_1 = \frac{\max(N_{RTcal}, 10 N_{BLF})}{f_{clk}} + t_{1,offset}
+
+        (gen2-and-validation-anchors.md §4.2/§4.3).
+
+        Parameters
+        ----------
+        link : rfsim.gen2.link.LinkProfile
+            Link profile of the Query (``rtcal_s``, ``trcal_s``, ``dr``).
+
+        Returns
+        -------
+        blf_hz : float
+            The tag's backscatter link frequency [Hz].
+        t1_s : float
+            The tag's reply delay T1 [s].
+        """
         clock = self.clock
         f_clk = clock.f_hz
         n_trcal = clock.count_ticks(link.trcal_s)
@@ -116,7 +175,26 @@ class TagConfig:
 
 
 def chip_spread(states: ReflectionStates, gain_db: float, phase_deg: float) -> ReflectionStates:
-    """``states`` with Γ_B moved by the chip spread (unchanged, the same object, without one)."""
+    """Reflection states with Γ_B moved by the chip spread.
+
+    ``Γ_B' = Γ_A + (Γ_B − Γ_A)·10^(g/20)·e^(jφ)``
+    (:func:`rfsim.devices.tag_spread.spread_gamma_b`), scaled back onto |Γ_B'| = 1 when it
+    would exceed 1 (a power-dependent chip's state near |Γ| = 1 stays passive).
+
+    Parameters
+    ----------
+    states : rfsim.devices.tag_frontend.ReflectionStates
+        Γ_A and Γ_B before the spread.
+    gain_db : float
+        Gain g of Γ_B − Γ_A [dB].
+    phase_deg : float
+        Phase φ of Γ_B − Γ_A [deg].
+
+    Returns
+    -------
+    rfsim.devices.tag_frontend.ReflectionStates
+        The spread states; ``states`` itself (the same object) when both are 0.
+    """
     if not (gain_db or phase_deg):
         return states
     gb = spread_gamma_b(states.gamma_a, states.gamma_b, gain_db, phase_deg)

@@ -58,19 +58,44 @@ PASS_TAG_JITTER_RMS = 0.05 / 3
 
 
 def parallel_ohm(z1_ohm, z2_ohm):
-    """Parallel combination Z1·Z2 / (Z1 + Z2) [Ω] (complex, broadcasting)."""
+    """Parallel combination of two impedances, ``Z1·Z2 / (Z1 + Z2)``.
+
+    Parameters
+    ----------
+    z1_ohm, z2_ohm : complex or array_like of complex
+        Impedances [Ω] (broadcast against each other).
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        ``Z1 ∥ Z2`` [Ω] (a 0-d array for scalar inputs).
+    """
     z1, z2 = np.asarray(z1_ohm, dtype=complex), np.asarray(z2_ohm, dtype=complex)
     return z1 * z2 / (z1 + z2)
 
 
 def power_transmission_coefficient(z_chip_ohm, z_ant_ohm):
-    """τ = 4·R_c·R_a / |Z_c + Z_a|², the share of the antenna's available power that the
-    chip absorbs (Nikitin & Rao 2005; anchors §4.7). τ = 1 for Z_c = Z_a*; τ = 1 − |Γ|² with
-    Γ the power-wave reflection coefficient of :func:`reflection_coefficient`.
+    r"""Power transmission coefficient between antenna and chip.
+
+    .. math::
+
+        \tau = \frac{4 R_c R_a}{|Z_c + Z_a|^2}
+
+    the share of the antenna's available power that the chip absorbs (Nikitin & Rao 2005;
+    gen2-and-validation-anchors.md §4.7). τ = 1 for ``Z_c = Z_a*``; τ = 1 − |Γ|² with Γ the
+    power-wave reflection coefficient of :func:`reflection_coefficient`.
 
     Parameters
     ----------
-    z_chip_ohm, z_ant_ohm : complex or array, [Ω], Re > 0 for the antenna
+    z_chip_ohm : complex or array_like of complex
+        Chip impedance Z_c [Ω].
+    z_ant_ohm : complex or array_like of complex
+        Antenna impedance Z_a [Ω], Re > 0.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        τ in [0, 1] (a float for scalar inputs).
     """
     zc, za = np.asarray(z_chip_ohm, dtype=complex), np.asarray(z_ant_ohm, dtype=complex)
     tau = 4.0 * zc.real * za.real / np.abs(zc + za) ** 2
@@ -78,10 +103,26 @@ def power_transmission_coefficient(z_chip_ohm, z_ant_ohm):
 
 
 def reflection_coefficient(z_chip_ohm, z_ant_ohm):
-    """Power-wave (Kurokawa) reflection coefficient Γ = (Z_c − Z_a*) / (Z_c + Z_a).
+    r"""Power-wave (Kurokawa) reflection coefficient.
+
+    .. math::
+
+        \Gamma = \frac{Z_c - Z_a^*}{Z_c + Z_a}
 
     Γ = 0 for a conjugate match; |Γ| = 1 for a reactive chip load; Γ = −1 for a short with a
     real antenna impedance (pass-paris-simulator.md §5.2 "Physics of the reflection table").
+
+    Parameters
+    ----------
+    z_chip_ohm : complex or array_like of complex
+        Chip (load) impedance Z_c [Ω].
+    z_ant_ohm : complex or array_like of complex
+        Antenna impedance Z_a [Ω].
+
+    Returns
+    -------
+    complex or numpy.ndarray of complex
+        Γ (a complex for scalar inputs).
     """
     zc, za = np.asarray(z_chip_ohm, dtype=complex), np.asarray(z_ant_ohm, dtype=complex)
     gamma = (zc - np.conj(za)) / (zc + za)
@@ -89,27 +130,57 @@ def reflection_coefficient(z_chip_ohm, z_ant_ohm):
 
 
 def modulation_factor(gamma_a, gamma_b):
-    """M = |Γ_A − Γ_B|² / 4 (Griffin & Durgin 2009; anchors §4.7): the share of the power
-    the tag could scatter that ends up in the modulated (data-bearing) signal for square-wave
-    switching between the two states. M = 1/4 for Γ ∈ {0, −1}; at most 1 (Γ = ±1)."""
+    r"""Modulation factor of two reflection states.
+
+    .. math::
+
+        M = \frac{|\Gamma_A - \Gamma_B|^2}{4}
+
+    (Griffin & Durgin 2009; gen2-and-validation-anchors.md §4.7): the share of the power the
+    tag could scatter that ends up in the modulated (data-bearing) signal for square-wave
+    switching between the two states. M = 1/4 for Γ ∈ {0, −1}; at most 1 (Γ = ±1).
+
+    Parameters
+    ----------
+    gamma_a, gamma_b : complex or array_like of complex
+        Reflection coefficients of the two states.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        M (a float for scalar inputs).
+    """
     d = np.asarray(gamma_a, dtype=complex) - np.asarray(gamma_b, dtype=complex)
     m = np.abs(d) ** 2 / 4.0
     return float(m) if m.ndim == 0 else m
 
 
 def differential_rcs_m2(gamma_a, gamma_b, *, gain_lin, wavelength_m):
-    """Differential radar cross-section Δσ = λ²·G²·|Γ_A − Γ_B|² / (4π) [m²].
+    r"""Differential radar cross-section of a tag [m²].
+
+    .. math::
+
+        \Delta\sigma = \frac{\lambda^2 G^2 |\Gamma_A - \Gamma_B|^2}{4\pi}
 
     For a minimum-scattering antenna loaded with Z_c the antenna-mode scattered field is
     proportional to A = 2R_a/(Z_c + Z_a) = 1 − Γ, so the two states differ by |Γ_A − Γ_B|
     (Nikitin et al., "Differential RCS of RFID tag", Electron. Lett. 43(8), 2007). The
     modulated backscatter power of the radar equation uses Δσ/4 = λ²G²M/(4π), which
-    reproduces the Griffin–Durgin link budget of anchors §4.7.
+    reproduces the Griffin–Durgin link budget of gen2-and-validation-anchors.md §4.7.
 
     Parameters
     ----------
-    gain_lin : tag antenna gain (linear)
-    wavelength_m : carrier wavelength [m]
+    gamma_a, gamma_b : complex or array_like of complex
+        Reflection coefficients of the two states.
+    gain_lin : float or array_like
+        Tag antenna gain G (linear).
+    wavelength_m : float or array_like
+        Carrier wavelength λ [m].
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Δσ [m²] (a float for scalar inputs).
     """
     d = np.asarray(gamma_a, dtype=complex) - np.asarray(gamma_b, dtype=complex)
     rcs = np.asarray(wavelength_m, float) ** 2 * np.asarray(gain_lin, float) ** 2 * np.abs(d) ** 2 / (4 * np.pi)
@@ -153,7 +224,20 @@ class PowerUp:
 
     @classmethod
     def from_dbm(cls, sensitivity_dbm: float, **kw) -> PowerUp:
-        """Same with the chip sensitivity in dBm (e.g. :data:`TYPICAL_SENSITIVITY_DBM`)."""
+        """A :class:`PowerUp` with the chip sensitivity given in dBm.
+
+        Parameters
+        ----------
+        sensitivity_dbm : float
+            Minimum chip power for operation [dBm] (e.g. :data:`TYPICAL_SENSITIVITY_DBM`).
+        **kw
+            Other fields (``z_chip_ohm``, ``z_ant_ohm``).
+
+        Returns
+        -------
+        PowerUp
+            The power-up rule.
+        """
         return cls(chip_sensitivity_w=float(dbm_to_w(sensitivity_dbm)), **kw)
 
     @property
@@ -172,11 +256,33 @@ class PowerUp:
         return self.chip_sensitivity_w / self.tau
 
     def chip_power_w(self, p_incident_w):
-        """Power absorbed by the chip, τ·P_av [W] (scalar or array)."""
+        """Power absorbed by the chip, ``P_chip = τ·P_av`` [W].
+
+        Parameters
+        ----------
+        p_incident_w : float or array_like
+            Available power at the antenna P_av [W].
+
+        Returns
+        -------
+        numpy.ndarray
+            P_chip [W], shape of ``p_incident_w``.
+        """
         return self.tau * np.asarray(p_incident_w, dtype=float)
 
     def is_powered(self, p_incident_w):
-        """True where τ·P_av ≥ chip sensitivity (bool or bool array)."""
+        """Whether the chip runs: ``τ·P_av ≥ chip_sensitivity_w``.
+
+        Parameters
+        ----------
+        p_incident_w : float or array_like
+            Available power at the antenna P_av [W].
+
+        Returns
+        -------
+        bool or numpy.ndarray of bool
+            True where powered (a bool for a scalar input).
+        """
         ok = self.chip_power_w(p_incident_w) >= self.chip_sensitivity_w
         return bool(ok) if np.ndim(ok) == 0 else ok
 
@@ -186,10 +292,22 @@ class PowerUp:
 
 @dataclass(frozen=True)
 class ReflectionStates:
-    """The tag's two reflection coefficients: Γ_A (absorbing / unmodulated) and Γ_B
-    (modulating). Backscatter state 0 ↦ Γ_A, 1 ↦ Γ_B (:meth:`gamma`).
+    """The tag's two reflection coefficients.
 
-    A passive load cannot reflect more than it receives: |Γ| ≤ 1 is enforced.
+    Backscatter state 0 ↦ Γ_A, 1 ↦ Γ_B (:meth:`gamma`). A passive load cannot reflect more
+    than it receives: |Γ| ≤ 1 is enforced.
+
+    Parameters
+    ----------
+    gamma_a : complex, default 0
+        Γ_A of the absorbing / unmodulated state.
+    gamma_b : complex, default −1
+        Γ_B of the modulating state.
+
+    Raises
+    ------
+    ConfigError
+        If |Γ| > 1 for either state.
     """
 
     gamma_a: complex = 0j
@@ -204,26 +322,81 @@ class ReflectionStates:
 
     @classmethod
     def from_impedances(cls, z_chip_a_ohm, z_chip_b_ohm, z_ant_ohm) -> ReflectionStates:
-        """Γ of two chip impedances against one antenna impedance (Kurokawa definition)."""
+        """Reflection states of two chip impedances against one antenna impedance (Kurokawa).
+
+        Parameters
+        ----------
+        z_chip_a_ohm : complex
+            Chip impedance of the absorbing state [Ω].
+        z_chip_b_ohm : complex
+            Chip impedance of the modulating state [Ω].
+        z_ant_ohm : complex
+            Antenna impedance [Ω].
+
+        Returns
+        -------
+        ReflectionStates
+            Γ_A, Γ_B from :func:`reflection_coefficient`.
+        """
         return cls(reflection_coefficient(z_chip_a_ohm, z_ant_ohm), reflection_coefficient(z_chip_b_ohm, z_ant_ohm))
 
     @classmethod
     def ask(cls, gamma_a: float = 0.0, gamma_b: float = -1.0) -> ReflectionStates:
-        """Ohmic (ASK) tag: real-valued states, default matched / short (M = 1/4)."""
+        """Ohmic (ASK) tag: real-valued states, default matched / short (M = 1/4).
+
+        Parameters
+        ----------
+        gamma_a : float, default 0.0
+            Γ_A (real).
+        gamma_b : float, default -1.0
+            Γ_B (real).
+
+        Returns
+        -------
+        ReflectionStates
+            The states.
+
+        Raises
+        ------
+        ConfigError
+            If a value is complex.
+        """
         if np.iscomplexobj(gamma_a) or np.iscomplexobj(gamma_b):
             raise ConfigError("tag.gamma", (gamma_a, gamma_b), "real values for an ASK tag")
         return cls(complex(gamma_a), complex(gamma_b))
 
     @classmethod
     def psk(cls, magnitude: float, phase_rad: float) -> ReflectionStates:
-        """Capacitive (PSK) tag: Γ_A,B = |Γ|·e^(±jφ), equal magnitudes, opposite phases;
-        M = |Γ|²·sin²φ."""
+        """Capacitive (PSK) tag: equal magnitudes, opposite phases.
+
+        ``Γ_A,B = |Γ|·e^(±jφ)``, so M = |Γ|²·sin²φ.
+
+        Parameters
+        ----------
+        magnitude : float
+            |Γ| of both states (≤ 1).
+        phase_rad : float
+            φ [rad].
+
+        Returns
+        -------
+        ReflectionStates
+            The states.
+        """
         return cls(magnitude * np.exp(1j * phase_rad), magnitude * np.exp(-1j * phase_rad))
 
     @classmethod
     def pass_default(cls) -> ReflectionStates:
-        """UCODE G2XM-class chip at 900 MHz, 52.7 µW (PASS measurements): Z_A = Z_ic,
-        Z_B = Z_ic ∥ Z_mod, against a conjugate-matched antenna Z_a = Z_ic* (so Γ_A = 0)."""
+        """UCODE G2XM-class chip at 900 MHz, 52.7 µW (PASS measurements).
+
+        ``Z_A = Z_ic``, ``Z_B = Z_ic ∥ Z_mod``, against a conjugate-matched antenna
+        ``Z_a = Z_ic*`` (so Γ_A = 0; pass-paris-simulator.md §5.2).
+
+        Returns
+        -------
+        ReflectionStates
+            The states of :data:`PASS_ZIC_900MHZ_OHM` and :data:`PASS_ZMOD_900MHZ_OHM`.
+        """
         za = np.conj(PASS_ZIC_900MHZ_OHM)
         return cls.from_impedances(PASS_ZIC_900MHZ_OHM, parallel_ohm(PASS_ZIC_900MHZ_OHM, PASS_ZMOD_900MHZ_OHM), za)
 
@@ -233,11 +406,35 @@ class ReflectionStates:
         return modulation_factor(self.gamma_a, self.gamma_b)
 
     def differential_rcs_m2(self, *, gain_lin: float, wavelength_m: float) -> float:
-        """Δσ = λ²G²|Γ_A − Γ_B|²/(4π) [m²], see :func:`differential_rcs_m2`."""
+        """Differential RCS ``Δσ = λ²G²|Γ_A − Γ_B|²/(4π)`` of the two states, see :func:`differential_rcs_m2`.
+
+        Parameters
+        ----------
+        gain_lin : float
+            Tag antenna gain (linear).
+        wavelength_m : float
+            Carrier wavelength [m].
+
+        Returns
+        -------
+        float
+            Δσ [m²].
+        """
         return differential_rcs_m2(self.gamma_a, self.gamma_b, gain_lin=gain_lin, wavelength_m=wavelength_m)
 
     def gamma(self, state) -> np.ndarray:
-        """Γ for backscatter states ((n,) 0/1 → (n,) complex128)."""
+        """Reflection coefficient for backscatter states.
+
+        Parameters
+        ----------
+        state : array_like, shape (n,)
+            Backscatter state per sample (0 → Γ_A, nonzero → Γ_B).
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,), complex128
+            Γ per sample.
+        """
         s = np.asarray(state)
         return np.where(s.astype(bool), self.gamma_b, self.gamma_a).astype(np.complex128)
 
@@ -286,8 +483,29 @@ class TagClock:
         return 1.0 / self.f_hz
 
     def tick_times_s(self, n_ticks: int, *, rng: np.random.Generator, t0_s: float = 0.0) -> np.ndarray:
-        """Times of the first ``n_ticks`` clock ticks [s], ``(n_ticks,) float64`` (tick 0 at
-        ``t0_s`` plus its jitter)."""
+        """Times of the first clock ticks [s].
+
+        ``t_k = t0 + k/f + σ·ε_k/f`` (class docstring).
+
+        Parameters
+        ----------
+        n_ticks : int
+            Number of ticks (≥ 0).
+        rng : numpy.random.Generator
+            Stream of the jitter draws (unused without jitter).
+        t0_s : float, default 0.0
+            Ideal time of tick 0 [s].
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_ticks,), float64
+            Tick times [s].
+
+        Raises
+        ------
+        ValueError
+            If ``n_ticks < 0``.
+        """
         n = int(n_ticks)
         if n < 0:
             raise ValueError(f"n_ticks must be >= 0, got {n_ticks}")
@@ -297,16 +515,48 @@ class TagClock:
         return grid + self.jitter_rms * self.period_s * rng.standard_normal(n)
 
     def count_ticks(self, duration_s: float) -> int:
-        """Clock periods in an interval, rounded to the nearest integer: round(duration·f)."""
+        """Clock periods in an interval, rounded to the nearest integer: ``round(duration·f)``.
+
+        Parameters
+        ----------
+        duration_s : float
+            Interval [s].
+
+        Returns
+        -------
+        int
+            Number of ticks.
+        """
         return int(round(float(duration_s) * self.f_hz))
 
     def blf_divider(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> int:
-        """Subcarrier period in clock ticks, N = round(N_TRcal / DR), N ≥ 1.
+        """Subcarrier period in clock ticks, ``N = round(N_TRcal / DR)``, N ≥ 1.
 
         N_TRcal is the tag's count of TRcal in its own ticks (``trcal_ticks`` when a PIE
         decoder measured it, else :meth:`count_ticks`). Rule: the tag divides its clock by an
-        integer, the nearest one to N_TRcal/DR (as PASS: ``round(fclk/LF)`` ticks per
-        period, modulated half floor(N/2), unmodulated half ceil(N/2) ticks).
+        integer, the nearest one to N_TRcal/DR (as PASS: ``round(fclk/LF)`` ticks per period,
+        modulated half floor(N/2), unmodulated half ceil(N/2) ticks; pass-paris-simulator.md
+        §2.2).
+
+        Parameters
+        ----------
+        trcal_s : float
+            TRcal [s] (used when ``trcal_ticks`` is None).
+        dr : str, int or fractions.Fraction
+            Divide ratio DR of the Query (``"8"``, ``"64/3"``, 8 or ``Fraction(64, 3)``; floats
+            are refused).
+        trcal_ticks : int, optional
+            TRcal already counted in ticks.
+
+        Returns
+        -------
+        int
+            Divider N ≥ 1.
+
+        Raises
+        ------
+        ValueError
+            If the TRcal count is below 1 tick.
         """
         n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
         key = (n_trcal, type(dr), dr) if isinstance(dr, str) else None  # a DR name: no Fraction hash
@@ -324,9 +574,25 @@ class TagClock:
         return n
 
     def blf_hz(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> float:
-        """Backscatter link frequency the tag produces [Hz]: f / N with N from
-        :meth:`blf_divider`. Nominally BLF = DR / TRcal (anchors §4.2); the clock error
-        cancels in N_TRcal up to the integer rounding of N."""
+        """Backscatter link frequency the tag produces, ``f / N`` with N from :meth:`blf_divider`.
+
+        Nominally BLF = DR / TRcal (gen2-and-validation-anchors.md §4.2); the clock error cancels
+        in N_TRcal up to the integer rounding of N.
+
+        Parameters
+        ----------
+        trcal_s : float
+            TRcal [s].
+        dr : str, int or fractions.Fraction
+            Divide ratio DR of the Query (as for :meth:`blf_divider`).
+        trcal_ticks : int, optional
+            TRcal already counted in ticks.
+
+        Returns
+        -------
+        float
+            BLF [Hz].
+        """
         return self.f_hz / self.blf_divider(trcal_s, dr, trcal_ticks=trcal_ticks)
 
 

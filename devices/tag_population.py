@@ -114,7 +114,20 @@ class TagPopulation:
         self._counting, self._antenna_count = _counting_class(self.members), None
 
     def reflect_each(self, incident) -> list:
-        """Every member reflects its own incident segment (``incident[j]``), in order."""
+        """Every member reflects its own incident segment, in order.
+
+        The arrays are read back from the tags afterwards (module docstring).
+
+        Parameters
+        ----------
+        incident : sequence of rfsim.air.segment.Segment
+            ``incident[j]`` is the segment member j sees.
+
+        Returns
+        -------
+        list of rfsim.devices.tag_response.TagResponse
+            Each member's reaction, in member order.
+        """
         out = [m.reflect(inc) for m, inc in zip(self.members, incident)]
         self.arrays.read(range(len(self.members)))
         if self._round is not None:
@@ -122,8 +135,29 @@ class TagPopulation:
         return out
 
     def reflect_scaled(self, base: Segment, gains, fc_hz: float) -> PopulationReflection | None:
-        """Member j sees ``gains[j]·base`` (module docstring): a :class:`PopulationReflection`,
-        or None when the shortcut does not apply (the caller then uses :meth:`reflect_each`)."""
+        """The population's reaction when member j sees ``gains[j]·base`` (module docstring).
+
+        Quiet members (unpowered and staying so, or taking a silent step of their state machine,
+        or loading a new non-zero slot counter on a QueryAdjust) are answered from the arrays;
+        the others reflect through their own path.
+
+        Parameters
+        ----------
+        base : rfsim.air.segment.Segment
+            The emitted segment (not itself a scaled copy; 1-D samples [√W]).
+        gains : sequence of complex
+            Complex gain g_j of each member's link, in member order.
+        fc_hz : float
+            Carrier frequency [Hz] (for the scaled segments of the members that reflect on
+            their own).
+
+        Returns
+        -------
+        PopulationReflection or None
+            What the population did; None when the shortcut does not apply (no members, a scaled
+            ``base``, multi-dimensional samples or no flat CW plateau): the caller then uses
+            :meth:`reflect_each`.
+        """
         if not self.members or base.base is not None or base.samples.ndim != 1:
             return None
         fe = self.members[0].front_end_of(base)
@@ -257,11 +291,19 @@ class _Round:
 class PopulationReflection:
     """What a :class:`TagPopulation` did with one exchange (:class:`rfsim.air.step.GroupReflection`).
 
+    Indexing (``r[j]``) and iteration give each member's
+    :class:`rfsim.devices.tag_response.TagResponse`.
+
     Attributes
     ----------
-    quiet : (n,) bool — members answered by the population (constant re-radiation)
-    reactions : {member index: its own reflection} for the others, in member order
-    powered : (n,) bool; incident_power_dbm : (n,) float [dBm] — per member
+    quiet : numpy.ndarray of bool, shape (n,)
+        Members answered by the population (constant re-radiation).
+    reactions : dict of int to TagResponse
+        ``{member index: its own reflection}`` for the others, in member order.
+    powered : numpy.ndarray of bool, shape (n,)
+        Power state per member.
+    incident_power_dbm : numpy.ndarray, shape (n,)
+        Incident power per member [dBm].
     """
 
     def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list):
@@ -274,8 +316,23 @@ class PopulationReflection:
             self.incident_power_dbm[j] = r.incident_power_dbm
 
     def terms(self, backs) -> tuple[np.ndarray, np.ndarray]:
-        """(terms, use): the quiet members' b_j·(r_j·g_j) (module docstring) for the backward
-        constants ``backs`` and the mask of the quiet members that scatter."""
+        """The quiet members' constant contributions at one receiver.
+
+        ``b_j·(r_j·g_j)`` with ``r_j = A_s − Γ_A`` (module docstring), formed in Python complex
+        arithmetic as the air step forms it for one tag.
+
+        Parameters
+        ----------
+        backs : sequence of complex
+            Backward constant b_j of each member towards the receiver, in member order.
+
+        Returns
+        -------
+        terms : numpy.ndarray, shape (n,), complex128
+            ``b_j·((A_s − Γ_A)·g_j)`` per member (0 where the power decision is unknown).
+        use : numpy.ndarray of bool, shape (n,)
+            Mask of the quiet members that scatter (``A_s ≠ Γ_A``).
+        """
         return self._round.terms(backs), self.quiet & self._round.scatter
 
     def __len__(self) -> int:

@@ -62,7 +62,23 @@ class TagResponse:
     structural_mode: complex = 0j
 
     def reflection(self, n_samples: int) -> np.ndarray:
-        """Γ(t) over ``n_samples`` samples: :attr:`gamma`, or Γ_A throughout without reply."""
+        """Γ(t) over ``n_samples`` samples: :attr:`gamma`, or Γ_A throughout without reply.
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples of the incident segment.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_samples,), complex128
+            Γ(t) (:attr:`gamma` itself while replying, else a new array).
+
+        Raises
+        ------
+        ValueError
+            If :attr:`gamma` has another length than ``n_samples``.
+        """
         if self.gamma is not None:
             if self.gamma.size != n_samples:
                 raise ValueError(f"gamma has {self.gamma.size} samples, asked for {n_samples}")
@@ -70,10 +86,25 @@ class TagResponse:
         return np.full(int(n_samples), self.gamma_rest, dtype=np.complex128)
 
     def reradiation(self, n_samples: int) -> np.ndarray:
-        """Re-radiation factor r(t) = A_s − Γ(t) over ``n_samples`` samples, (n,) complex128.
+        """Re-radiation factor ``r(t) = A_s − Γ(t)`` over ``n_samples`` samples.
 
-        The tag scatters r(t)·x_incident(t) [√W] (:mod:`rfsim.devices.tag` step 6; Nikitin, Rao & Lam
-        2006), Γ(t) = :attr:`gamma`, or Γ_A throughout without reply. A new array.
+        The tag scatters r(t)·x_incident(t) [√W] (:mod:`rfsim.devices.tag` step 6; Nikitin,
+        Rao & Lam 2006), Γ(t) = :attr:`gamma`, or Γ_A throughout without reply.
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples of the incident segment.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n_samples,), complex128
+            r(t), a new array.
+
+        Raises
+        ------
+        ValueError
+            If :attr:`gamma` has another length than ``n_samples``.
         """
         if self.gamma is not None:
             if self.gamma.size != n_samples:

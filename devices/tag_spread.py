@@ -55,7 +55,31 @@ SPREAD_FIELDS = {
 
 @dataclass(frozen=True)
 class TagSpreadConfig:
-    """How the tags of a population differ (module docstring; errors name ``spread.<key>``)."""
+    """How the tags of a population differ (module docstring; errors name ``spread.<key>``).
+
+    Parameters
+    ----------
+    enabled : bool, default False
+        Draw every tag's own BLF error, T1, chip states and orientation.
+    blf_distribution : {'normal', 'uniform'}, default 'normal'
+        BLF error: normal σ = FrT/3 truncated to ±FrT, or uniform over
+        ±``blf_spread_frt``·FrT (an assumption: no measured distribution).
+    blf_spread_frt : float, default 1.0
+        Largest |BLF error| as a fraction of FrT, in [0, 1].
+    t1_spread : bool, default True
+        T1 uniform over [T1min, T1max] (else the nominal T1).
+    chip_gain_sigma_db : float, default 0.5
+        σ of the chip's modulation gain [dB].
+    chip_phase_sigma_deg : float, default 5.0
+        σ of the chip's modulation phase [deg].
+    orientation_deg : float, default 0.0
+        Antenna yaw and roll offsets uniform in ± this [deg].
+
+    Raises
+    ------
+    ConfigError
+        If a value is out of range.
+    """
 
     enabled: bool = param(False, doc="draw every tag's own BLF error, T1, chip states and orientation")
     blf_distribution: Literal["normal", "uniform"] = param(
@@ -71,7 +95,24 @@ class TagSpreadConfig:
         check_fields(self, "spread")
 
     def blf_error(self, frt: float, *, rng: np.random.Generator) -> float:
-        """One BLF error ε (fraction), |ε| ≤ blf_spread_frt·FrT (module docstring)."""
+        """One BLF error ε (fraction), ``|ε| ≤ blf_spread_frt·FrT`` (module docstring).
+
+        Normal with σ = FrT/3 truncated by rejection, or uniform, per ``blf_distribution``
+        (gen2-and-validation-anchors.md §4.2 bounds it by FrT; the distribution is an
+        assumption).
+
+        Parameters
+        ----------
+        frt : float
+            Frequency tolerance FrT of the link (fraction, e.g. 0.1 for ±10 %).
+        rng : numpy.random.Generator
+            The tag's spread stream.
+
+        Returns
+        -------
+        float
+            ε as a fraction (0 when the limit is 0).
+        """
         lim = self.blf_spread_frt * frt
         if lim == 0.0:
             return 0.0
@@ -83,8 +124,25 @@ class TagSpreadConfig:
                 return e
 
     def blf_errors(self, frt: float, n: int, *, rng: np.random.Generator) -> np.ndarray:
-        """``n`` BLF errors at once, ``(n,) float64``, from the distribution of :meth:`blf_error`
-        (vectorised: rejected normal draws are replaced in further passes)."""
+        """``n`` BLF errors at once, from the distribution of :meth:`blf_error`.
+
+        Vectorised: rejected normal draws are replaced in further passes (so the values differ
+        from ``n`` calls of :meth:`blf_error` on the same stream).
+
+        Parameters
+        ----------
+        frt : float
+            Frequency tolerance FrT of the link (fraction).
+        n : int
+            Number of errors.
+        rng : numpy.random.Generator
+            Spread stream.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,), float64
+            ε as fractions; zeros when disabled or the limit is 0.
+        """
         lim = self.blf_spread_frt * frt
         if lim == 0.0 or not self.enabled:
             return np.zeros(int(n))
@@ -98,21 +156,56 @@ class TagSpreadConfig:
         return e
 
     def t1_values_s(self, link, n: int, *, tick_s: float, rng: np.random.Generator) -> np.ndarray:
-        """``n`` T1 values [s] at once: uniform over [T1min + tick, T1max − tick] of ``link``
-        (the nominal T1 when disabled or without ``t1_spread``)."""
+        """``n`` T1 values at once, uniform over [T1min + tick, T1max − tick] of ``link``.
+
+        T1 range of Gen2 (gen2-and-validation-anchors.md §4.3, :func:`rfsim.gen2.link.t1`).
+
+        Parameters
+        ----------
+        link : rfsim.gen2.link.LinkProfile
+            Link profile.
+        n : int
+            Number of values.
+        tick_s : float
+            Tag clock period 1/f_clk [s] (margin at both ends).
+        rng : numpy.random.Generator
+            Spread stream.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,), float64
+            T1 [s]; the nominal T1 when disabled or without ``t1_spread``.
+        """
         tr = t1(link)
         if not (self.enabled and self.t1_spread):
             return np.full(int(n), tr.nom_s)
         return rng.uniform(tr.min_s + tick_s, tr.max_s - tick_s, int(n))
 
     def draw(self, tag_config, link, *, rng: np.random.Generator, states=None) -> tuple:
-        """``(TagConfig with the tag's own spread, record)`` for one tag on ``link``.
+        """One tag's own spread on ``link``: its config and a record of the draws.
 
-        ``tag_config`` : rfsim.devices.tag.TagConfig (its ``reflection_states`` bound the chip gain,
-        or ``states`` when given); ``link`` : :class:`rfsim.gen2.link.LinkProfile`; ``rng`` :
-        the tag's spread stream. The record has the keys of :data:`SPREAD_FIELDS`. Disabled:
-        the config unchanged and a record of zeros (T1 nominal). The draws are made in a
-        fixed order (BLF, T1, chip gain and phase, orientation) whatever is switched off.
+        The draws are made in a fixed order (BLF, T1, chip gain and phase, orientation)
+        whatever is switched off, so a tag's stream stays aligned across settings.
+
+        Parameters
+        ----------
+        tag_config : rfsim.devices.tag_config.TagConfig
+            The tag's config (its ``reflection_states`` bound the chip gain unless ``states``
+            is given; its clock sets the T1 tick).
+        link : rfsim.gen2.link.LinkProfile
+            Link profile (FrT, T1 range).
+        rng : numpy.random.Generator
+            The tag's spread stream.
+        states : rfsim.devices.tag_frontend.ReflectionStates, optional
+            Reflection states bounding the chip spread (|Γ_B'| ≤ 1).
+
+        Returns
+        -------
+        config : rfsim.devices.tag_config.TagConfig
+            ``tag_config`` with ``blf_error_percent``, ``t1_offset_s``, ``chip_gain_db``,
+            ``chip_phase_deg`` set (unchanged when disabled).
+        record : dict of str to float
+            The keys of :data:`SPREAD_FIELDS` (zeros and the nominal T1 when disabled).
         """
         t1_range = t1(link)
         eps = self.blf_error(link.frt, rng=rng)
@@ -143,12 +236,47 @@ class TagSpreadConfig:
 
 
 def spread_gamma_b(gamma_a: complex, gamma_b: complex, gain_db: float, phase_deg: float) -> complex:
-    """Γ_B' = Γ_A + (Γ_B − Γ_A)·10^(g/20)·e^(jφ): the chip spread of the modulated state."""
+    r"""The chip spread of the modulated state.
+
+    .. math::
+
+        \Gamma_B' = \Gamma_A + (\Gamma_B - \Gamma_A)\,10^{g/20}\,e^{j\varphi}
+
+    (the project's own model, module docstring).
+
+    Parameters
+    ----------
+    gamma_a : complex
+        Absorbing-state reflection coefficient Γ_A.
+    gamma_b : complex
+        Modulating-state reflection coefficient Γ_B.
+    gain_db : float
+        Gain g [dB].
+    phase_deg : float
+        Phase φ [deg].
+
+    Returns
+    -------
+    complex
+        Γ_B'.
+    """
     return complex(gamma_a + (gamma_b - gamma_a) * 10.0 ** (gain_db / 20.0) * np.exp(1j * math.radians(phase_deg)))
 
 
 def orientation_offsets_rad(record: dict) -> tuple[float, float, float]:
-    """(yaw, 0, roll) offsets [rad] of a spread record, to add to an antenna's orientation."""
+    """Orientation offsets of a spread record, to add to an antenna's orientation.
+
+    Parameters
+    ----------
+    record : dict
+        Spread record of :meth:`TagSpreadConfig.draw` (``yaw_offset_deg``,
+        ``roll_offset_deg``).
+
+    Returns
+    -------
+    tuple of float
+        ``(yaw, 0, roll)`` offsets [rad].
+    """
     return (math.radians(record["yaw_offset_deg"]), 0.0, math.radians(record["roll_offset_deg"]))
 
 

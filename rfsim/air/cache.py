@@ -125,8 +125,23 @@ class AirCache:
     derivations: dict = field(default_factory=dict)
 
     def derived(self, source, make):
-        """``make(source)`` for an immutable ``source``, computed once per run (a :class:`Derived`
-        entry: the readers of one run made from one config validate it once)."""
+        """Return ``make(source)`` for an immutable ``source``, computed once per run.
+
+        The value is kept as a :class:`Derived` entry keyed by ``(make, id(source))``, with
+        ``source`` kept alive (the readers of one run made from one config validate it once).
+
+        Parameters
+        ----------
+        source : object
+            An immutable object (e.g. a frozen config); its identity is the key.
+        make : callable
+            Pure function of ``source``.
+
+        Returns
+        -------
+        object
+            ``make(source)``, from the cache when this source was seen before.
+        """
         key = (make, id(source))
         hit = self.derivations.get(key)
         if hit is not None and hit.source is source:
@@ -136,8 +151,22 @@ class AirCache:
         return value
 
     def waveform(self, key, makers: tuple) -> Waveform | None:
-        """The :class:`Waveform` of content ``key`` made by ``makers`` (the same objects), or
-        None; a hit becomes the most recently used entry."""
+        """Look up the waveform of content ``key`` made by ``makers``.
+
+        A hit becomes the most recently used entry.
+
+        Parameters
+        ----------
+        key : hashable
+            Content key of the waveform (e.g. a command's bits, preamble and CW lengths).
+        makers : tuple
+            The objects the samples also depend on, compared by identity with the entry's.
+
+        Returns
+        -------
+        Waveform or None
+            The entry, or None when there is none for ``key`` or it was made by other objects.
+        """
         hit = self.waveforms.pop(key, None)
         if hit is None:
             return None
@@ -147,7 +176,17 @@ class AirCache:
         return hit
 
     def remember(self, table: dict, key, entry) -> None:
-        """``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`."""
+        """Store ``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`.
+
+        Parameters
+        ----------
+        table : dict
+            One of the cache's tables (insertion order is the recency order).
+        key : hashable
+            The entry's key.
+        entry : object
+            The entry to store.
+        """
         if key not in table and len(table) >= self.max_entries:
             table.pop(next(iter(table)))
         table[key] = entry

@@ -23,7 +23,21 @@ class NoCaptureAir:
         self.air, self.link = air, air.link
 
     def exchange(self, cmd, **kw):
-        """The wrapped exchange; with ≥ 2 replies and a detected slot: failed, reason "collision"."""
+        """Run the wrapped exchange, with no decoding of a slot in which two or more tags replied.
+
+        Parameters
+        ----------
+        cmd : object
+            The command (:mod:`rfsim.gen2.commands`).
+        **kw
+            Passed on to the wrapped ``exchange``.
+
+        Returns
+        -------
+        object
+            The wrapped exchange record; with ≥ 2 replies and a detected slot a copy with
+            ``success=False``, ``bits=None`` and ``failure_reason="collision"``.
+        """
         ex = self.air.exchange(cmd, **kw)
         if len(ex.replied) >= 2 and ex.detected:
             return replace(ex, success=False, bits=None, failure_reason="collision")

@@ -68,7 +68,9 @@ class Reflection(Protocol):
     scatters: bool
 
     @property
-    def constant_reradiation(self) -> complex | None: ...
+    def constant_reradiation(self) -> complex | None:
+        """r as one complex number when it does not change during the segment, else None."""
+        ...
 
     def reradiation(self, n_samples: int) -> np.ndarray:
         """Return the re-radiation factor per sample.

@@ -207,6 +207,7 @@ class InventoryLog:
 
     @property
     def n_slots(self) -> int:
+        """Number of slots recorded."""
         return len(self.slots["time_s"])
 
     @property
@@ -501,6 +502,7 @@ class ProtocolAir:
 
     @property
     def states(self) -> list:
+        """The tags' Gen2 states (``TagState``), in tag order."""
         return [s for s, _ in self._tags]
 
     def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,

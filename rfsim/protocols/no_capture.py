@@ -7,14 +7,16 @@ from dataclasses import replace
 
 
 class NoCaptureAir:
-    """A sample-level air interface whose reader never decodes a slot in which two or more
-    tags replied (ground truth): capture switched off, the protocol level's collision rule
-    (:class:`rfsim.protocols.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
-    detected, not decoded, so the reader does not ACK and counts a collision.
+    """A sample-level air interface whose reader never decodes a slot with two or more replies.
+
+    Capture switched off: the protocol level's collision rule
+    (:class:`rfsim.protocols.inventory.ProtocolAir`), judged on the ground truth, on otherwise
+    identical waveforms. The slot is detected, not decoded, so the reader does not ACK and
+    counts a collision.
 
     Parameters
     ----------
-    air
+    air : object
         The wrapped air interface (``link`` and ``exchange(cmd, **kw)`` returning an exchange
         record with ``replied``, ``detected``, ``success``, ``bits``, ``failure_reason``).
     """

@@ -165,7 +165,8 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
     start : int
         Index of the group's first member in the step's member list.
     whole : bool
-        Whether the group is the step's only reflector entry (``backs`` is then the group's own).
+        Whether the group's members are all the step's members (``backs`` is then the group's
+        own list; otherwise its slice from ``start`` is used).
     gains : sequence of complex
         Per member the forward link constant g_j.
     backs : sequence of complex

@@ -37,8 +37,38 @@ __all__ = ["AirStep", "propagate_batch"]
 
 @dataclass
 class AirStep:
-    """One air step prepared for :func:`propagate_batch`: the arguments of
-    :func:`rfsim.air.step.propagate` (the same names and meanings)."""
+    """One air step prepared for :func:`propagate_batch`.
+
+    The fields are the arguments of :func:`rfsim.air.step.propagate`, with the same names and
+    meanings (see there for units and defaults).
+
+    Attributes
+    ----------
+    emitters, reflectors, receivers : sequence
+        The step's devices in their air roles.
+    links : object
+        The link table (:class:`rfsim.air.links.LinkTable` or a held one).
+    t0_s : float
+        Start time of the step [s].
+    fs_hz : float
+        Sample rate [Hz].
+    n_samples : int
+        Samples per receiver input.
+    rng : numpy.random.Generator or None
+        Generator of the receivers' noise, default None.
+    fc_ref_hz : float or None
+        Reference carrier of the complex baseband [Hz], default None.
+    bandwidth_hz : float or None
+        Simulated bandwidth [Hz], default None.
+    propagation : str
+        Propagation mode, default ``"auto"``.
+    decide : bool
+        Whether the receivers decide on their inputs, default True.
+    keep_components : bool
+        Whether the per-term components and noise are kept, default False.
+    cache : AirCache or None
+        The run's cache; None gives the step one of its own.
+    """
 
     emitters: Sequence
     reflectors: Sequence
@@ -70,11 +100,33 @@ class _Quiet:
 
 
 def propagate_batch(steps: Sequence[AirStep], *, skip_unmodulated: bool = False) -> list[AirResult]:
-    """B air steps as one batch (module docstring): the air of every step, then every
-    step's receiver noise (receivers in order, from the step's ``rng``), then the
-    decisions of the steps with ``decide``. Returns per step its :class:`rfsim.air.step.AirResult`,
-    bit-identical to ``propagate`` of that step (with the same ``skip_unmodulated``) run after
-    the steps before it (tests/test_batch.py)."""
+    """Run B air steps as one batch.
+
+    The air of every step first, then every step's receiver noise (receivers in order, from
+    the step's ``rng``), then the decisions of the steps with ``decide`` (module docstring).
+
+    Parameters
+    ----------
+    steps : sequence of AirStep
+        The prepared steps, in the order ``propagate`` would run them.
+    skip_unmodulated : bool, default False
+        A step in which nothing modulates forms no receiver input (its ``inputs`` hold None);
+        its receivers' noise draws are still made.
+
+    Returns
+    -------
+    list of rfsim.air.step.AirResult
+        One per step, bit-identical to ``propagate`` of that step (with the same
+        ``skip_unmodulated``) run after the steps before it (tests/test_batch.py).
+
+    Raises
+    ------
+    ConfigError
+        A step has a receiver with noise but no ``rng``.
+    ValueError
+        A step's link table draws from a generator that receiver noise is drawn from in an
+        order the batch would change.
+    """
     steps = list(steps)
     _check_noise_order(steps)
     steps = [s if s.cache is not None else _with_cache(s) for s in steps]

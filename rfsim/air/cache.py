@@ -30,16 +30,24 @@ class Strategy:
 
     Attributes
     ----------
-    fused_backscatter : form a receiver's sum c·x + b·((A_s − Γ)·(g·x)) of one constant term
-        and one modulating reflector in one kernel pass (:mod:`rfsim.air._step_kernels`,
-        :func:`rfsim.air.fused.fused_sum`). The kernel's complex products are fused
-        multiply-adds, as NumPy's SIMD loop forms them on CPUs with FMA; where NumPy does not
-        use them the two differ in the last bit (tests/test_air_kernels.py bounds it). False:
-        NumPy's array operations.
-    noise : how receiver noise is drawn (:data:`rfsim.air.noise.NOISE_METHODS`): ``"pcg64"``
-        every sample of a receiver's input from the step's generator; ``"counter"`` one key
-        from it and, from the counter-based stream of that key, only the samples the receiver
-        reads (its ``first_read_sample``; :func:`rfsim.air.noise.add_receiver_noise`).
+    fused_backscatter : bool
+        Form a receiver's sum c·x + b·((A_s − Γ)·(g·x)) of one constant term and one modulating
+        reflector in one kernel pass (:mod:`rfsim.air._step_kernels`,
+        :func:`rfsim.air.fused.fused_sum`); default True. The kernel's complex products are
+        fused multiply-adds, as NumPy's SIMD loop forms them on CPUs with FMA; where NumPy does
+        not use them the two differ in the last bit (tests/test_air_kernels.py bounds it).
+        False: NumPy's array operations.
+    noise : {"pcg64", "counter"}
+        How receiver noise is drawn (:data:`rfsim.air.noise.NOISE_METHODS`), default
+        ``"pcg64"``: every sample of a receiver's input from the step's generator;
+        ``"counter"``: one key from it and, from the counter-based stream of that key, only the
+        samples the receiver reads (its ``first_read_sample``;
+        :func:`rfsim.air.noise.add_receiver_noise`).
+
+    Raises
+    ------
+    ConfigError
+        An unknown ``noise`` method.
     """
 
     fused_backscatter: bool = True
@@ -52,14 +60,18 @@ class Strategy:
 
 @dataclass
 class CheckedAntennas:
-    """One set of antennas whose positions were found pairwise distinct
-    (:func:`rfsim.air.links.check_positions`); the antennas are kept alive with the entry.
+    """One set of antennas whose positions were found pairwise distinct.
+
+    Found by :func:`rfsim.air.links.check_positions`; the antennas are kept alive with the entry.
 
     Attributes
     ----------
-    emitters : the emitters' antennas
-    reflectors : the reflectors' antennas (a tuple object of a population, or a list)
-    receivers : the antennas of the receivers that do not share an emitter's antenna
+    emitters : tuple
+        The emitters' antennas.
+    reflectors : tuple or list
+        The reflectors' antennas (a tuple object of a population, or a list).
+    receivers : tuple
+        The antennas of the receivers that do not share an emitter's antenna.
     """
 
     emitters: tuple
@@ -69,16 +81,20 @@ class CheckedAntennas:
 
 @dataclass
 class Waveform:
-    """One emitted waveform, kept by its content (e.g. a command's bits, preamble and CW
-    lengths) with the objects that fix the rest of it.
+    """One emitted waveform, kept by its content with the objects that fix the rest of it.
+
+    The content key is e.g. a command's bits, preamble and CW lengths.
 
     Attributes
     ----------
-    samples : (n,) complex128, read-only [√W]
-    makers : the objects the samples also depend on (a reader's frozen config and link
-        profile), compared by identity on a hit
-    memo : data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
-        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`)
+    samples : ndarray, shape (n,), complex128
+        The samples, read-only [√W].
+    makers : tuple
+        The objects the samples also depend on (a reader's frozen config and link profile),
+        compared by identity on a hit.
+    memo : dict
+        Data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
+        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`).
     """
 
     samples: np.ndarray
@@ -88,13 +104,16 @@ class Waveform:
 
 @dataclass
 class Derived:
-    """A value derived from an immutable object by a pure function (e.g. a device's validated
-    config), kept with the object (alive: its identity is the key).
+    """A value derived from an immutable object by a pure function, kept with the object.
+
+    E.g. a device's validated config; the object is kept alive: its identity is the key.
 
     Attributes
     ----------
-    source : the object
-    value : what the function gave for it
+    source : object
+        The object.
+    value : object
+        What the function gave for it.
     """
 
     source: object
@@ -107,14 +126,20 @@ class AirCache:
 
     Attributes
     ----------
-    strategy : the step's :class:`Strategy`
-    max_entries : entries kept per table (the least recently used dropped first)
-    checked : antenna sets found at distinct positions, keyed by the identities of their
-        antennas (emitters, reflectors, receivers)
-    checked_tuples : the same, keyed by the identity of a tuple of reflector antennas (a
-        population's one tuple: no look at its members)
-    waveforms : :class:`Waveform` entries by content key
-    derivations : :class:`Derived` entries by (function, identity of the source)
+    strategy : Strategy
+        The step's fast paths, default ``Strategy()``.
+    max_entries : int
+        Entries kept per table (the least recently used dropped first), default 64.
+    checked : dict
+        Antenna sets found at distinct positions (:class:`CheckedAntennas`), keyed by the
+        identities of their antennas (emitters, reflectors, receivers).
+    checked_tuples : dict
+        The same, keyed by the identity of a tuple of reflector antennas (a population's one
+        tuple: no look at its members).
+    waveforms : dict
+        :class:`Waveform` entries by content key.
+    derivations : dict
+        :class:`Derived` entries by (function, identity of the source).
     """
 
     strategy: Strategy = field(default_factory=Strategy)
@@ -125,8 +150,23 @@ class AirCache:
     derivations: dict = field(default_factory=dict)
 
     def derived(self, source, make):
-        """``make(source)`` for an immutable ``source``, computed once per run (a :class:`Derived`
-        entry: the readers of one run made from one config validate it once)."""
+        """Return ``make(source)`` for an immutable ``source``, computed once per run.
+
+        The value is kept as a :class:`Derived` entry keyed by ``(make, id(source))``, with
+        ``source`` kept alive (the readers of one run made from one config validate it once).
+
+        Parameters
+        ----------
+        source : object
+            An immutable object (e.g. a frozen config); its identity is the key.
+        make : callable
+            Pure function of ``source``.
+
+        Returns
+        -------
+        object
+            ``make(source)``, from the cache when this source was seen before.
+        """
         key = (make, id(source))
         hit = self.derivations.get(key)
         if hit is not None and hit.source is source:
@@ -136,8 +176,22 @@ class AirCache:
         return value
 
     def waveform(self, key, makers: tuple) -> Waveform | None:
-        """The :class:`Waveform` of content ``key`` made by ``makers`` (the same objects), or
-        None; a hit becomes the most recently used entry."""
+        """Look up the waveform of content ``key`` made by ``makers``.
+
+        A hit becomes the most recently used entry.
+
+        Parameters
+        ----------
+        key : hashable
+            Content key of the waveform (e.g. a command's bits, preamble and CW lengths).
+        makers : tuple
+            The objects the samples also depend on, compared by identity with the entry's.
+
+        Returns
+        -------
+        Waveform or None
+            The entry, or None when there is none for ``key`` or it was made by other objects.
+        """
         hit = self.waveforms.pop(key, None)
         if hit is None:
             return None
@@ -147,7 +201,17 @@ class AirCache:
         return hit
 
     def remember(self, table: dict, key, entry) -> None:
-        """``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`."""
+        """Store ``table[key] = entry``, the oldest entry dropped first beyond :attr:`max_entries`.
+
+        Parameters
+        ----------
+        table : dict
+            One of the cache's tables (insertion order is the recency order).
+        key : hashable
+            The entry's key.
+        entry : object
+            The entry to store.
+        """
         if key not in table and len(table) >= self.max_entries:
             table.pop(next(iter(table)))
         table[key] = entry

@@ -32,8 +32,25 @@ PLANS = ("FCC", "ETSI", "custom")
 
 
 def check_carriers(key: str, carriers_hz) -> np.ndarray:
-    """``(n,) float64`` carriers [Hz], each finite and inside :data:`SUPPORTED_CARRIER_RANGE_HZ`;
-    otherwise a one-line :class:`ConfigError` naming ``key``."""
+    """Validate a list of carrier frequencies.
+
+    Parameters
+    ----------
+    key : str
+        Config key named in the error message.
+    carriers_hz : float or array_like
+        Carrier frequencies [Hz].
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        The carriers [Hz], each finite, distinct and inside :data:`SUPPORTED_CARRIER_RANGE_HZ`.
+
+    Raises
+    ------
+    ConfigError
+        Not numbers, empty or not 1-D, a carrier outside the supported range, or duplicates.
+    """
     lo, hi = SUPPORTED_CARRIER_RANGE_HZ
     try:
         f = np.atleast_1d(np.asarray(carriers_hz, dtype=float))
@@ -50,10 +67,30 @@ def check_carriers(key: str, carriers_hz) -> np.ndarray:
 
 
 def frequency_plan(region: str, channels_hz=(), *, key: str = "reader") -> np.ndarray:
-    """Channel centre frequencies [Hz] of a plan, ``(n,) float64`` (module docstring).
+    """Channel centre frequencies of a regulatory plan or an explicit list.
 
-    ``region`` "FCC" or "ETSI" (then ``channels_hz`` must be empty), or "custom" with the
-    explicit, validated list ``channels_hz``. Errors name ``<key>.region`` / ``<key>.channels_hz``.
+    FCC Part 15.247: :math:`f_k = 902.75 + 0.5 k` MHz, k = 0…49; ETSI EN 302 208: 865.7, 866.3,
+    866.9, 867.5 MHz (gen2-and-validation-anchors.md §4.7).
+
+    Parameters
+    ----------
+    region : {"FCC", "ETSI", "custom"}
+        The plan; "custom" takes the explicit list ``channels_hz``.
+    channels_hz : array_like, default ()
+        Explicit carriers [Hz] for ``region="custom"``; must be empty otherwise.
+    key : str, default "reader"
+        Config prefix of the error messages (``<key>.region`` / ``<key>.channels_hz``).
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        Channel centre frequencies [Hz] (a copy).
+
+    Raises
+    ------
+    ConfigError
+        Unknown region, an empty list for "custom", a list for "FCC"/"ETSI", or an invalid
+        carrier (:func:`check_carriers`).
     """
     if region not in PLANS:
         raise ConfigError(f"{key}.region", region, "'FCC', 'ETSI' or 'custom' (with channels_hz)")
@@ -68,8 +105,27 @@ def frequency_plan(region: str, channels_hz=(), *, key: str = "reader") -> np.nd
 
 
 def channel_index(plan_hz, fc_hz: float, *, key: str) -> int:
-    """1-based index of the carrier ``fc_hz`` in ``plan_hz`` (exact match), or a one-line
-    :class:`ConfigError` naming ``key`` when no channel of the plan has that carrier."""
+    """Find the 1-based channel index of a carrier in a frequency plan.
+
+    Parameters
+    ----------
+    plan_hz : array_like, shape (n,)
+        Channel centre frequencies [Hz].
+    fc_hz : float
+        Carrier [Hz], matched exactly.
+    key : str
+        Config key named in the error message.
+
+    Returns
+    -------
+    int
+        1-based index of the first channel equal to ``fc_hz``.
+
+    Raises
+    ------
+    ConfigError
+        No channel of the plan has that carrier.
+    """
     plan = np.asarray(plan_hz, dtype=float)
     hit = np.flatnonzero(plan == float(fc_hz))
     if hit.size == 0:

@@ -23,9 +23,25 @@ __all__ = ["Backscatter", "lazy_backscatter", "fused_sum"]
 
 
 class Backscatter:
-    """The contribution b·((A_s − Γ(t))·(g·x(t))) of one modulating reflector at a receiver on
-    the emitter's carrier (narrowband, static links g and b; re-radiation r = A_s − Γ), kept
-    as its factors until the receiver's sum is formed (:func:`fused_sum`)."""
+    r"""The contribution of one modulating reflector at a receiver, kept as its factors.
+
+    :math:`b\,((A_s - \Gamma(t))\,(g\,x(t)))` on the emitter's carrier (narrowband, static links
+    g and b; re-radiation r = A_s − Γ, rfsim.devices.tag), kept until the receiver's sum is
+    formed (:func:`fused_sum`).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,), complex128
+        The emitter's segment samples [√W].
+    g : complex
+        Forward (emitter → reflector) link constant.
+    a_s : complex
+        Antenna structural-mode term A_s of the re-radiation.
+    gamma : ndarray, shape (n,), complex128
+        Chip reflection coefficient Γ(t) per sample.
+    b : complex
+        Backward (reflector → receiver) link constant.
+    """
 
     __slots__ = ("x", "g", "a_s", "gamma", "b")
 
@@ -33,15 +49,54 @@ class Backscatter:
         self.x, self.g, self.a_s, self.gamma, self.b = x, g, a_s, gamma, b
 
     def samples(self) -> np.ndarray:
-        """The contribution as the step's array operations form it (n,)."""
+        r"""Form the contribution with the step's array operations.
+
+        Returns
+        -------
+        ndarray, shape (n,), complex128
+            :math:`b\,((A_s - \Gamma)\,(g\,x))` [√W], the products in that order.
+        """
         return self.b * ((self.a_s - self.gamma) * (self.g * self.x))
 
 
 def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, bw: float, propagation: str,
                      memo: dict):
-    """A :class:`Backscatter` for reflection ``r`` through backward link ``pj`` when the
-    contribution has that form (one-dimensional samples, forward constant ``g``, backward
-    constant, no carrier offset, r(t) = A_s − Γ(t) given by ``r.reradiation_terms``), else None."""
+    """Keep one reflector's contribution as its factors when it has the fused form.
+
+    The form is b·((A_s − Γ(t))·(g·x(t))): one-dimensional samples, a forward constant ``g``, a
+    backward constant, no carrier offset, and r(t) = A_s − Γ(t) given by the reflection's
+    ``reradiation_terms``.
+
+    Parameters
+    ----------
+    r : Reflection
+        The reflector's reflection (:class:`rfsim.air.roles.Reflection`).
+    pj : PathSet-like
+        Backward link, reflector → receiver.
+    seg : Segment
+        The emitter's segment.
+    g : complex or None
+        Forward link constant (None: the forward link is not one constant).
+    y : ndarray or None
+        The incident samples when the forward link is not one constant, else None.
+    rc : complex or None
+        The reflection's constant re-radiation (None: it modulates).
+    off : float
+        Carrier offset emitter − receiver [Hz].
+    n_samples : int
+        Samples of the step.
+    bw : float
+        Simulated bandwidth [Hz] (for the link's narrowband rule).
+    propagation : str
+        Propagation policy (:data:`rfsim.air.links.PROPAGATION_METHODS`).
+    memo : dict
+        The step's memo of narrowband link constants (:func:`rfsim.air.links.link_constant`).
+
+    Returns
+    -------
+    Backscatter or None
+        The contribution as factors, or None when it does not have that form.
+    """
     if y is not None or rc is not None or off != 0.0 or g is None or np.ndim(g) != 0:
         return None
     terms = getattr(r, "reradiation_terms", None)
@@ -54,11 +109,32 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
 
 
 def fused_sum(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool = True):
-    """A receiver's constant-factor terms Σ_e a_e·x_e (in ``const`` order) and, with ``fused``
-    (:attr:`rfsim.air.cache.Strategy.fused_backscatter`) when they are one term a·x and
-    ``parts`` is one :class:`Backscatter` of the same x, that part too, in one kernel pass
-    (:mod:`rfsim.air._step_kernels`: the same products and sums as the array operations;
-    ``parts`` is then emptied). None when ``const`` is empty."""
+    r"""Sum a receiver's constant-factor terms, with one backscatter part fused in when possible.
+
+    Forms :math:`\sum_e a_e x_e` (in ``const`` order). With ``fused`` (the run's
+    :attr:`rfsim.air.cache.Strategy.fused_backscatter`), when that is one term a·x and ``parts``
+    is one :class:`Backscatter` of the same x, the part is added in the same kernel pass
+    (:mod:`rfsim.air._step_kernels`: the same products and sums as the array operations) and
+    ``parts`` is emptied.
+
+    Parameters
+    ----------
+    const : dict
+        Emitter index → complex factor a_e of its segment.
+    parts : list
+        The receiver's full-length contributions still to add; emptied when fused.
+    segs : list of Segment
+        The emitters' segments, by emitter index.
+    n_samples : int
+        Samples of the step.
+    fused : bool, default True
+        Whether the fused kernel may be used.
+
+    Returns
+    -------
+    ndarray or None
+        The sum [√W], shape of the segments' samples, or None when ``const`` is empty.
+    """
     if fused and len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
         (i, a), = const.items()
         bs = parts[0]

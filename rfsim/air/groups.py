@@ -16,14 +16,37 @@ __all__ = ["members_of", "entries_of", "UNSET", "PerMember", "accumulate", "modu
 
 
 def members_of(reflectors: Sequence) -> list:
-    """The reflectors of a step with every :class:`ReflectorGroup` replaced by its members
-    (the indices every per-reflector list of the step uses)."""
+    """Flatten a step's reflectors, every reflector group replaced by its members.
+
+    Parameters
+    ----------
+    reflectors : sequence
+        The step's reflectors; a :class:`rfsim.air.roles.ReflectorGroup` stands for its members.
+
+    Returns
+    -------
+    list
+        The members, in the indices every per-reflector list of the step uses.
+    """
     return entries_of(reflectors)[0]
 
 
 def entries_of(reflectors: Sequence) -> tuple[list, list]:
-    """(members, entries): the flat member list and per given reflector ``(start, stop,
-    group or None)``."""
+    """Flatten a step's reflectors and record where each given reflector lies in the flat list.
+
+    Parameters
+    ----------
+    reflectors : sequence
+        The step's reflectors; a :class:`rfsim.air.roles.ReflectorGroup` stands for its members.
+
+    Returns
+    -------
+    members : list
+        The flat member list.
+    entries : list of tuple
+        Per given reflector ``(start, stop, group or None)``: its members' slice of ``members``
+        and the group itself (None for a single reflector).
+    """
     if len(reflectors) == 1 and hasattr(reflectors[0], "reflect_scaled"):
         grp = reflectors[0]
         return grp.members, [(0, len(grp.members), grp)]
@@ -42,8 +65,18 @@ UNSET = object()
 
 
 class PerMember(Sequence):
-    """A per-member list of the step whose entries for the members of a group that took
-    the shortcut (:meth:`ReflectorGroup.reflect_scaled`) are formed when first read."""
+    """A per-member list of the step whose entries are formed when first read.
+
+    The entries of the members of a group that took the shortcut
+    (:meth:`rfsim.air.roles.ReflectorGroup.reflect_scaled`) are held as :data:`UNSET` until read.
+
+    Parameters
+    ----------
+    items : list
+        The entries, :data:`UNSET` where not yet formed (filled in place).
+    fill : callable
+        ``fill(j)`` forms entry j.
+    """
 
     def __init__(self, items: list, fill):
         self._items, self._fill = items, fill
@@ -62,8 +95,23 @@ class PerMember(Sequence):
 
 
 def accumulate(start: complex, values: np.ndarray) -> complex:
-    """``start + values[0] + values[1] + …`` added left to right (``numpy.add.accumulate`` is
-    sequential: the same sums, in the same order, as a Python loop)."""
+    """Add complex values to a start value strictly left to right.
+
+    ``numpy.add.accumulate`` is sequential: the same sums, in the same order, as a Python loop
+    ``start + values[0] + values[1] + …``.
+
+    Parameters
+    ----------
+    start : complex
+        The start value.
+    values : ndarray, shape (n,), complex
+        The values to add, in order.
+
+    Returns
+    -------
+    complex
+        The sum.
+    """
     acc = np.empty(values.size + 1, dtype=np.complex128)
     acc[0] = start
     acc[1:] = values
@@ -71,9 +119,26 @@ def accumulate(start: complex, values: np.ndarray) -> complex:
 
 
 def modulates(entries: list, reflections: list, shortcut: dict) -> bool:
-    """Whether any reflection of the step (of a group that took the shortcut: its reactions,
-    its quiet members being constant) scatters a field that is not a constant multiple of its
-    incident one."""
+    """Tell whether any reflection of the step modulates.
+
+    A reflection modulates when it scatters a field that is not a constant multiple of its
+    incident one; of a group that took the shortcut only its reactions are looked at (its quiet
+    members are constant).
+
+    Parameters
+    ----------
+    entries : list of tuple
+        ``(start, stop, group or None)`` per given reflector (:func:`entries_of`).
+    reflections : list
+        Per member its reflection (None: scatters nothing).
+    shortcut : dict
+        Start index → :class:`rfsim.air.roles.GroupReflection` of the groups that took the shortcut.
+
+    Returns
+    -------
+    bool
+        True when at least one reflection modulates.
+    """
     for start, stop, _ in entries:
         gr = shortcut.get(start)
         for r in (gr.reactions.values() if gr is not None else reflections[start:stop]):
@@ -85,10 +150,52 @@ def modulates(entries: list, reflections: list, shortcut: dict) -> bool:
 def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant, seg, links, const: dict,
                       parts: list, *, i0: int, t0_s: float, n_samples: int, bw: float, propagation: str,
                       memo: dict) -> None:
-    """A group that took the shortcut, at a receiver on the emitter's carrier with held
-    backward constants ``backs``: its quiet members' held constants b_j·(r_j·g_j) and its
-    reacting members' contributions, in member order (the per-member branch of
-    :func:`rfsim.air.step.propagate`, members added to the factor of x one after the other)."""
+    """Add the backscatter of a group that took the shortcut at one receiver.
+
+    The receiver is on the emitter's carrier and the backward links have held constants
+    ``backs``. The quiet members' constants b_j·(r_j·g_j) and a non-modulating reacting member's
+    constant are summed in member order into the factor of x (``const[i0]``, with
+    :func:`accumulate`); a modulating reacting member's contribution is appended to ``parts``
+    (the per-member branch of :func:`rfsim.air.step.propagate`).
+
+    Parameters
+    ----------
+    gr : GroupReflection
+        What the group returned from ``reflect_scaled``.
+    start : int
+        Index of the group's first member in the step's member list.
+    whole : bool
+        Whether the group's members are all the step's members (``backs`` is then the group's
+        own list; otherwise its slice from ``start`` is used).
+    gains : sequence of complex
+        Per member the forward link constant g_j.
+    backs : sequence of complex
+        Per member the backward link constant b_j (None where not held).
+    members : sequence
+        The step's flat member list.
+    r_ant : object
+        The receiver's antenna.
+    seg : Segment
+        The emitter's segment x.
+    links : Links
+        The step's links.
+    const : dict
+        Emitter index → complex factor of its segment; updated in place.
+    parts : list
+        Full-length contributions of the receiver; appended to.
+    i0 : int
+        Index of the emitter whose segment is x.
+    t0_s : float
+        Start time of the step [s] (for the links).
+    n_samples : int
+        Samples of the step.
+    bw : float
+        Simulated bandwidth [Hz].
+    propagation : str
+        Propagation policy (:data:`rfsim.air.links.PROPAGATION_METHODS`).
+    memo : dict
+        The step's memo of narrowband link constants.
+    """
     terms, use = gr.terms(backs if whole else backs[start:start + len(gr)])
     vals = None
     for jl, r in gr.reactions.items():

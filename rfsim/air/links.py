@@ -23,17 +23,20 @@ PROPAGATION_METHODS = ("auto", "exact", "narrowband")
 class LinkTable:
     """Links of one step drawn from a channel, one draw per antenna pair.
 
-    Parameters
-    ----------
-    channel : object with ``link(tx, rx, *, fc_hz, rng, t_s, tx_motion, rx_motion)``
-        (``rfsim.channels.Channel``)
-    rng : generator for new draws (None: the channel's held draws)
-    reciprocal : a pair's reverse link is the same draw (the same PathSet object), as for a
-        reciprocal channel's monostatic round trip
-    motions : optional ``{antenna: motion}`` (velocity (3,) m/s or trajectory), passed on
-
     Pairs are drawn in the order the step asks for them: every emitter → reflector link in
     reflector order, then per receiver the direct links and the reflector links.
+
+    Parameters
+    ----------
+    channel : object
+        Has ``link(tx, rx, *, fc_hz, rng, t_s, tx_motion, rx_motion)`` (``rfsim.channels.Channel``).
+    rng : numpy.random.Generator or None, default None
+        Generator for new draws (None: the channel's held draws).
+    reciprocal : bool, default True
+        A pair's reverse link is the same draw (the same PathSet object), as for a reciprocal
+        channel's monostatic round trip.
+    motions : dict or None, default None
+        ``{id(antenna): motion}`` (velocity (3,) m/s or trajectory), passed on to the channel.
     """
 
     def __init__(self, channel, *, rng: np.random.Generator | None = None, reciprocal: bool = True,
@@ -43,6 +46,23 @@ class LinkTable:
         self._held: dict = {}
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
+        """Return the link of one antenna pair, drawn on first use and held for the step.
+
+        Parameters
+        ----------
+        tx, rx : object
+            Transmitting and receiving antennas.
+        fc_hz : float
+            Carrier of the link [Hz].
+        t_s : float
+            Time the link is evaluated at [s] (the step's start).
+
+        Returns
+        -------
+        PathSet-like or None
+            The pair's paths (the reverse pair's draw when ``reciprocal``), or None when the channel
+            has no such link.
+        """
         key = (id(tx), id(rx), float(fc_hz))
         hit = self._held.get(key)
         if hit is None and self.reciprocal:
@@ -61,13 +81,30 @@ class LinkTable:
 
 def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence,
                     cache: AirCache | None = None) -> None:
-    """Distinct antennas at distance 0 have no far-field link: a one-line error.
+    """Check that no two distinct antennas of a step share a position.
 
-    ``receivers`` sharing an emitter's antenna are not checked (a reader's own port). A set
-    of antennas whose positions are read-only arrays (``rfsim.channels.Antenna``) is checked once
-    per run and remembered in ``cache`` (:class:`rfsim.air.cache.AirCache`) by the identities
-    of its antennas (a tuple of reflector antennas also by its own identity: a population's
-    antennas are one tuple object, not compared antenna by antenna)."""
+    Distinct antennas at distance 0 have no far-field link. ``receivers`` sharing an emitter's
+    antenna are not checked (a reader's own port). A set of antennas whose positions are
+    read-only arrays (``rfsim.channels.Antenna``) is checked once per run and remembered in
+    ``cache`` by the identities of its antennas (a tuple of reflector antennas also by its own
+    identity: a population's antennas are one tuple object, not compared antenna by antenna).
+
+    Parameters
+    ----------
+    emitters : sequence
+        The step's emitters (each with ``antenna``).
+    reflector_antennas : sequence
+        The reflectors' antennas (a population's tuple or a list).
+    receivers : sequence
+        The step's receivers (each with ``antenna``).
+    cache : AirCache or None, default None
+        The run's cache (:class:`rfsim.air.cache.AirCache`); None checks every time.
+
+    Raises
+    ------
+    ConfigError
+        Two distinct antennas at the same ``position_m``.
+    """
     emitter_ids = {id(e.antenna) for e in emitters}
     listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
     ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
@@ -120,9 +157,30 @@ def _remember_tuple(cache: AirCache, reflector_antennas, emitters, listening) ->
 
 
 def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, memo: dict):
-    """The complex constant of a narrowband static link at ``fc_hz``, or None (the link's
-    ``narrowband_constant`` when it has one, else from ``static``/``method``/``constant_gain``,
-    remembered in ``memo`` for the step)."""
+    """Return the complex constant of a narrowband static link, or None.
+
+    The link's ``narrowband_constant`` when it has one; else ``constant_gain(fc_hz)`` when the
+    link is ``static`` and its ``method(bandwidth_hz, propagation)`` is ``"narrowband"``,
+    remembered in ``memo`` for the step.
+
+    Parameters
+    ----------
+    paths : PathSet-like
+        The link.
+    fc_hz : float
+        Carrier [Hz].
+    bandwidth_hz : float
+        Simulated bandwidth [Hz].
+    propagation : str
+        Propagation policy (:data:`PROPAGATION_METHODS`).
+    memo : dict
+        The step's memo, keyed by ``(id(paths), fc_hz)``; updated in place.
+
+    Returns
+    -------
+    complex or None
+        The link's complex gain, or None when it is not one constant.
+    """
     f = getattr(paths, "narrowband_constant", None)
     if f is not None:
         return f(fc_hz, bandwidth_hz, propagation)
@@ -138,8 +196,32 @@ def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, me
 
 def through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwidth_hz: float,
             propagation: str, memo: dict) -> tuple:
-    """``paths`` applied to ``x`` (default the segment's samples): ``(gain, None)`` for a
-    narrowband static link (one constant), else ``(None, samples)``."""
+    """Apply a link to a segment's samples.
+
+    Parameters
+    ----------
+    paths : PathSet-like
+        The link.
+    seg : Segment
+        The segment (its sample rate; its samples when ``x`` is None).
+    x : ndarray or None
+        Samples to propagate, shape ``(..., n)`` [√W]; None: ``seg.samples``.
+    fc_hz : float
+        Carrier [Hz] (the exact carrier phase of the paths).
+    bandwidth_hz : float
+        Simulated bandwidth [Hz].
+    propagation : str
+        Propagation policy (:data:`PROPAGATION_METHODS`).
+    memo : dict
+        The step's memo of narrowband constants (:func:`link_constant`).
+
+    Returns
+    -------
+    tuple
+        ``(gain, None)`` for a narrowband static link (one complex constant), else
+        ``(None, samples)`` with the propagated samples of the shape of ``x``, the link
+        evaluated from t = 0 of the step.
+    """
     g = link_constant(paths, fc_hz, bandwidth_hz, propagation, memo)
     if g is not None:
         return g, None
@@ -156,6 +238,31 @@ def through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwidt
 
 
 def require_link(links, tx, rx, *, fc_hz, t_s, what: str):
+    """Return the link of an antenna pair, or a one-line error when the scene has none.
+
+    Parameters
+    ----------
+    links : Links
+        The step's links.
+    tx, rx : object
+        Transmitting and receiving antennas.
+    fc_hz : float
+        Carrier [Hz].
+    t_s : float
+        Time the link is evaluated at [s].
+    what : str
+        Description of the pair, shown in the error.
+
+    Returns
+    -------
+    PathSet-like
+        The pair's paths.
+
+    Raises
+    ------
+    ConfigError
+        ``links.paths`` gave None for the pair.
+    """
     p = links.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
     if p is None:
         raise ConfigError("air.links", what, "a link for every emitter → reflector/receiver and "

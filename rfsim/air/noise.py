@@ -20,16 +20,31 @@ _k = lazy_import("rfsim.air._noise_kernels")
 
 
 def thermal_noise_power_w(bandwidth_hz, nf_db=0.0, temperature_k=T0_K) -> np.ndarray:
-    """Thermal noise power ``N = k·T·B·F`` [W] referred to the input.
+    r"""Thermal noise power referred to a receiver's input.
 
-    ``F = 10^(NF/10)`` is the noise factor; at ``T0 = 290 K`` this is −174 dBm/Hz + NF
-    (e.g. −114 dBm in 1 MHz with NF = 0 dB).
+    .. math:: N = k\,T\,B\,F, \qquad F = 10^{NF/10}
+
+    with k Boltzmann's constant; at T0 = 290 K this is −174 dBm/Hz + NF (e.g. −114 dBm in 1 MHz
+    with NF = 0 dB). Source: DESIGN.md "Channel" (AWGN from kTB·NF).
 
     Parameters
     ----------
-    bandwidth_hz : array_like, noise-equivalent bandwidth B ≥ 0 [Hz]
-    nf_db : array_like, noise figure [dB] (≥ 0)
-    temperature_k : array_like, noise temperature [K] (default 290 K)
+    bandwidth_hz : array_like
+        Noise-equivalent bandwidth B ≥ 0 [Hz].
+    nf_db : array_like, default 0.0
+        Noise figure NF ≥ 0 [dB].
+    temperature_k : array_like, default 290.0
+        Noise temperature T [K].
+
+    Returns
+    -------
+    ndarray
+        Noise power N [W], the broadcast shape of the arguments.
+
+    Raises
+    ------
+    ConfigError
+        A negative bandwidth or noise figure.
     """
     b = np.asarray(bandwidth_hz, dtype=float)
     if np.any(b < 0):
@@ -43,10 +58,26 @@ __all__ = ["thermal_noise_power_w"]
 
 
 def add_awgn_reference(y: np.ndarray, noise_w: float, rng: np.random.Generator) -> np.ndarray:
-    """Add complex white Gaussian noise of power ``noise_w`` [W per complex sample] to ``y``
-    in place: n = √(N/2)·(a + j·b), every real part a (in ``y``'s order) drawn from ``rng``
-    before every imaginary part b. Returns the scaled draws ``(2,) + y.shape`` (a, b) [√W].
-    Plain NumPy; :func:`add_awgn` gives the same bits faster."""
+    r"""Add complex white Gaussian noise to ``y`` in place (plain NumPy reference).
+
+    :math:`n = \sqrt{N/2}\,(a + j b)` with a, b standard normals: every real part a (in ``y``'s
+    order) is drawn from ``rng`` before every imaginary part b. :func:`add_awgn` gives the same
+    bits faster.
+
+    Parameters
+    ----------
+    y : ndarray, complex
+        Samples [√W], any shape; modified in place.
+    noise_w : float
+        Noise power N [W per complex sample].
+    rng : numpy.random.Generator
+        Source of the normals.
+
+    Returns
+    -------
+    ndarray, shape (2,) + y.shape, float64
+        The scaled draws (a, b) [√W].
+    """
     ab = np.empty((2,) + y.shape)
     rng.standard_normal(out=ab)
     ab *= math.sqrt(noise_w / 2.0)
@@ -56,10 +87,28 @@ def add_awgn_reference(y: np.ndarray, noise_w: float, rng: np.random.Generator) 
 
 
 def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, keep: bool = True) -> np.ndarray | None:
-    """:func:`add_awgn_reference` through a numba kernel (:mod:`rfsim.air._noise_kernels`) when
-    ``y`` is a writeable, aligned, C-contiguous complex128 array and ``rng`` a PCG64 generator;
-    the same draws, the same sums, the same generator state afterwards. With ``keep=False``
-    the scaled draws are not kept (None is returned): one pass less, half the memory."""
+    """Add complex white Gaussian noise to ``y`` in place, through a numba kernel where possible.
+
+    The same draws, sums and generator state afterwards as :func:`add_awgn_reference`; the kernel
+    (:mod:`rfsim.air._noise_kernels`) is used when ``y`` is a writeable, aligned, C-contiguous
+    complex128 array and ``rng`` a PCG64 generator, else the reference.
+
+    Parameters
+    ----------
+    y : ndarray, complex
+        Samples [√W], any shape; modified in place.
+    noise_w : float
+        Noise power N [W per complex sample].
+    rng : numpy.random.Generator
+        Source of the normals.
+    keep : bool, default True
+        Return the scaled draws; False saves one pass and half the memory.
+
+    Returns
+    -------
+    ndarray, shape (2,) + y.shape, float64, or None
+        The scaled draws (a, b) [√W] with ``keep``, else None.
+    """
     if not (isinstance(y, np.ndarray) and y.dtype == np.complex128 and y.flags.c_contiguous
             and y.flags.writeable and y.flags.aligned
             and type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64):
@@ -75,9 +124,18 @@ def add_awgn(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, keep: b
 
 
 def skip_awgn(shape, rng: np.random.Generator) -> None:
-    """Advance ``rng`` exactly as :func:`add_awgn` of an array of ``shape`` would (its 2·n
-    standard normals), without forming the noise: a receiver whose input nobody reads
-    (rfsim.air.step ``skip_unmodulated``)."""
+    """Advance ``rng`` exactly as :func:`add_awgn` of an array of ``shape`` would.
+
+    Draws its 2·n standard normals without forming the noise: a receiver whose input nobody
+    reads (:func:`rfsim.air.step.propagate` with ``skip_unmodulated``).
+
+    Parameters
+    ----------
+    shape : int or tuple of int
+        Shape of the array the noise would be added to (n = its size).
+    rng : numpy.random.Generator
+        The generator to advance.
+    """
     n = 2 * math.prod(shape) if isinstance(shape, tuple) else 2 * int(shape)
     if type(rng) is np.random.Generator and type(rng.bit_generator) is np.random.PCG64:
         _k.skip_normals_compiled(rng, n)
@@ -99,16 +157,47 @@ NOISE_METHODS = ("pcg64", "counter")
 
 
 def noise_key(rng: np.random.Generator) -> int:
-    """The key of one noise block: one uint64 drawn from the step's generator ``rng`` (a trial's
-    own stream, spawned from the run's SeedSequence: :mod:`rfsim.core.rng`). A trial's blocks
-    thus get their keys in the order its steps draw them, whether the trial runs alone, in a
-    batch or in another process."""
+    """Draw the key of one counter-based noise block.
+
+    One uint64 from the step's generator ``rng`` (a trial's own stream, spawned from the run's
+    SeedSequence: :mod:`rfsim.core.rng`). A trial's blocks thus get their keys in the order its
+    steps draw them, whether the trial runs alone, in a batch or in another process.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The step's generator.
+
+    Returns
+    -------
+    int
+        The key, in [0, 2**64).
+    """
     return int(rng.integers(0, 2**64, dtype=np.uint64))
 
 
 def counter_normals(key: int, n: int, *, first_pair: int = 0) -> np.ndarray:
-    """Normals 2·first_pair … 2·first_pair + n − 1 of the counter-based stream ``key``, (n,)
-    float64 (n even; algorithm: :mod:`rfsim.air._counter_noise_kernels`)."""
+    """Return a run of standard normals of a counter-based stream.
+
+    Parameters
+    ----------
+    key : int
+        Key of the stream (:func:`noise_key`).
+    n : int
+        Number of normals; must be even (they come in pairs).
+    first_pair : int, default 0
+        Index of the first pair: the normals 2·first_pair … 2·first_pair + n − 1 are returned.
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        The normals (algorithm: :mod:`rfsim.air._counter_noise_kernels`).
+
+    Raises
+    ------
+    ValueError
+        ``n`` is odd.
+    """
     if n % 2:
         raise ValueError(f"n must be even (normals come in pairs), got {n}")
     out = np.empty(int(n))
@@ -117,11 +206,29 @@ def counter_normals(key: int, n: int, *, first_pair: int = 0) -> np.ndarray:
 
 
 def add_counter_awgn(y: np.ndarray, noise_w: float, key: int, *, start: int = 0) -> None:
-    """Add complex white Gaussian noise of power ``noise_w`` [W per complex sample] to the
-    samples ``start:`` of ``y`` (…, n) complex128 in place: sample i of row b (flat index
-    f = b·n + i) gets √(N/2)·(a_f + j·b_f), (a_f, b_f) the normal pair f of the counter-based
-    stream ``key`` (:mod:`rfsim.air._counter_noise_kernels`). A sample's noise does not depend on
-    which other samples are drawn: the samples before ``start`` (read by nobody) cost nothing."""
+    r"""Add counter-based complex white Gaussian noise to the samples ``start:`` of ``y`` in place.
+
+    Sample i of row b (flat index f = b·n + i) gets :math:`\sqrt{N/2}\,(a_f + j b_f)`, with
+    :math:`(a_f, b_f)` the normal pair f of the counter-based stream ``key``
+    (:mod:`rfsim.air._counter_noise_kernels`). A sample's noise does not depend on which other
+    samples are drawn: the samples before ``start`` (read by nobody) cost nothing.
+
+    Parameters
+    ----------
+    y : ndarray, shape (..., n), complex128
+        Samples [√W], writeable and C-contiguous; modified in place.
+    noise_w : float
+        Noise power N [W per complex sample].
+    key : int
+        Key of the stream (:func:`noise_key`).
+    start : int, default 0
+        First sample of every row that gets noise (clipped to [0, n]).
+
+    Raises
+    ------
+    ValueError
+        ``y`` is not a writeable C-contiguous complex128 array.
+    """
     scale = math.sqrt(noise_w / 2.0)
     n = y.shape[-1]
     rows = y.reshape(-1, n)
@@ -134,11 +241,32 @@ def add_counter_awgn(y: np.ndarray, noise_w: float, key: int, *, start: int = 0)
 
 def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, method: str = "pcg64",
                        start: int = 0, keep: bool = False) -> np.ndarray | None:
-    """A receiver's noise of power ``noise_w`` [W] added to its input ``y`` (…, n) in place, by
-    ``method`` (:data:`NOISE_METHODS`): ``"pcg64"`` every sample from ``rng``
-    (:func:`add_awgn`); ``"counter"`` one key from ``rng`` (:func:`noise_key`) and the samples
-    ``start:`` that the receiver reads (:func:`add_counter_awgn`; every sample with ``keep``).
-    Returns the noise (…, n) [√W] with ``keep``, else None."""
+    """Add a receiver's noise to its input in place, by the run's noise method.
+
+    ``"pcg64"``: every sample from ``rng`` (:func:`add_awgn`); ``"counter"``: one key from ``rng``
+    (:func:`noise_key`) and the samples ``start:`` that the receiver reads
+    (:func:`add_counter_awgn`; every sample with ``keep``).
+
+    Parameters
+    ----------
+    y : ndarray, shape (..., n), complex128
+        The receiver's input [√W]; modified in place.
+    noise_w : float
+        Noise power [W per complex sample].
+    rng : numpy.random.Generator
+        The step's generator.
+    method : {"pcg64", "counter"}, default "pcg64"
+        How the noise is drawn (:data:`NOISE_METHODS`).
+    start : int, default 0
+        First sample the receiver reads (``"counter"`` only).
+    keep : bool, default False
+        Return the noise.
+
+    Returns
+    -------
+    ndarray, shape (..., n), complex128, or None
+        The noise added [√W] with ``keep``, else None.
+    """
     if method == "counter":
         key = noise_key(rng)
         if not keep:
@@ -153,9 +281,20 @@ def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, 
 
 
 def skip_receiver_noise(n_samples: int, rng: np.random.Generator, *, method: str = "pcg64") -> None:
-    """Advance ``rng`` as :func:`add_receiver_noise` of ``n_samples`` samples would, without
-    forming the noise (an input nobody reads): 2·n normals (``"pcg64"``) or the one key
-    (``"counter"``)."""
+    """Advance ``rng`` as :func:`add_receiver_noise` of ``n_samples`` samples would.
+
+    The noise is not formed (an input nobody reads): 2·n normals are drawn (``"pcg64"``) or the
+    one key (``"counter"``).
+
+    Parameters
+    ----------
+    n_samples : int
+        Samples of the input.
+    rng : numpy.random.Generator
+        The step's generator.
+    method : {"pcg64", "counter"}, default "pcg64"
+        How the noise would be drawn (:data:`NOISE_METHODS`).
+    """
     if method == "counter":
         noise_key(rng)
     else:

@@ -42,25 +42,53 @@ def _check_rates(fs_hz: float, fc_hz: float) -> tuple[float, float]:
 
 
 def carrier_phase_rad(fc_hz: float, t_s) -> np.ndarray:
-    """Carrier phase 2π·(fc·t mod 1) [rad] of times ``t_s`` [s], reduced modulo one cycle in
-    float64 (its precision is that of fc·t: ≈ 1e−7 cycles at t ≈ 1 s and 915 MHz)."""
+    r"""Carrier phase of times ``t_s``, reduced modulo one cycle.
+
+    :math:`\varphi = 2\pi\,(f_c t \bmod 1)`, formed in float64 (its precision is that of
+    :math:`f_c t`: ≈ 1e−7 cycles at t ≈ 1 s and 915 MHz).
+
+    Parameters
+    ----------
+    fc_hz : float
+        Carrier frequency [Hz].
+    t_s : array_like
+        Times [s].
+
+    Returns
+    -------
+    ndarray, float64
+        Phase in [0, 2π) [rad], the shape of ``t_s``.
+    """
     return 2.0 * np.pi * np.mod(float(fc_hz) * np.asarray(t_s, dtype=np.float64), 1.0)
 
 
 def upconvert(x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0) -> np.ndarray:
-    """RF signal x_rf[n] = √2·Re{x[n]·e^{j2π·fc·t_n}}, t_n = t0_s + n/fs_hz.
+    r"""Form the real RF signal of a complex baseband waveform.
+
+    :math:`x_{rf}[n] = \sqrt{2}\,\mathrm{Re}\{x[n]\,e^{j 2\pi f_c t_n}\}`, :math:`t_n = t_0 + n/f_s`
+    (the power convention of the module docstring).
 
     Parameters
     ----------
-    x : (n,) complex, baseband [√W] at the RF sample times, x[n] = x(t_n)
-    fs_hz : RF sample rate [Hz], at least 2.5·fc
-    fc_hz : carrier frequency [Hz]
-    t0_s : time of sample 0 [s]. A signal delayed by τ is x(t − τ) at times t: pass the
-        envelope evaluated at t_n − τ and ``t0_s − τ`` (the carrier at t − τ).
+    x : array_like, shape (n,), complex
+        Baseband [√W] at the RF sample times, x[n] = x(t_n).
+    fs_hz : float
+        RF sample rate [Hz], at least 2.5·fc.
+    fc_hz : float
+        Carrier frequency [Hz].
+    t0_s : float, default 0.0
+        Time of sample 0 [s]. A signal delayed by τ is x(t − τ) at times t: pass the envelope
+        evaluated at t_n − τ and ``t0_s − τ`` (the carrier at t − τ).
 
     Returns
     -------
-    x_rf : (n,) float64 [√W]
+    x_rf : ndarray, shape (n,), float64
+        RF signal [√W].
+
+    Raises
+    ------
+    ValueError
+        fc ≤ 0 or fs < 2.5·fc.
     """
     fs_hz, fc_hz = _check_rates(fs_hz, fc_hz)
     x = np.asarray(x, dtype=np.complex128)
@@ -71,23 +99,40 @@ def upconvert(x, *, fs_hz: float, fc_hz: float, t0_s: float = 0.0) -> np.ndarray
 
 def iq_demodulate(x_rf, *, fs_hz: float, fc_hz: float, decimation: int, t0_s: float = 0.0,
                   cutoff_hz: float | None = None, numtaps: int | None = None) -> np.ndarray:
-    """Reader IQ receiver: mix with √2·cos and −√2·sin at fc, low-pass, keep every
-    ``decimation``-th sample (module docstring).
+    r"""Demodulate an RF signal as a reader's IQ receiver does.
+
+    Mix with √2·cos and −√2·sin at fc, low-pass, keep every ``decimation``-th sample:
+    :math:`I + jQ = \mathrm{LPF}\{x_{rf}(t)\,\sqrt{2}\,e^{-j 2\pi f_c t}\} \to x(t)` (module
+    docstring).
 
     Parameters
     ----------
-    x_rf : (n,) float64, RF signal [√W] sampled at ``fs_hz``, sample k at t0_s + k/fs_hz
-    fs_hz, fc_hz : RF sample rate and carrier [Hz] (fs ≥ 2.5·fc)
-    decimation : output sample k is input sample k·decimation (output rate fs/decimation)
-    cutoff_hz : low-pass cut-off [Hz]; default fs/(2·decimation) (anti-alias for the
-        decimation), at most fc/4 so that the mixer image at 2·fc (aliased to |fs − 2fc|)
-        lies in the stop band
-    numtaps : odd length of the linear-phase Hamming-window FIR, applied centred (zero
-        delay); default the odd number ≥ 4·fs/cutoff (transition band ≈ the cut-off)
+    x_rf : array_like, shape (n,), float64
+        RF signal [√W] sampled at ``fs_hz``, sample k at t0_s + k/fs_hz.
+    fs_hz : float
+        RF sample rate [Hz] (fs ≥ 2.5·fc).
+    fc_hz : float
+        Carrier frequency [Hz].
+    decimation : int
+        Output sample k is input sample k·decimation (output rate fs/decimation), ≥ 1.
+    t0_s : float, default 0.0
+        Time of sample 0 [s] (the phase of the mixer's carrier).
+    cutoff_hz : float or None, default None
+        Low-pass cut-off [Hz]; default fs/(2·decimation) (anti-alias for the decimation), at
+        most fc/4 so that the mixer image at 2·fc (aliased to |fs − 2fc|) lies in the stop band.
+    numtaps : int or None, default None
+        Odd length of the linear-phase Hamming-window FIR, applied centred (zero delay); default
+        the odd number ≥ 4·fs/cutoff (transition band ≈ the cut-off).
 
     Returns
     -------
-    (ceil(n/decimation),) complex128, baseband [√W]
+    ndarray, shape (ceil(n/decimation),), complex128
+        Baseband [√W].
+
+    Raises
+    ------
+    ValueError
+        Rates out of range, decimation < 1, an even ``numtaps`` or a cut-off outside (0, fs/2).
     """
     fs_hz, fc_hz = _check_rates(fs_hz, fc_hz)
     cut = min(fs_hz / (2.0 * int(decimation)), fc_hz / 4.0) if cutoff_hz is None else float(cutoff_hz)
@@ -105,13 +150,49 @@ def iq_demodulate(x_rf, *, fs_hz: float, fc_hz: float, decimation: int, t0_s: fl
 
 
 def analytic_envelope(x_rf) -> np.ndarray:
-    """Peak envelope of an RF signal divided by √2: |x_rf + j·H{x_rf}|/√2 = |x| [√W]
-    (``scipy.signal.hilbert``, i.e. FFT-based: the record's ends carry edge effects)."""
+    r"""Peak envelope of an RF signal divided by √2.
+
+    :math:`|x_{rf} + j\,\mathcal{H}\{x_{rf}\}|/\sqrt{2} = |x|` for a band-limited x with bandwidth
+    < fc (module docstring); ``scipy.signal.hilbert`` is FFT-based, so the record's ends carry
+    edge effects.
+
+    Parameters
+    ----------
+    x_rf : array_like, shape (n,), float64
+        RF signal [√W].
+
+    Returns
+    -------
+    ndarray, shape (n,), float64
+        Envelope |x| [√W].
+    """
     return np.abs(_signal.hilbert(np.asarray(x_rf, dtype=np.float64))) / np.sqrt(2.0)
 
 
 def relative_rms_error(a, b, mask=None) -> float:
-    """√(Σ|a − b|²/Σ|b|²) over ``mask`` (all samples by default): ``b`` is the reference."""
+    r"""Relative RMS error of ``a`` against the reference ``b``.
+
+    :math:`\sqrt{\sum |a - b|^2 / \sum |b|^2}` over ``mask``.
+
+    Parameters
+    ----------
+    a : array_like
+        The values checked.
+    b : array_like
+        The reference, the shape of ``a``.
+    mask : array_like of bool or index, optional
+        Samples to compare (default all).
+
+    Returns
+    -------
+    float
+        The relative RMS error (dimensionless).
+
+    Raises
+    ------
+    ValueError
+        ``a`` and ``b`` differ in shape.
+    """
     a, b = np.asarray(a), np.asarray(b)
     if a.shape != b.shape:
         raise ValueError(f"shapes differ: {a.shape} and {b.shape}")

@@ -20,16 +20,35 @@ class Segment:
 
     Parameters
     ----------
-    t0_s : absolute time of sample 0 [s]
-    fs_hz : sample rate [Hz]
-    fc_hz : carrier frequency of the baseband [Hz]
-    samples : (..., n) complex128 [√W] (leading batch dimensions allowed), or None together
-        with ``base``/``gain``
-    base, gain : a scaled copy ``gain · base.samples`` (``Segment.scaled``), formed only when
-        :attr:`samples` is read
+    t0_s : float
+        Absolute time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz], > 0.
+    fc_hz : float
+        Carrier frequency of the baseband [Hz].
+    samples : array_like, shape (..., n), optional
+        Complex baseband [√W] (leading batch dimensions allowed, n ≥ 1; stored as complex128),
+        or None together with ``base``.
+    base : Segment, optional
+        Makes a scaled copy ``gain · base.samples`` (``Segment.scaled``), formed only when
+        :attr:`samples` is read.
+    gain : complex, default 1.0
+        Gain of the scaled copy.
 
-    ``memo`` is a dict for data derived from the samples that several devices share (a
-    reflector's decoding of a segment it sees scaled copies of); it belongs to the segment.
+    Attributes
+    ----------
+    memo : dict
+        Data derived from the samples that several devices share (a reflector's decoding of a
+        segment it sees scaled copies of); it belongs to the segment.
+    n_samples : int
+        Samples per row (n).
+
+    Raises
+    ------
+    ConfigError
+        fs ≤ 0, or samples without a last dimension of at least one sample.
+    ValueError
+        Both ``samples`` and ``base`` given.
     """
 
     __slots__ = ("t0_s", "fs_hz", "fc_hz", "_samples", "base", "gain", "memo", "n_samples")
@@ -59,7 +78,24 @@ class Segment:
 
     @classmethod
     def scaled(cls, base: "Segment", gain: complex, fc_hz: float | None = None) -> "Segment":
-        """``gain · base`` on the time base of ``base`` (samples formed lazily)."""
+        """Make the scaled copy ``gain · base`` on the time base of ``base``.
+
+        The samples are formed when first read.
+
+        Parameters
+        ----------
+        base : Segment
+            The segment scaled (a scaled copy of a scaled copy refers to the original base).
+        gain : complex
+            Complex gain.
+        fc_hz : float or None, default None
+            Carrier of the copy [Hz]; None: that of ``base``.
+
+        Returns
+        -------
+        Segment
+            The scaled copy.
+        """
         if base.base is not None:
             return cls(base.t0_s, base.fs_hz, base.fc_hz if fc_hz is None else fc_hz, base=base, gain=gain)
         out = cls.__new__(cls)  # the hot path of the air step: no re-validation of a valid base
@@ -86,6 +122,22 @@ class Segment:
         return self.t0_s + self.n_samples / self.fs_hz
 
     def same_time_base(self, t0_s: float, fs_hz: float, n_samples: int) -> bool:
+        """Tell whether the segment lies exactly on the given time base.
+
+        Parameters
+        ----------
+        t0_s : float
+            Start time [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Number of samples.
+
+        Returns
+        -------
+        bool
+            True when start time, sample rate and length are all equal.
+        """
         return self.t0_s == float(t0_s) and self.fs_hz == float(fs_hz) and self.n_samples == int(n_samples)
 
     def __repr__(self) -> str:
@@ -95,7 +147,27 @@ class Segment:
 
 
 def carrier_shift(x: np.ndarray, offset_hz: float, *, t0_s: float, fs_hz: float) -> np.ndarray:
-    """``x·e^{j2π·Δ·t}`` with t = t0 + n/fs absolute time (phase reduced modulo one cycle)."""
+    r"""Move a baseband to the baseband of another carrier.
+
+    :math:`x[n]\,e^{j 2\pi \Delta t_n}` with :math:`t_n = t_0 + n/f_s` absolute time, the phase
+    reduced modulo one cycle (term by term, so that large t·Δ keep their precision).
+
+    Parameters
+    ----------
+    x : ndarray, shape (..., n), complex
+        Samples [√W].
+    offset_hz : float
+        Carrier offset Δ = f_emitter − f_receiver [Hz].
+    t0_s : float
+        Time of sample 0 [s].
+    fs_hz : float
+        Sample rate [Hz].
+
+    Returns
+    -------
+    ndarray, shape (..., n), complex128
+        The shifted samples [√W].
+    """
     n = x.shape[-1]
     cycles = np.mod(offset_hz * t0_s, 1.0) + np.mod(offset_hz / fs_hz, 1.0) * np.arange(n)
     return x * np.exp(2j * np.pi * np.mod(cycles, 1.0))

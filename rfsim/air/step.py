@@ -118,20 +118,29 @@ class AirResult:
 
     Attributes
     ----------
-    segments : per emitter its :class:`Segment` (None: silent)
-    incident : per reflector its incident :class:`Segment` (reference carrier)
-    reflections : per reflector what ``reflect`` returned
-    inputs : per receiver its input :class:`Segment` (noise included)
-    outputs : per receiver what ``receive`` returned (None when ``decide=False``)
-    dropped : ``(emitter, "reflector"|"receiver", index, offset_hz)`` of every contribution
-        outside ±fs/2 of the receiving carrier (module docstring)
-    fc_ref_hz : the reference carrier of the reflectors' incident segments [Hz]
-    direct, backscatter, noise : with ``keep_components``: per receiver the emitters'
-        contribution (n,), per reflector and receiver the backscatter (n,), per receiver
-        the noise (n,) or None; all [√W]
-    links : with ``keep_components``: ``{(kind, i, kind, k): paths}`` of every link used
-    groups : ``[(start, GroupReflection)]`` of the groups that took the shortcut (their
-        members' entries in ``incident`` and ``reflections`` are formed when read)
+    segments : list
+        Per emitter its :class:`Segment` (None: silent).
+    incident : sequence
+        Per reflector its incident :class:`Segment` (reference carrier).
+    reflections : sequence
+        Per reflector what ``reflect`` returned.
+    inputs : list
+        Per receiver its input :class:`Segment` (noise included).
+    outputs : list
+        Per receiver what ``receive`` returned (None when ``decide=False``).
+    dropped : list of tuple
+        ``(emitter, "reflector"|"receiver", index, offset_hz)`` of every contribution outside
+        ±fs/2 of the receiving carrier (module docstring).
+    fc_ref_hz : float
+        The reference carrier of the reflectors' incident segments [Hz].
+    direct, backscatter, noise : list or None
+        With ``keep_components``: per receiver the emitters' contribution (n,), per reflector and
+        receiver the backscatter (n,), per receiver the noise (n,) or None; all [√W].
+    links : dict
+        With ``keep_components``: ``{(kind, i, kind, k): paths}`` of every link used.
+    groups : list
+        ``[(start, GroupReflection)]`` of the groups that took the shortcut (their members'
+        entries in ``incident`` and ``reflections`` are formed when read).
     """
 
     segments: list
@@ -156,43 +165,72 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
               fc_ref_hz: float | None = None, bandwidth_hz: float | None = None, propagation: str = "auto",
               decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False,
               cache: AirCache | None = None) -> AirResult:
-    """Run one exchange through the air (module docstring): emit, propagate, reflect,
-    superpose, add noise, receive.
+    """Run one exchange through the air: emit, propagate, reflect, superpose, add noise, receive.
+
+    The model (first-order backscatter, carrier offsets, narrowband static links, groups,
+    batch dimensions) is in the module docstring.
 
     Parameters
     ----------
-    emitters, reflectors, receivers : devices implementing :class:`Emitter`,
-        :class:`Reflector`, :class:`Receiver` (reflectors and receivers may be empty)
-    links : :class:`Links` (e.g. a :class:`LinkTable` over a ``rfsim.channels.Channel``)
-    t0_s, fs_hz, n_samples : the time base of the step [s], [Hz], [samples]
-    rng : generator of the receiver noise (needed when a receiver has noise)
-    fc_ref_hz : carrier of the reflectors' baseband [Hz]; default the first emitting
-        emitter's carrier
-    bandwidth_hz : one-sided bandwidth B of the signals that matter, for the links'
-        narrowband decision (Gen2: 2·BLF); default fs/2
-    propagation : ``"auto"``, ``"exact"`` or ``"narrowband"`` (``rfsim.channels.paths``)
-    decide : call every receiver's ``receive`` (else ``outputs`` holds None)
-    keep_components : keep the direct, backscatter and noise parts per receiver
-    skip_unmodulated : when no reflector modulates (every re-radiation is a constant: no tag
-        replies), form no receiver input: every noisy receiver's noise is still drawn from
-        ``rng`` in receiver order (the generator is left as adding it leaves it), ``inputs``
-        and ``outputs`` hold None and ``dropped`` lists the reflectors' side only. For a
-        caller that reads the inputs only when something modulates, and whose links draw
-        nothing for the receivers' side (the engine: its backward links are drawn with the
-        forward ones). Ignored with ``keep_components``.
-    cache : the run's :class:`rfsim.air.cache.AirCache` (its fast-path strategy and what the
-        step reuses between calls); default a new one for this call (the default strategy,
-        nothing reused)
+    emitters : sequence of Emitter
+        The emitting devices (at least one).
+    reflectors : sequence of Reflector or ReflectorGroup
+        The reflecting devices (may be empty).
+    receivers : sequence of Receiver
+        The listening devices (may be empty).
+    links : Links
+        The links (e.g. a :class:`LinkTable` over a ``rfsim.channels.Channel``).
+    t0_s : float
+        Start time of the step [s].
+    fs_hz : float
+        Sample rate [Hz].
+    n_samples : int
+        Samples of the step.
+    rng : numpy.random.Generator or None, default None
+        Generator of the receiver noise (needed when a receiver has noise).
+    fc_ref_hz : float or None, default None
+        Carrier of the reflectors' baseband [Hz]; None: the first emitting emitter's carrier.
+    bandwidth_hz : float or None, default None
+        One-sided bandwidth B of the signals that matter, for the links' narrowband decision
+        (Gen2: 2·BLF) [Hz]; None: fs/2.
+    propagation : {"auto", "exact", "narrowband"}, default "auto"
+        Propagation policy (``rfsim.channels.paths``).
+    decide : bool, default True
+        Call every receiver's ``receive`` (else ``outputs`` holds None).
+    keep_components : bool, default False
+        Keep the direct, backscatter and noise parts per receiver.
+    skip_unmodulated : bool, default False
+        When no reflector modulates (every re-radiation is a constant: no tag replies), form no
+        receiver input: every noisy receiver's noise is still drawn from ``rng`` in receiver
+        order (the generator is left as adding it leaves it), ``inputs`` and ``outputs`` hold
+        None and ``dropped`` lists the reflectors' side only. For a caller that reads the inputs
+        only when something modulates, and whose links draw nothing for the receivers' side
+        (the engine: its backward links are drawn with the forward ones). Ignored with
+        ``keep_components``.
+    cache : AirCache or None, default None
+        The run's :class:`rfsim.air.cache.AirCache` (its fast-path strategy and what the step
+        reuses between calls); None: a new one for this call (the default strategy, nothing
+        reused).
 
     Returns
     -------
-    :class:`AirResult`
+    AirResult
+        Segments, incident fields, reflections, receiver inputs and outputs of the step.
 
-    Stages (each a function of this module, sharing one :class:`_Step`): :func:`_begin`
-    (arguments, members, positions), :func:`_emit` (segments, reference carrier, held
-    forward constants), :func:`_reflect` (links to and reaction of every reflector), then
-    per receiver :func:`_direct` (emitters' links or coupling), :func:`_backscatter`
-    (reflectors' links), :func:`_superpose`, :func:`_noise` and its ``receive``.
+    Raises
+    ------
+    ConfigError
+        An unknown ``propagation``, an empty emitter list, ``n_samples`` < 1, a segment off the
+        step's time base, two antennas at distance 0, a pair without a link, or a receiver with
+        noise and no ``rng``.
+
+    Notes
+    -----
+    Stages (each a function of this module, sharing one ``_Step``): ``_begin`` (arguments,
+    members, positions), ``_emit`` (segments, reference carrier, held forward constants),
+    ``_reflect`` (links to and reaction of every reflector), then per receiver ``_direct``
+    (emitters' links or coupling), ``_backscatter`` (reflectors' links), ``_superpose``,
+    ``_noise`` and its ``receive``.
     """
     receivers = list(receivers)
     st = _begin(emitters, reflectors, receivers, links, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples,
@@ -600,7 +638,23 @@ def _noise(y: np.ndarray, rcv, rng, keep: bool, st: _Step):
 
 
 def first_read(rcv, t0_s: float, fs_hz: float, n_samples: int) -> int:
-    """The first sample of an input (t0_s [s], fs_hz [Hz], n_samples) that receiver ``rcv``
-    reads: its ``first_read_sample(t0_s, fs_hz, n_samples)`` when it has one, else 0."""
+    """Return the first sample of an input that a receiver reads.
+
+    Parameters
+    ----------
+    rcv : Receiver
+        The receiver; its optional ``first_read_sample(t0_s, fs_hz, n_samples)`` is asked.
+    t0_s : float
+        Start time of the input [s].
+    fs_hz : float
+        Sample rate [Hz].
+    n_samples : int
+        Samples of the input.
+
+    Returns
+    -------
+    int
+        ``rcv.first_read_sample(t0_s, fs_hz, n_samples)`` when it has one, else 0.
+    """
     f = getattr(rcv, "first_read_sample", None)
     return 0 if f is None else int(f(t0_s, fs_hz, n_samples))

@@ -18,10 +18,31 @@ CAMPAIGNS = ("phase-cancellation", "st-to-st")
 
 
 def bench_campaigns(*, names: tuple[str, ...] = CAMPAIGNS, seed: int = 1) -> dict:
-    """``rfsim run NAME --set mc.full=true --no-plot`` for each of ``names`` (dataset into a
-    temporary folder; kernels cached by an earlier run): keys ``<name>_wall_s``,
-    ``<name>_cpu_s`` [s] and ``<name>_peak_rss_mb``, and the 1-minute load average before
-    and after (the wall time depends on it)."""
+    """Time the paper-size campaigns, each as a whole ``rfsim run`` command in a child process.
+
+    ``rfsim run NAME --seed SEED --set mc.full=true --no-plot -q`` for each of ``names`` (dataset
+    into a temporary folder; kernels cached by an earlier run), measured by
+    :func:`rfsim.bench.startup.run_measured`.
+
+    Parameters
+    ----------
+    names : tuple of str, default CAMPAIGNS
+        Scenarios to run.
+    seed : int, default 1
+        Root seed of the runs.
+
+    Returns
+    -------
+    dict
+        ``<name>_wall_s`` and ``<name>_cpu_s`` [s], ``<name>_peak_rss_mb`` [MB] per scenario, and
+        ``load_average_1min`` / ``load_average_1min_after``, the 1-minute load average before and
+        after (the wall time depends on it).
+
+    Raises
+    ------
+    RuntimeError
+        A run exits with a non-zero status.
+    """
     out: dict = {"load_average_1min": os.getloadavg()[0]}
     with tempfile.TemporaryDirectory(prefix="rfsim-bench-") as tmp:
         for name in names:

@@ -11,16 +11,30 @@ def bench_channels(*, n_links: int = 2000, n_samples: int = 1_000_000, n_paths: 
                    seed: int = 0) -> dict:
     """Measure the channel hot paths on the calling thread (one core).
 
-    * ``link_draws_per_s``: full link draws — LoS + first-order image paths of a 6-surface
-      8 m × 6 m × 3 m room + freshly drawn APDP taps (PASS room curves) — for random tag
-      positions;
-    * ``apply_<n>_paths_<N>_samples_s``: time to apply an ``n_paths`` link to an
-      ``n_samples`` waveform at 4 MS/s: all paths static; with 7 distinct Doppler shifts
-      (LoS + 6 reflections, diffuse taps sharing the LoS Doppler: a moving tag in that room);
-      and every path with its own Doppler (worst case);
-    * ``los_links_per_s``: vectorised LoS responses (``los_links``, 10⁶ links).
-
     Compile time is excluded (one warm-up call each).
+
+    Parameters
+    ----------
+    n_links : int, default 2000
+        Link draws timed.
+    n_samples : int, default 1_000_000
+        Length of the waveform a link is applied to.
+    n_paths : int, default 50
+        Paths of the applied link.
+    seed : int, default 0
+        Seed of the positions, the taps and the waveform.
+
+    Returns
+    -------
+    dict
+        ``link_draws_per_s``: full link draws per second — LoS + first-order image paths of a
+        6-surface 8 m × 6 m × 3 m room + freshly drawn APDP taps (PASS room curves) — for random
+        tag positions, with ``mean_paths_per_link``;
+        ``apply_<n_paths>_paths_<n_samples>_samples_<case>_s`` [s]: time to apply the link to the
+        waveform at 4 MS/s, case ``static`` (all paths static), ``7_dopplers`` (LoS + 6
+        reflections with their own Doppler shifts, diffuse taps sharing the LoS Doppler: a moving
+        tag in that room), ``all_dopplers`` (every path its own Doppler: worst case) and
+        ``narrowband``; ``los_links_per_s``: vectorised LoS responses (``los_links``, 10⁶ links).
     """
     # imported here: rfsim does not import channels at module level (DESIGN.md layout)
     from rfsim.channels.antennas import Antenna, HalfWaveDipole
@@ -80,13 +94,27 @@ def bench_channels(*, n_links: int = 2000, n_samples: int = 1_000_000, n_paths: 
 
 
 def bench_bulk_links(*, n_links: int = 100_000, repeats: int = 3, seed: int = 0) -> dict:
-    """Full link draws per second of :func:`rfsim.channels.bulk.draw_links` (one core).
+    """Measure full link draws per second of :func:`rfsim.channels.bulk.draw_links` (one core).
 
     The scene of :func:`bench_channels`: a half-wave dipole reader in a 6-surface
     8 m × 6 m × 3 m room, ``n_links`` random tag positions, each link with LoS + 6 first-order
     image slots + the APDP taps (PASS room curves), drawn in one call. The best of ``repeats``
-    calls is reported (one warm-up call first), as ``bulk_links_per_s``, with the columns per
-    link ``paths_per_link`` and the fraction of image slots that hold a path.
+    calls is reported (one warm-up call first).
+
+    Parameters
+    ----------
+    n_links : int, default 100_000
+        Links drawn per call.
+    repeats : int, default 3
+        Timed calls (at least one).
+    seed : int, default 0
+        Seed of the positions and the draws.
+
+    Returns
+    -------
+    dict
+        ``bulk_links_per_s`` (best call), ``paths_per_link`` (the columns per link) and
+        ``image_slot_fill`` (the fraction of image slots that hold a path).
     """
     from rfsim.channels.antennas import Antenna, HalfWaveDipole
     from rfsim.channels.bulk import draw_links

@@ -36,9 +36,24 @@ NOISE_CHUNK = 1 << 20
 
 @dataclass(frozen=True)
 class SynthReply:
-    """A tag reply of a synthetic capture: data ``bits`` (dummy 1 added), line code, BLF at
-    its start [Hz], relative BLF change across it (linear clock drift), start after the
-    command's last rising edge [s] (default the nominal T1 = max(RTcal, 10/BLF))."""
+    """A tag reply of a synthetic capture.
+
+    Attributes
+    ----------
+    bits : ndarray, shape (n,), uint8
+        Data bits of the reply (the dummy 1 is added by the line code).
+    m : int
+        Line code: 1 = FM0, 2/4/8 = Miller.
+    trext : bool
+        Pilot tone before the preamble.
+    blf_hz : float
+        BLF at the reply's start [Hz].
+    drift : float
+        Relative BLF change across the reply (linear clock drift), default 0.
+    t1_s : float or None
+        Start after the command's last rising edge [s]; None: the nominal
+        T1 = max(RTcal, 10/BLF).
+    """
 
     bits: np.ndarray
     m: int
@@ -66,13 +81,42 @@ def _pie(cmd, *, tari_s, trcal_s, fs_hz, gap_s):
 def synthetic_capture(items, *, fs_hz: float, trcal_s: float | None, tari_s: float = 12.5e-6,
                       leak: complex = 0.8 + 0.3j, h: complex = 0.02 - 0.03j, noise_rms: float = 1e-3,
                       seed: int = 0, lead_s: float = 300e-6) -> tuple[np.ndarray, list]:
-    """Monostatic capture ``(n,) complex64`` (module docstring) and its truth.
+    r"""Build a synthetic monostatic capture and its truth (module docstring).
 
-    ``items``: (command, :class:`SynthReply` or None, CW after the command's last rising
-    edge [s]) in order after ``lead_s`` of CW; the tag's element clock is u(τ) = 2·BLF·(τ +
-    drift·τ²/(2·T)) from the reply start (T its nominal duration). Noise chunk k of
-    :data:`NOISE_CHUNK` samples is drawn from ``trial_rng(seed, 0, k)``. Returns ``(x,
-    [(reply, start_s)])``.
+    :math:`x = L\,e(t) + h\,e(t)\,(s(t) + 1) - h + n(t)`, i.e. the carrier with the tag absorbing
+    (s = −1) outside its replies. The tag's element clock is
+    :math:`u(\tau) = 2\,\mathrm{BLF}\,(\tau + \mathrm{drift}\,\tau^2/(2T))` from the reply start
+    (T its nominal duration). Noise chunk k of :data:`NOISE_CHUNK` samples is drawn from
+    ``trial_rng(seed, 0, k)``.
+
+    Parameters
+    ----------
+    items : sequence of tuple
+        ``(command, SynthReply or None, CW after the command's last rising edge [s])``, in
+        order after ``lead_s`` of CW.
+    fs_hz : float
+        Sample rate [Hz].
+    trcal_s : float or None
+        TRcal of the Query preambles [s].
+    tari_s : float, default 12.5e-6
+        Tari [s].
+    leak : complex, default 0.8 + 0.3j
+        Carrier leakage L [√W].
+    h : complex, default 0.02 - 0.03j
+        Tag gain h [√W].
+    noise_rms : float, default 1e-3
+        RMS of the complex white noise [√W].
+    seed : int, default 0
+        Seed of the noise.
+    lead_s : float, default 300e-6
+        CW before the first command and after the last item [s].
+
+    Returns
+    -------
+    x : ndarray, shape (n,), complex64
+        The capture [√W].
+    truth : list of tuple
+        ``(reply, start_s)`` of every reply, start [s] from sample 0.
     """
     lead = int(round(lead_s * fs_hz))
     cmds, replies, n0 = [], [], lead
@@ -124,10 +168,31 @@ def synthetic_capture(items, *, fs_hz: float, trcal_s: float | None, tari_s: flo
 
 def exchange_items(n_replies: int, *, m: int, with_query: bool, duration_s: float, blf_hz: float,
                    seed: int = 0) -> list:
-    """``n_replies`` tag replies spread evenly over ``duration_s``: pairs Query → RN16 and
-    ACK → PC + EPC + CRC-16 (``with_query``), or ACK → EPC and Req_RN → handle + CRC-16
-    (no Query: the tag link is searched blind, then learned), line code ``m`` without pilot
-    at ``blf_hz``."""
+    """Spread tag replies evenly over a capture, as command/reply items for :func:`synthetic_capture`.
+
+    Pairs Query → RN16 and ACK → PC + EPC + CRC-16 (``with_query``), or ACK → EPC and
+    Req_RN → handle + CRC-16 (no Query: the tag link is searched blind, then learned).
+
+    Parameters
+    ----------
+    n_replies : int
+        Number of tag replies (two per pair, at least one pair).
+    m : int
+        Line code of the replies (1 = FM0, 2/4/8 = Miller), without pilot.
+    with_query : bool
+        Whether the pairs open with a Query.
+    duration_s : float
+        Span of the capture [s].
+    blf_hz : float
+        BLF of the replies [Hz].
+    seed : int, default 0
+        Seed of the RN16s and handles.
+
+    Returns
+    -------
+    list of tuple
+        ``(command, SynthReply, CW after the command [s])`` items.
+    """
     n_pairs = max(1, n_replies // 2)
     gap = duration_s / n_pairs - 4.0e-3
     epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
@@ -157,13 +222,37 @@ def _decode_timed(x, fs_hz):
 
 def bench_decode(*, duration_s: float = 10.0, fs_hz: float = 2e6, reply_counts=(10, 100, 500),
                  line_codes=(1, 4), queries=(True, False), blf_hz: float = 256e3 * 1.01, seed: int = 0) -> dict:
-    """Decode time of synthetic ``duration_s`` captures at ``fs_hz`` for every combination of
-    reply count, line code (1 = FM0, 4 = Miller-4) and with/without Query (module docstring).
+    """Time the decoding of synthetic captures (module docstring).
 
-    Compile time is excluded (the first 50 ms of each capture are decoded first). Per case:
-    wall and CPU seconds, real-time factors (capture duration / time), replies found and
-    CRC-16 replies with a good CRC, and whether every reply was found and decoded correctly
-    (RN16s as encoded, every CRC good).
+    Every combination of reply count, line code (1 = FM0, 4 = Miller-4) and with/without Query
+    on a ``duration_s`` capture at ``fs_hz``. Compile time is excluded (the first 50 ms of each
+    capture are decoded first).
+
+    Parameters
+    ----------
+    duration_s : float, default 10.0
+        Capture duration [s].
+    fs_hz : float, default 2e6
+        Sample rate [Hz].
+    reply_counts : sequence of int, default (10, 100, 500)
+        Replies per capture.
+    line_codes : sequence of int, default (1, 4)
+        Line codes M.
+    queries : sequence of bool, default (True, False)
+        With and/or without Query.
+    blf_hz : float, default 256e3 * 1.01
+        BLF of the tag [Hz] (1 % off the nominal 256 kHz).
+    seed : int, default 0
+        Seed of the captures.
+
+    Returns
+    -------
+    dict
+        Per case ``<query|no_query>_<fm0|millerM>_<n>``: ``_wall_s`` and ``_cpu_s`` [s],
+        ``_real_time_factor_wall`` / ``_cpu`` (capture duration / time), ``_replies_found``
+        ("found/sent") and ``_all_decoded`` (every reply found and decoded correctly: RN16s as
+        encoded, every CRC good); and ``worst_real_time_factor_wall``, ``duration_s``,
+        ``fs_hz``, ``blf_hz``.
     """
     out: dict = {"duration_s": duration_s, "fs_hz": fs_hz, "blf_hz": blf_hz}
     worst = math.inf

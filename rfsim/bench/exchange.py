@@ -15,22 +15,32 @@ import tracemalloc
 
 
 def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str = "pcg64") -> dict:
-    """Simulated air time per wall-clock second of the canonical exchange, on one core.
+    """Measure simulated air time per wall-clock second of the canonical exchange, on one core.
 
-    Air time = the samples the engine simulated (the reader's segments: CW lead-in,
-    command, T1max + reply + 3 Tpri, for the Query and the ACK) divided by fs; silent time
-    between rounds is not counted (the engine skips it). Compile time is excluded (one
-    warm-up round first). ``peak_traced_mb`` is the peak of Python/NumPy allocations during
-    the timed rounds (``tracemalloc``, measured in a second, separate pass so that the
-    tracing does not slow the timed one). ``noise``: how the reader's noise is drawn
-    (:attr:`rfsim.air.cache.Strategy.noise`).
+    Air time = the samples the engine simulated (the reader's segments: CW lead-in, command,
+    T1max + reply + 3 Tpri, for the Query and the ACK) divided by fs; silent time between rounds
+    is not counted (the engine skips it). Compile time is excluded (one warm-up round first).
+
+    Parameters
+    ----------
+    n_rounds : int, default 200
+        Timed singulation rounds.
+    distance_m : float, default 3.0
+        Reader–tag distance [m].
+    seed : int, default 0
+        Root seed (round r draws from ``trial_rng(seed, 2, r)``).
+    noise : {"pcg64", "counter"}, default "pcg64"
+        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
 
     Returns
     -------
-    dict with ``air_time_per_wall_s`` (real-time factor), ``air_time_per_cpu_s`` (the same
-    per second of process CPU time: less sensitive to other load on a shared machine),
-    ``rounds_per_s``,
-    ``air_time_per_round_s``, ``samples_per_round``, ``read_rate``, ``peak_traced_mb``.
+    dict
+        ``air_time_per_wall_s`` (real-time factor), ``air_time_per_cpu_s`` (the same per second
+        of process CPU time: less sensitive to other load on a shared machine),
+        ``rounds_per_s``, ``air_time_per_round_s`` [s], ``samples_per_round``, ``read_rate`` and
+        ``peak_traced_mb`` [MiB], the peak of Python/NumPy allocations during up to 20 rounds
+        (``tracemalloc``, measured in a second, separate pass so that the tracing does not slow
+        the timed one).
     """
     from rfsim.protocols.engine import singulate
     from rfsim.core.rng import trial_rng
@@ -108,17 +118,31 @@ def _canonical(distance_m: float, seed: int, noise: str = "pcg64"):
 
 def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0,
                          noise: str = "pcg64") -> dict:
-    """Aggregate air time per second of the canonical exchange run as batches of ``batch``
-    independent singulations (:func:`rfsim.protocols.batch.singulate_batch`: B tags at the same place,
-    trial b of batch k drawing its channel and noise from ``trial_rng(seed, 2, k, b)``), on
-    one core. Air time as in :func:`bench_exchange` (the samples of every trial's Query and
-    ACK segments / fs); one warm-up batch of 4 other tags first. ``noise`` as for
-    :func:`bench_exchange`.
+    """Measure aggregate air time per second of the canonical exchange run in batches, on one core.
+
+    Batches of ``batch`` independent singulations (:func:`rfsim.protocols.batch.singulate_batch`:
+    B tags at the same place, trial b of batch k drawing its channel and noise from
+    ``trial_rng(seed, 2, k, b)``). Air time as in :func:`bench_exchange` (the samples of every
+    trial's Query and ACK segments / fs); one warm-up batch of 4 other tags first.
+
+    Parameters
+    ----------
+    batch : int, default 256
+        Trials per batch B.
+    n_batches : int, default 4
+        Timed batches (they alternate target A and B).
+    distance_m : float, default 3.0
+        Reader–tag distance [m].
+    seed : int, default 0
+        Root seed.
+    noise : {"pcg64", "counter"}, default "pcg64"
+        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
 
     Returns
     -------
-    dict with ``batch``, ``air_time_per_wall_s``, ``air_time_per_cpu_s``, ``trials_per_s``,
-    ``cpu_s_per_trial``, ``read_rate``.
+    dict
+        ``batch``, ``air_time_per_wall_s``, ``air_time_per_cpu_s``, ``trials_per_s``,
+        ``cpu_s_per_trial`` [s] and ``read_rate``.
     """
     from rfsim.protocols.batch import singulate_batch
     from rfsim.core.rng import trial_rng

@@ -71,14 +71,29 @@ def _run(rx_model: str, batch: int, n_batches: int, distance_m: float, seed: int
 
 def bench_exchange_statistic(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0,
                              seed: int = 0, models: tuple = ("sample", "statistic")) -> dict:
-    """Air time per CPU second of the canonical exchange, batched, per receiver model.
+    """Measure air time per CPU second of the canonical exchange, batched, per receiver model.
+
+    Parameters
+    ----------
+    batch : int, default 256
+        Trials per batch.
+    n_batches : int, default 4
+        Timed batches per model.
+    distance_m : float, default 3.0
+        Reader–tag distance [m].
+    seed : int, default 0
+        Root seed (trial b of batch k from ``trial_rng(seed, 2, k, b)``).
+    models : tuple of str, default ("sample", "statistic")
+        Receiver models (``reader.rx_model``) to run.
 
     Returns
     -------
-    dict with, per model in ``models`` (keys prefixed by the model): ``air_time_per_cpu_s`` (the
-    whole exchange: simulated air time per second of process CPU time), ``cpu_s_per_trial``,
-    ``receive_cpu_s_per_call`` (CPU time of one ``Reader.receive``), ``air_time_per_receive_cpu_s``
-    (air time per CPU second spent in the receiver alone) and ``read_rate``; and ``batch``.
+    dict
+        Per model in ``models`` (keys prefixed by the model): ``air_time_per_cpu_s`` (the whole
+        exchange: simulated air time per second of process CPU time), ``cpu_s_per_trial`` [s],
+        ``receive_cpu_s_per_call`` [s] (CPU time of one ``Reader.receive``),
+        ``air_time_per_receive_cpu_s`` (air time per CPU second spent in the receiver alone)
+        and ``read_rate``; and ``batch``.
     """
     out: dict = {"batch": int(batch)}
     for model in models:

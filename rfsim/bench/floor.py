@@ -22,19 +22,29 @@ import time
 
 
 def bench_floor(*, n_rounds: int = 400, seed: int = 0, distance_m: float = 3.0) -> dict:
-    """CPU time per round of one memory pass and of the receiver noise over the samples of
-    the canonical round, and the real-time factors they bound (module docstring).
+    """Measure the CPU time per round of one memory pass and of the receiver noise.
 
-    The segment lengths are those of one warm-up round of :func:`rfsim.bench.exchange`'s
-    canonical exchange (Query and ACK; the sizes do not change from round to round).
+    Over the samples of the canonical round, with the real-time factors they bound (module
+    docstring). The segment lengths are those of one warm-up round of the canonical exchange of
+    :mod:`rfsim.bench.exchange` (Query and ACK; the sizes do not change from round to round).
+
+    Parameters
+    ----------
+    n_rounds : int, default 400
+        Timed rounds of each cost.
+    seed : int, default 0
+        Root seed (round r's noise from ``trial_rng(seed, 3, r)``).
+    distance_m : float, default 3.0
+        Reader–tag distance of the warm-up round [m].
 
     Returns
     -------
-    dict with ``samples_per_round``, ``air_time_per_round_s``, ``pass_cpu_s_per_round``,
-    ``noise_cpu_s_per_round``, ``noise_over_pass_cpu`` (how many memory passes the noise
-    costs; > 1: a normal draw costs ≥ 1 ns, a complex sample's pass well below that),
-    ``noise_ns_per_sample``, ``noise_bound_air_time_per_cpu_s``
-    (the ceiling set by the noise draws alone), ``passes_25_bound_air_time_per_cpu_s``.
+    dict
+        ``samples_per_round``, ``air_time_per_round_s`` [s], ``pass_cpu_s_per_round`` [s],
+        ``noise_cpu_s_per_round`` [s], ``noise_over_pass_cpu`` (how many memory passes the noise
+        costs; > 1: a normal draw costs ≥ 1 ns, a complex sample's pass well below that),
+        ``noise_ns_per_sample`` [ns], ``noise_bound_air_time_per_cpu_s`` (the ceiling set by the
+        noise draws alone) and ``passes_25_bound_air_time_per_cpu_s`` (that of 25 memory passes).
     """
     import numpy as np
 

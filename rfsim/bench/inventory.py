@@ -42,19 +42,41 @@ class _Counted:
 
 def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200, 500),
                     populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50, seed: int = 0) -> dict:
-    """Wall and CPU time of one sample-level Q-algorithm inventory to completion for ``n_tags``
-    tags and for each of ``sample_populations``, and the Q algorithm's slots and air time at
-    protocol level.
+    """Time sample-level Q-algorithm inventories to completion, and count protocol-level slots.
 
-    Per population N (``sample_N<n>_…``): wall and CPU time [s], slots, reader commands, air
-    time [s], ``…_air_per_wall`` (> 1: faster than the air), CPU time per command [ms] and per
-    tag and command [µs]. How the cost grows with N: ``sample_cpu_exponent`` is the slope of
-    log(CPU time) against log(N) (1 = linear), and the fit CPU/command = a + b·N gives
-    ``sample_cpu_per_command_ms`` (a, the per-command cost) and ``sample_cpu_per_tag_command_us``
-    (b, what each further tag adds to a command). numba's kernels are loaded on a 3- and a
-    20-tag inventory first; the 1-minute load average is recorded before and after. At
-    protocol level: mean ± std of slots and air time to read all N tags over ``runs``
-    populations for each of ``populations``."""
+    Sample level: n tags on a 2 m circle around an isotropic reader in free space (equal
+    powers). numba's kernels are loaded on a 3- and a 20-tag inventory first; the 1-minute load
+    average is recorded before and after. Protocol level: the Q algorithm's slots and air time
+    to read all N tags over ``runs`` populations (:class:`rfsim.protocols.inventory.ProtocolAir`,
+    ``miller4-320k``).
+
+    Parameters
+    ----------
+    n_tags : int, default 100
+        Population of the headline sample-level inventory.
+    sample_populations : tuple of int, default (10, 50, 100, 200, 500)
+        Populations N of the sample-level inventories.
+    populations : tuple of int, default (10, 50, 100, 200)
+        Populations N of the protocol-level runs.
+    runs : int, default 50
+        Protocol-level runs per population.
+    seed : int, default 0
+        Root seed.
+
+    Returns
+    -------
+    dict
+        ``sample_…`` of the ``n_tags`` inventory (wall and CPU time [s], slots, air time [s],
+        tags read, air time per wall second); per sample population N (``sample_N<n>_…``): wall
+        and CPU time [s], slots, reader commands, tags read, air time [s], ``…_air_per_wall``
+        (> 1: faster than the air), CPU time per command [ms] and per tag and command [µs]. How
+        the cost grows with N: ``sample_cpu_exponent``, the slope of log(CPU time) against log(N)
+        (1 = linear), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms`` (a, the
+        per-command cost) and ``sample_cpu_per_tag_command_us`` (b, what each further tag adds to
+        a command). Per protocol population N (``N<n>_…``): mean ± std of slots and air time [s]
+        to read all N tags and the mean efficiency N/slots. ``load_average_1min`` and
+        ``load_average_1min_after``.
+    """
     from rfsim.devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 

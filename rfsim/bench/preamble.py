@@ -33,9 +33,35 @@ def _best_time(fn, repeats: int) -> float:
 
 def bench_preamble(*, rates_hz=(1e6, 2e6, 4e6, 8e6, 16e6, 32e6, 64e6), blf_hz: float = 160e3, m: int = 4,
                    window_s: float = 100e-6, repeats: int = 5, seed: int = 0) -> dict:
-    """CPU time of the preamble search (best of ``repeats``) and of a whole decode_reply at
+    """Time the reader's preamble search against the sample rate (module docstring).
+
+    CPU time of the preamble search (best of ``repeats``) and of a whole ``decode_reply`` at
     each sample rate, with scipy's correlation (``correlate``: direct or FFT, whichever it
-    picks) beside it; the log-log slopes of time vs fs over the rates (1 = linear)."""
+    picks) beside it.
+
+    Parameters
+    ----------
+    rates_hz : sequence of float, default (1e6, 2e6, 4e6, 8e6, 16e6, 32e6, 64e6)
+        Sample rates [Hz].
+    blf_hz : float, default 160e3
+        Backscatter link frequency [Hz].
+    m : int, default 4
+        Miller factor M of the RN16 (with pilot).
+    window_s : float, default 100e-6
+        Window of lags searched [s].
+    repeats : int, default 5
+        Timed repetitions (the best is kept).
+    seed : int, default 0
+        Seed of the bits and the noise.
+
+    Returns
+    -------
+    dict
+        Per rate (``<fs>MSps_…``): lags, template samples, ``search_cpu_s``,
+        ``scipy_correlate_cpu_s`` and ``decode_reply_cpu_s`` [s], ``decoded_ok``; the log-log
+        slopes of time vs fs over the rates (1 = linear), ``search_slope_log_time_vs_log_fs``
+        and ``scipy_slope_log_time_vs_log_fs``; and ``blf_hz``, ``m``, ``window_s``.
+    """
     out: dict = {"blf_hz": blf_hz, "m": m, "window_s": window_s}
     rng = trial_rng(seed, 0)
     bits = rng.integers(0, 2, 16).astype(np.uint8)

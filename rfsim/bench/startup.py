@@ -36,10 +36,29 @@ print(json.dumps({"wall_s": wall, "cpu_s": u.ru_utime + u.ru_stime, "peak_rss_mb
 
 
 def run_measured(argv: list[str], *, cwd: str | None = None) -> dict:
-    """Run ``rfsim argv`` as a child process (output discarded) → ``wall_s``, ``cpu_s``
-    (user + system of the command and its waited-for descendants), ``peak_rss_mb`` (the
-    largest process), ``exit_status``; measured by a small intermediate process
-    (:data:`_MEASURE`)."""
+    """Run ``rfsim argv`` as a child process (output discarded) and measure it.
+
+    Measured by a small intermediate process (``_MEASURE``) with ``os.wait4``, as
+    ``/usr/bin/time -v`` does.
+
+    Parameters
+    ----------
+    argv : list of str
+        Arguments of the ``rfsim`` command.
+    cwd : str or None, default None
+        Working directory of the command.
+
+    Returns
+    -------
+    dict
+        ``wall_s`` [s], ``cpu_s`` [s] (user + system of the command and its waited-for
+        descendants), ``peak_rss_mb`` [MB] (the largest process) and ``exit_status``.
+
+    Raises
+    ------
+    subprocess.CalledProcessError
+        The intermediate process fails.
+    """
     out = subprocess.run([sys.executable, "-c", _MEASURE, json.dumps(list(argv))], capture_output=True, text=True,
                          cwd=cwd, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -52,10 +71,27 @@ def _scenario_names() -> list[str]:
 
 
 def bench_startup(*, repeats: int = 3, names: tuple[str, ...] | None = None) -> dict:
-    """Start-up of ``rfsim --help``, ``rfsim list`` and ``rfsim config NAME`` for every
-    scenario: the median over ``repeats`` runs of each command's wall and CPU time [s]
-    (keys ``<command>_wall_s``, ``<command>_cpu_s``, e.g. ``config_link_cpu_s``), and the
-    largest of the ``config`` figures (``config_max_*``)."""
+    """Time the start-up of ``rfsim --help``, ``rfsim list`` and ``rfsim config NAME``.
+
+    Parameters
+    ----------
+    repeats : int, default 3
+        Runs of each command (the median is kept).
+    names : tuple of str or None, default None
+        Scenarios for ``rfsim config NAME``; None: every registered scenario.
+
+    Returns
+    -------
+    dict
+        ``repeats``; the median wall and CPU time [s] of each command (keys ``<command>_wall_s``,
+        ``<command>_cpu_s``, e.g. ``config_link_cpu_s``), and the largest of the ``config``
+        figures (``config_max_wall_s``, ``config_max_cpu_s``).
+
+    Raises
+    ------
+    RuntimeError
+        A command exits with a non-zero status.
+    """
     commands = {"help": ["--help"], "list": ["list"]}
     for name in names or _scenario_names():
         commands[f"config_{name}"] = ["config", name]
@@ -72,10 +108,28 @@ def bench_startup(*, repeats: int = 3, names: tuple[str, ...] | None = None) -> 
 
 
 def bench_scenario_memory(*, names: tuple[str, ...] | None = None) -> dict:
-    """Every scenario's default run (``rfsim run NAME`` with figures, seed 1, into a temporary
-    folder; kernels cached by the runs before it): peak RSS [MB] of the largest process,
-    CPU time [s] (leader and workers) and wall time [s] (keys ``<name>_peak_rss_mb``,
-    ``<name>_cpu_s``, ``<name>_wall_s``), and the largest peak (``max_peak_rss_mb``)."""
+    """Measure every scenario's default run: peak memory, CPU time and wall time.
+
+    ``rfsim run NAME -q`` with figures, into a temporary folder (kernels cached by the runs
+    before it).
+
+    Parameters
+    ----------
+    names : tuple of str or None, default None
+        Scenarios to run; None: every registered scenario.
+
+    Returns
+    -------
+    dict
+        Per scenario ``<name>_peak_rss_mb`` [MB] (the largest process), ``<name>_cpu_s`` [s]
+        (leader and workers) and ``<name>_wall_s`` [s]; and the largest peak,
+        ``max_peak_rss_mb``.
+
+    Raises
+    ------
+    RuntimeError
+        A run exits with a non-zero status.
+    """
     out: dict = {}
     with tempfile.TemporaryDirectory(prefix="rfsim-bench-") as tmp:
         for name in names or _scenario_names():

@@ -51,7 +51,35 @@ def _timed(spec, executor) -> tuple[float, tuple[PointResult, ...]]:
 
 def bench_sweep(n_points: int = 64, *, fs_hz: float = 40e6, dask_points: int = 200,
                 dask_workers: int = 2, with_dask: bool = True) -> dict:
-    """Measure pool scaling (1 vs 2 workers), Dask per-task overhead and worker memory."""
+    """Measure pool scaling (1 vs 2 workers), Dask per-task overhead and worker memory.
+
+    The cases are those of the module docstring; only the execution phase of a sweep is timed
+    (every point computed and written to the point store), not the merge.
+
+    Parameters
+    ----------
+    n_points : int, default 64
+        Points of the scaling sweep (``gen2-waveforms``, all four link profiles).
+    fs_hz : float, default 40e6
+        Sample rate of the scaling sweep's points [Hz].
+    dask_points : int, default 200
+        Tiny points of the serial and Dask runs (one FM0 profile at 5.12 MS/s).
+    dask_workers : int, default 2
+        Single-threaded worker processes of the Dask ``LocalCluster``.
+    with_dask : bool, default True
+        Run the Dask part (needs ``dask.distributed``).
+
+    Returns
+    -------
+    dict
+        ``cpus_available``, ``loadavg_start`` / ``loadavg_end``, ``n_points``, ``fs_hz``; per pool
+        size w ∈ {1, 2} ``pool<w>_wall_s`` [s], ``pool<w>_point_mean_s`` [s] and
+        ``pool<w>_worker_peak_rss_mb`` [MB]; ``store_mb_per_run`` [MB], ``pool_speedup_2_vs_1``;
+        ``tiny_points``, ``tiny_serial_wall_s``, ``tiny_point_mean_s`` [s]; with Dask
+        ``dask_workers``, ``dask_cluster_start_s``, ``dask_wall_s``, ``dask_task_mean_s``,
+        ``dask_overhead_per_task_s`` (wall · workers / n − mean in-task time),
+        ``dask_noop_per_task_s`` [s], ``dask_worker_peak_rss_mb`` [MB] and ``dask_workers_used``.
+    """
     out: dict = {"cpus_available": available_cpus(), "loadavg_start": os.getloadavg()[0],
                  "n_points": n_points, "fs_hz": fs_hz}
     heavy = {"fs_hz": fs_hz}

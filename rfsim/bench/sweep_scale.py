@@ -42,12 +42,28 @@ DESCRIPTION = "toy scenario for sweep benchmarks (a few kB of seeded random arra
 
 @dataclasses.dataclass(frozen=True)
 class Config:
+    """Settings of the toy scenario (fields with units and ranges in their ``param`` declarations)."""
     gain_db: float = param(0.0, lo=-30.0, hi=30.0, unit="dB", doc="gain applied to the drawn powers")
     rows: int = param(64, lo=1, hi=100_000, doc="rows of the toy table")
 
 
 def run(config: Config, *, seed: int) -> Dataset:
-    """Seeded toy dataset: ``reads`` table, ``spectrum`` grid, two root attributes."""
+    """Draw the seeded toy dataset.
+
+    Parameters
+    ----------
+    config : Config
+        The toy's settings (``gain_db`` scales the drawn powers, ``rows`` sizes the table).
+    seed : int
+        Run seed; the draws come from ``trial_rng(seed, 0)``.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Table ``reads`` (``power_w`` [W], ``phase_rad`` [rad], ``slot``, ``ok``; ``rows`` rows),
+        grid ``spectrum`` (16 bins 902–928 MHz, ``p_w`` [W]) and the root attributes
+        ``mean_power_w`` [W] and ``n_ok``.
+    """
     rng = trial_rng(seed, 0)
     g = 10 ** (config.gain_db / 10)
     ds = Dataset(title="sweep-scale toy")
@@ -66,6 +82,20 @@ def run(config: Config, *, seed: int) -> Dataset:
 
 
 def plot(path, out_dir):
+    """Make the toy scenario's figures: none.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset file (not read).
+    out_dir : str or pathlib.Path
+        Folder of the figures (not written).
+
+    Returns
+    -------
+    list
+        Empty: the toy has no figures.
+    """
     return []
 
 
@@ -94,7 +124,32 @@ def _reset_peak_rss() -> None:
 
 def bench_sweep_scale(n_points: int = 10_000, repetitions: int = 10, *, workers: int = 2, rows: int = 64,
                       folder: str | None = None) -> dict:
-    """Run and merge a toy sweep of ``n_points × repetitions`` runs; see the module docstring."""
+    """Run and merge a toy sweep of ``n_points × repetitions`` runs on a process pool.
+
+    The figures are those of the module docstring, each measured.
+
+    Parameters
+    ----------
+    n_points : int, default 10_000
+        Points of the sweep (a grid over ``gain_db``).
+    repetitions : int, default 10
+        Runs per point.
+    workers : int, default 2
+        Worker processes of the pool.
+    rows : int, default 64
+        Rows of each run's toy table.
+    folder : str or None, default None
+        Parent of the temporary sweep folder; None: the system's temporary folder.
+
+    Returns
+    -------
+    dict
+        ``n_runs``, ``workers``, ``rows_per_run``, ``loadavg_start`` / ``loadavg_end``,
+        ``run_wall_s`` [s], ``runs_per_s``, ``leader_peak_rss_mb``, ``worker_peak_rss_mb``,
+        ``files_created``, ``store_mb``, ``rss_before_merge_mb``, ``merge_wall_s`` [s],
+        ``merge_peak_rss_mb``, ``merged_mb``, ``merged_over_store``, ``resume_wall_s`` [s] and
+        ``resume_reused`` (runs found by the resume); memory in MB.
+    """
     from rfsim.sweep import PoolExecutor, merge_sweep, parse_spec, run_sweep
     from rfsim.sweep.store import points_dir
 

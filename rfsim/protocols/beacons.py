@@ -42,8 +42,25 @@ from rfsim.core.units import w_to_dbm
 
 @dataclass(frozen=True)
 class BurstRecord:
-    """One due beacon: tag index, due time, start time (NaN when dropped), attempts, sequence
-    number, whether LBT dropped it and whether it overlaps another tag's burst."""
+    """One due beacon and what became of it.
+
+    Attributes
+    ----------
+    tag : int
+        Index of the tag.
+    due_s : float
+        Due time [s].
+    t_s : float
+        Start time of the burst [s]; NaN when it was dropped.
+    attempts : int
+        Listen-before-talk attempts made.
+    seq : int
+        Sequence number of the beacon.
+    lbt_dropped : bool
+        Whether listen-before-talk dropped it (after ``max_attempts``).
+    collided : bool
+        Whether it overlaps another tag's burst.
+    """
 
     tag: int
     due_s: float
@@ -56,9 +73,19 @@ class BurstRecord:
 
 @dataclass
 class BeaconRun:
-    """What :func:`run_beacons` produced: ``bursts`` (BurstRecord per due beacon, in start
-    order), ``reads`` (per receiver, the list of its ``BeaconRead``), ``steps`` (air steps of
-    reception) and ``lbt_steps`` (air steps of carrier sensing)."""
+    """What :func:`run_beacons` produced.
+
+    Attributes
+    ----------
+    bursts : list of BurstRecord
+        One per due beacon, in start order.
+    reads : list of list
+        Per receiver, the list of its beacon reads.
+    steps : int
+        Air steps of reception.
+    lbt_steps : int
+        Air steps of carrier sensing.
+    """
 
     bursts: list = field(default_factory=list)
     reads: list = field(default_factory=list)
@@ -71,8 +98,29 @@ def _overlapping(decided, t_a, t_b, exclude):
 
 
 def sense_power_dbm(tags, listener, links, *, t0_s: float, t1_s: float, fs_hz: float) -> float:
-    """Mean power [dBm] the antenna of ``listener`` receives from ``tags`` over [t0, t1)
-    (one noise-free air step; −inf when nothing arrives)."""
+    r"""Mean power an antenna receives from a set of tags over a time window.
+
+    One noise-free air step (:func:`rfsim.air.step.propagate`) over [t0, t1):
+    :math:`P = \frac{1}{n}\sum_i |y_i|^2` with n = round((t1 − t0)·fs) ≥ 1 samples.
+
+    Parameters
+    ----------
+    tags : sequence
+        The emitting tags (their decided bursts).
+    listener : object
+        The listening device (its ``antenna`` and ``fc_hz``).
+    links : Links
+        The channel side of the air step (:class:`rfsim.air.step.LinkTable`).
+    t0_s, t1_s : float
+        The window [s].
+    fs_hz : float
+        Sample rate of the step [Hz].
+
+    Returns
+    -------
+    float
+        Mean received power [dBm]; −inf when nothing arrives.
+    """
     n = max(1, int(round((t1_s - t0_s) * fs_hz)))
     port = AntennaPort(listener.antenna, 0.0, fc_hz=listener.fc_hz)
     res = propagate(tags, [], [port], links, t0_s=t0_s, fs_hz=fs_hz, n_samples=n, decide=False)
@@ -86,14 +134,32 @@ def run_beacons(tags, receivers, links, *, t0_s: float, t1_s: float, fs_hz: floa
 
     Parameters
     ----------
-    tags : sequence of active tags (their decided bursts are cleared first)
-    receivers : sequence of receivers (``rfsim.devices.ActiveReader``), all at ``fs_hz``
-    links : the channel side of the air step (``rfsim.air.step.LinkTable``)
-    t0_s, t1_s : time window of due beacons [s]
-    fs_hz : sample rate of the air steps [Hz]
-    rng : generator of the receiver noise (keyword-only)
-    offsets_s : per tag the phase of its schedule [s] (default 0)
-    margin_s : silence kept before and after every reception cluster [s]
+    tags : sequence
+        Active tags (their decided bursts are cleared first).
+    receivers : sequence
+        Receivers (``rfsim.devices.ActiveReader``), all at ``fs_hz``.
+    links : Links
+        The channel side of the air step (:class:`rfsim.air.step.LinkTable`).
+    t0_s, t1_s : float
+        Time window of due beacons [s].
+    fs_hz : float
+        Sample rate of the air steps [Hz].
+    rng : numpy.random.Generator
+        Generator of the receiver noise (keyword-only).
+    offsets_s : array_like, optional
+        Per tag the phase of its schedule [s] (default 0).
+    margin_s : float, default 50e-6
+        Silence kept before and after every reception cluster [s].
+
+    Returns
+    -------
+    BeaconRun
+        Per due beacon its record, per receiver its reads, and the number of air steps.
+
+    Raises
+    ------
+    ConfigError
+        No tags or no receivers.
     """
     tags, receivers = list(tags), list(receivers)
     if not tags:

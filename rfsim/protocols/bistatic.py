@@ -42,14 +42,20 @@ class BistaticExchange:
 
     Attributes
     ----------
-    tx : the reader's ``TxSegment`` (``samples`` (n,) complex128 [√W], ``t0_s``, ``fs_hz``, ``fc_hz``)
-    responses : one ``TagResponse`` per tag (``gamma`` on the segment's time base)
-    incident : (n_tags, n) complex128, field at each tag's antenna port [√W]
-    direct : (n_listeners, n) complex128, reader → listener component [√W]
-    backscatter : (n_tags, n_listeners, n) complex128, tag i → listener k component [√W]
-    noise : (n_listeners, n) complex128 or None, the added noise [√W]
-    direct_links, forward_links, backward_links : the PathSets used
-        (``direct_links[k]``, ``forward_links[i]``, ``backward_links[i][k]``)
+    tx : object
+        The reader's ``TxSegment`` (``samples`` (n,) complex128 [√W], ``t0_s``, ``fs_hz``, ``fc_hz``).
+    responses : tuple
+        One ``TagResponse`` per tag (``gamma`` on the segment's time base).
+    incident : ndarray, shape (n_tags, n), complex128
+        Field at each tag's antenna port [√W].
+    direct : ndarray, shape (n_listeners, n), complex128
+        Reader → listener component [√W].
+    backscatter : ndarray, shape (n_tags, n_listeners, n), complex128
+        Tag i → listener k component [√W].
+    noise : ndarray, shape (n_listeners, n), complex128, or None
+        The added noise [√W] (None without noise).
+    direct_links, forward_links, backward_links : tuple
+        The PathSets used (``direct_links[k]``, ``forward_links[i]``, ``backward_links[i][k]``).
     """
 
     tx: Any
@@ -72,22 +78,48 @@ class BistaticExchange:
 def listen_exchange(reader, tags: Sequence, channel, cmd, listeners: Sequence, *, t_s: float,
                     rng: np.random.Generator | None, cw_after_s: float, round_index: int = 0,
                     propagation: str = "auto", noise_power_w: float = 0.0) -> BistaticExchange:
-    """Simulate one reader segment at the tags and at ``listeners`` (antennas).
+    r"""Simulate one reader segment at the tags and at listener antennas.
+
+    One air step (:func:`rfsim.air.step.propagate`) with the listeners as receivers and the
+    components kept: :math:`y_k = D_k\{x_{tx}\} + \sum_i B_{ik}\{r_i\,\mathrm{inc}_i\} + n_k`
+    (module docstring; auris-sense-a-tag.md §6).
 
     Parameters
     ----------
-    reader : reader device (``transmit``, ``antennas``, ``antenna_index``, ``link``)
-    tags : tag devices (``listen``, ``antenna``)
-    channel : link model with ``link(tx, rx, *, fc_hz, rng, t_s)`` → PathSet
-    cmd : the Gen2 command the reader sends
-    listeners : receiving antennas (``rfsim.channels.Antenna``)
-    t_s : start of the segment [s]
-    rng : draws the links (forward, then per listener direct and backward) and the noise;
-        None reuses the channel's held draws (noise then needs ``noise_power_w == 0``)
-    cw_after_s : CW after the command [s] (the reply window)
-    round_index : inventory round (selects the reader antenna)
-    propagation : "auto", "exact" or "narrowband" (as :func:`rfsim.protocols.engine.run_exchange`)
-    noise_power_w : complex AWGN power per sample added at every listener [W]
+    reader : object
+        Reader device (``transmit``, ``antennas``, ``antenna_index``, ``link``).
+    tags : sequence
+        Tag devices (``listen``, ``antenna``).
+    channel : object
+        Link model with ``link(tx, rx, *, fc_hz, rng, t_s)`` → PathSet.
+    cmd : object
+        The Gen2 command the reader sends.
+    listeners : sequence
+        Receiving antennas (``rfsim.channels.Antenna``).
+    t_s : float
+        Start of the segment [s].
+    rng : numpy.random.Generator or None
+        Draws the links (forward, then per listener direct and backward) and the noise; None
+        reuses the channel's held draws (noise then needs ``noise_power_w == 0``).
+    cw_after_s : float
+        CW after the command [s] (the reply window).
+    round_index : int, default 0
+        Inventory round (selects the reader antenna).
+    propagation : {"auto", "exact", "narrowband"}, default "auto"
+        Propagation policy (as :func:`rfsim.protocols.engine.run_exchange`).
+    noise_power_w : float, default 0.0
+        Complex AWGN power per sample added at every listener [W].
+
+    Returns
+    -------
+    BistaticExchange
+        The reader's segment, the tags' responses and incident fields, and the per-link
+        components at the listeners.
+
+    Raises
+    ------
+    ValueError
+        ``noise_power_w > 0`` without ``rng``.
     """
     antenna = reader.antennas[reader.antenna_index(round_index)]
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=cw_after_s, round_index=round_index)

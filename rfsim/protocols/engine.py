@@ -81,23 +81,39 @@ class Exchange:
 
     Attributes
     ----------
-    time_s : start of the reader's segment [s] (CW lead-in, then the command)
-    command : command name (``"Query"``, ``"ACK"``, …)
-    antenna : reader antenna index (0-based)
-    channel_index : 1-based index into the reader's frequency plan (as LLRP reports it)
-    fc_hz : carrier frequency [Hz]
-    replied : indices of the tags that replied
-    powered : indices of the tags that were powered
-    incident_power_dbm : (n_tags,) incident power at each tag's antenna port [dBm]
-    read : the reader's :class:`ReadResult`-like measurement, or None when nobody replied
-    failure_reason : one of :data:`FAILURE_REASONS` (``""`` = decoded; module docstring)
-    end_s : end of the reply window [s]
-    decoded_tag : index of the replying tag whose bits the reader decoded exactly (None if
-        none); with several repliers a non-None value means capture
-    reply_start_s : (n_replied,) true reply start of each replying tag [s]
-    timing_ok : (n_replied,) whether each reply started inside the T1 window
-    n_samples : samples simulated for this exchange (the reader's segment)
-    cmd_end_s : end of the command (last rising edge) [s]
+    time_s : float
+        Start of the reader's segment [s] (CW lead-in, then the command).
+    command : str
+        Command name (``"Query"``, ``"ACK"``, …).
+    antenna : int
+        Reader antenna index (0-based).
+    channel_index : int
+        1-based index into the reader's frequency plan (as LLRP reports it).
+    fc_hz : float
+        Carrier frequency [Hz].
+    replied : tuple of int
+        Indices of the tags that replied.
+    powered : tuple of int
+        Indices of the tags that were powered.
+    incident_power_dbm : tuple of float
+        (n_tags,) incident power at each tag's antenna port [dBm].
+    read : object or None
+        The reader's ``ReadResult``-like measurement, or None when nobody replied.
+    failure_reason : str
+        One of :data:`FAILURE_REASONS` (``""`` = decoded; module docstring).
+    end_s : float
+        End of the reply window [s].
+    decoded_tag : int or None
+        Index of the replying tag whose bits the reader decoded exactly (None if none); with
+        several repliers a non-None value means capture.
+    reply_start_s : tuple of float
+        (n_replied,) true reply start of each replying tag [s].
+    timing_ok : tuple of bool
+        (n_replied,) whether each reply started inside the T1 window.
+    n_samples : int
+        Samples simulated for this exchange (the reader's segment).
+    cmd_end_s : float
+        End of the command (last rising edge) [s].
     """
 
     time_s: float
@@ -151,36 +167,59 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
                  reply_bits: int, expect_crc: bool, motions: Sequence | None = None,
                  round_index: int = 0, draw_channel: bool = True,
                  propagation: str = "auto", link_cache: dict | None = None) -> Exchange:
-    """Simulate one command + reply window at sample level; return its :class:`Exchange`.
+    """Simulate one command and its reply window at sample level.
+
+    One exchange is the batch of one of :func:`run_exchanges` (the same code); the steps are
+    those of the module docstring.
 
     Parameters
     ----------
-    reader : reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
+    reader : object
+        Reader device (``transmit``, ``receive``, ``leakage_gain``, ``noise_power_w``,
         ``antennas``, ``antenna_index``, ``link``; its ``air_cache``, when it has one, is the
-        run's :class:`rfsim.air.cache.AirCache`: the reader lives for the run)
-    tags : reflectors of the air step (``reflect``, ``antenna``; a device with only
+        run's :class:`rfsim.air.cache.AirCache`: the reader lives for the run).
+    tags : sequence
+        Reflectors of the air step (``reflect``, ``antenna``; a device with only
         ``listen(samples, *, t0_s, fs_hz)`` is accepted too) returning TagResponse-like records,
-        or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population, whose
-        members count as tags in the order given)
-    channel : link model with a ``backscatter_links`` method
-        ``(emitter, tag, *, fc_hz, rng, t_s, tag_motion)`` → (forward, backward) PathSets
-    cmd : the Gen2 command object to send
-    t_s : start time of the command [s]
-    rng : generator for the channel draw and the receiver noise
-    reply_bits : number of bits of the expected reply (16 for RN16, PC+EPC+CRC otherwise)
-    expect_crc : whether the reply carries a CRC-16 (EPC replies)
-    motions : optional per-tag motion (velocity (3,) m/s or callable t → position)
-    round_index : which inventory round (selects the antenna when several are used in turn)
-    draw_channel : draw the channel's random part anew from ``rng`` (otherwise reuse the
-        draw the channel holds: a quasi-static channel within a round)
-    propagation : "auto", "exact" or "narrowband" (see the module docstring)
-    link_cache : optional dict holding the forward and backward links of static tags for one
-        channel draw, keyed by (tag index, reader antenna, carrier) (entries: :class:`_EngineLinks`). Filled on every call;
-        read only with ``draw_channel=False`` for a tag without motion — the links are then
-        exactly what the channel would return again (held draw, same geometry and carrier).
-        (Each PathSet remembers the propagation method it chose: ``PathSet.method``.)
+        or reflector groups of them (:class:`rfsim.air.step.ReflectorGroup`: a tag population,
+        whose members count as tags in the order given).
+    channel : object
+        Link model with a ``backscatter_links`` method ``(emitter, tag, *, fc_hz, rng, t_s,
+        tag_motion)`` → (forward, backward) PathSets.
+    cmd : object
+        The Gen2 command object to send.
+    t_s : float
+        Start time of the command [s].
+    rng : numpy.random.Generator
+        Generator for the channel draw and the receiver noise.
+    reply_bits : int
+        Number of bits of the expected reply (16 for RN16, PC+EPC+CRC otherwise).
+    expect_crc : bool
+        Whether the reply carries a CRC-16 (EPC replies).
+    motions : sequence, optional
+        Per-tag motion (velocity (3,) m/s or callable t → position).
+    round_index : int, default 0
+        Inventory round (selects the antenna when several are used in turn).
+    draw_channel : bool, default True
+        Draw the channel's random part anew from ``rng`` (otherwise reuse the draw the channel
+        holds: a quasi-static channel within a round).
+    propagation : {"auto", "exact", "narrowband"}, default "auto"
+        Propagation policy (module docstring).
+    link_cache : dict, optional
+        Holds the forward and backward links of static tags for one channel draw, keyed by
+        (tag index, reader antenna, carrier). Filled on every call; read only with
+        ``draw_channel=False`` for a tag without motion — the links are then exactly what the
+        channel would return again (held draw, same geometry and carrier).
 
-    One exchange is the batch of one of :func:`run_exchanges` (the same code).
+    Returns
+    -------
+    Exchange
+        The record of the command and what came back.
+
+    Raises
+    ------
+    ValueError
+        An unknown ``propagation``.
     """
     return run_exchanges(reader, [tags], channel, cmd, t_s=t_s, rngs=[rng], reply_bits=reply_bits,
                          expect_crc=expect_crc, motions=motions, round_index=round_index, draw_channel=draw_channel,
@@ -205,25 +244,57 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                   reply_bits: int, expect_crc: bool, motions: Sequence | None = None, round_index=0,
                   draw_channel: bool = True, propagation: str = "auto",
                   link_caches: Sequence[dict | None] | None = None) -> list[Exchange]:
-    """B independent exchanges as one batch (:mod:`rfsim.protocols.batch`); ``[Exchange] * B``.
-    The one implementation of the exchange: :func:`run_exchange` is its batch of one.
+    """Simulate B independent exchanges as one batch (:mod:`rfsim.protocols.batch`).
 
-    Per block of :data:`BLOCK` trials: 1. per trial the reader's segment (made once per
-    distinct reader, command, time and round), its port and the tags' links (drawn from the
-    trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
-    trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``:
-    a trial in which no tag replies forms no reader input, its noise draws are still made);
-    3. the reader's reads of the trials with a reply; 4. the records.
+    The one implementation of the exchange: :func:`run_exchange` is its batch of one.
 
     Parameters
     ----------
-    reader, channel, cmd, t_s, round_index : as for :func:`run_exchange`; each one value for
-        every trial or a list of B values (one per trial)
-    tags : B sequences of reflectors, trial b's tags (their own state and RN16 stream)
-    rngs : B generators: trial b's channel draw and receiver noise
-    reply_bits, expect_crc, motions, draw_channel, propagation : as for ``run_exchange``
-        (the same for every trial)
-    link_caches : None or B dicts (or None), trial b's ``link_cache``
+    reader : object or list
+        As for :func:`run_exchange`; one value for every trial or a list of B values.
+    tags : sequence of sequence
+        B sequences of reflectors, trial b's tags (their own state and RN16 stream).
+    channel : object or list
+        As for :func:`run_exchange`; one value or a list of B values.
+    cmd : object or list
+        As for :func:`run_exchange`; one value or a list of B values.
+    t_s : float or list of float
+        Start time of the command [s]; one value or a list of B values.
+    rngs : sequence of numpy.random.Generator
+        B generators: trial b's channel draw and receiver noise.
+    reply_bits : int
+        As for :func:`run_exchange` (the same for every trial).
+    expect_crc : bool
+        As for :func:`run_exchange` (the same for every trial).
+    motions : sequence, optional
+        As for :func:`run_exchange` (the same for every trial).
+    round_index : int or list of int, default 0
+        As for :func:`run_exchange`; one value or a list of B values.
+    draw_channel : bool, default True
+        As for :func:`run_exchange` (the same for every trial).
+    propagation : {"auto", "exact", "narrowband"}, default "auto"
+        As for :func:`run_exchange` (the same for every trial).
+    link_caches : sequence of dict or None, optional
+        B dicts (or None), trial b's ``link_cache``.
+
+    Returns
+    -------
+    list of Exchange
+        One record per trial, in trial order.
+
+    Raises
+    ------
+    ValueError
+        A per-trial list of the wrong length, or an unknown ``propagation``.
+
+    Notes
+    -----
+    Per block of :data:`BLOCK` trials: 1. per trial the reader's segment (made once per
+    distinct reader, command, time and round), its port and the tags' links (drawn from the
+    trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
+    trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``: a
+    trial in which no tag replies forms no reader input, its noise draws are still made); 3. the
+    reader's reads of the trials with a reply; 4. the records.
     """
     n = len(rngs)
     if len(tags) != n:
@@ -402,20 +473,26 @@ class ReaderPort:
     """The reader's IQ input as a receiver of the air step (:class:`rfsim.air.step.Receiver`).
 
     Its noise is ``reader.noise_power_w()``; its own TX→RX leakage ``reader.leakage_gain()`` is
-    the coupling from its own transmitter (a :class:`rfsim.air.step.FixedEmitter` with ``device=reader``
-    on ``antenna``), instead of a channel link. :meth:`receive` is the reader's read of one
-    reply: it listens from :func:`rfsim.gen2.link.reader_listen_start_s` after the command of
-    ``tx`` (the edge and the channel's delay spread have settled), searches the reply in the T1
-    window with no knowledge of the tags (BLF: the profile's nominal value) and takes its
-    phase reference from its own carrier during the reply window (``tx.samples[-1]``: PR-ASK
+    the coupling from its own transmitter (a :class:`rfsim.air.step.FixedEmitter` with
+    ``device=reader`` on ``antenna``), instead of a channel link. :meth:`receive` is the reader's
+    read of one reply: it listens from :func:`rfsim.gen2.link.reader_listen_start_s` after the
+    command of ``tx`` (the edge and the channel's delay spread have settled), searches the reply
+    in the T1 window with no knowledge of the tags (BLF: the profile's nominal value) and takes
+    its phase reference from its own carrier during the reply window (``tx.samples[-1]``: PR-ASK
     ends a command with either polarity, depending on the parity of its PIE symbols).
 
     Parameters
     ----------
-    reader : reader device (``receive``, ``leakage_gain``, ``noise_power_w``, ``link``)
-    antenna : the reader antenna of the exchange
-    tx : the reader's segment (``t0_s``, ``fs_hz``, ``samples``, ``cmd_end_s`` [s])
-    reply_bits : bits of the expected reply; expect_crc : whether it carries a CRC-16
+    reader : object
+        Reader device (``receive``, ``leakage_gain``, ``noise_power_w``, ``link``).
+    antenna : object
+        The reader antenna of the exchange.
+    tx : object
+        The reader's segment (``t0_s``, ``fs_hz``, ``samples``, ``cmd_end_s`` [s]).
+    reply_bits : int
+        Bits of the expected reply.
+    expect_crc : bool
+        Whether it carries a CRC-16.
     """
 
     fc_hz = None
@@ -426,19 +503,60 @@ class ReaderPort:
         self.noise_power_w = reader.noise_power_w()
 
     def coupling(self, emitter):
+        """Return the direct coupling from an emitter, replacing the channel's link.
+
+        Parameters
+        ----------
+        emitter : object
+            An emitter of the step.
+
+        Returns
+        -------
+        complex or None
+            ``reader.leakage_gain()`` (complex amplitude gain) for the reader's own transmitter on
+            this port's antenna; None for any other emitter (the channel's link applies).
+        """
         if getattr(emitter, "device", None) is self.reader and emitter.antenna is self.antenna:
             return self.reader.leakage_gain()
         return None
 
     def first_read_sample(self, t0_s: float, fs_hz: float, n_samples: int) -> int:
-        """The first sample of an input (starting at ``t0_s`` [s], ``fs_hz`` [Hz]) that
-        :meth:`receive` reads: the reader's listen start after the command of ``tx``."""
+        """Return the first sample of an input that :meth:`receive` reads.
+
+        That is the reader's listen start after the command of ``tx``
+        (:func:`rfsim.gen2.link.reader_listen_start_s`).
+
+        Parameters
+        ----------
+        t0_s : float
+            Time of the input's first sample [s].
+        fs_hz : float
+            Sample rate [Hz].
+        n_samples : int
+            Samples of the input.
+
+        Returns
+        -------
+        int
+            ceil((listen start − t0)·fs), at most ``n_samples``.
+        """
         return min(int(math.ceil((reader_listen_start_s(self.reader.link, self.tx.cmd_end_s) - t0_s) * fs_hz)),
                    int(n_samples))
 
     def receive(self, input):
-        """The reader's :class:`ReadResult`-like measurement of the reply in ``input`` (a
-        :class:`rfsim.air.step.Segment` on the time base of ``tx``)."""
+        """Read the reply in the reader's input.
+
+        Parameters
+        ----------
+        input : rfsim.air.step.Segment
+            The reader's input on the time base of ``tx`` [√W].
+
+        Returns
+        -------
+        object
+            The reader's ``ReadResult``-like measurement of the reply (samples from the listen
+            start on, searched after ``tx.cmd_end_s``, phase referred to ``tx.samples[-1]``).
+        """
         tx, fs = self.tx, input.fs_hz
         i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
         return self.reader.receive(input.samples[i0:], t0_s=input.t0_s + i0 / fs, n_bits=self.reply_bits,
@@ -553,14 +671,41 @@ class _EngineLinks:
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,
               query, round_index: int = 0, motions: Sequence | None = None,
               epc_bits: int = 128, draw_channel: bool = True) -> list[Exchange]:
-    """Query → RN16 → ACK → PC+EPC+CRC: one inventory round of a Q = 0 Query.
+    """Run one inventory round of a Q = 0 Query: Query → RN16 → ACK → PC+EPC+CRC.
 
-    Returns the exchanges (one or two). The ACK is sent whenever the *reader* accepted an
-    RN16 (its preamble was found) — as a real reader does, it cannot know of a collision or a
-    bit error; the ACK then carries the RN16 it decoded, and a wrong one gets no reply. It
-    starts T2 (10 Tpri, inside the 3–20 Tpri window) after the RN16 reply ends. The channel
-    is drawn (when ``draw_channel``) for the Query and held for the ACK. The batch of one of
-    :func:`singulate_batch` (the same code).
+    The ACK is sent whenever the *reader* accepted an RN16 (its preamble was found) — as a real
+    reader does, it cannot know of a collision or a bit error; the ACK then carries the RN16 it
+    decoded, and a wrong one gets no reply. It starts T2 (10 Tpri, inside the 3–20 Tpri window of
+    EPC Gen2) after the RN16 reply ends. The channel is drawn (when ``draw_channel``) for the
+    Query and held for the ACK. The batch of one of :func:`singulate_batch` (the same code).
+
+    Parameters
+    ----------
+    reader : object
+        Reader device (as for :func:`run_exchange`).
+    tags : sequence
+        The tags (as for :func:`run_exchange`).
+    channel : object
+        Link model (as for :func:`run_exchange`).
+    t_s : float
+        Start time of the Query [s].
+    rng : numpy.random.Generator
+        Generator for the channel draw and the receiver noise.
+    query : object
+        The Query command (Q = 0).
+    round_index : int, default 0
+        Inventory round (selects the antenna).
+    motions : sequence, optional
+        Per-tag motion (as for :func:`run_exchange`).
+    epc_bits : int, default 128
+        Bits of the PC+EPC+CRC reply to the ACK.
+    draw_channel : bool, default True
+        Draw the channel anew for the Query.
+
+    Returns
+    -------
+    list of Exchange
+        The Query's exchange, and the ACK's when the reader accepted an RN16.
     """
     return singulate_batch(reader, [tags], channel, t_s=t_s, rngs=[rng], query=query, round_index=round_index,
                            motions=motions, epc_bits=epc_bits, draw_channel=draw_channel)[0]
@@ -569,11 +714,44 @@ def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Gen
 def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Sequence[np.random.Generator],
                     query, round_index=0, motions: Sequence | None = None, epc_bits: int = 128,
                     draw_channel: bool = True) -> list[list[Exchange]]:
-    """B independent singulations (:func:`singulate`) as two batches: the Queries of all
-    trials, then the ACKs of the trials whose RN16 the reader accepted (each with the RN16 it
-    decoded, T2 after that trial's reply). Returns per trial its exchanges (one or two).
+    """Run B independent singulations (:func:`singulate`) as two batches.
 
-    ``reader``, ``channel``, ``t_s``, ``round_index``, ``query``: one value or one per trial.
+    The Queries of all trials, then the ACKs of the trials whose RN16 the reader accepted (each
+    with the RN16 it decoded, T2 after that trial's reply).
+
+    Parameters
+    ----------
+    reader : object or list
+        Reader device; one value or one per trial.
+    tags : sequence of sequence
+        B sequences of tags, trial b's tags.
+    channel : object or list
+        Link model; one value or one per trial.
+    t_s : float or list of float
+        Start time of the Query [s]; one value or one per trial.
+    rngs : sequence of numpy.random.Generator
+        B generators, trial b's channel draw and noise.
+    query : object or list
+        The Query command; one value or one per trial.
+    round_index : int or list of int, default 0
+        Inventory round; one value or one per trial.
+    motions : sequence, optional
+        Per-tag motion (the same for every trial).
+    epc_bits : int, default 128
+        Bits of the PC+EPC+CRC reply to the ACK.
+    draw_channel : bool, default True
+        Draw the channel anew for the Queries.
+
+    Returns
+    -------
+    list of list of Exchange
+        Per trial its exchanges (one or two).
+
+    Raises
+    ------
+    ValueError
+        One reader shared by several trials while it searches the BLF (``blf_search``: it keeps
+        the RN16's BLF for the ACK).
     """
     from rfsim.gen2.bits import bits_to_int
     from rfsim.gen2.commands import ACK

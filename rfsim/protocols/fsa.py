@@ -43,9 +43,28 @@ def _check(n_tags: int, n_slots: int) -> tuple[int, int]:
 
 
 def slot_occupancy_pmf(n_tags: int, n_slots: int) -> np.ndarray:
-    """P(a given slot holds k replies), k = 0 … N: ``(N + 1,) float64``.
+    r"""Probability that a given slot holds k replies, k = 0 … N.
 
-    Binomial(N, 1/L): C(N, k)(1/L)^k(1 − 1/L)^(N−k) (anchors §4.6).
+    Binomial(N, 1/L) (gen2-and-validation-anchors.md §4.6):
+
+    .. math:: P(k) = \binom{N}{k} \left(\frac{1}{L}\right)^k \left(1 - \frac{1}{L}\right)^{N-k}
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 0.
+    n_slots : int
+        Number of slots L ≥ 1 of the frame (a Gen2 Query: L = 2^Q).
+
+    Returns
+    -------
+    ndarray, shape (N + 1,), float64
+        P(k replies), k = 0 … N.
+
+    Raises
+    ------
+    ValueError
+        N or L not an integer, N < 0 or L < 1.
     """
     n, L = _check(n_tags, n_slots)
     p = 1.0 / L
@@ -63,10 +82,28 @@ def slot_occupancy_pmf(n_tags: int, n_slots: int) -> np.ndarray:
 
 
 def expected_counts(n_tags: int, n_slots: int) -> tuple[float, float, float]:
-    """(E[empty], E[single], E[collided]) slots in one frame of L slots with N tags.
+    r"""Expected numbers of empty, single and collided slots in one frame.
 
-    E[empty] = L(1 − 1/L)^N, E[single] = N(1 − 1/L)^(N−1), E[collided] = the rest
-    (anchors §4.6).
+    :math:`E[\mathrm{empty}] = L (1 - 1/L)^N`, :math:`E[\mathrm{single}] = N (1 - 1/L)^{N-1}`,
+    :math:`E[\mathrm{collided}] = L - E[\mathrm{empty}] - E[\mathrm{single}]`
+    (gen2-and-validation-anchors.md §4.6).
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 0.
+    n_slots : int
+        Number of slots L ≥ 1 of the frame (a Gen2 Query: L = 2^Q).
+
+    Returns
+    -------
+    tuple of float
+        (E[empty], E[single], E[collided]) [slots].
+
+    Raises
+    ------
+    ValueError
+        N or L not an integer, N < 0 or L < 1.
     """
     n, L = _check(n_tags, n_slots)
     q = 1.0 - 1.0 / L
@@ -76,10 +113,29 @@ def expected_counts(n_tags: int, n_slots: int) -> tuple[float, float, float]:
 
 
 def count_covariance(n_tags: int, n_slots: int) -> np.ndarray:
-    """Covariance matrix of the (empty, single, collided) counts of one frame, ``(3, 3)``.
+    r"""Covariance matrix of the (empty, single, collided) slot counts of one frame.
 
-    Exact (module docstring): Var and Cov of the indicator sums from the one-slot and the
-    two-distinct-slot occupancy probabilities; collided = L − empty − single.
+    Exact (module docstring): variances and covariances of the indicator sums from the one-slot
+    and the two-distinct-slot occupancy probabilities,
+    :math:`\mathrm{Cov}(X, Y) = L (E[x_i y_i] - p_x p_y) + L (L - 1) (P(x_i, y_j) - p_x p_y)`;
+    collided = L − empty − single.
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 0.
+    n_slots : int
+        Number of slots L ≥ 1 of the frame (a Gen2 Query: L = 2^Q).
+
+    Returns
+    -------
+    ndarray, shape (3, 3), float64
+        Covariance of (empty, single, collided) [slots²].
+
+    Raises
+    ------
+    ValueError
+        N or L not an integer, N < 0 or L < 1.
     """
     n, L = _check(n_tags, n_slots)
     q1 = 1.0 - 1.0 / L
@@ -100,12 +156,51 @@ def count_covariance(n_tags: int, n_slots: int) -> np.ndarray:
 
 
 def efficiency(n_tags: int, n_slots: int) -> float:
-    """Slot efficiency η = E[single]/L of one frame (anchors §4.6)."""
+    r"""Slot efficiency of one frame.
+
+    :math:`\eta = E[\mathrm{single}]/L` (gen2-and-validation-anchors.md §4.6).
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 0.
+    n_slots : int
+        Number of slots L ≥ 1 of the frame (a Gen2 Query: L = 2^Q).
+
+    Returns
+    -------
+    float
+        η, the expected fraction of single (successful) slots.
+
+    Raises
+    ------
+    ValueError
+        N or L not an integer, N < 0 or L < 1.
+    """
     return expected_counts(n_tags, n_slots)[1] / int(n_slots)
 
 
 def optimal_efficiency(n_tags: int) -> float:
-    """η at L = N: (1 − 1/N)^(N−1) (0.387 for N = 10, 0.370 for N = 100, → 1/e)."""
+    r"""Slot efficiency at the optimal frame size L = N.
+
+    :math:`\eta = (1 - 1/N)^{N-1}` (0.387 for N = 10, 0.370 for N = 100, → 1/e;
+    gen2-and-validation-anchors.md §4.6).
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 1.
+
+    Returns
+    -------
+    float
+        η at L = N.
+
+    Raises
+    ------
+    ValueError
+        N < 1.
+    """
     n = int(n_tags)
     if n < 1:
         raise ValueError(f"n_tags must be >= 1, got {n_tags}")
@@ -113,19 +208,76 @@ def optimal_efficiency(n_tags: int) -> float:
 
 
 def schoute_estimate(n_single: float, n_collided: float) -> float:
-    """Schoute's population estimate n̂ = S + 2.39·C (anchors §4.6)."""
+    """Schoute's population estimate from one frame's outcome.
+
+    n̂ = S + 2.39·C (Schoute 1983, IEEE TCOM 31(4); gen2-and-validation-anchors.md §4.6).
+
+    Parameters
+    ----------
+    n_single : float
+        Number of single (successful) slots S.
+    n_collided : float
+        Number of collided slots C.
+
+    Returns
+    -------
+    float
+        Estimated number of tags n̂.
+    """
     return float(n_single) + SCHOUTE_TAGS_PER_COLLISION * float(n_collided)
 
 
 def lower_bound_estimate(n_single: float, n_collided: float) -> float:
-    """Vogt's lower-bound population estimate n̂ = S + 2·C (anchors §4.6)."""
+    """Vogt's lower-bound population estimate from one frame's outcome.
+
+    n̂ = S + 2·C (Vogt 2002; gen2-and-validation-anchors.md §4.6): every collided slot holds at
+    least two tags.
+
+    Parameters
+    ----------
+    n_single : float
+        Number of single (successful) slots S.
+    n_collided : float
+        Number of collided slots C.
+
+    Returns
+    -------
+    float
+        Lower-bound estimate of the number of tags n̂.
+    """
     return float(n_single) + 2.0 * float(n_collided)
 
 
 def expected_frame_time_s(n_tags: int, n_slots: int, *, empty_s: float, single_s: float,
                           collided_s: float) -> float:
-    """Mean air time of one frame [s]: Σ E[count]·duration per slot type (anchors §4.6,
-    "time efficiency must weight slot types by duration")."""
+    r"""Mean air time of one frame.
+
+    :math:`E[T] = E[\mathrm{empty}]\,T_e + E[\mathrm{single}]\,T_s + E[\mathrm{collided}]\,T_c`
+    (gen2-and-validation-anchors.md §4.6, "time efficiency must weight slot types by duration").
+
+    Parameters
+    ----------
+    n_tags : int
+        Number of tags N ≥ 0.
+    n_slots : int
+        Number of slots L ≥ 1 of the frame (a Gen2 Query: L = 2^Q).
+    empty_s : float
+        Duration of an empty slot T_e [s].
+    single_s : float
+        Duration of a single (successful) slot T_s [s].
+    collided_s : float
+        Duration of a collided slot T_c [s].
+
+    Returns
+    -------
+    float
+        Expected frame time [s].
+
+    Raises
+    ------
+    ValueError
+        N or L not an integer, N < 0 or L < 1.
+    """
     e, s, c = expected_counts(n_tags, n_slots)
     return e * float(empty_s) + s * float(single_s) + c * float(collided_s)
 

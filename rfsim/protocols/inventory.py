@@ -106,18 +106,34 @@ class AirExchange:
 
     Attributes
     ----------
-    command : command name
-    time_s : start of the reader's segment [s] (one Tari of CW, then the command)
-    cmd_end_s : last rising edge of the command [s]
-    replied : indices of the tags that replied (ground truth)
-    detected : the receiver found a reply preamble
-    bits : (n,) uint8 decoded bits or None
-    success : decoded (and CRC-16 correct where expected)
-    failure_reason : "" or the reason (see :data:`rfsim.protocols.engine.FAILURE_REASONS`)
-    reply_start_s : detected reply start [s] (NaN when nothing was detected)
-    antenna : 0-based reader antenna; channel_index : 1-based; fc_hz : carrier [Hz]
-    read : the receiver's ReadResult (sample level) or None
-    incident_power_dbm : (n_tags,) CW power at each tag [dBm] (NaN at protocol level)
+    command : str
+        Command name.
+    time_s : float
+        Start of the reader's segment [s] (one Tari of CW, then the command).
+    cmd_end_s : float
+        Last rising edge of the command [s].
+    replied : tuple of int
+        Indices of the tags that replied (ground truth).
+    detected : bool
+        The receiver found a reply preamble.
+    bits : ndarray, shape (n,), uint8, or None
+        Decoded bits.
+    success : bool
+        Decoded (and CRC-16 correct where expected).
+    failure_reason : str
+        ``""`` or the reason (see :data:`rfsim.protocols.engine.FAILURE_REASONS`).
+    reply_start_s : float
+        Detected reply start [s] (NaN when nothing was detected).
+    antenna : int
+        0-based reader antenna.
+    channel_index : int
+        1-based channel index of the frequency plan.
+    fc_hz : float
+        Carrier [Hz].
+    read : object or None
+        The receiver's ReadResult (sample level) or None.
+    incident_power_dbm : tuple of float
+        (n_tags,) CW power at each tag [dBm] (NaN at protocol level).
     """
 
     command: str
@@ -170,7 +186,19 @@ READ_FIELDS = {
 
 @dataclass(eq=False)
 class InventoryLog:
-    """Records of one inventory: per-slot and per-read columns (lists) and the time span."""
+    """Records of one inventory: per-slot and per-read columns (lists) and the time span.
+
+    Attributes
+    ----------
+    slots : dict of str to list
+        One column per entry of :data:`SLOT_FIELDS`, one row per slot.
+    reads : dict of str to list
+        One column per entry of :data:`READ_FIELDS`, one row per read.
+    t0_s : float
+        Start time of the inventory [s].
+    t_end_s : float
+        End of the last slot [s] (NaN until the inventory ends).
+    """
 
     slots: dict[str, list]
     reads: dict[str, list]
@@ -179,6 +207,7 @@ class InventoryLog:
 
     @property
     def n_slots(self) -> int:
+        """Number of slots recorded."""
         return len(self.slots["time_s"])
 
     @property
@@ -187,11 +216,29 @@ class InventoryLog:
         return self.t_end_s - self.t0_s
 
     def tags_read(self) -> set[int]:
-        """Indices of the tags read at least once."""
+        """Return the indices of the tags read at least once.
+
+        Returns
+        -------
+        set of int
+            Tag indices (ground truth of the reads; reads without a unique tag are left out).
+        """
         return {t for t in self.reads["tag"] if t >= 0}
 
     def completion(self, n_tags: int) -> tuple[int, float] | None:
-        """(slots, air time [s]) until ``n_tags`` distinct tags were read, or None."""
+        """Return the slots and air time until a number of distinct tags was read.
+
+        Parameters
+        ----------
+        n_tags : int
+            Number of distinct tags to be read.
+
+        Returns
+        -------
+        tuple of (int, float) or None
+            (slots, air time [s] from ``t0_s`` to the end of that slot), or None when fewer tags
+            were read.
+        """
         seen: set[int] = set()
         for k, (tag, t, d) in enumerate(zip(self.slots["tag"], self.slots["time_s"], self.slots["duration_s"])):
             if tag >= 0:
@@ -201,7 +248,19 @@ class InventoryLog:
         return None
 
     def counts(self, column: str = "slot_type") -> dict[str, int]:
-        """Number of slots per value of ``column``."""
+        """Count the slots per value of a column.
+
+        Parameters
+        ----------
+        column : {"slot_type", "reader_view"}, default "slot_type"
+            The column: the slot types with ground truth (:data:`SLOT_TYPES`) or the reader's view
+            (:data:`READER_VIEWS`).
+
+        Returns
+        -------
+        dict of str to int
+            Number of slots per value, every value of the column's set present.
+        """
         vals = self.slots[column]
         return {v: vals.count(v) for v in (SLOT_TYPES if column == "slot_type" else READER_VIEWS)}
 
@@ -215,7 +274,21 @@ def _slot_type(n_replies: int, detected: bool, read: bool) -> str:
 
 
 def epc_hex_of(bits: np.ndarray) -> str:
-    """EPC of a PC + EPC + CRC-16 reply as upper-case hex ('' for fewer than 48 bits)."""
+    """Return the EPC of a PC + EPC + CRC-16 reply as upper-case hex.
+
+    The 16 PC bits and the 16 CRC bits are removed; the EPC bits are read MSB first, four per
+    hex digit (trailing bits short of a digit are left out).
+
+    Parameters
+    ----------
+    bits : array_like, shape (n,), uint8
+        The reply bits, 0/1.
+
+    Returns
+    -------
+    str
+        The EPC in hex; ``''`` for fewer than 48 bits.
+    """
     b = np.asarray(bits, dtype=np.uint8)
     if b.size < 48:
         return ""
@@ -259,20 +332,28 @@ def _round_half_up(x: float) -> int:
 
 def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: float = 0.0,
                   on_round: Callable[[int, float], None] | None = None) -> InventoryLog:
-    """Inventory the tags behind ``air`` with the Q algorithm (module docstring).
+    """Inventory the tags behind an air interface with the Q algorithm (module docstring).
+
+    Gen2 rounds and the Q algorithm of gen2-and-validation-anchors.md §4.4–4.6, timing of §4.3,
+    §4.6.
 
     Parameters
     ----------
-    air : :class:`EngineAir`, :class:`ProtocolAir` or an object with ``link`` and
-        ``exchange(cmd, *, t_s, reply_bits, expect_crc, round_index, new_round)``
-    config : InventoryConfig
-    t0_s : start time [s] of the first command segment
-    on_round : optional callback ``(round_index, t_s)`` before each round (e.g. to interrupt
-        the CW or move tags)
+    air : EngineAir, ProtocolAir or object
+        Has ``link`` and ``exchange(cmd, *, t_s, reply_bits, expect_crc, round_index,
+        new_round)`` → :class:`AirExchange`.
+    config : InventoryConfig, default InventoryConfig()
+        Inventory settings.
+    t0_s : float, default 0.0
+        Start time of the first command segment [s].
+    on_round : callable, optional
+        Called as ``on_round(round_index, t_s)`` before each round (e.g. to interrupt the CW or
+        move tags).
 
     Returns
     -------
-    InventoryLog with one row per slot and one per read.
+    InventoryLog
+        One row per slot and one per read.
     """
     link = air.link
     clock = _Clock(link, config)
@@ -397,17 +478,20 @@ def _append_read(rows, ex: AirExchange, rnd: int, slot: int, tag: int, epc: str,
 class ProtocolAir:
     """Protocol-level air interface: Gen2 tag state machines, no waveforms.
 
+    A slot with exactly one reply is decoded (its bits are the tag's reply bits, the reply
+    starts at the nominal T1 = max(RTcal, 10·Tpri) after the command); two or more replies are a
+    detected, undecodable collision (no capture).
+
     Parameters
     ----------
-    link : LinkProfile (timing)
-    tags : sequence of PassiveTag-like objects (``state``, ``rng``) or (TagState, Generator)
-        pairs; each tag keeps its own generator
-    powered : None (every tag powered) or callable ``t_s → (n_tags,) bool``; a tag that
-        becomes unpowered loses its round state (``TagState.on_power``)
-
-    A slot with exactly one reply is decoded (its bits are the tag's reply bits, the reply
-    starts at the nominal T1 = max(RTcal, 10·Tpri) after the command); two or more replies
-    are a detected, undecodable collision (no capture).
+    link : rfsim.gen2.link.LinkProfile
+        The link profile (timing).
+    tags : sequence
+        PassiveTag-like objects (``state``, ``rng``) or (TagState, Generator) pairs; each tag
+        keeps its own generator.
+    powered : callable, optional
+        ``powered(t_s)`` → (n_tags,) bool; None: every tag powered. A tag that becomes unpowered
+        loses its round state (``TagState.on_power``).
     """
 
     def __init__(self, link, tags: Sequence, *, powered: Callable[[float], np.ndarray] | None = None):
@@ -418,10 +502,34 @@ class ProtocolAir:
 
     @property
     def states(self) -> list:
+        """The tags' Gen2 states (``TagState``), in tag order."""
         return [s for s, _ in self._tags]
 
     def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
                  new_round: bool = False) -> AirExchange:
+        """Drive every powered tag's state machine with one command and judge the slot.
+
+        Parameters
+        ----------
+        cmd : object
+            The Gen2 command (:mod:`rfsim.gen2.commands`).
+        t_s : float
+            Start of the reader's segment [s] (one Tari of CW, then the command).
+        reply_bits : int
+            Bits of the expected reply (16 for an RN16, PC+EPC+CRC after an ACK).
+        expect_crc : bool
+            Whether the reply carries a CRC-16.
+        round_index : int, default 0
+            Inventory round (selects the reader antenna).
+        new_round : bool, default False
+            The command opens a new round (not used at protocol level).
+
+        Returns
+        -------
+        AirExchange
+            No reply: not detected, ``"no reply"``; two or more: detected, ``"collision"``; one:
+            decoded, ``success`` when no CRC is expected or the CRC-16 is correct.
+        """
         lk = self.link
         cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
         mask = np.ones(len(self._tags), bool) if self.powered is None else np.asarray(self.powered(t_s), bool)
@@ -486,23 +594,31 @@ class EngineAir:
     Parameters
     ----------
     reader : rfsim.devices.reader.Reader
-    tags : sequence of rfsim.devices.tag.PassiveTag (each with its own generator)
-    channel : channel with ``backscatter_links`` (e.g. ``rfsim.channels.Channel``); its random part
-        is drawn at the first exchange of every round and held for the round. A channel
-        without one (``has_random_part`` False: no diffuse taps, no shadowing field) gives
-        static tags the same links in every round, so its links are evaluated once and held
-        across rounds while no tag's antenna changes (and without ``motions``); the records
-        are those of a draw per round, bit for bit (the draw takes nothing from ``rng``)
-    rng : generator for the channel draws and the receiver noise
-    motions : optional per-tag motions (see ``run_exchange``)
-    propagation : "auto", "exact" or "narrowband"
-    fast : let tags that see scaled copies of one reader segment share its front-end work
+        The reader.
+    tags : sequence of rfsim.devices.tag.PassiveTag
+        The tags, each with its own generator.
+    channel : object
+        Channel with ``backscatter_links`` (e.g. ``rfsim.channels.Channel``); its random part is
+        drawn at the first exchange of every round and held for the round. A channel without
+        one (``has_random_part`` False: no diffuse taps, no shadowing field) gives static tags
+        the same links in every round, so its links are evaluated once and held across rounds
+        while no tag's antenna changes (and without ``motions``); the records are those of a
+        draw per round, bit for bit (the draw takes nothing from ``rng``).
+    rng : numpy.random.Generator
+        Generator for the channel draws and the receiver noise.
+    motions : sequence, optional
+        Per-tag motions (see :func:`rfsim.protocols.engine.run_exchange`).
+    propagation : {"auto", "exact", "narrowband"}, default "auto"
+        Propagation policy.
+    fast : bool, default True
+        Let tags that see scaled copies of one reader segment share its front-end work
         (``PassiveTag.shared_front_end``, rfsim.devices.tag) and join the air step as one
         population (the tags' ``population``, rfsim.devices.tag_population: the quiet tags of an
-        exchange decided at once, their re-radiation one held constant); False makes every
-        tag listen to its own samples on every exchange (identical records, slower). Sets
-        the attribute on every tag that has it.
-    keep_exchanges : append every :class:`AirExchange` to ``self.exchanges``
+        exchange decided at once, their re-radiation one held constant); False makes every tag
+        listen to its own samples on every exchange (identical records, slower). Sets the
+        attribute on every tag that has it.
+    keep_exchanges : bool, default False
+        Append every :class:`AirExchange` to ``self.exchanges``.
     """
 
     def __init__(self, reader, tags: Sequence, channel, *, rng: np.random.Generator, motions=None,
@@ -525,8 +641,16 @@ class EngineAir:
         self._reflectors = [make(self.tags)] if same else self.tags
 
     def cw_off(self, t_s: float) -> None:
-        """The reader interrupts its CW at ``t_s`` [s]: every tag loses power (Gen2: back to
-        Ready, S0 flag to A; S1–S3 and SL kept within their persistence times)."""
+        """Interrupt the reader's CW: every tag loses power.
+
+        Gen2: a tag goes back to Ready, its S0 flag to A; S1–S3 and SL are kept within their
+        persistence times.
+
+        Parameters
+        ----------
+        t_s : float
+            Time of the interruption [s].
+        """
         for tag in self.tags:
             tag.state.on_power(False, t_s)
         if self._reflectors is not self.tags:
@@ -534,6 +658,30 @@ class EngineAir:
 
     def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
                  new_round: bool = False) -> AirExchange:
+        """Run one command through the sample-level engine.
+
+        Parameters
+        ----------
+        cmd : object
+            The Gen2 command (:mod:`rfsim.gen2.commands`).
+        t_s : float
+            Start of the reader's segment [s] (one Tari of CW, then the command).
+        reply_bits : int
+            Bits of the expected reply (16 for an RN16, PC+EPC+CRC after an ACK).
+        expect_crc : bool
+            Whether the reply carries a CRC-16.
+        round_index : int, default 0
+            Inventory round (selects the reader antenna).
+        new_round : bool, default False
+            The command opens a new round: the channel is drawn anew (and the round's held
+            links dropped) unless the held links are still the channel's.
+
+        Returns
+        -------
+        AirExchange
+            The exchange as the reader saw it (``detected`` when it decoded bits), with the
+            engine's failure reason.
+        """
         from rfsim.protocols.engine import run_exchange
 
         draw = new_round and not self._links_still_held()

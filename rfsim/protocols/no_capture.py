@@ -7,14 +7,16 @@ from dataclasses import replace
 
 
 class NoCaptureAir:
-    """A sample-level air interface whose reader never decodes a slot in which two or more
-    tags replied (ground truth): capture switched off, the protocol level's collision rule
-    (:class:`rfsim.protocols.inventory.ProtocolAir`) on otherwise identical waveforms. The slot is
-    detected, not decoded, so the reader does not ACK and counts a collision.
+    """A sample-level air interface whose reader never decodes a slot with two or more replies.
+
+    Capture switched off: the protocol level's collision rule
+    (:class:`rfsim.protocols.inventory.ProtocolAir`), judged on the ground truth, on otherwise
+    identical waveforms. The slot is detected, not decoded, so the reader does not ACK and
+    counts a collision.
 
     Parameters
     ----------
-    air
+    air : object
         The wrapped air interface (``link`` and ``exchange(cmd, **kw)`` returning an exchange
         record with ``replied``, ``detected``, ``success``, ``bits``, ``failure_reason``).
     """
@@ -23,7 +25,21 @@ class NoCaptureAir:
         self.air, self.link = air, air.link
 
     def exchange(self, cmd, **kw):
-        """The wrapped exchange; with ≥ 2 replies and a detected slot: failed, reason "collision"."""
+        """Run the wrapped exchange, with no decoding of a slot in which two or more tags replied.
+
+        Parameters
+        ----------
+        cmd : object
+            The command (:mod:`rfsim.gen2.commands`).
+        **kw
+            Passed on to the wrapped ``exchange``.
+
+        Returns
+        -------
+        object
+            The wrapped exchange record; with ≥ 2 replies and a detected slot a copy with
+            ``success=False``, ``bits=None`` and ``failure_reason="collision"``.
+        """
         ex = self.air.exchange(cmd, **kw)
         if len(ex.replied) >= 2 and ex.detected:
             return replace(ex, success=False, bits=None, failure_reason="collision")

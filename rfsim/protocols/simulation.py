@@ -51,11 +51,28 @@ class Simulation:
 
     Parameters
     ----------
-    reader : the reader (:class:`rfsim.devices.Reader`)
-    tags : the tags (:class:`rfsim.devices.PassiveTag`), in the order the records index them
-    channel : the channel (:class:`rfsim.channels.Channel`)
-    seed : root seed; round *i* uses ``trial_rng(seed, i)`` for channel draws and noise
-    round_period_s : time between round starts [s] (silent air time is skipped, not sampled)
+    reader : rfsim.devices.Reader
+        The reader.
+    tags : sequence of rfsim.devices.PassiveTag
+        The tags, in the order the records index them.
+    channel : rfsim.channels.Channel
+        The channel.
+    seed : int, default 0
+        Root seed; round *i* uses ``trial_rng(seed, i)`` for channel draws and noise.
+    round_period_s : float, default 20e-3
+        Time between round starts [s] (silent air time is skipped, not sampled).
+
+    Attributes
+    ----------
+    records : list of rfsim.protocols.engine.Exchange
+        Every exchange so far, in order.
+    rounds : int
+        Rounds run so far.
+
+    Raises
+    ------
+    ValueError
+        ``round_period_s`` not finite and > 0.
     """
 
     def __init__(self, reader, tags: Sequence, channel, *, seed: int = 0, round_period_s: float = 20e-3):
@@ -78,34 +95,42 @@ class Simulation:
         return exchanges
 
     def query_round(self, *, q: int = 0, target: str = "A", session: int = 0, ack: bool = True) -> list:
-        """One inventory round opened by a Query with the reader's link; returns its exchanges.
+        """Run one inventory round opened by a Query with the reader's link.
 
-        With ``ack`` (and Q = 0, the tags reply at once) the reader ACKs an RN16 it decoded
-        and reads PC+EPC+CRC-16 (:func:`rfsim.protocols.engine.singulate`); otherwise only the Query
-        and the RN16 replies (:func:`rfsim.protocols.engine.run_exchange`).
+        With ``ack`` (and Q = 0, the tags reply at once) the reader ACKs an RN16 it decoded and
+        reads PC+EPC+CRC-16 (:func:`rfsim.protocols.engine.singulate`); otherwise only the Query and
+        the RN16 replies (:func:`rfsim.protocols.engine.run_exchange`).
 
         Parameters
         ----------
-        q : slot-count parameter Q of the Query (2**Q slots; 0: every tag replies at once)
-        target : inventoried flag the Query selects, ``"A"`` or ``"B"``
-        session : session S0–S3 (0–3) whose inventoried flag the round uses
-        ack : ACK a decoded RN16 and read the EPC
+        q : int, default 0
+            Slot-count parameter Q of the Query (2**Q slots; 0: every tag replies at once).
+        target : {"A", "B"}, default "A"
+            Inventoried flag the Query selects.
+        session : int, default 0
+            Session S0–S3 (0–3) whose inventoried flag the round uses.
+        ack : bool, default True
+            ACK a decoded RN16 and read the EPC.
+
+        Returns
+        -------
+        list of rfsim.protocols.engine.Exchange
+            The round's exchanges (the Query's, and the ACK's when one was sent).
 
         Notes
         -----
-        Calling this in a loop with the same ``target`` reads a tag once, then gets no
-        reply: that is Gen2 session behaviour, not a failure of the link. Each tag keeps
-        one inventoried flag per session (A or B) and replies only to a Query whose
-        ``target`` equals its flag in the Query's ``session``; a tag that was read (its
-        EPC acknowledged) inverts that flag when the round ends (A → B), so it stays
-        silent for later Queries targeting A until the flag returns to A. In S0 the flag
-        persists while the tag is powered (a tag stays powered from round to round as long
-        as each command's CW powers it; the silent time between rounds is skipped, not an
-        outage); S1 reverts to A 0.5–5 s after it was set, S2 and S3 persist more than
-        2 s without power (:class:`rfsim.devices.FlagPersistence`). To read a tag again
-        and again, alternate the target (``target="AB"[i % 2]`` in round ``i``, the
-        dual-target inventory of commercial readers and of the ``link`` scenario), or
-        use S1 with a ``round_period_s`` longer than its persistence.
+        Calling this in a loop with the same ``target`` reads a tag once, then gets no reply: that
+        is Gen2 session behaviour, not a failure of the link. Each tag keeps one inventoried flag
+        per session (A or B) and replies only to a Query whose ``target`` equals its flag in the
+        Query's ``session``; a tag that was read (its EPC acknowledged) inverts that flag when the
+        round ends (A → B), so it stays silent for later Queries targeting A until the flag returns
+        to A. In S0 the flag persists while the tag is powered (a tag stays powered from round to
+        round as long as each command's CW powers it; the silent time between rounds is skipped,
+        not an outage); S1 reverts to A 0.5–5 s after it was set, S2 and S3 persist more than 2 s
+        without power (:class:`rfsim.devices.FlagPersistence`). To read a tag again and again,
+        alternate the target (``target="AB"[i % 2]`` in round ``i``, the dual-target inventory of
+        commercial readers and of the ``link`` scenario), or use S1 with a ``round_period_s``
+        longer than its persistence.
         """
         from rfsim.protocols.engine import run_exchange, singulate
         from rfsim.gen2.commands import Query
@@ -121,10 +146,22 @@ class Simulation:
         return self._keep(i, out)
 
     def exchange(self, command, *, reply_bits: int, expect_crc: bool) -> Any:
-        """Send any Gen2 command (:mod:`rfsim.gen2.commands`) as a round of its own.
+        """Send any Gen2 command as a round of its own.
 
-        ``reply_bits`` is the reply length the reader listens for (16 for an RN16, 128 for
-        PC+EPC+CRC-16 with a 96-bit EPC); ``expect_crc`` whether it checks a CRC-16.
+        Parameters
+        ----------
+        command : object
+            A command of :mod:`rfsim.gen2.commands`.
+        reply_bits : int
+            Reply length the reader listens for (16 for an RN16, 128 for PC+EPC+CRC-16 with a
+            96-bit EPC).
+        expect_crc : bool
+            Whether the reader checks a CRC-16.
+
+        Returns
+        -------
+        rfsim.protocols.engine.Exchange
+            The exchange's record.
         """
         from rfsim.protocols.engine import run_exchange
 
@@ -134,10 +171,15 @@ class Simulation:
         return self._keep(i, [ex])[0]
 
     def table(self) -> dict[str, np.ndarray]:
-        """Every exchange so far, one row each (columns of :data:`EXCHANGE_FIELDS`).
+        """Return every exchange so far, one row each.
 
-        The measurements are NaN where the reader decoded nothing; ``pandas.DataFrame(
-        sim.table())`` is the same as a data frame.
+        The measurements are NaN where the reader decoded nothing; ``pandas.DataFrame(sim.table())``
+        gives the same as a data frame.
+
+        Returns
+        -------
+        dict of str to ndarray
+            The columns of :data:`EXCHANGE_FIELDS` (name → (n_exchanges,) array; antenna 1-based).
         """
         rows: dict[str, list] = {k: [] for k in EXCHANGE_FIELDS}
         for i, ex in zip(self._round_of, self.records):
@@ -155,7 +197,14 @@ class Simulation:
         return {k: np.asarray(v) for k, v in rows.items()}
 
     def to_dataset(self):
-        """The records as an :class:`rfsim.core.dataset.Dataset` with one table ``exchanges``."""
+        """Return the records as a dataset.
+
+        Returns
+        -------
+        rfsim.core.dataset.Dataset
+            One table ``exchanges`` (:meth:`table`, with the units of :data:`EXCHANGE_FIELDS`) and
+            the attribute ``rounds``.
+        """
         from rfsim.core.dataset import Dataset, column
 
         ds = Dataset(title="exchanges of a scripted simulation (rfsim.Simulation)", scenario="script")
@@ -166,7 +215,18 @@ class Simulation:
         return ds
 
     def save(self, path: str | Path) -> Path:
-        """Write :meth:`to_dataset` atomically to ``path`` with provenance (seed, versions)."""
+        """Write :meth:`to_dataset` atomically to an HDF5 file with provenance (seed, versions).
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The output file (the same format as ``rfsim run``).
+
+        Returns
+        -------
+        pathlib.Path
+            The path written.
+        """
         from rfsim.core.dataset import make_provenance, utc_now, write_dataset
 
         prov = make_provenance(config_toml="", seed=self.seed, scenario="script", start_time_utc=utc_now(),

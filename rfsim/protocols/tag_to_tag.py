@@ -27,19 +27,30 @@ class AlohaConfig:
 
 def aloha_schedule(rng: np.random.Generator, *, n_tags: int, duration_s: float, period_s: float,
                    n_slots: int) -> dict[str, np.ndarray]:
-    """Every broadcast of every reference tag in ``[0, duration_s]``, sorted by time (then tag).
+    r"""Every broadcast of every reference tag in ``[0, duration_s]``, sorted by time (then tag).
+
+    "All-tag-talk" slotted Aloha (Geng ch. 6; binary-detection.md §1.11, §2.4; seeds/004
+    L1068, L1084): in period p every tag picks slot s uniformly from ``n_slots`` and broadcasts
+    at the slot's end, :math:`t = p\,T_s + (s + 1)\,T_s/n_{slots}`.
 
     Parameters
     ----------
-    rng : one draw of ``n_tags`` slots per period (keyword-only arguments follow)
-    n_tags : number of reference tags
-    duration_s, period_s : time span and broadcast period T_s [s]
-    n_slots : Aloha slots per period
+    rng : numpy.random.Generator
+        One draw of ``n_tags`` slots per period.
+    n_tags : int
+        Number of reference tags.
+    duration_s : float
+        Time span [s].
+    period_s : float
+        Broadcast period T_s [s].
+    n_slots : int
+        Aloha slots per period.
 
     Returns
     -------
-    Columns ``period``, ``tag``, ``slot``, ``t_s`` (end of the slot [s], ≤ duration) and
-    ``n_in_slot`` (broadcasts sharing the slot; ≥ 2 is a collision).
+    dict of str to ndarray
+        Columns ``period``, ``tag``, ``slot``, ``t_s`` (end of the slot [s], ≤ duration) and
+        ``n_in_slot`` (broadcasts sharing the slot; ≥ 2 is a collision), one row per broadcast.
     """
     n_periods = int(np.ceil(duration_s / period_s))
     slot = rng.integers(0, n_slots, size=(n_periods, n_tags))

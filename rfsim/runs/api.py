@@ -36,6 +36,7 @@ import base64
 import copy
 import dataclasses
 import html
+import io
 import shutil
 import tempfile
 import time
@@ -49,14 +50,17 @@ import numpy as np
 from rfsim.channels import Scene
 from rfsim.core.config import from_dict, read_toml, to_dict, to_toml
 from rfsim.core.dataset import (Column, Dataset, long_name, make_provenance, read_dataset, read_provenance, utc_now,
-                                write_dataset)
+                                write_dataset, write_root_attrs)
 from rfsim.core.errors import ConfigError, UserError, check_seed, did_you_mean
+from rfsim.core.lazy import lazy_import
 from rfsim.core.outputs import check_output_file
 from rfsim.core.progress import Reporter, reporting
 from rfsim.runs.registry import get_scenario
 from rfsim.sweep.executors import PoolExecutor, SerialExecutor
 from rfsim.sweep.runner import run_sweep as run_spec
 from rfsim.sweep.spec import SweepSpec, load_spec, parse_spec
+
+h5py = lazy_import("h5py")
 
 #: The command line's default seed (``rfsim run --seed``), used when ``seed`` is None.
 DEFAULT_SEED = 1
@@ -180,6 +184,11 @@ def _xarray():
         raise UserError(f"Result.to_xarray needs xarray >= 2024.10 (DataTree), found {xarray.__version__}: "
                         f"pip install -U 'rfsim[{ANALYSIS_EXTRA}]'")
     return xarray
+
+
+def _decoded(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """HDF5 attributes as a dict, byte strings decoded (as :func:`~rfsim.core.dataset.read_provenance`)."""
+    return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in attrs.items()}
 
 
 def _var_attrs(col: Column, name: str) -> dict[str, str]:
@@ -332,18 +341,52 @@ class Result:
         ds.attrs["description"] = self.dataset.descriptions.get(name, "")
         return ds
 
-    def to_xarray(self):
-        """Every group of the dataset as one :class:`xarray.DataTree`.
+    def _root_attrs(self) -> dict[str, Any]:
+        """Return the root attributes of the dataset's HDF5 file.
 
-        The root node carries the file's root attributes (``title``, ``scenario`` and the
+        For a sweep these are the merged file's own root attributes. For a run they are
+        those :meth:`save` would write now: ``title``, ``scenario``, ``rfsim_version``,
+        ``Conventions``, ``source``, ``history`` and the scalar results, written by
+        :func:`~rfsim.core.dataset.write_root_attrs` into an in-memory HDF5 file and read
+        back, so that names, values and types are those of the saved file.
+
+        Returns
+        -------
+        dict of str to object
+            Attribute name to value, as h5py reads them (text as ``str``). The time
+            stamp that begins the last ``history`` line is the time of this call (the
+            saved file's is the time of :meth:`save`).
+        """
+        if self.path is not None:
+            with h5py.File(self.path, "r") as f:
+                return _decoded(f.attrs)
+        with h5py.File(io.BytesIO(), "w") as f:
+            write_root_attrs(f, self.dataset, self.provenance)
+            return _decoded(f.attrs)
+
+    def to_xarray(self):
+        """Return every group of the dataset as one :class:`xarray.DataTree`.
+
+        The root node carries the file's root attributes (``title``,
+        ``scenario``, ``rfsim_version``, ``Conventions``, ``source``, ``history`` and the
         scalar results); one child per table (dimension ``row``) and per grid (its named
         coordinates), each variable with ``units``, ``long_name`` and ``description``; a
         ``provenance`` child with the provenance attributes. Needs xarray >= 2024.10 (extra
         ``analysis``).
+
+        Returns
+        -------
+        xarray.DataTree
+            The tree named after the scenario.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            xarray is not installed or older than 2024.10 (one line naming the extra).
         """
         xr = _xarray()
         d = self.dataset
-        root = xr.Dataset(attrs={"title": d.title, "scenario": self.scenario, **d.attrs})
+        root = xr.Dataset(attrs=self._root_attrs())
         nodes = {"/": root}
         nodes.update({f"/{name}": self._table_xr(xr, name) for name in d.tables})
         nodes.update({f"/{name}": self._grid_xr(xr, name) for name in d.grids})

@@ -242,7 +242,7 @@ def reads_columns(rows: dict[str, np.ndarray]) -> dict:
 
     Returns
     -------
-    dict
+    dict of str to rfsim.core.dataset.Column
         The table's columns (:func:`rfsim.core.reads.reads_table`): the per-read schema,
         then the case, realization, period, landmark and the slot's context.
     """

@@ -63,7 +63,7 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class TrajectoryConfig:
-    """The tag's intended path and the jitter of the manual movement (each field's ``doc`` says what it is)."""
+    """The tag's intended path and the jitter of the manual movement (each field's ``doc``)."""
 
     corners_xy_m: tuple[tuple[float, float], ...] = param(
         ((1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)), lo=-1000.0, hi=1000.0, unit="m",

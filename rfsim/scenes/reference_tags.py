@@ -189,9 +189,9 @@ def decode_rows(config: ReferenceTagsConfig, x, frames, senders, threshold_v: fl
 
 def calibrate_threshold(config: ReferenceTagsConfig, exciter_xyz, tags_xy, range_m: float,
                         rng: np.random.Generator) -> tuple[float, float, float]:
-    """Calibrate the listener threshold: the tag at the median exciter distance decodes at ``range_m`` half of the time.
+    """Calibrate the listener threshold at which a tag is decoded at ``range_m`` half of the time.
 
-    Bisection in log V over [1e-7, 1] V, 14 steps, on ``config.calibration_positions``
+    The tag is the one at the median exciter distance. Bisection in log V over [1e-7, 1] V, 14 steps, on ``config.calibration_positions``
     listener positions at distance r (uniform azimuth) around each tag (module docstring).
 
     Parameters

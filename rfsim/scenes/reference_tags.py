@@ -191,8 +191,9 @@ def calibrate_threshold(config: ReferenceTagsConfig, exciter_xyz, tags_xy, range
                         rng: np.random.Generator) -> tuple[float, float, float]:
     """Calibrate the listener threshold at which a tag is decoded at ``range_m`` half of the time.
 
-    The tag is the one at the median exciter distance. Bisection in log V over [1e-7, 1] V, 14 steps, on ``config.calibration_positions``
-    listener positions at distance r (uniform azimuth) around each tag (module docstring).
+    The tag is the one at the median exciter distance. Bisection in log V over [1e-7, 1] V,
+    14 steps, on ``config.calibration_positions`` listener positions at distance r (uniform
+    azimuth) around each tag (module docstring).
 
     Parameters
     ----------

@@ -36,6 +36,7 @@ import base64
 import copy
 import dataclasses
 import html
+import io
 import shutil
 import tempfile
 import time
@@ -49,14 +50,17 @@ import numpy as np
 from rfsim.channels import Scene
 from rfsim.core.config import from_dict, read_toml, to_dict, to_toml
 from rfsim.core.dataset import (Column, Dataset, long_name, make_provenance, read_dataset, read_provenance, utc_now,
-                                write_dataset)
+                                write_dataset, write_root_attrs)
 from rfsim.core.errors import ConfigError, UserError, check_seed, did_you_mean
+from rfsim.core.lazy import lazy_import
 from rfsim.core.outputs import check_output_file
 from rfsim.core.progress import Reporter, reporting
 from rfsim.runs.registry import get_scenario
 from rfsim.sweep.executors import PoolExecutor, SerialExecutor
 from rfsim.sweep.runner import run_sweep as run_spec
 from rfsim.sweep.spec import SweepSpec, load_spec, parse_spec
+
+h5py = lazy_import("h5py")
 
 #: The command line's default seed (``rfsim run --seed``), used when ``seed`` is None.
 DEFAULT_SEED = 1
@@ -89,18 +93,32 @@ def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
 
 
 def resolve_config(module: ModuleType, config: Any = None, overrides: Mapping[str, Any] | None = None) -> Any:
-    """The validated ``module.Config`` of ``config`` with ``overrides`` applied.
+    """Return the validated ``module.Config`` of ``config`` with ``overrides`` applied.
 
     Parameters
     ----------
-    module : the scenario module
-    config : None (the defaults), an instance of ``module.Config``, a mapping (nested
-        tables and/or dotted keys) or the path of a TOML file (as ``rfsim run --config``)
-    overrides : dotted key → value (as ``rfsim run --set key=value``; a mapping value sets the
-        keys of that table)
+    module : module
+        The scenario module (or a scene file's module, whose config is the file itself:
+        then ``config`` must be None or its ``Config`` and ``overrides`` act as ``--set``).
+    config : object, optional
+        None (the defaults), an instance of ``module.Config``, a mapping (nested tables
+        and/or dotted keys) or the path of a TOML file (as ``rfsim run --config``).
+    overrides : mapping of str to object, optional
+        Dotted key → value (as ``rfsim run --set key=value``; a mapping value sets the keys
+        of that table).
 
-    A wrong key, type or value raises a one-line :class:`~rfsim.core.errors.ConfigError`
-    naming the dotted key, the same checks as the command line's.
+    Returns
+    -------
+    object
+        The scenario's ``Config`` instance.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        A wrong key, type or value: one line naming the dotted key, the same checks as the
+        command line's.
+    rfsim.core.errors.UserError
+        ``config`` of an unsupported type, or a malformed dotted key.
     """
     if hasattr(module, "scene_config"):  # a scene file is its own config; overrides as --set
         if config is not None and not isinstance(config, module.Config):
@@ -154,6 +172,24 @@ class NotebookReporter(Reporter):
     Jupyter notebook (and the reporter's own terminal or log bars elsewhere)."""
 
     def bar(self, total: int | None, *, desc: str, unit: str, initial: int = 0):  # noqa: D102
+        """Return a progress bar: a ``tqdm.auto`` widget in Jupyter, else the reporter's own.
+
+        Parameters
+        ----------
+        total : int or None
+            Number of steps (None: unknown).
+        desc : str
+            Label shown before the bar.
+        unit : str
+            Name of one step (e.g. ``"round"``).
+        initial : int, optional
+            Steps already done, default 0.
+
+        Returns
+        -------
+        object
+            A tqdm-like bar (``update``, ``close``); a quiet reporter's is silent.
+        """
         widget = None if self.quiet else _notebook_tqdm()
         if widget is None:
             return super().bar(total, desc=desc, unit=unit, initial=initial)
@@ -182,6 +218,11 @@ def _xarray():
     return xarray
 
 
+def _decoded(attrs: Mapping[str, Any]) -> dict[str, Any]:
+    """HDF5 attributes as a dict, byte strings decoded (as :func:`~rfsim.core.dataset.read_provenance`)."""
+    return {k: (v.decode() if isinstance(v, bytes) else v) for k, v in attrs.items()}
+
+
 def _var_attrs(col: Column, name: str) -> dict[str, str]:
     """CF attributes of a column (as in the file: units, long_name, description)."""
     return {"units": col.units, "long_name": long_name(col.description) or name, "description": col.description}
@@ -194,8 +235,15 @@ def _var_attrs(col: Column, name: str) -> dict[str, str]:
 class FigureImage:
     """One figure of a scenario as a PNG image (shown inline by Jupyter).
 
-    ``name`` is the figure's file stem, ``png`` its bytes, ``path`` the file it was written
-    to (None when drawn into a temporary folder)."""
+    Attributes
+    ----------
+    name : str
+        The figure's file stem.
+    png : bytes
+        The PNG file's bytes.
+    path : pathlib.Path or None
+        The file it was written to (None when drawn into a temporary folder).
+    """
 
     name: str
     png: bytes
@@ -205,7 +253,18 @@ class FigureImage:
         return self.png
 
     def save(self, path: str | Path) -> Path:
-        """Write the PNG to ``path``; returns it."""
+        """Write the PNG to ``path``.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The file to write (overwritten if it exists).
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         path = Path(path)
         path.write_bytes(self.png)
         return path
@@ -235,17 +294,50 @@ class Figures(tuple):
 class Result:
     """A scenario's dataset (in memory, or a file for a sweep) with its run's metadata.
 
+    Parameters
+    ----------
+    module : module
+        The scenario module.
+    dataset : rfsim.core.dataset.Dataset, optional
+        The dataset in memory (a run's).
+    path : pathlib.Path, optional
+        The dataset file (a sweep's merged file), read on first use. One of ``dataset``
+        and ``path`` is needed.
+    config : object, optional
+        The resolved config.
+    seed : int, optional
+        The root seed.
+    provenance : mapping, optional
+        The provenance attributes; None reads them from ``path``.
+    wall_time_s : float, optional
+        Wall time of the run [s], default NaN.
+    figures_drawable : bool, optional
+        Whether the scenario's figures can be drawn from this dataset (False for a sweep),
+        default True.
+
     Attributes
     ----------
-    scenario : the scenario's name
-    module : the scenario module
-    config : the resolved config (None for a sweep: its points have their own)
-    seed : the root seed
-    provenance : how the dataset was made (as the file's ``/provenance`` attributes;
-        ``end_time_utc`` is stamped when the dataset is saved)
-    path : the sweep's merged file; None for a run (its dataset is in memory; :meth:`save`
-        writes a copy and leaves the result as it is)
-    wall_time_s : wall time of the run [s]
+    scenario : str
+        The scenario's name.
+    module : module
+        The scenario module.
+    config : object
+        The resolved config (None for a sweep: its points have their own).
+    seed : int
+        The root seed.
+    provenance : dict
+        How the dataset was made (as the file's ``/provenance`` attributes;
+        ``end_time_utc`` is stamped when the dataset is saved).
+    path : pathlib.Path or None
+        The sweep's merged file; None for a run (its dataset is in memory; :meth:`save`
+        writes a copy and leaves the result as it is).
+    wall_time_s : float
+        Wall time of the run [s].
+
+    Raises
+    ------
+    ValueError
+        Neither ``dataset`` nor ``path`` is given.
     """
 
     def __init__(self, *, module: ModuleType, dataset: Dataset | None = None, path: Path | None = None,
@@ -292,12 +384,25 @@ class Result:
                          f"its {kind}s: {', '.join(names) or 'none'}")
 
     def table(self, name: str):
-        """Table ``name`` as a pandas DataFrame, one column per field.
+        """Return table ``name`` as a pandas DataFrame, one column per field.
 
-        ``frame.attrs`` holds ``units`` (column → unit, e.g. ``"dBm"``; ``"1"`` for counts),
-        ``descriptions`` (column → what it is), ``description`` (what one row is) and
-        ``name``. Booleans stay bool, text columns are ``str``. Needs pandas (extra
-        ``analysis``).
+        Parameters
+        ----------
+        name : str
+            The table's name (one of :attr:`tables`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per table row. ``frame.attrs`` holds ``units`` (column → unit, e.g.
+            ``"dBm"``; ``"1"`` for counts), ``descriptions`` (column → what it is),
+            ``description`` (what one row is) and ``name``. Booleans stay bool, text
+            columns are ``str``.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            No such table, or pandas is not installed (extra ``analysis``).
         """
         if name not in self.dataset.tables:
             raise self._group_error(name, "table")
@@ -310,8 +415,24 @@ class Result:
         return frame
 
     def grid(self, name: str):
-        """Grid ``name`` as an :class:`xarray.Dataset` (coordinates and variables with their
-        ``units``, ``long_name`` and ``description`` attributes). Needs xarray."""
+        """Return grid ``name`` as an :class:`xarray.Dataset`.
+
+        Parameters
+        ----------
+        name : str
+            The grid's name (one of :attr:`grids`).
+
+        Returns
+        -------
+        xarray.Dataset
+            Coordinates and variables with their ``units``, ``long_name`` and
+            ``description`` attributes; the grid's description in ``attrs``.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            No such grid, or xarray (>= 2024.10) is not installed (extra ``analysis``).
+        """
         if name not in self.dataset.grids:
             raise self._group_error(name, "grid")
         return self._grid_xr(_xarray(), name)
@@ -332,18 +453,52 @@ class Result:
         ds.attrs["description"] = self.dataset.descriptions.get(name, "")
         return ds
 
-    def to_xarray(self):
-        """Every group of the dataset as one :class:`xarray.DataTree`.
+    def _root_attrs(self) -> dict[str, Any]:
+        """Return the root attributes of the dataset's HDF5 file.
 
-        The root node carries the file's root attributes (``title``, ``scenario`` and the
+        For a sweep these are the merged file's own root attributes. For a run they are
+        those :meth:`save` would write now: ``title``, ``scenario``, ``rfsim_version``,
+        ``Conventions``, ``source``, ``history`` and the scalar results, written by
+        :func:`~rfsim.core.dataset.write_root_attrs` into an in-memory HDF5 file and read
+        back, so that names, values and types are those of the saved file.
+
+        Returns
+        -------
+        dict of str to object
+            Attribute name to value, as h5py reads them (text as ``str``). The time
+            stamp that begins the last ``history`` line is the time of this call (the
+            saved file's is the time of :meth:`save`).
+        """
+        if self.path is not None:
+            with h5py.File(self.path, "r") as f:
+                return _decoded(f.attrs)
+        with h5py.File(io.BytesIO(), "w") as f:
+            write_root_attrs(f, self.dataset, self.provenance)
+            return _decoded(f.attrs)
+
+    def to_xarray(self):
+        """Return every group of the dataset as one :class:`xarray.DataTree`.
+
+        The root node carries the file's root attributes (``title``,
+        ``scenario``, ``rfsim_version``, ``Conventions``, ``source``, ``history`` and the
         scalar results); one child per table (dimension ``row``) and per grid (its named
         coordinates), each variable with ``units``, ``long_name`` and ``description``; a
         ``provenance`` child with the provenance attributes. Needs xarray >= 2024.10 (extra
         ``analysis``).
+
+        Returns
+        -------
+        xarray.DataTree
+            The tree named after the scenario.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            xarray is not installed or older than 2024.10 (one line naming the extra).
         """
         xr = _xarray()
         d = self.dataset
-        root = xr.Dataset(attrs={"title": d.title, "scenario": self.scenario, **d.attrs})
+        root = xr.Dataset(attrs=self._root_attrs())
         nodes = {"/": root}
         nodes.update({f"/{name}": self._table_xr(xr, name) for name in d.tables})
         nodes.update({f"/{name}": self._grid_xr(xr, name) for name in d.grids})
@@ -351,9 +506,26 @@ class Result:
         return xr.DataTree.from_dict(nodes, name=self.scenario)
 
     def save(self, path: str | Path) -> Path:
-        """Write the dataset to the HDF5 file ``path`` (atomically; the format of
-        ``rfsim run``, with the run's provenance); returns the path. For a sweep result the merged
-        file is copied."""
+        """Write the dataset to the HDF5 file ``path``.
+
+        The file is written atomically in the format of ``rfsim run``, with the run's
+        provenance. For a sweep result the merged file is copied.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The output file (suffix ``.h5`` or ``.hdf5``).
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            ``path`` is not a usable output file (suffix, folder).
+        """
         path = Path(path)
         check_output_file(path, "dataset", suffixes=(".h5", ".hdf5"))
         if self._dataset is None:  # a sweep's merged file: copy it whole
@@ -366,12 +538,24 @@ class Result:
         """Draw the scenario's figures (those of ``rfsim run``) and return them as PNG images.
 
         The scenarios draw their figures from a dataset file, so the dataset is written to a
-        temporary file first (or the result's own file is used). With ``folder`` the PNG
-        files are written there (``<scenario>-<figure>.png``, or after the saved file's
-        stem) and kept; without it they are drawn into a temporary folder that is removed,
-        and only the images are kept. In a notebook the returned :class:`Figures` shows
-        every image inline. A sweep's merged file has no scenario figures (one-line
-        :class:`~rfsim.core.errors.UserError`).
+        temporary file first (or the result's own file is used).
+
+        Parameters
+        ----------
+        folder : str or pathlib.Path, optional
+            Where to write and keep the PNG files (``<scenario>-<figure>.png``, or after the
+            saved file's stem). None draws them into a temporary folder that is removed, and
+            only the images are kept.
+
+        Returns
+        -------
+        Figures
+            One :class:`FigureImage` per figure; a notebook shows every image inline.
+
+        Raises
+        ------
+        rfsim.core.errors.UserError
+            The result is a sweep's merged file (it has no scenario figures).
         """
         if not self._figures_drawable:
             raise UserError(f"a sweep's merged dataset has no {self.scenario} figures; "
@@ -394,14 +578,20 @@ def run(scenario: str | Path, *, seed: int | None = None, config: Any = None, pr
 
     Parameters
     ----------
-    scenario : a scenario name (``rfsim list``: built-in or plug-in) or the path of a
-        scenario file (``"my_scenario.py"``)
-    seed : root seed in [0, 2**64); None gives the command line's default, 1
-    config : None (defaults), the scenario's ``Config``, a mapping or a TOML file path
-    progress : show stages and progress bars on stderr (``tqdm.auto`` widgets in Jupyter)
-    **overrides : config values by dotted key, as ``rfsim run --set``:
+    scenario : str or pathlib.Path
+        A scenario name (``rfsim list``: built-in or plug-in) or the path of a scenario
+        file (``"my_scenario.py"``) or scene file (``.toml``).
+    seed : int, optional
+        Root seed in [0, 2**64); None gives the command line's default, 1.
+    config : object, optional
+        None (defaults), the scenario's ``Config``, a mapping or a TOML file path.
+    progress : bool, optional
+        Show stages and progress bars on stderr (``tqdm.auto`` widgets in Jupyter),
+        default True.
+    **overrides
+        Config values by dotted key, as ``rfsim run --set``:
         ``rfsim.run("link", **{"reader.ptx_dbm": 30})``, or by table:
-        ``rfsim.run("link", reader={"ptx_dbm": 30})``
+        ``rfsim.run("link", reader={"ptx_dbm": 30})``.
 
     Returns
     -------
@@ -453,17 +643,30 @@ def run_sweep(spec: Any, *, executor: Any = None, resume: bool = False, progress
 
     Parameters
     ----------
-    spec : the path of a sweep spec TOML file, its content as a mapping or a
+    spec : str, pathlib.Path, mapping or rfsim.sweep.spec.SweepSpec
+        The path of a sweep spec TOML file, its content as a mapping or a
         :class:`~rfsim.sweep.spec.SweepSpec` (:mod:`rfsim.sweep.spec`; the scenario may be a
-        scenario file's path)
-    executor : None or ``"pool"`` (a process pool over the available cores, as
-        ``rfsim sweep``), ``"serial"`` (this process), a number of worker processes, or an executor
-        object (:class:`rfsim.sweep.DaskExecutor`, ...)
-    resume : reuse the runs already in the sweep's point store (``rfsim sweep --resume``)
-    progress : show a progress bar (a ``tqdm.auto`` widget in Jupyter)
+        scenario file's path).
+    executor : None, str, int or executor, optional
+        None or ``"pool"`` (a process pool over the available cores, as ``rfsim sweep``),
+        ``"serial"`` (this process), a number of worker processes, or an executor object
+        (:class:`rfsim.sweep.DaskExecutor`, ...).
+    resume : bool, optional
+        Reuse the runs already in the sweep's point store (``rfsim sweep --resume``),
+        default False.
+    progress : bool, optional
+        Show a progress bar (a ``tqdm.auto`` widget in Jupyter), default True.
 
-    The merged file is the spec's ``output`` (written, as by ``rfsim sweep``); the result
-    reads it on first use. Errors are one-line :class:`~rfsim.core.errors.UserError`.
+    Returns
+    -------
+    Result
+        The merged dataset: the spec's ``output`` file (written, as by ``rfsim sweep``),
+        read on first use; no config (each point has its own) and no figures.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        A bad spec, scenario or executor (one line).
     """
     if isinstance(spec, (str, Path)):
         spec = load_spec(spec)

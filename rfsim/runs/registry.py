@@ -48,9 +48,21 @@ SCENE_SUFFIX = ".toml"
 
 
 def file_module_name(path: str | Path) -> str:
-    """The module name a scenario file is imported under: :data:`FILE_MODULE_PREFIX` + the
-    hex of its absolute path (UTF-8), the same in every process and for every spelling of
-    the path."""
+    """Return the module name a scenario file is imported under.
+
+    The name is :data:`FILE_MODULE_PREFIX` + the hex of the file's absolute path (UTF-8),
+    the same in every process and for every spelling of the path.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scenario file (relative paths are resolved against the working folder).
+
+    Returns
+    -------
+    str
+        The module name.
+    """
     return FILE_MODULE_PREFIX + str(Path(path).resolve()).encode("utf-8").hex()
 
 
@@ -87,14 +99,42 @@ def _missing(module: ModuleType) -> list[str]:
 
 
 def is_scenario_file(name: str) -> bool:
-    """Whether ``name`` names a scenario file (ends in ``.py``) rather than a scenario."""
+    """Tell whether ``name`` names a scenario file (ends in ``.py``) rather than a scenario.
+
+    Parameters
+    ----------
+    name : str
+        A scenario name or a file name.
+
+    Returns
+    -------
+    bool
+        True when ``name`` ends in one of :data:`FILE_SUFFIXES`.
+    """
     return name.endswith(FILE_SUFFIXES)
 
 
 def scenario_from_file(path: str | Path) -> ModuleType:
-    """Import the scenario file ``path`` (see the module docstring); a missing file, a file
-    that is not Python or lacks the scenario contract is a one-line user error. Importing
-    the same file again returns the module already imported."""
+    """Import the scenario file ``path`` (see the module docstring).
+
+    Importing the same file again returns the module already imported.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scenario file (``.py``).
+
+    Returns
+    -------
+    module
+        The imported scenario module, named :func:`file_module_name` of ``path``.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        A missing file, a file that is not Python, does not import (syntax or import
+        error) or lacks the scenario contract (one line).
+    """
     p = Path(path)
     if not p.is_file():
         raise UserError(f"scenario file {str(p)!r}: no such file")
@@ -118,9 +158,24 @@ def scenario_from_file(path: str | Path) -> ModuleType:
 
 
 def scene_from_file(path: str | Path) -> ModuleType:
-    """The scenario of the scene file ``path`` (:func:`rfsim.scenes.scene_file.scenario_module`);
-    a missing file or a TOML file without ``[[reader]]`` (e.g. a scenario's ``-c`` config) is a
-    one-line user error."""
+    """Return the scenario of the scene file ``path``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file (TOML with ``[[reader]]`` tables at its top level).
+
+    Returns
+    -------
+    module
+        The scene's scenario module (:func:`rfsim.scenes.scene_file.scenario_module`).
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        A missing file or a TOML file without ``[[reader]]`` (e.g. a scenario's ``-c``
+        config), one line.
+    """
     p = Path(path)
     if not p.is_file():
         raise UserError(f"scene file {str(p)!r}: no such file")
@@ -157,8 +212,25 @@ def _plugin_module(ep) -> ModuleType:
 
 
 def plugin_modules(*, skip: tuple[str, ...] = ()) -> dict[str, ModuleType]:
-    """Map scenario name → module of the installed plug-ins (entry point group
-    :data:`ENTRY_POINT_GROUP`), without the names in ``skip`` (the built-ins)."""
+    """Return the installed plug-in scenarios (entry point group :data:`ENTRY_POINT_GROUP`).
+
+    Parameters
+    ----------
+    skip : tuple of str, optional
+        Scenario names to leave out (the built-ins), default none.
+
+    Returns
+    -------
+    dict of str to module
+        Scenario name → module, in the entry points' name order; the first entry point of
+        a name wins.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        A plug-in that does not import, does not name a module or lacks the scenario
+        contract (one line naming the entry point and its distribution).
+    """
     found: dict[str, ModuleType] = {}
     for ep in _entry_points():
         module = _plugin_module(ep)
@@ -168,7 +240,13 @@ def plugin_modules(*, skip: tuple[str, ...] = ()) -> dict[str, ModuleType]:
 
 
 def builtin_modules() -> dict[str, ModuleType]:
-    """Map built-in scenario name → module, in alphabetical order of names."""
+    """Return the built-in scenarios (modules of ``rfsim.scenarios`` with the contract).
+
+    Returns
+    -------
+    dict of str to module
+        Scenario name → module, in alphabetical order of names.
+    """
     package = importlib.import_module("rfsim.scenarios")
     found: dict[str, ModuleType] = {}
     for info in pkgutil.iter_modules(package.__path__):
@@ -181,8 +259,15 @@ def builtin_modules() -> dict[str, ModuleType]:
 
 
 def scenario_modules() -> dict[str, ModuleType]:
-    """Map scenario name → module, built-ins and installed plug-ins, in alphabetical order
-    of names."""
+    """Return every scenario: the built-ins and the installed plug-ins.
+
+    A plug-in whose name is a built-in's is left out (the built-in wins).
+
+    Returns
+    -------
+    dict of str to module
+        Scenario name → module, in alphabetical order of names.
+    """
     found = builtin_modules()
     found.update(plugin_modules(skip=tuple(found)))
     return dict(sorted(found.items()))
@@ -225,10 +310,17 @@ def _literal_metadata(path: Path) -> tuple[str, str] | None:
 
 
 def scenario_descriptions() -> dict[str, str]:
-    """Map scenario name → one-line description, in alphabetical order of names, without
-    importing the scenarios' physics: ``NAME`` and ``DESCRIPTION`` are read from each
-    module's source (:func:`_literal_metadata`); a module whose metadata is not written as
-    string literals is imported instead."""
+    """Return every scenario's one-line description, without importing the scenarios' physics.
+
+    ``NAME`` and ``DESCRIPTION`` are read from each built-in or plug-in module's source
+    (:func:`_literal_metadata`); a module whose metadata is not written as string literals
+    is imported instead.
+
+    Returns
+    -------
+    dict of str to str
+        Scenario name → description, in alphabetical order of names.
+    """
     spec = importlib.util.find_spec("rfsim.scenarios")
     found: dict[str, str] = {}
     for info in pkgutil.iter_modules(spec.submodule_search_locations):
@@ -260,12 +352,29 @@ def scenario_descriptions() -> dict[str, str]:
 
 
 def get_scenario(name: str | Path) -> ModuleType:
-    """The scenario module called ``name``, or of the scenario file ``name`` (a path ending
-    in ``.py``, :func:`scenario_from_file`); unknown names are a one-line user error.
+    """Return the scenario module called ``name``, or of the scenario or scene file ``name``.
 
     Tries the built-in module named after the scenario first (``gen2-waveforms`` →
     ``rfsim.scenarios.gen2_waveforms``), so one scenario's imports are paid, not all of them;
     then every built-in and plug-in scenario.
+
+    Parameters
+    ----------
+    name : str or pathlib.Path
+        A scenario name, the path of a scenario file (ending in ``.py``,
+        :func:`scenario_from_file`; any :class:`~pathlib.Path` that is not a scene file) or
+        of a scene file (ending in ``.toml``, :func:`scene_from_file`).
+
+    Returns
+    -------
+    module
+        The scenario module.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        An unknown name (one line with the closest names and the available ones), or a
+        bad scenario or scene file.
     """
     if str(name).endswith(SCENE_SUFFIX):
         return scene_from_file(name)
@@ -288,11 +397,27 @@ def get_scenario(name: str | Path) -> ModuleType:
 
 
 def load_scenario(module_name: str) -> ModuleType:
-    """The scenario module of the importable name ``module_name`` (a built-in scenario's
-    ``rfsim.scenarios.<name>``, a plug-in's module, a scenario file's
-    :func:`file_module_name`, or any module with the scenario contract: ``NAME``,
-    ``DESCRIPTION``, ``Config``, ``run``, ``plot``), e.g. in a sweep worker that received the
-    name of its scenario's module. A module without the contract is a one-line user error."""
+    """Return the scenario module of the importable name ``module_name``.
+
+    Used e.g. in a sweep worker that received the name of its scenario's module.
+
+    Parameters
+    ----------
+    module_name : str
+        A built-in scenario's ``rfsim.scenarios.<name>``, a plug-in's module, a scenario
+        file's :func:`file_module_name`, or any module with the scenario contract (``NAME``,
+        ``DESCRIPTION``, ``Config``, ``run``, ``plot``).
+
+    Returns
+    -------
+    module
+        The scenario module.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        The module lacks the scenario contract (one line).
+    """
     file = _file_of_module_name(module_name)
     if file is not None:
         return scenario_from_file(file)

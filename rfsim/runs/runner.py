@@ -30,7 +30,17 @@ from rfsim.runs.sizes import estimate_of
 
 @dataclasses.dataclass(frozen=True)
 class RunOutput:
-    """What a run wrote: the dataset file, the figures and the wall time [s]."""
+    """What a run wrote: the dataset file, the figures and the wall time.
+
+    Attributes
+    ----------
+    dataset_path : pathlib.Path
+        The HDF5 dataset file.
+    figure_paths : tuple of pathlib.Path
+        The figure files (empty without figures).
+    wall_time_s : float
+        Wall time of the whole run, figures included [s].
+    """
 
     dataset_path: Path
     figure_paths: tuple[Path, ...]
@@ -43,10 +53,42 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     """Run ``module`` with ``config`` and ``seed``; write ``<out_dir>/<name>.h5`` + figures.
 
     The dataset path and the figure folder are checked (and missing folders created)
-    before the simulation starts; a path that cannot be written is a one-line
-    :class:`~rfsim.core.errors.UserError` then, not a lost result afterwards. So is a run
-    whose estimated peak memory (:func:`rfsim.runs.sizes.estimate_of`) exceeds
-    ``max_memory_bytes`` (``"default"``: half the available memory; None: no check).
+    before the simulation starts, so a path that cannot be written is an error then, not
+    a lost result afterwards. The simulation and the dataset file are made in a child
+    process; the figures are drawn here from the file.
+
+    Parameters
+    ----------
+    module : module
+        The scenario module (``NAME``, ``run``, ``plot``).
+    config : object
+        The scenario's resolved ``Config``.
+    seed : int
+        Root seed in [0, 2**64).
+    out_dir : pathlib.Path
+        Folder of the figures, and of the dataset when ``output`` is None.
+    output : pathlib.Path, optional
+        The dataset file (``.h5`` or ``.hdf5``); None writes ``<out_dir>/<NAME>.h5``.
+    make_plots : bool, optional
+        Draw the scenario's figures, default True.
+    max_memory_bytes : int, None or "default", optional
+        Refuse a run whose estimated peak memory (:func:`rfsim.runs.sizes.estimate_of`)
+        exceeds it [bytes]; ``"default"`` (the default): half the available memory; None:
+        no check.
+
+    Returns
+    -------
+    RunOutput
+        The dataset path, the figure paths and the wall time.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        A bad seed, an estimated memory over ``max_memory_bytes``, an output path or
+        folder that cannot be written, or a figure that could not be saved (the dataset is
+        then written); one line.
+    rfsim.core.errors.ResourceError
+        The system stopped the run (e.g. the disk filled up).
     """
     start_utc, t0 = utc_now(), time.perf_counter()
     check_seed(seed)

@@ -79,7 +79,23 @@ class WaveformConfig:
 
 @dataclass
 class WaveformStats:
-    """Counts over a case: beacons due, sent, dropped by LBT, collided; frames decoded; air steps."""
+    """Counts over a case: beacons due, dropped by LBT, collided; frames decoded; air steps.
+
+    Attributes
+    ----------
+    due : int
+        Beacons due (every tag, trial and epoch).
+    dropped : int
+        Beacons dropped by listen-before-talk.
+    collided : int
+        Beacons that overlapped another tag's beacon.
+    decoded : int
+        Frames with a valid CRC, summed over the readers.
+    reported : int
+        Decoded frames of the right epoch reported above the reader floor.
+    air_steps : int
+        Air-interface steps run (reception clusters and carrier sensing).
+    """
 
     due: int = 0
     dropped: int = 0
@@ -89,7 +105,13 @@ class WaveformStats:
     air_steps: int = 0
 
     def row(self) -> dict:
-        """The counts as one table row (columns of :data:`WAVEFORM_UNITS`)."""
+        """Return the counts as one table row.
+
+        Returns
+        -------
+        dict of str to int
+            Column name (those of :data:`WAVEFORM_UNITS`) → count.
+        """
         return dict(beacons_due=self.due, lbt_dropped=self.dropped, collided=self.collided, decoded=self.decoded,
                     reported=self.reported, air_steps=self.air_steps)
 
@@ -107,22 +129,42 @@ WAVEFORM_UNITS = {
 
 def sample_level_reports(wf: WaveformConfig, plan, channel, data, *, waf_db: float, case: int, seed: int,
                          report: _rss_reader.RssReport):
-    """Beacons sent at sample level (module docstring).
+    r"""Send the beacons of one case at sample level and return the readers' reports.
+
+    Each tag → reader link is a log-distance model whose reference loss makes the channel's
+    LoS power equal the drawn large-scale power
+    :math:`P_{r,j} = \alpha_j - 10 n_j \log_{10} d_j - n_W \mathrm{WAF} + X_j + P_j`
+    (:mod:`rfsim.channels.rss`; module docstring).
 
     Parameters
     ----------
-    wf : the sample-level settings
-    plan : :class:`rfsim.scenes.rss_rooms.FloorPlan` (readers, walls, reference tags, heights)
-    channel : its :class:`rfsim.channels.rss.RssChannel` (per-reader α_j, n_j)
-    data : :class:`rfsim.scenes.rss_rooms.CaseData` of the case (truth and drawn powers)
-    waf_db : wall attenuation per crossing [dB]; case, seed : the random streams (module docstring)
-    report : the readers' RSSI report (quantization, floor)
+    wf : WaveformConfig
+        The sample-level settings.
+    plan : rfsim.scenes.rss_rooms.FloorPlan
+        Readers, walls, reference tags and heights.
+    channel : rfsim.channels.rss.RssChannel
+        The plan's channel (per-reader :math:`\alpha_j`, :math:`n_j`).
+    data : rfsim.scenes.rss_rooms.CaseData
+        The case's truth and drawn powers (B trials, T epochs, J readers, I reference tags).
+    waf_db : float
+        Wall attenuation per crossing [dB].
+    case : int
+        Index of the case (a key of the random streams).
+    seed : int
+        Root seed; trial b uses ``trial_rng(seed, case, 2, b)``.
+    report : rfsim.devices.rss_reader.RssReport
+        The readers' RSSI report (quantization, floor).
 
     Returns
     -------
-    Reported RSSI of the target (B, T, J) and of the reference tags (B, T, J, I) [dBm], the
-    beacons' start times [s] (B, T, 1 + I; NaN when listen-before-talk dropped one) and the
-    case's :class:`WaveformStats`.
+    rss_dbm : ndarray, shape (B, T, J)
+        Reported RSSI of the target [dBm]; NaN for a lost beacon.
+    ref_rss_dbm : ndarray, shape (B, T, J, I)
+        Reported RSSI of the reference tags [dBm]; NaN for a lost beacon.
+    starts_s : ndarray, shape (B, T, 1 + I)
+        The beacons' start times [s] (target first); NaN when listen-before-talk dropped one.
+    stats : WaveformStats
+        The case's counts.
     """
     b_n, t_n, j_n = data.rss_dbm.shape
     ref = plan.reference_xy

@@ -47,7 +47,15 @@ NAMED_LAYOUTS = {
 
 @dataclass(frozen=True)
 class AisleConfig:
-    """The aisle: reference tags on the shelf faces, the shelves, the exciter."""
+    """The aisle: reference tags on the shelf faces, the shelves, the exciter.
+
+    A named ``tag_layout`` replaces ``tags_xy_m`` by its :data:`NAMED_LAYOUTS` entry.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        A named ``tag_layout`` together with custom ``tags_xy_m``.
+    """
 
     tags_xy_m: tuple[tuple[float, float], ...] = param(
         DEFAULT_TAGS_XY_M, unit="m", doc="reference-tag positions (x, y); default 5 per shelf face at y = ±1 m")
@@ -95,22 +103,43 @@ class MotionConfig:
 
 def simulate_motion(rng: np.random.Generator, *, duration_s: float, dt_s: float, start_xy_m, speed_range_mps,
                     accel_var: float, y_limit_m: float, velocity_xy_mps=None) -> tuple[np.ndarray, np.ndarray]:
-    """One trajectory of (6.1) on the grid ``t = 0, dt, …, duration`` (module docstring).
+    r"""Draw one trajectory of (6.1) on the grid ``t = 0, dt, …, duration`` (module docstring).
+
+    The constant-velocity model with piecewise-constant acceleration (Geng ch. 6, eq. 6.1):
+
+    .. math::
+
+        p_{k+1} = p_k + \Delta t\, v_k + \tfrac{1}{2} \Delta t^2 u_k, \qquad
+        v_{k+1} = v_k + \Delta t\, u_k, \qquad u_k \sim \mathcal{N}(0, q I_2),
+
+    with y reflected (and ẏ reversed) at ± ``y_limit_m``.
 
     Parameters
     ----------
-    rng : the initial speed (one uniform draw), then (n − 1, 2) standard normals of u
-    duration_s, dt_s : time span and grid step [s]
-    start_xy_m : (x, y) where the tag enters [m]
-    speed_range_mps : (v_min, v_max) of the initial speed along +x [m/s]
-    accel_var : q [m²/s⁴]
-    y_limit_m : |y| at which the tag is reflected [m]
-    velocity_xy_mps : (vx, vy) initial velocity [m/s] replacing the drawn speed (the draw is still
-        made, so the noise u is the same), or None
+    rng : numpy.random.Generator
+        Draws the initial speed (one uniform draw), then (n − 1, 2) standard normals of u.
+    duration_s : float
+        Time span [s].
+    dt_s : float
+        Grid step [s].
+    start_xy_m : sequence of float, length 2
+        (x, y) where the tag enters [m].
+    speed_range_mps : sequence of float, length 2
+        (v_min, v_max) of the initial speed along +x [m/s].
+    accel_var : float
+        q [m²/s⁴].
+    y_limit_m : float
+        |y| at which the tag is reflected [m].
+    velocity_xy_mps : sequence of float, length 2, optional
+        (vx, vy) initial velocity [m/s] replacing the drawn speed (the draw is still made, so
+        the noise u is the same); None (default) keeps the drawn speed along +x.
 
     Returns
     -------
-    t : (n,) [s]; state : (n, 4) ``[x, ẋ, y, ẏ]`` [m, m/s]
+    t_s : ndarray, shape (n,)
+        Grid times [s], n = round(duration_s / dt_s) + 1.
+    state : ndarray, shape (n, 4)
+        ``[x, ẋ, y, ẏ]`` [m, m/s, m, m/s].
     """
     n = int(round(duration_s / dt_s)) + 1
     x = np.array([start_xy_m[0], rng.uniform(*speed_range_mps), start_xy_m[1], 0.0])
@@ -130,8 +159,22 @@ def simulate_motion(rng: np.random.Generator, *, duration_s: float, dt_s: float,
 
 
 def position_at(t_grid, states, t_s) -> np.ndarray:
-    """Positions (len(t_s), 2) [m] at the times ``t_s`` [s], linearly interpolated on the motion
-    grid ``t_grid`` (n,) of ``states`` (n, 4)."""
+    """Interpolate the (x, y) positions of a trajectory at given times.
+
+    Parameters
+    ----------
+    t_grid : ndarray, shape (n,)
+        The motion grid's times [s] (increasing).
+    states : ndarray, shape (n, 4)
+        ``[x, ẋ, y, ẏ]`` on that grid (:func:`simulate_motion`).
+    t_s : array_like, shape (m,)
+        Times at which to read the positions [s] (clamped to the grid's ends).
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        Positions (x, y) [m], linearly interpolated.
+    """
     return np.stack([np.interp(t_s, t_grid, states[:, 0]), np.interp(t_s, t_grid, states[:, 2])], axis=1)
 
 

@@ -153,23 +153,58 @@ TABLES_COMPARED = (
 
 
 def captured(n_replies, decoded_tag, accepted) -> np.ndarray:
-    """Capture, the one definition of both capture tables of the ``inventory`` scenario (this
-    sweep's ``capture_sweep`` and the engine's ``capture``): at least two tags replied in the
-    slot, the reader accepted the RN16 (its acceptance gate; none with
+    """Tell whether a collided slot ends in capture.
+
+    The one definition of both capture tables of the ``inventory`` scenario (this sweep's
+    ``capture_sweep`` and the engine's ``capture``): at least two tags replied in the slot,
+    the reader accepted the RN16 (its acceptance gate; none with
     ``reader.rn16_false_accept = 0``) and the bits are exactly one replying tag's RN16
     (``decoded_tag`` ≥ 0), so the reader ACKs that tag, which then answers alone.
 
     Parameters
     ----------
-    n_replies : int or (n,) int, tags that replied;  decoded_tag : (n,) int, index of the tag
-        whose RN16 the reader decoded exactly, −1 for none;  accepted : bool or (n,) bool
+    n_replies : int or array_like of int, shape (n,)
+        Number of tags that replied in the slot.
+    decoded_tag : int or array_like of int, shape (n,)
+        Index of the tag whose RN16 the reader decoded exactly, −1 for none.
+    accepted : bool or array_like of bool, shape (n,)
+        The reader accepted the RN16 (its acceptance gate passed).
+
+    Returns
+    -------
+    ndarray of bool, shape (n,) or ()
+        True where the slot ended in capture (broadcast over the three inputs).
     """
     return (np.asarray(n_replies) >= 2) & np.asarray(accepted, bool) & (np.asarray(decoded_tag) >= 0)
 
 
 @dataclass
 class CapturePoint:
-    """The records of one point (profile, spread, ratio): per-trial arrays."""
+    """The records of one point (profile, spread, ratio): per-trial arrays.
+
+    Attributes
+    ----------
+    profile : str
+        Link profile name (:data:`rfsim.gen2.link.PROFILES`).
+    spread : bool
+        Tags with their own BLF error and T1 (True) or identical in lock-step (False).
+    ratio_db : float
+        Modulated power ratio of the two replies at the reader [dB].
+    detected : ndarray of bool, shape (trials,)
+        The preamble correlation passed its false-alarm threshold.
+    decoded : ndarray of int, shape (trials,)
+        0: the stronger tag's RN16 decoded exactly, 1: the weaker's, −1: neither.
+    ebn0_db : ndarray, shape (trials,)
+        Eb/N0 of the decoded RN16 from the residual noise power, 10·log10(|h|²·(2M/ρ)/σ²) [dB].
+    decision_ebn0_db : ndarray, shape (trials,)
+        Acceptance statistic: Eb/(N0 + I) in the decision domain [dB].
+    corr : ndarray, shape (trials,)
+        The coarse normalised preamble correlation at the decoded BLF and start.
+    blf_error : ndarray, shape (trials, 2)
+        BLF error of each tag (stronger first), a fraction.
+    t1_s : ndarray, shape (trials, 2)
+        T1 of each tag [s].
+    """
 
     profile: str
     spread: bool
@@ -198,7 +233,34 @@ def _window(link, fs_hz: float):
 
 def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: float, *, seed: int,
                    point: int) -> CapturePoint:
-    """All ``cfg.trials`` collisions of one point (module docstring)."""
+    r"""Simulate and decode all ``cfg.trials`` collisions of one point (module docstring).
+
+    The reader input is :math:`y(t) = h_1 s_1(t) + h_2 s_2(t) + n(t)` with
+    :math:`|h_1| = 1`, :math:`|h_2| = 10^{-\mathrm{ratio}/20}`, uniform phases, and
+    complex white noise setting the stronger reply at Eb/N0 = ``cfg.strong_ebn0_db``
+    (the project's own model, module docstring).
+
+    Parameters
+    ----------
+    cfg : CaptureSweepConfig
+        The sweep's settings.
+    name : str
+        Link profile name (:data:`rfsim.gen2.link.PROFILES`).
+    spread : bool
+        Draw each tag's BLF error and T1 from ``cfg.spread`` (True) or use the nominal
+        BLF and T1 (False, tags in lock-step).
+    ratio_db : float
+        Modulated power ratio of the two replies at the reader [dB].
+    seed : int
+        Root seed.
+    point : int
+        Index of the point; its stream is ``trial_rng(seed, SEED_OFFSET + point)``.
+
+    Returns
+    -------
+    CapturePoint
+        The per-trial records.
+    """
     link = profile(name)
     fs = 2.0 * link.blf_hz * cfg.samples_per_element
     t0, n, lo, hi = _window(link, fs)
@@ -241,7 +303,20 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
 
 
 def run_sweep(cfg: CaptureSweepConfig, *, seed: int) -> list[CapturePoint]:
-    """Every point: profiles × (without, with spread) × ratios, in that order."""
+    """Simulate every point: profiles × (without, with spread) × ratios, in that order.
+
+    Parameters
+    ----------
+    cfg : CaptureSweepConfig
+        The sweep's settings.
+    seed : int
+        Root seed; point p draws from ``trial_rng(seed, SEED_OFFSET + p)``.
+
+    Returns
+    -------
+    list of CapturePoint
+        One per point, in the order above.
+    """
     plan = [(name, spread, r) for name in cfg.profiles for spread in (False, True) for r in cfg.ratios_db]
     return [simulate_point(cfg, name, spread, r, seed=seed, point=p)
             for p, (name, spread, r) in enumerate(track(plan, desc="capture sweep", unit="points"))]
@@ -294,7 +369,27 @@ def _line_code(m: int) -> str:
 
 
 def tables(cfg: CaptureSweepConfig, points: list[CapturePoint]) -> tuple[dict, dict, dict]:
-    """(capture_sweep rows, capture_trials rows, acceptance rows) from the points."""
+    """Build the sweep's three tables from its points.
+
+    Parameters
+    ----------
+    cfg : CaptureSweepConfig
+        The sweep's settings (acceptance threshold from ``rn16_false_accept``, the
+        thresholds of the acceptance table).
+    points : list of CapturePoint
+        The points of :func:`run_sweep`.
+
+    Returns
+    -------
+    capture_sweep : dict of str to list
+        One row per point, columns of :data:`POINT_FIELDS` (P(capture) with its
+        Clopper-Pearson 95 % interval, ...).
+    capture_trials : dict of str to ndarray
+        One row per trial, columns of :data:`TRIAL_FIELDS`.
+    acceptance : dict of str to list
+        One row per (profile, spread, threshold), all ratios pooled, columns of
+        :data:`ACCEPT_FIELDS`.
+    """
     gamma = _reader.rn16_threshold_db(cfg.rn16_false_accept)
     rows: dict[str, list] = {k: [] for k in POINT_FIELDS}
     trials: dict[str, list] = {k: [] for k in TRIAL_FIELDS}

@@ -107,9 +107,24 @@ class SampleLevelConfig:
 
 
 def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
-    """The reader's circular panel at ``position_m`` [m] facing the floor: a patch pattern of
-    ``c.panel_gain_dbic`` and ``c.panel_beamwidth_deg`` with :data:`PANEL_FRONT_TO_BACK_DB`,
-    axial ratio growing off boresight (:class:`rfsim.channels.EllipticalPanel` defaults)."""
+    """Return the reader's circular panel at ``position_m`` facing the floor.
+
+    A patch pattern of ``c.panel_gain_dbic`` and ``c.panel_beamwidth_deg`` with
+    :data:`PANEL_FRONT_TO_BACK_DB`, axial ratio growing off boresight
+    (:class:`rfsim.channels.EllipticalPanel` defaults).
+
+    Parameters
+    ----------
+    position_m : array_like, shape (3,)
+        Position of the panel [m].
+    c : SampleLevelConfig
+        The scene's settings (panel gain and beamwidth).
+
+    Returns
+    -------
+    rfsim.channels.antennas.EllipticalPanel
+        The panel, boresight along −z.
+    """
     pattern = _antennas.Patch(c.panel_gain_dbic, c.panel_beamwidth_deg, PANEL_FRONT_TO_BACK_DB)
     return _antennas.EllipticalPanel(position_m=tuple(float(v) for v in position_m), orientation=FACING_DOWN,
                                      pattern=pattern, polarization="circular",
@@ -117,21 +132,72 @@ def panel(position_m, c: SampleLevelConfig) -> _antennas.Antenna:
 
 
 def flat_dipole(position_m) -> _antennas.Antenna:
-    """A half-wave dipole lying along x at ``position_m``."""
+    """Return a linearly polarized half-wave dipole lying along x.
+
+    Parameters
+    ----------
+    position_m : array_like, shape (3,)
+        Position of the dipole [m].
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The dipole (orientation :data:`ALONG_X`).
+    """
     return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=ALONG_X,
                              pattern=_antennas.HalfWaveDipole(), polarization="linear")
 
 
 def landmark_epc_hex(k: int) -> str:
-    """EPC of landmark k (96 bits, the index in the last digits)."""
+    """Return the EPC of landmark ``k``.
+
+    Parameters
+    ----------
+    k : int
+        0-based landmark index.
+
+    Returns
+    -------
+    str
+        96-bit EPC as 24 upper-case hex digits, the number k + 1 (e.g. ``"000…001"`` for k = 0).
+    """
     return format(k + 1, "024X")
 
 
 class ListeningAir(EngineAir):
-    """The sample-level air of :func:`rfsim.protocols.inventory.run_inventory` with an ST listening
-    (module docstring): ``exchange`` runs one air step with the reader port and the ST's
-    antennas as receivers and records the ST's detections in :attr:`detections`
-    (``(reply start [s], landmark index)``)."""
+    """The sample-level air of :func:`rfsim.protocols.inventory.run_inventory` with an ST listening.
+
+    ``exchange`` runs one air step with the reader port and the ST's antennas as receivers
+    and records the ST's detections in :attr:`detections` (module docstring).
+
+    Parameters
+    ----------
+    reader : rfsim.devices.reader.Reader
+        The reader.
+    tags : list of rfsim.devices.tag.PassiveTag
+        The landmark tags.
+    channel : rfsim.channels.scene.Channel
+        The room's channel (reader ↔ landmark links, held per round).
+    st : rfsim.devices.sense_a_tag.SenseATag
+        The listening sense-a-tag.
+    st_center : callable
+        ``t_s → (3,)`` position of the ST's centre [m].
+    st_config : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        The ST's settings (antenna count, spacing, orientation).
+    rng : numpy.random.Generator
+        The air's stream (round links, reader noise).
+    st_rng : numpy.random.Generator
+        Draws the ST's links (reader → ST, landmark → ST).
+    epcs : dict of str to int
+        EPC hex → landmark index.
+    st_step_m : float, optional
+        The ST's position is snapped to this step [m], default 0.01.
+
+    Attributes
+    ----------
+    detections : list of tuple of (float, int)
+        The ST's detections: (reply start [s], landmark index), in time order.
+    """
 
     def __init__(self, reader, tags, channel, st: _sense_a_tag.SenseATag, st_center, *, st_config: SenseATagConfig,
                  rng: np.random.Generator, st_rng: np.random.Generator, epcs: dict, st_step_m: float = 0.01):
@@ -159,6 +225,32 @@ class ListeningAir(EngineAir):
 
     def exchange(self, cmd, *, t_s: float, reply_bits: int, expect_crc: bool, round_index: int = 0,
                  new_round: bool = False) -> AirExchange:
+        """Run one command and its reply window as one air step, with the ST listening.
+
+        The ST decodes a Query's link parameters, and after an ACK with a single reply the
+        EPC on its antennas; a CRC-valid EPC of a landmark is appended to
+        :attr:`detections`.
+
+        Parameters
+        ----------
+        cmd : object
+            The reader's command (a :mod:`rfsim.gen2.commands` dataclass: ``Query``, ``ACK``, ...).
+        t_s : float
+            Start of the reader's segment [s].
+        reply_bits : int
+            Length of the expected reply [bits] (sets the listening window).
+        expect_crc : bool
+            The reply carries a CRC-16 to check.
+        round_index : int, optional
+            Index of the inventory round (selects the reader antenna), default 0.
+        new_round : bool, optional
+            First exchange of a round: the reader ↔ landmark links are drawn anew, default False.
+
+        Returns
+        -------
+        rfsim.protocols.inventory.AirExchange
+            What the reader got back (the ST's listening does not change it).
+        """
         reader, link = self.reader, self.link
         antenna = reader.antennas[reader.antenna_index(round_index)]
         listen = getattr(reader, "listen_window_s", None)  # as run_exchange: a BLF-searching reader listens longer
@@ -224,10 +316,28 @@ class _Links:
 
 @dataclass(frozen=True, eq=False)
 class Listened:
-    """One sample-level track: period end times (T,) [s], counts (T, L), mean detection time (T,)
-    [s] (NaN: none), every detection's instant [s] and landmark, slots and EPC reads per period, and
-    the reader's read log: the inventory's per-read columns (:data:`rfsim.protocols.inventory.READ_FIELDS`)
-    and ``period``, one entry per EPC read."""
+    """One sample-level track of T query periods over L landmarks.
+
+    Attributes
+    ----------
+    t_end_s : ndarray, shape (T,)
+        End time of each query period [s].
+    counts : ndarray of int, shape (T, L)
+        Detections of each landmark in each period.
+    mean_detection_s : ndarray, shape (T,)
+        Mean instant of the period's detections [s]; NaN for none.
+    times_s : ndarray, shape (D,)
+        Every detection's instant (reply start) [s].
+    landmarks : ndarray of int, shape (D,)
+        Every detection's landmark index.
+    slots_per_period : ndarray of int, shape (T,)
+        Inventory slots per period.
+    reads_per_period : ndarray of int, shape (T,)
+        The reader's EPC reads per period.
+    read_log : dict of str to ndarray
+        The reader's read log: the inventory's per-read columns
+        (:data:`rfsim.protocols.inventory.READ_FIELDS`) and ``period``, one entry per EPC read.
+    """
 
     t_end_s: np.ndarray
     counts: np.ndarray
@@ -243,8 +353,39 @@ def listen_track(room, st_center, *, rounds: int, sl: SampleLevelConfig, st_conf
                  seed: int, key: tuple[int, ...], tag_config: TagConfig = TagConfig()) -> Listened:
     """Run query periods of ``rounds`` QT rounds until ``sl.duration_s`` (or ``sl.max_periods``).
 
-    ``st_center`` : ``t → (3,)`` ST centre [m]. Streams: ``trial_rng(seed, *key, k)`` with k = 0
-    reader, 1 air (round links, reader noise), 2 ST links, 3 ST device, 100 + i landmark i.
+    Each QT round follows a CW interruption (every landmark's S0 flag back to A) and is a
+    Gen2 inventory of all landmarks; the ST listens to it (:class:`ListeningAir`). A
+    detection belongs to the first period that ends at or after its instant.
+
+    Parameters
+    ----------
+    room : rfsim.scenes.landmark_room.Room
+        Landmark positions and reader antenna positions.
+    st_center : callable
+        ``t_s → (3,)`` position of the ST's centre [m].
+    rounds : int
+        QT rounds per query period (N ≥ 1).
+    sl : SampleLevelConfig
+        The scene's settings.
+    st_config : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        The ST's settings.
+    seed : int
+        Root seed.
+    key : tuple of int
+        Stream key of the track: ``trial_rng(seed, *key, k)`` with k = 0 reader, 1 air
+        (round links, reader noise), 2 ST links, 3 ST device, 100 + i landmark i.
+    tag_config : rfsim.devices.tag_config.TagConfig, optional
+        The landmarks' settings (their EPCs are :func:`landmark_epc_hex`), default ``TagConfig()``.
+
+    Returns
+    -------
+    Listened
+        The track's periods, detections and reads.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        ``rounds`` < 1.
     """
     if rounds < 1:
         raise ConfigError("rounds", rounds, "at least 1 QT round per query period")

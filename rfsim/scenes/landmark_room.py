@@ -30,7 +30,17 @@ from rfsim.core.trajectories import along_path, random_walk
 
 @dataclass(frozen=True)
 class Room:
-    """A preset: room size (x, y) [m], landmark grid (nx, ny), reader antenna positions [m]."""
+    """A room preset: floor, landmark grid and reader antennas.
+
+    Attributes
+    ----------
+    size_m : tuple of float, length 2
+        Floor size (x, y) [m], centred on the origin.
+    grid : tuple of int, length 2
+        Landmark grid (nx, ny): one landmark at the centre of each cell.
+    antennas_xyz_m : tuple of tuple of float
+        Reader antenna positions (x, y, z) [m].
+    """
 
     size_m: tuple[float, float]
     grid: tuple[int, int]
@@ -43,7 +53,13 @@ class Room:
         return (-w / 2, -h / 2, w / 2, h / 2)
 
     def landmarks_xy(self) -> np.ndarray:
-        """(nx·ny, 2) [m] landmark positions at the cell centres, x-major (index = ix·ny + iy)."""
+        """Return the landmark positions at the cell centres.
+
+        Returns
+        -------
+        ndarray, shape (nx·ny, 2)
+            (x, y) [m], x-major (index = ix·ny + iy).
+        """
         (w, h), (nx, ny) = self.size_m, self.grid
         x = -w / 2 + (np.arange(nx) + 0.5) * w / nx
         y = -h / 2 + (np.arange(ny) + 0.5) * h / ny
@@ -51,8 +67,22 @@ class Room:
         return np.column_stack([gx.ravel(), gy.ravel()])
 
     def check_waypoints(self, key: str, points_xy, name: str = "") -> None:
-        """Raise :class:`ConfigError` (naming ``key``, and the room's ``name`` if any) unless
-        ``points_xy`` are ≥ 2 points (x, y) [m] inside the floor."""
+        """Check that ``points_xy`` are at least 2 points inside the floor.
+
+        Parameters
+        ----------
+        key : str
+            Config key named in the error.
+        points_xy : array_like, shape (n, 2)
+            Waypoints (x, y) [m].
+        name : str, optional
+            The room's name, named in the error (default none).
+
+        Raises
+        ------
+        rfsim.core.errors.ConfigError
+            Fewer than 2 waypoints, or a waypoint outside :attr:`bounds_m`.
+        """
         x0, y0, x1, y1 = self.bounds_m
         pts = np.asarray(points_xy, float).reshape(-1, 2)
         if pts.shape[0] < 2:
@@ -64,7 +94,18 @@ class Room:
                                                               f"y in [{y0:g}, {y1:g}] m (the trajectory leaves the room)")
 
     def with_grid(self, grid: tuple[int, int] | None) -> Room:
-        """The same room and antennas with another landmark grid (``None``: this room)."""
+        """Return the same room and antennas with another landmark grid.
+
+        Parameters
+        ----------
+        grid : tuple of int, length 2, or None
+            The landmark grid (nx, ny); None keeps this room's.
+
+        Returns
+        -------
+        Room
+            The room (``self`` when ``grid`` is None).
+        """
         return self if grid is None else Room(self.size_m, tuple(grid), self.antennas_xyz_m)
 
 
@@ -81,18 +122,53 @@ TRAJECTORY_1_XY = ((-1.5, -1.0), (1.5, -1.0), (1.5, 1.0), (-1.5, 1.0), (-1.5, -1
 
 
 def trajectory_2_xy(n: int = 2000) -> np.ndarray:
-    """Trajectory 2: (n, 2) [m] points of the closed figure-eight x = 1.5 sin s, y = sin 2s,
-    s ∈ [0, 2π]."""
+    r"""Return trajectory 2: the closed figure-eight (Lissajous 1:2) as a polyline.
+
+    :math:`x = 1.5 \sin s`, :math:`y = \sin 2s` [m], :math:`s \in [0, 2\pi]` (this
+    replica's definition; the source only draws it).
+
+    Parameters
+    ----------
+    n : int, optional
+        Number of points, default 2000 (the first and last coincide).
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        Points (x, y) [m].
+    """
     s = np.linspace(0.0, 2.0 * np.pi, n)
     return np.column_stack([1.5 * np.sin(s), 1.0 * np.sin(2.0 * s)])
 
 
 def path_positions(trajectory: str, t_s, *, speed_mps: float, trajectory_1_xy, bounds_m, walk_speed_mps,
                    walk_rng) -> np.ndarray:
-    """The ST's true positions (…, 2) [m] at times ``t_s`` [s] on trajectory "1" (the closed
-    polyline ``trajectory_1_xy``, closed if it is not), "2" (:func:`trajectory_2_xy`) at
-    ``speed_mps``, or otherwise the random walk in ``bounds_m`` at speeds ``walk_speed_mps``
-    (:func:`rfsim.core.trajectories.random_walk`, drawn from a fresh ``walk_rng()`` each call)."""
+    """Return the ST's true positions at given times on a trajectory.
+
+    Parameters
+    ----------
+    trajectory : str
+        ``"1"`` (the polyline ``trajectory_1_xy``, closed if it is not), ``"2"``
+        (:func:`trajectory_2_xy`), both at ``speed_mps`` by arc length; any other value:
+        the random walk (:func:`rfsim.core.trajectories.random_walk`).
+    t_s : array_like
+        Times [s], any shape.
+    speed_mps : float
+        Speed along trajectories 1 and 2 [m/s].
+    trajectory_1_xy : array_like, shape (n, 2)
+        Waypoints (x, y) of trajectory 1 [m].
+    bounds_m : tuple of float, length 4
+        (x0, y0, x1, y1) of the random walk [m].
+    walk_speed_mps : sequence of float, length 2
+        (v_min, v_max) of the random walk's speeds [m/s].
+    walk_rng : callable
+        Returns a fresh generator of the random walk at each call (the same walk every call).
+
+    Returns
+    -------
+    ndarray, shape t_s.shape + (2,)
+        Positions (x, y) [m].
+    """
     if trajectory == "1":
         pts = np.asarray(trajectory_1_xy, float)
         return along_path(pts if np.array_equal(pts[0], pts[-1]) else np.vstack([pts, pts[:1]]), speed_mps, t_s)

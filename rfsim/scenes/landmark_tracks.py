@@ -53,10 +53,32 @@ def _start(p0, p1) -> np.ndarray:
 
 def surrogate_track(room: Room, position_at: Callable, *, duration_s: float, period_s: float, rounds: int,
                     rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """A track of round(duration_s / period_s) periods of RTS surrogate detections.
+    r"""Draw a track of round(duration_s / period_s) periods of RTS surrogate detections.
 
-    position_at : ``t_s (n,) → (n, 2)`` the ST's true position [m], called once on every time
-    (0, 1 ms, the round times, the period ends); rng : the detections' draws.
+    Periods end at :math:`t_{end} = (t + 1) T_s`; round j of period t is at
+    :math:`\tau_j = (t + (j + 1/2)/N) T_s` (module docstring).
+
+    Parameters
+    ----------
+    room : Room
+        Landmarks and reader antennas.
+    position_at : callable
+        ``t_s (n,) → (n, 2)`` the ST's true position [m], called once on every time (0,
+        1 ms, the round times, the period ends).
+    duration_s : float
+        Tracked time [s].
+    period_s : float
+        Query period T_s [s].
+    rounds : int
+        QT rounds N per period.
+    rng : numpy.random.Generator
+        The detections' draws.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The track (module docstring): ``t_end_s``, ``truth``, ``start``, ``counts``,
+        ``mean_detection_s``, ``active``, ``slots`` and ``reads`` (zeros).
     """
     landmarks = room.landmarks_xy()
     T = int(round(duration_s / period_s))
@@ -71,9 +93,34 @@ def surrogate_track(room: Room, position_at: Callable, *, duration_s: float, per
 
 def listened_track(room: Room, position_at: Callable, *, height_m: float, rounds: int, sl: SampleLevelConfig,
                    st_config, seed: int, key: tuple[int, ...]) -> dict[str, np.ndarray]:
-    """A track heard through sample-level Gen2 rounds (:func:`rfsim.scenes.landmark_listening.listen_track`,
-    streams ``trial_rng(seed, *key, k)``), the ST's antennas ``height_m`` [m] above its floor
-    position; ``position_at`` as in :func:`surrogate_track`."""
+    """Return a track heard through sample-level Gen2 rounds.
+
+    Parameters
+    ----------
+    room : Room
+        Landmarks and reader antennas.
+    position_at : callable
+        ``t_s (n,) → (n, 2)`` the ST's true floor position [m].
+    height_m : float
+        Height of the ST's antennas above its floor position [m].
+    rounds : int
+        QT rounds per query period.
+    sl : rfsim.scenes.landmark_listening.SampleLevelConfig
+        The listening scene's settings.
+    st_config : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        The ST's settings.
+    seed : int
+        Root seed.
+    key : tuple of int
+        Stream key (:func:`rfsim.scenes.landmark_listening.listen_track`:
+        ``trial_rng(seed, *key, k)``).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The track (module docstring), with the reader's ``read_log`` (a dict of columns);
+        ``active`` is 0 (one reader antenna set).
+    """
     res = listen_track(room, lambda t: np.r_[position_at(np.array([t]))[0], height_m], rounds=rounds, sl=sl,
                        st_config=st_config, seed=seed, key=key)
     pos = position_at(np.concatenate([[0.0, _START_DT_S], res.t_end_s]))
@@ -84,11 +131,31 @@ def listened_track(room: Room, position_at: Callable, *, height_m: float, rounds
 
 def track_estimates(room: Room, chunk: list[dict], trackers, *, filters: LandmarkFilterConfig, rounds: int,
                     rngs: list) -> dict[str, np.ndarray]:
-    """Every tracker on tracks with a common number of periods, ``label → (B, T, 2)`` [m].
+    """Run every tracker on B tracks with a common number T of periods.
 
-    trackers : (label, kind, v_threshold [m/s]) per tracker (:func:`rfsim.estimators.landmark_pf.run_tracker`),
-    ``rngs`` one stream each. The filters' period Δt is the mean period of the tracks (T_s for
-    the surrogate) and their likelihood the RTS model of each period's active antenna.
+    The filters' period Δt is the mean period of the tracks (T_s for the surrogate) and
+    their likelihood the RTS model of each period's active antenna.
+
+    Parameters
+    ----------
+    room : Room
+        Landmarks and reader antennas.
+    chunk : list of dict
+        The B tracks (:func:`surrogate_track` or :func:`listened_track`).
+    trackers : sequence of tuple of (str, str, float)
+        (label, kind, v_threshold [m/s]) per tracker
+        (:func:`rfsim.estimators.landmark_pf.run_tracker`).
+    filters : rfsim.estimators.landmark_pf.LandmarkFilterConfig
+        The particle filters' settings.
+    rounds : int
+        QT rounds per period.
+    rngs : list of numpy.random.Generator
+        One stream per tracker.
+
+    Returns
+    -------
+    dict of str to ndarray
+        Label → estimates, shape (B, T, 2) [m].
     """
     landmarks = room.landmarks_xy()
     col = {k: np.stack([d[k] for d in chunk]) for k in ("counts", "mean_detection_s", "active", "t_end_s", "start")}
@@ -106,7 +173,22 @@ def _keys(case: int, realization: int, n: int) -> dict[str, np.ndarray]:
 
 
 def period_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
-    """One row per query period: duration, truth, detection totals, active antenna, slots, reads."""
+    """Return one row per query period: duration, truth, detection totals, active antenna, slots, reads.
+
+    Parameters
+    ----------
+    case : int
+        Index of the case.
+    realization : int
+        Index of the realization.
+    track : dict
+        The track (module docstring).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Columns of the ``periods`` table (:data:`COLUMN_TEXT`), shape (T,) each.
+    """
     c, truth, t_end = track["counts"], track["truth"], track["t_end_s"]
     return {**_keys(case, realization, t_end.size), "t_end_s": t_end, "period_duration_s": np.diff(np.r_[0.0, t_end]),
             "x_true_m": truth[:, 0], "y_true_m": truth[:, 1], "detected_landmarks": (c > 0).sum(axis=1),
@@ -115,9 +197,27 @@ def period_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarra
 
 
 def read_rows(case: int, realization: int, track: dict, room: Room) -> dict[str, np.ndarray]:
-    """One row per EPC read of a sample-level track: the reader's read log, the period and the
-    ground truth of the read landmark (on the floor at its grid position) — ``true_position_m``
-    (n, 3) and ``true_distance_m`` from the reading antenna [m]. Empty for a surrogate track."""
+    """Return one row per EPC read of a sample-level track.
+
+    Parameters
+    ----------
+    case : int
+        Index of the case.
+    realization : int
+        Index of the realization.
+    track : dict
+        The track; its ``read_log`` (absent or empty for a surrogate track) is used.
+    room : Room
+        Landmark and reader antenna positions (the ground truth).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The reader's read log with the case and realization, and the ground truth of the
+        read landmark (on the floor at its grid position): ``true_position_m`` (n, 3) [m]
+        (NaN for a read of no landmark) and ``true_distance_m`` (n,) from the reading
+        antenna [m]. Empty for a surrogate track.
+    """
     log = track.get("read_log") or {}
     n = len(log.get("tag", ()))
     if n == 0:
@@ -133,8 +233,19 @@ def read_rows(case: int, realization: int, track: dict, room: Room) -> dict[str,
 
 
 def reads_columns(rows: dict[str, np.ndarray]) -> dict:
-    """The ``reads`` table of :func:`read_rows` in the per-read schema (:func:`rfsim.core.reads.reads_table`),
-    then the case, realization, period, landmark and the slot's context."""
+    """Return the ``reads`` table in the per-read schema.
+
+    Parameters
+    ----------
+    rows : dict of str to ndarray
+        The rows of :func:`read_rows` (concatenated over realizations).
+
+    Returns
+    -------
+    dict of str to rfsim.core.dataset.Column
+        The table's columns (:func:`rfsim.core.reads.reads_table`): the per-read schema,
+        then the case, realization, period, landmark and the slot's context.
+    """
     fields = {"case": ("1", "index of the case (experiment, trajectory, speed) in the cases table"),
               "realization": ("1", COLUMN_TEXT["realization"]), "period": ("1", "query period of the read (0-based)"),
               "tag": ("1", "landmark read (grid order)"),
@@ -146,9 +257,29 @@ def reads_columns(rows: dict[str, np.ndarray]) -> dict:
 
 def chunk_tables(case: int, realizations: list[int], chunk: list[dict], estimates: list[list[dict]], room: Room,
                  n_trackers: int) -> dict[str, dict[str, np.ndarray]]:
-    """The rows of a chunk of realizations of a case: ``periods``, ``detections``, ``estimates``
-    (tracker by tracker; ``estimates[i]`` the :func:`estimate_rows` of realization i) and
-    ``reads`` (:func:`read_rows`; empty for surrogate tracks)."""
+    """Return the table rows of a chunk of realizations of a case.
+
+    Parameters
+    ----------
+    case : int
+        Index of the case.
+    realizations : list of int
+        The realizations' indices, one per track.
+    chunk : list of dict
+        The tracks.
+    estimates : list of list of dict
+        ``estimates[i]``: the :func:`estimate_rows` of realization i.
+    room : Room
+        Landmark and reader antenna positions.
+    n_trackers : int
+        Number of trackers (rows are ordered tracker by tracker).
+
+    Returns
+    -------
+    dict of str to dict
+        Table name (``periods``, ``detections``, ``estimates``, ``reads``; the last empty
+        for surrogate tracks) → its columns.
+    """
     pairs = list(zip(realizations, chunk))
     return {"periods": concat([period_rows(case, b, d) for b, d in pairs]),
             "detections": concat([detection_rows(case, b, d) for b, d in pairs]),
@@ -157,7 +288,22 @@ def chunk_tables(case: int, realizations: list[int], chunk: list[dict], estimate
 
 
 def detection_rows(case: int, realization: int, track: dict) -> dict[str, np.ndarray]:
-    """One row per (period, landmark) with at least one detection."""
+    """Return one row per (period, landmark) with at least one detection.
+
+    Parameters
+    ----------
+    case : int
+        Index of the case.
+    realization : int
+        Index of the realization.
+    track : dict
+        The track (its ``counts``, shape (T, L)).
+
+    Returns
+    -------
+    dict of str to ndarray
+        Columns ``case``, ``realization``, ``period``, ``landmark``, ``count``.
+    """
     c = track["counts"]
     nz = np.nonzero(c)
     return {"case": np.full(nz[0].size, case), "realization": np.full(nz[0].size, realization), "period": nz[0],
@@ -165,7 +311,25 @@ def detection_rows(case: int, realization: int, track: dict) -> dict[str, np.nda
 
 
 def estimate_rows(case: int, realization: int, track: dict, estimates: dict) -> list[dict[str, np.ndarray]]:
-    """Per tracker (label → (T, 2) [m] estimates), one row per period: estimate and error [m]."""
+    """Return, per tracker, one row per period: the estimate and its error.
+
+    Parameters
+    ----------
+    case : int
+        Index of the case.
+    realization : int
+        Index of the realization.
+    track : dict
+        The track (its ``t_end_s`` and ``truth``).
+    estimates : dict of str to ndarray
+        Tracker label → estimates, shape (T, 2) [m].
+
+    Returns
+    -------
+    list of dict of str to ndarray
+        One dict of columns per tracker: keys, ``tracker``, ``x_est_m``, ``y_est_m`` and
+        ``error_m`` (Euclidean distance to the truth) [m].
+    """
     T = track["t_end_s"].size
     return [{**_keys(case, realization, T), "tracker": np.full(T, label), "x_est_m": x[:, 0], "y_est_m": x[:, 1],
              "error_m": np.linalg.norm(x - track["truth"], axis=-1)} for label, x in estimates.items()]

@@ -18,9 +18,22 @@ class BatchAntenna:
     """The same antenna at n positions: one receiver of :func:`rfsim.air.step.propagate` whose
     input has a leading batch dimension of n (one row per position).
 
-    ``template`` gives pattern, orientation and polarization (``rfsim.channels.Antenna``);
-    ``positions_m`` (n, 3) [m]. ``position_m`` is None: the step's distance check does not
-    apply; :func:`rfsim.channels.bulk.draw_links` rejects a receiver at its transmitter instead.
+    ``position_m`` is None: the step's distance check does not apply;
+    :func:`rfsim.channels.bulk.draw_links` rejects a receiver at its transmitter instead.
+
+    Parameters
+    ----------
+    template : rfsim.channels.antennas.Antenna
+        Gives pattern, orientation and polarization (its position is not used).
+    positions_m : array_like, shape (n, 3)
+        The n positions [m].
+
+    Attributes
+    ----------
+    template : rfsim.channels.antennas.Antenna
+        As given.
+    positions_m : ndarray, shape (n, 3)
+        The positions [m] as a float array.
     """
 
     position_m = None
@@ -38,6 +51,11 @@ class BatchLink:
     (relative RMS envelope error ≤ :data:`rfsim.channels.paths.NARROWBAND_TOLERANCE`); a batch with a
     row that needs exact delays is refused (the static ST links of the exciter scenes are
     narrowband with errors of ≈ 0.001–0.01 at B = 2·BLF = 96 kHz).
+
+    Parameters
+    ----------
+    bulk : rfsim.channels.bulk.BulkPaths
+        The n drawn links (one row each).
     """
 
     static = True
@@ -47,7 +65,31 @@ class BatchLink:
         self._method: dict = {}
 
     def method(self, bandwidth_hz: float, propagation: str = "auto") -> str:
-        """"narrowband" when every row passes the rule at ``bandwidth_hz`` [Hz]; else ValueError."""
+        r"""Return the propagation method of the batch: always ``"narrowband"``.
+
+        Every row's relative RMS envelope error
+        :math:`\sqrt{\sum_p |g_p|^2 (2\pi B (\tau_p - \tau_0))^2 / \sum_p |g_p|^2}`
+        (:func:`rfsim.channels.paths.narrowband_rms_error`) must not exceed
+        :data:`rfsim.channels.paths.NARROWBAND_TOLERANCE`. The answer is cached per
+        (bandwidth, propagation).
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            Signal bandwidth B [Hz].
+        propagation : str, optional
+            The step's propagation setting, default ``"auto"``; ``"exact"`` is refused.
+
+        Returns
+        -------
+        str
+            ``"narrowband"``.
+
+        Raises
+        ------
+        ValueError
+            ``propagation`` is ``"exact"`` or a row exceeds the tolerance.
+        """
         key = (float(bandwidth_hz), propagation)
         if key not in self._method:
             b = self.bulk
@@ -63,11 +105,41 @@ class BatchLink:
         return self._method[key]
 
     def constant_gain(self, fc_hz: float) -> np.ndarray:
-        """(n, 1) complex128 narrowband gain of every row at the carrier ``fc_hz`` [Hz]."""
+        r"""Return the narrowband gain of every row, :math:`\sum_p g_p e^{-j 2\pi f_c \tau_p}`.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        ndarray of complex128, shape (n, 1)
+            The rows' gains [linear, amplitude].
+        """
         return self.bulk.narrowband_gain(fc_hz)[:, None]
 
     def apply(self, x, *, fs_hz, fc_hz, t0_s=0.0, method="narrowband"):
-        """The rows' received signals (n, samples): the constant gains times ``x`` [√W]."""
+        """Return the rows' received signals: the constant gains times ``x``.
+
+        Parameters
+        ----------
+        x : ndarray of complex, shape (n_samples,) or (n, n_samples)
+            The transmitted signal [√W].
+        fs_hz : float
+            Sample rate [Hz] (unused: the link is static and narrowband).
+        fc_hz : float
+            Carrier frequency [Hz].
+        t0_s : float, optional
+            Start time [s] (unused), default 0.
+        method : str, optional
+            Propagation method (unused; :meth:`method` is narrowband), default ``"narrowband"``.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n, n_samples)
+            The received signals [√W].
+        """
         return self.constant_gain(fc_hz) * x
 
 
@@ -80,11 +152,38 @@ class DrawnLinks:
         self._table: dict = {}
 
     def add(self, tx, rx, paths) -> None:
-        """Register ``paths`` (a path set or a :class:`BatchLink`) as the link tx ↔ rx."""
+        """Register ``paths`` as the link tx ↔ rx.
+
+        Parameters
+        ----------
+        tx : object
+            The transmitting antenna (keyed by identity).
+        rx : object
+            The receiving antenna or :class:`BatchAntenna` (keyed by identity).
+        paths : rfsim.channels.paths.PathSet or BatchLink
+            The link.
+        """
         self._table[(id(tx), id(rx))] = (tx, rx, paths)
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
-        """The link tx ↔ rx, None when it was not drawn."""
+        """Look up the link tx ↔ rx (either direction).
+
+        Parameters
+        ----------
+        tx : object
+            One antenna of the pair.
+        rx : object
+            The other antenna of the pair.
+        fc_hz : float
+            Carrier frequency [Hz] (unused: the links were drawn at theirs).
+        t_s : float
+            Time [s] (unused: the links are static).
+
+        Returns
+        -------
+        rfsim.channels.paths.PathSet or BatchLink or None
+            The link; None when it was not drawn.
+        """
         hit = self._table.get((id(tx), id(rx))) or self._table.get((id(rx), id(tx)))
         return None if hit is None else hit[2]
 
@@ -92,9 +191,23 @@ class DrawnLinks:
 def add_drawn_link(links: DrawnLinks, scene, tx, rx, *, fc_hz: float, rng: np.random.Generator) -> None:
     """Draw the link from antenna ``tx`` to ``rx`` in ``scene`` and add it to ``links``.
 
-    ``rx`` is an antenna (one path set, :meth:`rfsim.channels.bulk.BulkPaths.pathset`) or a
-    :class:`BatchAntenna` (a :class:`BatchLink` of one row per position). One call of
-    :func:`rfsim.channels.bulk.draw_links` on ``rng``.
+    One call of :func:`rfsim.channels.bulk.draw_links` on ``rng``.
+
+    Parameters
+    ----------
+    links : DrawnLinks
+        The table to add the link to.
+    scene : rfsim.channels.scene.Scene
+        The channel scene.
+    tx : rfsim.channels.antennas.Antenna
+        The transmitting antenna.
+    rx : rfsim.channels.antennas.Antenna or BatchAntenna
+        An antenna (the link is one path set, :meth:`rfsim.channels.bulk.BulkPaths.pathset`)
+        or a :class:`BatchAntenna` (a :class:`BatchLink` of one row per position).
+    fc_hz : float
+        Carrier frequency [Hz].
+    rng : numpy.random.Generator
+        The draws of the link.
     """
     batched = isinstance(rx, BatchAntenna)
     rx_pos, rx_ant = (rx.positions_m, rx.template) if batched else (rx.position_m, rx)

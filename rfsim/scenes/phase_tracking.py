@@ -44,6 +44,8 @@ _commands = lazy_import("rfsim.gen2.commands")
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """Floor plan, reader antennas and tag antenna of the scene (each field's ``doc`` says what it is)."""
+
     room_m: tuple[float, float] = param((3.0, 3.0), lo=0.1, hi=100.0, unit="m",
                                         doc="floor plan [0, x] × [0, y]: antennas and tag must be inside")
     antennas_xy_m: tuple[tuple[float, float], ...] = param(
@@ -61,6 +63,8 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class TrajectoryConfig:
+    """The tag's intended path and the jitter of the manual movement (each field's ``doc``)."""
+
     corners_xy_m: tuple[tuple[float, float], ...] = param(
         ((1.0, 1.0), (2.0, 1.0), (2.0, 2.0), (1.0, 2.0)), lo=-1000.0, hi=1000.0, unit="m",
         doc="closed polygon the tag follows (the intended path), first corner at t = 0")
@@ -73,7 +77,19 @@ class TrajectoryConfig:
 
 
 def reader_antennas(g: GeometryConfig) -> list[_antennas.Antenna]:
-    """The reader antennas at ``antennas_xy_m`` and ``height_m``, boresight towards the room centre."""
+    """Return the reader antennas at ``antennas_xy_m`` and ``height_m``, boresight towards the room centre.
+
+    Parameters
+    ----------
+    g : GeometryConfig
+        The geometry (positions, height, pattern, gain, beamwidth, polarization). An
+        antenna at the room centre keeps boresight +x.
+
+    Returns
+    -------
+    list of rfsim.channels.antennas.Antenna
+        One antenna per position, in the order of ``antennas_xy_m``.
+    """
     cx, cy = 0.5 * g.room_m[0], 0.5 * g.room_m[1]
     out = []
     for x, y in g.antennas_xy_m:
@@ -85,7 +101,24 @@ def reader_antennas(g: GeometryConfig) -> list[_antennas.Antenna]:
 
 
 def polygon_path(t_s, corners_xy_m, speed_mps: float) -> np.ndarray:
-    """(n, 2) positions [m] at ``t_s`` on the closed polygon ``corners`` at constant speed."""
+    """Return positions on a closed polygon traversed at constant speed.
+
+    The path starts at the first corner at t = 0 and wraps around after one lap.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (n,)
+        Times [s].
+    corners_xy_m : array_like, shape (k, 2)
+        The polygon's corners (x, y) [m]; the last connects back to the first.
+    speed_mps : float
+        Speed along the path [m/s].
+
+    Returns
+    -------
+    ndarray, shape (n, 2)
+        Positions (x, y) [m].
+    """
     c = np.asarray(corners_xy_m, float)
     ends = np.roll(c, -1, axis=0)
     seg = np.linalg.norm(ends - c, axis=1)
@@ -97,8 +130,26 @@ def polygon_path(t_s, corners_xy_m, speed_mps: float) -> np.ndarray:
 
 
 class TagMotion:
-    """Intended path plus the smooth jitter: white noise on a 10 ms grid, Gaussian-smoothed
-    (std ``jitter_time_s``) and scaled so that the realised 2-D RMS equals ``jitter_rms_m``."""
+    """Intended path plus the smooth jitter of a manual movement (L203).
+
+    The jitter is white noise on a 10 ms grid (to ``duration_s`` + 2 s), Gaussian-smoothed
+    (std ``jitter_time_s``, wrapped) and scaled so that the realised 2-D RMS equals
+    ``jitter_rms_m``.
+
+    Parameters
+    ----------
+    tr : TrajectoryConfig
+        The path and the jitter's settings.
+    rng : numpy.random.Generator
+        Draws the white noise.
+
+    Attributes
+    ----------
+    t_grid : ndarray, shape (n,)
+        The jitter's time grid [s].
+    jitter : ndarray, shape (n, 2)
+        The jitter (x, y) on that grid [m].
+    """
 
     GRID_S = 0.01
 
@@ -111,17 +162,56 @@ class TagMotion:
         self.jitter = jit * (tr.jitter_rms_m / rms) if tr.jitter_rms_m > 0 else np.zeros_like(jit)
 
     def intended(self, t_s) -> np.ndarray:
+        """Return the intended positions (:func:`polygon_path`) at ``t_s``.
+
+        Parameters
+        ----------
+        t_s : float or array_like, shape (n,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2)
+            Positions (x, y) [m].
+        """
         return polygon_path(np.atleast_1d(t_s), self.tr.corners_xy_m, self.tr.speed_mps)
 
     def true(self, t_s) -> np.ndarray:
+        """Return the true positions at ``t_s``: intended path plus the interpolated jitter.
+
+        Parameters
+        ----------
+        t_s : float or array_like, shape (n,)
+            Times [s].
+
+        Returns
+        -------
+        ndarray, shape (n, 2)
+            Positions (x, y) [m].
+        """
         t = np.atleast_1d(np.asarray(t_s, float))
         j = np.column_stack([np.interp(t, self.t_grid, self.jitter[:, k]) for k in range(2)])
         return self.intended(t) + j
 
     def max_radial_speed_mps(self, anchors_xy_m, *, dt_s: float = 1e-3) -> float:
-        """Largest |d|p(t) − a_i|/dt| [m/s] of the true path over the run and the anchors
-        ``anchors_xy_m`` (s, 2) [m], by central differences on a ``dt_s`` grid (np.gradient):
-        compared with the unwrapping limit λ/(4Δt) (rfsim.estimators.phase_tracking.unwrap_limit_mps)."""
+        r"""Return the largest radial speed of the true path towards any anchor.
+
+        :math:`\max_{t, i} |\mathrm{d}\,|p(t) - a_i| / \mathrm{d}t|` over the run, by central
+        differences on a ``dt_s`` grid (``np.gradient``); to be compared with the unwrapping
+        limit λ/(4Δt) (:func:`rfsim.estimators.phase_tracking.unwrap_limit_mps`).
+
+        Parameters
+        ----------
+        anchors_xy_m : array_like, shape (s, 2)
+            The anchors (x, y) [m], e.g. the reader antennas.
+        dt_s : float, optional
+            Grid step [s], default 1e-3.
+
+        Returns
+        -------
+        float
+            The largest radial speed [m/s].
+        """
         t_fine = np.arange(0.0, self.tr.duration_s, dt_s)
         p_fine = self.true(t_fine)
         radial = np.gradient(np.linalg.norm(p_fine[:, None, :] - anchors_xy_m, axis=2), t_fine, axis=0)
@@ -129,9 +219,24 @@ class TagMotion:
 
 
 def check_scene(g: GeometryConfig, tr: TrajectoryConfig, *, read_period_s: float) -> None:
-    """One-line ``ConfigError`` for antennas or a path outside the room, a degenerate path,
-    fewer than 3 antennas or a run shorter than one read per antenna (reads ``read_period_s``
-    [s] apart)."""
+    """Check the scene's geometry and length.
+
+    Parameters
+    ----------
+    g : GeometryConfig
+        The floor plan and antennas.
+    tr : TrajectoryConfig
+        The path and run length.
+    read_period_s : float
+        Time between two reads [s].
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        An antenna or a corner outside the room, fewer than 2 corners or two consecutive
+        equal ones, fewer than 3 antennas, or a run shorter than one read per antenna (one
+        line naming the key).
+    """
     w, ln = g.room_m
     for i, (x, y) in enumerate(g.antennas_xy_m):
         if not (0.0 <= x <= w and 0.0 <= y <= ln):
@@ -152,8 +257,23 @@ def check_scene(g: GeometryConfig, tr: TrajectoryConfig, *, read_period_s: float
 
 
 def carrier_hz(rc: ReaderConfig) -> float:
-    """The one carrier of the reader [Hz]; hopping over several is a one-line ``ConfigError``
-    (phase unwrapping needs one wavelength, L178)."""
+    """Return the one carrier of a non-hopping reader (phase unwrapping needs one wavelength, L178).
+
+    Parameters
+    ----------
+    rc : rfsim.devices.reader_config.ReaderConfig
+        The reader's settings (region, channel plan, hopping, fixed channel).
+
+    Returns
+    -------
+    float
+        The carrier [Hz]: the fixed channel's, or the only one of the plan.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        Hopping over a plan of more than one channel, or a fixed channel beyond the plan.
+    """
     plan = frequency_plan(rc.region, rc.channels_hz)
     if rc.hopping and plan.size > 1:
         raise ConfigError("reader.hopping", True, f"false (or a one-carrier plan): phase tracking needs one carrier, "
@@ -169,7 +289,23 @@ class RoundLinks:
     :func:`rfsim.channels.bulk.draw_links` (the physics of :meth:`rfsim.channels.scene.Channel.link`,
     vectorised: LoS amplitude g_ls(d, fc)·√(G_tx·G_rx)·√PLF, delay d/c; no image or diffuse
     path, so no random draw). Monostatic and reciprocal: the backward link is the forward one.
-    :meth:`hold` selects the round; a link asked of another antenna pair is an error."""
+    :meth:`hold` selects the round; a link asked of another antenna pair is an error.
+
+    Parameters
+    ----------
+    scene : rfsim.channels.scene.Scene
+        The (anechoic) scene.
+    antennas : list of rfsim.channels.antennas.Antenna
+        The reader's antennas.
+    tag_antenna : rfsim.channels.antennas.Antenna
+        The tag's antenna (its position is replaced by ``tag_xyz_m``).
+    antenna_of_round : ndarray of int, shape (n_rounds,)
+        0-based reader antenna of each round.
+    tag_xyz_m : ndarray, shape (n_rounds, 3)
+        The tag's held position in each round [m].
+    fc_hz : float
+        The carrier [Hz].
+    """
 
     def __init__(self, scene: _scene.Scene, antennas, tag_antenna: _antennas.Antenna, antenna_of_round: np.ndarray,
                  tag_xyz_m: np.ndarray, *, fc_hz: float):
@@ -187,11 +323,48 @@ class RoundLinks:
         self._held = None
 
     def hold(self, j: int, tag: _antennas.Antenna) -> None:
-        """Round ``j`` (0-based within the chunk), its tag antenna ``tag``."""
+        """Select round ``j`` for the next :meth:`backscatter_links` calls.
+
+        Parameters
+        ----------
+        j : int
+            Round, 0-based within the chunk.
+        tag : rfsim.channels.antennas.Antenna
+            The tag antenna of that round (the one the engine will ask about).
+        """
         self._held = (j, tag)
 
     def backscatter_links(self, emitter: _antennas.Antenna, tag: _antennas.Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
                           tag_motion=None):
+        """Return the held round's link, forward and backward (the same path set).
+
+        Parameters
+        ----------
+        emitter : rfsim.channels.antennas.Antenna
+            Must be the held round's reader antenna.
+        tag : rfsim.channels.antennas.Antenna
+            Must be the held tag antenna.
+        fc_hz : float
+            Must be the carrier [Hz].
+        rng : numpy.random.Generator, optional
+            Unused (the links have no random part).
+        t_s : float, optional
+            Unused, default 0.
+        tag_motion : None
+            Must be None (the tag is held still in a round).
+
+        Returns
+        -------
+        forward : rfsim.channels.paths.PathSet
+            Reader → tag.
+        backward : rfsim.channels.paths.PathSet
+            Tag → reader (the same object).
+
+        Raises
+        ------
+        ValueError
+            Another antenna pair, carrier, or a moving tag.
+        """
         j, held_tag = self._held
         if tag is not held_tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
                 or tag_motion is not None:
@@ -205,9 +378,30 @@ def simulate_rounds(geometry: GeometryConfig, trajectory: TrajectoryConfig, read
     """Rounds [``r_lo``, ``r_hi``) of a run, one Gen2 singulation per round (module docstring).
 
     Round r starts at r·``read_period_s`` [s] on the reader's antenna of round r; the tag is
-    held at its true position of the round start. Streams: the jitter ``trial_rng(seed, 0)``
-    (the same for every chunk), this chunk's reader ``trial_rng(seed, 1 + chunk, 0)``, tag
-    ``trial_rng(seed, 1 + chunk, 1)`` and round r ``trial_rng(seed, 1 + chunk, 2, r)``.
+    held at its true position of the round start.
+
+    Parameters
+    ----------
+    geometry : GeometryConfig
+        Floor plan and antennas.
+    trajectory : TrajectoryConfig
+        The tag's path.
+    reader_config : rfsim.devices.reader_config.ReaderConfig
+        The reader (one carrier, :func:`carrier_hz`).
+    tag_config : rfsim.devices.tag_config.TagConfig
+        The tag.
+    read_period_s : float
+        Time between round starts [s].
+    seed : int
+        Root seed. Streams: the jitter ``trial_rng(seed, 0)`` (the same for every chunk),
+        this chunk's reader ``trial_rng(seed, 1 + chunk, 0)``, tag
+        ``trial_rng(seed, 1 + chunk, 1)`` and round r ``trial_rng(seed, 1 + chunk, 2, r)``.
+    chunk : int
+        Index of the chunk (its streams).
+    r_lo : int
+        First round of the chunk.
+    r_hi : int
+        One past the last round of the chunk.
 
     Returns
     -------

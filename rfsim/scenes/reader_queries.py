@@ -43,13 +43,20 @@ class QueryCounts:
 
     Attributes
     ----------
-    n_reads : queries whose RN16 the reader decoded exactly
-    n_replied : queries the tag answered
-    n_powered : queries in which the tag was powered
-    max_incident_power_dbm : largest CW power incident at the tag antenna port [dBm]
-    n_channels : hop channels visited
-    channel_index : 1-based hop channel of the last query
-    frequency_hz : carrier of the last query [Hz]
+    n_reads : int
+        Queries whose RN16 the reader decoded exactly.
+    n_replied : int
+        Queries the tag answered.
+    n_powered : int
+        Queries in which the tag was powered.
+    max_incident_power_dbm : float
+        Largest CW power incident at the tag antenna port [dBm].
+    n_channels : int
+        Hop channels visited.
+    channel_index : int
+        1-based hop channel of the last query.
+    frequency_hz : float
+        Carrier of the last query [Hz].
     """
 
     n_reads: int
@@ -66,15 +73,35 @@ def repeated_queries(reader: Reader, tag: PassiveTag, reader_antenna: Antenna, c
                      query_block: int = QUERY_BLOCK) -> QueryCounts:
     """Query the tag at ``times_s`` over the held links times ``gains`` and count the reads.
 
+    Each query is a Q = 0 Query round on the hop channel of its instant; a read is the
+    reader decoding the tag's RN16 exactly (module docstring).
+
     Parameters
     ----------
-    reader : the reader (its hop table sets each query's channel); ``reader_antenna`` its antenna
-    tag : the tag (its state carries from one query to the next)
-    channel : the scene's channel; links drawn from ``channel_rng``, once per hop channel
-    times_s : (N,) float64, query instants [s]
-    gains : (N,) complex128, per-query gain of the held links (both ways) [linear]
-    noise_rng : the reader port's receiver noise, drawn query by query
-    query_block : queries per batch of air steps (the results do not depend on it)
+    reader : rfsim.devices.reader.Reader
+        The reader (its hop table sets each query's channel).
+    tag : rfsim.devices.tag.PassiveTag
+        The tag (its state carries from one query to the next).
+    reader_antenna : rfsim.channels.antennas.Antenna
+        The reader's antenna.
+    channel : rfsim.channels.scene.Channel
+        The scene's channel.
+    times_s : array_like of float, shape (N,)
+        Query instants [s], N ≥ 1.
+    gains : array_like of complex, shape (N,)
+        Per-query gain of the held links (both ways) [linear, amplitude].
+    channel_rng : numpy.random.Generator
+        Draws the links, once per hop channel (held within the dwell).
+    noise_rng : numpy.random.Generator
+        The reader port's receiver noise, drawn query by query.
+    query_block : int, optional
+        Queries per batch of air steps, default :data:`QUERY_BLOCK` (the results do not
+        depend on it).
+
+    Returns
+    -------
+    QueryCounts
+        The counts of reads, replies and powered queries, and the channels visited.
     """
     lk = reader.link
     q = _commands.Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0)

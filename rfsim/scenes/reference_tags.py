@@ -76,19 +76,52 @@ class ReferenceTagsConfig:
 
 
 def payload(tag: int) -> np.ndarray:
-    """32 bits a reference tag broadcasts: its 16-bit index and CRC-16."""
+    """Return the 32 bits a reference tag broadcasts: its 16-bit index and CRC-16.
+
+    Parameters
+    ----------
+    tag : int
+        Index of the reference tag, 0 ≤ tag < 2**16.
+
+    Returns
+    -------
+    ndarray of uint8, shape (32,)
+        The index (MSB first) followed by its CRC-16 (EPC Gen2 CRC-16, :mod:`rfsim.gen2.crc`).
+    """
     return _crc.append_crc16(_bits.int_to_bits(int(tag), 16))
 
 
 def listener_inputs(config: ReferenceTagsConfig, exciter_xyz, tags_xy, senders, listeners_xy,
                     rng: np.random.Generator):
-    """One air step: ``senders`` (tag indices) broadcast together, the mobile tag listens at each of
-    ``listeners_xy (n, 2)`` [m]. Returns the listener inputs (n, samples) [√W] and the frames.
+    """Run one air step: ``senders`` broadcast together, the mobile tag listens at n positions.
 
     The listeners form one batched receiver with narrowband links; a batch holding a link that
     needs exact delays (:class:`rfsim.scenes.links.BatchLink`) is split in halves, down to
-    single listeners on exact path sets. ``rng`` draws the links (exciter → listeners, then per
-    sender exciter → tag and tag → listeners), the tags' streams and the noise."""
+    single listeners on exact path sets.
+
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    exciter_xyz : array_like, shape (3,)
+        Position of the exciter [m].
+    tags_xy : array_like, shape (n_tags, 2)
+        Positions (x, y) of the reference tags [m] (at ``config.height_m``).
+    senders : sequence of int
+        Indices of the broadcasting tags.
+    listeners_xy : array_like, shape (n, 2)
+        Positions (x, y) of the listening mobile tag [m].
+    rng : numpy.random.Generator
+        Draws the links (exciter → listeners, then per sender exciter → tag and tag →
+        listeners), the tags' streams and the noise.
+
+    Returns
+    -------
+    inputs : ndarray of complex, shape (n, n_samples)
+        The listener's input at each position [√W].
+    frames : list
+        The senders' frames (:func:`rfsim.devices.own_schedule.build_frame`), in sender order.
+    """
     fr = config.frame
     lis_pos = np.column_stack([np.asarray(listeners_xy, float), np.full(len(listeners_xy), config.height_m)])
     frames = [build_frame(payload(i), fr, stamp_cycles=0) for i in senders]
@@ -126,8 +159,27 @@ def _inputs(config, exciter_xyz, tags_xy, senders, frames, lis_pos, rng) -> np.n
 
 
 def decode_rows(config: ReferenceTagsConfig, x, frames, senders, threshold_v: float) -> np.ndarray:
-    """(n,) the sender whose 32 bits the chain (comparator at ``threshold_v`` [V]) decodes
-    exactly in each row of ``x`` (n, samples), −1 for none (:meth:`RowsChain.matched`)."""
+    """Decode each listener input with the mobile tag's receive chain.
+
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    x : ndarray of complex, shape (n, n_samples)
+        Listener inputs (:func:`listener_inputs`) [√W].
+    frames : list
+        The senders' frames.
+    senders : sequence of int
+        Tag index of each frame.
+    threshold_v : float
+        Comparator threshold of the chain [V].
+
+    Returns
+    -------
+    ndarray of int64, shape (n,)
+        The sender whose 32 bits come out exactly in each row
+        (:meth:`rfsim.devices.st_rows.RowsChain.matched`), −1 for none.
+    """
     fr = config.frame
     listener = dataclasses.replace(config.listener, threshold_v=float(threshold_v))
     rx = _sense_a_tag.make_receiver(listener, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
@@ -137,13 +189,33 @@ def decode_rows(config: ReferenceTagsConfig, x, frames, senders, threshold_v: fl
 
 def calibrate_threshold(config: ReferenceTagsConfig, exciter_xyz, tags_xy, range_m: float,
                         rng: np.random.Generator) -> tuple[float, float, float]:
-    """The listener threshold at which the tag at the median exciter distance is decoded at
-    ``range_m`` [m] half of the time (module docstring).
+    """Calibrate the listener threshold at which a tag is decoded at ``range_m`` half of the time.
+
+    The tag is the one at the median exciter distance. Bisection in log V over [1e-7, 1] V,
+    14 steps, on ``config.calibration_positions`` listener positions at distance r (uniform
+    azimuth) around each tag (module docstring).
+
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    exciter_xyz : array_like, shape (3,)
+        Position of the exciter [m].
+    tags_xy : array_like, shape (n_tags, 2)
+        Positions (x, y) of the reference tags [m] (at ``config.height_m``).
+    range_m : float
+        The calibration range r [m].
+    rng : numpy.random.Generator
+        Draws the azimuths, then every tag's links, streams and noise.
 
     Returns
     -------
-    (threshold_v [V], min_fraction, max_fraction): the decode fraction at r over all tags at
-    that threshold, smallest and largest.
+    threshold_v : float
+        The threshold [V].
+    min_fraction : float
+        Smallest decode fraction at r over all tags at that threshold.
+    max_fraction : float
+        Largest decode fraction at r over all tags at that threshold.
     """
     tags = np.asarray(tags_xy, float)
     n = config.calibration_positions
@@ -167,8 +239,36 @@ def calibrate_threshold(config: ReferenceTagsConfig, exciter_xyz, tags_xy, range
 
 def decode_events(config: ReferenceTagsConfig, exciter_xyz, tags_xy, slot_senders, listeners_xy, range_m: float,
                   threshold_v: float, rng: np.random.Generator) -> np.ndarray:
-    """Decoded tag per event (−1: none). ``slot_senders``: one tuple of sender indices per event;
-    events beyond ``max_distance_factor``·r of every sender are not simulated."""
+    """Decode events (listener position, sending tags) at sample level.
+
+    Events with the same set of senders are one air step with a batched receiver
+    (:func:`listener_inputs`), groups in sorted order. Events beyond
+    ``config.max_distance_factor``·r of every sender are not simulated (not decoded).
+
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    exciter_xyz : array_like, shape (3,)
+        Position of the exciter [m].
+    tags_xy : array_like, shape (n_tags, 2)
+        Positions (x, y) of the reference tags [m] (at ``config.height_m``).
+    slot_senders : sequence of tuple of int
+        One tuple of sender indices per event.
+    listeners_xy : array_like, shape (n_events, 2)
+        The mobile tag's position at each event [m].
+    range_m : float
+        The range r [m].
+    threshold_v : float
+        Comparator threshold of the listener [V].
+    rng : numpy.random.Generator
+        Draws every group's links, streams and noise.
+
+    Returns
+    -------
+    ndarray of int64, shape (n_events,)
+        Decoded tag per event, −1 for none.
+    """
     tags = np.asarray(tags_xy, float)
     lis = np.asarray(listeners_xy, float)
     out = np.full(len(slot_senders), -1, dtype=np.int64)
@@ -186,12 +286,39 @@ def decode_events(config: ReferenceTagsConfig, exciter_xyz, tags_xy, slot_sender
 
 def decode_slots(config: ReferenceTagsConfig, exciter_xyz, tags_xy, broadcasts, positions_xy, slots, *,
                  n_slots: int, range_m: float, threshold_v: float, rng: np.random.Generator) -> np.ndarray:
-    """(n,) bool per broadcast: decoded at sample level, for the broadcasts marked in ``slots``.
+    """Decode the broadcasts marked in ``slots`` at sample level.
 
-    ``broadcasts``: the columns ``period``, ``slot``, ``tag`` of
-    :func:`rfsim.protocols.tag_to_tag.aloha_schedule`; ``positions_xy`` (n, 2) [m] the mobile
-    tag at each broadcast. Each marked slot is one event (its senders, the mobile tag where it
-    is at the first of them, :func:`decode_events`); a slot decodes as at most one of its senders.
+    Each marked slot is one event (its senders, the mobile tag where it is at the first of
+    them, :func:`decode_events`); a slot decodes as at most one of its senders.
+
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    exciter_xyz : array_like, shape (3,)
+        Position of the exciter [m].
+    tags_xy : array_like, shape (n_tags, 2)
+        Positions (x, y) of the reference tags [m] (at ``config.height_m``).
+    broadcasts : dict of str to ndarray
+        The columns ``period``, ``slot``, ``tag`` of
+        :func:`rfsim.protocols.tag_to_tag.aloha_schedule`, n broadcasts.
+    positions_xy : ndarray, shape (n, 2)
+        The mobile tag at each broadcast [m].
+    slots : ndarray of bool, shape (n,)
+        Broadcasts to simulate (their whole slots are).
+    n_slots : int
+        Slots per period.
+    range_m : float
+        The range r [m].
+    threshold_v : float
+        Comparator threshold of the listener [V].
+    rng : numpy.random.Generator
+        Draws the events' links, streams and noise.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        Decoded, per broadcast (False where ``slots`` is False).
     """
     b = broadcasts
     key = b["period"] * n_slots + b["slot"]
@@ -206,16 +333,49 @@ def decode_slots(config: ReferenceTagsConfig, exciter_xyz, tags_xy, broadcasts, 
 def receive_broadcasts(config: ReferenceTagsConfig, exciter_xyz, tags_xy, broadcasts, positions_xy, distance_m, *,
                        range_model: str, collision_model: str, range_m: float, a1: float, a2: float, n_slots: int,
                        threshold_v: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """(reached, decoded), (n,) bool per broadcast: whether the mobile tag would decode it alone,
-    and whether it did.
+    """Decide which broadcasts reach the mobile tag and which it decodes.
 
-    ``range_model``: "disc" or "logistic" (:func:`rfsim.detection.tag_to_tag.in_range` at
-    ``distance_m`` [m], with Eq. (6.5) coefficients ``a1``, ``a2``), or "physical" (every slot
-    at sample level, :func:`decode_slots`). ``collision_model``: "loss" (a collided broadcast is
-    lost, seeds/004 L1084) or "physical" (collided slots at sample level: the strongest frame
-    may still decode). ``broadcasts``: the columns of
-    :func:`rfsim.protocols.tag_to_tag.aloha_schedule`; ``positions_xy`` (n, 2) [m] the mobile
-    tag at each broadcast; ``threshold_v`` [V] the listener threshold of the physical models.
+    Parameters
+    ----------
+    config : ReferenceTagsConfig
+        The scene's settings.
+    exciter_xyz : array_like, shape (3,)
+        Position of the exciter [m].
+    tags_xy : array_like, shape (n_tags, 2)
+        Positions (x, y) of the reference tags [m] (at ``config.height_m``).
+    broadcasts : dict of str to ndarray
+        The columns of :func:`rfsim.protocols.tag_to_tag.aloha_schedule` (``period``,
+        ``slot``, ``tag``, ``n_in_slot``), n broadcasts.
+    positions_xy : ndarray, shape (n, 2)
+        The mobile tag at each broadcast [m].
+    distance_m : ndarray, shape (n,)
+        Distance from the sender to the mobile tag [m] (the statistical range models).
+    range_model : {"disc", "logistic", "physical"}
+        "disc" or "logistic": :func:`rfsim.detection.tag_to_tag.in_range` (Geng Eq. (6.5)
+        with ``a1``, ``a2``); "physical": every slot at sample level (:func:`decode_slots`).
+    collision_model : {"loss", "physical"}
+        "loss": a collided broadcast is lost (seeds/004 L1084); "physical": collided slots
+        at sample level (the strongest frame may still decode).
+    range_m : float
+        The range r [m].
+    a1 : float
+        Coefficient a1 of Eq. (6.5).
+    a2 : float
+        Coefficient a2 of Eq. (6.5).
+    n_slots : int
+        Slots per period.
+    threshold_v : float
+        Listener threshold of the physical models [V].
+    rng : numpy.random.Generator
+        Draws the statistical range model, then the sample-level slots.
+
+    Returns
+    -------
+    reached : ndarray of bool, shape (n,)
+        Whether the mobile tag would decode the broadcast alone (with ``range_model =
+        "physical"``: whether it decoded it).
+    decoded : ndarray of bool, shape (n,)
+        Whether it decoded it.
     """
     single = broadcasts["n_in_slot"] == 1
     if range_model != "physical":

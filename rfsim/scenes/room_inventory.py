@@ -57,8 +57,23 @@ class RoomConfig:
 
 
 def tag_epc_hex(template: str, k: int) -> str:
-    """EPC of tag k: the template's length with the index in its last digits (unique EPCs).
+    """Return the EPC of tag ``k``: the template's length, the number k + 1 in its last digits.
 
+    Parameters
+    ----------
+    template : str
+        Template EPC in hex (spaces ignored); only its length is used.
+    k : int
+        0-based tag index.
+
+    Returns
+    -------
+    str
+        Upper-case hex of k + 1, zero-padded (or truncated) to the template's length
+        (unique EPCs while k + 1 fits).
+
+    Examples
+    --------
     >>> tag_epc_hex("3000 0000", 10)
     '0000000B'
     """
@@ -68,7 +83,7 @@ def tag_epc_hex(template: str, k: int) -> str:
 
 def make_tags(config, antennas, *, seed: int, key: tuple[int, ...], spread: TagSpreadConfig | None = None,
               link=None, records: list | None = None) -> list:
-    """One PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``.
+    """Make one PassiveTag per antenna, tag k with its own stream ``trial_rng(seed, *key, k)``.
 
     Parameters
     ----------
@@ -76,10 +91,23 @@ def make_tags(config, antennas, *, seed: int, key: tuple[int, ...], spread: TagS
         Template; tag k gets the EPC :func:`tag_epc_hex` ``(config.epc_hex, k)``.
     antennas : sequence of rfsim.channels.antennas.Antenna
         One per tag.
-    spread, link, records
-        With an enabled ``spread`` tag k draws its own BLF error, T1, chip states and antenna
-        yaw/roll offsets on ``link`` from its spread sub-stream ``trial_rng(seed, *key, k, 0)``
-        (:class:`rfsim.devices.tag_spread.TagSpreadConfig`); each draw is appended to ``records``.
+    seed : int
+        Root seed.
+    key : tuple of int
+        Stream key of the population.
+    spread : rfsim.devices.tag_spread.TagSpreadConfig, optional
+        When enabled, tag k draws its own BLF error, T1, chip states and antenna yaw/roll
+        offsets from its spread sub-stream ``trial_rng(seed, *key, k, 0)``. Default None
+        (identical tags).
+    link : rfsim.gen2.link.LinkProfile, optional
+        The link the spread is drawn on (needed with an enabled ``spread``).
+    records : list, optional
+        Each spread draw's record is appended to it.
+
+    Returns
+    -------
+    list of rfsim.devices.tag.PassiveTag
+        The tags, in antenna order.
     """
     tags = []
     for k, a in enumerate(antennas):
@@ -95,14 +123,38 @@ def make_tags(config, antennas, *, seed: int, key: tuple[int, ...], spread: TagS
 
 
 def tag_antenna(position_m, azimuth_rad: float):
-    """Vertical half-wave dipole tag at ``position_m`` [m] facing ``azimuth_rad`` [rad]."""
+    """Return a tag antenna: a vertical half-wave dipole, linearly polarized.
+
+    Parameters
+    ----------
+    position_m : array_like, shape (3,)
+        Position [m].
+    azimuth_rad : float
+        Yaw of the antenna [rad].
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The dipole.
+    """
     return _antennas.Antenna(position_m=tuple(float(v) for v in position_m), orientation=(float(azimuth_rad), 0.0, 0.0),
                              pattern=_antennas.HalfWaveDipole(), polarization="linear", pol_tilt_rad=0.0)
 
 
 def reader_antennas(room: RoomConfig) -> list:
-    """Circular patches in the middle of the walls x=0, x=L, y=0, y=W (in that order), facing
-    inwards, the first ``room.n_antennas`` of them."""
+    """Return the reader's circular patches in the middle of the walls, facing inwards.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        The room (size, reader height, patch gain and beamwidth, ``n_antennas``).
+
+    Returns
+    -------
+    list of rfsim.channels.antennas.Antenna
+        The first ``room.n_antennas`` of the patches on the walls x = 0, x = L, y = 0,
+        y = W (in that order).
+    """
     L, W, h = room.length_m, room.width_m, room.reader_height_m
     spots = [((0.0, W / 2, h), 0.0), ((L, W / 2, h), math.pi), ((L / 2, 0.0, h), math.pi / 2),
              ((L / 2, W, h), -math.pi / 2)]
@@ -113,13 +165,40 @@ def reader_antennas(room: RoomConfig) -> list:
 
 
 def room_scene(room: RoomConfig):
-    """The room's channel scene: the floor (ε_r 5.3, image order 1) and the APDP, as enabled."""
+    """Return the room's channel scene: Friis LoS, the floor and the APDP as enabled.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        ``floor``: a concrete floor at z = 0 (ε_r = 5.3, image order 1); ``apdp``: the
+        exponential APDP with the PASS room curves.
+
+    Returns
+    -------
+    rfsim.channels.scene.Scene
+        The scene.
+    """
     surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if room.floor else ()
     return _scene.Scene(surfaces=surfaces, apdp=_small_scale.ApdpModel() if room.apdp else None, image_order=1)
 
 
 def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -> list:
-    """``n`` tags uniformly in the room (0.5 m from the walls), random azimuth in [−π, π)."""
+    """Place ``n`` tag antennas uniformly in the room.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        The room: x, y uniform at least 0.5 m from the walls, z uniform in ``tag_height_m``.
+    n : int
+        Number of tags.
+    rng : numpy.random.Generator
+        Draws the n x, then y, z and azimuths (uniform in [−π, π)).
+
+    Returns
+    -------
+    list of rfsim.channels.antennas.Antenna
+        The tag antennas (:func:`tag_antenna`).
+    """
     x = rng.uniform(0.5, room.length_m - 0.5, n)
     y = rng.uniform(0.5, room.width_m - 0.5, n)
     z = rng.uniform(*room.tag_height_m, n)
@@ -129,10 +208,37 @@ def random_tag_antennas(room: RoomConfig, n: int, *, rng: np.random.Generator) -
 
 def room_population(room: RoomConfig, reader_config, tag_config, n: int, antennas, *, seed: int,
                     key: tuple[int, ...], spread: TagSpreadConfig | None = None, records: list | None = None):
-    """(reader, tags): ``n`` tags placed at random in the room and the reader on ``antennas``.
+    """Place ``n`` tags at random in the room and the reader on ``antennas``.
 
-    Streams: tag positions ``trial_rng(seed, *key, 0)``, the reader ``trial_rng(seed, *key, 1)``,
-    tag k ``trial_rng(seed, *key, 3, k)`` (its spread ``..., 3, k, 0``, see :func:`make_tags`).
+    Parameters
+    ----------
+    room : RoomConfig
+        The room.
+    reader_config : rfsim.devices.reader_config.ReaderConfig
+        The reader.
+    tag_config : rfsim.devices.tag_config.TagConfig
+        The tags' template (:func:`make_tags`).
+    n : int
+        Number of tags.
+    antennas : list of rfsim.channels.antennas.Antenna
+        The reader's antennas (:func:`reader_antennas`).
+    seed : int
+        Root seed. Streams: tag positions ``trial_rng(seed, *key, 0)``, the reader
+        ``trial_rng(seed, *key, 1)``, tag k ``trial_rng(seed, *key, 3, k)`` (its spread
+        ``..., 3, k, 0``).
+    key : tuple of int
+        Stream key of the population.
+    spread : rfsim.devices.tag_spread.TagSpreadConfig, optional
+        The tags' spread (:func:`make_tags`), default None.
+    records : list, optional
+        Receives the spread draws.
+
+    Returns
+    -------
+    reader : rfsim.devices.reader.Reader
+        The reader.
+    tags : list of rfsim.devices.tag.PassiveTag
+        The tags.
     """
     tag_ants = random_tag_antennas(room, n, rng=trial_rng(seed, *key, 0))
     reader = _reader.Reader(reader_config, antennas, rng=trial_rng(seed, *key, 1))
@@ -141,8 +247,28 @@ def room_population(room: RoomConfig, reader_config, tag_config, n: int, antenna
 
 
 def room_air(room: RoomConfig, reader, tags, *, seed: int, key: tuple[int, ...], keep_exchanges: bool = False):
-    """The sample-level air interface of the room (channel and receiver noise from
-    ``trial_rng(seed, *key, 2)``)."""
+    """Return the sample-level air interface of the room.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        The room (its channel scene, :func:`room_scene`).
+    reader : rfsim.devices.reader.Reader
+        The reader.
+    tags : list of rfsim.devices.tag.PassiveTag
+        The tags.
+    seed : int
+        Root seed.
+    key : tuple of int
+        Stream key: channel and receiver noise from ``trial_rng(seed, *key, 2)``.
+    keep_exchanges : bool, optional
+        Keep every exchange in the air's ``exchanges``, default False.
+
+    Returns
+    -------
+    rfsim.protocols.inventory.EngineAir
+        The air interface.
+    """
     return EngineAir(reader, tags, _scene.Channel(room_scene(room)), rng=trial_rng(seed, *key, 2),
                      keep_exchanges=keep_exchanges)
 
@@ -153,8 +279,27 @@ def boresight_pair_slot(room: RoomConfig, reader_config, tag_config, *, near_m: 
 
     A circular patch (``room``'s gain and beamwidth) at (0, 0, h), h = ``room.reader_height_m``,
     faces +x; the tags are :func:`tag_antenna` dipoles at (``near_m``, 0, h) and (``far_m``, 0, h)
-    facing it, in free space. Streams: the tags ``trial_rng(seed, *key, 0, k)``, the reader
-    ``trial_rng(seed, *key, 1)``, the channel and noise ``trial_rng(seed, *key, 2)``.
+    facing it, in free space.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        Reader height, patch gain and beamwidth.
+    reader_config : rfsim.devices.reader_config.ReaderConfig
+        The reader.
+    tag_config : rfsim.devices.tag_config.TagConfig
+        The tags' template.
+    near_m : float
+        Distance of the near tag [m].
+    far_m : float
+        Distance of the far tag [m].
+    session : int
+        Gen2 session of the Query (0–3).
+    seed : int
+        Root seed. Streams: the tags ``trial_rng(seed, *key, 0, k)``, the reader
+        ``trial_rng(seed, *key, 1)``, the channel and noise ``trial_rng(seed, *key, 2)``.
+    key : tuple of int
+        Stream key of the slot.
 
     Returns
     -------
@@ -197,13 +342,36 @@ CAPTURE_FIELDS = {
 
 def boresight_capture_rows(room: RoomConfig, reader_config, tag_config, *, near_m: float, ratios_db, trials: int,
                            session: int, seed: int) -> dict[str, list]:
-    """Capture probability data (:data:`CAPTURE_FIELDS`): for each nominal ratio r [dB] in
-    ``ratios_db``, ``trials`` slots of :func:`boresight_pair_slot`.
+    r"""Simulate the boresight capture trials: ``trials`` slots of :func:`boresight_pair_slot` per ratio.
 
-    The far tag sits at d_near·10^(r/40) plus a uniform offset in ±λ/4 (λ at 915 MHz): the
-    round-trip phase difference 4π·Δd/λ then spans a full turn, so the relative phase of
-    the two replies is random, as it is between real tags. Streams: ratio i, trial j:
-    ``trial_rng(seed, 10**6 + i, j, ...)`` (the offset from ``..., 3``).
+    The far tag sits at :math:`d_{near} 10^{r/40}` plus a uniform offset in ±λ/4 (λ at
+    915 MHz): the round-trip phase difference 4π·Δd/λ then spans a full turn, so the
+    relative phase of the two replies is random, as it is between real tags.
+
+    Parameters
+    ----------
+    room : RoomConfig
+        Reader height, patch gain and beamwidth.
+    reader_config : rfsim.devices.reader_config.ReaderConfig
+        The reader.
+    tag_config : rfsim.devices.tag_config.TagConfig
+        The tags' template.
+    near_m : float
+        Distance of the near tag [m].
+    ratios_db : sequence of float
+        Nominal backscatter power ratios r [dB] (40·log10(d_far/d_near)).
+    trials : int
+        Slots per ratio.
+    session : int
+        Gen2 session of the Query (0–3).
+    seed : int
+        Root seed. Streams: ratio i, trial j: ``trial_rng(seed, 10**6 + i, j, ...)`` (the
+        offset from ``..., 3``).
+
+    Returns
+    -------
+    dict of str to list
+        One row per trial, columns of :data:`CAPTURE_FIELDS`.
     """
     rows: dict[str, list] = {k: [] for k in CAPTURE_FIELDS}
     lam = C_M_S / 915e6
@@ -222,10 +390,26 @@ def boresight_capture_rows(room: RoomConfig, reader_config, tag_config, *, near_
 def room_reads(reads, fields, tag_rows, room: RoomConfig) -> dict:
     """The ``inventory`` scenario's reads table in the per-read schema (:func:`rfsim.core.reads.reads_table`).
 
-    ``reads`` are the inventories' read logs with ``population`` and ``run``; ``tag_rows`` one row
-    per tag of every inventory (``population``, ``run``, ``tag``, ``x_m``, ``y_m``, ``z_m``). The
-    ground truth of a read is its tag's position and the distance from the reading antenna
-    (:func:`reader_antennas`) [m]; NaN where the tag is not known (index -1).
+    The ground truth of a read is its tag's position and the distance from the reading
+    antenna (:func:`reader_antennas`); NaN where the tag is not known (index −1).
+
+    Parameters
+    ----------
+    reads : dict of str to array_like
+        The inventories' read logs with ``population`` and ``run``.
+    fields : dict of str to tuple of (str, str)
+        (unit, description) of the extra columns kept from ``reads``.
+    tag_rows : dict of str to array_like
+        One row per tag of every inventory (``population``, ``run``, ``tag``, ``x_m``,
+        ``y_m``, ``z_m``) [m].
+    room : RoomConfig
+        The room (its reader antennas).
+
+    Returns
+    -------
+    dict of str to rfsim.core.dataset.Column
+        The table's columns (:func:`rfsim.core.reads.reads_table`), with
+        ``true_position_m`` (n, 3) and ``true_distance_m`` (n,) [m].
     """
     row = {key: i for i, key in enumerate(zip(tag_rows["population"], tag_rows["run"], tag_rows["tag"]))}
     xyz = np.vstack([np.column_stack([tag_rows["x_m"], tag_rows["y_m"], tag_rows["z_m"]]), np.full((1, 3), np.nan)])

@@ -62,9 +62,31 @@ V_PER_SQRT_W = math.sqrt(2.0 * sr.REFERENCE_IMPEDANCE_OHM)
 
 @dataclass(frozen=True)
 class TagListeningScene:
-    """What the scene is made of: reader and tag configs, the tag's states, PASS replication,
-    the common height [m], the reader patch gain [dBi], the APDP switch, the ST pair's coupling
-    and spacing [m], and the ST noise figure [dB] (None: no noise)."""
+    """What the scene is made of.
+
+    Attributes
+    ----------
+    reader : rfsim.devices.reader_config.ReaderConfig
+        The reader.
+    tag : rfsim.devices.tag_config.TagConfig
+        The tag.
+    tag_states : rfsim.devices.pass_tag.TagStatesConfig
+        The tag's reflection states.
+    pass_replication : rfsim.devices.pass_tag.PassReplicationConfig
+        PASS replication (antenna files).
+    height_m : float
+        Common height of reader, tag and ST antennas [m].
+    reader_gain_dbi : float
+        Reader patch gain [dBi].
+    apdp : bool
+        Add the exponential APDP (PASS ST-room curves).
+    pair_coupling : bool
+        Mix the two ST ports by their mutual coupling.
+    st_spacing_m : float
+        Spacing of the ST's antenna pair [m].
+    noise_figure_db : float or None
+        ST noise figure [dB]; None: no noise.
+    """
 
     reader: ReaderConfig
     tag: TagConfig
@@ -80,24 +102,72 @@ class TagListeningScene:
 
 @lru_cache(maxsize=4)
 def pass_tag_pattern(characteristics_dir: str) -> _antennas.Tabulated:
-    """PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0), memoised per folder."""
+    """Return PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0), memoised per folder.
+
+    Parameters
+    ----------
+    characteristics_dir : str
+        Folder holding PASS's characteristic files (:data:`rfsim.devices.pass_tag.PASS_TAG_ANTENNA_FILE`).
+
+    Returns
+    -------
+    rfsim.channels.antennas.Tabulated
+        The pattern.
+    """
     return _antennas.Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
 
 
 def room(apdp: bool) -> _channels_scene.Scene:
-    """Friis, with the exponential APDP (PASS ST-room curves) when ``apdp``."""
+    """Return the scene's channel: Friis, optionally with the exponential APDP.
+
+    Parameters
+    ----------
+    apdp : bool
+        Add the exponential APDP with the PASS ST-room curves (:class:`rfsim.channels.small_scale.ApdpModel`).
+
+    Returns
+    -------
+    rfsim.channels.scene.Scene
+        The scene (no surfaces).
+    """
     return _channels_scene.Scene(apdp=ApdpModel() if apdp else None)
 
 
 def reader_antenna(s: TagListeningScene) -> _antennas.Antenna:
-    """The reader's patch at (0, 0, h), boresight +x, 70° beamwidth."""
+    """Return the reader's patch at (0, 0, h), boresight +x, 70° beamwidth, linearly polarized.
+
+    Parameters
+    ----------
+    s : TagListeningScene
+        The scene. (h = ``s.height_m``, gain ``s.reader_gain_dbi``).
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The reader antenna.
+    """
     return _antennas.Antenna(position_m=(0.0, 0.0, s.height_m), orientation=(0.0, 0.0, 0.0),
                              pattern=_antennas.Patch(s.reader_gain_dbi, 70.0), polarization="linear")
 
 
 def tag_antenna(x_m: float, s: TagListeningScene) -> _antennas.Antenna:
-    """The tag's antenna at (x, 0, h): a dipole facing the reader, axis vertical (as in the link
-    scenario); PASS's file when replicating (both patterns along the local z axis)."""
+    """Return the tag's antenna at (x, 0, h), facing the reader, axis vertical.
+
+    A half-wave dipole (as in the link scenario), or PASS's file when replicating (both
+    patterns along the local z axis).
+
+    Parameters
+    ----------
+    x_m : float
+        x of the tag [m].
+    s : TagListeningScene
+        The scene.
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The tag antenna.
+    """
     pr = s.pass_replication
     pattern = pass_tag_pattern(pr.characteristics_dir) if pr.enabled else _antennas.HalfWaveDipole()
     return _antennas.Antenna(position_m=(x_m, 0.0, s.height_m), orientation=(math.pi, 0.0, 0.0),
@@ -105,8 +175,28 @@ def tag_antenna(x_m: float, s: TagListeningScene) -> _antennas.Antenna:
 
 
 def st_links(s: TagListeningScene, fc_hz: float, sa_pos, tag_ant, rng):
-    """Batched narrowband links reader→SA and tag→SA for (N, k, 3) antenna positions [m]
-    (:meth:`rfsim.channels.bulk.BulkPaths.batch_link`), drawn in that order from ``rng``."""
+    """Draw the batched links reader→SA and tag→SA, in that order.
+
+    Parameters
+    ----------
+    s : TagListeningScene
+        The scene.
+    fc_hz : float
+        Carrier frequency [Hz].
+    sa_pos : ndarray, shape (N, k, 3)
+        ST antenna positions [m].
+    tag_ant : rfsim.channels.antennas.Antenna
+        The tag's antenna.
+    rng : numpy.random.Generator
+        Draws both batches.
+
+    Returns
+    -------
+    reader_links : rfsim.channels.bulk.BatchLink
+        Reader → every ST antenna, shape (N, k) (:meth:`rfsim.channels.bulk.BulkPaths.batch_link`).
+    tag_links : rfsim.channels.bulk.BatchLink
+        Tag → every ST antenna, shape (N, k).
+    """
     ra = reader_antenna(s)
     pr = s.pass_replication
     sta = _antennas.vertical_dipole(np.zeros(3))
@@ -123,17 +213,52 @@ def st_links(s: TagListeningScene, fc_hz: float, sa_pos, tag_ant, rng):
 class Exchange:
     """One exchange through the air step, from the command end on (the ST window).
 
-    x_tx, inc : (n,) complex128 [√W] reader segment and the field incident on the tag;
-    inputs : (N, k, n) complex128 [√W] input of every ST antenna (k = 2: SA1, SA2; k = 1: SA2)
-    during the RN16 reply (None when the tag did not reply); stamp_inputs : the same with the tag
-    sending the stamped frame (None unless k = 2 and the tag replied); a_gain, b_gain : (N, k)
-    complex narrowband gains reader→SA and tag→SA; narrowband_error : largest relative envelope
-    error of the ST links (:meth:`rfsim.channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF);
-    levels : (n,) true line-code levels; frame : StampFrame (indices relative to the window) or
-    None; i_ref : a CW sample inside the reply; search : decoder search window [samples]; rerad_b,
-    rerad_a : re-radiated states A_s − Γ_B (modulating), A_s − Γ_A (absorbing); rn16 : (16,) bits
-    or None; p_available_w, p_chip_w : CW power available at the tag antenna and absorbed by the
-    chip [W] (NaN unless 'measured')
+    Attributes
+    ----------
+    x_tx : ndarray of complex128, shape (n,)
+        The reader's segment [√W].
+    inc : ndarray of complex128, shape (n,)
+        The field incident on the tag [√W].
+    inputs : ndarray of complex128, shape (N, k, n), or None
+        Input of every ST antenna (k = 2: SA1, SA2; k = 1: SA2) during the RN16 reply [√W];
+        None when the tag did not reply.
+    stamp_inputs : ndarray of complex128, shape (N, k, n), or None
+        The same with the tag sending the stamped frame; None unless k = 2 and the tag replied.
+    a_gain : ndarray of complex, shape (N, k)
+        Narrowband gains reader→SA.
+    b_gain : ndarray of complex, shape (N, k)
+        Narrowband gains tag→SA.
+    narrowband_error : float
+        Largest relative envelope error of the ST links
+        (:meth:`rfsim.channels.bulk.BulkPaths.narrowband_rms_error` on 2·BLF).
+    levels : ndarray, shape (n,)
+        True line-code levels.
+    frame : rfsim.devices.st_receiver.StampFrame or None
+        The stamped frame (indices relative to the window).
+    i_ref : int
+        A CW sample inside the reply.
+    search : int
+        Decoder search window [samples].
+    rerad_a : complex
+        Re-radiated absorbing state A_s − Γ_A.
+    rerad_b : complex
+        Re-radiated modulating state A_s − Γ_B.
+    rn16 : ndarray of uint8, shape (16,), or None
+        The RN16 the tag sent.
+    fs_hz : float
+        Sample rate [Hz].
+    fc_hz : float
+        Carrier [Hz].
+    blf_hz : float
+        The tag's BLF [Hz] (the nominal one without a reply).
+    m : int
+        Miller M of the reply (1: FM0).
+    trext : bool
+        Pilot tone of the reply.
+    p_available_w : float
+        CW power available at the tag antenna [W] (NaN unless 'measured').
+    p_chip_w : float
+        CW power absorbed by the chip [W] (NaN unless 'measured').
     """
 
     x_tx: np.ndarray
@@ -159,8 +284,19 @@ class Exchange:
     p_chip_w: float
 
     def phasors_v(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(N, k) complex [V] antenna-level phasors (RF peak at 50 Ω) at the reference sample of
-        the CW and of the backscatter in the modulating and absorbing states (A_T1, A_T2 of Eq. 3.4)."""
+        """Return the antenna-level phasors at the reference sample ``i_ref``.
+
+        RF peak volts at 50 Ω (:data:`V_PER_SQRT_W`), AURIS Eq. 3.4.
+
+        Returns
+        -------
+        cw_v : ndarray of complex, shape (N, k)
+            The CW from the reader [V].
+        bs_modulating_v : ndarray of complex, shape (N, k)
+            The backscatter in the modulating state, A_T1 [V].
+        bs_absorbing_v : ndarray of complex, shape (N, k)
+            The backscatter in the absorbing state, A_T2 [V].
+        """
         cw = V_PER_SQRT_W * self.a_gain * self.x_tx[self.i_ref]
         bs1 = V_PER_SQRT_W * self.b_gain * self.rerad_b * self.inc[self.i_ref]
         bs2 = V_PER_SQRT_W * self.b_gain * self.rerad_a * self.inc[self.i_ref]
@@ -195,10 +331,37 @@ class _Replay:
 
 def simulate_exchange(s: TagListeningScene, tag_x_m: float, sa_pos, *, seed: int, index: tuple[int, ...],
                       link_rng: np.random.Generator) -> Exchange:
-    """The air steps of one exchange: reader Query segment → tag (forward link, PIE decode, RN16 as
-    Γ(t), re-radiated as (A_s − Γ(t))·incident); if it replied, the ST antennas at ``sa_pos``
-    ((N, k, 3) [m], their links drawn from ``link_rng``) hear it on the ST window, and with two
-    antennas the stamped frame too (module docstring)."""
+    """Run the air steps of one exchange (module docstring).
+
+    Reader Query segment → tag (forward link, PIE decode, RN16 as Γ(t), re-radiated as
+    (A_s − Γ(t))·incident); if it replied, the ST antennas hear it on the ST window, and with
+    two antennas the stamped frame too.
+
+    Parameters
+    ----------
+    s : TagListeningScene
+        The scene.
+    tag_x_m : float
+        x of the tag [m].
+    sa_pos : array_like, shape (N, k, 3)
+        ST antenna positions [m].
+    seed : int
+        Root seed.
+    index : tuple of int
+        Stream key: ``trial_rng(seed, *index, k)``, k = 0 reader, 1 tag, 2 forward link, 5 ST noise.
+    link_rng : numpy.random.Generator
+        Draws the ST links (reader→SA, then tag→SA).
+
+    Returns
+    -------
+    Exchange
+        The exchange from the command end on.
+
+    Raises
+    ------
+    ValueError
+        The reader–tag link or an ST link is not narrowband.
+    """
     ra = reader_antenna(s)
     reader = Reader(s.reader, [ra], rng=trial_rng(seed, *index, 0))
     ta = tag_antenna(tag_x_m, s)
@@ -300,8 +463,26 @@ def geometric_null_spacing_m(angle_deg: float, d_min_m: float, d_max_m: float, t
     ``(d_max − d_min)·(λ/2)/|Δ(R̃ − r)|`` over the track (reader at the origin, tag at
     ``(tag_x_m, 0)``, track at ``angle_deg`` from the tag→reader direction). Near the tag this
     is λ/(2(1 + cos α)) (0°: λ/4, 90°: λ/2); further out R̃ turns (90°: 0.217 m over
-    0.04–1 m for the tag at 2 m, not the 0.164 m of the tangent). ``inf`` where ``R̃ − r``
-    does not change (180°: the ST behind the tag on the reader–tag line).
+    0.04–1 m for the tag at 2 m, not the 0.164 m of the tangent).
+
+    Parameters
+    ----------
+    angle_deg : float
+        Angle of the track from the tag→reader direction [deg].
+    d_min_m : float
+        Start of the track: distance from the tag [m].
+    d_max_m : float
+        End of the track: distance from the tag [m].
+    tag_x_m : float
+        x of the tag (reader at the origin) [m].
+    fc_hz : float
+        Carrier frequency [Hz].
+
+    Returns
+    -------
+    float
+        Mean null spacing [m]; ``inf`` where ``R̃ − r`` does not change (180°: the ST
+        behind the tag on the reader–tag line).
     """
     lam = float(wavelength_m(fc_hz))
     u = np.array([math.cos(math.pi + math.radians(angle_deg)), math.sin(math.pi + math.radians(angle_deg))])
@@ -316,10 +497,32 @@ def geometric_null_spacing_m(angle_deg: float, d_min_m: float, d_max_m: float, t
 
 def sts_in_disc(rng: np.random.Generator, tag_pos_m, n: int, *, radius_m: float, n_antennas: int,
                 spacing_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """n ST centres uniform in a horizontal disc of ``radius_m`` around ``tag_pos_m`` (3,) [m], each
-    with a uniform orientation of its antenna pair; drawn from ``rng`` as radius² (uniform), angle,
-    orientation. Returns centres (n, 3) [m], orientations (n,) [rad] and the antenna positions
-    (n, n_antennas, 3) [m] (:func:`rfsim.devices.sense_a_tag.st_antenna_positions`)."""
+    """Draw n ST centres uniformly in a horizontal disc around the tag, each with a uniform orientation.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Draws radius² (uniform), then angle, then orientation (n each).
+    tag_pos_m : ndarray, shape (3,)
+        Position of the tag [m].
+    n : int
+        Number of ST positions.
+    radius_m : float
+        Radius of the disc [m].
+    n_antennas : int
+        Antennas of the ST.
+    spacing_m : float
+        Spacing of the ST's antennas [m].
+
+    Returns
+    -------
+    centres_m : ndarray, shape (n, 3)
+        ST centres [m], at the tag's height.
+    orientations_rad : ndarray, shape (n,)
+        Azimuth of each antenna pair's axis [rad], uniform in [−π, π).
+    antenna_positions_m : ndarray, shape (n, n_antennas, 3)
+        The antenna positions [m] (:func:`rfsim.devices.sense_a_tag.st_antenna_positions`).
+    """
     r = radius_m * np.sqrt(rng.random(n))
     phi = rng.uniform(-np.pi, np.pi, n)
     orient = rng.uniform(-np.pi, np.pi, n)
@@ -329,15 +532,45 @@ def sts_in_disc(rng: np.random.Generator, tag_pos_m, n: int, *, radius_m: float,
 
 
 def in_near_field(sa_pos_m, tag_pos_m, fc_hz: float) -> np.ndarray:
-    """(N,) bool: an antenna of the ST (``sa_pos_m`` (N, k, 3) [m]) lies within λ/2π of the tag
-    (reactive near field, where the far-field links do not hold)."""
+    """Tell which ST positions have an antenna in the tag's reactive near field (within λ/2π).
+
+    There the far-field links do not hold.
+
+    Parameters
+    ----------
+    sa_pos_m : ndarray, shape (N, k, 3)
+        ST antenna positions [m].
+    tag_pos_m : array_like, shape (3,)
+        Position of the tag [m].
+    fc_hz : float
+        Carrier frequency [Hz] (λ = c/fc).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True where an antenna lies within λ/2π of the tag.
+    """
     r_tag = np.linalg.norm(sa_pos_m - tag_pos_m, axis=-1)
     return np.any(r_tag < wavelength_m(fc_hz) / (2.0 * math.pi), axis=1)
 
 
 def radial_track_positions(tag_pos_m, angles_deg, d_m) -> np.ndarray:
-    """Points (A, D, 3) [m] at distances ``d_m`` (D,) from the tag along tracks at ``angles_deg``
-    (A,) from the tag→reader direction (reader at the origin, tag on +x), at the tag's height."""
+    """Return points along radial tracks from the tag, at the tag's height.
+
+    Parameters
+    ----------
+    tag_pos_m : ndarray, shape (3,)
+        Position of the tag [m] (reader at the origin, tag on +x).
+    angles_deg : array_like, shape (A,)
+        Angles of the tracks from the tag→reader direction [deg].
+    d_m : ndarray, shape (D,)
+        Distances from the tag [m].
+
+    Returns
+    -------
+    ndarray, shape (A, D, 3)
+        The points [m].
+    """
     ang = np.deg2rad(np.asarray(angles_deg))
     base = math.pi  # tag → reader direction (reader at the origin, tag on +x)
     return tag_pos_m + np.stack([np.cos(base + ang)[:, None] * d_m, np.sin(base + ang)[:, None] * d_m,
@@ -345,7 +578,22 @@ def radial_track_positions(tag_pos_m, angles_deg, d_m) -> np.ndarray:
 
 
 def minima_spacing_m(d_m, diff_v) -> tuple[np.ndarray, float]:
-    """Local minima of |A1 − A2| along a track and their average spacing [m] (NaN if < 2)."""
+    """Find the local minima of |A1 − A2| along a track and their average spacing.
+
+    Parameters
+    ----------
+    d_m : array_like, shape (D,)
+        Positions along the track [m].
+    diff_v : array_like, shape (D,)
+        |A1 − A2| at those positions [V].
+
+    Returns
+    -------
+    minima_m : ndarray
+        Positions of the interior local minima [m].
+    spacing_m : float
+        Mean spacing of consecutive minima [m]; NaN with fewer than 2.
+    """
     y = np.asarray(diff_v)
     i = np.flatnonzero((y[1:-1] < y[:-2]) & (y[1:-1] <= y[2:])) + 1
     pos = np.asarray(d_m)[i]

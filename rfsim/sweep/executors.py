@@ -34,7 +34,14 @@ from rfsim.sweep.store import PointResult, PointTask, run_point, run_points
 
 
 def available_cpus() -> int:
-    """CPUs this process may run on (``os.sched_getaffinity`` where it exists)."""
+    """CPUs this process may run on.
+
+    Returns
+    -------
+    int
+        The size of ``os.sched_getaffinity(0)`` where it exists, else ``os.cpu_count()``
+        (1 when unknown).
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not on Linux
@@ -46,6 +53,18 @@ def batch_size(n_tasks: int | None, workers: int) -> int:
 
     About 8 batches per worker, so the per-task overhead of the pool or the scheduler is
     paid once per batch while the load stays balanced.
+
+    Parameters
+    ----------
+    n_tasks : int or None
+        Runs to execute; None or 0 when unknown or empty.
+    workers : int
+        Worker processes (values < 1 count as 1).
+
+    Returns
+    -------
+    int
+        ``max(1, min(MAX_BATCH, n_tasks // (8 * workers)))``; 1 when ``n_tasks`` is None or 0.
     """
     if not n_tasks:
         return 1
@@ -57,23 +76,59 @@ MAX_BATCH = 256
 
 
 def batches(tasks: Iterable[PointTask], size: int) -> Iterator[list[PointTask]]:
-    """``tasks`` in lists of ``size`` (the last one shorter), consumed lazily."""
+    """Split ``tasks`` into lists of ``size``, consumed lazily.
+
+    Parameters
+    ----------
+    tasks : iterable of rfsim.sweep.store.PointTask
+        The runs to batch.
+    size : int
+        Runs per batch, >= 1.
+
+    Yields
+    ------
+    list of rfsim.sweep.store.PointTask
+        ``size`` consecutive tasks (the last list may be shorter).
+    """
     it = iter(tasks)
     while chunk := list(itertools.islice(it, size)):
         yield chunk
 
 
 class SerialExecutor:
-    """Run every task in this process, in order."""
+    """Run every task in this process, in order.
+
+    Attributes
+    ----------
+    name : str
+        ``"serial"``.
+    workers : int
+        1.
+    """
 
     name = "serial"
     workers = 1
 
     def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
+        """Run the tasks one after the other in this process.
+
+        Parameters
+        ----------
+        tasks : iterable of rfsim.sweep.store.PointTask
+            The runs, consumed lazily.
+        n_tasks : int, optional
+            Ignored (the signature of every executor's ``map``).
+
+        Yields
+        ------
+        rfsim.sweep.store.PointResult
+            The result of each run, in task order.
+        """
         for task in tasks:
             yield run_point(task)
 
     def close(self) -> None:
+        """Release nothing (the signature of every executor's ``close``)."""
         pass
 
 
@@ -83,6 +138,23 @@ class PoolExecutor:
     Tasks are sent in batches (:func:`batch_size`) with at most ``4 × workers`` batches in
     flight, so a sweep of millions of runs is never held in memory as futures. The workers
     die with the leader, even when it is killed with SIGKILL.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Worker processes, >= 1; None (default): :func:`available_cpus`.
+
+    Attributes
+    ----------
+    name : str
+        ``"pool"``.
+    workers : int
+        Worker processes.
+
+    Raises
+    ------
+    UserError
+        ``workers`` < 1.
     """
 
     name = "pool"
@@ -93,6 +165,21 @@ class PoolExecutor:
             raise UserError(f"--workers {workers}: expected an integer >= 1")
 
     def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
+        """Run the tasks in batches on the process pool (a pool started per call).
+
+        Parameters
+        ----------
+        tasks : iterable of rfsim.sweep.store.PointTask
+            The runs, consumed lazily.
+        n_tasks : int, optional
+            Number of tasks, for the batch size; None (default): ``tasks`` is read into a
+            list to count them.
+
+        Yields
+        ------
+        rfsim.sweep.store.PointResult
+            The result of each run, in completion order.
+        """
         if n_tasks is None:
             tasks = list(tasks)
             n_tasks = len(tasks)
@@ -111,6 +198,7 @@ class PoolExecutor:
                     yield from results
 
     def close(self) -> None:
+        """Release nothing: each :meth:`map` call closes its own pool."""
         pass
 
 
@@ -127,7 +215,24 @@ _ADDRESS = re.compile(r"(?:(?:tcp|tls|ucx|ws|wss|inproc)://[^\s/:]+(?::\d{1,5})?
 
 
 def parse_dask_target(text: str) -> tuple[str, int | None]:
-    """``"local"`` / ``"local:N"`` → ("local", N or None); anything else is an address."""
+    """Parse the ``--dask`` option: a local cluster or a scheduler address.
+
+    Parameters
+    ----------
+    text : str
+        ``"local"``, ``"local:N"`` (N >= 1 workers) or a scheduler address
+        (``tcp://host:8786``, ``host:8786``).
+
+    Returns
+    -------
+    tuple of (str, int or None)
+        ``("local", N)`` (N None for ``"local"``), or ``(address, None)``.
+
+    Raises
+    ------
+    UserError
+        ``local:N`` with N not an integer >= 1, or ``text`` not a scheduler address.
+    """
     if text == "local" or text.startswith("local:"):
         _, _, n = text.partition(":")
         if not n:
@@ -146,11 +251,30 @@ class DaskExecutor:
 
     Parameters
     ----------
-    target : scheduler address (``"tcp://host:8786"``), ``"local"`` / ``"local:N"`` (a
+    target : str or dask.distributed.Client, default "local"
+        A scheduler address (``"tcp://host:8786"``), ``"local"`` / ``"local:N"`` (a
         ``LocalCluster`` of N single-threaded worker processes bound to 127.0.0.1; N
         defaults to the available CPUs), or an existing ``dask.distributed.Client``.
-    retries : resubmissions of a run whose task raised (worker loss is handled by the
+    retries : int, default 3
+        Resubmissions of a run whose task raised (worker loss is handled by the
         scheduler, which reschedules the runs of a dead worker).
+
+    Attributes
+    ----------
+    name : str
+        ``"dask"``.
+    client : dask.distributed.Client
+        The client the tasks are submitted through.
+    workers : int
+        Workers of the cluster when the executor was made.
+    retries : int
+        Resubmissions of a failed task.
+
+    Raises
+    ------
+    UserError
+        dask.distributed is not installed, ``target`` is malformed, or the scheduler
+        cannot be reached.
     """
 
     name = "dask"
@@ -180,6 +304,24 @@ class DaskExecutor:
         self.workers = len(self.client.scheduler_info().get("workers", {}))
 
     def map(self, tasks: Iterable[PointTask], n_tasks: int | None = None) -> Iterator[PointResult]:
+        """Submit the tasks in batches to the cluster, at most ``4 × workers`` batches at once.
+
+        Each call uses fresh task keys. When the consumer stops early (or a task fails for
+        good) the batches still in flight are cancelled.
+
+        Parameters
+        ----------
+        tasks : iterable of rfsim.sweep.store.PointTask
+            The runs, consumed lazily.
+        n_tasks : int, optional
+            Number of tasks, for the batch size; None (default): ``tasks`` is read into a
+            list to count them.
+
+        Yields
+        ------
+        rfsim.sweep.store.PointResult
+            The result of each run, in completion order.
+        """
         distributed = _import_distributed()
         if n_tasks is None:
             tasks = list(tasks)
@@ -209,6 +351,7 @@ class DaskExecutor:
             raise
 
     def close(self) -> None:
+        """Close the client and the local cluster made by this executor (not a client given)."""
         if self._own_client:
             self.client.close()
         if self._cluster is not None:
@@ -216,7 +359,28 @@ class DaskExecutor:
 
 
 def make_executor(*, serial: bool = False, workers: int | None = None, dask: Any = None):
-    """The executor chosen on the command line (process pool by default)."""
+    """The executor chosen on the command line (process pool by default).
+
+    Parameters
+    ----------
+    serial : bool, default False
+        Run in this process (:class:`SerialExecutor`).
+    workers : int, optional
+        Worker processes of a :class:`PoolExecutor` (default None: all available CPUs).
+    dask : str or dask.distributed.Client, optional
+        Target of a :class:`DaskExecutor`.
+
+    Returns
+    -------
+    SerialExecutor or PoolExecutor or DaskExecutor
+        The executor.
+
+    Raises
+    ------
+    UserError
+        More than one of ``serial``, ``workers`` and ``dask`` given, or the chosen
+        executor's own error.
+    """
     if sum(x is not None and x is not False for x in (serial or None, workers, dask)) > 1:
         raise UserError("choose one of --serial, --workers N, --dask ADDRESS|local[:N]")
     if serial:

@@ -83,11 +83,34 @@ def _is_sweep(f: h5py.File) -> bool:
 
 
 def extract_point(merged: str | Path, point: int, output: str | Path, *, repetition: int | None = None) -> Path:
-    """Write point ``point`` (repetition ``repetition``, or all) of the merged sweep file
-    ``merged`` to ``output`` as a standalone dataset (see the module docstring).
+    """Write one point of a merged sweep file as a standalone dataset.
 
-    A file that is not a merged sweep, a point or repetition out of range is a one-line
-    :class:`UserError`. Returns the written path.
+    Point ``point`` (repetition ``repetition``, or all of them) of ``merged`` is written to
+    ``output`` as a dataset that ``rfsim info`` and ``rfsim plot`` read like the file of a
+    single run (what is kept: see the module docstring).
+
+    Parameters
+    ----------
+    merged : str or pathlib.Path
+        The merged sweep file (:mod:`rfsim.sweep.merge`).
+    point : int
+        Index of the point, in ``[0, n_points)``.
+    output : str or pathlib.Path
+        The dataset file to write.
+    repetition : int, optional
+        Repetition to extract, in ``[0, n_repetitions)``; None (default) extracts all
+        repetitions (a sweep of one repetition gives its only run).
+
+    Returns
+    -------
+    pathlib.Path
+        The written path.
+
+    Raises
+    ------
+    UserError
+        ``merged`` is missing, not an HDF5 file or not a merged sweep; ``point`` or
+        ``repetition`` is out of range; the merged file does not hold its spec.
     """
     merged, output = Path(merged), Path(output)
     if not merged.is_file():

@@ -67,15 +67,46 @@ def _as_stored(v: Any) -> Any:
 
 
 def value_text(v: Any) -> str:
-    """The text a non-numeric swept value is stored as (strings as they are, lists/tuples/None
-    as TOML text, tables as their Python text, numbers mixed with text as ``str``)."""
+    """The text a non-numeric swept value is stored as.
+
+    Parameters
+    ----------
+    v : object
+        A swept value.
+
+    Returns
+    -------
+    str
+        Strings as they are; lists, tuples and None as their TOML text; tables (dicts) as
+        their Python text; anything else (e.g. a number swept together with text) as ``str``.
+    """
     return v if isinstance(v, str) else str(_as_stored(v))
 
 
 def value_column(key: str, values: Sequence[Any], config_cls: type, *, text: bool | None = None) -> Column:
-    """One column of the swept values of ``key``: numbers/booleans as such, anything else as
-    text (:func:`value_text`). ``text`` forces the choice (None: text unless every value in
-    ``values`` is a number, or every one a boolean)."""
+    """One column of the swept values of ``key``.
+
+    Numbers and booleans are stored as such, anything else as text (:func:`value_text`). The
+    column's units and description come from the config field's metadata
+    (:func:`rfsim.core.config.field_meta`).
+
+    Parameters
+    ----------
+    key : str
+        Dotted config key of the swept value (e.g. ``"reader.ptx_dbm"``).
+    values : sequence
+        The swept values, one per row.
+    config_cls : type
+        The scenario's config dataclass, for the key's units and doc.
+    text : bool, optional
+        Force text (True) or values as they are (False); None (default): text unless every
+        value is a number, or every one a boolean.
+
+    Returns
+    -------
+    rfsim.core.dataset.Column
+        The column, described as ``"swept config value <key>: <doc>"``.
+    """
     found = field_at(config_cls, key)
     meta = field_meta(found[0]) if found is not None else {"unit": "", "doc": ""}
     if text is None:
@@ -157,7 +188,18 @@ def _scan(refs: Sequence[RecordRef], reader: RecordReader):
 
 
 def desc_len(table: Mapping[str, Any]) -> int:
-    """Rows of a table described in a record header."""
+    """Rows of a table described in a record header.
+
+    Parameters
+    ----------
+    table : mapping
+        One entry of a record header's ``"tables"`` list (:mod:`rfsim.sweep.store`).
+
+    Returns
+    -------
+    int
+        The length of the table's first column.
+    """
     return int(table["columns"][0]["array"]["shape"][0])
 
 
@@ -204,13 +246,47 @@ def _check_reserved(kind: str, name: str, names: Sequence[str], keys: Sequence[s
 def merge_store(output: Path, refs: Sequence[RecordRef], runs: tuple[np.ndarray, np.ndarray, np.ndarray],
                 point_value, n_points: int, n_repetitions: int, keys: Sequence[str], config_cls: type,
                 provenance: Mapping[str, Any], numeric_keys: Mapping[str, np.dtype]) -> Path:
-    """Merge the records ``refs`` of the runs ``runs`` = (points, repetitions, seeds) into ``output``.
+    """Merge the stored records of a sweep's runs into one HDF5 file.
 
-    ``point_value(i)`` gives the swept values of point ``i``; the runs are in
-    (point, repetition) order, ``n_points × n_repetitions`` of them. ``numeric_keys`` maps
-    the swept keys whose every value is a number or boolean to their column dtype; every
-    other swept key is a text column. Every swept key is repeated on every row of the
-    tables as ``sweep.<key>``.
+    Two passes over the store: headers first (schemas), then one record at a time (see the
+    module docstring for the layout). Every swept key is repeated on every row of the
+    tables as ``sweep.<key>``. The file is written under a temporary name and renamed.
+
+    Parameters
+    ----------
+    output : pathlib.Path
+        The merged file to write.
+    refs : sequence of rfsim.sweep.store.RecordRef
+        The record of each run, in (point, repetition) order, ``n_points × n_repetitions``
+        of them.
+    runs : tuple of three ndarray, each shape (n_runs,)
+        ``(points, repetitions, seeds)`` of the runs, in the order of ``refs``.
+    point_value : callable
+        ``point_value(i)`` → dict of dotted key to swept value of point ``i``.
+    n_points : int
+        Points of the sweep.
+    n_repetitions : int
+        Repetitions per point.
+    keys : sequence of str
+        The swept dotted keys.
+    config_cls : type
+        The scenario's config dataclass (units and docs of the swept keys).
+    provenance : mapping
+        Provenance attributes written to the merged file.
+    numeric_keys : mapping of str to numpy.dtype
+        The swept keys whose every value is a number or boolean, with their column dtype;
+        every other swept key is a text column.
+
+    Returns
+    -------
+    pathlib.Path
+        ``output``.
+
+    Raises
+    ------
+    ValueError
+        The runs' tables disagree on their columns, or a table or grid already has a
+        column the merge adds (``sweep_point``, ``sweep_repetition``, ``sweep.<key>``).
     """
     with RecordReader() as reader:
         tables, grids, attr_names, descriptions = _scan(refs, reader)

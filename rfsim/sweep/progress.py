@@ -20,12 +20,28 @@ class Progress:
 
     Parameters
     ----------
-    total, done : runs in the sweep (or shard) and runs already finished
-    stream : where the bar goes (default stderr); ``tty`` forces terminal or log style
-    quiet : print nothing
-    log_interval_s : minimum time [s] between two log lines when the stream is not a TTY
-    reporter : the :class:`~rfsim.core.progress.Reporter` that draws the bar (e.g. a notebook
-        widget's); replaces ``stream``, ``quiet``, ``tty`` and ``log_interval_s``
+    total : int
+        Runs in the sweep (or shard).
+    done : int, default 0
+        Runs already finished (resumed); the bar starts there.
+    stream : file-like, optional
+        Where the bar goes (default None: stderr).
+    quiet : bool, default False
+        Print nothing.
+    tty : bool, optional
+        Force terminal (True) or log (False) style; None (default) asks the stream.
+    log_interval_s : float, default 10.0
+        Minimum time [s] between two log lines when the stream is not a TTY.
+    reporter : rfsim.core.progress.Reporter, optional
+        The reporter that draws the bar (e.g. a notebook widget's); replaces ``stream``,
+        ``quiet``, ``tty`` and ``log_interval_s``.
+
+    Attributes
+    ----------
+    total : int
+        Runs in the sweep (or shard).
+    done : int
+        Runs finished so far, including the resumed ones.
     """
 
     def __init__(self, total: int, *, done: int = 0, stream: TextIO | None = None,
@@ -42,7 +58,13 @@ class Progress:
             self._bar = self._reporter.bar(self.total, desc="sweep", unit="runs", initial=self.done)
 
     def update(self, n: int = 1) -> None:
-        """``n`` more runs finished."""
+        """Count ``n`` more runs as finished (starts the bar if needed).
+
+        Parameters
+        ----------
+        n : int, default 1
+            Runs finished since the last update.
+        """
         self.start()
         self.done += n
         self._bar.update(n)

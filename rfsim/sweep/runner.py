@@ -67,7 +67,25 @@ class _Lazy(Sequence):
 
 @dataclasses.dataclass(frozen=True)
 class SweepReport:
-    """What a sweep (or a shard of it) did."""
+    """What a sweep (or a shard of it) did.
+
+    Attributes
+    ----------
+    n_runs : int
+        Runs of the whole sweep (points × repetitions).
+    selected : int
+        Runs of this call (the shard's runs, or all of them).
+    computed : int
+        Runs executed in this call.
+    reused : int
+        Runs found complete in the point store and skipped (``resume``).
+    output : pathlib.Path or None
+        The merged file; None for a shard or when the merge was not asked for.
+    wall_time_s : float
+        Wall-clock time of the call [s].
+    results : tuple of rfsim.sweep.store.PointResult
+        The results of the computed runs, in completion order.
+    """
 
     n_runs: int
     selected: int
@@ -80,7 +98,26 @@ class SweepReport:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SweepPlan:
-    """The expansion of a spec, computed on demand: per-point values, configs, seeds, tasks."""
+    """The expansion of a spec, computed on demand: per-point values, configs, seeds, tasks.
+
+    Build it with :func:`plan_sweep`. Nothing is held per point: the sequences below compute
+    each item on access.
+
+    Attributes
+    ----------
+    spec : SweepSpec
+        The sweep.
+    module : module
+        The scenario module (its ``Config``, ``NAME`` and ``run``).
+    n_points : int
+        Points of the sweep.
+    values : sequence of dict
+        Per point, the swept dotted keys and their values (:func:`rfsim.sweep.spec.point_value`).
+    configs : sequence of Config
+        Per point, the validated config (:meth:`config`).
+    tasks : sequence of rfsim.sweep.store.PointTask
+        Per run (``point * repetitions + repetition``), its task (:meth:`task`).
+    """
 
     spec: SweepSpec
     module: ModuleType
@@ -88,22 +125,38 @@ class SweepPlan:
 
     @property
     def n_points(self) -> int:
+        """Points of the sweep."""
         return self.spec.n_points
 
     @property
     def values(self) -> Sequence[dict[str, Any]]:
+        """Swept values of each point, computed on access."""
         return _Lazy(self.n_points, lambda i: point_value(self.spec, i))
 
     @property
     def configs(self) -> Sequence[Any]:
+        """Validated config of each point, computed on access."""
         return _Lazy(self.n_points, self.config)
 
     @property
     def tasks(self) -> Sequence[PointTask]:
+        """Task of each run (flat index ``point * repetitions + repetition``), computed on access."""
         return _Lazy(self.spec.n_runs, self.task)
 
     def config(self, i: int) -> Any:
-        """Validated config of point ``i`` (the last point's is cached)."""
+        """Validated config of point ``i`` (the last point's is cached).
+
+        Parameters
+        ----------
+        i : int
+            Point index, in ``[0, n_points)``.
+
+        Returns
+        -------
+        Config
+            The scenario's config with the point's values applied
+            (:func:`rfsim.sweep.spec.point_config`).
+        """
         hit = self._cache.get("config")
         if hit is not None and hit[0] == i:
             return hit[1]
@@ -112,6 +165,19 @@ class SweepPlan:
         return cfg
 
     def digest(self, i: int) -> bytes:
+        """Digest of point ``i``'s config, as the point store records it (the last is cached).
+
+        Parameters
+        ----------
+        i : int
+            Point index.
+
+        Returns
+        -------
+        bytes
+            The first 16 bytes of the SHA-256 of the config's TOML text
+            (:func:`rfsim.sweep.store.config_digest`).
+        """
         hit = self._cache.get("digest")
         if hit is not None and hit[0] == i:
             return hit[1]
@@ -120,19 +186,44 @@ class SweepPlan:
         return d
 
     def task(self, run: int) -> PointTask:
-        """Task of flat run index ``run = point * repetitions + repetition``."""
+        """Task of one run.
+
+        Parameters
+        ----------
+        run : int
+            Flat run index ``point * repetitions + repetition``.
+
+        Returns
+        -------
+        rfsim.sweep.store.PointTask
+            Scenario module name, config, point, repetition, seed
+            (:func:`rfsim.sweep.spec.point_seed`) and point store folder of the run.
+        """
         i, k = divmod(run, self.spec.repetitions)
         return PointTask(self.module.__name__, self.config(i), i, k, point_seed(self.spec.seed, i, k),
                          points_dir(self.spec.output))
 
     def seeds(self) -> np.ndarray:
-        """(n_points, repetitions) int64 run seeds."""
+        """Seeds of every run.
+
+        Returns
+        -------
+        ndarray of int64, shape (n_points, repetitions)
+            ``point_seed(spec.seed, point, repetition)``.
+        """
         return np.array([point_seed(self.spec.seed, i, k) for i in range(self.n_points)
                          for k in range(self.spec.repetitions)], dtype=np.int64).reshape(
             self.n_points, self.spec.repetitions)
 
     def numeric_keys(self) -> dict[str, np.dtype]:
-        """Swept keys whose every value is a number (or every value a boolean) → column dtype."""
+        """Swept keys whose values are all numbers (or all booleans), with their column dtype.
+
+        Returns
+        -------
+        dict of str to numpy.dtype
+            Dotted key → dtype of the NumPy array of its axis values; other keys (text,
+            lists, tables, mixed) are left out and stored as text by the merge.
+        """
         out: dict[str, np.dtype] = {}
         for axis in self.spec.axes:
             for j, key in enumerate(axis.keys):
@@ -144,10 +235,32 @@ class SweepPlan:
 
 
 def plan_sweep(spec: SweepSpec, *, check: str = "all", module: ModuleType | None = None) -> SweepPlan:
-    """The plan of ``spec``; ``check="all"`` validates every point's config (one at a time),
-    ``"sample"`` the first three points in full and every axis value against its key's
-    type and range (:func:`~rfsim.sweep.spec.check_axis_values`; dry-run, SLURM plan),
-    ``"none"`` nothing. ``module`` overrides the scenario looked up by name."""
+    """The plan of ``spec``, with its point configs checked as asked.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    check : {"all", "sample", "none"}, default "all"
+        ``"all"`` validates every point's config (one at a time); ``"sample"`` the first
+        three points in full and every axis value against its key's type and range
+        (:func:`~rfsim.sweep.spec.check_axis_values`; dry-run, SLURM plan); ``"none"``
+        nothing.
+    module : module, optional
+        Scenario module to use instead of the one registered under ``spec.scenario``.
+
+    Returns
+    -------
+    SweepPlan
+        The plan.
+
+    Raises
+    ------
+    ValueError
+        ``check`` is not one of the three.
+    rfsim.core.errors.ConfigError
+        A checked point has an invalid config value.
+    """
     module = module or get_scenario(spec.scenario)
     plan = SweepPlan(spec, module)
     if check == "sample":
@@ -168,10 +281,28 @@ def _quiet(total: int, *, done: int) -> Progress:
 
 def check_sweep_memory(spec: SweepSpec, limit_bytes: int | None, processes: int, *,
                        module: ModuleType | None = None) -> None:
-    """Stop before any run (one-line UserError) when the largest estimated peak memory of the
-    sweep's points (:func:`rfsim.runs.sizes.estimate_of`) times the ``processes`` that run
-    points at once exceeds ``limit_bytes`` (None: no check; a scenario without an estimate
-    is not checked)."""
+    """Stop before any run when the sweep's largest point would need too much memory.
+
+    The largest estimated peak memory of the sweep's points
+    (:func:`rfsim.runs.sizes.estimate_of`) times ``processes`` is compared with
+    ``limit_bytes``; a scenario without an estimate is not checked.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    limit_bytes : int or None
+        Memory limit [bytes]; None: no check.
+    processes : int
+        Processes that run points at once.
+    module : module, optional
+        Scenario module to use instead of the one registered under ``spec.scenario``.
+
+    Raises
+    ------
+    UserError
+        The estimated peak exceeds the limit (one line, naming the size drivers).
+    """
     if limit_bytes is None:
         return
     plan = plan_sweep(spec, check="none", module=module)
@@ -186,7 +317,18 @@ def check_sweep_memory(spec: SweepSpec, limit_bytes: int | None, processes: int,
 
 
 def check_sweep_outputs(spec: SweepSpec) -> None:
-    """The merged file and the point store can be written (before anything runs)."""
+    """Check that the merged file and the point store can be written (before anything runs).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep; its ``output`` must end in ``.h5`` or ``.hdf5``.
+
+    Raises
+    ------
+    UserError
+        The output file or the point store folder cannot be written.
+    """
     check_output_file(spec.output, "sweep output", suffixes=(".h5", ".hdf5"))
     check_output_folder(points_dir(spec.output), "sweep point store")
 
@@ -214,12 +356,44 @@ def run_sweep(spec: SweepSpec, executor: Any = None, *, shard: tuple[int, int] |
               progress: Callable[..., Progress] | None = None,
               on_result: Callable[[PointResult], None] | None = None,
               module: ModuleType | None = None) -> SweepReport:
-    """Run the sweep ``spec`` (or shard ``(I, N)`` of it) on ``executor`` (serial if None).
+    """Run the sweep ``spec`` (or shard ``(I, N)`` of it) on ``executor``.
 
-    ``progress(total, done=...)`` builds the :class:`Progress` display (none if None).
-    ``module`` runs this scenario module instead of the one named in the spec.
-    Returns a :class:`SweepReport`; ``output`` is the merged file, or None for a shard or
-    when ``merge`` is False.
+    Every point's config is validated and the outputs checked before anything runs; the
+    output is locked (:class:`rfsim.sweep.lock.OutputLock`) for the whole call.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    executor : object, optional
+        An executor of :mod:`rfsim.sweep.executors` (anything with ``map(tasks, n_tasks=)``
+        or ``map(tasks)``); None (default): :class:`~rfsim.sweep.executors.SerialExecutor`.
+    shard : tuple of (int, int), optional
+        ``(I, N)``: run only shard ``I`` of ``N`` (:func:`rfsim.sweep.spec.shard_runs`) and
+        do not merge; None (default): the whole sweep.
+    resume : bool, default False
+        Skip the runs already in the point store whose records read back whole.
+    merge : bool, default True
+        Merge the point store into ``spec.output`` after a whole sweep.
+    progress : callable, optional
+        ``progress(total, done=...)`` builds the :class:`~rfsim.sweep.progress.Progress`
+        display; None (default): no display.
+    on_result : callable, optional
+        Called with each :class:`~rfsim.sweep.store.PointResult` as it arrives.
+    module : module, optional
+        Scenario module to run instead of the one named in the spec.
+
+    Returns
+    -------
+    SweepReport
+        What was run; its ``output`` is the merged file, or None for a shard or when
+        ``merge`` is False.
+
+    Raises
+    ------
+    UserError
+        An output cannot be written, the output is locked by another process, or (merge)
+        runs are missing from the point store.
     """
     t0 = time.perf_counter()
     start_utc = utc_now()
@@ -264,14 +438,52 @@ def _map(executor: Any, tasks: Iterator[PointTask], n: int) -> Iterator[PointRes
 
 
 def missing_runs(plan: SweepPlan) -> list[PointTask]:
-    """Runs that are not (or not for this spec) in the point store."""
+    """Runs that are not (or not for this spec) in the point store.
+
+    A run counts as present when the store has a record of its point, repetition, seed and
+    config digest.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+        The sweep's plan.
+
+    Returns
+    -------
+    list of rfsim.sweep.store.PointTask
+        The tasks of the missing runs, in run order.
+    """
     index = StoreIndex(points_dir(plan.spec.output))
     return [plan.task(j) for j in range(plan.spec.n_runs) if _found(plan, index, j) is None]
 
 
 def merge_sweep(spec: SweepSpec, *, plan: SweepPlan | None = None, start_time_utc: str | None = None,
                 module: ModuleType | None = None) -> Path:
-    """Merge the complete point store of ``spec`` into ``spec.output`` (atomic write)."""
+    """Merge the complete point store of ``spec`` into ``spec.output`` (atomic write).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    plan : SweepPlan, optional
+        The sweep's plan, when the caller already holds the output lock (as
+        :func:`run_sweep` does); None (default): plan, check the output and lock it here.
+    start_time_utc : str, optional
+        Start time recorded in the provenance (default: now).
+    module : module, optional
+        Scenario module to use instead of the one registered under ``spec.scenario``.
+
+    Returns
+    -------
+    pathlib.Path
+        The merged file (layout: :mod:`rfsim.sweep.merge`).
+
+    Raises
+    ------
+    UserError
+        A run is missing or stale in the point store, the output cannot be written or is
+        locked by another process.
+    """
     if plan is None:
         plan = plan_sweep(spec, check="none", module=module)
         check_sweep_outputs(spec)

@@ -22,7 +22,13 @@ from rfsim.core.errors import UserError
 
 
 def default_command() -> str:
-    """The rfsim command of this installation (the current interpreter's module)."""
+    """The rfsim command of this installation (the current interpreter's module).
+
+    Returns
+    -------
+    str
+        ``<python> -m rfsim`` with the current interpreter's path, shell-quoted.
+    """
     return f"{shlex.quote(sys.executable)} -m rfsim"
 
 
@@ -38,7 +44,24 @@ _MEM = re.compile(r"[1-9]\d{0,11}[KMGT]?", re.IGNORECASE)
 
 
 def check_time_limit(text: str) -> str:
-    """``text`` if it is a SLURM time limit, else a one-line :class:`UserError`."""
+    """Check a SLURM ``--time`` value.
+
+    Parameters
+    ----------
+    text : str
+        The value as given on the command line.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    UserError
+        ``text`` is not a SLURM time limit (minutes, ``M:S``, ``H:M:S``, ``D-H``, ``D-H:M``,
+        ``D-H:M:S`` or ``UNLIMITED``); the one-line message names ``--time``.
+    """
     if not _TIME.fullmatch(text):
         raise UserError(f"--time {text!r}: expected a SLURM time limit: minutes, MM:SS, HH:MM:SS, "
                         "D-HH, D-HH:MM or D-HH:MM:SS (e.g. 01:30:00)")
@@ -46,7 +69,24 @@ def check_time_limit(text: str) -> str:
 
 
 def check_partition(text: str) -> str:
-    """``text`` if it is a SLURM partition name (or comma list), else a one-line :class:`UserError`."""
+    """Check a SLURM ``--partition`` value.
+
+    Parameters
+    ----------
+    text : str
+        The value as given on the command line.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    UserError
+        ``text`` is not a partition name (letters, digits, ``_ . + -``) or a comma-separated
+        list of them; the one-line message names ``--partition``.
+    """
     if not _PARTITION.fullmatch(text):
         raise UserError(f"--partition {text!r}: expected a partition name (letters, digits, _ . + -; "
                         "several separated by commas)")
@@ -54,14 +94,47 @@ def check_partition(text: str) -> str:
 
 
 def check_account(text: str) -> str:
-    """``text`` if it is a SLURM account name, else a one-line :class:`UserError`."""
+    """Check a SLURM ``--account`` value.
+
+    Parameters
+    ----------
+    text : str
+        The value as given on the command line.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    UserError
+        ``text`` is not a SLURM account name; the one-line message names ``--account``.
+    """
     if not _ACCOUNT.fullmatch(text):
         raise UserError(f"--account {text!r}: expected an account name (1-128 letters, digits or _ . + -)")
     return text
 
 
 def check_memory(text: str) -> str:
-    """``text`` if it is a SLURM ``--mem`` value, else a one-line :class:`UserError`."""
+    """Check a SLURM ``--mem`` value.
+
+    Parameters
+    ----------
+    text : str
+        The value as given on the command line.
+
+    Returns
+    -------
+    str
+        ``text`` unchanged.
+
+    Raises
+    ------
+    UserError
+        ``text`` is not a positive integer with an optional unit K, M, G or T (none:
+        megabytes); the one-line message names ``--mem``.
+    """
     if not _MEM.fullmatch(text):
         raise UserError(f"--mem {text!r}: expected memory per node as a positive integer with an "
                         "optional unit K, M, G or T (e.g. 4G; no unit: megabytes)")
@@ -73,11 +146,42 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
                   memory: str = "", output: Path | None = None, command: str | None = None) -> str:
     """Text of an ``sbatch`` array script running ``shards`` shards of the spec.
 
-    ``partition``, ``account``, ``time_limit`` and ``memory`` become the ``#SBATCH``
-    lines ``--partition``, ``--account``, ``--time`` and ``--mem`` (left out when empty;
-    each checked, a bad one is a one-line :class:`UserError` naming the option).
-    ``output`` (the command line's ``--output``) is passed on to the run and merge
-    commands as an absolute path.
+    Array task ``I`` runs ``rfsim sweep run SPEC --shard I/N --resume`` with
+    ``$SLURM_CPUS_PER_TASK`` workers; comment lines give the merge command to run afterwards.
+
+    Parameters
+    ----------
+    spec_path : pathlib.Path
+        The sweep spec (TOML); written into the script as an absolute path.
+    shards : int
+        Array tasks (shards), >= 1.
+    workdir : pathlib.Path
+        The jobs' working directory (``#SBATCH --chdir``, as an absolute path).
+    job_name : str, optional
+        SLURM job name (1-128 letters, digits or ``_ . + -``); default
+        ``rfsim-sweep-<spec stem>``.
+    cpus_per_task : int, default 1
+        ``#SBATCH --cpus-per-task`` (>= 1), and the workers when SLURM does not set it.
+    time_limit, partition, account, memory : str, optional
+        The ``#SBATCH`` lines ``--time``, ``--partition``, ``--account`` and ``--mem`` (left
+        out when empty; each checked by :func:`check_time_limit`, :func:`check_partition`,
+        :func:`check_account`, :func:`check_memory`).
+    output : pathlib.Path, optional
+        The command line's ``--output``, passed on to the run and merge commands as an
+        absolute path (default None: the spec's own output).
+    command : str, optional
+        The rfsim command in the script (default :func:`default_command`).
+
+    Returns
+    -------
+    str
+        The script text, ending with a newline.
+
+    Raises
+    ------
+    UserError
+        ``shards`` or ``cpus_per_task`` < 1, or a bad job name, time limit, partition,
+        account or memory (a one-line message naming the option).
     """
     if shards < 1:
         raise UserError(f"--shards {shards}: expected an integer >= 1")

@@ -83,7 +83,20 @@ MAX_RUNS = 10**9
 
 @dataclasses.dataclass(frozen=True)
 class Axis:
-    """One ``[[axes]]`` entry after parsing: the keys it sets and one value tuple per step."""
+    """One ``[[axes]]`` entry after parsing: the keys it sets and one value tuple per step.
+
+    Attributes
+    ----------
+    kind : {"grid", "zip", "random"}
+        The axis kind.
+    keys : tuple of str
+        Dotted config keys the axis sets (one for grid and random axes).
+    values : sequence of tuple
+        One tuple of values (one per key) per step; random axes hold their draws lazily.
+    group : str
+        Expansion group: random axes of the same ``n`` share one (``"random-n<n>"``); a
+        grid or zip axis has its own (``"axis<i>"``).
+    """
 
     kind: str
     keys: tuple[str, ...]
@@ -93,12 +106,46 @@ class Axis:
     group: str
 
     def __len__(self) -> int:
+        """Steps of the axis."""
         return len(self.values)
 
 
 @dataclasses.dataclass(frozen=True)
 class SweepSpec:
-    """A parsed, checked sweep spec (the axes' random values are already drawn)."""
+    """A parsed, checked sweep spec (the axes' random values are already drawn).
+
+    Build it with :func:`load_spec` or :func:`parse_spec`.
+
+    Attributes
+    ----------
+    scenario : str
+        Scenario name (as ``rfsim list`` shows it).
+    seed : int
+        Root seed of the sweep; run seeds come from :func:`point_seed`.
+    repetitions : int
+        Runs per point (>= 1).
+    output : pathlib.Path
+        The merged output file (``.h5`` or ``.hdf5``), resolved as the module docstring says.
+    base : mapping
+        Config values shared by every point (``[base]``).
+    axes : tuple of Axis
+        The parsed axes, in spec order.
+    text : str
+        The spec's TOML text (stored in the merged file's provenance); empty for a mapping.
+    path : pathlib.Path or None
+        Where the spec was read from; None when built from a mapping.
+    data : mapping
+        The checked spec mapping without ``output`` (a merged file of a spec built from a
+        mapping stores it as JSON, so that its points can be rebuilt).
+    swept_keys : tuple of str
+        Dotted config keys set by the axes, in spec order.
+    group_sizes : tuple of int
+        Length of each group of axes, in expansion order.
+    n_points : int
+        Points: the product of ``group_sizes``.
+    n_runs : int
+        Scenario runs: points × repetitions.
+    """
 
     scenario: str
     seed: int
@@ -129,6 +176,7 @@ class SweepSpec:
 
     @property
     def n_points(self) -> int:
+        """Points of the sweep: the product of the group sizes."""
         return math.prod(self.group_sizes)
 
     @property
@@ -141,10 +189,26 @@ class SweepSpec:
 
 
 def load_spec(path: str | Path, *, output: str | Path | None = None) -> SweepSpec:
-    """Read and check a sweep spec TOML file (one-line :class:`UserError` on mistakes).
+    """Read and check a sweep spec TOML file.
 
-    A relative ``output`` in the file resolves against the file's folder; ``output`` (e.g.
-    ``rfsim sweep run --output``) replaces it and resolves against the working directory.
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The spec file. A relative ``output`` in it resolves against its folder.
+    output : str or pathlib.Path, optional
+        Output file replacing the spec's (e.g. ``rfsim sweep run --output``); resolves
+        against the working directory. Default None: the spec's.
+
+    Returns
+    -------
+    SweepSpec
+        The parsed spec, its random axes drawn, its TOML text and path kept.
+
+    Raises
+    ------
+    UserError
+        The file cannot be read or parsed, or the spec is invalid (one line;
+        :class:`~rfsim.core.errors.ConfigError` names the key).
     """
     p = Path(path)
     data = read_toml(p)
@@ -165,9 +229,30 @@ def parse_spec(data: Mapping[str, Any], *, text: str = "", path: Path | None = N
                output: str | Path | None = None) -> SweepSpec:
     """Check the spec mapping ``data`` and draw its random axes.
 
-    A relative ``output`` of the spec resolves against the folder of ``path`` (the spec
-    file), or — without ``path`` — against the working directory. ``output`` overrides the
-    spec's output (then the spec's ``output`` key may be left out).
+    Parameters
+    ----------
+    data : mapping
+        The spec: ``scenario``, ``seed``, ``output`` (required), ``repetitions``, ``base``,
+        ``axes`` (see the module docstring).
+    text : str, optional
+        The spec's TOML text, kept for the provenance (default empty).
+    path : pathlib.Path, optional
+        The spec file; a relative ``output`` of the spec resolves against its folder, or —
+        without ``path`` (default None) — against the working directory.
+    output : str or pathlib.Path, optional
+        Output file overriding the spec's (then the spec's ``output`` key may be left out).
+
+    Returns
+    -------
+    SweepSpec
+        The checked spec with its random axes drawn (axis ``a`` from
+        ``rfsim.core.rng.trial_rng(seed, a)``).
+
+    Raises
+    ------
+    UserError
+        A key is missing, unknown or invalid (a :class:`~rfsim.core.errors.ConfigError`
+        naming it), a key is swept twice, or the sweep has more than :data:`MAX_RUNS` runs.
     """
     for k, v in data.items():
         if k not in _TOP_KEYS:
@@ -332,8 +417,21 @@ class _Draws(Sequence):
 
 
 def axis_support(axis: Axis, j: int = 0) -> list[Any]:
-    """Values of key ``j`` of ``axis`` to check (every grid/zip value; a random axis's
-    choices, or its smallest and largest draw — they are all floats)."""
+    """Values of key ``j`` of ``axis`` to check against the config.
+
+    Parameters
+    ----------
+    axis : Axis
+        A parsed axis.
+    j : int, default 0
+        Index of the key in ``axis.keys``.
+
+    Returns
+    -------
+    list
+        Every grid or zip value of the key; for a random axis its choices, or its smallest
+        and largest draw (floats; config ranges are intervals).
+    """
     if isinstance(axis.values, _Draws):
         return axis.values.support()
     return [step[j] for step in axis.values]
@@ -350,10 +448,27 @@ def _groups(spec: SweepSpec) -> list[list[Axis]]:
 
 
 def point_value(spec: SweepSpec, index: int) -> dict[str, Any]:
-    """Swept key → value of point ``index`` alone (no expansion of the other points).
+    """Swept values of point ``index`` alone (no expansion of the other points).
 
     The index is read as a mixed-radix number over the group sizes, the last group
     varying fastest — the ``itertools.product`` order of :func:`point_values`.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    index : int
+        Point index, in ``[0, spec.n_points)``.
+
+    Returns
+    -------
+    dict of str to object
+        Dotted key → value, in the order of ``spec.swept_keys``.
+
+    Raises
+    ------
+    IndexError
+        ``index`` is out of range.
     """
     if not 0 <= index < spec.n_points:
         raise IndexError(f"point {index} of a sweep of {spec.n_points} points")
@@ -370,7 +485,22 @@ def point_value(spec: SweepSpec, index: int) -> dict[str, Any]:
 
 
 def iter_point_values(spec: SweepSpec, start: int = 0, stop: int | None = None) -> Iterator[dict[str, Any]]:
-    """Swept values of points ``start`` … ``stop - 1``, one at a time (lazy)."""
+    """Swept values of points ``start`` … ``stop - 1``, one at a time (lazy).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    start : int, default 0
+        First point.
+    stop : int, optional
+        End of the range (exclusive), clipped to ``spec.n_points``; None (default): all.
+
+    Yields
+    ------
+    dict of str to object
+        Dotted key → value of each point (:func:`point_value`).
+    """
     stop = spec.n_points if stop is None else min(stop, spec.n_points)
     for i in range(start, stop):
         yield point_value(spec, i)
@@ -381,6 +511,16 @@ def point_values(spec: SweepSpec) -> list[dict[str, Any]]:
 
     Holds every point in memory; large sweeps use :func:`point_value` /
     :func:`iter_point_values`.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+
+    Returns
+    -------
+    list of dict
+        Per point, dotted key → value.
     """
     return list(iter_point_values(spec))
 
@@ -390,7 +530,19 @@ def check_axis_values(spec: SweepSpec, config_cls: type) -> None:
 
     Costs one field check per axis value (not per point), so a 10⁷-point spec is checked
     in milliseconds; the cross-field checks of whole configs are left to the points that
-    are validated in full. A bad value raises a one-line error naming the axis and value.
+    are validated in full.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    config_cls : type
+        The scenario's config dataclass.
+
+    Raises
+    ------
+    UserError
+        A value is not allowed (one line naming the axis, the value's step and the key).
     """
     for a_index, axis in enumerate(spec.axes):
         for j, key in enumerate(axis.keys):
@@ -415,7 +567,25 @@ def _set_dotted(data: dict[str, Any], key: str, value: Any) -> None:
 
 
 def point_config_dict(spec: SweepSpec, values: Mapping[str, Any]) -> dict[str, Any]:
-    """The nested config mapping of one point: ``[base]`` with the swept values set."""
+    """The nested config mapping of one point: ``[base]`` with the swept values set.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep (its ``base``).
+    values : mapping of str to object
+        Dotted key → value of the point (:func:`point_value`).
+
+    Returns
+    -------
+    dict
+        A deep copy of ``spec.base`` with each dotted key set (sub-tables created).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        A dotted key runs through a plain value of ``base``.
+    """
     data = copy.deepcopy(dict(spec.base))
     for key, value in values.items():
         _set_dotted(data, key, value)
@@ -430,8 +600,31 @@ def _short(values: Mapping[str, Any]) -> str:
 def point_config(spec: SweepSpec, config_cls: type, index: int, values: Mapping[str, Any] | None = None) -> Any:
     """Validated config of point ``index``; a bad point raises a one-line error.
 
-    The message names the point index and its swept values, then the key, the value and
-    what is allowed (the :class:`ConfigError` of :func:`rfsim.core.config.from_dict`).
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    config_cls : type
+        The scenario's config dataclass.
+    index : int
+        Point index.
+    values : mapping of str to object, optional
+        The point's swept values when already computed; None (default):
+        :func:`point_value`.
+
+    Returns
+    -------
+    Config
+        An instance of ``config_cls`` (:func:`rfsim.core.config.from_dict`).
+
+    Raises
+    ------
+    UserError
+        The point's config is invalid; the message names the point index and its swept
+        values, then the key, the value and what is allowed (the
+        :class:`~rfsim.core.errors.ConfigError` of :func:`rfsim.core.config.from_dict`).
+    IndexError
+        ``index`` is out of range (when ``values`` is None).
     """
     values = point_value(spec, index) if values is None else values
     try:
@@ -442,7 +635,25 @@ def point_config(spec: SweepSpec, config_cls: type, index: int, values: Mapping[
 
 
 def point_configs(spec: SweepSpec, config_cls: type) -> list[Any]:
-    """Validated config of every point (in memory); the first bad point raises."""
+    """Validated config of every point (in memory); the first bad point raises.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    config_cls : type
+        The scenario's config dataclass.
+
+    Returns
+    -------
+    list of Config
+        One config per point, in point order (:func:`point_config`).
+
+    Raises
+    ------
+    UserError
+        A point's config is invalid.
+    """
     return [point_config(spec, config_cls, i) for i in range(spec.n_points)]
 
 
@@ -451,6 +662,20 @@ def point_seed(seed: int, point: int, repetition: int) -> int:
 
     The first 64-bit word of ``SeedSequence(seed, spawn_key=(point, repetition))``'s state,
     shifted to 63 bits (so it fits a signed int64 column): independent of the executor.
+
+    Parameters
+    ----------
+    seed : int
+        Root seed of the sweep.
+    point : int
+        Point index.
+    repetition : int
+        Repetition of the point.
+
+    Returns
+    -------
+    int
+        The run seed, in ``[0, 2**63)``.
     """
     word = trial_seed_sequence(seed, point, repetition).generate_state(1, np.uint64)[0]
     return int(word >> np.uint64(1))
@@ -460,6 +685,25 @@ def shard_runs(n_runs: int, shard: int, n_shards: int) -> range:
     """Flat run indices (``point * repetitions + repetition``) of shard ``shard`` of ``n_shards``.
 
     Strided (``shard, shard + n_shards, ...``) so that shards get similar mixes of points.
+
+    Parameters
+    ----------
+    n_runs : int
+        Runs of the sweep.
+    shard : int
+        Shard index ``I``, in ``[0, n_shards)``.
+    n_shards : int
+        Number of shards ``N``.
+
+    Returns
+    -------
+    range
+        ``range(shard, n_runs, n_shards)``.
+
+    Raises
+    ------
+    UserError
+        ``shard`` is not in ``[0, n_shards)``.
     """
     if not 0 <= shard < n_shards:
         raise UserError(f"--shard {shard}/{n_shards}: expected I/N with 0 <= I < N")

@@ -52,6 +52,29 @@ CW_LEAD_S = 100e-6
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``gen2-waveforms`` scenario.
+
+    Every profile must allow ``fs_hz`` >= 8 × its BLF; ``epc_hex`` must be whole 16-bit words
+    (at most 31).
+
+    Attributes
+    ----------
+    profiles : tuple of str, default all of :data:`rfsim.gen2.link.PROFILES`
+        Named link profiles to draw (at least one).
+    fs_hz : float, default 8e6
+        Sample rate of the waveforms [Hz], in [2e5, 2e8].
+    q : int, default 4
+        Q of the Query command, in [0, 15].
+    session : int, default 0
+        Inventory session S0-S3, in [0, 3].
+    rn16 : int, default -1
+        RN16 the tag replies; -1 draws it from the seed, in [-1, 65535].
+    epc_hex : str, default "300833B2DDD9014000000027"
+        EPC of the tag (hex, multiple of 16 bits).
+    pie_rise_fall_tari : float, default 0.1
+        PIE 10-90 % edge time (Gen2: <= 0.33 Tari) [Tari], in [0, 0.33].
+    """
+
     profiles: tuple[str, ...] = param(tuple(PROFILES), doc="named link profiles to draw")
     fs_hz: float = param(8e6, lo=2e5, hi=2e8, unit="Hz", doc="sample rate of the waveforms")
     q: int = param(4, lo=0, hi=15, doc="Q of the Query command")
@@ -78,6 +101,29 @@ class Config:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate one Gen2 inventory handshake (Query, RN16, ACK, PC+EPC+CRC-16) per link profile.
+
+    The singulation of gen2-and-validation-anchors.md §4.4 with the link timing of §4.3
+    (:mod:`rfsim.gen2.link`), sampled at ``fs_hz``, the reader turnaround T2 = 10 Tpri; no
+    channel and no noise.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed; the RN16 (when ``config.rn16`` is -1) is drawn from ``trial_rng(seed, 0)``.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``profiles`` (one row per link profile: Tari, data-1, RTcal, TRcal, PW,
+        delimiter [s], DR, M, TRext, modulation, depth, BLF [Hz], FrT, bit rate [bit/s]),
+        ``timing`` (T1 min/nom/max, T2 min/max, T4 min and the command and reply durations
+        [s]), ``frames`` (start, end [s] and bits of each frame) and ``exchange_<profile>``
+        (time [s], reader PIE envelope relative to the CW, tag backscatter state ±1/0); root
+        attributes ``rn16`` and ``t2_reader_tpri``.
+    """
     rng = trial_rng(seed, 0)
     rn16 = int(rng.integers(0, 2**16)) if config.rn16 < 0 else config.rn16
     epc = _bits.hex_to_bits(config.epc_hex.replace(" ", ""))
@@ -211,6 +257,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     whole exchange a fast tag link (e.g. Miller-4 at 320 kHz: 1.28 M state changes per second)
     is finer than a pixel, so it is drawn as a band and the right panels zoom on the first 6
     bits of the RN16 reply (preamble), the interval shaded grey on the left.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch

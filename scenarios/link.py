@@ -52,6 +52,29 @@ DESCRIPTION = "reader + one tag at swept distance: per-read RSSI, phase, Doppler
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """Placement of the reader antenna and the tag.
+
+    The reader antenna stands at (0, 0, ``height_m``) with boresight +x; the tag, a vertical
+    half-wave dipole facing the reader, at each distance along azimuth ``angle_deg``.
+
+    Attributes
+    ----------
+    distances_m : tuple of float, default (0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0)
+        Reader-tag distances [m], in [0.05, 100].
+    angle_deg : float, default 0.0
+        Tag azimuth seen from the reader boresight [deg], in [-180, 180].
+    height_m : float, default 1.0
+        Height of reader antenna and tag [m], in [0.1, 10].
+    reader_antenna : {"patch", "dipole", "isotropic"}, default "patch"
+        Reader antenna.
+    reader_gain_dbi : float, default 6.0
+        Patch peak gain [dBi], in [0, 15].
+    reader_beamwidth_deg : float, default 70.0
+        Patch beamwidth [deg], in [20, 180].
+    reader_polarization : {"linear", "circular"}, default "circular"
+        Reader antenna polarization.
+    """
+
     distances_m: tuple[float, ...] = param((0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0),
                                            lo=0.05, hi=100.0, unit="m", doc="reader-tag distances")
     angle_deg: float = param(0.0, lo=-180.0, hi=180.0, unit="deg",
@@ -65,6 +88,18 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class ChannelConfig:
+    """Propagation: Friis large scale, optional floor reflection and optional APDP taps.
+
+    Attributes
+    ----------
+    apdp : bool, default True
+        Exponential APDP diffuse taps (PASS room curves).
+    floor : bool, default True
+        Floor reflection (image method).
+    floor_eps_r : float, default 5.3
+        Floor relative permittivity (concrete), in [1, 100].
+    """
+
     apdp: bool = param(True, doc="exponential APDP diffuse taps (PASS room curves)")
     floor: bool = param(True, doc="floor reflection (image method)")
     floor_eps_r: float = param(5.3, lo=1.0, hi=100.0, doc="floor relative permittivity (concrete)")
@@ -72,6 +107,24 @@ class ChannelConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``link`` scenario.
+
+    Attributes
+    ----------
+    geometry : GeometryConfig
+        Placement of the reader antenna and the tag.
+    channel : ChannelConfig
+        Propagation terms.
+    reader : rfsim.devices.reader_config.ReaderConfig
+        Reader settings (power, link profile, hopping, report).
+    tag : rfsim.devices.tag_config.TagConfig
+        Tag settings.
+    rounds_per_point : int, default 20
+        Inventory rounds per distance, in [1, 100000].
+    round_period_s : float, default 0.02
+        Time between round starts (silent time is skipped) [s], in [0.001, 10].
+    """
+
     geometry: GeometryConfig = param(GeometryConfig(), doc="placement")
     channel: ChannelConfig = param(ChannelConfig(), doc="propagation")
     reader: ReaderConfig = param(ReaderConfig(), doc="reader")
@@ -82,7 +135,19 @@ class Config:
 
 
 def reader_antenna(g: GeometryConfig) -> _antennas.Antenna:
-    """The reader antenna of the geometry: at (0, 0, height), boresight +x."""
+    """The reader antenna of the geometry: at (0, 0, height), boresight +x.
+
+    Parameters
+    ----------
+    g : GeometryConfig
+        Placement; its ``reader_antenna`` picks a patch (``reader_gain_dbi``,
+        ``reader_beamwidth_deg``), a half-wave dipole or an isotropic pattern.
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The antenna at (0, 0, ``g.height_m``) [m], polarization ``g.reader_polarization``.
+    """
     if g.reader_antenna == "patch":
         pattern = _antennas.Patch(g.reader_gain_dbi, g.reader_beamwidth_deg)
     elif g.reader_antenna == "dipole":
@@ -94,7 +159,21 @@ def reader_antenna(g: GeometryConfig) -> _antennas.Antenna:
 
 
 def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
-    """A vertical half-wave dipole tag at ``distance_m`` and ``g.angle_deg`` facing the reader."""
+    """A vertical half-wave dipole tag at ``distance_m`` and ``g.angle_deg`` facing the reader.
+
+    Parameters
+    ----------
+    g : GeometryConfig
+        Placement (azimuth ``angle_deg`` and ``height_m``).
+    distance_m : float
+        Horizontal distance from the reader antenna [m].
+
+    Returns
+    -------
+    rfsim.channels.antennas.Antenna
+        The tag antenna at :math:`(d\cos a, d\sin a, h)`, linearly polarized, boresight
+        towards the reader.
+    """
     a = np.deg2rad(g.angle_deg)
     pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)
     # A dipole tag facing the reader, its axis vertical (local +z), boresight towards the reader.
@@ -103,7 +182,20 @@ def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
 
 
 def scene(c: ChannelConfig) -> _scene.Scene:
-    """The default channel: Friis, optional concrete floor (image method), optional APDP."""
+    """The default channel: Friis, optional concrete floor (image method), optional APDP.
+
+    Parameters
+    ----------
+    c : ChannelConfig
+        Which propagation terms to include.
+
+    Returns
+    -------
+    rfsim.channels.scene.Scene
+        A scene with the floor plane z = 0 (relative permittivity ``c.floor_eps_r``,
+        first-order images) when ``c.floor``, and the PASS-room
+        :class:`~rfsim.channels.small_scale.ApdpModel` when ``c.apdp``.
+    """
     surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=c.floor_eps_r),) if c.floor else ()
     return _scene.Scene(surfaces=surfaces, apdp=_small_scale.ApdpModel() if c.apdp else None, image_order=1)
 
@@ -124,6 +216,28 @@ READ_FIELDS = {**FIELDS, **READ_REPORT_FIELDS}
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate inventory rounds between one reader and one tag at each distance.
+
+    Each round is a sample-level singulation (Query, RN16, ACK, PC+EPC+CRC-16) over a fresh
+    channel draw and hop channel; rounds alternate target A and B (dual-target inventory).
+    What a read reports follows gen2-and-validation-anchors.md §4.9 (see the module
+    docstring for the channel and the random streams).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed; point i, round r draws from ``trial_rng(seed, i, r)``.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        One table ``reads``: one row per round and distance in the per-read schema
+        (:mod:`rfsim.core.reads`), sorted by time stamp — the reader's report (EPC, RSSI,
+        phase, Doppler, SNR), success and failure reason, the true distance [m] and the CW
+        power incident at the tag [dBm].
+    """
     g = config.geometry
     n_rounds = config.rounds_per_point
     rows: dict[str, list] = {k: [] for k in FIELDS}
@@ -184,6 +298,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     are drawn per successful read (small hollow markers) with the mean RSSI; the read rate
     with its Wilson 95 % interval. Distances without a successful read are hatched, and the
     caption gives the failure reason of most rounds there and the mean CW power at the tag.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figure.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The one written figure.
     """
     from matplotlib.ticker import FixedLocator, NullFormatter, NullLocator
 

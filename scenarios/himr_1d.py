@@ -73,6 +73,22 @@ SOURCE_ERROR_M = {"himr": 0.001, "rss": float("nan"), "double-integration": 0.02
 
 @dataclass(frozen=True)
 class SceneConfig:
+    """The pylon and the test range of the 1-D run.
+
+    Attributes
+    ----------
+    pylon_m : tuple of (float, float, float), default (0.0, 0.0, 0.0)
+        Position of the pylon [m].
+    carrier_hz : float, default 5.8e9
+        Carrier of the pylon (L632) [Hz], in [1e8, 1e10].
+    room_min_m : tuple of (float, float), default (-1.0, -1.0)
+        Lower-left corner of the test range [m].
+    room_max_m : tuple of (float, float), default (3.0, 1.0)
+        Upper-right corner of the test range [m].
+    duration_s : float, default 1.0
+        Length of the run [s], in [0.05, 30].
+    """
+
     pylon_m: tuple[float, float, float] = param((0.0, 0.0, 0.0), unit="m", doc="position of the pylon")
     carrier_hz: float = param(5.8e9, lo=1e8, hi=1e10, unit="Hz", doc="carrier of the pylon (L632)")
     room_min_m: tuple[float, float] = param((-1.0, -1.0), unit="m", doc="lower-left corner of the test range")
@@ -82,6 +98,26 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``himr-1d`` scenario.
+
+    The tag must use the ``6axis-1d`` packet format; the run must last longer than the rest
+    before the motion, and the pylon and the trajectory must fit the test range
+    (:func:`rfsim.scenes.himr_air.check_scene`).
+
+    Attributes
+    ----------
+    tag : HimrTagConfig
+        The HIMR tag (packet format, rate, framing).
+    imu : ImuConfig
+        The tag's IMU.
+    trajectory : LinearTrapezoid
+        The positioner profile (L610).
+    scene : SceneConfig
+        Pylon and test range.
+    radio : RadioConfig
+        Pylon radio and DSP.
+    """
+
     tag: HimrTagConfig = param(HimrTagConfig(packet_format="6axis-1d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: LinearTrapezoid = param(LinearTrapezoid(t_start_s=0.05), doc="the positioner profile (L610)")
@@ -101,7 +137,27 @@ class Config:
 
 
 def estimate(t_s, y, z0_m: float) -> dict:
-    """The three estimators of the module docstring: ``{name: (n, 3) [z ż z̈]}``."""
+    """The three estimators of the module docstring: ``{name: (n, 3) [z ż z̈]}``.
+
+    Parameters
+    ----------
+    t_s : array_like, shape (n,)
+        Epochs: the scheduled packet starts [s].
+    y : ndarray, shape (n, 3)
+        Measurements per epoch: RSS range [m] (eq. 22), phase-derived radial velocity [m/s]
+        (eq. 23) and accelerometer reading along the travel [m/s²]; NaN where missing.
+    z0_m : float
+        Known start distance to the pylon [m].
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n, 3)
+        Per estimator (``"himr"``: the 1-D observer of eq. 20,
+        :func:`rfsim.estimators.observer.observe_1d`; ``"rss"``: the measurements as they
+        are; ``"double-integration"``: the accelerometer, gaps interpolated, integrated twice
+        by the trapezoidal rule from ``[z0_m, 0]``) the states [z, ż, z̈]
+        [m, m/s, m/s²].
+    """
     t = np.asarray(t_s, float)
     x0 = np.array([z0_m, 0.0, 0.0])
     ok = ~np.isnan(y[:, 2])
@@ -144,6 +200,34 @@ def _add_estimates(ds, est: dict, t, z, moving) -> list[tuple]:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate the 1-D HIMR run and compare the observer with the RSS range and double integration.
+
+    The tag moves away from the pylon on the linear positioner; every packet goes through the
+    air step and the pylon's DSP at sample level, and the three estimators of
+    :func:`estimate` run on the decoded measurements (himr-tag.md §1.5–1.8, §2.1, §3.1–3.2;
+    the source's Sec. 2.5–2.7, Figs. 12–16; seed 000 L411–L660).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed: ``trial_rng(seed, 0)`` for the tag's schedule and IMU noise,
+        ``trial_rng(seed, 1, k, 0)`` for the receiver noise of packet k.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        The per-packet tables of the air run (``packets``, the IMU words; see
+        :func:`rfsim.scenes.himr_air.add_run_tables`); ``measurements`` (per epoch: RSS
+        range, radial velocity, acceleration with validity flags), ``truth`` (true
+        z, ż, z̈), ``estimates`` (per estimator and epoch: estimate and
+        distance error [m]), ``summary`` (per estimator: max, final and RMS error beside the
+        source's numbers [m]), the grid ``gains`` (observer gain L and the eigenvalues of
+        A − LC) and ``diagnostics`` (Euler step [s] and its spectral radius); root attributes
+        with the errors, travel, packet size, SNR at the end, aliasing limit, CRC-ok fraction
+        and the source citation.
+    """
     sc = config.scene
     tag = HimrTag(config.tag, config.trajectory, config.imu)
     stage(f"sample level: {config.tag.format.n_bits}-bit packets at {config.radio.fs_hz / 1e6:g} MS/s")
@@ -241,7 +325,20 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """True vs estimated distance, error vs time per estimator, RSS and radial velocity, stability of the
-    Euler step (:mod:`rfsim.scenarios._himr_figures`)."""
+    Euler step (:mod:`rfsim.scenarios._himr_figures`).
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
+    """
     return _himr_figures.plot_1d(Path(dataset_path), Path(out_dir), ESTIMATORS)
 
 

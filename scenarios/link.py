@@ -171,8 +171,8 @@ def tag_antenna(g: GeometryConfig, distance_m: float) -> _antennas.Antenna:
     Returns
     -------
     rfsim.channels.antennas.Antenna
-        The tag antenna at :math:`(d\cos a, d\sin a, h)`, linearly polarized, boresight
-        towards the reader.
+        The tag antenna at (d cos a, d sin a, h) [m] (a = ``g.angle_deg``, h =
+        ``g.height_m``), linearly polarized, boresight towards the reader.
     """
     a = np.deg2rad(g.angle_deg)
     pos = (distance_m * np.cos(a), distance_m * np.sin(a), g.height_m)

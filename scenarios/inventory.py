@@ -86,6 +86,22 @@ DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots,
 
 @dataclass(frozen=True)
 class CaptureConfig:
+    """The two-tag capture experiment: a near and a far tag in one Q = 0 slot on a patch's boresight.
+
+    Attributes
+    ----------
+    enabled : bool, default True
+        Run the two-tag capture experiment.
+    near_m : float, default 3.0
+        Distance of the near tag [m], in [0.2, 5].
+    ratios_db : tuple of float, default (0.0, 0.25, 0.5, 1.0, 2.0, 4.0)
+        Nominal backscatter power ratios (far tag at near·10^(r/40)) [dB], in [0, 30].
+    trials : int, default 20
+        Trials per ratio, in [1, 100000].
+    noise_figure_db : float, default 40.0
+        Reader noise figure in this experiment (sets the SNR of the replies) [dB], in [0, 80].
+    """
+
     enabled: bool = param(True, doc="run the two-tag capture experiment")
     near_m: float = param(3.0, lo=0.2, hi=5.0, unit="m", doc="distance of the near tag")
     ratios_db: tuple[float, ...] = param((0.0, 0.25, 0.5, 1.0, 2.0, 4.0), lo=0.0, hi=30.0, unit="dB",
@@ -100,6 +116,20 @@ class CaptureConfig:
 
 @dataclass(frozen=True)
 class CaptureInventoryConfig:
+    """Inventories of populations with spread, with capture on and off, beside the protocol level.
+
+    Attributes
+    ----------
+    enabled : bool, default False
+        Inventories with capture on/off at sample level beside the protocol level.
+    populations : tuple of int, default (10, 50, 100, 200)
+        Numbers of tags N, in [1, 2000].
+    runs : int, default 1
+        Inventories per population and mode, in [1, 1000].
+    room : rfsim.scenes.room_inventory.RoomConfig
+        Room of these inventories (4 m × 3 m: every tag powered, so 'slots to read all' exists).
+    """
+
     enabled: bool = param(False, doc="inventories with capture on/off at sample level beside the protocol level")
     populations: tuple[int, ...] = param((10, 50, 100, 200), lo=1, hi=2000, doc="numbers of tags N")
     runs: int = param(1, lo=1, hi=1000, doc="inventories per population and mode")
@@ -113,6 +143,34 @@ class CaptureInventoryConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``inventory`` scenario.
+
+    ``spread.enabled`` needs ``reader.blf_search = "preamble"`` (checked by :func:`run`).
+
+    Attributes
+    ----------
+    room : rfsim.scenes.room_inventory.RoomConfig
+        Room and reader placement.
+    reader : rfsim.devices.reader_config.ReaderConfig
+        Reader settings.
+    tag : rfsim.devices.tag_config.TagConfig
+        Tag template (EPCs are numbered per tag).
+    inventory : rfsim.protocols.inventory.InventoryConfig
+        Inventory control (Q algorithm).
+    populations : tuple of int, default (5, 10, 20)
+        Numbers of tags N, in [1, 2000].
+    runs : int, default 2
+        Independent inventories per population, in [1, 10000].
+    capture : CaptureConfig
+        Capture experiment.
+    spread : rfsim.devices.tag_spread.TagSpreadConfig
+        Tag-to-tag spread of the populations (off: identical tags).
+    capture_sweep : rfsim.scenes.capture_sweep.CaptureSweepConfig
+        Batched two-tag capture sweep and RN16 acceptance.
+    capture_inventory : CaptureInventoryConfig
+        Inventories with capture on and off (tags with spread).
+    """
+
     room: RoomConfig = param(RoomConfig(), doc="room and reader placement")
     reader: ReaderConfig = param(ReaderConfig(), doc="reader")
     tag: TagConfig = param(TagConfig(), doc="tag template (EPCs are numbered per tag)")
@@ -152,7 +210,22 @@ CAPTURE_INVENTORY_FIELDS = {
 def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
     """For each N and run: the same population (positions, spread, tag streams) inventoried
     three ways (:data:`CAPTURE_INVENTORY_FIELDS` ``mode``). Streams: population p, run r:
-    ``trial_rng(seed, 3_000_000 + p, r, ...)`` as the main inventories."""
+    ``trial_rng(seed, 3_000_000 + p, r, ...)`` as the main inventories.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``capture_inventory`` and, for the tags' spread and the RN16
+        acceptance, ``capture_sweep``).
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to list
+        Columns of the ``capture_inventories`` table, keys of
+        :data:`CAPTURE_INVENTORY_FIELDS`: one entry per (population, run, mode).
+    """
     ci, cs = config.capture_inventory, config.capture_sweep
     rows: dict[str, list] = {k: [] for k in CAPTURE_INVENTORY_FIELDS}
     reader_cfg = replace(config.reader, blf_search="preamble", rn16_false_accept=cs.rn16_false_accept)
@@ -220,6 +293,35 @@ def _tag_rows(rows: dict, n: int, r: int, tags: list, recs: list, t1_nom_s: floa
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate Q-algorithm inventories of tag populations in a room at sample level.
+
+    Each population size N is inventoried ``runs`` times (new positions and draws per run);
+    collisions and capture emerge from the superposed waveforms
+    (gen2-and-validation-anchors.md §4.4–4.6). The capture experiments of the module
+    docstring run as configured.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``slots`` (one row per slot), ``reads`` (one row per EPC read, per-read
+        schema), ``inventories`` (one row per inventory: tags read, slots, air time [s],
+        efficiency) and ``tags`` (one row per tag: position [m], orientation [rad], spread);
+        when enabled, ``capture_sweep``, ``capture_trials`` and ``acceptance`` (the batched
+        capture sweep), ``capture_inventories`` and ``capture`` (the boresight two-tag
+        trials against the power ratio [dB]).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        ``spread.enabled`` without ``reader.blf_search = "preamble"``.
+    """
     if config.spread.enabled and config.reader.blf_search != "preamble":
         raise ConfigError("spread.enabled", True, "with reader.blf_search = 'preamble' (tags with their own BLF "
                                                   "need a reader that estimates it)")
@@ -296,5 +398,17 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     capture sweep with Clopper-Pearson 95 % intervals, the RN16 acceptance trade-off).
 
     Drawn by :mod:`rfsim.scenarios._inventory_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir)

@@ -66,6 +66,18 @@ PUBLISHED_RMSE_M = {("EKF", 1): 0.032, ("EKF", 2): 0.022, ("RTS", 1): 0.015, ("R
 
 @dataclass(frozen=True)
 class ScheduleConfig:
+    """The fixed read schedule and the chunks the run is simulated in.
+
+    Attributes
+    ----------
+    read_period_s : float, default 0.0025
+        Start-to-start time of two reads (antennas in turn): 2.5 ms = 100 reads/s per antenna [s], in [1e-4, 1].
+    chunk_s : float, default 15.0
+        The run is simulated in chunks of this length (own reader and tag each) [s], in [0.01, 3600].
+    workers : int, default 0
+        Processes for the chunks (0 = all cores, 1 = serial), in [0, 256].
+    """
+
     read_period_s: float = param(2.5e-3, lo=1e-4, hi=1.0, unit="s",
                                  doc="start-to-start time of two reads (antennas in turn): 2.5 ms = 100 reads/s per antenna")
     chunk_s: float = param(15.0, lo=0.01, hi=3600.0, unit="s",
@@ -75,6 +87,26 @@ class ScheduleConfig:
 
 @dataclass(frozen=True)
 class EstimatorConfig:
+    """Tuning of the CWNA + bias EKF and the RTS smoother (phase-tracking.md, P§6).
+
+    Attributes
+    ----------
+    q_v : float, default 1.0
+        CWNA velocity noise density (P§6) [m^2/s^3], in (0, 1e6].
+    q_b : float, default 1e-4
+        Bias random-walk density (P§6) [m^2/s], in (0, 10].
+    sigma_m : float, default 0.01
+        Pseudo-range noise std of the EKF [m], in (0, 10].
+    pos_std_m : float, default 3.0
+        Prior position std (L203) [m], in (0, 100].
+    bias_std_m : float, default 1.0
+        Prior bias std (P§6) [m], in (0, 100].
+    vel_std_mps : float, default 0.5
+        Prior velocity std (P§6) [m/s], in (0, 100].
+    passes : int, default 3
+        Filter + smoother passes (L205: 2; Fig. 8: 3), in [1, 20].
+    """
+
     q_v: float = param(1.0, lo=0.0, lo_open=True, hi=1e6, unit="m^2/s^3", doc="CWNA velocity noise density (P§6)")
     q_b: float = param(1e-4, lo=0.0, lo_open=True, hi=10.0, unit="m^2/s", doc="bias random-walk density (P§6)")
     sigma_m: float = param(0.01, lo=0.0, lo_open=True, hi=10.0, unit="m", doc="pseudo-range noise std of the EKF")
@@ -92,6 +124,27 @@ def _reader_defaults() -> ReaderConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``phase-tracking`` scenario.
+
+    The reader defaults to the fm0-640k link on one 890 MHz carrier (custom plan, no hopping)
+    at 2 MS/s, RSSI in 1 dB steps, a 12-bit phase code and one phase offset per port.
+
+    Attributes
+    ----------
+    geometry : rfsim.scenes.phase_tracking.GeometryConfig
+        Antennas and room.
+    trajectory : rfsim.scenes.phase_tracking.TrajectoryConfig
+        Tag motion.
+    schedule : ScheduleConfig
+        Read schedule and chunks.
+    reader : rfsim.devices.reader_config.ReaderConfig
+        Reader (fm0-640k, one 890 MHz carrier, 2 MS/s).
+    tag : rfsim.devices.tag_config.TagConfig
+        Tag settings.
+    estimator : EstimatorConfig
+        EKF/RTS tuning.
+    """
+
     geometry: GeometryConfig = param(GeometryConfig(), doc="antennas and room")
     trajectory: TrajectoryConfig = param(TrajectoryConfig(), doc="tag motion")
     schedule: ScheduleConfig = param(ScheduleConfig(), doc="read schedule and chunks")
@@ -135,6 +188,39 @@ def _check_slot(config: Config, singulation_s: float) -> None:
 
 
 def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
+    """Simulate Särkkä et al.'s 890 MHz phase tracking with sample-level reads, then track the tag.
+
+    Reproduces experiment 1 of Särkkä et al. 2012 (phase-tracking.md §2; seeds/001 L57,
+    L174–L178, RMSEs L203–L207, Fig. 8): four corner antennas read the moving tag in turn
+    on a fixed schedule; the reported phases are unwrapped to pseudo-ranges and tracked by
+    the CWNA + bias EKF and the RTS smoother over ``estimator.passes`` passes, beside the
+    RSSI-only fix of eq. (13).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``reads`` (one row per read round in the per-read schema, with the true
+        position [m]), ``pseudoranges`` (per read: unwrapped pseudo-range, true range and
+        their offset [m], unwrapping-jump flag), ``estimates`` (per read: the RSSI-only,
+        EKF and RTS positions of every pass [m] beside the true and intended path) and
+        ``summary`` (per estimator and pass: RMSE, mean, median, 90th percentile, max and
+        std of the position error [m] beside the published RMSE); root attributes with the
+        model matrices (F, L, Qc, A(Δt), W(Δt)), antenna positions, wavelength, unwrapping
+        limit, read rate and the RMSEs.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        The scene does not fit (:func:`rfsim.scenes.phase_tracking.check_scene`), or one
+        singulation does not fit into ``schedule.read_period_s``.
+    """
     check_scene(config.geometry, config.trajectory, read_period_s=config.schedule.read_period_s)
     carrier_hz(config.reader)
     g, tr, sch, est = config.geometry, config.trajectory, config.schedule, config.estimator
@@ -296,7 +382,20 @@ def _dataset(config, reads, z, true_range, offset, jump, estimates, summary, *, 
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Phase and pseudo-range vs time per antenna, true vs estimated tracks, error CDFs."""
+    """Phase and pseudo-range vs time per antenna, true vs estimated tracks, error CDFs.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
+    """
     from rfsim.scenarios._phase_figures import plot_all
 
     return plot_all(dataset_path, out_dir)

@@ -218,8 +218,9 @@ def run(config: Config, *, seed: int) -> _rfsim_dataset.Dataset:
     Raises
     ------
     rfsim.core.errors.ConfigError
-        The scene does not fit (:func:`rfsim.scenes.phase_tracking.check_scene`), or one
-        singulation does not fit into ``schedule.read_period_s``.
+        The scene does not fit (:func:`rfsim.scenes.phase_tracking.check_scene`), the reader
+        hops over several carriers, or one singulation does not fit into
+        ``schedule.read_period_s``.
     """
     check_scene(config.geometry, config.trajectory, read_period_s=config.schedule.read_period_s)
     carrier_hz(config.reader)

@@ -90,6 +90,22 @@ DESCRIPTION = ("2-D HIMR: 9-axis tag on the rotating boom, 3 pylons at 5.79/5.80
 
 @dataclass(frozen=True)
 class SceneConfig:
+    """The three pylons and the room of the 2-D run.
+
+    Attributes
+    ----------
+    pylons_m : tuple of (float, float), default ((-0.1, 1.5), (2.0, 3.05), (2.7, -0.03))
+        Pylon positions (Table 7, L1006-L1008) [m].
+    carriers_hz : tuple of float, default (5.79e9, 5.8e9, 5.81e9)
+        Carrier of each pylon (L997) [Hz].
+    room_min_m : tuple of (float, float), default (-0.5, -0.5)
+        Lower-left corner of the room [m].
+    room_max_m : tuple of (float, float), default (4.5, 3.5)
+        Upper-right corner of the room [m].
+    duration_s : float, default 1.6
+        Length of the run [s], in [0.05, 30].
+    """
+
     pylons_m: tuple[tuple[float, float], ...] = param(tuple(map(tuple, PYLONS_M.tolist())), unit="m",
                                                       doc="pylon positions (Table 7, L1006-L1008)")
     carriers_hz: tuple[float, ...] = param(HIMR_CARRIERS_HZ, unit="Hz", doc="carrier of each pylon (L997)")
@@ -100,6 +116,32 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class ObserverConfig:
+    """The observers, their tuning and initial condition, and the analysis cases.
+
+    Attributes
+    ----------
+    tuning : {"D.2", "D.1"}, default "D.2"
+        W of the CARE: D.2 diag(579..67) (Cases 1-6) or D.1 965 I.
+    initial_condition : {1, 2, 3}, default 1
+        IC of Table 9 (L1196-L1206).
+    variants : tuple of str, default ("literal", "prerotated", "ekf")
+        Observer variants: literal, prerotated, ekf.
+    cases : tuple of int, default (1, 2, 3, 4, 5, 6, 7)
+        Analysis cases 1-7 (run with the prerotated variant).
+    outage_s : tuple of (float, float), default (0.39, 0.75)
+        Outage window of Cases 2-5 (L1243) [s].
+    dealias : {"gated", "innovation", "none", "oracle"}, default "gated"
+        Radial-velocity aliasing: 'innovation' wraps the innovation into +-lambda/(4
+        dt); 'gated' does so only while every RSS-range innovation is below gate_m (else
+        the measured value as is); 'none' uses the wrapped values as measured; 'oracle'
+        takes the alias nearest the true velocity (ground truth: the bound a perfect
+        dealiasing reaches).
+    gate_m : float, default 0.05
+        Range-innovation gate of dealias = 'gated' [m], in (0, ∞).
+    converged_m : float, default 0.005
+        Converged below this error (docs page) [m], in (0, ∞).
+    """
+
     tuning: Literal["D.2", "D.1"] = param("D.2", doc="W of the CARE: D.2 diag(579..67) (Cases 1-6) or D.1 965 I")
     initial_condition: Literal[1, 2, 3] = param(1, doc="IC of Table 9 (L1196-L1206)")
     variants: tuple[str, ...] = param(VARIANTS, doc="observer variants: literal, prerotated, ekf")
@@ -116,6 +158,28 @@ class ObserverConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``himr-2d`` scenario.
+
+    Checked on construction: three distinct pylons with one carrier each, the ``9axis-2d``
+    packet format, known variants and cases (case 1 included), an outage window inside the
+    run, and a scene that fits the room (:func:`rfsim.scenes.himr_air.check_scene`).
+
+    Attributes
+    ----------
+    tag : rfsim.devices.himr_tag.HimrTagConfig
+        The HIMR tag (packet format, rate, framing).
+    imu : rfsim.devices.imu.ImuConfig
+        The tag's IMU.
+    trajectory : rfsim.core.trajectories.RotatingBoom
+        The boom (actual trajectory: 150 ms lag).
+    scene : SceneConfig
+        Pylons and room.
+    radio : rfsim.scenes.himr_air.RadioConfig
+        Pylon radios and DSP.
+    observer : ObserverConfig
+        Observers and cases.
+    """
+
     tag: HimrTagConfig = param(HimrTagConfig(packet_format="9axis-2d"), doc="the HIMR tag (packet format, rate, framing)")
     imu: ImuConfig = param(ImuConfig(), doc="the tag's IMU")
     trajectory: RotatingBoom = param(RotatingBoom(lag_s=0.15), doc="the boom (actual trajectory: 150 ms lag)")
@@ -155,7 +219,18 @@ MIN_PYLON_SEPARATION_M = 0.05
 def check_distinct_pylons(pylons_m) -> None:
     """Every two pylons at least :data:`MIN_PYLON_SEPARATION_M` apart: two pylons at one point
     give the range outputs of a case without the third pylon one direction, and the filter CARE
-    of its gain has no finite solution."""
+    of its gain has no finite solution.
+
+    Parameters
+    ----------
+    pylons_m : sequence of (float, float)
+        Pylon positions (x, y) [m].
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        Two pylons closer than :data:`MIN_PYLON_SEPARATION_M`; names ``scene.pylons_m[j]``.
+    """
     for j, q in enumerate(pylons_m):
         for i, p in enumerate(pylons_m[:j]):
             if math.dist(p, q) < MIN_PYLON_SEPARATION_M:
@@ -165,7 +240,35 @@ def check_distinct_pylons(pylons_m) -> None:
 
 
 def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, list]:
-    """Every (variant, case) run: a list of estimate tables and a list of summary rows."""
+    """Every (variant, case) run: a list of estimate tables and a list of summary rows.
+
+    The variants of ``observer.variants`` run on Case 1; Cases 2–7 with the prerotated variant;
+    the literal variant once more with ``dealias = "oracle"`` when it is asked for with another
+    dealiasing (:func:`rfsim.estimators.himr_cases.observe_case`).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``observer``, ``scene.pylons_m``, ``trajectory``).
+    run : rfsim.scenes.himr_air.AirRun
+        The sample-level air run of :func:`sample_level`.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's packet schedule.
+    imu : dict
+        The IMU table of the run (:func:`rfsim.scenes.himr_air.imu_table`).
+    fc_hz : sequence of float
+        Carrier of each pylon [Hz].
+
+    Returns
+    -------
+    estimates : list of dict of str to ndarray
+        Per run, columns over its epochs: variant, case, dealias, ``t_s`` [s], the nine
+        estimated states ``<state>_hat`` and the errors ``error_x_m``, ``error_y_m`` [m],
+        ``error_psi_rad`` [rad], ``error_m`` [m].
+    summary : list of dict
+        Per run: max (while moving), max x, max y and final error [m], convergence time [s]
+        (last epoch above ``observer.converged_m``), and the source's numbers for the case.
+    """
     ob = config.observer
     W, pyl, x0 = (W_D2 if ob.tuning == "D.2" else W_D1), np.asarray(config.scene.pylons_m, float), initial_state(ob.initial_condition)
     motion_end = config.trajectory.duration_s
@@ -200,7 +303,26 @@ def run_observers(config: Config, run, plan, imu: dict, fc_hz) -> tuple[list, li
 
 
 def sample_level(config: Config, *, seed: int):
-    """The packets through the air and the DSP: ``(AirRun, the tag's plan, imu table)``."""
+    """The packets through the air and the DSP: ``(AirRun, the tag's plan, imu table)``.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed: ``trial_rng(seed, 0)`` for the tag, ``trial_rng(seed, 1, k, u)`` for the
+        receiver noise of packet k at pylon u.
+
+    Returns
+    -------
+    air : rfsim.scenes.himr_air.AirRun
+        Every packet through the air step and each pylon's DSP.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's packet schedule.
+    imu : dict
+        The IMU words of each packet, from the first pylon with a good CRC
+        (:func:`rfsim.scenes.himr_air.imu_table`).
+    """
     tag, sc = HimrTag(config.tag, config.trajectory, config.imu), config.scene
     stage(f"sample level: {config.tag.format.n_bits}-bit packets at {config.radio.fs_hz / 1e6:g} MS/s, "
           f"{len(sc.pylons_m)} pylons")
@@ -212,11 +334,54 @@ def sample_level(config: Config, *, seed: int):
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate the 2-D HIMR run: the boom tag, three pylons at sample level, observers and cases.
+
+    Reproduces the source's 2-D study (himr-tag.md §1.9–1.12, §3.3–3.5, §4.3, §5, §6; seed 000
+    Ch. IV, Figs. 68–96, Tables 7–9): :func:`sample_level` then :func:`dataset`.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        The dataset of :func:`dataset`.
+    """
     return dataset(config, *sample_level(config, seed=seed))
 
 
 def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
-    """Observers, cases, diagnostics and the tables of the dataset (module docstring)."""
+    """Observers, cases, diagnostics and the tables of the dataset (module docstring).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    air : rfsim.scenes.himr_air.AirRun
+        The sample-level run of :func:`sample_level`.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's packet schedule.
+    imu : dict
+        The IMU table of the run.
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        The per-packet tables of the air run (:func:`rfsim.scenes.himr_air.add_run_tables`);
+        ``measurements`` (per epoch: the ten outputs r₁ ṙ₁ r₂ ṙ₂ r₃ ṙ₃ a₁ a₂ θ_z ω_z with
+        validity flags), ``truth`` (the true 9-state), ``estimates`` (per variant, case and
+        epoch: the estimated states and the x, y, heading and Euclidean errors),
+        ``summary`` (per run: max, final error [m] and convergence time [s] beside the
+        source's numbers), the grid ``gains`` (CARE gain L at the Table 8 point and the
+        eigenvalues of A − LC) and ``diagnostics`` (per epoch: largest real eigenvalue of the
+        literal and prerotated error matrices [1/s], observability rank); root attributes
+        with the Case 1 errors, the literal observer's unstable interval [s], CRC-ok and
+        aliased fractions and the source citation.
+    """
     sc = config.scene
     tick = time.perf_counter()
     stage("observers and cases")
@@ -338,7 +503,20 @@ def dataset(config: Config, air, plan, imu: dict) -> _dataset.Dataset:
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     """True vs estimated track, error vs time per case and variant, RSS and radial velocity per pylon,
-    eigenvalues along the trajectory (:mod:`rfsim.scenarios._himr_figures`)."""
+    eigenvalues along the trajectory (:mod:`rfsim.scenarios._himr_figures`).
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
+    """
     return _himr_figures.plot_2d(Path(dataset_path), Path(out_dir))
 
 

@@ -71,9 +71,11 @@ class ScheduleConfig:
     Attributes
     ----------
     read_period_s : float, default 0.0025
-        Start-to-start time of two reads (antennas in turn): 2.5 ms = 100 reads/s per antenna [s], in [1e-4, 1].
+        Start-to-start time of two reads [s] (antennas in turn): 2.5 ms = 100 reads/s
+        per antenna; in [1e-4, 1].
     chunk_s : float, default 15.0
-        The run is simulated in chunks of this length (own reader and tag each) [s], in [0.01, 3600].
+        The run is simulated in chunks of this length (own reader and tag each) [s], in
+        [0.01, 3600].
     workers : int, default 0
         Processes for the chunks (0 = all cores, 1 = serial), in [0, 256].
     """

@@ -96,6 +96,24 @@ V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω dete
 
 @dataclass(frozen=True)
 class SweepConfig:
+    """The distances swept and the draws per point.
+
+    Both distance lists need at least 2 strictly increasing values (checked by :class:`Config`).
+
+    Attributes
+    ----------
+    full : bool, default False
+        Full size: 100 draws per point (overrides draws_per_point).
+    exciter_distance_m : tuple of float, default (0.5, 1.0, ..., 8.0)
+        Exciter→tag distances d_e [m], in [0.1, 100]; default every 0.5 m.
+    tag_distance_m : tuple of float, default (0.1, 0.2, 0.3, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0)
+        Tag→listener distances d_tt [m], in [0.02, 50].
+    draws_per_point : int, default 20
+        Channel draws (and listener azimuths) per point, in [1, 100000].
+    workers : int, default 2
+        Worker processes (0 = all cores, 1 = in process), in [0, 256].
+    """
+
     full: bool = param(False, doc="full size: 100 draws per point (overrides draws_per_point)")
     exciter_distance_m: tuple[float, ...] = param(tuple(0.5 * i for i in range(1, 17)), lo=0.1, hi=100.0,
                                                   unit="m", doc="exciter→tag distances d_e")
@@ -106,11 +124,26 @@ class SweepConfig:
 
     @property
     def n_draws(self) -> int:
+        """Channel draws per point: 100 with ``full``, else ``draws_per_point``."""
         return 100 if self.full else self.draws_per_point
 
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """Placement height, the exciter's antenna and the channel's small scale.
+
+    Attributes
+    ----------
+    height_m : float, default 1.0
+        Height of exciter, tag and listener [m], in [0.1, 10].
+    exciter_antenna : {"patch", "dipole"}, default "patch"
+        Patch (boresight +x, towards the tag) or vertical dipole.
+    exciter_gain_dbi : float, default 6.0
+        Patch peak gain [dBi], in [0, 15].
+    apdp : bool, default True
+        Exponential APDP small scale (PASS ST-room curves).
+    """
+
     height_m: float = param(1.0, lo=0.1, hi=10.0, unit="m", doc="height of exciter, tag and listener")
     exciter_antenna: Literal["patch", "dipole"] = param("patch", doc="patch (boresight +x, towards the tag) "
                                                                    "or vertical dipole")
@@ -120,6 +153,21 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class TagModelConfig:
+    """The broadcasting tag's physics and payload.
+
+    Attributes
+    ----------
+    model : {"measured", "chip"}, default "measured"
+        'measured' = the PASS UCODE chip (impedance vs absorbed power, Gamma*incident,
+        power-up at picmin + margin; rfsim.devices.tag_chip); 'chip' = the tag config's
+        fixed states and sensitivity with its structural mode.
+    power_margin_db : float, default 2.5
+        'measured': power-up margin on the chip's minimum power (PASS: 2.5 dB) [dB], in
+        [0, 20].
+    word : int, default 0x0A5C
+        16-bit word the tag broadcasts (followed by its CRC-16), in [0, 65535].
+    """
+
     model: Literal["measured", "chip"] = param(
         "measured", doc="'measured' = the PASS UCODE chip (impedance vs absorbed power, Gamma*incident, power-up "
                         "at picmin + margin; rfsim.devices.tag_chip); 'chip' = the tag config's fixed states and "
@@ -131,6 +179,31 @@ class TagModelConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``exciter-link`` scenario.
+
+    Checked on construction: increasing distance lists, a single-antenna listener, a valid
+    frame, and an exciter schedule that is on during the frame.
+
+    Attributes
+    ----------
+    sweep : SweepConfig
+        Distances and draws.
+    geometry : GeometryConfig
+        Placement and channel.
+    exciter : rfsim.devices.exciter.ExciterConfig
+        RF exciter (CW).
+    frame : rfsim.devices.own_schedule.FrameConfig
+        The tag's frame (sample rate, BLF, line code).
+    tag : rfsim.devices.tag_config.TagConfig
+        The broadcasting tag.
+    tag_model : TagModelConfig
+        Tag physics and payload.
+    listener : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        Listener receive chain (threshold, detector gain).
+    noise : rfsim.scenes.exciter.NoiseConfig
+        Receiver noise.
+    """
+
     sweep: SweepConfig = param(SweepConfig(), doc="distances and draws")
     geometry: GeometryConfig = param(GeometryConfig(), doc="placement and channel")
     exciter: ExciterConfig = param(ExciterConfig(), doc="RF exciter (CW)")
@@ -158,12 +231,40 @@ class Config:
 
 
 def payload(config: Config) -> np.ndarray:
-    """The broadcast bits: the 16-bit word and its CRC-16 (32 bits)."""
+    """The broadcast bits: the 16-bit word and its CRC-16 (32 bits).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``tag_model.word``).
+
+    Returns
+    -------
+    ndarray of uint8, shape (32,)
+        The word's 16 bits followed by their CRC-16 (:func:`rfsim.gen2.crc.append_crc16`).
+    """
     return _crc.append_crc16(_bits.int_to_bits(config.tag_model.word, 16))
 
 
 def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
-    """The broadcasting tag at ``antenna`` by ``tag_model.model`` (module docstring)."""
+    """The broadcasting tag at ``antenna`` by ``tag_model.model`` (module docstring).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``tag``, ``tag_model``).
+    antenna : rfsim.channels.antennas.Antenna
+        The tag's antenna.
+    rng : numpy.random.Generator
+        The tag's own stream.
+
+    Returns
+    -------
+    rfsim.devices.tag.PassiveTag
+        ``"measured"``: the PASS UCODE-class chip re-radiating Γ·incident, powered at picmin +
+        ``power_margin_db`` (:func:`rfsim.scenes.exciter.measured_tag`); ``"chip"``: a tag
+        with the config's fixed reflection states and sensitivity.
+    """
     tm = config.tag_model
     if tm.model == "measured":  # PASS tag: Γ·incident, its chip sets the states and power-up
         return measured_tag(antenna, rng=rng, tag=config.tag, margin_db=tm.power_margin_db)
@@ -171,7 +272,30 @@ def make_tag(config: Config, antenna, rng) -> _tag.PassiveTag:
 
 
 def simulate_row(config: Config, row: int, seed: int) -> dict[str, np.ndarray]:
-    """Every draw of the d_e value ``row``, each one air step with all d_tt listeners."""
+    """Every draw of the d_e value ``row``, each one air step with all d_tt listeners.
+
+    Per draw k the listeners stand at distance d_tt around the tag at uniform azimuths; one
+    :func:`rfsim.air.step.propagate` step carries the exciter's CW and the tag's frame to all of
+    them, then the sense-a-tag receive chain decodes every listener's input at once.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    row : int
+        Index of d_e in ``config.sweep.exciter_distance_m``.
+    seed : int
+        Root seed; draw k uses ``trial_rng(seed, row, k, j)`` (module docstring).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_draws * n_dtt,)
+        One entry per (draw, d_tt): the distances [m], draw, listener azimuth [rad], the
+        tag's incident and chip power [W], whether it replied, the CW and backscatter
+        amplitudes at the listener [V], the backscatter phase [rad], the envelope
+        differences ``sync_v``, ``closed_diff_v`` (Eq. 3.3) and ``diff_v`` [V], and
+        ``decoded``.
+    """
     g, fr, sw = config.geometry, config.frame, config.sweep
     d_e = sw.exciter_distance_m[row]
     d_tt = np.asarray(sw.tag_distance_m, float)
@@ -225,7 +349,20 @@ def _task(args):
 
 
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Every d_e row on ``config.sweep.workers`` processes, concatenated in row order."""
+    """Every d_e row on ``config.sweep.workers`` processes, concatenated in row order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of :func:`simulate_row` for every row, concatenated.
+    """
     tasks = [(config, i, seed) for i in range(len(config.sweep.exciter_distance_m))]
     return concat(map_in_order(_task, tasks, config.sweep.workers, desc="monte carlo", unit="rows"))
 
@@ -236,7 +373,24 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 def point_grid(samples, d_e, d_tt) -> dict[str, np.ndarray]:
     """(n_de, n_dtt) per point: decodes k, draws m, p = k/m with its Clopper–Pearson 95 %
     interval (:func:`rfsim.devices.st_analytic.cancellation_probability`, a binomial proportion),
-    medians of the incident power and the envelope differences, the tag's reply fraction."""
+    medians of the incident power and the envelope differences, the tag's reply fraction.
+
+    Parameters
+    ----------
+    samples : dict of str to ndarray
+        The per-draw columns of :func:`monte_carlo`.
+    d_e : ndarray, shape (n_de,)
+        Swept exciter→tag distances [m], increasing.
+    d_tt : ndarray, shape (n_dtt,)
+        Swept tag→listener distances [m], increasing.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_de, n_dtt)
+        ``p_decoded``, ``ci_lo``, ``ci_hi``, ``draws`` (m), ``decoded_count`` (k),
+        ``median_tag_incident_power_w`` [W], ``median_diff_v``, ``median_sync_v`` [V] and
+        ``tag_replied_fraction``.
+    """
     i = np.searchsorted(d_e, samples["exciter_distance_m"])
     j = np.searchsorted(d_tt, samples["tag_distance_m"])
     shape = (len(d_e), len(d_tt))
@@ -262,7 +416,25 @@ def point_grid(samples, d_e, d_tt) -> dict[str, np.ndarray]:
 
 def fits(grid, d_e, d_tt) -> dict:
     """Per-row Eq. (6.5) fits, and over the rows where the tag runs (it ran in at least half
-    of the draws) the pooled fit and the fit with a d_e term (module docstring)."""
+    of the draws) the pooled fit and the fit with a d_e term (module docstring).
+
+    Parameters
+    ----------
+    grid : dict of str to ndarray
+        The point grid of :func:`point_grid`.
+    d_e : ndarray, shape (n_de,)
+        Exciter→tag distances [m].
+    d_tt : ndarray, shape (n_dtt,)
+        Tag→listener distances [m].
+
+    Returns
+    -------
+    dict
+        ``"rows"``: one :class:`~rfsim.detection.tag_to_tag.Eq65Fit` per d_e row, p(d_tt) =
+        1/(1 + exp(a1 + a2·d_tt)); ``"pooled"``: the same over the rows where the tag runs;
+        ``"extended"``: with a d_e term, 1/(1 + exp(a1 + a2·d_tt + a3·d_e)), over those rows;
+        ``"runs"``: bool ndarray, shape (n_de,), the rows where the tag runs.
+    """
     k, m = grid["decoded_count"], grid["draws"]
     rows = [fit_eq65(_detection.ts_design(d_tt), k[a], m[a]) for a in range(len(d_e))]
     runs = grid["tag_replied_fraction"].mean(axis=1) >= 0.5
@@ -277,6 +449,29 @@ def fits(grid, d_e, d_tt) -> dict:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate the exciter-powered tag-to-tag link over (d_e, d_tt) and fit the logistic model.
+
+    The decode probability of Geng's reader-free network (binary-detection.md §1.11
+    Eq. (6.5); seed 004 L1049–1127; auris-sense-a-tag.md ch. 5 for the exciter) at sample
+    level, with the Eq. (6.5) fits of :func:`fits`.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Table ``samples`` (one row per draw and point), grid ``points`` over (d_e, d_tt)
+        (decode probability with Clopper–Pearson 95 % interval, medians), table
+        ``eq65_rows`` (per d_e: a1, a2 with standard errors, d50 [m], fit status, whether
+        d50 lies in the sweep, whether the tag runs); root attributes with the pooled and
+        extended fits, d50 at the median exciter distance and its spread [m], the exciter
+        EIRP and the noise power [W].
+    """
     samples = monte_carlo(config, seed=seed)
     d_e = np.asarray(config.sweep.exciter_distance_m, float)
     d_tt = np.asarray(config.sweep.tag_distance_m, float)
@@ -375,6 +570,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     Clopper-Pearson 95 % intervals and the Eq. (6.5) fit of that row.
 
     Drawn by :mod:`rfsim.scenarios._exciter_link_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir)
 

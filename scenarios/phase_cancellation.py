@@ -64,6 +64,26 @@ DESCRIPTION = ("sense-a-tag phase cancellation: P(cancel) per cell for single an
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """Placement of reader, tag and sense-a-tag positions, and the channel (auris-sense-a-tag.md §3.2).
+
+    Attributes
+    ----------
+    tag_x_m : tuple of float, default (1.0, 1.5, ..., 7.0)
+        Tag x positions (cells); reader at the origin [m], in [0.2, 100].
+    disc_radius_m : float, default 0.5
+        ST positions uniform in this disc [m], in [0.01, 5].
+    height_m : float, default 1.0
+        Height of reader, tag and ST [m], in [0.1, 10].
+    reader_gain_dbi : float, default 6.0
+        Reader patch gain [dBi], in [0, 15].
+    apdp : bool, default True
+        Exponential APDP small scale (PASS ST-room curves).
+    pair_coupling : bool, default True
+        Mutual coupling of the ST's dipole pair (Z11 = 73.1 + j42.5 ohm, Z12 of
+        side-by-side half-wave dipoles at st.spacing_m: 40.4 - j28.4 ohm at lambda/4;
+        conjugate-matched loads; rfsim.devices.st_analytic.coupling_matrix).
+    """
+
     tag_x_m: tuple[float, ...] = param(tuple(1.0 + 0.5 * i for i in range(13)), lo=0.2, hi=100.0, unit="m",
                                        doc="tag x positions (cells); reader at the origin")
     disc_radius_m: float = param(0.5, lo=0.01, hi=5.0, unit="m", doc="ST positions uniform in this disc")
@@ -77,6 +97,24 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class TrackConfig:
+    """The radial sense-a-tag tracks around one cell's tag (AURIS dissertation Fig. 3.15).
+
+    Attributes
+    ----------
+    cell : int, default 2
+        Cell of the radial tracks (0-based; 2 = tag at 2 m), in [0, 1000].
+    angles_deg : tuple of float, default (0.0, 45.0, 90.0, 180.0)
+        Track angle from the tag→reader direction [deg], in [-360, 360].
+    d_min_m : float, default 0.04
+        First ST distance from the tag [m], in [0.005, 5].
+    d_max_m : float, default 1.0
+        Last ST distance from the tag [m], in [0.01, 5].
+    step_m : float, default 0.02
+        Step along the track [m], in [0.001, 1].
+    apdp : bool, default False
+        Small scale on the tracks (off: deterministic LoS, as the Fig. 3.8 model).
+    """
+
     cell: int = param(2, lo=0, hi=1000, doc="cell of the radial tracks (0-based; 2 = tag at 2 m)")
     angles_deg: tuple[float, ...] = param((0.0, 45.0, 90.0, 180.0), lo=-360.0, hi=360.0, unit="deg",
                                           doc="track angle from the tag→reader direction")
@@ -93,6 +131,35 @@ SOURCE_PTX_DBM = 29.16
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``phase-cancellation`` scenario.
+
+    The reader defaults to PASS's link (``pass-miller2-48k``) and EIRP (:data:`SOURCE_PTX_DBM` +
+    6 dBi = 3.28 W) on channel 26 of the FCC plan (915.25 MHz), no hopping. Checked on
+    construction: at least one cell, ``tracks.cell`` a valid cell, ``tracks.d_min_m`` <
+    ``tracks.d_max_m``, and the ``measured`` tag states with ``pass_replication``.
+
+    Attributes
+    ----------
+    mc : rfsim.core.monte_carlo.MonteCarloConfig
+        Monte Carlo size.
+    geometry : GeometryConfig
+        Placement and channel.
+    tracks : TrackConfig
+        Radial ST tracks (Fig. 3.15).
+    reader : rfsim.devices.reader_config.ReaderConfig
+        Reader settings.
+    tag : rfsim.devices.tag_config.TagConfig
+        Tag settings.
+    tag_states : rfsim.devices.pass_tag.TagStatesConfig
+        Tag reflection states used for backscatter.
+    st : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        Sense-a-tag (threshold, detector gain, spacing).
+    detector : rfsim.devices.st_detector.DetectorConfig
+        ST envelope detector law and noise.
+    pass_replication : rfsim.devices.pass_tag.PassReplicationConfig
+        Replicate PASS's tag antenna file and assembly.
+    """
+
     mc: MonteCarloConfig = param(MonteCarloConfig(), doc="Monte Carlo size")
     geometry: GeometryConfig = param(GeometryConfig(), doc="placement and channel")
     tracks: TrackConfig = param(TrackConfig(), doc="radial ST tracks (Fig. 3.15)")
@@ -119,7 +186,21 @@ class Config:
 
 
 def scene(config: Config, *, apdp: bool | None = None) -> "_scene.TagListeningScene":
-    """The scene of the configuration (``apdp`` overrides ``geometry.apdp``)."""
+    """The scene of the configuration (``apdp`` overrides ``geometry.apdp``).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    apdp : bool, optional
+        Small scale on or off; None (default): ``geometry.apdp``.
+
+    Returns
+    -------
+    rfsim.scenes.tag_listening.TagListeningScene
+        Reader, tag, tag states, PASS replication, height [m], reader gain [dBi], APDP, pair
+        coupling, ST antenna spacing [m] and the ST noise figure [dB] (None without noise).
+    """
     g, dc = config.geometry, config.detector
     return _scene.TagListeningScene(config.reader, config.tag, config.tag_states, config.pass_replication, g.height_m,
                              g.reader_gain_dbi, g.apdp if apdp is None else apdp, g.pair_coupling,
@@ -128,14 +209,50 @@ def scene(config: Config, *, apdp: bool | None = None) -> "_scene.TagListeningSc
 
 def st_outcomes(config: Config, ex) -> dict[str, np.ndarray]:
     """The four techniques and the closed forms for every ST position of the exchange ``ex``
-    (:func:`rfsim.devices.st_pair.technique_rows` on :meth:`Exchange.phasors_v`)."""
+    (:func:`rfsim.devices.st_pair.technique_rows` on :meth:`Exchange.phasors_v`).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``detector``, ``st``).
+    ex : rfsim.scenes.tag_listening.Exchange
+        One simulated reader–tag exchange heard at every ST antenna.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_positions,)
+        Per ST position: A_R, A_T1, A_T2 and θ per antenna [V, rad], the synchronised,
+        closed-form and sample-level envelope differences [V], ``detectable`` and, per
+        technique (single antenna, simple combination, path selection, ASK-PSK stamp),
+        ``detected_<technique>`` and ``cancelled_<technique>``.
+    """
     rx = make_st_receiver(config.detector, config.st, fs_hz=ex.fs_hz, blf_hz=ex.blf_hz, m=ex.m, trext=ex.trext)
     return technique_rows(rx, *ex.phasors_v(), ex, detector_gain=config.st.detector_gain,
                           threshold_v=config.st.threshold_v)
 
 
 def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
-    """All ST positions of one (cell, repetition)."""
+    """All ST positions of one (cell, repetition).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    cell : int
+        Cell index into ``geometry.tag_x_m``.
+    rep : int
+        Repetition of the cell.
+    seed : int
+        Root seed; the cell's streams are ``trial_rng(seed, cell, rep, k)`` (module
+        docstring).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_positions,)
+        The columns of :func:`st_outcomes` plus cell, repetition, tag x [m], ST centre
+        [m] and orientation [rad], antenna positions [m], whether the tag replied, the tag's
+        available and chip power [W], its re-radiation magnitudes and the near-field flag.
+    """
     g, st = config.geometry, config.st
     x_tag, n = g.tag_x_m[cell], config.mc.n_positions
     tag_pos = np.array([x_tag, 0.0, g.height_m])
@@ -156,12 +273,44 @@ def run_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.nda
 
 
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Every (cell, repetition), on ``config.mc.workers`` processes; concatenated in task order."""
+    """Every (cell, repetition), on ``config.mc.workers`` processes; concatenated in task order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``mc`` sets the size and the workers).
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of :func:`run_cell` for every (cell, repetition), cells outer.
+    """
     return run_cells(run_cell, config, len(config.geometry.tag_x_m), config.mc, seed=seed)
 
 
 def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Single-antenna ST along radial tracks around the tag of ``tracks.cell`` (Fig. 3.15)."""
+    """Single-antenna ST along radial tracks around the tag of ``tracks.cell`` (Fig. 3.15).
+
+    The ST moves from ``tracks.d_min_m`` to ``tracks.d_max_m`` in steps of ``tracks.step_m``
+    along each angle; one exchange (stream ``trial_rng(seed, 1000, k)``) serves every point.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict
+        ``angle_deg`` (n_angles,) [deg], ``distance_m`` (n_d,) [m], ``diff_v``,
+        ``closed_diff_v`` (n_angles, n_d) [V] (sample-level and closed-form envelope
+        difference), ``theta_rad`` (n_angles, n_d) [rad] (backscatter phase relative to the
+        CW) and ``fc_hz`` (float, carrier [Hz]).
+    """
     tc, g = config.tracks, config.geometry
     x_tag = g.tag_x_m[tc.cell]
     d = np.arange(tc.d_min_m, tc.d_max_m + 0.5 * tc.step_m, tc.step_m)
@@ -210,7 +359,21 @@ def _columns(table: dict[str, np.ndarray]) -> dict:
 
 def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
     """Per-cell medians of A_R, A_T1, A_T2 and A_T1/A_R at SA2 in the source's volts (peak sqrt(2P) across
-    1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`; Table 3.1/3.2, cell 1: A_R = 0.0802–0.1247 V)."""
+    1 Ω, :func:`rfsim.devices.st_receiver.to_source_volts`; Table 3.1/3.2, cell 1: A_R = 0.0802–0.1247 V).
+
+    Parameters
+    ----------
+    samples : dict of str to ndarray
+        The per-position columns of :func:`monte_carlo`.
+    n_cells : int
+        Number of cells.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_cells,)
+        ``median_a_r_sa2_source_v``, ``median_a_t1_sa2_source_v``,
+        ``median_a_t2_sa2_source_v`` [V, source convention] and ``median_a_t1_over_a_r_sa2``.
+    """
     cell = samples["cell"]
     values = {f"median_{k}_sa2_source_v": sr.to_source_volts(samples[f"{k}_sa2_v"]) for k in ("a_r", "a_t1", "a_t2")}
     values["median_a_t1_over_a_r_sa2"] = samples["a_t1_sa2_v"] / samples["a_r_sa2_v"]
@@ -218,6 +381,31 @@ def source_amplitudes(samples, n_cells: int) -> dict[str, np.ndarray]:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate the probability of phase cancellation at a sense-a-tag, per cell and technique.
+
+    Reproduces AURIS dissertation Figs. 3.3, 3.5, 3.8, 3.15, 3.16 and 5.8
+    (auris-sense-a-tag.md §4.1 R3-3/R3-5, §4.3 R5-1, §6.1): the Monte Carlo over cells and
+    repetitions (:func:`monte_carlo`), the radial tracks (:func:`radial_tracks`) and the
+    closed-form grids of Eqs. 3.4, 3.9 and 3.23.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``samples`` (one row per ST position: geometry, amplitudes and phases per
+        antenna, envelope differences, outcome per technique) and ``cells`` (per cell:
+        P(cancel) per technique with its Clopper–Pearson 95 % interval, near-field count,
+        reply and detectable fractions, median amplitudes in the source's volts); grids
+        ``tracks`` (Fig. 3.15), ``fig3_3``, ``fig3_5`` and ``fig3_8`` (closed forms); root
+        attributes with the overall probabilities, null spacings along the tracks, the tag
+        states, the reader EIRP [W] and the notes of :data:`NOTES`.
+    """
     samples = monte_carlo(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
     ds = _dataset.Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
@@ -340,5 +528,17 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     Fig. 3.16/5.8 probabilities, named ``<dataset stem>-fig3_*.png``.
 
     Drawn by :mod:`rfsim.scenarios._phase_cancellation_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir)

@@ -171,6 +171,37 @@ TAG_CLASS_SENSITIVITY_DBM = {"smartrac-spine": -16.0, "pass-ucode": -12.78}
 
 @dataclass(frozen=True)
 class CampaignConfig:
+    """Size and conditions of the campaign: distances, angles, repetitions, queries, fading.
+
+    Attributes
+    ----------
+    full : bool, default False
+        The source's size: 18 distances x 13 angles x 10 repetitions (overrides below).
+    distances_m : tuple of float, default (1.0, 2.0, 3.0, 4.5, 6.0, 7.5, 9.0)
+        Tag distances from the antenna [m], in [0.2, 50].
+    angles_deg : tuple of float, default (0.0, 30.0, 60.0, 90.0)
+        Antenna rotation (tag angle off boresight) [deg], in [-90, 90].
+    repetitions : int, default 4
+        Trials per (room, distance, angle), in [2, 1000].
+    queries : int, default 50
+        Queries N per trial, in [1, 10000].
+    jitter_m : float, default 0.05
+        Tag placement jitter (uniform, per axis) [m], in [0, 1].
+    workers : int, default 2
+        Worker processes (0 = all cores, 1 = in process), in [0, 256].
+    round_s : tuple of (float, float), default (0.2, 0.8)
+        Interval [s] of a trial's round: its N queries span U(lo, hi) s (the source's
+        rounds, L580); hops of the reader's table fall inside. Each in [0.001, 60], lo <= hi.
+    doppler_hz : float, default 2.0
+        Maximum Doppler f_D [Hz] of the moving scatterers (people): per-query Rician gain
+        h_q with correlation J0(2π·f_D·Δt) between queries; 0 = held channel. In [0, 100].
+    fading_k_db : float, default 6.0
+        Rician K of the time-variant part: |E h|^2 / var h [dB], in [-30, 60].
+    tag_class : str, default "smartrac-spine"
+        Tag chip class: 'smartrac-spine' (the campaign's tags, sensitivity -16.0 dBm,
+        see TAG_CLASS_SENSITIVITY_DBM) or 'pass-ucode' (the PASS UCODE G2XM, -12.8 dBm).
+    """
+
     full: bool = param(False, doc="the source's size: 18 distances x 13 angles x 10 repetitions (overrides below)")
     distances_m: tuple[float, ...] = param((1.0, 2.0, 3.0, 4.5, 6.0, 7.5, 9.0), lo=0.2, hi=50.0, unit="m",
                                            doc="tag distances from the antenna")
@@ -200,7 +231,7 @@ class CampaignConfig:
 
     @property
     def grid(self) -> tuple[tuple[float, ...], tuple[float, ...], int]:
-        """(distances, angles, repetitions) in effect."""
+        """(distances [m], angles [deg], repetitions) in effect (the source's size with ``full``)."""
         if self.full:
             return FULL_DISTANCES_M, FULL_ANGLES_DEG, FULL_REPETITIONS
         return self.distances_m, self.angles_deg, self.repetitions
@@ -208,6 +239,29 @@ class CampaignConfig:
 
 @dataclass(frozen=True)
 class RoomsConfig:
+    """The two rooms' channel parameters (room 0 lab, room 1 cluttered), one value per room.
+
+    The APDP curves are K(d) = k_a·10^(−k_b·d) + k_c [dB] and τrms(d) = τmax·(1 − 10^(−τb·d))
+    (:class:`rfsim.channels.small_scale.ApdpModel`).
+
+    Attributes
+    ----------
+    k_a_db : tuple of (float, float), default (60.0, 30.0)
+        K(d) curve k_a per room [dB], in [-100, 100].
+    k_b : tuple of (float, float), default (0.02, 0.05)
+        K(d) curve k_b per room [1/m], in [0, 10].
+    k_c_db : tuple of (float, float), default (-30.0, -20.0)
+        K(d) curve k_c per room [dB], in [-100, 100].
+    tau_max_s : tuple of (float, float), default (7e-8, 1e-7)
+        τrms(d) limit τmax per room [s], in [1e-10, 1e-6].
+    tau_b : tuple of (float, float), default (0.03, 0.05)
+        τrms(d) curve τb per room [1/m], in [1e-4, 10].
+    floor : bool, default True
+        Concrete floor (image method) in both rooms.
+    height_m : float, default 1.0
+        Antenna and tag height above the floor [m], in [0.1, 10].
+    """
+
     k_a_db: tuple[float, float] = param((60.0, 30.0), lo=-100.0, hi=100.0, unit="dB", doc="K(d) curve k_a per room")
     k_b: tuple[float, float] = param((0.02, 0.05), lo=0.0, hi=10.0, unit="1/m", doc="K(d) curve k_b per room")
     k_c_db: tuple[float, float] = param((-30.0, -20.0), lo=-100.0, hi=100.0, unit="dB", doc="K(d) curve k_c per room")
@@ -224,6 +278,16 @@ class RoomsConfig:
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """The reader's circularly polarised patch.
+
+    Attributes
+    ----------
+    reader_gain_dbic : float, default 6.0
+        Patch peak gain [dBic], in [0, 15].
+    reader_beamwidth_deg : float, default 70.0
+        Patch half-power beamwidth [deg], in [20, 170].
+    """
+
     reader_gain_dbic: float = param(6.0, lo=0.0, hi=15.0, unit="dBic", doc="patch peak gain")
     reader_beamwidth_deg: float = param(70.0, lo=20.0, hi=170.0, unit="deg", doc="patch half-power beamwidth")
 
@@ -234,6 +298,26 @@ def _reader_default() -> ReaderConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``reader-detection`` scenario.
+
+    The reader defaults to the ``pass-miller2-48k`` link at 27 dBm, 1 MS/s, hopping.
+
+    Attributes
+    ----------
+    campaign : CampaignConfig
+        Campaign size.
+    rooms : RoomsConfig
+        The two rooms' channel parameters.
+    geometry : GeometryConfig
+        Reader antenna.
+    reader : rfsim.devices.reader_config.ReaderConfig
+        Reader settings.
+    tag : rfsim.devices.tag_config.TagConfig
+        Tag settings.
+    fits : bool, default True
+        Fit the DA model (moments and maximum likelihood).
+    """
+
     campaign: CampaignConfig = param(CampaignConfig(), doc="campaign size")
     rooms: RoomsConfig = param(RoomsConfig(), doc="the two rooms' channel parameters")
     geometry: GeometryConfig = param(GeometryConfig(), doc="reader antenna")
@@ -246,7 +330,21 @@ class Config:
 
 
 def scene(rooms: RoomsConfig, room: int) -> _scene.Scene:
-    """Room ``room`` (0 or 1): floor and APDP curves (module docstring)."""
+    """Room ``room`` (0 or 1): floor and APDP curves (module docstring).
+
+    Parameters
+    ----------
+    rooms : RoomsConfig
+        The rooms' channel parameters.
+    room : int
+        Room index, 0 or 1.
+
+    Returns
+    -------
+    rfsim.channels.scene.Scene
+        The room's APDP model, and the concrete floor z = 0 (ε_r = 5.3, first-order image)
+        when ``rooms.floor``.
+    """
     apdp = _small_scale.ApdpModel(k_a_db=rooms.k_a_db[room], k_b=rooms.k_b[room], k_c_db=rooms.k_c_db[room],
                                   tau_max_s=rooms.tau_max_s[room], tau_b=rooms.tau_b[room])
     surfaces = (_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),) if rooms.floor else ()
@@ -254,7 +352,36 @@ def scene(rooms: RoomsConfig, room: int) -> _scene.Scene:
 
 
 def run_trial(config: Config, room: int, i_d: int, i_a: int, rep: int, seed: int) -> dict:
-    """One repetition: ``queries`` sample-level Query rounds over one held channel state."""
+    """One repetition: ``queries`` sample-level Query rounds over one held channel state.
+
+    The tag stands at distance d (plus the placement jitter) facing the antenna, which is
+    rotated by θ; the N queries are spread over U(``round_s``) from a random instant of the hop
+    dwell, each with the Rician gain of the moving scatterers
+    (:func:`rfsim.scenes.reader_queries.repeated_queries`).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    room : int
+        Room index, 0 or 1.
+    i_d : int
+        Index of the distance in the campaign grid.
+    i_a : int
+        Index of the angle in the campaign grid.
+    rep : int
+        Repetition of the cell.
+    seed : int
+        Root seed; the trial uses ``trial_rng(seed, room, i_d, i_a, rep, s)`` (module
+        docstring).
+
+    Returns
+    -------
+    dict
+        One row of :data:`FIELDS`: the cell, queries N, reads (exact RN16 decodes), p̂,
+        queries with the tag powered and replying, hop channels, round duration [s],
+        frequency [Hz], largest incident power [dBm] and the placement jitter [m].
+    """
     c, h = config.campaign, config.rooms.height_m
     dists, angles, _ = c.grid
     d, theta = dists[i_d], angles[i_a]
@@ -293,7 +420,20 @@ def _run_task(args) -> list[dict]:
 
 
 def simulate(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Every trial, ordered by (room, distance, angle, repetition); tasks per (room, distance)."""
+    """Every trial, ordered by (room, distance, angle, repetition); tasks per (room, distance).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``campaign.workers`` processes).
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_trials,)
+        The columns of :data:`FIELDS`.
+    """
     dists, _, _ = config.campaign.grid
     tasks = [(config, k, i, seed) for k in range(2) for i in range(len(dists))]
     parts = map_in_order(_run_task, tasks, config.campaign.workers, desc="monte carlo", unit="distances")
@@ -326,6 +466,31 @@ FIELDS = {
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate the reader detection campaign A and fit the Beta-binomial DA model.
+
+    Replicates Geng's campaign A (Geng dissertation Ch. 4; binary-detection.md §1.6, §4
+    item 1, §5 P0-1/P0-2; seed 004 L612–L666, L838): every query of every trial at sample
+    level, outcome = the reader decoded the tag's RN16 exactly; fits of the mean model
+    1/(1 + exp(a1 + a2·d + a3·|θ|)) by the source's moments method and by maximum likelihood
+    of the Beta-binomial with dead zone (Eq. 4.11), with d50 beside the published values.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Table ``trials`` (one row per trial, :data:`FIELDS`), grid ``cells`` over (room,
+        distance [m], angle [deg]) with the mean and variance of p̂ over the repetitions,
+        and, with ``fits``, table ``fits`` (published, moments and maximum-likelihood DA
+        model parameters with standard errors, log-likelihood, d50 at 0°/30°/60° [m]); root
+        attributes with the outcome definition, the d50 roles (:data:`D50_ROLES`), the trial
+        and query counts and each method's d50.
+    """
     dists, angles, reps = config.campaign.grid
     trials = simulate(config, seed=seed)
     ds = _dataset.Dataset(title="reader detection campaign A replica (Geng dissertation Ch. 4 DA model)")
@@ -375,5 +540,17 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     (``<stem>-mean.png``).
 
     Drawn by :mod:`rfsim.scenarios._reader_detection_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir, d50_angles_deg=D50_ANGLES_DEG, room_names=ROOM_NAMES)

@@ -74,6 +74,54 @@ _WALK_S = {"pfaa": 1500.0, "sqlam": 500.0, "lab": 10000.0}
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``st-localization`` scenario.
+
+    Checked on construction: a non-empty experiment list (or none), at least one landmark,
+    trajectory 1 inside the room, sample-level mode only with one reader antenna and not
+    with the stamp technique, and a valid random-walk speed range.
+
+    Attributes
+    ----------
+    preset : {"pfaa", "sqlam", "lab"}, default "pfaa"
+        Room, landmark grid and antennas.
+    mode : {"surrogate", "sample-level"}, default "surrogate"
+        'surrogate' = Bernoulli RTS detections per round; 'sample-level' = the ST
+        listens through real Gen2 rounds (rfsim.scenes.landmark_listening).
+    sample_level : rfsim.scenes.landmark_listening.SampleLevelConfig
+        Sample-level mode: reader, rounds, duration.
+    st : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        Sample-level mode: the sense-a-tag (technique, threshold).
+    experiments : tuple of {"speed-sweep", "trajectory-2", "random-walk"} or None, default None
+        Experiments (none = preset: pfaa all three; sqlam and lab random-walk).
+    full : bool, default False
+        The source's realization counts and durations.
+    realizations : int, default 10
+        Realizations per case unless full, in [1, 100000].
+    landmark_grid : tuple of (int, int) or None, default None
+        Landmarks nx, ny (none = preset), each in [1, 1000].
+    period_s : float, default 0.3
+        Query period T_s (L4597) [s], in [0.001, 100].
+    rounds : int, default 10
+        Query rounds N per period (L4507), in [1, 1000].
+    speeds_mps : tuple of float, default (0.1, 0.3, 0.5, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0)
+        Speed-sweep speeds on trajectory 1 (L4587) [m/s], in [0.01, 20].
+    trajectory_2_speeds_mps : tuple of float, default (0.5, 2.5)
+        Trajectory-2 speeds (L4616-L4630) [m/s], in [0.01, 20].
+    path_duration_s : float, default 60.0
+        Duration on trajectories 1 and 2 [s], in [0.5, 100000].
+    walk_duration_s : float or None, default None
+        Random-walk duration (none = preset: 1500 pfaa, 500 sqlam, 10000 lab) [s], in
+        [0.5, 1e6].
+    walk_speed_mps : tuple of (float, float), default (0.1, 3.0)
+        Random-walk speed range U[lo, hi] (L4638) [m/s], in [0, 20].
+    trajectory_1_xy_m : tuple of (float, float), default the room module's ``TRAJECTORY_1_XY``
+        Trajectory 1 waypoints (closed polyline) [m].
+    filters : rfsim.estimators.landmark_pf.LandmarkFilterConfig
+        Particle-filter parameters.
+    workers : int, default 2
+        Worker processes (0 = all cores, 1 = in process), in [0, 256].
+    """
+
     preset: Literal["pfaa", "sqlam", "lab"] = param("pfaa", doc="room, landmark grid and antennas")
     mode: Literal["surrogate", "sample-level"] = param(
         "surrogate", doc="'surrogate' = Bernoulli RTS detections per round; 'sample-level' = the ST listens "
@@ -118,22 +166,44 @@ class Config:
 
     @property
     def room(self) -> rooms.Room:
+        """The preset's room with ``landmark_grid`` applied."""
         return rooms.PRESETS[self.preset].with_grid(self.landmark_grid)
 
     @property
     def experiment_list(self) -> tuple[str, ...]:
+        """The experiments in effect (``experiments``, or the preset's; sample-level pfaa: trajectory-2)."""
         if self.experiments is not None:
             return self.experiments
         return ("trajectory-2",) if self.mode == "sample-level" and self.preset == "pfaa" else _EXPERIMENTS[self.preset]
 
     @property
     def walk_s(self) -> float:
+        """Random-walk duration in effect [s] (``walk_duration_s``, or the preset's)."""
         return self.walk_duration_s if self.walk_duration_s is not None else _WALK_S[self.preset]
 
 
 @dataclass(frozen=True)
 class Case:
-    """One case: experiment, path, speed, realizations, duration, trackers (label, kind, v_threshold)."""
+    """One case: experiment, path, speed, realizations, duration, trackers (label, kind, v_threshold).
+
+    Attributes
+    ----------
+    index : int
+        Position of the case in :func:`cases`.
+    experiment : str
+        ``"speed-sweep"``, ``"trajectory-2"`` or ``"random-walk"``.
+    trajectory : str
+        ``"1"``, ``"2"`` or ``"random-walk"``.
+    speed_mps : float
+        Constant speed on trajectories 1 and 2 [m/s]; NaN for the random walk.
+    realizations : int
+        Independent realizations of the case.
+    duration_s : float
+        Tracking duration [s].
+    trackers : tuple of (str, str, float)
+        Per tracker: label, kind (``"pfbin"``, ``"pfaa"``, ``"wcl"``) and the PF-AA
+        compensation speed threshold [m/s] (0: always, inf: never).
+    """
 
     index: int
     experiment: str
@@ -145,7 +215,19 @@ class Case:
 
 
 def cases(config: Config) -> list[Case]:
-    """Every case of the configured experiments (module docstring), in order."""
+    """Every case of the configured experiments (module docstring), in order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+
+    Returns
+    -------
+    list of Case
+        The cases; with ``full`` the source's realization counts, in sample-level mode the
+        realizations and duration of ``sample_level``.
+    """
     out: list[Case] = []
     full, R, vt = config.full, config.realizations, config.filters.v_threshold_mps
     for exp in config.experiment_list:
@@ -167,7 +249,26 @@ def cases(config: Config) -> list[Case]:
 
 
 def truth_at(config: Config, case: Case, b: int, seed: int, t_s) -> np.ndarray:
-    """True ST positions at times ``t_s`` (…, 2) for realization b of the case."""
+    """True ST positions at times ``t_s`` (…, 2) for realization b of the case.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (room, trajectory 1, walk speeds).
+    case : Case
+        The case (trajectory and speed).
+    b : int
+        Realization index; the random walk draws from ``trial_rng(seed, case.index, b, 0)``.
+    seed : int
+        Root seed.
+    t_s : array_like
+        Times [s].
+
+    Returns
+    -------
+    ndarray, shape (..., 2)
+        True ST positions (x, y) [m] at ``t_s``.
+    """
     return rooms.path_positions(case.trajectory, t_s, speed_mps=case.speed_mps, trajectory_1_xy=config.trajectory_1_xy_m,
                                 bounds_m=config.room.bounds_m, walk_speed_mps=config.walk_speed_mps,
                                 walk_rng=partial(trial_rng, seed, case.index, b, 0))
@@ -187,7 +288,27 @@ def _track(config: Config, case: Case, b: int, seed: int) -> dict:
 
 def simulate_chunk(config: Config, case: Case, group: int, bs: list[int], seed: int) -> dict[str, dict]:
     """Detections and every tracker of realizations ``bs`` of ``case``: per-table columns (the
-    trackers on the chunk at once; at sample level, with unequal period counts, per realization)."""
+    trackers on the chunk at once; at sample level, with unequal period counts, per realization).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    case : Case
+        The case.
+    group : int
+        Index of the chunk within the case (the trackers' streams).
+    bs : list of int
+        Realization indices of the chunk.
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to dict
+        Columns of the tables ``periods``, ``detections``, ``estimates`` and ``reads``
+        (:func:`rfsim.scenes.landmark_tracks.chunk_tables`).
+    """
     chunk = [_track(config, case, b, seed) for b in bs]
     f, N, n = config.filters, config.rounds, len(case.trackers)
     if config.mode == "sample-level":  # tracker streams (seed, c, 2000 + 100·g + i, f)
@@ -206,7 +327,21 @@ def _task(args):
 
 
 def monte_carlo(config: Config, *, seed: int) -> dict[str, dict[str, np.ndarray]]:
-    """Every case in chunks of ≤ 10 realizations on ``config.workers`` processes, in order."""
+    """Every case in chunks of ≤ 10 realizations on ``config.workers`` processes, in order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to dict of str to ndarray
+        The tables ``periods``, ``detections``, ``estimates`` and ``reads`` of every chunk,
+        concatenated in case and chunk order.
+    """
     tasks = [(config, c, g, list(range(a, min(a + 10, c.realizations))), seed) for c in cases(config)
              for g, a in enumerate(range(0, c.realizations, 10))]
     parts = map_in_order(_task, tasks, config.workers, desc="cases", unit="chunks")
@@ -218,7 +353,27 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
     realizations and periods, L4507-L4513, L5383-L5385) beside the published value, the RMS error
     (:func:`rfsim.estimators.track_errors.mean_rms_error`), the change vs WCL (of the source's
     measure); and the headline numbers (crossover speed, PF-AA / SQLAM vs WCL, lab) as attributes,
-    all of the source's measure."""
+    all of the source's measure.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    tables : dict of str to dict
+        The tables of :func:`monte_carlo` (uses ``estimates``).
+
+    Returns
+    -------
+    summary : dict of str to ndarray
+        One row per (case, tracker): case, experiment, trajectory, speed [m/s],
+        realizations, duration [s], tracker, ``mean_error_m``, ``rmse_m``,
+        ``published_rmse_m`` [m], ``vs_wcl_percent`` and ``published_vs_wcl_percent`` [%].
+    attrs : dict
+        Headline numbers: ``crossover_mps`` (speed where always-compensating PF-AA beats
+        never-compensating, linear interpolation; NaN when the curves do not cross) and the
+        published one, ``<tracker>_vs_wcl_percent``, ``<tracker>_random_walk_rmse_m`` and,
+        for the lab preset, ``published_lab_rmse_m``.
+    """
     est, rows, attrs, sweep = tables["estimates"], [], {}, {}
     pub_rel = {"pfaa": PUBLISHED["pfaa_vs_wcl_percent"], "sqlam": PUBLISHED["sqlam_vs_wcl_percent"]}.get(config.preset, np.nan)
     for c in cases(config):
@@ -250,6 +405,29 @@ def summarize(config: Config, tables) -> tuple[dict[str, np.ndarray], dict]:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate sense-a-tag tracking from landmark detections and score the trackers.
+
+    Reproduces AURIS ch. 4 (auris-sense-a-tag.md §3.3, §4.2, §7; seeds/003 L4493–L4650,
+    L5375–L5415, L5600–L5690): Fig. 4.11 (speed sweep), Figs. 4.12–4.14 (trajectory 2),
+    Figs. 4.15 and 4.19 (random walk) with PF-BIN, PF-AA, SQLAM's tracking module and WCL.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``detections``, ``periods``, ``truth`` (true position per period end [m]),
+        ``estimates`` (per tracker and period: estimate and error [m]), ``summary`` (from
+        :func:`summarize`), ``cases`` and, in sample-level mode, ``reads`` (the reader's reads
+        of the landmarks, per-read schema); root attributes with the room (bounds,
+        landmarks, antennas, trajectories [m]), the query period [s] and the headline numbers
+        beside the published ones.
+    """
     tables = monte_carlo(config, seed=seed)
     summary, attrs = summarize(config, tables)
     tables["summary"] = summary
@@ -306,7 +484,20 @@ _GROUPS = {
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Room with landmarks and tracks, error vs time, error CDF, speed sweep, RMSE vs published."""
+    """Room with landmarks and tracks, error vs time, error CDF, speed sweep, RMSE vs published.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
+    """
     return _st_figures.plot_all(Path(dataset_path), Path(out_dir))
 
 

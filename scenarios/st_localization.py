@@ -114,7 +114,7 @@ class Config:
         [0.5, 1e6].
     walk_speed_mps : tuple of (float, float), default (0.1, 3.0)
         Random-walk speed range U[lo, hi] (L4638) [m/s], in [0, 20].
-    trajectory_1_xy_m : tuple of (float, float), default the room module's ``TRAJECTORY_1_XY``
+    trajectory_1_xy_m : tuple of (float, float), default :data:`rfsim.scenes.landmark_room.TRAJECTORY_1_XY`
         Trajectory 1 waypoints (closed polyline) [m].
     filters : rfsim.estimators.landmark_pf.LandmarkFilterConfig
         Particle-filter parameters.

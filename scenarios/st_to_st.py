@@ -101,6 +101,24 @@ V_PER_SQRT_W = math.sqrt(2.0 * 50.0)  # RF peak volts per √W at the 50 Ω dete
 
 @dataclass(frozen=True)
 class GeometryConfig:
+    """Placement of the exciter and the STs, the exciter's antenna, and the channel's small scale.
+
+    Attributes
+    ----------
+    st_x_m : tuple of float, default (1.0, 1.5, ..., 7.0)
+        Transmitting-ST x positions (cells); exciter at the origin [m], in [0.2, 100].
+    disc_radius_m : float, default 0.5
+        Receiving STs uniform in this disc [m], in [0.01, 5].
+    height_m : float, default 1.0
+        Height of exciter and STs [m], in [0.1, 10].
+    exciter_antenna : {"patch", "dipole"}, default "patch"
+        Patch (boresight +x) or vertical dipole.
+    exciter_gain_dbi : float, default 6.0
+        Patch peak gain [dBi], in [0, 15].
+    apdp : bool, default True
+        Exponential APDP small scale (PASS ST-room curves).
+    """
+
     st_x_m: tuple[float, ...] = param(tuple(1.0 + 0.5 * i for i in range(13)), lo=0.2, hi=100.0, unit="m",
                                       doc="transmitting-ST x positions (cells); exciter at the origin")
     disc_radius_m: float = param(0.5, lo=0.01, hi=5.0, unit="m", doc="receiving STs uniform in this disc")
@@ -112,6 +130,26 @@ class GeometryConfig:
 
 @dataclass(frozen=True)
 class StampConfig:
+    """The ASK-PSK stamp, the payload and the stamp decision rule (AURIS ch. 5, L5914–L5990).
+
+    Attributes
+    ----------
+    stamp_cycles : int, default 8
+        Subcarrier cycles of each stamp part (ASK, then PSK), in [1, 64].
+    psi_deg : float, default 180.0
+        PSK state separation ψ (source: ideally 180°) [deg], in [1, 180].
+    zero_bits : int, default 10
+        Data bits '0' after the stamp (source: 10), in [1, 256].
+    ask_min_transitions : int, default 0
+        Comparator transitions in the ASK stamp that decode as '1' (0 = one per
+        subcarrier cycle, half of an undisturbed stamp), in [0, 2 × stamp_cycles].
+    ask_margin : float, default 0.0
+        > 0: the ASK stamp is '1' when a comparator at (1 + margin)*threshold follows
+        all but one transition of its settled half
+        (rfsim.devices.st_pair.ask_stamp_transitions; phase-cancellation: 0.03),
+        overriding ask_min_transitions, in [0, 1].
+    """
+
     stamp_cycles: int = param(8, lo=1, hi=64, doc="subcarrier cycles of each stamp part (ASK, then PSK)")
     psi_deg: float = param(180.0, lo=1.0, hi=180.0, unit="deg", doc="PSK state separation ψ (source: ideally 180°)")
     zero_bits: int = param(10, lo=1, hi=256, doc="data bits '0' after the stamp (source: 10)")
@@ -135,6 +173,31 @@ def _tx_default() -> SenseATagConfig:
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``st-to-st`` scenario.
+
+    Checked on construction: at least one cell, a dual-antenna receiving ST, a single-antenna
+    transmitting ST, a valid frame, and an exciter schedule that is on during the frame.
+
+    Attributes
+    ----------
+    mc : rfsim.core.monte_carlo.MonteCarloConfig
+        Monte Carlo size.
+    geometry : GeometryConfig
+        Placement and channel.
+    exciter : rfsim.devices.exciter.ExciterConfig
+        RF exciter (CW).
+    frame : rfsim.devices.own_schedule.FrameConfig
+        The transmitting ST's frame (sample rate, BLF, line code).
+    stamp : StampConfig
+        ASK-PSK stamp and payload.
+    tx_st : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        Transmitting ST (its modulator).
+    st : rfsim.devices.sense_a_tag_config.SenseATagConfig
+        Receiving ST (threshold, detector gain, spacing).
+    noise : rfsim.scenes.exciter.NoiseConfig
+        Receiver noise (off: the 5 mV threshold decides, as in the source).
+    """
+
     mc: MonteCarloConfig = param(MonteCarloConfig(), doc="Monte Carlo size")
     geometry: GeometryConfig = param(GeometryConfig(), doc="placement and channel")
     exciter: ExciterConfig = param(ExciterConfig(), doc="RF exciter (CW)")
@@ -162,12 +225,43 @@ class Config:
 
 
 def payload(config: Config) -> np.ndarray:
+    """The data bits after the stamp: ``stamp.zero_bits`` zeros (the source's 10 × '0').
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``stamp.zero_bits``).
+
+    Returns
+    -------
+    ndarray of uint8, shape (zero_bits,)
+        All zeros.
+    """
     return np.zeros(config.stamp.zero_bits, dtype=np.uint8)
 
 
 def simulate_cell(config: Config, cell: int, rep: int, seed: int) -> dict[str, np.ndarray]:
     """One air step for all receiving-ST positions of (cell, repetition); the columns of the
-    ``samples`` table."""
+    ``samples`` table.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    cell : int
+        Cell index into ``geometry.st_x_m``.
+    rep : int
+        Repetition of the cell.
+    seed : int
+        Root seed; the cell uses ``trial_rng(seed, cell, rep, k)`` (module docstring).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_positions,)
+        The columns of :func:`st_outcomes` plus cell, repetition, transmitting-ST x [m],
+        receiving-ST centre [m] and orientation [rad], antenna positions [m] and the CW
+        power incident at the transmitting ST [W].
+    """
     g, fr, mc = config.geometry, config.frame, config.mc
     n = mc.n_positions
     frame = build_frame(payload(config), fr, stamp_cycles=config.stamp.stamp_cycles)
@@ -226,12 +320,31 @@ def _phasors(frame, air, k: int):
 
 
 def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
-    """Sample-level techniques on the step's inputs ((n, samples) per receiver) and the closed
-    forms from its phasors (:func:`_phasors` per receiver).
+    """Sample-level techniques on the step's inputs and the closed forms from its phasors.
 
-    Returns a dict of (n,) arrays: per antenna A_R, A_T1, A_T2, θ [V, rad]; ``sync_sa2_v``;
-    closed-form and sample-level envelope differences; ``detectable``; per technique
-    ``detected_*``, ``cancelled_*``, ``closed_cancelled_*``; the stamp symbols on P2.
+    Single = P2 (SA2), combination = the RF sum SA1 + SA2, selection = Algorithm 1 (P2, else
+    P1), stamp = the ASK stamp on P2 chooses P2 or P1 before decoding (module docstring).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``st``, ``frame``, ``stamp``).
+    frame : rfsim.devices.own_schedule.Frame
+        The transmitted frame (stamp, then the zeros), as built by
+        :func:`rfsim.devices.own_schedule.build_frame`.
+    ph : sequence of two tuples of three ndarray, each shape (n,)
+        Per receiving antenna (SA1, SA2): the CW and the two ASK-state backscatter phasors
+        [V, 50 Ω RF peak].
+    inputs : sequence of two ndarray, each shape (n, n_samples)
+        Per receiving antenna (SA1, SA2): its complex baseband input [√W].
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        Per antenna A_R, A_T1, A_T2, θ [V, rad]; ``sync_sa2_v``; closed-form and
+        sample-level envelope differences [V]; ``detectable``; per technique
+        ``detected_*``, ``cancelled_*``, ``closed_cancelled_*``; the stamp symbols on P2
+        and the decodes of P1 and P2.
     """
     st, fr = config.st, config.frame
     rx = _sense_a_tag.make_receiver(st, fs_hz=fr.fs_hz, blf_hz=fr.blf_hz, m=fr.m, trext=fr.trext)
@@ -275,7 +388,20 @@ def st_outcomes(config: Config, frame, ph, inputs) -> dict[str, np.ndarray]:
 
 
 def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
-    """Every (cell, repetition) on ``config.mc.workers`` processes, concatenated in task order."""
+    """Every (cell, repetition) on ``config.mc.workers`` processes, concatenated in task order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``mc`` sets the size and the workers).
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of :func:`simulate_cell` for every (cell, repetition), cells outer.
+    """
     return run_cells(simulate_cell, config, len(config.geometry.st_x_m), config.mc, seed=seed)
 
 
@@ -283,7 +409,22 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
 
 
 def cell_table(samples, x_m) -> dict[str, np.ndarray]:
-    """Per cell: P(cancel) per technique with Clopper–Pearson bounds, detectable fraction, n."""
+    """Per cell: P(cancel) per technique with Clopper–Pearson bounds, detectable fraction, n.
+
+    Parameters
+    ----------
+    samples : dict of str to ndarray
+        The per-position columns of :func:`monte_carlo`.
+    x_m : sequence of float
+        Transmitting-ST x of each cell [m].
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_cells,)
+        ``cell``, ``tx_x_m`` [m], per technique ``p_<technique>`` with its Clopper–Pearson
+        95 % bounds and the sample count (:func:`rfsim.devices.st_pair.cell_probabilities`),
+        ``detectable_fraction`` and ``median_tx_incident_power_w`` [W].
+    """
     n_cells = len(x_m)
     out = {"cell": np.arange(n_cells), "tx_x_m": np.asarray(x_m, float)}
     cell = samples["cell"]
@@ -295,7 +436,21 @@ def cell_table(samples, x_m) -> dict[str, np.ndarray]:
 
 
 def stamp_vs_selection(samples) -> dict[str, float | int]:
-    """Where stamp and selection disagree, and why (module docstring)."""
+    """Where stamp and selection disagree, and why (module docstring).
+
+    Parameters
+    ----------
+    samples : dict of str to ndarray
+        The per-position columns of :func:`monte_carlo`.
+
+    Returns
+    -------
+    dict
+        ``stamp_minus_selection`` (difference of the overall P(cancel), as a fraction),
+        ``stamp_kept_p2_data_failed`` (detectable samples where the stamp kept P2, its data
+        failed and P1 would decode), ``stamp_left_p2_data_ok`` (where it left P2 although
+        its data decoded and P1 failed) and ``stamp_selection_samples``.
+    """
     det = samples["detectable"]
     ask, p1, p2 = samples["stamp_ask_sa2"], samples["decoded_p1"], samples["decoded_p2"]
     n = det.size
@@ -307,6 +462,28 @@ def stamp_vs_selection(samples) -> dict[str, float | int]:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate phase cancellation on the exciter-powered ST-to-ST link, per cell and technique.
+
+    Reproduces AURIS Fig. 5.8 (auris-sense-a-tag.md §4.3 R5-1, §5; seed L5735–6060): the Monte
+    Carlo over cells and repetitions (:func:`monte_carlo`), one sample-level air step each.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``samples`` (one row per receiving-ST position: geometry, phasors,
+        envelope differences, detection and cancellation per technique) and ``cells`` (per
+        cell: P(cancel) per technique with Clopper–Pearson 95 % intervals, detectable
+        fraction, median incident power [W]); root attributes with the overall
+        probabilities and intervals, :func:`stamp_vs_selection`, the exciter EIRP [W] and
+        carrier [Hz], the noise power [W] and the deviations from the source.
+    """
     samples = monte_carlo(config, seed=seed)
     ds = _dataset.Dataset(title="exciter-powered ST-to-ST phase cancellation (AURIS Fig. 5.8)")
     ds.add_table("samples", {k: _dataset.column(v, unit_of(k), _describe(k)) for k, v in samples.items()},
@@ -382,6 +559,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     Clopper-Pearson intervals side by side at each distance.
 
     Drawn by :mod:`rfsim.scenarios._st_to_st_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir, techniques=TECHS)
 

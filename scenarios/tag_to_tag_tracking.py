@@ -85,6 +85,44 @@ DESCRIPTION = ("reader-free self-tracking of a mobile tag from reference-tag bro
 
 @dataclass(frozen=True)
 class Config:
+    """Configuration of the ``tag-to-tag-tracking`` scenario.
+
+    Checked on construction: at least one reference tag, ranges r > 0, a valid speed
+    range, a motion step no longer than the run, and a start inside the aisle.
+
+    Attributes
+    ----------
+    ranges_m : tuple of float, default (1.5, 2.0, 2.5)
+        Sensing ranges r (L1247) [m].
+    range_model : {"disc", "logistic", "physical"}, default "disc"
+        'disc' = decoded iff d <= r; 'logistic' = Eq. (6.5) fitted by exciter-link;
+        'physical' = sample-level decode through the air interface (threshold calibrated
+        to r).
+    collision_model : {"loss", "physical"}, default "loss"
+        'loss' = every collided broadcast is lost (L1084); 'physical' = collided slots
+        superpose at waveform level and the strongest frame may still decode.
+    trajectories : int, default 100
+        Trajectories (L1214), in [1, 1e6].
+    filter_runs : int, default 50
+        Independent PF/RBPF runs per trajectory (L1219), in [1, 100000].
+    workers : int, default 2
+        Worker processes (0 = all cores, 1 = in process), in [0, 256].
+    layout : rfsim.scenes.aisle.AisleConfig
+        Reference tags, aisle, exciter.
+    motion : rfsim.scenes.aisle.MotionConfig
+        Mobile tag motion (6.1).
+    protocol : rfsim.protocols.tag_to_tag.AlohaConfig
+        All-tag-talk slotted Aloha.
+    range : rfsim.detection.tag_to_tag.Eq65Config
+        Eq. (6.5) coefficients of the logistic range model.
+    trackers : rfsim.estimators.proximity_trackers.TrackerConfig
+        Particle counts and priors.
+    physical : rfsim.scenes.reference_tags.ReferenceTagsConfig
+        Sample-level link of the physical models.
+    write_estimates : bool, default True
+        Write the per-observation estimates of run 0.
+    """
+
     ranges_m: tuple[float, ...] = param((1.5, 2.0, 2.5), unit="m", doc="sensing ranges r (L1247)")
     range_model: Literal["disc", "logistic", "physical"] = param(
         "disc", doc="'disc' = decoded iff d <= r; 'logistic' = Eq. (6.5) fitted by exciter-link; 'physical' = "
@@ -120,6 +158,7 @@ class Config:
 
     @property
     def uses_physical(self) -> bool:
+        """Whether the range or the collision model decodes at sample level (``"physical"``)."""
         return self.range_model == "physical" or self.collision_model == "physical"
 
 
@@ -127,7 +166,25 @@ class Config:
 
 
 def filter_coefficients(config: Config, range_m: float) -> tuple[float, float]:
-    """The (6.5) coefficients the PF/RBPF use at range r (module docstring)."""
+    """The (6.5) coefficients the PF/RBPF use at range r (module docstring).
+
+    With ``trackers.likelihood = "exciter-link"`` the ``range`` coefficients stretched to
+    p(r) = 0.5; otherwise a2 = ``trackers.slope_per_m`` and a1 = −a2·r.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``trackers``, ``range``).
+    range_m : float
+        Sensing range r [m].
+
+    Returns
+    -------
+    a1 : float
+        Intercept of Eq. (6.5), p(d) = 1/(1 + exp(a1 + a2·d)).
+    a2 : float
+        Slope of Eq. (6.5) [1/m].
+    """
     if config.trackers.likelihood == "exciter-link":
         return config.range.coefficients(range_m)
     a2 = config.trackers.slope_per_m
@@ -137,7 +194,31 @@ def filter_coefficients(config: Config, range_m: float) -> tuple[float, float]:
 def track(config: Config, range_m: float, times_s, observed_xy, truth_xy, x0, *, rngs) -> list[dict]:
     """Every tracker on one observation sequence at range r: per tracker, estimates (runs, T, 2) and RMSEs
     (:func:`rfsim.estimators.proximity_trackers.run_tracker`), from the prior ``trackers.prior``
-    (:func:`rfsim.estimators.proximity_trackers.prior_for`; ``x0`` the true initial state)."""
+    (:func:`rfsim.estimators.proximity_trackers.prior_for`; ``x0`` the true initial state).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``trackers``, ``motion``, ``filter_runs``).
+    range_m : float
+        Sensing range r [m].
+    times_s : ndarray, shape (T,)
+        Observation instants [s].
+    observed_xy : ndarray, shape (T, 2)
+        Observations y_k: positions of the decoded reference tags [m].
+    truth_xy : ndarray, shape (T, 2)
+        True mobile-tag positions at the observations [m].
+    x0 : ndarray, shape (4,)
+        True initial state (x, v_x, y, v_y) [m, m/s].
+    rngs : sequence of numpy.random.Generator
+        One stream per tracker of ``trackers.labels``.
+
+    Returns
+    -------
+    list of dict
+        Per tracker: ``label``, ``kind``, ``m`` (particles), ``estimates`` (runs, T, 2) [m],
+        ``error_m`` (runs, T) [m] and ``rmse_m`` (runs,) [m].
+    """
     t, a1, a2 = config.trackers, *filter_coefficients(config, range_m)
     t0, mean, sd = prior_for(t.prior, x0, config.motion.start_xy_m, times_s, observed_xy, range_m=range_m,
                              position_std_m=t.prior_position_std_m, velocity_std_mps=t.prior_velocity_std_mps)
@@ -155,7 +236,28 @@ def track(config: Config, range_m: float, times_s, observed_xy, truth_xy, x0, *,
 def simulate_trajectory(config: Config, j: int, seed: int, thresholds_v=None) -> dict[str, dict[str, np.ndarray]]:
     """Motion, broadcasts, receptions and every tracker of trajectory ``j``: per-table columns.
 
-    ``thresholds_v``: the listener threshold per range for the physical models (:func:`calibrate`)."""
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    j : int
+        Trajectory index; its streams are ``trial_rng(seed, j, s)`` (module docstring).
+    seed : int
+        Root seed.
+    thresholds_v : sequence of float, optional
+        The listener threshold per range [V] for the physical models (:func:`calibrate`);
+        None (default) for the disc and logistic models.
+
+    Returns
+    -------
+    dict of str to dict of str to ndarray
+        Columns of the tables ``truth`` (motion grid: time [s], position [m], velocity
+        [m/s]), ``broadcasts`` (slot, time, tag, collision), ``receptions`` (per range and
+        broadcast: distance [m], reached, decoded, reason), ``observations`` (per decode:
+        the observed tag position y_k and the true position [m]) and, where the
+        trajectory has decodes, ``runs`` (per tracker and filter run: RMSE [m]) and
+        ``estimates`` (filter run 0's estimates and errors [m]).
+    """
     m, p, lay, c = config.motion, config.protocol, config.layout, config.range
     tags = np.asarray(lay.tags_xy_m, float)
     t_grid, states = simulate_motion(trial_rng(seed, j, 0), duration_s=m.duration_s, dt_s=m.dt_s, start_xy_m=m.start_xy_m,
@@ -214,13 +316,43 @@ def _task(args):
 
 def calibrate(config: Config, *, seed: int) -> list[tuple[float, float, float]]:
     """Per range: (threshold [V], min, max decode fraction at r over the tags) of the physical
-    listener (:func:`rfsim.scenes.reference_tags.calibrate_threshold`, ``trial_rng(seed, 10**6, i)``)."""
+    listener (:func:`rfsim.scenes.reference_tags.calibrate_threshold`, ``trial_rng(seed, 10**6, i)``).
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration (``physical``, ``layout``, ``ranges_m``).
+    seed : int
+        Root seed.
+
+    Returns
+    -------
+    list of tuple of (float, float, float)
+        Per range: the threshold [V] and the smallest and largest decode fraction at r over
+        the reference tags.
+    """
     return [calibrate_threshold(config.physical, config.layout.exciter_xyz_m, config.layout.tags_xy_m, r,
                                 trial_rng(seed, 10 ** 6, i)) for i, r in enumerate(config.ranges_m)]
 
 
 def monte_carlo(config: Config, *, seed: int, thresholds_v=None) -> dict[str, dict[str, np.ndarray]]:
-    """Every trajectory on ``config.workers`` processes (chunks of 5), tables concatenated in order."""
+    """Every trajectory on ``config.workers`` processes (chunks of 5), tables concatenated in order.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed.
+    thresholds_v : sequence of float, optional
+        The physical listener's threshold per range [V] (:func:`calibrate`); None (default)
+        without the physical models.
+
+    Returns
+    -------
+    dict of str to dict of str to ndarray
+        The tables of :func:`simulate_trajectory` over every trajectory.
+    """
     chunks = [list(range(a, min(a + 5, config.trajectories))) for a in range(0, config.trajectories, 5)]
     tasks = [(config, js, seed, thresholds_v) for js in chunks]
     parts = [t for chunk in map_in_order(_task, tasks, config.workers, desc="trajectories", unit="chunks") for t in chunk]
@@ -232,7 +364,23 @@ def monte_carlo(config: Config, *, seed: int, thresholds_v=None) -> dict[str, di
 
 
 def summarize(config: Config, tables) -> dict[str, np.ndarray]:
-    """Table 6.2 layout: one row per r, the average RMSE per tracker beside the published value."""
+    """Table 6.2 layout: one row per r, the average RMSE per tracker beside the published value.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    tables : dict of str to dict
+        The tables of :func:`monte_carlo` (``runs``, ``receptions``, ``broadcasts``).
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n_ranges,)
+        ``range_m``; per tracker ``<label>_rmse_m`` (the mean of the runs' RMSEs over
+        trajectories and runs, NaN without runs) and ``<label>_published_rmse_m`` [m];
+        ``undecoded_trajectories``, ``decodes_per_s``, ``collided_fraction`` and
+        ``max_decodes_per_s`` [1/s].
+    """
     runs, rec = tables.get("runs"), tables["receptions"]
     out: dict[str, list] = {"range_m": list(config.ranges_m)}
     for label, _, _ in config.trackers.labels:
@@ -254,6 +402,29 @@ def summarize(config: Config, tables) -> dict[str, np.ndarray]:
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate Geng's reader-free self-tracking of a mobile tag and score the trackers.
+
+    Reproduces Geng ch. 6, Table 6.2 and Fig. 6.4 (binary-detection.md §1.11, §2.4, §3.4;
+    seeds/004 L1049–L1260): reference tags broadcast by slotted Aloha, the mobile tag decodes
+    what reaches it, and NN, KF, the Bernoulli PF and the RBPF track it from the decodes.
+
+    Parameters
+    ----------
+    config : Config
+        Scenario configuration.
+    seed : int
+        Root seed (the streams of the module docstring).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``broadcasts``, ``receptions``, ``observations``, ``truth``, ``estimates``
+        (with ``write_estimates``), ``runs`` (per trajectory, range, tracker and filter run:
+        RMSE [m], the CDF of Fig. 6.4) and ``summary`` (Table 6.2 layout); root attributes
+        with the layout (reference tags, aisle width, exciter [m]), the models, the filters'
+        Eq. (6.5) coefficients per range, NN − KF per range [m] and, with the physical
+        models, the calibrated thresholds [V].
+    """
     cal = calibrate(config, seed=seed) if config.uses_physical else None
     tables = monte_carlo(config, seed=seed, thresholds_v=None if cal is None else [c[0] for c in cal])
     tables["summary"] = summarize(config, tables)
@@ -332,6 +503,18 @@ def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
     with the tracks of trajectory 0 (after Fig. 6.3), error vs time.
 
     Drawn by :mod:`rfsim.scenarios._tag_to_tag_tracking_figures`.
+
+    Parameters
+    ----------
+    dataset_path : pathlib.Path
+        A dataset written by :func:`run`.
+    out_dir : pathlib.Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written figure files.
     """
     return _figures.plot(dataset_path, out_dir)
 

@@ -23,7 +23,7 @@ and its noise; ``decoded`` = the chain decodes the 32 bits exactly. The envelope
 from the step's phasors, ``sync_v`` the same with the CW synchronised (its upper bound).
 The backscatter at the listener scales as 1/(d_e·d_tt) (Eq. 4.2: power ∝ 1/(D²·d²)) for fixed
 reflection states; the measured chip's states are not fixed — its modulation deepens as its
-power falls (|Γ_m − Γ_u| = 0.26 at 1 mW available, ≈ 0.6 at its power-up limit of 0.13 mW,
+power falls (``|Γ_m − Γ_u|`` = 0.26 at 1 mW available, ≈ 0.6 at its power-up limit of 0.13 mW,
 :mod:`rfsim.devices.tag_chip`), which offsets most of the 1/d_e: the full run (seed 1) finds the 50 %
 range d50 ≈ 0.4 m for every d_e from 1.5 to 5 m (1.2 m at 0.5 m) and nothing beyond the tag's
 power-up limit (it runs in most draws up to 5 m, in a few at 5.5 m). d_tt below ≈ λ/2 = 0.16 m

@@ -21,7 +21,7 @@ Tables:
   the modulated power ratio of the two replies at the reader (``capture_sweep``'s x-axis). The
   replies of identical tags (same clock, same T1) are synchronous and share the preamble, so
   the receiver's gain estimate is h1 + h2 and a bit where the tags differ is decided by the
-  sign of |h1|² − |h2|²: capture needs only a power ratio that the noise cannot mask, and
+  sign of ``|h1|² − |h2|²``: capture needs only a power ratio that the noise cannot mask, and
   fails when h1 + h2 ≈ 0 (the preamble cancels). At ``capture.noise_figure_db`` = 40 dB the
   stronger reply still arrives at Eb/N0 ≈ 35 dB, with no RN16 gate: why this table's 0.80
   below 1 dB and ``capture_sweep``'s 0.04 at 0 dB differ, measured, in

@@ -12,7 +12,7 @@ exponential APDP, PASS ST-room curves (``phasecan.m``, §1.7). One reader segmen
 
 Detectability (R3-5, :func:`rfsim.devices.st_analytic.technique_outcomes`): SA2 would see a
 detector-output difference above 5 mV with the CW synchronised, ``max over φ of ||c·e^{jφ} + b1|
-− |c·e^{jφ} + b2||`` (= |b1 − b2| for a dominant CW, seed L3490-3502; the chip states are not
+− |c·e^{jφ} + b2||`` (= ``|b1 − b2|`` for a dominant CW, seed L3490-3502; the chip states are not
 collinear, so the no-CW ``||b1| − |b2||`` would miss half the replying samples). *Cancelled* =
 detectable and not detected. ST antennas within λ/2π of the tag (2 %) are excluded and counted;
 Clopper–Pearson 95 % intervals. Uniform-θ closed form ``E[(2/π)·arcsin(t/|Δb|)·1{|Δb| > t}]``:

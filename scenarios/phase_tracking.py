@@ -21,7 +21,7 @@ in the pool.
 The reader reports (``reader.report``, rfsim.core.records): RSSI in 1 dB steps, the 12-bit phase
 code with the port's offset, µs time stamps. Estimators (rfsim.estimators.phase_tracking):
 the eq. (13) RSSI fix of the first read cycle gives p̂₀; the reported phases are unwrapped to
-pseudo-ranges (eq. 4–5) from r̂₀ = |p̂₀ − a_i|; the CWNA + bias EKF per read, the RTS smoother
+pseudo-ranges (eq. 4–5) from ``r̂₀ = |p̂₀ − a_i|``; the CWNA + bias EKF per read, the RTS smoother
 and ``estimator.passes`` passes (L205); the RSSI-only track is eq. (13) applied to the latest
 RSSI of every antenna at each read (Fig. 8, L207). Accuracy against the paper, the first pass's gap
 and its measured cause: the docs page and attribute ``first_pass_note``.

@@ -40,7 +40,7 @@ campaign's Smartrac Spine tags by default (−16.0 dBm, calibrated by Friis to t
 boresight d50), or PASS's UCODE G2XM (−12.8 dBm).
 
 Fits (:func:`rfsim.detection.fit_reader_models`): the source's method (least squares of the mean model
-1/(1 + exp(a1 + a2·d + a3·|θ|)) and the variance polynomial to per-cell moments of
+``1/(1 + exp(a1 + a2·d + a3·|θ|))`` and the variance polynomial to per-cell moments of
 p̂ = n/N, cells pooled over rooms, binomial part removed) and the maximum-likelihood fit of
 the Beta-binomial with dead zone (Eq. 4.11); d50 at 0°/30°/60° beside the published 6.63 /
 3.97 / 1.30 m.
@@ -74,7 +74,7 @@ mean block (0.028, 0.0042, 0.00035; ``stderr_basis = "mean block"``, conditional
 variance estimates), which understate the spread: in brackets the standard deviation over
 24 bootstrap resamples of the trials (d50 ± 0.40 / 0.37 / 0.37 m); other starting points end
 in lower maxima (from the published model 9.2 nats lower). The cell means cross 1/2 at
-4.85 / 4.59 / 2.07 m: flat to 30° and steep at 60°, a shape the mean model, linear in |θ|
+4.85 / 4.59 / 2.07 m: flat to 30° and steep at 60°, a shape the mean model, linear in ``|θ|``
 (so d50 is linear in θ, as the published 6.63 / 3.97 / 1.30 m are), cannot follow.
 
 The 60° d50 is set by the reader patch's pattern (the antenna is rotated, the tag faces it):
@@ -94,7 +94,7 @@ reaches the published 6.63 m at boresight, so 0° checks nothing but the floor a
 (which pull it to 5.52 m); **60° is predicted from an assumption** — it follows the patch
 beamwidth, which the source does not give (70° assumed: 2.26 m; 58.6° would give 1.30 m);
 **30° is the only predicted value with no parameter set for it**, but of the fitted model it is
-not an independent check either: the mean model is linear in |θ|, so its d50 is linear in θ and
+not an independent check either: the mean model is linear in ``|θ|``, so its d50 is linear in θ and
 d50(30°) = (d50(0°) + d50(60°))/2 exactly — published (6.63 + 1.30)/2 = 3.965 m, here
 (5.52 + 2.26)/2 = 3.89 m (full campaign, −2 %; default run, ML 3.83 m, −4 %): the 0° shortfall
 (−1.11 m) and the 60° excess (+0.96 m) cancel. The data at 30° alone (cell means, full
@@ -196,7 +196,7 @@ class CampaignConfig:
         Maximum Doppler f_D [Hz] of the moving scatterers (people): per-query Rician gain
         h_q with correlation J0(2π·f_D·Δt) between queries; 0 = held channel. In [0, 100].
     fading_k_db : float, default 6.0
-        Rician K of the time-variant part: |E h|^2 / var h [dB], in [-30, 60].
+        Rician K of the time-variant part: ``|E h|^2 / var h`` [dB], in [-30, 60].
     tag_class : str, default "smartrac-spine"
         Tag chip class: 'smartrac-spine' (the campaign's tags, sensitivity -16.0 dBm,
         see TAG_CLASS_SENSITIVITY_DBM) or 'pass-ucode' (the PASS UCODE G2XM, -12.8 dBm).
@@ -471,7 +471,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     Replicates Geng's campaign A (Geng dissertation Ch. 4; binary-detection.md §1.6, §4
     item 1, §5 P0-1/P0-2; seed 004 L612–L666, L838): every query of every trial at sample
     level, outcome = the reader decoded the tag's RN16 exactly; fits of the mean model
-    1/(1 + exp(a1 + a2·d + a3·|θ|)) by the source's moments method and by maximum likelihood
+    ``1/(1 + exp(a1 + a2·d + a3·|θ|))`` by the source's moments method and by maximum likelihood
     of the Beta-binomial with dead zone (Eq. 4.11), with d50 beside the published values.
 
     Parameters

@@ -37,7 +37,7 @@ Full run (``mc.full``, seed 1, 11 700 samples): P(cancel) single 17.7 % [17.0, 1
 combination 10.1 % [9.5, 10.6], selection 4.7 % [4.3, 5.1], stamp 5.2 % [4.8, 5.6] (Clopper–Pearson
 95 %); the three dual-antenna techniques stay below single antenna in every cell (R5-1). The
 probability rises with distance (selection: 0.2 % at 1 m, 10–11 % at 6.5–7 m): the ST's modulator
-(semi-passive, fixed states Γ_A = 0, |Γ_B| = 0.84 with A_s = 1, rfsim.devices.tag) keeps nearly every
+(semi-passive, fixed states Γ_A = 0, ``|Γ_B|`` = 0.84 with A_s = 1, rfsim.devices.tag) keeps nearly every
 sample detectable to 7 m, and far away more of them sit just above the threshold, where the
 null region covers more phases (median synchronised difference 9.7× the threshold at 1 m, 1.4×
 at 7 m; single-antenna P(cancel) ≈ 30 % below 2× the threshold, ≈ 14 % above; as

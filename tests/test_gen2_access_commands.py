@@ -6,27 +6,35 @@ bitstreams of gen2-and-validation-anchors.md §3.3), then encode and parse compa
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import bits_to_str
+from rfsim.gen2.capture import decode_reader_commands
 from rfsim.gen2.commands import (
     ACCESS_COMMANDS,
+    ACK,
     Access,
     BlockErase,
     BlockWrite,
     CommandParseError,
     Kill,
     Lock,
+    Query,
+    Read,
+    ReqRN,
     Write,
+    command_fields,
     command_name,
     command_preamble,
     cover_code,
     encode,
     parse,
 )
+from rfsim.gen2.pie import pie_envelope
 
 
 def crc16_bits(bits: str) -> str:
@@ -49,6 +57,27 @@ def test_the_independent_crc_gives_the_published_req_rn_and_read_bitstreams():
     for body, crc in (("11000001" "0000010111111100", "1111001111000010"),
                       ("11000010" "00" "00000000" "00000010" "0000101111111000", "1010101110001111")):
         assert crc16_bits(body) == crc
+
+
+#: Published access commands with correct CRCs (gen2-and-validation-anchors.md §3.3, from a
+#: Verilog testbench): the Lock and the two halves of a Kill.
+PUBLISHED = [
+    ("11000101 11000000001100000000 0000101111111000 0100001111010101",
+     Lock(mask=0b1100000000, action=0b1100000000, rn16=0b0000101111111000)),
+    ("11000100 1100010010100111 000 0000101111111000 0110101010101101",
+     Kill(password=0b1100010010100111, recom=0, rn16=0b0000101111111000)),
+    ("11000100 0010100100101100 000 0000101111111000 1110110011110110",
+     Kill(password=0b0010100100101100, recom=0, rn16=0b0000101111111000)),
+]
+
+
+@pytest.mark.parametrize("text, cmd", PUBLISHED, ids=["Lock", "Kill-1", "Kill-2"])
+def test_the_published_lock_and_kill_bitstreams(text, cmd):
+    bits = text.replace(" ", "")
+    assert parse(bits) == cmd
+    assert bits_to_str(encode(cmd)) == bits
+    body = bits[:-16]
+    assert crc16_bits(body) == bits[-16:]  # the independent CRC agrees with the published one
 
 
 HANDLE, COVER = 0xBEEF, 0x5A5A
@@ -140,3 +169,21 @@ def test_block_commands_round_trip(membank, ptr, words, rn16):
                 BlockErase(membank=membank, word_ptr=ptr, word_count=len(words), rn16=rn16),
                 Write(membank=membank, word_ptr=ptr, data=words[0], rn16=rn16)):
         assert parse(encode(cmd)) == cmd
+
+
+@pytest.mark.parametrize("fs_hz", [2e6, 25e6])
+def test_a_capture_of_every_access_command_is_decoded_with_its_fields(fs_hz):
+    """A PIE capture (magnitude only) of Query, ACK, then every access command: the capture
+    decoder names each one, parses its fields and checks its CRC (issue 34 item 5, commands)."""
+    kw = dict(tari_s=12.5e-6, data1_tari=1.5, pw_s=6.25e-6, delimiter_s=12.5e-6, depth=0.9, fs_hz=fs_hz,
+              cw_before_s=50e-6, cw_after_s=200e-6)
+    access = [ReqRN(rn16=HANDLE), Read(membank=2, word_ptr=0, word_count=2, rn16=HANDLE)] + [c for c, _ in CASES]
+    parts = [pie_envelope(encode(Query(q=0)), trcal_s=66.7e-6, **kw),
+             pie_envelope(encode(ACK(rn16=0x1234)), trcal_s=None, preamble="frame-sync", **kw)]
+    parts += [pie_envelope(encode(c), trcal_s=None, preamble="frame-sync", **kw) for c in access]
+    x = np.abs(0.02 * np.concatenate(parts)).astype(np.float32)
+    records, _ = decode_reader_commands(x, fs_hz)
+    assert [r.name for r in records] == ["Query", "ACK"] + [c.NAME for c in access]
+    for r, c in zip(records[2:], access):
+        assert r.crc_ok is True and r.error in ("", None)
+        assert r.fields == {k: v for k, v in command_fields(c).items()}

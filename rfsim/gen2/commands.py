@@ -670,6 +670,15 @@ COMMAND_TYPES: tuple[type, ...] = (Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN
                                    Access, BlockWrite, BlockErase)
 #: Access commands (after singulation, addressed by the handle).
 ACCESS_COMMANDS: tuple[type, ...] = (ReqRN, Read, Write, Kill, Lock, Access, BlockWrite, BlockErase)
+#: Command code (the bits a command starts with) → standard name, for every command here.
+COMMAND_PREFIXES: dict[str, str] = {
+    "00": "QueryRep", "01": "ACK", "1000": "Query", "1001": "QueryAdjust", "1010": "Select",
+    "11000000": "NAK", "11000001": "Req_RN", "11000010": "Read", "11000011": "Write", "11000100": "Kill",
+    "11000101": "Lock", "11000110": "Access", "11000111": "BlockWrite", "11001000": "BlockErase",
+}
+#: Standard name → the CRC a command ends with (5: CRC-5, 16: CRC-16); commands without one absent.
+COMMAND_CRC: dict[str, int] = {"Query": 5, **{name: 16 for name in ("Select", "Req_RN", "Read", "Write", "Kill", "Lock",
+                                                                    "Access", "BlockWrite", "BlockErase")}}
 
 
 def encode(cmd: Command) -> np.ndarray:
@@ -969,6 +978,8 @@ __all__ = [
     "Command",
     "COMMAND_TYPES",
     "ACCESS_COMMANDS",
+    "COMMAND_PREFIXES",
+    "COMMAND_CRC",
     "encode",
     "parse",
     "command_name",

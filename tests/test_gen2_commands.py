@@ -145,7 +145,7 @@ def test_parse_bad_crc():
             parse(bits)
 
 
-@pytest.mark.parametrize("text", ["11000101 11000000001100000000 0000101111111000 0100001111010101",  # Lock
+@pytest.mark.parametrize("text", ["11001111 11000000001100000000 0000101111111000 0100001111010101",
                                   "1011 0000", "11111111", "1110 0000 0000"])
 def test_parse_unknown_prefix(text):
     with pytest.raises(CommandParseError, match="prefix"):

@@ -27,7 +27,7 @@ import numpy as np
 
 from rfsim.core.errors import UserError
 from rfsim.gen2.bits import bits_to_str
-from rfsim.gen2.commands import CommandParseError, command_fields, command_name, parse
+from rfsim.gen2.commands import COMMAND_CRC, COMMAND_PREFIXES, CommandParseError, command_fields, command_name, parse
 from rfsim.gen2.crc import crc5_ok, crc16_ok
 from rfsim.gen2.link import (DATA1_TARI_RANGE, DELIMITER_NOMINAL_S, DELIMITER_RANGE_S, TARI_RANGE_S,
                              TRCAL_RTCAL_RANGE)
@@ -41,12 +41,9 @@ RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")
 SUFFIXES = RAW_SUFFIXES + (".npy",)
 
 #: Command names by bit prefix (longest prefix wins), to name commands that fail parsing.
-_PREFIXES = {
-    "00": "QueryRep", "01": "ACK", "1000": "Query", "1001": "QueryAdjust", "1010": "Select",
-    "11000000": "NAK", "11000001": "Req_RN", "11000010": "Read",
-}
+_PREFIXES = COMMAND_PREFIXES
 #: Commands that carry a CRC (and which one).
-_CRC = {"Query": 5, "Select": 16, "Req_RN": 16, "Read": 16}
+_CRC = COMMAND_CRC
 
 
 def load_capture(path) -> np.ndarray:

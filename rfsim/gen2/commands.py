@@ -16,7 +16,25 @@ NAK            ``11000000``                                                     
 Req_RN         ``11000001`` | RN16(16) | CRC-16                                              40
 Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) |         ≥ 58
                CRC-16
+Write          ``11000011`` | MemBank(2) | WordPtr(EBV) | Data(16, cover-coded) |            ≥ 66
+               RN16(16) | CRC-16
+Kill           ``11000100`` | Password(16, cover-coded) | RFU/Recom(3) | RN16(16) | CRC-16  59
+Lock           ``11000101`` | Payload(20: Mask(10) Action(10)) | RN16(16) | CRC-16          60
+Access         ``11000110`` | Password(16, cover-coded) | RN16(16) | CRC-16                 56
+BlockWrite     ``11000111`` | MemBank(2) | WordPtr(EBV) | WordCount(8) |                    ≥ 74
+               Data(16·WordCount) | RN16(16) | CRC-16
+BlockErase     ``11001000`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) | CRC-16  ≥ 58
 =============  ==========================================================================  ======
+
+Access commands (EPC Gen2 v2 / ISO 18000-63 §6.3.2.12.3: Write, Kill, Lock, Access,
+BlockWrite, BlockErase) carry the tag's handle in their RN16 field. Write, Kill and Access
+send a 16-bit word *cover-coded*: the on-air field is the word XOR a fresh RN16 the reader
+obtained with Req_RN (:func:`cover_code`; Kill and Access send a password in two halves, one
+command each). The objects here hold the on-air field values (``data``/``password`` as
+sent); :meth:`Write.cover_coded`, :meth:`Kill.cover_coded` and :meth:`Access.cover_coded`
+build them from the plain word. The Lock payload is Mask(10) | Action(10), each in the order
+kill password, access password, EPC, TID, User with two bits per field (:data:`LOCK_FIELDS`;
+mask bit 1: apply the action's pair; action pair: pwd-write/read lock, permalock).
 
 Field conventions (Query): DR "8" → 0, "64/3" → 1; M 1/2/4/8 (FM0, Miller-2/4/8) → 00/01/10/11;
 Sel "all" → 00, "all01" → 01 (the standard's second code for All), "~sl" → 10, "sl" → 11;
@@ -50,6 +68,8 @@ SEL_CODES = {"all": 0b00, "all01": 0b01, "~sl": 0b10, "sl": 0b11}
 TARGET_CODES = {"A": 0, "B": 1}
 UPDN_CODES = {1: 0b110, 0: 0b000, -1: 0b011}
 MEMBANKS = {0: "reserved", 1: "epc", 2: "tid", 3: "user"}
+#: Fields of a Lock payload, most significant first (two mask and two action bits each).
+LOCK_FIELDS = ("kill_pwd", "access_pwd", "epc", "tid", "user")
 
 
 class CommandParseError(ValueError):
@@ -382,8 +402,283 @@ class Select:
         return append_crc16(np.concatenate(body))
 
 
-Command = Union[Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select]
-COMMAND_TYPES: tuple[type, ...] = (Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select)
+def cover_code(word: int, rn16: int) -> int:
+    """Cover-code a 16-bit word for the air: ``word`` XOR ``rn16`` (Gen2 §6.3.2.12.3.4).
+
+    The tag recovers the word by the same XOR with the RN16 it backscattered in reply to the
+    reader's Req_RN; an eavesdropper on the forward link alone learns nothing of the word.
+
+    Parameters
+    ----------
+    word : int
+        Plain 16-bit word (data or half password), 0–0xFFFF.
+    rn16 : int
+        The fresh RN16 obtained with Req_RN, 0–0xFFFF.
+
+    Returns
+    -------
+    int
+        The on-air 16-bit field.
+    """
+    return _check_int("word", word, 0, 0xFFFF) ^ _check_int("rn16", rn16, 0, 0xFFFF)
+
+
+def _membank_ptr_count(name: str, cmd, with_count: bool, max_count: int = 255) -> None:
+    _set(cmd, "membank", _check_int(f"{name}.membank", cmd.membank, 0, 3))
+    _set(cmd, "word_ptr", _check_int(f"{name}.word_ptr", cmd.word_ptr, 0, 2**32 - 1))
+    if with_count:
+        _set(cmd, "word_count", _check_int(f"{name}.word_count", cmd.word_count, 1, max_count))
+    _set(cmd, "rn16", _check_int(f"{name}.rn16", cmd.rn16, 0, 0xFFFF))
+
+
+@dataclass(frozen=True)
+class Write:
+    """Write: one 16-bit word to ``membank`` at word ``word_ptr``; ``data`` is the on-air,
+    cover-coded field (:meth:`cover_coded`), ``rn16`` the handle."""
+
+    membank: int = 3
+    word_ptr: int = 0
+    data: int = 0
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Write"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _membank_ptr_count("write", self, False)
+        _set(self, "data", _check_int("write.data", self.data, 0, 0xFFFF))
+
+    @classmethod
+    def cover_coded(cls, membank: int, word_ptr: int, word: int, cover_rn16: int, handle: int) -> "Write":
+        """The Write of the plain ``word``, cover-coded with ``cover_rn16``.
+
+        Parameters
+        ----------
+        membank : int
+            Memory bank 0–3 (Reserved, EPC, TID, User).
+        word_ptr : int
+            Word address.
+        word : int
+            Plain 16-bit word to write.
+        cover_rn16 : int
+            RN16 the tag returned to the Req_RN before this Write.
+        handle : int
+            The tag's handle.
+
+        Returns
+        -------
+        Write
+            The command with ``data = word ^ cover_rn16``.
+        """
+        return cls(membank=membank, word_ptr=word_ptr, data=cover_code(word, cover_rn16), rn16=handle)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000011"), int_to_bits(self.membank, 2),
+                                            ebv_encode(self.word_ptr), int_to_bits(self.data, 16),
+                                            int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class Kill:
+    """Kill: one half of the 32-bit kill password, cover-coded (``password`` as on air), the
+    3-bit RFU/Recom field and the handle ``rn16``. A tag kills itself after two Kills in a row
+    carrying both halves (first the upper word, then the lower)."""
+
+    password: int = 0
+    recom: int = 0
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Kill"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "password", _check_int("kill.password", self.password, 0, 0xFFFF))
+        _set(self, "recom", _check_int("kill.recom", self.recom, 0, 7))
+        _set(self, "rn16", _check_int("kill.rn16", self.rn16, 0, 0xFFFF))
+
+    @classmethod
+    def cover_coded(cls, half_password: int, cover_rn16: int, handle: int, recom: int = 0) -> "Kill":
+        """The Kill of one plain password half, cover-coded with ``cover_rn16``.
+
+        Parameters
+        ----------
+        half_password : int
+            Upper or lower 16 bits of the kill password.
+        cover_rn16 : int
+            RN16 the tag returned to the Req_RN before this Kill.
+        handle : int
+            The tag's handle.
+        recom : int
+            RFU/Recom bits (0: kill; v2 recommissioning otherwise).
+
+        Returns
+        -------
+        Kill
+            The command with ``password = half_password ^ cover_rn16``.
+        """
+        return cls(password=cover_code(half_password, cover_rn16), recom=recom, rn16=handle)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000100"), int_to_bits(self.password, 16),
+                                            int_to_bits(self.recom, 3), int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class Lock:
+    """Lock: the 20-bit payload Mask(10) | Action(10) (fields in :data:`LOCK_FIELDS` order,
+    two bits each) and the handle ``rn16``; :meth:`of` builds it per field."""
+
+    mask: int = 0
+    action: int = 0
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Lock"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "mask", _check_int("lock.mask", self.mask, 0, 0x3FF))
+        _set(self, "action", _check_int("lock.action", self.action, 0, 0x3FF))
+        _set(self, "rn16", _check_int("lock.rn16", self.rn16, 0, 0xFFFF))
+
+    @classmethod
+    def of(cls, handle: int, **actions: tuple[bool, bool]) -> "Lock":
+        """The Lock that applies ``(pwd_lock, permalock)`` to the named fields only.
+
+        Parameters
+        ----------
+        handle : int
+            The tag's handle.
+        **actions : tuple of (bool, bool)
+            Field name of :data:`LOCK_FIELDS` → (pwd-write/read lock bit, permalock bit);
+            fields not named keep their state (mask bits 00).
+
+        Returns
+        -------
+        Lock
+            The command.
+        """
+        mask = action = 0
+        for name, (lock, perma) in actions.items():
+            if name not in LOCK_FIELDS:
+                raise ConfigError("lock.field", name, "one of " + ", ".join(LOCK_FIELDS))
+            shift = 2 * (len(LOCK_FIELDS) - 1 - LOCK_FIELDS.index(name))
+            mask |= 0b11 << shift
+            action |= (int(bool(lock)) << 1 | int(bool(perma))) << shift
+        return cls(mask=mask, action=action, rn16=handle)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000101"), int_to_bits(self.mask, 10),
+                                            int_to_bits(self.action, 10), int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class Access:
+    """Access: one half of the 32-bit access password, cover-coded (``password`` as on air),
+    and the handle ``rn16``; two in a row (upper, then lower half) move a tag to Secured."""
+
+    password: int = 0
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "Access"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _set(self, "password", _check_int("access.password", self.password, 0, 0xFFFF))
+        _set(self, "rn16", _check_int("access.rn16", self.rn16, 0, 0xFFFF))
+
+    @classmethod
+    def cover_coded(cls, half_password: int, cover_rn16: int, handle: int) -> "Access":
+        """The Access of one plain password half, cover-coded with ``cover_rn16``.
+
+        Parameters
+        ----------
+        half_password : int
+            Upper or lower 16 bits of the access password.
+        cover_rn16 : int
+            RN16 the tag returned to the Req_RN before this Access.
+        handle : int
+            The tag's handle.
+
+        Returns
+        -------
+        Access
+            The command with ``password = half_password ^ cover_rn16``.
+        """
+        return cls(password=cover_code(half_password, cover_rn16), rn16=handle)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000110"), int_to_bits(self.password, 16),
+                                            int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class BlockWrite:
+    """BlockWrite: ``len(data)`` words (not cover-coded) to ``membank`` from word ``word_ptr``;
+    ``rn16`` = handle. WordCount = ``len(data)`` (1–255)."""
+
+    membank: int = 3
+    word_ptr: int = 0
+    data: tuple[int, ...] = (0,)
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "BlockWrite"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        words = tuple(self.data) if isinstance(self.data, (tuple, list)) else None
+        if not words or len(words) > 255:
+            raise ConfigError("block_write.data", self.data, "a list of 1 to 255 16-bit words")
+        _set(self, "data", tuple(_check_int("block_write.data", w, 0, 0xFFFF) for w in words))
+        _membank_ptr_count("block_write", self, False)
+
+    @property
+    def word_count(self) -> int:
+        """Words written (the WordCount field)."""
+        return len(self.data)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11000111"), int_to_bits(self.membank, 2),
+                                            ebv_encode(self.word_ptr), int_to_bits(self.word_count, 8),
+                                            *[int_to_bits(w, 16) for w in self.data], int_to_bits(self.rn16, 16)]))
+
+
+@dataclass(frozen=True)
+class BlockErase:
+    """BlockErase: set ``word_count`` words (1–255) of ``membank`` from word ``word_ptr`` to
+    zero; ``rn16`` = handle."""
+
+    membank: int = 3
+    word_ptr: int = 0
+    word_count: int = 1
+    rn16: int = 0
+
+    NAME: ClassVar[str] = "BlockErase"
+    PREAMBLE: ClassVar[str] = "frame-sync"
+
+    def __post_init__(self):
+        _membank_ptr_count("block_erase", self, True)
+
+    def _encode(self) -> np.ndarray:
+        return append_crc16(np.concatenate([str_to_bits("11001000"), int_to_bits(self.membank, 2),
+                                            ebv_encode(self.word_ptr), int_to_bits(self.word_count, 8),
+                                            int_to_bits(self.rn16, 16)]))
+
+
+Command = Union[Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select, Write, Kill, Lock, Access, BlockWrite,
+                BlockErase]
+COMMAND_TYPES: tuple[type, ...] = (Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read, Select, Write, Kill, Lock,
+                                   Access, BlockWrite, BlockErase)
+#: Access commands (after singulation, addressed by the handle).
+ACCESS_COMMANDS: tuple[type, ...] = (ReqRN, Read, Write, Kill, Lock, Access, BlockWrite, BlockErase)
+#: Command code (the bits a command starts with) → standard name, for every command here.
+COMMAND_PREFIXES: dict[str, str] = {
+    "00": "QueryRep", "01": "ACK", "1000": "Query", "1001": "QueryAdjust", "1010": "Select",
+    "11000000": "NAK", "11000001": "Req_RN", "11000010": "Read", "11000011": "Write", "11000100": "Kill",
+    "11000101": "Lock", "11000110": "Access", "11000111": "BlockWrite", "11001000": "BlockErase",
+}
+#: Standard name → the CRC a command ends with (5: CRC-5, 16: CRC-16); commands without one absent.
+COMMAND_CRC: dict[str, int] = {"Query": 5, **{name: 16 for name in ("Select", "Req_RN", "Read", "Write", "Kill", "Lock",
+                                                                    "Access", "BlockWrite", "BlockErase")}}
 
 
 def encode(cmd: Command) -> np.ndarray:
@@ -545,6 +840,8 @@ def parse(bits) -> Command:
         return ReqRN(rn16=_field(b, 8, 16))
     if p8 == "11000010":
         return _parse_read(b)
+    if p8 in _ACCESS_PARSERS:
+        return _ACCESS_PARSERS[p8](b)
     raise CommandParseError(f"unknown or unsupported command prefix {p8 or bits_to_str(b)!r}")
 
 
@@ -575,6 +872,64 @@ def _parse_read(b: np.ndarray) -> Read:
     _check_crc16("Read", b)
     pos = 10 + n_ptr
     return Read(membank=_field(b, 8, 2), word_ptr=word_ptr, word_count=_field(b, pos, 8), rn16=_field(b, pos + 8, 16))
+
+
+def _parse_write(b: np.ndarray) -> Write:
+    word_ptr, n_ptr = _ebv("Write.WordPtr", b, 10)
+    pos = 10 + n_ptr
+    _expect_len("Write", b, pos + 16 + 16 + 16)
+    _check_crc16("Write", b)
+    return Write(membank=_field(b, 8, 2), word_ptr=word_ptr, data=_field(b, pos, 16), rn16=_field(b, pos + 16, 16))
+
+
+def _parse_kill(b: np.ndarray) -> Kill:
+    _expect_len("Kill", b, 59)
+    _check_crc16("Kill", b)
+    return Kill(password=_field(b, 8, 16), recom=_field(b, 24, 3), rn16=_field(b, 27, 16))
+
+
+def _parse_lock(b: np.ndarray) -> Lock:
+    _expect_len("Lock", b, 60)
+    _check_crc16("Lock", b)
+    return Lock(mask=_field(b, 8, 10), action=_field(b, 18, 10), rn16=_field(b, 28, 16))
+
+
+def _parse_access(b: np.ndarray) -> Access:
+    _expect_len("Access", b, 56)
+    _check_crc16("Access", b)
+    return Access(password=_field(b, 8, 16), rn16=_field(b, 24, 16))
+
+
+def _parse_block(name: str, b: np.ndarray) -> tuple[int, int, int, int]:
+    """MemBank, WordPtr, WordCount and the position after WordCount of a Block command."""
+    word_ptr, n_ptr = _ebv(f"{name}.WordPtr", b, 10)
+    pos = 10 + n_ptr
+    if b.size < pos + 8:
+        raise CommandParseError(f"{name} too short: {b.size} bits")
+    return _field(b, 8, 2), word_ptr, _field(b, pos, 8), pos + 8
+
+
+def _parse_block_write(b: np.ndarray) -> BlockWrite:
+    membank, word_ptr, count, pos = _parse_block("BlockWrite", b)
+    if count == 0:
+        raise CommandParseError("BlockWrite: WordCount 0")
+    _expect_len("BlockWrite", b, pos + 16 * count + 16 + 16)
+    _check_crc16("BlockWrite", b)
+    data = tuple(_field(b, pos + 16 * k, 16) for k in range(count))
+    return BlockWrite(membank=membank, word_ptr=word_ptr, data=data, rn16=_field(b, pos + 16 * count, 16))
+
+
+def _parse_block_erase(b: np.ndarray) -> BlockErase:
+    membank, word_ptr, count, pos = _parse_block("BlockErase", b)
+    if count == 0:
+        raise CommandParseError("BlockErase: WordCount 0")
+    _expect_len("BlockErase", b, pos + 16 + 16)
+    _check_crc16("BlockErase", b)
+    return BlockErase(membank=membank, word_ptr=word_ptr, word_count=count, rn16=_field(b, pos, 16))
+
+
+_ACCESS_PARSERS = {"11000011": _parse_write, "11000100": _parse_kill, "11000101": _parse_lock,
+                   "11000110": _parse_access, "11000111": _parse_block_write, "11001000": _parse_block_erase}
 
 
 def command_fields(cmd: Command) -> dict:
@@ -612,8 +967,19 @@ __all__ = [
     "ReqRN",
     "Read",
     "Select",
+    "Write",
+    "Kill",
+    "Lock",
+    "Access",
+    "BlockWrite",
+    "BlockErase",
+    "LOCK_FIELDS",
+    "cover_code",
     "Command",
     "COMMAND_TYPES",
+    "ACCESS_COMMANDS",
+    "COMMAND_PREFIXES",
+    "COMMAND_CRC",
     "encode",
     "parse",
     "command_name",

@@ -192,15 +192,19 @@ class _Memo:
 
 
 def pylon_antennas(positions_m, height_m: float, gain_dbi: float) -> list:
-    """Isotropic antennas of gain ``gain_dbi`` [dBi] at the (x, y) ``positions_m`` [m] and ``height_m``."""
-    return [_antennas.Antenna(position_m=(float(x), float(y), height_m), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
-            for x, y in np.asarray(positions_m, float)[:, :2]]
+    """Isotropic antennas of gain ``gain_dbi`` [dBi] at ``positions_m`` [m]: (x, y) rows at
+    ``height_m``, or (x, y, z) rows at their own height."""
+    p = np.asarray(positions_m, float)
+    z = p[:, 2] if p.shape[1] == 3 else np.full(p.shape[0], float(height_m))
+    return [_antennas.Antenna(position_m=(float(x), float(y), float(h)), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
+            for (x, y), h in zip(p[:, :2], z)]
 
 
 def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed: int, t_end_s: float,
-             height_m: float = 0.0, desc: str = "packets") -> AirRun:
-    """Plan the tag's packets up to ``t_end_s``, run them through the air and the DSP."""
-    plan = tag.plan(t_end_s, rng=trial_rng(seed, 0))
+             height_m: float = 0.0, desc: str = "packets", stream: tuple[int, ...] = ()) -> AirRun:
+    """Plan the tag's packets up to ``t_end_s``, run them through the air and the DSP
+    (generators ``trial_rng(seed, *stream, 0)`` and ``trial_rng(seed, *stream, 1, k, u)``)."""
+    plan = tag.plan(t_end_s, rng=trial_rng(seed, *stream, 0))
     fs, code, fmt = radio.fs_hz, tag.config.code, tag.config.format
     g_p, g_t = 10 ** (radio.pylon_gain_dbi / 10), 10 ** (radio.tag_gain_dbi / 10)
     noise_w = float(_noise.thermal_noise_power_w(fs, radio.noise_figure_db))
@@ -235,7 +239,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
             devs = [pylons[u] for u in grp]
             links = _air.LinkTable(channel, motions={id(tag.antenna): motion})
             res = _air.propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
-                                 rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
+                                 rng=trial_rng(seed, *stream, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1
             dropped += len(res.dropped)
             for u, seg in zip(grp, res.outputs):

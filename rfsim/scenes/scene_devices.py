@@ -153,7 +153,9 @@ def _entries(data, key: str) -> list:
     return data
 
 
-def _names(entries: list, key: str, default: str) -> tuple[str, ...]:
+def names(entries: list, key: str, default: str) -> tuple[str, ...]:
+    """Pop the ``name`` of each entry (default ``<default><i + 1>``); one-line errors for an
+    empty or non-string name and for names used twice."""
     names = []
     for i, e in enumerate(entries):
         name = e.pop("name", f"{default}{i + 1}")
@@ -189,10 +191,10 @@ def parse_devices(data: dict, split) -> DeviceSpec:
     """Validate the device sections of a scene file's tables (``split`` divides a table's keys
     between two dataclasses with a one-line error for an unknown key)."""
     ex = [dict(e) for e in _entries(data.get("exciter"), "exciter")]
-    ex_names = _names(ex, "exciter", "E")
+    ex_names = names(ex, "exciter", "E")
     exciters = tuple(_two(ExciterConfig, ExciterPose, e, f"exciter[{i}]", split) for i, e in enumerate(ex))
     st = [dict(e) for e in _entries(data.get("sense_a_tag"), "sense_a_tag")]
-    st_names = _names(st, "sense_a_tag", "ST")
+    st_names = names(st, "sense_a_tag", "ST")
     sts = tuple(_checked(SenseATagSpec, e, f"sense_a_tag[{i}]") for i, e in enumerate(st))
     fr = data.get("frame", {})
     if not isinstance(fr, dict):

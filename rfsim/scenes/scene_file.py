@@ -64,7 +64,7 @@ from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
-from rfsim.scenes import scene_devices
+from rfsim.scenes import scene_devices, scene_himr
 
 _antennas = lazy_import("rfsim.channels.antennas")
 _large_scale = lazy_import("rfsim.channels.large_scale")
@@ -77,11 +77,9 @@ _dataset = lazy_import("rfsim.core.dataset")
 _reads = lazy_import("rfsim.core.reads")
 
 #: Top-level sections of a scene file.
-SECTIONS = ("scene", "reader", "tag", "channel", "run", *scene_devices.DEVICE_SECTIONS)
-#: Device kinds of other scenarios that scene files do not describe (yet).
-NOT_SUPPORTED = ("himr", "pylon")
+SECTIONS = ("scene", "reader", "tag", "channel", "run", *scene_devices.DEVICE_SECTIONS, *scene_himr.HIMR_SECTIONS)
 #: Arrays of tables that make a TOML file a scene file.
-DEVICE_KINDS = ("reader", "exciter", "sense_a_tag", "beacon")
+DEVICE_KINDS = ("reader", "exciter", "sense_a_tag", "beacon", "himr_tag", "pylon")
 
 
 @dataclass(frozen=True)
@@ -197,6 +195,7 @@ class SceneSpec:
     inventory: InventoryConfig
     duration_s: float
     devices: scene_devices.DeviceSpec = scene_devices.DeviceSpec()
+    himr: scene_himr.HimrSpec = scene_himr.HimrSpec()
 
 
 # ------------------------------------------------------------------------------ parsing
@@ -204,7 +203,7 @@ class SceneSpec:
 
 def is_scene_file(path: str | Path) -> bool:
     """Whether ``path`` is a readable ``.toml`` file whose top level has ``[[reader]]`` (or
-    ``[[exciter]]``, ``[[sense_a_tag]]``, ``[[beacon]]``)."""
+    ``[[exciter]]``, ``[[sense_a_tag]]``, ``[[beacon]]``, ``[[himr_tag]]``, ``[[pylon]]``)."""
     p = Path(path)
     if p.suffix != ".toml" or not p.is_file():
         return False
@@ -259,10 +258,10 @@ def parse_scene(data: dict) -> SceneSpec:
     """Validate a scene file's tables (:func:`tomllib.loads` output) into a :class:`SceneSpec`."""
     for k in data:
         if k not in SECTIONS:
-            extra = " (not supported in scene files yet)" if k in NOT_SUPPORTED else ""
             form = f"[[{k}]]" if isinstance(data[k], list) else f"[{k}]" if isinstance(data[k], dict) else f"{k} = …"
-            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run], "
-                                       "[[exciter]], [[sense_a_tag]], [frame], [[beacon]], [[beacon_reader]]")
+            raise ConfigError(k, form, f"a scene section: one of [scene], [[reader]], [[tag]], [channel], [run], "
+                                       "[[exciter]], [[sense_a_tag]], [frame], [[beacon]], [[beacon_reader]], "
+                                       "[[himr_tag]], [[pylon]], [himr_radio]")
     scene = _table(data.get("scene", {}), "scene")
     for k in scene:
         if k != "description":
@@ -271,7 +270,9 @@ def parse_scene(data: dict) -> SceneSpec:
     if not isinstance(description, str):
         raise ConfigError("scene.description", description, "a string")
     devices = scene_devices.parse_devices(data, _split)
-    gen2 = devices.empty or "reader" in data  # a scene of schedule-driven devices alone needs no reader
+    himr = scene_himr.parse_himr(data, scene_devices.names)
+    # a scene of schedule-driven devices or HIMR tags alone needs no reader
+    gen2 = (devices.empty and himr.empty) or "reader" in data
 
     readers = []
     for i, r in enumerate(_array_of_tables(data.get("reader"), "reader", required=gen2)):
@@ -326,7 +327,9 @@ def parse_scene(data: dict) -> SceneSpec:
         if k not in _fields(InventoryConfig):
             raise _unknown(f"run.{k}", run[k], _fields(InventoryConfig) | {"duration_s"})
     inventory = from_dict(InventoryConfig, run, prefix="run")
-    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices)
+    scene_himr.check_himr(himr, float(duration_s))
+    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices,
+                     himr)
 
 
 def _apply_override(data: dict, text: str) -> None:
@@ -539,6 +542,9 @@ def run(config: Config, *, seed: int):
         scene = spec.channel.scene(spec.walls)
         rows = scene_devices.run_devices(spec.devices, scene, duration_s=spec.duration_s, seed=seed)
         scene_devices.add_device_tables(ds, _dataset, spec.devices, rows)
+    if not spec.himr.empty:
+        runs = scene_himr.run_himr(spec.himr, duration_s=spec.duration_s, seed=seed)
+        scene_himr.add_himr_tables(ds, _dataset, spec.himr, runs)
     return ds
 
 
@@ -548,6 +554,7 @@ def plot(dataset_path, out_dir) -> list[Path]:
     per read, and the devices' detections when the scene has any."""
     reads, ports, tags, walls = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags", "walls"))
     device_tables = scene_devices.read_device_tables(dataset_path, _dataset.read_table)
+    himr_tables = scene_himr.read_himr_tables(dataset_path, _dataset.read_table)
     out = []
     with paper_style():
         fig, ax = figure(columns=1, height_in=3.6)
@@ -568,6 +575,7 @@ def plot(dataset_path, out_dir) -> list[Path]:
                      color=st["color"])
             ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=6)
         scene_devices.plot_devices(ax, device_tables)
+        scene_himr.plot_himr_devices(ax, himr_tables)
         ax.set(xlabel="$x$ [m]", ylabel="$y$ [m]", title="Scene geometry (top view)")
         ax.set_aspect("equal", adjustable="datalim")
         legend_outside(ax, where="below", ncols=2)
@@ -596,6 +604,9 @@ def plot(dataset_path, out_dir) -> list[Path]:
         fig = scene_devices.plot_detections(device_tables)
         if fig is not None:
             out.append(save_figure(fig, figure_path(dataset_path, out_dir, "detections")))
+        if himr_tables:
+            fig = scene_himr.plot_ranges(himr_tables)
+            out.append(save_figure(fig, figure_path(dataset_path, out_dir, "himr-ranges")))
     return out
 
 

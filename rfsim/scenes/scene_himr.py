@@ -88,7 +88,23 @@ class PylonSpec:
 
 @dataclass(frozen=True)
 class HimrSpec:
-    """The HIMR devices of a scene file (all tuples may be empty)."""
+    """The HIMR devices of a scene file (all tuples may be empty).
+
+    Attributes
+    ----------
+    tag_names : tuple of str
+        Names of the HIMR tags (``H1``, ``H2``, ... by default).
+    tags : tuple of (rfsim.devices.himr_tag.HimrTagConfig, trajectory, rfsim.devices.imu.ImuConfig)
+        Each tag's config, trajectory (:class:`StaticPose`,
+        :class:`~rfsim.core.trajectories.LinearTrapezoid` or
+        :class:`~rfsim.core.trajectories.RotatingBoom`: a callable ``t_s → Kinematics``) and IMU.
+    pylon_names : tuple of str
+        Names of the pylons (``P1``, ``P2``, ... by default).
+    pylons : tuple of PylonSpec
+        The pylons, in file order.
+    radio : rfsim.scenes.himr_air.RadioConfig
+        The ``[himr_radio]`` table (shared by every pylon).
+    """
 
     tag_names: tuple[str, ...] = ()
     tags: tuple[tuple[HimrTagConfig, object, ImuConfig], ...] = ()
@@ -132,8 +148,21 @@ def _trajectory(table, prefix: str):
 
 
 def t_end_s(tag: HimrTag, duration_s: float) -> float:
-    """End of a HIMR tag's run [s]: ``duration_s``, or with 0 the end of its trajectory but at
-    least three packet periods after its start."""
+    """Return the end of a HIMR tag's run.
+
+    Parameters
+    ----------
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag on its trajectory.
+    duration_s : float
+        ``run.duration_s`` [s].
+
+    Returns
+    -------
+    float
+        ``duration_s`` when positive; else the end of the trajectory (its ``duration_s``,
+        0 for one without) but at least ``start_s + 3·period_s`` [s].
+    """
     if duration_s > 0:
         return float(duration_s)
     cfg = tag.config
@@ -141,8 +170,32 @@ def t_end_s(tag: HimrTag, duration_s: float) -> float:
 
 
 def parse_himr(data: dict, names) -> HimrSpec:
-    """Validate the HIMR sections of a scene file's tables (``names(entries, key, default)``
-    pops and checks the entries' ``name`` keys)."""
+    """Validate the HIMR sections of a scene file's tables.
+
+    Reads ``[[himr_tag]]`` (with its ``[himr_tag.trajectory]``, default ``kind = "static"``,
+    and ``[himr_tag.imu]``), ``[[pylon]]`` (``fc_hz`` by default the HIMR carriers
+    5.79/5.80/5.81 GHz in turn, seed 000 L997) and ``[himr_radio]``. The runnability checks
+    need the run's duration: :func:`check_himr`.
+
+    Parameters
+    ----------
+    data : dict
+        The scene file's tables (not modified).
+    names : callable
+        ``names(entries, key, default)`` pops and checks the entries' ``name`` keys
+        (:func:`rfsim.scenes.scene_devices.names`).
+
+    Returns
+    -------
+    HimrSpec
+        The HIMR devices (empty when the file has none).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        On an invalid key or value (one line naming the scene file's key, e.g.
+        ``himr_tag[0].trajectory.radius_m``); HIMR tags without pylons or the reverse.
+    """
     from_entries = []
     for key in ("himr_tag", "pylon"):
         entries = data.get(key)
@@ -179,8 +232,25 @@ def parse_himr(data: dict, names) -> HimrSpec:
 
 
 def check_himr(spec: HimrSpec, duration_s: float) -> None:
-    """Every HIMR tag runnable with the pylons: pylons off its track, the sample rate enough for
-    its code, at least two packets (:func:`rfsim.scenes.himr_air.check_scene`)."""
+    """Check that every HIMR tag can run with the pylons.
+
+    Per tag, until :func:`t_end_s`: every pylon at least 5 cm off its track, the sample rate
+    enough for its code and at least two packets in the run
+    (:func:`rfsim.scenes.himr_air.check_scene`; the room is not bounded).
+
+    Parameters
+    ----------
+    spec : HimrSpec
+        The HIMR devices.
+    duration_s : float
+        ``run.duration_s`` [s] (0: see :func:`t_end_s`).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        The first failed check, with the scene file's key (``himr_tag[i].…``,
+        ``pylon[u].position_m``, ``himr_radio.…`` or ``run.duration_s``).
+    """
     positions = [p.position_m for p in spec.pylons]
     carriers = [p.fc_hz for p in spec.pylons]
     for i, (cfg, trajectory, imu) in enumerate(spec.tags):
@@ -194,8 +264,26 @@ def check_himr(spec: HimrSpec, duration_s: float) -> None:
 
 
 def run_himr(spec: HimrSpec, *, duration_s: float, seed: int) -> list:
-    """Run every HIMR tag with every pylon: per tag ``(AirRun, plan, imu table)``
-    (:func:`rfsim.scenes.himr_air.simulate`, :func:`rfsim.scenes.himr_air.imu_table`)."""
+    """Run every HIMR tag with every pylon, one tag at a time.
+
+    Parameters
+    ----------
+    spec : HimrSpec
+        The HIMR devices.
+    duration_s : float
+        ``run.duration_s`` [s]; each tag runs from 0 to :func:`t_end_s`.
+    seed : int
+        Root seed: tag i uses the streams ``trial_rng(seed, 7, i, ...)`` of
+        :func:`rfsim.scenes.himr_air.simulate` (module docstring).
+
+    Returns
+    -------
+    list of tuple
+        Per tag ``(run, plan, imu)``: the :class:`rfsim.scenes.himr_air.AirRun`, the tag's
+        :class:`rfsim.devices.himr_tag.HimrPlan` and its
+        :func:`rfsim.scenes.himr_air.imu_table` (heading aligned with the trajectory's
+        heading at t = 0).
+    """
     out = []
     positions = np.array([p.position_m for p in spec.pylons], float)
     carriers = [p.fc_hz for p in spec.pylons]
@@ -210,8 +298,21 @@ def run_himr(spec: HimrSpec, *, duration_s: float, seed: int) -> list:
 
 
 def add_himr_tables(ds, d, spec: HimrSpec, runs: list) -> None:
-    """Add the tables ``himr_packets``, ``himr_tags`` and ``pylons`` to dataset ``ds`` (``d`` is
-    :mod:`rfsim.core.dataset`)."""
+    """Add the HIMR tables (:data:`HIMR_TABLES`) to a dataset.
+
+    Parameters
+    ----------
+    ds : rfsim.core.dataset.Dataset
+        The dataset, extended in place.
+    d : module
+        :mod:`rfsim.core.dataset` (its ``column``).
+    spec : HimrSpec
+        The HIMR devices: tables ``himr_tags`` (name, position at t = 0 [m], tag ID, format,
+        packets sent, IMU samples decoded) and ``pylons`` (name, position [m], carrier [Hz]).
+    runs : list of tuple
+        :func:`run_himr` output: table ``himr_packets``, the columns of
+        :data:`rfsim.scenes.himr_air.PACKET_COLUMNS` plus ``himr_tag`` (0-based).
+    """
     cols: dict[str, list] = {}
     for i, (run, plan, _) in enumerate(runs):
         pk = himr_air.packets_table(run, plan)
@@ -247,7 +348,22 @@ HIMR_TABLES = ("himr_packets", "himr_tags", "pylons")
 
 
 def read_himr_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
-    """The HIMR tables of dataset ``path`` (empty when the scene has no HIMR tag)."""
+    """Read the HIMR tables of a dataset.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset file.
+    read_table : callable
+        ``read_table(path, name)`` returning a table's columns and raising ``KeyError`` for
+        a missing table (:func:`rfsim.core.dataset.read_table`).
+
+    Returns
+    -------
+    dict of str to dict of str to ndarray
+        The tables of :data:`HIMR_TABLES` by name; empty when any is missing (a scene without
+        HIMR tags).
+    """
     try:
         return {name: read_table(path, name) for name in HIMR_TABLES}
     except KeyError:
@@ -255,7 +371,15 @@ def read_himr_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
 
 
 def plot_himr_devices(ax, tables: dict) -> None:
-    """Draw the pylons and the HIMR tags' positions at t = 0 on the geometry axes."""
+    """Draw the pylons and the HIMR tags' positions at t = 0 on the geometry axes.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The top view (x, y in m).
+    tables : dict of str to dict of str to ndarray
+        :func:`read_himr_tables` output; nothing is drawn when it is empty.
+    """
     if not tables:
         return
     p, t = tables["pylons"], tables["himr_tags"]
@@ -267,8 +391,19 @@ def plot_himr_devices(ax, tables: dict) -> None:
 
 
 def plot_ranges(tables: dict):
-    """Figure: RSS range (markers) and true range (lines) over time per (HIMR tag, pylon), from
-    the tables of :func:`read_himr_tables`."""
+    """Plot the RSS range and the true range over time per (HIMR tag, pylon).
+
+    Parameters
+    ----------
+    tables : dict of str to dict of str to ndarray
+        :func:`read_himr_tables` output (not empty).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        RSS range ``range_rss_m`` (eq. 22; markers) and ``true_range_m`` (lines) [m] against
+        the packet time [s], one series per (tag, pylon) pair.
+    """
     packets = tables["himr_packets"]
     name = {k: [v.decode() if isinstance(v, bytes) else str(v) for v in tables[k]["name"]]
             for k in ("himr_tags", "pylons")}

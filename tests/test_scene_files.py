@@ -33,6 +33,7 @@ SMALL = {
     "trolley-portal": ["--set", "run.duration_s=0.02", "--set", "tag.0.position_m=[-0.2, 0.0, 0.9]"],
     "exciter-sense-a-tags": ["--set", "run.duration_s=0.12", "--set", "beacon.0.period_s=0.06",
                              "--set", "beacon.1.period_s=0.06"],
+    "himr-pylons": ["--set", "run.duration_s=0.05"],
 }
 
 
@@ -41,14 +42,15 @@ def _read(path: Path, table: str) -> dict[str, np.ndarray]:
         return {k: v[()] for k, v in f[table].items()}
 
 
-def test_there_are_four_examples_and_a_readme_naming_every_key():
+def test_there_are_five_examples_and_a_readme_naming_every_key():
     assert [p.stem for p in EXAMPLES] == sorted(SMALL)
     readme = (SCENES / "README.md").read_text()
     for key in ("position_m", "orientation_deg", "pattern", "gain_dbi", "beamwidth_deg", "velocity_m_s", "count",
                 "step_m", "large_scale", "path_loss_exponent", "floor", "apdp", "attenuation_db", "duration_s",
                 "session", "q_initial", "link_profile", "ptx_dbm", "sensitivity_dbm", "eirp_dbm", "schedule_s",
                 "period_s", "offset_s", "word", "threshold_v", "blf_hz", "tag_id", "tx_power_dbm", "jitter_s",
-                "lbt_listen_s", "noise_figure_db"):
+                "lbt_listen_s", "noise_figure_db", "[[himr_tag]]", "[[pylon]]", "[himr_radio]", "packet_format", "kind",
+                "heading_deg", "fc_hz", "snr_db", "fs_hz"):
         assert f"`{key}`" in readme, key
 
 
@@ -58,7 +60,13 @@ def test_each_example_runs_through_rfsim_run(example, tmp_path, capsys):
     assert main(["run", str(example), *SMALL[example.stem], "--seed", "2", "-q", "--out-dir", str(tmp_path),
                  "-o", str(out)]) == 0
     reads, tags, ports = _read(out, "reads"), _read(out, "tags"), _read(out, "readers")
-    if len(ports["x_m"]) == 0:  # schedule-driven devices only: detections and beacon frames instead of reads
+    with h5py.File(out, "r") as f:
+        himr = "himr_packets" in f
+    if himr:  # HIMR tags and pylons only: packets decoded by the pylons instead of reads
+        packets = _read(out, "himr_packets")
+        assert packets["crc_ok"].any() and set(packets["himr_tag"]) == set(range(len(_read(out, "himr_tags")["name"])))
+        assert (tmp_path / f"{example.stem}-himr-ranges.png").is_file()
+    elif len(ports["x_m"]) == 0:  # schedule-driven devices only: detections and beacon frames instead of reads
         assert _read(out, "detections")["decoded"].any() and _read(out, "beacon_frames")["decoded"].any()
         assert (tmp_path / f"{example.stem}-detections.png").is_file()
     else:

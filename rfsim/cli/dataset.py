@@ -89,7 +89,7 @@ def _plot(args: argparse.Namespace) -> int:
     if is_sweep:
         raise UserError(f"dataset {str(args.dataset)!r} is a merged sweep; extract a point and plot it: "
                         f"rfsim sweep extract {args.dataset} --point N -o point.h5")
-    module = get_scenario(scenario)
+    module = _figures_module(args.dataset, scenario, get_scenario)
     out_dir = args.out_dir if args.out_dir is not None else args.dataset.parent
     check_output_folder(out_dir, "--out-dir")  # before drawing: a file, /proc, no permission
     output = figure_output_of(args)
@@ -104,6 +104,29 @@ def _plot(args: argparse.Namespace) -> int:
         for fig in written_files(figures, output):
             print(f"figure:  {fig}")
     return 0
+
+
+def _figures_module(path: Path, scenario: str, get_scenario):
+    """The module whose ``plot`` draws the figures of dataset ``path``: its scenario's, or the
+    scene-file figures (:func:`rfsim.scenes.scene_file.plot`) when a scene file wrote it (its
+    scenario is named after the file, its resolved config is ``scene_json``)."""
+    import importlib
+    import tomllib
+
+    try:
+        return get_scenario(scenario)
+    except UserError:
+        import h5py
+
+        with h5py.File(path, "r") as f:
+            text = _text(f["provenance"].attrs.get("config_toml", "")) if "provenance" in f else ""
+        try:
+            is_scene = "scene_json" in tomllib.loads(text)
+        except tomllib.TOMLDecodeError:
+            is_scene = False
+        if not is_scene:
+            raise
+        return importlib.import_module("rfsim.scenes.scene_file")
 
 
 def _scenario_of(path: Path) -> str:
@@ -147,7 +170,7 @@ def _contact_sheet(args: argparse.Namespace) -> int:
             for path, scenario in found:
                 rep.stage(f"drawing the {scenario} figures of {path}")
                 try:
-                    drawn = get_scenario(scenario).plot(path, Path(tmp))
+                    drawn = _figures_module(path, scenario, get_scenario).plot(path, Path(tmp))
                 except (KeyError, ValueError, UserError) as exc:
                     rep.stage(f"skipped {path}: its figures could not be drawn ({type(exc).__name__}: {exc})")
                     continue

@@ -181,7 +181,8 @@ def scene_from_file(path: str | Path) -> ModuleType:
         raise UserError(f"scene file {str(p)!r}: no such file")
     scene_file = importlib.import_module("rfsim.scenes.scene_file")
     if not scene_file.is_scene_file(p):
-        raise UserError(f"{str(p)!r} is not a scene file: a scene file is TOML with [[reader]] tables at its "
+        kinds = ", ".join(f"[[{k}]]" for k in scene_file.DEVICE_KINDS)
+        raise UserError(f"{str(p)!r} is not a scene file: a scene file is TOML with one of {kinds} at its "
                         f"top level (a scenario's config file goes after -c)")
     return scene_file.scenario_module(p)
 

@@ -93,9 +93,28 @@ class RadioConfig:
 
 
 def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -> None:
-    """fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b). (A
-    ``joint`` run below twice the carrier spread is allowed: the air step drops the carriers
-    outside ±fs/2 and the run counts them, ``AirRun.dropped``.)"""
+    """Check that the pylons' sample rate suits the tag's BOC code.
+
+    fs must reach 8·f_sc (wave2-specs.md §H) and the BOC bandwidth 2·(f_sc + R_b)
+    (:meth:`rfsim.himr.boc.BocCode.check_fs`). A ``joint`` run below twice the carrier spread
+    is allowed: the air step drops the carriers outside ±fs/2 and the run counts them
+    (:attr:`AirRun.dropped`).
+
+    Parameters
+    ----------
+    radio : RadioConfig
+        The pylons' radio (``fs_hz`` [Hz]).
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag (its config's code: subcarrier f_sc [Hz], bit rate R_b [bit/s]).
+    pylon_fc_hz : array_like, shape (n_pylons,)
+        The pylons' carriers [Hz] (not used by the checks).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        The rate is too low; the error names ``tag.subcarrier_hz`` or ``tag.chip_rate_hz``
+        when the user set that rate on the tag, else ``radio.fs_hz``.
+    """
     code = tag.config.code
     try:
         code.check_fs(radio.fs_hz, key="radio.fs_hz")
@@ -113,7 +132,30 @@ def check_sample_rate(radio: RadioConfig, tag: _himr_tag.HimrTag, pylon_fc_hz) -
 
 def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: float, *, min_distance_m: float = 0.05,
                                key: str = "pylons.positions_m") -> None:
-    """A pylon on (or within ``min_distance_m`` of) the tag's track has no far-field link."""
+    """Check that no pylon lies on (or within ``min_distance_m`` of) the tag's track.
+
+    Such a pylon has no far-field link. The track is sampled every 1 ms from 0 to
+    ``t_end_s``.
+
+    Parameters
+    ----------
+    positions_m : array_like, shape (n_pylons, 3)
+        Pylon positions (x, y, z) [m].
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag (its ``trajectory``).
+    t_end_s : float
+        End of the run [s].
+    min_distance_m : float, default 0.05
+        Smallest allowed distance pylon to tag [m].
+    key : str, default "pylons.positions_m"
+        Config key named in the error (as ``<key>[u]``).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        A pylon closer than ``min_distance_m`` to the track (the message gives the closest
+        distance and its time).
+    """
     t = np.arange(0.0, t_end_s + 5e-4, 1e-3)
     p = tag.trajectory(t).position_m
     for u, q in enumerate(np.asarray(positions_m, float)):
@@ -127,10 +169,35 @@ def check_pylons_off_the_track(positions_m, tag: _himr_tag.HimrTag, t_end_s: flo
 
 def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_hz, *, t_end_s: float, room_min_m,
                 room_max_m, key: str = "pylons.positions_m") -> None:
-    """A scene the air step can run: the tag's trajectory inside the room until ``t_end_s``
-    (:func:`rfsim.core.trajectories.check_inside`), every pylon (x, y, z) [m] off its track
-    (:func:`check_pylons_off_the_track`, config key ``key``), the sample rate enough for the tag's
-    code (:func:`check_sample_rate`)."""
+    """Check that the air step can run the scene.
+
+    The tag's trajectory stays inside the room until ``t_end_s``
+    (:func:`rfsim.core.trajectories.check_inside`), every pylon is off its track
+    (:func:`check_pylons_off_the_track`), the sample rate is enough for the tag's code
+    (:func:`check_sample_rate`) and the run holds two packets (:func:`check_two_packets`).
+
+    Parameters
+    ----------
+    radio : RadioConfig
+        The pylons' radio.
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag on its trajectory.
+    pylons_m : array_like, shape (n_pylons, 3)
+        Pylon positions (x, y, z) [m].
+    carriers_hz : array_like, shape (n_pylons,)
+        The pylons' carriers [Hz].
+    t_end_s : float
+        End of the run [s].
+    room_min_m, room_max_m : array_like, shape (2,) or (3,)
+        Corners of the room [m].
+    key : str, default "pylons.positions_m"
+        Config key of the pylon positions, named in errors.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        The first check that fails (one line naming the key).
+    """
     check_inside(tag.trajectory, t_end_s=t_end_s, room_min_m=room_min_m, room_max_m=room_max_m)
     check_pylons_off_the_track(pylons_m, tag, t_end_s, key=key)
     check_sample_rate(radio, tag, carriers_hz)
@@ -138,9 +205,24 @@ def check_scene(radio: RadioConfig, tag: _himr_tag.HimrTag, pylons_m, carriers_h
 
 
 def check_two_packets(tag: _himr_tag.HimrTag, t_end_s: float) -> None:
-    """The observers need at least two packets: the second one's start (one period, six RMS
-    jitters late) and air time inside the run; else a :class:`ConfigError` naming the tag's
-    packet rate, its start or the run's length, whichever the user set."""
+    """Check that the run holds at least two packets (the observers need two).
+
+    The second packet, one period and six RMS jitters after the first, must end before the
+    run does: ``start_s + period_s + air_time_s + 6·jitter_rms_s < t_end_s``.
+
+    Parameters
+    ----------
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag (its config's schedule).
+    t_end_s : float
+        End of the run [s].
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        Too short a run; the error names the tag's packet rate, its start or the run's length
+        (``scene.duration_s``), whichever the user set.
+    """
     cfg = tag.config
     need_s = cfg.start_s + cfg.period_s + cfg.air_time_s + 6.0 * cfg.jitter_rms_s
     if need_s >= t_end_s:
@@ -168,7 +250,20 @@ class AirRun:
     cpu_s: float                 #: CPU time of this process in the steps and the DSP [s]
 
     def run_attrs(self, n_packets: int) -> dict:
-        """The run's bookkeeping as dataset attributes (``n_packets`` scheduled packets)."""
+        """Return the run's bookkeeping as dataset attributes.
+
+        Parameters
+        ----------
+        n_packets : int
+            Packets the tag scheduled in the run.
+
+        Returns
+        -------
+        dict
+            ``n_packets``, ``air_steps``, ``samples_per_step``, ``sample_level_s`` (wall
+            time [s]), ``sample_level_cpu_s`` [s], ``time_per_packet_s`` (wall time per
+            scheduled packet [s]), ``ptx_w`` [W] and ``noise_power_w`` [W].
+        """
         return {"n_packets": int(n_packets), "air_steps": self.n_steps, "samples_per_step": self.samples_per_step,
                 "sample_level_s": self.wall_s, "sample_level_cpu_s": self.cpu_s,
                 "time_per_packet_s": self.wall_s / max(n_packets, 1), "ptx_w": self.ptx_w,
@@ -192,15 +287,80 @@ class _Memo:
 
 
 def pylon_antennas(positions_m, height_m: float, gain_dbi: float) -> list:
-    """Isotropic antennas of gain ``gain_dbi`` [dBi] at the (x, y) ``positions_m`` [m] and ``height_m``."""
-    return [_antennas.Antenna(position_m=(float(x), float(y), height_m), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
-            for x, y in np.asarray(positions_m, float)[:, :2]]
+    """Build the pylons' isotropic antennas.
+
+    Parameters
+    ----------
+    positions_m : array_like, shape (n_pylons, 2) or (n_pylons, 3)
+        Positions [m]: (x, y) rows at ``height_m``, or (x, y, z) rows at their own height.
+    height_m : float
+        Height of (x, y) rows [m].
+    gain_dbi : float
+        Antenna gain [dBi] (linear 10^(gain_dbi/10)).
+
+    Returns
+    -------
+    list of rfsim.channels.antennas.Antenna
+        One isotropic antenna per row (default polarization).
+    """
+    p = np.asarray(positions_m, float)
+    z = p[:, 2] if p.shape[1] == 3 else np.full(p.shape[0], float(height_m))
+    return [_antennas.Antenna(position_m=(float(x), float(y), float(h)), pattern=_antennas.Isotropic(10 ** (gain_dbi / 10)))
+            for (x, y), h in zip(p[:, :2], z)]
 
 
 def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfig, *, seed: int, t_end_s: float,
-             height_m: float = 0.0, desc: str = "packets") -> AirRun:
-    """Plan the tag's packets up to ``t_end_s``, run them through the air and the DSP."""
-    plan = tag.plan(t_end_s, rng=trial_rng(seed, 0))
+             height_m: float = 0.0, desc: str = "packets", stream: tuple[int, ...] = ()) -> AirRun:
+    r"""Plan the tag's packets up to ``t_end_s`` and run them through the air and the DSP.
+
+    Every pylon transmits the power P_T that gives the per-sample SNR ``radio.snr_db`` at
+    ``radio.snr_distance_m`` (eq. 3 solved for P_T, :func:`rfsim.himr.link.ptx_for_snr_w`;
+    wave2-specs.md §H, seed 000 L646):
+
+    .. math::
+
+        P_T = rac{\mathrm{SNR}\, N\, (4\pi d)^4}{G_T G_R G_t^2 \lambda^4}, \qquad N = k T_0 F f_s
+
+    with λ of the mean carrier. Packet k is one air step per pylon (``cross_carrier =
+    "ignore"``) or one with every pylon (``"joint"``) on the packet's air time plus
+    ``radio.margin_s`` each side; each pylon's input goes through
+    :func:`rfsim.himr.dsp.decode_packet` and, per pylon, :func:`rfsim.himr.dsp.packet_table`
+    with the RSS constant K_u of eq. 22 (``radio.rss_calibration``: the link budget
+    :func:`rfsim.himr.link.rss_constant`, or :math:`K_u = |h_0|^2 d_0^4` of the pylon's first
+    decoded packet at its true range; NaN when it decoded none).
+
+    Parameters
+    ----------
+    tag : rfsim.devices.himr_tag.HimrTag
+        The tag on its trajectory. Its ``antenna`` is replaced by an isotropic antenna of
+        gain ``radio.tag_gain_dbi`` and its plan is drawn here.
+    positions_m : array_like, shape (n_pylons, 2) or (n_pylons, 3)
+        Pylon positions [m] (:func:`pylon_antennas`).
+    carriers_hz : array_like, shape (n_pylons,)
+        The pylons' carriers [Hz].
+    radio : RadioConfig
+        Sampling, power calibration and DSP.
+    seed : int
+        Root seed: the plan (schedule jitter, IMU noise) draws from
+        ``trial_rng(seed, *stream, 0)``, the air step of packet k with pylon group starting at
+        pylon u (0-based) from ``trial_rng(seed, *stream, 1, k, u)``.
+    t_end_s : float
+        End of the run [s].
+    height_m : float, default 0.0
+        Pylon height for (x, y) positions [m].
+    desc : str, default "packets"
+        Label of the progress bar.
+    stream : tuple of int, default ()
+        Prefix of the stream keys.
+
+    Returns
+    -------
+    AirRun
+        Per pylon its decoded packets (CRC passed or not) and their true ranges, with K_u,
+        P_T [W], the noise power per sample [W] and the run's bookkeeping (steps, dropped
+        carriers, wall and CPU time).
+    """
+    plan = tag.plan(t_end_s, rng=trial_rng(seed, *stream, 0))
     fs, code, fmt = radio.fs_hz, tag.config.code, tag.config.format
     g_p, g_t = 10 ** (radio.pylon_gain_dbi / 10), 10 ** (radio.tag_gain_dbi / 10)
     noise_w = float(_noise.thermal_noise_power_w(fs, radio.noise_figure_db))
@@ -235,7 +395,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
             devs = [pylons[u] for u in grp]
             links = _air.LinkTable(channel, motions={id(tag.antenna): motion})
             res = _air.propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
-                                 rng=trial_rng(seed, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
+                                 rng=trial_rng(seed, *stream, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1
             dropped += len(res.dropped)
             for u, seg in zip(grp, res.outputs):
@@ -271,7 +431,23 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
 
 
 def packets_table(run, plan) -> dict:
-    """One row per (packet, pylon) decoded (an :class:`AirRun` and the tag's plan)."""
+    """Gather the pylons' packet measurements into one table.
+
+    Parameters
+    ----------
+    run : AirRun
+        The run of :func:`simulate`.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's plan of that run (``start_s`` [s] of every scheduled packet).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The columns of :data:`PACKET_COLUMNS`, one row per (packet, pylon) decoded, pylon by
+        pylon (pylons numbered from 1); ``true_radial_velocity_mps`` is the true range's
+        difference over the start times' difference to the pylon's previous decoded packet
+        [m/s] (NaN for its first).
+    """
     cols: dict[str, list] = {}
     for u, (p, m) in enumerate(zip(run.pylons, run.measurements)):
         idx = run.packet_index[u]
@@ -314,7 +490,32 @@ PACKET_COLUMNS = {
 
 
 def imu_table(run, plan, imu_cfg, *, heading_start_rad: float) -> dict:
-    """One row per packet: the IMU words from the first pylon whose copy passed its CRC."""
+    """Build the IMU table: one row per scheduled packet.
+
+    The IMU words of a packet are those of the first pylon (lowest number) whose copy passed
+    its CRC; a packet no pylon decoded with a good CRC has zero words and NaN readings.
+
+    Parameters
+    ----------
+    run : AirRun
+        The run of :func:`simulate`.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's plan of that run.
+    imu_cfg : rfsim.devices.imu.ImuConfig
+        Word scaling to SI (:func:`rfsim.devices.imu.words_to_si`) and the magnetic
+        declination [rad].
+    heading_start_rad : float
+        Heading at the start pose [rad]: the unwrapped compass heading is shifted by a multiple
+        of 2π to start nearest to it.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``t_s`` (scheduled start [s]), ``packet``, ``decoded_by`` (pylon 1..N, 0: lost),
+        ``valid``, then per IMU word ``<name>_raw`` (int16) and ``<name>`` in SI units
+        (m/s², rad/s, µT); with nine words also ``heading_rad`` (heading of the body y axis
+        from the compass x, y words, unwrapped [rad]).
+    """
     n = plan.start_s.size
     n_words = plan.words.shape[1]
     words = np.zeros((n, n_words), dtype=np.int16)
@@ -348,7 +549,18 @@ _IMU_UNITS = {"accel": ("m/s^2", "accelerometer specific force along body axis")
 
 
 def imu_columns(table: dict) -> dict:
-    """The dataset columns (units, descriptions) of an :func:`imu_table`."""
+    """Describe the columns of an :func:`imu_table` for a dataset.
+
+    Parameters
+    ----------
+    table : dict of str to ndarray
+        The output of :func:`imu_table`.
+
+    Returns
+    -------
+    dict of str to rfsim.core.dataset.Column
+        Each column with its unit and description (:func:`rfsim.core.dataset.column`).
+    """
     cols = {"t_s": _dataset.column(table["t_s"], "s", "scheduled start of the packet that carried the IMU sample"),
             "packet": _dataset.column(table["packet"], "1", "index of the packet in the tag's schedule"),
             "decoded_by": _dataset.column(table["decoded_by"], "1",
@@ -371,8 +583,28 @@ def imu_columns(table: dict) -> dict:
 
 
 def add_run_tables(ds, run: AirRun, plan, imu: dict, *, packets: str, imu_description: str) -> dict:
-    """Add the run's ``packets`` (:func:`packets_table`) and ``imu`` (:func:`imu_table`) tables to the
-    dataset ``ds`` with these descriptions; returns the packet table's arrays."""
+    """Add the run's ``packets`` and ``imu`` tables to a dataset.
+
+    Parameters
+    ----------
+    ds : rfsim.core.dataset.Dataset
+        The dataset, extended in place.
+    run : AirRun
+        The run of :func:`simulate`.
+    plan : rfsim.devices.himr_tag.HimrPlan
+        The tag's plan of that run.
+    imu : dict of str to ndarray
+        The run's :func:`imu_table`.
+    packets : str
+        Description of table ``packets`` (:func:`packets_table`, :data:`PACKET_COLUMNS`).
+    imu_description : str
+        Description of table ``imu`` (:func:`imu_columns`).
+
+    Returns
+    -------
+    dict of str to ndarray
+        The packet table's arrays (:func:`packets_table`).
+    """
     pk = packets_table(run, plan)
     ds.add_table("packets", {k: _dataset.column(v, *PACKET_COLUMNS[k]) for k, v in pk.items()}, description=packets)
     ds.add_table("imu", imu_columns(imu), description=imu_description)

@@ -30,7 +30,8 @@ Randomness (root seed s, :func:`rfsim.core.rng.trial_rng`): broadcast k (in time
 sense-a-tags draws its links from ``trial_rng(s, 4, k, 0)``, its receiver noise from
 ``trial_rng(s, 4, k, 1)``, the broadcaster's front end from ``trial_rng(s, 4, k, 2)``; exciter i
 its phase noise from ``trial_rng(s, 5, i)``; the beacons (schedule jitter, back-off) and their
-readers' noise from ``trial_rng(s, 6, 0)`` and ``trial_rng(s, 6, 1)``.
+readers' noise from ``trial_rng(s, 6, 0)`` and ``trial_rng(s, 6, 1)``, the beacon links' channel
+draws from ``trial_rng(s, 6, 2)``.
 """
 
 from __future__ import annotations
@@ -99,7 +100,15 @@ class ExciterPose:
             raise ConfigError("pattern", self.pattern, "one of 'patch', 'dipole'")
 
     def antenna(self):
-        """The exciter's :class:`rfsim.channels.antennas.Antenna` (linear polarization)."""
+        """Build the exciter's antenna.
+
+        Returns
+        -------
+        rfsim.channels.antennas.Antenna
+            At ``position_m`` [m], oriented by ``orientation_deg`` converted to rad, linear
+            polarization; pattern :class:`~rfsim.channels.antennas.Patch` (``gain_dbi``,
+            ``beamwidth_deg``) or :class:`~rfsim.channels.antennas.HalfWaveDipole`.
+        """
         a = _antennas
         pattern = a.Patch(self.gain_dbi, self.beamwidth_deg) if self.pattern == "patch" else a.HalfWaveDipole()
         return a.Antenna(position_m=self.position_m, orientation=tuple(math.radians(v) for v in self.orientation_deg),
@@ -119,14 +128,41 @@ class SenseATagSpec:
     detector_gain: float = param(1.0, lo=0.0, hi=1000.0, lo_open=True, doc="detector output per RF peak volt")
 
     def receiver_config(self) -> SenseATagConfig:
-        """The single-antenna receive chain of this sense-a-tag."""
+        """Return the config of this sense-a-tag's single-antenna receive chain.
+
+        Returns
+        -------
+        rfsim.devices.sense_a_tag_config.SenseATagConfig
+            One antenna, ``technique="single"`` (no combining), this spec's ``threshold_v``
+            [V] and ``detector_gain``; other settings at their defaults.
+        """
         return SenseATagConfig(n_antennas=1, technique="single", threshold_v=self.threshold_v,
                                detector_gain=self.detector_gain)
 
 
 @dataclass(frozen=True)
 class DeviceSpec:
-    """The schedule-driven devices of a scene file (all tuples may be empty)."""
+    """The schedule-driven devices of a scene file (all tuples may be empty).
+
+    Attributes
+    ----------
+    exciter_names : tuple of str
+        Names of the exciters (``E1``, ``E2``, ... by default).
+    exciters : tuple of (rfsim.devices.exciter.ExciterConfig, ExciterPose)
+        Each exciter's settings and antenna, in file order.
+    sense_a_tag_names : tuple of str
+        Names of the sense-a-tags (``ST1``, ``ST2``, ... by default).
+    sense_a_tags : tuple of SenseATagSpec
+        The sense-a-tags, in file order.
+    frame : rfsim.devices.own_schedule.FrameConfig
+        The sense-a-tags' frames and the air steps' sample rate (``[frame]``).
+    noise : rfsim.scenes.exciter.NoiseConfig
+        Receiver noise at the listening sense-a-tags (``[frame]`` keys ``noise_*``).
+    beacons : tuple of (rfsim.devices.active_tag.ActiveTagConfig, float, Pose)
+        Each beacon's settings, schedule offset [s] and pose.
+    beacon_readers : tuple of (rfsim.devices.active_reader.ActiveReaderConfig, Pose)
+        Each beacon reader's settings and pose.
+    """
 
     exciter_names: tuple[str, ...] = ()
     exciters: tuple[tuple[ExciterConfig, ExciterPose], ...] = ()
@@ -139,6 +175,7 @@ class DeviceSpec:
 
     @property
     def empty(self) -> bool:
+        """True when the scene has no exciter, sense-a-tag, beacon or beacon reader."""
         return not (self.exciters or self.sense_a_tags or self.beacons or self.beacon_readers)
 
 
@@ -153,7 +190,28 @@ def _entries(data, key: str) -> list:
     return data
 
 
-def _names(entries: list, key: str, default: str) -> tuple[str, ...]:
+def names(entries: list, key: str, default: str) -> tuple[str, ...]:
+    """Pop the ``name`` of each entry of an array of tables.
+
+    Parameters
+    ----------
+    entries : list of dict
+        The tables; their ``name`` key is removed (in place).
+    key : str
+        The section, for error messages (``<key>[i].name``).
+    default : str
+        Name prefix: entry i without a name is ``<default><i + 1>``.
+
+    Returns
+    -------
+    tuple of str
+        The names, in entry order.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        An empty or non-string name, or a name used twice (one line).
+    """
     names = []
     for i, e in enumerate(entries):
         name = e.pop("name", f"{default}{i + 1}")
@@ -186,13 +244,38 @@ def _fields(cls) -> set[str]:
 
 
 def parse_devices(data: dict, split) -> DeviceSpec:
-    """Validate the device sections of a scene file's tables (``split`` divides a table's keys
-    between two dataclasses with a one-line error for an unknown key)."""
+    """Validate the device sections of a scene file's tables.
+
+    Reads ``[[exciter]]``, ``[[sense_a_tag]]``, ``[frame]``, ``[[beacon]]`` and
+    ``[[beacon_reader]]`` (:data:`DEVICE_SECTIONS`); the other sections are left to the caller.
+
+    Parameters
+    ----------
+    data : dict
+        The scene file's tables (not modified).
+    split : callable
+        ``split(table, a, b, prefix)`` divides a table's keys between the field names ``a``
+        and ``b`` of two dataclasses, raising a one-line
+        :class:`~rfsim.core.errors.ConfigError` for an unknown key.
+
+    Returns
+    -------
+    DeviceSpec
+        The devices (empty tuples for absent sections).
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        On an invalid key or value (one line naming it, e.g. ``exciter[0].eirp_dbm``); a
+        broadcasting sense-a-tag without an exciter; exciters on different carriers; duplicate
+        names or beacon tag IDs; beacons without beacon readers or the reverse; beacon readers
+        of different sample rates.
+    """
     ex = [dict(e) for e in _entries(data.get("exciter"), "exciter")]
-    ex_names = _names(ex, "exciter", "E")
+    ex_names = names(ex, "exciter", "E")
     exciters = tuple(_two(ExciterConfig, ExciterPose, e, f"exciter[{i}]", split) for i, e in enumerate(ex))
     st = [dict(e) for e in _entries(data.get("sense_a_tag"), "sense_a_tag")]
-    st_names = _names(st, "sense_a_tag", "ST")
+    st_names = names(st, "sense_a_tag", "ST")
     sts = tuple(_checked(SenseATagSpec, e, f"sense_a_tag[{i}]") for i, e in enumerate(st))
     fr = data.get("frame", {})
     if not isinstance(fr, dict):
@@ -243,8 +326,23 @@ def parse_devices(data: dict, split) -> DeviceSpec:
 
 
 def broadcast_times(spec: DeviceSpec, duration_s: float) -> list[tuple[float, int]]:
-    """(time [s], sense-a-tag index) of every broadcast in ``[0, duration_s)`` in time order
-    (``duration_s = 0``: each broadcaster's first)."""
+    """List the sense-a-tag broadcasts in ``[0, duration_s)``.
+
+    Sense-a-tag i with ``period_s`` :math:`T_i > 0` broadcasts at
+    :math:`t = o_i + k T_i` (:math:`o_i` = ``offset_s``, k = 0, 1, ...).
+
+    Parameters
+    ----------
+    spec : DeviceSpec
+        The devices.
+    duration_s : float
+        End of the time span [s]; 0: each broadcaster once, at its ``offset_s``.
+
+    Returns
+    -------
+    list of (float, int)
+        (time [s], sense-a-tag index) of every broadcast, sorted by time (then index).
+    """
     out = []
     for i, s in enumerate(spec.sense_a_tags):
         if s.period_s <= 0:
@@ -260,8 +358,33 @@ def broadcast_times(spec: DeviceSpec, duration_s: float) -> list[tuple[float, in
 
 
 def run_broadcasts(spec: DeviceSpec, scene, *, duration_s: float, seed: int) -> dict[str, list]:
-    """Every sense-a-tag broadcast, one air step each (module docstring): one row per
-    (broadcast, listening sense-a-tag)."""
+    """Run every sense-a-tag broadcast, one air step each (module docstring).
+
+    Broadcast k (:func:`broadcast_times`) is one :func:`rfsim.air.step.propagate` step of
+    the frame's length: every exciter radiates, the broadcaster (the PASS tag front end under
+    :class:`~rfsim.devices.own_schedule.OwnSchedule`) backscatters its word and CRC-16 when
+    powered, and every other sense-a-tag listens with receiver noise kT·fs·F; a listener
+    decodes when its receive chain returns the payload bits exactly.
+
+    Parameters
+    ----------
+    spec : DeviceSpec
+        The devices (at least one exciter when a sense-a-tag broadcasts).
+    scene : rfsim.channels.scene.Scene
+        The scene's channel.
+    duration_s : float
+        Time span [s] (:func:`broadcast_times`).
+    seed : int
+        Root seed: broadcast k draws its links from ``trial_rng(seed, 4, k, 0)``, receiver
+        noise from ``trial_rng(seed, 4, k, 1)``, the broadcaster's front end from
+        ``trial_rng(seed, 4, k, 2)``; exciter i its phase noise from ``trial_rng(seed, 5, i)``.
+
+    Returns
+    -------
+    dict of str to list
+        Columns :data:`DETECTION_COLUMNS`, one row per (broadcast, listening sense-a-tag);
+        powers in dBm (``tag_incident_power_dbm`` is -inf when no CW reached the broadcaster).
+    """
     rows: dict[str, list] = {k: [] for k in DETECTION_COLUMNS}
     times = broadcast_times(spec, duration_s)
     if not times:
@@ -315,8 +438,28 @@ def run_broadcasts(spec: DeviceSpec, scene, *, duration_s: float, seed: int) -> 
 
 
 def run_beacon_devices(spec: DeviceSpec, scene, *, duration_s: float, seed: int) -> dict[str, list]:
-    """Every beacon due in ``[0, duration_s)`` (0: one period of the slowest beacon) through
-    :func:`rfsim.protocols.beacons.run_beacons`: one row per (burst sent, beacon reader)."""
+    """Run every beacon due in the time span through :func:`rfsim.protocols.beacons.run_beacons`.
+
+    Parameters
+    ----------
+    spec : DeviceSpec
+        The devices (beacons and beacon readers come together).
+    scene : rfsim.channels.scene.Scene
+        The scene's channel.
+    duration_s : float
+        Beacons due in ``[0, duration_s)`` [s]; 0: one period of the slowest beacon.
+    seed : int
+        Root seed: the beacons (schedule jitter, back-off) draw from ``trial_rng(seed, 6, 0)``,
+        the readers' noise from ``trial_rng(seed, 6, 1)``, the channel from
+        ``trial_rng(seed, 6, 2)``.
+
+    Returns
+    -------
+    dict of str to list
+        Columns :data:`BEACON_COLUMNS`, one row per (burst sent, beacon reader); bursts
+        dropped by listen-before-talk are left out. ``rssi_dbm`` and ``rssi_reported_dbm``
+        [dBm] are NaN when that reader did not decode the burst.
+    """
     rows: dict[str, list] = {k: [] for k in BEACON_COLUMNS}
     if not spec.beacons:
         return rows
@@ -347,7 +490,26 @@ def run_beacon_devices(spec: DeviceSpec, scene, *, duration_s: float, seed: int)
 
 
 def run_devices(spec: DeviceSpec, scene, *, duration_s: float, seed: int) -> dict[str, dict[str, list]]:
-    """The ``detections`` and ``beacon_frames`` rows of the scene's schedule-driven devices."""
+    """Run the scene's schedule-driven devices.
+
+    Parameters
+    ----------
+    spec : DeviceSpec
+        The devices.
+    scene : rfsim.channels.scene.Scene
+        The scene's channel.
+    duration_s : float
+        Time span [s] (``run.duration_s``; 0: see :func:`broadcast_times` and
+        :func:`run_beacon_devices`).
+    seed : int
+        Root seed (module docstring).
+
+    Returns
+    -------
+    dict of str to dict of str to list
+        ``{"detections": ...}`` of :func:`run_broadcasts` and ``{"beacon_frames": ...}`` of
+        :func:`run_beacon_devices`.
+    """
     return {"detections": run_broadcasts(spec, scene, duration_s=duration_s, seed=seed),
             "beacon_frames": run_beacon_devices(spec, scene, duration_s=duration_s, seed=seed)}
 
@@ -383,7 +545,20 @@ _BOOL = {"broadcaster_replied", "decoded", "collided"}
 
 
 def add_device_tables(ds, d, spec: DeviceSpec, rows: dict[str, dict[str, list]]) -> None:
-    """Add the device tables to dataset ``ds`` (``d`` is :mod:`rfsim.core.dataset`)."""
+    """Add the device tables (:data:`DEVICE_TABLES`) to a dataset.
+
+    Parameters
+    ----------
+    ds : rfsim.core.dataset.Dataset
+        The dataset, extended in place.
+    d : module
+        :mod:`rfsim.core.dataset` (its ``column``).
+    spec : DeviceSpec
+        The devices: tables ``exciters``, ``sense_a_tags``, ``beacons`` and
+        ``beacon_readers`` (positions [m], one row per device, possibly none).
+    rows : dict of str to dict of str to list
+        The rows of :func:`run_devices`: tables ``detections`` and ``beacon_frames``.
+    """
 
     def table(src, columns):
         out = {}
@@ -426,7 +601,22 @@ DEVICE_TABLES = ("detections", "beacon_frames", "exciters", "sense_a_tags", "bea
 
 
 def read_device_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
-    """The device tables of dataset ``path`` (none when the scene has no such devices)."""
+    """Read the device tables of a dataset.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The dataset file.
+    read_table : callable
+        ``read_table(path, name)`` returning a table's columns and raising ``KeyError`` for
+        a missing table (:func:`rfsim.core.dataset.read_table`).
+
+    Returns
+    -------
+    dict of str to dict of str to ndarray
+        The tables of :data:`DEVICE_TABLES` by name; empty when any is missing (a dataset
+        written without :func:`add_device_tables`).
+    """
     out = {}
     for name in DEVICE_TABLES:
         try:
@@ -437,7 +627,15 @@ def read_device_tables(path, read_table) -> dict[str, dict[str, np.ndarray]]:
 
 
 def plot_devices(ax, tables: dict) -> None:
-    """Draw exciters, sense-a-tags, beacons and beacon readers on the geometry axes."""
+    """Draw exciters, sense-a-tags, beacons and beacon readers on the geometry axes.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The top view (x, y in m).
+    tables : dict of str to dict of str to ndarray
+        :func:`read_device_tables` output; absent or empty tables are skipped.
+    """
     for name, marker, colour, label in (("exciters", "^", OKABE_ITO[5], "exciters"),
                                         ("sense_a_tags", "D", OKABE_ITO[1], "sense-a-tags"),
                                         ("beacons", "v", OKABE_ITO[0], "beacons"),
@@ -448,8 +646,19 @@ def plot_devices(ax, tables: dict) -> None:
 
 
 def plot_detections(tables: dict):
-    """Figure: decoded (filled) and missed (open) sense-a-tag detections and beacon frames over
-    time, one row per (sender, receiver) pair; None when the scene has neither."""
+    """Plot sense-a-tag detections and beacon frames over time.
+
+    Parameters
+    ----------
+    tables : dict of str to dict of str to ndarray
+        :func:`read_device_tables` output (tables ``detections`` and ``beacon_frames``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure or None
+        One row per (sender, receiver) pair: decoded (filled circle) and missed (cross)
+        frames against time [s]; None when neither table has a row.
+    """
     det, bf = tables.get("detections"), tables.get("beacon_frames")
     n_det = len(det["time_s"]) if det is not None else 0
     n_bf = len(bf["time_s"]) if bf is not None else 0

@@ -64,7 +64,7 @@ from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.protocols.inventory import EngineAir, InventoryConfig, run_inventory
-from rfsim.scenes import scene_devices
+from rfsim.scenes import scene_devices, scene_himr
 
 _antennas = lazy_import("rfsim.channels.antennas")
 _large_scale = lazy_import("rfsim.channels.large_scale")
@@ -77,11 +77,9 @@ _dataset = lazy_import("rfsim.core.dataset")
 _reads = lazy_import("rfsim.core.reads")
 
 #: Top-level sections of a scene file.
-SECTIONS = ("scene", "reader", "tag", "channel", "run", *scene_devices.DEVICE_SECTIONS)
-#: Device kinds of other scenarios that scene files do not describe (yet).
-NOT_SUPPORTED = ("himr", "pylon")
+SECTIONS = ("scene", "reader", "tag", "channel", "run", *scene_devices.DEVICE_SECTIONS, *scene_himr.HIMR_SECTIONS)
 #: Arrays of tables that make a TOML file a scene file.
-DEVICE_KINDS = ("reader", "exciter", "sense_a_tag", "beacon")
+DEVICE_KINDS = ("reader", "exciter", "sense_a_tag", "beacon", "himr_tag", "pylon")
 
 
 @dataclass(frozen=True)
@@ -100,7 +98,17 @@ class AntennaSpec:
     polarization: Literal["linear", "circular"] = param("circular", doc="antenna polarization")
 
     def antenna(self):
-        """The :class:`rfsim.channels.antennas.Antenna` this spec describes."""
+        """Build the antenna this spec describes.
+
+        Returns
+        -------
+        rfsim.channels.antennas.Antenna
+            At ``position_m`` [m], oriented by ``orientation_deg`` converted to rad; pattern
+            :class:`~rfsim.channels.antennas.Patch` (``gain_dbi``, ``beamwidth_deg``),
+            :class:`~rfsim.channels.antennas.HalfWaveDipole` or
+            :class:`~rfsim.channels.antennas.Isotropic` of linear gain
+            :math:`10^{G/10}` (G = ``gain_dbi``).
+        """
         a = _antennas
         if self.pattern == "patch":
             pattern = a.Patch(self.gain_dbi, self.beamwidth_deg)
@@ -156,7 +164,22 @@ class ChannelSpec:
     tau_b: float = param(0.03, lo=0.0, hi=10.0, lo_open=True, unit="1/m", doc="APDP delay-spread growth")
 
     def scene(self, walls: tuple = ()):
-        """The :class:`rfsim.channels.scene.Scene` of this table and the walls."""
+        """Build the channel scene of this table and the walls.
+
+        Parameters
+        ----------
+        walls : tuple of WallSpec, default ()
+            The ``[[channel.wall]]`` tables; each becomes a vertical wall over its floor-plan
+            segment (:meth:`rfsim.channels.large_scale.Wall.segment_2d`).
+
+        Returns
+        -------
+        rfsim.channels.scene.Scene
+            Image order 1; a floor at z = 0 of permittivity ``floor_eps_r`` when ``floor``;
+            :class:`~rfsim.channels.large_scale.LogDistance` large scale for
+            ``large_scale = "log_distance"`` (else None: Friis); the exponential
+            :class:`~rfsim.channels.small_scale.ApdpModel` when ``apdp``.
+        """
         surfaces = ((_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=self.floor_eps_r),)
                     if self.floor else ())
         large = (_large_scale.LogDistance(exponent=self.path_loss_exponent, d0_m=self.d0_m)
@@ -169,7 +192,17 @@ class ChannelSpec:
 
 @dataclass(frozen=True)
 class ReaderSpec:
-    """One ``[[reader]]``: its name, config and antenna ports."""
+    """One ``[[reader]]``: its name, config and antenna ports.
+
+    Attributes
+    ----------
+    name : str
+        Reader name (``R1``, ``R2``, ... by default; distinct).
+    config : rfsim.devices.reader_config.ReaderConfig
+        The reader's settings.
+    antennas : tuple of AntennaSpec
+        The antenna ports, used in turn, one per inventory round.
+    """
 
     name: str
     config: ReaderConfig
@@ -178,7 +211,18 @@ class ReaderSpec:
 
 @dataclass(frozen=True)
 class TagEntry:
-    """One tag after the rows of ``[[tag]]`` are expanded."""
+    """One tag after the rows of ``[[tag]]`` are expanded.
+
+    Attributes
+    ----------
+    config : rfsim.devices.tag_config.TagConfig
+        The chip settings, with the tag's own (numbered or explicit) EPC.
+    antenna : AntennaSpec
+        The tag antenna at its position at t = 0 [m] (gain 0 dBi).
+    velocity_m_s : tuple of float
+        Straight-line velocity (vx, vy, vz) [m/s]: position at t is
+        ``position_m + velocity_m_s·t``.
+    """
 
     config: TagConfig
     antenna: AntennaSpec
@@ -187,7 +231,29 @@ class TagEntry:
 
 @dataclass(frozen=True)
 class SceneSpec:
-    """A validated scene file."""
+    """A validated scene file (:func:`parse_scene`).
+
+    Attributes
+    ----------
+    description : str
+        ``[scene].description`` ("" when absent).
+    readers : tuple of ReaderSpec
+        The Gen2 readers, in file order (may be empty when the scene has other devices).
+    tags : tuple of TagEntry
+        The passive tags, rows expanded, in file order.
+    channel : ChannelSpec
+        The ``[channel]`` table.
+    walls : tuple of WallSpec
+        The ``[[channel.wall]]`` tables.
+    inventory : rfsim.protocols.inventory.InventoryConfig
+        The ``[run]`` inventory settings every reader uses.
+    duration_s : float
+        ``run.duration_s`` [s]; 0: every reader runs one inventory.
+    devices : rfsim.scenes.scene_devices.DeviceSpec
+        Exciters, sense-a-tags and beacons (empty by default).
+    himr : rfsim.scenes.scene_himr.HimrSpec
+        HIMR tags and pylons (empty by default).
+    """
 
     description: str
     readers: tuple[ReaderSpec, ...]
@@ -197,14 +263,30 @@ class SceneSpec:
     inventory: InventoryConfig
     duration_s: float
     devices: scene_devices.DeviceSpec = scene_devices.DeviceSpec()
+    himr: scene_himr.HimrSpec = scene_himr.HimrSpec()
 
 
 # ------------------------------------------------------------------------------ parsing
 
 
 def is_scene_file(path: str | Path) -> bool:
-    """Whether ``path`` is a readable ``.toml`` file whose top level has ``[[reader]]`` (or
-    ``[[exciter]]``, ``[[sense_a_tag]]``, ``[[beacon]]``)."""
+    """Tell whether ``path`` is a scene file.
+
+    A scene file is a readable ``.toml`` file whose top level has an array of tables of a
+    device kind (:data:`DEVICE_KINDS`): ``[[reader]]``, ``[[exciter]]``, ``[[sense_a_tag]]``,
+    ``[[beacon]]``, ``[[himr_tag]]`` or ``[[pylon]]``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The file.
+
+    Returns
+    -------
+    bool
+        True for a scene file; False for any other path, including a file that cannot be
+        read or is not valid TOML (no error is raised).
+    """
     p = Path(path)
     if p.suffix != ".toml" or not p.is_file():
         return False
@@ -256,13 +338,37 @@ def _split(data: dict, a: set[str], b: set[str], prefix: str, extra: tuple[str, 
 
 
 def parse_scene(data: dict) -> SceneSpec:
-    """Validate a scene file's tables (:func:`tomllib.loads` output) into a :class:`SceneSpec`."""
+    """Validate a scene file's tables into a :class:`SceneSpec`.
+
+    Rows of ``[[tag]]`` are expanded (``count`` tags ``step_m`` apart); tags without an
+    explicit ``epc_hex`` (and every tag of a row) are numbered in file order: tag k gets
+    k + 1 in the template EPC's length. Each reader is built once with its ports to run the
+    checks a :class:`rfsim.devices.reader.Reader` makes of its config.
+
+    Parameters
+    ----------
+    data : dict
+        The file's tables (:func:`tomllib.loads` output, e.g. from :func:`read_scene`).
+
+    Returns
+    -------
+    SceneSpec
+        The validated scene.
+
+    Raises
+    ------
+    rfsim.core.errors.ConfigError
+        On an unknown section or key, a wrong type or an out-of-range value (one line naming
+        the key, e.g. ``reader[1].antenna[0].position_m``); on duplicate reader names or EPCs;
+        without any reader or schedule-driven/HIMR device; ``run.duration_s`` outside
+        [0, 3600] s.
+    """
     for k in data:
         if k not in SECTIONS:
-            extra = " (not supported in scene files yet)" if k in NOT_SUPPORTED else ""
             form = f"[[{k}]]" if isinstance(data[k], list) else f"[{k}]" if isinstance(data[k], dict) else f"{k} = …"
-            raise ConfigError(k, form, f"a scene section{extra}: one of [scene], [[reader]], [[tag]], [channel], [run], "
-                                       "[[exciter]], [[sense_a_tag]], [frame], [[beacon]], [[beacon_reader]]")
+            raise ConfigError(k, form, f"a scene section: one of [scene], [[reader]], [[tag]], [channel], [run], "
+                                       "[[exciter]], [[sense_a_tag]], [frame], [[beacon]], [[beacon_reader]], "
+                                       "[[himr_tag]], [[pylon]], [himr_radio]")
     scene = _table(data.get("scene", {}), "scene")
     for k in scene:
         if k != "description":
@@ -271,7 +377,9 @@ def parse_scene(data: dict) -> SceneSpec:
     if not isinstance(description, str):
         raise ConfigError("scene.description", description, "a string")
     devices = scene_devices.parse_devices(data, _split)
-    gen2 = devices.empty or "reader" in data  # a scene of schedule-driven devices alone needs no reader
+    himr = scene_himr.parse_himr(data, scene_devices.names)
+    # a scene of schedule-driven devices or HIMR tags alone needs no reader
+    gen2 = (devices.empty and himr.empty) or "reader" in data
 
     readers = []
     for i, r in enumerate(_array_of_tables(data.get("reader"), "reader", required=gen2)):
@@ -326,7 +434,9 @@ def parse_scene(data: dict) -> SceneSpec:
         if k not in _fields(InventoryConfig):
             raise _unknown(f"run.{k}", run[k], _fields(InventoryConfig) | {"duration_s"})
     inventory = from_dict(InventoryConfig, run, prefix="run")
-    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices)
+    scene_himr.check_himr(himr, float(duration_s))
+    return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices,
+                     himr)
 
 
 def _apply_override(data: dict, text: str) -> None:
@@ -350,7 +460,27 @@ def _apply_override(data: dict, text: str) -> None:
 
 
 def read_scene(path: str | Path, overrides=()) -> dict:
-    """The tables of scene file ``path`` with ``--set`` overrides applied (one-line user errors)."""
+    """Read the tables of scene file ``path`` and apply ``--set`` overrides.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file.
+    overrides : iterable of str, default ()
+        ``key=value`` texts as given to ``--set``; arrays of tables are addressed by index
+        (``reader.0.ptx_dbm=20``).
+
+    Returns
+    -------
+    dict
+        The file's tables (not validated: see :func:`parse_scene`).
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        The file cannot be read or is not valid TOML, or an override addresses no key of
+        one entry (one line).
+    """
     p = Path(path)
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8"))
@@ -367,13 +497,39 @@ def read_scene(path: str | Path, overrides=()) -> dict:
 
 
 def build_readers(spec: SceneSpec, *, seed: int) -> list:
-    """One :class:`rfsim.devices.reader.Reader` per ``[[reader]]``, reader i on ``trial_rng(seed, 1, i)``."""
+    """Build one reader per ``[[reader]]``.
+
+    Parameters
+    ----------
+    spec : SceneSpec
+        The scene.
+    seed : int
+        Root seed; reader i (its hop table) draws from ``trial_rng(seed, 1, i)``.
+
+    Returns
+    -------
+    list of rfsim.devices.reader.Reader
+        In file order, each with its antenna ports.
+    """
     return [_reader.Reader(r.config, [a.antenna() for a in r.antennas], rng=trial_rng(seed, 1, i))
             for i, r in enumerate(spec.readers)]
 
 
 def build_tags(spec: SceneSpec, *, seed: int) -> list:
-    """One :class:`rfsim.devices.tag.PassiveTag` per tag, tag k on ``trial_rng(seed, 3, k)``."""
+    """Build one passive tag per tag of the scene (rows expanded).
+
+    Parameters
+    ----------
+    spec : SceneSpec
+        The scene.
+    seed : int
+        Root seed; tag k (0-based, file order) draws from ``trial_rng(seed, 3, k)``.
+
+    Returns
+    -------
+    list of rfsim.devices.tag.PassiveTag
+        In the order of ``spec.tags``, each at its position at t = 0.
+    """
     return [_tag.PassiveTag(e.config, e.antenna.antenna(), rng=trial_rng(seed, 3, k)) for k, e in enumerate(spec.tags)]
 
 
@@ -386,10 +542,28 @@ def _true_distance_m(reader_ant, tag_entry: TagEntry, t_s: float) -> float:
 
 
 def run_scene(spec: SceneSpec, *, seed: int) -> dict[str, dict[str, list]]:
-    """Run the scene (module docstring); returns the ``reads`` and ``slots`` rows.
+    """Run the Gen2 readers of the scene in turn (module docstring).
 
-    Every row carries ``reader`` (0-based index); reads also the tag's true distance to the
-    reading antenna at the read time [m].
+    Reader i runs one inventory (:func:`rfsim.protocols.inventory.run_inventory` over a
+    sample-level :class:`~rfsim.protocols.inventory.EngineAir`), switches its CW off and hands
+    over to reader i + 1; with ``spec.duration_s > 0`` the cycle repeats until the air time
+    reaches it. Moving tags move during the exchanges.
+
+    Parameters
+    ----------
+    spec : SceneSpec
+        The scene (at least one reader).
+    seed : int
+        Root seed: readers ``trial_rng(seed, 1, i)``, tags ``trial_rng(seed, 3, k)``, channel
+        and receiver noise of reader i ``trial_rng(seed, 2, i)``.
+
+    Returns
+    -------
+    dict of str to dict of str to list
+        ``{"reads": ..., "slots": ...}``: columns of the inventory logs, every row with
+        ``reader`` (0-based index); reads also have ``true_distance_m`` (tag to reading port
+        at the read time [m]) and ``true_position_m`` (ndarray, shape (3,) [m]), NaN when the
+        tag is not unique (``tag`` = -1).
     """
     readers = build_readers(spec, seed=seed)
     tags = build_tags(spec, seed=seed)
@@ -459,7 +633,24 @@ def _read_schema(reads: dict[str, list]) -> dict:
 
 
 def scene_dataset(spec: SceneSpec, rows: dict[str, dict[str, list]]):
-    """The dataset: tables ``reads``, ``slots``, ``readers`` (one row per antenna port), ``tags`` and ``walls``."""
+    """Build the scene's dataset from the rows of :func:`run_scene`.
+
+    Parameters
+    ----------
+    spec : SceneSpec
+        The scene (its description is the title).
+    rows : dict of str to dict of str to list
+        ``{"reads": ..., "slots": ...}`` as :func:`run_scene` returns (empty dicts without
+        readers).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``reads`` (the per-read schema of :mod:`rfsim.core.reads` plus
+        :data:`READ_COLUMNS`), ``slots`` (:data:`SLOT_COLUMNS`), ``readers`` (one row per
+        antenna port), ``tags`` (pose at t = 0 [m], velocity [m/s], sensitivity [dBm]) and
+        ``walls``.
+    """
     d = _dataset
     ds = d.Dataset(title=spec.description or "scene file: Gen2 inventory of a described deployment")
 
@@ -525,29 +716,82 @@ class Config:
 
 
 def scene_config(path: str | Path, overrides=()) -> Config:
-    """The validated :class:`Config` of scene file ``path`` (errors are one-line)."""
+    """Read, override and validate scene file ``path`` into its scenario config.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file.
+    overrides : iterable of str, default ()
+        ``--set`` texts (:func:`read_scene`).
+
+    Returns
+    -------
+    Config
+        The tables (overrides applied) as sorted-key JSON.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        The file cannot be read, is not TOML or a key is invalid
+        (:class:`~rfsim.core.errors.ConfigError`); one line.
+    """
     data = read_scene(path, overrides)
     parse_scene(data)
     return Config(scene_json=json.dumps(data, sort_keys=True))
 
 
 def run(config: Config, *, seed: int):
-    """Run the scene of ``config`` with root seed ``seed`` → Dataset."""
+    """Run the scene of ``config``: Gen2 readers, schedule-driven devices and HIMR tags.
+
+    Parameters
+    ----------
+    config : Config
+        The scene (:func:`scene_config`).
+    seed : int
+        Root seed (module docstring; devices :func:`rfsim.scenes.scene_devices.run_devices`,
+        HIMR :func:`rfsim.scenes.scene_himr.run_himr`).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        The tables of :func:`scene_dataset` (empty ``reads`` and ``slots`` without readers),
+        plus the device tables and the HIMR tables when the scene has those devices.
+    """
     spec = parse_scene(json.loads(config.scene_json))
     ds = scene_dataset(spec, run_scene(spec, seed=seed) if spec.readers else {"reads": {}, "slots": {}})
     if not spec.devices.empty:
         scene = spec.channel.scene(spec.walls)
         rows = scene_devices.run_devices(spec.devices, scene, duration_s=spec.duration_s, seed=seed)
         scene_devices.add_device_tables(ds, _dataset, spec.devices, rows)
+    if not spec.himr.empty:
+        runs = scene_himr.run_himr(spec.himr, duration_s=spec.duration_s, seed=seed)
+        scene_himr.add_himr_tables(ds, _dataset, spec.himr, runs)
     return ds
 
 
 def plot(dataset_path, out_dir) -> list[Path]:
-    """Figures, in the project style (:mod:`rfsim.core.figure_style`): geometry (top view:
-    ports, tags, velocities, walls, other devices), reads per tag over time, RSSI and phase
-    per read, and the devices' detections when the scene has any."""
+    """Draw the figures of a scene-file dataset, in the project style (:mod:`rfsim.core.figure_style`).
+
+    Geometry (top view: ports, tags, velocities, walls, other devices), reads per tag over
+    time, RSSI and phase per read, the devices' detections when the scene has any, and the
+    HIMR ranges when it has HIMR tags.
+
+    Parameters
+    ----------
+    dataset_path : str or pathlib.Path
+        The dataset written by :func:`run`.
+    out_dir : str or pathlib.Path
+        Folder of the figures (:func:`rfsim.core.plots.figure_path`).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The saved figures.
+    """
     reads, ports, tags, walls = (_dataset.read_table(dataset_path, n) for n in ("reads", "readers", "tags", "walls"))
     device_tables = scene_devices.read_device_tables(dataset_path, _dataset.read_table)
+    himr_tables = scene_himr.read_himr_tables(dataset_path, _dataset.read_table)
     out = []
     with paper_style():
         fig, ax = figure(columns=1, height_in=3.6)
@@ -568,6 +812,7 @@ def plot(dataset_path, out_dir) -> list[Path]:
                      color=st["color"])
             ax.annotate(f"{ports['name'][k]}:{ports['antenna'][k]}", (ports["x_m"][k], ports["y_m"][k]), fontsize=6)
         scene_devices.plot_devices(ax, device_tables)
+        scene_himr.plot_himr_devices(ax, himr_tables)
         ax.set(xlabel="$x$ [m]", ylabel="$y$ [m]", title="Scene geometry (top view)")
         ax.set_aspect("equal", adjustable="datalim")
         legend_outside(ax, where="below", ncols=2)
@@ -596,13 +841,34 @@ def plot(dataset_path, out_dir) -> list[Path]:
         fig = scene_devices.plot_detections(device_tables)
         if fig is not None:
             out.append(save_figure(fig, figure_path(dataset_path, out_dir, "detections")))
+        if himr_tables:
+            fig = scene_himr.plot_ranges(himr_tables)
+            out.append(save_figure(fig, figure_path(dataset_path, out_dir, "himr-ranges")))
     return out
 
 
 def scenario_module(path: str | Path) -> ModuleType:
-    """The scenario of scene file ``path``: a module with ``NAME`` (the file's stem),
-    ``DESCRIPTION``, ``Config``, ``run``, ``plot`` and ``scene_config(toml_path, overrides)``
-    (the file's validated config; a ``-c`` config file is refused: the scene is its own)."""
+    """Make the scenario of scene file ``path``.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The scene file (read once here for its description).
+
+    Returns
+    -------
+    types.ModuleType
+        A module with ``NAME`` (the file's stem), ``DESCRIPTION`` (``[scene].description`` or
+        :data:`DESCRIPTION`), ``Config``, ``run``, ``plot``, ``FIGURE_IMPORTS`` and
+        ``scene_config(toml_path, overrides)``: the file's validated config; a ``-c`` config
+        file (``toml_path`` not None) is refused with a
+        :class:`~rfsim.core.errors.UserError`, the scene is its own config.
+
+    Raises
+    ------
+    rfsim.core.errors.UserError
+        The file cannot be read or is not valid TOML.
+    """
     p = Path(path)
     data = read_scene(p)
     description = data.get("scene", {}).get("description", "") if isinstance(data.get("scene"), dict) else ""

@@ -1,12 +1,13 @@
 """Tag-side execution of Gen2 access commands against the standard (EPC Gen2 v2 / ISO 18000-63
 §6.3.2.12.3, Annex I error codes): every reply is laid out by hand here (header bit, fields,
-handle) with its CRC-16 from a bitwise shift register written in this file; the commands go
+handle) with its CRC-16 from a bitwise shift register (tests/reference/gen2_crc.py); the commands go
 through their bit encoding and parser first, as a tag receives them."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from reference.gen2_crc import crc16_bitwise
 
 from rfsim.gen2.access import (
     MAX_DELAYED_REPLY_S,
@@ -35,14 +36,7 @@ KILL_PWD, ACCESS_PWD = 0xDEADC0DE, 0x12345678
 
 
 def crc16_str(bits: str) -> str:
-    """CRC-16 of Gen2 (x^16 + x^12 + x^5 + 1, preset FFFFh, ones' complement), bit by bit."""
-    reg = 0xFFFF
-    for c in bits:
-        msb = (reg >> 15) & 1
-        reg = (reg << 1) & 0xFFFF
-        if msb ^ int(c):
-            reg ^= 0x1021
-    return format(reg ^ 0xFFFF, "016b")
+    return format(crc16_bitwise(bits), "016b")
 
 
 def b(value: int, n: int = 16) -> str:
@@ -142,6 +136,11 @@ def test_a_wrong_handle_gets_no_reply_and_changes_nothing(cmd):
 def test_a_killed_tag_never_replies():
     r = run(tag(), ctx("killed"), Read(membank=TID, word_ptr=0, word_count=1, rn16=HANDLE))
     assert r.reply is None and r.context.state == "killed"
+
+
+def test_an_unknown_access_state_is_refused():
+    with pytest.raises(ValueError, match="access state"):
+        AccessContext(state="reply", handle=HANDLE, cover_rn16=0)
 
 
 def test_inventory_commands_are_not_access_commands():

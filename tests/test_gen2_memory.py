@@ -1,13 +1,14 @@
 """Gen2 tag memory against the standard's memory map (EPC Gen2 v2 / ISO 18000-63 §6.3.2.1):
 word layouts of the Reserved, EPC and TID banks written out by hand, the StoredCRC checked
 against published PC + EPC + CRC-16 replies (gen2-and-validation-anchors.md §3.2) and against
-a bitwise CRC-16 written in this file, and the Lock action table (§6.3.2.12.3.5) case by case."""
+a bitwise CRC-16 (tests/reference/gen2_crc.py), and the Lock action table (§6.3.2.12.3.5) case by case."""
 
 from __future__ import annotations
 
 import tomllib
 
 import pytest
+from reference.gen2_crc import crc16_bitwise as crc16_of_bits
 
 from rfsim.core.config import from_dict
 from rfsim.core.errors import ConfigError
@@ -22,17 +23,6 @@ from rfsim.gen2.memory import (
     TagMemory,
     TagMemoryConfig,
 )
-
-
-def crc16_of_bits(bits: str) -> int:
-    """CRC-16 of Gen2 (x^16 + x^12 + x^5 + 1, preset FFFFh, ones' complement), bit by bit."""
-    reg = 0xFFFF
-    for c in bits:
-        msb = (reg >> 15) & 1
-        reg = (reg << 1) & 0xFFFF
-        if msb ^ int(c):
-            reg ^= 0x1021
-    return reg ^ 0xFFFF
 
 
 def words_bits(words) -> str:

@@ -95,6 +95,12 @@ class AccessContext:
     cover_rn16: int
     pending: str = ""
 
+    def __post_init__(self):
+        if self.state not in ("open", "secured", "killed", "arbitrate"):
+            raise ValueError(f"access state must be open, secured, killed or arbitrate, got {self.state!r}")
+        if self.pending not in ("", "access", "kill"):
+            raise ValueError(f"pending must be '', 'access' or 'kill', got {self.pending!r}")
+
     @property
     def secured(self) -> bool:
         """Whether the tag is in the Secured state."""

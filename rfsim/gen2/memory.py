@@ -470,6 +470,13 @@ class TagMemory:
             return {next(f for f, b in LOCK_FIELD_BANK.items() if b == membank)}
         return {self._password_field(w) for w in range(word_ptr, word_ptr + count)}
 
+    def _check_locks(self, membank: int, word_ptr: int, count: int, secured: bool, what: str) -> None:
+        """Lock pair 1 1 refuses always, 1 0 outside Secured (the Lock action table)."""
+        for name in sorted(self._fields(membank, word_ptr, count)):
+            lock, perma = self.locks[name]
+            if lock and (perma or not secured):
+                raise MemoryAccessError(TagError.MEMORY_LOCKED, f"{name} is {what}-locked")
+
     # -- operations
 
     def read(self, membank: int, word_ptr: int, word_count: int, *, secured: bool) -> tuple[int, ...]:
@@ -504,10 +511,7 @@ class TagMemory:
             word_count = max(len(self.banks[membank]) - word_ptr, 0)
         self._check_range(membank, word_ptr, word_count)
         if membank == RESERVED:
-            for name in self._fields(membank, word_ptr, word_count):
-                lock, perma = self.locks[name]
-                if (lock and perma) or (lock and not secured):
-                    raise MemoryAccessError(TagError.MEMORY_LOCKED, f"{name} is read-locked")
+            self._check_locks(membank, word_ptr, word_count, secured, "read")
         return tuple(self._get(membank, w) for w in range(word_ptr, word_ptr + word_count))
 
     def check_write(self, membank: int, word_ptr: int, words, *, secured: bool) -> None:
@@ -533,10 +537,7 @@ class TagMemory:
         """
         words = list(words)
         self._check_range(membank, word_ptr, len(words))
-        for name in sorted(self._fields(membank, word_ptr, len(words))):
-            lock, perma = self.locks[name]
-            if (lock and perma) or (lock and not secured):
-                raise MemoryAccessError(TagError.MEMORY_LOCKED, f"{name} is write-locked")
+        self._check_locks(membank, word_ptr, len(words), secured, "write")
         if membank == EPC and word_ptr == 0:
             raise MemoryAccessError(TagError.OTHER, "the StoredCRC is computed by the tag")
         if membank == EPC and word_ptr <= 1 < word_ptr + len(words):

@@ -10,7 +10,7 @@ import tomllib
 import pytest
 from reference.gen2_crc import crc16_bitwise as crc16_of_bits
 
-from rfsim.core.config import from_dict
+from rfsim.core.config import from_dict, to_toml
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.memory import (
     CHIP_MODELS,
@@ -256,6 +256,11 @@ def test_config_loads_from_toml():
     assert m.banks[USER][:2] == [0x0102, 0] and m.bank_size(USER) == 32
     assert m.banks[TID][3:] == [0xABCD, 0xEF01, 0x2345]
     assert m.lock_name("user") == "locked" and m.lock_name("tid") == "permalocked"
+
+
+def test_config_round_trips_through_its_toml_text():
+    cfg = TagMemoryConfig(chip="higgs-3", xpc_w1=0x0200, access_password=5, lock_epc="permaunlocked")
+    assert from_dict(TagMemoryConfig, tomllib.loads(to_toml(cfg))) == cfg
 
 
 @pytest.mark.parametrize("table, key", [

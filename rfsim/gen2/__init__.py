@@ -2,6 +2,8 @@
 
 Modules: :mod:`~rfsim.gen2.bits` (bit arrays), :mod:`~rfsim.gen2.crc` (CRC-5/CRC-16),
 :mod:`~rfsim.gen2.commands` (reader command encoders and parsers),
+:mod:`~rfsim.gen2.memory` (tag memory banks, lock state, chip models),
+:mod:`~rfsim.gen2.access` (tag-side execution of access commands: replies, states, delays),
 :mod:`~rfsim.gen2.link` (link profiles, BLF tolerance, T1–T7, durations),
 :mod:`~rfsim.gen2.pie` (PIE envelope encoder and decoder),
 :mod:`~rfsim.gen2.linecode` (FM0/Miller encoders, sampled replies, coherent and Viterbi

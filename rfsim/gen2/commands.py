@@ -18,12 +18,14 @@ Read           ``11000010`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16
                CRC-16
 Write          ``11000011`` | MemBank(2) | WordPtr(EBV) | Data(16, cover-coded) |            ≥ 66
                RN16(16) | CRC-16
-Kill           ``11000100`` | Password(16, cover-coded) | RFU/Recom(3) | RN16(16) | CRC-16  59
+Kill           ``11000100`` | Password(16, cover-coded) | RFU/Recom(3) | RN16(16) |        59
+               CRC-16
 Lock           ``11000101`` | Payload(20: Mask(10) Action(10)) | RN16(16) | CRC-16          60
 Access         ``11000110`` | Password(16, cover-coded) | RN16(16) | CRC-16                 56
 BlockWrite     ``11000111`` | MemBank(2) | WordPtr(EBV) | WordCount(8) |                    ≥ 74
                Data(16·WordCount) | RN16(16) | CRC-16
-BlockErase     ``11001000`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) | CRC-16  ≥ 58
+BlockErase     ``11001000`` | MemBank(2) | WordPtr(EBV) | WordCount(8) | RN16(16) |        ≥ 58
+               CRC-16
 =============  ==========================================================================  ======
 
 Access commands (EPC Gen2 v2 / ISO 18000-63 §6.3.2.12.3: Write, Kill, Lock, Access,

@@ -319,7 +319,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
 
     .. math::
 
-        P_T = rac{\mathrm{SNR}\, N\, (4\pi d)^4}{G_T G_R G_t^2 \lambda^4}, \qquad N = k T_0 F f_s
+        P_T = \frac{\mathrm{SNR}\, N\, (4\pi d)^4}{G_T G_R G_t^2 \lambda^4}, \qquad N = k T_0 F f_s
 
     with λ of the mean carrier. Packet k is one air step per pylon (``cross_carrier =
     "ignore"``) or one with every pylon (``"joint"``) on the packet's air time plus

@@ -1,7 +1,7 @@
 """Gen2 access commands (Write, Kill, Lock, Access, BlockWrite, BlockErase): each command's bits
 laid out by hand here from the standard's field tables (EPC Gen2 v2 / ISO 18000-63
 §6.3.2.12.3: command code, fields MSB first, handle, CRC-16), the CRC-16 computed by a bitwise
-shift register written in this file (checked first against the published Req_RN and Read
+shift register (tests/reference/gen2_crc.py, checked first against the published Req_RN and Read
 bitstreams of gen2-and-validation-anchors.md §3.3), then encode and parse compared with them."""
 
 from __future__ import annotations
@@ -36,16 +36,12 @@ from rfsim.gen2.commands import (
 )
 from rfsim.gen2.pie import pie_envelope
 
+from reference.gen2_crc import crc16_bitwise
+
 
 def crc16_bits(bits: str) -> str:
-    """CRC-16 of Gen2 (x^16 + x^12 + x^5 + 1, preset FFFFh, ones' complement), bit by bit."""
-    reg = 0xFFFF
-    for c in bits:
-        msb = (reg >> 15) & 1
-        reg = (reg << 1) & 0xFFFF
-        if msb ^ int(c):
-            reg ^= 0x1021
-    return format(reg ^ 0xFFFF, "016b")
+    """The bitwise reference CRC-16 of ``bits`` as a 16-character bit string."""
+    return format(crc16_bitwise(bits), "016b")
 
 
 def b(value: int, n: int) -> str:

@@ -226,7 +226,8 @@ class GeometryConfig:
         "panel", doc="'panel': the settings above; 'pass-like': the reading of the PASS runs under which "
                      "orientation matters little (PASS_LIKE: reader pattern nearly flat over the cuboid, "
                      "170 deg / 3 dBic, vertical tag dipoles, tag powered throughout, tag.sensitivity_dbm -40); "
-                     "it replaces reader_beamwidth_deg, reader_gain_dbic, tag_roll_deg and tag.sensitivity_dbm")
+                     "it replaces reader_beamwidth_deg, reader_gain_dbic, tag_roll_deg and tag.sensitivity_dbm and keeps "
+                     "tag_pattern, tag_facing and st_pattern (with tag_pattern = 'isotropic' it reproduces a3 and a4)")
 
     def __post_init__(self):
         if self.antenna_model == "pass-like":

@@ -337,3 +337,22 @@ def test_elevation_coefficient_follows_the_tag_dipole_pattern_and_the_d_slope_st
     assert abs(flat["a4"][0] - pub_a4) < 2 * flat["se_a4"][0], (flat["a4"][0], flat["se_a4"][0])
     for f in (dipole, flat):
         assert f["a2"][0] - pub_a2 > 8 * f["se_a2"][0], (f["a2"][0], f["se_a2"][0])
+
+
+def test_random_tag_orientation_is_uniform_and_the_default_draws_are_kept():
+    """``geometry.tag_facing = "random"``: a uniformly random rotation, so the dipole's axis
+    (local z) is uniform on the sphere: each global component has mean 0 and mean square 1/3
+    (variance of z² 4/45; 2000 draws, 5 standard errors ≈ 0.033). The default placement
+    (facing in azimuth, vertical at roll 0) is unchanged by the option."""
+    from rfsim.core.rng import trial_rng_grid
+
+    rngs = trial_rng_grid(7, range(2000), range(dp.N_STREAMS))
+    g = dp.GeometryConfig(tag_facing="random")
+    axes = np.array([dp.sample_placement(g, r).tag_antenna.polarization_axis for r in rngs])
+    assert np.all(np.abs(axes.mean(axis=0)) < 5 * np.sqrt(1 / 3 / 2000)), axes.mean(axis=0)
+    assert np.all(np.abs((axes ** 2).mean(axis=0) - 1 / 3) < 5 * np.sqrt(4 / 45 / 2000)), (axes ** 2).mean(axis=0)
+    rngs = trial_rng_grid(7, range(3), range(dp.N_STREAMS))
+    flat = dp.GeometryConfig(tag_roll_deg=0.0)
+    for r in rngs:
+        p = dp.sample_placement(flat, r)
+        np.testing.assert_array_equal(p.tag_antenna.polarization_axis, [0.0, 0.0, 1.0])

@@ -11,6 +11,8 @@ from pathlib import Path
 import rfsim.air
 from rfsim.protocols import batch, engine
 
+from code_lines import code_lines, docstring_lines
+
 AIR_DIR = Path(rfsim.air.__file__).parent
 
 
@@ -34,8 +36,10 @@ def test_one_exchange_function():
 def test_air_step_functions_are_short():
     long = []
     for path in sorted(AIR_DIR.glob("*.py")):
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.FunctionDef) and node.end_lineno - node.lineno + 1 >= 80:
+        tree = ast.parse(path.read_text())
+        docs = docstring_lines(tree)  # lines of code: the numpydoc text does not count
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and code_lines(node, docs) >= 80:
                 long.append(f"{path.name}:{node.name}")
     assert not long
 

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import pytest
 
+from code_lines import code_lines, docstring_lines
+
 ROOT = Path(__file__).resolve().parents[1]
 MAX_MODULE_LINES = 700
 MAX_FUNCTION_LINES = 120
@@ -29,22 +31,11 @@ LONG_FUNCTIONS: dict[tuple[str, str], str] = {}
 LONG_MODULES: dict[str, str] = {}
 
 
-def _docstring_lines(tree: ast.AST) -> set[int]:
-    """Line numbers of every module, class and function docstring in ``tree``."""
-    out: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)) and node.body:
-            first = node.body[0]
-            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str):
-                out.update(range(first.lineno, first.end_lineno + 1))
-    return out
-
-
 def _lines(path: Path) -> int:
     """Lines of code of a module: its lines but its docstrings (the API reference's numpydoc
     text is documentation, not code; the limit is on code)."""
     text = path.read_text(encoding="utf-8")
-    return len(text.splitlines()) - len(_docstring_lines(ast.parse(text)))
+    return len(text.splitlines()) - len(docstring_lines(ast.parse(text)))
 
 
 def _library_files():
@@ -62,11 +53,10 @@ def test_no_long_functions():
     long = {}
     for p in _library_files():
         tree = ast.parse(p.read_text(encoding="utf-8"))
-        docs = _docstring_lines(tree)
+        docs = docstring_lines(tree)
         for node in ast.walk(tree):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-                span = range(node.lineno, node.end_lineno + 1)
-                n = len(span) - sum(1 for line in span if line in docs)
+                n = code_lines(node, docs)
                 if n > MAX_FUNCTION_LINES:
                     long[(str(p.relative_to(ROOT)), node.name)] = n
     assert {k: v for k, v in long.items() if k not in LONG_FUNCTIONS} == {}

@@ -10,7 +10,9 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
-                                          viterbi_kernel, waveform_kernel)
+                                          waveform_kernel)
+from rfsim.gen2._reply_core_kernels import (halfbit_decisions, is_steady, normalised_correlation, parabola_offset,
+                                            preamble_gain_offset, rest_level_sums, steady_residual)
 
 
 @njit
@@ -22,19 +24,12 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
     the reply's end, h2, c2): every hypothesis explains the same samples."""
     lag = int(math.floor(start))
     mean_t = sampled_template(pre_el, start - lag, blf_ratio, tpl[:n_pre])
-    acc = 0j
-    e_t = 0.0
-    seg_mean = 0j
+    seg_mean = 0j  # summed sample by sample (the capture decoder: from cumulative sums)
     for i in range(n_pre):
-        t0 = tpl[i] - mean_t
-        acc += r[lag + i] * t0
-        e_t += t0 * t0
         seg_mean += r[lag + i]
-    seg_mean /= n_pre
-    h = acc / e_t
+    h, dc = preamble_gain_offset(r, lag, tpl, mean_t, n_pre, seg_mean / n_pre)
     if h == 0:
         return math.inf, 0, 0j, 0j
-    dc = seg_mean - h * mean_t
     g = 1.0 / h
     dcg = dc * g
     projected_halfbit_sums_kernel(r[lag:], g.real, g.imag, dcg.real, start - lag, blf_ratio, m, sums)
@@ -42,29 +37,16 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
     nb = n_bits + 1
     a = np.empty(nb)
     b = np.empty(nb)
-    for i in range(nb):
-        a[i] = sums[npre + 2 * i]
-        b[i] = sums[npre + 2 * i + 1]
     full = np.empty(nb, dtype=np.uint8)
-    viterbi_kernel(a, b, miller, state0, True, full)
+    halfbit_decisions(sums, npre, miller, state0, True, a, b, full)
     for i in range(n_bits):
         bits[i] = full[i]
     elements_kernel(bits, True, m, pre_levels, state0, elems)
     n_el = elems.size
     end = min(r.size, int(math.ceil(start + n_el / blf_ratio)) + 1)
     waveform_kernel(elems.astype(np.float64), start, blf_ratio, ref)
-    sx = 0j
-    sxr = 0j
-    sr = 0.0
-    srr = 0.0
     nw = r.size  # every hypothesis explains the whole window (rest level −1 around the reply)
-    for n in range(nw):
-        v = ref[n] if ref[n] != 0.0 else -1.0
-        ref[n] = v
-        sx += r[n]
-        sxr += r[n] * v
-        sr += v
-        srr += v * v
+    srr, sr, sxr, sx = rest_level_sums(r, ref, nw, True)
     den = nw * srr - sr * sr
     h2 = (nw * sxr - sr * sx) / den if den > 0 else 0j
     c2 = (sx - h2 * sr) / nw
@@ -103,8 +85,7 @@ def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
         acc_re += z.real * t
         acc_im += z.imag * t
     s = p_s[lag + L] - p_s[lag]
-    en = (p_e[lag + L] - p_e[lag]) - (s.real * s.real + s.imag * s.imag) / L
-    return math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(en, 1e-300)))
+    return normalised_correlation(acc_re, acc_im, norm_t, p_e[lag + L] - p_e[lag], s.real, s.imag, L)
 
 
 @njit_inline
@@ -152,9 +133,7 @@ def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
     if lbest > lo and lbest < min(hi, nwin - L):
         for j in range(3):
             cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
-        den = cv[0] - 2.0 * cv[1] + cv[2]
-        if den < 0:
-            frac = 0.5 * (cv[0] - cv[2]) / den
+        frac = parabola_offset(cv[0], cv[1], cv[2])
     return cbest, kbest, lbest, frac
 
 
@@ -167,18 +146,14 @@ def _steady_disturbance(r, ref, start, end, ratio, h, c, m, nh, n_pre_levels, n_
     samples, y_n = Re((r_n − c)·h*)/|h|, σ_eff² = 2·Σ δ_j² / Σ N_j over the data half-bits
     (= σ² for white noise; in-band interference is not reduced by the matched filter's gain)."""
     i0 = max(1, int(math.ceil(start)))
-    acc_e = 0.0
-    cnt = 0
+    acc_e, cnt = steady_residual(r, ref, h, c, i0, end - 1)
     habs = abs(h)
     dsum = np.zeros(nh)
     dcnt = np.zeros(nh)
     for n in range(i0, end - 1):
         v = ref[n]
-        if v == ref[n - 1] and v == ref[n + 1]:
+        if is_steady(ref, n):
             z = r[n] - c
-            e = z - h * v
-            acc_e += e.real * e.real + e.imag * e.imag
-            cnt += 1
             kel = int(math.floor((n - start) * ratio + 1e-9))
             j = kel // m
             if 0 <= j < nh and habs > 0:

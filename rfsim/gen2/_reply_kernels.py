@@ -21,9 +21,10 @@ import numpy as np
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, element_sign, elements_kernel,
-                                          level_elements_kernel, projected_halfbit_sums_kernel, sampled_template,
-                                          viterbi_kernel, waveform_kernel)
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, level_elements_kernel,
+                                          projected_halfbit_sums_kernel, sampled_template, waveform_kernel)
+from rfsim.gen2._reply_core_kernels import (halfbit_decisions, normalised_correlation, preamble_gain_offset,
+                                            rest_level_sums, steady_residual)
 
 
 @njit
@@ -141,21 +142,12 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
         lag = int(math.floor(start))
         tpl = np.empty(n_pre)
         t_mean = sampled_template(pre_el, start - lag, ratio, tpl)
-        p_re = 0.0
-        p_im = 0.0
-        e_t = 0.0
-        for i in range(n_pre):
-            t0 = tpl[i] - t_mean
-            z = r[lag + i]
-            p_re += z.real * t0
-            p_im += z.imag * t0
-            e_t += t0 * t0
+        # the segment's mean from the cumulative sums (the reader's search: summed sample by sample)
         s_re = c_re[lag + n_pre] - c_re[lag]
         s_im = c_im[lag + n_pre] - c_im[lag]
-        h = complex(p_re, p_im) / e_t
+        h, dc = preamble_gain_offset(r, lag, tpl, t_mean, n_pre, complex(s_re / n_pre, s_im / n_pre))
         if h == 0:
             continue
-        dc = complex(s_re / n_pre, s_im / n_pre) - h * t_mean
         g = 1.0 / h
         g_re = g.real
         g_im = g.imag
@@ -179,13 +171,7 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
             n_a = n_b
             if n_a >= end:
                 break
-        for i in range(n_data // 2):
-            a[i] = sums[pre.size + 2 * i]
-            b[i] = sums[pre.size + 2 * i + 1]
-        if viterbi:
-            viterbi_kernel(a, b, miller, state0, True, dec)
-        else:
-            bitwise_kernel(a, b, miller, dec)
+        halfbit_decisions(sums, pre.size, miller, state0, viterbi, a, b, dec)
         # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
         elements_kernel(dec[:n_bits], True, m, pre, state0, el)
         fitted, resid = _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, min(r.size, int(start) + n_rep))
@@ -229,16 +215,7 @@ def _interp_unit(r, x):
 def _fit_rest_level(r, ref, n_end):
     """Least-squares ``(h, c, ok)`` of r ≈ h·ref + c over r[:n_end], ``ref`` read as −1 where
     it is 0 (the rest level around the reply)."""
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        v = ref[n] if ref[n] != 0.0 else -1.0
-        ss += v * v
-        s1 += v
-        rs += r[n] * v
-        r1 += r[n]
+    ss, s1, rs, r1 = rest_level_sums(r, ref, n_end, False)
     return _ls_gain_offset(ss, s1, float(n_end), rs, r1)
 
 
@@ -345,13 +322,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, state0, dummy, viterbi,
         for i in range(part.size):
             part[i] = rw[n_rest + i] - c
         projected_halfbit_sums_kernel(part, g.real, g.imag, (0.0 * g).real, 0.0, rho, m, sums)
-        for i in range(n_data):
-            a[i] = sums[n_pre_h + 2 * i]
-            b[i] = sums[n_pre_h + 2 * i + 1]
-        if viterbi:
-            viterbi_kernel(a, b, miller, state0, True, dec)
-        else:
-            bitwise_kernel(a[:nb], b[:nb], miller, dec[:nb])
+        halfbit_decisions(sums, n_pre_h, miller, state0, viterbi, a, b, dec)  # dec[nb]: the dummy
         same = True
         for i in range(nb):
             if dec[i] != bits[i]:
@@ -465,28 +436,11 @@ def _fit_steady(rw, ref, n_end):
     """Least-squares ``(h, c, ok, σ²)`` of rw ≈ h·ref + c over rw[:n_end] (``ref``'s zeros set
     to the rest level −1 in place), σ² the mean residual power over the steady samples (both
     neighbours at the same level; NaN when there are none)."""
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        if ref[n] == 0.0:
-            ref[n] = -1.0
-        v = ref[n]
-        ss += v * v
-        s1 += v
-        rs += rw[n] * v
-        r1 += rw[n]
+    ss, s1, rs, r1 = rest_level_sums(rw, ref, n_end, True)
     h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
     if not ok:
         return h, c, ok, math.nan
-    acc = 0.0
-    cnt = 0
-    for n in range(1, n_end - 1):
-        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
-            e = rw[n] - c - h * ref[n]
-            acc += e.real * e.real + e.imag * e.imag
-            cnt += 1
+    acc, cnt = steady_residual(rw, ref, h, c, 1, n_end - 1)
     return h, c, ok, acc / cnt if cnt > 0 else math.nan
 
 
@@ -508,8 +462,7 @@ def _correlation_at(rw, n_rest, pre_el, n_t, rho):
         e_t += t0 * t0
         sz += z
         e_z += z.real * z.real + z.imag * z.imag
-    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
-    return abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+    return normalised_correlation(p.real, p.imag, math.sqrt(e_t), e_z, sz.real, sz.imag, n_t)
 
 
 @njit

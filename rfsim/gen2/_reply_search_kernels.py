@@ -15,6 +15,7 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import runs_dot, sampled_template
+from rfsim.gen2._reply_core_kernels import normalised_correlation, parabola_offset
 
 
 
@@ -97,8 +98,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
             s_im = c_im[k + n] - c_im[k]
             acc_re = a_re - mean * s_re
             acc_im = a_im - mean * s_im
-            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
-            c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
+            c = normalised_correlation(acc_re, acc_im, norm_t, p[k + n] - p[k], s_re, s_im, n)
             if k == kbest + 1 and kbest >= 0:
                 cr = c  # right neighbour of the running best
             if c > cbest:
@@ -111,8 +111,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
         if cbest > best:
             frac = 0.0
             if kbest > lo[j] and kbest < last:
-                den = cl - 2.0 * cbest + cr
-                frac = 0.5 * (cl - cr) / den if den < 0 else 0.0
+                frac = parabola_offset(cl, cbest, cr)
             best = cbest
             best_j = j
             best_pos = kbest + frac

@@ -1,0 +1,111 @@
+"""numba steps shared by the tag-reply decoders (:mod:`rfsim.gen2.reply_core` documents the
+decoders and where they still differ): the zero-mean normalised preamble correlation, the
+parabolic refinement of a correlation peak, the preamble's least-squares gain and offset,
+the decisions from half-bit sums, the sums of the least-squares fit of a remodulated reply
+with its rest level and the residual power over its steady samples.
+
+Callers: the reader's BLF search (``rfsim.devices._blf_search_kernels``) and the capture
+decoder (:mod:`rfsim.gen2._reply_search_kernels`, :mod:`rfsim.gen2._reply_kernels`). Each
+step is written once here in the arithmetic (order of operations) its callers had, so that
+their results are bit-identical to what they were; where the callers' arithmetic differed,
+the differing quantity is an argument (e.g. the mean of the preamble segment).
+"""
+
+from __future__ import annotations
+
+import math
+
+from rfsim.core._jit import njit_inline
+from rfsim.gen2._linecode_kernels import bitwise_kernel, viterbi_kernel
+
+
+@njit_inline
+def normalised_correlation(acc_re, acc_im, norm_t, energy, s_re, s_im, n):
+    """Zero-mean normalised correlation of a segment of ``n`` samples with a zero-mean
+    template: |acc| / (‖t0‖·√max(E − |S|²/n, 1e-300)), acc = Σ z·t0 = (``acc_re``,
+    ``acc_im``), ‖t0‖ = ``norm_t``, E = Σ|z|² (``energy``), S = Σ z = (``s_re``, ``s_im``);
+    in [0, 1]."""
+    en = energy - (s_re * s_re + s_im * s_im) / n
+    return math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(en, 1e-300)))
+
+
+@njit_inline
+def parabola_offset(c_left, c_peak, c_right):
+    """Offset [lags] of the vertex of the parabola through (−1, ``c_left``), (0, ``c_peak``),
+    (1, ``c_right``) from the middle lag, 0.5·(c₋ − c₊)/(c₋ − 2c₀ + c₊); 0 when the three do
+    not curve downwards."""
+    den = c_left - 2.0 * c_peak + c_right
+    return 0.5 * (c_left - c_right) / den if den < 0 else 0.0
+
+
+@njit_inline
+def preamble_gain_offset(r, lag, tpl, t_mean, n_pre, seg_mean):
+    """Least-squares gain h and offset c of r[lag : lag + n_pre] ≈ h·t + c on the sampled
+    pilot + preamble ``tpl`` (mean ``t_mean``): h = Σ r·(t − t̄) / Σ(t − t̄)², c = r̄ − h·t̄
+    with r̄ = ``seg_mean`` (the callers sum the segment in their own order: sample by sample
+    or from cumulative sums). Returns ``(h, c)``; h = 0 when r is orthogonal to the template."""
+    acc = 0j
+    e_t = 0.0
+    for i in range(n_pre):
+        t0 = tpl[i] - t_mean
+        acc += r[lag + i] * t0
+        e_t += t0 * t0
+    h = acc / e_t
+    return h, seg_mean - h * t_mean
+
+
+@njit_inline
+def halfbit_decisions(sums, n_pre_levels, miller, state0, viterbi, a, b, out):
+    """Bits from the half-bit sums of a reply: the data half-bits start after the
+    ``n_pre_levels`` half-bits of the pilot + preamble; bit i's sums are a_i, b_i (``a``,
+    ``b`` scratch of ``out.size``); Viterbi from ``state0`` ending on the dummy 1 (``viterbi``)
+    or bit-by-bit decisions (:mod:`rfsim.gen2._linecode_kernels`). ``out`` (n_bits + 1,)
+    uint8, the last the dummy."""
+    for i in range(out.size):
+        a[i] = sums[n_pre_levels + 2 * i]
+        b[i] = sums[n_pre_levels + 2 * i + 1]
+    if viterbi:
+        viterbi_kernel(a, b, miller, state0, True, out)
+    else:
+        bitwise_kernel(a, b, miller, out)
+
+
+@njit_inline
+def rest_level_sums(r, ref, n_end, write_ref):
+    """Sums of the least-squares fit r ≈ h·ref + c over r[:n_end], ``ref`` read as −1 where it
+    is 0 (the reply's rest level; written back into ``ref`` when ``write_ref``): returns
+    ``(Σref², Σref, Σr·ref, Σr)``."""
+    ss = 0.0
+    s1 = 0.0
+    rs = 0j
+    r1 = 0j
+    for n in range(n_end):
+        v = ref[n] if ref[n] != 0.0 else -1.0
+        if write_ref:
+            ref[n] = v
+        ss += v * v
+        s1 += v
+        rs += r[n] * v
+        r1 += r[n]
+    return ss, s1, rs, r1
+
+
+@njit_inline
+def is_steady(ref, n):
+    """Sample n of the reference ``ref`` is steady: both neighbours carry its level (a sample at
+    an element boundary may carry either level)."""
+    return ref[n] == ref[n - 1] and ref[n] == ref[n + 1]
+
+
+@njit_inline
+def steady_residual(r, ref, h, c, n0, n1):
+    """``(Σ|r − c − h·ref|², count)`` over the steady samples n0 ≤ n < n1 of ``ref``
+    (:func:`is_steady`; 1 ≤ n0, n1 < ref.size)."""
+    acc = 0.0
+    cnt = 0
+    for n in range(n0, n1):
+        if is_steady(ref, n):
+            e = (r[n] - c) - h * ref[n]
+            acc += e.real * e.real + e.imag * e.imag
+            cnt += 1
+    return acc, cnt

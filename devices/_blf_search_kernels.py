@@ -11,8 +11,9 @@ import numpy as np
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
                                           waveform_kernel)
-from rfsim.gen2._reply_core_kernels import (halfbit_decisions, is_steady, normalised_correlation, parabola_offset,
-                                            preamble_gain_offset, rest_level_sums, steady_residual)
+from rfsim.gen2._reply_core_kernels import (centred_start, cumulative_sums_into, halfbit_decisions, is_steady,
+                                            normalised_correlation, parabola_offset, preamble_gain_offset,
+                                            rest_level_sums, steady_residual)
 
 
 @njit
@@ -63,20 +64,18 @@ def _decode_centred(r, blf_ratio, centre, pre_el, nh, pre_levels, m, n_bits, mil
     """:func:`_decode_at` with the preamble centred on sample ``centre``: start = centre −
     n_pre_el/(2ρ); skipped (ok False) when the reply of ``nh`` half-bits does not fit in the
     window from there. Returns ``(ok, start, residual, end, h2, c2)``."""
-    n_pre_el = pre_el.size
-    start = centre - 0.5 * n_pre_el / blf_ratio
-    n_rep = int(math.ceil(nh * m / blf_ratio)) + 2
-    if start < 0 or start > r.shape[0] - n_rep:
+    ok, start, n_pre = centred_start(centre, pre_el.size, nh * m, blf_ratio, r.shape[0])
+    if not ok:
         return False, start, math.inf, 0, 0j, 0j
-    n_pre = int(math.floor(n_pre_el / blf_ratio))
     res, end, h2, c2 = _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0, tpl, sums,
                                   bits, elems, ref)
     return True, start, res, end, h2, c2
 
 
 @njit
-def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
-    """Zero-mean normalised correlation of r[lag:lag+L] with template k (prefix sums p_e, p_s)."""
+def _corr(r, tpl0, k, L, lag, norm_t, p_e, c_re, c_im):
+    """Zero-mean normalised correlation of r[lag:lag+L] with template k (prefix sums p_e of
+    |r|², c_re and c_im of r)."""
     acc_re = 0.0
     acc_im = 0.0
     for i in range(L):
@@ -84,8 +83,8 @@ def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
         t = tpl0[k, i]
         acc_re += z.real * t
         acc_im += z.imag * t
-    s = p_s[lag + L] - p_s[lag]
-    return normalised_correlation(acc_re, acc_im, norm_t, p_e[lag + L] - p_e[lag], s.real, s.imag, L)
+    return normalised_correlation(acc_re, acc_im, norm_t, p_e[lag + L] - p_e[lag], c_re[lag + L] - c_re[lag],
+                                  c_im[lag + L] - c_im[lag], L)
 
 
 @njit_inline
@@ -101,18 +100,7 @@ def _template_norms(coarse_tpl0, coarse_len):
 
 
 @njit_inline
-def _prefix_sums(r, p_e, p_s):
-    """Prefix sums of |r|² into ``p_e`` and of r into ``p_s`` (both ``(r.size + 1,)``, from 0)."""
-    p_e[0] = 0.0
-    p_s[0] = 0j
-    for i in range(r.size):
-        z = r[i]
-        p_e[i + 1] = p_e[i] + z.real * z.real + z.imag * z.imag
-        p_s[i + 1] = p_s[i] + z
-
-
-@njit_inline
-def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
+def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, c_re, c_im, cv):
     """Coarse search: the largest correlation :func:`_corr` over the BLF grid × the lags
     ``lo…hi``, the first wins ties; the lag refined by a parabola through the best lag's
     neighbours (same BLF; ``cv`` (3,) scratch). Returns ``(corr, BLF index, lag, fraction of
@@ -124,7 +112,7 @@ def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
     for k in range(coarse_len.size):
         L = coarse_len[k]
         for lag in range(lo, min(hi, nwin - L) + 1):
-            c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, p_s)
+            c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, c_re, c_im)
             if c > cbest:
                 cbest, kbest, lbest = c, k, lag
     # parabola through the best lag's neighbours (same BLF)
@@ -132,7 +120,7 @@ def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
     L = coarse_len[kbest]
     if lbest > lo and lbest < min(hi, nwin - L):
         for j in range(3):
-            cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
+            cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, c_re, c_im)
         frac = parabola_offset(cv[0], cv[1], cv[2])
     return cbest, kbest, lbest, frac
 
@@ -203,13 +191,14 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     best_ref = np.empty(nwin)
     tpl = np.empty(nwin)
     p_e = np.empty(nwin + 1)  # prefix sums of |r|² and r: sliding energy of every lag
-    p_s = np.empty(nwin + 1, dtype=np.complex128)
+    c_re = np.empty(nwin + 1)
+    c_im = np.empty(nwin + 1)
     norms = _template_norms(coarse_tpl0, coarse_len)
     cv = np.empty(3)
     for t in range(n_tr):
         r = rs[t]
-        _prefix_sums(r, p_e, p_s)
-        cbest, kbest, lbest, frac = _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv)
+        cumulative_sums_into(r, c_re, c_im, p_e, False)  # |r|² as (P + re²) + im²
+        cbest, kbest, lbest, frac = _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, c_re, c_im, cv)
         ratio_c = coarse_ratios[kbest]
         centre = lbest + frac + 0.5 * n_pre_el / ratio_c
         out_corr[t] = cbest

@@ -1,6 +1,7 @@
 """numba steps shared by the tag-reply decoders (:mod:`rfsim.gen2.reply_core` documents the
-decoders and where they still differ): the zero-mean normalised preamble correlation, the
-parabolic refinement of a correlation peak, the preamble's least-squares gain and offset,
+decoders and where they still differ): the cumulative sums of a window, the zero-mean
+normalised preamble correlation, the parabolic refinement of a correlation peak, the start of
+a reply whose preamble is centred on a sample, the preamble's least-squares gain and offset,
 the decisions from half-bit sums, the sums of the least-squares fit of a remodulated reply
 with its rest level and the residual power over its steady samples.
 
@@ -20,6 +21,26 @@ from rfsim.gen2._linecode_kernels import bitwise_kernel, viterbi_kernel
 
 
 @njit_inline
+def cumulative_sums_into(r, c_re, c_im, p2, grouped_energy):
+    """Cumulative sums of Re r, Im r and |r|² into ``c_re``, ``c_im``, ``p2`` (each
+    ``(r.size + 1,)``, from 0): the running sums every windowed correlation and fit reads.
+
+    |r|² is added as P + (re² + im²) when ``grouped_energy`` (the capture decoder), else as
+    (P + re²) + im² (the reader's BLF search): the two differ in the last bits."""
+    c_re[0] = 0.0
+    c_im[0] = 0.0
+    p2[0] = 0.0
+    for n in range(r.size):
+        z = r[n]
+        c_re[n + 1] = c_re[n] + z.real
+        c_im[n + 1] = c_im[n] + z.imag
+        if grouped_energy:
+            p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+        else:
+            p2[n + 1] = p2[n] + z.real * z.real + z.imag * z.imag
+
+
+@njit_inline
 def normalised_correlation(acc_re, acc_im, norm_t, energy, s_re, s_im, n):
     """Zero-mean normalised correlation of a segment of ``n`` samples with a zero-mean
     template: |acc| / (‖t0‖·√max(E − |S|²/n, 1e-300)), acc = Σ z·t0 = (``acc_re``,
@@ -36,6 +57,21 @@ def parabola_offset(c_left, c_peak, c_right):
     not curve downwards."""
     den = c_left - 2.0 * c_peak + c_right
     return 0.5 * (c_left - c_right) / den if den < 0 else 0.0
+
+
+@njit_inline
+def centred_start(centre, n_pre_el, n_el, ratio, n_samples):
+    """Start of a reply whose pilot + preamble (``n_pre_el`` elements) is centred on sample
+    ``centre``, at ρ = ``ratio`` elements per sample: start = centre − n_pre_el/(2ρ) [samples].
+
+    Returns ``(ok, start, n_pre)``: ok when ``n_el`` elements from there (plus 2 samples,
+    ⌈n_el/ρ⌉ + 2) fit in a window of ``n_samples`` (the reader asks for the whole reply, the
+    capture decoder for the bits it decodes), n_pre = ⌊n_pre_el/ρ⌋ the samples fully inside
+    the preamble."""
+    start = centre - 0.5 * n_pre_el / ratio
+    n_rep = int(math.ceil(n_el / ratio)) + 2
+    ok = not (start < 0 or start > n_samples - n_rep)
+    return ok, start, int(math.floor(n_pre_el / ratio))
 
 
 @njit_inline

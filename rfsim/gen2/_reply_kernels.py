@@ -23,8 +23,8 @@ from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, level_elements_kernel,
                                           projected_halfbit_sums_kernel, sampled_template, waveform_kernel)
-from rfsim.gen2._reply_core_kernels import (halfbit_decisions, normalised_correlation, preamble_gain_offset,
-                                            rest_level_sums, steady_residual)
+from rfsim.gen2._reply_core_kernels import (centred_start, halfbit_decisions, normalised_correlation,
+                                            preamble_gain_offset, rest_level_sums, steady_residual)
 
 
 @njit
@@ -116,7 +116,6 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     nh = pre.size + 2 * (n_bits + 1)
     n_el = n_pre_el + 2 * m * (n_bits + 1)
     pre_el = _preamble_element_levels(pre, m)
-    half = 0.5 * n_pre_el
     sums = np.empty(nh)
     n_data = nh - pre.size
     a = np.empty(n_data // 2)
@@ -131,14 +130,13 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     for j in range(blfs.size):
         blf = blfs[j]
         rho = 2.0 * blf / fs
-        start = centre - half / rho
-        n_rep = int(math.ceil(n_el / rho)) + 2
-        if start < 0 or start > r.size - n_rep:
+        ok, start, n_pre = centred_start(centre, n_pre_el, n_el, rho, r.size)
+        if not ok:
             continue
         # --- decode at start (rfsim.gen2.linecode._decode with start_sample and no gain)
         ratio = 2.0 * float(blf) / float(fs)
         n_reply = int(math.ceil(nh * m / ratio))
-        n_pre = int(math.floor(pre.size * m / ratio))
+        n_rep = int(math.ceil(n_el / rho)) + 2
         lag = int(math.floor(start))
         tpl = np.empty(n_pre)
         t_mean = sampled_template(pre_el, start - lag, ratio, tpl)

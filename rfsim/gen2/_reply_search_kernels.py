@@ -15,23 +15,20 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import runs_dot, sampled_template
-from rfsim.gen2._reply_core_kernels import normalised_correlation, parabola_offset
+from rfsim.gen2._reply_core_kernels import cumulative_sums_into, normalised_correlation, parabola_offset
 
 
 
 @njit_inline
 def cumulative_sums(r):
     """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0 (the running sums
-    every windowed correlation of the reply search and decoding reads)."""
+    every windowed correlation of the reply search and decoding reads; |r|² added as
+    P + (re² + im²))."""
     nr = r.size
-    c_re = np.zeros(nr + 1)
-    c_im = np.zeros(nr + 1)
-    p2 = np.zeros(nr + 1)
-    for n in range(nr):
-        z = r[n]
-        c_re[n + 1] = c_re[n] + z.real
-        c_im[n + 1] = c_im[n] + z.imag
-        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    c_re = np.empty(nr + 1)
+    c_im = np.empty(nr + 1)
+    p2 = np.empty(nr + 1)
+    cumulative_sums_into(r, c_re, c_im, p2, True)
     return c_re, c_im, p2
 
 @njit

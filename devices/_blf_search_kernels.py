@@ -11,9 +11,9 @@ import numpy as np
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
                                           waveform_kernel)
-from rfsim.gen2._reply_core_kernels import (centred_start, cumulative_sums_into, halfbit_decisions, is_steady,
-                                            normalised_correlation, parabola_offset, preamble_gain_offset,
-                                            rest_level_sums, steady_residual)
+from rfsim.gen2._reply_core_kernels import (blf_resolution, centred_start, cumulative_sums_into, fine_step,
+                                            halfbit_decisions, is_steady, normalised_correlation, parabola_offset,
+                                            preamble_gain_offset, rest_level_sums, steady_residual)
 
 
 @njit
@@ -233,8 +233,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
             ex = np.empty(nhx * m, dtype=np.int8)
             sx = np.empty(nhx)
             while True:
-                step = max(span / fine_per_side, tgt)
-                kk = int(math.ceil(span / step))
+                step, kk = fine_step(span, fine_per_side, tgt)
                 found = False
                 for j in range(-kk, kk + 1):
                     ratio = centre_ratio * (1.0 + step * j)
@@ -254,7 +253,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
                 break
             nbx = min(n_bits, 2 * nbx)
             span = 4.0 * tgt
-            tgt = 1.0 / (4.0 * (n_pre_el + 2 * m * (nbx + 1)))
+            tgt = blf_resolution(n_pre_el + 2 * m * (nbx + 1))
             centre_ratio = best_ratio
         out_bits[t, :] = best_bits
         out_ratio[t] = best_ratio

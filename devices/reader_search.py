@@ -17,6 +17,7 @@ from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_b
 from rfsim.core.lazy import lazy_import
 
 _bk = lazy_import("rfsim.devices._blf_search_kernels")
+_rck = lazy_import("rfsim.gen2._reply_core_kernels")
 
 __all__ = ["SearchDecode", "search_decode", "blf_grid_hz", "rn16_threshold_db", "search_setup", "search_result",
            "FINE_SPAN_STEPS", "FINE_PER_SIDE", "FINE_FIRST_BITS"]
@@ -133,7 +134,7 @@ def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
     n_el = n_reply_elements(n_bits, m, trext)
     n_el1 = n_reply_elements(min(int(n_bits), FINE_FIRST_BITS), m, trext)
     return (pre_levels.astype(np.int8), preamble_state(m=m, trext=trext), pre_el, ratios, tpl0, lens,
-            FINE_SPAN_STEPS * coarse_blf_step(m, trext), 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
+            FINE_SPAN_STEPS * coarse_blf_step(m, trext), _rck.blf_resolution(n_el1), _rck.blf_resolution(n_el))
 
 
 def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int, hi: int,

@@ -160,6 +160,9 @@ REPLY_STEPS = {
     "parabola_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
     "cumulative_sums_into": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
     "centred_start": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "fine_step": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "devices/reader_search.py",
+                                            "rfsim/gen2/reply_decoding.py")),
     "preamble_gain_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "halfbit_decisions": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "rest_level_sums": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
@@ -188,7 +191,12 @@ def _calls(tree: ast.AST) -> set[str]:
 
 
 def _imported_from(tree: ast.AST, module: str) -> set[str]:
-    return {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module == module for a in n.names}
+    """Names imported from ``module``; ``*`` when the module is imported lazily (``lazy_import``)."""
+    names = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module == module for a in n.names}
+    if any(isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "lazy_import"
+           and _const(n.args[0], module) for n in ast.walk(tree)):
+        names.add("*")
+    return names
 
 
 def _reply_step_idioms(tree: ast.AST) -> list[str]:
@@ -227,7 +235,7 @@ def test_reply_decoders_call_the_shared_step(name, user):
     """The reader's BLF search and the capture decoder import the step from its home and call it."""
     home = REPLY_STEPS[name][0]
     tree = MODULES[user]
-    assert name in _imported_from(tree, _dotted(home)), f"{user} does not import {name} from {home}"
+    assert _imported_from(tree, _dotted(home)) & {name, "*"}, f"{user} does not import {name} from {home}"
     assert name in _calls(tree), f"{user} does not call {name}"
 
 

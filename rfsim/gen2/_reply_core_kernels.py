@@ -1,7 +1,8 @@
 """numba steps shared by the tag-reply decoders (:mod:`rfsim.gen2.reply_core` documents the
 decoders and where they still differ): the cumulative sums of a window, the zero-mean
 normalised preamble correlation, the parabolic refinement of a correlation peak, the start of
-a reply whose preamble is centred on a sample, the preamble's least-squares gain and offset,
+a reply whose preamble is centred on a sample, the schedule of the fine BLF search and the
+BLF precision decoding needs, the preamble's least-squares gain and offset,
 the decisions from half-bit sums, the sums of the least-squares fit of a remodulated reply
 with its rest level and the residual power over its steady samples.
 
@@ -72,6 +73,23 @@ def centred_start(centre, n_pre_el, n_el, ratio, n_samples):
     n_rep = int(math.ceil(n_el / ratio)) + 2
     ok = not (start < 0 or start > n_samples - n_rep)
     return ok, start, int(math.floor(n_pre_el / ratio))
+
+
+@njit_inline
+def fine_step(span, per_side, target):
+    """One pass of the fine BLF search across ±``span`` (relative): the step
+    max(span/``per_side``, ``target``) and k = ⌈span/step⌉, the pass's 2k + 1 hypotheses at
+    centre·(1 + step·j), j = −k … k. The search narrows the span to the step around the best
+    and stops after the pass whose step is ≤ ``target``. Returns ``(step, k)``."""
+    step = max(span / per_side, target)
+    return step, int(math.ceil(span / step))
+
+
+@njit_inline
+def blf_resolution(n_el):
+    """Relative BLF precision that decoding a reply of ``n_el`` elements needs, 1/(4·n_el): a
+    BLF that far off moves the reply's last element by a quarter element."""
+    return 1.0 / (4.0 * n_el)
 
 
 @njit_inline

@@ -23,8 +23,9 @@ from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, level_elements_kernel,
                                           projected_halfbit_sums_kernel, sampled_template, waveform_kernel)
-from rfsim.gen2._reply_core_kernels import (centred_start, halfbit_decisions, normalised_correlation,
-                                            preamble_gain_offset, rest_level_sums, steady_residual)
+from rfsim.gen2._reply_core_kernels import (blf_resolution, centred_start, fine_step, halfbit_decisions,
+                                            normalised_correlation, preamble_gain_offset, rest_level_sums,
+                                            steady_residual)
 
 
 @njit
@@ -410,8 +411,7 @@ def _fine_search(r, centre, n_bits, m, pre, state0, blf0, span, target, per_side
     centre_blf = blf0
     tmp = np.empty(n_bits, dtype=np.uint8)
     while True:
-        step = max(span / per_side, target)
-        k = int(math.ceil(span / step))
+        step, k = fine_step(span, per_side, target)
         blfs = np.empty(2 * k + 1)
         for i in range(2 * k + 1):
             blfs[i] = centre_blf * (1.0 + step * (i - k))
@@ -482,7 +482,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, state0, viterbi,
     rho_c = 2.0 * blf_c / fs
     centre = start_c + 0.5 * n_pre_el / rho_c
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, n_pre_el, m, rho_c)))
-    step_16 = 1.0 / (4.0 * (n_pre_el + 2 * m * (n_first + 1)))
+    step_16 = blf_resolution(n_pre_el + 2 * m * (n_first + 1))
     bits0 = np.empty(n_first, dtype=np.uint8)
     fail = (False, 0, 0.0, 0.0, 0.0, 0.0, False, 0, 0, 0j, 0.0, 0.0, 0.0)
     ok, blf1, start1 = _fine_search(r, centre, n_first, m, pre, state0, blf_c, fine_span_steps * step_c,
@@ -514,7 +514,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, state0, viterbi,
             n_el = n_pre_el + 2 * m * (n_bits + 1)
             span = fine_span_steps * step_16
             found, b2, s2 = _fine_search(r, centre, n_bits, m, pre, state0, blf1, span,
-                                         1.0 / (4.0 * n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
+                                         blf_resolution(n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
                                          bits)
             if found:
                 blf = b2

@@ -26,6 +26,7 @@ from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSA
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
+_rck = lazy_import("rfsim.gen2._reply_core_kernels")
 
 #: Smallest energy per half-bit over the noise of a reported reply (step 5).
 MIN_HALFBIT_SNR_DB = 6.0
@@ -155,7 +156,7 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         # (and then settle on a wrong BLF whose decoded bits fit the noise a little better)
         n_el = n_reply_elements(n_bits, m, trext)
         span = FINE_SPAN_STEPS * step_first
-        again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
+        again = _fine_search(r, centre, n_bits, m, trext, blf, span, _rck.blf_resolution(n_el),
                              max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, _fine_python)
         if again is not None:
             blf, bits, start = again[:3]
@@ -258,7 +259,7 @@ def _decode_window_python(r, fs, found, n_bits_of, method):
     centre = start_c + 0.5 * n_pre_elements(m, trext) / rho_c
     # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
-    step_16 = 1.0 / (4.0 * n_reply_elements(n_first, m, trext))
+    step_16 = _rck.blf_resolution(n_reply_elements(n_first, m, trext))
     fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method,
                         _fine_python)
     if fine is None:

@@ -10,7 +10,10 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import (elements_kernel, projected_halfbit_sums_kernel, sampled_template,
-                                          viterbi_kernel, waveform_kernel)
+                                          waveform_kernel)
+from rfsim.gen2._reply_core_kernels import (blf_resolution, centred_start, cumulative_sums_into, fine_step,
+                                            halfbit_decisions, is_steady, normalised_correlation, parabola_offset,
+                                            preamble_gain_offset, rest_level_sums, steady_residual)
 
 
 @njit
@@ -22,19 +25,12 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
     the reply's end, h2, c2): every hypothesis explains the same samples."""
     lag = int(math.floor(start))
     mean_t = sampled_template(pre_el, start - lag, blf_ratio, tpl[:n_pre])
-    acc = 0j
-    e_t = 0.0
-    seg_mean = 0j
+    seg_mean = 0j  # summed sample by sample (the capture decoder: from cumulative sums)
     for i in range(n_pre):
-        t0 = tpl[i] - mean_t
-        acc += r[lag + i] * t0
-        e_t += t0 * t0
         seg_mean += r[lag + i]
-    seg_mean /= n_pre
-    h = acc / e_t
+    h, dc = preamble_gain_offset(r, lag, tpl, mean_t, n_pre, seg_mean / n_pre)
     if h == 0:
         return math.inf, 0, 0j, 0j
-    dc = seg_mean - h * mean_t
     g = 1.0 / h
     dcg = dc * g
     projected_halfbit_sums_kernel(r[lag:], g.real, g.imag, dcg.real, start - lag, blf_ratio, m, sums)
@@ -42,29 +38,16 @@ def _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller
     nb = n_bits + 1
     a = np.empty(nb)
     b = np.empty(nb)
-    for i in range(nb):
-        a[i] = sums[npre + 2 * i]
-        b[i] = sums[npre + 2 * i + 1]
     full = np.empty(nb, dtype=np.uint8)
-    viterbi_kernel(a, b, miller, state0, True, full)
+    halfbit_decisions(sums, npre, miller, state0, True, a, b, full)
     for i in range(n_bits):
         bits[i] = full[i]
     elements_kernel(bits, True, m, pre_levels, state0, elems)
     n_el = elems.size
     end = min(r.size, int(math.ceil(start + n_el / blf_ratio)) + 1)
     waveform_kernel(elems.astype(np.float64), start, blf_ratio, ref)
-    sx = 0j
-    sxr = 0j
-    sr = 0.0
-    srr = 0.0
     nw = r.size  # every hypothesis explains the whole window (rest level −1 around the reply)
-    for n in range(nw):
-        v = ref[n] if ref[n] != 0.0 else -1.0
-        ref[n] = v
-        sx += r[n]
-        sxr += r[n] * v
-        sr += v
-        srr += v * v
+    srr, sr, sxr, sx = rest_level_sums(r, ref, nw, True)
     den = nw * srr - sr * sr
     h2 = (nw * sxr - sr * sx) / den if den > 0 else 0j
     c2 = (sx - h2 * sr) / nw
@@ -81,20 +64,18 @@ def _decode_centred(r, blf_ratio, centre, pre_el, nh, pre_levels, m, n_bits, mil
     """:func:`_decode_at` with the preamble centred on sample ``centre``: start = centre −
     n_pre_el/(2ρ); skipped (ok False) when the reply of ``nh`` half-bits does not fit in the
     window from there. Returns ``(ok, start, residual, end, h2, c2)``."""
-    n_pre_el = pre_el.size
-    start = centre - 0.5 * n_pre_el / blf_ratio
-    n_rep = int(math.ceil(nh * m / blf_ratio)) + 2
-    if start < 0 or start > r.shape[0] - n_rep:
+    ok, start, n_pre = centred_start(centre, pre_el.size, nh * m, blf_ratio, r.shape[0])
+    if not ok:
         return False, start, math.inf, 0, 0j, 0j
-    n_pre = int(math.floor(n_pre_el / blf_ratio))
     res, end, h2, c2 = _decode_at(r, blf_ratio, start, pre_el, n_pre, pre_levels, m, n_bits, miller, state0, tpl, sums,
                                   bits, elems, ref)
     return True, start, res, end, h2, c2
 
 
 @njit
-def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
-    """Zero-mean normalised correlation of r[lag:lag+L] with template k (prefix sums p_e, p_s)."""
+def _corr(r, tpl0, k, L, lag, norm_t, p_e, c_re, c_im):
+    """Zero-mean normalised correlation of r[lag:lag+L] with template k (prefix sums p_e of
+    |r|², c_re and c_im of r)."""
     acc_re = 0.0
     acc_im = 0.0
     for i in range(L):
@@ -102,9 +83,8 @@ def _corr(r, tpl0, k, L, lag, norm_t, p_e, p_s):
         t = tpl0[k, i]
         acc_re += z.real * t
         acc_im += z.imag * t
-    s = p_s[lag + L] - p_s[lag]
-    en = (p_e[lag + L] - p_e[lag]) - (s.real * s.real + s.imag * s.imag) / L
-    return math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(en, 1e-300)))
+    return normalised_correlation(acc_re, acc_im, norm_t, p_e[lag + L] - p_e[lag], c_re[lag + L] - c_re[lag],
+                                  c_im[lag + L] - c_im[lag], L)
 
 
 @njit_inline
@@ -120,18 +100,7 @@ def _template_norms(coarse_tpl0, coarse_len):
 
 
 @njit_inline
-def _prefix_sums(r, p_e, p_s):
-    """Prefix sums of |r|² into ``p_e`` and of r into ``p_s`` (both ``(r.size + 1,)``, from 0)."""
-    p_e[0] = 0.0
-    p_s[0] = 0j
-    for i in range(r.size):
-        z = r[i]
-        p_e[i + 1] = p_e[i] + z.real * z.real + z.imag * z.imag
-        p_s[i + 1] = p_s[i] + z
-
-
-@njit_inline
-def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
+def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, c_re, c_im, cv):
     """Coarse search: the largest correlation :func:`_corr` over the BLF grid × the lags
     ``lo…hi``, the first wins ties; the lag refined by a parabola through the best lag's
     neighbours (same BLF; ``cv`` (3,) scratch). Returns ``(corr, BLF index, lag, fraction of
@@ -143,7 +112,7 @@ def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
     for k in range(coarse_len.size):
         L = coarse_len[k]
         for lag in range(lo, min(hi, nwin - L) + 1):
-            c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, p_s)
+            c = _corr(r, coarse_tpl0, k, L, lag, norms[k], p_e, c_re, c_im)
             if c > cbest:
                 cbest, kbest, lbest = c, k, lag
     # parabola through the best lag's neighbours (same BLF)
@@ -151,10 +120,8 @@ def _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv):
     L = coarse_len[kbest]
     if lbest > lo and lbest < min(hi, nwin - L):
         for j in range(3):
-            cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, p_s)
-        den = cv[0] - 2.0 * cv[1] + cv[2]
-        if den < 0:
-            frac = 0.5 * (cv[0] - cv[2]) / den
+            cv[j] = _corr(r, coarse_tpl0, kbest, L, lbest - 1 + j, norms[kbest], p_e, c_re, c_im)
+        frac = parabola_offset(cv[0], cv[1], cv[2])
     return cbest, kbest, lbest, frac
 
 
@@ -167,18 +134,14 @@ def _steady_disturbance(r, ref, start, end, ratio, h, c, m, nh, n_pre_levels, n_
     samples, y_n = Re((r_n − c)·h*)/|h|, σ_eff² = 2·Σ δ_j² / Σ N_j over the data half-bits
     (= σ² for white noise; in-band interference is not reduced by the matched filter's gain)."""
     i0 = max(1, int(math.ceil(start)))
-    acc_e = 0.0
-    cnt = 0
+    acc_e, cnt = steady_residual(r, ref, h, c, i0, end - 1)
     habs = abs(h)
     dsum = np.zeros(nh)
     dcnt = np.zeros(nh)
     for n in range(i0, end - 1):
         v = ref[n]
-        if v == ref[n - 1] and v == ref[n + 1]:
+        if is_steady(ref, n):
             z = r[n] - c
-            e = z - h * v
-            acc_e += e.real * e.real + e.imag * e.imag
-            cnt += 1
             kel = int(math.floor((n - start) * ratio + 1e-9))
             j = kel // m
             if 0 <= j < nh and habs > 0:
@@ -228,13 +191,14 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
     best_ref = np.empty(nwin)
     tpl = np.empty(nwin)
     p_e = np.empty(nwin + 1)  # prefix sums of |r|² and r: sliding energy of every lag
-    p_s = np.empty(nwin + 1, dtype=np.complex128)
+    c_re = np.empty(nwin + 1)
+    c_im = np.empty(nwin + 1)
     norms = _template_norms(coarse_tpl0, coarse_len)
     cv = np.empty(3)
     for t in range(n_tr):
         r = rs[t]
-        _prefix_sums(r, p_e, p_s)
-        cbest, kbest, lbest, frac = _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, p_s, cv)
+        cumulative_sums_into(r, c_re, c_im, p_e, False)  # |r|² as (P + re²) + im²
+        cbest, kbest, lbest, frac = _coarse_search(r, coarse_tpl0, coarse_len, norms, lo, hi, p_e, c_re, c_im, cv)
         ratio_c = coarse_ratios[kbest]
         centre = lbest + frac + 0.5 * n_pre_el / ratio_c
         out_corr[t] = cbest
@@ -269,8 +233,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
             ex = np.empty(nhx * m, dtype=np.int8)
             sx = np.empty(nhx)
             while True:
-                step = max(span / fine_per_side, tgt)
-                kk = int(math.ceil(span / step))
+                step, kk = fine_step(span, fine_per_side, tgt)
                 found = False
                 for j in range(-kk, kk + 1):
                     ratio = centre_ratio * (1.0 + step * j)
@@ -290,7 +253,7 @@ def search_decode_kernel(rs, coarse_ratios, coarse_tpl0, coarse_len, lo, hi, pre
                 break
             nbx = min(n_bits, 2 * nbx)
             span = 4.0 * tgt
-            tgt = 1.0 / (4.0 * (n_pre_el + 2 * m * (nbx + 1)))
+            tgt = blf_resolution(n_pre_el + 2 * m * (nbx + 1))
             centre_ratio = best_ratio
         out_bits[t, :] = best_bits
         out_ratio[t] = best_ratio

@@ -11,19 +11,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.link import LinkProfile
-from rfsim.gen2.reply_search import geometric_blf_grid_hz
-from rfsim.gen2.linecode import elements_of_levels, preamble_levels, preamble_state, reply_waveform
+from rfsim.gen2.linecode import elements_of_levels, preamble_levels, preamble_state
+from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_blf_grid_hz, n_reply_elements,
+                                   preamble_template0)
 from rfsim.core.lazy import lazy_import
 
 _bk = lazy_import("rfsim.devices._blf_search_kernels")
+_rck = lazy_import("rfsim.gen2._reply_core_kernels")
 
 __all__ = ["SearchDecode", "search_decode", "blf_grid_hz", "rn16_threshold_db", "search_setup", "search_result",
            "FINE_SPAN_STEPS", "FINE_PER_SIDE", "FINE_FIRST_BITS"]
 
 
-#: Fine BLF search: half-width in coarse steps and BLFs per side of each pass; bits of its
-#: first phase (a longer reply is searched again over all its bits).
-FINE_SPAN_STEPS = 2
+#: Fine BLF search: BLFs per side of each pass (its half-width, ``FINE_SPAN_STEPS`` coarse
+#: steps, is the capture decoder's, :mod:`rfsim.gen2.reply_core`); bits of its first phase (a
+#: longer reply is searched again over all its bits).
 FINE_PER_SIDE = 4
 FINE_FIRST_BITS = 16
 
@@ -74,7 +76,8 @@ def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | No
 
     A geometric grid over BLF·(1 ± FrT) of ``link`` (or [lo, hi]) with relative step
     1/(2·preamble elements), the correlation peak's half-width (as the capture decoder,
-    :mod:`rfsim.gen2.replies` step 2; :func:`rfsim.gen2.reply_search.geometric_blf_grid_hz`).
+    :mod:`rfsim.gen2.replies` step 2; :func:`rfsim.gen2.reply_core.geometric_blf_grid_hz`,
+    :func:`rfsim.gen2.reply_core.coarse_blf_step`).
 
     Parameters
     ----------
@@ -89,8 +92,7 @@ def blf_grid_hz(link: LinkProfile, lo_hz: float | None = None, hi_hz: float | No
         BLF hypotheses [Hz], increasing.
     """
     lo, hi = link.blf_range_hz if lo_hz is None else (float(lo_hz), float(hi_hz))
-    n_pre_el = preamble_levels(m=link.m, trext=link.trext)[0].size * link.m
-    return geometric_blf_grid_hz(lo, hi, 1.0 / (2.0 * n_pre_el))
+    return geometric_blf_grid_hz(lo, hi, coarse_blf_step(link.m, link.trext))
 
 
 def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
@@ -127,14 +129,12 @@ def search_setup(m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float):
     lens = np.floor(pre_el.size / ratios).astype(np.int64)
     tpl0 = np.zeros((ratios.size, int(lens.max())))
     for k, (ratio, n) in enumerate(zip(ratios, lens)):
-        t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=0.5 * ratio * fs_hz, fs_hz=fs_hz,
-                           dummy=False, n_samples=int(n))
-        tpl0[k, :n] = t - t.mean()
-    step_c = 1.0 / (2.0 * pre_el.size)
-    n_el = pre_el.size + 2 * m * (int(n_bits) + 1)
-    n_el1 = pre_el.size + 2 * m * (min(int(n_bits), FINE_FIRST_BITS) + 1)
+        # the reader's count ⌊n_pre/ρ⌋ at BLF ρ·fs/2 (the capture decoder's: ⌊n_pre·fs/(2·BLF)⌋)
+        tpl0[k, :n] = preamble_template0(m, trext, 0.5 * ratio * fs_hz, fs_hz, int(n))
+    n_el = n_reply_elements(n_bits, m, trext)
+    n_el1 = n_reply_elements(min(int(n_bits), FINE_FIRST_BITS), m, trext)
     return (pre_levels.astype(np.int8), preamble_state(m=m, trext=trext), pre_el, ratios, tpl0, lens,
-            FINE_SPAN_STEPS * step_c, 1.0 / (4.0 * n_el1), 1.0 / (4.0 * n_el))
+            FINE_SPAN_STEPS * coarse_blf_step(m, trext), _rck.blf_resolution(n_el1), _rck.blf_resolution(n_el))
 
 
 def search_decode(rs, *, m: int, trext: bool, n_bits: int, blfs_hz, fs_hz: float, lo: int, hi: int,

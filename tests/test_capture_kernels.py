@@ -12,7 +12,8 @@ from rfsim.gen2.pie import pie_decode_arrays
 from rfsim.gen2.replies import _n_bits_rule
 from rfsim.gen2.reply_decoding import (_decode_window, _decode_window_python, _fine, _fine_python, _track_decode,
                                        _track_decode_python)
-from rfsim.gen2.reply_search import LinkHypothesis, _n_pre_elements, _search, preamble_correlation
+from rfsim.gen2.reply_core import n_pre_elements
+from rfsim.gen2.reply_search import LinkHypothesis, _search, preamble_correlation
 from rfsim.gen2.reply_tracking import (_block_correlations, track, track_reference,
                                        weighted_polyfit)
 from rfsim.core.rng import trial_rng
@@ -100,7 +101,7 @@ def test_fine_kernel_matches_twin(m, trext, method):
     (decode_reply + reply_waveform + least squares per BLF), and the bits are those encoded."""
     fs, blf = 2e6, 160e3 * 1.004
     r, bits = _reply_window(m, m=m, trext=trext, n_bits=16, blf_hz=blf, fs_hz=fs)
-    centre = 60e-6 * fs + 0.5 * _n_pre_elements(m, trext) * fs / (2.0 * blf)
+    centre = 60e-6 * fs + 0.5 * n_pre_elements(m, trext) * fs / (2.0 * blf)
     blfs = 160e3 * (1.0 + 0.002 * np.arange(-8, 9))
     got = _fine(r, centre, 16, m, trext, blfs, fs, method)
     want = _fine_python(r, centre, 16, m, trext, blfs, fs, method)

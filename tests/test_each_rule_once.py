@@ -143,3 +143,118 @@ def test_silent_step_users_call_the_one_rule(module, name):
     calls = {n.func.id for n in ast.walk(fn) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
     assert "silent_step" in calls
     assert not (_names(fn) & COMMAND_NAMES), sorted(_names(fn) & COMMAND_NAMES)
+
+
+# ----------------------------------------------------------------- tag reply decoders: shared steps
+
+#: The home of the steps the tag-reply decoders share (:mod:`rfsim.gen2.reply_core`).
+REPLY_CORE = "rfsim/gen2/reply_core.py"
+REPLY_CORE_KERNELS = "rfsim/gen2/_reply_core_kernels.py"
+#: Compiled code of the reader's BLF search and of the capture decoder (search, decoding).
+READER_KERNELS = "devices/_blf_search_kernels.py"
+CAPTURE_SEARCH_KERNELS = "rfsim/gen2/_reply_search_kernels.py"
+CAPTURE_DECODE_KERNELS = "rfsim/gen2/_reply_kernels.py"
+#: Each shared step: its home and the decoders' modules that must call it.
+REPLY_STEPS = {
+    "normalised_correlation": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "parabola_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
+    "cumulative_sums_into": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
+    "centred_start": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "fine_step": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "devices/reader_search.py",
+                                            "rfsim/gen2/reply_decoding.py")),
+    "preamble_gain_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "halfbit_decisions": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "rest_level_sums": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "steady_residual": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
+    "n_pre_elements": (REPLY_CORE, ("rfsim/gen2/reply_search.py", "rfsim/gen2/reply_decoding.py")),
+    "n_reply_elements": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+                                      "rfsim/gen2/reply_decoding.py", "rfsim/gen2/replies.py")),
+    "coarse_blf_step": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
+    "geometric_blf_grid_hz": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
+    "preamble_template0": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
+}
+#: Shared constants: the home and the decoders' modules that import it.
+REPLY_CONSTANTS = {"FINE_SPAN_STEPS": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+                                                    "rfsim/gen2/reply_decoding.py"))}
+
+
+def _dotted(module: str) -> str:
+    """``rfsim/gen2/x.py`` → ``rfsim.gen2.x``; ``devices/x.py`` → ``rfsim.devices.x``."""
+    name = module[:-3].replace("/", ".")
+    return name if name.startswith("rfsim.") else f"rfsim.{name}"
+
+
+def _calls(tree: ast.AST) -> set[str]:
+    return {n.func.id if isinstance(n.func, ast.Name) else n.func.attr for n in ast.walk(tree)
+            if isinstance(n, ast.Call) and isinstance(n.func, (ast.Name, ast.Attribute))}
+
+
+def _imported_from(tree: ast.AST, module: str) -> set[str]:
+    """Names imported from ``module``; ``*`` when the module is imported lazily (``lazy_import``)."""
+    names = {a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module == module for a in n.names}
+    if any(isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "lazy_import"
+           and _const(n.args[0], module) for n in ast.walk(tree)):
+        names.add("*")
+    return names
+
+
+def _reply_step_idioms(tree: ast.AST) -> list[str]:
+    """Source idioms of a shared reply step written out again, as ``line: idiom``: the
+    correlation's |Σ z·t0| (``math.hypot``), the parabola's curvature ``c₋ − 2.0·c₀ + c₊``,
+    the steady-sample test (both neighbours ``[n − 1]``, ``[n + 1]`` compared)."""
+    found = []
+    for node in ast.walk(tree):
+        line = getattr(node, "lineno", 0)
+        if isinstance(node, ast.Call) and ast.unparse(node.func) == "math.hypot":
+            found.append(f"{line}: normalised correlation")
+        if (isinstance(node, ast.BinOp) and isinstance(node.op, ast.Add) and isinstance(node.left, ast.BinOp)
+                and isinstance(node.left.op, ast.Sub) and isinstance(node.left.right, ast.BinOp)
+                and isinstance(node.left.right.op, ast.Mult) and _const(node.left.right.left, 2.0)
+                and all(isinstance(v, (ast.Name, ast.Subscript)) for v in (node.left.left, node.left.right.right,
+                                                                            node.right))):
+            found.append(f"{line}: parabola through three correlations")
+        if isinstance(node, ast.BoolOp) and isinstance(node.op, ast.And):
+            text = ast.unparse(node)
+            if "[n - 1]" in text and "[n + 1]" in text and "==" in text:
+                found.append(f"{line}: steady-sample test")
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(REPLY_STEPS))
+def test_reply_step_defined_once(name):
+    """Each shared step of the reply decoders is defined in its home and nowhere else."""
+    home = REPLY_STEPS[name][0]
+    where = [m for m, tree in MODULES.items()
+             if any(isinstance(n, ast.FunctionDef) and n.name == name for n in ast.walk(tree))]
+    assert where == [home], where
+
+
+@pytest.mark.parametrize("name, user", [(n, u) for n, (_, users) in sorted(REPLY_STEPS.items()) for u in users])
+def test_reply_decoders_call_the_shared_step(name, user):
+    """The reader's BLF search and the capture decoder import the step from its home and call it."""
+    home = REPLY_STEPS[name][0]
+    tree = MODULES[user]
+    assert _imported_from(tree, _dotted(home)) & {name, "*"}, f"{user} does not import {name} from {home}"
+    assert name in _calls(tree), f"{user} does not call {name}"
+
+
+@pytest.mark.parametrize("name, user", [(n, u) for n, (_, users) in sorted(REPLY_CONSTANTS.items()) for u in users])
+def test_reply_decoders_share_constants(name, user):
+    """A constant of both decoders is assigned once, in its home, and imported by the others."""
+    home = REPLY_CONSTANTS[name][0]
+    assigned = [m for m, tree in MODULES.items()
+                if any(isinstance(n, ast.Assign) and any(isinstance(t, ast.Name) and t.id == name for t in n.targets)
+                       for n in ast.walk(tree))]
+    assert assigned == [home], assigned
+    assert name in _imported_from(MODULES[user], _dotted(home))
+
+
+def test_reply_step_idioms_only_in_their_home():
+    """The scan finds the shared steps in their home (so it can fail), and in no compiled code of
+    the decoders."""
+    home = _reply_step_idioms(MODULES[REPLY_CORE_KERNELS])
+    assert {f.split(": ")[1] for f in home} == {"normalised correlation", "parabola through three correlations",
+                                                "steady-sample test"}
+    for module in (READER_KERNELS, CAPTURE_SEARCH_KERNELS, CAPTURE_DECODE_KERNELS):
+        assert _reply_step_idioms(MODULES[module]) == [], module

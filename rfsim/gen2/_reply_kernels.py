@@ -21,9 +21,11 @@ import numpy as np
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._capture_kernels import track_kernel
 from rfsim.gen2._reply_search_kernels import cumulative_sums as _cumulative_sums
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, bitwise_kernel, element_sign, elements_kernel,
-                                          level_elements_kernel, projected_halfbit_sums_kernel, sampled_template,
-                                          viterbi_kernel, waveform_kernel)
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, level_elements_kernel,
+                                          projected_halfbit_sums_kernel, sampled_template, waveform_kernel)
+from rfsim.gen2._reply_core_kernels import (blf_resolution, centred_start, fine_step, halfbit_decisions,
+                                            normalised_correlation, preamble_gain_offset, rest_level_sums,
+                                            steady_residual)
 
 
 @njit
@@ -115,7 +117,6 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     nh = pre.size + 2 * (n_bits + 1)
     n_el = n_pre_el + 2 * m * (n_bits + 1)
     pre_el = _preamble_element_levels(pre, m)
-    half = 0.5 * n_pre_el
     sums = np.empty(nh)
     n_data = nh - pre.size
     a = np.empty(n_data // 2)
@@ -130,32 +131,22 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
     for j in range(blfs.size):
         blf = blfs[j]
         rho = 2.0 * blf / fs
-        start = centre - half / rho
-        n_rep = int(math.ceil(n_el / rho)) + 2
-        if start < 0 or start > r.size - n_rep:
+        ok, start, n_pre = centred_start(centre, n_pre_el, n_el, rho, r.size)
+        if not ok:
             continue
         # --- decode at start (rfsim.gen2.linecode._decode with start_sample and no gain)
         ratio = 2.0 * float(blf) / float(fs)
         n_reply = int(math.ceil(nh * m / ratio))
-        n_pre = int(math.floor(pre.size * m / ratio))
+        n_rep = int(math.ceil(n_el / rho)) + 2
         lag = int(math.floor(start))
         tpl = np.empty(n_pre)
         t_mean = sampled_template(pre_el, start - lag, ratio, tpl)
-        p_re = 0.0
-        p_im = 0.0
-        e_t = 0.0
-        for i in range(n_pre):
-            t0 = tpl[i] - t_mean
-            z = r[lag + i]
-            p_re += z.real * t0
-            p_im += z.imag * t0
-            e_t += t0 * t0
+        # the segment's mean from the cumulative sums (the reader's search: summed sample by sample)
         s_re = c_re[lag + n_pre] - c_re[lag]
         s_im = c_im[lag + n_pre] - c_im[lag]
-        h = complex(p_re, p_im) / e_t
+        h, dc = preamble_gain_offset(r, lag, tpl, t_mean, n_pre, complex(s_re / n_pre, s_im / n_pre))
         if h == 0:
             continue
-        dc = complex(s_re / n_pre, s_im / n_pre) - h * t_mean
         g = 1.0 / h
         g_re = g.real
         g_im = g.imag
@@ -179,13 +170,7 @@ def fine_kernel(r, centre, n_bits, m, pre, state0, blfs, fs, viterbi, bits_out):
             n_a = n_b
             if n_a >= end:
                 break
-        for i in range(n_data // 2):
-            a[i] = sums[pre.size + 2 * i]
-            b[i] = sums[pre.size + 2 * i + 1]
-        if viterbi:
-            viterbi_kernel(a, b, miller, state0, True, dec)
-        else:
-            bitwise_kernel(a, b, miller, dec)
+        halfbit_decisions(sums, pre.size, miller, state0, viterbi, a, b, dec)
         # --- remodulate (dummy 1) and fit r ≈ h·ref + c over the reply and its rest level
         elements_kernel(dec[:n_bits], True, m, pre, state0, el)
         fitted, resid = _reply_residual(c_re, c_im, p2, el, n_el, start, rho, fs, min(r.size, int(start) + n_rep))
@@ -229,16 +214,7 @@ def _interp_unit(r, x):
 def _fit_rest_level(r, ref, n_end):
     """Least-squares ``(h, c, ok)`` of r ≈ h·ref + c over r[:n_end], ``ref`` read as −1 where
     it is 0 (the rest level around the reply)."""
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        v = ref[n] if ref[n] != 0.0 else -1.0
-        ss += v * v
-        s1 += v
-        rs += r[n] * v
-        r1 += r[n]
+    ss, s1, rs, r1 = rest_level_sums(r, ref, n_end, False)
     return _ls_gain_offset(ss, s1, float(n_end), rs, r1)
 
 
@@ -345,13 +321,7 @@ def track_decode_kernel(r, start, rho, fs, bits, m, pre, state0, dummy, viterbi,
         for i in range(part.size):
             part[i] = rw[n_rest + i] - c
         projected_halfbit_sums_kernel(part, g.real, g.imag, (0.0 * g).real, 0.0, rho, m, sums)
-        for i in range(n_data):
-            a[i] = sums[n_pre_h + 2 * i]
-            b[i] = sums[n_pre_h + 2 * i + 1]
-        if viterbi:
-            viterbi_kernel(a, b, miller, state0, True, dec)
-        else:
-            bitwise_kernel(a[:nb], b[:nb], miller, dec[:nb])
+        halfbit_decisions(sums, n_pre_h, miller, state0, viterbi, a, b, dec)  # dec[nb]: the dummy
         same = True
         for i in range(nb):
             if dec[i] != bits[i]:
@@ -441,8 +411,7 @@ def _fine_search(r, centre, n_bits, m, pre, state0, blf0, span, target, per_side
     centre_blf = blf0
     tmp = np.empty(n_bits, dtype=np.uint8)
     while True:
-        step = max(span / per_side, target)
-        k = int(math.ceil(span / step))
+        step, k = fine_step(span, per_side, target)
         blfs = np.empty(2 * k + 1)
         for i in range(2 * k + 1):
             blfs[i] = centre_blf * (1.0 + step * (i - k))
@@ -465,28 +434,11 @@ def _fit_steady(rw, ref, n_end):
     """Least-squares ``(h, c, ok, σ²)`` of rw ≈ h·ref + c over rw[:n_end] (``ref``'s zeros set
     to the rest level −1 in place), σ² the mean residual power over the steady samples (both
     neighbours at the same level; NaN when there are none)."""
-    ss = 0.0
-    s1 = 0.0
-    rs = 0j
-    r1 = 0j
-    for n in range(n_end):
-        if ref[n] == 0.0:
-            ref[n] = -1.0
-        v = ref[n]
-        ss += v * v
-        s1 += v
-        rs += rw[n] * v
-        r1 += rw[n]
+    ss, s1, rs, r1 = rest_level_sums(rw, ref, n_end, True)
     h, c, ok = _ls_gain_offset(ss, s1, float(n_end), rs, r1)
     if not ok:
         return h, c, ok, math.nan
-    acc = 0.0
-    cnt = 0
-    for n in range(1, n_end - 1):
-        if ref[n] == ref[n - 1] and ref[n] == ref[n + 1]:
-            e = rw[n] - c - h * ref[n]
-            acc += e.real * e.real + e.imag * e.imag
-            cnt += 1
+    acc, cnt = steady_residual(rw, ref, h, c, 1, n_end - 1)
     return h, c, ok, acc / cnt if cnt > 0 else math.nan
 
 
@@ -508,8 +460,7 @@ def _correlation_at(rw, n_rest, pre_el, n_t, rho):
         e_t += t0 * t0
         sz += z
         e_z += z.real * z.real + z.imag * z.imag
-    energy = e_z - (sz.real * sz.real + sz.imag * sz.imag) / n_t
-    return abs(p) / (math.sqrt(e_t) * math.sqrt(max(energy, 1e-300)))
+    return normalised_correlation(p.real, p.imag, math.sqrt(e_t), e_z, sz.real, sz.imag, n_t)
 
 
 @njit
@@ -531,7 +482,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, state0, viterbi,
     rho_c = 2.0 * blf_c / fs
     centre = start_c + 0.5 * n_pre_el / rho_c
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, n_pre_el, m, rho_c)))
-    step_16 = 1.0 / (4.0 * (n_pre_el + 2 * m * (n_first + 1)))
+    step_16 = blf_resolution(n_pre_el + 2 * m * (n_first + 1))
     bits0 = np.empty(n_first, dtype=np.uint8)
     fail = (False, 0, 0.0, 0.0, 0.0, 0.0, False, 0, 0, 0j, 0.0, 0.0, 0.0)
     ok, blf1, start1 = _fine_search(r, centre, n_first, m, pre, state0, blf_c, fine_span_steps * step_c,
@@ -563,7 +514,7 @@ def decode_window_kernel(r, fs, blf_c, start_c, step_c, m, pre, state0, viterbi,
             n_el = n_pre_el + 2 * m * (n_bits + 1)
             span = fine_span_steps * step_16
             found, b2, s2 = _fine_search(r, centre, n_bits, m, pre, state0, blf1, span,
-                                         1.0 / (4.0 * n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
+                                         blf_resolution(n_el), max(2, int(math.ceil(span * 2.0 * n_el))), fs, viterbi,
                                          bits)
             if found:
                 blf = b2

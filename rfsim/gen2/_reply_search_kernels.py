@@ -15,22 +15,20 @@ import numpy as np
 
 from rfsim.core._jit import njit, njit_inline
 from rfsim.gen2._linecode_kernels import runs_dot, sampled_template
+from rfsim.gen2._reply_core_kernels import cumulative_sums_into, normalised_correlation, parabola_offset
 
 
 
 @njit_inline
 def cumulative_sums(r):
     """Cumulative sums of Re r, Im r and |r|², each ``(r.size + 1,)`` from 0 (the running sums
-    every windowed correlation of the reply search and decoding reads)."""
+    every windowed correlation of the reply search and decoding reads; |r|² added as
+    P + (re² + im²))."""
     nr = r.size
-    c_re = np.zeros(nr + 1)
-    c_im = np.zeros(nr + 1)
-    p2 = np.zeros(nr + 1)
-    for n in range(nr):
-        z = r[n]
-        c_re[n + 1] = c_re[n] + z.real
-        c_im[n + 1] = c_im[n] + z.imag
-        p2[n + 1] = p2[n] + (z.real * z.real + z.imag * z.imag)
+    c_re = np.empty(nr + 1)
+    c_im = np.empty(nr + 1)
+    p2 = np.empty(nr + 1)
+    cumulative_sums_into(r, c_re, c_im, p2, True)
     return c_re, c_im, p2
 
 @njit
@@ -97,8 +95,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
             s_im = c_im[k + n] - c_im[k]
             acc_re = a_re - mean * s_re
             acc_im = a_im - mean * s_im
-            energy = (p[k + n] - p[k]) - (s_re * s_re + s_im * s_im) / n
-            c = math.hypot(acc_re, acc_im) / (norm_t * math.sqrt(max(energy, 1e-300)))
+            c = normalised_correlation(acc_re, acc_im, norm_t, p[k + n] - p[k], s_re, s_im, n)
             if k == kbest + 1 and kbest >= 0:
                 cr = c  # right neighbour of the running best
             if c > cbest:
@@ -111,8 +108,7 @@ def preamble_search_kernel(r, pre_el, blfs, fs, lo, hi, n_rep, min_samples_per_e
         if cbest > best:
             frac = 0.0
             if kbest > lo[j] and kbest < last:
-                den = cl - 2.0 * cbest + cr
-                frac = 0.5 * (cl - cr) / den if den < 0 else 0.0
+                frac = parabola_offset(cl, cbest, cr)
             best = cbest
             best_j = j
             best_pos = kbest + frac

@@ -82,7 +82,8 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
 from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _decode_window, _NBitsRule
-from rfsim.gen2.reply_search import LinkHypothesis, _detect, _n_elements, boxcar_decimate, preamble_correlation
+from rfsim.gen2.reply_core import n_reply_elements
+from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, preamble_correlation
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
@@ -247,7 +248,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     i0 = max(0, int(math.ceil(listen_s * fs)))
     # no longer than the longest reply any hypothesis allows (rest level around it included)
     longest_s = max(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_lo_hz, frt=frt).max_s
-                    + _n_elements(max_bits, h.m, h.trext) / (2.0 * h.blf_lo_hz) for h in hyps)
+                    + n_reply_elements(max_bits, h.m, h.trext) / (2.0 * h.blf_lo_hz) for h in hyps)
     end_s = min(window_end_s, cmd_end_s + longest_s + 16.0 / fs + 2e-6)
     i1 = min(x.size, int(math.floor(end_s * fs)))
     if i1 - i0 < 16:

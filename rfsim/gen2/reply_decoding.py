@@ -19,18 +19,17 @@ import numpy as np
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.capture import fit_gain_offset
 from rfsim.gen2.linecode import _preamble, decode_reply, reply_waveform
-from rfsim.gen2.reply_search import _n_elements, _n_pre_elements, _preamble_template
+from rfsim.gen2.reply_core import FINE_SPAN_STEPS, n_pre_elements, n_reply_elements
+from rfsim.gen2.reply_search import _preamble_template
 from rfsim.gen2.reply_tracking import (MIN_DRIFT_BLOCKS, MIN_TRACK_BLOCKS, SUBSAMPLES, TRACK_BLOCK_ELEMENTS, TRACK_SPANS,
                                       resample, track_reference, warp_positions)
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
+_rck = lazy_import("rfsim.gen2._reply_core_kernels")
 
 #: Smallest energy per half-bit over the noise of a reported reply (step 5).
 MIN_HALFBIT_SNR_DB = 6.0
-#: Half-width of the fine BLF searches in coarse steps (a short FM0 preamble, 12 elements,
-#: can correlate best one coarse step off).
-FINE_SPAN_STEPS = 2
 #: The tracking loop runs a second time unless its first pass moved the element clock by
 #: at most this many elements anywhere in the reply and left the decoded bits unchanged
 #: (1/8 element, half the 1/4-element timing the decoding needs: the first pass's fit was
@@ -78,8 +77,8 @@ def _fine(r, centre, n_bits, m, trext, blfs, fs, method):
     blfs = np.ascontiguousarray(blfs, dtype=np.float64)
     # the kernel reads no sample after the last start + reply of a BLF: the rest is not passed
     rho = 2.0 * blfs / fs
-    n_rep = np.ceil(_n_elements(n_bits, m, trext) / rho) + 2
-    cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * _n_pre_elements(m, trext) / rho + n_rep)))) + 1)
+    n_rep = np.ceil(n_reply_elements(n_bits, m, trext) / rho) + 2
+    cut = min(r.size, int(math.ceil(float(np.max(centre - 0.5 * n_pre_elements(m, trext) / rho + n_rep)))) + 1)
     j, resid, start = _rk.fine_kernel(np.ascontiguousarray(r[:max(cut, 0)], dtype=np.complex128), float(centre), int(n_bits), int(m),
                                   pre, state, blfs, float(fs),
                                   method == "viterbi", bits)
@@ -90,11 +89,11 @@ def _fine_python(r, centre, n_bits, m, trext, blfs, fs, method):
     """:func:`_fine` in plain NumPy (decode_reply, reply_waveform and the fit per BLF): the strategy of
     :func:`_decode_window_python`, and the tests' twin of ``fine_kernel``."""
     best = None
-    half = 0.5 * _n_pre_elements(m, trext)
+    half = 0.5 * n_pre_elements(m, trext)
     for blf in blfs:
         rho = 2.0 * blf / fs
         start = centre - half / rho
-        n_rep = int(math.ceil(_n_elements(n_bits, m, trext) / rho)) + 2
+        n_rep = int(math.ceil(n_reply_elements(n_bits, m, trext) / rho)) + 2
         if start < 0 or start > r.size - n_rep:
             continue
         det = decode_reply(r, n_bits=n_bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, method=method,
@@ -136,12 +135,12 @@ def _bits_that_fit(n_avail: float, m: int, trext: bool, rho: float) -> int:
     """Data bits (dummy excluded) of a reply whose preamble starts ``n_avail`` samples before
     the end of the window (ρ elements per sample)."""
     elements = n_avail * rho - 2 * rho
-    return int(math.floor((elements - _n_pre_elements(m, trext)) / (2 * m))) - 1
+    return int(math.floor((elements - n_pre_elements(m, trext)) / (2 * m))) - 1
 
 
 def _reply_end(start: float, n_bits: int, m: int, trext: bool, rho: float, dummy: bool) -> int:
     """First sample after the reply's decoded part (dummy 1 included if ``dummy``)."""
-    n_el = _n_elements(n_bits, m, trext) - (0 if dummy else 2 * m)
+    n_el = n_reply_elements(n_bits, m, trext) - (0 if dummy else 2 * m)
     return int(math.ceil(start + n_el / rho))
 
 
@@ -155,9 +154,9 @@ def _decode_length(r, fs, centre, blf, bits, start, step_first, n_first, n_bits,
         # around its BLF, on a grid no coarser than 1/(2·elements): the residual of the whole
         # reply has a minimum about 1/elements wide in BLF, which a coarser grid can step over
         # (and then settle on a wrong BLF whose decoded bits fit the noise a little better)
-        n_el = _n_elements(n_bits, m, trext)
+        n_el = n_reply_elements(n_bits, m, trext)
         span = FINE_SPAN_STEPS * step_first
-        again = _fine_search(r, centre, n_bits, m, trext, blf, span, 1.0 / (4.0 * n_el),
+        again = _fine_search(r, centre, n_bits, m, trext, blf, span, _rck.blf_resolution(n_el),
                              max(2, int(math.ceil(span * 2.0 * n_el))), fs, method, _fine_python)
         if again is not None:
             blf, bits, start = again[:3]
@@ -257,10 +256,10 @@ def _decode_window_python(r, fs, found, n_bits_of, method):
     corr, blf_c, hyp, start_c, step_c, _ = found
     m, trext = hyp.m, hyp.trext
     rho_c = 2.0 * blf_c / fs
-    centre = start_c + 0.5 * _n_pre_elements(m, trext) / rho_c
+    centre = start_c + 0.5 * n_pre_elements(m, trext) / rho_c
     # step 3: fine BLF over the first 16 bits (or what fits), then the whole reply
     n_first = max(0, min(16, _bits_that_fit(r.size - start_c, m, trext, rho_c)))
-    step_16 = 1.0 / (4.0 * _n_elements(n_first, m, trext))
+    step_16 = _rck.blf_resolution(n_reply_elements(n_first, m, trext))
     fine = _fine_search(r, centre, n_first, m, trext, blf_c, FINE_SPAN_STEPS * step_c, step_16, 8, fs, method,
                         _fine_python)
     if fine is None:

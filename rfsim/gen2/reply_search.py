@@ -20,7 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.capture import preamble_threshold
-from rfsim.gen2.linecode import halfsymbols, preamble_levels, reply_waveform
+from rfsim.gen2.linecode import halfsymbols
+from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_blf_grid_hz, n_pre_elements, n_reply_elements,
+                                   preamble_template0)
 from rfsim.core.lazy import lazy_import
 
 _rsk = lazy_import("rfsim.gen2._reply_search_kernels")
@@ -41,15 +43,6 @@ class LinkHypothesis:
     blf_hi_hz: float
 
 
-@functools.lru_cache(maxsize=32)
-def _n_pre_elements(m: int, trext: bool) -> int:
-    return preamble_levels(m=m, trext=trext)[0].size * m
-
-
-def _n_elements(n_bits: int, m: int, trext: bool) -> int:
-    return _n_pre_elements(m, trext) + 2 * m * (int(n_bits) + 1)
-
-
 @functools.lru_cache(maxsize=256)
 def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
     grid = geometric_blf_grid_hz(lo, hi, step)
@@ -61,33 +54,6 @@ def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
     """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only, cached: the
     same hypotheses are searched after every command)."""
     return _geometric_grid_cached(float(lo), float(hi), float(step))
-
-
-def geometric_blf_grid_hz(lo_hz: float, hi_hz: float, step: float) -> np.ndarray:
-    """BLF hypotheses ``lo_hz`` … ``hi_hz`` on a geometric grid of relative step ≤ ``step``.
-
-    n = ⌈ln(hi/lo) / ln(1 + step)⌉ + 1 values (at least 2) in equal ratios
-    (:func:`numpy.geomspace`); the one middle value when hi ≤ lo. The coarse BLF grid of the
-    capture decoder (step 2) and of the reader's BLF search, with step 1/(2·preamble elements),
-    the correlation peak's half-width.
-
-    Parameters
-    ----------
-    lo_hz, hi_hz : float
-        Lowest and highest BLF [Hz].
-    step : float
-        Largest relative step between neighbours [1].
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(n,) float64`` BLFs [Hz].
-    """
-    lo, hi = float(lo_hz), float(hi_hz)
-    if hi <= lo:
-        return np.array([0.5 * (lo + hi)])
-    n = int(math.ceil(math.log(hi / lo) / math.log1p(step))) + 1
-    return np.geomspace(lo, hi, max(n, 2))
 
 
 def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
@@ -149,10 +115,9 @@ def preamble_correlation(r: np.ndarray, template0: np.ndarray) -> np.ndarray:
 
 
 def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray:
-    """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling)."""
-    n = int(math.floor(_n_pre_elements(m, trext) * fs / (2.0 * blf)))
-    t = reply_waveform(np.zeros(0, np.uint8), m=m, trext=trext, blf_hz=blf, fs_hz=fs, dummy=False, n_samples=n)
-    return t - t.mean()
+    """Zero-mean samples fully inside pilot + preamble (rfsim.gen2.linecode sampling), the
+    capture decoder's count ⌊n_pre·fs/(2·BLF)⌋ (:mod:`rfsim.gen2.reply_core`)."""
+    return preamble_template0(m, trext, blf, fs, int(math.floor(n_pre_elements(m, trext) * fs / (2.0 * blf))))
 
 
 @functools.lru_cache(maxsize=32)
@@ -180,10 +145,10 @@ def _search(r, fs, hyps, lo_of, hi_of):
     best, n_tests = None, 0
     r = np.ascontiguousarray(r, dtype=np.complex128)
     for hyp in hyps:
-        step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        step_c = coarse_blf_step(hyp.m, hyp.trext)
         blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
         lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
-        n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+        n_rep = (np.ceil(n_reply_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
         pre_el = _preamble_elements(hyp.m, hyp.trext)
         # no lag after hi leaves room for the preamble: the samples after it are not passed
         cut = max(0, min(r.size, int(np.max(hi + n_rep)) + 1))
@@ -260,11 +225,10 @@ def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
 def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
     """Lags :func:`_search` tests for ``hyp`` on a working-rate window of ``r_size`` samples
     (the kernel's skip rules), without searching."""
-    step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
-    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, coarse_blf_step(hyp.m, hyp.trext))
     lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
-    n_rep = (np.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
-    n = np.floor(_n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
+    n_rep = (np.ceil(n_reply_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
+    n = np.floor(n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
     last = np.minimum(hi, r_size - n_rep)
     ok = (2.0 * blfs * MIN_SAMPLES_PER_ELEMENT <= fs) & (last >= lo) & (n >= 3)
     return int(np.sum((last - lo + 1)[ok]))
@@ -282,7 +246,7 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
     searches, so the false-alarm probability per window stays as stated."""
     if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
         hyp = hyps[0]
-        span = 2.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        span = FINE_SPAN_STEPS * coarse_blf_step(hyp.m, hyp.trext)
         lo_n, hi_n = max(hyp.blf_lo_hz, blf_hint_hz * (1 - span)), min(hyp.blf_hi_hz, blf_hint_hz * (1 + span))
         n_full, n_narrow, narrow = 0, 0, None
         for band in _bands(hyps):

@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from rfsim.gen2.reply_search import (MIN_SAMPLES_PER_ELEMENT, _geometric_grid, _n_elements, _n_pre_elements,
+from rfsim.gen2.reply_core import n_pre_elements, n_reply_elements
+from rfsim.gen2.reply_search import (MIN_SAMPLES_PER_ELEMENT, _geometric_grid,
                                      _preamble_template, preamble_correlation)
 
 
@@ -14,13 +15,13 @@ def _search_reference(r, fs, hyps, lo_of, hi_of):
     """Plain-NumPy twin of :func:`rfsim.gen2.reply_search._search` (scipy correlation per BLF)."""
     best, n_tests = None, 0
     for hyp in hyps:
-        step_c = 1.0 / (2.0 * _n_pre_elements(hyp.m, hyp.trext))
+        step_c = 1.0 / (2.0 * n_pre_elements(hyp.m, hyp.trext))
         for blf in _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c):
             if 2.0 * blf * MIN_SAMPLES_PER_ELEMENT > fs:
                 continue
             lo, hi = int(lo_of(blf)), int(hi_of(blf))
             t0 = _preamble_template(hyp.m, hyp.trext, blf, fs)
-            n_rep = int(math.ceil(_n_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
+            n_rep = int(math.ceil(n_reply_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blf))) + 2
             last = min(hi, r.size - n_rep)
             if last < lo or t0.size < 3:
                 continue

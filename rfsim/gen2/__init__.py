@@ -12,7 +12,9 @@ decoders), :mod:`~rfsim.gen2.capture` (reader commands in recorded waveforms) an
 
 Capture decoding of tag replies is split by step: detection (:mod:`~rfsim.gen2.reply_search`),
 decoding (:mod:`~rfsim.gen2.reply_decoding`), block tracking (:mod:`~rfsim.gen2.reply_tracking`)
-and the records (:mod:`~rfsim.gen2.replies`, :mod:`~rfsim.gen2.capture_records`).
+and the records (:mod:`~rfsim.gen2.replies`, :mod:`~rfsim.gen2.capture_records`); the steps the
+reader's search decoder and the capture decoder share are written once in
+:mod:`~rfsim.gen2.reply_core`.
 """
 
 from rfsim.core.lazy import lazy_exports
@@ -22,7 +24,8 @@ from rfsim.core.lazy import lazy_exports
 _SOURCES = {
     "bits": ("bits_to_hex", "bits_to_int", "hex_to_bits", "int_to_bits"),
     "commands": ("ACK", "NAK", "CommandParseError", "Query", "QueryAdjust", "QueryRep", "Read", "ReqRN",
-                 "Select", "command_name", "command_preamble", "encode", "parse"),
+                 "Select", "Write", "Kill", "Lock", "Access", "BlockWrite", "BlockErase", "cover_code",
+                 "command_name", "command_preamble", "encode", "parse"),
     "crc": ("append_crc5", "append_crc16", "crc5", "crc5_ok", "crc16", "crc16_bytes", "crc16_ok"),
     "link": ("PROFILES", "LinkProfile", "TimingRange", "backscatter_duration_s", "frt_fraction",
              "pie_duration_s", "profile", "t1", "t2", "t3", "t4", "t5", "t6", "t7"),

@@ -32,6 +32,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -60,6 +61,43 @@ FCC_MAX_DWELL_S = 0.4
 #: through path has some fixed phase); the receiver does not depend on it because the
 #: leakage of the CW is removed as an unknown complex constant.
 LEAKAGE_PHASE_RAD = math.pi / 3
+
+
+class _Kept(NamedTuple):
+    """A value derived by a pure function from one immutable object (a frozen config or link
+    profile), kept with it on the reader: recomputed when the object is replaced."""
+
+    source: object
+    value: object
+
+
+class _Fixed(NamedTuple):
+    """What the receiver derives from the (frozen) config and the sample rate
+    (:meth:`Reader._fixed`)."""
+
+    config: ReaderConfig
+    fs_hz: float
+    noise_w: float  # k·T0·fs·F [W]
+    leakage: complex  # TX→RX leakage gain
+
+
+class _ReplySize(NamedTuple):
+    """Samples of a reply's preamble and of the whole reply (preamble, bits, dummy bit)."""
+
+    preamble_samples: int
+    reply_samples: int
+
+
+class _ReceiveMemo(NamedTuple):
+    """What :meth:`Reader.receive` and :meth:`Reader.detection_threshold` derive from the
+    reader's config, link and sample rate, kept while they are the same objects."""
+
+    config: ReaderConfig
+    link: LinkProfile
+    fs_hz: float
+    blf_hz: float  # the link's nominal BLF [Hz]
+    thresholds: dict  # (n_lags, BLF or None) -> γ
+    sizes: dict  # (n_bits, BLF [Hz]) -> _ReplySize
 
 
 class Reader(PieTransmitter):
@@ -127,15 +165,16 @@ class Reader(PieTransmitter):
                               f"≥ 2·BLF_max = {2 * self.link.blf_hz * (1 + self.link.frt):.4g} Hz")
         #: 0-based hop table (channel k of the plan is visited at dwell period i if hop[i % n] = k)
         self.hop_sequence = rng.permutation(n) if self.config.region == "FCC" else np.arange(n)
-        #: recently sent commands → (bits (read-only), preamble, T_cmd [s]); pure functions of
+        #: recently sent commands → their bits (read-only), preamble and T_cmd [s]
+        #: (:class:`rfsim.devices.reader_tx._Command`); pure functions of
         #: the (frozen) command and the link, dropped when ``link`` is replaced
         self._cmd_cache: dict = {}
         self._cmd_cache_link = self.link
         #: the run's air-step strategy and caches (:class:`rfsim.air.cache.AirCache`): the
         #: exchanges this reader runs (:mod:`rfsim.protocols.engine`), its modulated segments
         self.air_cache = air_cache
-        #: (config, fs, noise power, leakage gain): derived from the frozen config
-        self._derived: tuple = (None, None, 0.0, 0j)
+        #: noise power and leakage gain, derived from the frozen config and fs (:class:`_Fixed`)
+        self._derived = _Fixed(None, None, 0.0, 0j)
         #: with ``blf_search``: the BLF measured on the last accepted RN16 (the ACKed tag's),
         #: used for the EPC reply that follows; cleared by the next reply decoded
         self._rn16_blf_hz: float | None = None
@@ -223,18 +262,18 @@ class Reader(PieTransmitter):
     def _cw_amplitude(self) -> float:
         """CW amplitude A = √P_tx [√W] of the (frozen) config, recomputed when it is replaced."""
         hit = getattr(self, "_amp", None)
-        if hit is None or hit[0] is not self.config:
-            hit = self._amp = (self.config, math.sqrt(self.ptx_w))
-        return hit[1]
+        if hit is None or hit.source is not self.config:
+            hit = self._amp = _Kept(self.config, math.sqrt(self.ptx_w))
+        return hit.value
 
-    def _fixed(self) -> tuple:
-        """``(config, fs, noise power, leakage gain)``, recomputed only when the (frozen)
-        config or the sample rate is replaced."""
+    def _fixed(self) -> _Fixed:
+        """The noise power and leakage gain (:class:`_Fixed`), recomputed only when the
+        (frozen) config or the sample rate is replaced."""
         d = self._derived
-        if d[0] is not self.config or d[1] != self.fs_hz:
+        if d.config is not self.config or d.fs_hz != self.fs_hz:
             noise = float(thermal_noise_power_w(self.fs_hz, self.config.noise_figure_db))
             leak = complex(10.0 ** (-self.config.isolation_db / 20.0) * np.exp(1j * LEAKAGE_PHASE_RAD))
-            d = self._derived = (self.config, self.fs_hz, noise, leak)
+            d = self._derived = _Fixed(self.config, self.fs_hz, noise, leak)
         return d
 
     def noise_power_w(self) -> float:
@@ -248,7 +287,7 @@ class Reader(PieTransmitter):
             Noise power [W]; 0 with ``rx_model = "statistic"`` (the air adds none: the
             receiver draws its own).
         """
-        return 0.0 if self._rx_rng is not None else self._fixed()[2]
+        return 0.0 if self._rx_rng is not None else self._fixed().noise_w
 
     def leakage_gain(self) -> complex:
         """Return the TX→RX leakage as a complex amplitude gain.
@@ -260,7 +299,7 @@ class Reader(PieTransmitter):
         complex
             L [1] (the engine adds L·x_tx at the RX port).
         """
-        return self._fixed()[3]
+        return self._fixed().leakage
 
     # ------------------------------------------------------------------ receiver
 
@@ -307,15 +346,13 @@ class Reader(PieTransmitter):
         float
             γ, a normalised correlation in (0, 1).
         """
-        memo = getattr(self, "_thresholds", None)  # kept while config, link and fs are the same
-        if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
-            memo = self._thresholds = (self.config, self.link, self.fs_hz, {})
+        table = self._receive_memo().thresholds  # kept while config, link and fs are the same
         key = (int(n_lags), blf_hz)
-        hit = memo[3].get(key)
+        hit = table.get(key)
         if hit is None:
-            if len(memo[3]) >= TX_CACHE_SIZE:
-                memo[3].clear()
-            hit = memo[3][key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
+            if len(table) >= TX_CACHE_SIZE:
+                table.clear()
+            hit = table[key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
                                                     self.config.false_alarm_probability)
         return hit
 
@@ -467,16 +504,16 @@ class Reader(PieTransmitter):
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
         n_bits = int(n_bits)
         lk, fs = self.link, self.fs_hz
-        memo = self._reply_memo()
-        blf = memo[3] if blf_hz is None else float(blf_hz)
+        memo = self._receive_memo()
+        blf = memo.blf_hz if blf_hz is None else float(blf_hz)
         if not blf > 0:
             raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
-        hit = memo[4].get((n_bits, blf))
+        hit = memo.sizes.get((n_bits, blf))
         if hit is None:
-            if len(memo[4]) >= TX_CACHE_SIZE:
-                memo[4].clear()
+            if len(memo.sizes) >= TX_CACHE_SIZE:
+                memo.sizes.clear()
             # reply length in samples (preamble + n_bits + dummy)
-            hit = memo[4][(n_bits, blf)] = (self.preamble_samples(blf), int(math.ceil(
+            hit = memo.sizes[(n_bits, blf)] = _ReplySize(self.preamble_samples(blf), int(math.ceil(
                 reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
         pre_n, n_reply = hit
         lo, hi = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
@@ -562,30 +599,29 @@ class Reader(PieTransmitter):
         return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
                           decision_ebn0_db=stat, **meas)
 
-    def _reply_memo(self) -> tuple:
-        """``(config, link, fs, nominal BLF [Hz], {(n_bits, BLF): (preamble samples, reply
-        samples)})`` of :meth:`receive`, kept while config, link and fs are the same objects
-        (pure functions of them)."""
+    def _receive_memo(self) -> _ReceiveMemo:
+        """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
+        while config, link and fs are the same objects (pure functions of them)."""
         memo = getattr(self, "_rx_memo", None)
-        if memo is None or memo[0] is not self.config or memo[1] is not self.link or memo[2] != self.fs_hz:
-            memo = self._rx_memo = (self.config, self.link, self.fs_hz, self.link.blf_hz, {})
+        if memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz:
+            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {}, {})
         return memo
 
     def _preamble_elements(self) -> int:
         """Elements of the reply preamble (pilot included) of the current link (kept while the
         link is the same object)."""
         hit = getattr(self, "_pre_el", None)
-        if hit is None or hit[0] is not self.link:
+        if hit is None or hit.source is not self.link:
             lk = self.link
-            hit = self._pre_el = (lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
-        return hit[1]
+            hit = self._pre_el = _Kept(lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
+        return hit.value
 
     def _blf_grid(self) -> np.ndarray:
         """:func:`blf_grid_hz` of the current link (kept while the link is the same object)."""
         hit = getattr(self, "_grid", None)
-        if hit is None or hit[0] is not self.link:
-            hit = self._grid = (self.link, blf_grid_hz(self.link))
-        return hit[1]
+        if hit is None or hit.source is not self.link:
+            hit = self._grid = _Kept(self.link, blf_grid_hz(self.link))
+        return hit.value
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
                    dummy: bool = True) -> np.ndarray:

@@ -323,7 +323,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         raise ValueError(f"rx must be 1-D, got shape {x.shape}")
     n_bits = int(n_bits)
     lk, fs = reader.link, reader.fs_hz
-    sigma2 = reader._fixed()[2]  # k·T0·fs·F, the sample-level model's noise power
+    sigma2 = reader._fixed().noise_w  # k·T0·fs·F, the sample-level model's noise power
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
     if not blf > 0:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")

@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -45,6 +46,14 @@ __all__ = ["TxSegment", "PieTransmitter", "hilbert_fir", "SSB_HILBERT_HALF_TARI"
 SSB_HILBERT_HALF_TARI = 4.0
 #: Number of modulated command segments a Reader keeps for reuse.
 TX_CACHE_SIZE = 64
+
+
+class _Command(NamedTuple):
+    """A command as sent: its bits (read-only), its preamble and its duration T_cmd [s]."""
+
+    bits: np.ndarray
+    preamble: str
+    duration_s: float
 
 
 @dataclass(frozen=True)
@@ -125,8 +134,8 @@ class PieTransmitter:
     (:class:`rfsim.air.cache.AirCache`: the modulated segments by content).
     """
 
-    def _command(self, cmd) -> tuple:
-        """``(bits, preamble, T_cmd [s])`` of a command (the last :data:`TX_CACHE_SIZE`
+    def _command(self, cmd) -> _Command:
+        """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (the last :data:`TX_CACHE_SIZE`
         commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
         if self._cmd_cache_link is not self.link:
             self._cmd_cache.clear()
@@ -142,7 +151,7 @@ class PieTransmitter:
         bits = encode(cmd)
         bits.setflags(write=False)
         preamble = command_preamble(cmd)
-        hit = (bits, preamble, self.link.command_duration_s(bits, preamble))
+        hit = _Command(bits, preamble, self.link.command_duration_s(bits, preamble))
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
                 self._cmd_cache.pop(next(iter(self._cmd_cache)))

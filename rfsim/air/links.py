@@ -7,6 +7,7 @@ share a position (:func:`check_positions`) and the one-line error of a missing l
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -14,10 +15,27 @@ from rfsim.core.errors import ConfigError
 from rfsim.air.cache import AirCache, CheckedAntennas
 from rfsim.air.segment import Segment
 
-__all__ = ["PROPAGATION_METHODS", "LinkTable", "check_positions", "link_constant", "through", "require_link"]
+__all__ = ["PROPAGATION_METHODS", "LinkTable", "HeldLink", "check_positions", "link_constant", "through",
+           "require_link"]
 
 #: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
 PROPAGATION_METHODS = ("auto", "exact", "narrowband")
+
+
+class HeldLink(NamedTuple):
+    """One draw of a :class:`LinkTable`, kept with the antennas whose identities key it.
+
+    Attributes
+    ----------
+    tx, rx : object
+        The transmitting and receiving antennas (kept alive: their ids stay their own).
+    paths : PathSet-like or None
+        The pair's paths (None: the channel has no such link).
+    """
+
+    tx: object
+    rx: object
+    paths: object
 
 
 class LinkTable:
@@ -74,9 +92,9 @@ class LinkTable:
             if self.motions.get(id(rx)) is not None:
                 kw["rx_motion"] = self.motions[id(rx)]
             hit = self.channel.link(tx, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s, **kw)
-            self._held[key] = (tx, rx, hit)  # the antennas are kept alive with their ids
+            self._held[key] = HeldLink(tx, rx, hit)  # the antennas are kept alive with their ids
             return hit
-        return hit[2]
+        return hit.paths
 
 
 def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence,

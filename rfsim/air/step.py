@@ -72,9 +72,10 @@ Bad input gives one-line :class:`rfsim.core.errors.ConfigError` messages naming 
 device list (``air.emitters``), a segment off the step's time base, two antennas at distance 0
 (``<device>.position_m``), a pair without a link (``air.links``).
 
-This module holds the step (:func:`propagate`, in stages: emit, links → reflect, then per
-receiver direct paths, backscatter, superposition, noise, receive) and its result
-(:class:`AirResult`); its parts live beside it and are importable from here:
+This module holds the step (:func:`propagate`) as six stages, each a function of its own
+sharing one :class:`StepState`: :func:`emit` → :func:`draw_links` → :func:`reflect` → (per
+receiver) :func:`superpose` → :func:`noise` → :func:`receive`; and its result
+(:class:`AirResult`). Its parts live beside it and are importable from here:
 :mod:`rfsim.air.segment` (:class:`Segment`, :func:`carrier_shift`), :mod:`rfsim.air.roles`
 (the protocols and adapters), :mod:`rfsim.air.links` (:class:`LinkTable`, a link applied,
 the position check), :mod:`rfsim.air.groups` (members of reflector groups),
@@ -88,6 +89,7 @@ from __future__ import annotations
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -104,7 +106,8 @@ from rfsim.air.fused import Backscatter, fused_sum, lazy_backscatter
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
            "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
-           "PROPAGATION_METHODS", "AirCache", "Strategy"]
+           "PROPAGATION_METHODS", "AirCache", "Strategy", "StepState", "Incoming", "emit", "draw_links", "reflect",
+           "superpose", "noise", "receive"]
 
 _antenna_of = operator.attrgetter("antenna")
 
@@ -165,7 +168,7 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
               fc_ref_hz: float | None = None, bandwidth_hz: float | None = None, propagation: str = "auto",
               decide: bool = True, keep_components: bool = False, skip_unmodulated: bool = False,
               cache: AirCache | None = None) -> AirResult:
-    """Run one exchange through the air: emit, propagate, reflect, superpose, add noise, receive.
+    """Run one exchange through the air: emit, links, reflect, superpose, noise, receive.
 
     The model (first-order backscatter, carrier offsets, narrowband static links, groups,
     batch dimensions) is in the module docstring.
@@ -226,68 +229,150 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
 
     Notes
     -----
-    Stages (each a function of this module, sharing one ``_Step``): ``_begin`` (arguments,
-    members, positions), ``_emit`` (segments, reference carrier, held forward constants),
-    ``_reflect`` (links to and reaction of every reflector), then per receiver ``_direct``
-    (emitters' links or coupling), ``_backscatter`` (reflectors' links), ``_superpose``,
-    ``_noise`` and its ``receive``.
+    The body is the six stages in order, each a function of this module sharing one
+    :class:`StepState`: :func:`emit` (the emitters' segments), :func:`draw_links` (the links
+    into the reflectors), :func:`reflect` (the incident fields and the reflectors' reactions),
+    then per receiver :func:`superpose` (its links, direct paths and backscatter summed),
+    :func:`noise` and :func:`receive`. The fast paths are branches chosen by data the step is
+    given (one emitter with held link constants, a group that answers at once) or by the run's
+    :class:`Strategy` (``cache.strategy``: the fused backscatter sum, the noise generator).
     """
     receivers = list(receivers)
     st = _begin(emitters, reflectors, receivers, links, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples,
                 bandwidth_hz=bandwidth_hz, propagation=propagation, keep=keep_components,
                 cache=AirCache() if cache is None else cache)
-    _emit(st, fc_ref_hz)
-    _reflect(st)
-    incident = PerMember(st.incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
-    if skip_unmodulated and not keep_components and not modulates(st.entries, st.reflections, st.shortcut):
-        return _unheard(st, receivers, incident, rng)
-    st.reflections = PerMember(st.reflections, st.shortcut_of)
-    return _receive(st, receivers, incident, rng=rng, decide=decide)
+    emit(st, fc_ref_hz)
+    draw_links(st)
+    reflect(st)
+    if skip_unmodulated and not keep_components and not modulates(st.entries, st.reacted, st.shortcut):
+        return _unheard(st, receivers, rng)
+    for k, rcv in enumerate(receivers):
+        seg_k = superpose(st, k, rcv)
+        noise(st, seg_k, rcv, rng)
+        receive(st, rcv, seg_k, decide=decide)
+    return AirResult(segments=st.segs, incident=st.incident, reflections=st.reflections, inputs=st.inputs,
+                     outputs=st.outputs, dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz), direct=st.direct_l,
+                     backscatter=st.back_l, noise=st.noise_l, links=st.used, groups=sorted(st.shortcut.items()))
 
 
-class _Step:
-    """What the stages of one :func:`propagate` call share: the time base (``t0_s`` [s],
-    ``fs_hz`` [Hz], ``n_samples``), the links and their policy (``bw`` [Hz], ``propagation``,
-    ``memo`` of narrowband constants), the reflectors' ``members``/``entries``, the emitters'
-    ``segs`` (``live``: the non-silent ones; ``single``: ``(i0, seg0)`` when one emitter on
-    the reference carrier, with ``gains`` its held forward constants), the per-member
-    ``incident``/``reflections``/``per_emitter`` (``(emitter, segment, constant gain or None,
-    samples or None)`` per emitter) and ``shortcut`` (group start → its GroupReflection), and
-    the ``dropped``/``used`` records of the result, and the run's ``cache``
-    (:class:`rfsim.air.cache.AirCache`)."""
+class Incoming(NamedTuple):
+    """A member's incident field from one emitter, in the emitter's own baseband.
+
+    Attributes
+    ----------
+    emitter : int
+        Index of the emitter.
+    segment : Segment
+        The emitter's segment x_e, samples (…, n) complex128 [√W].
+    gain : complex or None
+        The link's constant g (narrowband, static): the field is g·x_e; None: see ``samples``.
+    samples : ndarray or None
+        The field L{x_e}, (…, n) complex128 [√W], when the link is not one constant.
+    """
+
+    emitter: int
+    segment: Segment
+    gain: complex | None
+    samples: np.ndarray | None
+
+
+class StepState:
+    """What the stages of one :func:`propagate` call share.
+
+    Attributes
+    ----------
+    emitters, links, t0_s, fs_hz, n_samples, keep, cache
+        The step's arguments (``keep``: ``keep_components``; ``cache``: the run's
+        :class:`rfsim.air.cache.AirCache`).
+    bw, propagation, half, memo
+        The links' policy: bandwidth [Hz], propagation method, fs/2 [Hz] and the step's memo of
+        narrowband link constants (keyed by ``(id(paths), fc_hz)``: every such paths object is
+        held by the links for the step).
+    members, entries, member_antennas
+        The reflectors' flat member list, ``(start, stop, group or None)`` per given reflector,
+        and the members' antennas.
+    segs, live, fc_ref_hz, single, i0, seg0
+        :func:`emit`: per emitter its segment (None: silent), the ``(index, segment)`` of the
+        live ones, the reference carrier [Hz], and ``(i0, seg0)`` when one emitter emits on it.
+    held, gains, per_emitter
+        :func:`draw_links`: the links' ``held_constants`` (or None), the held forward constants
+        (n_members,) complex (or None) and per member its :class:`Incoming` fields (None: the
+        one emitter's scaled copy ``gains[j]·x``).
+    incident, reacted, reflections, shortcut
+        :func:`reflect`: per member its incident segment and its reflection (raw list and the
+        :class:`rfsim.air.groups.PerMember` view that forms a shortcut member's entry when read),
+        and group start → the :class:`GroupReflection` of the groups that answered at once.
+    inputs, outputs, direct_l, back_l, noise_l, dropped, used
+        The result being formed (:class:`AirResult` fields; the components only with ``keep``).
+    """
 
     __slots__ = ("emitters", "links", "t0_s", "fs_hz", "n_samples", "bw", "propagation", "keep", "half",
                  "members", "entries", "member_antennas", "segs", "live", "fc_ref_hz", "single", "i0", "seg0",
-                 "held", "gains", "dropped", "used", "memo", "incident", "reflections", "per_emitter", "shortcut",
-                 "cache")
+                 "held", "gains", "dropped", "used", "memo", "incident", "reacted", "reflections", "per_emitter",
+                 "shortcut", "cache", "inputs", "outputs", "direct_l", "back_l", "noise_l")
 
     def shift(self, y, offset_hz: float):
-        """``y`` moved by a carrier offset [Hz] (:func:`carrier_shift`; itself at offset 0)."""
+        """Return ``y`` moved by a carrier offset.
+
+        Parameters
+        ----------
+        y : ndarray
+            Samples (…, n) complex128 [√W] on the step's time base.
+        offset_hz : float
+            The offset [Hz].
+
+        Returns
+        -------
+        ndarray
+            :func:`carrier_shift` of ``y`` (``y`` itself at offset 0).
+        """
         return y if offset_hz == 0.0 else carrier_shift(y, offset_hz, t0_s=self.t0_s, fs_hz=self.fs_hz)
 
     def shortcut_of(self, j: int):
-        """Member j's reflection inside the group that took the shortcut."""
+        """Return member j's reflection inside the group that answered at once.
+
+        Parameters
+        ----------
+        j : int
+            Member index.
+
+        Returns
+        -------
+        Reflection or None
+            The member's reflection from its group's :class:`GroupReflection`.
+        """
         for start, gr in self.shortcut.items():
             if start <= j < start + len(gr):
                 return gr[j - start]
         raise IndexError(j)
 
     def comps_of(self, j: int):
-        """Member j's incident field per emitter (a shortcut member: the one emitter's scaled copy)."""
+        """Return member j's incident fields per emitter.
+
+        Parameters
+        ----------
+        j : int
+            Member index.
+
+        Returns
+        -------
+        tuple of Incoming
+            Its fields (a shortcut member: the one emitter's scaled copy ``gains[j]·x``).
+        """
         comps = self.per_emitter[j]
-        return comps if comps is not None else ((self.i0, self.seg0, self.gains[j], None),)
+        return comps if comps is not None else (Incoming(self.i0, self.seg0, self.gains[j], None),)
 
 
 def _begin(emitters, reflectors, receivers: list, links, *, t0_s, fs_hz, n_samples, bandwidth_hz, propagation,
-           keep: bool, cache: AirCache) -> _Step:
+           keep: bool, cache: AirCache) -> StepState:
     """The arguments checked (one-line errors), the reflectors' members and entries, no two
-    antennas at one position."""
+    antennas at one position, the result's lists."""
     if propagation not in PROPAGATION_METHODS:
         raise ConfigError("air.propagation", propagation, f"one of {PROPAGATION_METHODS}")
     emitters, reflectors = list(emitters), list(reflectors)
     if not emitters:
         raise ConfigError("air.emitters", [], "at least one emitter (a reader, an exciter, a transceiver)")
-    st = _Step()
+    st = StepState()
     st.n_samples, st.fs_hz, st.t0_s = int(n_samples), float(fs_hz), float(t0_s)
     if st.n_samples < 1:
         raise ConfigError("air.n_samples", st.n_samples, "at least 1 sample")
@@ -301,14 +386,35 @@ def _begin(emitters, reflectors, receivers: list, links, *, t0_s, fs_hz, n_sampl
     st.emitters, st.links, st.propagation, st.keep = emitters, links, propagation, keep
     st.half = 0.5 * st.fs_hz
     st.dropped, st.used, st.memo = [], {}, {}
+    st.inputs, st.outputs = [], []
+    st.direct_l = [] if keep else None
+    st.back_l = [[None] * len(receivers) for _ in st.members] if keep else None
+    st.noise_l = [] if keep else None
     return st
 
 
-def _emit(st: _Step, fc_ref_hz) -> None:
-    """Emit: every emitter's segment on the step's time base, (…, n) complex128 [√W] on its
-    own carrier (None: silent), the reference carrier (default the first live emitter's)
-    and, for one emitter on the reference carrier (a reader's exchange), the held constants
-    of its links to the members when the links hold them (``links.held_constants``)."""
+def emit(st: StepState, fc_ref_hz: float | None) -> list:
+    """Stage 1, emit: every emitter's segment on the step's time base.
+
+    Parameters
+    ----------
+    st : StepState
+        The step (its ``emitters`` and time base ``t0_s``, ``fs_hz``, ``n_samples`` = n).
+    fc_ref_hz : float or None
+        The reflectors' reference carrier [Hz]; None: the first live emitter's.
+
+    Returns
+    -------
+    list of Segment or None
+        Per emitter its segment on its own carrier, samples (…, n) complex128 [√W] (None:
+        silent); also ``st.segs``, with ``st.live``, ``st.fc_ref_hz`` and, for one emitter on the
+        reference carrier (a reader's exchange), ``st.single = (i0, seg0)``.
+
+    Raises
+    ------
+    ConfigError
+        A segment off the step's time base.
+    """
     segs = []
     for i, e in enumerate(st.emitters):
         s = e.emit(t0_s=st.t0_s, fs_hz=st.fs_hz, n_samples=st.n_samples)
@@ -322,25 +428,94 @@ def _emit(st: _Step, fc_ref_hz) -> None:
         fc_ref_hz = live[0][1].fc_hz if live else float("nan")
     st.fc_ref_hz = fc_ref_hz
     st.single = single = live[0] if (len(live) == 1 and live[0][1].fc_hz == fc_ref_hz) else None
-    st.i0 = st.seg0 = st.held = st.gains = None
-    if single is not None:
-        st.i0, st.seg0 = single
+    st.i0, st.seg0 = single if single is not None else (None, None)
+    return segs
+
+
+def draw_links(st: StepState) -> list:
+    """Stage 2, links: every emitter → reflector link, asked in member order, applied.
+
+    For one emitter on the reference carrier whose links hold their constants
+    (``links.held_constants``: narrowband and static, e.g. the engine's), the forward links are
+    those constants, (n_members,) complex, and nothing is applied; otherwise every member's
+    link from every live emitter is asked (drawn on first use) and applied in the emitter's
+    own baseband (:func:`rfsim.air.links.through`: one constant for a narrowband static link).
+    The receivers' links are asked by :func:`superpose`, receiver by receiver, before that
+    receiver's noise: a generator shared by links and noise keeps that order.
+
+    Parameters
+    ----------
+    st : StepState
+        The step after :func:`emit`.
+
+    Returns
+    -------
+    list
+        Per member None (its field is ``st.gains[j]·x``, the held case) or a tuple of
+        :class:`Incoming`, one per live emitter (gain, or samples (…, n) complex128 [√W]);
+        also ``st.per_emitter``, with ``st.gains`` (the held constants or None). An emitter
+        outside ±fs/2 of the reference carrier is recorded in ``st.dropped``.
+
+    Raises
+    ------
+    ConfigError
+        A pair without a link.
+    """
+    n_mem = len(st.members)
+    st.per_emitter = [None] * n_mem
+    st.held = st.gains = None
+    if st.single is not None:
         st.held = getattr(st.links, "held_constants", None)
         if st.held is not None and not st.keep and st.members:
             st.gains = st.held(st.emitters[st.i0].antenna, st.member_antennas, fc_hz=st.seg0.fc_hz,
                                bandwidth_hz=st.bw, propagation=st.propagation, inbound=False)
+    if st.gains is not None:  # every forward link a held constant: nothing to ask or apply
+        return st.per_emitter
+    sources = (st.single,) if st.single is not None else st.live
+    for j, refl in enumerate(st.members):
+        comps = []
+        for i, seg in sources:
+            fc_e, e_ant = seg.fc_hz, st.emitters[i].antenna
+            p = st.links.paths(e_ant, refl.antenna, fc_hz=fc_e, t_s=st.t0_s)
+            if p is None:
+                require_link(st.links, e_ant, refl.antenna, fc_hz=fc_e, t_s=st.t0_s,
+                             what=f"emitter[{i}] → reflector[{j}]")
+            if st.keep:
+                st.used[("emitter", i, "reflector", j)] = p
+            g, y = through(p, seg, None, fc_hz=fc_e, bandwidth_hz=st.bw, propagation=st.propagation, memo=st.memo)
+            comps.append(Incoming(i, seg, g, y))
+            off = fc_e - st.fc_ref_hz
+            if off != 0.0 and abs(off) >= st.half:
+                st.dropped.append((i, "reflector", j, off))
+        st.per_emitter[j] = tuple(comps)
+    return st.per_emitter
 
 
-def _reflect(st: _Step) -> None:
-    """Links → reflect: the incident field at every member, a (…, n) [√W] segment on the
-    reference carrier (kept per emitter in the emitter's own baseband for the backscatter),
-    and what the member does with it. A group whose members all see held scaled copies of
-    the one emitter answers at once (``reflect_scaled``: the shortcut); otherwise its members
-    reflect together (``reflect_each``), a lone reflector on its own."""
+def reflect(st: StepState) -> list:
+    """Stage 3, reflect: every member's incident field and what the member does with it.
+
+    A group whose members all see held scaled copies g_j·x of the one emitter answers at once
+    (``reflect_scaled``: the shortcut); otherwise its members reflect together
+    (``reflect_each``), a lone reflector on its own (``reflect``).
+
+    Parameters
+    ----------
+    st : StepState
+        The step after :func:`draw_links`.
+
+    Returns
+    -------
+    sequence
+        Per member its reflection (re-radiation factor r_j: a constant or (…, n) complex128; None:
+        scatters nothing), a :class:`rfsim.air.groups.PerMember` whose shortcut members' entries
+        are formed when read; also ``st.reflections``, with ``st.incident`` (per member its
+        incident segment on the reference carrier, samples (…, n) complex128 [√W], formed when
+        read for a shortcut member) and ``st.shortcut`` (group start → GroupReflection).
+    """
     n_mem = len(st.members)
-    st.incident, st.reflections, st.per_emitter = [UNSET] * n_mem, [UNSET] * n_mem, [None] * n_mem
+    incident, reacted = [UNSET] * n_mem, [UNSET] * n_mem
     st.shortcut = {}
-    members, incident, reflections, gains = st.members, st.incident, st.reflections, st.gains
+    members, gains, per_emitter = st.members, st.gains, st.per_emitter
     for start, stop, grp in st.entries:
         if grp is not None and gains is not None:
             g_part = gains if (start == 0 and stop == n_mem) else gains[start:stop]
@@ -349,63 +524,33 @@ def _reflect(st: _Step) -> None:
                 st.shortcut[start] = gr
                 continue
         for j in range(start, stop):
-            refl = members[j]
-            inc = _incident_single(st, j, refl) if st.single is not None else _incident_multi(st, j, refl)
-            incident[j] = inc
+            if gains is not None:  # the held constant: a scaled copy of the one emitter's segment
+                per_emitter[j] = (Incoming(st.i0, st.seg0, gains[j], None),)
+            inc = incident[j] = _incident(st, per_emitter[j])
             if grp is None:
-                reflections[j] = refl.reflect(inc)
+                reacted[j] = members[j].reflect(inc)
         if grp is not None:
-            reflections[start:stop] = grp.reflect_each(incident[start:stop])
+            reacted[start:stop] = grp.reflect_each(incident[start:stop])
+    st.reacted = reacted
+    st.incident = PerMember(incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
+    st.reflections = PerMember(reacted, st.shortcut_of)
+    return st.reflections
 
 
-def _incident_single(st: _Step, j: int, refl) -> Segment:
-    """Member j's incident segment from the one emitter on the reference carrier: the held
-    constant, else its link asked and applied (the general case without the carrier
-    bookkeeping — the same links asked in the same order, the same arithmetic)."""
-    i0, seg0 = st.i0, st.seg0
-    fc0 = seg0.fc_hz
-    if st.gains is not None:  # every link held, narrowband and static: its constant, remembered
-        g, y = st.gains[j], None
-    else:
-        e_ant = st.emitters[i0].antenna
-        p = st.links.paths(e_ant, refl.antenna, fc_hz=fc0, t_s=st.t0_s)
-        if p is None:
-            require_link(st.links, e_ant, refl.antenna, fc_hz=fc0, t_s=st.t0_s,
-                         what=f"emitter[{i0}] → reflector[{j}]")
-        if st.keep:
-            st.used[("emitter", i0, "reflector", j)] = p
-        g, y = through(p, seg0, None, fc_hz=fc0, bandwidth_hz=st.bw, propagation=st.propagation, memo=st.memo)
-    st.per_emitter[j] = ((i0, seg0, g, y),)
-    return Segment.scaled(seg0, g, st.fc_ref_hz) if g is not None else Segment(st.t0_s, st.fs_hz, st.fc_ref_hz, y)
-
-
-def _incident_multi(st: _Step, j: int, refl) -> Segment:
-    """Member j's incident segment from every live emitter: each link applied in the
-    emitter's baseband, shifted to the reference carrier (dropped outside ±fs/2), summed; a
-    lone held constant on the reference carrier stays a scaled copy."""
-    ant = refl.antenna
-    comps = []  # (emitter index, segment, constant gain or None, samples or None)
+def _incident(st: StepState, comps: tuple) -> Segment:
+    """A member's incident segment on the reference carrier from its :class:`Incoming` fields:
+    a lone constant on the reference carrier stays a scaled copy; otherwise each field (its
+    samples, or g·x) shifted to the reference carrier (dropped outside ±fs/2) and summed."""
     total = None  # a Segment (scaled copy) or an array
-    for i, seg in st.live:
-        fc_e = seg.fc_hz
-        p = st.links.paths(st.emitters[i].antenna, ant, fc_hz=fc_e, t_s=st.t0_s)
-        if p is None:
-            require_link(st.links, st.emitters[i].antenna, ant, fc_hz=fc_e, t_s=st.t0_s,
-                         what=f"emitter[{i}] → reflector[{j}]")
-        if st.keep:
-            st.used[("emitter", i, "reflector", j)] = p
-        g, y = through(p, seg, None, fc_hz=fc_e, bandwidth_hz=st.bw, propagation=st.propagation, memo=st.memo)
-        comps.append((i, seg, g, y))
-        off = fc_e - st.fc_ref_hz
+    for i, seg, g, y in comps:
+        off = seg.fc_hz - st.fc_ref_hz
         if off != 0.0 and abs(off) >= st.half:
-            st.dropped.append((i, "reflector", j, off))
             continue
         if total is None and off == 0.0 and g is not None:
             total = Segment.scaled(seg, g, st.fc_ref_hz)
             continue
         v = st.shift(y if y is not None else g * seg.samples, off)
         total = v if total is None else (total.samples if isinstance(total, Segment) else total) + v
-    st.per_emitter[j] = comps
     if total is None:
         return Segment(st.t0_s, st.fs_hz, st.fc_ref_hz, np.zeros(st.n_samples, dtype=np.complex128))
     if isinstance(total, Segment):
@@ -413,7 +558,7 @@ def _incident_multi(st: _Step, j: int, refl) -> Segment:
     return Segment(st.t0_s, st.fs_hz, st.fc_ref_hz, total)
 
 
-def _unheard(st: _Step, receivers: list, incident, rng) -> AirResult:
+def _unheard(st: StepState, receivers: list, rng) -> AirResult:
     """The result of a step in which nothing modulates (``skip_unmodulated``): no receiver
     input is formed, every noisy receiver's noise draws are still made, in receiver order."""
     for rcv in receivers:  # silent air: nobody reads these inputs, the noise draws are made
@@ -422,38 +567,48 @@ def _unheard(st: _Step, receivers: list, incident, rng) -> AirResult:
                 raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
             skip_receiver_noise(st.n_samples, rng, method=st.cache.strategy.noise)
     none = [None] * len(receivers)
-    return AirResult(segments=st.segs, incident=incident, reflections=PerMember(st.reflections, st.shortcut_of),
+    return AirResult(segments=st.segs, incident=st.incident, reflections=st.reflections,
                      inputs=none, outputs=list(none), dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz),
                      groups=sorted(st.shortcut.items()))
 
 
-def _receive(st: _Step, receivers: list, incident, *, rng, decide: bool) -> AirResult:
-    """Every receiver in order: direct paths (or coupling), backscatter, superposition,
-    noise, then its ``receive``."""
-    keep = st.keep
-    inputs, outputs = [], []
-    direct_l = [] if keep else None
-    back_l = [[None] * len(receivers) for _ in st.members] if keep else None
-    noise_l = [] if keep else None
-    for k, rcv in enumerate(receivers):
-        fc_k = rcv.fc_hz if getattr(rcv, "fc_hz", None) is not None else st.fc_ref_hz
-        const, parts = _direct(st, k, rcv, fc_k)
-        if keep:
-            direct_l.append(_direct_component(st, const, parts))
-        _backscatter(st, k, rcv.antenna, fc_k, const, parts, back_l)
-        y = _superpose(const, parts, st.segs, st.n_samples, fused=st.cache.strategy.fused_backscatter)
-        n_k = _noise(y, rcv, rng, keep, st)
-        if keep:
-            noise_l.append(n_k)
-        seg_k = Segment(st.t0_s, st.fs_hz, fc_k, y)
-        inputs.append(seg_k)
-        outputs.append(rcv.receive(seg_k) if decide else None)
-    return AirResult(segments=st.segs, incident=incident, reflections=st.reflections, inputs=inputs,
-                     outputs=outputs, dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz), direct=direct_l,
-                     backscatter=back_l, noise=noise_l, links=st.used, groups=sorted(st.shortcut.items()))
+def superpose(st: StepState, k: int, rcv) -> Segment:
+    """Stage 4, superpose: receiver k's input without noise, y_k = Σ_e a_e·x_e + Σ parts.
+
+    Receiver k's links are asked here, in order (the links from every live emitter, or the
+    receiver's ``coupling`` when it shares the emitter's antenna; then the reflectors' links,
+    :func:`_backscatter`); the narrowband static contributions on the receiver's carrier are
+    summed as one complex factor a_e of x_e per emitter, the others as full-length parts,
+    added after the constant terms in order (:func:`_sum_terms`, with the fused kernel where
+    the run's strategy asks for it: ``Strategy.fused_backscatter``).
+
+    Parameters
+    ----------
+    st : StepState
+        The step after :func:`reflect`.
+    k : int
+        Index of the receiver.
+    rcv : Receiver
+        The receiver (its ``antenna``; optional ``fc_hz``, default the reference carrier, and
+        ``coupling``).
+
+    Returns
+    -------
+    Segment
+        The receiver's input on its carrier, samples (…, n) complex128 [√W] (a new array, zeros
+        when nothing arrives). With ``keep_components`` the direct and backscatter components
+        (…, n) complex128 [√W] are appended to ``st.direct_l`` and ``st.back_l[j][k]``.
+    """
+    fc_k = rcv.fc_hz if getattr(rcv, "fc_hz", None) is not None else st.fc_ref_hz
+    const, parts = _direct(st, k, rcv, fc_k)
+    if st.keep:
+        st.direct_l.append(_direct_component(st, const, parts))
+    _backscatter(st, k, rcv.antenna, fc_k, const, parts, st.back_l)
+    y = _sum_terms(const, parts, st.segs, st.n_samples, fused=st.cache.strategy.fused_backscatter)
+    return Segment(st.t0_s, st.fs_hz, fc_k, y)
 
 
-def _direct(st: _Step, k: int, rcv, fc_k: float) -> tuple[dict, list]:
+def _direct(st: StepState, k: int, rcv, fc_k: float) -> tuple[dict, list]:
     """Receiver k's direct contributions: ``(const, parts)`` — per emitter index the complex
     factor of x_e (narrowband, static contributions on the receiver's carrier; a coupling
     replaces the channel's link) and the full-length contributions (…, n) [√W], added after the
@@ -486,7 +641,7 @@ def _direct(st: _Step, k: int, rcv, fc_k: float) -> tuple[dict, list]:
     return const, parts
 
 
-def _direct_component(st: _Step, const: dict, parts: list) -> np.ndarray:
+def _direct_component(st: StepState, const: dict, parts: list) -> np.ndarray:
     """The emitters' contribution at a receiver, (…, n) complex128 [√W] (``keep_components``)."""
     d = np.zeros(st.n_samples, dtype=np.complex128)
     for i, g in const.items():
@@ -496,7 +651,7 @@ def _direct_component(st: _Step, const: dict, parts: list) -> np.ndarray:
     return d
 
 
-def _backscatter(st: _Step, k: int, r_ant, fc_k: float, const: dict, parts: list, back_l) -> None:
+def _backscatter(st: StepState, k: int, r_ant, fc_k: float, const: dict, parts: list, back_l) -> None:
     """Receiver k's backscatter, added to ``const``/``parts`` in member order: a group that
     took the shortcut as one (:func:`rfsim.air.groups.group_backscatter`), every other member
     on its own. ``back_l[j][k]`` receives member j's part with ``keep_components``."""
@@ -520,7 +675,7 @@ def _backscatter(st: _Step, k: int, r_ant, fc_k: float, const: dict, parts: list
                 _member_each(st, j, k, r_ant, fc_k, const, parts, back_l)
 
 
-def _member_single(st: _Step, j: int, k: int, r_ant, fc_k: float, backs, const: dict, parts: list) -> None:
+def _member_single(st: StepState, j: int, k: int, r_ant, fc_k: float, backs, const: dict, parts: list) -> None:
     """Member j's backscatter at receiver k with one emitter on the reference carrier
     (:func:`_member_each` shortened): a reflector that does not modulate adds one constant,
     a modulating one with narrowband static links is kept as its factors
@@ -558,7 +713,7 @@ def _member_single(st: _Step, j: int, k: int, r_ant, fc_k: float, backs, const: 
     parts.append(st.shift(yb if yb is not None else gb * scattered, off))
 
 
-def _member_each(st: _Step, j: int, k: int, r_ant, fc_k: float, const: dict, parts: list, back_l) -> None:
+def _member_each(st: StepState, j: int, k: int, r_ant, fc_k: float, const: dict, parts: list, back_l) -> None:
     """Member j's backscatter at receiver k, per emitter: r_j times its incident field from
     that emitter, through the backward link at that emitter's carrier, shifted to the
     receiver's carrier (dropped outside ±fs/2)."""
@@ -604,7 +759,7 @@ def _member_each(st: _Step, j: int, k: int, r_ant, fc_k: float, const: dict, par
         back_l[j][k] = np.zeros(st.n_samples, dtype=np.complex128) if part is None else part
 
 
-def _superpose(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool) -> np.ndarray:
+def _sum_terms(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool) -> np.ndarray:
     """y = Σ_e a_e·x_e + Σ parts, (…, n) complex128 [√W]: the constant-factor terms (with the
     fused kernel where it applies and ``fused`` asks for it, :func:`rfsim.air.fused.fused_sum`),
     then the parts in order; zeros when nothing arrives."""
@@ -623,18 +778,72 @@ def _superpose(const: dict, parts: list, segs: list, n_samples: int, *, fused: b
     return y
 
 
-def _noise(y: np.ndarray, rcv, rng, keep: bool, st: _Step):
-    """Adds the receiver's complex white noise √(N/2)·(a + j·b) to ``y`` (…, n) in place, drawn
-    as the run's strategy says (:func:`rfsim.air.noise.add_receiver_noise`: every a then every b
-    from ``rng``, or the samples from the receiver's :func:`first_read` on from a counter-based
-    stream keyed by one draw of ``rng``); returns the noise (…, n) [√W] with ``keep``, else None."""
+def noise(st: StepState, seg: Segment, rcv, rng: np.random.Generator | None):
+    """Stage 5, noise: add the receiver's complex white noise to its input, in place.
+
+    n = √(N/2)·(a + j·b) with N = ``rcv.noise_power_w`` [W], drawn as the run's strategy says
+    (``Strategy.noise``, :func:`rfsim.air.noise.add_receiver_noise`): every a then every b
+    from ``rng`` (``"pcg64"``), or, from the receiver's :func:`first_read` sample on, from a
+    counter-based stream keyed by one draw of ``rng`` (``"counter"``).
+
+    Parameters
+    ----------
+    st : StepState
+        The step (its time base, ``keep`` and ``cache.strategy``).
+    seg : Segment
+        The receiver's input from :func:`superpose`; its samples (…, n) complex128 [√W] are
+        updated in place.
+    rcv : Receiver
+        The receiver (``noise_power_w`` [W]; optional ``first_read_sample``).
+    rng : numpy.random.Generator or None
+        The step's generator (needed when the receiver has noise).
+
+    Returns
+    -------
+    ndarray or None
+        The noise added, (…, n) complex128 [√W], with ``keep_components`` (also appended to
+        ``st.noise_l``); else None. None when the receiver has no noise.
+
+    Raises
+    ------
+    ConfigError
+        A receiver with noise and no ``rng``.
+    """
     noise_w = float(rcv.noise_power_w)
-    if not noise_w > 0:
-        return None
-    if rng is None:
-        raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
-    return add_receiver_noise(y, noise_w, rng, method=st.cache.strategy.noise,
-                              start=first_read(rcv, st.t0_s, st.fs_hz, st.n_samples), keep=keep)
+    n_k = None
+    if noise_w > 0:
+        if rng is None:
+            raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
+        n_k = add_receiver_noise(seg.samples, noise_w, rng, method=st.cache.strategy.noise,
+                                 start=first_read(rcv, st.t0_s, st.fs_hz, st.n_samples), keep=st.keep)
+    if st.keep:
+        st.noise_l.append(n_k)
+    return n_k
+
+
+def receive(st: StepState, rcv, seg: Segment, *, decide: bool):
+    """Stage 6, receive: hand the receiver its input and keep what it returns.
+
+    Parameters
+    ----------
+    st : StepState
+        The step (``st.inputs`` and ``st.outputs`` are appended to).
+    rcv : Receiver
+        The receiver.
+    seg : Segment
+        Its input, noise included: samples (…, n) complex128 [√W] on its carrier.
+    decide : bool
+        Call ``rcv.receive(seg)``; else the output is None.
+
+    Returns
+    -------
+    object
+        What ``rcv.receive`` returned (its decisions or measurements), or None.
+    """
+    out = rcv.receive(seg) if decide else None
+    st.inputs.append(seg)
+    st.outputs.append(out)
+    return out
 
 
 def first_read(rcv, t0_s: float, fs_hz: float, n_samples: int) -> int:

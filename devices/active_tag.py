@@ -136,7 +136,7 @@ class ActiveTag:
         Parameters
         ----------
         t0_s, t1_s : float
-            Window [t0, t1) of the nominal (unjittered) times [s].
+            Window [t0, t1) of the nominal (without jitter) times [s].
         offset_s : float, optional
             Schedule offset [s], default 0.0.
 

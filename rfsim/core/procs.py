@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import functools
 import ctypes
 import gc
 import os
@@ -381,7 +382,11 @@ def child_failure(status: int) -> ResourceError:
                          f"{os.waitstatus_to_exitcode(status)}); no output was written")
 
 
-def _raise_terminated(signum, frame) -> None:
+def _raise_terminated(signum, frame, *, owner_pid: int) -> None:
+    if os.getpid() != owner_pid:
+        # a process forked while the handler was installed (a worker before its initializer
+        # resets SIGTERM): it ends as the default action would, without a traceback
+        os._exit(128 + signal.SIGTERM)
     raise Terminated()
 
 
@@ -393,6 +398,10 @@ def _redeliver_later() -> None:
 @contextlib.contextmanager
 def terminate_as_interrupt() -> Iterator[None]:
     """Within the block, SIGTERM raises :class:`~rfsim.core.errors.Terminated` (main thread only).
+
+    A process forked inside the block inherits the handler; there SIGTERM ends the process
+    quietly (exit status 143) instead of raising, so a worker signalled before its initializer
+    has reset SIGTERM prints no traceback.
 
     A Python exception raised while the interpreter runs a callback whose errors it
     ignores (e.g. an at-fork handler while a worker process is being started) would be
@@ -408,7 +417,7 @@ def terminate_as_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, functools.partial(_raise_terminated, owner_pid=os.getpid()))
     previous_hook = sys.unraisablehook
 
     def hook(unraisable) -> None:

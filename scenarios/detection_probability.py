@@ -260,6 +260,10 @@ class Config:
     tag: TagConfig = param(TagConfig(), doc="tag")
     st: SenseATagConfig = param(SenseATagConfig(), doc="sense-a-tag (technique, threshold, detector gain)")
     fits: bool = param(True, doc="fit TS/RTS on the run's samples (off for sample blocks of a sweep)")
+    fit_gd_iterations: int = param(0, lo=0, hi=10**7, doc="0: maximum-likelihood fits; n > 0: n steps of "
+                                   "gradient descent from zero instead (the source's method, seed 003 L3854)")
+    fit_gd_learning_rate: float = param(0.1, lo=1e-6, hi=1.0, doc="gradient-descent step size (with "
+                                        "fit_gd_iterations > 0)")
 
     def __post_init__(self):
         if self.geometry.antenna_model == "pass-like":
@@ -607,7 +611,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     if config.fits:
         stage("fitting the RTS and TS models")
         try:
-            fits = _detection.fit_st_models(samples)
+            gd = (config.fit_gd_learning_rate, config.fit_gd_iterations) if config.fit_gd_iterations else None
+            fits = _detection.fit_st_models(samples, gradient_descent=gd)
         except UserError as exc:
             ds.attrs["fits_skipped"] = str(exc)
         else:

@@ -3,8 +3,8 @@ trials beside the published one, one row per (model, source) or per method, with
 errors, cross-entropies or log-likelihoods, and the units and descriptions of the columns.
 
 * ST-to-tag models TS and RTS (auris-sense-a-tag.md §2.2 Eqs. 4.6-4.8, R4-1; seed 003
-  L3846-3906): :func:`fit_st_models` (ML fits on the training rows, cross-entropies on both
-  sets), :func:`st_fit_columns`, :func:`st_fits_comparison`.
+  L3846-3906): :func:`fit_st_models` (ML fits, or the source's gradient descent, on the training
+  rows, cross-entropies on both sets), :func:`st_fit_columns`, :func:`st_fits_comparison`.
 * Reader Beta-binomial DA model (binary-detection.md §1.6; seed 004 Eqs. 4.4-4.11, L666, L838):
   :func:`fit_reader_models` (published, moments, maximum likelihood), :func:`reader_fit_columns`,
   :func:`cell_moments` (per-cell mean and variance of p̂ over repetitions).

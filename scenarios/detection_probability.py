@@ -106,7 +106,12 @@ antennas isotropic 15.3 (steeper), tag roll ±90° 11.7, the tag's own power-up
 combination 6.1 (cross-entropies 0.24 / 0.28), ST centre uniform in the ball's volume 10.1,
 no small-scale fading (``geometry.apdp = false``) 11.4; a uniformly random orientation of the
 dipole tag (flat reader pattern) 12.3 with the tag powered, 7.8 with its power-up (test
-cross-entropies 0.020 / 0.035); none closes the gap. Receiver noise
+cross-entropies 0.020 / 0.035); none closes the gap. The source's Ch. 4 names no detection
+criterion ("the detection y of ST-to-tag ... are recorded", L3835-3838; the 5 mV threshold on
+the detector output difference is Ch. 3's, L3443-3445, L3500-3502) and leaves phase
+cancellation out of the model as insignificant with its dual-antenna ST (L3745-3758); here the
+ST antennas receive the reader's CW and the backscatter in one air step, so the cancellation is
+in the data and the single-antenna switch above measures it. Receiver noise
 is not it either: PASS's receiver noise (n0 = −47 dBm per 3 kHz scaled by fs/frxs,
 pass-paris-simulator.md §2.4) is at most ≈ −92 dBm in the ST's 2·BLF = 96 kHz band, against
 −36 dBm for a 5 mV peak at 50 Ω.
@@ -116,7 +121,7 @@ method to estimate the model coefficient"; no learning rate, iterations, start o
 scaling given), which stopped early is the ML fit shrunk towards zero: a soft edge in d, a
 small intercept, a low probability at the tag. ``fit_gd_iterations = n`` (with
 ``fit_gd_learning_rate`` α, default 0.1) fits both models so, from a = 0 on the raw regressors
-(D, d in m, |θ|, |φ| in rad, as Eq. 4.6 writes them); for small α the result depends on α·n
+(D, d in m, ``|θ|``, ``|φ|`` in rad, as Eq. 4.6 writes them); for small α the result depends on α·n
 only (α = 0.01, n = 10⁴ and α = 0.1, n = 10³ agree to 3 decimals). One number calibrates the
 stop: TS reaches the published a1 = 2.444 at n = 491 / 555 / 525 (pass-like, seeds 1-3). At
 n = 500 (seeds 1-3, mean ± sd; ML in brackets): pass-like RTS a2 2.13 ± 0.10 /m (11.5; published
@@ -151,6 +156,7 @@ published (R4-1)       −1.462        0.4941       2.506       0.0126       0.0
 panel (default)        −8.27 ± 1.22  0.81 ± 0.10  6.9 ± 1.0   4.12 ± 0.68  5.88 ± 0.48  0.21 ± 0.22   4.89 ± 0.58  0.111 ± 0.022  0.156 ± 0.023
 pass-like              −6.74 ± 0.63  0.63 ± 0.08  11.5 ± 1.2  0.56 ± 0.48  2.00 ± 0.77  −1.73 ± 0.34  9.63 ± 0.93  0.130 ± 0.003  0.153 ± 0.005
 pass-like, iso. tag    −7.92 ± 0.23  0.76 ± 0.04  11.6 ± 1.0  0.63 ± 0.09  0.20 ± 0.97  −2.50 ± 0.28  9.15 ± 0.60  0.145 ± 0.006  0.181 ± 0.007
+pass-like, GD 500      −0.00 ± 0.04  0.14 ± 0.02  2.13 ± 0.1  0.02 ± 0.06  0.14 ± 0.06  0.77 ± 0.11   2.41 ± 0.05  0.202 ± 0.010  0.203 ± 0.011
 =====================  ============  ===========  ==========  ===========  ===========  ============  ===========  =============  =============
 
 Order of the RTS coefficients (published a2 > a1 > a4 > a3): panel a2 > a4 > a3 > a1 (every

@@ -18,7 +18,7 @@ from rfsim.core.lazy import lazy_exports
 #: Module of the package → the public names it provides, each imported on first use (so that a
 #: scenario's config, which names one model, does not import the fits and scipy.optimize).
 _SOURCES = {
-    "fit": ("DA_PARAMETER_NAMES", "BinnedProbability", "LogisticFit", "ReaderModelFit", "binned_probability", "cross_entropy", "cross_entropy_logits", "expected_cross_entropy", "fit_logistic", "fit_reader_mle", "fit_reader_moments", "wilson_interval",),
+    "fit": ("DA_PARAMETER_NAMES", "BinnedProbability", "LogisticFit", "ReaderModelFit", "binned_probability", "cross_entropy", "cross_entropy_logits", "expected_cross_entropy", "fit_logistic", "fit_logistic_gradient_descent", "fit_reader_mle", "fit_reader_moments", "wilson_interval",),
     "models": ("DA_DEAD_ZONE", "DA_MEAN_COEFFICIENTS", "DA_QUERIES_PER_ROUND", "DA_VARIANCE_COEFFICIENTS", "PUBLISHED_READER_MODEL", "RTS_COEFFICIENTS", "RTS_TEST_CROSS_ENTROPY", "TS_COEFFICIENTS", "TS_TEST_CROSS_ENTROPY", "ReaderDetectionModel", "beta_from_moments", "mixture_logpmf", "predict_proba", "rts_design", "rts_probability", "st_features", "ts_design", "ts_probability",),
     "tables": ("cell_moments", "fit_reader_models", "fit_st_models", "reader_fit_columns", "st_fit_columns", "st_fits_comparison",),
 }
@@ -30,7 +30,7 @@ __all__ = [
     "PUBLISHED_READER_MODEL", "ReaderDetectionModel", "beta_from_moments", "mixture_logpmf",
     "predict_proba", "rts_design", "ts_design", "rts_probability", "ts_probability",
     "st_features",
-    "LogisticFit", "fit_logistic", "cross_entropy", "cross_entropy_logits",
+    "LogisticFit", "fit_logistic", "fit_logistic_gradient_descent", "cross_entropy", "cross_entropy_logits",
     "expected_cross_entropy", "ReaderModelFit", "DA_PARAMETER_NAMES", "fit_reader_moments",
     "fit_reader_mle", "BinnedProbability", "binned_probability", "wilson_interval",
     "fit_st_models", "st_fit_columns", "st_fits_comparison", "fit_reader_models", "reader_fit_columns",

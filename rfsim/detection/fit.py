@@ -6,6 +6,8 @@ empirical probabilities with Wilson intervals.
   Log-likelihood of k successes out of m trials per row:
   ``ℓ(a) = Σ k log p + (m − k) log(1 − p)``, gradient ``∂ℓ/∂a = Xᵀ(m p − k)``, Fisher
   information ``I = Xᵀ diag(m p (1 − p)) X``; standard errors ``sqrt(diag(I⁻¹))``.
+  :func:`fit_logistic_gradient_descent`: the same cost by a fixed number of gradient-descent
+  steps from zero (the source's method, L3854; not converged when stopped early).
 * Beta-binomial DA model (binary-detection.md §1.6; seed 004 Eqs. 4.4-4.11): per-cell
   least-squares moment fit (the method of seed 004 L666) and the maximum-likelihood fit of
   (a1, a2, a3, c1..c5, λ̄) on the read counts, with standard errors from the inverse of the
@@ -220,6 +222,41 @@ def fit_logistic(features, successes, trials=1, *, max_iter: int = 100,
         raise UserError("logistic fit: singular Fisher information at the estimate") from None
     return LogisticFit(coefficients=a, stderr=np.sqrt(np.diag(cov)), covariance=cov,
                        log_likelihood=ll, n_iter=it, n_samples=x.shape[0])
+
+
+def fit_logistic_gradient_descent(features, outcomes, *, learning_rate: float,
+                                  iterations: int) -> np.ndarray:
+    """Logistic regression ``p = 1/(1 + exp(x·a))`` by batch gradient descent on Eq. (4.8).
+
+    The method the source names for its fits (seed 003 L3854, "We apply gradient descent
+    method"; its learning rate, iterations and start are not given): a ← a − α ∇J(a) with
+    J the mean cross-entropy of Eq. (4.8), ``∇J = (1/m) xᵀ(y − p)``, from a = 0, a fixed
+    number of steps and no feature scaling. Stopped before convergence it is the ML fit
+    shrunk towards zero along the directions of small curvature (for small α it depends on
+    α·iterations only).
+
+    Parameters
+    ----------
+    features : array_like
+        ``(m, k)`` design matrix x (first column ones).
+    outcomes : array_like
+        ``(m,)`` outcomes y ∈ {0, 1}.
+    learning_rate : float
+        Step size α [1].
+    iterations : int
+        Number of steps.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(k,) float64`` coefficients a after ``iterations`` steps.
+    """
+    x = np.asarray(features, float)
+    y = np.asarray(outcomes, float)
+    a = np.zeros(x.shape[1])
+    for _ in range(int(iterations)):
+        a -= learning_rate * (x.T @ (y - _special.expit(-(x @ a)))) / y.size
+    return a
 
 
 # --- reader DA model (Beta-binomial) ---------------------------------------------------------

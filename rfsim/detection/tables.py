@@ -3,8 +3,8 @@ trials beside the published one, one row per (model, source) or per method, with
 errors, cross-entropies or log-likelihoods, and the units and descriptions of the columns.
 
 * ST-to-tag models TS and RTS (auris-sense-a-tag.md §2.2 Eqs. 4.6-4.8, R4-1; seed 003
-  L3846-3906): :func:`fit_st_models` (ML fits on the training rows, cross-entropies on both
-  sets), :func:`st_fit_columns`, :func:`st_fits_comparison`.
+  L3846-3906): :func:`fit_st_models` (ML fits, or the source's gradient descent, on the training
+  rows, cross-entropies on both sets), :func:`st_fit_columns`, :func:`st_fits_comparison`.
 * Reader Beta-binomial DA model (binary-detection.md §1.6; seed 004 Eqs. 4.4-4.11, L666, L838):
   :func:`fit_reader_models` (published, moments, maximum likelihood), :func:`reader_fit_columns`,
   :func:`cell_moments` (per-cell mean and variance of p̂ over repetitions).
@@ -16,7 +16,7 @@ import numpy as np
 
 from rfsim.core.errors import UserError
 from rfsim.detection.fit import (DA_PARAMETER_NAMES, cross_entropy, expected_cross_entropy,
-                                 fit_logistic, fit_reader_mle, fit_reader_moments,
+                                 fit_logistic, fit_logistic_gradient_descent, fit_reader_mle, fit_reader_moments,
                                  log_likelihood_reader)
 from rfsim.detection.models import (PUBLISHED_READER_MODEL, RTS_COEFFICIENTS,
                                     RTS_TEST_CROSS_ENTROPY, TS_COEFFICIENTS,
@@ -35,7 +35,7 @@ D50_ANGLES_DEG = (0.0, 30.0, 60.0)
 
 _ST_COUNTS = ("n_train", "n_test", "n_train_detected", "n_test_detected")
 _ST_DESCRIPTIONS = {
-    "model": "RTS (Eq. 4.6) or TS (Eq. 4.7)", "source": "'fit' (ML on the training set) or 'published' (R4-1)",
+    "model": "RTS (Eq. 4.6) or TS (Eq. 4.7)", "source": "'fit' (ML, or the run's gradient descent, on the training set) or 'published' (R4-1)",
     "train_cross_entropy": "Eq. 4.8 on the training set", "test_cross_entropy": "Eq. 4.8 on the test set",
     "published_test_cross_entropy": "the source's test cross-entropy (RTS 0.1278, TS 0.1502)",
     "expected_test_cross_entropy": "mean binary entropy of the model's test predictions",
@@ -45,13 +45,19 @@ _ST_DESCRIPTIONS = {
     "n_test_detected": "test samples in which the ST detected the tag (y = 1)"}
 
 
-def fit_st_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+def fit_st_models(samples: dict[str, np.ndarray], *,
+                  gradient_descent: tuple[float, int] | None = None) -> dict[str, np.ndarray]:
     """ML fits of RTS and TS on the training rows, cross-entropies on both sets.
 
     Parameters
     ----------
     samples : dict with ``D_m``, ``d_m`` [m], ``theta_rad``, ``phi_rad`` [rad] (features of
         :func:`rfsim.detection.st_features`), ``st_detected``, ``is_test`` (bool)
+    gradient_descent : (learning rate, iterations) or None, default None
+        None: maximum likelihood (:func:`rfsim.detection.fit.fit_logistic`); else both models
+        by that many gradient-descent steps from zero
+        (:func:`rfsim.detection.fit.fit_logistic_gradient_descent`, the source's method), with
+        NaN standard errors
 
     Returns
     -------
@@ -85,8 +91,14 @@ def fit_st_models(samples: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     counts = (int(train.sum()), int(test.sum()), int(y[train].sum()), int(y[test].sum()))
     for name, x, pub, pub_ce in (("RTS", x_rts, RTS_COEFFICIENTS, RTS_TEST_CROSS_ENTROPY),
                                  ("TS", x_ts, TS_COEFFICIENTS, TS_TEST_CROSS_ENTROPY)):
-        fit = fit_logistic(x[train], y[train].astype(float))
-        for source, coef, se in (("fit", fit.coefficients, fit.stderr), ("published", pub, np.full(pub.size, np.nan))):
+        if gradient_descent is None:
+            fit = fit_logistic(x[train], y[train].astype(float))
+            fitted, fitted_se = fit.coefficients, fit.stderr
+        else:
+            fitted = fit_logistic_gradient_descent(x[train], y[train], learning_rate=gradient_descent[0],
+                                                   iterations=gradient_descent[1])
+            fitted_se = np.full(fitted.size, np.nan)
+        for source, coef, se in (("fit", fitted, fitted_se), ("published", pub, np.full(pub.size, np.nan))):
             cols["model"].append(name)
             cols["source"].append(source)
             for i in range(5):

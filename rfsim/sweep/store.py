@@ -4,14 +4,16 @@ Every finished run (point ``i``, repetition ``k``) is appended, as soon as it fi
 the segment of the process that ran it, in the point store beside the output::
 
     <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.log    records, append-only
-    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.idx    one 56-byte entry per record
+    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.idx    8-byte header, one 64-byte entry per record
 
 so a sweep creates one pair of files per worker process (or per shard task), not one file
 per run. A record is ``"RFSP" | version u8 | header length u32 | payload length u64 |
 header (JSON) | payload (raw arrays) | CRC-32 u32`` of header and payload, written with one
 ``write`` on a file opened for appending; its index entry (point, repetition, seed,
-offset, length, first 16 bytes of the SHA-256 of the run's resolved config TOML) is
-appended after it. Files are fsync'ed at most :data:`SYNC_INTERVAL_S` apart and when the
+offset, length, first 16 bytes of the SHA-256 of the run's resolved config TOML, CRC-32 of
+these 56 bytes) is appended after it. An index file starts with :data:`INDEX_MAGIC`
+(format 2); an index without it is one of format 1 (56-byte entries without a checksum,
+still read). Files are fsync'ed at most :data:`SYNC_INTERVAL_S` apart and when the
 writer closes.
 
 Crash safety: a killed writer (even SIGKILL) leaves at worst a truncated last record, or a
@@ -20,8 +22,8 @@ inside the log, and scan the log past the last indexed record for complete recor
 CRC holds (so a record written just before the kill is not lost). Nothing is ever
 rewritten in place, and no file is left under a temporary name.
 
-Every index entry is checked when the store is read (:func:`check_index`: point,
-repetition and length in bounds, records back to back from offset 0); a damaged index
+Every index entry is checked when the store is read (:func:`check_index`: its checksum,
+point, repetition and length in bounds, records back to back from offset 0); a damaged index
 file (bad disk, stray write) is a one-line :class:`DamagedIndexError` naming it and the
 command that rebuilds it from its log (``rfsim sweep repair SPEC``, :func:`repair_store`).
 
@@ -64,9 +66,16 @@ from rfsim.core.outputs import atomic_path
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
 _CRC = struct.Struct("<I")
-#: One index entry per record (56 bytes, little-endian).
+#: One index entry per record (64 bytes, little-endian): the fields of a run, then the
+#: CRC-32 of the 56 bytes before it (zero-extended to 8 bytes).
 INDEX_DTYPE = np.dtype([("point", "<i8"), ("repetition", "<i8"), ("seed", "<i8"), ("offset", "<i8"),
-                        ("length", "<i8"), ("digest", "V16")])
+                        ("length", "<i8"), ("digest", "V16"), ("crc32", "<u8")])
+#: The first 8 bytes of an index file of format 2 (entries with a checksum). Read as the
+#: point of a format-1 entry it is above :data:`MAX_POINT`, so no format-1 index starts so.
+INDEX_MAGIC = b"RFSIDX\x02\n"
+#: An index entry of format 1 (56 bytes, no checksum), written by rfsim before 2026-12.
+_INDEX_V1_DTYPE = np.dtype(INDEX_DTYPE.descr[:-1])
+_CHECKED_BYTES = _INDEX_V1_DTYPE.itemsize  # the bytes of an entry its CRC-32 covers
 #: Longest time between two fsyncs of a segment that is being written [s].
 SYNC_INTERVAL_S = 1.0
 
@@ -234,27 +243,35 @@ class SegmentWriter:
         self._log = os.open(self.log_path, flags, 0o644)
         self._index = os.open(self.index_path, flags, 0o644)
         self.pid, self.offset, self.records = os.getpid(), 0, 0
+        try:
+            _write_all(self._index, INDEX_MAGIC)
+        except OSError as err:
+            self._refused(err)
         self._synced = time.monotonic()
 
     def append(self, point: int, repetition: int, seed: int, digest: bytes, header: Mapping[str, Any],
                buffers: Iterable[bytes]) -> int:
         """Append one record and its index entry; returns the record's offset in the log."""
         record = encode_record(header, buffers)
-        entry = np.array([(point, repetition, seed, self.offset, len(record), digest)], INDEX_DTYPE)
+        entry = index_entries([(point, repetition, seed, self.offset, len(record), digest)])
         try:
             _write_all(self._log, record)
             _write_all(self._index, entry.tobytes())
-        except OSError as err:  # disk full, I/O error: one line naming the segment
-            failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
-            if failure is None:
-                raise
-            raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
+        except OSError as err:
+            self._refused(err)
         offset = self.offset
         self.offset += len(record)
         self.records += 1
         if time.monotonic() - self._synced >= SYNC_INTERVAL_S:
             self.sync()
         return offset
+
+    def _refused(self, err: OSError) -> None:
+        """Disk full, I/O error: one line naming the segment (other errors as they are)."""
+        failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
+        if failure is None:
+            raise err
+        raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
 
     def sync(self) -> None:
         os.fsync(self._log)
@@ -393,15 +410,55 @@ class DamagedIndexError(UserError):
         return (type(self), (self.index, self.why, self.spec))
 
 
-def check_index(entries: np.ndarray, index: Path) -> None:
+def _entry_crcs(entries: np.ndarray) -> np.ndarray:
+    """CRC-32 of the first 56 bytes (all fields but the checksum) of each index entry."""
+    raw = memoryview(np.ascontiguousarray(entries, INDEX_DTYPE).tobytes())
+    size = INDEX_DTYPE.itemsize
+    return np.array([zlib.crc32(raw[k * size:k * size + _CHECKED_BYTES]) for k in range(len(entries))],
+                    np.uint64)
+
+
+def index_entries(rows: Iterable[tuple]) -> np.ndarray:
+    """Index entries of ``(point, repetition, seed, offset, length, digest)`` rows, each with
+    its checksum."""
+    entries = np.array([(*row, 0) for row in rows], INDEX_DTYPE)
+    entries["crc32"] = _entry_crcs(entries)
+    return entries
+
+
+def parse_index(raw: bytes, index: Path) -> np.ndarray:
+    """The entries of the index file ``index`` (its bytes ``raw``), each one checked
+    (:func:`check_index`); a torn last entry (a writer killed while appending it) is left out.
+
+    An index of format 2 starts with :data:`INDEX_MAGIC`; one without it is of format 1
+    (56-byte entries without a checksum: only their bounds and offsets are checked)."""
+    size = INDEX_DTYPE.itemsize
+    if raw.startswith(INDEX_MAGIC):
+        body = raw[len(INDEX_MAGIC):]
+        return check_index(np.frombuffer(body[:len(body) // size * size], INDEX_DTYPE), index)
+    if INDEX_MAGIC.startswith(raw):  # empty, or its writer was killed while writing the header
+        return np.zeros(0, INDEX_DTYPE)
+    if raw[:4] == INDEX_MAGIC[:4] or raw[4:8] == INDEX_MAGIC[4:8]:
+        raise DamagedIndexError(index, "its header is damaged")
+    old = np.frombuffer(raw[:len(raw) // _CHECKED_BYTES * _CHECKED_BYTES], _INDEX_V1_DTYPE)
+    entries = np.zeros(len(old), INDEX_DTYPE)
+    for name in _INDEX_V1_DTYPE.names:
+        entries[name] = old[name]
+    entries["crc32"] = _entry_crcs(entries)
+    return check_index(entries, index)
+
+
+def check_index(entries: np.ndarray, index: Path) -> np.ndarray:
     """:class:`DamagedIndexError` unless every entry of ``index`` is one its writer appended:
-    point, repetition and length in bounds and each record starting where the one before
-    ended (the writer appends records back to back from offset 0)."""
+    its checksum holds, point, repetition and length are in bounds and each record starts
+    where the one before ended (the writer appends records back to back from offset 0);
+    returns ``entries``."""
     if not len(entries):
-        return
+        return entries
     point, rep = entries["point"], entries["repetition"]
     offset, length = entries["offset"], entries["length"]
-    checks = [((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
+    checks = [(entries["crc32"] != _entry_crcs(entries), "a checksum that fails"),
+              ((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
               ((rep < 0) | (rep >= MAX_REPETITION), f"a repetition outside [0, {MAX_REPETITION})"),
               ((length < MIN_RECORD_BYTES) | (length > MAX_RECORD_BYTES), "a record length out of bounds"),
               ((offset < 0) | (offset > MAX_RECORD_BYTES * MAX_POINT), "an offset out of bounds")]
@@ -415,6 +472,7 @@ def check_index(entries: np.ndarray, index: Path) -> None:
         k = int(np.argmax(gaps))
         raise DamagedIndexError(index, f"entry {k} of {len(entries)} points at byte {int(offset[k])}, "
                                        f"where the records before it end at byte {int(expected[k])}")
+    return entries
 
 
 def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
@@ -429,15 +487,13 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
             raw = index.read_bytes() if index.exists() else b""
         except OSError:
             continue
-        n = len(raw) // INDEX_DTYPE.itemsize
-        entries = np.frombuffer(raw[:n * INDEX_DTYPE.itemsize], INDEX_DTYPE)
-        check_index(entries, index)
+        entries = parse_index(raw, index)
         entries = entries[entries["offset"] + entries["length"] <= size]  # a log cut short (crash)
         end = int((entries["offset"] + entries["length"]).max()) if len(entries) else 0
         if end < size:  # records written after the last index entry (killed in between)
             extra = _scan_log(log, end, size)
             if extra:
-                entries = np.concatenate([entries, np.array(extra, INDEX_DTYPE)])
+                entries = np.concatenate([entries, index_entries(extra)])
         yield log, entries
 
 
@@ -446,9 +502,9 @@ def rebuild_index(log: Path) -> int:
     records from the start, up to the first damaged one); returns the number of entries.
     The new index replaces the old one atomically. Only while no sweep writes the store."""
     index = log.with_suffix(".idx")
-    entries = np.array(_scan_log(log, 0, log.stat().st_size), INDEX_DTYPE)
+    entries = index_entries(_scan_log(log, 0, log.stat().st_size))
     with atomic_path(index, f"the point store index {str(index)!r}") as tmp:
-        tmp.write_bytes(entries.tobytes())
+        tmp.write_bytes(INDEX_MAGIC + entries.tobytes())
     return len(entries)
 
 
@@ -459,9 +515,8 @@ def repair_store(store: Path) -> list[tuple[Path, int]]:
     for log in segments(store):
         index = log.with_suffix(".idx")
         raw = index.read_bytes() if index.exists() else b""
-        entries = np.frombuffer(raw[:len(raw) // INDEX_DTYPE.itemsize * INDEX_DTYPE.itemsize], INDEX_DTYPE)
         try:
-            check_index(entries, index)
+            parse_index(raw, index)
         except DamagedIndexError:
             repaired.append((index, rebuild_index(log)))
     return repaired
@@ -574,6 +629,9 @@ __all__ = [
     "CorruptRecordError",
     "DamagedIndexError",
     "check_index",
+    "parse_index",
+    "index_entries",
+    "INDEX_MAGIC",
     "rebuild_index",
     "repair_store",
     "SegmentWriter",

@@ -180,6 +180,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         for name in results:
             tables.add_summary(case, name, sigma0, motion, _rooms.published(plan.name, len(plan.readers_xy), name, motion,
                                                                             sigma0))
+        del data, results, crlb  # only the rows are kept: the next case's work does not overlap this one's
     ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
     tables.write(ds, offline)
     ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float), bounds_m=np.asarray(plan.bounds, float),

@@ -98,12 +98,23 @@ def _reader_detection(c) -> Estimate:
                   base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
 
 
+#: Most beacon steps of a simulation-room trial: the longest rt of the thesis's tables (SIR at
+#: σ0 = 9 dB; ``rfsim.scenes.rss_rooms.RECURSIONS``), used where ``recursions`` is 0.
+RSS_MAX_STEPS = 20
+
+
 def _rss_localization(c) -> Estimate:
-    """Every case's rows; the particle clouds of one case's trials at once (384 B per particle and
-    trial: 94 -> 195 MiB from 2 × 50 to 2 × 200000 trials × particles)."""
+    """Every case's rows, per trial and beacon step one read per reader and 6 more rows (the
+    wide RSSI row, 5 estimates), 64 B each (7.3 KiB per trial and case measured at 3000 trials,
+    the rows held until the write and joined once more there); the particle clouds of one
+    case's trials at once (384 B per particle and trial: 94 -> 195 MiB from 2 × 50 to 2 × 200000
+    trials × particles)."""
     trials = c.trials or 1000
-    return _model(trials * len(c.sigma0_db) * len(c.motions), ("trials", "particles", "sigma0_db", "motions"),
-                  base_mib=120 + trials * c.particles * 384 / MiB, bytes_per_unit=4 * KiB)
+    steps = c.home_steps if c.preset == "home-2room" else (c.recursions or RSS_MAX_STEPS)
+    readers = len(c.readers_xy) if c.readers_xy is not None else c.n_readers
+    return _model(trials * len(c.sigma0_db) * len(c.motions),
+                  ("trials", "particles", "sigma0_db", "motions", "recursions"),
+                  base_mib=120 + trials * c.particles * 384 / MiB, bytes_per_unit=steps * (readers + 6) * 64)
 
 
 def _st_localization(c) -> Estimate:
@@ -144,4 +155,4 @@ SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
     "tag-to-tag-tracking": _tag_to_tag_tracking,
 }
 
-__all__ = ["SIZE_MODELS", "estimate_of"]
+__all__ = ["RSS_MAX_STEPS", "SIZE_MODELS", "estimate_of"]

@@ -20,8 +20,21 @@ KiB, MiB = 2**10, 2**20
 
 
 def estimate_of(module, config) -> Estimate | None:
-    """The scenario's own ``resource_estimate(config)``, else the size model of its name (built-in
-    scenario modules only), else None (no check)."""
+    """The size of a run of a scenario.
+
+    Parameters
+    ----------
+    module : module
+        The scenario's module.
+    config : dataclass
+        Its resolved config.
+
+    Returns
+    -------
+    Estimate or None
+        The scenario's own ``resource_estimate(config)``, else the size model of its name
+        (built-in scenario modules only, :data:`SIZE_MODELS`), else None (no check).
+    """
     fn = getattr(module, "resource_estimate", None)
     if fn is None and getattr(module, "__name__", "").startswith("rfsim.scenarios."):
         fn = SIZE_MODELS.get(module.NAME)

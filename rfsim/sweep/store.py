@@ -110,12 +110,34 @@ class PointResult:
 
 
 def points_dir(output: Path) -> Path:
-    """The point store of the sweep writing ``output``."""
+    """The point store of the sweep writing ``output``.
+
+    Parameters
+    ----------
+    output : Path
+        The sweep's merged dataset (``.h5``).
+
+    Returns
+    -------
+    Path
+        ``<output>.points`` beside it.
+    """
     return output.with_name(output.name + ".points")
 
 
 def config_digest(config: Any) -> bytes:
-    """First 16 bytes of the SHA-256 of the resolved config's TOML text."""
+    """First 16 bytes of the SHA-256 of the resolved config's TOML text.
+
+    Parameters
+    ----------
+    config : dataclass
+        A scenario's resolved config (:func:`rfsim.core.config.to_toml` writes it).
+
+    Returns
+    -------
+    bytes
+        16 bytes that stand for the config in the index entries of its runs.
+    """
     return hashlib.sha256(to_toml(config).encode("utf-8")).digest()[:16]
 
 
@@ -145,7 +167,26 @@ def _fixed_width_text(name: str, data: np.ndarray) -> np.ndarray:
 
 
 def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
-    """JSON-able description of ``ds`` and the raw bytes of its arrays, in order."""
+    """JSON-able description of ``ds`` and the raw bytes of its arrays, in order.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The dataset of one run (tables, grids, attributes; text as ``str`` or ``U`` arrays).
+
+    Returns
+    -------
+    desc : dict
+        Title, scenario, descriptions and, per attribute and column, its units, description,
+        dims and array metadata (dtype, shape, byte offset in the payload, SHA-1).
+    buffers : list of bytes
+        The arrays' bytes in payload order.
+
+    Raises
+    ------
+    TypeError
+        A column is an object array of anything but ``str``.
+    """
     buffers: list[bytes] = []
     offset = 0
 
@@ -174,14 +215,40 @@ def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
 
 
 def decode_array(payload: bytes | memoryview, meta: Mapping[str, Any]) -> np.ndarray:
-    """One array of a record's payload (read-only view)."""
+    """One array of a record's payload (read-only view).
+
+    Parameters
+    ----------
+    payload : bytes or memoryview
+        The record's payload.
+    meta : mapping
+        The array's entry of the record's description (``dtype``, ``shape``, ``offset``).
+
+    Returns
+    -------
+    ndarray
+        A read-only view of the payload's bytes with that dtype and shape.
+    """
     dtype = np.dtype(meta["dtype"])
     count = math.prod(meta["shape"])
     return np.frombuffer(payload, dtype=dtype, count=count, offset=meta["offset"]).reshape(meta["shape"])
 
 
 def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Dataset:
-    """The :class:`Dataset` of a record (inverse of :func:`encode_dataset`)."""
+    """The :class:`Dataset` of a record (inverse of :func:`encode_dataset`).
+
+    Parameters
+    ----------
+    desc : mapping
+        The record's description (:func:`encode_dataset`).
+    payload : bytes or memoryview
+        The record's payload.
+
+    Returns
+    -------
+    Dataset
+        Its columns and attributes are read-only views of ``payload``.
+    """
     def col(c: Mapping[str, Any]) -> Column:
         return Column(decode_array(payload, c["array"]), c["units"], c["description"], tuple(c["dims"]))
 
@@ -194,6 +261,20 @@ def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Data
 
 
 def encode_record(header: Mapping[str, Any], buffers: Iterable[bytes]) -> bytes:
+    """One point record: prefix, JSON header, payload and the CRC-32 of header and payload.
+
+    Parameters
+    ----------
+    header : mapping
+        JSON-able header (the run's point, repetition, seed, provenance and dataset description).
+    buffers : iterable of bytes
+        The payload's parts, in order.
+
+    Returns
+    -------
+    bytes
+        ``"RFSP" | version u8 | header length u32 | payload length u64 | header | payload | CRC-32 u32``.
+    """
     head = json.dumps(header, separators=(",", ":")).encode("utf-8")
     payload = b"".join(buffers)
     crc = zlib.crc32(payload, zlib.crc32(head))
@@ -205,7 +286,25 @@ class CorruptRecordError(UserError, ValueError):
 
 
 def decode_record(raw: bytes) -> tuple[dict[str, Any], memoryview]:
-    """(header, payload) of a whole record; :class:`CorruptRecordError` if torn or corrupt."""
+    """The header and payload of a whole record.
+
+    Parameters
+    ----------
+    raw : bytes
+        Exactly one record's bytes.
+
+    Returns
+    -------
+    header : dict
+        The record's JSON header.
+    payload : memoryview
+        Its payload.
+
+    Raises
+    ------
+    CorruptRecordError
+        The bytes are torn, not a record of this version, or fail the CRC.
+    """
     if len(raw) < _PREFIX.size + _CRC.size:
         raise CorruptRecordError("point record too short")
     magic, version, n_head, n_payload = _PREFIX.unpack_from(raw)
@@ -231,7 +330,24 @@ def _write_all(fd: int, data: bytes) -> None:
 
 
 class SegmentWriter:
-    """The append-only segment (log + index) of one process in one point store."""
+    """The append-only segment (log + index) of one process in one point store.
+
+    Parameters
+    ----------
+    store : Path
+        The point store (created if missing); the segment's files get a new unique name.
+
+    Attributes
+    ----------
+    log_path, index_path : Path
+        The segment's log and index.
+    pid : int
+        The writing process.
+    offset : int
+        Bytes written to the log [B].
+    records : int
+        Records appended.
+    """
 
     def __init__(self, store: Path):
         store.mkdir(parents=True, exist_ok=True)
@@ -251,7 +367,29 @@ class SegmentWriter:
 
     def append(self, point: int, repetition: int, seed: int, digest: bytes, header: Mapping[str, Any],
                buffers: Iterable[bytes]) -> int:
-        """Append one record and its index entry; returns the record's offset in the log."""
+        """Append one record and its index entry.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run's point, repetition and seed.
+        digest : bytes
+            16 bytes of its config (:func:`config_digest`).
+        header : mapping
+            The record's JSON header.
+        buffers : iterable of bytes
+            The payload's parts.
+
+        Returns
+        -------
+        int
+            The record's offset in the log [B].
+
+        Raises
+        ------
+        ResourceError
+            The disk is full or failed (one line naming the segment).
+        """
         record = encode_record(header, buffers)
         entry = index_entries([(point, repetition, seed, self.offset, len(record), digest)])
         try:
@@ -274,11 +412,13 @@ class SegmentWriter:
         raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
 
     def sync(self) -> None:
+        """Flush the log and the index to the disk (fsync)."""
         os.fsync(self._log)
         os.fsync(self._index)
         self._synced = time.monotonic()
 
     def close(self) -> None:
+        """Sync and close both files (again: nothing)."""
         if self._log < 0:
             return
         try:
@@ -293,7 +433,18 @@ _WRITERS: dict[tuple[int, str], SegmentWriter] = {}
 
 
 def writer_for(store: Path) -> SegmentWriter:
-    """This process's writer of ``store`` (created on first use; a forked child gets its own)."""
+    """This process's writer of ``store`` (created on first use; a forked child gets its own).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    SegmentWriter
+        Closed when the process exits (:func:`close_writers`).
+    """
     key = (os.getpid(), str(store))
     writer = _WRITERS.get(key)
     if writer is None:
@@ -324,7 +475,18 @@ def _static_provenance() -> dict[str, str]:
 
 
 def run_point(task: PointTask) -> PointResult:
-    """Run one point in this process and append it to this process's segment."""
+    """Run one point in this process and append it to this process's segment.
+
+    Parameters
+    ----------
+    task : PointTask
+        The scenario, config, point, repetition, seed and store of the run.
+
+    Returns
+    -------
+    PointResult
+        The segment that holds the run, its wall time [s], the process and its peak RSS [MB].
+    """
     module = load_scenario(task.scenario_module)
     start_utc, t0 = utc_now(), time.perf_counter()
     dataset = module.run(task.config, seed=task.seed)
@@ -343,7 +505,18 @@ def run_point(task: PointTask) -> PointResult:
 
 
 def run_points(tasks: list[PointTask]) -> list[PointResult]:
-    """Run a batch of points one after another (one task of a pool or Dask worker)."""
+    """Run a batch of points one after another (one task of a pool or Dask worker).
+
+    Parameters
+    ----------
+    tasks : list of PointTask
+        The runs of the batch.
+
+    Returns
+    -------
+    list of PointResult
+        One per task, in order.
+    """
     return [run_point(t) for t in tasks]
 
 
@@ -383,7 +556,18 @@ def _scan_log(log: Path, start: int, size: int) -> list[tuple]:
 
 
 def segments(store: Path) -> list[Path]:
-    """The segment logs of ``store``, oldest first (their names start with the UTC time)."""
+    """The segment logs of ``store``, oldest first (their names start with the UTC time).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    list of Path
+        The ``seg-*.log`` files (empty if the store does not exist).
+    """
     return sorted(store.glob("seg-*.log")) if store.is_dir() else []
 
 
@@ -419,19 +603,47 @@ def _entry_crcs(entries: np.ndarray) -> np.ndarray:
 
 
 def index_entries(rows: Iterable[tuple]) -> np.ndarray:
-    """Index entries of ``(point, repetition, seed, offset, length, digest)`` rows, each with
-    its checksum."""
+    """Index entries of ``(point, repetition, seed, offset, length, digest)`` rows.
+
+    Parameters
+    ----------
+    rows : iterable of tuple
+        Point, repetition, seed, record offset [B], record length [B] and 16-byte config digest.
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE, shape (n_rows,)
+        The entries, each with the CRC-32 of its first 56 bytes in ``crc32``.
+    """
     entries = np.array([(*row, 0) for row in rows], INDEX_DTYPE)
     entries["crc32"] = _entry_crcs(entries)
     return entries
 
 
 def parse_index(raw: bytes, index: Path) -> np.ndarray:
-    """The entries of the index file ``index`` (its bytes ``raw``), each one checked
-    (:func:`check_index`); a torn last entry (a writer killed while appending it) is left out.
+    """The entries of an index file, each one checked (:func:`check_index`).
 
     An index of format 2 starts with :data:`INDEX_MAGIC`; one without it is of format 1
-    (56-byte entries without a checksum: only their bounds and offsets are checked)."""
+    (56-byte entries without a checksum: only their bounds and offsets are checked). A torn
+    last entry (a writer killed while appending it) is left out.
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's bytes.
+    index : Path
+        The file (named in the error).
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE, shape (n_entries,)
+        Its whole entries (format 1: with their checksums computed).
+
+    Raises
+    ------
+    DamagedIndexError
+        The header or an entry is damaged (checksum, bounds, offsets).
+    """
     size = INDEX_DTYPE.itemsize
     if raw.startswith(INDEX_MAGIC):
         body = raw[len(INDEX_MAGIC):]
@@ -449,10 +661,28 @@ def parse_index(raw: bytes, index: Path) -> np.ndarray:
 
 
 def check_index(entries: np.ndarray, index: Path) -> np.ndarray:
-    """:class:`DamagedIndexError` unless every entry of ``index`` is one its writer appended:
-    its checksum holds, point, repetition and length are in bounds and each record starts
-    where the one before ended (the writer appends records back to back from offset 0);
-    returns ``entries``."""
+    """Check that every entry of an index is one its writer appended.
+
+    Its checksum holds, point, repetition and length are in bounds and each record starts
+    where the one before ended (the writer appends records back to back from offset 0).
+
+    Parameters
+    ----------
+    entries : ndarray of INDEX_DTYPE, shape (n_entries,)
+        The index's entries.
+    index : Path
+        The index file (named in the error).
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE
+        ``entries``.
+
+    Raises
+    ------
+    DamagedIndexError
+        Naming the first damaged entry.
+    """
     if not len(entries):
         return entries
     point, rep = entries["point"], entries["repetition"]
@@ -476,10 +706,29 @@ def check_index(entries: np.ndarray, index: Path) -> np.ndarray:
 
 
 def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
-    """(log, index entries of its complete records) of every segment, oldest first.
+    """The index entries of the complete records of every segment, oldest first.
 
-    Every index entry is checked (:func:`check_index`); a damaged index file is a
-    :class:`DamagedIndexError` naming it."""
+    Every index entry is checked (:func:`parse_index`); entries whose record lies beyond the
+    end of the log (a crash) are left out, and complete records after the last indexed one
+    (a writer killed in between) are found by scanning the log.
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Yields
+    ------
+    log : Path
+        A segment's log.
+    entries : ndarray of INDEX_DTYPE
+        The entries of its complete records.
+
+    Raises
+    ------
+    DamagedIndexError
+        An index file is damaged (naming it).
+    """
     for log in segments(store):
         index = log.with_suffix(".idx")
         try:
@@ -498,9 +747,22 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
 
 
 def rebuild_index(log: Path) -> int:
-    """Rewrite the index of segment ``log`` from the log itself (its complete, CRC-valid
-    records from the start, up to the first damaged one); returns the number of entries.
-    The new index replaces the old one atomically. Only while no sweep writes the store."""
+    """Rewrite the index of segment ``log`` from the log itself.
+
+    The new index (format 2) lists the log's complete, CRC-valid records from the start up to
+    the first damaged one, and replaces the old one atomically. Only while no sweep writes
+    the store.
+
+    Parameters
+    ----------
+    log : Path
+        The segment's log.
+
+    Returns
+    -------
+    int
+        The number of entries written.
+    """
     index = log.with_suffix(".idx")
     entries = index_entries(_scan_log(log, 0, log.stat().st_size))
     with atomic_path(index, f"the point store index {str(index)!r}") as tmp:
@@ -509,8 +771,18 @@ def rebuild_index(log: Path) -> int:
 
 
 def repair_store(store: Path) -> list[tuple[Path, int]]:
-    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`);
-    returns (index, entries) of each one rebuilt."""
+    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    list of (Path, int)
+        Each rebuilt index and its number of entries (empty: the store is sound).
+    """
     repaired = []
     for log in segments(store):
         index = log.with_suffix(".idx")
@@ -526,7 +798,19 @@ class StoreIndex:
     """Lookup of finished runs: (point, repetition, seed, config digest) → :class:`RecordRef`.
 
     All index entries of the store in NumPy arrays sorted by (point, repetition, segment
-    age, offset) — about 60 bytes per record, no Python object per run.
+    age, offset) — about 70 bytes per record, no Python object per run.
+
+    Parameters
+    ----------
+    store : Path
+        The point store (read with :func:`read_index`).
+
+    Attributes
+    ----------
+    store : Path
+        The point store.
+    logs : list of Path
+        Its segment logs, oldest first (segment numbers index it).
     """
 
     def __init__(self, store: Path):
@@ -546,6 +830,7 @@ class StoreIndex:
 
     @property
     def n_segments(self) -> int:
+        """Number of segments in the store."""
         return len(self.logs)
 
     def __len__(self) -> int:
@@ -555,7 +840,21 @@ class StoreIndex:
                            e["digest"].tolist())))
 
     def locate(self, point: int, repetition: int, seed: int, digest: bytes) -> tuple[int, int, int] | None:
-        """(segment number, offset, length) of the newest matching record, or None."""
+        """Where the newest record of a run is.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run.
+        digest : bytes
+            16 bytes of its config (:func:`config_digest`).
+
+        Returns
+        -------
+        tuple of int or None
+            (segment number, offset [B], length [B]) of the newest record with that point,
+            repetition, seed and digest; None if there is none.
+        """
         if repetition >= self._base:
             return None
         key = point * self._base + repetition
@@ -567,6 +866,20 @@ class StoreIndex:
         return None
 
     def find(self, point: int, repetition: int, seed: int, digest: bytes) -> RecordRef | None:
+        """The newest record of a run (:meth:`locate`) as a reference.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run.
+        digest : bytes
+            16 bytes of its config.
+
+        Returns
+        -------
+        RecordRef or None
+            Its log, offset and length; None if the store has no such run.
+        """
         hit = self.locate(point, repetition, seed, digest)
         return None if hit is None else RecordRef(self.logs[hit[0]], hit[1], hit[2])
 
@@ -586,14 +899,48 @@ class RecordReader:
         return self._file
 
     def read(self, ref: RecordRef) -> tuple[dict[str, Any], memoryview]:
-        """Header and payload of a record, its CRC checked (one-line error if corrupt)."""
+        """Header and payload of a record, its CRC checked.
+
+        Parameters
+        ----------
+        ref : RecordRef
+            Where the record is.
+
+        Returns
+        -------
+        header : dict
+            The record's JSON header.
+        payload : memoryview
+            Its payload.
+
+        Raises
+        ------
+        CorruptRecordError
+            One line naming the segment and the byte where the damaged record starts.
+        """
         try:
             return decode_record(self._seek(ref).read(ref.length))
         except CorruptRecordError as err:
             raise self._damaged(ref, str(err)) from None
 
     def header(self, ref: RecordRef) -> dict[str, Any]:
-        """The JSON header of a record alone (the payload is not read, nor its CRC checked)."""
+        """The JSON header of a record alone (the payload is not read, nor its CRC checked).
+
+        Parameters
+        ----------
+        ref : RecordRef
+            Where the record is.
+
+        Returns
+        -------
+        dict
+            The record's header.
+
+        Raises
+        ------
+        CorruptRecordError
+            The header is unreadable.
+        """
         f = self._seek(ref)
         try:
             magic, version, n_head, _ = _PREFIX.unpack(f.read(_PREFIX.size))
@@ -609,6 +956,7 @@ class RecordReader:
                                   "move that segment (.log and .idx) away and rerun with --resume")
 
     def close(self) -> None:
+        """Close the open segment file, if any."""
         if self._file is not None:
             self._file.close()
         self._file, self._path = None, None

@@ -11,6 +11,12 @@ The peak is that of the largest rfsim process of the run, in bytes of resident m
 baseline of a process that has imported the libraries and loaded the compiled kernels
 (:data:`BASELINE_BYTES`, measured) plus the bytes per work unit times the units held at once.
 A run with worker processes counts one such process per worker besides the leader.
+
+The first run after an install or an edit of a kernel source compiles the scenario's numba
+kernels (a cold cache): a compiling process holds more (LLVM, the typed IR), and keeps much of
+it until it ends. That run's peak is bounded by ``peak_bytes + compile_bytes`` of its
+:class:`Estimate` (:attr:`Estimate.first_run_bytes`), which is what :func:`check_memory`
+compares with the limit, since a run cannot tell beforehand which kernels it will compile.
 """
 
 from __future__ import annotations
@@ -44,11 +50,22 @@ class Estimate:
         Upper bound on the peak resident memory of the run's largest process [B].
     drivers : tuple of str
         The config keys that set the size, named in the error when it is too large.
+    compile_bytes : int, default 0
+        What compiling the scenario's kernels on a cold cache adds to the peak of a process
+        [B] (measured: peak of the smallest run on an empty cache minus that on a full one,
+        rounded up); 0 for a scenario without kernels.
     """
 
     work_units: int
     peak_bytes: int
     drivers: tuple[str, ...]
+    compile_bytes: int = 0
+
+    @property
+    def first_run_bytes(self) -> int:
+        """Upper bound on the peak of a run that compiles the kernels (a cold cache) [B]:
+        ``peak_bytes + compile_bytes``."""
+        return self.peak_bytes + self.compile_bytes
 
 
 def process_peak(bytes_per_unit: float, units_at_once: float, *, processes: int = 1,
@@ -175,7 +192,9 @@ def format_bytes(n: float) -> str:
 
 def check_memory(estimate: Estimate | None, limit_bytes: int | None, *, what: str,
                  processes: int = 1) -> None:
-    """Stop when ``processes`` × the estimated peak exceeds the limit.
+    """Stop when ``processes`` × the estimated peak of a first run exceeds the limit.
+
+    The peak compared is :attr:`Estimate.first_run_bytes` (kernel compilation included).
 
     Parameters
     ----------
@@ -195,7 +214,7 @@ def check_memory(estimate: Estimate | None, limit_bytes: int | None, *, what: st
     """
     if estimate is None or limit_bytes is None:
         return
-    peak = estimate.peak_bytes * processes
+    peak = estimate.first_run_bytes * processes
     if peak > limit_bytes:
         times = f" × {processes} at once" if processes > 1 else ""
         raise UserError(f"{what} is too large: {', '.join(estimate.drivers)} give an estimated peak "

@@ -103,7 +103,23 @@ class Config:
 
 
 def floor_plan(config: Config) -> _rooms.FloorPlan:
-    """The preset's plan with the reader/wall overrides, validated (one-line errors)."""
+    """The preset's floor plan with the config's reader and wall overrides, validated.
+
+    Parameters
+    ----------
+    config : Config
+        ``preset``, ``n_readers``, ``alpha_dbm``, ``exponent``, ``readers_xy`` and ``walls_xy``.
+
+    Returns
+    -------
+    rfsim.scenes.rss_rooms.FloorPlan
+        The plan (:func:`rfsim.scenes.rss_rooms.with_overrides`).
+
+    Raises
+    ------
+    ConfigError
+        A reader outside the plan or a wall of zero length (one line naming the key).
+    """
     plan = _rooms.preset_plan(config.preset, config.n_readers, config.alpha_dbm, config.exponent)
     return _rooms.with_overrides(plan, readers_xy=config.readers_xy, walls_xy=config.walls_xy)
 
@@ -119,8 +135,31 @@ def _report(config: Config) -> RssReport:
 
 def simulate_case(config: Config, plan: _rooms.FloorPlan, channel, case: int, motion: str,
                   n_steps: int, seed: int) -> _rooms.CaseData:
-    """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons): ``trials``
-    tracks (simulation) or ``trials`` × 25 (home: the 25 fixed points, or 25 walks on the two room paths)."""
+    """Draw every trial's track and beacons for one case (rfsim.scenes.rss_rooms.draw_beacons).
+
+    Parameters
+    ----------
+    config : Config
+        The run's config (trials, motion step, shadowing, report).
+    plan : rfsim.scenes.rss_rooms.FloorPlan
+        The floor plan.
+    channel : rfsim.channels.rss.RssChannel
+        The case's channel (σ = σ0 in the simulation rooms).
+    case : int
+        The case's index (σ0 × motion), which seeds its trials.
+    motion : {"fixed", "mobile"}
+        The target's motion.
+    n_steps : int
+        Beacons per track.
+    seed : int
+        The run's seed.
+
+    Returns
+    -------
+    rfsim.scenes.rss_rooms.CaseData
+        ``trials`` tracks (simulation) or ``trials`` × 25 (home: the 25 fixed points, or 25
+        walks on the two room paths).
+    """
     n = _preset(config, "trials", config.trials) * (plan.fixed_points_xy.shape[0] if config.preset == "home-2room" else 1)
     sh = config.shadowing
     return _rooms.draw_beacons(plan, channel, _report(config), case=case, motion=motion, n_tracks=n, n_steps=n_steps,
@@ -143,6 +182,24 @@ def _steps(config: Config, plan: _rooms.FloorPlan, sigma0: float, motion: str) -
 
 
 def run(config: Config, *, seed: int) -> _dataset.Dataset:
+    """Simulate every case (σ0 × motion; home: motion) and run its estimators.
+
+    Each case's beacons are drawn, estimated, reduced to rows and freed before the next
+    case, so that one case's work is held at a time besides the rows.
+
+    Parameters
+    ----------
+    config : Config
+        The run's config.
+    seed : int
+        The run's seed (module docstring: randomness).
+
+    Returns
+    -------
+    rfsim.core.dataset.Dataset
+        Tables ``beacons``, ``rssi_wide``, ``estimates``, ``summary`` (and ``calibration``,
+        ``waveform`` where they apply); the floor plan in the attributes.
+    """
     plan = floor_plan(config)
     home = config.preset == "home-2room"
     tables = _rss_tables.Tables()
@@ -180,6 +237,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         for name in results:
             tables.add_summary(case, name, sigma0, motion, _rooms.published(plan.name, len(plan.readers_xy), name, motion,
                                                                             sigma0))
+        del data, results, crlb  # only the rows are kept: the next case's work does not overlap this one's
     ds = _dataset.Dataset(title=f"active-RFID RSSI localization (Özkaya 2011), {config.rss_model} mode")
     tables.write(ds, offline)
     ds.attrs.update(preset=plan.name, readers_xy=np.asarray(plan.readers_xy, float), bounds_m=np.asarray(plan.bounds, float),
@@ -190,7 +248,20 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
 
 def plot(dataset_path: Path, out_dir: Path) -> list[Path]:
-    """Floor plan with tracks, error CDF per estimator, RMSE vs σ0 beside the thesis."""
+    """Floor plan with tracks, error CDF per estimator, RMSE vs σ0 beside the thesis.
+
+    Parameters
+    ----------
+    dataset_path : Path
+        A dataset this scenario wrote.
+    out_dir : Path
+        Folder of the figures.
+
+    Returns
+    -------
+    list of Path
+        The three figures.
+    """
     return [_rss_figures.plot_floor_plan(dataset_path, figure_path(dataset_path, out_dir, "floorplan")),
             _rss_figures.plot_error_cdf(dataset_path, figure_path(dataset_path, out_dir, "cdf")),
             _rss_figures.plot_rmse_vs_sigma(dataset_path, figure_path(dataset_path, out_dir, "rmse"))]

@@ -11,7 +11,8 @@ import pytest
 import rfsim.bench.sweep_scale as toy
 from rfsim.core.dataset import Column, Dataset, column, read_dataset
 from rfsim.sweep import PoolExecutor, SerialExecutor, StoreIndex, parse_spec, points_dir, run_sweep
-from rfsim.sweep.store import INDEX_DTYPE, RecordReader, SegmentWriter, decode_dataset, encode_dataset, read_index
+from rfsim.sweep.store import (INDEX_DTYPE, INDEX_MAGIC, DamagedIndexError, RecordReader, SegmentWriter, decode_dataset,
+                               encode_dataset, read_index, repair_store)
 from test_sweep_run import assert_identical
 
 
@@ -81,7 +82,7 @@ def test_a_record_without_its_index_entry_is_recovered_if_complete(tmp_path):
         append(w, p, float(p))
     w.close()
     raw = w.index_path.read_bytes()
-    w.index_path.write_bytes(raw[:2 * INDEX_DTYPE.itemsize + 10])  # killed while writing entry 3
+    w.index_path.write_bytes(raw[:len(INDEX_MAGIC) + 2 * INDEX_DTYPE.itemsize + 10])  # killed while writing entry 3
     [(log, entries)] = list(read_index(tmp_path))
     assert list(entries["point"]) == [0, 1, 2]
     ref = StoreIndex(tmp_path).find(2, 0, 9, b"\x01" * 16)
@@ -95,11 +96,64 @@ def test_a_corrupt_unindexed_record_is_not_used(tmp_path):
     for p in range(2):
         append(w, p, float(p))
     w.close()
-    w.index_path.write_bytes(w.index_path.read_bytes()[:INDEX_DTYPE.itemsize])
+    w.index_path.write_bytes(w.index_path.read_bytes()[:len(INDEX_MAGIC) + INDEX_DTYPE.itemsize])
     data = bytearray(w.log_path.read_bytes())
     data[-20] ^= 0xFF  # a flipped bit in the second record's payload: its CRC fails
     w.log_path.write_bytes(bytes(data))
     assert [int(p) for _, e in read_index(tmp_path) for p in e["point"]] == [0]
+
+
+def test_every_flipped_bit_of_an_index_is_named(tmp_path):
+    """Each of the bits of the header and of an entry, flipped alone, makes the index
+    damaged, naming the file (and the entry); the repair restores the appended bytes."""
+    w = SegmentWriter(tmp_path)
+    for p in range(3):
+        append(w, p, float(p))
+    w.close()
+    sound = w.index_path.read_bytes()
+    assert len(sound) == len(INDEX_MAGIC) + 3 * INDEX_DTYPE.itemsize == 8 + 3 * 64
+    entry_1 = len(INDEX_MAGIC) + INDEX_DTYPE.itemsize
+    for at in [*range(len(INDEX_MAGIC)), *range(entry_1, entry_1 + INDEX_DTYPE.itemsize)]:
+        for bit in range(8):
+            raw = bytearray(sound)
+            raw[at] ^= 1 << bit
+            w.index_path.write_bytes(bytes(raw))
+            with pytest.raises(DamagedIndexError) as info:
+                list(read_index(tmp_path))
+            message = str(info.value)
+            assert str(w.index_path) in message and "rfsim sweep repair" in message, (at, bit)
+            assert ("entry 1 of 3 has" in message) if at >= entry_1 else ("entry 1 " not in message), (at, bit)
+    assert repair_store(tmp_path) == [(w.index_path, 3)]
+    assert w.index_path.read_bytes() == sound
+
+
+def test_an_index_without_checksums_is_still_read(tmp_path):
+    """An index of format 1 (56-byte entries, no header, no checksum) finds the same runs."""
+    w = SegmentWriter(tmp_path)
+    for p in range(3):
+        append(w, p, float(p))
+    w.close()
+    [(_, entries)] = list(read_index(tmp_path))
+    old = np.zeros(3, [(name, INDEX_DTYPE[name]) for name in INDEX_DTYPE.names if name != "crc32"])
+    for name in old.dtype.names:
+        old[name] = entries[name]
+    assert old.dtype.itemsize == 56
+    w.index_path.write_bytes(old.tobytes())
+    [(_, back)] = list(read_index(tmp_path))
+    assert back.tobytes() == entries.tobytes()
+    assert repair_store(tmp_path) == []
+    w.index_path.write_bytes(old.tobytes()[:56 + 8] + (2**50).to_bytes(8, "little") + old.tobytes()[56 + 16:])
+    with pytest.raises(DamagedIndexError, match="entry 1 of 3 has a repetition outside"):
+        list(read_index(tmp_path))
+
+
+def test_an_index_torn_in_its_header_has_no_entries(tmp_path):
+    w = SegmentWriter(tmp_path)
+    append(w, 0, 1.0)
+    w.close()
+    w.index_path.write_bytes(INDEX_MAGIC[:5])  # the writer killed while writing the header
+    [(_, entries)] = list(read_index(tmp_path))
+    assert list(entries["point"]) == [0]  # its record is found in the log
 
 
 def test_the_newest_segment_wins_and_other_digests_do_not_match(tmp_path):

@@ -29,7 +29,7 @@ from rfsim.core.errors import ResourceError
 from rfsim.core.locks import output_lock
 from rfsim.sweep import SerialExecutor, StoreIndex, points_dir, run_sweep
 from rfsim.sweep.lock import OutputLock
-from rfsim.sweep.store import DamagedIndexError, repair_store
+from rfsim.sweep.store import INDEX_DTYPE, INDEX_MAGIC, DamagedIndexError, index_entries, repair_store
 from test_sweep_errors import SPEC
 from test_sweep_run import assert_identical
 from test_sweep_store import toy_spec
@@ -266,19 +266,31 @@ def test_a_damaged_index_is_named_and_resume_after_repair_is_exact(tmp_path):
     store = points_dir(spec.output)
     [index] = store.glob("seg-*.idx")
     raw = bytearray(index.read_bytes())
-    raw[56 * 5 + 24: 56 * 5 + 32] = (12345).to_bytes(8, "little")  # entry 5: a wrong offset
+    assert raw.startswith(INDEX_MAGIC) and len(raw) == len(INDEX_MAGIC) + 24 * INDEX_DTYPE.itemsize
+
+    def entry(k: int) -> slice:
+        start = len(INDEX_MAGIC) + k * INDEX_DTYPE.itemsize
+        return slice(start, start + INDEX_DTYPE.itemsize)
+
+    sound = bytes(raw)
+    wrong = np.frombuffer(raw[entry(5)], INDEX_DTYPE).copy()  # entry 5: a wrong offset, checksum right
+    wrong["offset"] = 12345
+    raw[entry(5)] = index_entries([wrong[0].tolist()[:-1]]).tobytes()
     index.write_bytes(bytes(raw))
     with pytest.raises(DamagedIndexError, match="entry 5 of 24 points at byte 12345, where the records"):
         run_sweep(spec, SerialExecutor(), resume=True, module=toy)
-    raw[56 * 9 + 8: 56 * 9 + 16] = (2**62).to_bytes(8, "little")  # entry 9: a repetition of 2**62
-    raw[56 * 11: 56 * 12] = np.random.default_rng(3).bytes(56)  # entry 11: random bytes
+    raw = bytearray(sound)
+    raw[entry(3).start + 16] ^= 0x04  # entry 3: one bit of its seed (in bounds, only the checksum sees it)
+    raw[entry(9).start + 8:entry(9).start + 16] = (2**62).to_bytes(8, "little")  # entry 9: repetition 2**62
+    raw[entry(11)] = np.random.default_rng(3).bytes(INDEX_DTYPE.itemsize)  # entry 11: random bytes
     index.write_bytes(bytes(raw))
     with pytest.raises(DamagedIndexError) as info:
         run_sweep(spec, SerialExecutor(), resume=True, module=toy)
     message = str(info.value)
     assert "\n" not in message and str(index) in message and "rfsim sweep repair" in message
-    assert "entry 9 of 24 has a repetition outside [0, 4194304)" in message
+    assert "entry 3 of 24 has a checksum that fails" in message
     assert [(p, n) for p, n in repair_store(store)] == [(index, 24)]
+    assert index.read_bytes() == sound  # the rebuilt index is the one its writer appended
     assert repair_store(store) == []  # a sound store is left alone
     again = run_sweep(spec, SerialExecutor(), resume=True, module=toy)
     assert (again.computed, again.reused) == (0, 24)

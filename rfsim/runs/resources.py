@@ -11,6 +11,12 @@ The peak is that of the largest rfsim process of the run, in bytes of resident m
 baseline of a process that has imported the libraries and loaded the compiled kernels
 (:data:`BASELINE_BYTES`, measured) plus the bytes per work unit times the units held at once.
 A run with worker processes counts one such process per worker besides the leader.
+
+The first run after an install or an edit of a kernel source compiles the scenario's numba
+kernels (a cold cache): a compiling process holds more (LLVM, the typed IR), and keeps much of
+it until it ends. That run's peak is bounded by ``peak_bytes + compile_bytes`` of its
+:class:`Estimate` (:attr:`Estimate.first_run_bytes`), which is what :func:`check_memory`
+compares with the limit, since a run cannot tell beforehand which kernels it will compile.
 """
 
 from __future__ import annotations
@@ -34,32 +40,99 @@ _SIZE = re.compile(r"\s*([0-9]*\.?[0-9]+(?:[eE][0-9]+)?)\s*([a-zA-Z]*)\s*")
 
 @dataclasses.dataclass(frozen=True)
 class Estimate:
-    """The size of a run: ``work_units`` (trials, draws, positions... the scenario's unit),
-    ``peak_bytes`` (upper bound on the peak resident memory [B]) and ``drivers`` (the config
-    keys that set the size, named in the error when it is too large)."""
+    """The size of a run.
+
+    Parameters
+    ----------
+    work_units : int
+        Trials, draws, positions... (the scenario's unit).
+    peak_bytes : int
+        Upper bound on the peak resident memory of the run's largest process [B].
+    drivers : tuple of str
+        The config keys that set the size, named in the error when it is too large.
+    compile_bytes : int, default 0
+        What compiling the scenario's kernels on a cold cache adds to the peak of a process
+        [B] (measured: peak of the smallest run on an empty cache minus that on a full one,
+        rounded up); 0 for a scenario without kernels.
+    """
 
     work_units: int
     peak_bytes: int
     drivers: tuple[str, ...]
+    compile_bytes: int = 0
+
+    @property
+    def first_run_bytes(self) -> int:
+        """Upper bound on the peak of a run that compiles the kernels (a cold cache) [B]:
+        ``peak_bytes + compile_bytes``."""
+        return self.peak_bytes + self.compile_bytes
 
 
 def process_peak(bytes_per_unit: float, units_at_once: float, *, processes: int = 1,
                  baseline_bytes: int = BASELINE_BYTES) -> int:
-    """Peak [B] of ``processes`` processes, each holding ``units_at_once`` units of
-    ``bytes_per_unit`` bytes above :data:`BASELINE_BYTES`."""
+    """Peak memory of processes that each hold some work units above a baseline.
+
+    .. math:: P = N_{proc} (B_0 + b u)
+
+    (the project's own size model, module docstring).
+
+    Parameters
+    ----------
+    bytes_per_unit : float
+        Bytes held per work unit, :math:`b` [B].
+    units_at_once : float
+        Work units held at once by one process, :math:`u`.
+    processes : int, default 1
+        Processes of the run, :math:`N_{proc}`.
+    baseline_bytes : int, default BASELINE_BYTES
+        Resident memory of a process before its arrays, :math:`B_0` [B].
+
+    Returns
+    -------
+    int
+        The peak :math:`P` [B].
+    """
     return int(processes * (baseline_bytes + bytes_per_unit * units_at_once))
 
 
 def pool_processes(workers: int, tasks: int) -> int:
-    """Processes of a run on ``workers`` pool workers (0 = all cores, 1 = in process) with
-    ``tasks`` tasks: the leader plus the workers that start."""
+    """Processes of a run on a pool: the leader plus the workers that start.
+
+    Parameters
+    ----------
+    workers : int
+        Pool workers asked for (0 = all cores, 1 = in process).
+    tasks : int
+        Tasks of the run.
+
+    Returns
+    -------
+    int
+        1 in process, else 1 + min(workers, tasks).
+    """
     w = workers or (os.cpu_count() or 1)
     return 1 if w <= 1 or tasks <= 1 else 1 + min(w, tasks)
 
 
 def parse_size(text: str) -> int:
-    """Bytes of a size such as ``2GiB``, ``500M``, ``1e9`` (k/M/G/T decimal, KiB/MiB/GiB/TiB
-    binary, case-insensitive); :class:`~rfsim.core.errors.UserError` if it is not one."""
+    """Bytes of a size such as ``2GiB``, ``500M``, ``1e9``.
+
+    Parameters
+    ----------
+    text : str
+        A number with an optional unit: k/M/G/T (decimal), KiB/MiB/GiB/TiB (binary), B;
+        case-insensitive.
+
+    Returns
+    -------
+    int
+        The size [B], at least 1.
+
+    Raises
+    ------
+    UserError
+        ``text`` is not a size (one line naming ``--max-memory``).
+    """
     m = _SIZE.fullmatch(text)
     unit = m.group(2).lower() if m else ""
     if not m or unit not in _UNITS or float(m.group(1)) * _UNITS[unit] < 1:
@@ -68,7 +141,18 @@ def parse_size(text: str) -> int:
 
 
 def available_bytes(meminfo: Path = Path("/proc/meminfo")) -> int | None:
-    """``MemAvailable`` of the system [B], or None where it is not reported."""
+    """``MemAvailable`` of the system.
+
+    Parameters
+    ----------
+    meminfo : Path, default /proc/meminfo
+        The file that reports it.
+
+    Returns
+    -------
+    int or None
+        The available memory [B]; None where it is not reported.
+    """
     try:
         for line in meminfo.read_text().splitlines():
             if line.startswith("MemAvailable:"):
@@ -79,22 +163,58 @@ def available_bytes(meminfo: Path = Path("/proc/meminfo")) -> int | None:
 
 
 def default_limit_bytes() -> int | None:
-    """Half of the available memory [B] (None where it is unknown: no check)."""
+    """The default limit of ``--max-memory``: half of the available memory.
+
+    Returns
+    -------
+    int or None
+        Half of :func:`available_bytes` [B]; None where it is unknown (no check).
+    """
     avail = available_bytes()
     return avail // 2 if avail else None
 
 
 def format_bytes(n: float) -> str:
-    """``n`` bytes in MiB or GiB, e.g. ``'1.5 GiB'``."""
+    """A size in MiB or GiB, e.g. ``'1.5 GiB'``.
+
+    Parameters
+    ----------
+    n : float
+        The size [B].
+
+    Returns
+    -------
+    str
+        GiB with one decimal from 1 GiB on, else whole MiB.
+    """
     return f"{n / 2**30:.1f} GiB" if n >= 2**30 else f"{n / 2**20:.0f} MiB"
 
 
 def check_memory(estimate: Estimate | None, limit_bytes: int | None, *, what: str,
                  processes: int = 1) -> None:
-    """Stop (UserError, one line) when ``processes`` × the estimated peak exceeds the limit."""
+    """Stop when ``processes`` × the estimated peak of a first run exceeds the limit.
+
+    The peak compared is :attr:`Estimate.first_run_bytes` (kernel compilation included).
+
+    Parameters
+    ----------
+    estimate : Estimate or None
+        The run's estimate (None: not checked).
+    limit_bytes : int or None
+        The limit [B] (None: not checked).
+    what : str
+        The run, as the message names it.
+    processes : int, default 1
+        Runs of this size at once (sweep workers).
+
+    Raises
+    ------
+    UserError
+        One line naming the drivers, the estimate and the limit (exit status 2).
+    """
     if estimate is None or limit_bytes is None:
         return
-    peak = estimate.peak_bytes * processes
+    peak = estimate.first_run_bytes * processes
     if peak > limit_bytes:
         times = f" × {processes} at once" if processes > 1 else ""
         raise UserError(f"{what} is too large: {', '.join(estimate.drivers)} give an estimated peak "

@@ -7,10 +7,16 @@ the run keeps until it writes them, and the unit's working arrays), both measure
 two sizes and rounded up; a run with worker processes counts one process per worker besides
 the leader (each holding the same baseline). ``tests/test_resources.py`` checks that the
 estimate bounds the measured peak within 2x at two sizes of every scenario.
+
+A first run compiles the scenario's numba kernels; what that adds to a process's peak is
+:data:`COMPILE_MIB` (the estimate's ``compile_bytes``), measured as the peak of the smallest
+run on an empty kernel cache minus its peak on a full one, rounded up; the test checks it on
+an empty cache too.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import Callable
 
@@ -20,11 +26,27 @@ KiB, MiB = 2**10, 2**20
 
 
 def estimate_of(module, config) -> Estimate | None:
-    """The scenario's own ``resource_estimate(config)``, else the size model of its name (built-in
-    scenario modules only), else None (no check)."""
+    """The size of a run of a scenario.
+
+    Parameters
+    ----------
+    module : module
+        The scenario's module.
+    config : dataclass
+        Its resolved config.
+
+    Returns
+    -------
+    Estimate or None
+        The scenario's own ``resource_estimate(config)``, else the size model of its name
+        (built-in scenario modules only, :data:`SIZE_MODELS`, with the compilation term of
+        :data:`COMPILE_MIB`), else None (no check).
+    """
     fn = getattr(module, "resource_estimate", None)
     if fn is None and getattr(module, "__name__", "").startswith("rfsim.scenarios."):
-        fn = SIZE_MODELS.get(module.NAME)
+        model = SIZE_MODELS.get(module.NAME)
+        if model is not None:
+            return dataclasses.replace(model(config), compile_bytes=int(COMPILE_MIB[module.NAME] * MiB))
     return fn(config) if fn is not None else None
 
 
@@ -47,10 +69,11 @@ def _cells(config, cells_key: str, cells: int) -> Estimate:
 
 
 def _detection_probability(c) -> Estimate:
-    """A block of ≤ 256 samples simulated at once (256 KiB each) and every sample's row."""
+    """A block of ≤ 256 samples simulated at once (256 KiB each) and every sample's rows (20 KiB:
+    243 -> 274 MiB measured from 1000 to 3000 samples, 15.9 KiB a sample)."""
     block = min(c.samples.count, 256) * 256 * KiB
     return _model(c.samples.count, ("samples.count", "samples.workers"), base_mib=290 + block / MiB,
-                  bytes_per_unit=4 * KiB, workers=c.samples.workers, tasks=math.ceil(c.samples.count / 256))
+                  bytes_per_unit=20 * KiB, workers=c.samples.workers, tasks=math.ceil(c.samples.count / 256))
 
 
 def _exciter_link(c) -> Estimate:
@@ -80,13 +103,18 @@ def _inventory(c) -> Estimate:
 
 
 def _link(c) -> Estimate:
+    """One round of every distance point at once (one batch) and every round's rows; the peak
+    levels off at 263 MiB from 120 rounds per point on (177 MiB at 10, 225 at 40, 263 at 240)."""
     return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
-                  base_mib=230, bytes_per_unit=4 * KiB)
+                  base_mib=280, bytes_per_unit=4 * KiB)
 
 
 def _phase_tracking(c) -> Estimate:
-    return _model(math.ceil(c.trajectory.duration_s), ("trajectory.duration_s", "schedule.workers"), base_mib=300,
-                  bytes_per_unit=64 * KiB, workers=c.schedule.workers, tasks=math.ceil(c.trajectory.duration_s / 10))
+    """Read rounds; every round's rows (3.2 KiB a round measured: 199 -> 247 MiB from 20 to 60 s
+    at 400 rounds/s, which a 64 KiB-per-second model left 1.2 MiB a second short of)."""
+    rounds = math.ceil(c.trajectory.duration_s / c.schedule.read_period_s)
+    return _model(rounds, ("trajectory.duration_s", "schedule.read_period_s", "schedule.workers"), base_mib=300,
+                  bytes_per_unit=4 * KiB, workers=c.schedule.workers, tasks=math.ceil(c.trajectory.duration_s / 10))
 
 
 def _reader_detection(c) -> Estimate:
@@ -98,12 +126,23 @@ def _reader_detection(c) -> Estimate:
                   base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
 
 
+#: Most beacon steps of a simulation-room trial: the longest rt of the thesis's tables (SIR at
+#: σ0 = 9 dB; ``rfsim.scenes.rss_rooms.RECURSIONS``), used where ``recursions`` is 0.
+RSS_MAX_STEPS = 20
+
+
 def _rss_localization(c) -> Estimate:
-    """Every case's rows; the particle clouds of one case's trials at once (384 B per particle and
-    trial: 94 -> 195 MiB from 2 × 50 to 2 × 200000 trials × particles)."""
+    """Every case's rows, per trial and beacon step one read per reader and 6 more rows (the
+    wide RSSI row, 5 estimates), 64 B each (7.3 KiB per trial and case measured at 3000 trials,
+    the rows held until the write and joined once more there); the particle clouds of one
+    case's trials at once (384 B per particle and trial: 94 -> 195 MiB from 2 × 50 to 2 × 200000
+    trials × particles)."""
     trials = c.trials or 1000
-    return _model(trials * len(c.sigma0_db) * len(c.motions), ("trials", "particles", "sigma0_db", "motions"),
-                  base_mib=120 + trials * c.particles * 384 / MiB, bytes_per_unit=4 * KiB)
+    steps = c.home_steps if c.preset == "home-2room" else (c.recursions or RSS_MAX_STEPS)
+    readers = len(c.readers_xy) if c.readers_xy is not None else c.n_readers
+    return _model(trials * len(c.sigma0_db) * len(c.motions),
+                  ("trials", "particles", "sigma0_db", "motions", "recursions"),
+                  base_mib=120 + trials * c.particles * 384 / MiB, bytes_per_unit=steps * (readers + 6) * 64)
 
 
 def _st_localization(c) -> Estimate:
@@ -127,6 +166,27 @@ def _tag_to_tag_tracking(c) -> Estimate:
                   tasks=math.ceil(c.trajectories / 5))
 
 
+#: What compiling a scenario's kernels on a cold cache adds to the peak of its process [MiB]:
+#: the peak of the smallest run of ``tests/test_resources.py`` on an empty kernel cache minus
+#: its peak on a full one (measured, in the comments), rounded up to 10 MiB plus 10 MiB. The
+#: scenarios without kernels of their own add nothing (the same peak on both caches).
+COMPILE_MIB: dict[str, float] = {
+    "detection-probability": 150,  # 299 - 163 MiB
+    "exciter-link": 130,           # 313 - 202
+    "gen2-waveforms": 30,          # 178 - 164
+    "himr-1d": 40,                 # 253 - 225
+    "himr-2d": 40,                 # 236 - 213
+    "inventory": 180,              # 368 - 207
+    "link": 150,                   # 293 - 162
+    "phase-cancellation": 140,     # 341 - 213
+    "phase-tracking": 200,         # 360 - 176
+    "reader-detection": 140,       # 332 - 204
+    "rss-localization": 0,         # 94 - 94
+    "st-localization": 0,          # 95 - 95
+    "st-to-st": 110,               # 293 - 201
+    "tag-to-tag-tracking": 0,      # 95 - 95
+}
+
 SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
     "detection-probability": _detection_probability,
     "exciter-link": _exciter_link,
@@ -144,4 +204,4 @@ SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
     "tag-to-tag-tracking": _tag_to_tag_tracking,
 }
 
-__all__ = ["SIZE_MODELS", "estimate_of"]
+__all__ = ["COMPILE_MIB", "RSS_MAX_STEPS", "SIZE_MODELS", "estimate_of"]

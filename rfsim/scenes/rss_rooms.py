@@ -79,7 +79,24 @@ def _corners(width: float, length: float, n: int) -> tuple[tuple[float, float], 
 
 def simulation_plan(width_m: float, length_m: float, n_readers: int, alpha_dbm: float,
                     exponent: float) -> FloorPlan:
-    """A single room with readers at ``n_readers`` corners and cells at the interior integer points."""
+    """A single room with readers at ``n_readers`` corners and cells at the interior integer points.
+
+    Parameters
+    ----------
+    width_m, length_m : float
+        The room's size [m].
+    n_readers : int
+        Readers at the corners (0, 0), (w, 0), (0, l), (w, l), in that order.
+    alpha_dbm : float
+        α of every reader: RSS at 1 m [dBm].
+    exponent : float
+        Path-loss exponent n of every reader.
+
+    Returns
+    -------
+    FloorPlan
+        Named ``sim-<w>x<l>``, 2-D (readers and tag at 1 m), no walls or reference tags.
+    """
     return FloorPlan(
         name=f"sim-{width_m:g}x{length_m:g}", bounds=(0.0, 0.0, width_m, length_m),
         readers_xy=_corners(width_m, length_m, n_readers), walls_xy=(),
@@ -89,7 +106,13 @@ def simulation_plan(width_m: float, length_m: float, n_readers: int, alpha_dbm: 
 
 
 def home_plan() -> FloorPlan:
-    """The two-room home replica (Table 6.1 readers, 4 reference tags)."""
+    """The two-room home replica (Table 6.1 readers, 4 reference tags).
+
+    Returns
+    -------
+    FloorPlan
+        ``home-2room`` (module docstring): 36 cells, 25 fixed test points, two mobile paths.
+    """
     cells = np.array([(x + 0.5, y + 0.5) for x in range(9) for y in range(4)], float)
     fixed = [(x, y) for x in (1.0, 2.0) for y in (1.0, 2.0, 3.0)]
     fixed += [(x, y) for x in (4.0, 5.0, 6.0, 7.0, 8.0) for y in (1.0, 2.0, 3.0)]
@@ -107,8 +130,24 @@ def home_plan() -> FloorPlan:
 
 
 def preset_plan(preset: str, n_readers: int, alpha_dbm: float, exponent: float) -> FloorPlan:
-    """The plan of a preset: ``home-2room`` (:func:`home_plan`), ``sim-5x8`` or ``sim-10x16``
-    (:func:`simulation_plan` with ``n_readers`` corner readers of α [dBm] and n)."""
+    """The floor plan of a preset.
+
+    Parameters
+    ----------
+    preset : {"sim-5x8", "sim-10x16", "home-2room"}
+        The preset.
+    n_readers : int
+        Corner readers of the simulation rooms.
+    alpha_dbm : float
+        α of the simulation rooms' readers [dBm].
+    exponent : float
+        n of the simulation rooms' readers.
+
+    Returns
+    -------
+    FloorPlan
+        :func:`home_plan`, or :func:`simulation_plan` of 5 × 8 m or 10 × 16 m.
+    """
     if preset == "home-2room":
         return home_plan()
     w, l = (5.0, 8.0) if preset == "sim-5x8" else (10.0, 16.0)
@@ -116,12 +155,30 @@ def preset_plan(preset: str, n_readers: int, alpha_dbm: float, exponent: float) 
 
 
 def with_overrides(plan: FloorPlan, *, readers_xy=None, walls_xy=None) -> FloorPlan:
-    """``plan`` with other reader positions and walls (x0, y0, x1, y1) [m] (None: the plan's),
-    validated: readers inside the plan's bounds, walls of non-zero length (a one-line
-    :class:`rfsim.core.errors.ConfigError` naming ``readers_xy[i]`` or ``walls_xy[i]``).
+    """``plan`` with other reader positions and walls, validated.
 
     Overridden readers keep the plan's per-reader (α, n, σ) when their number is unchanged;
     otherwise every reader takes the first reader's parameters.
+
+    Parameters
+    ----------
+    plan : FloorPlan
+        The plan.
+    readers_xy : sequence of (float, float) or None
+        Reader positions [m] (None: the plan's).
+    walls_xy : sequence of (float, float, float, float) or None
+        Walls (x0, y0, x1, y1) [m] (None: the plan's).
+
+    Returns
+    -------
+    FloorPlan
+        The plan with those readers and walls.
+
+    Raises
+    ------
+    ConfigError
+        No reader, a reader outside the plan's bounds or a wall of zero length (one line
+        naming ``readers_xy[i]`` or ``walls_xy[i]``).
     """
     xmin, ymin, xmax, ymax = plan.bounds
     readers = plan.readers_xy if readers_xy is None else readers_xy
@@ -154,8 +211,23 @@ PRESET_DEFAULTS = {
 
 
 def scored_steps(motion: str, n_rt: int, n_steps: int) -> np.ndarray:
-    """(n_steps,) bool: the estimates the thesis scores — a fixed target after the last of its
-    ``n_rt`` recursions, a mobile one at each of its first ``n_rt`` steps (§2.4, L1319–L1327)."""
+    """The estimates the thesis scores (§2.4, L1319–L1327).
+
+    Parameters
+    ----------
+    motion : {"fixed", "mobile"}
+        The target's motion.
+    n_rt : int
+        Recursions rt of the estimator.
+    n_steps : int
+        Beacons per track.
+
+    Returns
+    -------
+    ndarray of bool, shape (n_steps,)
+        A fixed target scored after the last of its ``n_rt`` recursions, a mobile one at each
+        of its first ``n_rt`` steps.
+    """
     mask = np.zeros(n_steps, bool)
     if motion == "fixed":
         mask[n_rt - 1] = True
@@ -220,7 +292,27 @@ PUBLISHED_HOME: dict[tuple[str, str], float] = {
 
 
 def published(preset: str, n_readers: int, estimator: str, motion: str, sigma0_db: float):
-    """Published (RMSE, mean, median, p90, std) or (RMSE,) for a case, or None (home: (RMSE or None,))."""
+    """The thesis's published errors of a case (:data:`PUBLISHED`, :data:`PUBLISHED_HOME`).
+
+    Parameters
+    ----------
+    preset : str
+        The plan's name.
+    n_readers : int
+        Its number of readers.
+    estimator : str
+        The estimator's name (e.g. ``nn``, ``grid-mmse``, ``pf-improved``).
+    motion : {"fixed", "mobile"}
+        The target's motion.
+    sigma0_db : float
+        σ0 of the case [dB] (rounded to 3 decimals; ignored in the home).
+
+    Returns
+    -------
+    tuple of float or None
+        (RMSE, mean, median, p90, std) [m] or (RMSE,), None where the thesis has no value;
+        home: (RMSE or None,).
+    """
     if preset == "home-2room":
         return (PUBLISHED_HOME.get((estimator, motion)),)
     return PUBLISHED.get((preset, n_readers, estimator, motion, round(float(sigma0_db), 3)))
@@ -244,7 +336,18 @@ class ShadowingConfig:
 
 
 def noise_model(*, shared: bool) -> str:
-    """One line on the readers' noise model (``ShadowingConfig.readers``) and what it reproduces."""
+    """One line on the readers' noise model (``ShadowingConfig.readers``) and what it reproduces.
+
+    Parameters
+    ----------
+    shared : bool
+        One quasi-static term shared by all readers (else independent per reader).
+
+    Returns
+    -------
+    str
+        The dataset attribute ``noise_model``.
+    """
     return (("one term shared by all readers" if shared else "independent per reader")
             + ", quasi-static per position: the independent model reproduces Table 7.3 "
               "(NN 1.36/1.92/2.20/2.48 m vs 1.38/1.95/2.29/2.57), a shared term does not "
@@ -255,8 +358,27 @@ def noise_model(*, shared: bool) -> str:
 
 
 def rss_channel(plan: FloorPlan, waf_db: float, sigma_db=None) -> _rss.RssChannel:
-    """The per-reader log-distance channel of ``plan`` (rfsim.channels.rss), walls with ``waf_db``
-    [dB] per crossing, σ_j replaced by ``sigma_db`` [dB] if given."""
+    r"""The per-reader log-distance channel of ``plan`` (rfsim.channels.rss).
+
+    Mean RSS at reader j of a tag at distance :math:`d_j` behind :math:`n_{W,j}` walls
+    (seeds/002 L1133–L1155):
+
+    .. math:: \bar P_j = \alpha_j - 10 n_j \log_{10}(d_j / 1\,\mathrm{m}) - n_{W,j} \mathrm{WAF}
+
+    Parameters
+    ----------
+    plan : FloorPlan
+        Readers (at ``reader_height_m``), their (α, n, σ) and walls.
+    waf_db : float
+        WAF: attenuation per wall crossing [dB].
+    sigma_db : float or None
+        σ_j of every reader [dB] (None: the plan's).
+
+    Returns
+    -------
+    rfsim.channels.rss.RssChannel
+        The channel.
+    """
     readers = [_rss.ReaderLink((x, y, plan.reader_height_m), a, n, s if sigma_db is None else sigma_db)
                for (x, y), (a, n, s) in zip(plan.readers_xy, plan.reader_params)]
     walls = [_large_scale.Wall.segment_2d((x0, y0), (x1, y1), waf_db) for x0, y0, x1, y1 in plan.walls_xy]
@@ -268,8 +390,26 @@ def _xyz(xy: np.ndarray, z: float) -> np.ndarray:
 
 
 def random_walk(start_xy, n_steps: int, step_std_m: float, bounds, *, rng: np.random.Generator) -> np.ndarray:
-    """Gaussian random walk of std ``step_std_m`` [m] per step (D0, §2.4) from ``start_xy`` whose
-    steps leaving ``bounds`` (xmin, ymin, xmax, ymax) [m] are redrawn → (n_steps, 2) [m]."""
+    """Gaussian random walk whose steps leaving the room are redrawn (D0, §2.4).
+
+    Parameters
+    ----------
+    start_xy : array_like, shape (2,)
+        First position [m].
+    n_steps : int
+        Positions of the walk.
+    step_std_m : float
+        Std of each coordinate's step [m].
+    bounds : tuple of float
+        (xmin, ymin, xmax, ymax) of the room [m].
+    rng : numpy.random.Generator
+        The trial's stream.
+
+    Returns
+    -------
+    ndarray, shape (n_steps, 2)
+        The positions [m].
+    """
     xmin, ymin, xmax, ymax = bounds
     track = np.empty((n_steps, 2))
     track[0] = start_xy
@@ -317,7 +457,7 @@ def _home_track(plan: FloorPlan, motion: str, trial: int, n_steps: int) -> np.nd
 def draw_beacons(plan: FloorPlan, channel: _rss.RssChannel, report, *, case: int, motion: str, n_tracks: int,
                  n_steps: int, step_std_m: float, decorrelation_m: float, static_fraction: float,
                  shared: bool, people_correlation: float, seed: int) -> CaseData:
-    """Draw every trial's track and beacons of one case (rfsim.channels.rss model).
+    r"""Draw every trial's track and beacons of one case (rfsim.channels.rss model).
 
     A plan with test points (``fixed_points_xy``, the home replica) puts the target on them
     (``fixed``) or on its paths (``mobile``) in turn and runs the fingerprint survey (40 reads
@@ -326,7 +466,47 @@ def draw_beacons(plan: FloorPlan, channel: _rss.RssChannel, report, *, case: int
     shadowing (per position and reader, Gudmundson ``decorrelation_m`` [m], one term for every
     reader if ``shared``) and a people term per beacon (AR(1) ``people_correlation``); ``report``
     (:class:`rfsim.devices.rss_reader.RssReport`) turns the powers into reports. Trial b uses
-    ``trial_rng(seed, case, 0, b)``.
+    ``trial_rng(seed, case, 0, b)``. The received power (module docstring; seeds/002 L1133–L1155):
+
+    .. math:: P_j = \bar P_j(x) + \sqrt{f}\,\sigma_j X_j(x) + \sqrt{1 - f}\,\sigma_j Y_{j,t}
+
+    with :math:`\bar P_j` of :func:`rss_channel`, :math:`f` = ``static_fraction``, :math:`X`
+    the unit quasi-static shadowing and :math:`Y` the unit people term.
+
+    Parameters
+    ----------
+    plan : FloorPlan
+        The floor plan (its fixed points and paths in the home).
+    channel : rfsim.channels.rss.RssChannel
+        The case's channel.
+    report : rfsim.devices.rss_reader.RssReport
+        The readers' report (quantization, floor).
+    case : int
+        The case's index.
+    motion : {"fixed", "mobile"}
+        The target's motion.
+    n_tracks : int
+        Tracks B (trials).
+    n_steps : int
+        Beacons T per track.
+    step_std_m : float
+        Std of the random walk's step [m].
+    decorrelation_m : float
+        Gudmundson decorrelation distance of the shadowing [m] (0: independent per position).
+    static_fraction : float
+        Share f of σ² that is quasi-static.
+    shared : bool
+        One quasi-static term for every reader.
+    people_correlation : float
+        AR(1) coefficient of the people term between beacons.
+    seed : int
+        The run's seed.
+
+    Returns
+    -------
+    CaseData
+        Truth (B, T, 2) [m], RSS and reports (B, T, J) [dBm], the reference tags' (B, T, J, I)
+        and the home's fingerprint map (B, M, J) [dBm].
     """
     home = plan.fixed_points_xy is not None
     sig = channel.sigma_db
@@ -372,7 +552,22 @@ def offline_campaign(channel: _rss.RssChannel, waf_db: float, *, rng: np.random.
     Per reader: 4 locations × 100 reads (8 orientations, people moving: every read an
     independent draw of the reader's σ_j) at 1, 1.5, 2, 2.5, 3 m in the reader's room → LS fit of
     α_j, n_j, σ_j (:func:`rfsim.estimators.calibration.fit_log_distance`); WAF from the same 400
-    reads at 3 m through one wall minus the in-room mean at 3 m (L1000). One dict per reader.
+    reads at 3 m through one wall minus the in-room mean at 3 m (L1000).
+
+    Parameters
+    ----------
+    channel : rfsim.channels.rss.RssChannel
+        The true channel.
+    waf_db : float
+        The true WAF [dB].
+    rng : numpy.random.Generator
+        The campaign's stream.
+
+    Returns
+    -------
+    list of dict
+        Per reader: ``reader`` (1-based), fitted ``alpha_dbm``, ``exponent``, ``sigma_db``,
+        ``waf_db`` and the true ``true_alpha_dbm``, ``true_exponent``, ``true_sigma_db``.
     """
     rows = []
     d = np.repeat([1.0, 1.5, 2.0, 2.5, 3.0], 400)
@@ -396,15 +591,44 @@ FC_HZ = 868e6
 
 
 def epc(tag: int) -> str:
-    """EPC of tag k (0 = the target, 1.. the reference tags): ``3000 0…0 (k+1)``, 24 hex digits."""
+    """EPC of a tag of the run.
+
+    Parameters
+    ----------
+    tag : int
+        0 = the target, 1.. the reference tags.
+
+    Returns
+    -------
+    str
+        ``3000 0…0 (k+1)``: 24 hex digits.
+    """
     return f"3000{0:016X}{tag + 1:04X}"
 
 
 def beacon_log(data: CaseData, reference_xy, *, tag_z_m: float, case: int) -> dict:
-    """The per-read log of a case: one row per (trial, epoch, reader, tag) with the columns of
-    :data:`BEACON_LOG_UNITS` (arrays of B·T·J·(1 + I) rows or scalars; the EPC as
-    :class:`rfsim.core.rows.IndexedText`). Time: the epoch (1 beacon per second), or in the
-    waveform mode when the tag sent the beacon (``data.beacon_t_s``, where it was sent)."""
+    """The per-read log of a case: one row per (trial, epoch, reader, tag).
+
+    Time: the epoch (1 beacon per second), or in the waveform mode when the tag sent the
+    beacon (``data.beacon_t_s``, where it was sent).
+
+    Parameters
+    ----------
+    data : CaseData
+        The case's beacons.
+    reference_xy : ndarray, shape (I, 2)
+        Positions of the reference tags [m].
+    tag_z_m : float
+        Tag height [m].
+    case : int
+        The case's index.
+
+    Returns
+    -------
+    dict
+        The columns of :data:`BEACON_LOG_UNITS`: arrays of B·T·J·(1 + I) rows or scalars; the
+        EPC as :class:`rfsim.core.rows.IndexedText`.
+    """
     b, t = data.reported_dbm.shape[:2]
     rss = np.concatenate([data.rss_dbm[..., None], data.ref_rss_dbm], axis=-1)        # (B,T,J,1+I)
     rep = np.concatenate([data.reported_dbm[..., None], data.ref_reported_dbm], axis=-1)

@@ -4,14 +4,16 @@ Every finished run (point ``i``, repetition ``k``) is appended, as soon as it fi
 the segment of the process that ran it, in the point store beside the output::
 
     <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.log    records, append-only
-    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.idx    one 56-byte entry per record
+    <output>.points/seg-<UTC time>-<host>-<pid>-<tag>.idx    8-byte header, one 64-byte entry per record
 
 so a sweep creates one pair of files per worker process (or per shard task), not one file
 per run. A record is ``"RFSP" | version u8 | header length u32 | payload length u64 |
 header (JSON) | payload (raw arrays) | CRC-32 u32`` of header and payload, written with one
 ``write`` on a file opened for appending; its index entry (point, repetition, seed,
-offset, length, first 16 bytes of the SHA-256 of the run's resolved config TOML) is
-appended after it. Files are fsync'ed at most :data:`SYNC_INTERVAL_S` apart and when the
+offset, length, first 16 bytes of the SHA-256 of the run's resolved config TOML, CRC-32 of
+these 56 bytes) is appended after it. An index file starts with :data:`INDEX_MAGIC`
+(format 2); an index without it is one of format 1 (56-byte entries without a checksum,
+still read). Files are fsync'ed at most :data:`SYNC_INTERVAL_S` apart and when the
 writer closes.
 
 Crash safety: a killed writer (even SIGKILL) leaves at worst a truncated last record, or a
@@ -20,8 +22,8 @@ inside the log, and scan the log past the last indexed record for complete recor
 CRC holds (so a record written just before the kill is not lost). Nothing is ever
 rewritten in place, and no file is left under a temporary name.
 
-Every index entry is checked when the store is read (:func:`check_index`: point,
-repetition and length in bounds, records back to back from offset 0); a damaged index
+Every index entry is checked when the store is read (:func:`check_index`: its checksum,
+point, repetition and length in bounds, records back to back from offset 0); a damaged index
 file (bad disk, stray write) is a one-line :class:`DamagedIndexError` naming it and the
 command that rebuilds it from its log (``rfsim sweep repair SPEC``, :func:`repair_store`).
 
@@ -64,9 +66,16 @@ from rfsim.core.outputs import atomic_path
 MAGIC, VERSION = b"RFSP", 1
 _PREFIX = struct.Struct("<4sBIQ")  # magic, version, header length, payload length
 _CRC = struct.Struct("<I")
-#: One index entry per record (56 bytes, little-endian).
+#: One index entry per record (64 bytes, little-endian): the fields of a run, then the
+#: CRC-32 of the 56 bytes before it (zero-extended to 8 bytes).
 INDEX_DTYPE = np.dtype([("point", "<i8"), ("repetition", "<i8"), ("seed", "<i8"), ("offset", "<i8"),
-                        ("length", "<i8"), ("digest", "V16")])
+                        ("length", "<i8"), ("digest", "V16"), ("crc32", "<u8")])
+#: The first 8 bytes of an index file of format 2 (entries with a checksum). Read as the
+#: point of a format-1 entry it is above :data:`MAX_POINT`, so no format-1 index starts so.
+INDEX_MAGIC = b"RFSIDX\x02\n"
+#: An index entry of format 1 (56 bytes, no checksum), written by rfsim before 2026-12.
+_INDEX_V1_DTYPE = np.dtype(INDEX_DTYPE.descr[:-1])
+_CHECKED_BYTES = _INDEX_V1_DTYPE.itemsize  # the bytes of an entry its CRC-32 covers
 #: Longest time between two fsyncs of a segment that is being written [s].
 SYNC_INTERVAL_S = 1.0
 
@@ -101,12 +110,34 @@ class PointResult:
 
 
 def points_dir(output: Path) -> Path:
-    """The point store of the sweep writing ``output``."""
+    """The point store of the sweep writing ``output``.
+
+    Parameters
+    ----------
+    output : Path
+        The sweep's merged dataset (``.h5``).
+
+    Returns
+    -------
+    Path
+        ``<output>.points`` beside it.
+    """
     return output.with_name(output.name + ".points")
 
 
 def config_digest(config: Any) -> bytes:
-    """First 16 bytes of the SHA-256 of the resolved config's TOML text."""
+    """First 16 bytes of the SHA-256 of the resolved config's TOML text.
+
+    Parameters
+    ----------
+    config : dataclass
+        A scenario's resolved config (:func:`rfsim.core.config.to_toml` writes it).
+
+    Returns
+    -------
+    bytes
+        16 bytes that stand for the config in the index entries of its runs.
+    """
     return hashlib.sha256(to_toml(config).encode("utf-8")).digest()[:16]
 
 
@@ -136,7 +167,26 @@ def _fixed_width_text(name: str, data: np.ndarray) -> np.ndarray:
 
 
 def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
-    """JSON-able description of ``ds`` and the raw bytes of its arrays, in order."""
+    """JSON-able description of ``ds`` and the raw bytes of its arrays, in order.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The dataset of one run (tables, grids, attributes; text as ``str`` or ``U`` arrays).
+
+    Returns
+    -------
+    desc : dict
+        Title, scenario, descriptions and, per attribute and column, its units, description,
+        dims and array metadata (dtype, shape, byte offset in the payload, SHA-1).
+    buffers : list of bytes
+        The arrays' bytes in payload order.
+
+    Raises
+    ------
+    TypeError
+        A column is an object array of anything but ``str``.
+    """
     buffers: list[bytes] = []
     offset = 0
 
@@ -165,14 +215,40 @@ def encode_dataset(ds: Dataset) -> tuple[dict[str, Any], list[bytes]]:
 
 
 def decode_array(payload: bytes | memoryview, meta: Mapping[str, Any]) -> np.ndarray:
-    """One array of a record's payload (read-only view)."""
+    """One array of a record's payload (read-only view).
+
+    Parameters
+    ----------
+    payload : bytes or memoryview
+        The record's payload.
+    meta : mapping
+        The array's entry of the record's description (``dtype``, ``shape``, ``offset``).
+
+    Returns
+    -------
+    ndarray
+        A read-only view of the payload's bytes with that dtype and shape.
+    """
     dtype = np.dtype(meta["dtype"])
     count = math.prod(meta["shape"])
     return np.frombuffer(payload, dtype=dtype, count=count, offset=meta["offset"]).reshape(meta["shape"])
 
 
 def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Dataset:
-    """The :class:`Dataset` of a record (inverse of :func:`encode_dataset`)."""
+    """The :class:`Dataset` of a record (inverse of :func:`encode_dataset`).
+
+    Parameters
+    ----------
+    desc : mapping
+        The record's description (:func:`encode_dataset`).
+    payload : bytes or memoryview
+        The record's payload.
+
+    Returns
+    -------
+    Dataset
+        Its columns and attributes are read-only views of ``payload``.
+    """
     def col(c: Mapping[str, Any]) -> Column:
         return Column(decode_array(payload, c["array"]), c["units"], c["description"], tuple(c["dims"]))
 
@@ -185,6 +261,20 @@ def decode_dataset(desc: Mapping[str, Any], payload: bytes | memoryview) -> Data
 
 
 def encode_record(header: Mapping[str, Any], buffers: Iterable[bytes]) -> bytes:
+    """One point record: prefix, JSON header, payload and the CRC-32 of header and payload.
+
+    Parameters
+    ----------
+    header : mapping
+        JSON-able header (the run's point, repetition, seed, provenance and dataset description).
+    buffers : iterable of bytes
+        The payload's parts, in order.
+
+    Returns
+    -------
+    bytes
+        ``"RFSP" | version u8 | header length u32 | payload length u64 | header | payload | CRC-32 u32``.
+    """
     head = json.dumps(header, separators=(",", ":")).encode("utf-8")
     payload = b"".join(buffers)
     crc = zlib.crc32(payload, zlib.crc32(head))
@@ -196,7 +286,25 @@ class CorruptRecordError(UserError, ValueError):
 
 
 def decode_record(raw: bytes) -> tuple[dict[str, Any], memoryview]:
-    """(header, payload) of a whole record; :class:`CorruptRecordError` if torn or corrupt."""
+    """The header and payload of a whole record.
+
+    Parameters
+    ----------
+    raw : bytes
+        Exactly one record's bytes.
+
+    Returns
+    -------
+    header : dict
+        The record's JSON header.
+    payload : memoryview
+        Its payload.
+
+    Raises
+    ------
+    CorruptRecordError
+        The bytes are torn, not a record of this version, or fail the CRC.
+    """
     if len(raw) < _PREFIX.size + _CRC.size:
         raise CorruptRecordError("point record too short")
     magic, version, n_head, n_payload = _PREFIX.unpack_from(raw)
@@ -222,7 +330,24 @@ def _write_all(fd: int, data: bytes) -> None:
 
 
 class SegmentWriter:
-    """The append-only segment (log + index) of one process in one point store."""
+    """The append-only segment (log + index) of one process in one point store.
+
+    Parameters
+    ----------
+    store : Path
+        The point store (created if missing); the segment's files get a new unique name.
+
+    Attributes
+    ----------
+    log_path, index_path : Path
+        The segment's log and index.
+    pid : int
+        The writing process.
+    offset : int
+        Bytes written to the log [B].
+    records : int
+        Records appended.
+    """
 
     def __init__(self, store: Path):
         store.mkdir(parents=True, exist_ok=True)
@@ -234,21 +359,44 @@ class SegmentWriter:
         self._log = os.open(self.log_path, flags, 0o644)
         self._index = os.open(self.index_path, flags, 0o644)
         self.pid, self.offset, self.records = os.getpid(), 0, 0
+        try:
+            _write_all(self._index, INDEX_MAGIC)
+        except OSError as err:
+            self._refused(err)
         self._synced = time.monotonic()
 
     def append(self, point: int, repetition: int, seed: int, digest: bytes, header: Mapping[str, Any],
                buffers: Iterable[bytes]) -> int:
-        """Append one record and its index entry; returns the record's offset in the log."""
+        """Append one record and its index entry.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run's point, repetition and seed.
+        digest : bytes
+            16 bytes of its config (:func:`config_digest`).
+        header : mapping
+            The record's JSON header.
+        buffers : iterable of bytes
+            The payload's parts.
+
+        Returns
+        -------
+        int
+            The record's offset in the log [B].
+
+        Raises
+        ------
+        ResourceError
+            The disk is full or failed (one line naming the segment).
+        """
         record = encode_record(header, buffers)
-        entry = np.array([(point, repetition, seed, self.offset, len(record), digest)], INDEX_DTYPE)
+        entry = index_entries([(point, repetition, seed, self.offset, len(record), digest)])
         try:
             _write_all(self._log, record)
             _write_all(self._index, entry.tobytes())
-        except OSError as err:  # disk full, I/O error: one line naming the segment
-            failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
-            if failure is None:
-                raise
-            raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
+        except OSError as err:
+            self._refused(err)
         offset = self.offset
         self.offset += len(record)
         self.records += 1
@@ -256,12 +404,21 @@ class SegmentWriter:
             self.sync()
         return offset
 
+    def _refused(self, err: OSError) -> None:
+        """Disk full, I/O error: one line naming the segment (other errors as they are)."""
+        failure = write_failure(err, f"the point store segment {str(self.log_path)!r}")
+        if failure is None:
+            raise err
+        raise ResourceError(f"{failure}; the runs finished before are kept (continue with --resume)") from None
+
     def sync(self) -> None:
+        """Flush the log and the index to the disk (fsync)."""
         os.fsync(self._log)
         os.fsync(self._index)
         self._synced = time.monotonic()
 
     def close(self) -> None:
+        """Sync and close both files (again: nothing)."""
         if self._log < 0:
             return
         try:
@@ -276,7 +433,18 @@ _WRITERS: dict[tuple[int, str], SegmentWriter] = {}
 
 
 def writer_for(store: Path) -> SegmentWriter:
-    """This process's writer of ``store`` (created on first use; a forked child gets its own)."""
+    """This process's writer of ``store`` (created on first use; a forked child gets its own).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    SegmentWriter
+        Closed when the process exits (:func:`close_writers`).
+    """
     key = (os.getpid(), str(store))
     writer = _WRITERS.get(key)
     if writer is None:
@@ -307,7 +475,18 @@ def _static_provenance() -> dict[str, str]:
 
 
 def run_point(task: PointTask) -> PointResult:
-    """Run one point in this process and append it to this process's segment."""
+    """Run one point in this process and append it to this process's segment.
+
+    Parameters
+    ----------
+    task : PointTask
+        The scenario, config, point, repetition, seed and store of the run.
+
+    Returns
+    -------
+    PointResult
+        The segment that holds the run, its wall time [s], the process and its peak RSS [MB].
+    """
     module = load_scenario(task.scenario_module)
     start_utc, t0 = utc_now(), time.perf_counter()
     dataset = module.run(task.config, seed=task.seed)
@@ -326,7 +505,18 @@ def run_point(task: PointTask) -> PointResult:
 
 
 def run_points(tasks: list[PointTask]) -> list[PointResult]:
-    """Run a batch of points one after another (one task of a pool or Dask worker)."""
+    """Run a batch of points one after another (one task of a pool or Dask worker).
+
+    Parameters
+    ----------
+    tasks : list of PointTask
+        The runs of the batch.
+
+    Returns
+    -------
+    list of PointResult
+        One per task, in order.
+    """
     return [run_point(t) for t in tasks]
 
 
@@ -366,7 +556,18 @@ def _scan_log(log: Path, start: int, size: int) -> list[tuple]:
 
 
 def segments(store: Path) -> list[Path]:
-    """The segment logs of ``store``, oldest first (their names start with the UTC time)."""
+    """The segment logs of ``store``, oldest first (their names start with the UTC time).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    list of Path
+        The ``seg-*.log`` files (empty if the store does not exist).
+    """
     return sorted(store.glob("seg-*.log")) if store.is_dir() else []
 
 
@@ -393,15 +594,101 @@ class DamagedIndexError(UserError):
         return (type(self), (self.index, self.why, self.spec))
 
 
-def check_index(entries: np.ndarray, index: Path) -> None:
-    """:class:`DamagedIndexError` unless every entry of ``index`` is one its writer appended:
-    point, repetition and length in bounds and each record starting where the one before
-    ended (the writer appends records back to back from offset 0)."""
+def _entry_crcs(entries: np.ndarray) -> np.ndarray:
+    """CRC-32 of the first 56 bytes (all fields but the checksum) of each index entry."""
+    raw = memoryview(np.ascontiguousarray(entries, INDEX_DTYPE).tobytes())
+    size = INDEX_DTYPE.itemsize
+    return np.array([zlib.crc32(raw[k * size:k * size + _CHECKED_BYTES]) for k in range(len(entries))],
+                    np.uint64)
+
+
+def index_entries(rows: Iterable[tuple]) -> np.ndarray:
+    """Index entries of ``(point, repetition, seed, offset, length, digest)`` rows.
+
+    Parameters
+    ----------
+    rows : iterable of tuple
+        Point, repetition, seed, record offset [B], record length [B] and 16-byte config digest.
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE, shape (n_rows,)
+        The entries, each with the CRC-32 of its first 56 bytes in ``crc32``.
+    """
+    entries = np.array([(*row, 0) for row in rows], INDEX_DTYPE)
+    entries["crc32"] = _entry_crcs(entries)
+    return entries
+
+
+def parse_index(raw: bytes, index: Path) -> np.ndarray:
+    """The entries of an index file, each one checked (:func:`check_index`).
+
+    An index of format 2 starts with :data:`INDEX_MAGIC`; one without it is of format 1
+    (56-byte entries without a checksum: only their bounds and offsets are checked). A torn
+    last entry (a writer killed while appending it) is left out.
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's bytes.
+    index : Path
+        The file (named in the error).
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE, shape (n_entries,)
+        Its whole entries (format 1: with their checksums computed).
+
+    Raises
+    ------
+    DamagedIndexError
+        The header or an entry is damaged (checksum, bounds, offsets).
+    """
+    size = INDEX_DTYPE.itemsize
+    if raw.startswith(INDEX_MAGIC):
+        body = raw[len(INDEX_MAGIC):]
+        return check_index(np.frombuffer(body[:len(body) // size * size], INDEX_DTYPE), index)
+    if INDEX_MAGIC.startswith(raw):  # empty, or its writer was killed while writing the header
+        return np.zeros(0, INDEX_DTYPE)
+    if raw[:4] == INDEX_MAGIC[:4] or raw[4:8] == INDEX_MAGIC[4:8]:
+        raise DamagedIndexError(index, "its header is damaged")
+    old = np.frombuffer(raw[:len(raw) // _CHECKED_BYTES * _CHECKED_BYTES], _INDEX_V1_DTYPE)
+    entries = np.zeros(len(old), INDEX_DTYPE)
+    for name in _INDEX_V1_DTYPE.names:
+        entries[name] = old[name]
+    entries["crc32"] = _entry_crcs(entries)
+    return check_index(entries, index)
+
+
+def check_index(entries: np.ndarray, index: Path) -> np.ndarray:
+    """Check that every entry of an index is one its writer appended.
+
+    Its checksum holds, point, repetition and length are in bounds and each record starts
+    where the one before ended (the writer appends records back to back from offset 0).
+
+    Parameters
+    ----------
+    entries : ndarray of INDEX_DTYPE, shape (n_entries,)
+        The index's entries.
+    index : Path
+        The index file (named in the error).
+
+    Returns
+    -------
+    ndarray of INDEX_DTYPE
+        ``entries``.
+
+    Raises
+    ------
+    DamagedIndexError
+        Naming the first damaged entry.
+    """
     if not len(entries):
-        return
+        return entries
     point, rep = entries["point"], entries["repetition"]
     offset, length = entries["offset"], entries["length"]
-    checks = [((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
+    checks = [(entries["crc32"] != _entry_crcs(entries), "a checksum that fails"),
+              ((point < 0) | (point >= MAX_POINT), f"a point outside [0, {MAX_POINT})"),
               ((rep < 0) | (rep >= MAX_REPETITION), f"a repetition outside [0, {MAX_REPETITION})"),
               ((length < MIN_RECORD_BYTES) | (length > MAX_RECORD_BYTES), "a record length out of bounds"),
               ((offset < 0) | (offset > MAX_RECORD_BYTES * MAX_POINT), "an offset out of bounds")]
@@ -415,13 +702,33 @@ def check_index(entries: np.ndarray, index: Path) -> None:
         k = int(np.argmax(gaps))
         raise DamagedIndexError(index, f"entry {k} of {len(entries)} points at byte {int(offset[k])}, "
                                        f"where the records before it end at byte {int(expected[k])}")
+    return entries
 
 
 def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
-    """(log, index entries of its complete records) of every segment, oldest first.
+    """The index entries of the complete records of every segment, oldest first.
 
-    Every index entry is checked (:func:`check_index`); a damaged index file is a
-    :class:`DamagedIndexError` naming it."""
+    Every index entry is checked (:func:`parse_index`); entries whose record lies beyond the
+    end of the log (a crash) are left out, and complete records after the last indexed one
+    (a writer killed in between) are found by scanning the log.
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Yields
+    ------
+    log : Path
+        A segment's log.
+    entries : ndarray of INDEX_DTYPE
+        The entries of its complete records.
+
+    Raises
+    ------
+    DamagedIndexError
+        An index file is damaged (naming it).
+    """
     for log in segments(store):
         index = log.with_suffix(".idx")
         try:
@@ -429,39 +736,59 @@ def read_index(store: Path) -> Iterator[tuple[Path, np.ndarray]]:
             raw = index.read_bytes() if index.exists() else b""
         except OSError:
             continue
-        n = len(raw) // INDEX_DTYPE.itemsize
-        entries = np.frombuffer(raw[:n * INDEX_DTYPE.itemsize], INDEX_DTYPE)
-        check_index(entries, index)
+        entries = parse_index(raw, index)
         entries = entries[entries["offset"] + entries["length"] <= size]  # a log cut short (crash)
         end = int((entries["offset"] + entries["length"]).max()) if len(entries) else 0
         if end < size:  # records written after the last index entry (killed in between)
             extra = _scan_log(log, end, size)
             if extra:
-                entries = np.concatenate([entries, np.array(extra, INDEX_DTYPE)])
+                entries = np.concatenate([entries, index_entries(extra)])
         yield log, entries
 
 
 def rebuild_index(log: Path) -> int:
-    """Rewrite the index of segment ``log`` from the log itself (its complete, CRC-valid
-    records from the start, up to the first damaged one); returns the number of entries.
-    The new index replaces the old one atomically. Only while no sweep writes the store."""
+    """Rewrite the index of segment ``log`` from the log itself.
+
+    The new index (format 2) lists the log's complete, CRC-valid records from the start up to
+    the first damaged one, and replaces the old one atomically. Only while no sweep writes
+    the store.
+
+    Parameters
+    ----------
+    log : Path
+        The segment's log.
+
+    Returns
+    -------
+    int
+        The number of entries written.
+    """
     index = log.with_suffix(".idx")
-    entries = np.array(_scan_log(log, 0, log.stat().st_size), INDEX_DTYPE)
+    entries = index_entries(_scan_log(log, 0, log.stat().st_size))
     with atomic_path(index, f"the point store index {str(index)!r}") as tmp:
-        tmp.write_bytes(entries.tobytes())
+        tmp.write_bytes(INDEX_MAGIC + entries.tobytes())
     return len(entries)
 
 
 def repair_store(store: Path) -> list[tuple[Path, int]]:
-    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`);
-    returns (index, entries) of each one rebuilt."""
+    """Rebuild every damaged index of ``store`` from its log (:func:`rebuild_index`).
+
+    Parameters
+    ----------
+    store : Path
+        The point store.
+
+    Returns
+    -------
+    list of (Path, int)
+        Each rebuilt index and its number of entries (empty: the store is sound).
+    """
     repaired = []
     for log in segments(store):
         index = log.with_suffix(".idx")
         raw = index.read_bytes() if index.exists() else b""
-        entries = np.frombuffer(raw[:len(raw) // INDEX_DTYPE.itemsize * INDEX_DTYPE.itemsize], INDEX_DTYPE)
         try:
-            check_index(entries, index)
+            parse_index(raw, index)
         except DamagedIndexError:
             repaired.append((index, rebuild_index(log)))
     return repaired
@@ -471,7 +798,19 @@ class StoreIndex:
     """Lookup of finished runs: (point, repetition, seed, config digest) → :class:`RecordRef`.
 
     All index entries of the store in NumPy arrays sorted by (point, repetition, segment
-    age, offset) — about 60 bytes per record, no Python object per run.
+    age, offset) — about 70 bytes per record, no Python object per run.
+
+    Parameters
+    ----------
+    store : Path
+        The point store (read with :func:`read_index`).
+
+    Attributes
+    ----------
+    store : Path
+        The point store.
+    logs : list of Path
+        Its segment logs, oldest first (segment numbers index it).
     """
 
     def __init__(self, store: Path):
@@ -491,6 +830,7 @@ class StoreIndex:
 
     @property
     def n_segments(self) -> int:
+        """Number of segments in the store."""
         return len(self.logs)
 
     def __len__(self) -> int:
@@ -500,7 +840,21 @@ class StoreIndex:
                            e["digest"].tolist())))
 
     def locate(self, point: int, repetition: int, seed: int, digest: bytes) -> tuple[int, int, int] | None:
-        """(segment number, offset, length) of the newest matching record, or None."""
+        """Where the newest record of a run is.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run.
+        digest : bytes
+            16 bytes of its config (:func:`config_digest`).
+
+        Returns
+        -------
+        tuple of int or None
+            (segment number, offset [B], length [B]) of the newest record with that point,
+            repetition, seed and digest; None if there is none.
+        """
         if repetition >= self._base:
             return None
         key = point * self._base + repetition
@@ -512,6 +866,20 @@ class StoreIndex:
         return None
 
     def find(self, point: int, repetition: int, seed: int, digest: bytes) -> RecordRef | None:
+        """The newest record of a run (:meth:`locate`) as a reference.
+
+        Parameters
+        ----------
+        point, repetition, seed : int
+            The run.
+        digest : bytes
+            16 bytes of its config.
+
+        Returns
+        -------
+        RecordRef or None
+            Its log, offset and length; None if the store has no such run.
+        """
         hit = self.locate(point, repetition, seed, digest)
         return None if hit is None else RecordRef(self.logs[hit[0]], hit[1], hit[2])
 
@@ -531,14 +899,48 @@ class RecordReader:
         return self._file
 
     def read(self, ref: RecordRef) -> tuple[dict[str, Any], memoryview]:
-        """Header and payload of a record, its CRC checked (one-line error if corrupt)."""
+        """Header and payload of a record, its CRC checked.
+
+        Parameters
+        ----------
+        ref : RecordRef
+            Where the record is.
+
+        Returns
+        -------
+        header : dict
+            The record's JSON header.
+        payload : memoryview
+            Its payload.
+
+        Raises
+        ------
+        CorruptRecordError
+            One line naming the segment and the byte where the damaged record starts.
+        """
         try:
             return decode_record(self._seek(ref).read(ref.length))
         except CorruptRecordError as err:
             raise self._damaged(ref, str(err)) from None
 
     def header(self, ref: RecordRef) -> dict[str, Any]:
-        """The JSON header of a record alone (the payload is not read, nor its CRC checked)."""
+        """The JSON header of a record alone (the payload is not read, nor its CRC checked).
+
+        Parameters
+        ----------
+        ref : RecordRef
+            Where the record is.
+
+        Returns
+        -------
+        dict
+            The record's header.
+
+        Raises
+        ------
+        CorruptRecordError
+            The header is unreadable.
+        """
         f = self._seek(ref)
         try:
             magic, version, n_head, _ = _PREFIX.unpack(f.read(_PREFIX.size))
@@ -554,6 +956,7 @@ class RecordReader:
                                   "move that segment (.log and .idx) away and rerun with --resume")
 
     def close(self) -> None:
+        """Close the open segment file, if any."""
         if self._file is not None:
             self._file.close()
         self._file, self._path = None, None
@@ -574,6 +977,9 @@ __all__ = [
     "CorruptRecordError",
     "DamagedIndexError",
     "check_index",
+    "parse_index",
+    "index_entries",
+    "INDEX_MAGIC",
     "rebuild_index",
     "repair_store",
     "SegmentWriter",

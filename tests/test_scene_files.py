@@ -50,7 +50,8 @@ def test_there_are_five_examples_and_a_readme_naming_every_key():
                 "session", "q_initial", "link_profile", "ptx_dbm", "sensitivity_dbm", "eirp_dbm", "schedule_s",
                 "period_s", "offset_s", "word", "threshold_v", "blf_hz", "tag_id", "tx_power_dbm", "jitter_s",
                 "lbt_listen_s", "noise_figure_db", "[[himr_tag]]", "[[pylon]]", "[himr_radio]", "packet_format", "kind",
-                "heading_deg", "fc_hz", "snr_db", "fs_hz"):
+                "heading_deg", "fc_hz", "snr_db", "fs_hz", "shadowing_sigma_db", "shadowing_decorrelation_m",
+                "[[channel.surface]]", "point_m", "normal", "eps_r", "half_size_m"):
         assert f"`{key}`" in readme, key
 
 

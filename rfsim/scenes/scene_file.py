@@ -19,8 +19,9 @@ Sections:
   ``sensitivity_dbm``, ``modulation``, ...) plus the pose and motion of :class:`TagSpec`
   (``count`` tags in a row ``step_m`` apart; ``velocity_m_s`` moves them on a straight line
   from ``position_m`` at t = 0).
-* ``[channel]``: :class:`ChannelSpec` (large scale, floor reflection, APDP) with optional
-  ``[[channel.wall]]`` tables (:class:`WallSpec`).
+* ``[channel]``: :class:`ChannelSpec` (large scale, floor reflection, APDP, spatially correlated
+  log-normal shadowing) with optional ``[[channel.wall]]`` tables (:class:`WallSpec`) and
+  ``[[channel.surface]]`` tables (:class:`SurfaceSpec`: reflecting planes or rectangles).
 * ``[run]``: any :class:`rfsim.protocols.inventory.InventoryConfig` key (``session``,
   ``q_initial``, ``q_mode``, ``target``, ``max_rounds``, ...) plus ``duration_s``.
 * ``[[exciter]]``, ``[[sense_a_tag]]``, ``[frame]``, ``[[beacon]]``, ``[[beacon_reader]]``:
@@ -38,7 +39,7 @@ readers repeats until the air time reaches ``duration_s``.
 Randomness (``seed`` is the run's root seed, :func:`rfsim.core.rng.trial_rng`): reader i
 (its hop table) ``trial_rng(seed, 1, i)``; tag k (in file order, rows expanded)
 ``trial_rng(seed, 3, k)``; the channel draws and receiver noise of reader i
-``trial_rng(seed, 2, i)``.
+``trial_rng(seed, 2, i)``; the shadowing field (one per run) ``trial_rng(seed, 8)``.
 """
 
 from __future__ import annotations
@@ -147,6 +148,38 @@ class WallSpec:
 
 
 @dataclass(frozen=True)
+class SurfaceSpec:
+    """A flat reflecting surface (``[[channel.surface]]``): a ceiling, a metal shelf, a wall that
+    reflects (:class:`rfsim.channels.surfaces.Surface`, image method of order 1)."""
+
+    point_m: tuple[float, float, float] = param((0.0, 0.0, 3.0), lo=-1e4, hi=1e4, unit="m",
+                                                doc="a point of the plane (the rectangle's centre when finite)")
+    normal: tuple[float, float, float] = param((0.0, 0.0, 1.0), lo=-1.0, hi=1.0, unit="1", doc="plane normal")
+    eps_r: float = param(5.3, lo=1.0, hi=1e7, unit="1", doc="relative permittivity (concrete 5.3; metal: large)")
+    half_size_m: tuple[float, float] = param((0.0, 0.0), lo=0.0, hi=1e4, unit="m",
+                                             doc="half-widths of a finite rectangle ((0, 0): unbounded plane)")
+
+    def __post_init__(self):
+        if not any(self.normal):
+            raise ConfigError("normal", list(self.normal), "a non-zero vector")
+        if (min(self.half_size_m) == 0.0) != (max(self.half_size_m) == 0.0):
+            raise ConfigError("half_size_m", list(self.half_size_m),
+                              "two positive half-widths, or [0, 0] for an unbounded plane")
+
+    def surface(self):
+        """The channel's surface of this table.
+
+        Returns
+        -------
+        rfsim.channels.surfaces.Surface
+            The plane through ``point_m`` with normal ``normal``, permittivity ``eps_r``,
+            unbounded or a rectangle of half-widths ``half_size_m``.
+        """
+        half = None if max(self.half_size_m) == 0.0 else self.half_size_m
+        return _surfaces.Surface(point_m=self.point_m, normal=self.normal, eps_r=self.eps_r, half_size_m=half)
+
+
+@dataclass(frozen=True)
 class ChannelSpec:
     """The ``[channel]`` table."""
 
@@ -162,8 +195,12 @@ class ChannelSpec:
     tau_max_s: float = param(70e-9, lo=0.0, hi=1e-5, lo_open=True, unit="s",
                              doc="APDP τrms(d) = tau_max_s·(1 − 10^(−tau_b·d))")
     tau_b: float = param(0.03, lo=0.0, hi=10.0, lo_open=True, unit="1/m", doc="APDP delay-spread growth")
+    shadowing_sigma_db: float = param(0.0, lo=0.0, hi=30.0, unit="dB",
+                                      doc="log-normal shadowing σ (0: none), spatially correlated")
+    shadowing_decorrelation_m: float = param(3.0, lo=0.01, hi=1e3, unit="m",
+                                             doc="shadowing decorrelation distance (Gudmundson exp(−Δ/d))")
 
-    def scene(self, walls: tuple = ()):
+    def scene(self, walls: tuple = (), surfaces: tuple = (), *, rng=None):
         """Build the channel scene of this table and the walls.
 
         Parameters
@@ -171,6 +208,10 @@ class ChannelSpec:
         walls : tuple of WallSpec, default ()
             The ``[[channel.wall]]`` tables; each becomes a vertical wall over its floor-plan
             segment (:meth:`rfsim.channels.large_scale.Wall.segment_2d`).
+        surfaces : tuple of SurfaceSpec, default ()
+            The ``[[channel.surface]]`` tables, reflecting surfaces besides the floor.
+        rng : numpy.random.Generator, optional
+            Draws the shadowing field's realisation; needed when ``shadowing_sigma_db > 0``.
 
         Returns
         -------
@@ -178,16 +219,22 @@ class ChannelSpec:
             Image order 1; a floor at z = 0 of permittivity ``floor_eps_r`` when ``floor``;
             :class:`~rfsim.channels.large_scale.LogDistance` large scale for
             ``large_scale = "log_distance"`` (else None: Friis); the exponential
-            :class:`~rfsim.channels.small_scale.ApdpModel` when ``apdp``.
+            :class:`~rfsim.channels.small_scale.ApdpModel` when ``apdp``; the surfaces; a
+            :class:`~rfsim.channels.large_scale.ShadowingField` (σ, decorrelation distance;
+            rssi-localization.md §1.9) when ``shadowing_sigma_db > 0``.
         """
-        surfaces = ((_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=self.floor_eps_r),)
-                    if self.floor else ())
+        floor = ((_surfaces.Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=self.floor_eps_r),)
+                 if self.floor else ())
+        surfaces = floor + tuple(s.surface() for s in surfaces)
+        shadowing = (_large_scale.ShadowingField(self.shadowing_sigma_db, self.shadowing_decorrelation_m, rng=rng)
+                     if self.shadowing_sigma_db > 0 else None)
         large = (_large_scale.LogDistance(exponent=self.path_loss_exponent, d0_m=self.d0_m)
                  if self.large_scale == "log_distance" else None)
         apdp = (_small_scale.ApdpModel(k_a_db=self.k_a_db, k_b=self.k_b, k_c_db=self.k_c_db,
                                        tau_max_s=self.tau_max_s, tau_b=self.tau_b) if self.apdp else None)
         walls = tuple(_large_scale.Wall.segment_2d(w.start_m, w.end_m, w.attenuation_db) for w in walls)
-        return _scene.Scene(surfaces=surfaces, walls=walls, large_scale=large, apdp=apdp, image_order=1)
+        return _scene.Scene(surfaces=surfaces, walls=walls, large_scale=large, apdp=apdp, shadowing=shadowing,
+                            image_order=1)
 
 
 @dataclass(frozen=True)
@@ -253,6 +300,8 @@ class SceneSpec:
         Exciters, sense-a-tags and beacons (empty by default).
     himr : rfsim.scenes.scene_himr.HimrSpec
         HIMR tags and pylons (empty by default).
+    surfaces : tuple of SurfaceSpec
+        The ``[[channel.surface]]`` tables (reflecting surfaces besides the floor).
     """
 
     description: str
@@ -264,6 +313,7 @@ class SceneSpec:
     duration_s: float
     devices: scene_devices.DeviceSpec = scene_devices.DeviceSpec()
     himr: scene_himr.HimrSpec = scene_himr.HimrSpec()
+    surfaces: tuple[SurfaceSpec, ...] = ()
 
 
 # ------------------------------------------------------------------------------ parsing
@@ -424,6 +474,8 @@ def parse_scene(data: dict) -> SceneSpec:
     ch = dict(_table(data.get("channel", {}), "channel"))
     walls = tuple(from_dict(WallSpec, w, prefix=f"channel.wall[{j}]")
                   for j, w in enumerate(_array_of_tables(ch.pop("wall", None), "channel.wall", required=False)))
+    surfaces = tuple(from_dict(SurfaceSpec, w, prefix=f"channel.surface[{j}]") for j, w in
+                     enumerate(_array_of_tables(ch.pop("surface", None), "channel.surface", required=False)))
     channel = from_dict(ChannelSpec, ch, prefix="channel")
 
     run = dict(_table(data.get("run", {}), "run"))
@@ -436,7 +488,27 @@ def parse_scene(data: dict) -> SceneSpec:
     inventory = from_dict(InventoryConfig, run, prefix="run")
     scene_himr.check_himr(himr, float(duration_s))
     return SceneSpec(description, tuple(readers), tuple(entries), channel, walls, inventory, float(duration_s), devices,
-                     himr)
+                     himr, surfaces)
+
+
+def channel_scene(spec: SceneSpec, *, seed: int):
+    """The channel scene of a scene file: large scale, floor, surfaces, walls, APDP, shadowing.
+
+    Parameters
+    ----------
+    spec : SceneSpec
+        The validated scene file.
+    seed : int
+        The run's root seed; the shadowing field's realisation is drawn from
+        ``trial_rng(seed, 8)`` (one quasi-static field for the whole run, the same for every
+        reader and device).
+
+    Returns
+    -------
+    rfsim.channels.scene.Scene
+        :meth:`ChannelSpec.scene` of the ``[channel]`` table, its walls and surfaces.
+    """
+    return spec.channel.scene(spec.walls, spec.surfaces, rng=trial_rng(seed, 8))
 
 
 def _apply_override(data: dict, text: str) -> None:
@@ -569,7 +641,7 @@ def run_scene(spec: SceneSpec, *, seed: int) -> dict[str, dict[str, list]]:
     tags = build_tags(spec, seed=seed)
     moving = any(any(v != 0.0 for v in e.velocity_m_s) for e in spec.tags)
     motions = [np.asarray(e.velocity_m_s, float) for e in spec.tags] if moving else None
-    channel = _scene.Channel(spec.channel.scene(spec.walls))
+    channel = _scene.Channel(channel_scene(spec, seed=seed))
     airs = [EngineAir(r, tags, channel, rng=trial_rng(seed, 2, i), motions=motions) for i, r in enumerate(readers)]
     reads: dict[str, list] = {}
     slots: dict[str, list] = {}
@@ -761,7 +833,7 @@ def run(config: Config, *, seed: int):
     spec = parse_scene(json.loads(config.scene_json))
     ds = scene_dataset(spec, run_scene(spec, seed=seed) if spec.readers else {"reads": {}, "slots": {}})
     if not spec.devices.empty:
-        scene = spec.channel.scene(spec.walls)
+        scene = channel_scene(spec, seed=seed)
         rows = scene_devices.run_devices(spec.devices, scene, duration_s=spec.duration_s, seed=seed)
         scene_devices.add_device_tables(ds, _dataset, spec.devices, rows)
     if not spec.himr.empty:
@@ -888,5 +960,5 @@ def scenario_module(path: str | Path) -> ModuleType:
 
 
 __all__ = ["scenario_module", "AntennaSpec", "TagSpec", "WallSpec", "ChannelSpec", "ReaderSpec", "TagEntry", "SceneSpec", "SECTIONS",
-           "is_scene_file", "parse_scene", "read_scene", "build_readers", "build_tags", "run_scene", "scene_dataset",
+           "is_scene_file", "parse_scene", "SurfaceSpec", "channel_scene", "read_scene", "build_readers", "build_tags", "run_scene", "scene_dataset",
            "Config", "scene_config", "run", "plot", "READ_COLUMNS", "SLOT_COLUMNS"]

@@ -29,10 +29,13 @@ the space.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
 import tempfile
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 #: Folder of the rfsim package.
@@ -156,11 +159,93 @@ _NJIT = numba.njit(cache=True, nogil=True)
 KERNELS: list = []
 
 
-def njit(func):
-    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible."""
-    dispatcher = _NJIT(func)
+class _Elsewhere:
+    """Where a kernel missing from the on-disk cache is compiled: ``run`` is None (here, numba's
+    own way) or a function that calls a task in a short-lived process and waits for it
+    (:func:`compiling_elsewhere`)."""
+
+    run: Callable[[Callable[[], None]], None] | None = None
+
+
+class _CacheCompilingElsewhere:
+    """The on-disk cache of one kernel (numba's ``Dispatcher._cache``), which, while
+    :func:`compiling_elsewhere` is active, fills itself from another process when it lacks an
+    entry: that process compiles the kernel (with the kernels it calls that the cache lacks)
+    and writes it to the cache, and this one loads it as any cached kernel, so numba's compiler
+    never runs here and its memory (LLVM's, which a process keeps once it has used it) ends
+    with the other process. Every other attribute is the wrapped cache's."""
+
+    def __init__(self, dispatcher, cache):
+        self._dispatcher = dispatcher
+        self._cache = cache
+
+    def __getattr__(self, name):
+        return getattr(self._cache, name)
+
+    def load_overload(self, sig, target_context):
+        """The cached overload of ``sig`` (numba's ``Cache.load_overload``), compiled and written
+        by another process first where the cache lacks it; None when still missing (numba then
+        compiles it here, raising its errors here)."""
+        cres = self._cache.load_overload(sig, target_context)
+        run = _Elsewhere.run
+        if cres is not None or run is None or threading.current_thread() is not threading.main_thread():
+            return cres
+
+        def compile_and_save() -> None:  # in the other process
+            _Elsewhere.run = None  # the kernels it calls are compiled in that process too
+            self._dispatcher.compile(sig)
+
+        try:
+            run(compile_and_save)
+        except Exception:  # a kernel that does not compile: numba's error is raised here, below
+            pass
+        finally:
+            _Elsewhere.run = run  # (when ``run`` called the task in this process)
+        return self._cache.load_overload(sig, target_context)
+
+
+@contextlib.contextmanager
+def compiling_elsewhere(run: Callable[[Callable[[], None]], None]) -> Iterator[None]:
+    """Within the block, a kernel missing from the on-disk cache is compiled by ``run``.
+
+    ``run(task)`` calls ``task()`` in a short-lived process (e.g.
+    :func:`rfsim.core.procs.run_in_child`) and returns when it ended; the task compiles the kernel
+    and writes it to the cache (:data:`CACHE_DIR`), from which this process then loads it. The
+    compiler's memory (≈ 130 MB for the kernels of one scenario, which a process does not give
+    back) is then spent in a process that ends after each kernel, not added to the peak of this
+    one. A kernel found in the cache is loaded as before (nothing changes for a warm run). Where
+    the task fails or writes nothing, the kernel is compiled here as numba does (so its errors
+    are raised here). Only the main thread sends compilations away; a kernel compiled while
+    another is being compiled here is compiled here too.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(task)``: calls ``task()`` (no arguments) in another process and waits for it.
+
+    Yields
+    ------
+    None
+        The block runs with the policy active; the previous policy is restored afterwards.
+    """
+    previous = _Elsewhere.run
+    _Elsewhere.run = run
+    try:
+        yield
+    finally:
+        _Elsewhere.run = previous
+
+
+def _declared(dispatcher):
+    """Remember ``dispatcher`` in :data:`KERNELS`, its cache wrapped by :class:`_CacheCompilingElsewhere`."""
+    dispatcher._cache = _CacheCompilingElsewhere(dispatcher, dispatcher._cache)
     KERNELS.append(dispatcher)
     return dispatcher
+
+
+def njit(func):
+    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible."""
+    return _declared(_NJIT(func))
 
 
 _VECTOR = numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -171,9 +256,7 @@ def njit_vector(func):
     as NumPy does instead of raising, so no zero check is compiled into every division and a
     loop of divisions can be vectorised. For kernels whose divisors cannot be zero (say why
     in the kernel's docstring); no fastmath, results stay bit-reproducible."""
-    dispatcher = _VECTOR(func)
-    KERNELS.append(dispatcher)
-    return dispatcher
+    return _declared(_VECTOR(func))
 
 
 _INLINE = numba.njit(cache=True, nogil=True, inline="always")
@@ -227,6 +310,6 @@ def load_signatures(kernels) -> None:
             d.compile(sig)
 
 
-__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR", "CACHE_DIR",
+__all__ = ["njit", "KERNELS", "compiling_elsewhere", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR", "CACHE_DIR",
            "SOURCES_HASH", "kernel_source_dirs", "kernel_sources", "is_kernel_module", "sources_hash",
            "compiled_signatures", "load_signatures"]

@@ -100,9 +100,14 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     check_output_file(path, "--output" if output is not None else "dataset", suffixes=(".h5", ".hdf5"))
 
     def simulate_and_write() -> None:
+        from rfsim.core._jit import compiling_elsewhere  # numba: in the child only
+
         _announce_compilation()
-        stage(f"running {module.NAME} (seed {seed})")
-        dataset = module.run(config, seed=seed)
+        # each kernel the cache lacks is compiled in a process of its own, which ends after it:
+        # the compiler's memory is not added to the run's (a warm run finds every kernel cached)
+        with compiling_elsewhere(run_in_child):
+            stage(f"running {module.NAME} (seed {seed})")
+            dataset = module.run(config, seed=seed)
         dataset.scenario = module.NAME
         provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
                                      start_time_utc=start_utc)

@@ -52,7 +52,20 @@ CACHE_PREFIX = "rfsim-kernels-"
 def kernel_source_dirs(package_dir: Path = PACKAGE_DIR, packages=KERNEL_PACKAGES) -> list[Path]:
     """The folders searched for kernel modules: ``package_dir`` and the folders of ``packages``
     (found with :func:`importlib.util.find_spec`, which does not import them), without a
-    folder that lies inside another (an installed package holds its subpackages)."""
+    folder that lies inside another (an installed package holds its subpackages).
+
+    Parameters
+    ----------
+    package_dir : pathlib.Path, optional
+        The rfsim package folder (default :data:`PACKAGE_DIR`).
+    packages : tuple of str, optional
+        Packages whose folders are searched too (default :data:`KERNEL_PACKAGES`).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The folders, resolved, shortest first.
+    """
     dirs = [package_dir.resolve()]
     for name in packages:
         spec = importlib.util.find_spec(name)
@@ -68,7 +81,18 @@ def kernel_source_dirs(package_dir: Path = PACKAGE_DIR, packages=KERNEL_PACKAGES
 def is_kernel_module(filename: str) -> bool:
     """True for the file name of a kernel module (``_<topic>_kernels.py``) or of this policy
     (``_jit.py``). Kernels are declared only there (a test checks that every file of the
-    package that mentions ``njit`` is one of these)."""
+    package that mentions ``njit`` is one of these).
+
+    Parameters
+    ----------
+    filename : str
+        A file name without folder.
+
+    Returns
+    -------
+    bool
+        Whether it names a kernel module or this policy.
+    """
     return filename == "_jit.py" or (filename.startswith("_") and filename.endswith("kernels.py"))
 
 
@@ -79,6 +103,16 @@ def kernel_sources(dirs) -> list[tuple[str, bytes]]:
     Kernel modules import only other kernel modules and the libraries (a test checks), so these
     files hold every source a compiled kernel depends on within rfsim. Only the file names of
     the other modules are read (≈ 2 ms for the 17 kernel files among 175).
+
+    Parameters
+    ----------
+    dirs : iterable of pathlib.Path
+        The folders searched (:func:`kernel_source_dirs`).
+
+    Returns
+    -------
+    list of (str, bytes)
+        Name and content of each kernel module.
     """
     found = []
     for root in dirs:
@@ -96,7 +130,18 @@ def kernel_sources(dirs) -> list[tuple[str, bytes]]:
 
 def sources_hash(sources) -> str:
     """16 hex digits of a BLAKE2b digest of ``(name, bytes)`` pairs (names and lengths are
-    included, so moving text between files changes it too)."""
+    included, so moving text between files changes it too).
+
+    Parameters
+    ----------
+    sources : iterable of (str, bytes)
+        What :func:`kernel_sources` returns.
+
+    Returns
+    -------
+    str
+        The digest, 16 lower-case hex digits.
+    """
     h = hashlib.blake2b(digest_size=8)
     for name, data in sources:
         for part in (name.encode(), data):
@@ -126,6 +171,22 @@ def cache_dir(digest: str, environ=os.environ, package_dir: Path = PACKAGE_DIR, 
     written (a non-editable install into a system or read-only site-packages),
     ``$XDG_CACHE_HOME/rfsim/numba`` (default ``~/.cache/rfsim/numba``), so the compiled
     kernels survive the process there instead of being compiled again on every run.
+
+    Parameters
+    ----------
+    digest : str
+        :func:`sources_hash` of the kernel sources.
+    environ : mapping, optional
+        The environment read (default ``os.environ``).
+    package_dir : pathlib.Path, optional
+        The rfsim package folder (default :data:`PACKAGE_DIR`).
+    writable : callable, optional
+        ``writable(folder)``: whether a file can be created there.
+
+    Returns
+    -------
+    str
+        The cache folder (not created here).
     """
     name = CACHE_PREFIX + digest
     user = environ.get("NUMBA_CACHE_DIR")
@@ -244,7 +305,18 @@ def _declared(dispatcher):
 
 
 def njit(func):
-    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible."""
+    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible.
+
+    Parameters
+    ----------
+    func : function
+        The kernel's Python source.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The kernel, remembered in :data:`KERNELS`.
+    """
     return _declared(_NJIT(func))
 
 
@@ -255,7 +327,18 @@ def njit_vector(func):
     """:func:`njit` with numba's ``error_model="numpy"``: a float division by zero gives inf/nan
     as NumPy does instead of raising, so no zero check is compiled into every division and a
     loop of divisions can be vectorised. For kernels whose divisors cannot be zero (say why
-    in the kernel's docstring); no fastmath, results stay bit-reproducible."""
+    in the kernel's docstring); no fastmath, results stay bit-reproducible.
+
+    Parameters
+    ----------
+    func : function
+        The kernel's Python source.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The kernel, remembered in :data:`KERNELS`.
+    """
     return _declared(_VECTOR(func))
 
 
@@ -265,7 +348,18 @@ _INLINE = numba.njit(cache=True, nogil=True, inline="always")
 def njit_inline(func):
     """A helper of kernels, inlined into each kernel that calls it (numba IR inlining: a
     step of a per-sample loop that must not cost a call); not a kernel of its own (it is
-    compiled only inside its callers, so it is not in :data:`KERNELS`)."""
+    compiled only inside its callers, so it is not in :data:`KERNELS`).
+
+    Parameters
+    ----------
+    func : function
+        The helper's Python source.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The helper (not in :data:`KERNELS`).
+    """
     return _INLINE(func)
 
 
@@ -275,6 +369,11 @@ def uncached_kernels() -> list[str]:
     Reads numba's cache locator (``Dispatcher._cache._cache_file._index_path``, the
     ``<module>.<name>-<line>.py3XX.nbi`` file in :data:`CACHE_DIR`); a kernel whose cache cannot be
     located counts as cached (nothing is announced for it).
+
+    Returns
+    -------
+    list of str
+        Qualified names, in declaration order.
     """
     missing = []
     for d in KERNELS:
@@ -285,20 +384,38 @@ def uncached_kernels() -> list[str]:
 
 
 def first_compilation() -> bool:
-    """True when no declared kernel has an on-disk cache yet (first run after install)."""
+    """True when no declared kernel has an on-disk cache yet (first run after install).
+
+    Returns
+    -------
+    bool
+        Whether kernels are declared and none of them is cached.
+    """
     return bool(KERNELS) and len(uncached_kernels()) == len(KERNELS)
 
 
 def compiled_signatures() -> list[tuple[str, str, tuple]]:
     """``(module, qualified name, signature)`` of every overload the declared kernels hold in
-    this process (compiled or loaded from the cache), for :func:`load_signatures` elsewhere."""
+    this process (compiled or loaded from the cache), for :func:`load_signatures` elsewhere.
+
+    Returns
+    -------
+    list of (str, str, tuple)
+        One entry per overload, kernels in declaration order.
+    """
     return [(d.py_func.__module__, d.py_func.__qualname__, sig) for d in KERNELS for sig in d.signatures]
 
 
 def load_signatures(kernels) -> None:
     """Give this process the overloads listed by :func:`compiled_signatures` (in another process):
     each kernel's module is imported and each signature it lacks is loaded from the on-disk
-    cache (numba compiles it only where the cache has no entry)."""
+    cache (numba compiles it only where the cache has no entry).
+
+    Parameters
+    ----------
+    kernels : list of (str, str, tuple)
+        What :func:`compiled_signatures` returned in the other process.
+    """
     import importlib
 
     for module, _, _ in kernels:

@@ -339,12 +339,12 @@ def njit_vector(func):
     Parameters
     ----------
     func : function
-        The kernel's Python source.
+        The kernel's Python source, whose divisors are never zero.
 
     Returns
     -------
     numba.core.registry.CPUDispatcher
-        The kernel, remembered in :data:`KERNELS`.
+        The kernel, in :data:`KERNELS` as those of :func:`njit` are.
     """
     return _declared(_VECTOR(func))
 

@@ -3,7 +3,10 @@
 The dataset path and the figure folder are checked before the simulation starts
 (:mod:`rfsim.core.outputs`). The simulation and the dataset file are made in a child process
 (:func:`rfsim.core.procs.run_in_child`), which returns the run's memory (kernels, libraries,
-arrays) to the system when it exits; the figures are then drawn here from the file.
+arrays) to the system when it exits; the figures are then drawn here from the file. A kernel
+missing from numba's on-disk cache (a first run) is compiled in a short-lived child of that
+child (:func:`rfsim.core._jit.compiling_elsewhere`), so the compiler's memory is never added to
+the run's.
 Each stage is announced on the active progress reporter (:mod:`rfsim.core.progress`; nothing
 is printed without one), and the first run after install says that numba compiles its
 kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).

@@ -30,7 +30,6 @@ the space.
 from __future__ import annotations
 
 import contextlib
-import gc
 import hashlib
 import importlib.util
 import os
@@ -253,13 +252,7 @@ class _CacheCompilingElsewhere:
         if cres is not None or run is None or threading.current_thread() is not threading.main_thread():
             return cres
 
-        here = os.getpid()
-
         def compile_and_save() -> None:  # in the other process
-            if os.getpid() != here:
-                # what the process inherited is not traversed by its collections (each would
-                # copy every page holding an inherited object: ≈ 0.3 s CPU per kernel)
-                gc.freeze()
             _Elsewhere.run = None  # the kernels it calls are compiled in that process too
             self._dispatcher.compile(sig)
 

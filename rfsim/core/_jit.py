@@ -29,10 +29,13 @@ the space.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.util
 import os
 import tempfile
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 #: Folder of the rfsim package.
@@ -49,7 +52,20 @@ CACHE_PREFIX = "rfsim-kernels-"
 def kernel_source_dirs(package_dir: Path = PACKAGE_DIR, packages=KERNEL_PACKAGES) -> list[Path]:
     """The folders searched for kernel modules: ``package_dir`` and the folders of ``packages``
     (found with :func:`importlib.util.find_spec`, which does not import them), without a
-    folder that lies inside another (an installed package holds its subpackages)."""
+    folder that lies inside another (an installed package holds its subpackages).
+
+    Parameters
+    ----------
+    package_dir : pathlib.Path, optional
+        The rfsim package folder (default :data:`PACKAGE_DIR`).
+    packages : tuple of str, optional
+        Packages whose folders are searched too (default :data:`KERNEL_PACKAGES`).
+
+    Returns
+    -------
+    list of pathlib.Path
+        The folders, resolved, shortest first.
+    """
     dirs = [package_dir.resolve()]
     for name in packages:
         spec = importlib.util.find_spec(name)
@@ -65,7 +81,18 @@ def kernel_source_dirs(package_dir: Path = PACKAGE_DIR, packages=KERNEL_PACKAGES
 def is_kernel_module(filename: str) -> bool:
     """True for the file name of a kernel module (``_<topic>_kernels.py``) or of this policy
     (``_jit.py``). Kernels are declared only there (a test checks that every file of the
-    package that mentions ``njit`` is one of these)."""
+    package that mentions ``njit`` is one of these).
+
+    Parameters
+    ----------
+    filename : str
+        A file name without folder.
+
+    Returns
+    -------
+    bool
+        Whether it names a kernel module or this policy.
+    """
     return filename == "_jit.py" or (filename.startswith("_") and filename.endswith("kernels.py"))
 
 
@@ -76,6 +103,16 @@ def kernel_sources(dirs) -> list[tuple[str, bytes]]:
     Kernel modules import only other kernel modules and the libraries (a test checks), so these
     files hold every source a compiled kernel depends on within rfsim. Only the file names of
     the other modules are read (≈ 2 ms for the 17 kernel files among 175).
+
+    Parameters
+    ----------
+    dirs : iterable of pathlib.Path
+        The folders searched (:func:`kernel_source_dirs`).
+
+    Returns
+    -------
+    list of (str, bytes)
+        Name and content of each kernel module.
     """
     found = []
     for root in dirs:
@@ -93,7 +130,18 @@ def kernel_sources(dirs) -> list[tuple[str, bytes]]:
 
 def sources_hash(sources) -> str:
     """16 hex digits of a BLAKE2b digest of ``(name, bytes)`` pairs (names and lengths are
-    included, so moving text between files changes it too)."""
+    included, so moving text between files changes it too).
+
+    Parameters
+    ----------
+    sources : iterable of (str, bytes)
+        What :func:`kernel_sources` returns.
+
+    Returns
+    -------
+    str
+        The digest, 16 lower-case hex digits.
+    """
     h = hashlib.blake2b(digest_size=8)
     for name, data in sources:
         for part in (name.encode(), data):
@@ -123,6 +171,22 @@ def cache_dir(digest: str, environ=os.environ, package_dir: Path = PACKAGE_DIR, 
     written (a non-editable install into a system or read-only site-packages),
     ``$XDG_CACHE_HOME/rfsim/numba`` (default ``~/.cache/rfsim/numba``), so the compiled
     kernels survive the process there instead of being compiled again on every run.
+
+    Parameters
+    ----------
+    digest : str
+        :func:`sources_hash` of the kernel sources.
+    environ : mapping, optional
+        The environment read (default ``os.environ``).
+    package_dir : pathlib.Path, optional
+        The rfsim package folder (default :data:`PACKAGE_DIR`).
+    writable : callable, optional
+        ``writable(folder)``: whether a file can be created there.
+
+    Returns
+    -------
+    str
+        The cache folder (not created here).
     """
     name = CACHE_PREFIX + digest
     user = environ.get("NUMBA_CACHE_DIR")
@@ -156,11 +220,104 @@ _NJIT = numba.njit(cache=True, nogil=True)
 KERNELS: list = []
 
 
-def njit(func):
-    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible."""
-    dispatcher = _NJIT(func)
+class _Elsewhere:
+    """Where a kernel missing from the on-disk cache is compiled: ``run`` is None (here, numba's
+    own way) or a function that calls a task in a short-lived process and waits for it
+    (:func:`compiling_elsewhere`)."""
+
+    run: Callable[[Callable[[], None]], None] | None = None
+
+
+class _CacheCompilingElsewhere:
+    """The on-disk cache of one kernel (numba's ``Dispatcher._cache``), which, while
+    :func:`compiling_elsewhere` is active, fills itself from another process when it lacks an
+    entry: that process compiles the kernel (with the kernels it calls that the cache lacks)
+    and writes it to the cache, and this one loads it as any cached kernel, so numba's compiler
+    never runs here and its memory (LLVM's, which a process keeps once it has used it) ends
+    with the other process. Every other attribute is the wrapped cache's."""
+
+    def __init__(self, dispatcher, cache):
+        self._dispatcher = dispatcher
+        self._cache = cache
+
+    def __getattr__(self, name):
+        return getattr(self._cache, name)
+
+    def load_overload(self, sig, target_context):
+        """The cached overload of ``sig`` (numba's ``Cache.load_overload``), compiled and written
+        by another process first where the cache lacks it; None when still missing (numba then
+        compiles it here, raising its errors here)."""
+        cres = self._cache.load_overload(sig, target_context)
+        run = _Elsewhere.run
+        if cres is not None or run is None or threading.current_thread() is not threading.main_thread():
+            return cres
+
+        def compile_and_save() -> None:  # in the other process
+            _Elsewhere.run = None  # the kernels it calls are compiled in that process too
+            self._dispatcher.compile(sig)
+
+        try:
+            run(compile_and_save)
+        except Exception:  # a kernel that does not compile: numba's error is raised here, below
+            pass
+        finally:
+            _Elsewhere.run = run  # (when ``run`` called the task in this process)
+        return self._cache.load_overload(sig, target_context)
+
+
+@contextlib.contextmanager
+def compiling_elsewhere(run: Callable[[Callable[[], None]], None]) -> Iterator[None]:
+    """Within the block, a kernel missing from the on-disk cache is compiled by ``run``.
+
+    ``run(task)`` calls ``task()`` in a short-lived process (e.g.
+    :func:`rfsim.core.procs.run_in_child`) and returns when it ended; the task compiles the kernel
+    and writes it to the cache (:data:`CACHE_DIR`), from which this process then loads it. The
+    compiler's memory (≈ 130 MB for the kernels of one scenario, which a process does not give
+    back) is then spent in a process that ends after each kernel, not added to the peak of this
+    one. A kernel found in the cache is loaded as before (nothing changes for a warm run). Where
+    the task fails or writes nothing, the kernel is compiled here as numba does (so its errors
+    are raised here). Only the main thread sends compilations away; a kernel compiled while
+    another is being compiled here is compiled here too.
+
+    Parameters
+    ----------
+    run : callable
+        ``run(task)``: calls ``task()`` (no arguments) in another process and waits for it.
+
+    Yields
+    ------
+    None
+        The block runs with the policy active; the previous policy is restored afterwards.
+    """
+    previous = _Elsewhere.run
+    _Elsewhere.run = run
+    try:
+        yield
+    finally:
+        _Elsewhere.run = previous
+
+
+def _declared(dispatcher):
+    """Remember ``dispatcher`` in :data:`KERNELS`, its cache wrapped by :class:`_CacheCompilingElsewhere`."""
+    dispatcher._cache = _CacheCompilingElsewhere(dispatcher, dispatcher._cache)
     KERNELS.append(dispatcher)
     return dispatcher
+
+
+def njit(func):
+    """``@njit`` with on-disk caching; no fastmath, so results are bit-reproducible.
+
+    Parameters
+    ----------
+    func : function
+        The kernel's Python source.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The kernel, remembered in :data:`KERNELS`.
+    """
+    return _declared(_NJIT(func))
 
 
 _VECTOR = numba.njit(cache=True, nogil=True, error_model="numpy")
@@ -170,10 +327,19 @@ def njit_vector(func):
     """:func:`njit` with numba's ``error_model="numpy"``: a float division by zero gives inf/nan
     as NumPy does instead of raising, so no zero check is compiled into every division and a
     loop of divisions can be vectorised. For kernels whose divisors cannot be zero (say why
-    in the kernel's docstring); no fastmath, results stay bit-reproducible."""
-    dispatcher = _VECTOR(func)
-    KERNELS.append(dispatcher)
-    return dispatcher
+    in the kernel's docstring); no fastmath, results stay bit-reproducible.
+
+    Parameters
+    ----------
+    func : function
+        The kernel's Python source, whose divisors are never zero.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The kernel, in :data:`KERNELS` as those of :func:`njit` are.
+    """
+    return _declared(_VECTOR(func))
 
 
 _INLINE = numba.njit(cache=True, nogil=True, inline="always")
@@ -182,7 +348,18 @@ _INLINE = numba.njit(cache=True, nogil=True, inline="always")
 def njit_inline(func):
     """A helper of kernels, inlined into each kernel that calls it (numba IR inlining: a
     step of a per-sample loop that must not cost a call); not a kernel of its own (it is
-    compiled only inside its callers, so it is not in :data:`KERNELS`)."""
+    compiled only inside its callers, so it is not in :data:`KERNELS`).
+
+    Parameters
+    ----------
+    func : function
+        The helper's Python source.
+
+    Returns
+    -------
+    numba.core.registry.CPUDispatcher
+        The helper (not in :data:`KERNELS`).
+    """
     return _INLINE(func)
 
 
@@ -192,6 +369,11 @@ def uncached_kernels() -> list[str]:
     Reads numba's cache locator (``Dispatcher._cache._cache_file._index_path``, the
     ``<module>.<name>-<line>.py3XX.nbi`` file in :data:`CACHE_DIR`); a kernel whose cache cannot be
     located counts as cached (nothing is announced for it).
+
+    Returns
+    -------
+    list of str
+        Qualified names, in declaration order.
     """
     missing = []
     for d in KERNELS:
@@ -202,20 +384,38 @@ def uncached_kernels() -> list[str]:
 
 
 def first_compilation() -> bool:
-    """True when no declared kernel has an on-disk cache yet (first run after install)."""
+    """True when no declared kernel has an on-disk cache yet (first run after install).
+
+    Returns
+    -------
+    bool
+        Whether kernels are declared and none of them is cached.
+    """
     return bool(KERNELS) and len(uncached_kernels()) == len(KERNELS)
 
 
 def compiled_signatures() -> list[tuple[str, str, tuple]]:
     """``(module, qualified name, signature)`` of every overload the declared kernels hold in
-    this process (compiled or loaded from the cache), for :func:`load_signatures` elsewhere."""
+    this process (compiled or loaded from the cache), for :func:`load_signatures` elsewhere.
+
+    Returns
+    -------
+    list of (str, str, tuple)
+        One entry per overload, kernels in declaration order.
+    """
     return [(d.py_func.__module__, d.py_func.__qualname__, sig) for d in KERNELS for sig in d.signatures]
 
 
 def load_signatures(kernels) -> None:
     """Give this process the overloads listed by :func:`compiled_signatures` (in another process):
     each kernel's module is imported and each signature it lacks is loaded from the on-disk
-    cache (numba compiles it only where the cache has no entry)."""
+    cache (numba compiles it only where the cache has no entry).
+
+    Parameters
+    ----------
+    kernels : list of (str, str, tuple)
+        What :func:`compiled_signatures` returned in the other process.
+    """
     import importlib
 
     for module, _, _ in kernels:
@@ -227,6 +427,6 @@ def load_signatures(kernels) -> None:
             d.compile(sig)
 
 
-__all__ = ["njit", "KERNELS", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR", "CACHE_DIR",
+__all__ = ["njit", "KERNELS", "compiling_elsewhere", "uncached_kernels", "first_compilation", "cache_dir", "PACKAGE_DIR", "CACHE_DIR",
            "SOURCES_HASH", "kernel_source_dirs", "kernel_sources", "is_kernel_module", "sources_hash",
            "compiled_signatures", "load_signatures"]

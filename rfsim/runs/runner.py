@@ -3,7 +3,10 @@
 The dataset path and the figure folder are checked before the simulation starts
 (:mod:`rfsim.core.outputs`). The simulation and the dataset file are made in a child process
 (:func:`rfsim.core.procs.run_in_child`), which returns the run's memory (kernels, libraries,
-arrays) to the system when it exits; the figures are then drawn here from the file.
+arrays) to the system when it exits; the figures are then drawn here from the file. A kernel
+missing from numba's on-disk cache (a first run) is compiled in a short-lived child of that
+child (:func:`rfsim.core._jit.compiling_elsewhere`), so the compiler's memory is never added to
+the run's.
 Each stage is announced on the active progress reporter (:mod:`rfsim.core.progress`; nothing
 is printed without one), and the first run after install says that numba compiles its
 kernels. Figures are named after the dataset's stem (``x.h5`` → ``x-*.png``).
@@ -100,9 +103,14 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
     check_output_file(path, "--output" if output is not None else "dataset", suffixes=(".h5", ".hdf5"))
 
     def simulate_and_write() -> None:
+        from rfsim.core._jit import compiling_elsewhere  # numba: in the child only
+
         _announce_compilation()
-        stage(f"running {module.NAME} (seed {seed})")
-        dataset = module.run(config, seed=seed)
+        # each kernel the cache lacks is compiled in a process of its own, which ends after it:
+        # the compiler's memory is not added to the run's (a warm run finds every kernel cached)
+        with compiling_elsewhere(run_in_child):
+            stage(f"running {module.NAME} (seed {seed})")
+            dataset = module.run(config, seed=seed)
         dataset.scenario = module.NAME
         provenance = make_provenance(config_toml=to_toml(config), seed=seed, scenario=module.NAME,
                                      start_time_utc=start_utc)

@@ -177,11 +177,15 @@ def test_the_rss_step_bound_is_the_longest_recursion_of_the_tables():
 
 
 def test_the_limit_is_compared_with_the_peak_of_a_run_that_compiles():
-    est = Estimate(work_units=10, peak_bytes=200 * 2**20, drivers=("rounds_per_point",), compile_bytes=150 * 2**20)
+    # a compiling child (100 MiB of imports + 250 MiB compiling) above the run's own 200 MiB
+    est = Estimate(work_units=10, peak_bytes=200 * 2**20, drivers=("rounds_per_point",), compile_bytes=250 * 2**20)
     assert est.first_run_bytes == 350 * 2**20
     check_memory(est, 350 * 2**20, what="the x run")
     with pytest.raises(UserError, match="350 MiB"):
         check_memory(est, 300 * 2**20, what="the x run")
+    # the run's own process above any compiling child
+    assert Estimate(work_units=10, peak_bytes=400 * 2**20, drivers=(), compile_bytes=150 * 2**20).first_run_bytes \
+        == 400 * 2**20
 
 
 #: Scenarios whose first run on an empty kernel cache takes seconds: in the default tier.

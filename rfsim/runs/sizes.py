@@ -8,10 +8,12 @@ two sizes and rounded up; a run with worker processes counts one process per wor
 the leader (each holding the same baseline). ``tests/test_resources.py`` checks that the
 estimate bounds the measured peak within 2x at two sizes of every scenario.
 
-A first run compiles the scenario's numba kernels; what that adds to a process's peak is
+A first run compiles the scenario's numba kernels; what compiling adds to a process's peak is
 :data:`COMPILE_MIB` (the estimate's ``compile_bytes``), measured as the peak of the smallest
-run on an empty kernel cache minus its peak on a full one, rounded up; the test checks it on
-an empty cache too.
+run compiling in its own process on an empty kernel cache minus its peak on a full one, rounded
+up (an upper bound for the short-lived compiling children runs use now,
+:attr:`~rfsim.runs.resources.Estimate.first_run_bytes`); the test checks the bound on an empty
+cache.
 """
 
 from __future__ import annotations

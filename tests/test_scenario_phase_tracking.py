@@ -152,7 +152,7 @@ def _first_pass(path, start_xy_m):
     reads = read_table(path, "reads")
     with h5py.File(path, "r") as f:
         anchors, lam = f.attrs["antennas_xyz_m"][:, :2], float(f.attrs["wavelength_m"])
-    ant = reads["antenna"].astype(np.int64) - 1
+    ant = reads["antenna_port"].astype(np.int64) - 1
     p0 = np.asarray(start_xy_m, float)
     z = pt.unwrap_pseudoranges(ant, reads["phase_reported_rad"], wavelength_m=lam, r0_m=np.linalg.norm(p0 - anchors, axis=1))
     x0, P0 = pt.initial_state(p0, anchors.shape[0])

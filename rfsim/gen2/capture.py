@@ -40,11 +40,6 @@ _ck = lazy_import("rfsim.gen2._capture_kernels")
 RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")
 SUFFIXES = RAW_SUFFIXES + (".npy",)
 
-#: Command names by bit prefix (longest prefix wins), to name commands that fail parsing.
-_PREFIXES = COMMAND_PREFIXES
-#: Commands that carry a CRC (and which one).
-_CRC = COMMAND_CRC
-
 
 def load_capture(path) -> np.ndarray:
     """Read a capture file as ``(n,) complex64``.
@@ -153,13 +148,13 @@ class ReaderTiming:
 
 def _name_from_prefix(bits: str) -> str:
     for n in (8, 4, 2):
-        if bits[:n] in _PREFIXES and len(bits) >= n:
-            return _PREFIXES[bits[:n]]
+        if bits[:n] in COMMAND_PREFIXES and len(bits) >= n:
+            return COMMAND_PREFIXES[bits[:n]]
     return "unknown"
 
 
 def _crc_ok(name: str, bits: np.ndarray) -> bool | None:
-    kind = _CRC.get(name)
+    kind = COMMAND_CRC.get(name)
     if kind == 5:
         return crc5_ok(bits)
     if kind == 16:

@@ -930,8 +930,11 @@ def _parse_block_erase(b: np.ndarray) -> BlockErase:
     return BlockErase(membank=membank, word_ptr=word_ptr, word_count=count, rn16=_field(b, pos, 16))
 
 
-_ACCESS_PARSERS = {"11000011": _parse_write, "11000100": _parse_kill, "11000101": _parse_lock,
-                   "11000110": _parse_access, "11000111": _parse_block_write, "11001000": _parse_block_erase}
+_ACCESS_PARSERS = {code: parser for name, parser in (("Write", _parse_write), ("Kill", _parse_kill),
+                                                    ("Lock", _parse_lock), ("Access", _parse_access),
+                                                    ("BlockWrite", _parse_block_write),
+                                                    ("BlockErase", _parse_block_erase))
+                   for code, known in COMMAND_PREFIXES.items() if known == name}
 
 
 def command_fields(cmd: Command) -> dict:

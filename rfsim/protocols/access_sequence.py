@@ -161,7 +161,7 @@ def parse_step(step, key: str = "program") -> AccessStep:
             raise ConfigError(key, step, "a step 'req_rn', 'read <bank> <ptr> <count>' or 'write <bank> <ptr> <word>'")
         if len(parts) != 1 + len(names):
             raise ConfigError(key, step, f"'{op}' with {len(names)} fields" + (f" ({' '.join(names)})" if names else ""))
-        fields, text = dict(zip(names, parts[1:])), " ".join(parts)
+        fields, text = dict(zip(names, parts[1:])), " ".join([op, *parts[1:]])
     elif isinstance(step, Mapping):
         fields = dict(step)
         op = str(fields.pop("op", "")).lower()

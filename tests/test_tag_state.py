@@ -30,6 +30,7 @@ def _observable(st: TagState) -> dict:
     held = ("_clock", "_t_s", "_slot_clock", "_slot")
     out = {k: v for k, v in vars(st).items() if not isinstance(v, np.ndarray) and k not in held}
     out["t_s"], out["slot"] = st.t_s, st.slot
+    out["memory"] = (st.memory.chip, st.memory.banks, st.memory.xpc_w1, st.memory.locks)  # its contents
     return out
 
 
@@ -523,14 +524,14 @@ def test_slot_draw_equals_generator_integers():
 @pytest.mark.parametrize("pc, epc, crc", GOLDEN_REPLIES[:2])
 def test_epc_reply_kept_follows_the_epc(pc, epc, crc):
     # the ACK reply is made once per EPC: a second round gives the golden frame again, and an
-    # EPC changed in place (or replaced) gives that EPC's own frame
+    # EPC changed in memory gives that EPC's own frame
     rng = np.random.default_rng(4)
     tag = _acknowledged_tag(rng, epc=epc)
     tag.on_command(QueryRep(session=0), t_s=2e-3, rng=rng)  # A → B
     r = tag.on_command(Query(q=0, session=0, target="B"), t_s=3e-3, rng=rng)
     again = tag.on_command(ACK(rn16=_rn(r)), t_s=4e-3, rng=rng)
     assert bits_to_hex(again.bits) == pc + epc + crc
-    tag.epc[:16] ^= 1  # first EPC word inverted
+    tag.memory.banks[1][2] ^= 0xFFFF  # first EPC word (EPC bank word 2) inverted in memory
     tag.on_command(QueryRep(session=0), t_s=5e-3, rng=rng)  # B → A
     r = tag.on_command(Query(q=0, session=0, target="A"), t_s=6e-3, rng=rng)
     changed = tag.on_command(ACK(rn16=_rn(r)), t_s=7e-3, rng=rng)

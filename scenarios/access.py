@@ -30,7 +30,7 @@ streams ``trial_rng(seed, i, n_rounds)`` and ``trial_rng(seed, i, n_rounds + 1)`
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +55,6 @@ _dataset = lazy_import("rfsim.core.dataset")
 _commands = lazy_import("rfsim.gen2.commands")
 _memory = lazy_import("rfsim.gen2.memory")
 _fit = lazy_import("rfsim.detection.fit")
-_bits = lazy_import("rfsim.gen2.bits")
 
 NAME = "access"
 DESCRIPTION = "reader + one tag at swept distance running an access program: read rate vs Write success (read/write range)"
@@ -107,18 +106,17 @@ class Config:
 
 
 def load_memory(tag, memory: TagMemoryConfig) -> None:
-    """Put the TID and User banks of ``memory`` into a sample-level tag's state.
+    """Give a sample-level tag the memory ``memory`` describes, with the tag's own EPC.
 
     Parameters
     ----------
     tag : rfsim.devices.tag.PassiveTag
-        The tag (its ``state`` holds the banks as bits).
+        The tag (its state machine holds a :class:`rfsim.gen2.memory.TagMemory`).
     memory : rfsim.gen2.memory.TagMemoryConfig
-        The chip model and contents (factory TID of the chip, User words).
+        The chip model and contents (factory TID of the chip, User words); its EPC is replaced
+        by the tag's ``config.epc_hex``.
     """
-    banks = _memory.TagMemory(memory).banks
-    tag.state.tid = np.concatenate([_bits.int_to_bits(w, 16) for w in banks[2]]).astype(np.uint8)
-    tag.state.user = np.concatenate([_bits.int_to_bits(w, 16) for w in banks[3]] or [np.zeros(0, np.uint8)])
+    tag.state.memory = _memory.TagMemory(replace(memory, epc=tag.config.epc_hex.replace(" ", "")))
 
 
 READ_FIELDS = {

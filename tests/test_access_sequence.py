@@ -8,9 +8,9 @@ import pytest
 
 from rfsim.core.errors import UserError
 from rfsim.core.rng import trial_rng
-from rfsim.gen2.bits import hex_to_bits
 from rfsim.gen2.commands import Query
-from rfsim.gen2.link import t1, t2, t4
+from rfsim.gen2.link import t1, t2
+from rfsim.gen2.memory import TagMemory, TagMemoryConfig
 from rfsim.protocols.access_sequence import (ACCESS_RESULTS, AccessStep, access_columns, parse_program, parse_step,
                                              run_access_batch)
 
@@ -62,7 +62,7 @@ def _devices(distances_m, *, seed=1):
     tags = []
     for i, d in enumerate(distances_m):
         tag = PassiveTag(c.tag, link.tag_antenna(c.geometry, d), rng=trial_rng(seed, i, 98))
-        tag.state.tid, tag.state.user = hex_to_bits(TID_HEX), hex_to_bits(USER_HEX)
+        tag.state.memory = TagMemory(TagMemoryConfig(epc=c.tag.epc_hex, tid=TID_HEX, user=USER_HEX))
         tags.append([tag])
     return readers, tags, [Channel(link.scene(ch)) for _ in distances_m]
 
@@ -126,3 +126,15 @@ def test_a_tag_out_of_range_gets_every_step_not_sent_and_the_table_is_rectangula
     assert cols["trial"].tolist().count(1) == 4 and len({v.size for v in cols.values()}) == 1
     assert np.isnan(cols["start_s"][cols["trial"] == 1]).all()
     assert (cols["error_code"][cols["trial"] == 1] == -1).all() and (cols["gap_kind"][cols["trial"] == 1] == "").all()
+
+
+def test_a_cover_coded_write_lands_in_memory_with_its_delayed_reply():
+    runs, lk = _run([1.0], ["req_rn", "write user 2 0xBEEF", "read user 0 4"])
+    recs = runs[0].records
+    assert [(r.step, r.command, r.result) for r in recs] == [(0, "Req_RN", "ok"), (1, "Req_RN", "ok"),
+                                                              (1, "Write", "ok"), (2, "Read", "ok")]
+    # the word the tag wrote is the plain word: the Write's field XOR the RN16 of the Req_RN before it
+    assert recs[3].data_hex == USER_HEX[:8] + "BEEF" + USER_HEX[12:16]
+    # a delayed reply: after the chip's programming time (3 ms for the generic chip), within T5 <= 20 ms
+    assert 3e-3 + t1(lk).min_s - 1 / lk.blf_hz <= recs[2].reply_delay_s <= 20e-3
+    assert recs[3].gap_kind == "T2" and recs[3].gap_s == pytest.approx(10 * lk.tpri_s, rel=1e-9)

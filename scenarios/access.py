@@ -39,7 +39,7 @@ from rfsim.core.config import param
 from rfsim.core.lazy import lazy_import
 from rfsim.core.progress import track
 from rfsim.core.reads import reads_table
-from rfsim.core.records import READ_MEASUREMENT_FIELDS, epc_hex, time_stamp_us
+from rfsim.core.records import READ_MEASUREMENT_FIELDS, epc_hex, long_table, time_stamp_us
 from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
@@ -190,13 +190,14 @@ def _dataset_of(config: Config, program, reads: dict, accesses: list) -> _datase
     cols = {k: np.asarray(v) for k, v in reads.items()}
     cols["t_us"] = time_stamp_us(cols["time_s"])
     cols["reported"] = cols["success"]
+    cols = long_table(cols)
     g = config.geometry
     tag_m = np.array([tag_antenna(g, d).position_m for d in g.distances_m])[cols["point"]]
     ds = _dataset.Dataset(title="reader-tag access program vs distance: read range and write range")
     ds.add_table("reads", reads_table(cols, READ_FIELDS, true_position_m=tag_m,
                                       notes={"true_incident_power_dbm": "during the trial's Query"}),
-                 description="one row per trial (Query, RN16, ACK, EPC) at each distance: the singulation that "
-                             "starts the access program, keyed by point and round")
+                 description="one row per trial (Query, RN16, ACK, EPC) at each distance, sorted by time stamp: "
+                             "the singulation that starts the access program, keyed by point and round")
     acc = {k: np.concatenate([a[k] for a in accesses]) for k in accesses[0]}
     fields = {"point": READ_FIELDS["point"], "round": READ_FIELDS["round"],
               "distance_m": READ_FIELDS["distance_m"], **ACCESS_FIELDS}

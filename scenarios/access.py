@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from rfsim.core.config import param
+from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.progress import track
 from rfsim.core.reads import reads_table
@@ -78,7 +79,8 @@ class Config:
     tag : rfsim.devices.tag_config.TagConfig
         Tag settings.
     memory : rfsim.gen2.memory.TagMemoryConfig
-        The tag's chip model and memory contents (User words 0–3 set for the default Reads).
+        The tag's chip model (the same as ``tag.memory_chip``) and memory contents (User words
+        0–3 set for the default Reads; the EPC is the tag's ``epc_hex``).
     program : tuple of str
         The access program (:func:`rfsim.protocols.access_sequence.parse_program`).
     rounds_per_point : int, default 6
@@ -103,20 +105,27 @@ class Config:
 
     def __post_init__(self):
         parse_program(list(self.program), "program")
+        if self.memory.chip != self.tag.memory_chip:
+            raise ConfigError("memory.chip", self.memory.chip, f"the tag's chip tag.memory_chip = "
+                                                                f"{self.tag.memory_chip!r} (set both)")
 
 
-def load_memory(tag, memory: TagMemoryConfig) -> None:
-    """Give a sample-level tag the memory ``memory`` describes, with the tag's own EPC.
+def tag_memory(tag: TagConfig, memory: TagMemoryConfig):
+    """The memory of a tag: ``memory`` with the tag's own EPC.
 
     Parameters
     ----------
-    tag : rfsim.devices.tag.PassiveTag
-        The tag (its state machine holds a :class:`rfsim.gen2.memory.TagMemory`).
+    tag : rfsim.devices.tag_config.TagConfig
+        The tag (its ``epc_hex``).
     memory : rfsim.gen2.memory.TagMemoryConfig
-        The chip model and contents (factory TID of the chip, User words); its EPC is replaced
-        by the tag's ``config.epc_hex``.
+        The chip model and contents (factory TID of the chip, User words).
+
+    Returns
+    -------
+    rfsim.gen2.memory.TagMemory
+        A new memory (each tag changes its own).
     """
-    tag.state.memory = _memory.TagMemory(replace(memory, epc=tag.config.epc_hex.replace(" ", "")))
+    return _memory.TagMemory(replace(memory, epc=tag.epc_hex.replace(" ", "")))
 
 
 READ_FIELDS = {
@@ -152,10 +161,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     antenna = reader_antenna(g)
     n_points = len(g.distances_m)
     readers = [_reader.Reader(config.reader, [antenna], rng=trial_rng(seed, i, n_rounds)) for i in range(n_points)]
-    tags = [[_tag.PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1))]
-            for i, d in enumerate(g.distances_m)]
-    for (t,) in tags:
-        load_memory(t, config.memory)
+    tags = [[_tag.PassiveTag(config.tag, tag_antenna(g, d), rng=trial_rng(seed, i, n_rounds + 1),
+                             memory=tag_memory(config.tag, config.memory))] for i, d in enumerate(g.distances_m)]
     channels = [_scene.Channel(scene(config.channel)) for _ in range(n_points)]
     lk = readers[0].link
     reads: dict[str, list] = {k: [] for k in (*READ_FIELDS, "epc")}

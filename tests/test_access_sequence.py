@@ -61,9 +61,8 @@ def _devices(distances_m, *, seed=1):
     readers = [Reader(c.reader, [antenna], rng=trial_rng(seed, i, 99)) for i in range(len(distances_m))]
     tags = []
     for i, d in enumerate(distances_m):
-        tag = PassiveTag(c.tag, link.tag_antenna(c.geometry, d), rng=trial_rng(seed, i, 98))
-        tag.state.memory = TagMemory(TagMemoryConfig(epc=c.tag.epc_hex, tid=TID_HEX, user=USER_HEX))
-        tags.append([tag])
+        memory = TagMemory(TagMemoryConfig(epc=c.tag.epc_hex, tid=TID_HEX, user=USER_HEX))
+        tags.append([PassiveTag(c.tag, link.tag_antenna(c.geometry, d), rng=trial_rng(seed, i, 98), memory=memory)])
     return readers, tags, [Channel(link.scene(ch)) for _ in distances_m]
 
 

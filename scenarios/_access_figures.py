@@ -32,7 +32,7 @@ def plot_ranges(dataset_path: Path, out_dir: Path) -> list[Path]:
     acc = read_table(dataset_path, "accesses")
     d = t["distance_m"]
     with paper_style():
-        fig, (ax, ax2) = figure(columns=2, ncols=2, height_in=3.0, width_ratios=(1.4, 1.0))
+        fig, (ax, ax2) = figure(columns=2, ncols=2, height_in=3.9, width_ratios=(1.5, 1.0))
         for i, (name, label) in enumerate(CURVES):
             if np.all(t[f"{name}_successes"] == 0) and name != "read" and math.isnan(a[f"{name}_range_m"]):
                 label += " (none)"
@@ -51,7 +51,7 @@ def plot_ranges(dataset_path: Path, out_dir: Path) -> list[Path]:
                            label=f"read/write gap {a['range_gap_m']:.2f} m")
         ax.set(xlabel="reader–tag distance $d$ [m]", ylabel="success rate [%]", ylim=(-3, 103),
                title="success rates, Wilson 95 % intervals")
-        legend_outside(ax, where="below", ncols=1)
+        legend_outside(ax, where="below", ncols=2)
         reads = read_table(dataset_path, "reads")
         dd, p_inc = reads["true_distance_m"], reads["true_incident_power_dbm"]
         mean = np.array([np.mean(p_inc[dd == x]) for x in d])
@@ -62,7 +62,7 @@ def plot_ranges(dataset_path: Path, out_dir: Path) -> list[Path]:
         for x, text, color in levels:  # the power at a range: the mean curve, straight in log d
             p = float(np.interp(np.log(x), np.log(d), mean))
             ax2.axhline(p, color=color, ls=":", lw=1.0, label=f"at the {text} range: {p:.1f} dBm")
-        ax2.set(xscale="log", xlabel="reader–tag distance $d$ [m] (log)", ylabel="$P_\\mathrm{inc}$ at the tag [dBm]",
+        ax2.set(xscale="log", xlabel="reader–tag distance $d$ [m] (log)", ylabel="$P_\\mathrm{inc}$ [dBm]",
                 title="CW power incident at the tag")
         ax2.xaxis.set_major_locator(FixedLocator([x for x in (0.5, 1, 2, 4, 8, 16, 32) if d[0] <= x <= d[-1]]))
         ax2.xaxis.set_major_formatter(lambda x, pos: f"{x:g}")

@@ -72,10 +72,12 @@ def _cells(config, cells_key: str, cells: int) -> Estimate:
 
 def _access(c) -> Estimate:
     """Trials (one per round and distance point, a round of every point in one batch) and their
-    rows (177 MiB measured at 1 round of 12 points, 312 MiB at 40 rounds, without a Write: the
-    reader's bounded segment caches filling)."""
-    return _model(c.rounds_per_point * len(c.geometry.distances_m), ("rounds_per_point", "geometry.distances_m"),
-                  base_mib=300, bytes_per_unit=64 * KiB)
+    rows; each point's reader keeps its last 64 command segments (the Write's is 20 ms of CW), full
+    after about 10 rounds (3.5 MiB a trial until then). Measured: 212 MiB at 1 round of 12 points,
+    556 at 15, 610 at 40."""
+    points = len(c.geometry.distances_m)
+    return _model(c.rounds_per_point * points, ("rounds_per_point", "geometry.distances_m"),
+                  base_mib=220 + 3.5 * min(c.rounds_per_point, 10) * points, bytes_per_unit=200 * KiB)
 
 
 def _detection_probability(c) -> Estimate:

@@ -45,7 +45,7 @@ from rfsim.core.rng import trial_rng
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.gen2.memory import TagMemoryConfig
-from rfsim.protocols.access_sequence import ACCESS_FIELDS, DEFAULT_PROGRAM, parse_program
+from rfsim.protocols.access_program import ACCESS_FIELDS, DEFAULT_PROGRAM, parse_program
 from rfsim.scenarios.link import ChannelConfig, GeometryConfig, reader_antenna, scene, tag_antenna
 
 _access = lazy_import("rfsim.protocols.access_sequence")
@@ -82,7 +82,7 @@ class Config:
         The tag's chip model (the same as ``tag.memory_chip``) and memory contents (User words
         0–3 set for the default Reads; the EPC is the tag's ``epc_hex``).
     program : tuple of str
-        The access program (:func:`rfsim.protocols.access_sequence.parse_program`).
+        The access program (:func:`rfsim.protocols.access_program.parse_program`).
     rounds_per_point : int, default 6
         Trials per distance, in [1, 100000].
     round_period_s : float, default 0.1

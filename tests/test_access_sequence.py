@@ -1,4 +1,4 @@
-"""Access sequences (rfsim.protocols.access_sequence): the program parser, a close-range sequence
+"""Access sequences (rfsim.protocols.access_program, access_sequence): the program parser, a close-range sequence
 that reads back the memory the test put into the tag, and the standard's link timing."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from rfsim.core.rng import trial_rng
 from rfsim.gen2.commands import Query
 from rfsim.gen2.link import t1, t2
 from rfsim.gen2.memory import TagMemory, TagMemoryConfig
-from rfsim.protocols.access_sequence import (ACCESS_RESULTS, AccessStep, access_columns, parse_program, parse_step,
-                                             run_access_batch)
+from rfsim.protocols.access_program import AccessStep, parse_program, parse_step
+from rfsim.protocols.access_sequence import ACCESS_RESULTS, access_columns, run_access_batch
 
 TID_HEX = "E2801105200012345678"
 USER_HEX = "0123456789ABCDEF" + "CAFE" * 4

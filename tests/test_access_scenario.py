@@ -42,17 +42,17 @@ def test_runs_from_the_command_line_and_plot_draws_its_figure(tmp_path, capsys):
     assert (tmp_path / "a-ranges.png").stat().st_size > 10_000
 
 
-@pytest.mark.slow
 def test_write_range_is_short_of_the_read_range_by_the_friis_ratio_of_the_write_threshold(tmp_path):
     """Free space: P_inc ∝ d⁻², so the distance where the chip has Δ dB more power than at the
     read range is d_read·10^(−Δ/20). The grid step h bounds each interpolated range's error (the
     rates step from 1 to 0 between two grid points), the hop channels (902–928 MHz) add ±1.4 % of
-    a distance (Friis λ²)."""
+    a distance (Friis λ²). Free space and a static tag: a rate is 0 or 1 but within a hop's
+    ±1.4 %, so one trial per distance suffices."""
     out = tmp_path / "a.h5"
     step_m = 0.1
     grid = np.round(np.arange(4.0, 7.3, step_m), 2).tolist()
     assert main(["run", "access", "--seed", "3", "--no-plot", "-q", "-o", str(out),
-                 "--set", f"geometry.distances_m={grid}", "--set", "rounds_per_point=2"]) == 0
+                 "--set", f"geometry.distances_m={grid}", "--set", "rounds_per_point=1"]) == 0
     a = read_dataset(out).attrs
     delta_db = CHIP_MODELS["generic"].write_threshold_db
     assert a["write_threshold_db"] == delta_db == 3.0
@@ -66,4 +66,4 @@ def test_write_range_is_short_of_the_read_range_by_the_friis_ratio_of_the_write_
     acc = read_table(out, "accesses")
     between = (acc["distance_m"] > d_write + tol(d_write)) & (acc["distance_m"] < d_read - tol(d_read))
     writes = between & (acc["command"] == "Write")
-    assert writes.sum() >= 4 and set(acc["error_code"][writes]) == {0x0B}
+    assert writes.sum() >= 8 and set(acc["error_code"][writes]) == {0x0B}

@@ -61,7 +61,7 @@ import dataclasses
 import math
 
 from rfsim.gen2.access import AccessContext, execute, rn_reply, state_after_req_rn
-from rfsim.gen2.bits import as_bits, bits_to_int, hex_to_bits, str_to_bits
+from rfsim.gen2.bits import as_bits, hex_to_bits, str_to_bits
 from rfsim.gen2.commands import ACCESS_COMMANDS, ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.memory import CHIP_MODELS, EPC, ChipModel, TagError, TagMemory, pc_epc_length
@@ -665,7 +665,7 @@ def _memory_of(epc: np.ndarray, tid: np.ndarray, user: np.ndarray, kill_password
     for name, pwd in (("kill_password", kill_password), ("access_password", access_password)):
         if not 0 <= int(pwd) < 1 << 32:
             raise ValueError(f"{name} must be a 32-bit value, got {pwd}")
-    words = [[bits_to_int(b[k : k + 16]) for k in range(0, b.size, 16)] for b in (epc, tid, user)]
+    words = [np.packbits(b).view(">u2").tolist() for b in (epc, tid, user)]
     chip = dataclasses.replace(chip, epc_words=len(words[0]), user_words=len(words[2]))
     return TagMemory.from_words(chip, epc=words[0], tid=words[1], user=words[2], kill_password=int(kill_password),
                                 access_password=int(access_password))

@@ -7,8 +7,8 @@ Req_RN (handle), Req_RN (new RN16), Read, Write, BlockWrite, BlockErase, Access,
 each one exchange of the engine, the reply decoded by the reader from the samples. Expected
 replies are built here from the standard's layouts (EPC Gen2 v2 §6.3.2.12.3: Read ``0 | words
 | handle | CRC-16``; delayed reply ``0 | handle | CRC-16`` or ``1 | code(8) | handle |
-CRC-16``; handle / RN16 ``RN16 | CRC-16``), the memory given to the tag and a bitwise CRC-16
-written here (poly 1021h, preset FFFFh, ones' complement), not from the code under test.
+CRC-16``; handle / RN16 ``RN16 | CRC-16``), the memory given to the tag and the bitwise CRC-16
+of tests/reference/gen2_crc.py, not from the code under test.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from reference.gen2_crc import crc16_bitwise
 from test_engine import make_reader, query, tag_antenna
 
 from rfsim.channels import Channel, Scene
@@ -36,24 +37,13 @@ KILL_PASSWORD = 0x0BADF00D
 CHIP = CHIP_MODELS["generic"]  # write time 3 ms per word, write threshold 3 dB (project's assumptions)
 
 
-def crc16(bits) -> int:
-    """Gen2 CRC-16 as transmitted: poly 1021h, preset FFFFh, ones' complement, bit by bit."""
-    reg = 0xFFFF
-    for b in bits:
-        top = (reg >> 15) & 1
-        reg = (reg << 1) & 0xFFFF
-        if top ^ int(b):
-            reg ^= 0x1021
-    return reg ^ 0xFFFF
-
-
 def word_bits(*words: int, n: int = 16) -> list[int]:
     return [(w >> (n - 1 - k)) & 1 for w in words for k in range(n)]
 
 
 def with_crc(bits) -> np.ndarray:
     bits = list(bits)
-    return np.array(bits + word_bits(crc16(bits)), dtype=np.uint8)
+    return np.array(bits + word_bits(crc16_bitwise("".join(str(int(b)) for b in bits))), dtype=np.uint8)
 
 
 def value(bits) -> int:

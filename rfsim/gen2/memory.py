@@ -56,7 +56,6 @@ import numpy as np
 
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.commands import LOCK_FIELDS
 from rfsim.gen2.crc import crc16
 
@@ -341,7 +340,7 @@ def stored_crc(stored_pc: int, epc_words) -> int:
         16-bit StoredCRC.
     """
     words = [int(stored_pc)] + [int(w) for w in epc_words]
-    return crc16(np.concatenate([int_to_bits(w, 16) for w in words]))
+    return crc16(np.unpackbits(np.array(words, dtype=">u2").view(np.uint8)))  # the words' bits, MSB first
 
 
 def pc_epc_length(stored_pc: int) -> int:

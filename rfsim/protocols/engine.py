@@ -125,7 +125,8 @@ class Exchange:
     reply_start_s : tuple of float
         (n_replied,) true reply start of each replying tag [s].
     timing_ok : tuple of bool
-        (n_replied,) whether each reply started inside the T1 window.
+        (n_replied,) whether each reply started inside the T1 window (the T5 window when the
+        exchange listened for a delayed reply).
     n_samples : int
         Samples simulated for this exchange (the reader's segment).
     cmd_end_s : float

@@ -194,8 +194,7 @@ def _exchange(trials: list, step: int, name: str, cmds: list, reply_bits: int, d
         link = devices["reader"][t.b].link
         result, code, bits = _verdict(ex, t.tag)
         read = ex.read
-        seen = read is not None and read.bits is not None and ex.failure_reason not in ("not powered", "no reply",
-                                                                                       "decode error")
+        seen = read is not None and read.bits is not None  # the reader's own view: it detected a reply
         start = read.start_s if seen else math.nan
         data = "" if bits is None else _hex(bits[:16]) if name == "Req_RN" else _hex(bits[1:-32])
         t.records.append(AccessRecord(step=step, command=name, result=result, error_code=code, data_hex=data,

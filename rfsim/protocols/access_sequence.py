@@ -10,7 +10,7 @@ formats gen2-and-validation-anchors.md §4.4, :mod:`rfsim.gen2.commands`,
 draw of the trial's Query (``draw_channel=False``: quasi-static within the round; each trial
 needs a channel object of its own, which holds that draw).
 
-A program is a list of steps, each a string or a table (TOML friendly, :func:`parse_program`):
+A program is a list of steps, each a string or a table (TOML friendly, :func:`rfsim.protocols.access_program.parse_program`):
 
 =============================  =========================================================
 step                           what the reader sends

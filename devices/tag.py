@@ -48,7 +48,8 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    said: the standard has the tag reply to these commands as if TRext = 1); the response's
    ``reply_start_s``, ``reply_end_s`` and ``trext`` are those of the delayed reply. The chip's
    power margin (:meth:`PassiveTag.power_margin_db`) decides whether a write succeeds (error
-   0x0B insufficient power below the memory chip's write threshold, ``TagConfig.memory_chip``).
+   0x0B insufficient power below the memory chip's write threshold: the ``memory`` argument's chip
+   model, :data:`rfsim.gen2.memory.CHIP_MODELS`).
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
    (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
@@ -101,6 +102,10 @@ from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 _k = lazy_import("rfsim.devices._tag_kernels")
+
+#: Chip model of a tag's memory when none is given: "generic" (3 ms per word, 3 dB write threshold,
+#: the project's assumptions; :data:`rfsim.gen2.memory.CHIP_MODELS`).
+DEFAULT_CHIP = "generic"
 
 #: A segment counts as modulated when the swing between its two envelope clusters exceeds
 #: this fraction of the high level (Gen2 PIE depth is 80–100 %).
@@ -366,8 +371,8 @@ class PassiveTag:
         through :meth:`~rfsim.devices.tag_chip.PowerDependentChip.operating_point`.
     memory : :class:`rfsim.gen2.memory.TagMemory` or None
         The tag's memory (its chip model gives the write time and write threshold); default
-        None: ``config.epc_hex``, the default TID and ``config.memory_chip``'s User memory
-        (zeros) on that chip model (:class:`rfsim.devices.gen2_tag_state.TagState`).
+        None: ``config.epc_hex``, the default TID and the "generic" chip's User memory
+        (zeros) on that chip model (its write time and threshold are the project's assumptions) (:class:`rfsim.devices.gen2_tag_state.TagState`).
 
     Attributes
     ----------
@@ -392,8 +397,8 @@ class PassiveTag:
         self.chip = chip
         self.operating_point: ChipOperatingPoint | None = None
         if memory is None:  # the config's EPC, the default TID, the memory chip's User memory (zeros)
-            self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s, chip=config.memory_chip,
-                                  user="0000" * CHIP_MODELS[config.memory_chip].user_words)
+            self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s, chip=DEFAULT_CHIP,
+                                  user="0000" * CHIP_MODELS[DEFAULT_CHIP].user_words)
         else:
             self.state = TagState(memory=memory, powered=False, t0_s=t0_s)
         #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
@@ -776,7 +781,7 @@ class PassiveTag:
         Without a power-dependent chip 10·log10(τ_PU·τ·P_inc / P_min) (step 1 of the module
         docstring: powered ⇔ margin ≥ 0); with one 10·log10(P_chip / P_threshold) of the
         last segment's operating point. Access commands that write memory need a margin of at
-        least the memory chip's write threshold (:attr:`TagConfig.memory_chip`,
+        least the memory chip's write threshold (the tag's memory's chip model,
         :func:`rfsim.gen2.access.execute`).
 
         Parameters

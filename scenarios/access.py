@@ -79,7 +79,7 @@ class Config:
     tag : rfsim.devices.tag_config.TagConfig
         Tag settings.
     memory : rfsim.gen2.memory.TagMemoryConfig
-        The tag's chip model (the same as ``tag.memory_chip``) and memory contents (User words
+        The tag's chip model (write time, write threshold, bank sizes) and memory contents (User words
         0–3 set for the default Reads; the EPC is the tag's ``epc_hex``).
     program : tuple of str
         The access program (:func:`rfsim.protocols.access_program.parse_program`).
@@ -105,9 +105,9 @@ class Config:
 
     def __post_init__(self):
         parse_program(list(self.program), "program")
-        if self.memory.chip != self.tag.memory_chip:
-            raise ConfigError("memory.chip", self.memory.chip, f"the tag's chip tag.memory_chip = "
-                                                                f"{self.tag.memory_chip!r} (set both)")
+        if self.memory.epc != self.tag.epc_hex.replace(" ", ""):
+            raise ConfigError("memory.epc", self.memory.epc, f"the tag's EPC tag.epc_hex = "
+                                                              f"{self.tag.epc_hex!r} (set both)")
 
 
 def tag_memory(tag: TagConfig, memory: TagMemoryConfig):

@@ -77,6 +77,7 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         to read all N tags and the mean efficiency N/slots. ``load_average_1min`` and
         ``load_average_1min_after``.
     """
+    from rfsim.devices.gen2_tag_arrays import StateArrays
     from rfsim.devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 
@@ -114,7 +115,7 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         slots, air_s = [], []
         for r in range(runs):
             states = [(TagState(f"{k + 1:024X}"), trial_rng(seed, 10 + n, r, k)) for k in range(n)]
-            done = run_inventory(ProtocolAir(link, states), InventoryConfig()).completion(n)
+            done = run_inventory(ProtocolAir(link, states, arrays=StateArrays), InventoryConfig()).completion(n)
             slots.append(done[0])
             air_s.append(done[1])
         s, a = np.array(slots, float), np.array(air_s)

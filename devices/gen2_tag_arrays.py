@@ -8,12 +8,13 @@ and of a QueryAdjust's new slot counters applied to every tag at once.
 
 from __future__ import annotations
 
+from functools import partial
 from itertools import compress
 
 import numpy as np
 
 from rfsim.gen2.commands import ACK, NAK, QueryAdjust, QueryRep
-from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, _slot_drawer, adjusted_q
+from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, adjusted_q, slot_draw
 
 _READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
 #: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
@@ -68,11 +69,11 @@ def silent_step(cmd, code, session, slot):
 
 
 def _slot_word(rng):
-    """``slot_draw``'s 32-bit word of a generator: its bit generator's ctypes pair
-    ``(next_uint32, state)`` (the counter is ``next_uint32(state) >> (32 − Q)``), or ``q →
-    slot_draw(rng, q)`` for a generator without that interface (``_slot_drawer``)."""
+    """``slot_draw``'s 32-bit word of a generator as a call without arguments (its bit
+    generator's ctypes ``next_uint32(state)``; the counter is the word ``>> (32 − Q)``), or
+    None for a generator without that interface (``slot_draw`` is then asked)."""
     ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
-    return (ct.next_uint32, ct.state) if ct is not None else _slot_drawer(rng)
+    return None if ct is None else partial(ct.next_uint32, ct.state)
 
 
 class StateArrays:
@@ -259,8 +260,9 @@ class StateArrays:
         index : list of int
             Rows that redraw (from :meth:`redraw_steps`).
         rngs : list of numpy.random.Generator or None
-            The tags' own generators, ``rngs[k]`` for tag ``index[k]``; None: those given to
-            :meth:`use_generators`.
+            The tags' own generators, ``rngs[k]`` for tag ``index[k]``, distinct (every tag
+            draws its counter, and at 0 its RN16 after it, from its own; the order among tags
+            does not matter); None: those given to :meth:`use_generators`.
         t_s : float
             Time the command is received [s].
 
@@ -281,36 +283,51 @@ class StateArrays:
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states, clock = self.states, self.clock
         d = clock.decrements
-        slots, replies = [], []
-        append = slots.append
         if rngs is None:
             if self._rngs is None:
                 raise ValueError("take_redraw_steps without generators needs use_generators first")
-            words, rngs = map(self._words.__getitem__, index), list(map(self._rngs.__getitem__, index))
+            words, rngs = list(map(self._words.__getitem__, index)), list(map(self._rngs.__getitem__, index))
         else:
-            words = map(_slot_word, rngs)
-        for i, q, word, rng in zip(index, q_new.tolist(), words, rngs):
-            st = states[i]
-            st.q = q
-            # TagState._load_slot: the counter (slot_draw's word, or slot_draw itself)
-            slot = (word[0](word[1]) >> (32 - q) if q > 0 else 0) if type(word) is tuple else word(q)
-            append(slot)
-            if slot:  # TagState._reply_if_zero: to Arbitrate; the counter counts with the clock
-                st._slot_clock, st._slot, st.state = clock, slot + d, "arbitrate"
-            else:  # Reply, an RN16 from the tag's generator right after its counter's draw
+            words = list(map(_slot_word, rngs))
+        tags = list(map(states.__getitem__, index))
+        q_list = q_new.tolist()
+        q0 = q_list[0]
+        if q_new.min() == q0 == q_new.max() and None not in words:
+            # one Q and every generator's word at hand: slot_draw's counters in one pass
+            slots = [w() >> (32 - q0) for w in words] if q0 > 0 else [0] * len(words)
+            for st, slot in zip(tags, slots):
+                st.q, st._slot = q0, slot + d  # Q, and the counter counting with the clock
+        else:
+            slots = []
+            for st, q, w, rng in zip(tags, q_list, words, rngs):
+                slot = (w() >> (32 - q) if q > 0 else 0) if w is not None else slot_draw(rng, q)
+                slots.append(slot)
+                st.q, st._slot = q, slot + d
+        slot = np.array(slots, dtype=np.int64)
+        zero = slot == 0
+        was = self.counting[idx]
+        # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
+        # clock; 0 → Reply with an RN16 from the tag's own generator
+        fix = ~zero & (~was | (self.code[idx] == _REPLY))
+        if np.count_nonzero(fix):
+            for st in compress(tags, fix.tolist()):
+                st._slot_clock, st.state = clock, "arbitrate"
+        replies = []
+        if np.count_nonzero(zero):
+            for k in np.flatnonzero(zero).tolist():
+                st = tags[k]
                 st._slot_clock, st._slot = None, 0
-                replies.append((i, st._reply_if_zero(rng)))
+                replies.append((index[k], st._reply_if_zero(rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):
-            for st in compress(map(states.__getitem__, index), own.tolist()):
+            for st in compress(tags, own.tolist()):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
         self.following[idx] = ~own
-        slot = np.array(slots, dtype=np.int64)
-        self.counting[idx] = slot != 0
+        self.counting[idx] = ~zero
         self.t_s[idx] = t_s
         self.q[idx] = q_new
         self.slot[idx] = slot
-        self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
+        self.code[idx] = np.where(zero, _REPLY, _ARBITRATE)
         return replies
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float,

@@ -40,7 +40,10 @@ Air interfaces (anything with ``link`` and ``exchange(...) -> AirExchange``):
   collision that is never decoded (no capture) and that the reader does not ACK. Timing
   uses the nominal T1 and BLF. It reproduces the slot statistics of the Gen2 MAC at a
   fraction of the cost; slot durations of collided slots differ from the sample level when
-  the sample-level reader ACKs bits decoded from a collision.
+  the sample-level reader ACKs bits decoded from a collision. Given the tags' state in
+  arrays (``arrays=``, e.g. ``rfsim.devices.gen2_tag_arrays.StateArrays``) it applies each
+  command's silent steps, and a QueryAdjust's new slot counters, to all tags at once and
+  drives only the others one by one (the same outcome, tag states and draws).
 """
 
 from __future__ import annotations

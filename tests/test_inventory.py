@@ -623,3 +623,35 @@ def test_protocol_air_over_arrays_equals_tag_by_tag(monkeypatch, config, shared)
         assert ga.bit_generator.state == gb.bit_generator.state
     commands = sum(1 for _ in log_fast.slots["time_s"])
     assert calls["n"] < 0.25 * n * commands, (calls["n"], n * commands)
+
+
+def test_protocol_air_over_arrays_after_tags_driven_one_by_one():
+    # A power function drives the tags one by one (tag 0 unpowered for the first 8 commands);
+    # when it removes itself, in the middle of a round, the arrays are read again: the same
+    # slots, reads and tag states as without them.
+    from rfsim.devices.gen2_tag_arrays import StateArrays
+
+    n = 20
+    out = []
+    for arrays in (None, StateArrays):
+        states = _states(n, seed=31)
+        calls = []
+
+        def powered(t_s):
+            calls.append(t_s)
+            if len(calls) == 12:
+                air.powered = None
+            mask = np.ones(n, bool)
+            mask[0] = len(calls) > 8
+            return mask
+
+        air = ProtocolAir(LINK, states, powered=powered, arrays=arrays)
+        log = run_inventory(air, InventoryConfig(target_switches=1))
+        out.append((log, states))
+        assert len(calls) == 12
+    (a, sa), (b, sb) = out
+    assert a.slots == b.slots and a.reads == b.reads and 0 in a.reads["tag"]
+    assert len(a.slots["time_s"]) > 30
+    for (x, gx), (y, gy) in zip(sa, sb):
+        assert _observable_state(x) == _observable_state(y)
+        assert gx.bit_generator.state == gy.bit_generator.state

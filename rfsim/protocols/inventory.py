@@ -559,9 +559,12 @@ class ProtocolAir:
         """
         lk = self.link
         cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
-        if self._arrays is not None and self.powered is None:
+        if self._make_arrays is not None and self.powered is None and self._tags:
+            if self._arrays is None:  # tags driven one by one since the arrays were read
+                self.refresh()
             replies = self._drive_arrays(cmd, float(t_s), cmd_end)
         else:
+            self._arrays = None
             mask = np.ones(len(self._tags), bool) if self.powered is None else np.asarray(self.powered(t_s), bool)
             replies = []
             for i, (state, rng) in enumerate(self._tags):

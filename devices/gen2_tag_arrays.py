@@ -8,12 +8,13 @@ and of a QueryAdjust's new slot counters applied to every tag at once.
 
 from __future__ import annotations
 
+from functools import partial
 from itertools import compress
 
 import numpy as np
 
 from rfsim.gen2.commands import ACK, NAK, QueryAdjust, QueryRep
-from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, _slot_drawer, adjusted_q
+from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, adjusted_q, slot_draw
 
 _READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
 #: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
@@ -67,6 +68,14 @@ def silent_step(cmd, code, session, slot):
     return code < 0, code < 0
 
 
+def _slot_word(rng):
+    """``slot_draw``'s 32-bit word of a generator as a call without arguments (its bit
+    generator's ctypes ``next_uint32(state)``; the counter is the word ``>> (32 − Q)``), or
+    None for a generator without that interface (``slot_draw`` is then asked)."""
+    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
+    return None if ct is None else partial(ct.next_uint32, ct.state)
+
+
 class StateArrays:
     """The Gen2 state of many tags in arrays, for the silent steps of a population.
 
@@ -92,6 +101,9 @@ class StateArrays:
     ----------
     states : iterable of TagState
         The tags, one row each, in this order.
+    rngs : sequence of numpy.random.Generator, optional
+        Each tag's own generator (distinct), for :meth:`take_redraw_steps` without
+        generators (:meth:`use_generators`).
 
     Attributes
     ----------
@@ -104,8 +116,12 @@ class StateArrays:
     """
 
 
-    def __init__(self, states):
+    def __init__(self, states, rngs=None):
         self.states = list(states)
+        self._rngs: list | None = None
+        self._words: list | None = None
+        if rngs is not None:
+            self.use_generators(rngs)
         n = len(self.states)
         self.powered = np.zeros(n, bool)
         self.code = np.zeros(n, np.int8)
@@ -119,6 +135,25 @@ class StateArrays:
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.read(range(n))
+
+    def use_generators(self, rngs) -> None:
+        """Give every row its tag's own generator, for :meth:`take_redraw_steps` called
+        without generators (each generator's 32-bit word function is looked up here once).
+
+        Parameters
+        ----------
+        rngs : sequence of numpy.random.Generator
+            ``rngs[i]`` is tag i's own generator (distinct generators).
+
+        Raises
+        ------
+        ValueError
+            When there is not one generator per row.
+        """
+        rngs = list(rngs)
+        if len(rngs) != len(self.states):
+            raise ValueError(f"one generator per tag: {len(rngs)} for {len(self.states)} tags")
+        self._rngs, self._words = rngs, [_slot_word(r) for r in rngs]
 
     def read(self, index) -> None:
         """Copy rows from their :class:`TagState` objects.
@@ -204,7 +239,7 @@ class StateArrays:
         in_round = (self.session == cmd.session) & ((self.code == _ARBITRATE) | (self.code == _REPLY))
         return ok & in_round
 
-    def take_redraw_steps(self, cmd, index: list, rngs: list, t_s: float) -> list:
+    def take_redraw_steps(self, cmd, index: list, rngs: list | None, t_s: float) -> list:
         """Apply a QueryAdjust to the tags that redraw their slot counter.
 
         Each tag's clock advances to ``t_s``, :math:`Q \\leftarrow \\min(15, \\max(0, Q +
@@ -212,14 +247,22 @@ class StateArrays:
         an RN16 when it is 0 (``TagState._load_slot``: the same draws in the same order as
         ``on_command``). Rows and :class:`TagState` objects are both updated.
 
+        A tag that follows the arrays' clock while the clock is at ``t_s`` (a step of
+        :meth:`take_silent_steps` at ``t_s`` that it joined, its ``joining`` argument) keeps
+        following it; the others take ``t_s`` as their own time. A non-zero counter counts down
+        with the clock from here on (``counting``): the next QueryRep's decrements touch none
+        of these tags one by one.
+
         Parameters
         ----------
         cmd : rfsim.gen2.commands.QueryAdjust
             The command.
         index : list of int
             Rows that redraw (from :meth:`redraw_steps`).
-        rngs : list of numpy.random.Generator
-            The tags' own generators, ``rngs[k]`` for tag ``index[k]``.
+        rngs : list of numpy.random.Generator or None
+            The tags' own generators, ``rngs[k]`` for tag ``index[k]``, distinct (every tag
+            draws its counter, and at 0 its RN16 after it, from its own; the order among tags
+            does not matter); None: those given to :meth:`use_generators`.
         t_s : float
             Time the command is received [s].
 
@@ -227,49 +270,68 @@ class StateArrays:
         -------
         list of tuple (int, Reply)
             ``(row, reply)`` of the tags whose new counter is 0, each an RN16 reply.
+
+        Raises
+        ------
+        ValueError
+            When ``rngs`` is None and no generators were given.
         """
         if not index:
             return []
         t_s = float(t_s)
         idx = np.asarray(index, dtype=np.int64)
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
-        states = self.states
-        replies, slots = [], []
-        for i, q, rng, draw in zip(index, q_new.tolist(), rngs, self._slot_draws(rngs)):
-            st = states[i]
-            st._clock, st._t_s, st.q = None, t_s, q  # its own time (the t_s setter)
-            # TagState._load_slot: the counter (slot_draw), a reply with an RN16 at 0
-            slot = draw(q)
-            st._slot_clock, st._slot = None, slot  # its own counter (the slot setter)
-            reply = st._reply_if_zero(rng)  # Reply with an RN16 at 0, else to Arbitrate
-            if reply is not None:
-                replies.append((i, reply))
-            slots.append(slot)
-        self.following[idx] = False  # each tag's own time and counter were set
-        self.counting[idx] = False
+        states, clock = self.states, self.clock
+        d = clock.decrements
+        if rngs is None:
+            if self._rngs is None:
+                raise ValueError("take_redraw_steps without generators needs use_generators first")
+            words, rngs = list(map(self._words.__getitem__, index)), list(map(self._rngs.__getitem__, index))
+        else:
+            words = list(map(_slot_word, rngs))
+        tags = list(map(states.__getitem__, index))
+        q_list = q_new.tolist()
+        q0 = q_list[0]
+        if q_new.min() == q0 == q_new.max() and None not in words:
+            # one Q and every generator's word at hand: slot_draw's counters in one pass
+            slots = [w() >> (32 - q0) for w in words] if q0 > 0 else [0] * len(words)
+            for st, slot in zip(tags, slots):
+                st.q, st._slot = q0, slot + d  # Q, and the counter counting with the clock
+        else:
+            slots = []
+            for st, q, w, rng in zip(tags, q_list, words, rngs):
+                slot = (w() >> (32 - q) if q > 0 else 0) if w is not None else slot_draw(rng, q)
+                slots.append(slot)
+                st.q, st._slot = q, slot + d
+        slot = np.array(slots, dtype=np.int64)
+        zero = slot == 0
+        was = self.counting[idx]
+        # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
+        # clock; 0 → Reply with an RN16 from the tag's own generator
+        fix = ~zero & (~was | (self.code[idx] == _REPLY))
+        if np.count_nonzero(fix):
+            for st in compress(tags, fix.tolist()):
+                st._slot_clock, st.state = clock, "arbitrate"
+        replies = []
+        if np.count_nonzero(zero):
+            for k in np.flatnonzero(zero).tolist():
+                st = tags[k]
+                st._slot_clock, st._slot = None, 0
+                replies.append((index[k], st._reply_if_zero(rngs[k])))
+        own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
+        if np.count_nonzero(own):
+            for st in compress(tags, own.tolist()):
+                st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
+        self.following[idx] = ~own
+        self.counting[idx] = ~zero
         self.t_s[idx] = t_s
         self.q[idx] = q_new
-        slot = np.array(slots, dtype=np.int64)
         self.slot[idx] = slot
-        self.code[idx] = np.where(slot == 0, _REPLY, _ARBITRATE)
+        self.code[idx] = np.where(zero, _REPLY, _ARBITRATE)
         return replies
 
-    def _slot_draws(self, rngs: list) -> list:
-        """Per generator a function ``q → slot_draw(rng, q)``, kept per generator: the bit
-        generator's 32-bit word read through its ctypes interface, found once (not on every
-        draw), or ``slot_draw`` itself for a generator without it."""
-        memo = self.__dict__.setdefault("_draw_memo", {})
-        if len(memo) > 4 * len(self.states) + 16:
-            memo.clear()
-        out = []
-        for rng in rngs:
-            hit = memo.get(id(rng))
-            if hit is None or hit[0] is not rng:
-                hit = memo[id(rng)] = (rng, _slot_drawer(rng))  # the generator kept alive: its id stays its own
-            out.append(hit[1])
-        return out
-
-    def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float) -> None:
+    def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float,
+                          joining: np.ndarray | None = None) -> None:
         """Apply the silent steps decided by :meth:`silent_steps`.
 
         Each tag's clock advances to ``t_s`` and a decrementing tag's slot counter goes to
@@ -287,6 +349,10 @@ class StateArrays:
             Those of them that decrement their slot counter.
         t_s : float
             Time the command is received [s].
+        joining : ndarray of bool, shape (n_tags,), optional
+            Tags that are not silent but follow the clock at ``t_s`` too: those that redraw
+            their counter on this QueryAdjust (:meth:`take_redraw_steps`, called next with the
+            same ``t_s``, keeps them following). Their counters are not touched here.
 
         Raises
         ------
@@ -308,7 +374,7 @@ class StateArrays:
             self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
         self._count_down(decrement)
         self.t_s[silent] = t_s
-        self._follow(silent, t_s)
+        self._follow(silent if joining is None else silent | joining, t_s)
 
     def _count_down(self, decrement: np.ndarray) -> None:
         """The counters of the tags ``decrement`` (bool mask) go to (slot − 1) mod 2^15
@@ -324,9 +390,11 @@ class StateArrays:
             for st in compress(states, leave.tolist()):
                 st.follow_decrements(None)
         d = clock.decrements + 1
-        for st in compress(states, (decrement & ~self.counting).tolist()):
-            # follow_decrements(clock) of the decremented counter, the clock one decrement on
-            st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
+        join = decrement & ~self.counting
+        if np.count_nonzero(join):
+            for st in compress(states, join.tolist()):
+                # follow_decrements(clock) of the decremented counter, the clock one decrement on
+                st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
         clock.decrements = d
         self.counting = decrement.copy()
 

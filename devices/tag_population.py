@@ -167,7 +167,7 @@ class TagPopulation:
         arrays = self.arrays
         on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
         quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
-        steps, redraws, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
+        steps, applied, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
         if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
                 sel = on & group
@@ -180,28 +180,28 @@ class TagPopulation:
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
-                if np.count_nonzero(silent):
+                any_silent = bool(np.count_nonzero(silent))
+                if any_silent:
                     steps.append((cmd, silent, dec, t_end_s))
                     quiet = quiet | silent
-                if rnd.own_rngs:
-                    redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s)
-                    if np.count_nonzero(redraw):
-                        redraws.append((decoded, redraw, t_end_s))
-        silent_steps = list(steps)
+                redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s) if rnd.own_rngs else None
+                if redraw is not None and not np.count_nonzero(redraw):
+                    redraw = None
+                if any_silent or redraw is not None:
+                    applied.append((decoded, silent, dec, redraw, t_end_s))
         replies = {}
-        # the redraws first: their tags set their own time, so the silent steps' shared clock
-        # need not hand them its time first (the two sets of tags are disjoint)
-        for decoded, redraw, t_end_s in redraws:
-            # QueryAdjust: the round's tags load new counters; those that do not reply are quiet
+        for decoded, silent, dec, redraw, t_end_s in applied:
+            # the tags that redraw their counter (QueryAdjust) follow the silent steps' clock to
+            # the same time; then they load new counters, and those that do not reply are quiet
+            arrays.take_silent_steps(decoded[0], silent, dec, t_end_s, joining=redraw)
+            if redraw is None:
+                continue
             index = redraw.nonzero()[0].tolist()
-            members = self.members
-            for j, reply in arrays.take_redraw_steps(decoded[0], index, [members[j].rng for j in index], t_end_s):
+            for j, reply in arrays.take_redraw_steps(decoded[0], index, None, t_end_s):  # the round's generators
                 replies[j] = (decoded, reply)
                 redraw[j] = False
             quiet = quiet | redraw
             steps.append((decoded[0], redraw, None, t_end_s))
-        for cmd, silent, dec, t_end_s in silent_steps:
-            arrays.take_silent_steps(cmd, silent, dec, t_end_s)
         need = quiet & rnd.needs
         if np.count_nonzero(need):
             members, points = self.members, rnd.points
@@ -238,6 +238,8 @@ class TagPopulation:
         if rnd is not None and rnd.cw == cw and (rnd.gains is gains or rnd.gains == list(gains)):
             return rnd
         self._round = rnd = _Round(self.members, gains, cw, fe)
+        if rnd.own_rngs:
+            self.arrays.use_generators(rnd.rngs)
         return rnd
 
 
@@ -258,7 +260,7 @@ class _Round:
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
         #: every member draws from its own generator, so the order in which members draw does
         #: not matter (else a QueryAdjust goes through each member's own path, in member order)
-        rngs = [getattr(m, "rng", None) for m in members]
+        self.rngs = rngs = [getattr(m, "rng", None) for m in members]
         self.own_rngs = None not in rngs and len(set(map(id, rngs))) == n and all(
             callable(getattr(m, "respond_reply", None)) for m in members)
         rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)

@@ -439,9 +439,9 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
         silent_steps.append(done)
         return done
 
-    def counted_arrays(self, cmd, silent, decrement, t_s):
+    def counted_arrays(self, cmd, silent, decrement, t_s, joining=None):
         population_steps.append(int(silent.sum()))
-        return original_arrays(self, cmd, silent, decrement, t_s)
+        return original_arrays(self, cmd, silent, decrement, t_s, joining=joining)
 
     monkeypatch.setattr(_State, "on_command_if_silent", counted)
     monkeypatch.setattr(StateArrays, "take_silent_steps", counted_arrays)
@@ -575,3 +575,83 @@ def test_links_held_across_rounds_equal_a_draw_per_round():
     p_moved = [ex[2][4] for ex in held["exchanges"]]
     p_unmoved = [ex[2][4] for ex in unmoved["exchanges"]]
     assert p_moved[0] == p_unmoved[0] and p_moved[-1] < p_unmoved[-1] - 3.0  # 2 m → 3.5 m: −4.9 dB
+
+
+def _observable_state(st):
+    """A tag state's protocol state as comparable values (NaN written as a string)."""
+    return (repr(st.row()), st.state, dict(st.inventoried), st.sl, st.q, st.slot, st.rn16, st.handle, st.session,
+            st.t_s)
+
+
+@pytest.mark.parametrize("config, shared", [
+    (InventoryConfig(), False),
+    (InventoryConfig(target_switches=2, select_mask="0001", select_pointer=0x20 + 92), False),
+    (InventoryConfig(session=1, target_switches=1), True),
+])
+def test_protocol_air_over_arrays_equals_tag_by_tag(monkeypatch, config, shared):
+    # ProtocolAir with the tags' state in arrays (silent steps and a QueryAdjust's redraws at
+    # once, the other tags one by one) against every tag driven through on_command: the same
+    # slots, reads, tag states and generator states, for the Q algorithm (QueryAdjusts), a
+    # Select with dual target (the read tags answer again) and tags sharing one generator
+    # (no bulk redraws: the draws keep the tags' order). Most tag-commands must skip on_command.
+    from rfsim.devices.gen2_tag_arrays import StateArrays
+
+    n = 40
+
+    def make():
+        if shared:
+            g = np.random.default_rng(21)
+            return [(TagState(f"{k + 1:024X}"), g) for k in range(n)]
+        return _states(n, seed=21)
+
+    calls = {"n": 0}
+    original = TagState.on_command
+
+    def counted(self, cmd, **kw):
+        calls["n"] += 1
+        return original(self, cmd, **kw)
+
+    full, fast = make(), make()
+    log_full = run_inventory(ProtocolAir(LINK, full), config)
+    monkeypatch.setattr(TagState, "on_command", counted)
+    air = ProtocolAir(LINK, fast, arrays=StateArrays)
+    log_fast = run_inventory(air, config)
+    assert log_full.slots == log_fast.slots and log_full.reads == log_fast.reads
+    assert len(log_fast.tags_read()) >= 10
+    for (a, ga), (b, gb) in zip(full, fast):
+        assert _observable_state(a) == _observable_state(b)
+        assert ga.bit_generator.state == gb.bit_generator.state
+    commands = sum(1 for _ in log_fast.slots["time_s"])
+    assert calls["n"] < 0.25 * n * commands, (calls["n"], n * commands)
+
+
+def test_protocol_air_over_arrays_after_tags_driven_one_by_one():
+    # A power function drives the tags one by one (tag 0 unpowered for the first 8 commands);
+    # when it removes itself, in the middle of a round, the arrays are read again: the same
+    # slots, reads and tag states as without them.
+    from rfsim.devices.gen2_tag_arrays import StateArrays
+
+    n = 20
+    out = []
+    for arrays in (None, StateArrays):
+        states = _states(n, seed=31)
+        calls = []
+
+        def powered(t_s):
+            calls.append(t_s)
+            if len(calls) == 12:
+                air.powered = None
+            mask = np.ones(n, bool)
+            mask[0] = len(calls) > 8
+            return mask
+
+        air = ProtocolAir(LINK, states, powered=powered, arrays=arrays)
+        log = run_inventory(air, InventoryConfig(target_switches=1))
+        out.append((log, states))
+        assert len(calls) == 12
+    (a, sa), (b, sb) = out
+    assert a.slots == b.slots and a.reads == b.reads and 0 in a.reads["tag"]
+    assert len(a.slots["time_s"]) > 30
+    for (x, gx), (y, gy) in zip(sa, sb):
+        assert _observable_state(x) == _observable_state(y)
+        assert gx.bit_generator.state == gy.bit_generator.state

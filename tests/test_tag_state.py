@@ -673,3 +673,63 @@ def test_killed_tag_never_replies_again_across_power_cycles():
                              QueryRep(session=0))):
         assert tag.on_command(cmd, t_s=t + 11.0 + k, rng=rng) is None
     assert tag.state == "killed"
+def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
+    # 30 tags in Arbitrate of session 0 (Q = 4, counters 1…30 read back as their own) take a
+    # QueryAdjust (UpDn +1) at 1 ms: the silent step joined by the redrawing tags
+    # (take_silent_steps(..., joining=)) and the redraws from each tag's own generator
+    # (use_generators). The states must equal those of on_command on copies with equal
+    # generators (Q 5, the same counters, replies and generator states); the tags with a
+    # non-zero counter must follow the arrays' clock in time and counter, so that the next
+    # QueryRep (silent for them) touches none of them one by one (no follow / follow_decrements;
+    # only the few tags about to step on their own leave the clock).
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    n = 30
+    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
+    for k, (a, b) in enumerate(zip(fast, full)):
+        for st in (a, b):
+            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, 4
+    g_fast = [np.random.default_rng(100 + k) for k in range(n)]
+    g_full = [np.random.default_rng(100 + k) for k in range(n)]
+    arrays = StateArrays(fast, g_fast)
+    adj = QueryAdjust(session=0, updn=1)
+    silent, dec = arrays.silent_steps(adj, np.ones(n, bool), 1e-3)
+    redraw = arrays.redraw_steps(adj, ~silent, 1e-3)
+    assert not silent.any() and redraw.all()
+    arrays.take_silent_steps(adj, silent, dec, 1e-3, joining=redraw)
+    got = dict(arrays.take_redraw_steps(adj, list(range(n)), None, 1e-3))
+    expected = {i: r for i, r in enumerate(st.on_command(adj, t_s=1e-3, rng=g) for st, g in zip(full, g_full))
+                if r is not None}
+    assert got.keys() == expected.keys() and all(got[i] == expected[i] for i in got)
+    for a, b, ga, gb in zip(fast, full, g_fast, g_full):
+        assert (a.state, a.q, a.slot, a.t_s, a.rn16) == (b.state, b.q, b.slot, b.t_s, b.rn16)
+        assert ga.bit_generator.state == gb.bit_generator.state
+    counting = [st.slot != 0 for st in fast]
+    assert sum(counting) >= n - 3
+    assert all(st._clock is arrays.clock for st in fast)
+    assert [st._slot_clock is arrays.clock for st in fast] == counting
+    touched = []
+    original_follow, original_dec = TagState.follow, TagState.follow_decrements
+
+    def follow(self, clock):
+        touched.append(self)
+        return original_follow(self, clock)
+
+    def follow_decrements(self, clock):
+        touched.append(self)
+        return original_dec(self, clock)
+
+    monkeypatch.setattr(TagState, "follow", follow)
+    monkeypatch.setattr(TagState, "follow_decrements", follow_decrements)
+    rep = QueryRep(session=0)
+    quiet = np.array([st.slot not in (0, 1) for st in fast])  # neither in Reply nor reaching 0
+    silent, dec = arrays.silent_steps(rep, quiet, 2e-3)
+    assert silent.tolist() == quiet.tolist()
+    arrays.take_silent_steps(rep, silent, dec, 2e-3)
+    # only the tags that leave the clock (those about to step on their own) are touched
+    assert not any(any(t is st for t in touched) for st, q in zip(fast, quiet) if q)
+    assert len(touched) <= 2 * (n - int(quiet.sum()))
+    for a, b, q in zip(fast, full, quiet):
+        if q:
+            b.on_command(rep, t_s=2e-3, rng=np.random.default_rng(0))
+            assert (a.state, a.slot, a.t_s) == (b.state, b.slot, b.t_s)

@@ -40,21 +40,21 @@ class _Counted:
         return self.air.exchange(cmd, **kw)
 
 
-def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200, 500),
+def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200, 500, 1000),
                     populations: tuple[int, ...] = (10, 50, 100, 200), runs: int = 50, seed: int = 0) -> dict:
     """Time sample-level Q-algorithm inventories to completion, and count protocol-level slots.
 
     Sample level: n tags on a 2 m circle around an isotropic reader in free space (equal
     powers). numba's kernels are loaded on a 3- and a 20-tag inventory first; the 1-minute load
     average is recorded before and after. Protocol level: the Q algorithm's slots and air time
-    to read all N tags over ``runs`` populations (:class:`rfsim.protocols.inventory.ProtocolAir`,
-    ``miller4-320k``).
+    to read all N tags over ``runs`` populations (:class:`rfsim.protocols.inventory.ProtocolAir`
+    over the tags' state arrays, ``miller4-320k``).
 
     Parameters
     ----------
     n_tags : int, default 100
         Population of the headline sample-level inventory.
-    sample_populations : tuple of int, default (10, 50, 100, 200, 500)
+    sample_populations : tuple of int, default (10, 50, 100, 200, 500, 1000)
         Populations N of the sample-level inventories.
     populations : tuple of int, default (10, 50, 100, 200)
         Populations N of the protocol-level runs.
@@ -74,9 +74,11 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         (1 = linear), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms`` (a, the
         per-command cost) and ``sample_cpu_per_tag_command_us`` (b, what each further tag adds to
         a command). Per protocol population N (``N<n>_…``): mean ± std of slots and air time [s]
-        to read all N tags and the mean efficiency N/slots. ``load_average_1min`` and
+        to read all N tags, the mean efficiency N/slots and the CPU time per slot of these runs
+        (``N<n>_cpu_per_slot_us`` [µs]). ``load_average_1min`` and
         ``load_average_1min_after``.
     """
+    from rfsim.devices.gen2_tag_arrays import StateArrays
     from rfsim.devices.gen2_tag_state import TagState
     from rfsim.gen2.link import profile
 
@@ -111,16 +113,21 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
     out["load_average_1min_after"] = os.getloadavg()[0]
     link = profile("miller4-320k")
     for n in populations:
-        slots, air_s = [], []
+        slots, air_s, n_slots, cpu_s = [], [], 0, 0.0
         for r in range(runs):
             states = [(TagState(f"{k + 1:024X}"), trial_rng(seed, 10 + n, r, k)) for k in range(n)]
-            done = run_inventory(ProtocolAir(link, states), InventoryConfig()).completion(n)
+            c0 = time.process_time()
+            log = run_inventory(ProtocolAir(link, states, arrays=StateArrays), InventoryConfig())
+            cpu_s += time.process_time() - c0
+            n_slots += log.n_slots
+            done = log.completion(n)
             slots.append(done[0])
             air_s.append(done[1])
         s, a = np.array(slots, float), np.array(air_s)
         out.update({f"N{n}_slots_mean": s.mean(), f"N{n}_slots_std": s.std(ddof=1),
                     f"N{n}_efficiency_mean": float(np.mean(n / s)),
-                    f"N{n}_air_time_mean_s": a.mean(), f"N{n}_air_time_std_s": a.std(ddof=1)})
+                    f"N{n}_air_time_mean_s": a.mean(), f"N{n}_air_time_std_s": a.std(ddof=1),
+                    f"N{n}_cpu_per_slot_us": 1e6 * cpu_s / n_slots})
     return out
 
 

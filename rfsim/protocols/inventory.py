@@ -40,7 +40,10 @@ Air interfaces (anything with ``link`` and ``exchange(...) -> AirExchange``):
   collision that is never decoded (no capture) and that the reader does not ACK. Timing
   uses the nominal T1 and BLF. It reproduces the slot statistics of the Gen2 MAC at a
   fraction of the cost; slot durations of collided slots differ from the sample level when
-  the sample-level reader ACKs bits decoded from a collision.
+  the sample-level reader ACKs bits decoded from a collision. Given the tags' state in
+  arrays (``arrays=``, e.g. ``rfsim.devices.gen2_tag_arrays.StateArrays``) it applies each
+  command's silent steps, and a QueryAdjust's new slot counters, to all tags at once and
+  drives only the others one by one (the same outcome, tag states and draws).
 """
 
 from __future__ import annotations
@@ -492,13 +495,37 @@ class ProtocolAir:
     powered : callable, optional
         ``powered(t_s)`` → (n_tags,) bool; None: every tag powered. A tag that becomes unpowered
         loses its round state (``TagState.on_power``).
+    arrays : callable, optional
+        ``arrays(states, rngs)`` → the tags' Gen2 state in arrays
+        (``rfsim.devices.gen2_tag_arrays.StateArrays``, or anything with its methods). With it and
+        without ``powered``, each command's silent steps (and a QueryAdjust's new slot counters,
+        when every tag has a generator of its own) are applied to all tags at once and only the
+        other tags are driven one by one: the same replies, tag states and draws (module
+        ``rfsim.devices.gen2_tag_arrays``), at a cost per command that does not grow with the
+        tags that stay silent. Between exchanges change the tags only through the air, or call
+        :meth:`refresh`.
     """
 
-    def __init__(self, link, tags: Sequence, *, powered: Callable[[float], np.ndarray] | None = None):
+    def __init__(self, link, tags: Sequence, *, powered: Callable[[float], np.ndarray] | None = None,
+                 arrays: Callable | None = None):
         self.link = link
         self._tags = [(t.state, t.rng) if hasattr(t, "state") else (t[0], t[1]) for t in tags]
         self.powered = powered
         self._t1_s = max(link.rtcal_s, 10.0 * link.tpri_s)
+        self._make_arrays = arrays
+        self._arrays = None
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Read every tag's state into the arrays again (after changing the tags' states from
+        outside the air); nothing to do without ``arrays``."""
+        if self._make_arrays is None or not self._tags:
+            return
+        states, rngs = [s for s, _ in self._tags], [g for _, g in self._tags]
+        own = len(set(map(id, rngs))) == len(rngs) and None not in rngs
+        self._arrays = self._make_arrays(states, rngs if own else None)
+        self._own_rngs = own
+        self._everyone = np.ones(len(states), bool)
 
     @property
     def states(self) -> list:
@@ -532,17 +559,23 @@ class ProtocolAir:
         """
         lk = self.link
         cmd_end = float(t_s) + lk.tari_s + lk.command_duration_s(cmd)
-        mask = np.ones(len(self._tags), bool) if self.powered is None else np.asarray(self.powered(t_s), bool)
-        replies = []
-        for i, (state, rng) in enumerate(self._tags):
-            if not mask[i]:
-                state.on_power(False, t_s)
-                continue
-            if not state.powered:
-                state.on_power(True, t_s)
-            reply = state.on_command(cmd, t_s=cmd_end, rng=rng)
-            if reply is not None:
-                replies.append((i, reply))
+        if self._make_arrays is not None and self.powered is None and self._tags:
+            if self._arrays is None:  # tags driven one by one since the arrays were read
+                self.refresh()
+            replies = self._drive_arrays(cmd, float(t_s), cmd_end)
+        else:
+            self._arrays = None
+            mask = np.ones(len(self._tags), bool) if self.powered is None else np.asarray(self.powered(t_s), bool)
+            replies = []
+            for i, (state, rng) in enumerate(self._tags):
+                if not mask[i]:
+                    state.on_power(False, t_s)
+                    continue
+                if not state.powered:
+                    state.on_power(True, t_s)
+                reply = state.on_command(cmd, t_s=cmd_end, rng=rng)
+                if reply is not None:
+                    replies.append((i, reply))
         replied = tuple(i for i, _ in replies)
         nan = math.nan
         if not replies:
@@ -555,6 +588,34 @@ class ProtocolAir:
         ok = (not expect_crc) or _crc.crc16_ok(bits)
         return AirExchange(type(cmd).__name__, float(t_s), cmd_end, replied, True, bits, ok,
                            "" if ok else "crc error", start)
+
+    def _drive_arrays(self, cmd, t_s: float, cmd_end_s: float) -> list:
+        """Every tag powered: the silent steps and a QueryAdjust's redraws at once, the other
+        tags one by one in tag order (powering up first where unpowered). Returns the
+        ``(tag, reply)`` pairs in tag order."""
+        arrays = self._arrays
+        silent, dec = arrays.silent_steps(cmd, self._everyone, cmd_end_s)
+        redraw = arrays.redraw_steps(cmd, ~silent, cmd_end_s) if self._own_rngs else None
+        if redraw is not None and not np.count_nonzero(redraw):
+            redraw = None
+        arrays.take_silent_steps(cmd, silent, dec, cmd_end_s, joining=redraw)
+        replies = []
+        if redraw is not None:
+            replies = arrays.take_redraw_steps(cmd, np.flatnonzero(redraw).tolist(), None, cmd_end_s)
+            silent = silent | redraw
+        rest = np.flatnonzero(~silent).tolist()
+        tags = self._tags
+        for i in rest:
+            state, rng = tags[i]
+            if not state.powered:
+                state.on_power(True, t_s)
+            reply = state.on_command(cmd, t_s=cmd_end_s, rng=rng)
+            if reply is not None:
+                replies.append((i, reply))
+        arrays.read(rest)
+        if redraw is not None and len(replies) > 1:
+            replies.sort(key=operator.itemgetter(0))
+        return replies
 
 
 # ============================================================================ sample level

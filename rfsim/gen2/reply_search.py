@@ -180,7 +180,8 @@ def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
 @dataclass(frozen=True)
 class _Lags:
     """T1 window of a BLF as lags into a window decimated by ``d`` (sample j at input sample
-    i0 + j·d + (d − 1)/2)."""
+    i0 + j·d + (d − 1)/2), its end moved ``delay_max_s`` later for a delayed reply (T5 =
+    T1 min … T1 max + delay)."""
 
     fs: float
     d: int
@@ -188,6 +189,7 @@ class _Lags:
     cmd_end_s: float
     rtcal_s: float
     frt: float
+    delay_max_s: float = 0.0
 
     def _lag(self, t_s):
         return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
@@ -202,18 +204,18 @@ class _Lags:
         return np.maximum(0, np.floor(self._lag(t_s)).astype(np.int64) - 1)
 
     def hi(self, blf):
-        """Last lag of the T1 window (t1_range max, one sample late)."""
-        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6
+        """Last lag of the T1 window (t1_range max, one sample late; plus the delay of a delayed reply)."""
+        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6 + self.delay_max_s
         return np.ceil(self._lag(t_s)).astype(np.int64) + 1
 
 
-def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s=0.0):
     """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
     n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None."""
     best, n_tests = None, 0
     for band in _bands(hyps):
         d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
-        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
         rd = boxcar_decimate(r, d) if d > 1 else r
         cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
         n_tests += nt
@@ -234,7 +236,7 @@ def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
     return int(np.sum((last - lo + 1)[ok]))
 
 
-def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability):
+def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s=0.0):
     """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
 
     With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
@@ -243,7 +245,8 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
     another BLF) and clears the threshold of the narrow and the full search's tests together
     (the full search's lags counted, not searched), otherwise the full range is searched,
     with the same threshold: the union bound of the detection rule then covers both
-    searches, so the false-alarm probability per window stays as stated."""
+    searches, so the false-alarm probability per window stays as stated. ``delay_max_s``
+    extends the lags of a delayed reply beyond T1 (:class:`_Lags`)."""
     if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
         hyp = hyps[0]
         span = FINE_SPAN_STEPS * coarse_blf_step(hyp.m, hyp.trext)
@@ -252,7 +255,7 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
         for band in _bands(hyps):
             b = band[0]
             d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
-            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
             n_full += _n_lags(r.size // d, fs / d, b, lags.lo, lags.hi)
             a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
             if a < z:
@@ -269,7 +272,7 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
                 return narrow
     else:
         n_narrow = 0
-    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt)
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
     n_tests += n_narrow
     if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
         return None

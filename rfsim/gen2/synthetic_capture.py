@@ -190,9 +190,11 @@ def _check(exchanges, link: SyntheticLink, fs_hz: float, tag_depth: float, noise
         raise ValueError(f"tag_depth must be in (0, 1], got {tag_depth}")
     if not noise_rms >= 0.0:
         raise ValueError(f"noise_rms must be >= 0, got {noise_rms}")
-    if link.blf_hz is None and exchanges and not isinstance(exchanges[0].command, Query):
-        raise ValueError("without a Query first, the link must give blf_hz")
+    queried = link.blf_hz is not None
     for k, ex in enumerate(exchanges):
+        queried = queried or isinstance(ex.command, Query)
+        if ex.reply is not None and not queried:
+            raise ValueError(f"exchange {k}: a reply before any Query needs the link's blf_hz")
         if ex.delayed and not 0.0 <= ex.delay_s <= MAX_DELAYED_REPLY_S:
             raise ValueError(f"exchange {k}: delay_s must be in [0, {MAX_DELAYED_REPLY_S}] s, got {ex.delay_s}")
         if ex.cut_bits is not None and (ex.reply is None or not 0 <= ex.cut_bits < len(ex.reply)):

@@ -91,7 +91,7 @@ from rfsim.gen2.memory import TagError
 from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _decode_window, _NBitsRule
 from rfsim.gen2.reply_core import n_reply_elements
-from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, preamble_correlation
+from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, modulation_onsets, preamble_correlation
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
@@ -337,7 +337,12 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].sum() / lo_full
-    best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s)
+    best = None
+    for span_s in _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) if delayed else [None]:
+        best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s,
+                       span_s)
+        if best is not None:
+            break
     if best is None:
         return None
     found, rd, d = best
@@ -362,6 +367,17 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
         phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, delayed=bool(delayed),
         latency_s=start_s - float(cmd_end_s), **fields)
+
+
+def _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) -> list:
+    """Spans of reply starts [s after the command's last edge] searched in a delayed-reply
+    window: ±2 blocks around each onset of :func:`rfsim.gen2.reply_search.modulation_onsets`
+    (none: no reply), or the whole window (``[None]``) when it is too short to gate."""
+    onsets, block = modulation_onsets(r, fs, min(h.blf_lo_hz for h in hyps), first=max(lo_full, 0))
+    if onsets is None:
+        return [None]
+    to_s = lambda k: (i0 + k) / fs - cmd_end_s  # noqa: E731  (window sample → time after the command)
+    return [(to_s(k - 2 * block), to_s(k + 2 * block)) for k in onsets]
 
 
 def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance,

@@ -233,3 +233,44 @@ def test_the_reference_grrfid_waveform_holds_no_tag_reply(reference_data):
     records, _ = decode_reader_commands(x, 250e3)
     assert len(records) == 401
     assert decode_tag_replies(x, 250e3, records) == []
+
+
+@pytest.mark.parametrize("fs_hz, blf_hz, m", [(2e6, 250e3, 2), (25e6, 615e3, 1)])
+def test_a_delayed_reply_late_in_its_20ms_window_and_none_in_noise(fs_hz, blf_hz, m):
+    """T5 reaches 20 ms: a success reply 15 ms after the command is found (no Query: the
+    link is searched blind), and a command without a reply followed by 21 ms of carrier and
+    noise gives no reply in 10 noise draws (P_FA 1e−3 per window)."""
+    link = SyntheticLink(blf_hz=blf_hz, m=m, tari_s=6.25e-6)
+    success = bits(crc("0" + b(0x7E57, 16)))
+    cmd = BlockWrite(membank=3, word_ptr=0, data=(0xAAAA,), rn16=0x7E57)
+    cap = synthetic_capture([Exchange(cmd, success, True, 15e-3)], fs_hz=fs_hz, link=link, tag_depth=0.02,
+                            noise_rms=3e-3, rng=np.random.default_rng(np.random.SeedSequence(7)), lead_s=21e-3)
+    x = cap.magnitude
+    records, _ = decode_reader_commands(x, fs_hz)
+    (rep,) = decode_tag_replies(x, fs_hz, records)
+    assert (rep.kind, rep.delayed, rep.crc_ok, rep.rn16, rep.m, rep.trext) == ("success", True, True, 0x7E57, m, True)
+    assert abs(rep.start_s - cap.replies[0].start_s) < 0.25 / blf_hz
+    found = 0
+    for seed in range(10):
+        cap = synthetic_capture([Exchange(cmd)], fs_hz=fs_hz, link=link, noise_rms=3e-3, lead_s=21e-3,
+                                rng=np.random.default_rng(np.random.SeedSequence(100 + seed)))
+        records, _ = decode_reader_commands(cap.magnitude, fs_hz)
+        assert [r.name for r in records] == ["BlockWrite"]
+        found += len(decode_tag_replies(cap.magnitude, fs_hz, records))
+    assert found == 0
+
+
+def test_modulation_onsets_finds_where_the_tag_starts():
+    """White noise with a ±a square wave (period 8 samples) from sample 5000: the onset is the
+    block that holds sample 5000 or the next one; pure noise has none; a short window is
+    searched whole (None)."""
+    from rfsim.gen2.reply_search import modulation_onsets
+
+    rng = np.random.default_rng(np.random.SeedSequence(3))
+    x = rng.standard_normal(20000)
+    x[5000:7000] += 1.0 * np.where((np.arange(2000) // 4) % 2 == 0, 1.0, -1.0)
+    onsets, block = modulation_onsets(x, 1e6, 25e3)
+    assert block == 80
+    assert onsets and 5000 - block < onsets[0] <= 5000 + block
+    assert modulation_onsets(rng.standard_normal(20000), 1e6, 25e3)[0] == []
+    assert modulation_onsets(x[:1000], 1e6, 25e3)[0] is None

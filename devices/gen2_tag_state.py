@@ -6,8 +6,9 @@ Rules follow the EPC Gen2 protocol ("Tag states and slot counter", "Sessions and
 inventoried flags", "Selected flag", the Select/Inventory/Access command sections;
 gen2-and-validation-anchors.md §4.4–4.5):
 
-* States: ``ready``, ``arbitrate``, ``reply``, ``acknowledged``, ``open``, ``secured``
-  (Open/Secured only as far as Req_RN and Read need them; Killed is not modelled).
+* States: ``ready``, ``arbitrate``, ``reply``, ``acknowledged``, ``open``, ``secured``,
+  ``killed``. A killed tag never replies again, powered or not (every command is a silent
+  step for it, :func:`rfsim.devices.gen2_tag_arrays.silent_step`).
 * Sessions S0–S3 each hold an inventoried flag ``"A"``/``"B"``; SL is a separate flag.
 * Slot counter: Query and QueryAdjust load a value drawn uniformly from [0, 2^Q − 1] with
   the tag's own ``rng``; QueryRep decrements it; the tag backscatters a new RN16 when it
@@ -16,8 +17,14 @@ gen2-and-validation-anchors.md §4.4–4.5):
 * ACK with the tag's RN16 in Reply/Acknowledged → PC + EPC + CRC-16 and Acknowledged; a
   wrong RN16 → Arbitrate, no reply. Req_RN with the RN16 in Acknowledged → handle + CRC-16
   and Secured (access password 0) or Open; with a wrong RN16 it is ignored (state kept, as
-  recalled from the standard's state-transition tables, unverified). Read with the handle
-  in Open/Secured → header 0 + words + handle + CRC-16. NAK → Arbitrate from Reply, Acknowledged, Open, Secured.
+  recalled from the standard's state-transition tables, unverified). In Open/Secured every
+  access command (Req_RN, Read, Write, Kill, Lock, Access, BlockWrite, BlockErase) is executed
+  by :func:`rfsim.gen2.access.execute` on the tag's :class:`rfsim.gen2.memory.TagMemory` (the
+  one definition of those rules: handle check, replies with handle and CRC-16, the delayed
+  reply of Write/BlockWrite/BlockErase/Lock/Kill with its header bit and error codes, the
+  chip's write time and write power threshold, Access → Secured, Kill → Killed); its state
+  ``arbitrate`` (a wrong password half) becomes the tag's. NAK → Arbitrate from Reply,
+  Acknowledged, Open, Secured.
 * End of a successful inventory: a tag in Acknowledged/Open/Secured that receives a
   QueryRep or QueryAdjust of the round's session inverts that session's inventoried flag
   (A↔B) and goes to Ready; a Query of the round's session inverts the flag first and is
@@ -32,12 +39,14 @@ only while powered; S1 reverts from B to A 0.5–5 s after it was set, powered o
 and SL survive a power loss shorter than their persistence time (> 2 s). The times used are
 fields of :class:`FlagPersistence`.
 
-Memory model (Gen2 "Tag memory"): EPC bank = StoredCRC (word 0) | PC (word 1) | EPC;
-PC = L·2¹¹ where L = EPC length in 16-bit words (the 5 MSBs of PC, bits 10h–14h), UMI, XI,
-T and the numbering-system bits 0 (so PC = 3000h for a 96-bit EPC). StoredCRC = CRC-16 of
-PC + EPC, which is also the CRC the tag sends after PC + EPC in its ACK reply (§3.2).
-Reserved bank = kill password | access password (32 bits each); TID and User banks are bit
-arrays given by the caller.
+Memory model (Gen2 "Tag memory"): a :class:`rfsim.gen2.memory.TagMemory`, given or built
+from the EPC, TID, User and passwords (:meth:`rfsim.gen2.memory.TagMemory.from_words`, on the
+chip model ``chip`` resized to hold exactly them): EPC bank = StoredCRC (word 0) | PC (word 1)
+| EPC; PC = L·2¹¹ where L = EPC length in 16-bit words (the 5 MSBs of PC, bits 10h–14h), UMI,
+XI, T and the numbering-system bits 0 (so PC = 3000h for a 96-bit EPC). StoredCRC = CRC-16
+of PC + EPC, which is also the CRC the tag sends after PC + EPC in its ACK reply (§3.2).
+Reserved bank = kill password | access password (32 bits each). The EPC, PC, TID, User and
+passwords below are read from the memory (a Write to the EPC changes the ACK reply).
 
 The reply record, flag persistence, state codes, slot-counter draws and the shared clock are
 in :mod:`rfsim.devices.gen2_tag_values`; the same rules applied to a whole population at once
@@ -48,17 +57,25 @@ from __future__ import annotations
 
 import numpy as np
 
-from rfsim.gen2.bits import as_bits, bits_to_int, hex_to_bits, int_to_bits, str_to_bits
-from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
-from rfsim.gen2.crc import append_crc16, crc16_bits
+import dataclasses
+import math
+
+from rfsim.gen2.access import AccessContext, execute, rn_reply, state_after_req_rn
+from rfsim.gen2.bits import as_bits, hex_to_bits, str_to_bits
+from rfsim.gen2.commands import ACCESS_COMMANDS, ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
+from rfsim.gen2.crc import append_crc16
+from rfsim.gen2.memory import CHIP_MODELS, EPC, ChipModel, TagError, TagMemory, pc_epc_length
 from rfsim.devices.gen2_tag_arrays import StateArrays, silent_step
 from rfsim.devices.gen2_tag_values import (REPLY_KINDS, STATE_CODES, STATES, FlagPersistence, Reply, SharedClock,
-                                           _bits16, _draw16, adjusted_q, pc_word, slot_draw)
+                                           _bits16, adjusted_q, draw_rn16, pc_word, slot_draw)
 
 #: Slot counter value after a QueryRep in Reply state (standard: 0000h decrements to 7FFFh).
 SLOT_AFTER_WRAP = 0x7FFF
 #: Gen2 tag error code "memory overrun" (Read beyond the bank).
-ERROR_MEMORY_OVERRUN = 0x03
+ERROR_MEMORY_OVERRUN = int(TagError.MEMORY_OVERRUN)
+#: Chip model of a tag's memory built from its contents (write time and write power
+#: threshold; :data:`rfsim.gen2.memory.CHIP_MODELS`).
+DEFAULT_CHIP = "generic"
 #: Example TID of the form E2h | 12-bit mask-designer ID | 12-bit model number (not a real
 #: chip's TID; set ``tid`` for a specific chip).
 DEFAULT_TID_HEX = "E2006003"
@@ -72,8 +89,8 @@ class TagState:
 
     Parameters
     ----------
-    epc : (n,) uint8 bits or hex string
-        EPC, a multiple of 16 bits (≤ 496).
+    epc : (n,) uint8 bits or hex string, optional
+        EPC, a multiple of 16 bits (≤ 496); required unless ``memory`` is given.
     tid : (n,) uint8 bits or hex string, optional
         TID bank, whole 16-bit words; default :data:`DEFAULT_TID_HEX`.
     user : (n,) uint8 bits or hex string, optional
@@ -87,9 +104,18 @@ class TagState:
         Initial power state (at time ``t0_s``), default True.
     t0_s : float
         Time of the initial state [s], default 0.0.
+    chip : str or rfsim.gen2.memory.ChipModel
+        Chip model of the memory built from ``epc``, ``tid``, ``user`` and the passwords (its
+        write time, write power threshold, BlockWrite/BlockErase support; its sizes are set to
+        hold exactly the given contents), default :data:`DEFAULT_CHIP`.
+    memory : rfsim.gen2.memory.TagMemory or None
+        The tag's memory itself (then ``epc``, ``tid``, ``user``, the passwords and ``chip`` are
+        not given); default None, built as above.
 
     Attributes
     ----------
+    memory : rfsim.gen2.memory.TagMemory
+        The tag's memory (changed by Write, BlockWrite, BlockErase, Lock).
     state : str
         One of :data:`STATES`.
     inventoried : dict of int to str
@@ -108,24 +134,22 @@ class TagState:
     Raises
     ------
     ValueError
-        When TID or User are not whole 16-bit words, a password is not a 32-bit value, or the
-        EPC length is invalid (:func:`pc_word`).
+        When TID or User are not whole 16-bit words, a password is not a 32-bit value, the
+        EPC length is invalid (:func:`pc_word`), or neither or both of ``epc`` and ``memory``
+        are given.
     """
 
-    def __init__(self, epc, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
+    def __init__(self, epc=None, *, tid=DEFAULT_TID_HEX, user="", kill_password: int = 0,
                  access_password: int = 0, persistence: FlagPersistence = FlagPersistence(),
-                 powered: bool = True, t0_s: float = 0.0):
-        self.epc = _bits_arg(epc)
-        self.pc = pc_word(self.epc)
-        self.tid = _bits_arg(tid)
-        self.user = _bits_arg(user)
-        if self.tid.size % 16 or self.user.size % 16:
-            raise ValueError("TID and User memory must be whole 16-bit words")
-        for name, pwd in (("kill_password", kill_password), ("access_password", access_password)):
-            if not 0 <= int(pwd) < 1 << 32:
-                raise ValueError(f"{name} must be a 32-bit value, got {pwd}")
-        self.kill_password = int(kill_password)
-        self.access_password = int(access_password)
+                 powered: bool = True, t0_s: float = 0.0, chip: str | ChipModel = DEFAULT_CHIP,
+                 memory: TagMemory | None = None):
+        if (epc is None) == (memory is None):
+            raise ValueError("give the EPC or the memory (not both)")
+        if memory is None:
+            memory = _memory_of(_bits_arg(epc), _bits_arg(tid), _bits_arg(user), kill_password, access_password,
+                                CHIP_MODELS[chip] if isinstance(chip, str) else chip)
+        self.memory = memory
+        self._access: AccessContext | None = None  # Open/Secured/Killed: access.execute's context
         self.persistence = persistence
         self.powered = bool(powered)
         self.state = "ready"
@@ -145,20 +169,54 @@ class TagState:
 
     # ------------------------------------------------------------------ memory
     @property
+    def epc(self) -> np.ndarray:
+        """The EPC: the L words after the StoredPC, ``(16·L,) uint8`` bits."""
+        return _words_bits(self.memory.epc_words)
+
+    @property
+    def pc(self) -> int:
+        """The StoredPC (EPC bank word 1)."""
+        return self.memory.stored_pc
+
+    @property
+    def tid(self) -> np.ndarray:
+        """The TID bank, ``(n,) uint8`` bits."""
+        return _words_bits(self.memory.banks[2])
+
+    @property
+    def user(self) -> np.ndarray:
+        """The User bank, ``(n,) uint8`` bits."""
+        return _words_bits(self.memory.banks[3])
+
+    @property
+    def kill_password(self) -> int:
+        """The 32-bit kill password."""
+        return self.memory.kill_password
+
+    @property
+    def access_password(self) -> int:
+        """The 32-bit access password."""
+        return self.memory.access_password
+
+    @property
     def stored_crc(self) -> int:
         """StoredCRC: CRC-16 over PC + EPC (EPC bank word 0)."""
-        return bits_to_int(crc16_bits(self.pc_epc_bits))
+        return self.memory.stored_crc
 
     @property
     def pc_epc_bits(self) -> np.ndarray:
         """PC + EPC, ``(16 + n,) uint8``."""
-        return np.concatenate([int_to_bits(self.pc, 16), self.epc])
+        return _words_bits(self._pc_epc_words())
+
+    def _pc_epc_words(self) -> list:
+        bank = self.memory.banks[EPC]
+        return bank[1 : 2 + pc_epc_length(bank[1])]
 
     def bank_bits(self, membank: int) -> np.ndarray:
         """Return the bits of a memory bank, bit address 0 first.
 
-        Reserved = kill password | access password; EPC = StoredCRC | PC | EPC (EPC Gen2
-        "Tag memory").
+        Reserved = kill password | access password; EPC = StoredCRC | PC | EPC (and the
+        chip's unused EPC words) (EPC Gen2 "Tag memory"): the words of :attr:`memory`.
 
         Parameters
         ----------
@@ -175,15 +233,9 @@ class TagState:
         ValueError
             When ``membank`` is not 0–3.
         """
-        if membank == 0:
-            return np.concatenate([int_to_bits(self.kill_password, 32), int_to_bits(self.access_password, 32)])
-        if membank == 1:
-            return np.concatenate([int_to_bits(self.stored_crc, 16), self.pc_epc_bits])
-        if membank == 2:
-            return self.tid
-        if membank == 3:
-            return self.user
-        raise ValueError(f"memory bank must be 0-3, got {membank}")
+        if membank not in (0, 1, 2, 3):
+            raise ValueError(f"memory bank must be 0-3, got {membank}")
+        return _words_bits(self.memory.banks[membank])
 
     # ------------------------------------------------------------------ time and power
     @property
@@ -258,7 +310,7 @@ class TagState:
         Power loss: state → Ready, round state cleared, S0 → A. Power-up after an outage of
         duration d: S2/S3 → A and SL deasserted when d exceeds their persistence time; S1
         decays by its own timer regardless of power (EPC Gen2 "Sessions and inventoried
-        flags"). Nothing changes when the power state is the same.
+        flags"). Nothing changes when the power state is the same. A killed tag stays killed.
 
         Parameters
         ----------
@@ -275,6 +327,9 @@ class TagState:
         self._advance(t_s)
         powered = bool(powered)
         if powered == self.powered:
+            return
+        if self.state == "killed":  # killed for good
+            self.powered = powered
             return
         if not powered:
             self.powered = False
@@ -299,20 +354,26 @@ class TagState:
         self.slot = self.rn16 = self.handle = self.session = None
 
     # ------------------------------------------------------------------ commands
-    def on_command(self, cmd, *, t_s: float, rng: np.random.Generator) -> Reply | None:
+    def on_command(self, cmd, *, t_s: float, rng: np.random.Generator,
+                   power_margin_db: float = math.inf) -> Reply | None:
         """Apply one reader command received at time ``t_s`` [s]; return the tag's reply.
 
-        An unpowered tag ignores every command. The rules are those of the module docstring
-        (EPC Gen2 command sections).
+        An unpowered or killed tag ignores every command. The rules are those of the module
+        docstring (EPC Gen2 command sections).
 
         Parameters
         ----------
         cmd : rfsim.gen2.commands command
-            Query, QueryRep, QueryAdjust, ACK, NAK, ReqRN, Read or Select.
+            Query, QueryRep, QueryAdjust, ACK, NAK, Select or an access command
+            (:data:`rfsim.gen2.commands.ACCESS_COMMANDS`).
         t_s : float
             Keyword-only: time the command is received [s].
         rng : numpy.random.Generator
             Keyword-only: the tag's own generator (slot counters, RN16s, handles).
+        power_margin_db : float
+            Keyword-only: power at the chip above its sensitivity [dB]; a command that writes
+            memory below the chip's write threshold gets error 0x0B (insufficient power,
+            :func:`rfsim.gen2.access.execute`). Default inf.
 
         Returns
         -------
@@ -327,7 +388,7 @@ class TagState:
             When ``t_s`` is before the state's time.
         """
         self._advance(t_s)
-        if not self.powered:
+        if not self.powered or self.state == "killed":
             return None
         if isinstance(cmd, Query):
             return self._query(cmd, rng)
@@ -341,10 +402,10 @@ class TagState:
             if self.state in ("reply", "acknowledged", "open", "secured"):
                 self.state = "arbitrate"
             return None
-        if isinstance(cmd, ReqRN):
+        if isinstance(cmd, ReqRN) and self.state == "acknowledged":
             return self._req_rn(cmd, rng)
-        if isinstance(cmd, Read):
-            return self._read(cmd)
+        if isinstance(cmd, ACCESS_COMMANDS):
+            return self._access_command(cmd, rng, power_margin_db)
         if isinstance(cmd, Select):
             self._select(cmd)
             return None
@@ -421,7 +482,7 @@ class TagState:
     def _reply_if_zero(self, rng: np.random.Generator) -> Reply | None:
         if self.slot == 0:
             self.state = "reply"
-            self.rn16 = _draw16(rng)
+            self.rn16 = draw_rn16(rng)
             return Reply._own("RN16", _bits16(self.rn16))
         self.state = "arbitrate"
         return None
@@ -484,37 +545,43 @@ class TagState:
         return None
 
     def _epc_reply(self) -> Reply:
-        """The ACK reply PC + EPC + CRC-16 (an immutable record: made once for this EPC and
-        PC and given again while they stay the same)."""
-        key = (self.epc.tobytes(), self.pc)
+        """The ACK reply PC + EPC + CRC-16 (an immutable record: made once for this PC and
+        EPC and given again while they stay the same)."""
+        words = self._pc_epc_words()
         memo = self.__dict__.get("_epc_reply_memo")
-        if memo is None or memo[0] != key:
-            memo = self.__dict__["_epc_reply_memo"] = (key, Reply("EPC", append_crc16(self.pc_epc_bits)))
+        if memo is None or memo[0] != words:
+            memo = self.__dict__["_epc_reply_memo"] = (list(words), Reply("EPC", append_crc16(_words_bits(words))))
         return memo[1]
 
     def _req_rn(self, cmd: ReqRN, rng) -> Reply | None:
-        if self.state == "acknowledged":
-            if cmd.rn16 != self.rn16:  # invalid RN16: ignored, tag stays Acknowledged
-                return None
-            self.handle = _draw16(rng)
-            self.state = "secured" if self.access_password == 0 else "open"
-            return Reply("HANDLE", append_crc16(int_to_bits(self.handle, 16)))
-        if self.state in ("open", "secured") and cmd.rn16 == self.handle:
-            return Reply("RN16", append_crc16(int_to_bits(_draw16(rng), 16)))
-        return None
-
-    def _read(self, cmd: Read) -> Reply | None:
-        if self.state not in ("open", "secured") or cmd.rn16 != self.handle:
+        """Req_RN in Acknowledged: the handle, and Open or Secured
+        (:func:`rfsim.gen2.access.state_after_req_rn`)."""
+        if cmd.rn16 != self.rn16:  # invalid RN16: ignored, tag stays Acknowledged
             return None
-        bank = self.bank_bits(cmd.membank)
-        start = 16 * cmd.word_ptr
-        stop = bank.size if cmd.word_count == 0 else start + 16 * cmd.word_count
-        handle = int_to_bits(self.handle, 16)
-        if start >= bank.size or stop > bank.size:
-            body = np.concatenate([[1], int_to_bits(ERROR_MEMORY_OVERRUN, 8), handle]).astype(np.uint8)
-            return Reply("ERROR", append_crc16(body))
-        body = np.concatenate([np.zeros(1, np.uint8), bank[start:stop], handle])
-        return Reply("READ", append_crc16(body))
+        self.handle = draw_rn16(rng)
+        self.state = state_after_req_rn(self.memory)
+        self._access = AccessContext(self.state, self.handle, cover_rn16=self.handle)
+        return Reply("HANDLE", rn_reply(self.handle))
+
+    def _access_command(self, cmd, rng, power_margin_db: float) -> Reply | None:
+        """An access command in Open/Secured: :func:`rfsim.gen2.access.execute` (ignored in
+        any other state)."""
+        if self.state not in ("open", "secured"):
+            return None
+        res = execute(self.memory, self._access, cmd, power_margin_db=power_margin_db, rng=rng)
+        self._access = res.context
+        self.state = res.context.state
+        if res.reply is None:
+            return None
+        if isinstance(cmd, ReqRN):
+            kind = "RN16"
+        elif res.error is not None:
+            kind = "ERROR"
+        elif isinstance(cmd, Read):
+            kind = "READ"
+        else:
+            kind = "DELAYED" if res.delayed else "HANDLE"
+        return Reply(kind, res.reply, delay_s=res.delay_s, delayed=res.delayed)
 
     def select_matches(self, cmd: Select) -> bool:
         """Tell whether the tag matches a Select's mask (EPC Gen2 "Select").
@@ -584,12 +651,33 @@ def _bits_arg(value) -> np.ndarray:
     return as_bits(value).copy()
 
 
+def _words_bits(words) -> np.ndarray:
+    """16-bit words → their bits MSB first, ``(16·n,) uint8``."""
+    return np.unpackbits(np.asarray(words, dtype=">u2").view(np.uint8))
+
+
+def _memory_of(epc: np.ndarray, tid: np.ndarray, user: np.ndarray, kill_password, access_password,
+               chip: ChipModel) -> TagMemory:
+    """The memory holding exactly these contents (bits) on ``chip`` resized to them."""
+    pc_word(epc)  # the EPC length check
+    if tid.size % 16 or user.size % 16:
+        raise ValueError("TID and User memory must be whole 16-bit words")
+    for name, pwd in (("kill_password", kill_password), ("access_password", access_password)):
+        if not 0 <= int(pwd) < 1 << 32:
+            raise ValueError(f"{name} must be a 32-bit value, got {pwd}")
+    words = [np.packbits(b).view(">u2").tolist() for b in (epc, tid, user)]
+    chip = dataclasses.replace(chip, epc_words=len(words[0]), user_words=len(words[2]))
+    return TagMemory.from_words(chip, epc=words[0], tid=words[1], user=words[2], kill_password=int(kill_password),
+                                access_password=int(access_password))
+
+
 __all__ = [
     "STATES",
     "REPLY_KINDS",
     "SLOT_AFTER_WRAP",
     "ERROR_MEMORY_OVERRUN",
     "DEFAULT_TID_HEX",
+    "DEFAULT_CHIP",
     "Reply",
     "FlagPersistence",
     "SharedClock",

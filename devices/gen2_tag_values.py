@@ -13,9 +13,10 @@ import numpy as np
 
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.bits import as_bits
+from rfsim.gen2.tag_draws import _slot_drawer, draw_rn16, slot_draw
 
-STATES = ("ready", "arbitrate", "reply", "acknowledged", "open", "secured")
-REPLY_KINDS = ("RN16", "EPC", "HANDLE", "READ", "ERROR")
+STATES = ("ready", "arbitrate", "reply", "acknowledged", "open", "secured", "killed")
+REPLY_KINDS = ("RN16", "EPC", "HANDLE", "READ", "ERROR", "DELAYED")
 STATE_CODES = {s: k for k, s in enumerate(STATES)}
 
 
@@ -25,15 +26,26 @@ class Reply:
 
     Attributes
     ----------
-    kind : {"RN16", "EPC", "HANDLE", "READ", "ERROR"}
-        What the reply answers (:data:`REPLY_KINDS`).
+    kind : {"RN16", "EPC", "HANDLE", "READ", "ERROR", "DELAYED"}
+        What the reply answers (:data:`REPLY_KINDS`): an RN16 (with a CRC-16 when it answers
+        a Req_RN in Open/Secured), PC + EPC, the handle (Req_RN in Acknowledged; Access and
+        the first Kill), a Read's words, an error (header 1 | code | handle) or a delayed
+        reply's success (header 0 | handle).
     bits : ndarray of uint8, shape (n_bits,)
-        Payload bits MSB first, CRC-16 included where Gen2 has one (all kinds but RN16);
-        the line-code preamble and the dummy 1 are not included.
+        Payload bits MSB first, CRC-16 included where Gen2 has one (all kinds but the RN16
+        of a slot); the line-code preamble and the dummy 1 are not included.
+    delay_s : float
+        Extra delay of the reply beyond T1 [s] (the chip's programming time of a delayed
+        reply, :func:`rfsim.gen2.access.execute`), default 0.
+    delayed : bool
+        A delayed ("in-process") reply (Write, BlockWrite, BlockErase, Lock, final Kill):
+        sent with the extended preamble (TRext = 1 whatever the Query said), default False.
     """
 
     kind: str
     bits: np.ndarray
+    delay_s: float = 0.0
+    delayed: bool = False
 
     def __post_init__(self):
         if self.kind not in REPLY_KINDS:
@@ -45,7 +57,8 @@ class Reply:
     def __eq__(self, other):
         if not isinstance(other, Reply):
             return NotImplemented
-        return self.kind == other.kind and np.array_equal(self.bits, other.bits)
+        return (self.kind == other.kind and np.array_equal(self.bits, other.bits) and self.delay_s == other.delay_s
+                and self.delayed == other.delayed)
 
     __hash__ = None
 
@@ -119,11 +132,6 @@ def pc_word(epc_bits) -> int:
     return (n // 16) << 11
 
 
-def _draw16(rng: np.random.Generator) -> int:
-    """A 16-bit random number, ``rng.integers(0, 2**16)`` (:func:`slot_draw` with Q = 16)."""
-    return slot_draw(rng, 16)
-
-
 #: The 8 bits of every byte value, MSB first ((256, 8) uint8).
 _BYTE_BITS = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1)
 
@@ -153,47 +161,6 @@ def adjusted_q(q, updn):
         The new Q, the shape of ``q`` (a NumPy integer for an int ``q``).
     """
     return np.minimum(np.maximum(q + updn, 0), 15)
-
-
-def slot_draw(rng: np.random.Generator, q: int) -> int:
-    """Draw a slot counter uniform in [0, 2^Q − 1], the number ``rng.integers(0, 2**q)`` returns.
-
-    For a power-of-two range numpy's bounded draw (Lemire's multiply-shift) never rejects:
-    it returns the top Q bits of one 32-bit word of the bit generator, ``next_uint32 >> (32
-    − Q)``, and Q = 0 draws nothing. The word is read here through the bit generator's
-    ctypes interface — the same word, the same generator state afterwards (tested against
-    ``integers``), without the method's argument handling (a fifth of its cost; an inventory
-    draws a counter per tag on every QueryAdjust), and without the generator's lock (a tag's
-    generator is its own, used by one thread). A generator without that interface is asked
-    through ``integers``.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        The tag's own generator (advanced by one 32-bit word when Q > 0).
-    q : int
-        Q, 0–16 (16 draws an RN16).
-
-    Returns
-    -------
-    int
-        The slot counter, 0 ≤ slot < 2^Q (0 without a draw when Q ≤ 0).
-    """
-    if q <= 0:
-        return 0
-    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
-    if ct is None:
-        return int(rng.integers(0, 1 << q))
-    return ct.next_uint32(ct.state) >> (32 - q)
-
-
-def _slot_drawer(rng):
-    """``q → slot_draw(rng, q)`` with the bit generator's ctypes interface looked up once."""
-    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
-    if ct is None:
-        return lambda q: slot_draw(rng, q)
-    word, state = ct.next_uint32, ct.state
-    return lambda q: (word(state) >> (32 - q)) if q > 0 else 0
 
 
 class SharedClock:

@@ -29,6 +29,7 @@ phase offset as a 12-bit code, µs time stamps — is applied to the read log by
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -42,7 +43,7 @@ from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1
+from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1, t5
 from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
@@ -380,10 +381,12 @@ class Reader(PieTransmitter):
         Returns
         -------
         t1_min_s, t1_max_s : float
-            T1min and T1max of the link [s] (:func:`rfsim.gen2.link.t1`).
+            T1min and T1max of the link [s] (:func:`rfsim.gen2.link.t1`); while a delayed
+            reply is read (``receive(..., delayed=True)``) T1min and T5max
+            (:func:`rfsim.gen2.link.t5`).
         """
-
-        return _t1_window(self.link)
+        window = getattr(self, "_delayed_window", None)
+        return _t1_window(self.link) if window is None else window
 
     def reply_start_lags(self, n_samples: int, n_reply: int, *, t0_s: float,
                          cmd_end_s: float | None) -> tuple[int, int]:
@@ -417,7 +420,7 @@ class Reader(PieTransmitter):
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
                 cmd_end_s: float | None = None, blf_hz: float | None = None,
-                carrier: complex | None = None) -> ReadResult:
+                carrier: complex | None = None, delayed: bool = False) -> ReadResult:
         """Detect, decode and measure one tag reply.
 
         Parameters
@@ -447,6 +450,11 @@ class Reader(PieTransmitter):
             phase = (−arg(h·|carrier|/carrier)) mod 2π. A PR-ASK command ends with either
             polarity (the parity of its PIE symbols), which would otherwise add π to the
             phase of some commands' replies. Default None: the unmodulated carrier (phase 0).
+        delayed : bool, optional
+            A delayed ("in-process") reply to Write, BlockWrite, BlockErase, Lock or Kill
+            (EPC Gen2 v2 §6.3.2.12.3): sent with the extended preamble (as if TRext = 1) and
+            searched in [cmd_end + T1min, cmd_end + T5max] (T5max = 20 ms,
+            :func:`rfsim.gen2.link.t5`). Default False.
 
         Returns
         -------
@@ -496,6 +504,9 @@ class Reader(PieTransmitter):
            estimate is unambiguous for |f_D| < K/(2T). Decoding itself assumes a constant h
            over the reply (phase drift |f_D|·T ≲ 1/8 cycle).
         """
+        if delayed:
+            return self._receive_delayed(rx, t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+                                         blf_hz=blf_hz, carrier=carrier)
         if self._rx_rng is not None:  # rx is noise-free: rfsim.devices.reader_statistic
             return _statistic.receive(self, rx, t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
                                       blf_hz=blf_hz, carrier=carrier, rng=self._rx_rng)
@@ -553,6 +564,20 @@ class Reader(PieTransmitter):
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                           start_s=start_s, corr=det.corr, **meas)
+
+    def _receive_delayed(self, rx, **kwargs) -> ReadResult:
+        """:meth:`receive` of a delayed reply: the same receiver with the link's TRext = 1 and the
+        reply start searched in [T1min, T5max] (the link and window are set for this read only)."""
+        kept = getattr(self, "_delayed_link", None)
+        if kept is None or kept.source is not self.link:
+            lk = self.link
+            kept = self._delayed_link = _Kept(lk, (dataclasses.replace(lk, trext=True), (t1(lk).min_s, t5(lk).max_s)))
+        link = self.link
+        self.link, self._delayed_window = kept.value
+        try:
+            return self.receive(rx, **kwargs)
+        finally:
+            self.link, self._delayed_window = link, None
 
     def _receive_searched(self, r: np.ndarray, lo: int, hi: int, t0_s: float, n_bits: int, expect_crc: bool,
                           carrier) -> ReadResult:

@@ -41,7 +41,14 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    tag's actual BLF (no per-element jitter). A tag's own T1 adds ``t1_offset_s`` to the
    counted T1 (:mod:`rfsim.devices.tag_spread` draws it so that T1 is uniform in [T1min, T1max]).
    Reply start and BLF are floats: the waveform is sampled at fractional-sample timing
-   (:func:`rfsim.gen2.linecode.reply_waveform`), never rounded to samples.
+   (:func:`rfsim.gen2.linecode.reply_waveform`), never rounded to samples. A delayed
+   ("in-process") reply to Write, BlockWrite, BlockErase, Lock or Kill (EPC Gen2 v2
+   §6.3.2.12.3; :mod:`rfsim.gen2.access`) starts ``Reply.delay_s`` (the chip's programming
+   time) after that T1 and is sent with the extended preamble (TRext = 1 whatever the Query
+   said: the standard has the tag reply to these commands as if TRext = 1); the response's
+   ``reply_start_s``, ``reply_end_s`` and ``trext`` are those of the delayed reply. The chip's
+   power margin (:meth:`PassiveTag.power_margin_db`) decides whether a write succeeds (error
+   0x0B insufficient power below the memory chip's write threshold, ``TagConfig.memory_chip``).
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
    (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
@@ -86,8 +93,9 @@ from rfsim.devices.tag_config import DEFAULT_SENSITIVITY_DBM, TagConfig, chip_sp
 from rfsim.devices.tag_frontend import ReflectionStates
 from rfsim.devices.tag_population import TagPopulation
 from rfsim.devices.tag_response import REASONS, TagResponse
-from rfsim.gen2.commands import CommandParseError, Query, parse
+from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.memory import CHIP_MODELS, TagMemory
 from rfsim.gen2.pie import pie_decode, two_level_threshold
 from rfsim.core.lazy import lazy_import
 
@@ -356,6 +364,10 @@ class PassiveTag:
         A chip whose impedance follows its absorbed power: each segment's CW power sets
         :attr:`reflection_states` and power-up (its rule, not ``config.sensitivity_dbm``)
         through :meth:`~rfsim.devices.tag_chip.PowerDependentChip.operating_point`.
+    memory : :class:`rfsim.gen2.memory.TagMemory` or None
+        The tag's memory (its chip model gives the write time and write threshold); default
+        None: ``config.epc_hex``, the default TID and ``config.memory_chip``'s User memory
+        (zeros) on that chip model (:class:`rfsim.devices.gen2_tag_state.TagState`).
 
     Attributes
     ----------
@@ -367,7 +379,7 @@ class PassiveTag:
     """
 
     def __init__(self, config: TagConfig, antenna, *, rng: np.random.Generator, t0_s: float = 0.0,
-                 chip: PowerDependentChip | None = None):
+                 chip: PowerDependentChip | None = None, memory: TagMemory | None = None):
         if not isinstance(config, TagConfig):
             raise TypeError(f"config must be a TagConfig, got {type(config).__name__}")
         if not isinstance(rng, np.random.Generator):
@@ -379,7 +391,11 @@ class PassiveTag:
         self.reflection_states = config.reflection_states
         self.chip = chip
         self.operating_point: ChipOperatingPoint | None = None
-        self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s)
+        if memory is None:  # the config's EPC, the default TID, the memory chip's User memory (zeros)
+            self.state = TagState(config.epc_hex.replace(" ", ""), powered=False, t0_s=t0_s, chip=config.memory_chip,
+                                  user="0000" * CHIP_MODELS[config.memory_chip].user_words)
+        else:
+            self.state = TagState(memory=memory, powered=False, t0_s=t0_s)
         #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
@@ -744,9 +760,42 @@ class PassiveTag:
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
         silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
-        reply = None if silent else self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+        if silent:
+            reply = None
+        elif isinstance(cmd, ACCESS_COMMANDS):
+            reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng,
+                                          power_margin_db=self.power_margin_db(p_dbm))
+        else:
+            reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
         return self._replied(cmd, frame, reply, cmd_end_s, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz,
                              n_samples=n_samples)
+
+    def power_margin_db(self, p_dbm: float) -> float:
+        """Power at the chip above its sensitivity [dB], at incident power ``p_dbm``.
+
+        Without a power-dependent chip 10·log10(τ_PU·τ·P_inc / P_min) (step 1 of the module
+        docstring: powered ⇔ margin ≥ 0); with one 10·log10(P_chip / P_threshold) of the
+        last segment's operating point. Access commands that write memory need a margin of at
+        least the memory chip's write threshold (:attr:`TagConfig.memory_chip`,
+        :func:`rfsim.gen2.access.execute`).
+
+        Parameters
+        ----------
+        p_dbm : float
+            Incident (available) CW power P_inc [dBm].
+
+        Returns
+        -------
+        float
+            The margin [dB] (−inf at zero power).
+        """
+        if self.chip is not None and self.operating_point is not None:
+            p_chip_w = self.operating_point.p_chip_w
+            return 10.0 * math.log10(p_chip_w / self.chip.threshold_w) if p_chip_w > 0 else -math.inf
+        tau, tau_pu, sens_w, _ = self._tau_power_up()
+        if p_dbm == -math.inf:
+            return -math.inf
+        return p_dbm - 30.0 + 10.0 * math.log10(tau_pu * tau / sens_w)
 
     def respond_reply(self, quiet: tuple, decoded: tuple, incident, reply) -> TagResponse:
         """:meth:`respond_decoded` of a tag whose state machine has already answered.
@@ -795,13 +844,17 @@ class PassiveTag:
         start_s = cmd_end_s + n_t1 / f_clk + self.config.t1_offset_s
         if self.clock.jitter_rms > 0:
             start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
-        s = reply_waveform(reply.bits, m=query.m, trext=query.trext, blf_hz=blf_hz, fs_hz=fs_hz,
+        trext = query.trext
+        if reply.delayed:  # step 4: a delayed reply, after the programming time, with the pilot tone
+            start_s += reply.delay_s
+            trext = True
+        s = reply_waveform(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz,
                            t0_s=start_s - t0_s, n_samples=n_samples)
         gamma = _reflection(s, self.reflection_states.gamma_b, rest)
-        end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=query.trext, blf_hz=blf_hz)
+        end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,
-                           m=query.m, trext=query.trext, gamma_rest=rest, structural_mode=a_s)
+                           m=query.m, trext=trext, gamma_rest=rest, structural_mode=a_s)
 
 
 __all__ = ["TagResponse", "PassiveTag", "SharedFrontEnd", "incident_power_w", "envelope",

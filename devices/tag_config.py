@@ -15,6 +15,7 @@ from rfsim.devices.tag_spread import spread_gamma_b
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
 from rfsim.core.units import dbm_to_w, w_to_dbm
+from rfsim.gen2.memory import ChipName
 
 #: Default chip sensitivity [dBm]: the PASS minimum operating chip power at 900 MHz
 #: (:data:`rfsim.devices.tag_frontend.PASS_PICMIN_900MHZ_W`, −12.78 dBm, no PASS margin).
@@ -60,6 +61,13 @@ class TagConfig:
         Chip spread: gain of Γ_B − Γ_A [dB] (:mod:`rfsim.devices.tag_spread`).
     chip_phase_deg : float, default 0.0
         Chip spread: phase of Γ_B − Γ_A [deg].
+    memory_chip : str, default "generic"
+        Chip model of the tag's memory (:data:`rfsim.gen2.memory.CHIP_MODELS`): its write
+        time per word and write power threshold (write minus read sensitivity), which the
+        access commands use (:func:`rfsim.gen2.access.execute`). The default "generic" chip is
+        the project's assumption (3 ms per word, 3 dB; the datasheets' chips, e.g. Impinj
+        Monza 4: 1.7 ms, 2.8 dB, are in ``CHIP_MODELS`` with their sources). The threshold
+        applies to the chip's power above ``sensitivity_dbm``.
 
     Raises
     ------
@@ -93,6 +101,9 @@ class TagConfig:
                                 doc="chip spread: gain of Γ_B − Γ_A (rfsim.devices.tag_spread)")
     chip_phase_deg: float = param(0.0, lo=-180.0, hi=180.0, unit="deg",
                                   doc="chip spread: phase of Γ_B − Γ_A (rfsim.devices.tag_spread)")
+    memory_chip: ChipName = param("generic", doc="chip model of the memory: write time and write power "
+                                                 "threshold (rfsim.gen2.memory.CHIP_MODELS; generic: "
+                                                 "the project's assumptions, 3 ms/word, 3 dB)")
 
     def __post_init__(self):
         check_fields(self, "tag")

@@ -27,6 +27,7 @@ from rfsim.runs.registry import builtin_modules, get_scenario
 #: A tiny problem per scenario (well under a second a run once its kernels are compiled):
 #: the drawn keys come on top of it.
 TINY: dict[str, dict[str, Any]] = {
+    "access": {"geometry.distances_m": [1.0], "rounds_per_point": 1},
     "detection-probability": {"samples.count": 4, "samples.n_train": 2, "samples.workers": 1},
     "exciter-link": {"sweep.exciter_distance_m": [0.5, 1.0], "sweep.tag_distance_m": [0.1, 0.2],
                      "sweep.draws_per_point": 1, "sweep.workers": 1},

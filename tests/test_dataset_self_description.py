@@ -29,6 +29,7 @@ from rfsim.core.dataset import CONVENTIONS, LONG_NAME_MAX, read_table
 
 #: Tiny configs (``--set`` overrides) that still produce every table of each scenario.
 TINY = {
+    "access": ["geometry.distances_m=[1.0, 5.0, 9.0]", "rounds_per_point=2"],
     "gen2-waveforms": ["profiles=['fm0-40k', 'miller4-320k']", "fs_hz=3e6"],
     "link": ["geometry.distances_m=[1.0, 9.0]", "rounds_per_point=2"],
     "inventory": ["populations=[3]", "runs=1", "capture.trials=2", "capture.ratios_db=[0.0, 4.0]",
@@ -195,6 +196,7 @@ def test_any_table_into_pandas_in_one_line(datasets):
 
 #: Figures each scenario draws (suffixes after the dataset's stem).
 FIGURES = {
+    "access": ["ranges"],
     "gen2-waveforms": ["exchange"], "link": ["rssi-read-rate"], "inventory": ["capture", "summary"],
     "reader-detection": ["heatmap", "mean"], "detection-probability": ["fig4_7"],
     "phase-cancellation": ["fig3_15", "fig3_16", "fig3_3_3_5", "fig3_8"],

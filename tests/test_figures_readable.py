@@ -28,6 +28,7 @@ EDGE_PX = 1.0
 #: A small run of each scenario (``--set`` overrides: smallest sizes that still draw every
 #: panel) and whether it is slow (minutes on one core).
 SMALL = {
+    "access": (["geometry.distances_m=[1.0, 3.0, 5.0, 9.0]", "rounds_per_point=2"], False),
     "gen2-waveforms": (["profiles=['fm0-40k', 'miller4-320k']", "fs_hz=3e6"], False),
     "link": (["geometry.distances_m=[1.0, 3.0, 9.0]", "rounds_per_point=3"], False),
     "inventory": (["populations=[3]", "runs=1", "capture.trials=2", "capture.ratios_db=[0.0, 4.0]",

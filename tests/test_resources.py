@@ -100,6 +100,7 @@ def measured_peak_bytes(name: str, sets: list[str], tmp: Path, env: dict | None 
 #: (scenario, small size, larger size): the --set values of two runs whose per-unit parts
 #: differ; every run in process (workers = 1) so that the largest process holds the run.
 SIZES = {
+    "access": (["rounds_per_point=1"], ["rounds_per_point=40"]),
     "detection-probability": (["samples.count=20", "samples.n_train=10", "samples.workers=1"],
                               ["samples.count=800", "samples.n_train=10", "samples.workers=1"]),
     "exciter-link": (["sweep.draws_per_point=1", "sweep.workers=1"], ["sweep.draws_per_point=20", "sweep.workers=1"]),

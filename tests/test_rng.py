@@ -80,3 +80,17 @@ def test_trial_rng_grid_large_indices_and_empty():
     assert trial_rng_grid(3, [], [0, 1]) == []
     with pytest.raises(ValueError):
         trial_rng_grid(3, [-1], [0])
+
+
+def test_grid_generators_spawn_the_streams_of_trial_rng():
+    """A generator of trial_rng_grid spawns as SeedSequence(seed, spawn_key=(i, k)) does: the
+    children's draws equal those of trial_rng(seed, i, k).spawn (the statistic receiver of a
+    reader spawns its stream from the reader's generator)."""
+    grid = trial_rng_grid(7, [0, 3], [1, 4])
+    for row, i in zip(grid, [0, 3]):
+        for gen, k in zip(row, [1, 4]):
+            ref = trial_rng(7, i, k)
+            for _ in range(2):  # two successive spawns continue the child count
+                a, b = gen.spawn(2), ref.spawn(2)
+                for x, y in zip(a, b):
+                    assert np.array_equal(x.integers(0, 2**63, 8), y.integers(0, 2**63, 8))

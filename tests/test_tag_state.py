@@ -30,6 +30,7 @@ def _observable(st: TagState) -> dict:
     held = ("_clock", "_t_s", "_slot_clock", "_slot")
     out = {k: v for k, v in vars(st).items() if not isinstance(v, np.ndarray) and k not in held}
     out["t_s"], out["slot"] = st.t_s, st.slot
+    out["memory"] = (st.memory.chip, st.memory.banks, st.memory.xpc_w1, st.memory.locks)  # its contents
     return out
 
 
@@ -523,14 +524,14 @@ def test_slot_draw_equals_generator_integers():
 @pytest.mark.parametrize("pc, epc, crc", GOLDEN_REPLIES[:2])
 def test_epc_reply_kept_follows_the_epc(pc, epc, crc):
     # the ACK reply is made once per EPC: a second round gives the golden frame again, and an
-    # EPC changed in place (or replaced) gives that EPC's own frame
+    # EPC changed in memory gives that EPC's own frame
     rng = np.random.default_rng(4)
     tag = _acknowledged_tag(rng, epc=epc)
     tag.on_command(QueryRep(session=0), t_s=2e-3, rng=rng)  # A → B
     r = tag.on_command(Query(q=0, session=0, target="B"), t_s=3e-3, rng=rng)
     again = tag.on_command(ACK(rn16=_rn(r)), t_s=4e-3, rng=rng)
     assert bits_to_hex(again.bits) == pc + epc + crc
-    tag.epc[:16] ^= 1  # first EPC word inverted
+    tag.memory.banks[1][2] ^= 0xFFFF  # first EPC word (EPC bank word 2) inverted in memory
     tag.on_command(QueryRep(session=0), t_s=5e-3, rng=rng)  # B → A
     r = tag.on_command(Query(q=0, session=0, target="A"), t_s=6e-3, rng=rng)
     changed = tag.on_command(ACK(rn16=_rn(r)), t_s=7e-3, rng=rng)
@@ -582,3 +583,93 @@ def test_tags_following_the_arrays_clock_keep_their_own_times():
     assert [st.t_s for st in states] == [3e-3, 2e-3, 3e-3] and [st.slot for st in states] == [2, 0, 6]
     with pytest.raises(ValueError, match="backwards"):
         states[0].on_command(rep, t_s=2.5e-3, rng=np.random.default_rng(0))
+
+
+# ----------------------------------------------------------------------------- access commands
+
+
+def _opened(tag, rng, t_s=2e-3):
+    """Req_RN in Acknowledged: the handle (RN16 | CRC-16)."""
+    r = tag.on_command(ReqRN(rn16=tag.rn16), t_s=t_s, rng=rng)
+    assert r.kind == "HANDLE" and r.bits.size == 32 and crc16_ok(r.bits)
+    return bits_to_int(r.bits[:16])
+
+
+def test_state_built_from_its_contents_or_given_its_memory():
+    from rfsim.gen2.memory import TagMemory, TagMemoryConfig
+
+    tag = TagState(EPC, tid="E2801105", user="1234ABCD", kill_password=0x01020304, access_password=5)
+    assert bits_to_hex(tag.bank_bits(0)) == "0102030400000005"
+    assert bits_to_hex(tag.bank_bits(1)) == "6D3E3000" + EPC  # StoredCRC of §3.2 | PC | EPC, no padding
+    assert bits_to_hex(tag.bank_bits(2)) == "E2801105" and bits_to_hex(tag.bank_bits(3)) == "1234ABCD"
+    mem = TagMemory(TagMemoryConfig(chip="monza-4qt", epc=EPC, user="CAFE"))
+    given = TagState(memory=mem)
+    assert given.memory is mem and bits_to_hex(given.epc) == EPC and bits_to_hex(given.user[:16]) == "CAFE"
+    assert given.user.size == 16 * 32  # the chip's User memory
+    with pytest.raises(ValueError):
+        TagState(EPC, memory=mem)
+    with pytest.raises(ValueError):
+        TagState()
+
+
+def test_write_to_the_epc_changes_the_ack_reply():
+    # a Write to EPC word 2 (the first EPC word) in Secured: the next round's ACK reply carries
+    # the new EPC and the StoredCRC computed over it (CRC checked by residue)
+    from rfsim.gen2.commands import Write, cover_code
+
+    rng = np.random.default_rng(11)
+    tag = _acknowledged_tag(rng)
+    handle = _opened(tag, rng)
+    r = tag.on_command(ReqRN(rn16=handle), t_s=3e-3, rng=rng)
+    rn = bits_to_int(r.bits[:16])
+    r = tag.on_command(Write(membank=1, word_ptr=2, data=cover_code(0xABCD, rn), rn16=handle), t_s=4e-3, rng=rng)
+    assert r.kind == "DELAYED" and r.delayed and r.delay_s > 0 and r.bits[0] == 0 and crc16_ok(r.bits)
+    tag.on_command(QueryRep(session=0), t_s=5e-3, rng=rng)  # ends the round: S0 → B
+    r = tag.on_command(Query(q=0, session=0, target="B"), t_s=6e-3, rng=rng)
+    epc = tag.on_command(ACK(rn16=_rn(r)), t_s=7e-3, rng=rng)
+    assert bits_to_hex(epc.bits[:-16]) == "3000" + "ABCD" + EPC[4:] and crc16_ok(epc.bits)
+
+
+@pytest.mark.parametrize("margin_db, kind, code", [(5.0, "DELAYED", None), (1.0, "ERROR", 0x0B)])
+def test_write_needs_the_chip_write_threshold(margin_db, kind, code):
+    # the generic chip: a write needs 3 dB above the read sensitivity and takes 3 ms per word
+    from rfsim.gen2.commands import Write
+
+    rng = np.random.default_rng(12)
+    tag = TagState(EPC, user="0000")
+    r = tag.on_command(Query(q=0, session=0), t_s=0.0, rng=rng)
+    tag.on_command(ACK(rn16=_rn(r)), t_s=1e-3, rng=rng)
+    handle = _opened(tag, rng)
+    r = tag.on_command(Write(membank=3, word_ptr=0, data=0x1234, rn16=handle), t_s=3e-3, rng=rng,
+                       power_margin_db=margin_db)
+    assert r.kind == kind and r.delayed and r.delay_s == pytest.approx(3e-3) and crc16_ok(r.bits)
+    if code is None:
+        assert r.bits.size == 33 and r.bits[0] == 0
+        assert bits_to_hex(tag.bank_bits(3)) == f"{0x1234 ^ handle:04X}"  # cover-coded with the handle
+    else:
+        assert r.bits.size == 41 and r.bits[0] == 1 and bits_to_int(r.bits[1:9]) == code
+        assert bits_to_hex(tag.bank_bits(3)) == "0000"
+
+
+def test_killed_tag_never_replies_again_across_power_cycles():
+    from rfsim.gen2.commands import Kill
+
+    rng = np.random.default_rng(13)
+    tag = TagState(EPC, kill_password=0xDEADBEEF)
+    r = tag.on_command(Query(q=0, session=0), t_s=0.0, rng=rng)
+    tag.on_command(ACK(rn16=_rn(r)), t_s=1e-3, rng=rng)
+    handle = _opened(tag, rng)
+    t = 3e-3
+    for half in (0xDEAD, 0xBEEF):
+        r = tag.on_command(ReqRN(rn16=handle), t_s=t, rng=rng)
+        rn = bits_to_int(r.bits[:16])
+        r = tag.on_command(Kill(password=half ^ rn, rn16=handle), t_s=t + 1e-3, rng=rng)
+        t += 2e-3
+    assert r.kind == "DELAYED" and r.bits[0] == 0 and tag.state == "killed"
+    tag.on_power(False, t)
+    tag.on_power(True, t + 10.0)
+    assert tag.state == "killed"
+    for k, cmd in enumerate((Query(q=0, session=0), ReqRN(rn16=handle), Read(membank=1, rn16=handle), NAK(),
+                             QueryRep(session=0))):
+        assert tag.on_command(cmd, t_s=t + 11.0 + k, rng=rng) is None
+    assert tag.state == "killed"

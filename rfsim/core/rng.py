@@ -160,7 +160,7 @@ def trial_rng_grid(seed: int, indices: Sequence[int], streams: Sequence[int]) ->
     entropy_words[:, :len(run_words)] = run_words
     entropy_words[:, len(run_words):] = keys
     words = _pcg64_seed_words(entropy_words)
-    gens = [np.random.Generator(np.random.PCG64(_SeedWords(w))) for w in words]
+    gens = [np.random.Generator(np.random.PCG64(_SeedWords(w, entropy, key))) for w, key in zip(words, keys)]
     return [gens[j:j + n_streams] for j in range(0, len(gens), n_streams)]
 
 
@@ -225,16 +225,30 @@ def _pcg64_seed_words(entropy_words: np.ndarray) -> np.ndarray:
     return lo | (hi << np.uint64(32))  # uint32 pairs as little-endian uint64 (SeedSequence's view)
 
 
-class _SeedWords(np.random.bit_generator.ISeedSequence):
-    """The seed words of one PCG64, formed beforehand (:func:`trial_rng_grid`)."""
+class _SeedWords(np.random.bit_generator.ISpawnableSeedSequence):
+    """The seed words of one PCG64, formed beforehand (:func:`trial_rng_grid`).
 
-    def __init__(self, words: np.ndarray):
+    It stands for ``SeedSequence(entropy, spawn_key=spawn_key)`` and spawns as that sequence
+    would (children ``SeedSequence(entropy, spawn_key=spawn_key + (j,))``, counted from 0), so a
+    generator of :func:`trial_rng_grid` spawns the same streams as :func:`trial_rng`'s.
+    """
+
+    def __init__(self, words: np.ndarray, entropy: int, spawn_key: tuple[int, ...]):
         self._words = words
+        self.entropy = entropy
+        self.spawn_key = spawn_key
+        self.n_children_spawned = 0
 
     def generate_state(self, n_words, dtype=np.uint32):
         if n_words != 4 or np.dtype(dtype) != np.uint64:
             raise ValueError("only the 4 uint64 words a PCG64 asks for were formed")
         return self._words.copy()
+
+    def spawn(self, n_children):
+        first = self.n_children_spawned
+        self.n_children_spawned += n_children
+        return [np.random.SeedSequence(self.entropy, spawn_key=self.spawn_key + (j,))
+                for j in range(first, first + n_children)]
 
 
 __all__ = ["run_seed_sequence", "trial_seed_sequence", "trial_rng", "trial_rngs", "trial_rng_grid"]

@@ -65,10 +65,14 @@ from rfsim.gen2.commands import (
 )
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.memory import MemoryAccessError, TagError, TagMemory
+from rfsim.gen2.tag_draws import draw_rn16
 
 #: Longest time a tag may take to send a delayed reply, s (EPC Gen2 v2, Write command:
 #: 20 ms).
 MAX_DELAYED_REPLY_S = 20e-3
+
+#: Bits of an error reply: header ``1`` | error code (8) | handle (16) | CRC-16 (16).
+ERROR_REPLY_BITS = 41
 
 State = Literal["open", "secured", "killed", "arbitrate"]
 
@@ -244,7 +248,8 @@ def execute(memory: TagMemory, context: AccessContext, cmd, *, power_margin_db: 
     power_margin_db : float
         Power at the chip above its read sensitivity, dB; default inf (plenty).
     rng : numpy.random.Generator or None
-        Draws the new RN16 of a Req_RN (required for Req_RN).
+        Draws the new RN16 of a Req_RN (required for Req_RN;
+        :func:`rfsim.gen2.tag_draws.draw_rn16`).
 
     Returns
     -------
@@ -266,7 +271,7 @@ def execute(memory: TagMemory, context: AccessContext, cmd, *, power_margin_db: 
     if isinstance(cmd, ReqRN):
         if rng is None:
             raise ValueError("Req_RN needs rng to draw the new RN16")
-        rn16 = int(rng.integers(0, 1 << 16))
+        rn16 = draw_rn16(rng)
         return AccessResult(rn_reply(rn16), replace(context, cover_rn16=rn16))
     if isinstance(cmd, (Access, Kill)):
         return _password_half(memory, context, cmd, power_margin_db)
@@ -343,6 +348,6 @@ def _password_half(memory: TagMemory, context: AccessContext, cmd, power_margin_
 
 
 __all__ = [
-    "MAX_DELAYED_REPLY_S", "AccessContext", "AccessResult", "state_after_req_rn", "execute",
+    "MAX_DELAYED_REPLY_S", "ERROR_REPLY_BITS", "AccessContext", "AccessResult", "state_after_req_rn", "execute",
     "success_reply", "error_reply", "read_reply", "rn_reply",
 ]

@@ -483,6 +483,30 @@ def reply_window_s(link: LinkProfile, reply_bits: int) -> float:
     return link.reply_duration_s(int(reply_bits)) + t1(link).max_s + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
 
 
+def delayed_reply_window_s(link: LinkProfile, reply_bits: int) -> float:
+    """CW kept after a command for a delayed ("in-process") reply of ``reply_bits`` payload bits.
+
+    T5max (20 ms, the latest start of a delayed reply after the command, anchors §4.3) + the
+    reply with the extended preamble (a delayed reply is sent as if TRext = 1, EPC Gen2 v2
+    §6.3.2.12.3) at the slowest BLF of the tolerance, BLF·(1 − FrT), +
+    :data:`REPLY_WINDOW_TAIL_TPRI` Tpri.
+
+    Parameters
+    ----------
+    link : LinkProfile
+        The link.
+    reply_bits : int
+        Payload bits of the expected reply (header, handle and CRC-16 included).
+
+    Returns
+    -------
+    float
+        Window length [s].
+    """
+    reply_s = backscatter_duration_s(int(reply_bits), blf_hz=link.blf_hz, m=link.m, trext=True)
+    return t5(link).max_s + reply_s / (1.0 - link.frt) + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
+
+
 def reader_listen_start_s(link: LinkProfile, cmd_end_s: float) -> float:
     """When the reader's receiver starts listening after a command.
 
@@ -672,6 +696,7 @@ __all__ = [
     "reply_window_s",
     "reader_listen_start_s",
     "REPLY_WINDOW_TAIL_TPRI",
+    "delayed_reply_window_s",
     "READER_LISTEN_DELAY_TARI",
     "t2_range",
     "t1",

@@ -56,7 +56,6 @@ import numpy as np
 
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.bits import int_to_bits
 from rfsim.gen2.commands import LOCK_FIELDS
 from rfsim.gen2.crc import crc16
 
@@ -341,7 +340,7 @@ def stored_crc(stored_pc: int, epc_words) -> int:
         16-bit StoredCRC.
     """
     words = [int(stored_pc)] + [int(w) for w in epc_words]
-    return crc16(np.concatenate([int_to_bits(w, 16) for w in words]))
+    return crc16(np.unpackbits(np.array(words, dtype=">u2").view(np.uint8)))  # the words' bits, MSB first
 
 
 def pc_epc_length(stored_pc: int) -> int:
@@ -385,24 +384,76 @@ class TagMemory:
 
     def __init__(self, config: TagMemoryConfig):
         chip = config.chip_model
-        self.chip = chip
-        reserved = []
-        if chip.passwords:
-            k, a = config.kill_password, config.access_password
-            reserved = [k >> 16, k & 0xFFFF, a >> 16, a & 0xFFFF]
         epc = list(_hex_words("memory.epc", config.epc))
         xpc = config.xpc_w1
         pc = len(epc) << 11 | int(config.umi) << 10 | int(bool(xpc)) << 9 | config.pc_attributes
-        epc_bank = [0, pc] + epc + [0] * (chip.epc_words - len(epc))
         tid = list(_hex_words("memory.tid", config.tid)) if config.tid else list(chip.tid_words(config.tid_serial))
         user = list(_hex_words("memory.user", config.user))
         user += [0] * (config.n_user_words - len(user))
+        self._fill(chip, config.kill_password, config.access_password, pc, epc, tid, user, xpc,
+                   {name: LOCK_STATES[getattr(config, "lock_" + name)] for name in LOCK_FIELDS})
+
+    def _fill(self, chip: ChipModel, kill_password: int, access_password: int, pc: int, epc: list, tid: list,
+              user: list, xpc, locks: dict) -> None:
+        """Set the banks (the EPC padded with zeros to the chip's capacity), XPC_W1 and the locks."""
+        self.chip = chip
+        reserved = []
+        if chip.passwords:
+            k, a = int(kill_password), int(access_password)
+            reserved = [k >> 16, k & 0xFFFF, a >> 16, a & 0xFFFF]
+        epc_bank = [0, pc] + epc + [0] * (chip.epc_words - len(epc))
         self.banks: list[list[int]] = [reserved, epc_bank, tid, user]
         self.xpc_w1 = None if xpc is None else int(xpc)
-        self.locks = {name: LOCK_STATES[getattr(config, "lock_" + name)] for name in LOCK_FIELDS}
+        self.locks = locks
         if not chip.passwords:
             self.locks["kill_pwd"] = self.locks["access_pwd"] = LOCK_STATES["permalocked"]
         self._update_crc()
+
+    @classmethod
+    def from_words(cls, chip: ChipModel, *, epc=(), tid=(), user=(), kill_password: int = 0,
+                   access_password: int = 0) -> "TagMemory":
+        """Memory of a chip with the given contents, without a :class:`TagMemoryConfig`.
+
+        StoredPC = L·2¹¹ (L = ``len(epc)``; UMI, XI and the attribute bits 0), no XPC_W1, the
+        User bank padded with zeros to ``chip.user_words``, the locks of a fresh
+        :class:`TagMemoryConfig` (TID permalocked, the rest unlocked). A chip model with
+        ``epc_words = len(epc)`` and ``user_words = len(user)`` gives banks of exactly the
+        given sizes.
+
+        Parameters
+        ----------
+        chip : ChipModel
+            The chip (sizes, passwords, write parameters).
+        epc, tid, user : sequence of int
+            16-bit words of the EPC, TID and User memory.
+        kill_password, access_password : int
+            32-bit passwords (0 on a chip without passwords).
+
+        Returns
+        -------
+        TagMemory
+            The memory.
+
+        Raises
+        ------
+        ValueError
+            When the contents do not fit the chip, a word is not 16-bit or a password not
+            32-bit (or non-zero on a chip without passwords).
+        """
+        epc, tid, user = ([int(w) for w in ws] for ws in (epc, tid, user))
+        if any(not 0 <= w <= 0xFFFF for w in epc + tid + user):
+            raise ValueError("memory words must be 16-bit values")
+        if len(epc) > min(chip.epc_words, 31) or len(user) > chip.user_words:
+            raise ValueError(f"{len(epc)} EPC / {len(user)} User words exceed chip {chip.name} "
+                             f"({chip.epc_words} / {chip.user_words})")
+        for name, pwd in (("kill_password", kill_password), ("access_password", access_password)):
+            if not 0 <= int(pwd) < 1 << 32 or (pwd and not chip.passwords):
+                raise ValueError(f"{name} must be a 32-bit value (0 on chip {chip.name}), got {pwd}")
+        locks = {name: LOCK_STATES[getattr(TagMemoryConfig, "lock_" + name)] for name in LOCK_FIELDS}  # defaults
+        out = cls.__new__(cls)
+        out._fill(chip, kill_password, access_password, len(epc) << 11, epc, tid,
+                  user + [0] * (chip.user_words - len(user)), None, locks)
+        return out
 
     # -- derived values
 

@@ -52,6 +52,21 @@ reader itself only sees its samples:
 * ``"bit error"`` — the reader accepted the reply (no CRC: an RN16) but its bits differ from
   what the tag sent (the ACK that follows then gets no reply).
 
+Delayed replies (``delayed_reply=True``): a Write, BlockWrite, BlockErase, Lock or final Kill is
+answered once the tag has programmed its memory (EPC Gen2 v2 §6.3.2.12.3, :mod:`rfsim.gen2.access`),
+T5 after the command, T5 in [T1min, 20 ms] (anchors §4.3, :func:`rfsim.gen2.link.t5`), with the
+extended preamble (TRext = 1 whatever the Query said). The reader then keeps its CW for
+:func:`rfsim.gen2.link.delayed_reply_window_s` (T5max + the reply at the slowest BLF + 3 Tpri:
+the whole window is simulated sample by sample, noise included — skipping the silent air before
+the reply would not be exact, since the reader's preamble search can trigger on noise there),
+searches the reply start in [T1min, T5max] with the extended preamble (``reader.receive(...,
+delayed=True)``) and the timing check uses the T5 window. A reply with a header bit (Read and
+every delayed reply; ``header_bit=True``, implied by ``delayed_reply``) may be an error reply
+``1 | code(8) | handle | CRC-16`` of :data:`rfsim.gen2.access.ERROR_REPLY_BITS` bits instead of
+the expected ``reply_bits``: when the decode at ``reply_bits`` fails its CRC and its first bit
+(the header) is 1, the reader decodes the reply again at that length, as a reader that reads
+the header first would. Without these keywords every exchange is exactly as before.
+
 The engine only sees devices and the channel through these methods (and the PathSet members
 of the air interface's link protocol); it imports neither ``channels`` nor ``devices``.
 """
@@ -68,7 +83,8 @@ import numpy as np
 
 from rfsim.air.batch import AirStep, propagate_batch
 from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of
-from rfsim.gen2.link import reader_listen_start_s, reply_window_s
+from rfsim.gen2.access import ERROR_REPLY_BITS
+from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t5
 
 #: Failure reasons of a read, in the order the engine checks them.
 FAILURE_REASONS = ("", "not powered", "decode error", "no reply", "timing violation", "collision",
@@ -109,7 +125,8 @@ class Exchange:
     reply_start_s : tuple of float
         (n_replied,) true reply start of each replying tag [s].
     timing_ok : tuple of bool
-        (n_replied,) whether each reply started inside the T1 window.
+        (n_replied,) whether each reply started inside the T1 window (the T5 window when the
+        exchange listened for a delayed reply).
     n_samples : int
         Samples simulated for this exchange (the reader's segment).
     cmd_end_s : float
@@ -166,7 +183,8 @@ def _failure(read, replied: Sequence[int], powered: Sequence[int], decode_error:
 def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.random.Generator,
                  reply_bits: int, expect_crc: bool, motions: Sequence | None = None,
                  round_index: int = 0, draw_channel: bool = True,
-                 propagation: str = "auto", link_cache: dict | None = None) -> Exchange:
+                 propagation: str = "auto", link_cache: dict | None = None, delayed_reply: bool = False,
+                 header_bit: bool = False) -> Exchange:
     """Simulate one command and its reply window at sample level.
 
     One exchange is the batch of one of :func:`run_exchanges` (the same code); the steps are
@@ -210,6 +228,13 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
         (tag index, reader antenna, carrier). Filled on every call; read only with
         ``draw_channel=False`` for a tag without motion — the links are then exactly what the
         channel would return again (held draw, same geometry and carrier).
+    delayed_reply : bool, default False
+        Listen for a delayed ("in-process") reply: the window, search and preamble of the
+        module docstring ("Delayed replies"); implies ``header_bit``.
+    header_bit : bool, default False
+        The reply starts with a header bit: an error reply (header 1,
+        :data:`rfsim.gen2.access.ERROR_REPLY_BITS` bits) is decoded at its own length (module
+        docstring).
 
     Returns
     -------
@@ -223,7 +248,8 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
     """
     return run_exchanges(reader, [tags], channel, cmd, t_s=t_s, rngs=[rng], reply_bits=reply_bits,
                          expect_crc=expect_crc, motions=motions, round_index=round_index, draw_channel=draw_channel,
-                         propagation=propagation, link_caches=[link_cache])[0]
+                         propagation=propagation, link_caches=[link_cache], delayed_reply=delayed_reply,
+                         header_bit=header_bit)[0]
 
 
 def _per_trial(value, n: int, name: str) -> list:
@@ -243,7 +269,8 @@ BLOCK = 64
 def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: Sequence[np.random.Generator],
                   reply_bits: int, expect_crc: bool, motions: Sequence | None = None, round_index=0,
                   draw_channel: bool = True, propagation: str = "auto",
-                  link_caches: Sequence[dict | None] | None = None) -> list[Exchange]:
+                  link_caches: Sequence[dict | None] | None = None, delayed_reply: bool = False,
+                  header_bit: bool = False) -> list[Exchange]:
     """Simulate B independent exchanges as one batch (:mod:`rfsim.protocols.batch`).
 
     The one implementation of the exchange: :func:`run_exchange` is its batch of one.
@@ -276,6 +303,10 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
         As for :func:`run_exchange` (the same for every trial).
     link_caches : sequence of dict or None, optional
         B dicts (or None), trial b's ``link_cache``.
+    delayed_reply : bool, default False
+        As for :func:`run_exchange` (the same for every trial).
+    header_bit : bool, default False
+        As for :func:`run_exchange` (the same for every trial).
 
     Returns
     -------
@@ -316,11 +347,12 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                 if len(segments) >= BLOCK:
                     segments.clear()
                 tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
-                                               round_index=rounds[b])
+                                               round_index=rounds[b], delayed_reply=delayed_reply)
             preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
                                   reply_bits=reply_bits, expect_crc=expect_crc, motions=motions,
                                   round_index=rounds[b], draw_channel=draw_channel, propagation=propagation,
-                                  link_cache=caches[b], tx=tx))
+                                  link_cache=caches[b], tx=tx, delayed_reply=delayed_reply,
+                                  header_bit=header_bit))
         airs = propagate_batch([AirStep(**_air_arguments(prep), rng=rngs[k0 + k]) for k, prep in enumerate(preps)],
                                skip_unmodulated=True)
         for prep, air in zip(preps, airs):
@@ -350,7 +382,7 @@ class _Prepared:
 
 
 def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, motions, round_index, draw_channel,
-             propagation, link_cache, tx=None) -> _Prepared:
+             propagation, link_cache, tx=None, delayed_reply=False, header_bit=False) -> _Prepared:
     """Steps 1–2 of the module docstring up to the air step: the reader's segment (``tx`` when
     already made for this command, time and round), its port and the tags' links."""
     if propagation not in PROPAGATION_METHODS:
@@ -358,9 +390,11 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
     if tx is None:
-        tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index)
+        tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index,
+                       delayed_reply=delayed_reply)
     emitter = FixedEmitter(antenna, tx, device=reader)
-    port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc)
+    port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
+                      header_bit=header_bit)
     reflectors = [as_reflector(t) for t in tags]
     members = members_of(reflectors)
     links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
@@ -370,10 +404,14 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
                      bandwidth_hz=_reply_bandwidth_hz(reader.link), air_cache=getattr(reader, "air_cache", None))
 
 
-def _transmit(reader, cmd, *, t_s, reply_bits, round_index):
-    """The reader's segment: ``cmd`` at ``t_s`` and CW to the end of the reply window."""
+def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False):
+    """The reader's segment: ``cmd`` at ``t_s`` and CW to the end of the reply window (of a
+    delayed reply with ``delayed_reply``)."""
     listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
-    window_s = listen(int(reply_bits)) if listen is not None else _window_s(reader.link, int(reply_bits))
+    if delayed_reply:
+        window_s = _delayed_window_s(reader.link, int(reply_bits))
+    else:
+        window_s = listen(int(reply_bits)) if listen is not None else _window_s(reader.link, int(reply_bits))
     return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
@@ -430,7 +468,7 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
                                                 else bits.tobytes() == read.bits.tobytes()):
                 decoded_tag = i
                 break
-    t1_range = _t1_range(prep.port.reader.link)
+    t1_range = _t5_range(prep.port.reader.link) if prep.port.delayed_reply else _t1_range(prep.port.reader.link)
     timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
     n = int(tx.samples.size)
     return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=prep.antenna_index,
@@ -469,6 +507,19 @@ def _window_s(link, reply_bits: int) -> float:
     return reply_window_s(link, reply_bits)
 
 
+@functools.lru_cache(maxsize=256)
+def _delayed_window_s(link, reply_bits: int) -> float:
+    """CW after a command awaiting a delayed reply [s]: :func:`rfsim.gen2.link.delayed_reply_window_s`
+    of the longer of the expected reply and an error reply."""
+    return delayed_reply_window_s(link, max(reply_bits, ERROR_REPLY_BITS))
+
+
+@functools.lru_cache(maxsize=64)
+def _t5_range(link):
+    """T5 (a delayed reply's start after the command) of a profile: :func:`rfsim.gen2.link.t5`."""
+    return t5(link)
+
+
 class ReaderPort:
     """The reader's IQ input as a receiver of the air step (:class:`rfsim.air.step.Receiver`).
 
@@ -493,13 +544,21 @@ class ReaderPort:
         Bits of the expected reply.
     expect_crc : bool
         Whether it carries a CRC-16.
+    delayed_reply : bool, default False
+        Listen for a delayed reply (:func:`run_exchange`): ``reader.receive(..., delayed=True)``.
+    header_bit : bool, default False
+        The reply has a header bit: an error reply is decoded at its own length
+        (:func:`run_exchange`); implied by ``delayed_reply``.
     """
 
     fc_hz = None
 
-    def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool):
+    def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool, delayed_reply: bool = False,
+                 header_bit: bool = False):
         self.reader, self.antenna, self.tx = reader, antenna, tx
         self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
+        self.delayed_reply = bool(delayed_reply)
+        self.header_bit = self.delayed_reply or bool(header_bit)
         self.noise_power_w = reader.noise_power_w()
 
     def coupling(self, emitter):
@@ -555,12 +614,20 @@ class ReaderPort:
         -------
         object
             The reader's ``ReadResult``-like measurement of the reply (samples from the listen
-            start on, searched after ``tx.cmd_end_s``, phase referred to ``tx.samples[-1]``).
+            start on, searched after ``tx.cmd_end_s``, phase referred to ``tx.samples[-1]``; with
+            ``header_bit`` an error reply at its own length, :func:`run_exchange`).
         """
         tx, fs = self.tx, input.fs_hz
         i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
-        return self.reader.receive(input.samples[i0:], t0_s=input.t0_s + i0 / fs, n_bits=self.reply_bits,
-                                   expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
+        kwargs = dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s,
+                      carrier=tx.samples[-1])
+        if self.delayed_reply:
+            kwargs["delayed"] = True
+        read = self.reader.receive(input.samples[i0:], n_bits=self.reply_bits, **kwargs)
+        if (self.header_bit and self.reply_bits != ERROR_REPLY_BITS and not read.success and read.bits is not None
+                and read.bits[0] == 1):  # the header says: an error reply
+            read = self.reader.receive(input.samples[i0:], n_bits=ERROR_REPLY_BITS, **kwargs)
+        return read
 
 
 @dataclasses.dataclass

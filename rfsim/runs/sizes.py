@@ -70,6 +70,16 @@ def _cells(config, cells_key: str, cells: int) -> Estimate:
                   base_mib=260, bytes_per_unit=16 * KiB, workers=mc.workers, tasks=cells * mc.n_repetitions)
 
 
+def _access(c) -> Estimate:
+    """Trials (one per round and distance point, a round of every point in one batch) and their
+    rows; each point's reader keeps its last 64 command segments (the Write's is 20 ms of CW), full
+    after about 10 rounds (3.5 MiB a trial until then). Measured: 212 MiB at 1 round of 12 points,
+    556 at 15, 610 at 40."""
+    points = len(c.geometry.distances_m)
+    return _model(c.rounds_per_point * points, ("rounds_per_point", "geometry.distances_m"),
+                  base_mib=220 + 3.5 * min(c.rounds_per_point, 10) * points, bytes_per_unit=200 * KiB)
+
+
 def _detection_probability(c) -> Estimate:
     """A block of ≤ 256 samples simulated at once (256 KiB each) and every sample's rows (20 KiB:
     243 -> 274 MiB measured from 1000 to 3000 samples, 15.9 KiB a sample)."""
@@ -173,6 +183,7 @@ def _tag_to_tag_tracking(c) -> Estimate:
 #: its peak on a full one (measured, in the comments), rounded up to 10 MiB plus 10 MiB. The
 #: scenarios without kernels of their own add nothing (the same peak on both caches).
 COMPILE_MIB: dict[str, float] = {
+    "access": 150,                 # the link scenario's kernels
     "detection-probability": 150,  # 299 - 163 MiB
     "exciter-link": 130,           # 313 - 202
     "gen2-waveforms": 30,          # 178 - 164
@@ -190,6 +201,7 @@ COMPILE_MIB: dict[str, float] = {
 }
 
 SIZE_MODELS: dict[str, Callable[..., Estimate]] = {
+    "access": _access,
     "detection-probability": _detection_probability,
     "exciter-link": _exciter_link,
     "gen2-waveforms": _gen2_waveforms,

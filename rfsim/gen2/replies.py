@@ -446,7 +446,10 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
-    of the BLF range searched (RTcal measured on the command).
+    of the BLF range searched (RTcal measured on the command), or, after Write, BlockWrite,
+    BlockErase, Lock and the final Kill (the second of two Kills with only Req_RN between),
+    from T1 min to T1 max + 20 ms with the pilot (a delayed reply; long windows around the
+    onsets of :func:`rfsim.gen2.reply_search.modulation_onsets`).
 
     Returns
     -------

@@ -274,3 +274,19 @@ def test_modulation_onsets_finds_where_the_tag_starts():
     assert onsets and 5000 - block < onsets[0] <= 5000 + block
     assert modulation_onsets(rng.standard_normal(20000), 1e6, 25e3)[0] == []
     assert modulation_onsets(x[:1000], 1e6, 25e3)[0] is None
+
+
+def test_the_complex_capture_decodes_like_the_magnitude():
+    """The same session as complex baseband (backscatter at 0.4 rad from the carrier, at
+    25 MS/s): the same commands and reply bits as from the magnitude."""
+    session, cap = _session_capture(25e6, True, seed=11)
+    x = (cap.iq * np.exp(1.3j)).astype(np.complex64)  # an unknown carrier phase
+    records, _ = decode_reader_commands(x, 25e6)
+    assert [r.name for r in records] == [c.NAME for c, *_ in session]
+    replies = decode_tag_replies(x, 25e6, records)
+    expected = [(k, rep[1]) for k, (_, rep, *_) in enumerate(session) if rep is not None]
+    assert [r.command_index for r in replies] == [k for k, _ in expected]
+    for rep, (_, text) in zip(replies[:-1], expected[:-1]):
+        assert rep.bits == text and not rep.truncated
+    cut = replies[-1]  # the EPC reply cut after 50 bits
+    assert cut.truncated and expected[-1][1].startswith(cut.bits) and 46 <= len(cut.bits) <= 50

@@ -290,3 +290,15 @@ def test_the_complex_capture_decodes_like_the_magnitude():
         assert rep.bits == text and not rep.truncated
     cut = replies[-1]  # the EPC reply cut after 50 bits
     assert cut.truncated and expected[-1][1].startswith(cut.bits) and 46 <= len(cut.bits) <= 50
+
+
+def test_the_decode_benchmark_times_an_access_session():
+    """``rfsim bench decode`` also decodes an access session (14 commands, 5 delayed replies):
+    every reply found with the bits sent, with and without the Query."""
+    from rfsim.bench.decode import bench_decode
+
+    out = bench_decode(duration_s=0.05, reply_counts=(2,), line_codes=(4,), queries=(True, False),
+                       access_rates=(2e6,))
+    assert out["access_query_2_replies_exact"] == "14/14"
+    assert out["access_no_query_2_replies_exact"] == "13/13"  # the session without its Query
+    assert out["access_query_2_wall_s"] > 0 and out["access_query_2_capture_s"] > 0.02

@@ -19,12 +19,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rfsim.gen2.bits import bits_to_int
-from rfsim.gen2.commands import ACK, Query, ReqRN, command_preamble, encode
+from rfsim.gen2.access import error_reply, read_reply, rn_reply, success_reply
+from rfsim.gen2.bits import bits_to_int, int_to_bits
+from rfsim.gen2.commands import (ACK, BlockErase, BlockWrite, Kill, Lock, Query, Read, ReqRN, Write, command_preamble,
+                                 encode)
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2 import _pie_kernels as _pk
 from rfsim.gen2.pie import pie_timeline
+from rfsim.gen2.synthetic_capture import Exchange, SyntheticLink, synthetic_capture as exchange_capture
 from rfsim.core.rng import trial_rng
 
 #: PC (EPC length 6 words) and the 96-bit EPC of the benchmark tag.
@@ -220,8 +223,40 @@ def _decode_timed(x, fs_hz):
     return records, replies, time.perf_counter() - t0, time.process_time() - c0
 
 
+def access_session(handle: int = 0xBEEF) -> list:
+    """An access session as exchanges of :mod:`rfsim.gen2.synthetic_capture`: Query → RN16,
+    ACK → PC + EPC + CRC-16, Req_RN → handle, Read → two words, Read → error (memory overrun),
+    Write → delayed error (memory locked), BlockWrite, BlockErase and Lock → delayed success,
+    Kill, Kill → handle, then delayed success (Req_RN before each cover-coded command).
+
+    Parameters
+    ----------
+    handle : int, default 0xBEEF
+        The tag's handle.
+
+    Returns
+    -------
+    list of rfsim.gen2.synthetic_capture.Exchange
+        The session, 14 commands and 14 replies (5 delayed, 1 ms after T1).
+    """
+    epc = append_crc16(np.concatenate([PC_BITS, EPC_BITS]))
+    req = Exchange(ReqRN(rn16=handle), rn_reply(0x5A5A))
+    late = dict(delayed=True, delay_s=1e-3)
+    return [Exchange(Query(dr="64/3", m=4, q=0), int_to_bits(0x1234, 16)), Exchange(ACK(rn16=0x1234), epc),
+            Exchange(ReqRN(rn16=0x1234), rn_reply(handle)),
+            Exchange(Read(membank=3, word_ptr=0, word_count=2, rn16=handle), read_reply([0xCAFE, 0x0102], handle)),
+            Exchange(Read(membank=3, word_ptr=90, word_count=2, rn16=handle), error_reply(0x03, handle)),
+            req, Exchange(Write(membank=3, word_ptr=0, data=0x1234, rn16=handle), error_reply(0x04, handle), **late),
+            Exchange(BlockWrite(membank=3, word_ptr=0, data=(1, 2), rn16=handle), success_reply(handle), **late),
+            Exchange(BlockErase(membank=3, word_ptr=0, word_count=2, rn16=handle), success_reply(handle), **late),
+            Exchange(Lock(mask=0b11, action=0b01, rn16=handle), success_reply(handle), **late),
+            req, Exchange(Kill(password=0xDEAD, rn16=handle), rn_reply(handle)),
+            req, Exchange(Kill(password=0xBEEF, rn16=handle), success_reply(handle), **late)]
+
+
 def bench_decode(*, duration_s: float = 10.0, fs_hz: float = 2e6, reply_counts=(10, 100, 500),
-                 line_codes=(1, 4), queries=(True, False), blf_hz: float = 256e3 * 1.01, seed: int = 0) -> dict:
+                 line_codes=(1, 4), queries=(True, False), blf_hz: float = 256e3 * 1.01, seed: int = 0,
+                 access_rates=(2e6, 25e6)) -> dict:
     """Time the decoding of synthetic captures (module docstring).
 
     Every combination of reply count, line code (1 = FM0, 4 = Miller-4) and with/without Query
@@ -244,6 +279,9 @@ def bench_decode(*, duration_s: float = 10.0, fs_hz: float = 2e6, reply_counts=(
         BLF of the tag [Hz] (1 % off the nominal 256 kHz).
     seed : int, default 0
         Seed of the captures.
+    access_rates : sequence of float, default (2e6, 25e6)
+        Sample rates [Hz] of an access session (:func:`access_session`, magnitude only, with
+        and without its Query) also decoded.
 
     Returns
     -------
@@ -252,7 +290,9 @@ def bench_decode(*, duration_s: float = 10.0, fs_hz: float = 2e6, reply_counts=(
         ``_real_time_factor_wall`` / ``_cpu`` (capture duration / time), ``_replies_found``
         ("found/sent") and ``_all_decoded`` (every reply found and decoded correctly: RN16s as
         encoded, every CRC good); and ``worst_real_time_factor_wall``, ``duration_s``,
-        ``fs_hz``, ``blf_hz``.
+        ``fs_hz``, ``blf_hz``; per access case ``access_<query|no_query>_<fs in MS/s>``:
+        ``_wall_s``, ``_capture_s`` (its duration [s]) and ``_replies_exact`` ("exact/sent":
+        replies found with the bits sent).
     """
     out: dict = {"duration_s": duration_s, "fs_hz": fs_hz, "blf_hz": blf_hz}
     worst = math.inf
@@ -278,7 +318,23 @@ def bench_decode(*, duration_s: float = 10.0, fs_hz: float = 2e6, reply_counts=(
                 worst = min(worst, duration_s / wall)
                 del x
     out["worst_real_time_factor_wall"] = worst
+    for rate in access_rates:
+        for with_query in queries:
+            session = access_session()
+            link = SyntheticLink(blf_hz=blf_hz, m=4)
+            cap = exchange_capture(session if with_query else session[1:], fs_hz=rate, link=link, tag_depth=0.03,
+                                   noise_rms=2e-3, rng=trial_rng(seed, 9))
+            x = cap.magnitude.astype(np.float32)
+            _decode_timed(x[: int(0.002 * rate)], rate)
+            _, replies, wall, _ = _decode_timed(x, rate)
+            sent = {t.index: "".join(map(str, t.bits)) for t in cap.replies}
+            exact = sum(rep.bits == sent.get(rep.command_index) for rep in replies)
+            name = f"access_{'query' if with_query else 'no_query'}_{rate / 1e6:g}"
+            out[f"{name}_wall_s"] = wall
+            out[f"{name}_capture_s"] = x.size / rate
+            out[f"{name}_replies_exact"] = f"{exact}/{len(sent)}"
     return out
 
 
-__all__ = ["SynthReply", "synthetic_capture", "exchange_items", "bench_decode", "PC_BITS", "EPC_BITS"]
+__all__ = ["SynthReply", "synthetic_capture", "exchange_items", "access_session", "bench_decode", "PC_BITS",
+           "EPC_BITS"]

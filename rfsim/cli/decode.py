@@ -35,8 +35,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "Find every reader command in a baseband capture (raw interleaved complex64 as written "
             "by a GNU Radio file sink, or .npy, complex IQ or a real |IQ| envelope), parse it and "
             "check its CRC. After every command that elicits a reply (Query family: RN16, ACK: "
-            "PC+EPC+CRC-16, Req_RN: handle, Read: data+handle) the tag reply is searched in the T1 "
-            "window: line code from the last Query, BLF = DR/TRcal measured in the capture (or given), "
+            "PC+EPC+CRC-16, Req_RN/Access/first Kill: handle, Read: data+handle or an error reply) the tag "
+            "reply is searched in the T1 window, and after Write/BlockWrite/BlockErase/Lock/final Kill the "
+            "delayed success or error reply (extended preamble) up to 20 ms later: line code from the last Query, BLF = DR/TRcal measured in the capture (or given), "
             "searched blind over the Gen2 ranges when there is no Query; BLF and timing are measured "
             "on the reply itself. Replies cut by the next command are reported as truncated. Prints one "
             "line per command and reply and a summary (--format text), or the same fields as JSON or "
@@ -78,10 +79,15 @@ def _reply_line(rep) -> str:
         what = f"RN16=0x{rep.rn16:04X}" if rep.rn16 is not None else "RN16=?"
     elif rep.kind == "EPC":
         what = f"PC=0x{(rep.pc or 0):04X} EPC={rep.epc_hex or '-'}"
-    elif rep.kind == "handle":
+    elif rep.kind in ("handle", "success"):
         what = f"handle=0x{(rep.rn16 or 0):04X}"
+    elif rep.kind == "error":
+        code = "?" if rep.error_code is None else f"0x{rep.error_code:02X} {rep.error_name}"
+        what = f"code={code} handle=0x{(rep.rn16 or 0):04X}"
     else:
         what = f"data={rep.data_hex or '-'} handle=0x{(rep.rn16 or 0):04X}"
+    if rep.delayed:
+        what += f" (delayed, {rep.latency_s * 1e6:.1f} µs after the command)"
     if rep.truncated:
         state = f"TRUNCATED at {rep.end_s:.6f} s ({len(rep.bits)} of {rep.n_bits_expected} bits)"
     else:

@@ -1,9 +1,16 @@
 """Tag replies in recorded captures: search, link estimation, timing tracking, decoding.
 
-After every reader command that elicits an immediate reply (gen2-and-validation-anchors.md
-§4.3–4.4: Query/QueryRep/QueryAdjust → RN16; ACK → PC + EPC + CRC-16; Req_RN → handle +
-CRC-16; Read → header bit + words + handle + CRC-16) the reply is searched in the T1 window
-after the command's last rising edge, T1 = max(RTcal, 10/BLF)·(1 ± FrT) ± 2 µs (§4.3). In
+After every reader command that elicits a reply (gen2-and-validation-anchors.md §4.3–4.4;
+EPC Gen2 v2 §6.3.2.12.3: Query/QueryRep/QueryAdjust → RN16; ACK → PC + EPC + CRC-16; Req_RN,
+Access, the first Kill → handle + CRC-16; Read → header 0 + words + handle + CRC-16 or the
+error reply header 1 + code(8) + handle + CRC-16) the reply is searched in the T1 window
+after the command's last rising edge, T1 = max(RTcal, 10/BLF)·(1 ± FrT) ± 2 µs (§4.3). After
+Write, BlockWrite, BlockErase, Lock and the final Kill (a Kill that follows a Kill, with only
+Req_RN between) the tag answers with a delayed (in-process) reply, success header 0 + handle +
+CRC-16 (33 bits) or error (41 bits), sent with the extended preamble (the pilot, as if
+TRext = 1) up to T5 max = 20 ms after the command (:data:`rfsim.gen2.link.T_MAX_S`): its
+window runs from T1 min to T1 max + 20 ms, or to the next command. Select and NAK elicit no
+reply. In
 a monostatic capture the reply rides on the reader's CW leakage, a constant complex offset
 c over the window; outside its reply the tag rests in its absorbing state, the reply's −1
 level, so the window is ``r = c + h·s(t) + noise`` with s = ±1 the line code during the
@@ -75,22 +82,30 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.errors import ConfigError
+from rfsim.gen2.access import ERROR_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int, bits_to_str
 from rfsim.gen2.capture import ReaderCommandRecord
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
+from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, T_MAX_S, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
+from rfsim.gen2.memory import TagError
 from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _decode_window, _NBitsRule
 from rfsim.gen2.reply_core import n_reply_elements
-from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, preamble_correlation
+from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, modulation_onsets, preamble_correlation
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
 
-#: Reply kind elicited by each command (anchors §4.4).
+#: Reply searched after each command (anchors §4.4; EPC Gen2 v2 §6.3.2.12.3): "delayed" is the
+#: in-process reply (success or error, extended preamble, T5); a Kill that follows a Kill is
+#: the final one, whose reply is delayed (:func:`decode_tag_replies`).
 REPLY_KIND = {"Query": "RN16", "QueryRep": "RN16", "QueryAdjust": "RN16", "ACK": "EPC", "Req_RN": "handle",
-              "Read": "read"}
+              "Read": "read", "Access": "handle", "Kill": "handle", "Write": "delayed", "BlockWrite": "delayed",
+              "BlockErase": "delayed", "Lock": "delayed"}
+#: Data bits of a delayed success reply, ``0`` | handle | CRC-16 (an error reply, ``1`` |
+#: code(8) | handle | CRC-16: :data:`rfsim.gen2.access.ERROR_REPLY_BITS`).
+SUCCESS_REPLY_BITS = 33
 #: FrT assumed when the divide ratio or TRcal is unknown (the largest value of the table).
 FRT_UNKNOWN = 0.22
 #: BLF range of the blind search [Hz]: the Gen2 range widened by FRT_UNKNOWN.
@@ -107,8 +122,9 @@ class TagReplyRecord:
     ----------
     command_index : index of the preceding reader command in the command records
     command : its name ("Query", "ACK", "Req_RN", …)
-    kind : "RN16", "EPC" (PC + EPC + CRC-16), "handle" (RN16 + CRC-16) or "read"
-        (header + words + handle + CRC-16)
+    kind : "RN16", "EPC" (PC + EPC + CRC-16), "handle" (RN16 + CRC-16), "read"
+        (header 0 + words + handle + CRC-16), "success" (header 0 + handle + CRC-16, a
+        delayed reply) or "error" (header 1 + code + handle + CRC-16, delayed or after Read)
     start_s : start of the reply (pilot or preamble) [s]
     bits : decoded data bits as a 0/1 string (dummy 1 removed)
     blf_hz : BLF measured on the reply (its mean over the reply) [Hz]
@@ -120,11 +136,17 @@ class TagReplyRecord:
         ``bits`` holds the whole bits before the cut
     end_s : end of the reply, or where it was cut [s]
     n_bits_expected : data bits of the complete reply (−1 when unknown)
-    crc_ok : CRC-16 over the reply (EPC, handle, read); None for an RN16 or truncated reply
-    rn16 : the RN16 (RN16 replies) or the handle (handle, read replies), else None
+    crc_ok : CRC-16 over the reply (EPC, handle, read, success, error); None for an RN16 or
+        truncated reply
+    rn16 : the RN16 (RN16 replies) or the handle (handle, read, success, error replies), else None
     pc, epc_hex : PC word and EPC as upper-case hex (EPC replies), else None
     data_hex : the words read (read replies), else None
     rssi_dbm, phase_rad, snr_db : step 5 of the module docstring
+    delayed : the reply was searched as a delayed (in-process) reply, up to 20 ms after the command
+    error_code, error_name : code of an error reply and its name (EPC Gen2 v2 Annex I,
+        :class:`rfsim.gen2.memory.TagError`; "0x.." for a code not named there), else None
+    latency_s : from the command's last rising edge to the reply's start [s] (T1, or T5 of a
+        delayed reply)
     """
 
     command_index: int
@@ -148,11 +170,46 @@ class TagReplyRecord:
     rssi_dbm: float = math.nan
     phase_rad: float = math.nan
     snr_db: float = math.nan
+    delayed: bool = False
+    error_code: int | None = None
+    error_name: str | None = None
+    latency_s: float = math.nan
+
+
+def _error_name(code: int) -> str:
+    """Name of a Gen2 error code (:class:`rfsim.gen2.memory.TagError`), or its hex value."""
+    try:
+        return TagError(code).name
+    except ValueError:
+        return f"0x{code:02X}"
+
+
+def _header_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
+    """Kind, handle and error code of a reply that starts with a header bit (read or delayed
+    window): header 1 is an error reply, header 0 read data or a delayed success."""
+    out: dict = {"kind": "error" if bits.size and bits[0] == 1 else ("read" if kind == "read" else "success")}
+    out["crc_ok"] = None if truncated else bool(bits.size >= 32 and crc16_ok(bits))
+    if out["kind"] == "error":
+        if bits.size >= 9:
+            code = bits_to_int(bits[1:9])
+            out.update(error_code=code, error_name=_error_name(code))
+        if bits.size >= 25:
+            out["rn16"] = bits_to_int(bits[9:25])
+    elif out["kind"] == "success" and bits.size >= 17:
+        out["rn16"] = bits_to_int(bits[1:17])
+    elif out["kind"] == "read" and not truncated and bits.size >= 33:
+        data = bits[1:-32]
+        out["data_hex"] = "".join(f"{bits_to_int(data[i:i + 4]):X}" for i in range(0, data.size, 4))
+        out["rn16"] = bits_to_int(bits[-32:-16])
+    return out
 
 
 def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
-    """RN16/handle/PC/EPC/data and CRC of a decoded reply (``bits`` (n,) uint8)."""
+    """RN16/handle/PC/EPC/data/error code and CRC of a decoded reply (``bits`` (n,) uint8),
+    and its kind where the header bit tells it (read or delayed window)."""
     out: dict = {}
+    if kind in ("read", "delayed"):
+        return _header_fields(kind, bits, truncated)
     if kind == "RN16":
         if bits.size >= 16:
             out["rn16"] = bits_to_int(bits[:16])
@@ -167,26 +224,39 @@ def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
     elif kind == "handle":
         if bits.size >= 16:
             out["rn16"] = bits_to_int(bits[:16])
-    elif kind == "read" and not truncated and bits.size >= 33:
-        data = bits[1:-32]
-        out["data_hex"] = "".join(f"{bits_to_int(data[i:i + 4]):X}" for i in range(0, data.size, 4))
-        out["rn16"] = bits_to_int(bits[-32:-16])
     return out
 
 
 def _max_bits(kind: str, rec: ReaderCommandRecord) -> int:
     """Most data bits a reply of ``kind`` can have: RN16 16, handle 32, EPC 32 + 16·31 (the
-    PC's 5-bit L field), read 1 + 16·WordCount + 32 (WordCount 0: 255 words)."""
+    PC's 5-bit L field), read 1 + 16·WordCount + 32 (WordCount 0: 255 words) or an error
+    reply, delayed: an error reply (41)."""
     if kind == "RN16":
         return 16
     if kind == "handle":
         return 32
     if kind == "read":
-        return 1 + 16 * (int(rec.fields.get("word_count", 0)) or 255) + 32
+        return max(1 + 16 * (int(rec.fields.get("word_count", 0)) or 255) + 32, ERROR_REPLY_BITS)
+    if kind == "delayed":
+        return ERROR_REPLY_BITS
     return 32 + 16 * 31
 
 
-def _n_bits_rule(kind: str, rec: ReaderCommandRecord) -> _NBitsRule:
+@dataclass(frozen=True)
+class _HeaderRule:
+    """``n_bits_of(bits)`` of a reply that starts with a header bit: ``if_zero`` data bits
+    after a 0 (read data, delayed success; −1 unknown), ``if_one`` after a 1 (error reply)."""
+
+    if_zero: int
+    if_one: int = ERROR_REPLY_BITS
+
+    def __call__(self, bits) -> int:
+        if len(bits) == 0:
+            return -1
+        return self.if_one if bits[0] == 1 else self.if_zero
+
+
+def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
         return _NBitsRule(_rk.RULE_FIXED, 16)
@@ -194,7 +264,9 @@ def _n_bits_rule(kind: str, rec: ReaderCommandRecord) -> _NBitsRule:
         return _NBitsRule(_rk.RULE_FIXED, 32)
     if kind == "read":
         wc = int(rec.fields.get("word_count", 0))
-        return _NBitsRule(_rk.RULE_FIXED, 1 + 16 * wc + 32 if wc > 0 else -1)
+        return _HeaderRule(1 + 16 * wc + 32 if wc > 0 else -1)
+    if kind == "delayed":
+        return _HeaderRule(SUCCESS_REPLY_BITS)
     return _NBitsRule(_rk.RULE_EPC)
 
 
@@ -202,7 +274,8 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
                      rtcal_s: float, frt: float, hypotheses, kind: str, n_bits_of, max_bits: int,
                      cut_s: float | None = None,
                      method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
-                     command: str = "", blf_hint_hz: float | None = None) -> TagReplyRecord | None:
+                     command: str = "", blf_hint_hz: float | None = None,
+                     delayed: bool = False) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -227,6 +300,9 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     command_index, command : written into the record (the preceding command)
     blf_hint_hz : BLF of an earlier reply in the capture: a single hypothesis is searched
         first within ±2 coarse steps of it (:func:`rfsim.gen2.reply_search._detect`)
+    delayed : bool
+        Search a delayed reply: its start anywhere from T1 min to T1 max + 20 ms
+        (:data:`rfsim.gen2.link.T_MAX_S`; module docstring)
 
     Returns
     -------
@@ -246,9 +322,10 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     fs = float(fs_hz)
     x = np.asarray(samples)
     i0 = max(0, int(math.ceil(listen_s * fs)))
+    delay_max_s = T_MAX_S if delayed else 0.0
     # no longer than the longest reply any hypothesis allows (rest level around it included)
-    longest_s = max(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_lo_hz, frt=frt).max_s
-                    + n_reply_elements(max_bits, h.m, h.trext) / (2.0 * h.blf_lo_hz) for h in hyps)
+    longest_s = delay_max_s + max(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_lo_hz, frt=frt).max_s
+                                  + n_reply_elements(max_bits, h.m, h.trext) / (2.0 * h.blf_lo_hz) for h in hyps)
     end_s = min(window_end_s, cmd_end_s + longest_s + 16.0 / fs + 2e-6)
     i1 = min(x.size, int(math.floor(end_s * fs)))
     if i1 - i0 < 16:
@@ -261,7 +338,12 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].sum() / lo_full
-    best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability)
+    best = None
+    for span_s in _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) if delayed else [None]:
+        best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s,
+                       span_s)
+        if best is not None:
+            break
     if best is None:
         return None
     found, rd, d = best
@@ -275,21 +357,37 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     p = abs(h) ** 2
     snr = 10.0 * math.log10(p / (res["sigma2"] * d)) if res["sigma2"] > 0 else math.inf
     truncated = bool(res["truncated"])
+    fields = {"kind": kind, **_reply_fields(kind, bits, truncated)}
+    start_s = float(to_s(res["start"]))
     return TagReplyRecord(
-        command_index=int(command_index), command=str(command), kind=kind, start_s=float(to_s(res["start"])), bits=bits_to_str(bits),
+        command_index=int(command_index), command=str(command), start_s=start_s, bits=bits_to_str(bits),
         blf_hz=float(res["blf"]), m=int(res["m"]), trext=bool(res["trext"]), corr=res["corr"], truncated=truncated,
         end_s=float(((window_end_s if cut_s is None else cut_s) if end_s >= window_end_s else end_s) if truncated
                     else to_s(res["end"])),
         n_bits_expected=int(res["n_full"]), blf_drift=float(res["drift"]),
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
-        phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, **_reply_fields(kind, bits, truncated))
+        phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, delayed=bool(delayed),
+        latency_s=start_s - float(cmd_end_s), **fields)
 
 
-def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance):
+def _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) -> list:
+    """Spans of reply starts [s after the command's last edge] searched in a delayed-reply
+    window: ±2 blocks around each onset of :func:`rfsim.gen2.reply_search.modulation_onsets`
+    (none: no reply), or the whole window (``[None]``) when it is too short to gate."""
+    onsets, block = modulation_onsets(r, fs, min(h.blf_lo_hz for h in hyps), first=max(lo_full, 0))
+    if onsets is None:
+        return [None]
+    to_s = lambda k: (i0 + k) / fs - cmd_end_s  # noqa: E731  (window sample → time after the command)
+    return [(to_s(k - 2 * block), to_s(k + 2 * block)) for k in onsets]
+
+
+def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance,
+                delayed=False):
     """``(hypotheses, frt)`` for the reply after a command: the line code of the last Query
     (or the caller's), BLF = DR/TRcal·(1 ± FrT) or the given BLF·(1 ± tolerance); what is not
     known is searched blind (:data:`BLIND_BLF_RANGE_HZ`, every M and TRext), unless an
-    earlier reply in the capture (``learned`` = (m, trext, blf)) already told it."""
+    earlier reply in the capture (``learned`` = (m, trext, blf)) already told it. A delayed
+    reply has the pilot whatever TRext (the extended preamble)."""
     f = query.fields if query is not None else {}
     m = f.get("m") if m is None else m
     trext = f.get("trext") if trext is None else trext
@@ -316,7 +414,7 @@ def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, 
         tol = 0.1 if blf_tolerance is None else blf_tolerance
     lo, hi = (BLIND_BLF_RANGE_HZ if blf is None else (blf * (1 - tol), blf * (1 + tol)))
     ms = M_VALUES if m is None else (int(m),)
-    trexts = (False, True) if trext is None else (bool(trext),)
+    trexts = (True,) if delayed else (False, True) if trext is None else (bool(trext),)
     return [LinkHypothesis(mm, tt, lo, hi) for mm in ms for tt in trexts], frt
 
 
@@ -348,7 +446,10 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
 
     The reply after command k is searched from half a Tari after its last rising edge up to
     half a Tari before command k + 1 (or the capture's end), its start within the T1 window
-    of the BLF range searched (RTcal measured on the command).
+    of the BLF range searched (RTcal measured on the command), or, after Write, BlockWrite,
+    BlockErase, Lock and the final Kill (the second of two Kills with only Req_RN between),
+    from T1 min to T1 max + 20 ms with the pilot (a delayed reply; long windows around the
+    onsets of :func:`rfsim.gen2.reply_search.modulation_onsets`).
 
     Returns
     -------
@@ -369,17 +470,23 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     if blf_tolerance is not None and not 0.0 <= blf_tolerance < 0.5:
         raise ConfigError("blf_tolerance", blf_tolerance, "a fraction in [0, 0.5)")
     out: list[TagReplyRecord] = []
-    query, learned, blind_misses = None, None, 0
+    query, learned, blind_misses, kill_pending = None, None, 0, False
     n = np.asarray(samples).size
     for k, rec in enumerate(records):
         if rec.name == "Query" and rec.fields:
             query = rec
         kind = REPLY_KIND.get(rec.name)
+        if rec.name == "Kill" and rec.fields:  # the second Kill of a pair is the final one
+            kind, kill_pending = ("delayed", False) if kill_pending else (kind, True)
+        elif rec.name != "Req_RN":
+            kill_pending = False
         if kind is None or not rec.fields or math.isnan(rec.end_s):
             continue
-        link = dict(blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext, blf_tolerance=blf_tolerance)
+        delayed = kind == "delayed"
+        link = dict(blf_hz=blf_hz, trcal_s=trcal_s, dr=dr, m=m, trext=trext, blf_tolerance=blf_tolerance,
+                    delayed=delayed)
         hyps, frt = _hypotheses(query, None, **link)
-        blind = len(hyps) > 1 and hyps[0].blf_lo_hz == BLIND_BLF_RANGE_HZ[0]
+        blind = (len(hyps) > 1 or delayed) and hyps[0].blf_lo_hz == BLIND_BLF_RANGE_HZ[0]
         # an earlier reply told the link: it is tried first, the blind search only when it
         # finds no reply (a tag with another link)
         tries = ([_hypotheses(query, learned, **link)] if blind and learned is not None else []) + [(hyps, frt)]
@@ -395,7 +502,7 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                                      cmd_end_s=rec.end_s, rtcal_s=rec.rtcal_s, frt=frt_k, hypotheses=hyps_k,
                                      kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
                                      cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
-                                     command_index=k, command=rec.name,
+                                     command_index=k, command=rec.name, delayed=delayed,
                                      blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None)
             if found is not None:
                 break
@@ -403,13 +510,16 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                 blind_misses += 1
         if found is not None:
             out.append(found)
-            if query is None and blf_hz is None:
+            if query is None and blf_hz is None and not delayed:  # a delayed reply's pilot is not the link's TRext
                 learned = (found.m, found.trext, found.blf_hz)
+            elif query is None and blf_hz is None and learned is None:
+                learned = (found.m, trext, found.blf_hz)
     return out
 
 
 __all__ = [
     "REPLY_KIND",
+    "SUCCESS_REPLY_BITS",
     "FRT_UNKNOWN",
     "BLIND_BLF_RANGE_HZ",
     "MIN_HALFBIT_SNR_DB",

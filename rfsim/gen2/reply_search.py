@@ -180,7 +180,9 @@ def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
 @dataclass(frozen=True)
 class _Lags:
     """T1 window of a BLF as lags into a window decimated by ``d`` (sample j at input sample
-    i0 + j·d + (d − 1)/2)."""
+    i0 + j·d + (d − 1)/2), its end moved ``delay_max_s`` later for a delayed reply (T5 =
+    T1 min … T1 max + delay), and kept inside ``span_s`` = (earliest, latest) start after the
+    command's last rising edge [s] when given (:func:`modulation_onsets`)."""
 
     fs: float
     d: int
@@ -188,6 +190,8 @@ class _Lags:
     cmd_end_s: float
     rtcal_s: float
     frt: float
+    delay_max_s: float = 0.0
+    span_s: tuple | None = None
 
     def _lag(self, t_s):
         return ((self.cmd_end_s + t_s) * self.fs - self.i0 - 0.5 * (self.d - 1)) / self.d
@@ -199,23 +203,32 @@ class _Lags:
     def lo(self, blf):
         """First lag of the T1 window (t1_range min, one sample early) of a BLF or array of BLFs."""
         t_s = self._nominal(blf) * (1 - self.frt) - 2e-6
+        if self.span_s is not None:
+            t_s = np.maximum(t_s, self.span_s[0])
         return np.maximum(0, np.floor(self._lag(t_s)).astype(np.int64) - 1)
 
     def hi(self, blf):
-        """Last lag of the T1 window (t1_range max, one sample late)."""
-        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6
+        """Last lag of the T1 window (t1_range max, one sample late; plus the delay of a delayed reply)."""
+        t_s = self._nominal(blf) * (1 + self.frt) + 2e-6 + self.delay_max_s
+        if self.span_s is not None:
+            t_s = np.minimum(t_s, self.span_s[1])
         return np.ceil(self._lag(t_s)).astype(np.int64) + 1
 
 
-def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt):
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s=0.0, span_s=None):
     """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
-    n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None."""
+    n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None.
+    With ``span_s`` only the starts inside it are searched, but every lag of the whole
+    window is counted in ``n_tests`` (the span was chosen by looking at the data)."""
     best, n_tests = None, 0
     for band in _bands(hyps):
         d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
-        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
+        lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
         rd = boxcar_decimate(r, d) if d > 1 else r
         cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        if span_s is not None:
+            full = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
+            nt = sum(_n_lags(rd.size, fs / d, h, full.lo, full.hi) for h in band)
         n_tests += nt
         if cand is not None and (best is None or cand[0] > best[0][0]):
             best = (cand, rd, d)
@@ -234,7 +247,8 @@ def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
     return int(np.sum((last - lo + 1)[ok]))
 
 
-def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability):
+def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s=0.0,
+            span_s=None):
     """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
 
     With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
@@ -243,7 +257,9 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
     another BLF) and clears the threshold of the narrow and the full search's tests together
     (the full search's lags counted, not searched), otherwise the full range is searched,
     with the same threshold: the union bound of the detection rule then covers both
-    searches, so the false-alarm probability per window stays as stated."""
+    searches, so the false-alarm probability per window stays as stated. ``delay_max_s``
+    extends the lags of a delayed reply beyond T1, ``span_s`` restricts the starts searched
+    (:class:`_Lags`; the threshold still counts every lag of the window)."""
     if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
         hyp = hyps[0]
         span = FINE_SPAN_STEPS * coarse_blf_step(hyp.m, hyp.trext)
@@ -252,8 +268,9 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
         for band in _bands(hyps):
             b = band[0]
             d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
-            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt)
-            n_full += _n_lags(r.size // d, fs / d, b, lags.lo, lags.hi)
+            lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
+            full = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
+            n_full += _n_lags(r.size // d, fs / d, b, full.lo, full.hi)
             a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
             if a < z:
                 rd = boxcar_decimate(r, d) if d > 1 else r
@@ -269,12 +286,72 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
                 return narrow
     else:
         n_narrow = 0
-    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt)
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
     n_tests += n_narrow
     if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
         return None
     return best
 
 
-__all__ = ["SAMPLES_PER_ELEMENT", "MIN_SAMPLES_PER_ELEMENT", "LinkHypothesis", "boxcar_decimate",
-           "preamble_correlation", "geometric_blf_grid_hz"]
+#: Onset search of a delayed reply (:func:`modulation_onsets`): fewest blocks a window needs
+#: (shorter windows are searched whole), the quantile of the block variances taken as the
+#: noise floor, the most onsets returned.
+ONSET_MIN_BLOCKS = 16
+ONSET_FLOOR_QUANTILE = 0.1
+ONSET_MAX = 3
+#: Rise above the floor that marks modulation, in standard deviations of a block variance.
+ONSET_SIGMAS = 8.0
+
+
+def modulation_onsets(r: np.ndarray, fs_hz: float, blf_lo_hz: float, first: int = 0) -> tuple[list[int] | None, int]:
+    """Where a tag starts modulating in a long window: candidate reply starts of a delayed reply.
+
+    The preamble search costs O(lags · BLFs · preamble elements); over a 20 ms delayed-reply
+    window (T5) a blind search would take minutes. A backscatter reply raises the variance
+    of the window (the tag switches between two levels at least once per subcarrier cycle,
+    so a block of 4 elements at the lowest BLF, B = ⌈2·fs/BLF_lo⌉ samples, sees both). The
+    window's blocks of B samples are compared with a noise floor, the
+    :data:`ONSET_FLOOR_QUANTILE` quantile of their variances (at least that share of the
+    window must be rest level): a block is modulated when its variance exceeds the floor by
+    :data:`ONSET_SIGMAS` standard deviations of a block variance, floor·(1 + ONSET_SIGMAS·√(2/B))
+    (a variance of B samples of white noise has relative standard deviation ≤ √(2/B)). The
+    first block of each run of modulated blocks is an onset.
+
+    Parameters
+    ----------
+    r : numpy.ndarray
+        ``(n,)`` window (complex, or a real envelope), any unit, rest level removed or not.
+    fs_hz : float
+        Sample rate of ``r`` [Hz].
+    blf_lo_hz : float
+        Lowest BLF searched [Hz].
+    first : int
+        Blocks that start before this sample are not onsets (the rest before T1 min, where
+        the command's last edge may still ring).
+
+    Returns
+    -------
+    onsets : list of int or None
+        Sample indices of the first :data:`ONSET_MAX` onsets (block starts; a reply starts
+        within a block of one), ``[]`` when no block is modulated, None when the window
+        is shorter than :data:`ONSET_MIN_BLOCKS` blocks (search it whole).
+    block : int
+        The block length B [samples].
+    """
+    b = max(8, int(math.ceil(2.0 * fs_hz / blf_lo_hz)))
+    nb = r.size // b
+    if nb < ONSET_MIN_BLOCKS:
+        return None, b
+    blocks = r[: nb * b].reshape(nb, b)
+    dev = blocks - blocks.mean(axis=1, keepdims=True)
+    var = np.mean(dev.real ** 2 + dev.imag ** 2, axis=1) if np.iscomplexobj(dev) else np.mean(dev ** 2, axis=1)
+    floor = float(np.quantile(var, ONSET_FLOOR_QUANTILE))
+    hot = var > floor * (1.0 + ONSET_SIGMAS * math.sqrt(2.0 / b))
+    hot[: (max(0, int(first)) + b - 1) // b] = False
+    starts = np.flatnonzero(hot & ~np.concatenate([[False], hot[:-1]]))
+    return [int(k) * b for k in starts[:ONSET_MAX]], b
+
+
+__all__ = ["SAMPLES_PER_ELEMENT", "MIN_SAMPLES_PER_ELEMENT", "ONSET_MIN_BLOCKS", "ONSET_FLOOR_QUANTILE",
+           "ONSET_MAX", "ONSET_SIGMAS", "LinkHypothesis", "boxcar_decimate", "preamble_correlation",
+           "geometric_blf_grid_hz", "modulation_onsets"]

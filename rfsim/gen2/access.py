@@ -73,6 +73,8 @@ MAX_DELAYED_REPLY_S = 20e-3
 
 #: Bits of an error reply: header ``1`` | error code (8) | handle (16) | CRC-16 (16).
 ERROR_REPLY_BITS = 41
+#: Bits of a delayed success reply: header ``0`` | handle (16) | CRC-16 (16).
+SUCCESS_REPLY_BITS = 33
 
 State = Literal["open", "secured", "killed", "arbitrate"]
 
@@ -348,6 +350,7 @@ def _password_half(memory: TagMemory, context: AccessContext, cmd, power_margin_
 
 
 __all__ = [
-    "MAX_DELAYED_REPLY_S", "ERROR_REPLY_BITS", "AccessContext", "AccessResult", "state_after_req_rn", "execute",
+    "MAX_DELAYED_REPLY_S", "ERROR_REPLY_BITS", "SUCCESS_REPLY_BITS", "AccessContext", "AccessResult",
+    "state_after_req_rn", "execute",
     "success_reply", "error_reply", "read_reply", "rn_reply",
 ]

@@ -82,7 +82,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.access import ERROR_REPLY_BITS
+from rfsim.gen2.access import ERROR_REPLY_BITS, SUCCESS_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int, bits_to_str
 from rfsim.gen2.capture import ReaderCommandRecord
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
@@ -103,9 +103,6 @@ _rk = lazy_import("rfsim.gen2._reply_kernels")
 REPLY_KIND = {"Query": "RN16", "QueryRep": "RN16", "QueryAdjust": "RN16", "ACK": "EPC", "Req_RN": "handle",
               "Read": "read", "Access": "handle", "Kill": "handle", "Write": "delayed", "BlockWrite": "delayed",
               "BlockErase": "delayed", "Lock": "delayed"}
-#: Data bits of a delayed success reply, ``0`` | handle | CRC-16 (an error reply, ``1`` |
-#: code(8) | handle | CRC-16: :data:`rfsim.gen2.access.ERROR_REPLY_BITS`).
-SUCCESS_REPLY_BITS = 33
 #: FrT assumed when the divide ratio or TRcal is unknown (the largest value of the table).
 FRT_UNKNOWN = 0.22
 #: BLF range of the blind search [Hz]: the Gen2 range widened by FRT_UNKNOWN.
@@ -519,7 +516,6 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
 
 __all__ = [
     "REPLY_KIND",
-    "SUCCESS_REPLY_BITS",
     "FRT_UNKNOWN",
     "BLIND_BLF_RANGE_HZ",
     "MIN_HALFBIT_SNR_DB",

@@ -98,7 +98,8 @@ class Config:
     tag: TagConfig = param(TagConfig(), doc="tag")
     memory: TagMemoryConfig = param(TagMemoryConfig(user="0123456789ABCDEF"), doc="the tag's chip and memory")
     program: tuple[str, ...] = param(DEFAULT_PROGRAM, doc="access program: req_rn, 'read <bank> <ptr> <count>', "
-                                                          "'write <bank> <ptr> <word>'")
+                                                          "'write <bank> <ptr> <word>', blockwrite, blockerase, lock, "
+                                                          "access, kill (rfsim.protocols.access_program)")
     rounds_per_point: int = param(6, lo=1, hi=100000, doc="trials per distance")
     round_period_s: float = param(0.1, lo=0.05, hi=10.0, unit="s", doc="time between trial starts")
     t2_tpri: float = param(10.0, lo=3.0, hi=20.0, unit="Tpri", doc="T2: a reply's end to the next command")
@@ -209,7 +210,7 @@ def _dataset_of(config: Config, program, reads: dict, accesses: list) -> _datase
     fields = {"point": READ_FIELDS["point"], "round": READ_FIELDS["round"],
               "distance_m": READ_FIELDS["distance_m"], **ACCESS_FIELDS}
     ds.add_table("accesses", {k: _dataset.column(acc[k], *fields[k]) for k in fields},
-                 description="one row per access command of each trial (Req_RN, Read, Write), keyed to its read "
+                 description="one row per access command of each trial (Req_RN, Read, Write, ...), keyed to its read "
                              "in 'reads' by point and round")
     rates, attrs = _rates(config, program, cols, acc)
     ds.add_table("rates", rates, description="one row per distance: EPC read, TID read and Write success rates "

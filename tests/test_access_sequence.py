@@ -49,7 +49,7 @@ def test_bad_steps_are_one_line_user_errors_naming_the_step(steps, key):
     assert "\n" not in text and f"'{key}'" in text and "allowed" in text
 
 
-def _devices(distances_m, *, seed=1):
+def _devices(distances_m, *, seed=1, passwords=(0, 0)):
     from rfsim.channels.scene import Channel
     from rfsim.devices.reader import Reader
     from rfsim.devices.tag import PassiveTag
@@ -61,13 +61,14 @@ def _devices(distances_m, *, seed=1):
     readers = [Reader(c.reader, [antenna], rng=trial_rng(seed, i, 99)) for i in range(len(distances_m))]
     tags = []
     for i, d in enumerate(distances_m):
-        memory = TagMemory(TagMemoryConfig(epc=c.tag.epc_hex, tid=TID_HEX, user=USER_HEX))
+        memory = TagMemory(TagMemoryConfig(epc=c.tag.epc_hex, tid=TID_HEX, user=USER_HEX, kill_password=passwords[0],
+                                           access_password=passwords[1]))
         tags.append([PassiveTag(c.tag, link.tag_antenna(c.geometry, d), rng=trial_rng(seed, i, 98), memory=memory)])
     return readers, tags, [Channel(link.scene(ch)) for _ in distances_m]
 
 
-def _run(distances_m, program, **kw):
-    readers, tags, channels = _devices(distances_m)
+def _run(distances_m, program, passwords=(0, 0), **kw):
+    readers, tags, channels = _devices(distances_m, passwords=passwords)
     lk = readers[0].link
     runs = run_access_batch(readers, tags, channels, t_s=0.0, rngs=[trial_rng(1, i, 0) for i in range(len(distances_m))],
                             query=Query(dr=lk.dr, m=lk.m, trext=lk.trext, q=0), program=parse_program(program), **kw)
@@ -137,3 +138,49 @@ def test_a_cover_coded_write_lands_in_memory_with_its_delayed_reply():
     # a delayed reply: after the chip's programming time (3 ms for the generic chip), within T5 <= 20 ms
     assert 3e-3 + t1(lk).min_s - 1 / lk.blf_hz <= recs[2].reply_delay_s <= 20e-3
     assert recs[3].gap_kind == "T2" and recs[3].gap_s == pytest.approx(10 * lk.tpri_s, rel=1e-9)
+
+
+def test_a_program_of_every_access_command_leaves_the_tag_as_the_standard_says():
+    # kill password CAFEBABEh, access password 12345678h: after the handle the tag is Open; the
+    # Access halves make it Secured (Lock needs Secured); a permalocked User bank refuses a Write
+    # with error 04h (memory locked); the Kill's last half is answered by a delayed success and the
+    # tag answers nothing afterwards (EPC Gen2 v2 §6.3.2.12.3; error codes Annex I).
+    program = ["req_rn", "blockwrite user 0 0x1111,0x2222", "blockerase user 2 1", "read user 0 4",
+               "access 0x12345678", "lock user permalocked", "write user 0 0xBEEF", "read user 0 2",
+               "kill 0xCAFEBABE", "read user 0 1"]
+    runs, lk = _run([1.0], program, passwords=(0xCAFEBABE, 0x12345678))
+    recs = runs[0].records
+    got = [(r.step, r.command, r.result, r.error_code) for r in recs]
+    assert got == [
+        (0, "Req_RN", "ok", -1),
+        (1, "BlockWrite", "ok", -1), (2, "BlockErase", "ok", -1), (3, "Read", "ok", -1),
+        (4, "Req_RN", "ok", -1), (4, "Access", "ok", -1), (4, "Req_RN", "ok", -1), (4, "Access", "ok", -1),
+        (5, "Lock", "ok", -1),
+        (6, "Req_RN", "ok", -1), (6, "Write", "error", 0x04),
+        (7, "Read", "ok", -1),
+        (8, "Req_RN", "ok", -1), (8, "Kill", "ok", -1), (8, "Req_RN", "ok", -1), (8, "Kill", "ok", -1),
+        (9, "Read", "no reply", -1),
+    ]
+    handle = recs[0].data_hex
+    assert recs[3].data_hex == "1111" + "2222" + "0000" + USER_HEX[12:16]  # written, erased, untouched
+    assert recs[11].data_hex == "11112222"  # the refused Write changed nothing
+    assert recs[5].data_hex == handle and recs[13].data_hex == handle  # Access and the first Kill echo the handle
+    # delayed replies (BlockWrite, BlockErase, Lock, the final Kill) come after the chip's write time
+    for i in (1, 2, 8, 15):
+        assert recs[i].reply_delay_s > 2e-3 and recs[i].reply_delay_s < 20e-3, recs[i]
+    # immediate replies within T1
+    for i in (0, 3, 4, 5, 7, 11):
+        assert recs[i].reply_delay_s <= t1(lk).max_s + 1 / lk.blf_hz
+
+
+def test_new_steps_parse_and_bad_ones_are_named():
+    assert parse_step("blockwrite user 0 0x1111,0x2222").words == (0x1111, 0x2222)
+    assert parse_step({"op": "blockwrite", "bank": "user", "ptr": 0, "data": [1, 2, 3]}).words == (1, 2, 3)
+    assert parse_step("lock epc locked") == AccessStep("lock", field="epc", state="locked", text="lock epc locked")
+    assert parse_step("kill 0xCAFEBABE").password == 0xCAFEBABE
+    for step, key in [("lock flash locked", "program[1].field"), ("lock user open", "program[1].state"),
+                      ("access 0x100000000", "program[1].password"), ("blockwrite user 0 0x1,0x10000", "program[1].data"),
+                      ("blockerase user 0 0", "program[1].count")]:
+        with pytest.raises(UserError) as err:
+            parse_program(["req_rn", step])
+        assert f"'{key}'" in str(err.value) and "\n" not in str(err.value)

@@ -75,6 +75,24 @@ MAX_DELAYED_REPLY_S = 20e-3
 ERROR_REPLY_BITS = 41
 #: Bits of a delayed success reply: header ``0`` | handle (16) | CRC-16 (16).
 SUCCESS_REPLY_BITS = 33
+#: Bits of an RN16 or handle reply (Req_RN, Access, the first Kill): RN16 (16) | CRC-16 (16).
+RN_REPLY_BITS = 32
+
+
+def read_reply_bits(word_count: int) -> int:
+    """Bits of a Read reply of ``word_count`` words: ``0`` | words | handle | CRC-16.
+
+    Parameters
+    ----------
+    word_count : int
+        Words read.
+
+    Returns
+    -------
+    int
+        ``33 + 16·word_count``.
+    """
+    return 33 + 16 * int(word_count)
 
 State = Literal["open", "secured", "killed", "arbitrate"]
 
@@ -350,7 +368,7 @@ def _password_half(memory: TagMemory, context: AccessContext, cmd, power_margin_
 
 
 __all__ = [
-    "MAX_DELAYED_REPLY_S", "ERROR_REPLY_BITS", "SUCCESS_REPLY_BITS", "AccessContext", "AccessResult",
+    "MAX_DELAYED_REPLY_S", "ERROR_REPLY_BITS", "SUCCESS_REPLY_BITS", "RN_REPLY_BITS", "read_reply_bits", "AccessContext", "AccessResult",
     "state_after_req_rn", "execute",
     "success_reply", "error_reply", "read_reply", "rn_reply",
 ]

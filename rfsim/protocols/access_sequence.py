@@ -12,23 +12,38 @@ needs a channel object of its own, which holds that draw).
 
 A program is a list of steps, each a string or a table (TOML friendly, :func:`rfsim.protocols.access_program.parse_program`):
 
-=============================  =========================================================
-step                           what the reader sends
-=============================  =========================================================
-``"req_rn"``                   Req_RN; the first one (with the RN16 of the singulation)
-                               gets the handle, a later one (with the handle) a new RN16
-``"read <bank> <ptr> <n>"``    Read of ``n`` words (1–255) of ``bank`` (``reserved``,
-                               ``epc``, ``tid``, ``user`` or 0–3) from word ``ptr``
-``"write <bank> <ptr> <w>"``   Req_RN for a fresh RN16, then Write of the word ``w``
-                               (``0xBEEF`` or decimal) cover-coded with that RN16
-=============================  =========================================================
+=====================================  =================================================
+step                                   what the reader sends
+=====================================  =================================================
+``"req_rn"``                           Req_RN; the first one (with the RN16 of the
+                                       singulation) gets the handle, a later one (with
+                                       the handle) a new RN16
+``"read <bank> <ptr> <n>"``            Read of ``n`` words (1–255) of ``bank``
+                                       (``reserved``, ``epc``, ``tid``, ``user`` or 0–3)
+                                       from word ``ptr``
+``"write <bank> <ptr> <w>"``           Req_RN for a fresh RN16, then Write of the word
+                                       ``w`` (``0xBEEF`` or decimal) cover-coded with it
+``"blockwrite <bank> <ptr> <w>,<w>"``  BlockWrite of the words (not cover-coded)
+``"blockerase <bank> <ptr> <n>"``      BlockErase of ``n`` words
+``"lock <field> <state>"``             Lock of one field (``kill_pwd``, ``access_pwd``,
+                                       ``epc``, ``tid``, ``user``) to ``unlocked``,
+                                       ``locked``, ``permaunlocked`` or ``permalocked``
+``"access <password>"``                Req_RN, Access (upper half), Req_RN, Access
+                                       (lower half), each half cover-coded
+``"kill <password>"``                  Req_RN, Kill (upper half), Req_RN, Kill (lower
+                                       half): the tag answers the last with a delayed
+                                       reply and is killed
+=====================================  =================================================
 
-or ``{op = "read", bank = "tid", ptr = 0, count = 4}`` / ``{op = "write", bank = "user",
-ptr = 2, data = 0xBEEF}``. A program starts with ``"req_rn"`` (the handle).
+or a table of the same fields, e.g. ``{op = "read", bank = "tid", ptr = 0, count = 4}`` /
+``{op = "write", bank = "user", ptr = 2, data = 0xBEEF}`` (:data:`rfsim.protocols.access_program.STEP_FIELDS`).
+A program starts with ``"req_rn"`` (the handle).
 
-Cover coding (§6.3.2.12.3.3 Write): the Write's data field is the word XOR the RN16 of the
-tag's reply to the Req_RN just before it (:func:`rfsim.gen2.commands.cover_code`); so every
-Write step is two exchanges, the Req_RN recorded as a command of the same step.
+Cover coding (§6.3.2.12.3.3 Write, §6.3.2.12.3.4 Kill, §6.3.2.12.3.6 Access): the Write's data
+field, and each password half, is the plain value XOR the RN16 of the tag's reply to the
+Req_RN just before it (:func:`rfsim.gen2.commands.cover_code`); those Req_RNs are recorded as
+commands of the same step. A trial goes on to the next command of a step only while its replies
+are decoded; the rest of the step is "not sent".
 
 Timing (gen2-and-validation-anchors.md §4.3, :mod:`rfsim.gen2.link`): a command that follows a
 reply the reader detected starts T2 after the reply's end (``t2_tpri`` Tpri, default 10, inside
@@ -36,9 +51,10 @@ the standard's 3–20 Tpri; the reply's end is its detected start plus its nomin
 :func:`rfsim.gen2.link.backscatter_duration_s`); a command that follows one without a reply
 starts when the reader's reply window ends (T1max + the reply + 3 Tpri after the command,
 :func:`rfsim.gen2.link.reply_window_s`: T3 ≥ 0 after T1) and at least T4 = 2 RTcal after the
-previous command. A Write's reply is delayed (``delayed_reply``, the engine's window T5 ≤ 20 ms
-after the command, sent with the extended preamble; its nominal duration is taken with
-TRext = 1). Replies with a header bit (Read, Write) may be error replies ``1 | code(8) |
+previous command. The replies of Write, BlockWrite, BlockErase, Lock and the final Kill are
+delayed (``delayed_reply``, the engine's window T5 ≤ 20 ms after the command, sent with the
+extended preamble; their nominal duration is taken with TRext = 1). Replies with a header bit
+(Read and the delayed ones) may be error replies ``1 | code(8) |
 handle | CRC-16`` (41 bits), which the engine's reader decodes at that length
 (``header_bit``); the error code is recorded (Annex I, :class:`rfsim.gen2.memory.TagError`).
 
@@ -54,16 +70,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.access import ERROR_REPLY_BITS
-from rfsim.protocols.access_program import (ACCESS_FIELDS, BANKS, DEFAULT_PROGRAM, OPS, REQ_RN_REPLY_BITS,
-                                            AccessStep, parse_program, parse_step)
+from rfsim.gen2.access import ERROR_REPLY_BITS, RN_REPLY_BITS, SUCCESS_REPLY_BITS
+from rfsim.protocols.access_program import (ACCESS_FIELDS, BANKS, DEFAULT_PROGRAM, LOCK_STATES, OPS, AccessStep,
+                                            parse_program, parse_step)
 from rfsim.gen2.bits import bits_to_int
-from rfsim.gen2.commands import Read, ReqRN, Write
+from rfsim.gen2.commands import Access, BlockErase, BlockWrite, Kill, Lock, Read, ReqRN, Write
 from rfsim.gen2.link import backscatter_duration_s, t2, t4
 from rfsim.protocols.engine import FAILURE_REASONS, run_exchanges, singulate_batch
 
@@ -196,7 +212,7 @@ def _exchange(trials: list, step: int, name: str, cmds: list, reply_bits: int, d
         read = ex.read
         seen = read is not None and read.bits is not None  # the reader's own view: it detected a reply
         start = read.start_s if seen else math.nan
-        data = "" if bits is None else _hex(bits[:16]) if name == "Req_RN" else _hex(bits[1:-32])
+        data = "" if bits is None else _hex(bits[:16]) if bits.size == RN_REPLY_BITS else _hex(bits[1:-32])
         t.records.append(AccessRecord(step=step, command=name, result=result, error_code=code, data_hex=data,
                                       start_s=t.t_s, cmd_end_s=ex.cmd_end_s, reply_start_s=start,
                                       reply_delay_s=start - ex.cmd_end_s, gap_s=t.t_s - t.prev_end_s,
@@ -295,37 +311,77 @@ def run_access_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Se
     return runs
 
 
+@dataclasses.dataclass(frozen=True)
+class _Action:
+    """One command of a step: its name, how it is built from the trial and the cover RN16, its
+    reply (bits, header bit, delayed) and whether its reply's RN16 covers the next command."""
+
+    name: str
+    build: Callable
+    reply_bits: int
+    header_bit: bool = False
+    delayed: bool = False
+    cover: bool = False
+
+
+def _cover() -> _Action:
+    """A Req_RN with the handle whose reply's RN16 is the next command's cover code."""
+    return _Action("Req_RN", lambda t, rn: ReqRN(t.handle), RN_REPLY_BITS, cover=True)
+
+
+def _actions(k: int, step: AccessStep) -> list[_Action]:
+    """The commands of step ``k`` (module docstring table)."""
+    op = step.op
+    if op == "req_rn":
+        return [_Action("Req_RN", (lambda t, rn: ReqRN(t.rn16)) if k == 0 else (lambda t, rn: ReqRN(t.handle)),
+                        RN_REPLY_BITS)]
+    if op == "read":
+        return [_Action("Read", lambda t, rn: Read(step.membank, step.word_ptr, step.word_count, t.handle),
+                        step.reply_bits, header_bit=True)]
+    delayed = dict(reply_bits=SUCCESS_REPLY_BITS, header_bit=True, delayed=True)
+    if op == "write":
+        return [_cover(), _Action("Write", lambda t, rn: Write.cover_coded(step.membank, step.word_ptr, step.data, rn,
+                                                                          t.handle), **delayed)]
+    if op == "blockwrite":
+        return [_Action("BlockWrite", lambda t, rn: BlockWrite(step.membank, step.word_ptr, step.words, t.handle),
+                        **delayed)]
+    if op == "blockerase":
+        return [_Action("BlockErase", lambda t, rn: BlockErase(step.membank, step.word_ptr, step.word_count,
+                                                               t.handle), **delayed)]
+    if op == "lock":
+        return [_Action("Lock", lambda t, rn: Lock.of(t.handle, **{step.field: LOCK_STATES[step.state]}), **delayed)]
+    upper, lower = step.password >> 16, step.password & 0xFFFF
+    if op == "access":
+        return [_cover(), _Action("Access", lambda t, rn: Access.cover_coded(upper, rn, t.handle), RN_REPLY_BITS),
+                _cover(), _Action("Access", lambda t, rn: Access.cover_coded(lower, rn, t.handle), RN_REPLY_BITS)]
+    return [_cover(), _Action("Kill", lambda t, rn: Kill.cover_coded(upper, rn, t.handle), RN_REPLY_BITS),
+            _cover(), _Action("Kill", lambda t, rn: Kill.cover_coded(lower, rn, t.handle), **delayed)]
+
+
 def _commands(program: Sequence[AccessStep]) -> list[tuple[int, str]]:
-    """``(step index, command name)`` of every command of a program (a Write is two)."""
-    names = {"req_rn": ("Req_RN",), "read": ("Read",), "write": ("Req_RN", "Write")}
-    return [(k, name) for k, step in enumerate(program) for name in names[step.op]]
+    """``(step index, command name)`` of every command of a program (a Write is two, an Access
+    or Kill four)."""
+    return [(k, a.name) for k, step in enumerate(program) for a in _actions(k, step)]
 
 
 def _run_step(active: list, k: int, step: AccessStep, devices: dict, timing: dict) -> None:
-    """Step ``k`` of the program for the singulated trials (records appended to each)."""
-    have = [t for t in active if t.handle is not None]
-    if step.op == "req_rn":
-        first = [t for t in active if t.handle is None] if k == 0 else have
-        _not_sent([t for t in active if t not in first], k, "Req_RN")
-        bits = _exchange(first, k, "Req_RN", [ReqRN(t.rn16 if k == 0 else t.handle) for t in first],
-                         REQ_RN_REPLY_BITS, devices, **timing)
-        if k == 0:
-            for t, b in zip(first, bits):
+    """Step ``k`` of the program for the singulated trials (records appended to each).
+
+    Its commands run in order, one batch each; a trial goes on to the next command of the step
+    only while its replies are decoded ("ok"), the others get "not sent" records for the rest.
+    The first step's Req_RN (with the singulation's RN16) gives the handle; every later command
+    needs it."""
+    go = [t for t in active if t.handle is not None] if k else list(active)
+    covers = [0] * len(go)  # per trial of go: the RN16 of its last reply (the next command's cover code)
+    for action in _actions(k, step):
+        going = {t.b for t in go}
+        _not_sent([t for t in active if t.b not in going], k, action.name)
+        bits = _exchange(go, k, action.name, [action.build(t, rn) for t, rn in zip(go, covers)], action.reply_bits,
+                         devices, header_bit=action.header_bit, delayed=action.delayed, **timing)
+        if k == 0 and step.op == "req_rn":
+            for t, b in zip(go, bits):
                 t.handle = None if b is None else bits_to_int(b[:16])
-        return
-    if step.op == "read":
-        _not_sent([t for t in active if t.handle is None], k, "Read")
-        _exchange(have, k, "Read", [Read(step.membank, step.word_ptr, step.word_count, t.handle) for t in have],
-                  step.reply_bits, devices, header_bit=True, **timing)
-        return
-    _not_sent([t for t in active if t.handle is None], k, "Req_RN")
-    covers = _exchange(have, k, "Req_RN", [ReqRN(t.handle) for t in have], REQ_RN_REPLY_BITS, devices, **timing)
-    go = [t for t, c in zip(have, covers) if c is not None]
-    for t in [t for t in active if t.handle is None] + [t for t, c in zip(have, covers) if c is None]:
-        t.records.append(AccessRecord(step=k, command="Write", result="not sent"))
-    cmds = [Write.cover_coded(step.membank, step.word_ptr, step.data, bits_to_int(c[:16]), t.handle)
-            for t, c in zip(have, covers) if c is not None]
-    _exchange(go, k, "Write", cmds, step.reply_bits, devices, delayed=True, **timing)
+        go, covers = [t for t, b in zip(go, bits) if b is not None], [bits_to_int(b[:16]) for b in bits if b is not None]
 
 
 def access_columns(runs: Sequence[AccessRun]) -> dict[str, np.ndarray]:

@@ -67,7 +67,6 @@ from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.progress import track
-from rfsim.devices.gen2_tag_arrays import StateArrays
 from rfsim.devices.reader_config import ReaderConfig
 from rfsim.devices.tag_config import TagConfig
 from rfsim.devices.tag_spread import SPREAD_FIELDS, TagSpreadConfig
@@ -80,6 +79,7 @@ from rfsim.scenes.room_inventory import (CAPTURE_FIELDS, RoomConfig, boresight_c
 _dataset = lazy_import("rfsim.core.dataset")
 _link = lazy_import("rfsim.gen2.link")
 _figures = lazy_import("rfsim.scenarios._inventory_figures")
+_arrays = lazy_import("rfsim.devices.gen2_tag_arrays")
 
 NAME = "inventory"
 DESCRIPTION = "Q-algorithm inventory of N tags in a room at sample level: slots, reads, capture"
@@ -237,7 +237,7 @@ def capture_inventories(config: Config, *, seed: int) -> dict[str, list]:
     for p, n, r, mode in track(plan, desc="inventories with capture on/off", unit="inventories"):
         key = (3_000_000 + p, r)
         reader, tags = room_population(room, reader_cfg, config.tag, n, antennas, seed=seed, key=key, spread=cs.spread)
-        air = ProtocolAir(reader.link, tags, arrays=StateArrays) if mode == "protocol" else \
+        air = ProtocolAir(reader.link, tags, arrays=_arrays.StateArrays) if mode == "protocol" else \
             room_air(room, reader, tags, seed=seed, key=key, keep_exchanges=True)
         log = run_inventory(NoCaptureAir(air) if mode == "no-capture" else air, config.inventory)
         done = log.completion(n)

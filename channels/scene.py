@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -191,6 +192,65 @@ def _doppler_hz(fc_hz, unit_dir, v_src, v_dst):
 GEOMETRY_CACHE_SIZE = 4096
 
 
+class _ImageGeometry(NamedTuple):
+    """Image paths tx → rx and their carrier-independent factors (:meth:`Channel._image_geometry`)."""
+
+    found: list            # the image paths (rfsim.channels.surfaces.image_paths), possibly empty
+    length_m: object       # (P,) path lengths [m], or None when there are none
+    coefficient: object    # (P,) reflection coefficients, or None
+    antenna_gain: object   # (P,) G_tx·G_rx along the paths, or None
+    plf: object            # (P,) polarization mismatch factors, or None
+
+
+class _Placement(NamedTuple):
+    """Carrier-independent geometry of a link (:meth:`Channel._placement`; the same fields in
+    the same order as the tuples of :func:`rfsim.channels.bulk.static_placements`)."""
+
+    d: float                # distance [m]
+    u: np.ndarray           # (3,) unit vector tx → rx
+    env: float              # wall amplitude factor
+    ant: float              # √(G_tx·G_rx)
+    plf: float              # √PLF
+    p_tx: np.ndarray        # (3,) tx position [m]
+    p_rx: np.ndarray        # (3,) rx position [m]
+    v_tx: np.ndarray        # (3,) tx velocity [m/s]
+    v_rx: np.ndarray        # (3,) rx velocity [m/s]
+    images: object          # _ImageGeometry or None
+    apdp_args: object       # (K, τ_rms [s]) of the APDP at d, or None
+
+
+class _Geometry(NamedTuple):
+    """Deterministic part of a link at one carrier (:meth:`Channel._geometry`)."""
+
+    d: float                # distance [m]
+    g_ls: float             # large-scale amplitude gain
+    env: float              # wall amplitude factor
+    ant: float              # √(G_tx·G_rx)
+    plf: float              # √PLF
+    tau_los_s: float        # LoS delay [s]
+    f_los_hz: float         # LoS Doppler shift [Hz]
+    p_tx: np.ndarray        # (3,) tx position [m]
+    p_rx: np.ndarray        # (3,) rx position [m]
+    images: object          # image PathSet or None
+    apdp_args: object       # (K, τ_rms [s]) of the APDP at d, or None
+
+
+class _DiffuseDraw(NamedTuple):
+    """A held draw of a link's diffuse part (:func:`rfsim.channels.small_scale.draw_taps`)."""
+
+    los_amplitude: float    # |h_0|, the LoS tap's amplitude
+    taps: np.ndarray        # (K,) complex diffuse taps
+    delays_s: np.ndarray    # (K,) their delays relative to the LoS [s]
+
+
+class _HeldPair(NamedTuple):
+    """A link of :class:`HeldLinks`, kept with the antennas whose identities key it."""
+
+    tx: object
+    rx: object
+    paths: object
+
+
 class Channel:
     """A :class:`Scene` plus the held (quasi-static) diffuse draws of its links.
 
@@ -267,10 +327,10 @@ class Channel:
                 if len(self._static) >= GEOMETRY_CACHE_SIZE:
                     self._static.pop(next(iter(self._static)))
                 self._static[(tx, rx, fc_hz)] = geo
-        d, g_ls, env, ant, plf, tau_los, f_los, p_tx, p_rx, images, apdp_args = geo
+        g_ls, env, images = geo.g_ls, geo.env, geo.images
         if sc.shadowing is not None:
-            env *= float(sc.shadowing.amplitude_gain(0.5 * (p_tx + p_rx)))
-        a_los = g_ls * env * ant * plf
+            env *= float(sc.shadowing.amplitude_gain(0.5 * (geo.p_tx + geo.p_rx)))
+        a_los = g_ls * env * geo.ant * geo.plf
 
         # One PathSet of LoS, image paths, diffuse taps (as concatenate() of the parts would
         # give, the parts written into its arrays: finite by construction, not checked again).
@@ -280,28 +340,28 @@ class Channel:
             if held is None:
                 if rng is None:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
-                k_lin, tau_rms_s = apdp_args
+                k_lin, tau_rms_s = geo.apdp_args
                 taps, rel = draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **sc.apdp.profile_options)
-                held = (abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
+                held = _DiffuseDraw(abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
                 self._held[key] = held
-            los_amp, h, rel = held
-            a_los = a_los * los_amp
+            h, rel = held.taps, held.delays_s
+            a_los = a_los * held.los_amplitude
         n_img = 0 if images is None else images.gain.size
         n = 1 + n_img + (0 if h is None else h.size)
         gains, delays, dops = np.empty(n, np.complex128), np.empty(n), np.empty(n)
-        gains[0], delays[0], dops[0] = a_los, tau_los, f_los
+        gains[0], delays[0], dops[0] = a_los, geo.tau_los_s, geo.f_los_hz
         if n_img:
             gains[1:1 + n_img], delays[1:1 + n_img], dops[1:1 + n_img] = images.gain, images.delay_s, images.doppler_hz
         if h is not None:
             gains[1 + n_img:] = g_ls * env * h
-            delays[1 + n_img:] = tau_los + rel
-            dops[1 + n_img:] = f_los
+            delays[1 + n_img:] = geo.tau_los_s + rel
+            dops[1 + n_img:] = geo.f_los_hz
         return PathSet._own(gains, delays, dops)
 
-    def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> tuple:
+    def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> _Geometry:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse
-        taps and the shadowing): ``(d, g_ls, wall amplitude, antenna gain, √PLF, τ_LoS,
-        f_D,LoS, p_tx, p_rx, image PathSet or None, (K, τ_rms) of the APDP or None)``.
+        taps and the shadowing): a :class:`_Geometry` ``(d, g_ls, wall amplitude, antenna gain,
+        √PLF, τ_LoS, f_D,LoS, p_tx, p_rx, image PathSet or None, (K, τ_rms) of the APDP or None)``.
 
         The carrier enters only through the large-scale gains and the Doppler shifts: for
         static antennas the rest (:meth:`_placement`) is kept per antenna pair, so that a
@@ -315,13 +375,14 @@ class Channel:
                 if len(self._placements) >= GEOMETRY_CACHE_SIZE:
                     self._placements.pop(next(iter(self._placements)))
                 self._placements[(tx, rx)] = place
-        d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args = place
+        d = place.d
         g_ls = float(sc.link_amplitude_gain(tx, rx, d, fc_hz))
         images = None
-        if found is not None:
-            images = self._image_part(found, p_rx, v_tx, v_rx, fc_hz, tx, rx)
-        return (d, g_ls, env, ant, plf, d / C_M_S, _doppler_hz(fc_hz, u, v_tx, v_rx), p_tx, p_rx, images,
-                apdp_args)
+        if place.images is not None:
+            images = self._image_part(place.images, place.p_rx, place.v_tx, place.v_rx, fc_hz, tx, rx)
+        return _Geometry(d, g_ls, place.env, place.ant, place.plf, d / C_M_S,
+                         _doppler_hz(fc_hz, place.u, place.v_tx, place.v_rx), place.p_tx, place.p_rx, images,
+                         place.apdp_args)
 
     def hold_placement(self, tx: Antenna, rx: Antenna, placement: tuple) -> None:
         """Keep ``placement`` as the carrier-independent geometry of the static link ``tx → rx``.
@@ -338,7 +399,7 @@ class Channel:
         """
         if len(self._placements) >= GEOMETRY_CACHE_SIZE:
             self._placements.pop(next(iter(self._placements)))
-        self._placements[(tx, rx)] = placement
+        self._placements[(tx, rx)] = _Placement(*placement)
 
     def hold_placements(self, tx: Antenna, rx_antennas) -> int:
         """Evaluate at once, and hold, the carrier-independent geometry of the static links ``tx → rx_i`` not held yet.
@@ -378,8 +439,8 @@ class Channel:
             self.hold_placement(tx, rx, place)
         return len(todo)
 
-    def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> tuple:
-        """Carrier-independent geometry of the link: ``(d, unit vector, wall amplitude,
+    def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> _Placement:
+        """Carrier-independent geometry of the link, a :class:`_Placement`: ``(d, unit vector, wall amplitude,
         antenna gain, √PLF, p_tx, p_rx, v_tx, v_rx, image paths or None, APDP (K, τ_rms) or
         None)``; the image paths as ``(paths, lengths, coefficients, antenna gains, PLF)``."""
         sc = self.scene
@@ -407,15 +468,15 @@ class Channel:
             apdp_args = (float(sc.apdp.k_lin_at(d)), float(sc.apdp.tau_rms_s_at(d)))
         for a in (u, p_tx, p_rx, v_tx, v_rx):  # kept in the cache: read-only
             a.setflags(write=False)
-        return d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args
+        return _Placement(d, u, env, ant, plf, p_tx, p_rx, v_tx, v_rx, found, apdp_args)
 
-    def _image_geometry(self, tx, rx, p_tx, p_rx) -> tuple:
+    def _image_geometry(self, tx, rx, p_tx, p_rx) -> _ImageGeometry:
         """Image paths tx → rx and their carrier-independent factors (reflection coefficient,
         antenna gains, polarization mismatch)."""
         sc = self.scene
         found = image_paths(p_tx, p_rx, sc.surfaces, sc.image_order, polarization=tx.polarization_vector)
         if not found:
-            return found, None, None, None, None
+            return _ImageGeometry(found, None, None, None, None)
         ell = np.array([ip.length_m for ip in found])
         first = np.array([ip.points_m[0] for ip in found])
         last = np.array([ip.points_m[-1] for ip in found])
@@ -423,14 +484,15 @@ class Channel:
         coef = np.array([ip.coefficient for ip in found])
         g_ant = tx.gain_towards(first) * rx.gain_towards(last)
         plf = tx.polarization_mismatch(rx, direction=p_rx - v_src)
-        return found, ell, coef, g_ant, plf
+        return _ImageGeometry(found, ell, coef, g_ant, plf)
 
     def _image_part(self, image_geometry, p_rx, v_tx, v_rx, fc_hz, tx, rx) -> PathSet:
         sc = self.scene
-        found, ell, coef, g_ant, plf = image_geometry
+        found, ell = image_geometry.found, image_geometry.length_m
         if not found:
             return PathSet(np.zeros(0, complex), np.zeros(0))
-        gains = np.asarray(sc.link_amplitude_gain(tx, rx, ell, fc_hz), float) * coef * np.sqrt(g_ant * plf)
+        gains = (np.asarray(sc.link_amplitude_gain(tx, rx, ell, fc_hz), float) * image_geometry.coefficient
+                 * np.sqrt(image_geometry.antenna_gain * image_geometry.plf))
         dops = np.empty(len(found))
         for i, ip in enumerate(found):
             v_img = v_tx.copy()
@@ -496,7 +558,7 @@ class HeldLinks:
     def __init__(self, pairs=()):
         self._pairs: dict = {}
         for tx, rx, p in pairs:
-            self._pairs[(id(tx), id(rx))] = (tx, rx, p)  # the antennas are kept alive with their ids
+            self._pairs[(id(tx), id(rx))] = _HeldPair(tx, rx, p)  # the antennas are kept alive with their ids
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
         """The held link of a pair (matched by antenna identity, whatever the carrier and time).
@@ -516,7 +578,7 @@ class HeldLinks:
             The link, or None for a pair it does not hold.
         """
         hit = self._pairs.get((id(tx), id(rx)))
-        return None if hit is None else hit[2]
+        return None if hit is None else hit.paths
 
 
 def los_links(tx_positions_m, rx_positions_m, fc_hz, *, large_scale=None, walls=(), tx_antenna=None,

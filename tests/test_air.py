@@ -19,6 +19,7 @@ from rfsim.devices.exciter import Exciter, ExciterConfig
 from rfsim.devices.sense_a_tag import SenseATag, SenseATagConfig, make_receiver
 from rfsim.devices.tag import PassiveTag, TagConfig
 from rfsim.air.step import AntennaPort, FixedEmitter, LinkTable, Segment, propagate
+from rfsim.air.links import AntennaMotion
 from rfsim.core.errors import ConfigError, UserError
 from rfsim.core.rng import trial_rng
 from reference.channels_paths import apply_paths_reference
@@ -285,7 +286,7 @@ def test_moving_reflector_phase_refers_to_the_step_start():
     outs = []
     for ant, start in ((moving, t0), (shifted, 0.0)):
         refl = Const(ant, 0.5 + 0.0j)
-        links = LinkTable(Channel(Scene()), motions={id(ant): v})
+        links = LinkTable(Channel(Scene()), motions=[AntennaMotion(ant, v)])
         out = propagate([_cw(e, 1.0, t0=start)], [refl], [AntennaPort(rx)], links, t0_s=start, fs_hz=FS,
                         n_samples=N, propagation="narrowband")
         outs.append(out.inputs[0].samples)

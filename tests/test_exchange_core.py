@@ -1,6 +1,7 @@
 """The exchange is written once and the air step reads as stages (issue "One exchange core",
 items 1 and 2), checked on the source: the single exchange is the batch of one, every function
-of the air step is short, and the air step keeps no module-level caches."""
+of the air step is short, the air step keeps no module-level caches, and the caches of the
+links, scenes and channel hold named entries that keep the objects whose id() keys them."""
 
 from __future__ import annotations
 
@@ -122,3 +123,166 @@ def test_id_keyed_dict_check_can_fail(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text("_CACHE = {}\n\ndef f(x):\n    hit = _CACHE.get(id(x))\n    _CACHE[(id(x), 1)] = x\n")
     assert _id_keyed_module_dicts(bad) == ["bad.py:_CACHE", "bad.py:_CACHE"]
+
+
+# ---------------------------------------------------------------- cache entries: named, kept alive
+
+_LOOKUPS = ("get", "pop", "setdefault")
+_HOLDING = ("held", "cache", "memo")
+
+
+def _id_args(expr) -> list:
+    """The arguments of the ``id(...)`` calls in ``expr``."""
+    return [n.args[0] for n in ast.walk(expr) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+            and n.func.id == "id" and len(n.args) == 1]
+
+
+def _keeps(entry, objects) -> bool:
+    """Whether ``entry`` is a constructor call that is given every one of ``objects``."""
+    if not isinstance(entry, ast.Call):
+        return False
+    given = {ast.dump(a) for a in [*entry.args, *(k.value for k in entry.keywords)]}
+    return all(ast.dump(o) in given for o in objects)
+
+
+def cache_entry_problems(path: Path) -> list[str]:
+    """Cache entries of ``path`` that are tuples read by position or keyed by id() without their object.
+
+    Per function: a tuple stored as a dict entry (except in a dict of the function's own not
+    keyed by id()); a dict entry or dict display keyed by ``id(x)`` whose value is not a
+    constructor call given ``x``; a tuple or a set of ids held in ``self.<held/cache/memo…>``;
+    and a value looked up in a dict (``.get``/``.pop``/``.setdefault``) or held in such an
+    attribute read by an integer index or unpacked.
+    """
+    tree = ast.parse(path.read_text())
+    found = []
+    for func in ast.walk(tree):
+        if not isinstance(func, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            continue
+        local_dicts, assigned, looked_up = set(), {}, set()
+        for n in ast.walk(func):
+            if isinstance(n, (ast.Assign, ast.AnnAssign)) and n.value is not None:
+                targets = n.targets if isinstance(n, ast.Assign) else [n.target]
+                for t in targets:
+                    if isinstance(t, ast.Name):
+                        assigned.setdefault(t.id, []).append(n.value)
+                        if isinstance(n.value, (ast.Dict, ast.DictComp)):
+                            local_dicts.add(t.id)
+
+        def is_lookup(expr) -> bool:
+            for n in ast.walk(expr):
+                if (isinstance(n, ast.Call) and isinstance(n.func, ast.Attribute) and n.func.attr in _LOOKUPS
+                        and not (isinstance(n.func.value, ast.Name) and n.func.value.id in local_dicts)):
+                    return True
+            return False
+
+        for name, values in assigned.items():
+            if any(map(is_lookup, values)):
+                looked_up.add(name)
+        where = f"{path.name}:{func.name}"
+        for n in ast.walk(func):
+            if isinstance(n, ast.Assign):
+                for t in n.targets:
+                    if isinstance(t, ast.Subscript):
+                        if isinstance(t.slice, ast.Constant) and isinstance(t.slice.value, str):
+                            continue  # a named slot of an object
+                        keys = assigned.get(t.slice.id, [t.slice]) if isinstance(t.slice, ast.Name) else [t.slice]
+                        ids = [a for k in keys for a in _id_args(k)]
+                        own = isinstance(t.value, ast.Name) and t.value.id in local_dicts
+                        if isinstance(n.value, ast.Tuple) and (ids or not own):
+                            found.append(f"{where}: tuple entry")
+                        if ids and not _keeps(n.value, ids):
+                            found.append(f"{where}: id() key without its object")
+                    elif (isinstance(t, ast.Attribute) and isinstance(t.value, ast.Name) and t.value.id == "self"):
+                        if isinstance(n.value, ast.Tuple) and any(w in t.attr for w in _HOLDING):
+                            found.append(f"{where}: tuple held in self.{t.attr}")
+                        if isinstance(n.value, (ast.Set, ast.SetComp)) and _id_args(n.value):
+                            found.append(f"{where}: set of id() in self.{t.attr}")
+                    if isinstance(t, ast.Tuple) and (
+                            (isinstance(n.value, ast.Name) and n.value.id in looked_up) or
+                            (isinstance(n.value, ast.Call) and isinstance(n.value.func, ast.Attribute)
+                             and n.value.func.attr in _LOOKUPS and is_lookup(n.value)) or
+                            (isinstance(n.value, ast.Attribute) and any(w in n.value.attr for w in _HOLDING))):
+                        found.append(f"{where}: entry unpacked by position")
+            if isinstance(n, (ast.Dict, ast.DictComp)):
+                pairs = zip(n.keys, n.values) if isinstance(n, ast.Dict) else [(n.key, n.value)]
+                for k, v in pairs:
+                    ids = _id_args(k) if k is not None else []
+                    if ids and not _keeps(v, ids):
+                        found.append(f"{where}: id() key without its object")
+            if (isinstance(n, ast.Subscript) and isinstance(n.ctx, ast.Load) and isinstance(n.slice, ast.Constant)
+                    and isinstance(n.slice.value, int)
+                    and ((isinstance(n.value, ast.Name) and n.value.id in looked_up) or is_lookup(n.value))):
+                found.append(f"{where}: entry read by position")
+    return found
+
+
+ROOT = Path(rfsim.__file__).parent
+#: The files whose caches were made named and kept alive (issue 30, item 2).
+CACHE_FILES = ([ROOT / "air" / "links.py", ROOT / "air" / "cache.py", ROOT / "protocols" / "inventory.py"]
+               + sorted((ROOT / "scenes").glob("*.py")) + sorted((ROOT.parent / "channels").glob("*.py")))
+
+
+def test_cache_entries_are_named_and_keep_their_id_keys_alive():
+    assert len(CACHE_FILES) > 30
+    found = [hit for path in CACHE_FILES for hit in cache_entry_problems(path)]
+    assert not found
+
+
+BAD_CACHES = """
+class Table:
+    def __init__(self, antennas):
+        self.ids = {id(a) for a in antennas}
+        self.by_id = {id(a): 1.0 for a in antennas}
+
+    def add(self, tx, rx, paths):
+        self._table[(id(tx), id(rx))] = (tx, rx, paths)
+
+    def gain(self, paths, fc_hz):
+        key = (id(paths), fc_hz)
+        self.memo[key] = paths.constant_gain(fc_hz)
+
+    def paths(self, tx, rx):
+        hit = self._table.get((id(tx), id(rx)))
+        return hit[2]
+
+    def hold(self, j, tag):
+        self._held = (j, tag)
+
+    def held(self):
+        j, tag = self._held
+        a, b = self.links.get(j)
+        return self.links.get(tag)[0]
+"""
+
+GOOD_CACHES = """
+class Table:
+    def add(self, tx, rx, paths):
+        self._table[(id(tx), id(rx))] = HeldLink(tx, rx, paths)
+        self.motions = {id(m.antenna): AntennaMotion(m.antenna, m.motion) for m in ()}
+
+    def check(self, antennas):
+        seen = {}
+        for a in antennas:
+            other = seen.get(a.key)
+            seen[a.key] = (a.name, a)
+            if other is not None and other[1] is not a:
+                raise ValueError(other[0])
+
+    def paths(self, tx, rx):
+        hit = self._table.get((id(tx), id(rx)))
+        return hit.paths
+"""
+
+
+def test_cache_entry_check_can_fail(tmp_path):
+    bad, good = tmp_path / "bad.py", tmp_path / "good.py"
+    bad.write_text(BAD_CACHES)
+    good.write_text(GOOD_CACHES)
+    assert sorted(cache_entry_problems(bad)) == sorted([
+        "bad.py:__init__: set of id() in self.ids", "bad.py:__init__: id() key without its object",
+        "bad.py:add: tuple entry", "bad.py:add: id() key without its object",
+        "bad.py:gain: id() key without its object", "bad.py:paths: entry read by position",
+        "bad.py:hold: tuple held in self._held", "bad.py:held: entry unpacked by position",
+        "bad.py:held: entry unpacked by position", "bad.py:held: entry read by position"])
+    assert cache_entry_problems(good) == []

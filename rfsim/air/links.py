@@ -15,7 +15,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.air.cache import AirCache, CheckedAntennas
 from rfsim.air.segment import Segment
 
-__all__ = ["PROPAGATION_METHODS", "LinkTable", "HeldLink", "check_positions", "link_constant", "through",
+__all__ = ["PROPAGATION_METHODS", "LinkTable", "HeldLink", "AntennaMotion", "HeldConstant", "check_positions", "link_constant", "through",
            "require_link"]
 
 #: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
@@ -38,6 +38,36 @@ class HeldLink(NamedTuple):
     paths: object
 
 
+class AntennaMotion(NamedTuple):
+    """The motion of one antenna of a :class:`LinkTable`, kept with the antenna it is keyed by.
+
+    Attributes
+    ----------
+    antenna : object
+        The moving antenna (kept alive: its id stays its own).
+    motion : object
+        Its velocity (3,) [m/s] or trajectory ``t_s → position_m``, as ``channel.link`` takes it.
+    """
+
+    antenna: object
+    motion: object
+
+
+class HeldConstant(NamedTuple):
+    """The narrowband constant of one link (:func:`link_constant`), kept with the link it is keyed by.
+
+    Attributes
+    ----------
+    paths : PathSet-like
+        The link (kept alive: its id stays its own).
+    gain : complex or None
+        The link's complex gain [√W per √W], or None when it is not one constant.
+    """
+
+    paths: object
+    gain: object
+
+
 class LinkTable:
     """Links of one step drawn from a channel, one draw per antenna pair.
 
@@ -53,14 +83,15 @@ class LinkTable:
     reciprocal : bool, default True
         A pair's reverse link is the same draw (the same PathSet object), as for a reciprocal
         channel's monostatic round trip.
-    motions : dict or None, default None
-        ``{id(antenna): motion}`` (velocity (3,) m/s or trajectory), passed on to the channel.
+    motions : sequence of AntennaMotion or None, default None
+        The moving antennas and their motions (velocity (3,) m/s or trajectory), passed on to
+        the channel; the other antennas are static.
     """
 
     def __init__(self, channel, *, rng: np.random.Generator | None = None, reciprocal: bool = True,
-                 motions: dict | None = None):
+                 motions: Sequence[AntennaMotion] | None = None):
         self.channel, self.rng, self.reciprocal = channel, rng, reciprocal
-        self.motions = motions or {}
+        self.motions = {id(m.antenna): AntennaMotion(m.antenna, m.motion) for m in (motions or ())}
         self._held: dict = {}
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
@@ -87,14 +118,20 @@ class LinkTable:
             hit = self._held.get((id(rx), id(tx), float(fc_hz)))
         if hit is None:
             kw = {}
-            if self.motions.get(id(tx)) is not None:
-                kw["tx_motion"] = self.motions[id(tx)]
-            if self.motions.get(id(rx)) is not None:
-                kw["rx_motion"] = self.motions[id(rx)]
+            tx_motion, rx_motion = self._motion(tx), self._motion(rx)
+            if tx_motion is not None:
+                kw["tx_motion"] = tx_motion
+            if rx_motion is not None:
+                kw["rx_motion"] = rx_motion
             hit = self.channel.link(tx, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s, **kw)
             self._held[key] = HeldLink(tx, rx, hit)  # the antennas are kept alive with their ids
             return hit
         return hit.paths
+
+    def _motion(self, antenna):
+        """The motion of ``antenna`` (None: static)."""
+        m = self.motions.get(id(antenna))
+        return m.motion if (m is not None and m.antenna is antenna) else None
 
 
 def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers: Sequence,
@@ -192,7 +229,8 @@ def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, me
     propagation : str
         Propagation policy (:data:`PROPAGATION_METHODS`).
     memo : dict
-        The step's memo, keyed by ``(id(paths), fc_hz)``; updated in place.
+        The step's memo, keyed by ``(id(paths), fc_hz)``, of :class:`HeldConstant` entries
+        (the link kept alive with its id); updated in place.
 
     Returns
     -------
@@ -203,13 +241,13 @@ def link_constant(paths, fc_hz: float, bandwidth_hz: float, propagation: str, me
     if f is not None:
         return f(fc_hz, bandwidth_hz, propagation)
     key = (id(paths), fc_hz)
-    hit = memo.get(key, memo)
-    if hit is memo:
-        hit = None
+    hit = memo.get(key)
+    if hit is None or hit.paths is not paths:
+        gain = None
         if paths.static and paths.method(bandwidth_hz, propagation) == "narrowband":
-            hit = paths.constant_gain(fc_hz)
-        memo[key] = hit
-    return hit
+            gain = paths.constant_gain(fc_hz)
+        hit = memo[key] = HeldConstant(paths, gain)
+    return hit.gain
 
 
 def through(paths, seg: Segment, x: np.ndarray | None, *, fc_hz: float, bandwidth_hz: float,

@@ -52,7 +52,7 @@ import math
 import operator
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -621,9 +621,20 @@ class ProtocolAir:
 # ============================================================================ sample level
 
 
+class _RoundLinks(NamedTuple):
+    """One held entry of :class:`_RoundChannel`: the antennas whose identities key it (kept
+    alive) and the channel's ``(forward, backward)`` links."""
+
+    emitter: object
+    tag: object
+    receiver: object
+    links: tuple
+
+
 class _RoundChannel:
     """The channel held for a round: the PathSets of each (antenna, tag, fc) are computed once
     and reused until :meth:`clear` (static tags; moving tags are evaluated at every call).
+    Entries: ``(id(emitter), id(tag), id(receiver), fc_hz)`` → :class:`_RoundLinks`.
 
     With a quasi-static channel the links are deterministic functions of the geometry and the
     held diffuse draw, so reusing them is exact; it only saves recomputing geometry.
@@ -642,10 +653,11 @@ class _RoundChannel:
             return self.channel.backscatter_links(emitter, tag, receiver, fc_hz=fc_hz, rng=rng, t_s=t_s,
                                                   tag_motion=tag_motion, **kw)
         key = (id(emitter), id(tag), id(receiver), float(fc_hz))
-        if rng is None and key in self._links:
-            return self._links[key]
+        hit = self._links.get(key) if rng is None else None
+        if hit is not None and hit.emitter is emitter and hit.tag is tag and hit.receiver is receiver:
+            return hit.links
         out = self.channel.backscatter_links(emitter, tag, receiver, fc_hz=fc_hz, rng=rng, t_s=t_s)
-        self._links[key] = out
+        self._links[key] = _RoundLinks(emitter, tag, receiver, out)
         return out
 
 

@@ -34,6 +34,7 @@ APDP taps.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -201,7 +202,8 @@ def sample_level_reports(wf: WaveformConfig, plan, channel, data, *, waf_db: flo
                                                     pl_d0_db=TX_POWER_DBM - r.alpha_dbm - (total[k, j] - mean[k, j])))
                           for j, r in enumerate(channel.readers)]
                 scene = _scene.Scene(walls=walls, large_scale=_large_scale.LinkLargeScale(by_antenna=models), apdp=apdp, image_order=0)
-                by_tag[id(tag.antenna)] = (tag.antenna, _air.LinkTable(_scene.Channel(scene), rng=rng if apdp else None))
+                by_tag[id(tag.antenna)] = _TagTable(tag.antenna, _air.LinkTable(_scene.Channel(scene),
+                                                                                rng=rng if apdp else None))
             common = _air.LinkTable(_scene.Channel(_scene.Scene(walls=walls, image_order=0)))
             run = _beacons.run_beacons(tags, readers, _TagLinks(by_tag, common), t0_s=float(t), t1_s=float(t + 1),
                                        fs_hz=wf.fs_hz, rng=rng, offsets_s=offsets + t)
@@ -224,18 +226,29 @@ def sample_level_reports(wf: WaveformConfig, plan, channel, data, *, waf_db: flo
     return out, out_ref, starts, stats
 
 
+class _TagTable(NamedTuple):
+    """One tag's links to the readers, kept with the tag antenna whose identity keys it."""
+
+    antenna: object
+    links: object
+
+
 class _TagLinks:
     """The links of one epoch: a tag's links to the readers from that tag's own channel (its
     per-reader models carry its shadowing), tag ↔ tag links (listen-before-talk) from the
     common one. Tags are told apart by antenna identity: two tags may stand at one spot."""
 
     def __init__(self, by_tag: dict, common):
-        self.by_tag, self.common = by_tag, common
+        self.by_tag, self.common = by_tag, common  # by_tag: id(tag antenna) → _TagTable
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
-        a, b = self.by_tag.get(id(tx)), self.by_tag.get(id(rx))
-        table = self.common if (a is not None and b is not None) else (a or b or (None, self.common))[1]
+        a, b = self._table(tx), self._table(rx)
+        table = self.common if (a is not None and b is not None) else (a or b or _TagTable(None, self.common)).links
         return table.paths(tx, rx, fc_hz=fc_hz, t_s=t_s)
+
+    def _table(self, antenna) -> _TagTable | None:
+        hit = self.by_tag.get(id(antenna))
+        return hit if (hit is not None and hit.antenna is antenna) else None
 
 
 __all__ = ["WaveformConfig", "WaveformStats", "WAVEFORM_UNITS", "sample_level_reports"]

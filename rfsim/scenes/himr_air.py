@@ -55,6 +55,7 @@ _scene = lazy_import("rfsim.channels.scene")
 _himr_pylon = lazy_import("rfsim.devices.himr_pylon")
 _himr_tag = lazy_import("rfsim.devices.himr_tag")
 _air = lazy_import("rfsim.air.step")
+_air_links = lazy_import("rfsim.air.links")
 _himr_link = lazy_import("rfsim.himr.link")
 _noise = lazy_import("rfsim.air.noise")
 _imu = lazy_import("rfsim.devices.imu")
@@ -393,7 +394,7 @@ def simulate(tag: _himr_tag.HimrTag, positions_m, carriers_hz, radio: RadioConfi
         t0 = t_k - radio.margin_s
         for grp in groups:
             devs = [pylons[u] for u in grp]
-            links = _air.LinkTable(channel, motions={id(tag.antenna): motion})
+            links = _air.LinkTable(channel, motions=[_air_links.AntennaMotion(tag.antenna, motion)])
             res = _air.propagate(devs, [tag], devs, links, t0_s=t0, fs_hz=fs, n_samples=n,
                                  rng=trial_rng(seed, *stream, 1, k, grp[0]), bandwidth_hz=code.bandwidth_hz / 2)
             steps += 1

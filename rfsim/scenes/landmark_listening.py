@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -288,30 +289,44 @@ class ListeningAir(EngineAir):
                            tuple(float(r.incident_power_dbm) for r in responses))
 
 
+class _LandmarkLinks(NamedTuple):
+    """A landmark's round links (reader → landmark, landmark → reader), kept with the
+    landmark's antenna whose identity keys them."""
+
+    antenna: object
+    forward: object
+    backward: object
+
+
 class _Links:
     """Links of one exchange: reader ↔ landmark from the round's held draw (the engine's
-    round channel), reader → ST and landmark → ST drawn anew (``st_rng``)."""
+    round channel; ``cache``: ``(id(landmark antenna), fc_hz)`` → :class:`_LandmarkLinks`),
+    reader → ST and landmark → ST drawn anew (``st_rng``)."""
 
     def __init__(self, round_channel, channel, antenna, st_antennas, rng, st_rng, cache, new_round):
         self.round, self.channel, self.antenna = round_channel, channel, antenna
-        self.st = {id(a) for a in st_antennas}
+        self.st = tuple(st_antennas)
         self.rng, self.st_rng, self.cache, self.new_round = rng, st_rng, cache, new_round
 
     def paths(self, tx, rx, *, fc_hz, t_s):
-        if id(rx) in self.st:
+        if any(rx is a for a in self.st):
             return self.channel.link(tx, rx, fc_hz=fc_hz, rng=self.st_rng if self.channel.scene.apdp else None,
                                      t_s=t_s)
         if tx is self.antenna:
             key = (id(rx), fc_hz)
-            hit = None if self.new_round else self.cache.get(key)
+            hit = None if self.new_round else self._held(key, rx)
             if hit is None:
-                hit = self.round.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s)
-                self.cache[key] = hit
-            return hit[0]
+                forward, backward = self.round.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng, t_s=t_s)
+                hit = self.cache[key] = _LandmarkLinks(rx, forward, backward)
+            return hit.forward
         if rx is self.antenna:
-            hit = self.cache.get((id(tx), fc_hz))
-            return hit[1] if hit is not None else None
+            hit = self._held((id(tx), fc_hz), tx)
+            return hit.backward if hit is not None else None
         return None
+
+    def _held(self, key, antenna) -> _LandmarkLinks | None:
+        hit = self.cache.get(key)
+        return hit if (hit is not None and hit.antenna is antenna) else None
 
 
 @dataclass(frozen=True, eq=False)

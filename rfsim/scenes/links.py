@@ -12,6 +12,7 @@ from rfsim.core.lazy import lazy_import
 
 _bulk = lazy_import("rfsim.channels.bulk")
 _paths = lazy_import("rfsim.channels.paths")
+_air_links = lazy_import("rfsim.air.links")
 
 
 class BatchAntenna:
@@ -146,7 +147,8 @@ class BatchLink:
 class DrawnLinks:
     """The ``Links`` of :mod:`rfsim.air.step` for links drawn beforehand: ``paths(tx, rx)`` looks the
     antenna pair up (either direction: the channel is reciprocal). The table belongs to one
-    scene; it keys the pairs by the identity of the antenna objects it was given."""
+    scene; it keys the pairs by the identity of the antenna objects it was given, each entry a
+    :class:`rfsim.air.links.HeldLink` that keeps its antennas alive."""
 
     def __init__(self):
         self._table: dict = {}
@@ -163,7 +165,7 @@ class DrawnLinks:
         paths : rfsim.channels.paths.PathSet or BatchLink
             The link.
         """
-        self._table[(id(tx), id(rx))] = (tx, rx, paths)
+        self._table[(id(tx), id(rx))] = _air_links.HeldLink(tx, rx, paths)
 
     def paths(self, tx, rx, *, fc_hz: float, t_s: float):
         """Look up the link tx ↔ rx (either direction).
@@ -184,8 +186,12 @@ class DrawnLinks:
         rfsim.channels.paths.PathSet or BatchLink or None
             The link; None when it was not drawn.
         """
-        hit = self._table.get((id(tx), id(rx))) or self._table.get((id(rx), id(tx)))
-        return None if hit is None else hit[2]
+        hit = self._table.get((id(tx), id(rx)))
+        if hit is None or hit.tx is not tx:
+            hit = self._table.get((id(rx), id(tx)))
+            if hit is None or hit.tx is not rx:
+                return None
+        return hit.paths
 
 
 def add_drawn_link(links: DrawnLinks, scene, tx, rx, *, fc_hz: float, rng: np.random.Generator) -> None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 
@@ -283,6 +283,13 @@ def carrier_hz(rc: ReaderConfig) -> float:
     return float(plan[(rc.fixed_channel - 1) if not rc.hopping else 0])
 
 
+class _HeldRound(NamedTuple):
+    """The round :class:`RoundLinks` answers for, with the tag antenna the engine will ask about."""
+
+    round: int
+    tag: object
+
+
 class RoundLinks:
     """The channel of a chunk (the engine's ``backscatter_links``): the anechoic link of every
     round's antenna to the tag at its held position, drawn for all rounds at once by
@@ -332,7 +339,7 @@ class RoundLinks:
         tag : rfsim.channels.antennas.Antenna
             The tag antenna of that round (the one the engine will ask about).
         """
-        self._held = (j, tag)
+        self._held = _HeldRound(j, tag)
 
     def backscatter_links(self, emitter: _antennas.Antenna, tag: _antennas.Antenna, *, fc_hz: float, rng=None, t_s: float = 0.0,
                           tag_motion=None):
@@ -365,8 +372,8 @@ class RoundLinks:
         ValueError
             Another antenna pair, carrier, or a moving tag.
         """
-        j, held_tag = self._held
-        if tag is not held_tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
+        j = self._held.round
+        if tag is not self._held.tag or emitter is not self.antennas[self.antenna_of_round[j]] or fc_hz != self.fc_hz \
                 or tag_motion is not None:
             raise ValueError("RoundLinks holds one static link per round: its antenna, tag and carrier")
         p = self._paths[j]

@@ -22,7 +22,6 @@ reader → SA_k and tag → SA_k links of a batch is evaluated at once
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -193,7 +192,6 @@ def prepare_round(devices: Devices, placement: Placement, rngs: list, reader_tag
     return step, tx
 
 
-@functools.lru_cache(maxsize=8)
 def query_round(lk) -> tuple:
     """The round's Query and the CW after it for an RN16 reply.
 

@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -96,6 +96,13 @@ class SweepReport:
     results: tuple[PointResult, ...]
 
 
+class _PointValue(NamedTuple):
+    """A plan's cache entry: the value (config or digest) of one point."""
+
+    point: int
+    value: Any
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class SweepPlan:
     """The expansion of a spec, computed on demand: per-point values, configs, seeds, tasks.
@@ -158,10 +165,10 @@ class SweepPlan:
             (:func:`rfsim.sweep.spec.point_config`).
         """
         hit = self._cache.get("config")
-        if hit is not None and hit[0] == i:
-            return hit[1]
+        if hit is not None and hit.point == i:
+            return hit.value
         cfg = point_config(self.spec, self.module.Config, i)
-        self._cache["config"] = (i, cfg)
+        self._cache["config"] = _PointValue(i, cfg)
         return cfg
 
     def digest(self, i: int) -> bytes:
@@ -179,10 +186,10 @@ class SweepPlan:
             (:func:`rfsim.sweep.store.config_digest`).
         """
         hit = self._cache.get("digest")
-        if hit is not None and hit[0] == i:
-            return hit[1]
+        if hit is not None and hit.point == i:
+            return hit.value
         d = config_digest(self.config(i))
-        self._cache["digest"] = (i, d)
+        self._cache["digest"] = _PointValue(i, d)
         return d
 
     def task(self, run: int) -> PointTask:

@@ -85,6 +85,7 @@ G2XM-class chip at 900 MHz against a conjugate-matched antenna
 from __future__ import annotations
 
 import math
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -102,6 +103,50 @@ from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
 _k = lazy_import("rfsim.devices._tag_kernels")
+
+class QuietPoint(NamedTuple):
+    """A tag's remembered power decision at one incident power (:meth:`PassiveTag.quiet_point`).
+
+    Attributes
+    ----------
+    config : TagConfig
+        The config it was made with (an entry of another config is not used).
+    chip : PowerDependentChip or None
+        The chip it was made with.
+    powered : bool
+        Whether the tag is powered.
+    p_dbm : float
+        Incident CW power P_inc [dBm].
+    gamma_rest : complex
+        Γ_A, the rest (absorbing) state's reflection coefficient.
+    structural_mode : complex
+        The antenna's structural mode A_s.
+    operating_point : ChipOperatingPoint or None
+        The chip's operating point (with a chip).
+    reflection_states : ReflectionStates or None
+        Its reflection states (with a chip).
+    unpowered : TagResponse
+        The response of an unpowered tag at this power.
+    """
+
+    config: Any
+    chip: Any
+    powered: bool
+    p_dbm: float
+    gamma_rest: complex
+    structural_mode: complex
+    operating_point: Any
+    reflection_states: Any
+    unpowered: Any
+
+
+class _ChipPoint(NamedTuple):
+    """A power-dependent chip's operating point at one incident power, and its reflection states."""
+
+    chip: Any
+    operating_point: Any
+    reflection_states: Any
+
 
 #: Chip model of a tag's memory when none is given: "generic" (3 ms per word, 3 dB write threshold,
 #: the project's assumptions; :data:`rfsim.gen2.memory.CHIP_MODELS`).
@@ -404,7 +449,7 @@ class PassiveTag:
         #: share the front end's work among tags that see scaled copies of one segment (:meth:`reflect`)
         self.shared_front_end = True
         self._p_memo: dict = {}  # (gain, CW sample) -> CW power of the scaled copy [W]
-        self._chip_memo: dict = {}  # P_inc [W] -> (chip, operating point, its reflection states)
+        self._chip_memo: dict = {}  # P_inc [W] -> _ChipPoint
         self._quiet: dict = {}  # P_inc [W] -> its power decision and responses (:meth:`_quiet_response`)
         self._trcal_ticks: int | None = None  # TRcal of the last Query, in tag clock ticks
         self._derived: tuple = (None, None)  # (config, quantities derived from it)
@@ -548,15 +593,15 @@ class PassiveTag:
             p_inc = self._p_memo[key] = fe.power_w(gain)
         return p_inc
 
-    def _quiet_at(self, p_inc: float) -> tuple | None:
+    def _quiet_at(self, p_inc: float) -> QuietPoint | None:
         """The remembered power decision of ``p_inc`` (made by :meth:`_respond` with the
         current config and chip), or None."""
         quiet = self._quiet.get(p_inc)
-        if quiet is not None and quiet[0] is self.config and quiet[1] is self.chip:
+        if quiet is not None and quiet.config is self.config and quiet.chip is self.chip:
             return quiet
         return None
 
-    def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> tuple | None:
+    def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> QuietPoint | None:
         """The remembered power decision for the scaled copy g·x of a shared segment.
 
         Used by a population (:mod:`rfsim.devices.tag_population`).
@@ -570,10 +615,10 @@ class PassiveTag:
 
         Returns
         -------
-        tuple or None
-            ``(config, chip, powered, P_inc [dBm], Γ_A, A_s, chip operating point or None, its
-            reflection states, the unpowered response)``; None when it is not known yet, the
-            tag does not share front ends or the segment has no CW plateau.
+        QuietPoint or None
+            The decision (config, chip, powered, P_inc [dBm], Γ_A, A_s, chip operating point or
+            None, its reflection states, the unpowered response); None when it is not known
+            yet, the tag does not share front ends or the segment has no CW plateau.
         """
         if not self.shared_front_end or fe.plateau is None:
             return None
@@ -587,13 +632,13 @@ class PassiveTag:
 
         Parameters
         ----------
-        quiet : tuple
+        quiet : QuietPoint
             Power decision from :meth:`quiet_point`.
         """
-        op = quiet[6]
+        op = quiet.operating_point
         if op is not None:
-            self.operating_point, self.reflection_states = op, quiet[7]
-        if not quiet[2]:
+            self.operating_point, self.reflection_states = op, quiet.reflection_states
+        if not quiet.powered:
             self._trcal_ticks = None
 
     def respond_decoded(self, quiet: tuple, decoded: tuple, incident) -> TagResponse:
@@ -639,22 +684,22 @@ class PassiveTag:
         TagResponse
             The unpowered response, or a powered tag's silent step of ``cmd`` ("no reply").
         """
-        if not quiet[2]:
-            return quiet[8]
-        return TagResponse(True, cmd, None, None, None, None, "no reply", quiet[3], cmd_end_s, None, None, None,
-                           quiet[4], quiet[5])
+        if not quiet.powered:
+            return quiet.unpowered
+        return TagResponse(True, cmd, None, None, None, None, "no reply", quiet.p_dbm, cmd_end_s, None, None, None,
+                           quiet.gamma_rest, quiet.structural_mode)
 
     def _quiet_response(self, quiet: tuple, decoded: tuple, incident) -> TagResponse | None:
         """:meth:`_respond`'s result for a tag that stays unpowered, or that stays powered
         and takes a silent step of its state machine (``TagState.on_command_if_silent``),
         from the remembered power decision ``quiet`` of this P_inc; None (nothing done) in
         every other case."""
-        powered = quiet[2]
+        powered = quiet.powered
         if powered != self.state.powered:
             return None
         if not powered:
             self.take_quiet_step(quiet)
-            return quiet[8]
+            return quiet.unpowered
         cmd, frame = decoded
         if cmd is None or isinstance(cmd, Query):
             return None
@@ -718,14 +763,14 @@ class PassiveTag:
             # the operating point is a pure function of the (frozen) chip and P_inc: a held
             # link gives the same P_inc exchange after exchange
             hit = self._chip_memo.get(p_inc)
-            if hit is None or hit[0] is not self.chip:
+            if hit is None or hit.chip is not self.chip:
                 if len(self._chip_memo) > 64:
                     self._chip_memo.clear()
                 op = self.chip.operating_point(p_inc)
-                hit = self._chip_memo[p_inc] = (self.chip, op, _chip_spread(
+                hit = self._chip_memo[p_inc] = _ChipPoint(self.chip, op, _chip_spread(
                     ReflectionStates(op.gamma_unmod, op.gamma_mod), self.config.chip_gain_db,
                     self.config.chip_phase_deg))
-            self.operating_point, self.reflection_states = hit[1], hit[2]
+            self.operating_point, self.reflection_states = hit.operating_point, hit.reflection_states
             powered = self.operating_point.powered
         else:
             tau, tau_pu, sens_w, a_s = self._tau_power_up()
@@ -736,7 +781,7 @@ class PassiveTag:
             if len(self._quiet) > 64:
                 self._quiet.clear()
             op = self.operating_point if self.chip is not None else None
-            self._quiet[p_inc] = (self.config, self.chip, powered, p_dbm, rest, a_s, op,
+            self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s, op,
                                   self.reflection_states if op is not None else None,
                                   TagResponse(False, None, None, None, None, None, "not powered", p_dbm, None,
                                               None, None, None, rest, a_s))
@@ -862,5 +907,5 @@ class PassiveTag:
                            m=query.m, trext=trext, gamma_rest=rest, structural_mode=a_s)
 
 
-__all__ = ["TagResponse", "PassiveTag", "SharedFrontEnd", "incident_power_w", "envelope",
+__all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "incident_power_w", "envelope",
            "DEFAULT_SENSITIVITY_DBM", "REASONS"]

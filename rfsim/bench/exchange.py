@@ -178,50 +178,37 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
             "trials_per_s": n / wall, "cpu_s_per_trial": cpu / n, "read_rate": ok / n}
 
 
-def bench_exchange_compiled(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0) -> dict:
+def bench_exchange_compiled(**kwargs) -> dict:
     """:func:`bench_exchange` with the compiled exchange strategy (``Strategy(noise="counter",
     exchange="compiled")``, :class:`rfsim.air.cache.Strategy`).
 
     Parameters
     ----------
-    n_rounds : int, default 200
-        Timed singulation rounds.
-    distance_m : float, default 3.0
-        Reader–tag distance [m].
-    seed : int, default 0
-        Root seed.
+    **kwargs
+        :func:`bench_exchange`'s ``n_rounds``, ``distance_m`` and ``seed``.
 
     Returns
     -------
     dict
         As :func:`bench_exchange`.
     """
-    return bench_exchange(n_rounds=n_rounds, distance_m=distance_m, seed=seed, noise="counter", exchange="compiled")
+    return bench_exchange(**kwargs, noise="counter", exchange="compiled")
 
 
-def bench_exchange_batch_compiled(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0,
-                                  seed: int = 0) -> dict:
-    """:func:`bench_exchange_batch` with the compiled exchange strategy (as
-    :func:`bench_exchange_compiled`).
+def bench_exchange_batch_compiled(**kwargs) -> dict:
+    """:func:`bench_exchange_batch` with the compiled exchange strategy (as :func:`bench_exchange_compiled`).
 
     Parameters
     ----------
-    batch : int, default 256
-        Trials per batch B.
-    n_batches : int, default 4
-        Timed batches.
-    distance_m : float, default 3.0
-        Reader–tag distance [m].
-    seed : int, default 0
-        Root seed.
+    **kwargs
+        :func:`bench_exchange_batch`'s ``batch``, ``n_batches``, ``distance_m`` and ``seed``.
 
     Returns
     -------
     dict
         As :func:`bench_exchange_batch`.
     """
-    return bench_exchange_batch(batch=batch, n_batches=n_batches, distance_m=distance_m, seed=seed, noise="counter",
-                                exchange="compiled")
+    return bench_exchange_batch(**kwargs, noise="counter", exchange="compiled")
 
 
 __all__ = ["bench_exchange", "bench_exchange_batch", "bench_exchange_compiled", "bench_exchange_batch_compiled"]

@@ -103,7 +103,11 @@ def propagate_batch(steps: Sequence[AirStep], *, skip_unmodulated: bool = False)
     """Run B air steps as one batch.
 
     The air of every step first, then every step's receiver noise (receivers in order, from
-    the step's ``rng``), then the decisions of the steps with ``decide`` (module docstring).
+    the step's ``rng``), then the decisions of the steps with ``decide`` (module docstring). A
+    step whose cache's strategy is ``exchange="compiled"`` (:class:`rfsim.air.cache.Strategy`)
+    draws its noise within its own air (:func:`rfsim.air.step.superpose_noise`): its links, then
+    its receivers' noise, as ``propagate`` of that step alone draws them (the module
+    docstring's condition keeps every generator's draws in that order).
 
     Parameters
     ----------

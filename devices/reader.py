@@ -660,7 +660,8 @@ class Reader(PieTransmitter):
         if cache.strategy.exchange != "compiled":
             return reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,
                                   t0_s=start / self.fs_hz, n_samples=n, dummy=dummy)
-        key = ("reader reference", bits.dtype.str, bits.tobytes(), float(start), int(n), float(blf_hz), self.fs_hz, bool(dummy))
+        key = ("reader reference", bits.dtype.str, bits.tobytes(), float(start), int(n), float(blf_hz), self.fs_hz,
+               bool(dummy))
         hit = cache.waveform(key, (lk,))
         if hit is None:
             ref = reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,

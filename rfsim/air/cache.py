@@ -55,7 +55,9 @@ class Strategy:
         (:class:`rfsim.air.fused.Backscatter`) — forms the sum and adds the counter-based noise of
         the samples the receiver reads in one kernel call
         (:func:`rfsim.air.fused.fused_noisy_sum`); the same numbers as ``noise="counter"``,
-        to the bit. Every other exchange falls back to the two stages.
+        to the bit. Every other exchange falls back to the two stages. Devices may keep what
+        repeats from round to round by content under it (a reader's reply reference, in
+        :attr:`AirCache.waveforms`).
 
     Raises
     ------

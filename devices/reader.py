@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rfsim.air.cache import AirCache
+from rfsim.air.cache import AirCache, Waveform
 from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
@@ -650,10 +650,26 @@ class Reader(PieTransmitter):
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
                    dummy: bool = True) -> np.ndarray:
-        """The ±1 reply waveform of ``bits`` starting at sample ``start`` (0 elsewhere), (n,)."""
+        """The ±1 reply waveform of ``bits`` starting at sample ``start`` (0 elsewhere), (n,).
+
+        With the run's strategy ``exchange="compiled"`` (:class:`rfsim.air.cache.Strategy`) it is
+        kept by its content (bits, start, n, BLF, fs, dummy; made with this link) in the run's
+        ``air_cache`` and returned read-only: the EPC reply of a static exchange repeats."""
         lk = self.link
-        return reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,
-                              t0_s=start / self.fs_hz, n_samples=n, dummy=dummy)
+        cache = self.air_cache
+        if cache.strategy.exchange != "compiled":
+            return reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,
+                                  t0_s=start / self.fs_hz, n_samples=n, dummy=dummy)
+        key = ("reader reference", bits.dtype.str, bits.tobytes(), float(start), int(n), float(blf_hz), self.fs_hz,
+               bool(dummy))
+        hit = cache.waveform(key, (lk,))
+        if hit is None:
+            ref = reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf_hz, fs_hz=self.fs_hz,
+                                 t0_s=start / self.fs_hz, n_samples=n, dummy=dummy)
+            ref.flags.writeable = False
+            hit = Waveform(samples=ref, makers=(lk,))
+            cache.remember(cache.waveforms, key, hit)
+        return hit.samples
 
     def _measure(self, z: np.ndarray, s: np.ndarray, blf_hz: float) -> dict:
         """RSSI, phase, Doppler and SNR of ``z = h(t)·s(t) + noise`` (offset removed), see

@@ -103,7 +103,11 @@ def propagate_batch(steps: Sequence[AirStep], *, skip_unmodulated: bool = False)
     """Run B air steps as one batch.
 
     The air of every step first, then every step's receiver noise (receivers in order, from
-    the step's ``rng``), then the decisions of the steps with ``decide`` (module docstring).
+    the step's ``rng``), then the decisions of the steps with ``decide`` (module docstring). A
+    step whose cache's strategy is ``exchange="compiled"`` (:class:`rfsim.air.cache.Strategy`)
+    draws its noise within its own air (:func:`rfsim.air.step.superpose_noise`): its links, then
+    its receivers' noise, as ``propagate`` of that step alone draws them (the module
+    docstring's condition keeps every generator's draws in that order).
 
     Parameters
     ----------
@@ -130,12 +134,17 @@ def propagate_batch(steps: Sequence[AirStep], *, skip_unmodulated: bool = False)
     steps = list(steps)
     _check_noise_order(steps)
     steps = [s if s.cache is not None else _with_cache(s) for s in steps]
-    airs = [propagate(s.emitters, s.reflectors, [_Quiet(r) for r in s.receivers], s.links, t0_s=s.t0_s,
-                      fs_hz=s.fs_hz, n_samples=s.n_samples, rng=None, fc_ref_hz=s.fc_ref_hz,
-                      bandwidth_hz=s.bandwidth_hz, propagation=s.propagation, decide=False,
+    # a step of the compiled exchange strategy forms its inputs with their noise in its own call:
+    # its draws come in the order they would here (its links, then its receivers' noise)
+    whole = [s.cache.strategy.exchange == "compiled" and not s.keep_components for s in steps]
+    airs = [propagate(s.emitters, s.reflectors, s.receivers if w else [_Quiet(r) for r in s.receivers], s.links,
+                      t0_s=s.t0_s, fs_hz=s.fs_hz, n_samples=s.n_samples, rng=s.rng if w else None,
+                      fc_ref_hz=s.fc_ref_hz, bandwidth_hz=s.bandwidth_hz, propagation=s.propagation, decide=False,
                       keep_components=s.keep_components, skip_unmodulated=skip_unmodulated, cache=s.cache)
-            for s in steps]
-    for s, air in zip(steps, airs):
+            for s, w in zip(steps, whole)]
+    for s, air, w in zip(steps, airs, whole):
+        if w:
+            continue
         for k, rcv in enumerate(s.receivers):
             noise_w = float(rcv.noise_power_w)
             if noise_w > 0:

@@ -21,7 +21,10 @@ import numpy as np
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "Derived", "AirCache"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "Derived", "AirCache", "EXCHANGE_METHODS"]
+
+#: How a receiver's input is formed (:attr:`Strategy.exchange`).
+EXCHANGE_METHODS = ("sample", "compiled")
 
 
 @dataclass(frozen=True)
@@ -43,19 +46,38 @@ class Strategy:
         ``"counter"``: one key from it and, from the counter-based stream of that key, only the
         samples the receiver reads (its ``first_read_sample``;
         :func:`rfsim.air.noise.add_receiver_noise`).
+    exchange : {"sample", "compiled"}
+        How a receiver's input and its noise are formed (:data:`EXCHANGE_METHODS`), default
+        ``"sample"``: the sum (:func:`rfsim.air.step.superpose`) then the noise
+        (:func:`rfsim.air.step.noise`), each a pass of its own. ``"compiled"`` (needs
+        ``noise="counter"`` and ``fused_backscatter``): a static narrowband exchange — one
+        emitter, constant coupling or direct link, one modulating reflector with constant links
+        (:class:`rfsim.air.fused.Backscatter`) — forms the sum and adds the counter-based noise of
+        the samples the receiver reads in one kernel call
+        (:func:`rfsim.air.fused.fused_noisy_sum`); the same numbers as ``noise="counter"``,
+        to the bit. Every other exchange falls back to the two stages. Devices may keep what
+        repeats from round to round by content under it (a reader's reply reference, in
+        :attr:`AirCache.waveforms`).
 
     Raises
     ------
     ConfigError
-        An unknown ``noise`` method.
+        An unknown ``noise`` or ``exchange`` method, or ``exchange="compiled"`` without
+        ``noise="counter"`` and ``fused_backscatter``.
     """
 
     fused_backscatter: bool = True
     noise: str = "pcg64"
+    exchange: str = "sample"
 
     def __post_init__(self):
         if self.noise not in NOISE_METHODS:
             raise ConfigError("air.strategy.noise", self.noise, f"one of {NOISE_METHODS}")
+        if self.exchange not in EXCHANGE_METHODS:
+            raise ConfigError("air.strategy.exchange", self.exchange, f"one of {EXCHANGE_METHODS}")
+        if self.exchange == "compiled" and not (self.noise == "counter" and self.fused_backscatter):
+            raise ConfigError("air.strategy.exchange", self.exchange,
+                              'noise="counter" and fused_backscatter=True with exchange="compiled"')
 
 
 @dataclass

@@ -11,6 +11,8 @@ probe of the machine); otherwise the step keeps NumPy's array operations.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
@@ -18,8 +20,9 @@ from rfsim.air.links import link_constant
 from rfsim.air.segment import Segment
 
 _ak = lazy_import("rfsim.air._step_kernels")
+_ek = lazy_import("rfsim.air._exchange_kernels")
 
-__all__ = ["Backscatter", "lazy_backscatter", "fused_sum"]
+__all__ = ["Backscatter", "lazy_backscatter", "fused_sum", "fused_noisy_sum"]
 
 
 class Backscatter:
@@ -135,17 +138,69 @@ def fused_sum(const: dict, parts: list, segs: list, n_samples: int, *, fused: bo
     ndarray or None
         The sum [√W], shape of the segments' samples, or None when ``const`` is empty.
     """
-    if fused and len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
-        (i, a), = const.items()
-        bs = parts[0]
-        x = segs[i].samples
-        if (x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128):
-            out = np.empty(n_samples, dtype=np.complex128)
-            _ak.backscatter_kernel(x, complex(a), complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), out)
-            parts.clear()
-            return out
+    one = _one_backscatter(const, parts, segs) if fused else None
+    if one is not None:
+        a, bs = one
+        out = np.empty(n_samples, dtype=np.complex128)
+        _ak.backscatter_kernel(bs.x, a, complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), out)
+        parts.clear()
+        return out
     y = None
     for i, a in const.items():
         v = a * segs[i].samples
         y = v if y is None else y + v
     return y
+
+
+def _one_backscatter(const: dict, parts: list, segs: list):
+    """``(a, Backscatter)`` when the sum is one term a·x plus one :class:`Backscatter` of the same
+    x (complex128, one-dimensional), else None."""
+    if len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
+        (i, a), = const.items()
+        bs = parts[0]
+        x = segs[i].samples
+        if x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128:
+            return complex(a), bs
+    return None
+
+
+def fused_noisy_sum(const: dict, parts: list, segs: list, n_samples: int, noise_w: float, key: int, start: int):
+    r"""A receiver's input with its noise in one kernel call, when it is one term and one backscatter part.
+
+    :math:`y = a\,x + b\,((A_s - \Gamma)\,(g\,x)) + n` with n the counter-based noise of
+    stream ``key`` (:func:`rfsim.air.noise.add_counter_awgn`) on the samples ``start:`` only
+    (:mod:`rfsim.air._exchange_kernels`; the numbers of :func:`fused_sum` followed by
+    :func:`rfsim.air.noise.add_counter_awgn`, to the bit). ``parts`` is emptied on success.
+
+    Parameters
+    ----------
+    const : dict
+        Emitter index → complex factor a_e of its segment.
+    parts : list
+        The receiver's full-length contributions.
+    segs : list of Segment
+        The emitters' segments, by emitter index.
+    n_samples : int
+        Samples of the step.
+    noise_w : float
+        Noise power N [W per complex sample]; the noise is √(N/2)·(a + j·b).
+    key : int
+        Key of the counter-based stream (:func:`rfsim.air.noise.noise_key`).
+    start : int
+        First sample that gets noise (the first the receiver reads).
+
+    Returns
+    -------
+    ndarray, shape (n,), complex128, or None
+        The noisy input [√W], or None (nothing formed, ``parts`` untouched) when the sum does
+        not have that form.
+    """
+    one = _one_backscatter(const, parts, segs)
+    if one is None:
+        return None
+    a, bs = one
+    out = np.empty(n_samples, dtype=np.complex128)
+    _ek.backscatter_noise_kernel(bs.x, a, complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), np.uint64(key),
+                                 int(start), math.sqrt(noise_w / 2.0), out)
+    parts.clear()
+    return out

@@ -95,19 +95,19 @@ import numpy as np
 
 from rfsim.core.errors import ConfigError
 from rfsim.air.cache import AirCache, Strategy
-from rfsim.air.noise import add_receiver_noise, skip_receiver_noise
+from rfsim.air.noise import add_counter_awgn, add_receiver_noise, noise_key, skip_receiver_noise
 from rfsim.air.segment import Segment, carrier_shift
 from rfsim.air.roles import (AntennaPort, Emitter, FixedEmitter, GroupReflection, Links, Receiver, Reflection,
                              Reflector, ReflectorGroup, as_reflector)
 from rfsim.air.links import PROPAGATION_METHODS, LinkTable, check_positions, link_constant, require_link, through
 from rfsim.air.groups import UNSET, PerMember, entries_of, group_backscatter, members_of, modulates
-from rfsim.air.fused import Backscatter, fused_sum, lazy_backscatter
+from rfsim.air.fused import Backscatter, fused_noisy_sum, fused_sum, lazy_backscatter
 
 __all__ = ["Segment", "Emitter", "Reflector", "Reflection", "Receiver", "Links", "LinkTable",
            "ReflectorGroup", "GroupReflection", "members_of",
            "FixedEmitter", "AntennaPort", "AirResult", "as_reflector", "propagate", "carrier_shift",
            "PROPAGATION_METHODS", "AirCache", "Strategy", "StepState", "Incoming", "emit", "draw_links", "reflect",
-           "superpose", "noise", "receive"]
+           "superpose", "noise", "receive", "superpose_noise"]
 
 _antenna_of = operator.attrgetter("antenna")
 
@@ -246,9 +246,13 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     reflect(st)
     if skip_unmodulated and not keep_components and not modulates(st.entries, st.reacted, st.shortcut):
         return _unheard(st, receivers, rng)
+    compiled = st.cache.strategy.exchange == "compiled" and not keep_components
     for k, rcv in enumerate(receivers):
-        seg_k = superpose(st, k, rcv)
-        noise(st, seg_k, rcv, rng)
+        if compiled:
+            seg_k = superpose_noise(st, k, rcv, rng)
+        else:
+            seg_k = superpose(st, k, rcv)
+            noise(st, seg_k, rcv, rng)
         receive(st, rcv, seg_k, decide=decide)
     return AirResult(segments=st.segs, incident=st.incident, reflections=st.reflections, inputs=st.inputs,
                      outputs=st.outputs, dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz), direct=st.direct_l,
@@ -606,6 +610,56 @@ def superpose(st: StepState, k: int, rcv) -> Segment:
     _backscatter(st, k, rcv.antenna, fc_k, const, parts, st.back_l)
     y = _sum_terms(const, parts, st.segs, st.n_samples, fused=st.cache.strategy.fused_backscatter)
     return Segment(st.t0_s, st.fs_hz, fc_k, y)
+
+
+def superpose_noise(st: StepState, k: int, rcv, rng: np.random.Generator | None) -> Segment:
+    """Stages 4 and 5 in one, the run's strategy ``exchange="compiled"``: receiver k's noisy input.
+
+    The links are asked as in :func:`superpose`; then the noise key is drawn
+    (:func:`rfsim.air.noise.noise_key`) and a static narrowband exchange — one constant term a·x
+    and one modulating reflector with constant links — is formed with its noise on the samples
+    the receiver reads (:func:`first_read` on) in one kernel call
+    (:func:`rfsim.air.fused.fused_noisy_sum`). Any other sum is formed by :func:`superpose`'s
+    terms and gets its noise from :func:`noise`. Either way the numbers are those of
+    :func:`superpose` then :func:`noise` with ``Strategy(noise="counter")``.
+
+    Parameters
+    ----------
+    st : StepState
+        The step after :func:`reflect` (``keep_components`` off).
+    k : int
+        Index of the receiver.
+    rcv : Receiver
+        The receiver (``antenna``, ``noise_power_w`` [W]; optional ``fc_hz``, ``coupling``,
+        ``first_read_sample``).
+    rng : numpy.random.Generator or None
+        The step's generator (needed when the receiver has noise).
+
+    Returns
+    -------
+    Segment
+        The receiver's input with its noise, samples (…, n) complex128 [√W].
+
+    Raises
+    ------
+    ConfigError
+        A receiver with noise and no ``rng``.
+    """
+    fc_k = rcv.fc_hz if getattr(rcv, "fc_hz", None) is not None else st.fc_ref_hz
+    const, parts = _direct(st, k, rcv, fc_k)
+    _backscatter(st, k, rcv.antenna, fc_k, const, parts, None)
+    noise_w = float(rcv.noise_power_w)
+    if noise_w > 0:
+        if rng is None:
+            raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
+        key, start = noise_key(rng), first_read(rcv, st.t0_s, st.fs_hz, st.n_samples)
+        y = fused_noisy_sum(const, parts, st.segs, st.n_samples, noise_w, key, start)
+        if y is not None:
+            return Segment(st.t0_s, st.fs_hz, fc_k, y)
+        seg = Segment(st.t0_s, st.fs_hz, fc_k, _sum_terms(const, parts, st.segs, st.n_samples, fused=True))
+        add_counter_awgn(seg.samples, noise_w, key, start=start)
+        return seg
+    return Segment(st.t0_s, st.fs_hz, fc_k, _sum_terms(const, parts, st.segs, st.n_samples, fused=True))
 
 
 def _direct(st: StepState, k: int, rcv, fc_k: float) -> tuple[dict, list]:

@@ -14,7 +14,8 @@ import time
 import tracemalloc
 
 
-def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str = "pcg64") -> dict:
+def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str = "pcg64",
+                   exchange: str = "sample") -> dict:
     """Measure simulated air time per wall-clock second of the canonical exchange, on one core.
 
     Air time = the samples the engine simulated (the reader's segments: CW lead-in, command,
@@ -31,6 +32,9 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
         Root seed (round r draws from ``trial_rng(seed, 2, r)``).
     noise : {"pcg64", "counter"}, default "pcg64"
         How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
+    exchange : {"sample", "compiled"}, default "sample"
+        How the reader's input is formed (:attr:`rfsim.air.cache.Strategy.exchange`; "compiled"
+        needs ``noise="counter"``).
 
     Returns
     -------
@@ -45,7 +49,7 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     from rfsim.protocols.engine import singulate
     from rfsim.core.rng import trial_rng
 
-    reader, make_tag, channel, query = _canonical(distance_m, seed, noise)
+    reader, make_tag, channel, query = _canonical(distance_m, seed, noise, exchange)
     tag = make_tag(None)
     state = {"t": 0.0, "r": 0}
 
@@ -85,9 +89,10 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     }
 
 
-def _canonical(distance_m: float, seed: int, noise: str = "pcg64"):
+def _canonical(distance_m: float, seed: int, noise: str = "pcg64", exchange: str = "sample"):
     """The canonical exchange's reader (its receiver noise drawn by ``noise``,
-    :attr:`rfsim.air.cache.Strategy.noise`), a maker of its tag (``trial_rng(seed, 1)``, trial b
+    :attr:`rfsim.air.cache.Strategy.noise`, its input formed by ``exchange``,
+    :attr:`rfsim.air.cache.Strategy.exchange`), a maker of its tag (``trial_rng(seed, 1)``, trial b
     of a batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the
     round's Query (target A/B alternating)."""
     # imported here: rfsim does not import devices/channels/scenarios at module level
@@ -102,7 +107,7 @@ def _canonical(distance_m: float, seed: int, noise: str = "pcg64"):
     cfg = link_scenario.Config()
     reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
                     rng=trial_rng(seed, 0))
-    reader.air_cache = AirCache(strategy=Strategy(noise=noise))
+    reader.air_cache = AirCache(strategy=Strategy(noise=noise, exchange=exchange))
     antenna = link_scenario.tag_antenna(cfg.geometry, distance_m)
     channel = Channel(link_scenario.scene(cfg.channel))
     lk = reader.link
@@ -117,7 +122,7 @@ def _canonical(distance_m: float, seed: int, noise: str = "pcg64"):
 
 
 def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0,
-                         noise: str = "pcg64") -> dict:
+                         noise: str = "pcg64", exchange: str = "sample") -> dict:
     """Measure aggregate air time per second of the canonical exchange run in batches, on one core.
 
     Batches of ``batch`` independent singulations (:func:`rfsim.protocols.batch.singulate_batch`:
@@ -137,6 +142,8 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
         Root seed.
     noise : {"pcg64", "counter"}, default "pcg64"
         How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
+    exchange : {"sample", "compiled"}, default "sample"
+        How the reader's input is formed (:attr:`rfsim.air.cache.Strategy.exchange`).
 
     Returns
     -------
@@ -147,7 +154,7 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
     from rfsim.protocols.batch import singulate_batch
     from rfsim.core.rng import trial_rng
 
-    reader, make_tag, channel, query = _canonical(distance_m, seed, noise)
+    reader, make_tag, channel, query = _canonical(distance_m, seed, noise, exchange)
     tags = [[make_tag(b)] for b in range(int(batch) + 4)]
 
     def one_batch(k: int, trials: list):
@@ -171,4 +178,37 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
             "trials_per_s": n / wall, "cpu_s_per_trial": cpu / n, "read_rate": ok / n}
 
 
-__all__ = ["bench_exchange", "bench_exchange_batch"]
+def bench_exchange_compiled(**kwargs) -> dict:
+    """:func:`bench_exchange` with the compiled exchange strategy (``Strategy(noise="counter",
+    exchange="compiled")``, :class:`rfsim.air.cache.Strategy`).
+
+    Parameters
+    ----------
+    **kwargs
+        :func:`bench_exchange`'s ``n_rounds``, ``distance_m`` and ``seed``.
+
+    Returns
+    -------
+    dict
+        As :func:`bench_exchange`.
+    """
+    return bench_exchange(**kwargs, noise="counter", exchange="compiled")
+
+
+def bench_exchange_batch_compiled(**kwargs) -> dict:
+    """:func:`bench_exchange_batch` with the compiled exchange strategy (as :func:`bench_exchange_compiled`).
+
+    Parameters
+    ----------
+    **kwargs
+        :func:`bench_exchange_batch`'s ``batch``, ``n_batches``, ``distance_m`` and ``seed``.
+
+    Returns
+    -------
+    dict
+        As :func:`bench_exchange_batch`.
+    """
+    return bench_exchange_batch(**kwargs, noise="counter", exchange="compiled")
+
+
+__all__ = ["bench_exchange", "bench_exchange_batch", "bench_exchange_compiled", "bench_exchange_batch_compiled"]

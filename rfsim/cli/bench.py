@@ -29,6 +29,8 @@ BENCHMARKS = {
                                                                 "populations": (10, 50), "runs": 5}),
     "exchange": ("rfsim.bench.exchange", "bench_exchange", {"n_rounds": 20}),
     "exchange-batch": ("rfsim.bench.exchange", "bench_exchange_batch", {"batch": 32, "n_batches": 1}),
+    "exchange-compiled": ("rfsim.bench.exchange", "bench_exchange_compiled", {"n_rounds": 20}),
+    "exchange-batch-compiled": ("rfsim.bench.exchange", "bench_exchange_batch_compiled", {"batch": 32, "n_batches": 1}),
     "exchange-statistic": ("rfsim.bench.exchange_statistic", "bench_exchange_statistic", {"batch": 32, "n_batches": 1}),
     "floor": ("rfsim.bench.floor", "bench_floor", {"n_rounds": 40}),
     "sweep": ("rfsim.bench.sweep", "bench_sweep", {"n_points": 16, "dask_points": 50}),

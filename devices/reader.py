@@ -29,6 +29,7 @@ phase offset as a 12-bit code, µs time stamps — is applied to the read log by
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import math
@@ -385,7 +386,7 @@ class Reader(PieTransmitter):
             reply is read (``receive(..., delayed=True)``) T1min and T5max
             (:func:`rfsim.gen2.link.t5`).
         """
-        window = getattr(self, "_delayed_window", None)
+        window = self.__dict__.get("_search_window")
         return _t1_window(self.link) if window is None else window
 
     def reply_start_lags(self, n_samples: int, n_reply: int, *, t0_s: float,
@@ -566,18 +567,33 @@ class Reader(PieTransmitter):
                           start_s=start_s, corr=det.corr, **meas)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
-        """:meth:`receive` of a delayed reply: the same receiver with the link's TRext = 1 and the
-        reply start searched in [T1min, T5max] (the link and window are set for this read only)."""
-        kept = getattr(self, "_delayed_link", None)
-        if kept is None or kept.source is not self.link:
+        """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose
+        link has TRext = 1 and whose reply start is searched in [T1min, T5max]
+        (:meth:`delayed_view`)."""
+        return self.delayed_view().receive(rx, **kwargs)
+
+    def delayed_view(self) -> "Reader":
+        """This reader as it reads a delayed ("in-process") reply.
+
+        A shallow copy (the same config, antennas and generators) whose link is this link with
+        TRext = 1 and whose reply search window is [T1min, T5max] (EPC Gen2 v2 §6.3.2.12.3;
+        :func:`rfsim.gen2.link.t5`). Kept with the link and config it was made from, made again
+        when either is replaced.
+
+        Returns
+        -------
+        Reader
+            The view (its own receive memos).
+        """
+        kept = self.__dict__.get("_delayed")
+        if kept is None or kept.source[0] is not self.link or kept.source[1] is not self.config:
             lk = self.link
-            kept = self._delayed_link = _Kept(lk, (dataclasses.replace(lk, trext=True), (t1(lk).min_s, t5(lk).max_s)))
-        link = self.link
-        self.link, self._delayed_window = kept.value
-        try:
-            return self.receive(rx, **kwargs)
-        finally:
-            self.link, self._delayed_window = link, None
+            view = copy.copy(self)
+            view.__dict__.pop("_delayed", None)
+            view.link = dataclasses.replace(lk, trext=True)
+            view._search_window = (t1(lk).min_s, t5(lk).max_s)
+            kept = self._delayed = _Kept((lk, self.config), view)
+        return kept.value
 
     def _receive_searched(self, r: np.ndarray, lo: int, hi: int, t0_s: float, n_bits: int, expect_crc: bool,
                           carrier) -> ReadResult:

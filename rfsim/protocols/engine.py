@@ -641,17 +641,20 @@ class _TagIndex:
 
 @dataclasses.dataclass
 class _LinkPair:
-    """A tag's forward (reader → tag) and backward (tag → reader) links of one draw."""
+    """A tag's forward (reader → tag) and backward (tag → reader) links of one draw, with the
+    reader antenna they were drawn for (kept alive: its identity is part of the key)."""
 
+    reader_antenna: Any
     forward: Any
     backward: Any
 
 
 @dataclasses.dataclass
 class _HeldConstants:
-    """The narrowband constants of held links between a reader antenna and ``antennas`` (held,
+    """The narrowband constants of held links between ``reader_antenna`` and ``antennas`` (held,
     with their identities ``antenna_ids``), one per antenna in that order."""
 
+    reader_antenna: Any
     antennas: Sequence
     antenna_ids: list
     constants: list
@@ -692,11 +695,11 @@ class _EngineLinks:
             if self.cache is not None:
                 key = (i, id(self.antenna), fc_hz)
                 if motion is None and not self.draw:
-                    links = self.cache.get(key)
+                    links = self._held_pair(key)
             if links is None:
                 forward, backward = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng,
                                                                    t_s=t_s, tag_motion=motion)
-                links = _LinkPair(forward=forward, backward=backward)
+                links = _LinkPair(reader_antenna=self.antenna, forward=forward, backward=backward)
                 if self.cache is not None and motion is None:
                     self.cache[key] = links
             self.backward[id(rx)] = links.backward
@@ -705,7 +708,7 @@ class _EngineLinks:
             hit = self.backward.get(id(tx))
             if hit is None and self.cache is not None and not self.draw:  # after held_constants
                 i = self.index.get(id(tx))
-                links = self.cache.get((i, id(self.antenna), fc_hz)) if i is not None else None
+                links = self._held_pair((i, id(self.antenna), fc_hz)) if i is not None else None
                 hit = links.backward if links is not None else None
             return hit
         return None
@@ -719,20 +722,28 @@ class _EngineLinks:
             return None
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
         hit = self.cache.get(key)
-        if hit is not None and (hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
+        if hit is not None and hit.reader_antenna is antenna and (
+                hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
             return hit.constants
         out = []
         for ant in others:
             i = self.index.get(id(ant))
-            links = self.cache.get((i, id(antenna), fc_hz)) if i is not None else None
+            links = self._held_pair((i, id(antenna), fc_hz)) if i is not None else None
             link = None if links is None else links.backward if inbound else links.forward
             f = getattr(link, "narrowband_constant", None)
             c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
             if c is None:
                 return None
             out.append(c)
-        self.cache[key] = _HeldConstants(antennas=others, antenna_ids=[id(a) for a in others], constants=out)
+        self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
+                                         antenna_ids=[id(a) for a in others], constants=out)
         return out
+
+    def _held_pair(self, key) -> _LinkPair | None:
+        """The held links of ``key`` = (tag index, id(reader antenna), carrier), None unless
+        held for this reader antenna (the entry keeps it: an id is only its own while alive)."""
+        hit = self.cache.get(key)
+        return hit if hit is not None and hit.reader_antenna is self.antenna else None
 
 
 def singulate(reader, tags: Sequence, channel, *, t_s: float, rng: np.random.Generator,

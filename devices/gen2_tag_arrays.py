@@ -1,6 +1,18 @@
-"""The Gen2 state of many tags in arrays (:class:`StateArrays`), for the silent steps of a
-population: the rules of :meth:`rfsim.devices.gen2_tag_state.TagState.on_command_if_silent`
-and of a QueryAdjust's new slot counters applied to every tag at once.
+"""The transition rules of the Gen2 tag state machine over arrays, and the Gen2 state of many
+tags in arrays (:class:`StateArrays`) that applies them to a population at once: its silent
+steps and a QueryAdjust's new slot counters.
+
+The rules are written once, for one tag (Python ints, bools, strings) or many (arrays):
+:func:`query_matches` (Query: Sel and Target), :func:`round_step` (what Query, QueryRep,
+QueryAdjust, ACK and NAK do in each state: the end of an access with its inventoried-flag
+flip, the slot counter's decrement and wrap, the QueryAdjust redraw, the ACK checks, NAK),
+:func:`decremented` and :func:`slot_replies` (the slot counter), :func:`s1_reverts` (S1
+persistence) and :func:`select_step` (the Select action table); the Q adjustment is
+:func:`rfsim.devices.gen2_tag_values.adjusted_q` and the slot-counter draw
+:func:`rfsim.gen2.tag_draws.slot_draw`. :class:`rfsim.devices.gen2_tag_state.TagState` is a
+population of one that applies them to itself (its row of :func:`round_step` evaluated for
+every state at once, :func:`round_step_of_one`); :class:`StateArrays` applies them to every
+row.
 
 ``TagState`` below is :class:`rfsim.devices.gen2_tag_state.TagState`; ``STATES`` and
 ``SharedClock`` are in :mod:`rfsim.devices.gen2_tag_values`.
@@ -10,62 +22,280 @@ from __future__ import annotations
 
 from functools import partial
 from itertools import compress
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from rfsim.gen2.commands import ACK, NAK, QueryAdjust, QueryRep
-from rfsim.devices.gen2_tag_values import STATE_CODES, SharedClock, adjusted_q, slot_draw
+from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
+from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q, slot_draw
 
-_READY, _ARBITRATE, _REPLY = STATE_CODES["ready"], STATE_CODES["arbitrate"], STATE_CODES["reply"]
+_ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
+_ACKNOWLEDGED, _OPEN, _KILLED = STATE_CODES["acknowledged"], STATE_CODES["open"], STATE_CODES["killed"]
 #: The columns of :class:`StateArrays`, in the order of :meth:`TagState.row`.
 _COLUMNS = ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q")
 
 
-def silent_step(cmd, code, session, slot):
-    """Decide the silent steps of powered tags: no reply, no random draw.
+class RoundStep(NamedTuple):
+    """What an inventory-round command does to one tag or to many (:func:`round_step`).
 
-    For one tag (ints) or many (arrays of the columns of :class:`StateArrays`): whether ``cmd``
-    is a step without a reply and without a random draw, and whether it decrements the slot
-    counter. The one definition of these rules, read by :meth:`TagState.on_command_if_silent`
-    and :meth:`StateArrays.silent_steps` (EPC Gen2 "Tag states and slot counter"):
+    Each field is a bool (one tag, :func:`round_step_of_one`) or an ndarray of bool, shape
+    (n_tags,) (many); at most one of ``close``, ``wrap``, ``decrement``, ``redraw``,
+    ``acknowledge``, ``confirm`` and ``to_arbitrate`` holds for a tag.
 
-    * a QueryRep or QueryAdjust of another session than the tag's round (``session`` −1: no
-      round) is ignored;
-    * a QueryRep of the round's session in Arbitrate (``code``) decrements the slot counter
-      (``slot`` −1: none) to (slot − 1) mod 2^15, silently unless that is 0 (the tag replies);
-    * an ACK or NAK in Ready or Arbitrate is ignored.
+    Attributes
+    ----------
+    silent : bool or ndarray of bool
+        No reply, no random draw, no change but the time and a ``decrement`` (that one silent
+        unless the decremented counter replies, :func:`slot_replies`).
+    close : bool or ndarray of bool
+        The tag ends its access: the round's inventoried flag inverts (A↔B) and, on a QueryRep
+        or QueryAdjust, the tag returns to Ready with no round (a Query is evaluated afterwards).
+    wrap : bool or ndarray of bool
+        Reply → Arbitrate with the counter at 7FFFh (no second reply in the round).
+    decrement : bool or ndarray of bool
+        The slot counter goes to :func:`decremented` (slot); the tag then replies with a new
+        RN16 where :func:`slot_replies` (Reply), else stays in Arbitrate.
+    redraw : bool or ndarray of bool
+        Q → :func:`rfsim.devices.gen2_tag_values.adjusted_q`, a new counter is drawn, and the
+        tag replies with a new RN16 where :func:`slot_replies`.
+    acknowledge : bool or ndarray of bool
+        An ACK is compared with the tag's RN16: equal → Acknowledged and the EPC reply,
+        else → Arbitrate.
+    confirm : bool or ndarray of bool
+        An ACK is compared with the tag's handle (Open/Secured): equal → the EPC reply
+        (state kept), else → Arbitrate.
+    to_arbitrate : bool or ndarray of bool
+        A NAK sends the tag to Arbitrate.
+    """
 
-    Written with operators that mean the same on Python ints and bools and on NumPy arrays
-    (``==``, ``&``, ``|``; no ``~``).
+    silent: Any
+    close: Any
+    wrap: Any
+    decrement: Any
+    redraw: Any
+    acknowledge: Any
+    confirm: Any
+    to_arbitrate: Any
+
+
+def round_step(cmd, code, session) -> RoundStep:
+    """Decide what an inventory-round command does to powered tags: the one definition of the
+    transitions of Query (the end of an access), QueryRep, QueryAdjust, ACK and NAK.
+
+    Over arrays (the columns of :class:`StateArrays`); a single tag reads its row of the same
+    rules evaluated for every state at once (:func:`round_step_of_one`). The rules (EPC Gen2
+    "Tag states and slot counter", "Sessions and inventoried flags", the
+    QueryRep/QueryAdjust/ACK/NAK sections; anchors §4.4–4.5):
+
+    * a Query, QueryRep or QueryAdjust of the tag's round (``session`` equal to the command's)
+      in Acknowledged, Open or Secured ends the access (``close``); one of another session
+      (or with no round, ``session`` −1) is ignored by QueryRep/QueryAdjust;
+    * a QueryRep of the round in Reply wraps the counter (``wrap``); in Arbitrate it
+      decrements the counter, silently unless the tag then replies (:func:`slot_replies`);
+    * a QueryAdjust of the round in Arbitrate or Reply adjusts Q and redraws (``redraw``);
+    * an ACK in Reply or Acknowledged checks the RN16 (``acknowledge``), in Open or Secured
+      the handle (``confirm``); a NAK in any of these four goes to Arbitrate; both are
+      ignored in Ready and Arbitrate;
+    * a killed tag takes none of these steps (it ignores every command), and any other command
+      (Req_RN, the access commands, Select: :class:`TagState`'s own) is none of these.
+
+    The states of a round are compared by their order in :data:`STATES` (ready < arbitrate <
+    reply < acknowledged < open < secured < killed).
 
     Parameters
     ----------
     cmd : rfsim.gen2.commands command
-        The received command (QueryRep, QueryAdjust, ACK, NAK or any other: never silent).
-    code : int or ndarray of int, shape (n_tags,)
+        The received command.
+    code : ndarray of int, shape (n_tags,)
         Index of the tag's state in :data:`STATES`.
-    session : int or ndarray of int, shape (n_tags,)
+    session : ndarray of int, shape (n_tags,)
         Session of the tag's round, −1 for no round.
-    slot : int or ndarray of int, shape (n_tags,)
-        Slot counter, −1 for none.
 
     Returns
     -------
-    silent : bool or ndarray of bool, shape (n_tags,)
-        The command is a silent step for the tag.
-    decrement : bool or ndarray of bool, shape (n_tags,)
-        The step decrements the slot counter (only where ``silent``).
+    RoundStep
+        The transition, per tag (ndarrays of bool, shape (n_tags,)).
     """
     kind = type(cmd)
-    if kind is QueryRep:
+    no = np.zeros(np.shape(code), bool)
+    if kind is QueryRep or kind is QueryAdjust or kind is Query:
         in_round = (session >= 0) & (session == cmd.session)
-        dec = in_round & (code == _ARBITRATE) & (slot >= 0) & (((slot - 1) & 0x7FFF) != 0)
-        return (in_round == False) | dec, dec  # noqa: E712  (elementwise on arrays)
-    if kind is QueryAdjust:
-        return (session < 0) | (session != cmd.session), code < 0
+        close = in_round & (code >= _ACKNOWLEDGED) & (code < _KILLED)  # Acknowledged, Open or Secured
+        if kind is QueryRep:
+            dec = in_round & (code == _ARBITRATE)
+            return RoundStep(~in_round | dec, close, in_round & (code == _REPLY), dec, no, no, no, no)
+        if kind is QueryAdjust:
+            redraw = in_round & ((code == _ARBITRATE) | (code == _REPLY))
+            return RoundStep(~in_round, close, no, no, redraw, no, no, no)
+        return RoundStep(no, close, no, no, no, no, no, no)
     if kind is ACK or kind is NAK:
-        return (code == _READY) | (code == _ARBITRATE), code < 0
-    return code < 0, code < 0
+        engaged = (code >= _REPLY) & (code < _KILLED)  # Reply, Acknowledged, Open or Secured
+        silent = code < _REPLY  # Ready or Arbitrate
+        if kind is NAK:
+            return RoundStep(silent, no, no, no, no, no, no, engaged)
+        by_handle = code >= _OPEN  # Open or Secured
+        return RoundStep(silent, no, no, no, no, engaged & ~by_handle, engaged & by_handle, no)
+    return RoundStep(no, no, no, no, no, no, no, no)
+
+
+def _round_table() -> dict:
+    """:func:`round_step` evaluated once for every state, round session and command (ACK and
+    NAK: no session), as ``{(command class, its session or None, state name, session or None):
+    RoundStep of bools}``."""
+    grid = np.meshgrid(np.arange(len(STATES)), np.arange(-1, 4), indexing="ij")
+    code, session = (g.ravel() for g in grid)
+    cmds = [kind(session=s) for kind in (Query, QueryRep, QueryAdjust) for s in range(4)] + [ACK(rn16=0), NAK()]
+    table = {}
+    for cmd in cmds:
+        step = round_step(cmd, code, session)
+        for k, (c, s) in enumerate(zip(code.tolist(), session.tolist())):
+            key = (type(cmd), getattr(cmd, "session", None), STATES[c], None if s < 0 else s)
+            table[key] = RoundStep(*(bool(f[k]) for f in step))
+    return table
+
+
+#: :func:`round_step` for every state and command: the rows one tag reads (:func:`round_step_of_one`).
+_ROUND_TABLE = _round_table()
+#: The step of a command that is not a round command (Req_RN, Read, Select …): none.
+_NO_STEP = RoundStep(False, False, False, False, False, False, False, False)
+
+
+def round_step_of_one(cmd, state: str, session: int | None) -> RoundStep:
+    """Return :func:`round_step` for one tag: its row of the rules evaluated for every state.
+
+    Parameters
+    ----------
+    cmd : rfsim.gen2.commands command
+        The received command.
+    state : str
+        The tag's state, one of :data:`STATES`.
+    session : int or None
+        Session of the tag's round, None for no round.
+
+    Returns
+    -------
+    RoundStep
+        The transition, its fields Python bools.
+    """
+    return _ROUND_TABLE.get((type(cmd), getattr(cmd, "session", None), state, session), _NO_STEP)
+
+
+def query_matches(sel: str, target: str, sl, flag):
+    """Tell whether tags take part in a Query's round: its Sel and Target.
+
+    EPC Gen2 "Query": Sel ``"sl"`` takes the tags whose SL flag is asserted, ``"~sl"`` those
+    whose SL is deasserted, ``"all"``/``"all01"`` every tag; of those, the tags whose
+    inventoried flag of the Query's session equals Target. For one tag or many.
+
+    Parameters
+    ----------
+    sel : {"all", "all01", "~sl", "sl"}
+        The Query's Sel.
+    target : {"A", "B"}
+        The Query's Target.
+    sl : bool or ndarray of bool, shape (n_tags,)
+        The tags' SL flags.
+    flag : str or ndarray of str, shape (n_tags,)
+        The tags' inventoried flags (``"A"``/``"B"``) of the Query's session.
+
+    Returns
+    -------
+    bool or ndarray of bool
+        The tag matches (then it loads a slot counter), else it leaves any round.
+    """
+    return ((sel != "sl") | sl) & ((sel != "~sl") | (sl == False)) & (flag == target)  # noqa: E712 (arrays)
+
+
+def slot_replies(slot):
+    """Tell whether a tag in a round replies with its slot counter ``slot``: at 0 it
+    backscatters a new RN16 and goes to Reply, else it goes to (or stays in) Arbitrate.
+
+    EPC Gen2 "Tag states and slot counter". For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s).
+
+    Returns
+    -------
+    bool or ndarray of bool
+        The tag replies.
+    """
+    return slot == 0
+
+
+def decremented(slot):
+    """Return a slot counter after a QueryRep's decrement: (slot − 1) mod 2^15.
+
+    EPC Gen2 "Tag states and slot counter" (0000h decrements to 7FFFh). For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s), 0 … 7FFFh.
+
+    Returns
+    -------
+    int or ndarray of int
+        The decremented counter(s), the type and shape of ``slot``.
+    """
+    return (slot - 1) & 0x7FFF
+
+
+def s1_reverts(t_s, s1_set_s, s1_keep_s):
+    """Tell whether the S1 inventoried flag, set to B at ``s1_set_s``, has reverted to A by ``t_s``.
+
+    S1 reverts from B to A once its persistence time has passed, powered or not (EPC Gen2
+    "Sessions and inventoried flags", anchors §4.4): :math:`t - t_{set} \\ge t_{keep}`. For
+    one tag or many.
+
+    Parameters
+    ----------
+    t_s : float or ndarray
+        The time now [s].
+    s1_set_s : float or ndarray
+        Time S1 was set to B [s] (NaN for many tags: not set; compares False).
+    s1_keep_s : float or ndarray
+        The S1 persistence time [s].
+
+    Returns
+    -------
+    bool or ndarray of bool
+        S1 has reverted.
+    """
+    return t_s - s1_set_s >= s1_keep_s
+
+
+#: The Select action table (EPC Gen2 "Select"): action → (matching tag, non-matching tag),
+#: each 0 = do nothing, 1 = assert SL or inventoried → A, 2 = deassert SL or inventoried → B,
+#: 3 = negate SL or A ↔ B.
+SELECT_ACTIONS = np.array([[1, 2], [1, 0], [0, 2], [3, 0], [2, 1], [2, 0], [0, 1], [0, 3]], np.int8)
+
+
+def select_step(action: int, match, asserted):
+    """Apply the Select action table to tags' target flags.
+
+    EPC Gen2 "Select" (:data:`SELECT_ACTIONS`). For one tag or many.
+
+    Parameters
+    ----------
+    action : int
+        The Select's Action, 0–7.
+    match : bool or ndarray of bool, shape (n_tags,)
+        The tag matches the Select's mask.
+    asserted : bool or ndarray of bool, shape (n_tags,)
+        The target flag now: SL asserted, or the inventoried flag at A.
+
+    Returns
+    -------
+    acts : numpy bool or ndarray of bool
+        The action changes (sets) the flag; where False the flag is left alone.
+    new : numpy bool or ndarray of bool
+        The flag afterwards where ``acts`` (asserted / A: True).
+    """
+    todo = SELECT_ACTIONS[action, 1 - np.asarray(match, dtype=np.int8)]
+    return todo != 0, (todo == 1) | ((todo == 3) & (asserted == False))  # noqa: E712 (arrays)
 
 
 def _slot_word(rng):
@@ -82,7 +312,8 @@ class StateArrays:
     Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
     :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
     (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
-    :meth:`TagState.on_command_if_silent`'s decision for every row at once (the same rules);
+    :meth:`TagState.on_command_if_silent`'s decision for every row at once (both read
+    :func:`round_step`);
     :meth:`take_silent_steps` applies the steps so decided to the rows and to the
     :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
     :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
@@ -185,7 +416,7 @@ class StateArrays:
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Decide which tags take a silent step for a command (:func:`silent_step`).
+        """Decide which tags take a silent step for a command (:func:`round_step`).
 
         The rules of :meth:`TagState.on_command_if_silent` for every row at once; a tag whose
         clock is past ``t_s`` is left to ``on_command`` (it raises).
@@ -207,9 +438,13 @@ class StateArrays:
             Those of them that decrement their slot counter (a QueryRep in Arbitrate of the
             round's session).
         """
-        ok = candidates & self.powered & (self.t_s <= t_s)
-        silent, dec = silent_step(cmd, self.code, self.session, self.slot)
-        return ok & silent, ok & dec
+        step = round_step(cmd, self.code, self.session)
+        silent = candidates & self.powered & (self.t_s <= t_s) & step.silent
+        dec = silent & step.decrement
+        if np.count_nonzero(dec):  # a decrement is silent unless the tag then replies
+            silent = silent & ~(dec & slot_replies(decremented(self.slot)))
+            dec = dec & silent
+        return silent, dec
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
         """Decide which tags load a new slot counter on a QueryAdjust.
@@ -235,9 +470,8 @@ class StateArrays:
         if type(cmd) is not QueryAdjust:
             return np.zeros(len(self.states), bool)
         t_s = float(t_s)
-        ok = candidates & self.powered & (self.t_s <= t_s) & ~(t_s - self.s1_set_s >= self.s1_keep_s)
-        in_round = (self.session == cmd.session) & ((self.code == _ARBITRATE) | (self.code == _REPLY))
-        return ok & in_round
+        ok = candidates & self.powered & (self.t_s <= t_s) & ~s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)
+        return ok & round_step(cmd, self.code, self.session).redraw
 
     def take_redraw_steps(self, cmd, index: list, rngs: list | None, t_s: float) -> list:
         """Apply a QueryAdjust to the tags that redraw their slot counter.
@@ -304,7 +538,7 @@ class StateArrays:
                 slots.append(slot)
                 st.q, st._slot = q, slot + d
         slot = np.array(slots, dtype=np.int64)
-        zero = slot == 0
+        zero = slot_replies(slot)
         was = self.counting[idx]
         # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
         # clock; 0 → Reply with an RN16 from the tag's own generator
@@ -361,7 +595,7 @@ class StateArrays:
         """
 
         t_s = float(t_s)
-        due = silent & (t_s - self.s1_set_s >= self.s1_keep_s)  # NaN (S1 not set) compares False
+        due = silent & s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)  # NaN (S1 not set) compares False
         if np.count_nonzero(due):
             idx = due.nonzero()[0]
             for i in idx.tolist():
@@ -371,7 +605,7 @@ class StateArrays:
             silent = silent & ~due
             decrement = decrement & ~due
         if np.count_nonzero(decrement):
-            self.slot[decrement] = (self.slot[decrement] - 1) & 0x7FFF
+            self.slot[decrement] = decremented(self.slot[decrement])
         self._count_down(decrement)
         self.t_s[silent] = t_s
         self._follow(silent if joining is None else silent | joining, t_s)
@@ -394,7 +628,7 @@ class StateArrays:
         if np.count_nonzero(join):
             for st in compress(states, join.tolist()):
                 # follow_decrements(clock) of the decremented counter, the clock one decrement on
-                st._slot_clock, st._slot = clock, ((st.slot - 1) & 0x7FFF) + d
+                st._slot_clock, st._slot = clock, decremented(st.slot) + d
         clock.decrements = d
         self.counting = decrement.copy()
 
@@ -415,4 +649,5 @@ class StateArrays:
         self.following = silent.copy()
 
 
-__all__ = ["StateArrays", "silent_step"]
+__all__ = ["StateArrays", "RoundStep", "round_step", "round_step_of_one", "query_matches", "slot_replies",
+           "decremented", "s1_reverts", "SELECT_ACTIONS", "select_step"]

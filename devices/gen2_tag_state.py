@@ -7,8 +7,7 @@ inventoried flags", "Selected flag", the Select/Inventory/Access command section
 gen2-and-validation-anchors.md §4.4–4.5):
 
 * States: ``ready``, ``arbitrate``, ``reply``, ``acknowledged``, ``open``, ``secured``,
-  ``killed``. A killed tag never replies again, powered or not (every command is a silent
-  step for it, :func:`rfsim.devices.gen2_tag_arrays.silent_step`).
+  ``killed``. A killed tag never replies again, powered or not (it ignores every command).
 * Sessions S0–S3 each hold an inventoried flag ``"A"``/``"B"``; SL is a separate flag.
 * Slot counter: Query and QueryAdjust load a value drawn uniformly from [0, 2^Q − 1] with
   the tag's own ``rng``; QueryRep decrements it; the tag backscatters a new RN16 when it
@@ -48,9 +47,14 @@ of PC + EPC, which is also the CRC the tag sends after PC + EPC in its ACK reply
 Reserved bank = kill password | access password (32 bits each). The EPC, PC, TID, User and
 passwords below are read from the memory (a Write to the EPC changes the ACK reply).
 
-The reply record, flag persistence, state codes, slot-counter draws and the shared clock are
-in :mod:`rfsim.devices.gen2_tag_values`; the same rules applied to a whole population at once
-(:class:`StateArrays`) in :mod:`rfsim.devices.gen2_tag_arrays`. Both are importable from here.
+The rules of the inventory (Query's Sel/Target, the transitions of Query, QueryRep,
+QueryAdjust, ACK and NAK with the end of an access, the slot counter's decrement and reply,
+the S1 persistence, the Select action table) are written once, over arrays, in
+:mod:`rfsim.devices.gen2_tag_arrays` (:func:`round_step` …): a :class:`TagState` applies them
+to itself as a population of one (its row of the rules evaluated for every state,
+:func:`round_step_of_one`), and :class:`StateArrays` to a whole population at once. The reply
+record, flag persistence, state codes, slot-counter draws, the Q adjustment and the shared
+clock are in :mod:`rfsim.devices.gen2_tag_values`. Both are importable from here.
 """
 
 from __future__ import annotations
@@ -65,7 +69,8 @@ from rfsim.gen2.bits import as_bits, hex_to_bits, str_to_bits
 from rfsim.gen2.commands import ACCESS_COMMANDS, ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
 from rfsim.gen2.crc import append_crc16
 from rfsim.gen2.memory import CHIP_MODELS, EPC, ChipModel, TagError, TagMemory, pc_epc_length
-from rfsim.devices.gen2_tag_arrays import StateArrays, silent_step
+from rfsim.devices.gen2_tag_arrays import (StateArrays, decremented, query_matches, round_step_of_one, s1_reverts,
+                                           select_step, slot_replies)
 from rfsim.devices.gen2_tag_values import (REPLY_KINDS, STATE_CODES, STATES, FlagPersistence, Reply, SharedClock,
                                            _bits16, adjusted_q, draw_rn16, pc_word, slot_draw)
 
@@ -80,7 +85,6 @@ DEFAULT_CHIP = "generic"
 #: chip's TID; set ``tid`` for a specific chip).
 DEFAULT_TID_HEX = "E2006003"
 
-_ACCESS_STATES = ("acknowledged", "open", "secured")
 _FLIP = {"A": "B", "B": "A"}
 
 
@@ -295,7 +299,7 @@ class TagState:
         if t_s < self.t_s:
             raise ValueError(f"time went backwards: {t_s} s < {self.t_s} s")
         self.t_s = t_s
-        if self._s1_set_s is not None and t_s - self._s1_set_s >= self.persistence.s1_s:
+        if self._s1_set_s is not None and s1_reverts(t_s, self._s1_set_s, self.persistence.s1_s):
             self.inventoried[1] = "A"
             self._s1_set_s = None
 
@@ -392,18 +396,8 @@ class TagState:
             return None
         if isinstance(cmd, Query):
             return self._query(cmd, rng)
-        if isinstance(cmd, QueryRep):
-            return self._query_rep(cmd, rng)
-        if isinstance(cmd, QueryAdjust):
-            return self._query_adjust(cmd, rng)
-        if isinstance(cmd, ACK):
-            return self._ack(cmd)
-        if isinstance(cmd, NAK):
-            if self.state in ("reply", "acknowledged", "open", "secured"):
-                self.state = "arbitrate"
-            return None
-        if isinstance(cmd, ReqRN) and self.state == "acknowledged":
-            return self._req_rn(cmd, rng)
+        if isinstance(cmd, (QueryRep, QueryAdjust, ACK, NAK)):
+            return self._round_command(cmd, rng)
         if isinstance(cmd, ACCESS_COMMANDS):
             return self._access_command(cmd, rng, power_margin_db)
         if isinstance(cmd, Select):
@@ -417,13 +411,13 @@ class TagState:
         When applied, the tag is exactly as :meth:`on_command` would leave it, and it does not
         reply; otherwise nothing is done (call :meth:`on_command`).
 
-        The silent steps of a powered tag (:func:`rfsim.devices.gen2_tag_arrays.silent_step`, the
-        rules :class:`StateArrays` applies to a population): a QueryRep or QueryAdjust of another
-        session than the tag's round (or with no round); a QueryRep in Arbitrate whose
-        decremented counter is not 0 (the counter decrements, nothing else changes); an ACK or
-        NAK in Ready or Arbitrate. These are the same branches as in :meth:`on_command`
-        (``_query_rep``, ``_query_adjust``, ``_ack``, NAK), taken without the dispatch — in an
-        inventory almost every tag takes one of them on almost every command.
+        The silent steps of a powered tag (``silent`` of
+        :func:`rfsim.devices.gen2_tag_arrays.round_step`, the rules :class:`StateArrays` applies
+        to a population): a QueryRep or QueryAdjust of another session than the tag's round (or
+        with no round); a QueryRep in Arbitrate whose decremented counter is not 0 (the counter
+        decrements, nothing else changes); an ACK or NAK in Ready or Arbitrate. These are the
+        same steps as in :meth:`on_command`, taken without the dispatch — in an inventory almost
+        every tag takes one of them on almost every command.
 
         Parameters
         ----------
@@ -445,14 +439,17 @@ class TagState:
         """
         if not self.powered:
             return False
-        slot = self.slot
-        silent, decrement = silent_step(cmd, STATE_CODES[self.state], -1 if self.session is None else self.session,
-                                        -1 if slot is None else slot)
-        if not silent:
+        step = round_step_of_one(cmd, self.state, self.session)
+        if not step.silent:
             return False
+        if step.decrement:
+            slot = decremented(self.slot)
+            if slot_replies(slot):
+                return False
+            self._advance(t_s)
+            self.slot = slot
+            return True
         self._advance(t_s)
-        if decrement:
-            self.slot = (slot - 1) & 0x7FFF
         return True
 
     def row(self) -> tuple:
@@ -468,19 +465,12 @@ class TagState:
                 -1 if self.slot is None else self.slot, self.t_s,
                 float("nan") if self._s1_set_s is None else self._s1_set_s, self.persistence.s1_s, self.q)
 
-    def _matches_query(self, cmd: Query) -> bool:
-        if cmd.sel == "sl" and not self.sl:
-            return False
-        if cmd.sel == "~sl" and self.sl:
-            return False
-        return self.inventoried[cmd.session] == cmd.target
-
     def _load_slot(self, rng: np.random.Generator) -> Reply | None:
         self.slot = slot_draw(rng, self.q)
         return self._reply_if_zero(rng)
 
     def _reply_if_zero(self, rng: np.random.Generator) -> Reply | None:
-        if self.slot == 0:
+        if slot_replies(self.slot):
             self.state = "reply"
             self.rn16 = draw_rn16(rng)
             return Reply._own("RN16", _bits16(self.rn16))
@@ -488,60 +478,39 @@ class TagState:
         return None
 
     def _query(self, cmd: Query, rng) -> Reply | None:
-        if self.state in _ACCESS_STATES and cmd.session == self.session:
+        if round_step_of_one(cmd, self.state, self.session).close:
             self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
         self.last_query = cmd
-        if not self._matches_query(cmd):
+        if not query_matches(cmd.sel, cmd.target, self.sl, self.inventoried[cmd.session]):
             self._reset_round()
             return None
         self.session, self.q, self.handle = cmd.session, cmd.q, None
         return self._load_slot(rng)
 
-    def _close_access(self) -> bool:
-        """An acknowledged/open/secured tag ends its round on a QueryRep/QueryAdjust of its
-        session: its inventoried flag flips and it returns to Ready. True if that happened."""
-        if self.state not in _ACCESS_STATES:
-            return False
-        self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
-        self._reset_round()
-        return True
-
-    def _outside_round(self, cmd) -> bool:
-        """A QueryRep/QueryAdjust ``cmd`` that the tag's round does not go on with: of another
-        session (or no round), or one that ends the tag's access (:meth:`_close_access`)."""
-        return self.session is None or cmd.session != self.session or self._close_access()
-
-    def _query_rep(self, cmd: QueryRep, rng) -> Reply | None:
-        if self._outside_round(cmd):
-            return None
-        if self.state == "reply":
+    def _round_command(self, cmd, rng) -> Reply | None:
+        """QueryRep, QueryAdjust, ACK or NAK: the transition
+        :func:`rfsim.devices.gen2_tag_arrays.round_step` decides (this tag's row of it)."""
+        step = round_step_of_one(cmd, self.state, self.session)
+        if step.close:  # the access ends: the round's flag inverts, back to Ready
+            self._set_flag(self.session, _FLIP[self.inventoried[self.session]])
+            self._reset_round()
+        elif step.wrap:
             self.state, self.slot = "arbitrate", SLOT_AFTER_WRAP
-            return None
-        if self.state == "arbitrate":
-            self.slot = (self.slot - 1) & 0x7FFF
+        elif step.decrement:
+            self.slot = decremented(self.slot)
             return self._reply_if_zero(rng)
-        return None
-
-    def _query_adjust(self, cmd: QueryAdjust, rng) -> Reply | None:
-        if self._outside_round(cmd):
-            return None
-        if self.state in ("arbitrate", "reply"):
+        elif step.redraw:
             self.q = int(adjusted_q(self.q, cmd.updn))
             return self._load_slot(rng)
-        return None
-
-    def _ack(self, cmd: ACK) -> Reply | None:
-        if self.state in ("reply", "acknowledged"):
-            if cmd.rn16 != self.rn16:
+        elif step.acknowledge or step.confirm:
+            if cmd.rn16 != (self.rn16 if step.acknowledge else self.handle):
                 self.state = "arbitrate"
                 return None
-            self.state = "acknowledged"
+            if step.acknowledge:
+                self.state = "acknowledged"
             return self._epc_reply()
-        if self.state in ("open", "secured"):
-            if cmd.rn16 != self.handle:
-                self.state = "arbitrate"
-                return None
-            return self._epc_reply()
+        elif step.to_arbitrate:
+            self.state = "arbitrate"
         return None
 
     def _epc_reply(self) -> Reply:
@@ -564,8 +533,10 @@ class TagState:
         return Reply("HANDLE", rn_reply(self.handle))
 
     def _access_command(self, cmd, rng, power_margin_db: float) -> Reply | None:
-        """An access command in Open/Secured: :func:`rfsim.gen2.access.execute` (ignored in
-        any other state)."""
+        """An access command: Req_RN in Acknowledged (:meth:`_req_rn`), any in Open/Secured
+        :func:`rfsim.gen2.access.execute` (ignored in any other state)."""
+        if isinstance(cmd, ReqRN) and self.state == "acknowledged":
+            return self._req_rn(cmd, rng)
         if self.state not in ("open", "secured"):
             return None
         res = execute(self.memory, self._access, cmd, power_margin_db=power_margin_db, rng=rng)
@@ -607,42 +578,22 @@ class TagState:
         return bool(np.array_equal(bank[cmd.pointer : stop], str_to_bits(cmd.mask)))
 
     def _select(self, cmd: Select) -> None:
-        """Select action table (Gen2 "Select"): per action, what a matching / non-matching
-        tag does. 'set' = assert SL or inventoried→A; 'clear' = deassert SL or →B;
-        'flip' = negate SL or A↔B; None = do nothing."""
+        """Select (Gen2 "Select"): the action table
+        (:func:`rfsim.devices.gen2_tag_arrays.select_step`) applied to the SL flag (target 4)
+        or an inventoried flag (targets 0–3: asserted = A), then back to Ready."""
         if cmd.membank == 0:  # MemBank 00 is RFU for Select in Gen2 v1.2: ignored
             return
         match = self.select_matches(cmd)
-        todo = _SELECT_ACTIONS[cmd.action][0 if match else 1]
         if cmd.target == 4:
-            if todo == "set":
-                self.sl = True
-            elif todo == "clear":
-                self.sl = False
-            elif todo == "flip":
-                self.sl = not self.sl
+            acts, new = select_step(cmd.action, match, self.sl)
+            if acts:
+                self.sl = bool(new)
         elif cmd.target <= 3:
             s = cmd.target
-            if todo == "set":
-                self._set_flag(s, "A")
-            elif todo == "clear":
-                self._set_flag(s, "B")
-            elif todo == "flip":
-                self._set_flag(s, _FLIP[self.inventoried[s]])
+            acts, new = select_step(cmd.action, match, self.inventoried[s] == "A")
+            if acts:
+                self._set_flag(s, "A" if new else "B")
         self._reset_round()
-
-
-#: Select action → (matching tag, non-matching tag).
-_SELECT_ACTIONS = {
-    0: ("set", "clear"),
-    1: ("set", None),
-    2: (None, "clear"),
-    3: ("flip", None),
-    4: ("clear", "set"),
-    5: ("clear", None),
-    6: (None, "set"),
-    7: (None, "flip"),
-}
 
 
 def _bits_arg(value) -> np.ndarray:

@@ -110,14 +110,46 @@ def test_linecode_users_import_the_one_definition(module):
     assert imported, f"{module} does not import rfsim.gen2._linecode_kernels"
 
 
-# ----------------------------------------------------------------- Gen2 tag: silent steps
+# ----------------------------------------------------------------- Gen2 tag state machine
 
-#: The one definition of the silent steps of a tag (no reply, no draw) and its two users: a
-#: single tag's state and a population's arrays.
-SILENT_HOME = ("devices/gen2_tag_arrays.py", "silent_step")
-SILENT_USERS = (("devices/gen2_tag_state.py", "on_command_if_silent"),
-                ("devices/gen2_tag_arrays.py", "silent_steps"))
-COMMAND_NAMES = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK", "Select", "ReqRN", "Read"}
+#: The one definition of the rules of the Gen2 tag state machine, over arrays (a single tag is
+#: a population of one): module → its rule functions.
+TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_table", "round_step_of_one", "query_matches",
+                                            "slot_replies", "decremented", "s1_reverts", "select_step"),
+             "devices/gen2_tag_values.py": ("adjusted_q",),
+             "rfsim/gen2/tag_draws.py": ("slot_draw", "_slot_drawer")}
+#: Functions that the scan below does not read: the rules, and the dispatch of the access
+#: commands (Req_RN in Acknowledged, the others in Open/Secured), whose one definition is
+#: :mod:`rfsim.gen2.access` and which a tag always takes through its own path.
+TAG_SCAN_SKIP = {**TAG_RULES, "devices/gen2_tag_state.py": ("_access_command",)}
+#: The one definition of the access commands' rules (the states Open, Secured, Killed and the
+#: handle check of an access), not read by the scan.
+ACCESS_HOME = "rfsim/gen2/access.py"
+#: Where the rules are applied, and the rule each calls: a single tag's state (its row of
+#: round_step, round_step_of_one) and a population's arrays.
+TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"),
+                  ("devices/gen2_tag_state.py", "on_command_if_silent", "round_step_of_one"),
+                  ("devices/gen2_tag_state.py", "_round_command", "round_step_of_one"),
+                  ("devices/gen2_tag_state.py", "_query", "round_step_of_one"),
+                  ("devices/gen2_tag_state.py", "_query", "query_matches"),
+                  ("devices/gen2_tag_state.py", "_advance", "s1_reverts"),
+                  ("devices/gen2_tag_state.py", "_select", "select_step"),
+                  ("devices/gen2_tag_arrays.py", "silent_steps", "round_step"),
+                  ("devices/gen2_tag_arrays.py", "silent_steps", "decremented"),
+                  ("devices/gen2_tag_arrays.py", "redraw_steps", "round_step"),
+                  ("devices/gen2_tag_arrays.py", "redraw_steps", "s1_reverts"),
+                  ("devices/gen2_tag_arrays.py", "take_silent_steps", "s1_reverts"),
+                  ("devices/gen2_tag_arrays.py", "take_silent_steps", "decremented"),
+                  ("devices/gen2_tag_arrays.py", "take_redraw_steps", "adjusted_q"),
+                  ("devices/gen2_tag_arrays.py", "take_redraw_steps", "slot_replies"))
+#: The commands whose transitions ``round_step`` decides.
+ROUND_COMMANDS = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK"}
+#: The states of an inventory round, by name and by code.
+ROUND_STATES = {"ready", "arbitrate", "reply", "acknowledged", "open", "secured"}
+ROUND_STATE_CODES = {"_READY", "_ARBITRATE", "_REPLY", "_ACKNOWLEDGED", "_OPEN", "_SECURED"}
+#: A Query's Sel values that select by the SL flag, and the Select table's actions by name.
+SEL_VALUES = {"sl", "~sl"}
+SELECT_ACTION_NAMES = {"set", "clear", "flip"}
 
 
 def _function(module: str, name: str) -> ast.FunctionDef:
@@ -130,19 +162,146 @@ def _names(node: ast.AST) -> set[str]:
     return {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
 
 
-def test_silent_step_home_names_the_commands():
-    """The rule's home tells the commands apart (so the users' scan below can fail)."""
-    assert {"QueryRep", "QueryAdjust", "ACK", "NAK"} <= _names(_function(*SILENT_HOME))
+def _is_session(node: ast.AST) -> bool:
+    return (isinstance(node, ast.Name) and node.id == "session") or (
+        isinstance(node, ast.Attribute) and node.attr == "session")
 
 
-@pytest.mark.parametrize("module, name", SILENT_USERS)
-def test_silent_step_users_call_the_one_rule(module, name):
-    """A tag's and a population's silent steps call ``silent_step`` and name no command
-    themselves (no second copy of which command is silent in which state)."""
+def _is_state(node: ast.AST) -> bool:
+    """``node`` is a tag's state or state code (``state``, ``x.state``, ``code``, ``x.code``)."""
+    return (isinstance(node, ast.Name) and node.id in ("state", "code")) or (
+        isinstance(node, ast.Attribute) and node.attr in ("state", "code"))
+
+
+def _names_a_round_state(node: ast.AST) -> bool:
+    """``node`` is a round state (name or code) or a collection holding one."""
+    items = node.elts if isinstance(node, (ast.Tuple, ast.List, ast.Set)) else [node]
+    return any((isinstance(i, ast.Constant) and i.value in ROUND_STATES)
+               or (isinstance(i, ast.Name) and i.id in ROUND_STATE_CODES) for i in items)
+
+
+def _tag_rule_idioms(tree: ast.AST, skip: tuple = ()) -> list[str]:
+    """Source idioms of a hand-written rule of the tag state machine, as ``line: idiom``,
+    outside the functions named in ``skip``: a slot-counter decrement ``(… − 1) & 0x7FFF``, a
+    comparison of a state with a round state (``state == "reply"``, ``code in (_OPEN,
+    _SECURED)``), a comparison of two sessions (the round's guard), an S1 persistence test, Q
+    clamped to 15, a Query's Sel compared with ``"sl"``/``"~sl"``, or a Select action named
+    (``"set"``, ``"clear"``, ``"flip"``)."""
+    skipped = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and f.name in skip
+               for n in ast.walk(f)}
+    found = []
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
+        line = getattr(node, "lineno", 0)
+        if (isinstance(node, ast.BinOp) and isinstance(node.op, ast.BitAnd) and _const(node.right, 0x7FFF)
+                and isinstance(node.left, ast.BinOp) and isinstance(node.left.op, ast.Sub)
+                and _const(node.left.right, 1)):
+            found.append(f"{line}: a slot-counter decrement")
+        if isinstance(node, ast.Compare):
+            sides = [node.left, *node.comparators]
+            if any(map(_is_state, sides)) and any(map(_names_a_round_state, sides)):
+                found.append(f"{line}: a state compared with a round state")
+            if sum(map(_is_session, sides)) >= 2:
+                found.append(f"{line}: two sessions compared (the round's guard)")
+            if (any(isinstance(x, ast.BinOp) and isinstance(x.op, ast.Sub) for x in sides)
+                    and "s1_" in ast.unparse(node)):
+                found.append(f"{line}: an S1 persistence test")
+            if any(isinstance(x, ast.Constant) and x.value in SEL_VALUES for x in sides):
+                found.append(f"{line}: a Query's Sel tested")
+            if any(isinstance(x, ast.Constant) and x.value in SELECT_ACTION_NAMES for x in sides):
+                found.append(f"{line}: a Select action")
+        if isinstance(node, ast.Call) and any(_const(a, 15) for a in node.args):
+            name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
+            if name in ("min", "max", "minimum", "maximum", "clip"):
+                found.append(f"{line}: Q clamped to 15")
+    return found
+
+
+def test_tag_rules_home_holds_the_rules():
+    """The scan finds the rules where they are defined (so it can find a copy elsewhere), and
+    ``round_step`` tells every round command apart."""
+    home = "devices/gen2_tag_arrays.py"
+    kinds = {f.split(": ")[1] for f in _tag_rule_idioms(MODULES[home])}
+    assert {"a slot-counter decrement", "two sessions compared (the round's guard)", "an S1 persistence test",
+            "a Query's Sel tested"} <= kinds, kinds
+    assert [f for f in _tag_rule_idioms(MODULES["devices/gen2_tag_values.py"]) if "Q clamped" in f]
+    for module, names in TAG_SCAN_SKIP.items():
+        assert _tag_rule_idioms(MODULES[module], skip=names) == [], module
+    assert ROUND_COMMANDS <= _names(_function(home, "round_step"))
+
+
+def test_scan_finds_the_rules_of_the_old_state_machine():
+    """The scan flags the hand-written rules the functions replaced (so a copy cannot pass)."""
+    old = ast.parse('''
+class TagState:
+    def _matches_query(self, cmd):
+        if cmd.sel == "sl" and not self.sl:
+            return False
+        return self.inventoried[cmd.session] == cmd.target
+    def _query_rep(self, cmd, rng):
+        if self.session is None or cmd.session != self.session:
+            return None
+        if self.state == "arbitrate":
+            self.slot = (self.slot - 1) & 0x7FFF
+    def _advance(self, t_s):
+        if t_s - self._s1_set_s >= self.persistence.s1_s:
+            self.inventoried[1] = "A"
+    def _select(self, todo):
+        if todo == "flip":
+            self.sl = not self.sl
+    def _query_adjust(self, cmd):
+        self.q = min(15, max(0, self.q + cmd.updn))
+''')
+    kinds = {f.split(": ")[1] for f in _tag_rule_idioms(old)}
+    assert kinds == {"a Query's Sel tested", "two sessions compared (the round's guard)",
+                     "a state compared with a round state", "a slot-counter decrement", "an S1 persistence test",
+                     "a Select action", "Q clamped to 15"}, kinds
+
+
+def test_tag_rules_defined_once():
+    """Each rule function is defined once, in its home."""
+    for module, names in TAG_RULES.items():
+        for name in names:
+            homes = [m for m, tree in MODULES.items()
+                     if any(isinstance(n, ast.FunctionDef) and n.name == name for n in ast.walk(tree))]
+            assert homes == [module], (name, homes)
+
+
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if m != ACCESS_HOME))
+def test_no_other_function_writes_a_tag_rule(module):
+    """No function but the rules' own writes a rule of the state machine: a tag's state
+    (TagState, PassiveTag, TagPopulation, the protocol-level air) reads the rules, it does not
+    restate them."""
+    assert _tag_rule_idioms(MODULES[module], skip=TAG_SCAN_SKIP.get(module, ())) == [], module
+
+
+@pytest.mark.parametrize("module, name, rule", TAG_RULE_USERS)
+def test_tag_rule_users_call_the_one_rule(module, name, rule):
+    """A tag's and a population's steps call the one rule and name no round command themselves
+    (no second copy of which command does what in which state)."""
     fn = _function(module, name)
-    calls = {n.func.id for n in ast.walk(fn) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
-    assert "silent_step" in calls
-    assert not (_names(fn) & COMMAND_NAMES), sorted(_names(fn) & COMMAND_NAMES)
+    assert rule in _calls(fn), (name, sorted(_calls(fn)))
+    named = _names_outside_dispatch(fn) & ROUND_COMMANDS
+    assert not named, sorted(named)
+
+
+def _names_outside_dispatch(fn: ast.AST) -> set[str]:
+    """Names in ``fn`` but those of a dispatch on the command's class (``type(cmd) is X``,
+    ``isinstance(cmd, X)``: which shortcut applies, not what the command does) and of its
+    annotations."""
+    dispatch = set()
+    for n in ast.walk(fn):
+        if isinstance(n, ast.arg) and n.annotation is not None:
+            dispatch |= {id(x) for x in ast.walk(n.annotation)}
+        if isinstance(n, ast.FunctionDef) and n.returns is not None:
+            dispatch |= {id(x) for x in ast.walk(n.returns)}
+        if (isinstance(n, ast.Compare) and isinstance(n.left, ast.Call) and getattr(n.left.func, "id", "") == "type"
+                and all(isinstance(op, (ast.Is, ast.IsNot)) for op in n.ops)):
+            dispatch |= {id(c) for c in n.comparators}
+        if isinstance(n, ast.Call) and getattr(n.func, "id", "") == "isinstance":
+            dispatch |= {id(x) for a in n.args[1:] for x in ast.walk(a)}
+    return {n.id for n in ast.walk(fn) if isinstance(n, ast.Name) and id(n) not in dispatch}
 
 
 # ----------------------------------------------------------------- tag reply decoders: shared steps

@@ -11,9 +11,12 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from rfsim.devices.gen2_tag_arrays import (RoundStep, query_matches, round_step, round_step_of_one, select_step,
+                                           slot_replies)
 from rfsim.devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
+from rfsim.devices.gen2_tag_values import STATE_CODES, STATES
 from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits
-from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select, encode, parse
+from rfsim.gen2.commands import ACK, NAK, Kill, Query, QueryAdjust, QueryRep, Read, ReqRN, Select, encode, parse
 from rfsim.gen2.crc import crc16_ok
 
 # gen2-and-validation-anchors.md §3.2: (PC, EPC, CRC-16) of two real 96-bit tags.
@@ -733,3 +736,115 @@ def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
         if q:
             b.on_command(rep, t_s=2e-3, rng=np.random.default_rng(0))
             assert (a.state, a.slot, a.t_s) == (b.state, b.slot, b.t_s)
+
+
+# The transitions of the round commands, by hand from the Gen2 rules ("Tag states and slot
+# counter", the QueryRep/QueryAdjust/ACK/NAK sections): (command, state, session of the
+# tag's round or -1) -> the fields of RoundStep that hold (a decrement is silent unless the
+# decremented counter is 0: slot_replies). A killed tag takes no step.
+_ROUND_RULES = [
+    (QueryRep(session=0), "arbitrate", 0, {"silent", "decrement"}),
+    (QueryRep(session=0), "arbitrate", 1, {"silent"}),  # another session's round
+    (QueryRep(session=0), "ready", -1, {"silent"}),  # no round
+    (QueryRep(session=0), "reply", 0, {"wrap"}),
+    (QueryRep(session=2), "acknowledged", 2, {"close"}),
+    (QueryRep(session=2), "secured", 1, {"silent"}),
+    (QueryRep(session=2), "killed", 2, set()),
+    (QueryAdjust(session=0, updn=1), "arbitrate", 0, {"redraw"}),
+    (QueryAdjust(session=0, updn=-1), "reply", 0, {"redraw"}),
+    (QueryAdjust(session=0, updn=0), "open", 0, {"close"}),
+    (QueryAdjust(session=0, updn=0), "arbitrate", 3, {"silent"}),
+    (QueryAdjust(session=0, updn=0), "killed", 0, set()),
+    (Query(session=1), "acknowledged", 1, {"close"}),
+    (Query(session=1), "acknowledged", 0, set()),
+    (Query(session=1), "arbitrate", 1, set()),
+    (Query(session=1), "killed", 1, set()),
+    (ACK(rn16=7), "ready", -1, {"silent"}),
+    (ACK(rn16=7), "arbitrate", 0, {"silent"}),
+    (ACK(rn16=7), "reply", 0, {"acknowledge"}),
+    (ACK(rn16=7), "acknowledged", 0, {"acknowledge"}),
+    (ACK(rn16=7), "open", 0, {"confirm"}),
+    (ACK(rn16=7), "killed", 0, set()),
+    (NAK(), "arbitrate", 0, {"silent"}),
+    (NAK(), "secured", 0, {"to_arbitrate"}),
+    (NAK(), "reply", 0, {"to_arbitrate"}),
+    (NAK(), "killed", 0, set()),
+    (ReqRN(rn16=7), "acknowledged", 0, set()),
+    (Read(membank=1, word_ptr=0, word_count=1, rn16=7), "open", 0, set()),
+]
+
+
+@pytest.mark.parametrize("cmd, state, session, holds", _ROUND_RULES)
+def test_round_step_follows_the_gen2_rules(cmd, state, session, holds):
+    one = round_step_of_one(cmd, state, None if session < 0 else session)
+    assert {f for f in RoundStep._fields if getattr(one, f)} == holds
+    many = round_step(cmd, np.array([STATE_CODES[state]] * 2), np.array([session] * 2))
+    assert {f for f in RoundStep._fields if getattr(many, f).all()} == holds
+    assert not [f for f in RoundStep._fields if getattr(many, f).any() and f not in holds]
+
+
+def test_round_step_of_one_is_its_row_of_round_step():
+    # A single tag reads its row of the rules evaluated over arrays: every (command, state,
+    # session) row of round_step on arrays must be the one tag's step, in Python bools.
+    cmds = [QueryRep(session=0), QueryRep(session=3), QueryAdjust(session=1, updn=1), Query(session=0), ACK(rn16=3),
+            NAK(), ReqRN(rn16=3), Select(target=4, action=0, membank=1, pointer=0x10, mask="00110"),
+            Kill(password=0, rn16=3)]
+    rows = [(c, s) for c in range(len(STATES)) for s in (-1, 0, 1, 2, 3)]
+    code = np.array([r[0] for r in rows], np.int8)
+    session = np.array([r[1] for r in rows], np.int64)
+    for cmd in cmds:
+        many = round_step(cmd, code, session)
+        for k, (c, s) in enumerate(rows):
+            one = round_step_of_one(cmd, STATES[c], None if s < 0 else s)
+            assert all(type(v) is bool for v in one), cmd
+            assert tuple(one) == tuple(bool(f[k]) for f in many), (cmd, rows[k])
+
+
+@pytest.mark.parametrize("slot, replies", [(0, True), (1, False), (0x7FFF, False)])
+def test_slot_replies_at_zero(slot, replies):
+    assert slot_replies(slot) is replies
+    assert slot_replies(np.array([slot])).tolist() == [replies]
+
+
+# Query Sel/Target (Gen2 "Query"), by hand: (sel, target, SL, flag) -> the tag takes part.
+_QUERY_MATCHES = [("all", "A", False, "A", True), ("all", "A", True, "B", False), ("all01", "B", True, "B", True),
+                  ("sl", "A", True, "A", True), ("sl", "A", False, "A", False), ("~sl", "A", False, "A", True),
+                  ("~sl", "A", True, "A", False), ("~sl", "B", False, "A", False), ("sl", "B", True, "B", True)]
+
+
+def test_query_matches_one_tag_and_many():
+    for sel, target, sl, flag, expected in _QUERY_MATCHES:
+        assert bool(query_matches(sel, target, sl, flag)) is expected, (sel, target, sl, flag)
+    for sel in ("all", "all01", "sl", "~sl"):
+        for target in ("A", "B"):
+            rows = [r for r in _QUERY_MATCHES if r[0] == sel and r[1] == target]
+            if rows:
+                got = query_matches(sel, target, np.array([r[2] for r in rows]), np.array([r[3] for r in rows]))
+                assert got.tolist() == [r[4] for r in rows]
+
+
+def test_select_step_is_the_action_table_over_arrays():
+    # SL_TABLE above (Gen2 "Select"), for every action at once over (match, asserted) arrays
+    match = np.array([True, True, False, False])
+    asserted = np.array([True, False, True, False])
+    for action, (on_match, on_miss) in SL_TABLE.items():
+        acts, new = select_step(action, match, asserted)
+        for k in range(4):
+            effect = on_match if match[k] else on_miss
+            assert bool(acts[k]) is (effect is not None)
+            if effect is not None:
+                assert bool(new[k]) is (not asserted[k] if effect == "flip" else effect)
+
+
+def test_select_doing_nothing_keeps_the_s1_timer():
+    # Action 1 on a non-matching tag does nothing: S1 set to B at 0 s still reverts at 2 s.
+    rng = np.random.default_rng(3)
+    tag = TagState(EPC, persistence=FlagPersistence(s1_s=2.0))
+    tag.on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)
+    assert tag.inventoried[1] == "B"
+    miss = Select(target=1, action=1, membank=1, pointer=0x20, mask="1" * 16)
+    assert not tag.select_matches(miss)
+    tag.on_command(miss, t_s=1.5, rng=rng)
+    assert tag.inventoried[1] == "B"
+    tag.on_command(QueryRep(session=0), t_s=2.0, rng=rng)
+    assert tag.inventoried[1] == "A"

@@ -138,26 +138,75 @@ def round_step(cmd, code, session) -> RoundStep:
     return RoundStep(no, no, no, no, no, no, no, no)
 
 
-def _round_table() -> dict:
+#: Round sessions a tag can be in: −1 (no round) and 0–3.
+_N_ROUND_SESSIONS = 5
+
+
+def _round_tables() -> tuple[dict, dict]:
     """:func:`round_step` evaluated once for every state, round session and command (ACK and
-    NAK: no session), as ``{(command class, its session or None, state name, session or None):
-    RoundStep of bools}``."""
-    grid = np.meshgrid(np.arange(len(STATES)), np.arange(-1, 4), indexing="ij")
+    NAK: no session): ``({(command class, its session or None): RoundStep of (len(STATES)·5,)
+    bool arrays, row :func:`round_row` (code, session)}, {(command class, its session or None,
+    state name, session or None): RoundStep of bools}``)."""
+    grid = np.meshgrid(np.arange(len(STATES)), np.arange(-1, _N_ROUND_SESSIONS - 1), indexing="ij")
     code, session = (g.ravel() for g in grid)
     cmds = [kind(session=s) for kind in (Query, QueryRep, QueryAdjust) for s in range(4)] + [ACK(rn16=0), NAK()]
-    table = {}
+    rows, one = {}, {}
     for cmd in cmds:
-        step = round_step(cmd, code, session)
+        key = (type(cmd), getattr(cmd, "session", None))
+        step = rows[key] = round_step(cmd, code, session)
+        for f in step:
+            f.setflags(write=False)
         for k, (c, s) in enumerate(zip(code.tolist(), session.tolist())):
-            key = (type(cmd), getattr(cmd, "session", None), STATES[c], None if s < 0 else s)
-            table[key] = RoundStep(*(bool(f[k]) for f in step))
-    return table
+            one[(*key, STATES[c], None if s < 0 else s)] = RoundStep(*(bool(f[k]) for f in step))
+    return rows, one
 
 
-#: :func:`round_step` for every state and command: the rows one tag reads (:func:`round_step_of_one`).
-_ROUND_TABLE = _round_table()
+#: :func:`round_step` for every state and command, over the rows :func:`round_row` (what a
+#: population reads, :func:`round_step_rows`) and by state name and session (what one tag
+#: reads, :func:`round_step_of_one`).
+_ROUND_ROWS, _ROUND_TABLE = _round_tables()
 #: The step of a command that is not a round command (Req_RN, Read, Select …): none.
 _NO_STEP = RoundStep(False, False, False, False, False, False, False, False)
+_NO_ROWS = RoundStep(*[np.zeros(len(STATES) * _N_ROUND_SESSIONS, bool)] * len(RoundStep._fields))
+
+
+def round_row(code, session):
+    """Return the row of tags in the tables of :func:`round_step_rows`: code·5 + session + 1.
+
+    Parameters
+    ----------
+    code : int or ndarray of int, shape (n_tags,)
+        Index of the tag's state in :data:`STATES`.
+    session : int or ndarray of int, shape (n_tags,)
+        Session of the tag's round, −1 for no round.
+
+    Returns
+    -------
+    int or ndarray of int
+        The row(s), 0 … 5·len(STATES) − 1.
+    """
+    return code * _N_ROUND_SESSIONS + (session + 1)
+
+
+def round_step_rows(cmd) -> RoundStep:
+    """Return :func:`round_step` of a command evaluated for every state and round session.
+
+    A population reads its tags' rows (:func:`round_row`): ``round_step_rows(cmd).silent[row]``
+    is ``round_step(cmd, code, session).silent`` (tested), one gather per field instead of the
+    rules' comparisons.
+
+    Parameters
+    ----------
+    cmd : rfsim.gen2.commands command
+        The received command.
+
+    Returns
+    -------
+    RoundStep
+        Each field a read-only (5·len(STATES),) bool array; all False for a command that is
+        not a round command.
+    """
+    return _ROUND_ROWS.get((type(cmd), getattr(cmd, "session", None)), _NO_ROWS)
 
 
 def round_step_of_one(cmd, state: str, session: int | None) -> RoundStep:
@@ -312,8 +361,8 @@ class StateArrays:
     Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
     :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
     (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
-    :meth:`TagState.on_command_if_silent`'s decision for every row at once (both read
-    :func:`round_step`);
+    :meth:`TagState.on_command_if_silent`'s decision for every row at once (both read their
+    rows of :func:`round_step`, :func:`round_step_rows`);
     :meth:`take_silent_steps` applies the steps so decided to the rows and to the
     :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
     :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
@@ -438,9 +487,9 @@ class StateArrays:
             Those of them that decrement their slot counter (a QueryRep in Arbitrate of the
             round's session).
         """
-        step = round_step(cmd, self.code, self.session)
-        silent = candidates & self.powered & (self.t_s <= t_s) & step.silent
-        dec = silent & step.decrement
+        step, row = round_step_rows(cmd), round_row(self.code, self.session)
+        silent = candidates & self.powered & (self.t_s <= t_s) & step.silent[row]
+        dec = silent & step.decrement[row]
         if np.count_nonzero(dec):  # a decrement is silent unless the tag then replies
             silent = silent & ~(dec & slot_replies(decremented(self.slot)))
             dec = dec & silent
@@ -471,7 +520,7 @@ class StateArrays:
             return np.zeros(len(self.states), bool)
         t_s = float(t_s)
         ok = candidates & self.powered & (self.t_s <= t_s) & ~s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)
-        return ok & round_step(cmd, self.code, self.session).redraw
+        return ok & round_step_rows(cmd).redraw[round_row(self.code, self.session)]
 
     def take_redraw_steps(self, cmd, index: list, rngs: list | None, t_s: float) -> list:
         """Apply a QueryAdjust to the tags that redraw their slot counter.
@@ -649,5 +698,5 @@ class StateArrays:
         self.following = silent.copy()
 
 
-__all__ = ["StateArrays", "RoundStep", "round_step", "round_step_of_one", "query_matches", "slot_replies",
+__all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",
            "decremented", "s1_reverts", "SELECT_ACTIONS", "select_step"]

@@ -114,7 +114,8 @@ def test_linecode_users_import_the_one_definition(module):
 
 #: The one definition of the rules of the Gen2 tag state machine, over arrays (a single tag is
 #: a population of one): module → its rule functions.
-TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_table", "round_step_of_one", "query_matches",
+TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows", "round_step_of_one",
+                                            "query_matches",
                                             "slot_replies", "decremented", "s1_reverts", "select_step"),
              "devices/gen2_tag_values.py": ("adjusted_q",),
              "rfsim/gen2/tag_draws.py": ("slot_draw", "_slot_drawer")}
@@ -134,9 +135,9 @@ TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"
                   ("devices/gen2_tag_state.py", "_query", "query_matches"),
                   ("devices/gen2_tag_state.py", "_advance", "s1_reverts"),
                   ("devices/gen2_tag_state.py", "_select", "select_step"),
-                  ("devices/gen2_tag_arrays.py", "silent_steps", "round_step"),
+                  ("devices/gen2_tag_arrays.py", "silent_steps", "round_step_rows"),
                   ("devices/gen2_tag_arrays.py", "silent_steps", "decremented"),
-                  ("devices/gen2_tag_arrays.py", "redraw_steps", "round_step"),
+                  ("devices/gen2_tag_arrays.py", "redraw_steps", "round_step_rows"),
                   ("devices/gen2_tag_arrays.py", "redraw_steps", "s1_reverts"),
                   ("devices/gen2_tag_arrays.py", "take_silent_steps", "s1_reverts"),
                   ("devices/gen2_tag_arrays.py", "take_silent_steps", "decremented"),

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from rfsim.devices.gen2_tag_arrays import (RoundStep, query_matches, round_step, round_step_of_one, select_step,
-                                           slot_replies)
+from rfsim.devices.gen2_tag_arrays import (RoundStep, query_matches, round_row, round_step, round_step_of_one,
+                                           round_step_rows, select_step, slot_replies)
 from rfsim.devices.gen2_tag_state import FlagPersistence, Reply, TagState, pc_word
 from rfsim.devices.gen2_tag_values import STATE_CODES, STATES
 from rfsim.gen2.bits import bits_to_hex, bits_to_int, hex_to_bits
@@ -798,6 +798,10 @@ def test_round_step_of_one_is_its_row_of_round_step():
             one = round_step_of_one(cmd, STATES[c], None if s < 0 else s)
             assert all(type(v) is bool for v in one), cmd
             assert tuple(one) == tuple(bool(f[k]) for f in many), (cmd, rows[k])
+        # and a population reads its rows of the same evaluation
+        table = round_step_rows(cmd)
+        for f_rows, f_many in zip(table, many):
+            assert f_rows[round_row(code, session)].tolist() == f_many.tolist(), cmd
 
 
 @pytest.mark.parametrize("slot, replies", [(0, True), (1, False), (0x7FFF, False)])

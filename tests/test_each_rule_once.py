@@ -114,9 +114,9 @@ def test_linecode_users_import_the_one_definition(module):
 
 #: The one definition of the rules of the Gen2 tag state machine, over arrays (a single tag is
 #: a population of one): module → its rule functions.
-TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows", "round_step_of_one",
-                                            "query_matches",
-                                            "slot_replies", "decremented", "s1_reverts", "select_step"),
+TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows",
+                                            "round_step_of_one", "query_matches", "slot_replies", "decremented",
+                                            "s1_reverts", "select_step"),
              "devices/gen2_tag_values.py": ("adjusted_q",),
              "rfsim/gen2/tag_draws.py": ("slot_draw", "_slot_drawer")}
 #: Functions that the scan below does not read: the rules, and the dispatch of the access

@@ -150,14 +150,15 @@ def _round_tables() -> tuple[dict, dict]:
     grid = np.meshgrid(np.arange(len(STATES)), np.arange(-1, _N_ROUND_SESSIONS - 1), indexing="ij")
     code, session = (g.ravel() for g in grid)
     cmds = [kind(session=s) for kind in (Query, QueryRep, QueryAdjust) for s in range(4)] + [ACK(rn16=0), NAK()]
+    states = [(STATES[c], None if s < 0 else s) for c, s in zip(code.tolist(), session.tolist())]
     rows, one = {}, {}
     for cmd in cmds:
         key = (type(cmd), getattr(cmd, "session", None))
         step = rows[key] = round_step(cmd, code, session)
         for f in step:
             f.setflags(write=False)
-        for k, (c, s) in enumerate(zip(code.tolist(), session.tolist())):
-            one[(*key, STATES[c], None if s < 0 else s)] = RoundStep(*(bool(f[k]) for f in step))
+        for state, values in zip(states, zip(*(f.tolist() for f in step))):
+            one[(*key, *state)] = RoundStep._make(values)
     return rows, one
 
 

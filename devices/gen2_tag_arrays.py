@@ -394,6 +394,9 @@ class StateArrays:
         The clock the silently stepping tags follow.
     following, counting : ndarray of bool, shape (n_tags,)
         Tags whose time / slot counter follows ``clock``.
+    row : ndarray of int, shape (n_tags,)
+        Each tag's row of the tables of :func:`round_step_rows`, :func:`round_row` of its
+        ``code`` and ``session`` (kept with them).
     """
 
 
@@ -415,6 +418,7 @@ class StateArrays:
         self.clock = SharedClock()
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
+        self.row = np.zeros(n, np.int64)
         self.read(range(n))
 
     def use_generators(self, rngs) -> None:
@@ -451,17 +455,20 @@ class StateArrays:
         states, clock = self.states, self.clock
         if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
             columns = [getattr(self, name) for name in _COLUMNS]
-            following, counting = self.following, self.counting
+            following, counting, rows = self.following, self.counting, self.row
             for i in index:
                 st = states[i]
-                for col, value in zip(columns, st.row()):
+                values = st.row()
+                for col, value in zip(columns, values):
                     col[i] = value
                 following[i] = st._clock is clock
                 counting[i] = st._slot_clock is clock
+                rows[i] = round_row(values[1], values[2])
             return
         cols = list(zip(*[states[i].row() for i in index]))
         for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
+        self.row[index] = round_row(self.code[index], self.session[index])
         self.following[index] = [states[i]._clock is clock for i in index]
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
@@ -488,7 +495,7 @@ class StateArrays:
             Those of them that decrement their slot counter (a QueryRep in Arbitrate of the
             round's session).
         """
-        step, row = round_step_rows(cmd), round_row(self.code, self.session)
+        step, row = round_step_rows(cmd), self.row
         silent = candidates & self.powered & (self.t_s <= t_s) & step.silent[row]
         dec = silent & step.decrement[row]
         if np.count_nonzero(dec):  # a decrement is silent unless the tag then replies
@@ -521,7 +528,7 @@ class StateArrays:
             return np.zeros(len(self.states), bool)
         t_s = float(t_s)
         ok = candidates & self.powered & (self.t_s <= t_s) & ~s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)
-        return ok & round_step_rows(cmd).redraw[round_row(self.code, self.session)]
+        return ok & round_step_rows(cmd).redraw[self.row]
 
     def take_redraw_steps(self, cmd, index: list, rngs: list | None, t_s: float) -> list:
         """Apply a QueryAdjust to the tags that redraw their slot counter.
@@ -611,7 +618,8 @@ class StateArrays:
         self.t_s[idx] = t_s
         self.q[idx] = q_new
         self.slot[idx] = slot
-        self.code[idx] = np.where(zero, _REPLY, _ARBITRATE)
+        self.code[idx] = code = np.where(zero, _REPLY, _ARBITRATE)
+        self.row[idx] = round_row(code, self.session[idx])
         return replies
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float,

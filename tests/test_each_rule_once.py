@@ -142,7 +142,12 @@ TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"
                   ("devices/gen2_tag_arrays.py", "take_silent_steps", "s1_reverts"),
                   ("devices/gen2_tag_arrays.py", "take_silent_steps", "decremented"),
                   ("devices/gen2_tag_arrays.py", "take_redraw_steps", "adjusted_q"),
-                  ("devices/gen2_tag_arrays.py", "take_redraw_steps", "slot_replies"))
+                  ("devices/gen2_tag_arrays.py", "take_redraw_steps", "slot_replies"),
+                  # the populations step their tags through the arrays' steps above
+                  ("devices/tag_population.py", "reflect_scaled", "silent_steps"),
+                  ("devices/tag_population.py", "reflect_scaled", "redraw_steps"),
+                  ("rfsim/protocols/inventory.py", "_drive_arrays", "silent_steps"),
+                  ("rfsim/protocols/inventory.py", "_drive_arrays", "redraw_steps"))
 #: The commands whose transitions ``round_step`` decides.
 ROUND_COMMANDS = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK"}
 #: The states of an inventory round, by name and by code.

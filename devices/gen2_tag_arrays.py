@@ -20,14 +20,14 @@ row.
 
 from __future__ import annotations
 
-from functools import partial
 from itertools import compress
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
-from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q, slot_draw
+from rfsim.gen2.tag_draws import _slot_drawer
+from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
 _ACKNOWLEDGED, _OPEN, _KILLED = STATE_CODES["acknowledged"], STATE_CODES["open"], STATE_CODES["killed"]
@@ -348,14 +348,6 @@ def select_step(action: int, match, asserted):
     return todo != 0, (todo == 1) | ((todo == 3) & (asserted == False))  # noqa: E712 (arrays)
 
 
-def _slot_word(rng):
-    """``slot_draw``'s 32-bit word of a generator as a call without arguments (its bit
-    generator's ctypes ``next_uint32(state)``; the counter is the word ``>> (32 − Q)``), or
-    None for a generator without that interface (``slot_draw`` is then asked)."""
-    ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
-    return None if ct is None else partial(ct.next_uint32, ct.state)
-
-
 class StateArrays:
     """The Gen2 state of many tags in arrays, for the silent steps of a population.
 
@@ -403,7 +395,7 @@ class StateArrays:
     def __init__(self, states, rngs=None):
         self.states = list(states)
         self._rngs: list | None = None
-        self._words: list | None = None
+        self._draws: list | None = None
         if rngs is not None:
             self.use_generators(rngs)
         n = len(self.states)
@@ -423,7 +415,8 @@ class StateArrays:
 
     def use_generators(self, rngs) -> None:
         """Give every row its tag's own generator, for :meth:`take_redraw_steps` called
-        without generators (each generator's 32-bit word function is looked up here once).
+        without generators (each generator's slot draw, :func:`rfsim.gen2.tag_draws.slot_draw`
+        with its bit generator looked up once, is made here).
 
         Parameters
         ----------
@@ -438,7 +431,7 @@ class StateArrays:
         rngs = list(rngs)
         if len(rngs) != len(self.states):
             raise ValueError(f"one generator per tag: {len(rngs)} for {len(self.states)} tags")
-        self._rngs, self._words = rngs, [_slot_word(r) for r in rngs]
+        self._rngs, self._draws = rngs, [_slot_drawer(r) for r in rngs]
 
     def read(self, index) -> None:
         """Copy rows from their :class:`TagState` objects.
@@ -577,22 +570,19 @@ class StateArrays:
         if rngs is None:
             if self._rngs is None:
                 raise ValueError("take_redraw_steps without generators needs use_generators first")
-            words, rngs = list(map(self._words.__getitem__, index)), list(map(self._rngs.__getitem__, index))
+            draws, rngs = list(map(self._draws.__getitem__, index)), list(map(self._rngs.__getitem__, index))
         else:
-            words = list(map(_slot_word, rngs))
+            draws = list(map(_slot_drawer, rngs))
         tags = list(map(states.__getitem__, index))
         q_list = q_new.tolist()
         q0 = q_list[0]
-        if q_new.min() == q0 == q_new.max() and None not in words:
-            # one Q and every generator's word at hand: slot_draw's counters in one pass
-            slots = [w() >> (32 - q0) for w in words] if q0 > 0 else [0] * len(words)
+        if q_new.min() == q0 == q_new.max():  # one Q: the counters in one pass
+            slots = [draw(q0) for draw in draws]
             for st, slot in zip(tags, slots):
                 st.q, st._slot = q0, slot + d  # Q, and the counter counting with the clock
         else:
-            slots = []
-            for st, q, w, rng in zip(tags, q_list, words, rngs):
-                slot = (w() >> (32 - q) if q > 0 else 0) if w is not None else slot_draw(rng, q)
-                slots.append(slot)
+            slots = [draw(q) for draw, q in zip(draws, q_list)]
+            for st, q, slot in zip(tags, q_list, slots):
                 st.q, st._slot = q, slot + d
         slot = np.array(slots, dtype=np.int64)
         zero = slot_replies(slot)

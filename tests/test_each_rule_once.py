@@ -191,8 +191,8 @@ def _tag_rule_idioms(tree: ast.AST, skip: tuple = ()) -> list[str]:
     outside the functions named in ``skip``: a slot-counter decrement ``(… − 1) & 0x7FFF``, a
     comparison of a state with a round state (``state == "reply"``, ``code in (_OPEN,
     _SECURED)``), a comparison of two sessions (the round's guard), an S1 persistence test, Q
-    clamped to 15, a Query's Sel compared with ``"sl"``/``"~sl"``, or a Select action named
-    (``"set"``, ``"clear"``, ``"flip"``)."""
+    clamped to 15, a Query's Sel compared with ``"sl"``/``"~sl"``, a Select action named
+    (``"set"``, ``"clear"``, ``"flip"``), or a slot counter drawn from a word (``w >> (32 − Q)``)."""
     skipped = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) and f.name in skip
                for n in ast.walk(f)}
     found = []
@@ -217,6 +217,9 @@ def _tag_rule_idioms(tree: ast.AST, skip: tuple = ()) -> list[str]:
                 found.append(f"{line}: a Query's Sel tested")
             if any(isinstance(x, ast.Constant) and x.value in SELECT_ACTION_NAMES for x in sides):
                 found.append(f"{line}: a Select action")
+        if (isinstance(node, ast.BinOp) and isinstance(node.op, ast.RShift) and isinstance(node.right, ast.BinOp)
+                and isinstance(node.right.op, ast.Sub) and _const(node.right.left, 32)):
+            found.append(f"{line}: a slot counter drawn from a 32-bit word")
         if isinstance(node, ast.Call) and any(_const(a, 15) for a in node.args):
             name = node.func.attr if isinstance(node.func, ast.Attribute) else getattr(node.func, "id", "")
             if name in ("min", "max", "minimum", "maximum", "clip"):
@@ -256,13 +259,14 @@ class TagState:
     def _select(self, todo):
         if todo == "flip":
             self.sl = not self.sl
-    def _query_adjust(self, cmd):
+    def _query_adjust(self, cmd, word):
         self.q = min(15, max(0, self.q + cmd.updn))
+        self.slot = word() >> (32 - self.q)
 ''')
     kinds = {f.split(": ")[1] for f in _tag_rule_idioms(old)}
     assert kinds == {"a Query's Sel tested", "two sessions compared (the round's guard)",
                      "a state compared with a round state", "a slot-counter decrement", "an S1 persistence test",
-                     "a Select action", "Q clamped to 15"}, kinds
+                     "a Select action", "Q clamped to 15", "a slot counter drawn from a 32-bit word"}, kinds
 
 
 def test_tag_rules_defined_once():

@@ -118,7 +118,7 @@ TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "roun
                                             "round_step_of_one", "query_matches", "slot_replies", "decremented",
                                             "s1_reverts", "select_step"),
              "devices/gen2_tag_values.py": ("adjusted_q",),
-             "rfsim/gen2/tag_draws.py": ("slot_draw", "_slot_drawer")}
+             "rfsim/gen2/tag_draws.py": ("_top_bits",)}
 #: Functions that the scan below does not read: the rules, and the dispatch of the access
 #: commands (Req_RN in Acknowledged, the others in Open/Secured), whose one definition is
 #: :mod:`rfsim.gen2.access` and which a tag always takes through its own path.

@@ -38,7 +38,12 @@ def slot_draw(rng: np.random.Generator, q: int) -> int:
     ct = getattr(getattr(rng, "bit_generator", None), "ctypes", None)
     if ct is None:
         return int(rng.integers(0, 1 << q))
-    return ct.next_uint32(ct.state) >> (32 - q)
+    return _top_bits(ct.next_uint32(ct.state), q)
+
+
+def _top_bits(word: int, q: int) -> int:
+    """The top Q bits of a 32-bit word: the slot counter numpy's bounded draw makes of it."""
+    return word >> (32 - q)
 
 
 def _slot_drawer(rng):
@@ -47,7 +52,7 @@ def _slot_drawer(rng):
     if ct is None:
         return lambda q: slot_draw(rng, q)
     word, state = ct.next_uint32, ct.state
-    return lambda q: (word(state) >> (32 - q)) if q > 0 else 0
+    return lambda q: _top_bits(word(state), q) if q > 0 else 0
 
 
 def draw_rn16(rng: np.random.Generator) -> int:

@@ -663,7 +663,8 @@ class PassiveTag:
             The tag's reaction.
         """
         self.take_quiet_step(quiet)
-        return self._decoded(decoded[0], decoded[1], quiet[3], quiet[4], quiet[5], t0_s=incident.t0_s,
+        return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
+                             t0_s=incident.t0_s,
                              fs_hz=incident.fs_hz, n_samples=incident.n_samples)
 
     @staticmethod
@@ -873,8 +874,8 @@ class PassiveTag:
         """
         self.take_quiet_step(quiet)
         cmd, frame = decoded
-        return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet[3], quiet[4],
-                             quiet[5], t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+        return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet.p_dbm,
+                             quiet.gamma_rest, quiet.structural_mode, t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples)
 
     def _replied(self, cmd, frame, reply, cmd_end_s: float, p_dbm: float, rest: complex, a_s: complex, *,
                  t0_s: float, fs_hz: float, n_samples: int) -> TagResponse:

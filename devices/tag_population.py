@@ -44,6 +44,8 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -269,7 +271,8 @@ class _Round:
 
     def _set(self, j: int, q) -> None:
         if q is not None:
-            self.known[j], self.powered[j], self.dbm[j], self.scatter[j] = True, q[2], q[3], q[5] != q[4]
+            self.known[j], self.powered[j], self.dbm[j] = True, q.powered, q.p_dbm
+            self.scatter[j] = q.structural_mode != q.gamma_rest
 
     def learn(self, j: int, q) -> None:
         """Member ``j``'s quiet point became known (its own reflection made it)."""
@@ -282,12 +285,19 @@ class _Round:
         """(n,) complex: b_j·((A_s − Γ_A)·g_j) per member in Python complex arithmetic, as
         the air step forms it for one tag (0 where the quiet point is unknown)."""
         hit = self._terms.get(id(backs))
-        if hit is not None and (hit[0] is backs or hit[0] == list(backs)):
-            return hit[1]
-        out = np.array([b * ((q[5] - q[4]) * g) if q is not None else 0j
+        if hit is not None and (hit.backs is backs or hit.backs == list(backs)):
+            return hit.terms
+        out = np.array([b * ((q.structural_mode - q.gamma_rest) * g) if q is not None else 0j
                         for b, g, q in zip(backs, self.gains, self.points)], dtype=np.complex128)
-        self._terms[id(backs)] = (backs, out)
+        self._terms[id(backs)] = _Terms(backs, out)
         return out
+
+
+class _Terms(NamedTuple):
+    """A round's quiet terms at one receiver, kept with the backward constants they were made of."""
+
+    backs: Sequence
+    terms: np.ndarray
 
 
 class PopulationReflection:
@@ -345,8 +355,8 @@ class PopulationReflection:
         if r is not None or not self.quiet[j]:
             return r
         point = self._round.points[j]
-        if not point[2]:
-            return point[8]
+        if not point.powered:
+            return point.unpowered
         for cmd, silent, _, t_end_s in self._steps:
             if silent[j]:
                 return self._population.members[j].silent_response(point, cmd, t_end_s)

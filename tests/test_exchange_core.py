@@ -220,7 +220,8 @@ def cache_entry_problems(path: Path) -> list[str]:
 ROOT = Path(rfsim.__file__).parent
 #: The files whose caches were made named and kept alive (issue 30, item 2).
 CACHE_FILES = ([ROOT / "air" / "links.py", ROOT / "air" / "cache.py", ROOT / "protocols" / "inventory.py",
-                ROOT / "sweep" / "runner.py", ROOT.parent / "devices" / "tag.py"]
+                ROOT / "sweep" / "runner.py", ROOT.parent / "devices" / "tag.py",
+                ROOT.parent / "devices" / "tag_population.py"]
                + sorted((ROOT / "scenes").glob("*.py")) + sorted((ROOT.parent / "channels").glob("*.py")))
 
 

@@ -135,7 +135,7 @@ def _reader_detection(c) -> Estimate:
     trials = 2 * (18 * 13 * 10 if k.full else len(k.distances_m) * len(k.angles_deg) * k.repetitions)
     return _model(trials * k.queries, ("campaign.repetitions", "campaign.queries", "campaign.full",
                                        "campaign.distances_m", "campaign.angles_deg", "campaign.workers"),
-                  base_mib=230, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
+                  base_mib=236, bytes_per_unit=4 * KiB, workers=k.workers, tasks=trials, held=trials)
 
 
 #: Most beacon steps of a simulation-room trial: the longest rt of the thesis's tables (SIR at

@@ -57,3 +57,26 @@ def test_minima_spacing_of_a_sampled_track():
     np.testing.assert_allclose(pos, np.arange(0.05, 1.0, 0.1), atol=1e-12)
     assert spacing == pytest.approx(0.1, abs=1e-12)
     assert math.isnan(tl.minima_spacing_m(d, d)[1])
+
+
+def test_pass_tag_pattern_is_kept_while_its_file_is_unchanged_and_read_again_when_changed(reference_data,
+                                                                                         tmp_path):
+    import os
+    import shutil
+
+    from rfsim.devices.pass_tag import PASS_TAG_ANTENNA_FILE
+    from rfsim.scenes.tag_listening import pass_tag_pattern
+
+    source = reference_data / "pass-characteristics" / PASS_TAG_ANTENNA_FILE
+    if not source.is_file():
+        pytest.skip(f"{source} not found")
+    shutil.copyfile(source, tmp_path / PASS_TAG_ANTENNA_FILE)
+    first = pass_tag_pattern(str(tmp_path))
+    assert pass_tag_pattern(str(tmp_path)) is first  # unchanged file: the pattern read before
+    st = (tmp_path / PASS_TAG_ANTENNA_FILE).stat()
+    os.utime(tmp_path / PASS_TAG_ANTENNA_FILE, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    again = pass_tag_pattern(str(tmp_path))
+    assert again is not first  # a changed file is read again
+    for name in ("az_rad", "el_rad", "az_cut", "el_cut", "table"):  # the same file's contents
+        a, b = getattr(again, name), getattr(first, name)
+        assert (a is None and b is None) or np.array_equal(a, b), name

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -100,9 +99,29 @@ class TagListeningScene:
     noise_figure_db: float | None
 
 
-@lru_cache(maxsize=4)
+@dataclass(frozen=True)
+class _PatternFile:
+    """A loaded pattern file: the file's identity when it was read (resolved path, size [B],
+    modification time [ns]) and the pattern read from it."""
+
+    path: str
+    size_b: int
+    mtime_ns: int
+    pattern: _antennas.Tabulated
+
+
+#: The pattern files read so far, by resolved path; an entry is used only while the file's size and
+#: modification time are those it was read with (a changed file is read again). At most
+#: :data:`_PATTERN_FILES_MAX` entries.
+_PATTERN_FILES: dict[str, _PatternFile] = {}
+_PATTERN_FILES_MAX = 4
+
+
 def pass_tag_pattern(characteristics_dir: str) -> _antennas.Tabulated:
-    """Return PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0), memoised per folder.
+    """Return PASS's tag antenna pattern as it is (peak amplitude 2.0, power 4.0).
+
+    The file is read once and kept while it is unchanged (same resolved path, size and
+    modification time; a changed file is read again).
 
     Parameters
     ----------
@@ -113,8 +132,22 @@ def pass_tag_pattern(characteristics_dir: str) -> _antennas.Tabulated:
     -------
     rfsim.channels.antennas.Tabulated
         The pattern.
+
+    Raises
+    ------
+    OSError
+        The file cannot be read (as :meth:`rfsim.channels.antennas.Tabulated.from_pass_mat`).
     """
-    return _antennas.Tabulated.from_pass_mat(Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE)
+    path = (Path(characteristics_dir) / PASS_TAG_ANTENNA_FILE).resolve()
+    stat = path.stat()
+    hit = _PATTERN_FILES.get(str(path))
+    if hit is not None and hit.size_b == stat.st_size and hit.mtime_ns == stat.st_mtime_ns:
+        return hit.pattern
+    pattern = _antennas.Tabulated.from_pass_mat(path)
+    if len(_PATTERN_FILES) >= _PATTERN_FILES_MAX:
+        _PATTERN_FILES.clear()
+    _PATTERN_FILES[str(path)] = _PatternFile(str(path), stat.st_size, stat.st_mtime_ns, pattern)
+    return pattern
 
 
 def room(apdp: bool) -> _channels_scene.Scene:

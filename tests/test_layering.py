@@ -31,6 +31,8 @@ DYNAMIC_IMPORTS = {
     "rfsim.core.procs": "warm-up before forking workers: imports in the leader the modules a pilot "
                         "task already imported, adding no dependency the task does not have",
     "rfsim.core._jit": "loads kernels compiled in another process from the modules that declared them",
+    "rfsim.runs.kernel_plan": "imports the kernel modules a shipped kernel plan names (modules the "
+                              "scenario's run imports anyway), to compile them before a cold run",
     "rfsim.cli": "the subcommand modules of rfsim.cli, listed as literals in _SUBCOMMANDS",
     "rfsim.cli.bench": "the benchmark functions of rfsim.bench, listed as literals in the bench table",
 }

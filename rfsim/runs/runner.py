@@ -104,8 +104,12 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
 
     def simulate_and_write() -> None:
         from rfsim.core._jit import compiling_elsewhere  # numba: in the child only
+        from rfsim.runs.kernel_plan import precompile_scenario
 
         _announce_compilation()
+        # a cold cache: the kernels the scenario's default run calls are compiled side by side,
+        # one child process per usable CPU, before the run (rfsim.runs.kernel_plan)
+        precompile_scenario(module.NAME)
         # each kernel the cache lacks is compiled in a process of its own, which ends after it:
         # the compiler's memory is not added to the run's (a warm run finds every kernel cached)
         with compiling_elsewhere(run_in_child):

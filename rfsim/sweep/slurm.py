@@ -193,14 +193,10 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         raise UserError(f"--shards {shards}: expected an integer >= 1")
     if cpus_per_task < 1:
         raise UserError(f"--cpus-per-task {cpus_per_task}: expected an integer >= 1")
-    if time_limit:
-        check_time_limit(time_limit)
-    if partition:
-        check_partition(partition)
-    if account:
-        check_account(account)
-    if memory:
-        check_memory(memory)
+    given = {"--time": time_limit, "--partition": partition, "--account": account, "--mem": memory}
+    for option, value in given.items():
+        if value:
+            _check_option(option, value)
     if job_name and not _JOB_NAME.fullmatch(job_name):
         raise UserError(f"--job-name {job_name!r}: expected 1-128 letters, digits or _ . + -")
     spec = shlex.quote(str(spec_path.resolve()))
@@ -216,14 +212,8 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         f"#SBATCH --chdir={workdir.resolve()}",
         f"#SBATCH --output={name}-%A_%a.out",
     ]
-    if partition:
-        lines.append(f"#SBATCH --partition={partition}")
-    if account:
-        lines.append(f"#SBATCH --account={account}")
-    if time_limit:
-        lines.append(f"#SBATCH --time={time_limit}")
-    if memory:
-        lines.append(f"#SBATCH --mem={memory}")
+    lines += [f"#SBATCH {option}={given[option]}" for option in ("--partition", "--account", "--time", "--mem")
+              if given[option]]
     lines += [
         "",
         f"# {shards} array tasks; task I runs shard I/{shards} of the sweep into the shared point store.",

@@ -70,6 +70,24 @@ I0E_B = np.array([
 I0E_BLOCK = 256
 
 
+@njit_inline
+def clenshaw_pairs(c, stop, y, p, q, count):
+    """The first Clenshaw steps of the Chebyshev series ``c`` over ``count`` samples at once:
+    b0 = c[0], b1 = b2 = 0, then two steps b0 ← y·b1 − b2 + c[i] per pass for i in [1, ``stop``)
+    (``stop`` odd), leaving b1 in ``p`` and b2 in ``q`` for the caller's last step(s); ``y``,
+    ``p``, ``q`` are (≥ count,) work arrays (Cephes ``chbevl``, in its operation order)."""
+    for j in range(count):
+        p[j] = c[0]
+        q[j] = 0.0
+    for i in range(1, stop, 2):
+        ci = c[i]
+        di = c[i + 1]
+        for j in range(count):
+            b = y[j] * p[j] - q[j] + ci
+            p[j] = y[j] * b - p[j] + di
+            q[j] = b
+
+
 @njit
 def i0e_kernel(x, out):
     """``out[n] = exp(−|x|)·I0(x)`` for ``x`` (n,) float64: Cephes ``i0e``, the Clenshaw sum
@@ -106,15 +124,7 @@ def i0e_kernel(x, out):
         np.divide(32.0, w[:n_big], y[:n_big])
         for j in range(n_big):
             y[j] = y[j] - 2.0
-            p[j] = I0E_B[0]
-            q[j] = 0.0
-        for i in range(1, 23, 2):
-            c = I0E_B[i]
-            d = I0E_B[i + 1]
-            for j in range(n_big):
-                b = y[j] * p[j] - q[j] + c
-                p[j] = y[j] * b - p[j] + d
-                q[j] = b
+        clenshaw_pairs(I0E_B, 23, y, p, q, n_big)
         c = I0E_B[23]
         d = I0E_B[24]
         for j in range(n_big):
@@ -127,15 +137,7 @@ def i0e_kernel(x, out):
         # [0, 8]: 29 steps, the same way
         for j in range(n_small):
             y[j] = abs(x[s + small[j]]) / 2.0 - 2.0
-            p[j] = I0E_A[0]
-            q[j] = 0.0
-        for i in range(1, 29, 2):
-            c = I0E_A[i]
-            d = I0E_A[i + 1]
-            for j in range(n_small):
-                b = y[j] * p[j] - q[j] + c
-                p[j] = y[j] * b - p[j] + d
-                q[j] = b
+        clenshaw_pairs(I0E_A, 29, y, p, q, n_small)
         c = I0E_A[29]
         for j in range(n_small):
             out[s + small[j]] = 0.5 * ((y[j] * p[j] - q[j] + c) - q[j])

@@ -93,6 +93,15 @@ def _keep_where_missing(valid, new, old):
     return np.where(valid, new, old)
 
 
+def _update_where_measured(x, P, z, diff, H, R):
+    """Joseph update with innovation ``diff`` where ``z`` has no NaN; ``(x, P)`` kept elsewhere."""
+    valid = ~np.isnan(z).any(axis=-1)
+    innovation = np.where(valid[..., None], diff, 0.0)
+    x_new, P_new = _joseph_update(x, P, innovation, H, R)
+    return (_keep_where_missing(valid[..., None], x_new, x),
+            _keep_where_missing(valid[..., None, None], P_new, P))
+
+
 def kf_update(x, P, z, H, R) -> tuple[np.ndarray, np.ndarray]:
     """One linear update in Joseph form (eq. 4.21, module docstring).
 
@@ -123,11 +132,7 @@ def kf_update(x, P, z, H, R) -> tuple[np.ndarray, np.ndarray]:
     z = np.asarray(z, float)
     H = np.asarray(H, float)
     R = np.asarray(R, float)
-    valid = ~np.isnan(z).any(axis=-1)
-    innovation = np.where(valid[..., None], z - _mv(H, x), 0.0)
-    x_new, P_new = _joseph_update(x, P, innovation, H, R)
-    return (_keep_where_missing(valid[..., None], x_new, x),
-            _keep_where_missing(valid[..., None, None], P_new, P))
+    return _update_where_measured(x, P, z, z - _mv(H, x), H, R)
 
 
 def ekf_update(x, P, z, h: Callable, jacobian: Callable, R, *, x_lin=None,
@@ -172,12 +177,8 @@ def ekf_update(x, P, z, h: Callable, jacobian: Callable, R, *, x_lin=None,
     xl = x if x_lin is None else np.asarray(x_lin, float)
     H = np.asarray(jacobian(xl), float)
     z_hat = np.asarray(h(xl), float) + _mv(H, x - xl)
-    valid = ~np.isnan(z).any(axis=-1)
     diff = (z - z_hat) if residual is None else residual(z, z_hat)
-    innovation = np.where(valid[..., None], diff, 0.0)
-    x_new, P_new = _joseph_update(x, P, innovation, H, R)
-    return (_keep_where_missing(valid[..., None], x_new, x),
-            _keep_where_missing(valid[..., None, None], P_new, P))
+    return _update_where_measured(x, P, z, diff, H, R)
 
 
 class FilterResult(NamedTuple):

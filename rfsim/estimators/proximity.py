@@ -181,6 +181,13 @@ def _positions(particles: np.ndarray) -> np.ndarray:
     return particles[..., 0::2]
 
 
+def _filter_inputs(times_s, t0_s: float, initial_particles) -> tuple[np.ndarray, np.ndarray, int]:
+    """``(dt (T,) [s] from t0_s to each observation, particles as float, J)`` of a filter's inputs."""
+    t = np.asarray(times_s, float)
+    particles = np.asarray(initial_particles, float)
+    return np.diff(t, prepend=t0_s), particles, particles.shape[-1] // 2
+
+
 def bernoulli_pf(times_s, observed_xy, initial_particles, *, t0_s: float, accel_var, a1: float, a2: float,
                  rng: np.random.Generator) -> ParticleFilterResult:
     """Bernoulli PF (6.5) for B runs at once on one observation sequence.
@@ -207,10 +214,7 @@ def bernoulli_pf(times_s, observed_xy, initial_particles, *, t0_s: float, accel_
     rfsim.estimators.particle.ParticleFilterResult
         MMSE over the full state.
     """
-    t = np.asarray(times_s, float)
-    dt = np.diff(t, prepend=t0_s)
-    particles = np.asarray(initial_particles, float)
-    n_dims = particles.shape[-1] // 2
+    dt, particles, n_dims = _filter_inputs(times_s, t0_s, initial_particles)
     sd = np.sqrt(np.broadcast_to(np.asarray(accel_var, float), (n_dims,)))
 
     def propagate(p, k, rng):
@@ -255,10 +259,7 @@ def rbpf(times_s, observed_xy, initial_particles, velocity_var0, *, t0_s: float,
     rfsim.estimators.particle.ParticleFilterResult
         The MMSE holds x̂^n and x̂^l (the weighted Kalman means) in the order of (6.1).
     """
-    t = np.asarray(times_s, float)
-    dt = np.diff(t, prepend=t0_s)
-    particles = np.asarray(initial_particles, float)
-    n_dims = particles.shape[-1] // 2
+    dt, particles, n_dims = _filter_inputs(times_s, t0_s, initial_particles)
     q = np.broadcast_to(np.asarray(accel_var, float), (n_dims,))
     p_l = np.array(np.broadcast_to(np.asarray(velocity_var0, float), (n_dims,)))
 

@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
-from rfsim.gen2._pie_kernels import env_value
+from rfsim.core._jit import njit, njit_inline
+from rfsim.gen2._pie_kernels import env_order, env_value
 
 
 @njit
@@ -124,16 +124,17 @@ def magnitude_kernel(x, out):
     return range_kernel(out)
 
 
-@njit
-def range_kernel(v):
+@njit_inline
+def finite_range(v, power):
     """``(min, max, number of non-finite values, index of the first one or −1)``, min and max
-    over the finite values of the envelope of ``v`` (real, or complex: :func:`env_value`)."""
+    over the finite values of :func:`env_order` of ``v`` if ``power`` (a constant of the
+    caller) else of :func:`env_value`."""
     lo = math.inf
     hi = -math.inf
     n_bad = 0
     first_bad = -1
     for n in range(v.size):
-        a = env_value(v, n)
+        a = env_order(v, n) if power else env_value(v, n)
         if not math.isfinite(a):
             if n_bad == 0:
                 first_bad = n
@@ -147,27 +148,18 @@ def range_kernel(v):
 
 
 @njit
+def range_kernel(v):
+    """``(min, max, number of non-finite values, index of the first one or −1)``, min and max
+    over the finite values of the envelope of ``v`` (real, or complex: :func:`env_value`)."""
+    return finite_range(v, False)
+
+
+@njit
 def power_range_kernel(x):
     """:func:`range_kernel` of the magnitude of complex samples from their power
     re² + im² (no square root per sample): ``(√min, √max, non-finite count, first index)``.
     The square root is monotonic, so the extremes are those of the magnitude."""
-    lo = math.inf
-    hi = -math.inf
-    n_bad = 0
-    first_bad = -1
-    for n in range(x.size):
-        re = np.float64(x[n].real)
-        im = np.float64(x[n].imag)
-        p = re * re + im * im
-        if not math.isfinite(p):
-            if n_bad == 0:
-                first_bad = n
-            n_bad += 1
-        else:
-            if p < lo:
-                lo = p
-            if p > hi:
-                hi = p
+    lo, hi, n_bad, first_bad = finite_range(x, True)
     return math.sqrt(lo) if n_bad < x.size else lo, math.sqrt(hi) if n_bad < x.size else hi, n_bad, first_bad
 
 

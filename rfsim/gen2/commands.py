@@ -706,6 +706,14 @@ def encode(cmd: Command) -> np.ndarray:
     return cmd._encode()
 
 
+def _command_class(cmd) -> type:
+    """The command class of ``cmd`` (an instance or a class); TypeError if not a Gen2 command."""
+    cls = cmd if isinstance(cmd, type) else type(cmd)
+    if cls not in COMMAND_TYPES:
+        raise TypeError(f"not a Gen2 command: {cmd!r}")
+    return cls
+
+
 def command_name(cmd) -> str:
     """Standard name of a command: "Query", "Req_RN", ...
 
@@ -724,10 +732,7 @@ def command_name(cmd) -> str:
     TypeError
         If ``cmd`` is not a Gen2 command.
     """
-    cls = cmd if isinstance(cmd, type) else type(cmd)
-    if cls not in COMMAND_TYPES:
-        raise TypeError(f"not a Gen2 command: {cmd!r}")
-    return cls.NAME
+    return _command_class(cmd).NAME
 
 
 def command_preamble(cmd) -> str:
@@ -748,10 +753,7 @@ def command_preamble(cmd) -> str:
     TypeError
         If ``cmd`` is not a Gen2 command.
     """
-    cls = cmd if isinstance(cmd, type) else type(cmd)
-    if cls not in COMMAND_TYPES:
-        raise TypeError(f"not a Gen2 command: {cmd!r}")
-    return cls.PREAMBLE
+    return _command_class(cmd).PREAMBLE
 
 
 # --------------------------------------------------------------------------- parsing

@@ -130,6 +130,16 @@ class SweepPlan:
     module: ModuleType
     _cache: dict = dataclasses.field(default_factory=dict, repr=False)
 
+    def _last(self, name: str, i: int, compute: Callable[[], Any]) -> Any:
+        """The cache entry ``name`` if it holds point ``i``'s value, else ``compute()``, kept
+        as the entry (one point per name: the last one asked for)."""
+        hit = self._cache.get(name)
+        if hit is not None and hit.point == i:
+            return hit.value
+        value = compute()
+        self._cache[name] = _PointValue(i, value)
+        return value
+
     @property
     def n_points(self) -> int:
         """Points of the sweep."""
@@ -164,12 +174,7 @@ class SweepPlan:
             The scenario's config with the point's values applied
             (:func:`rfsim.sweep.spec.point_config`).
         """
-        hit = self._cache.get("config")
-        if hit is not None and hit.point == i:
-            return hit.value
-        cfg = point_config(self.spec, self.module.Config, i)
-        self._cache["config"] = _PointValue(i, cfg)
-        return cfg
+        return self._last("config", i, lambda: point_config(self.spec, self.module.Config, i))
 
     def digest(self, i: int) -> bytes:
         """Digest of point ``i``'s config, as the point store records it (the last is cached).
@@ -185,12 +190,7 @@ class SweepPlan:
             The first 16 bytes of the SHA-256 of the config's TOML text
             (:func:`rfsim.sweep.store.config_digest`).
         """
-        hit = self._cache.get("digest")
-        if hit is not None and hit.point == i:
-            return hit.value
-        d = config_digest(self.config(i))
-        self._cache["digest"] = _PointValue(i, d)
-        return d
+        return self._last("digest", i, lambda: config_digest(self.config(i)))
 
     def task(self, run: int) -> PointTask:
         """Task of one run.

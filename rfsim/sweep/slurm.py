@@ -41,6 +41,23 @@ _PARTITION = re.compile(r"[A-Za-z0-9_.+-]{1,128}(,[A-Za-z0-9_.+-]{1,128})*")
 _ACCOUNT = re.compile(r"[A-Za-z0-9_.+-]{1,128}")
 #: SLURM --mem: a positive integer with an optional unit K, M, G or T (sbatch(1); default M).
 _MEM = re.compile(r"[1-9]\d{0,11}[KMGT]?", re.IGNORECASE)
+#: Option → (pattern its value must match in full, what it expects: the error message's words).
+_OPTION_RULES = {
+    "--time": (_TIME, "a SLURM time limit: minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM or D-HH:MM:SS "
+                      "(e.g. 01:30:00)"),
+    "--partition": (_PARTITION, "a partition name (letters, digits, _ . + -; several separated by commas)"),
+    "--account": (_ACCOUNT, "an account name (1-128 letters, digits or _ . + -)"),
+    "--mem": (_MEM, "memory per node as a positive integer with an optional unit K, M, G or T "
+                    "(e.g. 4G; no unit: megabytes)"),
+}
+
+
+def _check_option(option: str, text: str) -> str:
+    """``text`` unchanged if it matches ``option``'s pattern in :data:`_OPTION_RULES`, else UserError."""
+    pattern, expected = _OPTION_RULES[option]
+    if not pattern.fullmatch(text):
+        raise UserError(f"{option} {text!r}: expected {expected}")
+    return text
 
 
 def check_time_limit(text: str) -> str:
@@ -62,10 +79,7 @@ def check_time_limit(text: str) -> str:
         ``text`` is not a SLURM time limit (minutes, ``M:S``, ``H:M:S``, ``D-H``, ``D-H:M``,
         ``D-H:M:S`` or ``UNLIMITED``); the one-line message names ``--time``.
     """
-    if not _TIME.fullmatch(text):
-        raise UserError(f"--time {text!r}: expected a SLURM time limit: minutes, MM:SS, HH:MM:SS, "
-                        "D-HH, D-HH:MM or D-HH:MM:SS (e.g. 01:30:00)")
-    return text
+    return _check_option("--time", text)
 
 
 def check_partition(text: str) -> str:
@@ -87,10 +101,7 @@ def check_partition(text: str) -> str:
         ``text`` is not a partition name (letters, digits, ``_ . + -``) or a comma-separated
         list of them; the one-line message names ``--partition``.
     """
-    if not _PARTITION.fullmatch(text):
-        raise UserError(f"--partition {text!r}: expected a partition name (letters, digits, _ . + -; "
-                        "several separated by commas)")
-    return text
+    return _check_option("--partition", text)
 
 
 def check_account(text: str) -> str:
@@ -111,9 +122,7 @@ def check_account(text: str) -> str:
     UserError
         ``text`` is not a SLURM account name; the one-line message names ``--account``.
     """
-    if not _ACCOUNT.fullmatch(text):
-        raise UserError(f"--account {text!r}: expected an account name (1-128 letters, digits or _ . + -)")
-    return text
+    return _check_option("--account", text)
 
 
 def check_memory(text: str) -> str:
@@ -135,10 +144,7 @@ def check_memory(text: str) -> str:
         ``text`` is not a positive integer with an optional unit K, M, G or T (none:
         megabytes); the one-line message names ``--mem``.
     """
-    if not _MEM.fullmatch(text):
-        raise UserError(f"--mem {text!r}: expected memory per node as a positive integer with an "
-                        "optional unit K, M, G or T (e.g. 4G; no unit: megabytes)")
-    return text
+    return _check_option("--mem", text)
 
 
 def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str = "",
@@ -187,14 +193,10 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         raise UserError(f"--shards {shards}: expected an integer >= 1")
     if cpus_per_task < 1:
         raise UserError(f"--cpus-per-task {cpus_per_task}: expected an integer >= 1")
-    if time_limit:
-        check_time_limit(time_limit)
-    if partition:
-        check_partition(partition)
-    if account:
-        check_account(account)
-    if memory:
-        check_memory(memory)
+    given = {"--time": time_limit, "--partition": partition, "--account": account, "--mem": memory}
+    for option, value in given.items():
+        if value:
+            _check_option(option, value)
     if job_name and not _JOB_NAME.fullmatch(job_name):
         raise UserError(f"--job-name {job_name!r}: expected 1-128 letters, digits or _ . + -")
     spec = shlex.quote(str(spec_path.resolve()))
@@ -210,14 +212,8 @@ def sbatch_script(spec_path: Path, shards: int, *, workdir: Path, job_name: str 
         f"#SBATCH --chdir={workdir.resolve()}",
         f"#SBATCH --output={name}-%A_%a.out",
     ]
-    if partition:
-        lines.append(f"#SBATCH --partition={partition}")
-    if account:
-        lines.append(f"#SBATCH --account={account}")
-    if time_limit:
-        lines.append(f"#SBATCH --time={time_limit}")
-    if memory:
-        lines.append(f"#SBATCH --mem={memory}")
+    lines += [f"#SBATCH {option}={given[option]}" for option in ("--partition", "--account", "--time", "--mem")
+              if given[option]]
     lines += [
         "",
         f"# {shards} array tasks; task I runs shard I/{shards} of the sweep into the shared point store.",

@@ -84,6 +84,8 @@ import numpy as np
 from rfsim.air.batch import AirStep, propagate_batch
 from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of
 from rfsim.gen2.access import ERROR_REPLY_BITS
+from rfsim.gen2.bits import bits_to_int
+from rfsim.gen2.commands import ACK
 from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t5
 
 #: Failure reasons of a read, in the order the engine checks them.
@@ -399,9 +401,10 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
     members = members_of(reflectors)
     links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
                          link_cache if (link_cache is not None) else None, draw_channel)
+    # the links' bandwidth B = 2·BLF [Hz] of the reply: the main lobe of FM0/Miller (module docstring)
     return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
                      reflectors=reflectors, members=members, links=links, propagation=propagation,
-                     bandwidth_hz=_reply_bandwidth_hz(reader.link), air_cache=getattr(reader, "air_cache", None))
+                     bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None))
 
 
 def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False):
@@ -486,12 +489,6 @@ def _t1_range(link):
     from rfsim.gen2.link import t1
 
     return t1(link)
-
-
-@functools.lru_cache(maxsize=64)
-def _reply_bandwidth_hz(link) -> float:
-    """B = 2·BLF [Hz] of a profile's reply: the main lobe of FM0/Miller (module docstring)."""
-    return 2.0 * link.blf_hz
 
 
 @functools.lru_cache(maxsize=64)
@@ -831,9 +828,6 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
         One reader shared by several trials while it searches the BLF (``blf_search``: it keeps
         the RN16's BLF for the ACK).
     """
-    from rfsim.gen2.bits import bits_to_int
-    from rfsim.gen2.commands import ACK
-
     n = len(rngs)
     readers = _per_trial(reader, n, "reader")
     if len({id(r) for r in readers}) < n and any(r.config.blf_search != "off" for r in readers):

@@ -201,7 +201,8 @@ def _seed_words(entropy: int, spawn_key: tuple[int, ...]) -> np.ndarray:
     stream), the last word mixed in and the pool hashed into eight 32-bit output words (the
     operations of :func:`_pcg64_seed_words`, one sequence)."""
     run_words = _uint32_words(entropy)
-    key_words = [w for i in spawn_key for w in _uint32_words(i)]
+    key_words = (list(spawn_key) if max(spawn_key, default=0) <= _MASK32  # one word each
+                 else [w for i in spawn_key for w in _uint32_words(i)])
     if key_words and len(run_words) < _POOL_SIZE:
         run_words = run_words + [0] * (_POOL_SIZE - len(run_words))
     words = run_words + key_words
@@ -209,10 +210,8 @@ def _seed_words(entropy: int, spawn_key: tuple[int, ...]) -> np.ndarray:
         pool, h = _mix_word(*_mixed_pool(tuple(words[:-1])), words[-1])
     else:
         pool, h = _mixed_pool(tuple(words))
-    out = []
-    for src, (h_in, h_out) in zip(pool + pool, _OUTPUT_HASH):
-        v = ((src ^ h_in) * h_out) & _MASK32
-        out.append(v ^ (v >> _XSHIFT))
+    out = [v ^ (v >> _XSHIFT) for v in [((src ^ h_in) * h_out) & _MASK32
+                                         for src, (h_in, h_out) in zip(pool + pool, _OUTPUT_HASH)]]
     # uint32 pairs as little-endian uint64 (SeedSequence's view)
     return np.array([out[0] | out[1] << 32, out[2] | out[3] << 32, out[4] | out[5] << 32, out[6] | out[7] << 32],
                     dtype=np.uint64)

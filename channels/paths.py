@@ -134,10 +134,7 @@ class PathSet:
             ``(n,) complex128`` [√W per √W].
         """
         terms = self.__dict__.get("_delay_terms")
-        if terms is not None:
-            return self.gain * terms.phasors(fc_hz)
-        cycles = np.mod(float(fc_hz) * self.delay_s, 1.0)
-        return self.gain * np.exp(-2j * np.pi * cycles)
+        return self.gain * (_carrier_phasors(self.delay_s, fc_hz) if terms is None else terms.phasors(fc_hz))
 
     def narrowband_gain(self, fc_hz: float, t_s: float = 0.0) -> complex:
         """Total narrowband gain ``Σ g·e^{−j2π·fc·τ}·e^{j2π·f_D·t}`` at time ``t_s``.
@@ -532,6 +529,11 @@ def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
     return math.sqrt(float(np.add.reduce(p * rel2)) / total)
 
 
+def _carrier_phasors(delay_s: np.ndarray, fc_hz: float) -> np.ndarray:
+    """e^{−j2π·fc·τ} per path, (n,) complex128 [1], the phase fc·τ reduced modulo one cycle in float64."""
+    return np.exp(-2j * np.pi * np.mod(float(fc_hz) * delay_s, 1.0))
+
+
 def _relative_delay_squared(delay_s: np.ndarray, bandwidth_hz: float) -> np.ndarray:
     """(2π·B·(τ − τ0))², (n,) float64 [1]: the squared envelope phase of each path
     (:func:`narrowband_rms_error`)."""
@@ -566,7 +568,7 @@ class DelayTerms:
         self._relative: dict = {}  # bandwidth [Hz] -> (n,) float64
 
     def phasors(self, fc_hz: float) -> np.ndarray:
-        """e^{−j2π·fc·τ} per path, the phase reduced modulo one cycle in float64.
+        """The carrier phasors of these delays, remembered per carrier.
 
         Parameters
         ----------
@@ -581,7 +583,7 @@ class DelayTerms:
         fc_hz = float(fc_hz)
         out = self._phasors.get(fc_hz)
         if out is None:
-            out = np.exp(-2j * np.pi * np.mod(fc_hz * self.delay_s, 1.0))
+            out = _carrier_phasors(self.delay_s, fc_hz)
             out.setflags(write=False)
             self._phasors[fc_hz] = out
         return out

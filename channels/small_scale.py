@@ -400,11 +400,14 @@ class TapTerms(NamedTuple):
         |g_0| of the LoS tap √P_0·e^{j0} as a complex128 [1].
     scale : ndarray, shape (n_taps − 1,), float64
         √(P_i/2) of the NLoS taps [1].
+    paired_scale : ndarray, shape (2·(n_taps − 1),), float64
+        ``scale`` with every value twice, for the real and imaginary parts [1].
     """
 
     nlos_delays_s: np.ndarray
     los_amplitude: np.float64
     scale: np.ndarray
+    paired_scale: np.ndarray
 
 
 @functools.lru_cache(maxsize=4096)
@@ -429,9 +432,10 @@ def tap_terms(k_lin: float, tau_rms_s: float, options: tuple) -> TapTerms:
     los[0] = math.sqrt(powers[0]) * np.exp(1j * 0.0)
     scale = np.sqrt(powers[1:] / 2.0)
     nlos_delays = delays[1:].copy()
-    for a in (scale, nlos_delays):
+    paired = np.repeat(scale, 2)
+    for a in (scale, nlos_delays, paired):
         a.setflags(write=False)
-    return TapTerms(nlos_delays, abs(los[0]), scale)
+    return TapTerms(nlos_delays, abs(los[0]), scale, paired)
 
 
 def draw_nlos_taps(terms: TapTerms, rng: np.random.Generator) -> np.ndarray:
@@ -453,8 +457,10 @@ def draw_nlos_taps(terms: TapTerms, rng: np.random.Generator) -> np.ndarray:
     n = terms.scale.size
     if n == 0:
         return np.empty(0, dtype=np.complex128)
-    z = rng.standard_normal((1, n, 2))
-    return ((z[..., 0] + 1j * z[..., 1]) * terms.scale)[0]
+    z = rng.standard_normal(2 * n)  # the normals of draw_taps' (1, n, 2) draw, in its order
+    # (z_re·s, z_im·s) as complex: the numbers of draw_taps' (z_re + j·z_im)·s, whose products
+    # with the zero imaginary parts are exact zeros, formed without its complex casts
+    return (z * terms.paired_scale).view(np.complex128)
 
 
 def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Generator) -> np.ndarray:

@@ -525,7 +525,8 @@ def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
     if total == 0.0:
         return 0.0
     terms = paths.__dict__.get("_delay_terms")
-    rel2 = _relative_delay_squared(paths.delay_s, bandwidth_hz) if terms is None else terms.relative_squared(bandwidth_hz)
+    rel2 = (_relative_delay_squared(paths.delay_s, bandwidth_hz) if terms is None
+            else terms.relative_squared(bandwidth_hz))
     return math.sqrt(float(np.add.reduce(p * rel2)) / total)
 
 

@@ -200,7 +200,7 @@ def _seed_words(entropy: int, spawn_key: tuple[int, ...]) -> np.ndarray:
     words but the last taken from :func:`_mixed_pool` (the same for every trial of a run's
     stream), the last word mixed in and the pool hashed into eight 32-bit output words (the
     operations of :func:`_pcg64_seed_words`, one sequence)."""
-    run_words = _uint32_words(entropy)
+    run_words = [entropy] if entropy <= _MASK32 else _uint32_words(entropy)
     key_words = (list(spawn_key) if max(spawn_key, default=0) <= _MASK32  # one word each
                  else [w for i in spawn_key for w in _uint32_words(i)])
     if key_words and len(run_words) < _POOL_SIZE:

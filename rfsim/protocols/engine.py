@@ -256,11 +256,20 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
 
 def _per_trial(value, n: int, name: str) -> list:
     """``value`` for each of ``n`` trials: a list/tuple of n values, or one value for all."""
-    if isinstance(value, (list, tuple)):
-        if len(value) != n:
-            raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
-        return list(value)
-    return [value] * n
+    return _per_trials(n, **{name: value})[0]
+
+
+def _per_trials(n: int, **values) -> list[list]:
+    """:func:`_per_trial` of every keyword (its name is the one an error gives), in order."""
+    out = []
+    for name, value in values.items():
+        if isinstance(value, (list, tuple)):
+            if len(value) != n:
+                raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
+            out.append(list(value))
+        else:
+            out.append([value] * n)
+    return out
 
 
 #: Trials run together: their air steps, then their noise, then their reads
@@ -332,12 +341,9 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     n = len(rngs)
     if len(tags) != n:
         raise ValueError(f"tags: {len(tags)} tag lists for {n} trials (one per generator in rngs)")
-    readers = _per_trial(reader, n, "reader")
-    channels = _per_trial(channel, n, "channel")
-    cmds = _per_trial(cmd, n, "cmd")
-    times = _per_trial(t_s, n, "t_s")
-    rounds = _per_trial(round_index, n, "round_index")
-    caches = _per_trial(None if link_caches is None else list(link_caches), n, "link_caches")
+    readers, channels, cmds, times, rounds, caches = _per_trials(
+        n, reader=reader, channel=channel, cmd=cmd, t_s=t_s, round_index=round_index,
+        link_caches=None if link_caches is None else list(link_caches))
     segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
     out: list = []
     for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
@@ -840,8 +846,7 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     out = [[ex] for ex in first]
     if not go:
         return out
-    channels = _per_trial(channel, n, "channel")
-    rounds = _per_trial(round_index, n, "round_index")
+    channels, rounds = _per_trials(n, channel=channel, round_index=round_index)
     acks, t_acks = [], []
     for b in go:
         acks.append(ACK(bits_to_int(first[b].read.bits)))

@@ -37,6 +37,7 @@ _pk = lazy_import("rfsim.channels._paths_kernels")
 
 __all__ = [
     "PathSet",
+    "DelayTerms",
     "concatenate",
     "compose_backscatter",
     "fractional_delay_taps",
@@ -96,14 +97,22 @@ class PathSet:
         object.__setattr__(self, "doppler_hz", _ro(f))
 
     @classmethod
-    def _own(cls, gain: np.ndarray, delay_s: np.ndarray, doppler_hz: np.ndarray) -> "PathSet":
+    def _own(cls, gain: np.ndarray, delay_s: np.ndarray, doppler_hz: np.ndarray, *,
+             delay_terms: "DelayTerms | None" = None) -> "PathSet":
         """A PathSet holding the given arrays themselves (made read-only), without the
         constructor's copies and checks: for arrays its caller has just made, (n,) complex128,
-        float64 and float64, C-contiguous, finite (a channel's assembly of a link)."""
+        float64 and float64, C-contiguous, finite (a channel's assembly of a link). With
+        ``delay_terms``, the :class:`DelayTerms` of ``delay_s`` and ``doppler_hz`` (read-only
+        arrays that links of successive draws share): what depends on them alone is formed once
+        for all those links."""
         out = object.__new__(cls)
         for name, a in (("gain", gain), ("delay_s", delay_s), ("doppler_hz", doppler_hz)):
-            a.setflags(write=False)
+            if a.flags.writeable:
+                a.setflags(write=False)
             object.__setattr__(out, name, a)
+        if delay_terms is not None:
+            out.__dict__["_delay_terms"] = delay_terms
+            out.__dict__["_static"] = delay_terms.static
         return out
 
     @property
@@ -124,8 +133,8 @@ class PathSet:
         numpy.ndarray
             ``(n,) complex128`` [√W per √W].
         """
-        cycles = np.mod(float(fc_hz) * self.delay_s, 1.0)
-        return self.gain * np.exp(-2j * np.pi * cycles)
+        terms = self.__dict__.get("_delay_terms")
+        return self.gain * (_carrier_phasors(self.delay_s, fc_hz) if terms is None else terms.phasors(fc_hz))
 
     def narrowband_gain(self, fc_hz: float, t_s: float = 0.0) -> complex:
         """Total narrowband gain ``Σ g·e^{−j2π·fc·τ}·e^{j2π·f_D·t}`` at time ``t_s``.
@@ -515,8 +524,90 @@ def narrowband_rms_error(paths: PathSet, bandwidth_hz: float) -> float:
     total = float(np.add.reduce(p))
     if total == 0.0:
         return 0.0
-    rel = 2.0 * np.pi * bandwidth_hz * (paths.delay_s - np.minimum.reduce(paths.delay_s))
-    return math.sqrt(float(np.add.reduce(p * rel**2)) / total)
+    terms = paths.__dict__.get("_delay_terms")
+    rel2 = (_relative_delay_squared(paths.delay_s, bandwidth_hz) if terms is None
+            else terms.relative_squared(bandwidth_hz))
+    return math.sqrt(float(np.add.reduce(p * rel2)) / total)
+
+
+def _carrier_phasors(delay_s: np.ndarray, fc_hz: float) -> np.ndarray:
+    """e^{−j2π·fc·τ} per path, (n,) complex128 [1], the phase fc·τ reduced modulo one cycle in float64."""
+    return np.exp(-2j * np.pi * np.mod(float(fc_hz) * delay_s, 1.0))
+
+
+def _relative_delay_squared(delay_s: np.ndarray, bandwidth_hz: float) -> np.ndarray:
+    """(2π·B·(τ − τ0))², (n,) float64 [1]: the squared envelope phase of each path
+    (:func:`narrowband_rms_error`)."""
+    rel = 2.0 * np.pi * bandwidth_hz * (delay_s - np.minimum.reduce(delay_s))
+    return rel**2
+
+
+class DelayTerms:
+    """What depends only on a link's delays and Doppler shifts, formed once for the links of
+    successive draws that share them (a channel's static link: its diffuse gains are drawn anew,
+    its delays are not).
+
+    Parameters
+    ----------
+    delay_s : ndarray, shape (n,), float64
+        The delays [s] (read-only: every link that holds these terms holds this array).
+    doppler_hz : ndarray, shape (n,), float64
+        The Doppler shifts [Hz] (read-only).
+
+    Attributes
+    ----------
+    static : bool
+        No path has a Doppler shift (:attr:`PathSet.static`).
+    """
+
+    __slots__ = ("delay_s", "doppler_hz", "static", "_phasors", "_relative")
+
+    def __init__(self, delay_s: np.ndarray, doppler_hz: np.ndarray):
+        self.delay_s, self.doppler_hz = delay_s, doppler_hz
+        self.static = bool(np.count_nonzero(doppler_hz) == 0)
+        self._phasors: dict = {}   # carrier [Hz] -> (n,) complex128
+        self._relative: dict = {}  # bandwidth [Hz] -> (n,) float64
+
+    def phasors(self, fc_hz: float) -> np.ndarray:
+        """The carrier phasors of these delays, remembered per carrier.
+
+        Parameters
+        ----------
+        fc_hz : float
+            Carrier frequency [Hz].
+
+        Returns
+        -------
+        ndarray, shape (n,), complex128
+            The carrier phasors [1] (read-only; :meth:`PathSet.coefficients` is the gains times these).
+        """
+        fc_hz = float(fc_hz)
+        out = self._phasors.get(fc_hz)
+        if out is None:
+            out = _carrier_phasors(self.delay_s, fc_hz)
+            out.setflags(write=False)
+            self._phasors[fc_hz] = out
+        return out
+
+    def relative_squared(self, bandwidth_hz: float) -> np.ndarray:
+        """(2π·B·(τ − τ0))² per path (:func:`narrowband_rms_error`).
+
+        Parameters
+        ----------
+        bandwidth_hz : float
+            One-sided signal bandwidth B [Hz].
+
+        Returns
+        -------
+        ndarray, shape (n,), float64
+            The squared envelope phases [1] (read-only).
+        """
+        out = self._relative.get(bandwidth_hz)
+        if out is None:
+            out = _relative_delay_squared(self.delay_s, bandwidth_hz)
+            out.setflags(write=False)
+            self._relative[bandwidth_hz] = out
+        return out
 
 
 def propagation_method(paths: PathSet, bandwidth_hz: float, propagation: str = "auto") -> str:

@@ -43,8 +43,8 @@ from rfsim.core.units import C_M_S
 
 from .antennas import Antenna
 from .large_scale import friis_amplitude_gain, wall_loss_db
-from .paths import PathSet
-from .small_scale import ApdpModel, draw_taps
+from .paths import DelayTerms, PathSet
+from .small_scale import ApdpModel, draw_nlos_taps, tap_terms
 from .surfaces import image_paths
 
 __all__ = ["Scene", "Channel", "HeldLinks", "los_links", "kinematics"]
@@ -243,6 +243,16 @@ class _DiffuseDraw(NamedTuple):
     delays_s: np.ndarray    # (K,) their delays relative to the LoS [s]
 
 
+class _Frame(NamedTuple):
+    """The delays and Doppler shifts of a static link at one carrier, shared by the links of its
+    successive diffuse draws (:meth:`Channel.link`): the held draw's relative tap delays they were
+    formed with (read-only, the same array every draw of the profile) and their
+    :class:`rfsim.channels.paths.DelayTerms`."""
+
+    relative_s: object      # (K,) tap delays relative to the LoS [s], or None
+    terms: DelayTerms       # the link's delays, Doppler shifts and what depends on them alone
+
+
 class _HeldPair(NamedTuple):
     """A link of :class:`HeldLinks`, kept with the antennas whose identities key it."""
 
@@ -269,6 +279,7 @@ class Channel:
         self._held: dict = {}
         self._static: dict = {}
         self._placements: dict = {}
+        self._frames: dict = {}
 
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
@@ -341,22 +352,39 @@ class Channel:
                 if rng is None:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
                 k_lin, tau_rms_s = geo.apdp_args
-                taps, rel = draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **sc.apdp.profile_options)
-                held = _DiffuseDraw(abs(taps[0, 0]), taps[0, 1:].copy(), rel[1:].copy())
+                terms = tap_terms(k_lin, tau_rms_s, sc.apdp.profile_items)
+                # the numbers of draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **profile_options)
+                held = _DiffuseDraw(terms.los_amplitude, draw_nlos_taps(terms, rng), terms.nlos_delays_s)
                 self._held[key] = held
             h, rel = held.taps, held.delays_s
             a_los = a_los * held.los_amplitude
         n_img = 0 if images is None else images.gain.size
         n = 1 + n_img + (0 if h is None else h.size)
-        gains, delays, dops = np.empty(n, np.complex128), np.empty(n), np.empty(n)
-        gains[0], delays[0], dops[0] = a_los, geo.tau_los_s, geo.f_los_hz
+        gains = np.empty(n, np.complex128)
+        gains[0] = a_los
         if n_img:
-            gains[1:1 + n_img], delays[1:1 + n_img], dops[1:1 + n_img] = images.gain, images.delay_s, images.doppler_hz
+            gains[1:1 + n_img] = images.gain
         if h is not None:
             gains[1 + n_img:] = g_ls * env * h
-            delays[1 + n_img:] = geo.tau_los_s + rel
-            dops[1 + n_img:] = geo.f_los_hz
-        return PathSet._own(gains, delays, dops)
+        frame = self._frames.get((tx, rx, fc_hz)) if static else None
+        if frame is None or frame.terms.delay_s.size != n or frame.relative_s is not rel:
+            delays, dops = np.empty(n), np.empty(n)
+            delays[0], dops[0] = geo.tau_los_s, geo.f_los_hz
+            if n_img:
+                delays[1:1 + n_img], dops[1:1 + n_img] = images.delay_s, images.doppler_hz
+            if h is not None:
+                delays[1 + n_img:] = geo.tau_los_s + rel
+                dops[1 + n_img:] = geo.f_los_hz
+            if not static:
+                return PathSet._own(gains, delays, dops)
+            delays.setflags(write=False)
+            dops.setflags(write=False)
+            frame = _Frame(rel, DelayTerms(delays, dops))
+            if len(self._frames) >= GEOMETRY_CACHE_SIZE:
+                self._frames.pop(next(iter(self._frames)))
+            self._frames[(tx, rx, fc_hz)] = frame
+        terms = frame.terms
+        return PathSet._own(gains, terms.delay_s, terms.doppler_hz, delay_terms=terms)
 
     def _geometry(self, tx, rx, fc_hz, t_s, tx_motion, rx_motion) -> _Geometry:
         """Deterministic part of the link ``tx → rx`` at ``t_s`` (everything but the diffuse

@@ -32,6 +32,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,6 +48,9 @@ __all__ = [
     "average_profile",
     "profile_statistics",
     "draw_taps",
+    "TapTerms",
+    "tap_terms",
+    "draw_nlos_taps",
     "rician_gains",
 ]
 
@@ -150,6 +154,12 @@ class ApdpModel:
             eps_k=self.eps_k,
             eps_trms=self.eps_trms,
         )
+
+    @property
+    def profile_items(self) -> tuple:
+        """:attr:`profile_options` as a tuple of ``(name, value)`` (a key of :func:`tap_terms`)."""
+        return (("bandwidth_hz", self.bandwidth_hz), ("fres_hz", self.fres_hz), ("max_taps", self.max_taps),
+                ("max_iter", self.max_iter), ("eps_k", self.eps_k), ("eps_trms", self.eps_trms))
 
     def profile_at(self, distance_m: float):
         """The average profile at one distance (:func:`average_profile`).
@@ -376,6 +386,81 @@ def draw_taps(k_lin: float, tau_rms_s: float, *, rng: np.random.Generator, n_dra
         scale = np.sqrt(powers[1:] / 2.0)
         gains[:, 1:] = (z[..., 0] + 1j * z[..., 1]) * scale
     return gains, delays
+
+
+class TapTerms(NamedTuple):
+    """What :func:`draw_taps` forms from the average profile alone (one ``n_draws=1`` draw with
+    ``los_phase_rad=0``): the same every draw of a link (:func:`tap_terms`).
+
+    Attributes
+    ----------
+    nlos_delays_s : ndarray, shape (n_taps − 1,), float64
+        The profile's NLoS tap delays relative to the LoS [s] (its delays but the first).
+    los_amplitude : numpy.float64
+        |g_0| of the LoS tap √P_0·e^{j0} as a complex128 [1].
+    scale : ndarray, shape (n_taps − 1,), float64
+        √(P_i/2) of the NLoS taps [1].
+    paired_scale : ndarray, shape (2·(n_taps − 1),), float64
+        ``scale`` with every value twice, for the real and imaginary parts [1].
+    """
+
+    nlos_delays_s: np.ndarray
+    los_amplitude: np.float64
+    scale: np.ndarray
+    paired_scale: np.ndarray
+
+
+@functools.lru_cache(maxsize=4096)
+def tap_terms(k_lin: float, tau_rms_s: float, options: tuple) -> TapTerms:
+    """The parts of :func:`draw_taps` that depend on the profile alone, formed once per profile.
+
+    Parameters
+    ----------
+    k_lin, tau_rms_s : float
+        As for :func:`average_profile`.
+    options : tuple of (str, value)
+        The profile options (``tuple(ApdpModel.profile_options.items())``).
+
+    Returns
+    -------
+    TapTerms
+        NLoS delays, LoS amplitude and NLoS scales (read-only arrays), the values :func:`draw_taps`
+        forms for them.
+    """
+    powers, delays = average_profile(k_lin, tau_rms_s, **dict(options))
+    los = np.empty(1, dtype=np.complex128)
+    los[0] = math.sqrt(powers[0]) * np.exp(1j * 0.0)
+    scale = np.sqrt(powers[1:] / 2.0)
+    nlos_delays = delays[1:].copy()
+    paired = np.repeat(scale, 2)
+    for a in (scale, nlos_delays, paired):
+        a.setflags(write=False)
+    return TapTerms(nlos_delays, abs(los[0]), scale, paired)
+
+
+def draw_nlos_taps(terms: TapTerms, rng: np.random.Generator) -> np.ndarray:
+    """One draw of the NLoS taps of a profile: the numbers of ``draw_taps(..., n_draws=1)[0][0, 1:]``.
+
+    Parameters
+    ----------
+    terms : TapTerms
+        The profile's terms (:func:`tap_terms`).
+    rng : numpy.random.Generator
+        The generator; 2·(n_taps − 1) standard normals are drawn (none for a LoS-only profile),
+        as :func:`draw_taps` draws them.
+
+    Returns
+    -------
+    ndarray, shape (n_taps − 1,), complex128
+        The taps g_i ~ CN(0, P_i) [1].
+    """
+    n = terms.scale.size
+    if n == 0:
+        return np.empty(0, dtype=np.complex128)
+    z = rng.standard_normal(2 * n)  # the normals of draw_taps' (1, n, 2) draw, in its order
+    # (z_re·s, z_im·s) as complex: the numbers of draw_taps' (z_re + j·z_im)·s, whose products
+    # with the zero imaginary parts are exact zeros, formed without its complex casts
+    return (z * terms.paired_scale).view(np.complex128)
 
 
 def rician_gains(times_s, *, doppler_hz: float, k_db: float, rng: np.random.Generator) -> np.ndarray:

@@ -204,3 +204,36 @@ def test_hold_placements_gives_the_links_the_channel_evaluates_itself():
     floor = Scene(surfaces=(Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), eps_r=5.3),), image_order=1)
     assert Channel(floor).hold_placements(tx, tags) == 0
     assert Channel(Scene()).hold_placements(tags[0], [tx]) == 0  # a circular receiver
+
+
+def test_static_link_draws_share_their_delay_terms_and_keep_draw_taps_numbers():
+    # successive draws of a static link: new diffuse gains on the same delays, the numbers of
+    # draw_taps (the same generator state after), and coefficients and narrowband error equal to
+    # those of a link assembled without the shared terms
+    from rfsim.channels.paths import PathSet, narrowband_rms_error
+    from rfsim.channels.small_scale import draw_taps
+
+    model = ApdpModel()
+    ch = Channel(Scene(apdp=model))
+    a, b = Antenna([0.0, 0, 1]), Antenna([4.0, 1, 1], pattern=HalfWaveDipole())
+    rng, ref_rng = np.random.default_rng(3), np.random.default_rng(3)
+    p1 = ch.link(a, b, fc_hz=FC, rng=rng)
+    p2 = ch.link(a, b, fc_hz=FC, rng=rng)
+    assert p2.delay_s is p1.delay_s and p2.doppler_hz is p1.doppler_hz
+    assert not np.array_equal(p1.gain[1:], p2.gain[1:])
+    d = float(np.linalg.norm(b.position_m - a.position_m))
+    scales = []
+    for p in (p1, p2):
+        taps, rel = draw_taps(float(model.k_lin_at(d)), float(model.tau_rms_s_at(d)), rng=ref_rng, n_draws=1,
+                              **model.profile_options)
+        scale = p.gain[1:] / taps[0, 1:]  # the large-scale amplitude g_ls·env, the same for every tap
+        np.testing.assert_allclose(scale, scale[0].real, rtol=1e-12)
+        scales.append(scale[0].real)
+        np.testing.assert_array_equal(p.delay_s[1:], p.delay_s[0] + rel[1:])
+    assert scales[0] == pytest.approx(scales[1], rel=1e-12)
+    assert rng.bit_generator.state == ref_rng.bit_generator.state
+    plain = PathSet(p2.gain, p2.delay_s, p2.doppler_hz)
+    for fc in (FC, FC + 0.5e6):
+        assert p2.coefficients(fc).tobytes() == plain.coefficients(fc).tobytes()
+    assert narrowband_rms_error(p2, 640e3) == narrowband_rms_error(plain, 640e3)
+    assert p2.static and p2.constant_gain(FC) == plain.constant_gain(FC)

@@ -149,3 +149,20 @@ def test_rician_gains_have_unit_power_and_the_jakes_correlation():
     # f_D = 0: a held channel, one constant unit-magnitude gain
     h0 = rician_gains([0.0, 0.1, 0.2], doppler_hz=0.0, k_db=6.0, rng=np.random.default_rng(1))
     assert np.all(h0 == h0[0]) and abs(h0[0]) == pytest.approx(1.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("distance_m", [0.5, 3.0, 13.0])
+def test_draw_nlos_taps_gives_draw_taps_numbers(distance_m):
+    # the channel's one-draw path: the NLoS taps, LoS amplitude and delays of draw_taps to the
+    # bit, and the generator left in the same state
+    from rfsim.channels.small_scale import draw_nlos_taps, tap_terms
+
+    model = ApdpModel()
+    k, tau = float(model.k_lin_at(distance_m)), float(model.tau_rms_s_at(distance_m))
+    terms = tap_terms(k, tau, model.profile_items)
+    for seed in range(20):
+        ours, ref = np.random.default_rng(seed), np.random.default_rng(seed)
+        taps, rel = draw_taps(k, tau, rng=ref, n_draws=1, **model.profile_options)
+        assert draw_nlos_taps(terms, ours).tobytes() == taps[0, 1:].tobytes()
+        assert ours.bit_generator.state == ref.bit_generator.state
+        assert terms.los_amplitude == abs(taps[0, 0]) and terms.nlos_delays_s.tobytes() == rel[1:].tobytes()

@@ -29,6 +29,18 @@ def test_streams_depend_only_on_seed_and_index():
     assert trial_seed_sequence(5, 2, 1).spawn_key == (2, 1)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2**32 - 1, 2**32, 2**130 + 3])
+@pytest.mark.parametrize("key", [(), (0,), (2, 17), (0, 0, 0), (3, 2**32 + 1), (2**64, 1, 2, 3), (1, 2, 3, 4, 5)])
+def test_trial_rng_is_numpys_seed_sequence(seed, key):
+    # the seed words formed in Python integers equal NumPy's SeedSequence for one- and
+    # many-word seeds and keys (twice: the second call reads the remembered pool)
+    for _ in range(2):
+        ours = trial_rng(seed, *key)
+        ref = np.random.Generator(np.random.PCG64(np.random.SeedSequence(seed, spawn_key=key)))
+        assert ours.bit_generator.state == ref.bit_generator.state
+        np.testing.assert_array_equal(ours.spawn(2)[1].integers(0, 2**62, 4), ref.spawn(2)[1].integers(0, 2**62, 4))
+
+
 @pytest.mark.parametrize("bad", [-1, 1.5, "3", True])
 def test_bad_seeds_are_rejected(bad):
     with pytest.raises(ValueError):

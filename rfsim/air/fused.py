@@ -25,6 +25,11 @@ _ek = lazy_import("rfsim.air._exchange_kernels")
 __all__ = ["Backscatter", "lazy_backscatter", "fused_sum", "fused_noisy_sum"]
 
 
+#: Python numbers (NumPy's float64 and complex128 scalars among them): ``np.ndim`` 0 without an
+#: array made for them.
+_NUMBER = (complex, float, int)
+
+
 class Backscatter:
     r"""The contribution of one modulating reflector at a receiver, kept as its factors.
 
@@ -100,13 +105,15 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
     Backscatter or None
         The contribution as factors, or None when it does not have that form.
     """
-    if y is not None or rc is not None or off != 0.0 or g is None or np.ndim(g) != 0:
+    if (y is not None or rc is not None or off != 0.0 or g is None
+            or not (isinstance(g, _NUMBER) or np.ndim(g) == 0)):
         return None
     terms = getattr(r, "reradiation_terms", None)
-    if terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,) or np.ndim(terms[0]) != 0:
+    if (terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,)
+            or not (isinstance(terms[0], _NUMBER) or np.ndim(terms[0]) == 0)):
         return None
     b = link_constant(pj, seg.fc_hz, bw, propagation, memo)
-    if b is None or np.ndim(b) != 0:
+    if b is None or not (isinstance(b, _NUMBER) or np.ndim(b) == 0):
         return None
     return Backscatter(seg.samples, g, terms[0], terms[1], b)
 
@@ -159,7 +166,8 @@ def _one_backscatter(const: dict, parts: list, segs: list):
         (i, a), = const.items()
         bs = parts[0]
         x = segs[i].samples
-        if x is bs.x and np.ndim(a) == 0 and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128:
+        if (x is bs.x and (isinstance(a, _NUMBER) or np.ndim(a) == 0) and x.dtype == np.complex128
+                and bs.gamma.dtype == np.complex128):
             return complex(a), bs
     return None
 

@@ -218,7 +218,9 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
     Returns
     -------
     AirResult
-        Segments, incident fields, reflections, receiver inputs and outputs of the step.
+        Segments, incident fields, reflections, receiver inputs and outputs of the step: every
+        segment's samples (…, n) complex128 [√W] on the step's time base (n = ``n_samples``,
+        leading batch dimensions as the emitters' segments have them).
 
     Raises
     ------

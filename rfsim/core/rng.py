@@ -11,6 +11,7 @@ There is no global RNG and no clock seeding anywhere in rfsim.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -86,14 +87,20 @@ def trial_rng(seed: int, *index: int) -> np.random.Generator:
     Returns
     -------
     numpy.random.Generator
-        A PCG64 generator seeded with :func:`trial_seed_sequence`.
+        A PCG64 generator seeded as by :func:`trial_seed_sequence` (its seed words formed in
+        Python integers, the run's part of the pool remembered: :func:`_seed_words`; it spawns
+        as that SeedSequence does).
 
     Raises
     ------
     ValueError
         If ``seed`` or an index is negative or ``seed`` is not an integer.
     """
-    return np.random.Generator(np.random.PCG64(trial_seed_sequence(seed, *index)))
+    entropy = _checked_seed(seed)
+    key = tuple(int(i) for i in index)
+    if any(i < 0 for i in key):
+        raise ValueError(f"trial index must be non-negative, got {index!r}")
+    return np.random.Generator(np.random.PCG64(_SeedWords(_seed_words(entropy, key), entropy, key)))
 
 
 def trial_rngs(seed: int, indices: Sequence[int]) -> list[np.random.Generator]:
@@ -171,6 +178,8 @@ _INIT_B, _MULT_B = 0x8B51F9DD, 0x58F38DED
 _MIX_MULT_L, _MIX_MULT_R = 0xCA01F9DD, 0x4973F715
 _XSHIFT = 16
 _MASK32 = 0xFFFFFFFF
+#: The running constant of ``generate_state`` for its 8 output words: (h before, h after ·MULT_B).
+_OUTPUT_HASH = tuple((_INIT_B * _MULT_B ** i & _MASK32, _INIT_B * _MULT_B ** (i + 1) & _MASK32) for i in range(8))
 
 
 def _uint32_words(value: int) -> list[int]:
@@ -182,6 +191,70 @@ def _uint32_words(value: int) -> list[int]:
         value >>= 32
         if not value:
             return words
+
+
+def _seed_words(entropy: int, spawn_key: tuple[int, ...]) -> np.ndarray:
+    """``SeedSequence(entropy, spawn_key=spawn_key).generate_state(4, uint64)``, (4,) uint64, in
+    Python integers: the entropy words assembled as SeedSequence assembles them (the run's words,
+    padded to the pool size when there is a spawn key, then the key's words), the pool after all
+    words but the last taken from :func:`_mixed_pool` (the same for every trial of a run's
+    stream), the last word mixed in and the pool hashed into eight 32-bit output words (the
+    operations of :func:`_pcg64_seed_words`, one sequence)."""
+    run_words = [entropy] if entropy <= _MASK32 else _uint32_words(entropy)
+    key_words = (list(spawn_key) if max(spawn_key, default=0) <= _MASK32  # one word each
+                 else [w for i in spawn_key for w in _uint32_words(i)])
+    if key_words and len(run_words) < _POOL_SIZE:
+        run_words = run_words + [0] * (_POOL_SIZE - len(run_words))
+    words = run_words + key_words
+    if len(words) > _POOL_SIZE:
+        pool, h = _mix_word(*_mixed_pool(tuple(words[:-1])), words[-1])
+    else:
+        pool, h = _mixed_pool(tuple(words))
+    out = [v ^ (v >> _XSHIFT) for v in [((src ^ h_in) * h_out) & _MASK32
+                                         for src, (h_in, h_out) in zip(pool + pool, _OUTPUT_HASH)]]
+    # uint32 pairs as little-endian uint64 (SeedSequence's view)
+    return np.array([out[0] | out[1] << 32, out[2] | out[3] << 32, out[4] | out[5] << 32, out[6] | out[7] << 32],
+                    dtype=np.uint64)
+
+
+def _mix_word(pool: tuple[int, ...], h: int, value: int) -> tuple[tuple[int, ...], int]:
+    """The pool with one more entropy word mixed into every pool word, in order
+    (``pool[i] = mix(pool[i], hashmix(value))``), and the running hash constant after it."""
+    out = []
+    for p in pool:
+        h_next = (h * _MULT_A) & _MASK32
+        v = ((value ^ h) * h_next) & _MASK32
+        h = h_next
+        r = (_MIX_MULT_L * p - _MIX_MULT_R * (v ^ (v >> _XSHIFT))) & _MASK32
+        out.append(r ^ (r >> _XSHIFT))
+    return tuple(out), h
+
+
+@functools.lru_cache(maxsize=256)
+def _mixed_pool(words: tuple[int, ...]) -> tuple[tuple[int, ...], int]:
+    """SeedSequence's pool after the entropy words ``words`` (fewer than 4: the missing ones
+    hash as 0), with the running hash constant h: the first four hashed and cross-mixed, every
+    further word mixed in (:func:`_mix_word`). A pure function of the words (a run's seed and a
+    trial's stream), the same for every trial of that stream."""
+    if len(words) > _POOL_SIZE:
+        return _mix_word(*_mixed_pool(words[:-1]), words[-1])
+    h = _INIT_A
+    pool = []
+    for i in range(_POOL_SIZE):
+        v = (words[i] if i < len(words) else 0) ^ h
+        h = (h * _MULT_A) & _MASK32
+        v = (v * h) & _MASK32
+        pool.append(v ^ (v >> _XSHIFT))
+    for i_src in range(_POOL_SIZE):
+        for i_dst in range(_POOL_SIZE):
+            if i_src != i_dst:
+                v = pool[i_src] ^ h
+                h = (h * _MULT_A) & _MASK32
+                v = (v * h) & _MASK32
+                v ^= v >> _XSHIFT
+                r = (_MIX_MULT_L * pool[i_dst] - _MIX_MULT_R * v) & _MASK32
+                pool[i_dst] = r ^ (r >> _XSHIFT)
+    return tuple(pool), h
 
 
 def _pcg64_seed_words(entropy_words: np.ndarray) -> np.ndarray:

@@ -84,6 +84,8 @@ import numpy as np
 from rfsim.air.batch import AirStep, propagate_batch
 from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of
 from rfsim.gen2.access import ERROR_REPLY_BITS
+from rfsim.gen2.bits import bits_to_int
+from rfsim.gen2.commands import ACK
 from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t5
 
 #: Failure reasons of a read, in the order the engine checks them.
@@ -254,11 +256,20 @@ def run_exchange(reader, tags: Sequence, channel, cmd, *, t_s: float, rng: np.ra
 
 def _per_trial(value, n: int, name: str) -> list:
     """``value`` for each of ``n`` trials: a list/tuple of n values, or one value for all."""
-    if isinstance(value, (list, tuple)):
-        if len(value) != n:
-            raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
-        return list(value)
-    return [value] * n
+    return _per_trials(n, **{name: value})[0]
+
+
+def _per_trials(n: int, **values) -> list[list]:
+    """:func:`_per_trial` of every keyword (its name is the one an error gives), in order."""
+    out = []
+    for name, value in values.items():
+        if isinstance(value, (list, tuple)):
+            if len(value) != n:
+                raise ValueError(f"{name}: {len(value)} values for {n} trials (give one value or one per trial)")
+            out.append(list(value))
+        else:
+            out.append([value] * n)
+    return out
 
 
 #: Trials run together: their air steps, then their noise, then their reads
@@ -330,12 +341,9 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     n = len(rngs)
     if len(tags) != n:
         raise ValueError(f"tags: {len(tags)} tag lists for {n} trials (one per generator in rngs)")
-    readers = _per_trial(reader, n, "reader")
-    channels = _per_trial(channel, n, "channel")
-    cmds = _per_trial(cmd, n, "cmd")
-    times = _per_trial(t_s, n, "t_s")
-    rounds = _per_trial(round_index, n, "round_index")
-    caches = _per_trial(None if link_caches is None else list(link_caches), n, "link_caches")
+    readers, channels, cmds, times, rounds, caches = _per_trials(
+        n, reader=reader, channel=channel, cmd=cmd, t_s=t_s, round_index=round_index,
+        link_caches=None if link_caches is None else list(link_caches))
     segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
     out: list = []
     for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
@@ -399,9 +407,10 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, mo
     members = members_of(reflectors)
     links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
                          link_cache if (link_cache is not None) else None, draw_channel)
+    # the links' bandwidth B = 2·BLF [Hz] of the reply: the main lobe of FM0/Miller (module docstring)
     return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
                      reflectors=reflectors, members=members, links=links, propagation=propagation,
-                     bandwidth_hz=_reply_bandwidth_hz(reader.link), air_cache=getattr(reader, "air_cache", None))
+                     bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None))
 
 
 def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False):
@@ -486,12 +495,6 @@ def _t1_range(link):
     from rfsim.gen2.link import t1
 
     return t1(link)
-
-
-@functools.lru_cache(maxsize=64)
-def _reply_bandwidth_hz(link) -> float:
-    """B = 2·BLF [Hz] of a profile's reply: the main lobe of FM0/Miller (module docstring)."""
-    return 2.0 * link.blf_hz
 
 
 @functools.lru_cache(maxsize=64)
@@ -831,9 +834,6 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
         One reader shared by several trials while it searches the BLF (``blf_search``: it keeps
         the RN16's BLF for the ACK).
     """
-    from rfsim.gen2.bits import bits_to_int
-    from rfsim.gen2.commands import ACK
-
     n = len(rngs)
     readers = _per_trial(reader, n, "reader")
     if len({id(r) for r in readers}) < n and any(r.config.blf_search != "off" for r in readers):
@@ -846,8 +846,7 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     out = [[ex] for ex in first]
     if not go:
         return out
-    channels = _per_trial(channel, n, "channel")
-    rounds = _per_trial(round_index, n, "round_index")
+    channels, rounds = _per_trials(n, channel=channel, round_index=round_index)
     acks, t_acks = [], []
     for b in go:
         acks.append(ACK(bits_to_int(first[b].read.bits)))

@@ -20,7 +20,7 @@ row.
 
 from __future__ import annotations
 
-from itertools import compress
+import operator
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -435,7 +435,9 @@ class StateArrays:
         rngs = list(rngs)
         if len(rngs) != len(self.states):
             raise ValueError(f"one generator per tag: {len(rngs)} for {len(self.states)} tags")
-        words = GeneratorWords(rngs)
+        words = self._words
+        if words is None or len(words) != len(rngs) or not all(map(operator.is_, words.rngs, rngs)):
+            words = GeneratorWords(rngs)  # (the same generators as before: their addresses kept)
         self._rngs, self._words = rngs, (words if words.usable else None)
         self._draws = None if words.usable else [_slot_drawer(r) for r in rngs]
 
@@ -602,7 +604,7 @@ class StateArrays:
         # clock; 0 → Reply with an RN16 from the tag's own generator
         fix = ~zero & (~was | (self.code[idx] == _REPLY))
         if np.count_nonzero(fix):
-            for st in compress(tags, fix.tolist()):
+            for st in _picked(tags, fix):
                 st._slot_clock, st.state = clock, "arbitrate"
         replies = []
         if np.count_nonzero(zero):
@@ -612,7 +614,7 @@ class StateArrays:
                 replies.append((index[k], st._reply_if_zero(self._rngs[index[k]] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):
-            for st in compress(tags, own.tolist()):
+            for st in _picked(tags, own):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
         self.following[idx] = ~own
         self.counting[idx] = ~zero
@@ -680,12 +682,12 @@ class StateArrays:
         clock, states = self.clock, self.states
         leave = self.counting & ~decrement
         if np.count_nonzero(leave):
-            for st in compress(states, leave.tolist()):
+            for st in _picked(states, leave):
                 st.follow_decrements(None)
         d = clock.decrements + 1
         join = decrement & ~self.counting
         if np.count_nonzero(join):
-            for st in compress(states, join.tolist()):
+            for st in _picked(states, join):
                 # follow_decrements(clock) of the decremented counter, the clock one decrement on
                 st._slot_clock, st._slot = clock, decremented(st.slot) + d
         clock.decrements = d
@@ -698,14 +700,20 @@ class StateArrays:
         clock, states = self.clock, self.states
         leave = self.following & ~silent
         if np.count_nonzero(leave):
-            for st in compress(states, leave.tolist()):
+            for st in _picked(states, leave):
                 st.follow(None)
         clock.t_s = t_s
         join = silent & ~self.following
         if np.count_nonzero(join):
-            for st in compress(states, join.tolist()):
+            for st in _picked(states, join):
                 st._clock = clock  # follow(clock)
         self.following = silent.copy()
+
+
+def _picked(objects: list, mask: np.ndarray):
+    """The objects where ``mask`` (bool, one per object) is True, in order: the indices found
+    in the array, so that only the picked objects cost a step in Python."""
+    return map(objects.__getitem__, np.flatnonzero(mask).tolist())
 
 
 __all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",

@@ -70,3 +70,40 @@ def test_an_index_out_of_range_raises():
         words.draw([1])
     with pytest.raises(ValueError, match="out of range"):
         words.draw([-1])
+
+
+class _NoInterface:
+    """A generator without NumPy's C interface (no ``bit_generator``): drawn through ``integers``."""
+
+    def __init__(self, rng):
+        self._rng = rng
+
+    def integers(self, *args, **kw):
+        return self._rng.integers(*args, **kw)
+
+
+def test_redraws_over_arrays_equal_with_and_without_the_c_interface():
+    """An inventory at protocol level over the tags' state arrays (QueryAdjusts redraw many
+    tags at once): tags whose generators have NumPy's C interface (the words drawn in one
+    loop) and the same tags whose generators lack it (each counter through its generator's
+    ``integers``) give the same slots, reads and generator states."""
+    from rfsim.core.rng import trial_rng
+    from rfsim.devices.gen2_tag_arrays import StateArrays
+    from rfsim.devices.gen2_tag_state import TagState
+    from rfsim.gen2.link import profile
+    from rfsim.protocols.inventory import InventoryConfig, ProtocolAir, run_inventory
+
+    n = 60
+    plain = [(TagState(f"{k + 1:024X}"), trial_rng(33, k)) for k in range(n)]
+    wrapped = [(TagState(f"{k + 1:024X}"), _NoInterface(trial_rng(33, k))) for k in range(n)]
+    air = ProtocolAir(profile("miller4-320k"), plain, arrays=StateArrays)
+    assert air._arrays._words is not None and air._arrays._words.usable
+    log_a = run_inventory(air, InventoryConfig())
+    other = ProtocolAir(profile("miller4-320k"), wrapped, arrays=StateArrays)
+    assert other._arrays._words is None
+    log_b = run_inventory(other, InventoryConfig())
+    assert log_a.slots == log_b.slots and log_a.reads == log_b.reads
+    assert len(log_a.tags_read()) == n
+    assert sum(1 for c in log_a.slots["command"] if c == "QueryAdjust") >= 3
+    for (_, ga), (_, gb) in zip(plain, wrapped):
+        assert _same_state(ga.bit_generator.state, gb._rng.bit_generator.state)

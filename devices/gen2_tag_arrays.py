@@ -20,13 +20,14 @@ row.
 
 from __future__ import annotations
 
-from itertools import compress
+import operator
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
-from rfsim.gen2.tag_draws import _slot_drawer
+from rfsim.gen2.generator_words import GeneratorWords
+from rfsim.gen2.tag_draws import _slot_drawer, _top_bits
 from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
@@ -396,6 +397,7 @@ class StateArrays:
         self.states = list(states)
         self._rngs: list | None = None
         self._draws: list | None = None
+        self._words: GeneratorWords | None = None
         if rngs is not None:
             self.use_generators(rngs)
         n = len(self.states)
@@ -415,8 +417,10 @@ class StateArrays:
 
     def use_generators(self, rngs) -> None:
         """Give every row its tag's own generator, for :meth:`take_redraw_steps` called
-        without generators (each generator's slot draw, :func:`rfsim.gen2.tag_draws.slot_draw`
-        with its bit generator looked up once, is made here).
+        without generators: the words of the slot draws of many tags are then drawn in one
+        compiled loop (:class:`rfsim.gen2.generator_words.GeneratorWords`), or, for
+        generators without NumPy's C interface, one by one (each generator's slot draw,
+        :func:`rfsim.gen2.tag_draws.slot_draw`, made here).
 
         Parameters
         ----------
@@ -431,7 +435,11 @@ class StateArrays:
         rngs = list(rngs)
         if len(rngs) != len(self.states):
             raise ValueError(f"one generator per tag: {len(rngs)} for {len(self.states)} tags")
-        self._rngs, self._draws = rngs, [_slot_drawer(r) for r in rngs]
+        words = self._words
+        if words is None or len(words) != len(rngs) or not all(map(operator.is_, words.rngs, rngs)):
+            words = GeneratorWords(rngs)  # (the same generators as before: their addresses kept)
+        self._rngs, self._words = rngs, (words if words.usable else None)
+        self._draws = None if words.usable else [_slot_drawer(r) for r in rngs]
 
     def read(self, index) -> None:
         """Copy rows from their :class:`TagState` objects.
@@ -567,41 +575,46 @@ class StateArrays:
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states, clock = self.states, self.clock
         d = clock.decrements
-        if rngs is None:
-            if self._rngs is None:
-                raise ValueError("take_redraw_steps without generators needs use_generators first")
-            draws, rngs = list(map(self._draws.__getitem__, index)), list(map(self._rngs.__getitem__, index))
-        else:
-            draws = list(map(_slot_drawer, rngs))
         tags = list(map(states.__getitem__, index))
+        if rngs is None and self._words is not None:  # the words of every draw in one loop
+            slot = np.zeros(idx.size, dtype=np.int64)
+            draw = q_new > 0  # Q = 0 draws nothing: counter 0
+            slot[draw] = _top_bits(self._words.draw(idx[draw]), q_new[draw])
+            slots = slot.tolist()
+        else:
+            if rngs is None:
+                if self._rngs is None:
+                    raise ValueError("take_redraw_steps without generators needs use_generators first")
+                draws = list(map(self._draws.__getitem__, index))
+            else:
+                draws = list(map(_slot_drawer, rngs))
+            slots = [draw(q) for draw, q in zip(draws, q_new.tolist())]
+            slot = np.array(slots, dtype=np.int64)
         q_list = q_new.tolist()
         q0 = q_list[0]
-        if q_new.min() == q0 == q_new.max():  # one Q: the counters in one pass
-            slots = [draw(q0) for draw in draws]
-            for st, slot in zip(tags, slots):
-                st.q, st._slot = q0, slot + d  # Q, and the counter counting with the clock
+        if q_new.min() == q0 == q_new.max():  # one Q
+            for st, s in zip(tags, slots):
+                st.q, st._slot = q0, s + d  # Q, and the counter counting with the clock
         else:
-            slots = [draw(q) for draw, q in zip(draws, q_list)]
-            for st, q, slot in zip(tags, q_list, slots):
-                st.q, st._slot = q, slot + d
-        slot = np.array(slots, dtype=np.int64)
+            for st, q, s in zip(tags, q_list, slots):
+                st.q, st._slot = q, s + d
         zero = slot_replies(slot)
         was = self.counting[idx]
         # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
         # clock; 0 → Reply with an RN16 from the tag's own generator
         fix = ~zero & (~was | (self.code[idx] == _REPLY))
         if np.count_nonzero(fix):
-            for st in compress(tags, fix.tolist()):
+            for st in _picked(tags, fix):
                 st._slot_clock, st.state = clock, "arbitrate"
         replies = []
         if np.count_nonzero(zero):
             for k in np.flatnonzero(zero).tolist():
                 st = tags[k]
                 st._slot_clock, st._slot = None, 0
-                replies.append((index[k], st._reply_if_zero(rngs[k])))
+                replies.append((index[k], st._reply_if_zero(self._rngs[index[k]] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):
-            for st in compress(tags, own.tolist()):
+            for st in _picked(tags, own):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
         self.following[idx] = ~own
         self.counting[idx] = ~zero
@@ -669,12 +682,12 @@ class StateArrays:
         clock, states = self.clock, self.states
         leave = self.counting & ~decrement
         if np.count_nonzero(leave):
-            for st in compress(states, leave.tolist()):
+            for st in _picked(states, leave):
                 st.follow_decrements(None)
         d = clock.decrements + 1
         join = decrement & ~self.counting
         if np.count_nonzero(join):
-            for st in compress(states, join.tolist()):
+            for st in _picked(states, join):
                 # follow_decrements(clock) of the decremented counter, the clock one decrement on
                 st._slot_clock, st._slot = clock, decremented(st.slot) + d
         clock.decrements = d
@@ -687,14 +700,20 @@ class StateArrays:
         clock, states = self.clock, self.states
         leave = self.following & ~silent
         if np.count_nonzero(leave):
-            for st in compress(states, leave.tolist()):
+            for st in _picked(states, leave):
                 st.follow(None)
         clock.t_s = t_s
         join = silent & ~self.following
         if np.count_nonzero(join):
-            for st in compress(states, join.tolist()):
+            for st in _picked(states, join):
                 st._clock = clock  # follow(clock)
         self.following = silent.copy()
+
+
+def _picked(objects: list, mask: np.ndarray):
+    """The objects where ``mask`` (bool, one per object) is True, in order: the indices found
+    in the array, so that only the picked objects cost a step in Python."""
+    return map(objects.__getitem__, np.flatnonzero(mask).tolist())
 
 
 __all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",

@@ -89,6 +89,7 @@ class TagPopulation:
         self._counting = _counting_class(self.members)
         self._antenna_count = None  # the class's antenna_changes when _antennas was checked
         self._round: _Round | None = None
+        self._truth_memo: RecordValues | None = None  # the last exchange's record values
 
     def __len__(self) -> int:
         return len(self.members)
@@ -229,6 +230,36 @@ class TagPopulation:
             rnd.needs[react] = True
         return PopulationReflection(self, rnd, quiet, reactions, steps)
 
+    def record_values(self, incident_power_dbm: np.ndarray, powered: np.ndarray) -> RecordValues:
+        """The incident powers and the powered members of an exchange as the values of its record.
+
+        The same tuples as the previous exchange's while both arrays are equal to the bit
+        (within a round almost every exchange): the record then holds no new Python object
+        per member.
+
+        Parameters
+        ----------
+        incident_power_dbm : numpy.ndarray, shape (n,)
+            Incident power per member [dBm].
+        powered : numpy.ndarray of bool, shape (n,)
+            Power state per member.
+
+        Returns
+        -------
+        RecordValues
+            ``incident_power_dbm`` (tuple of n floats [dBm]) and ``powered`` (tuple of the
+            indices of the powered members, ascending).
+        """
+        memo = self._truth_memo
+        if (memo is not None and memo.dbm.size == incident_power_dbm.size
+                and np.array_equal(memo.dbm.view(np.int64), incident_power_dbm.view(np.int64))
+                and np.array_equal(memo.mask, powered)):
+            return memo
+        memo = self._truth_memo = RecordValues(tuple(incident_power_dbm.tolist()),
+                                               tuple(np.flatnonzero(powered).tolist()),
+                                               incident_power_dbm.copy(), powered.copy())
+        return memo
+
     def _sync(self, gains, fe) -> _Round:
         """The round's quiet points for these gains and the segment's CW sample (kept while
         both stay the same; the sign of the CW sample does not matter: |g·(−x_m)|² = |g·x_m|²
@@ -293,6 +324,28 @@ class _Round:
         return out
 
 
+class RecordValues(NamedTuple):
+    """An exchange's incident powers and powered members as its record holds them
+    (:meth:`TagPopulation.record_values`), with the arrays they were made of.
+
+    Attributes
+    ----------
+    incident_power_dbm : tuple of float
+        Incident power per member [dBm].
+    powered : tuple of int
+        Indices of the powered members, ascending.
+    dbm : numpy.ndarray, shape (n,)
+        The incident powers they were made of [dBm].
+    mask : numpy.ndarray of bool, shape (n,)
+        The power states they were made of.
+    """
+
+    incident_power_dbm: tuple
+    powered: tuple
+    dbm: np.ndarray
+    mask: np.ndarray
+
+
 class _Terms(NamedTuple):
     """A round's quiet terms at one receiver, kept with the backward constants they were made of."""
 
@@ -347,6 +400,17 @@ class PopulationReflection:
         """
         return self._round.terms(backs), self.quiet & self._round.scatter
 
+    def record_values(self) -> RecordValues:
+        """:attr:`incident_power_dbm` and the indices of the :attr:`powered` members as the
+        values of the exchange's record (:meth:`TagPopulation.record_values`).
+
+        Returns
+        -------
+        RecordValues
+            The tuples (shared with the previous exchange's while equal).
+        """
+        return self._population.record_values(self.incident_power_dbm, self.powered)
+
     def __len__(self) -> int:
         return len(self.quiet)
 
@@ -366,4 +430,4 @@ class PopulationReflection:
         return (self[j] for j in range(len(self)))
 
 
-__all__ = ["TagPopulation", "PopulationReflection"]
+__all__ = ["TagPopulation", "PopulationReflection", "RecordValues"]

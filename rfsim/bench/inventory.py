@@ -30,14 +30,27 @@ def _circle(n: int, seed: int) -> EngineAir:
 
 
 class _Counted:
-    """An air interface that counts the exchanges (reader commands) run through it."""
+    """An air interface that counts the exchanges (reader commands) run through it, and times
+    each one (CPU time [s]) by command, and apart those at a new carrier (the first after a
+    frequency hop)."""
 
     def __init__(self, air):
         self.air, self.link, self.n_commands = air, air.link, 0
+        self.cpu_s: dict[str, list[float]] = {}
+        self.hop_cpu_s: list[float] = []
+        self._fc_hz = None
 
     def exchange(self, cmd, **kw):
         self.n_commands += 1
-        return self.air.exchange(cmd, **kw)
+        c0 = time.process_time()
+        ex = self.air.exchange(cmd, **kw)
+        cpu_s = time.process_time() - c0
+        if ex.fc_hz != self._fc_hz:
+            self._fc_hz = ex.fc_hz
+            self.hop_cpu_s.append(cpu_s)
+        else:
+            self.cpu_s.setdefault(type(cmd).__name__, []).append(cpu_s)
+        return ex
 
 
 def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = (10, 50, 100, 200, 500, 1000),
@@ -69,7 +82,11 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         ``sample_…`` of the ``n_tags`` inventory (wall and CPU time [s], slots, air time [s],
         tags read, air time per wall second); per sample population N (``sample_N<n>_…``): wall
         and CPU time [s], slots, reader commands, tags read, air time [s], ``…_air_per_wall``
-        (> 1: faster than the air), CPU time per command [ms] and per tag and command [µs]. How
+        (> 1: faster than the air), CPU time per command [ms] and per tag and command [µs], the
+        carriers used (``…_carriers``: the first command and every first command after a
+        frequency hop) and the CPU time of those commands (``…_carrier_cpu_s`` [s]), and per
+        command name the median CPU time of the other commands
+        (``…_median_cpu_ms_<Query|QueryRep|QueryAdjust|ACK|NAK>`` [ms]). How
         the cost grows with N: ``sample_cpu_exponent``, the slope of log(CPU time) against log(N)
         (1 = linear), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms`` (a, the
         per-command cost) and ``sample_cpu_per_tag_command_us`` (b, what each further tag adds to
@@ -102,7 +119,11 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
                         f"sample_N{n}_commands": k, f"sample_N{n}_tags_read": len(log.tags_read()),
                         f"sample_N{n}_air_time_s": log.air_time_s, f"sample_N{n}_air_per_wall": log.air_time_s / wall,
                         f"sample_N{n}_cpu_per_command_ms": 1e3 * cpu / k,
-                        f"sample_N{n}_cpu_per_tag_command_us": 1e6 * cpu / (k * n)})
+                        f"sample_N{n}_cpu_per_tag_command_us": 1e6 * cpu / (k * n),
+                        f"sample_N{n}_carriers": len(air.hop_cpu_s),
+                        f"sample_N{n}_carrier_cpu_s": float(sum(air.hop_cpu_s))})
+            out.update({f"sample_N{n}_median_cpu_ms_{name}": 1e3 * float(np.median(v))
+                        for name, v in sorted(air.cpu_s.items())})
             fit.append((n, cpu, k))
     if len(fit) >= 2:
         n_arr, cpu_arr, k_arr = (np.array(v, float) for v in zip(*fit))

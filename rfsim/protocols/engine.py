@@ -435,7 +435,9 @@ def _air_arguments(prep: _Prepared) -> dict:
 
 def _truth(air, members) -> tuple:
     """Ground truth of the step: ``(replied, powered, incident_dbm, sent bits, reply starts,
-    decode_error)`` over the members (tag populations that answered at once included)."""
+    decode_error)`` over the members (tag populations that answered at once included; one that
+    holds every member gives its ``record_values``, tuples shared between exchanges while
+    equal, else its arrays are converted here)."""
     replied, powered, incident_dbm, sent, starts = [], [], [], [], []
     decode_error = False
     shortcut = dict(air.groups)
@@ -443,8 +445,13 @@ def _truth(air, members) -> tuple:
     while j < n_members:
         group = shortcut.get(j)
         if group is not None:  # a tag population that answered at once: its arrays, its reacting tags
-            incident_dbm.extend(group.incident_power_dbm.tolist())
-            powered.extend((np.flatnonzero(group.powered) + j).tolist())
+            values = getattr(group, "record_values", None)
+            if values is not None and j == 0 and len(group) == n_members:
+                record = values()
+                incident_dbm, powered = record.incident_power_dbm, record.powered
+            else:
+                incident_dbm.extend(group.incident_power_dbm.tolist())
+                powered.extend((np.flatnonzero(group.powered) + j).tolist())
             for jl, response in group.reactions.items():
                 decode_error |= response.reason == "decode error"
                 if response.gamma is not None:

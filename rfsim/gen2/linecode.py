@@ -40,6 +40,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from rfsim.gen2.bits import as_bits
 from rfsim.core.lazy import lazy_import
 
 _k = lazy_import("rfsim.gen2._linecode_kernels")
+_dk = lazy_import("rfsim.gen2._decode_reply_kernels")
 
 M_VALUES = (1, 2, 4, 8)
 FM0_PREAMBLE = np.array([1, 1, -1, 1, -1, -1, 1, -1, -1, -1, 1, 1], dtype=np.int8)
@@ -491,6 +493,48 @@ def _mean(seg: np.ndarray):
     return np.add.reduce(seg) / np.intp(seg.size)
 
 
+class SearchArrays(NamedTuple):
+    """What the preamble search of :func:`decode_reply` reads, derived from (M, TRext,
+    elements per sample) only (:func:`search_arrays`; read-only arrays)."""
+
+    t0: np.ndarray  # (n_pre,) zero-mean template at the integer lags
+    max_runs_per_sample: float  # correlate over runs of equal template samples up to this many per sample
+    half_width: int  # candidates within ± this many lags of the integer peak
+    shifts: np.ndarray  # (17,) sub-sample shifts of the refinement [samples]
+    templates: np.ndarray  # (17, n_pre) zero-mean templates at the shifts
+    norms: np.ndarray  # (17,) their norms
+    pre_el: np.ndarray  # (elements,) float64 pilot + preamble elements
+    pre_levels: np.ndarray  # (half-bits,) int8 pilot + preamble half-bit levels
+    state: int  # encoder state after the preamble
+
+
+@functools.lru_cache(maxsize=32)
+def search_arrays(m: int, trext: bool, ratio: float) -> SearchArrays:
+    """The arrays of the preamble search and of the template at the refined start.
+
+    A pure function of its hashable arguments, cached (read-only arrays).
+
+    Parameters
+    ----------
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    ratio : float
+        Elements per sample, 2·BLF/fs.
+
+    Returns
+    -------
+    SearchArrays
+        Template, candidate half-width, refinement bank, preamble elements and levels, and
+        the encoder state after the preamble.
+    """
+    levels, state = _preamble(_check_m(m), bool(trext))
+    pre_el = elements_of_levels(levels, m, np.float64)
+    pre_el.setflags(write=False)
+    return SearchArrays(_template(m, trext, ratio, 0.0)[1], _RUNS_PER_SAMPLE_MAX, int(math.ceil(m / ratio)) + 1,
+                        _REFINE_SHIFTS,
+                        *_refine_bank(m, trext, ratio), pre_el, levels, state)
+
+
 def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, impl) -> ReplyDetection:
     """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous)."""
     m, trext, ratio, n_reply, n_pre = plan.m, plan.trext, plan.ratio, plan.n_reply, plan.n_pre
@@ -500,25 +544,33 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, im
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
+    else:
+        start = float(start_sample)
+        if not 0 <= start <= r.size - n_reply:
+            raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
+    if impl is _KERNELS:  # every step in one kernel call
+        a = search_arrays(m, trext, ratio)
+        sums, bits = np.empty(plan.nh), np.empty(plan.n_bits + 1, dtype=np.uint8)
+        status, start, corr, h, dc = _dk.decode_reply_kernel(
+            r, -1 if start_sample is not None else last + n_pre, math.nan if start_sample is None else start,
+            0j if gain is None else complex(gain), gain is not None, a.t0, a.max_runs_per_sample, a.half_width, 5,
+            a.shifts, a.templates, a.norms, a.pre_el, ratio, n_pre, m, a.pre_levels.size, a.state,
+            plan.method != "bitwise", sums, bits)
+        if status == _dk.ZERO_GAIN:
+            raise ValueError("zero channel gain: no reply to decode")
+        return ReplyDetection(bits=bits[:plan.n_bits], start_sample=float(start), gain=complex(h), dc=complex(dc),
+                              corr=float(corr))
+    if start_sample is None:
         # The Miller pilot is periodic: lags whole elements apart correlate almost as well, and
         # an integer lag is up to 1/2 sample off, which at ≈ 3 samples per element can put the
         # integer peak a few elements from the true start. Refine the five largest local maxima
         # within ±(1 half-symbol of m elements + 1 sample) of the peak to 1/16 sample and keep
         # the best.
         t0, w = _template(m, trext, ratio, 0.0)[1], int(math.ceil(m / ratio)) + 1
-        if impl is _KERNELS:  # the three steps in one kernel call
-            lag, best, start = _k.preamble_search_kernel(r, last + n_pre, t0, _RUNS_PER_SAMPLE_MAX, w, 5,
-                                                         _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
-            lag, best, start = int(lag), float(best), float(start)
-        else:
-            lag, cands = impl[5](impl[4](r[: last + n_pre], t0), w)
-            best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
+        lag, cands = impl[5](impl[4](r[: last + n_pre], t0), w)
+        best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
         if best < 0:
             start = float(lag)
-    else:
-        start = float(start_sample)
-        if not 0 <= start <= r.size - n_reply:
-            raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
     lag = int(math.floor(start))
     tpl, tpl0, tpl_mean, e_t = _template(m, trext, ratio, start - lag)
     seg = r[lag: lag + n_pre]
@@ -544,10 +596,10 @@ def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, state, impl) -
     g = 1.0 / h
     part = r[lag: lag + int(math.ceil(nh * m / ratio)) + 2]
     miller = m > 1
-    if method != "bitwise" and impl is _KERNELS:  # sums and Viterbi in one kernel call
+    if impl is _KERNELS:  # sums and decisions in one kernel call
         sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
-        _k.sums_viterbi_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
-                               state, sums, out)
+        _dk.decisions_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
+                             state, method != "bitwise", sums, out)
         return out[:n_bits]
     sums = impl[0](part, g, (dc * g).real, frac, ratio, m, nh)
     data = sums[nh - 2 * (n_bits + 1):]

@@ -484,7 +484,10 @@ class Reader(PieTransmitter):
         -----
         With ``rx_model = "statistic"`` ``rx`` is noise-free and
         :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
-        is (anchors §4.8, §4.9):
+        is (anchors §4.8, §4.9; steps 1–5 at the nominal or given BLF run as one numba call,
+        ``rfsim.devices._reader_receive_kernels.receive_kernel``, which calls the kernels of
+        :func:`~rfsim.gen2.linecode.decode_reply`, :func:`~rfsim.gen2.capture.fit_gain_offset`,
+        the known levels and the measurements; Python builds the :class:`ReadResult`):
 
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their

@@ -7,15 +7,11 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit, njit_inline
+from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 
 #: Samples between exact evaluations of the Doppler rotation phasor in the measurement.
 ROTATION_RESYNC = 64
-#: Partial sums of the measurement's long sums: sample j is added to partial sum j mod LANES,
-#: the partials combined as (s0 + s1) + (s2 + s3) (independent additions overlap; a different
-#: rounding than one running sum, by at most ≈ n·2⁻⁵³ relative for n terms).
-LANES = 4
 
 
 @njit
@@ -27,8 +23,7 @@ def measure_kernel(z, s, fs_hz, n_blocks):
     carry the same level; ``t`` is the time from the span's centre [s]. The span is cut into
     ``n_blocks`` blocks (block k starts at floor(k·m/K) of the m used samples); per block
     g_k = Σz·s/Σs², tc_k = mean t; the slope is the weighted (|g_k|²) least-squares line
-    through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|²
-    (the sums over samples in :data:`LANES` partial sums, Σs² as the sum of the blocks').
+    through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
     """
     n = s.size
@@ -60,12 +55,16 @@ def measure_kernel(z, s, fs_hz, n_blocks):
     y = np.empty(n_blocks)
     # per-block gain and centre time
     all_positive = True
-    rr_all = 0.0  # Σs² over the used samples, block by block
     for k in range(n_blocks):
         lo = k * m // n_blocks
         hi = (k + 1) * m // n_blocks
-        acc, rr, ts = _block_sums(buf_z, buf_ref, buf_t, lo, hi)
-        rr_all += rr
+        acc = 0j
+        rr = 0.0
+        ts = 0.0
+        for i in range(lo, hi):
+            acc += buf_z[i] * buf_ref[i]
+            rr += buf_ref[i] * buf_ref[i]
+            ts += buf_t[i]
         g[k] = acc / rr if rr > 0.0 else complex(math.nan, math.nan)
         tc[k] = ts / (hi - lo) if hi > lo else math.nan
         w = g[k].real * g[k].real + g[k].imag * g[k].imag
@@ -105,86 +104,19 @@ def measure_kernel(z, s, fs_hz, n_blocks):
         slope = num / den
     # gain with the rotation e^{−j·slope·t} removed, then the residual power
     pc, ps = _rotation(slope, fs_hz, i0, i1, centre)
-    h = _derotated_sum(buf_z, buf_ref, buf_idx, pc, ps, m) / rr_all
-    return h, slope, _residual_sum(buf_z, buf_ref, buf_idx, pc, ps, h, m) / m
-
-
-@njit_inline
-def _block_sums(buf_z, buf_ref, buf_t, lo, hi):
-    """``(Σ z·s, Σ s², Σ t)`` over samples lo ≤ i < hi, in :data:`LANES` partial sums."""
-    a0 = a1 = a2 = a3 = 0j
-    r0 = r1 = r2 = r3 = 0.0
-    t0 = t1 = t2 = t3 = 0.0
-    i = lo
-    while i + 4 <= hi:
-        a0 += buf_z[i] * buf_ref[i]
-        a1 += buf_z[i + 1] * buf_ref[i + 1]
-        a2 += buf_z[i + 2] * buf_ref[i + 2]
-        a3 += buf_z[i + 3] * buf_ref[i + 3]
-        r0 += buf_ref[i] * buf_ref[i]
-        r1 += buf_ref[i + 1] * buf_ref[i + 1]
-        r2 += buf_ref[i + 2] * buf_ref[i + 2]
-        r3 += buf_ref[i + 3] * buf_ref[i + 3]
-        t0 += buf_t[i]
-        t1 += buf_t[i + 1]
-        t2 += buf_t[i + 2]
-        t3 += buf_t[i + 3]
-        i += 4
-    while i < hi:
-        a0 += buf_z[i] * buf_ref[i]
-        r0 += buf_ref[i] * buf_ref[i]
-        t0 += buf_t[i]
-        i += 1
-    return (a0 + a1) + (a2 + a3), (r0 + r1) + (r2 + r3), (t0 + t1) + (t2 + t3)
-
-
-@njit_inline
-def _derotated(buf_z, buf_ref, buf_idx, pc, ps, j):
-    """z_j·s_j·e^{−j·slope·t_j} of used sample j (rotation phasor (pc, ps) at its index)."""
-    q = buf_idx[j]
-    return buf_z[j] * complex(pc[q] * buf_ref[j], -ps[q] * buf_ref[j])
-
-
-@njit_inline
-def _derotated_sum(buf_z, buf_ref, buf_idx, pc, ps, m):
-    """Σ_j z_j·s_j·e^{−j·slope·t_j} over the m used samples, in :data:`LANES` partial sums."""
-    a0 = a1 = a2 = a3 = 0j
-    j = 0
-    while j + 4 <= m:
-        a0 += _derotated(buf_z, buf_ref, buf_idx, pc, ps, j)
-        a1 += _derotated(buf_z, buf_ref, buf_idx, pc, ps, j + 1)
-        a2 += _derotated(buf_z, buf_ref, buf_idx, pc, ps, j + 2)
-        a3 += _derotated(buf_z, buf_ref, buf_idx, pc, ps, j + 3)
-        j += 4
-    while j < m:
-        a0 += _derotated(buf_z, buf_ref, buf_idx, pc, ps, j)
-        j += 1
-    return (a0 + a1) + (a2 + a3)
-
-
-@njit_inline
-def _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j):
-    """|z_j − h·s_j·e^{j·slope·t_j}|² of used sample j."""
-    q = buf_idx[j]
-    e = buf_z[j] - h * complex(pc[q] * buf_ref[j], ps[q] * buf_ref[j])
-    return e.real * e.real + e.imag * e.imag
-
-
-@njit_inline
-def _residual_sum(buf_z, buf_ref, buf_idx, pc, ps, h, m):
-    """Σ_j |z_j − h·s_j·e^{j·slope·t_j}|² over the m used samples, in :data:`LANES` partial sums."""
-    a0 = a1 = a2 = a3 = 0.0
-    j = 0
-    while j + 4 <= m:
-        a0 += _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j)
-        a1 += _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j + 1)
-        a2 += _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j + 2)
-        a3 += _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j + 3)
-        j += 4
-    while j < m:
-        a0 += _residual(buf_z, buf_ref, buf_idx, pc, ps, h, j)
-        j += 1
-    return (a0 + a1) + (a2 + a3)
+    acc = 0j
+    rr = 0.0
+    for j in range(m):
+        q = buf_idx[j]
+        acc += buf_z[j] * complex(pc[q] * buf_ref[j], -ps[q] * buf_ref[j])
+        rr += buf_ref[j] * buf_ref[j]
+    h = acc / rr
+    res = 0.0
+    for j in range(m):
+        q = buf_idx[j]
+        e = buf_z[j] - h * complex(pc[q] * buf_ref[j], ps[q] * buf_ref[j])
+        res += e.real * e.real + e.imag * e.imag
+    return h, slope, res / m
 
 
 @njit

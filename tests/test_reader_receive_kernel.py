@@ -2,7 +2,7 @@
 ``Reader.receive`` with NumPy's reductions, ``reference.devices_reader.receive_reference``).
 
 Decisions (found or not, start, bits, CRC) must be identical; the measurements differ only by
-the order of the sums (the kernel sums sample by sample or in four partial sums, NumPy pairwise
+the order of the sums (the kernel sums sample by sample, NumPy pairwise
 or by BLAS), within the bound derived in :func:`_bounds`.
 """
 

@@ -45,7 +45,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1, t5
-from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import preamble_levels, reply_duration_s, reply_waveform, search_arrays
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
@@ -56,6 +56,9 @@ from rfsim.devices.reader_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchD
                                          search_setup as _search_setup)
 from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
 from rfsim.devices import reader_statistic as _statistic
+from rfsim.core.lazy import lazy_import
+
+_rxk = lazy_import("rfsim.devices._reader_receive_kernels")
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -63,6 +66,13 @@ FCC_MAX_DWELL_S = 0.4
 #: through path has some fixed phase); the receiver does not depend on it because the
 #: leakage of the CW is removed as an unknown complex constant.
 LEAKAGE_PHASE_RAD = math.pi / 3
+
+
+#: The message of the ValueError of each error status of the receive kernel.
+_RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",
+                   3: "the decoded reply start leaves no room for the reply",
+                   4: "the input is shorter than the reply",
+                   5: "the reference s is constant: gain and offset cannot be separated"}
 
 
 class _Kept(NamedTuple):
@@ -474,7 +484,10 @@ class Reader(PieTransmitter):
         -----
         With ``rx_model = "statistic"`` ``rx`` is noise-free and
         :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
-        is (anchors §4.8, §4.9):
+        is (anchors §4.8, §4.9; steps 1–5 at the nominal or given BLF run as one numba call,
+        ``rfsim.devices._reader_receive_kernels.receive_kernel``, which calls the kernels of
+        :func:`~rfsim.gen2.linecode.decode_reply`, :func:`~rfsim.gen2.capture.fit_gain_offset`,
+        the known levels and the measurements; Python builds the :class:`ReadResult`):
 
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their
@@ -538,33 +551,25 @@ class Reader(PieTransmitter):
                                           expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
-        r = rx - (rx[:lo].mean() if lo >= 8 else 0.0)
-        det = decode_reply(r[lo:], n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
-                           method=self.config.decoder, search_samples=hi - lo)
-        start = lo + det.start_sample
-        start_s = float(t0_s) + start / fs
-        if det.corr < self.detection_threshold(hi - lo + 1, blf):
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
-        # step 3: (h, c) from the CW-only samples and the preamble, then decode r − c
-        full = self._reference(det.bits, start, r.size, blf)
-        # Outside its reply a tag rests in its absorbing state, which is the reply's −1
-        # level: the backscatter DC steps by h at the reply's start and end. Only samples
-        # whose two neighbours carry the same level (as in the measurements: the start is
-        # known to a fraction of a sample, a sample at an element boundary could carry the
-        # other level and bias c, which no later step removes).
-        h, c = fit_gain_offset(*_known_levels(r, full, start / fs * fs, 2.0 * blf / fs, self._preamble_elements()))
-        # the reply's samples only (r − c elsewhere is not used): from the sample before its start
-        i0 = lo + int(math.floor(det.start_sample))
-        span = r[i0: i0 + n_reply + 4] - c
-        bits = decode_bits(span, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
-                           method=self.config.decoder, start_sample=det.start_sample - (i0 - lo), gain=h).astype(np.uint8)
-        ref = full if bits.tobytes() == det.bits.tobytes() else self._reference(bits, start, r.size, blf)
-        meas = self._measure(span, ref[i0: i0 + span.size], blf)
+        a = search_arrays(lk.m, lk.trext, 2.0 * blf / fs)
+        det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
+        out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
+        status = _rxk.receive_kernel(rx, lo, hi, n_reply, self.detection_threshold(hi - lo + 1, blf), fs, blf, lk.m,
+                                     pre_n, self._preamble_elements(), a.t0, a.max_runs_per_sample, a.half_width,
+                                     a.shifts, a.templates, a.norms, a.pre_el, a.pre_levels, a.state,
+                                     self.config.decoder != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
+        if status > _rxk.NOT_FOUND:
+            raise ValueError(_RECEIVE_ERRORS[status])
+        start_s = float(t0_s) + float(out_f[0]) / fs
+        if status == _rxk.NOT_FOUND:
+            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=float(out_f[1]))
+        bits = bits[:n_bits]
+        meas = self._measurements(complex(out_c[0]), float(out_f[2]), float(out_f[3]), blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                          start_s=start_s, corr=det.corr, **meas)
+                          start_s=start_s, corr=float(out_f[1]), **meas)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose
@@ -690,8 +695,12 @@ class Reader(PieTransmitter):
     def _measure(self, z: np.ndarray, s: np.ndarray, blf_hz: float) -> dict:
         """RSSI, phase, Doppler and SNR of ``z = h(t)·s(t) + noise`` (offset removed), see
         :meth:`receive` (numba kernel)."""
+        return self._measurements(*_measure(z, s, self.fs_hz), blf_hz)
+
+    def _measurements(self, h: complex, slope: float, sigma2: float, blf_hz: float) -> dict:
+        """RSSI, phase, Doppler and SNR (the :class:`ReadResult` fields) from the measured gain
+        h [√W], phase slope [rad/s] and residual power σ² [W] (:meth:`receive` step 5)."""
         lk, fs = self.link, self.fs_hz
-        h, slope, sigma2 = _measure(z, s, fs)
         p = abs(h) ** 2
         snr = 10.0 * math.log10(p / sigma2) if sigma2 > 0 and p > 0 else math.inf
         return dict(rssi_dbm=float(w_to_dbm(p)) if p > 0 else -math.inf,

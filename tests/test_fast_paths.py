@@ -21,6 +21,7 @@ from rfsim.gen2.pie import two_level_threshold
 from rfsim.core.rng import trial_rng
 from reference import gen2_linecode as RL
 from reference.gen2_pie import pr_ask_baseband_reference, two_level_threshold_reference
+from reference.ulp import assert_close_ulp
 
 
 # ----------------------------------------------------------------------------- kernels
@@ -406,9 +407,10 @@ def test_peak_candidates_kernel_equals_reference():
 
 @pytest.mark.parametrize("m, trext", [(1, False), (4, False), (2, True), (8, True)])
 def test_preamble_search_kernel_equals_reference(m, trext):
-    """Noisy replies with an unknown start, gain and offset: the one-call search (correlation,
-    candidates, sub-sample refinement) and the fused sums + Viterbi give the NumPy twin's start
-    and bits exactly; the known-start decode gives decode_reply's bits."""
+    """Noisy replies with an unknown start, gain and offset: the one-call decoder (correlation,
+    candidates, sub-sample refinement, estimates, sums + Viterbi) gives the NumPy twin's start
+    and bits exactly, its gain and correlation within the bound of their sums' order; the
+    known-start decode gives decode_reply's bits."""
     rng = trial_rng(63, m)
     fs, blf = 4e6, 320e3 if m > 1 else 160e3
     for k in range(3):
@@ -423,7 +425,16 @@ def test_preamble_search_kernel_equals_reference(m, trext):
         a, b = L.decode_reply(r, **kw), RL.decode_reply_reference(r, **kw)
         assert a.start_sample == b.start_sample and abs(a.start_sample - start) < 1.5 * fs / (2 * blf)  # ≤ 1 element
         np.testing.assert_array_equal(a.bits, b.bits)
-        assert a.corr == b.corr and a.gain == b.gain
+        # corr and gain: sums over the n preamble samples, in order (kernel) or pairwise / by
+        # BLAS (twin); two orders of a sum of n terms differ by ≤ 2n·u·Σ|terms| (Higham, eq. 4.4),
+        # here Σ|r·t0| ≤ n·max|r| (|t0| ≤ 2) against e_t ≈ n (|t| = 1, |mean| < 1): the gain by
+        # ≤ 4n·u·max|r|·2 + 2n·u·|h|, the correlation (three such sums, relative to their values
+        # ≈ n·|h|, n·|h|², n) by ≤ 2n·u·(2·max|r|/|h| + 3) relative; + 4 ULP of the final operations
+        n_pre, u, big = L._plan(64, m, trext, blf, fs, "viterbi").n_pre, 2.0 ** -53, float(np.max(np.abs(r)))
+        d_gain = 8 * n_pre * u * big + 2 * n_pre * u * abs(b.gain)
+        d_corr = 2 * n_pre * u * (2 * big / abs(b.gain) + 3) * b.corr
+        assert_close_ulp(a.gain, b.gain, int(d_gain / np.spacing(min(abs(b.gain.real), abs(b.gain.imag)))) + 4)
+        assert_close_ulp(a.corr, b.corr, int(d_corr / np.spacing(b.corr)) + 4)
         lag = int(math.floor(a.start_sample)) - 3  # on a slice, as the reader decodes r − c
         known = dict(n_bits=64, m=m, trext=trext, blf_hz=blf, fs_hz=fs, gain=a.gain * 1.01)
         full = L.decode_reply(r, start_sample=a.start_sample, **known).bits

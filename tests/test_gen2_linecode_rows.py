@@ -39,16 +39,3 @@ def test_decode_reply_rows_equals_decode_reply_row_by_row(m, trext):
         np.testing.assert_array_equal(det.bits, want.bits)
         assert (det.start_sample, det.gain, det.dc, det.corr) == (want.start_sample, want.gain, want.dc, want.corr)
     assert got[0] is None and got[1] is not None and got[1].corr > 0.9  # the zero row, the clean reply
-
-
-def test_decoder_mean_is_ndarray_mean_bit_for_bit():
-    """The decoder's segment mean (the two steps of ndarray.mean without its wrapper) equals
-    ndarray.mean on complex segments of every pairwise-summation regime (< 8, 8-128, > 128)."""
-    from rfsim.gen2.linecode import _mean
-
-    rng = np.random.default_rng(11)
-    for n in (1, 7, 8, 9, 127, 128, 129, 916, 5000):
-        seg = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 10.0 ** rng.uniform(-5, 5)
-        got, want = _mean(seg), seg.mean()
-        assert type(got) is type(want)
-        assert np.array([got]).view(np.int64).tolist() == np.array([want]).view(np.int64).tolist()

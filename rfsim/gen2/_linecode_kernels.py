@@ -130,14 +130,22 @@ def level_elements_kernel(levels, m, out):
 @njit
 def waveform_kernel(elements, t0_samples, elements_per_sample, out):
     """``out[n] = elements[floor((n − t0)·r + eps)]`` inside the reply, 0 outside."""
+    waveform_from(elements, t0_samples, elements_per_sample, 0, out)
+
+
+@njit_inline
+def waveform_from(elements, t0_samples, elements_per_sample, first, out):
+    """Samples ``first … first + out.size − 1`` of :func:`waveform_kernel`'s waveform into
+    ``out``: ``out[j]`` is sample n = first + j, ``elements[floor((n − t0)·r + eps)]`` inside the
+    reply, 0 outside (the same arithmetic on the absolute index n)."""
     ne = elements.size
-    for n in range(out.size):
-        u = (n - t0_samples) * elements_per_sample
+    for j in range(out.size):
+        u = ((first + j) - t0_samples) * elements_per_sample
         if u < 0.0:
-            out[n] = 0.0
+            out[j] = 0.0
             continue
         k = int(math.floor(u + INDEX_EPS))
-        out[n] = elements[k] if k < ne else 0.0
+        out[j] = elements[k] if k < ne else 0.0
 
 
 @njit_inline
@@ -412,22 +420,6 @@ def corr_abs_runs_kernel(r, t0, out):
         a_re, a_im = runs_dot(k, begin, value, n_runs, c_re, c_im)
         # a template with a non-zero mean: add back mean(r)·Σ t0
         out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
-
-
-@njit
-def sums_viterbi_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, n_pre, state0, sums, out):
-    """:func:`projected_halfbit_sums_kernel` into ``sums`` ((n_pre + 2·n,) half-bits: preamble,
-    then n bits), then :func:`viterbi_kernel` over the n data bits (a = first, b = second
-    half-bit sums; the last bit forced to 1) into ``out`` ((n,) uint8). One call for the
-    decisions of a reply whose start, gain and offset are known."""
-    projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, sums)
-    n = out.size
-    a = np.empty(n)
-    b = np.empty(n)
-    for i in range(n):
-        a[i] = sums[n_pre + 2 * i]
-        b[i] = sums[n_pre + 2 * i + 1]
-    viterbi_kernel(a, b, m > 1, state0, True, out)
 
 
 @njit

@@ -35,6 +35,7 @@ from rfsim.gen2.pie import PieEdges, pie_decode_arrays
 from rfsim.core.lazy import lazy_import
 
 _ck = lazy_import("rfsim.gen2._capture_kernels")
+_fk = lazy_import("rfsim.gen2._fit_kernels")
 
 #: File name endings read as raw interleaved complex64 (GNU Radio file sink).
 RAW_SUFFIXES = (".cf32", ".fc32", ".cfile", ".c64", ".bin", ".raw", ".dat")
@@ -458,7 +459,8 @@ def timing_warnings(timing: ReaderTiming, fs_hz: float) -> tuple[str, ...]:
 def fit_gain_offset(r, s) -> tuple[complex, complex]:
     """Least-squares gain and offset ``(h, c)`` of ``r ≈ h·s + c``.
 
-    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr] in closed form.
+    Solves the 2×2 normal equations [[Σs², Σs], [Σs, n]]·[h, c] = [Σr·s, Σr] in closed form (numba
+    kernel; the sums run sample by sample).
 
     Parameters
     ----------
@@ -478,16 +480,14 @@ def fit_gain_offset(r, s) -> tuple[complex, complex]:
     ValueError
         If ``r`` and ``s`` differ in shape or ``s`` is constant.
     """
-    r = np.asarray(r, dtype=np.complex128)
-    s = np.asarray(s, dtype=np.float64)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    s = np.ascontiguousarray(s, dtype=np.float64)
     if r.ndim != 1 or r.shape != s.shape:
         raise ValueError(f"r and s must be 1-D of equal length, got {r.shape} and {s.shape}")
-    ss, s1, n = float(s @ s), float(s.sum()), float(s.size)
-    rs, r1 = complex(r @ s), complex(r.sum())
-    det = ss * n - s1 * s1
-    if abs(det) <= 1e-12 * max(ss * n, 1e-300):
+    h, c, ok = _fk.fit_gain_offset_kernel(r, s)
+    if not ok:
         raise ValueError("the reference s is constant: gain and offset cannot be separated")
-    return (n * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det
+    return complex(h), complex(c)
 
 
 def preamble_threshold(n_samples: int, n_tests: int, false_alarm_probability: float = 1e-3) -> float:

@@ -40,6 +40,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from rfsim.gen2.bits import as_bits
 from rfsim.core.lazy import lazy_import
 
 _k = lazy_import("rfsim.gen2._linecode_kernels")
+_dk = lazy_import("rfsim.gen2._decode_reply_kernels")
 
 M_VALUES = (1, 2, 4, 8)
 FM0_PREAMBLE = np.array([1, 1, -1, 1, -1, -1, 1, -1, -1, -1, 1, 1], dtype=np.int8)
@@ -346,18 +348,6 @@ def _kernel_sums(part, g, dc_g, start, r, m, nh):
     return out
 
 
-def _kernel_bitwise(a, b, miller):
-    out = np.empty(a.size, dtype=np.uint8)
-    _k.bitwise_kernel(a, b, miller, out)
-    return out
-
-
-def _kernel_viterbi(a, b, miller, state0, last_is_one):
-    out = np.empty(a.size, dtype=np.uint8)
-    _k.viterbi_kernel(a, b, miller, state0, last_is_one, out)
-    return out
-
-
 #: Sub-sample shifts [samples] at which the preamble correlation peak is refined (1/16 sample).
 _REFINE_SHIFTS = np.linspace(-0.5, 0.5, 17)
 
@@ -438,12 +428,6 @@ def _kernel_candidates(c, half_width: int, n_max: int = 5) -> tuple[int, np.ndar
     return int(lag), out[:n]
 
 
-def _correlation(peak: complex, seg0: np.ndarray, e_t: float) -> float:
-    """Normalised correlation |peak| / √(e_t · Σ|seg0|²) of a segment (``seg0``: its mean
-    removed; ``peak = Σ seg·t0``) with a zero-mean template of energy ``e_t``."""
-    return float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
-
-
 def _kernel_refine(r, cands, shifts, templates, norms):
     best, start = _k.refine_kernel(r, np.ascontiguousarray(cands, dtype=np.int64), shifts, templates, norms)
     return float(best), float(start)
@@ -477,22 +461,59 @@ def _plan(n_bits, m, trext, blf_hz, fs_hz, method) -> _DecodePlan:
                        n_pre=int(math.floor(pre.size * m / ratio)))  # samples fully inside the preamble
 
 
-def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, impl):
+def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain):
     plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.ascontiguousarray(r, dtype=np.complex128)
     if r.ndim != 1:
         raise ValueError(f"r must be 1-D, got shape {r.shape}")
-    return _decode_planned(plan, r, search_samples, start_sample, gain, impl)
+    return _decode_planned(plan, r, search_samples, start_sample, gain)
 
 
-def _mean(seg: np.ndarray):
-    """``seg.mean()`` of a 1-D array by its own two steps (``np.add.reduce``, then the
-    division by the count as ``intp``) without its Python-level wrapper."""
-    return np.add.reduce(seg) / np.intp(seg.size)
+class SearchArrays(NamedTuple):
+    """What the preamble search of :func:`decode_reply` reads, derived from (M, TRext,
+    elements per sample) only (:func:`search_arrays`; read-only arrays)."""
+
+    t0: np.ndarray  # (n_pre,) zero-mean template at the integer lags
+    max_runs_per_sample: float  # correlate over runs of equal template samples up to this many per sample
+    half_width: int  # candidates within ± this many lags of the integer peak
+    shifts: np.ndarray  # (17,) sub-sample shifts of the refinement [samples]
+    templates: np.ndarray  # (17, n_pre) zero-mean templates at the shifts
+    norms: np.ndarray  # (17,) their norms
+    pre_el: np.ndarray  # (elements,) float64 pilot + preamble elements
+    pre_levels: np.ndarray  # (half-bits,) int8 pilot + preamble half-bit levels
+    state: int  # encoder state after the preamble
 
 
-def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, impl) -> ReplyDetection:
-    """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous)."""
+@functools.lru_cache(maxsize=32)
+def search_arrays(m: int, trext: bool, ratio: float) -> SearchArrays:
+    """The arrays of the preamble search and of the template at the refined start.
+
+    A pure function of its hashable arguments, cached (read-only arrays).
+
+    Parameters
+    ----------
+    m, trext : int, bool
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
+    ratio : float
+        Elements per sample, 2·BLF/fs.
+
+    Returns
+    -------
+    SearchArrays
+        Template, candidate half-width, refinement bank, preamble elements and levels, and
+        the encoder state after the preamble.
+    """
+    levels, state = _preamble(_check_m(m), bool(trext))
+    pre_el = elements_of_levels(levels, m, np.float64)
+    pre_el.setflags(write=False)
+    return SearchArrays(_template(m, trext, ratio, 0.0)[1], _RUNS_PER_SAMPLE_MAX, int(math.ceil(m / ratio)) + 1,
+                        _REFINE_SHIFTS,
+                        *_refine_bank(m, trext, ratio), pre_el, levels, state)
+
+
+def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain) -> ReplyDetection:
+    """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous): the argument
+    checks, then every step in one kernel call (:mod:`rfsim.gen2._decode_reply_kernels`)."""
     m, trext, ratio, n_reply, n_pre = plan.m, plan.trext, plan.ratio, plan.n_reply, plan.n_pre
     if start_sample is None:
         last = r.size - n_reply
@@ -500,61 +521,35 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, im
             last = min(last, int(search_samples))
         if last < 0:
             raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
-        # The Miller pilot is periodic: lags whole elements apart correlate almost as well, and
-        # an integer lag is up to 1/2 sample off, which at ≈ 3 samples per element can put the
-        # integer peak a few elements from the true start. Refine the five largest local maxima
-        # within ±(1 half-symbol of m elements + 1 sample) of the peak to 1/16 sample and keep
-        # the best.
-        t0, w = _template(m, trext, ratio, 0.0)[1], int(math.ceil(m / ratio)) + 1
-        if impl is _KERNELS:  # the three steps in one kernel call
-            lag, best, start = _k.preamble_search_kernel(r, last + n_pre, t0, _RUNS_PER_SAMPLE_MAX, w, 5,
-                                                         _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
-            lag, best, start = int(lag), float(best), float(start)
-        else:
-            lag, cands = impl[5](impl[4](r[: last + n_pre], t0), w)
-            best, start = impl[3](r, cands, _REFINE_SHIFTS, *_refine_bank(m, trext, ratio))
-        if best < 0:
-            start = float(lag)
     else:
         start = float(start_sample)
         if not 0 <= start <= r.size - n_reply:
             raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
-    lag = int(math.floor(start))
-    tpl, tpl0, tpl_mean, e_t = _template(m, trext, ratio, start - lag)
-    seg = r[lag: lag + n_pre]
-    if gain is None:
-        peak = complex(seg @ tpl0)
-        h = peak / e_t
-        seg_mean = _mean(seg)
-        dc = seg_mean - h * tpl_mean
-        corr = _correlation(peak, seg - seg_mean, e_t)
-    else:
-        h, dc = complex(gain), 0.0
-        corr = _correlation(complex(seg @ tpl0), seg - _mean(seg), e_t)
-    bits = _decisions(r, lag, start - lag, h, dc, ratio, m, plan.n_bits, plan.method, plan.nh, plan.state,
-                      impl)
-    return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
+    a = search_arrays(m, trext, ratio)
+    sums, bits = np.empty(plan.nh), np.empty(plan.n_bits + 1, dtype=np.uint8)
+    status, start, corr, h, dc = _dk.decode_reply_kernel(
+        r, -1 if start_sample is not None else last + n_pre, math.nan if start_sample is None else start,
+        0j if gain is None else complex(gain), gain is not None, a.t0, a.max_runs_per_sample, a.half_width, 5,
+        a.shifts, a.templates, a.norms, a.pre_el, ratio, n_pre, m, a.pre_levels.size, a.state,
+        plan.method != "bitwise", sums, bits)
+    if status == _dk.ZERO_GAIN:
+        raise ValueError("zero channel gain: no reply to decode")
+    return ReplyDetection(bits=bits[:plan.n_bits], start_sample=float(start), gain=complex(h), dc=complex(dc),
+                          corr=float(corr))
 
 
-def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, state, impl) -> np.ndarray:
+def _decisions(r, lag, frac, h, dc, ratio, m, n_bits, method, nh, state) -> np.ndarray:
     """Bits of the reply starting ``frac`` samples after ``r[lag]``: half-bit sums of
-    Re((r − dc)/h), then bit-by-bit or Viterbi decisions (:func:`decode_reply` steps 3–4)."""
+    Re((r − dc)/h), then bit-by-bit or Viterbi decisions (:func:`decode_reply` steps 3–4), in one
+    kernel call."""
     if h == 0:
         raise ValueError("zero channel gain: no reply to decode")
     g = 1.0 / h
     part = r[lag: lag + int(math.ceil(nh * m / ratio)) + 2]
-    miller = m > 1
-    if method != "bitwise" and impl is _KERNELS:  # sums and Viterbi in one kernel call
-        sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
-        _k.sums_viterbi_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
-                               state, sums, out)
-        return out[:n_bits]
-    sums = impl[0](part, g, (dc * g).real, frac, ratio, m, nh)
-    data = sums[nh - 2 * (n_bits + 1):]
-    a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
-    if method == "bitwise":
-        return impl[1](a[:n_bits], b[:n_bits], miller)
-    return impl[2](a, b, miller, state, True)[:n_bits]
+    sums, out = np.empty(nh), np.empty(n_bits + 1, dtype=np.uint8)
+    _dk.decisions_kernel(part, g.real, g.imag, (dc * g).real, float(frac), ratio, m, nh - 2 * (n_bits + 1),
+                         state, method != "bitwise", sums, out)
+    return out[:n_bits]
 
 
 def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, start_sample: float,
@@ -595,10 +590,9 @@ def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: fl
         raise ValueError(f"start_sample {start_sample} leaves no room for the reply in r of shape {r.shape}")
     lag = int(math.floor(start))
     return _decisions(r, lag, start - lag, complex(gain), 0.0, plan.ratio, plan.m, plan.n_bits, method, plan.nh,
-                      plan.state, _KERNELS)
+                      plan.state)
 
 
-_KERNELS = (_kernel_sums, _kernel_bitwise, _kernel_viterbi, _kernel_refine, _kernel_corr_abs, _kernel_candidates)
 def decode_reply(
     r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
     search_samples: int | None = None, start_sample: float | None = None, gain: complex | None = None,
@@ -635,7 +629,7 @@ def decode_reply(
     ValueError
         If there is no room for the reply in ``r``, the gain is zero or an argument is invalid.
     """
-    return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, _KERNELS)
+    return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain)
 
 
 def decode_reply_rows(
@@ -672,7 +666,7 @@ def decode_reply_rows(
     for i in np.asarray(rows, dtype=np.int64).tolist():
         row = np.ascontiguousarray(r[i], dtype=np.complex128)
         try:
-            out.append(_decode_planned(plan, row, search_samples, None, None, _KERNELS))
+            out.append(_decode_planned(plan, row, search_samples, None, None))
         except ValueError:
             out.append(None)
     return out

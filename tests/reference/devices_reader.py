@@ -10,7 +10,8 @@ import numpy as np
 from rfsim.devices.reader import (DOPPLER_BLOCKS, FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, _search_result,
                                   _search_setup, _steady)
 from rfsim.gen2.capture import fit_gain_offset
-from rfsim.gen2.linecode import reply_waveform
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from reference.gen2_capture import fit_gain_offset_reference
 from reference.gen2_linecode import decode_reply_reference
 
 
@@ -147,4 +148,35 @@ def known_levels_reference(r: np.ndarray, pre: np.ndarray, full: np.ndarray) -> 
     return r[known], level[known]
 
 
-__all__ = ["search_decode_reference", "measure_reference", "known_levels_reference"]
+def receive_reference(reader, rx, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float):
+    """Plain NumPy/Python twin of :meth:`rfsim.devices.reader.Reader.receive` (``blf_search``
+    off, ``rx_model`` "sample", nominal BLF), steps 1–5 one after the other with the twins of
+    the decoder, the known levels, the fit and the measurements. Returns ``(success, bits,
+    failure_reason, start_s, corr, h, slope, sigma2)`` (None for what a reply not found lacks)."""
+    from rfsim.gen2.crc import crc16_ok
+
+    lk, fs, blf = reader.link, reader.fs_hz, reader.link.blf_hz
+    rx = np.asarray(rx, dtype=np.complex128)
+    pre_n = reader.preamble_samples(blf)
+    n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
+    lo, hi = reader.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+    r = rx - (rx[:lo].mean() if lo >= 8 else 0.0)
+    kw = dict(n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, method=reader.config.decoder)
+    det = decode_reply_reference(r[lo:], search_samples=hi - lo, **kw)
+    start = lo + det.start_sample
+    if det.corr < reader.detection_threshold(hi - lo + 1, blf):
+        return False, None, "preamble not found", t0_s + start / fs, det.corr, None, None, None
+    full = reply_waveform(det.bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size)
+    pre = reply_waveform(np.zeros(0, np.uint8), m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs,
+                         n_samples=r.size, dummy=False)
+    h, c = fit_gain_offset_reference(*known_levels_reference(r, pre, full))
+    i0 = lo + int(math.floor(det.start_sample))
+    span = r[i0: i0 + n_reply + 4] - c
+    bits = decode_reply_reference(span, start_sample=det.start_sample - (i0 - lo), gain=h, **kw).bits
+    ref = reply_waveform(bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=r.size)
+    hm, slope, sigma2 = measure_reference(span, ref[i0: i0 + span.size], fs)
+    ok = (not expect_crc) or crc16_ok(bits)
+    return ok, bits, "" if ok else "crc error", t0_s + start / fs, det.corr, hm, slope, sigma2
+
+
+__all__ = ["search_decode_reference", "measure_reference", "known_levels_reference", "receive_reference"]

@@ -48,4 +48,17 @@ def plausible_frames_reference(edges: PieEdges, env: np.ndarray) -> tuple[np.nda
     return keep, contrast
 
 
-__all__ = ["plausible_frames_reference"]
+def fit_gain_offset_reference(r, s) -> tuple[complex, complex]:
+    """Plain-NumPy twin of :func:`rfsim.gen2.capture.fit_gain_offset` (NumPy's reductions:
+    pairwise sums and BLAS dot products): the closed form of the 2×2 normal equations."""
+    r = np.asarray(r, dtype=np.complex128)
+    s = np.asarray(s, dtype=np.float64)
+    ss, s1, n = float(s @ s), float(s.sum()), float(s.size)
+    rs, r1 = complex(r @ s), complex(r.sum())
+    det = ss * n - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * n, 1e-300):
+        raise ValueError("the reference s is constant: gain and offset cannot be separated")
+    return (n * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det
+
+
+__all__ = ["plausible_frames_reference", "fit_gain_offset_reference"]

@@ -9,7 +9,8 @@ import numpy as np
 
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 from rfsim.gen2.bits import as_bits
-from rfsim.gen2.linecode import ReplyDetection, _check_m, _check_rates, _decode, corr_abs_reference, halfbit_levels
+from rfsim.gen2.linecode import (_REFINE_SHIFTS, ReplyDetection, _check_m, _check_rates, _plan, _refine_bank, _template,
+                                 corr_abs_reference, halfbit_levels)
 
 
 def _state_index(cur: int, prev: int, miller: bool) -> int:
@@ -164,10 +165,6 @@ def peak_candidates_reference(c, half_width: int, n_max: int = 5) -> tuple[int, 
     return lag, lo + np.flatnonzero(is_max)[np.argsort(-win[is_max], kind="stable")[:n_max]]
 
 
-_REFERENCES = (projected_halfbit_sums_reference, bitwise_reference, viterbi_reference, refine_reference,
-               corr_abs_reference, peak_candidates_reference)
-
-
 def decode_reply_reference(r, **kwargs) -> ReplyDetection:
     """Plain NumPy/Python twin of :func:`rfsim.gen2.linecode.decode_reply` (same keyword arguments)."""
     args = [kwargs.pop(k, d) for k, d in (("n_bits", None), ("m", None), ("trext", None), ("blf_hz", None),
@@ -175,7 +172,46 @@ def decode_reply_reference(r, **kwargs) -> ReplyDetection:
                                             ("start_sample", None), ("gain", None))]
     if kwargs:
         raise TypeError(f"unexpected arguments {sorted(kwargs)}")
-    return _decode(r, *args, _REFERENCES)
+    n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain = args
+    plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    m, ratio, n_reply, n_pre = plan.m, plan.ratio, plan.n_reply, plan.n_pre
+    if start_sample is None:
+        last = r.size - n_reply if search_samples is None else min(r.size - n_reply, int(search_samples))
+        if last < 0:
+            raise ValueError(f"input of {r.size} samples is shorter than the reply ({n_reply} samples)")
+        t0, w = _template(m, plan.trext, ratio, 0.0)[1], int(math.ceil(m / ratio)) + 1
+        lag, cands = peak_candidates_reference(corr_abs_reference(r[: last + n_pre], t0), w)
+        best, start = refine_reference(r, cands, _REFINE_SHIFTS, *_refine_bank(m, plan.trext, ratio))
+        if best < 0:
+            start = float(lag)
+    else:
+        start = float(start_sample)
+        if not 0 <= start <= r.size - n_reply:
+            raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
+    lag = int(math.floor(start))
+    tpl, tpl0, tpl_mean, e_t = _template(m, plan.trext, ratio, start - lag)
+    seg = r[lag: lag + n_pre]
+    peak = complex(seg @ tpl0)
+    seg0 = seg - seg.mean()
+    corr = float(abs(peak) / math.sqrt(e_t * max(float(np.vdot(seg0, seg0).real), 1e-300)))
+    if gain is None:
+        h = peak / e_t
+        dc = seg.mean() - h * tpl_mean
+    else:
+        h, dc = complex(gain), 0.0
+    if h == 0:
+        raise ValueError("zero channel gain: no reply to decode")
+    g = 1.0 / h
+    part = r[lag: lag + int(math.ceil(plan.nh * m / ratio)) + 2]
+    sums = projected_halfbit_sums_reference(part, g, (dc * g).real, start - lag, ratio, m, plan.nh)
+    data = sums[plan.nh - 2 * (n_bits + 1):]
+    a, b = np.ascontiguousarray(data[0::2]), np.ascontiguousarray(data[1::2])
+    if method == "bitwise":
+        bits = bitwise_reference(a[:n_bits], b[:n_bits], m > 1)
+    else:
+        bits = viterbi_reference(a, b, m > 1, plan.state, True)[:n_bits]
+    return ReplyDetection(bits=bits, start_sample=start, gain=complex(h), dc=complex(dc), corr=corr)
 
 
 __all__ = ["fm0_levels_reference", "miller_levels_reference", "halfsymbols_reference", "reply_waveform_reference",

@@ -13,7 +13,9 @@ reader's, a scene may give its own).
   (:class:`ReplyStates` entries: reply bits, M, TRext, BLF, fs, fractional start, length →
   the samples where Γ(t) = Γ_B). An entry keeps the objects it was made from alive, so that
   their identities, where part of a key, stay their own; the least recently used entry is
-  dropped first beyond ``max_entries``.
+  dropped first beyond ``max_entries``. These tables keep pure functions of their keys: they
+  are used whatever the strategy, and a run gives the same numbers, bit for bit, as without
+  them.
 """
 
 from __future__ import annotations

@@ -13,9 +13,10 @@ reader's, a scene may give its own).
   (:class:`ReplyStates` entries: reply bits, M, TRext, BLF, fs, fractional start, length →
   the samples where Γ(t) = Γ_B). An entry keeps the objects it was made from alive, so that
   their identities, where part of a key, stay their own; the least recently used entry is
-  dropped first beyond ``max_entries``. These tables keep pure functions of their keys: they
-  are used whatever the strategy, and a run gives the same numbers, bit for bit, as without
-  them.
+  dropped first beyond ``max_entries``. The content tables keep pure functions of their keys,
+  so a run gives the same numbers, bit for bit, with or without them: command waveforms and
+  tag replies are kept whatever the strategy (a reader's reply references under
+  ``exchange="compiled"``).
 """
 
 from __future__ import annotations

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import weakref
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -81,7 +82,7 @@ class TxSegment:
     memo : dict
         Data derived from ``samples`` that devices share (the run's
         :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them, and
-        the run's cache under the key :class:`rfsim.air.cache.AirCache`).
+        a weak reference to the run's cache under the key :class:`rfsim.air.cache.AirCache`).
     """
 
     t0_s: float
@@ -218,8 +219,8 @@ class PieTransmitter:
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
         ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
         the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble and CW
-        lengths) and returned again, with their ``memo`` (which also holds the run's cache under
-        the key :class:`rfsim.air.cache.AirCache`), for a repeated command.
+        lengths) and returned again, with their ``memo`` (which also holds a weak reference to the
+        run's cache under the key :class:`rfsim.air.cache.AirCache`), for a repeated command.
 
         Parameters
         ----------
@@ -266,8 +267,9 @@ class PieTransmitter:
         if hit is None:
             x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
             x.setflags(write=False)
-            # the memo names the run's cache: a tag reacting to these samples keeps its reply there
-            hit = Waveform(samples=x, makers=makers, memo={AirCache: cache})
+            # the memo names the run's cache (weakly: the cache holds the entry) so that a tag
+            # reacting to these samples keeps its reply there
+            hit = Waveform(samples=x, makers=makers, memo={AirCache: weakref.ref(cache)})
             cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s

@@ -92,7 +92,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rfsim.air.cache import AirCache, ReplyStates
+from rfsim.air.cache import AirCache, ReplyStates, run_cache
 from rfsim.devices.gen2_tag_state import TagState
 from rfsim.devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from rfsim.devices.tag_config import DEFAULT_SENSITIVITY_DBM, TagConfig, chip_spread as _chip_spread
@@ -600,7 +600,7 @@ class PassiveTag:
                         return out
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples,
-                                     cache=base.memo.get(AirCache))
+                                     cache=run_cache(base.memo))
         return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
 
     @staticmethod
@@ -725,7 +725,7 @@ class PassiveTag:
         self.take_quiet_step(quiet)
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
                              t0_s=incident.t0_s,
-                             fs_hz=incident.fs_hz, n_samples=incident.n_samples, cache=incident.memo.get(AirCache))
+                             fs_hz=incident.fs_hz, n_samples=incident.n_samples, cache=run_cache(incident.memo))
 
     @staticmethod
     def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
@@ -938,7 +938,7 @@ class PassiveTag:
         cmd, frame = decoded
         return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet.p_dbm,
                              quiet.gamma_rest, quiet.structural_mode, t0_s=incident.t0_s, fs_hz=incident.fs_hz,
-                             n_samples=incident.n_samples, cache=incident.memo.get(AirCache))
+                             n_samples=incident.n_samples, cache=run_cache(incident.memo))
 
     def _replied(self, cmd, frame, reply, cmd_end_s: float, p_dbm: float, rest: complex, a_s: complex, *,
                  t0_s: float, fs_hz: float, n_samples: int, cache: AirCache | None = None) -> TagResponse:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import rfsim.devices.tag as tag_module
-from rfsim.air.cache import AirCache, ReplyStates
+from rfsim.air.cache import AirCache, ReplyStates, run_cache
 from rfsim.air.step import FixedEmitter
 from rfsim.channels import Antenna
 from rfsim.core.rng import trial_rng
@@ -163,7 +163,7 @@ def test_command_waveform_from_the_cache_equals_a_fresh_one_and_misses_on_change
         fresh = _reader().transmit(cmd, t0_s=0.01, cw_after_s=1e-4)  # a reader of another run
         assert fresh.samples is not a.samples
         np.testing.assert_array_equal(a.samples.view(np.uint64), fresh.samples.view(np.uint64))
-        assert a.memo[AirCache] is rd.air_cache  # the tag finds the run's cache through the memo
+        assert run_cache(a.memo) is rd.air_cache  # the tag finds the run's cache through the memo
     n = len(rd.air_cache.waveforms)
     cmd = commands[2]
     rd.transmit(cmd, t0_s=0.0, cw_after_s=2e-4)  # other CW after
@@ -230,3 +230,22 @@ def test_decoding_a_scaled_copy_gives_the_cached_decoding(rc_s):
                 assert v < 4096 or math.isnan(v)
                 assert (math.isnan(u) and math.isnan(v)) or abs(u - v) <= tol, (name, u, v)
 
+
+
+def test_a_run_cache_is_freed_with_its_reader():
+    """The memo names the run's cache weakly: no reference cycle keeps a finished run's
+    waveforms alive until the cyclic collector runs."""
+    import gc
+    import weakref
+
+    rd = _reader()
+    seg = rd.transmit(ACK(0x1234), t0_s=0.0, cw_after_s=1e-4)
+    gone = weakref.ref(rd.air_cache)
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        del rd
+        assert gone() is None and run_cache(seg.memo) is None
+    finally:
+        if enabled:
+            gc.enable()

@@ -8,8 +8,8 @@ reader's, a scene may give its own).
   the antenna sets whose positions were found distinct (:class:`CheckedAntennas` entries) and
   the emitted waveforms by their content (:class:`Waveform` entries: a reader's command bits
   → its PIE segment, with the data devices derive from it, e.g. a tag's decoding of it, and
-  the run's cache itself under the key :class:`AirCache`, so that a device reacting to the
-  samples finds it) and where a tag's reply modulates by the reply's content
+  a weak reference to the run's cache under the key :class:`AirCache`, so that a device
+  reacting to the samples finds it without a reference cycle) and where a tag's reply modulates by the reply's content
   (:class:`ReplyStates` entries: reply bits, M, TRext, BLF, fs, fractional start, length →
   the samples where Γ(t) = Γ_B). An entry keeps the objects it was made from alive, so that
   their identities, where part of a key, stay their own; the least recently used entry is
@@ -28,7 +28,8 @@ import numpy as np
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "AirCache", "EXCHANGE_METHODS"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "AirCache", "EXCHANGE_METHODS",
+           "run_cache"]
 
 #: How a receiver's input is formed (:attr:`Strategy.exchange`).
 EXCHANGE_METHODS = ("sample", "compiled")
@@ -123,13 +124,31 @@ class Waveform:
         compared by identity on a hit.
     memo : dict
         Data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
-        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`), and the run's
-        :class:`AirCache` under the key ``AirCache`` (a reader's command segment).
+        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`), and a weak
+        reference (:class:`weakref.ref`) to the run's :class:`AirCache` under the key ``AirCache``
+        (a reader's command segment; :func:`run_cache` reads it).
     """
 
     samples: np.ndarray
     makers: tuple
     memo: dict = field(default_factory=dict)
+
+
+def run_cache(memo: dict) -> AirCache | None:
+    """The run's cache a segment's ``memo`` names (:attr:`Waveform.memo`), or None.
+
+    Parameters
+    ----------
+    memo : dict
+        A segment's memo (:attr:`rfsim.air.segment.Segment.memo`).
+
+    Returns
+    -------
+    AirCache or None
+        The cache, or None when the memo names none or it is gone.
+    """
+    ref = memo.get(AirCache)
+    return None if ref is None else ref()
 
 
 @dataclass

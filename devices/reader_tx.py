@@ -28,12 +28,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import weakref
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from rfsim.air.cache import Waveform
+from rfsim.air.cache import AirCache, Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
 from rfsim.core.lazy import lazy_import
@@ -80,7 +81,8 @@ class TxSegment:
         Absolute time of the last rising edge of the command [s].
     memo : dict
         Data derived from ``samples`` that devices share (the run's
-        :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them).
+        :class:`rfsim.air.cache.Waveform` memo of these samples: a tag's decoding of them, and
+        a weak reference to the run's cache under the key :class:`rfsim.air.cache.AirCache`).
     """
 
     t0_s: float
@@ -217,7 +219,8 @@ class PieTransmitter:
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
         ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
         the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble and CW
-        lengths) and returned again, with their ``memo``, for a repeated command.
+        lengths) and returned again, with their ``memo`` (which also holds a weak reference to the
+        run's cache under the key :class:`rfsim.air.cache.AirCache`), for a repeated command.
 
         Parameters
         ----------
@@ -264,7 +267,9 @@ class PieTransmitter:
         if hit is None:
             x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
             x.setflags(write=False)
-            hit = Waveform(samples=x, makers=makers)
+            # the memo names the run's cache (weakly: the cache holds the entry) so that a tag
+            # reacting to these samples keeps its reply there
+            hit = Waveform(samples=x, makers=makers, memo={AirCache: weakref.ref(cache)})
             cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s

@@ -53,7 +53,9 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
 5. **Backscatter**: the line code s(t) = :func:`rfsim.gen2.linecode.reply_waveform`
    (M and TRext of the last Query) is ±1 during the reply and 0 outside. The tag's
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
-   s = −1 or s = 0 (absorbing state, in which the tag harvests). The rest state scatters
+   s = −1 or s = 0 (absorbing state, in which the tag harvests); where s > 0 is kept in the
+   run's cache by the reply's content (:func:`reply_gamma`: an EPC sent again at the same
+   place in its segment is not sampled again). The rest state scatters
    a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader removes
    with the carrier leakage; it is not special-cased.
 6. **Re-radiation** (structural and antenna modes): the field an antenna loaded by the chip
@@ -85,10 +87,12 @@ G2XM-class chip at 900 MHz against a conjugate-matched antenna
 from __future__ import annotations
 
 import math
+import struct
 from typing import Any, NamedTuple
 
 import numpy as np
 
+from rfsim.air.cache import AirCache, ReplyStates, run_cache
 from rfsim.devices.gen2_tag_state import TagState
 from rfsim.devices.tag_chip import ChipOperatingPoint, PowerDependentChip
 from rfsim.devices.tag_config import DEFAULT_SENSITIVITY_DBM, TagConfig, chip_spread as _chip_spread
@@ -204,6 +208,61 @@ def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray
     out = np.empty(s.size, dtype=np.complex128)
     _k.reflection_kernel(s, complex(gamma_b), complex(gamma_a), out)
     return out
+
+
+def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float,
+                n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None) -> np.ndarray:
+    """Γ(t) of a reply over a segment: Γ_B where its reply waveform s(t) > 0, Γ_A elsewhere.
+
+    s(t) = :func:`rfsim.gen2.linecode.reply_waveform` (±1 during the reply, 0 outside; step 5 of
+    the module docstring). With the run's ``cache`` the samples where s > 0 are kept by the
+    reply's content (:class:`rfsim.air.cache.ReplyStates` in ``cache.replies``, keyed by the bits
+    and their dtype, M, TRext and the exact bit patterns of BLF, fs and ``t0_s``, and
+    ``n_samples``: every argument s reads), so that a reply sent again at the same place in its
+    segment (a tag's EPC, round after round) is not sampled again; Γ(t) then takes the same
+    values Γ_A and Γ_B at the same samples, bit for bit.
+
+    Parameters
+    ----------
+    bits : numpy.ndarray, shape (n_bits,), uint8
+        Reply bits (without the dummy-1, which is appended).
+    m : int
+        Symbols per bit M (1 = FM0, 2/4/8 = Miller).
+    trext : bool
+        Pilot tone present.
+    blf_hz : float
+        Backscatter link frequency [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+    t0_s : float
+        Start of the reply after the segment's first sample [s].
+    n_samples : int
+        Length of the segment [samples].
+    gamma_b : complex
+        Γ_B, the modulating state's reflection coefficient.
+    gamma_a : complex
+        Γ_A, the absorbing (rest) state's reflection coefficient.
+    cache : rfsim.air.cache.AirCache or None, optional
+        The run's cache (default None: nothing kept).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_samples,), complex128
+        Γ(t), a new array.
+    """
+    if cache is None or not isinstance(bits, np.ndarray):
+        s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
+        return _reflection(s, gamma_b, gamma_a)
+    key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
+           struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
+    hit = cache.reply(key)
+    if hit is not None:
+        return np.where(hit.modulating, complex(gamma_b), complex(gamma_a))
+    s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
+    modulating = s > 0
+    modulating.flags.writeable = False
+    cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
+    return _reflection(s, gamma_b, gamma_a)
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
@@ -540,7 +599,8 @@ class PassiveTag:
                     if out is not None:
                         return out
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
-                                     fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+                                     fs_hz=incident.fs_hz, n_samples=incident.n_samples,
+                                     cache=run_cache(base.memo))
         return self.listen(incident.samples, t0_s=incident.t0_s, fs_hz=incident.fs_hz)
 
     @staticmethod
@@ -665,7 +725,7 @@ class PassiveTag:
         self.take_quiet_step(quiet)
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
                              t0_s=incident.t0_s,
-                             fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+                             fs_hz=incident.fs_hz, n_samples=incident.n_samples, cache=run_cache(incident.memo))
 
     @staticmethod
     def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
@@ -755,10 +815,12 @@ class PassiveTag:
 
         return self._respond(p_inc, decode, t0_s=t0_s, fs_hz=fs_hz, n_samples=x.size)
 
-    def _respond(self, p_inc: float, decode, *, t0_s: float, fs_hz: float, n_samples: int) -> TagResponse:
+    def _respond(self, p_inc: float, decode, *, t0_s: float, fs_hz: float, n_samples: int,
+                 cache: AirCache | None = None) -> TagResponse:
         """Everything after the front end: power-up (config or chip) from the incident power
         ``p_inc`` [W], the command from ``decode()`` → (command, PIE frame) or (None, None),
-        the state machine and the reply's Γ(t) over ``n_samples`` samples."""
+        the state machine and the reply's Γ(t) over ``n_samples`` samples (kept in the run's
+        ``cache`` by content, :func:`reply_gamma`)."""
         p_dbm = _dbm(p_inc)
         if self.chip is not None:
             # the operating point is a pure function of the (frozen) chip and P_inc: a held
@@ -797,10 +859,10 @@ class PassiveTag:
             self._trcal_ticks = None
 
         cmd, frame = decode()
-        return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples)
+        return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples, cache=cache)
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
-                 n_samples: int) -> TagResponse:
+                 n_samples: int, cache: AirCache | None = None) -> TagResponse:
         """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
         state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``)."""
         if cmd is None:
@@ -819,7 +881,7 @@ class PassiveTag:
         else:
             reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
         return self._replied(cmd, frame, reply, cmd_end_s, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz,
-                             n_samples=n_samples)
+                             n_samples=n_samples, cache=cache)
 
     def power_margin_db(self, p_dbm: float) -> float:
         """Power at the chip above its sensitivity [dB], at incident power ``p_dbm``.
@@ -875,12 +937,14 @@ class PassiveTag:
         self.take_quiet_step(quiet)
         cmd, frame = decoded
         return self._replied(cmd, frame, reply, incident.t0_s + frame.end / incident.fs_hz, quiet.p_dbm,
-                             quiet.gamma_rest, quiet.structural_mode, t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples)
+                             quiet.gamma_rest, quiet.structural_mode, t0_s=incident.t0_s, fs_hz=incident.fs_hz,
+                             n_samples=incident.n_samples, cache=run_cache(incident.memo))
 
     def _replied(self, cmd, frame, reply, cmd_end_s: float, p_dbm: float, rest: complex, a_s: complex, *,
-                 t0_s: float, fs_hz: float, n_samples: int) -> TagResponse:
+                 t0_s: float, fs_hz: float, n_samples: int, cache: AirCache | None = None) -> TagResponse:
         """The response of a powered tag whose state machine answered ``cmd`` (ending at
-        ``cmd_end_s`` [s]) with ``reply`` (or None): the reply's timing and Γ(t)."""
+        ``cmd_end_s`` [s]) with ``reply`` (or None): the reply's timing and Γ(t) (:func:`reply_gamma`,
+        with the run's ``cache``)."""
         query = self.state.last_query
         if reply is None or query is None or self._trcal_ticks is None:
             return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
@@ -899,9 +963,8 @@ class PassiveTag:
         if reply.delayed:  # step 4: a delayed reply, after the programming time, with the pilot tone
             start_s += reply.delay_s
             trext = True
-        s = reply_waveform(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz,
-                           t0_s=start_s - t0_s, n_samples=n_samples)
-        gamma = _reflection(s, self.reflection_states.gamma_b, rest)
+        gamma = reply_gamma(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s - t0_s,
+                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest, cache=cache)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,
@@ -909,4 +972,4 @@ class PassiveTag:
 
 
 __all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "incident_power_w", "envelope",
-           "DEFAULT_SENSITIVITY_DBM", "REASONS"]
+           "reply_gamma", "DEFAULT_SENSITIVITY_DBM", "REASONS"]

@@ -222,7 +222,7 @@ ROOT = Path(rfsim.__file__).parent
 #: The files whose caches were made named and kept alive (issue 30, item 2).
 CACHE_FILES = ([ROOT / "air" / "links.py", ROOT / "air" / "cache.py", ROOT / "protocols" / "inventory.py",
                 ROOT / "sweep" / "runner.py", ROOT.parent / "devices" / "tag.py",
-                ROOT.parent / "devices" / "tag_population.py"]
+                ROOT.parent / "devices" / "tag_population.py", ROOT.parent / "devices" / "reader_tx.py"]
                + sorted((ROOT / "scenes").glob("*.py")) + sorted((ROOT.parent / "channels").glob("*.py")))
 
 

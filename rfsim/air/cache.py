@@ -7,9 +7,16 @@ reader's, a scene may give its own).
 * :class:`AirCache` holds what the step and its devices may reuse from one call to the next:
   the antenna sets whose positions were found distinct (:class:`CheckedAntennas` entries) and
   the emitted waveforms by their content (:class:`Waveform` entries: a reader's command bits
-  → its PIE segment, with the data devices derive from it, e.g. a tag's decoding of it). An
-  entry keeps the objects it was made from alive, so that their identities, where part of a
-  key, stay their own; the least recently used entry is dropped first beyond ``max_entries``.
+  → its PIE segment, with the data devices derive from it, e.g. a tag's decoding of it, and
+  a weak reference to the run's cache under the key :class:`AirCache`, so that a device
+  reacting to the samples finds it without a reference cycle) and where a tag's reply modulates by the reply's content
+  (:class:`ReplyStates` entries: reply bits, M, TRext, BLF, fs, fractional start, length →
+  the samples where Γ(t) = Γ_B). An entry keeps the objects it was made from alive, so that
+  their identities, where part of a key, stay their own; the least recently used entry is
+  dropped first beyond ``max_entries``. The content tables keep pure functions of their keys,
+  so a run gives the same numbers, bit for bit, with or without them: command waveforms and
+  tag replies are kept whatever the strategy (a reader's reply references under
+  ``exchange="compiled"``).
 """
 
 from __future__ import annotations
@@ -21,7 +28,8 @@ import numpy as np
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "Derived", "AirCache", "EXCHANGE_METHODS"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "AirCache", "EXCHANGE_METHODS",
+           "run_cache"]
 
 #: How a receiver's input is formed (:attr:`Strategy.exchange`).
 EXCHANGE_METHODS = ("sample", "compiled")
@@ -116,12 +124,50 @@ class Waveform:
         compared by identity on a hit.
     memo : dict
         Data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
-        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`).
+        a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`), and a weak
+        reference (:class:`weakref.ref`) to the run's :class:`AirCache` under the key ``AirCache``
+        (a reader's command segment; :func:`run_cache` reads it).
     """
 
     samples: np.ndarray
     makers: tuple
     memo: dict = field(default_factory=dict)
+
+
+def run_cache(memo: dict) -> AirCache | None:
+    """The run's cache a segment's ``memo`` names (:attr:`Waveform.memo`), or None.
+
+    Parameters
+    ----------
+    memo : dict
+        A segment's memo (:attr:`rfsim.air.segment.Segment.memo`).
+
+    Returns
+    -------
+    AirCache or None
+        The cache, or None when the memo names none or it is gone.
+    """
+    ref = memo.get(AirCache)
+    return None if ref is None else ref()
+
+
+@dataclass
+class ReplyStates:
+    """Where a tag's reply modulates, kept by the reply's content.
+
+    The ±1 reply waveform s(t) (:func:`rfsim.gen2.linecode.reply_waveform`) is a pure function
+    of the reply bits, M, TRext, BLF, fs, the reply's start within the segment and the segment's
+    length (the key); the tag reflects Γ_B where s > 0 and Γ_A elsewhere
+    (:class:`rfsim.devices.tag.PassiveTag`, step 5), so Γ(t) of any pair (Γ_A, Γ_B) follows
+    from this mask alone.
+
+    Attributes
+    ----------
+    modulating : ndarray, shape (n,), bool
+        True where s > 0 (Γ = Γ_B), read-only.
+    """
+
+    modulating: np.ndarray
 
 
 @dataclass
@@ -162,6 +208,9 @@ class AirCache:
         :class:`Waveform` entries by content key.
     derivations : dict
         :class:`Derived` entries by (function, identity of the source).
+    replies : dict
+        :class:`ReplyStates` entries by the content of a tag's reply (its bits, M, TRext, BLF,
+        fs, start and length; :func:`rfsim.devices.tag.reply_gamma`).
     """
 
     strategy: Strategy = field(default_factory=Strategy)
@@ -170,6 +219,7 @@ class AirCache:
     checked_tuples: dict = field(default_factory=dict)
     waveforms: dict = field(default_factory=dict)
     derivations: dict = field(default_factory=dict)
+    replies: dict = field(default_factory=dict)
 
     def derived(self, source, make):
         """Return ``make(source)`` for an immutable ``source``, computed once per run.
@@ -220,6 +270,24 @@ class AirCache:
         self.waveforms[key] = hit
         if len(hit.makers) != len(makers) or any(a is not b for a, b in zip(hit.makers, makers)):
             return None
+        return hit
+
+    def reply(self, key) -> ReplyStates | None:
+        """Look up where the reply of content ``key`` modulates; a hit becomes the most recently used.
+
+        Parameters
+        ----------
+        key : hashable
+            Content key of the reply (:func:`rfsim.devices.tag.reply_gamma`).
+
+        Returns
+        -------
+        ReplyStates or None
+            The entry, or None when there is none for ``key``.
+        """
+        hit = self.replies.pop(key, None)
+        if hit is not None:
+            self.replies[key] = hit
         return hit
 
     def remember(self, table: dict, key, entry) -> None:

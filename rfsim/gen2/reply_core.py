@@ -22,13 +22,13 @@ decoder that performs them calls:
   length (``decode_reply``: its own, cached);
 * cumulative sums of r and |r|²: ``cumulative_sums_into`` (the grouping of |r|² an argument);
 * the normalised correlation from its sums: ``normalised_correlation``; the peak between
-  lags: ``parabola_offset`` (``decode_reply``: NumPy, and a bank of 1/16-sample shifts);
+  lags: ``parabola_offset`` (``decode_reply``: its energy in two passes and a bank of
+  1/16-sample shifts, :mod:`rfsim.gen2._decode_reply_kernels`);
 * the start of a reply whose preamble is centred on a sample: ``centred_start`` (the reply
   length that must fit an argument);
 * the preamble's least-squares (h, c): ``preamble_gain_offset`` (the segment's mean an
-  argument; ``decode_reply``: NumPy);
-* decisions from the half-bit sums: ``halfbit_decisions`` (``decode_reply``:
-  ``sums_viterbi_kernel`` of :mod:`rfsim.gen2._linecode_kernels`);
+  argument);
+* decisions from the half-bit sums: ``halfbit_decisions``;
 * the fit of a remodulated reply with its rest level: ``rest_level_sums``; the residual over
   its steady samples: ``steady_residual``.
 
@@ -54,7 +54,8 @@ as its own computation, named here:
 * the fit of the remodulated reply: the reader over the whole window with c = (Σr − h·Σref)/n
   and the residual summed sample by sample, the capture decoder over the reply up to its end
   with c from the normal equations and the residual in closed form;
-* ``decode_reply`` computes (h, c) and the correlation with NumPy reductions (pairwise sums).
+* ``decode_reply`` (and the reader's receive, :mod:`rfsim.devices._reader_receive_kernels`)
+  adds its sums sample by sample, in order.
 """
 
 from __future__ import annotations

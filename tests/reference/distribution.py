@@ -521,19 +521,32 @@ def _rss_localization(h: h5py.File) -> list[Figure]:
     return out
 
 
+def _track_batches(realization: np.ndarray, period: np.ndarray) -> np.ndarray:
+    """Cluster labels of the periods of independent tracks: each realization's periods, in time
+    order, cut into :data:`N_BATCHES` contiguous batches (batch means within a track, tracks
+    independent): realization·N_BATCHES + batch."""
+    labels = np.empty(realization.size, dtype=np.int64)
+    for r in np.unique(realization):
+        idx = np.flatnonzero(realization == r)
+        idx = idx[np.argsort(period[idx], kind="stable")]
+        labels[idx] = int(r) * N_BATCHES + batches(idx.size)
+    return labels
+
+
 def _st_localization(h: h5py.File) -> list[Figure]:
-    """RMSE of each (case, tracker) over its estimates, clustered by realization (cases of one
-    realization give no figure); detections per period per case, clustered by realization."""
+    """RMSE of each (case, tracker) over its estimates and the mean number of landmarks detected
+    per period of each case; clustered by realization and time batch within it
+    (:func:`_track_batches`: 10 realizations per case are too few clusters on their own)."""
     e = h["estimates"]
-    err, real = _col(e, "error_m"), _col(e, "realization")
+    err, real, period = _col(e, "error_m"), _col(e, "realization"), _col(e, "period")
     out = []
     for (case, tracker), m in _groups(_col(e, "case"), _col(e, "tracker")):
-        out += rmse(f"rmse_m[case={case},{tracker}]", err[m], real[m] if np.unique(real[m]).size >= MIN_COUNT
-                    else batches(m.sum()) + 1000 * real[m])
+        out += rmse(f"rmse_m[case={case},{tracker}]", err[m], _track_batches(real[m], period[m]))
     p = h["periods"]
+    real, period = _col(p, "realization"), _col(p, "period")
     for (case,), m in _groups(_col(p, "case")):
         out += mean(f"detected_landmarks[case={case}]", _col(p, "detected_landmarks")[m].astype(float),
-                    batches(m.sum()) + N_BATCHES * _col(p, "realization")[m])
+                    _track_batches(real[m], period[m]))
     return out
 
 

@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
             ap.error("--before or --before-table is needed")
         before, before_runs = side(args.before, args.seed_before, work / "before", scenarios, args.timeout, args.reuse)
     if args.write_before:
-        commits = sorted({r.get("git_revision", "") for r in before_runs.values()})
+        commits = sorted({r.get("git_revision", "") for r in before_runs.values()} - {""})
         shown = ["python tests/tools/distribution_table.py", "--before rfsim", f"--seed-before {args.seed_before}",
                  f"--scenarios {args.scenarios}", f"--timeout {args.timeout:g}", "--workdir <dir>",
                  "--reuse" if args.reuse else "", f"--write-before {Path(args.write_before).name}"]
@@ -153,8 +153,11 @@ def main(argv: list[str] | None = None) -> int:
     if not args.after:
         return 0
     after, after_runs = side(args.after, args.seed_after, work / "after", scenarios, args.timeout, args.reuse)
-    rows, z_max = compare(before, after)
-    text = markdown(rows, z_max) + "\nRuns (default config):\n\n" + times_table(before_runs, after_runs)
+    both = set(before) & set(after)
+    rows, z_max = compare({s: f for s, f in before.items() if s in both}, {s: f for s, f in after.items() if s in both})
+    skipped = sorted(set(scenarios) - both)
+    text = (markdown(rows, z_max) + f"\nNot compared (a run timed out or failed): {', '.join(skipped) or 'none'}.\n"
+            + "\nRuns (default config):\n\n" + times_table(before_runs, after_runs))
     print(text)
     if args.output:
         Path(args.output).write_text(text)

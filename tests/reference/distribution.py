@@ -29,14 +29,27 @@ Standard errors, by kind of figure:
     A mean or RMSE of one time series (a single track: the HIMR scenarios, phase-tracking), whose
     values are correlated in time: the series is cut into :data:`N_BATCHES` contiguous batches and
     the batches are the clusters (the batch-means method); for a series much longer than its
-    correlation time this is the se of the time average.
+    correlation time this is the se of the time average. Where the error also has a time profile
+    that every seed shares (the HIMR tracks: the same trajectory, transients at the same times),
+    batch means count the profile's variation too and the se is too large (conservative: seeds
+    1 and 2 of the HIMR RMSEs differ by 0.01-0.4 se); a figure there is a weak check.
 ``fit``
     A fitted parameter with the standard error the scenario stores beside it (the inverse Fisher
     information of its maximum-likelihood fit, or the least-squares covariance); no bootstrap.
+    A parameter at a bound of its fit (reader-detection's dead zone at 0) has a meaningless se;
+    it is judged anyway, against the other run's se.
+``binomial`` over clusters
+    Rates whose trials share a draw (the 50 queries of a reader-detection trial, the beacons of
+    one rss-localization trial): :func:`clustered_rate`.
 ``exact``
     A figure without randomness (a timing of the standard): se = 0, judged by equality up to a
     relative :data:`EXACT_RTOL` (the last bits of a float may move when a kernel is compiled
     differently).
+
+The agreement rule and its z: :func:`bonferroni_z`, :func:`agree_one`, :func:`compare`.
+Figures of one scenario are often correlated (the cells of a fit, trackers run on the same
+trajectories): the Bonferroni bound holds for any correlation, but such figures move together
+between two seeds (tag-to-tag-tracking's 21 figures all moved by 1-2.6 se from seed 1 to 2).
 
 Figures with too few trials for a normal interval (``mean``/``rmse`` of fewer than
 :data:`MIN_COUNT` values or clusters), with a non-finite value or se, are left out; a figure

@@ -496,8 +496,10 @@ def _exciter_link(h: h5py.File) -> list[Figure]:
 
 def _inventory(h: h5py.File) -> list[Figure]:
     """Capture sweep: P(capture), P(detected), P(decoded), P(false ACK), P(capture of the weak
-    tag) per point (binomial over trials); capture experiment per point; read rate of each
-    inventory run (binomial over its population)."""
+    tag) per point (binomial over trials); capture experiment per point; read rate per
+    population size, pooled over its runs (exchangeable: new positions and draws per run) and
+    clustered by run (:func:`clustered_rate`): the tags of one inventory share its hop table and
+    Q dynamics (one run of 20 tags read 0.9 at seed 1 and 0.45 at seed 2, 3.4 binomial se)."""
     out = []
     c = h["capture_sweep"]
     trials = _col(c, "trials")
@@ -510,9 +512,9 @@ def _inventory(h: h5py.File) -> list[Figure]:
     for (pt,), m in _groups(_col(cap, "point")):
         out += binomial(f"capture[point={pt}]", _col(cap, "captured")[m].sum(), m.sum())
     inv = h["inventories"]
-    for i, run in enumerate(_col(inv, "run")):
-        out += binomial(f"read_rate[run={run},N={_col(inv, 'population')[i]}]", _col(inv, "tags_read")[i],
-                        _col(inv, "population")[i])
+    pop, read = _col(inv, "population"), _col(inv, "tags_read")
+    for (n,), m in _groups(pop):
+        out += clustered_rate(f"read_rate[N={n}]", read[m], pop[m])
     return out
 
 

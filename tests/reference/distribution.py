@@ -767,7 +767,8 @@ def compare(before: dict[str, list[Figure]], after: dict[str, list[Figure]],
 
 
 def save_table(path: str | Path, figures: dict[str, list[Figure]], meta: dict) -> None:
-    """Write figures per scenario and ``meta`` (command, commit, seed, seconds) as JSON.
+    """Write figures per scenario and ``meta`` (command, commit, seed, seconds) as JSON, one
+    figure ``[name, value, se, n, kind]`` a line.
 
     Parameters
     ----------
@@ -778,9 +779,12 @@ def save_table(path: str | Path, figures: dict[str, list[Figure]], meta: dict) -
     meta : dict
         Free-form provenance stored under ``"meta"``.
     """
-    doc = {"meta": meta, "scenarios": {s: [[f.name, f.value, f.se, f.n, f.kind] for f in fs]
-                                       for s, fs in sorted(figures.items())}}
-    Path(path).write_text(json.dumps(doc, indent=0, allow_nan=True) + "\n")
+    blocks = []
+    for s, fs in sorted(figures.items()):
+        rows = ",\n".join(json.dumps([f.name, f.value, f.se, f.n, f.kind]) for f in fs)
+        blocks.append(f"{json.dumps(s)}: [\n{rows}\n]")
+    text = '{"meta": ' + json.dumps(meta, indent=1) + ',\n"scenarios": {\n' + ",\n".join(blocks) + "\n}}\n"
+    Path(path).write_text(text)
 
 
 def load_table(path: str | Path) -> tuple[dict[str, list[Figure]], dict]:

@@ -177,8 +177,8 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     """``[fn(t) for t in tasks]`` on worker processes, results in task order.
 
     With a pool the first task runs alone first, in a pilot process that compiles or loads
-    the kernels; while this process loads them in turn and forks the other workers, the pilot
-    goes on with the next tasks (it is one of the ``workers``). The order of the results
+    the kernels; while this process loads them in turn and forks the workers, the pilot runs
+    the second task, then ends. The order of the results
     does not depend on the number of workers; progress is shown with
     :func:`rfsim.core.progress.track` and every pool is a :func:`worker_pool`.
 
@@ -212,8 +212,8 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
         # needs (or loads them from the on-disk cache) and writes them to that cache; this
         # process then loads the same kernels from the cache, once, before the pool exists,
         # and the workers forked afterwards inherit them instead of each compiling or loading
-        # them again. The pilot, its kernels in hand, goes on with the next tasks meanwhile
-        # and stays one of the w workers to the end.
+        # them again. The pilot, its kernels in hand, runs the next task meanwhile and ends
+        # after it (the compiler's memory ends with it).
         with worker_pool(1) as pilot:
             first, kernels, modules = pilot.submit(_run_and_list_kernels, fn, tasks[0]).result()
             yield first
@@ -221,16 +221,16 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
             queue.fill(pilot, 1)
             load_kernels(kernels)
             _import_all(modules)
-            n_pool = min(w - 1, len(tasks) - 1)
-            with worker_pool(n_pool) as pool:
-                yield from queue.in_order({pilot: 1, pool: n_pool})
+            with worker_pool(min(w, len(tasks) - 1)) as pool:
+                yield from queue.in_order({pilot: 0, pool: min(w, len(tasks) - 1)})
 
     return list(track(results(), total=len(tasks), desc=desc, unit=unit))
 
 
 class _Dispatch:
     """Tasks handed to several pools, each kept at its number of workers (no task waits in a
-    pool's queue while another pool idles), the results given back in task order."""
+    pool's queue while another pool idles), the results given back in task order; a pool
+    given no workers (0) gets no new task and is shut down once its tasks have ended."""
 
     def __init__(self, fn, tasks):
         self.fn, self.tasks, self.next = fn, tasks, 0
@@ -257,6 +257,8 @@ class _Dispatch:
                     index, pool = self.running.pop(future)
                     done[index] = future.result()
                     self.fill(pool, slots[pool])
+                    if not slots[pool] and all(p is not pool for _, p in self.running.values()):
+                        pool.shutdown(wait=False)
             yield done.pop(i)
 
 

@@ -76,3 +76,46 @@ def test_rfsim_run_simulates_in_a_child_and_draws_the_figures_here(tmp_path):
     rc, kernel_modules = json.loads(run.stdout.strip().splitlines()[-1])
     assert rc == 0 and kernel_modules == []
     assert (tmp_path / "gen2-waveforms.h5").is_file() and list(tmp_path.glob("gen2-waveforms-*.png"))
+
+
+_TASKS = """
+import os
+import time
+
+
+def task(i):
+    time.sleep(0.2 if i in (1, 4) else 0.0)  # the pilot is busy with task 1 when the other worker starts
+    if i == 99:
+        raise ValueError("task 99 failed")
+    return i, i * i, os.getpid()
+"""
+
+_MAP = """
+import json, os
+import kmap
+from rfsim.core.procs import map_in_order
+
+out = map_in_order(kmap.task, range(9), 2, desc="t", unit="tasks")
+try:
+    map_in_order(kmap.task, [0, 2, 99, 3], 2, desc="t", unit="tasks")
+    failed = None
+except ValueError as err:
+    failed = str(err)
+print(json.dumps(dict(leader=os.getpid(), out=out, failed=failed)))
+"""
+
+
+def test_map_in_order_keeps_task_order_across_the_pilot_and_the_pool(tmp_path):
+    """The pilot runs the second task too, while the workers start: the results come back in
+    task order even when a later task ends first, every task runs outside the leader (the
+    first two in the pilot, the others in at most the two workers), and a task's error is raised in
+    the leader."""
+    (tmp_path / "kmap.py").write_text(_TASKS)
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{ROOT}")
+    run = subprocess.run([sys.executable, "-c", _MAP], capture_output=True, text=True, env=env, check=True)
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert [(i, sq) for i, sq, _ in got["out"]] == [(i, i * i) for i in range(9)]
+    pids = [pid for _, _, pid in got["out"]]
+    assert got["leader"] not in pids and pids[1] == pids[0] and pids[0] not in pids[2:]
+    assert 1 <= len(set(pids[2:])) <= 2  # the asked two workers at most
+    assert got["failed"] == "task 99 failed"

@@ -176,7 +176,9 @@ def _worker_failure(exit_codes: list[int]) -> ResourceError:
 def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
     """``[fn(t) for t in tasks]`` on worker processes, results in task order.
 
-    With a pool the first task runs alone first (:func:`_pilot`); the order of the results
+    With a pool the first task runs alone first, in a pilot process that compiles or loads
+    the kernels; while this process loads them in turn and forks the workers, the pilot runs
+    the second task, then ends. The order of the results
     does not depend on the number of workers; progress is shown with
     :func:`rfsim.core.progress.track` and every pool is a :func:`worker_pool`.
 
@@ -210,30 +212,64 @@ def map_in_order(fn, tasks, workers: int, *, desc: str, unit: str) -> list:
         # needs (or loads them from the on-disk cache) and writes them to that cache; this
         # process then loads the same kernels from the cache, once, before the pool exists,
         # and the workers forked afterwards inherit them instead of each compiling or loading
-        # them again. The compiler's memory and the first task's arrays stay in the pilot.
-        first, kernels, modules = _pilot(fn, tasks[0])
-        load_kernels(kernels)
-        _import_all(modules)
-        yield first
-        with worker_pool(min(w, len(tasks) - 1)) as pool:
-            yield from pool.map(fn, tasks[1:])
+        # them again. The pilot, its kernels in hand, runs the next task meanwhile and ends
+        # after it (the compiler's memory ends with it).
+        with worker_pool(1) as pilot:
+            first, kernels, modules = pilot.submit(_run_and_list_kernels, fn, tasks[0]).result()
+            yield first
+            queue = _Dispatch(fn, tasks[1:])
+            queue.fill(pilot, 1)
+            load_kernels(kernels)
+            _import_all(modules)
+            with worker_pool(min(w, len(tasks) - 1)) as pool:
+                yield from queue.in_order({pilot: 0, pool: min(w, len(tasks) - 1)})
 
     return list(track(results(), total=len(tasks), desc=desc, unit=unit))
 
 
+class _Dispatch:
+    """Tasks handed to several pools, each kept at its number of workers (no task waits in a
+    pool's queue while another pool idles), the results given back in task order; a pool
+    given no workers (0) gets no new task and is shut down once its tasks have ended."""
+
+    def __init__(self, fn, tasks):
+        self.fn, self.tasks, self.next = fn, tasks, 0
+        self.running: dict[cf.Future, tuple[int, cf.ProcessPoolExecutor]] = {}
+
+    def fill(self, pool: cf.ProcessPoolExecutor, slots: int) -> None:
+        """Submit tasks to ``pool`` until it runs ``slots`` of them (or none are left)."""
+        busy = sum(1 for _, p in self.running.values() if p is pool)
+        for _ in range(slots - busy):
+            if self.next == len(self.tasks):
+                return
+            self.running[pool.submit(self.fn, self.tasks[self.next])] = (self.next, pool)
+            self.next += 1
+
+    def in_order(self, slots: dict[cf.ProcessPoolExecutor, int]):
+        """Yield every result in task order, refilling the pools (``pool → workers``) as tasks end."""
+        done: dict[int, object] = {}
+        for pool, n in slots.items():
+            self.fill(pool, n)
+        for i in range(len(self.tasks)):
+            while i not in done:
+                finished, _ = cf.wait(self.running, return_when=cf.FIRST_COMPLETED)
+                for future in finished:
+                    index, pool = self.running.pop(future)
+                    done[index] = future.result()
+                    self.fill(pool, slots[pool])
+                    if not slots[pool] and all(p is not pool for _, p in self.running.values()):
+                        pool.shutdown(wait=False)
+            yield done.pop(i)
+
+
 def _run_and_list_kernels(fn, task):
+    """``fn(task)``, with the numba kernels (and signatures) this process holds afterwards
+    (:func:`rfsim.core._jit.compiled_signatures`) and the modules it imported."""
     from rfsim.core._jit import compiled_signatures
 
     before = set(sys.modules)
     out = fn(task)
     return out, compiled_signatures(), [name for name in sys.modules if name not in before]
-
-
-def _pilot(fn, task):
-    """``fn(task)`` in a one-off worker process, with the numba kernels (and signatures) it
-    holds afterwards (:func:`rfsim.core._jit.compiled_signatures`) and the modules it imported."""
-    with worker_pool(1) as pool:
-        return pool.submit(_run_and_list_kernels, fn, task).result()
 
 
 def _import_all(names) -> None:

@@ -37,12 +37,12 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     """Index of the CW sample the median of ``env²`` lands on (over the samples with ``env ≥
     threshold``, all if not ``select``; ties in sample order, as a stable sort) when the
     2·``margin`` + 1 samples around it in that order are all ±x at that index; −1 when they
-    are not (or too few samples are selected), −2 when a NaN is among them (the caller then
-    asks :func:`rfsim.devices.tag.plateau_reference`). ``buf``/``idx``: scratch of ``env.size``
+    are not (or too few samples are selected), −2 when a NaN is among them or the median is
+    none of the three candidates below (the caller then asks
+    :func:`rfsim.devices.tag.plateau_reference`, which sorts). ``buf``/``idx``: scratch of ``env.size``
     (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1.
 
-    The median value v is found by counting (a candidate sample's value) or selection
-    (``np.partition``); with c_< samples below it,
+    The median value v is found by counting (a candidate sample's value); with c_< samples below it,
     stable order puts the samples equal to v at positions c_< …, in sample order: position p
     is the (p − c_<)-th of them."""
     m = 0
@@ -74,12 +74,8 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
         if n_less <= mid < n_less + n_eq:
             med = c
             break
-    if math.isnan(med):
-        med = np.partition(buf[:m], mid)[mid]
-        n_less = 0
-        for k in range(m):
-            if buf[k] < med:
-                n_less += 1
+    if math.isnan(med):  # rare: the caller selects it (np.partition here would cost seconds of compilation)
+        return -2
     start = mid - margin - n_less  # rank, among the samples equal to med, of the window's first
     if start < 0:
         return -1

@@ -4,7 +4,8 @@ whether the samples around it are ±one value) — the numba kernel against its 
 import numpy as np
 import pytest
 
-from rfsim.devices.tag import _MIN_MODULATION, _plateau, plateau_reference
+from rfsim.devices import _tag_kernels as _k
+from rfsim.devices.tag import _MIN_MODULATION, _PLATEAU_MARGIN, _plateau, plateau_reference
 from rfsim.gen2.pie import two_level_threshold
 
 
@@ -12,6 +13,16 @@ def _both(x):
     env = np.abs(x)
     levels = two_level_threshold(env)
     return _plateau(x, env, levels), plateau_reference(x, env, levels)
+
+
+def _kernel_alone(x):
+    """The kernel's own answer (−2: it leaves the case to the NumPy twin)."""
+    env = np.abs(x)
+    thr, lo, hi = two_level_threshold(env)
+    n = env.size
+    return int(_k.plateau_kernel(x, env, float(thr), bool(hi > 0 and hi - lo >= _MIN_MODULATION * hi),
+                                 _PLATEAU_MARGIN, np.empty(n), np.empty(n, np.int64),
+                                 np.empty(2 * _PLATEAU_MARGIN + 1, np.int64)))
 
 
 def _pie_like(rng, n, cw, *, flip=True, edge_noise=True):
@@ -34,6 +45,18 @@ def test_kernel_equals_reference_on_pie_like_segments(seed):
     assert got == want
     assert got is not None  # a clean CW: the median is on the plateau
     assert x[got] == x[want]
+    assert _kernel_alone(x) == got  # found by the kernel itself (the median is a candidate sample)
+
+
+def test_a_median_that_is_no_candidate_is_left_to_the_twin():
+    """Distinct magnitudes (the first, middle and last selected samples are not the median):
+    the kernel answers −2 and the caller's answer is the twin's."""
+    rng = np.random.default_rng(7)
+    x = rng.uniform(1.0, 2.0, 101).astype(np.complex128)
+    x[[0, 50, 100]] = [1.0, 1.01, 1.02]  # the three candidates all far below the median
+    assert _kernel_alone(x) == -2
+    assert _plateau(x, np.abs(x), two_level_threshold(np.abs(x))) == plateau_reference(
+        x, np.abs(x), two_level_threshold(np.abs(x)))
 
 
 @pytest.mark.parametrize("seed", range(12))

@@ -1,6 +1,8 @@
-"""numba kernel of the statistic-level receiver (wrapped and documented in
-:mod:`rfsim.devices.reader_statistic`; the plain-NumPy twin is
-:func:`reference.devices_reader_statistic.piece_map_reference` in the tests)."""
+"""numba kernels of the statistic-level receiver (wrapped and documented in
+:mod:`rfsim.devices.reader_statistic`; the plain-NumPy twins are in
+``reference.devices_reader_statistic`` in the tests: :func:`piece_map_reference`,
+:func:`block_cuts_reference` and, for :func:`receive_kernel`, :func:`receive_reference`, the
+receiver's steps as NumPy calls of the sample-level decoder)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,10 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import INDEX_EPS, element_sign
+from rfsim.air._noise_kernels import _standard_normals
+from rfsim.devices._reader_kernels import known_levels_kernel
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
+                                          sampled_template, sums_viterbi_kernel, waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -156,3 +161,221 @@ def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, r
             if piece_of[q] == p:
                 part = part_a[c] / n_a if q < e else part_b[c] / n_b
                 r[b1 + q] += sign[q] * (part - mean)
+
+
+#: Slots of the integer parameters ``ip`` of :func:`receive_kernel`.
+(IP_LO, IP_B0, IP_B1, IP_HEAD, IP_N_SEARCH, IP_HALF_WIDTH, IP_N_CANDIDATES, IP_STATE, IP_M, IP_N_PRE, IP_NH,
+ IP_N_BITS, IP_N_ELEMENTS, IP_N_REPLY, IP_N_DECODE, IP_N_PRE_ELEMENTS, IP_N_BLOCKS) = range(17)
+#: Slots of the float parameters ``fp`` of :func:`receive_kernel`.
+FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
+#: Slots of the results ``res`` of :func:`receive_kernel`.
+(RES_STATUS, RES_START, RES_CORR, RES_C_RE, RES_C_IM, RES_I0, RES_N_FREE, RES_N_USED, RES_N_SPAN) = range(9)
+#: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
+OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
+
+
+@njit
+def _draw_sums(st, sizes, sigma2, out, ki, wi, fi):
+    """Piece sums P_p ~ CN(0, σ²·|p|) into ``out`` as :func:`rfsim.devices.reader_statistic.draw_piece_sums`
+    draws them: a (2, k) standard-normal block (the real parts, then the imaginary parts, in
+    order, from the PCG64 state ``st``), each part times √(σ²·|p|/2)."""
+    k = sizes.size
+    z = np.empty(2 * k)
+    _standard_normals(st, z, ki, wi, fi)
+    for p in range(k):
+        scale = math.sqrt(0.5 * sigma2 * sizes[p])
+        out[p] = complex(scale * z[p], scale * z[k + p])
+
+
+@njit
+def _mean(r, n):
+    """Σ r[:n] / n (0 when n = 0)."""
+    acc = 0j
+    for i in range(n):
+        acc += r[i]
+    return acc / n if n > 0 else 0j
+
+
+@njit
+def _decisions(r, start, g, dc_re, ratio, m, n_pre_half, state, n_decode, out):
+    """The decoder's decisions (:func:`rfsim.gen2.linecode.decode_reply` steps 3–4) of the reply
+    starting ``start`` samples into ``r``: half-bit sums of Re((r − dc)·g), Viterbi, into
+    ``out`` ((n_bits + 1,) uint8, the dummy last)."""
+    lag = int(math.floor(start))
+    part = r[lag: lag + n_decode + 2]
+    sums = np.empty(n_pre_half + 2 * out.size)
+    sums_viterbi_kernel(part, g.real, g.imag, dc_re, start - lag, ratio, m, n_pre_half, state, sums, out)
+
+
+@njit
+def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
+                   ki, wi, fi):
+    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
+    in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
+    in the order of the NumPy steps.
+
+    ``r`` (n,) complex: the noise-free input on entry; on return the receiver's input after the
+    DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
+    ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
+    template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
+    elements and half-bit levels. Writes the decoded bits into ``bits_out`` ((n_bits + 1,) uint8),
+    the reply span r − c and its ±1 reference (0 outside the reply) into ``z_out``, ``s_out``
+    ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used) for the measurement, and the status, the
+    reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom
+    and the measurement's sample count into ``res`` (slots ``RES_*``)."""
+    lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
+    m, n_pre, nh, n_bits = ip[IP_M], ip[IP_N_PRE], ip[IP_NH], ip[IP_N_BITS]
+    n_reply, n_decode, state = ip[IP_N_REPLY], ip[IP_N_DECODE], ip[IP_STATE]
+    sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
+    n = r.size
+    n_pre_half = nh - 2 * (n_bits + 1)
+    # step 1-2: the stretch before the block (two pieces) and the search block, per sample
+    sizes0 = np.ones(head + b1 - b0)
+    if head == 2:
+        sizes0[1] = b0 - 1
+    p0 = np.empty(sizes0.size, np.complex128)
+    _draw_sums(st, sizes0, sigma2, p0, ki, wi, fi)
+    if head > 0:
+        r[0] += p0[0]
+    if head == 2:
+        share = p0[1] / (b0 - 1)
+        for i in range(1, b0):
+            r[i] += share
+    for i in range(b0, b1):
+        r[i] += p0[head + i - b0]
+    dc0 = _mean(r, lo) if lo >= 8 else 0j
+    w = np.empty(n, np.complex128)
+    for i in range(n):
+        w[i] = r[i] - dc0
+    lag, best, start_rel = preamble_search_kernel(w[lo:], ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
+                                                  ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
+    if best < 0:
+        start_rel = float(lag)
+    start = lo + start_rel
+    # step 3: the pieces after the block, spread, the DC subtraction again
+    piece_of = np.empty(max(n - b1, 0), np.int64)
+    sign = np.empty(piece_of.size)
+    kind = np.empty(piece_of.size, np.int64)
+    n_p = piece_map_kernel(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], piece_of, sign, kind)
+    kind = kind[:n_p]
+    sizes = np.zeros(n_p)
+    for q in range(piece_of.size):
+        sizes[piece_of[q]] += 1.0
+    sums = np.empty(n_p, np.complex128)
+    _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
+    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
+    dc = _mean(r, lo) if lo >= 8 else 0j
+    for i in range(n):
+        r[i] = r[i] - dc
+    res[RES_START] = start_rel
+    # the decoder at the start found: gain and offset from the preamble, correlation, decisions
+    lag = int(math.floor(start_rel))
+    frac = start_rel - lag
+    tpl = np.empty(n_pre)
+    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
+    e_t = 0.0
+    peak = 0j
+    seg_sum = 0j
+    for i in range(n_pre):
+        a = tpl[i] - tpl_mean
+        e_t += a * a
+        peak += r[lo + lag + i] * a
+        seg_sum += r[lo + lag + i]
+    h = peak / e_t
+    seg_mean = seg_sum / n_pre
+    dcp = seg_mean - h * tpl_mean
+    e_seg = 0.0
+    for i in range(n_pre):
+        d = r[lo + lag + i] - seg_mean
+        e_seg += d.real * d.real + d.imag * d.imag
+    corr = abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300))
+    res[RES_CORR] = corr
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    g = 1.0 / h
+    det_bits = np.empty(n_bits + 1, np.uint8)
+    _decisions(r[lo:], start_rel, g, (dcp * g).real, ratio, m, n_pre_half, state, n_decode, det_bits)
+    if corr < fp[FP_THRESHOLD]:
+        res[RES_STATUS] = NOT_FOUND
+        return
+    # (h, c) on the known levels of the reference of the search's decisions
+    t0_samples = start / fs * fs
+    el = np.empty(nh * m)
+    full = np.empty(n)
+    elements_kernel(det_bits[:n_bits], True, m, pre_levels, state, el)
+    waveform_kernel(el, t0_samples, ratio, full)
+    r_k = np.empty(n, np.complex128)
+    lev = np.empty(n)
+    mk = known_levels_kernel(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], r_k, lev)
+    ss = s1 = 0.0
+    rs = r1 = 0j
+    for i in range(mk):
+        ss += lev[i] * lev[i]
+        s1 += lev[i]
+        rs += r_k[i] * lev[i]
+        r1 += r_k[i]
+    det = ss * mk - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * mk, 1e-300):
+        res[RES_STATUS] = CONSTANT_REFERENCE
+        return
+    h = (mk * rs - s1 * r1) / det
+    c = (ss * r1 - s1 * rs) / det
+    res[RES_C_RE], res[RES_C_IM] = c.real, c.imag
+    # the final decisions on r − c with h given
+    i0 = lo + lag
+    n_span = min(n_reply + 4, n - i0)
+    res[RES_I0], res[RES_N_SPAN] = i0, n_span
+    for i in range(n_span):
+        z_out[i] = r[i0 + i] - c
+    start2 = start_rel - (i0 - lo)
+    if not (0.0 <= start2 <= n_span - n_decode):
+        res[RES_STATUS] = NO_ROOM
+        return
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    _decisions(z_out[:n_span], start2, 1.0 / h, 0.0, ratio, m, n_pre_half, state, n_decode, bits_out)
+    same = True
+    for i in range(n_bits):
+        same = same and bits_out[i] == det_bits[i]
+    if not same:
+        elements_kernel(bits_out[:n_bits], True, m, pre_levels, state, el)
+        waveform_kernel(el, t0_samples, ratio, full)
+    for i in range(n_span):
+        s_out[i] = full[i0 + i]
+    # steps 4 and 6: block edges inside steady pieces split by a bridge; the in-piece freedom
+    n_free = 0.0
+    biggest = 0.0
+    for p in range(n_p):
+        if kind[p] == STEADY:
+            n_free += sizes[p] - 1.0
+            biggest = max(biggest, sizes[p])
+    reach = int(biggest) * 8 + 8
+    k = ip[IP_N_BLOCKS] - 1
+    piece = np.empty(k, np.int64)
+    edge = np.empty(k, np.int64)
+    n_a = np.empty(k, np.int64)
+    n_b = np.empty(k, np.int64)
+    n_used, n_cuts = block_cuts_kernel(s_out[:n_span], i0, b1, piece_of, kind, ip[IP_N_BLOCKS], reach, piece, edge,
+                                       n_a, n_b)
+    if n_cuts > 0:
+        ab_sizes = np.empty(2 * n_cuts)
+        for j in range(n_cuts):
+            ab_sizes[j] = n_a[j]
+            ab_sizes[n_cuts + j] = n_b[j]
+        ab = np.empty(2 * n_cuts, np.complex128)
+        _draw_sums(st, ab_sizes, sigma2, ab, ki, wi, fi)
+        part_a = np.empty(n_cuts, np.complex128)
+        part_b = np.empty(n_cuts, np.complex128)
+        for j in range(n_cuts):
+            tot = float(n_a[j] + n_b[j])
+            miss = sums[piece[j]] - ab[j] - ab[n_cuts + j]
+            part_a[j] = ab[j] + miss * (n_a[j] / tot)
+            part_b[j] = ab[n_cuts + j] + miss * (n_b[j] / tot)
+        apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
+        for i in range(n_span):
+            z_out[i] = r[i0 + i] - c
+    res[RES_N_FREE] = n_free - n_cuts
+    res[RES_N_USED] = n_used
+    res[RES_STATUS] = OK

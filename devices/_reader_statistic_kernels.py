@@ -14,7 +14,7 @@ from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _standard_normals
 from rfsim.devices._reader_kernels import known_levels_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
-                                          sampled_template, sums_viterbi_kernel, waveform_kernel)
+                                          sampled_template, viterbi_kernel, waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -47,15 +47,22 @@ def piece_map_kernel(n, i_first, start, elements_per_sample, m, n_elements, piec
     cur_half = -1
     kp = _element(i_first - 1, start, elements_per_sample)
     k = _element(i_first, start, elements_per_sample)
+    k_seen = -3  # the element whose half-bit h and sign sg are held (they change only with k)
+    h = -1
+    sg = 1.0
     for i in range(i_first, n):
         kn = _element(i + 1, start, elements_per_sample) if i + 1 < n else -2
         q = i - i_first
-        h = k // m if 0 <= k < n_elements else -1
+        if k != k_seen:
+            k_seen = k
+            inside = 0 <= k < n_elements
+            h = k // m if inside else -1
+            sg = float(element_sign(k, m)) if inside else 1.0
         if h != cur_half:
             cur_half = h
             cur[STEADY] = -1
             cur[INNER_EDGE] = -1
-        sign[q] = float(element_sign(k, m)) if 0 <= k < n_elements else 1.0
+        sign[q] = sg
         if k >= n_elements:
             cls = REST if (kp >= n_elements and kn >= n_elements) else SINGLE
         elif k >= 0 and kp == k and kn == k:
@@ -133,10 +140,13 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
 
 @njit
 def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
-    """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place)."""
+    """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
+    each piece's mean sums[p]/sizes[p] formed once)."""
+    mean = np.empty(sums.size, np.complex128)
+    for p in range(sums.size):
+        mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        p = piece_of[q]
-        r[b1 + q] += sign[q] * (sums[p] / sizes[p])
+        r[b1 + q] += sign[q] * mean[piece_of[q]]
 
 
 @njit
@@ -197,14 +207,41 @@ def _mean(r, n):
 
 
 @njit
-def _decisions(r, start, g, dc_re, ratio, m, n_pre_half, state, n_decode, out):
-    """The decoder's decisions (:func:`rfsim.gen2.linecode.decode_reply` steps 3–4) of the reply
-    starting ``start`` samples into ``r``: half-bit sums of Re((r − dc)·g), Viterbi, into
-    ``out`` ((n_bits + 1,) uint8, the dummy last)."""
-    lag = int(math.floor(start))
-    part = r[lag: lag + n_decode + 2]
-    sums = np.empty(n_pre_half + 2 * out.size)
-    sums_viterbi_kernel(part, g.real, g.imag, dc_re, start - lag, ratio, m, n_pre_half, state, sums, out)
+def _halfbit_sums(part, start, ratio, m, s_sum, s_count):
+    """The half-bit sums of the decoder (:func:`rfsim.gen2._linecode_kernels.projected_halfbit_sums_kernel`)
+    before the projection: per half-bit j, S_j = Σ σ_n·part[n] (complex) and C_j = Σ σ_n over
+    the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
+    subcarrier sign of k. The decoder's sums of Re((part − dc)·g) are then Re(g·S_j) − Re(dc·g)·C_j
+    for any gain and offset (the same value up to the order of the operations)."""
+    s_sum[:] = 0j
+    s_count[:] = 0.0
+    nh = s_sum.size
+    for n in range(max(0, int(math.ceil(start))), part.size):
+        u = (n - start) * ratio
+        if u < 0.0:
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        j = k // m
+        if j >= nh:
+            return
+        sg = float(element_sign(k, m))
+        s_sum[j] += sg * part[n]
+        s_count[j] += sg
+
+
+@njit
+def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
+    """Viterbi decisions (:func:`rfsim.gen2._linecode_kernels.viterbi_kernel`, the last bit the
+    dummy 1) on the projected half-bit sums Re(g·S_j) − dc_re·C_j of the data half-bits into
+    ``out`` ((n_bits + 1,) uint8)."""
+    n = out.size
+    a = np.empty(n)
+    b = np.empty(n)
+    for i in range(n):
+        j = n_pre_half + 2 * i
+        a[i] = (g * s_sum[j]).real - dc_re * s_count[j]
+        b[i] = (g * s_sum[j + 1]).real - dc_re * s_count[j + 1]
+    viterbi_kernel(a, b, miller, state, True, out)
 
 
 @njit
@@ -244,10 +281,10 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     for i in range(b0, b1):
         r[i] += p0[head + i - b0]
     dc0 = _mean(r, lo) if lo >= 8 else 0j
-    w = np.empty(n, np.complex128)
-    for i in range(n):
-        w[i] = r[i] - dc0
-    lag, best, start_rel = preamble_search_kernel(w[lo:], ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
+    w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
+    for i in range(lo, b1):
+        w[i - lo] = r[i] - dc0
+    lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
                                                   ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
     if best < 0:
         start_rel = float(lag)
@@ -264,9 +301,8 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
-    dc = _mean(r, lo) if lo >= 8 else 0j
-    for i in range(n):
-        r[i] = r[i] - dc
+    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
+        r[i] = r[i] - dc0
     res[RES_START] = start_rel
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
@@ -295,7 +331,10 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
         return
     g = 1.0 / h
     det_bits = np.empty(n_bits + 1, np.uint8)
-    _decisions(r[lo:], start_rel, g, (dcp * g).real, ratio, m, n_pre_half, state, n_decode, det_bits)
+    s_sum = np.empty(nh, np.complex128)
+    s_count = np.empty(nh)
+    _halfbit_sums(r[lo + lag: lo + lag + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    _decide(s_sum, s_count, g, (dcp * g).real, m > 1, n_pre_half, state, det_bits)
     if corr < fp[FP_THRESHOLD]:
         res[RES_STATUS] = NOT_FOUND
         return
@@ -335,7 +374,10 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     if h == 0:
         res[RES_STATUS] = ZERO_GAIN
         return
-    _decisions(z_out[:n_span], start2, 1.0 / h, 0.0, ratio, m, n_pre_half, state, n_decode, bits_out)
+    # the half-bit sums of r − c over the same samples (start2 = frac): S_j − c·C_j
+    for j in range(nh):
+        s_sum[j] -= c * s_count[j]
+    _decide(s_sum, s_count, 1.0 / h, 0.0, m > 1, n_pre_half, state, bits_out)
     same = True
     for i in range(n_bits):
         same = same and bits_out[i] == det_bits[i]

@@ -245,33 +245,17 @@ def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
 
 
 @njit
-def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
-                   ki, wi, fi):
-    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
-    in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
-    in the order of the NumPy steps.
-
-    ``r`` (n,) complex: the noise-free input on entry; on return the receiver's input after the
-    DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
-    ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
-    template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
-    elements and half-bit levels. Writes the decoded bits into ``bits_out`` ((n_bits + 1,) uint8),
-    the reply span r − c and its ±1 reference (0 outside the reply) into ``z_out``, ``s_out``
-    ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used) for the measurement, and the status, the
-    reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom
-    and the measurement's sample count into ``res`` (slots ``RES_*``)."""
+def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
+    """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
+    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
+    then the decoder's preamble search over the block less the mean of ``r[:lo]``. Returns
+    (that mean, the reply start relative to ``lo`` [samples])."""
     lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
-    m, n_pre, nh, n_bits = ip[IP_M], ip[IP_N_PRE], ip[IP_NH], ip[IP_N_BITS]
-    n_reply, n_decode, state = ip[IP_N_REPLY], ip[IP_N_DECODE], ip[IP_STATE]
-    sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
-    n = r.size
-    n_pre_half = nh - 2 * (n_bits + 1)
-    # step 1-2: the stretch before the block (two pieces) and the search block, per sample
     sizes0 = np.ones(head + b1 - b0)
     if head == 2:
         sizes0[1] = b0 - 1
     p0 = np.empty(sizes0.size, np.complex128)
-    _draw_sums(st, sizes0, sigma2, p0, ki, wi, fi)
+    _draw_sums(st, sizes0, fp[FP_SIGMA2], p0, ki, wi, fi)
     if head > 0:
         r[0] += p0[0]
     if head == 2:
@@ -286,27 +270,16 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
         w[i - lo] = r[i] - dc0
     lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
                                                   ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
-    if best < 0:
-        start_rel = float(lag)
-    start = lo + start_rel
-    # step 3: the pieces after the block, spread, the DC subtraction again
-    piece_of = np.empty(max(n - b1, 0), np.int64)
-    sign = np.empty(piece_of.size)
-    kind = np.empty(piece_of.size, np.int64)
-    n_p = piece_map_kernel(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], piece_of, sign, kind)
-    kind = kind[:n_p]
-    sizes = np.zeros(n_p)
-    for q in range(piece_of.size):
-        sizes[piece_of[q]] += 1.0
-    sums = np.empty(n_p, np.complex128)
-    _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
-    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
-        r[i] = r[i] - dc0
-    res[RES_START] = start_rel
-    # the decoder at the start found: gain and offset from the preamble, correlation, decisions
-    lag = int(math.floor(start_rel))
-    frac = start_rel - lag
+    return dc0, (float(lag) if best < 0 else start_rel)
+
+
+@njit
+def _preamble_fit(seg, frac, pre_el, ratio):
+    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
+    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
+    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
+    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
+    n_pre = seg.size
     tpl = np.empty(n_pre)
     tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
     e_t = 0.0
@@ -315,38 +288,26 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     for i in range(n_pre):
         a = tpl[i] - tpl_mean
         e_t += a * a
-        peak += r[lo + lag + i] * a
-        seg_sum += r[lo + lag + i]
-    h = peak / e_t
+        peak += seg[i] * a
+        seg_sum += seg[i]
     seg_mean = seg_sum / n_pre
-    dcp = seg_mean - h * tpl_mean
     e_seg = 0.0
     for i in range(n_pre):
-        d = r[lo + lag + i] - seg_mean
+        d = seg[i] - seg_mean
         e_seg += d.real * d.real + d.imag * d.imag
-    corr = abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300))
-    res[RES_CORR] = corr
-    if h == 0:
-        res[RES_STATUS] = ZERO_GAIN
-        return
-    g = 1.0 / h
-    det_bits = np.empty(n_bits + 1, np.uint8)
-    s_sum = np.empty(nh, np.complex128)
-    s_count = np.empty(nh)
-    _halfbit_sums(r[lo + lag: lo + lag + n_decode + 2], frac, ratio, m, s_sum, s_count)
-    _decide(s_sum, s_count, g, (dcp * g).real, m > 1, n_pre_half, state, det_bits)
-    if corr < fp[FP_THRESHOLD]:
-        res[RES_STATUS] = NOT_FOUND
-        return
-    # (h, c) on the known levels of the reference of the search's decisions
-    t0_samples = start / fs * fs
-    el = np.empty(nh * m)
-    full = np.empty(n)
-    elements_kernel(det_bits[:n_bits], True, m, pre_levels, state, el)
-    waveform_kernel(el, t0_samples, ratio, full)
-    r_k = np.empty(n, np.complex128)
-    lev = np.empty(n)
-    mk = known_levels_kernel(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], r_k, lev)
+    h = peak / e_t
+    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
+
+
+@njit
+def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
+    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
+    (:func:`rfsim.devices._reader_kernels.known_levels_kernel`; the 2×2 normal equations of
+    :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
+    constant (no fit)."""
+    r_k = np.empty(r.size, np.complex128)
+    lev = np.empty(r.size)
+    mk = known_levels_kernel(r, full, t0_samples, ratio, n_pre_elements, r_k, lev)
     ss = s1 = 0.0
     rs = r1 = 0j
     for i in range(mk):
@@ -356,51 +317,29 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
         r1 += r_k[i]
     det = ss * mk - s1 * s1
     if abs(det) <= 1e-12 * max(ss * mk, 1e-300):
-        res[RES_STATUS] = CONSTANT_REFERENCE
-        return
-    h = (mk * rs - s1 * r1) / det
-    c = (ss * r1 - s1 * rs) / det
-    res[RES_C_RE], res[RES_C_IM] = c.real, c.imag
-    # the final decisions on r − c with h given
-    i0 = lo + lag
-    n_span = min(n_reply + 4, n - i0)
-    res[RES_I0], res[RES_N_SPAN] = i0, n_span
-    for i in range(n_span):
-        z_out[i] = r[i0 + i] - c
-    start2 = start_rel - (i0 - lo)
-    if not (0.0 <= start2 <= n_span - n_decode):
-        res[RES_STATUS] = NO_ROOM
-        return
-    if h == 0:
-        res[RES_STATUS] = ZERO_GAIN
-        return
-    # the half-bit sums of r − c over the same samples (start2 = frac): S_j − c·C_j
-    for j in range(nh):
-        s_sum[j] -= c * s_count[j]
-    _decide(s_sum, s_count, 1.0 / h, 0.0, m > 1, n_pre_half, state, bits_out)
-    same = True
-    for i in range(n_bits):
-        same = same and bits_out[i] == det_bits[i]
-    if not same:
-        elements_kernel(bits_out[:n_bits], True, m, pre_levels, state, el)
-        waveform_kernel(el, t0_samples, ratio, full)
-    for i in range(n_span):
-        s_out[i] = full[i0 + i]
-    # steps 4 and 6: block edges inside steady pieces split by a bridge; the in-piece freedom
+        return 0j, 0j, False
+    return (mk * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
+
+
+@njit
+def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, ki, wi, fi):
+    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+    (:func:`block_cuts_kernel`, ``s`` the reference from sample ``i0``) split by a Gaussian
+    bridge (one (2, 2·cuts) normal block) and spread again (:func:`apply_cuts_kernel`). Returns
+    (Σ(|p| − 1) over the steady pieces less one per cut, the samples the measurement reads)."""
     n_free = 0.0
     biggest = 0.0
-    for p in range(n_p):
+    for p in range(kind.size):
         if kind[p] == STEADY:
             n_free += sizes[p] - 1.0
             biggest = max(biggest, sizes[p])
-    reach = int(biggest) * 8 + 8
-    k = ip[IP_N_BLOCKS] - 1
+    reach = int(biggest) * 8 + 8  # a steady piece lies within one half-bit: ≤ 8× its steady samples (+ 8)
+    k = n_blocks - 1
     piece = np.empty(k, np.int64)
     edge = np.empty(k, np.int64)
     n_a = np.empty(k, np.int64)
     n_b = np.empty(k, np.int64)
-    n_used, n_cuts = block_cuts_kernel(s_out[:n_span], i0, b1, piece_of, kind, ip[IP_N_BLOCKS], reach, piece, edge,
-                                       n_a, n_b)
+    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, piece, edge, n_a, n_b)
     if n_cuts > 0:
         ab_sizes = np.empty(2 * n_cuts)
         for j in range(n_cuts):
@@ -416,8 +355,99 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
             part_a[j] = ab[j] + miss * (n_a[j] / tot)
             part_b[j] = ab[n_cuts + j] + miss * (n_b[j] / tot)
         apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
-        for i in range(n_span):
-            z_out[i] = r[i0 + i] - c
-    res[RES_N_FREE] = n_free - n_cuts
+    return n_free - n_cuts, n_used
+
+
+@njit
+def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
+                   ki, wi, fi):
+    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
+    in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
+    in the order of the NumPy steps.
+
+    ``r`` (n,) complex: the noise-free input on entry; on return the receiver's input after the
+    DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
+    ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
+    template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
+    elements and half-bit levels. Writes the decoded bits into ``bits_out`` ((n_bits + 1,) uint8),
+    the reply span r − c and its ±1 reference (0 outside the reply) into ``z_out``, ``s_out``
+    ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used) for the measurement, and the status, the
+    reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom
+    and the measurement's sample count into ``res`` (slots ``RES_*``)."""
+    lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
+    n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
+    sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
+    n = r.size
+    n_pre_half = nh - 2 * (n_bits + 1)
+    dc0, start_rel = _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi)
+    start = lo + start_rel
+    res[RES_START] = start_rel
+    # step 3: the pieces after the block, spread, the DC subtraction again
+    piece_of = np.empty(max(n - b1, 0), np.int64)
+    sign = np.empty(piece_of.size)
+    kind = np.empty(piece_of.size, np.int64)
+    n_p = piece_map_kernel(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], piece_of, sign, kind)
+    kind = kind[:n_p]
+    sizes = np.zeros(n_p)
+    for q in range(piece_of.size):
+        sizes[piece_of[q]] += 1.0
+    sums = np.empty(n_p, np.complex128)
+    _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
+    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
+    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
+        r[i] = r[i] - dc0
+    # the decoder at the start found: gain and offset from the preamble, correlation, decisions
+    lag = int(math.floor(start_rel))
+    frac = start_rel - lag
+    i0 = lo + lag
+    corr, h, dcp = _preamble_fit(r[i0: i0 + ip[IP_N_PRE]], frac, pre_el, ratio)
+    res[RES_CORR] = corr
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    det_bits = np.empty(n_bits + 1, np.uint8)
+    s_sum = np.empty(nh, np.complex128)
+    s_count = np.empty(nh)
+    _halfbit_sums(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
+    if corr < fp[FP_THRESHOLD]:
+        res[RES_STATUS] = NOT_FOUND
+        return
+    # (h, c) on the known levels of the reference of the search's decisions
+    t0_samples = start / fs * fs
+    el = np.empty(nh * m)
+    full = np.empty(n)
+    elements_kernel(det_bits[:n_bits], True, m, pre_levels, state, el)
+    waveform_kernel(el, t0_samples, ratio, full)
+    h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
+    if not fitted:
+        res[RES_STATUS] = CONSTANT_REFERENCE
+        return
+    res[RES_C_RE], res[RES_C_IM] = c.real, c.imag
+    # the final decisions on r − c with h given: the half-bit sums of r − c are S_j − c·C_j
+    n_span = min(ip[IP_N_REPLY] + 4, n - i0)
+    res[RES_I0], res[RES_N_SPAN] = i0, n_span
+    if not (0.0 <= start_rel - lag <= n_span - n_decode):
+        res[RES_STATUS] = NO_ROOM
+        return
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    for j in range(nh):
+        s_sum[j] -= c * s_count[j]
+    _decide(s_sum, s_count, 1.0 / h, 0.0, m > 1, n_pre_half, state, bits_out)
+    same = True
+    for i in range(n_bits):
+        same = same and bits_out[i] == det_bits[i]
+    if not same:
+        elements_kernel(bits_out[:n_bits], True, m, pre_levels, state, el)
+        waveform_kernel(el, t0_samples, ratio, full)
+    for i in range(n_span):
+        s_out[i] = full[i0 + i]
+    n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
+                                  ip[IP_N_BLOCKS], ki, wi, fi)
+    for i in range(n_span):
+        z_out[i] = r[i0 + i] - c
+    res[RES_N_FREE] = n_free
     res[RES_N_USED] = n_used
     res[RES_STATUS] = OK

@@ -67,19 +67,37 @@ Step by step (the steps of :meth:`Reader.receive`):
    ``rx_model = "statistic"`` needs ``blf_search = "off"``).
 
 Noise stream: the air adds no noise to a statistic-level reader's input (its
-:meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator,
-spawned from the reader's ``rng`` when the reader is made, in the order of its ``receive``
-calls, so a run is reproducible from its seed, but its records differ from the sample-level
-model draw by draw (the same distribution).
+:meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator
+(a PCG64 one), spawned from the reader's ``rng`` when the reader is made, in the order of its
+``receive`` calls, so a run is reproducible from its seed, but its records differ from the
+sample-level model draw by draw (the same distribution). Per call the draws are, in order: the
+search block's (one (2, k) block of standard normals), the pieces' sums (one (2, n_pieces)
+block), the bridges' (one (2, 2·cuts) block, when a block edge cuts a piece), the Gamma of
+step 6.
+
+Implementation: steps 1–4 run in one numba call
+(:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
+normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
+the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
+template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
+them: Re(g·S_j) − Re(dc·g)·C_j), and fits, cuts and bridges as above. The measurement is the
+reader's kernel (a second call); Python builds the :class:`ReadResult`. What depends only on
+the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
+is kept by content (:func:`_plan`). The NumPy twin of the steps (the sample-level decoder's
+calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
+the same draws, decisions and generator state, the measurements equal up to the order of
+the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
 320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-(the sample-level decoder and measurement on ``x + ñ``, the piece map, the spread, the block
-cuts) and calls the decoder twice; on the canonical exchange these cost more than the normals
-saved (``rfsim bench exchange-statistic``), so this model is an equivalent draw of the same
-receiver, not a faster one. A faster one would form the half-bit, block and fit sums of ``x``
-per piece without per-sample passes and replace the search block's per-sample draw by a draw of
-the searched lags' correlations (conditionally Gaussian given the integer-lag ones).
+over ``x + ñ`` (the piece map and spread, the half-bit sums, the reference and its known levels,
+the block cuts, the reader's measurement) and the decoder's search with its sub-sample
+refinement (5 candidates × 17 shifts × the preamble's samples); on the canonical exchange a call
+costs about what the sample-level receiver's does (``rfsim bench exchange-statistic``). A
+receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
+piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
+draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag
+ones).
 """
 
 from __future__ import annotations

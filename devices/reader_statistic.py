@@ -325,6 +325,20 @@ _RAISES = {2: "zero channel gain: no reply to decode",
            4: "the decoded start leaves no room for the reply"}
 
 
+def _complete(meas: dict, n_free: int, n_used: int, sigma2: float, carrier, rng: np.random.Generator) -> None:
+    """Step 6 on the measurement ``meas`` (the reader's dict, in place): the in-piece noise energy
+    (:func:`residual_correction`, ``n_free`` degrees of freedom over ``n_used`` samples) added to
+    the residual behind its SNR and Eb/N0; then the phase referred to ``carrier``."""
+    if math.isfinite(meas["snr_db"]) and n_used > 0:
+        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
+        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + residual_correction(n_free, sigma2, n_used, rng=rng)
+        snr = 10.0 * math.log10(p / s2)
+        meas["ebn0_db"] += snr - meas["snr_db"]
+        meas["snr_db"] = snr
+    if carrier is not None and complex(carrier) != 0:
+        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+
+
 def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
             blf_hz: float | None = None, carrier: complex | None = None,
             rng: np.random.Generator) -> ReadResult:
@@ -406,16 +420,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
     bits, n_span = bits[:n_bits], int(res[_sk.RES_N_SPAN])
     meas = reader._measure(z[:n_span], s[:n_span], blf)
-    n_used = int(res[_sk.RES_N_USED])
-    if math.isfinite(meas["snr_db"]) and n_used > 0:  # step 6
-        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
-        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + residual_correction(int(res[_sk.RES_N_FREE]), sigma2, n_used,
-                                                                       rng=rng)
-        snr = 10.0 * math.log10(p / s2)
-        meas["ebn0_db"] += snr - meas["snr_db"]
-        meas["snr_db"] = snr
-    if carrier is not None and complex(carrier) != 0:
-        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+    _complete(meas, int(res[_sk.RES_N_FREE]), int(res[_sk.RES_N_USED]), sigma2, carrier, rng)
     ok = (not expect_crc) or crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)

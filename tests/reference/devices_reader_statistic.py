@@ -11,7 +11,6 @@ import numpy as np
 
 import math
 
-from rfsim.core.units import wrap_phase_rad
 from rfsim.devices import _reader_statistic_kernels as sk
 from rfsim.devices import reader_statistic as rs
 from rfsim.devices.reader_measure import ReadResult, known_levels
@@ -103,55 +102,11 @@ def _noise_fill(x: np.ndarray, lo: int, b1: int, sigma2_w: float, rng: np.random
 def receive_reference(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
                       blf_hz: float | None = None, carrier: complex | None = None,
                       rng: np.random.Generator) -> ReadResult:
-    """Twin of :func:`rfsim.devices.reader_statistic.receive`: the same steps as NumPy calls of
-    the sample-level decoder, the same draws in the same order.
-
-    :meth:`rfsim.devices.reader.Reader.receive` at statistic level (module docstring, steps
-    1–6; the BLF search is not modelled).
-
-    Parameters
-    ----------
-    reader : rfsim.devices.reader.Reader
-        The reader (its link, sample rate, noise figure, thresholds and reference/measurement
-        steps).
-    x : ndarray of complex, shape (n,)
-        The noise-free waveform at the RX port [√W].
-    t0_s : float
-        Keyword-only (like the others): absolute time of ``x[0]`` [s].
-    n_bits : int
-        Data bits of the reply.
-    expect_crc : bool
-        Check the last 16 bits as CRC-16 over the reply.
-    cmd_end_s : float or None, optional
-        End of the command [s] (the search window as in :meth:`Reader.receive`); default
-        None, anywhere.
-    blf_hz : float or None, optional
-        The tag's BLF [Hz]; default None, the profile's nominal BLF.
-    carrier : complex or None, optional
-        The reader's transmitted baseband during the reply window, the phase reference;
-        default None (phase 0).
-    rng : numpy.random.Generator
-        The receiver's noise generator.
-
-    Returns
-    -------
-    ReadResult
-        As :meth:`Reader.receive` (failure reasons "preamble not found" or "crc error").
-
-    Raises
-    ------
-    ValueError
-        When ``x`` is not 1-D or ``blf_hz`` is not positive.
-    """
-    x = np.ascontiguousarray(x, dtype=np.complex128)
-    if x.ndim != 1:
-        raise ValueError(f"rx must be 1-D, got shape {x.shape}")
-    n_bits = int(n_bits)
-    lk, fs = reader.link, reader.fs_hz
-    sigma2 = reader._fixed().noise_w  # k·T0·fs·F, the sample-level model's noise power
+    """Twin of :func:`rfsim.devices.reader_statistic.receive` (its parameters and result): the
+    same steps as NumPy calls of the sample-level decoder, the same draws in the same order."""
+    x = np.ascontiguousarray(x, dtype=np.complex128)  # valid arguments only (the checks are the receiver's)
+    n_bits, lk, fs, sigma2 = int(n_bits), reader.link, reader.fs_hz, reader._fixed().noise_w
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
-    if not blf > 0:
-        raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
     pre_n = reader.preamble_samples(blf)
     n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
     lo, hi = reader.reply_start_lags(x.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
@@ -190,14 +145,7 @@ def receive_reference(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, 
     s = ref[i0: i0 + n_reply + 4]
     n_free, n_used = _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng)
     meas = reader._measure(r[i0: i0 + s.size] - c, s, blf)
-    if math.isfinite(meas["snr_db"]) and n_used > 0:
-        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
-        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + rs.residual_correction(n_free, sigma2, n_used, rng=rng)
-        snr = 10.0 * math.log10(p / s2)
-        meas["ebn0_db"] += snr - meas["snr_db"]
-        meas["snr_db"] = snr
-    if carrier is not None and complex(carrier) != 0:
-        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+    rs._complete(meas, n_free, n_used, sigma2, carrier, rng)  # step 6 and the phase reference: shared
     ok = (not expect_crc) or crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=det.corr, **meas)

@@ -104,37 +104,33 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
     last = n - 1
     while s[last] == 0.0:
         last -= 1
+    steady = np.empty(max(last - first - 1, 0), np.int64)  # the used samples, in order
     m = 0
     for i in range(first + 1, last):
+        steady[m] = i
         m += (s[i] == s[i - 1]) & (s[i] == s[i + 1])
     n_cuts = 0
-    count = 0
-    k = 1
-    target = m // n_blocks if m > 0 else -1
-    for i in range(first + 1, last):
-        if not ((s[i] == s[i - 1]) & (s[i] == s[i + 1])):
+    for k in range(1, n_blocks):
+        target = k * m // n_blocks
+        if m == 0 or target >= m:
             continue
-        while k < n_blocks and count == target:
-            e = i0 + i - b1
-            if e >= 0 and kind[piece_of[e]] == STEADY:
-                p = piece_of[e]
-                before = 0
-                after = 0
-                for q in range(max(0, e - reach), min(piece_of.size, e + reach)):
-                    if piece_of[q] == p:
-                        if q < e:
-                            before += 1
-                        else:
-                            after += 1
-                if before > 0 and after > 0:
-                    cut_piece[n_cuts] = p
-                    cut_edge[n_cuts] = e
-                    cut_before[n_cuts] = before
-                    cut_after[n_cuts] = after
-                    n_cuts += 1
-            k += 1
-            target = k * m // n_blocks
-        count += 1
+        e = i0 + steady[target] - b1  # block k starts at its target-th used sample
+        if e >= 0 and kind[piece_of[e]] == STEADY:
+            p = piece_of[e]
+            before = 0
+            after = 0
+            for q in range(max(0, e - reach), min(piece_of.size, e + reach)):
+                if piece_of[q] == p:
+                    if q < e:
+                        before += 1
+                    else:
+                        after += 1
+            if before > 0 and after > 0:
+                cut_piece[n_cuts] = p
+                cut_edge[n_cuts] = e
+                cut_before[n_cuts] = before
+                cut_after[n_cuts] = after
+                n_cuts += 1
     return m, n_cuts
 
 
@@ -216,17 +212,30 @@ def _halfbit_sums(part, start, ratio, m, s_sum, s_count):
     s_sum[:] = 0j
     s_count[:] = 0.0
     nh = s_sum.size
+    j = 0
+    nxt = m  # first element of half-bit j + 1
+    acc = 0j
+    cnt = 0.0
     for n in range(max(0, int(math.ceil(start))), part.size):
         u = (n - start) * ratio
         if u < 0.0:
             continue
         k = int(math.floor(u + INDEX_EPS))
-        j = k // m
-        if j >= nh:
-            return
+        if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
+            s_sum[j] = acc
+            s_count[j] = cnt
+            acc = 0j
+            cnt = 0.0
+            j = k // m
+            nxt = (j + 1) * m
+            if j >= nh:
+                return
         sg = float(element_sign(k, m))
-        s_sum[j] += sg * part[n]
-        s_count[j] += sg
+        acc += sg * part[n]
+        cnt += sg
+    if j < nh:
+        s_sum[j] = acc
+        s_count[j] = cnt
 
 
 @njit

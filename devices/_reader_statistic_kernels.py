@@ -1,6 +1,8 @@
-"""numba kernel of the statistic-level receiver (wrapped and documented in
-:mod:`rfsim.devices.reader_statistic`; the plain-NumPy twin is
-:func:`reference.devices_reader_statistic.piece_map_reference` in the tests)."""
+"""numba kernels of the statistic-level receiver (wrapped and documented in
+:mod:`rfsim.devices.reader_statistic`; the plain-NumPy twins are in
+``reference.devices_reader_statistic`` in the tests: :func:`piece_map_reference`,
+:func:`block_cuts_reference` and, for :func:`receive_kernel`, :func:`receive_reference`, the
+receiver's steps as NumPy calls of the sample-level decoder)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,10 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import INDEX_EPS, element_sign
+from rfsim.air._noise_kernels import _standard_normals
+from rfsim.devices._reader_kernels import known_levels_kernel
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
+                                          sampled_template, viterbi_kernel, waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -42,15 +47,22 @@ def piece_map_kernel(n, i_first, start, elements_per_sample, m, n_elements, piec
     cur_half = -1
     kp = _element(i_first - 1, start, elements_per_sample)
     k = _element(i_first, start, elements_per_sample)
+    k_seen = -3  # the element whose half-bit h and sign sg are held (they change only with k)
+    h = -1
+    sg = 1.0
     for i in range(i_first, n):
         kn = _element(i + 1, start, elements_per_sample) if i + 1 < n else -2
         q = i - i_first
-        h = k // m if 0 <= k < n_elements else -1
+        if k != k_seen:
+            k_seen = k
+            inside = 0 <= k < n_elements
+            h = k // m if inside else -1
+            sg = float(element_sign(k, m)) if inside else 1.0
         if h != cur_half:
             cur_half = h
             cur[STEADY] = -1
             cur[INNER_EDGE] = -1
-        sign[q] = float(element_sign(k, m)) if 0 <= k < n_elements else 1.0
+        sign[q] = sg
         if k >= n_elements:
             cls = REST if (kp >= n_elements and kn >= n_elements) else SINGLE
         elif k >= 0 and kp == k and kn == k:
@@ -92,46 +104,45 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
     last = n - 1
     while s[last] == 0.0:
         last -= 1
+    steady = np.empty(max(last - first - 1, 0), np.int64)  # the used samples, in order
     m = 0
     for i in range(first + 1, last):
+        steady[m] = i
         m += (s[i] == s[i - 1]) & (s[i] == s[i + 1])
     n_cuts = 0
-    count = 0
-    k = 1
-    target = m // n_blocks if m > 0 else -1
-    for i in range(first + 1, last):
-        if not ((s[i] == s[i - 1]) & (s[i] == s[i + 1])):
+    for k in range(1, n_blocks):
+        target = k * m // n_blocks
+        if m == 0 or target >= m:
             continue
-        while k < n_blocks and count == target:
-            e = i0 + i - b1
-            if e >= 0 and kind[piece_of[e]] == STEADY:
-                p = piece_of[e]
-                before = 0
-                after = 0
-                for q in range(max(0, e - reach), min(piece_of.size, e + reach)):
-                    if piece_of[q] == p:
-                        if q < e:
-                            before += 1
-                        else:
-                            after += 1
-                if before > 0 and after > 0:
-                    cut_piece[n_cuts] = p
-                    cut_edge[n_cuts] = e
-                    cut_before[n_cuts] = before
-                    cut_after[n_cuts] = after
-                    n_cuts += 1
-            k += 1
-            target = k * m // n_blocks
-        count += 1
+        e = i0 + steady[target] - b1  # block k starts at its target-th used sample
+        if e >= 0 and kind[piece_of[e]] == STEADY:
+            p = piece_of[e]
+            before = 0
+            after = 0
+            for q in range(max(0, e - reach), min(piece_of.size, e + reach)):
+                if piece_of[q] == p:
+                    if q < e:
+                        before += 1
+                    else:
+                        after += 1
+            if before > 0 and after > 0:
+                cut_piece[n_cuts] = p
+                cut_edge[n_cuts] = e
+                cut_before[n_cuts] = before
+                cut_after[n_cuts] = after
+                n_cuts += 1
     return m, n_cuts
 
 
 @njit
 def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
-    """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place)."""
+    """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
+    each piece's mean sums[p]/sizes[p] formed once)."""
+    mean = np.empty(sums.size, np.complex128)
+    for p in range(sums.size):
+        mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        p = piece_of[q]
-        r[b1 + q] += sign[q] * (sums[p] / sizes[p])
+        r[b1 + q] += sign[q] * mean[piece_of[q]]
 
 
 @njit
@@ -156,3 +167,296 @@ def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, r
             if piece_of[q] == p:
                 part = part_a[c] / n_a if q < e else part_b[c] / n_b
                 r[b1 + q] += sign[q] * (part - mean)
+
+
+#: Slots of the integer parameters ``ip`` of :func:`receive_kernel`.
+(IP_LO, IP_B0, IP_B1, IP_HEAD, IP_N_SEARCH, IP_HALF_WIDTH, IP_N_CANDIDATES, IP_STATE, IP_M, IP_N_PRE, IP_NH,
+ IP_N_BITS, IP_N_ELEMENTS, IP_N_REPLY, IP_N_DECODE, IP_N_PRE_ELEMENTS, IP_N_BLOCKS) = range(17)
+#: Slots of the float parameters ``fp`` of :func:`receive_kernel`.
+FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
+#: Slots of the results ``res`` of :func:`receive_kernel`.
+(RES_STATUS, RES_START, RES_CORR, RES_C_RE, RES_C_IM, RES_I0, RES_N_FREE, RES_N_USED, RES_N_SPAN) = range(9)
+#: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
+OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
+
+
+@njit
+def _draw_sums(st, sizes, sigma2, out, ki, wi, fi):
+    """Piece sums P_p ~ CN(0, σ²·|p|) into ``out`` as :func:`rfsim.devices.reader_statistic.draw_piece_sums`
+    draws them: a (2, k) standard-normal block (the real parts, then the imaginary parts, in
+    order, from the PCG64 state ``st``), each part times √(σ²·|p|/2)."""
+    k = sizes.size
+    z = np.empty(2 * k)
+    _standard_normals(st, z, ki, wi, fi)
+    for p in range(k):
+        scale = math.sqrt(0.5 * sigma2 * sizes[p])
+        out[p] = complex(scale * z[p], scale * z[k + p])
+
+
+@njit
+def _mean(r, n):
+    """Σ r[:n] / n (0 when n = 0)."""
+    acc = 0j
+    for i in range(n):
+        acc += r[i]
+    return acc / n if n > 0 else 0j
+
+
+@njit
+def _halfbit_sums(part, start, ratio, m, s_sum, s_count):
+    """The half-bit sums of the decoder (:func:`rfsim.gen2._linecode_kernels.projected_halfbit_sums_kernel`)
+    before the projection: per half-bit j, S_j = Σ σ_n·part[n] (complex) and C_j = Σ σ_n over
+    the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
+    subcarrier sign of k. The decoder's sums of Re((part − dc)·g) are then Re(g·S_j) − Re(dc·g)·C_j
+    for any gain and offset (the same value up to the order of the operations)."""
+    s_sum[:] = 0j
+    s_count[:] = 0.0
+    nh = s_sum.size
+    j = 0
+    nxt = m  # first element of half-bit j + 1
+    acc = 0j
+    cnt = 0.0
+    for n in range(max(0, int(math.ceil(start))), part.size):
+        u = (n - start) * ratio
+        if u < 0.0:
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
+            s_sum[j] = acc
+            s_count[j] = cnt
+            acc = 0j
+            cnt = 0.0
+            j = k // m
+            nxt = (j + 1) * m
+            if j >= nh:
+                return
+        sg = float(element_sign(k, m))
+        acc += sg * part[n]
+        cnt += sg
+    if j < nh:
+        s_sum[j] = acc
+        s_count[j] = cnt
+
+
+@njit
+def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
+    """Viterbi decisions (:func:`rfsim.gen2._linecode_kernels.viterbi_kernel`, the last bit the
+    dummy 1) on the projected half-bit sums Re(g·S_j) − dc_re·C_j of the data half-bits into
+    ``out`` ((n_bits + 1,) uint8)."""
+    n = out.size
+    a = np.empty(n)
+    b = np.empty(n)
+    for i in range(n):
+        j = n_pre_half + 2 * i
+        a[i] = (g * s_sum[j]).real - dc_re * s_count[j]
+        b[i] = (g * s_sum[j + 1]).real - dc_re * s_count[j + 1]
+    viterbi_kernel(a, b, miller, state, True, out)
+
+
+@njit
+def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
+    """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
+    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
+    then the decoder's preamble search over the block less the mean of ``r[:lo]``. Returns
+    (that mean, the reply start relative to ``lo`` [samples])."""
+    lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
+    sizes0 = np.ones(head + b1 - b0)
+    if head == 2:
+        sizes0[1] = b0 - 1
+    p0 = np.empty(sizes0.size, np.complex128)
+    _draw_sums(st, sizes0, fp[FP_SIGMA2], p0, ki, wi, fi)
+    if head > 0:
+        r[0] += p0[0]
+    if head == 2:
+        share = p0[1] / (b0 - 1)
+        for i in range(1, b0):
+            r[i] += share
+    for i in range(b0, b1):
+        r[i] += p0[head + i - b0]
+    dc0 = _mean(r, lo) if lo >= 8 else 0j
+    w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
+    for i in range(lo, b1):
+        w[i - lo] = r[i] - dc0
+    lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
+                                                  ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
+    return dc0, (float(lag) if best < 0 else start_rel)
+
+
+@njit
+def _preamble_fit(seg, frac, pre_el, ratio):
+    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
+    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
+    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
+    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
+    n_pre = seg.size
+    tpl = np.empty(n_pre)
+    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
+    e_t = 0.0
+    peak = 0j
+    seg_sum = 0j
+    for i in range(n_pre):
+        a = tpl[i] - tpl_mean
+        e_t += a * a
+        peak += seg[i] * a
+        seg_sum += seg[i]
+    seg_mean = seg_sum / n_pre
+    e_seg = 0.0
+    for i in range(n_pre):
+        d = seg[i] - seg_mean
+        e_seg += d.real * d.real + d.imag * d.imag
+    h = peak / e_t
+    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
+
+
+@njit
+def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
+    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
+    (:func:`rfsim.devices._reader_kernels.known_levels_kernel`; the 2×2 normal equations of
+    :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
+    constant (no fit)."""
+    r_k = np.empty(r.size, np.complex128)
+    lev = np.empty(r.size)
+    mk = known_levels_kernel(r, full, t0_samples, ratio, n_pre_elements, r_k, lev)
+    ss = s1 = 0.0
+    rs = r1 = 0j
+    for i in range(mk):
+        ss += lev[i] * lev[i]
+        s1 += lev[i]
+        rs += r_k[i] * lev[i]
+        r1 += r_k[i]
+    det = ss * mk - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * mk, 1e-300):
+        return 0j, 0j, False
+    return (mk * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
+
+
+@njit
+def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, ki, wi, fi):
+    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+    (:func:`block_cuts_kernel`, ``s`` the reference from sample ``i0``) split by a Gaussian
+    bridge (one (2, 2·cuts) normal block) and spread again (:func:`apply_cuts_kernel`). Returns
+    (Σ(|p| − 1) over the steady pieces less one per cut, the samples the measurement reads)."""
+    n_free = 0.0
+    biggest = 0.0
+    for p in range(kind.size):
+        if kind[p] == STEADY:
+            n_free += sizes[p] - 1.0
+            biggest = max(biggest, sizes[p])
+    reach = int(biggest) * 8 + 8  # a steady piece lies within one half-bit: ≤ 8× its steady samples (+ 8)
+    k = n_blocks - 1
+    piece = np.empty(k, np.int64)
+    edge = np.empty(k, np.int64)
+    n_a = np.empty(k, np.int64)
+    n_b = np.empty(k, np.int64)
+    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, piece, edge, n_a, n_b)
+    if n_cuts > 0:
+        ab_sizes = np.empty(2 * n_cuts)
+        for j in range(n_cuts):
+            ab_sizes[j] = n_a[j]
+            ab_sizes[n_cuts + j] = n_b[j]
+        ab = np.empty(2 * n_cuts, np.complex128)
+        _draw_sums(st, ab_sizes, sigma2, ab, ki, wi, fi)
+        part_a = np.empty(n_cuts, np.complex128)
+        part_b = np.empty(n_cuts, np.complex128)
+        for j in range(n_cuts):
+            tot = float(n_a[j] + n_b[j])
+            miss = sums[piece[j]] - ab[j] - ab[n_cuts + j]
+            part_a[j] = ab[j] + miss * (n_a[j] / tot)
+            part_b[j] = ab[n_cuts + j] + miss * (n_b[j] / tot)
+        apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
+    return n_free - n_cuts, n_used
+
+
+@njit
+def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
+                   ki, wi, fi):
+    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
+    in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
+    in the order of the NumPy steps.
+
+    ``r`` (n,) complex: the noise-free input on entry; on return the receiver's input after the
+    DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
+    ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
+    template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
+    elements and half-bit levels. Writes the decoded bits into ``bits_out`` ((n_bits + 1,) uint8),
+    the reply span r − c and its ±1 reference (0 outside the reply) into ``z_out``, ``s_out``
+    ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used) for the measurement, and the status, the
+    reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom
+    and the measurement's sample count into ``res`` (slots ``RES_*``)."""
+    lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
+    n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
+    sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
+    n = r.size
+    n_pre_half = nh - 2 * (n_bits + 1)
+    dc0, start_rel = _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi)
+    start = lo + start_rel
+    res[RES_START] = start_rel
+    # step 3: the pieces after the block, spread, the DC subtraction again
+    piece_of = np.empty(max(n - b1, 0), np.int64)
+    sign = np.empty(piece_of.size)
+    kind = np.empty(piece_of.size, np.int64)
+    n_p = piece_map_kernel(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], piece_of, sign, kind)
+    kind = kind[:n_p]
+    sizes = np.zeros(n_p)
+    for q in range(piece_of.size):
+        sizes[piece_of[q]] += 1.0
+    sums = np.empty(n_p, np.complex128)
+    _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
+    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
+    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
+        r[i] = r[i] - dc0
+    # the decoder at the start found: gain and offset from the preamble, correlation, decisions
+    lag = int(math.floor(start_rel))
+    frac = start_rel - lag
+    i0 = lo + lag
+    corr, h, dcp = _preamble_fit(r[i0: i0 + ip[IP_N_PRE]], frac, pre_el, ratio)
+    res[RES_CORR] = corr
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    det_bits = np.empty(n_bits + 1, np.uint8)
+    s_sum = np.empty(nh, np.complex128)
+    s_count = np.empty(nh)
+    _halfbit_sums(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
+    if corr < fp[FP_THRESHOLD]:
+        res[RES_STATUS] = NOT_FOUND
+        return
+    # (h, c) on the known levels of the reference of the search's decisions
+    t0_samples = start / fs * fs
+    el = np.empty(nh * m)
+    full = np.empty(n)
+    elements_kernel(det_bits[:n_bits], True, m, pre_levels, state, el)
+    waveform_kernel(el, t0_samples, ratio, full)
+    h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
+    if not fitted:
+        res[RES_STATUS] = CONSTANT_REFERENCE
+        return
+    res[RES_C_RE], res[RES_C_IM] = c.real, c.imag
+    # the final decisions on r − c with h given: the half-bit sums of r − c are S_j − c·C_j
+    n_span = min(ip[IP_N_REPLY] + 4, n - i0)
+    res[RES_I0], res[RES_N_SPAN] = i0, n_span
+    if not (0.0 <= start_rel - lag <= n_span - n_decode):
+        res[RES_STATUS] = NO_ROOM
+        return
+    if h == 0:
+        res[RES_STATUS] = ZERO_GAIN
+        return
+    for j in range(nh):
+        s_sum[j] -= c * s_count[j]
+    _decide(s_sum, s_count, 1.0 / h, 0.0, m > 1, n_pre_half, state, bits_out)
+    same = True
+    for i in range(n_bits):
+        same = same and bits_out[i] == det_bits[i]
+    if not same:
+        elements_kernel(bits_out[:n_bits], True, m, pre_levels, state, el)
+        waveform_kernel(el, t0_samples, ratio, full)
+    for i in range(n_span):
+        s_out[i] = full[i0 + i]
+    n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
+                                  ip[IP_N_BLOCKS], ki, wi, fi)
+    for i in range(n_span):
+        z_out[i] = r[i0 + i] - c
+    res[RES_N_FREE] = n_free
+    res[RES_N_USED] = n_used
+    res[RES_STATUS] = OK

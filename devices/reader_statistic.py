@@ -67,35 +67,57 @@ Step by step (the steps of :meth:`Reader.receive`):
    ``rx_model = "statistic"`` needs ``blf_search = "off"``).
 
 Noise stream: the air adds no noise to a statistic-level reader's input (its
-:meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator,
-spawned from the reader's ``rng`` when the reader is made, in the order of its ``receive``
-calls, so a run is reproducible from its seed, but its records differ from the sample-level
-model draw by draw (the same distribution).
+:meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator
+(a PCG64 one), spawned from the reader's ``rng`` when the reader is made, in the order of its
+``receive`` calls, so a run is reproducible from its seed, but its records differ from the
+sample-level model draw by draw (the same distribution). Per call the draws are, in order: the
+search block's (one (2, k) block of standard normals), the pieces' sums (one (2, n_pieces)
+block), the bridges' (one (2, 2·cuts) block, when a block edge cuts a piece), the Gamma of
+step 6.
+
+Implementation: steps 1–4 run in one numba call
+(:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
+normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
+the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
+template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
+them: Re(g·S_j) − Re(dc·g)·C_j), and fits, cuts and bridges as above. The measurement is the
+reader's kernel (a second call); Python builds the :class:`ReadResult`. What depends only on
+the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
+is kept by content (:func:`_plan`). The NumPy twin of the steps (the sample-level decoder's
+calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
+the same draws, decisions and generator state, the measurements equal up to the order of
+the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
 320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-(the sample-level decoder and measurement on ``x + ñ``, the piece map, the spread, the block
-cuts) and calls the decoder twice; on the canonical exchange these cost more than the normals
-saved (``rfsim bench exchange-statistic``), so this model is an equivalent draw of the same
-receiver, not a faster one. A faster one would form the half-bit, block and fit sums of ``x``
-per piece without per-sample passes and replace the search block's per-sample draw by a draw of
-the searched lags' correlations (conditionally Gaussian given the integer-lag ones).
+over ``x + ñ`` (the piece map and spread, the half-bit sums, the reference and its known levels,
+the block cuts, the reader's measurement) and the decoder's search with its sub-sample
+refinement (5 candidates × 17 shifts × the preamble's samples); on the canonical exchange a call
+costs about what the sample-level receiver's does (``rfsim bench exchange-statistic``). A
+receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
+piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
+draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag
+ones).
 """
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
 from rfsim.core.units import wrap_phase_rad
-from rfsim.gen2.capture import fit_gain_offset
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.linecode import decode_bits, decode_reply, preamble_levels, reply_duration_s
-from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult, known_levels
+# the decoder's own preamble, search template and refinement bank (the same search)
+from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _template,
+                                 elements_of_levels, reply_duration_s)
+from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult
 
 _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
+_nk = lazy_import("rfsim.air._noise_kernels")  # NumPy's normals drawn in a kernel from a PCG64 state
 
 __all__ = ["RX_MODELS", "SEARCH_MARGIN", "piece_map", "draw_piece_sums", "spread", "bridge_split",
            "block_cuts", "residual_correction", "receive"]
@@ -257,23 +279,64 @@ def residual_correction(n_free: int, sigma2_w: float, n_used: int, *, rng: np.ra
     return float(sigma2_w) * float(rng.gamma(float(n_free))) / int(n_used)
 
 
-def _noise_fill(x: np.ndarray, lo: int, b1: int, sigma2_w: float, rng: np.random.Generator) -> np.ndarray:
-    """``x`` plus the noise of the stretch before the search block (two pieces: sample 0 and
-    samples 1 … b0 − 1) and of the search block b0 … b1 − 1 drawn per sample; samples from b1 on
-    noise-free (drawn later, once the reply's start is known). Returns the new array."""
-    b0 = max(0, lo - SEARCH_MARGIN)
-    head = min(b0, 2)  # pieces before the block: {0} and 1 … b0 − 1
-    sizes = np.ones(head + b1 - b0)
-    if head == 2:
-        sizes[1] = b0 - 1
-    p = draw_piece_sums(sizes, sigma2_w, rng=rng)
-    r = x.copy()
-    if head:
-        r[:1] += p[0]
-    if head == 2:
-        r[1:b0] += p[1] / (b0 - 1)
-    r[b0:b1] += p[head:]
-    return r
+class _Plan(NamedTuple):
+    """What :func:`receive` derives from the link, the reply's bits, the BLF and the sample rate
+    before it looks at a sample (:func:`_plan`)."""
+
+    pre_n: int  # samples fully inside the preamble, as the detector correlates
+    n_reply: int  # samples of the whole reply, ⌈duration·fs⌉
+    n_decode: int  # the decoder's own reply length, ⌈elements/ratio⌉
+    n_pre_elements: int
+    n_elements: int
+    ratio: float  # elements per sample, 2·BLF/fs
+    ints: np.ndarray  # the plan's slots of receive_kernel's ``ip``
+    arrays: tuple  # t0, shifts, templates, norms, preamble elements (float64), preamble levels (int8)
+
+
+@functools.lru_cache(maxsize=64)
+def _plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
+    """The :class:`_Plan` of a reply (a pure function of its hashable arguments, cached: the
+    same few replies are received round after round)."""
+    ratio = 2.0 * blf_hz / fs_hz
+    levels, state = _preamble(m, trext)
+    n_pre_el = levels.size * m
+    n_el = n_pre_el + 2 * m * (n_bits + 1)
+    nh = levels.size + 2 * (n_bits + 1)
+    pre_n = int(math.floor(n_pre_el / ratio))
+    n_decode = int(math.ceil(n_el / ratio))
+    n_reply = int(math.ceil(reply_duration_s(n_bits, m=m, trext=trext, blf_hz=blf_hz) * fs_hz))
+    ints = np.zeros(17, np.int64)
+    for slot, value in ((_sk.IP_HALF_WIDTH, int(math.ceil(m / ratio)) + 1), (_sk.IP_N_CANDIDATES, 5),
+                        (_sk.IP_STATE, state), (_sk.IP_M, m), (_sk.IP_N_PRE, pre_n), (_sk.IP_NH, nh),
+                        (_sk.IP_N_BITS, n_bits), (_sk.IP_N_ELEMENTS, n_el), (_sk.IP_N_REPLY, n_reply),
+                        (_sk.IP_N_DECODE, n_decode), (_sk.IP_N_PRE_ELEMENTS, n_pre_el),
+                        (_sk.IP_N_BLOCKS, DOPPLER_BLOCKS)):
+        ints[slot] = value
+    templates, norms = _refine_bank(m, trext, ratio)
+    arrays = tuple(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates, norms,
+                                         elements_of_levels(levels, m, np.float64)))
+    return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, (*arrays, np.array(levels, np.int8)))
+
+
+#: The ValueError of each failure status of the kernel (those the sample-level decoder raises).
+#: (status codes ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM of the kernel module)
+_RAISES = {2: "zero channel gain: no reply to decode",
+           3: "the reference s is constant: gain and offset cannot be separated",
+           4: "the decoded start leaves no room for the reply"}
+
+
+def _complete(meas: dict, n_free: int, n_used: int, sigma2: float, carrier, rng: np.random.Generator) -> None:
+    """Step 6 on the measurement ``meas`` (the reader's dict, in place): the in-piece noise energy
+    (:func:`residual_correction`, ``n_free`` degrees of freedom over ``n_used`` samples) added to
+    the residual behind its SNR and Eb/N0; then the phase referred to ``carrier``."""
+    if math.isfinite(meas["snr_db"]) and n_used > 0:
+        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
+        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + residual_correction(n_free, sigma2, n_used, rng=rng)
+        snr = 10.0 * math.log10(p / s2)
+        meas["ebn0_db"] += snr - meas["snr_db"]
+        meas["snr_db"] = snr
+    if carrier is not None and complex(carrier) != 0:
+        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
 
 
 def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
@@ -282,13 +345,15 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     """Receive ``x + n`` with the noise drawn as the statistics the receiver reads.
 
     :meth:`rfsim.devices.reader.Reader.receive` at statistic level (module docstring, steps
-    1–6; the BLF search is not modelled).
+    1–6; the BLF search is not modelled): steps 1–4 in one numba call
+    (:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`, which draws NumPy's normals
+    from ``rng``'s PCG64 state), the measurement in a second (the reader's), the Gamma draw of
+    step 6 from ``rng`` itself.
 
     Parameters
     ----------
     reader : rfsim.devices.reader.Reader
-        The reader (its link, sample rate, noise figure, thresholds and reference/measurement
-        steps).
+        The reader (its link, sample rate, noise figure, thresholds and measurement step).
     x : ndarray of complex, shape (n,)
         The noise-free waveform at the RX port [√W].
     t0_s : float
@@ -306,7 +371,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         The reader's transmitted baseband during the reply window, the phase reference;
         default None (phase 0).
     rng : numpy.random.Generator
-        The receiver's noise generator.
+        The receiver's noise generator (a PCG64 one).
 
     Returns
     -------
@@ -316,87 +381,49 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     Raises
     ------
     ValueError
-        When ``x`` is not 1-D or ``blf_hz`` is not positive.
+        When ``x`` is not 1-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
+        where the sample-level decoder raises (no room for the reply, a zero gain).
     """
-    x = np.ascontiguousarray(x, dtype=np.complex128)
-    if x.ndim != 1:
-        raise ValueError(f"rx must be 1-D, got shape {x.shape}")
+    r = np.array(x, dtype=np.complex128)  # a fresh copy: the kernel adds the noise in place
+    if r.ndim != 1:
+        raise ValueError(f"rx must be 1-D, got shape {r.shape}")
+    if type(rng) is not np.random.Generator or type(rng.bit_generator) is not np.random.PCG64:
+        raise ValueError(f"the statistic-level receiver draws from a PCG64 Generator, got {rng!r}")
     n_bits = int(n_bits)
     lk, fs = reader.link, reader.fs_hz
     sigma2 = reader._fixed().noise_w  # k·T0·fs·F, the sample-level model's noise power
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
     if not blf > 0:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
-    pre_n = reader.preamble_samples(blf)
-    n_reply = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs))
-    lo, hi = reader.reply_start_lags(x.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
-    if hi < lo or pre_n < 3:
+    plan = _plan(lk.m, bool(lk.trext), n_bits, blf, fs)
+    lo, hi = reader.reply_start_lags(r.size, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+    if hi < lo or plan.pre_n < 3:
         return ReadResult(False, None, "preamble not found")
-    ratio = 2.0 * blf / fs
-    n_pre_el = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m
-    n_el = n_pre_el + 2 * lk.m * (n_bits + 1)
-    # the decoder's own reply length and preamble samples (rfsim.gen2.linecode._plan)
-    n_dec = int(math.ceil(n_el / ratio))
-    last = min(x.size - lo - n_dec, hi - lo)
-    b1 = min(x.size, lo + last + int(math.floor(n_pre_el / ratio)) + SEARCH_MARGIN)
-    # step 1-2: the search block per sample, the reply start from it
-    r = _noise_fill(x, lo, b1, sigma2, rng)
-    r0 = r - (r[:lo].mean() if lo >= 8 else 0.0)
-    kw = dict(n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs, method=reader.config.decoder)
-    start_rel = decode_reply(r0[lo:], search_samples=hi - lo, **kw).start_sample
-    # step 3: the pieces after the search block, then the receiver's steps on x + ñ
-    start = lo + start_rel
-    piece_of, sign, kind = piece_map(x.size, b1, start, ratio, lk.m, n_el)
-    sizes = np.bincount(piece_of, minlength=kind.size)
-    sums = draw_piece_sums(sizes, sigma2, rng=rng)
-    _sk.spread_add_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64))
-    r = r - (r[:lo].mean() if lo >= 8 else 0.0)
-    det = decode_reply(r[lo:], start_sample=start_rel, **kw)
-    start_s = float(t0_s) + start / fs
-    if det.corr < reader.detection_threshold(hi - lo + 1, blf):
-        return ReadResult(False, None, "preamble not found", start_s=start_s, corr=det.corr)
-    full = reader._reference(det.bits, start, r.size, blf)
-    h, c = fit_gain_offset(*known_levels(r, full, start / fs * fs, ratio, n_pre_el))
-    i0 = lo + int(math.floor(start_rel))
-    bits = decode_bits(r[i0: i0 + n_reply + 4] - c, n_bits=n_bits, m=lk.m, trext=lk.trext, blf_hz=blf, fs_hz=fs,
-                       method=reader.config.decoder, start_sample=start_rel - (i0 - lo), gain=h).astype(np.uint8)
-    ref = full if bits.tobytes() == det.bits.tobytes() else reader._reference(bits, start, r.size, blf)
-    # steps 4 and 6: the measurement's block edges split steady pieces; the in-piece energy
-    s = ref[i0: i0 + n_reply + 4]
-    n_free, n_used = _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng)
-    meas = reader._measure(r[i0: i0 + s.size] - c, s, blf)
-    if math.isfinite(meas["snr_db"]) and n_used > 0:
-        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
-        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + residual_correction(n_free, sigma2, n_used, rng=rng)
-        snr = 10.0 * math.log10(p / s2)
-        meas["ebn0_db"] += snr - meas["snr_db"]
-        meas["snr_db"] = snr
-    if carrier is not None and complex(carrier) != 0:
-        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+    last = min(r.size - lo - plan.n_decode, hi - lo)
+    if last < 0:
+        raise ValueError(f"input of {r.size - lo} samples is shorter than the reply ({plan.n_decode} samples)")
+    b1 = min(r.size, lo + last + int(math.floor(plan.n_pre_elements / plan.ratio)) + SEARCH_MARGIN)
+    b0 = max(0, lo - SEARCH_MARGIN)
+    ip = plan.ints.copy()
+    ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = lo, b0, b1, min(b0, 2), last + plan.pre_n
+    fp = np.array([sigma2, plan.ratio, fs, reader.detection_threshold(hi - lo + 1, blf), _RUNS_PER_SAMPLE_MAX])
+    bits = np.zeros(n_bits + 1, np.uint8)
+    z, s, res = np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4), np.zeros(9)
+    full, st = _nk._pcg64_state(rng)
+    _nk._run_compiled(_sk.receive_kernel, st, r, ip, fp, *plan.arrays, bits, z, s, res)
+    _nk._set_pcg64_state(rng, full, st)
+    status, start_rel, corr = int(res[_sk.RES_STATUS]), float(res[_sk.RES_START]), float(res[_sk.RES_CORR])
+    if status in _RAISES:
+        raise ValueError(_RAISES[status])
+    start_s = float(t0_s) + (lo + start_rel) / fs
+    if status == _sk.NOT_FOUND:
+        return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
+    bits, n_span = bits[:n_bits], int(res[_sk.RES_N_SPAN])
+    meas = reader._measure(z[:n_span], s[:n_span], blf)
+    _complete(meas, int(res[_sk.RES_N_FREE]), int(res[_sk.RES_N_USED]), sigma2, carrier, rng)
     ok = (not expect_crc) or crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                      start_s=start_s, corr=det.corr, **meas)
-
-
-def _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng) -> tuple[int, int]:
-    """Steps 4 and 6 of the module docstring on ``r`` (in place): the steady pieces cut by the
-    measurement's block edges (:func:`block_cuts`) split by a bridge and spread again. Returns
-    (Σ(|p| − 1) over the steady pieces, all of which the measurement reads, less one per cut;
-    the number of samples the measurement reads)."""
-    is_steady = kind == _sk.STEADY
-    n_free = int(np.sum(sizes[is_steady] - 1))
-    reach = _reach(sizes, is_steady)
-    n_used, piece, edge, n_a, n_b = block_cuts(s, i0, b1, piece_of, kind, reach)
-    if piece.size:
-        a, b = bridge_split(sums[piece], n_a, n_b, sigma2, rng=rng)
-        _sk.apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes.astype(np.float64), piece, edge, reach, a, b)
-    return n_free - piece.size, n_used  # per cut: one more sum drawn, one fewer degree of freedom inside
-
-
-def _reach(sizes: np.ndarray, is_steady: np.ndarray) -> int:
-    """Samples around a block edge within which a steady piece's members lie: a steady piece
-    lies within one half-bit, whose samples are at most 8 times its steady ones (plus 8)."""
-    return int(np.max(sizes[is_steady], initial=0)) * 8 + 8
+                      start_s=start_s, corr=corr, **meas)
 
 
 def block_cuts(s: np.ndarray, i0: int, b1: int, piece_of: np.ndarray, kind: np.ndarray,

@@ -67,9 +67,10 @@ def test_the_shipped_plans_name_declared_kernels_with_types_they_read():
 
 
 def test_plans_file_round_trip(tmp_path):
-    plans = {"b": [kp.PlanEntry("m", "k", ("float64[::1]",))], "a": []}
+    plans = {"b": [kp.PlanEntry("m", "k", ("float64[::1]",), compile_s=1.25)], "a": []}
     kp.write_plans(plans, tmp_path / "p.json")
     assert kp.read_plans(tmp_path / "p.json") == plans
+    assert kp.read_plans(tmp_path / "p.json")["b"][0].compile_s == 1.25
     assert list(json.loads((tmp_path / "p.json").read_text())["plans"]) == ["a", "b"]
     assert kp.read_plans(tmp_path / "absent.json") == {}
     (tmp_path / "bad.json").write_text(json.dumps({"format": 99, "plans": {}}))
@@ -77,11 +78,14 @@ def test_plans_file_round_trip(tmp_path):
         kp.read_plans(tmp_path / "bad.json")
 
 
-def test_shares_keep_a_module_together_and_balance_the_rest():
-    items = [(kp.PlanEntry(m, f"k{i}", ()), None) for m, n in (("a", 3), ("b", 2), ("c", 1)) for i in range(n)]
+def test_shares_deal_the_longest_compilations_first_onto_the_least_loaded_share():
+    times = {"a": 7.0, "b": 3.0, "c": 3.0, "d": 2.0, "e": 1.0, "f": 0.0}
+    items = [(kp.PlanEntry("m", k, (), compile_s=t), None) for k, t in times.items()]
     out = kp.shares(items, 2)
-    modules = [sorted({e.module for e, _ in s}) for s in out]
-    assert sorted(modules) == [["a"], ["b", "c"]]
+    names = [[e.name for e, _ in share] for share in out]
+    # LPT: a(7) → 0; b(3) → 1; c(3) → 1 (3 < 7); d(2) → 0 (7 < 6? no: 1 holds 6) → 1 ... by hand:
+    # loads 0: a=7; 1: b+c=6, then d → 1 (6 < 7): 8; e(1) → 0: 8; f (no time: weighs 1) → 0 (8 ≤ 8): 9
+    assert names == [["a", "e", "f"], ["b", "c", "d"]]
     assert kp.shares(items, 1) == [items] and len(kp.shares(items[:1], 4)) == 1
 
 

@@ -13,8 +13,10 @@ has its cache index: nothing to do).
 
 The plans are package data (``kernel_plans.json`` beside this module), written by
 ``python -m rfsim.runs.kernel_plan SCENARIO ...``, which runs each scenario's default config in
-this process and records the signatures its kernels hold afterwards
-(:func:`rfsim.core._jit.compiled_signatures`). A signature is written as text, one argument type
+a process of its own and records the signatures its kernels hold afterwards
+(:func:`rfsim.core._jit.compiled_signatures`), then, in another new process with an empty cache,
+the CPU time each entry's compilation takes in the plan's order (:func:`compile_times`): the
+weights by which :func:`shares` deals the entries to the children, longest first. A signature is written as text, one argument type
 per item: a scalar by its numba name (``float64``, ``int64``, ``complex128``, ``bool``, ...), an
 array as ``float64[::1]`` (C-contiguous), ``float64[:]`` (any layout), ``float64[:, ::1]``
 (2-D, C-contiguous), prefixed ``readonly`` when numba saw a read-only array. A kernel with a
@@ -33,8 +35,8 @@ from pathlib import Path
 
 #: The plans file (package data): ``{"format": 1, "plans": {scenario: [entry, ...]}}``.
 PLANS_FILE = Path(__file__).with_name("kernel_plans.json")
-#: Version of the plans file's layout.
-PLANS_FORMAT = 1
+#: Version of the plans file's layout (2: each entry with its compile time [s]).
+PLANS_FORMAT = 2
 #: Child processes compiling at once at most (each holds ≈ 230 MB while it compiles).
 MAX_PROCESSES = 4
 #: numba scalar type names allowed in a plan (their numba ``str`` is the name, ``bool`` is
@@ -56,11 +58,15 @@ class PlanEntry:
         The kernel's qualified name in its module.
     signature : tuple of str
         Its argument types as text (module docstring).
+    compile_s : float, default 0.0
+        CPU time its compilation took when the plan was recorded [s] (its callees that an
+        earlier entry had not compiled included): the weight by which :func:`shares` deals it.
     """
 
     module: str
     name: str
     signature: tuple[str, ...]
+    compile_s: float = dataclasses.field(default=0.0, compare=False)
 
     def text(self) -> str:
         """Return the entry as one line of a plan: ``module:name(type, type, ...)``.
@@ -216,7 +222,8 @@ def read_plans(path: Path = PLANS_FILE) -> dict[str, list[PlanEntry]]:
     data = json.loads(path.read_text(encoding="utf-8"))
     if data.get("format") != PLANS_FORMAT:
         raise ValueError(f"{path.name}: format {data.get('format')!r}, expected {PLANS_FORMAT}")
-    return {name: [PlanEntry.parse(line) for line in lines] for name, lines in data["plans"].items()}
+    return {name: [dataclasses.replace(PlanEntry.parse(line), compile_s=float(seconds)) for line, seconds in rows]
+            for name, rows in data["plans"].items()}
 
 
 def write_plans(plans: dict[str, list[PlanEntry]], path: Path = PLANS_FILE) -> None:
@@ -229,7 +236,8 @@ def write_plans(plans: dict[str, list[PlanEntry]], path: Path = PLANS_FILE) -> N
     path : pathlib.Path, optional
         The plans file (default :data:`PLANS_FILE`).
     """
-    data = {"format": PLANS_FORMAT, "plans": {k: [e.text() for e in plans[k]] for k in sorted(plans)}}
+    data = {"format": PLANS_FORMAT,
+            "plans": {k: [[e.text(), round(e.compile_s, 2)] for e in plans[k]] for k in sorted(plans)}}
     path.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
 
 
@@ -284,9 +292,8 @@ def uncached(entries: Sequence[PlanEntry]) -> list[tuple[PlanEntry, object]]:
 
 
 def shares(items: Sequence, n: int) -> list[list]:
-    """Deal items to ``n`` shares, keeping the items of one module together (their kernels call
-    the same helpers, which a share then compiles once), largest module first onto the
-    smallest share.
+    """Deal items to ``n`` shares, longest compilation first onto the share with the least
+    compile time so far (the LPT rule; an entry without a recorded time weighs one second).
 
     Parameters
     ----------
@@ -298,15 +305,16 @@ def shares(items: Sequence, n: int) -> list[list]:
     Returns
     -------
     list of list
-        At most ``n`` non-empty shares.
+        At most ``n`` non-empty shares, each in the plan's order.
     """
-    groups: dict[str, list] = {}
-    for item in items:
-        groups.setdefault(item[0].module, []).append(item)
-    out: list[list] = [[] for _ in range(max(1, int(n)))]
-    for group in sorted(groups.values(), key=len, reverse=True):
-        min(out, key=len).extend(group)
-    return [s for s in out if s]
+    weight = [(e.compile_s if e.compile_s > 0 else 1.0) for e, _ in items]
+    out: list[list[int]] = [[] for _ in range(max(1, int(n)))]
+    load = [0.0] * len(out)
+    for i in sorted(range(len(items)), key=lambda i: -weight[i]):
+        k = min(range(len(out)), key=lambda k: load[k])
+        out[k].append(i)
+        load[k] += weight[i]
+    return [[items[i] for i in sorted(share)] for share in out if share]
 
 
 def _compile_share(share: list) -> Callable[[], None]:
@@ -412,9 +420,45 @@ def record(names: Sequence[str]) -> dict[str, list[PlanEntry]]:
     return plans
 
 
+def compile_times(entries: Sequence[PlanEntry]) -> list[PlanEntry]:
+    """Compile a plan's entries in its order here and return them with the CPU time each took.
+
+    Run it in a new process with an empty kernel cache (``NUMBA_CACHE_DIR`` a new folder):
+    an entry's time then includes its callees that no earlier entry compiled (and the first
+    entry the compiler's own start).
+
+    Parameters
+    ----------
+    entries : sequence of PlanEntry
+        The plan.
+
+    Returns
+    -------
+    list of PlanEntry
+        The entries with ``compile_s`` set (entries of kernels no longer declared left out).
+    """
+    import time
+
+    out = []
+    for entry in entries:
+        d = _kernel(entry)
+        if d is None:
+            continue
+        t0 = time.process_time()
+        d.compile(tuple(type_of_text(t) for t in entry.signature))
+        out.append(dataclasses.replace(entry, compile_s=time.process_time() - t0))
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m rfsim.runs.kernel_plan SCENARIO ...``: record the plans of the scenarios
     (each in a process of its own) and write them into the plans file, keeping the others.
+
+    Run it with ``NUMBA_CACHE_DIR`` set to a new, empty folder for each scenario: the kernels
+    are then compiled in the recording process, and the kernels they call are listed as entries
+    of their own, before their callers (a cache loads a caller with its callees inside, which
+    then go unlisted). The children then compile the callees side by side before their callers,
+    and :func:`shares` can balance them.
 
     Parameters
     ----------
@@ -427,6 +471,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         Exit status (0).
     """
     import subprocess
+    import tempfile
 
     names = list(sys.argv[1:] if argv is None else argv)
     plans = read_plans()
@@ -434,8 +479,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = ("import json, sys; from rfsim.runs.kernel_plan import record; "
                 "print(json.dumps([e.text() for e in record([sys.argv[1]])[sys.argv[1]]]))")
         out = subprocess.run([sys.executable, "-c", code, name], check=True, capture_output=True, text=True)
-        plans[name] = [PlanEntry.parse(line) for line in json.loads(out.stdout.strip().splitlines()[-1])]
-        print(f"{name}: {len(plans[name])} kernel overloads")
+        lines = json.loads(out.stdout.strip().splitlines()[-1])
+        timing = ("import json, sys; from rfsim.runs.kernel_plan import PlanEntry, compile_times; "
+                  "print(json.dumps([e.compile_s for e in compile_times([PlanEntry.parse(x) for x in "
+                  "json.loads(sys.argv[1])])]))")
+        with tempfile.TemporaryDirectory() as empty:  # an empty cache: every entry compiles
+            out = subprocess.run([sys.executable, "-c", timing, json.dumps(lines)], check=True, capture_output=True,
+                                 text=True, env=dict(os.environ, NUMBA_CACHE_DIR=empty))
+        seconds = json.loads(out.stdout.strip().splitlines()[-1])
+        plans[name] = [dataclasses.replace(PlanEntry.parse(x), compile_s=t) for x, t in zip(lines, seconds)]
+        print(f"{name}: {len(plans[name])} kernel overloads, {sum(seconds):.1f} s of compilation")
     write_plans(plans)
     return 0
 
@@ -446,4 +499,4 @@ if __name__ == "__main__":
 
 __all__ = ["PLANS_FILE", "PLANS_FORMAT", "MAX_PROCESSES", "SCALARS", "PlanEntry", "text_of_type", "type_of_text",
            "entries_of", "read_plans", "write_plans", "usable_cpus", "uncached", "shares", "precompile",
-           "precompile_scenario", "record", "main"]
+           "precompile_scenario", "record", "compile_times", "main"]

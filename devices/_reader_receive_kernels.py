@@ -48,13 +48,14 @@ def _reference_into(bits, m, pre_levels, state0, t0_samples, elements_per_sample
 
 @njit
 def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pre_el, t0, max_runs_per_sample,
-                   half_width, shifts, templates, norms, pre_el, pre_levels, state0, viterbi, n_blocks, det_bits, bits,
-                   out_f, out_c):
+                   half_width, shifts, templates, norms, run_begin, run_value, n_runs, same_as_previous, pre_el,
+                   pre_levels, state0, viterbi, n_blocks, det_bits, bits, out_f, out_c):
     """Steps 1–5 of :meth:`rfsim.devices.reader.Reader.receive` on ``rx`` ((n,) complex128).
 
     1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx).
     2. :func:`rfsim.gen2._decode_reply_kernels.decode_reply_kernel` on r[lo:], starts 0 … hi − lo
-       (``n_pre`` samples of template ``t0``, refinement bank ``shifts``/``templates``/``norms``):
+       (``n_pre`` samples of template ``t0``, refinement bank ``shifts``/``templates``/``norms``, the
+       templates' runs ``run_begin``/``run_value``/``n_runs``/``same_as_previous``):
        start, correlation and first decisions ``det_bits`` ((n_bits + 1,) uint8); below
        ``threshold`` → :data:`NOT_FOUND`.
     3. The reference of ``det_bits`` from start/fs·fs (0 outside the reply), its known levels
@@ -89,8 +90,9 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     sums = np.empty(pre_levels.size + 2 * det_bits.size)
     status, start_rel, corr, h0, dc0_ = decode_reply_kernel(rr, last + n_pre, math.nan, 0j, False, t0,
                                                             max_runs_per_sample, half_width, 5, shifts, templates,
-                                                            norms, pre_el, ratio, n_pre, m, pre_levels.size, state0,
-                                                            viterbi, sums, det_bits)
+                                                            norms, run_begin, run_value, n_runs, same_as_previous,
+                                                            pre_el, ratio, n_pre, m, pre_levels.size, state0, viterbi,
+                                                            sums, det_bits)
     start = lo + start_rel
     out_f[0] = start
     out_f[1] = corr

@@ -556,7 +556,8 @@ class Reader(PieTransmitter):
         out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
         status = _rxk.receive_kernel(rx, lo, hi, n_reply, self.detection_threshold(hi - lo + 1, blf), fs, blf, lk.m,
                                      pre_n, self._preamble_elements(), a.t0, a.max_runs_per_sample, a.half_width,
-                                     a.shifts, a.templates, a.norms, a.pre_el, a.pre_levels, a.state,
+                                     a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs,
+                                     a.same_as_previous, a.pre_el, a.pre_levels, a.state,
                                      self.config.decoder != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
         if status > _rxk.NOT_FOUND:
             raise ValueError(_RECEIVE_ERRORS[status])

@@ -117,6 +117,38 @@ def test_refine_kernel_sums_in_sample_order_exactly():
         assert L._kernel_refine(r, cands, L._REFINE_SHIFTS, rows, norms) == (best, start)
 
 
+@pytest.mark.parametrize("m, trext, fs, blf", [(4, False, 4e6, 320e3), (1, False, 4e6, 160e3), (2, True, 1e6, 48e3),
+                                             (8, True, 2e6, 40e3)])
+def test_refine_runs_kernel_equals_refine_kernel_bit_for_bit(m, trext, fs, blf):
+    """The refinement over the templates' runs (approximation, then the sample-by-sample sums of
+    the pairs that can win) returns refine_kernel's best value and start exactly: on noise, on a
+    comparator's +-1 input (exact ties), on a reply with a large offset, and with candidates whose
+    negative shifts are skipped."""
+    rng = trial_rng(54, m, int(trext))
+    ratio = 2 * blf / fs
+    rows, norms = L._refine_bank(m, trext, ratio)
+    runs = L._refine_runs(m, trext, ratio)
+    n = rows.shape[1] + 80
+    n_ties = 0
+    for trial in range(60):
+        if trial % 3 == 0:
+            r = rng.standard_normal(n) + 1j * rng.standard_normal(n)
+        elif trial % 3 == 1:
+            r = np.sign(rng.standard_normal(n)).astype(np.complex128)
+        else:
+            bits = rng.integers(0, 2, 16).astype(np.uint8)
+            s = L.reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=(30 + rng.random()) / fs,
+                                 n_samples=n)
+            r = (0.3 + 0.2j) * s + 1e-3 * (rng.standard_normal(n) + 1j * rng.standard_normal(n)) + 5.0
+        cands = np.array([0, 1, 2]) if trial % 5 == 0 else rng.choice(70, 5, replace=False)
+        cands = cands.astype(np.int64)
+        a = LK.refine_kernel(r, cands, L._REFINE_SHIFTS, rows, norms)
+        b = LK.refine_runs_kernel(r, cands, L._REFINE_SHIFTS, rows, norms, *runs)
+        assert a == b
+        n_ties += int(np.any(runs[3]))
+    assert n_ties > 0  # equal templates at neighbouring shifts occur (ties resolved as refine_kernel does)
+
+
 def test_template_cache_matches_fresh_template():
     """The cached preamble template equals one built from the element sequence directly."""
     fs, blf, m = 4e6, 320e3, 4

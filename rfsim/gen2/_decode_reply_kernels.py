@@ -3,7 +3,7 @@
 in the tests), also called by the reader's receiver (``rfsim.devices._reader_receive_kernels``).
 
 The steps are the module docstring's of :mod:`rfsim.gen2.linecode`: the preamble search
-(:func:`rfsim.gen2._linecode_kernels.preamble_search_kernel`), the template at the refined start
+(:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`), the template at the refined start
 (:func:`rfsim.gen2._linecode_kernels.sampled_template`), the preamble's least-squares gain and
 offset (:func:`rfsim.gen2._reply_core_kernels.preamble_gain_offset`), the normalised correlation,
 the projected half-bit sums and the decisions (:func:`rfsim.gen2._reply_core_kernels.halfbit_decisions`).
@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import preamble_search_kernel, projected_halfbit_sums_kernel, sampled_template
+from rfsim.gen2._linecode_kernels import preamble_search_runs_kernel, projected_halfbit_sums_kernel, sampled_template
 from rfsim.gen2._reply_core_kernels import halfbit_decisions, preamble_gain_offset
 
 #: Status of :func:`decode_reply_kernel`: decoded.
@@ -42,13 +42,15 @@ def decisions_kernel(part, g_re, g_im, dc_re, start, elements_per_sample, m, n_p
 
 @njit
 def decode_reply_kernel(r, n_search, start_in, gain, has_gain, t0, max_runs_per_sample, half_width, n_max, shifts,
-                        templates, norms, pre_el, elements_per_sample, n_pre, m, n_pre_levels, state0, viterbi,
-                        sums, out):
+                        templates, norms, run_begin, run_value, n_runs, same_as_previous, pre_el,
+                        elements_per_sample, n_pre, m, n_pre_levels, state0, viterbi, sums, out):
     """One reply of ``r`` ((n,) complex128): start, gain, offset, correlation and decisions.
 
     Start: with ``n_search ≥ 0`` the preamble search over ``r[:n_search]`` (zero-mean template
-    ``t0``, refinement bank ``shifts``/``templates``/``norms``; the integer peak when no refined
-    value exists), else ``start_in`` [samples]. At the start, lag = ⌊start⌋, the pilot + preamble
+    ``t0``, refinement bank ``shifts``/``templates``/``norms`` and the templates' runs
+    ``run_begin``/``run_value``/``n_runs``/``same_as_previous``,
+    :func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`; the integer peak when no
+    refined value exists), else ``start_in`` [samples]. At the start, lag = ⌊start⌋, the pilot + preamble
     elements ``pre_el`` sampled from start − lag give the template t (``n_pre`` samples, mean t̄);
     over the segment z = r[lag : lag + n_pre] (mean z̄): (h, c) by least squares
     (:func:`rfsim.gen2._reply_core_kernels.preamble_gain_offset`) or h = ``gain``, c = 0 with
@@ -60,8 +62,9 @@ def decode_reply_kernel(r, n_search, start_in, gain, has_gain, t0, max_runs_per_
     no decisions made).
     """
     if n_search >= 0:
-        lag, best, start = preamble_search_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max, shifts,
-                                                  templates, norms)
+        lag, best, start = preamble_search_runs_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max,
+                                                       shifts, templates, norms, run_begin, run_value, n_runs,
+                                                       same_as_previous)
         if best < 0:
             start = float(lag)
     else:

@@ -272,6 +272,143 @@ def refine_kernel(r, cands, shifts, templates, norms):
 
 
 @njit
+def _direct_value(r, c, templates, j, norm):
+    """|Σ_i r[c + i]·templates[j, i]| / ``norm``, the sum sample by sample in order (the value of
+    :func:`refine_kernel` for candidate ``c`` and shift ``j``)."""
+    acc_re = 0.0
+    acc_im = 0.0
+    for i in range(templates.shape[1]):
+        z = r[c + i]
+        t = templates[j, i]
+        acc_re += z.real * t
+        acc_im += z.imag * t
+    return math.hypot(acc_re, acc_im) / norm
+
+
+@njit_inline
+def _runs_dot(c_re, c_im, o, begin, value, n_runs):
+    """Σ_q value[q]·(C[o + begin[q + 1]] − C[o + begin[q]]) for the cumulative sums C = (``c_re``,
+    ``c_im``): the dot product at offset ``o`` with a template of ``n_runs`` runs of equal values,
+    summed in two interleaved halves (even and odd runs). Returns (re, im)."""
+    x0 = 0.0
+    y0 = 0.0
+    x1 = 0.0
+    y1 = 0.0
+    p_re = c_re[o + begin[0]]
+    p_im = c_im[o + begin[0]]
+    q = 0
+    while q + 1 < n_runs:
+        e0 = o + begin[q + 1]
+        e1 = o + begin[q + 2]
+        a_re = c_re[e0]
+        a_im = c_im[e0]
+        b_re = c_re[e1]
+        b_im = c_im[e1]
+        x0 += value[q] * (a_re - p_re)
+        y0 += value[q] * (a_im - p_im)
+        x1 += value[q + 1] * (b_re - a_re)
+        y1 += value[q + 1] * (b_im - a_im)
+        p_re = b_re
+        p_im = b_im
+        q += 2
+    if q < n_runs:
+        e0 = o + begin[q + 1]
+        x0 += value[q] * (c_re[e0] - p_re)
+        y0 += value[q] * (c_im[e0] - p_im)
+    return x0 + x1, y0 + y1
+
+
+@njit
+def refine_runs_kernel(r, cands, shifts, templates, norms, run_begin, run_value, n_runs, same_as_previous):
+    """:func:`refine_kernel`'s result, bit for bit, from fewer operations.
+
+    Row j of ``templates`` is made of ``n_runs[j]`` runs of equal values, run q from
+    ``run_begin[j, q]`` to ``run_begin[j, q + 1]`` (``run_begin[j, n_runs[j]] = n_pre``) of value
+    ``run_value[j, q]``; ``same_as_previous[j]`` when row j equals row j − 1 (its values are
+    then row j − 1's, bit for bit: only the first row of equal ones not skipped can hold the
+    first largest value). With C the cumulative sums of r over the candidates' window (N samples),
+    every value is first approximated over the runs, Σ_q t_q·(C[c + e_q] − C[c + b_q]) (R terms
+    instead of n_pre). Bound: a sum of k terms, in any order, is within γ_k·Σ|terms| of the exact
+    sum, γ_k = k·u/(1 − k·u) (Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed.,
+    §4.2); each prefix C is within γ_N·S of its exact value (S = Σ|Re r| or Σ|Im r| over the
+    window), so a run's difference is within 2γ_N·S + u·|difference| and the sum of the R products
+    within (2R·γ_N + γ_{R+1})·T·S (T = max |t|), and the sample-by-sample sum of
+    :func:`refine_kernel` within γ_N·T·S: the two differ by at most
+    E = (4(R + 1) + 1)·γ_N·T·(S_re + S_im) (a factor two to spare on the first term), their values
+    (|·| is 1-Lipschitz; hypot and the division add ≤ 3u relative each) by at most
+    ε = 2E/min(norms) + 16u·max value. Every pair whose approximation is within 2ε of the largest
+    approximation is then evaluated sample by sample (:func:`_direct_value`) in
+    :func:`refine_kernel`'s order: every pair whose value can be the largest is among them, so
+    best and start are :func:`refine_kernel`'s. A window holding a non-finite sample or a
+    non-positive norm falls back to :func:`refine_kernel`."""
+    n_shifts, n_pre = templates.shape
+    nc = cands.size
+    if nc == 0:
+        return -1.0, math.nan
+    c_lo = cands[0]
+    c_hi = cands[0]
+    for ci in range(1, nc):
+        c_lo = min(c_lo, cands[ci])
+        c_hi = max(c_hi, cands[ci])
+    n_win = c_hi - c_lo + n_pre
+    c_re = np.empty(n_win + 1)
+    c_im = np.empty(n_win + 1)
+    c_re[0] = 0.0
+    c_im[0] = 0.0
+    s_abs = 0.0
+    for i in range(n_win):
+        z = r[c_lo + i]
+        c_re[i + 1] = c_re[i] + z.real
+        c_im[i + 1] = c_im[i] + z.imag
+        s_abs += abs(z.real) + abs(z.imag)
+    norm_min = norms[0]
+    for j in range(1, n_shifts):
+        norm_min = min(norm_min, norms[j])
+    if not (math.isfinite(s_abs) and norm_min > 0.0):
+        return refine_kernel(r, cands, shifts, templates, norms)
+    approx = np.empty((nc, n_shifts))
+    t_max = 0.0
+    r_max = 0
+    v_max = -1.0
+    for j in range(n_shifts):
+        nr = n_runs[j]
+        if j > 0 and same_as_previous[j]:
+            for ci in range(nc):
+                approx[ci, j] = approx[ci, j - 1]
+        else:
+            r_max = max(r_max, nr)
+            for q in range(nr):
+                t_max = max(t_max, abs(run_value[j, q]))
+            for ci in range(nc):
+                a_re, a_im = _runs_dot(c_re, c_im, cands[ci] - c_lo, run_begin[j], run_value[j], nr)
+                approx[ci, j] = math.hypot(a_re, a_im) / norms[j]
+        for ci in range(nc):
+            if cands[ci] + shifts[j] >= 0.0 and approx[ci, j] > v_max:
+                v_max = approx[ci, j]
+    u = 2.0 ** -53
+    gamma = n_win * u / (1.0 - n_win * u)
+    eps = 2.0 * (4 * (r_max + 1) + 1) * gamma * t_max * s_abs / norm_min + 16.0 * u * v_max
+    keep = v_max - 2.0 * eps
+    if not math.isfinite(keep):
+        return refine_kernel(r, cands, shifts, templates, norms)
+    best = -1.0
+    start = math.nan
+    for ci in range(nc):
+        c = cands[ci]
+        for j in range(n_shifts):
+            d = shifts[j]
+            if c + d < 0.0 or not approx[ci, j] >= keep:
+                continue
+            if j > 0 and same_as_previous[j] and not c + shifts[j - 1] < 0.0:
+                continue  # row j − 1's value, already compared
+            v = _direct_value(r, c, templates, j, norms[j])
+            if v > best:
+                best = v
+                start = c + d
+    return best, start
+
+
+@njit
 def peak_candidates_kernel(c, half_width, n_max, out):
     """Integer peak and its candidates for the sub-sample refinement: ``lag = argmax c``
     (the first maximum), then the local maxima (≥ both neighbours inside the window) of
@@ -437,14 +574,34 @@ def corr_abs_auto_kernel(r, t0, max_runs_per_sample, out):
 
 
 @njit
+def _search_candidates(r, n_search, t0, max_runs_per_sample, half_width, n_max):
+    """|valid correlation| of ``r[:n_search]`` with ``t0`` (:func:`corr_abs_auto_kernel`), its
+    integer peak and candidates (:func:`peak_candidates_kernel`): ``(lag, candidates)``."""
+    c = np.empty(n_search - t0.size + 1)
+    corr_abs_auto_kernel(r[:n_search], t0, max_runs_per_sample, c)
+    cands = np.empty(n_max, dtype=np.int64)
+    lag, n = peak_candidates_kernel(c, half_width, n_max, cands)
+    return lag, cands[:n]
+
+
+@njit
 def preamble_search_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max, shifts, templates, norms):
     """The preamble search of one call: |valid correlation| of ``r[:n_search]`` with the
     zero-mean template ``t0`` (:func:`corr_abs_auto_kernel`), its peak and candidates
     (:func:`peak_candidates_kernel`) and their sub-sample refinement over ``r``
     (:func:`refine_kernel`). Returns ``(integer peak lag, best refined value, refined start)``."""
-    c = np.empty(n_search - t0.size + 1)
-    corr_abs_auto_kernel(r[:n_search], t0, max_runs_per_sample, c)
-    cands = np.empty(n_max, dtype=np.int64)
-    lag, n = peak_candidates_kernel(c, half_width, n_max, cands)
-    best, start = refine_kernel(r, cands[:n], shifts, templates, norms)
+    lag, cands = _search_candidates(r, n_search, t0, max_runs_per_sample, half_width, n_max)
+    best, start = refine_kernel(r, cands, shifts, templates, norms)
+    return lag, best, start
+
+
+@njit
+def preamble_search_runs_kernel(r, n_search, t0, max_runs_per_sample, half_width, n_max, shifts, templates, norms,
+                                run_begin, run_value, n_runs, same_as_previous):
+    """:func:`preamble_search_kernel` with the refinement by :func:`refine_runs_kernel` (the
+    templates' runs ``run_begin``, ``run_value``, ``n_runs`` and ``same_as_previous``): the same
+    result, bit for bit."""
+    lag, cands = _search_candidates(r, n_search, t0, max_runs_per_sample, half_width, n_max)
+    best, start = refine_runs_kernel(r, cands, shifts, templates, norms, run_begin, run_value, n_runs,
+                                     same_as_previous)
     return lag, best, start

@@ -384,6 +384,27 @@ def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndar
     return rows, norms
 
 
+@functools.lru_cache(maxsize=32)
+def _refine_runs(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of equal values of :func:`_refine_bank`'s templates (cached, read-only):
+    ``run_begin`` ``(n_shifts, max runs + 1) int64`` (row j: the first sample of each run, then
+    n_pre), ``run_value`` ``(n_shifts, max runs) float64`` (their values), ``n_runs``
+    ``(n_shifts,) int64`` and ``same_as_previous`` ``(n_shifts,) bool`` (the template equals the
+    previous shift's: the shifts move no sample across an element boundary)."""
+    rows, _ = _refine_bank(m, trext, ratio)
+    begins = [np.flatnonzero(np.concatenate(([True], row[1:] != row[:-1]))) for row in rows]
+    n_runs = np.array([b.size for b in begins], dtype=np.int64)
+    run_begin = np.full((rows.shape[0], int(n_runs.max()) + 1), rows.shape[1], dtype=np.int64)
+    run_value = np.zeros((rows.shape[0], int(n_runs.max())))
+    for j, b in enumerate(begins):
+        run_begin[j, :b.size] = b
+        run_value[j, :b.size] = rows[j, b]
+    same = np.array([j > 0 and np.array_equal(rows[j], rows[j - 1]) for j in range(rows.shape[0])])
+    for a in (run_begin, run_value, n_runs, same):
+        a.setflags(write=False)
+    return run_begin, run_value, n_runs, same
+
+
 def corr_abs_reference(r, t0) -> np.ndarray:
     """|valid correlation| of ``r`` with the real template ``t0`` (scipy; twin of the kernel).
 
@@ -482,6 +503,10 @@ class SearchArrays(NamedTuple):
     pre_el: np.ndarray  # (elements,) float64 pilot + preamble elements
     pre_levels: np.ndarray  # (half-bits,) int8 pilot + preamble half-bit levels
     state: int  # encoder state after the preamble
+    run_begin: np.ndarray  # (17, max runs + 1) int64 first sample of each run of equal values of templates
+    run_value: np.ndarray  # (17, max runs) their values
+    n_runs: np.ndarray  # (17,) int64 runs per template
+    same_as_previous: np.ndarray  # (17,) bool template equal to the previous shift's
 
 
 @functools.lru_cache(maxsize=32)
@@ -500,15 +525,15 @@ def search_arrays(m: int, trext: bool, ratio: float) -> SearchArrays:
     Returns
     -------
     SearchArrays
-        Template, candidate half-width, refinement bank, preamble elements and levels, and
-        the encoder state after the preamble.
+        Template, candidate half-width, refinement bank, preamble elements and levels, the
+        encoder state after the preamble and the runs of the refinement bank's templates.
     """
     levels, state = _preamble(_check_m(m), bool(trext))
     pre_el = elements_of_levels(levels, m, np.float64)
     pre_el.setflags(write=False)
     return SearchArrays(_template(m, trext, ratio, 0.0)[1], _RUNS_PER_SAMPLE_MAX, int(math.ceil(m / ratio)) + 1,
                         _REFINE_SHIFTS,
-                        *_refine_bank(m, trext, ratio), pre_el, levels, state)
+                        *_refine_bank(m, trext, ratio), pre_el, levels, state, *_refine_runs(m, trext, ratio))
 
 
 def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain) -> ReplyDetection:
@@ -530,8 +555,8 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain) ->
     status, start, corr, h, dc = _dk.decode_reply_kernel(
         r, -1 if start_sample is not None else last + n_pre, math.nan if start_sample is None else start,
         0j if gain is None else complex(gain), gain is not None, a.t0, a.max_runs_per_sample, a.half_width, 5,
-        a.shifts, a.templates, a.norms, a.pre_el, ratio, n_pre, m, a.pre_levels.size, a.state,
-        plan.method != "bitwise", sums, bits)
+        a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs, a.same_as_previous, a.pre_el, ratio,
+        n_pre, m, a.pre_levels.size, a.state, plan.method != "bitwise", sums, bits)
     if status == _dk.ZERO_GAIN:
         raise ValueError("zero channel gain: no reply to decode")
     return ReplyDetection(bits=bits[:plan.n_bits], start_sample=float(start), gain=complex(h), dc=complex(dc),

@@ -318,8 +318,8 @@ def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) ->
 
 class _Call:
     """What :func:`receive` keeps for one plan, input length and search window: the kernel's
-    integer parameters, its scratch arrays (the reply span and its reference, rewritten by every
-    call) and its content memo (the piece map of the last start, the reference of the last bits
+    integer parameters, its scratch arrays (the input, the reply span and its reference,
+    rewritten by every call) and its content memo (the piece map of the last start, the reference of the last bits
     and start: pure functions of them for this plan and window, checked by the kernel)."""
 
     def __init__(self, plan: _Plan, n: int, lo: int, hi: int):
@@ -332,6 +332,7 @@ class _Call:
                                                                                       last + plan.pre_n)
         n_q = max(n - b1, 0)
         n_bits = int(plan.ints[_sk.IP_N_BITS])
+        self.r = np.empty(n, np.complex128)
         self.scratch = (np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4))
         self.memo = (np.array([0.0, -1.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q), np.empty(n_q, np.int64),
                      np.zeros(n_q), np.zeros(n_bits, np.uint8), np.zeros(n))
@@ -339,9 +340,10 @@ class _Call:
 
 class _Plans:
     """The receiver's plans of one link profile (:class:`_Plan` by reply bits, BLF and sample
-    rate; :class:`_Call` by plan, input length and search window), kept in the run's
-    :class:`~rfsim.air.cache.AirCache` (:meth:`~rfsim.air.cache.AirCache.derived` of the link),
-    each table bounded (cleared when full)."""
+    rate; :class:`_Call` by plan, input length and search window) and the CRC checks of the
+    decoded replies (by their bits), kept in the run's :class:`~rfsim.air.cache.AirCache`
+    (:meth:`~rfsim.air.cache.AirCache.derived` of the link), each table bounded (cleared when
+    full)."""
 
     #: Entries per table.
     SIZE = 64
@@ -350,6 +352,17 @@ class _Plans:
         self.m, self.trext = int(link.m), bool(link.trext)
         self.plans: dict = {}
         self.calls: dict = {}
+        self.crcs: dict = {}
+
+    def crc16_ok(self, bits: np.ndarray) -> bool:
+        """:func:`rfsim.gen2.crc.crc16_ok` of the decoded ``bits`` ((n,) uint8 0/1), by their content."""
+        key = bits.tobytes()
+        hit = self.crcs.get(key)
+        if hit is None:
+            if len(self.crcs) >= self.SIZE:
+                self.crcs.clear()
+            hit = self.crcs[key] = crc16_ok(bits)
+        return hit
 
     def plan(self, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
         """The :class:`_Plan` of a reply of ``n_bits`` data bits at ``blf_hz``, ``fs_hz``."""
@@ -439,7 +452,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         When ``x`` is not 1-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
         where the sample-level decoder raises (no room for the reply, a zero gain).
     """
-    r = np.array(x, dtype=np.complex128)  # a fresh copy: the kernel adds the noise in place
+    r = np.asarray(x)
     if r.ndim != 1:
         raise ValueError(f"rx must be 1-D, got shape {r.shape}")
     if type(rng) is not np.random.Generator or type(rng.bit_generator) is not np.random.PCG64:
@@ -461,7 +474,8 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     fp = np.array([sigma2, plan.ratio, fs, reader.detection_threshold(hi - lo + 1, blf), _RUNS_PER_SAMPLE_MAX])
     bits, res = np.zeros(n_bits + 1, np.uint8), np.zeros(13)
     full, st = _nk._pcg64_state(rng)
-    _nk._run_compiled(_sk.receive_kernel, st, r, call.ip, fp, *plan.arrays, bits, *call.scratch, res, *call.memo)
+    np.copyto(call.r, r)  # the kernel adds the noise in place: into the call's own buffer
+    _nk._run_compiled(_sk.receive_kernel, st, call.r, call.ip, fp, *plan.arrays, bits, *call.scratch, res, *call.memo)
     _nk._set_pcg64_state(rng, full, st)
     status, start_rel, corr = int(res[_sk.RES_STATUS]), float(res[_sk.RES_START]), float(res[_sk.RES_CORR])
     if status in _RAISES:
@@ -473,7 +487,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     meas = reader._measurements(complex(res[_sk.RES_H_RE], res[_sk.RES_H_IM]), float(res[_sk.RES_SLOPE]),
                                 float(res[_sk.RES_SIGMA2]), blf)
     _complete(meas, int(res[_sk.RES_N_FREE]), int(res[_sk.RES_N_USED]), sigma2, carrier, rng)
-    ok = (not expect_crc) or crc16_ok(bits)
+    ok = (not expect_crc) or plans.crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)
 

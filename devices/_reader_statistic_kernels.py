@@ -137,12 +137,20 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
 @njit
 def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
     """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
-    each piece's mean sums[p]/sizes[p] formed once)."""
+    each piece's mean sums[p]/sizes[p] formed once; :func:`_spread_add_less` with nothing
+    subtracted: x − 0 is x, exactly)."""
+    _spread_add_less(r, b1, piece_of, sign, sums, sizes, 0j)
+
+
+@njit
+def _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc):
+    """:func:`spread_add_kernel` and then ``r[b1 + q] −= dc``, in one pass (the same operations
+    in the same order per sample)."""
     mean = np.empty(sums.size, np.complex128)
     for p in range(sums.size):
         mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        r[b1 + q] += sign[q] * mean[piece_of[q]]
+        r[b1 + q] = (r[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
 
 
 @njit
@@ -179,8 +187,9 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
  RES_SLOPE, RES_SIGMA2) = range(13)
 #: Slots of the content memo ``memo`` of :func:`receive_kernel`: the start whose piece map the
 #: ``pm_*`` arrays hold and its number of pieces (−1: none yet); the start [samples] and
-#: validity (1) of the reference waveform ``wf_full`` of the bits ``wf_bits``.
-MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID = range(4)
+#: validity (1) of the reference waveform ``wf_full`` of the bits ``wf_bits``; the validity (1),
+#: reply start i0 and span of the block cuts in ``cut_memo`` (:func:`_cuts`).
+MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN = range(7)
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
 OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
@@ -336,11 +345,17 @@ def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
 
 
 @njit
-def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, ki, wi, fi):
-    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
-    (:func:`block_cuts_kernel`, ``s`` the reference from sample ``i0``) split by a Gaussian
-    bridge (one (2, 2·cuts) normal block) and spread again (:func:`apply_cuts_kernel`). Returns
-    (Σ(|p| − 1) over the steady pieces less one per cut, the samples the measurement reads)."""
+def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
+    """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
+    the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
+    int64: the cut pieces, edges, members before and after; in row 4 the samples the
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)), made only when it does
+    not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
+    piece map and the reference it was made from are those of :func:`_pieces` and
+    :func:`_reference`, which clear it when they make new ones)."""
+    if memo[MEMO_CUT_VALID] > 0 and memo[MEMO_CUT_I0] == i0 and memo[MEMO_CUT_SPAN] == s.size:
+        return
+    memo[MEMO_CUT_VALID] = 0.0
     n_free = 0.0
     biggest = 0.0
     for p in range(kind.size):
@@ -348,12 +363,25 @@ def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_
             n_free += sizes[p] - 1.0
             biggest = max(biggest, sizes[p])
     reach = int(biggest) * 8 + 8  # a steady piece lies within one half-bit: ≤ 8× its steady samples (+ 8)
-    k = n_blocks - 1
-    piece = np.empty(k, np.int64)
-    edge = np.empty(k, np.int64)
-    n_a = np.empty(k, np.int64)
-    n_b = np.empty(k, np.int64)
-    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, piece, edge, n_a, n_b)
+    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_memo[0], cut_memo[1],
+                                       cut_memo[2], cut_memo[3])
+    cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
+    cut_memo[5, 0] = int(n_free)
+    memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
+    memo[MEMO_CUT_VALID] = 1.0
+
+
+@njit
+def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, memo, cut_memo, ki, wi, fi):
+    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+    (:func:`block_cuts_kernel` through the memo :func:`_cuts`, ``s`` the reference from sample
+    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block) and spread again
+    (:func:`apply_cuts_kernel`). Returns (Σ(|p| − 1) over the steady pieces less one per cut,
+    the samples the measurement reads)."""
+    _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo)
+    n_used, n_cuts, reach = cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2]
+    n_free = float(cut_memo[5, 0])
+    piece, edge, n_a, n_b = cut_memo[0], cut_memo[1], cut_memo[2], cut_memo[3]
     if n_cuts > 0:
         ab_sizes = np.empty(2 * n_cuts)
         for j in range(n_cuts):
@@ -385,6 +413,7 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
         if same:
             return
     memo[MEMO_WF_VALID] = 0.0
+    memo[MEMO_CUT_VALID] = 0.0
     el = np.empty((pre_levels.size + 2 * (bits.size + 1)) * m)
     elements_kernel(bits, True, m, pre_levels, state, el)
     waveform_kernel(el, t0_samples, ratio, wf_full)
@@ -402,6 +431,7 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
     if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
         return int(memo[MEMO_PM_PIECES])
     memo[MEMO_PM_PIECES] = -1.0
+    memo[MEMO_CUT_VALID] = 0.0
     n_p = piece_map_kernel(n, b1, start, ratio, m, n_elements, pm_piece_of, pm_sign, pm_kind)
     pm_sizes[:n_p] = 0.0
     for q in range(n - b1):
@@ -413,7 +443,7 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
 
 @njit
 def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
-                   memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, wf_bits, wf_full, ki, wi, fi):
+                   memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, wf_bits, wf_full, cut_memo, ki, wi, fi):
     """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
     in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
     in the order of the NumPy steps.
@@ -422,9 +452,9 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
     ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
     template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
-    elements and half-bit levels; ``memo`` and the ``pm_*`` ((n − b1,)) and ``wf_*`` ((n_bits,)
-    uint8, (n,)) arrays: the content memo of :func:`_pieces` and :func:`_reference` (kept by the
-    caller for this plan and input length). Writes the decoded bits into ``bits_out``
+    elements and half-bit levels; ``memo`` and the ``pm_*`` ((n − b1,)), ``wf_*`` ((n_bits,)
+    uint8, (n,)) and ``cut_memo`` arrays: the content memo of :func:`_pieces`, :func:`_reference`
+    and :func:`_cuts` (kept by the caller for this plan, input length and search window). Writes the decoded bits into ``bits_out``
     ((n_bits + 1,) uint8), the reply span r − c and its ±1 reference (0 outside the reply) into
     ``z_out``, ``s_out`` ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used), measures them
     (:func:`rfsim.devices._reader_kernels.measure_kernel`), and writes the status, the reply
@@ -445,9 +475,9 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     piece_of, sign, kind, sizes = pm_piece_of[:n_q], pm_sign[:n_q], pm_kind[:n_p], pm_sizes[:n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
-    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
+    for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
+    _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc0)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -494,7 +524,7 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     for i in range(n_span):
         s_out[i] = full[i0 + i]
     n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
-                                  ip[IP_N_BLOCKS], ki, wi, fi)
+                                  ip[IP_N_BLOCKS], memo, cut_memo, ki, wi, fi)
     for i in range(n_span):
         z_out[i] = r[i0 + i] - c
     gain, slope, resid = measure_kernel(z_out[:n_span], s_out[:n_span], fs, ip[IP_N_BLOCKS])

@@ -334,8 +334,10 @@ class _Call:
         n_bits = int(plan.ints[_sk.IP_N_BITS])
         self.r = np.empty(n, np.complex128)
         self.scratch = (np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4))
-        self.memo = (np.array([0.0, -1.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q), np.empty(n_q, np.int64),
-                     np.zeros(n_q), np.zeros(n_bits, np.uint8), np.zeros(n))
+        k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
+        self.memo = (np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
+                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(n_bits, np.uint8), np.zeros(n),
+                     np.zeros((6, max(k, 3)), np.int64))
 
 
 class _Plans:

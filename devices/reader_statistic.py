@@ -80,20 +80,24 @@ Implementation: steps 1–4 run in one numba call
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
 the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
 template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
-them: Re(g·S_j) − Re(dc·g)·C_j), and fits, cuts and bridges as above. The measurement is the
-reader's kernel (a second call); Python builds the :class:`ReadResult`. What depends only on
+them: Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the
+reader's measurement kernel; Python builds the :class:`ReadResult`. What depends only on
 the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
-is kept by content (:func:`_plan`). The NumPy twin of the steps (the sample-level decoder's
+is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the
+link), and per search window (:class:`_Call`) what depends only on content: the piece map of
+the last reply start, the reference of the last decided bits, the block cuts of the last span,
+and the CRC check of decoded bits (pure functions of their keys, checked on every call: the
+same numbers as made anew). The NumPy twin of the steps (the sample-level decoder's
 calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
 the same draws, decisions and generator state, the measurements equal up to the order of
 the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
 320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-over ``x + ñ`` (the piece map and spread, the half-bit sums, the reference and its known levels,
-the block cuts, the reader's measurement) and the decoder's search with its sub-sample
-refinement (5 candidates × 17 shifts × the preamble's samples); on the canonical exchange a call
-costs about what the sample-level receiver's does (``rfsim bench exchange-statistic``). A
+over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's measurement; the
+piece map, the reference and the block cuts only when their content changes) and the decoder's
+search with its sub-sample refinement (5 candidates × 17 shifts × the preamble's samples)
+(``rfsim bench exchange-statistic``). A
 receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
 piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
 draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag

@@ -12,7 +12,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _standard_normals
-from rfsim.devices._reader_kernels import known_levels_kernel
+from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
                                           sampled_template, viterbi_kernel, waveform_kernel)
 
@@ -137,12 +137,20 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
 @njit
 def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
     """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
-    each piece's mean sums[p]/sizes[p] formed once)."""
+    each piece's mean sums[p]/sizes[p] formed once; :func:`_spread_add_less` with nothing
+    subtracted: x − 0 is x, exactly)."""
+    _spread_add_less(r, b1, piece_of, sign, sums, sizes, 0j)
+
+
+@njit
+def _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc):
+    """:func:`spread_add_kernel` and then ``r[b1 + q] −= dc``, in one pass (the same operations
+    in the same order per sample)."""
     mean = np.empty(sums.size, np.complex128)
     for p in range(sums.size):
         mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        r[b1 + q] += sign[q] * mean[piece_of[q]]
+        r[b1 + q] = (r[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
 
 
 @njit
@@ -175,7 +183,13 @@ def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, r
 #: Slots of the float parameters ``fp`` of :func:`receive_kernel`.
 FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: Slots of the results ``res`` of :func:`receive_kernel`.
-(RES_STATUS, RES_START, RES_CORR, RES_C_RE, RES_C_IM, RES_I0, RES_N_FREE, RES_N_USED, RES_N_SPAN) = range(9)
+(RES_STATUS, RES_START, RES_CORR, RES_C_RE, RES_C_IM, RES_I0, RES_N_FREE, RES_N_USED, RES_N_SPAN, RES_H_RE, RES_H_IM,
+ RES_SLOPE, RES_SIGMA2) = range(13)
+#: Slots of the content memo ``memo`` of :func:`receive_kernel`: the start whose piece map the
+#: ``pm_*`` arrays hold and its number of pieces (−1: none yet); the start [samples] and
+#: validity (1) of the reference waveform ``wf_full`` of the bits ``wf_bits``; the validity (1),
+#: reply start i0 and span of the block cuts in ``cut_memo`` (:func:`_cuts`).
+MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN = range(7)
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
 OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
@@ -331,11 +345,17 @@ def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
 
 
 @njit
-def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, ki, wi, fi):
-    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
-    (:func:`block_cuts_kernel`, ``s`` the reference from sample ``i0``) split by a Gaussian
-    bridge (one (2, 2·cuts) normal block) and spread again (:func:`apply_cuts_kernel`). Returns
-    (Σ(|p| − 1) over the steady pieces less one per cut, the samples the measurement reads)."""
+def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
+    """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
+    the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
+    int64: the cut pieces, edges, members before and after; in row 4 the samples the
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)), made only when it does
+    not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
+    piece map and the reference it was made from are those of :func:`_pieces` and
+    :func:`_reference`, which clear it when they make new ones)."""
+    if memo[MEMO_CUT_VALID] > 0 and memo[MEMO_CUT_I0] == i0 and memo[MEMO_CUT_SPAN] == s.size:
+        return
+    memo[MEMO_CUT_VALID] = 0.0
     n_free = 0.0
     biggest = 0.0
     for p in range(kind.size):
@@ -343,12 +363,25 @@ def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_
             n_free += sizes[p] - 1.0
             biggest = max(biggest, sizes[p])
     reach = int(biggest) * 8 + 8  # a steady piece lies within one half-bit: ≤ 8× its steady samples (+ 8)
-    k = n_blocks - 1
-    piece = np.empty(k, np.int64)
-    edge = np.empty(k, np.int64)
-    n_a = np.empty(k, np.int64)
-    n_b = np.empty(k, np.int64)
-    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, piece, edge, n_a, n_b)
+    n_used, n_cuts = block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_memo[0], cut_memo[1],
+                                       cut_memo[2], cut_memo[3])
+    cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
+    cut_memo[5, 0] = int(n_free)
+    memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
+    memo[MEMO_CUT_VALID] = 1.0
+
+
+@njit
+def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, memo, cut_memo, ki, wi, fi):
+    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+    (:func:`block_cuts_kernel` through the memo :func:`_cuts`, ``s`` the reference from sample
+    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block) and spread again
+    (:func:`apply_cuts_kernel`). Returns (Σ(|p| − 1) over the steady pieces less one per cut,
+    the samples the measurement reads)."""
+    _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo)
+    n_used, n_cuts, reach = cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2]
+    n_free = float(cut_memo[5, 0])
+    piece, edge, n_a, n_b = cut_memo[0], cut_memo[1], cut_memo[2], cut_memo[3]
     if n_cuts > 0:
         ab_sizes = np.empty(2 * n_cuts)
         for j in range(n_cuts):
@@ -368,8 +401,49 @@ def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_
 
 
 @njit
+def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_full):
+    """The ±1 reference of ``bits`` (dummy 1 appended) from sample ``t0_samples``, 0 outside,
+    in ``wf_full`` (:func:`rfsim.gen2._linecode_kernels.waveform_kernel`): made only when
+    ``wf_full`` does not already hold it (``memo`` and ``wf_bits`` name what it holds: a pure
+    function of the bits and the start for the plan and input length of the caller)."""
+    if memo[MEMO_WF_VALID] > 0 and memo[MEMO_WF_T0] == t0_samples:
+        same = True
+        for i in range(bits.size):
+            same = same and wf_bits[i] == bits[i]
+        if same:
+            return
+    memo[MEMO_WF_VALID] = 0.0
+    memo[MEMO_CUT_VALID] = 0.0
+    el = np.empty((pre_levels.size + 2 * (bits.size + 1)) * m)
+    elements_kernel(bits, True, m, pre_levels, state, el)
+    waveform_kernel(el, t0_samples, ratio, wf_full)
+    wf_bits[:] = bits
+    memo[MEMO_WF_T0] = t0_samples
+    memo[MEMO_WF_VALID] = 1.0
+
+
+@njit
+def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes):
+    """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`) and the pieces'
+    sizes in the ``pm_*`` arrays, made only when they do not already hold those of ``start``
+    (``memo``; a pure function of the start for the plan and input length of the caller).
+    Returns the number of pieces."""
+    if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
+        return int(memo[MEMO_PM_PIECES])
+    memo[MEMO_PM_PIECES] = -1.0
+    memo[MEMO_CUT_VALID] = 0.0
+    n_p = piece_map_kernel(n, b1, start, ratio, m, n_elements, pm_piece_of, pm_sign, pm_kind)
+    pm_sizes[:n_p] = 0.0
+    for q in range(n - b1):
+        pm_sizes[pm_piece_of[q]] += 1.0
+    memo[MEMO_PM_START] = start
+    memo[MEMO_PM_PIECES] = n_p
+    return n_p
+
+
+@njit
 def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
-                   ki, wi, fi):
+                   memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, wf_bits, wf_full, cut_memo, ki, wi, fi):
     """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
     in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
     in the order of the NumPy steps.
@@ -378,11 +452,15 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
     ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
     template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
-    elements and half-bit levels. Writes the decoded bits into ``bits_out`` ((n_bits + 1,) uint8),
-    the reply span r − c and its ±1 reference (0 outside the reply) into ``z_out``, ``s_out``
-    ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used) for the measurement, and the status, the
-    reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom
-    and the measurement's sample count into ``res`` (slots ``RES_*``)."""
+    elements and half-bit levels; ``memo`` and the ``pm_*`` ((n − b1,)), ``wf_*`` ((n_bits,)
+    uint8, (n,)) and ``cut_memo`` arrays: the content memo of :func:`_pieces`, :func:`_reference`
+    and :func:`_cuts` (kept by the caller for this plan, input length and search window). Writes the decoded bits into ``bits_out``
+    ((n_bits + 1,) uint8), the reply span r − c and its ±1 reference (0 outside the reply) into
+    ``z_out``, ``s_out`` ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used), measures them
+    (:func:`rfsim.devices._reader_kernels.measure_kernel`), and writes the status, the reply
+    start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom, the
+    measurement's sample count and its gain h, phase slope and residual power into ``res``
+    (slots ``RES_*``)."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
@@ -392,19 +470,14 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     start = lo + start_rel
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again
-    piece_of = np.empty(max(n - b1, 0), np.int64)
-    sign = np.empty(piece_of.size)
-    kind = np.empty(piece_of.size, np.int64)
-    n_p = piece_map_kernel(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], piece_of, sign, kind)
-    kind = kind[:n_p]
-    sizes = np.zeros(n_p)
-    for q in range(piece_of.size):
-        sizes[piece_of[q]] += 1.0
+    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], memo, pm_piece_of, pm_sign, pm_kind, pm_sizes)
+    n_q = max(n - b1, 0)
+    piece_of, sign, kind, sizes = pm_piece_of[:n_q], pm_sign[:n_q], pm_kind[:n_p], pm_sizes[:n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    spread_add_kernel(r, b1, piece_of, sign, sums, sizes)
-    for i in range(n):  # the spread pieces lie after lo: the mean before it is dc0
+    for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
+    _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc0)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -424,10 +497,8 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
         return
     # (h, c) on the known levels of the reference of the search's decisions
     t0_samples = start / fs * fs
-    el = np.empty(nh * m)
-    full = np.empty(n)
-    elements_kernel(det_bits[:n_bits], True, m, pre_levels, state, el)
-    waveform_kernel(el, t0_samples, ratio, full)
+    full = wf_full
+    _reference(det_bits[:n_bits], t0_samples, ratio, m, pre_levels, state, memo, wf_bits, full)
     h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
@@ -449,14 +520,15 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     for i in range(n_bits):
         same = same and bits_out[i] == det_bits[i]
     if not same:
-        elements_kernel(bits_out[:n_bits], True, m, pre_levels, state, el)
-        waveform_kernel(el, t0_samples, ratio, full)
+        _reference(bits_out[:n_bits], t0_samples, ratio, m, pre_levels, state, memo, wf_bits, full)
     for i in range(n_span):
         s_out[i] = full[i0 + i]
     n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
-                                  ip[IP_N_BLOCKS], ki, wi, fi)
+                                  ip[IP_N_BLOCKS], memo, cut_memo, ki, wi, fi)
     for i in range(n_span):
         z_out[i] = r[i0 + i] - c
+    gain, slope, resid = measure_kernel(z_out[:n_span], s_out[:n_span], fs, ip[IP_N_BLOCKS])
+    res[RES_H_RE], res[RES_H_IM], res[RES_SLOPE], res[RES_SIGMA2] = gain.real, gain.imag, slope, resid
     res[RES_N_FREE] = n_free
     res[RES_N_USED] = n_used
     res[RES_STATUS] = OK

@@ -80,20 +80,24 @@ Implementation: steps 1–4 run in one numba call
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
 the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
 template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
-them: Re(g·S_j) − Re(dc·g)·C_j), and fits, cuts and bridges as above. The measurement is the
-reader's kernel (a second call); Python builds the :class:`ReadResult`. What depends only on
+them: Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the
+reader's measurement kernel; Python builds the :class:`ReadResult`. What depends only on
 the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
-is kept by content (:func:`_plan`). The NumPy twin of the steps (the sample-level decoder's
+is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the
+link), and per search window (:class:`_Call`) what depends only on content: the piece map of
+the last reply start, the reference of the last decided bits, the block cuts of the last span,
+and the CRC check of decoded bits (pure functions of their keys, checked on every call: the
+same numbers as made anew). The NumPy twin of the steps (the sample-level decoder's
 calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
 the same draws, decisions and generator state, the measurements equal up to the order of
 the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
 320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-over ``x + ñ`` (the piece map and spread, the half-bit sums, the reference and its known levels,
-the block cuts, the reader's measurement) and the decoder's search with its sub-sample
-refinement (5 candidates × 17 shifts × the preamble's samples); on the canonical exchange a call
-costs about what the sample-level receiver's does (``rfsim bench exchange-statistic``). A
+over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's measurement; the
+piece map, the reference and the block cuts only when their content changes) and the decoder's
+search with its sub-sample refinement (5 candidates × 17 shifts × the preamble's samples)
+(``rfsim bench exchange-statistic``). A
 receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
 piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
 draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag
@@ -102,7 +106,6 @@ ones).
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
@@ -281,7 +284,7 @@ def residual_correction(n_free: int, sigma2_w: float, n_used: int, *, rng: np.ra
 
 class _Plan(NamedTuple):
     """What :func:`receive` derives from the link, the reply's bits, the BLF and the sample rate
-    before it looks at a sample (:func:`_plan`)."""
+    before it looks at a sample (:func:`_make_plan`)."""
 
     pre_n: int  # samples fully inside the preamble, as the detector correlates
     n_reply: int  # samples of the whole reply, ⌈duration·fs⌉
@@ -293,10 +296,9 @@ class _Plan(NamedTuple):
     arrays: tuple  # t0, shifts, templates, norms, preamble elements (float64), preamble levels (int8)
 
 
-@functools.lru_cache(maxsize=64)
-def _plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
-    """The :class:`_Plan` of a reply (a pure function of its hashable arguments, cached: the
-    same few replies are received round after round)."""
+def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
+    """The :class:`_Plan` of a reply (a pure function of its arguments, kept by
+    :class:`_Plans`)."""
     ratio = 2.0 * blf_hz / fs_hz
     levels, state = _preamble(m, trext)
     n_pre_el = levels.size * m
@@ -316,6 +318,78 @@ def _plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) -> _Pla
     arrays = tuple(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates, norms,
                                          elements_of_levels(levels, m, np.float64)))
     return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, (*arrays, np.array(levels, np.int8)))
+
+
+class _Call:
+    """What :func:`receive` keeps for one plan, input length and search window: the kernel's
+    integer parameters, its scratch arrays (the input, the reply span and its reference,
+    rewritten by every call) and its content memo (the piece map of the last start, the reference of the last bits
+    and start: pure functions of them for this plan and window, checked by the kernel)."""
+
+    def __init__(self, plan: _Plan, n: int, lo: int, hi: int):
+        last = min(n - lo - plan.n_decode, hi - lo)
+        self.last = last
+        b1 = min(n, lo + last + int(math.floor(plan.n_pre_elements / plan.ratio)) + SEARCH_MARGIN)
+        b0 = max(0, lo - SEARCH_MARGIN)
+        self.ip = plan.ints.copy()
+        self.ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = (lo, b0, b1, min(b0, 2),
+                                                                                      last + plan.pre_n)
+        n_q = max(n - b1, 0)
+        n_bits = int(plan.ints[_sk.IP_N_BITS])
+        self.r = np.empty(n, np.complex128)
+        self.scratch = (np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4))
+        k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
+        self.memo = (np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
+                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(n_bits, np.uint8), np.zeros(n),
+                     np.zeros((6, max(k, 3)), np.int64))
+
+
+class _Plans:
+    """The receiver's plans of one link profile (:class:`_Plan` by reply bits, BLF and sample
+    rate; :class:`_Call` by plan, input length and search window) and the CRC checks of the
+    decoded replies (by their bits), kept in the run's :class:`~rfsim.air.cache.AirCache`
+    (:meth:`~rfsim.air.cache.AirCache.derived` of the link), each table bounded (cleared when
+    full)."""
+
+    #: Entries per table.
+    SIZE = 64
+
+    def __init__(self, link):
+        self.m, self.trext = int(link.m), bool(link.trext)
+        self.plans: dict = {}
+        self.calls: dict = {}
+        self.crcs: dict = {}
+
+    def crc16_ok(self, bits: np.ndarray) -> bool:
+        """:func:`rfsim.gen2.crc.crc16_ok` of the decoded ``bits`` ((n,) uint8 0/1), by their content."""
+        key = bits.tobytes()
+        hit = self.crcs.get(key)
+        if hit is None:
+            if len(self.crcs) >= self.SIZE:
+                self.crcs.clear()
+            hit = self.crcs[key] = crc16_ok(bits)
+        return hit
+
+    def plan(self, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
+        """The :class:`_Plan` of a reply of ``n_bits`` data bits at ``blf_hz``, ``fs_hz``."""
+        key = (n_bits, blf_hz, fs_hz)
+        hit = self.plans.get(key)
+        if hit is None:
+            if len(self.plans) >= self.SIZE:
+                self.plans.clear()
+            hit = self.plans[key] = _make_plan(self.m, self.trext, n_bits, blf_hz, fs_hz)
+        return hit
+
+    def call(self, plan: _Plan, n_bits: int, blf_hz: float, fs_hz: float, n: int, lo: int, hi: int) -> _Call:
+        """The :class:`_Call` of ``plan`` (that of ``n_bits``, ``blf_hz``, ``fs_hz``) on ``n`` samples
+        searched over the lags ``lo … hi``."""
+        key = (n_bits, blf_hz, fs_hz, n, lo, hi)
+        hit = self.calls.get(key)
+        if hit is None:
+            if len(self.calls) >= self.SIZE:
+                self.calls.clear()
+            hit = self.calls[key] = _Call(plan, n, lo, hi)
+        return hit
 
 
 #: The ValueError of each failure status of the kernel (those the sample-level decoder raises).
@@ -384,7 +458,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         When ``x`` is not 1-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
         where the sample-level decoder raises (no room for the reply, a zero gain).
     """
-    r = np.array(x, dtype=np.complex128)  # a fresh copy: the kernel adds the noise in place
+    r = np.asarray(x)
     if r.ndim != 1:
         raise ValueError(f"rx must be 1-D, got shape {r.shape}")
     if type(rng) is not np.random.Generator or type(rng.bit_generator) is not np.random.PCG64:
@@ -395,22 +469,19 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
     if not blf > 0:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
-    plan = _plan(lk.m, bool(lk.trext), n_bits, blf, fs)
+    plans = reader.air_cache.derived(lk, _Plans)  # the run's, by the (frozen) link profile
+    plan = plans.plan(n_bits, blf, fs)
     lo, hi = reader.reply_start_lags(r.size, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
     if hi < lo or plan.pre_n < 3:
         return ReadResult(False, None, "preamble not found")
-    last = min(r.size - lo - plan.n_decode, hi - lo)
-    if last < 0:
+    call = plans.call(plan, n_bits, blf, fs, r.size, lo, hi)
+    if call.last < 0:
         raise ValueError(f"input of {r.size - lo} samples is shorter than the reply ({plan.n_decode} samples)")
-    b1 = min(r.size, lo + last + int(math.floor(plan.n_pre_elements / plan.ratio)) + SEARCH_MARGIN)
-    b0 = max(0, lo - SEARCH_MARGIN)
-    ip = plan.ints.copy()
-    ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = lo, b0, b1, min(b0, 2), last + plan.pre_n
     fp = np.array([sigma2, plan.ratio, fs, reader.detection_threshold(hi - lo + 1, blf), _RUNS_PER_SAMPLE_MAX])
-    bits = np.zeros(n_bits + 1, np.uint8)
-    z, s, res = np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4), np.zeros(9)
+    bits, res = np.zeros(n_bits + 1, np.uint8), np.zeros(13)
     full, st = _nk._pcg64_state(rng)
-    _nk._run_compiled(_sk.receive_kernel, st, r, ip, fp, *plan.arrays, bits, z, s, res)
+    np.copyto(call.r, r)  # the kernel adds the noise in place: into the call's own buffer
+    _nk._run_compiled(_sk.receive_kernel, st, call.r, call.ip, fp, *plan.arrays, bits, *call.scratch, res, *call.memo)
     _nk._set_pcg64_state(rng, full, st)
     status, start_rel, corr = int(res[_sk.RES_STATUS]), float(res[_sk.RES_START]), float(res[_sk.RES_CORR])
     if status in _RAISES:
@@ -418,10 +489,11 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     start_s = float(t0_s) + (lo + start_rel) / fs
     if status == _sk.NOT_FOUND:
         return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-    bits, n_span = bits[:n_bits], int(res[_sk.RES_N_SPAN])
-    meas = reader._measure(z[:n_span], s[:n_span], blf)
+    bits = bits[:n_bits]
+    meas = reader._measurements(complex(res[_sk.RES_H_RE], res[_sk.RES_H_IM]), float(res[_sk.RES_SLOPE]),
+                                float(res[_sk.RES_SIGMA2]), blf)
     _complete(meas, int(res[_sk.RES_N_FREE]), int(res[_sk.RES_N_USED]), sigma2, carrier, rng)
-    ok = (not expect_crc) or crc16_ok(bits)
+    ok = (not expect_crc) or plans.crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)
 

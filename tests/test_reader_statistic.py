@@ -199,6 +199,33 @@ def test_receive_kernel_matches_its_numpy_twin(m, ebn0_db, second_db):
     assert outcomes  # at least one reply received
 
 
+@pytest.mark.parametrize("m, ebn0_db", [(4, 60.0), (4, 6.0), (1, 8.0)])
+def test_receive_with_the_runs_plans_equals_receive_without(m, ebn0_db):
+    """What the receiver keeps by content in the run's cache (plans, per search window the piece
+    map of the last start, the reference of the last bits, the block cuts, the CRC checks) gives
+    the same results, bit for bit, and the same draws as a receiver that makes all of them anew
+    on every call (a fresh cache per call): inputs repeated (the same start and bits again: kept
+    entries reused) and interleaved with others and with a shorter reply (other entries)."""
+    from rfsim.air.cache import AirCache
+
+    bits = trials.PAYLOAD_BITS + 16
+    epc, reader, cmd_end_s = trials.inputs(m, 4, ebn0_db=ebn0_db, seed=400 + m)
+    rn16, _, _ = trials.inputs(m, 2, ebn0_db=ebn0_db, seed=500 + m, n_bits=16)
+    order = [(epc[0], bits), (epc[0], bits), (rn16[0], 16), (epc[0], bits), (epc[1], bits), (rn16[0], 16),
+             (rn16[1], 16), (epc[1], bits), (epc[2], bits), (epc[2], bits), (epc[3], bits), (epc[0], bits)]
+    kept, fresh = np.random.default_rng(4), np.random.default_rng(4)
+    shared = reader.air_cache
+    for x, n_bits in order:
+        got = []
+        for rng, cache in ((kept, shared), (fresh, AirCache())):
+            reader.air_cache = cache
+            a = rs.receive(reader, x, t0_s=0.0, n_bits=n_bits, expect_crc=n_bits > 16, cmd_end_s=cmd_end_s, rng=rng)
+            got.append(repr((a.success, a.failure_reason, None if a.bits is None else a.bits.tolist(), a.start_s,
+                             a.corr, a.rssi_dbm, a.phase_rad, a.doppler_hz, a.snr_db, a.ebn0_db)))
+        assert got[0] == got[1]
+    assert kept.bit_generator.state == fresh.bit_generator.state
+
+
 # ----------------------------------------------------------------------------- equivalence
 
 

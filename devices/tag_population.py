@@ -294,14 +294,13 @@ class _Round:
     def __init__(self, members, gains, cw, fe):
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
-        self.points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
+        self.points = points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
         n = len(members)
-        self.known = np.zeros(n, bool)
-        self.powered = np.zeros(n, bool)
-        self.scatter = np.zeros(n, bool)
-        self.dbm = np.full(n, math.nan)
-        for j, q in enumerate(self.points):
-            self._set(j, q)
+        # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
+        self.known = np.array([q is not None for q in points], bool)
+        self.powered = np.array([q is not None and q.powered for q in points], bool)
+        self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
+        self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
         self.record = None  # the record values of dbm and powered (TagPopulation._round_record)
         #: every member draws from its own generator, so the order in which members draw does

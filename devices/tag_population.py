@@ -215,7 +215,11 @@ class TagPopulation:
         react = (~quiet).nonzero()[0].tolist()
         for j in react:
             m = self.members[j]
-            decoded = next((d for sel, d in decoded_by if sel[j]), None)
+            decoded = None
+            for sel, d in decoded_by:
+                if sel[j]:
+                    decoded = d
+                    break
             replied = replies.get(j)
             if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
                 reactions[j] = m.respond_reply(rnd.points[j], replied[0], base, replied[1])
@@ -260,6 +264,14 @@ class TagPopulation:
                                                incident_power_dbm.copy(), powered.copy())
         return memo
 
+    def _round_record(self, rnd: _Round) -> RecordValues:
+        """:meth:`record_values` of the round's own incident powers and power states (kept with
+        the round until a member's quiet point becomes known)."""
+        record = rnd.record
+        if record is None:
+            record = rnd.record = self.record_values(rnd.dbm, rnd.powered)
+        return record
+
     def _sync(self, gains, fe) -> _Round:
         """The round's quiet points for these gains and the segment's CW sample (kept while
         both stay the same; the sign of the CW sample does not matter: |g·(−x_m)|² = |g·x_m|²
@@ -282,15 +294,15 @@ class _Round:
     def __init__(self, members, gains, cw, fe):
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
-        self.points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
+        self.points = points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
         n = len(members)
-        self.known = np.zeros(n, bool)
-        self.powered = np.zeros(n, bool)
-        self.scatter = np.zeros(n, bool)
-        self.dbm = np.full(n, math.nan)
-        for j, q in enumerate(self.points):
-            self._set(j, q)
+        # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
+        self.known = np.array([q is not None for q in points], bool)
+        self.powered = np.array([q is not None and q.powered for q in points], bool)
+        self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
+        self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
+        self.record = None  # the record values of dbm and powered (TagPopulation._round_record)
         #: every member draws from its own generator, so the order in which members draw does
         #: not matter (else a QueryAdjust goes through each member's own path, in member order)
         self.rngs = rngs = [getattr(m, "rng", None) for m in members]
@@ -303,6 +315,7 @@ class _Round:
     def _set(self, j: int, q) -> None:
         if q is not None:
             self.known[j], self.powered[j], self.dbm[j] = True, q.powered, q.p_dbm
+            self.record = None
             self.scatter[j] = q.structural_mode != q.gamma_rest
 
     def learn(self, j: int, q) -> None:
@@ -322,6 +335,11 @@ class _Round:
                         for b, g, q in zip(backs, self.gains, self.points)], dtype=np.complex128)
         self._terms[id(backs)] = _Terms(backs, out)
         return out
+
+
+def _same_float(a: float, b: float) -> bool:
+    """``a`` and ``b`` are the same float to the bit (NaN: never; ±0 told apart)."""
+    return a == b and (a != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b))
 
 
 class RecordValues(NamedTuple):
@@ -375,10 +393,16 @@ class PopulationReflection:
         self._population, self._round, self._steps = population, rnd, steps
         self.quiet, self.reactions = quiet, reactions
         self.powered = rnd.powered & quiet
-        self.incident_power_dbm = rnd.dbm.copy()
+        self.incident_power_dbm = dbm = rnd.dbm.copy()
+        #: every reacting member's power state and incident power are the round's own (to the
+        #: bit): then the arrays are the round's, and so are the record values
+        self._as_round = as_round = True
         for j, r in reactions.items():
-            self.powered[j] = bool(r.powered)
-            self.incident_power_dbm[j] = r.incident_power_dbm
+            powered, p_dbm = bool(r.powered), r.incident_power_dbm
+            if as_round and (powered != rnd.powered[j] or not _same_float(p_dbm, dbm[j])):
+                self._as_round = as_round = False
+            self.powered[j] = powered
+            dbm[j] = p_dbm
 
     def terms(self, backs) -> tuple[np.ndarray, np.ndarray]:
         """The quiet members' constant contributions at one receiver.
@@ -409,6 +433,8 @@ class PopulationReflection:
         RecordValues
             The tuples (shared with the previous exchange's while equal).
         """
+        if self._as_round:
+            return self._population._round_record(self._round)
         return self._population.record_values(self.incident_power_dbm, self.powered)
 
     def __len__(self) -> int:

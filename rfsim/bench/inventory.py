@@ -84,8 +84,11 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         and CPU time [s], slots, reader commands, tags read, air time [s], ``…_air_per_wall``
         (> 1: faster than the air), CPU time per command [ms] and per tag and command [µs], the
         carriers used (``…_carriers``: the first command and every first command after a
-        frequency hop) and the CPU time of those commands (``…_carrier_cpu_s`` [s]), and per
-        command name the median CPU time of the other commands
+        frequency hop) and the CPU time of those commands (``…_carrier_cpu_s`` [s]; the median
+        one after a hop per tag, ``…_carrier_cpu_per_tag_us`` [µs], NaN without a hop), the CPU
+        time per command of the other
+        commands (``…_other_cpu_per_command_ms`` [ms]), and per command name the median CPU time
+        of the other commands
         (``…_median_cpu_ms_<Query|QueryRep|QueryAdjust|ACK|NAK>`` [ms]). How
         the cost grows with N: ``sample_cpu_exponent``, the slope of log(CPU time) against log(N)
         (1 = linear), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms`` (a, the
@@ -121,7 +124,11 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
                         f"sample_N{n}_cpu_per_command_ms": 1e3 * cpu / k,
                         f"sample_N{n}_cpu_per_tag_command_us": 1e6 * cpu / (k * n),
                         f"sample_N{n}_carriers": len(air.hop_cpu_s),
-                        f"sample_N{n}_carrier_cpu_s": float(sum(air.hop_cpu_s))})
+                        f"sample_N{n}_carrier_cpu_s": float(sum(air.hop_cpu_s)),
+                        f"sample_N{n}_carrier_cpu_per_tag_us":
+                            1e6 * float(np.median(air.hop_cpu_s[1:])) / n if len(air.hop_cpu_s) > 1 else math.nan,
+                        f"sample_N{n}_other_cpu_per_command_ms":
+                            1e3 * (cpu - float(sum(air.hop_cpu_s))) / max(1, k - len(air.hop_cpu_s))})
             out.update({f"sample_N{n}_median_cpu_ms_{name}": 1e3 * float(np.median(v))
                         for name, v in sorted(air.cpu_s.items())})
             fit.append((n, cpu, k))

@@ -366,6 +366,9 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     switches = 0
     t_cmd = float(t0_s) + clock.lead_s  # start of the next command (its delimiter)
     n_slots = 0
+    # the commands are immutable: one QueryRep, and one QueryAdjust per UpDn, for the inventory
+    rep = _commands.QueryRep(session=config.session)
+    adjust: dict[int, Any] = {}
     if config.select_mask or config.sel != "all":
         # assert SL on matching tags, deassert it on the others (Select action 0)
         sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
@@ -417,10 +420,12 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
             if config.q_mode == "dynamic" and q_new != q:
                 updn = 1 if q_new > q else -1
                 q += updn
-                cmd = _commands.QueryAdjust(session=config.session, updn=updn)
+                cmd = adjust.get(updn)
+                if cmd is None:
+                    cmd = adjust[updn] = _commands.QueryAdjust(session=config.session, updn=updn)
                 frame_left = 1 << q
             elif frame_left > 0:
-                cmd = _commands.QueryRep(session=config.session)
+                cmd = rep
             else:
                 break
         if n_slots >= config.max_slots:

@@ -650,7 +650,8 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     cmp : ndarray of float, shape (r, n)
         Comparator outputs (±1), the input of the decoder.
     tog : ndarray of int, shape (r,)
-        Toggles of the whole rows (not read: the toggles after ``start_sample`` are counted).
+        Toggles of the whole rows, from the comparator's start at −1 (read when
+        ``start_sample`` is 0; else the toggles after ``start_sample`` are counted).
     rows : array_like of bool, shape (r,)
         Keyword-only (like the others): the rows to decode.
     expected_bits : array_like of {0, 1}, shape (n_bits,)
@@ -669,7 +670,10 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     out = np.zeros(env.shape[0], dtype=bool)
     exp = np.asarray(expected_bits, dtype=np.uint8)
     part = cmp[:, start_sample:]
-    toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
+    if start_sample == 0:  # the toggles between samples: all but a first one from −1 to +1
+        toggles = np.asarray(tog) - (cmp[:, 0] > 0)
+    else:
+        toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
     idx = np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles))
     # rx.decode_comparator row by row, its setup done once (rfsim.gen2.linecode.decode_reply_rows)
     dets = decode_reply_rows(part, idx, n_bits=exp.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz,

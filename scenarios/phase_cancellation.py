@@ -41,7 +41,7 @@ from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
 from rfsim.core.monte_carlo import MonteCarloConfig, run_cells
-from rfsim.core.progress import stage
+from rfsim.core.procs import map_in_order
 from rfsim.core.rng import trial_rng
 from rfsim.devices import st_receiver as sr
 from rfsim.devices.pass_tag import PassReplicationConfig, TagStatesConfig, tag_attributes
@@ -290,6 +290,24 @@ def monte_carlo(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     return run_cells(run_cell, config, len(config.geometry.tag_x_m), config.mc, seed=seed)
 
 
+def _pool_task(args) -> dict:
+    """One task of :func:`_simulate`: ``(config, cell, rep, seed)`` → :func:`run_cell`, or with
+    ``cell`` None the radial tracks (:func:`radial_tracks`)."""
+    config, cell, rep, seed = args
+    return radial_tracks(config, seed=seed) if cell is None else run_cell(config, cell, rep, seed)
+
+
+def _simulate(config: Config, *, seed: int) -> tuple[dict[str, np.ndarray], dict]:
+    """:func:`monte_carlo` and :func:`radial_tracks` on one pool (the tracks its last task, run
+    beside the cells instead of after them): ``(samples, tracks)``."""
+    n_reps = config.mc.n_repetitions
+    tasks = [(config, c, r, seed) for c in range(len(config.geometry.tag_x_m)) for r in range(n_reps)]
+    parts = map_in_order(_pool_task, [*tasks, (config, None, 0, seed)], config.mc.workers, desc="monte carlo",
+                         unit="tasks")
+    tracks = parts.pop()
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}, tracks
+
+
 def radial_tracks(config: Config, *, seed: int) -> dict[str, np.ndarray]:
     """Single-antenna ST along radial tracks around the tag of ``tracks.cell`` (Fig. 3.15).
 
@@ -385,8 +403,8 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
 
     Reproduces AURIS dissertation Figs. 3.3, 3.5, 3.8, 3.15, 3.16 and 5.8
     (auris-sense-a-tag.md §4.1 R3-3/R3-5, §4.3 R5-1, §6.1): the Monte Carlo over cells and
-    repetitions (:func:`monte_carlo`), the radial tracks (:func:`radial_tracks`) and the
-    closed-form grids of Eqs. 3.4, 3.9 and 3.23.
+    repetitions (:func:`monte_carlo`) and the radial tracks (:func:`radial_tracks`), on one
+    pool of ``mc.workers`` processes, and the closed-form grids of Eqs. 3.4, 3.9 and 3.23.
 
     Parameters
     ----------
@@ -406,7 +424,7 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
         attributes with the overall probabilities, null spacings along the tracks, the tag
         states, the reader EIRP [W] and the notes of :data:`NOTES`.
     """
-    samples = monte_carlo(config, seed=seed)
+    samples, tr = _simulate(config, seed=seed)
     n_cells = len(config.geometry.tag_x_m)
     ds = _dataset.Dataset(title="sense-a-tag phase cancellation (AURIS dissertation Fig. 3.3/3.5/3.8/3.15/3.16/5.8)")
     ds.add_table("samples", _columns(samples),
@@ -428,8 +446,6 @@ def run(config: Config, *, seed: int) -> _dataset.Dataset:
     for t, f in flags.items():
         p, lo, hi, _ = sa.cancellation_probability(f[~near])
         ds.attrs[f"overall_p_{t}"], ds.attrs[f"overall_ci_{t}"] = float(p), [float(lo), float(hi)]
-    stage("radial tracks (Fig. 3.15)")
-    tr = radial_tracks(config, seed=seed)
     spec = {"angle_deg": ("deg", "track angle, measured from the tag->reader direction"),
             "distance_m": ("m", "distance of the single-antenna ST from the tag along the track"),
             "diff_v": ("V", "sample-level envelope difference |A(+1) - A(-1)| at the ST detector output along the "

@@ -84,7 +84,7 @@ import time
 
 
 def task(i):
-    time.sleep(0.2 if i in (1, 4) else 0.0)  # the pilot is busy with task 1 when the other worker starts
+    time.sleep(0.2 if i in (1, 4) else 0.0)  # the leader is busy with task 1, a later task ends before task 4
     if i == 99:
         raise ValueError("task 99 failed")
     return i, i * i, os.getpid()
@@ -106,16 +106,17 @@ print(json.dumps(dict(leader=os.getpid(), out=out, failed=failed)))
 
 
 def test_map_in_order_keeps_task_order_across_the_pilot_and_the_pool(tmp_path):
-    """The pilot runs the second task too, while the workers start: the results come back in
-    task order even when a later task ends first, every task runs outside the leader (the
-    first two in the pilot, the others in at most the two workers), and a task's error is raised in
-    the leader."""
+    """The leader runs the second task while the pilot runs the first, the pilot runs the
+    next one queued behind it while the workers start: the results come back in task order
+    even when a later task ends first, the first and third tasks in the pilot, the others in
+    at most the two workers, and a task's error is raised in the leader."""
     (tmp_path / "kmap.py").write_text(_TASKS)
     env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{ROOT}")
     run = subprocess.run([sys.executable, "-c", _MAP], capture_output=True, text=True, env=env, check=True)
     got = json.loads(run.stdout.strip().splitlines()[-1])
     assert [(i, sq) for i, sq, _ in got["out"]] == [(i, i * i) for i in range(9)]
     pids = [pid for _, _, pid in got["out"]]
-    assert got["leader"] not in pids and pids[1] == pids[0] and pids[0] not in pids[2:]
-    assert 1 <= len(set(pids[2:])) <= 2  # the asked two workers at most
+    assert pids[1] == got["leader"] and got["leader"] not in pids[:1] + pids[2:]
+    assert pids[2] == pids[0] and pids[0] not in pids[3:]
+    assert 1 <= len(set(pids[3:])) <= 2  # the asked two workers at most
     assert got["failed"] == "task 99 failed"

@@ -262,40 +262,22 @@ def frames_kernel(
 
 
 @njit
-def decode_kernel(x, threshold, hysteresis, check_finite, min_ratio, max_ratio, max_trcal):
-    """:func:`edges_kernel` then :func:`frames_kernel` of ``x`` in one call (arrays allocated
-    here): returns ``(pos, direction, start, end, delimiter, tari, rtcal, trcal, offset, count,
-    bits)`` trimmed to the edges and frames found, or empty arrays when ``check_finite`` is set
-    and a sample of ``x`` is not finite (a real envelope; :func:`env_order` of complex samples)."""
-    n = x.size
-    finite = True
+def decode_kernel(x, threshold, hysteresis, check_finite, min_ratio, max_ratio, max_trcal, pos, direction, fbuf,
+                  ibuf, bits):
+    """:func:`edges_kernel` then :func:`frames_kernel` of ``x`` in one call; returns ``(ne, nf)``,
+    the numbers of edges and frames, or ``(-1, 0)`` when ``check_finite`` is set and a sample of
+    ``x`` is not finite (a real envelope; :func:`env_order` of complex samples). Scratch:
+    ``pos``/``direction``/``bits`` of ``x.size`` (float64, int8, uint8), ``fbuf`` (6, m) float64
+    and ``ibuf`` (2, m) int64 with m = x.size // 2 + 1: the frames' start, end, delimiter, Tari,
+    RTcal, TRcal and bit offset, count."""
     if check_finite:
-        for i in range(n):
+        for i in range(x.size):
             if not math.isfinite(env_order(x, i)):
-                finite = False
-                n = 0
-                break
-    pos = np.empty(n, dtype=np.float64)
-    direction = np.empty(n, dtype=np.int8)
-    ne = edges_kernel(x, threshold, hysteresis, pos, direction) if n > 0 else 0
-    pos = pos[:ne]
-    direction = direction[:ne]
-    nmax = ne // 2 + 1
-    f_start = np.empty(nmax)
-    f_end = np.empty(nmax)
-    f_delim = np.empty(nmax)
-    f_tari = np.empty(nmax)
-    f_rtcal = np.empty(nmax)
-    f_trcal = np.empty(nmax)
-    f_off = np.empty(nmax, dtype=np.int64)
-    f_cnt = np.empty(nmax, dtype=np.int64)
-    bits = np.empty(max(ne, 1), dtype=np.uint8)
-    nf = frames_kernel(pos, direction, min_ratio, max_ratio, max_trcal, f_start, f_end, f_delim, f_tari,
-                       f_rtcal, f_trcal, f_off, f_cnt, bits)
-    if not finite:
-        bits = bits[:0]
-    return (pos, direction, f_start[:nf], f_end[:nf], f_delim[:nf], f_tari[:nf], f_rtcal[:nf], f_trcal[:nf],
-            f_off[:nf], f_cnt[:nf], bits)
+                return -1, 0
+    ne = edges_kernel(x, threshold, hysteresis, pos, direction)
+    nf = frames_kernel(pos[:ne], direction[:ne], min_ratio, max_ratio, max_trcal, fbuf[0], fbuf[1], fbuf[2],
+                       fbuf[3], fbuf[4], fbuf[5], ibuf[0], ibuf[1], bits)
+    return ne, nf
 
 
 #: Block size of numpy's pairwise summation (``PW_BLOCKSIZE`` in numpy's loops_utils).

@@ -509,8 +509,14 @@ def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 
         z = np.zeros(0)
         return PieEdges(z, np.zeros(0, np.int8), z, z, z, z, z, z, np.zeros(0, np.int64),
                         np.zeros(0, np.int64), np.zeros(0, np.uint8))
-    return PieEdges(*_k.decode_kernel(x, thr, hyst, levels is not None and x.dtype == np.float64,
-                                      *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL))
+    n = x.size
+    pos, direction, bits = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n, dtype=np.uint8)
+    f, i = np.empty((6, n // 2 + 1)), np.empty((2, n // 2 + 1), dtype=np.int64)
+    ne, nf = _k.decode_kernel(x, thr, hyst, levels is not None and x.dtype == np.float64, *RTCAL_TARI_RANGE,
+                              MAX_TRCAL_RTCAL, pos, direction, f, i, bits)
+    if ne < 0:  # a non-finite sample
+        return PieEdges(pos[:0], direction[:0], *f[:, :0], *i[:, :0], bits[:0])
+    return PieEdges(pos[:ne], direction[:ne], *f[:, :nf], *i[:, :nf], bits[:max(ne, 1)])
 
 
 def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,

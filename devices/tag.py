@@ -263,7 +263,8 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     modulating = s > 0
     modulating.flags.writeable = False
     cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
-    return _reflection(s, gamma_b, gamma_a)
+    # from the mask, as a reply seen again is (one specialization of the kernel)
+    return _reflection(modulating, gamma_b, gamma_a)
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:

@@ -176,6 +176,14 @@ def _ramp_width_samples(rise_fall_s: float, fs_hz: float, timeline: PieTimeline)
     return rise_fall_s * _RAMP_WIDTH_PER_10_90 * fs_hz
 
 
+def _envelope_arguments(timeline: PieTimeline, depth: float, fs_hz: float, rise_fall_s: float) -> tuple[float, float]:
+    """``(fs_hz, ramp width [samples])`` of an envelope of ``timeline``, checked: fs > 0, 0 < depth ≤ 1."""
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    return fs_hz, _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
+
+
 def _check_fs(fs_hz: float) -> float:
     fs_hz = float(fs_hz)
     if not fs_hz > 0:
@@ -261,10 +269,7 @@ def timeline_envelope(timeline: PieTimeline, *, depth: float, fs_hz: float, rise
     ValueError
         If ``depth`` is outside (0, 1] or ``fs_hz`` is not positive.
     """
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
-    width = _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
+    fs_hz, width = _envelope_arguments(timeline, depth, fs_hz, rise_fall_s)
     out = np.ones(int(math.ceil(timeline.duration_s * fs_hz)), dtype=np.float64)
     _k.envelope_kernel(timeline.fall_s * fs_hz, timeline.rise_s * fs_hz, float(depth), width, out)
     return out
@@ -301,7 +306,7 @@ def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: f
     return out.astype(np.complex128)
 
 
-def ask_baseband(timeline: PieTimeline, *, depth: float, fs_hz: float, amplitude: float, pr_ask: bool,
+def ask_baseband(timeline: PieTimeline, *, amplitude: float, pr_ask: bool, depth: float, fs_hz: float,
                  rise_fall_s: float = 0.0, modulated_s: float | None = None) -> np.ndarray:
     """DSB-ASK ``x = A·e(t)`` or PR-ASK ``x = A·s(t)·e(t)`` of a timeline in one pass (numba kernel).
 
@@ -315,14 +320,14 @@ def ask_baseband(timeline: PieTimeline, *, depth: float, fs_hz: float, amplitude
     ----------
     timeline : PieTimeline
         Edge times [s].
-    depth : float
-        Modulation depth (A−B)/A, 0 < depth ≤ 1.
-    fs_hz : float
-        Sample rate [Hz].
     amplitude : float
         CW amplitude A [√W].
     pr_ask : bool
         PR-ASK (True) or DSB-ASK (False).
+    depth : float
+        Modulation depth (A−B)/A, 0 < depth ≤ 1.
+    fs_hz : float
+        Sample rate [Hz].
     rise_fall_s : float, optional
         10–90 % time of the raised-cosine edges [s] (default 0: hard edges).
     modulated_s : float or None, optional
@@ -339,10 +344,7 @@ def ask_baseband(timeline: PieTimeline, *, depth: float, fs_hz: float, amplitude
     ValueError
         If ``depth`` is outside (0, 1], ``fs_hz`` is not positive or the edges are too slow.
     """
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
-    width = _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
+    fs_hz, width = _envelope_arguments(timeline, depth, fs_hz, rise_fall_s)
     n = int(math.ceil(timeline.duration_s * fs_hz))
     n_mod = n if modulated_s is None else min(n, int(math.ceil(float(modulated_s) * fs_hz)))
     out = np.empty(n, dtype=np.complex128)

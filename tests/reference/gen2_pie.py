@@ -125,4 +125,5 @@ def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float
     return frames
 
 
-__all__ = ["pie_timeline_reference", "pr_ask_baseband_reference", "pie_envelope_reference", "two_level_threshold_reference", "pie_decode_reference"]
+__all__ = ["pie_timeline_reference", "pr_ask_baseband_reference", "pie_envelope_reference",
+           "two_level_threshold_reference", "pie_decode_reference"]

@@ -102,7 +102,8 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
 
 @njit
 def reflection_kernel(s, gamma_b, gamma_a, out):
-    """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0``, else
-    ``gamma_a`` (plain-NumPy twin: :func:`reference.devices_tag.reflection_reference` in the tests)."""
+    """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0`` (float64 ``s``;
+    or the mask of where it is, bool ``s``), else ``gamma_a`` (plain-NumPy twin:
+    :func:`reference.devices_tag.reflection_reference` in the tests)."""
     for i in range(s.size):
         out[i] = gamma_b if s[i] > 0 else gamma_a

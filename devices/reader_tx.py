@@ -27,7 +27,6 @@ LinkProfile.command_duration_s(cmd)``.
 from __future__ import annotations
 
 import dataclasses
-import math
 import weakref
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -36,7 +35,7 @@ import numpy as np
 
 from rfsim.air.cache import AirCache, Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
-from rfsim.gen2.pie import pie_timeline, pr_ask_baseband, timeline_envelope
+from rfsim.gen2.pie import ask_baseband, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -193,16 +192,9 @@ class PieTransmitter:
             # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
             # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
             # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
-            head = dataclasses.replace(tl, duration_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
-            e = timeline_envelope(head, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
-            x = np.empty(int(math.ceil(tl.duration_s * self.fs_hz)), dtype=np.complex128)
-            if lk.modulation == "DSB-ASK":
-                x[:e.size] = amp * e
-                x[e.size:] = amp
-            else:
-                x[:e.size] = pr_ask_baseband(head, e, amplitude=amp, fs_hz=self.fs_hz)
-                x[e.size:] = amp * (1.0 - 2.0 * (tl.rise_s.size % 2))
-            return x
+            return ask_baseband(tl, depth=lk.depth, fs_hz=self.fs_hz, amplitude=amp, pr_ask=lk.modulation == "PR-ASK",
+                                rise_fall_s=rise_fall_s,
+                                modulated_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
         e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))

@@ -204,7 +204,8 @@ def _cw_power_w(env: np.ndarray, levels: tuple[float, float, float]) -> float:
 
 def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray:
     """Γ(t) of a reply, (n,) complex128: Γ_B where the ±1 reply waveform ``s`` (float64, 0
-    outside the reply) is +1, Γ_A elsewhere (numba kernel)."""
+    outside the reply) is +1 (or where the mask ``s > 0``, bool, is True), Γ_A elsewhere
+    (numba kernel)."""
     out = np.empty(s.size, dtype=np.complex128)
     _k.reflection_kernel(s, complex(gamma_b), complex(gamma_a), out)
     return out
@@ -257,12 +258,13 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
            struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
     hit = cache.reply(key)
     if hit is not None:
-        return np.where(hit.modulating, complex(gamma_b), complex(gamma_a))
+        return _reflection(hit.modulating, gamma_b, gamma_a)
     s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
     modulating = s > 0
     modulating.flags.writeable = False
     cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
-    return _reflection(s, gamma_b, gamma_a)
+    # from the mask, as a reply seen again is (one specialization of the kernel)
+    return _reflection(modulating, gamma_b, gamma_a)
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
@@ -595,9 +597,19 @@ class PassiveTag:
                 if quiet is not None:
                     # the power decision of this P_inc is known (:meth:`_respond` made it): the
                     # tag stays unpowered, or stays powered and takes a silent step
-                    out = self._quiet_response(quiet, fe.command(rc), incident)
+                    decoded = fe.command(rc)
+                    out = self._quiet_response(quiet, decoded, incident)
                     if out is not None:
                         return out
+                    if quiet.powered and self.state.powered:
+                        # or stays powered and answers: what _respond does after its power decision
+                        # (_quiet_response has found a command other than a Query not silent)
+                        self.take_quiet_step(quiet)
+                        cmd, frame = decoded
+                        return self._decoded(cmd, frame, quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
+                                             t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
+                                             cache=run_cache(base.memo),
+                                             silent=None if cmd is None or isinstance(cmd, Query) else False)
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                                      cache=run_cache(base.memo))
@@ -862,9 +874,10 @@ class PassiveTag:
         return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples, cache=cache)
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
-                 n_samples: int, cache: AirCache | None = None) -> TagResponse:
+                 n_samples: int, cache: AirCache | None = None, silent: bool | None = None) -> TagResponse:
         """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
-        state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``)."""
+        state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``;
+        ``silent=False``: ``TagState.on_command_if_silent`` has already declined this command)."""
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
@@ -872,7 +885,8 @@ class PassiveTag:
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
-        silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
+        if silent is None:
+            silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
         if silent:
             reply = None
         elif isinstance(cmd, ACCESS_COMMANDS):

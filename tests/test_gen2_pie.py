@@ -13,8 +13,10 @@ from scipy.io import loadmat
 
 from rfsim.gen2.commands import ACK, Query, encode
 from rfsim.gen2.link import PROFILES, pie_duration_s
-from rfsim.gen2.pie import pie_decode, pie_envelope, pie_envelope_for_profile, pie_timeline
-from reference.gen2_pie import pie_decode_reference, pie_envelope_reference
+from rfsim.core.rng import trial_rng
+from rfsim.gen2.pie import (ask_baseband, pie_decode, pie_decode_arrays, pie_envelope, pie_envelope_for_profile,
+                            pie_timeline, pr_ask_baseband, timeline_envelope, two_level_threshold)
+from reference.gen2_pie import pie_decode_reference, pie_envelope_reference, pie_timeline_reference
 
 QUERY_Q0 = np.array([int(c) for c in "1000000000000000010000"], dtype=np.uint8)
 
@@ -85,6 +87,56 @@ def test_timeline_duration_matches_link_module():
     tl = pie_timeline(ack, preamble="frame-sync", **_timing(trcal_s=None))
     assert tl.duration_s == pytest.approx(
         pie_duration_s(ack, tari_s=12.5e-6, data1_s=1.75 * 12.5e-6, delimiter_s=12.5e-6), rel=1e-12)
+
+
+def test_timeline_kernel_equals_reference():
+    """Edge times of random commands: the kernel adds the same symbol lengths in the same order
+    as numpy.cumsum (sequential), so the times agree bit for bit."""
+    rng = trial_rng(71, 0)
+    for k in range(40):
+        bits = rng.integers(0, 2, int(rng.integers(0, 120))).astype(np.uint8)
+        kw = _timing(tari_s=float(rng.uniform(6.25e-6, 25e-6)), data1_tari=float(rng.uniform(1.5, 2.0)),
+                     preamble=("query", "frame-sync")[k % 2], cw_before_s=float(rng.uniform(0, 3e-5)),
+                     cw_after_s=float(rng.uniform(0, 1e-3)))
+        kw["trcal_s"] = 3.0 * kw["tari_s"] * (1.0 + kw["data1_tari"])
+        kw["pw_s"] = 0.4 * kw["tari_s"]
+        a, b = pie_timeline(bits, **kw), pie_timeline_reference(bits, **kw)
+        np.testing.assert_array_equal(a.fall_s, b.fall_s)
+        np.testing.assert_array_equal(a.rise_s, b.rise_s)
+        assert a.duration_s == b.duration_s
+        assert a.rise_s.size == (4 if kw["preamble"] == "query" else 3) + bits.size
+
+
+@pytest.mark.parametrize("pr_ask", [False, True])
+def test_ask_baseband_equals_envelope_times_amplitude(pr_ask):
+    """One pass (envelope, PR-ASK sign, CW after ``modulated_s``) gives the samples of
+    timeline_envelope and pr_ask_baseband of the whole timeline, bit for bit (exact: the same
+    products in the same order)."""
+    rng = trial_rng(71, 1 + pr_ask)
+    fs = 3.3e6
+    for _ in range(6):
+        bits = rng.integers(0, 2, int(rng.integers(1, 50))).astype(np.uint8)
+        tl = pie_timeline(bits, **_timing(cw_before_s=12.5e-6, cw_after_s=4e-4))
+        e = timeline_envelope(tl, depth=0.85, fs_hz=fs, rise_fall_s=1.25e-6)
+        ref = pr_ask_baseband(tl, e, amplitude=0.3, fs_hz=fs) if pr_ask else (0.3 * e).astype(np.complex128)
+        for modulated_s in (None, float(tl.rise_s[-1] + 25e-6)):
+            x = ask_baseband(tl, depth=0.85, fs_hz=fs, amplitude=0.3, pr_ask=pr_ask, rise_fall_s=1.25e-6,
+                             modulated_s=modulated_s)
+            assert x.dtype == np.complex128
+            np.testing.assert_array_equal(x, ref)
+        assert np.any(ref.real < 0) == pr_ask
+
+
+def test_decode_with_levels_refuses_non_finite_envelope():
+    """With the levels given, the decoder itself refuses a non-finite envelope (no edges, no
+    frames), as it does when it splits the levels itself."""
+    env = pie_envelope(QUERY_Q0, **_timing(cw_after_s=20e-6), depth=0.9, fs_hz=4e6)
+    levels = two_level_threshold(env)
+    assert len(pie_decode(env, levels=levels)) == 1
+    bad = env.copy()
+    bad[-1] = np.nan
+    for x in (pie_decode_arrays(bad, levels=levels), pie_decode_arrays(bad)):
+        assert x.pos.size == x.start.size == x.bits.size == 0
 
 
 @pytest.mark.parametrize("fs_hz", [1e6, 1.234567e6, 3.2e6, 7.77e6])

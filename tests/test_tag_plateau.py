@@ -113,4 +113,7 @@ def test_reflection_kernel_equals_reference():
         out, ref = _reflection(s, gb, ga), reflection_reference(s, gb, ga)
         assert out.dtype == ref.dtype == np.complex128
         assert np.array_equal(out.view(np.float64), ref.view(np.float64))  # a selection: exact
+        # from the stored mask of where s > 0 (a reply seen before), the same samples
+        masked = _reflection(s > 0, gb, ga)
+        assert np.array_equal(masked.view(np.float64), ref.view(np.float64))
     assert _reflection(s, 1j, 0j)[np.flatnonzero(s > 0)[0]] == 1j

@@ -104,6 +104,50 @@ def envelope_kernel(fall_pos, rise_pos, depth, ramp_width, out):
 
 
 @njit
+def timeline_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_before_s, fall_s, rise_s):
+    """Edge times of a PIE command (see :func:`rfsim.gen2.pie.pie_timeline`). The symbol lengths
+    are ``lead_s`` then ``data1_s`` for a 1 bit and ``data0_s`` for a 0 bit; with ``c_k`` their
+    running sum in order (as ``numpy.cumsum``), ``rise_s = [t0, t0 + c_k …]`` and ``fall_s =
+    [cw_before, t0 + c_k − pw …]`` (both of ``1 + lead_s.size + bits.size`` values)."""
+    rise_s[0] = t0_s
+    fall_s[0] = cw_before_s
+    c = 0.0
+    k = 1
+    for i in range(lead_s.size + bits.size):
+        if i < lead_s.size:
+            c += lead_s[i]
+        elif bits[i - lead_s.size] == 1:
+            c += data1_s
+        else:
+            c += data0_s
+        end = t0_s + c
+        rise_s[k] = end
+        fall_s[k] = end - pw_s
+        k += 1
+
+
+@njit
+def ask_baseband_kernel(fall_s, rise_s, depth, ramp_width, fs_hz, amp, pr_ask, n_modulated, out):
+    """DSB-ASK ``amp·e[n]`` or PR-ASK ``(amp·s_n)·e[n]`` (:func:`pr_ask_kernel`) into the complex
+    ``out`` for n < ``n_modulated``, e the envelope of :func:`envelope_kernel` (edges ``fall_s``,
+    ``rise_s`` [s] at ``fs_hz``, ramps ``ramp_width`` samples wide); beyond, the CW ``amp``
+    (DSB) or ``amp·(1 − 2·(k mod 2))`` after the k = ``rise_s.size`` sign changes (PR-ASK)."""
+    env = np.ones(n_modulated)
+    envelope_kernel(fall_s * fs_hz, rise_s * fs_hz, depth, ramp_width, env)
+    if pr_ask:
+        pr_ask_kernel(0.5 * (fall_s + rise_s), fs_hz, amp, env, env)
+        tail = amp * (1.0 - 2.0 * (rise_s.size % 2))
+    else:
+        for i in range(n_modulated):
+            env[i] = amp * env[i]
+        tail = amp
+    for i in range(n_modulated):
+        out[i] = env[i]
+    for i in range(n_modulated, out.size):
+        out[i] = tail
+
+
+@njit
 def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     """Comparator with hysteresis; returns the number of edges written.
 
@@ -215,6 +259,25 @@ def frames_kernel(
         nf += 1
         i = j + 1
     return nf
+
+
+@njit
+def decode_kernel(x, threshold, hysteresis, check_finite, min_ratio, max_ratio, max_trcal, pos, direction, fbuf,
+                  ibuf, bits):
+    """:func:`edges_kernel` then :func:`frames_kernel` of ``x`` in one call; returns ``(ne, nf)``,
+    the numbers of edges and frames, or ``(-1, 0)`` when ``check_finite`` is set and a sample of
+    ``x`` is not finite (a real envelope; :func:`env_order` of complex samples). Scratch:
+    ``pos``/``direction``/``bits`` of ``x.size`` (float64, int8, uint8), ``fbuf`` (6, m) float64
+    and ``ibuf`` (2, m) int64 with m = x.size // 2 + 1: the frames' start, end, delimiter, Tari,
+    RTcal, TRcal and bit offset, count."""
+    if check_finite:
+        for i in range(x.size):
+            if not math.isfinite(env_order(x, i)):
+                return -1, 0
+    ne = edges_kernel(x, threshold, hysteresis, pos, direction)
+    nf = frames_kernel(pos[:ne], direction[:ne], min_ratio, max_ratio, max_trcal, fbuf[0], fbuf[1], fbuf[2],
+                       fbuf[3], fbuf[4], fbuf[5], ibuf[0], ibuf[1], bits)
+    return ne, nf
 
 
 #: Block size of numpy's pairwise summation (``PW_BLOCKSIZE`` in numpy's loops_utils).

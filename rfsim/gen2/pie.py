@@ -157,11 +157,11 @@ def pie_timeline(
         if trcal_s is None or not float(trcal_s) > rtcal_s:
             raise ValueError(f"a query preamble needs trcal_s > RTcal = {rtcal_s:g} s, got {trcal_s}")
         symbols.append(float(trcal_s))
-    lengths = np.concatenate([symbols, np.where(arr == 1, data1_s, tari_s)])
     t0 = float(cw_before_s) + delimiter_s
-    ends = t0 + np.cumsum(lengths)
-    rise = np.concatenate([[t0], ends])
-    fall = np.concatenate([[float(cw_before_s)], ends - pw_s])
+    n_edges = 1 + len(symbols) + arr.size
+    fall, rise = np.empty(n_edges), np.empty(n_edges)
+    # rise = [t0, t0 + cumsum(symbol lengths)], fall = [cw_before, rise[1:] − PW]
+    _k.timeline_kernel(np.array(symbols), arr, tari_s, data1_s, t0, pw_s, float(cw_before_s), fall, rise)
     return PieTimeline(fall_s=fall, rise_s=rise, duration_s=float(rise[-1] + cw_after_s))
 
 
@@ -174,6 +174,14 @@ def _ramp_width_samples(rise_fall_s: float, fs_hz: float, timeline: PieTimeline)
         if rise_fall_s > lows.min() or (highs.size and rise_fall_s > highs.min()):
             raise ValueError("rise_fall_s must not exceed the shortest low or high interval")
     return rise_fall_s * _RAMP_WIDTH_PER_10_90 * fs_hz
+
+
+def _envelope_arguments(timeline: PieTimeline, depth: float, fs_hz: float, rise_fall_s: float) -> tuple[float, float]:
+    """``(fs_hz, ramp width [samples])`` of an envelope of ``timeline``, checked: fs > 0, 0 < depth ≤ 1."""
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    return fs_hz, _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
 
 
 def _check_fs(fs_hz: float) -> float:
@@ -261,10 +269,7 @@ def timeline_envelope(timeline: PieTimeline, *, depth: float, fs_hz: float, rise
     ValueError
         If ``depth`` is outside (0, 1] or ``fs_hz`` is not positive.
     """
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
-    width = _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
+    fs_hz, width = _envelope_arguments(timeline, depth, fs_hz, rise_fall_s)
     out = np.ones(int(math.ceil(timeline.duration_s * fs_hz)), dtype=np.float64)
     _k.envelope_kernel(timeline.fall_s * fs_hz, timeline.rise_s * fs_hz, float(depth), width, out)
     return out
@@ -299,6 +304,53 @@ def pr_ask_baseband(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: f
     out = np.empty(e.size, dtype=np.float64)
     _k.pr_ask_kernel(mid, fs_hz, float(amplitude), e, out)
     return out.astype(np.complex128)
+
+
+def ask_baseband(timeline: PieTimeline, *, amplitude: float, pr_ask: bool, depth: float, fs_hz: float,
+                 rise_fall_s: float = 0.0, modulated_s: float | None = None) -> np.ndarray:
+    """DSB-ASK ``x = A·e(t)`` or PR-ASK ``x = A·s(t)·e(t)`` of a timeline in one pass (numba kernel).
+
+    The samples of ``A·(``:func:`timeline_envelope```)`` or of :func:`pr_ask_baseband` of it,
+    bit for bit, over the first ``ceil(modulated_s·fs)`` samples; after them the caller
+    states that the envelope is 1 and the PR-ASK sign no longer changes (the last edge's ramp
+    is over), so the rest is the constant CW ``A`` (DSB) or ``A·s_end`` (PR-ASK, ``s_end = −1``
+    after an odd number of low pulses).
+
+    Parameters
+    ----------
+    timeline : PieTimeline
+        Edge times [s].
+    amplitude : float
+        CW amplitude A [√W].
+    pr_ask : bool
+        PR-ASK (True) or DSB-ASK (False).
+    depth : float
+        Modulation depth (A−B)/A, 0 < depth ≤ 1.
+    fs_hz : float
+        Sample rate [Hz].
+    rise_fall_s : float, optional
+        10–90 % time of the raised-cosine edges [s] (default 0: hard edges).
+    modulated_s : float or None, optional
+        Time after sample 0 up to which the envelope is evaluated [s] (default None: the
+        whole timeline).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(ceil(T·fs),) complex128`` baseband [√W].
+
+    Raises
+    ------
+    ValueError
+        If ``depth`` is outside (0, 1], ``fs_hz`` is not positive or the edges are too slow.
+    """
+    fs_hz, width = _envelope_arguments(timeline, depth, fs_hz, rise_fall_s)
+    n = int(math.ceil(timeline.duration_s * fs_hz))
+    n_mod = n if modulated_s is None else min(n, int(math.ceil(float(modulated_s) * fs_hz)))
+    out = np.empty(n, dtype=np.complex128)
+    _k.ask_baseband_kernel(timeline.fall_s, timeline.rise_s, float(depth), width, fs_hz, float(amplitude),
+                           bool(pr_ask), n_mod, out)
+    return out
 
 
 def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "query", **kwargs):
@@ -358,7 +410,7 @@ def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, fl
     return float(thr), float(m_lo), float(m_hi)
 
 
-def _prepare(x, threshold, hysteresis, levels=None):
+def _prepare(x, threshold, hysteresis, levels=None, check_finite=True):
     x = np.asarray(x)
     if x.dtype in (np.complex64, np.complex128) and levels is not None:
         # complex samples: the kernels read their magnitude on the fly; the caller's levels
@@ -372,7 +424,7 @@ def _prepare(x, threshold, hysteresis, levels=None):
         x = np.ascontiguousarray(x, dtype=np.float64)
         if x.ndim != 1:
             raise ValueError(f"x must be 1-D, got shape {x.shape}")
-        if x.size < 2 or not np.all(np.isfinite(x)):
+        if x.size < 2 or (check_finite and not np.all(np.isfinite(x))):
             return x, None, None
     thr, m_lo, m_hi = two_level_threshold(x) if levels is None else (float(v) for v in levels)
     if threshold is not None:
@@ -452,22 +504,21 @@ def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 
     ValueError
         If ``x`` is not 1-D.
     """
-    x, thr, hyst = _prepare(x, threshold, hysteresis, levels)
+    # with levels given, the kernel checks that a real envelope is finite (two_level_threshold
+    # needs that check before it runs)
+    x, thr, hyst = _prepare(x, threshold, hysteresis, levels, check_finite=levels is None)
     if thr is None:
         z = np.zeros(0)
         return PieEdges(z, np.zeros(0, np.int8), z, z, z, z, z, z, np.zeros(0, np.int64),
                         np.zeros(0, np.int64), np.zeros(0, np.uint8))
-    pos = np.empty(x.size, dtype=np.float64)
-    direction = np.empty(x.size, dtype=np.int8)
-    ne = _k.edges_kernel(x, thr, hyst, pos, direction)
-    pos, direction = pos[:ne], direction[:ne]
-    nmax = ne // 2 + 1
-    f = [np.empty(nmax) for _ in range(6)]
-    off = np.empty(nmax, dtype=np.int64)
-    cnt = np.empty(nmax, dtype=np.int64)
-    bits = np.empty(max(ne, 1), dtype=np.uint8)
-    nf = _k.frames_kernel(pos, direction, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL, *f, off, cnt, bits)
-    return PieEdges(pos, direction, *(a[:nf] for a in f), off[:nf], cnt[:nf], bits)
+    n = x.size
+    pos, direction, bits = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n, dtype=np.uint8)
+    f, i = np.empty((6, n // 2 + 1)), np.empty((2, n // 2 + 1), dtype=np.int64)
+    ne, nf = _k.decode_kernel(x, thr, hyst, levels is not None and x.dtype == np.float64, *RTCAL_TARI_RANGE,
+                              MAX_TRCAL_RTCAL, pos, direction, f, i, bits)
+    if ne < 0:  # a non-finite sample
+        return PieEdges(pos[:0], direction[:0], *f[:, :0], *i[:, :0], bits[:0])
+    return PieEdges(pos[:ne], direction[:ne], *f[:, :nf], *i[:, :nf], bits[:max(ne, 1)])
 
 
 def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
@@ -504,6 +555,7 @@ __all__ = [
     "pie_envelope_for_profile",
     "timeline_envelope",
     "pr_ask_baseband",
+    "ask_baseband",
     "two_level_threshold",
     "PieEdges",
     "pie_decode_arrays",

@@ -12,6 +12,22 @@ from rfsim.gen2.pie import (MAX_TRCAL_RTCAL, RTCAL_TARI_RANGE, PieFrame, PieTime
                             _ramp_width_samples, pie_timeline)
 
 
+def pie_timeline_reference(bits, *, tari_s: float, data1_tari: float, trcal_s: float | None, pw_s: float,
+                           delimiter_s: float, preamble: str = "query", cw_before_s: float = 0.0,
+                           cw_after_s: float = 0.0) -> PieTimeline:
+    """Plain-NumPy twin of :func:`rfsim.gen2.pie.pie_timeline` (valid arguments): the symbol
+    lengths' ``numpy.cumsum`` after the delimiter."""
+    arr = np.asarray(bits, dtype=np.uint8)
+    data1_s = float(data1_tari) * tari_s
+    symbols = [tari_s, tari_s + data1_s] + ([float(trcal_s)] if preamble == "query" else [])
+    lengths = np.concatenate([symbols, np.where(arr == 1, data1_s, tari_s)])
+    t0 = float(cw_before_s) + delimiter_s
+    ends = t0 + np.cumsum(lengths)
+    rise = np.concatenate([[t0], ends])
+    fall = np.concatenate([[float(cw_before_s)], ends - pw_s])
+    return PieTimeline(fall_s=fall, rise_s=rise, duration_s=float(rise[-1] + cw_after_s))
+
+
 def pr_ask_baseband_reference(timeline: PieTimeline, envelope: np.ndarray, *, amplitude: float,
                               fs_hz: float) -> np.ndarray:
     """Plain-NumPy twin of :func:`rfsim.gen2.pie.pr_ask_baseband`."""
@@ -109,4 +125,5 @@ def pie_decode_reference(x, *, threshold: float | None = None, hysteresis: float
     return frames
 
 
-__all__ = ["pr_ask_baseband_reference", "pie_envelope_reference", "two_level_threshold_reference", "pie_decode_reference"]
+__all__ = ["pie_timeline_reference", "pr_ask_baseband_reference", "pie_envelope_reference",
+           "two_level_threshold_reference", "pie_decode_reference"]

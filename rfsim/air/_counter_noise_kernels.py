@@ -243,20 +243,32 @@ def normals_block(z, k, a, b, w):
     return z
 
 
-@njit_vector
-def normals_kernel(key, p0, out):
-    """out[2i], out[2i+1] = normals 2(p0 + i), 2(p0 + i) + 1 of the stream ``key``; ``out``
-    (2n,) float64 (``key``, ``p0``: uint64)."""
-    n = out.size // 2
+@njit_inline
+def _noise_blocks(key, p0, y, scale, add):
+    """y[i] ← scale·(a + j·b) (``add`` false) or y[i] + scale·(a + j·b) (``add`` true) with
+    (a, b) the pair p0 + i of the stream ``key``, block by block (:func:`normals_block`)."""
+    n = y.size
     m = min(n, BLOCK)
     a, b, w = np.empty(m), np.empty(m), np.empty(m, dtype=np.uint64)
     z = first_counter(key, p0)
-    for i0 in range(0, n, BLOCK):
-        k = min(n - i0, BLOCK)
+    for s0 in range(0, n, BLOCK):
+        k = min(n - s0, BLOCK)
         z = normals_block(z, k, a, b, w)
-        for j in range(k):
-            out[2 * (i0 + j)] = a[j]
-            out[2 * (i0 + j) + 1] = b[j]
+        if add:
+            for j in range(k):
+                v = y[s0 + j]
+                y[s0 + j] = complex(v.real + scale * a[j], v.imag + scale * b[j])
+        else:
+            for j in range(k):
+                y[s0 + j] = complex(scale * a[j], scale * b[j])
+
+
+@njit_vector
+def normals_kernel(key, p0, out):
+    """out[2i], out[2i+1] = normals 2(p0 + i), 2(p0 + i) + 1 of the stream ``key``; ``out``
+    (2n,) float64 (``key``, ``p0``: uint64); written through its complex128 view (the pair i
+    as element i; 1·x = x exactly)."""
+    _noise_blocks(key, p0, out[:out.size // 2 * 2].view(np.complex128), 1.0, False)
 
 
 @njit_vector
@@ -264,13 +276,4 @@ def add_noise_kernel(key, i0, y, scale):
     """y[i] += scale·(a + j·b) with (a, b) the normal pair i0 + i of the stream ``key``, for
     every i of ``y`` ((n,) complex128, in place; sample i of a segment always gets pair i,
     whichever samples are drawn). ``key``, ``i0``: uint64."""
-    n = y.size
-    m = min(n, BLOCK)
-    a, b, w = np.empty(m), np.empty(m), np.empty(m, dtype=np.uint64)
-    z = first_counter(key, i0)
-    for s0 in range(0, n, BLOCK):
-        k = min(n - s0, BLOCK)
-        z = normals_block(z, k, a, b, w)
-        for j in range(k):
-            v = y[s0 + j]
-            y[s0 + j] = complex(v.real + scale * a[j], v.imag + scale * b[j])
+    _noise_blocks(key, i0, y, scale, True)

@@ -249,7 +249,8 @@ def _noise_blocks(key, p0, y, scale, add):
     (a, b) the pair p0 + i of the stream ``key``, block by block (:func:`normals_block`)."""
     n = y.size
     m = min(n, BLOCK)
-    a, b, w = np.empty(m), np.empty(m), np.empty(m, dtype=np.uint64)
+    scratch = np.empty(3 * m)  # one allocation for the three buffers (a call's fixed cost)
+    a, b, w = scratch[:m], scratch[m:2 * m], scratch[2 * m:].view(np.uint64)
     z = first_counter(key, p0)
     for s0 in range(0, n, BLOCK):
         k = min(n - s0, BLOCK)

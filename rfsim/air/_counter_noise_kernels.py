@@ -40,9 +40,10 @@ cycles, longer than the out-of-order window covers), not by its operations, so t
 draw blocks of :data:`BLOCK` pairs in stages (:func:`normals_block`): the hashes, u and φ in one
 loop, the radii with four independent chains per step, the normals with two, then the sum. Each
 stage loop is vectorised 4 wide on AVX2 (ymm registers; ``<4 x double>`` in the LLVM IR).
-Measured on an AVX2 machine (Zen 3, 2.45 GHz, shared; CPU time, medians of 3 × 200 calls,
-the two versions run in turn): a pair added to a sample in 9.1 / 8.0 ns (1,508 / 7,109 samples)
-against 11.8 / 11.2 ns for one loop per pair with a product per counter.
+Measured on an AVX2 machine (Zen 3, 2.45 GHz, shared; CPU time, both versions in one process,
+21 alternating rounds of 100 calls): a pair added to a sample in 8.9 / 7.7 ns (1,508 / 7,109
+samples) against 10.3 / 9.7 ns for one loop per pair with a product per counter (median ratio
+of the rounds 0.86 / 0.80).
 """
 
 from __future__ import annotations

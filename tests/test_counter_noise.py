@@ -29,6 +29,18 @@ def test_normals_equal_the_numpy_twin_bit_for_bit(key, first_pair, n):
     assert np.array_equal(got, want)
 
 
+@pytest.mark.parametrize("n, start", [(k.BLOCK - 1, 0), (k.BLOCK, 1), (2 * k.BLOCK + 7, 3), (3 * k.BLOCK + 2, k.BLOCK + 1)])
+def test_added_noise_equals_the_numpy_twin_across_blocks(n, start):
+    # the kernel draws blocks of BLOCK pairs in stages (quarters and halves interleaved, their
+    # remainders after): every sample, whatever its place in a block, gets its own pair;
+    # √(N/2) = 1 and 0 + x = x exactly, so the noise added to zeros is the twin's pair itself
+    y = np.zeros((2, n), dtype=np.complex128)
+    add_counter_awgn(y, 2.0, KEY, start=start)
+    pairs = (np.arange(2)[:, None] * n + np.arange(start, n)[None, :]).reshape(-1).astype(np.uint64)
+    a, b = normal_pairs(KEY, pairs)
+    assert np.array_equal(y[:, start:].reshape(-1).real, a) and np.array_equal(y[:, start:].reshape(-1).imag, b)
+
+
 def test_log_matches_numpy_within_a_few_ulp():
     # ln u = e·ln2_hi + (2s + (2s·s²·p + e·ln2_lo)): e·ln2_hi is exact (ln2_hi has 21 trailing
     # zero bits, |e| ≤ 53); s = (m−1)/(m+1) rounds once (≤ ½ ULP of s, carried into 2s), the

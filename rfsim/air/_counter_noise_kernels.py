@@ -30,6 +30,20 @@ tests/reference/counter_noise.py, the same operations in the same order):
 
 No division can be by zero (m + 1 ≥ 1.7), so the kernels use ``error_model="numpy"``
 (:func:`rfsim.core._jit.njit_vector`), which lets the loops vectorise.
+
+How the kernels run (the numbers above are not changed by it): the loops form the finaliser's
+argument k + (c + 1)·γ by adding 2γ per pair (mod 2⁶⁴, :func:`first_counter`) instead of
+multiplying per counter, the same integers with one of the three 64-bit products per hash fewer
+(AVX2 has no 64-bit vector multiply; each is three 32-bit ones). One pair-by-pair loop is
+bound by the latency of the logarithm's chain (division, ten Horner steps, square root: ≈ 110
+cycles, longer than the out-of-order window covers), not by its operations, so the kernels
+draw blocks of :data:`BLOCK` pairs in stages (:func:`normals_block`): the hashes, u and φ in one
+loop, the radii with four independent chains per step, the normals with two, then the sum. Each
+stage loop is vectorised 4 wide on AVX2 (ymm registers; ``<4 x double>`` in the LLVM IR).
+Measured on an AVX2 machine (Zen 3, 2.45 GHz, shared; CPU time, both versions in one process,
+21 alternating rounds of 100 calls): a pair added to a sample in 8.9 / 7.7 ns (1,508 / 7,109
+samples) against 10.3 / 9.7 ns for one loop per pair with a product per counter (median ratio
+of the rounds 0.86 / 0.80).
 """
 
 from __future__ import annotations
@@ -42,6 +56,7 @@ from numba.extending import intrinsic
 from rfsim.core._jit import njit_inline, njit_vector
 
 GAMMA = np.uint64(0x9E3779B97F4A7C15)
+_TWO_GAMMA = np.uint64(0x3C6EF372FE94F82A)  # 2γ mod 2⁶⁴
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _S30, _S27, _S31, _S12, _S52, _S63 = (np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(12), np.uint64(52),
@@ -78,12 +93,24 @@ def _bits_f64(typingctx, x):
 
 
 @njit_inline
-def splitmix(key, c):
-    """h(k, c) of the module docstring (uint64 in, uint64 out)."""
-    z = key + (c + _ONE) * GAMMA
+def mix(z):
+    """The SplitMix64 finaliser of the module docstring (uint64 in, uint64 out)."""
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
     return z ^ (z >> _S31)
+
+
+@njit_inline
+def splitmix(key, c):
+    """h(k, c) of the module docstring (uint64 in, uint64 out)."""
+    return mix(key + (c + _ONE) * GAMMA)
+
+
+@njit_inline
+def first_counter(key, p0):
+    """k + (2·p0 + 1)·γ mod 2⁶⁴: the argument of the finaliser for h(k, 2·p0), the first hash
+    of pair p0; the pair p0 + i has k + (2·p0 + 1)·γ + i·2γ (mod 2⁶⁴), its second hash that plus γ."""
+    return key + (p0 + p0 + _ONE) * GAMMA
 
 
 #: Horner coefficients in s² of (atanh(s)/s − 1)/s² = Σ s^(2k−2)/(2k+1), k = 1…10 (highest first)
@@ -127,14 +154,24 @@ def cos_sin_octant(phi):
 
 
 @njit_inline
-def normal_pair(key, p):
-    """Normals 2p and 2p + 1 of the stream ``key`` (module docstring, steps 2–3)."""
-    two_p = p + p
-    h1 = splitmix(key, two_p)
-    w = splitmix(key, two_p + _ONE)
+def unit_and_angle(h1, w):
+    """u ∈ (0, 1] and φ ∈ [0, π/4) of a pair from its hashes h1 = h(k, 2p) and w = h(k, 2p + 1)
+    (module docstring, steps 2–3)."""
     u = 2.0 - _bits_f64((h1 >> _S12) | _EXP1)
-    r = np.sqrt(-2.0 * log_unit(u))
-    c, s = cos_sin_octant((_bits_f64((w >> _S12) | _EXP1) - 1.0) * _QUARTER_PI)
+    return u, (_bits_f64((w >> _S12) | _EXP1) - 1.0) * _QUARTER_PI
+
+
+@njit_inline
+def radius(u):
+    """r = √(−2·ln u) (module docstring, step 3)."""
+    return np.sqrt(-2.0 * log_unit(u))
+
+
+@njit_inline
+def octant_normals(r, phi, w):
+    """The two normals r·cos θ, r·sin θ of a pair from its radius r, its angle φ in the first
+    octant and the octant bits of w = h(k, 2p + 1) (module docstring, step 3)."""
+    c, s = cos_sin_octant(phi)
     swap = (w & np.uint64(4)) != _ZERO
     a = s if swap else c
     b = c if swap else s
@@ -143,14 +180,97 @@ def normal_pair(key, p):
     return r * a, r * b
 
 
+@njit_inline
+def normal_pair(h1, w):
+    """Normals 2p and 2p + 1 of a stream from the hashes h1 = h(k, 2p) and w = h(k, 2p + 1)
+    (module docstring, steps 2–3)."""
+    u, phi = unit_and_angle(h1, w)
+    return octant_normals(radius(u), phi, w)
+
+
+#: Pairs per block of the kernels' stage loops (three buffers of 4 KiB: in the L1 cache)
+BLOCK = 512
+
+
+@njit_inline
+def _radii(u, k):
+    """u[j] ← :func:`radius` (u[j]) for j < k, the four quarters of ``u[:k]`` interleaved (four
+    independent chains per step of the loop) and the k mod 4 last ones after."""
+    q = k // 4
+    u0, u1, u2, u3 = u[:q], u[q:2 * q], u[2 * q:3 * q], u[3 * q:4 * q]
+    for j in range(q):
+        x0, x1, x2, x3 = u0[j], u1[j], u2[j], u3[j]
+        u0[j] = radius(x0)
+        u1[j] = radius(x1)
+        u2[j] = radius(x2)
+        u3[j] = radius(x3)
+    for j in range(4 * q, k):
+        u[j] = radius(u[j])
+
+
+@njit_inline
+def _octants(r, phi, w, k):
+    """(r[j], phi[j]) ← :func:`octant_normals` (r[j], phi[j], w[j]) for j < k, the two halves of
+    the block interleaved (as in :func:`_radii`) and the odd last one after."""
+    h = k // 2
+    r0, r1, p0, p1, w0, w1 = r[:h], r[h:2 * h], phi[:h], phi[h:2 * h], w[:h], w[h:2 * h]
+    for j in range(h):
+        a0, b0 = octant_normals(r0[j], p0[j], w0[j])
+        a1, b1 = octant_normals(r1[j], p1[j], w1[j])
+        r0[j], p0[j] = a0, b0
+        r1[j], p1[j] = a1, b1
+    for j in range(2 * h, k):
+        r[j], phi[j] = octant_normals(r[j], phi[j], w[j])
+
+
+@njit_inline
+def normals_block(z, k, a, b, w):
+    """The normals of the k pairs whose first hash's finaliser argument is z, z + 2γ, …
+    (:func:`first_counter`), in stages over the block: the hashes, u and φ (one loop), the
+    radii (:func:`_radii`), the normals (:func:`_octants`); a[j], b[j] the pair j (``a``, ``b``
+    float64, ``w`` uint64 scratch, each ≥ k long). Returns the argument of the next pair.
+
+    The same operations on each pair as :func:`normal_pair`, so the same bits; the stages'
+    independent chains let the CPU overlap the long latency of the logarithm (division,
+    Horner sum, square root) that bounds one pair-by-pair loop."""
+    for j in range(k):
+        h1 = mix(z)
+        wj = mix(z + GAMMA)
+        z = z + _TWO_GAMMA
+        a[j], b[j] = unit_and_angle(h1, wj)
+        w[j] = wj
+    _radii(a, k)
+    _octants(a, b, w, k)
+    return z
+
+
+@njit_inline
+def _noise_blocks(key, p0, y, scale, add):
+    """y[i] ← scale·(a + j·b) (``add`` false) or y[i] + scale·(a + j·b) (``add`` true) with
+    (a, b) the pair p0 + i of the stream ``key``, block by block (:func:`normals_block`)."""
+    n = y.size
+    m = min(n, BLOCK)
+    scratch = np.empty(3 * m)  # one allocation for the three buffers (a call's fixed cost)
+    a, b, w = scratch[:m], scratch[m:2 * m], scratch[2 * m:].view(np.uint64)
+    z = first_counter(key, p0)
+    for s0 in range(0, n, BLOCK):
+        k = min(n - s0, BLOCK)
+        z = normals_block(z, k, a, b, w)
+        if add:
+            for j in range(k):
+                v = y[s0 + j]
+                y[s0 + j] = complex(v.real + scale * a[j], v.imag + scale * b[j])
+        else:
+            for j in range(k):
+                y[s0 + j] = complex(scale * a[j], scale * b[j])
+
+
 @njit_vector
 def normals_kernel(key, p0, out):
     """out[2i], out[2i+1] = normals 2(p0 + i), 2(p0 + i) + 1 of the stream ``key``; ``out``
-    (2n,) float64 (``key``, ``p0``: uint64)."""
-    for i in range(out.size // 2):
-        a, b = normal_pair(key, p0 + np.uint64(i))
-        out[2 * i] = a
-        out[2 * i + 1] = b
+    (2n,) float64 (``key``, ``p0``: uint64); written through its complex128 view (the pair i
+    as element i; 1·x = x exactly)."""
+    _noise_blocks(key, p0, out[:out.size // 2 * 2].view(np.complex128), 1.0, False)
 
 
 @njit_vector
@@ -158,7 +278,4 @@ def add_noise_kernel(key, i0, y, scale):
     """y[i] += scale·(a + j·b) with (a, b) the normal pair i0 + i of the stream ``key``, for
     every i of ``y`` ((n,) complex128, in place; sample i of a segment always gets pair i,
     whichever samples are drawn). ``key``, ``i0``: uint64."""
-    for i in range(y.size):
-        a, b = normal_pair(key, i0 + np.uint64(i))
-        v = y[i]
-        y[i] = complex(v.real + scale * a, v.imag + scale * b)
+    _noise_blocks(key, i0, y, scale, True)

@@ -305,8 +305,9 @@ class StepState:
         (n_members,) complex (or None) and per member its :class:`Incoming` fields (None: the
         one emitter's scaled copy ``gains[j]·x``).
     incident, reacted, reflections, shortcut
-        :func:`reflect`: per member its incident segment and its reflection (raw list and the
-        :class:`rfsim.air.groups.PerMember` view that forms a shortcut member's entry when read),
+        :func:`reflect`: per member its incident segment and its reflection (raw list, and the
+        list itself or, when a group took the shortcut, the :class:`rfsim.air.groups.PerMember`
+        view that forms a shortcut member's entry when read),
         and group start → the :class:`GroupReflection` of the groups that answered at once.
     inputs, outputs, direct_l, back_l, noise_l, dropped, used
         The result being formed (:class:`AirResult` fields; the components only with ``keep``).
@@ -514,10 +515,11 @@ def reflect(st: StepState) -> list:
     -------
     sequence
         Per member its reflection (re-radiation factor r_j: a constant or (…, n) complex128; None:
-        scatters nothing), a :class:`rfsim.air.groups.PerMember` whose shortcut members' entries
-        are formed when read; also ``st.reflections``, with ``st.incident`` (per member its
-        incident segment on the reference carrier, samples (…, n) complex128 [√W], formed when
-        read for a shortcut member) and ``st.shortcut`` (group start → GroupReflection).
+        scatters nothing): a list, or, when a group took the shortcut, a
+        :class:`rfsim.air.groups.PerMember` whose shortcut members' entries are formed when read;
+        also ``st.reflections``, with ``st.incident`` (per member its incident segment on the
+        reference carrier, samples (…, n) complex128 [√W], formed when read for a shortcut
+        member) and ``st.shortcut`` (group start → GroupReflection).
     """
     n_mem = len(st.members)
     incident, reacted = [UNSET] * n_mem, [UNSET] * n_mem
@@ -539,8 +541,11 @@ def reflect(st: StepState) -> list:
         if grp is not None:
             reacted[start:stop] = grp.reflect_each(incident[start:stop])
     st.reacted = reacted
-    st.incident = PerMember(incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
-    st.reflections = PerMember(reacted, st.shortcut_of)
+    if st.shortcut:  # a group answered at once: its members' entries are formed when read
+        st.incident = PerMember(incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
+        st.reflections = PerMember(reacted, st.shortcut_of)
+    else:  # every entry is formed
+        st.incident, st.reflections = incident, reacted
     return st.reflections
 
 

@@ -418,12 +418,8 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, motions, draw_channel, pro
              sent: _Sent) -> _Prepared:
     """Step 2 of the module docstring up to the air step: the tags as reflectors and their
     links, for the reader's side ``sent``."""
-    if len(tags) == 1:  # one tag (or one population): no list to flatten
-        reflectors = [as_reflector(tags[0])]
-        members = members_of(reflectors)
-    else:
-        reflectors = [as_reflector(t) for t in tags]
-        members = members_of(reflectors)
+    reflectors = [as_reflector(t) for t in tags]
+    members = members_of(reflectors)
     links = _EngineLinks(channel, sent.port.antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
                          link_cache, draw_channel)
     return _Prepared(t_s=t_s, cmd=cmd, sent=sent, reflectors=reflectors, members=members, links=links,

@@ -86,6 +86,7 @@ calls). :mod:`rfsim.air.batch` runs B prepared steps as one batch.
 
 from __future__ import annotations
 
+import functools
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -348,10 +349,7 @@ class StepState:
         Reflection or None
             The member's reflection from its group's :class:`GroupReflection`.
         """
-        for start, gr in self.shortcut.items():
-            if start <= j < start + len(gr):
-                return gr[j - start]
-        raise IndexError(j)
+        return _shortcut_member(self.shortcut, j)
 
     def comps_of(self, j: int):
         """Return member j's incident fields per emitter.
@@ -542,11 +540,26 @@ def reflect(st: StepState) -> list:
             reacted[start:stop] = grp.reflect_each(incident[start:stop])
     st.reacted = reacted
     if st.shortcut:  # a group answered at once: its members' entries are formed when read
-        st.incident = PerMember(incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
-        st.reflections = PerMember(reacted, st.shortcut_of)
+        # (the fills hold what they read, not the step's state: no reference cycle through it)
+        st.incident = PerMember(incident, functools.partial(_scaled_member, st.seg0, st.gains, st.fc_ref_hz))
+        st.reflections = PerMember(reacted, functools.partial(_shortcut_member, st.shortcut))
     else:  # every entry is formed
         st.incident, st.reflections = incident, reacted
     return st.reflections
+
+
+def _scaled_member(seg0: Segment, gains, fc_ref_hz: float, j: int) -> Segment:
+    """Member j's incident field as the scaled copy ``gains[j]·seg0`` on the reference carrier."""
+    return Segment.scaled(seg0, gains[j], fc_ref_hz)
+
+
+def _shortcut_member(shortcut: dict, j: int):
+    """Member j's reflection inside the group (start → GroupReflection in ``shortcut``) that
+    answered at once."""
+    for start, gr in shortcut.items():
+        if start <= j < start + len(gr):
+            return gr[j - start]
+    raise IndexError(j)
 
 
 def _incident(st: StepState, comps: tuple) -> Segment:

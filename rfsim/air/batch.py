@@ -175,15 +175,18 @@ def _check_noise_order(steps: Sequence[AirStep]) -> None:
     batch would reorder (module docstring)."""
     noisy = [[k for k, r in enumerate(s.receivers) if float(r.noise_power_w) > 0] for s in steps]
     noisy_rngs = {}  # id(generator) -> index of the first step that draws noise from it
+    users: dict = {}  # id(generator) -> number of steps whose ``rng`` it is
     for b, s in enumerate(steps):
-        if noisy[b] and s.rng is not None:
-            noisy_rngs.setdefault(id(s.rng), b)
+        if s.rng is not None:
+            users[id(s.rng)] = users.get(id(s.rng), 0) + 1
+            if noisy[b]:
+                noisy_rngs.setdefault(id(s.rng), b)
     for b, s in enumerate(steps):
         link_rng = getattr(s.links, "rng", None)
         if link_rng is None or id(link_rng) not in noisy_rngs:
             continue
         own_last = s.rng is link_rng and noisy[b] == [len(s.receivers) - 1] and noisy_rngs[id(link_rng)] == b
-        shared = sum(1 for t in steps if t.rng is link_rng) > 1
+        shared = users[id(link_rng)] > 1
         if not own_last or shared:
             raise ValueError(f"steps[{b}].links: draws from a generator that receiver noise is drawn from; the batch "
                              "draws the noise after the links (give the links a generator of their own)")

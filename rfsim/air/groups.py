@@ -47,9 +47,11 @@ def entries_of(reflectors: Sequence) -> tuple[list, list]:
         Per given reflector ``(start, stop, group or None)``: its members' slice of ``members``
         and the group itself (None for a single reflector).
     """
-    if len(reflectors) == 1 and hasattr(reflectors[0], "reflect_scaled"):
-        grp = reflectors[0]
-        return grp.members, [(0, len(grp.members), grp)]
+    if len(reflectors) == 1:  # one reflector or one population: nothing to flatten
+        one = reflectors[0]
+        if hasattr(one, "reflect_scaled"):
+            return one.members, [(0, len(one.members), one)]
+        return [one], [(0, 1, None)]
     members, entries = [], []
     for r in reflectors:
         if hasattr(r, "reflect_scaled"):

@@ -6,6 +6,7 @@ share a position (:func:`check_positions`) and the one-line error of a missing l
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -20,6 +21,8 @@ __all__ = ["PROPAGATION_METHODS", "LinkTable", "HeldLink", "AntennaMotion", "Hel
 
 #: Propagation policies a link understands (``"auto"``: narrowband where the link says so).
 PROPAGATION_METHODS = ("auto", "exact", "narrowband")
+
+_antenna_of = operator.attrgetter("antenna")
 
 
 class HeldLink(NamedTuple):
@@ -160,9 +163,13 @@ def check_positions(emitters: Sequence, reflector_antennas: Sequence, receivers:
     ConfigError
         Two distinct antennas at the same ``position_m``.
     """
-    emitter_ids = {id(e.antenna) for e in emitters}
-    listening = [(k, r.antenna) for k, r in enumerate(receivers) if id(r.antenna) not in emitter_ids]
-    ends = (tuple(id(e.antenna) for e in emitters), tuple(id(a) for _, a in listening))
+    emitter_ids = tuple(map(id, map(_antenna_of, emitters)))
+    listening = []  # the receivers that do not share an emitter's antenna (a reader's own port does)
+    for k, r in enumerate(receivers):
+        a = r.antenna
+        if id(a) not in emitter_ids:
+            listening.append((k, a))
+    ends = (emitter_ids, tuple([id(a) for _, a in listening]) if listening else ())
     if cache is not None:
         by_tuple = cache.checked_tuples.get(id(reflector_antennas)) if type(reflector_antennas) is tuple else None
         if (by_tuple is not None and by_tuple.reflectors is reflector_antennas

@@ -86,6 +86,7 @@ calls). :mod:`rfsim.air.batch` runs B prepared steps as one batch.
 
 from __future__ import annotations
 
+import functools
 import operator
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -305,8 +306,9 @@ class StepState:
         (n_members,) complex (or None) and per member its :class:`Incoming` fields (None: the
         one emitter's scaled copy ``gains[j]·x``).
     incident, reacted, reflections, shortcut
-        :func:`reflect`: per member its incident segment and its reflection (raw list and the
-        :class:`rfsim.air.groups.PerMember` view that forms a shortcut member's entry when read),
+        :func:`reflect`: per member its incident segment and its reflection (raw list, and the
+        list itself or, when a group took the shortcut, the :class:`rfsim.air.groups.PerMember`
+        view that forms a shortcut member's entry when read),
         and group start → the :class:`GroupReflection` of the groups that answered at once.
     inputs, outputs, direct_l, back_l, noise_l, dropped, used
         The result being formed (:class:`AirResult` fields; the components only with ``keep``).
@@ -347,10 +349,7 @@ class StepState:
         Reflection or None
             The member's reflection from its group's :class:`GroupReflection`.
         """
-        for start, gr in self.shortcut.items():
-            if start <= j < start + len(gr):
-                return gr[j - start]
-        raise IndexError(j)
+        return _shortcut_member(self.shortcut, j)
 
     def comps_of(self, j: int):
         """Return member j's incident fields per emitter.
@@ -424,7 +423,8 @@ def emit(st: StepState, fc_ref_hz: float | None) -> list:
     segs = []
     for i, e in enumerate(st.emitters):
         s = e.emit(t0_s=st.t0_s, fs_hz=st.fs_hz, n_samples=st.n_samples)
-        if s is not None and not s.same_time_base(st.t0_s, st.fs_hz, st.n_samples):
+        # (a FixedEmitter checks its made segment against the time base itself)
+        if s is not None and type(e) is not FixedEmitter and not s.same_time_base(st.t0_s, st.fs_hz, st.n_samples):
             raise ConfigError(f"air.emitters[{i}]", s, f"a segment on the step's time base ({st.t0_s} s, "
                                                         f"{st.fs_hz} Hz, {st.n_samples} samples)")
         segs.append(s)
@@ -513,10 +513,11 @@ def reflect(st: StepState) -> list:
     -------
     sequence
         Per member its reflection (re-radiation factor r_j: a constant or (…, n) complex128; None:
-        scatters nothing), a :class:`rfsim.air.groups.PerMember` whose shortcut members' entries
-        are formed when read; also ``st.reflections``, with ``st.incident`` (per member its
-        incident segment on the reference carrier, samples (…, n) complex128 [√W], formed when
-        read for a shortcut member) and ``st.shortcut`` (group start → GroupReflection).
+        scatters nothing): a list, or, when a group took the shortcut, a
+        :class:`rfsim.air.groups.PerMember` whose shortcut members' entries are formed when read;
+        also ``st.reflections``, with ``st.incident`` (per member its incident segment on the
+        reference carrier, samples (…, n) complex128 [√W], formed when read for a shortcut
+        member) and ``st.shortcut`` (group start → GroupReflection).
     """
     n_mem = len(st.members)
     incident, reacted = [UNSET] * n_mem, [UNSET] * n_mem
@@ -538,9 +539,27 @@ def reflect(st: StepState) -> list:
         if grp is not None:
             reacted[start:stop] = grp.reflect_each(incident[start:stop])
     st.reacted = reacted
-    st.incident = PerMember(incident, lambda j: Segment.scaled(st.seg0, st.gains[j], st.fc_ref_hz))
-    st.reflections = PerMember(reacted, st.shortcut_of)
+    if st.shortcut:  # a group answered at once: its members' entries are formed when read
+        # (the fills hold what they read, not the step's state: no reference cycle through it)
+        st.incident = PerMember(incident, functools.partial(_scaled_member, st.seg0, st.gains, st.fc_ref_hz))
+        st.reflections = PerMember(reacted, functools.partial(_shortcut_member, st.shortcut))
+    else:  # every entry is formed
+        st.incident, st.reflections = incident, reacted
     return st.reflections
+
+
+def _scaled_member(seg0: Segment, gains, fc_ref_hz: float, j: int) -> Segment:
+    """Member j's incident field as the scaled copy ``gains[j]·seg0`` on the reference carrier."""
+    return Segment.scaled(seg0, gains[j], fc_ref_hz)
+
+
+def _shortcut_member(shortcut: dict, j: int):
+    """Member j's reflection inside the group (start → GroupReflection in ``shortcut``) that
+    answered at once."""
+    for start, gr in shortcut.items():
+        if start <= j < start + len(gr):
+            return gr[j - start]
+    raise IndexError(j)
 
 
 def _incident(st: StepState, comps: tuple) -> Segment:

@@ -77,7 +77,7 @@ import dataclasses
 import functools
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -86,7 +86,7 @@ from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, memb
 from rfsim.gen2.access import ERROR_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK
-from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t5
+from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t1, t5
 
 #: Failure reasons of a read, in the order the engine checks them.
 FAILURE_REASONS = ("", "not powered", "decode error", "no reply", "timing violation", "collision",
@@ -344,73 +344,86 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     readers, channels, cmds, times, rounds, caches = _per_trials(
         n, reader=reader, channel=channel, cmd=cmd, t_s=t_s, round_index=round_index,
         link_caches=None if link_caches is None else list(link_caches))
-    segments: dict = {}  # the reader's segment, once per distinct reader, command, time and round
+    if propagation not in PROPAGATION_METHODS:
+        raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
+    # the reader's segment with its emitter and port, once per distinct reader, command, time and round
+    segments: dict = {}
     out: list = []
     for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
         preps = []
         for b in range(k0, min(n, k0 + BLOCK)):
             key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
-            tx = segments.get(key)
-            if tx is None:
+            sent = segments.get(key)
+            if sent is None:
                 if len(segments) >= BLOCK:
                     segments.clear()
-                tx = segments[key] = _transmit(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
-                                               round_index=rounds[b], delayed_reply=delayed_reply)
+                sent = segments[key] = _sent(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
+                                             expect_crc=expect_crc, round_index=rounds[b],
+                                             delayed_reply=delayed_reply, header_bit=header_bit)
             preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
-                                  reply_bits=reply_bits, expect_crc=expect_crc, motions=motions,
-                                  round_index=rounds[b], draw_channel=draw_channel, propagation=propagation,
-                                  link_cache=caches[b], tx=tx, delayed_reply=delayed_reply,
-                                  header_bit=header_bit))
-        airs = propagate_batch([AirStep(**_air_arguments(prep), rng=rngs[k0 + k]) for k, prep in enumerate(preps)],
+                                  motions=motions, draw_channel=draw_channel, propagation=propagation,
+                                  link_cache=caches[b], sent=sent))
+        airs = propagate_batch([_air_step(prep, rngs[k0 + k]) for k, prep in enumerate(preps)],
                                skip_unmodulated=True)
         for prep, air in zip(preps, airs):
             truth = _truth(air, prep.members)
-            read = prep.port.receive(air.inputs[0]) if truth[0] else None
+            read = prep.sent.port.receive(air.inputs[0]) if truth[0] else None
             out.append(_record(prep, truth, read))
     return out
 
 
-@dataclasses.dataclass
-class _Prepared:
-    """One exchange set up for the air step: the reader's segment, its port, the reflectors
-    and their links (:func:`_prepare`)."""
+class _Sent(NamedTuple):
+    """The reader's side of one command, shared by the trials that send it (same reader, command,
+    time and round): its antenna, its segment, the segment as an emitter of the air step, the
+    port that reads the reply, the links' bandwidth B = 2·BLF [Hz] of the reply (the main
+    lobe of FM0/Miller, module docstring), the run's air cache and the window a reply must
+    start in (T1, or T5 for a delayed reply)."""
 
-    t_s: float
-    cmd: Any
     antenna_index: int
     tx: Any
     emitter: FixedEmitter
     port: "ReaderPort"
+    bandwidth_hz: float
+    air_cache: Any
+    reply_range: Any
+
+
+class _Prepared(NamedTuple):
+    """One exchange set up for the air step: the reader's side (:class:`_Sent`), the reflectors
+    and their links (:func:`_prepare`)."""
+
+    t_s: float
+    cmd: Any
+    sent: _Sent
     reflectors: list
     members: list
     links: "_EngineLinks"
     propagation: str
-    bandwidth_hz: float
-    air_cache: Any
 
 
-def _prepare(reader, tags, channel, cmd, *, t_s, rng, reply_bits, expect_crc, motions, round_index, draw_channel,
-             propagation, link_cache, tx=None, delayed_reply=False, header_bit=False) -> _Prepared:
-    """Steps 1–2 of the module docstring up to the air step: the reader's segment (``tx`` when
-    already made for this command, time and round), its port and the tags' links."""
-    if propagation not in PROPAGATION_METHODS:
-        raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
+def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_reply=False, header_bit=False) -> _Sent:
+    """Step 1 of the module docstring: the reader's segment for ``cmd`` at ``t_s`` in round
+    ``round_index``, its emitter and its port."""
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
-    if tx is None:
-        tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index,
-                       delayed_reply=delayed_reply)
-    emitter = FixedEmitter(antenna, tx, device=reader)
+    tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index, delayed_reply=delayed_reply)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
                       header_bit=header_bit)
+    return _Sent(antenna_index=antenna_index, tx=tx, emitter=FixedEmitter(antenna, tx, device=reader), port=port,
+                 bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None),
+                 reply_range=_t5_range(reader.link) if port.delayed_reply else _t1_range(reader.link))
+
+
+def _prepare(reader, tags, channel, cmd, *, t_s, rng, motions, draw_channel, propagation, link_cache,
+             sent: _Sent) -> _Prepared:
+    """Step 2 of the module docstring up to the air step: the tags as reflectors and their
+    links, for the reader's side ``sent``."""
     reflectors = [as_reflector(t) for t in tags]
     members = members_of(reflectors)
-    links = _EngineLinks(channel, antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
-                         link_cache if (link_cache is not None) else None, draw_channel)
-    # the links' bandwidth B = 2·BLF [Hz] of the reply: the main lobe of FM0/Miller (module docstring)
-    return _Prepared(t_s=t_s, cmd=cmd, antenna_index=antenna_index, tx=tx, emitter=emitter, port=port,
-                     reflectors=reflectors, members=members, links=links, propagation=propagation,
-                     bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None))
+    links = _EngineLinks(channel, sent.port.antenna, reflectors, members, motions, rng if draw_channel else None, t_s,
+                         link_cache, draw_channel)
+    return _Prepared(t_s=t_s, cmd=cmd, sent=sent, reflectors=reflectors, members=members, links=links,
+                     propagation=propagation)
 
 
 def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False):
@@ -424,13 +437,14 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False)
     return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
-def _air_arguments(prep: _Prepared) -> dict:
-    """The arguments of :func:`rfsim.air.step.propagate` for a prepared exchange, but its ``rng``
-    (the fields of its :class:`rfsim.air.batch.AirStep`)."""
-    tx = prep.tx
-    return dict(emitters=[prep.emitter], reflectors=prep.reflectors, receivers=[prep.port], links=prep.links,
-                t0_s=prep.t_s, fs_hz=tx.fs_hz, n_samples=tx.samples.size, bandwidth_hz=prep.bandwidth_hz,
-                propagation=prep.propagation, decide=False, cache=prep.air_cache)
+def _air_step(prep: _Prepared, rng) -> AirStep:
+    """The :class:`rfsim.air.batch.AirStep` of a prepared exchange (the arguments of
+    :func:`rfsim.air.step.propagate`), with the trial's generator ``rng``."""
+    sent = prep.sent
+    tx = sent.tx
+    return AirStep([sent.emitter], prep.reflectors, [sent.port], prep.links, prep.t_s, tx.fs_hz, tx.samples.size,
+                   rng=rng, bandwidth_hz=sent.bandwidth_hz, propagation=prep.propagation, decide=False,
+                   cache=sent.air_cache)
 
 
 def _truth(air, members) -> tuple:
@@ -476,7 +490,8 @@ def _truth(air, members) -> tuple:
 def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
     """The :class:`Exchange` of a prepared exchange from its ground truth and the reader's read."""
     replied, powered, incident_dbm, sent, starts, decode_error = truth
-    tx = prep.tx
+    side = prep.sent
+    tx = side.tx
     decoded_tag = None
     if read is not None and read.bits is not None:
         for i, bits in zip(replied, sent):
@@ -484,23 +499,26 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
                                                 else bits.tobytes() == read.bits.tobytes()):
                 decoded_tag = i
                 break
-    t1_range = _t5_range(prep.port.reader.link) if prep.port.delayed_reply else _t1_range(prep.port.reader.link)
+    t1_range = side.reply_range
     timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
     n = int(tx.samples.size)
-    return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=prep.antenna_index,
-                    channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
-                    powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
-                    failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
-                    end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
-                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
-                    cmd_end_s=float(tx.cmd_end_s))
+    # the record's fields set as the frozen dataclass's __init__ sets them (it has no
+    # __post_init__), without one object.__setattr__ call per field: two records every round
+    ex = object.__new__(Exchange)
+    ex.__dict__.update(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
+                       channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
+                       powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
+                       failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
+                       end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
+                       reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
+                       cmd_end_s=float(tx.cmd_end_s))
+    return ex
 
 
 # Timing of a (frozen, hashable) LinkProfile: pure functions, cached per profile.
 @functools.lru_cache(maxsize=64)
 def _t1_range(link):
-    from rfsim.gen2.link import t1
-
+    """T1 (a reply's start after the command) of a profile: :func:`rfsim.gen2.link.t1`."""
     return t1(link)
 
 
@@ -570,6 +588,7 @@ class ReaderPort:
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
         self.noise_power_w = reader.noise_power_w()
+        self._listen_s = reader_listen_start_s(reader.link, tx.cmd_end_s)  # the reader's listen start [s]
 
     def coupling(self, emitter):
         """Return the direct coupling from an emitter, replacing the channel's link.
@@ -609,8 +628,7 @@ class ReaderPort:
         int
             ceil((listen start − t0)·fs), at most ``n_samples``.
         """
-        return min(int(math.ceil((reader_listen_start_s(self.reader.link, self.tx.cmd_end_s) - t0_s) * fs_hz)),
-                   int(n_samples))
+        return min(int(math.ceil((self._listen_s - t0_s) * fs_hz)), int(n_samples))
 
     def receive(self, input):
         """Read the reply in the reader's input.
@@ -628,7 +646,7 @@ class ReaderPort:
             ``header_bit`` an error reply at its own length, :func:`run_exchange`).
         """
         tx, fs = self.tx, input.fs_hz
-        i0 = int(math.ceil((reader_listen_start_s(self.reader.link, tx.cmd_end_s) - input.t0_s) * fs))
+        i0 = int(math.ceil((self._listen_s - input.t0_s) * fs))
         kwargs = dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s,
                       carrier=tx.samples[-1])
         if self.delayed_reply:

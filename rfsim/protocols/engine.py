@@ -502,17 +502,13 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
     t1_range = side.reply_range
     timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
     n = int(tx.samples.size)
-    # the record's fields set as the frozen dataclass's __init__ sets them (it has no
-    # __post_init__), without one object.__setattr__ call per field: two records every round
-    ex = object.__new__(Exchange)
-    ex.__dict__.update(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
-                       channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
-                       powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
-                       failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
-                       end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
-                       reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
-                       cmd_end_s=float(tx.cmd_end_s))
-    return ex
+    return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
+                    channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
+                    powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
+                    failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
+                    end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
+                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
+                    cmd_end_s=float(tx.cmd_end_s))
 
 
 # Timing of a (frozen, hashable) LinkProfile: pure functions, cached per profile.

@@ -86,6 +86,23 @@ def halfbit_sums_reference(y, start, elements_per_sample, m, n_halfbits) -> np.n
     return np.bincount(h[ok], weights=(y[n] * sign)[ok], minlength=n_halfbits)[:n_halfbits]
 
 
+def signed_halfbit_sums_reference(part, start, elements_per_sample, m, n_halfbits) -> tuple[np.ndarray, np.ndarray]:
+    """Plain-NumPy twin of the signed half-bit sums kernel: per half-bit, S = Σ σ·part (complex)
+    and C = Σ σ, σ the subcarrier sign of the sample's element (the samples of
+    :func:`halfbit_sums_reference`); ``numpy.bincount`` adds its weights in sample order."""
+    n = np.arange(max(0, int(math.ceil(start))), part.size)
+    u = (n - start) * elements_per_sample
+    k = np.floor(u + INDEX_EPS).astype(np.int64)
+    h = k // m
+    ok = (u >= 0) & (h < n_halfbits)
+    sign = np.where((m > 1) & (k % 2 == 1), -1.0, 1.0)
+    z = part[n]
+    s_re = np.bincount(h[ok], weights=(z.real * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+    s_im = np.bincount(h[ok], weights=(z.imag * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+    c = np.bincount(h[ok], weights=sign[ok], minlength=n_halfbits)[:n_halfbits]
+    return s_re + 1j * s_im, c
+
+
 def bitwise_reference(a, b, miller: bool) -> np.ndarray:
     """Plain-NumPy twin of the bit-by-bit decision kernel."""
     s, d = np.abs(a + b), np.abs(a - b)

@@ -3,10 +3,12 @@ decoders and where they still differ): the cumulative sums of a window, the zero
 normalised preamble correlation, the parabolic refinement of a correlation peak, the start of
 a reply whose preamble is centred on a sample, the schedule of the fine BLF search and the
 BLF precision decoding needs, the preamble's least-squares gain and offset,
-the decisions from half-bit sums (or from the signed sums of the samples), the sums of the least-squares fit of a remodulated reply
-with its rest level and the residual power over its steady samples.
+the decisions from half-bit sums (or from the signed sums of the samples), the sums of the
+least-squares fit of a remodulated reply with its rest level and the residual power over its
+steady samples.
 
-Callers: the reader's BLF search (``rfsim.devices._blf_search_kernels``) and the capture
+Callers: the reader's BLF search (``rfsim.devices._blf_search_kernels``), the reader's
+receive (``rfsim.devices._reader_receive_kernels``: the decisions from signed sums) and the capture
 decoder (:mod:`rfsim.gen2._reply_search_kernels`, :mod:`rfsim.gen2._reply_kernels`). Each
 step is written once here in the arithmetic (order of operations) its callers had, so that
 their results are bit-identical to what they were; where the callers' arithmetic differed,

@@ -14,7 +14,8 @@ from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _standard_normals
 from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
-                                          sampled_template, viterbi_kernel, waveform_kernel)
+                                          sampled_template, signed_halfbit_sums_kernel, viterbi_kernel,
+                                          waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -214,42 +215,6 @@ def _mean(r, n):
     for i in range(n):
         acc += r[i]
     return acc / n if n > 0 else 0j
-
-
-@njit
-def _halfbit_sums(part, start, ratio, m, s_sum, s_count):
-    """The half-bit sums of the decoder (:func:`rfsim.gen2._linecode_kernels.projected_halfbit_sums_kernel`)
-    before the projection: per half-bit j, S_j = Σ σ_n·part[n] (complex) and C_j = Σ σ_n over
-    the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
-    subcarrier sign of k. The decoder's sums of Re((part − dc)·g) are then Re(g·S_j) − Re(dc·g)·C_j
-    for any gain and offset (the same value up to the order of the operations)."""
-    s_sum[:] = 0j
-    s_count[:] = 0.0
-    nh = s_sum.size
-    j = 0
-    nxt = m  # first element of half-bit j + 1
-    acc = 0j
-    cnt = 0.0
-    for n in range(max(0, int(math.ceil(start))), part.size):
-        u = (n - start) * ratio
-        if u < 0.0:
-            continue
-        k = int(math.floor(u + INDEX_EPS))
-        if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
-            s_sum[j] = acc
-            s_count[j] = cnt
-            acc = 0j
-            cnt = 0.0
-            j = k // m
-            nxt = (j + 1) * m
-            if j >= nh:
-                return
-        sg = float(element_sign(k, m))
-        acc += sg * part[n]
-        cnt += sg
-    if j < nh:
-        s_sum[j] = acc
-        s_count[j] = cnt
 
 
 @njit
@@ -490,7 +455,7 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     det_bits = np.empty(n_bits + 1, np.uint8)
     s_sum = np.empty(nh, np.complex128)
     s_count = np.empty(nh)
-    _halfbit_sums(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    signed_halfbit_sums_kernel(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
     _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
     if corr < fp[FP_THRESHOLD]:
         res[RES_STATUS] = NOT_FOUND

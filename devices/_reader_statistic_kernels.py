@@ -14,7 +14,7 @@ import numpy as np
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
 from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           sampled_template, viterbi_kernel, waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
@@ -203,6 +203,10 @@ class PlanArrays(NamedTuple):
     norms: np.ndarray  # (17,) float64: its norms
     pre_el: np.ndarray  # (n_pre_elements,) float64: the preamble's elements
     pre_levels: np.ndarray  # (·,) int8: the preamble's half-bit levels
+    run_begin: np.ndarray  # the refinement bank's runs of equal values (rfsim.gen2.linecode._refine_runs)
+    run_value: np.ndarray
+    n_runs: np.ndarray
+    same_as_previous: np.ndarray
 
 
 class Memo(NamedTuple):
@@ -296,10 +300,12 @@ def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
 
 
 @njit
-def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
+def _search(st, r, ip, fp, plan, ki, wi, fi):
     """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
     samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
-    then the decoder's preamble search over the block less the mean of ``r[:lo]``. Returns
+    then the decoder's preamble search (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`,
+    the sample-level decoder's, with the :class:`PlanArrays` ``plan``) over the block less the mean
+    of ``r[:lo]``. Returns
     (that mean, the reply start relative to ``lo`` [samples])."""
     lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
     sizes0 = np.ones(head + b1 - b0)
@@ -319,8 +325,10 @@ def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
     w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
     for i in range(lo, b1):
         w[i - lo] = r[i] - dc0
-    lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
-                                                  ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
+    lag, best, start_rel = preamble_search_runs_kernel(w, ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
+                                                       ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], plan.shifts,
+                                                       plan.templates, plan.norms, plan.run_begin, plan.run_value,
+                                                       plan.n_runs, plan.same_as_previous)
     return dc0, (float(lag) if best < 0 else start_rel)
 
 
@@ -532,7 +540,7 @@ def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi)
     n = r.size
     n_pre_half = nh - 2 * (n_bits + 1)
     res[RES_GAMMA_LEFT] = 0.0
-    dc0, start_rel = _search(st, r, ip, fp, plan.t0, plan.shifts, plan.templates, plan.norms, ki, wi, fi)
+    dc0, start_rel = _search(st, r, ip, fp, plan, ki, wi, fi)
     start = lo + start_rel
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again

@@ -117,8 +117,8 @@ from rfsim.core.lazy import lazy_import
 from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.crc import crc16_ok
 # the decoder's own preamble, search template and refinement bank (the same search)
-from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _template,
-                                 elements_of_levels, reply_duration_s)
+from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _refine_runs,
+                                 _template, elements_of_levels, reply_duration_s)
 from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult
 
 _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
@@ -319,7 +319,7 @@ def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) ->
     templates, norms = _refine_bank(m, trext, ratio)
     arrays = _sk.PlanArrays(*(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates,
                                                      norms, elements_of_levels(levels, m, np.float64))),
-                            np.array(levels, np.int8))
+                            np.array(levels, np.int8), *(np.array(a) for a in _refine_runs(m, trext, ratio)))
     return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, arrays)
 
 

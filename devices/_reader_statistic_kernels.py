@@ -505,34 +505,47 @@ def standard_gamma_kernel(st, shape, ki, wi, fi):
 
 
 @njit
-def receive_kernel(words, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
-    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
-    and step 6's draw in one call (its module docstring), the draws from the PCG64 state in
-    ``words`` (advanced in place) in the order of the NumPy steps.
+def receive_kernel(words, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive_many`, steps
+    1–4 and step 6's draw (its module docstring) for the trials ``trial[0], trial[0] + 1, …`` of one
+    plan, input length and search window in one call, the draws from the PCG64 state in
+    ``words`` (advanced in place) trial after trial in the order of the NumPy steps.
 
     ``words`` (4,) uint64: the generator's state in NumPy's memory order (state low, high word,
-    increment low, high word; :func:`rfsim.devices.reader_statistic.pcg64_words`). ``r`` (n,)
-    complex: the noise-free input on entry; on return the receiver's input after the DC
-    subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
-    ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply; ``memo``: the
-    :class:`Memo` of the caller's plan, input length and search window. Writes the decoded bits
-    into ``bits_out`` ((n_bits + 1,) uint8), the reply span r − c and its ±1 reference (0
-    outside the reply) into ``z_out``, ``s_out`` ((n_reply + 4,), ``res[RES_N_SPAN]`` of them
-    used), measures them (:func:`rfsim.devices._reader_kernels.measure_kernel`), and writes the
-    status, the reply start (relative to ``lo``), the correlation, c, i0, the in-piece degrees
-    of freedom, the measurement's sample count and its gain h, phase slope and residual power
-    (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the degrees of freedom
-    are 1 or fewer its shape is left in ``res[RES_GAMMA_LEFT]`` for the caller to draw with
-    NumPy) into ``res`` (slots ``RES_*``)."""
+    increment low, high word; :func:`rfsim.devices.reader_statistic.pcg64_words`). ``xs`` (B, n)
+    complex: the noise-free inputs. ``r`` (n,) complex: scratch; on return the last trial's
+    input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
+    parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
+    ``memo``: the :class:`Memo` of the plan, input length and search window. Per trial b:
+    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c and its
+    ±1 reference (0 outside the reply) into ``z_out``, ``s_out`` ((n_reply + 4,), scratch,
+    ``res[b, RES_N_SPAN]`` of them used), measured by
+    :func:`rfsim.devices._reader_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
+    ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
+    in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
+    residual power (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the
+    degrees of freedom are 1 or fewer its shape is left in ``res[b, RES_GAMMA_LEFT]`` for the
+    caller to draw with NumPy). Stops after a trial that leaves a draw to the caller or fails
+    with a status the caller raises (ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM), so that the draws
+    stay in trial order. ``trial`` (1,) int64: on entry the first trial, on return the index
+    after the last trial done."""
     st = np.empty(4, np.uint64)  # (state hi, lo, inc hi, lo): the order of the noise kernels
     st[0], st[1], st[2], st[3] = words[1], words[0], words[3], words[2]
-    _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi)
+    b = trial[0]
+    while b < xs.shape[0]:
+        r[:] = xs[b]
+        _receive(st, r, ip, fp, plan, bits_out[b], z_out, s_out, res[b], memo, ki, wi, fi)
+        b += 1
+        if res[b - 1, RES_GAMMA_LEFT] > 0 or res[b - 1, RES_STATUS] >= ZERO_GAIN:
+            break
     words[0], words[1] = st[1], st[0]
+    trial[0] = b
 
 
 @njit
 def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
-    """:func:`receive_kernel` on the state ``st`` in the noise kernels' order."""
+    """:func:`receive_kernel`'s steps for one trial (``r`` its input, ``bits_out`` and ``res`` its
+    rows) on the state ``st`` in the noise kernels' order."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]

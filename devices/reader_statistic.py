@@ -125,7 +125,7 @@ _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
 _nk = lazy_import("rfsim.air._noise_kernels")  # NumPy's normals drawn in a kernel from a PCG64 state
 
 __all__ = ["RX_MODELS", "SEARCH_MARGIN", "piece_map", "draw_piece_sums", "spread", "bridge_split",
-           "block_cuts", "residual_correction", "pcg64_words", "set_pcg64_words", "refer_phase", "receive"]
+           "block_cuts", "residual_correction", "pcg64_words", "set_pcg64_words", "refer_phase", "receive", "receive_many"]
 
 #: Receiver models of ``ReaderConfig.rx_model``.
 RX_MODELS = ("sample", "statistic")
@@ -464,10 +464,7 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     """Receive ``x + n`` with the noise drawn as the statistics the receiver reads.
 
     :meth:`rfsim.devices.reader.Reader.receive` at statistic level (module docstring, steps
-    1–6; the BLF search is not modelled): steps 1–4 and the draw of step 6 in one numba call
-    (:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`, which draws NumPy's normals
-    and Gamma from ``rng``'s PCG64 state), then the reader's measurement rule
-    (``Reader._measurements``) on its gain, slope and residual power.
+    1–6; the BLF search is not modelled): :func:`receive_many` of a batch of one.
 
     Parameters
     ----------
@@ -500,15 +497,72 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     Raises
     ------
     ValueError
-        When ``x`` is not 1-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
-        where the sample-level decoder raises (no room for the reply, a zero gain).
+        When ``x`` is not 1-D, or as :func:`receive_many`.
     """
     r = np.asarray(x)
     if r.ndim != 1:
         raise ValueError(f"rx must be 1-D, got shape {r.shape}")
+    return receive_many(reader, r[None], t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+                        blf_hz=blf_hz, carriers=(carrier,), rng=rng)[0]
+
+
+def receive_many(reader, xs, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
+                 blf_hz: float | None = None, carriers=None, rng: np.random.Generator) -> list[ReadResult]:
+    """Receive B inputs of one reply plan and search window, the noise drawn as the statistics
+    the receiver reads: the batch entry of the statistic-level receiver.
+
+    Trial b is :func:`receive` of ``xs[b]`` with ``carrier=carriers[b]`` and the same ``rng``,
+    the trials in order: the same draws, decisions and results as B calls of :func:`receive`
+    (steps 1–4 and step 6's draw for all trials in one numba call,
+    :func:`rfsim.devices._reader_statistic_kernels.receive_kernel`, which draws NumPy's normals
+    and Gamma from ``rng``'s PCG64 state; a trial that leaves a draw to NumPy or raises ends the
+    call and the next call goes on from the trial after it), then per trial the reader's
+    measurement rule (``Reader._measurements``) on its gain, slope and residual power. A batched
+    caller (B trials of one command whose reader inputs share their length and time base) calls
+    this once instead of :func:`receive` B times.
+
+    Parameters
+    ----------
+    reader : rfsim.devices.reader.Reader
+        The reader (its link, sample rate, noise figure, thresholds and measurement step).
+    xs : ndarray of complex, shape (B, n)
+        The noise-free waveforms at the RX port [√W], one row per trial.
+    t0_s : float
+        Keyword-only (like the others): absolute time of ``xs[:, 0]`` [s].
+    n_bits : int
+        Data bits of the reply.
+    expect_crc : bool
+        Check the last 16 bits as CRC-16 over the reply.
+    cmd_end_s : float or None, optional
+        End of the command [s] (the search window as in :meth:`Reader.receive`); default
+        None, anywhere.
+    blf_hz : float or None, optional
+        The tags' BLF [Hz]; default None, the profile's nominal BLF.
+    carriers : sequence of complex or None, optional
+        Per trial the reader's transmitted baseband during the reply window, the phase
+        reference (None entries or ``carriers=None``: phase 0).
+    rng : numpy.random.Generator
+        The receiver's noise generator (a PCG64 one).
+
+    Returns
+    -------
+    list of ReadResult
+        One per trial, as :meth:`Reader.receive` (failure reasons "preamble not found" or "crc
+        error").
+
+    Raises
+    ------
+    ValueError
+        When ``xs`` is not 2-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
+        where the sample-level decoder raises (no room for the reply, a zero gain; the trials
+        before the failing one drawn, as B calls of :func:`receive` would).
+    """
+    xs = np.ascontiguousarray(xs, dtype=np.complex128)
+    if xs.ndim != 2:
+        raise ValueError(f"xs must be 2-D (trials, samples), got shape {xs.shape}")
     if type(rng) is not np.random.Generator or type(rng.bit_generator) is not np.random.PCG64:
         raise ValueError(f"the statistic-level receiver draws from a PCG64 Generator, got {rng!r}")
-    n_bits = int(n_bits)
+    n_bits, (n_trials, n) = int(n_bits), xs.shape
     lk, fs = reader.link, reader.fs_hz
     sigma2 = reader._fixed().noise_w  # k·T0·fs·F, the sample-level model's noise power
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
@@ -516,32 +570,45 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
     plans = reader.air_cache.derived(lk, _Plans)  # the run's, by the (frozen) link profile
     plan = _kept(plans.plans, (n_bits, blf, fs), _make_plan, plans.m, plans.trext, n_bits, blf, fs)
-    lo, hi = reader.reply_start_lags(r.size, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+    lo, hi = reader.reply_start_lags(n, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
     if hi < lo or plan.pre_n < 3:
-        return ReadResult(False, None, "preamble not found")
-    call = _kept(plans.calls, (n_bits, blf, fs, r.size, lo, hi), _make_call, plan, r.size, lo, hi)
+        return [ReadResult(False, None, "preamble not found") for _ in range(n_trials)]
+    call = _kept(plans.calls, (n_bits, blf, fs, n, lo, hi), _make_call, plan, n, lo, hi)
     if call.last < 0:
-        raise ValueError(f"input of {r.size - lo} samples is shorter than the reply ({plan.n_decode} samples)")
+        raise ValueError(f"input of {n - lo} samples is shorter than the reply ({plan.n_decode} samples)")
     fp = np.array([sigma2, plan.ratio, fs, reader.detection_threshold(hi - lo + 1, blf), _RUNS_PER_SAMPLE_MAX])
-    bits, res = np.zeros(n_bits + 1, np.uint8), np.zeros(14)
-    words, full = pcg64_words(rng)
-    np.copyto(call.r, r)  # the kernel adds the noise in place: into the call's own buffer
-    _nk._run_compiled(_sk.receive_kernel, words, call.r, call.ip, fp, plan.arrays, bits, call.z, call.s, res,
-                      call.memo)
-    set_pcg64_words(rng, words, full)
+    bits, res = np.zeros((n_trials, n_bits + 1), np.uint8), np.zeros((n_trials, 14))
+    out: list = []
+    trial = np.zeros(1, np.int64)
+    while len(out) < n_trials:
+        words, full = pcg64_words(rng)
+        _nk._run_compiled(_sk.receive_kernel, words, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
+                          call.s, res, call.memo)
+        set_pcg64_words(rng, words, full)
+        for b in range(len(out), int(trial[0])):
+            out.append(_result(reader, bits[b, :n_bits], res[b], lo, float(t0_s), sigma2, blf, expect_crc,
+                               None if carriers is None else carriers[b], plans, rng))
+    return out
+
+
+def _result(reader, bits: np.ndarray, res: np.ndarray, lo: int, t0_s: float, sigma2: float, blf: float,
+            expect_crc: bool, carrier, plans: _Plans, rng: np.random.Generator) -> ReadResult:
+    """The :class:`ReadResult` of one trial from the kernel's ``res`` row and decoded ``bits``
+    (:func:`receive_many`; step 6's NumPy draw where the kernel left it)."""
     status, start_rel, corr = int(res[_sk.RES_STATUS]), float(res[_sk.RES_START]), float(res[_sk.RES_CORR])
     if status in _RAISES:
         raise ValueError(_RAISES[status])
-    start_s = float(t0_s) + (lo + start_rel) / fs
+    fs = reader.fs_hz
+    start_s = t0_s + (lo + start_rel) / fs
     if status == _sk.NOT_FOUND:
         return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-    bits = bits[:n_bits]
     resid = float(res[_sk.RES_SIGMA2])
     if res[_sk.RES_GAMMA_LEFT] > 0:  # step 6 with one degree of freedom: NumPy's own draw
         resid += residual_correction(int(res[_sk.RES_GAMMA_LEFT]), sigma2, int(res[_sk.RES_N_USED]), rng=rng)
     meas = reader._measurements(complex(res[_sk.RES_H_RE], res[_sk.RES_H_IM]), float(res[_sk.RES_SLOPE]), resid, blf)
     if carrier is not None and complex(carrier) != 0:
         meas["phase_rad"] = refer_phase(meas["phase_rad"], carrier)
+    bits = bits.copy()
     ok = (not expect_crc) or _kept(plans.crcs, bits.tobytes(), crc16_ok, bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)

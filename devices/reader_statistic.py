@@ -38,10 +38,22 @@ Step by step (the steps of :meth:`Reader.receive`):
    of that stretch are two pieces (the known-level fit reads from sample 1 on). **Exact.**
 2. Preamble search, sub-sample refinement and the normalised correlation: noise drawn **per
    sample** over the search block (every sample a searched lag's window or a refinement reads,
-   plus a margin of :data:`SEARCH_MARGIN` samples). The search block is where the receiver reads
-   overlapping windows at every lag and a quadratic form (the window's energy in the
-   normalisation): drawing it per sample is the only exact way and costs ≈ 550 samples per
-   reply. **Exact** (the same model, drawn the same way).
+   plus a margin of :data:`SEARCH_MARGIN` samples, ≈ 550 samples per reply). **Exact** (the same
+   model, drawn the same way). The search's own decisions are linear: the integer-lag
+   correlations C_l = Σ_i w_{l+i}·t0_i and the refinement's R_{c,j} = Σ_i w_{c+i}·T_{j,i} (w the
+   input less the DC estimate, which the zero-mean templates cancel) are jointly Gaussian given
+   ``x``, C with the Toeplitz covariance σ²·Σ_i t0_i·t0_{i+l'−l} and R at the chosen candidates
+   conditionally Gaussian given C, so drawing (C, then R) instead of samples is exact for the
+   search. What else reads the block is what keeps it per sample: the normalised correlation
+   of the preamble fit at the found start (a quadratic form, Σ|seg − mean|², over samples the
+   drawn correlations do not determine: exact only with the noise's projections on the
+   segment's noise-free part drawn conditionally and a σ²/2·χ² of the remaining dimensions) and
+   the half-bit, known-level and measurement sums of the reply samples inside the block (piece
+   sums conditioned on C and R). All conditional Gaussians, so exact in distribution, but the
+   conditioning needs a Cholesky factor over the L searched lags (L ≈ the block less the
+   preamble's samples; kept by content per plan) and costs ≈ L²/2 multiply-adds per reply
+   against the ≈ 550 normals and the correlation by runs the per-sample draw needs: not faster,
+   so not done.
 3. Gain/offset fit on the known levels, the search's own decisions and the final decisions
    (half-bit sums, Viterbi), CRC: functionals of piece sums. **Exact.** The pieces depend on the
    reply start the search found, so the search block is drawn first, the start found, then the
@@ -69,39 +81,44 @@ Step by step (the steps of :meth:`Reader.receive`):
 Noise stream: the air adds no noise to a statistic-level reader's input (its
 :meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator
 (a PCG64 one), spawned from the reader's ``rng`` when the reader is made, in the order of its
-``receive`` calls, so a run is reproducible from its seed, but its records differ from the
-sample-level model draw by draw (the same distribution). Per call the draws are, in order: the
-search block's (one (2, k) block of standard normals), the pieces' sums (one (2, n_pieces)
-block), the bridges' (one (2, 2·cuts) block, when a block edge cuts a piece), the Gamma of
-step 6.
+``receive`` calls (:func:`receive_many`: in trial order, the same draws), so a run is
+reproducible from its seed, but its records differ from the sample-level model draw by draw
+(the same distribution). Per call the draws are, in order: the search block's (one (2, k)
+block of standard normals), the pieces' sums (one (2, n_pieces) block), the bridges' (one
+(2, 2·cuts) block, when a block edge cuts a piece), the Gamma of step 6 (NumPy's
+``Generator.gamma`` draw, made in the kernel for more than one degree of freedom, by NumPy
+otherwise).
 
-Implementation: steps 1–4 run in one numba call
-(:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
+Implementation: steps 1–4 and the draw of step 6 run in one numba call per batch of trials
+(:func:`receive_many`; :func:`receive` is a batch of one;
+:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
-the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
-template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
-them: Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the
-reader's measurement kernel; Python builds the :class:`ReadResult`. What depends only on
-the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
-is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the
-link), and per search window (:class:`_Call`) what depends only on content: the piece map of
-the last reply start, the reference of the last decided bits, the block cuts of the last span,
-and the CRC check of decoded bits (pure functions of their keys, checked on every call: the
-same numbers as made anew). The NumPy twin of the steps (the sample-level decoder's
-calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
-the same draws, decisions and generator state, the measurements equal up to the order of
-the sums.
+the same order as ``rng.standard_normal``; the state advanced in the generator's own memory,
+:func:`pcg64_words`), searches with the sample-level decoder's own kernel and template bank,
+forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project them:
+Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the reader's
+measurement kernel; Python applies the reader's measurement rule (``Reader._measurements``) to
+the gain, slope and residual power and builds the :class:`ReadResult`. What depends only on the
+link, the reply's length, the BLF and the sample rate (templates, refinement bank and its runs,
+sizes) is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from
+the link), and per search window (:class:`_Call`) what depends only on content
+(:class:`~rfsim.devices._reader_statistic_kernels.Memo`): the piece map of the last reply start,
+the reference of the last decided bits, the block cuts of the last span; and the CRC check of
+decoded bits (pure functions of their keys, checked on every call: the same numbers as made
+anew). The NumPy twin of the steps (the sample-level decoder's calls on ``x + ñ``) is
+``reference.devices_reader_statistic.receive_reference`` in the tests: the same draws,
+decisions and generator state, the measurements equal up to the order of the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
-320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's measurement; the
-piece map, the reference and the block cuts only when their content changes) and the decoder's
-search with its sub-sample refinement (5 candidates × 17 shifts × the preamble's samples)
-(``rfsim bench exchange-statistic``). A
-receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
-piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
-draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag
-ones).
+320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample
+passes over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's
+measurement; the piece map, the reference and the block cuts only when their content changes)
+and the decoder's search with its sub-sample refinement (``rfsim bench exchange-statistic``):
+≈ 150 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
+reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would change in the last
+bit for ≈ 7 % of values, and with it the sample-level records). A receiver without per-sample
+passes would form the half-bit, block and fit sums of ``x`` per piece (or keep them by content
+where ``x`` repeats); the search block stays per sample (step 2).
 """
 
 from __future__ import annotations

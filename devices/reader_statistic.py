@@ -489,17 +489,9 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         The reader (its link, sample rate, noise figure, thresholds and measurement step).
     x : ndarray of complex, shape (n,)
         The noise-free waveform at the RX port [√W].
-    t0_s : float
-        Keyword-only (like the others): absolute time of ``x[0]`` [s].
-    n_bits : int
-        Data bits of the reply.
-    expect_crc : bool
-        Check the last 16 bits as CRC-16 over the reply.
-    cmd_end_s : float or None, optional
-        End of the command [s] (the search window as in :meth:`Reader.receive`); default
-        None, anywhere.
-    blf_hz : float or None, optional
-        The tag's BLF [Hz]; default None, the profile's nominal BLF.
+    t0_s, n_bits, expect_crc, cmd_end_s, blf_hz
+        Keyword-only (like the others): as in :func:`receive_many` (``t0_s`` the time of
+        ``x[0]`` [s]).
     carrier : complex or None, optional
         The reader's transmitted baseband during the reply window, the phase reference;
         default None (phase 0).

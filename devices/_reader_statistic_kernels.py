@@ -470,14 +470,14 @@ def standard_gamma_kernel(st, shape, ki, wi, fi):
 
 
 @njit
-def receive_kernel(words, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
     """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive_many`, steps
     1–4 and step 6's draw (its module docstring) for the trials ``trial[0], trial[0] + 1, …`` of one
     plan, input length and search window in one call, the draws from the PCG64 state in
-    ``words`` (advanced in place) trial after trial in the order of the NumPy steps.
+    ``st`` (advanced in place) trial after trial in the order of the NumPy steps.
 
-    ``words`` (4,) uint64: the generator's state in NumPy's memory order (state low, high word,
-    increment low, high word; :func:`rfsim.devices.reader_statistic.pcg64_words`). ``xs`` (B, n)
+    ``st`` (4,) uint64: the generator's state in the noise kernels' order (state high, low word,
+    increment high, low word; :func:`rfsim.air._noise_kernels._pcg64_state`). ``xs`` (B, n)
     complex: the noise-free inputs. ``r`` (n,) complex: scratch; on return the last trial's
     input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
     parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
@@ -494,8 +494,6 @@ def receive_kernel(words, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, re
     with a status the caller raises (ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM), so that the draws
     stay in trial order. ``trial`` (1,) int64: on entry the first trial, on return the index
     after the last trial done."""
-    st = np.empty(4, np.uint64)  # (state hi, lo, inc hi, lo): the order of the noise kernels
-    st[0], st[1], st[2], st[3] = words[1], words[0], words[3], words[2]
     b = trial[0]
     while b < xs.shape[0]:
         r[:] = xs[b]
@@ -503,7 +501,6 @@ def receive_kernel(words, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, re
         b += 1
         if res[b - 1, RES_GAMMA_LEFT] > 0 or res[b - 1, RES_STATUS] >= ZERO_GAIN:
             break
-    words[0], words[1] = st[1], st[0]
     trial[0] = b
 
 

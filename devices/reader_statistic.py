@@ -93,8 +93,8 @@ Implementation: steps 1–4 and the draw of step 6 run in one numba call per bat
 (:func:`receive_many`; :func:`receive` is a batch of one;
 :func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
-the same order as ``rng.standard_normal``; the state advanced in the generator's own memory,
-:func:`pcg64_words`), searches with the sample-level decoder's own kernel and template bank,
+the same order as ``rng.standard_normal``; the state read from and written back to the
+generator once per kernel call), searches with the sample-level decoder's own kernel and template bank,
 forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project them:
 Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the reader's
 measurement kernel; Python applies the reader's measurement rule (``Reader._measurements``) to
@@ -124,7 +124,6 @@ where ``x`` repeats); the search block stays per sample (step 2).
 from __future__ import annotations
 
 import cmath
-import ctypes
 import math
 from typing import NamedTuple
 
@@ -142,7 +141,7 @@ _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
 _nk = lazy_import("rfsim.air._noise_kernels")  # NumPy's normals drawn in a kernel from a PCG64 state
 
 __all__ = ["RX_MODELS", "SEARCH_MARGIN", "piece_map", "draw_piece_sums", "spread", "bridge_split",
-           "block_cuts", "residual_correction", "pcg64_words", "set_pcg64_words", "refer_phase", "receive", "receive_many"]
+           "block_cuts", "residual_correction", "refer_phase", "receive", "receive_many"]
 
 #: Receiver models of ``ReaderConfig.rx_model``.
 RX_MODELS = ("sample", "statistic")
@@ -404,77 +403,6 @@ _RAISES = {2: "zero channel gain: no reply to decode",
            4: "the decoded start leaves no room for the reply"}
 
 
-def _words_in_place() -> bool:
-    """Whether this NumPy's PCG64 keeps its state where :func:`pcg64_words` reads it (checked
-    once on a fresh generator against ``bit_generator.state``; the noise kernels' ziggurat
-    tables loaded then too)."""
-    if not _LAYOUT:
-        if not _nk._TABLES:
-            _nk._TABLES.extend(_nk._tables())
-        rng = np.random.Generator(np.random.PCG64(12345))
-        rng.standard_normal(3)
-        s = rng.bit_generator.state["state"]
-        want = [s["state"] & _WORD, s["state"] >> 64, s["inc"] & _WORD, s["inc"] >> 64]
-        _LAYOUT.append([int(w) for w in _words_view(rng)] == want)
-    return _LAYOUT[0]
-
-
-_LAYOUT: list = []
-_WORD = (1 << 64) - 1
-_WORDS = ctypes.c_uint64 * 4
-
-
-def _words_view(rng) -> np.ndarray:
-    """The (4,) uint64 view of the 128-bit state and increment of ``rng``'s PCG64 in its own
-    memory (``bit_generator.ctypes.state_address`` points at NumPy's ``pcg64_state``, whose
-    first member points at the ``pcg64_random_t`` {state, inc})."""
-    address = ctypes.c_void_p.from_address(rng.bit_generator.ctypes.state_address).value
-    return np.frombuffer(_WORDS.from_address(address), np.uint64)
-
-
-def pcg64_words(rng: np.random.Generator) -> tuple[np.ndarray, dict | None]:
-    """The PCG64 state of ``rng`` as the receiver's kernel advances it.
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        A PCG64 Generator.
-
-    Returns
-    -------
-    words : ndarray of uint64, shape (4,)
-        State low and high 64-bit words, increment low and high words. Where NumPy's state
-        lies in that order in the generator's memory (checked once), a view of it: a kernel
-        that advances ``words`` advances ``rng`` itself (≈ 0.6 µs against ≈ 4 µs for a read
-        and write-back of ``bit_generator.state``).
-    full : dict or None
-        None for a view; else ``rng.bit_generator.state``, to be written back with
-        :func:`set_pcg64_words` after the kernel.
-    """
-    if _words_in_place():
-        return _words_view(rng), None
-    full = rng.bit_generator.state
-    s = full["state"]
-    return np.array([s["state"] & _WORD, s["state"] >> 64, s["inc"] & _WORD, s["inc"] >> 64], np.uint64), full
-
-
-def set_pcg64_words(rng: np.random.Generator, words: np.ndarray, full: dict | None) -> None:
-    """Write ``words`` back into ``rng`` (nothing to do for a view of its memory).
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        The generator of :func:`pcg64_words`.
-    words : ndarray of uint64, shape (4,)
-        Its words as the kernel left them.
-    full : dict or None
-        The ``full`` of :func:`pcg64_words`.
-    """
-    if full is not None:
-        full["state"]["state"] = (int(words[1]) << 64) | int(words[0])
-        rng.bit_generator.state = full
-
-
 def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
             blf_hz: float | None = None, carrier: complex | None = None,
             rng: np.random.Generator) -> ReadResult:
@@ -590,10 +518,10 @@ def receive_many(reader, xs, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_
     out: list = []
     trial = np.zeros(1, np.int64)
     while len(out) < n_trials:
-        words, full = pcg64_words(rng)
-        _nk._run_compiled(_sk.receive_kernel, words, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
+        full, st = _nk._pcg64_state(rng)
+        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
                           call.s, res, call.memo)
-        set_pcg64_words(rng, words, full)
+        _nk._set_pcg64_state(rng, full, st)
         for b in range(len(out), int(trial[0])):
             out.append(_result(reader, bits[b, :n_bits], res[b], lo, float(t0_s), sigma2, blf, expect_crc,
                                None if carriers is None else carriers[b], plans, rng))

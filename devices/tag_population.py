@@ -294,7 +294,9 @@ class _Round:
     def __init__(self, members, gains, cw, fe):
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
-        self.points = points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
+        # every member's power decision for its gain (made now where not known: a new carrier)
+        self.points = points = [(m.decide_quiet_point if hasattr(m, "decide_quiet_point") else m.quiet_point)(fe, g)
+                                for m, g in zip(members, self.gains)]
         n = len(members)
         # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
         self.known = np.array([q is not None for q in points], bool)

@@ -673,10 +673,15 @@ class PassiveTag:
             return quiet
         return None
 
-    def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> QuietPoint | None:
+    def quiet_point(self, fe: SharedFrontEnd, gain: complex, *, decide: bool = False) -> QuietPoint | None:
         """The remembered power decision for the scaled copy g·x of a shared segment.
 
-        Used by a population (:mod:`rfsim.devices.tag_population`).
+        Used by a population (:mod:`rfsim.devices.tag_population`). With ``decide`` the
+        decision is made now when it is not known yet: the one :meth:`reflect` would make
+        (config or chip power-up at |g·x_m|², :meth:`_power_decision`), remembered, without
+        changing the tag (its state machine, operating point and power state are left as they
+        are); a population decides every member at a new carrier this way and drives only the
+        members that do not stay quiet.
 
         Parameters
         ----------
@@ -684,17 +689,25 @@ class PassiveTag:
             Shared front end of the emitted segment x.
         gain : complex
             Complex gain g of the tag's link.
+        decide : bool, default False
+            Make the decision when it is not known.
 
         Returns
         -------
         QuietPoint or None
             The decision (config, chip, powered, P_inc [dBm], Γ_A, A_s, chip operating point or
             None, its reflection states, the unpowered response); None when it is not known
-            yet, the tag does not share front ends or the segment has no CW plateau.
+            (yet, without ``decide``; or a decision of another config or chip is remembered at
+            this power), the tag does not share front ends or the segment has no CW plateau.
         """
         if not self.shared_front_end or fe.plateau is None:
             return None
-        return self._quiet_at(self._incident_power_w(fe, gain))
+        p_inc = self._incident_power_w(fe, gain)
+        quiet = self._quiet_at(p_inc)
+        if quiet is None and decide:
+            self._power_decision(p_inc)
+            quiet = self._quiet_at(p_inc)
+        return quiet
 
     def take_quiet_step(self, quiet: tuple) -> None:
         """Apply a remembered power decision to the tag (besides its state machine's silent step).
@@ -881,37 +894,6 @@ class PassiveTag:
                                             TagResponse(False, None, None, None, None, None, "not powered", p_dbm,
                                                         None, None, None, None, rest, a_s))
         return powered, p_dbm, rest, a_s, hit
-
-    def decide_quiet_point(self, fe: SharedFrontEnd, gain: complex) -> QuietPoint | None:
-        """:meth:`quiet_point`, the power decision made now when it is not known yet.
-
-        The decision :meth:`reflect` would make for the scaled copy g·x (config or chip
-        power-up at |g·x_m|²), remembered, without changing the tag (its state machine,
-        operating point and power state are left as they are): a population decides every
-        member at a new carrier this way and drives only the members that do not stay quiet
-        (:mod:`rfsim.devices.tag_population`).
-
-        Parameters
-        ----------
-        fe : SharedFrontEnd
-            Shared front end of the emitted segment x.
-        gain : complex
-            Complex gain g of the tag's link.
-
-        Returns
-        -------
-        QuietPoint or None
-            The decision; None when the tag does not share front ends, the segment has no CW
-            plateau or a decision of another config or chip is remembered at this power.
-        """
-        if not self.shared_front_end or fe.plateau is None:
-            return None
-        p_inc = self._incident_power_w(fe, gain)
-        quiet = self._quiet_at(p_inc)
-        if quiet is None:
-            self._power_decision(p_inc)
-            quiet = self._quiet_at(p_inc)
-        return quiet
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
                  n_samples: int, cache: AirCache | None = None, silent: bool | None = None) -> TagResponse:

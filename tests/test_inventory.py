@@ -597,15 +597,16 @@ class _BulkCountedChannel(_CountedChannel):
 def test_hop_constants_at_once_equal_link_by_link():
     # At a new carrier the held links' constants of every tag come from the channel at once
     # (Channel.static_constants) instead of a link per tag; a short dwell makes many hops. The
-    # records, exchanges (incident powers to the bit) and tag states must equal those of the
-    # links asked one by one, with far fewer links formed.
+    # records, exchanges (incident powers, RSSI and phase to the bit) and tag states must equal
+    # those of the links asked one by one, with far fewer links formed — with the tags as one
+    # population and each tag on its own.
     from rfsim.channels import Antenna, Channel, Isotropic, Scene
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import TagConfig
     from rfsim.scenes.room_inventory import make_tags, tag_antenna
 
     runs = []
-    for bulk in (True, False):
+    for bulk, fast in ((True, True), (False, True), (True, False)):
         ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
                      polarization="circular")
         rng = np.random.default_rng(7)  # tags at different distances and angles: different constants
@@ -613,7 +614,7 @@ def test_hop_constants_at_once_equal_link_by_link():
                 for r, a in zip(rng.uniform(1.5, 3.0, 16), rng.uniform(0.0, 2 * math.pi, 16))]
         tags = make_tags(TagConfig(), ants, seed=46, key=(0,))
         reader = Reader(ReaderConfig(dwell_s=0.004), [ra], rng=trial_rng(46, 1))
-        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(46, 2), keep_exchanges=True)
+        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(46, 2), fast=fast, keep_exchanges=True)
         counted = _BulkCountedChannel(Channel(Scene())) if bulk else _NoBulkChannel(Channel(Scene()), random=False)
         air._channel.channel = counted
         log = run_inventory(air, InventoryConfig(q_initial=3.0, target_switches=2))
@@ -625,7 +626,10 @@ def test_hop_constants_at_once_equal_link_by_link():
                                      ex.reply_start_s, ex.fc_hz, ex.bits is None or ex.bits.tolist(),
                                      None if ex.read is None else (ex.read.rssi_dbm, ex.read.phase_rad))
                                     for ex in air.exchanges]))
-    at_once, each = runs
+    at_once, each, unshared = runs  # unshared: every tag on its own (fast=False), the links asked when used
+    for key in ("log", "states", "exchanges"):
+        assert unshared[key] == each[key]
+    assert unshared["bulk"] >= at_once["carriers"]
     assert at_once["carriers"] >= 5 and len(at_once["exchanges"]) > 100
     assert at_once["log"] == each["log"] and at_once["states"] == each["states"]
     assert at_once["exchanges"] == each["exchanges"]

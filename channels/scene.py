@@ -33,6 +33,7 @@ inside an exchange (gen2-and-validation-anchors.md §4.7: f_D = 2v/λ for a mono
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -43,7 +44,7 @@ from rfsim.core.units import C_M_S
 
 from .antennas import Antenna
 from .large_scale import friis_amplitude_gain, wall_loss_db
-from .paths import DelayTerms, PathSet
+from .paths import DelayTerms, PathSet, _carrier_phasors
 from .small_scale import ApdpModel, draw_nlos_taps, tap_terms
 from .surfaces import image_paths
 
@@ -470,6 +471,61 @@ class Channel:
         for rx, place in zip(todo, static_placements(sc, tx, todo)):
             self.hold_placement(tx, rx, place)
         return len(todo)
+
+    def static_constants(self, tx: Antenna, rx_antennas, *, fc_hz: float, bandwidth_hz: float,
+                         propagation: str = "auto", inbound: bool = False) -> list | None:
+        """The narrowband constants of the static links ``tx → rx_i`` at one carrier, all at once.
+
+        For a scene whose static links are one LoS path each (Friis, no reflecting surfaces, no
+        diffuse taps, no shadowing; walls allowed) the constant of link i is
+        ``A_i·e^{−j2π·(fc·τ_i mod 1)}`` with ``A_i = g_ls(d_i, fc)·env_i·√(G_tx·G_rx)_i·√PLF_i``
+        and ``τ_i = d_i/c`` (the LoS of :meth:`link`), evaluated here as arrays over the links
+        from their held placements (:meth:`hold_placements`): the same operations, elementwise,
+        as ``link(tx, rx_i, fc_hz=fc_hz).narrowband_constant(fc_hz, bandwidth_hz, propagation)``,
+        so the same numbers to the bit (tested), without a PathSet per link. A frequency hop
+        then costs a few array passes instead of a link assembly per tag.
+
+        Parameters
+        ----------
+        tx : Antenna
+            The transmitter (e.g. the reader's antenna).
+        rx_antennas : sequence of Antenna
+            The receivers (e.g. the tags' antennas), static.
+        fc_hz : float
+            Carrier frequency [Hz].
+        bandwidth_hz : float
+            One-sided signal bandwidth [Hz] (the narrowband decision of a one-path link).
+        propagation : {"auto", "exact", "narrowband"}, default "auto"
+            Propagation policy.
+        inbound : bool, default False
+            The links ``rx_i → tx`` instead (the backward links of :meth:`backscatter_links` for a
+            monostatic ``tx``): the same constants in a reciprocal scene, else None.
+
+        Returns
+        -------
+        list of complex or None
+            Per receiver its constant [√W per √W], in order; None when the scene's links are not
+            of that form, the policy is "exact", or a placement cannot be held (the caller then
+            asks :meth:`link` link by link).
+        """
+        sc = self.scene
+        if (inbound and not sc.reciprocal) or (sc.apdp is not None or sc.shadowing is not None or sc.large_scale is not None
+                or (sc.surfaces and sc.image_order > 0) or propagation == "exact" or not math.isfinite(bandwidth_hz)):
+            return None
+        if not rx_antennas:
+            return []
+        self.hold_placements(tx, rx_antennas)
+        places = [self._placements.get((tx, rx)) for rx in rx_antennas]
+        if any(p is None or p.images is not None for p in places):
+            return None
+        if any(p.v_tx.any() or p.v_rx.any() for p in places):
+            return None
+        d = np.array([p.d for p in places], float)
+        g_ls = friis_amplitude_gain(d, float(fc_hz))
+        a_los = g_ls * np.array([p.env for p in places], float) * np.array([p.ant for p in places], float) \
+            * np.array([p.plf for p in places], float)
+        coef = a_los.astype(np.complex128) * _carrier_phasors(d / C_M_S, fc_hz)
+        return (coef + 0j).tolist()  # constant_gain: 0j plus the one coefficient
 
     def _placement(self, tx, rx, t_s, tx_motion, rx_motion) -> _Placement:
         """Carrier-independent geometry of the link, a :class:`_Placement`: ``(d, unit vector, wall amplitude,

@@ -669,10 +669,15 @@ class PassiveTag:
             return quiet
         return None
 
-    def quiet_point(self, fe: SharedFrontEnd, gain: complex) -> QuietPoint | None:
+    def quiet_point(self, fe: SharedFrontEnd, gain: complex, *, decide: bool = False) -> QuietPoint | None:
         """The remembered power decision for the scaled copy g·x of a shared segment.
 
-        Used by a population (:mod:`rfsim.devices.tag_population`).
+        Used by a population (:mod:`rfsim.devices.tag_population`). With ``decide`` the
+        decision is made now when it is not known yet: the one :meth:`reflect` would make
+        (config or chip power-up at |g·x_m|², :meth:`_power_decision`), remembered, without
+        changing the tag (its state machine, operating point and power state are left as they
+        are); a population decides every member at a new carrier this way and drives only the
+        members that do not stay quiet.
 
         Parameters
         ----------
@@ -680,17 +685,25 @@ class PassiveTag:
             Shared front end of the emitted segment x.
         gain : complex
             Complex gain g of the tag's link.
+        decide : bool, default False
+            Make the decision when it is not known.
 
         Returns
         -------
         QuietPoint or None
             The decision (config, chip, powered, P_inc [dBm], Γ_A, A_s, chip operating point or
             None, its reflection states, the unpowered response); None when it is not known
-            yet, the tag does not share front ends or the segment has no CW plateau.
+            (yet, without ``decide``; or a decision of another config or chip is remembered at
+            this power), the tag does not share front ends or the segment has no CW plateau.
         """
         if not self.shared_front_end or fe.plateau is None:
             return None
-        return self._quiet_at(self._incident_power_w(fe, gain))
+        p_inc = self._incident_power_w(fe, gain)
+        quiet = self._quiet_at(p_inc)
+        if quiet is None and decide:
+            self._power_decision(p_inc)
+            quiet = self._quiet_at(p_inc)
+        return quiet
 
     def take_quiet_step(self, quiet: tuple) -> None:
         """Apply a remembered power decision to the tag (besides its state machine's silent step).
@@ -829,33 +842,9 @@ class PassiveTag:
         ``p_inc`` [W], the command from ``decode()`` → (command, PIE frame) or (None, None),
         the state machine and the reply's Γ(t) over ``n_samples`` samples (kept in the run's
         ``cache`` by content, :func:`reply_gamma`)."""
-        p_dbm = _dbm(p_inc)
-        if self.chip is not None:
-            # the operating point is a pure function of the (frozen) chip and P_inc: a held
-            # link gives the same P_inc exchange after exchange
-            hit = self._chip_memo.get(p_inc)
-            if hit is None or hit.chip is not self.chip:
-                if len(self._chip_memo) > 64:
-                    self._chip_memo.clear()
-                op = self.chip.operating_point(p_inc)
-                hit = self._chip_memo[p_inc] = _ChipPoint(self.chip, op, _chip_spread(
-                    ReflectionStates(op.gamma_unmod, op.gamma_mod), self.config.chip_gain_db,
-                    self.config.chip_phase_deg))
+        powered, p_dbm, rest, a_s, hit = self._power_decision(p_inc)
+        if hit is not None:
             self.operating_point, self.reflection_states = hit.operating_point, hit.reflection_states
-            powered = self.operating_point.powered
-        else:
-            tau, tau_pu, sens_w, a_s = self._tau_power_up()
-            powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
-        rest = self.reflection_states.gamma_a
-        a_s = self._tau_power_up()[3] if self.chip is not None else a_s
-        if self.shared_front_end and p_inc not in self._quiet:  # the power decision of this P_inc
-            if len(self._quiet) > 64:
-                self._quiet.clear()
-            op = self.operating_point if self.chip is not None else None
-            self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s, op,
-                                  self.reflection_states if op is not None else None,
-                                  TagResponse(False, None, None, None, None, None, "not powered", p_dbm, None,
-                                              None, None, None, rest, a_s))
         if not powered:
             if self.state.powered:
                 self.state.on_power(False, t0_s)
@@ -868,6 +857,39 @@ class PassiveTag:
 
         cmd, frame = decode()
         return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples, cache=cache)
+
+    def _power_decision(self, p_inc: float) -> tuple:
+        """Power-up at the incident power ``p_inc`` [W] (config or chip), without changing the
+        tag: ``(powered, P_inc [dBm], Γ_A, A_s, the chip's _ChipPoint or None)``. The decision is
+        remembered as a :class:`QuietPoint` (with :attr:`shared_front_end`)."""
+        p_dbm = _dbm(p_inc)
+        hit = None
+        if self.chip is not None:
+            # the operating point is a pure function of the (frozen) chip and P_inc: a held
+            # link gives the same P_inc exchange after exchange
+            hit = self._chip_memo.get(p_inc)
+            if hit is None or hit.chip is not self.chip:
+                if len(self._chip_memo) > 64:
+                    self._chip_memo.clear()
+                op = self.chip.operating_point(p_inc)
+                hit = self._chip_memo[p_inc] = _ChipPoint(self.chip, op, _chip_spread(
+                    ReflectionStates(op.gamma_unmod, op.gamma_mod), self.config.chip_gain_db,
+                    self.config.chip_phase_deg))
+            powered = hit.operating_point.powered
+            rest, a_s = hit.reflection_states.gamma_a, self._tau_power_up()[3]
+        else:
+            tau, tau_pu, sens_w, a_s = self._tau_power_up()
+            powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
+            rest = self.reflection_states.gamma_a
+        if self.shared_front_end and p_inc not in self._quiet:  # the power decision of this P_inc
+            if len(self._quiet) > 64:
+                self._quiet.clear()
+            self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s,
+                                            None if hit is None else hit.operating_point,
+                                            None if hit is None else hit.reflection_states,
+                                            TagResponse(False, None, None, None, None, None, "not powered", p_dbm,
+                                                        None, None, None, None, rest, a_s))
+        return powered, p_dbm, rest, a_s, hit
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
                  n_samples: int, cache: AirCache | None = None) -> TagResponse:

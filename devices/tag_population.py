@@ -8,8 +8,9 @@ an ACK or NAK not for it; :meth:`rfsim.devices.gen2_tag_state.TagState.on_comman
 scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, static links),
 
 1. decides for all tags at once which of them stay quiet — the remembered power decision of
-   each tag's P_inc = |g_j·x_m|² (``PassiveTag.quiet_point``, made by the tag's own full path
-   earlier) agrees with its powered state, and an unpowered tag stays unpowered or a powered
+   each tag's P_inc = |g_j·x_m|² (``PassiveTag.quiet_point``, made for every tag when the
+   gains are new — a round's first exchange, a frequency hop — without changing the tag: its
+   own full path's power-up rule) agrees with its powered state, and an unpowered tag stays unpowered or a powered
    one takes a silent step of the decoded command (``StateArrays.silent_steps``, the rules of
    ``on_command_if_silent``);
 2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
@@ -74,7 +75,7 @@ class TagPopulation:
     Parameters
     ----------
     tags : sequence of tags with ``state`` (TagState), ``reflect``, ``antenna``,
-        ``quiet_point``, ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
+        ``quiet_point`` (with ``decide``), ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
         ``config.envelope_rc_s`` (and ``rng``, ``respond_reply`` for the QueryAdjust
         shortcut, module docstring)
     """
@@ -294,7 +295,8 @@ class _Round:
     def __init__(self, members, gains, cw, fe):
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
-        self.points = points = [m.quiet_point(fe, g) for m, g in zip(members, self.gains)]
+        # every member's power decision for its gain (made now where not known: a new carrier)
+        self.points = points = [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)]
         n = len(members)
         # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
         self.known = np.array([q is not None for q in points], bool)

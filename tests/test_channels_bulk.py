@@ -340,3 +340,28 @@ def test_static_placements_equal_the_channels_own_bit_for_bit(polarization):
     assert np.array_equal(p_held.gain, p_own.gain) and np.array_equal(p_held.delay_s, p_own.delay_s)
     with pytest.raises(ValueError, match="surfaces and walls"):
         static_placements(Scene(walls=(Wall.segment_2d([4, 0], [4, 4], 6.0),)), tx, rxs)
+
+
+def test_static_constants_equal_each_links_narrowband_constant_bit_for_bit():
+    # Channel.static_constants: the one-LoS-path links of a static scene at one carrier as arrays;
+    # each constant must be the link's own narrowband_constant to the bit (a hop of an inventory
+    # reads them), at many carriers and distances; None where the links are not of that form.
+    from rfsim.channels.antennas import Isotropic
+    from rfsim.scenes.room_inventory import tag_antenna
+
+    rng = np.random.default_rng(3)
+    ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
+                 polarization="circular")
+    ants = [tag_antenna(tuple(float(v) for v in rng.uniform(-6.0, 6.0, 3)), float(rng.uniform(0, 2 * np.pi)))
+            for _ in range(200)]
+    for fc in [902.75e6 + 0.5e6 * k for k in range(0, 50, 4)] + rng.uniform(860e6, 960e6, 6).tolist():
+        got = Channel(Scene()).static_constants(ra, ants, fc_hz=fc, bandwidth_hz=640e3)
+        ref = Channel(Scene())
+        want = [ref.link(ra, a, fc_hz=fc).narrowband_constant(fc, 640e3, "auto") for a in ants]
+        assert [(c.real.hex(), c.imag.hex()) for c in got] == [(c.real.hex(), c.imag.hex()) for c in want]
+        assert Channel(Scene()).static_constants(ra, ants, fc_hz=fc, bandwidth_hz=640e3, inbound=True) == got
+    assert Channel(Scene()).static_constants(ra, ants, fc_hz=fc, bandwidth_hz=640e3, propagation="exact") is None
+    assert Channel(Scene(large_scale=LogDistance())).static_constants(ra, ants, fc_hz=fc, bandwidth_hz=640e3) is None
+    assert Channel(Scene(reciprocal=False)).static_constants(ra, ants, fc_hz=fc, bandwidth_hz=640e3,
+                                                             inbound=True) is None
+    assert Channel(Scene()).static_constants(ra, [], fc_hz=fc, bandwidth_hz=640e3) == []

@@ -577,6 +577,66 @@ def test_links_held_across_rounds_equal_a_draw_per_round():
     assert p_moved[0] == p_unmoved[0] and p_moved[-1] < p_unmoved[-1] - 3.0  # 2 m → 3.5 m: −4.9 dB
 
 
+class _NoBulkChannel(_CountedChannel):
+    """A channel whose links are asked link by link (no ``static_constants``)."""
+
+
+class _BulkCountedChannel(_CountedChannel):
+    """A channel's links through a counter, offering its ``static_constants`` (counted)."""
+
+    def __init__(self, channel):
+        super().__init__(channel, random=False)
+        self.bulk_calls = 0
+
+    def static_constants(self, *args, **kwargs):
+        out = self.channel.static_constants(*args, **kwargs)
+        self.bulk_calls += out is not None
+        return out
+
+
+def test_hop_constants_at_once_equal_link_by_link():
+    # At a new carrier the held links' constants of every tag come from the channel at once
+    # (Channel.static_constants) instead of a link per tag; a short dwell makes many hops. The
+    # records, exchanges (incident powers, RSSI and phase to the bit) and tag states must equal
+    # those of the links asked one by one, with far fewer links formed — with the tags as one
+    # population and each tag on its own.
+    from rfsim.channels import Antenna, Channel, Isotropic, Scene
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import TagConfig
+    from rfsim.scenes.room_inventory import make_tags, tag_antenna
+
+    runs = []
+    for bulk, fast in ((True, True), (False, True), (True, False)):
+        ra = Antenna(position_m=(0.0, 0.0, 1.0), orientation=(0.0, 0.0, 0.0), pattern=Isotropic(),
+                     polarization="circular")
+        rng = np.random.default_rng(7)  # tags at different distances and angles: different constants
+        ants = [tag_antenna((float(r * math.cos(a)), float(r * math.sin(a)), 1.0), float(a + math.pi))
+                for r, a in zip(rng.uniform(1.5, 3.0, 16), rng.uniform(0.0, 2 * math.pi, 16))]
+        tags = make_tags(TagConfig(), ants, seed=46, key=(0,))
+        reader = Reader(ReaderConfig(dwell_s=0.004), [ra], rng=trial_rng(46, 1))
+        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(46, 2), fast=fast, keep_exchanges=True)
+        counted = _BulkCountedChannel(Channel(Scene())) if bulk else _NoBulkChannel(Channel(Scene()), random=False)
+        air._channel.channel = counted
+        log = run_inventory(air, InventoryConfig(q_initial=3.0, target_switches=2))
+        runs.append(dict(log=(log.slots, log.reads), calls=counted.calls, bulk=getattr(counted, "bulk_calls", 0),
+                         carriers=len({ex.fc_hz for ex in air.exchanges}),
+                         states=[(t.state.state, dict(t.state.inventoried), t.state.slot, t.state.t_s,
+                                  t.rng.bit_generator.state["state"]) for t in tags],
+                         exchanges=[(ex.command, ex.replied, ex.incident_power_dbm, ex.failure_reason,
+                                     ex.reply_start_s, ex.fc_hz, ex.bits is None or ex.bits.tolist(),
+                                     None if ex.read is None else (ex.read.rssi_dbm, ex.read.phase_rad))
+                                    for ex in air.exchanges]))
+    at_once, each, unshared = runs  # unshared: every tag on its own (fast=False), the links asked when used
+    for key in ("log", "states", "exchanges"):
+        assert unshared[key] == each[key]
+    assert unshared["bulk"] >= at_once["carriers"]
+    assert at_once["carriers"] >= 5 and len(at_once["exchanges"]) > 100
+    assert at_once["log"] == each["log"] and at_once["states"] == each["states"]
+    assert at_once["exchanges"] == each["exchanges"]
+    assert at_once["bulk"] >= at_once["carriers"] and each["bulk"] == 0
+    assert at_once["calls"] < each["calls"] / 2, (at_once["calls"], each["calls"])
+
+
 def _observable_state(st):
     """A tag state's protocol state as comparable values (NaN written as a string)."""
     return (repr(st.row()), st.state, dict(st.inventoried), st.sl, st.q, st.slot, st.rn16, st.handle, st.session,

@@ -158,7 +158,8 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
     ``backs``. The quiet members' constants b_j·(r_j·g_j) and a non-modulating reacting member's
     constant are summed in member order into the factor of x (``const[i0]``, with
     :func:`accumulate`); a modulating reacting member's contribution is appended to ``parts``
-    (the per-member branch of :func:`rfsim.air.step.propagate`).
+    (the per-member branch of :func:`rfsim.air.step.propagate`; b_j times its scattered field
+    when its backward link has a held constant, the link then not asked).
 
     Parameters
     ----------
@@ -212,9 +213,12 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
             vals[jl] = backs[j] * (rc * g)
             use[jl] = True
             continue
-        pj = links.paths(members[j].antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
         inc_e = g * seg.samples
         scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
+        if backs[j] is not None:  # its backward link's held constant: what through() gives, the link not asked
+            parts.append(backs[j] * scattered)
+            continue
+        pj = links.paths(members[j].antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)
         gb, yb = through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
         parts.append(yb if yb is not None else gb * scattered)
     vals = terms if vals is None else vals

@@ -729,6 +729,9 @@ class _EngineLinks:
             if hit is None and self.cache is not None and not self.draw:  # after held_constants
                 i = self.index.get(id(tx))
                 links = self._held_pair((i, id(self.antenna), fc_hz)) if i is not None else None
+                if links is None and i is not None:  # held as constants only (a bulk hop): the link now
+                    self.paths(self.antenna, tx, fc_hz=fc_hz, t_s=t_s)
+                    links = self._held_pair((i, id(self.antenna), fc_hz))
                 hit = links.backward if links is not None else None
             return hit
         return None
@@ -749,7 +752,12 @@ class _EngineLinks:
         for ant in others:
             i = self.index.get(id(ant))
             links = self._held_pair((i, id(antenna), fc_hz)) if i is not None else None
-            link = None if links is None else links.backward if inbound else links.forward
+            if links is None:  # not held at this carrier: every constant at once, if the channel can
+                out = self._bulk_constants(others, fc_hz, bandwidth_hz, propagation, inbound)
+                if out is None:
+                    return None
+                break
+            link = links.backward if inbound else links.forward
             f = getattr(link, "narrowband_constant", None)
             c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
             if c is None:
@@ -758,6 +766,21 @@ class _EngineLinks:
         self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
                                          antenna_ids=[id(a) for a in others], constants=out)
         return out
+
+    def _bulk_constants(self, others, fc_hz, bandwidth_hz, propagation, inbound) -> list | None:
+        """The constants of the static links between the reader antenna and every tag antenna of
+        ``others`` from the channel at once (``static_constants``, rfsim.channels.scene.Channel:
+        the numbers of the links' own ``narrowband_constant``, bit for bit), or None. Only for a
+        channel without random part (whose links are the same with or without a draw) and tags
+        that are all the engine's; the links themselves are formed when a tag asks for them
+        (:meth:`paths`)."""
+        bulk = getattr(self.channel, "static_constants", None)
+        if bulk is None or getattr(self.channel, "has_random_part", True) is not False:
+            return None
+        if any(self.index.get(id(a)) is None for a in others):
+            return None
+        return bulk(self.antenna, others, fc_hz=fc_hz, bandwidth_hz=bandwidth_hz, propagation=propagation,
+                    inbound=inbound)
 
     def _held_pair(self, key) -> _LinkPair | None:
         """The held links of ``key`` = (tag index, id(reader antenna), carrier), None unless

@@ -652,6 +652,16 @@ class _RoundChannel:
     def clear(self) -> None:
         self._links.clear()
 
+    @property
+    def has_random_part(self) -> bool:
+        return getattr(self.channel, "has_random_part", True)
+
+    def static_constants(self, emitter, tags, **kw):
+        """The channel's ``static_constants`` (the narrowband constants of many static links at
+        one carrier at once), or None when it has none."""
+        f = getattr(self.channel, "static_constants", None)
+        return f(emitter, tags, **kw) if f is not None else None
+
     def backscatter_links(self, emitter, tag, receiver=None, *, fc_hz, rng=None, t_s=0.0, tag_motion=None,
                           **kw):
         if tag_motion is not None or kw:

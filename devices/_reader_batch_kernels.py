@@ -6,8 +6,9 @@ The trial loop runs inside the kernel; each trial is one call of
 :meth:`rfsim.devices.reader.Reader.receive`) on that trial's samples, with its own search window
 and detection threshold, so every trial's status, start, correlation, decisions and measurements
 are those of :meth:`~rfsim.devices.reader.Reader.receive` of that trial alone, to the bit
-(tests/test_reader_batch.py). Nothing of the rule is written here: the kernel only cuts the
-trials out of their concatenation and hands each its rows of the output arrays.
+(tests/test_reader_batch.py). Nothing of the rule is written here: the kernel only hands each
+trial its samples (one typed list of the trials' arrays, no copy) and its rows of the output
+arrays.
 """
 
 from __future__ import annotations
@@ -17,14 +18,14 @@ from rfsim.devices._reader_receive_kernels import receive_kernel
 
 
 @njit
-def receive_batch_kernel(flat, offsets, lo, hi, threshold, n_reply, fs_hz, blf_hz, m, n_pre, n_pre_el, t0,
+def receive_batch_kernel(rxs, lo, hi, threshold, n_reply, fs_hz, blf_hz, m, n_pre, n_pre_el, t0,
                          max_runs_per_sample, half_width, shifts, templates, norms, run_begin, run_value, n_runs,
                          same_as_previous, pre_el, pre_levels, state0, viterbi, n_blocks, det_bits, bits, out_f, out_c,
                          status):
     """:func:`~rfsim.devices._reader_receive_kernels.receive_kernel` of B trials, one after another.
 
-    Trial b reads ``flat[offsets[b]:offsets[b + 1]]`` (its receiver input from the listen start,
-    complex128 [√W]) with search window ``lo[b]`` … ``hi[b]`` (int64, samples of its input) and
+    Trial b reads ``rxs[b]`` (a ``numba.typed.List`` of (n_b,) complex128 arrays: its receiver
+    input from the listen start [√W], not copied) with search window ``lo[b]`` … ``hi[b]`` (int64, samples of its input) and
     detection threshold ``threshold[b]`` (float64, a normalised correlation); every other
     argument up to ``n_blocks`` is that of ``receive_kernel`` and the same for every trial (one
     reader, link and reply length ``n_reply`` [samples]). Trial b writes its rows
@@ -33,7 +34,7 @@ def receive_batch_kernel(flat, offsets, lo, hi, threshold, n_reply, fs_hz, blf_h
     measured gain [√W]) and ``status[b]`` ((B,) int64, ``receive_kernel``'s status).
     """
     for b in range(status.size):
-        status[b] = receive_kernel(flat[offsets[b]:offsets[b + 1]], lo[b], hi[b], n_reply, threshold[b], fs_hz,
+        status[b] = receive_kernel(rxs[b], lo[b], hi[b], n_reply, threshold[b], fs_hz,
                                    blf_hz, m, n_pre, n_pre_el, t0, max_runs_per_sample, half_width, shifts, templates,
                                    norms, run_begin, run_value, n_runs, same_as_previous, pre_el, pre_levels, state0,
                                    viterbi, n_blocks, det_bits[b], bits[b], out_f[b], out_c[b])

@@ -61,11 +61,12 @@ from rfsim.core.lazy import lazy_import
 _rxk = lazy_import("rfsim.devices._reader_receive_kernels")
 _rbk = lazy_import("rfsim.devices._reader_batch_kernels")
 
-#: Most samples of the reply windows that :meth:`Reader.receive_batch` hands its kernel in one
-#: call (at least one window): 2¹⁶ complex128 samples (1 MiB) stay in a core's L2 cache from
-#: their copy into one array to the kernel's first pass over them (measured: 16 → 5 µs per
-#: window of 8,500 samples for the copy alone against one array for 64 windows).
-RECEIVE_CHUNK_SAMPLES = 1 << 16
+
+def _typed_list(arrays: list):
+    """``numba.typed.List`` of ``arrays`` (1-D complex128, C-contiguous), numba imported on first use."""
+    from numba.typed import List
+
+    return List(arrays)
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -559,10 +560,10 @@ class Reader(PieTransmitter):
 
         Each trial's result is :meth:`receive` of that trial alone, bit for bit
         (tests/test_reader_batch.py): the trials of the sample-level receiver at the nominal BLF
-        (``rx_model = "sample"``, ``blf_search = "off"``) with room for a reply are read by
-        ``rfsim.devices._reader_batch_kernels.receive_batch_kernel`` (the trial loop inside the
-        kernel, ``receive_kernel`` per trial on its own samples, search window and threshold),
-        one call per chunk of windows of at most :data:`RECEIVE_CHUNK_SAMPLES` samples in all; the reader's other receivers (statistic, BLF search) take the trials one by
+        (``rx_model = "sample"``, ``blf_search = "off"``) with room for a reply are read by one call
+        of ``rfsim.devices._reader_batch_kernels.receive_batch_kernel`` (the trial loop inside
+        the kernel, ``receive_kernel`` per trial on its own samples — handed over as one typed
+        list, not copied — search window and threshold); the reader's other receivers (statistic, BLF search) take the trials one by
         one through :meth:`receive`, in order.
 
         Parameters
@@ -610,25 +611,16 @@ class Reader(PieTransmitter):
             lo.append(a)
             hi.append(z)
             thr.append(self.detection_threshold(z - a + 1, blf))
-        args = self._receive_args(blf, pre_n) if run else ()
-        i = 0
-        while i < len(run):  # chunks of at most RECEIVE_CHUNK_SAMPLES samples (at least one trial)
-            j, total = i + 1, run[i][1].size
-            while j < len(run) and total + run[j][1].size <= RECEIVE_CHUNK_SAMPLES:
-                total, j = total + run[j][1].size, j + 1
-            k = j - i
-            flat = np.concatenate([rx for _, rx in run[i:j]]) if k > 1 else run[i][1]
-            offsets = np.zeros(k + 1, dtype=np.int64)
-            np.cumsum([rx.size for _, rx in run[i:j]], out=offsets[1:])
+        if run:
+            k = len(run)
             det_bits, bits = np.empty((k, n_bits + 1), dtype=np.uint8), np.empty((k, n_bits + 1), dtype=np.uint8)
             out_f, out_c, status = np.empty((k, 4)), np.empty((k, 1), dtype=np.complex128), np.empty(k, np.int64)
-            _rbk.receive_batch_kernel(flat, offsets, np.array(lo[i:j], np.int64), np.array(hi[i:j], np.int64),
-                                      np.array(thr[i:j], np.float64), n_reply, *args, det_bits, bits, out_f, out_c,
-                                      status)
-            for q, (b, _) in enumerate(run[i:j]):
+            _rbk.receive_batch_kernel(_typed_list([rx for _, rx in run]), np.array(lo, np.int64),
+                                      np.array(hi, np.int64), np.array(thr, np.float64), n_reply,
+                                      *self._receive_args(blf, pre_n), det_bits, bits, out_f, out_c, status)
+            for q, (b, _) in enumerate(run):
                 out[b] = self._read_result(int(status[q]), out_f[q], out_c[q, 0], bits[q, :n_bits], t0_s[b], blf,
                                            carrier[b], expect_crc)
-            i = j
         return out
 
     def _reply_size(self, n_bits: int, blf_hz: float | None) -> tuple[float, int, int]:

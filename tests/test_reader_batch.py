@@ -61,38 +61,24 @@ def read_batch(reader, ws, n_bits, expect_crc):
                                 cmd_end_s=[w[2] for w in ws], carrier=[w[3] for w in ws])
 
 
-@pytest.mark.parametrize("profile, n_bits, decoder, chunk", [
-    ("miller4-320k", 128, "viterbi", None), ("miller4-320k", 16, "viterbi", None), ("fm0-640k", 128, "bitwise", None),
-    ("miller4-320k", 128, "viterbi", 1), ("miller4-320k", 16, "viterbi", 5000)])
-def test_receive_batch_equals_receive_per_window(profile, n_bits, decoder, chunk, monkeypatch):
+@pytest.mark.parametrize("profile, n_bits, decoder", [("miller4-320k", 128, "viterbi"), ("miller4-320k", 16, "viterbi"),
+                                                      ("fm0-640k", 128, "bitwise")])
+def test_receive_batch_equals_receive_per_window(profile, n_bits, decoder, monkeypatch):
     import rfsim.devices.reader as reader_module
 
-    if chunk is not None:  # one window per kernel call (1), or a few (5000 samples)
-        monkeypatch.setattr(reader_module, "RECEIVE_CHUNK_SAMPLES", chunk)
     reader = make_reader(profile=profile, decoder=decoder)
     ws = windows(reader, n_bits)
-
     calls = []
     kernels = reader_module._rbk
 
     class Counting:
         def receive_batch_kernel(self, *args):
-            calls.append(args[-1].size)
+            calls.append(len(args[0]))
             return kernels.receive_batch_kernel(*args)
 
     monkeypatch.setattr(reader_module, "_rbk", Counting())
     batch = read_batch(reader, ws, n_bits, n_bits == 128)
-    # every window with room for a reply is read by the kernel, in chunks of at most
-    # RECEIVE_CHUNK_SAMPLES samples (or of one window)
-    sizes = [w[0].size for w in ws if w[0].size > 40]
-    assert sum(calls) == len(sizes) == len(ws) - 1
-    limit = reader_module.RECEIVE_CHUNK_SAMPLES
-    if chunk is not None:
-        assert len(calls) > 1
-    at = 0
-    for c in calls:
-        assert c == 1 or sum(sizes[at:at + c]) <= limit
-        at += c
+    assert calls == [len(ws) - 1]  # one kernel call for every window with room for a reply
     single = [reader.receive(rx, t0_s=t0, n_bits=n_bits, expect_crc=n_bits == 128, cmd_end_s=end, carrier=c)
               for rx, t0, end, c in ws]
     reasons = [r.failure_reason for r in single]

@@ -336,7 +336,8 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
     trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``: a
     trial in which no tag replies forms no reader input, its noise draws are still made); 3. the
-    reader's reads of the trials with a reply; 4. the records.
+    reader's reads of the trials with a reply (:meth:`ReaderPort.receive_all`: one kernel call for
+    the block where the trials share a reader and the reply they expect); 4. the records.
     """
     n = len(rngs)
     if len(tags) != n:

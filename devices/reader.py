@@ -560,11 +560,12 @@ class Reader(PieTransmitter):
 
         Each trial's result is :meth:`receive` of that trial alone, bit for bit
         (tests/test_reader_batch.py): the trials of the sample-level receiver at the nominal BLF
-        (``rx_model = "sample"``, ``blf_search = "off"``) with room for a reply are read by one call
-        of ``rfsim.devices._reader_batch_kernels.receive_batch_kernel`` (the trial loop inside
-        the kernel, ``receive_kernel`` per trial on its own samples — handed over as one typed
-        list, not copied — search window and threshold); the reader's other receivers (statistic, BLF search) take the trials one by
-        one through :meth:`receive`, in order.
+        (``rx_model = "sample"``, ``blf_search = "off"``) with room for a reply are read by one
+        call of ``rfsim.devices._reader_batch_kernels.receive_batch_kernel`` (the trial loop
+        inside the kernel, ``receive_kernel`` per trial on its own samples — handed over as one
+        typed list, not copied — search window and threshold); the reader's other receivers
+        (statistic, BLF search), or a reader whose ``receive`` is replaced, take the trials one
+        by one through :meth:`receive`, in order.
 
         Parameters
         ----------
@@ -592,7 +593,8 @@ class Reader(PieTransmitter):
             When a trial's ``rx`` is not 1-D, or as :meth:`receive`.
         """
         n = len(rxs)
-        if self._rx_rng is not None or self.config.blf_search == "preamble":
+        if (self._rx_rng is not None or self.config.blf_search == "preamble" or "receive" in self.__dict__
+                or type(self).receive is not Reader.receive):  # another receiver, or a receive of its own
             return [self.receive(rxs[b], t0_s=t0_s[b], n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s[b],
                                  carrier=carrier[b]) for b in range(n)]
         n_bits = int(n_bits)

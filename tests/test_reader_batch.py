@@ -108,3 +108,20 @@ def test_receive_batch_refuses_a_window_that_is_not_1d():
     with pytest.raises(ValueError, match="rx must be 1-D"):
         reader.receive_batch([rx, rx.reshape(2, -1)], t0_s=[T0_S] * 2, n_bits=16, expect_crc=False,
                              cmd_end_s=[T0_S] * 2, carrier=[None] * 2)
+
+
+def test_receive_batch_of_a_replaced_receive_reads_through_it():
+    reader = make_reader(profile="miller4-320k")
+    ws = windows(reader, 16)[:3]
+    seen = []
+    original = reader.receive
+
+    def receive(rx, **kwargs):
+        seen.append(rx.size)
+        return original(rx, **kwargs)
+
+    reader.receive = receive
+    batch = read_batch(reader, ws, 16, False)
+    assert seen == [w[0].size for w in ws]
+    for a, (rx, t0, end, c) in zip(batch, ws):
+        assert_same_read(a, original(rx, t0_s=t0, n_bits=16, expect_crc=False, cmd_end_s=end, carrier=c))

@@ -27,9 +27,9 @@ def receive_batch_kernel(rxs, lo, hi, threshold, n_reply, fs_hz, blf_hz, m, n_pr
     Trial b reads ``rxs[b]`` (a ``numba.typed.List`` of (n_b,) complex128 arrays: its receiver
     input from the listen start [√W], not copied) with search window ``lo[b]`` … ``hi[b]``
     (int64, samples of its input) and detection threshold ``threshold[b]`` (float64, a
-    normalised correlation); every other
-    argument up to ``n_blocks`` is that of ``receive_kernel`` and the same for every trial (one
-    reader, link and reply length ``n_reply`` [samples]). Trial b writes its rows
+    normalised correlation); every other argument up to ``n_blocks`` is that of
+    ``receive_kernel`` and the same for every trial (one reader, link and reply length
+    ``n_reply`` [samples]). Trial b writes its rows
     ``det_bits[b]``, ``bits[b]`` ((B, n_bits + 1) uint8), ``out_f[b]`` ((B, 4) float64: start
     [samples of its input], corr, slope [rad/s], σ² [W]), ``out_c[b]`` ((B, 1) complex128: the
     measured gain [√W]) and ``status[b]`` ((B,) int64, ``receive_kernel``'s status).

@@ -464,6 +464,28 @@ def shares(items: Sequence, n: int, calls: Mapping | None = None) -> list[list]:
     return [share for share in out if share]
 
 
+def waits(dealt: Sequence[Sequence], calls: Mapping) -> list[list[list[tuple]]]:
+    """Return, for each entry of each share, the callees other shares compile, which its share
+    waits for before compiling it.
+
+    Parameters
+    ----------
+    dealt : sequence of sequence of (PlanEntry, object)
+        Shares as :func:`shares` returned them.
+    calls : mapping
+        The call graph by ``(module, name)`` (:func:`call_graph`).
+
+    Returns
+    -------
+    list of list of list of ((str, str), int)
+        ``waits[s][i]``: ``(callee, share)`` for every kernel the ``i``-th entry of share ``s``
+        reaches (:func:`reached`) that another share compiles, sorted by callee.
+    """
+    owner = {(e.module, e.name): s for s, share in enumerate(dealt) for e, _ in share}
+    return [[[(c, owner[c]) for c in sorted(reached((e.module, e.name), calls)) if owner.get(c, s) != s]
+             for e, _ in share] for s, share in enumerate(dealt)]
+
+
 #: Longest wait of a share for a callee another share compiles [s]; then it compiles the callee
 #: itself (a share killed before it wrote its end mark).
 WAIT_S = 300.0
@@ -558,17 +580,15 @@ def precompile(entries: Sequence[PlanEntry], *, processes: int | None = None,
     calls = call_graph()
     dealt = shares(todo, n, calls)
     keys = list(dict.fromkeys((e.module, e.name) for e, _ in todo))
-    owner = {(e.module, e.name): s for s, share in enumerate(dealt) for e, _ in share}
     folder = tempfile.mkdtemp(prefix="rfsim-plan-")
     tasks = []
-    for s, share in enumerate(dealt):
+    for s, (share, share_waits) in enumerate(zip(dealt, waits(dealt, calls))):
         rows = []
-        for i, (e, d) in enumerate(share):
+        for i, ((e, d), wait) in enumerate(zip(share, share_waits)):
             key = (e.module, e.name)
-            waits = [(f"k{keys.index(c)}.done", owner[c]) for c in sorted(reached(key, calls))
-                     if c in owner and owner[c] != s]
             last = i + 1 == len(share) or (share[i + 1][0].module, share[i + 1][0].name) != key
-            rows.append((e, d, waits, f"k{keys.index(key)}.done" if last else None))
+            rows.append((e, d, [(f"k{keys.index(c)}.done", t) for c, t in wait],
+                         f"k{keys.index(key)}.done" if last else None))
         tasks.append(_compile_share(rows, s, folder, os.getpid()))
 
     def start(k: int) -> None:  # child k, and the later ones while it works
@@ -711,5 +731,5 @@ if __name__ == "__main__":
 
 __all__ = ["PLANS_FILE", "PLANS_FORMAT", "MAX_PROCESSES", "SCALARS", "PlanEntry", "text_of_type", "type_of_text",
            "entries_of", "read_plans", "write_plans", "usable_cpus", "uncached", "kernel_key", "call_graph",
-           "reached", "shares", "WAIT_S", "START_S", "precompile",
+           "reached", "shares", "waits", "WAIT_S", "START_S", "precompile",
            "precompile_scenario", "record", "compile_times", "main"]

@@ -336,8 +336,8 @@ def call_graph(kernels: Sequence | None = None) -> dict[tuple[str, str], frozens
     writes each to the cache), so whichever process compiles a caller first compiles its
     callees too. The calls are read statically, without compiling: the names the kernel's
     code reads (global names, ``module.attribute`` names, closure cells) that are numba
-    dispatchers; a dispatcher not declared as a kernel (an inlined helper,
-    :func:`rfsim.core._jit.njit_inline`) is compiled into its caller, so the kernels *it*
+    dispatchers; a dispatcher not declared as a kernel (a helper inlined into its callers,
+    :mod:`rfsim.core._jit`) is compiled into its caller, so the kernels *it*
     reads count as the caller's. This can only list too many calls (a name read in a branch a
     signature never compiles), never too few for code that calls kernels by name — the only
     way rfsim's kernels call each other — and too many only makes a child of

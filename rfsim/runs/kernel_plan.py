@@ -491,7 +491,7 @@ def waits(dealt: Sequence[Sequence], calls: Mapping) -> list[list[list[tuple]]]:
 WAIT_S = 300.0
 #: A share that has not started this long after another began to wait for it [s] is not
 #: running alongside (a ``run`` that calls its tasks one after the other): not waited for.
-START_S = 10.0
+START_S = 30.0
 
 
 def _wait_for(folder: str, waits: Sequence[tuple[str, int]]) -> None:

@@ -453,11 +453,11 @@ def shares(items: Sequence, n: int, calls: Mapping | None = None) -> list[list]:
     load = [0.0] * max(1, int(n))
     owner: dict = {}
     finish: dict = {}
-    for k in order:
-        def end(s):
-            return max([load[s]] + [finish[c] for c in reach[k] if c in owner and owner[c] != s]) + weight[k]
-        s = min(range(len(load)), key=lambda s: (end(s), s))
-        finish[k] = load[s] = end(s)
+    for k in order:  # onto the share where it ends first (the lowest of equal ones)
+        ends = [max([load[s]] + [finish[c] for c in reach[k] if owner.get(c, s) != s]) + weight[k]
+                for s in range(len(load))]
+        s = ends.index(min(ends))
+        finish[k] = load[s] = ends[s]
         owner[k] = s
     out = [[item for k in order if owner[k] == s for item in items if (item[0].module, item[0].name) == k]
            for s in range(len(load))]

@@ -253,7 +253,8 @@ def test_the_call_graph_of_the_receiver_names_its_callees():
         kp._kernel(e)
     calls = kp.call_graph()
     receive = calls[("rfsim.devices._reader_receive_kernels", "receive_kernel")]
-    assert {("rfsim.gen2._decode_reply_kernels", "decisions_kernel"), ("rfsim.devices._reader_kernels", "measure_kernel"),
+    assert {("rfsim.gen2._decode_reply_kernels", "decisions_kernel"),
+            ("rfsim.devices._reader_kernels", "measure_kernel"),
             ("rfsim.gen2._fit_kernels", "fit_gain_offset_kernel")} <= receive
     assert ("rfsim.gen2._linecode_kernels", "viterbi_kernel") in calls[("rfsim.gen2._decode_reply_kernels",
                                                                         "decisions_kernel")]

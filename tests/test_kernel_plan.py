@@ -175,3 +175,130 @@ def test_the_link_plan_leaves_its_default_run_nothing_to_compile(tmp_path):
     assert out.returncode == 0, out.stderr
     given, asked = json.loads(out.stdout.strip().splitlines()[-1])
     assert given == len(kp.read_plans()["link"]) and asked == 0
+
+
+def _names(dealt):
+    return [[e.name for e, _ in share] for share in dealt]
+
+
+def test_a_callee_is_dealt_to_one_share_and_a_caller_elsewhere_waits_for_it():
+    """x is called by a and b (x's two overloads weigh 2.5 + 1.5 s); c and d call nothing.
+    Ranks (weight + largest rank of a caller): x 4 + 3 = 7, c 5, a 3, b 2, d 1. Dealt in that
+    order onto the share where each ends first, a callee in another share ending before its
+    caller starts there: x → 0 (ends 4; tie with 1 → lower share); c → 1 (5 < 4 + 5);
+    a → 0 (4 + 3 = 7 < max(5, 4) + 3 = 8); b → 1 (max(5, x's 4) + 2 = 7 < 7 + 2); d → 0
+    (7 + 1 = 8, tie with 7 + 1 → lower share). Share 1 waits for x (share 0) before b."""
+    t = {"a": 3.0, "x": 2.5, "b": 2.0, "c": 5.0, "d": 1.0}
+    items = [(kp.PlanEntry("m", k, (), compile_s=t[k]), None) for k in ("a", "x", "b", "c", "d")]
+    items.insert(4, (kp.PlanEntry("m", "x", ("int64",), compile_s=1.5), None))
+    calls = {("m", "a"): {("m", "x")}, ("m", "b"): {("m", "x")}}
+    dealt = kp.shares(items, 2, calls)
+    assert _names(dealt) == [["x", "x", "a", "d"], ["c", "b"]]
+    assert [e.signature for e, _ in dealt[0][:2]] == [(), ("int64",)]  # overloads in the plan's order
+    assert kp.waits(dealt, calls) == [[[], [], [], []], [[], [(("m", "x"), 0)]]]
+    # without the call graph: LPT over kernels; b would compile x itself in share 0
+    assert _names(kp.shares(items, 2)) == [["c", "b", "d"], ["x", "x", "a"]]
+
+
+def test_a_chain_is_dealt_callees_first_even_against_the_plan_order():
+    """top → mid → leaf, listed callers first: ranks leaf 1 + 2 + 4 = 7, mid 6, top 4; one
+    share compiles them leaf, mid, top (the other share has nothing to gain: each would wait)."""
+    items = [(kp.PlanEntry("m", k, (), compile_s=w), None) for k, w in (("top", 4.0), ("mid", 2.0), ("leaf", 1.0))]
+    calls = {("m", "top"): {("m", "mid")}, ("m", "mid"): {("m", "leaf")}}
+    assert _names(kp.shares(items, 2, calls)) == [["leaf", "mid", "top"]]
+    assert kp.reached(("m", "top"), calls) == {("m", "mid"), ("m", "leaf")}
+    assert kp.reached(("m", "x"), {("m", "x"): {("m", "x")}}) == set()  # a cycle back to itself left out
+
+
+def _runs_to_the_end(dealt, share_waits) -> bool:
+    """Step the shares as the children do (an entry starts once its waits are compiled): True
+    when every entry is reached, False on a deadlock."""
+    done, pos = set(), [0] * len(dealt)
+    while True:
+        moved = False
+        for s, share in enumerate(dealt):
+            while pos[s] < len(share) and all(c in done for c, _ in share_waits[s][pos[s]]):
+                e = share[pos[s]][0]
+                done.add((e.module, e.name))
+                pos[s] += 1
+                moved = True
+        if not moved:
+            return all(p == len(share) for p, share in zip(pos, dealt))
+
+
+@pytest.mark.parametrize("scenario", ["link", "phase-cancellation", "detection-probability", "reader-detection"])
+@pytest.mark.parametrize("n", [2, 3, 4])
+def test_the_shipped_plans_compile_each_kernel_once_without_deadlock(scenario, n):
+    """Every kernel of a shipped plan is in one share; every plan kernel an entry reaches is an
+    earlier entry of its own share or one it waits for; and the waits never block for good."""
+    plan = kp.read_plans()[scenario]
+    items = [(e, kp._kernel(e)) for e in plan]
+    calls = kp.call_graph()
+    dealt = kp.shares(items, n, calls)
+    share_waits = kp.waits(dealt, calls)
+    keys = [[(e.module, e.name) for e, _ in share] for share in dealt]
+    assert sorted(k for share in keys for k in set(share)) == sorted({(e.module, e.name) for e in plan})
+    planned = {(e.module, e.name) for e in plan}
+    for s, share in enumerate(keys):
+        for i, key in enumerate(share):
+            have = set(share[:i]) | {c for c, _ in share_waits[s][i]}
+            assert kp.reached(key, calls) & planned <= have, (scenario, key)
+    assert _runs_to_the_end(dealt, share_waits)
+
+
+def test_the_call_graph_of_the_receiver_names_its_callees():
+    """Read by hand from ``receive_kernel``'s and ``decisions_kernel``'s source."""
+    plan = kp.read_plans()["link"]
+    for e in plan:
+        kp._kernel(e)
+    calls = kp.call_graph()
+    receive = calls[("rfsim.devices._reader_receive_kernels", "receive_kernel")]
+    assert {("rfsim.gen2._decode_reply_kernels", "decisions_kernel"),
+            ("rfsim.devices._reader_kernels", "measure_kernel"),
+            ("rfsim.gen2._fit_kernels", "fit_gain_offset_kernel")} <= receive
+    assert ("rfsim.gen2._linecode_kernels", "viterbi_kernel") in calls[("rfsim.gen2._decode_reply_kernels",
+                                                                        "decisions_kernel")]
+
+
+_GRAPH_KERNELS = ("from rfsim.core._jit import njit, njit_inline\nimport kleaf\nfrom kleaf import leaf\n\n\n"
+                  "@njit_inline\ndef helper(x):\n    return leaf(x) + 1\n\n\n"
+                  "@njit\ndef by_name(x):\n    return leaf(x)\n\n\n"
+                  "@njit\ndef by_attribute(x):\n    return kleaf.other(x)\n\n\n"
+                  "@njit\ndef by_inline(x):\n    return helper(x)\n\n\n"
+                  "def make(f):\n    @njit\n    def by_closure(x):\n        return f(x)\n    return by_closure\n\n\n"
+                  "by_closure = make(kleaf.other)\n\n\n"
+                  "@njit\ndef alone(x):\n    return x\n")
+_GRAPH_LEAF = ("from rfsim.core._jit import njit\n\n\n@njit\ndef leaf(x):\n    return x\n\n\n"
+               "@njit\ndef other(x):\n    return leaf(x) * 2\n")
+_GRAPH = """
+import json
+import kgraph
+from rfsim.runs import kernel_plan as kp
+print(json.dumps({k[1]: sorted(v[1] for v in vs) for k, vs in kp.call_graph().items() if k[0] in ("kgraph", "kleaf")}))
+"""
+
+
+def test_the_call_graph_reads_calls_by_name_attribute_inlined_helper_and_closure(tmp_path):
+    (tmp_path / "kgraph.py").write_text(_GRAPH_KERNELS)
+    (tmp_path / "kleaf.py").write_text(_GRAPH_LEAF)
+    env = dict(os.environ, PYTHONPATH=f"{tmp_path}{os.pathsep}{ROOT}", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+    out = subprocess.run([sys.executable, "-c", _GRAPH], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == {
+        "leaf": [], "other": ["leaf"], "by_name": ["leaf"], "by_attribute": ["other"], "by_inline": ["leaf"],
+        "make.<locals>.by_closure": ["other"], "alone": []}
+
+
+def test_a_wait_ends_at_the_mark_at_the_end_of_its_share_or_for_a_share_that_never_started(tmp_path, monkeypatch):
+    folder = str(tmp_path)
+    kp._mark(folder, "k0.done")
+    kp._wait_for(folder, [("k0.done", 1)])  # the mark is there
+    kp._mark(folder, "s1.started")
+    kp._mark(folder, "s1.ended")
+    kp._wait_for(folder, [("k1.done", 1)])  # its share ended without it (its kernel failed to compile)
+    monkeypatch.setattr(kp, "START_S", 0.0)
+    kp._wait_for(folder, [("k2.done", 2)])  # share 2 never started (tasks run one after the other)
+    monkeypatch.setattr(kp, "START_S", 1e9)
+    monkeypatch.setattr(kp, "WAIT_S", 0.0)
+    kp._mark(folder, "s3.started")
+    kp._wait_for(folder, [("k3.done", 3)])  # share 3 started and never ended (killed): waited no longer

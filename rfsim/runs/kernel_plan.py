@@ -16,7 +16,11 @@ The plans are package data (``kernel_plans.json`` beside this module), written b
 a process of its own and records the signatures its kernels hold afterwards
 (:func:`rfsim.core._jit.compiled_signatures`), then, in another new process with an empty cache,
 the CPU time each entry's compilation takes in the plan's order (:func:`compile_times`): the
-weights by which :func:`shares` deals the entries to the children, longest first. A signature is written as text, one argument type
+weights by which :func:`shares` deals the kernels to the children. A kernel compiles the
+kernels it calls that the cache lacks into itself, so the children share the work along the
+call graph (:func:`call_graph`, read from the kernels' source): each kernel is dealt to one
+child, callees before callers, and a child waits for a callee another child compiles rather
+than compiling it a second time. A signature is written as text, one argument type
 per item: a scalar by its numba name (``float64``, ``int64``, ``complex128``, ``bool``, ...), an
 array as ``float64[::1]`` (C-contiguous), ``float64[:]`` (any layout), ``float64[:, ::1]``
 (2-D, C-contiguous), prefixed ``readonly`` when numba saw a read-only array. A kernel with a
@@ -30,8 +34,9 @@ import importlib
 import json
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from types import CodeType, ModuleType
 
 #: The plans file (package data): ``{"format": 1, "plans": {scenario: [entry, ...]}}``.
 PLANS_FILE = Path(__file__).with_name("kernel_plans.json")
@@ -291,9 +296,125 @@ def uncached(entries: Sequence[PlanEntry]) -> list[tuple[PlanEntry, object]]:
     return out
 
 
-def shares(items: Sequence, n: int) -> list[list]:
-    """Deal items to ``n`` shares, longest compilation first onto the share with the least
-    compile time so far (the LPT rule; an entry without a recorded time weighs one second).
+def kernel_key(kernel) -> tuple[str, str]:
+    """Return the ``(module, qualified name)`` of a kernel, as a plan entry names it.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+        A declared kernel.
+
+    Returns
+    -------
+    tuple of (str, str)
+        Its module and qualified name.
+    """
+    return kernel.py_func.__module__, kernel.py_func.__qualname__
+
+
+def _called_dispatchers(func) -> list:
+    """The numba dispatchers a Python function's source may call: the global names, closure
+    cells and ``module.attribute`` names its code (and the code nested in it) reads."""
+    from numba.core.dispatcher import Dispatcher
+
+    codes, names = [func.__code__], set()
+    while codes:
+        code = codes.pop()
+        names.update(code.co_names)
+        codes.extend(c for c in code.co_consts if isinstance(c, CodeType))
+    found = [func.__globals__.get(n) for n in names]
+    found += [cell.cell_contents for cell in (func.__closure__ or ()) if cell.cell_contents is not None]
+    modules = [v for v in found if isinstance(v, ModuleType)]
+    found += [getattr(m, n, None) for m in modules for n in names]
+    return [v for v in found if isinstance(v, Dispatcher)]
+
+
+def call_graph(kernels: Sequence | None = None) -> dict[tuple[str, str], frozenset]:
+    """Return the declared kernels each kernel calls, read from its Python source.
+
+    numba compiles a kernel together with every kernel it calls that the cache lacks (and
+    writes each to the cache), so whichever process compiles a caller first compiles its
+    callees too. The calls are read statically, without compiling: the names the kernel's
+    code reads (global names, ``module.attribute`` names, closure cells) that are numba
+    dispatchers; a dispatcher not declared as a kernel (a helper inlined into its callers,
+    :mod:`rfsim.core._jit`) is compiled into its caller, so the kernels *it*
+    reads count as the caller's. This can only list too many calls (a name read in a branch a
+    signature never compiles), never too few for code that calls kernels by name — the only
+    way rfsim's kernels call each other — and too many only makes a child of
+    :func:`precompile` wait for a kernel it would not have compiled.
+    It needs no record in the plans file, so it is always the call graph of the code that runs.
+
+    Parameters
+    ----------
+    kernels : sequence of numba dispatcher, optional
+        The kernels to read (default every declared kernel,
+        :data:`rfsim.core._jit.KERNELS`).
+
+    Returns
+    -------
+    dict of (str, str) to frozenset of (str, str)
+        For each kernel's :func:`kernel_key`, the keys of the declared kernels it calls
+        directly (itself left out).
+    """
+    from rfsim.core._jit import KERNELS
+
+    declared = {id(d) for d in KERNELS}
+    graph = {}
+    for d in (KERNELS if kernels is None else kernels):
+        seen, todo, calls = {id(d)}, [d.py_func], set()
+        while todo:
+            for c in _called_dispatchers(todo.pop()):
+                if id(c) in declared:
+                    calls.add(kernel_key(c))
+                elif id(c) not in seen:  # an inlined helper: its calls are the caller's
+                    seen.add(id(c))
+                    todo.append(c.py_func)
+        calls.discard(kernel_key(d))
+        graph[kernel_key(d)] = frozenset(calls)
+    return graph
+
+
+def reached(key, calls: Mapping) -> set:
+    """Return the kernels a kernel compiles with it: every kernel it calls, directly or through
+    other kernels.
+
+    Parameters
+    ----------
+    key : hashable
+        The kernel (a key of ``calls``).
+    calls : mapping of hashable to iterable of hashable
+        The kernels each kernel calls directly (:func:`call_graph`); a key it lacks calls nothing.
+
+    Returns
+    -------
+    set
+        The kernels reached, ``key`` itself left out (also where a cycle returns to it).
+    """
+    out: set = set()
+    todo = [key]
+    while todo:
+        for callee in calls.get(todo.pop(), ()):
+            if callee not in out and callee != key:
+                out.add(callee)
+                todo.append(callee)
+    return out
+
+
+def shares(items: Sequence, n: int, calls: Mapping | None = None) -> list[list]:
+    """Deal items to ``n`` shares, each kernel to one share, so that the last share ends first
+    when a share waits for the callees it lacks (list scheduling of the call graph).
+
+    A kernel's overloads weigh the sum of their recorded compile times (an entry without a
+    recorded time one second). Its *rank* is its weight plus the largest rank of the kernels
+    that call it (the longest chain of compilations that must follow it). Kernels are dealt
+    by rank, highest first — so every callee before its callers — each onto the share where
+    it would finish first: it starts when that share is free and every callee it reaches
+    (:func:`reached`) that another share compiles is done. With no calls this is the LPT rule
+    (longest compilation first onto the least loaded share).
+
+    Each kernel is compiled by one share only: a caller whose callee another share compiles
+    waits for it (:func:`precompile`) and then loads it from the cache, instead of compiling
+    it a second time as it would while the callee's share is still at work.
 
     Parameters
     ----------
@@ -301,35 +422,123 @@ def shares(items: Sequence, n: int) -> list[list]:
         What :func:`uncached` returned.
     n : int
         Shares (≥ 1).
+    calls : mapping, optional
+        The call graph by ``(module, name)`` (:func:`call_graph`); default: no calls.
 
     Returns
     -------
     list of list
-        At most ``n`` non-empty shares, each in the plan's order.
+        At most ``n`` non-empty shares, each in the order dealt (callees before callers; a
+        kernel's overloads together, in the plan's order).
     """
-    weight = [(e.compile_s if e.compile_s > 0 else 1.0) for e, _ in items]
-    out: list[list[int]] = [[] for _ in range(max(1, int(n)))]
-    load = [0.0] * len(out)
-    for i in sorted(range(len(items)), key=lambda i: -weight[i]):
-        k = min(range(len(out)), key=lambda k: load[k])
-        out[k].append(i)
-        load[k] += weight[i]
-    return [[items[i] for i in sorted(share)] for share in out if share]
+    calls = calls or {}
+    keys: list = []
+    weight: dict = {}
+    for e, _ in items:
+        key = (e.module, e.name)
+        if key not in weight:
+            keys.append(key)
+            weight[key] = 0.0
+        weight[key] += e.compile_s if e.compile_s > 0 else 1.0
+    reach = {k: reached(k, calls) & weight.keys() for k in keys}
+    rank: dict = {}
+    callers = {k: [c for c in keys if k in reach[c]] for k in keys}
+
+    def rank_of(k, path=()):
+        if k not in rank:
+            rank[k] = weight[k] + max((rank_of(c, path + (k,)) for c in callers[k] if c not in path), default=0.0)
+        return rank[k]
+
+    order = sorted(keys, key=lambda k: (-rank_of(k), keys.index(k)))
+    load = [0.0] * max(1, int(n))
+    owner: dict = {}
+    finish: dict = {}
+    for k in order:  # onto the share where it ends first (the lowest of equal ones)
+        ends = [max([load[s]] + [finish[c] for c in reach[k] if owner.get(c, s) != s]) + weight[k]
+                for s in range(len(load))]
+        s = ends.index(min(ends))
+        finish[k] = load[s] = ends[s]
+        owner[k] = s
+    out = [[item for k in order if owner[k] == s for item in items if (item[0].module, item[0].name) == k]
+           for s in range(len(load))]
+    return [share for share in out if share]
 
 
-def _compile_share(share: list) -> Callable[[], None]:
+def waits(dealt: Sequence[Sequence], calls: Mapping) -> list[list[list[tuple]]]:
+    """Return, for each entry of each share, the callees other shares compile, which its share
+    waits for before compiling it.
+
+    Parameters
+    ----------
+    dealt : sequence of sequence of (PlanEntry, object)
+        Shares as :func:`shares` returned them.
+    calls : mapping
+        The call graph by ``(module, name)`` (:func:`call_graph`).
+
+    Returns
+    -------
+    list of list of list of ((str, str), int)
+        ``waits[s][i]``: ``(callee, share)`` for every kernel the ``i``-th entry of share ``s``
+        reaches (:func:`reached`) that another share compiles, sorted by callee.
+    """
+    owner = {(e.module, e.name): s for s, share in enumerate(dealt) for e, _ in share}
+    return [[[(c, owner[c]) for c in sorted(reached((e.module, e.name), calls)) if owner.get(c, s) != s]
+             for e, _ in share] for s, share in enumerate(dealt)]
+
+
+#: Longest wait of a share for a callee another share compiles [s]; then it compiles the callee
+#: itself (a share killed before it wrote its end mark).
+WAIT_S = 300.0
+#: A share that has not started this long after another began to wait for it [s] is not
+#: running alongside (a ``run`` that calls its tasks one after the other): not waited for.
+START_S = 30.0
+
+
+def _wait_for(folder: str, waits: Sequence[tuple[str, int]]) -> None:
+    """Wait until each ``(mark, share)`` has its mark file in ``folder``, or that share ended
+    (its ``s<share>.ended`` mark), did not start within :data:`START_S`, or :data:`WAIT_S` passed."""
+    import time
+
+    t0 = time.monotonic()
+    for mark, share in waits:
+        while not os.path.exists(os.path.join(folder, mark)):
+            waited = time.monotonic() - t0
+            if (os.path.exists(os.path.join(folder, f"s{share}.ended")) or waited > WAIT_S
+                    or (waited > START_S and not os.path.exists(os.path.join(folder, f"s{share}.started")))):
+                break
+            time.sleep(0.02)
+
+
+def _mark(folder: str, name: str) -> None:
+    """Create the empty mark file ``name`` in ``folder``."""
+    with open(os.path.join(folder, name), "w", encoding="utf-8"):
+        pass
+
+
+def _compile_share(share: list, index: int, folder: str, leader: int) -> Callable[[], None]:
     """A task that compiles a share's overloads here (the cache written by numba), each kernel's
-    failure left for the run to raise."""
+    failure left for the run to raise. ``share`` holds ``(entry, kernel, waits, mark)``: before
+    the entry it waits for the marks ``waits`` of the callees other shares compile (only in a
+    process other than ``leader``'s, i.e. alongside the other shares), and after it writes
+    ``mark`` (its kernel's last overload of the share) into ``folder``."""
 
     def task() -> None:
         from rfsim.core._jit import compiling_elsewhere
 
-        with compiling_elsewhere(None):  # compile in this (child) process itself
-            for entry, d in share:
-                try:
-                    d.compile(tuple(type_of_text(t) for t in entry.signature))
-                except Exception:  # the run compiles it again when called, and raises there
-                    pass
+        _mark(folder, f"s{index}.started")
+        try:
+            with compiling_elsewhere(None):  # compile in this (child) process itself
+                for entry, d, waits, mark in share:
+                    if os.getpid() != leader:
+                        _wait_for(folder, waits)
+                    try:
+                        d.compile(tuple(type_of_text(t) for t in entry.signature))
+                    except Exception:  # the run compiles it again when called, and raises there
+                        pass
+                    if mark:
+                        _mark(folder, mark)
+        finally:
+            _mark(folder, f"s{index}.ended")
 
     return task
 
@@ -337,6 +546,11 @@ def _compile_share(share: list) -> Callable[[], None]:
 def precompile(entries: Sequence[PlanEntry], *, processes: int | None = None,
                run: Callable | None = None) -> int:
     """Compile a plan's uncached kernels in child processes at once, before a run.
+
+    The kernels are dealt by :func:`shares` over the call graph (:func:`call_graph`): each
+    child compiles its kernels callees first, and before a kernel whose callee another child
+    compiles, waits until that child has written the callee to the cache (a mark file in a
+    temporary folder after each kernel), so every kernel is compiled once.
 
     Parameters
     ----------
@@ -354,19 +568,37 @@ def precompile(entries: Sequence[PlanEntry], *, processes: int | None = None,
     int
         The overloads given to the children (0: nothing to do).
     """
+    import shutil
+    import tempfile
+
     n = min(MAX_PROCESSES, usable_cpus() if processes is None else int(processes))
     todo = uncached(entries)
     if n < 2 or len(todo) < 2:
         return 0
     if run is None:
         from rfsim.core.procs import run_in_child as run
-    tasks = [_compile_share(s) for s in shares(todo, n)]
+    calls = call_graph()
+    dealt = shares(todo, n, calls)
+    keys = list(dict.fromkeys((e.module, e.name) for e, _ in todo))
+    folder = tempfile.mkdtemp(prefix="rfsim-plan-")
+    tasks = []
+    for s, (share, share_waits) in enumerate(zip(dealt, waits(dealt, calls))):
+        rows = []
+        for i, ((e, d), wait) in enumerate(zip(share, share_waits)):
+            key = (e.module, e.name)
+            last = i + 1 == len(share) or (share[i + 1][0].module, share[i + 1][0].name) != key
+            rows.append((e, d, [(f"k{keys.index(c)}.done", t) for c, t in wait],
+                         f"k{keys.index(key)}.done" if last else None))
+        tasks.append(_compile_share(rows, s, folder, os.getpid()))
 
     def start(k: int) -> None:  # child k, and the later ones while it works
         if k < len(tasks):
             run(tasks[k], while_waiting=(lambda: start(k + 1)) if k + 1 < len(tasks) else None)
 
-    start(0)
+    try:
+        start(0)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
     return len(todo)
 
 
@@ -498,5 +730,6 @@ if __name__ == "__main__":
 
 
 __all__ = ["PLANS_FILE", "PLANS_FORMAT", "MAX_PROCESSES", "SCALARS", "PlanEntry", "text_of_type", "type_of_text",
-           "entries_of", "read_plans", "write_plans", "usable_cpus", "uncached", "shares", "precompile",
+           "entries_of", "read_plans", "write_plans", "usable_cpus", "uncached", "kernel_key", "call_graph",
+           "reached", "shares", "waits", "WAIT_S", "START_S", "precompile",
            "precompile_scenario", "record", "compile_times", "main"]

@@ -58,14 +58,6 @@ from rfsim.devices import reader_statistic as _statistic
 from rfsim.core.lazy import lazy_import
 
 _rxk = lazy_import("rfsim.devices._reader_receive_kernels")
-_rbk = lazy_import("rfsim.devices._reader_batch_kernels")
-
-
-def _typed_list(arrays: list):
-    """``numba.typed.List`` of ``arrays`` (1-D complex128, C-contiguous), numba imported on first use."""
-    from numba.typed import List
-
-    return List(arrays)
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -535,99 +527,6 @@ class Reader(PieTransmitter):
         if rx.ndim != 1:
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
         n_bits = int(n_bits)
-        blf, pre_n, n_reply = self._reply_size(n_bits, blf_hz)
-        lo, hi = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
-        if self.config.blf_search == "preamble" and blf_hz is None:
-            lk, fs = self.link, self.fs_hz
-            n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
-            hi = min(hi, rx.size - n_slow)
-            if hi < lo or pre_n < 3:
-                return ReadResult(False, None, "preamble not found")
-            return self._receive_searched(rx - (rx[:lo].mean() if lo >= 8 else 0.0), lo, hi, float(t0_s), n_bits,
-                                          expect_crc, carrier)
-        if hi < lo or pre_n < 3:
-            return ReadResult(False, None, "preamble not found")
-        det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
-        out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
-        status = _rxk.receive_kernel(rx, lo, hi, n_reply, self.detection_threshold(hi - lo + 1, blf),
-                                     *self._receive_args(blf, pre_n), det_bits, bits, out_f, out_c)
-        return self._read_result(status, out_f, out_c[0], bits[:n_bits], t0_s, blf, carrier, expect_crc)
-
-    def receive_batch(self, rxs: Sequence, *, t0_s: Sequence, n_bits: int, expect_crc: bool,
-                      cmd_end_s: Sequence, carrier: Sequence) -> list[ReadResult]:
-        """:meth:`receive` of B reply windows, their kernels in one call.
-
-        Each trial's result is :meth:`receive` of that trial alone, bit for bit
-        (tests/test_reader_batch.py): the trials of the sample-level receiver at the nominal BLF
-        (``rx_model = "sample"``, ``blf_search = "off"``) with room for a reply are read by one
-        call of ``rfsim.devices._reader_batch_kernels.receive_batch_kernel`` (the trial loop
-        inside the kernel, ``receive_kernel`` per trial on its own samples — handed over as one
-        typed list, not copied — search window and threshold); the reader's other receivers
-        (statistic, BLF search), or a reader whose ``receive`` is replaced, take the trials one
-        by one through :meth:`receive`, in order.
-
-        Parameters
-        ----------
-        rxs : sequence of ndarray of complex, each shape (n_b,)
-            Trial b's samples at the RX port [√W].
-        t0_s : sequence of float
-            Absolute time of each ``rxs[b][0]`` [s].
-        n_bits : int
-            Data bits of the reply (the same for every trial).
-        expect_crc : bool
-            Check the last 16 bits as CRC-16 (the same for every trial).
-        cmd_end_s : sequence of float or None
-            End of each trial's command [s] (:meth:`receive`).
-        carrier : sequence of complex or None
-            Each trial's transmitted baseband during the reply window (:meth:`receive`).
-
-        Returns
-        -------
-        list of ReadResult
-            One per trial, in trial order.
-
-        Raises
-        ------
-        ValueError
-            When a trial's ``rx`` is not 1-D, or as :meth:`receive`.
-        """
-        n = len(rxs)
-        if (self._rx_rng is not None or self.config.blf_search == "preamble" or "receive" in self.__dict__
-                or type(self).receive is not Reader.receive):  # another receiver, or a receive of its own
-            return [self.receive(rxs[b], t0_s=t0_s[b], n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s[b],
-                                 carrier=carrier[b]) for b in range(n)]
-        n_bits = int(n_bits)
-        blf, pre_n, n_reply = self._reply_size(n_bits, None)
-        out: list = [None] * n
-        run, lo, hi, thr = [], [], [], []
-        for b in range(n):
-            rx = np.ascontiguousarray(rxs[b], dtype=np.complex128)
-            if rx.ndim != 1:
-                raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
-            a, z = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s[b], cmd_end_s=cmd_end_s[b])
-            if z < a or pre_n < 3:
-                out[b] = ReadResult(False, None, "preamble not found")
-                continue
-            run.append((b, rx))
-            lo.append(a)
-            hi.append(z)
-            thr.append(self.detection_threshold(z - a + 1, blf))
-        if run:
-            k = len(run)
-            det_bits, bits = np.empty((k, n_bits + 1), dtype=np.uint8), np.empty((k, n_bits + 1), dtype=np.uint8)
-            out_f, out_c, status = np.empty((k, 4)), np.empty((k, 1), dtype=np.complex128), np.empty(k, np.int64)
-            _rbk.receive_batch_kernel(_typed_list([rx for _, rx in run]), np.array(lo, np.int64),
-                                      np.array(hi, np.int64), np.array(thr, np.float64), n_reply,
-                                      *self._receive_args(blf, pre_n), det_bits, bits, out_f, out_c, status)
-            for q, (b, _) in enumerate(run):
-                out[b] = self._read_result(int(status[q]), out_f[q], out_c[q, 0], bits[q, :n_bits], t0_s[b], blf,
-                                           carrier[b], expect_crc)
-        return out
-
-    def _reply_size(self, n_bits: int, blf_hz: float | None) -> tuple[float, int, int]:
-        """``(blf, pre_n, n_reply)`` of :meth:`receive`: the BLF read at [Hz] (``blf_hz`` or the
-        profile's nominal BLF), the preamble's samples and the whole reply's samples (preamble,
-        ``n_bits``, dummy 1), kept per (n_bits, BLF) while config, link and fs are the same."""
         lk, fs = self.link, self.fs_hz
         memo = self._receive_memo()
         blf = memo.blf_hz if blf_hz is None else float(blf_hz)
@@ -640,28 +539,32 @@ class Reader(PieTransmitter):
             # reply length in samples (preamble + n_bits + dummy)
             hit = memo.sizes[(n_bits, blf)] = _ReplySize(self.preamble_samples(blf), int(math.ceil(
                 reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
-        return (blf,) + tuple(hit)
-
-    def _receive_args(self, blf: float, pre_n: int) -> tuple:
-        """The arguments of ``receive_kernel`` from ``fs_hz`` to ``n_blocks`` (the reader's,
-        its link's and the BLF's; :meth:`receive`)."""
-        lk, fs = self.link, self.fs_hz
+        pre_n, n_reply = hit
+        lo, hi = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+        if self.config.blf_search == "preamble" and blf_hz is None:
+            n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
+            hi = min(hi, rx.size - n_slow)
+            if hi < lo or pre_n < 3:
+                return ReadResult(False, None, "preamble not found")
+            return self._receive_searched(rx - (rx[:lo].mean() if lo >= 8 else 0.0), lo, hi, float(t0_s), n_bits,
+                                          expect_crc, carrier)
+        if hi < lo or pre_n < 3:
+            return ReadResult(False, None, "preamble not found")
         a = search_arrays(lk.m, lk.trext, 2.0 * blf / fs)
-        return (fs, blf, lk.m, pre_n, self._preamble_elements(), a.t0, a.max_runs_per_sample, a.half_width,
-                a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs, a.same_as_previous, a.pre_el,
-                a.pre_levels, a.state, self.config.decoder != "bitwise", DOPPLER_BLOCKS)
-
-    def _read_result(self, status: int, out_f: np.ndarray, h: complex, bits: np.ndarray, t0_s: float, blf: float,
-                     carrier, expect_crc: bool) -> ReadResult:
-        """The :class:`ReadResult` of one ``receive_kernel`` call: its status, ``out_f`` (start
-        [samples], corr, slope [rad/s], σ² [W]), the measured gain ``h`` [√W] and the decided
-        ``bits`` (:meth:`receive`)."""
+        det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
+        out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
+        status = _rxk.receive_kernel(rx, lo, hi, n_reply, self.detection_threshold(hi - lo + 1, blf), fs, blf, lk.m,
+                                     pre_n, self._preamble_elements(), a.t0, a.max_runs_per_sample, a.half_width,
+                                     a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs,
+                                     a.same_as_previous, a.pre_el, a.pre_levels, a.state,
+                                     self.config.decoder != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
         if status > _rxk.NOT_FOUND:
             raise ValueError(_RECEIVE_ERRORS[status])
-        start_s = float(t0_s) + float(out_f[0]) / self.fs_hz
+        start_s = float(t0_s) + float(out_f[0]) / fs
         if status == _rxk.NOT_FOUND:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=float(out_f[1]))
-        meas = self._measurements(complex(h), float(out_f[2]), float(out_f[3]), blf)
+        bits = bits[:n_bits]
+        meas = self._measurements(complex(out_c[0]), float(out_f[2]), float(out_f[3]), blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)

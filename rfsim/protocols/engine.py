@@ -335,8 +335,7 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
     trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``: a
     trial in which no tag replies forms no reader input, its noise draws are still made); 3. the
-    reader's reads of the trials with a reply (:meth:`ReaderPort.receive_all`: one kernel call for
-    the block where the trials share a reader and the reply they expect); 4. the records.
+    reader's reads of the trials with a reply; 4. the records.
     """
     n = len(rngs)
     if len(tags) != n:
@@ -365,11 +364,10 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                                   link_cache=caches[b], sent=sent))
         airs = propagate_batch([_air_step(prep, rngs[k0 + k]) for k, prep in enumerate(preps)],
                                skip_unmodulated=True)
-        truths = [_truth(air, prep.members) for prep, air in zip(preps, airs)]
-        heard = [k for k, truth in enumerate(truths) if truth[0]]  # the trials with a reply: the reader reads them
-        reads = dict(zip(heard, ReaderPort.receive_all([preps[k].sent.port for k in heard],
-                                                       [airs[k].inputs[0] for k in heard])))
-        out.extend(_record(prep, truth, reads.get(k)) for k, (prep, truth) in enumerate(zip(preps, truths)))
+        for prep, air in zip(preps, airs):
+            truth = _truth(air, prep.members)
+            read = prep.sent.port.receive(air.inputs[0]) if truth[0] else None
+            out.append(_record(prep, truth, read))
     return out
 
 
@@ -639,60 +637,16 @@ class ReaderPort:
             start on, searched after ``tx.cmd_end_s``, phase referred to ``tx.samples[-1]``; with
             ``header_bit`` an error reply at its own length, :func:`run_exchange`).
         """
-        rx, kwargs = self._read_args(input)
-        if self.delayed_reply:
-            kwargs["delayed"] = True
-        return self._error_reply(rx, kwargs, self.reader.receive(rx, n_bits=self.reply_bits, **kwargs))
-
-    @staticmethod
-    def receive_all(ports: Sequence["ReaderPort"], inputs: Sequence) -> list:
-        """:meth:`receive` of B trials' ports and inputs, the reader's kernels in one call where it can.
-
-        Ports of one reader that expect the same reply (bits, CRC, not delayed) of a reader with
-        ``receive_batch`` (:meth:`rfsim.devices.reader.Reader.receive_batch`) are read in one
-        batch, then every read is checked for an error reply as :meth:`receive` checks it; any
-        other ports are read one by one. Each read is that of :meth:`receive`, bit for bit.
-
-        Parameters
-        ----------
-        ports : sequence of ReaderPort
-            The trials' ports.
-        inputs : sequence of rfsim.air.step.Segment
-            The reader's input of each trial [√W].
-
-        Returns
-        -------
-        list
-            One read per trial, in trial order.
-        """
-        if not ports:
-            return []
-        p0 = ports[0]
-        batch = getattr(p0.reader, "receive_batch", None)
-        if (len(ports) < 2 or batch is None
-                or any(p.reader is not p0.reader or p.reply_bits != p0.reply_bits or p.expect_crc != p0.expect_crc
-                       or p.delayed_reply for p in ports)):
-            return [p.receive(x) for p, x in zip(ports, inputs)]
-        args = [p._read_args(x) for p, x in zip(ports, inputs)]
-        reads = batch([rx for rx, _ in args], t0_s=[kw["t0_s"] for _, kw in args], n_bits=p0.reply_bits,
-                      expect_crc=p0.expect_crc, cmd_end_s=[kw["cmd_end_s"] for _, kw in args],
-                      carrier=[kw["carrier"] for _, kw in args])
-        return [p._error_reply(rx, kw, read) for p, (rx, kw), read in zip(ports, args, reads)]
-
-    def _read_args(self, input) -> tuple:
-        """The samples :meth:`receive` reads (from the listen start on) and the reader's
-        ``receive`` keywords ``t0_s``, ``expect_crc``, ``cmd_end_s`` and ``carrier``."""
         tx, fs = self.tx, input.fs_hz
         i0 = int(math.ceil((self._listen_s - input.t0_s) * fs))
-        return input.samples[i0:], dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc,
-                                        cmd_end_s=tx.cmd_end_s, carrier=tx.samples[-1])
-
-    def _error_reply(self, rx, kwargs: dict, read):
-        """``read``, or with ``header_bit`` the read of an error reply at its own length when
-        the header of a failed read says so (:meth:`receive`)."""
+        kwargs = dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s,
+                      carrier=tx.samples[-1])
+        if self.delayed_reply:
+            kwargs["delayed"] = True
+        read = self.reader.receive(input.samples[i0:], n_bits=self.reply_bits, **kwargs)
         if (self.header_bit and self.reply_bits != ERROR_REPLY_BITS and not read.success and read.bits is not None
                 and read.bits[0] == 1):  # the header says: an error reply
-            read = self.reader.receive(rx, n_bits=ERROR_REPLY_BITS, **kwargs)
+            read = self.reader.receive(input.samples[i0:], n_bits=ERROR_REPLY_BITS, **kwargs)
         return read
 
 

@@ -12,7 +12,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _standard_normals
-from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
                                           sampled_template, viterbi_kernel, waveform_kernel)
 
@@ -89,7 +89,7 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
     """The steady pieces the measurement's block edges cut (:mod:`rfsim.devices.reader_statistic`
     step 4). ``s``: the reference reply from sample ``i0`` of the input (0 outside the reply);
     the measurement reads the samples strictly inside its first and last non-zero sample whose
-    two neighbours carry the same level (:func:`rfsim.devices._reader_kernels.measure_kernel`),
+    two neighbours carry the same level (:func:`rfsim.gen2._measure_kernels.measure_kernel`),
     block k starting at the floor(k·m/K)-th of those m samples. For each edge k = 1 … K − 1 at a
     sample ≥ ``b1`` (the first sample of the pieces) inside a STEADY piece with members on both
     sides (searched within ±``reach`` samples): the piece, the edge (index from ``b1``) and its
@@ -325,7 +325,7 @@ def _preamble_fit(seg, frac, pre_el, ratio):
 @njit
 def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
     """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.devices._reader_kernels.known_levels_kernel`; the 2×2 normal equations of
+    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
     :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
     constant (no fit)."""
     r_k = np.empty(r.size, np.complex128)
@@ -457,7 +457,7 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     and :func:`_cuts` (kept by the caller for this plan, input length and search window). Writes the decoded bits into ``bits_out``
     ((n_bits + 1,) uint8), the reply span r − c and its ±1 reference (0 outside the reply) into
     ``z_out``, ``s_out`` ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used), measures them
-    (:func:`rfsim.devices._reader_kernels.measure_kernel`), and writes the status, the reply
+    (:func:`rfsim.gen2._measure_kernels.measure_kernel`), and writes the status, the reply
     start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom, the
     measurement's sample count and its gain h, phase slope and residual power into ``res``
     (slots ``RES_*``)."""

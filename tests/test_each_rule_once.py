@@ -25,7 +25,7 @@ LINECODE_HOME = "rfsim/gen2/_linecode_kernels.py"
 LINECODE_TABLES = {"HALF_LEVELS", "NEXT_STATE", "SUBCARRIER_SIGN", "LEVEL_OF_STATE", "PREV_BIT_OF_STATE"}
 #: Modules that decode or encode FM0/Miller replies in compiled code: they must read the one
 #: definition (import its kernels) and hold no rule of their own.
-LINECODE_USERS = ("rfsim/gen2/_reply_kernels.py", "devices/_blf_search_kernels.py", "rfsim/gen2/linecode.py")
+LINECODE_USERS = ("rfsim/gen2/_reply_kernels.py", "rfsim/gen2/_blf_search_kernels.py", "rfsim/gen2/linecode.py")
 
 
 def _modules():
@@ -320,7 +320,7 @@ def _names_outside_dispatch(fn: ast.AST) -> set[str]:
 REPLY_CORE = "rfsim/gen2/reply_core.py"
 REPLY_CORE_KERNELS = "rfsim/gen2/_reply_core_kernels.py"
 #: Compiled code of the reader's BLF search and of the capture decoder (search, decoding).
-READER_KERNELS = "devices/_blf_search_kernels.py"
+READER_KERNELS = "rfsim/gen2/_blf_search_kernels.py"
 CAPTURE_SEARCH_KERNELS = "rfsim/gen2/_reply_search_kernels.py"
 CAPTURE_DECODE_KERNELS = "rfsim/gen2/_reply_kernels.py"
 #: Each shared step: its home and the decoders' modules that must call it.
@@ -330,21 +330,21 @@ REPLY_STEPS = {
     "cumulative_sums_into": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
     "centred_start": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "fine_step": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
-    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "devices/reader_search.py",
+    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "rfsim/gen2/blf_search.py",
                                             "rfsim/gen2/reply_decoding.py")),
     "preamble_gain_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "halfbit_decisions": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "rest_level_sums": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "steady_residual": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "n_pre_elements": (REPLY_CORE, ("rfsim/gen2/reply_search.py", "rfsim/gen2/reply_decoding.py")),
-    "n_reply_elements": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+    "n_reply_elements": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py",
                                       "rfsim/gen2/reply_decoding.py", "rfsim/gen2/replies.py")),
-    "coarse_blf_step": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
-    "geometric_blf_grid_hz": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
-    "preamble_template0": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
+    "coarse_blf_step": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
+    "geometric_blf_grid_hz": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
+    "preamble_template0": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
 }
 #: Shared constants: the home and the decoders' modules that import it.
-REPLY_CONSTANTS = {"FINE_SPAN_STEPS": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+REPLY_CONSTANTS = {"FINE_SPAN_STEPS": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py",
                                                     "rfsim/gen2/reply_decoding.py"))}
 
 

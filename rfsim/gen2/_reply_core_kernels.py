@@ -6,7 +6,7 @@ BLF precision decoding needs, the preamble's least-squares gain and offset,
 the decisions from half-bit sums, the sums of the least-squares fit of a remodulated reply
 with its rest level and the residual power over its steady samples.
 
-Callers: the reader's BLF search (``rfsim.devices._blf_search_kernels``) and the capture
+Callers: the reader's BLF search (``rfsim.gen2._blf_search_kernels``) and the capture
 decoder (:mod:`rfsim.gen2._reply_search_kernels`, :mod:`rfsim.gen2._reply_kernels`). Each
 step is written once here in the arithmetic (order of operations) its callers had, so that
 their results are bit-identical to what they were; where the callers' arithmetic differed,

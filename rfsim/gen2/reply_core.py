@@ -5,7 +5,7 @@ Three decoders read FM0/Miller replies ``r = h·s(t) + c + noise``:
 * :func:`rfsim.gen2.linecode.decode_reply` — one known BLF: preamble search over every lag,
   refined to 1/16 sample, (h, c) from the preamble, half-bit sums, Viterbi or bitwise
   decisions (the reader with ``blf_search`` off);
-* the reader's BLF search :func:`rfsim.devices.reader_search.search_decode` — coarse preamble
+* the reader's BLF search :func:`rfsim.gen2.blf_search.search_decode` — coarse preamble
   correlation over a BLF grid and the T1 lags, then decoding at BLFs across the coarse one
   with the preamble's centre held, the least residual of the remodulated reply wins;
 * the capture decoder :mod:`rfsim.gen2.replies` (``rfsim decode``) — the same search over link
@@ -54,7 +54,7 @@ as its own computation, named here:
 * the fit of the remodulated reply: the reader over the whole window with c = (Σr − h·Σref)/n
   and the residual summed sample by sample, the capture decoder over the reply up to its end
   with c from the normal equations and the residual in closed form;
-* ``decode_reply`` (and the reader's receive, :mod:`rfsim.devices._reader_receive_kernels`)
+* ``decode_reply`` (and the reader's receive, :mod:`rfsim.gen2._receive_kernels`)
   adds its sums sample by sample, in order.
 """
 

@@ -5,7 +5,7 @@ It calls the kernels that hold the rules: the reply decoder of
 :func:`rfsim.gen2.linecode.decode_reply` (:mod:`rfsim.gen2._decode_reply_kernels`), the
 encoder tables (:func:`rfsim.gen2._linecode_kernels.elements_kernel`), the sampled reply
 (:func:`rfsim.gen2._linecode_kernels.waveform_from`), the known levels and the measurements
-(:mod:`rfsim.devices._reader_kernels`) and the least-squares gain and offset
+(:mod:`rfsim.gen2._measure_kernels`) and the least-squares gain and offset
 (:func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`). The NumPy twin, step by step with the
 public functions, is ``reference.devices_reader.receive_reference`` in the tests.
 """
@@ -17,7 +17,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._decode_reply_kernels import ZERO_GAIN, decisions_kernel, decode_reply_kernel
 from rfsim.gen2._fit_kernels import fit_gain_offset_kernel
 from rfsim.gen2._linecode_kernels import elements_kernel, waveform_from
@@ -59,11 +59,11 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
        start, correlation and first decisions ``det_bits`` ((n_bits + 1,) uint8); below
        ``threshold`` → :data:`NOT_FOUND`.
     3. The reference of ``det_bits`` from start/fs·fs (0 outside the reply), its known levels
-       (:func:`rfsim.devices._reader_kernels.known_levels_kernel`, the first ``n_pre_el`` elements
+       (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`, the first ``n_pre_el`` elements
        the preamble) and (h, c) by :func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`.
     4. Decisions ``bits`` ((n_bits + 1,) uint8) of span = r[i0 : i0 + n_reply + 4] − c (i0 the
        sample before the start) with the gain h.
-    5. :func:`rfsim.devices._reader_kernels.measure_kernel` of span against the reference of
+    5. :func:`rfsim.gen2._measure_kernels.measure_kernel` of span against the reference of
        ``bits``.
 
     ``out_f`` ((4,) float64) receives start [samples of rx], corr, slope [rad/s], σ² [W];

@@ -119,8 +119,10 @@ class DecodePlan:
         :class:`rfsim.gen2.reply_search.LinkHypothesis` of the "link" search.
     track_timing : bool
         Follow the tag's clock (timing tracking, resampling): the "link" search.
-    fine_first_bits : int
-        "blf": bits of the fine search's first phase.
+    dc_from_lead : bool
+        "blf": subtract the mean of the samples before the first start searched (≥ 8 of
+        them) before the search (the reader; the capture sweep's synthetic windows are
+        searched as drawn).
     memo : dict
         Values derived from the plan and a call's BLF or lag count (named tables ``"arrays"``,
         ``"detection"``), bounded.
@@ -136,6 +138,7 @@ class DecodePlan:
     blf_grid_hz: np.ndarray | None = None
     hypotheses: tuple = ()
     track_timing: bool = False
+    dc_from_lead: bool = True
     memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}}, repr=False)
 
     def __post_init__(self):
@@ -278,7 +281,8 @@ class LinkPlans:
         self.link = link
         self.plans: dict = {}
 
-    def plan(self, search: str, fs_hz: float, method: str, false_alarm_probability: float) -> DecodePlan:
+    def plan(self, search: str, fs_hz: float, method: str, false_alarm_probability: float,
+             dc_from_lead: bool = True) -> DecodePlan:
         """The plan of ``search`` for this link at ``fs_hz`` (made once).
 
         Parameters
@@ -291,13 +295,15 @@ class LinkPlans:
             "viterbi" or "bitwise".
         false_alarm_probability : float
             P(false alarm) per window.
+        dc_from_lead : bool, optional
+            :attr:`DecodePlan.dc_from_lead`, default True.
 
         Returns
         -------
         DecodePlan
             The plan.
         """
-        key = (search, fs_hz, method, false_alarm_probability)
+        key = (search, fs_hz, method, false_alarm_probability, dc_from_lead)
         hit = self.plans.get(key)
         if hit is None:
             from rfsim.gen2.blf_search import blf_grid_hz
@@ -308,19 +314,22 @@ class LinkPlans:
                 grid = blf_grid_hz(lk)
                 grid.flags.writeable = False
             hit = self.plans[key] = DecodePlan(search, float(fs_hz), lk.m, lk.trext, method,
-                                               false_alarm_probability, lk.blf_hz, grid)
+                                               false_alarm_probability, lk.blf_hz, grid,
+                                               dc_from_lead=dc_from_lead)
         return hit
 
 
 def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits: int = 16, n_reply: int = 0,
            blf_hz: float | None = None, blf_hint_hz: float | None = None,
-           timing: CaptureTiming | None = None) -> DecodedReply:
+           timing: CaptureTiming | None = None, threads: int = 1) -> DecodedReply:
     """Detect and decode one tag reply in the window ``r`` as ``plan`` says (module docstring).
 
     Parameters
     ----------
     r : numpy.ndarray
-        ``(n,) complex128`` window ``h·s(t) + c + noise`` (any unit, any constant offset c).
+        ``(n,) complex128`` window ``h·s(t) + c + noise`` (any unit, any constant offset c);
+        "blf" also ``(B, n)``, a batch of windows (then every field of the result is an array
+        over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``).
     plan : DecodePlan
         The search and its parameters.
     lo, hi : int
@@ -336,6 +345,9 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         1/(RN16 elements); "link" searches ±2 coarse steps around it first.
     timing : CaptureTiming or None
         "link": where the reply may start and how long it is.
+    threads : int
+        "blf" on a batch ``r`` of shape ``(B, n)``: threads of the BLF search (the result does
+        not depend on it).
 
     Returns
     -------
@@ -351,7 +363,7 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     if plan.search == "known":
         return _decode_known(r, plan, lo, hi, n_bits, n_reply, plan.blf_hz if blf_hz is None else blf_hz)
     if plan.search == "blf":
-        return _decode_blf(r, plan, lo, hi, n_bits, blf_hint_hz)
+        return _decode_blf(r, plan, lo, hi, n_bits, blf_hint_hz, threads)
     return _decode_link(r, plan, timing, blf_hint_hz)
 
 
@@ -375,12 +387,13 @@ def _decode_known(rx, plan, lo, hi, n_bits, n_reply, blf) -> DecodedReply:
                         float(out_f[3]), float(out_f[2]))
 
 
-def _decode_blf(rx, plan, lo, hi, n_bits, blf_hint_hz) -> DecodedReply:
-    """The "blf" search: :func:`rfsim.gen2.blf_search.search_decode` on the conditioned window,
-    over the plan's grid or at the hint, then the detection threshold."""
+def _decode_blf(rx, plan, lo, hi, n_bits, blf_hint_hz, threads) -> DecodedReply:
+    """The "blf" search: :func:`rfsim.gen2.blf_search.search_decode` on the (conditioned)
+    window, over the plan's grid or at the hint, then the detection threshold; ``rx`` 2-D: a
+    batch of windows, every field an array over them."""
     from rfsim.gen2.blf_search import search_decode
 
-    r = rx - (rx[:lo].mean() if lo >= 8 else 0.0)
+    r = rx - (rx[:lo].mean() if lo >= 8 else 0.0) if plan.dc_from_lead else rx
     m, trext = plan.m, plan.trext
     if blf_hint_hz is not None:  # the tag's BLF is known from its RN16
         n_el16 = n_pre_elements(m, trext) + 2 * m * 17
@@ -390,9 +403,13 @@ def _decode_blf(rx, plan, lo, hi, n_bits, blf_hint_hz) -> DecodedReply:
     else:
         n_grid = plan.blf_grid_hz.size
         out = search_decode(r, m=m, trext=trext, n_bits=n_bits, blfs_hz=plan.blf_grid_hz, fs_hz=plan.fs_hz, lo=lo,
-                            hi=hi)
+                            hi=hi, threads=threads)
+    threshold = plan.detection((hi - lo + 1) * n_grid, plan.blf_hz).threshold
+    if r.ndim == 2:
+        return DecodedReply(out.corr >= threshold, out.start, out.corr, out.bits, out.blf_hz, out.gain, out.sigma2,
+                            math.nan, out.decision_ebn0_db, r, dict(ebn0_db=out.ebn0_db))
     start, blf, corr = float(out.start[0]), float(out.blf_hz[0]), float(out.corr[0])
-    if corr < plan.detection((hi - lo + 1) * n_grid, plan.blf_hz).threshold:
+    if corr < threshold:
         return DecodedReply(False, start, corr, window=r)
     return DecodedReply(True, start, corr, out.bits[0].astype(np.uint8), blf, complex(out.gain[0]),
                         float(out.sigma2[0]), math.nan, float(out.decision_ebn0_db[0]), r)

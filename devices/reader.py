@@ -551,7 +551,7 @@ class Reader(PieTransmitter):
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                          start_s=start_s, corr=float(out_f[1]), **meas)
+                          start_s=start_s, corr=out.corr, **meas)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose

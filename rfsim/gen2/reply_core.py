@@ -60,12 +60,11 @@ as its own computation, named here:
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
-from rfsim.gen2.linecode import preamble_levels, reply_waveform
+from rfsim.gen2.linecode import PREAMBLES, reply_waveform
 
 __all__ = ["FINE_SPAN_STEPS", "n_pre_elements", "n_reply_elements", "coarse_blf_step", "geometric_blf_grid_hz",
            "preamble_template0"]
@@ -77,7 +76,6 @@ __all__ = ["FINE_SPAN_STEPS", "n_pre_elements", "n_reply_elements", "coarse_blf_
 FINE_SPAN_STEPS = 2
 
 
-@functools.lru_cache(maxsize=32)
 def n_pre_elements(m: int, trext: bool) -> int:
     """Elements (half subcarrier cycles) of a reply's pilot + preamble.
 
@@ -91,7 +89,7 @@ def n_pre_elements(m: int, trext: bool) -> int:
     int
         Half-bit levels of pilot + preamble times M.
     """
-    return preamble_levels(m=m, trext=trext)[0].size * m
+    return PREAMBLES(m, trext)[0].size * m
 
 
 def n_reply_elements(n_bits: int, m: int, trext: bool) -> int:

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.capture import preamble_threshold
-from rfsim.gen2.linecode import halfsymbols
+from rfsim.gen2.linecode import LineCodeTable, halfsymbols
 from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_blf_grid_hz, n_pre_elements, n_reply_elements,
                                    preamble_template0)
 from rfsim.core.lazy import lazy_import
@@ -120,12 +120,15 @@ def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray
     return preamble_template0(m, trext, blf, fs, int(math.floor(n_pre_elements(m, trext) * fs / (2.0 * blf))))
 
 
-@functools.lru_cache(maxsize=32)
-def _preamble_elements(m: int, trext: bool) -> np.ndarray:
-    """Pilot + preamble elements (±1) of a line code (read-only, cached)."""
+def _make_preamble_elements(m: int, trext: bool) -> np.ndarray:
+    """Pilot + preamble elements (±1, float64, read-only) of a line code."""
     el = halfsymbols(np.zeros(0, np.uint8), m=m, trext=trext, dummy=False).astype(np.float64)
     el.flags.writeable = False
     return el
+
+
+#: Pilot + preamble elements (±1, float64) per line code: a constant table.
+_preamble_elements = LineCodeTable("pilot + preamble elements (float64)", _make_preamble_elements)
 
 
 def _per_blf(f, blfs: np.ndarray) -> np.ndarray:

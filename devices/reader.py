@@ -17,8 +17,9 @@ index into ``Reader.antennas``).
 Receiver (see :meth:`Reader.receive`): carrier leakage ``L·x_tx`` with
 ``L = 10^(−isolation/20)·e^{jφ_L}`` (:meth:`Reader.leakage_gain`, added by the engine), a
 constant complex offset during the reply window, is removed; the reply is detected by
-preamble correlation inside the T1 window and decoded by
-:func:`rfsim.gen2.linecode.decode_reply`; EPC replies are checked with CRC-16; RSSI, phase,
+preamble correlation inside the T1 window and decoded by the one reply decoder
+(:func:`rfsim.gen2.reply_decoder.decode`, the "known" plan at one BLF or the "blf" plan of
+the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16; RSSI, phase,
 Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
 
 Report (``ReaderConfig.report``, :class:`rfsim.core.records.ReportConfig`): what the reader hands

@@ -1,14 +1,17 @@
-"""The steps the tag-reply decoders share, each written once.
+"""The steps the tag-reply decoder's searches share, each written once.
 
-Three decoders read FM0/Miller replies ``r = h·s(t) + c + noise``:
+The reader in the loop and ``rfsim decode`` call one decoder,
+:func:`rfsim.gen2.reply_decoder.decode`, whose plan chooses one of three searches over
+FM0/Miller replies ``r = h·s(t) + c + noise`` (the map of their steps is that module's
+docstring):
 
-* :func:`rfsim.gen2.linecode.decode_reply` — one known BLF: preamble search over every lag,
+* "known": :func:`rfsim.gen2.linecode.decode_reply`'s kernels — one known BLF: preamble search over every lag,
   refined to 1/16 sample, (h, c) from the preamble, half-bit sums, Viterbi or bitwise
   decisions (the reader with ``blf_search`` off);
-* the reader's BLF search :func:`rfsim.gen2.blf_search.search_decode` — coarse preamble
+* "blf": the reader's BLF search :func:`rfsim.gen2.blf_search.search_decode` — coarse preamble
   correlation over a BLF grid and the T1 lags, then decoding at BLFs across the coarse one
   with the preamble's centre held, the least residual of the remodulated reply wins;
-* the capture decoder :mod:`rfsim.gen2.replies` (``rfsim decode``) — the same search over link
+* "link": the capture decoder :mod:`rfsim.gen2.replies` (``rfsim decode``) — the same search over link
   hypotheses at a working rate with a detection threshold, then the fine BLF search, the
   reply's length, timing tracking on the tag's clock and the E_h/N₀ gate.
 

@@ -273,7 +273,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
                      cut_s: float | None = None,
                      method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
                      command: str = "", blf_hint_hz: float | None = None,
-                     delayed: bool = False) -> TagReplyRecord | None:
+                     delayed: bool = False, plans: dict | None = None) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -301,6 +301,10 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     delayed : bool
         Search a delayed reply: its start anywhere from T1 min to T1 max + 20 ms
         (:data:`rfsim.gen2.link.T_MAX_S`; module docstring)
+    plans : dict or None
+        Where the decode plans (:class:`rfsim.gen2.reply_decoder.DecodePlan`, with the BLF grids
+        and octaves they keep) are kept between the windows of one capture, by hypotheses,
+        method, false-alarm probability and rate; default None, a plan for this window only
 
     Returns
     -------
@@ -337,8 +341,13 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].sum() / lo_full
     spans = tuple(_delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full)) if delayed else (None,)
-    plan = DecodePlan("link", fs, method=method, false_alarm_probability=false_alarm_probability,
-                      hypotheses=tuple(hyps), track_timing=True)
+    key = (tuple(hyps), method, false_alarm_probability, fs)
+    plan = None if plans is None else plans.get(key)
+    if plan is None:
+        plan = DecodePlan("link", fs, method=method, false_alarm_probability=false_alarm_probability,
+                          hypotheses=key[0], track_timing=True)
+        if plans is not None:
+            plans[key] = plan
     out = decode(r, plan, blf_hint_hz=blf_hint_hz,
                  timing=CaptureTiming(i0, cmd_end_s, rtcal_s, frt, delay_max_s, spans, n_bits_of))
     if not out.found:
@@ -465,6 +474,7 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     if blf_tolerance is not None and not 0.0 <= blf_tolerance < 0.5:
         raise ConfigError("blf_tolerance", blf_tolerance, "a fraction in [0, 0.5)")
     out: list[TagReplyRecord] = []
+    plans: dict = {}  # the decode plans of this capture (decode_tag_reply)
     query, learned, blind_misses, kill_pending = None, None, 0, False
     n = np.asarray(samples).size
     for k, rec in enumerate(records):
@@ -498,7 +508,8 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                                      kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
                                      cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
                                      command_index=k, command=rec.name, delayed=delayed,
-                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None)
+                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None,
+                                     plans=plans)
             if found is not None:
                 break
             if searching_blind:

@@ -125,7 +125,8 @@ class DecodePlan:
         searched as drawn).
     memo : dict
         Values derived from the plan and a call's BLF or lag count (named tables ``"arrays"``,
-        ``"detection"``), bounded.
+        ``"detection"``; the "link" search's ``"grids"`` and ``"bands"``, the BLF grid of each
+        hypothesis and the hypotheses by BLF octave), bounded.
     """
 
     search: str
@@ -426,7 +427,7 @@ def _decode_link(r, plan, timing, blf_hint_hz) -> DecodedReply:
     best = None
     for span_s in timing.spans_s:
         best = _detect(r, fs, plan.hypotheses, timing.i0, timing.cmd_end_s, timing.rtcal_s, timing.frt, blf_hint_hz,
-                       plan.false_alarm_probability, timing.delay_max_s, span_s)
+                       plan.false_alarm_probability, timing.delay_max_s, span_s, plan.memo)
         if best is not None:
             break
     if best is None:

@@ -192,6 +192,13 @@ def _doppler_hz(fc_hz, unit_dir, v_src, v_dst):
 GEOMETRY_CACHE_SIZE = 4096
 
 
+def _remember(table: dict, key, entry) -> None:
+    """``table[key] = entry``, the oldest entry dropped first beyond :data:`GEOMETRY_CACHE_SIZE`."""
+    if len(table) >= GEOMETRY_CACHE_SIZE:
+        table.pop(next(iter(table)))
+    table[key] = entry
+
+
 class _ImageGeometry(NamedTuple):
     """Image paths tx → rx and their carrier-independent factors (:meth:`Channel._image_geometry`)."""
 
@@ -268,9 +275,10 @@ class Channel:
     part of the link — large-scale gain, wall loss, antenna gains, polarization mismatch,
     delay and the image paths, a pure function of the two antennas (compared by value), the
     carrier and the immutable scene — keyed by ``(tx, rx, fc_hz)``, and its carrier-
-    independent part keyed by ``(tx, rx)``, each bounded by :data:`GEOMETRY_CACHE_SIZE`
-    (oldest entry dropped first). Only the diffuse taps (and the shadowing field, which can
-    be redrawn) are evaluated anew on every call; the result is bit-identical to assembling
+    independent part keyed by ``(tx, rx)``, and the terms of each diffuse profile it draws
+    (:func:`rfsim.channels.small_scale.tap_terms`, keyed by K, τrms and the profile options),
+    each bounded by :data:`GEOMETRY_CACHE_SIZE` (oldest entry dropped first). Only the diffuse
+    taps (and the shadowing field, which can be redrawn) are evaluated anew on every call; the result is bit-identical to assembling
     the whole link again.
     """
 
@@ -280,6 +288,7 @@ class Channel:
         self._static: dict = {}
         self._placements: dict = {}
         self._frames: dict = {}
+        self._tap_terms: dict = {}
 
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
@@ -335,9 +344,7 @@ class Channel:
         if geo is None:
             geo = self._geometry(tx, rx, fc_hz, t_s, tx_motion, rx_motion)
             if static:
-                if len(self._static) >= GEOMETRY_CACHE_SIZE:
-                    self._static.pop(next(iter(self._static)))
-                self._static[(tx, rx, fc_hz)] = geo
+                _remember(self._static, (tx, rx, fc_hz), geo)
         g_ls, env, images = geo.g_ls, geo.env, geo.images
         if sc.shadowing is not None:
             env *= float(sc.shadowing.amplitude_gain(0.5 * (geo.p_tx + geo.p_rx)))
@@ -352,7 +359,10 @@ class Channel:
                 if rng is None:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
                 k_lin, tau_rms_s = geo.apdp_args
-                terms = tap_terms(k_lin, tau_rms_s, sc.apdp.profile_items)
+                terms = self._tap_terms.get((k_lin, tau_rms_s, sc.apdp.profile_items))
+                if terms is None:
+                    terms = tap_terms(k_lin, tau_rms_s, sc.apdp.profile_items)
+                    _remember(self._tap_terms, (k_lin, tau_rms_s, sc.apdp.profile_items), terms)
                 # the numbers of draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **profile_options)
                 held = _DiffuseDraw(terms.los_amplitude, draw_nlos_taps(terms, rng), terms.nlos_delays_s)
                 self._held[key] = held
@@ -380,9 +390,7 @@ class Channel:
             delays.setflags(write=False)
             dops.setflags(write=False)
             frame = _Frame(rel, DelayTerms(delays, dops))
-            if len(self._frames) >= GEOMETRY_CACHE_SIZE:
-                self._frames.pop(next(iter(self._frames)))
-            self._frames[(tx, rx, fc_hz)] = frame
+            _remember(self._frames, (tx, rx, fc_hz), frame)
         terms = frame.terms
         return PathSet._own(gains, terms.delay_s, terms.doppler_hz, delay_terms=terms)
 
@@ -400,9 +408,7 @@ class Channel:
         if place is None:
             place = self._placement(tx, rx, t_s, tx_motion, rx_motion)
             if static:
-                if len(self._placements) >= GEOMETRY_CACHE_SIZE:
-                    self._placements.pop(next(iter(self._placements)))
-                self._placements[(tx, rx)] = place
+                _remember(self._placements, (tx, rx), place)
         d = place.d
         g_ls = float(sc.link_amplitude_gain(tx, rx, d, fc_hz))
         images = None
@@ -425,9 +431,7 @@ class Channel:
         placement : tuple
             The geometry (:meth:`_placement`).
         """
-        if len(self._placements) >= GEOMETRY_CACHE_SIZE:
-            self._placements.pop(next(iter(self._placements)))
-        self._placements[(tx, rx)] = _Placement(*placement)
+        _remember(self._placements, (tx, rx), _Placement(*placement))
 
     def hold_placements(self, tx: Antenna, rx_antennas) -> int:
         """Evaluate at once, and hold, the carrier-independent geometry of the static links ``tx → rx_i`` not held yet.

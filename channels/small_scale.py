@@ -29,7 +29,6 @@ Jakes (Clarke) correlation J0(2π·f_D·Δt) of scatterers moving in the room.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -38,6 +37,7 @@ import numpy as np
 
 from rfsim.core.errors import ConfigError
 from rfsim.core.lazy import lazy_import
+from rfsim.core.memo import PureCache
 from rfsim.core.units import db_to_lin
 
 _special = lazy_import("scipy.special")
@@ -295,19 +295,19 @@ def average_profile(
     If the τrms tolerance cannot be met within ``max_taps``/``max_iter`` (or with sample
     rounding) the best profile found is returned; check with :func:`profile_statistics`.
 
-    A pure function of its arguments: results are memoised (bounded cache, 4096 entries)
-    and returned as fresh copies.
+    A pure function of its arguments: results are kept in :data:`AVERAGE_PROFILE_CACHE`
+    (bounded, 4096 entries) and returned as fresh copies.
     """
-    powers, delays = _average_profile(float(k_lin), float(tau_rms_s), float(bandwidth_hz),
+    powers, delays = AVERAGE_PROFILE_CACHE(float(k_lin), float(tau_rms_s), float(bandwidth_hz),
                                       float(fres_hz), None if fs_hz is None else float(fs_hz),
                                       int(max_taps), int(max_iter), float(eps_k), float(eps_trms))
     return powers.copy(), delays.copy()
 
 
-@functools.lru_cache(maxsize=4096)
 def _average_profile(k_lin, tau_rms_s, bandwidth_hz, fres_hz, fs_hz, max_taps, max_iter, eps_k,
                      eps_trms):
-    """Memoised body of :func:`average_profile` (arguments normalised by it)."""
+    """The body of :func:`average_profile` (arguments normalised by it), kept in
+    :data:`AVERAGE_PROFILE_CACHE`."""
     k = float(k_lin)
     tr = float(tau_rms_s)
     if not k >= 0:
@@ -352,6 +352,11 @@ def _average_profile(k_lin, tau_rms_s, bandwidth_hz, fres_hz, fs_hz, max_taps, m
         grow = 1.0 + math.sqrt((relerr - eps_trms) / eps_trms)
         n = min(int(math.ceil(n * grow)), max_taps - 1)
     return best[1], best[2]
+
+
+#: :func:`average_profile` by its (normalised) arguments: a pure function of K, τrms and the
+#: profile options, not run state (:class:`rfsim.core.memo.PureCache`).
+AVERAGE_PROFILE_CACHE = PureCache(_average_profile, 4096)
 
 
 def draw_taps(k_lin: float, tau_rms_s: float, *, rng: np.random.Generator, n_draws: int = 1,
@@ -410,9 +415,9 @@ class TapTerms(NamedTuple):
     paired_scale: np.ndarray
 
 
-@functools.lru_cache(maxsize=4096)
 def tap_terms(k_lin: float, tau_rms_s: float, options: tuple) -> TapTerms:
-    """The parts of :func:`draw_taps` that depend on the profile alone, formed once per profile.
+    """The parts of :func:`draw_taps` that depend on the profile alone (a channel keeps them per
+    profile: :class:`rfsim.channels.scene.Channel`).
 
     Parameters
     ----------

@@ -13,8 +13,10 @@ import numpy as np
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _standard_normals
 from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
-                                          sampled_template, viterbi_kernel, waveform_kernel)
+                                          signed_halfbit_sums_kernel, viterbi_kernel,
+                                          waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -217,42 +219,6 @@ def _mean(r, n):
 
 
 @njit
-def _halfbit_sums(part, start, ratio, m, s_sum, s_count):
-    """The half-bit sums of the decoder (:func:`rfsim.gen2._linecode_kernels.projected_halfbit_sums_kernel`)
-    before the projection: per half-bit j, S_j = Σ σ_n·part[n] (complex) and C_j = Σ σ_n over
-    the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
-    subcarrier sign of k. The decoder's sums of Re((part − dc)·g) are then Re(g·S_j) − Re(dc·g)·C_j
-    for any gain and offset (the same value up to the order of the operations)."""
-    s_sum[:] = 0j
-    s_count[:] = 0.0
-    nh = s_sum.size
-    j = 0
-    nxt = m  # first element of half-bit j + 1
-    acc = 0j
-    cnt = 0.0
-    for n in range(max(0, int(math.ceil(start))), part.size):
-        u = (n - start) * ratio
-        if u < 0.0:
-            continue
-        k = int(math.floor(u + INDEX_EPS))
-        if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
-            s_sum[j] = acc
-            s_count[j] = cnt
-            acc = 0j
-            cnt = 0.0
-            j = k // m
-            nxt = (j + 1) * m
-            if j >= nh:
-                return
-        sg = float(element_sign(k, m))
-        acc += sg * part[n]
-        cnt += sg
-    if j < nh:
-        s_sum[j] = acc
-        s_count[j] = cnt
-
-
-@njit
 def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
     """Viterbi decisions (:func:`rfsim.gen2._linecode_kernels.viterbi_kernel`, the last bit the
     dummy 1) on the projected half-bit sums Re(g·S_j) − dc_re·C_j of the data half-bits into
@@ -294,32 +260,6 @@ def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
     lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
                                                   ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
     return dc0, (float(lag) if best < 0 else start_rel)
-
-
-@njit
-def _preamble_fit(seg, frac, pre_el, ratio):
-    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
-    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
-    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
-    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
-    n_pre = seg.size
-    tpl = np.empty(n_pre)
-    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
-    e_t = 0.0
-    peak = 0j
-    seg_sum = 0j
-    for i in range(n_pre):
-        a = tpl[i] - tpl_mean
-        e_t += a * a
-        peak += seg[i] * a
-        seg_sum += seg[i]
-    seg_mean = seg_sum / n_pre
-    e_seg = 0.0
-    for i in range(n_pre):
-        d = seg[i] - seg_mean
-        e_seg += d.real * d.real + d.imag * d.imag
-    h = peak / e_t
-    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
 
 
 @njit
@@ -490,7 +430,7 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     det_bits = np.empty(n_bits + 1, np.uint8)
     s_sum = np.empty(nh, np.complex128)
     s_count = np.empty(nh)
-    _halfbit_sums(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    signed_halfbit_sums_kernel(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
     _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
     if corr < fp[FP_THRESHOLD]:
         res[RES_STATUS] = NOT_FOUND

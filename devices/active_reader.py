@@ -28,7 +28,6 @@ reported.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +36,7 @@ from rfsim.air.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
 from rfsim.air.noise import thermal_noise_power_w
+from rfsim.core.memo import PureCache
 from rfsim.core.units import w_to_dbm
 
 from .msk_beacon import (FRAME_CHIPS, HEADER_CHIPS, discriminate, header_chips, manchester_decode,
@@ -113,18 +113,23 @@ class BeaconRead:
     violations: int
 
 
-@functools.lru_cache(maxsize=8)
 def _filter_taps(fs_hz: float, bandwidth_hz: float) -> np.ndarray:
+    """The receiver's FIR channel filter of ``FILTER_TAPS`` taps for a rate and bandwidth [Hz]."""
     return _signal.firwin(FILTER_TAPS, 0.5 * bandwidth_hz, fs=fs_hz)
 
 
-@functools.lru_cache(maxsize=8)
 def _template(sps: int) -> np.ndarray:
     """Discriminator output of a clean header: t[0] = 0, t[n] = φ[n] − φ[n−1]."""
     phase, _ = msk_phase(header_chips(), sps, 0.0, HEADER_CHIPS * sps)
     t = np.diff(phase, prepend=0.0)
     t[0] = 0.0
     return t
+
+
+#: The channel filter by (rate, bandwidth) and the header template by samples per chip: pure
+#: functions of constants and config values, not run state (:class:`rfsim.core.memo.PureCache`).
+FILTER_TAPS_CACHE = PureCache(_filter_taps, 8)
+HEADER_TEMPLATE_CACHE = PureCache(_template, 8)
 
 
 class ActiveReader:
@@ -175,7 +180,7 @@ class ActiveReader:
         ndarray of complex, shape (n_samples,)
             The filtered samples [√W].
         """
-        return np.convolve(y, _filter_taps(self.config.fs_hz, self.config.bandwidth_hz), mode="same")
+        return np.convolve(y, FILTER_TAPS_CACHE(self.config.fs_hz, self.config.bandwidth_hz), mode="same")
 
     def receive(self, input) -> list[BeaconRead]:
         """Find and decode every beacon frame in one air-step segment.
@@ -210,7 +215,7 @@ class ActiveReader:
             raise ConfigError("active_reader.input", y.shape, "one segment (n,) without batch dimensions")
         sps = cfg.sps
         frame_n = FRAME_CHIPS * sps
-        tpl = _template(sps)
+        tpl = HEADER_TEMPLATE_CACHE(sps)
         if y.size < frame_n + 1:
             return []
         yf = self.channel_filter(y)

@@ -23,7 +23,6 @@ on.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -32,6 +31,7 @@ import numpy as np
 from rfsim.air.carriers import SUPPORTED_CARRIER_RANGE_HZ
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError
+from rfsim.core.memo import PureCache
 from rfsim.core.units import dbm_to_w
 from rfsim.core.lazy import lazy_import
 
@@ -69,7 +69,7 @@ def peak_gain_lin(antenna, *, step_deg: float = 1.0) -> float:
     The grid holds every azimuth and elevation in ``step_deg`` steps (boresight and the axes
     included), so a pattern whose peak lies on an axis (patch, dipole) is exact; the local
     frame makes it independent of the antenna's orientation. Remembered per hashable pattern
-    (:func:`functools.lru_cache`).
+    (:data:`PEAK_GAIN_CACHE`).
 
     Parameters
     ----------
@@ -85,17 +85,22 @@ def peak_gain_lin(antenna, *, step_deg: float = 1.0) -> float:
     """
     pattern = antenna.pattern
     try:
-        return _peak_gain(pattern, float(step_deg))
+        return PEAK_GAIN_CACHE(pattern, float(step_deg))
     except TypeError:  # an unhashable pattern (e.g. a measured table): no memo
-        return _peak_gain.__wrapped__(pattern, float(step_deg))
+        return _peak_gain(pattern, float(step_deg))
 
 
-@functools.lru_cache(maxsize=64)
 def _peak_gain(pattern, step_deg: float) -> float:
+    """:func:`peak_gain_lin` of a pattern on a ``step_deg`` grid [linear, 1]."""
     az = np.radians(np.arange(-180.0, 180.0, step_deg))
     el = np.radians(np.arange(-90.0, 90.0 + 0.5 * step_deg, step_deg))
     a, e = np.meshgrid(az, el)
     return float(np.max(pattern.gain(a.ravel(), e.ravel())))
+
+
+#: :func:`peak_gain_lin` by (pattern, step): a pure function of a (hashable, immutable) pattern
+#: and the grid, not run state (:class:`rfsim.core.memo.PureCache`).
+PEAK_GAIN_CACHE = PureCache(_peak_gain, 64)
 
 
 class Exciter:

@@ -33,7 +33,6 @@ Model (himr-tag.md §2.3; wave2-specs.md §H "Pylons"; seed 000 L447, L997, L102
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -41,6 +40,7 @@ import numpy as np
 
 from rfsim.core.config import check_fields, param
 from rfsim.core.lazy import lazy_import
+from rfsim.core.memo import PureCache
 
 _signal = lazy_import("scipy.signal")
 _air = lazy_import("rfsim.air.step")
@@ -166,12 +166,11 @@ class Pylon:
         """
         if self.rx_cutoff_hz is None:
             return input
-        taps = lowpass_taps(self.rx_cutoff_hz, input.fs_hz)
+        taps = LOWPASS_TAPS_CACHE(self.rx_cutoff_hz, input.fs_hz)
         y = np.convolve(input.samples, taps, mode="same")
         return _air.Segment(input.t0_s, input.fs_hz, input.fc_hz, y)
 
 
-@functools.lru_cache(maxsize=8)
 def lowpass_taps(cutoff_hz: float, fs_hz: float) -> np.ndarray:
     """Design the odd-length Kaiser FIR low-pass of the pylon's channel filter.
 
@@ -195,6 +194,11 @@ def lowpass_taps(cutoff_hz: float, fs_hz: float) -> np.ndarray:
     n, beta = _signal.kaiserord(80.0, width)
     n += 1 - n % 2
     return _signal.firwin(n, 1.3 * cutoff_hz, window=("kaiser", beta), fs=fs_hz)
+
+
+#: :func:`lowpass_taps` by (cut-off, rate), the pylon's filter: a pure function of config values,
+#: not run state (:class:`rfsim.core.memo.PureCache`).
+LOWPASS_TAPS_CACHE = PureCache(lowpass_taps, 8)
 
 
 __all__ = ["PylonConfig", "Pylon", "HIMR_CARRIERS_HZ"]

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from pathlib import Path
 from typing import Literal
 
@@ -33,6 +32,7 @@ import numpy as np
 
 from typing import TYPE_CHECKING
 
+from rfsim.core.memo import PureCache
 from rfsim.devices.tag_config import TagConfig
 from rfsim.core.config import param
 from rfsim.core.errors import ConfigError
@@ -129,14 +129,14 @@ def q_matched_assembly_resistance_ohm(chip: PowerDependentChip) -> float:
     return (abs(y.imag) / y.real) / (2.0 * math.pi * chip.fc_hz * chip.assembly_capacitance_f)
 
 
-@lru_cache(maxsize=8)
 def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
                assembly_resistance_ohm: float = math.inf) -> PowerDependentChip:
     """Build the 'measured' tag chip: full PASS tables from a folder, else the quoted points.
 
     With ``assembly_resistance_ohm`` = 0 the Q-matched R_at
-    (:func:`q_matched_assembly_resistance_ohm`). Memoised on its arguments (folder name,
-    frequency, margin, R_at): every cell of a run builds the same chip.
+    (:func:`q_matched_assembly_resistance_ohm`). Kept by its arguments (folder name,
+    frequency, margin, R_at) in :data:`CHIP_MODEL_CACHE`: every cell of a run builds the same chip
+    (the folder is read once per process).
 
     Parameters
     ----------
@@ -154,6 +154,12 @@ def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
     rfsim.devices.tag_chip.PowerDependentChip
         The chip.
     """
+    return CHIP_MODEL_CACHE(characteristics_dir, fc_hz, margin_db, assembly_resistance_ohm)
+
+
+def _chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
+                assembly_resistance_ohm: float) -> PowerDependentChip:
+    """:func:`chip_model`, computed."""
     if characteristics_dir:
         chip = _chip.PowerDependentChip.from_pass_files(characteristics_dir, fc_hz=fc_hz, margin_db=margin_db)
     else:
@@ -161,6 +167,11 @@ def chip_model(characteristics_dir: str, fc_hz: float, margin_db: float,
     if assembly_resistance_ohm == 0.0:
         assembly_resistance_ohm = q_matched_assembly_resistance_ohm(chip)
     return replace(chip, assembly_resistance_ohm=float(assembly_resistance_ohm))
+
+
+#: :func:`chip_model` by its arguments: configuration parsed into an immutable chip, the same in
+#: every run, not run state (:class:`rfsim.core.memo.PureCache`).
+CHIP_MODEL_CACHE = PureCache(_chip_model, 8)
 
 
 def tag_chip(states: TagStatesConfig, pr: PassReplicationConfig, fc_hz: float) -> PowerDependentChip:

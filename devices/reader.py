@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -376,7 +375,7 @@ class Reader(PieTransmitter):
         float
             Listen window [s].
         """
-        return _listen_window_s(self.link, int(reply_bits), self.config.blf_search != "off")
+        return self.air_cache.link_timing(_listen_window_s, self.link, int(reply_bits), self.config.blf_search != "off")
 
     def reply_search_window_s(self) -> tuple[float, float]:
         """Return the window of the reply start relative to the command end.
@@ -389,7 +388,7 @@ class Reader(PieTransmitter):
             (:func:`rfsim.gen2.link.t5`).
         """
         window = self.__dict__.get("_search_window")
-        return _t1_window(self.link) if window is None else window
+        return self.air_cache.link_timing(_t1_window, self.link) if window is None else window
 
     def reply_start_lags(self, n_samples: int, n_reply: int, *, t0_s: float,
                          cmd_end_s: float | None) -> tuple[int, int]:
@@ -691,17 +690,17 @@ class Reader(PieTransmitter):
 
 
 
-@functools.lru_cache(maxsize=256)
 def _listen_window_s(link: LinkProfile, reply_bits: int, blf_search: bool) -> float:
-    """:meth:`Reader.listen_window_s` of a (frozen) link profile: a pure function, cached."""
+    """:meth:`Reader.listen_window_s` of a (frozen) link profile: a pure function (kept per run in
+    the reader's ``air_cache``, :meth:`rfsim.air.cache.AirCache.link_timing`)."""
     if not blf_search:
         return reply_window_s(link, reply_bits)
     return t1(link).max_s + link.reply_duration_s(reply_bits) / (1.0 - link.frt) + REPLY_WINDOW_TAIL_TPRI * link.tpri_s
 
 
-@functools.lru_cache(maxsize=64)
 def _t1_window(link: LinkProfile) -> tuple[float, float]:
-    """(T1min, T1max) of a (frozen, hashable) link profile [s]; a cached pure function."""
+    """(T1min, T1max) of a (frozen, hashable) link profile [s]; a pure function (kept per run in the
+    reader's ``air_cache``)."""
     r = t1(link)
     return r.min_s, r.max_s
 

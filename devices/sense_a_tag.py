@@ -48,12 +48,12 @@ and "conveys the stored IDs inside its EPC payload"):
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from rfsim.core.memo import PureCache
 from rfsim.devices import st_receiver as sr
 from rfsim.devices.st_bandpass import sos_steady_state
 from rfsim.devices.sense_a_tag_config import DEFAULT_SPACING_M, SenseATagConfig
@@ -562,23 +562,27 @@ def chain_rows(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray
     r, n = x_abs.shape
     env, bp, cmp = np.empty((r, n)), np.empty((r, n)), np.empty((r, n))
     tog = np.empty(r, dtype=np.int64)
-    sos, zi = _band_pass(rx.bpf_order, rx.bpf_low_factor, rx.bpf_high_factor, rx.blf_hz, rx.fs_hz)
+    sos, zi = BAND_PASS_CACHE(rx.bpf_order, rx.bpf_low_factor, rx.bpf_high_factor, rx.blf_hz, rx.fs_hz)
     _kernels.diode_chain_rows_kernel(x_abs, det.volts_per_sqrt_w, det.matching_gain, det.thermal_voltage_v,
                                      -math.expm1(-1.0 / (rx.fs_hz * det.tau_s)), sos, zi, 0.5 * rx.threshold_v,
                                      -0.5 * rx.threshold_v, env, bp, cmp, tog)
     return env, bp, cmp, tog
 
 
-@functools.lru_cache(maxsize=16)
 def _band_pass(order: int, low_factor: float, high_factor: float, blf_hz: float,
                fs_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """:attr:`STReceiver.sos` of a receiver with these band-pass settings and its
-    ``sosfilt_zi`` (cached: a receiver's chains all use the same filter; the kernel only
-    reads them, and they stay writeable so that it is compiled for one array type)."""
+    ``sosfilt_zi`` (kept in :data:`BAND_PASS_CACHE`: a receiver's chains all use the same filter;
+    the kernel only reads them, and they stay writeable so that it is compiled for one array type)."""
     rx = sr.STReceiver(fs_hz=fs_hz, blf_hz=blf_hz, bpf_order=order, bpf_low_factor=low_factor,
                        bpf_high_factor=high_factor)
     sos = np.ascontiguousarray(rx.sos, dtype=np.float64)
     return sos, np.ascontiguousarray(sos_steady_state(sos))
+
+
+#: :func:`_band_pass` by the receiver's band-pass settings: a pure function of config values,
+#: not run state (:class:`rfsim.core.memo.PureCache`).
+BAND_PASS_CACHE = PureCache(_band_pass, 16)
 
 
 def _chain_rows_of_law(rx: sr.STReceiver, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

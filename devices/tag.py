@@ -602,14 +602,10 @@ class PassiveTag:
                     if out is not None:
                         return out
                     if quiet.powered and self.state.powered:
-                        # or stays powered and answers: what _respond does after its power decision
-                        # (_quiet_response has found a command other than a Query not silent)
-                        self.take_quiet_step(quiet)
-                        cmd, frame = decoded
-                        return self._decoded(cmd, frame, quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
-                                             t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
-                                             cache=run_cache(base.memo),
-                                             silent=None if cmd is None or isinstance(cmd, Query) else False)
+                        # or stays powered and answers: the tail of _respond after its power
+                        # decision (the scaled copy has its base's time base; the base's memo
+                        # names the run's cache)
+                        return self.respond_decoded(quiet, decoded, base)
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                                      cache=run_cache(base.memo))
@@ -874,20 +870,19 @@ class PassiveTag:
         return self._decoded(cmd, frame, p_dbm, rest, a_s, t0_s=t0_s, fs_hz=fs_hz, n_samples=n_samples, cache=cache)
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
-                 n_samples: int, cache: AirCache | None = None, silent: bool | None = None) -> TagResponse:
+                 n_samples: int, cache: AirCache | None = None) -> TagResponse:
         """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
-        state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``;
-        ``silent=False``: ``TagState.on_command_if_silent`` has already declined this command)."""
+        state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``);
+        the one tail of every path (:meth:`_respond`, :meth:`respond_decoded`)."""
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
         if isinstance(cmd, Query):
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
-        # the state machine's silent steps first (a QueryRep counting down, an ACK not for it)
-        if silent is None:
-            silent = self.state.on_command_if_silent(cmd, t_s=cmd_end_s)
-        if silent:
+        # the state machine's silent steps first (a QueryRep counting down, an ACK not for it;
+        # a step it declines changes nothing, so asking again after _quiet_response is the same)
+        if self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
             reply = None
         elif isinstance(cmd, ACCESS_COMMANDS):
             reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng,

@@ -23,9 +23,7 @@ from a folder the user has.
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 
@@ -559,19 +557,12 @@ class TagClock:
             If the TRcal count is below 1 tick.
         """
         n_trcal = self.count_ticks(trcal_s) if trcal_ticks is None else int(trcal_ticks)
-        key = (n_trcal, type(dr), dr) if isinstance(dr, str) else None  # a DR name: no Fraction hash
-        hit = _DIVIDERS.get(key) if key is not None else None
-        if hit is not None:
-            return hit
-        dr_frac: Fraction = _commands.DR_VALUES[_commands.normalize_dr(dr, "link.dr")]
+        ratio = _DR_RATIOS.get(dr) if isinstance(dr, str) else None  # a DR name: no Fraction made
+        if ratio is None:
+            ratio = _DR_RATIOS[_commands.normalize_dr(dr, "link.dr")]
         if n_trcal < 1:
             raise ValueError(f"TRcal count must be >= 1 tick, got {n_trcal}")
-        n = _divider(n_trcal, dr_frac)
-        if key is not None:
-            if len(_DIVIDERS) >= 256:
-                _DIVIDERS.clear()
-            _DIVIDERS[key] = n
-        return n
+        return _divider(n_trcal, *ratio)
 
     def blf_hz(self, trcal_s: float, dr, *, trcal_ticks: int | None = None) -> float:
         """Backscatter link frequency the tag produces, ``f / N`` with N from :meth:`blf_divider`.
@@ -596,16 +587,23 @@ class TagClock:
         return self.f_hz / self.blf_divider(trcal_s, dr, trcal_ticks=trcal_ticks)
 
 
-#: :meth:`TagClock.blf_divider` of (TRcal count, DR given by name): checked and computed once
-_DIVIDERS: dict = {}
+#: Divide ratios by name as integer pairs (numerator, denominator) of
+#: :data:`rfsim.gen2.commands.DR_VALUES`: a module constant formed once at import.
+_DR_RATIOS: dict[str, tuple[int, int]] = {name: (frac.numerator, frac.denominator)
+                                          for name, frac in _commands.DR_VALUES.items()}
 
 
-@functools.lru_cache(maxsize=256)
-def _divider(n_trcal: int, dr_frac: Fraction) -> int:
-    """N = max(1, round(N_TRcal / DR)) in exact rational arithmetic (:meth:`TagClock.blf_divider`;
-    a pure function of its two arguments, remembered: a tag decodes the same TRcal count
-    round after round)."""
-    return max(1, int(round(Fraction(n_trcal) / dr_frac)))
+def _divider(n_trcal: int, dr_num: int, dr_den: int) -> int:
+    """N = max(1, round(N_TRcal / DR)) for DR = dr_num / dr_den, in exact integer arithmetic.
+
+    N_TRcal / DR = N_TRcal·dr_den / dr_num; the quotient is rounded to the nearest integer, a
+    tie to the even one (as :func:`round` of the :class:`fractions.Fraction`;
+    :meth:`TagClock.blf_divider`).
+    """
+    q, r = divmod(n_trcal * dr_den, dr_num)
+    if 2 * r > dr_num or (2 * r == dr_num and q % 2 == 1):
+        q += 1
+    return max(1, q)
 
 
 # --------------------------------------------------------------------------- PASS files

@@ -317,6 +317,65 @@ def test_projected_halfbit_sums_kernel_equals_reference():
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.parametrize("m, start, ratio", [(1, 0.0, 0.16), (2, 3.3, 0.37), (4, 2.3125, 0.16), (8, 0.9375, 0.9),
+                                             (4, -1.75, 0.3125)])
+def test_signed_halfbit_sums_kernel_equals_reference_and_projection(m, start, ratio):
+    """Signed half-bit sums S_j = Σσ·r, C_j = Σσ: bit for bit the NumPy twin (both add the
+    exact terms σ·r in sample order); projected, Re(g·S_j) − dc·C_j is the projecting kernel's
+    sum of Re(r·g) − dc up to the order of the operations (bound: a few ε per term of the sum)."""
+    rng = trial_rng(61, m)
+    part = rng.standard_normal(3000) + 1j * rng.standard_normal(3000)
+    nh = 60
+    s_sum, s_count = np.empty(nh, np.complex128), np.empty(nh)
+    LK.signed_halfbit_sums_kernel(part, start, ratio, m, s_sum, s_count)
+    s_ref, c_ref = RL.signed_halfbit_sums_reference(part, start, ratio, m, nh)
+    np.testing.assert_array_equal(s_sum, s_ref)
+    np.testing.assert_array_equal(s_count, c_ref)
+    assert np.any(s_count != 0) and np.any(s_sum != 0)
+    g, dc_g = complex(0.3, -1.7), 0.25
+    projected = L._kernel_sums(part, g, dc_g, start, ratio, m, nh)
+    from_signed = (g * s_sum).real - dc_g * s_count
+    # each side rounds each of its ≤ n_terms + 3 operations per half-bit by at most ε·Σ|term|,
+    # with |term| ≤ max|y|, y = Re(r·g) − dc_g, and n_terms ≤ m/ratio + 2 samples per half-bit
+    n_terms = m / ratio + 2
+    bound = 2 * (n_terms + 3) * np.finfo(float).eps * n_terms * np.max(np.abs(part) * abs(g) + dc_g)
+    assert np.max(np.abs(from_signed - projected)) <= bound
+    assert np.max(np.abs(projected)) > 1e6 * bound  # the bound is far below the sums themselves
+
+
+def test_signed_sum_decisions_equal_projected_decisions():
+    """The reader's decisions from the signed sums equal the decoder's from the projected sums
+    on noisy Miller/FM0 replies (the sums agree to round-off; no near tie in these draws)."""
+    from rfsim.gen2 import _decode_reply_kernels as DK
+    from rfsim.gen2 import _reply_core_kernels as RC
+
+    for m in (1, 2, 4, 8):
+        rng = trial_rng(62, m)
+        for _ in range(20):
+            bits = rng.integers(0, 2, 32).astype(np.uint8)
+            fs, blf = 4e6, 320e3
+            ratio = 2 * blf / fs
+            t0 = float(rng.uniform(2, 5))
+            s = L.reply_waveform(bits, m=m, trext=False, blf_hz=blf, fs_hz=fs, t0_s=t0 / fs, n_samples=4000)
+            h = complex(rng.normal(), rng.normal()) * 1e-4
+            dc = complex(rng.normal(), rng.normal()) * 1e-4
+            part = h * s + dc + 4e-5 * (rng.standard_normal(s.size) + 1j * rng.standard_normal(s.size))
+            n_pre_levels = L.preamble_levels(m=m, trext=False)[0].size
+            nh = n_pre_levels + 2 * (bits.size + 1)
+            state0 = L.preamble_state(m=m, trext=False)
+            g = 1.0 / h
+            a_out = np.empty(bits.size + 1, np.uint8)
+            b_out = np.empty(bits.size + 1, np.uint8)
+            sums = np.empty(nh)
+            DK.decisions_kernel(part, g.real, g.imag, (dc * g).real, t0, ratio, m, n_pre_levels, state0, True, sums,
+                                a_out)
+            s_sum, s_count = np.empty(nh, np.complex128), np.empty(nh)
+            LK.signed_halfbit_sums_kernel(part, t0, ratio, m, s_sum, s_count)
+            RC.signed_sum_decisions(s_sum, s_count, g, (dc * g).real, n_pre_levels, m > 1, state0, True, np.empty(nh),
+                                    np.empty(bits.size + 1), np.empty(bits.size + 1), b_out)
+            np.testing.assert_array_equal(a_out, b_out)
+
+
 @pytest.mark.parametrize("m, trext", [(1, False), (4, False), (2, True)])
 def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)

@@ -17,19 +17,24 @@ reader's, a scene may give its own).
   so a run gives the same numbers, bit for bit, with or without them: command waveforms and
   tag replies are kept whatever the strategy (a reader's reply references under
   ``exchange="compiled"``).
+* The link timing its exchanges read (T1 and T5 windows, CW after a command, ACK delays) is kept
+  by :class:`TimingKey` (the rule, the frozen link profile by value, the rule's other arguments)
+  in :attr:`AirCache.timings` (:meth:`AirCache.link_timing`): pure functions of a profile that
+  every round of a run asks again.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "AirCache", "EXCHANGE_METHODS",
-           "run_cache"]
+__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "TimingKey", "AirCache",
+           "EXCHANGE_METHODS", "run_cache"]
 
 #: How a receiver's input is formed (:attr:`Strategy.exchange`).
 EXCHANGE_METHODS = ("sample", "compiled")
@@ -188,6 +193,25 @@ class Derived:
     value: object
 
 
+class TimingKey(NamedTuple):
+    """The key of one link-timing value in :attr:`AirCache.timings`.
+
+    Attributes
+    ----------
+    rule : callable
+        The pure function ``rule(link, *args)`` that gives the value (e.g.
+        :func:`rfsim.gen2.link.t1`).
+    link : object
+        The frozen, hashable link profile (:class:`rfsim.gen2.link.LinkProfile`), compared by value.
+    args : tuple
+        The rule's other arguments (e.g. the expected reply's bits), hashable.
+    """
+
+    rule: Callable
+    link: Any
+    args: tuple
+
+
 @dataclass
 class AirCache:
     """Everything the air step reuses between its calls in one run (module docstring).
@@ -211,6 +235,9 @@ class AirCache:
     replies : dict
         :class:`ReplyStates` entries by the content of a tag's reply (its bits, M, TRext, BLF,
         fs, start and length; :func:`rfsim.devices.tag.reply_gamma`).
+    timings : dict
+        Link-timing values (seconds, :class:`rfsim.gen2.link.TimingRange` or named tuples of
+        seconds) by :class:`TimingKey` (:meth:`link_timing`).
     """
 
     strategy: Strategy = field(default_factory=Strategy)
@@ -220,6 +247,34 @@ class AirCache:
     waveforms: dict = field(default_factory=dict)
     derivations: dict = field(default_factory=dict)
     replies: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+
+    def link_timing(self, rule: Callable, link, *args):
+        """Return ``rule(link, *args)`` for a frozen link profile, computed once per run.
+
+        Kept in :attr:`timings` by ``TimingKey(rule, link, args)`` (the profile by value), the
+        oldest entry dropped first beyond :attr:`max_entries`.
+
+        Parameters
+        ----------
+        rule : callable
+            Pure function of the profile and ``args`` (e.g. :func:`rfsim.gen2.link.t1`).
+        link : LinkProfile
+            The link profile (frozen, hashable).
+        *args : hashable
+            The rule's other arguments.
+
+        Returns
+        -------
+        object
+            ``rule(link, *args)``, from the cache when it was asked before in this run.
+        """
+        key = TimingKey(rule, link, args)
+        hit = self.timings.get(key)
+        if hit is None:
+            hit = rule(link, *args)
+            self.remember(self.timings, key, hit)
+        return hit
 
     def derived(self, source, make):
         """Return ``make(source)`` for an immutable ``source``, computed once per run.

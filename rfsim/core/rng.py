@@ -11,10 +11,11 @@ There is no global RNG and no clock seeding anywhere in rfsim.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 
 import numpy as np
+
+from rfsim.core.memo import PureCache
 
 
 def _checked_seed(seed: int) -> int:
@@ -207,9 +208,9 @@ def _seed_words(entropy: int, spawn_key: tuple[int, ...]) -> np.ndarray:
         run_words = run_words + [0] * (_POOL_SIZE - len(run_words))
     words = run_words + key_words
     if len(words) > _POOL_SIZE:
-        pool, h = _mix_word(*_mixed_pool(tuple(words[:-1])), words[-1])
+        pool, h = _mix_word(*MIXED_POOL_CACHE(tuple(words[:-1])), words[-1])
     else:
-        pool, h = _mixed_pool(tuple(words))
+        pool, h = MIXED_POOL_CACHE(tuple(words))
     out = [v ^ (v >> _XSHIFT) for v in [((src ^ h_in) * h_out) & _MASK32
                                          for src, (h_in, h_out) in zip(pool + pool, _OUTPUT_HASH)]]
     # uint32 pairs as little-endian uint64 (SeedSequence's view)
@@ -230,14 +231,13 @@ def _mix_word(pool: tuple[int, ...], h: int, value: int) -> tuple[tuple[int, ...
     return tuple(out), h
 
 
-@functools.lru_cache(maxsize=256)
 def _mixed_pool(words: tuple[int, ...]) -> tuple[tuple[int, ...], int]:
     """SeedSequence's pool after the entropy words ``words`` (fewer than 4: the missing ones
     hash as 0), with the running hash constant h: the first four hashed and cross-mixed, every
     further word mixed in (:func:`_mix_word`). A pure function of the words (a run's seed and a
     trial's stream), the same for every trial of that stream."""
     if len(words) > _POOL_SIZE:
-        return _mix_word(*_mixed_pool(words[:-1]), words[-1])
+        return _mix_word(*MIXED_POOL_CACHE(words[:-1]), words[-1])
     h = _INIT_A
     pool = []
     for i in range(_POOL_SIZE):
@@ -255,6 +255,11 @@ def _mixed_pool(words: tuple[int, ...]) -> tuple[tuple[int, ...], int]:
                 r = (_MIX_MULT_L * pool[i_dst] - _MIX_MULT_R * v) & _MASK32
                 pool[i_dst] = r ^ (r >> _XSHIFT)
     return tuple(pool), h
+
+
+#: :func:`_mixed_pool` by its entropy words: a pure function of a seed and a stream (the same in
+#: every run given them), not run state (:class:`rfsim.core.memo.PureCache`).
+MIXED_POOL_CACHE = PureCache(_mixed_pool, 256)
 
 
 def _pcg64_seed_words(entropy_words: np.ndarray) -> np.ndarray:

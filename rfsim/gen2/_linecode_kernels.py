@@ -70,7 +70,10 @@ PREV_BIT_OF_STATE = np.array([0, 0, 1, 1], dtype=np.uint8)
 #: Miller: the square subcarrier, −1 on odd elements).
 SUBCARRIER_SIGN = np.array([[1, 1], [1, -1]], dtype=np.int8)
 
-for _table in (HALF_LEVELS, NEXT_STATE, LEVEL_OF_STATE, PREV_BIT_OF_STATE, SUBCARRIER_SIGN):
+#: :data:`SUBCARRIER_SIGN` as float64 (±1.0), for per-sample products.
+SUBCARRIER_SIGN_F = SUBCARRIER_SIGN.astype(np.float64)
+
+for _table in (HALF_LEVELS, NEXT_STATE, LEVEL_OF_STATE, PREV_BIT_OF_STATE, SUBCARRIER_SIGN, SUBCARRIER_SIGN_F):
     _table.setflags(write=False)
 del _table
 
@@ -513,6 +516,49 @@ def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_s
             acc += y
     if h < nh:
         out[h] = acc
+
+
+@njit
+def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_count):
+    """The half-bit sums of :func:`projected_halfbit_sums_kernel` before the projection: per
+    half-bit j, S_j = Σ σ_n·part[n] into ``s_sum`` (complex) and C_j = Σ σ_n into ``s_count``
+    over the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
+    subcarrier sign of k (:func:`element_sign`). The projected sums of Re((part − dc)·g) are
+    Re(g·S_j) − Re(dc·g)·C_j for any gain and offset (the same value up to the order of the
+    operations), so one pass serves the decisions at every gain. Sums in sample order, the
+    real and imaginary parts apart (σ_n·part[n] is exact)."""
+    s_sum[:] = 0j
+    s_count[:] = 0.0
+    nh = s_sum.size
+    code = code_of(m)
+    j = 0
+    nxt = m  # first element of half-bit j + 1
+    a_re = 0.0
+    a_im = 0.0
+    cnt = 0.0
+    for n in range(max(0, int(math.ceil(start))), part.size):
+        u = (n - start) * elements_per_sample
+        if u < 0.0:
+            continue
+        k = int(math.floor(u + INDEX_EPS))
+        if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
+            s_sum[j] = complex(a_re, a_im)
+            s_count[j] = cnt
+            a_re = 0.0
+            a_im = 0.0
+            cnt = 0.0
+            j = k // m
+            nxt = (j + 1) * m
+            if j >= nh:
+                return
+        sg = SUBCARRIER_SIGN_F[code, k & 1]
+        z = part[n]
+        a_re += z.real * sg
+        a_im += z.imag * sg
+        cnt += sg
+    if j < nh:
+        s_sum[j] = complex(a_re, a_im)
+        s_count[j] = cnt
 
 
 @njit

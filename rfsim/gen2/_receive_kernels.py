@@ -1,13 +1,20 @@
 """numba kernel of the reader's receive (:meth:`rfsim.devices.reader.Reader.receive`, steps 1–5 of
 its docstring, ``blf_search = "off"`` and ``rx_model = "sample"``): one call per reply window.
 
-It calls the kernels that hold the rules: the reply decoder of
-:func:`rfsim.gen2.linecode.decode_reply` (:mod:`rfsim.gen2._decode_reply_kernels`), the
-encoder tables (:func:`rfsim.gen2._linecode_kernels.elements_kernel`), the sampled reply
+It calls the kernels that hold the rules: the preamble search of the reply decoder
+(:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`), the decoder's preamble fit
+(``_preamble_fit``, here; the statistic receiver's kernels call it too; the arithmetic of
+:func:`rfsim.gen2._decode_reply_kernels.decode_reply_kernel`), the signed half-bit sums
+(:func:`rfsim.gen2._linecode_kernels.signed_halfbit_sums_kernel`) and the decisions from them
+(:func:`rfsim.gen2._reply_core_kernels.signed_sum_decisions`), the encoder tables
+(:func:`rfsim.gen2._linecode_kernels.elements_kernel`), the sampled reply
 (:func:`rfsim.gen2._linecode_kernels.waveform_from`), the known levels and the measurements
 (:mod:`rfsim.gen2._measure_kernels`) and the least-squares gain and offset
-(:func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`). The NumPy twin, step by step with the
-public functions, is ``reference.devices_reader.receive_reference`` in the tests.
+(:func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`). The reply's samples are summed per
+half-bit once (S_j = Σσ·r, C_j = Σσ): both sets of decisions (at the preamble's gain and offset,
+then at the known levels' fit) are made from those sums, as the statistic receiver does. The
+NumPy twin, step by step with the public functions, is ``reference.devices_reader.receive_reference``
+in the tests.
 """
 
 from __future__ import annotations
@@ -18,9 +25,37 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
-from rfsim.gen2._decode_reply_kernels import ZERO_GAIN, decisions_kernel, decode_reply_kernel
 from rfsim.gen2._fit_kernels import fit_gain_offset_kernel
-from rfsim.gen2._linecode_kernels import elements_kernel, waveform_from
+from rfsim.gen2._linecode_kernels import (elements_kernel, preamble_search_runs_kernel, sampled_template,
+                                         signed_halfbit_sums_kernel, waveform_from)
+from rfsim.gen2._reply_core_kernels import signed_sum_decisions
+
+
+@njit
+def _preamble_fit(seg, frac, pre_el, ratio):
+    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
+    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
+    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
+    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
+    n_pre = seg.size
+    tpl = np.empty(n_pre)
+    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
+    e_t = 0.0
+    peak = 0j
+    seg_sum = 0j
+    for i in range(n_pre):
+        a = tpl[i] - tpl_mean
+        e_t += a * a
+        peak += seg[i] * a
+        seg_sum += seg[i]
+    seg_mean = seg_sum / n_pre
+    e_seg = 0.0
+    for i in range(n_pre):
+        d = seg[i] - seg_mean
+        e_seg += d.real * d.real + d.imag * d.imag
+    h = peak / e_t
+    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
+
 
 #: Status of :func:`receive_kernel`: decoded and measured.
 RECEIVED = 0
@@ -53,16 +88,19 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     """Steps 1–5 of :meth:`rfsim.devices.reader.Reader.receive` on ``rx`` ((n,) complex128).
 
     1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx).
-    2. :func:`rfsim.gen2._decode_reply_kernels.decode_reply_kernel` on r[lo:], starts 0 … hi − lo
-       (``n_pre`` samples of template ``t0``, refinement bank ``shifts``/``templates``/``norms``, the
-       templates' runs ``run_begin``/``run_value``/``n_runs``/``same_as_previous``):
-       start, correlation and first decisions ``det_bits`` ((n_bits + 1,) uint8); below
-       ``threshold`` → :data:`NOT_FOUND`.
+    2. The preamble search on r[lo:], starts 0 … hi − lo (``n_pre`` samples of template ``t0``,
+       refinement bank ``shifts``/``templates``/``norms``, the templates' runs
+       ``run_begin``/``run_value``/``n_runs``/``same_as_previous``), the preamble's gain h₀,
+       offset and correlation at the start (the arithmetic of
+       :func:`rfsim.gen2._decode_reply_kernels.decode_reply_kernel`); below ``threshold`` →
+       :data:`NOT_FOUND` (no decisions made). Then the signed half-bit sums S_j, C_j of the
+       reply's samples from i0 (the sample before the start) and the first decisions
+       ``det_bits`` ((n_bits + 1,) uint8) from Re(S_j/h₀) − Re(dc/h₀)·C_j.
     3. The reference of ``det_bits`` from start/fs·fs (0 outside the reply), its known levels
        (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`, the first ``n_pre_el`` elements
        the preamble) and (h, c) by :func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`.
-    4. Decisions ``bits`` ((n_bits + 1,) uint8) of span = r[i0 : i0 + n_reply + 4] − c (i0 the
-       sample before the start) with the gain h.
+    4. Decisions ``bits`` ((n_bits + 1,) uint8) of span = r[i0 : i0 + n_reply + 4] − c with the
+       gain h, from the same sums: Re((S_j − c·C_j)/h).
     5. :func:`rfsim.gen2._measure_kernels.measure_kernel` of span against the reference of
        ``bits``.
 
@@ -87,19 +125,33 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     if last < 0:
         return TOO_SHORT
     ratio = 2.0 * blf_hz / fs_hz
-    sums = np.empty(pre_levels.size + 2 * det_bits.size)
-    status, start_rel, corr, h0, dc0_ = decode_reply_kernel(rr, last + n_pre, math.nan, 0j, False, t0,
-                                                            max_runs_per_sample, half_width, 5, shifts, templates,
-                                                            norms, run_begin, run_value, n_runs, same_as_previous,
-                                                            pre_el, ratio, n_pre, m, pre_levels.size, state0, viterbi,
-                                                            sums, det_bits)
+    lag, best, start_rel = preamble_search_runs_kernel(rr, last + n_pre, t0, max_runs_per_sample, half_width, 5,
+                                                       shifts, templates, norms, run_begin, run_value, n_runs,
+                                                       same_as_previous)
+    if best < 0:
+        start_rel = float(lag)
+    lag = int(math.floor(start_rel))
+    frac = start_rel - lag
+    i0 = lo + lag
+    corr, h0, dc0_ = _preamble_fit(r[i0:i0 + n_pre], frac, pre_el, ratio)
     start = lo + start_rel
     out_f[0] = start
     out_f[1] = corr
-    if status == ZERO_GAIN:
+    if h0 == 0:
         return NO_GAIN
     if corr < threshold:
         return NOT_FOUND
+    # the signed half-bit sums S_j, C_j of the reply's samples, once for both sets of decisions
+    sums = np.empty(pre_levels.size + 2 * det_bits.size)
+    s_sum = np.empty(sums.size, np.complex128)
+    s_count = np.empty(sums.size)
+    i_end = min(n, i0 + int(math.ceil(sums.size * m / ratio)) + 2)
+    signed_halfbit_sums_kernel(r[i0:i_end], frac, ratio, m, s_sum, s_count)
+    a_s = np.empty(det_bits.size)
+    b_s = np.empty(det_bits.size)
+    g0 = 1.0 / h0
+    signed_sum_decisions(s_sum, s_count, g0, (dc0_ * g0).real, pre_levels.size, m > 1, state0, viterbi, sums, a_s,
+                         b_s, det_bits)
     # step 3: (h, c) from the known levels of the reference of the first decisions
     n_bits = bits.size - 1
     t0_samples = start / fs_hz * fs_hz
@@ -114,22 +166,19 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     h, c, ok = fit_gain_offset_kernel(r_known[:n_known], level[:n_known])
     if not ok:
         return CONSTANT
-    # step 4: decisions of the reply's samples, r − c, with the gain h
-    i0 = lo + int(math.floor(start_rel))
+    # step 4: decisions of the reply's samples, r − c, with the gain h: sums S_j − c·C_j
     i1 = min(n, i0 + n_reply + 4)
     span = np.empty(i1 - i0, np.complex128)
     for i in range(i1 - i0):
         span[i] = r[i0 + i] - c
-    frac = start_rel - (i0 - lo)
     if not (0.0 <= frac <= span.size - n_reply):
         return NO_ROOM
     if h == 0:
         return NO_GAIN
-    g = 1.0 / h
-    lag = int(math.floor(frac))
-    n_part = min(span.size, lag + int(math.ceil(sums.size * m / ratio)) + 2)
-    decisions_kernel(span[lag:n_part], g.real, g.imag, (0.0 * g).real, frac - lag, ratio, m, pre_levels.size,
-                     state0, viterbi, sums, bits)
+    for j in range(sums.size):
+        s_sum[j] -= c * s_count[j]
+    signed_sum_decisions(s_sum, s_count, 1.0 / h, 0.0, pre_levels.size, m > 1, state0, viterbi, sums, a_s, b_s,
+                         bits)
     # step 5: measurements against the reference of the decisions
     same = True
     for i in range(n_bits):

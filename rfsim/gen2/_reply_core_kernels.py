@@ -3,10 +3,12 @@ decoders and where they still differ): the cumulative sums of a window, the zero
 normalised preamble correlation, the parabolic refinement of a correlation peak, the start of
 a reply whose preamble is centred on a sample, the schedule of the fine BLF search and the
 BLF precision decoding needs, the preamble's least-squares gain and offset,
-the decisions from half-bit sums, the sums of the least-squares fit of a remodulated reply
-with its rest level and the residual power over its steady samples.
+the decisions from half-bit sums (or from the signed sums of the samples), the sums of the
+least-squares fit of a remodulated reply with its rest level and the residual power over its
+steady samples.
 
-Callers: the reader's BLF search (``rfsim.gen2._blf_search_kernels``) and the capture
+Callers: the reader's BLF search (``rfsim.gen2._blf_search_kernels``), the reader's
+receive (``rfsim.gen2._receive_kernels``: the decisions from signed sums) and the capture
 decoder (:mod:`rfsim.gen2._reply_search_kernels`, :mod:`rfsim.gen2._reply_kernels`). Each
 step is written once here in the arithmetic (order of operations) its callers had, so that
 their results are bit-identical to what they were; where the callers' arithmetic differed,
@@ -122,6 +124,19 @@ def halfbit_decisions(sums, n_pre_levels, miller, state0, viterbi, a, b, out):
         viterbi_kernel(a, b, miller, state0, True, out)
     else:
         bitwise_kernel(a, b, miller, out)
+
+
+@njit_inline
+def signed_sum_decisions(s_sum, s_count, g, dc_re, n_pre_levels, miller, state0, viterbi, sums, a, b, out):
+    """:func:`halfbit_decisions` on half-bit sums made from the signed sums of the samples
+    (S_j = Σ σ_n·r_n complex, C_j = Σ σ_n, σ_n the subcarrier sign of the sample's element):
+    ``sums[j]`` = Re(g·S_j) − ``dc_re``·C_j, the sum of Re((r − dc)·g) of
+    :func:`rfsim.gen2._linecode_kernels.projected_halfbit_sums_kernel` (g = 1/h, dc_re =
+    Re(dc·g)) up to the order of the additions, so one pass over the samples serves decisions
+    at any gain and offset."""
+    for j in range(sums.size):
+        sums[j] = (g * s_sum[j]).real - dc_re * s_count[j]
+    halfbit_decisions(sums, n_pre_levels, miller, state0, viterbi, a, b, out)
 
 
 @njit_inline

@@ -45,6 +45,7 @@ import numpy as np
 
 from rfsim.gen2.bits import as_bits
 from rfsim.core.lazy import lazy_import
+from rfsim.core.memo import PureCache
 
 _k = lazy_import("rfsim.gen2._linecode_kernels")
 _dk = lazy_import("rfsim.gen2._decode_reply_kernels")
@@ -72,62 +73,10 @@ def _levels(bits: np.ndarray, m: int, state: int) -> tuple[np.ndarray, int]:
     return out, int(state)
 
 
-class LineCodeTable:
-    """A constant table: one value per line code (M ∈ :data:`M_VALUES`, TRext), named.
-
-    Each value is a pure function of the module's constants (the line-code tables of
-    :mod:`rfsim.gen2._linecode_kernels`, the preambles), the same in every run, so it is not
-    run state and not kept in a run's cache. It is made on first use only because making it
-    calls the compiled encoder, which importing this module must not compile; 8 keys at most.
-
-    Parameters
-    ----------
-    name : str
-        What the table holds.
-    make : callable
-        ``make(m, trext)``, the value of one line code.
-    """
-
-    __slots__ = ("name", "_make", "_values")
-
-    def __init__(self, name: str, make):
-        self.name = name
-        self._make = make
-        self._values: dict = {}
-
-    def __call__(self, m: int, trext: bool):
-        """The value of line code (``m``, ``trext``).
-
-        Parameters
-        ----------
-        m : int
-            Miller M (1 = FM0), one of :data:`M_VALUES`.
-        trext : bool
-            Pilot tone present.
-
-        Returns
-        -------
-        object
-            The table's value (read-only arrays).
-
-        Raises
-        ------
-        ValueError
-            When ``m`` is not one of :data:`M_VALUES`.
-        """
-        key = (m, trext)
-        hit = self._values.get(key)
-        if hit is None:
-            hit = self._values[key] = self._make(_check_m(m), bool(trext))
-        return hit
-
-    def __repr__(self) -> str:
-        return f"LineCodeTable({self.name!r}, {len(self._values)} of {2 * len(M_VALUES)} line codes made)"
-
-
 def _make_preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
     """Pilot + preamble half-bit levels (read-only) and the encoder state after them
     (:func:`preamble_levels`) of one line code: the values of :data:`PREAMBLES`."""
+    m, trext = _check_m(m), bool(trext)
     if m == 1:
         parts = []
         if trext:
@@ -142,8 +91,10 @@ def _make_preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
     return levels, int(state)
 
 
-#: Pilot + preamble half-bit levels and the encoder state after them, per line code.
-PREAMBLES = LineCodeTable("pilot + preamble half-bit levels and the encoder state after them", _make_preamble)
+#: Pilot + preamble half-bit levels and the encoder state after them, per line code (M, TRext):
+#: a pure function of the module's constants (not run state), made on first use because it
+#: calls the compiled encoder, which importing this module must not compile; 8 line codes.
+PREAMBLES = PureCache(_make_preamble, 2 * len(M_VALUES))
 _preamble = PREAMBLES
 
 
@@ -776,6 +727,5 @@ __all__ = [
     "corr_abs_reference",
     "SearchArrays",
     "search_arrays",
-    "LineCodeTable",
     "PREAMBLES",
 ]

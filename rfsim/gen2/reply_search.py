@@ -19,7 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.gen2.capture import preamble_threshold
-from rfsim.gen2.linecode import LineCodeTable, halfsymbols
+from rfsim.core.memo import PureCache
+from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_blf_grid_hz, n_pre_elements, n_reply_elements,
                                    preamble_template0)
 from rfsim.core.lazy import lazy_import
@@ -146,7 +147,7 @@ def _make_preamble_elements(m: int, trext: bool) -> np.ndarray:
 
 
 #: Pilot + preamble elements (±1, float64) per line code: a constant table.
-_preamble_elements = LineCodeTable("pilot + preamble elements (float64)", _make_preamble_elements)
+_preamble_elements = PureCache(_make_preamble_elements, 8)
 
 
 def _per_blf(f, blfs: np.ndarray) -> np.ndarray:

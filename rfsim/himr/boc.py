@@ -39,13 +39,13 @@ residual gives the noise variance per complex sample σ² and SNR = |h|²/σ².
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from rfsim.core.errors import ConfigError
+from rfsim.core.memo import PureCache
 from rfsim.gen2.bits import as_bits
 from rfsim.core.lazy import lazy_import
 
@@ -360,15 +360,19 @@ def boc_decode(r, *, code: BocCode, fs_hz: float, n_bits: int, start_sample: flo
     return _decide(boc_bit_sums(r, start_sample, code, fs_hz=fs_hz, n_bits=n_bits), pre)
 
 
-@functools.lru_cache(maxsize=32)
 def _preamble_template(code: BocCode, preamble: bytes, fs_hz: float) -> np.ndarray:
     """The sampled preamble (start at sample 0), real ±1, read-only (remembered per code,
-    preamble and rate)."""
+    preamble and rate in :data:`PREAMBLE_TEMPLATE_CACHE`)."""
     pre = np.frombuffer(preamble, dtype=np.uint8)
     n_pre = int(math.ceil(code.duration_s(pre.size) * fs_hz))
     tmpl = boc_train([0.0], pre, code, t0_s=0.0, fs_hz=fs_hz, n_samples=n_pre).real
     tmpl.setflags(write=False)
     return tmpl
+
+
+#: :func:`_preamble_template` by (code, preamble, rate): a pure function of its arguments, not run
+#: state (:class:`rfsim.core.memo.PureCache`).
+PREAMBLE_TEMPLATE_CACHE = PureCache(_preamble_template, 32)
 
 
 def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int, int]) -> tuple[int, float]:
@@ -405,7 +409,7 @@ def boc_find(r, *, code: BocCode, fs_hz: float, preamble_bits, search: tuple[int
     """
     fs = code.check_fs(fs_hz)
     pre = as_bits(preamble_bits)
-    tmpl = _preamble_template(code, pre.tobytes(), fs)
+    tmpl = PREAMBLE_TEMPLATE_CACHE(code, pre.tobytes(), fs)
     n_pre = tmpl.size
     lo, hi = max(0, int(search[0])), min(int(search[1]), np.size(r) - n_pre + 1)
     if hi <= lo:

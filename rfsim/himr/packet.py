@@ -29,12 +29,12 @@ z, then compass x, y, z).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
+from rfsim.core.memo import PureCache
 from rfsim.himr.boc import BocCode
 from rfsim.core.config import check_fields, param
 from rfsim.core.errors import ConfigError, did_you_mean
@@ -162,12 +162,17 @@ def packet_format(name: str, key: str = "tag.packet_format") -> PacketFormat:
 # ----------------------------------------------------------------------------- CRC-8
 
 
-@functools.lru_cache(maxsize=16)
 def _crc8_table(poly: int) -> np.ndarray:
+    """T[b]: the CRC-8 register after shifting byte b through x⁸ + ``poly`` eight times."""
     reg = np.arange(256, dtype=np.int64)
     for _ in range(8):
         reg = np.where(reg & 0x80, (reg << 1) ^ poly, reg << 1) & 0xFF
     return reg.astype(np.uint8)
+
+
+#: :func:`_crc8_table` by polynomial: a pure function of a config value, not run state
+#: (:class:`rfsim.core.memo.PureCache`).
+CRC8_TABLE_CACHE = PureCache(_crc8_table, 16)
 
 
 def crc8(data, *, poly: int = 0x07, init: int = 0x00, xorout: int = 0x00) -> int:
@@ -192,7 +197,7 @@ def crc8(data, *, poly: int = 0x07, init: int = 0x00, xorout: int = 0x00) -> int
     int
         CRC in [0, 255].
     """
-    table = _crc8_table(int(poly))
+    table = CRC8_TABLE_CACHE(int(poly))
     reg = int(init) & 0xFF
     raw = bytes(data) if isinstance(data, (bytes, bytearray)) else np.asarray(data, dtype=np.uint8).tobytes()
     for byte in raw:

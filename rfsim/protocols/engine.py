@@ -74,7 +74,6 @@ of the air interface's link protocol); it imports neither ``channels`` nor ``dev
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from collections.abc import Sequence
 from typing import Any, NamedTuple
@@ -411,7 +410,7 @@ def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_repl
                       header_bit=header_bit)
     return _Sent(antenna_index=antenna_index, tx=tx, emitter=FixedEmitter(antenna, tx, device=reader), port=port,
                  bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None),
-                 reply_range=_t5_range(reader.link) if port.delayed_reply else _t1_range(reader.link))
+                 reply_range=_link_time(reader, t5 if port.delayed_reply else t1))
 
 
 def _prepare(reader, tags, channel, cmd, *, t_s, rng, motions, draw_channel, propagation, link_cache,
@@ -431,9 +430,11 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False)
     delayed reply with ``delayed_reply``)."""
     listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
     if delayed_reply:
-        window_s = _delayed_window_s(reader.link, int(reply_bits))
+        window_s = _link_time(reader, _delayed_window_s, int(reply_bits))
+    elif listen is not None:
+        window_s = listen(int(reply_bits))
     else:
-        window_s = listen(int(reply_bits)) if listen is not None else _window_s(reader.link, int(reply_bits))
+        window_s = _link_time(reader, reply_window_s, int(reply_bits))
     return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
@@ -511,37 +512,32 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
                     cmd_end_s=float(tx.cmd_end_s))
 
 
-# Timing of a (frozen, hashable) LinkProfile: pure functions, cached per profile.
-@functools.lru_cache(maxsize=64)
-def _t1_range(link):
-    """T1 (a reply's start after the command) of a profile: :func:`rfsim.gen2.link.t1`."""
-    return t1(link)
+class _AckDelays(NamedTuple):
+    """From an RN16 reply's start to the ACK [s] (:func:`_ack_delays`), added in this order."""
+
+    reply_s: float  # the reply: 16 bits at the nominal BLF
+    t2_s: float  # T2 = 10 Tpri, inside the Gen2 3–20 Tpri window
 
 
-@functools.lru_cache(maxsize=64)
-def _ack_delays_s(link) -> tuple[float, float]:
-    """From an RN16 reply's start to the ACK [s]: ``(the reply, 16 bits at the nominal BLF;
-    T2 = 10 Tpri, inside the Gen2 3–20 Tpri window)`` — added to the start in that order."""
-    return link.reply_duration_s(16), 10.0 * link.tpri_s
+# Timing of a (frozen, hashable) LinkProfile: pure functions, kept per run in the reader's
+# AirCache (:func:`_link_time`).
+def _link_time(reader, rule, *args):
+    """``rule(reader.link, *args)``, kept in the run's cache (:meth:`rfsim.air.cache.AirCache.link_timing`)
+    when the reader has one."""
+    cache = getattr(reader, "air_cache", None)
+    return rule(reader.link, *args) if cache is None else cache.link_timing(rule, reader.link, *args)
 
 
-@functools.lru_cache(maxsize=256)
-def _window_s(link, reply_bits: int) -> float:
-    """CW after a command [s]: :func:`rfsim.gen2.link.reply_window_s`."""
-    return reply_window_s(link, reply_bits)
+def _ack_delays(link) -> _AckDelays:
+    """From an RN16 reply's start to the ACK [s]: the reply (16 bits at the nominal BLF) and
+    T2 = 10 Tpri, inside the Gen2 3–20 Tpri window."""
+    return _AckDelays(reply_s=link.reply_duration_s(16), t2_s=10.0 * link.tpri_s)
 
 
-@functools.lru_cache(maxsize=256)
 def _delayed_window_s(link, reply_bits: int) -> float:
     """CW after a command awaiting a delayed reply [s]: :func:`rfsim.gen2.link.delayed_reply_window_s`
     of the longer of the expected reply and an error reply."""
     return delayed_reply_window_s(link, max(reply_bits, ERROR_REPLY_BITS))
-
-
-@functools.lru_cache(maxsize=64)
-def _t5_range(link):
-    """T5 (a delayed reply's start after the command) of a profile: :func:`rfsim.gen2.link.t5`."""
-    return t5(link)
 
 
 class ReaderPort:
@@ -871,8 +867,8 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     acks, t_acks = [], []
     for b in go:
         acks.append(ACK(bits_to_int(first[b].read.bits)))
-        reply_s, t2_s = _ack_delays_s(readers[b].link)
-        t_acks.append(first[b].read.start_s + reply_s + t2_s)
+        delays = _link_time(readers[b], _ack_delays)
+        t_acks.append(first[b].read.start_s + delays.reply_s + delays.t2_s)
     second = run_exchanges([readers[b] for b in go], [tags[b] for b in go], [channels[b] for b in go], acks,
                            t_s=t_acks, rngs=[rngs[b] for b in go], reply_bits=epc_bits, expect_crc=True,
                            motions=motions, round_index=[rounds[b] for b in go], draw_channel=False,

@@ -77,13 +77,32 @@ def reply_waveform_reference(
 
 def halfbit_sums_reference(y, start, elements_per_sample, m, n_halfbits) -> np.ndarray:
     """Plain-NumPy twin of the half-bit matched-filter kernel."""
-    n = np.arange(max(0, int(math.ceil(start))), y.size)
+    n, h, ok, sign = _halfbit_samples(y.size, start, elements_per_sample, m, n_halfbits)
+    return np.bincount(h[ok], weights=(y[n] * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+
+
+def _halfbit_samples(size, start, elements_per_sample, m, n_halfbits):
+    """The samples n ≥ ⌈start⌉ of a reply from ``start``, their half-bit h = k // m (k the
+    element), whether they lie in the first ``n_halfbits`` half-bits, and their subcarrier sign."""
+    n = np.arange(max(0, int(math.ceil(start))), size)
     u = (n - start) * elements_per_sample
     k = np.floor(u + INDEX_EPS).astype(np.int64)
     h = k // m
     ok = (u >= 0) & (h < n_halfbits)
     sign = np.where((m > 1) & (k % 2 == 1), -1.0, 1.0)
-    return np.bincount(h[ok], weights=(y[n] * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+    return n, h, ok, sign
+
+
+def signed_halfbit_sums_reference(part, start, elements_per_sample, m, n_halfbits) -> tuple[np.ndarray, np.ndarray]:
+    """Plain-NumPy twin of the signed half-bit sums kernel: per half-bit, S = Σ σ·part (complex)
+    and C = Σ σ, σ the subcarrier sign of the sample's element (the samples of
+    :func:`halfbit_sums_reference`); ``numpy.bincount`` adds its weights in sample order."""
+    n, h, ok, sign = _halfbit_samples(part.size, start, elements_per_sample, m, n_halfbits)
+    z = part[n]
+    s_re = np.bincount(h[ok], weights=(z.real * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+    s_im = np.bincount(h[ok], weights=(z.imag * sign)[ok], minlength=n_halfbits)[:n_halfbits]
+    c = np.bincount(h[ok], weights=sign[ok], minlength=n_halfbits)[:n_halfbits]
+    return s_re + 1j * s_im, c
 
 
 def bitwise_reference(a, b, miller: bool) -> np.ndarray:

@@ -7,14 +7,15 @@ receiver's steps as NumPy calls of the sample-level decoder)."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.air._noise_kernels import _standard_normals
+from rfsim.air._noise_kernels import _next_double, _standard_normals
 from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
-from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_kernel,
+from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           signed_halfbit_sums_kernel, viterbi_kernel,
                                           waveform_kernel)
 
@@ -186,12 +187,43 @@ def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, r
 FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: Slots of the results ``res`` of :func:`receive_kernel`.
 (RES_STATUS, RES_START, RES_CORR, RES_C_RE, RES_C_IM, RES_I0, RES_N_FREE, RES_N_USED, RES_N_SPAN, RES_H_RE, RES_H_IM,
- RES_SLOPE, RES_SIGMA2) = range(13)
-#: Slots of the content memo ``memo`` of :func:`receive_kernel`: the start whose piece map the
-#: ``pm_*`` arrays hold and its number of pieces (−1: none yet); the start [samples] and
-#: validity (1) of the reference waveform ``wf_full`` of the bits ``wf_bits``; the validity (1),
-#: reply start i0 and span of the block cuts in ``cut_memo`` (:func:`_cuts`).
+ RES_SLOPE, RES_SIGMA2, RES_GAMMA_LEFT) = range(14)
+#: Slots of ``Memo.flags``: the start whose piece map the ``pm_*`` arrays hold and its number
+#: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
+#: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
+#: cuts in ``cut_memo`` (:func:`_cuts`).
 MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN = range(7)
+
+
+class PlanArrays(NamedTuple):
+    """The arrays :func:`receive_kernel` reads from a reply's plan (the decoder's search
+    template and refinement bank, the preamble)."""
+
+    t0: np.ndarray  # (pre_n,) float64: the search template at offset 0
+    shifts: np.ndarray  # (17,) float64: the refinement's sub-sample shifts
+    templates: np.ndarray  # (17, ·) float64: the refinement bank
+    norms: np.ndarray  # (17,) float64: its norms
+    pre_el: np.ndarray  # (n_pre_elements,) float64: the preamble's elements
+    pre_levels: np.ndarray  # (·,) int8: the preamble's half-bit levels
+    run_begin: np.ndarray  # the refinement bank's runs of equal values (rfsim.gen2.linecode._refine_runs)
+    run_value: np.ndarray
+    n_runs: np.ndarray
+    same_as_previous: np.ndarray
+
+
+class Memo(NamedTuple):
+    """The content memo of :func:`receive_kernel` for one plan, input length n and search
+    window (pure functions of what ``flags`` names, checked by :func:`_pieces`,
+    :func:`_reference` and :func:`_cuts` on every call)."""
+
+    flags: np.ndarray  # (7,) float64: the MEMO_* slots
+    pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
+    pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
+    pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
+    pm_sizes: np.ndarray  # (n − b1,) float64: the samples of each piece (first n_pieces used)
+    wf_bits: np.ndarray  # (n_bits,) uint8: the bits of the reference in wf_full
+    wf_full: np.ndarray  # (n,) float64: their ±1 reference (0 outside the reply)
+    cut_memo: np.ndarray  # (6, max(n_blocks − 1, 3)) int64: the block cuts (:func:`_cuts`)
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
 OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
@@ -234,10 +266,12 @@ def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
 
 
 @njit
-def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
+def _search(st, r, ip, fp, plan, ki, wi, fi):
     """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
     samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
-    then the decoder's preamble search over the block less the mean of ``r[:lo]``. Returns
+    then the decoder's preamble search (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`,
+    the sample-level decoder's, with the :class:`PlanArrays` ``plan``) over the block less the mean
+    of ``r[:lo]``. Returns
     (that mean, the reply start relative to ``lo`` [samples])."""
     lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
     sizes0 = np.ones(head + b1 - b0)
@@ -257,8 +291,10 @@ def _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi):
     w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
     for i in range(lo, b1):
         w[i - lo] = r[i] - dc0
-    lag, best, start_rel = preamble_search_kernel(w, ip[IP_N_SEARCH], t0, fp[FP_RUNS_PER_SAMPLE],
-                                                  ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], shifts, templates, norms)
+    lag, best, start_rel = preamble_search_runs_kernel(w, ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
+                                                       ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], plan.shifts,
+                                                       plan.templates, plan.norms, plan.run_begin, plan.run_value,
+                                                       plan.n_runs, plan.same_as_previous)
     return dc0, (float(lag) if best < 0 else start_rel)
 
 
@@ -382,37 +418,86 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
 
 
 @njit
-def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_levels, bits_out, z_out, s_out, res,
-                   memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, wf_bits, wf_full, cut_memo, ki, wi, fi):
-    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive`, steps 1–4
-    in one call (its module docstring), the draws from the PCG64 state ``st`` (advanced in place)
-    in the order of the NumPy steps.
+def standard_gamma_kernel(st, shape, ki, wi, fi):
+    """A standard Gamma(``shape``) draw, ``shape`` > 1, from the PCG64 state ``st`` (advanced in
+    place): NumPy's ``Generator.gamma(shape)`` draw for draw (Marsaglia and Tsang 2000, "A simple
+    method for generating gamma variables", ACM TOMS 26(3), as NumPy's
+    ``random_standard_gamma``): b = shape − 1/3, c = 1/√(9b); X a standard normal (the
+    ziggurat of :func:`rfsim.air._noise_kernels._standard_normals`) redrawn while V = 1 + cX ≤ 0;
+    V = V³, U uniform on [0, 1) (53 bits); accept b·V when U < 1 − 0.0331·X⁴ or
+    log U < X²/2 + b·(1 − V + log V), else draw again."""
+    b = shape - 1.0 / 3.0
+    c = 1.0 / math.sqrt(9.0 * b)
+    z = np.empty(1)
+    while True:
+        while True:
+            _standard_normals(st, z, ki, wi, fi)
+            x = z[0]
+            v = 1.0 + c * x
+            if v > 0.0:
+                break
+        v = v * v * v
+        u = _next_double(st)
+        if u < 1.0 - 0.0331 * (x * x) * (x * x):
+            return b * v
+        if np.log(u) < 0.5 * x * x + b * (1.0 - v + np.log(v)):
+            return b * v
 
-    ``r`` (n,) complex: the noise-free input on entry; on return the receiver's input after the
-    DC subtraction, the noise added. ``ip``, ``fp``: the integer and float parameters (slots
-    ``IP_*``, ``FP_*``); ``t0``, ``shifts``, ``templates``, ``norms``: the decoder's search
-    template and refinement bank; ``pre_el`` (float64) and ``pre_levels`` (int8): the preamble's
-    elements and half-bit levels; ``memo`` and the ``pm_*`` ((n − b1,)), ``wf_*`` ((n_bits,)
-    uint8, (n,)) and ``cut_memo`` arrays: the content memo of :func:`_pieces`, :func:`_reference`
-    and :func:`_cuts` (kept by the caller for this plan, input length and search window). Writes the decoded bits into ``bits_out``
-    ((n_bits + 1,) uint8), the reply span r − c and its ±1 reference (0 outside the reply) into
-    ``z_out``, ``s_out`` ((n_reply + 4,), ``res[RES_N_SPAN]`` of them used), measures them
-    (:func:`rfsim.gen2._measure_kernels.measure_kernel`), and writes the status, the reply
-    start (relative to ``lo``), the correlation, c, i0, the in-piece degrees of freedom, the
-    measurement's sample count and its gain h, phase slope and residual power into ``res``
-    (slots ``RES_*``)."""
+
+@njit
+def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+    """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive_many`, steps
+    1–4 and step 6's draw (its module docstring) for the trials ``trial[0], trial[0] + 1, …`` of one
+    plan, input length and search window in one call, the draws from the PCG64 state in
+    ``st`` (advanced in place) trial after trial in the order of the NumPy steps.
+
+    ``st`` (4,) uint64: the generator's state in the noise kernels' order (state high, low word,
+    increment high, low word; :func:`rfsim.air._noise_kernels._pcg64_state`). ``xs`` (B, n)
+    complex: the noise-free inputs. ``r`` (n,) complex: scratch; on return the last trial's
+    input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
+    parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
+    ``memo``: the :class:`Memo` of the plan, input length and search window. Per trial b:
+    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c and its
+    ±1 reference (0 outside the reply) into ``z_out``, ``s_out`` ((n_reply + 4,), scratch,
+    ``res[b, RES_N_SPAN]`` of them used), measured by
+    :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
+    ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
+    in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
+    residual power (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the
+    degrees of freedom are 1 or fewer its shape is left in ``res[b, RES_GAMMA_LEFT]`` for the
+    caller to draw with NumPy). Stops after a trial that leaves a draw to the caller or fails
+    with a status the caller raises (ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM), so that the draws
+    stay in trial order. ``trial`` (1,) int64: on entry the first trial, on return the index
+    after the last trial done."""
+    b = trial[0]
+    while b < xs.shape[0]:
+        r[:] = xs[b]
+        _receive(st, r, ip, fp, plan, bits_out[b], z_out, s_out, res[b], memo, ki, wi, fi)
+        b += 1
+        if res[b - 1, RES_GAMMA_LEFT] > 0 or res[b - 1, RES_STATUS] >= ZERO_GAIN:
+            break
+    trial[0] = b
+
+
+@njit
+def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+    """:func:`receive_kernel`'s steps for one trial (``r`` its input, ``bits_out`` and ``res`` its
+    rows) on the state ``st`` in the noise kernels' order."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
+    flags = memo.flags
     n = r.size
     n_pre_half = nh - 2 * (n_bits + 1)
-    dc0, start_rel = _search(st, r, ip, fp, t0, shifts, templates, norms, ki, wi, fi)
+    res[RES_GAMMA_LEFT] = 0.0
+    dc0, start_rel = _search(st, r, ip, fp, plan, ki, wi, fi)
     start = lo + start_rel
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again
-    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], memo, pm_piece_of, pm_sign, pm_kind, pm_sizes)
+    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of, memo.pm_sign, memo.pm_kind,
+                  memo.pm_sizes)
     n_q = max(n - b1, 0)
-    piece_of, sign, kind, sizes = pm_piece_of[:n_q], pm_sign[:n_q], pm_kind[:n_p], pm_sizes[:n_p]
+    piece_of, sign, kind, sizes = memo.pm_piece_of[:n_q], memo.pm_sign[:n_q], memo.pm_kind[:n_p], memo.pm_sizes[:n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
@@ -422,7 +507,7 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
     i0 = lo + lag
-    corr, h, dcp = _preamble_fit(r[i0: i0 + ip[IP_N_PRE]], frac, pre_el, ratio)
+    corr, h, dcp = _preamble_fit(r[i0: i0 + ip[IP_N_PRE]], frac, plan.pre_el, ratio)
     res[RES_CORR] = corr
     if h == 0:
         res[RES_STATUS] = ZERO_GAIN
@@ -437,8 +522,8 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
         return
     # (h, c) on the known levels of the reference of the search's decisions
     t0_samples = start / fs * fs
-    full = wf_full
-    _reference(det_bits[:n_bits], t0_samples, ratio, m, pre_levels, state, memo, wf_bits, full)
+    full = memo.wf_full
+    _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
     h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
@@ -460,14 +545,20 @@ def receive_kernel(st, r, ip, fp, t0, shifts, templates, norms, pre_el, pre_leve
     for i in range(n_bits):
         same = same and bits_out[i] == det_bits[i]
     if not same:
-        _reference(bits_out[:n_bits], t0_samples, ratio, m, pre_levels, state, memo, wf_bits, full)
+        _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
     for i in range(n_span):
         s_out[i] = full[i0 + i]
     n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
-                                  ip[IP_N_BLOCKS], memo, cut_memo, ki, wi, fi)
+                                  ip[IP_N_BLOCKS], flags, memo.cut_memo, ki, wi, fi)
     for i in range(n_span):
         z_out[i] = r[i0 + i] - c
     gain, slope, resid = measure_kernel(z_out[:n_span], s_out[:n_span], fs, ip[IP_N_BLOCKS])
+    # step 6: the in-piece noise energy σ²·Gamma(n_free)/n_used, where the SNR is finite
+    if resid > 0.0 and abs(gain) ** 2 > 0.0 and n_used > 0 and n_free > 0:  # (as Reader._measurements)
+        if n_free > 1.0:
+            resid = resid + sigma2 * standard_gamma_kernel(st, n_free, ki, wi, fi) / n_used
+        else:
+            res[RES_GAMMA_LEFT] = n_free
     res[RES_H_RE], res[RES_H_IM], res[RES_SLOPE], res[RES_SIGMA2] = gain.real, gain.imag, slope, resid
     res[RES_N_FREE] = n_free
     res[RES_N_USED] = n_used

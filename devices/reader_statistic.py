@@ -38,10 +38,22 @@ Step by step (the steps of :meth:`Reader.receive`):
    of that stretch are two pieces (the known-level fit reads from sample 1 on). **Exact.**
 2. Preamble search, sub-sample refinement and the normalised correlation: noise drawn **per
    sample** over the search block (every sample a searched lag's window or a refinement reads,
-   plus a margin of :data:`SEARCH_MARGIN` samples). The search block is where the receiver reads
-   overlapping windows at every lag and a quadratic form (the window's energy in the
-   normalisation): drawing it per sample is the only exact way and costs ≈ 550 samples per
-   reply. **Exact** (the same model, drawn the same way).
+   plus a margin of :data:`SEARCH_MARGIN` samples, ≈ 550 samples per reply). **Exact** (the same
+   model, drawn the same way). The search's own decisions are linear: the integer-lag
+   correlations C_l = Σ_i w_{l+i}·t0_i and the refinement's R_{c,j} = Σ_i w_{c+i}·T_{j,i} (w the
+   input less the DC estimate, which the zero-mean templates cancel) are jointly Gaussian given
+   ``x``, C with the Toeplitz covariance σ²·Σ_i t0_i·t0_{i+l'−l} and R at the chosen candidates
+   conditionally Gaussian given C, so drawing (C, then R) instead of samples is exact for the
+   search. What else reads the block is what keeps it per sample: the normalised correlation
+   of the preamble fit at the found start (a quadratic form, Σ|seg − mean|², over samples the
+   drawn correlations do not determine: exact only with the noise's projections on the
+   segment's noise-free part drawn conditionally and a σ²/2·χ² of the remaining dimensions) and
+   the half-bit, known-level and measurement sums of the reply samples inside the block (piece
+   sums conditioned on C and R). All conditional Gaussians, so exact in distribution, but the
+   conditioning needs a Cholesky factor over the L searched lags (L ≈ the block less the
+   preamble's samples; kept by content per plan) and costs ≈ L²/2 multiply-adds per reply
+   against the ≈ 550 normals and the correlation by runs the per-sample draw needs: not faster,
+   so not done.
 3. Gain/offset fit on the known levels, the search's own decisions and the final decisions
    (half-bit sums, Viterbi), CRC: functionals of piece sums. **Exact.** The pieces depend on the
    reply start the search found, so the search block is drawn first, the start found, then the
@@ -69,43 +81,49 @@ Step by step (the steps of :meth:`Reader.receive`):
 Noise stream: the air adds no noise to a statistic-level reader's input (its
 :meth:`Reader.noise_power_w` is 0 for the air step); the receiver draws from its own generator
 (a PCG64 one), spawned from the reader's ``rng`` when the reader is made, in the order of its
-``receive`` calls, so a run is reproducible from its seed, but its records differ from the
-sample-level model draw by draw (the same distribution). Per call the draws are, in order: the
-search block's (one (2, k) block of standard normals), the pieces' sums (one (2, n_pieces)
-block), the bridges' (one (2, 2·cuts) block, when a block edge cuts a piece), the Gamma of
-step 6.
+``receive`` calls (:func:`receive_many`: in trial order, the same draws), so a run is
+reproducible from its seed, but its records differ from the sample-level model draw by draw
+(the same distribution). Per call the draws are, in order: the search block's (one (2, k)
+block of standard normals), the pieces' sums (one (2, n_pieces) block), the bridges' (one
+(2, 2·cuts) block, when a block edge cuts a piece), the Gamma of step 6 (NumPy's
+``Generator.gamma`` draw, made in the kernel for more than one degree of freedom, by NumPy
+otherwise).
 
-Implementation: steps 1–4 run in one numba call
-(:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
+Implementation: steps 1–4 and the draw of step 6 run in one numba call per batch of trials
+(:func:`receive_many`; :func:`receive` is a batch of one;
+:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
-the same order as ``rng.standard_normal``), searches with the decoder's own kernel and
-template bank, forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project
-them: Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the
-reader's measurement kernel; Python builds the :class:`ReadResult`. What depends only on
-the link, the reply's length, the BLF and the sample rate (templates, refinement bank, sizes)
-is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the
-link), and per search window (:class:`_Call`) what depends only on content: the piece map of
-the last reply start, the reference of the last decided bits, the block cuts of the last span,
-and the CRC check of decoded bits (pure functions of their keys, checked on every call: the
-same numbers as made anew). The NumPy twin of the steps (the sample-level decoder's
-calls on ``x + ñ``) is ``reference.devices_reader_statistic.receive_reference`` in the tests:
-the same draws, decisions and generator state, the measurements equal up to the order of
-the sums.
+the same order as ``rng.standard_normal``; the state read from and written back to the
+generator once per kernel call), searches with the sample-level decoder's own kernel and template bank,
+forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project them:
+Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the reader's
+measurement kernel; Python applies the reader's measurement rule (``Reader._measurements``) to
+the gain, slope and residual power and builds the :class:`ReadResult`. What depends only on the
+link, the reply's length, the BLF and the sample rate (templates, refinement bank and its runs,
+sizes) is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from
+the link), and per search window (:class:`_Call`) what depends only on content
+(:class:`~rfsim.devices._reader_statistic_kernels.Memo`): the piece map of the last reply start,
+the reference of the last decided bits, the block cuts of the last span; and the CRC check of
+decoded bits (pure functions of their keys, checked on every call: the same numbers as made
+anew). The NumPy twin of the steps (the sample-level decoder's calls on ``x + ñ``) is
+``reference.devices_reader_statistic.receive_reference`` in the tests: the same draws,
+decisions and generator state, the measurements equal up to the order of the sums.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
-320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample passes
-over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's measurement; the
-piece map, the reference and the block cuts only when their content changes) and the decoder's
-search with its sub-sample refinement (5 candidates × 17 shifts × the preamble's samples)
-(``rfsim bench exchange-statistic``). A
-receiver without per-sample passes would form the half-bit, block and fit sums of ``x`` per
-piece (or keep them by content where ``x`` repeats) and replace the search block's per-sample
-draw by a draw of the searched lags' correlations (conditionally Gaussian given the integer-lag
-ones).
+320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample
+passes over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's
+measurement; the piece map, the reference and the block cuts only when their content changes)
+and the decoder's search with its sub-sample refinement (``rfsim bench exchange-statistic``):
+≈ 150 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
+reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would change in the last
+bit for ≈ 7 % of values, and with it the sample-level records). A receiver without per-sample
+passes would form the half-bit, block and fit sums of ``x`` per piece (or keep them by content
+where ``x`` repeats); the search block stays per sample (step 2).
 """
 
 from __future__ import annotations
 
+import cmath
 import math
 from typing import NamedTuple
 
@@ -115,15 +133,15 @@ from rfsim.core.lazy import lazy_import
 from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.crc import crc16_ok
 # the decoder's own preamble, search template and refinement bank (the same search)
-from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _template,
-                                 elements_of_levels, reply_duration_s)
+from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _refine_runs,
+                                 _template, elements_of_levels, reply_duration_s)
 from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult
 
 _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
 _nk = lazy_import("rfsim.air._noise_kernels")  # NumPy's normals drawn in a kernel from a PCG64 state
 
 __all__ = ["RX_MODELS", "SEARCH_MARGIN", "piece_map", "draw_piece_sums", "spread", "bridge_split",
-           "block_cuts", "residual_correction", "receive"]
+           "block_cuts", "residual_correction", "refer_phase", "receive", "receive_many"]
 
 #: Receiver models of ``ReaderConfig.rx_model``.
 RX_MODELS = ("sample", "statistic")
@@ -293,7 +311,7 @@ class _Plan(NamedTuple):
     n_elements: int
     ratio: float  # elements per sample, 2·BLF/fs
     ints: np.ndarray  # the plan's slots of receive_kernel's ``ip``
-    arrays: tuple  # t0, shifts, templates, norms, preamble elements (float64), preamble levels (int8)
+    arrays: "_sk.PlanArrays"  # the search template, refinement bank and preamble
 
 
 def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
@@ -315,41 +333,58 @@ def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) ->
                         (_sk.IP_N_BLOCKS, DOPPLER_BLOCKS)):
         ints[slot] = value
     templates, norms = _refine_bank(m, trext, ratio)
-    arrays = tuple(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates, norms,
-                                         elements_of_levels(levels, m, np.float64)))
-    return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, (*arrays, np.array(levels, np.int8)))
+    arrays = _sk.PlanArrays(*(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates,
+                                                     norms, elements_of_levels(levels, m, np.float64))),
+                            np.array(levels, np.int8), *(np.array(a) for a in _refine_runs(m, trext, ratio)))
+    return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, arrays)
 
 
-class _Call:
-    """What :func:`receive` keeps for one plan, input length and search window: the kernel's
-    integer parameters, its scratch arrays (the input, the reply span and its reference,
-    rewritten by every call) and its content memo (the piece map of the last start, the reference of the last bits
-    and start: pure functions of them for this plan and window, checked by the kernel)."""
+class _Call(NamedTuple):
+    """What :func:`receive` keeps for one plan, input length and search window
+    (:func:`_make_call`): the kernel's integer parameters, its scratch arrays (rewritten by every
+    call) and its content memo."""
 
-    def __init__(self, plan: _Plan, n: int, lo: int, hi: int):
-        last = min(n - lo - plan.n_decode, hi - lo)
-        self.last = last
-        b1 = min(n, lo + last + int(math.floor(plan.n_pre_elements / plan.ratio)) + SEARCH_MARGIN)
-        b0 = max(0, lo - SEARCH_MARGIN)
-        self.ip = plan.ints.copy()
-        self.ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = (lo, b0, b1, min(b0, 2),
-                                                                                      last + plan.pre_n)
-        n_q = max(n - b1, 0)
-        n_bits = int(plan.ints[_sk.IP_N_BITS])
-        self.r = np.empty(n, np.complex128)
-        self.scratch = (np.empty(plan.n_reply + 4, np.complex128), np.zeros(plan.n_reply + 4))
-        k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
-        self.memo = (np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
-                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(n_bits, np.uint8), np.zeros(n),
-                     np.zeros((6, max(k, 3)), np.int64))
+    last: int  # the last searched lag less lo (< 0: the input is shorter than the reply)
+    ip: np.ndarray  # receive_kernel's integer parameters
+    r: np.ndarray  # (n,) complex128: the kernel's input buffer (it adds the noise in place)
+    z: np.ndarray  # (n_reply + 4,) complex128: the reply span r − c
+    s: np.ndarray  # (n_reply + 4,) float64: its ±1 reference
+    memo: "_sk.Memo"  # the piece map of the last start, the reference of the last bits, the cuts
+
+
+def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
+    """The :class:`_Call` of ``plan`` on ``n`` samples searched over the lags ``lo … hi``."""
+    last = min(n - lo - plan.n_decode, hi - lo)
+    b1 = min(n, lo + last + int(math.floor(plan.n_pre_elements / plan.ratio)) + SEARCH_MARGIN)
+    b0 = max(0, lo - SEARCH_MARGIN)
+    ip = plan.ints.copy()
+    ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = (lo, b0, b1, min(b0, 2), last + plan.pre_n)
+    n_q = max(n - b1, 0)
+    k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
+    memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
+                    np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
+                    np.zeros(n), np.zeros((6, max(k, 3)), np.int64))
+    return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128),
+                 np.zeros(plan.n_reply + 4), memo)
+
+
+def _kept(table: dict, key, make, *args):
+    """``table[key]``, made as ``make(*args)`` when it is missing (a pure function of ``key``);
+    the table is cleared when it holds :attr:`_Plans.SIZE` entries (a bounded memo)."""
+    hit = table.get(key)
+    if hit is None:
+        if len(table) >= _Plans.SIZE:
+            table.clear()
+        hit = table[key] = make(*args)
+    return hit
 
 
 class _Plans:
     """The receiver's plans of one link profile (:class:`_Plan` by reply bits, BLF and sample
-    rate; :class:`_Call` by plan, input length and search window) and the CRC checks of the
-    decoded replies (by their bits), kept in the run's :class:`~rfsim.air.cache.AirCache`
-    (:meth:`~rfsim.air.cache.AirCache.derived` of the link), each table bounded (cleared when
-    full)."""
+    rate; :class:`_Call` by those, input length and search window) and the CRC checks of the
+    decoded replies (by their bits: a 128-bit check costs ≈ 7 µs, a lookup 0.3 µs), kept in the
+    run's :class:`~rfsim.air.cache.AirCache` (:meth:`~rfsim.air.cache.AirCache.derived` of the
+    link), each table a bounded memo (:func:`_kept`)."""
 
     #: Entries per table.
     SIZE = 64
@@ -360,37 +395,6 @@ class _Plans:
         self.calls: dict = {}
         self.crcs: dict = {}
 
-    def crc16_ok(self, bits: np.ndarray) -> bool:
-        """:func:`rfsim.gen2.crc.crc16_ok` of the decoded ``bits`` ((n,) uint8 0/1), by their content."""
-        key = bits.tobytes()
-        hit = self.crcs.get(key)
-        if hit is None:
-            if len(self.crcs) >= self.SIZE:
-                self.crcs.clear()
-            hit = self.crcs[key] = crc16_ok(bits)
-        return hit
-
-    def plan(self, n_bits: int, blf_hz: float, fs_hz: float) -> _Plan:
-        """The :class:`_Plan` of a reply of ``n_bits`` data bits at ``blf_hz``, ``fs_hz``."""
-        key = (n_bits, blf_hz, fs_hz)
-        hit = self.plans.get(key)
-        if hit is None:
-            if len(self.plans) >= self.SIZE:
-                self.plans.clear()
-            hit = self.plans[key] = _make_plan(self.m, self.trext, n_bits, blf_hz, fs_hz)
-        return hit
-
-    def call(self, plan: _Plan, n_bits: int, blf_hz: float, fs_hz: float, n: int, lo: int, hi: int) -> _Call:
-        """The :class:`_Call` of ``plan`` (that of ``n_bits``, ``blf_hz``, ``fs_hz``) on ``n`` samples
-        searched over the lags ``lo … hi``."""
-        key = (n_bits, blf_hz, fs_hz, n, lo, hi)
-        hit = self.calls.get(key)
-        if hit is None:
-            if len(self.calls) >= self.SIZE:
-                self.calls.clear()
-            hit = self.calls[key] = _Call(plan, n, lo, hi)
-        return hit
-
 
 #: The ValueError of each failure status of the kernel (those the sample-level decoder raises).
 #: (status codes ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM of the kernel module)
@@ -399,30 +403,13 @@ _RAISES = {2: "zero channel gain: no reply to decode",
            4: "the decoded start leaves no room for the reply"}
 
 
-def _complete(meas: dict, n_free: int, n_used: int, sigma2: float, carrier, rng: np.random.Generator) -> None:
-    """Step 6 on the measurement ``meas`` (the reader's dict, in place): the in-piece noise energy
-    (:func:`residual_correction`, ``n_free`` degrees of freedom over ``n_used`` samples) added to
-    the residual behind its SNR and Eb/N0; then the phase referred to ``carrier``."""
-    if math.isfinite(meas["snr_db"]) and n_used > 0:
-        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
-        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + residual_correction(n_free, sigma2, n_used, rng=rng)
-        snr = 10.0 * math.log10(p / s2)
-        meas["ebn0_db"] += snr - meas["snr_db"]
-        meas["snr_db"] = snr
-    if carrier is not None and complex(carrier) != 0:
-        meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-
-
 def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
             blf_hz: float | None = None, carrier: complex | None = None,
             rng: np.random.Generator) -> ReadResult:
     """Receive ``x + n`` with the noise drawn as the statistics the receiver reads.
 
     :meth:`rfsim.devices.reader.Reader.receive` at statistic level (module docstring, steps
-    1–6; the BLF search is not modelled): steps 1–4 in one numba call
-    (:func:`rfsim.devices._reader_statistic_kernels.receive_kernel`, which draws NumPy's normals
-    from ``rng``'s PCG64 state), the measurement in a second (the reader's), the Gamma draw of
-    step 6 from ``rng`` itself.
+    1–6; the BLF search is not modelled): :func:`receive_many` of a batch of one.
 
     Parameters
     ----------
@@ -430,17 +417,9 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
         The reader (its link, sample rate, noise figure, thresholds and measurement step).
     x : ndarray of complex, shape (n,)
         The noise-free waveform at the RX port [√W].
-    t0_s : float
-        Keyword-only (like the others): absolute time of ``x[0]`` [s].
-    n_bits : int
-        Data bits of the reply.
-    expect_crc : bool
-        Check the last 16 bits as CRC-16 over the reply.
-    cmd_end_s : float or None, optional
-        End of the command [s] (the search window as in :meth:`Reader.receive`); default
-        None, anywhere.
-    blf_hz : float or None, optional
-        The tag's BLF [Hz]; default None, the profile's nominal BLF.
+    t0_s, n_bits, expect_crc, cmd_end_s, blf_hz
+        Keyword-only (like the others): as in :func:`receive_many` (``t0_s`` the time of
+        ``x[0]`` [s]).
     carrier : complex or None, optional
         The reader's transmitted baseband during the reply window, the phase reference;
         default None (phase 0).
@@ -455,47 +434,139 @@ def receive(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s:
     Raises
     ------
     ValueError
-        When ``x`` is not 1-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
-        where the sample-level decoder raises (no room for the reply, a zero gain).
+        When ``x`` is not 1-D, or as :func:`receive_many`.
     """
     r = np.asarray(x)
     if r.ndim != 1:
         raise ValueError(f"rx must be 1-D, got shape {r.shape}")
+    return receive_many(reader, r[None], t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+                        blf_hz=blf_hz, carriers=(carrier,), rng=rng)[0]
+
+
+def receive_many(reader, xs, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
+                 blf_hz: float | None = None, carriers=None, rng: np.random.Generator) -> list[ReadResult]:
+    """Receive B inputs of one reply plan and search window, the noise drawn as the statistics
+    the receiver reads: the batch entry of the statistic-level receiver.
+
+    Trial b is :func:`receive` of ``xs[b]`` with ``carrier=carriers[b]`` and the same ``rng``,
+    the trials in order: the same draws, decisions and results as B calls of :func:`receive`
+    (steps 1–4 and step 6's draw for all trials in one numba call,
+    :func:`rfsim.devices._reader_statistic_kernels.receive_kernel`, which draws NumPy's normals
+    and Gamma from ``rng``'s PCG64 state; a trial that leaves a draw to NumPy or raises ends the
+    call and the next call goes on from the trial after it), then per trial the reader's
+    measurement rule (``Reader._measurements``) on its gain, slope and residual power. A batched
+    caller (B trials of one command whose reader inputs share their length and time base) calls
+    this once instead of :func:`receive` B times.
+
+    Parameters
+    ----------
+    reader : rfsim.devices.reader.Reader
+        The reader (its link, sample rate, noise figure, thresholds and measurement step).
+    xs : ndarray of complex, shape (B, n)
+        The noise-free waveforms at the RX port [√W], one row per trial.
+    t0_s : float
+        Keyword-only (like the others): absolute time of ``xs[:, 0]`` [s].
+    n_bits : int
+        Data bits of the reply.
+    expect_crc : bool
+        Check the last 16 bits as CRC-16 over the reply.
+    cmd_end_s : float or None, optional
+        End of the command [s] (the search window as in :meth:`Reader.receive`); default
+        None, anywhere.
+    blf_hz : float or None, optional
+        The tags' BLF [Hz]; default None, the profile's nominal BLF.
+    carriers : sequence of complex or None, optional
+        Per trial the reader's transmitted baseband during the reply window, the phase
+        reference (None entries or ``carriers=None``: phase 0).
+    rng : numpy.random.Generator
+        The receiver's noise generator (a PCG64 one).
+
+    Returns
+    -------
+    list of ReadResult
+        One per trial, as :meth:`Reader.receive` (failure reasons "preamble not found" or "crc
+        error").
+
+    Raises
+    ------
+    ValueError
+        When ``xs`` is not 2-D, ``blf_hz`` is not positive, ``rng`` is not a PCG64 Generator, or
+        where the sample-level decoder raises (no room for the reply, a zero gain; the trials
+        before the failing one drawn, as B calls of :func:`receive` would).
+    """
+    xs = np.ascontiguousarray(xs, dtype=np.complex128)
+    if xs.ndim != 2:
+        raise ValueError(f"xs must be 2-D (trials, samples), got shape {xs.shape}")
     if type(rng) is not np.random.Generator or type(rng.bit_generator) is not np.random.PCG64:
         raise ValueError(f"the statistic-level receiver draws from a PCG64 Generator, got {rng!r}")
-    n_bits = int(n_bits)
+    n_bits, (n_trials, n) = int(n_bits), xs.shape
     lk, fs = reader.link, reader.fs_hz
     sigma2 = reader._fixed().noise_w  # k·T0·fs·F, the sample-level model's noise power
     blf = lk.blf_hz if blf_hz is None else float(blf_hz)
     if not blf > 0:
         raise ValueError(f"blf_hz must be > 0, got {blf_hz}")
     plans = reader.air_cache.derived(lk, _Plans)  # the run's, by the (frozen) link profile
-    plan = plans.plan(n_bits, blf, fs)
-    lo, hi = reader.reply_start_lags(r.size, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+    plan = _kept(plans.plans, (n_bits, blf, fs), _make_plan, plans.m, plans.trext, n_bits, blf, fs)
+    lo, hi = reader.reply_start_lags(n, plan.n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
     if hi < lo or plan.pre_n < 3:
-        return ReadResult(False, None, "preamble not found")
-    call = plans.call(plan, n_bits, blf, fs, r.size, lo, hi)
+        return [ReadResult(False, None, "preamble not found") for _ in range(n_trials)]
+    call = _kept(plans.calls, (n_bits, blf, fs, n, lo, hi), _make_call, plan, n, lo, hi)
     if call.last < 0:
-        raise ValueError(f"input of {r.size - lo} samples is shorter than the reply ({plan.n_decode} samples)")
+        raise ValueError(f"input of {n - lo} samples is shorter than the reply ({plan.n_decode} samples)")
     fp = np.array([sigma2, plan.ratio, fs, reader.detection_threshold(hi - lo + 1, blf), _RUNS_PER_SAMPLE_MAX])
-    bits, res = np.zeros(n_bits + 1, np.uint8), np.zeros(13)
-    full, st = _nk._pcg64_state(rng)
-    np.copyto(call.r, r)  # the kernel adds the noise in place: into the call's own buffer
-    _nk._run_compiled(_sk.receive_kernel, st, call.r, call.ip, fp, *plan.arrays, bits, *call.scratch, res, *call.memo)
-    _nk._set_pcg64_state(rng, full, st)
+    bits, res = np.zeros((n_trials, n_bits + 1), np.uint8), np.zeros((n_trials, 14))
+    out: list = []
+    trial = np.zeros(1, np.int64)
+    while len(out) < n_trials:
+        full, st = _nk._pcg64_state(rng)
+        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
+                          call.s, res, call.memo)
+        _nk._set_pcg64_state(rng, full, st)
+        for b in range(len(out), int(trial[0])):
+            out.append(_result(reader, bits[b, :n_bits], res[b], lo, float(t0_s), sigma2, blf, expect_crc,
+                               None if carriers is None else carriers[b], plans, rng))
+    return out
+
+
+def _result(reader, bits: np.ndarray, res: np.ndarray, lo: int, t0_s: float, sigma2: float, blf: float,
+            expect_crc: bool, carrier, plans: _Plans, rng: np.random.Generator) -> ReadResult:
+    """The :class:`ReadResult` of one trial from the kernel's ``res`` row and decoded ``bits``
+    (:func:`receive_many`; step 6's NumPy draw where the kernel left it)."""
     status, start_rel, corr = int(res[_sk.RES_STATUS]), float(res[_sk.RES_START]), float(res[_sk.RES_CORR])
     if status in _RAISES:
         raise ValueError(_RAISES[status])
-    start_s = float(t0_s) + (lo + start_rel) / fs
+    fs = reader.fs_hz
+    start_s = t0_s + (lo + start_rel) / fs
     if status == _sk.NOT_FOUND:
         return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-    bits = bits[:n_bits]
-    meas = reader._measurements(complex(res[_sk.RES_H_RE], res[_sk.RES_H_IM]), float(res[_sk.RES_SLOPE]),
-                                float(res[_sk.RES_SIGMA2]), blf)
-    _complete(meas, int(res[_sk.RES_N_FREE]), int(res[_sk.RES_N_USED]), sigma2, carrier, rng)
-    ok = (not expect_crc) or plans.crc16_ok(bits)
+    resid = float(res[_sk.RES_SIGMA2])
+    if res[_sk.RES_GAMMA_LEFT] > 0:  # step 6 with one degree of freedom: NumPy's own draw
+        resid += residual_correction(int(res[_sk.RES_GAMMA_LEFT]), sigma2, int(res[_sk.RES_N_USED]), rng=rng)
+    meas = reader._measurements(complex(res[_sk.RES_H_RE], res[_sk.RES_H_IM]), float(res[_sk.RES_SLOPE]), resid, blf)
+    if carrier is not None and complex(carrier) != 0:
+        meas["phase_rad"] = refer_phase(meas["phase_rad"], carrier)
+    bits = bits.copy()
+    ok = (not expect_crc) or _kept(plans.crcs, bits.tobytes(), crc16_ok, bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)
+
+
+def refer_phase(phase_rad: float, carrier: complex) -> float:
+    """A measured phase referred to the reader's transmitted carrier.
+
+    Parameters
+    ----------
+    phase_rad : float
+        Phase of the measured gain, −arg h [rad].
+    carrier : complex
+        The reader's transmitted baseband during the reply (non-zero).
+
+    Returns
+    -------
+    float
+        ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad].
+    """
+    return float(wrap_phase_rad(phase_rad + cmath.phase(complex(carrier))))
 
 
 def block_cuts(s: np.ndarray, i0: int, b1: int, piece_of: np.ndarray, kind: np.ndarray,

@@ -370,3 +370,25 @@ def test_link_scenario_runs_with_the_statistic_receiver():
     ds = link.run(cfg, seed=1)
     success = np.asarray(ds.tables["reads"]["success"].data)
     assert success.size == 6 and success.all()
+
+
+@pytest.mark.parametrize("m, ebn0_db", [(4, 6.0), (1, 8.0), (2, -3.0)])
+def test_receive_many_equals_receive_trial_by_trial(m, ebn0_db):
+    """The batch entry: B inputs of one plan and window in one kernel call give, trial by trial,
+    what B calls of ``receive`` with the same generator give (results bit for bit, the
+    generator's state at the end; carriers per trial), decoded and failed trials alike."""
+    bits = trials.PAYLOAD_BITS + 16
+    x_all, reader, cmd_end_s = trials.inputs(m, 12, ebn0_db=ebn0_db, seed=600 + m)
+    carriers = [np.exp(0.3j * k) for k in range(len(x_all))]
+    one, many = np.random.default_rng(8), np.random.default_rng(8)
+    kw = dict(t0_s=0.0, n_bits=bits, expect_crc=True, cmd_end_s=cmd_end_s)
+    want = [rs.receive(reader, x, carrier=c, rng=one, **kw) for x, c in zip(x_all, carriers)]
+    got = rs.receive_many(reader, np.array(x_all), carriers=carriers, rng=many, **kw)
+
+    def key(a):
+        return repr((a.success, a.failure_reason, None if a.bits is None else a.bits.tolist(), a.start_s, a.corr,
+                     a.rssi_dbm, a.phase_rad, a.doppler_hz, a.snr_db, a.ebn0_db))
+
+    assert [key(a) for a in got] == [key(a) for a in want]
+    assert one.bit_generator.state == many.bit_generator.state
+    assert len({a.failure_reason for a in want}) >= 1 and any(a.bits is not None for a in want)

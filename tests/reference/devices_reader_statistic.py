@@ -145,10 +145,25 @@ def receive_reference(reader, x, *, t0_s: float, n_bits: int, expect_crc: bool, 
     s = ref[i0: i0 + n_reply + 4]
     n_free, n_used = _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng)
     meas = reader._measure(r[i0: i0 + s.size] - c, s, blf)
-    rs._complete(meas, n_free, n_used, sigma2, carrier, rng)  # step 6 and the phase reference: shared
+    _complete(meas, n_free, n_used, sigma2, carrier, rng)
     ok = (not expect_crc) or crc16_ok(bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=det.corr, **meas)
+
+
+def _complete(meas: dict, n_free: int, n_used: int, sigma2: float, carrier, rng: np.random.Generator) -> None:
+    """Step 6 on the measurement ``meas`` (the reader's dict, in place) after the fact: the
+    in-piece noise energy (:func:`rfsim.devices.reader_statistic.residual_correction`, ``n_free``
+    degrees of freedom over ``n_used`` samples) added to the residual behind its SNR and Eb/N0
+    (recovered from the RSSI and SNR); then the phase referred to ``carrier``."""
+    if math.isfinite(meas["snr_db"]) and n_used > 0:
+        p = abs(10.0 ** (meas["rssi_dbm"] / 10.0) * 1e-3)
+        s2 = p / 10.0 ** (meas["snr_db"] / 10.0) + rs.residual_correction(n_free, sigma2, n_used, rng=rng)
+        snr = 10.0 * math.log10(p / s2)
+        meas["ebn0_db"] += snr - meas["snr_db"]
+        meas["snr_db"] = snr
+    if carrier is not None and complex(carrier) != 0:
+        meas["phase_rad"] = float(np.mod(meas["phase_rad"] + np.angle(complex(carrier)), 2.0 * np.pi))
 
 
 def _split_at_blocks(r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, rng) -> tuple[int, int]:

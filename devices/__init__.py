@@ -20,7 +20,7 @@ and MSK modulation (:mod:`rfsim.devices.msk_beacon`), the sample-level reader wi
 (:mod:`rfsim.devices.active_reader`) and the RSSI report stage (:mod:`rfsim.devices.rss_reader`).
 
 Module map of the rest: the reader's transmitter (:mod:`rfsim.devices.reader_tx`), BLF search
-(:mod:`rfsim.devices.reader_search`) and measurements (:mod:`rfsim.devices.reader_measure`); the
+(:mod:`rfsim.gen2.blf_search`) and measurements (:mod:`rfsim.devices.reader_measure`); the
 tag's response record (:mod:`rfsim.devices.tag_response`), Gen2 values and the array state
 machine (:mod:`rfsim.devices.gen2_tag_values`, :mod:`rfsim.devices.gen2_tag_arrays`), the PASS
 replication tag (:mod:`rfsim.devices.pass_tag`); the sense-a-tag's settled levels

@@ -13,9 +13,10 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
-                                          sampled_template, signed_halfbit_sums_kernel, viterbi_kernel,
+                                          signed_halfbit_sums_kernel, viterbi_kernel,
                                           waveform_kernel)
 
 #: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
@@ -91,7 +92,7 @@ def block_cuts_kernel(s, i0, b1, piece_of, kind, n_blocks, reach, cut_piece, cut
     """The steady pieces the measurement's block edges cut (:mod:`rfsim.devices.reader_statistic`
     step 4). ``s``: the reference reply from sample ``i0`` of the input (0 outside the reply);
     the measurement reads the samples strictly inside its first and last non-zero sample whose
-    two neighbours carry the same level (:func:`rfsim.devices._reader_kernels.measure_kernel`),
+    two neighbours carry the same level (:func:`rfsim.gen2._measure_kernels.measure_kernel`),
     block k starting at the floor(k·m/K)-th of those m samples. For each edge k = 1 … K − 1 at a
     sample ≥ ``b1`` (the first sample of the pieces) inside a STEADY piece with members on both
     sides (searched within ±``reach`` samples): the piece, the edge (index from ``b1``) and its
@@ -298,35 +299,9 @@ def _search(st, r, ip, fp, plan, ki, wi, fi):
 
 
 @njit
-def _preamble_fit(seg, frac, pre_el, ratio):
-    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
-    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
-    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
-    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
-    n_pre = seg.size
-    tpl = np.empty(n_pre)
-    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
-    e_t = 0.0
-    peak = 0j
-    seg_sum = 0j
-    for i in range(n_pre):
-        a = tpl[i] - tpl_mean
-        e_t += a * a
-        peak += seg[i] * a
-        seg_sum += seg[i]
-    seg_mean = seg_sum / n_pre
-    e_seg = 0.0
-    for i in range(n_pre):
-        d = seg[i] - seg_mean
-        e_seg += d.real * d.real + d.imag * d.imag
-    h = peak / e_t
-    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
-
-
-@njit
 def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
     """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.devices._reader_kernels.known_levels_kernel`; the 2×2 normal equations of
+    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
     :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
     constant (no fit)."""
     r_k = np.empty(r.size, np.complex128)
@@ -485,7 +460,7 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
     the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c and its
     ±1 reference (0 outside the reply) into ``z_out``, ``s_out`` ((n_reply + 4,), scratch,
     ``res[b, RES_N_SPAN]`` of them used), measured by
-    :func:`rfsim.devices._reader_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
+    :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
     ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
     in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
     residual power (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the

@@ -2,7 +2,7 @@
 
 Transmitter: :mod:`rfsim.devices.reader_tx` (PIE commands as DSB-, PR- or SSB-ASK complex
 baseband [√W] at the antenna port, :class:`~rfsim.devices.reader_tx.PieTransmitter`). BLF search:
-:mod:`rfsim.devices.reader_search`. Per-read measurements: :mod:`rfsim.devices.reader_measure`.
+:mod:`rfsim.gen2.blf_search`. Per-read measurements: :mod:`rfsim.devices.reader_measure`.
 
 Frequency plan (anchors §4.7 "Regulatory", §4.9; :mod:`rfsim.air.carriers`): FCC 50 channels
 ``902.75 + 0.5·k`` MHz, ETSI EN 302 208 four channels 865.7/866.3/866.9/867.5 MHz, or any
@@ -17,8 +17,9 @@ index into ``Reader.antennas``).
 Receiver (see :meth:`Reader.receive`): carrier leakage ``L·x_tx`` with
 ``L = 10^(−isolation/20)·e^{jφ_L}`` (:meth:`Reader.leakage_gain`, added by the engine), a
 constant complex offset during the reply window, is removed; the reply is detected by
-preamble correlation inside the T1 window and decoded by
-:func:`rfsim.gen2.linecode.decode_reply`; EPC replies are checked with CRC-16; RSSI, phase,
+preamble correlation inside the T1 window and decoded by the one reply decoder
+(:func:`rfsim.gen2.reply_decoder.decode`, the "known" plan at one BLF or the "blf" plan of
+the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16; RSSI, phase,
 Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
 
 Report (``ReaderConfig.report``, :class:`rfsim.core.records.ReportConfig`): what the reader hands
@@ -44,20 +45,18 @@ from rfsim.core.errors import ConfigError
 from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1, t5
-from rfsim.gen2.linecode import preamble_levels, reply_duration_s, reply_waveform, search_arrays
+from rfsim.gen2.linecode import preamble_levels, reply_duration_s, reply_waveform
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
 from rfsim.devices.reader_measure import (DOPPLER_BLOCKS, FAILURES, ReadResult, known_levels as _known_levels,
                                           measure as _measure, steady as _steady)
-from rfsim.devices.reader_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, blf_grid_hz,
-                                         rn16_threshold_db, search_decode, search_result as _search_result,
-                                         search_setup as _search_setup)
+from rfsim.gen2.blf_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, blf_grid_hz,
+                                   rn16_threshold_db, search_decode, search_result as _search_result,
+                                   search_setup as _search_setup)
 from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
 from rfsim.devices import reader_statistic as _statistic
-from rfsim.core.lazy import lazy_import
-
-_rxk = lazy_import("rfsim.devices._reader_receive_kernels")
+from rfsim.gen2.reply_decoder import DecodePlan as _DecodePlan, LinkPlans as _LinkPlans, decode as _decode
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -65,13 +64,6 @@ FCC_MAX_DWELL_S = 0.4
 #: through path has some fixed phase); the receiver does not depend on it because the
 #: leakage of the CW is removed as an unknown complex constant.
 LEAKAGE_PHASE_RAD = math.pi / 3
-
-
-#: The message of the ValueError of each error status of the receive kernel.
-_RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",
-                   3: "the decoded reply start leaves no room for the reply",
-                   4: "the input is shorter than the reply",
-                   5: "the reference s is constant: gain and offset cannot be separated"}
 
 
 class _Kept(NamedTuple):
@@ -484,7 +476,7 @@ class Reader(PieTransmitter):
         With ``rx_model = "statistic"`` ``rx`` is noise-free and
         :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
         is (anchors §4.8, §4.9; steps 1–5 at the nominal or given BLF run as one numba call,
-        ``rfsim.devices._reader_receive_kernels.receive_kernel``, which calls the kernels of
+        ``rfsim.gen2._receive_kernels.receive_kernel``, which calls the kernels of
         :func:`~rfsim.gen2.linecode.decode_reply`, :func:`~rfsim.gen2.capture.fit_gain_offset`,
         the known levels and the measurements; Python builds the :class:`ReadResult`):
 
@@ -546,30 +538,20 @@ class Reader(PieTransmitter):
             hi = min(hi, rx.size - n_slow)
             if hi < lo or pre_n < 3:
                 return ReadResult(False, None, "preamble not found")
-            return self._receive_searched(rx - (rx[:lo].mean() if lo >= 8 else 0.0), lo, hi, float(t0_s), n_bits,
-                                          expect_crc, carrier)
+            return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
-        a = search_arrays(lk.m, lk.trext, 2.0 * blf / fs)
-        det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
-        out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
-        status = _rxk.receive_kernel(rx, lo, hi, n_reply, self.detection_threshold(hi - lo + 1, blf), fs, blf, lk.m,
-                                     pre_n, self._preamble_elements(), a.t0, a.max_runs_per_sample, a.half_width,
-                                     a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs,
-                                     a.same_as_previous, a.pre_el, a.pre_levels, a.state,
-                                     self.config.decoder != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
-        if status > _rxk.NOT_FOUND:
-            raise ValueError(_RECEIVE_ERRORS[status])
-        start_s = float(t0_s) + float(out_f[0]) / fs
-        if status == _rxk.NOT_FOUND:
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=float(out_f[1]))
-        bits = bits[:n_bits]
-        meas = self._measurements(complex(out_c[0]), float(out_f[2]), float(out_f[3]), blf)
+        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf)
+        start_s = float(t0_s) + out.start / fs
+        if not out.found:
+            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
+        bits = out.bits
+        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
         ok = (not expect_crc) or crc16_ok(bits)
         return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                          start_s=start_s, corr=float(out_f[1]), **meas)
+                          start_s=start_s, corr=out.corr, **meas)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose
@@ -600,7 +582,7 @@ class Reader(PieTransmitter):
             kept = self._delayed = _Kept((lk, self.config), view)
         return kept.value
 
-    def _receive_searched(self, r: np.ndarray, lo: int, hi: int, t0_s: float, n_bits: int, expect_crc: bool,
+    def _receive_searched(self, rx: np.ndarray, lo: int, hi: int, t0_s: float, n_bits: int, expect_crc: bool,
                           carrier) -> ReadResult:
         """:meth:`receive` with ``blf_search = "preamble"``: BLF, start and bits from
         :func:`search_decode` (detection: its coarse correlation against
@@ -611,28 +593,22 @@ class Reader(PieTransmitter):
         The BLF of an accepted RN16 is remembered: the reply with a CRC that follows (the EPC
         of the ACKed tag) is searched at that BLF, within 1/(RN16 elements), over all its bits
         (the PC of an EPC reply is mostly 0s, a square wave at any BLF over its first bits)."""
-        lk, fs = self.link, self.fs_hz
+        fs = self.fs_hz
         hint, self._rn16_blf_hz = self._rn16_blf_hz, None
-        if expect_crc and hint is not None:  # the reply of the tag whose RN16 was ACKed: its BLF is known
-            grid = np.array([hint])
-            n_el16 = preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m + 2 * lk.m * 17
-            out = search_decode(r, m=lk.m, trext=lk.trext, n_bits=n_bits, blfs_hz=grid, fs_hz=fs, lo=lo, hi=hi,
-                                known_within=1.0 / n_el16)
-        else:
-            grid = self._blf_grid()
-            out = search_decode(r, m=lk.m, trext=lk.trext, n_bits=n_bits, blfs_hz=grid, fs_hz=fs, lo=lo, hi=hi)
-        start, blf, corr = float(out.start[0]), float(out.blf_hz[0]), float(out.corr[0])
+        # with a hint: the reply of the tag whose RN16 was ACKed, its BLF is known
+        out = _decode(rx, self._decode_plan("blf"), lo=lo, hi=hi, n_bits=n_bits,
+                      blf_hint_hz=hint if expect_crc else None)
+        start, blf, corr, r = out.start, out.blf_hz, out.corr, out.window
         start_s = t0_s + start / fs
-        if corr < preamble_threshold(self.preamble_samples(), (hi - lo + 1) * grid.size,
-                                     self.config.false_alarm_probability):
+        if not out.found:
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-        bits = out.bits[0].astype(np.uint8)
+        bits = out.bits
         full = self._reference(bits, start, r.size, blf)
         h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, self._preamble_elements()))
         meas = self._measure(r - c, full, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-        stat = float(out.decision_ebn0_db[0])
+        stat = out.decision_ebn0_db
         if expect_crc:
             ok = crc16_ok(bits)
             reason = "" if ok else "crc error"
@@ -644,6 +620,14 @@ class Reader(PieTransmitter):
                 self._rn16_blf_hz = blf
         return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
                           decision_ebn0_db=stat, **meas)
+
+    def _decode_plan(self, search: str) -> _DecodePlan:
+        """The :class:`rfsim.gen2.reply_decoder.DecodePlan` of ``search`` ("known" or "blf") for
+        this reader's link, sample rate, decisions and false-alarm probability, kept in the
+        run's ``air_cache`` with the (frozen) link."""
+        cfg = self.config
+        return self.air_cache.derived(self.link, _LinkPlans).plan(search, self.fs_hz, cfg.decoder,
+                                                                  cfg.false_alarm_probability)
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
@@ -660,13 +644,6 @@ class Reader(PieTransmitter):
         if hit is None or hit.source is not self.link:
             lk = self.link
             hit = self._pre_el = _Kept(lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
-        return hit.value
-
-    def _blf_grid(self) -> np.ndarray:
-        """:func:`blf_grid_hz` of the current link (kept while the link is the same object)."""
-        hit = getattr(self, "_grid", None)
-        if hit is None or hit.source is not self.link:
-            hit = self._grid = _Kept(self.link, blf_grid_hz(self.link))
         return hit.value
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,

@@ -12,13 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
+from rfsim.gen2.reply_decoder import DOPPLER_BLOCKS  # the blocks of the Doppler fit
 
-_rk = lazy_import("rfsim.devices._reader_kernels")
+_rk = lazy_import("rfsim.gen2._measure_kernels")
 
 __all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels", "steady"]
 
-#: Number of blocks of the reply used for the Doppler fit.
-DOPPLER_BLOCKS = 8
 
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 
@@ -56,7 +55,7 @@ class ReadResult:
         The BLF the reply was decoded at [Hz] (NaN: the nominal BLF, ``blf_search`` off).
     decision_ebn0_db : float
         The acceptance statistic, Eb/(N0 + I) of the decoded reply against its residual [dB]
-        (:func:`rfsim.devices.reader_search.search_decode`; NaN with ``blf_search`` off).
+        (:func:`rfsim.gen2.blf_search.search_decode`; NaN with ``blf_search`` off).
     """
 
     success: bool

@@ -335,7 +335,7 @@ def _make_plan(m: int, trext: bool, n_bits: int, blf_hz: float, fs_hz: float) ->
     templates, norms = _refine_bank(m, trext, ratio)
     arrays = _sk.PlanArrays(*(np.array(a) for a in (_template(m, trext, ratio, 0.0)[1], _REFINE_SHIFTS, templates,
                                                      norms, elements_of_levels(levels, m, np.float64))),
-                            np.array(levels, np.int8), *(np.array(a) for a in _refine_runs(m, trext, ratio)))
+                            np.array(levels, np.int8), *(np.array(a) for a in _refine_runs(templates)))
     return _Plan(pre_n, n_reply, n_decode, n_pre_el, n_el, ratio, ints, arrays)
 
 

@@ -80,6 +80,7 @@ P1, SA2 the full ST path P2.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -90,7 +91,7 @@ from rfsim.devices.st_bandpass import butter_bandpass_sos
 from rfsim.devices.st_levels import settled_mask, state_envelope_difference, state_levels
 from rfsim.core.errors import ConfigError
 from rfsim.gen2.crc import crc16_ok
-from rfsim.gen2.linecode import decode_reply, halfsymbols, reply_waveform
+from rfsim.gen2.linecode import SearchArrays, decode_reply, halfsymbols, reply_waveform, search_arrays
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -553,6 +554,20 @@ class STReceiver:
         if self.m not in (1, 2, 4, 8):
             raise ConfigError("m", self.m, "one of 1 (FM0), 2, 4, 8 (Miller)")
 
+    @functools.cached_property
+    def search_arrays(self) -> SearchArrays:
+        """The preamble search's arrays of this receiver's line code, BLF and sample rate.
+
+        :func:`rfsim.gen2.linecode.search_arrays`, made once per receiver and kept with it
+        (its decodes pass them to :func:`rfsim.gen2.linecode.decode_reply`).
+
+        Returns
+        -------
+        rfsim.gen2.linecode.SearchArrays
+            The read-only arrays.
+        """
+        return search_arrays(int(self.m), bool(self.trext), 2.0 * float(self.blf_hz) / float(self.fs_hz))
+
     @property
     def envelope_detector(self) -> EnvelopeDetector:
         return self.detector if self.detector is not None else EnvelopeDetector(
@@ -683,7 +698,7 @@ class STReceiver:
         try:
             return decode_reply(np.asarray(cmp).astype(np.complex128), n_bits=n_bits, m=self.m, trext=self.trext,
                                 blf_hz=self.blf_hz, fs_hz=self.fs_hz, method=self.method,
-                                search_samples=search_samples)
+                                search_samples=search_samples, arrays=self.search_arrays)
         except ValueError:
             return None
 

@@ -91,11 +91,12 @@ class RowsChain:
         search = int(2 * rx.fs_hz / rx.blf_hz)
         toggles = np.count_nonzero(np.diff(self.comparator[:, start:], axis=1), axis=1)
         out = np.full(rows.size, -1, dtype=np.int64)
+        arrays = rx.search_arrays  # the preamble search's arrays of the receiver's link, kept with it
         for i in np.flatnonzero(rows & (toggles >= rx.min_toggles)):
             try:
                 det = _linecode.decode_reply(self.comparator[i, start:].astype(np.complex128),
                                              n_bits=frames[0].bits.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz,
-                                             fs_hz=rx.fs_hz, method=rx.method, search_samples=search)
+                                             fs_hz=rx.fs_hz, method=rx.method, search_samples=search, arrays=arrays)
             except ValueError:
                 continue
             if det.corr < rx.min_corr:

@@ -25,7 +25,7 @@ LINECODE_HOME = "rfsim/gen2/_linecode_kernels.py"
 LINECODE_TABLES = {"HALF_LEVELS", "NEXT_STATE", "SUBCARRIER_SIGN", "LEVEL_OF_STATE", "PREV_BIT_OF_STATE"}
 #: Modules that decode or encode FM0/Miller replies in compiled code: they must read the one
 #: definition (import its kernels) and hold no rule of their own.
-LINECODE_USERS = ("rfsim/gen2/_reply_kernels.py", "devices/_blf_search_kernels.py", "rfsim/gen2/linecode.py")
+LINECODE_USERS = ("rfsim/gen2/_reply_kernels.py", "rfsim/gen2/_blf_search_kernels.py", "rfsim/gen2/linecode.py")
 
 
 def _modules():
@@ -320,7 +320,7 @@ def _names_outside_dispatch(fn: ast.AST) -> set[str]:
 REPLY_CORE = "rfsim/gen2/reply_core.py"
 REPLY_CORE_KERNELS = "rfsim/gen2/_reply_core_kernels.py"
 #: Compiled code of the reader's BLF search and of the capture decoder (search, decoding).
-READER_KERNELS = "devices/_blf_search_kernels.py"
+READER_KERNELS = "rfsim/gen2/_blf_search_kernels.py"
 CAPTURE_SEARCH_KERNELS = "rfsim/gen2/_reply_search_kernels.py"
 CAPTURE_DECODE_KERNELS = "rfsim/gen2/_reply_kernels.py"
 #: Each shared step: its home and the decoders' modules that must call it.
@@ -330,21 +330,21 @@ REPLY_STEPS = {
     "cumulative_sums_into": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_SEARCH_KERNELS)),
     "centred_start": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "fine_step": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
-    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "devices/reader_search.py",
+    "blf_resolution": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS, "rfsim/gen2/blf_search.py",
                                             "rfsim/gen2/reply_decoding.py")),
     "preamble_gain_offset": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "halfbit_decisions": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "rest_level_sums": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "steady_residual": (REPLY_CORE_KERNELS, (READER_KERNELS, CAPTURE_DECODE_KERNELS)),
     "n_pre_elements": (REPLY_CORE, ("rfsim/gen2/reply_search.py", "rfsim/gen2/reply_decoding.py")),
-    "n_reply_elements": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+    "n_reply_elements": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py",
                                       "rfsim/gen2/reply_decoding.py", "rfsim/gen2/replies.py")),
-    "coarse_blf_step": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
-    "geometric_blf_grid_hz": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
-    "preamble_template0": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py")),
+    "coarse_blf_step": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
+    "geometric_blf_grid_hz": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
+    "preamble_template0": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py")),
 }
 #: Shared constants: the home and the decoders' modules that import it.
-REPLY_CONSTANTS = {"FINE_SPAN_STEPS": (REPLY_CORE, ("devices/reader_search.py", "rfsim/gen2/reply_search.py",
+REPLY_CONSTANTS = {"FINE_SPAN_STEPS": (REPLY_CORE, ("rfsim/gen2/blf_search.py", "rfsim/gen2/reply_search.py",
                                                     "rfsim/gen2/reply_decoding.py"))}
 
 
@@ -427,3 +427,60 @@ def test_reply_step_idioms_only_in_their_home():
                                                 "steady-sample test"}
     for module in (READER_KERNELS, CAPTURE_SEARCH_KERNELS, CAPTURE_DECODE_KERNELS):
         assert _reply_step_idioms(MODULES[module]) == [], module
+
+
+# ----------------------------------------------------------------- the one reply decoder
+
+#: The one tag-reply decoder (:func:`rfsim.gen2.reply_decoder.decode`) and its callers: the reader in
+#: the loop, the capture decoder (``rfsim decode``) and the capture sweep's batched BLF search.
+REPLY_DECODER = "rfsim/gen2/reply_decoder.py"
+DECODER_CALLERS = ("devices/reader.py", "rfsim/gen2/replies.py", "rfsim/scenes/capture_sweep.py")
+#: The orchestrations the decoder's searches run (each one numba call or one search function):
+#: nobody but the decoder calls them, except the modules allowed here, each with its reason.
+DECODER_STEPS = {
+    "receive_kernel": {},
+    "search_decode": {},
+    "_detect": {},
+    "_decode_window": {},
+    "search_decode_kernel": {"rfsim/gen2/blf_search.py": "search_decode, the 'blf' search's own function"},
+    "decode_window_kernel": {"rfsim/gen2/reply_decoding.py": "_decode_window, the 'link' search's own function"},
+    "preamble_search_kernel": {
+        "rfsim/gen2/reply_search.py": "_detect, the 'link' search's own function",
+        "devices/_reader_statistic_kernels.py": "the statistic receiver draws the statistics the search reads "
+                                                "(another receiver model, opt-in), its search over them",
+    },
+    "decode_reply": {
+        "rfsim/gen2/reply_decoding.py": "the plain-NumPy strategies (twins) of the 'link' search's kernels",
+        "rfsim/bench/preamble.py": "the benchmark of the one-BLF step itself",
+        "devices/st_rows.py": "the sense-a-tag's comparator rows: a binary comparator output, not a reader window",
+        "devices/st_receiver.py": "the sense-a-tag's receiver of that comparator output",
+    },
+}
+
+
+def _called_names(tree: ast.AST) -> set[str]:
+    """Names called in ``tree`` (``f(...)`` or ``x.f(...)``), with the names they were imported as
+    mapped back to the imported names."""
+    alias = {a.asname: a.name for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) for a in n.names if a.asname}
+    return {alias.get(name, name) for name in _calls(tree)}
+
+
+@pytest.mark.parametrize("caller", DECODER_CALLERS)
+def test_reader_and_capture_paths_call_the_one_decoder(caller):
+    """The reader in the loop, the capture decoder and the capture sweep import
+    :func:`rfsim.gen2.reply_decoder.decode` (or the module, lazily) and call it."""
+    tree = MODULES[caller]
+    assert _imported_from(tree, _dotted(REPLY_DECODER)) & {"decode", "*"}, caller
+    assert "decode" in _called_names(tree), f"{caller} does not call decode"
+
+
+@pytest.mark.parametrize("step", sorted(DECODER_STEPS))
+def test_no_module_runs_a_decoder_search_outside_the_decoder(step):
+    """The searches of the decoder are called by the decoder (or their own function, allow-listed
+    with its reason), by no other module; the scan finds the decoder's own calls, so it can fail."""
+    callers = sorted(m for m, tree in MODULES.items() if step in _called_names(tree))
+    assert callers, f"nobody calls {step}: the scan is broken"
+    allowed = set(DECODER_STEPS[step]) | {REPLY_DECODER}
+    assert set(callers) <= allowed, sorted(set(callers) - allowed)
+    if not DECODER_STEPS[step]:
+        assert callers == [REPLY_DECODER]

@@ -127,7 +127,7 @@ def test_refine_runs_kernel_equals_refine_kernel_bit_for_bit(m, trext, fs, blf):
     rng = trial_rng(54, m, int(trext))
     ratio = 2 * blf / fs
     rows, norms = L._refine_bank(m, trext, ratio)
-    runs = L._refine_runs(m, trext, ratio)
+    runs = L._refine_runs(rows)
     n = rows.shape[1] + 80
     n_ties = 0
     for trial in range(60):
@@ -150,7 +150,7 @@ def test_refine_runs_kernel_equals_refine_kernel_bit_for_bit(m, trext, fs, blf):
 
 
 def test_template_cache_matches_fresh_template():
-    """The cached preamble template equals one built from the element sequence directly."""
+    """The preamble template equals one built from the element sequence directly."""
     fs, blf, m = 4e6, 320e3, 4
     ratio = 2 * blf / fs
     pre = L.preamble_levels(m=m, trext=False)[0]

@@ -67,7 +67,7 @@ def test_config_runs_no_kernel_module_nor_heavy_library(name):
 #: the engine, the assembly and application of channels, the capture decoders, the dataset
 #: file and the detection fits (each costs start-up; together they made 'rfsim config
 #: reader-detection' twice as slow as 'rfsim --help').
-PHYSICS = ("rfsim.devices.reader", "rfsim.devices.reader_tx", "rfsim.devices.reader_search",
+PHYSICS = ("rfsim.devices.reader", "rfsim.devices.reader_tx", "rfsim.gen2.blf_search",
            "rfsim.devices.reader_measure", "rfsim.devices.tag", "rfsim.devices.tag_response",
            "rfsim.devices.sense_a_tag", "rfsim.devices.tag_population",
            "rfsim.devices.gen2_tag_state", "rfsim.devices.active_reader", "rfsim.devices.active_tag", "rfsim.channels.scene",
@@ -118,7 +118,7 @@ def test_a_run_loads_the_lazily_declared_physics_before_asking_for_cached_kernel
     code = ("import sys\nimport rfsim.scenarios.reader_detection\n"
             "print('rfsim.devices.reader' in sys.modules)\n"
             "from rfsim.runs.runner import _announce_compilation\n_announce_compilation()\n"
-            "print('rfsim.devices.reader' in sys.modules, 'rfsim.devices._reader_kernels' in sys.modules)")
+            "print('rfsim.devices.reader' in sys.modules, 'rfsim.gen2._measure_kernels' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
     assert out.stdout.split() == ["False", "True", "True"]

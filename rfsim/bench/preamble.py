@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from rfsim.gen2.linecode import _kernel_corr_abs, _template, corr_abs_reference, decode_reply, reply_waveform
+from rfsim.gen2.linecode import _kernel_corr_abs, _template, corr_abs_reference, decode_reply, reply_waveform, search_arrays
 from rfsim.core.rng import trial_rng
 
 
@@ -77,9 +77,10 @@ def bench_preamble(*, rates_hz=(1e6, 2e6, 4e6, 8e6, 16e6, 32e6, 64e6), blf_hz: f
         _kernel_corr_abs(seg, t0)  # compile
         tk = _best_time(lambda: _kernel_corr_abs(seg, t0), repeats)
         ts = _best_time(lambda: corr_abs_reference(seg, t0), repeats)
-        det = decode_reply(r, n_bits=16, m=m, trext=True, blf_hz=blf_hz, fs_hz=fs, search_samples=lags)
+        arrays = search_arrays(m, True, 2.0 * blf_hz / fs)  # kept per link, as the decoders do
+        det = decode_reply(r, n_bits=16, m=m, trext=True, blf_hz=blf_hz, fs_hz=fs, search_samples=lags, arrays=arrays)
         td = _best_time(lambda: decode_reply(r, n_bits=16, m=m, trext=True, blf_hz=blf_hz, fs_hz=fs,
-                                             search_samples=lags), repeats)
+                                             search_samples=lags, arrays=arrays), repeats)
         key = f"{fs / 1e6:g}MSps"
         out[f"{key}_lags"] = lags
         out[f"{key}_template_samples"] = int(t0.size)

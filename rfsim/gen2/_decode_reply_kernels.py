@@ -1,6 +1,6 @@
 """numba kernels of :func:`rfsim.gen2.linecode.decode_reply` and :func:`rfsim.gen2.linecode.decode_bits`
 (wrapped and documented there; the NumPy twin is ``reference.gen2_linecode.decode_reply_reference``
-in the tests), also called by the reader's receiver (``rfsim.devices._reader_receive_kernels``).
+in the tests), also called by the reader's receiver (``rfsim.gen2._receive_kernels``).
 
 The steps are the module docstring's of :mod:`rfsim.gen2.linecode`: the preamble search
 (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`), the template at the refined start

@@ -1,7 +1,7 @@
 """numba kernel of the least-squares gain and offset of a known reference,
 :func:`rfsim.gen2.capture.fit_gain_offset` (wrapped and documented there; the NumPy twin is
 ``reference.gen2_capture.fit_gain_offset_reference`` in the tests), also called by the reader's
-receiver (``rfsim.devices._reader_receive_kernels``)."""
+receiver (``rfsim.gen2._receive_kernels``)."""
 
 from __future__ import annotations
 

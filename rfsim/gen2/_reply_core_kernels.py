@@ -7,8 +7,8 @@ the decisions from half-bit sums (or from the signed sums of the samples), the s
 least-squares fit of a remodulated reply with its rest level and the residual power over its
 steady samples.
 
-Callers: the reader's BLF search (``rfsim.devices._blf_search_kernels``), the reader's
-receive (``rfsim.devices._reader_receive_kernels``: the decisions from signed sums) and the capture
+Callers: the reader's BLF search (``rfsim.gen2._blf_search_kernels``), the reader's
+receive (``rfsim.gen2._receive_kernels``: the decisions from signed sums) and the capture
 decoder (:mod:`rfsim.gen2._reply_search_kernels`, :mod:`rfsim.gen2._reply_kernels`). Each
 step is written once here in the arithmetic (order of operations) its callers had, so that
 their results are bit-identical to what they were; where the callers' arithmetic differed,

@@ -37,7 +37,6 @@ half-bit (times the subcarrier sign for Miller), then either
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -46,6 +45,7 @@ import numpy as np
 
 from rfsim.gen2.bits import as_bits
 from rfsim.core.lazy import lazy_import
+from rfsim.core.memo import PureCache
 
 _k = lazy_import("rfsim.gen2._linecode_kernels")
 _dk = lazy_import("rfsim.gen2._decode_reply_kernels")
@@ -73,10 +73,10 @@ def _levels(bits: np.ndarray, m: int, state: int) -> tuple[np.ndarray, int]:
     return out, int(state)
 
 
-@functools.lru_cache(maxsize=16)
-def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
-    """Cached (read-only) pilot + preamble half-bit levels and the encoder state after them
-    (:func:`preamble_levels`); a pure function of (m, trext), at most 8 distinct keys."""
+def _make_preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
+    """Pilot + preamble half-bit levels (read-only) and the encoder state after them
+    (:func:`preamble_levels`) of one line code: the values of :data:`PREAMBLES`."""
+    m, trext = _check_m(m), bool(trext)
     if m == 1:
         parts = []
         if trext:
@@ -89,6 +89,13 @@ def _preamble(m: int, trext: bool) -> tuple[np.ndarray, int]:
         levels = np.concatenate([pilot, pre])
     levels.setflags(write=False)
     return levels, int(state)
+
+
+#: Pilot + preamble half-bit levels and the encoder state after them, per line code (M, TRext):
+#: a pure function of the module's constants (not run state), made on first use because it
+#: calls the compiled encoder, which importing this module must not compile; 8 line codes.
+PREAMBLES = PureCache(_make_preamble, 2 * len(M_VALUES))
+_preamble = PREAMBLES
 
 
 def preamble_levels(*, m: int, trext: bool) -> tuple[np.ndarray, int, int]:
@@ -352,14 +359,13 @@ def _kernel_sums(part, g, dc_g, start, r, m, nh):
 _REFINE_SHIFTS = np.linspace(-0.5, 0.5, 17)
 
 
-@functools.lru_cache(maxsize=256)
 def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple:
     """Preamble (incl. pilot) template over the samples fully inside it, starting ``delta``
     samples late: ``(t, t − mean(t), mean(t), Σ(t − mean(t))²)``, the arrays ``(n_pre,)
     float64`` and read-only.
 
-    A pure function of its hashable arguments, cached because the decoder asks for the same
-    few shifts (multiples of 1/16 sample) of the same profile over and over.
+    A pure function of its arguments; the decoders keep what they derive from it
+    (:func:`search_arrays`) per link and sample rate.
     """
     pre_el = elements_of_levels(_preamble(m, trext)[0], m, np.float64)
     n_pre = int(math.floor(pre_el.size / ratio))  # samples fully inside the preamble
@@ -372,26 +378,24 @@ def _template(m: int, trext: bool, ratio: float, delta: float) -> tuple:
     return t, t0, mean, float(t0 @ t0)
 
 
-@functools.lru_cache(maxsize=32)
 def _refine_bank(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndarray]:
     """Zero-mean templates ``(n_shifts, n_pre) float64`` at the shifts of
-    :data:`_REFINE_SHIFTS` and their norms ``(n_shifts,)`` (cached, read-only; a pure
-    function of its arguments)."""
-    rows = np.array([_template(m, trext, ratio, float(d))[1] for d in _REFINE_SHIFTS])
-    norms = np.array([math.sqrt(_template(m, trext, ratio, float(d))[3]) for d in _REFINE_SHIFTS])
+    :data:`_REFINE_SHIFTS` and their norms ``(n_shifts,)`` (read-only; a pure function of its
+    arguments)."""
+    shifted = [_template(m, trext, ratio, float(d)) for d in _REFINE_SHIFTS]
+    rows = np.array([t[1] for t in shifted])
+    norms = np.array([math.sqrt(t[3]) for t in shifted])
     rows.setflags(write=False)
     norms.setflags(write=False)
     return rows, norms
 
 
-@functools.lru_cache(maxsize=32)
-def _refine_runs(m: int, trext: bool, ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The runs of equal values of :func:`_refine_bank`'s templates (cached, read-only):
+def _refine_runs(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of equal values of :func:`_refine_bank`'s templates ``rows`` (read-only):
     ``run_begin`` ``(n_shifts, max runs + 1) int64`` (row j: the first sample of each run, then
     n_pre), ``run_value`` ``(n_shifts, max runs) float64`` (their values), ``n_runs``
     ``(n_shifts,) int64`` and ``same_as_previous`` ``(n_shifts,) bool`` (the template equals the
     previous shift's: the shifts move no sample across an element boundary)."""
-    rows, _ = _refine_bank(m, trext, ratio)
     begins = [np.flatnonzero(np.concatenate(([True], row[1:] != row[:-1]))) for row in rows]
     n_runs = np.array([b.size for b in begins], dtype=np.int64)
     run_begin = np.full((rows.shape[0], int(n_runs.max()) + 1), rows.shape[1], dtype=np.int64)
@@ -482,12 +486,12 @@ def _plan(n_bits, m, trext, blf_hz, fs_hz, method) -> _DecodePlan:
                        n_pre=int(math.floor(pre.size * m / ratio)))  # samples fully inside the preamble
 
 
-def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain):
+def _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, arrays=None):
     plan = _plan(n_bits, m, trext, blf_hz, fs_hz, method)
     r = np.ascontiguousarray(r, dtype=np.complex128)
     if r.ndim != 1:
         raise ValueError(f"r must be 1-D, got shape {r.shape}")
-    return _decode_planned(plan, r, search_samples, start_sample, gain)
+    return _decode_planned(plan, r, search_samples, start_sample, gain, arrays)
 
 
 class SearchArrays(NamedTuple):
@@ -509,11 +513,12 @@ class SearchArrays(NamedTuple):
     same_as_previous: np.ndarray  # (17,) bool template equal to the previous shift's
 
 
-@functools.lru_cache(maxsize=32)
 def search_arrays(m: int, trext: bool, ratio: float) -> SearchArrays:
     """The arrays of the preamble search and of the template at the refined start.
 
-    A pure function of its hashable arguments, cached (read-only arrays).
+    A pure function of its arguments (read-only arrays), run state of one link and sample
+    rate: the callers keep it (the reader's decode plan,
+    :meth:`rfsim.gen2.reply_decoder.DecodePlan.arrays`; ``decode_reply(..., arrays=...)``).
 
     Parameters
     ----------
@@ -531,12 +536,12 @@ def search_arrays(m: int, trext: bool, ratio: float) -> SearchArrays:
     levels, state = _preamble(_check_m(m), bool(trext))
     pre_el = elements_of_levels(levels, m, np.float64)
     pre_el.setflags(write=False)
+    rows, norms = _refine_bank(m, trext, ratio)
     return SearchArrays(_template(m, trext, ratio, 0.0)[1], _RUNS_PER_SAMPLE_MAX, int(math.ceil(m / ratio)) + 1,
-                        _REFINE_SHIFTS,
-                        *_refine_bank(m, trext, ratio), pre_el, levels, state, *_refine_runs(m, trext, ratio))
+                        _REFINE_SHIFTS, rows, norms, pre_el, levels, state, *_refine_runs(rows))
 
 
-def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain) -> ReplyDetection:
+def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain, arrays=None) -> ReplyDetection:
     """The steps of :func:`decode_reply` on ``r`` ((n,) complex128, C-contiguous): the argument
     checks, then every step in one kernel call (:mod:`rfsim.gen2._decode_reply_kernels`)."""
     m, trext, ratio, n_reply, n_pre = plan.m, plan.trext, plan.ratio, plan.n_reply, plan.n_pre
@@ -550,7 +555,7 @@ def _decode_planned(plan: _DecodePlan, r, search_samples, start_sample, gain) ->
         start = float(start_sample)
         if not 0 <= start <= r.size - n_reply:
             raise ValueError(f"start_sample {start_sample} leaves no room for the reply ({n_reply} samples)")
-    a = search_arrays(m, trext, ratio)
+    a = search_arrays(m, trext, ratio) if arrays is None else arrays
     sums, bits = np.empty(plan.nh), np.empty(plan.n_bits + 1, dtype=np.uint8)
     status, start, corr, h, dc = _dk.decode_reply_kernel(
         r, -1 if start_sample is not None else last + n_pre, math.nan if start_sample is None else start,
@@ -621,6 +626,7 @@ def decode_bits(r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: fl
 def decode_reply(
     r, *, n_bits: int, m: int, trext: bool, blf_hz: float, fs_hz: float, method: str = "viterbi",
     search_samples: int | None = None, start_sample: float | None = None, gain: complex | None = None,
+    arrays: SearchArrays | None = None,
 ) -> ReplyDetection:
     """Detect and decode one FM0/Miller reply of ``n_bits`` bits (numba kernels).
 
@@ -643,6 +649,9 @@ def decode_reply(
         that leaves room for the whole reply).
     start_sample, gain : float or None, complex or None
         Known start [samples] / gain h (then c = 0): skip the search / the estimation.
+    arrays : SearchArrays or None
+        :func:`search_arrays` of (m, trext, 2·blf_hz/fs_hz), kept by a caller that decodes
+        the same link again; default None, made for this call.
 
     Returns
     -------
@@ -654,7 +663,7 @@ def decode_reply(
     ValueError
         If there is no room for the reply in ``r``, the gain is zero or an argument is invalid.
     """
-    return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain)
+    return _decode(r, n_bits, m, trext, blf_hz, fs_hz, method, search_samples, start_sample, gain, arrays)
 
 
 def decode_reply_rows(
@@ -688,10 +697,11 @@ def decode_reply_rows(
     if r.ndim != 2:
         raise ValueError(f"r must be 2-D (rows, samples), got shape {r.shape}")
     out: list[ReplyDetection | None] = []
+    arrays = search_arrays(plan.m, plan.trext, plan.ratio)
     for i in np.asarray(rows, dtype=np.int64).tolist():
         row = np.ascontiguousarray(r[i], dtype=np.complex128)
         try:
-            out.append(_decode_planned(plan, row, search_samples, None, None))
+            out.append(_decode_planned(plan, row, search_samples, None, None, arrays))
         except ValueError:
             out.append(None)
     return out
@@ -715,4 +725,7 @@ __all__ = [
     "decode_reply_rows",
     "decode_bits",
     "corr_abs_reference",
+    "SearchArrays",
+    "search_arrays",
+    "PREAMBLES",
 ]

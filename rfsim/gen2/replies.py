@@ -90,9 +90,10 @@ from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, T_MAX_S, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
 from rfsim.gen2.memory import TagError
 from rfsim.gen2.linecode import METHODS
-from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _decode_window, _NBitsRule
+from rfsim.gen2.reply_decoder import CaptureTiming, DecodePlan, decode
+from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule
 from rfsim.gen2.reply_core import n_reply_elements
-from rfsim.gen2.reply_search import LinkHypothesis, _detect, boxcar_decimate, modulation_onsets, preamble_correlation
+from rfsim.gen2.reply_search import LinkHypothesis, boxcar_decimate, modulation_onsets, preamble_correlation
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
@@ -272,7 +273,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
                      cut_s: float | None = None,
                      method: str = "viterbi", false_alarm_probability: float = 1e-3, command_index: int = -1,
                      command: str = "", blf_hint_hz: float | None = None,
-                     delayed: bool = False) -> TagReplyRecord | None:
+                     delayed: bool = False, plans: dict | None = None) -> TagReplyRecord | None:
     """Search, decode and check one tag reply in a capture (module docstring, steps 1–5).
 
     Parameters
@@ -300,6 +301,10 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     delayed : bool
         Search a delayed reply: its start anywhere from T1 min to T1 max + 20 ms
         (:data:`rfsim.gen2.link.T_MAX_S`; module docstring)
+    plans : dict or None
+        Where the decode plans (:class:`rfsim.gen2.reply_decoder.DecodePlan`, with the BLF grids
+        and octaves they keep) are kept between the windows of one capture, by hypotheses,
+        method, false-alarm probability and rate; default None, a plan for this window only
 
     Returns
     -------
@@ -335,30 +340,32 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
     if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
         r = r - r[:lo_full].sum() / lo_full
-    best = None
-    for span_s in _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) if delayed else [None]:
-        best = _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s,
-                       span_s)
-        if best is not None:
-            break
-    if best is None:
+    spans = tuple(_delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full)) if delayed else (None,)
+    key = (tuple(hyps), method, false_alarm_probability, fs)
+    plan = None if plans is None else plans.get(key)
+    if plan is None:
+        plan = DecodePlan("link", fs, method=method, false_alarm_probability=false_alarm_probability,
+                          hypotheses=key[0], track_timing=True)
+        if plans is not None:
+            plans[key] = plan
+    out = decode(r, plan, blf_hint_hz=blf_hint_hz,
+                 timing=CaptureTiming(i0, cmd_end_s, rtcal_s, frt, delay_max_s, spans, n_bits_of))
+    if not out.found:
         return None
-    found, rd, d = best
-    res = _decode_window(rd, fs / d, found, n_bits_of, method)
-    if res is None:
-        return None
+    res = out.extra
+    d = res["decimation"]
     centre = 0.5 * (d - 1)
-    bits = res["bits"]
+    bits = out.bits
     to_s = lambda j: (i0 + j * d + centre) / fs  # noqa: E731  (working-rate sample → time)
-    h = res["h"]
+    h = out.gain
     p = abs(h) ** 2
-    snr = 10.0 * math.log10(p / (res["sigma2"] * d)) if res["sigma2"] > 0 else math.inf
+    snr = 10.0 * math.log10(p / (out.sigma2 * d)) if out.sigma2 > 0 else math.inf
     truncated = bool(res["truncated"])
     fields = {"kind": kind, **_reply_fields(kind, bits, truncated)}
-    start_s = float(to_s(res["start"]))
+    start_s = float(to_s(out.start))
     return TagReplyRecord(
         command_index=int(command_index), command=str(command), start_s=start_s, bits=bits_to_str(bits),
-        blf_hz=float(res["blf"]), m=int(res["m"]), trext=bool(res["trext"]), corr=res["corr"], truncated=truncated,
+        blf_hz=out.blf_hz, m=int(res["m"]), trext=bool(res["trext"]), corr=out.corr, truncated=truncated,
         end_s=float(((window_end_s if cut_s is None else cut_s) if end_s >= window_end_s else end_s) if truncated
                     else to_s(res["end"])),
         n_bits_expected=int(res["n_full"]), blf_drift=float(res["drift"]),
@@ -467,6 +474,7 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
     if blf_tolerance is not None and not 0.0 <= blf_tolerance < 0.5:
         raise ConfigError("blf_tolerance", blf_tolerance, "a fraction in [0, 0.5)")
     out: list[TagReplyRecord] = []
+    plans: dict = {}  # the decode plans of this capture (decode_tag_reply)
     query, learned, blind_misses, kill_pending = None, None, 0, False
     n = np.asarray(samples).size
     for k, rec in enumerate(records):
@@ -500,7 +508,8 @@ def decode_tag_replies(samples, fs_hz: float, records: list[ReaderCommandRecord]
                                      kind=kind, n_bits_of=_n_bits_rule(kind, rec), max_bits=_max_bits(kind, rec),
                                      cut_s=cut_s, method=method, false_alarm_probability=false_alarm_probability,
                                      command_index=k, command=rec.name, delayed=delayed,
-                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None)
+                                     blf_hint_hz=out[-1].blf_hz if out and not searching_blind else None,
+                                     plans=plans)
             if found is not None:
                 break
             if searching_blind:

@@ -1,14 +1,17 @@
-"""The steps the tag-reply decoders share, each written once.
+"""The steps the tag-reply decoder's searches share, each written once.
 
-Three decoders read FM0/Miller replies ``r = h·s(t) + c + noise``:
+The reader in the loop and ``rfsim decode`` call one decoder,
+:func:`rfsim.gen2.reply_decoder.decode`, whose plan chooses one of three searches over
+FM0/Miller replies ``r = h·s(t) + c + noise`` (the map of their steps is that module's
+docstring):
 
-* :func:`rfsim.gen2.linecode.decode_reply` — one known BLF: preamble search over every lag,
+* "known": :func:`rfsim.gen2.linecode.decode_reply`'s kernels — one known BLF: preamble search over every lag,
   refined to 1/16 sample, (h, c) from the preamble, half-bit sums, Viterbi or bitwise
   decisions (the reader with ``blf_search`` off);
-* the reader's BLF search :func:`rfsim.devices.reader_search.search_decode` — coarse preamble
+* "blf": the reader's BLF search :func:`rfsim.gen2.blf_search.search_decode` — coarse preamble
   correlation over a BLF grid and the T1 lags, then decoding at BLFs across the coarse one
   with the preamble's centre held, the least residual of the remodulated reply wins;
-* the capture decoder :mod:`rfsim.gen2.replies` (``rfsim decode``) — the same search over link
+* "link": the capture decoder :mod:`rfsim.gen2.replies` (``rfsim decode``) — the same search over link
   hypotheses at a working rate with a detection threshold, then the fine BLF search, the
   reply's length, timing tracking on the tag's clock and the E_h/N₀ gate.
 
@@ -54,18 +57,17 @@ as its own computation, named here:
 * the fit of the remodulated reply: the reader over the whole window with c = (Σr − h·Σref)/n
   and the residual summed sample by sample, the capture decoder over the reply up to its end
   with c from the normal equations and the residual in closed form;
-* ``decode_reply`` (and the reader's receive, :mod:`rfsim.devices._reader_receive_kernels`)
+* ``decode_reply`` (and the reader's receive, :mod:`rfsim.gen2._receive_kernels`)
   adds its sums sample by sample, in order.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
-from rfsim.gen2.linecode import preamble_levels, reply_waveform
+from rfsim.gen2.linecode import PREAMBLES, reply_waveform
 
 __all__ = ["FINE_SPAN_STEPS", "n_pre_elements", "n_reply_elements", "coarse_blf_step", "geometric_blf_grid_hz",
            "preamble_template0"]
@@ -77,7 +79,6 @@ __all__ = ["FINE_SPAN_STEPS", "n_pre_elements", "n_reply_elements", "coarse_blf_
 FINE_SPAN_STEPS = 2
 
 
-@functools.lru_cache(maxsize=32)
 def n_pre_elements(m: int, trext: bool) -> int:
     """Elements (half subcarrier cycles) of a reply's pilot + preamble.
 
@@ -91,7 +92,7 @@ def n_pre_elements(m: int, trext: bool) -> int:
     int
         Half-bit levels of pilot + preamble times M.
     """
-    return preamble_levels(m=m, trext=trext)[0].size * m
+    return PREAMBLES(m, trext)[0].size * m
 
 
 def n_reply_elements(n_bits: int, m: int, trext: bool) -> int:

@@ -13,13 +13,13 @@ correlation is kept when it clears the threshold of
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from rfsim.gen2.capture import preamble_threshold
+from rfsim.core.memo import PureCache
 from rfsim.gen2.linecode import halfsymbols
 from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_blf_grid_hz, n_pre_elements, n_reply_elements,
                                    preamble_template0)
@@ -43,17 +43,36 @@ class LinkHypothesis:
     blf_hi_hz: float
 
 
-@functools.lru_cache(maxsize=256)
-def _geometric_grid_cached(lo: float, hi: float, step: float) -> np.ndarray:
+def _kept(tables: dict | None, table: str, key, make):
+    """``make()``, kept in ``tables[table][key]`` when ``tables`` is given (the decode plan's
+    memo, :class:`rfsim.gen2.reply_decoder.DecodePlan`: the same hypotheses are searched after
+    every command of a capture); bounded, cleared when full."""
+    if tables is None:
+        return make()
+    entries = tables.setdefault(table, {})
+    hit = entries.get(key)
+    if hit is None:
+        if len(entries) >= _KEPT_MAX:
+            entries.clear()
+        hit = entries[key] = make()
+    return hit
+
+
+#: Entries of each table :func:`_kept` keeps.
+_KEPT_MAX = 256
+
+
+def _make_grid(lo: float, hi: float, step: float) -> np.ndarray:
     grid = geometric_blf_grid_hz(lo, hi, step)
     grid.flags.writeable = False
     return grid
 
 
-def _geometric_grid(lo: float, hi: float, step: float) -> np.ndarray:
-    """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only, cached: the
-    same hypotheses are searched after every command)."""
-    return _geometric_grid_cached(float(lo), float(hi), float(step))
+def _geometric_grid(lo: float, hi: float, step: float, tables: dict | None = None) -> np.ndarray:
+    """BLFs lo … hi on a geometric grid of relative step ≤ ``step`` (read-only; kept in
+    ``tables``, :func:`_kept`)."""
+    key = (float(lo), float(hi), float(step))
+    return _kept(tables, "grids", key, lambda: _make_grid(*key))
 
 
 def _geomspace(lo: float, hi: float, n: int) -> np.ndarray:
@@ -120,12 +139,15 @@ def _preamble_template(m: int, trext: bool, blf: float, fs: float) -> np.ndarray
     return preamble_template0(m, trext, blf, fs, int(math.floor(n_pre_elements(m, trext) * fs / (2.0 * blf))))
 
 
-@functools.lru_cache(maxsize=32)
-def _preamble_elements(m: int, trext: bool) -> np.ndarray:
-    """Pilot + preamble elements (±1) of a line code (read-only, cached)."""
+def _make_preamble_elements(m: int, trext: bool) -> np.ndarray:
+    """Pilot + preamble elements (±1, float64, read-only) of a line code."""
     el = halfsymbols(np.zeros(0, np.uint8), m=m, trext=trext, dummy=False).astype(np.float64)
     el.flags.writeable = False
     return el
+
+
+#: Pilot + preamble elements (±1, float64) per line code: a constant table.
+_preamble_elements = PureCache(_make_preamble_elements, 8)
 
 
 def _per_blf(f, blfs: np.ndarray) -> np.ndarray:
@@ -136,7 +158,7 @@ def _per_blf(f, blfs: np.ndarray) -> np.ndarray:
     return np.broadcast_to(np.asarray(v), blfs.shape).astype(np.int64)
 
 
-def _search(r, fs, hyps, lo_of, hi_of):
+def _search(r, fs, hyps, lo_of, hi_of, tables=None):
     """Step 2 on one working-rate window: ``(best, n_tests)`` with best = (corr, blf,
     hypothesis, start, coarse step, preamble samples) of the largest preamble correlation
     over the hypotheses and T1 lags (None if no lag fits; the start refined between lags by
@@ -146,7 +168,7 @@ def _search(r, fs, hyps, lo_of, hi_of):
     r = np.ascontiguousarray(r, dtype=np.complex128)
     for hyp in hyps:
         step_c = coarse_blf_step(hyp.m, hyp.trext)
-        blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c)
+        blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, step_c, tables)
         lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
         n_rep = (np.ceil(n_reply_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
         pre_el = _preamble_elements(hyp.m, hyp.trext)
@@ -160,13 +182,14 @@ def _search(r, fs, hyps, lo_of, hi_of):
     return best, n_tests
 
 
-def _bands(hyps) -> list[list[LinkHypothesis]]:
-    """Hypotheses split into BLF octaves (each gets its own working rate; cached)."""
-    return _bands_cached(tuple(hyps))
+def _bands(hyps, tables: dict | None = None) -> list[list[LinkHypothesis]]:
+    """Hypotheses split into BLF octaves (each gets its own working rate; kept in ``tables``,
+    :func:`_kept`)."""
+    key = tuple(hyps)
+    return _kept(tables, "bands", key, lambda: _make_bands(key))
 
 
-@functools.lru_cache(maxsize=64)
-def _bands_cached(hyps: tuple) -> list[list[LinkHypothesis]]:
+def _make_bands(hyps: tuple) -> list[list[LinkHypothesis]]:
     out = []
     for h in hyps:
         edges = _geomspace(h.blf_lo_hz, h.blf_hi_hz, max(2, int(math.ceil(math.log2(h.blf_hi_hz / h.blf_lo_hz))) + 1))
@@ -215,30 +238,30 @@ class _Lags:
         return np.ceil(self._lag(t_s)).astype(np.int64) + 1
 
 
-def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s=0.0, span_s=None):
+def _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s=0.0, span_s=None, tables=None):
     """Step 2 over every BLF octave of ``hyps`` (each at its own working rate): ``(best,
     n_tests)``, best = (:func:`_search` result, working-rate window, decimation) or None.
     With ``span_s`` only the starts inside it are searched, but every lag of the whole
     window is counted in ``n_tests`` (the span was chosen by looking at the data)."""
     best, n_tests = None, 0
-    for band in _bands(hyps):
+    for band in _bands(hyps, tables):
         d = max(1, int(fs / (2.0 * max(h.blf_hi_hz for h in band) * SAMPLES_PER_ELEMENT)))
         lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
         rd = boxcar_decimate(r, d) if d > 1 else r
-        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi)
+        cand, nt = _search(rd, fs / d, band, lags.lo, lags.hi, tables)
         if span_s is not None:
             full = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
-            nt = sum(_n_lags(rd.size, fs / d, h, full.lo, full.hi) for h in band)
+            nt = sum(_n_lags(rd.size, fs / d, h, full.lo, full.hi, tables) for h in band)
         n_tests += nt
         if cand is not None and (best is None or cand[0] > best[0][0]):
             best = (cand, rd, d)
     return best, n_tests
 
 
-def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
+def _n_lags(r_size, fs, hyp, lo_of, hi_of, tables=None) -> int:
     """Lags :func:`_search` tests for ``hyp`` on a working-rate window of ``r_size`` samples
     (the kernel's skip rules), without searching."""
-    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, coarse_blf_step(hyp.m, hyp.trext))
+    blfs = _geometric_grid(hyp.blf_lo_hz, hyp.blf_hi_hz, coarse_blf_step(hyp.m, hyp.trext), tables)
     lo, hi = _per_blf(lo_of, blfs), _per_blf(hi_of, blfs)
     n_rep = (np.ceil(n_reply_elements(0, hyp.m, hyp.trext) * fs / (2.0 * blfs)) + 2).astype(np.int64)
     n = np.floor(n_pre_elements(hyp.m, hyp.trext) * fs / (2.0 * blfs)).astype(np.int64)
@@ -248,7 +271,7 @@ def _n_lags(r_size, fs, hyp, lo_of, hi_of) -> int:
 
 
 def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_probability, delay_max_s=0.0,
-            span_s=None):
+            span_s=None, tables=None):
     """Step 2 with its threshold: ``(found, working-rate window, decimation)`` or None.
 
     With ``blf_hint_hz`` (the BLF of the reply before) and one hypothesis, the BLFs within
@@ -259,22 +282,23 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
     with the same threshold: the union bound of the detection rule then covers both
     searches, so the false-alarm probability per window stays as stated. ``delay_max_s``
     extends the lags of a delayed reply beyond T1, ``span_s`` restricts the starts searched
-    (:class:`_Lags`; the threshold still counts every lag of the window)."""
+    (:class:`_Lags`; the threshold still counts every lag of the window). ``tables``: where the
+    BLF grids and octaves are kept (:func:`_kept`)."""
     if blf_hint_hz is not None and len(hyps) == 1 and hyps[0].blf_lo_hz <= blf_hint_hz <= hyps[0].blf_hi_hz:
         hyp = hyps[0]
         span = FINE_SPAN_STEPS * coarse_blf_step(hyp.m, hyp.trext)
         lo_n, hi_n = max(hyp.blf_lo_hz, blf_hint_hz * (1 - span)), min(hyp.blf_hi_hz, blf_hint_hz * (1 + span))
         n_full, n_narrow, narrow = 0, 0, None
-        for band in _bands(hyps):
+        for band in _bands(hyps, tables):
             b = band[0]
             d = max(1, int(fs / (2.0 * b.blf_hi_hz * SAMPLES_PER_ELEMENT)))
             lags = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
             full = _Lags(fs, d, i0, cmd_end_s, rtcal_s, frt, delay_max_s)
-            n_full += _n_lags(r.size // d, fs / d, b, full.lo, full.hi)
+            n_full += _n_lags(r.size // d, fs / d, b, full.lo, full.hi, tables)
             a, z = max(b.blf_lo_hz, lo_n), min(b.blf_hi_hz, hi_n)
             if a < z:
                 rd = boxcar_decimate(r, d) if d > 1 else r
-                cand, nt = _search(rd, fs / d, [LinkHypothesis(hyp.m, hyp.trext, a, z)], lags.lo, lags.hi)
+                cand, nt = _search(rd, fs / d, [LinkHypothesis(hyp.m, hyp.trext, a, z)], lags.lo, lags.hi, tables)
                 n_narrow += nt
                 if cand is not None and (narrow is None or cand[0] > narrow[0][0]):
                     narrow = (cand, rd, d)
@@ -286,7 +310,7 @@ def _detect(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, blf_hint_hz, false_alarm_p
                 return narrow
     else:
         n_narrow = 0
-    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s)
+    best, n_tests = _search_bands(r, fs, hyps, i0, cmd_end_s, rtcal_s, frt, delay_max_s, span_s, tables)
     n_tests += n_narrow
     if best is None or not best[0][0] >= preamble_threshold(best[0][5], n_tests, false_alarm_probability):
         return None

@@ -101,8 +101,8 @@ from rfsim.core.rng import trial_rng
 from rfsim.core.lazy import lazy_import
 
 _reader = lazy_import("rfsim.devices.reader")
+_decoder = lazy_import("rfsim.gen2.reply_decoder")
 _st_analytic = lazy_import("rfsim.devices.st_analytic")
-_capture = lazy_import("rfsim.gen2.capture")
 _linecode = lazy_import("rfsim.gen2.linecode")
 
 #: First point index of the sweep's streams (apart from the engine capture points at 10**6 + i).
@@ -292,14 +292,14 @@ def simulate_point(cfg: CaptureSweepConfig, name: str, spread: bool, ratio_db: f
                                          t0_s=t1_s[j, k] - t0, n_samples=n)
             s[s == 0] = -1.0
             y[j] += h[j, k] * s
-    out = _reader.search_decode(y, m=link.m, trext=link.trext, n_bits=RN16_BITS, blfs_hz=_reader.blf_grid_hz(link), fs_hz=fs,
-                                lo=lo, hi=hi, threads=cfg.threads)
-    n_pre = int(math.floor(_linecode.preamble_levels(m=link.m, trext=link.trext)[0].size * link.m * fs / (2.0 * link.blf_hz)))
-    n_tests = (hi - lo + 1) * _reader.blf_grid_hz(link).size
-    detected = out.corr >= _capture.preamble_threshold(n_pre, n_tests, cfg.false_alarm_probability)
+    # the reader's BLF search ("blf" plan of the one decoder) on the windows as drawn
+    plan = _decoder.LinkPlans(link).plan("blf", fs, "viterbi", cfg.false_alarm_probability, dc_from_lead=False)
+    out = _decoder.decode(y, plan, lo=lo, hi=hi, n_bits=RN16_BITS, threads=cfg.threads)
+    detected = out.found
     match = np.all(out.bits[:, None, :] == bits, axis=2)  # (nt, 2)
     decoded = np.where(match[:, 0], 0, np.where(match[:, 1], 1, -1))
-    return CapturePoint(name, spread, float(ratio_db), detected, decoded, out.ebn0_db, out.decision_ebn0_db, out.corr, eps, t1_s)
+    return CapturePoint(name, spread, float(ratio_db), detected, decoded, out.extra["ebn0_db"], out.decision_ebn0_db, out.corr,
+                        eps, t1_s)
 
 
 def run_sweep(cfg: CaptureSweepConfig, *, seed: int) -> list[CapturePoint]:

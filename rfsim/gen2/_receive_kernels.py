@@ -3,13 +3,13 @@ its docstring, ``blf_search = "off"`` and ``rx_model = "sample"``): one call per
 
 It calls the kernels that hold the rules: the preamble search of the reply decoder
 (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`), the decoder's preamble fit
-(``_preamble_fit`` of :mod:`rfsim.devices._reader_statistic_kernels`, the arithmetic of
+(``_preamble_fit``, here; the statistic receiver's kernels call it too; the arithmetic of
 :func:`rfsim.gen2._decode_reply_kernels.decode_reply_kernel`), the signed half-bit sums
 (:func:`rfsim.gen2._linecode_kernels.signed_halfbit_sums_kernel`) and the decisions from them
 (:func:`rfsim.gen2._reply_core_kernels.signed_sum_decisions`), the encoder tables
 (:func:`rfsim.gen2._linecode_kernels.elements_kernel`), the sampled reply
 (:func:`rfsim.gen2._linecode_kernels.waveform_from`), the known levels and the measurements
-(:mod:`rfsim.devices._reader_kernels`) and the least-squares gain and offset
+(:mod:`rfsim.gen2._measure_kernels`) and the least-squares gain and offset
 (:func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`). The reply's samples are summed per
 half-bit once (S_j = Σσ·r, C_j = Σσ): both sets of decisions (at the preamble's gain and offset,
 then at the known levels' fit) are made from those sums, as the statistic receiver does. The
@@ -24,12 +24,38 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.devices._reader_kernels import known_levels_kernel, measure_kernel
-from rfsim.devices._reader_statistic_kernels import _preamble_fit
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._fit_kernels import fit_gain_offset_kernel
-from rfsim.gen2._linecode_kernels import (elements_kernel, preamble_search_runs_kernel, signed_halfbit_sums_kernel,
-                                         waveform_from)
+from rfsim.gen2._linecode_kernels import (elements_kernel, preamble_search_runs_kernel, sampled_template,
+                                         signed_halfbit_sums_kernel, waveform_from)
 from rfsim.gen2._reply_core_kernels import signed_sum_decisions
+
+
+@njit
+def _preamble_fit(seg, frac, pre_el, ratio):
+    """The decoder's gain, offset and normalised correlation on the preamble samples ``seg``
+    of a reply starting ``frac`` samples into it (:func:`rfsim.gen2.linecode.decode_reply`:
+    h = Σ seg·t0/Σ t0², dc = mean(seg) − h·mean(t), corr = |Σ seg·t0|/√(Σt0²·Σ|seg − mean|²),
+    t the template from ``frac``, t0 = t − mean(t)). Returns (corr, h, dc)."""
+    n_pre = seg.size
+    tpl = np.empty(n_pre)
+    tpl_mean = sampled_template(pre_el, frac, ratio, tpl)
+    e_t = 0.0
+    peak = 0j
+    seg_sum = 0j
+    for i in range(n_pre):
+        a = tpl[i] - tpl_mean
+        e_t += a * a
+        peak += seg[i] * a
+        seg_sum += seg[i]
+    seg_mean = seg_sum / n_pre
+    e_seg = 0.0
+    for i in range(n_pre):
+        d = seg[i] - seg_mean
+        e_seg += d.real * d.real + d.imag * d.imag
+    h = peak / e_t
+    return abs(peak) / math.sqrt(e_t * max(e_seg, 1e-300)), h, seg_mean - h * tpl_mean
+
 
 #: Status of :func:`receive_kernel`: decoded and measured.
 RECEIVED = 0
@@ -71,11 +97,11 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
        reply's samples from i0 (the sample before the start) and the first decisions
        ``det_bits`` ((n_bits + 1,) uint8) from Re(S_j/h₀) − Re(dc/h₀)·C_j.
     3. The reference of ``det_bits`` from start/fs·fs (0 outside the reply), its known levels
-       (:func:`rfsim.devices._reader_kernels.known_levels_kernel`, the first ``n_pre_el`` elements
+       (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`, the first ``n_pre_el`` elements
        the preamble) and (h, c) by :func:`rfsim.gen2._fit_kernels.fit_gain_offset_kernel`.
     4. Decisions ``bits`` ((n_bits + 1,) uint8) of span = r[i0 : i0 + n_reply + 4] − c with the
        gain h, from the same sums: Re((S_j − c·C_j)/h).
-    5. :func:`rfsim.devices._reader_kernels.measure_kernel` of span against the reference of
+    5. :func:`rfsim.gen2._measure_kernels.measure_kernel` of span against the reference of
        ``bits``.
 
     ``out_f`` ((4,) float64) receives start [samples of rx], corr, slope [rad/s], σ² [W];

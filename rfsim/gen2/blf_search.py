@@ -16,7 +16,7 @@ from rfsim.gen2.reply_core import (FINE_SPAN_STEPS, coarse_blf_step, geometric_b
                                    preamble_template0)
 from rfsim.core.lazy import lazy_import
 
-_bk = lazy_import("rfsim.devices._blf_search_kernels")
+_bk = lazy_import("rfsim.gen2._blf_search_kernels")
 _rck = lazy_import("rfsim.gen2._reply_core_kernels")
 
 __all__ = ["SearchDecode", "search_decode", "blf_grid_hz", "rn16_threshold_db", "search_setup", "search_result",

@@ -247,17 +247,22 @@ def test_the_shipped_plans_compile_each_kernel_once_without_deadlock(scenario, n
 
 
 def test_the_call_graph_of_the_receiver_names_its_callees():
-    """Read by hand from ``receive_kernel``'s and ``decisions_kernel``'s source."""
+    """Read by hand from ``receive_kernel``'s source (its calls at the preamble search, the
+    preamble fit, the signed half-bit sums, the known levels, the fit and the measurement) and
+    from the inline ``signed_sum_decisions`` → ``halfbit_decisions`` it calls (Viterbi)."""
     plan = kp.read_plans()["link"]
     for e in plan:
         kp._kernel(e)
     calls = kp.call_graph()
-    receive = calls[("rfsim.devices._reader_receive_kernels", "receive_kernel")]
-    assert {("rfsim.gen2._decode_reply_kernels", "decisions_kernel"),
-            ("rfsim.devices._reader_kernels", "measure_kernel"),
-            ("rfsim.gen2._fit_kernels", "fit_gain_offset_kernel")} <= receive
-    assert ("rfsim.gen2._linecode_kernels", "viterbi_kernel") in calls[("rfsim.gen2._decode_reply_kernels",
-                                                                        "decisions_kernel")]
+    receive = calls[("rfsim.gen2._receive_kernels", "receive_kernel")]
+    assert {("rfsim.gen2._linecode_kernels", "preamble_search_runs_kernel"),
+            ("rfsim.gen2._receive_kernels", "_preamble_fit"),
+            ("rfsim.gen2._linecode_kernels", "signed_halfbit_sums_kernel"),
+            ("rfsim.gen2._measure_kernels", "known_levels_kernel"),
+            ("rfsim.gen2._measure_kernels", "measure_kernel"),
+            ("rfsim.gen2._fit_kernels", "fit_gain_offset_kernel"),
+            ("rfsim.gen2._linecode_kernels", "viterbi_kernel")} <= receive
+    assert ("rfsim.gen2._decode_reply_kernels", "decisions_kernel") not in receive
 
 
 _GRAPH_KERNELS = ("from rfsim.core._jit import njit, njit_inline\nimport kleaf\nfrom kleaf import leaf\n\n\n"

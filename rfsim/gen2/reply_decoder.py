@@ -5,8 +5,10 @@ The reader in the loop (:meth:`rfsim.devices.reader.Reader.receive`) and the cap
 differs between them is the plan's ``search`` and its parameters, built once per link (the
 reader keeps its plans in the run's :class:`rfsim.air.cache.AirCache`, :class:`LinkPlans`).
 
-Map of the steps (``search`` = "known" | "blf" | "link")
---------------------------------------------------------
+Map of the steps
+----------------
+
+One column per ``search`` of the plan ("known", "blf", "link").
 
 ==========================  ======================  ======================  =====================================
 step                        "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
@@ -18,16 +20,15 @@ working rate                fs                      fs                      boxc
                                                                             octave (:mod:`~rfsim.gen2.reply_search`)
 link hypotheses             (M, TRext) of the plan  (M, TRext) of the plan  :attr:`DecodePlan.hypotheses`
 BLF hypotheses              one (given or nominal)  coarse grid of          coarse grid per hypothesis; first
-                                                    :attr:`DecodePlan.      ±2 steps around ``blf_hint_hz``
-                                                    blf_grid_hz`, or the
-                                                    hint ± 1/(RN16 el.)
+                                                    ``blf_grid_hz``, or     ±2 steps around ``blf_hint_hz``
+                                                    the hint ±
+                                                    1/(RN16 el.)
 preamble search             every lag lo…hi,        every lag × BLF,        T1 lags × BLF per hypothesis
                             runs + 1/16-sample      parabola between lags   (``preamble_search_kernel``),
                             refinement                                      parabola between lags
-false alarm                 :func:`~rfsim.gen2.     the same over lags ×    the same over every lag and
-                            capture.preamble_       grid size (nominal      hypothesis tested (union bound)
-                            threshold` over the     preamble length)
-                            lags (memo in plan)
+false alarm                 ``preamble_threshold``  the same over lags ×    the same over every lag and
+                            over the lags (memo in  grid size (nominal      hypothesis tested (union bound)
+                            plan)                   preamble length)
 fine BLF                    —                       centre held, coarse to  centre held, first 16 bits then the
                                                     fine, least residual    whole reply, whole-element start
                                                                             checks
@@ -39,18 +40,22 @@ reply length                fixed ``n_bits``        fixed ``n_bits``        from
                                                     known levels
 timing tracking             —                       —                       ``track_timing``: blocks of 24
                                                                             elements, quadratic clock, resample
-decisions                   half-bit sums + Viterbi/bitwise (``halfbit_decisions``, the same kernels)
-CRC                         the caller (reader: ``crc16_ok``; captures: the record's fields)
+decisions                   half-bit sums +         the same kernels        the same kernels
+                            Viterbi/bitwise (the
+                            kernels of
+                            ``halfbit_decisions``)
+CRC                         the caller (reader:     the caller (reader:     the caller (the record's
+                            ``crc16_ok``)           ``crc16_ok``)           fields)
 measurements                gain, Doppler slope,    gain, σ², σ_eff²        gain, σ² and the E_h/N₀ gate,
-                            σ² (``measure_kernel``) (Eb/(N0+I))             BLF drift, the correlation at the
-                                                                            decoded start
+                            σ² (the kernel          (Eb/(N0+I))             BLF drift, the correlation at the
+                            ``measure_kernel``)                             decoded start
 ==========================  ======================  ======================  =====================================
 
 Each strategy runs its steps as one numba call where it did before (``receive_kernel``,
 ``search_decode_kernel``, ``preamble_search_kernel`` + ``decode_window_kernel``); the shared
 steps inside them are written once (:mod:`rfsim.gen2.reply_core`,
 :mod:`rfsim.gen2._reply_core_kernels`). Where the strategies still compute a shared step in a
-different order (the sums of |r|², the segment mean, the fine BLF grid, …) the difference is
+different order (the sums of ``|r|²``, the segment mean, the fine BLF grid, …) the difference is
 listed in :mod:`rfsim.gen2.reply_core`; records stay bit-identical to the separate
 orchestrations this module replaces.
 """

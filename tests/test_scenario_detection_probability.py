@@ -33,6 +33,12 @@ def tiny_run(tmp_path_factory):
     return run_scenario(dp, TINY, seed=3, out_dir=tmp_path_factory.mktemp("dp"))
 
 
+#: Regression pins of fitted coefficients: a fit is an iterative floating-point solution whose
+#: last bits follow the BLAS/libm summation order of the installed NumPy/SciPy, so the pins
+#: hold to a ULP bound (≈ 1e-12 relative), not bit for bit.
+FIT_ULP = 4096
+
+
 def test_tiny_run_dataset_and_figure(tiny_run):
     s = read_table(tiny_run.dataset_path, "samples")
     assert set(s) == set(dp.FIELDS)
@@ -234,10 +240,11 @@ def test_regression_default_run_fits_and_the_documented_difference_from_the_publ
     rts, ts = i["RTS", "fit"], i["TS", "fit"]
     assert_close_ulp(np.array([f[f"a{j}"][rts] for j in range(5)]),
                      np.array([-8.197930379815883, 0.7724960646166029, 7.393547932719529, 4.095468398248811,
-                               5.762307956271912]), 0)
-    assert_close_ulp(np.array([f["a0"][ts], f["a1"][ts]]), np.array([0.018607933322274874, 5.36770173803827]), 0)
+                               5.762307956271912]), FIT_ULP)
+    assert_close_ulp(np.array([f["a0"][ts], f["a1"][ts]]), np.array([0.018607933322274874, 5.36770173803827]),
+                     FIT_ULP)
     assert_close_ulp(np.array([f["test_cross_entropy"][rts], f["test_cross_entropy"][ts]]),
-                     np.array([0.1355515922315379, 0.18120397455566356]), 0)
+                     np.array([0.1355515922315379, 0.18120397455566356]), FIT_ULP)
     # angle terms > 10x the published ones, by more than 4 standard errors of the fit
     for j in (3, 4):
         pub = f[f"a{j}"][i["RTS", "published"]]
@@ -249,7 +256,7 @@ def test_regression_default_run_fits_and_the_documented_difference_from_the_publ
     x = rts_design(s["D_m"], s["d_m"], s["theta_rad"], s["phi_rad"])
     refit = fit_logistic(x[sub], s["st_detected"].astype(float)[sub]).coefficients
     assert_close_ulp(np.asarray(refit), np.array([-4.958759850064473, 0.3928458174298854, 7.458610752300888,
-                                                  1.588817937964763, 1.8274512179696785]), 0)
+                                                  1.588817937964763, 1.8274512179696785]), FIT_ULP)
 
 
 def test_pass_like_antenna_model_sets_the_flat_pattern_and_the_powered_tag():

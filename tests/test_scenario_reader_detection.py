@@ -31,6 +31,12 @@ def tiny_run(tmp_path_factory):
     return run_scenario(rd, TINY, seed=2, out_dir=tmp_path_factory.mktemp("rd"))
 
 
+#: Regression pins of fitted coefficients: a fit is an iterative floating-point solution whose
+#: last bits follow the BLAS/libm summation order of the installed NumPy/SciPy, so the pins
+#: hold to a ULP bound (≈ 1e-12 relative), not bit for bit.
+FIT_ULP = 4096
+
+
 def test_tiny_run_layout(tiny_run):
     t = read_table(tiny_run.dataset_path, "trials")
     n = 2 * 2 * 2 * 2  # rooms x distances x angles x repetitions
@@ -199,7 +205,7 @@ def test_regression_full_campaign_fits_and_the_documented_difference_from_the_pu
     assert_close_ulp(np.array([f[k][j] for k in keys]),
                      np.array([-6.524859040709981, 1.1826334718255185, 0.06415041700500046, 0.28927131446624743,
                                0.05094873178786993, 0.0030328412847179342, 5.517228453409304, 3.88991740903363,
-                               2.262606364657956]), 0)
+                               2.262606364657956]), FIT_ULP)
     published = dict(zip(("a1", "a2", "a3"), ReaderDetectionModel().mean_coefficients))
     for k in ("a1", "a2", "a3"):
         assert abs(f[k][j] - published[k]) > 4 * f["se_" + k][j], (k, f[k][j])

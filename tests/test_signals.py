@@ -74,7 +74,7 @@ def start(args: list[str], cwd: Path) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
 
 
-SWEEP = dict(q=tuple(range(8)), profiles=("fm0-40k",), fs_hz=1e6)  # 32 runs
+SWEEP = dict(q=tuple(range(8)), profiles=("fm0-40k", "miller4-320k", "pass-miller2-48k"), fs_hz=4e6)  # 32 runs
 
 
 def start_sweep(tmp_path: Path, min_done: int):

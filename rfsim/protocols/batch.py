@@ -6,19 +6,18 @@ command, a different channel draw, receiver noise and tag RN16 in every trial. L
 simulators batch such trials along a leading array dimension so that the per-call cost is
 paid once per batch (Sionna's convention); here :func:`run_exchanges` does the same for the
 sample-level exchange (:func:`rfsim.protocols.engine.run_exchanges`, of which
-:func:`rfsim.protocols.engine.run_exchange` is the batch of one), on the batched air step
-:func:`propagate_batch` (:mod:`rfsim.air.batch`: B prepared steps of
-:func:`rfsim.air.step.propagate`, :class:`AirStep`):
+:func:`rfsim.protocols.engine.run_exchange` is the batch of one), trial by trial on the air
+step (:func:`propagate_batch`, :mod:`rfsim.air.batch`, runs B prepared steps of
+:func:`rfsim.air.step.propagate`, :class:`AirStep`, for other callers):
 
 1. per trial b the reader's segment (made once when every trial sends the same command at
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
-   (as the single run draws them, in the same order) and the tags' reactions — the air step
-   :func:`rfsim.air.step.propagate` without receiver noise;
-2. the receiver noise of each trial of the block (blocks of :data:`BLOCK` trials bound the
-   memory), drawn from ``rngs[b]`` by :func:`rfsim.air.noise.add_awgn` with the numbers the single
-   run draws there (real part then imaginary part, after the trial's link draws);
-3. the reader's reads of the trials with a reply (:meth:`rfsim.devices.reader.Reader.receive`);
-4. the records (:class:`rfsim.protocols.engine.Exchange`), as the single run forms them.
+   (as the single run draws them, in the same order) and the tags' reactions;
+2. the trial's receiver noise, drawn from ``rngs[b]`` by :func:`rfsim.air.noise.add_awgn` after
+   its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`;
+3. the reader's read when a tag replied (:meth:`rfsim.devices.reader.Reader.receive`);
+4. the record (:class:`rfsim.protocols.engine.Exchange`), as the single run forms it; the
+   trial's air step is then dropped (only the segments of one trial are alive at a time).
 
 Each trial's record is bit-identical to ``run_exchange`` with the same devices and
 ``rng = rngs[b]`` (tests/test_batch.py: the one implementation, run as a batch of B or as B
@@ -28,7 +27,7 @@ Reproducibility follows the rule of :mod:`rfsim.core.rng`: trial b's stream is i
 generator (e.g. ``trial_rng(seed, point, b)``), so a trial's result does not depend on the
 batch it ran in, nor on B.
 
-The air step of a batch and the order of its draws: :mod:`rfsim.air.batch`.
+The order of the draws of a batch of air steps: :mod:`rfsim.air.batch`.
 
 Held links. With ``draw_channel=False`` a trial's links come from its own ``link_caches[b]``
 (the draw of its Query, for the ACK); a link missing there is the channel's held draw, and a

@@ -80,8 +80,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rfsim.air.batch import AirStep, propagate_batch
-from rfsim.air.step import PROPAGATION_METHODS, FixedEmitter, as_reflector, members_of
+from rfsim.air.step import PROPAGATION_METHODS, AirResult, FixedEmitter, as_reflector, members_of, propagate
 from rfsim.gen2.access import ERROR_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK
@@ -271,8 +270,8 @@ def _per_trials(n: int, **values) -> list[list]:
     return out
 
 
-#: Trials run together: their air steps, then their noise, then their reads
-#: (bounds the memory of a large batch: a few segments per trial of the block).
+#: The reader's sides (segment, emitter, port) a batch keeps at once, one per distinct reader,
+#: command, time and round (bounds the memory of a large batch of distinct commands).
 BLOCK = 64
 
 
@@ -330,12 +329,13 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
 
     Notes
     -----
-    Per block of :data:`BLOCK` trials: 1. per trial the reader's segment (made once per
-    distinct reader, command, time and round), its port and the tags' links (drawn from the
-    trial's own ``rngs[b]``); 2. the air steps of the block, then their receiver noise (each
-    trial's own generator; :func:`rfsim.air.batch.propagate_batch` with ``skip_unmodulated``: a
-    trial in which no tag replies forms no reader input, its noise draws are still made); 3. the
-    reader's reads of the trials with a reply; 4. the records.
+    Trial by trial: 1. the reader's segment (made once per distinct reader, command, time and
+    round; at most :data:`BLOCK` kept), its port and the tags' links (drawn from the trial's own
+    ``rngs[b]``); 2. the air step and its receiver noise (:func:`rfsim.air.step.propagate` with
+    the trial's generator and ``skip_unmodulated``: a trial in which no tag replies forms no
+    reader input, its noise draws are still made); 3. the reader's read when a tag replied;
+    4. the record. A trial's air step is dropped once its record is formed (the objects of a
+    step do not outlive it: fewer collections of Python's cyclic garbage collector).
     """
     n = len(rngs)
     if len(tags) != n:
@@ -348,39 +348,35 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     # the reader's segment with its emitter and port, once per distinct reader, command, time and round
     segments: dict = {}
     out: list = []
-    for k0 in range(0, n, BLOCK):  # blocks of trials: the memory of a large batch stays bounded
-        preps = []
-        for b in range(k0, min(n, k0 + BLOCK)):
-            key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
-            sent = segments.get(key)
-            if sent is None:
-                if len(segments) >= BLOCK:
-                    segments.clear()
-                sent = segments[key] = _sent(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
-                                             expect_crc=expect_crc, round_index=rounds[b],
-                                             delayed_reply=delayed_reply, header_bit=header_bit)
-            preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
-                                  motions=motions, draw_channel=draw_channel, propagation=propagation,
-                                  link_cache=caches[b], sent=sent))
-        airs = propagate_batch([_air_step(prep, rngs[k0 + k]) for k, prep in enumerate(preps)],
-                               skip_unmodulated=True)
-        for prep, air in zip(preps, airs):
-            truth = _truth(air, prep.members)
-            read = prep.sent.port.receive(air.inputs[0]) if truth[0] else None
-            out.append(_record(prep, truth, read))
+    for b in range(n):  # trial by trial: each trial's air step is dropped once its record is formed
+        key = (id(readers[b]), id(cmds[b]), float(times[b]), rounds[b])
+        sent = segments.get(key)
+        if sent is None:
+            if len(segments) >= BLOCK:
+                segments.clear()
+            sent = segments[key] = _sent(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
+                                         expect_crc=expect_crc, round_index=rounds[b],
+                                         delayed_reply=delayed_reply, header_bit=header_bit)
+        prep = _prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b], motions=motions,
+                        draw_channel=draw_channel, propagation=propagation, link_cache=caches[b], sent=sent)
+        air = _air(prep, rngs[b])
+        truth = _truth(air, prep.members)
+        read = sent.port.receive(air.inputs[0]) if truth[0] else None
+        out.append(_record(prep, truth, read))
     return out
 
 
 class _Sent(NamedTuple):
     """The reader's side of one command, shared by the trials that send it (same reader, command,
-    time and round): its antenna, its segment, the segment as an emitter of the air step, the
-    port that reads the reply, the links' bandwidth B = 2·BLF [Hz] of the reply (the main
+    time and round): its antenna, its segment, the air step's emitters (the segment as one
+    emitter) and receivers (the port that reads the reply), that port, the links' bandwidth B = 2·BLF [Hz] of the reply (the main
     lobe of FM0/Miller, module docstring), the run's air cache and the window a reply must
     start in (T1, or T5 for a delayed reply)."""
 
     antenna_index: int
     tx: Any
-    emitter: FixedEmitter
+    emitters: tuple
+    receivers: tuple
     port: "ReaderPort"
     bandwidth_hz: float
     air_cache: Any
@@ -408,7 +404,8 @@ def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_repl
     tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index, delayed_reply=delayed_reply)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
                       header_bit=header_bit)
-    return _Sent(antenna_index=antenna_index, tx=tx, emitter=FixedEmitter(antenna, tx, device=reader), port=port,
+    return _Sent(antenna_index=antenna_index, tx=tx, emitters=(FixedEmitter(antenna, tx, device=reader),),
+                 receivers=(port,), port=port,
                  bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None),
                  reply_range=_link_time(reader, t5 if port.delayed_reply else t1))
 
@@ -438,14 +435,15 @@ def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False)
     return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
-def _air_step(prep: _Prepared, rng) -> AirStep:
-    """The :class:`rfsim.air.batch.AirStep` of a prepared exchange (the arguments of
-    :func:`rfsim.air.step.propagate`), with the trial's generator ``rng``."""
+def _air(prep: _Prepared, rng) -> AirResult:
+    """The air step of a prepared exchange (:func:`rfsim.air.step.propagate`, ``skip_unmodulated``:
+    a step in which no tag replies forms no reader input, its noise draws are still made), with
+    the trial's generator ``rng``."""
     sent = prep.sent
     tx = sent.tx
-    return AirStep([sent.emitter], prep.reflectors, [sent.port], prep.links, prep.t_s, tx.fs_hz, tx.samples.size,
-                   rng=rng, bandwidth_hz=sent.bandwidth_hz, propagation=prep.propagation, decide=False,
-                   cache=sent.air_cache)
+    return propagate(sent.emitters, prep.reflectors, sent.receivers, prep.links, t0_s=prep.t_s, fs_hz=tx.fs_hz,
+                     n_samples=tx.samples.size, rng=rng, bandwidth_hz=sent.bandwidth_hz,
+                     propagation=prep.propagation, decide=False, skip_unmodulated=True, cache=sent.air_cache)
 
 
 def _truth(air, members) -> tuple:

@@ -6,18 +6,21 @@ command, a different channel draw, receiver noise and tag RN16 in every trial. L
 simulators batch such trials along a leading array dimension so that the per-call cost is
 paid once per batch (Sionna's convention); here :func:`run_exchanges` does the same for the
 sample-level exchange (:func:`rfsim.protocols.engine.run_exchanges`, of which
-:func:`rfsim.protocols.engine.run_exchange` is the batch of one), trial by trial on the air
-step (:func:`propagate_batch`, :mod:`rfsim.air.batch`, runs B prepared steps of
+:func:`rfsim.protocols.engine.run_exchange` is the batch of one), on the air step
+(:func:`propagate_batch`, :mod:`rfsim.air.batch`, runs B prepared steps of
 :func:`rfsim.air.step.propagate`, :class:`AirStep`, for other callers):
 
 1. per trial b the reader's segment (made once when every trial sends the same command at
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
    (as the single run draws them, in the same order) and the tags' reactions;
 2. the trial's receiver noise, drawn from ``rngs[b]`` by :func:`rfsim.air.noise.add_awgn` after
-   its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`;
-3. the reader's read when a tag replied (:meth:`rfsim.devices.reader.Reader.receive`);
-4. the record (:class:`rfsim.protocols.engine.Exchange`), as the single run forms it; the
-   trial's air step is then dropped (only the segments of one trial are alive at a time).
+   its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`, of which only
+   the ground truth and the reader's input are kept;
+3. the reader's reads of the trials with a reply (:meth:`rfsim.devices.reader.Reader.receive`);
+4. the records (:class:`rfsim.protocols.engine.Exchange`), as the single run forms them.
+
+Each stage runs over a block of :data:`BLOCK` trials in a row (this bounds the memory of a
+large batch: a reader input per trial of the block).
 
 Each trial's record is bit-identical to ``run_exchange`` with the same devices and
 ``rng = rngs[b]`` (tests/test_batch.py: the one implementation, run as a batch of B or as B

@@ -117,3 +117,37 @@ def test_reflection_kernel_equals_reference():
         masked = _reflection(s > 0, gb, ga)
         assert np.array_equal(masked.view(np.float64), ref.view(np.float64))
     assert _reflection(s, 1j, 0j)[np.flatnonzero(s > 0)[0]] == 1j
+
+
+def _separate(x):
+    """The shared front end's levels and plateau from the separate steps (isodata split of
+    |x|, then the plateau), each checked against its own twin elsewhere."""
+    env = np.abs(x)
+    levels = two_level_threshold(env)
+    return levels, _plateau(x, env, levels)
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_front_end_in_one_call_equals_the_separate_steps(seed):
+    # PIE-like, Rayleigh-like, too short, NaN-bearing and constant segments: levels and plateau
+    # of SharedFrontEnd (one kernel call) equal those of the separate steps, bit for bit
+    from rfsim.devices.tag import SharedFrontEnd
+
+    rng = np.random.default_rng(300 + seed)
+    kind = seed % 4
+    if kind == 0:
+        x = _pie_like(rng, int(rng.integers(40, 3000)), complex(*rng.normal(size=2)), flip=bool(seed % 8))
+    elif kind == 1:
+        n = int(rng.integers(1, 400))
+        x = rng.normal(size=n) + 1j * rng.normal(size=n)
+    elif kind == 2:
+        x = np.full(int(rng.integers(1, 40)), complex(*rng.normal(size=2)))
+    else:
+        x = _pie_like(rng, 500, 1.0 + 0.5j)
+        x[int(rng.integers(0, 500))] = np.nan
+    fe = SharedFrontEnd(x, fs_hz=1e6)
+    levels, plateau = _separate(x)
+    assert np.array_equal(np.array(fe.levels), np.array(levels), equal_nan=True)
+    assert fe.plateau == plateau
+    if kind == 0:
+        assert fe.plateau is not None and fe.cw_sample == x[fe.plateau]

@@ -148,6 +148,26 @@ def ask_baseband_kernel(fall_s, rise_s, depth, ramp_width, fs_hz, amp, pr_ask, n
 
 
 @njit
+def equal_tail_start(x):
+    """Index of the first of the equal samples (``==``, real or complex) that end ``x``
+    (``x.size − 1`` when the last two differ or the last is NaN; 0 for an empty ``x``)."""
+    k = x.size - 1
+    if k < 0:
+        return 0
+    v = x[k]
+    while k >= 64:  # blocks of 64 first: a loop without an early exit, which the compiler vectorises
+        differ = 0
+        for j in range(k - 64, k):
+            differ += x[j] != v
+        if differ:
+            break
+        k -= 64
+    while k > 0 and x[k - 1] == v:
+        k -= 1
+    return k
+
+
+@njit
 def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     """Comparator with hysteresis; returns the number of edges written.
 
@@ -157,6 +177,14 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     crossing of ``threshold`` between samples ``n-1`` and ``n`` (clipped to ``[n-1, n]``).
     ``x`` is a real envelope or complex samples (their magnitude, :func:`env_value`).
     """
+    # after the first of the equal samples that end x the state no longer changes
+    return edges_until(x, min(x.size, equal_tail_start(x) + 1), threshold, hysteresis, edge_pos, edge_dir)
+
+
+@njit
+def edges_until(x, stop, threshold, hysteresis, edge_pos, edge_dir):
+    """:func:`edges_kernel` given that the samples of ``x`` from ``stop`` − 1 on are equal (read
+    up to ``stop`` only, besides the search of the initial state)."""
     hi = threshold + hysteresis
     lo = threshold - hysteresis
     # compared on the scale of env_order (the power of complex samples: no square root per
@@ -175,7 +203,7 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     ne = 0
     if state < 0:
         return ne
-    for i in range(1, n):
+    for i in range(1, stop):
         v = env_order(x, i)
         new = state
         if state == 0 and v > hi_o:
@@ -270,11 +298,12 @@ def decode_kernel(x, threshold, hysteresis, check_finite, min_ratio, max_ratio, 
     ``pos``/``direction``/``bits`` of ``x.size`` (float64, int8, uint8), ``fbuf`` (6, m) float64
     and ``ibuf`` (2, m) int64 with m = x.size // 2 + 1: the frames' start, end, delimiter, Tari,
     RTcal, TRcal and bit offset, count."""
-    if check_finite:
-        for i in range(x.size):
+    stop = min(x.size, equal_tail_start(x) + 1)
+    if check_finite:  # the equal samples that end x are finite if the first of them is
+        for i in range(stop):
             if not math.isfinite(env_order(x, i)):
                 return -1, 0
-    ne = edges_kernel(x, threshold, hysteresis, pos, direction)
+    ne = edges_until(x, stop, threshold, hysteresis, pos, direction)
     nf = frames_kernel(pos[:ne], direction[:ne], min_ratio, max_ratio, max_trcal, fbuf[0], fbuf[1], fbuf[2],
                        fbuf[3], fbuf[4], fbuf[5], ibuf[0], ibuf[1], bits)
     return ne, nf
@@ -418,9 +447,9 @@ def trailing_run_start(x):
     last two differ, or the last is NaN; zeros of both signs are not equal here); ``x.size`` ≥ 1."""
     k = x.size - 1
     v = x[k]
-    while k > 0 and x[k - 1] == v:
-        if v == 0.0 and math.copysign(1.0, x[k - 1]) != math.copysign(1.0, v):
-            break
+    if v != 0.0:  # equal values other than zeros have equal bits
+        return equal_tail_start(x)
+    while k > 0 and x[k - 1] == v and math.copysign(1.0, x[k - 1]) == math.copysign(1.0, v):
         k -= 1
     return k
 

@@ -299,20 +299,40 @@ def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     return out
 
 
-def _command_of(frames) -> tuple:
-    """(command, frame) of the first PIE frame, or (None, None) when it is not a valid command
+class Decoded(NamedTuple):
+    """A tag's decoding of a reader segment: the parsed command and its PIE frame (both None
+    when no valid command is decoded).
+
+    Attributes
+    ----------
+    command : object or None
+        The command (:mod:`rfsim.gen2.commands`).
+    frame : rfsim.gen2.pie.PieFrame or None
+        Its frame, durations in samples of the segment.
+    """
+
+    command: Any
+    frame: Any
+
+
+#: Nothing decoded.
+_NOTHING = Decoded(None, None)
+
+
+def _command_of(frames) -> Decoded:
+    """:class:`Decoded` of the first PIE frame, or of nothing when it is not a valid command
     (nothing decoded, a parse error, or a Query without TRcal / another command with it)."""
     if not frames:
-        return None, None
+        return _NOTHING
     frame = frames[0]
     try:
         cmd = parse(frame.bits)
     except CommandParseError:
-        return None, None
+        return _NOTHING
     if isinstance(cmd, Query) != frame.has_trcal:
         # a Query needs the preamble with TRcal; other commands start with a frame-sync
-        return None, None
-    return cmd, frame
+        return _NOTHING
+    return Decoded(cmd, frame)
 
 
 #: Half-width of the run of equal CW samples the median must lie in for the shared front end.
@@ -392,7 +412,7 @@ class SharedFrontEnd:
 
         Returns
         -------
-        tuple
+        Decoded
             ``(command, frame)``: the parsed command and its :class:`rfsim.gen2.pie.PieFrame`,
             or ``(None, None)`` when no valid command is decoded.
         """
@@ -1020,5 +1040,5 @@ class PassiveTag:
                            m=query.m, trext=trext, gamma_rest=rest, structural_mode=a_s)
 
 
-__all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "incident_power_w", "envelope",
+__all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "Decoded", "incident_power_w", "envelope",
            "reply_gamma", "DEFAULT_SENSITIVITY_DBM", "REASONS"]

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
+from rfsim.gen2._pie_kernels import trailing_run_start, two_level_split
 
 
 @njit
@@ -40,21 +41,36 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     are not (or too few samples are selected), −2 when a NaN is among them or the median is
     none of the three candidates below (the caller then asks
     :func:`rfsim.devices.tag.plateau_reference`, which sorts). ``buf``/``idx``: scratch of ``env.size``
-    (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1.
+    (float64, int64); ``win``: int64 scratch of 2·``margin`` + 1 (:func:`plateau_split` with the
+    run of equal values that ends ``env``).
 
     The median value v is found by counting (a candidate sample's value); with c_< samples below it,
     stable order puts the samples equal to v at positions c_< …, in sample order: position p
     is the (p − c_<)-th of them."""
-    m = 0
-    for i in range(env.size):
+    return plateau_split(x, env, trailing_run_start(env), threshold, select, margin, buf, idx, win)
+
+
+@njit
+def plateau_split(x, env, tail, threshold, select, margin, buf, idx, win):
+    """:func:`plateau_kernel` given that ``env[tail:]`` (``tail`` < ``env.size``) all equal
+    ``env[tail]``: the selected samples before ``tail`` are gathered in ``buf``/``idx``, those of
+    the tail are counted, not stored (the same answer)."""
+    c = env[tail]
+    c2 = c * c
+    n_tail = env.size - tail if ((not select) or c >= threshold) else 0
+    m_head = 0
+    for i in range(tail):
         v = env[i]
         if (not select) or v >= threshold:
-            buf[m] = v * v
-            idx[m] = i
-            m += 1
+            buf[m_head] = v * v
+            idx[m_head] = i
+            m_head += 1
+    m = m_head + n_tail
     if m <= 2 * margin:
         return -1
-    for k in range(m):
+    if n_tail > 0 and math.isnan(c2):
+        return -2
+    for k in range(m_head):
         if math.isnan(buf[k]):
             return -2
     mid = (m - 1) // 2
@@ -62,17 +78,22 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     # candidate c is the median exactly when #(< c) ≤ mid < #(≤ c); otherwise select it
     med = math.nan
     n_less = 0
-    for c in (buf[0], buf[m - 1], buf[m // 2]):
+    for k_c in (0, m - 1, m // 2):
+        cand = buf[k_c] if k_c < m_head else c2
         n_less = 0
         n_eq = 0
-        for k in range(m):
+        for k in range(m_head):
             v = buf[k]
-            if v < c:
+            if v < cand:
                 n_less += 1
-            elif v == c:
+            elif v == cand:
                 n_eq += 1
+        if c2 < cand:
+            n_less += n_tail
+        elif c2 == cand:
+            n_eq += n_tail
         if n_less <= mid < n_less + n_eq:
-            med = c
+            med = cand
             break
     if math.isnan(med):  # rare: the caller selects it (np.partition here would cost seconds of compilation)
         return -2
@@ -82,10 +103,18 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
     width = 2 * margin + 1
     r = 0
     w = 0
-    for k in range(m):
+    for k in range(m_head):
         if buf[k] == med:
             if r >= start:
                 win[w] = idx[k]
+                w += 1
+                if w == width:
+                    break
+            r += 1
+    if w < width and c2 == med:
+        for k in range(n_tail):
+            if r >= start:
+                win[w] = tail + k
                 w += 1
                 if w == width:
                     break
@@ -98,6 +127,37 @@ def plateau_kernel(x, env, threshold, select, margin, buf, idx, win):
         if not (v == xm or v == -xm):
             return -1
     return win[margin]
+
+
+@njit
+def front_end_kernel(x, env, max_iter, min_modulation, margin, buf_lo, buf_hi, idx, win):
+    """The shared front end's work on one segment in one call (:class:`rfsim.devices.tag.SharedFrontEnd`):
+    the extremes of the envelope ``env`` = |x| (a NaN among them makes both NaN, as
+    ``numpy.min``/``numpy.max``), its isodata split (:func:`rfsim.gen2._pie_kernels.two_level_split`)
+    from them, then :func:`plateau_split` over the CW samples that split selects (``env ≥``
+    threshold when high > 0 and high − low ≥ ``min_modulation``·high, else every sample); the
+    run of equal values that ends ``env`` (a reader's CW after its command) is read once
+    (:func:`rfsim.gen2._pie_kernels.trailing_run_start`). ``buf_lo``/``buf_hi`` (float64) and
+    ``idx`` (int64): scratch of ``env.size`` ≥ 1; ``win``: int64 scratch of 2·``margin`` + 1.
+    Returns ``(threshold, low mean, high mean, plateau)``, plateau as :func:`plateau_kernel`
+    gives it (−1 none, −2 left to the NumPy twin)."""
+    tail = trailing_run_start(env)
+    lo = env[tail]
+    hi = lo
+    for i in range(tail):
+        v = env[i]
+        if math.isnan(v):
+            lo = v
+            hi = v
+            break
+        if v < lo:
+            lo = v
+        elif v > hi:
+            hi = v
+    thr, m_lo, m_hi = two_level_split(env, tail, lo, hi, max_iter, buf_lo, buf_hi)
+    select = m_hi > 0 and m_hi - m_lo >= min_modulation * m_hi
+    p = plateau_split(x, env, tail, thr, select, margin, buf_lo, idx, win)
+    return thr, m_lo, m_hi, p
 
 
 @njit

@@ -33,7 +33,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rfsim.air.cache import AirCache, Waveform
+from rfsim.air.cache import AirCache, CommandKey, Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
 from rfsim.gen2.pie import ask_baseband, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
@@ -210,9 +210,11 @@ class PieTransmitter:
         ``ceil((cw_before + T_cmd + cw_after)·fs)`` samples,
         ``T_cmd = LinkProfile.command_duration_s(cmd)``; ``cmd_end_s = cmd_start_s + T_cmd``.
         ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
-        the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble and CW
-        lengths) and returned again, with their ``memo`` (which also holds a weak reference to the
-        run's cache under the key :class:`rfsim.air.cache.AirCache`), for a repeated command.
+        the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble, CW
+        lengths and fs: :class:`rfsim.air.cache.CommandKey`) and returned again, with their
+        ``memo`` (a tag's decoding of them, :class:`rfsim.devices.tag.SharedFrontEnd`, and a weak
+        reference to the run's cache under the key :class:`rfsim.air.cache.AirCache`), for a
+        repeated command.
 
         Parameters
         ----------
@@ -253,7 +255,7 @@ class PieTransmitter:
         # A reader sends the same commands (Query, QueryRep, …) again and again: keep the last
         # modulated segments (read-only) by content, made by this (frozen) config and link profile.
         cache = self.air_cache
-        key = ("pie", bits.tobytes(), preamble, float(cw_after_s), cw_before_s, self.fs_hz)
+        key = CommandKey(bits.tobytes(), preamble, float(cw_after_s), cw_before_s, self.fs_hz)
         makers = (self.config, self.link)
         hit = cache.waveform(key, makers)
         if hit is None:

@@ -102,7 +102,7 @@ from rfsim.devices.tag_response import REASONS, TagResponse
 from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.memory import CHIP_MODELS, TagMemory
-from rfsim.gen2.pie import pie_decode, two_level_threshold
+from rfsim.gen2.pie import ISODATA_MAX_ITER, pie_decode, two_level_threshold
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -299,20 +299,40 @@ def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
     return out
 
 
-def _command_of(frames) -> tuple:
-    """(command, frame) of the first PIE frame, or (None, None) when it is not a valid command
+class Decoded(NamedTuple):
+    """A tag's decoding of a reader segment: the parsed command and its PIE frame (both None
+    when no valid command is decoded).
+
+    Attributes
+    ----------
+    command : object or None
+        The command (:mod:`rfsim.gen2.commands`).
+    frame : rfsim.gen2.pie.PieFrame or None
+        Its frame, durations in samples of the segment.
+    """
+
+    command: Any
+    frame: Any
+
+
+#: Nothing decoded.
+_NOTHING = Decoded(None, None)
+
+
+def _command_of(frames) -> Decoded:
+    """:class:`Decoded` of the first PIE frame, or of nothing when it is not a valid command
     (nothing decoded, a parse error, or a Query without TRcal / another command with it)."""
     if not frames:
-        return None, None
+        return _NOTHING
     frame = frames[0]
     try:
         cmd = parse(frame.bits)
     except CommandParseError:
-        return None, None
+        return _NOTHING
     if isinstance(cmd, Query) != frame.has_trcal:
         # a Query needs the preamble with TRcal; other commands start with a frame-sync
-        return None, None
-    return cmd, frame
+        return _NOTHING
+    return Decoded(cmd, frame)
 
 
 #: Half-width of the run of equal CW samples the median must lie in for the shared front end.
@@ -350,8 +370,11 @@ class SharedFrontEnd:
     def __init__(self, x: np.ndarray, *, fs_hz: float):
         self.x, self.fs_hz = x, float(fs_hz)
         self.env = np.abs(x)
-        self.levels = two_level_threshold(self.env)
-        self.plateau = _plateau(x, self.env, self.levels)
+        if self.env.ndim == 1 and self.env.size > 0:  # one kernel call: extremes, levels, plateau
+            self.levels, self.plateau = _front_end(x, self.env)
+        else:
+            self.levels = two_level_threshold(self.env)
+            self.plateau = _plateau(x, self.env, self.levels)
         if self.plateau is not None:
             self._xm = x[self.plateau:self.plateau + 1]
             self.cw_sample = complex(self._xm[0])
@@ -389,7 +412,7 @@ class SharedFrontEnd:
 
         Returns
         -------
-        tuple
+        Decoded
             ``(command, frame)``: the parsed command and its :class:`rfsim.gen2.pie.PieFrame`,
             or ``(None, None)`` when no valid command is decoded.
         """
@@ -401,6 +424,21 @@ class SharedFrontEnd:
                 frames = pie_decode(self.env, levels=self.levels)
             hit = self._commands[rc_s] = _command_of(frames)
         return hit
+
+
+def _front_end(x: np.ndarray, env: np.ndarray) -> tuple:
+    """``(two_level_threshold(env), _plateau(x, env, those levels))`` of the samples ``x`` ((n,)
+    complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
+    isodata split and the plateau; the same numbers, bit for bit)."""
+    x = np.ascontiguousarray(x, dtype=np.complex128)
+    env = np.ascontiguousarray(env, dtype=np.float64)
+    n = env.size
+    thr, lo, hi, p = _k.front_end_kernel(x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
+                                         np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
+    levels = (float(thr), float(lo), float(hi))
+    if p == -2:
+        return levels, plateau_reference(x, env, levels)
+    return levels, (None if p < 0 else int(p))
 
 
 def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
@@ -1002,5 +1040,5 @@ class PassiveTag:
                            m=query.m, trext=trext, gamma_rest=rest, structural_mode=a_s)
 
 
-__all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "incident_power_w", "envelope",
+__all__ = ["TagResponse", "PassiveTag", "QuietPoint", "SharedFrontEnd", "Decoded", "incident_power_w", "envelope",
            "reply_gamma", "DEFAULT_SENSITIVITY_DBM", "REASONS"]

@@ -52,6 +52,51 @@ def test_two_level_threshold_kernel_equals_reference(seed):
     assert two_level_threshold(x, max_iter=2) == two_level_threshold_reference(x, max_iter=2)
 
 
+def test_pairwise_sum_of_a_constant_tail_equals_numpy_sum():
+    """A constant tail is summed without being read (blocks and nodes inside it by their
+    length): equal to np.add.reduce of the full values bit for bit, for tails and heads of
+    every length around the block boundaries, tails of ±0 and of NaN."""
+    rng = trial_rng(53, 0)
+    lengths = [0, 1, 7, 8, 9, 127, 128, 129, 255, 256, 257, 1000, 4097]
+    for n_head in lengths:
+        for n_tail in lengths[1:]:
+            for c in (0.1 + rng.uniform(), -3.0e5, 0.0, -0.0):
+                x = np.concatenate([rng.standard_normal(n_head) * 10.0 ** rng.uniform(-3, 3, n_head),
+                                    np.full(n_tail, c)])
+                buf = np.full(x.size, np.nan)  # the tail is not there: only the block that holds its start
+                buf[:n_head] = x[:n_head]
+                buf[n_head:n_head + 128] = c
+                memo_n, memo_v = np.zeros(64, np.int64), np.empty(64)
+                got = PK.pairwise_sum_tail(buf, 0, x.size, n_head, c, memo_n, memo_v)
+                want = np.add.reduce(x)
+                assert got == want, (n_head, n_tail, c)
+                # the sign of a zero sum as the kernel's sum of the full values (numpy's reduce
+                # adds the sum to +0: all −0 values give +0 there)
+                assert math.copysign(1.0, got) == math.copysign(1.0, PK.pairwise_sum(x, 0, x.size))
+                # the memo holds sums by length for this c: asked again, the same
+                assert PK.pairwise_sum_tail(buf, 0, x.size, n_head, c, memo_n, memo_v) == want
+    x = np.concatenate([np.ones(300), np.full(700, np.nan)])
+    assert math.isnan(PK.pairwise_sum_tail(x, 0, 1000, 300, np.nan, np.zeros(64, np.int64), np.empty(64)))
+    # the run that ends an array: zeros of both signs are not one run; a NaN ends none
+    assert PK.trailing_run_start(np.array([1.0, 2.0, 2.0, 2.0])) == 1
+    assert PK.trailing_run_start(np.array([0.0, -0.0, -0.0])) == 1
+    assert PK.trailing_run_start(np.array([np.nan, np.nan])) == 1
+    assert PK.trailing_run_start(np.array([5.0])) == 0
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_two_level_threshold_of_a_segment_with_a_cw_tail_equals_reference(seed):
+    """A reader segment's shape: a PIE-like head, then a long CW tail at the high level, at the
+    low level (on the other side of the split) or of a single sample."""
+    rng = trial_rng(54, seed)
+    n_head, n_tail = int(rng.integers(1, 3000)), int(rng.integers(1, 20000))
+    head = np.where(rng.random(n_head) < 0.7, 1.0, 0.1) + 0.02 * rng.standard_normal(n_head) * (seed % 2)
+    c = (1.0, 0.1, 0.55, float(head[-1]))[seed % 4]
+    x = np.concatenate([head, np.full(n_tail, c)]) * 10.0 ** rng.uniform(-4, 1)
+    assert two_level_threshold(x) == two_level_threshold_reference(x)
+    assert two_level_threshold(x, max_iter=2) == two_level_threshold_reference(x, max_iter=2)
+
+
 def test_two_level_threshold_edge_cases():
     """Constant input, 2-D input (C order, as numpy's masks), NaN (no iteration)."""
     for x in (np.full(10, 3.0), np.arange(24.0).reshape(4, 6), np.array([1.0, np.nan, 0.0]),

@@ -231,6 +231,33 @@ def test_round_trip_profile_with_ramps_and_noise():
     _assert_frames_equal(frames, pie_decode_reference(x))
 
 
+def test_decode_with_a_constant_tail_equals_reference():
+    """The comparator stops after the first of the equal samples that end the input: a tail
+    at the CW level, at the low level (its first sample an edge), inside the hysteresis band,
+    or not finite, decodes as the reference does; complex samples with levels as their
+    magnitude."""
+    prof = PROFILES["miller4-320k"]
+    fs = 4e6
+    env = pie_envelope_for_profile(encode(ACK(rn16=0xBEEF)), prof, fs_hz=fs, rise_fall_s=0.2 * prof.tari_s,
+                                   cw_before_s=prof.tari_s, cw_after_s=400e-6)
+    assert np.all(env[-1000:] == env[-1])  # the CW after the command: a constant tail
+    for tail in (None, 1.0 - prof.depth, 1.0 - 0.5 * prof.depth, np.inf, np.nan):
+        x = env.copy()
+        if tail is not None:
+            x[-500:] = tail
+        frames = pie_decode(x)
+        _assert_frames_equal(frames, pie_decode_reference(x))
+        if tail is None:
+            assert len(frames) == 1 and np.array_equal(frames[0].bits, encode(ACK(rn16=0xBEEF)))
+        if tail is not None and not np.isfinite(tail):
+            assert frames == []
+    z = (0.3 - 0.4j) * env
+    levels = two_level_threshold(np.abs(z))
+    got, want = pie_decode(z, levels=levels), pie_decode(np.abs(z), levels=levels)
+    assert len(got) == len(want) == 1 and np.array_equal(got[0].bits, want[0].bits)
+    assert got[0].end == pytest.approx(want[0].end, abs=1e-6)  # √(re² + im²) against hypot: ULPs
+
+
 def test_decode_empty_and_flat_inputs():
     assert pie_decode(np.ones(100)) == [] and pie_decode_reference(np.ones(100)) == []
     assert pie_decode(np.zeros(0)) == []

@@ -117,3 +117,72 @@ def test_reflection_kernel_equals_reference():
         masked = _reflection(s > 0, gb, ga)
         assert np.array_equal(masked.view(np.float64), ref.view(np.float64))
     assert _reflection(s, 1j, 0j)[np.flatnonzero(s > 0)[0]] == 1j
+
+
+def _separate(x):
+    """The shared front end's levels and plateau from the separate steps (isodata split of
+    |x|, then the plateau), each checked against its own twin elsewhere."""
+    env = np.abs(x)
+    levels = two_level_threshold(env)
+    return levels, _plateau(x, env, levels)
+
+
+@pytest.mark.parametrize("seed", range(16))
+def test_front_end_in_one_call_equals_the_separate_steps(seed):
+    # PIE-like, Rayleigh-like, too short, NaN-bearing and constant segments: levels and plateau
+    # of SharedFrontEnd (one kernel call) equal those of the separate steps, bit for bit
+    from rfsim.devices.tag import SharedFrontEnd
+
+    rng = np.random.default_rng(300 + seed)
+    kind = seed % 4
+    if kind == 0:
+        x = _pie_like(rng, int(rng.integers(40, 3000)), complex(*rng.normal(size=2)), flip=bool(seed % 8))
+    elif kind == 1:
+        n = int(rng.integers(1, 400))
+        x = rng.normal(size=n) + 1j * rng.normal(size=n)
+    elif kind == 2:
+        x = np.full(int(rng.integers(1, 40)), complex(*rng.normal(size=2)))
+    else:
+        x = _pie_like(rng, 500, 1.0 + 0.5j)
+        x[int(rng.integers(0, 500))] = np.nan
+    fe = SharedFrontEnd(x, fs_hz=1e6)
+    levels, plateau = _separate(x)
+    assert np.array_equal(np.array(fe.levels), np.array(levels), equal_nan=True)
+    assert fe.plateau == plateau
+    if kind == 0:
+        assert fe.plateau is not None and fe.cw_sample == x[fe.plateau]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_kernel_equals_reference_with_a_cw_tail(seed):
+    # a reader segment's shape: the command, then a long run of one CW sample; the median in
+    # the tail or in the head, the window across their boundary, the tail below the threshold
+    rng = np.random.default_rng(500 + seed)
+    n_head, n_tail = int(rng.integers(20, 600)), int(rng.integers(1, 3000))
+    cw = complex(*rng.normal(size=2))
+    head = _pie_like(rng, n_head, cw, flip=bool(seed % 2), edge_noise=bool(seed % 3))
+    tail_value = (cw, -cw, 0.1 * cw, cw * 1j)[seed % 4]
+    x = np.concatenate([head, np.full(n_tail, tail_value)])
+    got, want = _both(x)
+    assert got == want
+    assert _kernel_alone(x) in (got if got is not None else -1, -2)
+    fe_levels, fe_plateau = _separate(x)
+    from rfsim.devices.tag import SharedFrontEnd
+
+    fe = SharedFrontEnd(x, fs_hz=1e6)
+    assert fe.levels == fe_levels and fe.plateau == fe_plateau == want
+
+
+def test_window_across_the_head_and_tail_boundary():
+    # the median value's samples: a few at the end of the head, then the tail; the window of
+    # 2·margin + 1 takes both (and ± the median sample: a plateau), or meets a sample that is
+    # not ± it (no plateau)
+    for k in range(0, 2 * _PLATEAU_MARGIN + 3):
+        for odd in (False, True):
+            x = np.concatenate([np.full(40, 0.2 + 0j), np.linspace(1.0, 2.0, 30).astype(complex),
+                                np.full(k, -1.5 + 0j), np.full(80, 1.5 + 0j)])
+            if odd and k:
+                x[70] = 1.5j  # same magnitude, not ± the CW sample
+            got, want = _both(x)
+            assert got == want
+            assert _kernel_alone(x) == (-1 if want is None else want)

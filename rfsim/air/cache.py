@@ -33,7 +33,7 @@ import numpy as np
 from rfsim.air.noise import NOISE_METHODS
 from rfsim.core.errors import ConfigError
 
-__all__ = ["Strategy", "CheckedAntennas", "Waveform", "ReplyStates", "Derived", "TimingKey", "AirCache",
+__all__ = ["Strategy", "CheckedAntennas", "CommandKey", "Waveform", "ReplyStates", "Derived", "TimingKey", "AirCache",
            "EXCHANGE_METHODS", "run_cache"]
 
 #: How a receiver's input is formed (:attr:`Strategy.exchange`).
@@ -112,6 +112,33 @@ class CheckedAntennas:
     emitters: tuple
     reflectors: tuple | list
     receivers: tuple
+
+
+class CommandKey(NamedTuple):
+    """The content key of a reader's command segment in :attr:`AirCache.waveforms`.
+
+    With the reader's frozen config and link profile (the entry's ``makers``) it fixes every
+    sample (:meth:`rfsim.devices.reader_tx.PieTransmitter.transmit`).
+
+    Attributes
+    ----------
+    bits : bytes
+        The command's bits (CRC included), one byte per bit.
+    preamble : str
+        ``"query"`` or ``"frame-sync"``.
+    cw_after_s : float
+        CW after the command [s].
+    cw_before_s : float
+        CW before the delimiter [s].
+    fs_hz : float
+        Sample rate [Hz].
+    """
+
+    bits: bytes
+    preamble: str
+    cw_after_s: float
+    cw_before_s: float
+    fs_hz: float
 
 
 @dataclass

@@ -148,6 +148,26 @@ def ask_baseband_kernel(fall_s, rise_s, depth, ramp_width, fs_hz, amp, pr_ask, n
 
 
 @njit
+def equal_tail_start(x):
+    """Index of the first of the equal samples (``==``, real or complex) that end ``x``
+    (``x.size − 1`` when the last two differ or the last is NaN; 0 for an empty ``x``)."""
+    k = x.size - 1
+    if k < 0:
+        return 0
+    v = x[k]
+    while k >= 64:  # blocks of 64 first: a loop without an early exit, which the compiler vectorises
+        differ = 0
+        for j in range(k - 64, k):
+            differ += x[j] != v
+        if differ:
+            break
+        k -= 64
+    while k > 0 and x[k - 1] == v:
+        k -= 1
+    return k
+
+
+@njit
 def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     """Comparator with hysteresis; returns the number of edges written.
 
@@ -157,6 +177,14 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     crossing of ``threshold`` between samples ``n-1`` and ``n`` (clipped to ``[n-1, n]``).
     ``x`` is a real envelope or complex samples (their magnitude, :func:`env_value`).
     """
+    # after the first of the equal samples that end x the state no longer changes
+    return edges_until(x, min(x.size, equal_tail_start(x) + 1), threshold, hysteresis, edge_pos, edge_dir)
+
+
+@njit
+def edges_until(x, stop, threshold, hysteresis, edge_pos, edge_dir):
+    """:func:`edges_kernel` given that the samples of ``x`` from ``stop`` − 1 on are equal (read
+    up to ``stop`` only, besides the search of the initial state)."""
     hi = threshold + hysteresis
     lo = threshold - hysteresis
     # compared on the scale of env_order (the power of complex samples: no square root per
@@ -175,7 +203,7 @@ def edges_kernel(x, threshold, hysteresis, edge_pos, edge_dir):
     ne = 0
     if state < 0:
         return ne
-    for i in range(1, n):
+    for i in range(1, stop):
         v = env_order(x, i)
         new = state
         if state == 0 and v > hi_o:
@@ -270,11 +298,12 @@ def decode_kernel(x, threshold, hysteresis, check_finite, min_ratio, max_ratio, 
     ``pos``/``direction``/``bits`` of ``x.size`` (float64, int8, uint8), ``fbuf`` (6, m) float64
     and ``ibuf`` (2, m) int64 with m = x.size // 2 + 1: the frames' start, end, delimiter, Tari,
     RTcal, TRcal and bit offset, count."""
-    if check_finite:
-        for i in range(x.size):
+    stop = min(x.size, equal_tail_start(x) + 1)
+    if check_finite:  # the equal samples that end x are finite if the first of them is
+        for i in range(stop):
             if not math.isfinite(env_order(x, i)):
                 return -1, 0
-    ne = edges_kernel(x, threshold, hysteresis, pos, direction)
+    ne = edges_until(x, stop, threshold, hysteresis, pos, direction)
     nf = frames_kernel(pos[:ne], direction[:ne], min_ratio, max_ratio, max_trcal, fbuf[0], fbuf[1], fbuf[2],
                        fbuf[3], fbuf[4], fbuf[5], ibuf[0], ibuf[1], bits)
     return ne, nf
@@ -321,16 +350,47 @@ def _block_sum(a, lo, n):
 
 
 @njit
+def _const_block_sum(c, n):
+    """:func:`_block_sum` of n ≤ 128 values all equal to ``c``, the same operations in the same
+    order (the 8 running sums are equal)."""
+    res = 0.0
+    if n < 8:
+        for _ in range(n):
+            res += c
+        return res
+    r = c
+    for _ in range(n // 8 - 1):
+        r += c
+    res = ((r + r) + (r + r)) + ((r + r) + (r + r))
+    for _ in range(n % 8):
+        res += c
+    return res
+
+
+@njit
 def pairwise_sum(a, lo, n):
     """Σ a[lo : lo + n] in the order of numpy's pairwise summation, so that the result equals
     ``np.add.reduce(a[lo:lo + n])`` bit for bit for contiguous float64 input.
 
     numpy sums blocks of at most 128 values with :func:`_block_sum` and otherwise returns
-    ``sum(first h) + sum(rest)``, h = n/2 rounded down to a multiple of 8. The recursion is
-    unrolled here with an explicit stack (numba's cache does not handle recursive kernels).
+    ``sum(first h) + sum(rest)``, h = n/2 rounded down to a multiple of 8
+    (:func:`pairwise_sum_tail` without a tail).
     """
-    if n <= _PW_BLOCKSIZE:
-        return _block_sum(a, lo, n)
+    return pairwise_sum_tail(a, lo, n, lo + n, 0.0, np.empty(0, np.int64), np.empty(0))
+
+
+@njit
+def pairwise_sum_tail(a, lo, n, head, c, memo_n, memo_v):
+    """:func:`pairwise_sum` of the values v[lo : lo + n] with v[i] = a[i] for i < ``head`` and
+    v[i] = ``c`` for i ≥ ``head`` (a constant tail), bit for bit, without reading the tail.
+
+    The recursion is numpy's (unrolled with an explicit stack: numba's cache does not handle
+    recursive kernels); a block inside the tail is summed as :func:`_const_block_sum`, and a
+    node inside the tail depends only on its length, so its sum is kept in ``memo_n``/``memo_v``
+    (lengths and sums of the same ``c``; int64/float64 arrays of equal size, unused entries of
+    ``memo_n`` 0; the caller may keep them across calls with the same ``c``). The block that
+    holds ``head`` is read from ``a``: ``a[head : min(lo + n, head + 128)]`` must hold ``c``.
+    """
     s_lo = np.empty(64, dtype=np.int64)
     s_n = np.empty(64, dtype=np.int64)
     s_stage = np.zeros(64, dtype=np.int8)  # 0: new, 1: left half pending, 2: right half pending
@@ -340,7 +400,16 @@ def pairwise_sum(a, lo, n):
     s_n[0] = n
     while True:
         m = s_n[top]
-        if m > _PW_BLOCKSIZE:
+        known = m <= _PW_BLOCKSIZE
+        if known:
+            v = _const_block_sum(c, m) if s_lo[top] >= head else _block_sum(a, s_lo[top], m)
+        elif s_lo[top] >= head:
+            for q in range(memo_n.size):
+                if memo_n[q] == m:
+                    v = memo_v[q]
+                    known = True
+                    break
+        if not known:
             h = m // 2
             h -= h % 8
             s_stage[top] = 1
@@ -349,7 +418,6 @@ def pairwise_sum(a, lo, n):
             s_n[top] = h
             s_stage[top] = 0
             continue
-        v = _block_sum(a, s_lo[top], m)
         while True:  # hand v to the parents
             top -= 1
             if top < 0:
@@ -365,6 +433,25 @@ def pairwise_sum(a, lo, n):
                 s_stage[top] = 0
                 break
             v = s_val[top] + v
+            if s_lo[top] >= head:  # a node inside the tail: its sum is that of its length
+                for q in range(memo_n.size):
+                    if memo_n[q] == 0:
+                        memo_n[q] = s_n[top]
+                        memo_v[q] = v
+                        break
+
+
+@njit
+def trailing_run_start(x):
+    """Index of the first of the equal samples that end the real ``x`` (``x.size − 1`` when the
+    last two differ, or the last is NaN; zeros of both signs are not equal here); ``x.size`` ≥ 1."""
+    k = x.size - 1
+    v = x[k]
+    if v != 0.0:  # equal values other than zeros have equal bits
+        return equal_tail_start(x)
+    while k > 0 and x[k - 1] == v and math.copysign(1.0, x[k - 1]) == math.copysign(1.0, v):
+        k -= 1
+    return k
 
 
 @njit
@@ -372,8 +459,22 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
     """Isodata split of ``x`` (see :func:`rfsim.gen2.pie.two_level_threshold`): start at
     (lo + hi)/2, iterate threshold = (mean below + mean above)/2. ``buf_lo``/``buf_hi``
     are scratch arrays of ``x.size``; the means are pairwise sums over the samples in
-    input order, as numpy's ``x[mask].mean()``. Returns ``(threshold, low mean, high mean)``."""
+    input order, as numpy's ``x[mask].mean()``. Returns ``(threshold, low mean, high mean)``
+    (:func:`two_level_split` with the run of equal samples that ends ``x``)."""
+    return two_level_split(x, trailing_run_start(x), lo, hi, max_iter, buf_lo, buf_hi)
+
+
+@njit
+def two_level_split(x, tail, lo, hi, max_iter, buf_lo, buf_hi):
+    """:func:`two_level_kernel` given that the samples ``x[tail:]`` (``tail`` < ``x.size``) all equal
+    ``x[tail]``: those are read once (a constant tail: a reader segment's CW after its command),
+    the others once per pass; the sums are the same, bit for bit
+    (:func:`pairwise_sum_tail`)."""
     n = x.size
+    c = x[tail]
+    n_tail = n - tail
+    memo_n = np.zeros(64, dtype=np.int64)
+    memo_v = np.empty(64)
     thr = 0.5 * (lo + hi)
     prev = thr
     m_lo = lo
@@ -384,16 +485,17 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
             # one; if none does, the means would come out the same, and so would the threshold
             # (the loop's own stop, new == thr, without the sums)
             a, b = (prev, thr) if prev < thr else (thr, prev)
-            moved = False
-            for i in range(n):
-                if a <= x[i] < b:
-                    moved = True
-                    break
+            moved = a <= c < b
+            if not moved:
+                for i in range(tail):
+                    if a <= x[i] < b:
+                        moved = True
+                        break
             if not moved:
                 break
         nb = 0
         na = 0
-        for i in range(n):
+        for i in range(tail):
             v = x[i]
             if v < thr:
                 buf_lo[nb] = v
@@ -401,10 +503,21 @@ def two_level_kernel(x, lo, hi, max_iter, buf_lo, buf_hi):
             else:
                 buf_hi[na] = v
                 na += 1
+        # the tail joins one side; the block that holds its start is read from the buffer
+        buf = buf_lo if c < thr else buf_hi
+        head = nb if c < thr else na
+        for i in range(head, min(head + _PW_BLOCKSIZE, head + n_tail)):
+            buf[i] = c
+        head_lo = nb
+        head_hi = na
+        if c < thr:
+            nb += n_tail
+        else:
+            na += n_tail
         if nb == 0 or nb == n:
             break
-        m_lo = pairwise_sum(buf_lo, 0, nb) / nb
-        m_hi = pairwise_sum(buf_hi, 0, na) / na
+        m_lo = pairwise_sum_tail(buf_lo, 0, nb, head_lo, c, memo_n, memo_v) / nb
+        m_hi = pairwise_sum_tail(buf_hi, 0, na, head_hi, c, memo_n, memo_v) / na
         new = 0.5 * (m_lo + m_hi)
         if new == thr:
             break

@@ -384,7 +384,11 @@ def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "qu
 # ----------------------------------------------------------------------------- decoder
 
 
-def two_level_threshold(x: np.ndarray, *, max_iter: int = 50) -> tuple[float, float, float]:
+#: Most iterations of the isodata split (:func:`two_level_threshold`'s default).
+ISODATA_MAX_ITER = 50
+
+
+def two_level_threshold(x: np.ndarray, *, max_iter: int = ISODATA_MAX_ITER) -> tuple[float, float, float]:
     """Isodata split of a two-level signal (numba kernel).
 
     Starts at (min + max)/2 and iterates threshold = (mean below + mean above)/2; the
@@ -557,6 +561,7 @@ __all__ = [
     "pr_ask_baseband",
     "ask_baseband",
     "two_level_threshold",
+    "ISODATA_MAX_ITER",
     "PieEdges",
     "pie_decode_arrays",
     "pie_decode",

@@ -682,8 +682,9 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     # rx.decode_comparator row by row, its setup done once (rfsim.gen2.linecode.decode_reply_rows)
     dets = decode_reply_rows(part, idx, n_bits=exp.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz,
                              method=rx.method, search_samples=search_samples)
+    want = exp.tobytes()  # the decoded bits are uint8 of the same length: equal bytes = equal bits
     for i, det in zip(idx.tolist(), dets):
-        out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
+        out[i] = det is not None and det.corr >= rx.min_corr and det.bits.tobytes() == want
     return out
 
 

@@ -159,17 +159,22 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
     detected : numpy.ndarray of bool, shape (n_rows,)
         The chosen path decoded ``expected_bits`` exactly.
     """
-    env2, bp2, cmp2, tog2 = _sat.chain_rows(rx, stamp_inputs[:, 1])
+    # the ASK symbol reads SA2's band-pass up to the ASK stamp's end only: the chain (causal, from
+    # the frame's first sample, rows independent) runs over that head for every row, and over the
+    # whole frame on the path each row decodes on (the same samples as one chain of every row)
+    head = _sat.chain_rows(rx, stamp_inputs[:, 1, :max(frame.ask_stop, 1)])[1]
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
-    use_p1 = ask_stamp_transitions(bp2, frame, thr) < STAMP_CYCLES - 1
+    use_p1 = ask_stamp_transitions(head, frame, thr) < STAMP_CYCLES - 1
+    head = None
     kw = dict(expected_bits=expected_bits, start_sample=frame.reply_start, search_samples=int(2 * fs_hz / blf_hz),
               memo={} if memo is None else memo)
-    det = _sat.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
-    env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
-    if use_p1.any():
-        idx = np.flatnonzero(use_p1)
-        env1, bp1, cmp1, tog1 = _sat.chain_rows(rx, stamp_inputs[idx, 0])
-        det[idx] = _sat.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
+    det = np.zeros(use_p1.size, bool)
+    for path, chosen in ((1, ~use_p1), (0, use_p1)):
+        if chosen.any():
+            idx = np.flatnonzero(chosen)
+            chain = _sat.chain_rows(rx, stamp_inputs[idx, path])
+            det[idx] = _sat.decode_rows(rx, *chain, rows=np.ones(idx.size, bool), **kw)
+            chain = None  # one path's chain at a time
     return use_p1, det
 
 

@@ -9,8 +9,19 @@ import math
 
 import numpy as np
 
-from rfsim.devices._st_receiver_kernels import comparator_kernel, i0e_kernel, sos_sample
-from rfsim.core._jit import njit
+from rfsim.devices._st_receiver_kernels import comparator_kernel, i0e_kernel, section_step
+from rfsim.core._jit import njit, njit_inline
+
+
+@njit_inline
+def _diode_output(x_abs, v_per_sqrt_w, matching_gain, nvt, x, y, out):
+    """The diode law's output ``u = (ln i0e(x) + x)·nvt`` [V] of one row ``x_abs`` (n,) [√W] into
+    ``out``, with ``x = (G_v·v_per_sqrt_w·|x|)/nvt`` (``x``, ``y``: (n,) work arrays)."""
+    for t in range(x_abs.size):
+        x[t] = (matching_gain * (v_per_sqrt_w * x_abs[t])) / nvt
+    i0e_kernel(x, y)
+    for t in range(x_abs.size):
+        out[t] = (math.log(y[t]) + x[t]) * nvt
 
 
 @njit
@@ -25,27 +36,46 @@ def diode_chain_rows_kernel(x_abs, v_per_sqrt_w, matching_gain, nvt, a, sos, zi,
     SciPy's ``lfilter``: state ``(1 − a)·y``, output ``state + a·u``); the second-order
     sections ``sos`` (s, 6) from the state ``zi`` (s, 2) times ``env[0]`` (SciPy's
     ``sosfilt`` recursion); the hysteresis comparator from −1 (``toggles`` into ``tog``).
+
+    Rows go two at a time through the recursions (RC with the first section, then each further
+    section over the whole rows), their states in registers: the two rows' dependency chains
+    (≈ 16 cycles a sample for one section) interleave. Each row's operations and their order
+    are those of one row alone, so the results are equal bit for bit; with an odd row count
+    the last pair is that row twice.
     """
     r, n = x_abs.shape
     n_sec = sos.shape[0]
     x = np.empty(n)
     y = np.empty(n)
-    z = np.empty((n_sec, 2))
     b = 1.0 - a
-    for i in range(r):
+    for i in range(0, r, 2):
+        j = min(i + 1, r - 1)
+        _diode_output(x_abs[i], v_per_sqrt_w, matching_gain, nvt, x, y, env[i])
+        _diode_output(x_abs[j], v_per_sqrt_w, matching_gain, nvt, x, y, env[j])
+        # RC (env holds u until overwritten) and the first section
+        ui = env[i, 0]
+        uj = env[j, 0]
+        si = b * ui
+        sj = b * uj
+        ei = si + a * ui
+        ej = sj + a * uj
+        zi0, zi1, zj0, zj1 = zi[0, 0] * ei, zi[0, 1] * ei, zi[0, 0] * ej, zi[0, 1] * ej
         for t in range(n):
-            x[t] = (matching_gain * (v_per_sqrt_w * x_abs[i, t])) / nvt
-        i0e_kernel(x, y)
-        state = 0.0
-        for t in range(n):
-            u = (math.log(y[t]) + x[t]) * nvt
-            if t == 0:
-                state = b * u
-                for s in range(n_sec):
-                    z[s, 0] = zi[s, 0] * (state + a * u)
-                    z[s, 1] = zi[s, 1] * (state + a * u)
-            e = state + a * u
-            state = e * b
-            env[i, t] = e
-            bp[i, t] = sos_sample(sos, z, e)
+            ei = si + a * env[i, t]
+            ej = sj + a * env[j, t]
+            si = ei * b
+            sj = ej * b
+            env[i, t] = ei
+            env[j, t] = ej
+            bp[i, t], zi0, zi1 = section_step(sos, 0, ei, zi0, zi1)
+            bp[j, t], zj0, zj1 = section_step(sos, 0, ej, zj0, zj1)
+        # further sections, in place, from the steady state times the first envelope sample
+        for s in range(1, n_sec):
+            zi0, zi1, zj0, zj1 = zi[s, 0] * env[i, 0], zi[s, 1] * env[i, 0], zi[s, 0] * env[j, 0], zi[s, 1] * env[j, 0]
+            for t in range(n):
+                vi = bp[i, t]
+                vj = bp[j, t]
+                bp[i, t], zi0, zi1 = section_step(sos, s, vi, zi0, zi1)
+                bp[j, t], zj0, zj1 = section_step(sos, s, vj, zj0, zj1)
         _, tog[i] = comparator_kernel(bp[i], v_high, v_low, -1, cmp[i])
+        _, tog[j] = comparator_kernel(bp[j], v_high, v_low, -1, cmp[j])

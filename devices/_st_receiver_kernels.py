@@ -144,15 +144,21 @@ def i0e_kernel(x, out):
 
 
 @njit_inline
+def section_step(sos, s, x, z0, z1):
+    """One input sample ``x`` through the second-order section ``sos[s]`` (6,) in direct form II
+    transposed (the recursion of ``scipy.signal.sosfilt``, in its operation order) from the
+    state ``(z0, z1)``; returns ``(output, new z0, new z1)``."""
+    y = sos[s, 0] * x + z0
+    return y, sos[s, 1] * x - sos[s, 4] * y + z1, sos[s, 2] * x - sos[s, 5] * y
+
+
+@njit_inline
 def sos_sample(sos, z, x):
-    """One input sample ``x`` through the second-order sections ``sos`` (s, 6) in direct form
-    II transposed (the recursion of ``scipy.signal.sosfilt``, in its operation order), the
-    states ``z`` (s, 2) updated in place; returns the output sample."""
+    """One input sample ``x`` through the second-order sections ``sos`` (s, 6)
+    (:func:`section_step` each), the states ``z`` (s, 2) updated in place; returns the output
+    sample."""
     for s in range(sos.shape[0]):
-        y = sos[s, 0] * x + z[s, 0]
-        z[s, 0] = sos[s, 1] * x - sos[s, 4] * y + z[s, 1]
-        z[s, 1] = sos[s, 2] * x - sos[s, 5] * y
-        x = y
+        x, z[s, 0], z[s, 1] = section_step(sos, s, x, z[s, 0], z[s, 1])
     return x
 
 

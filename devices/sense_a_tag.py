@@ -634,7 +634,7 @@ def level_differences(envelope_v, levels, rx: sr.STReceiver) -> np.ndarray:
 
 
 def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, start_sample: int,
-                search_samples: int | None) -> np.ndarray:
+                search_samples: int | None, memo: dict | None = None) -> np.ndarray:
     """Decode the reply in the chosen rows and compare it with the expected bits.
 
     The outcome of :meth:`STReceiver.decode_chain` without a CRC: a preamble correlation of
@@ -642,6 +642,12 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     ``rx.min_toggles`` times after ``start_sample`` are not decoded (False); the toggles of
     all rows are counted at once, and only the comparator is decoded (the envelope
     measurements of ``decode_chain`` are not needed for the outcome).
+
+    The decoder is a deterministic function of its input row and settings, so rows with the
+    same comparator output (from ``start_sample`` on) are decoded once: the rows are keyed by
+    their ±1 samples packed to bits (with the settings), and ``memo`` keeps the decodings
+    across calls (phase-cancellation full run: about half of a position batch's rows repeat
+    one already decoded in its five chains).
 
     Parameters
     ----------
@@ -664,6 +670,9 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
         Decode from this sample on.
     search_samples : int or None
         The reply start is searched among lags 0…search_samples (None: every lag that fits).
+    memo : dict or None
+        Decodings by row content and settings, read and extended here (share one between
+        calls on the same rows' chains); None: a fresh one.
 
     Returns
     -------
@@ -679,12 +688,35 @@ def decode_rows(rx: sr.STReceiver, env, bp, cmp, tog, *, rows, expected_bits, st
     else:
         toggles = np.count_nonzero(part[:, 1:] != part[:, :-1], axis=1)
     idx = np.flatnonzero(np.asarray(rows, bool) & (toggles >= rx.min_toggles))
+    memo = {} if memo is None else memo
+    keys = _row_keys(part[idx], (exp.size, rx.m, rx.trext, rx.blf_hz, rx.fs_hz, rx.method, search_samples))
+    todo = {}  # each key not decoded yet → its first row
+    for i, key in zip(idx.tolist(), keys):
+        if key not in memo:
+            todo.setdefault(key, i)
     # rx.decode_comparator row by row, its setup done once (rfsim.gen2.linecode.decode_reply_rows)
-    dets = decode_reply_rows(part, idx, n_bits=exp.size, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz,
-                             method=rx.method, search_samples=search_samples)
-    for i, det in zip(idx.tolist(), dets):
-        out[i] = det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, exp)
+    dets = decode_reply_rows(part, np.fromiter(todo.values(), np.int64, len(todo)), n_bits=exp.size, m=rx.m,
+                             trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, method=rx.method,
+                             search_samples=search_samples)
+    memo.update(zip(todo, dets))
+    want = exp.tobytes()  # the decoded bits are uint8 of the same length: equal bytes = equal bits
+    for i, key in zip(idx.tolist(), keys):
+        det = memo[key]
+        out[i] = det is not None and det.corr >= rx.min_corr and det.bits.tobytes() == want
     return out
+
+
+def _row_keys(x, settings: tuple) -> list:
+    """A hashable key per row of ``x`` (r, n) that is equal exactly for equal rows: with every
+    sample ±1 (a comparator's output) the signs packed to bits, else the rows' bytes; each
+    with ``settings`` and the row length."""
+    a = np.abs(x)
+    if a.size and a.min() == 1.0 == a.max():
+        rows = np.packbits(x > 0, axis=1)
+        kind = "sign"
+    else:
+        rows, kind = np.ascontiguousarray(x), "bytes"
+    return [(settings, kind, x.shape[1], r.tobytes()) for r in rows]
 
 
 __all__ = ["TECHNIQUES", "MAX_REPORTED", "DEFAULT_SPACING_M", "SenseATagConfig", "st_antenna_positions",

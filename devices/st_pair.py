@@ -125,7 +125,7 @@ def ask_stamp_transitions(bandpassed_v, frame: sr.StampFrame, threshold_v: float
 
 
 def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expected_bits, fs_hz: float,
-               blf_hz: float) -> tuple[np.ndarray, np.ndarray]:
+               blf_hz: float, memo: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """ASK-PSK stamp technique (§5) on many positions: stamp symbols on SA2, decode on the chosen path.
 
     The ASK symbol is '1' when a comparator at (1 + :data:`STAMP_DECISION_MARGIN`)·threshold
@@ -148,6 +148,9 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
     blf_hz : float
         Backscatter link frequency [Hz] (the decoder searches the reply start within
         ``2·fs/BLF`` samples of ``frame.reply_start``).
+    memo : dict or None
+        Decodings shared between the calls of :func:`rfsim.devices.sense_a_tag.decode_rows`
+        (None: one for this call's two paths).
 
     Returns
     -------
@@ -156,16 +159,22 @@ def stamp_rows(rx: sr.STReceiver, stamp_inputs, frame: sr.StampFrame, *, expecte
     detected : numpy.ndarray of bool, shape (n_rows,)
         The chosen path decoded ``expected_bits`` exactly.
     """
-    env2, bp2, cmp2, tog2 = _sat.chain_rows(rx, stamp_inputs[:, 1])
+    # the ASK symbol reads SA2's band-pass up to the ASK stamp's end only: the chain (causal, from
+    # the frame's first sample, rows independent) runs over that head for every row, and over the
+    # whole frame on the path each row decodes on (the same samples as one chain of every row)
+    head = _sat.chain_rows(rx, stamp_inputs[:, 1, :max(frame.ask_stop, 1)])[1]
     thr = (1.0 + STAMP_DECISION_MARGIN) * rx.threshold_v
-    use_p1 = ask_stamp_transitions(bp2, frame, thr) < STAMP_CYCLES - 1
-    kw = dict(expected_bits=expected_bits, start_sample=frame.reply_start, search_samples=int(2 * fs_hz / blf_hz))
-    det = _sat.decode_rows(rx, env2, bp2, cmp2, tog2, rows=~use_p1, **kw)
-    env2 = bp2 = cmp2 = tog2 = None  # before P1's chain
-    if use_p1.any():
-        idx = np.flatnonzero(use_p1)
-        env1, bp1, cmp1, tog1 = _sat.chain_rows(rx, stamp_inputs[idx, 0])
-        det[idx] = _sat.decode_rows(rx, env1, bp1, cmp1, tog1, rows=np.ones(idx.size, bool), **kw)
+    use_p1 = ask_stamp_transitions(head, frame, thr) < STAMP_CYCLES - 1
+    head = None
+    kw = dict(expected_bits=expected_bits, start_sample=frame.reply_start, search_samples=int(2 * fs_hz / blf_hz),
+              memo={} if memo is None else memo)
+    det = np.zeros(use_p1.size, bool)
+    for path, chosen in ((1, ~use_p1), (0, use_p1)):
+        if chosen.any():
+            idx = np.flatnonzero(chosen)
+            chain = _sat.chain_rows(rx, stamp_inputs[idx, path])
+            det[idx] = _sat.decode_rows(rx, *chain, rows=np.ones(idx.size, bool), **kw)
+            chain = None  # one path's chain at a time
     return use_p1, det
 
 
@@ -255,6 +264,7 @@ def _decoded_rows(rx: sr.STReceiver, reply, two: bool) -> dict[str, np.ndarray]:
         inputs["sa1"] = lambda: reply.inputs[:, 0]
         inputs["combined"] = lambda: reply.inputs[:, 0] + reply.inputs[:, -1]
     dec = {}
+    memo: dict = {}  # decodings by comparator output, shared by the chains (sense_a_tag.decode_rows)
     for name in ("sa2", "combined", "sa1"):
         if name not in inputs:
             continue
@@ -265,14 +275,14 @@ def _decoded_rows(rx: sr.STReceiver, reply, two: bool) -> dict[str, np.ndarray]:
         # Algorithm 1 returns ID2 whenever P2 decodes: P1's result matters only where P2 failed
         rows = ~dec["sa2"] if name == "sa1" else np.ones(n, bool)
         dec[name] = _sat.decode_rows(rx, *chain, rows=rows, expected_bits=reply.rn16, start_sample=0,
-                                search_samples=reply.search)
+                                     search_samples=reply.search, memo=memo)
     chain = None
     out["detected_single"] = dec["sa2"]
     if two:
         out["detected_combination"] = dec["combined"]
         out["detected_selection"] = sa.select_detected(dec["sa1"], dec["sa2"])
         use_p1, det_stamp = stamp_rows(rx, reply.stamp_inputs, reply.frame, expected_bits=reply.rn16,
-                                       fs_hz=reply.fs_hz, blf_hz=reply.blf_hz)
+                                       fs_hz=reply.fs_hz, blf_hz=reply.blf_hz, memo=memo)
         out["detected_stamp"] = det_stamp
         out["stamp_use_p1"] = use_p1
     return out

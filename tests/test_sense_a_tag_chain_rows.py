@@ -85,3 +85,67 @@ def test_i0e_kernel_blocks_equal_scipy_bit_for_bit(n):
         x[:4] = [8.0, np.nextafter(8.0, 9.0), -8.0, 0.0]
         rng.shuffle(x)
     np.testing.assert_array_equal(sr.i0e(x).view(np.int64), i0e(x).view(np.int64))
+
+
+def test_chain_rows_of_an_odd_count_equal_each_row_alone():
+    """The kernel takes rows two at a time (the last of an odd count paired with itself): every
+    row's outputs are those of the row run alone, bit for bit, whatever its partner, with one
+    and two band-pass sections."""
+    x = _inputs(n_rows=7, n=900, seed=11)
+    for order in (1, 2):
+        rx = _receiver(order)
+        env, bp, cmp, tog = chain_rows(rx, x)
+        for i in range(x.shape[0]):
+            e1, b1, c1, t1 = chain_rows(rx, x[i:i + 1])
+            np.testing.assert_array_equal(env[i], e1[0])
+            np.testing.assert_array_equal(bp[i], b1[0])
+            np.testing.assert_array_equal(cmp[i], c1[0])
+            assert tog[i] == t1[0]
+
+
+def _reply_comparators(rx: sr.STReceiver, bits, n_rows: int, seed: int) -> np.ndarray:
+    """Comparator-like rows (±1): the reply's line-code levels after a few samples of −1, with
+    some rows flipped in random samples (noise) and some rows repeated."""
+    from rfsim.gen2.linecode import reply_waveform
+
+    lv = reply_waveform(bits, m=rx.m, trext=rx.trext, blf_hz=rx.blf_hz, fs_hz=rx.fs_hz, t0_s=30 / rx.fs_hz,
+                        n_samples=int(30 + 1.2 * rx.fs_hz * (len(bits) + 30) * rx.m / rx.blf_hz))
+    base = np.where(lv > 0, 1.0, -1.0)
+    rng = np.random.default_rng(seed)
+    rows = np.repeat(base[None, :], n_rows, axis=0)
+    for i in range(0, n_rows, 3):  # every third row: flipped samples, a few or (from row 6) beyond repair
+        flip = rng.choice(base.size, size=int(rng.integers(1, 20)) if i < 6 else base.size // 3, replace=False)
+        rows[i, flip] *= -1.0
+    rows[1] = rows[0]  # a noisy row repeated
+    return rows
+
+
+def test_decode_rows_decodes_each_distinct_comparator_output_once(monkeypatch):
+    """Rows with equal comparator outputs are decoded once (a memo shared between calls holds
+    them), and every row's outcome is that of the row decoded alone
+    (:meth:`STReceiver.decode_comparator`: correlation ≥ min_corr and the expected bits)."""
+    from rfsim.devices import sense_a_tag as sat
+
+    rx = _receiver()
+    bits = np.random.default_rng(3).integers(0, 2, 16).astype(np.uint8)
+    cmp = _reply_comparators(rx, bits, 12, seed=5)
+    calls = []
+    real = sat.decode_reply_rows
+    monkeypatch.setattr(sat, "decode_reply_rows", lambda part, idx, **kw: calls.append(len(idx)) or real(part, idx, **kw))
+    n = cmp.shape[0]
+    env, tog = np.zeros_like(cmp), np.full(n, 10**6)
+    memo = {}
+    got = sat.decode_rows(rx, env, env, cmp, tog, rows=np.ones(n, bool), expected_bits=bits, start_sample=0,
+                          search_samples=None, memo=memo)
+    distinct = len({r.tobytes() for r in cmp})
+    assert calls == [distinct] and distinct < n
+    want = []
+    for r in cmp:
+        det = rx.decode_comparator(r, n_bits=bits.size)
+        want.append(det is not None and det.corr >= rx.min_corr and np.array_equal(det.bits, bits))
+    np.testing.assert_array_equal(got, want)
+    assert any(want) and not all(want)  # both outcomes occur
+    again = sat.decode_rows(rx, env, env, cmp[::-1].copy(), tog, rows=np.ones(n, bool), expected_bits=bits,
+                            start_sample=0, search_samples=None, memo=memo)
+    assert calls == [distinct, 0]
+    np.testing.assert_array_equal(again, want[::-1])

@@ -142,18 +142,20 @@ def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
     """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
     each piece's mean sums[p]/sizes[p] formed once; :func:`_spread_add_less` with nothing
     subtracted: x − 0 is x, exactly)."""
-    _spread_add_less(r, b1, piece_of, sign, sums, sizes, 0j)
+    _spread_add_less(r, r, b1, piece_of, sign, sums, sizes, 0j)
 
 
 @njit
-def _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc):
-    """:func:`spread_add_kernel` and then ``r[b1 + q] −= dc``, in one pass (the same operations
-    in the same order per sample)."""
+def _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc):
+    """``r[b1 + q] = (x[b1 + q] + sign[q]·sums[p]/sizes[p]) − dc`` for p = piece_of[q]:
+    :func:`spread_add_kernel` and then the subtraction of ``dc``, in one pass (the same
+    operations in the same order per sample), reading the input ``x`` (``r`` itself for the
+    spread in place; the receiver's noise-free row, so that ``r`` need not be a copy of it)."""
     mean = np.empty(sums.size, np.complex128)
     for p in range(sums.size):
         mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        r[b1 + q] = (r[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
+        r[b1 + q] = (x[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
 
 
 @njit
@@ -470,9 +472,10 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
     stay in trial order. ``trial`` (1,) int64: on entry the first trial, on return the index
     after the last trial done."""
     b = trial[0]
+    b1 = ip[IP_B1]
     while b < xs.shape[0]:
-        r[:] = xs[b]
-        _receive(st, r, ip, fp, plan, bits_out[b], z_out, s_out, res[b], memo, ki, wi, fi)
+        r[:b1] = xs[b, :b1]  # the rest is written by the spread, from xs[b]
+        _receive(st, r, xs[b], ip, fp, plan, bits_out[b], z_out, s_out, res[b], memo, ki, wi, fi)
         b += 1
         if res[b - 1, RES_GAMMA_LEFT] > 0 or res[b - 1, RES_STATUS] >= ZERO_GAIN:
             break
@@ -480,9 +483,11 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
 
 
 @njit
-def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
-    """:func:`receive_kernel`'s steps for one trial (``r`` its input, ``bits_out`` and ``res`` its
-    rows) on the state ``st`` in the noise kernels' order."""
+def _receive(st, r, x, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+    """:func:`receive_kernel`'s steps for one trial (``x`` its noise-free input, of which ``r``
+    holds the samples before the pieces, ``r[:b1]``; ``bits_out`` and ``res`` its rows) on the
+    state ``st`` in the noise kernels' order; ``r`` is written in full (the noise added, the DC
+    subtracted)."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
@@ -502,7 +507,7 @@ def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc0)
+    _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag

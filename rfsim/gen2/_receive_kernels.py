@@ -155,11 +155,9 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     # step 3: (h, c) from the known levels of the reference of the first decisions
     n_bits = bits.size - 1
     t0_samples = start / fs_hz * fs_hz
-    full = np.empty(n)  # 0 outside [a, b), the reference (0 outside the reply) inside
+    full = np.zeros(n)
     a = max(0, int(math.floor(t0_samples)) - 1)
     b = min(n, int(math.ceil(t0_samples + (pre_el.size + 2 * m * (n_bits + 1)) / ratio)) + 2)
-    full[:a] = 0.0
-    full[max(a, b):] = 0.0
     if b > a:
         _reference_into(det_bits[:n_bits], m, pre_levels, state0, t0_samples, ratio, a, full[a:b])
     r_known = np.empty(n, np.complex128)

@@ -348,7 +348,6 @@ class _Call(NamedTuple):
     ip: np.ndarray  # receive_kernel's integer parameters
     r: np.ndarray  # (n,) complex128: the kernel's input buffer (it adds the noise in place)
     z: np.ndarray  # (n_reply + 4,) complex128: the reply span r − c
-    s: np.ndarray  # (n_reply + 4,) float64: its ±1 reference
     memo: "_sk.Memo"  # the piece map of the last start, the reference of the last bits, the cuts
 
 
@@ -364,8 +363,7 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
                     np.zeros(n), np.zeros((6, max(k, 3)), np.int64))
-    return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128),
-                 np.zeros(plan.n_reply + 4), memo)
+    return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 
 def _kept(table: dict, key, make, *args):
@@ -519,8 +517,8 @@ def receive_many(reader, xs, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_
     trial = np.zeros(1, np.int64)
     while len(out) < n_trials:
         full, st = _nk._pcg64_state(rng)
-        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
-                          call.s, res, call.memo)
+        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z, res,
+                          call.memo)
         _nk._set_pcg64_state(rng, full, st)
         for b in range(len(out), int(trial[0])):
             out.append(_result(reader, bits[b, :n_bits], res[b], lo, float(t0_s), sigma2, blf, expect_crc,

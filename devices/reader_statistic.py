@@ -114,11 +114,17 @@ Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC repl
 passes over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's
 measurement; the piece map, the reference and the block cuts only when their content changes)
 and the decoder's search with its sub-sample refinement (``rfsim bench exchange-statistic``):
-≈ 150 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
+≈ 120–145 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
 reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would change in the last
-bit for ≈ 7 % of values, and with it the sample-level records). A receiver without per-sample
-passes would form the half-bit, block and fit sums of ``x`` per piece (or keep them by content
-where ``x`` repeats); the search block stays per sample (step 2).
+bit for ≈ 7 % of values, and with it the sample-level records). Of the kernel (EPC reply, steps
+timed one after another on a loaded host): the measurement ≈ 44 µs, the spread ≈ 14, the search
+with its draws ≈ 13, the half-bit sums ≈ 13, the pieces' draws ≈ 7, the fit, the span r − c and
+the cuts ≈ 5 each. Everything but the draws, the spread and the cuts is the sample-level
+receive's own work on the same number of samples, so per call this receiver costs more than
+the sample-level receive by about its own noise (≈ 30 µs), which the sample-level model draws
+in the air step, outside its receive. A receiver without per-sample passes would form the
+half-bit, block and fit sums of ``x`` per piece (or keep them by content where ``x``
+repeats); the search block stays per sample (step 2).
 """
 
 from __future__ import annotations

@@ -142,18 +142,20 @@ def spread_add_kernel(r, b1, piece_of, sign, sums, sizes):
     """``r[b1 + q] += sign[q]·sums[p]/sizes[p]`` for p = piece_of[q] (the spread pieces added in place;
     each piece's mean sums[p]/sizes[p] formed once; :func:`_spread_add_less` with nothing
     subtracted: x − 0 is x, exactly)."""
-    _spread_add_less(r, b1, piece_of, sign, sums, sizes, 0j)
+    _spread_add_less(r, r, b1, piece_of, sign, sums, sizes, 0j)
 
 
 @njit
-def _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc):
-    """:func:`spread_add_kernel` and then ``r[b1 + q] −= dc``, in one pass (the same operations
-    in the same order per sample)."""
+def _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc):
+    """``r[b1 + q] = (x[b1 + q] + sign[q]·sums[p]/sizes[p]) − dc`` for p = piece_of[q]:
+    :func:`spread_add_kernel` and then the subtraction of ``dc``, in one pass (the same
+    operations in the same order per sample), reading the input ``x`` (``r`` itself for the
+    spread in place; the receiver's noise-free row, so that ``r`` need not be a copy of it)."""
     mean = np.empty(sums.size, np.complex128)
     for p in range(sums.size):
         mean[p] = sums[p] / sizes[p]
     for q in range(piece_of.size):
-        r[b1 + q] = (r[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
+        r[b1 + q] = (x[b1 + q] + sign[q] * mean[piece_of[q]]) - dc
 
 
 @njit
@@ -445,7 +447,7 @@ def standard_gamma_kernel(st, shape, ki, wi, fi):
 
 
 @njit
-def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
+def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     """The statistic-level receiver of :func:`rfsim.devices.reader_statistic.receive_many`, steps
     1–4 and step 6's draw (its module docstring) for the trials ``trial[0], trial[0] + 1, …`` of one
     plan, input length and search window in one call, the draws from the PCG64 state in
@@ -457,9 +459,9 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
     input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
     parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
     ``memo``: the :class:`Memo` of the plan, input length and search window. Per trial b:
-    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c and its
-    ±1 reference (0 outside the reply) into ``z_out``, ``s_out`` ((n_reply + 4,), scratch,
-    ``res[b, RES_N_SPAN]`` of them used), measured by
+    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c into
+    ``z_out`` ((n_reply + 4,) complex, scratch, ``res[b, RES_N_SPAN]`` of them used), measured
+    against its ±1 reference (0 outside the reply; the span of the memo's reference) by
     :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
     ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
     in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
@@ -470,9 +472,10 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
     stay in trial order. ``trial`` (1,) int64: on entry the first trial, on return the index
     after the last trial done."""
     b = trial[0]
+    b1 = ip[IP_B1]
     while b < xs.shape[0]:
-        r[:] = xs[b]
-        _receive(st, r, ip, fp, plan, bits_out[b], z_out, s_out, res[b], memo, ki, wi, fi)
+        r[:b1] = xs[b, :b1]  # the rest is written by the spread, from xs[b]
+        _receive(st, r, xs[b], ip, fp, plan, bits_out[b], z_out, res[b], memo, ki, wi, fi)
         b += 1
         if res[b - 1, RES_GAMMA_LEFT] > 0 or res[b - 1, RES_STATUS] >= ZERO_GAIN:
             break
@@ -480,9 +483,11 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, s_out, res, 
 
 
 @njit
-def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi):
-    """:func:`receive_kernel`'s steps for one trial (``r`` its input, ``bits_out`` and ``res`` its
-    rows) on the state ``st`` in the noise kernels' order."""
+def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
+    """:func:`receive_kernel`'s steps for one trial (``x`` its noise-free input, of which ``r``
+    holds the samples before the pieces, ``r[:b1]``; ``bits_out`` and ``res`` its rows) on the
+    state ``st`` in the noise kernels' order; ``r`` is written in full (the noise added, the DC
+    subtracted)."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
@@ -502,7 +507,7 @@ def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    _spread_add_less(r, b1, piece_of, sign, sums, sizes, dc0)
+    _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -546,13 +551,12 @@ def _receive(st, r, ip, fp, plan, bits_out, z_out, s_out, res, memo, ki, wi, fi)
         same = same and bits_out[i] == det_bits[i]
     if not same:
         _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
-    for i in range(n_span):
-        s_out[i] = full[i0 + i]
-    n_free, n_used = _bridge_cuts(st, r, s_out[:n_span], i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
+    s_span = full[i0:i0 + n_span]  # the reference of the span (read, not copied)
+    n_free, n_used = _bridge_cuts(st, r, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
                                   ip[IP_N_BLOCKS], flags, memo.cut_memo, ki, wi, fi)
     for i in range(n_span):
         z_out[i] = r[i0 + i] - c
-    gain, slope, resid = measure_kernel(z_out[:n_span], s_out[:n_span], fs, ip[IP_N_BLOCKS])
+    gain, slope, resid = measure_kernel(z_out[:n_span], s_span, fs, ip[IP_N_BLOCKS])
     # step 6: the in-piece noise energy σ²·Gamma(n_free)/n_used, where the SNR is finite
     if resid > 0.0 and abs(gain) ** 2 > 0.0 and n_used > 0 and n_free > 0:  # (as Reader._measurements)
         if n_free > 1.0:

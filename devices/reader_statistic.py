@@ -114,11 +114,17 @@ Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC repl
 passes over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's
 measurement; the piece map, the reference and the block cuts only when their content changes)
 and the decoder's search with its sub-sample refinement (``rfsim bench exchange-statistic``):
-≈ 150 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
+≈ 120–145 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
 reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would change in the last
-bit for ≈ 7 % of values, and with it the sample-level records). A receiver without per-sample
-passes would form the half-bit, block and fit sums of ``x`` per piece (or keep them by content
-where ``x`` repeats); the search block stays per sample (step 2).
+bit for ≈ 7 % of values, and with it the sample-level records). Of the kernel (EPC reply, steps
+timed one after another on a loaded host): the measurement ≈ 44 µs, the spread ≈ 14, the search
+with its draws ≈ 13, the half-bit sums ≈ 13, the pieces' draws ≈ 7, the fit, the span r − c and
+the cuts ≈ 5 each. Everything but the draws, the spread and the cuts is the sample-level
+receive's own work on the same number of samples, so per call this receiver costs more than
+the sample-level receive by about its own noise (≈ 30 µs), which the sample-level model draws
+in the air step, outside its receive. A receiver without per-sample passes would form the
+half-bit, block and fit sums of ``x`` per piece (or keep them by content where ``x``
+repeats); the search block stays per sample (step 2).
 """
 
 from __future__ import annotations
@@ -348,7 +354,6 @@ class _Call(NamedTuple):
     ip: np.ndarray  # receive_kernel's integer parameters
     r: np.ndarray  # (n,) complex128: the kernel's input buffer (it adds the noise in place)
     z: np.ndarray  # (n_reply + 4,) complex128: the reply span r − c
-    s: np.ndarray  # (n_reply + 4,) float64: its ±1 reference
     memo: "_sk.Memo"  # the piece map of the last start, the reference of the last bits, the cuts
 
 
@@ -364,8 +369,7 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
                     np.zeros(n), np.zeros((6, max(k, 3)), np.int64))
-    return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128),
-                 np.zeros(plan.n_reply + 4), memo)
+    return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 
 def _kept(table: dict, key, make, *args):
@@ -519,8 +523,8 @@ def receive_many(reader, xs, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_
     trial = np.zeros(1, np.int64)
     while len(out) < n_trials:
         full, st = _nk._pcg64_state(rng)
-        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z,
-                          call.s, res, call.memo)
+        _nk._run_compiled(_sk.receive_kernel, st, xs, trial, call.r, call.ip, fp, plan.arrays, bits, call.z, res,
+                          call.memo)
         _nk._set_pcg64_state(rng, full, st)
         for b in range(len(out), int(trial[0])):
             out.append(_result(reader, bits[b, :n_bits], res[b], lo, float(t0_s), sigma2, blf, expect_crc,

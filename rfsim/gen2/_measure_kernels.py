@@ -25,6 +25,13 @@ def measure_kernel(z, s, fs_hz, n_blocks):
     g_k = Σz·s/Σs², tc_k = mean t; the slope is the weighted (|g_k|²) least-squares line
     through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
+
+    Passes: the used samples are copied out (branch-free), then summed per block, the rotation
+    formed, the gain and the residual summed (≈ 10, 10, 6, 7, 7 µs for an EPC reply of 7,000
+    samples). The sums keep their order (bit for bit); each is bound by its chain of
+    additions, and fusing the copy with the block sums (a branch per sample, or masked sums
+    over every sample), computing the times in the block loop or from a table, or reading the
+    span through indices instead of copies all measured slower.
     """
     n = s.size
     i0 = 0  # first and last non-zero s, scanned from either end

@@ -42,10 +42,8 @@ from rfsim.air.cache import AirCache, Waveform
 from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
-from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1, t5
-from rfsim.gen2.linecode import preamble_levels, reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
@@ -99,7 +97,6 @@ class _ReceiveMemo(NamedTuple):
     link: LinkProfile
     fs_hz: float
     blf_hz: float  # the link's nominal BLF [Hz]
-    thresholds: dict  # (n_lags, BLF or None) -> γ
     sizes: dict  # (n_bits, BLF [Hz]) -> _ReplySize
 
 
@@ -322,7 +319,7 @@ class Reader(PieTransmitter):
             Number of samples.
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return int(math.floor(self._preamble_elements() * self.fs_hz / (2.0 * blf)))
+        return self._decode_plan("known").preamble_samples(blf)
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -349,15 +346,8 @@ class Reader(PieTransmitter):
         float
             γ, a normalised correlation in (0, 1).
         """
-        table = self._receive_memo().thresholds  # kept while config, link and fs are the same
-        key = (int(n_lags), blf_hz)
-        hit = table.get(key)
-        if hit is None:
-            if len(table) >= TX_CACHE_SIZE:
-                table.clear()
-            hit = table[key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
-                                                    self.config.false_alarm_probability)
-        return hit
+        blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
+        return self._decode_plan("known").detection(int(n_lags), blf).threshold
 
     def listen_window_s(self, reply_bits: int) -> float:
         """Return how long the reader keeps its CW after a command to hear a reply.
@@ -541,17 +531,9 @@ class Reader(PieTransmitter):
             return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
-        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf)
-        start_s = float(t0_s) + out.start / fs
-        if not out.found:
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
-        bits = out.bits
-        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
-        if carrier is not None and complex(carrier) != 0:
-            meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-        ok = (not expect_crc) or crc16_ok(bits)
-        return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                          start_s=start_s, corr=out.corr, **meas)
+        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
+                      crc=expect_crc)
+        return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose
@@ -587,39 +569,44 @@ class Reader(PieTransmitter):
         """:meth:`receive` with ``blf_search = "preamble"``: BLF, start and bits from
         :func:`search_decode` (detection: its coarse correlation against
         :meth:`detection_threshold` over every BLF hypothesis and lag), then (h, c) from the
-        known levels and the measurements as in steps 3 and 5 at the decoded BLF; an RN16 is
+        known levels and the measurements as in steps 3 and 5 at the decoded BLF (the decoder's
+        measurement step, the plan's ``refit``); an RN16 is
         accepted only when its decision-domain Eb/(N0 + I) reaches
         :func:`rn16_threshold_db` of ``rn16_false_accept`` (else "rn16 rejected", bits kept).
         The BLF of an accepted RN16 is remembered: the reply with a CRC that follows (the EPC
         of the ACKed tag) is searched at that BLF, within 1/(RN16 elements), over all its bits
         (the PC of an EPC reply is mostly 0s, a square wave at any BLF over its first bits)."""
-        fs = self.fs_hz
         hint, self._rn16_blf_hz = self._rn16_blf_hz, None
         # with a hint: the reply of the tag whose RN16 was ACKed, its BLF is known
         out = _decode(rx, self._decode_plan("blf"), lo=lo, hi=hi, n_bits=n_bits,
-                      blf_hint_hz=hint if expect_crc else None)
-        start, blf, corr, r = out.start, out.blf_hz, out.corr, out.window
-        start_s = t0_s + start / fs
+                      blf_hint_hz=hint if expect_crc else None, crc=expect_crc, reference=self._reference)
+        return self._read_result(out, t0_s, out.blf_hz, expect_crc, carrier, searched=True)
+
+    def _read_result(self, out, t0_s: float, blf: float, expect_crc: bool, carrier, searched: bool = False
+                     ) -> ReadResult:
+        """The :class:`ReadResult` of the decoder's reply ``out``: the failure reason, the
+        measurements at ``blf`` (phase referred to ``carrier``); with the BLF search also the
+        BLF, the decision-domain Eb/(N0 + I) and, for an RN16, its acceptance."""
+        start_s = t0_s + out.start / self.fs_hz
         if not out.found:
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-        bits = out.bits
-        full = self._reference(bits, start, r.size, blf)
-        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, self._preamble_elements()))
-        meas = self._measure(r - c, full, blf)
+            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
+        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-        stat = out.decision_ebn0_db
         if expect_crc:
-            ok = crc16_ok(bits)
+            ok = out.crc_ok
             reason = "" if ok else "crc error"
-        else:
+        elif searched:
             p = self.config.rn16_false_accept
-            ok = p == 0 or stat >= rn16_threshold_db(p)
+            ok = p == 0 or out.decision_ebn0_db >= rn16_threshold_db(p)
             reason = "" if ok else "rn16 rejected"
             if ok:  # an ACK follows: the reply it elicits comes from the tag measured here
                 self._rn16_blf_hz = blf
-        return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
-                          decision_ebn0_db=stat, **meas)
+        else:
+            ok, reason = True, ""
+        if searched:
+            meas.update(blf_hz=blf, decision_ebn0_db=out.decision_ebn0_db)
+        return ReadResult(success=ok, bits=out.bits, failure_reason=reason, start_s=start_s, corr=out.corr, **meas)
 
     def _decode_plan(self, search: str) -> _DecodePlan:
         """The :class:`rfsim.gen2.reply_decoder.DecodePlan` of ``search`` ("known" or "blf") for
@@ -627,24 +614,16 @@ class Reader(PieTransmitter):
         run's ``air_cache`` with the (frozen) link."""
         cfg = self.config
         return self.air_cache.derived(self.link, _LinkPlans).plan(search, self.fs_hz, cfg.decoder,
-                                                                  cfg.false_alarm_probability)
+                                                                  cfg.false_alarm_probability,
+                                                                  refit=search == "blf")
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
         while config, link and fs are the same objects (pure functions of them)."""
         memo = getattr(self, "_rx_memo", None)
         if memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz:
-            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {}, {})
+            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {})
         return memo
-
-    def _preamble_elements(self) -> int:
-        """Elements of the reply preamble (pilot included) of the current link (kept while the
-        link is the same object)."""
-        hit = getattr(self, "_pre_el", None)
-        if hit is None or hit.source is not self.link:
-            lk = self.link
-            hit = self._pre_el = _Kept(lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
-        return hit.value
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
                    dummy: bool = True) -> np.ndarray:

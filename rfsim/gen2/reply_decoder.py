@@ -5,56 +5,56 @@ The reader in the loop (:meth:`rfsim.devices.reader.Reader.receive`) and the cap
 differs between them is the plan's ``search`` and its parameters, built once per link (the
 reader keeps its plans in the run's :class:`rfsim.air.cache.AirCache`, :class:`LinkPlans`).
 
-Map of the steps
-----------------
+Steps
+-----
 
-One column per ``search`` of the plan ("known", "blf", "link").
+:func:`decode` is one orchestration: every call runs the steps of :data:`STEPS` in this order,
+each in the variant its plan names (:attr:`DecodePlan.variants`, derived from the plan's fields
+``search``, ``dc_from_lead``, ``refit``, ``track_timing``; the functions in :data:`VARIANTS`),
+and stops after the search when there is no reply. Where a compiled kernel does several steps in
+one call (``receive_kernel``: search, decisions and measurement; ``search_decode_kernel``:
+search, fine BLF and decisions; ``decode_window_kernel``: fine BLF, length, tracking,
+decisions and fit), the later steps take their results from it. One column per ``search``:
 
-==========================  ======================  ======================  =====================================
-step                        "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
-                            BLF)                    ``blf_search``)         link, ``rfsim decode``)
-==========================  ======================  ======================  =====================================
-conditioning (DC)           r − mean(r[:lo]),       the same, in Python     r − Σr[:lo]/lo by the caller (also
-                            lo ≥ 8, in the kernel   (here)                  for the onsets of a delayed reply)
-working rate                fs                      fs                      boxcar means of D samples per BLF
-                                                                            octave (:mod:`~rfsim.gen2.reply_search`)
-link hypotheses             (M, TRext) of the plan  (M, TRext) of the plan  :attr:`DecodePlan.hypotheses`
-BLF hypotheses              one (given or nominal)  coarse grid of          coarse grid per hypothesis; first
-                                                    ``blf_grid_hz``, or     ±2 steps around ``blf_hint_hz``
-                                                    the hint ±
-                                                    1/(RN16 el.)
-preamble search             every lag lo…hi,        every lag × BLF,        T1 lags × BLF per hypothesis
-                            runs + 1/16-sample      parabola between lags   (``preamble_search_kernel``),
-                            refinement                                      parabola between lags
-false alarm                 ``preamble_threshold``  the same over lags ×    the same over every lag and
-                            over the lags (memo in  grid size (nominal      hypothesis tested (union bound)
-                            plan)                   preamble length)
-fine BLF                    —                       centre held, coarse to  centre held, first 16 bits then the
-                                                    fine, least residual    whole reply, whole-element start
-                                                                            checks
-reply length                fixed ``n_bits``        fixed ``n_bits``        from its first bits (``n_bits_of``:
-                                                                            RN16, EPC's PC, read header), cut
-                                                                            replies truncated
-(h, c)                      LS on known levels      in the kernel's fit;    LS over the remodulated reply
-                                                    the reader refits on
-                                                    known levels
-timing tracking             —                       —                       ``track_timing``: blocks of 24
-                                                                            elements, quadratic clock, resample
-decisions                   half-bit sums +         the same kernels        the same kernels
-                            Viterbi/bitwise (the
-                            kernels of
-                            ``halfbit_decisions``)
-CRC                         the caller (reader:     the caller (reader:     the caller (the record's
-                            ``crc16_ok``)           ``crc16_ok``)           fields)
-measurements                gain, Doppler slope,    gain, σ², σ_eff²        gain, σ² and the E_h/N₀ gate,
-                            σ² (the kernel          (Eb/(N0+I))             BLF drift, the correlation at the
-                            ``measure_kernel``)                             decoded start
-==========================  ======================  ======================  =====================================
+============  ======================  ======================  =====================================
+step          "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
+              BLF)                    ``blf_search``)         link, ``rfsim decode``)
+============  ======================  ======================  =====================================
+condition     "in kernel":            "lead": r − Σr[:lo]/lo  "lead": the same before the earliest
+              r − mean(r[:lo]),       (lo ≥ 8; the capture    T1 start (:attr:`CaptureTiming.lead`)
+              lo ≥ 8                  sweep: "none")
+windows       "lags": lo…hi at one    "lags x grid": lo…hi ×  "t1": the T1 window, or a delayed
+              BLF; threshold of       the BLF grid (or the    reply's spans around the onsets of
+              hi − lo + 1 tests       hint ± 1/(RN16 el.));   modulation; working rate: boxcar
+              (:meth:`DecodePlan.     threshold of lags ×     means of D samples per BLF octave
+              detection`)             BLFs tests              (:mod:`~rfsim.gen2.reply_search`)
+search        "one blf":              "blf grid":             "hypotheses": ``_detect``, T1 lags ×
+              ``receive_kernel``,     ``search_decode``,      BLF per (M, TRext), parabola between
+              runs + 1/16-sample      parabola between lags,  lags, union-bound threshold; first
+              refinement              fine BLF (centre held)  ±2 steps around ``blf_hint_hz``
+timing        "none"                  "none"                  "track": ``_decode_window``: fine BLF
+                                                              (first 16 bits, then the whole reply),
+                                                              length from the first bits
+                                                              (``n_bits_of``), blocks of 24
+                                                              elements, quadratic clock, resample
+decisions     "receive kernel":       "search kernel": the    "timing": the same kernels on the
+              half-bit sums on        same kernels at the     resampled reply
+              r − c with h given,     fine BLF
+              Viterbi or bitwise
+measure       "kernel": (h, c) on     "known levels" (the     "timing": LS over the remodulated
+              the known levels,       reader, ``refit``): as  reply, σ², E_h/N₀ gate, BLF drift,
+              gain, Doppler slope,    "known" at the BLF      the correlation at the decoded start
+              σ² (``measure_kernel``  found; Eb/(N0 + I);
+              in the kernel)          "search fit" (the
+                                      capture sweep): h, σ²,
+                                      Eb/(N0 + I) of the
+                                      search
+crc           "check": CRC-16 of the  the same                the same (not asked: the record's
+              bits when asked                                 fields)
+============  ======================  ======================  =====================================
 
-Each strategy runs its steps as one numba call where it did before (``receive_kernel``,
-``search_decode_kernel``, ``preamble_search_kernel`` + ``decode_window_kernel``); the shared
-steps inside them are written once (:mod:`rfsim.gen2.reply_core`,
-:mod:`rfsim.gen2._reply_core_kernels`). Where the strategies still compute a shared step in a
+The shared steps inside the kernels are written once (:mod:`rfsim.gen2.reply_core`,
+:mod:`rfsim.gen2._reply_core_kernels`). Where the searches still compute a shared step in a
 different order (the sums of ``|r|²``, the segment mean, the fine BLF grid, …) the difference is
 listed in :mod:`rfsim.gen2.reply_core`; records stay bit-identical to the separate
 orchestrations this module replaces.
@@ -424,7 +424,7 @@ class _Work:
     def __init__(self, r, lo, hi, n_bits, n_reply, blf, hint, timing, threads, crc, reference):
         self.r, self.lo, self.hi, self.n_bits, self.n_reply, self.blf = r, lo, hi, n_bits, n_reply, blf
         self.hint, self.timing, self.threads, self.crc, self.reference = hint, timing, threads, crc, reference
-        self.found, self.start, self.corr, self.bits, self.blf_hz = False, math.nan, math.nan, None, math.nan
+        self.found, self.start, self.corr, self.bits, self.blf_hz = None, math.nan, math.nan, None, math.nan
         self.gain, self.sigma2, self.slope = complex(math.nan, math.nan), math.nan, math.nan
         self.decision_ebn0_db, self.extra, self.crc_ok = math.nan, None, None
 

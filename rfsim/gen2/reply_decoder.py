@@ -72,7 +72,7 @@ from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
 from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.linecode import METHODS, reply_waveform, search_arrays
 from rfsim.gen2.reply_core import n_pre_elements
-from rfsim.gen2.reply_search import modulation_onsets
+from rfsim.gen2.reply_search import _kept, modulation_onsets
 from rfsim.core.lazy import lazy_import
 
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
@@ -91,8 +91,6 @@ _RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",
                    3: "the decoded reply start leaves no room for the reply",
                    4: "the input is shorter than the reply",
                    5: "the reference s is constant: gain and offset cannot be separated"}
-#: Entries of a plan's memo tables before they are cleared.
-_MEMO_SIZE = 64
 
 
 class StepVariants(NamedTuple):
@@ -226,13 +224,7 @@ class DecodePlan:
         rfsim.gen2.linecode.SearchArrays
             The read-only arrays.
         """
-        table = self.memo["arrays"]
-        hit = table.get(blf_hz)
-        if hit is None:
-            if len(table) >= _MEMO_SIZE:
-                table.clear()
-            hit = table[blf_hz] = search_arrays(self.m, self.trext, 2.0 * blf_hz / self.fs_hz)
-        return hit
+        return _kept(self.memo, "arrays", blf_hz, lambda: search_arrays(self.m, self.trext, 2.0 * blf_hz / self.fs_hz))
 
     def detection(self, n_lags: int, blf_hz: float) -> _Detection:
         """Preamble samples (:meth:`preamble_samples`) and the detection threshold for
@@ -256,15 +248,12 @@ class DecodePlan:
         _Detection
             ``(preamble_samples, threshold)``.
         """
-        table = self.memo["detection"]
-        key = (n_lags, blf_hz)
-        hit = table.get(key)
-        if hit is None:
-            if len(table) >= _MEMO_SIZE:
-                table.clear()
-            n = self.preamble_samples(blf_hz)
-            hit = table[key] = _Detection(n, preamble_threshold(n, n_lags, self.false_alarm_probability))
-        return hit
+        return _kept(self.memo, "detection", (n_lags, blf_hz), lambda: self._detection(n_lags, blf_hz))
+
+    def _detection(self, n_lags: int, blf_hz: float) -> _Detection:
+        """:meth:`detection` made anew."""
+        n = self.preamble_samples(blf_hz)
+        return _Detection(n, preamble_threshold(n, n_lags, self.false_alarm_probability))
 
     def preamble_samples(self, blf_hz: float) -> int:
         """Samples fully inside the reply preamble (pilot included) as the detector correlates
@@ -273,12 +262,12 @@ class DecodePlan:
         Parameters
         ----------
         blf_hz : float
-            BLF [Hz].
+            The reply's BLF [Hz].
 
         Returns
         -------
         int
-            Number of samples.
+            Samples of the preamble.
         """
         return int(math.floor(n_pre_elements(self.m, self.trext) * self.fs_hz / (2.0 * blf_hz)))
 

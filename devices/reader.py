@@ -19,8 +19,10 @@ Receiver (see :meth:`Reader.receive`): carrier leakage ``L·x_tx`` with
 constant complex offset during the reply window, is removed; the reply is detected by
 preamble correlation inside the T1 window and decoded by the one reply decoder
 (:func:`rfsim.gen2.reply_decoder.decode`, the "known" plan at one BLF or the "blf" plan of
-the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16; RSSI, phase,
-Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
+the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16
+and gain, phase slope and residual power are measured with the decoded reply as known
+reference, both steps of the decoder; the reader turns them into RSSI, phase, Doppler and SNR
+(anchors §4.8, §4.9).
 
 Report (``ReaderConfig.report``, :class:`rfsim.core.records.ReportConfig`): what the reader hands
 over of a read — RSSI rounded to its step, a sensitivity floor, the phase with the port's
@@ -465,10 +467,11 @@ class Reader(PieTransmitter):
         -----
         With ``rx_model = "statistic"`` ``rx`` is noise-free and
         :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
-        is (anchors §4.8, §4.9; steps 1–5 at the nominal or given BLF run as one numba call,
-        ``rfsim.gen2._receive_kernels.receive_kernel``, which calls the kernels of
+        is (anchors §4.8, §4.9; steps 1–5 are the steps of the one reply decoder,
+        :func:`rfsim.gen2.reply_decoder.decode`; at the nominal or given BLF they run as one numba
+        call, ``rfsim.gen2._receive_kernels.receive_kernel``, which calls the kernels of
         :func:`~rfsim.gen2.linecode.decode_reply`, :func:`~rfsim.gen2.capture.fit_gain_offset`,
-        the known levels and the measurements; Python builds the :class:`ReadResult`):
+        the known levels and the measurements; the reader builds the :class:`ReadResult`):
 
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their
@@ -484,7 +487,7 @@ class Reader(PieTransmitter):
            preamble-only estimate of c is noisier; decisions are not used because one FM0/
            Miller bit error inverts all later remodulated levels).
         4. Decoding of r − c with h given (``config.decoder``) and, for ``expect_crc``,
-           :func:`crc16_ok` → "crc error" (bits are still returned).
+           :func:`~rfsim.gen2.crc.crc16_ok` → "crc error" (bits are still returned).
         5. Measurements with the decoded reply ``s(t)`` (±1, dummy-1 included) as reference:
            the reply is cut into :data:`DOPPLER_BLOCKS` blocks, each gives g_k = Σ(r − c)s/Σs²;
            a weighted least-squares line through the unwrapped arg g_k versus block time gives

@@ -503,7 +503,7 @@ def test_decode_runs_the_plans_steps_without_a_branch_per_search():
     the plan names (a per-search copy of the sequence would read ``plan.search``)."""
     body = _decoder_functions()["decode"]
     attrs = {n.attr for n in ast.walk(body) if isinstance(n, ast.Attribute)}
-    assert "variants" in attrs, "decode does not run the plan's step variants"
+    assert "steps" in attrs, "decode does not run the plan's steps"
     assert "search" not in attrs
     assert not set(SEARCH_ENTRIES) & set(_calls(body))
 
@@ -528,8 +528,8 @@ def test_plan_variants_name_a_function_of_every_step():
              rd.DecodePlan("blf", 4e6, dc_from_lead=False),
              rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
     for plan in plans:
-        for step, variant in zip(rd.STEPS, plan.variants):
-            assert variant in rd.VARIANTS[step], (plan.search, step, variant)
+        for step, variant, f in zip(rd.STEPS, plan.variants, plan.steps, strict=True):
+            assert rd.VARIANTS[step][variant] is f, (plan.search, step, variant)
     # the fields choose the variants: the refit switches the measurement, the DC from the lead the conditioning
     assert plans[1].variants.measure == "known levels" and plans[2].variants.measure == "search fit"
     assert plans[1].variants.condition == "lead" and plans[2].variants.condition == "none"

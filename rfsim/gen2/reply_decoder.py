@@ -64,6 +64,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
@@ -169,6 +170,8 @@ class DecodePlan:
         "known" does in its kernel; the reader) instead of keeping the search's own fit.
     variants : StepVariants
         The variant of each step, derived from the fields above (not an argument).
+    steps : tuple
+        The functions of those variants (:data:`VARIANTS`), in the order of :data:`STEPS`.
     memo : dict
         Values derived from the plan and a call's BLF or lag count (named tables ``"arrays"``,
         ``"detection"``; the "link" search's ``"grids"`` and ``"bands"``, the BLF grid of each
@@ -189,6 +192,7 @@ class DecodePlan:
     refit: bool = False
     memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}}, repr=False)
     variants: StepVariants = field(init=False, repr=False)
+    steps: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         if self.search not in SEARCHES:
@@ -209,6 +213,7 @@ class DecodePlan:
             v = StepVariants("lead", "t1", "hypotheses", "track" if self.track_timing else "none", "timing", "timing",
                              "check")
         object.__setattr__(self, "variants", v)
+        object.__setattr__(self, "steps", tuple(VARIANTS[step][variant] for step, variant in zip(STEPS, v)))
 
     def arrays(self, blf_hz: float):
         """The preamble search's arrays at ``blf_hz`` (:func:`rfsim.gen2.linecode.search_arrays`),
@@ -224,7 +229,9 @@ class DecodePlan:
         rfsim.gen2.linecode.SearchArrays
             The read-only arrays.
         """
-        return _kept(self.memo, "arrays", blf_hz, lambda: search_arrays(self.m, self.trext, 2.0 * blf_hz / self.fs_hz))
+        hit = self.memo["arrays"].get(blf_hz)
+        return hit if hit is not None else _kept(self.memo, "arrays", blf_hz, partial(
+            search_arrays, self.m, self.trext, 2.0 * blf_hz / self.fs_hz))
 
     def detection(self, n_lags: int, blf_hz: float) -> _Detection:
         """Preamble samples (:meth:`preamble_samples`) and the detection threshold for
@@ -248,7 +255,9 @@ class DecodePlan:
         _Detection
             ``(preamble_samples, threshold)``.
         """
-        return _kept(self.memo, "detection", (n_lags, blf_hz), lambda: self._detection(n_lags, blf_hz))
+        hit = self.memo["detection"].get((n_lags, blf_hz))
+        return hit if hit is not None else _kept(self.memo, "detection", (n_lags, blf_hz),
+                                                 partial(self._detection, n_lags, blf_hz))
 
     def _detection(self, n_lags: int, blf_hz: float) -> _Detection:
         """:meth:`detection` made anew."""
@@ -404,18 +413,19 @@ class LinkPlans:
 
 
 class _Work:
-    """What the steps of one :func:`decode` call hand on to each other (module docstring)."""
+    """What the steps of one :func:`decode` call hand on to each other (module docstring): the
+    call's inputs, what a step leaves for the next (``threshold``, ``pre_n``, ``n_grid``,
+    ``spans``, ``out``, ``best``, ``res``) and the result's fields (the class attributes are
+    their values until a step sets them; ``found`` None: not searched yet)."""
 
-    __slots__ = ("r", "lo", "hi", "n_bits", "n_reply", "blf", "hint", "timing", "threads", "crc", "reference",
-                 "threshold", "n_grid", "spans", "out", "best", "res", "found", "start", "corr", "bits", "blf_hz",
-                 "gain", "sigma2", "slope", "decision_ebn0_db", "extra", "crc_ok")
+    found = None
+    start = corr = blf_hz = sigma2 = slope = decision_ebn0_db = math.nan
+    gain = complex(math.nan, math.nan)
+    bits = extra = crc_ok = None
 
     def __init__(self, r, lo, hi, n_bits, n_reply, blf, hint, timing, threads, crc, reference):
         self.r, self.lo, self.hi, self.n_bits, self.n_reply, self.blf = r, lo, hi, n_bits, n_reply, blf
         self.hint, self.timing, self.threads, self.crc, self.reference = hint, timing, threads, crc, reference
-        self.found, self.start, self.corr, self.bits, self.blf_hz = None, math.nan, math.nan, None, math.nan
-        self.gain, self.sigma2, self.slope = complex(math.nan, math.nan), math.nan, math.nan
-        self.decision_ebn0_db, self.extra, self.crc_ok = math.nan, None, None
 
 
 def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits: int = 16, n_reply: int = 0,
@@ -425,8 +435,8 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     """Detect and decode one tag reply in the window ``r`` as ``plan`` says (module docstring).
 
     Every search runs the steps of :data:`STEPS` in that order, each in the variant the plan
-    names (:attr:`DecodePlan.variants`, the table :data:`VARIANTS`); a window without a reply
-    stops after the search step.
+    names (:attr:`DecodePlan.variants`, their functions :attr:`DecodePlan.steps` from the table
+    :data:`VARIANTS`); a window without a reply stops after the search step.
 
     Parameters
     ----------
@@ -477,8 +487,8 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     """
     w = _Work(r, lo, hi, n_bits, n_reply, plan.blf_hz if blf_hz is None else blf_hz, blf_hint_hz, timing,
               threads, crc, reference)
-    for name, variant in zip(STEPS, plan.variants):
-        VARIANTS[name][variant](w, plan)
+    for step in plan.steps:
+        step(w, plan)
         if w.found is False:  # no reply: nothing to decide or measure
             break
     return DecodedReply(w.found, w.start, w.corr, w.bits, w.blf_hz, w.gain, w.sigma2, w.slope, w.decision_ebn0_db,
@@ -510,7 +520,7 @@ def _windows_lags(w: _Work, plan: DecodePlan) -> None:
     """Starts ``lo…hi`` at the BLF given; the detection threshold of that many tests
     (:meth:`DecodePlan.detection`, the preamble at that BLF)."""
     w.spans, w.n_grid = ((w.lo, w.hi),), 1
-    w.threshold = plan.detection(w.hi - w.lo + 1, w.blf).threshold
+    w.pre_n, w.threshold = plan.detection(w.hi - w.lo + 1, w.blf)
 
 
 def _windows_lags_grid(w: _Work, plan: DecodePlan) -> None:
@@ -547,7 +557,7 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
     out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
     status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, plan.fs_hz, w.blf, plan.m,
-                                 plan.detection(w.hi - w.lo + 1, w.blf).preamble_samples, a.pre_el.size, a.t0,
+                                 w.pre_n, a.pre_el.size, a.t0,
                                  a.max_runs_per_sample, a.half_width, a.shifts, a.templates, a.norms, a.run_begin,
                                  a.run_value, a.n_runs, a.same_as_previous, a.pre_el, a.pre_levels, a.state,
                                  plan.method != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)

@@ -19,8 +19,10 @@ Receiver (see :meth:`Reader.receive`): carrier leakage ``L·x_tx`` with
 constant complex offset during the reply window, is removed; the reply is detected by
 preamble correlation inside the T1 window and decoded by the one reply decoder
 (:func:`rfsim.gen2.reply_decoder.decode`, the "known" plan at one BLF or the "blf" plan of
-the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16; RSSI, phase,
-Doppler and SNR are measured with the decoded reply as known reference (anchors §4.8, §4.9).
+the BLF search, kept per link in the run's ``air_cache``); EPC replies are checked with CRC-16
+and gain, phase slope and residual power are measured with the decoded reply as known
+reference, both steps of the decoder; the reader turns them into RSSI, phase, Doppler and SNR
+(anchors §4.8, §4.9).
 
 Report (``ReaderConfig.report``, :class:`rfsim.core.records.ReportConfig`): what the reader hands
 over of a read — RSSI rounded to its step, a sensitivity floor, the phase with the port's
@@ -42,10 +44,8 @@ from rfsim.air.cache import AirCache, Waveform
 from rfsim.air.carriers import ETSI_CHANNELS_HZ, FCC_CHANNELS_HZ, channel_index as _channel_index
 from rfsim.core.config import validate
 from rfsim.core.errors import ConfigError
-from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
-from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import REPLY_WINDOW_TAIL_TPRI, LinkProfile, profile, reply_window_s, t1, t5
-from rfsim.gen2.linecode import preamble_levels, reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
@@ -99,7 +99,6 @@ class _ReceiveMemo(NamedTuple):
     link: LinkProfile
     fs_hz: float
     blf_hz: float  # the link's nominal BLF [Hz]
-    thresholds: dict  # (n_lags, BLF or None) -> γ
     sizes: dict  # (n_bits, BLF [Hz]) -> _ReplySize
 
 
@@ -322,7 +321,7 @@ class Reader(PieTransmitter):
             Number of samples.
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return int(math.floor(self._preamble_elements() * self.fs_hz / (2.0 * blf)))
+        return self._decode_plan("known").preamble_samples(blf)
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -349,15 +348,8 @@ class Reader(PieTransmitter):
         float
             γ, a normalised correlation in (0, 1).
         """
-        table = self._receive_memo().thresholds  # kept while config, link and fs are the same
-        key = (int(n_lags), blf_hz)
-        hit = table.get(key)
-        if hit is None:
-            if len(table) >= TX_CACHE_SIZE:
-                table.clear()
-            hit = table[key] = preamble_threshold(self.preamble_samples(blf_hz), n_lags,
-                                                    self.config.false_alarm_probability)
-        return hit
+        blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
+        return self._decode_plan("known").detection(int(n_lags), blf).threshold
 
     def listen_window_s(self, reply_bits: int) -> float:
         """Return how long the reader keeps its CW after a command to hear a reply.
@@ -475,10 +467,11 @@ class Reader(PieTransmitter):
         -----
         With ``rx_model = "statistic"`` ``rx`` is noise-free and
         :func:`rfsim.devices.reader_statistic.receive` does the work. Otherwise the processing
-        is (anchors §4.8, §4.9; steps 1–5 at the nominal or given BLF run as one numba call,
-        ``rfsim.gen2._receive_kernels.receive_kernel``, which calls the kernels of
+        is (anchors §4.8, §4.9; steps 1–5 are the steps of the one reply decoder,
+        :func:`rfsim.gen2.reply_decoder.decode`; at the nominal or given BLF they run as one numba
+        call, ``rfsim.gen2._receive_kernels.receive_kernel``, which calls the kernels of
         :func:`~rfsim.gen2.linecode.decode_reply`, :func:`~rfsim.gen2.capture.fit_gain_offset`,
-        the known levels and the measurements; Python builds the :class:`ReadResult`):
+        the known levels and the measurements; the reader builds the :class:`ReadResult`):
 
         1. DC/leakage: during the reply window the leakage of the CW is a constant complex
            offset c. If ``rx`` holds at least 8 samples before the earliest reply start, their
@@ -494,7 +487,7 @@ class Reader(PieTransmitter):
            preamble-only estimate of c is noisier; decisions are not used because one FM0/
            Miller bit error inverts all later remodulated levels).
         4. Decoding of r − c with h given (``config.decoder``) and, for ``expect_crc``,
-           :func:`crc16_ok` → "crc error" (bits are still returned).
+           :func:`~rfsim.gen2.crc.crc16_ok` → "crc error" (bits are still returned).
         5. Measurements with the decoded reply ``s(t)`` (±1, dummy-1 included) as reference:
            the reply is cut into :data:`DOPPLER_BLOCKS` blocks, each gives g_k = Σ(r − c)s/Σs²;
            a weighted least-squares line through the unwrapped arg g_k versus block time gives
@@ -541,17 +534,9 @@ class Reader(PieTransmitter):
             return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
-        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf)
-        start_s = float(t0_s) + out.start / fs
-        if not out.found:
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
-        bits = out.bits
-        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
-        if carrier is not None and complex(carrier) != 0:
-            meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-        ok = (not expect_crc) or crc16_ok(bits)
-        return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
-                          start_s=start_s, corr=out.corr, **meas)
+        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
+                      crc=expect_crc)
+        return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose
@@ -587,39 +572,44 @@ class Reader(PieTransmitter):
         """:meth:`receive` with ``blf_search = "preamble"``: BLF, start and bits from
         :func:`search_decode` (detection: its coarse correlation against
         :meth:`detection_threshold` over every BLF hypothesis and lag), then (h, c) from the
-        known levels and the measurements as in steps 3 and 5 at the decoded BLF; an RN16 is
+        known levels and the measurements as in steps 3 and 5 at the decoded BLF (the decoder's
+        measurement step, the plan's ``refit``); an RN16 is
         accepted only when its decision-domain Eb/(N0 + I) reaches
         :func:`rn16_threshold_db` of ``rn16_false_accept`` (else "rn16 rejected", bits kept).
         The BLF of an accepted RN16 is remembered: the reply with a CRC that follows (the EPC
         of the ACKed tag) is searched at that BLF, within 1/(RN16 elements), over all its bits
         (the PC of an EPC reply is mostly 0s, a square wave at any BLF over its first bits)."""
-        fs = self.fs_hz
         hint, self._rn16_blf_hz = self._rn16_blf_hz, None
         # with a hint: the reply of the tag whose RN16 was ACKed, its BLF is known
         out = _decode(rx, self._decode_plan("blf"), lo=lo, hi=hi, n_bits=n_bits,
-                      blf_hint_hz=hint if expect_crc else None)
-        start, blf, corr, r = out.start, out.blf_hz, out.corr, out.window
-        start_s = t0_s + start / fs
+                      blf_hint_hz=hint if expect_crc else None, crc=expect_crc, reference=self._reference)
+        return self._read_result(out, t0_s, out.blf_hz, expect_crc, carrier, searched=True)
+
+    def _read_result(self, out, t0_s: float, blf: float, expect_crc: bool, carrier, searched: bool = False
+                     ) -> ReadResult:
+        """The :class:`ReadResult` of the decoder's reply ``out``: the failure reason, the
+        measurements at ``blf`` (phase referred to ``carrier``); with the BLF search also the
+        BLF, the decision-domain Eb/(N0 + I) and, for an RN16, its acceptance."""
+        start_s = t0_s + out.start / self.fs_hz
         if not out.found:
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=corr)
-        bits = out.bits
-        full = self._reference(bits, start, r.size, blf)
-        h, c = fit_gain_offset(*_known_levels(r, full, start, 2.0 * blf / fs, self._preamble_elements()))
-        meas = self._measure(r - c, full, blf)
+            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
+        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
         if carrier is not None and complex(carrier) != 0:
             meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
-        stat = out.decision_ebn0_db
         if expect_crc:
-            ok = crc16_ok(bits)
+            ok = out.crc_ok
             reason = "" if ok else "crc error"
-        else:
+        elif searched:
             p = self.config.rn16_false_accept
-            ok = p == 0 or stat >= rn16_threshold_db(p)
+            ok = p == 0 or out.decision_ebn0_db >= rn16_threshold_db(p)
             reason = "" if ok else "rn16 rejected"
             if ok:  # an ACK follows: the reply it elicits comes from the tag measured here
                 self._rn16_blf_hz = blf
-        return ReadResult(success=ok, bits=bits, failure_reason=reason, start_s=start_s, corr=corr, blf_hz=blf,
-                          decision_ebn0_db=stat, **meas)
+        else:
+            ok, reason = True, ""
+        if searched:
+            meas.update(blf_hz=blf, decision_ebn0_db=out.decision_ebn0_db)
+        return ReadResult(success=ok, bits=out.bits, failure_reason=reason, start_s=start_s, corr=out.corr, **meas)
 
     def _decode_plan(self, search: str) -> _DecodePlan:
         """The :class:`rfsim.gen2.reply_decoder.DecodePlan` of ``search`` ("known" or "blf") for
@@ -627,24 +617,16 @@ class Reader(PieTransmitter):
         run's ``air_cache`` with the (frozen) link."""
         cfg = self.config
         return self.air_cache.derived(self.link, _LinkPlans).plan(search, self.fs_hz, cfg.decoder,
-                                                                  cfg.false_alarm_probability)
+                                                                  cfg.false_alarm_probability,
+                                                                  refit=search == "blf")
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
         while config, link and fs are the same objects (pure functions of them)."""
         memo = getattr(self, "_rx_memo", None)
         if memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz:
-            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {}, {})
+            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {})
         return memo
-
-    def _preamble_elements(self) -> int:
-        """Elements of the reply preamble (pilot included) of the current link (kept while the
-        link is the same object)."""
-        hit = getattr(self, "_pre_el", None)
-        if hit is None or hit.source is not self.link:
-            lk = self.link
-            hit = self._pre_el = _Kept(lk, preamble_levels(m=lk.m, trext=lk.trext)[0].size * lk.m)
-        return hit.value
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
                    dummy: bool = True) -> np.ndarray:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -484,3 +485,119 @@ def test_no_module_runs_a_decoder_search_outside_the_decoder(step):
     assert set(callers) <= allowed, sorted(set(callers) - allowed)
     if not DECODER_STEPS[step]:
         assert callers == [REPLY_DECODER]
+
+
+# ----------------------------------------------------------------- one orchestration, steps chosen by the plan
+
+#: The function of each search's entry (the compiled search of its "search" or "timing" step).
+SEARCH_ENTRIES = ("receive_kernel", "search_decode", "_detect", "_decode_window")
+
+
+def _decoder_functions() -> dict:
+    tree = MODULES[REPLY_DECODER]
+    return {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
+
+
+def test_decode_runs_the_plans_steps_without_a_branch_per_search():
+    """``decode`` reads no ``search`` of the plan and calls no search itself: it runs the steps
+    the plan names (a per-search copy of the sequence would read ``plan.search``)."""
+    body = _decoder_functions()["decode"]
+    attrs = {n.attr for n in ast.walk(body) if isinstance(n, ast.Attribute)}
+    assert "steps" in attrs, "decode does not run the plan's steps"
+    assert "search" not in attrs
+    assert not set(SEARCH_ENTRIES) & set(_calls(body))
+
+
+def test_each_search_entry_is_one_step_variant():
+    """Each compiled search is called by exactly one function of the decoder, and that function
+    is a variant of a step in the decoder's table."""
+    from rfsim.gen2 import reply_decoder as rd
+
+    variants = {f.__name__ for table in rd.VARIANTS.values() for f in table.values()}
+    for entry in SEARCH_ENTRIES:
+        users = [name for name, f in _decoder_functions().items() if entry in _calls(f)]
+        assert len(users) == 1 and users[0] in variants, (entry, users)
+
+
+def test_plan_variants_name_a_function_of_every_step():
+    from rfsim.gen2 import reply_decoder as rd
+    from rfsim.gen2.reply_search import LinkHypothesis
+
+    assert rd.STEPS == tuple(rd.VARIANTS)
+    plans = [rd.DecodePlan("known", 4e6), rd.DecodePlan("blf", 4e6, refit=True),
+             rd.DecodePlan("blf", 4e6, dc_from_lead=False),
+             rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
+    for plan in plans:
+        for step, variant, f in zip(rd.STEPS, plan.variants, plan.steps, strict=True):
+            assert rd.VARIANTS[step][variant] is f, (plan.search, step, variant)
+    # the fields choose the variants: the refit switches the measurement, the DC from the lead the conditioning
+    assert plans[1].variants.measure == "known levels" and plans[2].variants.measure == "search fit"
+    assert plans[1].variants.condition == "lead" and plans[2].variants.condition == "none"
+    assert len({p.variants.search for p in plans}) == 3
+
+
+def _reply_window(rng, m=4, blf=320e3, fs=4e6, start=300, n_bits=16):
+    """A window c + h·s(t) + noise with one reply (rest level −1 around it) starting at sample
+    ``start``: (r, bits, n_reply)."""
+    from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+
+    bits = rng.integers(0, 2, n_bits).astype(np.uint8)
+    n_reply = int(np.ceil(reply_duration_s(n_bits, m=m, trext=False, blf_hz=blf) * fs))
+    n = start + 2 * n_reply + 400
+    s = reply_waveform(bits, m=m, trext=False, blf_hz=blf, fs_hz=fs, t0_s=start / fs, n_samples=n)
+    s[s == 0] = -1.0
+    noise = 1e-5 * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+    return (0.2 + 0.1j) + 1e-3 * np.exp(0.3j) * s + noise, bits, n_reply
+
+
+def test_the_three_searches_run_the_same_step_list(monkeypatch):
+    """A reply found by the "known", the "blf" (reader, with the refit) and the "link" (capture)
+    search runs every step of ``STEPS`` in order, each once (recorded by wrapping every variant
+    of the decoder's table); a window without a reply stops after the search. Fails when a
+    search skips the orchestration or runs its own sequence."""
+    from rfsim.bench.decode import exchange_items, synthetic_capture
+    from rfsim.gen2 import reply_decoder as rd
+    from rfsim.gen2.capture import decode_reader_commands
+    from rfsim.gen2.link import profile
+    from rfsim.gen2.replies import decode_tag_replies
+
+    trace = []
+
+    def wrap(step, f):
+        def run(w, plan):
+            trace.append(step)
+            return f(w, plan)
+        return run
+
+    for step, table in rd.VARIANTS.items():
+        for name, f in list(table.items()):
+            monkeypatch.setitem(table, name, wrap(step, f))
+
+    def calls():  # the recorded steps, one list per decode call
+        out = []
+        for step in trace:
+            if step == rd.STEPS[0]:
+                out.append([])
+            out[-1].append(step)
+        trace.clear()
+        return out
+
+    rng = np.random.default_rng(5)
+    r, bits, n_reply = _reply_window(rng)
+    plans = rd.LinkPlans(profile("miller4-320k"))
+    out = rd.decode(r, plans.plan("known", 4e6, "viterbi", 1e-3), lo=250, hi=350, n_bits=16, n_reply=n_reply)
+    assert out.found and np.array_equal(out.bits, bits)
+    assert calls() == [list(rd.STEPS)]
+    out = rd.decode(r, plans.plan("blf", 4e6, "viterbi", 1e-3, refit=True), lo=250, hi=350, n_bits=16)
+    assert out.found and np.array_equal(out.bits, bits) and np.isfinite(out.slope)
+    assert calls() == [list(rd.STEPS)]
+    empty = (0.2 + 0.1j) + 1e-5 * (rng.standard_normal(r.size) + 1j * rng.standard_normal(r.size))
+    out = rd.decode(empty, plans.plan("known", 4e6, "viterbi", 1e-3), lo=250, hi=350, n_bits=16, n_reply=n_reply)
+    assert not out.found and calls() == [list(rd.STEPS[:3])]
+
+    x, truth = synthetic_capture(exchange_items(2, m=4, with_query=True, duration_s=0.01, blf_hz=256e3),
+                                 fs_hz=2e6, trcal_s=64 / 3 / 256e3)
+    records, _ = decode_reader_commands(x, 2e6)
+    replies = decode_tag_replies(x, 2e6, records)
+    assert len(replies) == 2
+    assert calls() == [list(rd.STEPS)] * 2

@@ -1,5 +1,6 @@
 """The reader's BLF search: estimating a reply's BLF and decoding it in one pass
-(:func:`search_decode`, numba kernel), the coarse BLF grid and the RN16 acceptance threshold
+(:func:`search_decode`, numba kernel: the "blf grid" search step of the one reply decoder,
+:func:`rfsim.gen2.reply_decoder.decode`), the coarse BLF grid and the RN16 acceptance threshold
 (:meth:`rfsim.devices.reader.Reader.receive` with ``blf_search = "preamble"``).
 """
 

@@ -69,9 +69,11 @@ same form with real h (|h| ≪ |c|). Steps per window:
    phase (−arg h) mod 2π and SNR |h|²/σ² per sample at the capture's rate, as the
    simulated reader defines them (rfsim.devices.reader ``ReadResult``).
 
-Steps 1–2 are in :mod:`rfsim.gen2.reply_search`, steps 3–5 in :mod:`rfsim.gen2.reply_decoding`
-(the tracking loop of step 4 in :mod:`rfsim.gen2.reply_tracking`); this module cuts the
-window after each command, chooses the hypotheses and makes the records.
+Steps 1–5 run as the one reply decoder's steps (:func:`rfsim.gen2.reply_decoder.decode`, its
+"link" plan: the conditioning and the delayed reply's spans there, the search of step 2 in
+:mod:`rfsim.gen2.reply_search`, steps 3–5 in :mod:`rfsim.gen2.reply_decoding`, the tracking
+loop of step 4 in :mod:`rfsim.gen2.reply_tracking`); this module cuts the window after each
+command, chooses the hypotheses and makes the records.
 """
 
 from __future__ import annotations
@@ -93,7 +95,7 @@ from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoder import CaptureTiming, DecodePlan, decode
 from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule
 from rfsim.gen2.reply_core import n_reply_elements
-from rfsim.gen2.reply_search import LinkHypothesis, boxcar_decimate, modulation_onsets, preamble_correlation
+from rfsim.gen2.reply_search import LinkHypothesis, boxcar_decimate, preamble_correlation
 from rfsim.core.lazy import lazy_import
 
 _rk = lazy_import("rfsim.gen2._reply_kernels")
@@ -337,10 +339,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     if power == 0.0 or power - abs(complex(r.sum()) / r.size) ** 2 <= _MIN_RELATIVE_VARIANCE * power:
         return None
     t1_earliest = min(t1_range(rtcal_s=rtcal_s, blf_hz=h.blf_hi_hz, frt=frt).min_s for h in hyps)
-    lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1
-    if lo_full >= 8:  # step 1: conditioning only (detection is invariant to a constant offset)
-        r = r - r[:lo_full].sum() / lo_full
-    spans = tuple(_delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full)) if delayed else (None,)
+    lo_full = int(math.floor((cmd_end_s + t1_earliest) * fs)) - i0 - 1  # step 1's lead (the decoder's)
     key = (tuple(hyps), method, false_alarm_probability, fs)
     plan = None if plans is None else plans.get(key)
     if plan is None:
@@ -349,7 +348,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         if plans is not None:
             plans[key] = plan
     out = decode(r, plan, blf_hint_hz=blf_hint_hz,
-                 timing=CaptureTiming(i0, cmd_end_s, rtcal_s, frt, delay_max_s, spans, n_bits_of))
+                 timing=CaptureTiming(i0, cmd_end_s, rtcal_s, frt, delay_max_s, lo_full, bool(delayed), n_bits_of))
     if not out.found:
         return None
     res = out.extra
@@ -372,17 +371,6 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
         rssi_dbm=10.0 * math.log10(p) + 30.0 if p > 0 else -math.inf,
         phase_rad=float((-np.angle(h)) % (2.0 * math.pi)), snr_db=snr, delayed=bool(delayed),
         latency_s=start_s - float(cmd_end_s), **fields)
-
-
-def _delayed_spans(r, fs, hyps, i0, cmd_end_s, lo_full) -> list:
-    """Spans of reply starts [s after the command's last edge] searched in a delayed-reply
-    window: ±2 blocks around each onset of :func:`rfsim.gen2.reply_search.modulation_onsets`
-    (none: no reply), or the whole window (``[None]``) when it is too short to gate."""
-    onsets, block = modulation_onsets(r, fs, min(h.blf_lo_hz for h in hyps), first=max(lo_full, 0))
-    if onsets is None:
-        return [None]
-    to_s = lambda k: (i0 + k) / fs - cmd_end_s  # noqa: E731  (window sample → time after the command)
-    return [(to_s(k - 2 * block), to_s(k + 2 * block)) for k in onsets]
 
 
 def _hypotheses(query: ReaderCommandRecord | None, learned, *, blf_hz, trcal_s, dr, m, trext, blf_tolerance,

@@ -5,56 +5,56 @@ The reader in the loop (:meth:`rfsim.devices.reader.Reader.receive`) and the cap
 differs between them is the plan's ``search`` and its parameters, built once per link (the
 reader keeps its plans in the run's :class:`rfsim.air.cache.AirCache`, :class:`LinkPlans`).
 
-Map of the steps
-----------------
+Steps
+-----
 
-One column per ``search`` of the plan ("known", "blf", "link").
+:func:`decode` is one orchestration: every call runs the steps of :data:`STEPS` in this order,
+each in the variant its plan names (:attr:`DecodePlan.variants`, derived from the plan's fields
+``search``, ``dc_from_lead``, ``refit``, ``track_timing``; the functions in :data:`VARIANTS`),
+and stops after the search when there is no reply. Where a compiled kernel does several steps in
+one call (``receive_kernel``: search, decisions and measurement; ``search_decode_kernel``:
+search, fine BLF and decisions; ``decode_window_kernel``: fine BLF, length, tracking,
+decisions and fit), the later steps take their results from it. One column per ``search``:
 
-==========================  ======================  ======================  =====================================
-step                        "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
-                            BLF)                    ``blf_search``)         link, ``rfsim decode``)
-==========================  ======================  ======================  =====================================
-conditioning (DC)           r − mean(r[:lo]),       the same, in Python     r − Σr[:lo]/lo by the caller (also
-                            lo ≥ 8, in the kernel   (here)                  for the onsets of a delayed reply)
-working rate                fs                      fs                      boxcar means of D samples per BLF
-                                                                            octave (:mod:`~rfsim.gen2.reply_search`)
-link hypotheses             (M, TRext) of the plan  (M, TRext) of the plan  :attr:`DecodePlan.hypotheses`
-BLF hypotheses              one (given or nominal)  coarse grid of          coarse grid per hypothesis; first
-                                                    ``blf_grid_hz``, or     ±2 steps around ``blf_hint_hz``
-                                                    the hint ±
-                                                    1/(RN16 el.)
-preamble search             every lag lo…hi,        every lag × BLF,        T1 lags × BLF per hypothesis
-                            runs + 1/16-sample      parabola between lags   (``preamble_search_kernel``),
-                            refinement                                      parabola between lags
-false alarm                 ``preamble_threshold``  the same over lags ×    the same over every lag and
-                            over the lags (memo in  grid size (nominal      hypothesis tested (union bound)
-                            plan)                   preamble length)
-fine BLF                    —                       centre held, coarse to  centre held, first 16 bits then the
-                                                    fine, least residual    whole reply, whole-element start
-                                                                            checks
-reply length                fixed ``n_bits``        fixed ``n_bits``        from its first bits (``n_bits_of``:
-                                                                            RN16, EPC's PC, read header), cut
-                                                                            replies truncated
-(h, c)                      LS on known levels      in the kernel's fit;    LS over the remodulated reply
-                                                    the reader refits on
-                                                    known levels
-timing tracking             —                       —                       ``track_timing``: blocks of 24
-                                                                            elements, quadratic clock, resample
-decisions                   half-bit sums +         the same kernels        the same kernels
-                            Viterbi/bitwise (the
-                            kernels of
-                            ``halfbit_decisions``)
-CRC                         the caller (reader:     the caller (reader:     the caller (the record's
-                            ``crc16_ok``)           ``crc16_ok``)           fields)
-measurements                gain, Doppler slope,    gain, σ², σ_eff²        gain, σ² and the E_h/N₀ gate,
-                            σ² (the kernel          (Eb/(N0+I))             BLF drift, the correlation at the
-                            ``measure_kernel``)                             decoded start
-==========================  ======================  ======================  =====================================
+============  ======================  ======================  =====================================
+step          "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
+              BLF)                    ``blf_search``)         link, ``rfsim decode``)
+============  ======================  ======================  =====================================
+condition     "in kernel":            "lead": r − Σr[:lo]/lo  "lead": the same before the earliest
+              r − mean(r[:lo]),       (lo ≥ 8; the capture    T1 start (:attr:`CaptureTiming.lead`)
+              lo ≥ 8                  sweep: "none")
+windows       "lags": lo…hi at one    "lags x grid": lo…hi ×  "t1": the T1 window, or a delayed
+              BLF; threshold of       the BLF grid (or the    reply's spans around the onsets of
+              hi − lo + 1 tests       hint ± 1/(RN16 el.));   modulation; working rate: boxcar
+              (:meth:`DecodePlan.     threshold of lags ×     means of D samples per BLF octave
+              detection`)             BLFs tests              (:mod:`~rfsim.gen2.reply_search`)
+search        "one blf":              "blf grid":             "hypotheses": ``_detect``, T1 lags ×
+              ``receive_kernel``,     ``search_decode``,      BLF per (M, TRext), parabola between
+              runs + 1/16-sample      parabola between lags,  lags, union-bound threshold; first
+              refinement              fine BLF (centre held)  ±2 steps around ``blf_hint_hz``
+timing        "none"                  "none"                  "track": ``_decode_window``: fine BLF
+                                                              (first 16 bits, then the whole reply),
+                                                              length from the first bits
+                                                              (``n_bits_of``), blocks of 24
+                                                              elements, quadratic clock, resample
+decisions     "receive kernel":       "search kernel": the    "timing": the same kernels on the
+              half-bit sums on        same kernels at the     resampled reply
+              r − c with h given,     fine BLF
+              Viterbi or bitwise
+measure       "kernel": (h, c) on     "known levels" (the     "timing": LS over the remodulated
+              the known levels,       reader, ``refit``): as  reply, σ², E_h/N₀ gate, BLF drift,
+              gain, Doppler slope,    "known" at the BLF      the correlation at the decoded start
+              σ² (``measure_kernel``  found; Eb/(N0 + I);
+              in the kernel)          "search fit" (the
+                                      capture sweep): h, σ²,
+                                      Eb/(N0 + I) of the
+                                      search
+crc           "check": CRC-16 of the  the same                the same (not asked: the record's
+              bits when asked                                 fields)
+============  ======================  ======================  =====================================
 
-Each strategy runs its steps as one numba call where it did before (``receive_kernel``,
-``search_decode_kernel``, ``preamble_search_kernel`` + ``decode_window_kernel``); the shared
-steps inside them are written once (:mod:`rfsim.gen2.reply_core`,
-:mod:`rfsim.gen2._reply_core_kernels`). Where the strategies still compute a shared step in a
+The shared steps inside the kernels are written once (:mod:`rfsim.gen2.reply_core`,
+:mod:`rfsim.gen2._reply_core_kernels`). Where the searches still compute a shared step in a
 different order (the sums of ``|r|²``, the segment mean, the fine BLF grid, …) the difference is
 listed in :mod:`rfsim.gen2.reply_core`; records stay bit-identical to the separate
 orchestrations this module replaces.
@@ -64,18 +64,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import partial
 from typing import NamedTuple
 
 import numpy as np
 
-from rfsim.gen2.capture import preamble_threshold
-from rfsim.gen2.linecode import METHODS, search_arrays
+from rfsim.gen2.capture import fit_gain_offset, preamble_threshold
+from rfsim.gen2.crc import crc16_ok
+from rfsim.gen2.linecode import METHODS, reply_waveform, search_arrays
 from rfsim.gen2.reply_core import n_pre_elements
+from rfsim.gen2.reply_search import _kept, modulation_onsets
 from rfsim.core.lazy import lazy_import
 
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
+_mk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "DecodePlan", "DecodedReply", "CaptureTiming", "LinkPlans", "decode"]
+__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
+           "CaptureTiming", "LinkPlans", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8
@@ -87,8 +92,40 @@ _RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",
                    3: "the decoded reply start leaves no room for the reply",
                    4: "the input is shorter than the reply",
                    5: "the reference s is constant: gain and offset cannot be separated"}
-#: Entries of a plan's memo tables before they are cleared.
-_MEMO_SIZE = 64
+
+
+class StepVariants(NamedTuple):
+    """The variant of each step of :func:`decode` a plan runs (:data:`VARIANTS`; the field
+    order is the order of the steps, :data:`STEPS`).
+
+    Attributes
+    ----------
+    condition : str
+        DC conditioning: "in kernel" (the search's kernel), "lead" (r − mean of the samples
+        before the first start), "none" (as given).
+    windows : str
+        Candidate starts and their detection threshold: "lags" (one BLF), "lags x grid" (every
+        BLF of the grid, or the hint), "t1" (the T1 window or, delayed, spans around the onsets
+        of modulation).
+    search : str
+        Preamble / BLF search: "one blf", "blf grid", "hypotheses".
+    timing : str
+        "none" (the receiver's clock) or "track" (the tag's clock, resampled).
+    decisions : str
+        Whose kernel decided the bits: "receive kernel", "search kernel", "timing".
+    measure : str
+        "kernel" (``receive_kernel``'s), "search fit", "known levels", "timing".
+    crc : str
+        "check" (when :func:`decode` is asked to).
+    """
+
+    condition: str
+    windows: str
+    search: str
+    timing: str
+    decisions: str
+    measure: str
+    crc: str
 
 
 class _Detection(NamedTuple):
@@ -128,6 +165,13 @@ class DecodePlan:
         "blf": subtract the mean of the samples before the first start searched (≥ 8 of
         them) before the search (the reader; the capture sweep's synthetic windows are
         searched as drawn).
+    refit : bool
+        "blf": measure on the known levels at the BLF found (gain, Doppler slope, σ², as
+        "known" does in its kernel; the reader) instead of keeping the search's own fit.
+    variants : StepVariants
+        The variant of each step, derived from the fields above (not an argument).
+    steps : tuple
+        The functions of those variants (:data:`VARIANTS`), in the order of :data:`STEPS`.
     memo : dict
         Values derived from the plan and a call's BLF or lag count (named tables ``"arrays"``,
         ``"detection"``; the "link" search's ``"grids"`` and ``"bands"``, the BLF grid of each
@@ -145,7 +189,10 @@ class DecodePlan:
     hypotheses: tuple = ()
     track_timing: bool = False
     dc_from_lead: bool = True
+    refit: bool = False
     memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}}, repr=False)
+    variants: StepVariants = field(init=False, repr=False)
+    steps: tuple = field(init=False, repr=False)
 
     def __post_init__(self):
         if self.search not in SEARCHES:
@@ -154,6 +201,19 @@ class DecodePlan:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
         if self.track_timing != (self.search == "link"):
             raise ValueError("timing tracking is a step of the 'link' search only")
+        if self.refit and self.search != "blf":
+            raise ValueError("the refit on the known levels is a step of the 'blf' search only")
+        search = self.search
+        if search == "known":
+            v = StepVariants("in kernel", "lags", "one blf", "none", "receive kernel", "kernel", "check")
+        elif search == "blf":
+            v = StepVariants("lead" if self.dc_from_lead else "none", "lags x grid", "blf grid", "none",
+                             "search kernel", "known levels" if self.refit else "search fit", "check")
+        else:
+            v = StepVariants("lead", "t1", "hypotheses", "track" if self.track_timing else "none", "timing", "timing",
+                             "check")
+        object.__setattr__(self, "variants", v)
+        object.__setattr__(self, "steps", tuple(VARIANTS[step][variant] for step, variant in zip(STEPS, v)))
 
     def arrays(self, blf_hz: float):
         """The preamble search's arrays at ``blf_hz`` (:func:`rfsim.gen2.linecode.search_arrays`),
@@ -169,17 +229,19 @@ class DecodePlan:
         rfsim.gen2.linecode.SearchArrays
             The read-only arrays.
         """
-        table = self.memo["arrays"]
-        hit = table.get(blf_hz)
-        if hit is None:
-            if len(table) >= _MEMO_SIZE:
-                table.clear()
-            hit = table[blf_hz] = search_arrays(self.m, self.trext, 2.0 * blf_hz / self.fs_hz)
-        return hit
+        hit = self.memo["arrays"].get(blf_hz)
+        return hit if hit is not None else _kept(self.memo, "arrays", blf_hz, partial(
+            search_arrays, self.m, self.trext, 2.0 * blf_hz / self.fs_hz))
 
     def detection(self, n_lags: int, blf_hz: float) -> _Detection:
-        """Preamble samples ⌊elements·fs/(2·BLF)⌋ and the threshold of
-        :func:`rfsim.gen2.capture.preamble_threshold` for ``n_lags`` tests, kept in the plan.
+        """Preamble samples (:meth:`preamble_samples`) and the detection threshold for
+        ``n_lags`` tests, kept in the plan: the one definition the decoder's searches and the
+        reader (:meth:`rfsim.devices.reader.Reader.detection_threshold`) use.
+
+        On complex white noise the zero-mean, normalised preamble correlation at one lag obeys
+        corr² ~ Beta(1, n − 2), n the preamble samples, and the refinement between lags acts
+        like about twice as many tests: γ = √(1 − (P_FA/(2·n_lags))^(1/(n−2)))
+        (:func:`rfsim.gen2.capture.preamble_threshold`).
 
         Parameters
         ----------
@@ -193,15 +255,30 @@ class DecodePlan:
         _Detection
             ``(preamble_samples, threshold)``.
         """
-        table = self.memo["detection"]
-        key = (n_lags, blf_hz)
-        hit = table.get(key)
-        if hit is None:
-            if len(table) >= _MEMO_SIZE:
-                table.clear()
-            n = int(math.floor(n_pre_elements(self.m, self.trext) * self.fs_hz / (2.0 * blf_hz)))
-            hit = table[key] = _Detection(n, preamble_threshold(n, n_lags, self.false_alarm_probability))
-        return hit
+        hit = self.memo["detection"].get((n_lags, blf_hz))
+        return hit if hit is not None else _kept(self.memo, "detection", (n_lags, blf_hz),
+                                                 partial(self._detection, n_lags, blf_hz))
+
+    def _detection(self, n_lags: int, blf_hz: float) -> _Detection:
+        """:meth:`detection` made anew."""
+        n = self.preamble_samples(blf_hz)
+        return _Detection(n, preamble_threshold(n, n_lags, self.false_alarm_probability))
+
+    def preamble_samples(self, blf_hz: float) -> int:
+        """Samples fully inside the reply preamble (pilot included) as the detector correlates
+        them: ⌊elements · fs / (2·BLF)⌋.
+
+        Parameters
+        ----------
+        blf_hz : float
+            The reply's BLF [Hz].
+
+        Returns
+        -------
+        int
+            Samples of the preamble.
+        """
+        return int(math.floor(n_pre_elements(self.m, self.trext) * self.fs_hz / (2.0 * blf_hz)))
 
 
 class CaptureTiming(NamedTuple):
@@ -215,8 +292,11 @@ class CaptureTiming(NamedTuple):
         The command's last rising edge [s], its RTcal [s] and the BLF tolerance (T1 window).
     delay_max_s : float
         T1 max extended by this for a delayed reply [s].
-    spans_s : tuple
-        Spans of reply starts searched in turn (``None``: the whole T1 window).
+    lead : int
+        Window samples before the earliest reply start (T1 min at the fastest BLF): their
+        mean is the conditioning step's DC when there are ≥ 8.
+    delayed : bool
+        A delayed reply: the starts are searched in spans around the onsets of modulation.
     n_bits_of : callable
         The complete reply's data bits from its first decoded bits (−1 unknown).
     """
@@ -226,7 +306,8 @@ class CaptureTiming(NamedTuple):
     rtcal_s: float
     frt: float
     delay_max_s: float
-    spans_s: tuple
+    lead: int
+    delayed: bool
     n_bits_of: object
 
 
@@ -254,9 +335,12 @@ class DecodedReply(NamedTuple):
     decision_ebn0_db : float
         "blf": Eb/(N0 + I) in the decision domain [dB].
     window : numpy.ndarray or None
-        "blf": the window after the DC conditioning (its measurements read it).
+        The window after the conditioning step ("known": as given, its kernel conditions it).
     extra : dict or None
-        "link": drift, truncated, n_full, end, m, trext, the working rate's decimation.
+        "link": drift, truncated, n_full, end, m, trext, the working rate's decimation;
+        "blf" on a batch: ``ebn0_db``.
+    crc_ok : bool or None
+        The CRC step's CRC-16 check of the decoded bits (None: not asked, or no reply).
     """
 
     found: bool
@@ -270,6 +354,7 @@ class DecodedReply(NamedTuple):
     decision_ebn0_db: float = math.nan
     window: np.ndarray | None = None
     extra: dict | None = None
+    crc_ok: bool | None = None
 
 
 class LinkPlans:
@@ -288,7 +373,7 @@ class LinkPlans:
         self.plans: dict = {}
 
     def plan(self, search: str, fs_hz: float, method: str, false_alarm_probability: float,
-             dc_from_lead: bool = True) -> DecodePlan:
+             dc_from_lead: bool = True, refit: bool = False) -> DecodePlan:
         """The plan of ``search`` for this link at ``fs_hz`` (made once).
 
         Parameters
@@ -303,13 +388,15 @@ class LinkPlans:
             P(false alarm) per window.
         dc_from_lead : bool, optional
             :attr:`DecodePlan.dc_from_lead`, default True.
+        refit : bool, optional
+            :attr:`DecodePlan.refit` ("blf"), default False.
 
         Returns
         -------
         DecodePlan
             The plan.
         """
-        key = (search, fs_hz, method, false_alarm_probability, dc_from_lead)
+        key = (search, fs_hz, method, false_alarm_probability, dc_from_lead, refit)
         hit = self.plans.get(key)
         if hit is None:
             from rfsim.gen2.blf_search import blf_grid_hz
@@ -321,21 +408,43 @@ class LinkPlans:
                 grid.flags.writeable = False
             hit = self.plans[key] = DecodePlan(search, float(fs_hz), lk.m, lk.trext, method,
                                                false_alarm_probability, lk.blf_hz, grid,
-                                               dc_from_lead=dc_from_lead)
+                                               dc_from_lead=dc_from_lead, refit=refit)
         return hit
+
+
+class _Work:
+    """What the steps of one :func:`decode` call hand on to each other (module docstring): the
+    call's inputs, what a step leaves for the next (``threshold``, ``pre_n``, ``n_grid``,
+    ``spans``, ``out``, ``best``, ``res``) and the result's fields (the class attributes are
+    their values until a step sets them; ``found`` None: not searched yet)."""
+
+    found = None
+    start = corr = blf_hz = sigma2 = slope = decision_ebn0_db = math.nan
+    gain = complex(math.nan, math.nan)
+    bits = extra = crc_ok = None
+
+    def __init__(self, r, lo, hi, n_bits, n_reply, blf, hint, timing, threads, crc, reference):
+        self.r, self.lo, self.hi, self.n_bits, self.n_reply, self.blf = r, lo, hi, n_bits, n_reply, blf
+        self.hint, self.timing, self.threads, self.crc, self.reference = hint, timing, threads, crc, reference
 
 
 def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits: int = 16, n_reply: int = 0,
            blf_hz: float | None = None, blf_hint_hz: float | None = None,
-           timing: CaptureTiming | None = None, threads: int = 1) -> DecodedReply:
+           timing: CaptureTiming | None = None, threads: int = 1, crc: bool = False,
+           reference=None) -> DecodedReply:
     """Detect and decode one tag reply in the window ``r`` as ``plan`` says (module docstring).
+
+    Every search runs the steps of :data:`STEPS` in that order, each in the variant the plan
+    names (:attr:`DecodePlan.variants`, their functions :attr:`DecodePlan.steps` from the table
+    :data:`VARIANTS`); a window without a reply stops after the search step.
 
     Parameters
     ----------
     r : numpy.ndarray
         ``(n,) complex128`` window ``h·s(t) + c + noise`` (any unit, any constant offset c);
         "blf" also ``(B, n)``, a batch of windows (then every field of the result is an array
-        over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``).
+        over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``; not with a plan
+        that measures on the known levels).
     plan : DecodePlan
         The search and its parameters.
     lo, hi : int
@@ -354,6 +463,15 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     threads : int
         "blf" on a batch ``r`` of shape ``(B, n)``: threads of the BLF search (the result does
         not depend on it).
+    crc : bool
+        The CRC step checks the last 16 decoded bits as CRC-16 over the reply
+        (:attr:`DecodedReply.crc_ok`); default False (not checked, None).
+    reference : callable or None
+        The measurement on the known levels ("blf" plans with ``refit``):
+        ``reference(bits, start, n, blf_hz)`` → the ``(n,)`` ±1 reply waveform (dummy 1
+        included, 0 outside the reply) starting at sample ``start``; default
+        :func:`rfsim.gen2.linecode.reply_waveform` (the reader passes one that keeps it in
+        its run's cache).
 
     Returns
     -------
@@ -364,84 +482,246 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     ------
     ValueError
         From the "known" kernel, when the window leaves nothing to decode (zero gain, no room
-        for the reply, a constant reference).
+        for the reply, a constant reference); for a batch with a plan that measures on the
+        known levels.
     """
-    if plan.search == "known":
-        return _decode_known(r, plan, lo, hi, n_bits, n_reply, plan.blf_hz if blf_hz is None else blf_hz)
-    if plan.search == "blf":
-        return _decode_blf(r, plan, lo, hi, n_bits, blf_hint_hz, threads)
-    return _decode_link(r, plan, timing, blf_hint_hz)
+    w = _Work(r, lo, hi, n_bits, n_reply, plan.blf_hz if blf_hz is None else blf_hz, blf_hint_hz, timing,
+              threads, crc, reference)
+    for step in plan.steps:
+        step(w, plan)
+        if w.found is False:  # no reply: nothing to decide or measure
+            break
+    return DecodedReply(w.found, w.start, w.corr, w.bits, w.blf_hz, w.gain, w.sigma2, w.slope, w.decision_ebn0_db,
+                        w.r, w.extra, w.crc_ok)
 
 
-def _decode_known(rx, plan, lo, hi, n_bits, n_reply, blf) -> DecodedReply:
-    """The "known" search: ``receive_kernel`` (detection, (h, c) on the known levels,
-    decisions, measurements) at one BLF."""
-    a = plan.arrays(blf)
-    pre_n, threshold = plan.detection(hi - lo + 1, blf)
+# ----------------------------------------------------------------- step 1: conditioning
+
+def _condition_in_kernel(w: _Work, plan: DecodePlan) -> None:
+    """The search's kernel subtracts mean(r[:lo]) itself (``receive_kernel``, lo ≥ 8)."""
+
+
+def _condition_lead(w: _Work, plan: DecodePlan) -> None:
+    """r − Σr[:lo]/lo over the samples before the first start searched, when there are ≥ 8 of them
+    ("blf": ``lo``; "link": :attr:`CaptureTiming.lead`). Conditioning only: detection is
+    invariant to a constant offset."""
+    lo = w.lo if w.timing is None else w.timing.lead
+    if lo >= 8:
+        w.r = w.r - w.r[:lo].sum() / lo
+
+
+def _condition_none(w: _Work, plan: DecodePlan) -> None:
+    """The window is searched as given (the capture sweep's synthetic windows)."""
+
+
+# ----------------------------------------------------------------- step 2: candidate windows
+
+def _windows_lags(w: _Work, plan: DecodePlan) -> None:
+    """Starts ``lo…hi`` at the BLF given; the detection threshold of that many tests
+    (:meth:`DecodePlan.detection`, the preamble at that BLF)."""
+    w.spans, w.n_grid = ((w.lo, w.hi),), 1
+    w.pre_n, w.threshold = plan.detection(w.hi - w.lo + 1, w.blf)
+
+
+def _windows_lags_grid(w: _Work, plan: DecodePlan) -> None:
+    """Starts ``lo…hi`` at every BLF of the plan's grid, or at the hint alone; the detection
+    threshold of lags × BLF hypotheses tests (:meth:`DecodePlan.detection`, the preamble at the
+    nominal BLF)."""
+    w.spans, w.n_grid = ((w.lo, w.hi),), 1 if w.hint is not None else plan.blf_grid_hz.size
+    w.threshold = plan.detection((w.hi - w.lo + 1) * w.n_grid, plan.blf_hz).threshold
+
+
+def _windows_t1(w: _Work, plan: DecodePlan) -> None:
+    """The T1 window, or, for a delayed reply, ±2 blocks around each onset of modulation
+    (:func:`rfsim.gen2.reply_search.modulation_onsets`; none: no reply), searched in turn; the
+    whole window when it is too short to gate. The threshold is the search's (union bound)."""
+    t = w.timing
+    w.spans = (None,)
+    if t.delayed:
+        hyps = plan.hypotheses
+        onsets, block = modulation_onsets(w.r, plan.fs_hz, min(h.blf_lo_hz for h in hyps), first=max(t.lead, 0))
+        if onsets is not None:
+            fs = plan.fs_hz
+            w.spans = tuple(((t.i0 + k - 2 * block) / fs - t.cmd_end_s, (t.i0 + k + 2 * block) / fs - t.cmd_end_s)
+                            for k in onsets)
+
+
+# ----------------------------------------------------------------- step 3: preamble / BLF search
+
+def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
+    """``receive_kernel`` at one BLF: the preamble over the lags (runs + 1/16-sample
+    refinement) and, in the same call, (h, c) on the known levels, the decisions and the
+    measurement (steps 5 and 6 take them from it)."""
+    a = plan.arrays(w.blf)
+    n_bits = w.n_bits
     det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
     out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
-    status = _rxk.receive_kernel(rx, lo, hi, n_reply, threshold, plan.fs_hz, blf, plan.m,
-                                 pre_n, a.pre_el.size, a.t0, a.max_runs_per_sample, a.half_width,
-                                 a.shifts, a.templates, a.norms, a.run_begin, a.run_value, a.n_runs,
-                                 a.same_as_previous, a.pre_el, a.pre_levels, a.state,
+    status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, plan.fs_hz, w.blf, plan.m,
+                                 w.pre_n, a.pre_el.size, a.t0,
+                                 a.max_runs_per_sample, a.half_width, a.shifts, a.templates, a.norms, a.run_begin,
+                                 a.run_value, a.n_runs, a.same_as_previous, a.pre_el, a.pre_levels, a.state,
                                  plan.method != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
     if status > _rxk.NOT_FOUND:
         raise ValueError(_RECEIVE_ERRORS[status])
-    if status == _rxk.NOT_FOUND:
-        return DecodedReply(False, float(out_f[0]), float(out_f[1]))
-    return DecodedReply(True, float(out_f[0]), float(out_f[1]), bits[:n_bits], math.nan, complex(out_c[0]),
-                        float(out_f[3]), float(out_f[2]))
+    w.start, w.corr, w.found = float(out_f[0]), float(out_f[1]), status != _rxk.NOT_FOUND
+    w.out = (bits, out_f, out_c)
 
 
-def _decode_blf(rx, plan, lo, hi, n_bits, blf_hint_hz, threads) -> DecodedReply:
-    """The "blf" search: :func:`rfsim.gen2.blf_search.search_decode` on the (conditioned)
-    window, over the plan's grid or at the hint, then the detection threshold; ``rx`` 2-D: a
-    batch of windows, every field an array over them."""
+def _search_blf_grid(w: _Work, plan: DecodePlan) -> None:
+    """:func:`rfsim.gen2.blf_search.search_decode` over the plan's BLF grid, or at the hint
+    within 1/(RN16 elements): coarse preamble correlation over lags × BLF, the fine BLF and, in
+    the same call, the decisions and the search's own fit; then the threshold."""
     from rfsim.gen2.blf_search import search_decode
 
-    r = rx - (rx[:lo].mean() if lo >= 8 else 0.0) if plan.dc_from_lead else rx
     m, trext = plan.m, plan.trext
-    if blf_hint_hz is not None:  # the tag's BLF is known from its RN16
+    if w.hint is not None:  # the tag's BLF is known from its RN16
         n_el16 = n_pre_elements(m, trext) + 2 * m * 17
-        n_grid = 1
-        out = search_decode(r, m=m, trext=trext, n_bits=n_bits, blfs_hz=np.array([blf_hint_hz]), fs_hz=plan.fs_hz,
-                            lo=lo, hi=hi, known_within=1.0 / n_el16)
+        out = search_decode(w.r, m=m, trext=trext, n_bits=w.n_bits, blfs_hz=np.array([w.hint]), fs_hz=plan.fs_hz,
+                            lo=w.lo, hi=w.hi, known_within=1.0 / n_el16)
     else:
-        n_grid = plan.blf_grid_hz.size
-        out = search_decode(r, m=m, trext=trext, n_bits=n_bits, blfs_hz=plan.blf_grid_hz, fs_hz=plan.fs_hz, lo=lo,
-                            hi=hi, threads=threads)
-    threshold = plan.detection((hi - lo + 1) * n_grid, plan.blf_hz).threshold
-    if r.ndim == 2:
-        return DecodedReply(out.corr >= threshold, out.start, out.corr, out.bits, out.blf_hz, out.gain, out.sigma2,
-                            math.nan, out.decision_ebn0_db, r, dict(ebn0_db=out.ebn0_db))
-    start, blf, corr = float(out.start[0]), float(out.blf_hz[0]), float(out.corr[0])
-    if corr < threshold:
-        return DecodedReply(False, start, corr, window=r)
-    return DecodedReply(True, start, corr, out.bits[0].astype(np.uint8), blf, complex(out.gain[0]),
-                        float(out.sigma2[0]), math.nan, float(out.decision_ebn0_db[0]), r)
+        out = search_decode(w.r, m=m, trext=trext, n_bits=w.n_bits, blfs_hz=plan.blf_grid_hz, fs_hz=plan.fs_hz,
+                            lo=w.lo, hi=w.hi, threads=w.threads)
+    w.out = out
+    if w.r.ndim == 2:
+        w.found, w.start, w.corr = out.corr >= w.threshold, out.start, out.corr
+    else:
+        w.start, w.corr = float(out.start[0]), float(out.corr[0])
+        w.found = w.corr >= w.threshold
 
 
-def _decode_link(r, plan, timing, blf_hint_hz) -> DecodedReply:
-    """The "link" search: detection over the hypotheses and spans
-    (:func:`rfsim.gen2.reply_search._detect`), then the fine BLF, the length, timing tracking
-    and the E_h/N₀ gate (:func:`rfsim.gen2.reply_decoding._decode_window`)."""
-    from rfsim.gen2.reply_decoding import _decode_window
+def _search_hypotheses(w: _Work, plan: DecodePlan) -> None:
+    """:func:`rfsim.gen2.reply_search._detect` over the link hypotheses at their working rates,
+    span after span until one holds a reply (its threshold: the union bound over every lag and
+    hypothesis tested)."""
     from rfsim.gen2.reply_search import _detect
 
-    fs = plan.fs_hz
-    best = None
-    for span_s in timing.spans_s:
-        best = _detect(r, fs, plan.hypotheses, timing.i0, timing.cmd_end_s, timing.rtcal_s, timing.frt, blf_hint_hz,
-                       plan.false_alarm_probability, timing.delay_max_s, span_s, plan.memo)
+    t, best = w.timing, None
+    for span_s in w.spans:
+        best = _detect(w.r, plan.fs_hz, plan.hypotheses, t.i0, t.cmd_end_s, t.rtcal_s, t.frt, w.hint,
+                       plan.false_alarm_probability, t.delay_max_s, span_s, plan.memo)
         if best is not None:
             break
-    if best is None:
-        return DecodedReply(False, math.nan, math.nan)
-    found, rd, d = best
-    res = _decode_window(rd, fs / d, found, timing.n_bits_of, plan.method)
-    if res is None:
-        return DecodedReply(False, float(found[3]), float(found[0]))
-    extra = dict(drift=res["drift"], truncated=res["truncated"], n_full=res["n_full"], end=res["end"], m=res["m"],
-                 trext=res["trext"], decimation=d)
-    return DecodedReply(True, float(res["start"]), float(res["corr"]), res["bits"], float(res["blf"]),
-                        complex(res["h"]), float(res["sigma2"]), extra=extra)
+    w.best, w.found = best, best is not None
+    if best is not None:
+        w.start, w.corr = float(best[0][3]), float(best[0][0])
+
+
+# ----------------------------------------------------------------- step 4: timing
+
+def _timing_none(w: _Work, plan: DecodePlan) -> None:
+    """The reply is decoded on the receiver's clock at the BLF found."""
+
+
+def _timing_track(w: _Work, plan: DecodePlan) -> None:
+    """:func:`rfsim.gen2.reply_decoding._decode_window` on the working-rate window: fine BLF,
+    the reply's length from its first bits, timing tracking (quadratic clock, resampling) and,
+    in the same call, the decisions and the fit with its E_h/N₀ gate (steps 5, 6)."""
+    from rfsim.gen2.reply_decoding import _decode_window
+
+    found, rd, d = w.best
+    w.res = _decode_window(rd, plan.fs_hz / d, found, w.timing.n_bits_of, plan.method)
+    if w.res is None:
+        w.found = False
+    else:
+        w.start, w.corr = float(w.res["start"]), float(w.res["corr"])
+
+
+# ----------------------------------------------------------------- step 5: decisions
+
+def _decisions_of_receive(w: _Work, plan: DecodePlan) -> None:
+    """The data bits ``receive_kernel`` decided on r − c with h given (half-bit sums, Viterbi
+    or bitwise)."""
+    w.bits = w.out[0][:w.n_bits]
+
+
+def _decisions_of_search(w: _Work, plan: DecodePlan) -> None:
+    """The data bits and BLF the BLF search's kernel decided at (half-bit sums, Viterbi or
+    bitwise, at the fine BLF)."""
+    if w.r.ndim == 2:
+        w.bits, w.blf_hz = w.out.bits, w.out.blf_hz
+    else:
+        w.bits, w.blf_hz = w.out.bits[0].astype(np.uint8), float(w.out.blf_hz[0])
+
+
+def _decisions_of_timing(w: _Work, plan: DecodePlan) -> None:
+    """The data bits decided on the resampled reply (the timing step's kernel)."""
+    w.bits, w.blf_hz = w.res["bits"], float(w.res["blf"])
+
+
+# ----------------------------------------------------------------- step 6: measurement
+
+def _measure_of_kernel(w: _Work, plan: DecodePlan) -> None:
+    """Gain at the reply centre, Doppler slope and σ² of ``receive_kernel`` (its
+    ``measure_kernel`` against the decoded reply, :data:`DOPPLER_BLOCKS` blocks)."""
+    _, out_f, out_c = w.out
+    w.gain, w.sigma2, w.slope = complex(out_c[0]), float(out_f[3]), float(out_f[2])
+
+
+def _measure_of_search(w: _Work, plan: DecodePlan) -> None:
+    """The BLF search's own fit: h, σ² over the reply's steady samples, Eb/N₀ and the
+    decision-domain Eb/(N₀ + I) (:class:`rfsim.gen2.blf_search.SearchDecode`)."""
+    out = w.out
+    if w.r.ndim == 2:
+        w.gain, w.sigma2, w.decision_ebn0_db = out.gain, out.sigma2, out.decision_ebn0_db
+        w.extra = dict(ebn0_db=out.ebn0_db)
+    else:
+        w.gain, w.sigma2 = complex(out.gain[0]), float(out.sigma2[0])
+        w.decision_ebn0_db = float(out.decision_ebn0_db[0])
+
+
+def _measure_known_levels(w: _Work, plan: DecodePlan) -> None:
+    """As "known" measures inside its kernel, at the BLF found: (h, c) by least squares on the
+    samples whose level is known without decisions (preamble, rest level around the reply,
+    two equal neighbours; :func:`rfsim.gen2.capture.fit_gain_offset`), then gain, Doppler
+    slope and σ² of r − c against the decoded reply (``measure_kernel``); the search's
+    decision-domain Eb/(N₀ + I) is kept."""
+    if w.r.ndim != 1:
+        raise ValueError("the measurement on the known levels takes one window, not a batch")
+    _measure_of_search(w, plan)
+    r, start, blf, fs = w.r, w.start, w.blf_hz, plan.fs_hz
+    if w.reference is None:
+        full = reply_waveform(w.bits, m=plan.m, trext=plan.trext, blf_hz=blf, fs_hz=fs, t0_s=start / fs,
+                              n_samples=r.size)
+    else:
+        full = w.reference(w.bits, start, r.size, blf)
+    r = np.ascontiguousarray(r, dtype=np.complex128)
+    full = np.ascontiguousarray(full, dtype=np.float64)
+    r_known, level = np.empty(r.size, dtype=np.complex128), np.empty(r.size)
+    k = _mk.known_levels_kernel(r, full, float(start), 2.0 * blf / fs, n_pre_elements(plan.m, plan.trext),
+                                r_known, level)
+    _, c = fit_gain_offset(r_known[:k], level[:k])
+    h, slope, sigma2 = _mk.measure_kernel(np.ascontiguousarray(r - c), full, fs, DOPPLER_BLOCKS)
+    w.gain, w.slope, w.sigma2 = complex(h), float(slope), float(sigma2)
+
+
+def _measure_of_timing(w: _Work, plan: DecodePlan) -> None:
+    """The timing step's fit over the remodulated, resampled reply: h, σ² (its E_h/N₀ gate
+    passed), the BLF drift and the reply's length and end."""
+    res, d = w.res, w.best[2]
+    w.gain, w.sigma2 = complex(res["h"]), float(res["sigma2"])
+    w.extra = dict(drift=res["drift"], truncated=res["truncated"], n_full=res["n_full"], end=res["end"], m=res["m"],
+                   trext=res["trext"], decimation=d)
+
+
+# ----------------------------------------------------------------- step 7: CRC
+
+def _crc_check(w: _Work, plan: DecodePlan) -> None:
+    """With ``crc``: CRC-16 over the decoded reply (:func:`rfsim.gen2.crc.crc16_ok`)."""
+    if w.crc:
+        w.crc_ok = crc16_ok(w.bits)
+
+
+#: The steps of every :func:`decode` call, in order (module docstring).
+STEPS = StepVariants._fields
+#: Each step's variants by name: the function that runs it (:attr:`DecodePlan.variants` names one per step).
+VARIANTS = {
+    "condition": {"in kernel": _condition_in_kernel, "lead": _condition_lead, "none": _condition_none},
+    "windows": {"lags": _windows_lags, "lags x grid": _windows_lags_grid, "t1": _windows_t1},
+    "search": {"one blf": _search_one_blf, "blf grid": _search_blf_grid, "hypotheses": _search_hypotheses},
+    "timing": {"none": _timing_none, "track": _timing_track},
+    "decisions": {"receive kernel": _decisions_of_receive, "search kernel": _decisions_of_search,
+                  "timing": _decisions_of_timing},
+    "measure": {"kernel": _measure_of_kernel, "search fit": _measure_of_search, "known levels": _measure_known_levels,
+                "timing": _measure_of_timing},
+    "crc": {"check": _crc_check},
+}

@@ -1,6 +1,7 @@
 """Steps 3–5 of the capture reply decoder (:mod:`rfsim.gen2.replies`) after a detection: the
 BLF from the reply itself, its length, timing tracking on the tag's clock and the
-measurements with their E_h/N₀ gate.
+measurements with their E_h/N₀ gate (the "track" timing step of the one reply decoder's
+"link" plan, :func:`rfsim.gen2.reply_decoder.decode`).
 
 :func:`_decode_window` runs them in one numba kernel (``decode_window_kernel`` of
 :mod:`rfsim.gen2._reply_kernels`) when the reply's length follows one of the rules of

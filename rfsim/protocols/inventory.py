@@ -303,6 +303,17 @@ def epc_hex_of(bits: np.ndarray) -> str:
 _NIBBLE_WEIGHTS = np.array([8, 4, 2, 1], dtype=np.int64)
 
 
+def _epc_hex(bits: np.ndarray, memo: dict) -> str:
+    """:func:`epc_hex_of` of ``bits``, kept in ``memo`` by the bits' dtype and bytes (a tag's
+    EPC is read again and again)."""
+    b = np.asarray(bits)
+    key = (b.dtype.str, b.tobytes())
+    epc = memo.get(key)
+    if epc is None:
+        epc = memo[key] = epc_hex_of(b)
+    return epc
+
+
 # ============================================================================ controller
 
 
@@ -369,6 +380,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     # the commands are immutable: one QueryRep, and one QueryAdjust per UpDn, for the inventory
     rep = _commands.QueryRep(session=config.session)
     adjust: dict[int, Any] = {}
+    epcs: dict = {}  # the EPC (hex) of each distinct reply read
     if config.select_mask or config.sel != "all":
         # assert SL on matching tags, deassert it on the others (Select action 0)
         sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
@@ -404,7 +416,7 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
                 elif view == "empty":
                     qfp = max(0.0, qfp - config.c)
             tag = read_ex.replied[0] if read_ex is not None and len(read_ex.replied) == 1 else -1
-            epc = epc_hex_of(read_ex.bits) if read_ex is not None else ""
+            epc = _epc_hex(read_ex.bits, epcs) if read_ex is not None else ""
             _append(log.slots, time_s=t_slot, duration_s=(t_cmd - clock.lead_s) - t_slot, round=rnd,
                     slot=slot, q=q, qfp=qfp, command=first.command, target=target,
                     antenna=first.antenna + 1, slot_type=stype, reader_view=view, n_replies=n_rep,

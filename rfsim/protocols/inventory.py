@@ -381,6 +381,8 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     rep = _commands.QueryRep(session=config.session)
     adjust: dict[int, Any] = {}
     epcs: dict = {}  # the EPC (hex) of each distinct reply read
+    # each slot's values are appended to the columns in the order of SLOT_FIELDS
+    slot_columns = [log.slots[k].append for k in SLOT_FIELDS]
     if config.select_mask or config.sel != "all":
         # assert SL on matching tags, deassert it on the others (Select action 0)
         sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
@@ -417,10 +419,10 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
                     qfp = max(0.0, qfp - config.c)
             tag = read_ex.replied[0] if read_ex is not None and len(read_ex.replied) == 1 else -1
             epc = _epc_hex(read_ex.bits, epcs) if read_ex is not None else ""
-            _append(log.slots, time_s=t_slot, duration_s=(t_cmd - clock.lead_s) - t_slot, round=rnd,
-                    slot=slot, q=q, qfp=qfp, command=first.command, target=target,
-                    antenna=first.antenna + 1, slot_type=stype, reader_view=view, n_replies=n_rep,
-                    epc_hex=epc, tag=tag)
+            for add, value in zip(slot_columns, (t_slot, (t_cmd - clock.lead_s) - t_slot, rnd, slot, q, qfp,
+                                                 first.command, target, first.antenna + 1, stype, view, n_rep,
+                                                 epc, tag)):
+                add(value)
             if read_ex is not None:
                 _append_read(log.reads, read_ex, rnd, slot, tag, epc, n_rep)
             slot += 1
@@ -723,6 +725,9 @@ class EngineAir:
 
     def __init__(self, reader, tags: Sequence, channel, *, rng: np.random.Generator, motions=None,
                  propagation: str = "auto", fast: bool = True, keep_exchanges: bool = False):
+        from rfsim.protocols.engine import run_exchange
+
+        self._run_exchange = run_exchange
         self.exchanges: list[AirExchange] | None = [] if keep_exchanges else None
         self.reader = reader
         self.tags = list(tags)
@@ -782,17 +787,15 @@ class EngineAir:
             The exchange as the reader saw it (``detected`` when it decoded bits), with the
             engine's failure reason.
         """
-        from rfsim.protocols.engine import run_exchange
-
         draw = new_round and not self._links_still_held()
         if draw:
             self._channel.clear()
             self._round_links.clear()
             self._hold_placements(round_index)
-        ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
-                          reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
-                          round_index=round_index, draw_channel=draw, propagation=self.propagation,
-                          link_cache=self._round_links)
+        ex = self._run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
+                                reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
+                                round_index=round_index, draw_channel=draw, propagation=self.propagation,
+                                link_cache=self._round_links)
         read = ex.read
         detected = read is not None and read.bits is not None
         cmd_end = ex.cmd_end_s  # t_s + Tari (CW lead-in) + T_cmd, from the reader's segment

@@ -715,8 +715,10 @@ class EngineAir:
         drawn at the first exchange of every round and held for the round. A channel without
         one (``has_random_part`` False: no diffuse taps, no shadowing field) gives static tags
         the same links in every round, so its links are evaluated once and held across rounds
-        while no tag's antenna changes (and without ``motions``); the records are those of a
-        draw per round, bit for bit (the draw takes nothing from ``rng``).
+        while no tag's antenna changes (and without ``motions``), from the first exchange on as
+        the narrowband constants of all tags at once where the channel offers them
+        (``static_constants``, as at a frequency hop); the records are those of a draw per
+        round, bit for bit (the draw takes nothing from ``rng``).
     rng : numpy.random.Generator
         Generator for the channel draws and the receiver noise.
     motions : sequence, optional
@@ -803,6 +805,10 @@ class EngineAir:
             self._channel.clear()
             self._round_links.clear()
             self._hold_placements(round_index)
+            if self.motions is None and getattr(self._channel.channel, "has_random_part", True) is False:
+                # nothing to draw (the draw takes nothing from rng): the static links' constants
+                # are asked of the channel at once (its static_constants, as at a frequency hop)
+                draw = False
         ex = self._run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
                                 reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
                                 round_index=round_index, draw_channel=draw, propagation=self.propagation,

@@ -390,6 +390,15 @@ class StateArrays:
     row : ndarray of int, shape (n_tags,)
         Each tag's row of the tables of :func:`round_step_rows`, :func:`round_row` of its
         ``code`` and ``session`` (kept with them).
+
+    Notes
+    -----
+    Two bounds kept with the columns spare a command its whole-population comparisons where
+    they cannot hold: the latest time in ``t_s`` (a tag whose clock is past the command's
+    time is left to ``on_command``: none while the command is not earlier than every tag's
+    time) and whether any tag has S1 set to B (none: no S1 flag can revert). Each is
+    conservative (raised as rows are read or stepped, never lowered but by a read of every
+    row), so the decisions are those of the full comparisons.
     """
 
 
@@ -413,6 +422,8 @@ class StateArrays:
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
+        self._t_max = -np.inf  # no tag's time is later (Notes)
+        self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
 
     def use_generators(self, rngs) -> None:
@@ -457,6 +468,7 @@ class StateArrays:
         if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
             columns = [getattr(self, name) for name in _COLUMNS]
             following, counting, rows = self.following, self.counting, self.row
+            t_max, s1_set = self._t_max, self._s1_set
             for i in index:
                 st = states[i]
                 values = st.row()
@@ -465,10 +477,20 @@ class StateArrays:
                 following[i] = st._clock is clock
                 counting[i] = st._slot_clock is clock
                 rows[i] = round_row(values[1], values[2])
+                t_row = values[4]
+                if not t_row <= t_max:
+                    t_max = t_row if t_row == t_row else np.inf  # (a NaN time: no bound)
+                s1_set = s1_set or values[5] == values[5]  # not NaN: S1 set to B
+            self._t_max, self._s1_set = t_max, s1_set
             return
         cols = list(zip(*[states[i].row() for i in index]))
         for name, col in zip(_COLUMNS, cols):
             getattr(self, name)[index] = col
+        whole = len(index) == len(states)  # every row read: the bounds anew
+        t_max = float(np.max(self.t_s)) if whole else float(np.max(self.t_s[index], initial=self._t_max))
+        self._t_max = t_max if t_max == t_max else np.inf  # (a NaN time: no bound)
+        self._s1_set = bool(not np.isnan(self.s1_set_s).all()) if whole else (
+            self._s1_set or any(v == v for v in cols[5]))
         self.row[index] = round_row(self.code[index], self.session[index])
         self.following[index] = [states[i]._clock is clock for i in index]
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
@@ -497,11 +519,13 @@ class StateArrays:
             round's session).
         """
         step, row = round_step_rows(cmd), self.row
-        silent = candidates & self.powered & (self.t_s <= t_s) & step.silent[row]
+        silent = candidates & self.powered & step.silent[row]
+        if not self._t_max <= t_s:  # some tag's clock may be past t_s
+            silent &= self.t_s <= t_s
         dec = silent & step.decrement[row]
         if np.count_nonzero(dec):  # a decrement is silent unless the tag then replies
-            silent = silent & ~(dec & slot_replies(decremented(self.slot)))
-            dec = dec & silent
+            silent = np.greater(silent, dec & slot_replies(decremented(self.slot)))  # silent & ~(…)
+            dec &= silent
         return silent, dec
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
@@ -528,8 +552,12 @@ class StateArrays:
         if type(cmd) is not QueryAdjust:
             return np.zeros(len(self.states), bool)
         t_s = float(t_s)
-        ok = candidates & self.powered & (self.t_s <= t_s) & ~s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)
-        return ok & round_step_rows(cmd).redraw[self.row]
+        ok = candidates & self.powered & round_step_rows(cmd).redraw[self.row]
+        if not self._t_max <= t_s:  # some tag's clock may be past t_s
+            ok &= self.t_s <= t_s
+        if self._s1_set:
+            ok = np.greater(ok, s1_reverts(t_s, self.s1_set_s, self.s1_keep_s))  # ok & ~reverts
+        return ok
 
     def take_redraw_steps(self, cmd, index: list, rngs: list | None, t_s: float) -> list:
         """Apply a QueryAdjust to the tags that redraw their slot counter.
@@ -619,6 +647,8 @@ class StateArrays:
         self.following[idx] = ~own
         self.counting[idx] = ~zero
         self.t_s[idx] = t_s
+        if t_s > self._t_max:
+            self._t_max = t_s
         self.q[idx] = q_new
         self.slot[idx] = slot
         self.code[idx] = code = np.where(zero, _REPLY, _ARBITRATE)
@@ -656,19 +686,22 @@ class StateArrays:
         """
 
         t_s = float(t_s)
-        due = silent & s1_reverts(t_s, self.s1_set_s, self.s1_keep_s)  # NaN (S1 not set) compares False
-        if np.count_nonzero(due):
+        # NaN (S1 not set) compares False; no tag with S1 set: none due
+        due = silent & s1_reverts(t_s, self.s1_set_s, self.s1_keep_s) if self._s1_set else None
+        if due is not None and np.count_nonzero(due):
             idx = due.nonzero()[0]
             for i in idx.tolist():
                 if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
                     raise RuntimeError("a silent step was refused")  # the rules above disagree
             self.read(idx.tolist())
-            silent = silent & ~due
-            decrement = decrement & ~due
+            silent = np.greater(silent, due)  # silent & ~due
+            decrement = np.greater(decrement, due)
         if np.count_nonzero(decrement):
             self.slot[decrement] = decremented(self.slot[decrement])
-        self._count_down(decrement)
+            self._count_down(decrement)
         self.t_s[silent] = t_s
+        if t_s > self._t_max:
+            self._t_max = t_s
         self._follow(silent if joining is None else silent | joining, t_s)
 
     def _count_down(self, decrement: np.ndarray) -> None:
@@ -680,12 +713,12 @@ class StateArrays:
         if not np.count_nonzero(decrement):
             return
         clock, states = self.clock, self.states
-        leave = self.counting & ~decrement
+        leave = np.greater(self.counting, decrement)  # counting & ~decrement
         if np.count_nonzero(leave):
             for st in _picked(states, leave):
                 st.follow_decrements(None)
         d = clock.decrements + 1
-        join = decrement & ~self.counting
+        join = np.greater(decrement, self.counting)  # decrement & ~counting
         if np.count_nonzero(join):
             for st in _picked(states, join):
                 # follow_decrements(clock) of the decremented counter, the clock one decrement on
@@ -698,12 +731,12 @@ class StateArrays:
         those that followed it and are not silent now keep the clock's time as their own,
         the clock moves to ``t_s``, and the silent ones follow it."""
         clock, states = self.clock, self.states
-        leave = self.following & ~silent
+        leave = np.greater(self.following, silent)  # following & ~silent
         if np.count_nonzero(leave):
             for st in _picked(states, leave):
                 st.follow(None)
         clock.t_s = t_s
-        join = silent & ~self.following
+        join = np.greater(silent, self.following)  # silent & ~following
         if np.count_nonzero(join):
             for st in _picked(states, join):
                 st._clock = clock  # follow(clock)

@@ -67,7 +67,7 @@ import math
 from rfsim.gen2.access import AccessContext, execute, rn_reply, state_after_req_rn
 from rfsim.gen2.bits import as_bits, hex_to_bits, str_to_bits
 from rfsim.gen2.commands import ACCESS_COMMANDS, ACK, NAK, Query, QueryAdjust, QueryRep, Read, ReqRN, Select
-from rfsim.gen2.crc import append_crc16
+from rfsim.gen2.crc import crc16_bytes
 from rfsim.gen2.memory import CHIP_MODELS, EPC, ChipModel, TagError, TagMemory, pc_epc_length
 from rfsim.devices.gen2_tag_arrays import (StateArrays, decremented, query_matches, round_step_of_one, s1_reverts,
                                            select_step, slot_replies)
@@ -519,7 +519,11 @@ class TagState:
         words = self._pc_epc_words()
         memo = self.__dict__.get("_epc_reply_memo")
         if memo is None or memo[0] != words:
-            memo = self.__dict__["_epc_reply_memo"] = (list(words), Reply("EPC", append_crc16(_words_bits(words))))
+            # PC + EPC and their CRC-16 (over the words' bytes as sent, MSB first), as bits at once
+            sent = [*words, crc16_bytes(np.asarray(words, dtype=">u2").tobytes())]
+            bits = np.unpackbits(np.asarray(sent, dtype=">u2").view(np.uint8))
+            bits.setflags(write=False)
+            memo = self.__dict__["_epc_reply_memo"] = (list(words), Reply._own("EPC", bits))
         return memo[1]
 
     def _req_rn(self, cmd: ReqRN, rng) -> Reply | None:

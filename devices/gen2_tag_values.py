@@ -132,15 +132,27 @@ def pc_word(epc_bits) -> int:
     return (n // 16) << 11
 
 
-#: The 8 bits of every byte value, MSB first ((256, 8) uint8).
-_BYTE_BITS = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1)
+#: The 16 bits of every 16-bit value, MSB first ((2¹⁶, 16) uint8, 1 MiB, read-only; made at
+#: the first RN16, :func:`_bits16`).
+_WORD_BITS: np.ndarray | None = None
 
 
 def _bits16(value: int) -> np.ndarray:
-    """``int_to_bits(value, 16)`` for 0 ≤ value < 2¹⁶ (by byte lookup), read-only."""
-    bits = _BYTE_BITS[[value >> 8, value & 0xFF]].reshape(16)
-    bits.setflags(write=False)
-    return bits
+    """``int_to_bits(value, 16)`` for 0 ≤ value < 2¹⁶: a read-only row of the table of every
+    16-bit value's bits (a view, no copy per call)."""
+    table = _WORD_BITS
+    if table is None:
+        table = _word_bits()
+    return table[value]
+
+
+def _word_bits() -> np.ndarray:
+    """Make :data:`_WORD_BITS` (once)."""
+    global _WORD_BITS
+    table = np.unpackbits(np.arange(1 << 16, dtype=">u2").view(np.uint8).reshape(-1, 2), axis=1)
+    table.setflags(write=False)
+    _WORD_BITS = table
+    return table
 
 
 def adjusted_q(q, updn):

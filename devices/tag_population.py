@@ -52,7 +52,7 @@ import numpy as np
 
 from rfsim.devices.gen2_tag_state import StateArrays
 from rfsim.air.step import Segment
-from rfsim.gen2.commands import Query
+from rfsim.gen2.commands import Query, QueryAdjust
 
 _antenna = operator.attrgetter("antenna")
 
@@ -169,13 +169,13 @@ class TagPopulation:
             return None
         rnd = self._sync(gains, fe)
         arrays = self.arrays
-        on = rnd.known & rnd.powered & arrays.powered  # powered, and stays so
-        quiet = rnd.known & ~rnd.powered & ~arrays.powered  # unpowered, and stays so
+        on = rnd.stays_on & arrays.powered  # powered, and stays so
+        quiet = np.greater(rnd.stays_off, arrays.powered)  # unpowered, and stays so
         steps, applied, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
         if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
-                sel = on & group
-                if not np.count_nonzero(sel):
+                sel = on if group is None else on & group
+                if group is not None and not np.count_nonzero(sel):
                     continue
                 decoded = fe.command(rc)
                 decoded_by.append((sel, decoded))
@@ -188,7 +188,8 @@ class TagPopulation:
                 if any_silent:
                     steps.append((cmd, silent, dec, t_end_s))
                     quiet = quiet | silent
-                redraw = arrays.redraw_steps(cmd, sel & ~silent, t_end_s) if rnd.own_rngs else None
+                redraw = (arrays.redraw_steps(cmd, np.greater(sel, silent), t_end_s)  # sel & ~silent
+                          if rnd.own_rngs and type(cmd) is QueryAdjust else None)
                 if redraw is not None and not np.count_nonzero(redraw):
                     redraw = None
                 if any_silent or redraw is not None:
@@ -213,7 +214,7 @@ class TagPopulation:
                 members[j].take_quiet_step(points[j])
             rnd.needs[need] = False
         reactions = {}
-        react = (~quiet).nonzero()[0].tolist()
+        react = np.flatnonzero(~quiet).tolist()
         for j in react:
             m = self.members[j]
             decoded = None
@@ -303,6 +304,7 @@ class _Round:
         self.powered = np.array([q is not None and q.powered for q in points], bool)
         self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
         self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
+        self._known_masks()
         self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
         self.record = None  # the record values of dbm and powered (TagPopulation._round_record)
         #: every member draws from its own generator, so the order in which members draw does
@@ -311,12 +313,24 @@ class _Round:
         self.own_rngs = None not in rngs and len(set(map(id, rngs))) == n and all(
             callable(getattr(m, "respond_reply", None)) for m in members)
         rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)
+        #: (RC time constant [s], its members (bool mask; None: every member))
         self.rc_groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
+        if len(self.rc_groups) == 1:
+            self.rc_groups = [(self.rc_groups[0][0], None)]
         self._terms: dict = {}
+
+    def _known_masks(self) -> None:
+        """``stays_on`` (known and powered) and ``stays_off`` (known and not powered) from
+        ``known`` and ``powered``."""
+        self.stays_on = self.known & self.powered
+        self.stays_off = np.greater(self.known, self.powered)  # known & ~powered
 
     def _set(self, j: int, q) -> None:
         if q is not None:
+            # new arrays: a PopulationReflection made before holds the ones it was made with
+            self.powered, self.dbm = self.powered.copy(), self.dbm.copy()
             self.known[j], self.powered[j], self.dbm[j] = True, q.powered, q.p_dbm
+            self.stays_on[j], self.stays_off[j] = q.powered, not q.powered
             self.record = None
             self.scatter[j] = q.structural_mode != q.gamma_rest
 
@@ -394,17 +408,38 @@ class PopulationReflection:
     def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list):
         self._population, self._round, self._steps = population, rnd, steps
         self.quiet, self.reactions = quiet, reactions
-        self.powered = rnd.powered & quiet
-        self.incident_power_dbm = dbm = rnd.dbm.copy()
+        self._arrays = None  # (powered, incident_power_dbm), formed when first read
+        #: the round's power states and incident powers now (a round that learns a member's
+        #: power decision later makes new arrays, _Round._set)
+        self._base = powered, dbm = rnd.powered, rnd.dbm
         #: every reacting member's power state and incident power are the round's own (to the
         #: bit): then the arrays are the round's, and so are the record values
-        self._as_round = as_round = True
+        self._as_round = True
         for j, r in reactions.items():
-            powered, p_dbm = bool(r.powered), r.incident_power_dbm
-            if as_round and (powered != rnd.powered[j] or not _same_float(p_dbm, dbm[j])):
-                self._as_round = as_round = False
-            self.powered[j] = powered
-            dbm[j] = p_dbm
+            if bool(r.powered) != powered[j] or not _same_float(r.incident_power_dbm, dbm[j]):
+                self._as_round = False
+                break
+
+    @property
+    def powered(self) -> np.ndarray:
+        """Power state per member ((n,) bool)."""
+        return self._formed()[0]
+
+    @property
+    def incident_power_dbm(self) -> np.ndarray:
+        """Incident power per member ((n,) float [dBm])."""
+        return self._formed()[1]
+
+    def _formed(self) -> tuple:
+        """``(powered, incident_power_dbm)``: the round's, with the reacting members' own."""
+        if self._arrays is None:
+            powered, dbm = self._base
+            powered, dbm = powered & self.quiet, dbm.copy()
+            for j, r in self.reactions.items():
+                powered[j] = bool(r.powered)
+                dbm[j] = r.incident_power_dbm
+            self._arrays = (powered, dbm)
+        return self._arrays
 
     def terms(self, backs) -> tuple[np.ndarray, np.ndarray]:
         """The quiet members' constant contributions at one receiver.

@@ -57,7 +57,8 @@ def _round(powered, dbm):
     """The fields of a round's quiet points that an exchange's records are made of."""
     n = len(powered)
     return SimpleNamespace(powered=np.array(powered), dbm=np.array(dbm, dtype=float), known=np.ones(n, bool),
-                           scatter=np.zeros(n, bool), record=None)
+                           scatter=np.zeros(n, bool), record=None, stays_on=np.array(powered),
+                           stays_off=~np.array(powered))
 
 
 def _exchange(pop, rnd, reactions):

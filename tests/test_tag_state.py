@@ -548,8 +548,24 @@ def test_rn16_bits_by_byte_lookup_equal_int_to_bits():
 
     for v in (0, 1, 0x00FF, 0x0100, 0x8000, 0xA5C3, 0xFFFF):
         b = _bits16(v)
-        assert b.dtype == np.uint8 and not b.flags.writeable
+        assert b.dtype == np.uint8 and not b.flags.writeable and b.shape == (16,)
         assert np.array_equal(b, int_to_bits(v, 16))
+    all_bits = np.stack([_bits16(v) for v in range(1 << 16)])  # every value: its binary digits
+    assert np.array_equal(all_bits @ (1 << np.arange(15, -1, -1)), np.arange(1 << 16))
+
+
+def test_epc_reply_bits_are_pc_epc_and_their_crc16():
+    # the ACK reply of EPCs of every length: PC + EPC bits followed by their CRC-16 computed bit
+    # by bit (append_crc16), read-only uint8
+    from rfsim.gen2.crc import append_crc16
+
+    rng = np.random.default_rng(7)
+    for words in range(1, 32):
+        epc = "".join(f"{int(w):04X}" for w in rng.integers(0, 1 << 16, words))
+        reply = TagState(epc)._epc_reply()
+        ref = append_crc16(hex_to_bits(f"{pc_word(hex_to_bits(epc)):04X}" + epc))
+        assert reply.kind == "EPC" and reply.bits.dtype == np.uint8 and not reply.bits.flags.writeable
+        assert reply.bits.tobytes() == ref.tobytes()
 
 
 def test_tags_following_the_arrays_clock_keep_their_own_times():

@@ -103,7 +103,7 @@ class InventoryConfig:
             raise ConfigError("inventory.select_mask", self.select_mask, "at most 255 '0'/'1' characters")
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)
 class AirExchange:
     """One reader command and what the reader got back (both air interfaces).
 
@@ -153,6 +153,17 @@ class AirExchange:
     fc_hz: float = math.nan
     read: Any = None
     incident_power_dbm: tuple[float, ...] = ()
+
+    def __init__(self, command: str, time_s: float, cmd_end_s: float, replied: tuple[int, ...], detected: bool,
+                 bits: np.ndarray | None, success: bool, failure_reason: str, reply_start_s: float, antenna: int = 0,
+                 channel_index: int = 0, fc_hz: float = math.nan, read: Any = None,
+                 incident_power_dbm: tuple[float, ...] = ()):
+        # the fields set at once (one per command: a frozen dataclass's own __init__ sets
+        # them one by one through object.__setattr__, several times slower)
+        self.__dict__.update(command=command, time_s=time_s, cmd_end_s=cmd_end_s, replied=replied, detected=detected,
+                             bits=bits, success=success, failure_reason=failure_reason, reply_start_s=reply_start_s,
+                             antenna=antenna, channel_index=channel_index, fc_hz=fc_hz, read=read,
+                             incident_power_dbm=incident_power_dbm)
 
 
 # ============================================================================ records
@@ -303,6 +314,17 @@ def epc_hex_of(bits: np.ndarray) -> str:
 _NIBBLE_WEIGHTS = np.array([8, 4, 2, 1], dtype=np.int64)
 
 
+def _epc_hex(bits: np.ndarray, memo: dict) -> str:
+    """:func:`epc_hex_of` of ``bits``, kept in ``memo`` by the bits' dtype and bytes (a tag's
+    EPC is read again and again)."""
+    b = np.asarray(bits)
+    key = (b.dtype.str, b.tobytes())
+    epc = memo.get(key)
+    if epc is None:
+        epc = memo[key] = epc_hex_of(b)
+    return epc
+
+
 # ============================================================================ controller
 
 
@@ -369,6 +391,9 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
     # the commands are immutable: one QueryRep, and one QueryAdjust per UpDn, for the inventory
     rep = _commands.QueryRep(session=config.session)
     adjust: dict[int, Any] = {}
+    epcs: dict = {}  # the EPC (hex) of each distinct reply read
+    # each slot's values are appended to the columns in the order of SLOT_FIELDS
+    slot_columns = [log.slots[k].append for k in SLOT_FIELDS]
     if config.select_mask or config.sel != "all":
         # assert SL on matching tags, deassert it on the others (Select action 0)
         sel = _commands.Select(target=4, action=0, membank=1, pointer=config.select_pointer, mask=config.select_mask)
@@ -404,11 +429,11 @@ def run_inventory(air, config: InventoryConfig = InventoryConfig(), *, t0_s: flo
                 elif view == "empty":
                     qfp = max(0.0, qfp - config.c)
             tag = read_ex.replied[0] if read_ex is not None and len(read_ex.replied) == 1 else -1
-            epc = epc_hex_of(read_ex.bits) if read_ex is not None else ""
-            _append(log.slots, time_s=t_slot, duration_s=(t_cmd - clock.lead_s) - t_slot, round=rnd,
-                    slot=slot, q=q, qfp=qfp, command=first.command, target=target,
-                    antenna=first.antenna + 1, slot_type=stype, reader_view=view, n_replies=n_rep,
-                    epc_hex=epc, tag=tag)
+            epc = _epc_hex(read_ex.bits, epcs) if read_ex is not None else ""
+            for add, value in zip(slot_columns, (t_slot, (t_cmd - clock.lead_s) - t_slot, rnd, slot, q, qfp,
+                                                 first.command, target, first.antenna + 1, stype, view, n_rep,
+                                                 epc, tag)):
+                add(value)
             if read_ex is not None:
                 _append_read(log.reads, read_ex, rnd, slot, tag, epc, n_rep)
             slot += 1
@@ -690,8 +715,10 @@ class EngineAir:
         drawn at the first exchange of every round and held for the round. A channel without
         one (``has_random_part`` False: no diffuse taps, no shadowing field) gives static tags
         the same links in every round, so its links are evaluated once and held across rounds
-        while no tag's antenna changes (and without ``motions``); the records are those of a
-        draw per round, bit for bit (the draw takes nothing from ``rng``).
+        while no tag's antenna changes (and without ``motions``), from the first exchange on as
+        the narrowband constants of all tags at once where the channel offers them
+        (``static_constants``, as at a frequency hop); the records are those of a draw per
+        round, bit for bit (the draw takes nothing from ``rng``).
     rng : numpy.random.Generator
         Generator for the channel draws and the receiver noise.
     motions : sequence, optional
@@ -711,6 +738,9 @@ class EngineAir:
 
     def __init__(self, reader, tags: Sequence, channel, *, rng: np.random.Generator, motions=None,
                  propagation: str = "auto", fast: bool = True, keep_exchanges: bool = False):
+        from rfsim.protocols.engine import run_exchange
+
+        self._run_exchange = run_exchange
         self.exchanges: list[AirExchange] | None = [] if keep_exchanges else None
         self.reader = reader
         self.tags = list(tags)
@@ -770,17 +800,19 @@ class EngineAir:
             The exchange as the reader saw it (``detected`` when it decoded bits), with the
             engine's failure reason.
         """
-        from rfsim.protocols.engine import run_exchange
-
         draw = new_round and not self._links_still_held()
         if draw:
             self._channel.clear()
             self._round_links.clear()
             self._hold_placements(round_index)
-        ex = run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
-                          reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
-                          round_index=round_index, draw_channel=draw, propagation=self.propagation,
-                          link_cache=self._round_links)
+            if self.motions is None and getattr(self._channel.channel, "has_random_part", True) is False:
+                # nothing to draw (the draw takes nothing from rng): the static links' constants
+                # are asked of the channel at once (its static_constants, as at a frequency hop)
+                draw = False
+        ex = self._run_exchange(self.reader, self._reflectors, self._channel, cmd, t_s=t_s, rng=self.rng,
+                                reply_bits=reply_bits, expect_crc=expect_crc, motions=self.motions,
+                                round_index=round_index, draw_channel=draw, propagation=self.propagation,
+                                link_cache=self._round_links)
         read = ex.read
         detected = read is not None and read.bits is not None
         cmd_end = ex.cmd_end_s  # t_s + Tari (CW lead-in) + T_cmd, from the reader's segment

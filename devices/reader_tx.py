@@ -106,6 +106,14 @@ def _lead_in(link, preamble: str, cw_before_s: float):
                        delimiter_s=link.delimiter_s, preamble=preamble, cw_before_s=cw_before_s)
 
 
+def _command_duration_s(link, preamble: str, n_bits: int, n_ones: int) -> float:
+    """T_cmd [s] of a command of ``n_bits`` bits, ``n_ones`` of them 1 (``link.command_duration_s``
+    of such bits: the duration depends only on these counts)."""
+    bits = np.zeros(n_bits, dtype=np.uint8)
+    bits[:n_ones] = 1
+    return link.command_duration_s(bits, preamble)
+
+
 def hilbert_fir(half_length: int) -> np.ndarray:
     """Design the Blackman-windowed FIR Hilbert transformer of SSB-ASK.
 
@@ -158,7 +166,11 @@ class PieTransmitter:
         bits = encode(cmd)
         bits.setflags(write=False)
         preamble = command_preamble(cmd)
-        hit = _Command(bits, preamble, self.link.command_duration_s(bits, preamble))
+        # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
+        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the run
+        n_ones = int(np.count_nonzero(bits))
+        duration_s = self.air_cache.link_timing(_command_duration_s, self.link, preamble, bits.size, n_ones)
+        hit = _Command(bits, preamble, duration_s)
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
                 self._cmd_cache.pop(next(iter(self._cmd_cache)))

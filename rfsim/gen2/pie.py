@@ -126,20 +126,10 @@ def pie_lead_in(*, tari_s: float, data1_tari: float, trcal_s: float | None, pw_s
 
     Parameters
     ----------
-    tari_s : float
-        Data-0 duration [s].
-    data1_tari : float
-        Data-1 duration in Tari (1.5–2.0).
-    trcal_s : float or None
-        TRcal [s]; required for ``preamble="query"``, ignored for frame-sync.
-    pw_s : float
-        Low-pulse width [s], 0 < PW < Tari.
-    delimiter_s : float
-        Delimiter (low) duration [s].
-    preamble : {"query", "frame-sync"}
-        Lead-in.
-    cw_before_s : float
-        Unmodulated carrier before the delimiter [s].
+    tari_s, data1_tari, trcal_s, pw_s, delimiter_s, preamble, cw_before_s : float, …, str, float
+        As in :func:`pie_timeline`: Tari [s], data-1 in Tari, TRcal [s] (or None for a
+        frame-sync), PW [s], delimiter [s], ``"query"`` or ``"frame-sync"``, CW before the
+        delimiter [s].
 
     Returns
     -------
@@ -443,16 +433,9 @@ def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_
     modulated_after_s : float
         Time after the last rising edge up to which the envelope is evaluated [s]
         (:func:`ask_baseband` ``modulated_s``); beyond it the constant CW.
-    amplitude : float
-        CW amplitude A [√W].
-    pr_ask : bool
-        PR-ASK (True) or DSB-ASK (False).
-    depth : float
-        Modulation depth (A−B)/A, 0 < depth ≤ 1.
-    fs_hz : float
-        Sample rate [Hz].
-    rise_fall_s : float, optional
-        10–90 % time of the raised-cosine edges [s] (default 0: hard edges).
+    amplitude, pr_ask, depth, fs_hz, rise_fall_s : float, bool, float, float, float
+        As in :func:`ask_baseband`: CW amplitude A [√W], PR-ASK (True) or DSB-ASK, depth
+        (A−B)/A in (0, 1], sample rate [Hz], 10–90 % edge time [s] (default 0: hard edges).
 
     Returns
     -------

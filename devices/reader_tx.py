@@ -35,7 +35,7 @@ import numpy as np
 
 from rfsim.air.cache import AirCache, CommandKey, Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
-from rfsim.gen2.pie import ask_baseband, pie_timeline, timeline_envelope
+from rfsim.gen2.pie import command_ask_baseband, pie_lead_in, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -100,6 +100,20 @@ class TxSegment:
         return self.t0_s + self.samples.size / self.fs_hz
 
 
+def _lead_in(link, preamble: str, cw_before_s: float):
+    """The checked PIE lead-in of ``link`` (:func:`rfsim.gen2.pie.pie_lead_in`)."""
+    return pie_lead_in(tari_s=link.tari_s, data1_tari=link.data1_tari, trcal_s=link.trcal_s, pw_s=link.pw_s,
+                       delimiter_s=link.delimiter_s, preamble=preamble, cw_before_s=cw_before_s)
+
+
+def _command_duration_s(link, preamble: str, n_bits: int, n_ones: int) -> float:
+    """T_cmd [s] of a command of ``n_bits`` bits, ``n_ones`` of them 1 (``link.command_duration_s``
+    of such bits: the duration depends only on these counts)."""
+    bits = np.zeros(n_bits, dtype=np.uint8)
+    bits[:n_ones] = 1
+    return link.command_duration_s(bits, preamble)
+
+
 def hilbert_fir(half_length: int) -> np.ndarray:
     """Design the Blackman-windowed FIR Hilbert transformer of SSB-ASK.
 
@@ -152,7 +166,11 @@ class PieTransmitter:
         bits = encode(cmd)
         bits.setflags(write=False)
         preamble = command_preamble(cmd)
-        hit = _Command(bits, preamble, self.link.command_duration_s(bits, preamble))
+        # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
+        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the run
+        n_ones = int(np.count_nonzero(bits))
+        duration_s = self.air_cache.link_timing(_command_duration_s, self.link, preamble, bits.size, n_ones)
+        hit = _Command(bits, preamble, duration_s)
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
                 self._cmd_cache.pop(next(iter(self._cmd_cache)))
@@ -182,19 +200,21 @@ class PieTransmitter:
             Baseband at the antenna port [√W].
         """
         lk = self.link
-        timing = dict(tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
-                      delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
-                      cw_before_s=float(cw_before_s))
-        tl = pie_timeline(bits, **timing)
         rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = self._cw_amplitude()
         if lk.modulation in ("DSB-ASK", "PR-ASK"):
             # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
             # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
             # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
-            return ask_baseband(tl, depth=lk.depth, fs_hz=self.fs_hz, amplitude=amp, pr_ask=lk.modulation == "PR-ASK",
-                                rise_fall_s=rise_fall_s,
-                                modulated_s=float(tl.rise_s[-1] + min(float(cw_after_s), 2.0 * lk.tari_s)))
+            # The checked lead-in (preamble or frame-sync) is the run's, per link profile.
+            lead = self.air_cache.link_timing(_lead_in, lk, preamble, float(cw_before_s))
+            return command_ask_baseband(lead, bits, cw_after_s=float(cw_after_s),
+                                        modulated_after_s=min(float(cw_after_s), 2.0 * lk.tari_s), amplitude=amp,
+                                        pr_ask=lk.modulation == "PR-ASK", depth=lk.depth, fs_hz=self.fs_hz,
+                                        rise_fall_s=rise_fall_s)
+        tl = pie_timeline(bits, tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
+                          delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
+                          cw_before_s=float(cw_before_s))
         e = timeline_envelope(tl, depth=lk.depth, fs_hz=self.fs_hz, rise_fall_s=rise_fall_s)
         # SSB-ASK
         half = int(round(SSB_HILBERT_HALF_TARI * lk.tari_s * self.fs_hz))

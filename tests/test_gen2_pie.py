@@ -14,8 +14,8 @@ from scipy.io import loadmat
 from rfsim.gen2.commands import ACK, Query, encode
 from rfsim.gen2.link import PROFILES, pie_duration_s
 from rfsim.core.rng import trial_rng
-from rfsim.gen2.pie import (ask_baseband, pie_decode, pie_decode_arrays, pie_envelope, pie_envelope_for_profile,
-                            pie_timeline, pr_ask_baseband, timeline_envelope, two_level_threshold)
+from rfsim.gen2.pie import (ask_baseband, command_ask_baseband, pie_decode, pie_decode_arrays, pie_envelope, pie_envelope_for_profile,
+                            pie_lead_in, pie_timeline, pr_ask_baseband, timeline_envelope, two_level_threshold)
 from reference.gen2_pie import pie_decode_reference, pie_envelope_reference, pie_timeline_reference
 
 QUERY_Q0 = np.array([int(c) for c in "1000000000000000010000"], dtype=np.uint8)
@@ -125,6 +125,58 @@ def test_ask_baseband_equals_envelope_times_amplitude(pr_ask):
             assert x.dtype == np.complex128
             np.testing.assert_array_equal(x, ref)
         assert np.any(ref.real < 0) == pr_ask
+
+
+@pytest.mark.parametrize("pr_ask", [False, True])
+def test_command_ask_baseband_equals_ask_baseband_of_timeline(pr_ask):
+    """Bits to samples in one kernel call (lead-in checked once) gives the samples of
+    ask_baseband(pie_timeline(bits)) with modulated_s = last rising edge + modulated_after_s,
+    bit for bit (the same kernels on the same edge times), over random timing, preamble, CW
+    lengths, sample rates and ramps (hard and raised-cosine)."""
+    rng = trial_rng(72, 1 + pr_ask)
+    for _ in range(40):
+        tari = float(rng.choice([6.25e-6, 12.5e-6, 25e-6]))
+        kw = _timing(tari_s=tari, data1_tari=float(rng.uniform(1.5, 2.0)), pw_s=tari * float(rng.uniform(0.3, 0.5)),
+                     preamble=str(rng.choice(["query", "frame-sync"])),
+                     cw_before_s=float(rng.uniform(0, 2 * tari)))
+        kw["trcal_s"] = 2.0 * tari * (1.0 + kw["data1_tari"])
+        bits = rng.integers(0, 2, int(rng.integers(0, 40))).astype(np.uint8)
+        cw_after = float(rng.uniform(0, 1e-3))
+        mod_after = min(cw_after, 2.0 * tari)
+        fs = float(rng.choice([2.5e6, 3.3e6, 4e6, 8e6]))
+        ramp = float(rng.choice([0.0, 0.1 * tari]))
+        tl = pie_timeline(bits, cw_after_s=cw_after, **kw)
+        ref = ask_baseband(tl, depth=0.85, fs_hz=fs, amplitude=0.3, pr_ask=pr_ask, rise_fall_s=ramp,
+                           modulated_s=float(tl.rise_s[-1] + mod_after))
+        lead = pie_lead_in(**kw)
+        x = command_ask_baseband(lead, bits, cw_after_s=cw_after, modulated_after_s=mod_after, amplitude=0.3,
+                                 pr_ask=pr_ask, depth=0.85, fs_hz=fs, rise_fall_s=ramp)
+        assert x.dtype == np.complex128 and x.shape == ref.shape
+        np.testing.assert_array_equal(x, ref)
+        # a list of bits is converted, the same samples
+        np.testing.assert_array_equal(
+            command_ask_baseband(lead, bits.tolist(), cw_after_s=cw_after, modulated_after_s=mod_after, amplitude=0.3,
+                                 pr_ask=pr_ask, depth=0.85, fs_hz=fs, rise_fall_s=ramp), ref)
+
+
+def test_command_ask_baseband_refuses_bad_bits_and_slow_edges():
+    """The kernel's checks: a bit other than 0/1, edges slower than the shortest interval, as
+    pie_timeline/ask_baseband refuse them; pie_lead_in refuses the timing pie_timeline refuses."""
+    lead = pie_lead_in(**_timing(preamble="frame-sync", cw_before_s=12.5e-6))
+    common = dict(cw_after_s=1e-4, modulated_after_s=2.5e-5, amplitude=1.0, pr_ask=True, depth=0.9, fs_hz=4e6)
+    with pytest.raises(ValueError, match="only 0 and 1"):
+        command_ask_baseband(lead, np.array([0, 1, 2], dtype=np.uint8), **common)
+    with pytest.raises(ValueError, match="shortest low or high"):
+        command_ask_baseband(lead, np.array([0, 1], dtype=np.uint8), rise_fall_s=6.5e-6, **common)
+    with pytest.raises(ValueError, match="shortest low or high"):
+        ask_baseband(pie_timeline([0, 1], **_timing(preamble="frame-sync", cw_before_s=12.5e-6, cw_after_s=1e-4)),
+                     amplitude=1.0, pr_ask=True, depth=0.9, fs_hz=4e6, rise_fall_s=6.5e-6)
+    with pytest.raises(ValueError, match="cw_after_s"):
+        command_ask_baseband(lead, np.array([0, 1], dtype=np.uint8), **{**common, "cw_after_s": -1e-6})
+    with pytest.raises(ValueError, match="trcal_s > RTcal"):
+        pie_lead_in(**_timing(trcal_s=None, preamble="query"))
+    with pytest.raises(ValueError, match="preamble"):
+        pie_lead_in(**_timing(preamble="other"))
 
 
 def test_decode_with_levels_refuses_non_finite_envelope():

@@ -98,6 +98,21 @@ def test_cw_power_equals_ptx_and_duration(modulation):
     assert seg2.samples.dtype == np.complex128
 
 
+def test_transmit_cmd_end_is_command_duration_exactly():
+    """T_cmd of a transmitted command (kept per link by the counts of its bits) is
+    LinkProfile.command_duration_s of the command itself, to the last bit, for ACKs of every
+    number of 1s and for other commands; the samples equal modulate() of the command's bits."""
+    reader = make_reader("PR-ASK")
+    lk = reader.link
+    rng = trial_rng(73)
+    cmds = [ACK(rn16=int(v)) for v in rng.integers(0, 1 << 16, 40)] + [ACK(0), ACK(0xFFFF), Query(q=3), QueryRep()]
+    for i, cmd in enumerate(cmds):
+        seg = reader.transmit(cmd, t0_s=0.0, cw_after_s=50e-6 + i * 1e-6)
+        assert seg.cmd_end_s == lk.tari_s + lk.command_duration_s(cmd)
+        x = reader.modulate(encode(cmd), preamble=cmd.PREAMBLE, cw_after_s=50e-6 + i * 1e-6, cw_before_s=lk.tari_s)
+        np.testing.assert_array_equal(seg.samples, x)
+
+
 def _spectrum(x, fs):
     f, p = welch(x, fs=fs, nperseg=4096, return_onesided=False, detrend=False)
     return np.fft.fftshift(f), np.fft.fftshift(p)

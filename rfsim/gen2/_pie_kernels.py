@@ -148,6 +148,35 @@ def ask_baseband_kernel(fall_s, rise_s, depth, ramp_width, fs_hz, amp, pr_ask, n
 
 
 @njit
+def command_baseband_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_before_s, cw_after_s, modulated_after_s,
+                            depth, rise_fall_s, ramp_per_10_90, fs_hz, amp, pr_ask):
+    """Bits to samples in one call: the edge times of :func:`timeline_kernel` (``lead_s``,
+    ``bits`` …, ``cw_before_s``), then :func:`ask_baseband_kernel` of them over ``n =
+    ceil((r_last + cw_after_s)·fs)`` samples, modulated up to ``ceil((r_last +
+    modulated_after_s)·fs)`` (``r_last`` the last rising edge [s]), ramps ``rise_fall_s ·
+    ramp_per_10_90 · fs`` samples wide. Returns ``(out, code)``: code 0 when done, 1 when a bit
+    is neither 0 nor 1, 2 when ``rise_fall_s`` exceeds the shortest low or high interval (then
+    ``out`` is empty)."""
+    for i in range(bits.size):
+        if bits[i] > 1:
+            return np.empty(0, dtype=np.complex128), 1
+    k = 1 + lead_s.size + bits.size
+    fall_s = np.empty(k)
+    rise_s = np.empty(k)
+    timeline_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_before_s, fall_s, rise_s)
+    if rise_fall_s > 0.0:
+        for i in range(k):
+            if rise_fall_s > rise_s[i] - fall_s[i] or (i > 0 and rise_fall_s > fall_s[i] - rise_s[i - 1]):
+                return np.empty(0, dtype=np.complex128), 2
+    last = rise_s[k - 1]
+    n = int(math.ceil((last + cw_after_s) * fs_hz))
+    n_mod = min(n, int(math.ceil((last + modulated_after_s) * fs_hz)))
+    out = np.empty(n, dtype=np.complex128)
+    ask_baseband_kernel(fall_s, rise_s, depth, rise_fall_s * ramp_per_10_90 * fs_hz, fs_hz, amp, pr_ask, n_mod, out)
+    return out, 0
+
+
+@njit
 def equal_tail_start(x):
     """Index of the first of the equal samples (``==``, real or complex) that end ``x``
     (``x.size − 1`` when the last two differ or the last is NaN; 0 for an empty ``x``)."""

@@ -91,6 +91,79 @@ class PieFrame:
 # ----------------------------------------------------------------------------- encoder
 
 
+@dataclass(frozen=True)
+class PieLeadIn:
+    """The fixed part of a PIE command: its checked timing and lead-in (:func:`pie_lead_in`).
+
+    Attributes
+    ----------
+    symbols_s : (2,) or (3,) float64 [s], read-only
+        Lead-in symbol lengths after the delimiter: data-0, RTcal (, TRcal for a Query).
+    data0_s, data1_s : float [s]
+        Data-0 (Tari) and data-1 durations.
+    pw_s : float [s]
+        Low-pulse width.
+    cw_before_s : float [s]
+        CW before the delimiter's falling edge.
+    t0_s : float [s]
+        Rising edge of the delimiter, ``cw_before_s + delimiter_s``.
+    """
+
+    symbols_s: np.ndarray
+    data0_s: float
+    data1_s: float
+    pw_s: float
+    cw_before_s: float
+    t0_s: float
+
+
+def pie_lead_in(*, tari_s: float, data1_tari: float, trcal_s: float | None, pw_s: float, delimiter_s: float,
+                preamble: str = "query", cw_before_s: float = 0.0) -> PieLeadIn:
+    """Check the timing of a PIE command and return its lead-in (the part every command shares).
+
+    Symbol lengths of gen2-and-validation-anchors.md §4.1: delimiter, data-0, RTcal =
+    (1 + data1_tari)·Tari and, for the Query preamble, TRcal.
+
+    Parameters
+    ----------
+    tari_s, data1_tari, trcal_s, pw_s, delimiter_s, preamble, cw_before_s : float, …, str, float
+        As in :func:`pie_timeline`: Tari [s], data-1 in Tari, TRcal [s] (or None for a
+        frame-sync), PW [s], delimiter [s], ``"query"`` or ``"frame-sync"``, CW before the
+        delimiter [s].
+
+    Returns
+    -------
+    PieLeadIn
+        The checked timing.
+
+    Raises
+    ------
+    ValueError
+        For an unknown preamble, non-positive durations, PW ≥ Tari, data1_tari outside
+        (1, 2.5], a Query without TRcal > RTcal, or ``cw_before_s < 0``.
+    """
+    if preamble not in PREAMBLES:
+        raise ValueError(f"preamble must be one of {PREAMBLES}, got {preamble!r}")
+    tari_s, pw_s, delimiter_s = float(tari_s), float(pw_s), float(delimiter_s)
+    if not tari_s > 0 or not 0 < pw_s < tari_s or not delimiter_s > 0:
+        raise ValueError("need tari_s > 0, 0 < pw_s < tari_s and delimiter_s > 0")
+    if not 1.0 < float(data1_tari) <= 2.5:
+        raise ValueError(f"data1_tari must be in (1, 2.5], got {data1_tari}")
+    if cw_before_s < 0:
+        raise ValueError("cw_before_s and cw_after_s must be >= 0")
+    data1_s = float(data1_tari) * tari_s
+    rtcal_s = tari_s + data1_s
+    symbols = [tari_s, rtcal_s]
+    if preamble == "query":
+        if trcal_s is None or not float(trcal_s) > rtcal_s:
+            raise ValueError(f"a query preamble needs trcal_s > RTcal = {rtcal_s:g} s, got {trcal_s}")
+        symbols.append(float(trcal_s))
+    symbols_s = np.array(symbols)
+    symbols_s.setflags(write=False)
+    return PieLeadIn(symbols_s=symbols_s, data0_s=tari_s, data1_s=data1_s, pw_s=pw_s, cw_before_s=float(cw_before_s),
+                     t0_s=float(cw_before_s) + delimiter_s)
+
+
 def pie_timeline(
     bits,
     *,
@@ -105,9 +178,9 @@ def pie_timeline(
 ) -> PieTimeline:
     """Exact edge times of the PIE command carrying ``bits``.
 
-    Lead-in and symbol lengths of gen2-and-validation-anchors.md §4.1: delimiter, data-0,
-    RTcal (and TRcal for the Query preamble), then Tari per data-0 and data1_tari·Tari per
-    data-1, each symbol ending with a low pulse of width PW.
+    Lead-in and symbol lengths of gen2-and-validation-anchors.md §4.1 (:func:`pie_lead_in`):
+    delimiter, data-0, RTcal (and TRcal for the Query preamble), then Tari per data-0 and
+    data1_tari·Tari per data-1, each symbol ending with a low pulse of width PW.
 
     Parameters
     ----------
@@ -141,27 +214,15 @@ def pie_timeline(
         (1, 2.5], or a Query without TRcal > RTcal.
     """
     arr = as_bits(bits)
-    if preamble not in PREAMBLES:
-        raise ValueError(f"preamble must be one of {PREAMBLES}, got {preamble!r}")
-    tari_s, pw_s, delimiter_s = float(tari_s), float(pw_s), float(delimiter_s)
-    if not tari_s > 0 or not 0 < pw_s < tari_s or not delimiter_s > 0:
-        raise ValueError("need tari_s > 0, 0 < pw_s < tari_s and delimiter_s > 0")
-    if not 1.0 < float(data1_tari) <= 2.5:
-        raise ValueError(f"data1_tari must be in (1, 2.5], got {data1_tari}")
-    if cw_before_s < 0 or cw_after_s < 0:
+    if cw_after_s < 0:
         raise ValueError("cw_before_s and cw_after_s must be >= 0")
-    data1_s = float(data1_tari) * tari_s
-    rtcal_s = tari_s + data1_s
-    symbols = [tari_s, rtcal_s]
-    if preamble == "query":
-        if trcal_s is None or not float(trcal_s) > rtcal_s:
-            raise ValueError(f"a query preamble needs trcal_s > RTcal = {rtcal_s:g} s, got {trcal_s}")
-        symbols.append(float(trcal_s))
-    t0 = float(cw_before_s) + delimiter_s
-    n_edges = 1 + len(symbols) + arr.size
+    lead = pie_lead_in(tari_s=tari_s, data1_tari=data1_tari, trcal_s=trcal_s, pw_s=pw_s, delimiter_s=delimiter_s,
+                       preamble=preamble, cw_before_s=cw_before_s)
+    n_edges = 1 + lead.symbols_s.size + arr.size
     fall, rise = np.empty(n_edges), np.empty(n_edges)
     # rise = [t0, t0 + cumsum(symbol lengths)], fall = [cw_before, rise[1:] − PW]
-    _k.timeline_kernel(np.array(symbols), arr, tari_s, data1_s, t0, pw_s, float(cw_before_s), fall, rise)
+    _k.timeline_kernel(lead.symbols_s, arr, lead.data0_s, lead.data1_s, lead.t0_s, lead.pw_s, lead.cw_before_s, fall,
+                       rise)
     return PieTimeline(fall_s=fall, rise_s=rise, duration_s=float(rise[-1] + cw_after_s))
 
 
@@ -350,6 +411,61 @@ def ask_baseband(timeline: PieTimeline, *, amplitude: float, pr_ask: bool, depth
     out = np.empty(n, dtype=np.complex128)
     _k.ask_baseband_kernel(timeline.fall_s, timeline.rise_s, float(depth), width, fs_hz, float(amplitude),
                            bool(pr_ask), n_mod, out)
+    return out
+
+
+def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_after_s: float, amplitude: float,
+                         pr_ask: bool, depth: float, fs_hz: float, rise_fall_s: float = 0.0) -> np.ndarray:
+    """:func:`ask_baseband` of a command's bits in one kernel call, from its checked lead-in.
+
+    The samples of ``ask_baseband(pie_timeline(bits, …), …, modulated_s=r_last +
+    modulated_after_s)``, bit for bit (``r_last`` the last rising edge [s], the timeline's
+    lead-in and timing those of ``lead``), without the intermediate arrays and checks.
+
+    Parameters
+    ----------
+    lead : PieLeadIn
+        The command's timing and lead-in (:func:`pie_lead_in`).
+    bits : array_like
+        ``(n,)`` 0/1, MSB first (a ``uint8`` array is passed on as is; the kernel checks its values).
+    cw_after_s : float
+        CW after the last rising edge [s], ≥ 0.
+    modulated_after_s : float
+        Time after the last rising edge up to which the envelope is evaluated [s]
+        (:func:`ask_baseband` ``modulated_s``); beyond it the constant CW.
+    amplitude, pr_ask, depth, fs_hz, rise_fall_s : float, bool, float, float, float
+        As in :func:`ask_baseband`: CW amplitude A [√W], PR-ASK (True) or DSB-ASK, depth
+        (A−B)/A in (0, 1], sample rate [Hz], 10–90 % edge time [s] (default 0: hard edges).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(ceil((r_last + cw_after_s)·fs),) complex128`` baseband [√W].
+
+    Raises
+    ------
+    ValueError
+        If a bit is not 0/1, ``cw_after_s`` or ``rise_fall_s`` is negative, ``depth`` is
+        outside (0, 1], ``fs_hz`` is not positive or the edges are too slow.
+    """
+    if not (isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1
+            and bits.flags.c_contiguous):
+        bits = as_bits(bits)
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    if cw_after_s < 0:
+        raise ValueError("cw_before_s and cw_after_s must be >= 0")
+    if rise_fall_s < 0:
+        raise ValueError("rise_fall_s must be >= 0")
+    out, code = _k.command_baseband_kernel(lead.symbols_s, bits, lead.data0_s, lead.data1_s, lead.t0_s, lead.pw_s,
+                                           lead.cw_before_s, float(cw_after_s), float(modulated_after_s), float(depth),
+                                           float(rise_fall_s), _RAMP_WIDTH_PER_10_90, fs_hz, float(amplitude),
+                                           bool(pr_ask))
+    if code == 1:
+        raise ValueError("bits must contain only 0 and 1")
+    if code == 2:
+        raise ValueError("rise_fall_s must not exceed the shortest low or high interval")
     return out
 
 
@@ -555,6 +671,9 @@ __all__ = [
     "PieTimeline",
     "PieFrame",
     "pie_timeline",
+    "PieLeadIn",
+    "pie_lead_in",
+    "command_ask_baseband",
     "pie_envelope",
     "pie_envelope_for_profile",
     "timeline_envelope",

@@ -10,15 +10,15 @@ import math
 
 import pytest
 
-from rfsim.air import batch as air_batch
+from rfsim.air import step as air_step
 from rfsim.air.cache import AirCache, Strategy
 from test_link_ber import awgn_bits_needed, bit_errors, pb_awgn
 
 
 @pytest.fixture
 def counter_noise(monkeypatch):
-    """Every batched air step without a cache of its own draws counter-based noise."""
-    monkeypatch.setattr(air_batch, "AirCache", lambda: AirCache(strategy=Strategy(noise="counter")))
+    """Every air step without a cache of its own (``propagate`` makes one) draws counter-based noise."""
+    monkeypatch.setattr(air_step, "AirCache", lambda: AirCache(strategy=Strategy(noise="counter")))
 
 
 @pytest.mark.parametrize("ebn0_db, m", [(0.0, 1), (4.0, 1), (4.0, 4)])
@@ -34,7 +34,7 @@ def test_counter_noise_ber_awgn_short(counter_noise, ebn0_db, m):
 def test_counter_noise_is_what_the_steps_draw(counter_noise):
     # the fixture takes effect: the same replies give other errors than the default noise
     with_counter = bit_errors(2000, 2, ebn0_db=2.0, m=1, method="bitwise", seed=7)
-    air_batch.AirCache = AirCache  # back to the default strategy (the fixture restores it too)
+    air_step.AirCache = AirCache  # back to the default strategy (the fixture restores it too)
     assert bit_errors(2000, 2, ebn0_db=2.0, m=1, method="bitwise", seed=7) != with_counter
 
 

@@ -520,8 +520,7 @@ class TagState:
         memo = self.__dict__.get("_epc_reply_memo")
         if memo is None or memo[0] != words:
             # PC + EPC and their CRC-16 (over the words' bytes as sent, MSB first), as bits at once
-            sent = [*words, crc16_bytes(np.asarray(words, dtype=">u2").tobytes())]
-            bits = np.unpackbits(np.asarray(sent, dtype=">u2").view(np.uint8))
+            bits = _words_bits([*words, crc16_bytes(np.asarray(words, dtype=">u2").tobytes())])
             bits.setflags(write=False)
             memo = self.__dict__["_epc_reply_memo"] = (list(words), Reply._own("EPC", bits))
         return memo[1]

@@ -712,6 +712,7 @@ class _EngineLinks:
         else:
             self.index = {id(t.antenna): i for i, t in enumerate(members)}
         self.backward: dict = {}
+        self.drawn: dict = {}  # id(tag antenna) -> _LinkPair of this step's draw (drawn once per step)
         if draw and cache:  # a new draw: the held constants of the previous one are void
             for key in [k for k in cache if k[0] == "held"]:
                 del cache[key]
@@ -721,19 +722,9 @@ class _EngineLinks:
             i = self.index.get(id(rx))
             if i is None:
                 return None
-            motion = self.motions[i] if self.motions is not None else None
-            links = None
-            if self.cache is not None:
-                key = (i, id(self.antenna), fc_hz)
-                if motion is None and not self.draw:
-                    links = self._held_pair(key)
+            links = self.drawn.get(id(rx))
             if links is None:
-                forward, backward = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng,
-                                                                   t_s=t_s, tag_motion=motion)
-                links = _LinkPair(reader_antenna=self.antenna, forward=forward, backward=backward)
-                if self.cache is not None and motion is None:
-                    self.cache[key] = links
-            self.backward[id(rx)] = links.backward
+                links = self._draw(i, rx, fc_hz, t_s)
             return links.forward
         if rx is self.antenna:
             hit = self.backward.get(id(tx))
@@ -750,19 +741,24 @@ class _EngineLinks:
     def held_constants(self, antenna, others, *, fc_hz, bandwidth_hz, propagation, inbound):
         """The narrowband constants of the held links between the reader ``antenna`` and the
         tag antennas ``others`` (forward, or backward with ``inbound``), in that order; None
-        unless every one of them is held in the link cache (no new draw, no motion) and is
-        narrowband and static. Remembered in the cache for the round's draw."""
-        if self.draw or self.cache is None or self.motions is not None or antenna is not self.antenna:
+        unless every one of them is narrowband and static, no tag moves, and the links are
+        held in the link cache or drawn now (a new draw: each tag's links drawn here in the
+        order of ``others``, the members' order in which the air step would ask them, and held
+        for the step). Remembered in the link cache for the round's draw: the Query's
+        constants serve its ACK (the channel holds one draw per round)."""
+        if self.motions is not None or antenna is not self.antenna or (self.cache is None and not self.draw):
             return None
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
-        hit = self.cache.get(key)
+        hit = self.cache.get(key) if self.cache is not None else None
         if hit is not None and hit.reader_antenna is antenna and (
                 hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
             return hit.constants
         out = []
         for ant in others:
             i = self.index.get(id(ant))
-            links = self._held_pair((i, id(antenna), fc_hz)) if i is not None else None
+            links = self._pair(i, ant, fc_hz) if i is not None else None
+            if links is None and self.draw:  # a tag the engine does not know: the step asks it (an error)
+                return None
             if links is None:  # not held at this carrier: every constant at once, if the channel can
                 out = self._bulk_constants(others, fc_hz, bandwidth_hz, propagation, inbound)
                 if out is None:
@@ -774,9 +770,39 @@ class _EngineLinks:
             if c is None:
                 return None
             out.append(c)
-        self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
-                                         antenna_ids=[id(a) for a in others], constants=out)
+        if self.cache is not None:
+            self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
+                                             antenna_ids=[id(a) for a in others], constants=out)
         return out
+
+    def _draw(self, i: int, rx, fc_hz, t_s) -> _LinkPair:
+        """Tag i's (antenna ``rx``) links: held in the link cache (no new draw, no motion), else
+        drawn from the channel (``backscatter_links``, with the step's generator on a new draw)
+        and held for the step (and in the link cache when the tag does not move)."""
+        motion = self.motions[i] if self.motions is not None else None
+        links = None
+        if self.cache is not None:
+            key = (i, id(self.antenna), fc_hz)
+            if motion is None and not self.draw:
+                links = self._held_pair(key)
+        if links is None:
+            forward, backward = self.channel.backscatter_links(self.antenna, rx, fc_hz=fc_hz, rng=self.rng,
+                                                               t_s=t_s, tag_motion=motion)
+            links = _LinkPair(reader_antenna=self.antenna, forward=forward, backward=backward)
+            if self.cache is not None and motion is None:
+                self.cache[key] = links
+        self.drawn[id(rx)] = links
+        self.backward[id(rx)] = links.backward
+        return links
+
+    def _pair(self, i: int, ant, fc_hz) -> _LinkPair | None:
+        """Tag i's (antenna ``ant``) links for :meth:`held_constants`: on a new draw drawn now (each
+        tag once per step, in the order asked: the members' order, as the air step asks its
+        links), else the held ones (None when not held at this carrier)."""
+        if self.draw:
+            hit = self.drawn.get(id(ant))
+            return hit if hit is not None else self._draw(i, ant, fc_hz, self.t_s)
+        return self._held_pair((i, id(self.antenna), fc_hz))
 
     def _bulk_constants(self, others, fc_hz, bandwidth_hz, propagation, inbound) -> list | None:
         """The constants of the static links between the reader antenna and every tag antenna of

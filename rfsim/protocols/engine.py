@@ -349,6 +349,7 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
         raise ValueError(f"propagation must be one of {PROPAGATION_METHODS}, got {propagation!r}")
     # the reader's segment with its emitter and port, once per distinct reader, command, time and round
     segments: dict = {}
+    listens: dict = {}  # id(reader) -> its _Listen for this call (the readers are held by ``readers``)
     out: list = []
     for k0 in range(0, n, BLOCK):
         preps = []
@@ -358,9 +359,12 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
             if sent is None:
                 if len(segments) >= BLOCK:
                     segments.clear()
+                listen = listens.get(key[0])
+                if listen is None:
+                    listen = listens[key[0]] = _listen(readers[b], reply_bits, delayed_reply)
                 sent = segments[key] = _sent(readers[b], cmds[b], t_s=times[b], reply_bits=reply_bits,
                                              expect_crc=expect_crc, round_index=rounds[b],
-                                             delayed_reply=delayed_reply, header_bit=header_bit)
+                                             delayed_reply=delayed_reply, header_bit=header_bit, listen=listen)
             preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
                                   motions=motions, draw_channel=draw_channel, propagation=propagation,
                                   link_cache=caches[b], sent=sent))
@@ -401,18 +405,48 @@ class _Prepared(NamedTuple):
     propagation: str
 
 
-def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_reply=False, header_bit=False) -> _Sent:
+class _Listen(NamedTuple):
+    """What a reader's commands of one :func:`run_exchanges` call share (:func:`_listen`): the
+    CW after a command [s], the links' bandwidth B = 2·BLF [Hz], the run's air cache and the
+    window a reply must start in (T1, or T5 for a delayed reply)."""
+
+    window_s: float
+    bandwidth_hz: float
+    air_cache: Any
+    reply_range: Any
+
+
+def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
+    """The reader's :class:`_Listen` for replies of ``reply_bits`` bits (a delayed reply with
+    ``delayed_reply``): the CW to the end of the reply window (a reader that searches the BLF
+    listens longer), 2·BLF, its air cache and the reply's start window."""
+    listen = getattr(reader, "listen_window_s", None)
+    if delayed_reply:
+        window_s = _link_time(reader, _delayed_window_s, int(reply_bits))
+    elif listen is not None:
+        window_s = listen(int(reply_bits))
+    else:
+        window_s = _link_time(reader, reply_window_s, int(reply_bits))
+    return _Listen(window_s=window_s, bandwidth_hz=2.0 * reader.link.blf_hz,
+                   air_cache=getattr(reader, "air_cache", None),
+                   reply_range=_link_time(reader, t5 if delayed_reply else t1))
+
+
+def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_reply=False, header_bit=False,
+          listen: _Listen | None = None) -> _Sent:
     """Step 1 of the module docstring: the reader's segment for ``cmd`` at ``t_s`` in round
-    ``round_index``, its emitter and its port."""
+    ``round_index``, its emitter and its port (``listen``: the reader's :func:`_listen`, made
+    here when None)."""
+    if listen is None:
+        listen = _listen(reader, reply_bits, delayed_reply)
     antenna_index = reader.antenna_index(round_index)
     antenna = reader.antennas[antenna_index]
-    tx = _transmit(reader, cmd, t_s=t_s, reply_bits=reply_bits, round_index=round_index, delayed_reply=delayed_reply)
+    tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=listen.window_s, round_index=round_index)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
                       header_bit=header_bit)
     return _Sent(antenna_index=antenna_index, tx=tx, emitters=(FixedEmitter(antenna, tx, device=reader),),
-                 receivers=(port,), port=port,
-                 bandwidth_hz=2.0 * reader.link.blf_hz, air_cache=getattr(reader, "air_cache", None),
-                 reply_range=_link_time(reader, t5 if port.delayed_reply else t1))
+                 receivers=(port,), port=port, bandwidth_hz=listen.bandwidth_hz, air_cache=listen.air_cache,
+                 reply_range=listen.reply_range)
 
 
 def _prepare(reader, tags, channel, cmd, *, t_s, rng, motions, draw_channel, propagation, link_cache,
@@ -425,19 +459,6 @@ def _prepare(reader, tags, channel, cmd, *, t_s, rng, motions, draw_channel, pro
                          link_cache, draw_channel)
     return _Prepared(t_s=t_s, cmd=cmd, sent=sent, reflectors=reflectors, members=members, links=links,
                      propagation=propagation)
-
-
-def _transmit(reader, cmd, *, t_s, reply_bits, round_index, delayed_reply=False):
-    """The reader's segment: ``cmd`` at ``t_s`` and CW to the end of the reply window (of a
-    delayed reply with ``delayed_reply``)."""
-    listen = getattr(reader, "listen_window_s", None)  # a reader that searches the BLF listens longer
-    if delayed_reply:
-        window_s = _link_time(reader, _delayed_window_s, int(reply_bits))
-    elif listen is not None:
-        window_s = listen(int(reply_bits))
-    else:
-        window_s = _link_time(reader, reply_window_s, int(reply_bits))
-    return reader.transmit(cmd, t0_s=t_s, cw_after_s=window_s, round_index=round_index)
 
 
 def _air(prep: _Prepared, rng) -> AirResult:

@@ -682,8 +682,7 @@ class ReaderPort:
         return read
 
 
-@dataclasses.dataclass
-class _TagIndex:
+class _TagIndex(NamedTuple):
     """A tag population's antennas (held: their identities are the keys) and the index of
     each in the population."""
 
@@ -691,8 +690,7 @@ class _TagIndex:
     index: dict
 
 
-@dataclasses.dataclass
-class _LinkPair:
+class _LinkPair(NamedTuple):
     """A tag's forward (reader → tag) and backward (tag → reader) links of one draw, with the
     reader antenna they were drawn for (kept alive: its identity is part of the key)."""
 
@@ -701,15 +699,14 @@ class _LinkPair:
     backward: Any
 
 
-@dataclasses.dataclass
-class _HeldConstants:
+class _HeldConstants(NamedTuple):
     """The narrowband constants of held links between ``reader_antenna`` and ``antennas`` (held,
     with their identities ``antenna_ids``), one per antenna in that order."""
 
     reader_antenna: Any
     antennas: Sequence
-    antenna_ids: list
-    constants: list
+    antenna_ids: tuple
+    constants: Sequence
 
 
 class _EngineLinks:
@@ -772,7 +769,7 @@ class _EngineLinks:
         key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
         hit = self.cache.get(key) if self.cache is not None else None
         if hit is not None and hit.reader_antenna is antenna and (
-                hit.antennas is others or hit.antenna_ids == [id(a) for a in others]):
+                hit.antennas is others or hit.antenna_ids == tuple([id(a) for a in others])):
             return hit.constants
         out = []
         for ant in others:
@@ -793,7 +790,7 @@ class _EngineLinks:
             out.append(c)
         if self.cache is not None:
             self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
-                                             antenna_ids=[id(a) for a in others], constants=out)
+                                             antenna_ids=tuple([id(a) for a in others]), constants=out)
         return out
 
     def _draw(self, i: int, rx, fc_hz, t_s) -> _LinkPair:

@@ -290,3 +290,35 @@ def test_bench_floor_works_on_the_canonical_rounds_samples():
     assert out["air_time_per_round_s"] == pytest.approx(2.96e-3, rel=0.02)
     assert out["samples_per_round"] == round(out["air_time_per_round_s"] * 4e6)
     assert {"pass_cpu_s_per_round", "noise_cpu_s_per_round", "noise_over_pass_cpu"} <= out.keys()
+
+
+def test_a_new_draw_gives_its_link_constants_once_per_tag_and_they_serve_the_ack():
+    """The Query's links (a new draw) are drawn once per tag, in member order, where the air step
+    asks their constants; the ACK (no draw) finds those constants in the link cache."""
+    from rfsim.protocols.engine import _EngineLinks
+
+    channel, calls = Channel(Scene()), []
+
+    class Counting:
+        def backscatter_links(self, antenna, tag_antenna, **kw):
+            calls.append(tag_antenna)
+            return channel.backscatter_links(antenna, tag_antenna, **kw)
+
+    tags = [make_tag(2.0), make_tag(3.0, 0.5, seed_index=2)]
+    ants = tuple(t.antenna for t in tags)
+    fc, bw, cache = 915e6, 640e3, {}
+    query_links = _EngineLinks(Counting(), READER_ANTENNA, tags, tags, None, trial_rng(7, 9), 0.0, cache, True)
+    forward = query_links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                         inbound=False)
+    assert calls == list(ants)
+    paths = [query_links.paths(READER_ANTENNA, a, fc_hz=fc, t_s=0.0) for a in ants]
+    backward = query_links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                          inbound=True)
+    assert len(calls) == 2  # asked again: the step's draw, not a new one
+    expected = [channel.link(READER_ANTENNA, a, fc_hz=fc).constant_gain(fc) for a in ants]
+    assert forward == [p.narrowband_constant(fc, bw, "auto") for p in paths] == expected
+    assert backward == expected  # monostatic, reciprocal: the same link both ways
+    ack_links = _EngineLinks(Counting(), READER_ANTENNA, tags, tags, None, None, 1e-3, cache, False)
+    assert ack_links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                    inbound=False) is forward
+    assert len(calls) == 2

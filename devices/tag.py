@@ -703,7 +703,9 @@ class PassiveTag:
                         # or stays powered and answers: the tail of _respond after its power
                         # decision (the scaled copy has its base's time base; the base's memo
                         # names the run's cache)
-                        return self.respond_decoded(quiet, decoded, base)
+                        # (_quiet_response has asked for a silent step of a command other than a Query)
+                        return self.respond_decoded(quiet, decoded, base, silent_tried=decoded[0] is not None
+                                                    and not isinstance(decoded[0], Query))
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                                      cache=run_cache(base.memo))
@@ -820,7 +822,7 @@ class PassiveTag:
         if not quiet.powered:
             self._trcal_ticks = None
 
-    def respond_decoded(self, quiet: tuple, decoded: tuple, incident) -> TagResponse:
+    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False) -> TagResponse:
         """:meth:`reflect` of a powered tag whose power decision for this segment is known.
 
         Applies the operating point of ``quiet``, then continues from the decoded
@@ -835,6 +837,9 @@ class PassiveTag:
             ``(command, frame)`` decoded from the segment (:meth:`SharedFrontEnd.command`).
         incident : rfsim.air.segment.Segment
             The segment (``t0_s``, ``fs_hz``, ``n_samples`` are read).
+        silent_tried : bool, default False
+            The state machine has already declined a silent step of this command
+            (``TagState.on_command_if_silent``): it is not asked again.
 
         Returns
         -------
@@ -843,8 +848,8 @@ class PassiveTag:
         """
         self.take_quiet_step(quiet)
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
-                             t0_s=incident.t0_s,
-                             fs_hz=incident.fs_hz, n_samples=incident.n_samples, cache=run_cache(incident.memo))
+                             t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
+                             cache=run_cache(incident.memo), silent_tried=silent_tried)
 
     @staticmethod
     def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
@@ -991,10 +996,11 @@ class PassiveTag:
         return powered, p_dbm, rest, a_s, hit
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
-                 n_samples: int, cache: AirCache | None = None) -> TagResponse:
+                 n_samples: int, cache: AirCache | None = None, silent_tried: bool = False) -> TagResponse:
         """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
         state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``);
-        the one tail of every path (:meth:`_respond`, :meth:`respond_decoded`)."""
+        the one tail of every path (:meth:`_respond`, :meth:`respond_decoded`). ``silent_tried``:
+        the state machine has already declined a silent step of ``cmd``."""
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
@@ -1003,7 +1009,7 @@ class PassiveTag:
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it;
         # a step it declines changes nothing, so asking again after _quiet_response is the same)
-        if self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
+        if not silent_tried and self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
             reply = None
         elif isinstance(cmd, ACCESS_COMMANDS):
             reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng,

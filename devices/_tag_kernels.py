@@ -139,8 +139,9 @@ def front_end_kernel(x, env, max_iter, min_modulation, margin, buf_lo, buf_hi, i
     run of equal values that ends ``env`` (a reader's CW after its command) is read once
     (:func:`rfsim.gen2._pie_kernels.trailing_run_start`). ``buf_lo``/``buf_hi`` (float64) and
     ``idx`` (int64): scratch of ``env.size`` ≥ 1; ``win``: int64 scratch of 2·``margin`` + 1.
-    Returns ``(threshold, low mean, high mean, plateau)``, plateau as :func:`plateau_kernel`
-    gives it (−1 none, −2 left to the NumPy twin)."""
+    Returns ``(threshold, low mean, high mean, plateau, tail)``, plateau as :func:`plateau_kernel`
+    gives it (−1 none, −2 left to the NumPy twin), ``tail`` the index of the first of the equal
+    samples that end ``env`` (:func:`rfsim.gen2._pie_kernels.trailing_run_start`)."""
     tail = trailing_run_start(env)
     lo = env[tail]
     hi = lo
@@ -157,7 +158,7 @@ def front_end_kernel(x, env, max_iter, min_modulation, margin, buf_lo, buf_hi, i
     thr, m_lo, m_hi = two_level_split(env, tail, lo, hi, max_iter, buf_lo, buf_hi)
     select = m_hi > 0 and m_hi - m_lo >= min_modulation * m_hi
     p = plateau_split(x, env, tail, thr, select, margin, buf_lo, idx, win)
-    return thr, m_lo, m_hi, p
+    return thr, m_lo, m_hi, p, tail
 
 
 @njit

@@ -296,8 +296,9 @@ class TagState:
 
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)
-        if t_s < self.t_s:
-            raise ValueError(f"time went backwards: {t_s} s < {self.t_s} s")
+        now = self.t_s
+        if t_s < now:
+            raise ValueError(f"time went backwards: {t_s} s < {now} s")
         self.t_s = t_s
         if self._s1_set_s is not None and s1_reverts(t_s, self._s1_set_s, self.persistence.s1_s):
             self.inventoried[1] = "A"

@@ -129,8 +129,8 @@ class QuietPoint(NamedTuple):
         The chip's operating point (with a chip).
     reflection_states : ReflectionStates or None
         Its reflection states (with a chip).
-    unpowered : TagResponse
-        The response of an unpowered tag at this power.
+    unpowered : TagResponse or None
+        The response of an unpowered tag at this power (None when ``powered``).
     """
 
     config: Any
@@ -142,6 +142,40 @@ class QuietPoint(NamedTuple):
     operating_point: Any
     reflection_states: Any
     unpowered: Any
+
+
+class _ReplyTiming(NamedTuple):
+    """A tag's reply timing for one Query's TRcal and one command's RTcal (steps 3–4 of the module
+    docstring), kept by :meth:`PassiveTag._timing` while its inputs stay the same.
+
+    Attributes
+    ----------
+    clock : TagClock
+        The tag clock it was made with (compared by identity: a frozen object).
+    config : TagConfig
+        The config it was made with (BLF error and T1 offset; compared by identity).
+    trcal_ticks : int
+        N_TRcal, the last Query's TRcal in clock ticks.
+    dr : str
+        The Query's divide ratio.
+    rtcal : float
+        The command's RTcal [input samples].
+    fs_hz : float
+        Input sample rate [Hz].
+    blf_hz : float
+        The tag's BLF [Hz] (with its own BLF error).
+    t1_ticks_s : float
+        N_T1 / f_clk [s], T1 before the tag's own offset.
+    """
+
+    clock: Any
+    config: Any
+    trcal_ticks: int
+    dr: Any
+    rtcal: float
+    fs_hz: float
+    blf_hz: float
+    t1_ticks_s: float
 
 
 class _ChipPoint(NamedTuple):
@@ -211,6 +245,25 @@ def _reflection(s: np.ndarray, gamma_b: complex, gamma_a: complex) -> np.ndarray
     return out
 
 
+#: Γ(t) arrays kept per reply entry (pairs (Γ_B, Γ_A) of the tags that sent it again).
+_MAX_GAMMAS = 4
+
+
+def _kept_reflection(states: ReplyStates, gamma_b: complex, gamma_a: complex) -> np.ndarray:
+    """Γ(t) of a reply seen again (:func:`reply_gamma`): from its mask, kept read-only in its entry
+    ``states`` by the exact bits of (Γ_B, Γ_A) (up to :data:`_MAX_GAMMAS` pairs), so that tags with the
+    same reflection states sending the same reply share one array (an EPC, trial after trial)."""
+    gb, ga = complex(gamma_b), complex(gamma_a)
+    key = struct.pack("<4d", gb.real, gb.imag, ga.real, ga.imag)
+    gamma = states.gammas.get(key)
+    if gamma is None:
+        gamma = _reflection(states.modulating, gb, ga)
+        gamma.flags.writeable = False
+        if len(states.gammas) < _MAX_GAMMAS:
+            states.gammas[key] = gamma
+    return gamma
+
+
 def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float,
                 n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None) -> np.ndarray:
     """Γ(t) of a reply over a segment: Γ_B where its reply waveform s(t) > 0, Γ_A elsewhere.
@@ -221,7 +274,8 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     and their dtype, M, TRext and the exact bit patterns of BLF, fs and ``t0_s``, and
     ``n_samples``: every argument s reads), so that a reply sent again at the same place in its
     segment (a tag's EPC, round after round) is not sampled again; Γ(t) then takes the same
-    values Γ_A and Γ_B at the same samples, bit for bit.
+    values Γ_A and Γ_B at the same samples, bit for bit, and is itself kept read-only in the entry
+    per (Γ_B, Γ_A), shared by every later use of the same reply and reflection states.
 
     Parameters
     ----------
@@ -249,7 +303,8 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     Returns
     -------
     numpy.ndarray, shape (n_samples,), complex128
-        Γ(t), a new array.
+        Γ(t): a new array, or, for a reply seen again with the run's ``cache``, the entry's
+        read-only array.
     """
     if cache is None or not isinstance(bits, np.ndarray):
         s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
@@ -258,7 +313,7 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
            struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
     hit = cache.reply(key)
     if hit is not None:
-        return _reflection(hit.modulating, gamma_b, gamma_a)
+        return _kept_reflection(hit, gamma_b, gamma_a)
     s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
     modulating = s > 0
     modulating.flags.writeable = False
@@ -370,8 +425,12 @@ class SharedFrontEnd:
     def __init__(self, x: np.ndarray, *, fs_hz: float):
         self.x, self.fs_hz = x, float(fs_hz)
         self.env = np.abs(x)
+        #: the samples the PIE decoder reads: up to the first of the equal samples that end env
+        self._decoded_env = self.env
         if self.env.ndim == 1 and self.env.size > 0:  # one kernel call: extremes, levels, plateau
-            self.levels, self.plateau = _front_end(x, self.env)
+            self.levels, self.plateau, tail = _front_end(x, self.env)
+            # the decoder stops at that sample (rfsim.gen2.pie.pie_decode_arrays): the same frames
+            self._decoded_env = self.env[:tail + 1]
         else:
             self.levels = two_level_threshold(self.env)
             self.plateau = _plateau(x, self.env, self.levels)
@@ -421,24 +480,25 @@ class SharedFrontEnd:
             if rc_s > 0:
                 frames = pie_decode(envelope(self.x, fs_hz=self.fs_hz, rc_s=rc_s))
             else:
-                frames = pie_decode(self.env, levels=self.levels)
+                frames = pie_decode(self._decoded_env, levels=self.levels)
             hit = self._commands[rc_s] = _command_of(frames)
         return hit
 
 
 def _front_end(x: np.ndarray, env: np.ndarray) -> tuple:
-    """``(two_level_threshold(env), _plateau(x, env, those levels))`` of the samples ``x`` ((n,)
-    complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
-    isodata split and the plateau; the same numbers, bit for bit)."""
+    """``(two_level_threshold(env), _plateau(x, env, those levels), tail)`` of the samples ``x``
+    ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
+    isodata split and the plateau; the same numbers, bit for bit); ``tail`` is the index of the
+    first of the equal values that end ``env``."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
     n = env.size
-    thr, lo, hi, p = _k.front_end_kernel(x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
+    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
                                          np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
     levels = (float(thr), float(lo), float(hi))
     if p == -2:
-        return levels, plateau_reference(x, env, levels)
-    return levels, (None if p < 0 else int(p))
+        return levels, plateau_reference(x, env, levels), int(tail)
+    return levels, (None if p < 0 else int(p)), int(tail)
 
 
 def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
@@ -643,7 +703,9 @@ class PassiveTag:
                         # or stays powered and answers: the tail of _respond after its power
                         # decision (the scaled copy has its base's time base; the base's memo
                         # names the run's cache)
-                        return self.respond_decoded(quiet, decoded, base)
+                        # (_quiet_response has asked for a silent step of a command other than a Query)
+                        return self.respond_decoded(quiet, decoded, base, silent_tried=decoded[0] is not None
+                                                    and not isinstance(decoded[0], Query))
                 return self._respond(p_inc, lambda: fe.command(rc), t0_s=incident.t0_s,
                                      fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                                      cache=run_cache(base.memo))
@@ -760,7 +822,7 @@ class PassiveTag:
         if not quiet.powered:
             self._trcal_ticks = None
 
-    def respond_decoded(self, quiet: tuple, decoded: tuple, incident) -> TagResponse:
+    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False) -> TagResponse:
         """:meth:`reflect` of a powered tag whose power decision for this segment is known.
 
         Applies the operating point of ``quiet``, then continues from the decoded
@@ -775,6 +837,9 @@ class PassiveTag:
             ``(command, frame)`` decoded from the segment (:meth:`SharedFrontEnd.command`).
         incident : rfsim.air.segment.Segment
             The segment (``t0_s``, ``fs_hz``, ``n_samples`` are read).
+        silent_tried : bool, default False
+            The state machine has already declined a silent step of this command
+            (``TagState.on_command_if_silent``): it is not asked again.
 
         Returns
         -------
@@ -783,8 +848,8 @@ class PassiveTag:
         """
         self.take_quiet_step(quiet)
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
-                             t0_s=incident.t0_s,
-                             fs_hz=incident.fs_hz, n_samples=incident.n_samples, cache=run_cache(incident.memo))
+                             t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
+                             cache=run_cache(incident.memo), silent_tried=silent_tried)
 
     @staticmethod
     def silent_response(quiet: tuple, cmd, cmd_end_s: float) -> TagResponse:
@@ -925,15 +990,17 @@ class PassiveTag:
             self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s,
                                             None if hit is None else hit.operating_point,
                                             None if hit is None else hit.reflection_states,
-                                            TagResponse(False, None, None, None, None, None, "not powered", p_dbm,
-                                                        None, None, None, None, rest, a_s))
+                                            None if powered else TagResponse(
+                                                False, None, None, None, None, None, "not powered", p_dbm, None,
+                                                None, None, None, rest, a_s))
         return powered, p_dbm, rest, a_s, hit
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,
-                 n_samples: int, cache: AirCache | None = None) -> TagResponse:
+                 n_samples: int, cache: AirCache | None = None, silent_tried: bool = False) -> TagResponse:
         """:meth:`_respond` of a powered tag from the decoded ``(cmd, frame)`` on: TRcal, the
         state machine and the reply's Γ(t) (P_inc ``p_dbm`` [dBm], Γ_A ``rest``, A_s ``a_s``);
-        the one tail of every path (:meth:`_respond`, :meth:`respond_decoded`)."""
+        the one tail of every path (:meth:`_respond`, :meth:`respond_decoded`). ``silent_tried``:
+        the state machine has already declined a silent step of ``cmd``."""
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
@@ -942,7 +1009,7 @@ class PassiveTag:
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it;
         # a step it declines changes nothing, so asking again after _quiet_response is the same)
-        if self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
+        if not silent_tried and self.state.on_command_if_silent(cmd, t_s=cmd_end_s):
             reply = None
         elif isinstance(cmd, ACCESS_COMMANDS):
             reply = self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng,
@@ -1009,6 +1076,27 @@ class PassiveTag:
                              quiet.gamma_rest, quiet.structural_mode, t0_s=incident.t0_s, fs_hz=incident.fs_hz,
                              n_samples=incident.n_samples, cache=run_cache(incident.memo))
 
+    def _timing(self, dr, rtcal: float, fs_hz: float) -> _ReplyTiming:
+        """The reply's BLF and counted T1 for the last Query's TRcal (:attr:`_trcal_ticks`), its
+        divide ratio ``dr`` and the command's RTcal ``rtcal`` [samples at ``fs_hz``]: N_BLF =
+        :meth:`TagClock.blf_divider`, BLF = f_clk/N_BLF·(1 + ε), N_T1 = max(N_RTcal, 10·N_BLF)
+        (steps 3–4 of the module docstring); the last one is kept (a Query and the ACK after it
+        give the same)."""
+        t = self.__dict__.get("_reply_timing")
+        clock, cfg, trcal_ticks = self.clock, self.config, self._trcal_ticks
+        if (t is not None and t.clock is clock and t.config is cfg and t.trcal_ticks == trcal_ticks and t.dr == dr
+                and t.rtcal == rtcal and t.fs_hz == fs_hz):
+            return t
+        f_clk = clock.f_hz
+        n_blf = clock.blf_divider(trcal_ticks / f_clk, dr, trcal_ticks=trcal_ticks)
+        blf_hz = f_clk / n_blf
+        if cfg.blf_error_percent:  # the tag's own BLF error (rfsim.devices.tag_spread)
+            blf_hz *= 1.0 + 0.01 * cfg.blf_error_percent
+        n_t1 = max(self.ticks(rtcal, fs_hz), 10 * n_blf)
+        t = self.__dict__["_reply_timing"] = _ReplyTiming(clock, cfg, trcal_ticks, dr, rtcal, fs_hz, blf_hz,
+                                                          n_t1 / f_clk)
+        return t
+
     def _replied(self, cmd, frame, reply, cmd_end_s: float, p_dbm: float, rest: complex, a_s: complex, *,
                  t0_s: float, fs_hz: float, n_samples: int, cache: AirCache | None = None) -> TagResponse:
         """The response of a powered tag whose state machine answered ``cmd`` (ending at
@@ -1019,15 +1107,11 @@ class PassiveTag:
             return TagResponse(True, cmd, None, None, None, None, "no reply", p_dbm, cmd_end_s, None, None, None,
                                rest, a_s)
 
-        f_clk = self.clock.f_hz
-        n_blf = self.clock.blf_divider(self._trcal_ticks / f_clk, query.dr, trcal_ticks=self._trcal_ticks)
-        blf_hz = f_clk / n_blf
-        if self.config.blf_error_percent:  # the tag's own BLF error (rfsim.devices.tag_spread)
-            blf_hz *= 1.0 + 0.01 * self.config.blf_error_percent
-        n_t1 = max(self.ticks(frame.rtcal, fs_hz), 10 * n_blf)
-        start_s = cmd_end_s + n_t1 / f_clk + self.config.t1_offset_s
+        timing = self._timing(query.dr, frame.rtcal, fs_hz)
+        blf_hz = timing.blf_hz
+        start_s = cmd_end_s + timing.t1_ticks_s + self.config.t1_offset_s
         if self.clock.jitter_rms > 0:
-            start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / f_clk
+            start_s += self.clock.jitter_rms * float(self.rng.standard_normal()) / self.clock.f_hz
         trext = query.trext
         if reply.delayed:  # step 4: a delayed reply, after the programming time, with the pilot tone
             start_s += reply.delay_s

@@ -395,6 +395,8 @@ class ReflectionStates:
         ReflectionStates
             The states of :data:`PASS_ZIC_900MHZ_OHM` and :data:`PASS_ZMOD_900MHZ_OHM`.
         """
+        if cls is ReflectionStates and _PASS_DEFAULT_STATES is not None:
+            return _PASS_DEFAULT_STATES  # formed once at import (frozen): a constant of the model
         za = np.conj(PASS_ZIC_900MHZ_OHM)
         return cls.from_impedances(PASS_ZIC_900MHZ_OHM, parallel_ohm(PASS_ZIC_900MHZ_OHM, PASS_ZMOD_900MHZ_OHM), za)
 
@@ -435,6 +437,11 @@ class ReflectionStates:
         """
         s = np.asarray(state)
         return np.where(s.astype(bool), self.gamma_b, self.gamma_a).astype(np.complex128)
+
+
+_PASS_DEFAULT_STATES = None
+#: :meth:`ReflectionStates.pass_default`, formed once (every ASK tag's config reads it).
+_PASS_DEFAULT_STATES = ReflectionStates.pass_default()
 
 
 # --------------------------------------------------------------------------- clock

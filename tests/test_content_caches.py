@@ -57,17 +57,23 @@ def test_reply_gamma_from_the_cache_equals_the_uncached_one():
     cache = AirCache()
     for k, (bits, m, trext, blf, fs, t0, n) in enumerate(REPLIES):
         kw = dict(m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=t0, n_samples=n)
-        for gb, ga in GAMMAS:
+        for j, (gb, ga) in enumerate(GAMMAS):
             want = _gamma_rule(bits, gb, ga, **kw)
             _assert_same_bits(reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga), want)
-            for _ in range(2):
-                got = reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga, cache=cache)
-                _assert_same_bits(got, want)
-                assert got.flags.writeable  # a new array: the entry is never handed out
+            got = [reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga, cache=cache) for _ in range(3)]
+            for g in got:
+                _assert_same_bits(g, want)
+            # the first pair's first call misses (a new array); a hit hands out the entry's Γ(t) of
+            # this pair, read-only, the same array every time
+            assert got[0].flags.writeable == (j == 0)
+            assert not got[1].flags.writeable and got[2] is got[1]
+            with pytest.raises(ValueError):
+                got[1][0] = 0
         assert len(cache.replies) == k + 1
         entry = list(cache.replies.values())[-1]
         assert isinstance(entry, ReplyStates) and not entry.modulating.flags.writeable
         assert 0 < entry.modulating.sum() < n
+        assert len(entry.gammas) == len(GAMMAS)  # Γ_A = −0 is another pair than Γ_A = +0
 
 
 def test_reply_gamma_misses_on_every_changed_content():

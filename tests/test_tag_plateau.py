@@ -186,3 +186,27 @@ def test_window_across_the_head_and_tail_boundary():
             got, want = _both(x)
             assert got == want
             assert _kernel_alone(x) == (-1 if want is None else want)
+
+
+def _frames_fields(frames):
+    # exact bits of the durations (NaN TRcal of a frame-sync included), and the bits
+    return [(np.array([f.start, f.end, f.delimiter, f.tari, f.rtcal, f.trcal]).tobytes(), f.bits.tolist())
+            for f in frames]
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_shared_front_end_decodes_up_to_the_cw_tail_as_over_the_whole_segment(seed):
+    # the decoder reads the envelope up to the first sample of the equal run that ends it: the
+    # frames of that head equal those of the whole segment (zeros of both signs, NaN, no tail)
+    from rfsim.devices.tag import SharedFrontEnd
+    from rfsim.gen2.pie import pie_decode
+
+    rng = np.random.default_rng(700 + seed)
+    cw = complex(*rng.normal(size=2))
+    head = _pie_like(rng, int(rng.integers(20, 600)), cw, flip=bool(seed % 2), edge_noise=bool(seed % 3))
+    tail_value = (cw, -cw, 0.1 * cw, 0j, complex(-0.0, 0.0), np.nan)[seed % 6]
+    x = np.concatenate([head, np.full(int(rng.integers(0, 3000)), tail_value)])
+    fe = SharedFrontEnd(x, fs_hz=1e6)
+    assert fe._decoded_env.size <= x.size
+    want = pie_decode(np.abs(x), levels=two_level_threshold(np.abs(x)))
+    assert _frames_fields(pie_decode(fe._decoded_env, levels=fe.levels)) == _frames_fields(want)

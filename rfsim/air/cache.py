@@ -197,9 +197,13 @@ class ReplyStates:
     ----------
     modulating : ndarray, shape (n,), bool
         True where s > 0 (Γ = Γ_B), read-only.
+    gammas : dict
+        Γ(t) of this reply seen again, ``(n,) complex128`` read-only, by the exact bits of
+        (Γ_B, Γ_A) (:func:`rfsim.devices.tag.reply_gamma`; a few pairs per entry).
     """
 
     modulating: np.ndarray
+    gammas: dict = field(default_factory=dict)
 
 
 @dataclass

@@ -422,8 +422,11 @@ class PopulationReflection:
         Incident power per member [dBm].
     """
 
-    def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list, stepped: dict):
-        self._population, self._round, self._steps, self._stepped = population, rnd, steps, stepped
+    def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list, stepped: dict | None = None):
+        self._population, self._round, self._steps = population, rnd, steps
+        #: {member: (command, its end [s])} of the quiet members that took a round command
+        #: through their state machine without replying (reflect_scaled)
+        self._stepped = stepped if stepped is not None else {}
         self.quiet, self.reactions = quiet, reactions
         self._arrays = None  # (powered, incident_power_dbm), formed when first read
         #: the round's power states and incident powers now (a round that learns a member's

@@ -236,7 +236,7 @@ class TagPopulation:
                 m.take_quiet_step(points[j])
                 reply = m.state.on_command(decoded[0], t_s=t_end_s, rng=m.rng)
                 if reply is None:
-                    stepped[j] = (decoded[0], t_end_s)
+                    stepped[j] = _Stepped(decoded[0], t_end_s)
                 else:
                     reactions[j] = m.respond_reply(points[j], decoded, base, reply)
             elif decoded is not None:  # its power decision is known: the tag's own path from the command on
@@ -397,6 +397,14 @@ class RecordValues(NamedTuple):
     mask: np.ndarray
 
 
+class _Stepped(NamedTuple):
+    """A round command a quiet member took through its state machine without replying: the
+    command and its end [s]."""
+
+    command: object
+    t_end_s: float
+
+
 class _Terms(NamedTuple):
     """A round's quiet terms at one receiver, kept with the backward constants they were made of."""
 
@@ -424,8 +432,8 @@ class PopulationReflection:
 
     def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list, stepped: dict | None = None):
         self._population, self._round, self._steps = population, rnd, steps
-        #: {member: (command, its end [s])} of the quiet members that took a round command
-        #: through their state machine without replying (reflect_scaled)
+        #: {member: _Stepped} of the quiet members that took a round command through their
+        #: state machine without replying (reflect_scaled)
         self._stepped = stepped if stepped is not None else {}
         self.quiet, self.reactions = quiet, reactions
         self._arrays = None  # (powered, incident_power_dbm), formed when first read
@@ -506,7 +514,7 @@ class PopulationReflection:
             return point.unpowered
         step = self._stepped.get(j)
         if step is not None:
-            return self._population.members[j].silent_response(point, *step)
+            return self._population.members[j].silent_response(point, step.command, step.t_end_s)
         for cmd, silent, _, t_end_s in self._steps:
             if silent[j]:
                 return self._population.members[j].silent_response(point, cmd, t_end_s)

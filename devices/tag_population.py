@@ -22,8 +22,13 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
    draws it); the tags whose counter is not 0 are quiet, those that reply form their reply
    (``PassiveTag.respond_reply``);
 4. asks only the other tags — those that reply, power up or down, load a slot counter on a
-   Query, change state — through their own full path (``PassiveTag.reflect``): a tag with
-   its own reply parameters (clock, T1, line code) answers with them.
+   Query, change state — through their own path (``PassiveTag.reflect``, or from the decoded
+   command on where the power decision is known, ``respond_decoded``): a tag with its own
+   reply parameters (clock, T1, line code) answers with them. A powered tag whose power
+   decision is known and that takes a round command (QueryRep, QueryAdjust, ACK, NAK) but not
+   silently has its state machine take it at the command's end (``TagState.on_command``, as
+   its own path does); when it does not reply (an ACK with another RN16, the end of an
+   access) it is quiet as well, else it forms its reply (``respond_reply``).
 
 The quiet tags re-radiate r_j = A_s − Γ_A, a constant (rfsim.devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,

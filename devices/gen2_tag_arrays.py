@@ -697,7 +697,7 @@ class StateArrays:
             silent = np.greater(silent, due)  # silent & ~due
             decrement = np.greater(decrement, due)
         if np.count_nonzero(decrement):
-            self.slot[decrement] = decremented(self.slot[decrement])
+            np.copyto(self.slot, decremented(self.slot), where=decrement)  # (the others' values unchanged)
             self._count_down(decrement)
         self.t_s[silent] = t_s
         if t_s > self._t_max:

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.errors import ConfigError
+from rfsim.core.memo import PureCache
 from rfsim.gen2.bits import as_bits
 from rfsim.gen2.tag_draws import _slot_drawer, draw_rn16, slot_draw
 
@@ -132,27 +133,23 @@ def pc_word(epc_bits) -> int:
     return (n // 16) << 11
 
 
-#: The 16 bits of every 16-bit value, MSB first ((2¹⁶, 16) uint8, 1 MiB, read-only; made at
-#: the first RN16, :func:`_bits16`).
-_WORD_BITS: np.ndarray | None = None
+def _word_bits() -> np.ndarray:
+    """The bits of every 16-bit value, MSB first: ``(2¹⁶, 16)`` uint8, 1 MiB, read-only (row v
+    is ``int_to_bits(v, 16)``); a constant, made once per process by :data:`WORD_BITS_CACHE`."""
+    table = np.unpackbits(np.arange(1 << 16, dtype=">u2").view(np.uint8).reshape(-1, 2), axis=1)
+    table.setflags(write=False)
+    return table
+
+
+#: :func:`_word_bits`, kept (one entry: a pure function of no argument; 1 MiB, made at the
+#: first RN16).
+WORD_BITS_CACHE = PureCache(_word_bits, 1)
 
 
 def _bits16(value: int) -> np.ndarray:
     """``int_to_bits(value, 16)`` for 0 ≤ value < 2¹⁶: a read-only row of the table of every
-    16-bit value's bits (a view, no copy per call)."""
-    table = _WORD_BITS
-    if table is None:
-        table = _word_bits()
-    return table[value]
-
-
-def _word_bits() -> np.ndarray:
-    """Make :data:`_WORD_BITS` (once)."""
-    global _WORD_BITS
-    table = np.unpackbits(np.arange(1 << 16, dtype=">u2").view(np.uint8).reshape(-1, 2), axis=1)
-    table.setflags(write=False)
-    _WORD_BITS = table
-    return table
+    16-bit value's bits (:data:`WORD_BITS_CACHE`; a view, no copy per call)."""
+    return WORD_BITS_CACHE()[value]
 
 
 def adjusted_q(q, updn):

@@ -22,8 +22,13 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
    draws it); the tags whose counter is not 0 are quiet, those that reply form their reply
    (``PassiveTag.respond_reply``);
 4. asks only the other tags — those that reply, power up or down, load a slot counter on a
-   Query, change state — through their own full path (``PassiveTag.reflect``): a tag with
-   its own reply parameters (clock, T1, line code) answers with them.
+   Query, change state — through their own path (``PassiveTag.reflect``, or from the decoded
+   command on where the power decision is known, ``respond_decoded``): a tag with its own
+   reply parameters (clock, T1, line code) answers with them. A powered tag whose power
+   decision is known and that takes a round command (QueryRep, QueryAdjust, ACK, NAK) but not
+   silently has its state machine take it at the command's end (``TagState.on_command``, as
+   its own path does); when it does not reply (an ACK with another RN16, the end of an
+   access) it is quiet as well, else it forms its reply (``respond_reply``).
 
 The quiet tags re-radiate r_j = A_s − Γ_A, a constant (rfsim.devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,
@@ -52,9 +57,12 @@ import numpy as np
 
 from rfsim.devices.gen2_tag_state import StateArrays
 from rfsim.air.step import Segment
-from rfsim.gen2.commands import Query, QueryAdjust
+from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 
 _antenna = operator.attrgetter("antenna")
+#: The round commands a powered member with a known power decision takes through its state
+#: machine alone when it does not take them silently (reflect_scaled).
+_ROUND_COMMANDS = (QueryRep, QueryAdjust, ACK, NAK)
 
 
 def _counting_class(members):
@@ -135,7 +143,7 @@ class TagPopulation:
         out = [m.reflect(inc) for m, inc in zip(self.members, incident)]
         self.arrays.read(range(len(self.members)))
         if self._round is not None:
-            self._round.needs[:] = True
+            self._round.needs.update(range(len(self.members)))
         return out
 
     def reflect_scaled(self, base: Segment, gains, fc_hz: float) -> PopulationReflection | None:
@@ -178,11 +186,12 @@ class TagPopulation:
                 if group is not None and not np.count_nonzero(sel):
                     continue
                 decoded = fe.command(rc)
-                decoded_by.append((sel, decoded))
                 cmd, frame = decoded
                 if cmd is None or isinstance(cmd, Query):
+                    decoded_by.append((sel, decoded, None))
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
+                decoded_by.append((sel, decoded, t_end_s))
                 silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
                 any_silent = bool(np.count_nonzero(silent))
                 if any_silent:
@@ -207,34 +216,46 @@ class TagPopulation:
                 redraw[j] = False
             quiet = quiet | redraw
             steps.append((decoded[0], redraw, None, t_end_s))
-        need = quiet & rnd.needs
-        if np.count_nonzero(need):
-            members, points = self.members, rnd.points
-            for j in need.nonzero()[0].tolist():
+        needs, members, points = rnd.needs, self.members, rnd.points
+        if needs:
+            done = [j for j in needs if quiet[j]]
+            for j in done:
                 members[j].take_quiet_step(points[j])
-            rnd.needs[need] = False
-        reactions = {}
+            needs.difference_update(done)
+        reactions, stepped = {}, {}
         react = np.flatnonzero(~quiet).tolist()
         for j in react:
-            m = self.members[j]
-            decoded = None
-            for sel, d in decoded_by:
+            m = members[j]
+            decoded = t_end_s = None
+            for sel, d, t_end in decoded_by:
                 if sel[j]:
-                    decoded = d
+                    decoded, t_end_s = d, t_end
                     break
             replied = replies.get(j)
             if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
-                reactions[j] = m.respond_reply(rnd.points[j], replied[0], base, replied[1])
+                reactions[j] = m.respond_reply(points[j], replied[0], base, replied[1])
+            elif decoded is not None and type(decoded[0]) in _ROUND_COMMANDS:
+                # its power decision is known and the command is a round command that it does not
+                # take silently: its state machine takes it (as the tag's own path would, at the
+                # command's end); without a reply the tag re-radiates its constant, as a quiet one
+                m.take_quiet_step(points[j])
+                reply = m.state.on_command(decoded[0], t_s=t_end_s, rng=m.rng)
+                if reply is None:
+                    stepped[j] = _Stepped(decoded[0], t_end_s)
+                else:
+                    reactions[j] = m.respond_reply(points[j], decoded, base, reply)
             elif decoded is not None:  # its power decision is known: the tag's own path from the command on
-                reactions[j] = m.respond_decoded(rnd.points[j], decoded, base)
+                reactions[j] = m.respond_decoded(points[j], decoded, base)
             else:
                 reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
                 if not rnd.known[j]:
                     rnd.learn(j, m.quiet_point(fe, gains[j]))
         if react:
             arrays.read(react)
-            rnd.needs[react] = True
-        return PopulationReflection(self, rnd, quiet, reactions, steps)
+            needs.update(react)
+            if stepped:
+                quiet[list(stepped)] = True
+        return PopulationReflection(self, rnd, quiet, reactions, steps, stepped)
 
     def record_values(self, incident_power_dbm: np.ndarray, powered: np.ndarray) -> RecordValues:
         """The incident powers and the powered members of an exchange as the values of its record.
@@ -305,7 +326,8 @@ class _Round:
         self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
         self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
         self._known_masks()
-        self.needs = np.ones(n, bool)  # the quiet step must still set the tag's operating point
+        #: the members whose quiet step must still set the tag's operating point
+        self.needs = set(range(n))
         self.record = None  # the record values of dbm and powered (TagPopulation._round_record)
         #: every member draws from its own generator, so the order in which members draw does
         #: not matter (else a QueryAdjust goes through each member's own path, in member order)
@@ -380,6 +402,14 @@ class RecordValues(NamedTuple):
     mask: np.ndarray
 
 
+class _Stepped(NamedTuple):
+    """A round command a quiet member took through its state machine without replying: the
+    command and its end [s]."""
+
+    command: object
+    t_end_s: float
+
+
 class _Terms(NamedTuple):
     """A round's quiet terms at one receiver, kept with the backward constants they were made of."""
 
@@ -405,8 +435,11 @@ class PopulationReflection:
         Incident power per member [dBm].
     """
 
-    def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list):
+    def __init__(self, population, rnd: _Round, quiet, reactions: dict, steps: list, stepped: dict | None = None):
         self._population, self._round, self._steps = population, rnd, steps
+        #: {member: _Stepped} of the quiet members that took a round command through their
+        #: state machine without replying (reflect_scaled)
+        self._stepped = stepped if stepped is not None else {}
         self.quiet, self.reactions = quiet, reactions
         self._arrays = None  # (powered, incident_power_dbm), formed when first read
         #: the round's power states and incident powers now (a round that learns a member's
@@ -484,6 +517,9 @@ class PopulationReflection:
         point = self._round.points[j]
         if not point.powered:
             return point.unpowered
+        step = self._stepped.get(j)
+        if step is not None:
+            return self._population.members[j].silent_response(point, step.command, step.t_end_s)
         for cmd, silent, _, t_end_s in self._steps:
             if silent[j]:
                 return self._population.members[j].silent_response(point, cmd, t_end_s)

@@ -280,6 +280,43 @@ def test_fast_path_equals_full_listen():
     assert len(logs[0].tags_read()) == 6
 
 
+def test_members_that_take_a_round_command_without_a_reply_are_quiet_with_their_own_records():
+    # 12 tags at Q = 1: collisions whose ACK carries another tag's (or a garbled) RN16 send
+    # tags to Arbitrate without a reply, and every read ends with the end of an access; at
+    # once those members are quiet (TagPopulation.reflect_scaled), on their own they react
+    from rfsim.devices import tag_population
+
+    stepped = []
+    original = tag_population.TagPopulation.reflect_scaled
+
+    def recording(self, base, gains, fc_hz):
+        out = original(self, base, gains, fc_hz)
+        if out is not None:
+            for j, (cmd, t_end_s) in out._stepped.items():
+                r = out[j]
+                assert out.quiet[j] and j not in out.reactions
+                assert (r.powered, r.reply, r.gamma, r.reason, r.command, r.command_end_s) == (
+                    True, None, None, "no reply", cmd, t_end_s)
+                stepped.append((type(cmd).__name__, self.members[j].state.state))
+        return out
+
+    logs, states = [], []
+    for fast in (True, False):
+        air, tags = _circle_population(12, seed=23, fast=fast)
+        tag_population.TagPopulation.reflect_scaled = recording
+        try:
+            logs.append(run_inventory(air, InventoryConfig(q_initial=1.0)))
+        finally:
+            tag_population.TagPopulation.reflect_scaled = original
+        states.append([(t.state.state, dict(t.state.inventoried), t.state.slot, t.state.t_s,
+                        t.rng.bit_generator.state["state"]) for t in tags])
+    assert logs[0].slots == logs[1].slots
+    assert logs[0].reads == logs[1].reads
+    assert states[0] == states[1]
+    kinds = set(stepped)
+    assert ("ACK", "arbitrate") in kinds and ("QueryRep", "ready") in kinds, kinds
+
+
 def test_sample_level_fsa_agrees_with_reply_count():
     # 100 frames of N = 5 tags in L = 4 slots at sample level (equal powers). Per slot the
     # reader's view (from the waveforms) must equal the ground-truth class from the number

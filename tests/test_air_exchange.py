@@ -40,12 +40,17 @@ def test_kernel_is_the_fused_sum_then_the_counter_noise_bit_for_bit(n, start):
 
 def test_strategy_compiled_needs_counter_noise_and_the_fused_sum():
     with pytest.raises(ConfigError, match="exchange"):
-        Strategy(exchange="compiled")
+        Strategy(noise="pcg64", exchange="compiled")
     with pytest.raises(ConfigError, match="exchange"):
         Strategy(noise="counter", exchange="compiled", fused_backscatter=False)
     with pytest.raises(ConfigError, match="exchange"):
         Strategy(noise="counter", exchange="fast")
-    assert Strategy().exchange == "sample"
+    # the defaults: counter-based noise and the compiled exchange; the two-stage step where
+    # the noise or the sum asks for it
+    assert (Strategy().noise, Strategy().exchange) == ("counter", "compiled")
+    assert Strategy(noise="pcg64").exchange == "sample"
+    assert Strategy(fused_backscatter=False).exchange == "sample"
+    assert Strategy(noise="counter", exchange="sample").exchange == "sample"
 
 
 def _rounds(noise: str, exchange: str, n: int, *, boost_db: float = 0.0, seed: int = 0):

@@ -49,7 +49,7 @@ def test_exchange_same_with_and_without_the_fused_sum(monkeypatch):
 
     def rounds(fused: bool):
         reader, make_tag, channel, query = _canonical(3.0, 0)
-        reader.air_cache = AirCache(strategy=Strategy(fused_backscatter=fused))
+        reader.air_cache = AirCache(strategy=Strategy(fused_backscatter=fused, exchange="sample"))  # the two-stage sum
         tag = make_tag(None)
         out = []
         for r in range(4):

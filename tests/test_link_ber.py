@@ -204,17 +204,29 @@ def test_viterbi_is_about_3_db_better():
     assert all(2.0 <= g <= 4.0 for g in gaps), gaps
 
 
-def test_reply_air_step_is_the_signal_model():
-    """The reply's air step gives r = h·s + w, w = √(σ²/2)·(a + j·b) with a then b drawn from
-    the reply's stream after its bits and gain, for every reply of a batch."""
+@pytest.mark.parametrize("noise", ["counter", "pcg64"])
+def test_reply_air_step_is_the_signal_model(noise):
+    """The reply's air step gives r = h·s + w, w = √(σ²/2)·(a + j·b), for every reply of a
+    batch, drawn from the reply's stream after its bits and gain: by default (``"counter"``) one
+    key k and (a_i, b_i) the normal pair i of the counter-based stream k
+    (:func:`rfsim.air.noise.counter_normals`); with ``"pcg64"`` every a then every b."""
+    from rfsim.air.cache import AirCache, Strategy
+    from rfsim.air.noise import counter_normals
     from rfsim.protocols.batch import propagate_batch
 
     n, sigma2 = 300, 0.7
     steps = [_reply_step(trial_rng(9, b), 16, n, m=2, sigma2=sigma2, rayleigh=True) for b in range(3)]
+    for _, _, step in steps:
+        step.cache = AirCache(strategy=Strategy(noise=noise))
     for b, ((bits, h, _), air) in enumerate(zip(steps, propagate_batch([s[2] for s in steps]))):
         rng = trial_rng(9, b)
         assert np.array_equal(rng.integers(0, 2, 16).astype(np.uint8), bits)
         s = reply_waveform(bits, m=2, trext=False, blf_hz=BLF_HZ, fs_hz=FS_HZ, t0_s=START / FS_HZ, n_samples=n)
         assert h == (rng.standard_normal() + 1j * rng.standard_normal()) / math.sqrt(2)
-        w = math.sqrt(sigma2 / 2) * (rng.standard_normal(n) + 1j * rng.standard_normal(n))
+        if noise == "counter":
+            ab = counter_normals(int(rng.integers(0, 2**64, dtype=np.uint64)), 2 * n)
+            a, b_ = ab[0::2], ab[1::2]
+        else:
+            a, b_ = rng.standard_normal(n), rng.standard_normal(n)
+        w = math.sqrt(sigma2 / 2) * a + 1j * (math.sqrt(sigma2 / 2) * b_)
         assert np.array_equal(air.inputs[0].samples, h * s + w)

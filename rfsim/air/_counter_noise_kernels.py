@@ -1,4 +1,4 @@
-"""numba kernels of the counter-based normal generator (:mod:`rfsim.air.counter_noise`).
+"""numba kernels of the counter-based normal generator (:mod:`rfsim.air.noise`).
 
 Normal number j of the stream with 64-bit key k (the algorithm; NumPy twin in
 tests/reference/counter_noise.py, the same operations in the same order):

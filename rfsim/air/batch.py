@@ -15,7 +15,7 @@ their noise is drawn in step order, as the sequence of separate steps draws it.
 
 With ``skip_unmodulated`` a step in which nothing modulates forms no receiver input (as
 ``propagate(skip_unmodulated=True)``): its receivers' noise draws are still made
-(:func:`rfsim.air.noise.skip_awgn`, in receiver order), its ``inputs`` hold None.
+(:func:`rfsim.air.noise.skip_receiver_noise`, in receiver order), its ``inputs`` hold None.
 """
 
 from __future__ import annotations

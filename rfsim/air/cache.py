@@ -53,24 +53,30 @@ class Strategy:
         fused multiply-adds, as NumPy's SIMD loop forms them on CPUs with FMA; where NumPy does
         not use them the two differ in the last bit (tests/test_air_kernels.py bounds it).
         False: NumPy's array operations.
-    noise : {"pcg64", "counter"}
+    noise : {"counter", "pcg64"}
         How receiver noise is drawn (:data:`rfsim.air.noise.NOISE_METHODS`), default
-        ``"pcg64"``: every sample of a receiver's input from the step's generator;
-        ``"counter"``: one key from it and, from the counter-based stream of that key, only the
-        samples the receiver reads (its ``first_read_sample``;
-        :func:`rfsim.air.noise.add_receiver_noise`).
-    exchange : {"sample", "compiled"}
-        How a receiver's input and its noise are formed (:data:`EXCHANGE_METHODS`), default
-        ``"sample"``: the sum (:func:`rfsim.air.step.superpose`) then the noise
-        (:func:`rfsim.air.step.noise`), each a pass of its own. ``"compiled"`` (needs
-        ``noise="counter"`` and ``fused_backscatter``): a static narrowband exchange — one
-        emitter, constant coupling or direct link, one modulating reflector with constant links
-        (:class:`rfsim.air.fused.Backscatter`) — forms the sum and adds the counter-based noise of
-        the samples the receiver reads in one kernel call
-        (:func:`rfsim.air.fused.fused_noisy_sum`); the same numbers as ``noise="counter"``,
-        to the bit. Every other exchange falls back to the two stages. Devices may keep what
-        repeats from round to round by content under it (a reader's reply reference, in
-        :attr:`AirCache.waveforms`).
+        ``"counter"``: one key from the step's generator and, from the counter-based stream of
+        that key, only the samples the receiver reads (its ``first_read_sample``;
+        :func:`rfsim.air.noise.add_receiver_noise`; the algorithm and its streams:
+        :mod:`rfsim.air.noise`); ``"pcg64"``: every sample of a receiver's input from the
+        step's generator (NumPy's ziggurat on PCG64, the records of versions before the
+        counter-based default).
+    exchange : {"compiled", "sample"} or None
+        How a receiver's input and its noise are formed (:data:`EXCHANGE_METHODS`); None (the
+        default) is ``"compiled"`` where ``noise`` and ``fused_backscatter`` allow it (the
+        defaults do), else ``"sample"`` (e.g. ``Strategy(noise="pcg64")``), and the attribute
+        holds the method chosen. ``"compiled"`` (needs ``noise="counter"`` and
+        ``fused_backscatter``): a static
+        narrowband exchange — one emitter, constant coupling or direct link, one modulating
+        reflector with constant links (:class:`rfsim.air.fused.Backscatter`) — forms the sum and
+        adds the counter-based noise of the samples the receiver reads in one kernel call
+        (:func:`rfsim.air.fused.fused_noisy_sum`); the same numbers as ``exchange="sample"``
+        with ``noise="counter"``, to the bit. Every other exchange falls back to the two
+        stages. Devices may keep what repeats from round to round by content under it (a
+        reader's reply reference, in :attr:`AirCache.waveforms`). ``"sample"``: the sum
+        (:func:`rfsim.air.step.superpose`) then the noise (:func:`rfsim.air.step.noise`), each
+        a pass of its own (the only choice with ``noise="pcg64"`` or without
+        ``fused_backscatter``).
 
     Raises
     ------
@@ -80,12 +86,15 @@ class Strategy:
     """
 
     fused_backscatter: bool = True
-    noise: str = "pcg64"
-    exchange: str = "sample"
+    noise: str = "counter"
+    exchange: str | None = None
 
     def __post_init__(self):
         if self.noise not in NOISE_METHODS:
             raise ConfigError("air.strategy.noise", self.noise, f"one of {NOISE_METHODS}")
+        if self.exchange is None:  # frozen: the default resolved once, here
+            compiled = self.noise == "counter" and self.fused_backscatter
+            object.__setattr__(self, "exchange", "compiled" if compiled else "sample")
         if self.exchange not in EXCHANGE_METHODS:
             raise ConfigError("air.strategy.exchange", self.exchange, f"one of {EXCHANGE_METHODS}")
         if self.exchange == "compiled" and not (self.noise == "counter" and self.fused_backscatter):

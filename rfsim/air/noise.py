@@ -1,9 +1,35 @@
-"""Thermal receiver noise power kTB·F (the one formula devices and channels share).
+"""Receiver noise: its power kTB·F (the one formula devices and channels share) and its draws.
 
 A receiver's noise referred to its input is ``N = k·T·B·F`` [W] over its noise-equivalent
 bandwidth B (B = fs for complex white noise at the full sample rate; DESIGN.md "Channel":
 AWGN from kTB·NF). :mod:`rfsim.channels.noise` exports it with the other noise models; the air
-interface (:mod:`rfsim.air.step`) draws the complex AWGN of that power at every receiver.
+interface (:mod:`rfsim.air.step`) draws the complex AWGN of that power at every receiver,
+n = √(N/2)·(a + j·b) with a, b independent standard normals, by the run's
+:attr:`rfsim.air.cache.Strategy.noise`:
+
+* ``"counter"`` (the default): **counter-based normals, drawn only where read.**
+  *Algorithm* (:mod:`rfsim.air._counter_noise_kernels`, NumPy twin in the tests): normal pair
+  p of the stream with 64-bit key k is a function of (k, p) alone — two SplitMix64 hashes
+  h(k, 2p), h(k, 2p + 1) (the finaliser of k + (c + 1)·γ, γ = 0x9E3779B97F4A7C15) give a
+  uniform u ∈ (0, 1] (52 bits) and an angle (52 bits and an octant), and Box–Muller turns them
+  into (a, b) = √(−2·ln u)·(cos θ, sin θ), with branch-free polynomial ln, cos and sin, so the
+  loops vectorise. *Stream per trial*: every noisy receiver of an air step draws one key,
+  one uint64 from the step's generator (:func:`noise_key`), in receiver order; the step's
+  generator is the trial's own stream (spawned from the run's seed, :mod:`rfsim.core.rng`),
+  so a trial's keys are the same whatever else runs. *Stream per sample block*: within the
+  key, sample i of row r of a receiver input of n samples gets pair r·n + i
+  (:func:`add_counter_awgn`); a sample's noise does not depend on which other samples are
+  drawn, so only those from the receiver's first read sample on are (the samples before it
+  cost nothing), and the compiled exchange (:func:`rfsim.air.fused.fused_noisy_sum`) adds
+  the same numbers inside its sum. Hence a trial's records are the same, bit for bit, run
+  serially, on worker processes or in a batch of any size (tests/test_batch.py,
+  tests/test_scenario_detection_probability.py, tests/test_scenario_reader_detection.py).
+  Overlap of two streams needs keys an exact multiple of γ apart within the streams' length
+  (K streams of L normals: probability ≈ K²·L/2⁶⁴).
+* ``"pcg64"``: every sample of the receiver's input from the step's generator itself
+  (NumPy's ziggurat on PCG64, :func:`add_awgn`; every real part, then every imaginary part):
+  the records of the versions before the counter-based default; serial, parallel and batched
+  runs are bit-identical under it too (the same generator, the same draws in the same order).
 """
 
 from __future__ import annotations
@@ -150,9 +176,10 @@ __all__ += ["add_awgn", "add_awgn_reference", "skip_awgn"]
 
 _ck = lazy_import("rfsim.air._counter_noise_kernels")
 
-#: How a receiver's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`): ``"pcg64"`` every
-#: sample from the step's generator (:func:`add_awgn`), ``"counter"`` one key from it and the
-#: samples the receiver reads from the counter-based stream of that key (:func:`add_counter_awgn`).
+#: How a receiver's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`, default ``"counter"``):
+#: ``"counter"`` one key from the step's generator and the samples the receiver reads from the
+#: counter-based stream of that key (:func:`add_counter_awgn`), ``"pcg64"`` every sample from the
+#: step's generator (:func:`add_awgn`).
 NOISE_METHODS = ("pcg64", "counter")
 
 
@@ -239,7 +266,7 @@ def add_counter_awgn(y: np.ndarray, noise_w: float, key: int, *, start: int = 0)
         _ck.add_noise_kernel(np.uint64(key), np.uint64(b * n + start), rows[b, start:], scale)
 
 
-def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, method: str = "pcg64",
+def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, *, method: str = "counter",
                        start: int = 0, keep: bool = False) -> np.ndarray | None:
     """Add a receiver's noise to its input in place, by the run's noise method.
 
@@ -255,7 +282,7 @@ def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, 
         Noise power [W per complex sample].
     rng : numpy.random.Generator
         The step's generator.
-    method : {"pcg64", "counter"}, default "pcg64"
+    method : {"counter", "pcg64"}, default "counter"
         How the noise is drawn (:data:`NOISE_METHODS`).
     start : int, default 0
         First sample the receiver reads (``"counter"`` only).
@@ -280,7 +307,7 @@ def add_receiver_noise(y: np.ndarray, noise_w: float, rng: np.random.Generator, 
     return ab[0] + 1j * ab[1] if keep else None
 
 
-def skip_receiver_noise(n_samples: int, rng: np.random.Generator, *, method: str = "pcg64") -> None:
+def skip_receiver_noise(n_samples: int, rng: np.random.Generator, *, method: str = "counter") -> None:
     """Advance ``rng`` as :func:`add_receiver_noise` of ``n_samples`` samples would.
 
     The noise is not formed (an input nobody reads): 2·n normals are drawn (``"pcg64"``) or the
@@ -292,7 +319,7 @@ def skip_receiver_noise(n_samples: int, rng: np.random.Generator, *, method: str
         Samples of the input.
     rng : numpy.random.Generator
         The step's generator.
-    method : {"pcg64", "counter"}, default "pcg64"
+    method : {"counter", "pcg64"}, default "counter"
         How the noise would be drawn (:data:`NOISE_METHODS`).
     """
     if method == "counter":

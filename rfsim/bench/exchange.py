@@ -14,8 +14,8 @@ import time
 import tracemalloc
 
 
-def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str = "pcg64",
-                   exchange: str = "sample") -> dict:
+def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 0, noise: str | None = None,
+                   exchange: str | None = None) -> dict:
     """Measure simulated air time per wall-clock second of the canonical exchange, on one core.
 
     Air time = the samples the engine simulated (the reader's segments: CW lead-in, command,
@@ -30,11 +30,12 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
         Reader–tag distance [m].
     seed : int, default 0
         Root seed (round r draws from ``trial_rng(seed, 2, r)``).
-    noise : {"pcg64", "counter"}, default "pcg64"
-        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
-    exchange : {"sample", "compiled"}, default "sample"
+    noise : {"counter", "pcg64"} or None, default None
+        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`); None: the
+        strategy's default (``"counter"``).
+    exchange : {"compiled", "sample"} or None, default None
         How the reader's input is formed (:attr:`rfsim.air.cache.Strategy.exchange`; "compiled"
-        needs ``noise="counter"``).
+        needs ``noise="counter"``); None: the strategy's default for ``noise``.
 
     Returns
     -------
@@ -89,10 +90,10 @@ def bench_exchange(*, n_rounds: int = 200, distance_m: float = 3.0, seed: int = 
     }
 
 
-def _canonical(distance_m: float, seed: int, noise: str = "pcg64", exchange: str = "sample"):
+def _canonical(distance_m: float, seed: int, noise: str | None = None, exchange: str | None = None):
     """The canonical exchange's reader (its receiver noise drawn by ``noise``,
     :attr:`rfsim.air.cache.Strategy.noise`, its input formed by ``exchange``,
-    :attr:`rfsim.air.cache.Strategy.exchange`), a maker of its tag (``trial_rng(seed, 1)``, trial b
+    :attr:`rfsim.air.cache.Strategy.exchange`; None: the strategy's defaults), a maker of its tag (``trial_rng(seed, 1)``, trial b
     of a batch ``trial_rng(seed, 1, b)``; every tag on the same antenna), the channel and the
     round's Query (target A/B alternating)."""
     # imported here: rfsim does not import devices/channels/scenarios at module level
@@ -107,7 +108,8 @@ def _canonical(distance_m: float, seed: int, noise: str = "pcg64", exchange: str
     cfg = link_scenario.Config()
     reader = Reader(ReaderConfig(link_profile="miller4-320k"), [link_scenario.reader_antenna(cfg.geometry)],
                     rng=trial_rng(seed, 0))
-    reader.air_cache = AirCache(strategy=Strategy(noise=noise, exchange=exchange))
+    chosen = {k: v for k, v in (("noise", noise), ("exchange", exchange)) if v is not None}
+    reader.air_cache = AirCache(strategy=Strategy(**chosen))
     antenna = link_scenario.tag_antenna(cfg.geometry, distance_m)
     channel = Channel(link_scenario.scene(cfg.channel))
     lk = reader.link
@@ -122,7 +124,7 @@ def _canonical(distance_m: float, seed: int, noise: str = "pcg64", exchange: str
 
 
 def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: float = 3.0, seed: int = 0,
-                         noise: str = "pcg64", exchange: str = "sample") -> dict:
+                         noise: str | None = None, exchange: str | None = None) -> dict:
     """Measure aggregate air time per second of the canonical exchange run in batches, on one core.
 
     Batches of ``batch`` independent singulations (:func:`rfsim.protocols.batch.singulate_batch`:
@@ -140,10 +142,12 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
         Reader–tag distance [m].
     seed : int, default 0
         Root seed.
-    noise : {"pcg64", "counter"}, default "pcg64"
-        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`).
-    exchange : {"sample", "compiled"}, default "sample"
-        How the reader's input is formed (:attr:`rfsim.air.cache.Strategy.exchange`).
+    noise : {"counter", "pcg64"} or None, default None
+        How the reader's noise is drawn (:attr:`rfsim.air.cache.Strategy.noise`); None: the
+        strategy's default.
+    exchange : {"compiled", "sample"} or None, default None
+        How the reader's input is formed (:attr:`rfsim.air.cache.Strategy.exchange`); None: the
+        strategy's default for ``noise``.
 
     Returns
     -------
@@ -178,9 +182,10 @@ def bench_exchange_batch(*, batch: int = 256, n_batches: int = 4, distance_m: fl
             "trials_per_s": n / wall, "cpu_s_per_trial": cpu / n, "read_rate": ok / n}
 
 
-def bench_exchange_compiled(**kwargs) -> dict:
-    """:func:`bench_exchange` with the compiled exchange strategy (``Strategy(noise="counter",
-    exchange="compiled")``, :class:`rfsim.air.cache.Strategy`).
+def bench_exchange_pcg64(**kwargs) -> dict:
+    """:func:`bench_exchange` with the receiver noise of every sample from the trial's PCG64
+    generator and the two-stage air step (``Strategy(noise="pcg64", exchange="sample")``,
+    :class:`rfsim.air.cache.Strategy`): the default before the counter-based noise.
 
     Parameters
     ----------
@@ -192,11 +197,12 @@ def bench_exchange_compiled(**kwargs) -> dict:
     dict
         As :func:`bench_exchange`.
     """
-    return bench_exchange(**kwargs, noise="counter", exchange="compiled")
+    return bench_exchange(**kwargs, noise="pcg64", exchange="sample")
 
 
-def bench_exchange_batch_compiled(**kwargs) -> dict:
-    """:func:`bench_exchange_batch` with the compiled exchange strategy (as :func:`bench_exchange_compiled`).
+def bench_exchange_batch_pcg64(**kwargs) -> dict:
+    """:func:`bench_exchange_batch` with PCG64 receiver noise and the two-stage air step (as
+    :func:`bench_exchange_pcg64`).
 
     Parameters
     ----------
@@ -208,7 +214,7 @@ def bench_exchange_batch_compiled(**kwargs) -> dict:
     dict
         As :func:`bench_exchange_batch`.
     """
-    return bench_exchange_batch(**kwargs, noise="counter", exchange="compiled")
+    return bench_exchange_batch(**kwargs, noise="pcg64", exchange="sample")
 
 
-__all__ = ["bench_exchange", "bench_exchange_batch", "bench_exchange_compiled", "bench_exchange_batch_compiled"]
+__all__ = ["bench_exchange", "bench_exchange_batch", "bench_exchange_pcg64", "bench_exchange_batch_pcg64"]

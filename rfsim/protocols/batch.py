@@ -13,8 +13,8 @@ sample-level exchange (:func:`rfsim.protocols.engine.run_exchanges`, of which
 1. per trial b the reader's segment (made once when every trial sends the same command at
    the same time and round), the tags' links drawn from the trial's own generator ``rngs[b]``
    (as the single run draws them, in the same order) and the tags' reactions;
-2. the trial's receiver noise, drawn from ``rngs[b]`` by :func:`rfsim.air.noise.add_awgn` after
-   its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`, of which only
+2. the trial's receiver noise, drawn from ``rngs[b]`` (:mod:`rfsim.air.noise`: a key of the
+   counter-based stream, or every sample with ``noise="pcg64"``) after its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`, of which only
    the ground truth and the reader's input are kept;
 3. the reader's reads of the trials with a reply (:meth:`rfsim.devices.reader.Reader.receive`);
 4. the records (:class:`rfsim.protocols.engine.Exchange`), as the single run forms them.

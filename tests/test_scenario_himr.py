@@ -125,7 +125,10 @@ def test_2d_convergence_ordering(two_d):
     later than Case 1 (≈ 0.8 s), each case shown from the three initial conditions of Table 9
     (L1196-L1214). The scenario's own summary (IC #1, default ``converged_m`` 5 mm) and the same
     cases from IC #2 ((1, 1) m, ψ = π/2) and IC #3 ((2.5, 2.3) m, 3π/2) through the config key
-    ``observer.initial_condition``: seed 1 gives 1.16 s (C1), 1.35 s (C6), 1.29 s (C7) from each.
+    ``observer.initial_condition``: seed 1 gives 1.305 s (C1), 1.362 s (C6), 1.340 s (C7) from
+    each. At one seed the order is strict but its margin is a draw (seeds 1-12: C6 − C1 from
+    0.021 to 0.220 s, C7 − C1 from 0.014 to 0.206 s): the size of the gap is the slow test's
+    statement over seeds (:func:`test_2d_convergence_ordering_over_seeds`).
     The cause of the 0 s the scenario gave before: at 2 cm (the source's threshold, 1/5 of its
     10 cm Case 1 error) the observer's in-motion error (≤ 1.8 cm) never counts, so Case 7 ties
     Case 1 (0 s from IC #1; the end of the initial transient, 0.15 s, from IC #2)."""
@@ -134,11 +137,32 @@ def test_2d_convergence_ordering(two_d):
     idx, s = _summary(ds)
     own = {c: s["convergence_s"][idx[("prerotated", c, "gated")]] for c in (1, 6, 7)}
     for c in (own, conv[2, 0.005], conv[3, 0.005]):
-        assert c[6] > c[1] + 0.05 and c[7] > c[1] + 0.05, c
+        assert c[6] > c[1] and c[7] > c[1], c
     # the source's order needs more than the initial transient: at 2 cm Case 7 ties Case 1
     for ic in (1, 2):
         c = conv[ic, 0.02]
         assert abs(c[7] - c[1]) < 0.05 and c[1] < 0.2, (ic, c)
+
+
+@pytest.mark.slow
+def test_2d_convergence_ordering_over_seeds():
+    """L1354-L1404 as a statement over draws: over seeds 1-8 (IC #1, 5 mm), Case 6 and Case 7
+    never converge before Case 1, and their mean delay after it exceeds zero by more than three
+    standard errors of the mean over the seeds (measured: C6 − C1 0.122 ± 0.030 s, C7 − C1
+    0.090 ± 0.021 s; the source's gaps, ≈ 0.4 and 0.3 s, are larger: its Case 1 converges in
+    0.8 s, ours in 1.16-1.37 s)."""
+    cfg = himr_2d.Config()
+    one = replace(cfg, observer=replace(cfg.observer, variants=("prerotated",), cases=(1, 6, 7)))
+    d6, d7 = [], []
+    for seed in range(1, 9):
+        air, plan, imu = himr_2d.sample_level(cfg, seed=seed)
+        _, summary = himr_2d.run_observers(one, air, plan, imu, cfg.scene.carriers_hz)
+        c = {r["case"]: r["convergence_s"] for r in summary}
+        d6.append(c[6] - c[1])
+        d7.append(c[7] - c[1])
+    for d in (np.array(d6), np.array(d7)):
+        assert (d >= 0).all(), d
+        assert d.mean() > 3 * d.std(ddof=1) / math.sqrt(d.size), d
 
 
 def test_1d_observer_vs_double_integration():

@@ -3,8 +3,6 @@ sample-level waveforms (a comparison baseline for capture at the reader)."""
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 
 class NoCaptureAir:
     """A sample-level air interface whose reader never decodes a slot with two or more replies.
@@ -37,12 +35,12 @@ class NoCaptureAir:
         Returns
         -------
         object
-            The wrapped exchange record; with ≥ 2 replies and a detected slot a copy with
+            The wrapped exchange record (:class:`rfsim.protocols.inventory.AirExchange`); with ≥ 2 replies and a detected slot a copy with
             ``success=False``, ``bits=None`` and ``failure_reason="collision"``.
         """
         ex = self.air.exchange(cmd, **kw)
         if len(ex.replied) >= 2 and ex.detected:
-            return replace(ex, success=False, bits=None, failure_reason="collision")
+            return ex._replace(success=False, bits=None, failure_reason="collision")
         return ex
 
 

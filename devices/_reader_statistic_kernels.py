@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import _level, _rotation, block_slope, known_levels_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           signed_halfbit_sums_kernel, viterbi_kernel,
@@ -159,22 +159,30 @@ def _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc):
 
 
 @njit
+def _cut_members(piece_of, p, e, reach):
+    """The window ``lo … hi − 1`` (±``reach`` about the edge ``e``) holding the members of the cut
+    piece ``p`` and its numbers of members before and after the edge: ``(lo, hi, n_a, n_b)``."""
+    n_a = 0
+    n_b = 0
+    lo = max(0, e - reach)
+    hi = min(piece_of.size, e + reach)
+    for q in range(lo, hi):
+        if piece_of[q] == p:
+            if q < e:
+                n_a += 1
+            else:
+                n_b += 1
+    return lo, hi, n_a, n_b
+
+
+@njit
 def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, reach, part_a, part_b):
     """Respread every cut piece: its members before the edge carry ``part_a``, after it
     ``part_b`` (each over its own members) instead of the whole piece's sum, in place."""
     for c in range(cut_piece.size):
         p = cut_piece[c]
         e = cut_edge[c]
-        n_a = 0
-        n_b = 0
-        lo = max(0, e - reach)
-        hi = min(piece_of.size, e + reach)
-        for q in range(lo, hi):
-            if piece_of[q] == p:
-                if q < e:
-                    n_a += 1
-                else:
-                    n_b += 1
+        lo, hi, n_a, n_b = _cut_members(piece_of, p, e, reach)
         mean = sums[p] / sizes[p]
         for q in range(lo, hi):
             if piece_of[q] == p:
@@ -226,6 +234,19 @@ class Memo(NamedTuple):
     wf_bits: np.ndarray  # (n_bits,) uint8: the bits of the reference in wf_full
     wf_full: np.ndarray  # (n,) float64: their ±1 reference (0 outside the reply)
     cut_memo: np.ndarray  # (6, max(n_blocks − 1, 3)) int64: the block cuts (:func:`_cuts`)
+    pm_mom: np.ndarray  # (7, n − b1) float64: per piece the PM_* rows (:func:`_pieces`)
+    mu: np.ndarray  # (2, n − b1) float64: per piece its measurement block (−1: not read whole) and level
+    ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
+    mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
+#: Rows of ``Memo.pm_mom`` per piece p (δ_i = i − a_p, a_p the sample nearest the mean of the
+#: piece's sample indices): Σσ_i, a_p, Σδ_i, Σδ_i², Σσ_i·δ_i, Σσ_i·δ_i², the half-bit of its
+#: samples (−1 outside the reply's elements).
+PM_CSIG, PM_ANCHOR, PM_D1, PM_D2, PM_SD1, PM_SD2, PM_HALF = range(7)
+#: Slots of ``Memo.mb`` (:func:`_measure_plan`): the samples the measurement reads, the entries
+#: of ``Memo.ms``, the span's centre (span index), 1 when the pieces carry the measurement
+#: (else the per-sample path), the span's first non-zero and one past its last; then per block
+#: its samples (from MB_RR) and the sum of their times [s] (from MB_RR + n_blocks).
+MB_M, MB_N_MS, MB_CENTRE, MB_EXACT, MB_FIRST, MB_END, MB_RR = 0, 1, 2, 3, 4, 5, 8
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
 OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
@@ -301,33 +322,12 @@ def _search(st, r, ip, fp, plan, ki, wi, fi):
 
 
 @njit
-def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
-    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
-    :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
-    constant (no fit)."""
-    r_k = np.empty(r.size, np.complex128)
-    lev = np.empty(r.size)
-    mk = known_levels_kernel(r, full, t0_samples, ratio, n_pre_elements, r_k, lev)
-    ss = s1 = 0.0
-    rs = r1 = 0j
-    for i in range(mk):
-        ss += lev[i] * lev[i]
-        s1 += lev[i]
-        rs += r_k[i] * lev[i]
-        r1 += r_k[i]
-    det = ss * mk - s1 * s1
-    if abs(det) <= 1e-12 * max(ss * mk, 1e-300):
-        return 0j, 0j, False
-    return (mk * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
-
-
-@njit
-def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
+def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, mu, ms, mb):
     """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
     the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
     int64: the cut pieces, edges, members before and after; in row 4 the samples the
-    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)), made only when it does
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)) and the measurement's
+    plan (:func:`_measure_plan` into ``mu``, ``ms``, ``mb``), made only when it does
     not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
     piece map and the reference it was made from are those of :func:`_pieces` and
     :func:`_reference`, which clear it when they make new ones)."""
@@ -345,18 +345,23 @@ def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
                                        cut_memo[2], cut_memo[3])
     cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
     cut_memo[5, 0] = int(n_free)
+    _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_memo[0, :n_cuts], n_blocks, fs, mu, ms, mb)
     memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
     memo[MEMO_CUT_VALID] = 1.0
 
 
 @njit
-def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, memo, cut_memo, ki, wi, fi):
-    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+def _bridge_cuts(st, r, x, dc, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, fs, memo, memo_arrays,
+                 ki, wi, fi):
+    """Steps 4 and 6: the steady pieces cut by the measurement's block edges
     (:func:`block_cuts_kernel` through the memo :func:`_cuts`, ``s`` the reference from sample
-    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block) and spread again
-    (:func:`apply_cuts_kernel`). Returns (Σ(|p| − 1) over the steady pieces less one per cut,
-    the samples the measurement reads)."""
-    _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo)
+    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block); their members written
+    into ``r`` as x − ``dc`` plus their part spread over them (:func:`_fill_cuts`; the members
+    of :func:`apply_cuts_kernel`). ``memo_arrays`` the :class:`Memo`. Returns (Σ(|p| − 1) over
+    the steady pieces less one per cut, the samples the measurement reads)."""
+    cut_memo = memo_arrays.cut_memo
+    _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, memo_arrays.mu, memo_arrays.ms,
+          memo_arrays.mb)
     n_used, n_cuts, reach = cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2]
     n_free = float(cut_memo[5, 0])
     piece, edge, n_a, n_b = cut_memo[0], cut_memo[1], cut_memo[2], cut_memo[3]
@@ -374,8 +379,22 @@ def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_
             miss = sums[piece[j]] - ab[j] - ab[n_cuts + j]
             part_a[j] = ab[j] + miss * (n_a[j] / tot)
             part_b[j] = ab[n_cuts + j] + miss * (n_b[j] / tot)
-        apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
+        _fill_cuts(r, x, dc, b1, piece_of, sign, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
     return n_free - n_cuts, n_used
+
+
+@njit
+def _fill_cuts(r, x, dc, b1, piece_of, sign, cut_piece, cut_edge, reach, part_a, part_b):
+    """The members of every cut piece (those of :func:`apply_cuts_kernel`) written into ``r``:
+    (x_i − ``dc``) + σ_i·``part_a``/n_a before the edge, ``part_b``/n_b after it."""
+    for c in range(cut_piece.size):
+        p = cut_piece[c]
+        e = cut_edge[c]
+        lo, hi, n_a, n_b = _cut_members(piece_of, p, e, reach)
+        for q in range(lo, hi):
+            if piece_of[q] == p:
+                part = part_a[c] / n_a if q < e else part_b[c] / n_b
+                r[b1 + q] = (x[b1 + q] - dc) + sign[q] * part
 
 
 @njit
@@ -401,22 +420,258 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 
 @njit
-def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes):
-    """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`) and the pieces'
-    sizes in the ``pm_*`` arrays, made only when they do not already hold those of ``start``
-    (``memo``; a pure function of the start for the plan and input length of the caller).
-    Returns the number of pieces."""
+def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom):
+    """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`), the pieces'
+    sizes and their moments (rows ``PM_*`` of ``pm_mom``) in the ``pm_*`` arrays, made only
+    when they do not already hold those of ``start`` (``memo``; a pure function of the start
+    for the plan and input length of the caller). Returns the number of pieces."""
     if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
         return int(memo[MEMO_PM_PIECES])
     memo[MEMO_PM_PIECES] = -1.0
     memo[MEMO_CUT_VALID] = 0.0
     n_p = piece_map_kernel(n, b1, start, ratio, m, n_elements, pm_piece_of, pm_sign, pm_kind)
     pm_sizes[:n_p] = 0.0
+    pm_mom[:, :n_p] = 0.0
     for q in range(n - b1):
-        pm_sizes[pm_piece_of[q]] += 1.0
+        p = pm_piece_of[q]
+        if pm_sizes[p] == 0.0:
+            k = _element(b1 + q, start, ratio)
+            pm_mom[PM_HALF, p] = k // m if 0 <= k < n_elements else -1
+        pm_sizes[p] += 1.0
+        pm_mom[PM_ANCHOR, p] += b1 + q
+    for p in range(n_p):
+        pm_mom[PM_ANCHOR, p] = math.floor(pm_mom[PM_ANCHOR, p] / pm_sizes[p] + 0.5)
+    for q in range(n - b1):
+        p = pm_piece_of[q]
+        sg = pm_sign[q]
+        d = b1 + q - pm_mom[PM_ANCHOR, p]
+        pm_mom[PM_CSIG, p] += sg
+        pm_mom[PM_D1, p] += d
+        pm_mom[PM_D2, p] += d * d
+        pm_mom[PM_SD1, p] += sg * d
+        pm_mom[PM_SD2, p] += sg * d * d
     memo[MEMO_PM_START] = start
     memo[MEMO_PM_PIECES] = n_p
     return n_p
+
+
+@njit
+def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
+    """The one pass over the noise-free input after the search block: per piece p of the
+    samples ``b1 …`` (``piece_of``, ``sign`` σ_i, ``anchor`` a_p of :data:`PM_ANCHOR`), with
+    u_i = x_i − ``dc``, δ_i = i − a_p, the sums ``mom[0] = Σσ_i·u_i``, ``mom[1] = Σu_i``,
+    ``mom[2] = Σσ_i·u_i·δ_i``, ``mom[3] = Σσ_i·u_i·δ_i²`` ((4, n_p) complex) and
+    ``energy = Σ|u_i|²`` ((n_p,) float), in sample order. Returns ``(mom, energy)``."""
+    mom = np.zeros((4, n_p), np.complex128)
+    energy = np.zeros(n_p)
+    for q in range(piece_of.size):
+        p = piece_of[q]
+        u = x[b1 + q] - dc
+        su = sign[q] * u
+        d = b1 + q - anchor[p]
+        sd = su * d
+        mom[0, p] += su
+        mom[1, p] += u
+        mom[2, p] += sd
+        mom[3, p] += sd * d
+        energy[p] += u.real * u.real + u.imag * u.imag
+    return mom, energy
+
+
+@njit
+def _halfbit_sums(r, i0, b1, n_decode, frac, ratio, m, mom, sums, pm_mom, s_sum, s_count):
+    """The half-bit sums S_j = Σσ_i·r_i and C_j = Σσ_i of the reply from sample ``i0``
+    (:func:`rfsim.gen2._linecode_kernels.signed_halfbit_sums_kernel` over the span
+    ``i0 … i0 + n_decode + 1``): the samples before ``b1`` one by one from ``r`` (the input less
+    the DC, the noise added), then per piece of its half-bit (:data:`PM_HALF`) Σσ_i·u_i + P_p
+    and Σσ_i (the spread piece reads σ_i²·P_p/|p| per sample: P_p in all)."""
+    end = min(b1, i0 + n_decode + 2, r.size)
+    signed_halfbit_sums_kernel(r[i0:max(end, i0)], frac, ratio, m, s_sum, s_count)
+    for p in range(sums.size):
+        j = int(pm_mom[PM_HALF, p])
+        if 0 <= j < s_sum.size:
+            s_sum[j] += mom[0, p] + sums[p]
+            s_count[j] += pm_mom[PM_CSIG, p]
+
+
+@njit
+def _known_fit_pieces(r, full, b1, t0_samples, ratio, n_pre_elements, kind, anchor, mom, sums, sizes):
+    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
+    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
+    :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1`` one by one from ``r``,
+    after it the pieces outside the reply (level −1): a REST piece whole (Σ r_i = Σu_i + P_p),
+    a single sample (u_i + σ_i·P_p) where its neighbours carry its level. Returns (h, c, False)
+    when the levels are constant (no fit)."""
+    n = full.size
+    nb = min(b1 + 1, n)
+    r_k = np.empty(nb, np.complex128)
+    lev = np.empty(nb)
+    mk = known_levels_kernel(r[:nb], full[:nb], t0_samples, ratio, n_pre_elements, r_k, lev)
+    ss = s1 = 0.0
+    rs = r1 = 0j
+    for i in range(mk):
+        ss += lev[i] * lev[i]
+        s1 += lev[i]
+        rs += r_k[i] * lev[i]
+        r1 += r_k[i]
+    cnt = float(mk)
+    for p in range(sums.size):
+        a = int(anchor[p])  # a single piece's sample
+        if kind[p] == REST:
+            v = mom[1, p] + sums[p]
+            cnt += sizes[p]
+            ss += sizes[p]
+            s1 -= sizes[p]
+            rs -= v
+            r1 += v
+        elif kind[p] == SINGLE and a >= 1 and a < n - 1 and full[a] == 0.0:
+            if _level(full, a - 1) == -1.0 and _level(full, a + 1) == -1.0:
+                v = mom[1, p] + sums[p]
+                cnt += 1.0
+                ss += 1.0
+                s1 -= 1.0
+                rs -= v
+                r1 += v
+    det = ss * cnt - s1 * s1
+    if abs(det) <= 1e-12 * max(ss * cnt, 1e-300):
+        return 0j, 0j, False
+    return (cnt * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
+
+
+@njit
+def _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_piece, n_blocks, fs, mu, ms, mb):
+    """The measurement's plan of the reference ``s`` (the span from sample ``i0``; the samples
+    and blocks of :func:`rfsim.gen2._measure_kernels.measure_kernel`): per block its samples
+    and the sum of their times; the samples read one by one (before ``b1`` or in a piece cut by
+    a block edge, ``cut_piece``) with their block in ``ms``; per piece after ``b1`` read whole
+    its block and level L_p (s_i = L_p·σ_i) in ``mu``, −1 for the others. ``mb[MB_EXACT]`` is 0
+    when a piece is read in part or with two levels or blocks (then the caller measures on the
+    samples)."""
+    mu[0, :sizes.size] = -1.0
+    mb[:] = 0.0
+    mb[MB_EXACT] = 1.0
+    n = s.size
+    first = 0
+    while first < n and s[first] == 0.0:
+        first += 1
+    if first == n:
+        return
+    end = n
+    while s[end - 1] == 0.0:
+        end -= 1
+    centre = 0.5 * (first + end - 1)
+    mb[MB_CENTRE], mb[MB_FIRST], mb[MB_END] = centre, first, end
+    m = 0
+    for i in range(first + 1, end - 1):
+        m += (s[i] == s[i - 1]) & (s[i] == s[i + 1])
+    mb[MB_M] = m
+    for c in range(cut_piece.size):
+        mu[0, cut_piece[c]] = -2.0
+    seen = np.zeros(sizes.size)
+    n_ms = 0
+    k = 0
+    o = 0
+    for i in range(first + 1, end - 1):
+        if not ((s[i] == s[i - 1]) & (s[i] == s[i + 1])):
+            continue
+        while k + 1 < n_blocks and o >= (k + 1) * m // n_blocks:
+            k += 1
+        o += 1
+        mb[MB_RR + k] += 1.0
+        mb[MB_RR + n_blocks + k] += (i - centre) / fs
+        a = i0 + i
+        p = piece_of[a - b1] if a >= b1 else -1
+        if p < 0 or mu[0, p] == -2.0:
+            ms[0, n_ms] = a
+            ms[1, n_ms] = k
+            n_ms += 1
+            continue
+        level = s[i] * sign[a - b1]
+        if seen[p] == 0.0:
+            mu[0, p] = k
+            mu[1, p] = level
+        elif mu[0, p] != k or mu[1, p] != level:
+            mb[MB_EXACT] = 0.0
+        seen[p] += 1.0
+    mb[MB_N_MS] = n_ms
+    for p in range(sizes.size):
+        if seen[p] > 0.0 and seen[p] != sizes[p]:
+            mb[MB_EXACT] = 0.0
+    for c in range(cut_piece.size):
+        for d in range(c):
+            if cut_piece[d] == cut_piece[c]:
+                mb[MB_EXACT] = 0.0
+
+
+@njit
+def _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb, i0, fs, n_blocks):
+    """Step 5 on the plan of :func:`_measure_plan`: the gain, Doppler slope and residual power
+    of :func:`rfsim.gen2._measure_kernels.measure_kernel` on z = r − ``c`` (``r`` the input less
+    the DC with the noise; ``c`` the offset of the fit), the samples of ``ms`` from ``r`` and
+    ``full`` one by one, every piece p read whole from its sums (u = x − DC, P_p the noise):
+
+    * block sums: L_p·(Σσu − c·Σσ + P_p);
+    * gain with the rotation removed: L_p·e^{−jω'a_p}·(Σσu·e^{−jω'δ} − c·Σσe^{−jω'δ} +
+      (P_p/|p|)·Σe^{−jω'δ}), ω' = slope/fs, e^{−jω'δ} to second order (1 − jω'δ − ω'²δ²/2; the
+      error of a term (ω'δ)³/6 relative, |δ| ≤ half a half-bit);
+    * residual: Σ|z|² − |h|²·m over the m samples read (the least-squares identity) with
+      Σ_p|z|² = Σ|u|² − 2·Re(c̄·Σu) + |p|·|c|² + 2·Re(conj(P_p/|p|)·(Σσu − c·Σσ)) + |P_p|²/|p|.
+
+    Returns ``(h, slope [rad/s], σ²)`` as the measurement kernel."""
+    m = int(mb[MB_M])
+    if m == 0:
+        return complex(math.nan, math.nan), 0.0, math.nan
+    g = np.zeros(n_blocks, np.complex128)
+    tc = np.empty(n_blocks)
+    y = np.empty(n_blocks)
+    for e in range(int(mb[MB_N_MS])):
+        a = ms[0, e]
+        g[ms[1, e]] += (r[a] - c) * full[a]
+    n_p = sums.size
+    for p in range(n_p):
+        k = int(mu[0, p])
+        if k >= 0:
+            g[k] += mu[1, p] * (mom[0, p] - c * pm_mom[PM_CSIG, p] + sums[p])
+    all_positive = True
+    for k in range(n_blocks):
+        rr = mb[MB_RR + k]
+        g[k] = g[k] / rr if rr > 0.0 else complex(math.nan, math.nan)
+        tc[k] = mb[MB_RR + n_blocks + k] / rr if rr > 0.0 else math.nan
+        w = g[k].real * g[k].real + g[k].imag * g[k].imag
+        if not w > 0.0:
+            all_positive = False
+    slope = block_slope(g, tc, y) if all_positive else 0.0
+    first, end = int(mb[MB_FIRST]), int(mb[MB_END])
+    pc, ps = _rotation(slope, fs, first, end, mb[MB_CENTRE])
+    acc = 0j
+    zz = 0.0
+    for e in range(int(mb[MB_N_MS])):
+        a = ms[0, e]
+        q = a - i0 - first
+        z = r[a] - c
+        sv = full[a]
+        acc += z * complex(pc[q] * sv, -ps[q] * sv)
+        zz += z.real * z.real + z.imag * z.imag
+    w1 = slope / fs
+    w2 = 0.5 * w1 * w1
+    for p in range(n_p):
+        if mu[0, p] < 0.0:
+            continue
+        q = int(pm_mom[PM_ANCHOR, p]) - i0 - first
+        size = sizes[p]
+        mean = sums[p] / size
+        term = (mom[0, p] - 1j * w1 * mom[2, p] - w2 * mom[3, p]
+                - c * complex(pm_mom[PM_CSIG, p] - w2 * pm_mom[PM_SD2, p], -w1 * pm_mom[PM_SD1, p])
+                + mean * complex(size - w2 * pm_mom[PM_D2, p], -w1 * pm_mom[PM_D1, p]))
+        acc += mu[1, p] * complex(pc[q], -ps[q]) * term
+        a_c = mom[0, p] - c * pm_mom[PM_CSIG, p]
+        zz += (energy[p] - 2.0 * (c.real * mom[1, p].real + c.imag * mom[1, p].imag)
+               + size * (c.real * c.real + c.imag * c.imag)
+               + 2.0 * (mean.real * a_c.real + mean.imag * a_c.imag)
+               + (sums[p].real * sums[p].real + sums[p].imag * sums[p].imag) / size)
+    h = acc / m
+    resid = (zz - (h.real * h.real + h.imag * h.imag) * m) / m
+    return h, slope, max(resid, 0.0)
 
 
 @njit
@@ -500,14 +755,15 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again
     n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of, memo.pm_sign, memo.pm_kind,
-                  memo.pm_sizes)
+                  memo.pm_sizes, memo.pm_mom)
     n_q = max(n - b1, 0)
     piece_of, sign, kind, sizes = memo.pm_piece_of[:n_q], memo.pm_sign[:n_q], memo.pm_kind[:n_p], memo.pm_sizes[:n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
+    for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
+    pm_mom = memo.pm_mom
+    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -520,7 +776,7 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     det_bits = np.empty(n_bits + 1, np.uint8)
     s_sum = np.empty(nh, np.complex128)
     s_count = np.empty(nh)
-    signed_halfbit_sums_kernel(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    _halfbit_sums(r, i0, b1, n_decode, frac, ratio, m, mom, sums, pm_mom, s_sum, s_count)
     _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
     if corr < fp[FP_THRESHOLD]:
         res[RES_STATUS] = NOT_FOUND
@@ -529,7 +785,8 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     t0_samples = start / fs * fs
     full = memo.wf_full
     _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
-    h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
+    h, c, fitted = _known_fit_pieces(r, full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], kind, pm_mom[PM_ANCHOR],
+                                     mom, sums, sizes)
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
         return
@@ -552,11 +809,20 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     if not same:
         _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
     s_span = full[i0:i0 + n_span]  # the reference of the span (read, not copied)
-    n_free, n_used = _bridge_cuts(st, r, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
-                                  ip[IP_N_BLOCKS], flags, memo.cut_memo, ki, wi, fi)
-    for i in range(n_span):
-        z_out[i] = r[i0 + i] - c
-    gain, slope, resid = measure_kernel(z_out[:n_span], s_span, fs, ip[IP_N_BLOCKS])
+    n_blocks = ip[IP_N_BLOCKS]
+    _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, memo.cut_memo, memo.mu, memo.ms, memo.mb)
+    exact = memo.mb[MB_EXACT] > 0.0
+    if not exact:  # a piece the measurement reads in part: the samples after b1 spread (the sample-level path)
+        _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
+    n_free, n_used = _bridge_cuts(st, r, x, dc0, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks,
+                                  fs, flags, memo, ki, wi, fi)
+    if exact:
+        gain, slope, resid = _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, memo.mu, memo.ms, memo.mb,
+                                             i0, fs, n_blocks)
+    else:
+        for i in range(n_span):
+            z_out[i] = r[i0 + i] - c
+        gain, slope, resid = measure_kernel(z_out[:n_span], s_span, fs, n_blocks)
     # step 6: the in-piece noise energy σ²·Gamma(n_free)/n_used, where the SNR is finite
     if resid > 0.0 and abs(gain) ** 2 > 0.0 and n_used > 0 and n_free > 0:  # (as Reader._measurements)
         if n_free > 1.0:

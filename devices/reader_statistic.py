@@ -368,7 +368,8 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
     memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
                     np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
-                    np.zeros(n), np.zeros((6, max(k, 3)), np.int64))
+                    np.zeros(n), np.zeros((6, max(k, 3)), np.int64), np.zeros((7, n_q)), np.zeros((2, n_q)),
+                    np.zeros((2, plan.n_reply + 4), np.int64), np.zeros(_sk.MB_RR + 2 * (k + 1)))
     return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import _level, _rotation, block_slope, known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import _level, block_slope, known_levels_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           signed_halfbit_sums_kernel, viterbi_kernel,
@@ -202,7 +202,9 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
 #: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
 #: cuts in ``cut_memo`` (:func:`_cuts`).
-MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN = range(7)
+MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN, MEMO_STAMP = range(8)
+#: Slots of the content memo (:class:`Memo`, the first axis of its arrays; :func:`_slot`).
+MEMO_SLOTS = 4
 
 
 class PlanArrays(NamedTuple):
@@ -223,10 +225,11 @@ class PlanArrays(NamedTuple):
 
 class Memo(NamedTuple):
     """The content memo of :func:`receive_kernel` for one plan, input length n and search
-    window (pure functions of what ``flags`` names, checked by :func:`_pieces`,
-    :func:`_reference` and :func:`_cuts` on every call)."""
+    window: :data:`MEMO_SLOTS` slots (the first axis of every array, chosen by the reply start,
+    :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
+    :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
 
-    flags: np.ndarray  # (7,) float64: the MEMO_* slots
+    flags: np.ndarray  # (8,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
     pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
     pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
@@ -238,6 +241,8 @@ class Memo(NamedTuple):
     mu: np.ndarray  # (2, n − b1) float64: per piece its measurement block (−1: not read whole) and level
     ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
     mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
+
+
 #: Rows of ``Memo.pm_mom`` per piece p (δ_i = i − a_p, a_p the sample nearest the mean of the
 #: piece's sample indices): Σσ_i, a_p, Σδ_i, Σδ_i², Σσ_i·δ_i, Σσ_i·δ_i², the half-bit of its
 #: samples (−1 outside the reply's elements).
@@ -351,17 +356,16 @@ def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, 
 
 
 @njit
-def _bridge_cuts(st, r, x, dc, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, fs, memo, memo_arrays,
-                 ki, wi, fi):
+def _bridge_cuts(st, r, x, dc, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, fs, memo, cut_memo, mu,
+                 ms, mb, ki, wi, fi):
     """Steps 4 and 6: the steady pieces cut by the measurement's block edges
     (:func:`block_cuts_kernel` through the memo :func:`_cuts`, ``s`` the reference from sample
     ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block); their members written
     into ``r`` as x − ``dc`` plus their part spread over them (:func:`_fill_cuts`; the members
-    of :func:`apply_cuts_kernel`). ``memo_arrays`` the :class:`Memo`. Returns (Σ(|p| − 1) over
+    of :func:`apply_cuts_kernel`; ``memo``, ``cut_memo``, ``mu``, ``ms``, ``mb`` those of
+    :func:`_cuts`). Returns (Σ(|p| − 1) over
     the steady pieces less one per cut, the samples the measurement reads)."""
-    cut_memo = memo_arrays.cut_memo
-    _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, memo_arrays.mu, memo_arrays.ms,
-          memo_arrays.mb)
+    _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, mu, ms, mb)
     n_used, n_cuts, reach = cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2]
     n_free = float(cut_memo[5, 0])
     piece, edge, n_a, n_b = cut_memo[0], cut_memo[1], cut_memo[2], cut_memo[3]
@@ -420,6 +424,26 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 
 @njit
+def _slot(flags, start):
+    """The memo slot (row of ``flags``, (S, 8)) holding the pieces of ``start``, else the one
+    used longest ago (its content made anew by the callers); the slot's use stamped in
+    column :data:`MEMO_STAMP`. The slots' contents are pure functions of their keys: which
+    slot holds what never changes a result."""
+    best = 0
+    for j in range(flags.shape[0]):
+        if flags[j, MEMO_PM_PIECES] >= 0.0 and flags[j, MEMO_PM_START] == start:
+            best = j
+            break
+        if flags[j, MEMO_STAMP] < flags[best, MEMO_STAMP]:
+            best = j
+    top = 0.0
+    for j in range(flags.shape[0]):
+        top = max(top, flags[j, MEMO_STAMP])
+    flags[best, MEMO_STAMP] = top + 1.0
+    return best
+
+
+@njit
 def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom):
     """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`), the pieces'
     sizes and their moments (rows ``PM_*`` of ``pm_mom``) in the ``pm_*`` arrays, made only
@@ -432,24 +456,42 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
     n_p = piece_map_kernel(n, b1, start, ratio, m, n_elements, pm_piece_of, pm_sign, pm_kind)
     pm_sizes[:n_p] = 0.0
     pm_mom[:, :n_p] = 0.0
-    for q in range(n - b1):
+    n_q = n - b1
+    q = 0
+    while q < n_q:  # per run of samples of one piece: the count and Σi
         p = pm_piece_of[q]
         if pm_sizes[p] == 0.0:
             k = _element(b1 + q, start, ratio)
             pm_mom[PM_HALF, p] = k // m if 0 <= k < n_elements else -1
-        pm_sizes[p] += 1.0
-        pm_mom[PM_ANCHOR, p] += b1 + q
+        cnt = 0.0
+        acc = 0.0
+        while q < n_q and pm_piece_of[q] == p:
+            cnt += 1.0
+            acc += b1 + q
+            q += 1
+        pm_sizes[p] += cnt
+        pm_mom[PM_ANCHOR, p] += acc
     for p in range(n_p):
         pm_mom[PM_ANCHOR, p] = math.floor(pm_mom[PM_ANCHOR, p] / pm_sizes[p] + 0.5)
-    for q in range(n - b1):
+    q = 0
+    while q < n_q:  # per run: Σσ, Σδ, Σδ², Σσδ, Σσδ²
         p = pm_piece_of[q]
-        sg = pm_sign[q]
-        d = b1 + q - pm_mom[PM_ANCHOR, p]
-        pm_mom[PM_CSIG, p] += sg
-        pm_mom[PM_D1, p] += d
-        pm_mom[PM_D2, p] += d * d
-        pm_mom[PM_SD1, p] += sg * d
-        pm_mom[PM_SD2, p] += sg * d * d
+        a = pm_mom[PM_ANCHOR, p]
+        c0 = c1 = c2 = c3 = c4 = 0.0
+        while q < n_q and pm_piece_of[q] == p:
+            sg = pm_sign[q]
+            d = b1 + q - a
+            c0 += sg
+            c1 += d
+            c2 += d * d
+            c3 += sg * d
+            c4 += sg * d * d
+            q += 1
+        pm_mom[PM_CSIG, p] += c0
+        pm_mom[PM_D1, p] += c1
+        pm_mom[PM_D2, p] += c2
+        pm_mom[PM_SD1, p] += c3
+        pm_mom[PM_SD2, p] += c4
     memo[MEMO_PM_START] = start
     memo[MEMO_PM_PIECES] = n_p
     return n_p
@@ -461,20 +503,37 @@ def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
     samples ``b1 …`` (``piece_of``, ``sign`` σ_i, ``anchor`` a_p of :data:`PM_ANCHOR`), with
     u_i = x_i − ``dc``, δ_i = i − a_p, the sums ``mom[0] = Σσ_i·u_i``, ``mom[1] = Σu_i``,
     ``mom[2] = Σσ_i·u_i·δ_i``, ``mom[3] = Σσ_i·u_i·δ_i²`` ((4, n_p) complex) and
-    ``energy = Σ|u_i|²`` ((n_p,) float), in sample order. Returns ``(mom, energy)``."""
+    ``energy = Σ|u_i|²`` ((n_p,) float), summed per run of consecutive samples of a piece and the
+    runs in sample order. Returns ``(mom, energy)``."""
     mom = np.zeros((4, n_p), np.complex128)
     energy = np.zeros(n_p)
-    for q in range(piece_of.size):
+    n_q = piece_of.size
+    q = 0
+    while q < n_q:  # per run of samples of one piece: sums in registers, added to the piece's once
         p = piece_of[q]
-        u = x[b1 + q] - dc
-        su = sign[q] * u
-        d = b1 + q - anchor[p]
-        sd = su * d
-        mom[0, p] += su
-        mom[1, p] += u
-        mom[2, p] += sd
-        mom[3, p] += sd * d
-        energy[p] += u.real * u.real + u.imag * u.imag
+        a = anchor[p]
+        a_re = a_im = b_re = b_im = c_re = c_im = d_re = d_im = e = 0.0
+        while q < n_q and piece_of[q] == p:
+            u = x[b1 + q] - dc
+            ur, ui = u.real, u.imag
+            sg = sign[q]
+            d = b1 + q - a
+            sr, si = sg * ur, sg * ui
+            a_re += sr
+            a_im += si
+            b_re += ur
+            b_im += ui
+            c_re += sr * d
+            c_im += si * d
+            d_re += sr * d * d
+            d_im += si * d * d
+            e += ur * ur + ui * ui
+            q += 1
+        mom[0, p] += complex(a_re, a_im)
+        mom[1, p] += complex(b_re, b_im)
+        mom[2, p] += complex(c_re, c_im)
+        mom[3, p] += complex(d_re, d_im)
+        energy[p] += e
     return mom, energy
 
 
@@ -570,15 +629,28 @@ def _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_piece, n_blocks, fs, mu,
     seen = np.zeros(sizes.size)
     n_ms = 0
     k = 0
+    edge = m // n_blocks if n_blocks > 1 else m + 1  # the first used sample of block k + 1
     o = 0
+    rr = ts = 0.0  # block k's samples and Σt so far
+    run_p = -1  # the piece of the current run of used samples (read whole) and its count
+    run_n = 0.0
+    run_level = 0.0
     for i in range(first + 1, end - 1):
         if not ((s[i] == s[i - 1]) & (s[i] == s[i + 1])):
             continue
-        while k + 1 < n_blocks and o >= (k + 1) * m // n_blocks:
-            k += 1
+        if o >= edge and k + 1 < n_blocks:
+            while k + 1 < n_blocks and o >= (k + 1) * m // n_blocks:
+                mb[MB_RR + k] += rr
+                mb[MB_RR + n_blocks + k] += ts
+                rr = ts = 0.0
+                k += 1
+            edge = (k + 1) * m // n_blocks if k + 1 < n_blocks else m + 1
+            if run_p >= 0:
+                _plan_run(run_p, run_n, run_level, k - 1, seen, mu, mb)
+                run_p = -1
         o += 1
-        mb[MB_RR + k] += 1.0
-        mb[MB_RR + n_blocks + k] += (i - centre) / fs
+        rr += 1.0
+        ts += (i - centre) / fs
         a = i0 + i
         p = piece_of[a - b1] if a >= b1 else -1
         if p < 0 or mu[0, p] == -2.0:
@@ -587,12 +659,17 @@ def _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_piece, n_blocks, fs, mu,
             n_ms += 1
             continue
         level = s[i] * sign[a - b1]
-        if seen[p] == 0.0:
-            mu[0, p] = k
-            mu[1, p] = level
-        elif mu[0, p] != k or mu[1, p] != level:
-            mb[MB_EXACT] = 0.0
-        seen[p] += 1.0
+        if p != run_p or level != run_level:
+            if run_p >= 0:
+                _plan_run(run_p, run_n, run_level, k, seen, mu, mb)
+            run_p = p
+            run_n = 0.0
+            run_level = level
+        run_n += 1.0
+    if run_p >= 0:
+        _plan_run(run_p, run_n, run_level, k, seen, mu, mb)
+    mb[MB_RR + k] += rr
+    mb[MB_RR + n_blocks + k] += ts
     mb[MB_N_MS] = n_ms
     for p in range(sizes.size):
         if seen[p] > 0.0 and seen[p] != sizes[p]:
@@ -601,6 +678,55 @@ def _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_piece, n_blocks, fs, mu,
         for d in range(c):
             if cut_piece[d] == cut_piece[c]:
                 mb[MB_EXACT] = 0.0
+
+
+#: Largest index step the phasor walk of :func:`_phasor_at` takes from its table.
+PHASOR_STEPS = 64
+
+
+@njit
+def _phasor_table(w):
+    """e^{j·w·g} for g = 0 … :data:`PHASOR_STEPS` (``w`` [rad per sample]), by the recurrence
+    e^{j·w·(g + 1)} = e^{j·w·g}·e^{j·w}."""
+    table = np.empty(PHASOR_STEPS + 1, np.complex128)
+    step = complex(math.cos(w), math.sin(w))
+    table[0] = 1.0
+    for g in range(1, PHASOR_STEPS + 1):
+        table[g] = table[g - 1] * step
+    return table
+
+
+@njit
+def _phasor_at(walk, i, slope, fs, centre, table):
+    """e^{j·a_i}, a_i = slope·(i − centre)/fs (the rotation of
+    :func:`rfsim.gen2._measure_kernels.measure_kernel` at span index ``i``): from the last index
+    of ``walk`` ((4,) float64: index, cos, sin, steps since the last exact value) by a step of
+    the table (:func:`_phasor_table`, |step| ≤ :data:`PHASOR_STEPS`), exactly (cos, sin) when
+    the step is longer or after :data:`PHASOR_STEPS` steps (drift < 1e−13)."""
+    g = i - int(walk[0])
+    if -PHASOR_STEPS <= g <= PHASOR_STEPS and walk[3] < PHASOR_STEPS:
+        t = table[g] if g >= 0 else table[-g].conjugate()
+        rot = complex(walk[1], walk[2]) * t
+        walk[3] += 1.0
+    else:
+        a = slope * ((i - centre) / fs)
+        rot = complex(math.cos(a), math.sin(a))
+        walk[3] = 0.0
+    walk[0], walk[1], walk[2] = i, rot.real, rot.imag
+    return rot
+
+
+@njit
+def _plan_run(p, count, level, k, seen, mu, mb):
+    """A run of ``count`` used samples of piece ``p`` in block ``k`` at ``level`` into the plan
+    of :func:`_measure_plan` (``mb[MB_EXACT]`` cleared when the piece was seen in another block
+    or at another level)."""
+    if seen[p] == 0.0:
+        mu[0, p] = k
+        mu[1, p] = level
+    elif mu[0, p] != k or mu[1, p] != level:
+        mb[MB_EXACT] = 0.0
+    seen[p] += count
 
 
 @njit
@@ -641,29 +767,31 @@ def _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb, i0
         if not w > 0.0:
             all_positive = False
     slope = block_slope(g, tc, y) if all_positive else 0.0
-    first, end = int(mb[MB_FIRST]), int(mb[MB_END])
-    pc, ps = _rotation(slope, fs, first, end, mb[MB_CENTRE])
+    centre = mb[MB_CENTRE]
+    table = _phasor_table(slope / fs)
+    walk = np.array([-(1 << 40), 1.0, 0.0, 0.0])
     acc = 0j
     zz = 0.0
     for e in range(int(mb[MB_N_MS])):
         a = ms[0, e]
-        q = a - i0 - first
+        rot = _phasor_at(walk, a - i0, slope, fs, centre, table)
         z = r[a] - c
         sv = full[a]
-        acc += z * complex(pc[q] * sv, -ps[q] * sv)
+        acc += z * complex(rot.real * sv, -rot.imag * sv)
         zz += z.real * z.real + z.imag * z.imag
+    walk[0] = -(1 << 40)
     w1 = slope / fs
     w2 = 0.5 * w1 * w1
     for p in range(n_p):
         if mu[0, p] < 0.0:
             continue
-        q = int(pm_mom[PM_ANCHOR, p]) - i0 - first
+        rot = _phasor_at(walk, int(pm_mom[PM_ANCHOR, p]) - i0, slope, fs, centre, table)
         size = sizes[p]
         mean = sums[p] / size
         term = (mom[0, p] - 1j * w1 * mom[2, p] - w2 * mom[3, p]
                 - c * complex(pm_mom[PM_CSIG, p] - w2 * pm_mom[PM_SD2, p], -w1 * pm_mom[PM_SD1, p])
                 + mean * complex(size - w2 * pm_mom[PM_D2, p], -w1 * pm_mom[PM_D1, p]))
-        acc += mu[1, p] * complex(pc[q], -ps[q]) * term
+        acc += mu[1, p] * complex(rot.real, -rot.imag) * term
         a_c = mom[0, p] - c * pm_mom[PM_CSIG, p]
         zz += (energy[p] - 2.0 * (c.real * mom[1, p].real + c.imag * mom[1, p].imag)
                + size * (c.real * c.real + c.imag * c.imag)
@@ -746,7 +874,6 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
-    flags = memo.flags
     n = r.size
     n_pre_half = nh - 2 * (n_bits + 1)
     res[RES_GAMMA_LEFT] = 0.0
@@ -754,15 +881,18 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     start = lo + start_rel
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again
-    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of, memo.pm_sign, memo.pm_kind,
-                  memo.pm_sizes, memo.pm_mom)
+    slot = _slot(memo.flags, start)
+    flags = memo.flags[slot]
+    pm_mom, mu, ms, mb = memo.pm_mom[slot], memo.mu[slot], memo.ms[slot], memo.mb[slot]
+    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of[slot], memo.pm_sign[slot],
+                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom)
     n_q = max(n - b1, 0)
-    piece_of, sign, kind, sizes = memo.pm_piece_of[:n_q], memo.pm_sign[:n_q], memo.pm_kind[:n_p], memo.pm_sizes[:n_p]
+    piece_of, sign = memo.pm_piece_of[slot, :n_q], memo.pm_sign[slot, :n_q]
+    kind, sizes = memo.pm_kind[slot, :n_p], memo.pm_sizes[slot, :n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    pm_mom = memo.pm_mom
     mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
@@ -783,8 +913,8 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
         return
     # (h, c) on the known levels of the reference of the search's decisions
     t0_samples = start / fs * fs
-    full = memo.wf_full
-    _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
+    full, wf_bits = memo.wf_full[slot], memo.wf_bits[slot]
+    _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
     h, c, fitted = _known_fit_pieces(r, full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], kind, pm_mom[PM_ANCHOR],
                                      mom, sums, sizes)
     if not fitted:
@@ -807,17 +937,18 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     for i in range(n_bits):
         same = same and bits_out[i] == det_bits[i]
     if not same:
-        _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
+        _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
     s_span = full[i0:i0 + n_span]  # the reference of the span (read, not copied)
     n_blocks = ip[IP_N_BLOCKS]
-    _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, memo.cut_memo, memo.mu, memo.ms, memo.mb)
-    exact = memo.mb[MB_EXACT] > 0.0
+    cut_memo = memo.cut_memo[slot]
+    _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, cut_memo, mu, ms, mb)
+    exact = mb[MB_EXACT] > 0.0
     if not exact:  # a piece the measurement reads in part: the samples after b1 spread (the sample-level path)
         _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
     n_free, n_used = _bridge_cuts(st, r, x, dc0, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks,
-                                  fs, flags, memo, ki, wi, fi)
+                                  fs, flags, cut_memo, mu, ms, mb, ki, wi, fi)
     if exact:
-        gain, slope, resid = _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, memo.mu, memo.ms, memo.mb,
+        gain, slope, resid = _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb,
                                              i0, fs, n_blocks)
     else:
         for i in range(n_span):

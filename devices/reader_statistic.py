@@ -366,10 +366,13 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = (lo, b0, b1, min(b0, 2), last + plan.pre_n)
     n_q = max(n - b1, 0)
     k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
-    memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
-                    np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
-                    np.zeros(n), np.zeros((6, max(k, 3)), np.int64), np.zeros((7, n_q)), np.zeros((2, n_q)),
-                    np.zeros((2, plan.n_reply + 4), np.int64), np.zeros(_sk.MB_RR + 2 * (k + 1)))
+    S = _sk.MEMO_SLOTS
+    flags = np.zeros((S, 8))
+    flags[:, _sk.MEMO_PM_PIECES] = -1.0
+    memo = _sk.Memo(flags, np.empty((S, n_q), np.int64), np.empty((S, n_q)), np.empty((S, n_q), np.int64),
+                    np.zeros((S, n_q)), np.zeros((S, int(plan.ints[_sk.IP_N_BITS])), np.uint8), np.zeros((S, n)),
+                    np.zeros((S, 6, max(k, 3)), np.int64), np.zeros((S, 7, n_q)), np.zeros((S, 2, n_q)),
+                    np.zeros((S, 2, plan.n_reply + 4), np.int64), np.zeros((S, _sk.MB_RR + 2 * (k + 1))))
     return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 

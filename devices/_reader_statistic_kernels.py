@@ -838,14 +838,16 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, res, memo, k
 
     ``st`` (4,) uint64: the generator's state in the noise kernels' order (state high, low word,
     increment high, low word; :func:`rfsim.air._noise_kernels._pcg64_state`). ``xs`` (B, n)
-    complex: the noise-free inputs. ``r`` (n,) complex: scratch; on return the last trial's
-    input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
-    parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
-    ``memo``: the :class:`Memo` of the plan, input length and search window. Per trial b:
-    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c into
-    ``z_out`` ((n_reply + 4,) complex, scratch, ``res[b, RES_N_SPAN]`` of them used), measured
-    against its ±1 reference (0 outside the reply; the span of the memo's reference) by
-    :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
+    complex: the noise-free inputs. ``r`` (n,) complex: scratch (the samples of the search
+    block and before it, with their noise and less the DC; the members of cut pieces; all
+    samples where the measurement falls back to the spread pieces). ``ip``, ``fp``: the
+    integer and float parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays`
+    of the reply; ``memo``: the :class:`Memo` of the plan, input length and search window. Per
+    trial b: the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the measurement
+    against the ±1 reference of the span (0 outside the reply; the memo's reference) from the
+    pieces' sums (:func:`_measure_pieces`), or where a piece would be read in part from the
+    reply span r − c in ``z_out`` ((n_reply + 4,) complex, scratch, ``res[b, RES_N_SPAN]`` of them
+    used) by :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
     ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
     in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
     residual power (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the
@@ -869,8 +871,7 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, res, memo, k
 def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     """:func:`receive_kernel`'s steps for one trial (``x`` its noise-free input, of which ``r``
     holds the samples before the pieces, ``r[:b1]``; ``bits_out`` and ``res`` its rows) on the
-    state ``st`` in the noise kernels' order; ``r`` is written in full (the noise added, the DC
-    subtracted)."""
+    state ``st`` in the noise kernels' order; ``r`` is written where :func:`receive_kernel` says."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]

@@ -18,10 +18,10 @@ from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           viterbi_kernel, waveform_kernel)
 # the receiver's functionals from per-piece sums (the piece classes and memo rows live there)
-from rfsim.devices._reader_statistic_pieces import (INNER_EDGE, MB_EXACT, MB_RR, PM_ANCHOR, PM_CSIG, PM_D1, PM_D2,
-                                                    PM_HALF, PM_SD1, PM_SD2, REST, SINGLE, STEADY, _halfbit_sums,
-                                                    _known_fit_pieces, _measure_pieces, _measure_plan,
-                                                    piece_moments_kernel)
+from rfsim.devices._reader_statistic_piece_kernels import (INNER_EDGE, MB_EXACT, MB_RR, PM_ANCHOR, PM_CSIG, PM_D1,
+                                                          PM_D2, PM_HALF, PM_SD1, PM_SD2, REST, SINGLE, STEADY,
+                                                          _halfbit_sums, _known_fit_pieces, _measure_pieces,
+                                                          _measure_plan, piece_moments_kernel)
 
 
 

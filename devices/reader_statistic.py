@@ -111,7 +111,7 @@ generator once per kernel call) and searches with the sample-level decoder's own
 template bank on the search block (noise added per sample). After the block no noise is spread
 over samples: one pass over the noise-free input after the block forms per piece Σσ_i·u_i,
 Σu_i, Σ|u_i|² and Σσ_i·u_i·δ_i^k (k = 1, 2; u = x − DC,
-:func:`~rfsim.devices._reader_statistic_kernels.piece_moments_kernel`), and every functional
+:func:`~rfsim.devices._reader_statistic_piece_kernels.piece_moments_kernel`), and every functional
 the receiver uses is formed from these, the drawn piece sums P_p and the samples of the block:
 the half-bit sums S_j = Σσ_i·r_i (the block's samples, then per piece of half-bit j
 Σσu + P_p; both decisions of step 3 project them: Re(g·S_j) − Re(dc·g)·C_j), the known-level

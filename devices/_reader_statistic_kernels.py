@@ -13,14 +13,16 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
-                                          signed_halfbit_sums_kernel, viterbi_kernel,
-                                          waveform_kernel)
+                                          viterbi_kernel, waveform_kernel)
+# the receiver's functionals from per-piece sums (the piece classes and memo rows live there)
+from rfsim.devices._reader_statistic_piece_kernels import (INNER_EDGE, MB_EXACT, MB_RR, PM_ANCHOR, PM_CSIG, PM_D1,
+                                                          PM_D2, PM_HALF, PM_SD1, PM_SD2, REST, SINGLE, STEADY,
+                                                          _halfbit_sums, _known_fit_pieces, _measure_pieces,
+                                                          _measure_plan, piece_moments_kernel)
 
-#: Piece classes (the second column of ``kind`` in :func:`piece_map_kernel`).
-STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
 
 
 @njit
@@ -159,22 +161,30 @@ def _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc):
 
 
 @njit
+def _cut_members(piece_of, p, e, reach):
+    """The window ``lo … hi − 1`` (±``reach`` about the edge ``e``) holding the members of the cut
+    piece ``p`` and its numbers of members before and after the edge: ``(lo, hi, n_a, n_b)``."""
+    n_a = 0
+    n_b = 0
+    lo = max(0, e - reach)
+    hi = min(piece_of.size, e + reach)
+    for q in range(lo, hi):
+        if piece_of[q] == p:
+            if q < e:
+                n_a += 1
+            else:
+                n_b += 1
+    return lo, hi, n_a, n_b
+
+
+@njit
 def apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, cut_piece, cut_edge, reach, part_a, part_b):
     """Respread every cut piece: its members before the edge carry ``part_a``, after it
     ``part_b`` (each over its own members) instead of the whole piece's sum, in place."""
     for c in range(cut_piece.size):
         p = cut_piece[c]
         e = cut_edge[c]
-        n_a = 0
-        n_b = 0
-        lo = max(0, e - reach)
-        hi = min(piece_of.size, e + reach)
-        for q in range(lo, hi):
-            if piece_of[q] == p:
-                if q < e:
-                    n_a += 1
-                else:
-                    n_b += 1
+        lo, hi, n_a, n_b = _cut_members(piece_of, p, e, reach)
         mean = sums[p] / sizes[p]
         for q in range(lo, hi):
             if piece_of[q] == p:
@@ -193,8 +203,11 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: Slots of ``Memo.flags``: the start whose piece map the ``pm_*`` arrays hold and its number
 #: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
 #: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
-#: cuts in ``cut_memo`` (:func:`_cuts`).
-MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN = range(7)
+#: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`).
+(MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN,
+ MEMO_STAMP) = range(8)
+#: Slots of the content memo (:class:`Memo`, the first axis of its arrays; :func:`_slot`).
+MEMO_SLOTS = 4
 
 
 class PlanArrays(NamedTuple):
@@ -215,10 +228,11 @@ class PlanArrays(NamedTuple):
 
 class Memo(NamedTuple):
     """The content memo of :func:`receive_kernel` for one plan, input length n and search
-    window (pure functions of what ``flags`` names, checked by :func:`_pieces`,
-    :func:`_reference` and :func:`_cuts` on every call)."""
+    window: :data:`MEMO_SLOTS` slots (the first axis of every array, chosen by the reply start,
+    :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
+    :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
 
-    flags: np.ndarray  # (7,) float64: the MEMO_* slots
+    flags: np.ndarray  # (8,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
     pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
     pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
@@ -226,6 +240,12 @@ class Memo(NamedTuple):
     wf_bits: np.ndarray  # (n_bits,) uint8: the bits of the reference in wf_full
     wf_full: np.ndarray  # (n,) float64: their ±1 reference (0 outside the reply)
     cut_memo: np.ndarray  # (6, max(n_blocks − 1, 3)) int64: the block cuts (:func:`_cuts`)
+    pm_mom: np.ndarray  # (7, n − b1) float64: per piece the PM_* rows (:func:`_pieces`)
+    mu: np.ndarray  # (2, n − b1) float64: per piece its measurement block (−1: not read whole) and level
+    ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
+    mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
+
+
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
 OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
@@ -301,33 +321,12 @@ def _search(st, r, ip, fp, plan, ki, wi, fi):
 
 
 @njit
-def _known_fit(r, full, t0_samples, ratio, n_pre_elements):
-    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
-    :func:`rfsim.gen2.capture.fit_gain_offset`). Returns (h, c, False) when the levels are
-    constant (no fit)."""
-    r_k = np.empty(r.size, np.complex128)
-    lev = np.empty(r.size)
-    mk = known_levels_kernel(r, full, t0_samples, ratio, n_pre_elements, r_k, lev)
-    ss = s1 = 0.0
-    rs = r1 = 0j
-    for i in range(mk):
-        ss += lev[i] * lev[i]
-        s1 += lev[i]
-        rs += r_k[i] * lev[i]
-        r1 += r_k[i]
-    det = ss * mk - s1 * s1
-    if abs(det) <= 1e-12 * max(ss * mk, 1e-300):
-        return 0j, 0j, False
-    return (mk * rs - s1 * r1) / det, (ss * r1 - s1 * rs) / det, True
-
-
-@njit
-def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
+def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, mu, ms, mb):
     """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
     the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
     int64: the cut pieces, edges, members before and after; in row 4 the samples the
-    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)), made only when it does
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)) and the measurement's
+    plan (:func:`_measure_plan` into ``mu``, ``ms``, ``mb``), made only when it does
     not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
     piece map and the reference it was made from are those of :func:`_pieces` and
     :func:`_reference`, which clear it when they make new ones)."""
@@ -345,18 +344,22 @@ def _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo):
                                        cut_memo[2], cut_memo[3])
     cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
     cut_memo[5, 0] = int(n_free)
+    _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_memo[0, :n_cuts], n_blocks, fs, mu, ms, mb)
     memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
     memo[MEMO_CUT_VALID] = 1.0
 
 
 @njit
-def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, memo, cut_memo, ki, wi, fi):
-    """Steps 4 and 6 on ``r`` (in place): the steady pieces cut by the measurement's block edges
+def _bridge_cuts(st, r, x, dc, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks, fs, memo, cut_memo, mu,
+                 ms, mb, ki, wi, fi):
+    """Steps 4 and 6: the steady pieces cut by the measurement's block edges
     (:func:`block_cuts_kernel` through the memo :func:`_cuts`, ``s`` the reference from sample
-    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block) and spread again
-    (:func:`apply_cuts_kernel`). Returns (Σ(|p| − 1) over the steady pieces less one per cut,
-    the samples the measurement reads)."""
-    _cuts(s, i0, b1, piece_of, kind, sizes, n_blocks, memo, cut_memo)
+    ``i0``) split by a Gaussian bridge (one (2, 2·cuts) normal block); their members written
+    into ``r`` as x − ``dc`` plus their part spread over them (:func:`_fill_cuts`; the members
+    of :func:`apply_cuts_kernel`; ``memo``, ``cut_memo``, ``mu``, ``ms``, ``mb`` those of
+    :func:`_cuts`). Returns (Σ(|p| − 1) over
+    the steady pieces less one per cut, the samples the measurement reads)."""
+    _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, mu, ms, mb)
     n_used, n_cuts, reach = cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2]
     n_free = float(cut_memo[5, 0])
     piece, edge, n_a, n_b = cut_memo[0], cut_memo[1], cut_memo[2], cut_memo[3]
@@ -374,8 +377,22 @@ def _bridge_cuts(st, r, s, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_
             miss = sums[piece[j]] - ab[j] - ab[n_cuts + j]
             part_a[j] = ab[j] + miss * (n_a[j] / tot)
             part_b[j] = ab[n_cuts + j] + miss * (n_b[j] / tot)
-        apply_cuts_kernel(r, b1, piece_of, sign, sums, sizes, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
+        _fill_cuts(r, x, dc, b1, piece_of, sign, piece[:n_cuts], edge[:n_cuts], reach, part_a, part_b)
     return n_free - n_cuts, n_used
+
+
+@njit
+def _fill_cuts(r, x, dc, b1, piece_of, sign, cut_piece, cut_edge, reach, part_a, part_b):
+    """The members of every cut piece (those of :func:`apply_cuts_kernel`) written into ``r``:
+    (x_i − ``dc``) + σ_i·``part_a``/n_a before the edge, ``part_b``/n_b after it."""
+    for c in range(cut_piece.size):
+        p = cut_piece[c]
+        e = cut_edge[c]
+        lo, hi, n_a, n_b = _cut_members(piece_of, p, e, reach)
+        for q in range(lo, hi):
+            if piece_of[q] == p:
+                part = part_a[c] / n_a if q < e else part_b[c] / n_b
+                r[b1 + q] = (x[b1 + q] - dc) + sign[q] * part
 
 
 @njit
@@ -401,19 +418,74 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 
 @njit
-def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes):
-    """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`) and the pieces'
-    sizes in the ``pm_*`` arrays, made only when they do not already hold those of ``start``
-    (``memo``; a pure function of the start for the plan and input length of the caller).
-    Returns the number of pieces."""
+def _slot(flags, start):
+    """The memo slot (row of ``flags``, (S, 8)) holding the pieces of ``start``, else the one
+    used longest ago (its content made anew by the callers); the slot's use stamped in
+    column :data:`MEMO_STAMP`. The slots' contents are pure functions of their keys: which
+    slot holds what never changes a result."""
+    best = 0
+    for j in range(flags.shape[0]):
+        if flags[j, MEMO_PM_PIECES] >= 0.0 and flags[j, MEMO_PM_START] == start:
+            best = j
+            break
+        if flags[j, MEMO_STAMP] < flags[best, MEMO_STAMP]:
+            best = j
+    top = 0.0
+    for j in range(flags.shape[0]):
+        top = max(top, flags[j, MEMO_STAMP])
+    flags[best, MEMO_STAMP] = top + 1.0
+    return best
+
+
+@njit
+def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom):
+    """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`), the pieces'
+    sizes and their moments (rows ``PM_*`` of ``pm_mom``) in the ``pm_*`` arrays, made only
+    when they do not already hold those of ``start`` (``memo``; a pure function of the start
+    for the plan and input length of the caller). Returns the number of pieces."""
     if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
         return int(memo[MEMO_PM_PIECES])
     memo[MEMO_PM_PIECES] = -1.0
     memo[MEMO_CUT_VALID] = 0.0
     n_p = piece_map_kernel(n, b1, start, ratio, m, n_elements, pm_piece_of, pm_sign, pm_kind)
     pm_sizes[:n_p] = 0.0
-    for q in range(n - b1):
-        pm_sizes[pm_piece_of[q]] += 1.0
+    pm_mom[:, :n_p] = 0.0
+    n_q = n - b1
+    q = 0
+    while q < n_q:  # per run of samples of one piece: the count and Σi
+        p = pm_piece_of[q]
+        if pm_sizes[p] == 0.0:
+            k = _element(b1 + q, start, ratio)
+            pm_mom[PM_HALF, p] = k // m if 0 <= k < n_elements else -1
+        cnt = 0.0
+        acc = 0.0
+        while q < n_q and pm_piece_of[q] == p:
+            cnt += 1.0
+            acc += b1 + q
+            q += 1
+        pm_sizes[p] += cnt
+        pm_mom[PM_ANCHOR, p] += acc
+    for p in range(n_p):
+        pm_mom[PM_ANCHOR, p] = math.floor(pm_mom[PM_ANCHOR, p] / pm_sizes[p] + 0.5)
+    q = 0
+    while q < n_q:  # per run: Σσ, Σδ, Σδ², Σσδ, Σσδ²
+        p = pm_piece_of[q]
+        a = pm_mom[PM_ANCHOR, p]
+        c0 = c1 = c2 = c3 = c4 = 0.0
+        while q < n_q and pm_piece_of[q] == p:
+            sg = pm_sign[q]
+            d = b1 + q - a
+            c0 += sg
+            c1 += d
+            c2 += d * d
+            c3 += sg * d
+            c4 += sg * d * d
+            q += 1
+        pm_mom[PM_CSIG, p] += c0
+        pm_mom[PM_D1, p] += c1
+        pm_mom[PM_D2, p] += c2
+        pm_mom[PM_SD1, p] += c3
+        pm_mom[PM_SD2, p] += c4
     memo[MEMO_PM_START] = start
     memo[MEMO_PM_PIECES] = n_p
     return n_p
@@ -455,14 +527,16 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, res, memo, k
 
     ``st`` (4,) uint64: the generator's state in the noise kernels' order (state high, low word,
     increment high, low word; :func:`rfsim.air._noise_kernels._pcg64_state`). ``xs`` (B, n)
-    complex: the noise-free inputs. ``r`` (n,) complex: scratch; on return the last trial's
-    input after the DC subtraction, the noise added. ``ip``, ``fp``: the integer and float
-    parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays` of the reply;
-    ``memo``: the :class:`Memo` of the plan, input length and search window. Per trial b:
-    the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the reply span r − c into
-    ``z_out`` ((n_reply + 4,) complex, scratch, ``res[b, RES_N_SPAN]`` of them used), measured
-    against its ±1 reference (0 outside the reply; the span of the memo's reference) by
-    :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
+    complex: the noise-free inputs. ``r`` (n,) complex: scratch (the samples of the search
+    block and before it, with their noise and less the DC; the members of cut pieces; all
+    samples where the measurement falls back to the spread pieces). ``ip``, ``fp``: the
+    integer and float parameters (slots ``IP_*``, ``FP_*``); ``plan``: the :class:`PlanArrays`
+    of the reply; ``memo``: the :class:`Memo` of the plan, input length and search window. Per
+    trial b: the decoded bits into ``bits_out[b]`` ((B, n_bits + 1) uint8); the measurement
+    against the ±1 reference of the span (0 outside the reply; the memo's reference) from the
+    pieces' sums (:func:`_measure_pieces`), or where a piece would be read in part from the
+    reply span r − c in ``z_out`` ((n_reply + 4,) complex, scratch, ``res[b, RES_N_SPAN]`` of them
+    used) by :func:`rfsim.gen2._measure_kernels.measure_kernel`; into ``res[b]`` ((B, 14), slots
     ``RES_*``) the status, the reply start (relative to ``lo``), the correlation, c, i0, the
     in-piece degrees of freedom, the measurement's sample count and its gain h, phase slope and
     residual power (step 6's in-piece energy added, :func:`standard_gamma_kernel`; when the
@@ -486,12 +560,10 @@ def receive_kernel(st, xs, trial, r, ip, fp, plan, bits_out, z_out, res, memo, k
 def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     """:func:`receive_kernel`'s steps for one trial (``x`` its noise-free input, of which ``r``
     holds the samples before the pieces, ``r[:b1]``; ``bits_out`` and ``res`` its rows) on the
-    state ``st`` in the noise kernels' order; ``r`` is written in full (the noise added, the DC
-    subtracted)."""
+    state ``st`` in the noise kernels' order; ``r`` is written where :func:`receive_kernel` says."""
     lo, b1, m, nh, n_bits = ip[IP_LO], ip[IP_B1], ip[IP_M], ip[IP_NH], ip[IP_N_BITS]
     n_decode, state = ip[IP_N_DECODE], ip[IP_STATE]
     sigma2, ratio, fs = fp[FP_SIGMA2], fp[FP_RATIO], fp[FP_FS]
-    flags = memo.flags
     n = r.size
     n_pre_half = nh - 2 * (n_bits + 1)
     res[RES_GAMMA_LEFT] = 0.0
@@ -499,15 +571,19 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     start = lo + start_rel
     res[RES_START] = start_rel
     # step 3: the pieces after the block, spread, the DC subtraction again
-    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of, memo.pm_sign, memo.pm_kind,
-                  memo.pm_sizes)
+    slot = _slot(memo.flags, start)
+    flags = memo.flags[slot]
+    pm_mom, mu, ms, mb = memo.pm_mom[slot], memo.mu[slot], memo.ms[slot], memo.mb[slot]
+    n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of[slot], memo.pm_sign[slot],
+                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom)
     n_q = max(n - b1, 0)
-    piece_of, sign, kind, sizes = memo.pm_piece_of[:n_q], memo.pm_sign[:n_q], memo.pm_kind[:n_p], memo.pm_sizes[:n_p]
+    piece_of, sign = memo.pm_piece_of[slot, :n_q], memo.pm_sign[slot, :n_q]
+    kind, sizes = memo.pm_kind[slot, :n_p], memo.pm_sizes[slot, :n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    for i in range(b1):  # the spread pieces lie after lo: the mean before it is dc0
+    for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
+    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -520,16 +596,17 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     det_bits = np.empty(n_bits + 1, np.uint8)
     s_sum = np.empty(nh, np.complex128)
     s_count = np.empty(nh)
-    signed_halfbit_sums_kernel(r[i0: i0 + n_decode + 2], frac, ratio, m, s_sum, s_count)
+    _halfbit_sums(r, i0, b1, n_decode, frac, ratio, m, mom, sums, pm_mom, s_sum, s_count)
     _decide(s_sum, s_count, 1.0 / h, (dcp * (1.0 / h)).real, m > 1, n_pre_half, state, det_bits)
     if corr < fp[FP_THRESHOLD]:
         res[RES_STATUS] = NOT_FOUND
         return
     # (h, c) on the known levels of the reference of the search's decisions
     t0_samples = start / fs * fs
-    full = memo.wf_full
-    _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
-    h, c, fitted = _known_fit(r, full, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS])
+    full, wf_bits = memo.wf_full[slot], memo.wf_bits[slot]
+    _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
+    h, c, fitted = _known_fit_pieces(r, full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], kind, pm_mom[PM_ANCHOR],
+                                     mom, sums, sizes)
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
         return
@@ -550,13 +627,23 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     for i in range(n_bits):
         same = same and bits_out[i] == det_bits[i]
     if not same:
-        _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, memo.wf_bits, full)
+        _reference(bits_out[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
     s_span = full[i0:i0 + n_span]  # the reference of the span (read, not copied)
-    n_free, n_used = _bridge_cuts(st, r, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2,
-                                  ip[IP_N_BLOCKS], flags, memo.cut_memo, ki, wi, fi)
-    for i in range(n_span):
-        z_out[i] = r[i0 + i] - c
-    gain, slope, resid = measure_kernel(z_out[:n_span], s_span, fs, ip[IP_N_BLOCKS])
+    n_blocks = ip[IP_N_BLOCKS]
+    cut_memo = memo.cut_memo[slot]
+    _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, cut_memo, mu, ms, mb)
+    exact = mb[MB_EXACT] > 0.0
+    if not exact:  # a piece the measurement reads in part: the samples after b1 spread (the sample-level path)
+        _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
+    n_free, n_used = _bridge_cuts(st, r, x, dc0, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks,
+                                  fs, flags, cut_memo, mu, ms, mb, ki, wi, fi)
+    if exact:
+        gain, slope, resid = _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb,
+                                             i0, fs, n_blocks)
+    else:
+        for i in range(n_span):
+            z_out[i] = r[i0 + i] - c
+        gain, slope, resid = measure_kernel(z_out[:n_span], s_span, fs, n_blocks)
     # step 6: the in-piece noise energy σ²·Gamma(n_free)/n_used, where the SNR is finite
     if resid > 0.0 and abs(gain) ** 2 > 0.0 and n_used > 0 and n_free > 0:  # (as Reader._measurements)
         if n_free > 1.0:

@@ -63,18 +63,31 @@ Step by step (the steps of :meth:`Reader.receive`):
    (independent CN(0, σ²|a|), CN(0, σ²|b|) draws corrected to sum to the drawn P_p: exactly the
    conditional law of the two partial sums given P_p). **Exact.**
 5. Gain with the Doppler rotation removed, h = Σ z_i·s_i·e^{−j·ω·t_i}/Σ s_i²: the weights are not
-   constant over a piece. **Not exact**: the noise of a piece enters with the mean rotation of
-   the piece instead of its per-sample rotation; the error of that term is of order
-   (ω·|p|/fs)²/8 relative (ω the estimated Doppler, |p| ≤ a half-bit, below 1e−6 for the Doppler a
-   static link estimates at any SNR that decodes). RSSI and phase are exact to that order.
-6. Residual power σ̂² (SNR, Eb/N0 of the read; no decision depends on it): a quadratic form.
-   The spread pieces carry the energy |P_p|²/|p| of their sums; the energy of the noise within a
-   steady piece about its mean, an independent σ²·Gamma(|p| − 1) per piece, is added as one
-   Gamma draw over the pieces the measurement reads (:func:`residual_correction`). **Exact**
-   where the noise-free residual is a constant times σ_i on each piece (one tag, no rotation);
-   with a second tag's reply or a Doppler rotation its cross term with the in-piece noise (zero
-   mean, of the order of the second tag's power against σ² times the in-piece fraction) is
-   **omitted**.
+   constant over a piece. Per piece p (s_i = L_p·σ_i on it), about an anchor a_p (the sample
+   nearest the mean of its sample indices, δ_i = i − a_p, ω' = ω/fs):
+   Σ_{i∈p} z_i·s_i·e^{−jωt_i} = L_p·e^{−jω't(a_p)}·(Σσu·E − c·ΣσE + (P_p/|p|)·ΣE) with
+   u = x − DC, E = e^{−jω'δ_i} taken to second order, 1 − jω'δ − ω'²δ²/2, so that the sums
+   Σσ_i·u_i·δ_i^k (k ≤ 2, of the noise-free input: formed in the one pass over it) and
+   Σσ_i·δ_i^k, Σδ_i^k (of the piece map, kept by content) carry it. **Not exact**: the
+   error of each term is ≈ (ω'δ)³/6 relative (|δ| ≤ half a half-bit: ≈ 12 samples at
+   Miller-4, 320 kHz, 4 MS/s; below 1e−9 for the Doppler a static link estimates at any SNR
+   that decodes, ≈ 1e−7 at a 1 kHz Doppler). The samples of the search block and of the cut
+   pieces of step 4 are read one by one with the exact rotation (the measurement kernel's
+   e^{−jω·t}, walked from sample to sample by a table of steps). The block sums behind the
+   Doppler slope (no rotation) are exact: L_p·(Σσu − c·Σσ + P_p) per piece. RSSI and phase
+   are exact to the order above.
+6. Residual power σ̂² (SNR, Eb/N0 of the read; no decision depends on it): a quadratic form,
+   formed by the least-squares identity Σ|z − h·s·e^{jωt}|² = Σ|z|² − |h|²·m (m samples read,
+   s² = 1; exact for the least-squares h, to the order of step 5 for the h formed) with per
+   piece Σ|z|² = Σ|u|² − 2·Re(c̄·Σu) + |p|·|c|² + 2·Re(conj(P_p/|p|)·(Σσu − c·Σσ)) + |P_p|²/|p|
+   (the spread piece's energy |P_p|²/|p| and its cross term with the noise-free input, exact);
+   u = x − DC keeps the leakage out of the squares (no cancellation of its power). The energy of
+   the noise within a steady piece about its mean, an independent σ²·Gamma(|p| − 1) per piece,
+   is added as one Gamma draw over the pieces the measurement reads (:func:`residual_correction`).
+   **Exact** where the noise-free residual is a constant times σ_i on each piece (one tag, no
+   rotation); with a second tag's reply or a Doppler rotation its cross term with the in-piece
+   noise (zero mean, of the order of the second tag's power against σ² times the in-piece
+   fraction) is **omitted**.
 7. BLF search (``blf_search = "preamble"``): not modelled (a one-line ConfigError:
    ``rx_model = "statistic"`` needs ``blf_search = "off"``).
 
@@ -94,37 +107,44 @@ Implementation: steps 1–4 and the draw of step 6 run in one numba call per bat
 :func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
 the same order as ``rng.standard_normal``; the state read from and written back to the
-generator once per kernel call), searches with the sample-level decoder's own kernel and template bank,
-forms the half-bit sums S_j = Σσ_i·r_i once (both decisions of step 3 project them:
-Re(g·S_j) − Re(dc·g)·C_j), fits, cuts and bridges as above, and measures with the reader's
-measurement kernel; Python applies the reader's measurement rule (``Reader._measurements``) to
-the gain, slope and residual power and builds the :class:`ReadResult`. What depends only on the
-link, the reply's length, the BLF and the sample rate (templates, refinement bank and its runs,
-sizes) is kept in the run's :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from
-the link), and per search window (:class:`_Call`) what depends only on content
-(:class:`~rfsim.devices._reader_statistic_kernels.Memo`): the piece map of the last reply start,
-the reference of the last decided bits, the block cuts of the last span; and the CRC check of
-decoded bits (pure functions of their keys, checked on every call: the same numbers as made
-anew). The NumPy twin of the steps (the sample-level decoder's calls on ``x + ñ``) is
-``reference.devices_reader_statistic.receive_reference`` in the tests: the same draws,
-decisions and generator state, the measurements equal up to the order of the sums.
+generator once per kernel call) and searches with the sample-level decoder's own kernel and
+template bank on the search block (noise added per sample). After the block no noise is spread
+over samples: one pass over the noise-free input after the block forms per piece Σσ_i·u_i,
+Σu_i, Σ|u_i|² and Σσ_i·u_i·δ_i^k (k = 1, 2; u = x − DC,
+:func:`~rfsim.devices._reader_statistic_piece_kernels.piece_moments_kernel`), and every functional
+the receiver uses is formed from these, the drawn piece sums P_p and the samples of the block:
+the half-bit sums S_j = Σσ_i·r_i (the block's samples, then per piece of half-bit j
+Σσu + P_p; both decisions of step 3 project them: Re(g·S_j) − Re(dc·g)·C_j), the known-level
+fit (the block's samples, then the pieces after the reply: Σr = Σu + P_p at level −1), the
+measurement (steps 4–6 above; the members of a cut piece written as samples). Where a piece
+would be read only in part (a reference whose element edges disagree with the piece map's by
+rounding) the kernel spreads the pieces over the samples and measures with the reader's
+measurement kernel instead (the model as before: the same values). Python applies the
+reader's measurement rule (``Reader._measurements``) to the gain, slope and residual power and
+builds the :class:`ReadResult`. What depends only on the link, the reply's length, the BLF and
+the sample rate (templates, refinement bank and its runs, sizes) is kept in the run's
+:class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the link), and per search
+window (:class:`_Call`) what depends only on content
+(:class:`~rfsim.devices._reader_statistic_kernels.Memo`, four slots by reply start: an EPC
+reply's start takes a few values): the piece map of a reply start and its moments, the
+reference of the last decided bits, the block cuts and the measurement's plan of the last span;
+and the CRC check of decoded bits (pure functions of their keys, checked on every call: the same
+numbers as made anew). The NumPy twin of the steps (the sample-level decoder's calls on
+``x + ñ``, the spread noise) is ``reference.devices_reader_statistic.receive_reference`` in the
+tests: the same draws, decisions and generator state, the measurements equal up to the order
+of the sums and the order of step 5.
 
 Cost: complex normals ≈ search block + pieces (≈ 550 + 1,040 for an EPC reply at Miller-4,
-320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). The receiver still makes per-sample
-passes over ``x + ñ`` (the spread, the half-bit sums, the known levels, the reader's
-measurement; the piece map, the reference and the block cuts only when their content changes)
-and the decoder's search with its sub-sample refinement (``rfsim bench exchange-statistic``):
-≈ 120–145 µs of kernel per EPC reply, ≈ 25–45 µs of Python around a call (≈ 8 µs of it the
-reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would change in the last
-bit for ≈ 7 % of values, and with it the sample-level records). Of the kernel (EPC reply, steps
-timed one after another on a loaded host): the measurement ≈ 44 µs, the spread ≈ 14, the search
-with its draws ≈ 13, the half-bit sums ≈ 13, the pieces' draws ≈ 7, the fit, the span r − c and
-the cuts ≈ 5 each. Everything but the draws, the spread and the cuts is the sample-level
-receive's own work on the same number of samples, so per call this receiver costs more than
-the sample-level receive by about its own noise (≈ 30 µs), which the sample-level model draws
-in the air step, outside its receive. A receiver without per-sample passes would form the
-half-bit, block and fit sums of ``x`` per piece (or keep them by content where ``x``
-repeats); the search block stays per sample (step 2).
+320 kHz, 4 MS/s, against 7,090 samples: ≈ 4.5× fewer). Kernel per EPC reply (200 calls of
+one input, CPU time on a loaded host): ≈ 98 µs against ≈ 148 µs with the spread and the
+per-sample passes (RN16 ≈ 41 against 46 µs: the search block is most of a short reply). Of it:
+the search with its draws ≈ 21 µs, the pass over the input ≈ 23, the piece sums' draws ≈ 7,
+the measurement ≈ 10–15, the two Viterbi decisions ≈ 6, the half-bit sums, fit and preamble
+fit ≈ 3 each; with a new reply start (a memo slot made anew) the piece map and its moments
+(≈ 60 µs) and the measurement's plan (≈ 35 µs) on top. Python around a call ≈ 30–40 µs (≈ 8
+µs of it the reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would
+change in the last bit for ≈ 7 % of values, and with it the sample-level records). The draws
+(≈ 11 µs, PCG64 normals) are not the larger part; the pass over the input and the search are.
 """
 
 from __future__ import annotations
@@ -366,9 +386,13 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     ip[[_sk.IP_LO, _sk.IP_B0, _sk.IP_B1, _sk.IP_HEAD, _sk.IP_N_SEARCH]] = (lo, b0, b1, min(b0, 2), last + plan.pre_n)
     n_q = max(n - b1, 0)
     k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
-    memo = _sk.Memo(np.array([0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), np.empty(n_q, np.int64), np.empty(n_q),
-                    np.empty(n_q, np.int64), np.zeros(n_q), np.zeros(int(plan.ints[_sk.IP_N_BITS]), np.uint8),
-                    np.zeros(n), np.zeros((6, max(k, 3)), np.int64))
+    S = _sk.MEMO_SLOTS
+    flags = np.zeros((S, 8))
+    flags[:, _sk.MEMO_PM_PIECES] = -1.0
+    memo = _sk.Memo(flags, np.empty((S, n_q), np.int64), np.empty((S, n_q)), np.empty((S, n_q), np.int64),
+                    np.zeros((S, n_q)), np.zeros((S, int(plan.ints[_sk.IP_N_BITS])), np.uint8), np.zeros((S, n)),
+                    np.zeros((S, 6, max(k, 3)), np.int64), np.zeros((S, 7, n_q)), np.zeros((S, 2, n_q)),
+                    np.zeros((S, 2, plan.n_reply + 4), np.int64), np.zeros((S, _sk.MB_RR + 2 * (k + 1))))
     return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 

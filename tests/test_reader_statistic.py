@@ -26,7 +26,8 @@ from rfsim.devices import reader_statistic as rs
 from rfsim.devices.reader import ReaderConfig
 from rfsim.gen2._linecode_kernels import INDEX_EPS
 from reference.ulp import assert_close_ulp
-from reference.devices_reader_statistic import block_cuts_reference, piece_map_reference, receive_reference
+from reference.devices_reader_statistic import (block_cuts_reference, piece_map_reference, piece_moments_reference,
+                                               receive_reference)
 
 import statistic_trials as trials
 
@@ -168,6 +169,46 @@ def test_bridge_split_has_the_conditional_law_of_partial_sums():
     assert abs(xa.imag.mean() + 1.0 * a / (a + b)) < Z * se
     assert abs(xa.real.var() / var - 1) < Z * math.sqrt(2 / n)
     assert abs(xa.imag.var() / var - 1) < Z * math.sqrt(2 / n)
+
+
+@pytest.mark.parametrize("m", [1, 4])
+def test_piece_moments_kernel_matches_reference(m):
+    """The one pass over the noise-free input (per-piece sums of σu, u, σuδ, σuδ², |u|²) against
+    bincount sums: the same up to the order of the sums."""
+    from rfsim.devices import _reader_statistic_kernels as sk
+
+    rng = np.random.default_rng(40 + m)
+    n, b1, ratio = 900, 37, 0.16
+    piece_of, sign, kind = rs.piece_map(n, b1, 61.3, ratio, m, 2 * m * 40)
+    n_p = kind.size
+    sizes = np.bincount(piece_of, minlength=n_p)
+    anchor = np.floor(np.bincount(piece_of, weights=np.arange(b1, n), minlength=n_p) / sizes + 0.5)
+    x = 5.0 + rng.standard_normal(n) + 1j * rng.standard_normal(n)
+    got = sk.piece_moments_kernel(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p)
+    want = piece_moments_reference(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p)
+    scale = np.max(np.abs(want[0][3]))
+    np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(got[1], want[1], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("m, doppler_hz", [(4, 300.0), (1, 300.0)])
+def test_receive_kernel_matches_its_numpy_twin_with_a_doppler_rotation(m, doppler_hz):
+    """As the twin test below with the reply rotated by a Doppler shift: the measurement's
+    rotation over a piece taken to second order about its anchor (module docstring, step 5)
+    still gives the sample-level values within 1e−8 relative."""
+    x_all, reader, cmd_end_s = trials.inputs(m, 12, ebn0_db=12.0, seed=500 + m)
+    ra, rb = np.random.default_rng(3), np.random.default_rng(3)
+    for x in x_all:
+        x = x[0] + (x - x[0]) * np.exp(2j * np.pi * doppler_hz * np.arange(x.size) / reader.fs_hz)
+        a = rs.receive(reader, x, t0_s=0.0, n_bits=trials.PAYLOAD_BITS + 16, expect_crc=True, cmd_end_s=cmd_end_s,
+                       rng=ra)
+        b = receive_reference(reader, x, t0_s=0.0, n_bits=trials.PAYLOAD_BITS + 16, expect_crc=True,
+                              cmd_end_s=cmd_end_s, rng=rb)
+        assert (a.success, a.failure_reason) == (b.success, b.failure_reason)
+        got = [a.rssi_dbm, a.phase_rad, a.doppler_hz, a.snr_db]
+        want = [b.rssi_dbm, b.phase_rad, b.doppler_hz, b.snr_db]
+        np.testing.assert_allclose(got, want, rtol=1e-8, atol=1e-8, equal_nan=True)
+    assert ra.bit_generator.state == rb.bit_generator.state
 
 
 @pytest.mark.parametrize("m, ebn0_db, second_db", [(4, 7.0, None), (1, 8.0, None), (2, 4.0, None), (8, 0.0, None),

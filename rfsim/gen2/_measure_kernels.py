@@ -77,38 +77,7 @@ def measure_kernel(z, s, fs_hz, n_blocks):
         w = g[k].real * g[k].real + g[k].imag * g[k].imag
         if not w > 0.0:
             all_positive = False
-    slope = 0.0
-    if all_positive:
-        # weighted least-squares line through the unwrapped arg g_k (numpy.unwrap, period 2π)
-        cum = 0.0
-        prev = 0.0
-        sw = 0.0
-        swx = 0.0
-        swy = 0.0
-        for k in range(n_blocks):
-            p = math.atan2(g[k].imag, g[k].real)
-            if k > 0:
-                dd = p - prev
-                ddmod = (dd + math.pi) % (2.0 * math.pi) - math.pi
-                if ddmod == -math.pi and dd > 0:
-                    ddmod = math.pi
-                if abs(dd) >= math.pi:
-                    cum += ddmod - dd
-            prev = p
-            y[k] = p + cum
-            w = g[k].real * g[k].real + g[k].imag * g[k].imag
-            sw += w
-            swx += w * tc[k]
-            swy += w * y[k]
-        xm = swx / sw
-        ym = swy / sw
-        num = 0.0
-        den = 0.0
-        for k in range(n_blocks):
-            w = g[k].real * g[k].real + g[k].imag * g[k].imag
-            num += w * (tc[k] - xm) * (y[k] - ym)
-            den += w * (tc[k] - xm) * (tc[k] - xm)
-        slope = num / den
+    slope = block_slope(g, tc, y) if all_positive else 0.0
     # gain with the rotation e^{−j·slope·t} removed, then the residual power
     pc, ps = _rotation(slope, fs_hz, i0, i1, centre)
     acc = 0j
@@ -124,6 +93,43 @@ def measure_kernel(z, s, fs_hz, n_blocks):
         e = buf_z[j] - h * complex(pc[q] * buf_ref[j], ps[q] * buf_ref[j])
         res += e.real * e.real + e.imag * e.imag
     return h, slope, res / m
+
+
+@njit
+def block_slope(g, tc, y):
+    """The phase slope [rad/s] of :func:`measure_kernel`: the weighted (|g_k|²) least-squares
+    line through the unwrapped arg g_k (numpy.unwrap, period 2π) against the block centre
+    times ``tc`` [s]; every |g_k| > 0. ``y`` ((K,) float64) is scratch (the unwrapped phases)."""
+    n_blocks = g.size
+    cum = 0.0
+    prev = 0.0
+    sw = 0.0
+    swx = 0.0
+    swy = 0.0
+    for k in range(n_blocks):
+        p = math.atan2(g[k].imag, g[k].real)
+        if k > 0:
+            dd = p - prev
+            ddmod = (dd + math.pi) % (2.0 * math.pi) - math.pi
+            if ddmod == -math.pi and dd > 0:
+                ddmod = math.pi
+            if abs(dd) >= math.pi:
+                cum += ddmod - dd
+        prev = p
+        y[k] = p + cum
+        w = g[k].real * g[k].real + g[k].imag * g[k].imag
+        sw += w
+        swx += w * tc[k]
+        swy += w * y[k]
+    xm = swx / sw
+    ym = swy / sw
+    num = 0.0
+    den = 0.0
+    for k in range(n_blocks):
+        w = g[k].real * g[k].real + g[k].imag * g[k].imag
+        num += w * (tc[k] - xm) * (y[k] - ym)
+        den += w * (tc[k] - xm) * (tc[k] - xm)
+    return num / den
 
 
 @njit

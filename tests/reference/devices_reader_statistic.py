@@ -185,3 +185,18 @@ def _reach(sizes: np.ndarray, is_steady: np.ndarray) -> int:
     """Samples around a block edge within which a steady piece's members lie: a steady piece
     lies within one half-bit, whose samples are at most 8 times its steady ones (plus 8)."""
     return int(np.max(sizes[is_steady], initial=0)) * 8 + 8
+
+
+def piece_moments_reference(x, dc, b1, piece_of, sign, anchor, n_p):
+    """``(mom, energy)`` as :func:`rfsim.devices._reader_statistic_kernels.piece_moments_kernel`
+    by ``numpy.bincount`` over the pieces (u = x − dc from sample ``b1``, δ = i − anchor)."""
+    u = x[b1: b1 + piece_of.size] - dc
+    d = np.arange(b1, b1 + piece_of.size) - anchor[piece_of]
+
+    def per_piece(v):
+        return (np.bincount(piece_of, weights=np.real(v), minlength=n_p)
+                + 1j * np.bincount(piece_of, weights=np.imag(v), minlength=n_p))
+
+    su = sign * u
+    mom = np.array([per_piece(su), per_piece(u), per_piece(su * d), per_piece(su * d * d)])
+    return mom, np.bincount(piece_of, weights=np.abs(u) ** 2, minlength=n_p)

@@ -49,8 +49,8 @@ measure       "kernel": (h, c) on     "known levels" (the     "timing": LS over 
                                       capture sweep): h, σ²,
                                       Eb/(N0 + I) of the
                                       search
-crc           "check": CRC-16 of the  the same                the same (not asked: the record's
-              bits when asked                                 fields)
+crc           "check": CRC-16 of the  the same                the same (asked for every reply kind
+              bits when asked                                 but the RN16; None when truncated)
 ============  ======================  ======================  =====================================
 
 The shared steps inside the kernels are written once (:mod:`rfsim.gen2.reply_core`,
@@ -706,9 +706,12 @@ def _measure_of_timing(w: _Work, plan: DecodePlan) -> None:
 # ----------------------------------------------------------------- step 7: CRC
 
 def _crc_check(w: _Work, plan: DecodePlan) -> None:
-    """With ``crc``: CRC-16 over the decoded reply (:func:`rfsim.gen2.crc.crc16_ok`)."""
+    """With ``crc``: CRC-16 over the decoded reply, data bits followed by their CRC-16
+    (:func:`rfsim.gen2.crc.crc16_ok`); None for a reply the timing step found cut (``truncated``:
+    the next command or the capture's end cut it, its CRC is not in the window). The one check of
+    a decoded reply's CRC: the reader's ``expect_crc`` and a capture record's ``crc_ok`` are this."""
     if w.crc:
-        w.crc_ok = crc16_ok(w.bits)
+        w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else crc16_ok(w.bits)
 
 
 #: The steps of every :func:`decode` call, in order (module docstring).

@@ -526,7 +526,8 @@ def test_plan_variants_name_a_function_of_every_step():
     assert rd.STEPS == tuple(rd.VARIANTS)
     plans = [rd.DecodePlan("known", 4e6), rd.DecodePlan("blf", 4e6, refit=True),
              rd.DecodePlan("blf", 4e6, dc_from_lead=False),
-             rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
+             rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True),
+             rd.DecodePlan("known", 4e6, track_timing=True), rd.DecodePlan("blf", 4e6, track_timing=True)]
     for plan in plans:
         for step, variant, f in zip(rd.STEPS, plan.variants, plan.steps, strict=True):
             assert rd.VARIANTS[step][variant] is f, (plan.search, step, variant)
@@ -534,6 +535,8 @@ def test_plan_variants_name_a_function_of_every_step():
     assert plans[1].variants.measure == "known levels" and plans[2].variants.measure == "search fit"
     assert plans[1].variants.condition == "lead" and plans[2].variants.condition == "none"
     assert len({p.variants.search for p in plans}) == 3
+    # the reader's tracking selects the capture's timing step, its decisions and measurement
+    assert {p.variants[3:6] for p in plans[3:]} == {("track", "timing", "timing")}
 
 
 def _reply_window(rng, m=4, blf=320e3, fs=4e6, start=300, n_bits=16):

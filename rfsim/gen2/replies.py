@@ -92,7 +92,7 @@ from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, T_MAX_S, TRCAL_TABLE_RANGE_S
 from rfsim.gen2.memory import TagError
 from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoder import CaptureTiming, DecodePlan, decode
-from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule
+from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule, fixed_length
 from rfsim.gen2.reply_core import n_reply_elements
 from rfsim.gen2.reply_search import LinkHypothesis, boxcar_decimate, preamble_correlation
 from rfsim.core.lazy import lazy_import
@@ -260,9 +260,9 @@ class _HeaderRule:
 def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
-        return _NBitsRule(_rk.RULE_FIXED, 16)
+        return fixed_length(16)
     if kind == "handle":
-        return _NBitsRule(_rk.RULE_FIXED, 32)
+        return fixed_length(32)
     if kind == "read":
         wc = int(rec.fields.get("word_count", 0))
         return _HeaderRule(1 + 16 * wc + 32 if wc > 0 else -1)

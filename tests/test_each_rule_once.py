@@ -670,3 +670,49 @@ def test_capture_records_take_their_crc_from_the_crc_step(monkeypatch):
     flipped = decode_tag_replies(x, 2e6, records)
     assert [r.bits for r in flipped] == [r.bits for r in true]
     assert all(r.crc_ok is (None if r.kind == "RN16" else False) for r in flipped), [(r.kind, r.crc_ok) for r in flipped]
+
+
+# ----------------------------------------------------------------- kernels that compute several steps
+
+#: The function each kernel of ``KERNEL_STEPS`` is reached through from the decoder (its entry).
+KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "search_decode_kernel": "search_decode",
+                  "decode_window_kernel": "_decode_window"}
+
+
+def _all_plans():
+    from itertools import product
+
+    from rfsim.gen2 import reply_decoder as rd
+    from rfsim.gen2.reply_search import LinkHypothesis
+
+    plans = [rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
+    for search, dc, refit, track in product(("known", "blf"), (True, False), (True, False), (True, False)):
+        try:
+            plans.append(rd.DecodePlan(search, 4e6, dc_from_lead=dc, refit=refit, track_timing=track))
+        except ValueError:
+            pass
+    return plans
+
+
+def test_kernel_steps_table_matches_the_plans_and_the_callers():
+    """``KERNEL_STEPS``: the variant that calls each kernel calls its entry (and is the only
+    variant that does), every variant said to read a kernel's results runs only in plans that
+    also run the kernel's caller, and each kernel and variant of the table is named in the module
+    docstring's table of kernels. Fails when a step reads a result no step of its plan computed."""
+    from rfsim.gen2 import reply_decoder as rd
+
+    funcs = _decoder_functions()
+    plans = _all_plans()
+    assert len(plans) >= 8
+    doc = rd.__doc__.split("Kernels that compute several steps\n")[-1]
+    for kernel, ((step, variant), readers) in rd.KERNEL_STEPS.items():
+        caller = rd.VARIANTS[step][variant].__name__
+        assert KERNEL_ENTRIES[kernel] in _calls(funcs[caller]), (kernel, caller)
+        assert [n for n, f in funcs.items() if KERNEL_ENTRIES[kernel] in _calls(f)] == [caller]
+        assert f"``{kernel}``" in doc and f'{step} "{variant}"' in doc
+        for r_step, r_variant in readers:
+            assert r_variant in rd.VARIANTS[r_step], (r_step, r_variant)
+            users = [p for p in plans if getattr(p.variants, r_step) == r_variant]
+            assert users, (r_step, r_variant)
+            assert all(getattr(p.variants, step) == variant for p in users), (kernel, r_step, r_variant)
+            assert f'"{r_variant}"' in doc

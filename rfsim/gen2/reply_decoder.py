@@ -12,9 +12,9 @@ Steps
 each in the variant its plan names (:attr:`DecodePlan.variants`, derived from the plan's fields
 ``search``, ``dc_from_lead``, ``refit``, ``track_timing``; the functions in :data:`VARIANTS`),
 and stops after the search when there is no reply. Where a compiled kernel does several steps in
-one call (``receive_kernel``: search, decisions and measurement; ``search_decode_kernel``:
-search, fine BLF and decisions; ``decode_window_kernel``: fine BLF, length, tracking,
-decisions and fit), the later steps take their results from it. One column per ``search``:
+one call (``receive_kernel``, ``search_decode_kernel``, ``decode_window_kernel``: which steps each
+computes is listed below, "Kernels that compute several steps"), the later steps take their
+results from it. One column per ``search``:
 
 ============  ======================  ======================  =====================================
 step          "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
@@ -56,6 +56,36 @@ crc           "check": CRC-16 of the  the same                the same (asked fo
               bits when asked                                 but the RN16; None when truncated)
 ============  ======================  ======================  =====================================
 
+Kernels that compute several steps
+----------------------------------
+
+Three compiled calls compute several steps in one call (splitting them would add numba calls
+per reply); the variant in the first column calls it, the later steps' variants in the last
+column take their results from it (:data:`KERNEL_STEPS`, the same table):
+
+==========================  =====================  ===============================================
+kernel                      called by              computes, for these step variants
+==========================  =====================  ===============================================
+``receive_kernel``          search "one blf"       condition "in kernel" (r − mean(r[:lo])); the
+                                                   preamble search; decisions "receive kernel"
+                                                   (first decisions, (h, c) on the known levels,
+                                                   decisions on r − c); measure "kernel"
+                                                   (``measure_kernel``: gain, Doppler slope, σ²)
+``search_decode_kernel``    search "blf grid"      the coarse search over lags × BLF and the fine
+(``search_decode``)                                BLF; decisions "search kernel" (at the fine
+                                                   BLF); measure "search fit" (h, σ², Eb/(N0 + I))
+                                                   and the Eb/(N0 + I) measure "known levels"
+                                                   keeps
+``decode_window_kernel``    timing "track"         the fine BLF, the reply's length, the tracked
+(``_decode_window``)                               clock and resampling; decisions "timing"; the
+                                                   fit of measure "timing" (h, σ², E_h/N₀ gate,
+                                                   drift)
+==========================  =====================  ===============================================
+
+A plan whose later step reads a kernel's result always runs the variant that calls that kernel
+(tests/test_each_rule_once.py). With the reader's ``track_timing`` the search's kernel still
+computes its own decisions and measurement; the "timing" variants do not read them.
+
 The shared steps inside the kernels are written once (:mod:`rfsim.gen2.reply_core`,
 :mod:`rfsim.gen2._reply_core_kernels`). Where the searches still compute a shared step in a
 different order (the sums of ``|r|²``, the segment mean, the fine BLF grid, …) the difference is
@@ -82,13 +112,23 @@ from rfsim.core.lazy import lazy_import
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
 _mk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
+__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
            "CaptureTiming", "LinkPlans", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8
 #: The searches of :class:`DecodePlan` (module docstring).
 SEARCHES = ("known", "blf", "link")
+
+#: The compiled calls that compute several steps (module docstring, "Kernels that compute several
+#: steps"): kernel → ((step, variant) that calls it, ((step, variant) that take its results, …)).
+KERNEL_STEPS = {
+    "receive_kernel": (("search", "one blf"), (("condition", "in kernel"), ("decisions", "receive kernel"),
+                                                ("measure", "kernel"))),
+    "search_decode_kernel": (("search", "blf grid"), (("decisions", "search kernel"), ("measure", "search fit"),
+                                                      ("measure", "known levels"))),
+    "decode_window_kernel": (("timing", "track"), (("decisions", "timing"), ("measure", "timing"))),
+}
 
 #: The message of the ValueError of each error status of the receive kernel.
 _RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",

@@ -501,6 +501,14 @@ class Reader(PieTransmitter):
            energy-to-noise ratio E/N0 (≈ 0.1 Hz for T = 1.7 ms needs E/N0 ≈ 67 dB); the
            estimate is unambiguous for |f_D| < K/(2T). Decoding itself assumes a constant h
            over the reply (phase drift |f_D|·T ≲ 1/8 cycle).
+
+        With ``config.track_timing`` the reply found (its start, and BLF with the BLF search)
+        is decoded again on the tag's clock by the decoder's "track" timing step, the one the
+        capture decoder runs (:func:`rfsim.gen2.reply_decoding._decode_window`: fine BLF, blocks
+        of ≈ 24 elements, a quadratic clock fitted over growing spans, resampling), then h and
+        σ² are measured on the resampled reply (no Doppler: NaN). A tag whose BLF drifts within
+        the Gen2 tolerance over a long reply (a fixed timing is off by drift/2 of its elements at
+        the end) is then decoded; the cost is several times the fixed-timing receive.
         """
         if delayed:
             return self._receive_delayed(rx, t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
@@ -589,9 +597,11 @@ class Reader(PieTransmitter):
                      ) -> ReadResult:
         """The :class:`ReadResult` of the decoder's reply ``out``: the failure reason, the
         measurements at ``blf`` (phase referred to ``carrier``); with the BLF search also the
-        BLF, the decision-domain Eb/(N0 + I) and, for an RN16, its acceptance."""
+        BLF, the decision-domain Eb/(N0 + I) and, for an RN16, its acceptance. With timing
+        tracking (``config.track_timing``) a reply the window cuts (on the tag's clock, the
+        decoder's ``truncated``) is not found, and the Doppler is not measured (NaN)."""
         start_s = t0_s + out.start / self.fs_hz
-        if not out.found:
+        if not out.found or (out.extra is not None and out.extra.get("truncated", False)):
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
         meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
         if carrier is not None and complex(carrier) != 0:
@@ -618,7 +628,8 @@ class Reader(PieTransmitter):
         cfg = self.config
         return self.air_cache.derived(self.link, _LinkPlans).plan(search, self.fs_hz, cfg.decoder,
                                                                   cfg.false_alarm_probability,
-                                                                  refit=search == "blf")
+                                                                  refit=search == "blf" and not cfg.track_timing,
+                                                                  track_timing=cfg.track_timing)
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept

@@ -77,6 +77,11 @@ class ReaderConfig:
     rn16_false_accept: float = param(0.0, lo=0.0, hi=0.5, hi_open=True,
                                      doc="RN16 acceptance: stated probability that an accepted RN16 is wrong, sets "
                                          "the Eb/N0 threshold (0: no gate, every detected RN16 is ACKed)")
+    track_timing: bool = param(
+        False, doc="follow the tag's clock: each reply found is decoded again on a tracked timing (start, BLF, linear "
+                   "BLF drift; the capture decoder's tracking step) and measured there, so a reply whose BLF drifts "
+                   "within the Gen2 tolerance decodes; no Doppler then, slower; needs rx_model 'sample' and "
+                   "rn16_false_accept 0")
     rx_model: Literal["sample", "statistic"] = param(
         "sample", doc="receiver noise model: 'sample' draws noise per sample; 'statistic' draws the statistics the "
                       "receiver reads, same distribution, fewer draws (rfsim.devices.reader_statistic; "
@@ -93,6 +98,14 @@ class ReaderConfig:
         if self.rn16_false_accept > 0 and self.blf_search != "preamble":
             raise ConfigError("reader.rn16_false_accept", self.rn16_false_accept,
                               "0 unless reader.blf_search = 'preamble' (its decoder computes the statistic)")
+        if not isinstance(self.track_timing, (bool, np.bool_)):
+            raise ConfigError("reader.track_timing", self.track_timing, "true or false")
+        if self.track_timing and self.rx_model != "sample":
+            raise ConfigError("reader.track_timing", self.track_timing,
+                              "false with reader.rx_model = 'statistic' (it draws the statistics of fixed timing)")
+        if self.track_timing and self.rn16_false_accept > 0:
+            raise ConfigError("reader.track_timing", self.track_timing,
+                              "false with reader.rn16_false_accept > 0 (the tracked decoder computes no RN16 statistic)")
         if self.rx_model not in ("sample", "statistic"):
             raise ConfigError("reader.rx_model", self.rx_model, "one of 'sample', 'statistic'")
         if self.rx_model == "statistic" and self.blf_search != "off":

@@ -526,7 +526,8 @@ def test_plan_variants_name_a_function_of_every_step():
     assert rd.STEPS == tuple(rd.VARIANTS)
     plans = [rd.DecodePlan("known", 4e6), rd.DecodePlan("blf", 4e6, refit=True),
              rd.DecodePlan("blf", 4e6, dc_from_lead=False),
-             rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
+             rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True),
+             rd.DecodePlan("known", 4e6, track_timing=True), rd.DecodePlan("blf", 4e6, track_timing=True)]
     for plan in plans:
         for step, variant, f in zip(rd.STEPS, plan.variants, plan.steps, strict=True):
             assert rd.VARIANTS[step][variant] is f, (plan.search, step, variant)
@@ -534,6 +535,8 @@ def test_plan_variants_name_a_function_of_every_step():
     assert plans[1].variants.measure == "known levels" and plans[2].variants.measure == "search fit"
     assert plans[1].variants.condition == "lead" and plans[2].variants.condition == "none"
     assert len({p.variants.search for p in plans}) == 3
+    # the reader's tracking selects the capture's timing step, its decisions and measurement
+    assert {p.variants[3:6] for p in plans[3:]} == {("track", "timing", "timing")}
 
 
 def _reply_window(rng, m=4, blf=320e3, fs=4e6, start=300, n_bits=16):
@@ -601,3 +604,115 @@ def test_the_three_searches_run_the_same_step_list(monkeypatch):
     replies = decode_tag_replies(x, 2e6, records)
     assert len(replies) == 2
     assert calls() == [list(rd.STEPS)] * 2
+
+
+# ----------------------------------------------------------------- one CRC check of decoded replies
+
+#: The CRC-16 routines (:mod:`rfsim.gen2.crc`) whose use is a CRC computation or check.
+CRC16_NAMES = {"crc16_ok", "crc16", "crc16_bits", "crc16_bytes", "_crc16_register"}
+#: Modules that use them, each with its reason: none checks a reply the decoder decoded (that is
+#: the decoder's CRC step, :func:`rfsim.gen2.reply_decoder._crc_check`, and nothing else).
+CRC16_USERS = {
+    "rfsim/gen2/crc.py": "the home of the CRC routines",
+    "rfsim/gen2/reply_decoder.py": "the CRC step of the one reply decoder (only in _crc_check)",
+    "rfsim/gen2/commands.py": "reader commands the tag parses (not replies)",
+    "rfsim/gen2/capture.py": "reader commands found in a capture (not replies)",
+    "rfsim/gen2/memory.py": "the StoredCRC a tag computes over its memory",
+    "devices/gen2_tag_state.py": "the tag builds its EPC reply's CRC",
+    "rfsim/protocols/inventory.py": "the ideal channel's replies: the tag's bits, nothing decoded",
+    "devices/reader_statistic.py": "the statistic receiver (another receiver model, opt-in): its decisions are "
+                                   "drawn from statistics, not decoded by the decoder",
+    "devices/st_receiver.py": "the sense-a-tag's receiver of a comparator output (not a reader window)",
+    "devices/msk_beacon.py": "MSK beacon frames (not Gen2 replies)",
+}
+
+
+def _crc16_uses(tree: ast.AST) -> list[ast.AST]:
+    """References to the CRC-16 routines (called or passed on), imports not counted."""
+    return [n for n in ast.walk(tree) if (isinstance(n, ast.Name) and n.id in CRC16_NAMES)
+            or (isinstance(n, ast.Attribute) and n.attr in CRC16_NAMES)]
+
+
+def test_decoded_replies_check_their_crc_in_the_decoders_crc_step_only():
+    """No module but the allow-listed ones (each with its reason) uses a CRC-16 routine, and the
+    decoder uses it in its CRC step only: a second CRC check of decoded replies (the capture
+    records' own, the reader's own) fails here. The scan finds the CRC step's use, so it can fail."""
+    users = sorted(m for m, tree in MODULES.items() if _crc16_uses(tree))
+    assert REPLY_DECODER in users, "the scan does not find the decoder's CRC step"
+    assert set(users) <= set(CRC16_USERS), sorted(set(users) - set(CRC16_USERS))
+    in_decoder = [name for name, f in _decoder_functions().items() if _crc16_uses(f)]
+    assert in_decoder == ["_crc_check"], in_decoder
+
+
+def test_capture_records_take_their_crc_from_the_crc_step(monkeypatch):
+    """A capture record's ``crc_ok`` is the CRC step's result: with the step replaced by one that
+    inverts the check, every record with a CRC reports the inverted value (a second check in the
+    records would keep the true one), and the RN16 replies ask no CRC (None)."""
+    from rfsim.bench.decode import exchange_items, synthetic_capture
+    from rfsim.gen2 import reply_decoder as rd
+    from rfsim.gen2.capture import decode_reader_commands
+    from rfsim.gen2.crc import crc16_ok
+    from rfsim.gen2.replies import decode_tag_replies
+
+    x, _ = synthetic_capture(exchange_items(2, m=4, with_query=True, duration_s=0.01, blf_hz=256e3),
+                             fs_hz=2e6, trcal_s=64 / 3 / 256e3)
+    records, _ = decode_reader_commands(x, 2e6)
+    true = decode_tag_replies(x, 2e6, records)
+    kinds = [r.kind for r in true]
+    assert "RN16" in kinds and "EPC" in kinds
+    assert all(r.crc_ok is (None if r.kind == "RN16" else True) for r in true), [(r.kind, r.crc_ok) for r in true]
+
+    def inverted(w, plan):
+        if w.crc:
+            w.crc_ok = not crc16_ok(w.bits)
+
+    monkeypatch.setitem(rd.VARIANTS["crc"], "check", inverted)  # the capture's plans are made per call
+    flipped = decode_tag_replies(x, 2e6, records)
+    assert [r.bits for r in flipped] == [r.bits for r in true]
+    assert all(r.crc_ok is (None if r.kind == "RN16" else False) for r in flipped), [(r.kind, r.crc_ok) for r in flipped]
+
+
+# ----------------------------------------------------------------- kernels that compute several steps
+
+#: The function each kernel of ``KERNEL_STEPS`` is reached through from the decoder (its entry).
+KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "search_decode_kernel": "search_decode",
+                  "decode_window_kernel": "_decode_window"}
+
+
+def _all_plans():
+    from itertools import product
+
+    from rfsim.gen2 import reply_decoder as rd
+    from rfsim.gen2.reply_search import LinkHypothesis
+
+    plans = [rd.DecodePlan("link", 2e6, hypotheses=(LinkHypothesis(4, False, 2e5, 3e5),), track_timing=True)]
+    for search, dc, refit, track in product(("known", "blf"), (True, False), (True, False), (True, False)):
+        try:
+            plans.append(rd.DecodePlan(search, 4e6, dc_from_lead=dc, refit=refit, track_timing=track))
+        except ValueError:
+            pass
+    return plans
+
+
+def test_kernel_steps_table_matches_the_plans_and_the_callers():
+    """``KERNEL_STEPS``: the variant that calls each kernel calls its entry (and is the only
+    variant that does), every variant said to read a kernel's results runs only in plans that
+    also run the kernel's caller, and each kernel and variant of the table is named in the module
+    docstring's table of kernels. Fails when a step reads a result no step of its plan computed."""
+    from rfsim.gen2 import reply_decoder as rd
+
+    funcs = _decoder_functions()
+    plans = _all_plans()
+    assert len(plans) >= 8
+    doc = rd.__doc__.split("Kernels that compute several steps\n")[-1]
+    for kernel, ((step, variant), readers) in rd.KERNEL_STEPS.items():
+        caller = rd.VARIANTS[step][variant].__name__
+        assert KERNEL_ENTRIES[kernel] in _calls(funcs[caller]), (kernel, caller)
+        assert [n for n, f in funcs.items() if KERNEL_ENTRIES[kernel] in _calls(f)] == [caller]
+        assert f"``{kernel}``" in doc and f'{step} "{variant}"' in doc
+        for r_step, r_variant in readers:
+            assert r_variant in rd.VARIANTS[r_step], (r_step, r_variant)
+            users = [p for p in plans if getattr(p.variants, r_step) == r_variant]
+            assert users, (r_step, r_variant)
+            assert all(getattr(p.variants, step) == variant for p in users), (kernel, r_step, r_variant)
+            assert f'"{r_variant}"' in doc

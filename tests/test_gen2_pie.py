@@ -179,6 +179,51 @@ def test_command_ask_baseband_refuses_bad_bits_and_slow_edges():
         pie_lead_in(**_timing(preamble="other"))
 
 
+def test_ramp_width_and_sample_counts_are_one_rule_of_both_paths():
+    """The edge check and ramp width (``ramp_width``) and the sample counts (``sample_counts``) are
+    numba helpers that ask_baseband (Python) and the command kernel both call: their values equal
+    the rules written out here (the shortest low/high interval of NumPy's min, ceil of the
+    durations), an edge exactly as long as the shortest interval fits and the next float above it
+    does not, on both paths; the source of the two paths holds no copy of either rule (no
+    ``math.ceil``, no interval ``rise_s − fall_s``, no ``ramp_per_10_90`` product outside the helpers)."""
+    import ast
+    import inspect
+
+    from rfsim.gen2 import _pie_kernels as k
+    from rfsim.gen2 import pie
+
+    rng = trial_rng(73, 0)
+    for _ in range(30):
+        tari = float(rng.choice([6.25e-6, 12.5e-6, 25e-6]))
+        kw = _timing(tari_s=tari, data1_tari=float(rng.uniform(1.5, 2.0)), pw_s=tari * float(rng.uniform(0.3, 0.5)),
+                     preamble="frame-sync", cw_before_s=float(rng.uniform(0, 2 * tari)))
+        tl = pie_timeline(rng.integers(0, 2, int(rng.integers(0, 30))).astype(np.uint8),
+                          cw_after_s=float(rng.uniform(0, 1e-3)), **kw)
+        fs = float(rng.choice([2.5e6, 3.3e6, 4e6]))
+        shortest = min((tl.rise_s - tl.fall_s).min(), (tl.fall_s[1:] - tl.rise_s[:-1]).min())
+        per = math.pi / (2.0 * math.asin(0.8))
+        for rf in (0.0, 0.5 * shortest, shortest):
+            assert k.ramp_width(tl.fall_s, tl.rise_s, rf, per, fs) == rf * per * fs
+            assert pie._ramp_width_samples(rf, fs, tl) == rf * per * fs
+        slow = float(np.nextafter(shortest, np.inf))
+        assert k.ramp_width(tl.fall_s, tl.rise_s, slow, per, fs) == -1.0
+        with pytest.raises(ValueError, match="shortest low or high"):
+            ask_baseband(tl, amplitude=1.0, pr_ask=False, depth=0.9, fs_hz=fs, rise_fall_s=slow)
+        mod = float(tl.rise_s[-1] + rng.uniform(0, 1e-4))
+        assert k.sample_counts(tl.duration_s, mod, fs) == (math.ceil(tl.duration_s * fs),
+                                                           min(math.ceil(tl.duration_s * fs), math.ceil(mod * fs)))
+        assert k.sample_counts(tl.duration_s, math.inf, fs) == (math.ceil(tl.duration_s * fs),) * 2
+    for fn in (pie.ask_baseband, pie._ramp_width_samples, k.command_baseband_kernel.py_func):
+        tree = ast.parse(inspect.getsource(fn).lstrip())
+        text = ast.unparse(tree)
+        intervals = [ast.unparse(n) for n in ast.walk(tree) if isinstance(n, ast.BinOp) and isinstance(n.op, ast.Sub)
+                     and {"rise_s", "fall_s"} <= set(ast.unparse(n).replace("[", " ").replace(".", " ").split())]
+        assert "math.ceil" not in text and not intervals, (fn.__name__, intervals)
+        assert "ramp_per_10_90 *" not in text and "_RAMP_WIDTH_PER_10_90 *" not in text, fn.__name__
+        assert {"ramp_width", "sample_counts"} & {n.attr if isinstance(n, ast.Attribute) else n.id
+                                                  for n in ast.walk(tree) if isinstance(n, (ast.Name, ast.Attribute))}
+
+
 def test_decode_with_levels_refuses_non_finite_envelope():
     """With the levels given, the decoder itself refuses a non-finite envelope (no edges, no
     frames), as it does when it splits the levels itself."""

@@ -127,6 +127,34 @@ def timeline_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_before_s, fal
 
 
 @njit
+def ramp_width(fall_s, rise_s, rise_fall_s, ramp_per_10_90, fs_hz):
+    """Full width [samples] of the raised-cosine edges whose 10–90 % time is ``rise_fall_s`` [s]:
+    ``rise_fall_s · ramp_per_10_90 · fs_hz``, or −1.0 when an edge does not fit, i.e. when
+    ``rise_fall_s`` > 0 exceeds a low interval ``rise_s[i] − fall_s[i]`` or a high interval
+    ``fall_s[i] − rise_s[i − 1]`` (edge times [s]). The one rule of both the Python path
+    (:func:`rfsim.gen2.pie.ask_baseband`, :func:`rfsim.gen2.pie.timeline_envelope`) and
+    :func:`command_baseband_kernel`."""
+    if rise_fall_s > 0.0:
+        for i in range(fall_s.size):
+            if rise_fall_s > rise_s[i] - fall_s[i] or (i > 0 and rise_fall_s > fall_s[i] - rise_s[i - 1]):
+                return -1.0
+    return rise_fall_s * ramp_per_10_90 * fs_hz
+
+
+@njit
+def sample_counts(duration_s, modulated_s, fs_hz):
+    """``(n, n_modulated)``: the samples ``n = ceil(duration_s·fs)`` of a command's baseband
+    (``duration_s`` = last rising edge + CW after it [s]) and those up to which its envelope is
+    evaluated, ``min(n, ceil(modulated_s·fs))`` (``n`` when ``modulated_s`` is +inf). The one
+    rule of both the Python path (:func:`rfsim.gen2.pie.ask_baseband`) and
+    :func:`command_baseband_kernel`."""
+    n = int(math.ceil(duration_s * fs_hz))
+    if modulated_s == np.inf:
+        return n, n
+    return n, min(n, int(math.ceil(modulated_s * fs_hz)))
+
+
+@njit
 def ask_baseband_kernel(fall_s, rise_s, depth, ramp_width, fs_hz, amp, pr_ask, n_modulated, out):
     """DSB-ASK ``amp·e[n]`` or PR-ASK ``(amp·s_n)·e[n]`` (:func:`pr_ask_kernel`) into the complex
     ``out`` for n < ``n_modulated``, e the envelope of :func:`envelope_kernel` (edges ``fall_s``,
@@ -153,8 +181,8 @@ def command_baseband_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_befor
     """Bits to samples in one call: the edge times of :func:`timeline_kernel` (``lead_s``,
     ``bits`` …, ``cw_before_s``), then :func:`ask_baseband_kernel` of them over ``n =
     ceil((r_last + cw_after_s)·fs)`` samples, modulated up to ``ceil((r_last +
-    modulated_after_s)·fs)`` (``r_last`` the last rising edge [s]), ramps ``rise_fall_s ·
-    ramp_per_10_90 · fs`` samples wide. Returns ``(out, code)``: code 0 when done, 1 when a bit
+    modulated_after_s)·fs)`` (``r_last`` the last rising edge [s]; :func:`sample_counts`), ramps
+    ``rise_fall_s · ramp_per_10_90 · fs`` samples wide (:func:`ramp_width`). Returns ``(out, code)``: code 0 when done, 1 when a bit
     is neither 0 nor 1, 2 when ``rise_fall_s`` exceeds the shortest low or high interval (then
     ``out`` is empty)."""
     for i in range(bits.size):
@@ -164,15 +192,13 @@ def command_baseband_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_befor
     fall_s = np.empty(k)
     rise_s = np.empty(k)
     timeline_kernel(lead_s, bits, data0_s, data1_s, t0_s, pw_s, cw_before_s, fall_s, rise_s)
-    if rise_fall_s > 0.0:
-        for i in range(k):
-            if rise_fall_s > rise_s[i] - fall_s[i] or (i > 0 and rise_fall_s > fall_s[i] - rise_s[i - 1]):
-                return np.empty(0, dtype=np.complex128), 2
+    width = ramp_width(fall_s, rise_s, rise_fall_s, ramp_per_10_90, fs_hz)
+    if width < 0.0:
+        return np.empty(0, dtype=np.complex128), 2
     last = rise_s[k - 1]
-    n = int(math.ceil((last + cw_after_s) * fs_hz))
-    n_mod = min(n, int(math.ceil((last + modulated_after_s) * fs_hz)))
+    n, n_mod = sample_counts(last + cw_after_s, last + modulated_after_s, fs_hz)
     out = np.empty(n, dtype=np.complex128)
-    ask_baseband_kernel(fall_s, rise_s, depth, rise_fall_s * ramp_per_10_90 * fs_hz, fs_hz, amp, pr_ask, n_mod, out)
+    ask_baseband_kernel(fall_s, rise_s, depth, width, fs_hz, amp, pr_ask, n_mod, out)
     return out, 0
 
 

@@ -226,22 +226,35 @@ def pie_timeline(
     return PieTimeline(fall_s=fall, rise_s=rise, duration_s=float(rise[-1] + cw_after_s))
 
 
+#: The ValueError of an edge slower than the shortest low or high interval (:func:`_ramp_width_samples`).
+_SLOW_EDGES = "rise_fall_s must not exceed the shortest low or high interval"
+
+
 def _ramp_width_samples(rise_fall_s: float, fs_hz: float, timeline: PieTimeline) -> float:
+    """Full width [samples] of the raised-cosine edges of ``timeline`` whose 10–90 % time is
+    ``rise_fall_s`` [s] (the kernels' one rule, :func:`rfsim.gen2._pie_kernels.ramp_width`),
+    checked: ``rise_fall_s`` ≥ 0 and not above the shortest low or high interval."""
     if rise_fall_s < 0:
         raise ValueError("rise_fall_s must be >= 0")
-    if rise_fall_s > 0:
-        lows = timeline.rise_s - timeline.fall_s
-        highs = timeline.fall_s[1:] - timeline.rise_s[:-1]
-        if rise_fall_s > lows.min() or (highs.size and rise_fall_s > highs.min()):
-            raise ValueError("rise_fall_s must not exceed the shortest low or high interval")
-    return rise_fall_s * _RAMP_WIDTH_PER_10_90 * fs_hz
+    width = _k.ramp_width(np.ascontiguousarray(timeline.fall_s, dtype=np.float64),
+                          np.ascontiguousarray(timeline.rise_s, dtype=np.float64), float(rise_fall_s),
+                          _RAMP_WIDTH_PER_10_90, float(fs_hz))
+    if width < 0.0:
+        raise ValueError(_SLOW_EDGES)
+    return width
+
+
+def _ask_arguments(depth: float, fs_hz: float) -> float:
+    """``fs_hz`` of an ASK envelope, checked: fs > 0, 0 < depth ≤ 1."""
+    fs_hz = _check_fs(fs_hz)
+    if not 0 < depth <= 1:
+        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    return fs_hz
 
 
 def _envelope_arguments(timeline: PieTimeline, depth: float, fs_hz: float, rise_fall_s: float) -> tuple[float, float]:
     """``(fs_hz, ramp width [samples])`` of an envelope of ``timeline``, checked: fs > 0, 0 < depth ≤ 1."""
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    fs_hz = _ask_arguments(depth, fs_hz)
     return fs_hz, _ramp_width_samples(float(rise_fall_s), fs_hz, timeline)
 
 
@@ -295,9 +308,7 @@ def pie_envelope(
     ValueError
         If ``depth`` is outside (0, 1], ``fs_hz`` is not positive, or a timing is invalid.
     """
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    fs_hz = _ask_arguments(depth, fs_hz)
     tl = pie_timeline(
         bits, tari_s=tari_s, data1_tari=data1_tari, trcal_s=trcal_s, pw_s=pw_s,
         delimiter_s=delimiter_s, preamble=preamble, cw_before_s=cw_before_s,
@@ -406,8 +417,8 @@ def ask_baseband(timeline: PieTimeline, *, amplitude: float, pr_ask: bool, depth
         If ``depth`` is outside (0, 1], ``fs_hz`` is not positive or the edges are too slow.
     """
     fs_hz, width = _envelope_arguments(timeline, depth, fs_hz, rise_fall_s)
-    n = int(math.ceil(timeline.duration_s * fs_hz))
-    n_mod = n if modulated_s is None else min(n, int(math.ceil(float(modulated_s) * fs_hz)))
+    n, n_mod = _k.sample_counts(float(timeline.duration_s), math.inf if modulated_s is None else float(modulated_s),
+                                fs_hz)
     out = np.empty(n, dtype=np.complex128)
     _k.ask_baseband_kernel(timeline.fall_s, timeline.rise_s, float(depth), width, fs_hz, float(amplitude),
                            bool(pr_ask), n_mod, out)
@@ -451,9 +462,7 @@ def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_
     if not (isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1
             and bits.flags.c_contiguous):
         bits = as_bits(bits)
-    fs_hz = _check_fs(fs_hz)
-    if not 0 < depth <= 1:
-        raise ValueError(f"depth must be in (0, 1], got {depth}")
+    fs_hz = _ask_arguments(depth, fs_hz)
     if cw_after_s < 0:
         raise ValueError("cw_before_s and cw_after_s must be >= 0")
     if rise_fall_s < 0:
@@ -465,7 +474,7 @@ def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_
     if code == 1:
         raise ValueError("bits must contain only 0 and 1")
     if code == 2:
-        raise ValueError("rise_fall_s must not exceed the shortest low or high interval")
+        raise ValueError(_SLOW_EDGES)
     return out
 
 

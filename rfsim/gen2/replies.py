@@ -88,12 +88,11 @@ from rfsim.gen2.access import ERROR_REPLY_BITS, SUCCESS_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int, bits_to_str
 from rfsim.gen2.capture import ReaderCommandRecord
 from rfsim.gen2.commands import DR_VALUES, normalize_dr
-from rfsim.gen2.crc import crc16_ok
 from rfsim.gen2.link import BLF_RANGE_HZ, M_VALUES, T_MAX_S, TRCAL_TABLE_RANGE_S, frt_fraction, t1_range
 from rfsim.gen2.memory import TagError
 from rfsim.gen2.linecode import METHODS
 from rfsim.gen2.reply_decoder import CaptureTiming, DecodePlan, decode
-from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule
+from rfsim.gen2.reply_decoding import MIN_HALFBIT_SNR_DB, _NBitsRule, fixed_length
 from rfsim.gen2.reply_core import n_reply_elements
 from rfsim.gen2.reply_search import LinkHypothesis, boxcar_decimate, preamble_correlation
 from rfsim.core.lazy import lazy_import
@@ -184,11 +183,11 @@ def _error_name(code: int) -> str:
         return f"0x{code:02X}"
 
 
-def _header_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
+def _header_fields(kind: str, bits: np.ndarray, truncated: bool, crc_ok: bool | None) -> dict:
     """Kind, handle and error code of a reply that starts with a header bit (read or delayed
     window): header 1 is an error reply, header 0 read data or a delayed success."""
     out: dict = {"kind": "error" if bits.size and bits[0] == 1 else ("read" if kind == "read" else "success")}
-    out["crc_ok"] = None if truncated else bool(bits.size >= 32 and crc16_ok(bits))
+    out["crc_ok"] = crc_ok
     if out["kind"] == "error":
         if bits.size >= 9:
             code = bits_to_int(bits[1:9])
@@ -204,17 +203,19 @@ def _header_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
     return out
 
 
-def _reply_fields(kind: str, bits: np.ndarray, truncated: bool) -> dict:
-    """RN16/handle/PC/EPC/data/error code and CRC of a decoded reply (``bits`` (n,) uint8),
-    and its kind where the header bit tells it (read or delayed window)."""
+def _reply_fields(kind: str, bits: np.ndarray, truncated: bool, crc_ok: bool | None) -> dict:
+    """RN16/handle/PC/EPC/data/error code of a decoded reply (``bits`` (n,) uint8) with its CRC
+    check ``crc_ok`` (the decoder's CRC step, :func:`rfsim.gen2.reply_decoder.decode` with
+    ``crc``; None: truncated or an RN16), and its kind where the header bit tells it (read or
+    delayed window)."""
     out: dict = {}
     if kind in ("read", "delayed"):
-        return _header_fields(kind, bits, truncated)
+        return _header_fields(kind, bits, truncated, crc_ok)
     if kind == "RN16":
         if bits.size >= 16:
             out["rn16"] = bits_to_int(bits[:16])
         return out
-    out["crc_ok"] = None if truncated else bool(bits.size >= 32 and crc16_ok(bits))
+    out["crc_ok"] = crc_ok
     if kind == "EPC":
         if bits.size >= 16:
             out["pc"] = bits_to_int(bits[:16])
@@ -259,9 +260,9 @@ class _HeaderRule:
 def _n_bits_rule(kind: str, rec: ReaderCommandRecord):
     """``n_bits_of(bits)`` of a reply kind: the complete reply's data bits (−1 unknown)."""
     if kind == "RN16":
-        return _NBitsRule(_rk.RULE_FIXED, 16)
+        return fixed_length(16)
     if kind == "handle":
-        return _NBitsRule(_rk.RULE_FIXED, 32)
+        return fixed_length(32)
     if kind == "read":
         wc = int(rec.fields.get("word_count", 0))
         return _HeaderRule(1 + 16 * wc + 32 if wc > 0 else -1)
@@ -347,7 +348,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
                           hypotheses=key[0], track_timing=True)
         if plans is not None:
             plans[key] = plan
-    out = decode(r, plan, blf_hint_hz=blf_hint_hz,
+    out = decode(r, plan, blf_hint_hz=blf_hint_hz, crc=kind != "RN16",
                  timing=CaptureTiming(i0, cmd_end_s, rtcal_s, frt, delay_max_s, lo_full, bool(delayed), n_bits_of))
     if not out.found:
         return None
@@ -360,7 +361,7 @@ def decode_tag_reply(samples, fs_hz: float, *, listen_s: float, window_end_s: fl
     p = abs(h) ** 2
     snr = 10.0 * math.log10(p / (out.sigma2 * d)) if out.sigma2 > 0 else math.inf
     truncated = bool(res["truncated"])
-    fields = {"kind": kind, **_reply_fields(kind, bits, truncated)}
+    fields = {"kind": kind, **_reply_fields(kind, bits, truncated, out.crc_ok)}
     start_s = float(to_s(out.start))
     return TagReplyRecord(
         command_index=int(command_index), command=str(command), start_s=start_s, bits=bits_to_str(bits),

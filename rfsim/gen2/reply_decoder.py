@@ -12,9 +12,9 @@ Steps
 each in the variant its plan names (:attr:`DecodePlan.variants`, derived from the plan's fields
 ``search``, ``dc_from_lead``, ``refit``, ``track_timing``; the functions in :data:`VARIANTS`),
 and stops after the search when there is no reply. Where a compiled kernel does several steps in
-one call (``receive_kernel``: search, decisions and measurement; ``search_decode_kernel``:
-search, fine BLF and decisions; ``decode_window_kernel``: fine BLF, length, tracking,
-decisions and fit), the later steps take their results from it. One column per ``search``:
+one call (``receive_kernel``, ``search_decode_kernel``, ``decode_window_kernel``: which steps each
+computes is listed below, "Kernels that compute several steps"), the later steps take their
+results from it. One column per ``search``:
 
 ============  ======================  ======================  =====================================
 step          "known" (reader, one    "blf" (reader,          "link" (captures: blind or given
@@ -32,11 +32,14 @@ search        "one blf":              "blf grid":             "hypotheses": ``_d
               ``receive_kernel``,     ``search_decode``,      BLF per (M, TRext), parabola between
               runs + 1/16-sample      parabola between lags,  lags, union-bound threshold; first
               refinement              fine BLF (centre held)  ±2 steps around ``blf_hint_hz``
-timing        "none"                  "none"                  "track": ``_decode_window``: fine BLF
-                                                              (first 16 bits, then the whole reply),
-                                                              length from the first bits
-                                                              (``n_bits_of``), blocks of 24
-                                                              elements, quadratic clock, resample
+timing        "none"; "track" with    "none"; "track" with    "track": ``_decode_window``: fine BLF
+              ``track_timing`` (the   ``track_timing``: the   (first 16 bits, then the whole reply),
+              reader's): the same     same from the BLF       length from the first bits
+              from the start found,   found (then condition   (``n_bits_of``), blocks of 24
+              ``n_bits`` long; then   "lead" or "none",       elements, quadratic clock, resample
+              condition "lead",       decisions and measure
+              decisions and measure   "timing", no refit)
+              "timing", no Doppler
 decisions     "receive kernel":       "search kernel": the    "timing": the same kernels on the
               half-bit sums on        same kernels at the     resampled reply
               r − c with h given,     fine BLF
@@ -49,9 +52,39 @@ measure       "kernel": (h, c) on     "known levels" (the     "timing": LS over 
                                       capture sweep): h, σ²,
                                       Eb/(N0 + I) of the
                                       search
-crc           "check": CRC-16 of the  the same                the same (not asked: the record's
-              bits when asked                                 fields)
+crc           "check": CRC-16 of the  the same                the same (asked for every reply kind
+              bits when asked                                 but the RN16; None when truncated)
 ============  ======================  ======================  =====================================
+
+Kernels that compute several steps
+----------------------------------
+
+Three compiled calls compute several steps in one call (splitting them would add numba calls
+per reply); the variant in the first column calls it, the later steps' variants in the last
+column take their results from it (:data:`KERNEL_STEPS`, the same table):
+
+==========================  =====================  ===============================================
+kernel                      called by              computes, for these step variants
+==========================  =====================  ===============================================
+``receive_kernel``          search "one blf"       condition "in kernel" (r − mean(r[:lo])); the
+                                                   preamble search; decisions "receive kernel"
+                                                   (first decisions, (h, c) on the known levels,
+                                                   decisions on r − c); measure "kernel"
+                                                   (``measure_kernel``: gain, Doppler slope, σ²)
+``search_decode_kernel``    search "blf grid"      the coarse search over lags × BLF and the fine
+(``search_decode``)                                BLF; decisions "search kernel" (at the fine
+                                                   BLF); measure "search fit" (h, σ², Eb/(N0 + I))
+                                                   and the Eb/(N0 + I) measure "known levels"
+                                                   keeps
+``decode_window_kernel``    timing "track"         the fine BLF, the reply's length, the tracked
+(``_decode_window``)                               clock and resampling; decisions "timing"; the
+                                                   fit of measure "timing" (h, σ², E_h/N₀ gate,
+                                                   drift)
+==========================  =====================  ===============================================
+
+A plan whose later step reads a kernel's result always runs the variant that calls that kernel
+(tests/test_each_rule_once.py). With the reader's ``track_timing`` the search's kernel still
+computes its own decisions and measurement; the "timing" variants do not read them.
 
 The shared steps inside the kernels are written once (:mod:`rfsim.gen2.reply_core`,
 :mod:`rfsim.gen2._reply_core_kernels`). Where the searches still compute a shared step in a
@@ -79,13 +112,23 @@ from rfsim.core.lazy import lazy_import
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
 _mk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
+__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
            "CaptureTiming", "LinkPlans", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8
 #: The searches of :class:`DecodePlan` (module docstring).
 SEARCHES = ("known", "blf", "link")
+
+#: The compiled calls that compute several steps (module docstring, "Kernels that compute several
+#: steps"): kernel → ((step, variant) that calls it, ((step, variant) that take its results, …)).
+KERNEL_STEPS = {
+    "receive_kernel": (("search", "one blf"), (("condition", "in kernel"), ("decisions", "receive kernel"),
+                                                ("measure", "kernel"))),
+    "search_decode_kernel": (("search", "blf grid"), (("decisions", "search kernel"), ("measure", "search fit"),
+                                                      ("measure", "known levels"))),
+    "decode_window_kernel": (("timing", "track"), (("decisions", "timing"), ("measure", "timing"))),
+}
 
 #: The message of the ValueError of each error status of the receive kernel.
 _RECEIVE_ERRORS = {2: "zero channel gain: no reply to decode",
@@ -160,7 +203,10 @@ class DecodePlan:
     hypotheses : tuple
         :class:`rfsim.gen2.reply_search.LinkHypothesis` of the "link" search.
     track_timing : bool
-        Follow the tag's clock (timing tracking, resampling): the "link" search.
+        Follow the tag's clock (timing tracking, resampling; the "track" timing step): always
+        with the "link" search; with "known" and "blf" (the reader's ``track_timing``) the reply
+        found is decoded again on the tag's clock, its length fixed (``n_bits``), and measured
+        there (gain and σ², no Doppler slope; not with ``refit``).
     dc_from_lead : bool
         "blf": subtract the mean of the samples before the first start searched (≥ 8 of
         them) before the search (the reader; the capture sweep's synthetic windows are
@@ -199,19 +245,21 @@ class DecodePlan:
             raise ValueError(f"search must be one of {SEARCHES}, got {self.search!r}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
-        if self.track_timing != (self.search == "link"):
-            raise ValueError("timing tracking is a step of the 'link' search only")
-        if self.refit and self.search != "blf":
-            raise ValueError("the refit on the known levels is a step of the 'blf' search only")
-        search = self.search
-        if search == "known":
+        if self.search == "link" and not self.track_timing:
+            raise ValueError("the 'link' search always tracks timing")
+        if self.refit and (self.search != "blf" or self.track_timing):
+            raise ValueError("the refit on the known levels is a step of the 'blf' search without timing tracking")
+        search, track = self.search, self.track_timing
+        if search == "known" and not track:
             v = StepVariants("in kernel", "lags", "one blf", "none", "receive kernel", "kernel", "check")
+        elif search == "known":  # the window conditioned first: the timing step reads it
+            v = StepVariants("lead", "lags", "one blf", "track", "timing", "timing", "check")
         elif search == "blf":
-            v = StepVariants("lead" if self.dc_from_lead else "none", "lags x grid", "blf grid", "none",
-                             "search kernel", "known levels" if self.refit else "search fit", "check")
+            v = StepVariants("lead" if self.dc_from_lead else "none", "lags x grid", "blf grid",
+                             "track" if track else "none", "timing" if track else "search kernel",
+                             "timing" if track else "known levels" if self.refit else "search fit", "check")
         else:
-            v = StepVariants("lead", "t1", "hypotheses", "track" if self.track_timing else "none", "timing", "timing",
-                             "check")
+            v = StepVariants("lead", "t1", "hypotheses", "track", "timing", "timing", "check")
         object.__setattr__(self, "variants", v)
         object.__setattr__(self, "steps", tuple(VARIANTS[step][variant] for step, variant in zip(STEPS, v)))
 
@@ -373,7 +421,7 @@ class LinkPlans:
         self.plans: dict = {}
 
     def plan(self, search: str, fs_hz: float, method: str, false_alarm_probability: float,
-             dc_from_lead: bool = True, refit: bool = False) -> DecodePlan:
+             dc_from_lead: bool = True, refit: bool = False, track_timing: bool = False) -> DecodePlan:
         """The plan of ``search`` for this link at ``fs_hz`` (made once).
 
         Parameters
@@ -390,13 +438,15 @@ class LinkPlans:
             :attr:`DecodePlan.dc_from_lead`, default True.
         refit : bool, optional
             :attr:`DecodePlan.refit` ("blf"), default False.
+        track_timing : bool, optional
+            :attr:`DecodePlan.track_timing`, default False.
 
         Returns
         -------
         DecodePlan
             The plan.
         """
-        key = (search, fs_hz, method, false_alarm_probability, dc_from_lead, refit)
+        key = (search, fs_hz, method, false_alarm_probability, dc_from_lead, refit, track_timing)
         hit = self.plans.get(key)
         if hit is None:
             from rfsim.gen2.blf_search import blf_grid_hz
@@ -407,7 +457,7 @@ class LinkPlans:
                 grid = blf_grid_hz(lk)
                 grid.flags.writeable = False
             hit = self.plans[key] = DecodePlan(search, float(fs_hz), lk.m, lk.trext, method,
-                                               false_alarm_probability, lk.blf_hz, grid,
+                                               false_alarm_probability, lk.blf_hz, grid, track_timing=track_timing,
                                                dc_from_lead=dc_from_lead, refit=refit)
         return hit
 
@@ -415,13 +465,13 @@ class LinkPlans:
 class _Work:
     """What the steps of one :func:`decode` call hand on to each other (module docstring): the
     call's inputs, what a step leaves for the next (``threshold``, ``pre_n``, ``n_grid``,
-    ``spans``, ``out``, ``best``, ``res``) and the result's fields (the class attributes are
+    ``spans``, ``out``, ``best``, ``blf_found``, ``res``) and the result's fields (the class attributes are
     their values until a step sets them; ``found`` None: not searched yet)."""
 
     found = None
-    start = corr = blf_hz = sigma2 = slope = decision_ebn0_db = math.nan
+    start = corr = blf_hz = blf_found = sigma2 = slope = decision_ebn0_db = math.nan
     gain = complex(math.nan, math.nan)
-    bits = extra = crc_ok = None
+    bits = extra = crc_ok = best = None
 
     def __init__(self, r, lo, hi, n_bits, n_reply, blf, hint, timing, threads, crc, reference):
         self.r, self.lo, self.hi, self.n_bits, self.n_reply, self.blf = r, lo, hi, n_bits, n_reply, blf
@@ -564,7 +614,7 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     if status > _rxk.NOT_FOUND:
         raise ValueError(_RECEIVE_ERRORS[status])
     w.start, w.corr, w.found = float(out_f[0]), float(out_f[1]), status != _rxk.NOT_FOUND
-    w.out = (bits, out_f, out_c)
+    w.out, w.blf_found = (bits, out_f, out_c), w.blf
 
 
 def _search_blf_grid(w: _Work, plan: DecodePlan) -> None:
@@ -585,7 +635,7 @@ def _search_blf_grid(w: _Work, plan: DecodePlan) -> None:
     if w.r.ndim == 2:
         w.found, w.start, w.corr = out.corr >= w.threshold, out.start, out.corr
     else:
-        w.start, w.corr = float(out.start[0]), float(out.corr[0])
+        w.start, w.corr, w.blf_found = float(out.start[0]), float(out.corr[0]), float(out.blf_hz[0])
         w.found = w.corr >= w.threshold
 
 
@@ -615,11 +665,26 @@ def _timing_none(w: _Work, plan: DecodePlan) -> None:
 def _timing_track(w: _Work, plan: DecodePlan) -> None:
     """:func:`rfsim.gen2.reply_decoding._decode_window` on the working-rate window: fine BLF,
     the reply's length from its first bits, timing tracking (quadratic clock, resampling) and,
-    in the same call, the decisions and the fit with its E_h/N₀ gate (steps 5, 6)."""
-    from rfsim.gen2.reply_decoding import _decode_window
+    in the same call, the decisions and the fit with its E_h/N₀ gate (steps 5, 6). After the
+    reader's searches ("known", "blf": no ``best`` of the "link" search) the same call starts
+    from the start and BLF they found, on the (conditioned) window at its own rate, the fine
+    BLF searched ±2 coarse steps (:func:`rfsim.gen2.reply_core.coarse_blf_step`) around it and
+    the reply ``n_bits`` long."""
+    from rfsim.gen2.reply_core import coarse_blf_step
+    from rfsim.gen2.reply_decoding import _decode_window, fixed_length
+    from rfsim.gen2.reply_search import LinkHypothesis
 
+    if w.best is None:
+        if w.r.ndim != 1:
+            raise ValueError("timing tracking takes one window, not a batch")
+        blf = w.blf_found
+        w.best = ((w.corr, blf, LinkHypothesis(plan.m, plan.trext, blf, blf), w.start,
+                   coarse_blf_step(plan.m, plan.trext), None), w.r, 1)
+        n_bits_of = fixed_length(w.n_bits)
+    else:
+        n_bits_of = w.timing.n_bits_of
     found, rd, d = w.best
-    w.res = _decode_window(rd, plan.fs_hz / d, found, w.timing.n_bits_of, plan.method)
+    w.res = _decode_window(rd, plan.fs_hz / d, found, n_bits_of, plan.method)
     if w.res is None:
         w.found = False
     else:
@@ -706,9 +771,12 @@ def _measure_of_timing(w: _Work, plan: DecodePlan) -> None:
 # ----------------------------------------------------------------- step 7: CRC
 
 def _crc_check(w: _Work, plan: DecodePlan) -> None:
-    """With ``crc``: CRC-16 over the decoded reply (:func:`rfsim.gen2.crc.crc16_ok`)."""
+    """With ``crc``: CRC-16 over the decoded reply, data bits followed by their CRC-16
+    (:func:`rfsim.gen2.crc.crc16_ok`); None for a reply the timing step found cut (``truncated``:
+    the next command or the capture's end cut it, its CRC is not in the window). The one check of
+    a decoded reply's CRC: the reader's ``expect_crc`` and a capture record's ``crc_ok`` are this."""
     if w.crc:
-        w.crc_ok = crc16_ok(w.bits)
+        w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else crc16_ok(w.bits)
 
 
 #: The steps of every :func:`decode` call, in order (module docstring).

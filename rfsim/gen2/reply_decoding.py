@@ -316,4 +316,21 @@ class _NBitsRule:
         return 32 + 16 * (bits_to_int(bits[:16]) >> 11) if bits.size >= 16 else -1
 
 
+def fixed_length(n_bits: int) -> _NBitsRule:
+    """The ``n_bits_of`` rule of a reply whose length is known, ``n_bits`` data bits (the reader's
+    replies, :func:`rfsim.gen2.reply_decoder.decode` with timing tracking).
+
+    Parameters
+    ----------
+    n_bits : int
+        Data bits of the reply (without the dummy 1).
+
+    Returns
+    -------
+    _NBitsRule
+        The rule (the compiled ``decode_window_kernel`` reads it).
+    """
+    return _NBitsRule(_rk.RULE_FIXED, int(n_bits))
+
+
 __all__ = ["MIN_HALFBIT_SNR_DB", "FINE_SPAN_STEPS", "TRACK_CONVERGED_ELEMENTS", "START_CHECK_SHIFTS"]

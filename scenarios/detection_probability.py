@@ -282,6 +282,11 @@ class GeometryConfig:
             lo, hi = getattr(self, key)
             if not lo < hi:
                 raise ConfigError(f"geometry.{key}", getattr(self, key), "[low, high] with low < high")
+        # draw_geometry redraws every ST distance r < min_st_distance_m, r < st_radius_m: with
+        # min_st_distance_m ≥ st_radius_m no draw is ever kept
+        if not self.min_st_distance_m < self.st_radius_m:
+            raise ConfigError("geometry.min_st_distance_m", self.min_st_distance_m,
+                              f"below geometry.st_radius_m ({self.st_radius_m:g} m): no ST centre could be drawn")
 
 
 def _reader_default() -> ReaderConfig:

@@ -197,6 +197,10 @@ FOUND = [
     ("himr-1d", ["tag.chip_rate_hz=1e9"], "tag.chip_rate_hz"),
     ("himr-1d", ["radio.margin_s=0"], "radio.margin_s"),
     ("himr-1d", ["tag.packet_rate_hz=2.3", "scene.duration_s=0.1"], "tag.packet_rate_hz"),
+    # every ST distance drawn below the radius is redrawn below min_st_distance_m: no draw kept (the run hung)
+    ("detection-probability", ["geometry.st_radius_m=0.05"], "geometry.min_st_distance_m"),
+    ("detection-probability", ["geometry.st_radius_m=0.5", "geometry.min_st_distance_m=0.6"],
+     "geometry.min_st_distance_m"),
 ]
 
 

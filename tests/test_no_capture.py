@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from rfsim.protocols.no_capture import NoCaptureAir
 
 
-@dataclass(frozen=True)
-class _Ex:
+class _Ex(NamedTuple):
+    """The fields of an exchange record (rfsim.protocols.inventory.AirExchange, a named tuple) read here."""
+
     replied: tuple
     detected: bool
     success: bool = True

@@ -138,3 +138,16 @@ def test_noise_key_is_one_draw_of_the_generator():
     key = noise_key(r1)
     assert key == int(r2.integers(0, 2**64, dtype=np.uint64))
     assert r1.bit_generator.state == r2.bit_generator.state
+
+
+def test_noise_key_equals_the_generators_integers_after_any_draws():
+    # the PCG64 shortcut (the raw 64-bit output) against NumPy's full-range integers, after draws
+    # that leave a buffered 32-bit half or a used normal in the generator; and another bit generator
+    for make in (lambda: np.random.default_rng(11), lambda: np.random.Generator(np.random.MT19937(11))):
+        r1, r2 = make(), make()
+        for draw in (lambda r: None, lambda r: r.integers(0, 7, dtype=np.uint32),
+                     lambda r: r.standard_normal(3), lambda r: r.random()):
+            draw(r1), draw(r2)
+            keys = [noise_key(r1) for _ in range(4)]
+            assert keys == [int(r2.integers(0, 2**64, dtype=np.uint64)) for _ in range(4)]
+            assert np.array_equal(r1.integers(0, 2**63, size=5), r2.integers(0, 2**63, size=5))

@@ -68,7 +68,7 @@ class Backscatter:
 
 
 def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, bw: float, propagation: str,
-                     memo: dict):
+                     memo: dict, b=None):
     """Keep one reflector's contribution as its factors when it has the fused form.
 
     The form is b·((A_s − Γ(t))·(g·x(t))): one-dimensional samples, a forward constant ``g``, a
@@ -79,8 +79,8 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
     ----------
     r : Reflection
         The reflector's reflection (:class:`rfsim.air.roles.Reflection`).
-    pj : PathSet-like
-        Backward link, reflector → receiver.
+    pj : PathSet-like or None
+        Backward link, reflector → receiver (None when ``b`` is given).
     seg : Segment
         The emitter's segment.
     g : complex or None
@@ -99,6 +99,9 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
         Propagation policy (:data:`rfsim.air.links.PROPAGATION_METHODS`).
     memo : dict
         The step's memo of narrowband link constants (:func:`rfsim.air.links.link_constant`).
+    b : complex or None, default None
+        The backward link's held constant (the links' ``held_constants``); None: asked of ``pj``
+        (:func:`rfsim.air.links.link_constant`).
 
     Returns
     -------
@@ -112,7 +115,8 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
     if (terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,)
             or not (isinstance(terms[0], _NUMBER) or np.ndim(terms[0]) == 0)):
         return None
-    b = link_constant(pj, seg.fc_hz, bw, propagation, memo)
+    if b is None:
+        b = link_constant(pj, seg.fc_hz, bw, propagation, memo)
     if b is None or not (isinstance(b, _NUMBER) or np.ndim(b) == 0):
         return None
     return Backscatter(seg.samples, g, terms[0], terms[1], b)

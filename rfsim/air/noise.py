@@ -199,7 +199,17 @@ def noise_key(rng: np.random.Generator) -> int:
     -------
     int
         The key, in [0, 2**64).
+
+    Notes
+    -----
+    The key is ``rng.integers(0, 2**64, dtype=np.uint64)``. Over the full 64-bit range NumPy
+    returns the bit generator's next 64-bit output unmasked (its bounded-integer rule takes that
+    branch for the range 2⁶⁴ − 1), which for a PCG64 generator is its raw output: that is read
+    directly (``bit_generator.random_raw()``, the same number, ≈ 0.2 µs against ≈ 2.5 µs).
     """
+    bg = rng.bit_generator
+    if type(bg) is np.random.PCG64 and type(rng) is np.random.Generator:
+        return int(bg.random_raw())
     return int(rng.integers(0, 2**64, dtype=np.uint64))
 
 

@@ -776,12 +776,13 @@ def _member_single(st: StepState, j: int, k: int, r_ant, fc_k: float, backs, con
         if b is not None:  # a reflector that does not modulate: one constant, no pass
             const[i] = const.get(i, 0j) + b * (rc * g)
             return
-    if pj is None:
-        pj = links.paths(refl.antenna, r_ant, fc_hz=fc_e, t_s=t0_s)
-    lazy = lazy_backscatter(r, pj, seg, g, y, rc, off, st.n_samples, st.bw, st.propagation, st.memo)
+    lazy = lazy_backscatter(r, pj, seg, g, y, rc, off, st.n_samples, st.bw, st.propagation, st.memo,
+                            b=backs[j] if backs is not None else None)
     if lazy is not None:  # b·((A_s − Γ)·(g·x)): formed with the sum
         parts.append(lazy)
         return
+    if pj is None:
+        pj = links.paths(refl.antenna, r_ant, fc_hz=fc_e, t_s=t0_s)
     inc_e = y if y is not None else g * seg.samples
     scattered = (rc * inc_e) if rc is not None else r.reradiation(st.n_samples) * inc_e
     gb, yb = through(pj, seg, scattered, fc_hz=fc_e, bandwidth_hz=st.bw, propagation=st.propagation, memo=st.memo)

@@ -763,34 +763,44 @@ class _EngineLinks:
         held in the link cache or drawn now (a new draw: each tag's links drawn here in the
         order of ``others``, the members' order in which the air step would ask them, and held
         for the step). Remembered in the link cache for the round's draw: the Query's
-        constants serve its ACK (the channel holds one draw per round)."""
+        constants serve its ACK (the channel holds one draw per round). Where every tag's backward
+        link is its forward link (a reciprocal channel's monostatic pair), the constants of both
+        directions are the same numbers and are remembered for both at once."""
         if self.motions is not None or antenna is not self.antenna or (self.cache is None and not self.draw):
             return None
-        key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, bool(inbound), len(others))
-        hit = self.cache.get(key) if self.cache is not None else None
+        inbound = bool(inbound)
+        key = ("held", id(antenna), fc_hz, bandwidth_hz, propagation, inbound, len(others))
+        cache = self.cache
+        hit = cache.get(key) if cache is not None else None
         if hit is not None and hit.reader_antenna is antenna and (
                 hit.antennas is others or hit.antenna_ids == tuple([id(a) for a in others])):
             return hit.constants
         out = []
+        reciprocal = True  # every pair's backward link is its forward link
+        index, draw = self.index, self.draw
         for ant in others:
-            i = self.index.get(id(ant))
+            i = index.get(id(ant))
             links = self._pair(i, ant, fc_hz) if i is not None else None
-            if links is None and self.draw:  # a tag the engine does not know: the step asks it (an error)
+            if links is None and draw:  # a tag the engine does not know: the step asks it (an error)
                 return None
             if links is None:  # not held at this carrier: every constant at once, if the channel can
                 out = self._bulk_constants(others, fc_hz, bandwidth_hz, propagation, inbound)
                 if out is None:
                     return None
+                reciprocal = False
                 break
             link = links.backward if inbound else links.forward
+            reciprocal = reciprocal and links.backward is links.forward
             f = getattr(link, "narrowband_constant", None)
             c = f(fc_hz, bandwidth_hz, propagation) if f is not None else None
             if c is None:
                 return None
             out.append(c)
-        if self.cache is not None:
-            self.cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
-                                             antenna_ids=tuple([id(a) for a in others]), constants=out)
+        if cache is not None:
+            entry = cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
+                                                antenna_ids=tuple([id(a) for a in others]), constants=out)
+            if reciprocal:  # the other direction: the same links, the same constants
+                cache[key[:5] + (not inbound, key[6])] = entry
         return out
 
     def _draw(self, i: int, rx, fc_hz, t_s) -> _LinkPair:

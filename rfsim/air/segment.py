@@ -103,6 +103,34 @@ class Segment:
         out.base, out.gain, out._samples, out.memo, out.n_samples = base, complex(gain), None, {}, base.n_samples
         return out
 
+    @classmethod
+    def own(cls, t0_s: float, fs_hz: float, fc_hz: float, samples: np.ndarray) -> "Segment":
+        """Make a segment that holds ``samples`` itself, without the constructor's checks.
+
+        For an array its caller has just formed on a valid time base (the air step's receiver
+        inputs): (..., n) complex128 with n ≥ 1, ``fs_hz`` > 0.
+
+        Parameters
+        ----------
+        t0_s : float
+            Time of the first sample [s].
+        fs_hz : float
+            Sample rate [Hz] (> 0).
+        fc_hz : float
+            Carrier [Hz].
+        samples : ndarray, shape (..., n), complex128
+            The samples [√W], held (not copied).
+
+        Returns
+        -------
+        Segment
+            The segment.
+        """
+        out = cls.__new__(cls)
+        out.t0_s, out.fs_hz, out.fc_hz = float(t0_s), float(fs_hz), float(fc_hz)
+        out.base, out.gain, out._samples, out.memo, out.n_samples = None, 1.0 + 0j, samples, {}, samples.shape[-1]
+        return out
+
     @property
     def samples(self) -> np.ndarray:
         """(..., n) complex128 [√W]."""

@@ -259,7 +259,8 @@ def propagate(emitters: Sequence, reflectors: Sequence, receivers: Sequence, lin
         receive(st, rcv, seg_k, decide=decide)
     return AirResult(segments=st.segs, incident=st.incident, reflections=st.reflections, inputs=st.inputs,
                      outputs=st.outputs, dropped=st.dropped, fc_ref_hz=float(st.fc_ref_hz), direct=st.direct_l,
-                     backscatter=st.back_l, noise=st.noise_l, links=st.used, groups=sorted(st.shortcut.items()))
+                     backscatter=st.back_l, noise=st.noise_l, links=st.used,
+                     groups=sorted(st.shortcut.items()) if st.shortcut else [])
 
 
 class Incoming(NamedTuple):
@@ -532,8 +533,10 @@ def reflect(st: StepState) -> list:
                 continue
         for j in range(start, stop):
             if gains is not None:  # the held constant: a scaled copy of the one emitter's segment
-                per_emitter[j] = (Incoming(st.i0, st.seg0, gains[j], None),)
-            inc = incident[j] = _incident(st, per_emitter[j])
+                # (on the reference carrier; its field for the later stages: StepState.comps_of)
+                inc = incident[j] = Segment.scaled(st.seg0, gains[j], st.fc_ref_hz)
+            else:
+                inc = incident[j] = _incident(st, per_emitter[j])
             if grp is None:
                 reacted[j] = members[j].reflect(inc)
         if grp is not None:
@@ -675,12 +678,11 @@ def superpose_noise(st: StepState, k: int, rcv, rng: np.random.Generator | None)
             raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
         key, start = noise_key(rng), first_read(rcv, st.t0_s, st.fs_hz, st.n_samples)
         y = fused_noisy_sum(const, parts, st.segs, st.n_samples, noise_w, key, start)
-        if y is not None:
-            return Segment(st.t0_s, st.fs_hz, fc_k, y)
-        seg = Segment(st.t0_s, st.fs_hz, fc_k, _sum_terms(const, parts, st.segs, st.n_samples, fused=True))
-        add_counter_awgn(seg.samples, noise_w, key, start=start)
-        return seg
-    return Segment(st.t0_s, st.fs_hz, fc_k, _sum_terms(const, parts, st.segs, st.n_samples, fused=True))
+        if y is None:
+            y = _sum_terms(const, parts, st.segs, st.n_samples, fused=True)
+            add_counter_awgn(y, noise_w, key, start=start)
+        return Segment.own(st.t0_s, st.fs_hz, fc_k, y)
+    return Segment.own(st.t0_s, st.fs_hz, fc_k, _sum_terms(const, parts, st.segs, st.n_samples, fused=True))
 
 
 def _direct(st: StepState, k: int, rcv, fc_k: float) -> tuple[dict, list]:
@@ -757,7 +759,8 @@ def _member_single(st: StepState, j: int, k: int, r_ant, fc_k: float, backs, con
     (:class:`rfsim.air.fused.Backscatter`), else its field goes through the backward link."""
     refl = st.members[j]
     r = st.reflections[j]
-    i, seg, g, y = st.comps_of(j)[0]
+    comps = st.per_emitter[j]  # (:meth:`StepState.comps_of`)
+    i, seg, g, y = comps[0] if comps is not None else (st.i0, st.seg0, st.gains[j], None)
     links, t0_s, fc_e = st.links, st.t0_s, seg.fc_hz
     if backs is not None:
         pj = None

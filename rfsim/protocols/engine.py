@@ -533,7 +533,8 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
                 decoded_tag = i
                 break
     t1_range = side.reply_range
-    timing_ok = tuple(bool(t1_range.min_s <= st - tx.cmd_end_s <= t1_range.max_s) for st in starts)
+    lo, hi, cmd_end_s = t1_range.min_s, t1_range.max_s, tx.cmd_end_s
+    timing_ok = tuple([bool(lo <= st - cmd_end_s <= hi) for st in starts])
     n = int(tx.samples.size)
     return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
                     channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),

@@ -29,7 +29,6 @@ Jakes (Clarke) correlation J0(2π·f_D·Δt) of scatterers moving in the room.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -156,10 +155,9 @@ class ApdpModel:
             eps_trms=self.eps_trms,
         )
 
-    @functools.cached_property
+    @property
     def profile_items(self) -> tuple:
-        """:attr:`profile_options` as a tuple of ``(name, value)`` (a key of :func:`tap_terms`; formed
-        once per model: its fields are frozen)."""
+        """:attr:`profile_options` as a tuple of ``(name, value)`` (a key of :func:`tap_terms`)."""
         return (("bandwidth_hz", self.bandwidth_hz), ("fres_hz", self.fres_hz), ("max_taps", self.max_taps),
                 ("max_iter", self.max_iter), ("eps_k", self.eps_k), ("eps_trms", self.eps_trms))
 

@@ -613,6 +613,7 @@ class ReaderPort:
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
         self.noise_power_w = reader.noise_power_w()
+        self._leakage = reader.leakage_gain()  # its coupling, read once per command (as its noise)
         self._listen_s = reader_listen_start_s(reader.link, tx.cmd_end_s)  # the reader's listen start [s]
 
     def coupling(self, emitter):
@@ -626,11 +627,12 @@ class ReaderPort:
         Returns
         -------
         complex or None
-            ``reader.leakage_gain()`` (complex amplitude gain) for the reader's own transmitter on
-            this port's antenna; None for any other emitter (the channel's link applies).
+            ``reader.leakage_gain()`` (complex amplitude gain, read when the port is made) for the
+            reader's own transmitter on this port's antenna; None for any other emitter (the
+            channel's link applies).
         """
         if getattr(emitter, "device", None) is self.reader and emitter.antenna is self.antenna:
-            return self.reader.leakage_gain()
+            return self._leakage
         return None
 
     def first_read_sample(self, t0_s: float, fs_hz: float, n_samples: int) -> int:

@@ -15,7 +15,7 @@ import crcmod.predefined
 import numpy as np
 import pytest
 
-from rfsim.channels import Antenna, Channel, HalfWaveDipole, Patch, Scene
+from rfsim.channels import Antenna, Channel, HalfWaveDipole, PathSet, Patch, Scene
 from rfsim.devices.gen2_tag_state import Reply
 from rfsim.devices.reader import Reader, ReaderConfig
 from rfsim.devices.tag import PassiveTag, TagConfig
@@ -322,3 +322,48 @@ def test_a_new_draw_gives_its_link_constants_once_per_tag_and_they_serve_the_ack
     assert ack_links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
                                     inbound=False) is forward
     assert len(calls) == 2
+
+
+def test_reciprocal_held_constants_are_remembered_for_both_directions_at_once():
+    """Monostatic links of a reciprocal channel (backward is forward): the forward call of a new draw
+    remembers the same constants for the inbound call, which asks no link (fails when each direction
+    forms its own list)."""
+    from rfsim.protocols.engine import _EngineLinks
+
+    tags = [make_tag(2.0), make_tag(3.0, 0.5, seed_index=2)]
+    ants = tuple(t.antenna for t in tags)
+    fc, bw, cache = 915e6, 640e3, {}
+    links = _EngineLinks(Channel(Scene()), READER_ANTENNA, tags, tags, None, trial_rng(7, 9), 0.0, cache, True)
+    forward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                   inbound=False)
+    asked = []
+    links._pair = lambda *a: asked.append(a)  # the inbound call must not need a link
+    backward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                    inbound=True)
+    assert backward is forward and asked == []
+    assert forward == [Channel(Scene()).link(READER_ANTENNA, a, fc_hz=fc).constant_gain(fc) for a in ants]
+
+
+def test_non_reciprocal_held_constants_are_formed_per_direction():
+    """A bistatic-like channel whose backward link is not the forward one: the inbound constants are
+    its own (the shortcut of the reciprocal case is not taken)."""
+    from rfsim.protocols.engine import _EngineLinks
+
+    channel = Channel(Scene())
+
+    class OwnBackward:  # the same numbers as another PathSet object: not the forward link itself
+        def backscatter_links(self, antenna, tag_antenna, **kw):
+            fwd, _ = channel.backscatter_links(antenna, tag_antenna, **kw)
+            return fwd, PathSet(fwd.gain * 0.5, fwd.delay_s, fwd.doppler_hz)
+
+    tags = [make_tag(2.0)]
+    ants = (tags[0].antenna,)
+    fc, bw = 915e6, 640e3
+    links = _EngineLinks(OwnBackward(), READER_ANTENNA, tags, tags, None, trial_rng(7, 9), 0.0, {}, True)
+    forward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                   inbound=False)
+    backward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
+                                    inbound=True)
+    assert backward is not forward
+    assert backward == [links.paths(ants[0], READER_ANTENNA, fc_hz=fc, t_s=0.0).narrowband_constant(fc, bw, "auto")]
+    assert backward[0] != forward[0]

@@ -599,10 +599,23 @@ def corr_abs_runs_kernel(r, t0, out):
     for i in range(n):
         mean_t += t0[i]
     mean_t /= n
-    for k in range(out.size):
-        a_re, a_im = runs_dot(k, begin, value, n_runs, c_re, c_im)
+    # runs_dot of every lag, run after run: each lag's terms added in run order (as runs_dot
+    # adds them), the lags side by side (contiguous: vectorised)
+    n_lags = out.size
+    a_re = np.zeros(n_lags)
+    a_im = np.zeros(n_lags)
+    for q in range(n_runs):
+        v = value[q]
+        lo_re = c_re[begin[q]:begin[q] + n_lags]
+        hi_re = c_re[begin[q + 1]:begin[q + 1] + n_lags]
+        lo_im = c_im[begin[q]:begin[q] + n_lags]
+        hi_im = c_im[begin[q + 1]:begin[q + 1] + n_lags]
+        for k in range(n_lags):
+            a_re[k] += v * (hi_re[k] - lo_re[k])
+            a_im[k] += v * (hi_im[k] - lo_im[k])
+    for k in range(n_lags):
         # a template with a non-zero mean: add back mean(r)·Σ t0
-        out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
+        out[k] = math.hypot(a_re[k] + m_re * mean_t * n, a_im[k] + m_im * mean_t * n)
 
 
 @njit

@@ -140,14 +140,16 @@ def waveform_kernel(elements, t0_samples, elements_per_sample, out):
 def waveform_from(elements, t0_samples, elements_per_sample, first, out):
     """Samples ``first … first + out.size − 1`` of :func:`waveform_kernel`'s waveform into
     ``out``: ``out[j]`` is sample n = first + j, ``elements[floor((n − t0)·r + eps)]`` inside the
-    reply, 0 outside (the same arithmetic on the absolute index n)."""
+    reply, 0 outside (the same arithmetic on the absolute index n). The element indices first, in
+    a pass of their own (branch-free: vectorised; ``ne`` before the reply), then the reads."""
     ne = elements.size
+    ks = np.empty(out.size, np.int64)
     for j in range(out.size):
         u = ((first + j) - t0_samples) * elements_per_sample
-        if u < 0.0:
-            out[j] = 0.0
-            continue
-        k = int(math.floor(u + INDEX_EPS))
+        k = np.int64(math.floor(u + INDEX_EPS))
+        ks[j] = k if u >= 0.0 else ne
+    for j in range(out.size):
+        k = ks[j]
         out[j] = elements[k] if k < ne else 0.0
 
 

@@ -528,21 +528,27 @@ def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_cou
     subcarrier sign of k (:func:`element_sign`). The projected sums of Re((part − dc)·g) are
     Re(g·S_j) − Re(dc·g)·C_j for any gain and offset (the same value up to the order of the
     operations), so one pass serves the decisions at every gain. Sums in sample order, the
-    real and imaginary parts apart (σ_n·part[n] is exact)."""
+    real and imaginary parts apart (σ_n·part[n] is exact). The element indices are computed
+    first, in a branch-free pass of their own (vectorised), then summed over."""
     s_sum[:] = 0j
     s_count[:] = 0.0
     nh = s_sum.size
     code = code_of(m)
+    n0 = max(0, int(math.ceil(start)))
+    ks = np.empty(max(part.size - n0, 0), np.int64)
+    for n in range(n0, part.size):  # the element indices first (branch-free: vectorised), −1 before
+        u = (n - start) * elements_per_sample
+        k = np.int64(math.floor(u + INDEX_EPS))
+        ks[n - n0] = k if u >= 0.0 else -1
     j = 0
     nxt = m  # first element of half-bit j + 1
     a_re = 0.0
     a_im = 0.0
     cnt = 0.0
-    for n in range(max(0, int(math.ceil(start))), part.size):
-        u = (n - start) * elements_per_sample
-        if u < 0.0:
+    for n in range(n0, part.size):
+        k = ks[n - n0]
+        if k < 0:
             continue
-        k = int(math.floor(u + INDEX_EPS))
         if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
             s_sum[j] = complex(a_re, a_im)
             s_count[j] = cnt

@@ -56,7 +56,7 @@ def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
     buf_idx = np.empty(nn, np.int64)
     m = 0
     prev = s[i0]
-    a = s[i0 + 1]
+    a = s[i0 + 1] if nn > 1 else 0.0  # read only when the loop below runs
     for i in range(i0 + 1, i1 - 1):  # written at m every time, kept when steady (no branch)
         nxt = s[i + 1]
         buf_z[m] = z[i] - c

@@ -140,14 +140,16 @@ def waveform_kernel(elements, t0_samples, elements_per_sample, out):
 def waveform_from(elements, t0_samples, elements_per_sample, first, out):
     """Samples ``first … first + out.size − 1`` of :func:`waveform_kernel`'s waveform into
     ``out``: ``out[j]`` is sample n = first + j, ``elements[floor((n − t0)·r + eps)]`` inside the
-    reply, 0 outside (the same arithmetic on the absolute index n)."""
+    reply, 0 outside (the same arithmetic on the absolute index n). The element indices first, in
+    a pass of their own (branch-free: vectorised; ``ne`` before the reply), then the reads."""
     ne = elements.size
+    ks = np.empty(out.size, np.int64)
     for j in range(out.size):
         u = ((first + j) - t0_samples) * elements_per_sample
-        if u < 0.0:
-            out[j] = 0.0
-            continue
-        k = int(math.floor(u + INDEX_EPS))
+        k = np.int64(math.floor(u + INDEX_EPS))
+        ks[j] = k if u >= 0.0 else ne
+    for j in range(out.size):
+        k = ks[j]
         out[j] = elements[k] if k < ne else 0.0
 
 
@@ -526,21 +528,27 @@ def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_cou
     subcarrier sign of k (:func:`element_sign`). The projected sums of Re((part − dc)·g) are
     Re(g·S_j) − Re(dc·g)·C_j for any gain and offset (the same value up to the order of the
     operations), so one pass serves the decisions at every gain. Sums in sample order, the
-    real and imaginary parts apart (σ_n·part[n] is exact)."""
+    real and imaginary parts apart (σ_n·part[n] is exact). The element indices are computed
+    first, in a branch-free pass of their own (vectorised), then summed over."""
     s_sum[:] = 0j
     s_count[:] = 0.0
     nh = s_sum.size
     code = code_of(m)
+    n0 = max(0, int(math.ceil(start)))
+    ks = np.empty(max(part.size - n0, 0), np.int64)
+    for n in range(n0, part.size):  # the element indices first (branch-free: vectorised), −1 before
+        u = (n - start) * elements_per_sample
+        k = np.int64(math.floor(u + INDEX_EPS))
+        ks[n - n0] = k if u >= 0.0 else -1
     j = 0
     nxt = m  # first element of half-bit j + 1
     a_re = 0.0
     a_im = 0.0
     cnt = 0.0
-    for n in range(max(0, int(math.ceil(start))), part.size):
-        u = (n - start) * elements_per_sample
-        if u < 0.0:
+    for n in range(n0, part.size):
+        k = ks[n - n0]
+        if k < 0:
             continue
-        k = int(math.floor(u + INDEX_EPS))
         if k >= nxt:  # the element index grows with n: a new half-bit, found by comparison
             s_sum[j] = complex(a_re, a_im)
             s_count[j] = cnt
@@ -599,10 +607,23 @@ def corr_abs_runs_kernel(r, t0, out):
     for i in range(n):
         mean_t += t0[i]
     mean_t /= n
-    for k in range(out.size):
-        a_re, a_im = runs_dot(k, begin, value, n_runs, c_re, c_im)
+    # runs_dot of every lag, run after run: each lag's terms added in run order (as runs_dot
+    # adds them), the lags side by side (contiguous: vectorised)
+    n_lags = out.size
+    a_re = np.zeros(n_lags)
+    a_im = np.zeros(n_lags)
+    for q in range(n_runs):
+        v = value[q]
+        lo_re = c_re[begin[q]:begin[q] + n_lags]
+        hi_re = c_re[begin[q + 1]:begin[q + 1] + n_lags]
+        lo_im = c_im[begin[q]:begin[q] + n_lags]
+        hi_im = c_im[begin[q + 1]:begin[q + 1] + n_lags]
+        for k in range(n_lags):
+            a_re[k] += v * (hi_re[k] - lo_re[k])
+            a_im[k] += v * (hi_im[k] - lo_im[k])
+    for k in range(n_lags):
         # a template with a non-zero mean: add back mean(r)·Σ t0
-        out[k] = math.hypot(a_re + m_re * mean_t * n, a_im + m_im * mean_t * n)
+        out[k] = math.hypot(a_re[k] + m_re * mean_t * n, a_im[k] + m_im * mean_t * n)
 
 
 @njit

@@ -102,7 +102,7 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     4. Decisions ``bits`` ((n_bits + 1,) uint8) of span = r[i0 : i0 + n_reply + 4] − c with the
        gain h, from the same sums: Re((S_j − c·C_j)/h).
     5. :func:`rfsim.gen2._measure_kernels.measure_kernel` of span against the reference of
-       ``bits``.
+       ``bits`` (given r[i0:i1] and c: it subtracts c as it reads the samples).
 
     ``out_f`` ((4,) float64) receives start [samples of rx], corr, slope [rad/s], σ² [W];
     ``out_c`` ((1,) complex128) the measured gain. Returns a status: :data:`RECEIVED`,
@@ -168,9 +168,7 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
         return CONSTANT
     # step 4: decisions of the reply's samples, r − c, with the gain h: sums S_j − c·C_j
     i1 = min(n, i0 + n_reply + 4)
-    span = np.empty(i1 - i0, np.complex128)
-    for i in range(i1 - i0):
-        span[i] = r[i0 + i] - c
+    span = r[i0:i1]  # less c: the measurement subtracts it as it reads the samples
     if not (0.0 <= frac <= span.size - n_reply):
         return NO_ROOM
     if h == 0:
@@ -189,7 +187,7 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     else:
         ref = np.empty(i1 - i0)
         _reference_into(bits[:n_bits], m, pre_levels, state0, t0_samples, ratio, i0, ref)
-    hm, slope, sigma2 = measure_kernel(span, ref, fs_hz, n_blocks)
+    hm, slope, sigma2 = measure_kernel(span, ref, fs_hz, n_blocks, c)
     out_c[0] = hm
     out_f[2] = slope
     out_f[3] = sigma2

@@ -35,7 +35,7 @@ import numpy as np
 
 from rfsim.air.cache import AirCache, CommandKey, Waveform
 from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
-from rfsim.gen2.pie import command_ask_baseband, pie_lead_in, pie_timeline, timeline_envelope
+from rfsim.gen2.pie import AskCommand, ask_command, ask_command_baseband, pie_lead_in, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -54,6 +54,18 @@ class _Command(NamedTuple):
     bits: np.ndarray
     preamble: str
     duration_s: float
+
+
+class _TxMemo(NamedTuple):
+    """What the transmitter derives from the reader's (frozen) config and link, its sample rate
+    and its run cache, kept while they are the same objects (``PieTransmitter._tx_memo``)."""
+
+    config: object
+    link: object
+    fs_hz: float
+    air_cache: AirCache
+    durations: dict  # (preamble, bits, ones) -> T_cmd [s]
+    asks: dict  # (preamble, cw_before_s, cw_after_s) -> the ASK command's arguments (AskCommand)
 
 
 @dataclass(frozen=True)
@@ -167,14 +179,50 @@ class PieTransmitter:
         bits.setflags(write=False)
         preamble = command_preamble(cmd)
         # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
-        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the run
-        n_ones = int(np.count_nonzero(bits))
-        duration_s = self.air_cache.link_timing(_command_duration_s, self.link, preamble, bits.size, n_ones)
+        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the
+        # run, and on the reader
+        durations = self._tx_memo().durations
+        timing = (preamble, bits.size, int(np.count_nonzero(bits)))
+        duration_s = durations.get(timing)
+        if duration_s is None:
+            if len(durations) >= TX_CACHE_SIZE:
+                durations.clear()
+            duration_s = durations[timing] = self.air_cache.link_timing(_command_duration_s, self.link, *timing)
         hit = _Command(bits, preamble, duration_s)
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
                 self._cmd_cache.pop(next(iter(self._cmd_cache)))
             self._cmd_cache[cmd_key] = hit
+        return hit
+
+    def _tx_memo(self) -> _TxMemo:
+        """The :class:`_TxMemo`, made again when the config, link, sample rate or run cache is replaced."""
+        memo = self.__dict__.get("_tx_kept")
+        if (memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz
+                or memo.air_cache is not self.air_cache):
+            memo = self._tx_kept = _TxMemo(self.config, self.link, self.fs_hz, self.air_cache, {}, {})
+        return memo
+
+    def _ask_command(self, preamble: str, cw_before_s: float, cw_after_s: float) -> AskCommand:
+        """The DSB-/PR-ASK arguments of a command with this lead-in and these CW lengths [s]
+        (:func:`rfsim.gen2.pie.ask_command`), kept on the reader (:class:`_TxMemo`): every
+        command after the first modulates with them, only its bits new."""
+        asks = self._tx_memo().asks
+        key = (preamble, cw_before_s, cw_after_s)
+        hit = asks.get(key)
+        if hit is None:
+            lk = self.link
+            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
+            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
+            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
+            # The checked lead-in (preamble or frame-sync) is the run's, per link profile.
+            lead = self.air_cache.link_timing(_lead_in, lk, preamble, cw_before_s)
+            hit = ask_command(lead, cw_after_s=cw_after_s, modulated_after_s=min(cw_after_s, 2.0 * lk.tari_s),
+                              amplitude=self._cw_amplitude(), pr_ask=lk.modulation == "PR-ASK", depth=lk.depth,
+                              fs_hz=self.fs_hz, rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s)
+            if len(asks) >= TX_CACHE_SIZE:
+                asks.clear()
+            asks[key] = hit
         return hit
 
     def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
@@ -200,18 +248,10 @@ class PieTransmitter:
             Baseband at the antenna port [√W].
         """
         lk = self.link
+        if lk.modulation in ("DSB-ASK", "PR-ASK"):  # the arguments but the bits kept (_ask_command)
+            return ask_command_baseband(self._ask_command(preamble, float(cw_before_s), float(cw_after_s)), bits)
         rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = self._cw_amplitude()
-        if lk.modulation in ("DSB-ASK", "PR-ASK"):
-            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
-            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
-            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
-            # The checked lead-in (preamble or frame-sync) is the run's, per link profile.
-            lead = self.air_cache.link_timing(_lead_in, lk, preamble, float(cw_before_s))
-            return command_ask_baseband(lead, bits, cw_after_s=float(cw_after_s),
-                                        modulated_after_s=min(float(cw_after_s), 2.0 * lk.tari_s), amplitude=amp,
-                                        pr_ask=lk.modulation == "PR-ASK", depth=lk.depth, fs_hz=self.fs_hz,
-                                        rise_fall_s=rise_fall_s)
         tl = pie_timeline(bits, tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
                           delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
                           cw_before_s=float(cw_before_s))
@@ -287,7 +327,8 @@ class PieTransmitter:
             cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
-        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=hit.samples, fc_hz=self.fc_hz(t0_s),
-                         channel_index=self.channel_index(t0_s),
+        channel = self.channel_index(t0_s)
+        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=hit.samples, fc_hz=float(self.plan_hz[channel - 1]),
+                         channel_index=channel,
                          antenna_index=self.antenna_index(round_index),
                          cmd_start_s=start, cmd_end_s=start + cmd_duration_s, memo=hit.memo)

@@ -332,7 +332,7 @@ class Reader(PieTransmitter):
             Number of samples.
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return self._decode_plan("known").preamble_samples(blf)
+        return self._receive_memo().known.preamble_samples(blf)
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -360,7 +360,7 @@ class Reader(PieTransmitter):
             γ, a normalised correlation in (0, 1).
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return self._decode_plan("known").detection(int(n_lags), blf).threshold
+        return self._receive_memo().known.detection(int(n_lags), blf).threshold
 
     def listen_window_s(self, reply_bits: int) -> float:
         """Return how long the reader keeps its CW after a command to hear a reply.

@@ -7,7 +7,7 @@ decisions (:func:`known_levels`) and RSSI, phase, Doppler and residual from the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -22,9 +22,9 @@ __all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels"
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 
 
-@dataclass(frozen=True)
-class ReadResult:
-    """Outcome and measurements of one reply window.
+class ReadResult(NamedTuple):
+    """Outcome and measurements of one reply window (a named tuple: made for every reply window,
+    twice per singulation).
 
     Attributes
     ----------

@@ -26,15 +26,13 @@ LinkProfile.command_duration_s(cmd)``.
 
 from __future__ import annotations
 
-import dataclasses
 import weakref
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from rfsim.air.cache import AirCache, CommandKey, Waveform
-from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
+from rfsim.gen2.commands import COMMAND_TYPES, encode
 from rfsim.gen2.pie import AskCommand, ask_command, ask_command_baseband, pie_lead_in, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
@@ -68,9 +66,8 @@ class _TxMemo(NamedTuple):
     asks: dict  # (preamble, cw_before_s, cw_after_s) -> the ASK command's arguments (AskCommand)
 
 
-@dataclass(frozen=True)
-class TxSegment:
-    """One transmitted segment: PIE command + CW.
+class TxSegment(NamedTuple):
+    """One transmitted segment: PIE command + CW (a named tuple: one is made per command sent).
 
     Attributes
     ----------
@@ -104,7 +101,7 @@ class TxSegment:
     antenna_index: int
     cmd_start_s: float
     cmd_end_s: float
-    memo: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
+    memo: dict
 
     @property
     def end_s(self) -> float:
@@ -162,8 +159,8 @@ class PieTransmitter:
     """
 
     def _command(self, cmd) -> _Command:
-        """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (the last :data:`TX_CACHE_SIZE`
-        commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
+        """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (up to :data:`TX_CACHE_SIZE`
+        commands are kept, all dropped when full: a reader repeats its Query/QueryRep/ACK many times)."""
         if self._cmd_cache_link is not self.link:
             self._cmd_cache.clear()
             self._cmd_cache_link = self.link
@@ -177,7 +174,7 @@ class PieTransmitter:
             return hit
         bits = encode(cmd)
         bits.setflags(write=False)
-        preamble = command_preamble(cmd)
+        preamble = type(cmd).PREAMBLE  # command_preamble(cmd) of a command transmit checked
         # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
         # RN16 changes every trial, its duration takes one of 17 values): kept per link in the
         # run, and on the reader
@@ -191,7 +188,7 @@ class PieTransmitter:
         hit = _Command(bits, preamble, duration_s)
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
-                self._cmd_cache.pop(next(iter(self._cmd_cache)))
+                self._cmd_cache.clear()
             self._cmd_cache[cmd_key] = hit
         return hit
 

@@ -263,7 +263,7 @@ class DecodePlan:
     track_timing: bool = False
     dc_from_lead: bool = True
     refit: bool = False
-    memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}}, repr=False)
+    memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}, "kernel": {}, "crc": {}}, repr=False)
     variants: StepVariants = field(init=False, repr=False)
     steps: tuple = field(init=False, repr=False)
 
@@ -323,7 +323,7 @@ class DecodePlan:
         _KnownArguments
             The arguments, in the kernel's order.
         """
-        hit = self.memo.get("kernel", {}).get(blf_hz)
+        hit = self.memo["kernel"].get(blf_hz)
         return hit if hit is not None else _kept(self.memo, "kernel", blf_hz,
                                                  partial(self._known_arguments, blf_hz))
 
@@ -352,7 +352,7 @@ class DecodePlan:
         if not isinstance(bits, np.ndarray):
             return crc16_ok(bits)
         key = (bits.dtype.str, bits.shape, bits.tobytes())
-        hit = self.memo.get("crc", {}).get(key)
+        hit = self.memo["crc"].get(key)
         return hit if hit is not None else _kept(self.memo, "crc", key, partial(crc16_ok, bits))
 
     def detection(self, n_lags: int, blf_hz: float) -> _Detection:
@@ -676,8 +676,7 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     """``receive_kernel`` at one BLF: the preamble over the lags (runs + 1/16-sample
     refinement) and, in the same call, (h, c) on the known levels, the decisions and the
     measurement (steps 5 and 6 take them from it)."""
-    n_bits = w.n_bits
-    det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
+    det_bits, bits = np.empty((2, w.n_bits + 1), dtype=np.uint8)  # the first decisions', the bits
     out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
     status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf),
                                  det_bits, bits, out_f, out_c)

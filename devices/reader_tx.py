@@ -158,7 +158,7 @@ class PieTransmitter:
     (:class:`rfsim.air.cache.AirCache`: the modulated segments by content).
     """
 
-    def _command(self, cmd) -> _Command:
+    def _command(self, cmd, memo: _TxMemo) -> _Command:
         """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (up to :data:`TX_CACHE_SIZE`
         commands are kept, all dropped when full: a reader repeats its Query/QueryRep/ACK many times)."""
         if self._cmd_cache_link is not self.link:
@@ -178,8 +178,8 @@ class PieTransmitter:
         # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
         # RN16 changes every trial, its duration takes one of 17 values): kept per link in the
         # run, and on the reader
-        durations = self._tx_memo().durations
-        timing = (preamble, bits.size, int(np.count_nonzero(bits)))
+        durations = memo.durations
+        timing = (preamble, bits.size, int(np.add.reduce(bits, dtype=np.int64)))  # bits, ones
         duration_s = durations.get(timing)
         if duration_s is None:
             if len(durations) >= TX_CACHE_SIZE:
@@ -308,7 +308,7 @@ class PieTransmitter:
         cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        bits, preamble, cmd_duration_s = self._command(cmd)
+        bits, preamble, cmd_duration_s = self._command(cmd, self._tx_memo())
         # A reader sends the same commands (Query, QueryRep, …) again and again: keep the last
         # modulated segments (read-only) by content, made by this (frozen) config and link profile.
         cache = self.air_cache

@@ -480,10 +480,12 @@ def ask_command(lead: PieLeadIn, *, cw_after_s: float, modulated_after_s: float,
     ----------
     lead : PieLeadIn
         The command's timing and lead-in (:func:`pie_lead_in`).
-    cw_after_s, modulated_after_s, amplitude, pr_ask, depth, fs_hz, rise_fall_s : float, float, float, bool, float, float, float
+    cw_after_s, modulated_after_s : float
         As in :func:`command_ask_baseband`: CW after the last rising edge [s] (≥ 0), the time
-        after it up to which the envelope is evaluated [s], CW amplitude A [√W], PR-ASK or
-        DSB-ASK, depth (A−B)/A in (0, 1], sample rate [Hz], 10–90 % edge time [s] (≥ 0).
+        after it up to which the envelope is evaluated [s].
+    amplitude, pr_ask, depth, fs_hz, rise_fall_s : float, bool, float, float, float
+        CW amplitude A [√W], PR-ASK or DSB-ASK, depth (A−B)/A in (0, 1], sample rate [Hz],
+        10–90 % edge time [s] (≥ 0; default 0).
 
     Returns
     -------

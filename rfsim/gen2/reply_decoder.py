@@ -112,8 +112,8 @@ from rfsim.core.lazy import lazy_import
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
 _mk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
-           "CaptureTiming", "LinkPlans", "decode"]
+__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan",
+           "DecodedReply", "CaptureTiming", "LinkPlans", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8

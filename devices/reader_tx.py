@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from rfsim.air.cache import AirCache, CommandKey, Waveform
-from rfsim.gen2.commands import COMMAND_TYPES, encode
+from rfsim.gen2.commands import COMMAND_TYPES
 from rfsim.gen2.pie import AskCommand, ask_command, ask_command_baseband, pie_lead_in, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
@@ -172,7 +172,7 @@ class PieTransmitter:
             cmd_key = cmd
         if hit is not None:
             return hit
-        bits = encode(cmd)
+        bits = cmd._encode()  # encode(cmd) of a command transmit checked
         bits.setflags(write=False)
         preamble = type(cmd).PREAMBLE  # command_preamble(cmd) of a command transmit checked
         # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
@@ -200,11 +200,11 @@ class PieTransmitter:
             memo = self._tx_kept = _TxMemo(self.config, self.link, self.fs_hz, self.air_cache, {}, {})
         return memo
 
-    def _ask_command(self, preamble: str, cw_before_s: float, cw_after_s: float) -> AskCommand:
+    def _ask_command(self, preamble: str, cw_before_s: float, cw_after_s: float, memo: _TxMemo) -> AskCommand:
         """The DSB-/PR-ASK arguments of a command with this lead-in and these CW lengths [s]
-        (:func:`rfsim.gen2.pie.ask_command`), kept on the reader (:class:`_TxMemo`): every
+        (:func:`rfsim.gen2.pie.ask_command`), kept on the reader (``memo``, :class:`_TxMemo`): every
         command after the first modulates with them, only its bits new."""
-        asks = self._tx_memo().asks
+        asks = memo.asks
         key = (preamble, cw_before_s, cw_after_s)
         hit = asks.get(key)
         if hit is None:
@@ -244,9 +244,13 @@ class PieTransmitter:
         ndarray of complex128, shape (n_samples,)
             Baseband at the antenna port [√W].
         """
+        return self._modulate(bits, preamble, float(cw_after_s), float(cw_before_s), self._tx_memo())
+
+    def _modulate(self, bits, preamble: str, cw_after_s: float, cw_before_s: float, memo: _TxMemo) -> np.ndarray:
+        """:meth:`modulate` with the reader's :class:`_TxMemo`."""
         lk = self.link
         if lk.modulation in ("DSB-ASK", "PR-ASK"):  # the arguments but the bits kept (_ask_command)
-            return ask_command_baseband(self._ask_command(preamble, float(cw_before_s), float(cw_after_s)), bits)
+            return ask_command_baseband(self._ask_command(preamble, cw_before_s, cw_after_s, memo), bits)
         rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = self._cw_amplitude()
         tl = pie_timeline(bits, tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
@@ -308,7 +312,8 @@ class PieTransmitter:
         cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        bits, preamble, cmd_duration_s = self._command(cmd, self._tx_memo())
+        memo = self._tx_memo()
+        bits, preamble, cmd_duration_s = self._command(cmd, memo)
         # A reader sends the same commands (Query, QueryRep, …) again and again: keep the last
         # modulated segments (read-only) by content, made by this (frozen) config and link profile.
         cache = self.air_cache
@@ -316,7 +321,7 @@ class PieTransmitter:
         makers = (self.config, self.link)
         hit = cache.waveform(key, makers)
         if hit is None:
-            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+            x = self._modulate(bits, preamble, float(cw_after_s), cw_before_s, memo)
             x.setflags(write=False)
             # the memo names the run's cache (weakly: the cache holds the entry) so that a tag
             # reacting to these samples keeps its reply there

@@ -7,7 +7,7 @@ decisions (:func:`known_levels`) and RSSI, phase, Doppler and residual from the 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,9 +22,10 @@ __all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels"
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 
 
-class ReadResult(NamedTuple):
-    """Outcome and measurements of one reply window (a named tuple: made for every reply window,
-    twice per singulation).
+@dataclass
+class ReadResult:
+    """Outcome and measurements of one reply window (treat as read-only; not a frozen dataclass:
+    one is made for every reply window, and a frozen one sets each field through a call).
 
     Attributes
     ----------

@@ -522,7 +522,7 @@ def ask_command_baseband(command: AskCommand, bits) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        ``(ceil((r_last + cw_after_s)·fs),) complex128`` baseband [√W].
+        The baseband [√W], ``complex128``, ceil((r_last + cw_after_s)·fs) samples.
 
     Raises
     ------

@@ -316,7 +316,7 @@ class DecodePlan:
         Parameters
         ----------
         blf_hz : float
-            BLF [Hz].
+            The BLF the reply is decoded at [Hz].
 
         Returns
         -------

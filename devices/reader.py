@@ -648,7 +648,7 @@ class Reader(PieTransmitter):
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
-        while config, link and fs are the same objects (pure functions of them)."""
+        while config, link, fs and the run cache are the same objects (pure functions of them)."""
         memo = self.__dict__.get("_rx_memo")
         if (memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz
                 or memo.air_cache is not self.air_cache):

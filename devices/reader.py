@@ -93,13 +93,24 @@ class _ReplySize(NamedTuple):
 
 class _ReceiveMemo(NamedTuple):
     """What :meth:`Reader.receive` and :meth:`Reader.detection_threshold` derive from the
-    reader's config, link and sample rate, kept while they are the same objects."""
+    reader's config, link, sample rate and run cache, kept while they are the same objects."""
 
     config: ReaderConfig
     link: LinkProfile
     fs_hz: float
+    air_cache: AirCache
     blf_hz: float  # the link's nominal BLF [Hz]
     sizes: dict  # (n_bits, BLF [Hz]) -> _ReplySize
+    window: tuple  # the reply start's window after the command end [s] (reply_search_window_s)
+    known: _DecodePlan  # the "known" decode plan (_decode_plan)
+
+
+class _CarrierPhase(NamedTuple):
+    """arg of the reader's carrier during a reply window [rad] (:meth:`Reader.receive`'s
+    ``carrier``), kept with the carrier's value: a reader's commands end on one of two."""
+
+    carrier: complex
+    phase_rad: float
 
 
 class Reader(PieTransmitter):
@@ -321,7 +332,7 @@ class Reader(PieTransmitter):
             Number of samples.
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return self._decode_plan("known").preamble_samples(blf)
+        return self._receive_memo().known.preamble_samples(blf)
 
     def detection_threshold(self, n_lags: int, blf_hz: float | None = None) -> float:
         """Normalised-correlation threshold γ for a search over ``n_lags`` lags.
@@ -349,7 +360,7 @@ class Reader(PieTransmitter):
             γ, a normalised correlation in (0, 1).
         """
         blf = self.link.blf_hz if blf_hz is None else float(blf_hz)
-        return self._decode_plan("known").detection(int(n_lags), blf).threshold
+        return self._receive_memo().known.detection(int(n_lags), blf).threshold
 
     def listen_window_s(self, reply_bits: int) -> float:
         """Return how long the reader keeps its CW after a command to hear a reply.
@@ -407,7 +418,7 @@ class Reader(PieTransmitter):
         if cmd_end_s is None:
             return 0, n_samples - n_reply
         fs = self.fs_hz
-        t1min, t1max = self.reply_search_window_s()
+        t1min, t1max = self._receive_memo().window
         lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
         hi = min(n_samples - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
         return lo, hi
@@ -542,8 +553,7 @@ class Reader(PieTransmitter):
             return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
         if hi < lo or pre_n < 3:
             return ReadResult(False, None, "preamble not found")
-        out = _decode(rx, self._decode_plan("known"), lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
-                      crc=expect_crc)
+        out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
         return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
@@ -604,8 +614,13 @@ class Reader(PieTransmitter):
         if not out.found or (out.extra is not None and out.extra.get("truncated", False)):
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
         meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
-        if carrier is not None and complex(carrier) != 0:
-            meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + np.angle(complex(carrier))))
+        if carrier is not None:
+            carrier = complex(carrier)
+            if carrier != 0:
+                kept = self.__dict__.get("_carrier_phase")
+                if kept is None or kept.carrier != carrier:
+                    kept = self._carrier_phase = _CarrierPhase(carrier, float(np.angle(carrier)))
+                meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + kept.phase_rad))
         if expect_crc:
             ok = out.crc_ok
             reason = "" if ok else "crc error"
@@ -633,10 +648,12 @@ class Reader(PieTransmitter):
 
     def _receive_memo(self) -> _ReceiveMemo:
         """The :class:`_ReceiveMemo` of :meth:`receive` and :meth:`detection_threshold`, kept
-        while config, link and fs are the same objects (pure functions of them)."""
-        memo = getattr(self, "_rx_memo", None)
-        if memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz:
-            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.link.blf_hz, {})
+        while config, link, fs and the run cache are the same objects (pure functions of them)."""
+        memo = self.__dict__.get("_rx_memo")
+        if (memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz
+                or memo.air_cache is not self.air_cache):
+            memo = self._rx_memo = _ReceiveMemo(self.config, self.link, self.fs_hz, self.air_cache, self.link.blf_hz,
+                                                {}, self.reply_search_window_s(), self._decode_plan("known"))
         return memo
 
     def _reference(self, bits: np.ndarray, start: float, n: int, blf_hz: float,
@@ -673,8 +690,9 @@ class Reader(PieTransmitter):
         lk, fs = self.link, self.fs_hz
         p = abs(h) ** 2
         snr = 10.0 * math.log10(p / sigma2) if sigma2 > 0 and p > 0 else math.inf
+        h = complex(h)
         return dict(rssi_dbm=float(w_to_dbm(p)) if p > 0 else -math.inf,
-                    phase_rad=float(wrap_phase_rad(-np.angle(h))),
+                    phase_rad=float(wrap_phase_rad(-np.arctan2(h.imag, h.real))),  # -arg h, as np.angle
                     doppler_hz=slope / (2.0 * math.pi),
                     snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
 

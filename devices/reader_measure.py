@@ -22,9 +22,10 @@ __all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels"
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
 
 
-@dataclass(frozen=True)
+@dataclass
 class ReadResult:
-    """Outcome and measurements of one reply window.
+    """Outcome and measurements of one reply window (treat as read-only; not a frozen dataclass:
+    one is made for every reply window, and a frozen one sets each field through a call).
 
     Attributes
     ----------

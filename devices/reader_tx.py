@@ -26,16 +26,14 @@ LinkProfile.command_duration_s(cmd)``.
 
 from __future__ import annotations
 
-import dataclasses
 import weakref
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
 from rfsim.air.cache import AirCache, CommandKey, Waveform
-from rfsim.gen2.commands import COMMAND_TYPES, command_preamble, encode
-from rfsim.gen2.pie import command_ask_baseband, pie_lead_in, pie_timeline, timeline_envelope
+from rfsim.gen2.commands import COMMAND_TYPES
+from rfsim.gen2.pie import AskCommand, ask_command, ask_command_baseband, pie_lead_in, pie_timeline, timeline_envelope
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -56,9 +54,20 @@ class _Command(NamedTuple):
     duration_s: float
 
 
-@dataclass(frozen=True)
-class TxSegment:
-    """One transmitted segment: PIE command + CW.
+class _TxMemo(NamedTuple):
+    """What the transmitter derives from the reader's (frozen) config and link, its sample rate
+    and its run cache, kept while they are the same objects (``PieTransmitter._tx_memo``)."""
+
+    config: object
+    link: object
+    fs_hz: float
+    air_cache: AirCache
+    durations: dict  # (preamble, bits, ones) -> T_cmd [s]
+    asks: dict  # (preamble, cw_before_s, cw_after_s) -> the ASK command's arguments (AskCommand)
+
+
+class TxSegment(NamedTuple):
+    """One transmitted segment: PIE command + CW (a named tuple: one is made per command sent).
 
     Attributes
     ----------
@@ -92,7 +101,7 @@ class TxSegment:
     antenna_index: int
     cmd_start_s: float
     cmd_end_s: float
-    memo: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
+    memo: dict
 
     @property
     def end_s(self) -> float:
@@ -149,9 +158,9 @@ class PieTransmitter:
     (:class:`rfsim.air.cache.AirCache`: the modulated segments by content).
     """
 
-    def _command(self, cmd) -> _Command:
-        """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (the last :data:`TX_CACHE_SIZE`
-        commands are kept: a reader repeats its Query/QueryRep/ACK many times)."""
+    def _command(self, cmd, memo: _TxMemo) -> _Command:
+        """The bits, preamble and T_cmd [s] of a command (:class:`_Command`) (up to :data:`TX_CACHE_SIZE`
+        commands are kept, all dropped when full: a reader repeats its Query/QueryRep/ACK many times)."""
         if self._cmd_cache_link is not self.link:
             self._cmd_cache.clear()
             self._cmd_cache_link = self.link
@@ -163,18 +172,54 @@ class PieTransmitter:
             cmd_key = cmd
         if hit is not None:
             return hit
-        bits = encode(cmd)
+        bits = cmd._encode()  # encode(cmd) of a command transmit checked
         bits.setflags(write=False)
-        preamble = command_preamble(cmd)
+        preamble = type(cmd).PREAMBLE  # command_preamble(cmd) of a command transmit checked
         # T_cmd depends on the bits only through their number and the number of 1s (an ACK's
-        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the run
-        n_ones = int(np.count_nonzero(bits))
-        duration_s = self.air_cache.link_timing(_command_duration_s, self.link, preamble, bits.size, n_ones)
+        # RN16 changes every trial, its duration takes one of 17 values): kept per link in the
+        # run, and on the reader
+        durations = memo.durations
+        timing = (preamble, bits.size, int(np.add.reduce(bits, dtype=np.int64)))  # bits, ones
+        duration_s = durations.get(timing)
+        if duration_s is None:
+            if len(durations) >= TX_CACHE_SIZE:
+                durations.clear()
+            duration_s = durations[timing] = self.air_cache.link_timing(_command_duration_s, self.link, *timing)
         hit = _Command(bits, preamble, duration_s)
         if cmd_key is not None:
             if len(self._cmd_cache) >= TX_CACHE_SIZE:
-                self._cmd_cache.pop(next(iter(self._cmd_cache)))
+                self._cmd_cache.clear()
             self._cmd_cache[cmd_key] = hit
+        return hit
+
+    def _tx_memo(self) -> _TxMemo:
+        """The :class:`_TxMemo`, made again when the config, link, sample rate or run cache is replaced."""
+        memo = self.__dict__.get("_tx_kept")
+        if (memo is None or memo.config is not self.config or memo.link is not self.link or memo.fs_hz != self.fs_hz
+                or memo.air_cache is not self.air_cache):
+            memo = self._tx_kept = _TxMemo(self.config, self.link, self.fs_hz, self.air_cache, {}, {})
+        return memo
+
+    def _ask_command(self, preamble: str, cw_before_s: float, cw_after_s: float, memo: _TxMemo) -> AskCommand:
+        """The DSB-/PR-ASK arguments of a command with this lead-in and these CW lengths [s]
+        (:func:`rfsim.gen2.pie.ask_command`), kept on the reader (``memo``, :class:`_TxMemo`): every
+        command after the first modulates with them, only its bits new."""
+        asks = memo.asks
+        key = (preamble, cw_before_s, cw_after_s)
+        hit = asks.get(key)
+        if hit is None:
+            lk = self.link
+            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
+            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
+            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
+            # The checked lead-in (preamble or frame-sync) is the run's, per link profile.
+            lead = self.air_cache.link_timing(_lead_in, lk, preamble, cw_before_s)
+            hit = ask_command(lead, cw_after_s=cw_after_s, modulated_after_s=min(cw_after_s, 2.0 * lk.tari_s),
+                              amplitude=self._cw_amplitude(), pr_ask=lk.modulation == "PR-ASK", depth=lk.depth,
+                              fs_hz=self.fs_hz, rise_fall_s=self.config.pie_rise_fall_tari * lk.tari_s)
+            if len(asks) >= TX_CACHE_SIZE:
+                asks.clear()
+            asks[key] = hit
         return hit
 
     def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
@@ -199,19 +244,15 @@ class PieTransmitter:
         ndarray of complex128, shape (n_samples,)
             Baseband at the antenna port [√W].
         """
+        return self._modulate(bits, preamble, float(cw_after_s), float(cw_before_s), self._tx_memo())
+
+    def _modulate(self, bits, preamble: str, cw_after_s: float, cw_before_s: float, memo: _TxMemo) -> np.ndarray:
+        """:meth:`modulate` with the reader's :class:`_TxMemo`."""
         lk = self.link
+        if lk.modulation in ("DSB-ASK", "PR-ASK"):  # the arguments but the bits kept (_ask_command)
+            return ask_command_baseband(self._ask_command(preamble, cw_before_s, cw_after_s, memo), bits)
         rise_fall_s = self.config.pie_rise_fall_tari * lk.tari_s
         amp = self._cw_amplitude()
-        if lk.modulation in ("DSB-ASK", "PR-ASK"):
-            # Beyond the last rising edge's ramp (≤ 0.28 Tari wide) e = 1 and the PR-ASK sign no
-            # longer changes: the samples up to 2 Tari after that edge are modulated, the CW
-            # after them is the constant A·s_end (s_end = −1 after an odd number of low pulses).
-            # The checked lead-in (preamble or frame-sync) is the run's, per link profile.
-            lead = self.air_cache.link_timing(_lead_in, lk, preamble, float(cw_before_s))
-            return command_ask_baseband(lead, bits, cw_after_s=float(cw_after_s),
-                                        modulated_after_s=min(float(cw_after_s), 2.0 * lk.tari_s), amplitude=amp,
-                                        pr_ask=lk.modulation == "PR-ASK", depth=lk.depth, fs_hz=self.fs_hz,
-                                        rise_fall_s=rise_fall_s)
         tl = pie_timeline(bits, tari_s=lk.tari_s, data1_tari=lk.data1_tari, trcal_s=lk.trcal_s, pw_s=lk.pw_s,
                           delimiter_s=lk.delimiter_s, preamble=preamble, cw_after_s=float(cw_after_s),
                           cw_before_s=float(cw_before_s))
@@ -271,7 +312,8 @@ class PieTransmitter:
         cw_before_s = self.link.tari_s if cw_before_s is None else float(cw_before_s)
         if not cw_before_s >= 0:
             raise ValueError(f"cw_before_s must be >= 0, got {cw_before_s}")
-        bits, preamble, cmd_duration_s = self._command(cmd)
+        memo = self._tx_memo()
+        bits, preamble, cmd_duration_s = self._command(cmd, memo)
         # A reader sends the same commands (Query, QueryRep, …) again and again: keep the last
         # modulated segments (read-only) by content, made by this (frozen) config and link profile.
         cache = self.air_cache
@@ -279,7 +321,7 @@ class PieTransmitter:
         makers = (self.config, self.link)
         hit = cache.waveform(key, makers)
         if hit is None:
-            x = self.modulate(bits, preamble=preamble, cw_after_s=cw_after_s, cw_before_s=cw_before_s)
+            x = self._modulate(bits, preamble, float(cw_after_s), cw_before_s, memo)
             x.setflags(write=False)
             # the memo names the run's cache (weakly: the cache holds the entry) so that a tag
             # reacting to these samples keeps its reply there
@@ -287,7 +329,8 @@ class PieTransmitter:
             cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s
-        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=hit.samples, fc_hz=self.fc_hz(t0_s),
-                         channel_index=self.channel_index(t0_s),
+        channel = self.channel_index(t0_s)
+        return TxSegment(t0_s=t0_s, fs_hz=self.fs_hz, samples=hit.samples, fc_hz=float(self.plan_hz[channel - 1]),
+                         channel_index=channel,
                          antenna_index=self.antenna_index(round_index),
                          cmd_start_s=start, cmd_end_s=start + cmd_duration_s, memo=hit.memo)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -425,13 +426,128 @@ def ask_baseband(timeline: PieTimeline, *, amplitude: float, pr_ask: bool, depth
     return out
 
 
+class AskCommand(NamedTuple):
+    """What a transmitter fixes of a command's ASK baseband, all but its bits: the arguments of
+    ``command_baseband_kernel`` in its order without ``bits``, checked (:func:`ask_command`).
+
+    Attributes
+    ----------
+    symbols_s : numpy.ndarray
+        ``(2,)`` or ``(3,)`` lead-in symbol lengths after the delimiter [s] (:class:`PieLeadIn`).
+    data0_s, data1_s, t0_s, pw_s, cw_before_s : float
+        The lead-in's data-0 and data-1 durations, delimiter rising edge, low-pulse width and CW
+        before the delimiter [s].
+    cw_after_s, modulated_after_s : float
+        CW after the last rising edge, and the time after it up to which the envelope is
+        evaluated [s].
+    depth : float
+        (A−B)/A in (0, 1].
+    rise_fall_s : float
+        10–90 % edge time [s].
+    ramp_per_10_90 : float
+        Ramp width per 10–90 % time of the raised-cosine edge [1].
+    fs_hz : float
+        Sample rate [Hz].
+    amplitude : float
+        CW amplitude A [√W].
+    pr_ask : bool
+        PR-ASK (True) or DSB-ASK.
+    """
+
+    symbols_s: np.ndarray
+    data0_s: float
+    data1_s: float
+    t0_s: float
+    pw_s: float
+    cw_before_s: float
+    cw_after_s: float
+    modulated_after_s: float
+    depth: float
+    rise_fall_s: float
+    ramp_per_10_90: float
+    fs_hz: float
+    amplitude: float
+    pr_ask: bool
+
+
+def ask_command(lead: PieLeadIn, *, cw_after_s: float, modulated_after_s: float, amplitude: float, pr_ask: bool,
+                depth: float, fs_hz: float, rise_fall_s: float = 0.0) -> AskCommand:
+    """The checked arguments of :func:`command_ask_baseband` but the bits: a transmitter makes
+    them once per lead-in and CW lengths and modulates command after command with them
+    (:func:`ask_command_baseband`).
+
+    Parameters
+    ----------
+    lead : PieLeadIn
+        The command's timing and lead-in (:func:`pie_lead_in`).
+    cw_after_s, modulated_after_s : float
+        As in :func:`command_ask_baseband`: CW after the last rising edge [s] (≥ 0), the time
+        after it up to which the envelope is evaluated [s].
+    amplitude, pr_ask, depth, fs_hz, rise_fall_s : float, bool, float, float, float
+        CW amplitude A [√W], PR-ASK or DSB-ASK, depth (A−B)/A in (0, 1], sample rate [Hz],
+        10–90 % edge time [s] (≥ 0; default 0).
+
+    Returns
+    -------
+    AskCommand
+        The arguments.
+
+    Raises
+    ------
+    ValueError
+        If ``cw_after_s`` or ``rise_fall_s`` is negative, ``depth`` is outside (0, 1] or
+        ``fs_hz`` is not positive.
+    """
+    fs_hz = _ask_arguments(depth, fs_hz)
+    if cw_after_s < 0:
+        raise ValueError("cw_before_s and cw_after_s must be >= 0")
+    if rise_fall_s < 0:
+        raise ValueError("rise_fall_s must be >= 0")
+    return AskCommand(lead.symbols_s, lead.data0_s, lead.data1_s, lead.t0_s, lead.pw_s, lead.cw_before_s,
+                      float(cw_after_s), float(modulated_after_s), float(depth), float(rise_fall_s),
+                      _RAMP_WIDTH_PER_10_90, fs_hz, float(amplitude), bool(pr_ask))
+
+
+def ask_command_baseband(command: AskCommand, bits) -> np.ndarray:
+    """:func:`command_ask_baseband` of ``bits`` with its other arguments made by :func:`ask_command`:
+    one kernel call.
+
+    Parameters
+    ----------
+    command : AskCommand
+        The lead-in, CW lengths and modulation (:func:`ask_command`).
+    bits : array_like
+        ``(n,)`` 0/1, MSB first (a ``uint8`` array is passed on as is; the kernel checks its values).
+
+    Returns
+    -------
+    numpy.ndarray
+        The baseband [√W], ``complex128``, ceil((r_last + cw_after_s)·fs) samples.
+
+    Raises
+    ------
+    ValueError
+        If a bit is not 0/1 or the edges are too slow.
+    """
+    if not (isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1
+            and bits.flags.c_contiguous):
+        bits = as_bits(bits)
+    out, code = _k.command_baseband_kernel(command.symbols_s, bits, *command[1:])
+    if code == 1:
+        raise ValueError("bits must contain only 0 and 1")
+    if code == 2:
+        raise ValueError(_SLOW_EDGES)
+    return out
+
+
 def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_after_s: float, amplitude: float,
                          pr_ask: bool, depth: float, fs_hz: float, rise_fall_s: float = 0.0) -> np.ndarray:
     """:func:`ask_baseband` of a command's bits in one kernel call, from its checked lead-in.
 
     The samples of ``ask_baseband(pie_timeline(bits, …), …, modulated_s=r_last +
     modulated_after_s)``, bit for bit (``r_last`` the last rising edge [s], the timeline's
-    lead-in and timing those of ``lead``), without the intermediate arrays and checks.
+    lead-in and timing those of ``lead``), without the intermediate arrays and checks
+    (:func:`ask_command`, then :func:`ask_command_baseband`).
 
     Parameters
     ----------
@@ -459,23 +575,9 @@ def command_ask_baseband(lead: PieLeadIn, bits, *, cw_after_s: float, modulated_
         If a bit is not 0/1, ``cw_after_s`` or ``rise_fall_s`` is negative, ``depth`` is
         outside (0, 1], ``fs_hz`` is not positive or the edges are too slow.
     """
-    if not (isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1
-            and bits.flags.c_contiguous):
-        bits = as_bits(bits)
-    fs_hz = _ask_arguments(depth, fs_hz)
-    if cw_after_s < 0:
-        raise ValueError("cw_before_s and cw_after_s must be >= 0")
-    if rise_fall_s < 0:
-        raise ValueError("rise_fall_s must be >= 0")
-    out, code = _k.command_baseband_kernel(lead.symbols_s, bits, lead.data0_s, lead.data1_s, lead.t0_s, lead.pw_s,
-                                           lead.cw_before_s, float(cw_after_s), float(modulated_after_s), float(depth),
-                                           float(rise_fall_s), _RAMP_WIDTH_PER_10_90, fs_hz, float(amplitude),
-                                           bool(pr_ask))
-    if code == 1:
-        raise ValueError("bits must contain only 0 and 1")
-    if code == 2:
-        raise ValueError(_SLOW_EDGES)
-    return out
+    return ask_command_baseband(ask_command(lead, cw_after_s=cw_after_s, modulated_after_s=modulated_after_s,
+                                            amplitude=amplitude, pr_ask=pr_ask, depth=depth, fs_hz=fs_hz,
+                                            rise_fall_s=rise_fall_s), bits)
 
 
 def pie_envelope_for_profile(bits, profile, *, fs_hz: float, preamble: str = "query", **kwargs):
@@ -683,6 +785,9 @@ __all__ = [
     "PieLeadIn",
     "pie_lead_in",
     "command_ask_baseband",
+    "AskCommand",
+    "ask_command",
+    "ask_command_baseband",
     "pie_envelope",
     "pie_envelope_for_profile",
     "timeline_envelope",

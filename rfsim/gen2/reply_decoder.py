@@ -112,8 +112,8 @@ from rfsim.core.lazy import lazy_import
 _rxk = lazy_import("rfsim.gen2._receive_kernels")
 _mk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan", "DecodedReply",
-           "CaptureTiming", "LinkPlans", "decode"]
+__all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan",
+           "DecodedReply", "CaptureTiming", "LinkPlans", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8
@@ -178,6 +178,32 @@ class _Detection(NamedTuple):
     threshold: float
 
 
+class _KnownArguments(NamedTuple):
+    """The arguments of ``receive_kernel`` that a "known" plan fixes at one BLF, in the kernel's
+    order between the call's ``threshold`` and its output arrays (:meth:`DecodePlan.known_arguments`)."""
+
+    fs_hz: float
+    blf_hz: float
+    m: int
+    n_pre: int  # preamble samples at the BLF (:meth:`DecodePlan.preamble_samples`)
+    n_pre_el: int  # pilot + preamble elements
+    t0: np.ndarray
+    max_runs_per_sample: float
+    half_width: int
+    shifts: np.ndarray
+    templates: np.ndarray
+    norms: np.ndarray
+    run_begin: np.ndarray
+    run_value: np.ndarray
+    n_runs: np.ndarray
+    same_as_previous: np.ndarray
+    pre_el: np.ndarray
+    pre_levels: np.ndarray
+    state: int
+    viterbi: bool  # Viterbi (True) or bitwise decisions
+    n_blocks: int  # :data:`DOPPLER_BLOCKS`
+
+
 @dataclass(frozen=True, eq=False)
 class DecodePlan:
     """What :func:`decode` does, fixed per link (module docstring: the map of the steps).
@@ -219,8 +245,9 @@ class DecodePlan:
     steps : tuple
         The functions of those variants (:data:`VARIANTS`), in the order of :data:`STEPS`.
     memo : dict
-        Values derived from the plan and a call's BLF or lag count (named tables ``"arrays"``,
-        ``"detection"``; the "link" search's ``"grids"`` and ``"bands"``, the BLF grid of each
+        Values derived from the plan and a call's BLF, lag count or decoded bits (named tables
+        ``"arrays"``, ``"detection"``, ``"kernel"`` (:meth:`known_arguments`), ``"crc"``
+        (:meth:`crc16_ok`); the "link" search's ``"grids"`` and ``"bands"``, the BLF grid of each
         hypothesis and the hypotheses by BLF octave), bounded.
     """
 
@@ -236,7 +263,7 @@ class DecodePlan:
     track_timing: bool = False
     dc_from_lead: bool = True
     refit: bool = False
-    memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}}, repr=False)
+    memo: dict = field(default_factory=lambda: {"arrays": {}, "detection": {}, "kernel": {}, "crc": {}}, repr=False)
     variants: StepVariants = field(init=False, repr=False)
     steps: tuple = field(init=False, repr=False)
 
@@ -280,6 +307,53 @@ class DecodePlan:
         hit = self.memo["arrays"].get(blf_hz)
         return hit if hit is not None else _kept(self.memo, "arrays", blf_hz, partial(
             search_arrays, self.m, self.trext, 2.0 * blf_hz / self.fs_hz))
+
+    def known_arguments(self, blf_hz: float) -> _KnownArguments:
+        """The arguments of ``receive_kernel`` fixed by this plan at ``blf_hz`` (the search
+        arrays, the preamble length, the decisions, the Doppler blocks), kept in the plan: the
+        "one blf" search prepares them once per BLF, not per call.
+
+        Parameters
+        ----------
+        blf_hz : float
+            The BLF the reply is decoded at [Hz].
+
+        Returns
+        -------
+        _KnownArguments
+            The arguments, in the kernel's order.
+        """
+        hit = self.memo["kernel"].get(blf_hz)
+        return hit if hit is not None else _kept(self.memo, "kernel", blf_hz,
+                                                 partial(self._known_arguments, blf_hz))
+
+    def _known_arguments(self, blf_hz: float) -> _KnownArguments:
+        """:meth:`known_arguments` made anew."""
+        a = self.arrays(blf_hz)
+        return _KnownArguments(self.fs_hz, blf_hz, self.m, self.preamble_samples(blf_hz), a.pre_el.size, a.t0,
+                               a.max_runs_per_sample, a.half_width, a.shifts, a.templates, a.norms, a.run_begin,
+                               a.run_value, a.n_runs, a.same_as_previous, a.pre_el, a.pre_levels, a.state,
+                               self.method != "bitwise", DOPPLER_BLOCKS)
+
+    def crc16_ok(self, bits: np.ndarray) -> bool:
+        """:func:`rfsim.gen2.crc.crc16_ok` of decoded ``bits`` (uint8), kept in the plan by their
+        content: the replies a reader decodes repeat (a tag's EPC, trial after trial).
+
+        Parameters
+        ----------
+        bits : numpy.ndarray
+            ``(n,) uint8`` data bits followed by their CRC-16 (anything else is checked, not kept).
+
+        Returns
+        -------
+        bool
+            The CRC-16 check.
+        """
+        if not isinstance(bits, np.ndarray):
+            return crc16_ok(bits)
+        key = (bits.dtype.str, bits.shape, bits.tobytes())
+        hit = self.memo["crc"].get(key)
+        return hit if hit is not None else _kept(self.memo, "crc", key, partial(crc16_ok, bits))
 
     def detection(self, n_lags: int, blf_hz: float) -> _Detection:
         """Preamble samples (:meth:`preamble_samples`) and the detection threshold for
@@ -602,15 +676,10 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     """``receive_kernel`` at one BLF: the preamble over the lags (runs + 1/16-sample
     refinement) and, in the same call, (h, c) on the known levels, the decisions and the
     measurement (steps 5 and 6 take them from it)."""
-    a = plan.arrays(w.blf)
-    n_bits = w.n_bits
-    det_bits, bits = np.empty(n_bits + 1, dtype=np.uint8), np.empty(n_bits + 1, dtype=np.uint8)
+    det_bits, bits = np.empty((2, w.n_bits + 1), dtype=np.uint8)  # the first decisions', the bits
     out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
-    status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, plan.fs_hz, w.blf, plan.m,
-                                 w.pre_n, a.pre_el.size, a.t0,
-                                 a.max_runs_per_sample, a.half_width, a.shifts, a.templates, a.norms, a.run_begin,
-                                 a.run_value, a.n_runs, a.same_as_previous, a.pre_el, a.pre_levels, a.state,
-                                 plan.method != "bitwise", DOPPLER_BLOCKS, det_bits, bits, out_f, out_c)
+    status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf),
+                                 det_bits, bits, out_f, out_c)
     if status > _rxk.NOT_FOUND:
         raise ValueError(_RECEIVE_ERRORS[status])
     w.start, w.corr, w.found = float(out_f[0]), float(out_f[1]), status != _rxk.NOT_FOUND
@@ -776,7 +845,7 @@ def _crc_check(w: _Work, plan: DecodePlan) -> None:
     the next command or the capture's end cut it, its CRC is not in the window). The one check of
     a decoded reply's CRC: the reader's ``expect_crc`` and a capture record's ``crc_ok`` are this."""
     if w.crc:
-        w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else crc16_ok(w.bits)
+        w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else plan.crc16_ok(w.bits)
 
 
 #: The steps of every :func:`decode` call, in order (module docstring).

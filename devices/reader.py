@@ -50,7 +50,8 @@ from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
 from rfsim.devices.reader_measure import (DOPPLER_BLOCKS, FAILURES, ReadResult, known_levels as _known_levels,
-                                          measure as _measure, steady as _steady)
+                                          measure as _measure, refer_phase as _refer_phase,
+                                          steady as _steady)
 from rfsim.gen2.blf_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, blf_grid_hz,
                                    rn16_threshold_db, search_decode, search_result as _search_result,
                                    search_setup as _search_setup)
@@ -103,14 +104,6 @@ class _ReceiveMemo(NamedTuple):
     sizes: dict  # (n_bits, BLF [Hz]) -> _ReplySize
     window: tuple  # the reply start's window after the command end [s] (reply_search_window_s)
     known: _DecodePlan  # the "known" decode plan (_decode_plan)
-
-
-class _CarrierPhase(NamedTuple):
-    """arg of the reader's carrier during a reply window [rad] (:meth:`Reader.receive`'s
-    ``carrier``), kept with the carrier's value: a reader's commands end on one of two."""
-
-    carrier: complex
-    phase_rad: float
 
 
 class Reader(PieTransmitter):
@@ -614,13 +607,8 @@ class Reader(PieTransmitter):
         if not out.found or (out.extra is not None and out.extra.get("truncated", False)):
             return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
         meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
-        if carrier is not None:
-            carrier = complex(carrier)
-            if carrier != 0:
-                kept = self.__dict__.get("_carrier_phase")
-                if kept is None or kept.carrier != carrier:
-                    kept = self._carrier_phase = _CarrierPhase(carrier, float(np.angle(carrier)))
-                meas["phase_rad"] = float(wrap_phase_rad(meas["phase_rad"] + kept.phase_rad))
+        if carrier is not None and complex(carrier) != 0:
+            meas["phase_rad"] = _refer_phase(meas["phase_rad"], carrier)
         if expect_crc:
             ok = out.crc_ok
             reason = "" if ok else "crc error"

@@ -12,11 +12,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
+from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.reply_decoder import DOPPLER_BLOCKS  # the blocks of the Doppler fit
 
 _rk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels", "steady"]
+__all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels", "steady", "refer_phase"]
 
 
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
@@ -158,3 +159,28 @@ def steady(level: np.ndarray) -> np.ndarray:
     out = np.zeros(level.size, dtype=bool)
     out[1:-1] = (level[1:-1] == level[:-2]) & (level[1:-1] == level[2:])
     return out
+
+
+def refer_phase(phase_rad: float, carrier: complex) -> float:
+    """A measured phase referred to the reader's transmitted carrier: the one rule of both
+    receiver models (:meth:`rfsim.devices.reader.Reader.receive` step 5 and
+    :mod:`rfsim.devices.reader_statistic`).
+
+    φ_ref = wrap(φ + arg c) with φ = −arg h the phase of the measured gain and c the reader's
+    transmitted baseband during the reply; arg c is NumPy's ``np.angle`` (the same arithmetic
+    as the measurement's −arg h).
+
+    Parameters
+    ----------
+    phase_rad : float
+        Phase of the measured gain, −arg h [rad].
+    carrier : complex
+        The reader's transmitted baseband during the reply (non-zero) [√W].
+
+    Returns
+    -------
+    float
+        ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad].
+    """
+    return float(wrap_phase_rad(phase_rad + float(np.angle(complex(carrier)))))
+

@@ -142,26 +142,24 @@ the search with its draws ≈ 21 µs, the pass over the input ≈ 23, the piece 
 the measurement ≈ 10–15, the two Viterbi decisions ≈ 6, the half-bit sums, fit and preamble
 fit ≈ 3 each; with a new reply start (a memo slot made anew) the piece map and its moments
 (≈ 60 µs) and the measurement's plan (≈ 35 µs) on top. Python around a call ≈ 30–40 µs (≈ 8
-µs of it the reader's measurement rule, whose NumPy phase a faster ``cmath.phase`` would
-change in the last bit for ≈ 7 % of values, and with it the sample-level records). The draws
+µs of it the reader's measurement rule; the phase is referred to the carrier by the sample
+receiver's rule, :func:`rfsim.devices.reader_measure.refer_phase`). The draws
 (≈ 11 µs, PCG64 normals) are not the larger part; the pass over the input and the search are.
 """
 
 from __future__ import annotations
 
-import cmath
 import math
 from typing import NamedTuple
 
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
-from rfsim.core.units import wrap_phase_rad
 from rfsim.gen2.crc import crc16_ok
 # the decoder's own preamble, search template and refinement bank (the same search)
 from rfsim.gen2.linecode import (_REFINE_SHIFTS, _RUNS_PER_SAMPLE_MAX, _preamble, _refine_bank, _refine_runs,
                                  _template, elements_of_levels, reply_duration_s)
-from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult
+from rfsim.devices.reader_measure import DOPPLER_BLOCKS, ReadResult, refer_phase
 
 _sk = lazy_import("rfsim.devices._reader_statistic_kernels")
 _nk = lazy_import("rfsim.air._noise_kernels")  # NumPy's normals drawn in a kernel from a PCG64 state
@@ -577,24 +575,6 @@ def _result(reader, bits: np.ndarray, res: np.ndarray, lo: int, t0_s: float, sig
     ok = (not expect_crc) or _kept(plans.crcs, bits.tobytes(), crc16_ok, bits)
     return ReadResult(success=ok, bits=bits, failure_reason="" if ok else "crc error",
                       start_s=start_s, corr=corr, **meas)
-
-
-def refer_phase(phase_rad: float, carrier: complex) -> float:
-    """A measured phase referred to the reader's transmitted carrier.
-
-    Parameters
-    ----------
-    phase_rad : float
-        Phase of the measured gain, −arg h [rad].
-    carrier : complex
-        The reader's transmitted baseband during the reply (non-zero).
-
-    Returns
-    -------
-    float
-        ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad].
-    """
-    return float(wrap_phase_rad(phase_rad + cmath.phase(complex(carrier))))
 
 
 def block_cuts(s: np.ndarray, i0: int, b1: int, piece_of: np.ndarray, kind: np.ndarray,

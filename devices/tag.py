@@ -500,10 +500,14 @@ def _front_end(x: np.ndarray, env: np.ndarray) -> tuple:
     :class:`rfsim.gen2.pie.PieEdges` of ``pie_decode_arrays(env[:tail + 1], levels=those levels)``."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
-    thr, lo, hi, p, tail, pos, direction, f, i, bits = _k.front_end_decode_kernel(
-        x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, _HYSTERESIS, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL)
+    n = env.size  # the decoder's scratch as pie_decode_arrays makes it, for the whole segment
+    pos, direction, bits = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n, dtype=np.uint8)
+    f, i = np.empty((6, n // 2 + 1)), np.empty((2, n // 2 + 1), dtype=np.int64)
+    thr, lo, hi, p, tail, ne, nf = _k.front_end_decode_kernel(
+        x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, _HYSTERESIS, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL,
+        pos, direction, f, i, bits)
     levels = (float(thr), float(lo), float(hi))
-    edges = PieEdges(pos, direction, *f, *i, bits)
+    edges = PieEdges(pos[:ne], direction[:ne], *f[:, :nf], *i[:, :nf], bits[:max(ne, 1)])
     if p == -2:
         return levels, plateau_reference(x, env, levels), int(tail), edges
     return levels, (None if p < 0 else int(p)), int(tail), edges

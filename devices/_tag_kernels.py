@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
+from rfsim.gen2._pie_kernels import trailing_run_start, two_level_split
 
 
 @njit
@@ -159,33 +159,6 @@ def front_end_kernel(x, env, max_iter, min_modulation, margin, buf_lo, buf_hi, i
     select = m_hi > 0 and m_hi - m_lo >= min_modulation * m_hi
     p = plateau_split(x, env, tail, thr, select, margin, buf_lo, idx, win)
     return thr, m_lo, m_hi, p, tail
-
-
-@njit
-def front_end_decode_kernel(x, env, max_iter, min_modulation, margin, hysteresis, min_ratio, max_ratio, max_trcal, pos,
-                            direction, fbuf, ibuf, bits):
-    """:func:`front_end_kernel` of ``x`` and its envelope ``env`` = |x| ((n,) complex128 and float64,
-    n ≥ 1), then the PIE decoder's :func:`rfsim.gen2._pie_kernels.decode_kernel` over ``env`` up to
-    the first of the equal samples that end it (``head`` = ``env[:tail + 1]``) at the split's
-    threshold and the hysteresis ``hysteresis``·(high − low), as
-    ``rfsim.gen2.pie.pie_decode_arrays(head, levels=(threshold, low, high))`` calls it (its
-    ``min_ratio``/``max_ratio`` = RTCAL_TARI_RANGE and ``max_trcal`` = MAX_TRCAL_RTCAL; nothing
-    decoded for a head of fewer than 2 samples), in one call. Scratch and results of the decoder
-    (as ``decode_kernel`` takes them, for n samples): ``pos``/``direction``/``bits`` (n,) float64,
-    int8, uint8, ``fbuf`` (6, n // 2 + 1) float64, ``ibuf`` (2, n // 2 + 1) int64. Returns
-    ``(threshold, low mean, high mean, plateau, tail, ne, nf)``: the front end's numbers and the
-    numbers of edges and frames (both 0 where a head sample is not finite)."""
-    n = env.size
-    thr, m_lo, m_hi, p, tail = front_end_kernel(x, env, max_iter, min_modulation, margin, np.empty(n), np.empty(n),
-                                                np.empty(n, np.int64), np.empty(2 * margin + 1, np.int64))
-    ne = 0
-    nf = 0
-    if tail >= 1:
-        ne, nf = decode_kernel(env[:tail + 1], thr, hysteresis * (m_hi - m_lo), True, min_ratio, max_ratio, max_trcal,
-                               pos, direction, fbuf, ibuf, bits)
-    if ne < 0:
-        ne = 0
-    return thr, m_lo, m_hi, p, tail, ne, nf
 
 
 @njit

@@ -86,7 +86,6 @@ G2XM-class chip at 900 MHz against a conjugate-matched antenna
 
 from __future__ import annotations
 
-import inspect
 import math
 import struct
 from typing import Any, NamedTuple
@@ -103,7 +102,7 @@ from rfsim.devices.tag_response import REASONS, TagResponse
 from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.memory import CHIP_MODELS, TagMemory
-from rfsim.gen2.pie import ISODATA_MAX_ITER, MAX_TRCAL_RTCAL, RTCAL_TARI_RANGE, PieEdges, pie_decode, two_level_threshold
+from rfsim.gen2.pie import ISODATA_MAX_ITER, pie_decode, two_level_threshold
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -392,10 +391,6 @@ def _command_of(frames) -> Decoded:
 #: Half-width of the run of equal CW samples the median must lie in for the shared front end.
 _PLATEAU_MARGIN = 8
 
-#: The PIE decoder's hysteresis (fraction of high − low) that the shared front end decodes with: the
-#: default of :func:`rfsim.gen2.pie.pie_decode`, which the tag's other paths call.
-_HYSTERESIS = inspect.signature(pie_decode).parameters["hysteresis"].default
-
 
 class SharedFrontEnd:
     """The front end's work on one emitted segment x, shared by every tag that sees g·x.
@@ -430,10 +425,8 @@ class SharedFrontEnd:
         self.env = np.abs(x)
         #: the samples the PIE decoder reads: up to the first of the equal samples that end env
         self._decoded_env = self.env
-        #: the ideal detector's PIE edges and frames (rfsim.gen2.pie.PieEdges), from the front end's call
-        self._edges = None
-        if self.env.ndim == 1 and self.env.size > 0:  # one kernel call: extremes, levels, plateau, PIE decoding
-            self.levels, self.plateau, tail, self._edges = _front_end(x, self.env)
+        if self.env.ndim == 1 and self.env.size > 0:  # one kernel call: extremes, levels, plateau
+            self.levels, self.plateau, tail = _front_end(x, self.env)
             # the decoder stops at that sample (rfsim.gen2.pie.pie_decode_arrays): the same frames
             self._decoded_env = self.env[:tail + 1]
         else:
@@ -484,8 +477,6 @@ class SharedFrontEnd:
         if hit is None:
             if rc_s > 0:
                 frames = pie_decode(envelope(self.x, fs_hz=self.fs_hz, rc_s=rc_s))
-            elif self._edges is not None:  # decoded by the front end's kernel call
-                frames = self._edges.frames()
             else:
                 frames = pie_decode(self._decoded_env, levels=self.levels)
             hit = self._commands[rc_s] = _command_of(frames)
@@ -493,24 +484,19 @@ class SharedFrontEnd:
 
 
 def _front_end(x: np.ndarray, env: np.ndarray) -> tuple:
-    """``(two_level_threshold(env), _plateau(x, env, those levels), tail, edges)`` of the samples
-    ``x`` ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the
-    extremes, the isodata split, the plateau and the PIE decoding; the same numbers, bit for bit);
-    ``tail`` is the index of the first of the equal values that end ``env`` and ``edges`` the
-    :class:`rfsim.gen2.pie.PieEdges` of ``pie_decode_arrays(env[:tail + 1], levels=those levels)``."""
+    """``(two_level_threshold(env), _plateau(x, env, those levels), tail)`` of the samples ``x``
+    ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
+    isodata split and the plateau; the same numbers, bit for bit); ``tail`` is the index of the
+    first of the equal values that end ``env``."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
-    n = env.size  # the decoder's scratch as pie_decode_arrays makes it, for the whole segment
-    pos, direction, bits = np.empty(n), np.empty(n, dtype=np.int8), np.empty(n, dtype=np.uint8)
-    f, i = np.empty((6, n // 2 + 1)), np.empty((2, n // 2 + 1), dtype=np.int64)
-    thr, lo, hi, p, tail, ne, nf = _k.front_end_decode_kernel(
-        x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, _HYSTERESIS, *RTCAL_TARI_RANGE, MAX_TRCAL_RTCAL,
-        pos, direction, f, i, bits)
+    n = env.size
+    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
+                                         np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
     levels = (float(thr), float(lo), float(hi))
-    edges = PieEdges(pos[:ne], direction[:ne], *f[:, :nf], *i[:, :nf], bits[:max(ne, 1)])
     if p == -2:
-        return levels, plateau_reference(x, env, levels), int(tail), edges
-    return levels, (None if p < 0 else int(p)), int(tail), edges
+        return levels, plateau_reference(x, env, levels), int(tail)
+    return levels, (None if p < 0 else int(p)), int(tail)
 
 
 def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:

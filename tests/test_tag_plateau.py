@@ -212,39 +212,6 @@ def test_shared_front_end_decodes_up_to_the_cw_tail_as_over_the_whole_segment(se
     assert _frames_fields(pie_decode(fe._decoded_env, levels=fe.levels)) == _frames_fields(want)
 
 
-@pytest.mark.parametrize("seed", range(10))
-def test_shared_front_end_command_equals_the_decoder_on_its_head(seed):
-    # the front end's one kernel call also decodes (rfsim.devices._tag_kernels.front_end_decode_kernel):
-    # its command equals pie_decode of the head at the front end's levels, then the parser, for
-    # Queries and ACKs (both preambles, hard and raised-cosine edges, DSB/PR-ASK) and for
-    # segments without a command (random pulses, a constant segment, a NaN)
-    from rfsim.devices.tag import SharedFrontEnd, _command_of
-    from rfsim.gen2.commands import ACK, Query, encode
-    from rfsim.gen2.pie import command_ask_baseband, pie_decode, pie_lead_in
-
-    rng = np.random.default_rng(900 + seed)
-    for k in range(8):
-        tari = float(rng.choice([6.25e-6, 12.5e-6, 25e-6]))
-        query = k % 2 == 0
-        cmd = Query(q=int(rng.integers(0, 16))) if query else ACK(rn16=int(rng.integers(0, 1 << 16)))
-        d1 = float(rng.uniform(1.5, 2.0))
-        lead = pie_lead_in(tari_s=tari, data1_tari=d1, trcal_s=2.5 * tari * (1.0 + d1) if query else None,
-                           pw_s=tari * float(rng.uniform(0.3, 0.5)), delimiter_s=12.5e-6,
-                           preamble="query" if query else "frame-sync", cw_before_s=float(rng.uniform(0, tari)))
-        fs = float(rng.choice([2.5e6, 4e6, 8e6]))
-        x = command_ask_baseband(lead, encode(cmd), cw_after_s=float(rng.uniform(0, 1e-3)), modulated_after_s=tari,
-                                 amplitude=float(rng.uniform(0.01, 1.0)), pr_ask=bool(rng.integers(0, 2)),
-                                 depth=0.9, fs_hz=fs, rise_fall_s=float(rng.choice([0.0, 0.1 * tari])))
-        fe = SharedFrontEnd(x, fs_hz=fs)
-        got = fe.command(0.0)
-        want = _command_of(pie_decode(fe._decoded_env, levels=fe.levels))
-        assert got.command == want.command == cmd
-        assert _frames_fields([got.frame]) == _frames_fields([want.frame])
-    for x in (_pie_like(rng, 500, 1 + 1j), np.full(300, 0.5 + 0j), np.r_[np.full(50, 1 + 0j), np.nan, np.ones(50)]):
-        fe = SharedFrontEnd(x.astype(np.complex128), fs_hz=1e6)
-        assert fe.command(0.0) == _command_of(pie_decode(fe._decoded_env, levels=fe.levels)) == (None, None)
-
-
 def test_shared_decoding_is_keyed_by_content_and_rc_not_by_the_tags_power():
     # SharedFrontEnd.command(rc_s), kept per rc_s in the emitted segment's memo, is the decoding of every
     # scaled copy g·x a powered tag sees: the relative thresholds make it scale-invariant (exactly for

@@ -158,10 +158,9 @@ class _ReplyTiming(NamedTuple):
         N_TRcal, the last Query's TRcal in clock ticks.
     dr : str
         The Query's divide ratio.
-    rtcal : float
-        The command's RTcal [input samples].
-    fs_hz : float
-        Input sample rate [Hz].
+    rtcal_ticks : int
+        N_RTcal, the command's RTcal in clock ticks (what T1 depends on: the RTcal measured in
+        samples and the sample rate enter only through this count).
     blf_hz : float
         The tag's BLF [Hz] (with its own BLF error).
     t1_ticks_s : float
@@ -172,8 +171,7 @@ class _ReplyTiming(NamedTuple):
     config: Any
     trcal_ticks: int
     dr: Any
-    rtcal: float
-    fs_hz: float
+    rtcal_ticks: int
     blf_hz: float
     t1_ticks_s: float
 
@@ -1080,20 +1078,21 @@ class PassiveTag:
         """The reply's BLF and counted T1 for the last Query's TRcal (:attr:`_trcal_ticks`), its
         divide ratio ``dr`` and the command's RTcal ``rtcal`` [samples at ``fs_hz``]: N_BLF =
         :meth:`TagClock.blf_divider`, BLF = f_clk/N_BLF·(1 + ε), N_T1 = max(N_RTcal, 10·N_BLF)
-        (steps 3–4 of the module docstring); the last one is kept (a Query and the ACK after it
-        give the same)."""
+        (steps 3–4 of the module docstring); the last one is kept, by N_RTcal (a Query and the ACK
+        after it give the same, although their RTcal measured in samples may differ in its last bits)."""
         t = self.__dict__.get("_reply_timing")
         clock, cfg, trcal_ticks = self.clock, self.config, self._trcal_ticks
+        rtcal_ticks = self.ticks(rtcal, fs_hz)
         if (t is not None and t.clock is clock and t.config is cfg and t.trcal_ticks == trcal_ticks and t.dr == dr
-                and t.rtcal == rtcal and t.fs_hz == fs_hz):
+                and t.rtcal_ticks == rtcal_ticks):
             return t
         f_clk = clock.f_hz
         n_blf = clock.blf_divider(trcal_ticks / f_clk, dr, trcal_ticks=trcal_ticks)
         blf_hz = f_clk / n_blf
         if cfg.blf_error_percent:  # the tag's own BLF error (rfsim.devices.tag_spread)
             blf_hz *= 1.0 + 0.01 * cfg.blf_error_percent
-        n_t1 = max(self.ticks(rtcal, fs_hz), 10 * n_blf)
-        t = self.__dict__["_reply_timing"] = _ReplyTiming(clock, cfg, trcal_ticks, dr, rtcal, fs_hz, blf_hz,
+        n_t1 = max(rtcal_ticks, 10 * n_blf)
+        t = self.__dict__["_reply_timing"] = _ReplyTiming(clock, cfg, trcal_ticks, dr, rtcal_ticks, blf_hz,
                                                           n_t1 / f_clk)
         return t
 

@@ -408,3 +408,35 @@ def test_power_dependent_chip_sets_states_and_power_up():
         if expect:
             assert r.reply.kind == "RN16" and r.gamma_rest == g_u
             assert np.any(np.isclose(r.gamma, g_m))
+
+
+def test_reply_timing_memo_equals_the_rule_for_every_input_it_depends_on():
+    # PassiveTag._timing keeps the last (BLF, counted T1) by clock, config, N_TRcal, DR and N_RTcal:
+    # a sequence that changes one input at a time (and RTcal in its last bits only, as a Query's and
+    # the ACK's measured RTcal do) gets what a tag without the memo computes; dropping DR or
+    # N_TRcal from the key, or keying on the RTcal in samples, would fail one of the steps
+    from fractions import Fraction
+
+    def fresh(tag, dr, rtcal, fs):
+        new = make_tag(clock_error_percent=tag.config.clock_error_percent,
+                       blf_error_percent=tag.config.blf_error_percent)
+        new._trcal_ticks = tag._trcal_ticks
+        t = new._timing(dr, rtcal, fs)
+        f_clk = new.clock.f_hz  # the rule written out: N_BLF, BLF·(1 + ε), max(N_RTcal, 10·N_BLF)/f_clk
+        n_blf = round(tag._trcal_ticks / float(Fraction(dr if dr == "8" else "64/3")))
+        assert t.blf_hz == f_clk / max(n_blf, 1) * (1.0 + 0.01 * tag.config.blf_error_percent)
+        assert t.t1_ticks_s == max(round(rtcal * f_clk / fs), 10 * max(n_blf, 1)) / f_clk
+        return t.blf_hz, t.t1_ticks_s
+
+    tag = make_tag(clock_error_percent=3.0, blf_error_percent=-2.0)
+    steps = [(200, "8", 125.0, 4e6), (200, "8", 124.99999999999997, 4e6), (200, "64/3", 125.0, 4e6),
+             (330, "64/3", 125.0, 4e6), (330, "64/3", 700.0, 4e6), (330, "64/3", 700.0, 8e6),
+             (330, "64/3", 1400.0, 8e6), (200, "8", 125.0, 4e6), (200, "8", 125.0, 4e6)]
+    kept = []
+    for trcal_ticks, dr, rtcal, fs in steps:
+        tag._trcal_ticks = trcal_ticks
+        t = tag._timing(dr, rtcal, fs)
+        assert (t.blf_hz, t.t1_ticks_s) == fresh(tag, dr, rtcal, fs)
+        kept.append(t)
+    assert kept[1] is kept[0] and kept[-1] is kept[-2]  # RTcal's last bits, the same call: kept
+    assert len({(t.blf_hz, t.t1_ticks_s) for t in kept}) >= 5  # the steps do change the timing

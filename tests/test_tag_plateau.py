@@ -210,3 +210,30 @@ def test_shared_front_end_decodes_up_to_the_cw_tail_as_over_the_whole_segment(se
     assert fe._decoded_env.size <= x.size
     want = pie_decode(np.abs(x), levels=two_level_threshold(np.abs(x)))
     assert _frames_fields(pie_decode(fe._decoded_env, levels=fe.levels)) == _frames_fields(want)
+
+
+def test_shared_decoding_is_keyed_by_content_and_rc_not_by_the_tags_power():
+    # SharedFrontEnd.command(rc_s), kept per rc_s in the emitted segment's memo, is the decoding of every
+    # scaled copy g·x a powered tag sees: the relative thresholds make it scale-invariant (exactly for
+    # |g| a power of two, where the scaling is exact); it does depend on the detector's RC (a memo
+    # keyed on the segment alone would fail the last assertion)
+    from rfsim.devices.tag import SharedFrontEnd, _command_of, envelope
+    from rfsim.gen2.commands import Query, encode
+    from rfsim.gen2.pie import command_ask_baseband, pie_decode, pie_lead_in
+
+    fs, tari = 4e6, 12.5e-6
+    lead = pie_lead_in(tari_s=tari, data1_tari=1.75, trcal_s=3.0 * 2.75 * tari, pw_s=0.4 * tari, delimiter_s=12.5e-6,
+                      cw_before_s=20e-6)
+    x = command_ask_baseband(lead, encode(Query(q=3)), cw_after_s=200e-6, modulated_after_s=tari, amplitude=0.3,
+                             pr_ask=False, depth=0.9, fs_hz=fs, rise_fall_s=0.1 * tari)
+    fe = SharedFrontEnd(x, fs_hz=fs)
+    by_rc = {}
+    for rc in (0.0, 0.3e-6, 3e-6):
+        got = fe.command(rc)
+        assert fe.command(rc) is got  # kept
+        for k in (-20, -3, 0, 5):  # the tag's power: a scaled copy, decoded on its own samples
+            want = _command_of(pie_decode(envelope(2.0 ** k * x, fs_hz=fs, rc_s=rc)))
+            assert got.command == want.command == Query(q=3)
+            assert _frames_fields([got.frame]) == _frames_fields([want.frame])
+        by_rc[rc] = _frames_fields([got.frame])
+    assert by_rc[3e-6] != by_rc[0.0]  # the RC shifts the edges: the key needs rc_s

@@ -210,8 +210,8 @@ class TagPopulation:
             arrays.take_silent_steps(decoded[0], silent, dec, t_end_s, joining=redraw)
             if redraw is None:
                 continue
-            index = redraw.nonzero()[0].tolist()
-            for j, reply in arrays.take_redraw_steps(decoded[0], index, None, t_end_s):  # the round's generators
+            for j, reply in arrays.take_redraw_steps(decoded[0], np.flatnonzero(redraw), None,
+                                                     t_end_s):  # the round's generators
                 replies[j] = (decoded, reply)
                 redraw[j] = False
             quiet = quiet | redraw

@@ -708,7 +708,7 @@ class StateArrays:
         if np.count_nonzero(decrement):
             np.copyto(self.slot, decremented(self.slot), where=decrement)  # (the others' values unchanged)
             self._count_down(decrement)
-        self.t_s[silent] = t_s
+        np.copyto(self.t_s, t_s, where=silent)  # (a masked assignment costs more)
         if t_s > self._t_max:
             self._t_max = t_s
         self._follow(silent if joining is None else silent | joining, t_s)

@@ -577,8 +577,8 @@ class StateArrays:
         ----------
         cmd : rfsim.gen2.commands.QueryAdjust
             The command.
-        index : list of int
-            Rows that redraw (from :meth:`redraw_steps`).
+        index : list of int or ndarray of int
+            Rows that redraw (from :meth:`redraw_steps`, e.g. ``numpy.flatnonzero`` of its mask).
         rngs : list of numpy.random.Generator or None
             The tags' own generators, ``rngs[k]`` for tag ``index[k]``, distinct (every tag
             draws its counter, and at 0 its RN16 after it, from its own; the order among tags
@@ -596,19 +596,23 @@ class StateArrays:
         ValueError
             When ``rngs`` is None and no generators were given.
         """
-        if not index:
+        if len(index) == 0:
             return []
         t_s = float(t_s)
-        idx = np.asarray(index, dtype=np.int64)
+        if isinstance(index, np.ndarray):
+            idx = index.astype(np.int64, copy=False)
+            index = idx.tolist()
+        else:
+            idx = np.asarray(index, dtype=np.int64)
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states, clock = self.states, self.clock
-        d = clock.decrements
-        tags = list(map(states.__getitem__, index))
         if rngs is None and self._words is not None:  # the words of every draw in one loop
-            slot = np.zeros(idx.size, dtype=np.int64)
             draw = q_new > 0  # Q = 0 draws nothing: counter 0
-            slot[draw] = _top_bits(self._words.draw(idx[draw]), q_new[draw])
-            slots = slot.tolist()
+            if draw.all():
+                slot = _top_bits(self._words.draw(idx), q_new)
+            else:
+                slot = np.zeros(idx.size, dtype=np.int64)
+                slot[draw] = _top_bits(self._words.draw(idx[draw]), q_new[draw])
         else:
             if rngs is None:
                 if self._rngs is None:
@@ -616,33 +620,38 @@ class StateArrays:
                 draws = list(map(self._draws.__getitem__, index))
             else:
                 draws = list(map(_slot_drawer, rngs))
-            slots = [draw(q) for draw, q in zip(draws, q_new.tolist())]
-            slot = np.array(slots, dtype=np.int64)
-        q_list = q_new.tolist()
-        q0 = q_list[0]
-        if q_new.min() == q0 == q_new.max():  # one Q
-            for st, s in zip(tags, slots):
-                st.q, st._slot = q0, s + d  # Q, and the counter counting with the clock
+            slot = np.array([draw(q) for draw, q in zip(draws, q_new.tolist())], dtype=np.int64)
+        # Q, and the counter counting with the clock (offset = counter + the clock's decrements):
+        # one pass over the tags, each touched once
+        offsets = (slot + clock.decrements).tolist()
+        q_lo = int(q_new.min())
+        if q_lo == q_new.max():  # one Q
+            for i, s in zip(index, offsets):
+                st = states[i]
+                st.q = q_lo
+                st._slot = s
         else:
-            for st, q, s in zip(tags, q_list, slots):
-                st.q, st._slot = q, s + d
+            for i, q, s in zip(index, q_new.tolist(), offsets):
+                st = states[i]
+                st.q = q
+                st._slot = s
         zero = slot_replies(slot)
-        was = self.counting[idx]
         # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
         # clock; 0 → Reply with an RN16 from the tag's own generator
-        fix = ~zero & (~was | (self.code[idx] == _REPLY))
+        fix = ~zero & (~self.counting[idx] | (self.code[idx] == _REPLY))
         if np.count_nonzero(fix):
-            for st in _picked(tags, fix):
+            for st in _picked_of(states, idx, fix):
                 st._slot_clock, st.state = clock, "arbitrate"
         replies = []
         if np.count_nonzero(zero):
             for k in np.flatnonzero(zero).tolist():
-                st = tags[k]
+                i = index[k]
+                st = states[i]
                 st._slot_clock, st._slot = None, 0
-                replies.append((index[k], st._reply_if_zero(self._rngs[index[k]] if rngs is None else rngs[k])))
+                replies.append((i, st._reply_if_zero(self._rngs[i] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):
-            for st in _picked(tags, own):
+            for st in _picked_of(states, idx, own):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
         self.following[idx] = ~own
         self.counting[idx] = ~zero
@@ -699,7 +708,7 @@ class StateArrays:
         if np.count_nonzero(decrement):
             np.copyto(self.slot, decremented(self.slot), where=decrement)  # (the others' values unchanged)
             self._count_down(decrement)
-        self.t_s[silent] = t_s
+        np.copyto(self.t_s, t_s, where=silent)  # (a masked assignment costs more)
         if t_s > self._t_max:
             self._t_max = t_s
         self._follow(silent if joining is None else silent | joining, t_s)
@@ -747,6 +756,12 @@ def _picked(objects: list, mask: np.ndarray):
     """The objects where ``mask`` (bool, one per object) is True, in order: the indices found
     in the array, so that only the picked objects cost a step in Python."""
     return map(objects.__getitem__, np.flatnonzero(mask).tolist())
+
+
+def _picked_of(objects: list, index: np.ndarray, mask: np.ndarray):
+    """The objects ``objects[index[k]]`` where ``mask[k]`` (bool, one per entry of ``index``) is
+    True, in order."""
+    return map(objects.__getitem__, index[mask].tolist())
 
 
 __all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",

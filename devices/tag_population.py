@@ -51,6 +51,7 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Sequence
+from itertools import repeat
 from typing import NamedTuple
 
 import numpy as np
@@ -60,6 +61,12 @@ from rfsim.air.step import Segment
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 
 _antenna = operator.attrgetter("antenna")
+_config = operator.attrgetter("config")
+_rng = operator.attrgetter("rng")
+_powered = operator.attrgetter("powered")
+_p_dbm = operator.attrgetter("p_dbm")
+_structural_mode = operator.attrgetter("structural_mode")
+_gamma_rest = operator.attrgetter("gamma_rest")
 #: The round commands a powered member with a known power decision takes through its state
 #: machine alone when it does not take them silently (reflect_scaled).
 _ROUND_COMMANDS = (QueryRep, QueryAdjust, ACK, NAK)
@@ -99,6 +106,7 @@ class TagPopulation:
         self._antenna_count = None  # the class's antenna_changes when _antennas was checked
         self._round: _Round | None = None
         self._truth_memo: RecordValues | None = None  # the last exchange's record values
+        self._facts: _Facts | None = None  # the members' generators and configs (_member_facts)
 
     def __len__(self) -> int:
         return len(self.members)
@@ -122,7 +130,7 @@ class TagPopulation:
         """Read every member's state into the arrays again and forget the round's remembered
         power decisions (after changing tags — states, configs, chips — from outside)."""
         self.arrays.read(range(len(self.members)))
-        self._round = None
+        self._round = self._facts = None
         self._counting, self._antenna_count = _counting_class(self.members), None
 
     def reflect_each(self, incident) -> list:
@@ -210,15 +218,16 @@ class TagPopulation:
             arrays.take_silent_steps(decoded[0], silent, dec, t_end_s, joining=redraw)
             if redraw is None:
                 continue
-            index = redraw.nonzero()[0].tolist()
-            for j, reply in arrays.take_redraw_steps(decoded[0], index, None, t_end_s):  # the round's generators
+            for j, reply in arrays.take_redraw_steps(decoded[0], np.flatnonzero(redraw), None,
+                                                     t_end_s):  # the round's generators
                 replies[j] = (decoded, reply)
                 redraw[j] = False
             quiet = quiet | redraw
             steps.append((decoded[0], redraw, None, t_end_s))
         needs, members, points = rnd.needs, self.members, rnd.points
         if needs:
-            done = [j for j in needs if quiet[j]]
+            # a new round's first exchange needs every member: the quiet ones found in the mask
+            done = np.flatnonzero(quiet).tolist() if len(needs) == len(members) else [j for j in needs if quiet[j]]
             for j in done:
                 members[j].take_quiet_step(points[j])
             needs.difference_update(done)
@@ -295,6 +304,30 @@ class TagPopulation:
             record = rnd.record = self.record_values(rnd.dbm, rnd.powered)
         return record
 
+    def _member_facts(self) -> _Facts:
+        """The members' generators and configs, whether each member has a generator of its own,
+        and the members grouped by envelope RC (kept while every member holds the same
+        generator and config objects: one identity check per member at a new round)."""
+        members = self.members
+        try:
+            rngs = list(map(_rng, members))
+        except AttributeError:
+            rngs = [getattr(m, "rng", None) for m in members]
+        configs = list(map(_config, members))
+        facts = self._facts
+        if (facts is not None and len(facts.rngs) == len(rngs) and all(map(operator.is_, rngs, facts.rngs))
+                and all(map(operator.is_, configs, facts.configs))):
+            return facts
+        n = len(members)
+        own = None not in rngs and len(set(map(id, rngs))) == n and all(
+            callable(getattr(m, "respond_reply", None)) for m in members)
+        rcs = np.array([c.envelope_rc_s for c in configs], dtype=float)
+        groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
+        if len(groups) == 1:
+            groups = [(groups[0][0], None)]
+        self._facts = facts = _Facts(rngs, configs, own, groups)
+        return facts
+
     def _sync(self, gains, fe) -> _Round:
         """The round's quiet points for these gains and the segment's CW sample (kept while
         both stay the same; the sign of the CW sample does not matter: |g·(−x_m)|² = |g·x_m|²
@@ -305,7 +338,7 @@ class TagPopulation:
         rnd = self._round
         if rnd is not None and rnd.cw == cw and (rnd.gains is gains or rnd.gains == list(gains)):
             return rnd
-        self._round = rnd = _Round(self.members, gains, cw, fe)
+        self._round = rnd = _Round(self.members, gains, cw, fe, self._member_facts())
         if rnd.own_rngs:
             self.arrays.use_generators(rnd.rngs)
         return rnd
@@ -314,31 +347,33 @@ class TagPopulation:
 class _Round:
     """The quiet points of every member for one set of gains (a round's held links)."""
 
-    def __init__(self, members, gains, cw, fe):
+    def __init__(self, members, gains, cw, fe, facts: _Facts):
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
         # every member's power decision for its gain (made now where not known: a new carrier)
         self.points = points = [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)]
         n = len(members)
         # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
-        self.known = np.array([q is not None for q in points], bool)
-        self.powered = np.array([q is not None and q.powered for q in points], bool)
-        self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
-        self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
+        self.known = np.fromiter(map(operator.is_not, points, repeat(None)), bool, n)
+        if self.known.all():  # (every decision made: each column in one pass over the points)
+            self.powered = np.fromiter(map(_powered, points), bool, n)
+            self.scatter = np.fromiter(map(operator.ne, map(_structural_mode, points), map(_gamma_rest, points)),
+                                       bool, n)
+            self.dbm = np.fromiter(map(_p_dbm, points), float, n)
+        else:
+            self.powered = np.array([q is not None and q.powered for q in points], bool)
+            self.scatter = np.array([q is not None and q.structural_mode != q.gamma_rest for q in points], bool)
+            self.dbm = np.array([math.nan if q is None else q.p_dbm for q in points], float)
         self._known_masks()
         #: the members whose quiet step must still set the tag's operating point
         self.needs = set(range(n))
         self.record = None  # the record values of dbm and powered (TagPopulation._round_record)
+        self.rngs = facts.rngs
         #: every member draws from its own generator, so the order in which members draw does
         #: not matter (else a QueryAdjust goes through each member's own path, in member order)
-        self.rngs = rngs = [getattr(m, "rng", None) for m in members]
-        self.own_rngs = None not in rngs and len(set(map(id, rngs))) == n and all(
-            callable(getattr(m, "respond_reply", None)) for m in members)
-        rcs = np.array([m.config.envelope_rc_s for m in members], dtype=float)
+        self.own_rngs = facts.own_rngs
         #: (RC time constant [s], its members (bool mask; None: every member))
-        self.rc_groups = [(float(rc), rcs == rc) for rc in dict.fromkeys(rcs.tolist())]
-        if len(self.rc_groups) == 1:
-            self.rc_groups = [(self.rc_groups[0][0], None)]
+        self.rc_groups = facts.rc_groups
         self._terms: dict = {}
 
     def _known_masks(self) -> None:
@@ -400,6 +435,15 @@ class RecordValues(NamedTuple):
     powered: tuple
     dbm: np.ndarray
     mask: np.ndarray
+
+
+class _Facts(NamedTuple):
+    """What a round reads of the members themselves (TagPopulation._member_facts)."""
+
+    rngs: list
+    configs: list
+    own_rngs: bool
+    rc_groups: list
 
 
 class _Stepped(NamedTuple):

@@ -91,8 +91,10 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
         of the other commands
         (``…_median_cpu_ms_<Query|QueryRep|QueryAdjust|ACK|NAK>`` [ms]). How
         the cost grows with N: ``sample_cpu_exponent``, the slope of log(CPU time) against log(N)
-        (1 = linear), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms`` (a, the
-        per-command cost) and ``sample_cpu_per_tag_command_us`` (b, what each further tag adds to
+        (1 = linear), ``sample_cpu_per_command_exponent``, the slope of log(CPU time per command)
+        against log(N) (0 = flat: the number of commands grows with N on its own, with the Q
+        algorithm's draws), and the fit CPU/command = a + b·N as ``sample_cpu_per_command_ms``
+        (a, the per-command cost) and ``sample_cpu_per_tag_command_us`` (b, what each further tag adds to
         a command). Per protocol population N (``N<n>_…``): mean ± std of slots and air time [s]
         to read all N tags, the mean efficiency N/slots and the CPU time per slot of these runs
         (``N<n>_cpu_per_slot_us`` [µs]). ``load_average_1min`` and
@@ -135,6 +137,7 @@ def bench_inventory(n_tags: int = 100, *, sample_populations: tuple[int, ...] = 
     if len(fit) >= 2:
         n_arr, cpu_arr, k_arr = (np.array(v, float) for v in zip(*fit))
         out["sample_cpu_exponent"] = float(np.polyfit(np.log(n_arr), np.log(cpu_arr), 1)[0])
+        out["sample_cpu_per_command_exponent"] = float(np.polyfit(np.log(n_arr), np.log(cpu_arr / k_arr), 1)[0])
         b, a = np.polyfit(n_arr, cpu_arr / k_arr, 1)
         out["sample_cpu_per_command_ms"] = 1e3 * float(a)
         out["sample_cpu_per_tag_command_us"] = 1e6 * float(b)

@@ -628,7 +628,7 @@ class ProtocolAir:
         arrays.take_silent_steps(cmd, silent, dec, cmd_end_s, joining=redraw)
         replies = []
         if redraw is not None:
-            replies = arrays.take_redraw_steps(cmd, np.flatnonzero(redraw).tolist(), None, cmd_end_s)
+            replies = arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, cmd_end_s)
             silent = silent | redraw
         rest = np.flatnonzero(~silent).tolist()
         tags = self._tags

@@ -130,19 +130,23 @@ def plateau_split(x, env, tail, threshold, select, margin, buf, idx, win):
 
 
 @njit
-def front_end_kernel(x, env, max_iter, min_modulation, margin, buf_lo, buf_hi, idx, win):
+def front_end_kernel(x, env, head, max_iter, min_modulation, margin, buf_lo, buf_hi, idx, win):
     """The shared front end's work on one segment in one call (:class:`rfsim.devices.tag.SharedFrontEnd`):
     the extremes of the envelope ``env`` = |x| (a NaN among them makes both NaN, as
     ``numpy.min``/``numpy.max``), its isodata split (:func:`rfsim.gen2._pie_kernels.two_level_split`)
     from them, then :func:`plateau_split` over the CW samples that split selects (``env ≥``
     threshold when high > 0 and high − low ≥ ``min_modulation``·high, else every sample); the
     run of equal values that ends ``env`` (a reader's CW after its command) is read once
-    (:func:`rfsim.gen2._pie_kernels.trailing_run_start`). ``buf_lo``/``buf_hi`` (float64) and
+    (:func:`rfsim.gen2._pie_kernels.trailing_run_start`). Only ``env[:head]`` is read
+    (1 ≤ ``head`` ≤ ``env.size``): the caller knows ``env[head - 1:]`` all equal (a reader's
+    constant CW; ``head`` = ``env.size`` when it does not), so the rest need not be formed: the
+    run that ends ``env[:head]`` is the one that ends ``env``, and every step reads the run's
+    first sample and counts the others. ``buf_lo``/``buf_hi`` (float64) and
     ``idx`` (int64): scratch of ``env.size`` ≥ 1; ``win``: int64 scratch of 2·``margin`` + 1.
     Returns ``(threshold, low mean, high mean, plateau, tail)``, plateau as :func:`plateau_kernel`
     gives it (−1 none, −2 left to the NumPy twin), ``tail`` the index of the first of the equal
     samples that end ``env`` (:func:`rfsim.gen2._pie_kernels.trailing_run_start`)."""
-    tail = trailing_run_start(env)
+    tail = trailing_run_start(env[:head])
     lo = env[tail]
     hi = lo
     for i in range(tail):

@@ -26,6 +26,7 @@ LinkProfile.command_duration_s(cmd)``.
 
 from __future__ import annotations
 
+import math
 import weakref
 from typing import NamedTuple
 
@@ -222,6 +223,21 @@ class PieTransmitter:
             asks[key] = hit
         return hit
 
+    def _cw_from(self, n: int, preamble: str, cw_after_s: float, cw_before_s: float, memo: _TxMemo) -> int | None:
+        """Index from which the ``n`` samples of a DSB-/PR-ASK command are all equal (its CW after
+        the modulated span), or None (SSB-ASK, or too short a CW after the command).
+
+        The baseband kernel writes ``n = ⌈(r_last + cw_after)·fs⌉`` samples, the envelope up to
+        ``n_mod = ⌈(r_last + modulated_after)·fs⌉`` and the constant CW beyond
+        (:func:`rfsim.gen2.pie.ask_command_baseband`); as ``⌈a⌉ − ⌈b⌉ ≥ ⌊a − b⌋``,
+        ``n_mod ≤ n − ⌊(cw_after − modulated_after)·fs⌋`` up to the roundings of the sums, one
+        sample each at most: the index returned has a sample to spare."""
+        if self.link.modulation not in ("DSB-ASK", "PR-ASK"):
+            return None
+        ask = self._ask_command(preamble, cw_before_s, cw_after_s, memo)
+        k = n - math.floor((ask.cw_after_s - ask.modulated_after_s) * ask.fs_hz) + 2
+        return k if k < n else None
+
     def modulate(self, bits, *, preamble: str, cw_after_s: float, cw_before_s: float = 0.0) -> np.ndarray:
         """Modulate a PIE command to complex baseband (module docstring equations).
 
@@ -324,8 +340,12 @@ class PieTransmitter:
             x = self._modulate(bits, preamble, float(cw_after_s), cw_before_s, memo)
             x.setflags(write=False)
             # the memo names the run's cache (weakly: the cache holds the entry) so that a tag
-            # reacting to these samples keeps its reply there
-            hit = Waveform(samples=x, makers=makers, memo={AirCache: weakref.ref(cache)})
+            # reacting to these samples keeps its reply there, and where the constant CW starts
+            cw_from = self._cw_from(x.size, preamble, float(cw_after_s), cw_before_s, memo)
+            shared = {AirCache: weakref.ref(cache)}
+            if cw_from is not None:
+                shared["cw_from"] = cw_from
+            hit = Waveform(samples=x, makers=makers, memo=shared, cw_from=cw_from)
             cache.remember(cache.waveforms, key, hit)
         t0_s = float(t0_s)
         start = t0_s + cw_before_s

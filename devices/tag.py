@@ -407,11 +407,17 @@ class SharedFrontEnd:
         The emitted segment [√W].
     fs_hz : float
         Sample rate [Hz].
+    cw_from : int or None, optional
+        Index from which the samples are known to be all equal (a reader's constant CW after
+        its command, :attr:`rfsim.air.cache.Waveform.cw_from`), or None. The front end then forms
+        the envelope up to that sample only and counts the rest (the same numbers, bit for
+        bit: every step reads the first of the equal samples that end the envelope and counts
+        the others).
 
     Attributes
     ----------
     env : numpy.ndarray, shape (n_samples,)
-        Envelope |x|.
+        Envelope |x| (formed when asked).
     levels : tuple of float
         ``(threshold, low, high)`` of :func:`rfsim.gen2.pie.two_level_threshold` of ``env``.
     plateau : int or None
@@ -420,22 +426,36 @@ class SharedFrontEnd:
         ``x[plateau]`` (only when ``plateau`` is not None).
     """
 
-    def __init__(self, x: np.ndarray, *, fs_hz: float):
+    def __init__(self, x: np.ndarray, *, fs_hz: float, cw_from: int | None = None):
         self.x, self.fs_hz = x, float(fs_hz)
-        self.env = np.abs(x)
-        #: the samples the PIE decoder reads: up to the first of the equal samples that end env
-        self._decoded_env = self.env
-        if self.env.ndim == 1 and self.env.size > 0:  # one kernel call: extremes, levels, plateau
-            self.levels, self.plateau, tail = _front_end(x, self.env)
-            # the decoder stops at that sample (rfsim.gen2.pie.pie_decode_arrays): the same frames
-            self._decoded_env = self.env[:tail + 1]
+        self._env = None
+        if x.ndim == 1 and x.size > 0:  # one kernel call: extremes, levels, plateau
+            n = x.size
+            head = n if cw_from is None else min(max(int(cw_from), 0) + 1, n)
+            if head < n:  # |x| up to the first CW sample: the kernel reads no further
+                env = np.empty(n)
+                np.abs(x[:head], out=env[:head])
+            else:
+                env = self._env = np.abs(x)
+            self.levels, self.plateau, tail = _front_end(x, env, head)
+            # the samples the PIE decoder reads: up to the first of the equal samples that end
+            # |x| (rfsim.gen2.pie.pie_decode_arrays stops at that sample: the same frames)
+            self._decoded_env = env[:tail + 1]
         else:
-            self.levels = two_level_threshold(self.env)
-            self.plateau = _plateau(x, self.env, self.levels)
+            env = self._decoded_env = self.env
+            self.levels = two_level_threshold(env)
+            self.plateau = _plateau(x, env, self.levels)
         if self.plateau is not None:
             self._xm = x[self.plateau:self.plateau + 1]
             self.cw_sample = complex(self._xm[0])
         self._commands: dict = {}
+
+    @property
+    def env(self) -> np.ndarray:
+        """Envelope |x| of the whole segment, (n_samples,) float64 (formed on first use)."""
+        if self._env is None:
+            self._env = np.abs(self.x)
+        return self._env
 
     def power_w(self, gain: complex) -> float:
         """CW power of the scaled copy g·x, as :func:`incident_power_w` of it.
@@ -483,19 +503,20 @@ class SharedFrontEnd:
         return hit
 
 
-def _front_end(x: np.ndarray, env: np.ndarray) -> tuple:
+def _front_end(x: np.ndarray, env: np.ndarray, head: int) -> tuple:
     """``(two_level_threshold(env), _plateau(x, env, those levels), tail)`` of the samples ``x``
     ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
     isodata split and the plateau; the same numbers, bit for bit); ``tail`` is the index of the
-    first of the equal values that end ``env``."""
+    first of the equal values that end ``env``. Only ``env[:head]`` is formed and read
+    (1 ≤ ``head`` ≤ n): ``x[head - 1:]`` are all equal."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
     n = env.size
-    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
+    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, int(head), ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
                                          np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
     levels = (float(thr), float(lo), float(hi))
     if p == -2:
-        return levels, plateau_reference(x, env, levels), int(tail)
+        return levels, plateau_reference(x, env if head == n else np.abs(x), levels), int(tail)
     return levels, (None if p < 0 else int(p)), int(tail)
 
 
@@ -728,7 +749,8 @@ class PassiveTag:
         """
         fe = base.memo.get(SharedFrontEnd)
         if fe is None:
-            fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz)
+            fe = base.memo[SharedFrontEnd] = SharedFrontEnd(base.samples, fs_hz=base.fs_hz,
+                                                            cw_from=base.memo.get("cw_from"))
         return fe
 
     @classmethod

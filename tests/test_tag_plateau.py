@@ -237,3 +237,62 @@ def test_shared_decoding_is_keyed_by_content_and_rc_not_by_the_tags_power():
             assert _frames_fields([got.frame]) == _frames_fields([want.frame])
         by_rc[rc] = _frames_fields([got.frame])
     assert by_rc[3e-6] != by_rc[0.0]  # the RC shifts the edges: the key needs rc_s
+
+
+def _front_end_fields(fe):
+    # everything the tags read of a shared front end, as exact bits
+    cmd, frame = fe.command(0.0)
+    return (np.array(fe.levels).tobytes(), fe.plateau, getattr(fe, "cw_sample", None),
+            fe._decoded_env.tobytes(), cmd, None if frame is None else _frames_fields([frame]))
+
+
+@pytest.mark.parametrize("modulation", ["DSB-ASK", "PR-ASK", "SSB-ASK"])
+def test_head_only_front_end_equals_the_whole_segment_on_every_command(modulation):
+    # a reader's cached command waveform names where its constant CW starts (Waveform.cw_from,
+    # the memo's "cw_from"): those samples are all equal, and the tag's front end over the head
+    # up to there gives what it gives over the whole segment, bit for bit, for every command
+    # kind, CW length, link profile and sample rate; a tail that is not constant would show
+    import dataclasses
+
+    from rfsim.channels.antennas import Antenna
+    from rfsim.core.rng import trial_rng
+    from rfsim.devices.reader import Reader, ReaderConfig
+    from rfsim.devices.tag import PassiveTag, SharedFrontEnd
+    from rfsim.air.step import FixedEmitter
+    from rfsim.gen2.commands import COMMAND_TYPES, ACK
+    from rfsim.gen2.link import PROFILES
+
+    n_known = n_head = 0
+    for profile, fs, rise_fall in (("miller4-320k", 4e6, 0.1), ("fm0-40k", 1.3e6, 0.33), ("miller4-320k", 3.3e6, 0.0)):
+        lk = dataclasses.replace(PROFILES[profile], modulation=modulation)
+        rd = Reader(ReaderConfig(link_profile=profile, fs_hz=fs, pie_rise_fall_tari=rise_fall),
+                    [Antenna([0.0, 0.0, 1.0])], rng=trial_rng(66, 1), link=lk)
+        cmds = [t() for t in COMMAND_TYPES] + [ACK(rn16=r) for r in (0, 0xFFFF, 0x5A3C)]
+        for cmd in cmds:
+            for cw_after in (0.0, 1.9 * lk.tari_s, 2.1 * lk.tari_s, 3e-4, 1.7e-3):
+                tx = rd.transmit(cmd, t0_s=0.0, cw_after_s=cw_after)
+                x, c = tx.samples, tx.memo.get("cw_from")
+                if modulation == "SSB-ASK" or cw_after <= 2.0 * lk.tari_s:
+                    assert c is None  # no constant CW known (SSB), or none after the modulated span
+                if c is None:
+                    continue
+                n_known += 1
+                assert 0 < c < x.size and np.all(x[c:] == x[c])
+                # the kernel's own modulated span ends at most a few samples before c
+                assert np.any(x[c - 4:c] == x[c])
+                head = SharedFrontEnd(x, fs_hz=tx.fs_hz, cw_from=c)
+                whole = SharedFrontEnd(x, fs_hz=tx.fs_hz)
+                assert _front_end_fields(head) == _front_end_fields(whole)
+                assert head.env.tobytes() == np.abs(x).tobytes()
+                assert _front_end_fields(PassiveTag.front_end_of(FixedEmitter(rd.antennas[0], tx).segment)) \
+                    == _front_end_fields(whole)
+                assert head.command(0.0)[0] == cmd
+                if c == x.size - 1:
+                    continue
+                n_head += 1
+                # a claim of a constant tail that is not: the whole segment's front end differs
+                bad = x.copy()
+                bad[-1] = 0.5 * bad[-1]
+                assert _front_end_fields(SharedFrontEnd(bad, fs_hz=tx.fs_hz, cw_from=c)) \
+                    != _front_end_fields(SharedFrontEnd(bad, fs_hz=tx.fs_hz))
+    assert (n_known > 0) == (n_head > 0) == (modulation != "SSB-ASK")

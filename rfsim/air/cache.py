@@ -167,12 +167,18 @@ class Waveform:
         Data derived from the samples that devices share (as :attr:`rfsim.air.segment.Segment.memo`;
         a tag's front end on a command: :class:`rfsim.devices.tag.SharedFrontEnd`), and a weak
         reference (:class:`weakref.ref`) to the run's :class:`AirCache` under the key ``AirCache``
-        (a reader's command segment; :func:`run_cache` reads it).
+        (a reader's command segment; :func:`run_cache` reads it), and :attr:`cw_from` under the
+        key ``"cw_from"`` when it is known.
+    cw_from : int or None
+        Index from which the samples are all equal (a reader's constant CW after its command:
+        devices that see the segment may read the samples up to it and count the rest), or None
+        when the maker does not know one.
     """
 
     samples: np.ndarray
     makers: tuple
     memo: dict = field(default_factory=dict)
+    cw_from: int | None = None
 
 
 def run_cache(memo: dict) -> AirCache | None:

@@ -289,9 +289,10 @@ class PieTransmitter:
         ``samples`` is read-only: the last :data:`TX_CACHE_SIZE` distinct segments are kept in
         the run's cache (``air_cache.waveforms``, keyed by the command's bits, preamble, CW
         lengths and fs: :class:`rfsim.air.cache.CommandKey`) and returned again, with their
-        ``memo`` (a tag's decoding of them, :class:`rfsim.devices.tag.SharedFrontEnd`, and a weak
-        reference to the run's cache under the key :class:`rfsim.air.cache.AirCache`), for a
-        repeated command.
+        ``memo`` (a tag's decoding of them, :class:`rfsim.devices.tag.SharedFrontEnd`, a weak
+        reference to the run's cache under the key :class:`rfsim.air.cache.AirCache`, and under
+        ``"cw_from"`` the index from which a DSB-/PR-ASK segment's samples are all equal,
+        :attr:`rfsim.air.cache.Waveform.cw_from`), for a repeated command.
 
         Parameters
         ----------

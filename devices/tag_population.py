@@ -351,7 +351,10 @@ class _Round:
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
         # every member's power decision for its gain (made now where not known: a new carrier)
-        self.points = points = [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)]
+        # (at once where the members' class offers it: ``quiet_points``, one array operation)
+        batch = getattr(type(members[0]), "quiet_points", None) if members else None
+        self.points = points = (batch(members, fe, self.gains) if batch is not None else
+                                [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)])
         n = len(members)
         # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
         self.known = np.fromiter(map(operator.is_not, points, repeat(None)), bool, n)

@@ -571,6 +571,12 @@ def _dbm(p_w: float) -> float:
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
 
 
+#: Power decisions a tag remembers (:meth:`PassiveTag.quiet_point`): the carriers' incident powers
+#: of the last few hops; a population decides every member at a new carrier at once
+#: (:meth:`PassiveTag.quiet_points`), so a small number keeps the objects held per tag bounded.
+_QUIET_MEMO = 4
+
+
 def _config_powered(tau, tau_pu, sens_w, p_inc):
     """The config's power-up rule ``PowerUp.is_powered(τ·P_inc)``: τ_pu·(τ·P_inc) ≥ P_sens, for
     scalars (a bool) or arrays (element-wise; the same float64 arithmetic, so the same bits).
@@ -838,7 +844,7 @@ class PassiveTag:
                         hit) -> QuietPoint:
         """Remember the power decision of ``p_inc`` [W] as a :class:`QuietPoint` (``hit``: the
         chip's _ChipPoint or None) and return it."""
-        if len(self._quiet) > 64:
+        if len(self._quiet) >= _QUIET_MEMO:
             self._quiet.clear()
         q = self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s,
                                             None if hit is None else hit.operating_point,

@@ -473,7 +473,23 @@ class SharedFrontEnd:
         float
             Incident CW power [W].
         """
-        v = float(np.abs(gain * self._xm)[0])  # as numpy's |x| of the copy computes it
+        return float(self.powers_w(gain)[0])
+
+    def powers_w(self, gains) -> np.ndarray:
+        """:meth:`power_w` of many gains at once (the same numpy operations element by element,
+        so the same bits).
+
+        Parameters
+        ----------
+        gains : complex or array_like of complex, shape (n,)
+            Complex (dimensionless) gains g_j of the tags' links.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,) (1 for a scalar gain)
+            Incident CW power |g_j·x_m|² per gain [W].
+        """
+        v = np.abs(np.asarray(gains, dtype=np.complex128) * self._xm)  # as numpy's |x| of the copy computes it
         return v * v
 
     def command(self, rc_s: float) -> tuple:
@@ -574,6 +590,21 @@ def plateau_reference(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | No
 def _dbm(p_w: float) -> float:
     """10·log10(P) + 30 [dBm] (−inf for 0 W), as :func:`rfsim.core.units.w_to_dbm` for a scalar."""
     return 10.0 * math.log10(p_w) + 30.0 if p_w > 0 else -math.inf
+
+
+#: Power decisions a tag remembers (:meth:`PassiveTag.quiet_point`): the carriers' incident powers
+#: of the last few hops; a population decides every member at a new carrier at once
+#: (:meth:`PassiveTag.quiet_points`), so a small number keeps the objects held per tag bounded.
+_QUIET_MEMO = 4
+
+
+def _config_powered(tau, tau_pu, sens_w, p_inc):
+    """The config's power-up rule ``PowerUp.is_powered(τ·P_inc)``: τ_pu·(τ·P_inc) ≥ P_sens, for
+    scalars (a bool) or arrays (element-wise; the same float64 arithmetic, so the same bits).
+
+    τ is the config's power transfer, τ_pu and P_sens [W] those of its ``power_up``, P_inc [W]
+    the incident CW power."""
+    return tau_pu * (tau * p_inc) >= sens_w
 
 
 # ----------------------------------------------------------------------------- device
@@ -780,6 +811,70 @@ class PassiveTag:
                 self._p_memo.clear()
             p_inc = self._p_memo[key] = fe.power_w(gain)
         return p_inc
+
+    @staticmethod
+    def quiet_points(tags, fe: SharedFrontEnd, gains) -> list:
+        """:meth:`quiet_point` with ``decide`` of many tags at once (a population at a new carrier).
+
+        The incident powers |g_j·x_m|² (:meth:`SharedFrontEnd.powers_w`) and the config power-up
+        rule of every tag without a chip (:func:`_config_powered`) are one array operation each,
+        with the same arithmetic per tag as :meth:`quiet_point` (the same bits); tags with a chip,
+        or that do not share front ends, take :meth:`quiet_point` one by one. Decisions are
+        remembered as :meth:`quiet_point` remembers them (the incident powers are not: a tag's
+        own path computes the same number again).
+
+        Parameters
+        ----------
+        tags : sequence of PassiveTag
+            The tags.
+        fe : SharedFrontEnd
+            Shared front end of the emitted segment x.
+        gains : sequence of complex
+            Complex gain g_j of each tag's link.
+
+        Returns
+        -------
+        list of QuietPoint or None
+            Per tag, what ``quiet_point(fe, g_j, decide=True)`` returns.
+        """
+        n = len(tags)
+        if fe.plateau is None:
+            return [None] * n
+        p_arr = fe.powers_w(gains)
+        p_list = p_arr.tolist()
+        out: list = [None] * n
+        batch = []  # (index, tag, P_inc) of the tags whose decision is made below, at once
+        for j, (t, p_inc) in enumerate(zip(tags, p_list)):
+            if type(t) is not PassiveTag or t.chip is not None or not t.shared_front_end:
+                out[j] = t.quiet_point(fe, gains[j], decide=True)
+            elif p_inc in t._quiet:
+                out[j] = t._quiet_at(p_inc)
+            else:
+                batch.append(j)
+        if not batch:
+            return out
+        derived = [tags[j]._tau_power_up() for j in batch]
+        tau, tau_pu, sens_w = (np.array(c, dtype=float) for c in list(zip(*derived))[:3])
+        powered = _config_powered(tau, tau_pu, sens_w, p_arr[batch]).tolist()
+        for j, on, d in zip(batch, powered, derived):
+            t, p_inc = tags[j], p_list[j]
+            p_dbm, rest, a_s = _dbm(p_inc), t.reflection_states.gamma_a, d[3]
+            out[j] = t._remember_quiet(p_inc, on, p_dbm, rest, a_s, None)
+        return out
+
+    def _remember_quiet(self, p_inc: float, powered: bool, p_dbm: float, rest: complex, a_s: complex,
+                        hit) -> QuietPoint:
+        """Remember the power decision of ``p_inc`` [W] as a :class:`QuietPoint` (``hit``: the
+        chip's _ChipPoint or None) and return it."""
+        if len(self._quiet) >= _QUIET_MEMO:
+            self._quiet.clear()
+        q = self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s,
+                                            None if hit is None else hit.operating_point,
+                                            None if hit is None else hit.reflection_states,
+                                            None if powered else TagResponse(
+                                                False, None, None, None, None, None, "not powered", p_dbm, None,
+                                                None, None, None, rest, a_s))
+        return q
 
     def _quiet_at(self, p_inc: float) -> QuietPoint | None:
         """The remembered power decision of ``p_inc`` (made by :meth:`_respond` with the
@@ -1002,17 +1097,10 @@ class PassiveTag:
             rest, a_s = hit.reflection_states.gamma_a, self._tau_power_up()[3]
         else:
             tau, tau_pu, sens_w, a_s = self._tau_power_up()
-            powered = tau_pu * (tau * p_inc) >= sens_w  # PowerUp.is_powered(τ·P_inc)
+            powered = _config_powered(tau, tau_pu, sens_w, p_inc)
             rest = self.reflection_states.gamma_a
         if self.shared_front_end and p_inc not in self._quiet:  # the power decision of this P_inc
-            if len(self._quiet) > 64:
-                self._quiet.clear()
-            self._quiet[p_inc] = QuietPoint(self.config, self.chip, powered, p_dbm, rest, a_s,
-                                            None if hit is None else hit.operating_point,
-                                            None if hit is None else hit.reflection_states,
-                                            None if powered else TagResponse(
-                                                False, None, None, None, None, None, "not powered", p_dbm, None,
-                                                None, None, None, rest, a_s))
+            self._remember_quiet(p_inc, powered, p_dbm, rest, a_s, hit)
         return powered, p_dbm, rest, a_s, hit
 
     def _decoded(self, cmd, frame, p_dbm: float, rest: complex, a_s: complex, *, t0_s: float, fs_hz: float,

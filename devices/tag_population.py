@@ -10,7 +10,7 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
 1. decides for all tags at once which of them stay quiet — the remembered power decision of
    each tag's P_inc = |g_j·x_m|² (``PassiveTag.quiet_point``, made for every tag when the
    gains are new — a round's first exchange, a frequency hop — without changing the tag: its
-   own full path's power-up rule) agrees with its powered state, and an unpowered tag stays unpowered or a powered
+   own full path's power-up rule; for all members at once, ``PassiveTag.quiet_points``) agrees with its powered state, and an unpowered tag stays unpowered or a powered
    one takes a silent step of the decoded command (``StateArrays.silent_steps``, the rules of
    ``on_command_if_silent``);
 2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
@@ -351,7 +351,10 @@ class _Round:
         self.members, self.cw = members, cw
         self.gains = gains if isinstance(gains, list) else list(gains)
         # every member's power decision for its gain (made now where not known: a new carrier)
-        self.points = points = [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)]
+        # (at once where the members' class offers it: ``quiet_points``, one array operation)
+        batch = getattr(type(members[0]), "quiet_points", None) if members else None
+        self.points = points = (batch(members, fe, self.gains) if batch is not None else
+                                [m.quiet_point(fe, g, decide=True) for m, g in zip(members, self.gains)])
         n = len(members)
         # the columns of _set for every member at once (unknown: not known, not powered, NaN dBm)
         self.known = np.fromiter(map(operator.is_not, points, repeat(None)), bool, n)

@@ -675,7 +675,8 @@ def test_capture_records_take_their_crc_from_the_crc_step(monkeypatch):
 # ----------------------------------------------------------------- kernels that compute several steps
 
 #: The function each kernel of ``KERNEL_STEPS`` is reached through from the decoder (its entry).
-KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "search_decode_kernel": "search_decode",
+KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "receive_batch_kernel": "receive_batch_kernel",
+                  "search_decode_kernel": "search_decode",
                   "decode_window_kernel": "_decode_window"}
 
 

@@ -439,7 +439,8 @@ DECODER_CALLERS = ("devices/reader.py", "rfsim/gen2/replies.py", "rfsim/scenes/c
 #: The orchestrations the decoder's searches run (each one numba call or one search function):
 #: nobody but the decoder calls them, except the modules allowed here, each with its reason.
 DECODER_STEPS = {
-    "receive_kernel": {},
+    "receive_kernel": {"rfsim/gen2/_receive_kernels.py":
+                       "receive_batch_kernel, the same kernel on each window of a batch"},
     "search_decode": {},
     "_detect": {},
     "_decode_window": {},

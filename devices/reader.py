@@ -57,7 +57,8 @@ from rfsim.gen2.blf_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode,
                                    search_setup as _search_setup)
 from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
 from rfsim.devices import reader_statistic as _statistic
-from rfsim.gen2.reply_decoder import DecodePlan as _DecodePlan, LinkPlans as _LinkPlans, decode as _decode
+from rfsim.gen2.reply_decoder import (DecodePlan as _DecodePlan, DecodedReply as _DecodedReply, LinkPlans as _LinkPlans,
+                                     decode as _decode)
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -525,6 +526,65 @@ class Reader(PieTransmitter):
             raise ValueError(f"rx must be 1-D, got shape {rx.shape}")
         n_bits = int(n_bits)
         lk, fs = self.link, self.fs_hz
+        memo, blf, pre_n, n_reply, lo, hi = self._reply_lags(rx.size, n_bits, blf_hz, t0_s, cmd_end_s)
+        if self.config.blf_search == "preamble" and blf_hz is None:
+            n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
+            hi = min(hi, rx.size - n_slow)
+            if hi < lo or pre_n < 3:
+                return ReadResult(False, None, "preamble not found")
+            return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
+        if hi < lo or pre_n < 3:
+            return ReadResult(False, None, "preamble not found")
+        out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
+        return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
+
+    def receive_batch(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
+                      carrier: complex | None = None) -> list:
+        """:meth:`receive` of B windows that start at the same time, in one call where it can.
+
+        Parameters
+        ----------
+        rx : ndarray of complex, shape (B, n)
+            B windows at the RX port [√W], each as :meth:`receive` takes it.
+        t0_s, n_bits, expect_crc, cmd_end_s, carrier
+            As :meth:`receive`, the same for every window.
+
+        Returns
+        -------
+        list of ReadResult
+            Window b's :meth:`receive` (at the nominal BLF), record for record.
+
+        Notes
+        -----
+        With ``rx_model = "sample"``, ``blf_search = "off"`` and no timing tracking the B reads
+        are one call of the decoder on the batch (its "known" plan: the receive kernel on each
+        window, ``receive_batch_kernel``), and the :class:`ReadResult` of each is built from
+        its row of the results; otherwise :meth:`receive` runs window by window.
+        """
+        rx = np.ascontiguousarray(rx, dtype=np.complex128)
+        if rx.ndim != 2:
+            raise ValueError(f"rx must be 2-D (B, n), got shape {rx.shape}")
+        kwargs = dict(t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s, carrier=carrier)
+        cfg = self.config
+        if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or rx.shape[0] < 2:
+            return [self.receive(row, **kwargs) for row in rx]
+        n_bits = int(n_bits)
+        memo, blf, pre_n, n_reply, lo, hi = self._reply_lags(rx.shape[1], n_bits, None, t0_s, cmd_end_s)
+        if hi < lo or pre_n < 3:
+            return [ReadResult(False, None, "preamble not found") for _ in range(rx.shape[0])]
+        out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
+        found, start, corr, bits = out.found.tolist(), out.start.tolist(), out.corr.tolist(), out.bits
+        gain, sigma2, slope = out.gain.tolist(), out.sigma2.tolist(), out.slope.tolist()
+        crc_ok = out.crc_ok if expect_crc else [None] * rx.shape[0]
+        return [self._read_result(_DecodedReply(found[b], start[b], corr[b], bits[b], out.blf_hz, gain[b], sigma2[b],
+                                                slope[b], out.decision_ebn0_db, rx[b], None, crc_ok[b]),
+                                  float(t0_s), blf, expect_crc, carrier) for b in range(rx.shape[0])]
+
+    def _reply_lags(self, n: int, n_bits: int, blf_hz, t0_s: float, cmd_end_s):
+        """The receive memo, the BLF decoded at, the preamble and reply lengths [samples] at it
+        and the first and last reply start searched (:meth:`reply_start_lags`) of a window of
+        ``n`` samples (:meth:`receive`)."""
+        lk, fs = self.link, self.fs_hz
         memo = self._receive_memo()
         blf = memo.blf_hz if blf_hz is None else float(blf_hz)
         if not blf > 0:
@@ -537,17 +597,8 @@ class Reader(PieTransmitter):
             hit = memo.sizes[(n_bits, blf)] = _ReplySize(self.preamble_samples(blf), int(math.ceil(
                 reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
         pre_n, n_reply = hit
-        lo, hi = self.reply_start_lags(rx.size, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
-        if self.config.blf_search == "preamble" and blf_hz is None:
-            n_slow = int(math.ceil(reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=lk.blf_range_hz[0]) * fs))
-            hi = min(hi, rx.size - n_slow)
-            if hi < lo or pre_n < 3:
-                return ReadResult(False, None, "preamble not found")
-            return self._receive_searched(rx, lo, hi, float(t0_s), n_bits, expect_crc, carrier)
-        if hi < lo or pre_n < 3:
-            return ReadResult(False, None, "preamble not found")
-        out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
-        return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
+        lo, hi = self.reply_start_lags(n, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
+        return memo, blf, pre_n, n_reply, lo, hi
 
     def _receive_delayed(self, rx, **kwargs) -> ReadResult:
         """:meth:`receive` of a delayed reply: the same receiver on a view of this reader whose

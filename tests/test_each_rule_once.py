@@ -439,7 +439,8 @@ DECODER_CALLERS = ("devices/reader.py", "rfsim/gen2/replies.py", "rfsim/scenes/c
 #: The orchestrations the decoder's searches run (each one numba call or one search function):
 #: nobody but the decoder calls them, except the modules allowed here, each with its reason.
 DECODER_STEPS = {
-    "receive_kernel": {},
+    "receive_kernel": {"rfsim/gen2/_receive_kernels.py":
+                       "receive_batch_kernel, the same kernel on each window of a batch"},
     "search_decode": {},
     "_detect": {},
     "_decode_window": {},
@@ -675,7 +676,8 @@ def test_capture_records_take_their_crc_from_the_crc_step(monkeypatch):
 # ----------------------------------------------------------------- kernels that compute several steps
 
 #: The function each kernel of ``KERNEL_STEPS`` is reached through from the decoder (its entry).
-KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "search_decode_kernel": "search_decode",
+KERNEL_ENTRIES = {"receive_kernel": "receive_kernel", "receive_batch_kernel": "receive_batch_kernel",
+                  "search_decode_kernel": "search_decode",
                   "decode_window_kernel": "_decode_window"}
 
 

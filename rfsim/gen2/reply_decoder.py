@@ -59,7 +59,7 @@ crc           "check": CRC-16 of the  the same                the same (asked fo
 Kernels that compute several steps
 ----------------------------------
 
-Three compiled calls compute several steps in one call (splitting them would add numba calls
+Four compiled calls compute several steps in one call (splitting them would add numba calls
 per reply); the variant in the first column calls it, the later steps' variants in the last
 column take their results from it (:data:`KERNEL_STEPS`, the same table):
 
@@ -71,6 +71,10 @@ kernel                      called by              computes, for these step vari
                                                    (first decisions, (h, c) on the known levels,
                                                    decisions on r − c); measure "kernel"
                                                    (``measure_kernel``: gain, Doppler slope, σ²)
+``receive_batch_kernel``    search "one blf"       the same for a batch of B windows ``(B, n)`` (each
+                                                   its own ``lo``, ``hi`` and threshold): a loop over
+                                                   ``receive_kernel`` in one call, per-window
+                                                   results in ``(B, …)`` arrays
 ``search_decode_kernel``    search "blf grid"      the coarse search over lags × BLF and the fine
 (``search_decode``)                                BLF; decisions "search kernel" (at the fine
                                                    BLF); measure "search fit" (h, σ², Eb/(N0 + I))
@@ -125,6 +129,8 @@ SEARCHES = ("known", "blf", "link")
 KERNEL_STEPS = {
     "receive_kernel": (("search", "one blf"), (("condition", "in kernel"), ("decisions", "receive kernel"),
                                                 ("measure", "kernel"))),
+    "receive_batch_kernel": (("search", "one blf"), (("condition", "in kernel"), ("decisions", "receive kernel"),
+                                                      ("measure", "kernel"))),
     "search_decode_kernel": (("search", "blf grid"), (("decisions", "search kernel"), ("measure", "search fit"),
                                                       ("measure", "known levels"))),
     "decode_window_kernel": (("timing", "track"), (("decisions", "timing"), ("measure", "timing"))),
@@ -568,7 +574,11 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         ``(n,) complex128`` window ``h·s(t) + c + noise`` (any unit, any constant offset c);
         "blf" also ``(B, n)``, a batch of windows (then every field of the result is an array
         over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``; not with a plan
-        that measures on the known levels).
+        that measures on the known levels). "known" without timing tracking also ``(B, n)``,
+        each window with its own ``lo``, ``hi`` (scalars or ``(B,)``): ``found``, ``start``,
+        ``corr``, ``gain``, ``sigma2``, ``slope`` are ``(B,)`` arrays, ``bits`` ``(B, n_bits)``
+        and ``crc_ok`` a list (None for a window without a reply); window b's values are those
+        of its own call.
     plan : DecodePlan
         The search and its parameters.
     lo, hi : int
@@ -642,9 +652,17 @@ def _condition_none(w: _Work, plan: DecodePlan) -> None:
 
 def _windows_lags(w: _Work, plan: DecodePlan) -> None:
     """Starts ``lo…hi`` at the BLF given; the detection threshold of that many tests
-    (:meth:`DecodePlan.detection`, the preamble at that BLF)."""
+    (:meth:`DecodePlan.detection`, the preamble at that BLF); for a batch of windows each
+    window's own (``lo``, ``hi`` and the threshold ``(B,)`` arrays)."""
     w.spans, w.n_grid = ((w.lo, w.hi),), 1
-    w.pre_n, w.threshold = plan.detection(w.hi - w.lo + 1, w.blf)
+    if w.r.ndim == 1:
+        w.pre_n, w.threshold = plan.detection(w.hi - w.lo + 1, w.blf)
+    else:
+        w.lo, w.hi = (np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=np.int64), w.r.shape[:1]))
+                      for v in (w.lo, w.hi))
+        detections = {k: plan.detection(k, w.blf) for k in set((w.hi - w.lo + 1).tolist())}
+        w.pre_n = next(iter(detections.values())).preamble_samples
+        w.threshold = np.array([detections[k].threshold for k in (w.hi - w.lo + 1).tolist()])
 
 
 def _windows_lags_grid(w: _Work, plan: DecodePlan) -> None:
@@ -675,14 +693,23 @@ def _windows_t1(w: _Work, plan: DecodePlan) -> None:
 def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     """``receive_kernel`` at one BLF: the preamble over the lags (runs + 1/16-sample
     refinement) and, in the same call, (h, c) on the known levels, the decisions and the
-    measurement (steps 5 and 6 take them from it)."""
-    det_bits, bits = np.empty((2, w.n_bits + 1), dtype=np.uint8)  # the first decisions', the bits
-    out_f, out_c = np.empty(4), np.empty(1, dtype=np.complex128)
-    status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf),
-                                 det_bits, bits, out_f, out_c)
-    if status > _rxk.NOT_FOUND:
-        raise ValueError(_RECEIVE_ERRORS[status])
-    w.start, w.corr, w.found = float(out_f[0]), float(out_f[1]), status != _rxk.NOT_FOUND
+    measurement (steps 5 and 6 take them from it). A batch of windows ``(B, n)``: the same
+    kernel on each window in one call (``receive_batch_kernel``), every result a ``(B,)`` array."""
+    batch = w.r.shape[:-1]
+    det_bits, bits = np.empty((2, *batch, w.n_bits + 1), dtype=np.uint8)  # the first decisions', the bits
+    out_f, out_c = np.empty((*batch, 4)), np.empty((*batch, 1), dtype=np.complex128)
+    if batch:
+        status = np.empty(batch, dtype=np.int64)
+        _rxk.receive_batch_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf), det_bits,
+                                  bits, out_f, out_c, status)
+        worst = int(status.max(initial=_rxk.RECEIVED))
+        w.start, w.corr, w.found = out_f[:, 0], out_f[:, 1], status != _rxk.NOT_FOUND
+    else:
+        worst = status = _rxk.receive_kernel(w.r, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf),
+                                             det_bits, bits, out_f, out_c)
+        w.start, w.corr, w.found = float(out_f[0]), float(out_f[1]), status != _rxk.NOT_FOUND
+    if worst > _rxk.NOT_FOUND:
+        raise ValueError(_RECEIVE_ERRORS[worst])
     w.out, w.blf_found = (bits, out_f, out_c), w.blf
 
 
@@ -765,7 +792,7 @@ def _timing_track(w: _Work, plan: DecodePlan) -> None:
 def _decisions_of_receive(w: _Work, plan: DecodePlan) -> None:
     """The data bits ``receive_kernel`` decided on r − c with h given (half-bit sums, Viterbi
     or bitwise)."""
-    w.bits = w.out[0][:w.n_bits]
+    w.bits = w.out[0][..., :w.n_bits]
 
 
 def _decisions_of_search(w: _Work, plan: DecodePlan) -> None:
@@ -788,7 +815,10 @@ def _measure_of_kernel(w: _Work, plan: DecodePlan) -> None:
     """Gain at the reply centre, Doppler slope and σ² of ``receive_kernel`` (its
     ``measure_kernel`` against the decoded reply, :data:`DOPPLER_BLOCKS` blocks)."""
     _, out_f, out_c = w.out
-    w.gain, w.sigma2, w.slope = complex(out_c[0]), float(out_f[3]), float(out_f[2])
+    if out_f.ndim == 2:  # a batch
+        w.gain, w.sigma2, w.slope = out_c[:, 0], out_f[:, 3], out_f[:, 2]
+    else:
+        w.gain, w.sigma2, w.slope = complex(out_c[0]), float(out_f[3]), float(out_f[2])
 
 
 def _measure_of_search(w: _Work, plan: DecodePlan) -> None:
@@ -844,7 +874,9 @@ def _crc_check(w: _Work, plan: DecodePlan) -> None:
     (:func:`rfsim.gen2.crc.crc16_ok`); None for a reply the timing step found cut (``truncated``:
     the next command or the capture's end cut it, its CRC is not in the window). The one check of
     a decoded reply's CRC: the reader's ``expect_crc`` and a capture record's ``crc_ok`` are this."""
-    if w.crc:
+    if w.crc and plan.search == "known" and w.r.ndim == 2:  # a batch: the windows with a reply
+        w.crc_ok = [plan.crc16_ok(bits) if found else None for bits, found in zip(w.bits, w.found.tolist())]
+    elif w.crc:
         w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else plan.crc16_ok(w.bits)
 
 

@@ -335,7 +335,8 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     (:func:`rfsim.air.step.propagate` with the trial's generator and ``skip_unmodulated``: a
     trial in which no tag replies forms no reader input, its noise draws are still made), of
     which only the ground truth and the reader's input are kept; 3. the reader's reads of the
-    trials with a reply; 4. the records. Each stage runs over the block's trials in a row (the
+    trials with a reply (those of consecutive trials on one port in one
+    :meth:`ReaderPort.receive_batch`); 4. the records. Each stage runs over the block's trials in a row (the
     same code and tables hot: trial by trial took 5–10 % more CPU), and a step's other objects
     do not outlive it (fewer collections of Python's cyclic garbage collector).
     """
@@ -369,10 +370,27 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                                   motions=motions, draw_channel=draw_channel, propagation=propagation,
                                   link_cache=caches[b], sent=sent))
         heard = [_heard(_air(prep, rngs[k0 + k]), prep.members) for k, prep in enumerate(preps)]
-        for prep, (truth, seg) in zip(preps, heard):
-            read = prep.sent.port.receive(seg) if truth[0] else None
+        for prep, (truth, _), read in zip(preps, heard, _reads(preps, heard)):
             out.append(_record(prep, truth, read))
     return out
+
+
+def _reads(preps: list, heard: list) -> list:
+    """Stage 3 of :func:`run_exchanges`: the reader's read of each trial with a reply (None
+    for the others), in trial order; the reads of consecutive trials on the same port (the
+    same reader, command, time and round) in one :meth:`ReaderPort.receive_batch`."""
+    reads: list = [None] * len(preps)
+    runs: list = []  # (port, [trial, …]) of consecutive trials with a reply
+    for k, (prep, (truth, _)) in enumerate(zip(preps, heard)):
+        if truth[0]:
+            if runs and runs[-1][0] is prep.sent.port:
+                runs[-1][1].append(k)
+            else:
+                runs.append((prep.sent.port, [k]))
+    for port, trials in runs:
+        for k, read in zip(trials, port.receive_batch([heard[k][1] for k in trials])):
+            reads[k] = read
+    return reads
 
 
 class _Sent(NamedTuple):
@@ -672,16 +690,53 @@ class ReaderPort:
             start on, searched after ``tx.cmd_end_s``, phase referred to ``tx.samples[-1]``; with
             ``header_bit`` an error reply at its own length, :func:`run_exchange`).
         """
+        i0, kwargs = self._read_arguments(input)
+        return self._error_reply(self.reader.receive(input.samples[i0:], n_bits=self.reply_bits, **kwargs),
+                                 input.samples[i0:], kwargs)
+
+    def receive_batch(self, inputs):
+        """Read the reply in each of several inputs (trials of one command).
+
+        Parameters
+        ----------
+        inputs : list of rfsim.air.step.Segment
+            The reader's inputs [√W], each on the time base of ``tx``.
+
+        Returns
+        -------
+        list
+            :meth:`receive` of each input, in order. Inputs on one time base (the same first
+            sample time, rate and length) are read in one ``reader.receive_batch`` call when the
+            reader has it and the reply is not a delayed one; otherwise one by one.
+        """
+        first = inputs[0]
+        batch = getattr(self.reader, "receive_batch", None)
+        if (batch is None or self.delayed_reply or len(inputs) < 2
+                or any(x.t0_s != first.t0_s or x.fs_hz != first.fs_hz or x.samples.shape != first.samples.shape
+                       for x in inputs)):
+            return [self.receive(x) for x in inputs]
+        i0, kwargs = self._read_arguments(first)
+        rx = np.stack([x.samples[i0:] for x in inputs])
+        return [self._error_reply(read, row, kwargs)
+                for read, row in zip(batch(rx, n_bits=self.reply_bits, **kwargs), rx)]
+
+    def _read_arguments(self, input) -> tuple:
+        """The first sample read of ``input`` (the listen start) and the keywords of
+        ``reader.receive`` for it."""
         tx, fs = self.tx, input.fs_hz
         i0 = int(math.ceil((self._listen_s - input.t0_s) * fs))
         kwargs = dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s,
                       carrier=tx.samples[-1])
         if self.delayed_reply:
             kwargs["delayed"] = True
-        read = self.reader.receive(input.samples[i0:], n_bits=self.reply_bits, **kwargs)
+        return i0, kwargs
+
+    def _error_reply(self, read, rx, kwargs):
+        """``read``, or with ``header_bit`` the read of ``rx`` at the error reply's length when the
+        header of a failed read says the reply is one (:func:`run_exchange`)."""
         if (self.header_bit and self.reply_bits != ERROR_REPLY_BITS and not read.success and read.bits is not None
                 and read.bits[0] == 1):  # the header says: an error reply
-            read = self.reader.receive(input.samples[i0:], n_bits=ERROR_REPLY_BITS, **kwargs)
+            read = self.reader.receive(rx, n_bits=ERROR_REPLY_BITS, **kwargs)
         return read
 
 

@@ -324,7 +324,7 @@ def test_a_new_draw_gives_its_link_constants_once_per_tag_and_they_serve_the_ack
     assert len(calls) == 2
 
 
-def test_reciprocal_held_constants_are_remembered_for_both_directions_at_once():
+def test_reciprocal_held_constants_are_remembered_for_both_directions_at_once(monkeypatch):
     """Monostatic links of a reciprocal channel (backward is forward): the forward call of a new draw
     remembers the same constants for the inbound call, which asks no link (fails when each direction
     forms its own list)."""
@@ -337,7 +337,7 @@ def test_reciprocal_held_constants_are_remembered_for_both_directions_at_once():
     forward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
                                    inbound=False)
     asked = []
-    links._pair = lambda *a: asked.append(a)  # the inbound call must not need a link
+    monkeypatch.setattr(_EngineLinks, "_pair", lambda self, *a: asked.append(a))  # the inbound call needs no link
     backward = links.held_constants(READER_ANTENNA, ants, fc_hz=fc, bandwidth_hz=bw, propagation="auto",
                                     inbound=True)
     assert backward is forward and asked == []
@@ -367,3 +367,19 @@ def test_non_reciprocal_held_constants_are_formed_per_direction():
     assert backward is not forward
     assert backward == [links.paths(ants[0], READER_ANTENNA, fc_hz=fc, t_s=0.0).narrowband_constant(fc, bw, "auto")]
     assert backward[0] != forward[0]
+
+
+def test_record_is_the_constructors_record():
+    # the engine fills its frozen records in one step: every field of the dataclass set, nothing
+    # else, equal (and hashing alike) to the record the constructor makes of the same values,
+    # and still frozen
+    reader = make_reader()
+    exs = run_round(reader, [make_tag(2.0)])
+    assert [e.command for e in exs] == ["Query", "ACK"]
+    names = [f.name for f in dataclasses.fields(exs[0])]
+    for ex in exs:
+        assert list(vars(ex)) == names
+        made = type(ex)(**{name: getattr(ex, name) for name in names})
+        assert made == ex and repr(made) == repr(ex)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            ex.command = "other"

@@ -116,7 +116,7 @@ _antenna_of = operator.attrgetter("antenna")
 # ----------------------------------------------------------------------------- result
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, slots=True)
 class AirResult:
     """What one step produced.
 

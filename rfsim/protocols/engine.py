@@ -554,13 +554,20 @@ def _record(prep: _Prepared, truth: tuple, read) -> Exchange:
     lo, hi, cmd_end_s = t1_range.min_s, t1_range.max_s, tx.cmd_end_s
     timing_ok = tuple([bool(lo <= st - cmd_end_s <= hi) for st in starts])
     n = int(tx.samples.size)
-    return Exchange(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
-                    channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
-                    powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
-                    failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
-                    end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
-                    reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
-                    cmd_end_s=float(tx.cmd_end_s))
+    # every field of the frozen record given, as its constructor would set them (one dict update
+    # instead of a frozen dataclass's set per field; tests/test_engine.py::test_record_is_the_constructors_record)
+    ex = _new_record(Exchange)
+    ex.__dict__.update(time_s=prep.t_s, command=type(prep.cmd).__name__, antenna=side.antenna_index,
+                       channel_index=tx.channel_index, fc_hz=tx.fc_hz, replied=tuple(replied),
+                       powered=tuple(powered), incident_power_dbm=tuple(incident_dbm), read=read,
+                       failure_reason=_failure(read, replied, powered, decode_error, decoded_tag, timing_ok),
+                       end_s=prep.t_s + n / tx.fs_hz, decoded_tag=decoded_tag,
+                       reply_start_s=tuple(starts), timing_ok=timing_ok, n_samples=n,
+                       cmd_end_s=float(tx.cmd_end_s))
+    return ex
+
+
+_new_record = object.__new__
 
 
 class _AckDelays(NamedTuple):
@@ -773,6 +780,8 @@ class _EngineLinks:
     :func:`run_exchange`: ``(tag index, id(reader antenna), carrier)`` → :class:`_LinkPair`,
     ``("index",)`` → a population's :class:`_TagIndex`, ``("held", …)`` → :class:`_HeldConstants`
     (the link cache keeps the antennas it keys by identity alive)."""
+
+    __slots__ = ("channel", "antenna", "rng", "t_s", "cache", "draw", "motions", "index", "backward", "drawn")
 
     def __init__(self, channel, antenna, reflectors, members, motions, rng, t_s, cache, draw):
         self.channel, self.antenna, self.rng, self.t_s = channel, antenna, rng, t_s

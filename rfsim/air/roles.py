@@ -299,7 +299,12 @@ class FixedEmitter:
     def __init__(self, antenna, segment, *, device=None):
         if not isinstance(segment, Segment):
             memo = getattr(segment, "memo", None)
-            segment = Segment(segment.t0_s, segment.fs_hz, segment.fc_hz, segment.samples)
+            x = segment.samples
+            if (type(x) is np.ndarray and x.dtype == np.complex128 and x.ndim >= 1 and x.shape[-1] >= 1
+                    and segment.fs_hz > 0):  # valid as it is (a reader's read-only waveform): held, no checks
+                segment = Segment.own(segment.t0_s, segment.fs_hz, segment.fc_hz, x)
+            else:
+                segment = Segment(segment.t0_s, segment.fs_hz, segment.fc_hz, x)
             if memo is not None:  # the made segment's shared memo (a reader's cached waveform)
                 segment.memo = memo
         self.antenna, self.segment, self.device = antenna, segment, device

@@ -75,6 +75,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -765,12 +766,11 @@ class _LinkPair(NamedTuple):
 
 
 class _HeldConstants(NamedTuple):
-    """The narrowband constants of held links between ``reader_antenna`` and ``antennas`` (held,
-    with their identities ``antenna_ids``), one per antenna in that order."""
+    """The narrowband constants of held links between ``reader_antenna`` and ``antennas`` (a tuple,
+    held: a hit compares them by identity), one per antenna in that order."""
 
     reader_antenna: Any
-    antennas: Sequence
-    antenna_ids: tuple
+    antennas: tuple
     constants: Sequence
 
 
@@ -840,8 +840,8 @@ class _EngineLinks:
         cache = self.cache
         hit = cache.get(key) if cache is not None else None
         if hit is not None and hit.reader_antenna is antenna and (
-                hit.antennas is others or hit.antenna_ids == tuple([id(a) for a in others])):
-            return hit.constants
+                hit.antennas is others or all(map(operator.is_, hit.antennas, others))):
+            return hit.constants  # (the key holds the count: the antennas compared one by one)
         out = []
         reciprocal = True  # every pair's backward link is its forward link
         index, draw = self.index, self.draw
@@ -864,8 +864,7 @@ class _EngineLinks:
                 return None
             out.append(c)
         if cache is not None:
-            entry = cache[key] = _HeldConstants(reader_antenna=antenna, antennas=others,
-                                                antenna_ids=tuple([id(a) for a in others]), constants=out)
+            entry = cache[key] = _HeldConstants(reader_antenna=antenna, antennas=tuple(others), constants=out)
             if reciprocal:  # the other direction: the same links, the same constants
                 cache[key[:5] + (not inbound, key[6])] = entry
         return out

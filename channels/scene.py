@@ -360,10 +360,11 @@ class Channel:
                 if rng is None:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
                 k_lin, tau_rms_s = geo.apdp_args
-                terms = self._tap_terms.get((k_lin, tau_rms_s, sc.apdp.profile_items))
+                items = sc.apdp.profile_items
+                terms = self._tap_terms.get((k_lin, tau_rms_s, items))
                 if terms is None:
-                    terms = tap_terms(k_lin, tau_rms_s, sc.apdp.profile_items)
-                    _remember(self._tap_terms, (k_lin, tau_rms_s, sc.apdp.profile_items), terms)
+                    terms = tap_terms(k_lin, tau_rms_s, items)
+                    _remember(self._tap_terms, (k_lin, tau_rms_s, items), terms)
                 # the numbers of draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **profile_options)
                 held = _DiffuseDraw(terms.los_amplitude, draw_nlos_taps(terms, rng), terms.nlos_delays_s)
                 self._held[key] = held

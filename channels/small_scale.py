@@ -157,9 +157,14 @@ class ApdpModel:
 
     @property
     def profile_items(self) -> tuple:
-        """:attr:`profile_options` as a tuple of ``(name, value)`` (a key of :func:`tap_terms`)."""
-        return (("bandwidth_hz", self.bandwidth_hz), ("fres_hz", self.fres_hz), ("max_taps", self.max_taps),
+        """:attr:`profile_options` as a tuple of ``(name, value)`` (a key of :func:`tap_terms`; formed
+        once: the model is immutable, a channel asks it at every draw)."""
+        items = self.__dict__.get("_profile_items")
+        if items is None:
+            items = self.__dict__["_profile_items"] = (
+                ("bandwidth_hz", self.bandwidth_hz), ("fres_hz", self.fres_hz), ("max_taps", self.max_taps),
                 ("max_iter", self.max_iter), ("eps_k", self.eps_k), ("eps_trms", self.eps_trms))
+        return items
 
     def profile_at(self, distance_m: float):
         """The average profile at one distance (:func:`average_profile`).

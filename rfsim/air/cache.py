@@ -25,6 +25,7 @@ reader's, a scene may give its own).
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass, field
 from typing import Any, Callable, NamedTuple
 
@@ -369,7 +370,7 @@ class AirCache:
         if hit is None:
             return None
         self.waveforms[key] = hit
-        if len(hit.makers) != len(makers) or any(a is not b for a, b in zip(hit.makers, makers)):
+        if len(hit.makers) != len(makers) or not all(map(operator.is_, hit.makers, makers)):
             return None
         return hit
 

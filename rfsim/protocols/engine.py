@@ -795,7 +795,8 @@ class _EngineLinks:
                     cache[("index",)] = hit
             self.index = hit.index
         else:
-            self.index = {id(t.antenna): i for i, t in enumerate(members)}
+            self.index = ({id(members[0].antenna): 0} if len(members) == 1
+                          else {id(t.antenna): i for i, t in enumerate(members)})
         self.backward: dict = {}
         self.drawn: dict = {}  # id(tag antenna) -> _LinkPair of this step's draw (drawn once per step)
         if draw and cache:  # a new draw: the held constants of the previous one are void

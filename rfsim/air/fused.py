@@ -108,18 +108,23 @@ def lazy_backscatter(r, pj, seg: Segment, g, y, rc, off: float, n_samples: int, 
     Backscatter or None
         The contribution as factors, or None when it does not have that form.
     """
+    # (a number: a Python complex, the common case, is told by its type without a call)
     if (y is not None or rc is not None or off != 0.0 or g is None
-            or not (isinstance(g, _NUMBER) or np.ndim(g) == 0)):
+            or not (type(g) is complex or isinstance(g, _NUMBER) or np.ndim(g) == 0)):
         return None
     terms = getattr(r, "reradiation_terms", None)
-    if (terms is None or seg.samples.ndim != 1 or terms[1].shape != (n_samples,)
-            or not (isinstance(terms[0], _NUMBER) or np.ndim(terms[0]) == 0)):
+    if terms is None:
+        return None
+    x = seg.samples
+    a_s = terms[0]
+    if (x.ndim != 1 or terms[1].shape != (n_samples,)
+            or not (type(a_s) is complex or isinstance(a_s, _NUMBER) or np.ndim(a_s) == 0)):
         return None
     if b is None:
         b = link_constant(pj, seg.fc_hz, bw, propagation, memo)
-    if b is None or not (isinstance(b, _NUMBER) or np.ndim(b) == 0):
+    if b is None or not (type(b) is complex or isinstance(b, _NUMBER) or np.ndim(b) == 0):
         return None
-    return Backscatter(seg.samples, g, terms[0], terms[1], b)
+    return Backscatter(x, g, a_s, terms[1], b)
 
 
 def fused_sum(const: dict, parts: list, segs: list, n_samples: int, *, fused: bool = True):
@@ -166,12 +171,12 @@ def fused_sum(const: dict, parts: list, segs: list, n_samples: int, *, fused: bo
 def _one_backscatter(const: dict, parts: list, segs: list):
     """``(a, Backscatter)`` when the sum is one term a·x plus one :class:`Backscatter` of the same
     x (complex128, one-dimensional), else None."""
-    if len(const) == 1 and len(parts) == 1 and isinstance(parts[0], Backscatter):
+    if len(parts) == 1 and type(parts[0]) is Backscatter and len(const) == 1:
         (i, a), = const.items()
         bs = parts[0]
         x = segs[i].samples
-        if (x is bs.x and (isinstance(a, _NUMBER) or np.ndim(a) == 0) and x.dtype == np.complex128
-                and bs.gamma.dtype == np.complex128):
+        if (x is bs.x and (type(a) is complex or isinstance(a, _NUMBER) or np.ndim(a) == 0)
+                and x.dtype == np.complex128 and bs.gamma.dtype == np.complex128):
             return complex(a), bs
     return None
 

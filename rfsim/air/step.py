@@ -421,16 +421,18 @@ def emit(st: StepState, fc_ref_hz: float | None) -> list:
     ConfigError
         A segment off the step's time base.
     """
-    segs = []
+    segs, live = [], []
     for i, e in enumerate(st.emitters):
         s = e.emit(t0_s=st.t0_s, fs_hz=st.fs_hz, n_samples=st.n_samples)
+        segs.append(s)
+        if s is None:
+            continue
         # (a FixedEmitter checks its made segment against the time base itself)
-        if s is not None and type(e) is not FixedEmitter and not s.same_time_base(st.t0_s, st.fs_hz, st.n_samples):
+        if type(e) is not FixedEmitter and not s.same_time_base(st.t0_s, st.fs_hz, st.n_samples):
             raise ConfigError(f"air.emitters[{i}]", s, f"a segment on the step's time base ({st.t0_s} s, "
                                                         f"{st.fs_hz} Hz, {st.n_samples} samples)")
-        segs.append(s)
-    st.segs = segs
-    st.live = live = [(i, s) for i, s in enumerate(segs) if s is not None]
+        live.append((i, s))
+    st.segs, st.live = segs, live
     if fc_ref_hz is None:
         fc_ref_hz = live[0][1].fc_hz if live else float("nan")
     st.fc_ref_hz = fc_ref_hz

@@ -426,13 +426,16 @@ class _Prepared(NamedTuple):
 
 class _Listen(NamedTuple):
     """What a reader's commands of one :func:`run_exchanges` call share (:func:`_listen`): the
-    CW after a command [s], the links' bandwidth B = 2·BLF [Hz], the run's air cache and the
-    window a reply must start in (T1, or T5 for a delayed reply)."""
+    CW after a command [s], the links' bandwidth B = 2·BLF [Hz], the run's air cache, the
+    window a reply must start in (T1, or T5 for a delayed reply), and the reader's receiver
+    noise power [W] and TX→RX leakage gain (read once for the call's ports)."""
 
     window_s: float
     bandwidth_hz: float
     air_cache: Any
     reply_range: Any
+    noise_w: float
+    leakage: complex
 
 
 def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
@@ -448,7 +451,8 @@ def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
         window_s = _link_time(reader, reply_window_s, int(reply_bits))
     return _Listen(window_s=window_s, bandwidth_hz=2.0 * reader.link.blf_hz,
                    air_cache=getattr(reader, "air_cache", None),
-                   reply_range=_link_time(reader, t5 if delayed_reply else t1))
+                   reply_range=_link_time(reader, t5 if delayed_reply else t1),
+                   noise_w=reader.noise_power_w(), leakage=reader.leakage_gain())
 
 
 def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_reply=False, header_bit=False,
@@ -462,7 +466,7 @@ def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_repl
     antenna = reader.antennas[antenna_index]
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=listen.window_s, round_index=round_index)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
-                      header_bit=header_bit)
+                      header_bit=header_bit, noise_w=listen.noise_w, leakage=listen.leakage)
     return _Sent(antenna_index=antenna_index, tx=tx, emitters=(FixedEmitter(antenna, tx, device=reader),),
                  receivers=(port,), port=port, bandwidth_hz=listen.bandwidth_hz, air_cache=listen.air_cache,
                  reply_range=listen.reply_range)
@@ -628,18 +632,24 @@ class ReaderPort:
     header_bit : bool, default False
         The reply has a header bit: an error reply is decoded at its own length
         (:func:`run_exchange`); implied by ``delayed_reply``.
+    noise_w : float or None, default None
+        ``reader.noise_power_w()`` [W] when the caller read it already (one read for the ports of a
+        batch's commands); None: read here.
+    leakage : complex or None, default None
+        ``reader.leakage_gain()`` when the caller read it already; None: read here.
     """
 
     fc_hz = None
 
     def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool, delayed_reply: bool = False,
-                 header_bit: bool = False):
+                 header_bit: bool = False, noise_w: float | None = None, leakage: complex | None = None):
         self.reader, self.antenna, self.tx = reader, antenna, tx
         self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
-        self.noise_power_w = reader.noise_power_w()
-        self._leakage = reader.leakage_gain()  # its coupling, read once per command (as its noise)
+        # its noise and coupling: read once per command, or given (read once for a batch's commands)
+        self.noise_power_w = reader.noise_power_w() if noise_w is None else noise_w
+        self._leakage = reader.leakage_gain() if leakage is None else leakage
         self._listen_s = reader_listen_start_s(reader.link, tx.cmd_end_s)  # the reader's listen start [s]
 
     def coupling(self, emitter):

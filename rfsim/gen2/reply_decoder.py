@@ -626,8 +626,6 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
     """
     w = _Work(r, lo, hi, n_bits, n_reply, plan.blf_hz if blf_hz is None else blf_hz, blf_hint_hz, timing,
               threads, crc, reference)
-    if plan.search == "known" and (not isinstance(r, np.ndarray) or r.ndim == 2):
-        w.r, w.offsets = _in_a_row(r)
     for step in plan.steps:
         step(w, plan)
         if w.found is False:  # no reply: nothing to decide or measure
@@ -654,7 +652,11 @@ def _in_a_row(windows) -> tuple:
 # ----------------------------------------------------------------- step 1: conditioning
 
 def _condition_in_kernel(w: _Work, plan: DecodePlan) -> None:
-    """The search's kernel subtracts mean(r[:lo]) itself (``receive_kernel``, lo ≥ 8)."""
+    """The search's kernel subtracts mean(r[:lo]) itself (``receive_kernel``, lo ≥ 8). A batch of
+    windows (``(B, n)`` or a sequence of 1-D windows) is laid one after the other in ``r``
+    (``offsets``, :func:`_in_a_row`) for the batch kernel."""
+    if not isinstance(w.r, np.ndarray) or w.r.ndim == 2:
+        w.r, w.offsets = _in_a_row(w.r)
 
 
 def _condition_lead(w: _Work, plan: DecodePlan) -> None:

@@ -538,52 +538,76 @@ class Reader(PieTransmitter):
         out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
         return self._read_result(out, float(t0_s), blf, expect_crc, carrier)
 
-    def receive_batch(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool, cmd_end_s: float | None = None,
-                      carrier: complex | None = None) -> list:
-        """:meth:`receive` of B windows that start at the same time, in one call where it can.
+    def receive_batch(self, rx, *, t0_s, n_bits: int, expect_crc: bool, cmd_end_s=None, carrier=None) -> list:
+        """:meth:`receive` of B windows, in one call where it can.
 
         Parameters
         ----------
-        rx : ndarray of complex, shape (B, n)
-            B windows at the RX port [√W], each as :meth:`receive` takes it.
-        t0_s, n_bits, expect_crc, cmd_end_s, carrier
+        rx : ndarray of complex, shape (B, n), or sequence of B 1-D arrays
+            B windows at the RX port [√W], each as :meth:`receive` takes it (their lengths may
+            differ).
+        t0_s : float or sequence of float
+            Absolute time of each window's first sample [s]: one value for all or window b's.
+        n_bits, expect_crc
             As :meth:`receive`, the same for every window.
+        cmd_end_s, carrier
+            As :meth:`receive`: one value for all or window b's (its command's end [s], the
+            reader's own baseband during its reply).
 
         Returns
         -------
         list of ReadResult
-            Window b's :meth:`receive` (at the nominal BLF), record for record.
+            Window b's :meth:`receive` with its own ``t0_s``, ``cmd_end_s`` and ``carrier`` (at
+            the nominal BLF), record for record.
+
+        Raises
+        ------
+        ValueError
+            ``rx`` neither 2-D nor a sequence of 1-D windows; a per-window value of another
+            length than ``rx``.
 
         Notes
         -----
-        With ``rx_model = "sample"``, ``blf_search = "off"`` and no timing tracking the B reads
-        are one call of the decoder on the batch (its "known" plan: the receive kernel on each
-        window, ``receive_batch_kernel``), and the :class:`ReadResult` of each is built from
-        its row of the results; otherwise :meth:`receive` runs window by window.
+        With ``rx_model = "sample"``, ``blf_search = "off"`` and no timing tracking the reads of
+        the windows with room for a reply are one call of the decoder on the batch (its "known"
+        plan: the receive kernel on each window with the reply's start searched over that
+        window's own lags, ``receive_batch_kernel``), and the :class:`ReadResult` of each is
+        built from its row of the results; otherwise :meth:`receive` runs window by window.
         """
-        rx = np.ascontiguousarray(rx, dtype=np.complex128)
-        if rx.ndim != 2:
-            raise ValueError(f"rx must be 2-D (B, n), got shape {rx.shape}")
-        kwargs = dict(t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s, carrier=carrier)
+        if isinstance(rx, np.ndarray) and rx.ndim != 2:
+            raise ValueError(f"rx must be 2-D (B, n) or a sequence of 1-D windows, got shape {rx.shape}")
+        n_win = len(rx)
+        t0s, ends, carriers = (_per_window(v, n_win, name) for v, name in ((t0_s, "t0_s"), (cmd_end_s, "cmd_end_s"),
+                                                                           (carrier, "carrier")))
         cfg = self.config
-        if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or rx.shape[0] < 2:
-            return [self.receive(row, **kwargs) for row in rx]
+        if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or n_win < 2:
+            return [self.receive(row, t0_s=t, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=e, carrier=c)
+                    for row, t, e, c in zip(rx, t0s, ends, carriers)]
         n_bits = int(n_bits)
-        memo, blf, pre_n, n_reply, lo, hi = self._reply_lags(rx.shape[1], n_bits, None, t0_s, cmd_end_s)
-        if hi < lo or pre_n < 3:
-            return [ReadResult(False, None, "preamble not found") for _ in range(rx.shape[0])]
-        out = _decode(rx, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
+        memo, blf, pre_n, n_reply = self._reply_size(n_bits, None)
+        lags = [self.reply_start_lags(row.shape[0], n_reply, t0_s=t, cmd_end_s=e) for row, t, e in zip(rx, t0s, ends)]
+        # the windows with room for a reply (as receive: none when the preamble is under 3 samples)
+        read = [b for b, (lo, hi) in enumerate(lags) if hi >= lo] if pre_n >= 3 else []
+        reads: list = [None] * n_win
+        for b in set(range(n_win)).difference(read):
+            reads[b] = ReadResult(False, None, "preamble not found")
+        if not read:
+            return reads
+        windows = rx if len(read) == n_win else [rx[b] for b in read]
+        lo, hi = np.array([lags[b] for b in read], dtype=np.int64).T
+        out = _decode(windows, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
         found, start, corr, bits = out.found.tolist(), out.start.tolist(), out.corr.tolist(), out.bits
         gain, sigma2, slope = out.gain.tolist(), out.sigma2.tolist(), out.slope.tolist()
-        crc_ok = out.crc_ok if expect_crc else [None] * rx.shape[0]
-        return [self._read_result(_DecodedReply(found[b], start[b], corr[b], bits[b], out.blf_hz, gain[b], sigma2[b],
-                                                slope[b], out.decision_ebn0_db, rx[b], None, crc_ok[b]),
-                                  float(t0_s), blf, expect_crc, carrier) for b in range(rx.shape[0])]
+        crc_ok = out.crc_ok if expect_crc else [None] * len(read)
+        for i, b in enumerate(read):
+            reads[b] = self._read_result(_DecodedReply(found[i], start[i], corr[i], bits[i], out.blf_hz, gain[i],
+                                                       sigma2[i], slope[i], out.decision_ebn0_db, rx[b], None,
+                                                       crc_ok[i]), float(t0s[b]), blf, expect_crc, carriers[b])
+        return reads
 
-    def _reply_lags(self, n: int, n_bits: int, blf_hz, t0_s: float, cmd_end_s):
-        """The receive memo, the BLF decoded at, the preamble and reply lengths [samples] at it
-        and the first and last reply start searched (:meth:`reply_start_lags`) of a window of
-        ``n`` samples (:meth:`receive`)."""
+    def _reply_size(self, n_bits: int, blf_hz):
+        """The receive memo, the BLF decoded at and the preamble and reply lengths [samples] at it
+        (:meth:`receive`)."""
         lk, fs = self.link, self.fs_hz
         memo = self._receive_memo()
         blf = memo.blf_hz if blf_hz is None else float(blf_hz)
@@ -596,7 +620,12 @@ class Reader(PieTransmitter):
             # reply length in samples (preamble + n_bits + dummy)
             hit = memo.sizes[(n_bits, blf)] = _ReplySize(self.preamble_samples(blf), int(math.ceil(
                 reply_duration_s(n_bits, m=lk.m, trext=lk.trext, blf_hz=blf) * fs)))
-        pre_n, n_reply = hit
+        return (memo, blf, *hit)
+
+    def _reply_lags(self, n: int, n_bits: int, blf_hz, t0_s: float, cmd_end_s):
+        """:meth:`_reply_size` and the first and last reply start searched
+        (:meth:`reply_start_lags`) of a window of ``n`` samples (:meth:`receive`)."""
+        memo, blf, pre_n, n_reply = self._reply_size(n_bits, blf_hz)
         lo, hi = self.reply_start_lags(n, n_reply, t0_s=t0_s, cmd_end_s=cmd_end_s)
         return memo, blf, pre_n, n_reply, lo, hi
 
@@ -738,6 +767,16 @@ class Reader(PieTransmitter):
 
 
 
+
+
+def _per_window(value, n: int, name: str):
+    """``value`` for each of ``n`` windows (:meth:`Reader.receive_batch`): a scalar (or None) for
+    every window, else a sequence of ``n`` values, window b's the b-th."""
+    if np.ndim(value) == 0:
+        return (value,) * n
+    if len(value) != n:
+        raise ValueError(f"{name}: {len(value)} values for {n} windows")
+    return value
 
 
 def _listen_window_s(link: LinkProfile, reply_bits: int, blf_search: bool) -> float:

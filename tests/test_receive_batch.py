@@ -108,3 +108,122 @@ def test_run_exchanges_reads_a_command_s_replies_in_one_call(monkeypatch):
     assert any(ex.success for ex in single)
     for a, b in zip(batch, single):
         assert_same_exchange(a, b)
+
+
+def _shifted_windows(reader, seed):
+    """Windows of different starts and lengths, as the EPC reads of an ACK batch: window b begins
+    ``lead`` samples before its own command's end (at its own absolute time), ends ``tail`` samples
+    after the reply's window; the reply of window 3 is noise only, window 4 is too short for a
+    reply. Returns (windows, t0_s, cmd_end_s, carrier, true start [samples of each window])."""
+    fs = reader.fs_hz
+    rng = trial_rng(seed)
+    rows, t0s, ends, carriers, starts = [], [], [], [], []
+    for b, (lead, tail, snr_db) in enumerate(((0, 0, 25.0), (137, 41, 12.0), (290, 3, 30.0), (55, 200, None),
+                                              (411, 0, 20.0), (23, 7, 18.0))):
+        h = 10 ** (-65 / 20) * np.exp(1j * (0.5 + 1.1 * b))
+        rx, start = synth_rx(reader, epc_bits(rng), h=0j if snr_db is None else h,
+                             snr_db=0.0 if snr_db is None else snr_db, rng=rng)
+        if snr_db is None:
+            rx = rx + 1e-6 * (rng.standard_normal(rx.size) + 1j * rng.standard_normal(rx.size))
+        rx = np.concatenate([np.full(lead, rx[0]), rx, np.full(tail, rx[-1])])
+        if b == 4:
+            rx = rx[:lead + int(start) // 2]  # no room for a reply after the command's end
+        t0 = 3.0 + 0.0125 * b + 0.37 / fs * b  # each window its own time base, off the sample grid
+        rows.append(rx)
+        t0s.append(t0)
+        ends.append(t0 + lead / fs)
+        carriers.append(np.exp(1j * (0.2 - 0.7 * b)))
+        starts.append(lead + start)
+    return rows, t0s, ends, carriers, starts
+
+
+@pytest.mark.parametrize("profile, decoder", [("miller4-320k", "viterbi"), ("fm0-640k", "bitwise")])
+def test_receive_batch_of_windows_with_their_own_starts(profile, decoder):
+    """EPC reads of windows that differ in length, first sample time, command end and carrier
+    (each its own lags and time base) in one call equal the reads window by window, record for
+    record; each read is found where its own window's reply is (a window read with another's
+    offset or time base is not: the test can fail)."""
+    reader = make_reader(profile=profile, decoder=decoder)
+    rows, t0s, ends, carriers, starts = _shifted_windows(reader, 83)
+    kw = dict(n_bits=128, expect_crc=True)
+    batch = reader.receive_batch(rows, t0_s=t0s, cmd_end_s=ends, carrier=carriers, **kw)
+    single = [reader.receive(row, t0_s=t, cmd_end_s=e, carrier=c, **kw)
+              for row, t, e, c in zip(rows, t0s, ends, carriers)]
+    assert [r.failure_reason for r in single] == ["", "", "", "preamble not found", "preamble not found", ""]
+    for a, b in zip(batch, single):
+        _same_read(a, b)
+    fs = reader.fs_hz
+    for b in (0, 1, 2, 5):  # the reply found at its own window's start, on its own time base
+        assert abs((batch[b].start_s - t0s[b]) * fs - starts[b]) < 0.2
+    # another window's time base moves the reply by the difference of the leads (hundreds of samples)
+    other = reader.receive(rows[2], t0_s=t0s[1], cmd_end_s=ends[1], carrier=carriers[2], **kw)
+    assert not (other.success and other.start_s == batch[2].start_s)
+
+
+def test_batch_kernel_reads_each_window_at_its_own_offset():
+    """``receive_batch_kernel`` on windows one after the other (flat array, offsets) equals
+    ``receive_kernel`` on each window alone; with the offsets of windows of another length it
+    does not (the test can fail)."""
+    from rfsim.gen2 import _receive_kernels as rxk
+
+    reader = make_reader(profile="miller4-320k")
+    rows, t0s, ends, _, _ = _shifted_windows(reader, 84)
+    rows = [rows[b] for b in (0, 1, 2, 5)]
+    plan = reader._receive_memo().known
+    n_reply = int(math.ceil(reader.link.reply_duration_s(128) * reader.fs_hz))
+    lags = [reader.reply_start_lags(row.size, n_reply, t0_s=t, cmd_end_s=e)
+            for row, t, e in zip(rows, [t0s[b] for b in (0, 1, 2, 5)], [ends[b] for b in (0, 1, 2, 5)])]
+    lo, hi = (np.array(v, dtype=np.int64) for v in zip(*lags))
+    threshold = np.array([plan.detection(int(b - a + 1), plan.blf_hz).threshold for a, b in lags])
+    args = plan.known_arguments(plan.blf_hz)
+
+    def batch(offsets):
+        n = len(rows)
+        det, bits = np.zeros((2, n, 129), dtype=np.uint8)
+        out_f, out_c, status = np.zeros((n, 4)), np.zeros((n, 1), dtype=np.complex128), np.zeros(n, dtype=np.int64)
+        rxk.receive_batch_kernel(np.concatenate(rows), offsets, lo, hi, n_reply, threshold, *args, det, bits, out_f,
+                                 out_c, status)
+        return status, bits, out_f, out_c
+
+    offsets = np.concatenate([[0], np.cumsum([row.size for row in rows])]).astype(np.int64)
+    status, bits, out_f, out_c = batch(offsets)
+    for b, row in enumerate(rows):
+        det1, bits1 = np.zeros((2, 129), dtype=np.uint8)
+        f1, c1 = np.zeros(4), np.zeros(1, dtype=np.complex128)
+        s1 = rxk.receive_kernel(row, lo[b], hi[b], n_reply, threshold[b], *args, det1, bits1, f1, c1)
+        assert (status[b], s1) == (rxk.RECEIVED, rxk.RECEIVED)
+        assert np.array_equal(bits[b], bits1) and np.array_equal(out_f[b], f1) and np.array_equal(out_c[b], c1)
+    equal = np.concatenate([[0], np.cumsum([rows[0].size] * len(rows))]).astype(np.int64)  # all as long as window 0
+    status2, bits2, out_f2, _ = batch(equal)
+    assert not all(s == rxk.RECEIVED and np.array_equal(b2, b1) and np.array_equal(f2, f1)
+                   for s, b2, b1, f2, f1 in zip(status2[1:], bits2[1:], bits[1:], out_f2[1:], out_f[1:]))
+
+
+def test_singulate_batch_reads_the_epc_replies_in_one_call(monkeypatch):
+    """The EPC replies to the ACKs of a batch (each trial its own ACK, command end and listen
+    start) are read by the batch's calls (no read window by window), and every record equals
+    the separate singulations'."""
+    from rfsim.devices.reader import Reader
+    from rfsim.protocols.batch import singulate_batch
+    from rfsim.protocols.engine import singulate
+
+    near = (1.0, 2.0, 3.0, 2.5, 1.5)
+    reader, tags, channel = devices(near)
+    calls, batches = [], []
+    single_receive, batch_receive = Reader.receive, Reader.receive_batch
+    monkeypatch.setattr(Reader, "receive", lambda self, *a, **k: calls.append(1) or single_receive(self, *a, **k))
+    monkeypatch.setattr(Reader, "receive_batch", lambda self, rx, **k: batches.append((len(rx), k["n_bits"])) or
+                        batch_receive(self, rx, **k))
+    batch = singulate_batch(reader, tags, channel, t_s=0.0, rngs=[trial_rng(SEED, 4, b) for b in range(len(near))],
+                            query=query_of(reader), round_index=1)
+    assert calls == []
+    epc = [e for e in batches if e[1] == 128]
+    assert len(epc) == 1 and epc[0][0] == sum(len(s) == 2 for s in batch) >= 3
+    reader2, tags2, channel2 = devices(near)
+    single = [singulate(reader2, tags2[b], channel2, t_s=0.0, rng=trial_rng(SEED, 4, b), query=query_of(reader2),
+                        round_index=1) for b in range(len(near))]
+    assert sum(len(s) == 2 and s[1].success for s in single) >= 3
+    for a, b in zip(batch, single):
+        assert [e.command for e in a] == [e.command for e in b]
+        for ea, eb in zip(a, b):
+            assert_same_exchange(ea, eb)

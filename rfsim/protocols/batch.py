@@ -17,9 +17,11 @@ sample-level exchange (:func:`rfsim.protocols.engine.run_exchanges`, of which
    counter-based stream, or every sample with ``noise="pcg64"``) after its link draws — 1 and 2 are the air step :func:`rfsim.air.step.propagate`, of which only
    the ground truth and the reader's input are kept;
 3. the reader's reads of the trials with a reply (:meth:`rfsim.devices.reader.Reader.receive`);
-   the consecutive trials that reply to one command are read in one call
-   (:meth:`rfsim.devices.reader.Reader.receive_batch`: the receive kernel on each window, for the
-   sample-level receiver at the nominal BLF; trial by trial otherwise), each read as its own;
+   the consecutive trials read by one reader for one reply kind are read in one call, each
+   trial with its own command, listen start and carrier (the RN16s of a Query, the EPC replies
+   of the trials' own ACKs; :meth:`rfsim.devices.reader.Reader.receive_batch`: the receive
+   kernel on each window, for the sample-level receiver at the nominal BLF; trial by trial
+   otherwise), each read as its own;
 4. the records (:class:`rfsim.protocols.engine.Exchange`), as the single run forms them.
 
 Each stage runs over a block of :data:`BLOCK` trials in a row (this bounds the memory of a

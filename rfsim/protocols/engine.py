@@ -336,7 +336,7 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     (:func:`rfsim.air.step.propagate` with the trial's generator and ``skip_unmodulated``: a
     trial in which no tag replies forms no reader input, its noise draws are still made), of
     which only the ground truth and the reader's input are kept; 3. the reader's reads of the
-    trials with a reply (those of consecutive trials on one port in one
+    trials with a reply (those of consecutive trials read by one reader, each on its own port, in one
     :meth:`ReaderPort.receive_batch`); 4. the records. Each stage runs over the block's trials in a row (the
     same code and tables hot: trial by trial took 5–10 % more CPU), and a step's other objects
     do not outlive it (fewer collections of Python's cyclic garbage collector).
@@ -378,18 +378,21 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
 
 def _reads(preps: list, heard: list) -> list:
     """Stage 3 of :func:`run_exchanges`: the reader's read of each trial with a reply (None
-    for the others), in trial order; the reads of consecutive trials on the same port (the
-    same reader, command, time and round) in one :meth:`ReaderPort.receive_batch`."""
+    for the others), in trial order; the reads of consecutive trials whose ports read alike
+    (the same reader and reply; each trial's own command, listen start and carrier,
+    :meth:`ReaderPort.receive_batch`) in one call."""
     reads: list = [None] * len(preps)
-    runs: list = []  # (port, [trial, …]) of consecutive trials with a reply
+    runs: list = []  # ([port, …], [trial, …]) of consecutive trials with a reply, read in one call
     for k, (prep, (truth, _)) in enumerate(zip(preps, heard)):
         if truth[0]:
-            if runs and runs[-1][0] is prep.sent.port:
+            port = prep.sent.port
+            if runs and runs[-1][0][-1].batch_key == port.batch_key:
+                runs[-1][0].append(port)
                 runs[-1][1].append(k)
             else:
-                runs.append((prep.sent.port, [k]))
-    for port, trials in runs:
-        for k, read in zip(trials, port.receive_batch([heard[k][1] for k in trials])):
+                runs.append(([port], [k]))
+    for ports, trials in runs:
+        for k, read in zip(trials, ports[0].receive_batch([heard[k][1] for k in trials], ports)):
             reads[k] = read
     return reads
 
@@ -651,6 +654,10 @@ class ReaderPort:
         self.noise_power_w = reader.noise_power_w() if noise_w is None else noise_w
         self._leakage = reader.leakage_gain() if leakage is None else leakage
         self._listen_s = reader_listen_start_s(reader.link, tx.cmd_end_s)  # the reader's listen start [s]
+        # ports that read alike (receive_batch): the same reader and reply; with a header bit (an
+        # error reply is read again after the batch) the same port
+        self.batch_key = (id(reader), self.reply_bits, self.expect_crc, self.delayed_reply,
+                          id(self) if self.header_bit else None)
 
     def coupling(self, emitter):
         """Return the direct coupling from an emitter, replacing the channel's link.
@@ -712,31 +719,43 @@ class ReaderPort:
         return self._error_reply(self.reader.receive(input.samples[i0:], n_bits=self.reply_bits, **kwargs),
                                  input.samples[i0:], kwargs)
 
-    def receive_batch(self, inputs):
-        """Read the reply in each of several inputs (trials of one command).
+    def receive_batch(self, inputs, ports=None):
+        """Read the reply in each of several inputs (trials of one reader and reply).
 
         Parameters
         ----------
         inputs : list of rfsim.air.step.Segment
-            The reader's inputs [√W], each on the time base of ``tx``.
+            The reader's inputs [√W], input b on the time base of its port's ``tx``.
+        ports : sequence of ReaderPort, optional
+            The port of each input (each trial's own command, listen start and carrier); default
+            this port for every input. Ports of another :attr:`batch_key` than this one's are
+            read one by one.
 
         Returns
         -------
         list
-            :meth:`receive` of each input, in order. Inputs on one time base (the same first
-            sample time, rate and length) are read in one ``reader.receive_batch`` call when the
-            reader has it and the reply is not a delayed one; otherwise one by one.
+            Input b's port's :meth:`receive` of it, in order. The inputs are read in one
+            ``reader.receive_batch`` call (each its own first sample time, length, command end
+            and carrier) when the reader has it, every port has this port's :attr:`batch_key`
+            and the reply is not a delayed one; otherwise one by one.
+
+        Raises
+        ------
+        ValueError
+            ``ports`` of another length than ``inputs``.
         """
-        first = inputs[0]
+        ports = (self,) * len(inputs) if ports is None else ports
+        if len(ports) != len(inputs):
+            raise ValueError(f"ports: {len(ports)} ports for {len(inputs)} inputs")
         batch = getattr(self.reader, "receive_batch", None)
-        if (batch is None or self.delayed_reply or len(inputs) < 2
-                or any(x.t0_s != first.t0_s or x.fs_hz != first.fs_hz or x.samples.shape != first.samples.shape
-                       for x in inputs)):
-            return [self.receive(x) for x in inputs]
-        i0, kwargs = self._read_arguments(first)
-        rx = np.stack([x.samples[i0:] for x in inputs])
-        return [self._error_reply(read, row, kwargs)
-                for read, row in zip(batch(rx, n_bits=self.reply_bits, **kwargs), rx)]
+        key = self.batch_key
+        if batch is None or self.delayed_reply or len(inputs) < 2 or any(p.batch_key != key for p in ports):
+            return [p.receive(x) for p, x in zip(ports, inputs)]
+        args = [p._read_arguments(x) for p, x in zip(ports, inputs)]
+        rows = [x.samples[i0:] for x, (i0, _) in zip(inputs, args)]
+        reads = batch(rows, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=[kw["t0_s"] for _, kw in args],
+                      cmd_end_s=[kw["cmd_end_s"] for _, kw in args], carrier=[kw["carrier"] for _, kw in args])
+        return [p._error_reply(read, row, kw) for p, read, row, (_, kw) in zip(ports, reads, rows, args)]
 
     def _read_arguments(self, input) -> tuple:
         """The first sample read of ``input`` (the listen start) and the keywords of

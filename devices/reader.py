@@ -559,13 +559,19 @@ class Reader(PieTransmitter):
         With ``rx_model = "sample"``, ``blf_search = "off"`` and no timing tracking the B reads
         are one call of the decoder on the batch (its "known" plan: the receive kernel on each
         window, ``receive_batch_kernel``), and the :class:`ReadResult` of each is built from
-        its row of the results; otherwise :meth:`receive` runs window by window.
+        its row of the results; with ``rx_model = "statistic"`` they are one
+        :func:`rfsim.devices.reader_statistic.receive_many` (the windows in order on the
+        receiver's generator: the draws of :meth:`receive` window by window); otherwise
+        :meth:`receive` runs window by window.
         """
         rx = np.ascontiguousarray(rx, dtype=np.complex128)
         if rx.ndim != 2:
             raise ValueError(f"rx must be 2-D (B, n), got shape {rx.shape}")
         kwargs = dict(t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s, carrier=carrier)
         cfg = self.config
+        if self._rx_rng is not None and rx.shape[0] > 1:  # the statistic model's batch entry: the same draws in order
+            return _statistic.receive_many(self, rx, t0_s=t0_s, n_bits=n_bits, expect_crc=expect_crc,
+                                           cmd_end_s=cmd_end_s, carriers=(carrier,) * rx.shape[0], rng=self._rx_rng)
         if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or rx.shape[0] < 2:
             return [self.receive(row, **kwargs) for row in rx]
         n_bits = int(n_bits)

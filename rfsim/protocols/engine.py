@@ -630,6 +630,8 @@ class ReaderPort:
         self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
+        # its reads draw their own noise in call order (an error reply's read must follow its read)
+        self._reads_draw = getattr(getattr(reader, "config", None), "rx_model", "sample") == "statistic"
         self.noise_power_w = reader.noise_power_w()
         self._leakage = reader.leakage_gain()  # its coupling, read once per command (as its noise)
         self._listen_s = reader_listen_start_s(reader.link, tx.cmd_end_s)  # the reader's listen start [s]
@@ -711,7 +713,7 @@ class ReaderPort:
         """
         first = inputs[0]
         batch = getattr(self.reader, "receive_batch", None)
-        if (batch is None or self.delayed_reply or len(inputs) < 2
+        if (batch is None or self.delayed_reply or len(inputs) < 2 or (self.header_bit and self._reads_draw)
                 or any(x.t0_s != first.t0_s or x.fs_hz != first.fs_hz or x.samples.shape != first.samples.shape
                        for x in inputs)):
             return [self.receive(x) for x in inputs]

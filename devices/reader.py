@@ -572,7 +572,11 @@ class Reader(PieTransmitter):
         the windows with room for a reply are one call of the decoder on the batch (its "known"
         plan: the receive kernel on each window with the reply's start searched over that
         window's own lags, ``receive_batch_kernel``), and the :class:`ReadResult` of each is
-        built from its row of the results; otherwise :meth:`receive` runs window by window.
+        built from its row of the results; with ``rx_model = "statistic"`` and windows on one
+        time base (one ``t0_s`` and ``cmd_end_s``, equal lengths) they are one
+        :func:`rfsim.devices.reader_statistic.receive_many` (the windows in order on the
+        receiver's generator: the draws of :meth:`receive` window by window); otherwise
+        :meth:`receive` runs window by window.
         """
         if isinstance(rx, np.ndarray) and rx.ndim != 2:
             raise ValueError(f"rx must be 2-D (B, n) or a sequence of 1-D windows, got shape {rx.shape}")
@@ -580,6 +584,11 @@ class Reader(PieTransmitter):
         t0s, ends, carriers = (_per_window(v, n_win, name) for v, name in ((t0_s, "t0_s"), (cmd_end_s, "cmd_end_s"),
                                                                            (carrier, "carrier")))
         cfg = self.config
+        if (self._rx_rng is not None and n_win > 1 and len(set(t0s)) == 1 and len(set(ends)) == 1
+                and len({len(row) for row in rx}) == 1):  # the statistic model's batch entry: the same draws in order
+            return _statistic.receive_many(self, np.ascontiguousarray(rx, dtype=np.complex128), t0_s=t0_s,
+                                           n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+                                           carriers=tuple(carriers), rng=self._rx_rng)
         if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or n_win < 2:
             return [self.receive(row, t0_s=t, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=e, carrier=c)
                     for row, t, e, c in zip(rx, t0s, ends, carriers)]

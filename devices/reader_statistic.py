@@ -103,7 +103,9 @@ block of standard normals), the pieces' sums (one (2, n_pieces) block), the brid
 otherwise).
 
 Implementation: steps 1–4 and the draw of step 6 run in one numba call per batch of trials
-(:func:`receive_many`; :func:`receive` is a batch of one;
+(:func:`receive_many`; :func:`receive` is a batch of one; the reader's
+:meth:`~rfsim.devices.reader.Reader.receive_batch`, the reads of one command's trials on one
+time base, is one :func:`receive_many`;
 :func:`rfsim.devices._reader_statistic_kernels.receive_kernel`): it draws NumPy's own standard
 normals from the generator's PCG64 state (:mod:`rfsim.air._noise_kernels`, the same numbers in
 the same order as ``rng.standard_normal``; the state read from and written back to the
@@ -145,6 +147,23 @@ fit ≈ 3 each; with a new reply start (a memo slot made anew) the piece map and
 µs of it the reader's measurement rule; the phase is referred to the carrier by the sample
 receiver's rule, :func:`rfsim.devices.reader_measure.refer_phase`). The draws
 (≈ 11 µs, PCG64 normals) are not the larger part; the pass over the input and the search are.
+Measured again per part (one captured input of the canonical exchange, memo slots made, CPU
+time): EPC 87–89 µs, of it the search with its draws 21–22, the pass over the input 23, the
+measurement from the pieces 21, the pieces' draws 6–7, the known-level fit 3.5, the two
+decisions 3 each, the half-bit sums 3, the bridge 2.7, the preamble fit 2; RN16 42 µs, of it
+the search 21 and the measurement 9. In the batched exchange the RN16 reads are one call per
+command (≈ 50 µs a read in the kernel, ≈ 12 µs of Python each), each EPC read its own call
+(its window starts where the trial's ACK ended: ≈ 100 µs in the kernel, ≈ 27 µs of Python).
+
+Not built: the statistics from the reply's content. In the static narrowband window
+x = c·x_cw + κ·Γ(t), so every per-piece sum of the pass would be a·L(1) + κ·L(Γ), L(Γ) kept by
+content. The receiver is handed samples only: the form (a, κ and the content of Γ: bits, the
+tag's own start, BLF; a sum of such terms under capture) would have to come from the air step
+with the input, and checking it on the samples is itself a pass over them (the pass costs
+≈ 3.5 ns a sample). Formed that way the sums also differ from the pass's in the last bits
+(another order of rounding), so the records would change. It would save the pass's 23 µs of
+an EPC read (≈ 4 % of a batched trial's CPU time): the rest of the exchange, not the receiver,
+holds most of a trial's time.
 """
 
 from __future__ import annotations

@@ -433,3 +433,56 @@ def test_receive_many_equals_receive_trial_by_trial(m, ebn0_db):
     assert [key(a) for a in got] == [key(a) for a in want]
     assert one.bit_generator.state == many.bit_generator.state
     assert len({a.failure_reason for a in want}) >= 1 and any(a.bits is not None for a in want)
+
+
+def _read_key(a):
+    return repr((a.success, a.failure_reason, None if a.bits is None else a.bits.tolist(), a.start_s, a.corr,
+                 a.rssi_dbm, a.phase_rad, a.doppler_hz, a.snr_db, a.ebn0_db))
+
+
+@pytest.mark.parametrize("m, ebn0_db", [(4, 6.0), (1, 8.0)])
+def test_receive_batch_is_receive_many_with_the_draws_of_window_by_window(monkeypatch, m, ebn0_db):
+    """``Reader.receive_batch`` of a statistic-level reader is one ``receive_many`` call (no
+    ``Reader.receive`` per window), and its reads and the receiver's generator afterwards equal
+    those of ``Reader.receive`` window by window on a reader made alike (the same draws in the
+    same order; the carrier the phase reference of every window)."""
+    from rfsim.devices.reader import Reader
+
+    bits = trials.PAYLOAD_BITS + 16
+    x_all, _, cmd_end_s = trials.inputs(m, 10, ebn0_db=ebn0_db, seed=700 + m)
+    kw = dict(t0_s=0.0, n_bits=bits, expect_crc=True, cmd_end_s=cmd_end_s, carrier=np.exp(0.7j))
+    one, many = trials.make_reader(m, "statistic", 5), trials.make_reader(m, "statistic", 5)
+    want = [one.receive(x, **kw) for x in x_all]
+    calls = []
+    real_many, real_receive = rs.receive_many, Reader.receive
+    monkeypatch.setattr(rs, "receive_many", lambda *a, **k: calls.append(1) or real_many(*a, **k))
+    monkeypatch.setattr(Reader, "receive", lambda self, *a, **k: calls.append(0) or real_receive(self, *a, **k))
+    got = many.receive_batch(np.array(x_all), **kw)
+    assert calls == [1]
+    assert [_read_key(a) for a in got] == [_read_key(a) for a in want]
+    assert one._rx_rng.bit_generator.state == many._rx_rng.bit_generator.state
+    assert len({a.rssi_dbm for a in want}) == len(want)  # every window drew its own noise
+    # the strategy fails when the windows' draws are taken in another order
+    rev = trials.make_reader(m, "statistic", 5).receive_batch(np.array(x_all[::-1]), **kw)[::-1]
+    assert [_read_key(a) for a in rev] != [_read_key(a) for a in want]
+
+
+def test_batched_access_reads_with_header_bit_read_one_by_one_with_the_statistic_model():
+    """A port whose replies carry a header bit re-reads an error reply right after its read; a
+    statistic-level reader draws noise per read in call order, so its port reads window by
+    window (the order of the draws of separate reads), a sample-level reader's in one batch."""
+    from types import SimpleNamespace
+
+    from rfsim.protocols.engine import ReaderPort
+
+    tx = SimpleNamespace(cmd_end_s=0.0, samples=np.ones(4, complex))
+    seen = []
+    for model in ("sample", "statistic"):
+        reader = trials.make_reader(4, model, 1)
+        reader.receive_batch = lambda rx, **k: seen.append(("batch", model)) or [None] * len(rx)
+        port = ReaderPort(reader, reader.antennas[0], tx, reply_bits=33, expect_crc=True, header_bit=True)
+        port.receive = lambda x, model=model: seen.append(("one", model))
+        port._error_reply = lambda read, row, kwargs: read
+        inputs = [SimpleNamespace(t0_s=0.0, fs_hz=reader.fs_hz, samples=np.zeros(400, complex)) for _ in range(3)]
+        port.receive_batch(inputs)
+    assert seen == [("batch", "sample")] + [("one", "statistic")] * 3

@@ -6,8 +6,9 @@ The canonical exchange of :mod:`rfsim.bench.exchange` (``miller4-320k`` at 4 MS/
 at 3 m over the ``link`` scenario's channel, a singulation Query → RN16 → ACK → PC+EPC+CRC),
 run as batches of independent singulations (:func:`rfsim.protocols.batch.singulate_batch`, trial
 b of batch k from ``trial_rng(seed, 2, k, b)``), once per receiver model. Besides the whole
-exchange's air time per CPU second, the CPU time spent in the reader's ``receive`` (the receiver
-model itself, its noise draws included for ``"statistic"``) is timed, and the CPU time of the air
+exchange's air time per CPU second, the CPU time spent in the reader's reads (``receive`` and
+``receive_batch``: the receiver model itself, its noise draws included for ``"statistic"``) is
+timed per window read, and the CPU time of the air
 step's receiver noise is what ``"sample"`` spends in ``add_awgn`` (not timed separately here:
 the difference of the two totals).
 """
@@ -23,18 +24,27 @@ __all__ = ["bench_exchange_statistic"]
 
 
 class _TimedReceive:
-    """A reader's ``receive`` that adds its own process CPU time to ``cpu_s``."""
+    """A reader's reads (``receive`` and ``receive_batch``) that add their process CPU time to
+    ``cpu_s`` and count the windows read in ``calls`` (a ``receive_batch`` that reads window by
+    window through ``receive`` is timed once)."""
 
-    def __init__(self, receive):
-        self.receive, self.cpu_s, self.calls = receive, 0.0, 0
+    def __init__(self, reader):
+        self.cpu_s, self.calls, self._depth = 0.0, 0, 0
+        reader.receive = self._timed(reader.receive, lambda args: 1)
+        reader.receive_batch = self._timed(reader.receive_batch, lambda args: len(args[0]))
 
-    def __call__(self, *args, **kwargs):
-        c0 = time.process_time()
-        try:
-            return self.receive(*args, **kwargs)
-        finally:
-            self.cpu_s += time.process_time() - c0
-            self.calls += 1
+    def _timed(self, read, windows):
+        def call(*args, **kwargs):
+            self._depth += 1
+            c0 = time.process_time()
+            try:
+                return read(*args, **kwargs)
+            finally:
+                self._depth -= 1
+                if self._depth == 0:
+                    self.cpu_s += time.process_time() - c0
+                    self.calls += windows(args)
+        return call
 
 
 def _run(rx_model: str, batch: int, n_batches: int, distance_m: float, seed: int) -> dict:
@@ -44,7 +54,7 @@ def _run(rx_model: str, batch: int, n_batches: int, distance_m: float, seed: int
 
     canon, make_tag, channel, query = _canonical(distance_m, seed)
     reader = Reader(dataclasses.replace(canon.config, rx_model=rx_model), canon.antennas, rng=trial_rng(seed, 0))
-    timed = reader.receive = _TimedReceive(reader.receive)  # the engine's ReaderPort calls reader.receive
+    timed = _TimedReceive(reader)  # the engine's ReaderPort calls reader.receive and reader.receive_batch
     tags = [[make_tag(b)] for b in range(batch + 4)]
 
     def one_batch(k: int, trials: list):
@@ -91,7 +101,7 @@ def bench_exchange_statistic(*, batch: int = 256, n_batches: int = 4, distance_m
     dict
         Per model in ``models`` (keys prefixed by the model): ``air_time_per_cpu_s`` (the whole
         exchange: simulated air time per second of process CPU time), ``cpu_s_per_trial`` [s],
-        ``receive_cpu_s_per_call`` [s] (CPU time of one ``Reader.receive``),
+        ``receive_cpu_s_per_call`` [s] (CPU time of the reader's reads per window read),
         ``air_time_per_receive_cpu_s`` (air time per CPU second spent in the receiver alone)
         and ``read_rate``; and ``batch``.
     """

@@ -650,6 +650,8 @@ class ReaderPort:
         self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
+        # its reads draw their own noise in call order (an error reply's read must follow its read)
+        self._reads_draw = getattr(getattr(reader, "config", None), "rx_model", "sample") == "statistic"
         # its noise and coupling: read once per command, or given (read once for a batch's commands)
         self.noise_power_w = reader.noise_power_w() if noise_w is None else noise_w
         self._leakage = reader.leakage_gain() if leakage is None else leakage
@@ -749,7 +751,8 @@ class ReaderPort:
             raise ValueError(f"ports: {len(ports)} ports for {len(inputs)} inputs")
         batch = getattr(self.reader, "receive_batch", None)
         key = self.batch_key
-        if batch is None or self.delayed_reply or len(inputs) < 2 or any(p.batch_key != key for p in ports):
+        if (batch is None or self.delayed_reply or len(inputs) < 2 or (self.header_bit and self._reads_draw)
+                or any(p.batch_key != key for p in ports)):
             return [p.receive(x) for p, x in zip(ports, inputs)]
         args = [p._read_arguments(x) for p, x in zip(ports, inputs)]
         rows = [x.samples[i0:] for x, (i0, _) in zip(inputs, args)]

@@ -102,7 +102,8 @@ from rfsim.devices.tag_response import REASONS, TagResponse
 from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
 from rfsim.gen2.linecode import reply_duration_s, reply_waveform
 from rfsim.gen2.memory import CHIP_MODELS, TagMemory
-from rfsim.gen2.pie import ISODATA_MAX_ITER, pie_decode, two_level_threshold
+from rfsim.gen2.pie import (ISODATA_MAX_ITER, MAX_TRCAL_RTCAL, PIE_HYSTERESIS, RTCAL_TARI_RANGE, PieFrame,
+                            pie_decode, two_level_threshold)
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -437,14 +438,15 @@ class SharedFrontEnd:
                 np.abs(x[:head], out=env[:head])
             else:
                 env = self._env = np.abs(x)
-            self.levels, self.plateau, tail = _front_end(x, env, head)
-            # the samples the PIE decoder reads: up to the first of the equal samples that end
-            # |x| (rfsim.gen2.pie.pie_decode_arrays stops at that sample: the same frames)
+            # the ideal detector's PIE decoding of |x| in the same call (the samples it reads: up
+            # to the first of the equal samples that end |x|, where rfsim.gen2.pie.pie_decode stops)
+            self.levels, self.plateau, self._ideal, tail = _front_end(x, env, head)
             self._decoded_env = env[:tail + 1]
         else:
             env = self._decoded_env = self.env
             self.levels = two_level_threshold(env)
             self.plateau = _plateau(x, env, self.levels)
+            self._ideal = None
         if self.plateau is not None:
             self._xm = x[self.plateau:self.plateau + 1]
             self.cw_sample = complex(self._xm[0])
@@ -513,6 +515,8 @@ class SharedFrontEnd:
         if hit is None:
             if rc_s > 0:
                 frames = pie_decode(envelope(self.x, fs_hz=self.fs_hz, rc_s=rc_s))
+            elif self._ideal is not None:  # decoded in the front end's kernel call (its first frame)
+                frames = self._ideal
             else:
                 frames = pie_decode(self._decoded_env, levels=self.levels)
             hit = self._commands[rc_s] = _command_of(frames)
@@ -520,20 +524,23 @@ class SharedFrontEnd:
 
 
 def _front_end(x: np.ndarray, env: np.ndarray, head: int) -> tuple:
-    """``(two_level_threshold(env), _plateau(x, env, those levels), tail)`` of the samples ``x``
-    ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
-    isodata split and the plateau; the same numbers, bit for bit); ``tail`` is the index of the
-    first of the equal values that end ``env``. Only ``env[:head]`` is formed and read
-    (1 ≤ ``head`` ≤ n): ``x[head - 1:]`` are all equal."""
+    """``(two_level_threshold(env), _plateau(x, env, those levels), frames, tail)`` of the samples
+    ``x`` ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the
+    extremes, the isodata split, the plateau and the PIE decoding; the same numbers, bit for bit):
+    ``frames`` is ``[first frame]`` of :func:`rfsim.gen2.pie.pie_decode` of ``env`` with those
+    levels, or ``[]`` (all :func:`_command_of` reads); ``tail`` is the index of the first of the
+    equal values that end ``env`` (the decoder reads ``env[:tail + 1]``). Only ``env[:head]`` is
+    formed and read (1 ≤ ``head`` ≤ n): ``x[head - 1:]`` are all equal."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
-    n = env.size
-    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, int(head), ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
-                                         np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
-    levels = (float(thr), float(lo), float(hi))
+    thr, lo, hi, p, tail, nf, start, end, delimiter, tari, rtcal, trcal, bits = _k.front_end_decode_kernel(
+        x, env, int(head), ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, PIE_HYSTERESIS, *RTCAL_TARI_RANGE,
+        MAX_TRCAL_RTCAL)
+    levels = (thr, lo, hi)
+    frames = [PieFrame(start, end, delimiter, tari, rtcal, trcal, bits)] if nf else []
     if p == -2:
-        return levels, plateau_reference(x, env if head == n else np.abs(x), levels), int(tail)
-    return levels, (None if p < 0 else int(p)), int(tail)
+        return levels, plateau_reference(x, env if head == env.size else np.abs(x), levels), frames, tail
+    return levels, (None if p < 0 else p), frames, tail
 
 
 def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:

@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
+from rfsim.gen2._linecode_kernels import waveform_kernel
 from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
 
 
@@ -208,3 +209,16 @@ def reflection_kernel(s, gamma_b, gamma_a, out):
     :func:`reference.devices_tag.reflection_reference` in the tests)."""
     for i in range(s.size):
         out[i] = gamma_b if s[i] > 0 else gamma_a
+
+
+@njit
+def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, mask, out):
+    """A reply's mask and Γ(t) in one call: its ±1 waveform s (:func:`rfsim.gen2._linecode_kernels.waveform_kernel`
+    of ``elements`` from ``t0_samples`` at ``elements_per_sample``, over ``mask.size`` samples), ``mask``
+    = s > 0 (bool) and ``out`` = :func:`reflection_kernel` of that mask (complex128), as
+    :func:`rfsim.devices.tag.reply_gamma` forms them from :func:`rfsim.gen2.linecode.reply_waveform`."""
+    s = np.empty(mask.size)
+    waveform_kernel(elements, t0_samples, elements_per_sample, s)
+    for i in range(s.size):
+        mask[i] = s[i] > 0
+    reflection_kernel(mask, gamma_b, gamma_a, out)

@@ -100,7 +100,7 @@ from rfsim.devices.tag_frontend import ReflectionStates
 from rfsim.devices.tag_population import TagPopulation
 from rfsim.devices.tag_response import REASONS, TagResponse
 from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
-from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform_arguments
 from rfsim.gen2.memory import CHIP_MODELS, TagMemory
 from rfsim.gen2.pie import (ISODATA_MAX_ITER, MAX_TRCAL_RTCAL, PIE_HYSTERESIS, RTCAL_TARI_RANGE, PieFrame,
                             pie_decode, two_level_threshold)
@@ -305,20 +305,22 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
         Γ(t): a new array, or, for a reply seen again with the run's ``cache``, the entry's
         read-only array.
     """
-    if cache is None or not isinstance(bits, np.ndarray):
-        s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
-        return _reflection(s, gamma_b, gamma_a)
-    key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
-           struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
-    hit = cache.reply(key)
-    if hit is not None:
-        return _kept_reflection(hit, gamma_b, gamma_a)
-    s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
-    modulating = s > 0
-    modulating.flags.writeable = False
-    cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
-    # from the mask, as a reply seen again is (one specialization of the kernel)
-    return _reflection(modulating, gamma_b, gamma_a)
+    key = None
+    if cache is not None and isinstance(bits, np.ndarray):
+        key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
+               struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
+        hit = cache.reply(key)
+        if hit is not None:
+            return _kept_reflection(hit, gamma_b, gamma_a)
+    # s(t), where s > 0 and Γ(t) from that mask (as a reply seen again) in one kernel call
+    el, t0, r, n = reply_waveform_arguments(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s,
+                                            n_samples=n_samples)
+    modulating, gamma = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.complex128)
+    _k.reply_states_kernel(el, t0, r, complex(gamma_b), complex(gamma_a), modulating, gamma)
+    if key is not None:
+        modulating.flags.writeable = False
+        cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
+    return gamma
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:

@@ -73,6 +73,7 @@ def test_reply_gamma_from_the_cache_equals_the_uncached_one():
         entry = list(cache.replies.values())[-1]
         assert isinstance(entry, ReplyStates) and not entry.modulating.flags.writeable
         assert 0 < entry.modulating.sum() < n
+        np.testing.assert_array_equal(entry.modulating, reply_waveform(bits, **kw) > 0)
         assert len(entry.gammas) == len(GAMMAS)  # Γ_A = −0 is another pair than Γ_A = +0
 
 

@@ -296,16 +296,9 @@ def reply_waveform_arguments(
 
     Parameters
     ----------
-    bits : array_like or str
-        ``(n,) uint8`` data bits.
-    m, trext : int, bool
-        Symbols per bit M (1 = FM0, 2/4/8 = Miller); pilot tone present.
-    blf_hz, fs_hz : float
-        BLF and sample rate [Hz].
-    t0_s : float
-        Start of the reply [s].
-    dummy, n_samples : bool, int or None
-        Dummy data-1 appended; output length (default: ends with the reply).
+    bits, m, trext, blf_hz, fs_hz, t0_s, dummy, n_samples : see :func:`reply_waveform`
+        The reply's bits, line code, BLF and sample rate [Hz], start [s], dummy data-1 and
+        output length.
 
     Returns
     -------

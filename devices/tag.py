@@ -263,8 +263,16 @@ def _kept_reflection(states: ReplyStates, gamma_b: complex, gamma_a: complex) ->
     return gamma
 
 
+#: Kinds of reply (:class:`rfsim.devices.gen2_tag_state.Reply`) whose bits are drawn anew every time
+#: (a 16-bit random number: two are equal with probability 2⁻¹⁶): :meth:`PassiveTag._replied` keeps
+#: nothing of them (:func:`reply_gamma` with ``drawn``), so that they do not push the replies that come
+#: again (an EPC at each of its starts) out of the run's cache.
+_DRAWN_REPLIES = frozenset({"RN16"})
+
+
 def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float,
-                n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None) -> np.ndarray:
+                n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None,
+                drawn: bool = False) -> np.ndarray:
     """Γ(t) of a reply over a segment: Γ_B where its reply waveform s(t) > 0, Γ_A elsewhere.
 
     s(t) = :func:`rfsim.gen2.linecode.reply_waveform` (±1 during the reply, 0 outside; step 5 of
@@ -297,7 +305,10 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     gamma_a : complex
         Γ_A, the absorbing (rest) state's reflection coefficient.
     cache : rfsim.air.cache.AirCache or None, optional
-        The run's cache (default None: nothing kept).
+        The run's cache (default None: nothing kept in it).
+    drawn : bool, default False
+        The bits are drawn anew each time (an RN16): nothing is kept for them, not even the line
+        code's elements (:func:`rfsim.gen2.linecode.reply_waveform_arguments` with ``keep=False``).
 
     Returns
     -------
@@ -314,7 +325,7 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
             return _kept_reflection(hit, gamma_b, gamma_a)
     # s(t), where s > 0 and Γ(t) from that mask (as a reply seen again) in one kernel call
     el, t0, r, n = reply_waveform_arguments(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s,
-                                            n_samples=n_samples)
+                                            n_samples=n_samples, keep=not drawn)
     modulating, gamma = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.complex128)
     _k.reply_states_kernel(el, t0, r, complex(gamma_b), complex(gamma_a), modulating, gamma)
     if key is not None:
@@ -1234,8 +1245,10 @@ class PassiveTag:
         if reply.delayed:  # step 4: a delayed reply, after the programming time, with the pilot tone
             start_s += reply.delay_s
             trext = True
+        drawn = reply.kind in _DRAWN_REPLIES
         gamma = reply_gamma(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s - t0_s,
-                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest, cache=cache)
+                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest,
+                            cache=None if drawn else cache, drawn=drawn)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,

@@ -284,7 +284,7 @@ def reply_waveform(
 
 def reply_waveform_arguments(
     bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float = 0.0,
-    dummy: bool = True, n_samples: int | None = None,
+    dummy: bool = True, n_samples: int | None = None, keep: bool = True,
 ) -> tuple:
     """The arguments of the sampling kernel of :func:`reply_waveform` (for a kernel that samples the
     reply itself, e.g. the tag's Γ(t), :func:`rfsim.devices.tag.reply_gamma`).
@@ -299,6 +299,9 @@ def reply_waveform_arguments(
     bits, m, trext, blf_hz, fs_hz, t0_s, dummy, n_samples : see :func:`reply_waveform`
         The reply's bits, line code, BLF and sample rate [Hz], start [s], dummy data-1 and
         output length.
+    keep : bool, default True
+        Remember the elements of these bits for the next call (False for bits drawn anew, e.g. a
+        tag's RN16, which would only push out the elements of replies that come again).
 
     Returns
     -------
@@ -308,7 +311,7 @@ def reply_waveform_arguments(
         length (int).
     """
     key = None
-    if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
+    if keep and isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
         key = (bits.tobytes(), m, bool(trext), bool(dummy))
     el = _WAVEFORM_ELEMENTS.get(key) if key is not None else None
     if el is None:

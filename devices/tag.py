@@ -55,9 +55,9 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
    s = −1 or s = 0 (absorbing state, in which the tag harvests); where s > 0 is kept in the
    run's cache by the reply's content (:func:`reply_gamma`: an EPC sent again at the same
-   place in its segment is not sampled again). The rest state scatters
-   a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader removes
-   with the carrier leakage; it is not special-cased.
+   place in its segment is not sampled again; an RN16, drawn anew, is not kept). The rest
+   state scatters a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader
+   removes with the carrier leakage; it is not special-cased.
 6. **Re-radiation** (structural and antenna modes): the field an antenna loaded by the chip
    scatters is proportional to A_s − Γ(t) (Nikitin, Rao & Lam, "Theory and measurement of
    backscattering from RFID tags", IEEE AP Magazine 48(6), 2006; R. C. Hansen, "Relationships
@@ -307,8 +307,9 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     cache : rfsim.air.cache.AirCache or None, optional
         The run's cache (default None: nothing kept in it).
     drawn : bool, default False
-        The bits are drawn anew each time (an RN16): nothing is kept for them, not even the line
-        code's elements (:func:`rfsim.gen2.linecode.reply_waveform_arguments` with ``keep=False``).
+        The bits are drawn anew each time (an RN16): nothing is kept for them, neither in
+        ``cache`` nor the line code's elements
+        (:func:`rfsim.gen2.linecode.reply_waveform_arguments` with ``keep=False``).
 
     Returns
     -------
@@ -317,7 +318,7 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
         read-only array.
     """
     key = None
-    if cache is not None and isinstance(bits, np.ndarray):
+    if cache is not None and not drawn and isinstance(bits, np.ndarray):
         key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
                struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
         hit = cache.reply(key)
@@ -414,6 +415,9 @@ class SharedFrontEnd:
     complex value (a reader's CW: DSB or PR-ASK), so that for any gain g the median of |g·x|²
     over the CW samples is |g·x_m|² exactly; None otherwise (the tags then listen on their
     own samples).
+
+    The ideal detector's command (:meth:`command` with no RC) is decoded in the same numba call as
+    the levels and the plateau (:func:`rfsim.devices._tag_kernels.front_end_decode_kernel`).
 
     Parameters
     ----------
@@ -1245,10 +1249,9 @@ class PassiveTag:
         if reply.delayed:  # step 4: a delayed reply, after the programming time, with the pilot tone
             start_s += reply.delay_s
             trext = True
-        drawn = reply.kind in _DRAWN_REPLIES
         gamma = reply_gamma(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s - t0_s,
-                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest,
-                            cache=None if drawn else cache, drawn=drawn)
+                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest, cache=cache,
+                            drawn=reply.kind in _DRAWN_REPLIES)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,

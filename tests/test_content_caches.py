@@ -119,8 +119,9 @@ def test_reply_gamma_of_drawn_bits_keeps_nothing():
     bits, m, trext, blf, fs, t0, n = REPLIES[0]
     kw = dict(m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=t0, n_samples=n)
     linecode._WAVEFORM_ELEMENTS.clear()
-    got = reply_gamma(bits, **kw, gamma_b=0.6 - 0.2j, gamma_a=0j, drawn=True)
-    assert not linecode._WAVEFORM_ELEMENTS
+    cache = AirCache()
+    got = reply_gamma(bits, **kw, gamma_b=0.6 - 0.2j, gamma_a=0j, cache=cache, drawn=True)
+    assert not linecode._WAVEFORM_ELEMENTS and not cache.replies
     reply_gamma(bits, **kw, gamma_b=0.6 - 0.2j, gamma_a=0j)  # not drawn: its elements are kept
     assert len(linecode._WAVEFORM_ELEMENTS) == 1
     _assert_same_bits(got, _gamma_rule(bits, 0.6 - 0.2j, 0j, **kw))

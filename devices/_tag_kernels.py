@@ -8,7 +8,8 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._pie_kernels import trailing_run_start, two_level_split
+from rfsim.gen2._linecode_kernels import waveform_kernel
+from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
 
 
 @njit
@@ -166,9 +167,58 @@ def front_end_kernel(x, env, head, max_iter, min_modulation, margin, buf_lo, buf
 
 
 @njit
+def front_end_decode_kernel(x, env, head, max_iter, min_modulation, margin, hysteresis, min_ratio, max_ratio,
+                            max_trcal):
+    """:func:`front_end_kernel` then the PIE decoding of the envelope it read in one call (the ideal
+    detector's command, :meth:`rfsim.devices.tag.SharedFrontEnd.command` with no RC): the decoder's
+    :func:`rfsim.gen2._pie_kernels.decode_kernel` on ``env[:tail + 1]`` (the samples it reads: it
+    stops at the first of the equal samples that end ``env``) with the front end's levels, threshold
+    and hysteresis ``hysteresis``·(high − low), checking that the samples are finite, as
+    :func:`rfsim.gen2.pie.pie_decode` with those levels does (nothing decoded from fewer than two
+    samples). Scratch is allocated here. Returns ``(threshold, low mean, high mean, plateau, tail,
+    nf, start, end, delimiter, Tari, RTcal, TRcal, bits)``: the front end's values, the number of
+    frames and the first frame's values and bits ((k,) uint8, a new array; NaN and empty when
+    ``nf`` = 0)."""
+    n = env.size
+    buf_lo = np.empty(n)
+    buf_hi = np.empty(n)
+    idx = np.empty(n, np.int64)
+    thr, m_lo, m_hi, p, tail = front_end_kernel(x, env, head, max_iter, min_modulation, margin, buf_lo, buf_hi,
+                                                idx, np.empty(2 * margin + 1, np.int64))
+    m = tail + 1
+    nf = 0
+    bits = np.empty(m, np.uint8)
+    fbuf = np.empty((6, m // 2 + 1))
+    ibuf = np.empty((2, m // 2 + 1), np.int64)
+    if m >= 2:
+        ne, nf = decode_kernel(env[:m], thr, hysteresis * (m_hi - m_lo), True, min_ratio, max_ratio, max_trcal,
+                               buf_lo, np.empty(m, np.int8), fbuf, ibuf, bits)
+        if ne < 0:
+            nf = 0
+    if nf == 0:
+        return thr, m_lo, m_hi, p, tail, 0, math.nan, math.nan, math.nan, math.nan, math.nan, math.nan, bits[:0].copy()
+    off = ibuf[0, 0]
+    return (thr, m_lo, m_hi, p, tail, nf, fbuf[0, 0], fbuf[1, 0], fbuf[2, 0], fbuf[3, 0], fbuf[4, 0], fbuf[5, 0],
+            bits[off:off + ibuf[1, 0]].copy())
+
+
+@njit
 def reflection_kernel(s, gamma_b, gamma_a, out):
     """Γ(t) of a reply: ``out[i] = gamma_b`` where the reply waveform ``s[i] > 0`` (float64 ``s``;
     or the mask of where it is, bool ``s``), else ``gamma_a`` (plain-NumPy twin:
     :func:`reference.devices_tag.reflection_reference` in the tests)."""
     for i in range(s.size):
         out[i] = gamma_b if s[i] > 0 else gamma_a
+
+
+@njit
+def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, mask, out):
+    """A reply's mask and Γ(t) in one call: its ±1 waveform s (:func:`rfsim.gen2._linecode_kernels.waveform_kernel`
+    of ``elements`` from ``t0_samples`` at ``elements_per_sample``, over ``mask.size`` samples), ``mask``
+    = s > 0 (bool) and ``out`` = :func:`reflection_kernel` of that mask (complex128), as
+    :func:`rfsim.devices.tag.reply_gamma` forms them from :func:`rfsim.gen2.linecode.reply_waveform`."""
+    s = np.empty(mask.size)
+    waveform_kernel(elements, t0_samples, elements_per_sample, s)
+    for i in range(s.size):
+        mask[i] = s[i] > 0
+    reflection_kernel(mask, gamma_b, gamma_a, out)

@@ -55,9 +55,9 @@ handles one reader segment (command + CW), as in DESIGN.md "Simulation flow" ste
    reflection coefficient is Γ(t) = Γ_B where s = +1 (modulating state) and Γ_A where
    s = −1 or s = 0 (absorbing state, in which the tag harvests); where s > 0 is kept in the
    run's cache by the reply's content (:func:`reply_gamma`: an EPC sent again at the same
-   place in its segment is not sampled again). The rest state scatters
-   a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader removes
-   with the carrier leakage; it is not special-cased.
+   place in its segment is not sampled again; an RN16, drawn anew, is not kept). The rest
+   state scatters a static A_s − Γ_A (step 6; nonzero at Γ_A = 0 for A_s = 1) that the reader
+   removes with the carrier leakage; it is not special-cased.
 6. **Re-radiation** (structural and antenna modes): the field an antenna loaded by the chip
    scatters is proportional to A_s − Γ(t) (Nikitin, Rao & Lam, "Theory and measurement of
    backscattering from RFID tags", IEEE AP Magazine 48(6), 2006; R. C. Hansen, "Relationships
@@ -100,9 +100,10 @@ from rfsim.devices.tag_frontend import ReflectionStates
 from rfsim.devices.tag_population import TagPopulation
 from rfsim.devices.tag_response import REASONS, TagResponse
 from rfsim.gen2.commands import ACCESS_COMMANDS, CommandParseError, Query, parse
-from rfsim.gen2.linecode import reply_duration_s, reply_waveform
+from rfsim.gen2.linecode import reply_duration_s, reply_waveform_arguments
 from rfsim.gen2.memory import CHIP_MODELS, TagMemory
-from rfsim.gen2.pie import ISODATA_MAX_ITER, pie_decode, two_level_threshold
+from rfsim.gen2.pie import (ISODATA_MAX_ITER, MAX_TRCAL_RTCAL, PIE_HYSTERESIS, RTCAL_TARI_RANGE, PieFrame,
+                            pie_decode, two_level_threshold)
 from rfsim.core.lazy import lazy_import
 
 _signal = lazy_import("scipy.signal")
@@ -262,8 +263,16 @@ def _kept_reflection(states: ReplyStates, gamma_b: complex, gamma_a: complex) ->
     return gamma
 
 
+#: Kinds of reply (:class:`rfsim.devices.gen2_tag_state.Reply`) whose bits are drawn anew every time
+#: (a 16-bit random number: two are equal with probability 2⁻¹⁶): :meth:`PassiveTag._replied` keeps
+#: nothing of them (:func:`reply_gamma` with ``drawn``), so that they do not push the replies that come
+#: again (an EPC at each of its starts) out of the run's cache.
+_DRAWN_REPLIES = frozenset({"RN16"})
+
+
 def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float,
-                n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None) -> np.ndarray:
+                n_samples: int, gamma_b: complex, gamma_a: complex, cache: AirCache | None = None,
+                drawn: bool = False) -> np.ndarray:
     """Γ(t) of a reply over a segment: Γ_B where its reply waveform s(t) > 0, Γ_A elsewhere.
 
     s(t) = :func:`rfsim.gen2.linecode.reply_waveform` (±1 during the reply, 0 outside; step 5 of
@@ -296,7 +305,11 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
     gamma_a : complex
         Γ_A, the absorbing (rest) state's reflection coefficient.
     cache : rfsim.air.cache.AirCache or None, optional
-        The run's cache (default None: nothing kept).
+        The run's cache (default None: nothing kept in it).
+    drawn : bool, default False
+        The bits are drawn anew each time (an RN16): nothing is kept for them, neither in
+        ``cache`` nor the line code's elements
+        (:func:`rfsim.gen2.linecode.reply_waveform_arguments` with ``keep=False``).
 
     Returns
     -------
@@ -304,20 +317,22 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
         Γ(t): a new array, or, for a reply seen again with the run's ``cache``, the entry's
         read-only array.
     """
-    if cache is None or not isinstance(bits, np.ndarray):
-        s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
-        return _reflection(s, gamma_b, gamma_a)
-    key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
-           struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
-    hit = cache.reply(key)
-    if hit is not None:
-        return _kept_reflection(hit, gamma_b, gamma_a)
-    s = reply_waveform(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s, n_samples=n_samples)
-    modulating = s > 0
-    modulating.flags.writeable = False
-    cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
-    # from the mask, as a reply seen again is (one specialization of the kernel)
-    return _reflection(modulating, gamma_b, gamma_a)
+    key = None
+    if cache is not None and not drawn and isinstance(bits, np.ndarray):
+        key = ("tag reply", bits.dtype.str, bits.shape, bits.tobytes(), int(m), bool(trext),
+               struct.pack("<3d", blf_hz, fs_hz, t0_s), int(n_samples))
+        hit = cache.reply(key)
+        if hit is not None:
+            return _kept_reflection(hit, gamma_b, gamma_a)
+    # s(t), where s > 0 and Γ(t) from that mask (as a reply seen again) in one kernel call
+    el, t0, r, n = reply_waveform_arguments(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s,
+                                            n_samples=n_samples, keep=not drawn)
+    modulating, gamma = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.complex128)
+    _k.reply_states_kernel(el, t0, r, complex(gamma_b), complex(gamma_a), modulating, gamma)
+    if key is not None:
+        modulating.flags.writeable = False
+        cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
+    return gamma
 
 
 def envelope(x: np.ndarray, *, fs_hz: float, rc_s: float = 0.0) -> np.ndarray:
@@ -401,6 +416,9 @@ class SharedFrontEnd:
     over the CW samples is |g·x_m|² exactly; None otherwise (the tags then listen on their
     own samples).
 
+    The ideal detector's command (:meth:`command` with no RC) is decoded in the same numba call as
+    the levels and the plateau (:func:`rfsim.devices._tag_kernels.front_end_decode_kernel`).
+
     Parameters
     ----------
     x : numpy.ndarray, shape (n_samples,), complex
@@ -437,14 +455,15 @@ class SharedFrontEnd:
                 np.abs(x[:head], out=env[:head])
             else:
                 env = self._env = np.abs(x)
-            self.levels, self.plateau, tail = _front_end(x, env, head)
-            # the samples the PIE decoder reads: up to the first of the equal samples that end
-            # |x| (rfsim.gen2.pie.pie_decode_arrays stops at that sample: the same frames)
+            # the ideal detector's PIE decoding of |x| in the same call (the samples it reads: up
+            # to the first of the equal samples that end |x|, where rfsim.gen2.pie.pie_decode stops)
+            self.levels, self.plateau, self._ideal, tail = _front_end(x, env, head)
             self._decoded_env = env[:tail + 1]
         else:
             env = self._decoded_env = self.env
             self.levels = two_level_threshold(env)
             self.plateau = _plateau(x, env, self.levels)
+            self._ideal = None
         if self.plateau is not None:
             self._xm = x[self.plateau:self.plateau + 1]
             self.cw_sample = complex(self._xm[0])
@@ -513,6 +532,8 @@ class SharedFrontEnd:
         if hit is None:
             if rc_s > 0:
                 frames = pie_decode(envelope(self.x, fs_hz=self.fs_hz, rc_s=rc_s))
+            elif self._ideal is not None:  # decoded in the front end's kernel call (its first frame)
+                frames = self._ideal
             else:
                 frames = pie_decode(self._decoded_env, levels=self.levels)
             hit = self._commands[rc_s] = _command_of(frames)
@@ -520,20 +541,23 @@ class SharedFrontEnd:
 
 
 def _front_end(x: np.ndarray, env: np.ndarray, head: int) -> tuple:
-    """``(two_level_threshold(env), _plateau(x, env, those levels), tail)`` of the samples ``x``
-    ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the extremes, the
-    isodata split and the plateau; the same numbers, bit for bit); ``tail`` is the index of the
-    first of the equal values that end ``env``. Only ``env[:head]`` is formed and read
-    (1 ≤ ``head`` ≤ n): ``x[head - 1:]`` are all equal."""
+    """``(two_level_threshold(env), _plateau(x, env, those levels), frames, tail)`` of the samples
+    ``x`` ((n,) complex128, n ≥ 1) and their envelope ``env`` = |x| in one numba call (the
+    extremes, the isodata split, the plateau and the PIE decoding; the same numbers, bit for bit):
+    ``frames`` is ``[first frame]`` of :func:`rfsim.gen2.pie.pie_decode` of ``env`` with those
+    levels, or ``[]`` (all :func:`_command_of` reads); ``tail`` is the index of the first of the
+    equal values that end ``env`` (the decoder reads ``env[:tail + 1]``). Only ``env[:head]`` is
+    formed and read (1 ≤ ``head`` ≤ n): ``x[head - 1:]`` are all equal."""
     x = np.ascontiguousarray(x, dtype=np.complex128)
     env = np.ascontiguousarray(env, dtype=np.float64)
-    n = env.size
-    thr, lo, hi, p, tail = _k.front_end_kernel(x, env, int(head), ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, np.empty(n), np.empty(n),
-                                         np.empty(n, np.int64), np.empty(2 * _PLATEAU_MARGIN + 1, np.int64))
-    levels = (float(thr), float(lo), float(hi))
+    thr, lo, hi, p, tail, nf, start, end, delimiter, tari, rtcal, trcal, bits = _k.front_end_decode_kernel(
+        x, env, int(head), ISODATA_MAX_ITER, _MIN_MODULATION, _PLATEAU_MARGIN, PIE_HYSTERESIS, *RTCAL_TARI_RANGE,
+        MAX_TRCAL_RTCAL)
+    levels = (thr, lo, hi)
+    frames = [PieFrame(start, end, delimiter, tari, rtcal, trcal, bits)] if nf else []
     if p == -2:
-        return levels, plateau_reference(x, env if head == n else np.abs(x), levels), int(tail)
-    return levels, (None if p < 0 else int(p)), int(tail)
+        return levels, plateau_reference(x, env if head == env.size else np.abs(x), levels), frames, tail
+    return levels, (None if p < 0 else p), frames, tail
 
 
 def _plateau(x: np.ndarray, env: np.ndarray, levels: tuple) -> int | None:
@@ -1226,7 +1250,8 @@ class PassiveTag:
             start_s += reply.delay_s
             trext = True
         gamma = reply_gamma(reply.bits, m=query.m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=start_s - t0_s,
-                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest, cache=cache)
+                            n_samples=n_samples, gamma_b=self.reflection_states.gamma_b, gamma_a=rest, cache=cache,
+                            drawn=reply.kind in _DRAWN_REPLIES)
         end_s = start_s + reply_duration_s(reply.bits.size, m=query.m, trext=trext, blf_hz=blf_hz)
         return TagResponse(powered=True, command=cmd, reply=reply, gamma=gamma, reply_start_s=start_s, blf_hz=blf_hz,
                            reason="", incident_power_dbm=p_dbm, command_end_s=cmd_end_s, reply_end_s=end_s,

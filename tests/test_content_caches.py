@@ -73,6 +73,7 @@ def test_reply_gamma_from_the_cache_equals_the_uncached_one():
         entry = list(cache.replies.values())[-1]
         assert isinstance(entry, ReplyStates) and not entry.modulating.flags.writeable
         assert 0 < entry.modulating.sum() < n
+        np.testing.assert_array_equal(entry.modulating, reply_waveform(bits, **kw) > 0)
         assert len(entry.gammas) == len(GAMMAS)  # Γ_A = −0 is another pair than Γ_A = +0
 
 
@@ -110,6 +111,22 @@ def test_reply_table_is_bounded_least_recently_used_first():
     assert len(cache.replies) == 3 and first in cache.replies  # the start 2e-5 was dropped
 
 
+def test_reply_gamma_of_drawn_bits_keeps_nothing():
+    # an RN16 (bits drawn anew): the same Γ(t) as the rule, and neither the run's cache nor the line
+    # code's element memo holds anything of it afterwards
+    from rfsim.gen2 import linecode
+
+    bits, m, trext, blf, fs, t0, n = REPLIES[0]
+    kw = dict(m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=t0, n_samples=n)
+    linecode._WAVEFORM_ELEMENTS.clear()
+    cache = AirCache()
+    got = reply_gamma(bits, **kw, gamma_b=0.6 - 0.2j, gamma_a=0j, cache=cache, drawn=True)
+    assert not linecode._WAVEFORM_ELEMENTS and not cache.replies
+    reply_gamma(bits, **kw, gamma_b=0.6 - 0.2j, gamma_a=0j)  # not drawn: its elements are kept
+    assert len(linecode._WAVEFORM_ELEMENTS) == 1
+    _assert_same_bits(got, _gamma_rule(bits, 0.6 - 0.2j, 0j, **kw))
+
+
 def _same(a, b) -> bool:
     """Equal records: dataclasses field by field, arrays element by element, NaN equal to NaN."""
     if dataclasses.is_dataclass(a) and not isinstance(a, type):
@@ -141,7 +158,9 @@ def test_singulations_with_the_reply_cache_equal_those_without(monkeypatch):
     """The canonical exchange, 40 rounds: the EPC reply is taken from the cache (fewer entries
     than replies) and every record is the same as with a tag that keeps nothing."""
     cached, cache = _rounds(40)
-    assert 40 < len(cache.replies) <= 70  # 40 RN16 replies miss; at least 10 of the 40 EPC replies hit
+    # the RN16 replies (bits drawn anew) are not kept; at least 10 of the 40 EPC replies hit
+    assert 0 < len(cache.replies) <= 30
+    assert all(key[0] == "tag reply" and key[2] != (16,) for key in cache.replies)
     monkeypatch.setattr(tag_module, "reply_gamma",
                         lambda *a, cache=None, **kw: reply_gamma(*a, **kw, cache=None))
     plain, cache2 = _rounds(40)

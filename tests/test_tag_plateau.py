@@ -212,6 +212,55 @@ def test_shared_front_end_decodes_up_to_the_cw_tail_as_over_the_whole_segment(se
     assert _frames_fields(pie_decode(fe._decoded_env, levels=fe.levels)) == _frames_fields(want)
 
 
+def _commands():
+    """Every command kind and a few ACKs as DSB-ASK and PR-ASK segments (CW after of a few lengths,
+    with and without edges' rise and fall), and where its constant CW starts."""
+    from rfsim.gen2.commands import ACK, COMMAND_TYPES, encode
+    from rfsim.gen2.pie import command_ask_baseband, pie_lead_in
+
+    fs, tari = 4e6, 12.5e-6
+    for cmd in [t() for t in COMMAND_TYPES] + [ACK(rn16=r) for r in (0, 0xFFFF, 0x5A3C)]:
+        lead = pie_lead_in(tari_s=tari, data1_tari=1.75, trcal_s=3.0 * 2.75 * tari, pw_s=0.4 * tari,
+                           delimiter_s=12.5e-6, preamble=cmd.PREAMBLE, cw_before_s=20e-6)
+        for pr_ask, cw_after, rise in ((False, 200e-6, 0.1), (True, 30e-6, 0.0), (True, 500e-6, 0.33)):
+            yield cmd, command_ask_baseband(lead, encode(cmd), cw_after_s=cw_after, modulated_after_s=tari,
+                                            amplitude=0.3, pr_ask=pr_ask, depth=0.9, fs_hz=fs,
+                                            rise_fall_s=rise * tari)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_front_end_decoding_in_one_call_equals_the_decoder(seed):
+    # SharedFrontEnd decodes the ideal detector's command in its front-end kernel call: the command
+    # and the first frame equal those of rfsim.gen2.pie.pie_decode of |x| with its own levels, bit
+    # for bit (every command kind; PIE-like segments with and without a CW tail, NaN, too short)
+    from rfsim.devices.tag import SharedFrontEnd, _command_of
+    from rfsim.gen2.pie import pie_decode
+
+    if seed == 0:
+        segments = [x for _, x in _commands()]
+    else:
+        rng = np.random.default_rng(900 + seed)
+        cw = complex(*rng.normal(size=2))
+        segments = []
+        for k in range(20):
+            head = _pie_like(rng, int(rng.integers(25, 600)), cw, flip=bool(k % 2), edge_noise=bool(k % 3))
+            tail = np.full(int(rng.integers(0, 300)), (cw, -cw, 0j, np.nan)[k % 4])
+            segments.append(np.concatenate([head, tail]))
+        segments += [np.full(1, cw), np.full(2, cw), np.array([cw, 0.1 * cw])]
+    n_frames = 0
+    for x in segments:
+        fe = SharedFrontEnd(x, fs_hz=4e6)
+        env = np.abs(x)
+        want = _command_of(pie_decode(env, levels=two_level_threshold(env)))
+        got = fe.command(0.0)
+        assert got.command == want.command
+        assert (got.frame is None) == (want.frame is None)
+        if want.frame is not None:
+            n_frames += 1
+            assert _frames_fields([got.frame]) == _frames_fields([want.frame])
+    assert n_frames > 0 or seed > 0
+
+
 def test_shared_decoding_is_keyed_by_content_and_rc_not_by_the_tags_power():
     # SharedFrontEnd.command(rc_s), kept per rc_s in the emitted segment's memo, is the decoding of every
     # scaled copy g·x a powered tag sees: the relative thresholds make it scale-invariant (exactly for

@@ -275,8 +275,43 @@ def reply_waveform(
         maps them to reflection coefficients) and 0 before ``t0_s`` and after the reply (the
         tag's rest state).
     """
+    el, t0, r, n_samples = reply_waveform_arguments(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s,
+                                                    dummy=dummy, n_samples=n_samples)
+    out = np.empty(n_samples, dtype=np.float64)
+    _k.waveform_kernel(el, t0, r, out)
+    return out
+
+
+def reply_waveform_arguments(
+    bits, *, m: int, trext: bool, blf_hz: float, fs_hz: float, t0_s: float = 0.0,
+    dummy: bool = True, n_samples: int | None = None, keep: bool = True,
+) -> tuple:
+    """The arguments of the sampling kernel of :func:`reply_waveform` (for a kernel that samples the
+    reply itself, e.g. the tag's Γ(t), :func:`rfsim.devices.tag.reply_gamma`).
+
+    :func:`reply_waveform` is ``out[n] = elements[floor((n − t0)·r + ε)]`` inside the reply and 0
+    outside (``rfsim.gen2._linecode_kernels.waveform_kernel``), with the reply's elements
+    (:func:`halfsymbols` as float64), t0 = ``t0_s``·fs [samples] and r = 2·BLF/fs [elements per
+    sample].
+
+    Parameters
+    ----------
+    bits, m, trext, blf_hz, fs_hz, t0_s, dummy, n_samples : see :func:`reply_waveform`
+        The reply's bits, line code, BLF and sample rate [Hz], start [s], dummy data-1 and
+        output length.
+    keep : bool, default True
+        Remember the elements of these bits for the next call (False for bits drawn anew, e.g. a
+        tag's RN16, which would only push out the elements of replies that come again).
+
+    Returns
+    -------
+    tuple
+        ``(elements, t0, r, n_samples)``: ``(n_el,) float64`` elements (read-only use: they may
+        be shared by later calls), t0 [samples], r [elements per sample] (floats) and the output
+        length (int).
+    """
     key = None
-    if isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
+    if keep and isinstance(bits, np.ndarray) and bits.dtype == np.uint8 and bits.ndim == 1:
         key = (bits.tobytes(), m, bool(trext), bool(dummy))
     el = _WAVEFORM_ELEMENTS.get(key) if key is not None else None
     if el is None:
@@ -289,9 +324,7 @@ def reply_waveform(
     t0 = float(t0_s) * float(fs_hz)
     if n_samples is None:
         n_samples = int(math.ceil(t0 + el.size / r))
-    out = np.empty(int(n_samples), dtype=np.float64)
-    _k.waveform_kernel(el, t0, r, out)
-    return out
+    return el, t0, r, int(n_samples)
 
 
 #: Element sequences (float64) of recent replies, by (bit bytes, M, TRext, dummy): a tag sends
@@ -720,6 +753,7 @@ __all__ = [
     "elements_of_levels",
     "reply_duration_s",
     "reply_waveform",
+    "reply_waveform_arguments",
     "reply_waveform_for_profile",
     "decode_reply",
     "decode_reply_rows",

@@ -48,6 +48,9 @@ _RAMP_WIDTH_PER_10_90 = math.pi / (2.0 * math.asin(0.8))
 RTCAL_TARI_RANGE = (1.8, 3.6)
 MAX_TRCAL_RTCAL = 4.0
 
+#: Default half-width of the decoder's hysteresis band, a fraction of high − low cluster means.
+PIE_HYSTERESIS = 0.1
+
 PREAMBLES = ("query", "frame-sync")
 
 
@@ -706,7 +709,7 @@ class PieEdges:
         ]
 
 
-def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 0.1,
+def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = PIE_HYSTERESIS,
                       levels: tuple[float, float, float] | None = None) -> PieEdges:
     """:func:`pie_decode` returning the edges and per-frame arrays instead of frame objects (numba kernels).
 
@@ -752,7 +755,7 @@ def pie_decode_arrays(x, *, threshold: float | None = None, hysteresis: float = 
     return PieEdges(pos[:ne], direction[:ne], *f[:, :nf], *i[:, :nf], bits[:max(ne, 1)])
 
 
-def pie_decode(x, *, threshold: float | None = None, hysteresis: float = 0.1,
+def pie_decode(x, *, threshold: float | None = None, hysteresis: float = PIE_HYSTERESIS,
                levels: tuple[float, float, float] | None = None) -> list[PieFrame]:
     """Find and decode every PIE command in a real envelope (numba kernels).
 
@@ -795,6 +798,7 @@ __all__ = [
     "ask_baseband",
     "two_level_threshold",
     "ISODATA_MAX_ITER",
+    "PIE_HYSTERESIS",
     "PieEdges",
     "pie_decode_arrays",
     "pie_decode",

@@ -36,6 +36,7 @@ import copy
 import dataclasses
 import math
 from collections.abc import Sequence
+from itertools import repeat
 from typing import NamedTuple
 
 import numpy as np
@@ -50,8 +51,8 @@ from rfsim.air.noise import thermal_noise_power_w
 from rfsim.core.units import dbm_to_w, w_to_dbm, wrap_phase_rad
 from rfsim.devices.reader_config import ReaderConfig, frequency_plan
 from rfsim.devices.reader_measure import (DOPPLER_BLOCKS, FAILURES, ReadResult, known_levels as _known_levels,
-                                          measure as _measure, refer_phase as _refer_phase,
-                                          steady as _steady)
+                                          measure as _measure, measurements as _measurements_of,
+                                          refer_phase as _refer_phase, steady as _steady)
 from rfsim.gen2.blf_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode, blf_grid_hz,
                                    rn16_threshold_db, search_decode, search_result as _search_result,
                                    search_setup as _search_setup)
@@ -409,13 +410,28 @@ class Reader(PieTransmitter):
             in samples at the configured rate, one sample wider each side, clipped to
             ``[0, n_samples - n_reply]`` (``hi < lo``: no room for a reply).
         """
+        lo, hi = self._start_lags(np.array([n_samples]), n_reply, t0_s, cmd_end_s)
+        return int(lo[0]), int(hi[0])
+
+    def _start_lags(self, n_samples: np.ndarray, n_reply: int, t0_s, cmd_end_s) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`reply_start_lags` of B windows at once (the rule; one window is a batch of one):
+        ``n_samples`` (B,) int, ``t0_s`` and ``cmd_end_s`` a value for all or (B,) each (None or
+        NaN: every start); returns ``lo``, ``hi`` (B,) int64."""
+        top = np.asarray(n_samples, dtype=np.int64) - int(n_reply)
         if cmd_end_s is None:
-            return 0, n_samples - n_reply
+            return np.zeros_like(top), top
         fs = self.fs_hz
         t1min, t1max = self._receive_memo().window
-        lo = max(0, int(math.floor((float(cmd_end_s) + t1min - float(t0_s)) * fs)) - 1)
-        hi = min(n_samples - n_reply, int(math.ceil((float(cmd_end_s) + t1max - float(t0_s)) * fs)) + 1)
-        return lo, hi
+        end = np.asarray(cmd_end_s, dtype=np.float64)
+        t0 = np.asarray(t0_s, dtype=np.float64)
+        given = ~np.isnan(end)
+        if not given.all():  # windows searched everywhere: their own end at their start
+            end = np.where(given, end, t0)
+        lo = np.maximum(0, np.floor((end + t1min - t0) * fs).astype(np.int64) - 1)
+        hi = np.minimum(top, np.ceil((end + t1max - t0) * fs).astype(np.int64) + 1)
+        if not given.all():
+            lo, hi = np.where(given, lo, 0), np.where(given, hi, top)
+        return np.broadcast_to(lo, top.shape), hi
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
                 cmd_end_s: float | None = None, blf_hz: float | None = None,
@@ -594,24 +610,25 @@ class Reader(PieTransmitter):
                     for row, t, e, c in zip(rx, t0s, ends, carriers)]
         n_bits = int(n_bits)
         memo, blf, pre_n, n_reply = self._reply_size(n_bits, None)
-        lags = [self.reply_start_lags(row.shape[0], n_reply, t0_s=t, cmd_end_s=e) for row, t, e in zip(rx, t0s, ends)]
+        lo, hi = self._start_lags(np.fromiter(map(len, rx), dtype=np.int64, count=n_win), n_reply, t0s, ends)
         # the windows with room for a reply (as receive: none when the preamble is under 3 samples)
-        read = [b for b, (lo, hi) in enumerate(lags) if hi >= lo] if pre_n >= 3 else []
-        reads: list = [None] * n_win
-        for b in set(range(n_win)).difference(read):
-            reads[b] = ReadResult(False, None, "preamble not found")
-        if not read:
-            return reads
-        windows = rx if len(read) == n_win else [rx[b] for b in read]
-        lo, hi = np.array([lags[b] for b in read], dtype=np.int64).T
-        out = _decode(windows, memo.known, lo=lo, hi=hi, n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
-        found, start, corr, bits = out.found.tolist(), out.start.tolist(), out.corr.tolist(), out.bits
-        gain, sigma2, slope = out.gain.tolist(), out.sigma2.tolist(), out.slope.tolist()
-        crc_ok = out.crc_ok if expect_crc else [None] * len(read)
-        for i, b in enumerate(read):
-            reads[b] = self._read_result(_DecodedReply(found[i], start[i], corr[i], bits[i], out.blf_hz, gain[i],
-                                                       sigma2[i], slope[i], out.decision_ebn0_db, rx[b], None,
-                                                       crc_ok[i]), float(t0s[b]), blf, expect_crc, carriers[b])
+        read = np.flatnonzero(hi >= lo) if pre_n >= 3 else np.zeros(0, dtype=np.int64)
+        if read.size < n_win:  # the others: no reply searched
+            reads = [ReadResult(False, None, FAILURES[1]) for _ in range(n_win)]
+            if not read.size:
+                return reads
+        if read.size == n_win:
+            windows, t0r, cr = rx, t0s, carriers
+        else:
+            windows = [rx[b] for b in read.tolist()]
+            t0r, cr = (np.asarray(v)[read] if np.ndim(v) else v for v in (t0s, carriers))
+        out = _decode(windows, memo.known, lo=lo[read], hi=hi[read], n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
+                      crc=expect_crc)
+        got = self._read_results(out, t0r, blf, expect_crc, cr)
+        if read.size == n_win:
+            return got
+        for b, r in zip(read.tolist(), got):
+            reads[b] = r
         return reads
 
     def _reply_size(self, n_bits: int, blf_hz):
@@ -687,31 +704,69 @@ class Reader(PieTransmitter):
 
     def _read_result(self, out, t0_s: float, blf: float, expect_crc: bool, carrier, searched: bool = False
                      ) -> ReadResult:
-        """The :class:`ReadResult` of the decoder's reply ``out``: the failure reason, the
-        measurements at ``blf`` (phase referred to ``carrier``); with the BLF search also the
-        BLF, the decision-domain Eb/(N0 + I) and, for an RN16, its acceptance. With timing
-        tracking (``config.track_timing``) a reply the window cuts (on the tag's clock, the
-        decoder's ``truncated``) is not found, and the Doppler is not measured (NaN)."""
-        start_s = t0_s + out.start / self.fs_hz
-        if not out.found or (out.extra is not None and out.extra.get("truncated", False)):
-            return ReadResult(False, None, "preamble not found", start_s=start_s, corr=out.corr)
-        meas = self._measurements(out.gain, out.slope, out.sigma2, blf)
-        if carrier is not None and complex(carrier) != 0:
-            meas["phase_rad"] = _refer_phase(meas["phase_rad"], carrier)
+        """The :class:`ReadResult` of the decoder's reply ``out`` of one window: :meth:`_read_results`
+        of a batch of one."""
+        one = _DecodedReply(np.array([out.found]), np.array([out.start], dtype=np.float64),
+                            np.array([out.corr], dtype=np.float64), None if out.bits is None else [out.bits],
+                            out.blf_hz, np.array([out.gain], dtype=np.complex128),
+                            np.array([out.sigma2], dtype=np.float64), np.array([out.slope], dtype=np.float64),
+                            np.array([out.decision_ebn0_db], dtype=np.float64), None, out.extra, [out.crc_ok])
+        return self._read_results(one, t0_s, blf, expect_crc, (carrier,), searched)[0]
+
+    def _read_results(self, out, t0_s, blf: float, expect_crc: bool, carrier, searched: bool = False) -> list:
+        """The :class:`ReadResult` of each of B windows the decoder read, from the arrays of its
+        result ``out`` (``found``, ``start``, ``corr``, ``gain``, ``sigma2``, ``slope``,
+        ``decision_ebn0_db`` (B,), ``bits`` a sequence of B rows or None, ``crc_ok`` a sequence):
+        the failure reason, the measurements at ``blf`` (:func:`rfsim.devices.reader_measure.measurements`,
+        phase referred to window b's ``carrier``); with the BLF search also the BLF, the
+        decision-domain Eb/(N0 + I) and, for an RN16, its acceptance. With timing tracking
+        (``config.track_timing``) a reply the window cuts (on the tag's clock, the decoder's
+        ``truncated``) is not found, and the Doppler is not measured (NaN). ``t0_s`` and
+        ``carrier``: a value for all windows or window b's."""
+        found = np.asarray(out.found, dtype=bool)
+        n = found.size
+        start_s = (np.asarray(t0_s, dtype=np.float64) + out.start / self.fs_hz)
+        start_s = np.broadcast_to(start_s, (n,)).tolist()
+        corr = out.corr.tolist()
+        if out.extra is not None and out.extra.get("truncated", False):
+            found = np.zeros(n, dtype=bool)
+        nan = [math.nan] * n
+        if not found.any():
+            return list(map(ReadResult, repeat(False, n), repeat(None, n), repeat(FAILURES[1], n), nan, nan, nan, nan,
+                            nan, start_s, corr))
+        meas = _measurements_of(out.gain, out.slope, out.sigma2, blf_hz=blf, fs_hz=self.fs_hz, m=self.link.m)
+        if carrier is not None:  # the phase referred to each window's carrier (where given, non-zero)
+            c = np.array([0j if x is None else x for x in (carrier if np.ndim(carrier) else (carrier,) * n)],
+                         dtype=np.complex128)
+            refer = c != 0
+            if refer.all():
+                meas["phase_rad"] = _refer_phase(meas["phase_rad"], c)
+            elif refer.any():
+                meas["phase_rad"][refer] = _refer_phase(meas["phase_rad"][refer], c[refer])
+        cols = {k: v.tolist() for k, v in meas.items()}
         if expect_crc:
-            ok = out.crc_ok
-            reason = "" if ok else "crc error"
+            ok = [bool(c) for c in out.crc_ok]
+            reason = [FAILURES[0] if c else FAILURES[2] for c in ok]
         elif searched:
             p = self.config.rn16_false_accept
-            ok = p == 0 or out.decision_ebn0_db >= rn16_threshold_db(p)
-            reason = "" if ok else "rn16 rejected"
-            if ok:  # an ACK follows: the reply it elicits comes from the tag measured here
+            ok = [True] * n if p == 0 else (out.decision_ebn0_db >= rn16_threshold_db(p)).tolist()
+            reason = [FAILURES[0] if c else FAILURES[3] for c in ok]
+            if ok[-1]:  # an ACK follows: the reply it elicits comes from the tag measured here
                 self._rn16_blf_hz = blf
         else:
-            ok, reason = True, ""
+            ok, reason = [True] * n, [FAILURES[0]] * n
+        blfs = decision = nan
         if searched:
-            meas.update(blf_hz=blf, decision_ebn0_db=out.decision_ebn0_db)
-        return ReadResult(success=ok, bits=out.bits, failure_reason=reason, start_s=start_s, corr=out.corr, **meas)
+            blfs, decision = [blf] * n, out.decision_ebn0_db.tolist()
+        bits = out.bits if out.bits is not None else [None] * n
+        if not found.all():  # windows without a reply: no bits, no measurements
+            lost = (~found).tolist()
+            ok = [False if x else o for x, o in zip(lost, ok)]
+            reason = [FAILURES[1] if x else r for x, r in zip(lost, reason)]
+            bits = [None if x else b for x, b in zip(lost, bits)]
+            cols = {k: [math.nan if x else v for x, v in zip(lost, col)] for k, col in cols.items()}
+        return list(map(ReadResult, ok, bits, reason, cols["rssi_dbm"], cols["phase_rad"], cols["doppler_hz"],
+                        cols["snr_db"], cols["ebn0_db"], start_s, corr, blfs, decision))
 
     def _decode_plan(self, search: str) -> _DecodePlan:
         """The :class:`rfsim.gen2.reply_decoder.DecodePlan` of ``search`` ("known" or "blf") for
@@ -763,19 +818,10 @@ class Reader(PieTransmitter):
 
     def _measurements(self, h: complex, slope: float, sigma2: float, blf_hz: float) -> dict:
         """RSSI, phase, Doppler and SNR (the :class:`ReadResult` fields) from the measured gain
-        h [√W], phase slope [rad/s] and residual power σ² [W] (:meth:`receive` step 5)."""
-        lk, fs = self.link, self.fs_hz
-        p = abs(h) ** 2
-        snr = 10.0 * math.log10(p / sigma2) if sigma2 > 0 and p > 0 else math.inf
-        h = complex(h)
-        return dict(rssi_dbm=float(w_to_dbm(p)) if p > 0 else -math.inf,
-                    phase_rad=float(wrap_phase_rad(-np.arctan2(h.imag, h.real))),  # -arg h, as np.angle
-                    doppler_hz=slope / (2.0 * math.pi),
-                    snr_db=snr, ebn0_db=snr + 10.0 * math.log10(fs * lk.m / blf_hz))
-
-
-
-
+        h [√W], phase slope [rad/s] and residual power σ² [W] (:meth:`receive` step 5): the
+        measurement rule :func:`rfsim.devices.reader_measure.measurements` on a batch of one."""
+        meas = _measurements_of(h, slope, sigma2, blf_hz=blf_hz, fs_hz=self.fs_hz, m=self.link.m)
+        return {k: float(v[0]) for k, v in meas.items()}
 
 
 def _per_window(value, n: int, name: str):

@@ -8,16 +8,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 
 from rfsim.core.lazy import lazy_import
-from rfsim.core.units import wrap_phase_rad
+from rfsim.core.units import w_to_dbm, wrap_phase_rad
 from rfsim.gen2.reply_decoder import DOPPLER_BLOCKS  # the blocks of the Doppler fit
 
 _rk = lazy_import("rfsim.gen2._measure_kernels")
 
-__all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "known_levels", "steady", "refer_phase"]
+__all__ = ["ReadResult", "FAILURES", "DOPPLER_BLOCKS", "measure", "measurements", "known_levels", "steady",
+           "refer_phase"]
 
 
 FAILURES = ("", "preamble not found", "crc error", "rn16 rejected")
@@ -161,10 +163,10 @@ def steady(level: np.ndarray) -> np.ndarray:
     return out
 
 
-def refer_phase(phase_rad: float, carrier: complex) -> float:
+def refer_phase(phase_rad, carrier):
     """A measured phase referred to the reader's transmitted carrier: the one rule of both
     receiver models (:meth:`rfsim.devices.reader.Reader.receive` step 5 and
-    :mod:`rfsim.devices.reader_statistic`).
+    :mod:`rfsim.devices.reader_statistic`), for one read or B reads at once.
 
     φ_ref = wrap(φ + arg c) with φ = −arg h the phase of the measured gain and c the reader's
     transmitted baseband during the reply; arg c is NumPy's ``np.angle`` (the same arithmetic
@@ -172,15 +174,70 @@ def refer_phase(phase_rad: float, carrier: complex) -> float:
 
     Parameters
     ----------
-    phase_rad : float
+    phase_rad : float or ndarray of float, shape (B,)
         Phase of the measured gain, −arg h [rad].
-    carrier : complex
+    carrier : complex or ndarray of complex, shape (B,)
         The reader's transmitted baseband during the reply (non-zero) [√W].
 
     Returns
     -------
-    float
-        ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad].
+    float or ndarray of float, shape (B,)
+        ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad] (a float for scalar arguments).
     """
-    return float(wrap_phase_rad(phase_rad + float(np.angle(complex(carrier)))))
+    if np.ndim(phase_rad) == 0 and np.ndim(carrier) == 0:
+        return float(wrap_phase_rad(phase_rad + float(np.angle(complex(carrier)))))
+    return wrap_phase_rad(np.add(phase_rad, np.angle(carrier)))
 
+
+def measurements(gain, slope, sigma2, *, blf_hz: float, fs_hz: float, m: int) -> dict:
+    """RSSI, phase, Doppler and SNR of B reads from their measured gain, slope and residual.
+
+    The reader's measurement rule (:meth:`rfsim.devices.reader.Reader.receive` step 5), for one
+    read (B = 1) and for a batch alike: with p = |h|²,
+
+    - RSSI = 10·log10(p) + 30 [dBm] (−∞ for p = 0),
+    - phase = (−arg h) mod 2π [rad] (the reader refers it to its carrier, :func:`refer_phase`),
+    - Doppler = slope/(2π) [Hz],
+    - SNR = 10·log10(p/σ²) [dB] (+∞ unless σ² > 0 and p > 0),
+    - Eb/N0 = SNR + 10·log10(fs·M/BLF) [dB].
+
+    |h| is Python's ``abs`` of a complex and p = |h|**2 and log10(p/σ²) are taken with Python's
+    float arithmetic and ``math.log10`` (NumPy's vectorised ``abs``, ``**2`` and ``log10``
+    differ from them in the last bit for some values); RSSI and phase
+    are NumPy's ufuncs, element for element the same on B = 1 and on a batch.
+
+    Parameters
+    ----------
+    gain : complex or array_like of complex, shape (B,)
+        Measured gain h at the reply centre [√W].
+    slope : float or array_like of float, shape (B,)
+        Phase slope d(arg h)/dt [rad/s].
+    sigma2 : float or array_like of float, shape (B,)
+        Residual power per sample σ² [W].
+    blf_hz : float
+        Keyword-only (like the others): the BLF decoded at [Hz].
+    fs_hz : float
+        Sample rate [Hz].
+    m : int
+        Subcarrier cycles per symbol M (1 for FM0).
+
+    Returns
+    -------
+    dict
+        ``rssi_dbm``, ``phase_rad``, ``doppler_hz``, ``snr_db``, ``ebn0_db``: (B,) float64 arrays.
+    """
+    gain = np.asarray(gain, dtype=np.complex128).reshape(-1)
+    sigma2 = np.asarray(sigma2, dtype=np.float64).reshape(-1)
+    p = np.fromiter(map(pow, map(abs, gain.tolist()), repeat(2)), dtype=np.float64, count=gain.size)
+    pos = p > 0
+    snr = np.full(p.shape, math.inf)
+    ok = pos & (sigma2 > 0)
+    if ok.any():
+        snr[ok] = 10.0 * np.fromiter(map(math.log10, (p[ok] / sigma2[ok]).tolist()), dtype=np.float64)
+    rssi = np.full(p.shape, -math.inf)
+    if pos.any():
+        rssi[pos] = w_to_dbm(p[pos])
+    phase = wrap_phase_rad(-np.arctan2(gain.imag, gain.real))  # -arg h, as np.angle
+    doppler = np.asarray(slope, dtype=np.float64).reshape(-1) / (2.0 * math.pi)
+    return dict(rssi_dbm=rssi, phase_rad=phase, doppler_hz=doppler, snr_db=snr,
+                ebn0_db=snr + 10.0 * math.log10(fs_hz * m / blf_hz))

@@ -754,22 +754,23 @@ class ReaderPort:
         if (batch is None or self.delayed_reply or len(inputs) < 2 or (self.header_bit and self._reads_draw)
                 or any(p.batch_key != key for p in ports)):
             return [p.receive(x) for p, x in zip(ports, inputs)]
-        args = [p._read_arguments(x) for p, x in zip(ports, inputs)]
-        rows = [x.samples[i0:] for x, (i0, _) in zip(inputs, args)]
-        reads = batch(rows, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=[kw["t0_s"] for _, kw in args],
-                      cmd_end_s=[kw["cmd_end_s"] for _, kw in args], carrier=[kw["carrier"] for _, kw in args])
-        return [p._error_reply(read, row, kw) for p, read, row, (_, kw) in zip(ports, reads, rows, args)]
+        i0, t0, ends, carriers = _read_arguments(ports, inputs)
+        rows = [x.samples[i:] for x, i in zip(inputs, i0.tolist())]
+        reads = batch(rows, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0, cmd_end_s=ends,
+                      carrier=carriers)
+        if not self.header_bit:
+            return reads
+        return [p._error_reply(read, row, dict(t0_s=t, expect_crc=self.expect_crc, cmd_end_s=e, carrier=c))
+                for p, read, row, t, e, c in zip(ports, reads, rows, t0.tolist(), ends.tolist(), carriers)]
 
     def _read_arguments(self, input) -> tuple:
         """The first sample read of ``input`` (the listen start) and the keywords of
-        ``reader.receive`` for it."""
-        tx, fs = self.tx, input.fs_hz
-        i0 = int(math.ceil((self._listen_s - input.t0_s) * fs))
-        kwargs = dict(t0_s=input.t0_s + i0 / fs, expect_crc=self.expect_crc, cmd_end_s=tx.cmd_end_s,
-                      carrier=tx.samples[-1])
+        ``reader.receive`` for it (:func:`_read_arguments` of one input)."""
+        i0, t0, ends, carriers = _read_arguments((self,), (input,))
+        kwargs = dict(t0_s=float(t0[0]), expect_crc=self.expect_crc, cmd_end_s=self.tx.cmd_end_s, carrier=carriers[0])
         if self.delayed_reply:
             kwargs["delayed"] = True
-        return i0, kwargs
+        return int(i0[0]), kwargs
 
     def _error_reply(self, read, rx, kwargs):
         """``read``, or with ``header_bit`` the read of ``rx`` at the error reply's length when the
@@ -778,6 +779,20 @@ class ReaderPort:
                 and read.bits[0] == 1):  # the header says: an error reply
             read = self.reader.receive(rx, n_bits=ERROR_REPLY_BITS, **kwargs)
         return read
+
+
+def _read_arguments(ports, inputs) -> tuple:
+    """What the reads of B inputs take, each read by its own port (:meth:`ReaderPort.receive`,
+    :meth:`ReaderPort.receive_batch`; one input is a batch of one): ``i0`` (B,) int64, the
+    first sample read (ceil((listen start − t0)·fs)); ``t0_s`` (B,) the time of that sample [s];
+    ``cmd_end_s`` (B,) the command's end [s]; ``carrier`` (B,) complex128, the reader's own
+    baseband during the reply (``tx.samples[-1]``)."""
+    fs = np.array([x.fs_hz for x in inputs], dtype=np.float64)
+    t0 = np.array([x.t0_s for x in inputs], dtype=np.float64)
+    i0 = np.ceil((np.array([p._listen_s for p in ports], dtype=np.float64) - t0) * fs).astype(np.int64)
+    ends = np.array([p.tx.cmd_end_s for p in ports], dtype=np.float64)
+    carriers = np.array([p.tx.samples[-1] for p in ports], dtype=np.complex128)
+    return i0, t0 + i0 / fs, ends, carriers
 
 
 class _TagIndex(NamedTuple):

@@ -59,7 +59,7 @@ from rfsim.gen2.blf_search import (FINE_FIRST_BITS, FINE_PER_SIDE, SearchDecode,
 from rfsim.devices.reader_tx import TX_CACHE_SIZE, PieTransmitter, TxSegment, hilbert_fir
 from rfsim.devices import reader_statistic as _statistic
 from rfsim.gen2.reply_decoder import (DecodePlan as _DecodePlan, DecodedReply as _DecodedReply, LinkPlans as _LinkPlans,
-                                     decode as _decode)
+                                     Windows as _Windows, decode as _decode)
 
 #: FCC maximum dwell time per channel [s].
 FCC_MAX_DWELL_S = 0.4
@@ -559,9 +559,9 @@ class Reader(PieTransmitter):
 
         Parameters
         ----------
-        rx : ndarray of complex, shape (B, n), or sequence of B 1-D arrays
+        rx : ndarray of complex, shape (B, n), sequence of B 1-D arrays, or rfsim.gen2.reply_decoder.Windows
             B windows at the RX port [√W], each as :meth:`receive` takes it (their lengths may
-            differ).
+            differ); :class:`~rfsim.gen2.reply_decoder.Windows` are read where they lie (no copy).
         t0_s : float or sequence of float
             Absolute time of each window's first sample [s]: one value for all or window b's.
         n_bits, expect_crc
@@ -596,6 +596,9 @@ class Reader(PieTransmitter):
         """
         if isinstance(rx, np.ndarray) and rx.ndim != 2:
             raise ValueError(f"rx must be 2-D (B, n) or a sequence of 1-D windows, got shape {rx.shape}")
+        laid = isinstance(rx, _Windows)
+        if laid and (self._rx_rng is not None or self.config.blf_search == "preamble" or self.config.track_timing):
+            rx, laid = list(rx), False  # read window by window (or drawn in order): the windows as views
         n_win = len(rx)
         t0s, ends, carriers = (_per_window(v, n_win, name) for v, name in ((t0_s, "t0_s"), (cmd_end_s, "cmd_end_s"),
                                                                            (carrier, "carrier")))
@@ -610,7 +613,8 @@ class Reader(PieTransmitter):
                     for row, t, e, c in zip(rx, t0s, ends, carriers)]
         n_bits = int(n_bits)
         memo, blf, pre_n, n_reply = self._reply_size(n_bits, None)
-        lo, hi = self._start_lags(np.fromiter(map(len, rx), dtype=np.int64, count=n_win), n_reply, t0s, ends)
+        lengths = rx.lengths() if laid else np.fromiter(map(len, rx), dtype=np.int64, count=n_win)
+        lo, hi = self._start_lags(lengths, n_reply, t0s, ends)
         # the windows with room for a reply (as receive: none when the preamble is under 3 samples)
         read = np.flatnonzero(hi >= lo) if pre_n >= 3 else np.zeros(0, dtype=np.int64)
         if read.size < n_win:  # the others: no reply searched
@@ -620,7 +624,7 @@ class Reader(PieTransmitter):
         if read.size == n_win:
             windows, t0r, cr = rx, t0s, carriers
         else:
-            windows = [rx[b] for b in read.tolist()]
+            windows = rx.subset(read) if laid else [rx[b] for b in read.tolist()]
             t0r, cr = (np.asarray(v)[read] if np.ndim(v) else v for v in (t0s, carriers))
         out = _decode(windows, memo.known, lo=lo[read], hi=hi[read], n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
                       crc=expect_crc)

@@ -181,8 +181,8 @@ def test_batch_kernel_reads_each_window_at_its_own_offset():
         n = len(rows)
         det, bits = np.zeros((2, n, 129), dtype=np.uint8)
         out_f, out_c, status = np.zeros((n, 4)), np.zeros((n, 1), dtype=np.complex128), np.zeros(n, dtype=np.int64)
-        rxk.receive_batch_kernel(np.concatenate(rows), offsets, lo, hi, n_reply, threshold, *args, det, bits, out_f,
-                                 out_c, status)
+        rxk.receive_batch_kernel(np.concatenate(rows), offsets[:-1], offsets[1:], lo, hi, n_reply, threshold, *args,
+                                 det, bits, out_f, out_c, status)
         return status, bits, out_f, out_c
 
     offsets = np.concatenate([[0], np.cumsum([row.size for row in rows])]).astype(np.int64)

@@ -181,7 +181,8 @@ def _one_backscatter(const: dict, parts: list, segs: list):
     return None
 
 
-def fused_noisy_sum(const: dict, parts: list, segs: list, n_samples: int, noise_w: float, key: int, start: int):
+def fused_noisy_sum(const: dict, parts: list, segs: list, n_samples: int, noise_w: float, key: int, start: int,
+                    out: np.ndarray | None = None):
     r"""A receiver's input with its noise in one kernel call, when it is one term and one backscatter part.
 
     :math:`y = a\,x + b\,((A_s - \Gamma)\,(g\,x)) + n` with n the counter-based noise of
@@ -205,6 +206,8 @@ def fused_noisy_sum(const: dict, parts: list, segs: list, n_samples: int, noise_
         Key of the counter-based stream (:func:`rfsim.air.noise.noise_key`).
     start : int
         First sample that gets noise (the first the receiver reads).
+    out : ndarray, shape (n,), complex128, or None, optional
+        Where to form the input (the receiver's ``input_array``); default None, a new array.
 
     Returns
     -------
@@ -216,7 +219,7 @@ def fused_noisy_sum(const: dict, parts: list, segs: list, n_samples: int, noise_
     if one is None:
         return None
     a, bs = one
-    out = np.empty(n_samples, dtype=np.complex128)
+    out = np.empty(n_samples, dtype=np.complex128) if out is None else out
     _ek.backscatter_noise_kernel(bs.x, a, complex(bs.g), complex(bs.a_s), bs.gamma, complex(bs.b), np.uint64(key),
                                  int(start), math.sqrt(noise_w / 2.0), out)
     parts.clear()

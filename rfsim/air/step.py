@@ -657,7 +657,8 @@ def superpose_noise(st: StepState, k: int, rcv, rng: np.random.Generator | None)
         Index of the receiver.
     rcv : Receiver
         The receiver (``antenna``, ``noise_power_w`` [W]; optional ``fc_hz``, ``coupling``,
-        ``first_read_sample``).
+        ``first_read_sample``, ``input_array(n)``: an (n,) complex128 array to form the fused
+        input in, or None).
     rng : numpy.random.Generator or None
         The step's generator (needed when the receiver has noise).
 
@@ -679,7 +680,9 @@ def superpose_noise(st: StepState, k: int, rcv, rng: np.random.Generator | None)
         if rng is None:
             raise ConfigError("air.rng", None, "a numpy Generator when a receiver has noise")
         key, start = noise_key(rng), first_read(rcv, st.t0_s, st.fs_hz, st.n_samples)
-        y = fused_noisy_sum(const, parts, st.segs, st.n_samples, noise_w, key, start)
+        take = getattr(rcv, "input_array", None)  # where the receiver wants its input formed
+        y = fused_noisy_sum(const, parts, st.segs, st.n_samples, noise_w, key, start,
+                            None if take is None else take(st.n_samples))
         if y is None:
             y = _sum_terms(const, parts, st.segs, st.n_samples, fused=True)
             add_counter_awgn(y, noise_w, key, start=start)

@@ -195,25 +195,25 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
 
 
 @njit
-def receive_batch_kernel(rx, offsets, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pre_el, t0,
+def receive_batch_kernel(rx, starts, ends, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pre_el, t0,
                          max_runs_per_sample, half_width, shifts, templates, norms, run_begin, run_value, n_runs,
                          same_as_previous, pre_el, pre_levels, state0, viterbi, n_blocks, det_bits, bits, out_f, out_c,
                          status):
     """:func:`receive_kernel` on each of B windows in one call.
 
-    The windows lie one after the other in ``rx`` ((N,) complex128): window b is
-    ``rx[offsets[b]:offsets[b + 1]]`` (``offsets`` (B + 1,) int64, non-decreasing; the windows
-    may differ in length and in the time of their first sample, every index of a window is its
-    own). Window b is searched from ``lo[b]`` to ``hi[b]`` ((B,) int64, its own lags, samples of
-    window b) against its detection threshold ``threshold[b]`` ((B,) float64, of its number of
+    The windows lie in ``rx`` ((N,) complex128): window b is ``rx[starts[b]:ends[b]]``
+    (``starts``, ``ends`` (B,) int64; one after the other, or anywhere in ``rx``: the reader
+    inputs of a block of trials are formed in one array; the windows may differ in length and
+    in the time of their first sample, every index of a window is its own). Window b is
+    searched from ``lo[b]`` to ``hi[b]`` ((B,) int64, its own lags, samples of window b) against its detection threshold ``threshold[b]`` ((B,) float64, of its number of
     lags); the arguments from ``fs_hz`` to ``n_blocks`` and ``n_reply`` are shared (one plan,
     one BLF, one reply length). Window b's outputs go to row b of ``det_bits``, ``bits``
     ((B, n_bits + 1) uint8), ``out_f`` ((B, 4) float64, the start in samples of window b),
     ``out_c`` ((B, 1) complex128) and its status to ``status[b]`` ((B,) int64): each row is
     what :func:`receive_kernel` returns for that window alone.
     """
-    for b in range(offsets.size - 1):
-        status[b] = receive_kernel(rx[offsets[b]:offsets[b + 1]], lo[b], hi[b], n_reply, threshold[b], fs_hz, blf_hz,
+    for b in range(starts.size):
+        status[b] = receive_kernel(rx[starts[b]:ends[b]], lo[b], hi[b], n_reply, threshold[b], fs_hz, blf_hz,
                                    m, n_pre, n_pre_el, t0, max_runs_per_sample, half_width, shifts, templates, norms,
                                    run_begin, run_value, n_runs, same_as_previous, pre_el, pre_levels, state0, viterbi,
                                    n_blocks, det_bits[b], bits[b], out_f[b], out_c[b])

@@ -71,8 +71,8 @@ kernel                      called by              computes, for these step vari
                                                    (first decisions, (h, c) on the known levels,
                                                    decisions on r − c); measure "kernel"
                                                    (``measure_kernel``: gain, Doppler slope, σ²)
-``receive_batch_kernel``    search "one blf"       the same for a batch of B windows, one after the
-                                                   other in one array (each its own length, ``lo``,
+``receive_batch_kernel``    search "one blf"       the same for a batch of B windows in one array
+                                                   (:class:`Windows`; each its own length, ``lo``,
                                                    ``hi`` and threshold): a loop over
                                                    ``receive_kernel`` in one call, per-window
                                                    results in ``(B, …)`` arrays
@@ -118,7 +118,7 @@ _rxk = lazy_import("rfsim.gen2._receive_kernels")
 _mk = lazy_import("rfsim.gen2._measure_kernels")
 
 __all__ = ["DOPPLER_BLOCKS", "SEARCHES", "STEPS", "KERNEL_STEPS", "VARIANTS", "StepVariants", "DecodePlan",
-           "DecodedReply", "CaptureTiming", "LinkPlans", "decode"]
+           "DecodedReply", "CaptureTiming", "LinkPlans", "Windows", "decode"]
 
 #: Blocks of the reply of the "known" search's Doppler fit (``measure_kernel``).
 DOPPLER_BLOCKS = 8
@@ -548,10 +548,10 @@ class _Work:
     call's inputs, what a step leaves for the next (``threshold``, ``pre_n``, ``n_grid``,
     ``spans``, ``out``, ``best``, ``blf_found``, ``res``) and the result's fields (the class attributes are
     their values until a step sets them; ``found`` None: not searched yet). A batch of windows of
-    the "known" search: ``r`` holds them one after the other, window b ``r[offsets[b]:offsets[b + 1]]``
-    (``offsets`` None: one window)."""
+    the "known" search: ``r`` holds them, window b ``r[starts[b]:ends[b]]`` (``starts`` None: one
+    window)."""
 
-    found = offsets = None
+    found = starts = ends = None
     start = corr = blf_hz = blf_found = sigma2 = slope = decision_ebn0_db = math.nan
     gain = complex(math.nan, math.nan)
     bits = extra = crc_ok = best = None
@@ -577,9 +577,9 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         ``(n,) complex128`` window ``h·s(t) + c + noise`` (any unit, any constant offset c);
         "blf" also ``(B, n)``, a batch of windows (then every field of the result is an array
         over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``; not with a plan
-        that measures on the known levels). "known" without timing tracking also ``(B, n)`` or
-        a sequence of B 1-D windows (their lengths and the times of their first samples may
-        differ), each window with its own ``lo``, ``hi`` (scalars or ``(B,)``, samples of that
+        that measures on the known levels). "known" without timing tracking also ``(B, n)``,
+        a sequence of B 1-D windows or :class:`Windows` (read where they lie; their lengths and
+        the times of their first samples may differ), each window with its own ``lo``, ``hi`` (scalars or ``(B,)``, samples of that
         window): ``found``, ``start`` (samples of each window), ``corr``, ``gain``, ``sigma2``,
         ``slope`` are ``(B,)`` arrays, ``bits`` ``(B, n_bits)`` and ``crc_ok`` a list (None for
         a window without a reply), ``window`` the windows as given; window b's values are those
@@ -631,22 +631,58 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         if w.found is False:  # no reply: nothing to decide or measure
             break
     return DecodedReply(w.found, w.start, w.corr, w.bits, w.blf_hz, w.gain, w.sigma2, w.slope, w.decision_ebn0_db,
-                        w.r if w.offsets is None else r, w.extra, w.crc_ok)
+                        w.r if w.starts is None else r, w.extra, w.crc_ok)
 
 
-def _in_a_row(windows) -> tuple:
-    """B windows (a ``(B, n)`` array or a sequence of 1-D arrays) one after the other in one
-    ``(N,) complex128`` array, and the ``(B + 1,)`` int64 offsets of their first samples (window b:
-    ``r[offsets[b]:offsets[b + 1]]``)."""
+class Windows:
+    """B windows in one array: window b is ``samples[starts[b]:ends[b]]`` (one after the other,
+    or anywhere in ``samples``, e.g. the reader inputs of a block of trials formed in one array):
+    a batch that :func:`decode` ("known") reads without laying the windows out anew.
+
+    Parameters
+    ----------
+    samples : numpy.ndarray
+        ``(N,) complex128`` samples holding the windows.
+    starts, ends : numpy.ndarray
+        ``(B,) int64`` first sample and end (exclusive) of each window in ``samples``.
+    """
+
+    __slots__ = ("samples", "starts", "ends")
+
+    def __init__(self, samples: np.ndarray, starts: np.ndarray, ends: np.ndarray):
+        self.samples, self.starts, self.ends = samples, starts, ends
+
+    def __len__(self) -> int:
+        return self.starts.size
+
+    def __getitem__(self, b: int) -> np.ndarray:
+        """Window b (a view of ``samples``)."""
+        return self.samples[self.starts[b]:self.ends[b]]
+
+    def lengths(self) -> np.ndarray:
+        """``(B,) int64`` samples of each window."""
+        return self.ends - self.starts
+
+    def subset(self, index: np.ndarray) -> "Windows":
+        """The windows ``index`` ((k,) int) of these, in that order (no copy of the samples)."""
+        return Windows(self.samples, self.starts[index], self.ends[index])
+
+
+def _in_a_row(windows) -> Windows:
+    """B windows (a ``(B, n)`` array, a sequence of 1-D arrays, or :class:`Windows` as they are) as
+    :class:`Windows`; the first two laid one after the other in one ``(N,) complex128`` array."""
+    if isinstance(windows, Windows):
+        return windows
     if isinstance(windows, np.ndarray):
         b, n = windows.shape
-        return np.ascontiguousarray(windows, dtype=np.complex128).reshape(-1), np.arange(b + 1, dtype=np.int64) * n
+        offsets = np.arange(b + 1, dtype=np.int64) * n
+        return Windows(np.ascontiguousarray(windows, dtype=np.complex128).reshape(-1), offsets[:-1], offsets[1:])
     r = np.ascontiguousarray(np.concatenate(windows), dtype=np.complex128)
     if r.ndim != 1:
         raise ValueError("a batch of windows: each window 1-D")
     offsets = np.zeros(len(windows) + 1, dtype=np.int64)
     np.cumsum([x.shape[0] for x in windows], out=offsets[1:])
-    return r, offsets
+    return Windows(r, offsets[:-1], offsets[1:])
 
 
 # ----------------------------------------------------------------- step 1: conditioning
@@ -654,9 +690,11 @@ def _in_a_row(windows) -> tuple:
 def _condition_in_kernel(w: _Work, plan: DecodePlan) -> None:
     """The search's kernel subtracts mean(r[:lo]) itself (``receive_kernel``, lo ≥ 8). A batch of
     windows (``(B, n)`` or a sequence of 1-D windows) is laid one after the other in ``r``
-    (``offsets``, :func:`_in_a_row`) for the batch kernel."""
+    (``starts``, ``ends``, :func:`_in_a_row`) for the batch kernel; :class:`Windows` are read where
+    they lie."""
     if not isinstance(w.r, np.ndarray) or w.r.ndim == 2:
-        w.r, w.offsets = _in_a_row(w.r)
+        laid = _in_a_row(w.r)
+        w.r, w.starts, w.ends = laid.samples, laid.starts, laid.ends
 
 
 def _condition_lead(w: _Work, plan: DecodePlan) -> None:
@@ -679,10 +717,10 @@ def _windows_lags(w: _Work, plan: DecodePlan) -> None:
     (:meth:`DecodePlan.detection`, the preamble at that BLF); for a batch of windows each
     window's own (``lo``, ``hi`` and the threshold ``(B,)`` arrays)."""
     w.spans, w.n_grid = ((w.lo, w.hi),), 1
-    if w.offsets is None:
+    if w.starts is None:
         w.pre_n, w.threshold = plan.detection(w.hi - w.lo + 1, w.blf)
     else:
-        w.lo, w.hi = (np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=np.int64), (w.offsets.size - 1,)))
+        w.lo, w.hi = (np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=np.int64), (w.starts.size,)))
                       for v in (w.lo, w.hi))
         detections = {k: plan.detection(k, w.blf) for k in set((w.hi - w.lo + 1).tolist())}
         w.pre_n = next(iter(detections.values())).preamble_samples
@@ -718,14 +756,14 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     """``receive_kernel`` at one BLF: the preamble over the lags (runs + 1/16-sample
     refinement) and, in the same call, (h, c) on the known levels, the decisions and the
     measurement (steps 5 and 6 take them from it). A batch of windows (one after the other in
-    ``r``, ``offsets``): the same kernel on each window in one call (``receive_batch_kernel``),
+    ``r``, ``starts``, ``ends``): the same kernel on each window in one call (``receive_batch_kernel``),
     every result a ``(B,)`` array."""
-    batch = () if w.offsets is None else (w.offsets.size - 1,)
+    batch = () if w.starts is None else (w.starts.size,)
     det_bits, bits = np.empty((2, *batch, w.n_bits + 1), dtype=np.uint8)  # the first decisions', the bits
     out_f, out_c = np.empty((*batch, 4)), np.empty((*batch, 1), dtype=np.complex128)
     if batch:
         status = np.empty(batch, dtype=np.int64)
-        _rxk.receive_batch_kernel(w.r, w.offsets, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf), det_bits,
+        _rxk.receive_batch_kernel(w.r, w.starts, w.ends, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf), det_bits,
                                   bits, out_f, out_c, status)
         worst = int(status.max(initial=_rxk.RECEIVED))
         w.start, w.corr, w.found = out_f[:, 0], out_f[:, 1], status != _rxk.NOT_FOUND
@@ -796,7 +834,7 @@ def _timing_track(w: _Work, plan: DecodePlan) -> None:
     from rfsim.gen2.reply_search import LinkHypothesis
 
     if w.best is None:
-        if w.r.ndim != 1 or w.offsets is not None:
+        if w.r.ndim != 1 or w.starts is not None:
             raise ValueError("timing tracking takes one window, not a batch")
         blf = w.blf_found
         w.best = ((w.corr, blf, LinkHypothesis(plan.m, plan.trext, blf, blf), w.start,
@@ -899,7 +937,7 @@ def _crc_check(w: _Work, plan: DecodePlan) -> None:
     (:func:`rfsim.gen2.crc.crc16_ok`); None for a reply the timing step found cut (``truncated``:
     the next command or the capture's end cut it, its CRC is not in the window). The one check of
     a decoded reply's CRC: the reader's ``expect_crc`` and a capture record's ``crc_ok`` are this."""
-    if w.crc and w.offsets is not None:  # a batch of "known" windows: the windows with a reply
+    if w.crc and w.starts is not None:  # a batch of "known" windows: the windows with a reply
         w.crc_ok = [plan.crc16_ok(bits) if found else None for bits, found in zip(w.bits, w.found.tolist())]
     elif w.crc:
         w.crc_ok = None if w.extra is not None and w.extra.get("truncated", False) else plan.crc16_ok(w.bits)

@@ -85,6 +85,7 @@ from rfsim.air.step import PROPAGATION_METHODS, AirResult, FixedEmitter, as_refl
 from rfsim.gen2.access import ERROR_REPLY_BITS
 from rfsim.gen2.bits import bits_to_int
 from rfsim.gen2.commands import ACK
+from rfsim.gen2.reply_decoder import Windows
 from rfsim.gen2.link import delayed_reply_window_s, reader_listen_start_s, reply_window_s, t1, t5
 
 #: Failure reasons of a read, in the order the engine checks them.
@@ -370,6 +371,9 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
             preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
                                   motions=motions, draw_channel=draw_channel, propagation=propagation,
                                   link_cache=caches[b], sent=sent))
+        n_block = sum(prep.sent.tx.samples.size for prep in preps)
+        for listen in listens.values():  # the block's reader inputs in one array per reader (read where they lie)
+            listen.inputs.reset(n_block)
         heard = [_heard(_air(prep, rngs[k0 + k]), prep.members) for k, prep in enumerate(preps)]
         for prep, (truth, _), read in zip(preps, heard, _reads(preps, heard)):
             out.append(_record(prep, truth, read))
@@ -439,6 +443,51 @@ class _Listen(NamedTuple):
     reply_range: Any
     noise_w: float
     leakage: complex
+    inputs: "_InputBlock | None" = None
+
+
+class _InputBlock:
+    """The reader inputs of a block of trials in one array (stage 2 of :func:`run_exchanges`): the
+    air step forms each trial's input in a part of it (:meth:`ReaderPort.input_array`), the
+    reads of stage 3 read them there (:class:`rfsim.gen2.reply_decoder.Windows`, no copy). The
+    array is used again by the next block (the inputs of a block are read before the next block's
+    air steps)."""
+
+    __slots__ = ("buffer", "used", "starts", "views")
+
+    def __init__(self):
+        self.buffer, self.used = None, 0
+        self.starts: dict = {}  # id(view) -> its first sample in buffer (the views held in ``views``)
+        self.views: list = []
+
+    def reset(self, n_samples: int) -> None:
+        """A new block of at most ``n_samples`` samples of inputs."""
+        if self.buffer is None or self.buffer.size < n_samples:
+            self.buffer = np.empty(n_samples, dtype=np.complex128)
+        self.used = 0
+        self.starts.clear()
+        self.views.clear()
+
+    def take(self, n_samples: int) -> np.ndarray | None:
+        """The next ``n_samples`` of the array for one input (None: no room)."""
+        i = self.used
+        if self.buffer is None or i + n_samples > self.buffer.size:
+            return None
+        view = self.buffer[i:i + n_samples]
+        self.used = i + n_samples
+        self.starts[id(view)] = i
+        self.views.append(view)
+        return view
+
+    def windows(self, inputs, i0: np.ndarray) -> Windows | None:
+        """The windows ``input.samples[i0[b]:]`` of inputs formed here as
+        :class:`rfsim.gen2.reply_decoder.Windows` of the array, or None when one was not."""
+        starts = [self.starts.get(id(x.samples)) for x in inputs]
+        if None in starts:
+            return None
+        first = np.array(starts, dtype=np.int64)
+        ends = first + np.array([x.samples.shape[-1] for x in inputs], dtype=np.int64)
+        return Windows(self.buffer, np.minimum(first + i0, ends), ends)
 
 
 def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
@@ -455,7 +504,7 @@ def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
     return _Listen(window_s=window_s, bandwidth_hz=2.0 * reader.link.blf_hz,
                    air_cache=getattr(reader, "air_cache", None),
                    reply_range=_link_time(reader, t5 if delayed_reply else t1),
-                   noise_w=reader.noise_power_w(), leakage=reader.leakage_gain())
+                   noise_w=reader.noise_power_w(), leakage=reader.leakage_gain(), inputs=_InputBlock())
 
 
 def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_reply=False, header_bit=False,
@@ -469,7 +518,7 @@ def _sent(reader, cmd, *, t_s, reply_bits, expect_crc, round_index, delayed_repl
     antenna = reader.antennas[antenna_index]
     tx = reader.transmit(cmd, t0_s=t_s, cw_after_s=listen.window_s, round_index=round_index)
     port = ReaderPort(reader, antenna, tx, reply_bits=reply_bits, expect_crc=expect_crc, delayed_reply=delayed_reply,
-                      header_bit=header_bit, noise_w=listen.noise_w, leakage=listen.leakage)
+                      header_bit=header_bit, noise_w=listen.noise_w, leakage=listen.leakage, inputs=listen.inputs)
     return _Sent(antenna_index=antenna_index, tx=tx, emitters=(FixedEmitter(antenna, tx, device=reader),),
                  receivers=(port,), port=port, bandwidth_hz=listen.bandwidth_hz, air_cache=listen.air_cache,
                  reply_range=listen.reply_range)
@@ -640,13 +689,18 @@ class ReaderPort:
         batch's commands); None: read here.
     leakage : complex or None, default None
         ``reader.leakage_gain()`` when the caller read it already; None: read here.
+    inputs : _InputBlock or None, default None
+        Where the air step forms this port's inputs (:meth:`input_array`; the engine's block of
+        inputs); None: the air step makes each.
     """
 
     fc_hz = None
 
     def __init__(self, reader, antenna, tx, *, reply_bits: int, expect_crc: bool, delayed_reply: bool = False,
-                 header_bit: bool = False, noise_w: float | None = None, leakage: complex | None = None):
+                 header_bit: bool = False, noise_w: float | None = None, leakage: complex | None = None,
+                 inputs: _InputBlock | None = None):
         self.reader, self.antenna, self.tx = reader, antenna, tx
+        self._inputs = inputs
         self.reply_bits, self.expect_crc = int(reply_bits), bool(expect_crc)
         self.delayed_reply = bool(delayed_reply)
         self.header_bit = self.delayed_reply or bool(header_bit)
@@ -702,6 +756,22 @@ class ReaderPort:
         """
         return min(int(math.ceil((self._listen_s - t0_s) * fs_hz)), int(n_samples))
 
+    def input_array(self, n_samples: int) -> np.ndarray | None:
+        """Return where the air step forms an input of this port.
+
+        Parameters
+        ----------
+        n_samples : int
+            Samples of the input.
+
+        Returns
+        -------
+        ndarray of complex128, shape (n_samples,), or None
+            A part of the engine's block of inputs (the reads find it there), or None (no block,
+            or no room left: the air step makes its own array).
+        """
+        return None if self._inputs is None else self._inputs.take(n_samples)
+
     def receive(self, input):
         """Read the reply in the reader's input.
 
@@ -755,8 +825,9 @@ class ReaderPort:
                 or any(p.batch_key != key for p in ports)):
             return [p.receive(x) for p, x in zip(ports, inputs)]
         i0, t0, ends, carriers = _read_arguments(ports, inputs)
-        rows = [x.samples[i:] for x, i in zip(inputs, i0.tolist())]
-        reads = batch(rows, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0, cmd_end_s=ends,
+        laid = None if self._inputs is None else self._inputs.windows(inputs, i0)
+        rows = [x.samples[i:] for x, i in zip(inputs, i0.tolist())] if laid is None or self.header_bit else None
+        reads = batch(rows if laid is None else laid, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0, cmd_end_s=ends,
                       carrier=carriers)
         if not self.header_bit:
             return reads

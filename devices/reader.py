@@ -410,28 +410,22 @@ class Reader(PieTransmitter):
             in samples at the configured rate, one sample wider each side, clipped to
             ``[0, n_samples - n_reply]`` (``hi < lo``: no room for a reply).
         """
-        lo, hi = self._start_lags(np.array([n_samples]), n_reply, t0_s, cmd_end_s)
-        return int(lo[0]), int(hi[0])
+        lo, hi = self._start_lags((n_samples,), n_reply, (None if t0_s is None else float(t0_s),),
+                                  (None if cmd_end_s is None else float(cmd_end_s),))
+        return lo[0], hi[0]
 
-    def _start_lags(self, n_samples: np.ndarray, n_reply: int, t0_s, cmd_end_s) -> tuple[np.ndarray, np.ndarray]:
+    def _start_lags(self, n_samples, n_reply: int, t0_s, cmd_end_s) -> tuple[list, list]:
         """:meth:`reply_start_lags` of B windows at once (the rule; one window is a batch of one):
-        ``n_samples`` (B,) int, ``t0_s`` and ``cmd_end_s`` a value for all or (B,) each (None or
-        NaN: every start); returns ``lo``, ``hi`` (B,) int64."""
-        top = np.asarray(n_samples, dtype=np.int64) - int(n_reply)
-        if cmd_end_s is None:
-            return np.zeros_like(top), top
+        ``n_samples``, ``t0_s`` and ``cmd_end_s`` sequences of B values (an end None or NaN: every
+        start); returns the lists ``lo``, ``hi`` of B ints."""
+        top = [int(n) - int(n_reply) for n in n_samples]
         fs = self.fs_hz
         t1min, t1max = self._receive_memo().window
-        end = np.asarray(cmd_end_s, dtype=np.float64)
-        t0 = np.asarray(t0_s, dtype=np.float64)
-        given = ~np.isnan(end)
-        if not given.all():  # windows searched everywhere: their own end at their start
-            end = np.where(given, end, t0)
-        lo = np.maximum(0, np.floor((end + t1min - t0) * fs).astype(np.int64) - 1)
-        hi = np.minimum(top, np.ceil((end + t1max - t0) * fs).astype(np.int64) + 1)
-        if not given.all():
-            lo, hi = np.where(given, lo, 0), np.where(given, hi, top)
-        return np.broadcast_to(lo, top.shape), hi
+        floor, ceil = math.floor, math.ceil
+        lo = [0 if e is None or e != e else max(0, floor((e + t1min - t) * fs) - 1) for t, e in zip(t0_s, cmd_end_s)]
+        hi = [k if e is None or e != e else min(k, ceil((e + t1max - t) * fs) + 1)
+              for k, t, e in zip(top, t0_s, cmd_end_s)]
+        return lo, hi
 
     def receive(self, rx, *, t0_s: float, n_bits: int, expect_crc: bool,
                 cmd_end_s: float | None = None, blf_hz: float | None = None,
@@ -613,26 +607,22 @@ class Reader(PieTransmitter):
                     for row, t, e, c in zip(rx, t0s, ends, carriers)]
         n_bits = int(n_bits)
         memo, blf, pre_n, n_reply = self._reply_size(n_bits, None)
-        lengths = rx.lengths() if laid else np.fromiter(map(len, rx), dtype=np.int64, count=n_win)
-        lo, hi = self._start_lags(lengths, n_reply, t0s, ends)
+        t0s, ends, carriers = (v.tolist() if isinstance(v, np.ndarray) else list(v) for v in (t0s, ends, carriers))
+        lo, hi = self._start_lags(rx.lengths().tolist() if laid else list(map(len, rx)), n_reply, t0s, ends)
         # the windows with room for a reply (as receive: none when the preamble is under 3 samples)
-        read = np.flatnonzero(hi >= lo) if pre_n >= 3 else np.zeros(0, dtype=np.int64)
-        if read.size < n_win:  # the others: no reply searched
-            reads = [ReadResult(False, None, FAILURES[1]) for _ in range(n_win)]
-            if not read.size:
-                return reads
-        if read.size == n_win:
-            windows, t0r, cr = rx, t0s, carriers
-        else:
-            windows = rx.subset(read) if laid else [rx[b] for b in read.tolist()]
-            t0r, cr = (np.asarray(v)[read] if np.ndim(v) else v for v in (t0s, carriers))
-        out = _decode(windows, memo.known, lo=lo[read], hi=hi[read], n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
-                      crc=expect_crc)
-        got = self._read_results(out, t0r, blf, expect_crc, cr)
-        if read.size == n_win:
-            return got
-        for b, r in zip(read.tolist(), got):
-            reads[b] = r
+        read = [b for b, (a, z) in enumerate(zip(lo, hi)) if z >= a] if pre_n >= 3 else []
+        if len(read) == n_win:
+            out = _decode(rx, memo.known, lo=np.array(lo), hi=np.array(hi), n_bits=n_bits, n_reply=n_reply, blf_hz=blf,
+                          crc=expect_crc)
+            return self._read_results(out, t0s, blf, expect_crc, carriers)
+        reads = [ReadResult(False, None, FAILURES[1]) for _ in range(n_win)]  # no reply searched
+        if read:
+            windows = rx.subset(np.array(read)) if laid else [rx[b] for b in read]
+            out = _decode(windows, memo.known, lo=np.array([lo[b] for b in read]), hi=np.array([hi[b] for b in read]),
+                          n_bits=n_bits, n_reply=n_reply, blf_hz=blf, crc=expect_crc)
+            for b, r in zip(read, self._read_results(out, [t0s[b] for b in read], blf, expect_crc,
+                                                     [carriers[b] for b in read])):
+                reads[b] = r
         return reads
 
     def _reply_size(self, n_bits: int, blf_hz):
@@ -710,67 +700,70 @@ class Reader(PieTransmitter):
                      ) -> ReadResult:
         """The :class:`ReadResult` of the decoder's reply ``out`` of one window: :meth:`_read_results`
         of a batch of one."""
-        one = _DecodedReply(np.array([out.found]), np.array([out.start], dtype=np.float64),
-                            np.array([out.corr], dtype=np.float64), None if out.bits is None else [out.bits],
-                            out.blf_hz, np.array([out.gain], dtype=np.complex128),
-                            np.array([out.sigma2], dtype=np.float64), np.array([out.slope], dtype=np.float64),
-                            np.array([out.decision_ebn0_db], dtype=np.float64), None, out.extra, [out.crc_ok])
-        return self._read_results(one, t0_s, blf, expect_crc, (carrier,), searched)[0]
+        truncated = out.extra is not None and out.extra.get("truncated", False)
+        one = _DecodedReply([bool(out.found) and not truncated], [out.start], [out.corr], [out.bits], out.blf_hz,
+                            [out.gain], [out.sigma2], [out.slope], [out.decision_ebn0_db], None, None, [out.crc_ok])
+        return self._read_results(one, [t0_s], blf, expect_crc, [carrier], searched)[0]
 
-    def _read_results(self, out, t0_s, blf: float, expect_crc: bool, carrier, searched: bool = False) -> list:
-        """The :class:`ReadResult` of each of B windows the decoder read, from the arrays of its
-        result ``out`` (``found``, ``start``, ``corr``, ``gain``, ``sigma2``, ``slope``,
-        ``decision_ebn0_db`` (B,), ``bits`` a sequence of B rows or None, ``crc_ok`` a sequence):
-        the failure reason, the measurements at ``blf`` (:func:`rfsim.devices.reader_measure.measurements`,
-        phase referred to window b's ``carrier``); with the BLF search also the BLF, the
+    def _read_results(self, out, t0_s: list, blf: float, expect_crc: bool, carrier: list, searched: bool = False
+                      ) -> list:
+        """The :class:`ReadResult` of each of B windows the decoder read, built in one pass from
+        its result ``out`` (``found``, ``start``, ``corr``, ``gain``, ``sigma2``, ``slope``,
+        ``decision_ebn0_db``: B values each, arrays or lists; ``bits`` B rows; ``crc_ok`` B values)
+        and each window's ``t0_s`` and ``carrier`` (lists): the failure reason, the measurements at
+        ``blf`` (:func:`rfsim.devices.reader_measure.measurements`, phase referred to the window's
+        carrier where it is given and non-zero); with the BLF search also the BLF, the
         decision-domain Eb/(N0 + I) and, for an RN16, its acceptance. With timing tracking
         (``config.track_timing``) a reply the window cuts (on the tag's clock, the decoder's
-        ``truncated``) is not found, and the Doppler is not measured (NaN). ``t0_s`` and
-        ``carrier``: a value for all windows or window b's."""
-        found = np.asarray(out.found, dtype=bool)
-        n = found.size
-        start_s = (np.asarray(t0_s, dtype=np.float64) + out.start / self.fs_hz)
-        start_s = np.broadcast_to(start_s, (n,)).tolist()
-        corr = out.corr.tolist()
-        if out.extra is not None and out.extra.get("truncated", False):
-            found = np.zeros(n, dtype=bool)
+        ``truncated``) is not found (:meth:`_read_result`), and the Doppler is not measured (NaN)."""
+        found = out.found.tolist() if isinstance(out.found, np.ndarray) else out.found
+        start = out.start.tolist() if isinstance(out.start, np.ndarray) else out.start
+        corr = out.corr.tolist() if isinstance(out.corr, np.ndarray) else out.corr
+        fs = self.fs_hz
+        start_s = [t + x / fs for t, x in zip(t0_s, start)]
+        gain, slope, sigma2, bits, crc_ok = out.gain, out.slope, out.sigma2, out.bits, out.crc_ok
+        crc_ok = [None] * len(found) if crc_ok is None else crc_ok
+        if not all(found):  # the windows without a reply: no measurements
+            reads = [None if f else ReadResult(False, None, FAILURES[1], start_s=t, corr=c)
+                     for f, t, c in zip(found, start_s, corr)]
+            hit = [b for b, f in enumerate(found) if f]
+            if not hit:
+                return reads
+            gain, slope, sigma2, bits, crc_ok, carrier, start_s, corr = (
+                [v[b] for b in hit] for v in (gain, slope, sigma2, bits, crc_ok, carrier, start_s, corr))
+        meas = _measurements_of(gain, slope, sigma2, blf_hz=blf, fs_hz=fs, m=self.link.m)
+        refer = [b for b, c in enumerate(carrier) if c is not None and complex(c) != 0]
+        phase = meas["phase_rad"]
+        if len(refer) == 1:  # the phase referred to the reader's carrier during the reply
+            phase[refer[0]] = _refer_phase(phase[refer[0]], carrier[refer[0]])
+        elif refer:
+            referred = _refer_phase(np.array([phase[b] for b in refer]),
+                                    np.array([carrier[b] for b in refer], dtype=np.complex128)).tolist()
+            for b, v in zip(refer, referred):
+                phase[b] = v
+        n = len(start_s)
         nan = [math.nan] * n
-        if not found.any():
-            return list(map(ReadResult, repeat(False, n), repeat(None, n), repeat(FAILURES[1], n), nan, nan, nan, nan,
-                            nan, start_s, corr))
-        meas = _measurements_of(out.gain, out.slope, out.sigma2, blf_hz=blf, fs_hz=self.fs_hz, m=self.link.m)
-        if carrier is not None:  # the phase referred to each window's carrier (where given, non-zero)
-            c = np.array([0j if x is None else x for x in (carrier if np.ndim(carrier) else (carrier,) * n)],
-                         dtype=np.complex128)
-            refer = c != 0
-            if refer.all():
-                meas["phase_rad"] = _refer_phase(meas["phase_rad"], c)
-            elif refer.any():
-                meas["phase_rad"][refer] = _refer_phase(meas["phase_rad"][refer], c[refer])
-        cols = {k: v.tolist() for k, v in meas.items()}
+        blfs = decision = nan
         if expect_crc:
-            ok = [bool(c) for c in out.crc_ok]
+            ok = [bool(c) for c in crc_ok]
             reason = [FAILURES[0] if c else FAILURES[2] for c in ok]
         elif searched:
             p = self.config.rn16_false_accept
-            ok = [True] * n if p == 0 else (out.decision_ebn0_db >= rn16_threshold_db(p)).tolist()
+            dec = out.decision_ebn0_db  # (one window: the search is not batched)
+            ok = [p == 0 or x >= rn16_threshold_db(p) for x in dec]
             reason = [FAILURES[0] if c else FAILURES[3] for c in ok]
             if ok[-1]:  # an ACK follows: the reply it elicits comes from the tag measured here
                 self._rn16_blf_hz = blf
+            blfs, decision = [blf] * n, [float(x) for x in dec]
         else:
             ok, reason = [True] * n, [FAILURES[0]] * n
-        blfs = decision = nan
-        if searched:
-            blfs, decision = [blf] * n, out.decision_ebn0_db.tolist()
-        bits = out.bits if out.bits is not None else [None] * n
-        if not found.all():  # windows without a reply: no bits, no measurements
-            lost = (~found).tolist()
-            ok = [False if x else o for x, o in zip(lost, ok)]
-            reason = [FAILURES[1] if x else r for x, r in zip(lost, reason)]
-            bits = [None if x else b for x, b in zip(lost, bits)]
-            cols = {k: [math.nan if x else v for x, v in zip(lost, col)] for k, col in cols.items()}
-        return list(map(ReadResult, ok, bits, reason, cols["rssi_dbm"], cols["phase_rad"], cols["doppler_hz"],
-                        cols["snr_db"], cols["ebn0_db"], start_s, corr, blfs, decision))
+        made = map(ReadResult, ok, bits, reason, meas["rssi_dbm"], meas["phase_rad"], meas["doppler_hz"],
+                   meas["snr_db"], meas["ebn0_db"], start_s, corr, blfs, decision)
+        if len(found) == n:
+            return list(made)
+        for b, r in zip(hit, made):
+            reads[b] = r
+        return reads
 
     def _decode_plan(self, search: str) -> _DecodePlan:
         """The :class:`rfsim.gen2.reply_decoder.DecodePlan` of ``search`` ("known" or "blf") for
@@ -824,8 +817,9 @@ class Reader(PieTransmitter):
         """RSSI, phase, Doppler and SNR (the :class:`ReadResult` fields) from the measured gain
         h [√W], phase slope [rad/s] and residual power σ² [W] (:meth:`receive` step 5): the
         measurement rule :func:`rfsim.devices.reader_measure.measurements` on a batch of one."""
-        meas = _measurements_of(h, slope, sigma2, blf_hz=blf_hz, fs_hz=self.fs_hz, m=self.link.m)
-        return {k: float(v[0]) for k, v in meas.items()}
+        meas = _measurements_of([complex(h)], [float(slope)], [float(sigma2)], blf_hz=blf_hz, fs_hz=self.fs_hz,
+                                m=self.link.m)
+        return {k: v[0] for k, v in meas.items()}
 
 
 def _per_window(value, n: int, name: str):

@@ -184,9 +184,9 @@ def refer_phase(phase_rad, carrier):
     float or ndarray of float, shape (B,)
         ``phase_rad + arg(carrier)`` wrapped to [0, 2π) [rad] (a float for scalar arguments).
     """
-    if np.ndim(phase_rad) == 0 and np.ndim(carrier) == 0:
-        return float(wrap_phase_rad(phase_rad + float(np.angle(complex(carrier)))))
-    return wrap_phase_rad(np.add(phase_rad, np.angle(carrier)))
+    if isinstance(phase_rad, np.ndarray) and phase_rad.ndim:
+        return wrap_phase_rad(np.add(phase_rad, np.angle(carrier)))
+    return float(wrap_phase_rad(phase_rad + float(np.angle(complex(carrier)))))
 
 
 def measurements(gain, slope, sigma2, *, blf_hz: float, fs_hz: float, m: int) -> dict:
@@ -208,11 +208,11 @@ def measurements(gain, slope, sigma2, *, blf_hz: float, fs_hz: float, m: int) ->
 
     Parameters
     ----------
-    gain : complex or array_like of complex, shape (B,)
-        Measured gain h at the reply centre [√W].
-    slope : float or array_like of float, shape (B,)
+    gain : sequence of complex, shape (B,)
+        Measured gain h at the reply centre [√W] (a list or an array).
+    slope : sequence of float, shape (B,)
         Phase slope d(arg h)/dt [rad/s].
-    sigma2 : float or array_like of float, shape (B,)
+    sigma2 : sequence of float, shape (B,)
         Residual power per sample σ² [W].
     blf_hz : float
         Keyword-only (like the others): the BLF decoded at [Hz].
@@ -224,20 +224,26 @@ def measurements(gain, slope, sigma2, *, blf_hz: float, fs_hz: float, m: int) ->
     Returns
     -------
     dict
-        ``rssi_dbm``, ``phase_rad``, ``doppler_hz``, ``snr_db``, ``ebn0_db``: (B,) float64 arrays.
+        ``rssi_dbm``, ``phase_rad``, ``doppler_hz``, ``snr_db``, ``ebn0_db``: lists of B floats.
     """
-    gain = np.asarray(gain, dtype=np.complex128).reshape(-1)
-    sigma2 = np.asarray(sigma2, dtype=np.float64).reshape(-1)
-    p = np.fromiter(map(pow, map(abs, gain.tolist()), repeat(2)), dtype=np.float64, count=gain.size)
-    pos = p > 0
-    snr = np.full(p.shape, math.inf)
-    ok = pos & (sigma2 > 0)
-    if ok.any():
-        snr[ok] = 10.0 * np.fromiter(map(math.log10, (p[ok] / sigma2[ok]).tolist()), dtype=np.float64)
-    rssi = np.full(p.shape, -math.inf)
-    if pos.any():
-        rssi[pos] = w_to_dbm(p[pos])
-    phase = wrap_phase_rad(-np.arctan2(gain.imag, gain.real))  # -arg h, as np.angle
-    doppler = np.asarray(slope, dtype=np.float64).reshape(-1) / (2.0 * math.pi)
-    return dict(rssi_dbm=rssi, phase_rad=phase, doppler_hz=doppler, snr_db=snr,
-                ebn0_db=snr + 10.0 * math.log10(fs_hz * m / blf_hz))
+    gain = gain.tolist() if isinstance(gain, np.ndarray) else gain
+    slope = slope.tolist() if isinstance(slope, np.ndarray) else slope
+    sigma2 = sigma2.tolist() if isinstance(sigma2, np.ndarray) else sigma2
+    p = list(map(pow, map(abs, map(complex, gain)), repeat(2)))
+    inf = math.inf
+    snr = [10.0 * math.log10(x / s) if s > 0 and x > 0 else inf for x, s in zip(p, sigma2)]
+    ebn0 = 10.0 * math.log10(fs_hz * m / blf_hz)
+    if len(p) == 1:  # the same ufuncs on the one value (NumPy's scalar call: no arrays to make)
+        h = complex(gain[0])
+        rssi = [float(w_to_dbm(p[0])) if p[0] > 0 else -inf]
+        phase = [float(wrap_phase_rad(-np.arctan2(h.imag, h.real)))]  # -arg h, as np.angle
+    else:
+        pos = [x > 0 for x in p]
+        rssi = w_to_dbm([x if ok else 1.0 for x, ok in zip(p, pos)]).tolist()
+        if not all(pos):  # |h| = 0 (or NaN): −∞
+            rssi = [v if ok else -inf for v, ok in zip(rssi, pos)]
+        g = np.array(gain, dtype=np.complex128)
+        phase = wrap_phase_rad(-np.arctan2(g.imag, g.real)).tolist()
+    # slope/(2π) and SNR + 10·log10(fs·M/BLF), element by element
+    return dict(rssi_dbm=rssi, phase_rad=phase, doppler_hz=list(map((2.0 * math.pi).__rtruediv__, slope)),
+                snr_db=snr, ebn0_db=list(map(ebn0.__radd__, snr)))

@@ -161,7 +161,7 @@ def test_receive_batch_of_windows_with_their_own_starts(profile, decoder):
 
 
 def test_batch_kernel_reads_each_window_at_its_own_offset():
-    """``receive_batch_kernel`` on windows one after the other (flat array, offsets) equals
+    """``receive_batch_kernel`` on windows one after the other (flat array, starts and ends) equals
     ``receive_kernel`` on each window alone; with the offsets of windows of another length it
     does not (the test can fail)."""
     from rfsim.gen2 import _receive_kernels as rxk
@@ -227,3 +227,115 @@ def test_singulate_batch_reads_the_epc_replies_in_one_call(monkeypatch):
         assert [e.command for e in a] == [e.command for e in b]
         for ea, eb in zip(a, b):
             assert_same_exchange(ea, eb)
+
+
+def test_receive_batch_reads_windows_where_they_lie():
+    """Windows left in one array with gaps and out of order (``Windows``: each its own start and
+    end, as the engine's block of reader inputs) read in one call equal the reads window by window,
+    record for record; the same call with two windows' places swapped does not (the test can fail)."""
+    from rfsim.gen2.reply_decoder import Windows
+
+    reader = make_reader(profile="miller4-320k")
+    rows, t0s, ends, carriers, _ = _shifted_windows(reader, 85)
+    order = [3, 0, 5, 1, 4, 2]  # the windows' places in the array, with a gap before each
+    gap = 17
+    buffer = np.zeros(sum(r.size + gap for r in rows), dtype=np.complex128)
+    first = np.zeros(len(rows), dtype=np.int64)
+    at = 0
+    for b in order:
+        at += gap
+        buffer[at:at + rows[b].size] = rows[b]
+        first[b] = at
+        at += rows[b].size
+    last = first + np.array([r.size for r in rows])
+    kw = dict(n_bits=128, expect_crc=True, t0_s=t0s, cmd_end_s=ends, carrier=carriers)
+    laid = reader.receive_batch(Windows(buffer, first, last), **kw)
+    single = [reader.receive(row, t0_s=t, cmd_end_s=e, carrier=c, n_bits=128, expect_crc=True)
+              for row, t, e, c in zip(rows, t0s, ends, carriers)]
+    assert sum(r.success for r in single) == 4
+    for a, b in zip(laid, single):
+        _same_read(a, b)
+    first[[0, 2]], last[[0, 2]] = first[[2, 0]].copy(), last[[2, 0]].copy()  # windows 0 and 2 swapped
+    swapped = reader.receive_batch(Windows(buffer, first, last), **kw)
+    assert not (swapped[0].success and swapped[0].start_s == single[0].start_s
+                and swapped[2].success and swapped[2].start_s == single[2].start_s)
+
+
+def test_measurement_rule_of_a_batch_is_each_read_s():
+    """The measurement rule (gain, slope, residual -> RSSI, phase, Doppler, SNR, Eb/N0) over B reads
+    equals the rule on each read alone (B = 1), bit for bit, including |h| = 0 and σ² = 0; the values
+    are those of the formulas written here; a batch read out of order does not match (the test can fail)."""
+    from rfsim.devices.reader_measure import measurements
+
+    rng = trial_rng(86)
+    n = 400
+    gain = (rng.standard_normal(n) + 1j * rng.standard_normal(n)) * 10 ** rng.uniform(-6, -2, n)
+    gain[3] = 0
+    sigma2 = 10 ** rng.uniform(-16, -9, n)
+    sigma2[5] = 0
+    slope = rng.uniform(-50, 50, n)
+    kw = dict(blf_hz=320e3, fs_hz=4e6, m=4)
+    batch = measurements(gain, slope, sigma2, **kw)
+    for b in range(n):
+        one = measurements([gain[b]], [slope[b]], [sigma2[b]], **kw)
+        for k, v in batch.items():
+            assert v[b] == one[k][0] or (math.isnan(v[b]) and math.isnan(one[k][0])), (k, b)
+    batch = {k: np.array(v) for k, v in batch.items()}
+    p = np.abs(gain) ** 2
+    with np.errstate(divide="ignore"):
+        assert np.allclose(batch["rssi_dbm"][p > 0], 10 * np.log10(p[p > 0]) + 30, rtol=0, atol=1e-9)
+        snr = 10 * np.log10(p / sigma2)
+    assert batch["rssi_dbm"][3] == -math.inf and batch["snr_db"][3] == math.inf and batch["snr_db"][5] == math.inf
+    ok = (p > 0) & (sigma2 > 0)
+    assert np.allclose(batch["snr_db"][ok], snr[ok], rtol=0, atol=1e-9)
+    assert np.allclose(batch["ebn0_db"][ok], snr[ok] + 10 * math.log10(4e6 * 4 / 320e3), rtol=0, atol=1e-9)
+    assert np.allclose(batch["phase_rad"], np.mod(-np.angle(gain), 2 * math.pi), rtol=0, atol=1e-12)
+    assert np.array_equal(batch["doppler_hz"], slope / (2 * math.pi))
+    rolled = measurements(np.roll(gain, 1), slope, sigma2, **kw)
+    assert not np.array_equal(np.array(rolled["rssi_dbm"]), batch["rssi_dbm"])
+
+
+def test_start_lags_of_a_batch_are_each_window_s():
+    """The reply start lags of B windows at once equal :meth:`Reader.reply_start_lags` of each
+    (the public rule, a batch of one), with a command end or none; the lags of another window's
+    time base differ (the test can fail)."""
+    reader = make_reader(profile="miller4-320k")
+    rows, t0s, ends, _, _ = _shifted_windows(reader, 87)
+    n = [r.size for r in rows]
+    lo, hi = reader._start_lags(n, 900, t0s, ends)
+    for b in range(len(rows)):
+        assert (lo[b], hi[b]) == reader.reply_start_lags(n[b], 900, t0_s=t0s[b], cmd_end_s=ends[b])
+        # the rule written here: [end + T1min, end + T1max] in samples, one wider each side, clipped
+        t1min, t1max = reader.reply_search_window_s()
+        fs = reader.fs_hz
+        assert lo[b] == max(0, math.floor((ends[b] + t1min - t0s[b]) * fs) - 1)
+        assert hi[b] == min(n[b] - 900, math.ceil((ends[b] + t1max - t0s[b]) * fs) + 1)
+    lo0, hi0 = reader._start_lags(n, 900, t0s, [None] * len(rows))
+    assert lo0 == [0] * len(rows) and hi0 == [k - 900 for k in n]
+    lo2, _ = reader._start_lags(n, 900, t0s[1:] + t0s[:1], ends)
+    assert lo2 != lo
+
+
+def test_run_exchanges_reads_a_block_where_the_air_step_formed_it(monkeypatch):
+    """In a batch the air step forms the reader inputs of a block in one array and the reads take
+    them there (``Windows``, no copy of the windows); the records equal the separate runs'."""
+    from rfsim.devices.reader import Reader
+    from rfsim.gen2.reply_decoder import Windows
+    from rfsim.protocols.batch import run_exchanges
+    from rfsim.protocols.engine import run_exchange
+
+    near = (1.0, 2.0, 3.0, 2.5)
+    reader, tags, channel = devices(near)
+    seen = []
+    batch_read = Reader.receive_batch
+    monkeypatch.setattr(Reader, "receive_batch",
+                        lambda self, rx, **k: seen.append(type(rx)) or batch_read(self, rx, **k))
+    batch = run_exchanges(reader, tags, channel, query_of(reader), t_s=0.25,
+                          rngs=[trial_rng(SEED, 2, b) for b in range(len(near))], reply_bits=16, expect_crc=False)
+    assert seen == [Windows]
+    reader2, tags2, channel2 = devices(near)
+    single = [run_exchange(reader2, tags2[b], channel2, query_of(reader2), t_s=0.25, rng=trial_rng(SEED, 2, b),
+                           reply_bits=16, expect_crc=False) for b in range(len(near))]
+    assert any(ex.success for ex in single)
+    for a, b in zip(batch, single):
+        assert_same_exchange(a, b)

@@ -579,8 +579,8 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         over them, ``bits`` ``(B, n_bits)``, and ``extra`` holds ``ebn0_db``; not with a plan
         that measures on the known levels). "known" without timing tracking also ``(B, n)``,
         a sequence of B 1-D windows or :class:`Windows` (read where they lie; their lengths and
-        the times of their first samples may differ), each window with its own ``lo``, ``hi`` (scalars or ``(B,)``, samples of that
-        window): ``found``, ``start`` (samples of each window), ``corr``, ``gain``, ``sigma2``,
+        the times of their first samples may differ), each window with its own ``lo``, ``hi``
+        (scalars or ``(B,)``, samples of that window): ``found``, ``start`` (samples of each window), ``corr``, ``gain``, ``sigma2``,
         ``slope`` are ``(B,)`` arrays, ``bits`` ``(B, n_bits)`` and ``crc_ok`` a list (None for
         a window without a reply), ``window`` the windows as given; window b's values are those
         of its own call.
@@ -660,11 +660,28 @@ class Windows:
         return self.samples[self.starts[b]:self.ends[b]]
 
     def lengths(self) -> np.ndarray:
-        """``(B,) int64`` samples of each window."""
+        """Return the length of each window.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(B,) int64`` samples of each window.
+        """
         return self.ends - self.starts
 
     def subset(self, index: np.ndarray) -> "Windows":
-        """The windows ``index`` ((k,) int) of these, in that order (no copy of the samples)."""
+        """Return some of these windows.
+
+        Parameters
+        ----------
+        index : numpy.ndarray
+            ``(k,) int`` the windows taken, in that order.
+
+        Returns
+        -------
+        Windows
+            Those windows of the same samples (no copy).
+        """
         return Windows(self.samples, self.starts[index], self.ends[index])
 
 
@@ -763,8 +780,8 @@ def _search_one_blf(w: _Work, plan: DecodePlan) -> None:
     out_f, out_c = np.empty((*batch, 4)), np.empty((*batch, 1), dtype=np.complex128)
     if batch:
         status = np.empty(batch, dtype=np.int64)
-        _rxk.receive_batch_kernel(w.r, w.starts, w.ends, w.lo, w.hi, w.n_reply, w.threshold, *plan.known_arguments(w.blf), det_bits,
-                                  bits, out_f, out_c, status)
+        _rxk.receive_batch_kernel(w.r, w.starts, w.ends, w.lo, w.hi, w.n_reply, w.threshold,
+                                  *plan.known_arguments(w.blf), det_bits, bits, out_f, out_c, status)
         worst = int(status.max(initial=_rxk.RECEIVED))
         w.start, w.corr, w.found = out_f[:, 0], out_f[:, 1], status != _rxk.NOT_FOUND
     else:

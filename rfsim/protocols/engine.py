@@ -371,9 +371,10 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
             preps.append(_prepare(readers[b], tags[b], channels[b], cmds[b], t_s=times[b], rng=rngs[b],
                                   motions=motions, draw_channel=draw_channel, propagation=propagation,
                                   link_cache=caches[b], sent=sent))
-        n_block = sum(prep.sent.tx.samples.size for prep in preps)
-        for listen in listens.values():  # the block's reader inputs in one array per reader (read where they lie)
-            listen.inputs.reset(n_block)
+        if len(preps) > 1:  # the block's reader inputs in one array per reader (read where they lie)
+            n_block = sum(prep.sent.tx.samples.size for prep in preps)
+            for listen in listens.values():
+                listen.inputs.reset(n_block)
         heard = [_heard(_air(prep, rngs[k0 + k]), prep.members) for k, prep in enumerate(preps)]
         for prep, (truth, _), read in zip(preps, heard, _reads(preps, heard)):
             out.append(_record(prep, truth, read))
@@ -827,8 +828,8 @@ class ReaderPort:
         i0, t0, ends, carriers = _read_arguments(ports, inputs)
         laid = None if self._inputs is None else self._inputs.windows(inputs, i0)
         rows = [x.samples[i:] for x, i in zip(inputs, i0.tolist())] if laid is None or self.header_bit else None
-        reads = batch(rows if laid is None else laid, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0, cmd_end_s=ends,
-                      carrier=carriers)
+        reads = batch(rows if laid is None else laid, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0,
+                      cmd_end_s=ends, carrier=carriers)
         if not self.header_bit:
             return reads
         return [p._error_reply(read, row, dict(t0_s=t, expect_crc=self.expect_crc, cmd_end_s=e, carrier=c))

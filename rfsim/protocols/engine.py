@@ -480,7 +480,7 @@ class _InputBlock:
         self.views.append(view)
         return view
 
-    def windows(self, inputs, i0: np.ndarray) -> Windows | None:
+    def windows(self, inputs, i0: list) -> Windows | None:
         """The windows ``input.samples[i0[b]:]`` of inputs formed here as
         :class:`rfsim.gen2.reply_decoder.Windows` of the array, or None when one was not."""
         starts = [self.starts.get(id(x.samples)) for x in inputs]
@@ -488,7 +488,7 @@ class _InputBlock:
             return None
         first = np.array(starts, dtype=np.int64)
         ends = first + np.array([x.samples.shape[-1] for x in inputs], dtype=np.int64)
-        return Windows(self.buffer, np.minimum(first + i0, ends), ends)
+        return Windows(self.buffer, np.minimum(first + np.array(i0, dtype=np.int64), ends), ends)
 
 
 def _listen(reader, reply_bits: int, delayed_reply: bool) -> _Listen:
@@ -827,22 +827,22 @@ class ReaderPort:
             return [p.receive(x) for p, x in zip(ports, inputs)]
         i0, t0, ends, carriers = _read_arguments(ports, inputs)
         laid = None if self._inputs is None else self._inputs.windows(inputs, i0)
-        rows = [x.samples[i:] for x, i in zip(inputs, i0.tolist())] if laid is None or self.header_bit else None
+        rows = [x.samples[i:] for x, i in zip(inputs, i0)] if laid is None or self.header_bit else None
         reads = batch(rows if laid is None else laid, n_bits=self.reply_bits, expect_crc=self.expect_crc, t0_s=t0,
                       cmd_end_s=ends, carrier=carriers)
         if not self.header_bit:
             return reads
         return [p._error_reply(read, row, dict(t0_s=t, expect_crc=self.expect_crc, cmd_end_s=e, carrier=c))
-                for p, read, row, t, e, c in zip(ports, reads, rows, t0.tolist(), ends.tolist(), carriers)]
+                for p, read, row, t, e, c in zip(ports, reads, rows, t0, ends, carriers)]
 
     def _read_arguments(self, input) -> tuple:
         """The first sample read of ``input`` (the listen start) and the keywords of
         ``reader.receive`` for it (:func:`_read_arguments` of one input)."""
         i0, t0, ends, carriers = _read_arguments((self,), (input,))
-        kwargs = dict(t0_s=float(t0[0]), expect_crc=self.expect_crc, cmd_end_s=self.tx.cmd_end_s, carrier=carriers[0])
+        kwargs = dict(t0_s=t0[0], expect_crc=self.expect_crc, cmd_end_s=ends[0], carrier=carriers[0])
         if self.delayed_reply:
             kwargs["delayed"] = True
-        return int(i0[0]), kwargs
+        return i0[0], kwargs
 
     def _error_reply(self, read, rx, kwargs):
         """``read``, or with ``header_bit`` the read of ``rx`` at the error reply's length when the
@@ -855,16 +855,14 @@ class ReaderPort:
 
 def _read_arguments(ports, inputs) -> tuple:
     """What the reads of B inputs take, each read by its own port (:meth:`ReaderPort.receive`,
-    :meth:`ReaderPort.receive_batch`; one input is a batch of one): ``i0`` (B,) int64, the
-    first sample read (ceil((listen start − t0)·fs)); ``t0_s`` (B,) the time of that sample [s];
-    ``cmd_end_s`` (B,) the command's end [s]; ``carrier`` (B,) complex128, the reader's own
-    baseband during the reply (``tx.samples[-1]``)."""
-    fs = np.array([x.fs_hz for x in inputs], dtype=np.float64)
-    t0 = np.array([x.t0_s for x in inputs], dtype=np.float64)
-    i0 = np.ceil((np.array([p._listen_s for p in ports], dtype=np.float64) - t0) * fs).astype(np.int64)
-    ends = np.array([p.tx.cmd_end_s for p in ports], dtype=np.float64)
-    carriers = np.array([p.tx.samples[-1] for p in ports], dtype=np.complex128)
-    return i0, t0 + i0 / fs, ends, carriers
+    :meth:`ReaderPort.receive_batch`; one input is a batch of one), lists of B values: ``i0``, the
+    first sample read (ceil((listen start − t0)·fs)); ``t0_s``, the time of that sample [s];
+    ``cmd_end_s``, the command's end [s]; ``carrier``, the reader's own baseband during the reply
+    (``tx.samples[-1]``)."""
+    ceil = math.ceil
+    i0 = [ceil((p._listen_s - x.t0_s) * x.fs_hz) for p, x in zip(ports, inputs)]
+    return (i0, [x.t0_s + i / x.fs_hz for x, i in zip(inputs, i0)], [p.tx.cmd_end_s for p in ports],
+            [p.tx.samples[-1] for p in ports])
 
 
 class _TagIndex(NamedTuple):

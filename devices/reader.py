@@ -35,6 +35,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import operator
 from collections.abc import Sequence
 from itertools import repeat
 from typing import NamedTuple
@@ -720,7 +721,7 @@ class Reader(PieTransmitter):
         start = out.start.tolist() if isinstance(out.start, np.ndarray) else out.start
         corr = out.corr.tolist() if isinstance(out.corr, np.ndarray) else out.corr
         fs = self.fs_hz
-        start_s = [t + x / fs for t, x in zip(t0_s, start)]
+        start_s = list(map(operator.add, t0_s, map(operator.truediv, start, repeat(fs))))  # t0 + start/fs
         gain, slope, sigma2, bits, crc_ok = out.gain, out.slope, out.sigma2, out.bits, out.crc_ok
         crc_ok = [None] * len(found) if crc_ok is None else crc_ok
         if not all(found):  # the windows without a reply: no measurements
@@ -745,18 +746,18 @@ class Reader(PieTransmitter):
         nan = [math.nan] * n
         blfs = decision = nan
         if expect_crc:
-            ok = [bool(c) for c in crc_ok]
-            reason = [FAILURES[0] if c else FAILURES[2] for c in ok]
+            ok = list(map(bool, crc_ok))
+            reason = list(map((FAILURES[2], FAILURES[0]).__getitem__, ok))
         elif searched:
             p = self.config.rn16_false_accept
-            dec = out.decision_ebn0_db  # (one window: the search is not batched)
-            ok = [p == 0 or x >= rn16_threshold_db(p) for x in dec]
+            ok = [p == 0 or x >= rn16_threshold_db(p) for x in out.decision_ebn0_db]
             reason = [FAILURES[0] if c else FAILURES[3] for c in ok]
             if ok[-1]:  # an ACK follows: the reply it elicits comes from the tag measured here
                 self._rn16_blf_hz = blf
-            blfs, decision = [blf] * n, [float(x) for x in dec]
         else:
             ok, reason = [True] * n, [FAILURES[0]] * n
+        if searched:  # (one window: the search is not batched)
+            blfs, decision = [blf] * n, list(out.decision_ebn0_db)
         made = map(ReadResult, ok, bits, reason, meas["rssi_dbm"], meas["phase_rad"], meas["doppler_hz"],
                    meas["snr_db"], meas["ebn0_db"], start_s, corr, blfs, decision)
         if len(found) == n:

@@ -28,11 +28,11 @@ EPC = GOLDEN_REPLIES[0][1]
 
 
 def _observable(st: TagState) -> dict:
-    """A state's attributes but its arrays, with its time and slot counter as read (``t_s``,
-    ``slot``: its own or following a shared clock) instead of how they are held."""
-    held = ("_clock", "_t_s", "_slot_clock", "_slot")
+    """A state's attributes but its arrays, with its time, slot counter and Q as read (``t_s``,
+    ``slot``, ``q``: its own or following a shared clock) instead of how they are held."""
+    held = ("_clock", "_t_s", "_slot_clock", "_slot", "_q")
     out = {k: v for k, v in vars(st).items() if not isinstance(v, np.ndarray) and k not in held}
-    out["t_s"], out["slot"] = st.t_s, st.slot
+    out["t_s"], out["slot"], out["q"] = st.t_s, st.slot, st.q
     out["memory"] = (st.memory.chip, st.memory.banks, st.memory.xpc_w1, st.memory.locks)  # its contents
     return out
 

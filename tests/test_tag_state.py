@@ -754,6 +754,68 @@ def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
             assert (a.state, a.slot, a.t_s) == (b.state, b.slot, b.t_s)
 
 
+
+def test_redraws_of_counting_tags_write_only_the_arrays(monkeypatch):
+    # 40 tags in Arbitrate of session 0 (Q = 5, counters 1…40) take a QueryAdjust (UpDn −1)
+    # through the arrays, then two more (UpDn +1, 0) and QueryReps between them, each against
+    # on_command on copies with equal generators. From the second QueryAdjust on, a tag whose
+    # counter counted with the arrays' clock and draws a non-zero counter again must not be
+    # touched at all (no attribute of its TagState set: its counter and Q are its rows), yet
+    # read the new counter and Q; only the tags whose new counter is 0 (they reply) are.
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    n = 40
+    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
+    for k, (a, b) in enumerate(zip(fast, full)):
+        for st in (a, b):
+            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, 5
+    g_fast = [np.random.default_rng(300 + k) for k in range(n)]
+    g_full = [np.random.default_rng(300 + k) for k in range(n)]
+    arrays = StateArrays(fast, g_fast)
+    touched = []
+    original_setattr = TagState.__setattr__
+
+    def setattr_(self, name, value):
+        touched.append(self)
+        original_setattr(self, name, value)
+
+    t = 1e-3
+    for k, cmd in enumerate([QueryAdjust(session=0, updn=-1), QueryRep(session=0), QueryAdjust(session=0, updn=1),
+                             QueryRep(session=0), QueryAdjust(session=0, updn=0)]):
+        t += 1e-3
+        ready = [st.state == "arbitrate" for st in fast]
+        before = [st._slot_clock is arrays.clock for st in fast]
+        if k:
+            monkeypatch.setattr(TagState, "__setattr__", setattr_)
+        touched.clear()
+        cand = np.array(ready)
+        silent, dec = arrays.silent_steps(cmd, cand, t)
+        redraw = arrays.redraw_steps(cmd, np.greater(cand, silent), t)
+        arrays.take_silent_steps(cmd, silent, dec, t, joining=redraw)
+        got = dict(arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, t))
+        monkeypatch.setattr(TagState, "__setattr__", original_setattr)
+        expected = {}
+        for i, (a, b, g) in enumerate(zip(fast, full, g_full)):
+            if not ready[i]:
+                continue
+            if silent[i] or redraw[i]:
+                r = b.on_command(cmd, t_s=t, rng=g)
+                if r is not None:
+                    expected[i] = r
+            else:  # (a decrement to 0: the tag's own step, as the population would take it)
+                r = a.on_command(cmd, t_s=t, rng=g_fast[i])
+                assert r is not None and b.on_command(cmd, t_s=t, rng=g) == r
+                arrays.read([i])
+        assert got.keys() == expected.keys() and all(got[i] == expected[i] for i in got)
+        for a, b, ga, gb in zip(fast, full, g_fast, g_full):
+            assert _observable(a) == _observable(b)
+            assert ga.bit_generator.state == gb.bit_generator.state
+        if k and type(cmd) is QueryAdjust:
+            kept = [i for i in range(n) if redraw[i] and before[i] and i not in got]
+            assert kept and not any(any(x is fast[i] for x in touched) for i in kept)
+            assert [fast[i].q for i in kept] == [full[i].q for i in kept]
+
+
 # The transitions of the round commands, by hand from the Gen2 rules ("Tag states and slot
 # counter", the QueryRep/QueryAdjust/ACK/NAK sections): (command, state, session of the
 # tag's round or -1) -> the fields of RoundStep that hold (a decrement is silent unless the

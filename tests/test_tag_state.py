@@ -692,6 +692,17 @@ def test_killed_tag_never_replies_again_across_power_cycles():
                              QueryRep(session=0))):
         assert tag.on_command(cmd, t_s=t + 11.0 + k, rng=rng) is None
     assert tag.state == "killed"
+def _arbitrate_twins(n: int, q: int, seed: int) -> tuple:
+    """Two lists of n tags in Arbitrate of session 0 (Q ``q``, counters 1…n) and two lists of
+    equal generators (seeds ``seed`` + k): (fast, full, generators of fast, of full)."""
+    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
+    for k, (a, b) in enumerate(zip(fast, full)):
+        for st in (a, b):
+            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, q
+    return (fast, full, [np.random.default_rng(seed + k) for k in range(n)],
+            [np.random.default_rng(seed + k) for k in range(n)])
+
+
 def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
     # 30 tags in Arbitrate of session 0 (Q = 4, counters 1…30 read back as their own) take a
     # QueryAdjust (UpDn +1) at 1 ms: the silent step joined by the redrawing tags
@@ -704,12 +715,7 @@ def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
     from rfsim.devices.gen2_tag_state import StateArrays
 
     n = 30
-    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
-    for k, (a, b) in enumerate(zip(fast, full)):
-        for st in (a, b):
-            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, 4
-    g_fast = [np.random.default_rng(100 + k) for k in range(n)]
-    g_full = [np.random.default_rng(100 + k) for k in range(n)]
+    fast, full, g_fast, g_full = _arbitrate_twins(n, 4, 100)
     arrays = StateArrays(fast, g_fast)
     adj = QueryAdjust(session=0, updn=1)
     silent, dec = arrays.silent_steps(adj, np.ones(n, bool), 1e-3)
@@ -765,12 +771,7 @@ def test_redraws_of_counting_tags_write_only_the_arrays(monkeypatch):
     from rfsim.devices.gen2_tag_state import StateArrays
 
     n = 40
-    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
-    for k, (a, b) in enumerate(zip(fast, full)):
-        for st in (a, b):
-            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, 5
-    g_fast = [np.random.default_rng(300 + k) for k in range(n)]
-    g_full = [np.random.default_rng(300 + k) for k in range(n)]
+    fast, full, g_fast, g_full = _arbitrate_twins(n, 5, 300)
     arrays = StateArrays(fast, g_fast)
     touched = []
     original_setattr = TagState.__setattr__

@@ -602,11 +602,7 @@ class StateArrays:
         if len(index) == 0:
             return []
         t_s = float(t_s)
-        if isinstance(index, np.ndarray):
-            idx = index.astype(np.int64, copy=False)
-            index = idx.tolist()
-        else:
-            idx = np.asarray(index, dtype=np.int64)
+        idx = np.asarray(index, dtype=np.int64)  # (rows as Python ints only where a tag is touched)
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states, clock = self.states, self.clock
         if rngs is None and self._words is not None:  # the words of every draw in one loop
@@ -620,7 +616,7 @@ class StateArrays:
             if rngs is None:
                 if self._rngs is None:
                     raise ValueError("take_redraw_steps without generators needs use_generators first")
-                draws = list(map(self._draws.__getitem__, index))
+                draws = list(map(self._draws.__getitem__, idx.tolist()))
             else:
                 draws = list(map(_slot_drawer, rngs))
             slot = np.array([draw(q) for draw, q in zip(draws, q_new.tolist())], dtype=np.int64)
@@ -643,17 +639,16 @@ class StateArrays:
                 st.state = "arbitrate"
         replies = []
         if np.count_nonzero(zero):
-            q_zero = q_new[zero].tolist()
-            for k, q in zip(np.flatnonzero(zero).tolist(), q_zero):
-                i = index[k]
+            ks = np.flatnonzero(zero)
+            for k, i, q in zip(ks.tolist(), idx[ks].tolist(), q_new[ks].tolist()):
                 st = states[i]
                 st._slot_clock, st._slot, st._q = None, 0, q  # its own counter and Q
                 replies.append((i, st._reply_if_zero(self._rngs[i] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
-        if np.count_nonzero(own):
+        if np.count_nonzero(own):  # (else every one follows the clock already)
             for st in _picked_of(states, idx, own):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
-        self.following[idx] = ~own
+            self.following[idx] = ~own
         self.counting[idx] = ~zero
         self.t_s[idx] = t_s
         if t_s > self._t_max:

@@ -366,10 +366,13 @@ class StateArrays:
 
     The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
     (``clock``; ``following`` marks them): the next silent step advances them all by setting
-    the clock, and only the tags that join or leave that set are touched one by one. So do
-    the slot counters of the tags whose last step was a QueryRep's decrement
-    (``counting``: ``clock.decrements``). A tag's own step (``on_command`` …) sets its time
-    and counter, which ends its following; :meth:`read` notes it.
+    the clock, and only the tags that join or leave that set are touched one by one. The
+    slot counters and Q of the tags whose last step was a QueryRep's decrement or a
+    QueryAdjust's non-zero counter (``counting``) are held by the columns ``slot`` and ``q``
+    themselves (the clock's ``slots`` and ``qs``: the tag reads its row), so those steps
+    write the columns and touch only the tags that join or leave that set. A tag's own step
+    (``on_command`` …) sets its time and counter, which ends its following; :meth:`read`
+    notes it.
 
     Parameters
     ----------
@@ -418,7 +421,7 @@ class StateArrays:
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
         self.q = np.zeros(n, np.int64)
-        self.clock = SharedClock()
+        self.clock = SharedClock(slots=self.slot, qs=self.q)  # (the columns, not copies)
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
@@ -599,11 +602,7 @@ class StateArrays:
         if len(index) == 0:
             return []
         t_s = float(t_s)
-        if isinstance(index, np.ndarray):
-            idx = index.astype(np.int64, copy=False)
-            index = idx.tolist()
-        else:
-            idx = np.asarray(index, dtype=np.int64)
+        idx = np.asarray(index, dtype=np.int64)  # (rows as Python ints only where a tag is touched)
         q_new = adjusted_q(self.q[idx], int(cmd.updn))
         states, clock = self.states, self.clock
         if rngs is None and self._words is not None:  # the words of every draw in one loop
@@ -617,49 +616,43 @@ class StateArrays:
             if rngs is None:
                 if self._rngs is None:
                     raise ValueError("take_redraw_steps without generators needs use_generators first")
-                draws = list(map(self._draws.__getitem__, index))
+                draws = list(map(self._draws.__getitem__, idx.tolist()))
             else:
                 draws = list(map(_slot_drawer, rngs))
             slot = np.array([draw(q) for draw, q in zip(draws, q_new.tolist())], dtype=np.int64)
-        # Q, and the counter counting with the clock (offset = counter + the clock's decrements):
-        # one pass over the tags, each touched once
-        offsets = (slot + clock.decrements).tolist()
-        q_lo = int(q_new.min())
-        if q_lo == q_new.max():  # one Q
-            for i, s in zip(index, offsets):
-                st = states[i]
-                st.q = q_lo
-                st._slot = s
-        else:
-            for i, q, s in zip(index, q_new.tolist(), offsets):
-                st = states[i]
-                st.q = q
-                st._slot = s
+        # Q and the counter into the columns: a tag that counted with the clock reads them there
+        # (its rows), so only the tags that join or leave that set are touched one by one
+        counting = self.counting[idx]
+        self.q[idx] = q_new
+        self.slot[idx] = slot
         zero = slot_replies(slot)
         # TagState._reply_if_zero: a non-zero counter → Arbitrate (from Reply), counting with the
         # clock; 0 → Reply with an RN16 from the tag's own generator
-        fix = ~zero & (~self.counting[idx] | (self.code[idx] == _REPLY))
+        join = np.greater(~zero, counting)  # ~zero & ~counting
+        if np.count_nonzero(join):
+            for i in idx[join].tolist():
+                st = states[i]
+                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row written above
+        fix = ~zero & (self.code[idx] == _REPLY)
         if np.count_nonzero(fix):
             for st in _picked_of(states, idx, fix):
-                st._slot_clock, st.state = clock, "arbitrate"
+                st.state = "arbitrate"
         replies = []
         if np.count_nonzero(zero):
-            for k in np.flatnonzero(zero).tolist():
-                i = index[k]
+            ks = np.flatnonzero(zero)
+            for k, i, q in zip(ks.tolist(), idx[ks].tolist(), q_new[ks].tolist()):
                 st = states[i]
-                st._slot_clock, st._slot = None, 0
+                st._slot_clock, st._slot, st._q = None, 0, q  # its own counter and Q
                 replies.append((i, st._reply_if_zero(self._rngs[i] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
-        if np.count_nonzero(own):
+        if np.count_nonzero(own):  # (else every one follows the clock already)
             for st in _picked_of(states, idx, own):
                 st._clock, st._t_s = None, t_s  # its own time (the t_s setter)
-        self.following[idx] = ~own
+            self.following[idx] = ~own
         self.counting[idx] = ~zero
         self.t_s[idx] = t_s
         if t_s > self._t_max:
             self._t_max = t_s
-        self.q[idx] = q_new
-        self.slot[idx] = slot
         self.code[idx] = code = np.where(zero, _REPLY, _ARBITRATE)
         self.row[idx] = round_row(code, self.session[idx])
         return replies
@@ -714,25 +707,23 @@ class StateArrays:
         self._follow(silent if joining is None else silent | joining, t_s)
 
     def _count_down(self, decrement: np.ndarray) -> None:
-        """The counters of the tags ``decrement`` (bool mask) go to (slot − 1) mod 2^15
-        through the shared clock: when any does, those that counted with it and do not
-        decrement now keep their counter as their own, the clock counts one decrement more,
-        and the decrementing ones that did not count with it join it from their decremented
-        value (a step without decrements changes no counter: the clock stays)."""
+        """The tags ``decrement`` (bool mask), whose counters the column ``slot`` holds
+        decremented, count with the clock: those that counted with it and do not decrement now
+        keep their counter (and Q) as their own, and the decrementing ones that did not count
+        with it join it (their rows hold their values: the arrays mirror the tags). A step
+        without decrements changes no counter."""
         if not np.count_nonzero(decrement):
             return
         clock, states = self.clock, self.states
         leave = np.greater(self.counting, decrement)  # counting & ~decrement
         if np.count_nonzero(leave):
-            for st in _picked(states, leave):
+            for st in _picked(states, leave):  # (their rows: their counters, not decremented now)
                 st.follow_decrements(None)
-        d = clock.decrements + 1
         join = np.greater(decrement, self.counting)  # decrement & ~counting
         if np.count_nonzero(join):
-            for st in _picked(states, join):
-                # follow_decrements(clock) of the decremented counter, the clock one decrement on
-                st._slot_clock, st._slot = clock, decremented(st.slot) + d
-        clock.decrements = d
+            for i in np.flatnonzero(join).tolist():
+                st = states[i]
+                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented above
         self.counting = decrement.copy()
 
     def _follow(self, silent: np.ndarray, t_s: float) -> None:

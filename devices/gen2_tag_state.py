@@ -159,9 +159,9 @@ class TagState:
         self.state = "ready"
         self.inventoried = {s: "A" for s in range(4)}
         self.sl = False
-        self.q = 0
-        self._slot_clock: SharedClock | None = None
-        self._slot: int | None = None
+        self._slot_clock: SharedClock | None = None  # the clock whose arrays hold slot and Q
+        self._slot: int | None = None  # the counter, or its row in the clock's arrays
+        self._q = 0
         self.rn16: int | None = None
         self.handle: int | None = None
         self.session: int | None = None
@@ -269,30 +269,50 @@ class TagState:
 
     @property
     def slot(self) -> int | None:
-        """Slot counter (None: no round): its own, or counted down by the :class:`SharedClock`
-        it follows, (offset − decrements) mod 2^15."""
+        """Slot counter (None: no round): its own, or its row of the arrays of the
+        :class:`SharedClock` it counts with (``slots``)."""
         clock = self._slot_clock
-        return self._slot if clock is None else (self._slot - clock.decrements) & 0x7FFF
+        return self._slot if clock is None else int(clock.slots[self._slot])
 
     @slot.setter
     def slot(self, value: int | None) -> None:
-        self._slot_clock = None  # the tag's own counter from now on
+        clock = self._slot_clock
+        if clock is not None:  # the tag's own counter and Q from now on
+            self._q = int(clock.qs[self._slot])
+            self._slot_clock = None
         self._slot = value
 
-    def follow_decrements(self, clock: SharedClock | None) -> None:
-        """Let the slot counter count down with a shared clock until it is set.
+    @property
+    def q(self) -> int:
+        """Q of the round (the slot counter is drawn from [0, 2^Q − 1]): its own, or its row of
+        the arrays of the :class:`SharedClock` its counter counts with (``qs``)."""
+        clock = self._slot_clock
+        return self._q if clock is None else int(clock.qs[self._slot])
+
+    @q.setter
+    def q(self, value: int) -> None:
+        if self._slot_clock is not None:
+            self.slot = self.slot  # the counter (and Q) the tag's own
+        self._q = value
+
+    def follow_decrements(self, clock: SharedClock | None, row: int | None = None) -> None:
+        """Let the slot counter and Q be held by a shared clock's arrays until either is set.
 
         Parameters
         ----------
         clock : SharedClock or None
-            The clock whose ``decrements`` count the counter down from its current value;
-            None keeps the current value as the tag's own.
+            The clock whose ``slots`` and ``qs`` hold the counter and Q at ``row`` from now on
+            (the tag's values are written there); None keeps the current values as the tag's
+            own.
+        row : int, optional
+            The tag's row of the clock's arrays (with a clock).
         """
-        slot = self.slot
         if clock is None:
-            self.slot = slot
+            self.slot = self.slot
         else:
-            self._slot_clock, self._slot = clock, slot + clock.decrements
+            slot, q = self.slot, self.q
+            clock.slots[row], clock.qs[row] = -1 if slot is None else slot, q
+            self._slot_clock, self._slot = clock, row
 
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)

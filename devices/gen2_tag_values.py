@@ -173,32 +173,39 @@ def adjusted_q(q, updn):
 
 
 class SharedClock:
-    """A time and a count of slot-counter decrements that many tags follow at once.
+    """A time that many tags follow at once, and the arrays that hold the slot counters and
+    Q of the tags whose counters count with it.
 
     Many :class:`TagState` objects follow it (:meth:`TagState.follow`,
     :meth:`TagState.follow_decrements`): the silent steps of a population
-    (:class:`StateArrays`) advance every tag that takes one, and count down every counter a
-    QueryRep decrements, by setting these two values, not each tag's.
+    (:class:`StateArrays`) advance every tag that takes one by setting ``t_s``, not each tag's,
+    and a counting tag's counter and Q are its rows of ``slots`` and ``qs`` (the population's
+    columns), so that a QueryRep's decrements and a QueryAdjust's new counters are written to
+    the arrays only, not to each tag.
 
     Parameters
     ----------
     t_s : float, optional
         Initial time [s], default 0.0.
+    slots, qs : ndarray of int, shape (n_tags,), optional
+        The columns that hold the counting tags' slot counters and Q (default: none, no tag
+        can count with the clock).
 
     Attributes
     ----------
     t_s : float
         The time of the following tags [s].
-    decrements : int
-        Decrements counted so far; a following tag's counter is (offset − decrements) mod 2^15.
+    slots : ndarray of int or None
+        Slot counter per row (a counting tag reads its row).
+    qs : ndarray of int or None
+        Q per row (a counting tag reads its row).
     """
 
+    __slots__ = ("t_s", "slots", "qs")
 
-    __slots__ = ("t_s", "decrements")
-
-    def __init__(self, t_s: float = 0.0):
+    def __init__(self, t_s: float = 0.0, slots=None, qs=None):
         self.t_s = float(t_s)
-        self.decrements = 0
+        self.slots, self.qs = slots, qs
 
 
 __all__ = ["STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw",

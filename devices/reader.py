@@ -600,8 +600,8 @@ class Reader(PieTransmitter):
         cfg = self.config
         if (self._rx_rng is not None and n_win > 1 and len(set(t0s)) == 1 and len(set(ends)) == 1
                 and len({len(row) for row in rx}) == 1):  # the statistic model's batch entry: the same draws in order
-            return _statistic.receive_many(self, np.ascontiguousarray(rx, dtype=np.complex128), t0_s=t0_s,
-                                           n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=cmd_end_s,
+            return _statistic.receive_many(self, np.ascontiguousarray(rx, dtype=np.complex128), t0_s=t0s[0],
+                                           n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=ends[0],
                                            carriers=tuple(carriers), rng=self._rx_rng)
         if self._rx_rng is not None or cfg.blf_search == "preamble" or cfg.track_timing or n_win < 2:
             return [self.receive(row, t0_s=t, n_bits=n_bits, expect_crc=expect_crc, cmd_end_s=e, carrier=c)

@@ -296,3 +296,35 @@ def test_counter_noise_batch_equals_separate_singulations():
                           query=query_of(reader3), round_index=1)
     assert any(a[0].read is not None and b[0].read is not None and a[0].read.snr_db != b[0].read.snr_db
                for a, b in zip(batch, pcg))
+
+
+def test_singulate_batch_with_the_statistic_receiver_reads_as_window_by_window(monkeypatch):
+    """A statistic-level reader in a batched singulation: its RN16 reads (one time base) go
+    through ``receive_many`` in one call, its EPC reads (each trial's own ACK, own time base)
+    window by window; the records equal those of the same batch read window by window
+    (``ReaderPort.receive_batch`` replaced by one ``receive`` per input), so the batched entry
+    keeps the receiver's draws in trial order. Fails when the batch entry is handed the
+    windows' per-trial times as one value or reads them out of order."""
+    import rfsim.devices.reader_statistic as rs
+    from rfsim.protocols.engine import ReaderPort
+
+    def run():
+        reader, tags, channel = devices(DISTANCES)
+        reader = Reader(dataclasses.replace(reader.config, rx_model="statistic"), reader.antennas,
+                        rng=trial_rng(SEED, 0))
+        rngs = [trial_rng(SEED, 3, b) for b in range(len(DISTANCES))]
+        return singulate_batch(reader, tags, channel, t_s=0.0, rngs=rngs, query=query_of(reader), round_index=1)
+
+    calls = []
+    real_many = rs.receive_many
+    monkeypatch.setattr(rs, "receive_many", lambda *a, **k: calls.append(len(a[1])) or real_many(*a, **k))
+    batched = run()
+    assert calls and max(calls) > 1  # the RN16 reads went through the batch entry
+    monkeypatch.setattr(ReaderPort, "receive_batch", lambda self, inputs, ports=None: [
+        (p or self).receive(x) for p, x in zip(ports or (None,) * len(inputs), inputs)])
+    one_by_one = run()
+    assert any(len(s) == 2 and s[1].success for s in one_by_one)
+    for a, b in zip(batched, one_by_one):
+        assert [e.command for e in a] == [e.command for e in b]
+        for ea, eb in zip(a, b):
+            assert_same_exchange(ea, eb)

@@ -28,11 +28,11 @@ EPC = GOLDEN_REPLIES[0][1]
 
 
 def _observable(st: TagState) -> dict:
-    """A state's attributes but its arrays, with its time and slot counter as read (``t_s``,
-    ``slot``: its own or following a shared clock) instead of how they are held."""
-    held = ("_clock", "_t_s", "_slot_clock", "_slot")
+    """A state's attributes but its arrays, with its time, slot counter and Q as read (``t_s``,
+    ``slot``, ``q``: its own or following a shared clock) instead of how they are held."""
+    held = ("_clock", "_t_s", "_slot_clock", "_slot", "_q")
     out = {k: v for k, v in vars(st).items() if not isinstance(v, np.ndarray) and k not in held}
-    out["t_s"], out["slot"] = st.t_s, st.slot
+    out["t_s"], out["slot"], out["q"] = st.t_s, st.slot, st.q
     out["memory"] = (st.memory.chip, st.memory.banks, st.memory.xpc_w1, st.memory.locks)  # its contents
     return out
 
@@ -692,6 +692,17 @@ def test_killed_tag_never_replies_again_across_power_cycles():
                              QueryRep(session=0))):
         assert tag.on_command(cmd, t_s=t + 11.0 + k, rng=rng) is None
     assert tag.state == "killed"
+def _arbitrate_twins(n: int, q: int, seed: int) -> tuple:
+    """Two lists of n tags in Arbitrate of session 0 (Q ``q``, counters 1…n) and two lists of
+    equal generators (seeds ``seed`` + k): (fast, full, generators of fast, of full)."""
+    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
+    for k, (a, b) in enumerate(zip(fast, full)):
+        for st in (a, b):
+            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, q
+    return (fast, full, [np.random.default_rng(seed + k) for k in range(n)],
+            [np.random.default_rng(seed + k) for k in range(n)])
+
+
 def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
     # 30 tags in Arbitrate of session 0 (Q = 4, counters 1…30 read back as their own) take a
     # QueryAdjust (UpDn +1) at 1 ms: the silent step joined by the redrawing tags
@@ -704,12 +715,7 @@ def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
     from rfsim.devices.gen2_tag_state import StateArrays
 
     n = 30
-    fast, full = [TagState(EPC) for _ in range(n)], [TagState(EPC) for _ in range(n)]
-    for k, (a, b) in enumerate(zip(fast, full)):
-        for st in (a, b):
-            st.state, st.session, st.slot, st.q = "arbitrate", 0, k + 1, 4
-    g_fast = [np.random.default_rng(100 + k) for k in range(n)]
-    g_full = [np.random.default_rng(100 + k) for k in range(n)]
+    fast, full, g_fast, g_full = _arbitrate_twins(n, 4, 100)
     arrays = StateArrays(fast, g_fast)
     adj = QueryAdjust(session=0, updn=1)
     silent, dec = arrays.silent_steps(adj, np.ones(n, bool), 1e-3)
@@ -752,6 +758,63 @@ def test_query_adjust_redraws_follow_the_arrays_clock(monkeypatch):
         if q:
             b.on_command(rep, t_s=2e-3, rng=np.random.default_rng(0))
             assert (a.state, a.slot, a.t_s) == (b.state, b.slot, b.t_s)
+
+
+
+def test_redraws_of_counting_tags_write_only_the_arrays(monkeypatch):
+    # 40 tags in Arbitrate of session 0 (Q = 5, counters 1…40) take a QueryAdjust (UpDn −1)
+    # through the arrays, then two more (UpDn +1, 0) and QueryReps between them, each against
+    # on_command on copies with equal generators. From the second QueryAdjust on, a tag whose
+    # counter counted with the arrays' clock and draws a non-zero counter again must not be
+    # touched at all (no attribute of its TagState set: its counter and Q are its rows), yet
+    # read the new counter and Q; only the tags whose new counter is 0 (they reply) are.
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    n = 40
+    fast, full, g_fast, g_full = _arbitrate_twins(n, 5, 300)
+    arrays = StateArrays(fast, g_fast)
+    touched = []
+    original_setattr = TagState.__setattr__
+
+    def setattr_(self, name, value):
+        touched.append(self)
+        original_setattr(self, name, value)
+
+    t = 1e-3
+    for k, cmd in enumerate([QueryAdjust(session=0, updn=-1), QueryRep(session=0), QueryAdjust(session=0, updn=1),
+                             QueryRep(session=0), QueryAdjust(session=0, updn=0)]):
+        t += 1e-3
+        ready = [st.state == "arbitrate" for st in fast]
+        before = [st._slot_clock is arrays.clock for st in fast]
+        if k:
+            monkeypatch.setattr(TagState, "__setattr__", setattr_)
+        touched.clear()
+        cand = np.array(ready)
+        silent, dec = arrays.silent_steps(cmd, cand, t)
+        redraw = arrays.redraw_steps(cmd, np.greater(cand, silent), t)
+        arrays.take_silent_steps(cmd, silent, dec, t, joining=redraw)
+        got = dict(arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, t))
+        monkeypatch.setattr(TagState, "__setattr__", original_setattr)
+        expected = {}
+        for i, (a, b, g) in enumerate(zip(fast, full, g_full)):
+            if not ready[i]:
+                continue
+            if silent[i] or redraw[i]:
+                r = b.on_command(cmd, t_s=t, rng=g)
+                if r is not None:
+                    expected[i] = r
+            else:  # (a decrement to 0: the tag's own step, as the population would take it)
+                r = a.on_command(cmd, t_s=t, rng=g_fast[i])
+                assert r is not None and b.on_command(cmd, t_s=t, rng=g) == r
+                arrays.read([i])
+        assert got.keys() == expected.keys() and all(got[i] == expected[i] for i in got)
+        for a, b, ga, gb in zip(fast, full, g_fast, g_full):
+            assert _observable(a) == _observable(b)
+            assert ga.bit_generator.state == gb.bit_generator.state
+        if k and type(cmd) is QueryAdjust:
+            kept = [i for i in range(n) if redraw[i] and before[i] and i not in got]
+            assert kept and not any(any(x is fast[i] for x in touched) for i in kept)
+            assert [fast[i].q for i in kept] == [full[i].q for i in kept]
 
 
 # The transitions of the round commands, by hand from the Gen2 rules ("Tag states and slot

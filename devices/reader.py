@@ -582,8 +582,9 @@ class Reader(PieTransmitter):
         With ``rx_model = "sample"``, ``blf_search = "off"`` and no timing tracking the reads of
         the windows with room for a reply are one call of the decoder on the batch (its "known"
         plan: the receive kernel on each window with the reply's start searched over that
-        window's own lags, ``receive_batch_kernel``), and the :class:`ReadResult` of each is
-        built from its row of the results; with ``rx_model = "statistic"`` and windows on one
+        window's own lags, ``receive_batch_kernel``), and the :class:`ReadResult` of the windows
+        are built from the arrays of the results in one pass (:meth:`_read_results`, the rule of a
+        single read too); with ``rx_model = "statistic"`` and windows on one
         time base (one ``t0_s`` and ``cmd_end_s``, equal lengths) they are one
         :func:`rfsim.devices.reader_statistic.receive_many` (the windows in order on the
         receiver's generator: the draws of :meth:`receive` window by window); otherwise

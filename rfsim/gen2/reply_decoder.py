@@ -580,10 +580,10 @@ def decode(r: np.ndarray, plan: DecodePlan, *, lo: int = 0, hi: int = -1, n_bits
         that measures on the known levels). "known" without timing tracking also ``(B, n)``,
         a sequence of B 1-D windows or :class:`Windows` (read where they lie; their lengths and
         the times of their first samples may differ), each window with its own ``lo``, ``hi``
-        (scalars or ``(B,)``, samples of that window): ``found``, ``start`` (samples of each window), ``corr``, ``gain``, ``sigma2``,
-        ``slope`` are ``(B,)`` arrays, ``bits`` ``(B, n_bits)`` and ``crc_ok`` a list (None for
-        a window without a reply), ``window`` the windows as given; window b's values are those
-        of its own call.
+        (scalars or ``(B,)``, samples of that window): ``found``, ``start`` (samples of each
+        window), ``corr``, ``gain``, ``sigma2``, ``slope`` are ``(B,)`` arrays, ``bits``
+        ``(B, n_bits)`` and ``crc_ok`` a list (None for a window without a reply), ``window`` the
+        windows as given; window b's values are those of its own call.
     plan : DecodePlan
         The search and its parameters.
     lo, hi : int

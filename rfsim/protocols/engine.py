@@ -336,11 +336,13 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
     trial's own ``rngs[b]``); 2. per trial the air step with its receiver noise
     (:func:`rfsim.air.step.propagate` with the trial's generator and ``skip_unmodulated``: a
     trial in which no tag replies forms no reader input, its noise draws are still made), of
-    which only the ground truth and the reader's input are kept; 3. the reader's reads of the
-    trials with a reply (those of consecutive trials read by one reader, each on its own port, in one
-    :meth:`ReaderPort.receive_batch`); 4. the records. Each stage runs over the block's trials in a row (the
-    same code and tables hot: trial by trial took 5–10 % more CPU), and a step's other objects
-    do not outlive it (fewer collections of Python's cyclic garbage collector).
+    which only the ground truth and the reader's input are kept (a block's inputs of one reader
+    formed in one array, :meth:`ReaderPort.input_array`); 3. the reader's reads of the trials with
+    a reply (those of consecutive trials read by one reader, each on its own port, in one
+    :meth:`ReaderPort.receive_batch`, the windows read where stage 2 formed them); 4. the records.
+    Each stage runs over the block's trials in a row (the same code and tables hot: trial by trial
+    took 5–10 % more CPU), and a step's other objects do not outlive it (fewer collections of
+    Python's cyclic garbage collector).
     """
     n = len(rngs)
     if len(tags) != n:

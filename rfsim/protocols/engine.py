@@ -757,7 +757,7 @@ class ReaderPort:
         int
             ceil((listen start − t0)·fs), at most ``n_samples``.
         """
-        return min(int(math.ceil((self._listen_s - t0_s) * fs_hz)), int(n_samples))
+        return min(int(_first_sample(self._listen_s, t0_s, fs_hz)), int(n_samples))
 
     def input_array(self, n_samples: int) -> np.ndarray | None:
         """Return where the air step forms an input of this port.
@@ -855,14 +855,19 @@ class ReaderPort:
         return read
 
 
+def _first_sample(listen_s: float, t0_s: float, fs_hz: float) -> int:
+    """The first sample a read takes of an input whose first sample is at ``t0_s`` [s]:
+    ceil((listen start − t0)·fs), the listen start ``listen_s`` [s] and rate ``fs_hz`` [Hz]."""
+    return math.ceil((listen_s - t0_s) * fs_hz)
+
+
 def _read_arguments(ports, inputs) -> tuple:
     """What the reads of B inputs take, each read by its own port (:meth:`ReaderPort.receive`,
     :meth:`ReaderPort.receive_batch`; one input is a batch of one), lists of B values: ``i0``, the
     first sample read (ceil((listen start − t0)·fs)); ``t0_s``, the time of that sample [s];
     ``cmd_end_s``, the command's end [s]; ``carrier``, the reader's own baseband during the reply
     (``tx.samples[-1]``)."""
-    ceil = math.ceil
-    i0 = [ceil((p._listen_s - x.t0_s) * x.fs_hz) for p, x in zip(ports, inputs)]
+    i0 = [_first_sample(p._listen_s, x.t0_s, x.fs_hz) for p, x in zip(ports, inputs)]
     return (i0, [x.t0_s + i / x.fs_hz for x, i in zip(inputs, i0)], [p.tx.cmd_end_s for p in ports],
             [p.tx.samples[-1] for p in ports])
 

@@ -120,7 +120,9 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     if last < 0:
         return TOO_SHORT
     r = np.empty(n, np.complex128)
-    filled = min(n, lo + last + n_pre)  # the search reads r[lo : lo + last + n_pre]
+    # the search reads r[lo : lo + last + n_pre] (its candidates end n_pre − t0.size + 1 samples short of
+    # it, and the refinement reads a template's width from each: n_pre when the widths agree)
+    filled = min(n, lo + last + n_pre + max(0, templates.shape[1] - t0.size))
     for i in range(lo, filled):
         r[i] = rx[i] - dc0
     ratio = 2.0 * blf_hz / fs_hz

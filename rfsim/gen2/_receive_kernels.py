@@ -87,7 +87,9 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
                    pre_levels, state0, viterbi, n_blocks, det_bits, bits, out_f, out_c):
     """Steps 1–5 of :meth:`rfsim.devices.reader.Reader.receive` on ``rx`` ((n,) complex128).
 
-    1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx).
+    1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx − 0, which is rx). r is formed only where
+       the search and the preamble fit read it; the half-bit sums, the known levels and the
+       measurement read rx and take the mean off as they read (the same subtraction, bit for bit).
     2. The preamble search on r[lo:], starts 0 … hi − lo (``n_pre`` samples of template ``t0``,
        refinement bank ``shifts``/``templates``/``norms``, the templates' runs
        ``run_begin``/``run_value``/``n_runs``/``same_as_previous``), the preamble's gain h₀,

@@ -521,7 +521,7 @@ def projected_halfbit_sums_kernel(part, g_re, g_im, dc_re, start, elements_per_s
 
 
 @njit
-def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_count):
+def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_count, dc=0j):
     """The half-bit sums of :func:`projected_halfbit_sums_kernel` before the projection: per
     half-bit j, S_j = Σ σ_n·part[n] into ``s_sum`` (complex) and C_j = Σ σ_n into ``s_count``
     over the samples n whose element k = floor((n − start)·r + eps) has k // m = j, σ_n the
@@ -529,7 +529,8 @@ def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_cou
     Re(g·S_j) − Re(dc·g)·C_j for any gain and offset (the same value up to the order of the
     operations), so one pass serves the decisions at every gain. Sums in sample order, the
     real and imaginary parts apart (σ_n·part[n] is exact). The element indices are computed
-    first, in a branch-free pass of their own (vectorised), then summed over."""
+    first, in a branch-free pass of their own (vectorised), then summed over. ``dc`` (complex) is
+    taken off each sample as it is read: the sums are those of ``part − dc`` (x − 0 is x)."""
     s_sum[:] = 0j
     s_count[:] = 0.0
     nh = s_sum.size
@@ -560,7 +561,7 @@ def signed_halfbit_sums_kernel(part, start, elements_per_sample, m, s_sum, s_cou
             if j >= nh:
                 return
         sg = SUBCARRIER_SIGN_F[code, k & 1]
-        z = part[n]
+        z = part[n] - dc
         a_re += z.real * sg
         a_im += z.imag * sg
         cnt += sg

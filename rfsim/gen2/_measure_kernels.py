@@ -15,7 +15,7 @@ ROTATION_RESYNC = 64
 
 
 @njit
-def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
+def measure_kernel(z, s, fs_hz, n_blocks, c=0j, d=0j):
     """Gain, Doppler slope and residual power of ``z = h(t)·s(t) + noise`` (see
     :meth:`rfsim.devices.reader.Reader.receive`, step 5).
 
@@ -26,7 +26,9 @@ def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
     through the unwrapped arg g_k; h = Σ z·e^{−j·slope·t}·s / Σs²; σ² = mean |z − h·s·e^{j·slope·t}|².
     ``c`` (complex) is an offset taken off z as the samples are read: the result is that of
     ``z − c`` (the reader's receiver passes its window and the fitted offset instead of a copy
-    of the span less the offset; z − 0 is z).
+    of the span less the offset; z − 0 is z); ``d`` (complex) an offset taken off before it, as
+    the samples are read: the result is that of ``(z − d) − c`` (the receiver's window before
+    its DC removal d, its offset c).
     Returns ``(h, slope [rad/s], σ²)``; ``(nan, 0, nan)`` when no sample is usable.
 
     Passes: the times of the span (vectorised divisions), the used samples copied out
@@ -35,7 +37,11 @@ def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
     sums keep their order (bit for bit); each is bound by its chain of additions, and fusing
     the copy with the block sums (a branch per sample, or masked sums over every sample),
     computing the times in the block loop, reading the span through indices instead of copies
-    or summing two blocks side by side all measured slower or no faster.
+    or summing two blocks side by side all measured slower or no faster; so did dropping the
+    copied levels and times for reads through the indices. The copy is bound by its stores (one
+    per value per sample), the sums by their chains of additions. The block sums take the real
+    and imaginary parts apart (z·s with s real: the complex product only adds a signed zero to
+    each part's product, which leaves a sum started at +0 unchanged: the same sums for finite z).
     """
     n = s.size
     i0 = 0  # first and last non-zero s, scanned from either end
@@ -59,7 +65,7 @@ def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
     a = s[i0 + 1] if nn > 1 else 0.0  # read only when the loop below runs
     for i in range(i0 + 1, i1 - 1):  # written at m every time, kept when steady (no branch)
         nxt = s[i + 1]
-        buf_z[m] = z[i] - c
+        buf_z[m] = (z[i] - d) - c
         buf_ref[m] = a
         buf_t[m] = buf_t[i - i0]  # m < i − i0: the times not yet read stay in place
         buf_idx[m] = i - i0
@@ -76,14 +82,17 @@ def measure_kernel(z, s, fs_hz, n_blocks, c=0j):
     for k in range(n_blocks):
         lo = k * m // n_blocks
         hi = (k + 1) * m // n_blocks
-        acc = 0j
+        a_re = 0.0
+        a_im = 0.0
         rr = 0.0
         ts = 0.0
         for i in range(lo, hi):
-            acc += buf_z[i] * buf_ref[i]
-            rr += buf_ref[i] * buf_ref[i]
+            v = buf_ref[i]
+            a_re += buf_z[i].real * v
+            a_im += buf_z[i].imag * v
+            rr += v * v
             ts += buf_t[i]
-        g[k] = acc / rr if rr > 0.0 else complex(math.nan, math.nan)
+        g[k] = complex(a_re, a_im) / rr if rr > 0.0 else complex(math.nan, math.nan)
         tc[k] = ts / (hi - lo) if hi > lo else math.nan
         w = g[k].real * g[k].real + g[k].imag * g[k].imag
         if not w > 0.0:
@@ -210,12 +219,13 @@ def _level(full, i):
 
 
 @njit
-def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements, r_out, level_out):
+def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements, r_out, level_out, dc=0j):
     """Samples whose level is known without decisions — on the preamble (pilot included) or
     outside the reply (``full == 0``: the rest state, level −1) — and whose two neighbours
     carry the same level: copies them and their level into ``r_out`` / ``level_out`` (in
     order) and returns their number. ``full`` is the sampled reply (±1, 0 outside) starting
-    at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble."""
+    at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble. ``dc`` (complex)
+    is taken off the samples as they are copied: ``r_out`` holds samples of ``r − dc``."""
     n = full.size
     last = n - 1  # the reply's last sample (its samples are ±1, never 0: one run of non-zero)
     while last > 0 and full[last] == 0.0:
@@ -226,7 +236,7 @@ def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements
         if full[i] == 0.0 or _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
             li = _level(full, i)
             if li == _level(full, i - 1) and li == _level(full, i + 1):
-                r_out[m] = r[i]
+                r_out[m] = r[i] - dc
                 level_out[m] = li
                 m += 1
             i += 1

@@ -87,7 +87,9 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
                    pre_levels, state0, viterbi, n_blocks, det_bits, bits, out_f, out_c):
     """Steps 1–5 of :meth:`rfsim.devices.reader.Reader.receive` on ``rx`` ((n,) complex128).
 
-    1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx).
+    1. r = rx − mean(rx[:lo]) when lo ≥ 8 (else r = rx − 0, which is rx). r is formed only where
+       the search and the preamble fit read it; the half-bit sums, the known levels and the
+       measurement read rx and take the mean off as they read (the same subtraction, bit for bit).
     2. The preamble search on r[lo:], starts 0 … hi − lo (``n_pre`` samples of template ``t0``,
        refinement bank ``shifts``/``templates``/``norms``, the templates' runs
        ``run_begin``/``run_value``/``n_runs``/``same_as_previous``), the preamble's gain h₀,
@@ -110,29 +112,32 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     :data:`TOO_SHORT`, :data:`CONSTANT`).
     """
     n = rx.size
-    r = np.empty(n, np.complex128)
+    dc0 = 0j  # r = rx − dc0 (x − 0 is x): formed only where the search and the preamble fit read it
     if lo >= 8:
         acc = 0j
         for i in range(lo):
             acc += rx[i]
         dc0 = acc / lo
-        for i in range(n):
-            r[i] = rx[i] - dc0
-    else:
-        r[:] = rx
-    rr = r[lo:]
-    last = min(rr.size - n_reply, hi - lo)
+    last = min(n - lo - n_reply, hi - lo)
     if last < 0:
         return TOO_SHORT
+    r = np.empty(n, np.complex128)
+    # the search reads r[lo : lo + last + n_pre] (its candidates end n_pre − t0.size + 1 samples short of
+    # it, and the refinement reads a template's width from each: n_pre when the widths agree)
+    filled = min(n, lo + last + n_pre + max(0, templates.shape[1] - t0.size))
+    for i in range(lo, filled):
+        r[i] = rx[i] - dc0
     ratio = 2.0 * blf_hz / fs_hz
-    lag, best, start_rel = preamble_search_runs_kernel(rr, last + n_pre, t0, max_runs_per_sample, half_width, 5,
-                                                       shifts, templates, norms, run_begin, run_value, n_runs,
+    lag, best, start_rel = preamble_search_runs_kernel(r[lo:], last + n_pre, t0, max_runs_per_sample, half_width,
+                                                       5, shifts, templates, norms, run_begin, run_value, n_runs,
                                                        same_as_previous)
     if best < 0:
         start_rel = float(lag)
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
     i0 = lo + lag
+    for i in range(filled, min(n, i0 + n_pre)):
+        r[i] = rx[i] - dc0
     corr, h0, dc0_ = _preamble_fit(r[i0:i0 + n_pre], frac, pre_el, ratio)
     start = lo + start_rel
     out_f[0] = start
@@ -146,7 +151,7 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     s_sum = np.empty(sums.size, np.complex128)
     s_count = np.empty(sums.size)
     i_end = min(n, i0 + int(math.ceil(sums.size * m / ratio)) + 2)
-    signed_halfbit_sums_kernel(r[i0:i_end], frac, ratio, m, s_sum, s_count)
+    signed_halfbit_sums_kernel(rx[i0:i_end], frac, ratio, m, s_sum, s_count, dc0)
     a_s = np.empty(det_bits.size)
     b_s = np.empty(det_bits.size)
     g0 = 1.0 / h0
@@ -162,13 +167,13 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
         _reference_into(det_bits[:n_bits], m, pre_levels, state0, t0_samples, ratio, a, full[a:b])
     r_known = np.empty(n, np.complex128)
     level = np.empty(n)
-    n_known = known_levels_kernel(r, full, t0_samples, ratio, n_pre_el, r_known, level)
+    n_known = known_levels_kernel(rx, full, t0_samples, ratio, n_pre_el, r_known, level, dc0)
     h, c, ok = fit_gain_offset_kernel(r_known[:n_known], level[:n_known])
     if not ok:
         return CONSTANT
     # step 4: decisions of the reply's samples, r − c, with the gain h: sums S_j − c·C_j
     i1 = min(n, i0 + n_reply + 4)
-    span = r[i0:i1]  # less c: the measurement subtracts it as it reads the samples
+    span = rx[i0:i1]  # less dc0 and c: the measurement subtracts them as it reads the samples
     if not (0.0 <= frac <= span.size - n_reply):
         return NO_ROOM
     if h == 0:
@@ -187,7 +192,7 @@ def receive_kernel(rx, lo, hi, n_reply, threshold, fs_hz, blf_hz, m, n_pre, n_pr
     else:
         ref = np.empty(i1 - i0)
         _reference_into(bits[:n_bits], m, pre_levels, state0, t0_samples, ratio, i0, ref)
-    hm, slope, sigma2 = measure_kernel(span, ref, fs_hz, n_blocks, c)
+    hm, slope, sigma2 = measure_kernel(span, ref, fs_hz, n_blocks, c, dc0)
     out_c[0] = hm
     out_f[2] = slope
     out_f[3] = sigma2

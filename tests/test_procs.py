@@ -120,3 +120,65 @@ def test_map_in_order_keeps_task_order_across_the_pilot_and_the_pool(tmp_path):
     assert pids[2] == pids[0] and pids[0] not in pids[3:]
     assert 1 <= len(set(pids[3:])) <= 2  # the asked two workers at most
     assert got["failed"] == "task 99 failed"
+
+
+
+_KILL_IDLE = """
+import json, os, signal, threading, time
+from pathlib import Path
+from rfsim.core.procs import worker_pool
+
+def task_queue_reader(pids):
+    # the idle worker blocked reading the task queue holds the queue's lock while it waits
+    for pid in pids:
+        try:
+            if "pipe_read" in Path(f"/proc/{pid}/wchan").read_text():
+                return pid
+        except OSError:
+            pass
+    return None
+
+def kill_when_closing(pool, pid):
+    # once the pool is asked to end (its workers told by one message each in the task queue),
+    # the worker that holds the queue's lock dies without reading its message
+    while not pool._shutdown_thread:
+        time.sleep(0.01)
+    time.sleep(0.3)
+    os.kill(pid, signal.SIGKILL)
+
+found = None
+with worker_pool(2) as pool:
+    results = [f.result() for f in [pool.submit(pow, 2, k) for k in range(8)]]
+    pids = list(pool._processes)
+    for _ in range(300):
+        found = task_queue_reader(pids)
+        if found is not None and len(pids) == 2:
+            break
+        time.sleep(0.01)
+    if found is not None:
+        os.kill(found, signal.SIGSTOP)
+        threading.Thread(target=kill_when_closing, args=(pool, found), daemon=True).start()
+alive = [pid for pid in pids if os.path.exists(f"/proc/{pid}")]
+print(json.dumps(dict(found=found, results=results, alive=alive)))
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/wchan").exists(), reason="needs /proc/PID/wchan")
+def test_a_worker_killed_while_it_waits_for_a_task_does_not_hang_the_pool():
+    """A worker killed (SIGKILL) while the pool ends, as it waits for a task holding the task
+    queue's lock: leaving the pool ends the other worker instead of joining it for ever
+    (ProcessPoolExecutor.shutdown(wait=True) hangs there). The worker is stopped (SIGSTOP)
+    until the pool is asked to end, so that it dies before it reads its request to end. The
+    child's run has a timeout well above the pool's grace: a hang is the failure."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    try:
+        run = subprocess.run([sys.executable, "-c", _KILL_IDLE], capture_output=True, text=True, env=env,
+                             timeout=120)
+    except subprocess.TimeoutExpired:
+        pytest.fail("leaving the pool hung after a worker was killed while it waited for a task")
+    assert run.returncode == 0, run.stderr
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    if got["found"] is None:
+        pytest.skip("no worker seen blocked reading the task queue (/proc/PID/wchan)")
+    assert got["results"] == [2**k for k in range(8)]
+    assert got["alive"] == []

@@ -169,7 +169,50 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
         if isinstance(err, cf.process.BrokenProcessPool):  # a worker died without a word
             raise _worker_failure(statuses) from None
         raise
-    pool.shutdown(wait=True)
+    close_workers(pool)
+
+
+#: After a pool's last task, how long its workers have to end on their own before they are
+#: terminated [s] (:func:`close_workers`)
+WORKER_EXIT_GRACE_S = 10.0
+
+
+def close_workers(pool: cf.ProcessPoolExecutor, grace_s: float = WORKER_EXIT_GRACE_S) -> None:
+    """Shut ``pool`` down once its tasks are done, without waiting for ever on a stuck worker.
+
+    The workers are asked to end (``shutdown``); those still running after ``grace_s``, or as
+    soon as one of them is found killed by a signal, are terminated. An idle worker waits for
+    its next task holding the task queue's lock (``multiprocessing.Queue.get``); killed there
+    (SIGKILL, the out-of-memory killer) it never releases it, and the others never read the
+    request to end: ``ProcessPoolExecutor.shutdown(wait=True)`` would join them for ever.
+
+    Parameters
+    ----------
+    pool : concurrent.futures.ProcessPoolExecutor
+        A pool whose submitted tasks have all completed.
+    grace_s : float, optional
+        Longest wait for the workers to end on their own [s].
+    """
+    import multiprocessing.connection as mpc
+
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    manager = getattr(pool, "_executor_manager_thread", None)
+    pool.shutdown(wait=False)
+    deadline = time.monotonic() + grace_s
+    while alive := [p for p in processes if p.is_alive()]:
+        killed = any(p.exitcode is not None and p.exitcode < 0 for p in processes)
+        left = deadline - time.monotonic()
+        if killed or left <= 0:
+            for p in alive:
+                with contextlib.suppress(Exception):
+                    p.terminate()
+            for p in alive:
+                with contextlib.suppress(Exception):
+                    p.join(5.0)
+            break
+        mpc.wait([p.sentinel for p in alive], timeout=min(left, 0.1))
+    if manager is not None:
+        manager.join(grace_s)  # ends once its workers have
 
 
 class _Pool(cf.ProcessPoolExecutor):
@@ -195,7 +238,8 @@ def _exit_statuses(pool: cf.ProcessPoolExecutor) -> list[int]:
 
 def _worker_failure(exit_codes: list[int]) -> ResourceError:
     """The one-line error for a process pool whose worker died (``exit_codes`` of the ended ones)."""
-    signals = [-code for code in exit_codes if code < 0]
+    # a broken pool terminates the other workers (SIGTERM): the signal that broke it comes first
+    signals = sorted((-code for code in exit_codes if code < 0), key=lambda sig: sig == signal.SIGTERM)
     if signals:
         # a wait status whose low bits are the signal: what child_failure reads
         return ResourceError(str(child_failure(signals[0])).replace("the run's process", "a worker process", 1))
@@ -532,5 +576,6 @@ def terminate_as_interrupt() -> Iterator[None]:
 
 
 __all__ = ["WATCH_INTERVAL_S", "PILOT_QUEUE", "WORKER_MMAP_THRESHOLD_B", "WORKER_TRIM_THRESHOLD_B",
-           "worker_init", "worker_pool", "terminate_workers", "terminate_as_interrupt",
+           "WORKER_EXIT_GRACE_S", "worker_init", "worker_pool", "close_workers", "terminate_workers",
+           "terminate_as_interrupt",
            "map_in_order", "load_kernels", "run_in_child", "child_failure"]

@@ -164,6 +164,11 @@ def worker_pool(max_workers: int) -> Iterator[cf.ProcessPoolExecutor]:
     try:
         yield pool
     except BaseException as err:
+        manager = getattr(pool, "_executor_manager_thread", None)
+        if isinstance(err, cf.process.BrokenProcessPool) and manager is not None:
+            # the pool's thread terminates and joins the other workers: joined here first, every
+            # worker's exit status is read (not lost to a race of two waits for the same child)
+            manager.join(WORKER_EXIT_GRACE_S)
         statuses = _exit_statuses(pool)
         terminate_workers(pool)
         if isinstance(err, cf.process.BrokenProcessPool):  # a worker died without a word

@@ -23,66 +23,78 @@ JOIN_COUNT, LEAVE_COUNT, JOIN_FOLLOW, LEAVE_FOLLOW, REACT = range(5)
 
 @njit
 def silent_step_kernel(on, stays_off, powered, row, step_silent, step_decrement, t_col, t_s, check_t,
-                       slot, counting, following, quiet, silent, decrement, moves, n_moves):
+                       slot, counting, following, quiet, silent, moves, n_moves):
     """One pass over the tags: decide their silent steps and apply them to the columns.
 
     Tag i steps silently when ``on[i]``, ``step_silent[row[i]]``, its time ``t_col[i] ≤ t_s``
     (checked only where ``check_t``) and, where it decrements (``step_decrement[row[i]]``),
     its decremented counter does not reply. A silent tag's time becomes ``t_s`` and it follows
     the clock (``following``); a decrementing one's counter is decremented and counts with the
-    clock (``counting``), and, when any tag decrements, the others stop counting with it; when
-    any tag steps silently, the others stop following the clock.
-    ``quiet[i]`` = silent or (``stays_off[i]`` and not ``powered[i]``). ``moves[k, :n_moves[k]]``
-    (int64, (5, n)) receive the tags of :data:`JOIN_COUNT` … :data:`REACT`, in order (the
-    caller moves the :class:`TagState` objects: leaving before joining). Returns the number of
-    silent tags."""
+    clock (``counting``). When any tag decrements, the others stop counting with the clock;
+    when any tag steps silently, the others stop following it (both taken in the pass and
+    undone at its end when no tag did). ``quiet[i]`` = silent or (``stays_off[i]`` and not
+    ``powered[i]``). ``moves[k, :n_moves[k]]`` (int64, (5, n)) receive the tags of
+    :data:`JOIN_COUNT` … :data:`REACT`, in order (the caller moves the :class:`TagState`
+    objects: leaving before joining). Returns the number of silent tags."""
     n = row.size
-    for k in range(5):
-        n_moves[k] = 0
     n_silent = 0
     n_dec = 0
+    j_count = 0
+    l_count = 0
+    j_follow = 0
+    l_follow = 0
+    n_react = 0
     for i in range(n):
         s = False
         d = False
         if on[i]:
             r = row[i]
             if step_silent[r] and (not check_t or t_col[i] <= t_s):
-                s = True
                 if step_decrement[r]:
-                    if _slot_replies(_decremented(slot[i])):  # it replies: not silent
-                        s = False
-                    else:
+                    v = _decremented(slot[i])
+                    if not _slot_replies(v):  # (else it replies: not silent)
+                        s = True
                         d = True
+                        slot[i] = v
+                else:
+                    s = True
         silent[i] = s
-        decrement[i] = d
+        c = counting[i]
         if d:
             n_dec += 1
-            slot[i] = _decremented(slot[i])
-            if not counting[i]:
-                moves[JOIN_COUNT, n_moves[JOIN_COUNT]] = i
-                n_moves[JOIN_COUNT] += 1
-                counting[i] = True
+            moves[JOIN_COUNT, j_count] = i
+            j_count += not c
+            counting[i] = True
+        elif c:
+            moves[LEAVE_COUNT, l_count] = i
+            l_count += 1
+            counting[i] = False
+        f = following[i]
         if s:
             n_silent += 1
             t_col[i] = t_s
+            moves[JOIN_FOLLOW, j_follow] = i
+            j_follow += not f
+            following[i] = True
+        elif f:
+            moves[LEAVE_FOLLOW, l_follow] = i
+            l_follow += 1
+            following[i] = False
         q = s or (stays_off[i] and not powered[i])
         quiet[i] = q
-        if not q:
-            moves[REACT, n_moves[REACT]] = i
-            n_moves[REACT] += 1
-    if n_silent > 0:  # (no silent step: no counter, clock or follower changes)
-        for i in range(n):
-            if n_dec > 0 and counting[i] and not decrement[i]:  # (a step without decrements: none)
-                moves[LEAVE_COUNT, n_moves[LEAVE_COUNT]] = i
-                n_moves[LEAVE_COUNT] += 1
-                counting[i] = False
-            if silent[i]:
-                if not following[i]:
-                    moves[JOIN_FOLLOW, n_moves[JOIN_FOLLOW]] = i
-                    n_moves[JOIN_FOLLOW] += 1
-                    following[i] = True
-            elif following[i]:
-                moves[LEAVE_FOLLOW, n_moves[LEAVE_FOLLOW]] = i
-                n_moves[LEAVE_FOLLOW] += 1
-                following[i] = False
+        moves[REACT, n_react] = i
+        n_react += not q
+    if n_dec == 0:  # a step without decrements changes no counter
+        for k in range(l_count):
+            counting[moves[LEAVE_COUNT, k]] = True
+        l_count = 0
+    if n_silent == 0:  # no silent step: no follower changes
+        for k in range(l_follow):
+            following[moves[LEAVE_FOLLOW, k]] = True
+        l_follow = 0
+    n_moves[JOIN_COUNT] = j_count
+    n_moves[LEAVE_COUNT] = l_count
+    n_moves[JOIN_FOLLOW] = j_follow
+    n_moves[LEAVE_FOLLOW] = l_follow
+    n_moves[REACT] = n_react
     return n_silent

@@ -390,8 +390,8 @@ class StateArrays:
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
-        #: step_silently's scratch: the tags each TagState move is for, their counts, decrements
-        self._moves = np.zeros((5, n), np.int64), np.zeros(5, np.int64), np.zeros(n, bool)
+        #: step_silently's scratch: the tags each TagState move is for, and their counts
+        self._moves = np.zeros((5, n), np.int64), np.zeros(5, np.int64)
         self._t_max = -np.inf  # no tag's time is later (Notes)
         self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
@@ -539,11 +539,11 @@ class StateArrays:
         t_s = float(t_s)
         step, n = round_step_rows(cmd), len(self.states)
         quiet, silent = np.empty(n, bool), np.empty(n, bool)
-        moves, n_moves, decrement = self._moves
+        moves, n_moves = self._moves
         n_silent = _kernels.silent_step_kernel(
             on, stays_off, self.powered, self.row, step.silent, step.decrement, self.t_s, t_s,
-            not self._t_max <= t_s, self.slot, self.counting, self.following, quiet, silent,
-            decrement, moves, n_moves)
+            not self._t_max <= t_s, self.slot, self.counting, self.following, quiet, silent, moves,
+            n_moves)
         counts = n_moves.tolist()
         react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
         if not n_silent:

@@ -39,8 +39,8 @@ def silent_step_kernel(on, stays_off, powered, row, step_silent, step_decrement,
     n = row.size
     n_silent = 0
     n_dec = 0
-    j_count = 0
-    l_count = 0
+    n_moves[JOIN_COUNT] = 0
+    n_moves[LEAVE_COUNT] = 0
     j_follow = 0
     l_follow = 0
     n_react = 0
@@ -59,16 +59,13 @@ def silent_step_kernel(on, stays_off, powered, row, step_silent, step_decrement,
                 else:
                     s = True
         silent[i] = s
-        c = counting[i]
         if d:
             n_dec += 1
-            moves[JOIN_COUNT, j_count] = i
-            j_count += not c
-            counting[i] = True
-        elif c:
-            moves[LEAVE_COUNT, l_count] = i
-            l_count += 1
-            counting[i] = False
+        if d != counting[i]:  # joins (d) or leaves the clock's counters (rare: listed as it comes)
+            k = JOIN_COUNT if d else LEAVE_COUNT
+            moves[k, n_moves[k]] = i
+            n_moves[k] += 1
+            counting[i] = d
         f = following[i]
         if s:
             n_silent += 1
@@ -85,15 +82,13 @@ def silent_step_kernel(on, stays_off, powered, row, step_silent, step_decrement,
         moves[REACT, n_react] = i
         n_react += not q
     if n_dec == 0:  # a step without decrements changes no counter
-        for k in range(l_count):
+        for k in range(n_moves[LEAVE_COUNT]):
             counting[moves[LEAVE_COUNT, k]] = True
-        l_count = 0
+        n_moves[LEAVE_COUNT] = 0
     if n_silent == 0:  # no silent step: no follower changes
         for k in range(l_follow):
             following[moves[LEAVE_FOLLOW, k]] = True
         l_follow = 0
-    n_moves[JOIN_COUNT] = j_count
-    n_moves[LEAVE_COUNT] = l_count
     n_moves[JOIN_FOLLOW] = j_follow
     n_moves[LEAVE_FOLLOW] = l_follow
     n_moves[REACT] = n_react

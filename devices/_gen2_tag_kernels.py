@@ -1,17 +1,55 @@
-"""numba kernel of a population's silent step of a QueryRep, ACK or NAK (wrapped and documented
-in :meth:`rfsim.devices.gen2_tag_arrays.StateArrays.step_silently`; the plain-NumPy twin is
+"""The Gen2 slot counter's rules (:func:`decremented`, :func:`slot_replies`: for one tag or many,
+the one definition, re-exported by :mod:`rfsim.devices.gen2_tag_arrays`), and the numba kernel of a
+population's silent step of a QueryRep, ACK or NAK (wrapped and documented in
+:meth:`rfsim.devices.gen2_tag_arrays.StateArrays.step_silently`; the plain-NumPy twin is
 ``StateArrays.silent_steps`` followed by ``StateArrays.take_silent_steps``).
 
 The kernel reads the rules it applies: the rows of :func:`rfsim.devices.gen2_tag_arrays.round_step`
-(``round_step_rows``) and the slot counter's :func:`~rfsim.devices.gen2_tag_values.decremented`
-and :func:`~rfsim.devices.gen2_tag_values.slot_replies`, compiled into it from their one
-definition.
+(``round_step_rows``, passed in) and the slot counter's rules below, compiled into it. They live
+here, in a kernel module, so that an edit of them changes the kernel cache's folder.
 """
 
 from __future__ import annotations
 
 from rfsim.core._jit import njit, njit_inline
-from rfsim.devices.gen2_tag_values import decremented, slot_replies
+
+
+def slot_replies(slot):
+    """Tell whether a tag in a round replies with its slot counter ``slot``: at 0 it
+    backscatters a new RN16 and goes to Reply, else it goes to (or stays in) Arbitrate.
+
+    EPC Gen2 "Tag states and slot counter". For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s).
+
+    Returns
+    -------
+    bool or ndarray of bool
+        The tag replies.
+    """
+    return slot == 0
+
+
+def decremented(slot):
+    """Return a slot counter after a QueryRep's decrement: (slot − 1) mod 2^15.
+
+    EPC Gen2 "Tag states and slot counter" (0000h decrements to 7FFFh). For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s), 0 … 7FFFh.
+
+    Returns
+    -------
+    int or ndarray of int
+        The decremented counter(s), the type and shape of ``slot``.
+    """
+    return (slot - 1) & 0x7FFF
+
 
 _decremented = njit_inline(decremented)
 _slot_replies = njit_inline(slot_replies)

@@ -7,8 +7,9 @@ The rules are written once, for one tag (Python ints, bools, strings) or many (a
 QueryAdjust, ACK and NAK do in each state: the end of an access with its inventoried-flag
 flip, the slot counter's decrement and wrap, the QueryAdjust redraw, the ACK checks, NAK),
 :func:`s1_reverts` (S1 persistence) and :func:`select_step` (the Select action table); the
-slot counter's :func:`rfsim.devices.gen2_tag_values.decremented` and
-:func:`rfsim.devices.gen2_tag_values.slot_replies` (re-exported here), the Q adjustment
+slot counter's :func:`rfsim.devices._gen2_tag_kernels.decremented` and
+:func:`rfsim.devices._gen2_tag_kernels.slot_replies` (re-exported here; in the kernel module
+whose kernel they are compiled into), the Q adjustment
 :func:`rfsim.devices.gen2_tag_values.adjusted_q` and the slot-counter draw
 :func:`rfsim.gen2.tag_draws.slot_draw`. :class:`rfsim.devices.gen2_tag_state.TagState` is a
 population of one that applies them to itself (its row of :func:`round_step` evaluated for
@@ -30,7 +31,8 @@ from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 from rfsim.gen2.generator_words import GeneratorWords
 from rfsim.gen2.tag_draws import _slot_drawer, _top_bits
 from rfsim.devices import _gen2_tag_kernels as _kernels
-from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q, decremented, slot_replies
+from rfsim.devices._gen2_tag_kernels import decremented, slot_replies
+from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
 _ACKNOWLEDGED, _OPEN, _KILLED = STATE_CODES["acknowledged"], STATE_CODES["open"], STATE_CODES["killed"]

@@ -208,42 +208,5 @@ class SharedClock:
         self.slots, self.qs = slots, qs
 
 
-def slot_replies(slot):
-    """Tell whether a tag in a round replies with its slot counter ``slot``: at 0 it
-    backscatters a new RN16 and goes to Reply, else it goes to (or stays in) Arbitrate.
-
-    EPC Gen2 "Tag states and slot counter". For one tag or many.
-
-    Parameters
-    ----------
-    slot : int or ndarray of int, shape (n_tags,)
-        The counter(s).
-
-    Returns
-    -------
-    bool or ndarray of bool
-        The tag replies.
-    """
-    return slot == 0
-
-
-def decremented(slot):
-    """Return a slot counter after a QueryRep's decrement: (slot − 1) mod 2^15.
-
-    EPC Gen2 "Tag states and slot counter" (0000h decrements to 7FFFh). For one tag or many.
-
-    Parameters
-    ----------
-    slot : int or ndarray of int, shape (n_tags,)
-        The counter(s), 0 … 7FFFh.
-
-    Returns
-    -------
-    int or ndarray of int
-        The decremented counter(s), the type and shape of ``slot``.
-    """
-    return (slot - 1) & 0x7FFF
-
-
-__all__ = ["slot_replies", "decremented", "STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw",
+__all__ = ["STATES", "STATE_CODES", "REPLY_KINDS", "Reply", "FlagPersistence", "SharedClock", "pc_word", "slot_draw",
            "adjusted_q"]

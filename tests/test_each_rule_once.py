@@ -117,7 +117,8 @@ def test_linecode_users_import_the_one_definition(module):
 #: a population of one): module → its rule functions.
 TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows",
                                             "round_step_of_one", "query_matches", "s1_reverts", "select_step"),
-             "devices/gen2_tag_values.py": ("adjusted_q", "slot_replies", "decremented"),
+             "devices/gen2_tag_values.py": ("adjusted_q",),
+             "devices/_gen2_tag_kernels.py": ("slot_replies", "decremented"),
              "rfsim/gen2/tag_draws.py": ("_top_bits",)}
 #: Functions that the scan below does not read: the rules, and the dispatch of the access
 #: commands (Req_RN in Acknowledged, the others in Open/Secured), whose one definition is
@@ -239,8 +240,8 @@ def test_tag_rules_home_holds_the_rules():
     kinds = {f.split(": ")[1] for f in _tag_rule_idioms(MODULES[home])}
     assert {"two sessions compared (the round's guard)", "an S1 persistence test",
             "a Query's Sel tested"} <= kinds, kinds
-    values = _tag_rule_idioms(MODULES["devices/gen2_tag_values.py"])
-    assert [f for f in values if "Q clamped" in f] and [f for f in values if "a slot-counter decrement" in f]
+    assert [f for f in _tag_rule_idioms(MODULES["devices/gen2_tag_values.py"]) if "Q clamped" in f]
+    assert [f for f in _tag_rule_idioms(MODULES["devices/_gen2_tag_kernels.py"]) if "a slot-counter decrement" in f]
     for module, names in TAG_SCAN_SKIP.items():
         assert _tag_rule_idioms(MODULES[module], skip=names) == [], module
     assert ROUND_COMMANDS <= _names(_function(home, "round_step"))

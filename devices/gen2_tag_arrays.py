@@ -6,8 +6,10 @@ The rules are written once, for one tag (Python ints, bools, strings) or many (a
 :func:`query_matches` (Query: Sel and Target), :func:`round_step` (what Query, QueryRep,
 QueryAdjust, ACK and NAK do in each state: the end of an access with its inventoried-flag
 flip, the slot counter's decrement and wrap, the QueryAdjust redraw, the ACK checks, NAK),
-:func:`decremented` and :func:`slot_replies` (the slot counter), :func:`s1_reverts` (S1
-persistence) and :func:`select_step` (the Select action table); the Q adjustment is
+:func:`s1_reverts` (S1 persistence) and :func:`select_step` (the Select action table); the
+slot counter's :func:`rfsim.devices._gen2_tag_kernels.decremented` and
+:func:`rfsim.devices._gen2_tag_kernels.slot_replies` (re-exported here; in the kernel module
+whose kernel they are compiled into), the Q adjustment
 :func:`rfsim.devices.gen2_tag_values.adjusted_q` and the slot-counter draw
 :func:`rfsim.gen2.tag_draws.slot_draw`. :class:`rfsim.devices.gen2_tag_state.TagState` is a
 population of one that applies them to itself (its row of :func:`round_step` evaluated for
@@ -28,6 +30,8 @@ import numpy as np
 from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 from rfsim.gen2.generator_words import GeneratorWords
 from rfsim.gen2.tag_draws import _slot_drawer, _top_bits
+from rfsim.devices import _gen2_tag_kernels as _kernels
+from rfsim.devices._gen2_tag_kernels import decremented, slot_replies
 from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
@@ -257,43 +261,6 @@ def query_matches(sel: str, target: str, sl, flag):
     return ((sel != "sl") | sl) & ((sel != "~sl") | (sl == False)) & (flag == target)  # noqa: E712 (arrays)
 
 
-def slot_replies(slot):
-    """Tell whether a tag in a round replies with its slot counter ``slot``: at 0 it
-    backscatters a new RN16 and goes to Reply, else it goes to (or stays in) Arbitrate.
-
-    EPC Gen2 "Tag states and slot counter". For one tag or many.
-
-    Parameters
-    ----------
-    slot : int or ndarray of int, shape (n_tags,)
-        The counter(s).
-
-    Returns
-    -------
-    bool or ndarray of bool
-        The tag replies.
-    """
-    return slot == 0
-
-
-def decremented(slot):
-    """Return a slot counter after a QueryRep's decrement: (slot − 1) mod 2^15.
-
-    EPC Gen2 "Tag states and slot counter" (0000h decrements to 7FFFh). For one tag or many.
-
-    Parameters
-    ----------
-    slot : int or ndarray of int, shape (n_tags,)
-        The counter(s), 0 … 7FFFh.
-
-    Returns
-    -------
-    int or ndarray of int
-        The decremented counter(s), the type and shape of ``slot``.
-    """
-    return (slot - 1) & 0x7FFF
-
-
 def s1_reverts(t_s, s1_set_s, s1_keep_s):
     """Tell whether the S1 inventoried flag, set to B at ``s1_set_s``, has reverted to A by ``t_s``.
 
@@ -425,6 +392,8 @@ class StateArrays:
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
+        #: step_silently's scratch: the tags each TagState move is for, and their counts
+        self._moves = np.zeros((5, n), np.int64), np.zeros(5, np.int64)
         self._t_max = -np.inf  # no tag's time is later (Notes)
         self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
@@ -530,6 +499,75 @@ class StateArrays:
             silent = np.greater(silent, dec & slot_replies(decremented(self.slot)))  # silent & ~(…)
             dec &= silent
         return silent, dec
+
+    def step_silently(self, cmd, on: np.ndarray, stays_off: np.ndarray,
+                      t_s: float) -> tuple[np.ndarray, np.ndarray | None, list]:
+        """Decide and take the silent steps of a QueryRep, ACK or NAK in one pass over the rows.
+
+        :meth:`silent_steps` followed by :meth:`take_silent_steps` (the same rows, rules and
+        :class:`TagState` moves) in one compiled loop
+        (:func:`rfsim.devices._gen2_tag_kernels.silent_step_kernel`), with the tags that stay
+        quiet: the silent ones and those unpowered that stay so. Only the tags that join or
+        leave the clock's followers or counters, and those that react, cost a step in Python.
+
+        Parameters
+        ----------
+        cmd : rfsim.gen2.commands command
+            The received command (a command of no silent step leaves every row alone).
+        on : ndarray of bool, shape (n_tags,)
+            Tags to consider: powered ones that stay powered.
+        stays_off : ndarray of bool, shape (n_tags,)
+            Tags whose power decision keeps them unpowered (quiet where not powered).
+        t_s : float
+            Time the command is received [s].
+
+        Returns
+        -------
+        quiet : ndarray of bool, shape (n_tags,)
+            Silent tags, and unpowered tags that stay so.
+        silent : ndarray of bool, shape (n_tags,) or None
+            Tags that took a silent step; None when none did.
+        react : list of int
+            The tags that are not quiet, ascending.
+
+        Raises
+        ------
+        ValueError
+            When some tag has S1 set to B (its flag may revert: :meth:`take_silent_steps`
+            steps it through its own state).
+        """
+        if self._s1_set:
+            raise ValueError("step_silently with S1 flags set to B: use silent_steps and take_silent_steps")
+        t_s = float(t_s)
+        step, n = round_step_rows(cmd), len(self.states)
+        quiet, silent = np.empty(n, bool), np.empty(n, bool)
+        moves, n_moves = self._moves
+        n_silent = _kernels.silent_step_kernel(
+            on, stays_off, self.powered, self.row, step.silent, step.decrement, self.t_s, t_s,
+            not self._t_max <= t_s, self.slot, self.counting, self.following, quiet, silent, moves,
+            n_moves)
+        counts = n_moves.tolist()
+        react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
+        if not n_silent:
+            return quiet, None, react
+        states, clock = self.states, self.clock
+
+        def moved(k):
+            return map(states.__getitem__, moves[k, :counts[k]].tolist())
+
+        for st in moved(_kernels.LEAVE_COUNT):  # (their rows: their counters, not decremented now)
+            st.follow_decrements(None)
+        for i in moves[_kernels.JOIN_COUNT, :counts[_kernels.JOIN_COUNT]].tolist():
+            st = states[i]
+            st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented
+        for st in moved(_kernels.LEAVE_FOLLOW):
+            st.follow(None)
+        clock.t_s = t_s
+        for st in moved(_kernels.JOIN_FOLLOW):
+            st._clock = clock  # follow(clock)
+        if t_s > self._t_max:
+            self._t_max = t_s
+        return quiet, silent, react
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
         """Decide which tags load a new slot counter on a QueryAdjust.

@@ -70,6 +70,9 @@ _gamma_rest = operator.attrgetter("gamma_rest")
 #: The round commands a powered member with a known power decision takes through its state
 #: machine alone when it does not take them silently (reflect_scaled).
 _ROUND_COMMANDS = (QueryRep, QueryAdjust, ACK, NAK)
+#: The round commands whose silent steps are decided and taken in one pass
+#: (StateArrays.step_silently): all but the QueryAdjust, whose redraws follow its silent steps.
+_ONE_PASS = (QueryRep, ACK, NAK)
 
 
 def _counting_class(members):
@@ -186,7 +189,7 @@ class TagPopulation:
         rnd = self._sync(gains, fe)
         arrays = self.arrays
         on = rnd.stays_on & arrays.powered  # powered, and stays so
-        quiet = np.greater(rnd.stays_off, arrays.powered)  # unpowered, and stays so
+        quiet = react = None  # quiet: unpowered and stays so, or silent (react: the others)
         steps, applied, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
         if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
@@ -200,6 +203,14 @@ class TagPopulation:
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 decoded_by.append((sel, decoded, t_end_s))
+                if group is None and type(cmd) in _ONE_PASS and not arrays._s1_set:
+                    # one group and a command of silent steps only: decided and taken in one pass
+                    quiet, silent, react = arrays.step_silently(cmd, sel, rnd.stays_off, t_end_s)
+                    if silent is not None:
+                        steps.append((cmd, silent, None, t_end_s))
+                    continue
+                if quiet is None:
+                    quiet = np.greater(rnd.stays_off, arrays.powered)
                 silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
                 any_silent = bool(np.count_nonzero(silent))
                 if any_silent:
@@ -211,6 +222,8 @@ class TagPopulation:
                     redraw = None
                 if any_silent or redraw is not None:
                     applied.append((decoded, silent, dec, redraw, t_end_s))
+        if quiet is None:
+            quiet = np.greater(rnd.stays_off, arrays.powered)
         replies = {}
         for decoded, silent, dec, redraw, t_end_s in applied:
             # the tags that redraw their counter (QueryAdjust) follow the silent steps' clock to
@@ -232,7 +245,8 @@ class TagPopulation:
                 members[j].take_quiet_step(points[j])
             needs.difference_update(done)
         reactions, stepped = {}, {}
-        react = np.flatnonzero(~quiet).tolist()
+        if react is None:
+            react = np.flatnonzero(~quiet).tolist()
         for j in react:
             m = members[j]
             decoded = t_end_s = None

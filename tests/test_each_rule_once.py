@@ -116,9 +116,9 @@ def test_linecode_users_import_the_one_definition(module):
 #: The one definition of the rules of the Gen2 tag state machine, over arrays (a single tag is
 #: a population of one): module → its rule functions.
 TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows",
-                                            "round_step_of_one", "query_matches", "slot_replies", "decremented",
-                                            "s1_reverts", "select_step"),
+                                            "round_step_of_one", "query_matches", "s1_reverts", "select_step"),
              "devices/gen2_tag_values.py": ("adjusted_q",),
+             "devices/_gen2_tag_kernels.py": ("slot_replies", "decremented"),
              "rfsim/gen2/tag_draws.py": ("_top_bits",)}
 #: Functions that the scan below does not read: the rules, and the dispatch of the access
 #: commands (Req_RN in Acknowledged, the others in Open/Secured), whose one definition is
@@ -144,9 +144,14 @@ TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"
                   ("devices/gen2_tag_arrays.py", "take_silent_steps", "decremented"),
                   ("devices/gen2_tag_arrays.py", "take_redraw_steps", "adjusted_q"),
                   ("devices/gen2_tag_arrays.py", "take_redraw_steps", "slot_replies"),
+                  ("devices/gen2_tag_arrays.py", "step_silently", "round_step_rows"),
+                  # the one-pass kernel of step_silently, the counter's rules compiled into it
+                  ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_decremented"),
+                  ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_slot_replies"),
                   # the populations step their tags through the arrays' steps above
                   ("devices/tag_population.py", "reflect_scaled", "silent_steps"),
                   ("devices/tag_population.py", "reflect_scaled", "redraw_steps"),
+                  ("devices/tag_population.py", "reflect_scaled", "step_silently"),
                   ("rfsim/protocols/inventory.py", "_drive_arrays", "silent_steps"),
                   ("rfsim/protocols/inventory.py", "_drive_arrays", "redraw_steps"))
 #: The commands whose transitions ``round_step`` decides.
@@ -233,9 +238,10 @@ def test_tag_rules_home_holds_the_rules():
     ``round_step`` tells every round command apart."""
     home = "devices/gen2_tag_arrays.py"
     kinds = {f.split(": ")[1] for f in _tag_rule_idioms(MODULES[home])}
-    assert {"a slot-counter decrement", "two sessions compared (the round's guard)", "an S1 persistence test",
+    assert {"two sessions compared (the round's guard)", "an S1 persistence test",
             "a Query's Sel tested"} <= kinds, kinds
     assert [f for f in _tag_rule_idioms(MODULES["devices/gen2_tag_values.py"]) if "Q clamped" in f]
+    assert [f for f in _tag_rule_idioms(MODULES["devices/_gen2_tag_kernels.py"]) if "a slot-counter decrement" in f]
     for module, names in TAG_SCAN_SKIP.items():
         assert _tag_rule_idioms(MODULES[module], skip=names) == [], module
     assert ROUND_COMMANDS <= _names(_function(home, "round_step"))

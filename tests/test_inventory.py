@@ -480,8 +480,16 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
         population_steps.append(int(silent.sum()))
         return original_arrays(self, cmd, silent, decrement, t_s, joining=joining)
 
+    original_one_pass = StateArrays.step_silently
+
+    def counted_one_pass(self, cmd, on, stays_off, t_s):  # (a QueryRep, ACK or NAK in one pass)
+        quiet, silent, react = original_one_pass(self, cmd, on, stays_off, t_s)
+        population_steps.append(0 if silent is None else int(silent.sum()))
+        return quiet, silent, react
+
     monkeypatch.setattr(_State, "on_command_if_silent", counted)
     monkeypatch.setattr(StateArrays, "take_silent_steps", counted_arrays)
+    monkeypatch.setattr(StateArrays, "step_silently", counted_one_pass)
     chip = PowerDependentChip.pass_default()
     radii = [1.0, 1.4, 1.9, 2.3, 2.8, 3.2, 3.7, 6.0, 9.0, 1.2, 1.7, 2.1, 2.6]
     results = []

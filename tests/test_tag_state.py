@@ -931,3 +931,126 @@ def test_select_doing_nothing_keeps_the_s1_timer():
     assert tag.inventoried[1] == "B"
     tag.on_command(QueryRep(session=0), t_s=2.0, rng=rng)
     assert tag.inventoried[1] == "A"
+
+
+def _drive_one_pass(sabotage=None, steps=500):
+    """Random command sequences (fixed seed) to 16 tags in two copies with equal streams: one
+    copy takes every command through on_command; the other's arrays take a QueryRep, ACK or
+    NAK in one pass (StateArrays.step_silently) for random candidate and stays-off masks, the
+    rest through on_command (rows read back), the other commands as the population does
+    (silent_steps, take_silent_steps, redraws). ``sabotage(arrays)`` → undo: called around
+    step_silently, it reverts one of its updates. Returns the first step where the copies, the
+    one-pass decision and silent_steps', or the arrays and the states' rows differ (None: never)
+    and the count of tag steps taken in one pass."""
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    rng = np.random.default_rng(11)
+    n = 16
+    full = [TagState(f"{k + 1:024X}") for k in range(n)]
+    fast = [TagState(f"{k + 1:024X}") for k in range(n)]
+    g_full = [np.random.default_rng(k) for k in range(n)]
+    g_fast = [np.random.default_rng(k) for k in range(n)]
+    arrays = StateArrays(fast, g_fast)
+    t, one_pass = 0.0, 0
+    for step in range(steps):
+        t += 2e-4 * rng.random()
+        k, s = int(rng.integers(8)), int(rng.choice([0, 2]))  # (no S1: its reverts are not one-pass)
+        if k == 0:
+            cmd = Query(session=s, target="AB"[int(rng.integers(2))], q=int(rng.integers(5)))
+        elif k == 1:
+            cmd = QueryAdjust(session=s, updn=int(rng.choice([-1, 0, 1])))
+        elif k in (2, 3, 4, 5):
+            cmd = QueryRep(session=s)
+        elif k == 6:
+            rn = [st.rn16 for st in full if st.rn16 is not None]
+            cmd = ACK(rn[int(rng.integers(len(rn)))] if rn and rng.random() < 0.7 else int(rng.integers(1 << 16)))
+        else:
+            cmd = NAK()
+        if rng.random() < 0.03:  # a tag loses and regains power (outside the arrays: read back)
+            i = int(rng.integers(n))
+            for on_power, up in ((full[i].on_power, False), (fast[i].on_power, False),
+                                 (full[i].on_power, True), (fast[i].on_power, True)):
+                on_power(up, t)
+            arrays.read([i])
+        if rng.random() < 0.03:  # a Select (outside the arrays: read back)
+            sel = Select(target=int(rng.choice([0, 2, 4])), action=int(rng.integers(8)), membank=1,
+                         pointer=0x20 + 95, mask="1")  # (odd EPCs match)
+            for st, g in zip(full + fast, g_full + g_fast):
+                st.on_command(sel, t_s=t, rng=g)
+            arrays.read(range(n))
+        expected = [st.on_command(cmd, t_s=t, rng=g) for st, g in zip(full, g_full)]
+        got = [None] * n
+        on = rng.random(n) < 0.9
+        stays_off = ~on & (rng.random(n) < 0.5)
+        if type(cmd) in (QueryRep, ACK, NAK):
+            want, _ = arrays.silent_steps(cmd, on, t)
+            undo = sabotage(arrays) if sabotage is not None else None
+            quiet, silent, react = arrays.step_silently(cmd, on, stays_off, t)
+            if undo is not None:
+                undo()
+            silent = np.zeros(n, bool) if silent is None else silent
+            if (not np.array_equal(silent, want) or not np.array_equal(quiet, silent | (stays_off & ~arrays.powered))
+                    or react != np.flatnonzero(~quiet).tolist()):
+                return (step, "decision"), one_pass
+            one_pass += int(silent.sum())
+        else:
+            silent, dec = arrays.silent_steps(cmd, on, t)
+            arrays.take_silent_steps(cmd, silent, dec, t)
+            redraw = arrays.redraw_steps(cmd, on & ~silent, t)
+            for i, reply in arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, t):
+                got[i] = reply
+            silent = silent | redraw
+        rest = np.flatnonzero(~silent).tolist()
+        for i in rest:
+            got[i] = fast[i].on_command(cmd, t_s=t, rng=g_fast[i])
+        arrays.read(rest)
+        if any(not ((a is None and b is None) or a == b) for a, b in zip(expected, got)):
+            return (step, "replies"), one_pass
+        if any(_observable(a) != _observable(b) for a, b in zip(full, fast)):
+            return (step, "states"), one_pass
+        rows = StateArrays(fast)
+        if (arrays.following.tolist() != [st._clock is arrays.clock for st in fast]
+                or arrays.counting.tolist() != [st._slot_clock is arrays.clock for st in fast]):
+            return (step, "clock"), one_pass
+        for name in ("powered", "code", "session", "slot", "t_s", "s1_set_s", "s1_keep_s", "q", "row"):
+            a, b = getattr(arrays, name), getattr(rows, name)
+            if a.dtype != b.dtype or a.tobytes() != b.tobytes():  # (to the bit: NaN where not set)
+                return (step, name), one_pass
+    return None, one_pass
+
+
+def test_one_pass_silent_steps_equal_on_command():
+    # StateArrays.step_silently (one compiled pass: decide, decrement, times, the clock's
+    # followers and counters) against every tag's own on_command and against silent_steps'
+    # decision, over random Query / QueryRep / QueryAdjust / ACK / NAK / Select / power-loss
+    # sequences; most tag steps of the one-pass commands must be silent ones
+    failed, one_pass = _drive_one_pass()
+    assert failed is None, failed
+    assert one_pass >= 1500, one_pass
+
+
+def _revert(*names):
+    def sabotage(arrays):
+        kept = {name: getattr(arrays, name).copy() for name in names}
+
+        def undo():
+            for name, value in kept.items():
+                getattr(arrays, name)[...] = value
+        return undo
+    return sabotage
+
+
+def _skip_clock(arrays):
+    t_before = arrays.clock.t_s
+
+    def undo():
+        arrays.clock.t_s = t_before
+    return undo
+
+
+@pytest.mark.parametrize("sabotage", [_revert("slot"), _revert("t_s"), _revert("following"), _revert("counting"),
+                                      _skip_clock], ids=["decrement", "time", "following", "counting", "clock"])
+def test_one_pass_check_fails_when_an_update_is_skipped(sabotage):
+    # the comparison above catches each update of step_silently left out
+    failed, _ = _drive_one_pass(sabotage, steps=300)
+    assert failed is not None

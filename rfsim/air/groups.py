@@ -10,9 +10,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from rfsim.air import _group_kernels as _kernels
 from rfsim.air.links import through
 
-__all__ = ["members_of", "entries_of", "UNSET", "PerMember", "accumulate", "modulates", "group_backscatter"]
+__all__ = ["members_of", "entries_of", "UNSET", "PerMember", "accumulate", "masked_sum", "modulates", "group_backscatter"]
 
 
 def members_of(reflectors: Sequence) -> list:
@@ -99,8 +100,8 @@ class PerMember(Sequence):
 def accumulate(start: complex, values: np.ndarray) -> complex:
     """Add complex values to a start value strictly left to right.
 
-    ``numpy.add.accumulate`` is sequential: the same sums, in the same order, as a Python loop
-    ``start + values[0] + values[1] + …``.
+    The same sums, in the same order, as a Python loop ``start + values[0] + values[1] + …``
+    (:func:`masked_sum` of every value).
 
     Parameters
     ----------
@@ -114,10 +115,34 @@ def accumulate(start: complex, values: np.ndarray) -> complex:
     complex
         The sum.
     """
-    acc = np.empty(values.size + 1, dtype=np.complex128)
-    acc[0] = start
-    acc[1:] = values
-    return complex(np.add.accumulate(acc)[-1])
+    return masked_sum(start, values, np.ones(values.size, bool))[1]
+
+
+def masked_sum(start: complex, values: np.ndarray, use: np.ndarray) -> tuple[int, complex]:
+    """Add the values picked by a mask to a start value strictly left to right, in one pass.
+
+    ``start + values[i0] + values[i1] + …`` over the ``i`` where ``use[i]``, in index order: the
+    same complex additions as a Python loop (and as ``numpy.add.accumulate`` of the picked values),
+    so bit for bit the per-member sum of the air step.
+
+    Parameters
+    ----------
+    start : complex
+        The start value.
+    values : ndarray, shape (n,), complex128
+        The values, in order.
+    use : ndarray of bool, shape (n,)
+        The values to add.
+
+    Returns
+    -------
+    count : int
+        How many values were added.
+    total : complex
+        The sum (``start`` when none was added).
+    """
+    n, total = _kernels.masked_sum_kernel(complex(start), np.ascontiguousarray(values, np.complex128), use)
+    return int(n), complex(total)
 
 
 def modulates(entries: list, reflections: list, shortcut: dict) -> bool:
@@ -222,5 +247,6 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
         gb, yb = through(pj, seg, scattered, fc_hz=seg.fc_hz, bandwidth_hz=bw, propagation=propagation, memo=memo)
         parts.append(yb if yb is not None else gb * scattered)
     vals = terms if vals is None else vals
-    if use.any():
-        const[i0] = accumulate(const.get(i0, 0j), vals[use])
+    n_used, total = masked_sum(const.get(i0, 0j), vals, use)  # (one pass over the members)
+    if n_used:
+        const[i0] = total

@@ -1,0 +1,133 @@
+"""The Gen2 slot counter's rules (:func:`decremented`, :func:`slot_replies`: for one tag or many,
+the one definition, re-exported by :mod:`rfsim.devices.gen2_tag_arrays`), and the numba kernel of a
+population's silent step of a QueryRep, ACK or NAK (wrapped and documented in
+:meth:`rfsim.devices.gen2_tag_arrays.StateArrays.step_silently`; the plain-NumPy twin is
+``StateArrays.silent_steps`` followed by ``StateArrays.take_silent_steps``).
+
+The kernel reads the rules it applies: the rows of :func:`rfsim.devices.gen2_tag_arrays.round_step`
+(``round_step_rows``, passed in) and the slot counter's rules below, compiled into it. They live
+here, in a kernel module, so that an edit of them changes the kernel cache's folder.
+"""
+
+from __future__ import annotations
+
+from rfsim.core._jit import njit, njit_inline
+
+
+def slot_replies(slot):
+    """Tell whether a tag in a round replies with its slot counter ``slot``: at 0 it
+    backscatters a new RN16 and goes to Reply, else it goes to (or stays in) Arbitrate.
+
+    EPC Gen2 "Tag states and slot counter". For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s).
+
+    Returns
+    -------
+    bool or ndarray of bool
+        The tag replies.
+    """
+    return slot == 0
+
+
+def decremented(slot):
+    """Return a slot counter after a QueryRep's decrement: (slot − 1) mod 2^15.
+
+    EPC Gen2 "Tag states and slot counter" (0000h decrements to 7FFFh). For one tag or many.
+
+    Parameters
+    ----------
+    slot : int or ndarray of int, shape (n_tags,)
+        The counter(s), 0 … 7FFFh.
+
+    Returns
+    -------
+    int or ndarray of int
+        The decremented counter(s), the type and shape of ``slot``.
+    """
+    return (slot - 1) & 0x7FFF
+
+
+_decremented = njit_inline(decremented)
+_slot_replies = njit_inline(slot_replies)
+
+#: Rows of the kernel's ``moves``: tags that start / stop counting with the clock, start /
+#: stop following its time, and the tags that are not quiet.
+JOIN_COUNT, LEAVE_COUNT, JOIN_FOLLOW, LEAVE_FOLLOW, REACT = range(5)
+
+
+@njit
+def silent_step_kernel(on, stays_off, powered, row, step_silent, step_decrement, t_col, t_s, check_t,
+                       slot, counting, following, quiet, silent, moves, n_moves):
+    """One pass over the tags: decide their silent steps and apply them to the columns.
+
+    Tag i steps silently when ``on[i]``, ``step_silent[row[i]]``, its time ``t_col[i] ≤ t_s``
+    (checked only where ``check_t``) and, where it decrements (``step_decrement[row[i]]``),
+    its decremented counter does not reply. A silent tag's time becomes ``t_s`` and it follows
+    the clock (``following``); a decrementing one's counter is decremented and counts with the
+    clock (``counting``). When any tag decrements, the others stop counting with the clock;
+    when any tag steps silently, the others stop following it (both taken in the pass and
+    undone at its end when no tag did). ``quiet[i]`` = silent or (``stays_off[i]`` and not
+    ``powered[i]``). ``moves[k, :n_moves[k]]`` (int64, (5, n)) receive the tags of
+    :data:`JOIN_COUNT` … :data:`REACT`, in order (the caller moves the :class:`TagState`
+    objects: leaving before joining). Returns the number of silent tags."""
+    n = row.size
+    n_silent = 0
+    n_dec = 0
+    n_moves[JOIN_COUNT] = 0
+    n_moves[LEAVE_COUNT] = 0
+    j_follow = 0
+    l_follow = 0
+    n_react = 0
+    for i in range(n):
+        s = False
+        d = False
+        if on[i]:
+            r = row[i]
+            if step_silent[r] and (not check_t or t_col[i] <= t_s):
+                if step_decrement[r]:
+                    v = _decremented(slot[i])
+                    if not _slot_replies(v):  # (else it replies: not silent)
+                        s = True
+                        d = True
+                        slot[i] = v
+                else:
+                    s = True
+        silent[i] = s
+        if d:
+            n_dec += 1
+        if d != counting[i]:  # joins (d) or leaves the clock's counters (rare: listed as it comes)
+            k = JOIN_COUNT if d else LEAVE_COUNT
+            moves[k, n_moves[k]] = i
+            n_moves[k] += 1
+            counting[i] = d
+        f = following[i]
+        if s:
+            n_silent += 1
+            t_col[i] = t_s
+            moves[JOIN_FOLLOW, j_follow] = i
+            j_follow += not f
+            following[i] = True
+        elif f:
+            moves[LEAVE_FOLLOW, l_follow] = i
+            l_follow += 1
+            following[i] = False
+        q = s or (stays_off[i] and not powered[i])
+        quiet[i] = q
+        moves[REACT, n_react] = i
+        n_react += not q
+    if n_dec == 0:  # a step without decrements changes no counter
+        for k in range(n_moves[LEAVE_COUNT]):
+            counting[moves[LEAVE_COUNT, k]] = True
+        n_moves[LEAVE_COUNT] = 0
+    if n_silent == 0:  # no silent step: no follower changes
+        for k in range(l_follow):
+            following[moves[LEAVE_FOLLOW, k]] = True
+        l_follow = 0
+    n_moves[JOIN_FOLLOW] = j_follow
+    n_moves[LEAVE_FOLLOW] = l_follow
+    n_moves[REACT] = n_react
+    return n_silent

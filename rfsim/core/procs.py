@@ -133,6 +133,11 @@ def terminate_workers(pool: cf.ProcessPoolExecutor) -> None:
     """
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
+    _terminate(processes)
+
+
+def _terminate(processes: list) -> None:
+    """SIGTERM the processes, then join each (at most 5 s each)."""
     for p in processes:
         with contextlib.suppress(Exception):
             p.terminate()
@@ -208,12 +213,7 @@ def close_workers(pool: cf.ProcessPoolExecutor, grace_s: float = WORKER_EXIT_GRA
         killed = any(p.exitcode is not None and p.exitcode < 0 for p in processes)
         left = deadline - time.monotonic()
         if killed or left <= 0:
-            for p in alive:
-                with contextlib.suppress(Exception):
-                    p.terminate()
-            for p in alive:
-                with contextlib.suppress(Exception):
-                    p.join(5.0)
+            _terminate(alive)
             break
         mpc.wait([p.sentinel for p in alive], timeout=min(left, 0.1))
     if manager is not None:

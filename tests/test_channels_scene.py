@@ -237,3 +237,30 @@ def test_static_link_draws_share_their_delay_terms_and_keep_draw_taps_numbers():
         assert p2.coefficients(fc).tobytes() == plain.coefficients(fc).tobytes()
     assert narrowband_rms_error(p2, 640e3) == narrowband_rms_error(plain, 640e3)
     assert p2.static and p2.constant_gain(FC) == plain.constant_gain(FC)
+
+
+def test_a_link_found_again_by_identity_is_the_link_a_new_channel_assembles():
+    # the channel finds the last static link's entries by the identities of its antennas: links
+    # asked in turn (the same pair again, an equal antenna of its own, another carrier, the
+    # reverse direction) are bit for bit those of a channel that assembles each one anew
+    a, b = Antenna([0.0, 0, 1]), Antenna([4.0, 1, 1], pattern=HalfWaveDipole())
+    b_equal, c = Antenna([4.0, 1, 1], pattern=HalfWaveDipole()), Antenna([2.0, -1, 1.5])
+    scene = Scene(apdp=ApdpModel(), surfaces=(Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0)),), image_order=1)
+    ch = Channel(scene)
+    asked = [(a, b, FC), (a, b, FC), (a, b_equal, FC), (a, b, FC + 0.5e6), (a, b, FC), (a, c, FC), (b, a, FC),
+             (a, b, FC)]
+    rng = np.random.default_rng(5)
+    for k, (tx, rx, fc) in enumerate(asked):
+        p = ch.link(tx, rx, fc_hz=fc, rng=rng)
+        ref_rng = np.random.default_rng(5)
+        for tx_r, rx_r, fc_r in asked[:k]:  # the same generator state: the same draws before
+            Channel(scene).link(tx_r, rx_r, fc_hz=fc_r, rng=ref_rng)
+        ref = Channel(scene).link(tx, rx, fc_hz=fc, rng=ref_rng)
+        assert p.gain.tobytes() == ref.gain.tobytes(), k
+        assert p.delay_s.tobytes() == ref.delay_s.tobytes() and p.doppler_hz.tobytes() == ref.doppler_hz.tobytes(), k
+        assert p.constant_gain(fc) == ref.constant_gain(fc), k
+        held = ch.link(tx, rx, fc_hz=fc)  # the held draw of this pair
+        assert held.gain.tobytes() == p.gain.tobytes(), k
+    # the pair found by identity keeps the delays the channel shares between draws
+    p1, p2 = ch.link(a, b, fc_hz=FC, rng=rng), ch.link(a, b, fc_hz=FC, rng=rng)
+    assert p2.delay_s is p1.delay_s

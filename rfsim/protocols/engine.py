@@ -374,7 +374,7 @@ def run_exchanges(reader, tags: Sequence[Sequence], channel, cmd, *, t_s, rngs: 
                                   motions=motions, draw_channel=draw_channel, propagation=propagation,
                                   link_cache=caches[b], sent=sent))
         if len(preps) > 1:  # the block's reader inputs in one array per reader (read where they lie)
-            n_block = sum(prep.sent.tx.samples.size for prep in preps)
+            n_block = sum([prep.sent.tx.samples.size for prep in preps])
             for listen in listens.values():
                 listen.inputs.reset(n_block)
         heard = [_heard(_air(prep, rngs[k0 + k]), prep.members) for k, prep in enumerate(preps)]
@@ -485,11 +485,12 @@ class _InputBlock:
     def windows(self, inputs, i0: list) -> Windows | None:
         """The windows ``input.samples[i0[b]:]`` of inputs formed here as
         :class:`rfsim.gen2.reply_decoder.Windows` of the array, or None when one was not."""
-        starts = [self.starts.get(id(x.samples)) for x in inputs]
+        rows = [x.samples for x in inputs]
+        starts = [self.starts.get(id(row)) for row in rows]
         if None in starts:
             return None
         first = np.array(starts, dtype=np.int64)
-        ends = first + np.array([x.samples.shape[-1] for x in inputs], dtype=np.int64)
+        ends = first + np.array([row.shape[-1] for row in rows], dtype=np.int64)
         return Windows(self.buffer, np.minimum(first + np.array(i0, dtype=np.int64), ends), ends)
 
 
@@ -825,7 +826,7 @@ class ReaderPort:
         batch = getattr(self.reader, "receive_batch", None)
         key = self.batch_key
         if (batch is None or self.delayed_reply or len(inputs) < 2 or (self.header_bit and self._reads_draw)
-                or any(p.batch_key != key for p in ports)):
+                or any([p.batch_key != key for p in ports])):
             return [p.receive(x) for p, x in zip(ports, inputs)]
         i0, t0, ends, carriers = _read_arguments(ports, inputs)
         laid = None if self._inputs is None else self._inputs.windows(inputs, i0)
@@ -1132,7 +1133,8 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
     """
     n = len(rngs)
     readers = _per_trial(reader, n, "reader")
-    if len({id(r) for r in readers}) < n and any(r.config.blf_search != "off" for r in readers):
+    distinct = {id(r): r for r in readers}  # (each reader asked once)
+    if len(distinct) < n and any([r.config.blf_search != "off" for r in distinct.values()]):
         raise ValueError("reader: a reader with blf_search keeps the RN16's BLF for the ACK; give one reader per "
                          "trial")
     caches = [{} for _ in range(n)]  # each trial's Query draw, held for its ACK

@@ -1146,9 +1146,12 @@ def singulate_batch(reader, tags: Sequence[Sequence], channel, *, t_s, rngs: Seq
         return out
     channels, rounds = _per_trials(n, channel=channel, round_index=round_index)
     acks, t_acks = [], []
+    ack_delays: dict = {}  # id(reader) -> its _AckDelays (the readers are held by ``readers``)
     for b in go:
         acks.append(ACK(bits_to_int(first[b].read.bits)))
-        delays = _link_time(readers[b], _ack_delays)
+        delays = ack_delays.get(id(readers[b]))
+        if delays is None:
+            delays = ack_delays[id(readers[b])] = _link_time(readers[b], _ack_delays)
         t_acks.append(first[b].read.start_s + delays.reply_s + delays.t2_s)
     second = run_exchanges([readers[b] for b in go], [tags[b] for b in go], [channels[b] for b in go], acks,
                            t_s=t_acks, rngs=[rngs[b] for b in go], reply_bits=epc_bits, expect_crc=True,

@@ -145,3 +145,43 @@ def test_a_list_that_is_empty_by_default_may_stay_empty():
         extra_m: tuple[float, ...] = param((), unit="m", doc="optional positions")
 
     assert load_config(Optional, None, ["extra_m=[]"]).extra_m == ()
+
+
+@dataclass(frozen=True)
+class CheckedToy:
+    """A config that checks its fields in code (``check_fields``, as the device configs do)."""
+
+    gain_db: float = param(0.0, lo=-10.0, hi=10.0, unit="dB", doc="gain")
+    spacing_m: tuple[float, ...] = param((1.0,), lo=0.0, lo_open=True, unit="m", doc="spacing")
+    mode: Literal["a", "b"] = param("a", doc="mode")
+
+    def __post_init__(self):
+        from rfsim.core.config import check_fields
+        check_fields(self, "toy")
+
+
+def test_fields_checked_once_per_distinct_values_convert_and_reject_as_every_time():
+    from rfsim.core.config import CHECKED_FIELDS
+
+    CHECKED_FIELDS.clear()
+    first = CheckedToy(gain_db=1.5, spacing_m=(2.0, 3))
+    again = CheckedToy(gain_db=1.5, spacing_m=(2.0, 3))  # the verdict of these values is kept
+    assert len(CHECKED_FIELDS.entries) == 1
+    for cfg in (first, again):  # stored in canonical form on the kept verdict too
+        assert cfg == CheckedToy(gain_db=1.5, spacing_m=(2.0, 3.0))
+        assert [type(v) for v in cfg.spacing_m] == [float, float]
+    CheckedToy(gain_db=2.0)
+    as_int = CheckedToy(gain_db=2)  # an equal int: another key (its type), converted to a float
+    assert type(as_int.gain_db) is float and as_int.gain_db == 2.0
+    twice = CheckedToy(gain_db=2)
+    assert type(twice.gain_db) is float
+    CheckedToy(gain_db=0.0)
+    negative_zero = CheckedToy(gain_db=-0.0)  # equal to a checked value: its own value is kept
+    assert str(negative_zero.gain_db) == "-0.0"
+    for _ in range(2):  # a value out of range is rejected every time, after the good ones were kept
+        with pytest.raises(ConfigError, match="toy.gain_db"):
+            CheckedToy(gain_db=11.0)
+        with pytest.raises(ConfigError, match="toy.mode"):
+            CheckedToy(mode="c")
+    with pytest.raises(ConfigError, match=r"toy.spacing_m\[1\]"):
+        CheckedToy(spacing_m=(1.0, 0.0))

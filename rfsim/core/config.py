@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from rfsim.core.errors import ConfigError, UserError, did_you_mean
+from rfsim.core.memo import PureCache
 
 _META_KEY = "rfsim"
 
@@ -327,10 +328,36 @@ def check_fields(config: Any, prefix: str = "") -> None:
     ConfigError
         For a value its field does not allow.
     """
-    hints = type_hints(type(config))
-    for f in dataclasses.fields(config):
+    cls = type(config)
+    fields = dataclasses.fields(config)
+    values = tuple([getattr(config, f.name) for f in fields])
+    try:  # the verdict of these values, checked before (compared by value and type)
+        kept = CHECKED_FIELDS(cls, prefix, values, tuple(map(type, values)))
+    except TypeError:  # an unhashable value (an array): checked field by field
+        kept = _kept_fields(cls, prefix, values)
+    for f, value, same in zip(fields, values, kept):
+        if not same:  # stored in canonical form (e.g. an int as a float): the value converted again
+            object.__setattr__(config, f.name, _coerce(f"{prefix}.{f.name}" if prefix else f.name, value,
+                                                       type_hints(cls)[f.name], field_meta(f)))
+
+
+def _kept_fields(cls: type, prefix: str, values: tuple, types_: tuple | None = None) -> tuple[bool, ...]:
+    """The per-field checks of :func:`check_fields` on the field values ``values`` of the config
+    class ``cls`` (``types_``: their types, a part of the memo's key only): raises the first
+    field's ConfigError, else per field whether its value is kept as given (True) or stored in
+    canonical form (False: :func:`_coerce` returned another object)."""
+    hints = type_hints(cls)
+    out = []
+    for f, value in zip(dataclasses.fields(cls), values):
         key = f"{prefix}.{f.name}" if prefix else f.name
-        object.__setattr__(config, f.name, _coerce(key, getattr(config, f.name), hints[f.name], field_meta(f)))
+        out.append(_coerce(key, value, hints[f.name], field_meta(f)) is value)
+    return tuple(out)
+
+
+#: :func:`_kept_fields` by config class, prefix, field values and their types: a pure function
+#: of them (a config's checks read its class's annotations and field metadata only), so that a
+#: config built again with the same values (a tag per trial from one TagConfig) is checked once.
+CHECKED_FIELDS = PureCache(_kept_fields, 256)
 
 
 def validate(config: Any) -> Any:

@@ -229,23 +229,20 @@ def _phasor_table(w):
 
 
 @njit
-def _phasor_at(walk, i, slope, fs, centre, table):
+def _phasor_at(i, last, rot, walked, slope, fs, centre, table):
     """e^{j·a_i}, a_i = slope·(i − centre)/fs (the rotation of
-    :func:`rfsim.gen2._measure_kernels.measure_kernel` at span index ``i``): from the last index
-    of ``walk`` ((4,) float64: index, cos, sin, steps since the last exact value) by a step of
-    the table (:func:`_phasor_table`, |step| ≤ :data:`PHASOR_STEPS`), exactly (cos, sin) when
-    the step is longer or after :data:`PHASOR_STEPS` steps (drift < 1e−13)."""
-    g = i - int(walk[0])
-    if -PHASOR_STEPS <= g <= PHASOR_STEPS and walk[3] < PHASOR_STEPS:
+    :func:`rfsim.gen2._measure_kernels.measure_kernel` at span index ``i``), and the steps walked
+    since the last exact value: from ``rot`` = e^{j·a} at the last index ``last`` (``walked``
+    steps since an exact value) by a step of the table (:func:`_phasor_table`,
+    |step| ≤ :data:`PHASOR_STEPS`), exactly (cos, sin) when the step is longer or after
+    :data:`PHASOR_STEPS` steps (drift < 1e−13). The walk's state is the caller's scalars (a
+    state array would cost a store and a load per step on the walk's chain)."""
+    g = i - last
+    if -PHASOR_STEPS <= g <= PHASOR_STEPS and walked < PHASOR_STEPS:
         t = table[g] if g >= 0 else table[-g].conjugate()
-        rot = complex(walk[1], walk[2]) * t
-        walk[3] += 1.0
-    else:
-        a = slope * ((i - centre) / fs)
-        rot = complex(math.cos(a), math.sin(a))
-        walk[3] = 0.0
-    walk[0], walk[1], walk[2] = i, rot.real, rot.imag
-    return rot
+        return rot * t, walked + 1
+    a = slope * ((i - centre) / fs)
+    return complex(math.cos(a), math.sin(a)), 0
 
 
 @njit
@@ -301,23 +298,28 @@ def _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb, i0
     slope = block_slope(g, tc, y) if all_positive else 0.0
     centre = mb[MB_CENTRE]
     table = _phasor_table(slope / fs)
-    walk = np.array([-(1 << 40), 1.0, 0.0, 0.0])
+    last = -(1 << 40)  # the phasor walk (_phasor_at): last index, its rotation, steps since an exact value
+    rot = 1 + 0j
+    walked = 0
     acc = 0j
     zz = 0.0
     for e in range(int(mb[MB_N_MS])):
         a = ms[0, e]
-        rot = _phasor_at(walk, a - i0, slope, fs, centre, table)
+        rot, walked = _phasor_at(a - i0, last, rot, walked, slope, fs, centre, table)
+        last = a - i0
         z = r[a] - c
         sv = full[a]
         acc += z * complex(rot.real * sv, -rot.imag * sv)
         zz += z.real * z.real + z.imag * z.imag
-    walk[0] = -(1 << 40)
+    last = -(1 << 40)
     w1 = slope / fs
     w2 = 0.5 * w1 * w1
     for p in range(n_p):
         if mu[0, p] < 0.0:
             continue
-        rot = _phasor_at(walk, int(pm_mom[PM_ANCHOR, p]) - i0, slope, fs, centre, table)
+        i = int(pm_mom[PM_ANCHOR, p]) - i0
+        rot, walked = _phasor_at(i, last, rot, walked, slope, fs, centre, table)
+        last = i
         size = sizes[p]
         mean = sums[p] / size
         term = (mom[0, p] - 1j * w1 * mom[2, p] - w2 * mom[3, p]

@@ -21,7 +21,7 @@ from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kern
 from rfsim.devices._reader_statistic_piece_kernels import (INNER_EDGE, MB_EXACT, MB_RR, PM_ANCHOR, PM_CSIG, PM_D1,
                                                           PM_D2, PM_HALF, PM_SD1, PM_SD2, REST, SINGLE, STEADY,
                                                           _halfbit_sums, _known_fit_pieces, _measure_pieces,
-                                                          _measure_plan, piece_moments_kernel)
+                                                          _measure_plan, piece_moments_kernel, piece_runs_kernel)
 
 
 
@@ -203,9 +203,10 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: Slots of ``Memo.flags``: the start whose piece map the ``pm_*`` arrays hold and its number
 #: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
 #: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
-#: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`).
+#: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`); the number of runs of
+#: the piece map in ``pm_runs``.
 (MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN,
- MEMO_STAMP) = range(8)
+ MEMO_STAMP, MEMO_PM_RUNS) = range(9)
 #: Slots of the content memo (:class:`Memo`, the first axis of its arrays; :func:`_slot`).
 MEMO_SLOTS = 4
 
@@ -232,7 +233,7 @@ class Memo(NamedTuple):
     :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
     :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
 
-    flags: np.ndarray  # (8,) float64: the MEMO_* slots
+    flags: np.ndarray  # (9,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
     pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
     pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
@@ -244,6 +245,7 @@ class Memo(NamedTuple):
     mu: np.ndarray  # (2, n − b1) float64: per piece its measurement block (−1: not read whole) and level
     ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
     mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
+    pm_runs: np.ndarray  # (3, n − b1) int64: the runs of the piece map (piece_runs_kernel)
 
 
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
@@ -325,7 +327,8 @@ def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, 
     """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
     the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
     int64: the cut pieces, edges, members before and after; in row 4 the samples the
-    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)) and the measurement's
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1) and 1 when the
+    measurement reads an inner-edge piece whole, else 0) and the measurement's
     plan (:func:`_measure_plan` into ``mu``, ``ms``, ``mb``), made only when it does
     not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
     piece map and the reference it was made from are those of :func:`_pieces` and
@@ -345,6 +348,11 @@ def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, 
     cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
     cut_memo[5, 0] = int(n_free)
     _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_memo[0, :n_cuts], n_blocks, fs, mu, ms, mb)
+    inner = 0  # (never where the reference's element edges agree with the piece map's: the subcarrier flips there)
+    for p in range(kind.size):
+        if kind[p] == INNER_EDGE and mu[0, p] >= 0.0:
+            inner = 1
+    cut_memo[5, 1] = inner
     memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
     memo[MEMO_CUT_VALID] = 1.0
 
@@ -419,7 +427,7 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 @njit
 def _slot(flags, start):
-    """The memo slot (row of ``flags``, (S, 8)) holding the pieces of ``start``, else the one
+    """The memo slot (row of ``flags``, (S, 9)) holding the pieces of ``start``, else the one
     used longest ago (its content made anew by the callers); the slot's use stamped in
     column :data:`MEMO_STAMP`. The slots' contents are pure functions of their keys: which
     slot holds what never changes a result."""
@@ -438,9 +446,10 @@ def _slot(flags, start):
 
 
 @njit
-def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom):
+def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom, pm_runs):
     """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`), the pieces'
-    sizes and their moments (rows ``PM_*`` of ``pm_mom``) in the ``pm_*`` arrays, made only
+    sizes, their moments (rows ``PM_*`` of ``pm_mom``) and runs (:func:`piece_runs_kernel`, their
+    number in ``memo[MEMO_PM_RUNS]``) in the ``pm_*`` arrays, made only
     when they do not already hold those of ``start`` (``memo``; a pure function of the start
     for the plan and input length of the caller). Returns the number of pieces."""
     if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
@@ -486,6 +495,7 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
         pm_mom[PM_D2, p] += c2
         pm_mom[PM_SD1, p] += c3
         pm_mom[PM_SD2, p] += c4
+    memo[MEMO_PM_RUNS] = piece_runs_kernel(pm_piece_of[:n_q], pm_sign[:n_q], pm_kind[:n_p], pm_runs)
     memo[MEMO_PM_START] = start
     memo[MEMO_PM_PIECES] = n_p
     return n_p
@@ -575,7 +585,7 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     flags = memo.flags[slot]
     pm_mom, mu, ms, mb = memo.pm_mom[slot], memo.mu[slot], memo.ms[slot], memo.mb[slot]
     n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of[slot], memo.pm_sign[slot],
-                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom)
+                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom, memo.pm_runs[slot])
     n_q = max(n - b1, 0)
     piece_of, sign = memo.pm_piece_of[slot, :n_q], memo.pm_sign[slot, :n_q]
     kind, sizes = memo.pm_kind[slot, :n_p], memo.pm_sizes[slot, :n_p]
@@ -583,7 +593,8 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
     for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
         r[i] = r[i] - dc0
-    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p)
+    runs = memo.pm_runs[slot, :, :int(flags[MEMO_PM_RUNS])]
+    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p, runs, False)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -633,6 +644,8 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     cut_memo = memo.cut_memo[slot]
     _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, cut_memo, mu, ms, mb)
     exact = mb[MB_EXACT] > 0.0
+    if exact and cut_memo[5, 1] > 0:  # an inner-edge piece read whole: the pass again with its every sum
+        mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p, runs, True)
     if not exact:  # a piece the measurement reads in part: the samples after b1 spread (the sample-level path)
         _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
     n_free, n_used = _bridge_cuts(st, r, x, dc0, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks,

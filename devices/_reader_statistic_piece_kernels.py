@@ -29,27 +29,92 @@ PM_CSIG, PM_ANCHOR, PM_D1, PM_D2, PM_SD1, PM_SD2, PM_HALF = range(7)
 MB_M, MB_N_MS, MB_CENTRE, MB_EXACT, MB_FIRST, MB_END, MB_RR = 0, 1, 2, 3, 4, 5, 8
 
 
+#: Codes of a run of consecutive samples of one piece (row 2 of ``Memo.pm_runs``,
+#: :func:`piece_runs_kernel`) besides its subcarrier sign ±1 where the sign is constant over the
+#: run: the sign changes inside the run; the run of an :data:`INNER_EDGE` piece (whose sums
+#: the receiver reads only as Σσ_i·u_i, the half-bit sums: the measurement never reads its
+#: samples, which sit at a subcarrier flip).
+RUN_MIXED, RUN_INNER_EDGE = 0, 2
+
+
 @njit
-def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
+def piece_runs_kernel(piece_of, sign, kind, runs):
+    """The runs of consecutive samples of one piece (``piece_of``, ``sign`` and ``kind`` of
+    :func:`rfsim.devices._reader_statistic_kernels.piece_map_kernel`), in sample order: run j
+    is the samples ``runs[0, j] … runs[1, j] − 1`` (indices of ``piece_of``), ``runs[2, j]`` its
+    code (the constant sign ±1, :data:`RUN_MIXED` or :data:`RUN_INNER_EDGE`). ``runs``:
+    (3, piece_of.size) int64. Returns the number of runs."""
+    n_q = piece_of.size
+    n_runs = 0
+    q = 0
+    while q < n_q:
+        p = piece_of[q]
+        first = q
+        s0 = sign[q]
+        mixed = False
+        while q < n_q and piece_of[q] == p:
+            mixed = mixed or sign[q] != s0
+            q += 1
+        runs[0, n_runs] = first
+        runs[1, n_runs] = q
+        runs[2, n_runs] = RUN_INNER_EDGE if kind[p] == INNER_EDGE else (RUN_MIXED if mixed else int(s0))
+        n_runs += 1
+    return n_runs
+
+
+@njit
+def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p, runs, every):
     """The one pass over the noise-free input after the search block: per piece p of the
     samples ``b1 …`` (``piece_of``, ``sign`` σ_i, ``anchor`` a_p of :data:`PM_ANCHOR`), with
     u_i = x_i − ``dc``, δ_i = i − a_p, the sums ``mom[0] = Σσ_i·u_i``, ``mom[1] = Σu_i``,
     ``mom[2] = Σσ_i·u_i·δ_i``, ``mom[3] = Σσ_i·u_i·δ_i²`` ((4, n_p) complex) and
-    ``energy = Σ|u_i|²`` ((n_p,) float), summed per run of consecutive samples of a piece and the
-    runs in sample order. Returns ``(mom, energy)``."""
+    ``energy = Σ|u_i|²`` ((n_p,) float), summed per run of consecutive samples of a piece (the
+    runs of :func:`piece_runs_kernel`, ``runs`` (3, ·)) and the runs in sample order. A run of
+    constant sign σ sums u, u·δ and u·δ² and takes σ times the sums: the same numbers as the
+    sums of σ·u, σ·u·δ, σ·u·δ² (σ = ±1: a change of sign is exact and rounding is symmetric in
+    sign). Of an inner-edge piece's runs only ``mom[0]`` (its other sums 0) unless ``every``
+    (then every sum of every piece). Returns ``(mom, energy)``."""
     mom = np.zeros((4, n_p), np.complex128)
     energy = np.zeros(n_p)
-    n_q = piece_of.size
-    q = 0
-    while q < n_q:  # per run of samples of one piece: sums in registers, added to the piece's once
-        p = piece_of[q]
-        a = anchor[p]
+    for j in range(runs.shape[1]):  # per run: sums in registers, added to the piece's once
+        first, end, code = runs[0, j], runs[1, j], runs[2, j]
+        p = piece_of[first]
+        if code == RUN_INNER_EDGE and not every:
+            a_re = a_im = 0.0
+            for q in range(first, end):
+                u = x[b1 + q] - dc
+                sg = sign[q]
+                a_re += sg * u.real
+                a_im += sg * u.imag
+            mom[0, p] += complex(a_re, a_im)
+            continue
+        d = b1 + first - anchor[p]  # δ_i, an integer: stepped by 1 exactly
+        if code == 1 or code == -1:
+            b_re = b_im = c_re = c_im = d_re = d_im = e = 0.0
+            for q in range(first, end):
+                u = x[b1 + q] - dc
+                ur, ui = u.real, u.imag
+                b_re += ur
+                b_im += ui
+                tr, ti = ur * d, ui * d
+                c_re += tr
+                c_im += ti
+                d_re += tr * d
+                d_im += ti * d
+                e += ur * ur + ui * ui
+                d += 1.0
+            sg = float(code)
+            mom[0, p] += complex(sg * b_re, sg * b_im)
+            mom[1, p] += complex(b_re, b_im)
+            mom[2, p] += complex(sg * c_re, sg * c_im)
+            mom[3, p] += complex(sg * d_re, sg * d_im)
+            energy[p] += e
+            continue
         a_re = a_im = b_re = b_im = c_re = c_im = d_re = d_im = e = 0.0
-        while q < n_q and piece_of[q] == p:
+        for q in range(first, end):
             u = x[b1 + q] - dc
             ur, ui = u.real, u.imag
             sg = sign[q]
-            d = b1 + q - a
             sr, si = sg * ur, sg * ui
             a_re += sr
             a_im += si
@@ -60,7 +125,7 @@ def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
             d_re += sr * d * d
             d_im += si * d * d
             e += ur * ur + ui * ui
-            q += 1
+            d += 1.0
         mom[0, p] += complex(a_re, a_im)
         mom[1, p] += complex(b_re, b_im)
         mom[2, p] += complex(c_re, c_im)

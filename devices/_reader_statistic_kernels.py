@@ -292,30 +292,32 @@ def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
 @njit
 def _search(st, r, ip, fp, plan, ki, wi, fi):
     """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
-    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
-    then the decoder's preamble search (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`,
-    the sample-level decoder's, with the :class:`PlanArrays` ``plan``) over the block less the mean
-    of ``r[:lo]``. Returns
-    (that mean, the reply start relative to ``lo`` [samples])."""
+    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place
+    (the pieces' sums of :func:`_draw_sums`, one-sample pieces added as drawn), the mean of
+    ``r[:lo]`` taken off ``r[:b1]`` in place, then the decoder's preamble search
+    (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`, the sample-level decoder's,
+    with the :class:`PlanArrays` ``plan``) over ``r[lo:b1]`` (the search reads nothing after the
+    block). Returns (that mean, the reply start relative to ``lo`` [samples])."""
     lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
-    sizes0 = np.ones(head + b1 - b0)
-    if head == 2:
-        sizes0[1] = b0 - 1
-    p0 = np.empty(sizes0.size, np.complex128)
-    _draw_sums(st, sizes0, fp[FP_SIGMA2], p0, ki, wi, fi)
+    sigma2 = fp[FP_SIGMA2]
+    k = head + b1 - b0
+    z = np.empty(2 * k)
+    _standard_normals(st, z, ki, wi, fi)
+    one = math.sqrt(0.5 * sigma2 * 1.0)  # a one-sample piece's scale, as _draw_sums forms it
     if head > 0:
-        r[0] += p0[0]
+        r[0] += complex(one * z[0], one * z[k])
     if head == 2:
-        share = p0[1] / (b0 - 1)
+        scale = math.sqrt(0.5 * sigma2 * float(b0 - 1))
+        share = complex(scale * z[1], scale * z[k + 1]) / (b0 - 1)
         for i in range(1, b0):
             r[i] += share
     for i in range(b0, b1):
-        r[i] += p0[head + i - b0]
+        j = head + i - b0
+        r[i] += complex(one * z[j], one * z[k + j])
     dc0 = _mean(r, lo) if lo >= 8 else 0j
-    w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
-    for i in range(lo, b1):
-        w[i - lo] = r[i] - dc0
-    lag, best, start_rel = preamble_search_runs_kernel(w, ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
+    for i in range(b1):
+        r[i] = r[i] - dc0
+    lag, best, start_rel = preamble_search_runs_kernel(r[lo:b1], ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
                                                        ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], plan.shifts,
                                                        plan.templates, plan.norms, plan.run_begin, plan.run_value,
                                                        plan.n_runs, plan.same_as_previous)
@@ -591,8 +593,6 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     kind, sizes = memo.pm_kind[slot, :n_p], memo.pm_sizes[slot, :n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
-        r[i] = r[i] - dc0
     runs = memo.pm_runs[slot, :, :int(flags[MEMO_PM_RUNS])]
     mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p, runs, False)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions

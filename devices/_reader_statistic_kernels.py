@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import measure_kernel
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           viterbi_kernel, waveform_kernel)
@@ -204,9 +204,12 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
 #: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
 #: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`); the number of runs of
-#: the piece map in ``pm_runs``.
+#: the piece map in ``pm_runs``; the validity (1) of the known-level samples in ``known``, their
+#: number, Σlevel² and Σlevel (:func:`_known`).
 (MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN,
- MEMO_STAMP, MEMO_PM_RUNS) = range(9)
+ MEMO_STAMP, MEMO_PM_RUNS, MEMO_KF_VALID, MEMO_KF_N, MEMO_KF_SS, MEMO_KF_S1) = range(13)
+#: Columns of ``Memo.flags``.
+MEMO_FLAGS = 13
 #: Slots of the content memo (:class:`Memo`, the first axis of its arrays; :func:`_slot`).
 MEMO_SLOTS = 4
 
@@ -233,7 +236,7 @@ class Memo(NamedTuple):
     :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
     :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
 
-    flags: np.ndarray  # (9,) float64: the MEMO_* slots
+    flags: np.ndarray  # (MEMO_FLAGS,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
     pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
     pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
@@ -246,6 +249,7 @@ class Memo(NamedTuple):
     ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
     mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
     pm_runs: np.ndarray  # (3, n − b1) int64: the runs of the piece map (piece_runs_kernel)
+    known: np.ndarray  # (2, min(b1 + 1, n)) float64: the known-level samples before b1 + 1 and their levels (_known)
 
 
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
@@ -419,6 +423,7 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
             return
     memo[MEMO_WF_VALID] = 0.0
     memo[MEMO_CUT_VALID] = 0.0
+    memo[MEMO_KF_VALID] = 0.0
     el = np.empty((pre_levels.size + 2 * (bits.size + 1)) * m)
     elements_kernel(bits, True, m, pre_levels, state, el)
     waveform_kernel(el, t0_samples, ratio, wf_full)
@@ -428,8 +433,32 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 
 @njit
+def _known(full, b1, t0_samples, ratio, n_pre_elements, memo, known):
+    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`
+    on the reference ``full`` from ``t0_samples``): their indices into ``known[0]``, their levels
+    into ``known[1]``, in order, made only when ``memo`` does not hold those of the reference in
+    ``full`` (:func:`_reference` clears it when it makes a new one). Returns (their number,
+    Σlevel², Σlevel) (sums in order)."""
+    if memo[MEMO_KF_VALID] <= 0.0:
+        nb = known.shape[1]
+        index = np.empty(nb, np.complex128)
+        for i in range(nb):
+            index[i] = i
+        found = np.empty(nb, np.complex128)
+        mk = known_levels_kernel(index, full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
+        ss = s1 = 0.0
+        for i in range(mk):
+            known[0, i] = found[i].real
+            ss += known[1, i] * known[1, i]
+            s1 += known[1, i]
+        memo[MEMO_KF_N], memo[MEMO_KF_SS], memo[MEMO_KF_S1] = mk, ss, s1
+        memo[MEMO_KF_VALID] = 1.0
+    return int(memo[MEMO_KF_N]), memo[MEMO_KF_SS], memo[MEMO_KF_S1]
+
+
+@njit
 def _slot(flags, start):
-    """The memo slot (row of ``flags``, (S, 9)) holding the pieces of ``start``, else the one
+    """The memo slot (row of ``flags``, (S, MEMO_FLAGS)) holding the pieces of ``start``, else the one
     used longest ago (its content made anew by the callers); the slot's use stamped in
     column :data:`MEMO_STAMP`. The slots' contents are pure functions of their keys: which
     slot holds what never changes a result."""
@@ -616,8 +645,9 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     t0_samples = start / fs * fs
     full, wf_bits = memo.wf_full[slot], memo.wf_bits[slot]
     _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
-    h, c, fitted = _known_fit_pieces(r, full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], kind, pm_mom[PM_ANCHOR],
-                                     mom, sums, sizes)
+    known = memo.known[slot]
+    mk, ss, s1 = _known(full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], flags, known)
+    h, c, fitted = _known_fit_pieces(r, full, known, mk, ss, s1, kind, pm_mom[PM_ANCHOR], mom, sums, sizes)
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
         return

@@ -14,7 +14,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import signed_halfbit_sums_kernel
-from rfsim.gen2._measure_kernels import _level, block_slope, known_levels_kernel
+from rfsim.gen2._measure_kernels import _level, block_slope
 
 #: Piece classes (``kind`` of :func:`rfsim.devices._reader_statistic_kernels.piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -151,25 +151,21 @@ def _halfbit_sums(r, i0, b1, n_decode, frac, ratio, m, mom, sums, pm_mom, s_sum,
 
 
 @njit
-def _known_fit_pieces(r, full, b1, t0_samples, ratio, n_pre_elements, kind, anchor, mom, sums, sizes):
-    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
-    :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1`` one by one from ``r``,
-    after it the pieces outside the reply (level −1): a REST piece whole (Σ r_i = Σu_i + P_p),
-    a single sample (u_i + σ_i·P_p) where its neighbours carry its level. Returns (h, c, False)
-    when the levels are constant (no fit)."""
+def _known_fit_pieces(r, full, known, mk, ss, s1, kind, anchor, mom, sums, sizes):
+    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level (the
+    2×2 normal equations of :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1``
+    one by one from ``r`` (the first ``mk`` of ``known``: their indices in row 0, levels in
+    row 1, of :func:`rfsim.gen2._measure_kernels.known_levels_kernel` on ``full``, the
+    reference; ``ss``, ``s1`` their Σlevel², Σlevel), after it the pieces outside the reply
+    (level −1): a REST piece whole (Σ r_i = Σu_i + P_p), a single sample (u_i + σ_i·P_p) where
+    its neighbours carry its level. Returns (h, c, False) when the levels are constant (no
+    fit)."""
     n = full.size
-    nb = min(b1 + 1, n)
-    r_k = np.empty(nb, np.complex128)
-    lev = np.empty(nb)
-    mk = known_levels_kernel(r[:nb], full[:nb], t0_samples, ratio, n_pre_elements, r_k, lev)
-    ss = s1 = 0.0
     rs = r1 = 0j
     for i in range(mk):
-        ss += lev[i] * lev[i]
-        s1 += lev[i]
-        rs += r_k[i] * lev[i]
-        r1 += r_k[i]
+        v = r[int(known[0, i])]
+        rs += v * known[1, i]
+        r1 += v
     cnt = float(mk)
     for p in range(sums.size):
         a = int(anchor[p])  # a single piece's sample

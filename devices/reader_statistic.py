@@ -404,13 +404,13 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     n_q = max(n - b1, 0)
     k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
     S = _sk.MEMO_SLOTS
-    flags = np.zeros((S, 9))
+    flags = np.zeros((S, _sk.MEMO_FLAGS))
     flags[:, _sk.MEMO_PM_PIECES] = -1.0
     memo = _sk.Memo(flags, np.empty((S, n_q), np.int64), np.empty((S, n_q)), np.empty((S, n_q), np.int64),
                     np.zeros((S, n_q)), np.zeros((S, int(plan.ints[_sk.IP_N_BITS])), np.uint8), np.zeros((S, n)),
                     np.zeros((S, 6, max(k, 3)), np.int64), np.zeros((S, 7, n_q)), np.zeros((S, 2, n_q)),
                     np.zeros((S, 2, plan.n_reply + 4), np.int64), np.zeros((S, _sk.MB_RR + 2 * (k + 1))),
-                    np.zeros((S, 3, n_q), np.int64))
+                    np.zeros((S, 3, n_q), np.int64), np.zeros((S, 2, min(b1 + 1, n))))
     return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 

@@ -56,14 +56,13 @@ Step by step (the steps of :meth:`Reader.receive`):
    so not done. Measured (EPC read of the canonical exchange, CPU time): the search by runs
    ≈ 14 µs, its ≈ 550 normals ≈ 3, the block's samples read one by one after it ≈ 8 (preamble
    fit, half-bit sums, known-level fit, measurement), ≈ 25 µs in all; drawn instead (kernels of
-   those sizes timed alone), C over the
-   45 lags ≈ 1.2 µs (a 45×45 triangular factor), R at the 5 candidates' 17 shifts given C ≈ 7
-   (an 85×45 conditional mean and an 85×85 factor), and the ≈ 100 functionals of the block the
-   later steps read (the segment's projections, 22 half-bit sums, the fit's and the blocks'
-   sums, the rotation's second-order moments per half-bit) given C and R ≈ 14 (a 100×130
-   conditional mean ≈ 10, a 100×100 factor ≈ 4), their factors per reply start (≈ 2 ms each
-   made anew): ≈ 22 µs against ≈ 25, with the rotation of the block's samples then to second
-   order only.
+   those sizes timed alone), C over the 45 lags ≈ 1.2 µs (a 45×45 triangular factor), R at the
+   5 candidates' 17 shifts given C ≈ 7 (an 85×45 conditional mean and an 85×85 factor), and
+   the ≈ 100 functionals of the block the later steps read (the segment's projections, 22
+   half-bit sums, the fit's and the blocks' sums, the rotation's second-order moments per
+   half-bit) given C and R ≈ 14 (a 100×130 conditional mean ≈ 10, a 100×100 factor ≈ 4), their
+   factors per reply start (≈ 2 ms each made anew): ≈ 22 µs against ≈ 25, with the rotation of
+   the block's samples then to second order only.
 3. Gain/offset fit on the known levels, the search's own decisions and the final decisions
    (half-bit sums, Viterbi), CRC: functionals of piece sums. **Exact.** The pieces depend on the
    reply start the search found, so the search block is drawn first, the start found, then the

@@ -234,7 +234,7 @@ class Memo(NamedTuple):
     """The content memo of :func:`receive_kernel` for one plan, input length n and search
     window: :data:`MEMO_SLOTS` slots (the first axis of every array, chosen by the reply start,
     :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
-    :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
+    :func:`_pieces`, :func:`_reference`, :func:`_known` and :func:`_cuts` on every call. Per slot:"""
 
     flags: np.ndarray  # (MEMO_FLAGS,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on

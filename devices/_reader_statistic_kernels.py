@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import measure_kernel
+from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           viterbi_kernel, waveform_kernel)
@@ -21,7 +21,7 @@ from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kern
 from rfsim.devices._reader_statistic_piece_kernels import (INNER_EDGE, MB_EXACT, MB_RR, PM_ANCHOR, PM_CSIG, PM_D1,
                                                           PM_D2, PM_HALF, PM_SD1, PM_SD2, REST, SINGLE, STEADY,
                                                           _halfbit_sums, _known_fit_pieces, _measure_pieces,
-                                                          _measure_plan, piece_moments_kernel)
+                                                          _measure_plan, piece_moments_kernel, piece_runs_kernel)
 
 
 
@@ -203,9 +203,13 @@ FP_SIGMA2, FP_RATIO, FP_FS, FP_THRESHOLD, FP_RUNS_PER_SAMPLE = range(5)
 #: Slots of ``Memo.flags``: the start whose piece map the ``pm_*`` arrays hold and its number
 #: of pieces (−1: none yet); the start [samples] and validity (1) of the reference waveform
 #: ``wf_full`` of the bits ``wf_bits``; the validity (1), reply start i0 and span of the block
-#: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`).
+#: cuts in ``cut_memo`` (:func:`_cuts`); the slot's last use (:func:`_slot`); the number of runs of
+#: the piece map in ``pm_runs``; the validity (1) of the known-level samples in ``known``, their
+#: number, Σlevel² and Σlevel (:func:`_known`).
 (MEMO_PM_START, MEMO_PM_PIECES, MEMO_WF_T0, MEMO_WF_VALID, MEMO_CUT_VALID, MEMO_CUT_I0, MEMO_CUT_SPAN,
- MEMO_STAMP) = range(8)
+ MEMO_STAMP, MEMO_PM_RUNS, MEMO_KF_VALID, MEMO_KF_N, MEMO_KF_SS, MEMO_KF_S1) = range(13)
+#: Columns of ``Memo.flags``.
+MEMO_FLAGS = 13
 #: Slots of the content memo (:class:`Memo`, the first axis of its arrays; :func:`_slot`).
 MEMO_SLOTS = 4
 
@@ -230,9 +234,9 @@ class Memo(NamedTuple):
     """The content memo of :func:`receive_kernel` for one plan, input length n and search
     window: :data:`MEMO_SLOTS` slots (the first axis of every array, chosen by the reply start,
     :func:`_slot`), each holding pure functions of what its ``flags`` row names, checked by
-    :func:`_pieces`, :func:`_reference` and :func:`_cuts` on every call. Per slot:"""
+    :func:`_pieces`, :func:`_reference`, :func:`_known` and :func:`_cuts` on every call. Per slot:"""
 
-    flags: np.ndarray  # (8,) float64: the MEMO_* slots
+    flags: np.ndarray  # (MEMO_FLAGS,) float64: the MEMO_* slots
     pm_piece_of: np.ndarray  # (n − b1,) int64: the piece of each sample from b1 on
     pm_sign: np.ndarray  # (n − b1,) float64: its subcarrier sign
     pm_kind: np.ndarray  # (n − b1,) int64: the class of each piece (first n_pieces used)
@@ -244,6 +248,8 @@ class Memo(NamedTuple):
     mu: np.ndarray  # (2, n − b1) float64: per piece its measurement block (−1: not read whole) and level
     ms: np.ndarray  # (2, n_reply + 4) int64: the samples the measurement reads one by one, their block
     mb: np.ndarray  # (MB_RR + 2·n_blocks,) float64: the MB_* slots of the measurement's plan
+    pm_runs: np.ndarray  # (3, n − b1) int64: the runs of the piece map (piece_runs_kernel)
+    known: np.ndarray  # (2, min(b1 + 1, n)) float64: the known-level samples before b1 + 1 and their levels (_known)
 
 
 #: Status codes of :func:`receive_kernel` (``res[RES_STATUS]``).
@@ -290,30 +296,32 @@ def _decide(s_sum, s_count, g, dc_re, miller, n_pre_half, state, out):
 @njit
 def _search(st, r, ip, fp, plan, ki, wi, fi):
     """Steps 1–2: the noise of the stretch before the search block (two pieces: sample 0 and
-    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place,
-    then the decoder's preamble search (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`,
-    the sample-level decoder's, with the :class:`PlanArrays` ``plan``) over the block less the mean
-    of ``r[:lo]``. Returns
-    (that mean, the reply start relative to ``lo`` [samples])."""
+    samples 1 … b0 − 1) and of the block b0 … b1 − 1 drawn per sample and added to ``r`` in place
+    (the pieces' sums of :func:`_draw_sums`, one-sample pieces added as drawn), the mean of
+    ``r[:lo]`` taken off ``r[:b1]`` in place, then the decoder's preamble search
+    (:func:`rfsim.gen2._linecode_kernels.preamble_search_runs_kernel`, the sample-level decoder's,
+    with the :class:`PlanArrays` ``plan``) over ``r[lo:b1]`` (the search reads nothing after the
+    block). Returns (that mean, the reply start relative to ``lo`` [samples])."""
     lo, b0, b1, head = ip[IP_LO], ip[IP_B0], ip[IP_B1], ip[IP_HEAD]
-    sizes0 = np.ones(head + b1 - b0)
-    if head == 2:
-        sizes0[1] = b0 - 1
-    p0 = np.empty(sizes0.size, np.complex128)
-    _draw_sums(st, sizes0, fp[FP_SIGMA2], p0, ki, wi, fi)
+    sigma2 = fp[FP_SIGMA2]
+    k = head + b1 - b0
+    z = np.empty(2 * k)
+    _standard_normals(st, z, ki, wi, fi)
+    one = math.sqrt(0.5 * sigma2 * 1.0)  # a one-sample piece's scale, as _draw_sums forms it
     if head > 0:
-        r[0] += p0[0]
+        r[0] += complex(one * z[0], one * z[k])
     if head == 2:
-        share = p0[1] / (b0 - 1)
+        scale = math.sqrt(0.5 * sigma2 * float(b0 - 1))
+        share = complex(scale * z[1], scale * z[k + 1]) / (b0 - 1)
         for i in range(1, b0):
             r[i] += share
     for i in range(b0, b1):
-        r[i] += p0[head + i - b0]
+        j = head + i - b0
+        r[i] += complex(one * z[j], one * z[k + j])
     dc0 = _mean(r, lo) if lo >= 8 else 0j
-    w = np.empty(b1 - lo, np.complex128)  # the search reads nothing after the block
-    for i in range(lo, b1):
-        w[i - lo] = r[i] - dc0
-    lag, best, start_rel = preamble_search_runs_kernel(w, ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
+    for i in range(b1):
+        r[i] = r[i] - dc0
+    lag, best, start_rel = preamble_search_runs_kernel(r[lo:b1], ip[IP_N_SEARCH], plan.t0, fp[FP_RUNS_PER_SAMPLE],
                                                        ip[IP_HALF_WIDTH], ip[IP_N_CANDIDATES], plan.shifts,
                                                        plan.templates, plan.norms, plan.run_begin, plan.run_value,
                                                        plan.n_runs, plan.same_as_previous)
@@ -325,7 +333,8 @@ def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, 
     """The content of steps 4 and 6 (:func:`_bridge_cuts`): Σ(|p| − 1) over the steady pieces,
     the reach of :func:`block_cuts_kernel` and its cuts, in ``cut_memo`` ((6, n_blocks − 1)
     int64: the cut pieces, edges, members before and after; in row 4 the samples the
-    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1)) and the measurement's
+    measurement reads, the number of cuts, the reach; in row 5 Σ(|p| − 1) and 1 when the
+    measurement reads an inner-edge piece whole, else 0) and the measurement's
     plan (:func:`_measure_plan` into ``mu``, ``ms``, ``mb``), made only when it does
     not already hold those of this start ``i0`` and span ``s.size`` (``memo``: valid while the
     piece map and the reference it was made from are those of :func:`_pieces` and
@@ -345,6 +354,11 @@ def _cuts(s, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, memo, cut_memo, 
     cut_memo[4, 0], cut_memo[4, 1], cut_memo[4, 2] = n_used, n_cuts, reach
     cut_memo[5, 0] = int(n_free)
     _measure_plan(s, i0, b1, piece_of, sign, sizes, cut_memo[0, :n_cuts], n_blocks, fs, mu, ms, mb)
+    inner = 0  # (never where the reference's element edges agree with the piece map's: the subcarrier flips there)
+    for p in range(kind.size):
+        if kind[p] == INNER_EDGE and mu[0, p] >= 0.0:
+            inner = 1
+    cut_memo[5, 1] = inner
     memo[MEMO_CUT_I0], memo[MEMO_CUT_SPAN] = i0, s.size
     memo[MEMO_CUT_VALID] = 1.0
 
@@ -409,6 +423,7 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
             return
     memo[MEMO_WF_VALID] = 0.0
     memo[MEMO_CUT_VALID] = 0.0
+    memo[MEMO_KF_VALID] = 0.0
     el = np.empty((pre_levels.size + 2 * (bits.size + 1)) * m)
     elements_kernel(bits, True, m, pre_levels, state, el)
     waveform_kernel(el, t0_samples, ratio, wf_full)
@@ -418,8 +433,32 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 
 @njit
+def _known(full, b1, t0_samples, ratio, n_pre_elements, memo, known):
+    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`
+    on the reference ``full`` from ``t0_samples``): their indices into ``known[0]``, their levels
+    into ``known[1]``, in order, made only when ``memo`` does not hold those of the reference in
+    ``full`` (:func:`_reference` clears it when it makes a new one). Returns (their number,
+    Σlevel², Σlevel) (sums in order)."""
+    if memo[MEMO_KF_VALID] <= 0.0:
+        nb = known.shape[1]
+        index = np.empty(nb, np.complex128)
+        for i in range(nb):
+            index[i] = i
+        found = np.empty(nb, np.complex128)
+        mk = known_levels_kernel(index, full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
+        ss = s1 = 0.0
+        for i in range(mk):
+            known[0, i] = found[i].real
+            ss += known[1, i] * known[1, i]
+            s1 += known[1, i]
+        memo[MEMO_KF_N], memo[MEMO_KF_SS], memo[MEMO_KF_S1] = mk, ss, s1
+        memo[MEMO_KF_VALID] = 1.0
+    return int(memo[MEMO_KF_N]), memo[MEMO_KF_SS], memo[MEMO_KF_S1]
+
+
+@njit
 def _slot(flags, start):
-    """The memo slot (row of ``flags``, (S, 8)) holding the pieces of ``start``, else the one
+    """The memo slot (row of ``flags``, (S, MEMO_FLAGS)) holding the pieces of ``start``, else the one
     used longest ago (its content made anew by the callers); the slot's use stamped in
     column :data:`MEMO_STAMP`. The slots' contents are pure functions of their keys: which
     slot holds what never changes a result."""
@@ -438,9 +477,10 @@ def _slot(flags, start):
 
 
 @njit
-def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom):
+def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_kind, pm_sizes, pm_mom, pm_runs):
     """The piece map of the samples ``b1 … n − 1`` (:func:`piece_map_kernel`), the pieces'
-    sizes and their moments (rows ``PM_*`` of ``pm_mom``) in the ``pm_*`` arrays, made only
+    sizes, their moments (rows ``PM_*`` of ``pm_mom``) and runs (:func:`piece_runs_kernel`, their
+    number in ``memo[MEMO_PM_RUNS]``) in the ``pm_*`` arrays, made only
     when they do not already hold those of ``start`` (``memo``; a pure function of the start
     for the plan and input length of the caller). Returns the number of pieces."""
     if memo[MEMO_PM_PIECES] >= 0.0 and memo[MEMO_PM_START] == start:
@@ -486,6 +526,7 @@ def _pieces(n, b1, start, ratio, m, n_elements, memo, pm_piece_of, pm_sign, pm_k
         pm_mom[PM_D2, p] += c2
         pm_mom[PM_SD1, p] += c3
         pm_mom[PM_SD2, p] += c4
+    memo[MEMO_PM_RUNS] = piece_runs_kernel(pm_piece_of[:n_q], pm_sign[:n_q], pm_kind[:n_p], pm_runs)
     memo[MEMO_PM_START] = start
     memo[MEMO_PM_PIECES] = n_p
     return n_p
@@ -575,15 +616,14 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     flags = memo.flags[slot]
     pm_mom, mu, ms, mb = memo.pm_mom[slot], memo.mu[slot], memo.ms[slot], memo.mb[slot]
     n_p = _pieces(n, b1, start, ratio, m, ip[IP_N_ELEMENTS], flags, memo.pm_piece_of[slot], memo.pm_sign[slot],
-                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom)
+                  memo.pm_kind[slot], memo.pm_sizes[slot], pm_mom, memo.pm_runs[slot])
     n_q = max(n - b1, 0)
     piece_of, sign = memo.pm_piece_of[slot, :n_q], memo.pm_sign[slot, :n_q]
     kind, sizes = memo.pm_kind[slot, :n_p], memo.pm_sizes[slot, :n_p]
     sums = np.empty(n_p, np.complex128)
     _draw_sums(st, sizes, sigma2, sums, ki, wi, fi)
-    for i in range(b1):  # the pieces lie after lo: the mean before it is dc0
-        r[i] = r[i] - dc0
-    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p)
+    runs = memo.pm_runs[slot, :, :int(flags[MEMO_PM_RUNS])]
+    mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p, runs, False)
     # the decoder at the start found: gain and offset from the preamble, correlation, decisions
     lag = int(math.floor(start_rel))
     frac = start_rel - lag
@@ -605,8 +645,9 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     t0_samples = start / fs * fs
     full, wf_bits = memo.wf_full[slot], memo.wf_bits[slot]
     _reference(det_bits[:n_bits], t0_samples, ratio, m, plan.pre_levels, state, flags, wf_bits, full)
-    h, c, fitted = _known_fit_pieces(r, full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], kind, pm_mom[PM_ANCHOR],
-                                     mom, sums, sizes)
+    known = memo.known[slot]
+    mk, ss, s1 = _known(full, b1, t0_samples, ratio, ip[IP_N_PRE_ELEMENTS], flags, known)
+    h, c, fitted = _known_fit_pieces(r, full, known, mk, ss, s1, kind, pm_mom[PM_ANCHOR], mom, sums, sizes)
     if not fitted:
         res[RES_STATUS] = CONSTANT_REFERENCE
         return
@@ -633,6 +674,8 @@ def _receive(st, r, x, ip, fp, plan, bits_out, z_out, res, memo, ki, wi, fi):
     cut_memo = memo.cut_memo[slot]
     _cuts(s_span, i0, b1, piece_of, sign, kind, sizes, n_blocks, fs, flags, cut_memo, mu, ms, mb)
     exact = mb[MB_EXACT] > 0.0
+    if exact and cut_memo[5, 1] > 0:  # an inner-edge piece read whole: the pass again with its every sum
+        mom, energy = piece_moments_kernel(x, dc0, b1, piece_of, sign, pm_mom[PM_ANCHOR], n_p, runs, True)
     if not exact:  # a piece the measurement reads in part: the samples after b1 spread (the sample-level path)
         _spread_add_less(r, x, b1, piece_of, sign, sums, sizes, dc0)
     n_free, n_used = _bridge_cuts(st, r, x, dc0, s_span, i0, b1, piece_of, sign, kind, sums, sizes, sigma2, n_blocks,

@@ -14,7 +14,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.gen2._linecode_kernels import signed_halfbit_sums_kernel
-from rfsim.gen2._measure_kernels import _level, block_slope, known_levels_kernel
+from rfsim.gen2._measure_kernels import _level, block_slope
 
 #: Piece classes (``kind`` of :func:`rfsim.devices._reader_statistic_kernels.piece_map_kernel`).
 STEADY, INNER_EDGE, SINGLE, REST = 0, 1, 2, 3
@@ -29,27 +29,92 @@ PM_CSIG, PM_ANCHOR, PM_D1, PM_D2, PM_SD1, PM_SD2, PM_HALF = range(7)
 MB_M, MB_N_MS, MB_CENTRE, MB_EXACT, MB_FIRST, MB_END, MB_RR = 0, 1, 2, 3, 4, 5, 8
 
 
+#: Codes of a run of consecutive samples of one piece (row 2 of ``Memo.pm_runs``,
+#: :func:`piece_runs_kernel`) besides its subcarrier sign ±1 where the sign is constant over the
+#: run: the sign changes inside the run; the run of an :data:`INNER_EDGE` piece (whose sums
+#: the receiver reads only as Σσ_i·u_i, the half-bit sums: the measurement never reads its
+#: samples, which sit at a subcarrier flip).
+RUN_MIXED, RUN_INNER_EDGE = 0, 2
+
+
 @njit
-def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
+def piece_runs_kernel(piece_of, sign, kind, runs):
+    """The runs of consecutive samples of one piece (``piece_of``, ``sign`` and ``kind`` of
+    :func:`rfsim.devices._reader_statistic_kernels.piece_map_kernel`), in sample order: run j
+    is the samples ``runs[0, j] … runs[1, j] − 1`` (indices of ``piece_of``), ``runs[2, j]`` its
+    code (the constant sign ±1, :data:`RUN_MIXED` or :data:`RUN_INNER_EDGE`). ``runs``:
+    (3, piece_of.size) int64. Returns the number of runs."""
+    n_q = piece_of.size
+    n_runs = 0
+    q = 0
+    while q < n_q:
+        p = piece_of[q]
+        first = q
+        s0 = sign[q]
+        mixed = False
+        while q < n_q and piece_of[q] == p:
+            mixed = mixed or sign[q] != s0
+            q += 1
+        runs[0, n_runs] = first
+        runs[1, n_runs] = q
+        runs[2, n_runs] = RUN_INNER_EDGE if kind[p] == INNER_EDGE else (RUN_MIXED if mixed else int(s0))
+        n_runs += 1
+    return n_runs
+
+
+@njit
+def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p, runs, every):
     """The one pass over the noise-free input after the search block: per piece p of the
     samples ``b1 …`` (``piece_of``, ``sign`` σ_i, ``anchor`` a_p of :data:`PM_ANCHOR`), with
     u_i = x_i − ``dc``, δ_i = i − a_p, the sums ``mom[0] = Σσ_i·u_i``, ``mom[1] = Σu_i``,
     ``mom[2] = Σσ_i·u_i·δ_i``, ``mom[3] = Σσ_i·u_i·δ_i²`` ((4, n_p) complex) and
-    ``energy = Σ|u_i|²`` ((n_p,) float), summed per run of consecutive samples of a piece and the
-    runs in sample order. Returns ``(mom, energy)``."""
+    ``energy = Σ|u_i|²`` ((n_p,) float), summed per run of consecutive samples of a piece (the
+    runs of :func:`piece_runs_kernel`, ``runs`` (3, ·)) and the runs in sample order. A run of
+    constant sign σ sums u, u·δ and u·δ² and takes σ times the sums: the same numbers as the
+    sums of σ·u, σ·u·δ, σ·u·δ² (σ = ±1: a change of sign is exact and rounding is symmetric in
+    sign). Of an inner-edge piece's runs only ``mom[0]`` (its other sums 0) unless ``every``
+    (then every sum of every piece). Returns ``(mom, energy)``."""
     mom = np.zeros((4, n_p), np.complex128)
     energy = np.zeros(n_p)
-    n_q = piece_of.size
-    q = 0
-    while q < n_q:  # per run of samples of one piece: sums in registers, added to the piece's once
-        p = piece_of[q]
-        a = anchor[p]
+    for j in range(runs.shape[1]):  # per run: sums in registers, added to the piece's once
+        first, end, code = runs[0, j], runs[1, j], runs[2, j]
+        p = piece_of[first]
+        if code == RUN_INNER_EDGE and not every:
+            a_re = a_im = 0.0
+            for q in range(first, end):
+                u = x[b1 + q] - dc
+                sg = sign[q]
+                a_re += sg * u.real
+                a_im += sg * u.imag
+            mom[0, p] += complex(a_re, a_im)
+            continue
+        d = b1 + first - anchor[p]  # δ_i, an integer: stepped by 1 exactly
+        if code == 1 or code == -1:
+            b_re = b_im = c_re = c_im = d_re = d_im = e = 0.0
+            for q in range(first, end):
+                u = x[b1 + q] - dc
+                ur, ui = u.real, u.imag
+                b_re += ur
+                b_im += ui
+                tr, ti = ur * d, ui * d
+                c_re += tr
+                c_im += ti
+                d_re += tr * d
+                d_im += ti * d
+                e += ur * ur + ui * ui
+                d += 1.0
+            sg = float(code)
+            mom[0, p] += complex(sg * b_re, sg * b_im)
+            mom[1, p] += complex(b_re, b_im)
+            mom[2, p] += complex(sg * c_re, sg * c_im)
+            mom[3, p] += complex(sg * d_re, sg * d_im)
+            energy[p] += e
+            continue
         a_re = a_im = b_re = b_im = c_re = c_im = d_re = d_im = e = 0.0
-        while q < n_q and piece_of[q] == p:
+        for q in range(first, end):
             u = x[b1 + q] - dc
             ur, ui = u.real, u.imag
             sg = sign[q]
-            d = b1 + q - a
             sr, si = sg * ur, sg * ui
             a_re += sr
             a_im += si
@@ -60,7 +125,7 @@ def piece_moments_kernel(x, dc, b1, piece_of, sign, anchor, n_p):
             d_re += sr * d * d
             d_im += si * d * d
             e += ur * ur + ui * ui
-            q += 1
+            d += 1.0
         mom[0, p] += complex(a_re, a_im)
         mom[1, p] += complex(b_re, b_im)
         mom[2, p] += complex(c_re, c_im)
@@ -86,25 +151,21 @@ def _halfbit_sums(r, i0, b1, n_decode, frac, ratio, m, mom, sums, pm_mom, s_sum,
 
 
 @njit
-def _known_fit_pieces(r, full, b1, t0_samples, ratio, n_pre_elements, kind, anchor, mom, sums, sizes):
-    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level
-    (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`; the 2×2 normal equations of
-    :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1`` one by one from ``r``,
-    after it the pieces outside the reply (level −1): a REST piece whole (Σ r_i = Σu_i + P_p),
-    a single sample (u_i + σ_i·P_p) where its neighbours carry its level. Returns (h, c, False)
-    when the levels are constant (no fit)."""
+def _known_fit_pieces(r, full, known, mk, ss, s1, kind, anchor, mom, sums, sizes):
+    """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level (the
+    2×2 normal equations of :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1``
+    one by one from ``r`` (the first ``mk`` of ``known``: their indices in row 0, levels in
+    row 1, of :func:`rfsim.gen2._measure_kernels.known_levels_kernel` on ``full``, the
+    reference; ``ss``, ``s1`` their Σlevel², Σlevel), after it the pieces outside the reply
+    (level −1): a REST piece whole (Σ r_i = Σu_i + P_p), a single sample (u_i + σ_i·P_p) where
+    its neighbours carry its level. Returns (h, c, False) when the levels are constant (no
+    fit)."""
     n = full.size
-    nb = min(b1 + 1, n)
-    r_k = np.empty(nb, np.complex128)
-    lev = np.empty(nb)
-    mk = known_levels_kernel(r[:nb], full[:nb], t0_samples, ratio, n_pre_elements, r_k, lev)
-    ss = s1 = 0.0
     rs = r1 = 0j
     for i in range(mk):
-        ss += lev[i] * lev[i]
-        s1 += lev[i]
-        rs += r_k[i] * lev[i]
-        r1 += r_k[i]
+        v = r[int(known[0, i])]
+        rs += v * known[1, i]
+        r1 += v
     cnt = float(mk)
     for p in range(sums.size):
         a = int(anchor[p])  # a single piece's sample
@@ -229,23 +290,20 @@ def _phasor_table(w):
 
 
 @njit
-def _phasor_at(walk, i, slope, fs, centre, table):
+def _phasor_at(i, last, rot, walked, slope, fs, centre, table):
     """e^{j·a_i}, a_i = slope·(i − centre)/fs (the rotation of
-    :func:`rfsim.gen2._measure_kernels.measure_kernel` at span index ``i``): from the last index
-    of ``walk`` ((4,) float64: index, cos, sin, steps since the last exact value) by a step of
-    the table (:func:`_phasor_table`, |step| ≤ :data:`PHASOR_STEPS`), exactly (cos, sin) when
-    the step is longer or after :data:`PHASOR_STEPS` steps (drift < 1e−13)."""
-    g = i - int(walk[0])
-    if -PHASOR_STEPS <= g <= PHASOR_STEPS and walk[3] < PHASOR_STEPS:
+    :func:`rfsim.gen2._measure_kernels.measure_kernel` at span index ``i``), and the steps walked
+    since the last exact value: from ``rot`` = e^{j·a} at the last index ``last`` (``walked``
+    steps since an exact value) by a step of the table (:func:`_phasor_table`,
+    |step| ≤ :data:`PHASOR_STEPS`), exactly (cos, sin) when the step is longer or after
+    :data:`PHASOR_STEPS` steps (drift < 1e−13). The walk's state is the caller's scalars (a
+    state array would cost a store and a load per step on the walk's chain)."""
+    g = i - last
+    if -PHASOR_STEPS <= g <= PHASOR_STEPS and walked < PHASOR_STEPS:
         t = table[g] if g >= 0 else table[-g].conjugate()
-        rot = complex(walk[1], walk[2]) * t
-        walk[3] += 1.0
-    else:
-        a = slope * ((i - centre) / fs)
-        rot = complex(math.cos(a), math.sin(a))
-        walk[3] = 0.0
-    walk[0], walk[1], walk[2] = i, rot.real, rot.imag
-    return rot
+        return rot * t, walked + 1
+    a = slope * ((i - centre) / fs)
+    return complex(math.cos(a), math.sin(a)), 0
 
 
 @njit
@@ -301,23 +359,28 @@ def _measure_pieces(r, full, c, mom, energy, sums, sizes, pm_mom, mu, ms, mb, i0
     slope = block_slope(g, tc, y) if all_positive else 0.0
     centre = mb[MB_CENTRE]
     table = _phasor_table(slope / fs)
-    walk = np.array([-(1 << 40), 1.0, 0.0, 0.0])
+    last = -(1 << 40)  # the phasor walk (_phasor_at): last index, its rotation, steps since an exact value
+    rot = 1 + 0j
+    walked = 0
     acc = 0j
     zz = 0.0
     for e in range(int(mb[MB_N_MS])):
         a = ms[0, e]
-        rot = _phasor_at(walk, a - i0, slope, fs, centre, table)
+        rot, walked = _phasor_at(a - i0, last, rot, walked, slope, fs, centre, table)
+        last = a - i0
         z = r[a] - c
         sv = full[a]
         acc += z * complex(rot.real * sv, -rot.imag * sv)
         zz += z.real * z.real + z.imag * z.imag
-    walk[0] = -(1 << 40)
+    last = -(1 << 40)
     w1 = slope / fs
     w2 = 0.5 * w1 * w1
     for p in range(n_p):
         if mu[0, p] < 0.0:
             continue
-        rot = _phasor_at(walk, int(pm_mom[PM_ANCHOR, p]) - i0, slope, fs, centre, table)
+        i = int(pm_mom[PM_ANCHOR, p]) - i0
+        rot, walked = _phasor_at(i, last, rot, walked, slope, fs, centre, table)
+        last = i
         size = sizes[p]
         mean = sums[p] / size
         term = (mom[0, p] - 1j * w1 * mom[2, p] - w2 * mom[3, p]

@@ -53,7 +53,16 @@ Step by step (the steps of :meth:`Reader.receive`):
    conditioning needs a Cholesky factor over the L searched lags (L ≈ the block less the
    preamble's samples; kept by content per plan) and costs ≈ L²/2 multiply-adds per reply
    against the ≈ 550 normals and the correlation by runs the per-sample draw needs: not faster,
-   so not done.
+   so not done. Measured (EPC read of the canonical exchange, CPU time): the search by runs
+   ≈ 14 µs, its ≈ 550 normals ≈ 3, the block's samples read one by one after it ≈ 8 (preamble
+   fit, half-bit sums, known-level fit, measurement), ≈ 25 µs in all; drawn instead (kernels of
+   those sizes timed alone), C over the 45 lags ≈ 1.2 µs (a 45×45 triangular factor), R at the
+   5 candidates' 17 shifts given C ≈ 7 (an 85×45 conditional mean and an 85×85 factor), and
+   the ≈ 100 functionals of the block the later steps read (the segment's projections, 22
+   half-bit sums, the fit's and the blocks' sums, the rotation's second-order moments per
+   half-bit) given C and R ≈ 14 (a 100×130 conditional mean ≈ 10, a 100×100 factor ≈ 4), their
+   factors per reply start (≈ 2 ms each made anew): ≈ 22 µs against ≈ 25, with the rotation of
+   the block's samples then to second order only.
 3. Gain/offset fit on the known levels, the search's own decisions and the final decisions
    (half-bit sums, Viterbi), CRC: functionals of piece sums. **Exact.** The pieces depend on the
    reply start the search found, so the search block is drawn first, the start found, then the
@@ -128,8 +137,9 @@ the sample rate (templates, refinement bank and its runs, sizes) is kept in the 
 :class:`~rfsim.air.cache.AirCache` (:class:`_Plans`, derived from the link), and per search
 window (:class:`_Call`) what depends only on content
 (:class:`~rfsim.devices._reader_statistic_kernels.Memo`, four slots by reply start: an EPC
-reply's start takes a few values): the piece map of a reply start and its moments, the
-reference of the last decided bits, the block cuts and the measurement's plan of the last span;
+reply's start takes a few values): the piece map of a reply start, its moments and its runs
+(the pass over the input walks them), the reference of the last decided bits and its samples of
+known level before the pieces, the block cuts and the measurement's plan of the last span;
 and the CRC check of decoded bits (pure functions of their keys, checked on every call: the same
 numbers as made anew). The NumPy twin of the steps (the sample-level decoder's calls on
 ``x + ñ``, the spread noise) is ``reference.devices_reader_statistic.receive_reference`` in the
@@ -154,6 +164,16 @@ decisions 3 each, the half-bit sums 3, the bridge 2.7, the preamble fit 2; RN16 
 the search 21 and the measurement 9. In the batched exchange the RN16 reads are one call per
 command (≈ 50 µs a read in the kernel, ≈ 12 µs of Python each), each EPC read its own call
 (its window starts where the trial's ACK ended: ≈ 100 µs in the kernel, ≈ 27 µs of Python).
+Since then (the canonical exchange's 256 trials, their kernel calls captured and replayed, CPU
+time on a loaded host, best of 7–21 replays): ≈ 156 → ≈ 137 µs of kernel per trial (EPC read
+≈ 105 → 91–95, RN16 ≈ 51 → 45–46), of it the measurement from the pieces 20 → 11 µs (the phasor
+walk's state in scalars, not an array on its chain), the pass over the input ≈ 10 % less (by
+the piece map's runs: a run of one subcarrier sign sums u and takes the sign once, exactly; an
+inner-edge piece, which the measurement never reads, only Σσu), the known-level fit's sample
+selection kept with the reference (1.7 → 0.7 µs). What is left per EPC read: the search ≈ 17 µs
+and its draws ≈ 3, the pass ≈ 18–20, the pieces' draws ≈ 7 (2,064 normals; the square roots
+are not the cost), the measurement ≈ 11 (of it ≈ 5 the ≈ 470 samples of the search block and
+the cut pieces read one by one), the two Viterbi decisions ≈ 9, the half-bit sums ≈ 4.
 
 Not built: the statistics from the reply's content. In the static narrowband window
 x = c·x_cw + κ·Γ(t), so every per-piece sum of the pass would be a·L(1) + κ·L(Γ), L(Γ) kept by
@@ -404,12 +424,13 @@ def _make_call(plan: _Plan, n: int, lo: int, hi: int) -> _Call:
     n_q = max(n - b1, 0)
     k = int(plan.ints[_sk.IP_N_BLOCKS]) - 1
     S = _sk.MEMO_SLOTS
-    flags = np.zeros((S, 8))
+    flags = np.zeros((S, _sk.MEMO_FLAGS))
     flags[:, _sk.MEMO_PM_PIECES] = -1.0
     memo = _sk.Memo(flags, np.empty((S, n_q), np.int64), np.empty((S, n_q)), np.empty((S, n_q), np.int64),
                     np.zeros((S, n_q)), np.zeros((S, int(plan.ints[_sk.IP_N_BITS])), np.uint8), np.zeros((S, n)),
                     np.zeros((S, 6, max(k, 3)), np.int64), np.zeros((S, 7, n_q)), np.zeros((S, 2, n_q)),
-                    np.zeros((S, 2, plan.n_reply + 4), np.int64), np.zeros((S, _sk.MB_RR + 2 * (k + 1))))
+                    np.zeros((S, 2, plan.n_reply + 4), np.int64), np.zeros((S, _sk.MB_RR + 2 * (k + 1))),
+                    np.zeros((S, 3, n_q), np.int64), np.zeros((S, 2, min(b1 + 1, n))))
     return _Call(last, ip, np.empty(n, np.complex128), np.empty(plan.n_reply + 4, np.complex128), memo)
 
 

@@ -174,8 +174,11 @@ def test_bridge_split_has_the_conditional_law_of_partial_sums():
 @pytest.mark.parametrize("m", [1, 4])
 def test_piece_moments_kernel_matches_reference(m):
     """The one pass over the noise-free input (per-piece sums of σu, u, σuδ, σuδ², |u|²) against
-    bincount sums: the same up to the order of the sums."""
+    bincount sums: the same up to the order of the sums; against the run-by-run sums of σ·u per
+    sample in plain floats (the kernel's order): the same bits (σ = ±1 taken out of a run of one
+    sign is exact); an inner-edge piece's sums other than Σσu left 0 unless ``every``."""
     from rfsim.devices import _reader_statistic_kernels as sk
+    from rfsim.devices import _reader_statistic_piece_kernels as pk
 
     rng = np.random.default_rng(40 + m)
     n, b1, ratio = 900, 37, 0.16
@@ -184,11 +187,34 @@ def test_piece_moments_kernel_matches_reference(m):
     sizes = np.bincount(piece_of, minlength=n_p)
     anchor = np.floor(np.bincount(piece_of, weights=np.arange(b1, n), minlength=n_p) / sizes + 0.5)
     x = 5.0 + rng.standard_normal(n) + 1j * rng.standard_normal(n)
-    got = sk.piece_moments_kernel(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p)
+    runs = np.empty((3, piece_of.size), np.int64)
+    runs = runs[:, :pk.piece_runs_kernel(piece_of, sign, kind, runs)]
+    assert np.array_equal(np.concatenate([np.arange(a, b) for a, b in runs[:2].T]), np.arange(piece_of.size))
+    got = sk.piece_moments_kernel(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p, runs, True)
     want = piece_moments_reference(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p)
     scale = np.max(np.abs(want[0][3]))
     np.testing.assert_allclose(got[0], want[0], rtol=0, atol=1e-12 * scale)
     np.testing.assert_allclose(got[1], want[1], rtol=1e-12, atol=1e-12)
+    mom, energy = np.zeros((4, n_p), complex), np.zeros(n_p)
+    for a, b, _ in runs.T:  # per run in sample order, σ·u per sample
+        p, acc = piece_of[a], np.zeros(9)
+        for q in range(a, b):
+            u = x[b1 + q] - (4.5 + 0.5j)
+            d = float(b1 + q) - anchor[p]
+            sr, si = sign[q] * u.real, sign[q] * u.imag
+            for k, v in enumerate((sr, si, u.real, u.imag, sr * d, si * d, sr * d * d, si * d * d,
+                                   u.real * u.real + u.imag * u.imag)):
+                acc[k] += v
+        mom[:, p] += acc[0:8:2] + 1j * acc[1:8:2]
+        energy[p] += acc[8]
+    assert np.array_equal(got[0].view(np.uint64), mom.view(np.uint64))
+    assert np.array_equal(got[1].view(np.uint64), energy.view(np.uint64))
+    light = sk.piece_moments_kernel(x, 4.5 + 0.5j, b1, piece_of, sign, anchor, n_p, runs, False)
+    inner = kind == pk.INNER_EDGE
+    assert inner.any() == (m > 1)
+    assert np.array_equal(light[0][0], mom[0])
+    assert np.array_equal(light[0][:, ~inner], mom[:, ~inner]) and np.array_equal(light[1][~inner], energy[~inner])
+    assert not light[0][1:, inner].any() and not light[1][inner].any()
 
 
 @pytest.mark.parametrize("m, doppler_hz", [(4, 300.0), (1, 300.0)])

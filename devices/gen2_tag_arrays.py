@@ -31,7 +31,7 @@ from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 from rfsim.gen2.generator_words import GeneratorWords
 from rfsim.gen2.tag_draws import _slot_drawer, _top_bits
 from rfsim.devices import _gen2_tag_kernels as _kernels
-from rfsim.devices._gen2_tag_kernels import decremented, slot_replies
+from rfsim.devices._gen2_tag_kernels import decremented, s1_reverts, slot_replies
 from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
@@ -261,30 +261,6 @@ def query_matches(sel: str, target: str, sl, flag):
     return ((sel != "sl") | sl) & ((sel != "~sl") | (sl == False)) & (flag == target)  # noqa: E712 (arrays)
 
 
-def s1_reverts(t_s, s1_set_s, s1_keep_s):
-    """Tell whether the S1 inventoried flag, set to B at ``s1_set_s``, has reverted to A by ``t_s``.
-
-    S1 reverts from B to A once its persistence time has passed, powered or not (EPC Gen2
-    "Sessions and inventoried flags", anchors §4.4): :math:`t - t_{set} \\ge t_{keep}`. For
-    one tag or many.
-
-    Parameters
-    ----------
-    t_s : float or ndarray
-        The time now [s].
-    s1_set_s : float or ndarray
-        Time S1 was set to B [s] (NaN for many tags: not set; compares False).
-    s1_keep_s : float or ndarray
-        The S1 persistence time [s].
-
-    Returns
-    -------
-    bool or ndarray of bool
-        S1 has reverted.
-    """
-    return t_s - s1_set_s >= s1_keep_s
-
-
 #: The Select action table (EPC Gen2 "Select"): action → (matching tag, non-matching tag),
 #: each 0 = do nothing, 1 = assert SL or inventoried → A, 2 = deassert SL or inventoried → B,
 #: 3 = negate SL or A ↔ B.
@@ -393,7 +369,7 @@ class StateArrays:
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
         #: step_silently's scratch: the tags each TagState move is for, and their counts
-        self._moves = np.zeros((5, n), np.int64), np.zeros(5, np.int64)
+        self._moves = np.zeros((6, n), np.int64), np.zeros(6, np.int64)
         self._t_max = -np.inf  # no tag's time is later (Notes)
         self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
@@ -508,7 +484,9 @@ class StateArrays:
         :class:`TagState` moves) in one compiled loop
         (:func:`rfsim.devices._gen2_tag_kernels.silent_step_kernel`), with the tags that stay
         quiet: the silent ones and those unpowered that stay so. Only the tags that join or
-        leave the clock's followers or counters, and those that react, cost a step in Python.
+        leave the clock's followers or counters, those whose S1 flag reverts (each takes the
+        step through :meth:`TagState.on_command_if_silent`, its row read back) and those that
+        react cost a step in Python.
 
         Parameters
         ----------
@@ -532,20 +510,17 @@ class StateArrays:
 
         Raises
         ------
-        ValueError
-            When some tag has S1 set to B (its flag may revert: :meth:`take_silent_steps`
-            steps it through its own state).
+        RuntimeError
+            When a tag refuses a step decided silent (the rules disagree; a bug).
         """
-        if self._s1_set:
-            raise ValueError("step_silently with S1 flags set to B: use silent_steps and take_silent_steps")
         t_s = float(t_s)
         step, n = round_step_rows(cmd), len(self.states)
         quiet, silent = np.empty(n, bool), np.empty(n, bool)
         moves, n_moves = self._moves
         n_silent = _kernels.silent_step_kernel(
             on, stays_off, self.powered, self.row, step.silent, step.decrement, self.t_s, t_s,
-            not self._t_max <= t_s, self.slot, self.counting, self.following, quiet, silent, moves,
-            n_moves)
+            not self._t_max <= t_s, self.slot, self.counting, self.following, self.s1_set_s,
+            self.s1_keep_s, self._s1_set, quiet, silent, moves, n_moves)
         counts = n_moves.tolist()
         react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
         if not n_silent:
@@ -553,21 +528,31 @@ class StateArrays:
         states, clock = self.states, self.clock
 
         def moved(k):
-            return map(states.__getitem__, moves[k, :counts[k]].tolist())
+            return moves[k, :counts[k]].tolist()
 
-        for st in moved(_kernels.LEAVE_COUNT):  # (their rows: their counters, not decremented now)
-            st.follow_decrements(None)
-        for i in moves[_kernels.JOIN_COUNT, :counts[_kernels.JOIN_COUNT]].tolist():
-            st = states[i]
-            st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented
-        for st in moved(_kernels.LEAVE_FOLLOW):
-            st.follow(None)
+        for i in moved(_kernels.LEAVE_COUNT):  # (their rows: their counters, not decremented now)
+            states[i].follow_decrements(None)
+        for i in moved(_kernels.JOIN_COUNT):
+            states[i].count_with(clock, i)  # (the row decremented)
+        for i in moved(_kernels.LEAVE_FOLLOW):
+            states[i].follow(None)
         clock.t_s = t_s
-        for st in moved(_kernels.JOIN_FOLLOW):
-            st._clock = clock  # follow(clock)
+        for i in moved(_kernels.JOIN_FOLLOW):
+            states[i].follow(clock)
         if t_s > self._t_max:
             self._t_max = t_s
+        if counts[_kernels.OWN_STEP]:
+            self._own_silent_steps(cmd, moved(_kernels.OWN_STEP), t_s)
         return quiet, silent, react
+
+    def _own_silent_steps(self, cmd, index: list, t_s: float) -> None:
+        """The tags ``index`` take the silent step of ``cmd`` at ``t_s`` [s] through their own
+        state (:meth:`TagState.on_command_if_silent`: their S1 flags revert), and their rows
+        are read back."""
+        for i in index:
+            if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
+                raise RuntimeError("a silent step was refused")  # the rules disagree
+        self.read(index)
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
         """Decide which tags load a new slot counter on a QueryAdjust.
@@ -669,8 +654,7 @@ class StateArrays:
         join = np.greater(~zero, counting)  # ~zero & ~counting
         if np.count_nonzero(join):
             for i in idx[join].tolist():
-                st = states[i]
-                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row written above
+                states[i].count_with(clock, i)  # (the row written above)
         fix = ~zero & (self.code[idx] == _REPLY)
         if np.count_nonzero(fix):
             for st in _picked_of(states, idx, fix):
@@ -680,7 +664,7 @@ class StateArrays:
             ks = np.flatnonzero(zero)
             for k, i, q in zip(ks.tolist(), idx[ks].tolist(), q_new[ks].tolist()):
                 st = states[i]
-                st._slot_clock, st._slot, st._q = None, 0, q  # its own counter and Q
+                st.slot, st.q = 0, q  # its own counter and Q
                 replies.append((i, st._reply_if_zero(self._rngs[i] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):  # (else every one follows the clock already)
@@ -729,11 +713,7 @@ class StateArrays:
         # NaN (S1 not set) compares False; no tag with S1 set: none due
         due = silent & s1_reverts(t_s, self.s1_set_s, self.s1_keep_s) if self._s1_set else None
         if due is not None and np.count_nonzero(due):
-            idx = due.nonzero()[0]
-            for i in idx.tolist():
-                if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
-                    raise RuntimeError("a silent step was refused")  # the rules above disagree
-            self.read(idx.tolist())
+            self._own_silent_steps(cmd, np.flatnonzero(due).tolist(), t_s)
             silent = np.greater(silent, due)  # silent & ~due
             decrement = np.greater(decrement, due)
         if np.count_nonzero(decrement):
@@ -760,8 +740,7 @@ class StateArrays:
         join = np.greater(decrement, self.counting)  # decrement & ~counting
         if np.count_nonzero(join):
             for i in np.flatnonzero(join).tolist():
-                st = states[i]
-                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented above
+                states[i].count_with(clock, i)  # (the row decremented above)
         self.counting = decrement.copy()
 
     def _follow(self, silent: np.ndarray, t_s: float) -> None:
@@ -777,7 +756,7 @@ class StateArrays:
         join = np.greater(silent, self.following)  # silent & ~following
         if np.count_nonzero(join):
             for st in _picked(states, join):
-                st._clock = clock  # follow(clock)
+                st.follow(clock)
         self.following = silent.copy()
 
 

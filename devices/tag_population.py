@@ -203,7 +203,7 @@ class TagPopulation:
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 decoded_by.append((sel, decoded, t_end_s))
-                if group is None and type(cmd) in _ONE_PASS and not arrays._s1_set:
+                if group is None and type(cmd) in _ONE_PASS:
                     # one group and a command of silent steps only: decided and taken in one pass
                     quiet, silent, react = arrays.step_silently(cmd, sel, rnd.stays_off, t_end_s)
                     if silent is not None:

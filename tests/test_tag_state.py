@@ -946,15 +946,16 @@ def _drive_one_pass(sabotage=None, steps=500):
 
     rng = np.random.default_rng(11)
     n = 16
-    full = [TagState(f"{k + 1:024X}") for k in range(n)]
-    fast = [TagState(f"{k + 1:024X}") for k in range(n)]
+    keep = FlagPersistence(s1_s=1e-3)  # (S1 flags set to B revert within a few commands)
+    full = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
+    fast = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
     g_full = [np.random.default_rng(k) for k in range(n)]
     g_fast = [np.random.default_rng(k) for k in range(n)]
     arrays = StateArrays(fast, g_fast)
     t, one_pass = 0.0, 0
     for step in range(steps):
         t += 2e-4 * rng.random()
-        k, s = int(rng.integers(8)), int(rng.choice([0, 2]))  # (no S1: its reverts are not one-pass)
+        k, s = int(rng.integers(8)), int(rng.choice([0, 1, 2]))  # (S1: its reverts are stepped one by one)
         if k == 0:
             cmd = Query(session=s, target="AB"[int(rng.integers(2))], q=int(rng.integers(5)))
         elif k == 1:
@@ -972,8 +973,8 @@ def _drive_one_pass(sabotage=None, steps=500):
                                  (full[i].on_power, True), (fast[i].on_power, True)):
                 on_power(up, t)
             arrays.read([i])
-        if rng.random() < 0.03:  # a Select (outside the arrays: read back)
-            sel = Select(target=int(rng.choice([0, 2, 4])), action=int(rng.integers(8)), membank=1,
+        if rng.random() < 0.06:  # a Select (outside the arrays: read back)
+            sel = Select(target=int(rng.choice([0, 1, 2, 4])), action=int(rng.integers(8)), membank=1,
                          pointer=0x20 + 95, mask="1")  # (odd EPCs match)
             for st, g in zip(full + fast, g_full + g_fast):
                 st.on_command(sel, t_s=t, rng=g)
@@ -1029,6 +1030,28 @@ def test_one_pass_silent_steps_equal_on_command():
     assert one_pass >= 1500, one_pass
 
 
+def test_one_pass_steps_tags_whose_s1_flag_reverts_through_their_own_state():
+    # step_silently with S1 flags set to B: the tags whose flag reverts by the command's time take
+    # the step through their own state (the flag back to A), the others in the pass; a tag whose
+    # flag has not reverted yet keeps B
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    keep = FlagPersistence(s1_s=1e-3)
+    tags = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(3)]
+    g = [np.random.default_rng(k) for k in range(3)]
+    for st, rng in zip(tags, g):
+        st.on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)  # S1 → B
+    tags[2].on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.8e-3, rng=g[2])
+    assert [st.inventoried[1] for st in tags] == ["B", "B", "B"]
+    arrays = StateArrays(tags, g)
+    quiet, silent, react = arrays.step_silently(NAK(), np.ones(3, bool), np.zeros(3, bool), 1.2e-3)
+    assert silent.tolist() == [True, True, True] and quiet.tolist() == [True, True, True] and react == []
+    assert [st.inventoried[1] for st in tags] == ["A", "A", "B"]
+    assert [st.t_s for st in tags] == [1.2e-3] * 3
+    assert np.isnan(arrays.s1_set_s[:2]).all() and arrays.s1_set_s[2] == 0.8e-3
+    assert arrays.following.tolist() == [st._clock is arrays.clock for st in tags] == [False, False, True]
+
+
 def _revert(*names):
     def sabotage(arrays):
         kept = {name: getattr(arrays, name).copy() for name in names}
@@ -1048,8 +1071,18 @@ def _skip_clock(arrays):
     return undo
 
 
+def _ignore_s1(arrays):
+    was = arrays._s1_set
+    arrays._s1_set = False  # (the pass then takes no S1 revert)
+
+    def undo():
+        arrays._s1_set = was
+    return undo
+
+
 @pytest.mark.parametrize("sabotage", [_revert("slot"), _revert("t_s"), _revert("following"), _revert("counting"),
-                                      _skip_clock], ids=["decrement", "time", "following", "counting", "clock"])
+                                      _skip_clock, _ignore_s1],
+                         ids=["decrement", "time", "following", "counting", "clock", "s1"])
 def test_one_pass_check_fails_when_an_update_is_skipped(sabotage):
     # the comparison above catches each update of step_silently left out
     failed, _ = _drive_one_pass(sabotage, steps=300)

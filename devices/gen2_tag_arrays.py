@@ -292,20 +292,46 @@ def select_step(action: int, match, asserted):
     return todo != 0, (todo == 1) | ((todo == 3) & (asserted == False))  # noqa: E712 (arrays)
 
 
+class SilentPass(NamedTuple):
+    """What :meth:`StateArrays.step_silently` did.
+
+    Attributes
+    ----------
+    quiet : ndarray of bool, shape (n_tags,)
+        Tags that stay quiet: the silent ones, the unpowered ones that stay so and those that
+        loaded a new non-zero slot counter.
+    silent : ndarray of bool, shape (n_tags,) or None
+        Tags that took a silent step; None when none did.
+    react : list of int
+        The tags the caller steps (neither quiet nor redrawn), ascending.
+    redrawn : ndarray of bool, shape (n_tags,) or None
+        Tags that loaded a new non-zero slot counter; None when no tag redrew.
+    replies : list of tuple (int, Reply)
+        ``(row, reply)`` of the tags whose new counter is 0 (not quiet, not in ``react``).
+    """
+
+    quiet: np.ndarray
+    silent: np.ndarray | None
+    react: list
+    redrawn: np.ndarray | None
+    replies: list
+
+
 class StateArrays:
     """The Gen2 state of many tags in arrays, for the silent steps of a population.
 
     Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
     :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
-    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
-    :meth:`TagState.on_command_if_silent`'s decision for every row at once (both read their
-    rows of :func:`round_step`, :func:`round_step_rows`);
-    :meth:`take_silent_steps` applies the steps so decided to the rows and to the
-    :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
-    :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
-    of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
-    (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
-    tag's own generator).
+    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`step_silently` takes
+    :meth:`TagState.on_command_if_silent`'s step for every row at once in one compiled pass
+    (both read their rows of :func:`round_step`, :func:`round_step_rows`), leaving the rows and
+    the :class:`TagState` objects exactly as ``on_command_if_silent`` would have left them,
+    and the other frequent step of an inventory: a QueryAdjust that makes every tag of the
+    round load a new slot counter (:meth:`take_redraw_steps`, the branch of ``on_command``
+    taken without the dispatch, each counter drawn from its tag's own generator).
+    :meth:`silent_steps`, :meth:`take_silent_steps` and :meth:`redraw_steps` are the pass's
+    plain-NumPy reference (the tests hold the pass equal to them; the code does not call
+    them).
 
     The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
     (``clock``; ``following`` marks them): the next silent step advances them all by setting
@@ -369,7 +395,7 @@ class StateArrays:
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
         #: step_silently's scratch: the tags each TagState move is for, and their counts
-        self._moves = np.zeros((6, n), np.int64), np.zeros(6, np.int64)
+        self._moves = np.zeros((7, n), np.int64), np.zeros(7, np.int64)
         self._t_max = -np.inf  # no tag's time is later (Notes)
         self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
@@ -444,7 +470,8 @@ class StateArrays:
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Decide which tags take a silent step for a command (:func:`round_step`).
+        """Decide which tags take a silent step for a command (:func:`round_step`): the
+        plain-NumPy reference of :meth:`step_silently`'s decision (for the tests).
 
         The rules of :meth:`TagState.on_command_if_silent` for every row at once; a tag whose
         clock is past ``t_s`` is left to ``on_command`` (it raises).
@@ -476,17 +503,19 @@ class StateArrays:
             dec &= silent
         return silent, dec
 
-    def step_silently(self, cmd, on: np.ndarray, stays_off: np.ndarray,
-                      t_s: float) -> tuple[np.ndarray, np.ndarray | None, list]:
-        """Decide and take the silent steps of a QueryRep, ACK or NAK in one pass over the rows.
+    def step_silently(self, cmd, on: np.ndarray, stays_off: np.ndarray, t_s: float,
+                      redraw: bool = False) -> SilentPass:
+        """Decide and take the silent steps of a command in one pass over the rows, and a
+        QueryAdjust's redraws.
 
         :meth:`silent_steps` followed by :meth:`take_silent_steps` (the same rows, rules and
-        :class:`TagState` moves) in one compiled loop
+        :class:`TagState` moves), and where ``redraw`` :meth:`redraw_steps` with
+        :meth:`take_redraw_steps`, in one compiled loop
         (:func:`rfsim.devices._gen2_tag_kernels.silent_step_kernel`), with the tags that stay
-        quiet: the silent ones and those unpowered that stay so. Only the tags that join or
-        leave the clock's followers or counters, those whose S1 flag reverts (each takes the
-        step through :meth:`TagState.on_command_if_silent`, its row read back) and those that
-        react cost a step in Python.
+        quiet: the silent ones, those unpowered that stay so and those whose new counter is not
+        0. Only the tags that join or leave the clock's followers or counters, those whose S1
+        flag reverts (each takes the step through :meth:`TagState.on_command_if_silent`, its
+        row read back), those that redraw and those that react cost a step in Python.
 
         Parameters
         ----------
@@ -498,15 +527,14 @@ class StateArrays:
             Tags whose power decision keeps them unpowered (quiet where not powered).
         t_s : float
             Time the command is received [s].
+        redraw : bool, default False
+            A QueryAdjust's tags of the round load their new counters here, each from its own
+            generator (those given to :meth:`use_generators`); else they react.
 
         Returns
         -------
-        quiet : ndarray of bool, shape (n_tags,)
-            Silent tags, and unpowered tags that stay so.
-        silent : ndarray of bool, shape (n_tags,) or None
-            Tags that took a silent step; None when none did.
-        react : list of int
-            The tags that are not quiet, ascending.
+        SilentPass
+            The quiet tags, the silent ones, the tags that react and the redraws.
 
         Raises
         ------
@@ -518,13 +546,13 @@ class StateArrays:
         quiet, silent = np.empty(n, bool), np.empty(n, bool)
         moves, n_moves = self._moves
         n_silent = _kernels.silent_step_kernel(
-            on, stays_off, self.powered, self.row, step.silent, step.decrement, self.t_s, t_s,
-            not self._t_max <= t_s, self.slot, self.counting, self.following, self.s1_set_s,
+            on, stays_off, self.powered, self.row, step.silent, step.decrement, step.redraw, redraw, self.t_s,
+            t_s, not self._t_max <= t_s, self.slot, self.counting, self.following, self.s1_set_s,
             self.s1_keep_s, self._s1_set, quiet, silent, moves, n_moves)
         counts = n_moves.tolist()
         react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
-        if not n_silent:
-            return quiet, None, react
+        if not n_silent and not counts[_kernels.REDRAW]:
+            return SilentPass(quiet, None, react, None, [])
         states, clock = self.states, self.clock
 
         def moved(k):
@@ -543,7 +571,15 @@ class StateArrays:
             self._t_max = t_s
         if counts[_kernels.OWN_STEP]:
             self._own_silent_steps(cmd, moved(_kernels.OWN_STEP), t_s)
-        return quiet, silent, react
+        redrawn, replies = None, []
+        if counts[_kernels.REDRAW]:
+            index = moved(_kernels.REDRAW)
+            replies = self.take_redraw_steps(cmd, index, None, t_s)
+            redrawn = np.zeros(n, bool)
+            redrawn[index] = True
+            for i, _ in replies:  # (a counter of 0: the tag replies)
+                redrawn[i] = quiet[i] = False
+        return SilentPass(quiet, silent if n_silent else None, react, redrawn, replies)
 
     def _own_silent_steps(self, cmd, index: list, t_s: float) -> None:
         """The tags ``index`` take the silent step of ``cmd`` at ``t_s`` [s] through their own
@@ -555,7 +591,8 @@ class StateArrays:
         self.read(index)
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
-        """Decide which tags load a new slot counter on a QueryAdjust.
+        """Decide which tags load a new slot counter on a QueryAdjust: the plain-NumPy
+        reference of :meth:`step_silently`'s redraw decision (for the tests).
 
         Those are the powered tags in Arbitrate or Reply of the command's session
         (``TagState._query_adjust``) whose clock is not past ``t_s`` and whose S1 flag is not
@@ -681,7 +718,8 @@ class StateArrays:
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float,
                           joining: np.ndarray | None = None) -> None:
-        """Apply the silent steps decided by :meth:`silent_steps`.
+        """Apply the silent steps decided by :meth:`silent_steps`: the plain-NumPy reference
+        of :meth:`step_silently`'s updates (for the tests).
 
         Each tag's clock advances to ``t_s`` and a decrementing tag's slot counter goes to
         (slot − 1) mod 2^15, through the shared clock. A tag whose S1 flag is due to revert
@@ -772,5 +810,5 @@ def _picked_of(objects: list, index: np.ndarray, mask: np.ndarray):
     return map(objects.__getitem__, index[mask].tolist())
 
 
-__all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",
+__all__ = ["StateArrays", "SilentPass", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",
            "decremented", "s1_reverts", "SELECT_ACTIONS", "select_step"]

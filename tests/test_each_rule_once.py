@@ -150,11 +150,9 @@ TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"
                   ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_slot_replies"),
                   ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_s1_reverts"),
                   # the populations step their tags through the arrays' steps above
-                  ("devices/tag_population.py", "reflect_scaled", "silent_steps"),
-                  ("devices/tag_population.py", "reflect_scaled", "redraw_steps"),
+                  ("devices/gen2_tag_arrays.py", "step_silently", "take_redraw_steps"),
                   ("devices/tag_population.py", "reflect_scaled", "step_silently"),
-                  ("rfsim/protocols/inventory.py", "_drive_arrays", "silent_steps"),
-                  ("rfsim/protocols/inventory.py", "_drive_arrays", "redraw_steps"))
+                  ("rfsim/protocols/inventory.py", "_drive_arrays", "step_silently"))
 #: The commands whose transitions ``round_step`` decides.
 ROUND_COMMANDS = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK"}
 #: The states of an inventory round, by name and by code.
@@ -302,6 +300,26 @@ def test_tag_rule_users_call_the_one_rule(module, name, rule):
     assert rule in _calls(fn), (name, sorted(_calls(fn)))
     named = _names_outside_dispatch(fn) & ROUND_COMMANDS
     assert not named, sorted(named)
+
+
+#: The NumPy reference of StateArrays.step_silently's compiled pass (and its helpers): the tests
+#: hold the pass equal to it; nothing else calls it.
+SILENT_STEP_REFERENCE = {"silent_steps", "take_silent_steps", "redraw_steps", "_count_down", "_follow"}
+
+
+def test_the_silent_steps_numpy_reference_has_no_caller_in_the_code():
+    """The silent-step decision is applied by one compiled pass (``step_silently``); its NumPy
+    twin is the tests' reference only: no module calls it, and within the arrays' module only
+    the reference itself does."""
+    callers = []
+    for module, tree in MODULES.items():
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            if module == "devices/gen2_tag_arrays.py" and fn.name in SILENT_STEP_REFERENCE:
+                continue
+            used = _calls(fn) & SILENT_STEP_REFERENCE
+            if used:
+                callers.append((module, fn.name, sorted(used)))
+    assert callers == []
 
 
 def _names_outside_dispatch(fn: ast.AST) -> set[str]:

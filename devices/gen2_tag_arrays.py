@@ -390,6 +390,7 @@ class StateArrays:
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
         self.q = np.zeros(n, np.int64)
+        self._columns = [getattr(self, name) for name in _COLUMNS]  # (written in place, never rebound)
         self.clock = SharedClock(slots=self.slot, qs=self.q)  # (the columns, not copies)
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
@@ -440,7 +441,7 @@ class StateArrays:
             return
         states, clock = self.states, self.clock
         if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
-            columns = [getattr(self, name) for name in _COLUMNS]
+            columns = self._columns
             following, counting, rows = self.following, self.counting, self.row
             t_max, s1_set = self._t_max, self._s1_set
             for i in index:
@@ -549,31 +550,32 @@ class StateArrays:
             on, stays_off, self.powered, self.row, step.silent, step.decrement, step.redraw, redraw, self.t_s,
             t_s, not self._t_max <= t_s, self.slot, self.counting, self.following, self.s1_set_s,
             self.s1_keep_s, self._s1_set, quiet, silent, moves, n_moves)
-        counts = n_moves.tolist()
-        react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
-        if not n_silent and not counts[_kernels.REDRAW]:
+        join_count, leave_count, join_follow, leave_follow, n_react, n_own, n_redraw = n_moves.tolist()
+        react = moves[_kernels.REACT, :n_react].tolist()
+        if not n_silent and not n_redraw:
             return SilentPass(quiet, None, react, None, [])
         states, clock = self.states, self.clock
-
-        def moved(k):
-            return moves[k, :counts[k]].tolist()
-
-        for i in moved(_kernels.LEAVE_COUNT):  # (their rows: their counters, not decremented now)
-            states[i].follow_decrements(None)
-        for i in moved(_kernels.JOIN_COUNT):
-            states[i].count_with(clock, i)  # (the row decremented)
-        for i in moved(_kernels.LEAVE_FOLLOW):
-            states[i].follow(None)
+        # (each list only where the pass has put tags in it: most commands move few or none)
+        if leave_count:
+            for i in moves[_kernels.LEAVE_COUNT, :leave_count].tolist():  # (their rows: not decremented now)
+                states[i].follow_decrements(None)
+        if join_count:
+            for i in moves[_kernels.JOIN_COUNT, :join_count].tolist():
+                states[i].count_with(clock, i)  # (the row decremented)
+        if leave_follow:
+            for i in moves[_kernels.LEAVE_FOLLOW, :leave_follow].tolist():
+                states[i].follow(None)
         clock.t_s = t_s
-        for i in moved(_kernels.JOIN_FOLLOW):
-            states[i].follow(clock)
+        if join_follow:
+            for i in moves[_kernels.JOIN_FOLLOW, :join_follow].tolist():
+                states[i].follow(clock)
         if t_s > self._t_max:
             self._t_max = t_s
-        if counts[_kernels.OWN_STEP]:
-            self._own_silent_steps(cmd, moved(_kernels.OWN_STEP), t_s)
+        if n_own:
+            self._own_silent_steps(cmd, moves[_kernels.OWN_STEP, :n_own].tolist(), t_s)
         redrawn, replies = None, []
-        if counts[_kernels.REDRAW]:
-            index = moved(_kernels.REDRAW)
+        if n_redraw:
+            index = moves[_kernels.REDRAW, :n_redraw].tolist()
             replies = self.take_redraw_steps(cmd, index, None, t_s)
             redrawn = np.zeros(n, bool)
             redrawn[index] = True

@@ -187,7 +187,8 @@ class TagPopulation:
         arrays = self.arrays
         on = rnd.stays_on & arrays.powered  # powered, and stays so
         quiet = react = None  # quiet: unpowered and stays so, silent or redrawn (react: the others)
-        steps, decoded_by, replies = [], [], {}  # decoded_by: (members, their decoded command)
+        steps, decoded_by = [], []  # decoded_by: (members, their decoded command)
+        replies = {}  # member → (decoded command, its reply) of the members that redrew a counter of 0
         if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
                 sel = on if group is None else on & group

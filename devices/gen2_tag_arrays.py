@@ -575,7 +575,7 @@ class StateArrays:
             self._own_silent_steps(cmd, moves[_kernels.OWN_STEP, :n_own].tolist(), t_s)
         redrawn, replies = None, []
         if n_redraw:
-            index = moves[_kernels.REDRAW, :n_redraw].tolist()
+            index = moves[_kernels.REDRAW, :n_redraw].copy()  # (an index array: no Python ints)
             replies = self.take_redraw_steps(cmd, index, None, t_s)
             redrawn = np.zeros(n, bool)
             redrawn[index] = True

@@ -31,7 +31,7 @@ from rfsim.gen2.commands import ACK, NAK, Query, QueryAdjust, QueryRep
 from rfsim.gen2.generator_words import GeneratorWords
 from rfsim.gen2.tag_draws import _slot_drawer, _top_bits
 from rfsim.devices import _gen2_tag_kernels as _kernels
-from rfsim.devices._gen2_tag_kernels import decremented, slot_replies
+from rfsim.devices._gen2_tag_kernels import decremented, s1_reverts, slot_replies
 from rfsim.devices.gen2_tag_values import STATE_CODES, STATES, SharedClock, adjusted_q
 
 _ARBITRATE, _REPLY = STATE_CODES["arbitrate"], STATE_CODES["reply"]
@@ -261,30 +261,6 @@ def query_matches(sel: str, target: str, sl, flag):
     return ((sel != "sl") | sl) & ((sel != "~sl") | (sl == False)) & (flag == target)  # noqa: E712 (arrays)
 
 
-def s1_reverts(t_s, s1_set_s, s1_keep_s):
-    """Tell whether the S1 inventoried flag, set to B at ``s1_set_s``, has reverted to A by ``t_s``.
-
-    S1 reverts from B to A once its persistence time has passed, powered or not (EPC Gen2
-    "Sessions and inventoried flags", anchors §4.4): :math:`t - t_{set} \\ge t_{keep}`. For
-    one tag or many.
-
-    Parameters
-    ----------
-    t_s : float or ndarray
-        The time now [s].
-    s1_set_s : float or ndarray
-        Time S1 was set to B [s] (NaN for many tags: not set; compares False).
-    s1_keep_s : float or ndarray
-        The S1 persistence time [s].
-
-    Returns
-    -------
-    bool or ndarray of bool
-        S1 has reverted.
-    """
-    return t_s - s1_set_s >= s1_keep_s
-
-
 #: The Select action table (EPC Gen2 "Select"): action → (matching tag, non-matching tag),
 #: each 0 = do nothing, 1 = assert SL or inventoried → A, 2 = deassert SL or inventoried → B,
 #: 3 = negate SL or A ↔ B.
@@ -316,20 +292,46 @@ def select_step(action: int, match, asserted):
     return todo != 0, (todo == 1) | ((todo == 3) & (asserted == False))  # noqa: E712 (arrays)
 
 
+class SilentPass(NamedTuple):
+    """What :meth:`StateArrays.step_silently` did.
+
+    Attributes
+    ----------
+    quiet : ndarray of bool, shape (n_tags,)
+        Tags that stay quiet: the silent ones, the unpowered ones that stay so and those that
+        loaded a new non-zero slot counter.
+    silent : ndarray of bool, shape (n_tags,) or None
+        Tags that took a silent step; None when none did.
+    react : list of int
+        The tags the caller steps (neither quiet nor redrawn), ascending.
+    redrawn : ndarray of bool, shape (n_tags,) or None
+        Tags that loaded a new non-zero slot counter; None when no tag redrew.
+    replies : list of tuple (int, Reply)
+        ``(row, reply)`` of the tags whose new counter is 0 (not quiet, not in ``react``).
+    """
+
+    quiet: np.ndarray
+    silent: np.ndarray | None
+    react: list
+    redrawn: np.ndarray | None
+    replies: list
+
+
 class StateArrays:
     """The Gen2 state of many tags in arrays, for the silent steps of a population.
 
     Columns (one row per tag, :meth:`TagState.row`): ``powered`` (bool), ``code`` (index into
     :data:`STATES`), ``session`` (−1: none), ``slot`` (−1: none), ``t_s`` [s], ``s1_set_s``
-    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`silent_steps` is
-    :meth:`TagState.on_command_if_silent`'s decision for every row at once (both read their
-    rows of :func:`round_step`, :func:`round_step_rows`);
-    :meth:`take_silent_steps` applies the steps so decided to the rows and to the
-    :class:`TagState` objects, exactly as ``on_command_if_silent`` would have left them.
-    :meth:`redraw_steps` / :meth:`take_redraw_steps` do the same for the other frequent step
-    of an inventory, a QueryAdjust that makes every tag of the round load a new slot counter
-    (the branch of ``on_command`` taken without the dispatch, each counter drawn from its
-    tag's own generator).
+    (NaN: S1 not set to B), ``s1_keep_s`` and ``q``. :meth:`step_silently` takes
+    :meth:`TagState.on_command_if_silent`'s step for every row at once in one compiled pass
+    (both read their rows of :func:`round_step`, :func:`round_step_rows`), leaving the rows and
+    the :class:`TagState` objects exactly as ``on_command_if_silent`` would have left them,
+    and the other frequent step of an inventory: a QueryAdjust that makes every tag of the
+    round load a new slot counter (:meth:`take_redraw_steps`, the branch of ``on_command``
+    taken without the dispatch, each counter drawn from its tag's own generator).
+    :meth:`silent_steps`, :meth:`take_silent_steps` and :meth:`redraw_steps` are the pass's
+    plain-NumPy reference (the tests hold the pass equal to them; the code does not call
+    them).
 
     The tags whose last step was a silent one follow the arrays' :class:`SharedClock`
     (``clock``; ``following`` marks them): the next silent step advances them all by setting
@@ -388,12 +390,13 @@ class StateArrays:
         self.s1_set_s = np.full(n, np.nan)
         self.s1_keep_s = np.zeros(n)
         self.q = np.zeros(n, np.int64)
+        self._columns = [getattr(self, name) for name in _COLUMNS]  # (written in place, never rebound)
         self.clock = SharedClock(slots=self.slot, qs=self.q)  # (the columns, not copies)
         self.following = np.zeros(n, bool)
         self.counting = np.zeros(n, bool)
         self.row = np.zeros(n, np.int64)
         #: step_silently's scratch: the tags each TagState move is for, and their counts
-        self._moves = np.zeros((5, n), np.int64), np.zeros(5, np.int64)
+        self._moves = np.zeros((7, n), np.int64), np.zeros(7, np.int64)
         self._t_max = -np.inf  # no tag's time is later (Notes)
         self._s1_set = False  # whether any tag may have S1 set to B (Notes)
         self.read(range(n))
@@ -438,7 +441,7 @@ class StateArrays:
             return
         states, clock = self.states, self.clock
         if len(index) <= 8:  # the few tags of one exchange that reacted: element by element
-            columns = [getattr(self, name) for name in _COLUMNS]
+            columns = self._columns
             following, counting, rows = self.following, self.counting, self.row
             t_max, s1_set = self._t_max, self._s1_set
             for i in index:
@@ -468,7 +471,8 @@ class StateArrays:
         self.counting[index] = [states[i]._slot_clock is clock for i in index]
 
     def silent_steps(self, cmd, candidates: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Decide which tags take a silent step for a command (:func:`round_step`).
+        """Decide which tags take a silent step for a command (:func:`round_step`): the
+        plain-NumPy reference of :meth:`step_silently`'s decision (for the tests).
 
         The rules of :meth:`TagState.on_command_if_silent` for every row at once; a tag whose
         clock is past ``t_s`` is left to ``on_command`` (it raises).
@@ -500,15 +504,19 @@ class StateArrays:
             dec &= silent
         return silent, dec
 
-    def step_silently(self, cmd, on: np.ndarray, stays_off: np.ndarray,
-                      t_s: float) -> tuple[np.ndarray, np.ndarray | None, list]:
-        """Decide and take the silent steps of a QueryRep, ACK or NAK in one pass over the rows.
+    def step_silently(self, cmd, on: np.ndarray, stays_off: np.ndarray, t_s: float,
+                      redraw: bool = False) -> SilentPass:
+        """Decide and take the silent steps of a command in one pass over the rows, and a
+        QueryAdjust's redraws.
 
         :meth:`silent_steps` followed by :meth:`take_silent_steps` (the same rows, rules and
-        :class:`TagState` moves) in one compiled loop
+        :class:`TagState` moves), and where ``redraw`` :meth:`redraw_steps` with
+        :meth:`take_redraw_steps`, in one compiled loop
         (:func:`rfsim.devices._gen2_tag_kernels.silent_step_kernel`), with the tags that stay
-        quiet: the silent ones and those unpowered that stay so. Only the tags that join or
-        leave the clock's followers or counters, and those that react, cost a step in Python.
+        quiet: the silent ones, those unpowered that stay so and those whose new counter is not
+        0. Only the tags that join or leave the clock's followers or counters, those whose S1
+        flag reverts (each takes the step through :meth:`TagState.on_command_if_silent`, its
+        row read back), those that redraw and those that react cost a step in Python.
 
         Parameters
         ----------
@@ -520,57 +528,73 @@ class StateArrays:
             Tags whose power decision keeps them unpowered (quiet where not powered).
         t_s : float
             Time the command is received [s].
+        redraw : bool, default False
+            A QueryAdjust's tags of the round load their new counters here, each from its own
+            generator (those given to :meth:`use_generators`); else they react.
 
         Returns
         -------
-        quiet : ndarray of bool, shape (n_tags,)
-            Silent tags, and unpowered tags that stay so.
-        silent : ndarray of bool, shape (n_tags,) or None
-            Tags that took a silent step; None when none did.
-        react : list of int
-            The tags that are not quiet, ascending.
+        SilentPass
+            The quiet tags, the silent ones, the tags that react and the redraws.
 
         Raises
         ------
-        ValueError
-            When some tag has S1 set to B (its flag may revert: :meth:`take_silent_steps`
-            steps it through its own state).
+        RuntimeError
+            When a tag refuses a step decided silent (the rules disagree; a bug).
         """
-        if self._s1_set:
-            raise ValueError("step_silently with S1 flags set to B: use silent_steps and take_silent_steps")
         t_s = float(t_s)
         step, n = round_step_rows(cmd), len(self.states)
         quiet, silent = np.empty(n, bool), np.empty(n, bool)
         moves, n_moves = self._moves
         n_silent = _kernels.silent_step_kernel(
-            on, stays_off, self.powered, self.row, step.silent, step.decrement, self.t_s, t_s,
-            not self._t_max <= t_s, self.slot, self.counting, self.following, quiet, silent, moves,
-            n_moves)
-        counts = n_moves.tolist()
-        react = moves[_kernels.REACT, :counts[_kernels.REACT]].tolist()
-        if not n_silent:
-            return quiet, None, react
+            on, stays_off, self.powered, self.row, step.silent, step.decrement, step.redraw, redraw, self.t_s,
+            t_s, not self._t_max <= t_s, self.slot, self.counting, self.following, self.s1_set_s,
+            self.s1_keep_s, self._s1_set, quiet, silent, moves, n_moves)
+        join_count, leave_count, join_follow, leave_follow, n_react, n_own, n_redraw = n_moves.tolist()
+        react = moves[_kernels.REACT, :n_react].tolist()
+        if not n_silent and not n_redraw:
+            return SilentPass(quiet, None, react, None, [])
         states, clock = self.states, self.clock
-
-        def moved(k):
-            return map(states.__getitem__, moves[k, :counts[k]].tolist())
-
-        for st in moved(_kernels.LEAVE_COUNT):  # (their rows: their counters, not decremented now)
-            st.follow_decrements(None)
-        for i in moves[_kernels.JOIN_COUNT, :counts[_kernels.JOIN_COUNT]].tolist():
-            st = states[i]
-            st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented
-        for st in moved(_kernels.LEAVE_FOLLOW):
-            st.follow(None)
+        # (each list only where the pass has put tags in it: most commands move few or none)
+        if leave_count:
+            for i in moves[_kernels.LEAVE_COUNT, :leave_count].tolist():  # (their rows: not decremented now)
+                states[i].follow_decrements(None)
+        if join_count:
+            for i in moves[_kernels.JOIN_COUNT, :join_count].tolist():
+                states[i].count_with(clock, i)  # (the row decremented)
+        if leave_follow:
+            for i in moves[_kernels.LEAVE_FOLLOW, :leave_follow].tolist():
+                states[i].follow(None)
         clock.t_s = t_s
-        for st in moved(_kernels.JOIN_FOLLOW):
-            st._clock = clock  # follow(clock)
+        if join_follow:
+            for i in moves[_kernels.JOIN_FOLLOW, :join_follow].tolist():
+                states[i].follow(clock)
         if t_s > self._t_max:
             self._t_max = t_s
-        return quiet, silent, react
+        if n_own:
+            self._own_silent_steps(cmd, moves[_kernels.OWN_STEP, :n_own].tolist(), t_s)
+        redrawn, replies = None, []
+        if n_redraw:
+            index = moves[_kernels.REDRAW, :n_redraw].copy()  # (an index array: no Python ints)
+            replies = self.take_redraw_steps(cmd, index, None, t_s)
+            redrawn = np.zeros(n, bool)
+            redrawn[index] = True
+            for i, _ in replies:  # (a counter of 0: the tag replies)
+                redrawn[i] = quiet[i] = False
+        return SilentPass(quiet, silent if n_silent else None, react, redrawn, replies)
+
+    def _own_silent_steps(self, cmd, index: list, t_s: float) -> None:
+        """The tags ``index`` take the silent step of ``cmd`` at ``t_s`` [s] through their own
+        state (:meth:`TagState.on_command_if_silent`: their S1 flags revert), and their rows
+        are read back."""
+        for i in index:
+            if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
+                raise RuntimeError("a silent step was refused")  # the rules disagree
+        self.read(index)
 
     def redraw_steps(self, cmd, candidates: np.ndarray, t_s: float) -> np.ndarray:
-        """Decide which tags load a new slot counter on a QueryAdjust.
+        """Decide which tags load a new slot counter on a QueryAdjust: the plain-NumPy
+        reference of :meth:`step_silently`'s redraw decision (for the tests).
 
         Those are the powered tags in Arbitrate or Reply of the command's session
         (``TagState._query_adjust``) whose clock is not past ``t_s`` and whose S1 flag is not
@@ -669,8 +693,7 @@ class StateArrays:
         join = np.greater(~zero, counting)  # ~zero & ~counting
         if np.count_nonzero(join):
             for i in idx[join].tolist():
-                st = states[i]
-                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row written above
+                states[i].count_with(clock, i)  # (the row written above)
         fix = ~zero & (self.code[idx] == _REPLY)
         if np.count_nonzero(fix):
             for st in _picked_of(states, idx, fix):
@@ -680,7 +703,7 @@ class StateArrays:
             ks = np.flatnonzero(zero)
             for k, i, q in zip(ks.tolist(), idx[ks].tolist(), q_new[ks].tolist()):
                 st = states[i]
-                st._slot_clock, st._slot, st._q = None, 0, q  # its own counter and Q
+                st.slot, st.q = 0, q  # its own counter and Q
                 replies.append((i, st._reply_if_zero(self._rngs[i] if rngs is None else rngs[k])))
         own = ~self.following[idx] if clock.t_s == t_s else np.ones(idx.size, bool)
         if np.count_nonzero(own):  # (else every one follows the clock already)
@@ -697,7 +720,8 @@ class StateArrays:
 
     def take_silent_steps(self, cmd, silent: np.ndarray, decrement: np.ndarray, t_s: float,
                           joining: np.ndarray | None = None) -> None:
-        """Apply the silent steps decided by :meth:`silent_steps`.
+        """Apply the silent steps decided by :meth:`silent_steps`: the plain-NumPy reference
+        of :meth:`step_silently`'s updates (for the tests).
 
         Each tag's clock advances to ``t_s`` and a decrementing tag's slot counter goes to
         (slot − 1) mod 2^15, through the shared clock. A tag whose S1 flag is due to revert
@@ -729,11 +753,7 @@ class StateArrays:
         # NaN (S1 not set) compares False; no tag with S1 set: none due
         due = silent & s1_reverts(t_s, self.s1_set_s, self.s1_keep_s) if self._s1_set else None
         if due is not None and np.count_nonzero(due):
-            idx = due.nonzero()[0]
-            for i in idx.tolist():
-                if not self.states[i].on_command_if_silent(cmd, t_s=t_s):
-                    raise RuntimeError("a silent step was refused")  # the rules above disagree
-            self.read(idx.tolist())
+            self._own_silent_steps(cmd, np.flatnonzero(due).tolist(), t_s)
             silent = np.greater(silent, due)  # silent & ~due
             decrement = np.greater(decrement, due)
         if np.count_nonzero(decrement):
@@ -760,8 +780,7 @@ class StateArrays:
         join = np.greater(decrement, self.counting)  # decrement & ~counting
         if np.count_nonzero(join):
             for i in np.flatnonzero(join).tolist():
-                st = states[i]
-                st._slot_clock, st._slot = clock, i  # follow_decrements(clock, i), the row decremented above
+                states[i].count_with(clock, i)  # (the row decremented above)
         self.counting = decrement.copy()
 
     def _follow(self, silent: np.ndarray, t_s: float) -> None:
@@ -777,7 +796,7 @@ class StateArrays:
         join = np.greater(silent, self.following)  # silent & ~following
         if np.count_nonzero(join):
             for st in _picked(states, join):
-                st._clock = clock  # follow(clock)
+                st.follow(clock)
         self.following = silent.copy()
 
 
@@ -793,5 +812,5 @@ def _picked_of(objects: list, index: np.ndarray, mask: np.ndarray):
     return map(objects.__getitem__, index[mask].tolist())
 
 
-__all__ = ["StateArrays", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",
+__all__ = ["StateArrays", "SilentPass", "RoundStep", "round_step", "round_row", "round_step_rows", "round_step_of_one", "query_matches", "slot_replies",
            "decremented", "s1_reverts", "SELECT_ACTIONS", "select_step"]

@@ -312,7 +312,21 @@ class TagState:
         else:
             slot, q = self.slot, self.q
             clock.slots[row], clock.qs[row] = -1 if slot is None else slot, q
-            self._slot_clock, self._slot = clock, row
+            self.count_with(clock, row)
+
+    def count_with(self, clock: SharedClock, row: int) -> None:
+        """Let the slot counter and Q be those a shared clock's arrays hold at ``row`` until
+        either is set: :meth:`follow_decrements` when the arrays' step has written the tag's
+        values there already (a population's decrement or counter draw).
+
+        Parameters
+        ----------
+        clock : SharedClock
+            The clock whose ``slots`` and ``qs`` hold the counter and Q at ``row``.
+        row : int
+            The tag's row of the clock's arrays.
+        """
+        self._slot_clock, self._slot = clock, row
 
     def _advance(self, t_s: float) -> None:
         t_s = float(t_s)

@@ -10,17 +10,17 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
 1. decides for all tags at once which of them stay quiet — the remembered power decision of
    each tag's P_inc = |g_j·x_m|² (``PassiveTag.quiet_point``, made for every tag when the
    gains are new — a round's first exchange, a frequency hop — without changing the tag: its
-   own full path's power-up rule; for all members at once, ``PassiveTag.quiet_points``) agrees with its powered state, and an unpowered tag stays unpowered or a powered
-   one takes a silent step of the decoded command (``StateArrays.silent_steps``, the rules of
-   ``on_command_if_silent``);
-2. applies those steps to the arrays and the tags (``StateArrays.take_silent_steps``,
-   ``PassiveTag.take_quiet_step``): each tag is left exactly as its own ``reflect`` would
-   have left it;
+   own full path's power-up rule; for all members at once, ``PassiveTag.quiet_points``)
+   agrees with its powered state, and an unpowered tag stays unpowered or a powered one takes
+   a silent step of the decoded command (the rules of ``on_command_if_silent``);
+2. takes those steps in the same pass over the arrays (``StateArrays.step_silently``, one
+   compiled loop per envelope group; then ``PassiveTag.take_quiet_step``): each tag is left
+   exactly as its own ``reflect`` would have left it;
 3. on a QueryAdjust (members with generators of their own), loads the new slot counters of
-   every tag of the round at once (``StateArrays.redraw_steps`` / ``take_redraw_steps``:
-   Q ± 1, each counter drawn from its tag's own generator exactly as ``TagState.on_command``
-   draws it); the tags whose counter is not 0 are quiet, those that reply form their reply
-   (``PassiveTag.respond_reply``);
+   every tag of the round in that pass (``StateArrays.step_silently``'s redraws,
+   ``take_redraw_steps``: Q ± 1, each counter drawn from its tag's own generator exactly as
+   ``TagState.on_command`` draws it); the tags whose counter is not 0 are quiet, those that
+   reply form their reply (``PassiveTag.respond_reply``);
 4. asks only the other tags — those that reply, power up or down, load a slot counter on a
    Query, change state — through their own path (``PassiveTag.reflect``, or from the decoded
    command on where the power decision is known, ``respond_decoded``): a tag with its own
@@ -70,9 +70,6 @@ _gamma_rest = operator.attrgetter("gamma_rest")
 #: The round commands a powered member with a known power decision takes through its state
 #: machine alone when it does not take them silently (reflect_scaled).
 _ROUND_COMMANDS = (QueryRep, QueryAdjust, ACK, NAK)
-#: The round commands whose silent steps are decided and taken in one pass
-#: (StateArrays.step_silently): all but the QueryAdjust, whose redraws follow its silent steps.
-_ONE_PASS = (QueryRep, ACK, NAK)
 
 
 def _counting_class(members):
@@ -189,8 +186,9 @@ class TagPopulation:
         rnd = self._sync(gains, fe)
         arrays = self.arrays
         on = rnd.stays_on & arrays.powered  # powered, and stays so
-        quiet = react = None  # quiet: unpowered and stays so, or silent (react: the others)
-        steps, applied, decoded_by = [], [], []  # decoded_by: (members, their decoded command)
+        quiet = react = None  # quiet: unpowered and stays so, silent or redrawn (react: the others)
+        steps, decoded_by = [], []  # decoded_by: (members, their decoded command)
+        replies = {}  # member → (decoded command, its reply) of the members that redrew a counter of 0
         if np.count_nonzero(on):
             for rc, group in rnd.rc_groups:
                 sel = on if group is None else on & group
@@ -203,40 +201,24 @@ class TagPopulation:
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 decoded_by.append((sel, decoded, t_end_s))
-                if group is None and type(cmd) in _ONE_PASS and not arrays._s1_set:
-                    # one group and a command of silent steps only: decided and taken in one pass
-                    quiet, silent, react = arrays.step_silently(cmd, sel, rnd.stays_off, t_end_s)
-                    if silent is not None:
-                        steps.append((cmd, silent, None, t_end_s))
-                    continue
-                if quiet is None:
-                    quiet = np.greater(rnd.stays_off, arrays.powered)
-                silent, dec = arrays.silent_steps(cmd, sel, t_end_s)
-                any_silent = bool(np.count_nonzero(silent))
-                if any_silent:
-                    steps.append((cmd, silent, dec, t_end_s))
-                    quiet = quiet | silent
-                redraw = (arrays.redraw_steps(cmd, np.greater(sel, silent), t_end_s)  # sel & ~silent
-                          if rnd.own_rngs and type(cmd) is QueryAdjust else None)
-                if redraw is not None and not np.count_nonzero(redraw):
-                    redraw = None
-                if any_silent or redraw is not None:
-                    applied.append((decoded, silent, dec, redraw, t_end_s))
+                # the silent steps decided and taken in one pass; on a QueryAdjust the tags of the
+                # round (members with generators of their own) load new counters, and those that
+                # do not reply are quiet
+                done = arrays.step_silently(cmd, sel, rnd.stays_off, t_end_s, redraw=rnd.own_rngs)
+                if done.silent is not None:
+                    steps.append((cmd, done.silent, None, t_end_s))
+                if done.redrawn is not None:
+                    steps.append((cmd, done.redrawn, None, t_end_s))
+                for j, reply in done.replies:
+                    replies[j] = (decoded, reply)
+                if group is None:  # (one group: the pass's own lists)
+                    quiet, react = done.quiet, done.react
+                    if done.replies:
+                        react = sorted(react + [j for j, _ in done.replies])
+                else:
+                    quiet = done.quiet if quiet is None else quiet | done.quiet
         if quiet is None:
             quiet = np.greater(rnd.stays_off, arrays.powered)
-        replies = {}
-        for decoded, silent, dec, redraw, t_end_s in applied:
-            # the tags that redraw their counter (QueryAdjust) follow the silent steps' clock to
-            # the same time; then they load new counters, and those that do not reply are quiet
-            arrays.take_silent_steps(decoded[0], silent, dec, t_end_s, joining=redraw)
-            if redraw is None:
-                continue
-            for j, reply in arrays.take_redraw_steps(decoded[0], np.flatnonzero(redraw), None,
-                                                     t_end_s):  # the round's generators
-                replies[j] = (decoded, reply)
-                redraw[j] = False
-            quiet = quiet | redraw
-            steps.append((decoded[0], redraw, None, t_end_s))
         needs, members, points = rnd.needs, self.members, rnd.points
         if needs:
             # a new round's first exchange needs every member: the quiet ones found in the mask

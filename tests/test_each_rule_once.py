@@ -116,9 +116,9 @@ def test_linecode_users_import_the_one_definition(module):
 #: The one definition of the rules of the Gen2 tag state machine, over arrays (a single tag is
 #: a population of one): module → its rule functions.
 TAG_RULES = {"devices/gen2_tag_arrays.py": ("round_step", "_round_tables", "round_row", "round_step_rows",
-                                            "round_step_of_one", "query_matches", "s1_reverts", "select_step"),
+                                            "round_step_of_one", "query_matches", "select_step"),
              "devices/gen2_tag_values.py": ("adjusted_q",),
-             "devices/_gen2_tag_kernels.py": ("slot_replies", "decremented"),
+             "devices/_gen2_tag_kernels.py": ("slot_replies", "decremented", "s1_reverts"),
              "rfsim/gen2/tag_draws.py": ("_top_bits",)}
 #: Functions that the scan below does not read: the rules, and the dispatch of the access
 #: commands (Req_RN in Acknowledged, the others in Open/Secured), whose one definition is
@@ -148,12 +148,11 @@ TAG_RULE_USERS = (("devices/gen2_tag_state.py", "_reply_if_zero", "slot_replies"
                   # the one-pass kernel of step_silently, the counter's rules compiled into it
                   ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_decremented"),
                   ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_slot_replies"),
+                  ("devices/_gen2_tag_kernels.py", "silent_step_kernel", "_s1_reverts"),
                   # the populations step their tags through the arrays' steps above
-                  ("devices/tag_population.py", "reflect_scaled", "silent_steps"),
-                  ("devices/tag_population.py", "reflect_scaled", "redraw_steps"),
+                  ("devices/gen2_tag_arrays.py", "step_silently", "take_redraw_steps"),
                   ("devices/tag_population.py", "reflect_scaled", "step_silently"),
-                  ("rfsim/protocols/inventory.py", "_drive_arrays", "silent_steps"),
-                  ("rfsim/protocols/inventory.py", "_drive_arrays", "redraw_steps"))
+                  ("rfsim/protocols/inventory.py", "_drive_arrays", "step_silently"))
 #: The commands whose transitions ``round_step`` decides.
 ROUND_COMMANDS = {"Query", "QueryRep", "QueryAdjust", "ACK", "NAK"}
 #: The states of an inventory round, by name and by code.
@@ -238,10 +237,10 @@ def test_tag_rules_home_holds_the_rules():
     ``round_step`` tells every round command apart."""
     home = "devices/gen2_tag_arrays.py"
     kinds = {f.split(": ")[1] for f in _tag_rule_idioms(MODULES[home])}
-    assert {"two sessions compared (the round's guard)", "an S1 persistence test",
-            "a Query's Sel tested"} <= kinds, kinds
+    assert {"two sessions compared (the round's guard)", "a Query's Sel tested"} <= kinds, kinds
     assert [f for f in _tag_rule_idioms(MODULES["devices/gen2_tag_values.py"]) if "Q clamped" in f]
     assert [f for f in _tag_rule_idioms(MODULES["devices/_gen2_tag_kernels.py"]) if "a slot-counter decrement" in f]
+    assert [f for f in _tag_rule_idioms(MODULES["devices/_gen2_tag_kernels.py"]) if "an S1 persistence test" in f]
     for module, names in TAG_SCAN_SKIP.items():
         assert _tag_rule_idioms(MODULES[module], skip=names) == [], module
     assert ROUND_COMMANDS <= _names(_function(home, "round_step"))
@@ -301,6 +300,26 @@ def test_tag_rule_users_call_the_one_rule(module, name, rule):
     assert rule in _calls(fn), (name, sorted(_calls(fn)))
     named = _names_outside_dispatch(fn) & ROUND_COMMANDS
     assert not named, sorted(named)
+
+
+#: The NumPy reference of StateArrays.step_silently's compiled pass (and its helpers): the tests
+#: hold the pass equal to it; nothing else calls it.
+SILENT_STEP_REFERENCE = {"silent_steps", "take_silent_steps", "redraw_steps", "_count_down", "_follow"}
+
+
+def test_the_silent_steps_numpy_reference_has_no_caller_in_the_code():
+    """The silent-step decision is applied by one compiled pass (``step_silently``); its NumPy
+    twin is the tests' reference only: no module calls it, and within the arrays' module only
+    the reference itself does."""
+    callers = []
+    for module, tree in MODULES.items():
+        for fn in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            if module == "devices/gen2_tag_arrays.py" and fn.name in SILENT_STEP_REFERENCE:
+                continue
+            used = _calls(fn) & SILENT_STEP_REFERENCE
+            if used:
+                callers.append((module, fn.name, sorted(used)))
+    assert callers == []
 
 
 def _names_outside_dispatch(fn: ast.AST) -> set[str]:

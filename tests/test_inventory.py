@@ -482,10 +482,10 @@ def test_mixed_population_fast_path_equals_full_listen(monkeypatch):
 
     original_one_pass = StateArrays.step_silently
 
-    def counted_one_pass(self, cmd, on, stays_off, t_s):  # (a QueryRep, ACK or NAK in one pass)
-        quiet, silent, react = original_one_pass(self, cmd, on, stays_off, t_s)
-        population_steps.append(0 if silent is None else int(silent.sum()))
-        return quiet, silent, react
+    def counted_one_pass(self, cmd, on, stays_off, t_s, redraw=False):  # (the silent steps in one pass)
+        done = original_one_pass(self, cmd, on, stays_off, t_s, redraw)
+        population_steps.append(0 if done.silent is None else int(done.silent.sum()))
+        return done
 
     monkeypatch.setattr(_State, "on_command_if_silent", counted)
     monkeypatch.setattr(StateArrays, "take_silent_steps", counted_arrays)

@@ -935,10 +935,10 @@ def test_select_doing_nothing_keeps_the_s1_timer():
 
 def _drive_one_pass(sabotage=None, steps=500):
     """Random command sequences (fixed seed) to 16 tags in two copies with equal streams: one
-    copy takes every command through on_command; the other's arrays take a QueryRep, ACK or
-    NAK in one pass (StateArrays.step_silently) for random candidate and stays-off masks, the
-    rest through on_command (rows read back), the other commands as the population does
-    (silent_steps, take_silent_steps, redraws). ``sabotage(arrays)`` → undo: called around
+    copy takes every command through on_command; the other's arrays take a QueryRep,
+    QueryAdjust (with its redraws), ACK or NAK in one pass (StateArrays.step_silently) for
+    random candidate and stays-off masks, the rest through on_command (rows read back), a Query
+    through the NumPy reference (silent_steps, take_silent_steps). ``sabotage(arrays)`` → undo: called around
     step_silently, it reverts one of its updates. Returns the first step where the copies, the
     one-pass decision and silent_steps', or the arrays and the states' rows differ (None: never)
     and the count of tag steps taken in one pass."""
@@ -946,15 +946,16 @@ def _drive_one_pass(sabotage=None, steps=500):
 
     rng = np.random.default_rng(11)
     n = 16
-    full = [TagState(f"{k + 1:024X}") for k in range(n)]
-    fast = [TagState(f"{k + 1:024X}") for k in range(n)]
+    keep = FlagPersistence(s1_s=1e-3)  # (S1 flags set to B revert within a few commands)
+    full = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
+    fast = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(n)]
     g_full = [np.random.default_rng(k) for k in range(n)]
     g_fast = [np.random.default_rng(k) for k in range(n)]
     arrays = StateArrays(fast, g_fast)
     t, one_pass = 0.0, 0
     for step in range(steps):
         t += 2e-4 * rng.random()
-        k, s = int(rng.integers(8)), int(rng.choice([0, 2]))  # (no S1: its reverts are not one-pass)
+        k, s = int(rng.integers(8)), int(rng.choice([0, 1, 2]))  # (S1: its reverts are stepped one by one)
         if k == 0:
             cmd = Query(session=s, target="AB"[int(rng.integers(2))], q=int(rng.integers(5)))
         elif k == 1:
@@ -972,8 +973,8 @@ def _drive_one_pass(sabotage=None, steps=500):
                                  (full[i].on_power, True), (fast[i].on_power, True)):
                 on_power(up, t)
             arrays.read([i])
-        if rng.random() < 0.03:  # a Select (outside the arrays: read back)
-            sel = Select(target=int(rng.choice([0, 2, 4])), action=int(rng.integers(8)), membank=1,
+        if rng.random() < 0.06:  # a Select (outside the arrays: read back)
+            sel = Select(target=int(rng.choice([0, 1, 2, 4])), action=int(rng.integers(8)), membank=1,
                          pointer=0x20 + 95, mask="1")  # (odd EPCs match)
             for st, g in zip(full + fast, g_full + g_fast):
                 st.on_command(sel, t_s=t, rng=g)
@@ -982,24 +983,28 @@ def _drive_one_pass(sabotage=None, steps=500):
         got = [None] * n
         on = rng.random(n) < 0.9
         stays_off = ~on & (rng.random(n) < 0.5)
-        if type(cmd) in (QueryRep, ACK, NAK):
-            want, _ = arrays.silent_steps(cmd, on, t)
+        if type(cmd) in (QueryRep, QueryAdjust, ACK, NAK):
+            want, _ = arrays.silent_steps(cmd, on, t)  # (the NumPy reference's decisions)
+            want_redraw = arrays.redraw_steps(cmd, on & ~want, t)
             undo = sabotage(arrays) if sabotage is not None else None
-            quiet, silent, react = arrays.step_silently(cmd, on, stays_off, t)
+            done = arrays.step_silently(cmd, on, stays_off, t, redraw=True)
             if undo is not None:
                 undo()
-            silent = np.zeros(n, bool) if silent is None else silent
-            if (not np.array_equal(silent, want) or not np.array_equal(quiet, silent | (stays_off & ~arrays.powered))
-                    or react != np.flatnonzero(~quiet).tolist()):
+            silent = np.zeros(n, bool) if done.silent is None else done.silent
+            redraw = np.zeros(n, bool) if done.redrawn is None else done.redrawn.copy()
+            for i, reply in done.replies:
+                got[i] = reply
+                redraw[i] = True
+            if (not np.array_equal(silent, want) or not np.array_equal(redraw, want_redraw)
+                    or not np.array_equal(done.quiet, (silent | redraw | (stays_off & ~arrays.powered))
+                                          & ~np.isin(np.arange(n), [i for i, _ in done.replies]))
+                    or done.react != np.flatnonzero(~silent & ~redraw & ~(stays_off & ~arrays.powered)).tolist()):
                 return (step, "decision"), one_pass
-            one_pass += int(silent.sum())
+            one_pass += int(silent.sum() + redraw.sum())
+            silent = silent | redraw
         else:
             silent, dec = arrays.silent_steps(cmd, on, t)
             arrays.take_silent_steps(cmd, silent, dec, t)
-            redraw = arrays.redraw_steps(cmd, on & ~silent, t)
-            for i, reply in arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, t):
-                got[i] = reply
-            silent = silent | redraw
         rest = np.flatnonzero(~silent).tolist()
         for i in rest:
             got[i] = fast[i].on_command(cmd, t_s=t, rng=g_fast[i])
@@ -1029,6 +1034,29 @@ def test_one_pass_silent_steps_equal_on_command():
     assert one_pass >= 1500, one_pass
 
 
+def test_one_pass_steps_tags_whose_s1_flag_reverts_through_their_own_state():
+    # step_silently with S1 flags set to B: the tags whose flag reverts by the command's time take
+    # the step through their own state (the flag back to A), the others in the pass; a tag whose
+    # flag has not reverted yet keeps B
+    from rfsim.devices.gen2_tag_state import StateArrays
+
+    keep = FlagPersistence(s1_s=1e-3)
+    tags = [TagState(f"{k + 1:024X}", persistence=keep) for k in range(3)]
+    g = [np.random.default_rng(k) for k in range(3)]
+    for st, rng in zip(tags, g):
+        st.on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.0, rng=rng)  # S1 → B
+    tags[2].on_command(Select(target=1, action=4, membank=1, pointer=0, mask=""), t_s=0.8e-3, rng=g[2])
+    assert [st.inventoried[1] for st in tags] == ["B", "B", "B"]
+    arrays = StateArrays(tags, g)
+    quiet, silent, react, redrawn, replies = arrays.step_silently(NAK(), np.ones(3, bool), np.zeros(3, bool), 1.2e-3)
+    assert silent.tolist() == [True, True, True] and quiet.tolist() == [True, True, True] and react == []
+    assert redrawn is None and replies == []
+    assert [st.inventoried[1] for st in tags] == ["A", "A", "B"]
+    assert [st.t_s for st in tags] == [1.2e-3] * 3
+    assert np.isnan(arrays.s1_set_s[:2]).all() and arrays.s1_set_s[2] == 0.8e-3
+    assert arrays.following.tolist() == [st._clock is arrays.clock for st in tags] == [False, False, True]
+
+
 def _revert(*names):
     def sabotage(arrays):
         kept = {name: getattr(arrays, name).copy() for name in names}
@@ -1048,8 +1076,18 @@ def _skip_clock(arrays):
     return undo
 
 
+def _ignore_s1(arrays):
+    was = arrays._s1_set
+    arrays._s1_set = False  # (the pass then takes no S1 revert)
+
+    def undo():
+        arrays._s1_set = was
+    return undo
+
+
 @pytest.mark.parametrize("sabotage", [_revert("slot"), _revert("t_s"), _revert("following"), _revert("counting"),
-                                      _skip_clock], ids=["decrement", "time", "following", "counting", "clock"])
+                                      _skip_clock, _ignore_s1, _revert("q")],
+                         ids=["decrement", "time", "following", "counting", "clock", "s1", "redraw"])
 def test_one_pass_check_fails_when_an_update_is_skipped(sabotage):
     # the comparison above catches each update of step_silently left out
     failed, _ = _drive_one_pass(sabotage, steps=300)

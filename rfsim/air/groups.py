@@ -11,6 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from rfsim.air import _group_kernels as _kernels
+from rfsim.air.fused import lazy_backscatter
 from rfsim.air.links import through
 
 __all__ = ["members_of", "entries_of", "UNSET", "PerMember", "accumulate", "masked_sum", "modulates", "group_backscatter"]
@@ -184,7 +185,8 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
     constant are summed in member order into the factor of x (``const[i0]``, with
     :func:`accumulate`); a modulating reacting member's contribution is appended to ``parts``
     (the per-member branch of :func:`rfsim.air.step.propagate`; b_j times its scattered field
-    when its backward link has a held constant, the link then not asked).
+    when its backward link has a held constant, the link then not asked: kept as its factors,
+    :func:`rfsim.air.fused.lazy_backscatter`, where it has their form).
 
     Parameters
     ----------
@@ -238,9 +240,16 @@ def group_backscatter(gr, start: int, whole: bool, gains, backs, members, r_ant,
             vals[jl] = backs[j] * (rc * g)
             use[jl] = True
             continue
+        if backs[j] is not None:  # its backward link's held constant: what through() gives, the link not asked
+            # b·((A_s − Γ)·(g·x)) kept as its factors where it has that form (formed with the sum,
+            # in one kernel pass with the noise where it is the receiver's one part)
+            lazy = lazy_backscatter(r, None, seg, g, None, rc, 0.0, n_samples, bw, propagation, memo, b=backs[j])
+            if lazy is not None:
+                parts.append(lazy)
+                continue
         inc_e = g * seg.samples
         scattered = (rc * inc_e) if rc is not None else r.reradiation(n_samples) * inc_e
-        if backs[j] is not None:  # its backward link's held constant: what through() gives, the link not asked
+        if backs[j] is not None:
             parts.append(backs[j] * scattered)
             continue
         pj = links.paths(members[j].antenna, r_ant, fc_hz=seg.fc_hz, t_s=t0_s)

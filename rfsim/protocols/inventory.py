@@ -552,7 +552,7 @@ class ProtocolAir:
         own = len(set(map(id, rngs))) == len(rngs) and None not in rngs
         self._arrays = self._make_arrays(states, rngs if own else None)
         self._own_rngs = own
-        self._everyone = np.ones(len(states), bool)
+        self._nobody = np.zeros(len(states), bool)
 
     @property
     def states(self) -> list:
@@ -621,16 +621,10 @@ class ProtocolAir:
         tags one by one in tag order (powering up first where unpowered). Returns the
         ``(tag, reply)`` pairs in tag order."""
         arrays = self._arrays
-        silent, dec = arrays.silent_steps(cmd, self._everyone, cmd_end_s)
-        redraw = arrays.redraw_steps(cmd, ~silent, cmd_end_s) if self._own_rngs else None
-        if redraw is not None and not np.count_nonzero(redraw):
-            redraw = None
-        arrays.take_silent_steps(cmd, silent, dec, cmd_end_s, joining=redraw)
-        replies = []
-        if redraw is not None:
-            replies = arrays.take_redraw_steps(cmd, np.flatnonzero(redraw), None, cmd_end_s)
-            silent = silent | redraw
-        rest = np.flatnonzero(~silent).tolist()
+        # the powered tags' silent steps and redraws in one pass; the unpowered ones react
+        done = arrays.step_silently(cmd, arrays.powered, self._nobody, cmd_end_s, redraw=self._own_rngs)
+        replies = list(done.replies)
+        rest = done.react
         tags = self._tags
         for i in rest:
             state, rng = tags[i]
@@ -640,7 +634,7 @@ class ProtocolAir:
             if reply is not None:
                 replies.append((i, reply))
         arrays.read(rest)
-        if redraw is not None and len(replies) > 1:
+        if done.replies and len(replies) > 1:
             replies.sort(key=operator.itemgetter(0))
         return replies
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import waveform_kernel
+from rfsim.gen2._linecode_kernels import INDEX_EPS, waveform_kernel
 from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
 
 
@@ -222,3 +222,26 @@ def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamm
     for i in range(s.size):
         mask[i] = s[i] > 0
     reflection_kernel(mask, gamma_b, gamma_a, out)
+
+
+@njit
+def reply_gamma_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, out):
+    """:func:`reply_states_kernel`'s Γ(t) alone, in one pass and without the mask (a reply that
+    is not kept): ``out[n] = gamma_b`` where ``elements[floor((n − t0)·r + eps)] > 0`` inside
+    the reply, else ``gamma_a``, the element index from the same arithmetic as
+    :func:`rfsim.gen2._linecode_kernels.waveform_kernel`. The index never decreases with n
+    (each operation is monotonic), so the samples after the first one past the reply's last
+    element are ``gamma_a`` without an index."""
+    ne = elements.size
+    n = out.size
+    for j in range(n):
+        u = (j - t0_samples) * elements_per_sample
+        if u >= 0.0:
+            k = np.int64(math.floor(u + INDEX_EPS))
+            if k >= ne:
+                for i in range(j, n):
+                    out[i] = gamma_a
+                return
+            out[j] = gamma_b if elements[k] > 0 else gamma_a
+        else:
+            out[j] = gamma_a

@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit
-from rfsim.gen2._linecode_kernels import INDEX_EPS, waveform_kernel
+from rfsim.core._jit import njit, njit_inline
+from rfsim.gen2._linecode_kernels import INDEX_EPS
 from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
 
 
@@ -211,37 +211,52 @@ def reflection_kernel(s, gamma_b, gamma_a, out):
         out[i] = gamma_b if s[i] > 0 else gamma_a
 
 
+@njit_inline
+def _reply_element(j, t0_samples, elements_per_sample):
+    """Index of the element sample ``j`` of a reply reads, as
+    :func:`rfsim.gen2._linecode_kernels.waveform_kernel` forms it: ``floor((j − t0)·r + eps)``
+    (≥ 0) from the reply's start on, −1 before it (≥ the number of elements: after its end)."""
+    u = (j - t0_samples) * elements_per_sample
+    if u >= 0.0:
+        return np.int64(math.floor(u + INDEX_EPS))
+    return np.int64(-1)
+
+
 @njit
 def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, mask, out):
-    """A reply's mask and Γ(t) in one call: its ±1 waveform s (:func:`rfsim.gen2._linecode_kernels.waveform_kernel`
-    of ``elements`` from ``t0_samples`` at ``elements_per_sample``, over ``mask.size`` samples), ``mask``
-    = s > 0 (bool) and ``out`` = :func:`reflection_kernel` of that mask (complex128), as
-    :func:`rfsim.devices.tag.reply_gamma` forms them from :func:`rfsim.gen2.linecode.reply_waveform`."""
-    s = np.empty(mask.size)
-    waveform_kernel(elements, t0_samples, elements_per_sample, s)
-    for i in range(s.size):
-        mask[i] = s[i] > 0
-    reflection_kernel(mask, gamma_b, gamma_a, out)
+    """A reply's mask and Γ(t) in one pass: ``mask`` = s > 0 for its ±1 waveform s
+    (:func:`rfsim.gen2._linecode_kernels.waveform_kernel` of ``elements`` from ``t0_samples``
+    at ``elements_per_sample``, over ``mask.size`` samples; the element indices of
+    :func:`_reply_element`) and ``out`` = :func:`reflection_kernel` of that mask (complex128),
+    as :func:`rfsim.devices.tag.reply_gamma` forms them from
+    :func:`rfsim.gen2.linecode.reply_waveform`. The index never decreases with the sample
+    (each of its operations is monotonic): the samples from the first one past the reply's
+    last element on are outside it without an index."""
+    ne = elements.size
+    n = mask.size
+    for j in range(n):
+        k = _reply_element(j, t0_samples, elements_per_sample)
+        if k >= ne:
+            for i in range(j, n):
+                mask[i] = False
+                out[i] = gamma_a
+            return
+        m = k >= 0 and elements[k] > 0
+        mask[j] = m
+        out[j] = gamma_b if m else gamma_a
 
 
 @njit
 def reply_gamma_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, out):
-    """:func:`reply_states_kernel`'s Γ(t) alone, in one pass and without the mask (a reply that
-    is not kept): ``out[n] = gamma_b`` where ``elements[floor((n − t0)·r + eps)] > 0`` inside
-    the reply, else ``gamma_a``, the element index from the same arithmetic as
-    :func:`rfsim.gen2._linecode_kernels.waveform_kernel`. The index never decreases with n
-    (each operation is monotonic), so the samples after the first one past the reply's last
-    element are ``gamma_a`` without an index."""
+    """:func:`reply_states_kernel`'s Γ(t) alone, without the mask (a reply that is not kept):
+    ``out[n] = gamma_b`` where the reply's element at sample n (:func:`_reply_element`) is
+    positive, else ``gamma_a``; the same one pass."""
     ne = elements.size
     n = out.size
     for j in range(n):
-        u = (j - t0_samples) * elements_per_sample
-        if u >= 0.0:
-            k = np.int64(math.floor(u + INDEX_EPS))
-            if k >= ne:
-                for i in range(j, n):
-                    out[i] = gamma_a
-                return
-            out[j] = gamma_b if elements[k] > 0 else gamma_a
-        else:
-            out[j] = gamma_a
+        k = _reply_element(j, t0_samples, elements_per_sample)
+        if k >= ne:
+            for i in range(j, n):
+                out[i] = gamma_a
+            return
+        out[j] = gamma_b if k >= 0 and elements[k] > 0 else gamma_a

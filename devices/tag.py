@@ -965,6 +965,44 @@ class PassiveTag:
         if not quiet.powered:
             self._trcal_ticks = None
 
+    def take_command(self, quiet: tuple, decoded: tuple, cmd_end_s: float, fs_hz: float):
+        """Have a powered tag whose power decision is known take a decoded command that is not
+        a silent step of its state machine, without forming its response.
+
+        Applies the operating point of ``quiet`` (:meth:`take_quiet_step`), takes a Query's
+        TRcal, then the state machine takes the command at its end (``TagState.on_command``
+        with the tag's own generator): the steps of :meth:`respond_decoded` before the reply's
+        Γ(t). Without a reply the tag's response is :meth:`silent_response`'s; with one,
+        :meth:`respond_reply` forms it.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Remembered power decision (powered) from :meth:`quiet_point`.
+        decoded : tuple
+            ``(command, frame)`` decoded from the segment (:meth:`SharedFrontEnd.command`);
+            not an access command.
+        cmd_end_s : float
+            End of the command [s] (the segment's start plus the frame's end).
+        fs_hz : float
+            The segment's sample rate [Hz].
+
+        Returns
+        -------
+        Reply or None
+            The state machine's reply, or None.
+        """
+        self.take_quiet_step(quiet)
+        cmd, frame = decoded
+        self._take_trcal(cmd, frame, fs_hz)
+        return self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+
+    def _take_trcal(self, cmd, frame, fs_hz: float) -> None:
+        """A Query's TRcal [samples at ``fs_hz``] counted in clock ticks (step 3 of the module
+        docstring), kept for the replies of its round."""
+        if isinstance(cmd, Query):
+            self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
+
     def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False) -> TagResponse:
         """:meth:`reflect` of a powered tag whose power decision for this segment is known.
 
@@ -1140,8 +1178,7 @@ class PassiveTag:
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
-        if isinstance(cmd, Query):
-            self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
+        self._take_trcal(cmd, frame, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it;
         # a step it declines changes nothing, so asking again after _quiet_response is the same)

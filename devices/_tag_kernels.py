@@ -226,37 +226,25 @@ def _reply_element(j, t0_samples, elements_per_sample):
 def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, mask, out):
     """A reply's mask and Γ(t) in one pass: ``mask`` = s > 0 for its ±1 waveform s
     (:func:`rfsim.gen2._linecode_kernels.waveform_kernel` of ``elements`` from ``t0_samples``
-    at ``elements_per_sample``, over ``mask.size`` samples; the element indices of
+    at ``elements_per_sample``, over ``out.size`` samples; the element indices of
     :func:`_reply_element`) and ``out`` = :func:`reflection_kernel` of that mask (complex128),
     as :func:`rfsim.devices.tag.reply_gamma` forms them from
-    :func:`rfsim.gen2.linecode.reply_waveform`. The index never decreases with the sample
+    :func:`rfsim.gen2.linecode.reply_waveform`; a ``mask`` of another size than ``out`` (a
+    reply that is not kept: size 0) is left alone. The index never decreases with the sample
     (each of its operations is monotonic): the samples from the first one past the reply's
     last element on are outside it without an index."""
     ne = elements.size
-    n = mask.size
+    n = out.size
+    keep = mask.size == n
     for j in range(n):
         k = _reply_element(j, t0_samples, elements_per_sample)
         if k >= ne:
             for i in range(j, n):
-                mask[i] = False
+                if keep:
+                    mask[i] = False
                 out[i] = gamma_a
             return
         m = k >= 0 and elements[k] > 0
-        mask[j] = m
+        if keep:
+            mask[j] = m
         out[j] = gamma_b if m else gamma_a
-
-
-@njit
-def reply_gamma_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, out):
-    """:func:`reply_states_kernel`'s Γ(t) alone, without the mask (a reply that is not kept):
-    ``out[n] = gamma_b`` where the reply's element at sample n (:func:`_reply_element`) is
-    positive, else ``gamma_a``; the same one pass."""
-    ne = elements.size
-    n = out.size
-    for j in range(n):
-        k = _reply_element(j, t0_samples, elements_per_sample)
-        if k >= ne:
-            for i in range(j, n):
-                out[i] = gamma_a
-            return
-        out[j] = gamma_b if k >= 0 and elements[k] > 0 else gamma_a

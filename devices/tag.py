@@ -1002,7 +1002,8 @@ class PassiveTag:
         if isinstance(cmd, Query):
             self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
 
-    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False) -> TagResponse:
+    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False,
+                        power_up: bool = False) -> TagResponse:
         """:meth:`reflect` of a powered tag whose power decision for this segment is known.
 
         Applies the operating point of ``quiet``, then continues from the decoded
@@ -1020,6 +1021,10 @@ class PassiveTag:
         silent_tried : bool, default False
             The state machine has already declined a silent step of this command
             (``TagState.on_command_if_silent``): it is not asked again.
+        power_up : bool, default False
+            The tag is unpowered and ``quiet`` powers it: its state machine powers up at the
+            segment's start first (``TagState.on_power``; the TRcal of an earlier Query is
+            forgotten), as in :meth:`_respond`.
 
         Returns
         -------
@@ -1027,6 +1032,9 @@ class PassiveTag:
             The tag's reaction.
         """
         self.take_quiet_step(quiet)
+        if power_up:
+            self.state.on_power(True, incident.t0_s)
+            self._trcal_ticks = None
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
                              t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                              cache=run_cache(incident.memo), silent_tried=silent_tried)

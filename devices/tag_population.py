@@ -23,7 +23,8 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
    reply form their reply (``PassiveTag.respond_reply``);
 4. asks only the other tags — those that reply, power up or down, load a slot counter on a
    Query, change state — through their own path (``PassiveTag.reflect``, or from the decoded
-   command on where the power decision is known, ``respond_decoded``): a tag with its own
+   command on where the power decision is known, ``respond_decoded``, also for a tag that
+   it powers up): a tag with its own
    reply parameters (clock, T1, line code) answers with them. A powered tag whose power
    decision is known and that takes a Query, or a round command (QueryRep, QueryAdjust, ACK,
    NAK) but not silently, has its state machine take it at the command's end
@@ -256,6 +257,8 @@ class TagPopulation:
                     reactions[j] = m.respond_reply(points[j], decoded, base, reply)
             elif decoded is not None:  # its power decision is known: the tag's own path from the command on
                 reactions[j] = m.respond_decoded(points[j], decoded, base)
+            elif rnd.stays_on[j] and not m.state.powered:  # it powers up, its decision known
+                reactions[j] = m.respond_decoded(points[j], fe.command(m.config.envelope_rc_s), base, power_up=True)
             else:
                 reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
                 if not rnd.known[j]:

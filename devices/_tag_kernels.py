@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 
-from rfsim.core._jit import njit, njit_inline
-from rfsim.gen2._linecode_kernels import INDEX_EPS
+from rfsim.core._jit import njit
+from rfsim.gen2._linecode_kernels import waveform_kernel
 from rfsim.gen2._pie_kernels import decode_kernel, trailing_run_start, two_level_split
 
 
@@ -211,40 +211,14 @@ def reflection_kernel(s, gamma_b, gamma_a, out):
         out[i] = gamma_b if s[i] > 0 else gamma_a
 
 
-@njit_inline
-def _reply_element(j, t0_samples, elements_per_sample):
-    """Index of the element sample ``j`` of a reply reads, as
-    :func:`rfsim.gen2._linecode_kernels.waveform_kernel` forms it: ``floor((j − t0)·r + eps)``
-    (≥ 0) from the reply's start on, −1 before it (≥ the number of elements: after its end)."""
-    u = (j - t0_samples) * elements_per_sample
-    if u >= 0.0:
-        return np.int64(math.floor(u + INDEX_EPS))
-    return np.int64(-1)
-
-
 @njit
 def reply_states_kernel(elements, t0_samples, elements_per_sample, gamma_b, gamma_a, mask, out):
-    """A reply's mask and Γ(t) in one pass: ``mask`` = s > 0 for its ±1 waveform s
-    (:func:`rfsim.gen2._linecode_kernels.waveform_kernel` of ``elements`` from ``t0_samples``
-    at ``elements_per_sample``, over ``out.size`` samples; the element indices of
-    :func:`_reply_element`) and ``out`` = :func:`reflection_kernel` of that mask (complex128),
-    as :func:`rfsim.devices.tag.reply_gamma` forms them from
-    :func:`rfsim.gen2.linecode.reply_waveform`; a ``mask`` of another size than ``out`` (a
-    reply that is not kept: size 0) is left alone. The index never decreases with the sample
-    (each of its operations is monotonic): the samples from the first one past the reply's
-    last element on are outside it without an index."""
-    ne = elements.size
-    n = out.size
-    keep = mask.size == n
-    for j in range(n):
-        k = _reply_element(j, t0_samples, elements_per_sample)
-        if k >= ne:
-            for i in range(j, n):
-                if keep:
-                    mask[i] = False
-                out[i] = gamma_a
-            return
-        m = k >= 0 and elements[k] > 0
-        if keep:
-            mask[j] = m
-        out[j] = gamma_b if m else gamma_a
+    """A reply's mask and Γ(t) in one call: its ±1 waveform s (:func:`rfsim.gen2._linecode_kernels.waveform_kernel`
+    of ``elements`` from ``t0_samples`` at ``elements_per_sample``, over ``mask.size`` samples), ``mask``
+    = s > 0 (bool) and ``out`` = :func:`reflection_kernel` of that mask (complex128), as
+    :func:`rfsim.devices.tag.reply_gamma` forms them from :func:`rfsim.gen2.linecode.reply_waveform`."""
+    s = np.empty(mask.size)
+    waveform_kernel(elements, t0_samples, elements_per_sample, s)
+    for i in range(s.size):
+        mask[i] = s[i] > 0
+    reflection_kernel(mask, gamma_b, gamma_a, out)

@@ -324,17 +324,14 @@ def reply_gamma(bits: np.ndarray, *, m: int, trext: bool, blf_hz: float, fs_hz: 
         hit = cache.reply(key)
         if hit is not None:
             return _kept_reflection(hit, gamma_b, gamma_a)
-    # s(t), where s > 0 and Γ(t) from that mask (as a reply seen again) in one kernel call; a
-    # reply not kept (an RN16, or no cache): Γ(t) alone
+    # s(t), where s > 0 and Γ(t) from that mask (as a reply seen again) in one kernel call
     el, t0, r, n = reply_waveform_arguments(bits, m=m, trext=trext, blf_hz=blf_hz, fs_hz=fs_hz, t0_s=t0_s,
                                             n_samples=n_samples, keep=not drawn)
-    modulating = np.empty(n if key is not None else 0, dtype=np.bool_)  # (not kept: Γ(t) alone)
-    gamma = np.empty(n, dtype=np.complex128)
+    modulating, gamma = np.empty(n, dtype=np.bool_), np.empty(n, dtype=np.complex128)
     _k.reply_states_kernel(el, t0, r, complex(gamma_b), complex(gamma_a), modulating, gamma)
-    if key is None:
-        return gamma
-    modulating.flags.writeable = False
-    cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
+    if key is not None:
+        modulating.flags.writeable = False
+        cache.remember(cache.replies, key, ReplyStates(modulating=modulating))
     return gamma
 
 

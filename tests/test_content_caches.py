@@ -79,8 +79,8 @@ def test_reply_gamma_from_the_cache_equals_the_uncached_one():
 
 def test_reply_gamma_equals_the_rule_at_the_window_edges():
     """Γ(t) of a reply, kept (its mask too) or not (no cache, or drawn bits), equals the rule's
-    bit for bit (the kernels stop indexing after the reply's end), also where the reply starts
-    before the window, ends after it, lies past it, or starts a fraction of a sample into it."""
+    bit for bit, also where the reply starts before the window, ends after it, lies past it,
+    or starts a fraction of a sample into it."""
     rng = np.random.default_rng(7)
     for bits, m, trext, blf, fs, t0, n in REPLIES:
         dur = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=0.0).size / fs

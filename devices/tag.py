@@ -961,7 +961,46 @@ class PassiveTag:
         if not quiet.powered:
             self._trcal_ticks = None
 
-    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False) -> TagResponse:
+    def take_command(self, quiet: tuple, decoded: tuple, cmd_end_s: float, fs_hz: float):
+        """Have a powered tag whose power decision is known take a decoded command that is not
+        a silent step of its state machine, without forming its response.
+
+        Applies the operating point of ``quiet`` (:meth:`take_quiet_step`), takes a Query's
+        TRcal, then the state machine takes the command at its end (``TagState.on_command``
+        with the tag's own generator): the steps of :meth:`respond_decoded` before the reply's
+        Γ(t). Without a reply the tag's response is :meth:`silent_response`'s; with one,
+        :meth:`respond_reply` forms it.
+
+        Parameters
+        ----------
+        quiet : tuple
+            Remembered power decision (powered) from :meth:`quiet_point`.
+        decoded : tuple
+            ``(command, frame)`` decoded from the segment (:meth:`SharedFrontEnd.command`);
+            not an access command.
+        cmd_end_s : float
+            End of the command [s] (the segment's start plus the frame's end).
+        fs_hz : float
+            The segment's sample rate [Hz].
+
+        Returns
+        -------
+        Reply or None
+            The state machine's reply, or None.
+        """
+        self.take_quiet_step(quiet)
+        cmd, frame = decoded
+        self._take_trcal(cmd, frame, fs_hz)
+        return self.state.on_command(cmd, t_s=cmd_end_s, rng=self.rng)
+
+    def _take_trcal(self, cmd, frame, fs_hz: float) -> None:
+        """A Query's TRcal [samples at ``fs_hz``] counted in clock ticks (step 3 of the module
+        docstring), kept for the replies of its round."""
+        if isinstance(cmd, Query):
+            self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
+
+    def respond_decoded(self, quiet: tuple, decoded: tuple, incident, *, silent_tried: bool = False,
+                        power_up: bool = False) -> TagResponse:
         """:meth:`reflect` of a powered tag whose power decision for this segment is known.
 
         Applies the operating point of ``quiet``, then continues from the decoded
@@ -979,6 +1018,10 @@ class PassiveTag:
         silent_tried : bool, default False
             The state machine has already declined a silent step of this command
             (``TagState.on_command_if_silent``): it is not asked again.
+        power_up : bool, default False
+            The tag is unpowered and ``quiet`` powers it: its state machine powers up at the
+            segment's start first (``TagState.on_power``; the TRcal of an earlier Query is
+            forgotten), as in :meth:`_respond`.
 
         Returns
         -------
@@ -986,6 +1029,9 @@ class PassiveTag:
             The tag's reaction.
         """
         self.take_quiet_step(quiet)
+        if power_up:
+            self.state.on_power(True, incident.t0_s)
+            self._trcal_ticks = None
         return self._decoded(decoded[0], decoded[1], quiet.p_dbm, quiet.gamma_rest, quiet.structural_mode,
                              t0_s=incident.t0_s, fs_hz=incident.fs_hz, n_samples=incident.n_samples,
                              cache=run_cache(incident.memo), silent_tried=silent_tried)
@@ -1136,8 +1182,7 @@ class PassiveTag:
         if cmd is None:
             return TagResponse(True, None, None, None, None, None, "decode error", p_dbm, None, None, None, None,
                                rest, a_s)
-        if isinstance(cmd, Query):
-            self._trcal_ticks = self.ticks(frame.trcal, fs_hz)
+        self._take_trcal(cmd, frame, fs_hz)
         cmd_end_s = t0_s + frame.end / fs_hz
         # the state machine's silent steps first (a QueryRep counting down, an ACK not for it;
         # a step it declines changes nothing, so asking again after _quiet_response is the same)

@@ -23,12 +23,15 @@ scaled copy g_j·x(t) of one reader segment (the round's held, narrowband, stati
    reply form their reply (``PassiveTag.respond_reply``);
 4. asks only the other tags — those that reply, power up or down, load a slot counter on a
    Query, change state — through their own path (``PassiveTag.reflect``, or from the decoded
-   command on where the power decision is known, ``respond_decoded``): a tag with its own
+   command on where the power decision is known, ``respond_decoded``, also for a tag that
+   it powers up): a tag with its own
    reply parameters (clock, T1, line code) answers with them. A powered tag whose power
-   decision is known and that takes a round command (QueryRep, QueryAdjust, ACK, NAK) but not
-   silently has its state machine take it at the command's end (``TagState.on_command``, as
-   its own path does); when it does not reply (an ACK with another RN16, the end of an
-   access) it is quiet as well, else it forms its reply (``respond_reply``).
+   decision is known and that takes a Query, or a round command (QueryRep, QueryAdjust, ACK,
+   NAK) but not silently, has its state machine take it at the command's end
+   (``PassiveTag.take_command``: ``TagState.on_command``, after a Query's TRcal, as its own
+   path does); when it does not reply (a counter not 0 after a Query, an ACK with another
+   RN16, the end of an access) it is quiet as well, else it forms its reply
+   (``respond_reply``).
 
 The quiet tags re-radiate r_j = A_s − Γ_A, a constant (rfsim.devices.tag, step 6), so at a
 receiver with backward constants b_j their sum is one constant,
@@ -67,9 +70,10 @@ _powered = operator.attrgetter("powered")
 _p_dbm = operator.attrgetter("p_dbm")
 _structural_mode = operator.attrgetter("structural_mode")
 _gamma_rest = operator.attrgetter("gamma_rest")
-#: The round commands a powered member with a known power decision takes through its state
-#: machine alone when it does not take them silently (reflect_scaled).
-_ROUND_COMMANDS = (QueryRep, QueryAdjust, ACK, NAK)
+#: The commands a powered member with a known power decision takes through its state machine
+#: alone (reflect_scaled, ``PassiveTag.take_command``): a Query (never a silent step) and the
+#: round commands it does not take silently.
+_STEPPED_COMMANDS = (Query, QueryRep, QueryAdjust, ACK, NAK)
 
 
 def _counting_class(members):
@@ -90,8 +94,8 @@ class TagPopulation:
     Parameters
     ----------
     tags : sequence of tags with ``state`` (TagState), ``reflect``, ``antenna``,
-        ``quiet_point`` (with ``decide``), ``take_quiet_step``, ``silent_response``, ``front_end_of`` and
-        ``config.envelope_rc_s`` (and ``rng``, ``respond_reply`` for the QueryAdjust
+        ``quiet_point`` (with ``decide``), ``take_quiet_step``, ``take_command``, ``silent_response``,
+        ``front_end_of`` and ``config.envelope_rc_s`` (and ``rng``, ``respond_reply`` for the QueryAdjust
         shortcut, module docstring)
     """
 
@@ -196,11 +200,13 @@ class TagPopulation:
                     continue
                 decoded = fe.command(rc)
                 cmd, frame = decoded
-                if cmd is None or isinstance(cmd, Query):
+                if cmd is None:
                     decoded_by.append((sel, decoded, None))
                     continue
                 t_end_s = base.t0_s + frame.end / base.fs_hz
                 decoded_by.append((sel, decoded, t_end_s))
+                if isinstance(cmd, Query):  # no silent step: every powered tag takes it below
+                    continue
                 # the silent steps decided and taken in one pass; on a QueryAdjust the tags of the
                 # round (members with generators of their own) load new counters, and those that
                 # do not reply are quiet
@@ -239,18 +245,20 @@ class TagPopulation:
             replied = replies.get(j)
             if replied is not None:  # its state machine took the QueryAdjust above: the reply's Γ(t)
                 reactions[j] = m.respond_reply(points[j], replied[0], base, replied[1])
-            elif decoded is not None and type(decoded[0]) in _ROUND_COMMANDS:
-                # its power decision is known and the command is a round command that it does not
-                # take silently: its state machine takes it (as the tag's own path would, at the
-                # command's end); without a reply the tag re-radiates its constant, as a quiet one
-                m.take_quiet_step(points[j])
-                reply = m.state.on_command(decoded[0], t_s=t_end_s, rng=m.rng)
+            elif decoded is not None and type(decoded[0]) in _STEPPED_COMMANDS:
+                # its power decision is known and the command is a Query or a round command that
+                # it does not take silently: its state machine takes it (as the tag's own path
+                # would, at the command's end); without a reply the tag re-radiates its
+                # constant, as a quiet one
+                reply = m.take_command(points[j], decoded, t_end_s, base.fs_hz)
                 if reply is None:
                     stepped[j] = _Stepped(decoded[0], t_end_s)
                 else:
                     reactions[j] = m.respond_reply(points[j], decoded, base, reply)
             elif decoded is not None:  # its power decision is known: the tag's own path from the command on
                 reactions[j] = m.respond_decoded(points[j], decoded, base)
+            elif rnd.stays_on[j] and not m.state.powered:  # it powers up, its decision known
+                reactions[j] = m.respond_decoded(points[j], fe.command(m.config.envelope_rc_s), base, power_up=True)
             else:
                 reactions[j] = m.reflect(Segment.scaled(base, gains[j], fc_hz))
                 if not rnd.known[j]:

@@ -77,6 +77,29 @@ def test_reply_gamma_from_the_cache_equals_the_uncached_one():
         assert len(entry.gammas) == len(GAMMAS)  # Γ_A = −0 is another pair than Γ_A = +0
 
 
+def test_reply_gamma_equals_the_rule_at_the_window_edges():
+    """Γ(t) of a reply, kept (its mask too) or not (no cache, or drawn bits), equals the rule's
+    bit for bit, also where the reply starts before the window, ends after it, lies past it,
+    or starts a fraction of a sample into it."""
+    rng = np.random.default_rng(7)
+    for bits, m, trext, blf, fs, t0, n in REPLIES:
+        dur = reply_waveform(bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=0.0).size / fs
+        starts = [t0, -0.5 * dur, -2.0 * dur, 0.9 * n / fs, 2.0 * n / fs, *(rng.uniform(-dur, n / fs, 4))]
+        for start in starts:
+            kw = dict(m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=float(start), n_samples=n)
+            for gb, ga in GAMMAS:
+                want = _gamma_rule(bits, gb, ga, **kw)
+                _assert_same_bits(reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga), want)
+                _assert_same_bits(reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga, cache=AirCache(), drawn=True),
+                                  want)
+                cache = AirCache()
+                _assert_same_bits(reply_gamma(bits, **kw, gamma_b=gb, gamma_a=ga, cache=cache), want)
+                (entry,) = cache.replies.values()
+                np.testing.assert_array_equal(entry.modulating, reply_waveform(bits, **kw) > 0)
+    assert reply_gamma(REPLIES[0][0], m=1, trext=False, blf_hz=640e3, fs_hz=4e6, t0_s=0.0, n_samples=0,
+                       gamma_b=1j, gamma_a=0j).shape == (0,)
+
+
 def test_reply_gamma_misses_on_every_changed_content():
     bits, m, trext, blf, fs, t0, n = REPLIES[1]
     base = dict(bits=bits, m=m, trext=trext, blf_hz=blf, fs_hz=fs, t0_s=t0, n_samples=n)

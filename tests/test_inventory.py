@@ -417,11 +417,9 @@ def test_hundred_tags_sample_level_reads_every_tag():
     assert len(log.tags_read()) == 100
 
 
-def test_chip_tags_fast_path_equals_full_listen():
-    # Tags with the power-dependent chip (rfsim.devices.tag_chip) at different distances, so that
-    # their incident powers, reflection states and power-up differ (some never power up).
-    # The shared front end (PassiveTag.reflect on scaled copies) and every tag listening to
-    # its own samples must give the same records, bit for bit, and the same tag states.
+def _chip_tags_air(radii, seed: int, fast: bool):
+    """An EngineAir over power-dependent chip tags at ``radii`` [m] around one reader antenna
+    (exchanges kept), and the tags."""
     from rfsim.channels import Antenna, Channel, Isotropic, Scene
     from rfsim.devices.reader import Reader, ReaderConfig
     from rfsim.devices.tag import PassiveTag, TagConfig
@@ -429,15 +427,23 @@ def test_chip_tags_fast_path_equals_full_listen():
     from rfsim.scenes.room_inventory import tag_antenna
 
     chip = PowerDependentChip.pass_default()
+    ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
+    tags = [PassiveTag(TagConfig(epc_hex=f"{k + 1:024X}"),
+                       tag_antenna((r * math.cos(1.3 * k), r * math.sin(1.3 * k), 1.0), 1.3 * k + math.pi),
+                       rng=trial_rng(seed, 3, k), chip=chip) for k, r in enumerate(radii)]
+    reader = Reader(ReaderConfig(), [ra], rng=trial_rng(seed, 1))
+    return EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(seed, 2), fast=fast, keep_exchanges=True), tags
+
+
+def test_chip_tags_fast_path_equals_full_listen():
+    # Tags with the power-dependent chip (rfsim.devices.tag_chip) at different distances, so that
+    # their incident powers, reflection states and power-up differ (some never power up).
+    # The shared front end (PassiveTag.reflect on scaled copies) and every tag listening to
+    # its own samples must give the same records, bit for bit, and the same tag states.
     radii = [1.0, 1.6, 2.2, 2.9, 3.6, 6.0, 9.0]
     logs, states, powered = [], [], []
     for fast in (True, False):
-        ra = Antenna(position_m=(0.0, 0.0, 1.0), pattern=Isotropic(), polarization="circular")
-        tags = [PassiveTag(TagConfig(epc_hex=f"{k + 1:024X}"),
-                           tag_antenna((r * math.cos(1.3 * k), r * math.sin(1.3 * k), 1.0), 1.3 * k + math.pi),
-                           rng=trial_rng(41, 3, k), chip=chip) for k, r in enumerate(radii)]
-        reader = Reader(ReaderConfig(), [ra], rng=trial_rng(41, 1))
-        air = EngineAir(reader, tags, Channel(Scene()), rng=trial_rng(41, 2), fast=fast, keep_exchanges=True)
+        air, tags = _chip_tags_air(radii, 41, fast)
         logs.append(run_inventory(air, InventoryConfig(q_initial=2.0)))
         states.append([(t.state.state, dict(t.state.inventoried), t.state.slot, t.rng.bit_generator.state["state"],
                         t.reflection_states) for t in tags])
@@ -448,6 +454,24 @@ def test_chip_tags_fast_path_equals_full_listen():
     assert powered[0] == powered[1]
     n_read = len(logs[0].tags_read())
     assert 2 <= n_read < len(radii)  # the far tags never power up: the chip decides
+
+
+def test_chip_tags_powering_up_and_replying_at_the_query_equal_full_listen():
+    # Power-dependent chip tags (operating point and reflection states from the incident power)
+    # that power up at the first Query and, at Q = 0, reply to it at once: the population takes
+    # their power-up from the round's decisions (PassiveTag.respond_decoded with power_up), and
+    # their replies must be modulated with their own reflection states, as each tag listening
+    # to its own samples does (the same replies as the reader measured them, reads, states).
+    runs = []
+    for fast in (True, False):
+        air, tags = _chip_tags_air([1.3, 6.0, 9.0], 47, fast)  # one tag powers up, the far ones never do
+        log = run_inventory(air, InventoryConfig(q_initial=0.0, max_rounds=1))
+        first = air.exchanges[0].read  # the RN16 replied to the Query, as the reader measured it
+        runs.append((log.slots, log.reads, [t.state.state for t in tags], [t.reflection_states for t in tags],
+                     air.exchanges[0].incident_power_dbm, first.bits.tolist(), first.rssi_dbm, first.phase_rad,
+                     first.snr_db))
+    assert runs[0] == runs[1]
+    assert len(runs[0][1]["tag"]) == 1  # the near tag replied to the Query and was read
 
 
 def test_mixed_population_fast_path_equals_full_listen(monkeypatch):

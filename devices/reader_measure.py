@@ -230,23 +230,21 @@ def measurements(gain, slope, sigma2, *, blf_hz: float, fs_hz: float, m: int) ->
     gain = gain.tolist() if isinstance(gain, np.ndarray) else gain
     slope = slope.tolist() if isinstance(slope, np.ndarray) else slope
     sigma2 = sigma2.tolist() if isinstance(sigma2, np.ndarray) else sigma2
-    inf = math.inf
-    ebn0 = 10.0 * math.log10(fs_hz * m / blf_hz)
-    if len(gain) == 1:  # one read: the same arithmetic on the one value (NumPy's scalar calls, no lists mapped)
-        h = complex(gain[0])
-        p1, s1 = pow(abs(h), 2), sigma2[0]
-        snr1 = 10.0 * math.log10(p1 / s1) if s1 > 0 and p1 > 0 else inf
-        return dict(rssi_dbm=[float(w_to_dbm(p1)) if p1 > 0 else -inf],
-                    phase_rad=[float(wrap_phase_rad(-np.arctan2(h.imag, h.real)))],  # -arg h, as np.angle
-                    doppler_hz=[slope[0] / (2.0 * math.pi)], snr_db=[snr1], ebn0_db=[snr1 + ebn0])
     p = list(map(pow, map(abs, map(complex, gain)), repeat(2)))
+    inf = math.inf
     snr = [10.0 * math.log10(x / s) if s > 0 and x > 0 else inf for x, s in zip(p, sigma2)]
-    pos = [x > 0 for x in p]
-    rssi = w_to_dbm([x if ok else 1.0 for x, ok in zip(p, pos)]).tolist()
-    if not all(pos):  # |h| = 0 (or NaN): −∞
-        rssi = [v if ok else -inf for v, ok in zip(rssi, pos)]
-    g = np.array(gain, dtype=np.complex128)
-    phase = wrap_phase_rad(-np.arctan2(g.imag, g.real)).tolist()
+    ebn0 = 10.0 * math.log10(fs_hz * m / blf_hz)
+    if len(p) == 1:  # the same ufuncs on the one value (NumPy's scalar call: no arrays to make)
+        h = complex(gain[0])
+        rssi = [float(w_to_dbm(p[0])) if p[0] > 0 else -inf]
+        phase = [float(wrap_phase_rad(-np.arctan2(h.imag, h.real)))]  # -arg h, as np.angle
+    else:
+        pos = [x > 0 for x in p]
+        rssi = w_to_dbm([x if ok else 1.0 for x, ok in zip(p, pos)]).tolist()
+        if not all(pos):  # |h| = 0 (or NaN): −∞
+            rssi = [v if ok else -inf for v, ok in zip(rssi, pos)]
+        g = np.array(gain, dtype=np.complex128)
+        phase = wrap_phase_rad(-np.arctan2(g.imag, g.real)).tolist()
     # slope/(2π) and SNR + 10·log10(fs·M/BLF), element by element
     return dict(rssi_dbm=rssi, phase_rad=phase, doppler_hz=list(map((2.0 * math.pi).__rtruediv__, slope)),
                 snr_db=snr, ebn0_db=list(map(ebn0.__radd__, snr)))

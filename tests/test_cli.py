@@ -94,6 +94,48 @@ def test_bench_writes_json_and_rejects_unknown_names(tmp_path, capsys):
     assert result["peak_rss_mb"] > 0
 
 
+def test_bench_repeat_reports_the_median_min_and_max_of_its_runs(tmp_path, capsys, monkeypatch):
+    """``rfsim bench --repeat 3``: every figure the median of the 3 runs (values chosen here, not
+    by rfsim), its min and max, the runs in order; a text figure that differs is kept per run."""
+    import json
+    import sys
+    import types
+
+    from rfsim.cli import bench
+
+    figures = iter([{"rate": 3.0, "count": 5, "label": "a", "ok": True, "odd": "x"},
+                    {"rate": 1.0, "count": 9, "label": "a", "ok": True, "odd": "y"},
+                    {"rate": 8.0, "count": 6, "label": "a", "ok": True, "odd": "z"}])
+    fake = types.ModuleType("fake_bench_module")
+    fake.fake_bench = lambda: next(figures)
+    monkeypatch.setitem(sys.modules, "fake_bench_module", fake)
+    monkeypatch.setitem(bench.BENCHMARKS, "fake", ("fake_bench_module", "fake_bench", {}))
+    out = tmp_path / "bench.json"
+    assert main(["bench", "fake", "--repeat", "3", "--json", str(out)]) == 0
+    result = json.loads(out.read_text())["fake"]
+    assert (result["rate"], result["min"]["rate"], result["max"]["rate"]) == (3.0, 1.0, 8.0)  # mean would be 4
+    assert (result["count"], result["min"]["count"], result["max"]["count"]) == (6, 5, 9)
+    assert result["label"] == "a" and result["ok"] is True and result["odd"] == ["x", "y", "z"]
+    assert result["repeat"] == 3 and [r["rate"] for r in result["runs"]] == [3.0, 1.0, 8.0]
+    printed = capsys.readouterr().out
+    assert "rate" in printed and "[1 – 8]" in printed and "median of 3 runs" in printed
+    with pytest.raises(SystemExit) as stop:
+        main(["bench", "fake", "--repeat", "0"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "--repeat" in err and "'0' is not an integer >= 1" in err and len(err.strip().splitlines()) == 1
+
+
+def test_bench_repeat_gives_nan_when_a_run_gave_nan(monkeypatch):
+    """A figure that is NaN in any run is NaN in the summary (never the median of the others)."""
+    import math
+
+    from rfsim.cli.bench import summarize_runs
+
+    s = summarize_runs([{"x": 1.0}, {"x": math.nan}, {"x": 3.0}])
+    assert math.isnan(s["x"]) and math.isnan(s["min"]["x"]) and math.isnan(s["max"]["x"])
+
+
 # ----------------------------------------------------------------------------- bad input, part 2
 
 

@@ -47,6 +47,30 @@ class Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
 
 
+def positive_int(text: str) -> int:
+    """An ``argparse`` type: an integer ≥ 1 written in decimal digits.
+
+    Parameters
+    ----------
+    text : str
+        The option's value as given.
+
+    Returns
+    -------
+    int
+        Its value.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        When ``text`` is not an integer ≥ 1 (the parser turns it into a one-line usage error,
+        exit 2).
+    """
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
+    return int(text)
+
+
 class _Version(argparse.Action):
     """``--version``: the installed version, read only when asked (start-up stays fast)."""
 

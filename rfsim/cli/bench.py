@@ -1,7 +1,10 @@
 """``rfsim bench``: time rfsim's own hot paths and print a table (and JSON with --json).
 
 ``rfsim bench all --json FILE`` runs every benchmark and writes every figure, with the
-machine facts (:func:`machine_facts`), into one file. Peak memory is the process's maximum
+machine facts (:func:`machine_facts`), into one file. ``--repeat N`` runs the chosen
+benchmarks N times in turn (every benchmark once, then every one again, …, so that a slow
+stretch of a shared machine falls on all of them) and reports each numeric figure as the median
+of its N runs with its minimum and maximum (:func:`summarize_runs`). Peak memory is the process's maximum
 resident set size (``resource.getrusage``), read after each benchmark (a running maximum:
 each benchmark's figure includes those run before it); ``startup`` and ``scenarios`` run whole
 ``rfsim`` commands as child processes and report each command's own wall time, CPU time and
@@ -12,12 +15,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import resource
+import statistics
 import sys
 import time
 from pathlib import Path
 
+from rfsim.cli import positive_int
 from rfsim.core.errors import UserError
 
 #: name → (module, function, keyword arguments of the quick variant)
@@ -98,7 +104,60 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "the file also holds the machine facts (CPU, cores, load average at the start, versions)")
     p.add_argument("--quick", action="store_true", help="smaller problem sizes (seconds, not minutes)")
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="also write the results as JSON")
+    p.add_argument("--repeat", type=positive_int, default=1, metavar="N",
+                   help="run the chosen benchmarks N times in turn and report each figure as the median of the N "
+                        "runs with its min and max (default 1)")
     p.set_defaults(func=run)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def summarize_runs(runs: list[dict]) -> dict:
+    """One benchmark's figures over repeated runs: the median of each numeric figure.
+
+    Parameters
+    ----------
+    runs : list of dict
+        The benchmark's result of each run, in run order (at least one).
+
+    Returns
+    -------
+    dict
+        Per key of the first run: for a figure that is a number (int or float, not bool) in
+        every run, the median of the runs (:func:`statistics.median`: the middle value, or the
+        mean of the two middle ones for an even count; NaN when any run gave NaN); any other
+        figure as the first run gave it when every run gave the same, else the list of the
+        runs' values. Then ``repeat`` (the number of runs), ``min`` and ``max`` (dicts of the
+        numeric figures' smallest and largest values) and ``runs`` (the runs themselves).
+    """
+    out, low, high = {}, {}, {}
+    for key in runs[0]:
+        values = [run.get(key) for run in runs]
+        if all(_is_number(v) for v in values):
+            if any(math.isnan(v) for v in values):
+                out[key] = low[key] = high[key] = math.nan
+            else:
+                out[key], low[key], high[key] = statistics.median(values), min(values), max(values)
+        else:
+            out[key] = values[0] if all(v == values[0] for v in values) else values
+    return {**out, "repeat": len(runs), "min": low, "max": high, "runs": runs}
+
+
+def _show(name: str, out: dict) -> None:
+    """Print one benchmark's figures under ``[name]`` (with ``[min – max]`` after a median)."""
+    print(f"[{name}]")
+    low, high = out.get("min", {}), out.get("max", {})
+    for key, value in out.items():
+        if key in ("repeat", "min", "max", "runs") and "runs" in out:
+            continue
+        shown = f"{value:.6g}" if isinstance(value, float) else str(value)
+        if key in low and low[key] != high[key]:
+            shown += f"  [{low[key]:.6g} – {high[key]:.6g}]"
+        print(f"  {key:<40} {shown}")
+    if "runs" in out:
+        print(f"  (median of {out['repeat']} runs [min – max])")
 
 
 def _peak_rss_mb() -> float:
@@ -117,8 +176,9 @@ def run(args: argparse.Namespace) -> int:
     ----------
     args : argparse.Namespace
         Parsed arguments: ``names`` (benchmark names, empty or ``["all"]`` for all of
-        :data:`BENCHMARKS`), ``quick`` (bool: the smaller problem sizes) and ``json``
-        (pathlib.Path or None).
+        :data:`BENCHMARKS`), ``quick`` (bool: the smaller problem sizes), ``json``
+        (pathlib.Path or None) and ``repeat`` (int ≥ 1: runs of each benchmark, in turn;
+        above 1 each figure is :func:`summarize_runs`' median of them).
 
     Returns
     -------
@@ -141,20 +201,28 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         check_output_file(args.json, "--json")
     machine = machine_facts()
+    repeat = int(getattr(args, "repeat", 1))
+    runs: dict[str, list[dict]] = {name: [] for name in names}
     results = {}
-    for name in names:
-        module, func, quick_kwargs = BENCHMARKS[name]
-        fn = getattr(importlib.import_module(module), func)
-        t0 = time.perf_counter()
-        out = fn(**(quick_kwargs if args.quick else {}))
-        out = dict(out)
-        out["wall_time_s"] = time.perf_counter() - t0
-        out["peak_rss_mb"] = _peak_rss_mb()
-        results[name] = out
-        print(f"[{name}]")
-        for key, value in out.items():
-            shown = f"{value:.6g}" if isinstance(value, float) else str(value)
-            print(f"  {key:<40} {shown}")
+    for r in range(repeat):
+        for name in names:
+            module, func, quick_kwargs = BENCHMARKS[name]
+            fn = getattr(importlib.import_module(module), func)
+            t0 = time.perf_counter()
+            out = fn(**(quick_kwargs if args.quick else {}))
+            out = dict(out)
+            out["wall_time_s"] = time.perf_counter() - t0
+            out["peak_rss_mb"] = _peak_rss_mb()
+            runs[name].append(out)
+            if repeat == 1:
+                results[name] = out
+                _show(name, out)
+            else:
+                print(f"[{name}] run {r + 1} of {repeat} done in {out['wall_time_s']:.1f} s", flush=True)
+    if repeat > 1:
+        for name in names:
+            results[name] = summarize_runs(runs[name])
+            _show(name, results[name])
     if args.json is not None:
         doc = {"machine": machine, **results}
         write_text_atomic(args.json, json.dumps(doc, indent=2, default=float) + "\n", "--json")

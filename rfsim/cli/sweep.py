@@ -23,6 +23,7 @@ import os
 import sys
 from pathlib import Path
 
+from rfsim.cli import positive_int
 from rfsim.cli.memory import add_max_memory_arg, max_memory
 from rfsim.core.errors import UserError
 
@@ -65,12 +66,6 @@ def _count(text: str) -> int:
     return int(text)
 
 
-def _positive(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 1")
-    return int(text)
-
-
 def build_parser() -> argparse.ArgumentParser:
     """Build the parser of ``rfsim sweep`` with one sub-parser per verb.
 
@@ -97,7 +92,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE", help=output_help)
     how = p.add_mutually_exclusive_group()
     how.add_argument("--serial", action="store_true", help="run in this process, one run after another")
-    how.add_argument("--workers", type=_positive, default=None, metavar="N",
+    how.add_argument("--workers", type=positive_int, default=None, metavar="N",
                      help="local worker processes (default: the available CPUs)")
     how.add_argument("--dask", default=None, metavar="ADDRESS|local[:N]",
                      help="Dask: a scheduler address (tcp://host:8786) or a LocalCluster of N workers")
@@ -106,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--shard", type=_shard, default=None, metavar="I/N",
                    help="run only shard I of N (no merge; see 'rfsim sweep merge')")
     p.add_argument("--dry-run", action="store_true", help="print the expansion, run nothing")
-    p.add_argument("--max-runs", type=_positive, default=DEFAULT_MAX_RUNS, metavar="N",
+    p.add_argument("--max-runs", type=positive_int, default=DEFAULT_MAX_RUNS, metavar="N",
                    help=f"refuse to start more than N runs without --yes (default {DEFAULT_MAX_RUNS})")
     p.add_argument("-y", "--yes", action="store_true", help="run even more than --max-runs runs")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress and no summary")
@@ -123,12 +118,12 @@ def build_parser() -> argparse.ArgumentParser:
                                                          "('slurm' is 'plan --slurm')")
     p.add_argument("spec", type=Path, help="sweep spec (TOML)")
     p.add_argument("--slurm", action="store_true", help="plan a SLURM array job (required after 'plan')")
-    p.add_argument("--shards", type=_positive, required=True, metavar="N", help="number of array tasks")
+    p.add_argument("--shards", type=positive_int, required=True, metavar="N", help="number of array tasks")
     p.add_argument("-o", "--output", type=Path, default=None, metavar="FILE",
                    help=output_help + "; passed on to the script's run and merge commands")
     p.add_argument("--out", type=Path, default=None, metavar="FILE",
                    help="script file (default: print to stdout)")
-    p.add_argument("--cpus-per-task", type=_positive, default=1, metavar="C",
+    p.add_argument("--cpus-per-task", type=positive_int, default=1, metavar="C",
                    help="CPUs per array task; each task runs C worker processes (default 1)")
     p.add_argument("--partition", default="", metavar="P", help="SLURM partition (#SBATCH --partition)")
     p.add_argument("--account", default="", metavar="A", help="SLURM account to charge (#SBATCH --account)")

@@ -101,10 +101,14 @@ def bits_to_int(bits) -> int:
     5
     """
     arr = as_bits(bits)
-    value = 0
-    for b in arr.tolist():
-        value = (value << 1) | b
-    return value
+    if arr.size <= 32:  # a short word (RN16, handle, field): bit by bit, cheaper than packing
+        value = 0
+        for b in arr.tolist():
+            value = (value << 1) | b
+        return value
+    # a long word (an EPC): the bits packed MSB first into bytes (the last byte padded with
+    # zeros at its end), read as one big-endian integer, less the padding
+    return int.from_bytes(np.packbits(arr).tobytes(), "big") >> (-arr.size % 8)
 
 
 def str_to_bits(text: str) -> np.ndarray:

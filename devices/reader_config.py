@@ -84,7 +84,8 @@ class ReaderConfig:
                    "rn16_false_accept 0")
     rx_model: Literal["sample", "statistic"] = param(
         "sample", doc="receiver noise model: 'sample' draws noise per sample; 'statistic' draws the statistics the "
-                      "receiver reads, same distribution, fewer draws (rfsim.devices.reader_statistic; "
+                      "receiver reads, same distribution, fewer draws but today more CPU time than 'sample' "
+                      "(rfsim.devices.reader_statistic; the figures in the documentation's performance page; "
                       "needs blf_search 'off')")
 
     def __post_init__(self):

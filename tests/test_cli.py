@@ -106,8 +106,13 @@ def test_bench_repeat_reports_the_median_min_and_max_of_its_runs(tmp_path, capsy
     figures = iter([{"rate": 3.0, "count": 5, "label": "a", "ok": True, "odd": "x"},
                     {"rate": 1.0, "count": 9, "label": "a", "ok": True, "odd": "y"},
                     {"rate": 8.0, "count": 6, "label": "a", "ok": True, "odd": "z"}])
+    import gc
+
+    from rfsim.core.procs import RUN_GC_THRESHOLD
+
+    seen = []
     fake = types.ModuleType("fake_bench_module")
-    fake.fake_bench = lambda: next(figures)
+    fake.fake_bench = lambda: seen.append(gc.get_threshold()[0]) or next(figures)
     monkeypatch.setitem(sys.modules, "fake_bench_module", fake)
     monkeypatch.setitem(bench.BENCHMARKS, "fake", ("fake_bench_module", "fake_bench", {}))
     out = tmp_path / "bench.json"
@@ -117,6 +122,7 @@ def test_bench_repeat_reports_the_median_min_and_max_of_its_runs(tmp_path, capsy
     assert (result["count"], result["min"]["count"], result["max"]["count"]) == (6, 5, 9)
     assert result["label"] == "a" and result["ok"] is True and result["odd"] == ["x", "y", "z"]
     assert result["repeat"] == 3 and [r["rate"] for r in result["runs"]] == [3.0, 1.0, 8.0]
+    assert seen == [RUN_GC_THRESHOLD] * 3 and gc.get_threshold()[0] != RUN_GC_THRESHOLD  # as a run, then restored
     printed = capsys.readouterr().out
     assert "rate" in printed and "[1 – 8]" in printed and "median of 3 runs" in printed
     with pytest.raises(SystemExit) as stop:

@@ -182,3 +182,25 @@ def test_a_worker_killed_while_it_waits_for_a_task_does_not_hang_the_pool():
         pytest.skip("no worker seen blocked reading the task queue (/proc/PID/wchan)")
     assert got["results"] == [2**k for k in range(8)]
     assert got["alive"] == []
+
+
+def test_few_collections_sets_the_youngest_threshold_and_restores_every_threshold():
+    """Inside the block the first threshold is the one asked for, the others kept; after it,
+    also after an exception, the thresholds are those from before."""
+    import gc
+
+    from rfsim.core.procs import RUN_GC_THRESHOLD, few_collections
+
+    before = gc.get_threshold()
+    try:
+        gc.set_threshold(700, 11, 12)
+        with few_collections():
+            assert gc.get_threshold() == (RUN_GC_THRESHOLD, 11, 12)
+        assert gc.get_threshold() == (700, 11, 12)
+        with pytest.raises(RuntimeError):
+            with few_collections(1234):
+                assert gc.get_threshold() == (1234, 11, 12)
+                raise RuntimeError("inside")
+        assert gc.get_threshold() == (700, 11, 12)
+    finally:
+        gc.set_threshold(*before)

@@ -4,7 +4,8 @@
 machine facts (:func:`machine_facts`), into one file. ``--repeat N`` runs the chosen
 benchmarks N times in turn (every benchmark once, then every one again, …, so that a slow
 stretch of a shared machine falls on all of them) and reports each numeric figure as the median
-of its N runs with its minimum and maximum (:func:`summarize_runs`). Peak memory is the process's maximum
+of its N runs with its minimum and maximum (:func:`summarize_runs`). Each benchmark runs under the
+garbage collector's setting of a run (:func:`rfsim.core.procs.few_collections`). Peak memory is the process's maximum
 resident set size (``resource.getrusage``), read after each benchmark (a running maximum:
 each benchmark's figure includes those run before it); ``startup`` and ``scenarios`` run whole
 ``rfsim`` commands as child processes and report each command's own wall time, CPU time and
@@ -193,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
     import importlib
 
     from rfsim.core.outputs import check_output_file, write_text_atomic
+    from rfsim.core.procs import few_collections
 
     names = list(BENCHMARKS) if not args.names or args.names == ["all"] else args.names
     unknown = [n for n in names if n not in BENCHMARKS]
@@ -209,7 +211,8 @@ def run(args: argparse.Namespace) -> int:
             module, func, quick_kwargs = BENCHMARKS[name]
             fn = getattr(importlib.import_module(module), func)
             t0 = time.perf_counter()
-            out = fn(**(quick_kwargs if args.quick else {}))
+            with few_collections():  # as a run simulates (rfsim.core.procs.few_collections)
+                out = fn(**(quick_kwargs if args.quick else {}))
             out = dict(out)
             out["wall_time_s"] = time.perf_counter() - t0
             out["peak_rss_mb"] = _peak_rss_mb()

@@ -619,7 +619,10 @@ def run(scenario: str | Path, *, seed: int | None = None, config: Any = None, pr
     with reporting(NotebookReporter(quiet=not progress)) as rep:
         precompile_scenario(module.NAME)  # a cold cache: the scenario's kernels compiled side by side
         rep.stage(f"running {module.NAME} (seed {seed})")
-        dataset = module.run(resolved, seed=seed)
+        from rfsim.core.procs import few_collections
+
+        with few_collections():
+            dataset = module.run(resolved, seed=seed)
     dataset.scenario = module.NAME
     provenance = make_provenance(config_toml=to_toml(resolved), seed=seed, scenario=module.NAME,
                                  start_time_utc=start_utc)

@@ -25,7 +25,7 @@ from rfsim.core.dataset import make_provenance, utc_now, write_dataset
 from rfsim.core.errors import ResourceError, UserError, check_seed
 from rfsim.core.locks import output_lock
 from rfsim.core.outputs import check_output_file, check_output_folder, remove_stale_partials
-from rfsim.core.procs import run_in_child
+from rfsim.core.procs import few_collections, run_in_child
 from rfsim.core.progress import current, stage
 from rfsim.runs.resources import check_memory, default_limit_bytes
 from rfsim.runs.sizes import estimate_of
@@ -112,7 +112,7 @@ def run_scenario(module: ModuleType, config: Any, *, seed: int, out_dir: Path,
         precompile_scenario(module.NAME)
         # each kernel the cache lacks is compiled in a process of its own, which ends after it:
         # the compiler's memory is not added to the run's (a warm run finds every kernel cached)
-        with compiling_elsewhere(run_in_child):
+        with compiling_elsewhere(run_in_child), few_collections():
             stage(f"running {module.NAME} (seed {seed})")
             dataset = module.run(config, seed=seed)
         dataset.scenario = module.NAME

@@ -489,7 +489,10 @@ def run_point(task: PointTask) -> PointResult:
     """
     module = load_scenario(task.scenario_module)
     start_utc, t0 = utc_now(), time.perf_counter()
-    dataset = module.run(task.config, seed=task.seed)
+    from rfsim.core.procs import few_collections
+
+    with few_collections():
+        dataset = module.run(task.config, seed=task.seed)
     dataset.scenario = module.NAME
     desc, buffers = encode_dataset(dataset)
     wall = time.perf_counter() - t0

@@ -257,15 +257,22 @@ OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
 
 @njit
+def _piece_scale(sigma2, size):
+    """The scale √(σ²·|p|/2) of each part (real, imaginary) of a piece sum P_p ~ CN(0, σ²·|p|) of
+    ``size`` = |p| samples: the one rule of :func:`_draw_sums` and :func:`_search`."""
+    return math.sqrt(0.5 * sigma2 * size)
+
+
+@njit
 def _draw_sums(st, sizes, sigma2, out, ki, wi, fi):
     """Piece sums P_p ~ CN(0, σ²·|p|) into ``out`` as :func:`rfsim.devices.reader_statistic.draw_piece_sums`
     draws them: a (2, k) standard-normal block (the real parts, then the imaginary parts, in
-    order, from the PCG64 state ``st``), each part times √(σ²·|p|/2)."""
+    order, from the PCG64 state ``st``), each part times :func:`_piece_scale`."""
     k = sizes.size
     z = np.empty(2 * k)
     _standard_normals(st, z, ki, wi, fi)
     for p in range(k):
-        scale = math.sqrt(0.5 * sigma2 * sizes[p])
+        scale = _piece_scale(sigma2, sizes[p])
         out[p] = complex(scale * z[p], scale * z[k + p])
 
 
@@ -307,11 +314,11 @@ def _search(st, r, ip, fp, plan, ki, wi, fi):
     k = head + b1 - b0
     z = np.empty(2 * k)
     _standard_normals(st, z, ki, wi, fi)
-    one = math.sqrt(0.5 * sigma2 * 1.0)  # a one-sample piece's scale, as _draw_sums forms it
+    one = _piece_scale(sigma2, 1.0)  # a one-sample piece's scale
     if head > 0:
         r[0] += complex(one * z[0], one * z[k])
     if head == 2:
-        scale = math.sqrt(0.5 * sigma2 * float(b0 - 1))
+        scale = _piece_scale(sigma2, float(b0 - 1))
         share = complex(scale * z[1], scale * z[k + 1]) / (b0 - 1)
         for i in range(1, b0):
             r[i] += share

@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import known_indices_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           viterbi_kernel, waveform_kernel)
@@ -441,21 +441,18 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 @njit
 def _known(full, b1, t0_samples, ratio, n_pre_elements, memo, known):
-    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`
+    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_indices_kernel`
     on the reference ``full`` from ``t0_samples``): their indices into ``known[0]``, their levels
     into ``known[1]``, in order, made only when ``memo`` does not hold those of the reference in
     ``full`` (:func:`_reference` clears it when it makes a new one). Returns (their number,
     Σlevel², Σlevel) (sums in order)."""
     if memo[MEMO_KF_VALID] <= 0.0:
         nb = known.shape[1]
-        index = np.empty(nb, np.complex128)
-        for i in range(nb):
-            index[i] = i
-        found = np.empty(nb, np.complex128)
-        mk = known_levels_kernel(index, full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
+        found = np.empty(nb, np.int64)
+        mk = known_indices_kernel(full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
         ss = s1 = 0.0
         for i in range(mk):
-            known[0, i] = found[i].real
+            known[0, i] = found[i]
             ss += known[1, i] * known[1, i]
             s1 += known[1, i]
         memo[MEMO_KF_N], memo[MEMO_KF_SS], memo[MEMO_KF_S1] = mk, ss, s1

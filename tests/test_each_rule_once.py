@@ -816,3 +816,22 @@ def test_the_piece_scale_is_written_once():
     for user in PIECE_SCALE_USERS:
         assert home in _calls(_function(module, user)), user
 
+
+# ----------------------------------------------------------------- the known-level rule
+
+#: The one definition of the samples of known level (preamble or rest state, steady neighbours).
+KNOWN_HOME = ("rfsim/gen2/_measure_kernels.py", "known_indices_kernel")
+#: Its callers: the sample copy of the reader's receivers and the statistic receiver's indices.
+KNOWN_USERS = (("rfsim/gen2/_measure_kernels.py", "known_levels_kernel"),
+               ("devices/_reader_statistic_kernels.py", "_known"))
+
+
+def test_the_known_level_rule_is_written_once():
+    """The preamble test of a sample (``_in_preamble``) is read by the one rule only, and the
+    receivers reach the rule through it (the statistic receiver's indices without a signal)."""
+    module, home = KNOWN_HOME
+    readers = sorted((m, f.name) for m, tree in MODULES.items() for f in ast.walk(tree)
+                     if isinstance(f, ast.FunctionDef) and f.name != "_in_preamble" and "_in_preamble" in _calls(f))
+    assert readers == [KNOWN_HOME], readers
+    for user_module, user in KNOWN_USERS:
+        assert home in _calls(_function(user_module, user)), user

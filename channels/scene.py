@@ -261,23 +261,6 @@ class _Frame(NamedTuple):
     terms: DelayTerms       # the link's delays, Doppler shifts and what depends on them alone
 
 
-class _LastStatic(NamedTuple):
-    """The last static link :meth:`Channel.link` assembled, by the identities of its antennas
-    and its carrier (kept: the identities are only theirs while they live): its held-draw key,
-    its deterministic part, the terms of its diffuse profile (with the profile options they were
-    formed for) and its frame of delays. The entries of the channel's tables for that link,
-    found again without hashing the antennas (a batch draws the same link trial after trial)."""
-
-    tx: object
-    rx: object
-    fc_hz: float
-    key: object
-    geo: "_Geometry"
-    items: object = None
-    terms: object = None
-    frame: "_Frame | None" = None
-
-
 class _HeldPair(NamedTuple):
     """A link of :class:`HeldLinks`, kept with the antennas whose identities key it."""
 
@@ -307,7 +290,6 @@ class Channel:
         self._placements: dict = {}
         self._frames: dict = {}
         self._tap_terms: dict = {}
-        self._last: _LastStatic | None = None
 
     def _key(self, tx: Antenna, rx: Antenna):
         return frozenset((tx, rx)) if self.scene.reciprocal else (tx, rx)
@@ -358,19 +340,12 @@ class Channel:
         """
         sc = self.scene
         static = tx_motion is None and rx_motion is None
-        last = self._last if static else None
-        if last is not None and last.tx is tx and last.rx is rx and last.fc_hz == fc_hz:
-            key, geo = last.key, last.geo  # the entries of the last static link, found by identity
-        else:
-            last = None
-            key = self._key(tx, rx)  # the antennas as given (before motion) name the link
-            geo = self._static.get((tx, rx, fc_hz)) if static else None
-            if geo is None:
-                geo = self._geometry(tx, rx, fc_hz, t_s, tx_motion, rx_motion)
-                if static:
-                    _remember(self._static, (tx, rx, fc_hz), geo)
+        key = self._key(tx, rx)  # the antennas as given (before motion) name the link
+        geo = self._static.get((tx, rx, fc_hz)) if static else None
+        if geo is None:
+            geo = self._geometry(tx, rx, fc_hz, t_s, tx_motion, rx_motion)
             if static:
-                last = self._last = _LastStatic(tx, rx, fc_hz, key, geo)
+                _remember(self._static, (tx, rx, fc_hz), geo)
         g_ls, env, images = geo.g_ls, geo.env, geo.images
         if sc.shadowing is not None:
             env *= float(sc.shadowing.amplitude_gain(0.5 * (geo.p_tx + geo.p_rx)))
@@ -386,14 +361,10 @@ class Channel:
                     raise ValueError("no diffuse draw held for this link: pass rng to draw one")
                 k_lin, tau_rms_s = geo.apdp_args
                 items = sc.apdp.profile_items
-                terms = last.terms if last is not None and last.items == items else None
+                terms = self._tap_terms.get((k_lin, tau_rms_s, items))
                 if terms is None:
-                    terms = self._tap_terms.get((k_lin, tau_rms_s, items))
-                    if terms is None:
-                        terms = tap_terms(k_lin, tau_rms_s, items)
-                        _remember(self._tap_terms, (k_lin, tau_rms_s, items), terms)
-                    if last is not None:
-                        last = self._last = last._replace(items=items, terms=terms)
+                    terms = tap_terms(k_lin, tau_rms_s, items)
+                    _remember(self._tap_terms, (k_lin, tau_rms_s, items), terms)
                 # the numbers of draw_taps(k_lin, tau_rms_s, rng=rng, n_draws=1, **profile_options)
                 held = _DiffuseDraw(terms.los_amplitude, draw_nlos_taps(terms, rng), terms.nlos_delays_s)
                 self._held[key] = held
@@ -407,8 +378,7 @@ class Channel:
             gains[1:1 + n_img] = images.gain
         if h is not None:
             gains[1 + n_img:] = g_ls * env * h
-        frame = (last.frame if last is not None and last.frame is not None
-                 else self._frames.get((tx, rx, fc_hz)) if static else None)
+        frame = self._frames.get((tx, rx, fc_hz)) if static else None
         if frame is None or frame.terms.delay_s.size != n or frame.relative_s is not rel:
             delays, dops = np.empty(n), np.empty(n)
             delays[0], dops[0] = geo.tau_los_s, geo.f_los_hz
@@ -423,8 +393,6 @@ class Channel:
             dops.setflags(write=False)
             frame = _Frame(rel, DelayTerms(delays, dops))
             _remember(self._frames, (tx, rx, fc_hz), frame)
-        if last is not None and last.frame is not frame:
-            self._last = last._replace(frame=frame)
         terms = frame.terms
         return PathSet._own(gains, terms.delay_s, terms.doppler_hz, delay_terms=terms)
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from rfsim.core._jit import njit
 from rfsim.air._noise_kernels import _next_double, _standard_normals
-from rfsim.gen2._measure_kernels import known_levels_kernel, measure_kernel
+from rfsim.gen2._measure_kernels import known_indices_kernel, measure_kernel
 from rfsim.gen2._receive_kernels import _preamble_fit
 from rfsim.gen2._linecode_kernels import (INDEX_EPS, element_sign, elements_kernel, preamble_search_runs_kernel,
                                           viterbi_kernel, waveform_kernel)
@@ -257,15 +257,22 @@ OK, NOT_FOUND, ZERO_GAIN, CONSTANT_REFERENCE, NO_ROOM = range(5)
 
 
 @njit
+def _piece_scale(sigma2, size):
+    """The scale √(σ²·|p|/2) of each part (real, imaginary) of a piece sum P_p ~ CN(0, σ²·|p|) of
+    ``size`` = |p| samples: the one rule of :func:`_draw_sums` and :func:`_search`."""
+    return math.sqrt(0.5 * sigma2 * size)
+
+
+@njit
 def _draw_sums(st, sizes, sigma2, out, ki, wi, fi):
     """Piece sums P_p ~ CN(0, σ²·|p|) into ``out`` as :func:`rfsim.devices.reader_statistic.draw_piece_sums`
     draws them: a (2, k) standard-normal block (the real parts, then the imaginary parts, in
-    order, from the PCG64 state ``st``), each part times √(σ²·|p|/2)."""
+    order, from the PCG64 state ``st``), each part times :func:`_piece_scale`."""
     k = sizes.size
     z = np.empty(2 * k)
     _standard_normals(st, z, ki, wi, fi)
     for p in range(k):
-        scale = math.sqrt(0.5 * sigma2 * sizes[p])
+        scale = _piece_scale(sigma2, sizes[p])
         out[p] = complex(scale * z[p], scale * z[k + p])
 
 
@@ -307,11 +314,11 @@ def _search(st, r, ip, fp, plan, ki, wi, fi):
     k = head + b1 - b0
     z = np.empty(2 * k)
     _standard_normals(st, z, ki, wi, fi)
-    one = math.sqrt(0.5 * sigma2 * 1.0)  # a one-sample piece's scale, as _draw_sums forms it
+    one = _piece_scale(sigma2, 1.0)  # a one-sample piece's scale
     if head > 0:
         r[0] += complex(one * z[0], one * z[k])
     if head == 2:
-        scale = math.sqrt(0.5 * sigma2 * float(b0 - 1))
+        scale = _piece_scale(sigma2, float(b0 - 1))
         share = complex(scale * z[1], scale * z[k + 1]) / (b0 - 1)
         for i in range(1, b0):
             r[i] += share
@@ -434,21 +441,18 @@ def _reference(bits, t0_samples, ratio, m, pre_levels, state, memo, wf_bits, wf_
 
 @njit
 def _known(full, b1, t0_samples, ratio, n_pre_elements, memo, known):
-    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_levels_kernel`
+    """The samples before ``b1`` + 1 of known level (:func:`rfsim.gen2._measure_kernels.known_indices_kernel`
     on the reference ``full`` from ``t0_samples``): their indices into ``known[0]``, their levels
     into ``known[1]``, in order, made only when ``memo`` does not hold those of the reference in
     ``full`` (:func:`_reference` clears it when it makes a new one). Returns (their number,
     Σlevel², Σlevel) (sums in order)."""
     if memo[MEMO_KF_VALID] <= 0.0:
         nb = known.shape[1]
-        index = np.empty(nb, np.complex128)
-        for i in range(nb):
-            index[i] = i
-        found = np.empty(nb, np.complex128)
-        mk = known_levels_kernel(index, full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
+        found = np.empty(nb, np.int64)
+        mk = known_indices_kernel(full[:nb], t0_samples, ratio, n_pre_elements, found, known[1])
         ss = s1 = 0.0
         for i in range(mk):
-            known[0, i] = found[i].real
+            known[0, i] = found[i]
             ss += known[1, i] * known[1, i]
             s1 += known[1, i]
         memo[MEMO_KF_N], memo[MEMO_KF_SS], memo[MEMO_KF_S1] = mk, ss, s1

@@ -155,7 +155,7 @@ def _known_fit_pieces(r, full, known, mk, ss, s1, kind, anchor, mom, sums, sizes
     """Step 3's least-squares (h, c) of r ≈ h·level + c on the samples of known level (the
     2×2 normal equations of :func:`rfsim.gen2.capture.fit_gain_offset`): those before ``b1``
     one by one from ``r`` (the first ``mk`` of ``known``: their indices in row 0, levels in
-    row 1, of :func:`rfsim.gen2._measure_kernels.known_levels_kernel` on ``full``, the
+    row 1, of :func:`rfsim.gen2._measure_kernels.known_indices_kernel` on ``full``, the
     reference; ``ss``, ``s1`` their Σlevel², Σlevel), after it the pieces outside the reply
     (level −1): a REST piece whole (Σ r_i = Σu_i + P_p), a single sample (u_i + σ_i·P_p) where
     its neighbours carry its level. Returns (h, c, False) when the levels are constant (no

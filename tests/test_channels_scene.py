@@ -239,10 +239,11 @@ def test_static_link_draws_share_their_delay_terms_and_keep_draw_taps_numbers():
     assert p2.static and p2.constant_gain(FC) == plain.constant_gain(FC)
 
 
-def test_a_link_found_again_by_identity_is_the_link_a_new_channel_assembles():
-    # the channel finds the last static link's entries by the identities of its antennas: links
-    # asked in turn (the same pair again, an equal antenna of its own, another carrier, the
-    # reverse direction) are bit for bit those of a channel that assembles each one anew
+def test_a_link_found_again_in_the_tables_is_the_link_a_new_channel_assembles():
+    # the channel finds a static link's entries again in its tables (keyed by the antennas' values
+    # and the carrier): links asked in turn (the same pair again, an equal antenna of its own,
+    # another carrier, the reverse direction) are bit for bit those of a channel that assembles
+    # each one anew
     a, b = Antenna([0.0, 0, 1]), Antenna([4.0, 1, 1], pattern=HalfWaveDipole())
     b_equal, c = Antenna([4.0, 1, 1], pattern=HalfWaveDipole()), Antenna([2.0, -1, 1.5])
     scene = Scene(apdp=ApdpModel(), surfaces=(Surface(point_m=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0)),), image_order=1)
@@ -261,6 +262,6 @@ def test_a_link_found_again_by_identity_is_the_link_a_new_channel_assembles():
         assert p.constant_gain(fc) == ref.constant_gain(fc), k
         held = ch.link(tx, rx, fc_hz=fc)  # the held draw of this pair
         assert held.gain.tobytes() == p.gain.tobytes(), k
-    # the pair found by identity keeps the delays the channel shares between draws
+    # the pair found again keeps the delays the channel shares between draws
     p1, p2 = ch.link(a, b, fc_hz=FC, rng=rng), ch.link(a, b, fc_hz=FC, rng=rng)
     assert p2.delay_s is p1.delay_s

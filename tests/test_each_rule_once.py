@@ -764,3 +764,74 @@ def test_carrier_phase_referral_is_one_rule():
     # the rule: wrap(phase + arg c), arg by np.angle, e.g. c = −1 (arg = π): 0.5 + π
     import math
     assert reader_measure.refer_phase(0.5, -1 + 0j) == math.fmod(0.5 + math.pi, 2 * math.pi)
+
+
+# ----------------------------------------------------------------- the statistic receiver's piece scale
+
+#: The one definition of the scale √(σ²·|p|/2) of a piece sum's parts in compiled code.
+PIECE_SCALE_HOME = ("devices/_reader_statistic_kernels.py", "_piece_scale")
+#: Its callers in the kernels: the piece sums and the search block's noise.
+PIECE_SCALE_USERS = ("_draw_sums", "_search")
+#: Functions allowed a form of their own, each with its reason.
+PIECE_SCALE_OTHERS = {
+    ("devices/reader_statistic.py", "draw_piece_sums"):
+        "the NumPy form over an array of sizes, the twin the tests compare the kernels' draws with",
+}
+
+
+def _piece_scales(tree: ast.AST) -> list[tuple[str, int]]:
+    """``(enclosing function, line)`` of every ``sqrt(0.5 * sigma2 …)`` (``math.sqrt``, ``np.sqrt``
+    or a bare ``sqrt``, the product starting with 0.5 times a name holding ``sigma2``) in ``tree``."""
+    found = []
+
+    def visit(node, where):
+        for child in ast.iter_child_nodes(node):
+            inner = child.name if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)) else where
+            if isinstance(child, ast.Call) and child.args:
+                name = child.func.attr if isinstance(child.func, ast.Attribute) else getattr(child.func, "id", "")
+                text = ast.unparse(child.args[0]).replace(" ", "")
+                if name == "sqrt" and text.startswith("0.5*") and "sigma2" in text:
+                    found.append((where, child.lineno))
+            visit(child, inner)
+
+    visit(tree, "<module>")
+    return found
+
+
+def test_the_scan_finds_an_inline_piece_scale():
+    """The scan finds the inline forms the helper replaced (so the test below can fail)."""
+    src = ("def _search(sigma2, b0):\n    one = math.sqrt(0.5 * sigma2 * 1.0)\n"
+           "    return one, math.sqrt(0.5 * sigma2 * float(b0 - 1))\n")
+    assert [w for w, _ in _piece_scales(ast.parse(src))] == ["_search", "_search"]
+
+
+def test_the_piece_scale_is_written_once():
+    """√(0.5·σ²·|p|) is written in :func:`_piece_scale` only (and the NumPy twin allowed with its
+    reason); the piece sums and the search block's noise call it."""
+    module, home = PIECE_SCALE_HOME
+    where = sorted((m, w) for m, tree in MODULES.items() for w, _ in _piece_scales(tree))
+    assert (module, home) in where, "the scan does not find the one definition"
+    assert set(where) - {(module, home)} <= set(PIECE_SCALE_OTHERS), where
+    assert where.count((module, home)) == 1, where
+    for user in PIECE_SCALE_USERS:
+        assert home in _calls(_function(module, user)), user
+
+
+# ----------------------------------------------------------------- the known-level rule
+
+#: The one definition of the samples of known level (preamble or rest state, steady neighbours).
+KNOWN_HOME = ("rfsim/gen2/_measure_kernels.py", "known_indices_kernel")
+#: Its callers: the sample copy of the reader's receivers and the statistic receiver's indices.
+KNOWN_USERS = (("rfsim/gen2/_measure_kernels.py", "known_levels_kernel"),
+               ("devices/_reader_statistic_kernels.py", "_known"))
+
+
+def test_the_known_level_rule_is_written_once():
+    """The preamble test of a sample (``_in_preamble``) is read by the one rule only, and the
+    receivers reach the rule through it (the statistic receiver's indices without a signal)."""
+    module, home = KNOWN_HOME
+    readers = sorted((m, f.name) for m, tree in MODULES.items() for f in ast.walk(tree)
+                     if isinstance(f, ast.FunctionDef) and f.name != "_in_preamble" and "_in_preamble" in _calls(f))
+    assert readers == [KNOWN_HOME], readers
+    for user_module, user in KNOWN_USERS:
+        assert home in _calls(_function(user_module, user)), user

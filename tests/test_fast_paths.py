@@ -426,6 +426,7 @@ def test_known_levels_kernel_equals_reference(m, trext):
     """Known-level selection of the reader (preamble + outside the reply, steady neighbours)
     on the references of a real reply: the same samples and levels, bit for bit."""
     from rfsim.devices.reader_measure import known_levels as _known_levels
+    from rfsim.gen2._measure_kernels import known_indices_kernel
     from reference.devices_reader import known_levels_reference
 
     rng = trial_rng(61, m)
@@ -443,6 +444,12 @@ def test_known_levels_kernel_equals_reference(m, trext):
         np.testing.assert_array_equal(a[0], b[0])  # a selection of samples and ±1 levels: exact
         np.testing.assert_array_equal(a[1], b[1])
         assert a[1].size > 1000 and set(np.unique(a[1])) <= {-1.0, 1.0}
+        # the rule's index form: the indices of the samples the reference selects, the same levels
+        index, level = np.empty(2500, np.int64), np.empty(2500)
+        k = known_indices_kernel(full, start / fs * fs, 2.0 * blf / fs, n_pre_el, index, level)
+        want_index, want_level = known_levels_reference(np.arange(2500), pre, full)
+        np.testing.assert_array_equal(index[:k], want_index)
+        np.testing.assert_array_equal(level[:k], want_level)
         n += 1
     assert n == 3
 

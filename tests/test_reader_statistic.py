@@ -25,6 +25,7 @@ from rfsim.core.errors import ConfigError
 from rfsim.devices import reader_statistic as rs
 from rfsim.devices.reader import ReaderConfig
 from rfsim.gen2._linecode_kernels import INDEX_EPS
+from rfsim.gen2.linecode import reply_duration_s
 from reference.ulp import assert_close_ulp
 from reference.devices_reader_statistic import (block_cuts_reference, piece_map_reference, piece_moments_reference,
                                                receive_reference)
@@ -264,6 +265,50 @@ def test_receive_kernel_matches_its_numpy_twin(m, ebn0_db, second_db):
         outcomes.add(a.failure_reason)
     assert ra.bit_generator.state == rb.bit_generator.state
     assert outcomes  # at least one reply received
+
+
+def test_receive_kernel_reading_inner_edge_pieces_whole_matches_its_numpy_twin():
+    """The branch of the kernel where the measurement reads an inner-edge piece whole (the pass
+    over the input again with every piece's sums, ``every=True``) against the NumPy twin.
+
+    At a valid sample rate (fs ≥ 2·BLF_max, under one element per sample) an inner-edge sample
+    has a neighbour in the next element, of the opposite subcarrier sign, so the measurement
+    never reads it and the branch is not taken. At two elements per sample (fs = BLF, set on
+    the reader after its config check) a Miller-8 half-bit holds four samples; the middle two
+    form an inner-edge piece whose neighbours lie two elements away, of the same sign: the
+    measurement reads the piece whole, and where no block edge splits one the measurement is
+    the exact one from the pieces' sums. Same tolerances as the twin test above."""
+    from rfsim.devices import _reader_statistic_kernels as sk
+    from rfsim.gen2.link import t1
+
+    reader = trials.make_reader(8, "statistic", 5)
+    lk = reader.link
+    reader.fs_hz = lk.blf_hz  # 2·BLF/fs = 2 elements per sample (below the config's check)
+    fs, n_bits = reader.fs_hz, trials.PAYLOAD_BITS + 16
+    sigma2 = reader._fixed().noise_w
+    amp = math.sqrt(10 ** (20.0 / 10) * sigma2 / (fs * lk.m / lk.blf_hz))  # Eb/N0 = 20 dB
+    win = t1(lk)
+    cmd_end_s = (40 - win.min_s * fs) / fs
+    n = int(math.ceil((cmd_end_s + win.max_s) * fs + reply_duration_s(n_bits, m=lk.m, trext=lk.trext,
+                                                                      blf_hz=lk.blf_hz) * fs)) + 60
+    rng = np.random.default_rng(11)
+    ra, rb = np.random.default_rng(3), np.random.default_rng(3)
+    taken = 0
+    for _ in range(12):
+        x, _ = trials._input(reader, rng, amp, cmd_end_s, n, n_bits, None)
+        a = rs.receive(reader, x, t0_s=0.0, n_bits=n_bits, expect_crc=True, cmd_end_s=cmd_end_s, rng=ra)
+        b = receive_reference(reader, x, t0_s=0.0, n_bits=n_bits, expect_crc=True, cmd_end_s=cmd_end_s, rng=rb)
+        assert (a.success, a.failure_reason) == (b.success, b.failure_reason)
+        np.testing.assert_array_equal(a.bits, b.bits)
+        got = [a.start_s, a.corr, a.rssi_dbm, a.phase_rad, a.doppler_hz, a.snr_db, a.ebn0_db]
+        want = [b.start_s, b.corr, b.rssi_dbm, b.phase_rad, b.doppler_hz, b.snr_db, b.ebn0_db]
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9, equal_nan=True)
+        # the memo slot this call used (the latest stamp): the exact measurement, an inner-edge piece read whole
+        (call,) = reader.air_cache.derived(lk, rs._Plans).calls.values()
+        slot = int(np.argmax(call.memo.flags[:, sk.MEMO_STAMP]))
+        taken += bool(call.memo.mb[slot, sk.MB_EXACT] > 0 and call.memo.cut_memo[slot, 5, 1] > 0)
+    assert ra.bit_generator.state == rb.bit_generator.state
+    assert taken >= 1, taken  # the branch taken (in 3 of these 12 trials)
 
 
 @pytest.mark.parametrize("m, ebn0_db", [(4, 60.0), (4, 6.0), (1, 8.0)])

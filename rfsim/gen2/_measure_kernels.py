@@ -219,13 +219,14 @@ def _level(full, i):
 
 
 @njit
-def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements, r_out, level_out, dc=0j):
+def known_indices_kernel(full, t0_samples, elements_per_sample, n_pre_elements, index_out, level_out):
     """Samples whose level is known without decisions — on the preamble (pilot included) or
     outside the reply (``full == 0``: the rest state, level −1) — and whose two neighbours
-    carry the same level: copies them and their level into ``r_out`` / ``level_out`` (in
-    order) and returns their number. ``full`` is the sampled reply (±1, 0 outside) starting
-    at ``t0_samples``, whose first ``n_pre_elements`` elements are the preamble. ``dc`` (complex)
-    is taken off the samples as they are copied: ``r_out`` holds samples of ``r − dc``."""
+    carry the same level: writes their indices (int64) and their level into ``index_out`` /
+    ``level_out`` (in order) and returns their number. ``full`` is the sampled reply (±1, 0
+    outside) starting at ``t0_samples``, whose first ``n_pre_elements`` elements are the
+    preamble. The one definition of the known-level rule (:func:`known_levels_kernel` copies
+    the samples it names)."""
     n = full.size
     last = n - 1  # the reply's last sample (its samples are ±1, never 0: one run of non-zero)
     while last > 0 and full[last] == 0.0:
@@ -236,10 +237,23 @@ def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements
         if full[i] == 0.0 or _in_preamble(i, t0_samples, elements_per_sample, n_pre_elements):
             li = _level(full, i)
             if li == _level(full, i - 1) and li == _level(full, i + 1):
-                r_out[m] = r[i] - dc
+                index_out[m] = i
                 level_out[m] = li
                 m += 1
             i += 1
         else:  # past the preamble, inside the reply: no known level up to its last sample
             i = max(i + 1, last + 1)
+    return m
+
+
+@njit
+def known_levels_kernel(r, full, t0_samples, elements_per_sample, n_pre_elements, r_out, level_out, dc=0j):
+    """The samples of known level (:func:`known_indices_kernel`, on ``full`` from ``t0_samples``,
+    its first ``n_pre_elements`` elements the preamble): copies them and their level into
+    ``r_out`` / ``level_out`` (in order) and returns their number. ``dc`` (complex) is taken
+    off the samples as they are copied: ``r_out`` holds samples of ``r − dc``."""
+    index = np.empty(max(full.size - 2, 0), np.int64)
+    m = known_indices_kernel(full, t0_samples, elements_per_sample, n_pre_elements, index, level_out)
+    for j in range(m):
+        r_out[j] = r[index[j]] - dc
     return m
